@@ -1,0 +1,338 @@
+"""The engine interface: what the core hands an engine, and what it gets back.
+
+An engine is a black box that moves points (GASP paper Sec. 3, ``V_t = phi(V, t)``).
+The core builds a :class:`SimSetup` (points, per-point volume and material, gravity,
+domain, boundaries, ``frame_dt``), asks a registered :class:`EngineInfo` for an engine
+through its ``factory``, then calls :meth:`PointEngine.step_frame` once per frame and reads
+:meth:`PointEngine.positions`. Nothing here imports an engine package.
+
+World frame: metres, **z up**, gravity usually ``(0, 0, -9.81)`` m/s^2. The core converts every
+object into this frame before the engine sees it and converts the result back.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any, Callable, Mapping, Protocol, runtime_checkable
+
+import numpy as np
+
+#: Material models an engine may offer (capability names).
+MATERIALS = frozenset({
+    "jelly",        # elastic, fixed corotated (Stomakhin et al. 2012)
+    "neo_hookean",  # elastic, compressible neo-Hookean
+    "metal",        # von Mises plasticity on Hencky strain (StVK Hencky elasticity)
+    "sand",         # Drucker-Prager plasticity on Hencky strain (Klar et al. 2016)
+    "snow",         # Stomakhin et al. 2013 hardening plasticity
+    "plasticine",   # von Mises with softening
+    "liquid",       # weakly compressible fluid (equation of state from lam)
+    "rigid",        # rigid body (engines with rigid bodies)
+})
+
+#: Boundary kinds an engine may offer (capability names).
+BOUNDARIES = frozenset({"ground", "walls", "fixed_region"})
+
+
+class GaspError(Exception):
+    """Base class of every error GASP raises on purpose."""
+
+
+class SceneError(GaspError, ValueError):
+    """A scene file or its input is wrong; the message names the key, field or file."""
+
+
+class EngineError(GaspError, RuntimeError):
+    """An engine cannot run the scene (missing capability, unavailable device)."""
+
+
+class EngineDivergence(GaspError, RuntimeError):
+    """The simulation blew up: non-finite values or points leaving the domain.
+
+    Attributes
+    ----------
+    frame : int
+        The frame (1-based, the first frame after the initial state) at which it was detected.
+    cause : str
+        The likely cause, in words (time step too large, stiffness too high, ...).
+    """
+
+    def __init__(self, message: str, frame: int, cause: str = ""):
+        super().__init__(f"frame {frame}: {message}" + (f" (likely cause: {cause})" if cause else ""))
+        self.frame = frame
+        self.cause = cause
+
+
+@dataclass(frozen=True)
+class Material:
+    """Constitutive parameters of one body, SI units.
+
+    Attributes
+    ----------
+    name : str
+        One of :data:`MATERIALS`.
+    E : float
+        Young's modulus, Pa.
+    nu : float
+        Poisson's ratio, in [0, 0.5).
+    rho : float
+        Density, kg/m^3.
+    yield_stress : float
+        von Mises yield stress, Pa (metal, plasticine).
+    friction_angle : float
+        Drucker-Prager friction angle, degrees (sand).
+    softening : float
+        Plasticine softening: yield stress drop per unit plastic strain, dimensionless factor.
+    hardening : float
+        Snow hardening coefficient xi (Stomakhin et al. 2013), default 10.
+    theta_c, theta_s : float
+        Snow critical compression and stretch (Stomakhin et al. 2013).
+    """
+
+    name: str = "jelly"
+    E: float = 1e5
+    nu: float = 0.3
+    rho: float = 1000.0
+    yield_stress: float = 1e4
+    friction_angle: float = 30.0
+    softening: float = 0.1
+    hardening: float = 10.0
+    theta_c: float = 2.5e-2
+    theta_s: float = 4.5e-3
+
+    @property
+    def mu(self) -> float:
+        """Lame's second parameter (shear modulus), Pa."""
+        return self.E / (2.0 * (1.0 + self.nu))
+
+    @property
+    def lam(self) -> float:
+        """Lame's first parameter, Pa."""
+        return self.E * self.nu / ((1.0 + self.nu) * (1.0 - 2.0 * self.nu))
+
+
+@dataclass(frozen=True)
+class Boundary:
+    """One boundary condition, world frame.
+
+    Attributes
+    ----------
+    kind : str
+        ``"ground"``: a horizontal plane ``z = height``; nothing passes below it; tangential
+        velocity is reduced by Coulomb friction ``friction`` (0 = slip, large = sticky).
+        ``"walls"``: the faces of the domain box are walls with the same friction rule.
+        ``"fixed_region"``: points that start inside the box ``[lo, hi]`` are held still.
+    height : float
+        Ground height, metres (``"ground"``).
+    friction : float
+        Coulomb friction coefficient (``"ground"``, ``"walls"``).
+    lo, hi : tuple of 3 floats
+        Corners of the fixed box, metres (``"fixed_region"``).
+    """
+
+    kind: str
+    height: float = 0.0
+    friction: float = 0.5
+    lo: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    hi: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+@dataclass
+class SimSetup:
+    """Everything an engine needs, world frame, SI units.
+
+    Attributes
+    ----------
+    x : ndarray, shape (n, 3), float64
+        Initial point positions, metres. Rows ``[:n_render]`` are the triangle vertices of the
+        Gaussians (or the core Gaussians' vertices); rows after are interior fill points that
+        are simulated but never rendered.
+    v : ndarray, shape (n, 3), float64
+        Initial velocities, m/s.
+    p_vol : ndarray, shape (n,), float64
+        Rest volume each point stands for, m^3 (mass = rho * p_vol).
+    body_id : ndarray, shape (n,), int32
+        Index into ``materials`` (one body per scene object).
+    materials : list of Material
+        One per body.
+    gravity : ndarray, shape (3,), float64
+        m/s^2.
+    domain_lo, domain_hi : ndarray, shape (3,), float64
+        The simulation box, metres. Points leaving it are a divergence.
+    n_grid : int
+        Grid cells along the longest domain side (grid engines); sets ``dx``.
+    boundaries : list of Boundary
+    frame_dt : float
+        Seconds between output frames.
+    n_render : int
+        Number of leading points that carry Gaussians.
+    options : dict
+        Engine options from the scene's ``[engine]`` table (``device``, ``precision``,
+        ``dt``, ``n_substeps``, ``cfl``, ...). Each engine validates its own.
+    """
+
+    x: np.ndarray
+    v: np.ndarray
+    p_vol: np.ndarray
+    body_id: np.ndarray
+    materials: list[Material]
+    gravity: np.ndarray
+    domain_lo: np.ndarray
+    domain_hi: np.ndarray
+    n_grid: int = 64
+    boundaries: list[Boundary] = field(default_factory=list)
+    frame_dt: float = 1.0 / 30.0
+    n_render: int = -1
+    options: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self):
+        self.x = np.ascontiguousarray(self.x, dtype=np.float64)
+        n = len(self.x)
+        if self.x.ndim != 2 or self.x.shape[1] != 3:
+            raise SceneError(f"SimSetup.x: expected shape (n, 3), got {self.x.shape}")
+        self.v = np.ascontiguousarray(np.broadcast_to(self.v, (n, 3)), dtype=np.float64)
+        self.p_vol = np.ascontiguousarray(np.broadcast_to(self.p_vol, (n,)), dtype=np.float64)
+        self.body_id = np.ascontiguousarray(np.broadcast_to(self.body_id, (n,)), dtype=np.int32)
+        self.gravity = np.asarray(self.gravity, dtype=np.float64).reshape(3)
+        self.domain_lo = np.asarray(self.domain_lo, dtype=np.float64).reshape(3)
+        self.domain_hi = np.asarray(self.domain_hi, dtype=np.float64).reshape(3)
+        if self.n_render < 0:
+            self.n_render = n
+        if not np.all(np.isfinite(self.x)):
+            bad = int(np.flatnonzero(~np.isfinite(self.x).all(axis=1))[0])
+            raise SceneError(f"SimSetup.x: non-finite position at point {bad}")
+        if len(self.materials) == 0 or (n and self.body_id.max() >= len(self.materials)):
+            raise SceneError("SimSetup.body_id: refers to a material that is not in SimSetup.materials")
+
+    @property
+    def dx(self) -> float:
+        """Grid spacing, metres: the longest domain side divided by ``n_grid``."""
+        return float(np.max(self.domain_hi - self.domain_lo)) / self.n_grid
+
+    @property
+    def p_mass(self) -> np.ndarray:
+        """Point masses, kg, shape (n,)."""
+        rho = np.array([m.rho for m in self.materials])
+        return rho[self.body_id] * self.p_vol
+
+    def replace(self, **changes) -> "SimSetup":
+        """A copy with some fields changed (``dataclasses.replace``)."""
+        return dataclasses.replace(self, **changes)
+
+
+@dataclass(frozen=True)
+class Capabilities:
+    """What an engine can do, as data (names from :data:`MATERIALS` and :data:`BOUNDARIES`).
+
+    Attributes
+    ----------
+    materials, boundaries : frozenset of str
+    devices : frozenset of str
+        e.g. ``{"cpu", "cuda"}``.
+    precisions : frozenset of str
+        ``{"f32"}``, ``{"f32", "f64"}``.
+    dims : frozenset of int
+        Spatial dimensionality, ``{3}``.
+    deterministic : frozenset of str
+        Devices on which a run repeats bit for bit (e.g. ``{"cpu"}`` single-threaded).
+    grid_based : bool
+        True for MPM engines (``n_grid`` and ``dx`` are meaningful; they report substeps).
+    """
+
+    materials: frozenset[str]
+    boundaries: frozenset[str]
+    devices: frozenset[str] = frozenset({"cpu"})
+    precisions: frozenset[str] = frozenset({"f32"})
+    dims: frozenset[int] = frozenset({3})
+    deterministic: frozenset[str] = frozenset()
+    grid_based: bool = False
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "materials": sorted(self.materials),
+            "boundaries": sorted(self.boundaries),
+            "devices": sorted(self.devices),
+            "precisions": sorted(self.precisions),
+            "dims": sorted(self.dims),
+            "deterministic": sorted(self.deterministic),
+            "grid_based": self.grid_based,
+        }
+
+
+@runtime_checkable
+class PointEngine(Protocol):
+    """A running simulation. Built by ``EngineInfo.factory(setup)``.
+
+    Methods
+    -------
+    step_frame()
+        Advance by ``setup.frame_dt`` seconds (the engine picks its substeps).
+        Raises :class:`EngineDivergence` if it detects a blow-up itself.
+    positions() -> ndarray, shape (n, 3), float32 or float64
+        Current point positions, metres, in the order of ``setup.x``.
+    velocities() -> ndarray, shape (n, 3)
+        Current point velocities, m/s.
+    stats() -> dict
+        At least ``device``, ``precision``, ``n_points``; grid engines add ``dt``, ``n_substeps``
+        (per frame), ``n_grid``.
+    close()
+        Free engine resources.
+    """
+
+    def step_frame(self) -> None: ...
+
+    def positions(self) -> np.ndarray: ...
+
+    def velocities(self) -> np.ndarray: ...
+
+    def stats(self) -> dict[str, Any]: ...
+
+    def close(self) -> None: ...
+
+
+@dataclass(frozen=True)
+class EngineInfo:
+    """Registration record an engine plugin returns from the ``gasp_engines`` hook.
+
+    Attributes
+    ----------
+    name : str
+        Engine name used in scene files (``engine = "taichi_mpm"``).
+    factory : callable
+        ``factory(setup: SimSetup) -> PointEngine``. Imports the engine package lazily, so
+        that listing engines stays cheap.
+    capabilities : Capabilities
+    distribution, version : str
+        The installed distribution that provides it (filled in by the plugin manager).
+    available : callable or None
+        ``available() -> str | None``: None when the engine can run here, else the reason it
+        cannot (package missing, ...).
+    description : str
+    """
+
+    name: str
+    factory: Callable[[SimSetup], PointEngine]
+    capabilities: Capabilities
+    distribution: str = ""
+    version: str = ""
+    available: Callable[[], str | None] | None = None
+    description: str = ""
+
+    def unavailable_reason(self) -> str | None:
+        return self.available() if self.available is not None else None
+
+
+def check_options(options: Mapping[str, Any], allowed: Mapping[str, Any], engine: str) -> dict[str, Any]:
+    """Merge ``options`` over ``allowed`` defaults; unknown keys are an error naming them.
+
+    Raises
+    ------
+    SceneError
+        If a key is not in ``allowed``; the message lists the allowed keys.
+    """
+    unknown = sorted(set(options) - set(allowed))
+    if unknown:
+        raise SceneError(
+            f"engine '{engine}': unknown option(s) {unknown}; allowed: {sorted(allowed)}")
+    merged = dict(allowed)
+    merged.update(options)
+    return merged
