@@ -1,0 +1,148 @@
+"""Drive an engine frame by frame and stop it cleanly when it blows up.
+
+Every engine goes through :func:`run_engine`, so NaN, points leaving the domain and engine
+exceptions are caught in one place and reported as :class:`EngineDivergence` with the frame and
+the likely cause, before anything is written.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Iterator
+
+import numpy as np
+
+from .engine import EngineDivergence, EngineInfo, GaspError, PointEngine, SimSetup
+
+
+@dataclass
+class FrameRecord:
+    """One simulated frame.
+
+    Attributes
+    ----------
+    frame : int
+        1-based frame index (frame 0 is the initial state and is not simulated).
+    x : ndarray, shape (n, 3), float64
+        Positions, metres, world frame.
+    wall_s : float
+        Wall time of ``step_frame`` plus read-back, seconds.
+    """
+
+    frame: int
+    x: np.ndarray
+    wall_s: float
+
+
+@dataclass
+class RunStats:
+    """Timings and engine statistics of a run."""
+
+    build_s: float = 0.0
+    frame_s: list[float] = field(default_factory=list)
+    engine: dict = field(default_factory=dict)
+
+
+def check_state(x: np.ndarray, setup: SimSetup, frame: int, margin: float | None = None) -> None:
+    """Raise :class:`EngineDivergence` if ``x`` is non-finite or outside the domain.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n, 3)
+        Positions, metres.
+    setup : SimSetup
+    frame : int
+    margin : float, optional
+        Tolerance outside the domain box, metres (default ``setup.dx``).
+
+    Raises
+    ------
+    EngineDivergence
+        With the count and first index of the offending points and the likely cause.
+    """
+    if x.shape != setup.x.shape:
+        raise EngineDivergence(
+            f"engine returned positions of shape {x.shape}, expected {setup.x.shape}", frame,
+            "the engine dropped or added points")
+    finite = np.isfinite(x).all(axis=1)
+    if not finite.all():
+        bad = np.flatnonzero(~finite)
+        raise EngineDivergence(
+            f"{len(bad)} point(s) non-finite (first index {bad[0]})", frame,
+            "time step above the stability limit, or material too stiff for the time step")
+    m = setup.dx if margin is None else margin
+    out = ((x < setup.domain_lo - m) | (x > setup.domain_hi + m)).any(axis=1)
+    if out.any():
+        bad = np.flatnonzero(out)
+        raise EngineDivergence(
+            f"{len(bad)} point(s) left the domain [{setup.domain_lo.tolist()}, {setup.domain_hi.tolist()}] "
+            f"(first index {bad[0]} at {x[bad[0]].tolist()})", frame,
+            "no ground or walls to stop them, a domain too small, or an unstable time step")
+
+
+def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int,
+               stats: RunStats | None = None) -> Iterator[FrameRecord]:
+    """Build the engine and yield ``n_frames`` checked frames.
+
+    Parameters
+    ----------
+    info : EngineInfo
+        From :func:`gasp_core.plugins.get_engine`.
+    setup : SimSetup
+    n_frames : int
+        Frames to simulate, each ``setup.frame_dt`` seconds.
+    stats : RunStats, optional
+        Filled with build time, per-frame wall times and ``engine.stats()``.
+
+    Yields
+    ------
+    FrameRecord
+
+    Raises
+    ------
+    EngineDivergence
+        At the first frame whose state is non-finite or outside the domain, or when the engine
+        itself reports a blow-up or fails with an unexpected exception (chained).
+    """
+    stats = stats if stats is not None else RunStats()
+    t0 = time.perf_counter()
+    engine: PointEngine = info.factory(setup)
+    stats.build_s = time.perf_counter() - t0
+    try:
+        for frame in range(1, n_frames + 1):
+            t0 = time.perf_counter()
+            try:
+                engine.step_frame()
+                x = np.asarray(engine.positions(), dtype=np.float64)
+            except GaspError as e:
+                if isinstance(e, EngineDivergence):
+                    raise
+                raise EngineDivergence(str(e), frame, "engine error") from e
+            except (FloatingPointError, ArithmeticError, RuntimeError, ValueError) as e:
+                raise EngineDivergence(f"engine '{info.name}' failed: {e}", frame,
+                                       "engine error") from e
+            dt_wall = time.perf_counter() - t0
+            check_state(x, setup, frame)
+            stats.frame_s.append(dt_wall)
+            yield FrameRecord(frame, x, dt_wall)
+        stats.engine = dict(engine.stats())
+    finally:
+        engine.close()
+
+
+def simulate(info: EngineInfo, setup: SimSetup, n_frames: int,
+             on_frame: Callable[[FrameRecord], None] | None = None) -> tuple[np.ndarray, RunStats]:
+    """Run ``n_frames`` and return all positions, shape (n_frames + 1, n, 3), frame 0 = ``setup.x``.
+
+    Raises
+    ------
+    EngineDivergence
+        See :func:`run_engine`.
+    """
+    stats = RunStats()
+    xs = [setup.x.copy()]
+    for rec in run_engine(info, setup, n_frames, stats):
+        xs.append(rec.x)
+        if on_frame is not None:
+            on_frame(rec)
+    return np.stack(xs), stats
