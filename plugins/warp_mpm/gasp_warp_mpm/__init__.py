@@ -1,0 +1,51 @@
+"""GASP engine plugin ``warp_mpm``: the MLS-MPM solver of ``docs/mpm.md`` written in NVIDIA Warp.
+
+Registers one engine through the ``gasp_engines`` hook. Importing this module does not import
+Warp: the factory imports :mod:`gasp_warp_mpm.solver` when a simulation is built, and
+``available()`` only checks that ``warp`` can be imported.
+"""
+from __future__ import annotations
+
+import importlib.util
+
+from gasp_core.engine import Capabilities, EngineInfo, SimSetup
+from gasp_core.plugins import hookimpl
+
+__all__ = ["gasp_engines", "make_engine", "CAPABILITIES"]
+
+CAPABILITIES = Capabilities(
+    materials=frozenset({"jelly", "neo_hookean", "metal", "sand", "snow", "plasticine", "liquid"}),
+    boundaries=frozenset({"ground", "walls", "fixed_region"}),
+    devices=frozenset({"cpu", "cuda"}),
+    precisions=frozenset({"f32", "f64"}),
+    deterministic=frozenset({"cpu"}),
+    grid_based=True,
+)
+
+
+def make_engine(setup: SimSetup):
+    """Build a :class:`gasp_warp_mpm.solver.WarpMPMEngine` for ``setup`` (imports Warp here)."""
+    from .solver import WarpMPMEngine
+    return WarpMPMEngine(setup)
+
+
+def _available() -> str | None:
+    if importlib.util.find_spec("warp") is None:
+        return "the 'warp-lang' package is not installed (pip install warp-lang)"
+    try:
+        import warp  # noqa: F401  (imported only when availability is asked for)
+    except Exception as e:  # broken install, missing native library
+        return f"'warp' cannot be imported: {e}"
+    return None
+
+
+@hookimpl
+def gasp_engines():
+    """The ``warp_mpm`` engine record (GASP ``gasp_engines`` hook)."""
+    return [EngineInfo(
+        name="warp_mpm",
+        factory=make_engine,
+        capabilities=CAPABILITIES,
+        available=_available,
+        description="MLS-MPM (docs/mpm.md) in NVIDIA Warp; CPU (single thread, deterministic) or CUDA",
+    )]

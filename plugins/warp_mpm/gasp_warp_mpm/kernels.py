@@ -1,0 +1,329 @@
+"""Warp kernels of the MLS-MPM solver specified in ``docs/mpm.md``.
+
+One set of kernels is built per scalar type (``wp.float32`` or ``wp.float64``) by
+:func:`build_kernels`: the kernels are closures over the scalar, vector and matrix types, so the
+same source serves both precisions (Warp compiles one instantiation per type).
+
+Grid layout: a flat array of ``n_grid**3`` nodes, node ``(i, j, k)`` at flat index
+``(i * n_grid + j) * n_grid + k``. ``grid_mv`` holds ``(momentum, mass)`` per node as a 4-vector
+(one accumulation per node and point in P2G); ``grid_vel`` holds the updated node velocity
+read by G2P. The grid update clears ``grid_mv`` after reading it, so no separate clear pass is
+needed (the spec's step 1 is folded into the previous substep's step 3).
+
+Sources: Hu et al. 2018 (MLS-MPM, APIC, quadratic B-splines), taichi's mpm128 (``F`` advanced in
+P2G), taichi_elements (materials, "separate" collider with Coulomb friction), Klar et al. 2016
+(Drucker-Prager sand), Stomakhin et al. 2013 (snow).
+
+This module must not use ``from __future__ import annotations``: Warp reads the annotations of
+the closures below as type objects.
+"""
+import functools
+
+import warp as wp
+
+# Material codes (index into the per-body tables).
+JELLY, NEO_HOOKEAN, METAL, SAND, SNOW, PLASTICINE, LIQUID = range(7)
+MATERIAL_CODES = {
+    "jelly": JELLY, "neo_hookean": NEO_HOOKEAN, "metal": METAL, "sand": SAND,
+    "snow": SNOW, "plasticine": PLASTICINE, "liquid": LIQUID,
+}
+# Columns of the per-body parameter table ``mat_par``.
+P_MU, P_LAM, P_YIELD, P_SOFTENING, P_HARDENING, P_THETA_C, P_THETA_S, P_ALPHA, P_K = range(9)
+N_PAR = 9
+
+
+@functools.cache
+def build_kernels(Ft):
+    """The solver's kernels for the scalar type ``Ft`` (``wp.float32`` or ``wp.float64``).
+
+    Returns
+    -------
+    types.SimpleNamespace
+        ``vec3, vec4, mat33`` (types) and the kernels ``p2g, grid_update, g2p, check``.
+    """
+    import types
+
+    vec3 = wp.types.vector(3, Ft)
+    vec4 = wp.types.vector(4, Ft)
+    mat33 = wp.types.matrix((3, 3), Ft)
+
+    @wp.func
+    def in_grid(X: vec3, n_grid: int):
+        # base = floor(X - 0.5) must lie in [0, n_grid - 3] on every axis; compared as floats so
+        # that NaN and inf positions are out of the grid (never converted to an index).
+        lim = Ft(n_grid - 3)
+        b0 = wp.floor(X[0] - Ft(0.5))
+        b1 = wp.floor(X[1] - Ft(0.5))
+        b2 = wp.floor(X[2] - Ft(0.5))
+        ok = b0 >= Ft(0.0) and b0 <= lim and b1 >= Ft(0.0) and b1 <= lim
+        return ok and b2 >= Ft(0.0) and b2 <= lim
+
+    @wp.func
+    def weights(fx: vec3):
+        # Quadratic B-spline weights, row r = weights of node offset r on each axis.
+        t0 = vec3(Ft(1.5)) - fx
+        t1 = fx - vec3(Ft(1.0))
+        t2 = fx - vec3(Ft(0.5))
+        w0 = Ft(0.5) * wp.cw_mul(t0, t0)
+        w1 = vec3(Ft(0.75)) - wp.cw_mul(t1, t1)
+        w2 = Ft(0.5) * wp.cw_mul(t2, t2)
+        return wp.matrix_from_rows(w0, w1, w2)
+
+    @wp.func
+    def hencky_tau(U: mat33, eps: vec3, mu: Ft, lam: Ft):
+        # tau = U diag(2 mu eps + lam tr(eps)) U^T
+        tr = eps[0] + eps[1] + eps[2]
+        d = Ft(2.0) * mu * eps + vec3(lam * tr)
+        return U * wp.diag(d) * wp.transpose(U)
+
+    @wp.func
+    def corotated_tau(Fp: mat33, U: mat33, V: mat33, mu: Ft, lam: Ft):
+        # tau = 2 mu (F - U V^T) F^T + lam J (J - 1) I, J = det F
+        J = wp.determinant(Fp)
+        R = U * wp.transpose(V)
+        return Ft(2.0) * mu * (Fp - R) * wp.transpose(Fp) + wp.identity(3, dtype=Ft) * (lam * J * (J - Ft(1.0)))
+
+    @wp.func
+    def collide(v: vec3, n: vec3, mu_b: Ft):
+        # taichi_elements' "separate" collider with Coulomb friction mu_b (docs/mpm.md step 3).
+        vn = wp.dot(v, n)
+        out = v
+        if vn < Ft(0.0):
+            vt = v - vn * n
+            lt = wp.length(vt)
+            if lt > Ft(1e-30):
+                out = vt * wp.max(Ft(0.0), Ft(1.0) + mu_b * vn / lt)
+            else:
+                out = vec3(Ft(0.0))
+        return out
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def p2g(
+        x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), F: wp.array(dtype=mat33),
+        C: wp.array(dtype=mat33), Jp: wp.array(dtype=Ft), p_mass: wp.array(dtype=Ft),
+        p_vol: wp.array(dtype=Ft), body: wp.array(dtype=wp.int32),
+        mat_kind: wp.array(dtype=wp.int32), mat_par: wp.array2d(dtype=Ft),
+        grid_mv: wp.array(dtype=vec4), n_out: wp.array(dtype=wp.int32),
+        lo: vec3, inv_dx: Ft, dx: Ft, dt: Ft, n_grid: int,
+    ):
+        p = wp.tid()
+        X = (x[p] - lo) * inv_dx
+        if not in_grid(X, n_grid):
+            wp.atomic_add(n_out, 0, 1)
+            return
+        b0 = wp.floor(X[0] - Ft(0.5))
+        b1 = wp.floor(X[1] - Ft(0.5))
+        b2 = wp.floor(X[2] - Ft(0.5))
+        fx = X - vec3(b0, b1, b2)
+        W = weights(fx)
+
+        # --- deformation gradient, return mapping and Kirchhoff stress (docs/mpm.md) ---
+        Cp = C[p]
+        Fp = (wp.identity(3, dtype=Ft) + dt * Cp) * F[p]
+        b = body[p]
+        kind = mat_kind[b]
+        mu = mat_par[b, P_MU]
+        lam = mat_par[b, P_LAM]
+        tau = mat33()
+        if kind == JELLY:
+            U = mat33()
+            sig = vec3()
+            V = mat33()
+            wp.svd3(Fp, U, sig, V)
+            tau = corotated_tau(Fp, U, V, mu, lam)
+        elif kind == NEO_HOOKEAN:
+            J = wp.determinant(Fp)
+            tau = mu * (Fp * wp.transpose(Fp) - wp.identity(3, dtype=Ft)) + wp.identity(3, dtype=Ft) * (
+                lam * wp.log(wp.max(J, Ft(1e-6))))
+        elif kind == METAL or kind == PLASTICINE or kind == SAND:
+            U = mat33()
+            sig = vec3()
+            V = mat33()
+            wp.svd3(Fp, U, sig, V)
+            eps = vec3(wp.log(wp.max(sig[0], Ft(1e-4))), wp.log(wp.max(sig[1], Ft(1e-4))),
+                       wp.log(wp.max(sig[2], Ft(1e-4))))
+            tr = eps[0] + eps[1] + eps[2]
+            e = eps - vec3(tr / Ft(3.0))
+            e_norm = wp.length(e)
+            if kind == SAND:
+                if tr >= Ft(0.0):
+                    eps = vec3(Ft(0.0))
+                else:
+                    dg = e_norm + (Ft(3.0) * lam + Ft(2.0) * mu) / (Ft(2.0) * mu) * tr * mat_par[b, P_ALPHA]
+                    if dg > Ft(0.0):
+                        eps = eps - (dg / e_norm) * e
+                Fp = U * wp.diag(vec3(wp.exp(eps[0]), wp.exp(eps[1]), wp.exp(eps[2]))) * wp.transpose(V)
+            else:
+                ys = mat_par[b, P_YIELD]
+                jp = Jp[p]
+                if kind == PLASTICINE:
+                    ys = ys * wp.max(Ft(0.0), Ft(1.0) - mat_par[b, P_SOFTENING] * jp)
+                dg = e_norm - ys / (Ft(2.0) * mu)
+                if dg > Ft(0.0):
+                    eps = eps - (dg / e_norm) * e
+                    Fp = U * wp.diag(vec3(wp.exp(eps[0]), wp.exp(eps[1]), wp.exp(eps[2]))) * wp.transpose(V)
+                if kind == PLASTICINE:
+                    Jp[p] = jp + wp.max(dg, Ft(0.0))
+            tau = hencky_tau(U, eps, mu, lam)
+        elif kind == SNOW:
+            U = mat33()
+            sig = vec3()
+            V = mat33()
+            wp.svd3(Fp, U, sig, V)
+            jp = Jp[p]
+            h = wp.exp(mat_par[b, P_HARDENING] * (Ft(1.0) - jp))
+            s_lo = Ft(1.0) - mat_par[b, P_THETA_C]
+            s_hi = Ft(1.0) + mat_par[b, P_THETA_S]
+            sc = vec3(wp.clamp(sig[0], s_lo, s_hi), wp.clamp(sig[1], s_lo, s_hi), wp.clamp(sig[2], s_lo, s_hi))
+            Jp[p] = jp * (sig[0] * sig[1] * sig[2]) / (sc[0] * sc[1] * sc[2])
+            Fp = U * wp.diag(sc) * wp.transpose(V)
+            tau = corotated_tau(Fp, U, V, mu * h, lam * h)
+        else:  # LIQUID
+            J = wp.determinant(Fp)
+            Fp = wp.identity(3, dtype=Ft) * wp.pow(J, Ft(1.0) / Ft(3.0))
+            tau = wp.identity(3, dtype=Ft) * (mat_par[b, P_K] * J * (J - Ft(1.0)))
+        F[p] = Fp
+
+        # --- scatter: grid_v += w (p_mass v + affine dpos), grid_m += w p_mass ---
+        pm = p_mass[p]
+        affine = (-dt * p_vol[p] * Ft(4.0) * inv_dx * inv_dx) * tau + pm * Cp
+        A = dx * affine  # affine dpos = A ((i, j, k) - fx)
+        a0 = vec3(A[0, 0], A[1, 0], A[2, 0])
+        a1 = vec3(A[0, 1], A[1, 1], A[2, 1])
+        a2 = vec3(A[0, 2], A[1, 2], A[2, 2])
+        mom0 = pm * v[p] - A * fx
+        nn = n_grid * n_grid
+        idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
+        mi = mom0
+        for i in range(3):
+            mj = mi
+            for j in range(3):
+                wij = W[i, 0] * W[j, 1]
+                mk = mj
+                row = idx0 + i * nn + j * n_grid
+                for k in range(3):
+                    w = wij * W[k, 2]
+                    wm = w * mk
+                    grid_mv[row + k] += vec4(wm[0], wm[1], wm[2], w * pm)
+                    mk = mk + a2
+                mj = mj + a1
+            mi = mi + a0
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def grid_update(
+        grid_mv: wp.array(dtype=vec4), grid_vel: wp.array(dtype=vec3),
+        gravity: vec3, lo: vec3, hi: vec3, dx: Ft, dt: Ft, n_grid: int,
+        wall_mu: wp.array(dtype=Ft), ground: wp.array(dtype=vec3),
+        fixed_lo: wp.array(dtype=vec3), fixed_hi: wp.array(dtype=vec3),
+    ):
+        # ground[g] = (height, friction, unused)
+        node = wp.tid()
+        g = grid_mv[node]
+        m = g[3]
+        out = vec3(Ft(0.0))
+        if m > Ft(0.0):
+            vel = vec3(g[0], g[1], g[2]) / m + dt * gravity
+            i = node / (n_grid * n_grid)
+            j = (node / n_grid) % n_grid
+            k = node % n_grid
+            X = lo + dx * vec3(Ft(i), Ft(j), Ft(k))
+            for w in range(wall_mu.shape[0]):
+                mu_b = wall_mu[w]
+                for d in range(3):
+                    if X[d] < lo[d] + Ft(3.0) * dx:
+                        n = vec3(Ft(0.0))
+                        n[d] = Ft(1.0)
+                        vel = collide(vel, n, mu_b)
+                    if X[d] > hi[d] - Ft(3.0) * dx:
+                        n = vec3(Ft(0.0))
+                        n[d] = Ft(-1.0)
+                        vel = collide(vel, n, mu_b)
+            for q in range(ground.shape[0]):
+                gr = ground[q]
+                if X[2] <= gr[0]:
+                    vel = collide(vel, vec3(Ft(0.0), Ft(0.0), Ft(1.0)), gr[1])
+            for r in range(fixed_lo.shape[0]):
+                flo = fixed_lo[r]
+                fhi = fixed_hi[r]
+                if (X[0] >= flo[0] and X[0] <= fhi[0] and X[1] >= flo[1] and X[1] <= fhi[1]
+                        and X[2] >= flo[2] and X[2] <= fhi[2]):
+                    vel = vec3(Ft(0.0))
+            out = vel
+        grid_vel[node] = out
+        grid_mv[node] = vec4(Ft(0.0))
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def g2p(
+        x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33),
+        fixed: wp.array(dtype=wp.int32), grid_vel: wp.array(dtype=vec3),
+        lo: vec3, inv_dx: Ft, dt: Ft, n_grid: int,
+    ):
+        p = wp.tid()
+        if fixed[p] != 0:
+            v[p] = vec3(Ft(0.0))
+            C[p] = mat33()
+            return
+        xp = x[p]
+        X = (xp - lo) * inv_dx
+        if not in_grid(X, n_grid):
+            return  # counted in P2G; the frame raises EngineDivergence
+        b0 = wp.floor(X[0] - Ft(0.5))
+        b1 = wp.floor(X[1] - Ft(0.5))
+        b2 = wp.floor(X[2] - Ft(0.5))
+        fx = X - vec3(b0, b1, b2)
+        W = weights(fx)
+        nn = n_grid * n_grid
+        idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
+        # new_v = sum w g;  B = sum w g (i, j, k)^T  accumulated as sums over node planes.
+        new_v = vec3(Ft(0.0))
+        si1 = vec3(Ft(0.0))
+        si2 = vec3(Ft(0.0))
+        sj1 = vec3(Ft(0.0))
+        sj2 = vec3(Ft(0.0))
+        sk1 = vec3(Ft(0.0))
+        sk2 = vec3(Ft(0.0))
+        for i in range(3):
+            vi = vec3(Ft(0.0))
+            for j in range(3):
+                wij = W[i, 0] * W[j, 1]
+                row = idx0 + i * nn + j * n_grid
+                vj = vec3(Ft(0.0))
+                for k in range(3):
+                    wg = (wij * W[k, 2]) * grid_vel[row + k]
+                    vj = vj + wg
+                    if k == 1:
+                        sk1 = sk1 + wg
+                    if k == 2:
+                        sk2 = sk2 + wg
+                vi = vi + vj
+                if j == 1:
+                    sj1 = sj1 + vj
+                if j == 2:
+                    sj2 = sj2 + vj
+            new_v = new_v + vi
+            if i == 1:
+                si1 = si1 + vi
+            if i == 2:
+                si2 = si2 + vi
+        c0 = si1 + Ft(2.0) * si2
+        c1 = sj1 + Ft(2.0) * sj2
+        c2 = sk1 + Ft(2.0) * sk2
+        B = wp.matrix_from_cols(c0, c1, c2)
+        # C = 4 inv_dx^2 sum w g ((i, j, k) - fx)^T dx = 4 inv_dx (B - new_v fx^T)
+        C[p] = (Ft(4.0) * inv_dx) * (B - wp.outer(new_v, fx))
+        v[p] = new_v
+        x[p] = xp + dt * new_v
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def check(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), flags: wp.array(dtype=wp.int32)):
+        # flags[1] counts points whose x or v is not finite.
+        p = wp.tid()
+        xp = x[p]
+        vp = v[p]
+        ok = wp.isfinite(xp[0]) and wp.isfinite(xp[1]) and wp.isfinite(xp[2])
+        ok = ok and wp.isfinite(vp[0]) and wp.isfinite(vp[1]) and wp.isfinite(vp[2])
+        if not ok:
+            wp.atomic_add(flags, 1, 1)
+
+    return types.SimpleNamespace(vec3=vec3, vec4=vec4, mat33=mat33, p2g=p2g,
+                                 grid_update=grid_update, g2p=g2p, check=check)
