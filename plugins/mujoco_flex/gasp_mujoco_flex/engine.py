@@ -1,0 +1,428 @@
+"""The ``mujoco_flex`` engine: one MuJoCo model built from a :class:`~gasp_core.engine.SimSetup`.
+
+Per body (``setup.body_id``):
+
+* ``jelly`` / ``metal``: a coarse conforming tetrahedral lattice (:mod:`.lattice`) emitted as
+  ``<flexcomp type="direct" dim="3">`` with ``<elasticity young=E poisson=nu damping=...>``
+  (MuJoCo's Saint Venant-Kirchhoff flex FEM). ``metal`` adds ``yield = yield_stress / E``
+  (MuJoCo 4 flex von Mises plasticity on the elastic stretching strain). Vertex masses are lumped
+  from ``rho`` and the tet volumes. Points ride on their tet with fixed barycentric weights.
+* ``rigid``: a free body made of one box geom per occupied lattice cell (``density = rho``);
+  points follow the body pose.
+
+Boundaries: ``ground`` is a plane geom at ``z = height`` with the boundary's friction;
+``fixed_region`` pins (flexcomp ``<pin id>``) every lattice vertex of a tet that holds a point
+inside the box, so those points stay exactly still; a rigid body with a point in the box gets no
+free joint.
+
+MuJoCo 4 rejects flex elasticity under ``implicit`` / ``implicitfast`` ("flex elasticity is no
+longer integrated implicitly ... set integrator='discrete', or 'Euler' with a small timestep"),
+so the default integrator is ``discrete`` (implicit in position; CG/Newton solver required).
+
+Sources: MuJoCo XML reference (``flexcomp``, ``flex/elasticity``, ``flex/contact``,
+``option/integrator``) and Computation chapter (discrete integrator), MuJoCo 4.0.0.
+"""
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+import mujoco
+
+from gasp_core.engine import EngineDivergence, EngineError, SceneError, SimSetup, check_options
+from gasp_core.physics import p_wave_speed, substeps_for
+
+from .lattice import Lattice, build_lattice, embed_points, interpolate
+
+ENGINE = "mujoco_flex"
+
+#: Engine options (``[engine]`` table of a scene) and their defaults.
+DEFAULT_OPTIONS: dict[str, Any] = {
+    "device": "cpu",          # only "cpu"
+    "precision": "f64",       # only "f64" (MuJoCo is double precision)
+    "dt": None,               # MuJoCo timestep, s; default from the elastic-wave estimate
+    "cfl": 0.5,               # safety factor of the elastic-wave estimate dt = cfl * h / c_p
+    "dt_max": 2e-3,           # upper bound of the automatic dt (contact resolution), s
+    "cell_size": None,        # lattice cell size h, m; default max extent / cells_across per body
+    "cells_across": 8,        # cells along a body's longest side when cell_size is not given
+    "damping": 2e-3,          # Rayleigh damping coefficient of the flex elasticity, s
+    "integrator": "discrete",  # "discrete" or "Euler" (implicit ones reject flex elasticity)
+    "solver": "Newton",       # "Newton" or "CG" (PGS rejects flex elasticity under discrete)
+    "iterations": 50,         # constraint solver iterations
+    "radius": None,           # flex collision radius, m; default 0.05 * h
+    "max_strain": 5.0,        # a tet edge stretched beyond (1 + max_strain) x rest is a divergence
+}
+
+_WARN_NAMES = {
+    int(mujoco.mjtWarning.mjWARN_INERTIA): "singular inertia",
+    int(mujoco.mjtWarning.mjWARN_CONTACTFULL): "contact buffer full",
+    int(mujoco.mjtWarning.mjWARN_CNSTRFULL): "constraint buffer full",
+    int(mujoco.mjtWarning.mjWARN_BADQPOS): "bad number in qpos",
+    int(mujoco.mjtWarning.mjWARN_BADQVEL): "bad number in qvel",
+    int(mujoco.mjtWarning.mjWARN_BADQACC): "bad number in qacc (mjWARN_BADQACC)",
+    int(mujoco.mjtWarning.mjWARN_BADCTRL): "bad number in ctrl",
+}
+
+
+def _fmt(a) -> str:
+    return " ".join(f"{v:.17g}" for v in np.asarray(a, dtype=np.float64).ravel())
+
+
+def _ifmt(a) -> str:
+    return " ".join(str(int(v)) for v in np.asarray(a).ravel())
+
+
+class _FlexBody:
+    """Bookkeeping of one deformable body: lattice, embedding, MuJoCo ids."""
+
+    def __init__(self, name: str, idx: np.ndarray, lat: Lattice, tet: np.ndarray, w: np.ndarray,
+                 pinned: np.ndarray, rho: float):
+        self.name, self.idx, self.lat, self.tet, self.w = name, idx, lat, tet, w
+        self.pinned = pinned            # (n_vertices,) bool
+        self.rho = rho
+        self.flex_id = -1
+        self.vert_adr = 0
+        self.vert_body = np.zeros(0, np.int64)   # MuJoCo body id of each vertex
+        self.vert_dof = np.zeros(0, np.int64)    # first dof of each unpinned vertex, -1 if pinned
+
+
+class _RigidBody:
+    """Bookkeeping of one rigid body: MuJoCo body id and the points in the body frame."""
+
+    def __init__(self, name: str, idx: np.ndarray, com: np.ndarray, local: np.ndarray, fixed: bool):
+        self.name, self.idx, self.com, self.local, self.fixed = name, idx, com, local, fixed
+        self.body_id = -1
+        self.dof = -1
+
+
+class MujocoFlexEngine:
+    """A running MuJoCo flex simulation of a :class:`~gasp_core.engine.SimSetup`.
+
+    Parameters
+    ----------
+    setup : SimSetup
+        World frame, metres, z up. ``setup.options`` may hold the keys of :data:`DEFAULT_OPTIONS`.
+
+    Raises
+    ------
+    SceneError
+        Unknown option, bad option value, or a material the engine does not offer.
+    EngineError
+        MuJoCo rejects the generated model (the message quotes MuJoCo's error).
+
+    Notes
+    -----
+    ``step_frame`` runs ``n_substeps = ceil(frame_dt / dt)`` calls of ``mj_step`` with
+    ``dt = frame_dt / n_substeps``. Divergence is detected from MuJoCo's warning counters
+    (``mjData.warning``; MuJoCo resets the state itself on a bad ``qacc``), non-finite state, tets
+    stretched beyond ``max_strain`` or inverted, and points leaving ``[domain_lo, domain_hi]``.
+    """
+
+    def __init__(self, setup: SimSetup):
+        self.setup = setup
+        o = check_options(setup.options, DEFAULT_OPTIONS, ENGINE)
+        self.options = o
+        if o["device"] != "cpu":
+            raise SceneError(f"engine '{ENGINE}': option device={o['device']!r}; only 'cpu' is offered")
+        if o["precision"] != "f64":
+            raise SceneError(f"engine '{ENGINE}': option precision={o['precision']!r}; only 'f64' is offered")
+        if o["integrator"] not in ("discrete", "Euler"):
+            raise SceneError(f"engine '{ENGINE}': option integrator={o['integrator']!r}; expected 'discrete' "
+                             "or 'Euler' (MuJoCo 4 rejects flex elasticity under implicit/implicitfast)")
+        if o["solver"] not in ("Newton", "CG"):
+            raise SceneError(f"engine '{ENGINE}': option solver={o['solver']!r}; expected 'Newton' or 'CG'")
+        for key in ("cfl", "dt_max", "cells_across", "iterations", "max_strain"):
+            if not (isinstance(o[key], (int, float)) and np.isfinite(o[key]) and o[key] > 0):
+                raise SceneError(f"engine '{ENGINE}': option {key}={o[key]!r}; expected a positive number")
+        for key in ("dt", "cell_size", "radius"):
+            if o[key] is not None and not (isinstance(o[key], (int, float)) and np.isfinite(o[key]) and o[key] > 0):
+                raise SceneError(f"engine '{ENGINE}': option {key}={o[key]!r}; expected a positive number")
+        if not (isinstance(o["damping"], (int, float)) and o["damping"] >= 0):
+            raise SceneError(f"engine '{ENGINE}': option damping={o['damping']!r}; expected a number >= 0 (s)")
+        for m in setup.materials:
+            if m.name not in ("jelly", "metal", "rigid"):
+                raise SceneError(f"engine '{ENGINE}': material '{m.name}' is not offered; "
+                                 "offered: ['jelly', 'metal', 'rigid']")
+        for b in setup.boundaries:
+            if b.kind not in ("ground", "fixed_region"):
+                raise SceneError(f"engine '{ENGINE}': boundary '{b.kind}' is not offered; "
+                                 "offered: ['fixed_region', 'ground']")
+        if not (setup.frame_dt > 0 and np.isfinite(setup.frame_dt)):
+            raise SceneError(f"SimSetup.frame_dt: expected a positive number, got {setup.frame_dt}")
+
+        self.frame = 0
+        self.n_points = len(setup.x)
+        self._build()
+
+    # ------------------------------------------------------------------ model construction
+    def _fixed_mask(self, x: np.ndarray) -> np.ndarray:
+        mask = np.zeros(len(x), dtype=bool)
+        for b in self.setup.boundaries:
+            if b.kind == "fixed_region":
+                lo, hi = np.asarray(b.lo, float), np.asarray(b.hi, float)
+                mask |= np.all((x >= lo) & (x <= hi), axis=1)
+        return mask
+
+    def _build(self) -> None:
+        s, o = self.setup, self.options
+        self.flex: list[_FlexBody] = []
+        self.rigid: list[_RigidBody] = []
+        parts = []
+        fixed_pt = self._fixed_mask(s.x)
+        h_min = math.inf
+        for b, mat in enumerate(s.materials):
+            idx = np.flatnonzero(s.body_id == b)
+            if len(idx) == 0:
+                continue
+            xb = s.x[idx]
+            ext = float(np.max(xb.max(0) - xb.min(0)))
+            h = float(o["cell_size"]) if o["cell_size"] is not None else max(ext, 1e-6) / float(o["cells_across"])
+            lat = build_lattice(xb, h)
+            name = f"b{b}"
+            if mat.name == "rigid":
+                centres = lat.origin + (lat.cells + 0.5) * h
+                com = centres.mean(axis=0)
+                rb = _RigidBody(name, idx, com, xb - com, bool(fixed_pt[idx].any()))
+                geoms = "\n".join(
+                    f'<geom type="box" size="{h / 2:.17g} {h / 2:.17g} {h / 2:.17g}" pos="{_fmt(c - com)}" '
+                    f'density="{mat.rho:.17g}"/>' for c in centres)
+                joint = "" if rb.fixed else "<freejoint/>"
+                parts.append(f'<body name="{name}" pos="{_fmt(com)}">{joint}\n{geoms}\n</body>')
+                self.rigid.append(rb)
+            else:
+                h_min = min(h_min, h)
+                tet, w = embed_points(lat, xb)
+                pinned = np.zeros(len(lat.vertices), dtype=bool)
+                fp = fixed_pt[idx]
+                if fp.any():
+                    pinned[np.unique(lat.tets[tet[fp]])] = True
+                    for bd in s.boundaries:
+                        if bd.kind == "fixed_region":
+                            pinned |= np.all((lat.vertices >= np.asarray(bd.lo)) &
+                                             (lat.vertices <= np.asarray(bd.hi)), axis=1)
+                fb = _FlexBody(name, idx, lat, tet, w, pinned, mat.rho)
+                radius = float(o["radius"]) if o["radius"] is not None else 0.05 * h
+                elastic = f'young="{mat.E:.17g}" poisson="{mat.nu:.17g}" damping="{float(o["damping"]):.17g}"'
+                if mat.name == "metal":
+                    elastic += f' yield="{mat.yield_stress / mat.E:.17g}"'
+                pin = f'<pin id="{_ifmt(np.flatnonzero(pinned))}"/>' if pinned.any() else ""
+                mass = mat.rho * lat.volume
+                parts.append(
+                    f'<flexcomp name="{name}" type="direct" dim="3" radius="{radius:.17g}" mass="{mass:.17g}" '
+                    f'point="{_fmt(lat.vertices)}" element="{_ifmt(lat.tets)}">\n'
+                    f'<elasticity {elastic}/>\n'
+                    f'<contact selfcollide="none" friction="{self._ground_friction():.17g}"/>\n'
+                    f'{pin}</flexcomp>')
+                self.flex.append(fb)
+
+        ground = ""
+        for bd in s.boundaries:
+            if bd.kind == "ground":
+                ground += (f'<geom name="ground" type="plane" size="0 0 1" pos="0 0 {bd.height:.17g}" '
+                           f'friction="{bd.friction:.17g} 0.005 0.0001"/>\n')
+
+        # time step: elastic-wave estimate over the deformable bodies, bounded by dt_max
+        v0 = float(np.max(np.linalg.norm(s.v, axis=1))) if len(s.v) else 0.0
+        height = float(s.domain_hi[2] - s.domain_lo[2])
+        v_fall = v0 + math.sqrt(2.0 * float(np.linalg.norm(s.gravity)) * max(height, 0.0))
+        dt_max = float(o["dt_max"])
+        if self.flex:
+            c = max(p_wave_speed(m) for m in s.materials if m.name != "rigid")
+            dt_max = min(dt_max, float(o["cfl"]) * h_min / max(c, v_fall, 1e-12))
+        if o["dt"] is not None:
+            dt_max = float(o["dt"])
+        if o["dt"] is not None and float(o["dt"]) > s.frame_dt * (1 + 1e-9):
+            raise SceneError(f"engine '{ENGINE}': option dt={o['dt']!r} s is longer than frame_dt="
+                             f"{s.frame_dt!r} s; expected 0 < dt <= frame_dt")
+        self.n_substeps, self.dt = substeps_for(s.frame_dt, dt_max)
+
+        g = _fmt(s.gravity)
+        xml = (f'<mujoco model="gasp_mujoco_flex">\n'
+               f'<compiler angle="radian"/>\n'
+               f'<option timestep="{self.dt:.17g}" gravity="{g}" integrator="{o["integrator"]}" '
+               f'solver="{o["solver"]}" iterations="{int(o["iterations"])}" cone="pyramidal"/>\n'
+               f'<worldbody>\n{ground}' + "\n".join(parts) + '\n</worldbody>\n</mujoco>')
+        self.xml = xml
+        try:
+            self.model = mujoco.MjModel.from_xml_string(xml)
+        except ValueError as e:
+            raise EngineError(f"engine '{ENGINE}': MuJoCo rejected the generated model: {e}") from e
+        m = self.model
+        for fb in self.flex:
+            fb.flex_id = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_FLEX, fb.name)
+            fb.vert_adr = int(m.flex_vertadr[fb.flex_id])
+            nv = int(m.flex_vertnum[fb.flex_id])
+            if nv != len(fb.lat.vertices):
+                raise EngineError(f"engine '{ENGINE}': flex {fb.name} has {nv} vertices, "
+                                  f"expected {len(fb.lat.vertices)}")
+            fb.vert_body = m.flex_vertbodyid[fb.vert_adr:fb.vert_adr + nv].astype(np.int64)
+            fb.vert_dof = np.where(fb.pinned, -1, m.body_dofadr[fb.vert_body]).astype(np.int64)
+            # lumped masses (rho V_tet / 4 per incident tet) replace flexcomp's equal split
+            vm = fb.lat.vertex_masses(fb.rho)
+            free = ~fb.pinned
+            m.body_mass[fb.vert_body[free]] = vm[free]
+            edge = fb.lat.h
+            m.body_inertia[fb.vert_body[free]] = (vm[free] * edge ** 2 / 6.0)[:, None] * np.ones(3)
+        for rb in self.rigid:
+            rb.body_id = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, rb.name)
+            rb.dof = -1 if rb.fixed else int(m.body_dofadr[rb.body_id])
+        self.data = mujoco.MjData(m)
+        mujoco.mj_setConst(m, self.data)
+        self._set_initial_velocity()
+        mujoco.mj_forward(m, self.data)
+        self._warn0 = np.array([w.number for w in self.data.warning])
+        self._rest_edge = [self._edge_lengths(fb, fb.lat.vertices) for fb in self.flex]
+
+    def _ground_friction(self) -> float:
+        for b in self.setup.boundaries:
+            if b.kind == "ground":
+                return float(b.friction)
+        return 0.5
+
+    def _set_initial_velocity(self) -> None:
+        s, d = self.setup, self.data
+        for fb in self.flex:
+            v = s.v[fb.idx]
+            n_v = len(fb.lat.vertices)
+            num = np.zeros((n_v, 3))
+            den = np.zeros(n_v)
+            verts = fb.lat.tets[fb.tet]                             # (n, 4)
+            w = np.clip(fb.w, 0.0, None)
+            np.add.at(num, verts.ravel(), (w[:, :, None] * v[:, None, :]).reshape(-1, 3))
+            np.add.at(den, verts.ravel(), w.ravel())
+            vmean = v.mean(axis=0)
+            vv = np.where(den[:, None] > 0, num / np.maximum(den, 1e-300)[:, None], vmean)
+            for k in np.flatnonzero(~fb.pinned):
+                d.qvel[fb.vert_dof[k]:fb.vert_dof[k] + 3] = vv[k]
+        for rb in self.rigid:
+            if rb.fixed:
+                continue
+            v = s.v[rb.idx]
+            r = rb.local
+            # least squares v_i = v0 + w x r_i
+            A = np.zeros((3 * len(r), 6))
+            A[:, :3] = np.tile(np.eye(3), (len(r), 1))
+            cx = np.zeros((len(r), 3, 3))
+            cx[:, 0, 1], cx[:, 0, 2] = r[:, 2], -r[:, 1]
+            cx[:, 1, 0], cx[:, 1, 2] = -r[:, 2], r[:, 0]
+            cx[:, 2, 0], cx[:, 2, 1] = r[:, 1], -r[:, 0]
+            A[:, 3:] = cx.reshape(-1, 3)          # -[r]_x w = w x r
+            sol = np.linalg.lstsq(A, v.ravel(), rcond=None)[0]
+            d.qvel[rb.dof:rb.dof + 3] = sol[:3]
+            d.qvel[rb.dof + 3:rb.dof + 6] = sol[3:]   # body frame == world frame at rest
+
+    @staticmethod
+    def _edge_lengths(fb: _FlexBody, verts: np.ndarray) -> np.ndarray:
+        t = fb.lat.tets
+        pairs = ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))
+        return np.stack([np.linalg.norm(verts[t[:, a]] - verts[t[:, b]], axis=1) for a, b in pairs], 1)
+
+    # ------------------------------------------------------------------ stepping
+    def step_frame(self) -> None:
+        """Advance by ``frame_dt``: ``n_substeps`` calls of ``mj_step``.
+
+        Raises
+        ------
+        EngineDivergence
+            On a MuJoCo warning, non-finite state, an inverted or over-stretched tet, or a point
+            leaving the domain.
+        """
+        self.frame += 1
+        m, d = self.model, self.data
+        for _ in range(self.n_substeps):
+            mujoco.mj_step(m, d)
+            counts = np.array([w.number for w in d.warning])
+            if np.any(counts > self._warn0):
+                k = int(np.flatnonzero(counts > self._warn0)[0])
+                raise EngineDivergence(
+                    f"MuJoCo warning: {_WARN_NAMES.get(k, k)} at t = {d.time:.6g} s", self.frame,
+                    cause=f"time step too large for the stiffness (dt = {self.dt:.3g} s) or stiffness too high")
+        if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
+            raise EngineDivergence("non-finite MuJoCo state", self.frame,
+                                   cause=f"time step too large (dt = {self.dt:.3g} s)")
+        self._check_lattice()
+        x = self.positions()
+        s = self.setup
+        out = np.any((x < s.domain_lo) | (x > s.domain_hi), axis=1)
+        if out.any():
+            i = int(np.flatnonzero(out)[0])
+            raise EngineDivergence(f"{int(out.sum())} point(s) left the domain (first: point {i} at "
+                                   f"{x[i].round(4).tolist()})", self.frame,
+                                   cause="time step too large or missing ground/walls")
+
+    def _check_lattice(self) -> None:
+        d = self.data
+        for fb, rest in zip(self.flex, self._rest_edge):
+            verts = d.flexvert_xpos[fb.vert_adr:fb.vert_adr + len(fb.lat.vertices)]
+            ratio = self._edge_lengths(fb, verts) / rest
+            if ratio.max() > 1.0 + float(self.options["max_strain"]):
+                raise EngineDivergence(
+                    f"lattice {fb.name}: a tet edge is stretched {ratio.max():.3g} x its rest length",
+                    self.frame, cause=f"time step too large (dt = {self.dt:.3g} s) or stiffness too high")
+            V = verts[fb.lat.tets]
+            vol = np.einsum("ij,ij->i", np.cross(V[:, 1] - V[:, 0], V[:, 2] - V[:, 0]), V[:, 3] - V[:, 0])
+            V0 = fb.lat.vertices[fb.lat.tets]
+            vol0 = np.einsum("ij,ij->i", np.cross(V0[:, 1] - V0[:, 0], V0[:, 2] - V0[:, 0]), V0[:, 3] - V0[:, 0])
+            inverted = vol * vol0 <= 0
+            if inverted.any():
+                raise EngineDivergence(
+                    f"lattice {fb.name}: {int(inverted.sum())} tetrahedra inverted", self.frame,
+                    cause=f"time step too large (dt = {self.dt:.3g} s), stiffness too low for the load, "
+                          "or a too coarse lattice")
+
+    # ------------------------------------------------------------------ output
+    def positions(self) -> np.ndarray:
+        """Point positions, shape (n, 3), float64, metres, in the order of ``setup.x``."""
+        d = self.data
+        x = np.empty((self.n_points, 3))
+        for fb in self.flex:
+            verts = d.flexvert_xpos[fb.vert_adr:fb.vert_adr + len(fb.lat.vertices)]
+            x[fb.idx] = interpolate(verts, fb.lat.tets, fb.tet, fb.w)
+        for rb in self.rigid:
+            R = d.xmat[rb.body_id].reshape(3, 3)
+            x[rb.idx] = d.xpos[rb.body_id] + rb.local @ R.T
+        return x
+
+    def velocities(self) -> np.ndarray:
+        """Point velocities, shape (n, 3), float64, m/s."""
+        d = self.data
+        v = np.zeros((self.n_points, 3))
+        for fb in self.flex:
+            vv = np.zeros((len(fb.lat.vertices), 3))
+            free = fb.vert_dof >= 0
+            dof = fb.vert_dof[free]
+            vv[free] = d.qvel[dof[:, None] + np.arange(3)]
+            v[fb.idx] = interpolate(vv, fb.lat.tets, fb.tet, fb.w)
+        for rb in self.rigid:
+            if rb.fixed:
+                continue
+            R = d.xmat[rb.body_id].reshape(3, 3)
+            lin = d.qvel[rb.dof:rb.dof + 3]
+            ang = R @ d.qvel[rb.dof + 3:rb.dof + 6]
+            v[rb.idx] = lin + np.cross(ang, rb.local @ R.T)
+        return v
+
+    def stats(self) -> dict[str, Any]:
+        """Run figures: device, precision, n_points, lattice sizes, dt, n_substeps, sim_time."""
+        return {
+            "device": "cpu",
+            "precision": "f64",
+            "n_points": self.n_points,
+            "n_lattice_vertices": int(sum(len(fb.lat.vertices) for fb in self.flex)),
+            "n_tets": int(sum(len(fb.lat.tets) for fb in self.flex)),
+            "n_rigid_boxes": int(sum(int(self.model.body_geomnum[rb.body_id]) for rb in self.rigid)),
+            "cell_size": [fb.lat.h for fb in self.flex],
+            "dt": self.dt,
+            "n_substeps": self.n_substeps,
+            "frame": self.frame,
+            "sim_time": float(self.data.time),
+            "integrator": self.options["integrator"],
+            "nv": int(self.model.nv),
+        }
+
+    def close(self) -> None:
+        """Drop the MuJoCo model and data."""
+        self.model = None
+        self.data = None
