@@ -1,0 +1,61 @@
+"""GASP engine plugin ``taichi_mpm``: the MLS-MPM solver of ``docs/mpm.md`` on Taichi.
+
+Importing this module is cheap: it does not import Taichi. The factory imports
+:mod:`gasp_taichi_mpm.engine` (and Taichi) when a simulation is built.
+
+Taichi keeps one runtime per process and ``ti.init`` resets it, so **one taichi_mpm engine is
+live per process at a time**: building a new engine invalidates the previous one (its methods
+then raise :class:`gasp_core.engine.EngineError`).
+"""
+from __future__ import annotations
+
+from gasp_core.engine import Capabilities, EngineInfo, SimSetup
+from gasp_core.plugins import hookimpl
+
+__all__ = ["gasp_engines", "make_engine", "taichi_available"]
+
+CAPABILITIES = Capabilities(
+    materials=frozenset({"jelly", "neo_hookean", "metal", "sand", "snow", "plasticine", "liquid"}),
+    boundaries=frozenset({"ground", "walls", "fixed_region"}),
+    devices=frozenset({"cpu", "cuda"}),
+    precisions=frozenset({"f32", "f64"}),
+    dims=frozenset({3}),
+    deterministic=frozenset({"cpu"}),
+    grid_based=True,
+)
+
+
+def taichi_available() -> str | None:
+    """None if Taichi imports here, else the reason it does not."""
+    try:
+        import taichi  # noqa: F401
+    except Exception as e:  # ImportError, or a broken binary wheel
+        return f"taichi cannot be imported: {type(e).__name__}: {e}"
+    return None
+
+
+def make_engine(setup: SimSetup):
+    """Build a :class:`gasp_taichi_mpm.engine.TaichiMPMEngine` (imports Taichi lazily).
+
+    Raises
+    ------
+    SceneError
+        Unknown or invalid engine option, or unsupported material/boundary.
+    EngineError
+        Device not available (``device="cuda"`` without CUDA).
+    """
+    from .engine import TaichiMPMEngine
+    return TaichiMPMEngine(setup)
+
+
+@hookimpl
+def gasp_engines():
+    return [EngineInfo(
+        name="taichi_mpm",
+        factory=make_engine,
+        capabilities=CAPABILITIES,
+        available=taichi_available,
+        description=("MLS-MPM with APIC transfers and quadratic B-splines (Hu et al. 2018), "
+                     "docs/mpm.md, on Taichi (CPU or CUDA, f32 or f64). Deterministic on CPU only "
+                     "with threads=1. One engine per process at a time (ti.init is global)."),
+    )]

@@ -1,0 +1,264 @@
+"""The ``taichi_mpm`` engine: a :class:`gasp_core.engine.PointEngine` over :class:`MPMSolver`.
+
+Taichi has one runtime per process and ``ti.init`` resets it: **one taichi_mpm engine is live
+per process at a time**. Building a new engine invalidates every earlier one; calling an
+invalidated engine raises :class:`gasp_core.engine.EngineError`.
+"""
+from __future__ import annotations
+
+import math
+import os
+from typing import Any
+
+import numpy as np
+
+from gasp_core.engine import EngineDivergence, EngineError, SceneError, SimSetup, check_options
+from gasp_core.physics import mpm_stable_dt, substeps_for
+
+from . import CAPABILITIES
+
+ENGINE = "taichi_mpm"
+DEFAULT_OPTIONS = {"device": "cpu", "precision": "f32", "dt": None, "n_substeps": None, "cfl": 0.4,
+                   "threads": None}
+#: Private grid copies are used on CPU while they take at most this many bytes in all.
+MAX_PRIVATE_GRID_BYTES = 1 << 30
+
+CAUSE_DT = "time step above the stability limit or material too stiff for dt"
+CAUSE_DOMAIN = "points left the domain: add walls/ground or enlarge the domain"
+
+_generation = 0  # bumped by every engine built; an engine is live while its generation is current
+
+
+def _validate_options(setup: SimSetup) -> dict[str, Any]:
+    opt = check_options(setup.options, DEFAULT_OPTIONS, ENGINE)
+    if opt["device"] not in ("cpu", "cuda"):
+        raise SceneError(f"engine '{ENGINE}': option device={opt['device']!r}; expected 'cpu' or 'cuda'")
+    if opt["precision"] not in ("f32", "f64"):
+        raise SceneError(
+            f"engine '{ENGINE}': option precision={opt['precision']!r}; expected 'f32' or 'f64'")
+    if opt["dt"] is not None and opt["n_substeps"] is not None:
+        raise SceneError(f"engine '{ENGINE}': give option dt or option n_substeps, not both")
+    if opt["dt"] is not None:
+        if isinstance(opt["dt"], bool) or not isinstance(opt["dt"], (int, float)) \
+                or not (math.isfinite(opt["dt"]) and opt["dt"] > 0):
+            raise SceneError(f"engine '{ENGINE}': option dt={opt['dt']!r}; expected a positive number of seconds")
+    if opt["n_substeps"] is not None:
+        if isinstance(opt["n_substeps"], bool) or not isinstance(opt["n_substeps"], (int, np.integer)) \
+                or opt["n_substeps"] < 1:
+            raise SceneError(
+                f"engine '{ENGINE}': option n_substeps={opt['n_substeps']!r}; expected an integer >= 1")
+    cfl = opt["cfl"]
+    if isinstance(cfl, bool) or not isinstance(cfl, (int, float)) or not (0.0 < cfl <= 1.0):
+        raise SceneError(f"engine '{ENGINE}': option cfl={cfl!r}; expected a number in (0, 1]")
+    thr = opt["threads"]
+    if thr is not None and (isinstance(thr, bool) or not isinstance(thr, (int, np.integer)) or thr < 1):
+        raise SceneError(f"engine '{ENGINE}': option threads={thr!r}; expected an integer >= 1")
+    return opt
+
+
+def _validate_setup(setup: SimSetup) -> None:
+    for m in setup.materials:
+        if m.name not in CAPABILITIES.materials:
+            raise SceneError(f"engine '{ENGINE}': material {m.name!r} is not supported; "
+                             f"supported: {sorted(CAPABILITIES.materials)}")
+        if not (m.E > 0 and m.rho > 0 and -1.0 < m.nu < 0.5):
+            raise SceneError(f"engine '{ENGINE}': material {m.name!r} needs E > 0, rho > 0, "
+                             f"-1 < nu < 0.5; got E={m.E}, rho={m.rho}, nu={m.nu}")
+        if m.yield_stress < 0:
+            raise SceneError(f"engine '{ENGINE}': material {m.name!r}: yield_stress must be >= 0")
+    for b in setup.boundaries:
+        if b.kind not in CAPABILITIES.boundaries:
+            raise SceneError(f"engine '{ENGINE}': boundary kind {b.kind!r} is not supported; "
+                             f"supported: {sorted(CAPABILITIES.boundaries)}")
+    if not (isinstance(setup.n_grid, (int, np.integer)) and setup.n_grid >= 4):
+        raise SceneError(f"engine '{ENGINE}': n_grid={setup.n_grid!r}; expected an integer >= 4")
+    if not np.all(setup.domain_hi > setup.domain_lo):
+        raise SceneError(f"engine '{ENGINE}': domain_hi must exceed domain_lo on every axis")
+    if not (setup.frame_dt > 0):
+        raise SceneError(f"engine '{ENGINE}': frame_dt={setup.frame_dt}; expected > 0")
+    if len(setup.x) == 0:
+        raise SceneError(f"engine '{ENGINE}': SimSetup.x has no points")
+    if np.any(setup.p_vol <= 0) or not np.all(np.isfinite(setup.p_vol)):
+        raise SceneError(f"engine '{ENGINE}': SimSetup.p_vol must be positive and finite")
+
+
+def time_step(setup: SimSetup, opt: dict[str, Any]) -> tuple[int, float]:
+    """Substeps per frame and substep length, as ``docs/mpm.md`` "Time step" says.
+
+    Returns
+    -------
+    n_substeps : int
+    dt : float
+        Seconds, ``frame_dt / n_substeps``.
+    """
+    if opt["dt"] is not None:
+        dt = float(opt["dt"])
+    elif opt["n_substeps"] is not None:
+        dt = setup.frame_dt / int(opt["n_substeps"])
+    else:
+        v0 = float(np.max(np.linalg.norm(setup.v, axis=1))) if len(setup.v) else 0.0
+        dt = mpm_stable_dt(setup.materials, setup.dx, setup.gravity,
+                           height=float(setup.domain_hi[2] - setup.domain_lo[2]), v0_max=v0,
+                           cfl=float(opt["cfl"]))
+    return substeps_for(setup.frame_dt, dt)
+
+
+class TaichiMPMEngine:
+    """MLS-MPM engine on Taichi (``docs/mpm.md``).
+
+    Parameters
+    ----------
+    setup : SimSetup
+        World frame, SI units. ``setup.options`` may hold ``device`` ("cpu" | "cuda"),
+        ``precision`` ("f32" | "f64"), ``dt`` (s) or ``n_substeps`` (per frame), ``cfl`` (0.4) and
+        ``threads`` (CPU threads, Taichi's ``cpu_max_num_threads``; default all cores).
+
+    Raises
+    ------
+    SceneError
+        Unknown or invalid option (the message names it), unsupported material or boundary.
+    EngineError
+        ``device="cuda"`` where Taichi has no CUDA.
+
+    Notes
+    -----
+    Calls ``ti.init`` (``offline_cache=True``): this resets Taichi, so any earlier engine of this
+    plugin in the process stops working. On CPU a run repeats bit for bit for a fixed ``threads``
+    (each thread scatters into its own grid copy, summed in a fixed order); the capability
+    ``deterministic={"cpu"}`` is promised for ``threads=1``.
+    """
+
+    def __init__(self, setup: SimSetup):
+        global _generation
+        opt = _validate_options(setup)
+        _validate_setup(setup)
+        import taichi as ti
+
+        self.setup = setup
+        self.options = opt
+        self.n_substeps, self.dt = time_step(setup, opt)
+        real = ti.f32 if opt["precision"] == "f32" else ti.f64
+        if opt["device"] == "cuda":
+            if not ti.lang.misc.is_arch_supported(ti.cuda):
+                raise EngineError(f"engine '{ENGINE}': device 'cuda' requested but this Taichi build "
+                                  "or machine has no CUDA; use device='cpu'")
+            ti.init(arch=ti.cuda, default_fp=real, offline_cache=True, log_level=ti.WARN)
+            if ti.lang.impl.current_cfg().arch != ti.cuda:
+                raise EngineError(f"engine '{ENGINE}': device 'cuda' requested but Taichi could not "
+                                  "start CUDA (no GPU or driver); use device='cpu'")
+            threads = None
+        else:
+            threads = int(opt["threads"]) if opt["threads"] is not None else (os.cpu_count() or 1)
+            ti.init(arch=ti.cpu, default_fp=real, offline_cache=True, cpu_max_num_threads=threads,
+                    log_level=ti.WARN)
+        _generation += 1
+        self._gen = _generation
+        self._ti = ti
+        self.threads = threads
+        from .solver import KIND, MPMSolver, material_params, node_ranges
+
+        dx = setup.dx
+        n = len(setup.x)
+        # Sort points by grid cell for memory locality; outputs go back to the setup order.
+        cell = np.floor((setup.x - setup.domain_lo) / dx).astype(np.int64)
+        cell = np.clip(cell, 0, setup.n_grid - 1)
+        key = (cell[:, 0] * setup.n_grid + cell[:, 1]) * setup.n_grid + cell[:, 2]
+        self._order = np.argsort(key, kind="stable")
+        self._inverse = np.empty(n, np.int64)
+        self._inverse[self._order] = np.arange(n)
+        o = self._order
+
+        walls, grounds, regions = node_ranges(setup, dx)
+        fixed = np.zeros(n, bool)
+        for b in setup.boundaries:
+            if b.kind == "fixed_region":
+                fixed |= np.all((setup.x >= np.asarray(b.lo)) & (setup.x <= np.asarray(b.hi)), axis=1)
+        kinds = [KIND[m.name] for m in setup.materials]
+        jp0 = np.where(np.asarray(kinds)[setup.body_id] == KIND["plasticine"], 0.0, 1.0)
+        params = np.stack([material_params(m) for m in setup.materials])
+        bytes_per = 4 if real == ti.f32 else 8
+        grid_bytes = 4 * bytes_per * setup.n_grid ** 3
+        atomic = opt["device"] == "cuda" or threads * grid_bytes > MAX_PRIVATE_GRID_BYTES
+        self.solver = MPMSolver(
+            x=setup.x[o], v=setup.v[o], p_mass=setup.p_mass[o], p_vol=setup.p_vol[o],
+            body=setup.body_id[o], fixed=fixed[o], jp0=jp0[o], params=params, kinds=kinds,
+            n_grid=setup.n_grid, lo=setup.domain_lo, dx=dx, dt=self.dt, gravity=setup.gravity,
+            walls=walls, grounds=grounds, regions=regions, real=real,
+            n_chunks=threads or 1, atomic=atomic)
+        self.frame = 0
+        self._x = setup.x.astype(np.float32 if real == ti.f32 else np.float64)
+        self._v = setup.v.astype(self._x.dtype)
+        self._closed = False
+
+    # ------------------------------------------------------------------ interface
+    def _check_live(self) -> None:
+        if self._closed:
+            raise EngineError(f"engine '{ENGINE}': this engine was closed")
+        if self._gen != _generation:
+            raise EngineError(f"engine '{ENGINE}': this engine was invalidated because a newer "
+                              f"taichi_mpm engine was built in the process (ti.init is global: "
+                              f"one engine per process at a time)")
+
+    def step_frame(self) -> None:
+        """Advance ``frame_dt`` seconds in ``n_substeps`` substeps of ``dt``.
+
+        Raises
+        ------
+        EngineDivergence
+            Non-finite position or velocity, or a point out of the grid during the frame (the
+            message gives the count and the first point index in setup order).
+        EngineError
+            The engine was closed or invalidated by a newer one.
+        """
+        self._check_live()
+        s = self.solver
+        s.reset_out()
+        s.substeps(self.n_substeps)
+        self.frame += 1
+        x = s.x.to_numpy()[self._inverse]
+        v = s.v.to_numpy()[self._inverse]
+        n_out = int(s.n_out[None])
+        self._x, self._v = x, v
+        finite = np.isfinite(x).all(axis=1) & np.isfinite(v).all(axis=1)
+        if not finite.all():
+            bad = np.flatnonzero(~finite)
+            raise EngineDivergence(f"{len(bad)} point(s) with non-finite position or velocity "
+                                   f"(first index {bad[0]})", self.frame, CAUSE_DT)
+        X = (x - self.setup.domain_lo) / self.setup.dx
+        base = np.floor(X - 0.5)
+        out = ((base < 0) | (base > self.setup.n_grid - 3)).any(axis=1)
+        if out.any() or n_out > 0:
+            bad = np.flatnonzero(out)
+            where = f" (first index {bad[0]} at {x[bad[0]].tolist()})" if len(bad) else ""
+            fast = float(np.max(np.linalg.norm(v, axis=1))) * self.dt > self.setup.dx
+            raise EngineDivergence(
+                f"{max(len(bad), 1)} point(s) left the grid{where}; {n_out} out-of-grid "
+                f"point-substeps in this frame", self.frame, CAUSE_DT if fast else CAUSE_DOMAIN)
+
+    def positions(self) -> np.ndarray:
+        """Current positions, shape (n, 3), float32 (f32) or float64 (f64), metres, setup order."""
+        return self._x.copy()
+
+    def velocities(self) -> np.ndarray:
+        """Current velocities, shape (n, 3), m/s, setup order."""
+        return self._v.copy()
+
+    def stats(self) -> dict[str, Any]:
+        """``device, precision, n_points, dt, n_substeps, n_grid, threads`` and ``dx``, ``p2g``, ``frame``."""
+        return {
+            "device": self.options["device"],
+            "precision": self.options["precision"],
+            "n_points": int(len(self.setup.x)),
+            "dt": float(self.dt),
+            "n_substeps": int(self.n_substeps),
+            "n_grid": int(self.setup.n_grid),
+            "dx": float(self.setup.dx),
+            "threads": self.threads,
+            "p2g": "atomic" if self.solver.atomic else f"private grids x{self.solver.n_chunks}",
+            "frame": self.frame,
+        }
+
+    def close(self) -> None:
+        """Drop the fields (Taichi memory is reclaimed at the next ``ti.init``/``ti.reset``)."""
+        self._closed = True
+        self.solver = None

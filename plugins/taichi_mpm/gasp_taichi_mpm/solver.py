@@ -1,0 +1,506 @@
+"""Taichi kernels of the MLS-MPM solver specified in ``docs/mpm.md``.
+
+3D MLS-MPM, quadratic B-splines, APIC transfers (Hu et al. 2018), constitutive models of
+taichi_elements / PhysGaussian. :class:`MPMSolver` owns the Taichi fields; ``ti.init`` must have
+been called (by :class:`gasp_taichi_mpm.engine.TaichiMPMEngine`) before it is built.
+
+Implementation notes (all algebraically identical to the spec; they change rounding only):
+
+* **P2G without atomics on CPU.** The points are split into ``n_chunks`` contiguous chunks (one
+  per CPU thread); chunk ``t`` scatters into its own grid copy ``grid_acc[t]`` with plain loads
+  and stores. The grid update sums the copies in a fixed order, so a run repeats bit for bit for
+  a fixed thread count. On CUDA (or when the copies would not fit in memory) one copy is used and
+  the scatter is atomic.
+* **Active region.** Each chunk records the bounding box of the nodes it touched; the grid update
+  visits only the union of those boxes and clears the copies there, so the copies are zero again
+  for the next substep.
+* **Fused transfers.** Within a frame, the G2P of substep ``s`` and the P2G of substep ``s + 1``
+  run in one pass over the points (the grid velocity ``grid_v`` is a separate field from the
+  accumulation copies, so no double buffering is needed).
+* P2G adds ``(p_mass v - A fx dx) + A (i, j, k)^T dx`` per node, with ``A = affine``; G2P forms
+  ``C = 4 inv_dx (sum_w w g (i,j,k)^T - v fx^T)``: the spec's ``dpos = ((i,j,k) - fx) dx`` expanded.
+* Boundary masks (walls, ground, fixed regions) are turned into integer node-index ranges in
+  float64 in Python; ties within 1e-9 cells count as exact ties.
+"""
+import math
+
+import numpy as np
+import taichi as ti
+
+JELLY, NEO_HOOKEAN, METAL, SAND, SNOW, PLASTICINE, LIQUID = range(7)
+KIND = {"jelly": JELLY, "neo_hookean": NEO_HOOKEAN, "metal": METAL, "sand": SAND, "snow": SNOW,
+        "plasticine": PLASTICINE, "liquid": LIQUID}
+#: Per-body parameter vector layout (``MPMSolver.mat``).
+P_MU, P_LAM, P_YIELD, P_SOFT, P_HARD, P_TC, P_TS, P_ALPHA, P_K = range(9)
+N_PARAMS = 9
+
+_TIE = 1e-9  # cells: tolerance for ties when boundary tests become node-index ranges
+
+
+def material_params(m) -> np.ndarray:
+    """Per-body parameter row (layout ``P_*``) for a :class:`gasp_core.engine.Material`."""
+    row = np.zeros(N_PARAMS)
+    row[P_MU] = m.mu
+    row[P_LAM] = m.lam
+    row[P_YIELD] = m.yield_stress
+    row[P_SOFT] = m.softening
+    row[P_HARD] = m.hardening
+    row[P_TC] = m.theta_c
+    row[P_TS] = m.theta_s
+    s = math.sin(math.radians(m.friction_angle))
+    row[P_ALPHA] = math.sqrt(2.0 / 3.0) * 2.0 * s / (3.0 - s)
+    row[P_K] = m.E / (3.0 * (1.0 - 2.0 * m.nu))
+    return row
+
+
+def node_ranges(setup, dx: float):
+    """Boundaries as node-index tests (float64, ties within 1e-9 cells are exact ties).
+
+    Returns
+    -------
+    walls : list of (friction, lo_first (3 ints), hi_first (3 ints))
+        Wall nodes along axis d are ``I_d < lo_first[d]`` (normal +e_d) and
+        ``I_d >= hi_first[d]`` (normal -e_d).
+    grounds : list of (friction, k_max)
+        Ground nodes are ``I_z <= k_max``.
+    regions : list of (ilo (3 ints), ihi (3 ints))
+        Fixed nodes are ``ilo <= I <= ihi`` on every axis.
+    """
+    lo = setup.domain_lo
+    hi = setup.domain_hi
+    walls, grounds, regions = [], [], []
+    for b in setup.boundaries:
+        if b.kind == "walls":
+            # X_d < lo_d + 3 dx  <=>  I_d < 3 ;  X_d > hi_d - 3 dx  <=>  I_d > (hi_d - lo_d)/dx - 3
+            r = (hi - lo) / dx - 3.0
+            hi_first = tuple(int(math.floor(r[d] + _TIE)) + 1 for d in range(3))
+            walls.append((float(b.friction), (3, 3, 3), hi_first))
+        elif b.kind == "ground":
+            grounds.append((float(b.friction), int(math.floor((b.height - lo[2]) / dx + _TIE))))
+        elif b.kind == "fixed_region":
+            a = (np.asarray(b.lo, float) - lo) / dx
+            c = (np.asarray(b.hi, float) - lo) / dx
+            regions.append((tuple(int(math.ceil(a[d] - _TIE)) for d in range(3)),
+                            tuple(int(math.floor(c[d] + _TIE)) for d in range(3))))
+    return walls, grounds, regions
+
+
+@ti.data_oriented
+class MPMSolver:
+    """Fields and kernels of one simulation.
+
+    Parameters
+    ----------
+    x, v : ndarray, shape (n, 3), float64
+        Positions (metres) and velocities (m/s), already in the solver's point order.
+    p_mass, p_vol : ndarray, shape (n,)
+        kg and m^3.
+    body : ndarray, shape (n,), int32
+        Body index into ``params``/``kinds``.
+    fixed : ndarray, shape (n,), bool
+        Points held still (started inside a fixed region).
+    jp0 : ndarray, shape (n,)
+        Initial Jp (1 for snow, 0 for plasticine).
+    params : ndarray, shape (n_bodies, N_PARAMS)
+    kinds : sequence of int
+        Material kind per body (``KIND`` values).
+    n_grid : int
+    lo : ndarray, shape (3,)
+        Grid origin (domain_lo), metres.
+    dx, dt : float
+    gravity : ndarray, shape (3,)
+    walls, grounds, regions
+        From :func:`node_ranges`.
+    real : taichi dtype
+        ``ti.f32`` or ``ti.f64``.
+    n_chunks : int
+        Number of private grid copies / point chunks (CPU threads); ignored with ``atomic``.
+    atomic : bool
+        Scatter with atomics into one grid copy and visit the whole grid (CUDA).
+    """
+
+    def __init__(self, *, x, v, p_mass, p_vol, body, fixed, jp0, params, kinds, n_grid, lo, dx, dt,
+                 gravity, walls, grounds, regions, real, n_chunks, atomic):
+        n = len(x)
+        self.n = n
+        self.real = real
+        self.n_grid = int(n_grid)
+        self.atomic = bool(atomic)
+        self.n_chunks = 1 if self.atomic else int(n_chunks)
+        self.kinds = frozenset(int(k) for k in kinds)
+        self.multi_kind = len(self.kinds) > 1
+        self.any_fixed = bool(np.any(fixed))
+        self.walls = walls
+        self.grounds = grounds
+        self.regions = regions
+        self.lo_c = tuple(float(a) for a in lo)
+        self.dx_c = float(dx)
+        self.inv_dx_c = 1.0 / float(dx)
+        self.dt_c = float(dt)
+        self.g_c = tuple(float(a) for a in gravity)
+
+        vec3 = ti.types.vector(3, real)
+        self.x = ti.Vector.field(3, real, shape=n)
+        self.v = ti.Vector.field(3, real, shape=n)
+        self.C = ti.Matrix.field(3, 3, real, shape=n)
+        self.F = ti.Matrix.field(3, 3, real, shape=n)
+        self.Jp = ti.field(real, shape=n)
+        self.p_mass = ti.field(real, shape=n)
+        self.p_vol = ti.field(real, shape=n)
+        self.body = ti.field(ti.i32, shape=n)
+        self.fixed = ti.field(ti.i8, shape=n)
+        n_bodies = len(kinds)
+        self.kind = ti.field(ti.i32, shape=n_bodies)
+        self.mat = ti.Vector.field(N_PARAMS, real, shape=n_bodies)
+        ng = self.n_grid
+        self.grid_acc = ti.Vector.field(4, real, shape=(self.n_chunks, ng, ng, ng))
+        self.grid_v = ti.Vector.field(3, real, shape=(ng, ng, ng))
+        self.box = ti.Vector.field(3, ti.i32, shape=(self.n_chunks, 2))  # touched node box per chunk
+        self.n_out = ti.field(ti.i32, shape=())  # out-of-grid point-substeps since last reset
+        del vec3
+
+        np_real = np.float32 if real == ti.f32 else np.float64
+        self.x.from_numpy(np.asarray(x, np_real))
+        self.v.from_numpy(np.asarray(v, np_real))
+        eye = np.broadcast_to(np.eye(3, dtype=np_real), (n, 3, 3))
+        self.F.from_numpy(np.ascontiguousarray(eye))
+        self.C.from_numpy(np.zeros((n, 3, 3), np_real))
+        self.Jp.from_numpy(np.asarray(jp0, np_real))
+        self.p_mass.from_numpy(np.asarray(p_mass, np_real))
+        self.p_vol.from_numpy(np.asarray(p_vol, np_real))
+        self.body.from_numpy(np.asarray(body, np.int32))
+        self.fixed.from_numpy(np.asarray(fixed, np.int8))
+        self.kind.from_numpy(np.asarray(kinds, np.int32))
+        self.mat.from_numpy(np.asarray(params, np_real))
+        self.grid_acc.fill(0)
+        self.grid_v.fill(0)
+        bounds = np.linspace(0, n, self.n_chunks + 1).round().astype(np.int64)
+        self.chunk_lo = ti.field(ti.i32, shape=self.n_chunks)
+        self.chunk_hi = ti.field(ti.i32, shape=self.n_chunks)
+        self.chunk_lo.from_numpy(bounds[:-1].astype(np.int32))
+        self.chunk_hi.from_numpy(bounds[1:].astype(np.int32))
+        self._init_box()
+
+    # ------------------------------------------------------------------ driver
+    def substeps(self, n_substeps: int) -> None:
+        """Advance ``n_substeps`` substeps (P2G, grid update, G2P each), no host sync in between."""
+        self.p2g()
+        for s in range(n_substeps - 1):
+            self.grid_update()
+            self.g2p_p2g()
+        self.grid_update()
+        self.g2p()
+
+    # ------------------------------------------------------------------ helpers
+    @ti.kernel
+    def _init_box(self):
+        for t in range(self.n_chunks):
+            self.box[t, 0] = ti.Vector([self.n_grid, self.n_grid, self.n_grid])
+            self.box[t, 1] = ti.Vector([-1, -1, -1])
+
+    @ti.func
+    def _base_fx(self, xp):
+        lo = ti.Vector(self.lo_c, dt=self.real)
+        X = (xp - lo) * self.inv_dx_c
+        base = ti.cast(ti.floor(X - 0.5), ti.i32)
+        ok = base.min() >= 0 and base.max() <= self.n_grid - 3
+        fx = X - ti.cast(base, self.real)
+        return base, fx, ok
+
+    @ti.func
+    def _weights(self, fx):
+        return [0.5 * (1.5 - fx) ** 2, 0.75 - (fx - 1.0) ** 2, 0.5 * (fx - 0.5) ** 2]
+
+    @ti.func
+    def _udvt(self, U, d, V):
+        D = ti.Matrix.zero(self.real, 3, 3)
+        D[0, 0] = d[0]
+        D[1, 1] = d[1]
+        D[2, 2] = d[2]
+        return U @ D @ V.transpose()
+
+    @ti.func
+    def _fixed_corotated(self, F, U, V, mu, lam):
+        R = U @ V.transpose()
+        J = F.determinant()
+        return 2.0 * mu * (F - R) @ F.transpose() + ti.Matrix.identity(self.real, 3) * (lam * J * (J - 1.0))
+
+    @ti.func
+    def _rotation(self, F):
+        """``U V^T`` of the SVD with proper rotations: the rotation closest to F.
+
+        For ``det F > 0`` this is the polar factor, found by Higham's scaled Newton iteration
+        ``X <- (g X + X^-T / g) / 2`` (Higham 1986, "Computing the polar decomposition"), which is
+        several times cheaper than Taichi's ``ti.svd`` on CPU; it stops when the step is below
+        ``sqrt`` of the target accuracy (quadratic convergence). Otherwise ``ti.svd``.
+        """
+        R = ti.Matrix.zero(self.real, 3, 3)
+        if F.determinant() > 0.0:
+            X = F
+            tol = ti.static(3e-4 if self.real == ti.f32 else 1e-8)
+            scale = True
+            for it in range(24):
+                det = X.determinant()
+                cof = ti.Matrix([
+                    [X[1, 1] * X[2, 2] - X[1, 2] * X[2, 1], X[1, 2] * X[2, 0] - X[1, 0] * X[2, 2],
+                     X[1, 0] * X[2, 1] - X[1, 1] * X[2, 0]],
+                    [X[0, 2] * X[2, 1] - X[0, 1] * X[2, 2], X[0, 0] * X[2, 2] - X[0, 2] * X[2, 0],
+                     X[0, 1] * X[2, 0] - X[0, 0] * X[2, 1]],
+                    [X[0, 1] * X[1, 2] - X[0, 2] * X[1, 1], X[0, 2] * X[1, 0] - X[0, 0] * X[1, 2],
+                     X[0, 0] * X[1, 1] - X[0, 1] * X[1, 0]]])
+                inv_t = cof / det  # X^-T
+                g = 1.0
+                if scale:
+                    g = ti.sqrt(ti.sqrt(inv_t.norm_sqr() / X.norm_sqr()))
+                X_new = 0.5 * (g * X + inv_t / g)
+                delta = (X_new - X).norm()
+                X = X_new
+                if delta < 1e-2:
+                    scale = False
+                if delta < tol:
+                    break
+            R = X
+        else:
+            U, S, V = ti.svd(F, self.real)
+            R = U @ V.transpose()
+        return R
+
+    @ti.func
+    def _hencky_tau(self, U, eps, mu, lam):
+        tr = eps.sum()
+        d = 2.0 * mu * eps + lam * tr
+        return self._udvt(U, d, U)
+
+    @ti.func
+    def _constitutive(self, p, F):
+        """Return mapping and Kirchhoff stress (docs/mpm.md table). Writes F[p], Jp[p]; returns tau."""
+        b = self.body[p]
+        prm = self.mat[b]
+        mu = prm[P_MU]
+        lam = prm[P_LAM]
+        kind = self.kind[b]
+        if ti.static(not self.multi_kind):
+            kind = ti.static(next(iter(self.kinds)))
+        tau = ti.Matrix.zero(self.real, 3, 3)
+        Jp = self.Jp[p]
+        eye = ti.Matrix.identity(self.real, 3)
+        if ti.static(JELLY in self.kinds):
+            if kind == JELLY:
+                R = self._rotation(F)
+                J = F.determinant()
+                tau = 2.0 * mu * (F - R) @ F.transpose() + eye * (lam * J * (J - 1.0))
+        if ti.static(NEO_HOOKEAN in self.kinds):
+            if kind == NEO_HOOKEAN:
+                J = F.determinant()
+                tau = mu * (F @ F.transpose() - eye) + eye * (lam * ti.log(ti.max(J, 1e-6)))
+        if ti.static(SNOW in self.kinds):
+            if kind == SNOW:
+                h = ti.exp(prm[P_HARD] * (1.0 - Jp))
+                U, S, V = ti.svd(F, self.real)
+                sig = ti.Vector([S[0, 0], S[1, 1], S[2, 2]])
+                sig_c = ti.min(ti.max(sig, 1.0 - prm[P_TC]), 1.0 + prm[P_TS])
+                Jp *= (sig[0] * sig[1] * sig[2]) / (sig_c[0] * sig_c[1] * sig_c[2])
+                F = self._udvt(U, sig_c, V)
+                tau = self._fixed_corotated(F, U, V, mu * h, lam * h)
+        if ti.static(METAL in self.kinds or PLASTICINE in self.kinds or SAND in self.kinds):
+            if kind == METAL or kind == PLASTICINE or kind == SAND:
+                U, S, V = ti.svd(F, self.real)
+                sig = ti.Vector([S[0, 0], S[1, 1], S[2, 2]])
+                eps = ti.log(ti.max(sig, 1e-4))
+                tr = eps.sum()
+                e = eps - tr / 3.0
+                ne = e.norm()
+                if kind == SAND:
+                    if tr >= 0.0:
+                        eps = ti.Vector.zero(self.real, 3)
+                    else:
+                        dg = ne + (3.0 * lam + 2.0 * mu) / (2.0 * mu) * tr * prm[P_ALPHA]
+                        if dg > 0.0:
+                            eps -= dg * e / ne
+                    F = self._udvt(U, ti.exp(eps), V)
+                else:
+                    yield_stress = prm[P_YIELD]
+                    if kind == PLASTICINE:
+                        yield_stress = prm[P_YIELD] * ti.max(0.0, 1.0 - prm[P_SOFT] * Jp)
+                    dg = ne - yield_stress / (2.0 * mu)
+                    if dg > 0.0:
+                        eps -= dg * e / ne
+                        F = self._udvt(U, ti.exp(eps), V)
+                    if kind == PLASTICINE:
+                        Jp += ti.max(dg, 0.0)
+                tau = self._hencky_tau(U, eps, mu, lam)
+        if ti.static(LIQUID in self.kinds):
+            if kind == LIQUID:
+                J = F.determinant()
+                F = eye * ti.pow(J, 1.0 / 3.0)
+                tau = eye * (prm[P_K] * J * (J - 1.0))
+        self.F[p] = F
+        self.Jp[p] = Jp
+        return tau
+
+    @ti.func
+    def _p2g_point(self, p, t, bmin, bmax):
+        """Scatter point p into grid copy t; returns the updated touched-node box."""
+        base, fx, ok = self._base_fx(self.x[p])
+        if not ok:
+            ti.atomic_add(self.n_out[None], 1)
+        else:
+            dt = self.dt_c
+            C = self.C[p]
+            F = (ti.Matrix.identity(self.real, 3) + dt * C) @ self.F[p]
+            tau = self._constitutive(p, F)
+            m = self.p_mass[p]
+            dx = self.dx_c
+            affine = (-dt * self.p_vol[p] * 4.0 * self.inv_dx_c * self.inv_dx_c) * tau + m * C
+            A = affine * dx
+            mv0 = m * self.v[p] - A @ fx
+            w = self._weights(fx)
+            for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
+                weight = w[i][0] * w[j][1] * w[k][2]
+                mv = mv0
+                if ti.static(i > 0):
+                    mv += ti.static(float(i)) * ti.Vector([A[0, 0], A[1, 0], A[2, 0]])
+                if ti.static(j > 0):
+                    mv += ti.static(float(j)) * ti.Vector([A[0, 1], A[1, 1], A[2, 1]])
+                if ti.static(k > 0):
+                    mv += ti.static(float(k)) * ti.Vector([A[0, 2], A[1, 2], A[2, 2]])
+                val = weight * ti.Vector([mv[0], mv[1], mv[2], m])
+                node = base + ti.Vector([i, j, k])
+                if ti.static(self.atomic):
+                    self.grid_acc[0, node] += val
+                else:
+                    self.grid_acc[t, node] = self.grid_acc[t, node] + val
+            bmin = ti.min(bmin, base)
+            bmax = ti.max(bmax, base + 2)
+        return bmin, bmax
+
+    @ti.func
+    def _g2p_point(self, p):
+        base, fx, ok = self._base_fx(self.x[p])
+        if ok:
+            w = self._weights(fx)
+            new_v = ti.Vector.zero(self.real, 3)
+            B = ti.Matrix.zero(self.real, 3, 3)
+            for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
+                weight = w[i][0] * w[j][1] * w[k][2]
+                gv = weight * self.grid_v[base + ti.Vector([i, j, k])]
+                new_v += gv
+                if ti.static(i > 0):
+                    B[0, 0] += ti.static(float(i)) * gv[0]
+                    B[1, 0] += ti.static(float(i)) * gv[1]
+                    B[2, 0] += ti.static(float(i)) * gv[2]
+                if ti.static(j > 0):
+                    B[0, 1] += ti.static(float(j)) * gv[0]
+                    B[1, 1] += ti.static(float(j)) * gv[1]
+                    B[2, 1] += ti.static(float(j)) * gv[2]
+                if ti.static(k > 0):
+                    B[0, 2] += ti.static(float(k)) * gv[0]
+                    B[1, 2] += ti.static(float(k)) * gv[1]
+                    B[2, 2] += ti.static(float(k)) * gv[2]
+            new_C = (4.0 * self.inv_dx_c) * (B - new_v.outer_product(fx))
+            if ti.static(self.any_fixed):
+                if self.fixed[p] != 0:
+                    new_v = ti.Vector.zero(self.real, 3)
+                    new_C = ti.Matrix.zero(self.real, 3, 3)
+            self.v[p] = new_v
+            self.C[p] = new_C
+            self.x[p] += self.dt_c * new_v
+
+    # ------------------------------------------------------------------ kernels
+    @ti.kernel
+    def p2g(self):
+        """P2G alone (first substep of a frame)."""
+        if ti.static(self.atomic):
+            for p in range(self.n):
+                self._p2g_point(p, 0, ti.Vector([0, 0, 0]), ti.Vector([0, 0, 0]))
+        else:
+            ti.loop_config(block_dim=1)
+            for t in range(self.n_chunks):
+                bmin = ti.Vector([self.n_grid, self.n_grid, self.n_grid])
+                bmax = ti.Vector([-1, -1, -1])
+                for p in range(self.chunk_lo[t], self.chunk_hi[t]):
+                    bmin, bmax = self._p2g_point(p, t, bmin, bmax)
+                self.box[t, 0] = bmin
+                self.box[t, 1] = bmax
+
+    @ti.kernel
+    def g2p(self):
+        """G2P alone (last substep of a frame)."""
+        for p in range(self.n):
+            self._g2p_point(p)
+
+    @ti.kernel
+    def g2p_p2g(self):
+        """G2P of one substep fused with the P2G of the next."""
+        if ti.static(self.atomic):
+            for p in range(self.n):
+                self._g2p_point(p)
+                self._p2g_point(p, 0, ti.Vector([0, 0, 0]), ti.Vector([0, 0, 0]))
+        else:
+            ti.loop_config(block_dim=1)
+            for t in range(self.n_chunks):
+                bmin = ti.Vector([self.n_grid, self.n_grid, self.n_grid])
+                bmax = ti.Vector([-1, -1, -1])
+                for p in range(self.chunk_lo[t], self.chunk_hi[t]):
+                    self._g2p_point(p)
+                    bmin, bmax = self._p2g_point(p, t, bmin, bmax)
+                self.box[t, 0] = bmin
+                self.box[t, 1] = bmax
+
+    @ti.func
+    def _friction(self, v, d: ti.template(), sign: ti.template(), mu_b: ti.template()):
+        """taichi_elements' separate collider with Coulomb friction, normal ``sign * e_d``."""
+        vn = sign * v[d]
+        if vn < 0.0:
+            vt = v
+            vt[d] = 0.0
+            nt = vt.norm()
+            if nt > 1e-30:
+                v = vt * ti.max(0.0, 1.0 + mu_b * vn / nt)
+            else:
+                v = ti.Vector.zero(self.real, 3)
+        return v
+
+    @ti.kernel
+    def grid_update(self):
+        """Sum the copies over the touched box, clear them, velocity + gravity + boundaries -> grid_v."""
+        ng = self.n_grid
+        lo = ti.Vector([0, 0, 0])
+        hi = ti.Vector([ng - 1, ng - 1, ng - 1])
+        if ti.static(not self.atomic):
+            lo = ti.Vector([ng, ng, ng])
+            hi = ti.Vector([-1, -1, -1])
+            for t in ti.static(range(self.n_chunks)):
+                lo = ti.min(lo, self.box[t, 0])
+                hi = ti.max(hi, self.box[t, 1])
+        ext = ti.max(hi - lo + 1, 0)
+        count = ext[0] * ext[1] * ext[2]
+        for idx in range(count):
+            I = lo + ti.Vector([idx // (ext[1] * ext[2]), (idx // ext[2]) % ext[1], idx % ext[2]])
+            acc = self.grid_acc[0, I]
+            for t in ti.static(range(1, self.n_chunks)):
+                acc += self.grid_acc[t, I]
+            for t in ti.static(range(self.n_chunks)):
+                self.grid_acc[t, I] = ti.Vector.zero(self.real, 4)
+            v = ti.Vector.zero(self.real, 3)
+            if acc[3] > 0.0:
+                v = ti.Vector([acc[0], acc[1], acc[2]]) / acc[3] + self.dt_c * ti.Vector(self.g_c, dt=self.real)
+                for wall in ti.static(self.walls):
+                    for d in ti.static(range(3)):
+                        if I[d] < ti.static(wall[1][d]):
+                            v = self._friction(v, d, 1.0, wall[0])
+                        if I[d] >= ti.static(wall[2][d]):
+                            v = self._friction(v, d, -1.0, wall[0])
+                for ground in ti.static(self.grounds):
+                    if I[2] <= ti.static(ground[1]):
+                        v = self._friction(v, 2, 1.0, ground[0])
+                for reg in ti.static(self.regions):
+                    if (I[0] >= ti.static(reg[0][0]) and I[0] <= ti.static(reg[1][0])
+                            and I[1] >= ti.static(reg[0][1]) and I[1] <= ti.static(reg[1][1])
+                            and I[2] >= ti.static(reg[0][2]) and I[2] <= ti.static(reg[1][2])):
+                        v = ti.Vector.zero(self.real, 3)
+            self.grid_v[I] = v
+
+    @ti.kernel
+    def reset_out(self):
+        self.n_out[None] = 0
