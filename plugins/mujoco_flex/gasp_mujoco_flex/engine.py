@@ -145,6 +145,14 @@ class MujocoFlexEngine:
             if m.name not in ("jelly", "metal", "rigid"):
                 raise SceneError(f"engine '{ENGINE}': material '{m.name}' is not offered; "
                                  "offered: ['jelly', 'metal', 'rigid']")
+            if not (m.rho > 0 and np.isfinite(m.rho)):
+                raise SceneError(f"engine '{ENGINE}': material '{m.name}': rho={m.rho!r}; expected > 0 kg/m^3")
+            if m.name != "rigid" and not (m.E > 0 and np.isfinite(m.E) and 0.0 <= m.nu < 0.5):
+                raise SceneError(f"engine '{ENGINE}': material '{m.name}': E={m.E!r}, nu={m.nu!r}; "
+                                 "expected E > 0 Pa and 0 <= nu < 0.5")
+            if m.name == "metal" and not (m.yield_stress > 0):
+                raise SceneError(f"engine '{ENGINE}': material 'metal': yield_stress={m.yield_stress!r}; "
+                                 "expected > 0 Pa")
         for b in setup.boundaries:
             if b.kind not in ("ground", "fixed_region"):
                 raise SceneError(f"engine '{ENGINE}': boundary '{b.kind}' is not offered; "
@@ -269,9 +277,15 @@ class MujocoFlexEngine:
             rb.body_id = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, rb.name)
             rb.dof = -1 if rb.fixed else int(m.body_dofadr[rb.body_id])
         self.data = mujoco.MjData(m)
-        mujoco.mj_setConst(m, self.data)
-        self._set_initial_velocity()
-        mujoco.mj_forward(m, self.data)
+        self._pending: list[str] = []      # MuJoCo warnings raised while building, reported by frame 1
+        previous = mujoco.get_mju_user_warning()
+        mujoco.set_mju_user_warning(self._pending.append)
+        try:
+            mujoco.mj_setConst(m, self.data)
+            self._set_initial_velocity()
+            mujoco.mj_forward(m, self.data)
+        finally:
+            mujoco.set_mju_user_warning(previous)
         self._warn0 = np.array([w.number for w in self.data.warning])
         self._rest_edge = [self._edge_lengths(fb, fb.lat.vertices) for fb in self.flex]
 
@@ -331,14 +345,24 @@ class MujocoFlexEngine:
         """
         self.frame += 1
         m, d = self.model, self.data
-        for _ in range(self.n_substeps):
-            mujoco.mj_step(m, d)
-            counts = np.array([w.number for w in d.warning])
-            if np.any(counts > self._warn0):
-                k = int(np.flatnonzero(counts > self._warn0)[0])
-                raise EngineDivergence(
-                    f"MuJoCo warning: {_WARN_NAMES.get(k, k)} at t = {d.time:.6g} s", self.frame,
-                    cause=f"time step too large for the stiffness (dt = {self.dt:.3g} s) or stiffness too high")
+        messages: list[str] = self._pending
+        self._pending = []
+        previous = mujoco.get_mju_user_warning()
+        # collect MuJoCo's warning text instead of letting it print and write MUJOCO_LOG.TXT
+        mujoco.set_mju_user_warning(messages.append)
+        try:
+            for _ in range(self.n_substeps):
+                mujoco.mj_step(m, d)
+                counts = np.array([w.number for w in d.warning])
+                if np.any(counts > self._warn0) or messages:
+                    bad = np.flatnonzero(counts > self._warn0)
+                    what = _WARN_NAMES.get(int(bad[0]), str(bad[0])) if len(bad) else "warning"
+                    text = " ".join(m_.strip() for m_ in messages)
+                    raise EngineDivergence(
+                        f"MuJoCo {what} at t = {d.time:.6g} s" + (f": {text}" if text else ""), self.frame,
+                        cause=f"time step too large for the stiffness (dt = {self.dt:.3g} s) or stiffness too high")
+        finally:
+            mujoco.set_mju_user_warning(previous)
         if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
             raise EngineDivergence("non-finite MuJoCo state", self.frame,
                                    cause=f"time step too large (dt = {self.dt:.3g} s)")
