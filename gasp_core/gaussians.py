@@ -189,7 +189,8 @@ class Gaussians:
     meta : dict
         Layout details needed to write the file back, e.g. for 2DGS
         ``{"rotation_columns_from_file": (2, 0, 1)}``: column ``j`` of ``R`` is column
-        ``perm[j]`` of the stored rotation.
+        ``perm[j]`` of the stored rotation. Never per-Gaussian arrays (those go in ``extra``):
+        :meth:`subset` and :meth:`copy` carry it over unchanged.
 
     Raises
     ------

@@ -245,6 +245,9 @@ def _decode_compressed(path: Path, ply: PlyData) -> Gaussians:
     * Optional element ``sh`` of uint8 ``f_rest_*`` (channel-major): ``(n - 0.5) * 8`` with
       ``n = 0`` for 0, ``1`` for 255, else ``(v + 0.5) / 256``.
 
+    ``meta["chunk_bounds"]``, shape (n_chunks, 2, 3), float64: each chunk's min and max
+    position, in the file's row order (splat ``i`` is in chunk ``i // 256``).
+
     Sources: playcanvas/engine ``src/scene/gsplat/gsplat-compressed-data.js``
     (``SplatCompressedIterator``: ``unpack111011``, ``unpack8888``, ``unpackRot``, and
     ``decompress()``: the +/-40 opacity clamp) and playcanvas/splat-transform
@@ -461,8 +464,9 @@ def read_splatv(path) -> tuple[Gaussians, dict[str, np.ndarray]]:
         ``dt = 0``, rotations = the stored w,x,y,z normalised, ``scales`` = the stored linear
         scales, ``opacities`` = logit of the stored sigmoid byte (0 -> -40, 255 -> +40),
         ``sh_dc = (rgb - 0.5) / SH_C0``, no ``sh_rest``. ``meta["header"]`` holds the JSON
-        header; ``meta["raw_rotations"]`` the unnormalised float16 quaternions (needed by
-        :func:`splatv_at`, which adds ``omega dt`` before normalising).
+        header; ``extra["rot_norm"]`` (float64) the norm of the stored float16 quaternion, so
+        that :func:`splatv_at` can rebuild it (it adds ``omega dt`` to the *unnormalised*
+        quaternion before normalising, as the viewer does).
     motion : dict of str -> ndarray
         ``"motion"`` (n, 9) float32: polynomial coefficients (m[0:3] dt + m[3:6] dt^2 +
         m[6:9] dt^3); ``"omega"`` (n, 4) float32 (w,x,y,z rate); ``"trbf_center"`` (n,) float32;
@@ -521,11 +525,12 @@ def read_splatv(path) -> tuple[Gaussians, dict[str, np.ndarray]]:
     a = rgba[:, 3]
     with np.errstate(divide="ignore"):
         opac = np.where(a <= 0, -_LOGIT_CLAMP, np.where(a >= 1, _LOGIT_CLAMP, -np.log(1.0 / a - 1.0)))
-    base = Gaussians(means=means, scales=scales, rotations=raw_rot.astype(np.float64),
+    raw_rot = raw_rot.astype(np.float64)
+    base = Gaussians(means=means, scales=scales, rotations=raw_rot,
                      opacities=opac.astype(np.float32),
                      sh_dc=((rgba[:, :3] - 0.5) / SH_C0).astype(np.float32),
-                     source=str(path), layout="splatv",
-                     meta={"header": header, "raw_rotations": raw_rot})
+                     extra={"rot_norm": np.linalg.norm(raw_rot, axis=1)},
+                     source=str(path), layout="splatv", meta={"header": header})
     return base, {"motion": motion, "omega": omega, "trbf_center": trbf_center,
                   "trbf_scale": trbf_scale}
 
@@ -548,8 +553,8 @@ def splatv_at(base: Gaussians, motion: dict[str, np.ndarray], t: float) -> Gauss
         ``dt = t - trbf_center``; ``means = xyz + m[0:3] dt + m[3:6] dt^2 + m[6:9] dt^3``;
         ``rotations = normalise(rot + omega dt)``; scales, colour unchanged; opacity multiplied
         by ``exp(-(dt / trbf_scale)^2)`` (applied to ``sigmoid(logit)`` and turned back into a
-        logit). ``extra["temporal_opacity"]`` (float32) holds that factor; the viewer skips a
-        splat whose factor is below 0.02.
+        logit). ``extra["temporal_opacity"]`` (float32) holds that factor (the viewer skips a
+        splat whose factor is below 0.02); ``extra["rot_norm"]`` the norm of ``rot + omega dt``.
 
     Notes
     -----
@@ -561,7 +566,7 @@ def splatv_at(base: Gaussians, motion: dict[str, np.ndarray], t: float) -> Gauss
     m = motion["motion"].astype(np.float64)
     d1, d2, d3 = dt[:, None], (dt * dt)[:, None], (dt * dt * dt)[:, None]
     means = base.means + m[:, 0:3] * d1 + m[:, 3:6] * d2 + m[:, 6:9] * d3
-    raw = np.asarray(base.meta.get("raw_rotations", base.rotations), dtype=np.float64)
+    raw = base.rotations * base.extra.get("rot_norm", np.ones(base.n))[:, None]
     rot = raw + motion["omega"].astype(np.float64) * d1
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         factor = np.exp(-(dt / motion["trbf_scale"].astype(np.float64)) ** 2)
@@ -572,8 +577,9 @@ def splatv_at(base: Gaussians, motion: dict[str, np.ndarray], t: float) -> Gauss
                         np.where(alpha >= 1, _LOGIT_CLAMP, np.log(alpha) - np.log1p(-alpha)))
     g = base.copy()
     g.means, g.opacities = means, opac.astype(np.float32)
-    g.extra = dict(g.extra, temporal_opacity=factor.astype(np.float32))
-    g.meta = dict(g.meta, raw_rotations=rot.astype(np.float32), time=float(t))
+    norm = np.linalg.norm(rot, axis=1)
+    g.extra = dict(g.extra, rot_norm=norm, temporal_opacity=factor.astype(np.float32))
+    g.meta = dict(g.meta, time=float(t))
     # rebuild through the constructor: validates and normalises the rotation
     return Gaussians(means=g.means, scales=g.scales, rotations=rot, opacities=g.opacities,
                      sh_dc=g.sh_dc, sh_rest=g.sh_rest, extra=g.extra, source=g.source,
