@@ -87,8 +87,8 @@ class PreparedObject:
     tri_rest: np.ndarray
     thin_scale: np.ndarray
     flatten_report: FlattenReport
-    vertex_slice: slice = slice(0, 0)
-    fill_slice: slice = slice(0, 0)
+    vertex_slice: slice = field(default_factory=lambda: slice(0, 0))
+    fill_slice: slice = field(default_factory=lambda: slice(0, 0))
     name: str = ""
 
 
