@@ -362,5 +362,28 @@ def build_kernels(Ft):
         if not ok:
             wp.atomic_add(flags, 1, 1)
 
+    @wp.kernel(enable_backward=False, module="unique", module_options=_OPTS)
+    def svd_kernel(A: wp.array(dtype=mat33), U: wp.array(dtype=mat33), sig: wp.array(dtype=vec3),
+                   V: wp.array(dtype=mat33)):
+        i = wp.tid()
+        u = mat33()
+        s = vec3()
+        w = mat33()
+        wp.svd3(A[i], u, s, w)
+        U[i] = u
+        sig[i] = s
+        V[i] = w
+
+    def svd(A):
+        """``wp.svd3`` of each matrix of ``A`` (shape (n, 3, 3)) on the CPU: (U, sig, V) as ndarrays."""
+        import numpy as np
+        n = len(A)
+        a = wp.array(np.asarray(A, dtype=np.float32 if Ft == wp.float32 else np.float64), dtype=mat33, device="cpu")
+        U = wp.zeros(n, dtype=mat33, device="cpu")
+        sig = wp.zeros(n, dtype=vec3, device="cpu")
+        V = wp.zeros(n, dtype=mat33, device="cpu")
+        wp.launch(svd_kernel, dim=n, inputs=[a, U, sig, V], device="cpu")
+        return U.numpy(), sig.numpy(), V.numpy()
+
     return types.SimpleNamespace(vec3=vec3, vec4=vec4, mat33=mat33, p2g=p2g,
-                                 grid_update=grid_update, g2p=g2p, check=check)
+                                 grid_update=grid_update, g2p=g2p, check=check, svd=svd)
