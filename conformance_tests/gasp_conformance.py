@@ -37,7 +37,7 @@ from gasp_core.runner import RunStats, run_engine
 __all__ = [
     "Requires", "Scene", "Check", "SceneResult", "EngineReport", "Trace", "SCENES",
     "KNOWN_FAILURES", "check_engine", "evaluate_scene", "run_trace", "scene_by_name",
-    "box_points", "resolve_engine", "G",
+    "box_points", "resolve_engine", "record", "installed_engines", "G",
 ]
 
 #: Standard gravity, m/s^2.
@@ -290,7 +290,9 @@ def evaluate_scene(info: EngineInfo, scene: Scene,
         message = f"{type(e).__name__}: {e}"
     except Exception as e:  # anything else is an engine defect
         passed, errored = False, True
-        message = f"unexpected {type(e).__name__}: {e}\n{traceback.format_exc(limit=4)}"
+        first = (str(e).strip().splitlines() or [""])[-1][:300]
+        tb = traceback.extract_tb(e.__traceback__)[-1]
+        message = f"unexpected {type(e).__name__}: {first} (raised at {tb.filename}:{tb.lineno})"
     wall = time.perf_counter() - t0
     if scene.name in kf:
         status = "xpass" if passed else "xfail"
@@ -299,6 +301,17 @@ def evaluate_scene(info: EngineInfo, scene: Scene,
     else:
         status = "pass" if passed else ("error" if errored else "fail")
     return SceneResult(info.name, scene.name, status, message, checks, wall)
+
+
+def record(node, result: SceneResult | str) -> None:
+    """Attach a result (or a line of text) to a pytest item for the session's result table."""
+    if isinstance(result, SceneResult):
+        text = "; ".join(f"{c.name} {'ok' if c.passed else 'FAIL'}: {c.message}" for c in result.checks)
+        text = text or result.message
+        text = f"{text} [{result.wall_s:.1f} s]"
+    else:
+        text = str(result)
+    node.user_properties.append(("conformance_detail", text))
 
 
 def check_engine(engine: str | EngineInfo, scenes: Iterable[Scene | str] | None = None,
@@ -541,13 +554,16 @@ def _eval_spinning(info: EngineInfo, tr: Trace) -> list[Check]:
     m = tr.p_mass
     c = tr.centroid()
     lz = np.einsum("i,fi->f", m, np.cross(tr.x - c[:, None, :], tr.v)[:, :, 2])
-    l_err = float(np.abs(lz / lz[0] - 1).max())
+    # From frame 1 on: APIC/MLS-MPM keeps part of the angular momentum in the affine matrix C
+    # (the points' own spin), which SimSetup cannot initialise; sum m x cross v is then constant.
+    l_err = float(np.abs(lz[1:] / lz[1] - 1).max())
     angle = _kabsch_angle_z(x0, tr.x[-1])
     expected = OMEGA * tr.t[-1]
     ang_err = abs(angle - expected) / expected
     return [_check("distances_preserved", dist_err, SPIN_DIST_TOL,
                    "max relative change of point-pair distances (pairs > 2 dx apart)"),
-            _check("angular_momentum", l_err, SPIN_L_TOL, "max |L_z(t) / L_z(0) - 1|"),
+            _check("angular_momentum", l_err, SPIN_L_TOL,
+                   f"max |L_z(t) / L_z(frame 1) - 1| (L_z(frame 1) / L_z(0) = {lz[1] / lz[0]:.4f})"),
             _check("rotation_angle", ang_err, 0.05,
                    f"|rigid-fit angle - omega t| / (omega t) (angle {math.degrees(angle):.2f} deg, "
                    f"expected {math.degrees(expected):.2f} deg)")]

@@ -1,0 +1,112 @@
+"""The conformance checks must catch deliberately broken engines (a check that cannot fail is a defect).
+
+Each broken engine wraps a real installed engine: its factory builds the real engine and then
+spoils the setup or the output. Every one must make at least one scene fail where the real engine
+passes the same scene; NaN output and dropped points must be reported as ``EngineDivergence``.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from gasp_conformance import (check_engine, evaluate_scene, installed_engines, record, scene_by_name)
+
+#: Real engines to wrap, in order of preference (the first installed and available one is used).
+PREFERRED = ("warp_mpm", "taichi_mpm", "mujoco_flex")
+#: Quick scenes the broken engines are screened with.
+SCREEN = ("free_fall", "bounce", "spinning")
+
+
+class _Broken:
+    """A real engine whose setup or output is spoiled; ``kind`` says how."""
+
+    def __init__(self, inner, setup, kind: str):
+        self.inner, self.setup, self.kind, self.frame = inner, setup, kind, 0
+        self.perm = np.random.default_rng(0).permutation(len(setup.x))
+
+    def step_frame(self):
+        self.inner.step_frame()
+        self.frame += 1
+
+    def positions(self):
+        x = np.array(self.inner.positions(), dtype=np.float64)
+        if self.kind == "push_outward":  # positions pushed away from the centroid, 2% per frame
+            c = x.mean(axis=0)
+            x = c + (x - c) * (1.0 + 0.02 * self.frame)
+        elif self.kind == "nan_at_frame" and self.frame >= 3:
+            x[len(x) // 2] = np.nan
+        elif self.kind == "drop_point":
+            x = x[:-1]
+        elif self.kind == "reordered":
+            x = x[self.perm]
+        return x
+
+    def velocities(self):
+        v = np.array(self.inner.velocities(), dtype=np.float64)
+        if self.kind == "scale_velocity":  # energy injection: velocities 10% larger each frame
+            v = v * 1.1 ** self.frame
+        elif self.kind == "reordered":
+            v = v[self.perm]
+        return v
+
+    def stats(self):
+        return self.inner.stats()
+
+    def close(self):
+        self.inner.close()
+
+
+KINDS = ("no_gravity", "scale_velocity", "push_outward", "nan_at_frame", "drop_point", "reordered")
+
+
+def broken_engine(info, kind: str):
+    """An EngineInfo named ``broken_<kind>`` whose factory wraps ``info.factory``."""
+    if kind not in KINDS:
+        raise ValueError(f"kind: expected one of {KINDS}, got {kind!r}")
+
+    def factory(setup):
+        if kind == "no_gravity":  # the engine ignores gravity
+            return info.factory(setup.replace(gravity=np.zeros(3)))
+        return _Broken(info.factory(setup), setup, kind)
+
+    return dataclasses.replace(info, name=f"broken_{kind}", factory=factory)
+
+
+@pytest.fixture(scope="module")
+def reference():
+    """The real engine wrapped, and which screen scenes it passes."""
+    found = installed_engines()
+    for name in PREFERRED + tuple(found):
+        info = found.get(name)
+        if info is None or info.unavailable_reason():
+            continue
+        passed = {s for s in SCREEN if evaluate_scene(info, scene_by_name(s), {}).status == "pass"}
+        if passed:
+            return info, passed
+    pytest.skip("no installed engine passes any of the screen scenes " + str(SCREEN))
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_broken_engine_is_caught(kind, reference, request):
+    info, passed_by_real = reference
+    report = check_engine(broken_engine(info, kind), scenes=sorted(passed_by_real), known_failures={})
+    caught = [r for r in report.results if r.status in ("fail", "error")]
+    record(request.node, f"wrapping {info.name}: " + "; ".join(
+        f"{r.scene} {r.status}" + (": " + (", ".join(str(c) for c in r.checks if not c.passed)
+                                          or r.message)[:240] if r.status != "pass" else "")
+        for r in report.results))
+    assert caught, (f"broken engine '{kind}' passed every screen scene the real {info.name} passes "
+                    f"({sorted(passed_by_real)}): " + report.table())
+    if kind in ("nan_at_frame", "drop_point"):
+        assert all("EngineDivergence" in r.message for r in report.results), report.table()
+    if kind == "no_gravity" and "free_fall" in passed_by_real:
+        assert report.by_scene()["free_fall"].status == "fail", report.table()
+    if kind == "scale_velocity" and "bounce" in passed_by_real:
+        assert report.by_scene()["bounce"].status == "fail", report.table()
+
+
+def test_broken_kind_is_validated():
+    with pytest.raises(ValueError, match="kind"):
+        broken_engine(None, "nonsense")
