@@ -237,3 +237,20 @@ def test_donut_drops_lands_and_rests():
     assert np.abs(vel).max() < 1e-2                          # at rest
     print(f"donut: {e.stats()['n_lattice_vertices']} lattice vertices, {e.stats()['n_tets']} tets, "
           f"h = {h:.4f} m, dt = {e.stats()['dt']:.3g} s, {fps:.2f} frames/s")
+
+
+def test_metal_keeps_a_permanent_dent_where_jelly_springs_back():
+    """Same E and impact (3 m/s onto the ground): von Mises yield leaves the block squashed."""
+    x = block_points(z0=0.02)
+    shape = {}
+    for m in (Material("jelly", E=1e6, nu=0.3, rho=1000.0),
+              Material("metal", E=1e6, nu=0.3, rho=1000.0, yield_stress=1e3)):
+        e = make_engine(make_setup(x, m, [Boundary("ground")], v=[0.0, 0.0, -3.0], cells_across=3))
+        for _ in range(10):
+            e.step_frame()
+        p = e.positions()
+        assert np.abs(e.velocities()).max() < 1e-3                      # at rest again
+        shape[m.name] = (np.ptp(p[:, 2]) / np.ptp(x[:, 2]), np.ptp(p[:, 0]) / np.ptp(x[:, 0]))
+    print(shape)
+    assert abs(shape["jelly"][0] - 1) < 0.01 and abs(shape["jelly"][1] - 1) < 0.01
+    assert shape["metal"][0] < 0.985 and shape["metal"][1] > 1.015
