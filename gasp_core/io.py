@@ -622,7 +622,7 @@ def describe(path) -> dict[str, Any]:
     **bottom**: an object resting on a support is reconstructed there with a few large flat
     Gaussians (its base, seen poorly or not at all), while its observed top is covered with many
     small ones. ``up_axis`` is the opposite direction; ``up_score`` the ``|asymmetry|`` (0 = no
-    preference, 1 = all flat area faces one way). Measured: donut_v3dg -> +z (score 0.44, next
+    preference, 1 = all flat area faces one way). Measured: donut_v3dg -> +z (score 0.43, next
     axis 0.10), guitar.compressed -> -y (0.42, next 0.06), both as their sources state.
     Limits: meaningless for scenes (rooms, landscapes: train-1000, pc_short), for objects seen
     from every side including below, for hollow or strongly non-convex objects (the outward
