@@ -1,0 +1,132 @@
+"""The command line: one-line errors, non-zero exits and no partial output for bad input."""
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from conftest import DONUT, scene_text
+from plyfile import PlyData, PlyElement
+
+from gasp_core.cli import main
+
+
+def run(capsys, *argv):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def assert_clean_failure(code, err, out_dir, *needles):
+    assert code != 0
+    lines = [l for l in err.strip().splitlines() if l.startswith("gasp: error:")]
+    assert len(lines) == 1, err
+    for n in needles:
+        assert n in lines[0], lines[0]
+    assert not out_dir.exists()
+    assert not list(out_dir.parent.glob(f".{out_dir.name}.partial-*"))
+
+
+def write_ply(path, arrays: dict):
+    dtype = [(k, "f4") for k in arrays]
+    n = len(next(iter(arrays.values())))
+    data = np.empty(n, dtype=dtype)
+    for k, v in arrays.items():
+        data[k] = v
+    PlyData([PlyElement.describe(data, "vertex")]).write(str(path))
+
+
+@pytest.fixture(scope="module")
+def donut_fields():
+    v = PlyData.read(str(DONUT))["vertex"].data
+    return {k: np.asarray(v[k]) for k in v.dtype.names}
+
+
+def test_truncated_ply(tmp_path, capsys, write_scene):
+    bad = tmp_path / "truncated.ply"
+    raw = DONUT.read_bytes()
+    bad.write_bytes(raw[: len(raw) // 2])
+    code, _, err = run(capsys, "simulate", write_scene(scene_text(bad)), "-o", tmp_path / "out", "-q")
+    assert_clean_failure(code, err, tmp_path / "out", "truncated.ply")
+
+
+def test_ply_without_scales(tmp_path, capsys, write_scene, donut_fields):
+    bad = tmp_path / "noscale.ply"
+    write_ply(bad, {k: v for k, v in donut_fields.items() if not k.startswith("scale_")})
+    code, _, err = run(capsys, "simulate", write_scene(scene_text(bad)), "-o", tmp_path / "out", "-q")
+    assert_clean_failure(code, err, tmp_path / "out", "noscale.ply", "scale")
+
+
+def test_nan_positions(tmp_path, capsys, write_scene, donut_fields):
+    bad = tmp_path / "nan.ply"
+    f = dict(donut_fields)
+    f["y"] = f["y"].copy()
+    f["y"][123] = np.nan
+    write_ply(bad, f)
+    code, _, err = run(capsys, "simulate", write_scene(scene_text(bad)), "-o", tmp_path / "out", "-q")
+    assert_clean_failure(code, err, tmp_path / "out", "nan.ply", "123")
+
+
+def test_mistyped_scene_key(tmp_path, capsys, write_scene):
+    text = scene_text(DONUT).replace("n_grid = 24", "n_gird = 24")
+    code, _, err = run(capsys, "simulate", write_scene(text), "-o", tmp_path / "out", "-q")
+    assert_clean_failure(code, err, tmp_path / "out", "n_gird", "n_grid")
+
+
+def test_mistyped_material_key(tmp_path, capsys, write_scene):
+    text = scene_text(DONUT, material='name = "jelly"\nyoung = 1e4')
+    code, _, err = run(capsys, "simulate", write_scene(text), "-o", tmp_path / "out", "-q")
+    assert_clean_failure(code, err, tmp_path / "out", "young", "'E'")
+
+
+def test_unknown_engine(tmp_path, capsys, write_scene):
+    code, _, err = run(capsys, "simulate", write_scene(scene_text(DONUT, engine="bullet_sph")),
+                       "-o", tmp_path / "out", "-q")
+    assert_clean_failure(code, err, tmp_path / "out", "bullet_sph", "installed engines")
+
+
+def test_existing_output_without_overwrite(tmp_path, capsys, write_scene):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "precious.txt").write_text("keep me")
+    code, _, err = run(capsys, "simulate", write_scene(scene_text(DONUT)), "-o", out, "-q")
+    assert code != 0 and "--overwrite" in err and len(err.strip().splitlines()) == 1
+    assert (out / "precious.txt").read_text() == "keep me"
+
+
+def test_unsupported_material_names_capable_engines(tmp_path, capsys, write_scene):
+    pytest.importorskip("gasp_mujoco_flex")
+    text = scene_text(DONUT, engine="mujoco_flex", material='name = "sand"')
+    code, _, err = run(capsys, "simulate", write_scene(text), "-o", tmp_path / "out", "-q")
+    assert_clean_failure(code, err, tmp_path / "out", "mujoco_flex", "sand", "taichi_mpm")
+
+
+def test_divergence_is_reported_with_frame_and_leaves_nothing(tmp_path, capsys, write_scene, donut_small):
+    """No ground and a tight domain: the donut falls out of the box; the run stops and says so."""
+    pytest.importorskip("gasp_taichi_mpm")
+    text = scene_text(donut_small, ground=False, n_frames=20, n_grid=16)
+    code, _, err = run(capsys, "simulate", write_scene(text), "-o", tmp_path / "out", "-q")
+    assert code == 3
+    assert_clean_failure(code, err, tmp_path / "out", "frame", "domain")
+
+
+def test_engines_lists_installed(capsys):
+    code, out, _ = run(capsys, "engines")
+    assert code == 0
+    pytest.importorskip("gasp_taichi_mpm")
+    assert "taichi_mpm  (gasp-taichi-mpm" in out and "jelly" in out
+
+
+def test_info_on_real_files(capsys):
+    code, out, _ = run(capsys, "info", DONUT)
+    assert code == 0
+    assert "45624" in out and "up_axis" in out and "flat" in out
+
+
+def test_console_script_exit_status(tmp_path):
+    exe = shutil.which("gasp")
+    if exe is None:
+        pytest.skip("the gasp console script is not on PATH (package not installed)")
+    p = subprocess.run([exe, "simulate", str(tmp_path / "missing.toml"), "-o", str(tmp_path / "o")],
+                       capture_output=True, text=True)
+    assert p.returncode == 2 and p.stderr.startswith("gasp: error:") and "missing.toml" in p.stderr
