@@ -1,0 +1,98 @@
+"""GASP engine plugin ``genesis``: the MPM solver of Genesis (``genesis-world``).
+
+Importing this module is cheap and works without Genesis installed: it neither imports Genesis
+(whose import alone takes tens of seconds) nor torch. ``available()`` only looks the package up;
+the factory imports :mod:`gasp_genesis.engine`, and with it Genesis, when a simulation is built.
+
+Genesis is an optional extra: ``pip install 'gasp-genesis[engine]'`` (see ``README.md``).
+
+Capabilities are the Genesis MPM materials (``genesis/engine/materials/MPM``, genesis-world 1.4)
+whose update matches a GASP material of ``docs/mpm.md``:
+
+========== ============================================ ===========================================
+GASP       Genesis                                      difference to docs/mpm.md
+========== ============================================ ===========================================
+jelly      ``MPM.Elastic(model="corotation")``          none
+neo_hookean``MPM.Elastic(model="neohooken")``           no clamp of ``J`` before ``log J``
+metal      ``MPM.ElastoPlastic(use_von_mises=True)``    same return mapping; stress is fixed
+                                                        corotated on the projected F (Hencky StVK in
+                                                        the spec; equal to first order in the
+                                                        elastic strain, which the yield bounds)
+sand       ``MPM.Sand``                                 Drucker-Prager of Klar et al. 2016 *with*
+                                                        volume correction (Tampubolon et al. 2017)
+snow       ``MPM.Snow``                                 hardening fixed at 10 (other values refused)
+liquid     ``MPM.Liquid(lam=K)``                        none (``lam`` is set to the bulk modulus K)
+========== ============================================ ===========================================
+
+Not offered: ``plasticine`` (Genesis has no softening), ``rigid`` (no MPM-rigid body of ours),
+``fixed_region`` (Genesis's non-free particles pin whole grid stencils, not the spec's nodes in a
+box), per-point volume (one particle volume per MPM solver: the mean of ``p_vol`` is used).
+"""
+from __future__ import annotations
+
+import importlib.util
+
+from gasp_core.engine import Capabilities, EngineInfo, SimSetup
+from gasp_core.plugins import hookimpl
+
+__all__ = ["CAPABILITIES", "INSTALL_HINT", "gasp_engines", "genesis_available", "make_engine"]
+
+#: Reason given when Genesis is missing.
+INSTALL_HINT = "genesis-world is not installed: pip install 'gasp-genesis[engine]' (see README)"
+
+CAPABILITIES = Capabilities(
+    materials=frozenset({"jelly", "neo_hookean", "metal", "sand", "snow", "liquid"}),
+    boundaries=frozenset({"ground", "walls"}),
+    devices=frozenset({"cpu", "cuda"}),
+    precisions=frozenset({"f32", "f64"}),
+    dims=frozenset({3}),
+    deterministic=frozenset(),  # multithreaded atomic P2G on every backend
+    grid_based=True,
+)
+
+
+def genesis_available() -> str | None:
+    """None if the ``genesis`` package (and torch) is installed, else why the engine cannot run.
+
+    Only looks the packages up (``importlib.util.find_spec``); importing Genesis takes tens of
+    seconds, so a broken install shows up when the engine is built, as an ``EngineError``.
+    """
+    for module in ("genesis", "torch"):
+        try:
+            found = importlib.util.find_spec(module) is not None
+        except (ImportError, ValueError):
+            found = False
+        if not found:
+            return INSTALL_HINT if module == "genesis" else (
+                f"torch is not installed (Genesis needs it): {INSTALL_HINT}")
+    return None
+
+
+def make_engine(setup: SimSetup):
+    """Build a :class:`gasp_genesis.engine.GenesisMPMEngine` (imports Genesis lazily).
+
+    Raises
+    ------
+    SceneError
+        Unknown or invalid engine option, unsupported material or boundary, points outside
+        Genesis's padded domain.
+    EngineError
+        Genesis cannot be imported, the device is not available, or Genesis was already
+        initialised in this process with another device or precision.
+    """
+    from .engine import GenesisMPMEngine
+    return GenesisMPMEngine(setup)
+
+
+@hookimpl
+def gasp_engines():
+    return [EngineInfo(
+        name="genesis",
+        factory=make_engine,
+        capabilities=CAPABILITIES,
+        available=genesis_available,
+        description=("MPM solver of Genesis (genesis-world; MLS-MPM, quadratic B-splines, APIC) "
+                     "on CPU or CUDA. Ground and walls via rigid planes with Coulomb coupling "
+                     "friction; one particle volume per scene; gs.init once per process (one "
+                     "device and precision per process)."),
+    )]

@@ -1,0 +1,424 @@
+"""The ``genesis`` engine: a :class:`gasp_core.engine.PointEngine` over Genesis's MPM solver.
+
+Genesis (``genesis-world``, tested with 1.4.5 on torch 2.13 CPU) runs MLS-MPM with quadratic
+B-splines and APIC transfers in ``genesis/engine/solvers/mpm_solver.py``; this module builds one
+Genesis ``Scene`` per engine from a :class:`gasp_core.engine.SimSetup` and reads the particles back.
+
+How the setup maps onto Genesis (API of ``genesis/options/solvers.py``, ``genesis/options/morphs.py``,
+``genesis/engine/entities/mpm_entity.py``):
+
+- ``gs.init(backend=gs.cpu | gs.cuda, precision="32" | "64", logging_level="warning")`` is called
+  **once per process**, by the first engine built (Genesis refuses a second ``gs.init``). Every
+  later engine in the process must ask for the same device and precision, else ``EngineError``.
+  Several engines (scenes) may live in one process.
+- ``MPMOptions(lower_bound=domain_lo, upper_bound=domain_hi, grid_density=1/dx)`` with GASP's
+  ``dx = max(domain_hi - domain_lo) / n_grid``. Genesis keeps particles inside the box shrunk by
+  ``3 dx`` (its ``CubeBoundary``: slip walls, no friction) and aligns grid nodes to multiples of
+  ``dx`` in world coordinates (GASP's spec aligns them to ``domain_lo``).
+- ``SimOptions(dt=frame_dt, substeps=n_substeps, gravity=gravity)``: one ``scene.step()`` per frame.
+- One MPM entity per body: ``gs.morphs.Nowhere(n_particles=...)``, then, after ``scene.build()``,
+  ``set_particles_pos``, ``set_particles_vel`` and ``set_particles_active`` with our points.
+- ``MPMOptions.particle_size = cbrt(mean(p_vol))``: Genesis has **one particle volume per solver**
+  (mass = rho * particle_size^3), so per-point volumes are replaced by their mean (total volume
+  and mass kept). ``stats()["p_vol_spread"]`` gives ``max/min - 1`` of the input volumes.
+- ``ground``: a fixed rigid ``gs.morphs.Plane`` at ``z = height`` with
+  ``gs.materials.Rigid(coup_friction=friction, coup_softness=0, coup_restitution=0)``; Genesis's
+  MPM-rigid coupling (``legacy_coupler._func_collide_in_rigid_geom``) applies the same Coulomb rule
+  as ``docs/mpm.md`` to grid nodes on or below the plane.
+- ``walls``: Genesis's own domain box (slip). With ``friction > 0`` six more planes on the box
+  faces add the Coulomb friction. Without ``walls``, a point that reaches the box is reported as
+  ``EngineDivergence`` ("points left the domain"), since Genesis would hold it there.
+"""
+from __future__ import annotations
+
+import importlib.metadata as md
+import math
+import time
+from typing import Any
+
+import numpy as np
+
+from gasp_core.engine import EngineDivergence, EngineError, Material, SceneError, SimSetup, check_options
+from gasp_core.physics import mpm_stable_dt, substeps_for
+
+from . import CAPABILITIES, INSTALL_HINT
+
+ENGINE = "genesis"
+DEFAULT_OPTIONS = {"device": "cpu", "precision": "f32", "dt": None, "n_substeps": None, "cfl": 0.4}
+#: Genesis pads its MPM domain by this many cells (``MPMSolver.setup_boundary``).
+PADDING_CELLS = 3
+#: Snow hardening coefficient hard-coded in ``genesis/engine/materials/MPM/snow.py``.
+GENESIS_SNOW_HARDENING = 10.0
+
+CAUSE_DT = "time step above the stability limit or material too stiff for dt"
+CAUSE_DOMAIN = "points left the domain: add walls/ground or enlarge the domain"
+
+
+# ---------------------------------------------------------------------- validation
+def _validate_options(setup: SimSetup) -> dict[str, Any]:
+    opt = check_options(setup.options, DEFAULT_OPTIONS, ENGINE)
+    if opt["device"] not in ("cpu", "cuda"):
+        raise SceneError(f"engine '{ENGINE}': option device={opt['device']!r}; expected 'cpu' or 'cuda'")
+    if opt["precision"] not in ("f32", "f64"):
+        raise SceneError(
+            f"engine '{ENGINE}': option precision={opt['precision']!r}; expected 'f32' or 'f64'")
+    if opt["dt"] is not None and opt["n_substeps"] is not None:
+        raise SceneError(f"engine '{ENGINE}': give option dt or option n_substeps, not both")
+    if opt["dt"] is not None:
+        if isinstance(opt["dt"], bool) or not isinstance(opt["dt"], (int, float)) \
+                or not (math.isfinite(opt["dt"]) and opt["dt"] > 0):
+            raise SceneError(f"engine '{ENGINE}': option dt={opt['dt']!r}; expected a positive number of seconds")
+    if opt["n_substeps"] is not None:
+        if isinstance(opt["n_substeps"], bool) or not isinstance(opt["n_substeps"], (int, np.integer)) \
+                or opt["n_substeps"] < 1:
+            raise SceneError(
+                f"engine '{ENGINE}': option n_substeps={opt['n_substeps']!r}; expected an integer >= 1")
+    cfl = opt["cfl"]
+    if isinstance(cfl, bool) or not isinstance(cfl, (int, float)) or not (0.0 < cfl <= 1.0):
+        raise SceneError(f"engine '{ENGINE}': option cfl={cfl!r}; expected a number in (0, 1]")
+    return opt
+
+
+def _validate_setup(setup: SimSetup) -> None:
+    for m in setup.materials:
+        if m.name not in CAPABILITIES.materials:
+            raise SceneError(f"engine '{ENGINE}': material {m.name!r} is not supported; "
+                             f"supported: {sorted(CAPABILITIES.materials)}")
+        if not (m.E > 0 and m.rho > 0 and -1.0 < m.nu < 0.5):
+            raise SceneError(f"engine '{ENGINE}': material {m.name!r} needs E > 0, rho > 0, "
+                             f"-1 < nu < 0.5; got E={m.E}, rho={m.rho}, nu={m.nu}")
+        if m.name == "metal" and not m.yield_stress > 0:
+            raise SceneError(f"engine '{ENGINE}': material 'metal': yield_stress must be > 0 "
+                             f"(Genesis von_mises_yield_stress), got {m.yield_stress}")
+        if m.name == "sand" and not 0.0 < m.friction_angle < 90.0:
+            raise SceneError(f"engine '{ENGINE}': material 'sand': friction_angle must be in "
+                             f"(0, 90) degrees, got {m.friction_angle}")
+        if m.name == "snow":
+            if m.hardening != GENESIS_SNOW_HARDENING:
+                raise SceneError(
+                    f"engine '{ENGINE}': material 'snow': hardening={m.hardening}; Genesis fixes "
+                    f"the snow hardening coefficient at {GENESIS_SNOW_HARDENING:g}")
+            if not (m.theta_c >= 0 and m.theta_s >= 0):
+                raise SceneError(f"engine '{ENGINE}': material 'snow': theta_c and theta_s must be >= 0")
+    for b in setup.boundaries:
+        if b.kind not in CAPABILITIES.boundaries:
+            raise SceneError(f"engine '{ENGINE}': boundary kind {b.kind!r} is not supported; "
+                             f"supported: {sorted(CAPABILITIES.boundaries)}")
+        if not (math.isfinite(b.friction) and b.friction >= 0):
+            raise SceneError(f"engine '{ENGINE}': boundary {b.kind!r}: friction={b.friction}; expected >= 0")
+    if not (isinstance(setup.n_grid, (int, np.integer)) and setup.n_grid >= 8):
+        raise SceneError(f"engine '{ENGINE}': n_grid={setup.n_grid!r}; expected an integer >= 8 "
+                         f"(Genesis pads the domain by {PADDING_CELLS} cells on each side)")
+    if not np.all(setup.domain_hi > setup.domain_lo):
+        raise SceneError(f"engine '{ENGINE}': domain_hi must exceed domain_lo on every axis")
+    if not (setup.frame_dt > 0):
+        raise SceneError(f"engine '{ENGINE}': frame_dt={setup.frame_dt}; expected > 0")
+    if len(setup.x) == 0:
+        raise SceneError(f"engine '{ENGINE}': SimSetup.x has no points")
+    if np.any(setup.p_vol <= 0) or not np.all(np.isfinite(setup.p_vol)):
+        raise SceneError(f"engine '{ENGINE}': SimSetup.p_vol must be positive and finite")
+    if not np.all(np.isfinite(setup.v)):
+        raise SceneError(f"engine '{ENGINE}': SimSetup.v must be finite")
+
+
+def time_step(setup: SimSetup, opt: dict[str, Any]) -> tuple[int, float]:
+    """Substeps per frame and substep length, as ``docs/mpm.md`` "Time step" says.
+
+    Returns
+    -------
+    n_substeps : int
+    dt : float
+        Seconds, ``frame_dt / n_substeps``.
+    """
+    if opt["dt"] is not None:
+        dt = float(opt["dt"])
+    elif opt["n_substeps"] is not None:
+        dt = setup.frame_dt / int(opt["n_substeps"])
+    else:
+        v0 = float(np.max(np.linalg.norm(setup.v, axis=1))) if len(setup.v) else 0.0
+        dt = mpm_stable_dt(setup.materials, setup.dx, setup.gravity,
+                           height=float(setup.domain_hi[2] - setup.domain_lo[2]), v0_max=v0,
+                           cfl=float(opt["cfl"]))
+    return substeps_for(setup.frame_dt, dt)
+
+
+# ---------------------------------------------------------------------- Genesis
+def init_genesis(device: str = "cpu", precision: str = "f32"):
+    """Import Genesis and call ``gs.init`` once per process; return the ``genesis`` module.
+
+    Parameters
+    ----------
+    device : {"cpu", "cuda"}
+    precision : {"f32", "f64"}
+        Genesis's ``precision="32"`` or ``"64"`` (``gs.init``).
+
+    Raises
+    ------
+    EngineError
+        Genesis cannot be imported; the device is not available; or Genesis is already
+        initialised in this process with another backend or precision (``gs.init`` may run once).
+    """
+    try:
+        import genesis as gs
+    except Exception as e:  # ImportError, or a broken binary dependency
+        raise EngineError(f"engine '{ENGINE}': genesis cannot be imported ({type(e).__name__}: {e}); "
+                          f"{INSTALL_HINT}") from e
+    want_prec = "32" if precision == "f32" else "64"
+    if gs._initialized:
+        cur_prec = "32" if np.dtype(gs.np_float) == np.float32 else "64"
+        cur_dev = "cpu" if gs.backend == gs.cpu else "cuda"
+        if (cur_dev, cur_prec) != (device, want_prec):
+            raise EngineError(
+                f"engine '{ENGINE}': Genesis is already initialised in this process with device "
+                f"'{cur_dev}', precision 'f{cur_prec}'; this scene asks for device '{device}', "
+                f"precision '{precision}' (gs.init runs once per process: use one device and "
+                f"precision per process)")
+        return gs
+    backend = gs.cpu if device == "cpu" else gs.cuda
+    try:
+        gs.init(backend=backend, precision=want_prec, logging_level="warning")
+    except Exception as e:  # GenesisException: backend not available
+        raise EngineError(f"engine '{ENGINE}': gs.init(backend={device}) failed: {e}") from e
+    return gs
+
+
+def genesis_material(gs, m: Material):
+    """The Genesis MPM material for a GASP :class:`~gasp_core.engine.Material`.
+
+    Parameters
+    ----------
+    gs : module
+        The initialised ``genesis`` module.
+    m : Material
+        ``name`` in :data:`gasp_genesis.CAPABILITIES` ``.materials``; E (Pa), nu, rho (kg/m^3).
+
+    Returns
+    -------
+    genesis.engine.materials.MPM.Base
+
+    Notes
+    -----
+    ``liquid``: Genesis's stress is ``lam J (J - 1) I`` with ``mu = 0``; ``lam`` is given the bulk
+    modulus ``K = E / (3 (1 - 2 nu))`` so that it is ``K J (J - 1) I`` as in ``docs/mpm.md``.
+    """
+    M = gs.materials.MPM
+    kw = dict(E=float(m.E), nu=float(m.nu), rho=float(m.rho))
+    if m.name == "jelly":
+        return M.Elastic(model="corotation", **kw)
+    if m.name == "neo_hookean":
+        return M.Elastic(model="neohooken", **kw)
+    if m.name == "metal":
+        return M.ElastoPlastic(use_von_mises=True, von_mises_yield_stress=float(m.yield_stress), **kw)
+    if m.name == "sand":
+        return M.Sand(friction_angle=float(m.friction_angle), **kw)
+    if m.name == "snow":
+        return M.Snow(yield_lower=float(m.theta_c), yield_higher=float(m.theta_s), **kw)
+    if m.name == "liquid":
+        K = m.E / (3.0 * (1.0 - 2.0 * m.nu))
+        return M.Liquid(viscous=False, lam=float(K), **kw)
+    raise SceneError(f"engine '{ENGINE}': material {m.name!r} is not supported")  # validated before
+
+
+def _plane(gs, pos, normal, friction: float):
+    return dict(
+        morph=gs.morphs.Plane(pos=tuple(float(c) for c in pos), normal=tuple(float(c) for c in normal)),
+        material=gs.materials.Rigid(coup_friction=float(friction), coup_softness=0.0,
+                                    coup_restitution=0.0),
+    )
+
+
+# ---------------------------------------------------------------------- engine
+class GenesisMPMEngine:
+    """Genesis MPM engine (see the module docstring for the mapping).
+
+    Parameters
+    ----------
+    setup : SimSetup
+        World frame (z up), SI units. ``setup.options`` may hold ``device`` ("cpu" | "cuda"),
+        ``precision`` ("f32" | "f64"), ``dt`` (s) or ``n_substeps`` (per frame) and ``cfl`` (0.4).
+
+    Raises
+    ------
+    SceneError
+        Unknown or invalid option (the message names it), unsupported material or boundary, or a
+        point outside Genesis's padded box ``[domain_lo + 3 dx, domain_hi - 3 dx]``.
+    EngineError
+        Genesis missing, device unavailable, or Genesis initialised otherwise in this process.
+
+    Notes
+    -----
+    Building compiles Genesis's kernels (quadrants, a Taichi fork): about a minute on 2 CPU cores
+    the first time, ~10 s when the kernel cache (``~/.cache/quadrants``) is warm.
+    """
+
+    def __init__(self, setup: SimSetup):
+        opt = _validate_options(setup)
+        _validate_setup(setup)
+        self.setup = setup
+        self.options = opt
+        self.n_substeps, self.dt = time_step(setup, opt)
+        dx = setup.dx
+        pad = PADDING_CELLS * dx
+        self.box_lo = setup.domain_lo + pad
+        self.box_hi = setup.domain_hi - pad
+        inside = np.all((setup.x >= self.box_lo) & (setup.x <= self.box_hi), axis=1)
+        if not inside.all():
+            bad = int(np.flatnonzero(~inside)[0])
+            raise SceneError(
+                f"engine '{ENGINE}': point {bad} at {setup.x[bad].tolist()} lies outside Genesis's "
+                f"MPM box [domain_lo + 3 dx, domain_hi - 3 dx] = [{self.box_lo.tolist()}, "
+                f"{self.box_hi.tolist()}] ({int((~inside).sum())} points); enlarge the domain")
+
+        gs = init_genesis(opt["device"], opt["precision"])
+        self._gs = gs
+        self._np_float = np.dtype(gs.np_float)
+        self.p_vol_used = float(np.mean(setup.p_vol))
+        self.p_vol_spread = float(np.max(setup.p_vol) / np.min(setup.p_vol) - 1.0)
+
+        t0 = time.perf_counter()
+        scene = gs.Scene(
+            sim_options=gs.options.SimOptions(dt=float(setup.frame_dt), substeps=int(self.n_substeps),
+                                              gravity=tuple(float(g) for g in setup.gravity)),
+            mpm_options=gs.options.MPMOptions(
+                lower_bound=tuple(float(c) for c in setup.domain_lo),
+                upper_bound=tuple(float(c) for c in setup.domain_hi),
+                grid_density=1.0 / dx,
+                particle_size=self.p_vol_used ** (1.0 / 3.0)),
+            show_viewer=False,
+        )
+        # Rigid planes: ground(s), and the box faces when walls have friction.
+        self.walls = any(b.kind == "walls" for b in setup.boundaries)
+        self.grounds = [b for b in setup.boundaries if b.kind == "ground"]
+        self.n_planes = 0
+        for b in self.grounds:
+            scene.add_entity(**_plane(gs, (0.0, 0.0, b.height), (0.0, 0.0, 1.0), b.friction))
+            self.n_planes += 1
+        wall_friction = max([b.friction for b in setup.boundaries if b.kind == "walls"], default=0.0)
+        if self.walls and wall_friction > 0:
+            for d in range(3):
+                e = np.eye(3)[d]
+                lo_pt = np.where(e > 0, self.box_lo, 0.5 * (self.box_lo + self.box_hi))
+                hi_pt = np.where(e > 0, self.box_hi, 0.5 * (self.box_lo + self.box_hi))
+                scene.add_entity(**_plane(gs, lo_pt, e, wall_friction))
+                scene.add_entity(**_plane(gs, hi_pt, -e, wall_friction))
+                self.n_planes += 2
+        self.wall_friction = wall_friction if self.walls else None
+
+        # One MPM entity per body, points in body order; self._order maps back to setup order.
+        self._bodies = []
+        order = []
+        for b, m in enumerate(setup.materials):
+            idx = np.flatnonzero(setup.body_id == b)
+            if len(idx) == 0:
+                continue
+            ent = scene.add_entity(material=genesis_material(gs, m),
+                                   morph=gs.morphs.Nowhere(n_particles=int(len(idx))))
+            self._bodies.append((ent, idx))
+            order.append(idx)
+        self._order = np.concatenate(order)
+        scene.build()
+        for ent, idx in self._bodies:
+            ent.set_particles_pos(np.ascontiguousarray(setup.x[idx], dtype=self._np_float))
+            ent.set_particles_vel(np.ascontiguousarray(setup.v[idx], dtype=self._np_float))
+            ent.set_particles_active(np.ones(len(idx), dtype=bool))
+        self.build_s = time.perf_counter() - t0
+        self.scene = scene
+        self.frame = 0
+        self._x = setup.x.astype(self._np_float)
+        self._v = setup.v.astype(self._np_float)
+        self._closed = False
+
+    # ------------------------------------------------------------------ interface
+    def _read(self, getter: str) -> np.ndarray:
+        out = np.empty((len(self.setup.x), 3), dtype=self._np_float)
+        for ent, idx in self._bodies:
+            out[idx] = getattr(ent, getter)().cpu().numpy()
+        return out
+
+    def step_frame(self) -> None:
+        """Advance ``frame_dt`` seconds: one ``scene.step()`` of ``n_substeps`` substeps of ``dt``.
+
+        Raises
+        ------
+        EngineDivergence
+            Genesis reports NaN in the MPM state, a position or velocity is non-finite, or (without
+            ``walls``) a point reached Genesis's domain box (the message gives the count and the
+            first point index in setup order).
+        EngineError
+            The engine was closed.
+        """
+        if self._closed:
+            raise EngineError(f"engine '{ENGINE}': this engine was closed")
+        gs = self._gs
+        try:
+            self.scene.step(update_visualizer=False)
+        except gs.GenesisException as e:
+            self.frame += 1
+            raise EngineDivergence(f"Genesis stopped: {e}", self.frame, CAUSE_DT) from e
+        self.frame += 1
+        x = self._read("get_particles_pos")
+        v = self._read("get_particles_vel")
+        self._x, self._v = x, v
+        finite = np.isfinite(x).all(axis=1) & np.isfinite(v).all(axis=1)
+        if not finite.all():
+            bad = np.flatnonzero(~finite)
+            raise EngineDivergence(f"{len(bad)} point(s) with non-finite position or velocity "
+                                   f"(first index {bad[0]})", self.frame, CAUSE_DT)
+        if not self.walls:
+            tol = 1e-3 * self.setup.dx
+            at_lo = x <= self.box_lo + tol
+            at_hi = x >= self.box_hi - tol
+            if any(b.height <= self.box_lo[2] + tol for b in self.grounds):
+                at_lo[:, 2] = False  # Genesis's floor stands in for a ground below its padded box
+            out = (at_lo | at_hi).any(axis=1)
+            if out.any():
+                bad = np.flatnonzero(out)
+                fast = float(np.max(np.linalg.norm(v, axis=1))) * self.dt > self.setup.dx
+                raise EngineDivergence(
+                    f"{len(bad)} point(s) reached the domain box (first index {bad[0]} at "
+                    f"{x[bad[0]].tolist()}); the scene has no walls", self.frame,
+                    CAUSE_DT if fast else CAUSE_DOMAIN)
+
+    def positions(self) -> np.ndarray:
+        """Current positions, shape (n, 3), float32 (f32) or float64 (f64), metres, setup order."""
+        return self._x.copy()
+
+    def velocities(self) -> np.ndarray:
+        """Current velocities, shape (n, 3), m/s, setup order."""
+        return self._v.copy()
+
+    def stats(self) -> dict[str, Any]:
+        """``device, precision, n_points, dt, n_substeps, n_grid, dx`` and Genesis specifics.
+
+        ``p_vol`` (m^3, the one particle volume used), ``p_vol_spread`` (``max/min - 1`` of the
+        input volumes), ``build_s`` (scene build incl. kernel compilation, s), ``n_planes``,
+        ``wall_friction``, ``genesis_version``, ``frame``.
+        """
+        try:
+            version = md.version("genesis-world")
+        except md.PackageNotFoundError:
+            version = ""
+        return {
+            "device": self.options["device"],
+            "precision": self.options["precision"],
+            "n_points": int(len(self.setup.x)),
+            "dt": float(self.dt),
+            "n_substeps": int(self.n_substeps),
+            "n_grid": int(self.setup.n_grid),
+            "dx": float(self.setup.dx),
+            "p_vol": self.p_vol_used,
+            "p_vol_spread": self.p_vol_spread,
+            "build_s": float(self.build_s),
+            "n_planes": int(self.n_planes),
+            "wall_friction": self.wall_friction,
+            "genesis_version": version,
+            "frame": self.frame,
+        }
+
+    def close(self) -> None:
+        """Destroy the Genesis scene (frees its fields); later calls raise ``EngineError``."""
+        if not self._closed:
+            self._closed = True
+            scene, self.scene = self.scene, None
+            if scene is not None:
+                scene.destroy()
