@@ -256,6 +256,76 @@ class RunResult:
     summary: dict = field(default_factory=dict)
 
 
+@dataclass
+class PreparedScene:
+    """A scene ready to run: engine chosen and checked, objects placed, points assembled."""
+
+    scene: Scene
+    info: EngineInfo
+    objects: list[PreparedObject]
+    names: list[str]
+    setup: SimSetup
+
+
+def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None = None) -> PreparedScene:
+    """Choose and check the engine, read and place every object, build the point set.
+
+    Parameters
+    ----------
+    scene : Scene
+    engine : str, optional
+        Override ``scene.engine.name``.
+    options : dict, optional
+        Engine options replacing ``scene.engine.options`` (e.g. from a settings sweep).
+
+    Raises
+    ------
+    EngineError
+        Unknown engine, engine not runnable here, or a material/boundary it lacks (before any work).
+    SceneError
+        Unreadable object file, object outside an explicit domain.
+    """
+    info = get_engine(engine or scene.engine.name)
+    check_capabilities(info, scene)
+    objects = [prepare_object(spec) for spec in scene.objects]
+    stems = [o.name for o in objects]
+    names = [n if stems.count(n) == 1 else f"{i}_{n}" for i, n in enumerate(stems)]
+    setup = build_setup(scene, objects)
+    if options is not None:
+        setup.options = dict(options)
+    return PreparedScene(scene, info, objects, names, setup)
+
+
+def iter_frames(prep: PreparedScene, n_frames: int, stats: RunStats | None = None):
+    """Yield ``(frame, gaussians_per_object, counts)`` for frame 0 (the input) to ``n_frames``.
+
+    ``counts`` holds ``frame``, ``degenerate`` faces and ``clamped`` scales, and ``sim_s`` (engine
+    wall time) from frame 1 on.
+
+    Raises
+    ------
+    EngineDivergence
+        See :func:`gasp_core.runner.run_engine`.
+    """
+    prev = [o.rot_rest for o in prep.objects]
+
+    def rebuild_all(frame: int, x: np.ndarray):
+        gs, row = [], {"frame": frame, "degenerate": 0, "clamped": 0}
+        for k, o in enumerate(prep.objects):
+            g, prev[k], counts = rebuild(o, x, prev[k])
+            row["degenerate"] += counts["degenerate"]
+            row["clamped"] += counts["clamped"]
+            gs.append(g)
+        return gs, row
+
+    gs, row = rebuild_all(0, prep.setup.x)
+    yield 0, gs, row
+    for rec in run_engine(prep.info, prep.setup, n_frames, stats):
+        gs, row = rebuild_all(rec.frame, rec.x)
+        row["sim_s"] = rec.wall_s
+        yield rec.frame, gs, row
+
+
 def _versions(info: EngineInfo) -> dict:
     out = {"gasp": __version__, "python": platform.python_version()}
     for dist in ("numpy", "pluggy", "plyfile", "scipy", info.distribution):
@@ -315,49 +385,31 @@ def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
     if outdir.exists() and not overwrite:
         raise FileExistsError(f"output folder '{outdir}' exists; pass --overwrite to replace it")
     n_frames = scene.n_frames if n_frames is None else n_frames
-    info = get_engine(engine or scene.engine.name)
-    check_capabilities(info, scene)
-    objects = [prepare_object(spec) for spec in scene.objects]
-    names = [o.name if [p.name for p in objects].count(o.name) == 1 else f"{i}_{o.name}"
-             for i, o in enumerate(objects)]
-    setup = build_setup(scene, objects)
+    prep = prepare_scene(scene, engine)
+    info, objects, names, setup = prep.info, prep.objects, prep.names, prep.setup
 
     outdir.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(dir=outdir.parent, prefix=f".{outdir.name}.partial-"))
     try:
         for name in names:
             (tmp / name).mkdir()
-        prev = [o.rot_rest for o in objects]
         per_frame = []
-
-        def write(frame: int, x: np.ndarray) -> tuple[list[Gaussians], dict]:
-            gs, row = [], {"frame": frame, "degenerate": 0, "clamped": 0}
-            for k, (o, name) in enumerate(zip(objects, names)):
-                g, prev[k], counts = rebuild(o, x, prev[k])
-                write_gaussians(tmp / name / f"frame_{frame:04d}.ply", g)
-                row["degenerate"] += counts["degenerate"]
-                row["clamped"] += counts["clamped"]
-                gs.append(g)
-            return gs, row
-
-        gs, row = write(0, setup.x)
-        per_frame.append(row)
         stats = RunStats()
         bar = None
         if progress:
             from tqdm import tqdm
             bar = tqdm(total=n_frames, unit="frame", desc=f"{info.name}", leave=True)
         t_run = time.perf_counter()
-        for rec in run_engine(info, setup, n_frames, stats):
+        for frame, gs, row in iter_frames(prep, n_frames, stats):
             t0 = time.perf_counter()
-            gs, row = write(rec.frame, rec.x)
-            row["sim_s"] = rec.wall_s
+            for g, name in zip(gs, names):
+                write_gaussians(tmp / name / f"frame_{frame:04d}.ply", g)
             row["write_s"] = time.perf_counter() - t0
             per_frame.append(row)
-            if bar is not None:
+            if bar is not None and frame > 0:
                 bar.update(1)
             if on_frame is not None:
-                on_frame(rec.frame, gs)
+                on_frame(frame, gs)
         if bar is not None:
             bar.close()
         summary = {
