@@ -570,7 +570,9 @@ def _eval_spinning(info: EngineInfo, tr: Trace) -> list[Check]:
 
 
 # --- cantilever (Euler-Bernoulli) -----------------------------------------------------------
-CANT_L, CANT_H, CANT_X0 = 0.5, 0.1, 0.2  # free length, square section side, clamp position (m)
+CANT_L, CANT_H = 0.5, 0.1  # free length, side of the square section (m)
+CANT_X0 = 6 / 32  # clamp face on a grid node at n_grid 32 (m)
+CANT_X0_OFFGRID = 6.6 / 32  # clamp face 0.6 dx past a node: the answer must not change
 CANT_E, CANT_RHO = 4.6e6, 1000.0
 CANT_TOL = 0.30
 
@@ -585,17 +587,22 @@ def cantilever_deflection(E: float = CANT_E, rho: float = CANT_RHO, L: float = C
     return 1.5 * rho * g * L ** 4 / (E * h ** 2)
 
 
-def _build_cantilever(info: EngineInfo) -> SimSetup:
-    dx = 1.0 / 32
-    lo = (CANT_X0 - 0.1, 0.5 - CANT_H / 2, 0.55)
-    hi = (CANT_X0 + CANT_L, 0.5 + CANT_H / 2, 0.55 + CANT_H)
-    x, p_vol = box_points(lo, hi, dx / 2)
-    clamp = Boundary("fixed_region", lo=(0.0, 0.0, 0.0), hi=(CANT_X0, 1.0, 1.0))
-    return _setup(x, p_vol, Material("jelly", E=CANT_E, nu=0.0, rho=CANT_RHO), n_grid=32,
-                  boundaries=[clamp], frame_dt=0.02)
+def _cantilever_builder(x0: float) -> Callable[[EngineInfo], SimSetup]:
+    def build(info: EngineInfo) -> SimSetup:
+        dx = 1.0 / 32
+        lo = (x0 - 0.1, 0.5 - CANT_H / 2, 0.55)
+        hi = (x0 + CANT_L, 0.5 + CANT_H / 2, 0.55 + CANT_H)
+        x, p_vol = box_points(lo, hi, dx / 2)
+        clamp = Boundary("fixed_region", lo=(0.0, 0.0, 0.0), hi=(x0, 1.0, 1.0))
+        return _setup(x, p_vol, Material("jelly", E=CANT_E, nu=0.0, rho=CANT_RHO), n_grid=32,
+                      boundaries=[clamp], frame_dt=0.02)
+    return build
 
 
 def _eval_cantilever(info: EngineInfo, tr: Trace) -> list[Check]:
+    """Tolerance 30%: the section is 3.2 cells thick at n_grid 32 (coarse bending), the clamp is
+    smeared over +-dx/2 (L^4: +-13% at L = 16 dx), shear deformation adds ~3% at L/h = 5 and the
+    time average over ~4.4 periods of the first mode leaves up to ~4% of the oscillation."""
     x0 = tr.x[0]
     tip = x0[:, 0] > x0[:, 0].max() - 1e-9
     w = tr.x[:, tip, 2].mean(axis=1) - x0[tip, 2].mean()
@@ -606,8 +613,8 @@ def _eval_cantilever(info: EngineInfo, tr: Trace) -> list[Check]:
     rel = abs(mean_defl - expected) / expected
     return [_check("tip_deflection", rel, CANT_TOL,
                    f"|time-averaged tip deflection - Euler-Bernoulli| / EB "
-                   f"(measured {mean_defl * 1e3:.2f} mm, EB {expected * 1e3:.2f} mm)",
-                   measured=mean_defl, expected=expected)]
+                   f"(measured {mean_defl * 1e3:.2f} mm, EB {expected * 1e3:.2f} mm, "
+                   f"largest {-w.min() * 1e3:.2f} mm)", measured=mean_defl, expected=expected)]
 
 
 # --- sand column collapse -------------------------------------------------------------------
@@ -802,8 +809,12 @@ SCENES: list[Scene] = [
           Requires(frozenset({"jelly"})), _build_spinning, 15, _eval_spinning),
     Scene("cantilever", f"clamped square bar (L 0.5 m, h 0.1 m) under gravity: time-averaged tip "
           f"deflection vs Euler-Bernoulli within {CANT_TOL:.0%}",
-          Requires(frozenset({"jelly"}), frozenset({"fixed_region"})), _build_cantilever, 50,
-          _eval_cantilever),
+          Requires(frozenset({"jelly"}), frozenset({"fixed_region"})), _cantilever_builder(CANT_X0),
+          50, _eval_cantilever),
+    Scene("cantilever_offgrid", "the cantilever with its clamp face 0.6 dx past a grid node: same "
+          f"Euler-Bernoulli tolerance {CANT_TOL:.0%}",
+          Requires(frozenset({"jelly"}), frozenset({"fixed_region"})),
+          _cantilever_builder(CANT_X0_OFFGRID), 50, _eval_cantilever),
     Scene("sand_collapse", f"sand column (aspect 1) collapse: final flank angle within "
           f"{SAND_TOL_DEG:.0f} deg of the friction angle",
           Requires(frozenset({"sand"}), frozenset({"ground", "walls"})), _build_sand, 40, _eval_sand),
