@@ -185,6 +185,7 @@ class TaichiMPMEngine:
             n_grid=setup.n_grid, lo=setup.domain_lo, dx=dx, dt=self.dt, gravity=setup.gravity,
             walls=walls, grounds=grounds, regions=regions, real=real,
             n_chunks=threads or 1, atomic=atomic)
+        self._p2g_mode = "atomic" if atomic else f"private grids x{self.solver.n_chunks}"
         self.frame = 0
         self._x = setup.x.astype(np.float32 if real == ti.f32 else np.float64)
         self._v = setup.v.astype(self._x.dtype)
@@ -215,8 +216,8 @@ class TaichiMPMEngine:
         s.reset_out()
         s.substeps(self.n_substeps)
         self.frame += 1
-        x = s.x.to_numpy()[self._inverse]
-        v = s.v.to_numpy()[self._inverse]
+        x = s.get(s.x)[self._inverse]
+        v = s.get(s.v)[self._inverse]
         n_out = int(s.n_out[None])
         self._x, self._v = x, v
         finite = np.isfinite(x).all(axis=1) & np.isfinite(v).all(axis=1)
@@ -254,7 +255,7 @@ class TaichiMPMEngine:
             "n_grid": int(self.setup.n_grid),
             "dx": float(self.setup.dx),
             "threads": self.threads,
-            "p2g": "atomic" if self.solver.atomic else f"private grids x{self.solver.n_chunks}",
+            "p2g": self._p2g_mode,
             "frame": self.frame,
         }
 

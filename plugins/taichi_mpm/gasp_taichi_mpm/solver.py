@@ -123,6 +123,9 @@ class MPMSolver:
                  gravity, walls, grounds, regions, real, n_chunks, atomic):
         n = len(x)
         self.n = n
+        # Field sizes are rounded up so that Taichi's offline cache (keyed on the kernel IR and
+        # the field layout) is hit by scenes of similar size; the live count is a field.
+        cap = max(1024, 1 << (n - 1).bit_length())
         self.real = real
         self.n_grid = int(n_grid)
         self.atomic = bool(atomic)
@@ -130,64 +133,100 @@ class MPMSolver:
         self.kinds = frozenset(int(k) for k in kinds)
         self.multi_kind = len(self.kinds) > 1
         self.any_fixed = bool(np.any(fixed))
-        self.walls = walls
-        self.grounds = grounds
-        self.regions = regions
-        self.lo_c = tuple(float(a) for a in lo)
-        self.dx_c = float(dx)
-        self.inv_dx_c = 1.0 / float(dx)
-        self.dt_c = float(dt)
-        self.g_c = tuple(float(a) for a in gravity)
+        self.n_walls, self.n_grounds, self.n_regions = len(walls), len(grounds), len(regions)
 
-        vec3 = ti.types.vector(3, real)
-        self.x = ti.Vector.field(3, real, shape=n)
-        self.v = ti.Vector.field(3, real, shape=n)
-        self.C = ti.Matrix.field(3, 3, real, shape=n)
-        self.F = ti.Matrix.field(3, 3, real, shape=n)
-        self.Jp = ti.field(real, shape=n)
-        self.p_mass = ti.field(real, shape=n)
-        self.p_vol = ti.field(real, shape=n)
-        self.body = ti.field(ti.i32, shape=n)
-        self.fixed = ti.field(ti.i8, shape=n)
+        self.x = ti.Vector.field(3, real, shape=cap)
+        self.v = ti.Vector.field(3, real, shape=cap)
+        self.C = ti.Matrix.field(3, 3, real, shape=cap)
+        self.F = ti.Matrix.field(3, 3, real, shape=cap)
+        self.Jp = ti.field(real, shape=cap)
+        self.p_mass = ti.field(real, shape=cap)
+        self.p_vol = ti.field(real, shape=cap)
+        self.body = ti.field(ti.i32, shape=cap)
+        self.fixed = ti.field(ti.i8, shape=cap)
         n_bodies = len(kinds)
-        self.kind = ti.field(ti.i32, shape=n_bodies)
-        self.mat = ti.Vector.field(N_PARAMS, real, shape=n_bodies)
+        bcap = max(4, 1 << (n_bodies - 1).bit_length())
+        self.kind = ti.field(ti.i32, shape=bcap)
+        self.mat = ti.Vector.field(N_PARAMS, real, shape=bcap)
         ng = self.n_grid
         self.grid_acc = ti.Vector.field(4, real, shape=(self.n_chunks, ng, ng, ng))
         self.grid_v = ti.Vector.field(3, real, shape=(ng, ng, ng))
         self.box = ti.Vector.field(3, ti.i32, shape=(self.n_chunks, 2))  # touched node box per chunk
         self.n_out = ti.field(ti.i32, shape=())  # out-of-grid point-substeps since last reset
-        del vec3
-
-        np_real = np.float32 if real == ti.f32 else np.float64
-        self.x.from_numpy(np.asarray(x, np_real))
-        self.v.from_numpy(np.asarray(v, np_real))
-        eye = np.broadcast_to(np.eye(3, dtype=np_real), (n, 3, 3))
-        self.F.from_numpy(np.ascontiguousarray(eye))
-        self.C.from_numpy(np.zeros((n, 3, 3), np_real))
-        self.Jp.from_numpy(np.asarray(jp0, np_real))
-        self.p_mass.from_numpy(np.asarray(p_mass, np_real))
-        self.p_vol.from_numpy(np.asarray(p_vol, np_real))
-        self.body.from_numpy(np.asarray(body, np.int32))
-        self.fixed.from_numpy(np.asarray(fixed, np.int8))
-        self.kind.from_numpy(np.asarray(kinds, np.int32))
-        self.mat.from_numpy(np.asarray(params, np_real))
-        self.grid_acc.fill(0)
-        self.grid_v.fill(0)
-        bounds = np.linspace(0, n, self.n_chunks + 1).round().astype(np.int64)
+        self.n_points = ti.field(ti.i32, shape=())
         self.chunk_lo = ti.field(ti.i32, shape=self.n_chunks)
         self.chunk_hi = ti.field(ti.i32, shape=self.n_chunks)
-        self.chunk_lo.from_numpy(bounds[:-1].astype(np.int32))
-        self.chunk_hi.from_numpy(bounds[1:].astype(np.int32))
+        # scalars: dt, dx, inv_dx; vectors: lo, gravity
+        self.sc = ti.field(real, shape=3)
+        self.lo = ti.Vector.field(3, real, shape=())
+        self.gravity = ti.Vector.field(3, real, shape=())
+        nb = 4
+        self.wall_fric = ti.field(real, shape=nb)
+        self.wall_hi_first = ti.Vector.field(3, ti.i32, shape=nb)
+        self.ground_fric = ti.field(real, shape=nb)
+        self.ground_kmax = ti.field(ti.i32, shape=nb)
+        self.reg_lo = ti.Vector.field(3, ti.i32, shape=nb)
+        self.reg_hi = ti.Vector.field(3, ti.i32, shape=nb)
+        if max(self.n_walls, self.n_grounds, self.n_regions) > nb:
+            raise ValueError(f"at most {nb} boundaries of each kind")
+
+        np_real = np.float32 if real == ti.f32 else np.float64
+
+        def put(field, arr, dtype, fill=0):
+            a = np.asarray(arr, dtype)
+            shape = tuple(field.shape) + a.shape[1:]
+            buf = np.full(shape, fill, dtype)
+            buf[:len(a)] = a
+            field.from_numpy(buf)
+
+        put(self.x, x, np_real)
+        put(self.v, v, np_real)
+        put(self.F, np.broadcast_to(np.eye(3), (n, 3, 3)), np_real)
+        put(self.C, np.zeros((n, 3, 3)), np_real)
+        put(self.Jp, jp0, np_real)
+        put(self.p_mass, p_mass, np_real)
+        put(self.p_vol, p_vol, np_real)
+        put(self.body, body, np.int32)
+        put(self.fixed, fixed, np.int8)
+        put(self.kind, kinds, np.int32)
+        put(self.mat, params, np_real)
+        self.n_points[None] = n
+        self.sc.from_numpy(np.array([dt, dx, 1.0 / dx], np_real))
+        self.lo[None] = [float(a) for a in lo]
+        self.gravity[None] = [float(a) for a in gravity]
+        for i, (fr, _, hi_first) in enumerate(walls):
+            self.wall_fric[i] = fr
+            self.wall_hi_first[i] = hi_first
+        for i, (fr, kmax) in enumerate(grounds):
+            self.ground_fric[i] = fr
+            self.ground_kmax[i] = kmax
+        for i, (rlo, rhi) in enumerate(regions):
+            self.reg_lo[i] = rlo
+            self.reg_hi[i] = rhi
+        self.grid_acc.fill(0)
+        self.grid_v.fill(0)
+        bounds = np.linspace(0, n, self.n_chunks + 1).round().astype(np.int32)
+        self.chunk_lo.from_numpy(bounds[:-1].copy())
+        self.chunk_hi.from_numpy(bounds[1:].copy())
         self._init_box()
+
+    def get(self, field) -> np.ndarray:
+        """A particle field as NumPy, first ``n`` rows (solver order)."""
+        return field.to_numpy()[:self.n]
+
+    def set(self, field, arr) -> None:
+        """Overwrite the first ``n`` rows of a particle field (solver order)."""
+        buf = field.to_numpy()
+        buf[:self.n] = arr
+        field.from_numpy(buf)
 
     # ------------------------------------------------------------------ driver
     def substeps(self, n_substeps: int) -> None:
         """Advance ``n_substeps`` substeps (P2G, grid update, G2P each), no host sync in between."""
-        self.p2g()
+        self.g2p_p2g(0)
         for s in range(n_substeps - 1):
             self.grid_update()
-            self.g2p_p2g()
+            self.g2p_p2g(1)
         self.grid_update()
         self.g2p()
 
@@ -200,8 +239,7 @@ class MPMSolver:
 
     @ti.func
     def _base_fx(self, xp):
-        lo = ti.Vector(self.lo_c, dt=self.real)
-        X = (xp - lo) * self.inv_dx_c
+        X = (xp - self.lo[None]) * self.sc[2]
         base = ti.cast(ti.floor(X - 0.5), ti.i32)
         ok = base.min() >= 0 and base.max() <= self.n_grid - 3
         fx = X - ti.cast(base, self.real)
@@ -345,13 +383,14 @@ class MPMSolver:
         if not ok:
             ti.atomic_add(self.n_out[None], 1)
         else:
-            dt = self.dt_c
+            dt = self.sc[0]
+            inv_dx = self.sc[2]
             C = self.C[p]
             F = (ti.Matrix.identity(self.real, 3) + dt * C) @ self.F[p]
             tau = self._constitutive(p, F)
             m = self.p_mass[p]
-            dx = self.dx_c
-            affine = (-dt * self.p_vol[p] * 4.0 * self.inv_dx_c * self.inv_dx_c) * tau + m * C
+            dx = self.sc[1]
+            affine = (-dt * self.p_vol[p] * 4.0 * inv_dx * inv_dx) * tau + m * C
             A = affine * dx
             mv0 = m * self.v[p] - A @ fx
             w = self._weights(fx)
@@ -397,44 +436,29 @@ class MPMSolver:
                     B[0, 2] += ti.static(float(k)) * gv[0]
                     B[1, 2] += ti.static(float(k)) * gv[1]
                     B[2, 2] += ti.static(float(k)) * gv[2]
-            new_C = (4.0 * self.inv_dx_c) * (B - new_v.outer_product(fx))
+            new_C = (4.0 * self.sc[2]) * (B - new_v.outer_product(fx))
             if ti.static(self.any_fixed):
                 if self.fixed[p] != 0:
                     new_v = ti.Vector.zero(self.real, 3)
                     new_C = ti.Matrix.zero(self.real, 3, 3)
             self.v[p] = new_v
             self.C[p] = new_C
-            self.x[p] += self.dt_c * new_v
+            self.x[p] += self.sc[0] * new_v
 
     # ------------------------------------------------------------------ kernels
     @ti.kernel
-    def p2g(self):
-        """P2G alone (first substep of a frame)."""
-        if ti.static(self.atomic):
-            for p in range(self.n):
-                self._p2g_point(p, 0, ti.Vector([0, 0, 0]), ti.Vector([0, 0, 0]))
-        else:
-            ti.loop_config(block_dim=1)
-            for t in range(self.n_chunks):
-                bmin = ti.Vector([self.n_grid, self.n_grid, self.n_grid])
-                bmax = ti.Vector([-1, -1, -1])
-                for p in range(self.chunk_lo[t], self.chunk_hi[t]):
-                    bmin, bmax = self._p2g_point(p, t, bmin, bmax)
-                self.box[t, 0] = bmin
-                self.box[t, 1] = bmax
-
-    @ti.kernel
     def g2p(self):
         """G2P alone (last substep of a frame)."""
-        for p in range(self.n):
+        for p in range(self.n_points[None]):
             self._g2p_point(p)
 
     @ti.kernel
-    def g2p_p2g(self):
-        """G2P of one substep fused with the P2G of the next."""
+    def g2p_p2g(self, with_g2p: ti.i32):
+        """G2P of one substep (if ``with_g2p``) fused with the P2G of the next."""
         if ti.static(self.atomic):
-            for p in range(self.n):
-                self._g2p_point(p)
+            for p in range(self.n_points[None]):
+                if with_g2p:
+                    self._g2p_point(p)
                 self._p2g_point(p, 0, ti.Vector([0, 0, 0]), ti.Vector([0, 0, 0]))
         else:
             ti.loop_config(block_dim=1)
@@ -442,13 +466,14 @@ class MPMSolver:
                 bmin = ti.Vector([self.n_grid, self.n_grid, self.n_grid])
                 bmax = ti.Vector([-1, -1, -1])
                 for p in range(self.chunk_lo[t], self.chunk_hi[t]):
-                    self._g2p_point(p)
+                    if with_g2p:
+                        self._g2p_point(p)
                     bmin, bmax = self._p2g_point(p, t, bmin, bmax)
                 self.box[t, 0] = bmin
                 self.box[t, 1] = bmax
 
     @ti.func
-    def _friction(self, v, d: ti.template(), sign: ti.template(), mu_b: ti.template()):
+    def _friction(self, v, d: ti.template(), sign: ti.template(), mu_b):
         """taichi_elements' separate collider with Coulomb friction, normal ``sign * e_d``."""
         vn = sign * v[d]
         if vn < 0.0:
@@ -484,20 +509,20 @@ class MPMSolver:
                 self.grid_acc[t, I] = ti.Vector.zero(self.real, 4)
             v = ti.Vector.zero(self.real, 3)
             if acc[3] > 0.0:
-                v = ti.Vector([acc[0], acc[1], acc[2]]) / acc[3] + self.dt_c * ti.Vector(self.g_c, dt=self.real)
-                for wall in ti.static(self.walls):
+                v = ti.Vector([acc[0], acc[1], acc[2]]) / acc[3] + self.sc[0] * self.gravity[None]
+                for b in ti.static(range(self.n_walls)):
+                    mu_b = self.wall_fric[b]
+                    hi_first = self.wall_hi_first[b]
                     for d in ti.static(range(3)):
-                        if I[d] < ti.static(wall[1][d]):
-                            v = self._friction(v, d, 1.0, wall[0])
-                        if I[d] >= ti.static(wall[2][d]):
-                            v = self._friction(v, d, -1.0, wall[0])
-                for ground in ti.static(self.grounds):
-                    if I[2] <= ti.static(ground[1]):
-                        v = self._friction(v, 2, 1.0, ground[0])
-                for reg in ti.static(self.regions):
-                    if (I[0] >= ti.static(reg[0][0]) and I[0] <= ti.static(reg[1][0])
-                            and I[1] >= ti.static(reg[0][1]) and I[1] <= ti.static(reg[1][1])
-                            and I[2] >= ti.static(reg[0][2]) and I[2] <= ti.static(reg[1][2])):
+                        if I[d] < 3:
+                            v = self._friction(v, d, 1.0, mu_b)
+                        if I[d] >= hi_first[d]:
+                            v = self._friction(v, d, -1.0, mu_b)
+                for b in ti.static(range(self.n_grounds)):
+                    if I[2] <= self.ground_kmax[b]:
+                        v = self._friction(v, 2, 1.0, self.ground_fric[b])
+                for b in ti.static(range(self.n_regions)):
+                    if (I >= self.reg_lo[b]).all() and (I <= self.reg_hi[b]).all():
                         v = ti.Vector.zero(self.real, 3)
             self.grid_v[I] = v
 

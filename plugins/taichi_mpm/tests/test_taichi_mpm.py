@@ -1,0 +1,350 @@
+"""Tests of the taichi_mpm engine against physics with known answers and a NumPy transcription
+of docs/mpm.md. Small grids (16-32) and a few thousand points keep the run short on 2 cores."""
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from gasp_core.engine import Boundary, EngineDivergence, EngineError, Material, SceneError, SimSetup
+
+pytest.importorskip("taichi")
+
+from gasp_taichi_mpm.engine import TaichiMPMEngine  # noqa: E402
+
+G = 9.81
+
+
+def block_setup(lo=(0.4, 0.4, 0.4), size=(0.2, 0.2, 0.2), n_grid=16, ppc_axis=2, material=None,
+                boundaries=(), gravity=(0.0, 0.0, -G), v=(0.0, 0.0, 0.0), domain_hi=(1.0, 1.0, 1.0),
+                **options):
+    """A box of points on a regular lattice, ``ppc_axis**3`` points per grid cell."""
+    dx = max(domain_hi) / n_grid
+    h = dx / ppc_axis
+    axes = [np.arange(int(round(s / h))) * h + h / 2 + o for s, o in zip(size, lo)]
+    x = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    return SimSetup(x=x, v=np.asarray(v, float), p_vol=h ** 3, body_id=0,
+                    materials=[material or Material("jelly", E=1e4, nu=0.3, rho=1000.0)],
+                    gravity=np.asarray(gravity, float), domain_lo=np.zeros(3),
+                    domain_hi=np.asarray(domain_hi, float), n_grid=n_grid,
+                    boundaries=list(boundaries), options=options)
+
+
+def run(setup, n_frames):
+    e = TaichiMPMEngine(setup)
+    for _ in range(n_frames):
+        e.step_frame()
+    return e
+
+
+# ---------------------------------------------------------------- plugin registration
+def test_plugin_is_registered_and_import_is_cheap():
+    from gasp_core.plugins import engines
+    info = engines()["taichi_mpm"]
+    assert info.capabilities.grid_based
+    assert info.unavailable_reason() is None
+    code = "import sys, gasp_taichi_mpm; assert 'taichi' not in sys.modules, 'taichi imported'"
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
+# ---------------------------------------------------------------- physics with known answers
+def test_free_fall_matches_g_t2_over_2():
+    s = block_setup(lo=(0.4, 0.4, 0.6), n_grid=32, material=Material("jelly", E=1e5))
+    e = run(s, 6)  # 0.2 s in 6 x 31 substeps: symplectic Euler adds 1/186 = 0.5 %
+    t = 6 * s.frame_dt
+    drop = s.x[:, 2].mean() - e.positions()[:, 2].mean()
+    assert drop == pytest.approx(0.5 * G * t ** 2, rel=0.01)
+    # the block stays rigid in free fall: no relative motion
+    rel = e.positions() - e.positions().mean(0) - (s.x - s.x.mean(0))
+    assert np.abs(rel).max() < 1e-4
+
+
+def test_block_dropped_on_ground_comes_to_rest_above_it():
+    height = 0.2
+    s = block_setup(lo=(0.4, 0.4, 0.3), size=(0.2, 0.2, 0.15), n_grid=16,
+                    boundaries=[Boundary("ground", height=height, friction=0.5)])
+    e = TaichiMPMEngine(s)
+    z_min, speeds, z_mean = [], [], []
+    for _ in range(90):  # 3 s
+        e.step_frame()
+        x, v = e.positions(), e.velocities()
+        assert np.isfinite(x).all() and np.isfinite(v).all()
+        z_min.append(x[:, 2].min())
+        speeds.append(np.linalg.norm(v, axis=1).max())
+        z_mean.append(x[:, 2].mean())
+    assert min(z_min) > height - s.dx  # never through the ground
+    impact = np.sqrt(2 * G * (s.x[:, 2].min() - height))  # 1.4 m/s
+    assert max(speeds[-10:]) < 0.2 * impact  # the bounces died down
+    assert height < np.mean(z_mean[-10:]) < height + 0.15  # resting on the ground, not sunk
+
+
+def test_momentum_is_conserved_without_gravity_and_boundaries():
+    s = block_setup(n_grid=16, gravity=(0, 0, 0), material=Material("jelly", E=2e4))
+    c = s.x.mean(0)
+    omega = np.array([0.0, 0.0, 3.0])
+    v = np.array([0.3, -0.2, 0.1]) + np.cross(omega, s.x - c)  # translation and spin
+    s = s.replace(v=v)
+    p0 = (s.p_mass[:, None] * s.v).sum(0)
+    e = run(s, 5)
+    p1 = (s.p_mass[:, None] * e.velocities().astype(np.float64)).sum(0)
+    assert np.abs(p1 - p0).max() < 1e-5 * np.abs(p0).max()
+
+
+@pytest.mark.parametrize("name", ["jelly", "neo_hookean", "metal", "sand", "snow", "plasticine", "liquid"])
+def test_each_material_runs_finite(name):
+    mat = Material(name, E=2e4, nu=0.3, yield_stress=500.0)
+    s = block_setup(lo=(0.4, 0.4, 0.1), size=(0.2, 0.2, 0.2), material=mat,
+                    boundaries=[Boundary("ground", height=0.1)])
+    e = run(s, 3)
+    assert np.isfinite(e.positions()).all() and np.isfinite(e.velocities()).all()
+    assert e.positions()[:, 2].min() > 0.1 - s.dx
+
+
+@pytest.mark.parametrize("name", ["sand", "liquid"])
+def test_sand_and_liquid_spread(name):
+    s = block_setup(lo=(0.4, 0.4, 0.15), size=(0.2, 0.2, 0.2), n_grid=16,
+                    material=Material(name, E=2e4, nu=0.3, friction_angle=30.0),
+                    boundaries=[Boundary("ground", height=0.15, friction=0.0 if name == "liquid" else 0.5),
+                                Boundary("walls", friction=0.0)])
+    e = run(s, 15)  # 0.5 s
+    x = e.positions()
+    assert (x > -s.dx).all() and (x < 1 + s.dx).all()  # held by the walls
+    top0 = np.percentile(s.x[:, 2], 95)
+    assert np.percentile(x[:, 2], 95) < top0 - 0.04  # the top dropped
+    width0 = np.ptp(s.x[:, 0])
+    assert np.ptp(x[:, 0]) > width0 + 0.04  # and it spread sideways
+
+
+def test_elastic_block_keeps_its_shape_on_the_ground():
+    """Contrast for the spreading test: jelly does not spread."""
+    s = block_setup(lo=(0.4, 0.4, 0.15), size=(0.2, 0.2, 0.2), n_grid=16,
+                    material=Material("jelly", E=5e4), boundaries=[Boundary("ground", height=0.15)])
+    x = run(s, 15).positions()
+    assert np.ptp(x[:, 0]) < np.ptp(s.x[:, 0]) + 0.02
+
+
+def test_fixed_region_holds_points_while_the_rest_sags():
+    # a cantilever along x: x <= 0.3 is clamped, 0.2 m stick out
+    fixed = Boundary("fixed_region", lo=(0.0, 0.0, 0.0), hi=(0.3, 1.0, 1.0))
+    s = block_setup(lo=(0.2, 0.45, 0.5), size=(0.3, 0.1, 0.1), n_grid=32,
+                    material=Material("jelly", E=1e6), boundaries=[fixed])
+    e = TaichiMPMEngine(s)
+    inside = s.x[:, 0] <= 0.3
+    tip = s.x[:, 0] > 0.45
+    sags = []
+    for _ in range(6):
+        e.step_frame()
+        x = e.positions()
+        assert np.array_equal(x[inside], s.x[inside].astype(x.dtype))
+        sags.append(s.x[tip, 2].mean() - x[tip, 2].mean())
+    # Euler-Bernoulli static tip deflection rho g L^4 12 / (8 E a^2) = 2.4 mm; it swings about it
+    assert max(sags) > 0.003
+    assert max(sags) < 0.03  # held back, unlike free fall (0.196 m after 0.2 s)
+
+
+# ---------------------------------------------------------------- blow-ups
+def test_point_leaving_the_domain_raises_divergence_naming_the_frame():
+    s = block_setup(gravity=(0, 0, 0))
+    x = np.vstack([s.x, [[0.85, 0.5, 0.5]]])
+    v = np.zeros_like(x)
+    v[-1] = [1.0, 0.0, 0.0]  # reaches the grid limit x = (n_grid - 1.5) dx = 0.906 at t = 0.056 s
+    s = s.replace(x=x, v=v, p_vol=np.full(len(x), s.p_vol[0]), body_id=np.zeros(len(x), np.int32))
+    e = TaichiMPMEngine(s)
+    e.step_frame()
+    with pytest.raises(EngineDivergence, match="frame 2") as info:
+        e.step_frame()
+    assert info.value.frame == 2
+    assert "left the domain" in info.value.cause
+
+
+def test_huge_time_step_raises_divergence_not_nan_positions():
+    s = block_setup(lo=(0.4, 0.4, 0.1), material=Material("jelly", E=1e7),
+                    boundaries=[Boundary("ground", height=0.1)], n_substeps=1)
+    e = TaichiMPMEngine(s)
+    with pytest.raises(EngineDivergence) as info:
+        for _ in range(30):
+            e.step_frame()
+            assert np.isfinite(e.positions()).all()
+    assert "time step" in info.value.cause
+
+
+# ---------------------------------------------------------------- options, precision, determinism
+def test_threads_1_is_bit_for_bit_deterministic():
+    s = block_setup(lo=(0.4, 0.4, 0.1), boundaries=[Boundary("ground", height=0.1)], threads=1)
+    a = run(s, 4).positions()
+    b = run(s, 4).positions()
+    assert np.array_equal(a, b)
+
+
+def test_unknown_option_is_a_scene_error_naming_it():
+    with pytest.raises(SceneError, match="substep"):
+        TaichiMPMEngine(block_setup(substep=10))
+    with pytest.raises(SceneError, match="precision"):
+        TaichiMPMEngine(block_setup(precision="f16"))
+
+
+def test_cuda_without_gpu_is_an_engine_error():
+    import taichi as ti
+    if ti.lang.misc.is_arch_supported(ti.cuda):
+        pytest.skip("this machine has CUDA")
+    with pytest.raises(EngineError, match="cuda"):
+        TaichiMPMEngine(block_setup(device="cuda"))
+
+
+def test_f64_works_and_agrees_with_f32():
+    s = block_setup(lo=(0.4, 0.4, 0.1), boundaries=[Boundary("ground", height=0.1)])
+    x64 = run(s.replace(options={"precision": "f64"}), 6).positions()
+    assert x64.dtype == np.float64
+    x32 = run(s, 6).positions()
+    assert x32.dtype == np.float32
+    assert np.abs(x64 - x32).max() < 1e-3 * 0.2
+
+
+def test_old_engine_is_invalidated_by_a_new_one():
+    s = block_setup()
+    a = TaichiMPMEngine(s)
+    TaichiMPMEngine(s)
+    with pytest.raises(EngineError, match="invalidated"):
+        a.step_frame()
+
+
+def test_stats_report_the_time_step_from_gasp_core_physics():
+    from gasp_core.physics import mpm_stable_dt, substeps_for
+    s = block_setup()
+    st = TaichiMPMEngine(s).stats()
+    n, dt = substeps_for(s.frame_dt, mpm_stable_dt(s.materials, s.dx, s.gravity, 1.0, 0.0, 0.4))
+    assert (st["n_substeps"], st["dt"]) == (n, pytest.approx(dt))
+    assert st["n_points"] == len(s.x) and st["n_grid"] == 16 and st["device"] == "cpu"
+
+
+# ---------------------------------------------------------------- one substep against docs/mpm.md in NumPy
+def _svd_proper(F):
+    U, sig, Vt = np.linalg.svd(F)
+    V = Vt.T
+    if np.linalg.det(U) < 0:
+        U[:, 2] *= -1
+        sig[2] *= -1
+    if np.linalg.det(V) < 0:
+        V[:, 2] *= -1
+        sig[2] *= -1
+    return U, sig, V
+
+
+def _spec_stress(m, F, Jp):
+    """The constitutive table of docs/mpm.md, literally. Returns tau, F, Jp."""
+    mu, lam, eye = m.mu, m.lam, np.eye(3)
+    if m.name == "jelly":
+        U, sig, V = _svd_proper(F)
+        J = np.linalg.det(F)
+        return 2 * mu * (F - U @ V.T) @ F.T + lam * J * (J - 1) * eye, F, Jp
+    if m.name == "neo_hookean":
+        J = np.linalg.det(F)
+        return mu * (F @ F.T - eye) + lam * np.log(max(J, 1e-6)) * eye, F, Jp
+    if m.name == "snow":
+        h = np.exp(m.hardening * (1 - Jp))
+        U, sig, V = _svd_proper(F)
+        sc = np.clip(sig, 1 - m.theta_c, 1 + m.theta_s)
+        Jp = Jp * np.prod(sig) / np.prod(sc)
+        F = U @ np.diag(sc) @ V.T
+        J = np.linalg.det(F)
+        return 2 * mu * h * (F - U @ V.T) @ F.T + lam * h * J * (J - 1) * eye, F, Jp
+    if m.name == "liquid":
+        J = np.linalg.det(F)
+        K = m.E / (3 * (1 - 2 * m.nu))
+        return K * J * (J - 1) * eye, np.cbrt(J) * eye, Jp
+    U, sig, V = _svd_proper(F)
+    eps = np.log(np.maximum(sig, 1e-4))
+    tr = eps.sum()
+    e = eps - tr / 3
+    ne = np.linalg.norm(e)
+    if m.name == "sand":
+        s = np.sin(np.radians(m.friction_angle))
+        a = np.sqrt(2 / 3) * 2 * s / (3 - s)
+        if tr >= 0:
+            eps = np.zeros(3)
+        else:
+            dg = ne + (3 * lam + 2 * mu) / (2 * mu) * tr * a
+            if dg > 0:
+                eps = eps - dg * e / ne
+        F = U @ np.diag(np.exp(eps)) @ V.T
+    else:
+        ys = m.yield_stress * (max(0.0, 1 - m.softening * Jp) if m.name == "plasticine" else 1.0)
+        dg = ne - ys / (2 * mu)
+        if dg > 0:
+            eps = eps - dg * e / ne
+            F = U @ np.diag(np.exp(eps)) @ V.T
+        if m.name == "plasticine":
+            Jp = Jp + max(dg, 0.0)
+    tau = U @ np.diag(2 * mu * eps + lam * eps.sum()) @ U.T
+    return tau, F, Jp
+
+
+def _spec_substep(s, x, v, C, F, Jp, dt):
+    """One substep of docs/mpm.md (no boundaries), float64."""
+    ng, dx, lo = s.n_grid, s.dx, s.domain_lo
+    inv_dx = 1 / dx
+    gm = np.zeros((ng,) * 3)
+    gv = np.zeros((ng,) * 3 + (3,))
+    m = s.materials[0]
+    F, Jp = F.copy(), Jp.copy()
+    offsets = [np.array(o) for o in np.ndindex(3, 3, 3)]
+    for p in range(len(x)):
+        X = (x[p] - lo) * inv_dx
+        base = np.floor(X - 0.5).astype(int)
+        fx = X - base
+        w = [0.5 * (1.5 - fx) ** 2, 0.75 - (fx - 1) ** 2, 0.5 * (fx - 0.5) ** 2]
+        Fp = (np.eye(3) + dt * C[p]) @ F[p]
+        tau, F[p], Jp[p] = _spec_stress(m, Fp, Jp[p])
+        pm = s.p_mass[p]
+        affine = -dt * s.p_vol[p] * 4 * inv_dx ** 2 * tau + pm * C[p]
+        for o in offsets:
+            dpos = (o - fx) * dx
+            wt = w[o[0]][0] * w[o[1]][1] * w[o[2]][2]
+            gv[tuple(base + o)] += wt * (pm * v[p] + affine @ dpos)
+            gm[tuple(base + o)] += wt * pm
+    act = gm > 0
+    gv[act] = gv[act] / gm[act][:, None] + dt * s.gravity
+    xn, vn, Cn = x.copy(), np.zeros_like(v), np.zeros_like(C)
+    for p in range(len(x)):
+        X = (x[p] - lo) * inv_dx
+        base = np.floor(X - 0.5).astype(int)
+        fx = X - base
+        w = [0.5 * (1.5 - fx) ** 2, 0.75 - (fx - 1) ** 2, 0.5 * (fx - 0.5) ** 2]
+        for o in offsets:
+            dpos = (o - fx) * dx
+            wt = w[o[0]][0] * w[o[1]][1] * w[o[2]][2]
+            g = gv[tuple(base + o)]
+            vn[p] += wt * g
+            Cn[p] += 4 * inv_dx ** 2 * wt * np.outer(g, dpos)
+        xn[p] += dt * vn[p]
+    return xn, vn, Cn, F, Jp
+
+
+@pytest.mark.parametrize("name", ["jelly", "neo_hookean", "metal", "sand", "snow", "plasticine", "liquid"])
+def test_one_substep_matches_numpy_transcription_of_the_spec(name):
+    rng = np.random.default_rng(7)
+    n = 40
+    mat = Material(name, E=2e4, nu=0.3, yield_stress=300.0, softening=0.5)
+    x = rng.uniform(0.3, 0.7, (n, 3))
+    v = rng.normal(0, 0.2, (n, 3))
+    C = rng.normal(0, 2.0, (n, 3, 3))
+    F = np.eye(3) + rng.normal(0, 0.08, (n, 3, 3))
+    Jp = np.where(name == "plasticine", rng.uniform(0, 0.5, n), rng.uniform(0.98, 1.02, n))
+    s = SimSetup(x=x, v=v, p_vol=rng.uniform(0.5, 1.5, n) * 1e-5, body_id=0, materials=[mat],
+                 gravity=np.array([0.0, 0.0, -G]), domain_lo=np.zeros(3), domain_hi=np.ones(3),
+                 n_grid=16, frame_dt=2e-4, options={"precision": "f64", "n_substeps": 1})
+    e = TaichiMPMEngine(s)
+    o = e._order
+    e.solver.set(e.solver.C, C[o])
+    e.solver.set(e.solver.F, F[o])
+    e.solver.set(e.solver.Jp, Jp[o])
+    e.step_frame()
+    xr, vr, Cr, Fr, Jpr = _spec_substep(s, x, v, C, F, Jp, 2e-4)
+    inv = e._inverse
+    np.testing.assert_allclose(e.velocities(), vr, rtol=0, atol=1e-9 * (1 + np.abs(vr).max()))
+    np.testing.assert_allclose(e.positions(), xr, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(e.solver.get(e.solver.C)[inv], Cr, rtol=0, atol=1e-7 * np.abs(Cr).max())
+    np.testing.assert_allclose(e.solver.get(e.solver.F)[inv], Fr, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(e.solver.get(e.solver.Jp)[inv], Jpr, rtol=0, atol=1e-9)
+    if name in ("metal", "sand", "plasticine", "snow"):
+        assert not np.allclose(Fr, (np.eye(3) + 2e-4 * C) @ F)  # the return mapping was active
