@@ -356,6 +356,7 @@ class GenesisMPMEngine:
             self.frame += 1
             raise EngineDivergence(f"Genesis stopped: {e}", self.frame, CAUSE_DT) from e
         self.frame += 1
+        x_prev = self._x
         x = self._read("get_particles_pos")
         v = self._read("get_particles_vel")
         self._x, self._v = x, v
@@ -373,7 +374,9 @@ class GenesisMPMEngine:
             out = (at_lo | at_hi).any(axis=1)
             if out.any():
                 bad = np.flatnonzero(out)
-                fast = float(np.max(np.linalg.norm(v, axis=1))) * self.dt > self.setup.dx
+                # a point that moved more than dx/2 per substep broke the CFL limit: a blow-up
+                step = float(np.max(np.linalg.norm(x - x_prev, axis=1))) / self.n_substeps
+                fast = step > 0.5 * self.setup.dx
                 raise EngineDivergence(
                     f"{len(bad)} point(s) reached the domain box (first index {bad[0]} at "
                     f"{x[bad[0]].tolist()}); the scene has no walls", self.frame,

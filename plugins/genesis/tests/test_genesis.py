@@ -8,7 +8,8 @@ import pytest
 
 pytest.importorskip("genesis", reason="genesis-world is not installed: pip install 'gasp-genesis[engine]'")
 
-from gasp_core.engine import Boundary, EngineError, Material, SceneError, SimSetup  # noqa: E402
+from gasp_core.engine import (Boundary, EngineDivergence, EngineError, Material, SceneError,  # noqa: E402
+                              SimSetup)
 from gasp_genesis import CAPABILITIES, genesis_available, make_engine  # noqa: E402
 from gasp_genesis.engine import init_genesis  # noqa: E402
 
@@ -105,3 +106,36 @@ def test_block_comes_to_rest_on_ground():
     finally:
         eng.close()
 
+
+
+def test_blow_up_is_engine_divergence():
+    """A stiff block with one substep per frame (dt 30x the elastic limit) blows up."""
+    x, vol = block((0.42, 0.42, 0.40), (0.58, 0.58, 0.50), 1 / 32)
+    eng = make_engine(setup_for(x, vol, material=Material("jelly", E=1e9), options={"n_substeps": 1}))
+    try:
+        with pytest.raises(EngineDivergence, match="time step") as info:
+            for _ in range(30):
+                eng.step_frame()
+        assert 1 <= info.value.frame <= 30
+    finally:
+        eng.close()
+
+
+@pytest.mark.slow
+def test_wall_friction_slows_a_sliding_block():
+    """On the box floor, walls with friction 0 keep the speed; friction 0.5 brakes ~ mu g t."""
+    x, vol = block((0.2, 0.42, 0.19), (0.36, 0.58, 0.29), 1 / 32)
+    v = np.zeros_like(x)
+    v[:, 0] = 2.0
+    speeds = {}
+    for friction in (0.0, 0.5):
+        s = setup_for(x, vol, boundaries=[Boundary("walls", friction=friction)], options={"n_substeps": 20})
+        eng = make_engine(s.replace(v=v))
+        try:
+            for _ in range(3):
+                eng.step_frame()
+            speeds[friction] = float(np.mean(eng.velocities()[:, 0]))
+        finally:
+            eng.close()
+    assert speeds[0.0] == pytest.approx(2.0, rel=0.01)
+    assert 2.0 - speeds[0.5] == pytest.approx(0.5 * G * 0.1, rel=0.3)
