@@ -40,7 +40,7 @@ class FillResult:
     volume: float
 
 
-def fill_interior(points: np.ndarray, h: float, occupied_mask: np.ndarray | None = None,
+def fill_interior(points: np.ndarray, h: float, occupancy: np.ndarray | None = None,
                   fill: bool = True, closing_iterations: int = 1) -> FillResult:
     """Voxelise ``points`` at spacing ``h``, optionally fill the inside, and assign volumes.
 
@@ -50,10 +50,10 @@ def fill_interior(points: np.ndarray, h: float, occupied_mask: np.ndarray | None
         Surface points (the triangle vertices), metres.
     h : float
         Voxel size, metres (``dx / particles_per_cell^(1/3)``).
-    occupied_mask : ndarray, shape (n,), bool, optional
-        Points that mark occupied space (e.g. opaque Gaussians' vertices); all by default. Points
-        not marked still get a volume share when they fall in an occupied voxel, else the volume of
-        one voxel divided by the points there.
+    occupancy : ndarray, shape (m, 3), optional
+        Points that mark occupied space (e.g. the vertices of every opaque Gaussian, also when only
+        core Gaussians are simulated); ``points`` by default. Every simulated point gets the volume
+        of its voxel divided by the simulated points there.
     fill : bool
         Fill the enclosed interior (solids). False: only voxels holding points count (a shell,
         the paper's vertices-only mode).
@@ -75,12 +75,13 @@ def fill_interior(points: np.ndarray, h: float, occupied_mask: np.ndarray | None
     if not h > 0:
         raise ValueError(f"fill_interior: voxel size h must be > 0, got {h}")
     pad = closing_iterations + 2
-    lo = points.min(axis=0) - pad * h
+    occupancy = points if occupancy is None else np.asarray(occupancy, dtype=np.float64).reshape(-1, 3)
+    lo = np.minimum(points.min(axis=0), occupancy.min(axis=0) if len(occupancy) else np.inf) - pad * h
     idx = np.floor((points - lo) / h).astype(np.int64)
-    shape = tuple(int(s) for s in idx.max(axis=0) + pad + 1)
+    mark = np.floor((occupancy - lo) / h).astype(np.int64)
+    shape = tuple(int(s) for s in np.maximum(idx.max(axis=0), mark.max(axis=0, initial=0)) + pad + 1)
     if np.prod(shape, dtype=np.float64) > 512.0 ** 3:
         raise ValueError(f"fill_interior: voxel grid {shape} too large for h = {h:g} m; raise h (fewer particles per cell or a coarser n_grid)")
-    mark = idx if occupied_mask is None else idx[np.asarray(occupied_mask, bool)]
     occ = np.zeros(shape, dtype=bool)
     occ[mark[:, 0], mark[:, 1], mark[:, 2]] = True
     if fill:

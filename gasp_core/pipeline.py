@@ -23,10 +23,11 @@ from typing import Callable
 import numpy as np
 
 from . import __version__
-from .engine import (EngineDivergence, EngineError, EngineInfo, SceneError, SimSetup)
+from .engine import EngineError, EngineInfo, SceneError, SimSetup
 from .fill import fill_interior
 from .games import EPS, FlattenReport, alpha_rule, flatten, gaussians_to_triangles, triangles_to_gaussians
-from .gaussians import Gaussians, quat_to_rotmat, rotmat_to_quat
+from .gaussians import Gaussians, rotmat_to_quat
+from .hierarchy import Hierarchy, build_hierarchy, sub_triangles
 from .io import read_gaussians, write_gaussians
 from .plugins import engines as all_engines, get_engine
 from .runner import RunStats, run_engine
@@ -72,6 +73,8 @@ class PreparedObject:
         Flattened rest rotations and scales, world frame (metres).
     tri_rest : ndarray, shape (n, 3, 3)
         Rest triangles, world frame.
+    hierarchy : Hierarchy or None
+        Core Gaussians and bindings when ``spec.core_fraction < 1``.
     thin_scale : ndarray, shape (n,)
         The input's own thinnest scale, file units (``thickness = "keep"``).
     flatten_report : FlattenReport
@@ -87,6 +90,7 @@ class PreparedObject:
     tri_rest: np.ndarray
     thin_scale: np.ndarray
     flatten_report: FlattenReport
+    hierarchy: Hierarchy | None = None
     vertex_slice: slice = field(default_factory=lambda: slice(0, 0))
     fill_slice: slice = field(default_factory=lambda: slice(0, 0))
     name: str = ""
@@ -122,10 +126,17 @@ def prepare_object(spec: ObjectSpec, g: Gaussians | None = None) -> PreparedObje
     pl = place(g, spec)
     R_world = pl.R @ g.rotmats()
     scales_flat, rot_flat, report = flatten(g.scales * pl.scale, R_world)
-    tri = gaussians_to_triangles(pl.to_world(g.means), rot_flat, scales_flat)
+    means_w = pl.to_world(g.means)
+    tri = gaussians_to_triangles(means_w, rot_flat, scales_flat)
+    hier = build_hierarchy(means_w, tri, spec.core_fraction) if spec.core_fraction < 1.0 else None
     return PreparedObject(spec=spec, gaussians=g, placement=pl, rot_rest=rot_flat,
                           scales_rest=scales_flat, tri_rest=tri, thin_scale=g.scales.min(axis=1),
-                          flatten_report=report, name=Path(spec.file).stem)
+                          flatten_report=report, hierarchy=hier, name=Path(spec.file).stem)
+
+
+def simulated_triangles(o: PreparedObject) -> np.ndarray:
+    """The triangles whose vertices the engine moves: the cores' if there is a hierarchy, else all."""
+    return o.tri_rest if o.hierarchy is None else o.hierarchy.core_tri
 
 
 def default_domain(scene: Scene, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -155,8 +166,8 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
     SceneError
         If an object lies outside an explicit domain.
     """
-    vertices = [o.tri_rest.reshape(-1, 3) for o in objects]
-    lo, hi = default_domain(scene, np.concatenate(vertices))
+    vertices = [simulated_triangles(o).reshape(-1, 3) for o in objects]
+    lo, hi = default_domain(scene, np.concatenate([o.tri_rest.reshape(-1, 3) for o in objects]))
     n_grid = scene.domain.n_grid
     dx = float(np.max(hi - lo)) / n_grid
     h = dx / scene.domain.particles_per_cell ** (1.0 / 3.0)
@@ -164,7 +175,7 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
     start = 0
     for i, (o, verts) in enumerate(zip(objects, vertices)):
         opaque = 1.0 / (1.0 + np.exp(-o.gaussians.opacities.astype(np.float64))) >= o.spec.min_opacity
-        fr = fill_interior(verts, h, occupied_mask=np.repeat(opaque, 3), fill=o.spec.fill)
+        fr = fill_interior(verts, h, occupancy=o.tri_rest[opaque].reshape(-1, 3), fill=o.spec.fill)
         o.vertex_slice = slice(start, start + len(verts))
         start += len(verts)
         xs.append(verts)
@@ -233,6 +244,8 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray) -> tuple[Gau
         ``degenerate`` faces and ``clamped`` scales (alpha rule) this frame.
     """
     tri = x[o.vertex_slice].reshape(-1, 3, 3)
+    if o.hierarchy is not None:
+        tri = sub_triangles(o.hierarchy, tri)
     means_w, rot, scales_w, degenerate = triangles_to_gaussians(tri, fallback=prev_rot)
     clamped = np.zeros((len(tri), 2), bool)
     if o.spec.alpha is not None:
@@ -427,6 +440,8 @@ def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
                 "layout": o.gaussians.layout, "material": dataclasses.asdict(o.spec.material),
                 "up_axis": o.spec.up_axis, "scale": o.spec.scale, "fill": o.spec.fill,
                 "n_fill_points": o.fill_slice.stop - o.fill_slice.start,
+                "core_fraction": o.spec.core_fraction,
+                "n_simulated_gaussians": len(simulated_triangles(o)),
                 "alpha": o.spec.alpha, "thickness": o.spec.thickness,
                 "flatten": o.flatten_report.as_dict(),
                 "placement": {"R": o.placement.R.tolist(), "scale": o.placement.scale,

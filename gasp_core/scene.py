@@ -79,6 +79,9 @@ class ObjectSpec:
     min_opacity : float
         Gaussians below this activated opacity are carried but do not mark occupied space for
         the interior fill.
+    core_fraction : float
+        Share of Gaussians simulated, in (0, 1]: below 1, BIRCH clusters build that many Core
+        Gaussians and the rest follow them (paper Sec. 3, hierarchy; :mod:`gasp_core.hierarchy`).
     """
 
     file: Path
@@ -92,6 +95,7 @@ class ObjectSpec:
     alpha: float | None = 1.5
     thickness: str = "keep"
     min_opacity: float = 0.1
+    core_fraction: float = 1.0
 
 
 @dataclass
@@ -164,6 +168,13 @@ def _positive(value, key: str, src: Path, allow_zero: bool = False) -> float:
     if not ok:
         raise SceneError(f"{src}: '{key}' must be a {'non-negative' if allow_zero else 'positive'} number, got {value!r}")
     return float(value)
+
+
+def _fraction(value, key: str, src: Path) -> float:
+    v = _positive(value, key, src)
+    if v > 1.0:
+        raise SceneError(f"{src}: '{key}' must be in (0, 1], got {value!r}")
+    return v
 
 
 def _material(table: dict, where: str, src: Path) -> Material:
@@ -293,7 +304,8 @@ def parse_scene(data: dict, src: Path) -> Scene:
             velocity=_vec3(o.get("velocity", (0, 0, 0)), f"{where}.velocity", src),
             material=_material(o.get("material", {}), f"{where}.material", src),
             fill=bool(o.get("fill", True)), alpha=alpha, thickness=thickness,
-            min_opacity=_positive(o.get("min_opacity", 0.1), f"{where}.min_opacity", src, allow_zero=True)))
+            min_opacity=_positive(o.get("min_opacity", 0.1), f"{where}.min_opacity", src, allow_zero=True),
+            core_fraction=_fraction(o.get("core_fraction", 1.0), f"{where}.core_fraction", src)))
 
     n_frames = data.get("n_frames", 30)
     if not isinstance(n_frames, int) or isinstance(n_frames, bool) or n_frames < 1:
