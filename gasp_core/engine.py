@@ -168,6 +168,11 @@ class SimSetup:
     options : dict
         Engine options from the scene's ``[engine]`` table (``device``, ``precision``,
         ``dt``, ``n_substeps``, ``cfl``, ...). Each engine validates its own.
+    C : ndarray, shape (n, 3, 3), float64, or None
+        Initial velocity gradient per point, 1/s (APIC's affine matrix ``C``; for a body spinning
+        at angular velocity w it is the cross-product matrix of w). None means zero. Grid engines
+        start their ``C`` from it, so a rotating body does not lose the sub-cell part of its
+        angular momentum in the first transfer; other engines may ignore it.
     """
 
     x: np.ndarray
@@ -183,6 +188,7 @@ class SimSetup:
     frame_dt: float = 1.0 / 30.0
     n_render: int = -1
     options: dict[str, Any] = field(default_factory=dict)
+    C: np.ndarray | None = None
 
     def __post_init__(self):
         self.x = np.ascontiguousarray(self.x, dtype=np.float64)
@@ -197,6 +203,8 @@ class SimSetup:
         self.domain_hi = np.asarray(self.domain_hi, dtype=np.float64).reshape(3)
         if self.n_render < 0:
             self.n_render = n
+        if self.C is not None:
+            self.C = np.ascontiguousarray(np.broadcast_to(self.C, (n, 3, 3)), dtype=np.float64)
         if not np.all(np.isfinite(self.x)):
             bad = int(np.flatnonzero(~np.isfinite(self.x).all(axis=1))[0])
             raise SceneError(f"SimSetup.x: non-finite position at point {bad}")

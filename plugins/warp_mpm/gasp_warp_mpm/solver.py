@@ -205,7 +205,8 @@ class WarpMPMEngine:
         self.x = arr(setup.x[order].astype(dt_np), k.vec3)
         self.v = arr(setup.v[order].astype(dt_np), k.vec3)
         self.F = arr(np.broadcast_to(np.eye(3, dtype=dt_np), (n, 3, 3)), k.mat33)
-        self.C = wp.zeros(n, dtype=k.mat33, device=d)
+        self.C = (wp.zeros(n, dtype=k.mat33, device=d) if setup.C is None
+                  else arr(setup.C[order].astype(dt_np), k.mat33))
         self.Jp = arr(jp0[order].astype(dt_np), Ft)
         self.p_mass = arr(setup.p_mass[order].astype(dt_np), Ft)
         self.p_vol = arr(setup.p_vol[order].astype(dt_np), Ft)
