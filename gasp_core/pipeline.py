@@ -28,7 +28,7 @@ from .fill import fill_interior
 from .games import EPS, FlattenReport, alpha_rule, flatten, gaussians_to_triangles, triangles_to_gaussians
 from .gaussians import Gaussians, rotmat_to_quat
 from .hierarchy import Hierarchy, build_hierarchy, sub_triangles
-from .io import read_gaussians, write_gaussians
+from .io import read_gaussians, read_splatv, splatv_at, write_gaussians
 from .plugins import engines as all_engines, get_engine
 from .runner import RunStats, run_engine
 from .scene import ObjectSpec, Scene
@@ -114,15 +114,29 @@ def place(g: Gaussians, spec: ObjectSpec) -> Placement:
     return Placement(R, s, t)
 
 
+def load_gaussians(spec: ObjectSpec) -> Gaussians:
+    """An object's Gaussians: a static file, or a dynamic model ``psi(V, s)`` at ``s = spec.dynamic_time``.
+
+    Raises
+    ------
+    SceneError
+        From :func:`gasp_core.io.read_gaussians` / :func:`gasp_core.io.read_splatv`.
+    """
+    if spec.dynamic_time is not None:
+        base, motion = read_splatv(spec.file)
+        return splatv_at(base, motion, spec.dynamic_time)
+    return read_gaussians(spec.file)
+
+
 def prepare_object(spec: ObjectSpec, g: Gaussians | None = None) -> PreparedObject:
     """Read (unless given), place, flatten and triangulate one object.
 
     Raises
     ------
     SceneError
-        From reading the file (see :func:`gasp_core.io.read_gaussians`).
+        From reading the file (see :func:`load_gaussians`).
     """
-    g = read_gaussians(spec.file) if g is None else g
+    g = load_gaussians(spec) if g is None else g
     pl = place(g, spec)
     R_world = pl.R @ g.rotmats()
     scales_flat, rot_flat, report = flatten(g.scales * pl.scale, R_world)
@@ -438,7 +452,7 @@ def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
             "objects": [{
                 "name": name, "file": str(o.spec.file), "n_gaussians": o.gaussians.n,
                 "layout": o.gaussians.layout, "material": dataclasses.asdict(o.spec.material),
-                "up_axis": o.spec.up_axis, "scale": o.spec.scale, "fill": o.spec.fill,
+                "up_axis": o.spec.up_axis, "dynamic_time": o.spec.dynamic_time, "scale": o.spec.scale, "fill": o.spec.fill,
                 "n_fill_points": o.fill_slice.stop - o.fill_slice.start,
                 "core_fraction": o.spec.core_fraction,
                 "n_simulated_gaussians": len(simulated_triangles(o)),

@@ -82,6 +82,9 @@ class ObjectSpec:
     core_fraction : float
         Share of Gaussians simulated, in (0, 1]: below 1, BIRCH clusters build that many Core
         Gaussians and the rest follow them (paper Sec. 3, hierarchy; :mod:`gasp_core.hierarchy`).
+    dynamic_time : float or None
+        For a dynamic model (``.splatv``): the model time ``s`` at which physics takes over,
+        ``G_t = T^-1(phi(psi(V, s), t))`` (paper Sec. 3, dynamic scenes); default 0.
     """
 
     file: Path
@@ -96,6 +99,7 @@ class ObjectSpec:
     thickness: str = "keep"
     min_opacity: float = 0.1
     core_fraction: float = 1.0
+    dynamic_time: float | None = None
 
 
 @dataclass
@@ -168,6 +172,19 @@ def _positive(value, key: str, src: Path, allow_zero: bool = False) -> float:
     if not ok:
         raise SceneError(f"{src}: '{key}' must be a {'non-negative' if allow_zero else 'positive'} number, got {value!r}")
     return float(value)
+
+
+def _dynamic_time(o: dict, f: Path, where: str, src: Path) -> float | None:
+    t = o.get("dynamic_time")
+    if f.suffix.lower() != ".splatv":
+        if t is not None:
+            raise SceneError(f"{src}: {where}.dynamic_time is only for dynamic models (.splatv), not {f.name}")
+        return None
+    if t is None:
+        return 0.0
+    if not isinstance(t, (int, float)) or isinstance(t, bool) or not math.isfinite(t):
+        raise SceneError(f"{src}: {where}.dynamic_time must be a finite number, got {t!r}")
+    return float(t)
 
 
 def _fraction(value, key: str, src: Path) -> float:
@@ -305,7 +322,8 @@ def parse_scene(data: dict, src: Path) -> Scene:
             material=_material(o.get("material", {}), f"{where}.material", src),
             fill=bool(o.get("fill", True)), alpha=alpha, thickness=thickness,
             min_opacity=_positive(o.get("min_opacity", 0.1), f"{where}.min_opacity", src, allow_zero=True),
-            core_fraction=_fraction(o.get("core_fraction", 1.0), f"{where}.core_fraction", src)))
+            core_fraction=_fraction(o.get("core_fraction", 1.0), f"{where}.core_fraction", src),
+            dynamic_time=_dynamic_time(o, f, where, src)))
 
     n_frames = data.get("n_frames", 30)
     if not isinstance(n_frames, int) or isinstance(n_frames, bool) or n_frames < 1:
