@@ -332,7 +332,8 @@ def test_one_substep_matches_numpy_transcription_of_the_spec(name):
     Jp = np.where(name == "plasticine", rng.uniform(0, 0.5, n), rng.uniform(0.98, 1.02, n))
     s = SimSetup(x=x, v=v, p_vol=rng.uniform(0.5, 1.5, n) * 1e-5, body_id=0, materials=[mat],
                  gravity=np.array([0.0, 0.0, -G]), domain_lo=np.zeros(3), domain_hi=np.ones(3),
-                 n_grid=16, frame_dt=2e-4, options={"precision": "f64", "n_substeps": 1})
+                 n_grid=16, frame_dt=2e-4, options={"n_substeps": 1},
+                 boundaries=[Boundary("ground", height=0.0)])  # no node reached; same kernels as above
     e = TaichiMPMEngine(s)
     o = e._order
     e.solver.set(e.solver.C, C[o])
@@ -341,10 +342,11 @@ def test_one_substep_matches_numpy_transcription_of_the_spec(name):
     e.step_frame()
     xr, vr, Cr, Fr, Jpr = _spec_substep(s, x, v, C, F, Jp, 2e-4)
     inv = e._inverse
-    np.testing.assert_allclose(e.velocities(), vr, rtol=0, atol=1e-9 * (1 + np.abs(vr).max()))
-    np.testing.assert_allclose(e.positions(), xr, rtol=0, atol=1e-12)
-    np.testing.assert_allclose(e.solver.get(e.solver.C)[inv], Cr, rtol=0, atol=1e-7 * np.abs(Cr).max())
-    np.testing.assert_allclose(e.solver.get(e.solver.F)[inv], Fr, rtol=0, atol=1e-9)
-    np.testing.assert_allclose(e.solver.get(e.solver.Jp)[inv], Jpr, rtol=0, atol=1e-9)
+    # f32 engine against the float64 transcription: tolerances are a few f32 roundings
+    np.testing.assert_allclose(e.velocities(), vr, rtol=0, atol=2e-6 * (1 + np.abs(vr).max()))
+    np.testing.assert_allclose(e.positions(), xr, rtol=0, atol=2e-7)
+    np.testing.assert_allclose(e.solver.get(e.solver.C)[inv], Cr, rtol=0, atol=1e-5 * np.abs(Cr).max())
+    np.testing.assert_allclose(e.solver.get(e.solver.F)[inv], Fr, rtol=0, atol=2e-6)
+    np.testing.assert_allclose(e.solver.get(e.solver.Jp)[inv], Jpr, rtol=0, atol=2e-6)
     if name in ("metal", "sand", "plasticine", "snow"):
         assert not np.allclose(Fr, (np.eye(3) + 2e-4 * C) @ F)  # the return mapping was active
