@@ -179,8 +179,10 @@ class TaichiMPMEngine:
         bytes_per = 4 if real == ti.f32 else 8
         grid_bytes = 4 * bytes_per * setup.n_grid ** 3
         atomic = opt["device"] == "cuda" or threads * grid_bytes > MAX_PRIVATE_GRID_BYTES
+        C0 = getattr(setup, "C", None)
+        C0 = np.zeros((n, 3, 3)) if C0 is None else np.asarray(C0, float)[o]
         self.solver = MPMSolver(
-            x=setup.x[o], v=setup.v[o], p_mass=setup.p_mass[o], p_vol=setup.p_vol[o],
+            x=setup.x[o], v=setup.v[o], C0=C0, p_mass=setup.p_mass[o], p_vol=setup.p_vol[o],
             body=setup.body_id[o], fixed=fixed[o], jp0=jp0[o], params=params, kinds=kinds,
             n_grid=setup.n_grid, lo=setup.domain_lo, dx=dx, dt=self.dt, gravity=setup.gravity,
             walls=walls, grounds=grounds, regions=regions, real=real,

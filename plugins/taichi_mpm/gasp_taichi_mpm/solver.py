@@ -93,6 +93,8 @@ class MPMSolver:
     ----------
     x, v : ndarray, shape (n, 3), float64
         Positions (metres) and velocities (m/s), already in the solver's point order.
+    C0 : ndarray, shape (n, 3, 3)
+        Initial APIC velocity gradient, 1/s (``SimSetup.C``; zeros when it is None).
     p_mass, p_vol : ndarray, shape (n,)
         kg and m^3.
     body : ndarray, shape (n,), int32
@@ -119,7 +121,7 @@ class MPMSolver:
         Scatter with atomics into one grid copy and visit the whole grid (CUDA).
     """
 
-    def __init__(self, *, x, v, p_mass, p_vol, body, fixed, jp0, params, kinds, n_grid, lo, dx, dt,
+    def __init__(self, *, x, v, C0, p_mass, p_vol, body, fixed, jp0, params, kinds, n_grid, lo, dx, dt,
                  gravity, walls, grounds, regions, real, n_chunks, atomic):
         n = len(x)
         self.n = n
@@ -182,7 +184,7 @@ class MPMSolver:
         put(self.x, x, np_real)
         put(self.v, v, np_real)
         put(self.F, np.broadcast_to(np.eye(3), (n, 3, 3)), np_real)
-        put(self.C, np.zeros((n, 3, 3)), np_real)
+        put(self.C, C0, np_real)
         put(self.Jp, jp0, np_real)
         put(self.p_mass, p_mass, np_real)
         put(self.p_vol, p_vol, np_real)
