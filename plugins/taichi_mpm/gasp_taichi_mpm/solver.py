@@ -306,6 +306,71 @@ class MPMSolver:
         return R
 
     @ti.func
+    def _sym_eig(self, A):
+        """Eigen-decomposition ``A = V diag(lam) V^T`` of a symmetric 3x3 matrix, V a rotation.
+
+        Cyclic Jacobi rotations (Golub & Van Loan, "Matrix Computations", Sec. 8.5), stopped when
+        the off-diagonal part is below the working precision relative to the diagonal.
+        """
+        V = ti.Matrix.identity(self.real, 3)
+        tol = ti.static(1e-14 if self.real == ti.f32 else 1e-30)  # squared, relative
+        for sweep in range(12):
+            off = A[0, 1] ** 2 + A[0, 2] ** 2 + A[1, 2] ** 2
+            if off <= tol * (A[0, 0] ** 2 + A[1, 1] ** 2 + A[2, 2] ** 2):
+                break
+            for pqr in ti.static([(0, 1, 2), (0, 2, 1), (1, 2, 0)]):
+                p, q, r = ti.static(pqr[0], pqr[1], pqr[2])
+                apq = A[p, q]
+                if apq != 0.0:
+                    theta = (A[q, q] - A[p, p]) / (2.0 * apq)
+                    t = 1.0 / (ti.abs(theta) + ti.sqrt(theta * theta + 1.0))
+                    if theta < 0.0:
+                        t = -t
+                    c = 1.0 / ti.sqrt(t * t + 1.0)
+                    s = t * c
+                    A[p, p] -= t * apq
+                    A[q, q] += t * apq
+                    A[p, q] = 0.0
+                    A[q, p] = 0.0
+                    arp = A[r, p]
+                    arq = A[r, q]
+                    A[r, p] = c * arp - s * arq
+                    A[p, r] = A[r, p]
+                    A[r, q] = s * arp + c * arq
+                    A[q, r] = A[r, q]
+                    for k in ti.static(range(3)):
+                        vkp = V[k, p]
+                        vkq = V[k, q]
+                        V[k, p] = c * vkp - s * vkq
+                        V[k, q] = s * vkp + c * vkq
+        return V, ti.Vector([A[0, 0], A[1, 1], A[2, 2]])
+
+    @ti.func
+    def _svd(self, F):
+        """``F = U diag(sig) V^T`` with U, V rotations (docs/mpm.md: a reflection is carried by
+        the sign of a singular value).
+
+        For ``det F > 0``: polar ``F = R S`` (:meth:`_rotation`), ``S = V diag(sig) V^T`` by Jacobi,
+        ``U = R V`` - several times cheaper than ``ti.svd`` on CPU. Otherwise ``ti.svd``. The
+        singular values are not sorted; every use here is an isotropic function of them.
+        """
+        U = ti.Matrix.identity(self.real, 3)
+        V = ti.Matrix.identity(self.real, 3)
+        sig = ti.Vector.zero(self.real, 3)
+        if F.determinant() > 0.0:
+            R = self._rotation(F)
+            S = R.transpose() @ F
+            S = 0.5 * (S + S.transpose())
+            V, sig = self._sym_eig(S)
+            U = R @ V
+        else:
+            U0, S0, V0 = ti.svd(F, self.real)
+            U = U0
+            V = V0
+            sig = ti.Vector([S0[0, 0], S0[1, 1], S0[2, 2]])
+        return U, sig, V
+
+    @ti.func
     def _hencky_tau(self, U, eps, mu, lam):
         tr = eps.sum()
         d = 2.0 * mu * eps + lam * tr
@@ -336,16 +401,14 @@ class MPMSolver:
         if ti.static(SNOW in self.kinds):
             if kind == SNOW:
                 h = ti.exp(prm[P_HARD] * (1.0 - Jp))
-                U, S, V = ti.svd(F, self.real)
-                sig = ti.Vector([S[0, 0], S[1, 1], S[2, 2]])
+                U, sig, V = self._svd(F)
                 sig_c = ti.min(ti.max(sig, 1.0 - prm[P_TC]), 1.0 + prm[P_TS])
                 Jp *= (sig[0] * sig[1] * sig[2]) / (sig_c[0] * sig_c[1] * sig_c[2])
                 F = self._udvt(U, sig_c, V)
                 tau = self._fixed_corotated(F, U, V, mu * h, lam * h)
         if ti.static(METAL in self.kinds or PLASTICINE in self.kinds or SAND in self.kinds):
             if kind == METAL or kind == PLASTICINE or kind == SAND:
-                U, S, V = ti.svd(F, self.real)
-                sig = ti.Vector([S[0, 0], S[1, 1], S[2, 2]])
+                U, sig, V = self._svd(F)
                 eps = ti.log(ti.max(sig, 1e-4))
                 tr = eps.sum()
                 e = eps - tr / 3.0
