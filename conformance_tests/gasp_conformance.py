@@ -46,7 +46,23 @@ G = 9.81
 #: Known failures per engine: ``{engine_name: {scene_name: reason}}``. A listed scene runs as a
 #: strict expected failure (an unexpected pass is reported as ``xpass`` and counts as a failure).
 #: Entries are added only after a failure was observed, with the measured figures in the reason.
-KNOWN_FAILURES: dict[str, dict[str, str]] = {}
+_SPIN_C0 = ('the body spins 11.7% slow: rigid-fit angle 79.47 deg after 0.5 s vs 90 deg; L_z(frame 1) / L_z(0) = 0.883, then constant within 0.2%. The initial APIC affine matrix C is 0, so the first P2G spreads the point masses over the grid without their spin (SimSetup carries no C); fix: initialise C from the initial velocity field')
+_CLAMP_OFF_GRID = ('clamp face 0.6 dx past a grid node: time-averaged tip deflection 30.83 mm vs Euler-Bernoulli 19.99 mm (+54%); with the face on a node 21.68 mm (+8.4%). Measured also: n_grid 28/48/64 (face 0.6/0.6/0.8 dx off a node) the bar swings down as if hinged and leaves the grid by frame ~22; n_grid 40 (on a node) 21.45 mm. fixed_region acts on whole nodes (docs/mpm.md), so the clamp is soft when its face falls between nodes')
+KNOWN_FAILURES: dict[str, dict[str, str]] = {
+    "taichi_mpm": {"spinning": _SPIN_C0, "cantilever_offgrid": _CLAMP_OFF_GRID},
+    "warp_mpm": {"spinning": _SPIN_C0, "cantilever_offgrid": _CLAMP_OFF_GRID},
+    "genesis": {"spinning": _SPIN_C0 + " (same figures on Genesis MPM)",
+                "invariance": "rotated + translated run deviates by up to 0.70 dx (mean 0.26 dx) from the "
+                              "transformed original after 15 frames; Genesis's MPM grid is not anchored "
+                              "at domain_lo, so a translation changes the point-grid alignment"},
+    "mujoco_flex": {
+        "bounce": "EngineDivergence at frame 15 (t = 0.25 s): 4 lattice tetrahedra inverted on impact of "
+                  "the E = 2e5 Pa ball at 1.7 m/s (dt 0.794 ms)",
+        "cantilever": "tip deflection 5.66 mm vs Euler-Bernoulli 19.99 mm (-72%): the default lattice "
+                      "(8 cells along the 0.6 m bar, ~1.3 across its 0.1 m section) is far too stiff in "
+                      "bending (linear tetrahedra lock)",
+        "cantilever_offgrid": "same lattice as 'cantilever': 5.66 mm vs 19.99 mm (-72%)"},
+}
 
 
 # --------------------------------------------------------------------------------------------
@@ -445,7 +461,7 @@ def _eval_free_fall(info: EngineInfo, tr: Trace) -> list[Check]:
 
 
 # --- resting on the ground ------------------------------------------------------------------
-GROUND_H = 0.125  # 2 dx at n_grid 16 in [0, 1]^3
+GROUND_H = 0.1875  # 3 dx at n_grid 16 in [0, 1]^3: clear of the grid engines' 3 dx boundary band
 
 
 def _build_resting(info: EngineInfo) -> SimSetup:

@@ -10,8 +10,9 @@ Base case: an elastic cube (0.2 m, 216 points) one cell above the ground in [0, 
   :class:`EngineDivergence` at the frame where it goes wrong.
 
 Any other exception is a failure (an unclear error from inside the engine). For the cases within
-an engine's declared range (nominal material, ``dt`` at 0.5x and 1x the limit, a precision the
-engine lists) only ``ok`` is accepted. Outcomes are recorded in the session's result table.
+an engine's declared range (nominal material, nu = 0, ``dt`` at 0.5x and 1x the limit, 1e4
+points) only ``ok`` is accepted; for a precision the engine lists, ``ok`` or a refusal at build
+(SceneError/EngineError, e.g. one precision per process), never a divergence. Outcomes are recorded in the session's result table.
 """
 from __future__ import annotations
 
@@ -142,7 +143,9 @@ def test_extreme(engine_name, case, request):
     except (SceneError, EngineError, EngineDivergence) as e:
         outcome = f"clear error {type(e).__name__}: {e}"
         record(request.node, outcome)
-        assert not must_be_ok(info), f"{case} is within {engine_name}'s declared range, but: {outcome}"
+        refusal = isinstance(e, (SceneError, EngineError)) and case in ("f32", "f64")
+        assert refusal or not must_be_ok(info), \
+            f"{case} is within {engine_name}'s declared range, but: {outcome}"
         if case == "outside_domain":
             assert isinstance(e, (SceneError, EngineDivergence))
         return
