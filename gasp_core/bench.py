@@ -56,7 +56,7 @@ DEFAULT_MAX_GAUSSIANS = 6000
 SETTING_KEYS = ["n_grid", "cfl", "particles_per_cell", "fill", "precision", "core_fraction", "cells_across"]
 BENCH_COLUMNS = (["engine", "setting"] + SETTING_KEYS +
                  ["is_reference", "status", "simulated_points", "substeps_per_frame", "build_s",
-                  "first_frame_s", "s_per_frame", "wall_s", "err_mean", "err_max", "err_final",
+                  "first_frame_s", "s_per_frame", "cpu_s_per_frame", "wall_s", "err_mean", "err_max", "err_final",
                   "err_point_max", "pareto", "message"])
 
 
@@ -431,6 +431,8 @@ def bench_scene(scene_path: str | Path, output: str | Path, engines: list[str] |
                        else f"diverged@{rec.get('frame')}", "simulated_points": rec.get("simulated_points"),
                        "substeps_per_frame": st.get("n_substeps"), "build_s": rec.get("build_s"),
                        "first_frame_s": frame_s[0] if frame_s else None, "s_per_frame": sp,
+                       "cpu_s_per_frame": steady_s_per_frame(rec.get("frame_cpu_s") or [])
+                       if rec["status"] == "ok" else float("nan"),
                        "wall_s": sp * n_frames, **run_errors(ref_rec, rec), "message": msg}
                 eng_rows.append(row)
                 if rec.get("npz") and i > 0:
@@ -503,8 +505,8 @@ def _summary(tmp: Path, scene: Scene, scene_path, n_frames: int, rows: list[dict
         view.append({**r, "err_mean_pct": 100 * r["err_mean"], "err_max_pct": 100 * r["err_max"],
                      "err_final_pct": 100 * r["err_final"], "front": "yes" if r.get("pareto") else ""})
     lines += [md_table(view, ["engine", "setting", "status", "simulated_points", "substeps_per_frame",
-                              "s_per_frame", "wall_s", "err_mean_pct", "err_max_pct", "err_final_pct", "front"],
-                       ["engine", "setting", "status", "points", "substeps/frame", "s/frame", "wall, s",
+                              "s_per_frame", "cpu_s_per_frame", "wall_s", "err_mean_pct", "err_max_pct", "err_final_pct", "front"],
+                       ["engine", "setting", "status", "points", "substeps/frame", "s/frame", "CPU s/frame", "wall, s",
                         "err_mean, %", "err_max, %", "err_final, %", "Pareto"])]
     failed = [r for r in rows if r["status"] != "ok"]
     if failed:

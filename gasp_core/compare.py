@@ -46,7 +46,7 @@ RUN_TIMEOUT_S = 3600.0
 
 TABLE_COLUMNS = ["engine", "version", "status", "device", "precision", "threads", "simulated_points",
                  "gaussians", "n_frames", "substeps_per_frame", "dt_s", "build_s", "first_frame_s",
-                 "s_per_frame", "peak_rss_mb", "options"]
+                 "s_per_frame", "cpu_s_per_frame", "peak_rss_mb", "options"]
 DIVERGENCE_COLUMNS = ["frame", "t_s", "engine", "reference", "mean_dist_m", "max_dist_m", "chamfer_m",
                       "mean_dist_rel", "max_dist_rel", "chamfer_rel"]
 
@@ -175,13 +175,17 @@ def _child_main(job_path: str) -> int:
         world0 = np.concatenate([o.placement.to_world(o.gaussians.means) for o in prep.objects])
         rec["size_m"] = float(np.linalg.norm(world0.max(axis=0) - world0.min(axis=0)))
         stats = RunStats()
+        cpu_marks = []
         try:
             for frame, gs, row in iter_frames(prep, job["n_frames"], stats):
+                cpu_marks.append(time.process_time())
                 means.append(np.concatenate([g.means for g in gs]).astype(np.float32))
         except EngineDivergence as e:
             rec.update(status="diverged", frame=e.frame, cause=e.cause, message=str(e))
         rec["build_s"] = stats.build_s
         rec["frame_s"] = list(stats.frame_s)
+        # process CPU time between frames (all threads; includes the T^-1 rebuild; frame 1 the build)
+        rec["frame_cpu_s"] = np.diff(cpu_marks).tolist()
         rec["engine_stats"] = stats.engine
     except GaspError as e:
         rec.update(status="error", message=f"{type(e).__name__}: {e}")
@@ -404,6 +408,7 @@ def _table_row(rec: dict, n_frames: int) -> dict:
             "dt_s": st.get("dt"), "build_s": rec.get("build_s"),
             "first_frame_s": frame_s[0] if frame_s else None,
             "s_per_frame": steady_s_per_frame(frame_s) if frame_s else None,
+            "cpu_s_per_frame": steady_s_per_frame(rec.get("frame_cpu_s") or []) if frame_s else None,
             "peak_rss_mb": rec.get("peak_rss_mb"), "options": rec.get("options", {})}
 
 
@@ -555,7 +560,7 @@ def compare_scene(scene_path: str | Path, engines: list[str] | None, output: str
         write_csv(tmp / "table.csv", table, TABLE_COLUMNS)
         headers = ["engine", "version", "status", "device", "precision", "threads", "simulated points",
                    "Gaussians", "frames", "substeps/frame", "dt, s", "build, s", "frame 1, s",
-                   "s/frame (2..n)", "peak memory, MB", "options"]
+                   "s/frame (2..n)", "CPU s/frame (2..n)", "peak memory, MB", "options"]
         (tmp / "table.md").write_text(md_table(table, TABLE_COLUMNS, headers))
         write_csv(tmp / "divergence.csv", div, DIVERGENCE_COLUMNS)
         _plots(tmp, table, div, ref["label"] if ref else None)
@@ -585,7 +590,9 @@ def _report(tmp: Path, scene: Scene, scene_path, n_frames: int, table: list[dict
         lines += [f"Objects were cut to every k-th Gaussian, k = {strides} (max_gaussians).", ""]
     lines += ["## Engines", "", (tmp / "table.md").read_text(), "",
               "`s/frame (2..n)` is the mean wall time of `step_frame` plus read-back over frames 2..n; "
-              "frame 1 also holds the JIT compile (Taichi, Genesis) and is shown apart. Peak memory is "
+              "frame 1 also holds the JIT compile (Taichi, Genesis) and is shown apart. `CPU s/frame` is the "
+              "process CPU time per frame (all threads, T^-1 rebuild included): on a shared machine it "
+              "depends less on the load than wall time. Peak memory is "
               "the child process's `ru_maxrss` (Python, the engine runtime and the scene).", ""]
     if skipped:
         lines += ["## Not run", ""] + [f"- `{k}`: {v}" for k, v in skipped.items()] + [""]
