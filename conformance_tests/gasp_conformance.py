@@ -761,11 +761,11 @@ INV_SHIFT = np.array([0.37, -0.21, 0.13])
 
 def _build_invariance(info: EngineInfo) -> SimSetup:
     dx = 1.0 / 16
-    x, p_vol = box_points((0.3, 0.4, 0.25), (0.6, 0.55, 0.35), dx / 2)
+    x, p_vol = box_points((0.2, 0.3, 0.25), (0.5, 0.45, 0.35), dx / 2)
     c = x.mean(axis=0)
-    v = np.array([0.6, 0.2, 0.0]) + np.cross([1.5, 0.0, 0.5], x - c)
+    v = np.array([0.6, 0.3, 0.0]) + np.cross([1.5, 0.0, 0.5], x - c)
     return _setup(x, p_vol, Material("jelly", E=1e5, nu=0.3, rho=1000.0), v=v,
-                  boundaries=[Boundary("ground", height=GROUND_H, friction=0.5)])
+                  boundaries=[Boundary("ground", height=GROUND_H, friction=0.2)])
 
 
 def _rot_z90(p: np.ndarray, centre: np.ndarray) -> np.ndarray:

@@ -110,3 +110,26 @@ def test_broken_engine_is_caught(kind, reference, request):
 def test_broken_kind_is_validated():
     with pytest.raises(ValueError, match="kind"):
         broken_engine(None, "nonsense")
+
+
+def test_check_engine_classifies(reference):
+    """check_engine outside pytest: skip with the missing capability, xfail, strict xpass."""
+    info, passed_by_real = reference
+    no_sand = dataclasses.replace(info, capabilities=dataclasses.replace(
+        info.capabilities, materials=frozenset({"jelly"})))
+    rep = check_engine(no_sand, scenes=["sand_collapse"])
+    assert rep.results[0].status == "skip" and "material 'sand'" in rep.results[0].message
+    assert rep.ok
+    if "free_fall" not in passed_by_real:
+        pytest.skip(f"{info.name} does not pass free_fall")
+    known = {"free_fall": "declared for the test"}
+    rep = check_engine(broken_engine(info, "no_gravity"), scenes=["free_fall"], known_failures=known)
+    assert rep.results[0].status == "xfail" and rep.ok, rep.table()
+    rep = check_engine(info, scenes=["free_fall"], known_failures=known)
+    assert rep.results[0].status == "xpass" and not rep.ok, rep.table()
+
+
+def test_check_engine_unknown_name():
+    from gasp_core.engine import EngineError
+    with pytest.raises(EngineError, match="unknown engine 'no_such_engine'"):
+        check_engine("no_such_engine")
