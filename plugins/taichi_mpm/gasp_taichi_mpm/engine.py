@@ -213,6 +213,9 @@ class TaichiMPMEngine:
             message gives the count and the first point index in setup order).
         EngineError
             The engine was closed or invalidated by a newer one.
+
+        After an EngineDivergence, :meth:`positions` and :meth:`velocities` still return the last
+        frame that passed the checks.
         """
         self._check_live()
         s = self.solver
@@ -222,7 +225,6 @@ class TaichiMPMEngine:
         x = s.get(s.x)[self._inverse]
         v = s.get(s.v)[self._inverse]
         n_out = int(s.n_out[None])
-        self._x, self._v = x, v
         finite = np.isfinite(x).all(axis=1) & np.isfinite(v).all(axis=1)
         if not finite.all():
             bad = np.flatnonzero(~finite)
@@ -238,6 +240,7 @@ class TaichiMPMEngine:
             raise EngineDivergence(
                 f"{max(len(bad), 1)} point(s) left the grid{where}; {n_out} out-of-grid "
                 f"point-substeps in this frame", self.frame, CAUSE_DT if fast else CAUSE_DOMAIN)
+        self._x, self._v = x, v
 
     def positions(self) -> np.ndarray:
         """Current positions, shape (n, 3), float32 (f32) or float64 (f64), metres, setup order."""
