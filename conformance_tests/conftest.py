@@ -10,7 +10,6 @@ from __future__ import annotations
 import datetime
 import os
 import platform
-import sys
 import tempfile
 from pathlib import Path
 
@@ -18,6 +17,7 @@ import pytest
 
 HERE = Path(__file__).resolve().parent
 _KEY = pytest.StashKey[dict]()
+_config = None  # the session's config, for pytest_runtest_logreport (which gets no config)
 
 _GROUPS = {
     "test_conformance.py": "Conformance scenes",
@@ -74,9 +74,6 @@ def pytest_runtest_logreport(report):
         store[report.nodeid] = (status, text)
     elif report.failed and entry is None:  # setup/teardown error
         store[report.nodeid] = ("ERROR", _reason(report))
-
-
-_config = None
 
 
 @pytest.hookimpl(tryfirst=True)

@@ -16,8 +16,6 @@ points) only ``ok`` is accepted; for a precision the engine lists, ``ok`` or a r
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 
