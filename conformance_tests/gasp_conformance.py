@@ -46,7 +46,12 @@ G = 9.81
 #: Known failures per engine: ``{engine_name: {scene_name: reason}}``. A listed scene runs as a
 #: strict expected failure (an unexpected pass is reported as ``xpass`` and counts as a failure).
 #: Entries are added only after a failure was observed, with the measured figures in the reason.
-_SPIN_C0 = ('the body spins 11.7% slow: rigid-fit angle 79.47 deg after 0.5 s vs 90 deg; L_z(frame 1) / L_z(0) = 0.883, then constant within 0.2%. The plugin does not start APIC\'s affine matrix from SimSetup.C (the Genesis 1.4.5 entity API sets only positions, velocities and active flags; its MPM solver's state setter also writes C but the plugin does not use that internal path yet), so the first P2G loses the points\' own spin; taichi_mpm and warp_mpm, which read SimSetup.C, turn 89.90 deg')
+_SPIN_C0 = ("the body spins 11.7% slow: rigid-fit angle 79.47 deg after 0.5 s vs 90 deg; "
+            "L_z(frame 1) / L_z(0) = 0.883, then constant within 0.2%. The plugin does not start "
+            "the APIC affine matrix from SimSetup.C (the Genesis 1.4.5 entity API sets only positions, "
+            "velocities and active flags; its MPM solver state setter also writes C, but the plugin does "
+            "not use that internal path yet), so the first P2G loses the points' own spin; taichi_mpm "
+            "and warp_mpm, which read SimSetup.C, turn 89.90 deg")
 _CLAMP_OFF_GRID = ('clamp face 0.6 dx past a grid node: time-averaged tip deflection 30.83 mm vs Euler-Bernoulli 19.99 mm (+54%); with the face on a node 21.68 mm (+8.4%). Measured also: n_grid 28/48/64 (face 0.6/0.6/0.8 dx off a node) the bar swings down as if hinged and leaves the grid by frame ~22; n_grid 40 (on a node) 21.45 mm. fixed_region acts on whole nodes (docs/mpm.md), so the clamp is soft when its face falls between nodes')
 KNOWN_FAILURES: dict[str, dict[str, str]] = {
     "taichi_mpm": {"cantilever_offgrid": _CLAMP_OFF_GRID},
