@@ -210,6 +210,23 @@ class SimSetup:
             raise SceneError(f"SimSetup.x: non-finite position at point {bad}")
         if len(self.materials) == 0 or (n and self.body_id.max() >= len(self.materials)):
             raise SceneError("SimSetup.body_id: refers to a material that is not in SimSetup.materials")
+        if n == 0:
+            raise SceneError("SimSetup.x: no points")
+        if not np.all(np.isfinite(self.v)):
+            raise SceneError("SimSetup.v: velocities must be finite")
+        if np.any(self.p_vol <= 0) or not np.all(np.isfinite(self.p_vol)):
+            raise SceneError("SimSetup.p_vol: volumes must be positive and finite")
+        if not np.all(self.domain_hi > self.domain_lo):
+            raise SceneError(f"SimSetup.domain_hi must exceed domain_lo on every axis, got "
+                             f"{self.domain_lo.tolist()} / {self.domain_hi.tolist()}")
+        if not (isinstance(self.n_grid, (int, np.integer)) and self.n_grid >= 4):
+            raise SceneError(f"SimSetup.n_grid = {self.n_grid!r}; expected an integer >= 4")
+        if not (self.frame_dt > 0 and np.isfinite(self.frame_dt)):
+            raise SceneError(f"SimSetup.frame_dt = {self.frame_dt}; expected a positive number of seconds")
+        for m in self.materials:
+            if not (m.E > 0 and m.rho > 0 and -1.0 < m.nu < 0.5 and m.yield_stress >= 0):
+                raise SceneError(f"material {m.name!r} needs E > 0, rho > 0, -1 < nu < 0.5, yield_stress >= 0; "
+                                 f"got E={m.E}, rho={m.rho}, nu={m.nu}, yield_stress={m.yield_stress}")
 
     @property
     def dx(self) -> float:
@@ -327,6 +344,21 @@ class EngineInfo:
 
     def unavailable_reason(self) -> str | None:
         return self.available() if self.available is not None else None
+
+
+def check_supported(setup: SimSetup, engine: str, capabilities: Capabilities) -> None:
+    """Raise :class:`SceneError` if ``setup`` uses a material or boundary the engine lacks.
+
+    The message names the engine, what is missing and what it supports.
+    """
+    for m in setup.materials:
+        if m.name not in capabilities.materials:
+            raise SceneError(f"engine '{engine}': material {m.name!r} is not supported; "
+                             f"supported: {sorted(capabilities.materials)}")
+    for b in setup.boundaries:
+        if b.kind not in capabilities.boundaries:
+            raise SceneError(f"engine '{engine}': boundary kind {b.kind!r} is not supported; "
+                             f"supported: {sorted(capabilities.boundaries)}")
 
 
 def check_options(options: Mapping[str, Any], allowed: Mapping[str, Any], engine: str) -> dict[str, Any]:

@@ -66,6 +66,38 @@ def mpm_stable_dt(materials: Iterable[Material], dx: float, gravity, height: flo
     return cfl * dx / max(c, v_max, 1e-12)
 
 
+def mpm_substeps(setup, dt: float | None = None, n_substeps: int | None = None,
+                 cfl: float = 0.4) -> tuple[int, float]:
+    """Substeps per frame and substep length for a grid engine (``docs/mpm.md``, "Time step").
+
+    Parameters
+    ----------
+    setup : SimSetup
+    dt : float, optional
+        Requested substep, seconds (engine option ``dt``).
+    n_substeps : int, optional
+        Requested substeps per frame (engine option ``n_substeps``).
+    cfl : float
+        Courant number for :func:`mpm_stable_dt` when neither is given.
+
+    Returns
+    -------
+    n_substeps : int
+    dt : float
+        Seconds, ``setup.frame_dt / n_substeps``.
+    """
+    if dt is not None:
+        dt_max = float(dt)
+    elif n_substeps is not None:
+        dt_max = setup.frame_dt / int(n_substeps)
+    else:
+        v0 = float(np.max(np.linalg.norm(setup.v, axis=1))) if len(setup.v) else 0.0
+        dt_max = mpm_stable_dt(setup.materials, setup.dx, setup.gravity,
+                               height=float(setup.domain_hi[2] - setup.domain_lo[2]), v0_max=v0,
+                               cfl=float(cfl))
+    return substeps_for(setup.frame_dt, dt_max)
+
+
 def substeps_for(frame_dt: float, dt_max: float) -> tuple[int, float]:
     """Whole substeps per frame: ``n_substeps = ceil(frame_dt / dt_max)``, ``dt = frame_dt / n_substeps``."""
     n = max(1, math.ceil(frame_dt / dt_max - 1e-9))

@@ -77,24 +77,8 @@ def _validate_options(options: dict[str, Any]) -> dict[str, Any]:
 
 
 def choose_dt(setup: SimSetup, opts: dict[str, Any]) -> tuple[int, float]:
-    """Substeps per frame and substep, docs/mpm.md "Time step".
-
-    Returns
-    -------
-    n_substeps : int
-    dt : float
-        Seconds, ``setup.frame_dt / n_substeps``.
-    """
-    if opts["dt"] is not None:
-        dt_max = float(opts["dt"])
-    elif opts["n_substeps"] is not None:
-        dt_max = setup.frame_dt / int(opts["n_substeps"])
-    else:
-        v0_max = float(np.max(np.linalg.norm(setup.v, axis=1))) if len(setup.v) else 0.0
-        dt_max = physics.mpm_stable_dt(setup.materials, setup.dx, setup.gravity,
-                                       height=float(setup.domain_hi[2] - setup.domain_lo[2]),
-                                       v0_max=v0_max, cfl=float(opts["cfl"]))
-    return physics.substeps_for(setup.frame_dt, dt_max)
+    """Substeps per frame and substep (``gasp_core.physics.mpm_substeps``, docs/mpm.md "Time step")."""
+    return physics.mpm_substeps(setup, opts["dt"], opts["n_substeps"], opts["cfl"])
 
 
 def _material_tables(setup: SimSetup) -> tuple[np.ndarray, np.ndarray]:
