@@ -69,15 +69,19 @@ def has_hierarchy() -> bool:
 def mpm_sweep(n_grid: Sequence[int] = (32, 48, 64), cfl: Sequence[float] = (0.2, 0.4, 0.8),
               particles_per_cell: Sequence[int] = (1, 8), fill: Sequence[bool] = (True, False),
               precision: Sequence[str] = ("f32", "f64"),
-              core_fraction: Sequence[float] = (1.0, 0.5, 0.2)) -> list[dict]:
+              core_fraction: Sequence[float] = (1.0, 0.5, 0.2),
+              reference_n_grid: int | None = None) -> list[dict]:
     """Settings of a grid-engine sweep; the first is the reference (the finest).
 
     Parameters
     ----------
     n_grid, cfl, particles_per_cell, fill, precision, core_fraction : sequences
         Values to try. ``n_grid`` x ``cfl`` are crossed (f32 if offered, most particles per cell,
-        fill on, all Gaussians simulated); the others vary one at a time around the middle
-        ``n_grid`` and ``cfl``; one more run takes the cheapest value of every setting.
+        fill on, all Gaussians simulated); the others vary one at a time around the largest
+        ``n_grid`` and smallest ``cfl``; one more run takes the cheapest value of every setting.
+    reference_n_grid : int, optional
+        A finer grid for the reference run alone (the donut is not grid-converged at n_grid 64:
+        ``docs/speed_accuracy.md``); default: the largest ``n_grid``.
 
     Returns
     -------
@@ -89,10 +93,10 @@ def mpm_sweep(n_grid: Sequence[int] = (32, 48, 64), cfl: Sequence[float] = (0.2,
     cores = sorted(core_fraction)
     fills = sorted(set(fill), reverse=True)
     lo_prec = "f32" if "f32" in prec else prec[0]
-    ref = {"n_grid": ng[-1], "cfl": cf[0], "particles_per_cell": ppc[-1], "fill": fills[0],
-           "precision": "f64" if "f64" in prec else prec[0], "core_fraction": cores[-1]}
+    ref = {"n_grid": max(ng[-1], reference_n_grid or 0), "cfl": cf[0], "particles_per_cell": ppc[-1],
+           "fill": fills[0], "precision": "f64" if "f64" in prec else prec[0], "core_fraction": cores[-1]}
     out = [ref]
-    base = {**ref, "precision": lo_prec}
+    base = {**ref, "n_grid": ng[-1], "precision": lo_prec}
     for g, c in itertools.product(ng, cf):
         out.append({**base, "n_grid": g, "cfl": c})
     for key, values in (("particles_per_cell", ppc), ("fill", fills), ("precision", prec),
@@ -306,6 +310,7 @@ def bench_scene(scene_path: str | Path, output: str | Path, engines: list[str] |
                 max_gaussians: int | None = DEFAULT_MAX_GAUSSIANS,
                 settings: dict[str, list[dict]] | None = None,
                 n_grid: Sequence[int] = (32, 48, 64), cfl: Sequence[float] = (0.2, 0.4, 0.8),
+                reference_n_grid: int | None = None,
                 particles_per_cell: Sequence[int] = (1, 8), fill: Sequence[bool] = (True, False),
                 precision: Sequence[str] = ("f32", "f64"),
                 core_fraction: Sequence[float] | None = None,
@@ -335,6 +340,8 @@ def bench_scene(scene_path: str | Path, output: str | Path, engines: list[str] |
         setting is the reference. Keys as in :data:`SETTING_KEYS`.
     n_grid, cfl, particles_per_cell, fill, precision : sequences
         Grid-engine sweep values (see :func:`mpm_sweep`); ``precision`` is cut to what the engine offers.
+    reference_n_grid : int, optional
+        Finer grid for the reference run alone (``gasp bench`` passes 96).
     core_fraction : sequence of float, optional
         Hierarchy shares in (0, 1]; default ``(1.0, 0.5, 0.2)`` when the scene format has
         ``core_fraction``, else not swept.
@@ -393,7 +400,8 @@ def bench_scene(scene_path: str | Path, output: str | Path, engines: list[str] |
             plan[name] = [dict(s) for s in settings[name]]
         elif caps.grid_based:
             prec = [p for p in precision if p in caps.precisions] or sorted(caps.precisions)[:1]
-            plan[name] = mpm_sweep(n_grid, cfl, particles_per_cell, fill, prec, core_fraction)
+            plan[name] = mpm_sweep(n_grid, cfl, particles_per_cell, fill, prec, core_fraction,
+                                   reference_n_grid)
         elif name == "mujoco_flex":
             plan[name] = flex_sweep(cells_across, flex_cfl, flex_reference_cells, core_fraction)
         else:

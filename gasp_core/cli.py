@@ -70,14 +70,20 @@ def _cmd_info(args) -> int:
 def _cmd_compare(args) -> int:
     from .compare import compare_scene
     compare_scene(args.scene, [e.strip() for e in args.engines.split(",") if e.strip()] if args.engines else None,
-                  args.output, overwrite=args.overwrite, n_frames=args.frames)
+                  args.output, overwrite=args.overwrite, n_frames=args.frames, max_gaussians=args.max_gaussians)
     return 0
 
 
 def _cmd_bench(args) -> int:
     from .bench import bench_scene
+    from .bench import DEFAULT_MAX_GAUSSIANS
+    kw = dict(n_grid=(32, 48), cfl=(0.4, 0.8), particles_per_cell=(8,), fill=(True,), precision=("f32",),
+              cells_across=(4, 8), flex_cfl=(0.5,), flex_reference_cells=8) if args.quick else {}
+    kw["reference_n_grid"] = args.reference_n_grid or None
     bench_scene(args.scene, args.output, engines=args.engines.split(",") if args.engines else None,
-                overwrite=args.overwrite, n_frames=args.frames)
+                overwrite=args.overwrite, n_frames=args.frames,
+                max_gaussians=DEFAULT_MAX_GAUSSIANS if args.max_gaussians is None else
+                (None if args.max_gaussians == 0 else args.max_gaussians), **kw)
     return 0
 
 
@@ -109,6 +115,7 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("-o", "--output", type=Path, required=True)
     c.add_argument("--overwrite", action="store_true")
     c.add_argument("--frames", type=int)
+    c.add_argument("--max-gaussians", type=int, help="keep every k-th Gaussian so each object has at most this many")
     c.set_defaults(func=_cmd_compare)
 
     b = sub.add_parser("bench", help="sweep speed/accuracy settings against a converged reference")
@@ -117,6 +124,11 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("-o", "--output", type=Path, required=True)
     b.add_argument("--overwrite", action="store_true")
     b.add_argument("--frames", type=int)
+    b.add_argument("--max-gaussians", type=int,
+                   help="keep every k-th Gaussian so each object has at most this many (default 6000; 0 = all)")
+    b.add_argument("--quick", action="store_true", help="a small sweep (n_grid 32/48, cfl 0.4/0.8, f32)")
+    b.add_argument("--reference-n-grid", type=int, default=96,
+                   help="grid of the converged reference run of the MPM engines (default 96; 0 = finest of the sweep)")
     b.set_defaults(func=_cmd_bench)
     return p
 
