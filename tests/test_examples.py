@@ -37,12 +37,19 @@ def test_example_runs_two_frames(path, tmp_path):
         assert g.n == o["n_gaussians"] and np.all(np.isfinite(g.means))
 
 
+def _installed():
+    from gasp_core.plugins import engines
+    return [n for n, e in engines().items() if not e.unavailable_reason()]
+
+
 @pytest.mark.slow
-def test_readme_donut_run(tmp_path):
-    """The README's main job: >= 30 frames of 45,624 Gaussians; falls, lands, rests; appearance bit for bit."""
+@pytest.mark.parametrize("engine", _installed())
+def test_readme_donut_run(tmp_path, engine):
+    """The README's main job, unchanged on every installed engine (issue 3: switch ``engine``):
+    >= 30 frames of 45,624 Gaussians; falls, lands, rests; appearance bit for bit."""
     scene = load_scene(EXAMPLES / "donut_jelly.toml")
     out = tmp_path / "donut"
-    res = simulate_scene(scene, out, progress=False)
+    res = simulate_scene(scene, out, progress=False, engine=engine)
     run = json.loads((out / "run.json").read_text())
     dx = run["domain"]["dx"]
     frames = sorted((out / "donut_v3dg").glob("frame_*.ply"))
