@@ -49,7 +49,7 @@ def test_readme_donut_run(tmp_path, engine):
     >= 30 frames of 45,624 Gaussians; falls, lands, rests; appearance bit for bit."""
     scene = load_scene(EXAMPLES / "donut_jelly.toml")
     out = tmp_path / "donut"
-    res = simulate_scene(scene, out, progress=False, engine=engine)
+    simulate_scene(scene, out, progress=False, engine=engine)
     run = json.loads((out / "run.json").read_text())
     dx = run["domain"]["dx"]
     frames = sorted((out / "donut_v3dg").glob("frame_*.ply"))
