@@ -1,7 +1,6 @@
 """The command line: one-line errors, non-zero exits and no partial output for bad input."""
 import shutil
 import subprocess
-import sys
 
 import numpy as np
 import pytest

@@ -9,7 +9,6 @@ from conftest import scene_text
 from gasp_core.bench import BENCH_COLUMNS, bench_scene, mpm_sweep, pareto_front
 from gasp_core.cli import main
 from gasp_core.compare import DIVERGENCE_COLUMNS, TABLE_COLUMNS, compare_scene, frame_distances, select_engines
-from gasp_core.engine import EngineDivergence
 from gasp_core.io import write_gaussians
 from gasp_core.plugins import engines
 from gasp_core.scene import load_scene

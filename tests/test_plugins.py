@@ -1,5 +1,4 @@
 """Engine discovery: entry points, duplicates, typos in hook names, GASP_LOAD_PLUGINS, capability checks."""
-import sys
 import textwrap
 
 import pluggy
