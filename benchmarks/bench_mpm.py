@@ -66,7 +66,8 @@ def make_setup(n_target: int, material: str):
                     options={"device": "cpu", "precision": "f32", "n_substeps": SUBSTEPS})
 
 
-def worker(engine: str, sizes: list[int], materials: list[str], frames: int) -> list[dict]:
+def worker(engine: str, sizes: list[int], materials: list[str], frames: int,
+           with_donut: bool = True) -> list[dict]:
     """Time one engine on every (size, material); runs inside the subprocess."""
     from gasp_core.plugins import get_engine
 
@@ -101,7 +102,35 @@ def worker(engine: str, sizes: list[int], materials: list[str], frames: int) -> 
                 rec["error"] = f"{type(e).__name__}: {e}"
             out.append(rec)
             print(json.dumps(rec), file=sys.stderr, flush=True)
+    if with_donut:
+        try:
+            rec = donut_frame(engine)
+        except Exception as e:
+            rec = {"engine": engine, "material": "donut (jelly)", "n_points": 0, "error": f"{type(e).__name__}: {e}"}
+        out.append(rec)
+        print(json.dumps(rec), file=sys.stderr, flush=True)
     return out
+
+
+DONUT = Path(__file__).resolve().parents[1] / "examples" / "donut_jelly.toml"
+
+
+def donut_frame(engine: str) -> dict:
+    """Wall time of one frame of the README's donut scene (examples/donut_jelly.toml) on ``engine``.
+
+    Frame 1 (kernel compilation) is excluded; frame 2 is timed, then the point count and substeps.
+    """
+    from gasp_core.pipeline import prepare_scene
+    from gasp_core.runner import RunStats, run_engine
+    from gasp_core.scene import load_scene
+
+    prep = prepare_scene(load_scene(DONUT), engine)
+    stats = RunStats()
+    frames = list(run_engine(prep.info, prep.setup, 2, stats))
+    return {"engine": engine, "material": "donut (jelly)", "n_points": len(prep.setup.x),
+            "donut_frame_s": frames[1].wall_s, "first_frame_s": frames[0].wall_s,
+            "n_substeps_per_frame": stats.engine.get("n_substeps"),
+            "M_per_s": len(prep.setup.x) * stats.engine.get("n_substeps", 0) / frames[1].wall_s / 1e6}
 
 
 def _versions() -> dict:
@@ -133,12 +162,23 @@ def _markdown(doc: dict) -> str:
         "|---|---|---:|---:|---:|---:|---:|",
     ]
     for r in doc["results"]:
+        if "donut_frame_s" in r:
+            continue
         if "error" in r:
             lines.append(f"| {r['engine']} | {r['material']} | {r['n_points']} | error: "
                          f"{r['error'][:80]} | | | |")
         else:
             lines.append(f"| {r['engine']} | {r['material']} | {r['n_points']} | {r['M_per_s']:.2f} | "
                          f"{r['M_per_cpu_s']:.2f} | {r.get('threads')} | {r['first_frame_s']:.1f} |")
+    donut = [r for r in doc["results"] if "donut_frame_s" in r]
+    if donut:
+        lines += ["", "Wall time of one frame of the README donut (examples/donut_jelly.toml: 45,624 "
+                  "Gaussians -> triangle vertices + interior fill, n_grid 64, f32, CPU), frame 2 "
+                  "(frame 1 compiles):", "",
+                  "| engine | points | substeps/frame | s per frame | M/s (wall) |", "|---|---:|---:|---:|---:|"]
+        for r in donut:
+            lines.append(f"| {r['engine']} | {r['n_points']} | {r['n_substeps_per_frame']} | "
+                         f"{r['donut_frame_s']:.2f} | {r['M_per_s']:.2f} |")
     if doc["ratios"]:
         lines += ["", f"Ratios measured in this run (wall-clock throughput, engine / {doc['reference']}):", "",
                   "| engine | material | points | ratio |", "|---|---|---:|---:|"]
@@ -154,14 +194,15 @@ def main(argv=None) -> int:
     ap.add_argument("--sizes", default="50000,200000", help="target point counts")
     ap.add_argument("--materials", default="jelly,neo_hookean")
     ap.add_argument("--frames", type=int, default=3, help=f"timed frames ({SUBSTEPS} substeps each)")
-    ap.add_argument("--timeout", type=float, default=150.0, help="seconds per engine")
+    ap.add_argument("--timeout", type=float, default=300.0, help="seconds per engine")
     ap.add_argument("--out", default=str(RESULTS), help="output folder")
+    ap.add_argument("--no-donut", action="store_true", help="skip the donut-frame timing")
     ap.add_argument("--worker", default=None, help=argparse.SUPPRESS)
     a = ap.parse_args(argv)
     sizes = [int(s) for s in a.sizes.split(",") if s]
     materials = [s for s in a.materials.split(",") if s]
     if a.worker:
-        print(json.dumps(worker(a.worker, sizes, materials, a.frames)))
+        print(json.dumps(worker(a.worker, sizes, materials, a.frames, not a.no_donut)))
         return 0
 
     from gasp_core.plugins import engines
@@ -179,7 +220,7 @@ def main(argv=None) -> int:
            "results": []}
     for name in names:
         cmd = [sys.executable, __file__, "--worker", name, "--sizes", a.sizes, "--materials",
-               a.materials, "--frames", str(a.frames)]
+               a.materials, "--frames", str(a.frames)] + (["--no-donut"] if a.no_donut else [])
         print(f"[bench_mpm] {name} ...", file=sys.stderr, flush=True)
         try:
             p = subprocess.run(cmd, capture_output=True, text=True, timeout=a.timeout)
@@ -191,7 +232,7 @@ def main(argv=None) -> int:
             doc["results"].append({"engine": name, "material": "*", "n_points": 0,
                                    "error": f"{type(e).__name__}: {e}"})
     doc["machine"]["loadavg_end"] = [round(x, 2) for x in os.getloadavg()]
-    ok = [r for r in doc["results"] if "error" not in r]
+    ok = [r for r in doc["results"] if "error" not in r and "donut_frame_s" not in r]
     ref = names[0] if names else None
     doc["reference"] = ref
     doc["ratios"] = []
