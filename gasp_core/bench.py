@@ -308,7 +308,7 @@ def bench_scene(scene_path: str | Path, output: str | Path, engines: list[str] |
                 overwrite: bool = False, n_frames: int | None = None,
                 max_gaussians: int | None = DEFAULT_MAX_GAUSSIANS,
                 settings: dict[str, list[dict]] | None = None,
-                n_grid: Sequence[int] = (32, 48, 64), cfl: Sequence[float] = (0.2, 0.4, 0.8),
+                n_grid: Sequence[int] = (32, 48, 64, 80, 96), cfl: Sequence[float] = (0.2, 0.4, 0.8),
                 reference_n_grid: int | None = None,
                 particles_per_cell: Sequence[int] = (1, 8), fill: Sequence[bool] = (True, False),
                 precision: Sequence[str] = ("f32", "f64"),
