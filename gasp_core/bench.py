@@ -267,7 +267,7 @@ def plot_pareto(ax, rows: list[dict], engine: str) -> None:
     ax.set_xlabel("simulation wall time, s (frames 2..n, scaled to n)")
     ax.set_ylabel("error: worst frame's mean distance, % of size")
     failed = [r for r in rows if r["status"] != "ok"]
-    title = engine + (f"  (failed: {', '.join(r['setting'] + ' ' + r['status'] for r in failed)})" if failed else "")
+    title = engine + (f"  ({len(failed)} run(s) diverged: see summary.md)" if failed else "")
     ax.set_title(title, fontsize=9)
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=7, loc="lower left")
