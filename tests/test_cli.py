@@ -4,7 +4,7 @@ import subprocess
 
 import numpy as np
 import pytest
-from conftest import DONUT, scene_text
+from gasp_testing import DONUT, scene_text
 from plyfile import PlyData, PlyElement
 
 from gasp_core.cli import main

@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import scene_text
+from gasp_testing import scene_text
 from gasp_core.bench import BENCH_COLUMNS, bench_scene, mpm_sweep, pareto_front
 from gasp_core.cli import main
 from gasp_core.compare import DIVERGENCE_COLUMNS, TABLE_COLUMNS, compare_scene, frame_distances, select_engines

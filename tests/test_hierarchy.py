@@ -1,7 +1,7 @@
 """Core Gaussians (BIRCH) and sub-Gaussian binding, on the real donut."""
 import numpy as np
 import pytest
-from conftest import scene_text
+from gasp_testing import scene_text
 
 from gasp_core.games import flatten, gaussians_to_triangles, triangles_to_gaussians
 from gasp_core.hierarchy import build_hierarchy, sub_triangles

@@ -3,7 +3,7 @@ import json
 
 import numpy as np
 import pytest
-from conftest import scene_text
+from gasp_testing import scene_text
 from plyfile import PlyData
 
 from gasp_core.gaussians import quat_to_rotmat
