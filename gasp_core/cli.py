@@ -1,7 +1,7 @@
 """``gasp`` command line: simulate, engines, info (compare and bench where installed).
 
 Errors the user can fix are one line on stderr, ``gasp: error: ...``, with exit status 2
-(bad input), 3 (the engine blew up) or 1 (anything else GASP raised on purpose).
+(bad input, unknown engine, missing capability, existing output) or 3 (the engine blew up).
 """
 from __future__ import annotations
 
@@ -145,7 +145,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     except GaspError as e:
         print(f"gasp: error: {e}", file=sys.stderr)
-        return 2 if isinstance(e, ValueError) else 1
+        return 2
     except KeyboardInterrupt:
         print("gasp: interrupted; no partial output was kept", file=sys.stderr)
         return 130
