@@ -361,6 +361,48 @@ def check_supported(setup: SimSetup, engine: str, capabilities: Capabilities) ->
                              f"supported: {sorted(capabilities.boundaries)}")
 
 
+def check_mpm_options(options: Mapping[str, Any], defaults: Mapping[str, Any], engine: str) -> dict[str, Any]:
+    """:func:`check_options` plus the grid-engine options of ``docs/mpm.md``.
+
+    Checks ``device`` ("cpu" | "cuda"), ``precision`` ("f32" | "f64"), ``dt`` (s, > 0) or
+    ``n_substeps`` (int >= 1, not both), ``cfl`` in (0, 1], and ``threads`` (int >= 1) when the
+    engine has that option.
+
+    Raises
+    ------
+    SceneError
+        Naming the engine, the option, its value and what was expected.
+    """
+    import math
+
+    opt = check_options(options, defaults, engine)
+
+    def bad(name, expected):
+        raise SceneError(f"engine '{engine}': option {name}={opt[name]!r}; expected {expected}")
+
+    def is_int(v):
+        return isinstance(v, (int, np.integer)) and not isinstance(v, bool)
+
+    if opt["device"] not in ("cpu", "cuda"):
+        bad("device", "'cpu' or 'cuda'")
+    if opt["precision"] not in ("f32", "f64"):
+        bad("precision", "'f32' or 'f64'")
+    if opt["dt"] is not None and opt["n_substeps"] is not None:
+        raise SceneError(f"engine '{engine}': give option dt or option n_substeps, not both")
+    dt = opt["dt"]
+    if dt is not None and (isinstance(dt, bool) or not isinstance(dt, (int, float))
+                           or not (math.isfinite(dt) and dt > 0)):
+        bad("dt", "a positive number of seconds")
+    if opt["n_substeps"] is not None and not (is_int(opt["n_substeps"]) and opt["n_substeps"] >= 1):
+        bad("n_substeps", "an integer >= 1")
+    cfl = opt["cfl"]
+    if isinstance(cfl, bool) or not isinstance(cfl, (int, float)) or not (0.0 < cfl <= 1.0):
+        bad("cfl", "a number in (0, 1]")
+    if "threads" in opt and opt["threads"] is not None and not (is_int(opt["threads"]) and opt["threads"] >= 1):
+        bad("threads", "an integer >= 1")
+    return opt
+
+
 def check_options(options: Mapping[str, Any], allowed: Mapping[str, Any], engine: str) -> dict[str, Any]:
     """Merge ``options`` over ``allowed`` defaults; unknown keys are an error naming them.
 

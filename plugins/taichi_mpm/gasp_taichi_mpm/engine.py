@@ -6,13 +6,12 @@ invalidated engine raises :class:`gasp_core.engine.EngineError`.
 """
 from __future__ import annotations
 
-import math
 import os
 from typing import Any
 
 import numpy as np
 
-from gasp_core.engine import EngineDivergence, EngineError, SceneError, SimSetup, check_options, check_supported
+from gasp_core.engine import EngineDivergence, EngineError, SimSetup, check_mpm_options, check_supported
 from gasp_core.physics import mpm_substeps
 
 from . import CAPABILITIES
@@ -30,30 +29,7 @@ _generation = 0  # bumped by every engine built; an engine is live while its gen
 
 
 def _validate_options(setup: SimSetup) -> dict[str, Any]:
-    opt = check_options(setup.options, DEFAULT_OPTIONS, ENGINE)
-    if opt["device"] not in ("cpu", "cuda"):
-        raise SceneError(f"engine '{ENGINE}': option device={opt['device']!r}; expected 'cpu' or 'cuda'")
-    if opt["precision"] not in ("f32", "f64"):
-        raise SceneError(
-            f"engine '{ENGINE}': option precision={opt['precision']!r}; expected 'f32' or 'f64'")
-    if opt["dt"] is not None and opt["n_substeps"] is not None:
-        raise SceneError(f"engine '{ENGINE}': give option dt or option n_substeps, not both")
-    if opt["dt"] is not None:
-        if isinstance(opt["dt"], bool) or not isinstance(opt["dt"], (int, float)) \
-                or not (math.isfinite(opt["dt"]) and opt["dt"] > 0):
-            raise SceneError(f"engine '{ENGINE}': option dt={opt['dt']!r}; expected a positive number of seconds")
-    if opt["n_substeps"] is not None:
-        if isinstance(opt["n_substeps"], bool) or not isinstance(opt["n_substeps"], (int, np.integer)) \
-                or opt["n_substeps"] < 1:
-            raise SceneError(
-                f"engine '{ENGINE}': option n_substeps={opt['n_substeps']!r}; expected an integer >= 1")
-    cfl = opt["cfl"]
-    if isinstance(cfl, bool) or not isinstance(cfl, (int, float)) or not (0.0 < cfl <= 1.0):
-        raise SceneError(f"engine '{ENGINE}': option cfl={cfl!r}; expected a number in (0, 1]")
-    thr = opt["threads"]
-    if thr is not None and (isinstance(thr, bool) or not isinstance(thr, (int, np.integer)) or thr < 1):
-        raise SceneError(f"engine '{ENGINE}': option threads={thr!r}; expected an integer >= 1")
-    return opt
+    return check_mpm_options(setup.options, DEFAULT_OPTIONS, ENGINE)
 
 
 def _validate_setup(setup: SimSetup) -> None:
