@@ -39,6 +39,7 @@ from typing import Any, Iterable, Mapping
 import numpy as np
 
 from .engine import EngineError, GaspError, SceneError
+from .pipeline import commit_dir  # noqa: F401  (also used by bench)
 from .scene import Scene, load_scene
 
 #: Default wall-clock limit of one engine run (child process), seconds.
@@ -382,17 +383,6 @@ def md_table(rows: list[dict], columns: list[str], headers: list[str] | None = N
     lines = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
     lines += ["| " + " | ".join(fmt(r.get(c)) for c in columns) + " |" for r in rows]
     return "\n".join(lines) + "\n"
-
-
-def commit_dir(tmp: Path, outdir: Path) -> None:
-    """Move the finished ``tmp`` folder to ``outdir`` (replacing an old one only now)."""
-    if outdir.exists():
-        trash = Path(tempfile.mkdtemp(dir=outdir.parent, prefix=f".{outdir.name}.old-"))
-        os.replace(outdir, trash / "old")
-        os.replace(tmp, outdir)
-        shutil.rmtree(trash, ignore_errors=True)
-    else:
-        os.replace(tmp, outdir)
 
 
 def _table_row(rec: dict, n_frames: int) -> dict:

@@ -363,6 +363,17 @@ def _versions(info: EngineInfo) -> dict:
     return out
 
 
+def commit_dir(tmp: Path, outdir: Path) -> None:
+    """Move the finished ``tmp`` folder to ``outdir`` (replacing an old one only now)."""
+    if outdir.exists():
+        trash = Path(tempfile.mkdtemp(dir=outdir.parent, prefix=f".{outdir.name}.old-"))
+        os.replace(outdir, trash / "old")
+        os.replace(tmp, outdir)
+        shutil.rmtree(trash, ignore_errors=True)
+    else:
+        os.replace(tmp, outdir)
+
+
 def _atomic_json(path: Path, obj) -> None:
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
     with os.fdopen(fd, "w") as f:
@@ -463,13 +474,7 @@ def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
             "frames": per_frame,
         }
         _atomic_json(tmp / "run.json", summary)
-        if outdir.exists():
-            trash = Path(tempfile.mkdtemp(dir=outdir.parent, prefix=f".{outdir.name}.old-"))
-            os.replace(outdir, trash / "old")
-            os.replace(tmp, outdir)
-            shutil.rmtree(trash, ignore_errors=True)
-        else:
-            os.replace(tmp, outdir)
+        commit_dir(tmp, outdir)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
