@@ -1,252 +1,48 @@
-"""The engine interface: what the core hands an engine, and what it gets back.
+"""The engine seam: how the core finds, checks, builds and drives an engine.
 
-An engine is a black box that moves points (GASP paper Sec. 3, ``V_t = phi(V, t)``).
-The core builds a :class:`SimSetup` (points, per-point volume and material, gravity,
-domain, boundaries, ``frame_dt``), asks a registered :class:`EngineInfo` for an engine
-through its ``factory``, then calls :meth:`PointEngine.step_frame` once per frame and reads
-:meth:`PointEngine.positions`. Nothing here imports an engine package.
+An engine is a black box that moves points (GASP paper Sec. 3, ``V_t = phi(V, t)``). A plugin
+registers :class:`EngineInfo` records (``gasp_engines`` hook, :mod:`gasp_core.plugins`): a name,
+a ``factory``, :class:`Capabilities` and declared :class:`Option` s. The core builds a
+:class:`~gasp_core.setup.SimSetup`, checks it against the capabilities and options
+(:func:`check_supported`, one place), builds the engine with :func:`build_engine`, then calls
+:meth:`PointEngine.step_frame` once per frame and reads :meth:`PointEngine.positions`.
+Nothing here imports an engine package, and nothing here is specific to one kind of engine.
 
-World frame: metres, **z up**, gravity usually ``(0, 0, -9.81)`` m/s^2. The core converts every
-object into this frame before the engine sees it and converts the result back.
+The error contract (:mod:`gasp_core.errors`): unsupported input raises ``SceneError``, an engine
+that cannot run here ``EngineError``, a blow-up ``EngineDivergence``; anything else an engine
+raises is wrapped as ``EngineBug``. The conformance kit (:mod:`gasp_core.testing`) checks it.
 """
 from __future__ import annotations
 
-import dataclasses
+import math
+import os
+import re
+import tempfile
+import traceback
 from dataclasses import dataclass, field
-from typing import Any, Callable, Mapping, Protocol, runtime_checkable
+from typing import Any, Callable, Iterable, Mapping, Protocol, runtime_checkable
 
 import numpy as np
 
-#: Material models an engine may offer (capability names).
-MATERIALS = frozenset({
-    "jelly",        # elastic, fixed corotated (Stomakhin et al. 2012)
-    "neo_hookean",  # elastic, compressible neo-Hookean
-    "metal",        # von Mises plasticity on Hencky strain (StVK Hencky elasticity)
-    "sand",         # Drucker-Prager plasticity on Hencky strain (Klar et al. 2016)
-    "snow",         # Stomakhin et al. 2013 hardening plasticity
-    "plasticine",   # von Mises with softening
-    "liquid",       # weakly compressible fluid (equation of state from lam)
-    "rigid",        # rigid body (engines with rigid bodies)
-})
+from .errors import EngineBug, EngineDivergence, EngineError, GaspError, SceneError
+from .setup import BOUNDARIES, MATERIALS, Boundary, Material, SimSetup
 
-#: Boundary kinds an engine may offer (capability names).
-BOUNDARIES = frozenset({"ground", "walls", "fixed_region"})
+__all__ = ["BOUNDARIES", "FEATURES", "MATERIALS", "Boundary", "Capabilities", "EngineBug", "EngineDivergence",
+           "EngineError", "EngineInfo", "GaspError", "Material", "Option", "PointEngine", "SceneError", "SimSetup",
+           "build_engine", "check_options", "check_supported", "call_engine"]
 
 
-class GaspError(Exception):
-    """Base class of every error GASP raises on purpose."""
-
-
-class SceneError(GaspError, ValueError):
-    """A scene file or its input is wrong; the message names the key, field or file."""
-
-
-class EngineError(GaspError, RuntimeError):
-    """An engine cannot run the scene (missing capability, unavailable device)."""
-
-
-class EngineDivergence(GaspError, RuntimeError):
-    """The simulation blew up: non-finite values or points leaving the domain.
-
-    Attributes
-    ----------
-    frame : int
-        The frame (1-based, the first frame after the initial state) at which it was detected.
-    cause : str
-        The likely cause, in words (time step too large, stiffness too high, ...).
-    """
-
-    def __init__(self, message: str, frame: int, cause: str = ""):
-        super().__init__(f"frame {frame}: {message}" + (f" (likely cause: {cause})" if cause else ""))
-        self.frame = frame
-        self.cause = cause
-
-
-@dataclass(frozen=True)
-class Material:
-    """Constitutive parameters of one body, SI units.
-
-    Attributes
-    ----------
-    name : str
-        One of :data:`MATERIALS`.
-    E : float
-        Young's modulus, Pa.
-    nu : float
-        Poisson's ratio, in [0, 0.5).
-    rho : float
-        Density, kg/m^3.
-    yield_stress : float
-        von Mises yield stress, Pa (metal, plasticine).
-    friction_angle : float
-        Drucker-Prager friction angle, degrees (sand).
-    softening : float
-        Plasticine softening: yield stress drop per unit plastic strain, dimensionless factor.
-    hardening : float
-        Snow hardening coefficient xi (Stomakhin et al. 2013), default 10.
-    theta_c, theta_s : float
-        Snow critical compression and stretch (Stomakhin et al. 2013).
-    """
-
-    name: str = "jelly"
-    E: float = 1e5
-    nu: float = 0.3
-    rho: float = 1000.0
-    yield_stress: float = 1e4
-    friction_angle: float = 30.0
-    softening: float = 0.1
-    hardening: float = 10.0
-    theta_c: float = 2.5e-2
-    theta_s: float = 4.5e-3
-
-    @property
-    def mu(self) -> float:
-        """Lame's second parameter (shear modulus), Pa."""
-        return self.E / (2.0 * (1.0 + self.nu))
-
-    @property
-    def lam(self) -> float:
-        """Lame's first parameter, Pa."""
-        return self.E * self.nu / ((1.0 + self.nu) * (1.0 - 2.0 * self.nu))
-
-
-@dataclass(frozen=True)
-class Boundary:
-    """One boundary condition, world frame.
-
-    Attributes
-    ----------
-    kind : str
-        ``"ground"``: a horizontal plane ``z = height``; nothing passes below it; tangential
-        velocity is reduced by Coulomb friction ``friction`` (0 = slip, large = sticky).
-        ``"walls"``: the faces of the domain box are walls with the same friction rule.
-        ``"fixed_region"``: points that start inside the box ``[lo, hi]`` are held still.
-    height : float
-        Ground height, metres (``"ground"``).
-    friction : float
-        Coulomb friction coefficient (``"ground"``, ``"walls"``).
-    lo, hi : tuple of 3 floats
-        Corners of the fixed box, metres (``"fixed_region"``).
-    """
-
-    kind: str
-    height: float = 0.0
-    friction: float = 0.5
-    lo: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    hi: tuple[float, float, float] = (0.0, 0.0, 0.0)
-
-
-@dataclass
-class SimSetup:
-    """Everything an engine needs, world frame, SI units.
-
-    Attributes
-    ----------
-    x : ndarray, shape (n, 3), float64
-        Initial point positions, metres. Rows ``[:n_render]`` are the triangle vertices of the
-        Gaussians (or the core Gaussians' vertices); rows after are interior fill points that
-        are simulated but never rendered.
-    v : ndarray, shape (n, 3), float64
-        Initial velocities, m/s.
-    p_vol : ndarray, shape (n,), float64
-        Rest volume each point stands for, m^3 (mass = rho * p_vol).
-    body_id : ndarray, shape (n,), int32
-        Index into ``materials`` (one body per scene object).
-    materials : list of Material
-        One per body.
-    gravity : ndarray, shape (3,), float64
-        m/s^2.
-    domain_lo, domain_hi : ndarray, shape (3,), float64
-        The simulation box, metres. Points leaving it are a divergence.
-    n_grid : int
-        Grid cells along the longest domain side (grid engines); sets ``dx``.
-    boundaries : list of Boundary
-    frame_dt : float
-        Seconds between output frames.
-    n_render : int
-        Number of leading points that carry Gaussians.
-    options : dict
-        Engine options from the scene's ``[engine]`` table (``device``, ``precision``,
-        ``dt``, ``n_substeps``, ``cfl``, ...). Each engine validates its own.
-    C : ndarray, shape (n, 3, 3), float64, or None
-        Initial velocity gradient per point, 1/s (APIC's affine matrix ``C``; for a body spinning
-        at angular velocity w it is the cross-product matrix of w). None means zero. Grid engines
-        start their ``C`` from it, so a rotating body does not lose the sub-cell part of its
-        angular momentum in the first transfer; other engines may ignore it.
-    """
-
-    x: np.ndarray
-    v: np.ndarray
-    p_vol: np.ndarray
-    body_id: np.ndarray
-    materials: list[Material]
-    gravity: np.ndarray
-    domain_lo: np.ndarray
-    domain_hi: np.ndarray
-    n_grid: int = 64
-    boundaries: list[Boundary] = field(default_factory=list)
-    frame_dt: float = 1.0 / 30.0
-    n_render: int = -1
-    options: dict[str, Any] = field(default_factory=dict)
-    C: np.ndarray | None = None
-
-    def __post_init__(self):
-        self.x = np.ascontiguousarray(self.x, dtype=np.float64)
-        n = len(self.x)
-        if self.x.ndim != 2 or self.x.shape[1] != 3:
-            raise SceneError(f"SimSetup.x: expected shape (n, 3), got {self.x.shape}")
-        self.v = np.ascontiguousarray(np.broadcast_to(self.v, (n, 3)), dtype=np.float64)
-        self.p_vol = np.ascontiguousarray(np.broadcast_to(self.p_vol, (n,)), dtype=np.float64)
-        self.body_id = np.ascontiguousarray(np.broadcast_to(self.body_id, (n,)), dtype=np.int32)
-        self.gravity = np.asarray(self.gravity, dtype=np.float64).reshape(3)
-        self.domain_lo = np.asarray(self.domain_lo, dtype=np.float64).reshape(3)
-        self.domain_hi = np.asarray(self.domain_hi, dtype=np.float64).reshape(3)
-        if self.n_render < 0:
-            self.n_render = n
-        if self.C is not None:
-            self.C = np.ascontiguousarray(np.broadcast_to(self.C, (n, 3, 3)), dtype=np.float64)
-        if not np.all(np.isfinite(self.x)):
-            bad = int(np.flatnonzero(~np.isfinite(self.x).all(axis=1))[0])
-            raise SceneError(f"SimSetup.x: non-finite position at point {bad}")
-        if len(self.materials) == 0 or (n and self.body_id.max() >= len(self.materials)):
-            raise SceneError("SimSetup.body_id: refers to a material that is not in SimSetup.materials")
-        if n == 0:
-            raise SceneError("SimSetup.x: no points")
-        if not np.all(np.isfinite(self.v)):
-            raise SceneError("SimSetup.v: velocities must be finite")
-        if np.any(self.p_vol <= 0) or not np.all(np.isfinite(self.p_vol)):
-            raise SceneError("SimSetup.p_vol: volumes must be positive and finite")
-        if not np.all(self.domain_hi > self.domain_lo):
-            raise SceneError(f"SimSetup.domain_hi must exceed domain_lo on every axis, got "
-                             f"{self.domain_lo.tolist()} / {self.domain_hi.tolist()}")
-        if not (isinstance(self.n_grid, (int, np.integer)) and self.n_grid >= 4):
-            raise SceneError(f"SimSetup.n_grid = {self.n_grid!r}; expected an integer >= 4")
-        if not (self.frame_dt > 0 and np.isfinite(self.frame_dt)):
-            raise SceneError(f"SimSetup.frame_dt = {self.frame_dt}; expected a positive number of seconds")
-        for m in self.materials:
-            if not (m.E > 0 and m.rho > 0 and -1.0 < m.nu < 0.5 and m.yield_stress >= 0):
-                raise SceneError(f"material {m.name!r} needs E > 0, rho > 0, -1 < nu < 0.5, yield_stress >= 0; "
-                                 f"got E={m.E}, rho={m.rho}, nu={m.nu}, yield_stress={m.yield_stress}")
-
-    @property
-    def dx(self) -> float:
-        """Grid spacing, metres: the longest domain side divided by ``n_grid``."""
-        return float(np.max(self.domain_hi - self.domain_lo)) / self.n_grid
-
-    @property
-    def p_mass(self) -> np.ndarray:
-        """Point masses, kg, shape (n,)."""
-        rho = np.array([m.rho for m in self.materials])
-        return rho[self.body_id] * self.p_vol
-
-    def replace(self, **changes) -> "SimSetup":
-        """A copy with some fields changed (``dataclasses.replace``)."""
-        return dataclasses.replace(self, **changes)
+#: Feature names an engine may declare in :attr:`Capabilities.features` (beyond materials and boundaries).
+FEATURES = {
+    "initial_C": "starts from SimSetup.C, the initial velocity gradient (APIC's affine matrix)",
+    "grid": "simulates on a background grid of SimSetup.n_grid cells; points within a few dx of "
+            "a wall are inside the grid's transfer stencil",
+}
 
 
 @dataclass(frozen=True)
 class Capabilities:
-    """What an engine can do, as data (names from :data:`MATERIALS` and :data:`BOUNDARIES`).
+    """What an engine can do, as data (names from :data:`MATERIALS`, :data:`BOUNDARIES`, :data:`FEATURES`).
 
     Attributes
     ----------
@@ -255,32 +51,149 @@ class Capabilities:
         e.g. ``{"cpu", "cuda"}``.
     precisions : frozenset of str
         ``{"f32"}``, ``{"f32", "f64"}``.
-    dims : frozenset of int
-        Spatial dimensionality, ``{3}``.
     deterministic : frozenset of str
-        Devices on which a run repeats bit for bit (e.g. ``{"cpu"}`` single-threaded).
-    grid_based : bool
-        True for MPM engines (``n_grid`` and ``dx`` are meaningful; they report substeps).
+        Devices on which a run repeats bit for bit; the option that makes it so (e.g. one thread) is
+        named by :attr:`EngineInfo.deterministic_options`.
+    features : frozenset of str
+        Further abilities (keys of :data:`FEATURES`): a scene that needs one is refused up front by
+        an engine without it.
     """
 
     materials: frozenset[str]
     boundaries: frozenset[str]
     devices: frozenset[str] = frozenset({"cpu"})
     precisions: frozenset[str] = frozenset({"f32"})
-    dims: frozenset[int] = frozenset({3})
     deterministic: frozenset[str] = frozenset()
-    grid_based: bool = False
+    features: frozenset[str] = frozenset()
 
     def as_dict(self) -> dict[str, Any]:
-        return {
-            "materials": sorted(self.materials),
-            "boundaries": sorted(self.boundaries),
-            "devices": sorted(self.devices),
-            "precisions": sorted(self.precisions),
-            "dims": sorted(self.dims),
-            "deterministic": sorted(self.deterministic),
-            "grid_based": self.grid_based,
-        }
+        return {k: sorted(getattr(self, k)) for k in
+                ("materials", "boundaries", "devices", "precisions", "deterministic", "features")}
+
+    def missing(self, materials: Iterable[str] = (), boundaries: Iterable[str] = (),
+                features: Iterable[str] = ()) -> list[tuple[str, str]]:
+        """``(kind, name)`` of every requested material, boundary or feature this engine lacks."""
+        out = []
+        for kind, names, have in (("material", materials, self.materials),
+                                  ("boundary", boundaries, self.boundaries),
+                                  ("feature", features, self.features)):
+            out += [(kind, n) for n in dict.fromkeys(names) if n not in have]
+        return out
+
+
+_KINDS = {"int": "an integer", "number": "a number", "str": "a string", "bool": "true or false"}
+
+
+@dataclass(frozen=True)
+class Option:
+    """One engine option, declared as data (``gasp engines`` lists them; the core checks them).
+
+    Attributes
+    ----------
+    name : str
+        Key in the scene's ``[engine] options`` table.
+    default : Any
+        Value when the scene does not give one. ``None`` means "the engine decides" and is
+        always accepted.
+    doc : str
+        Meaning and unit, one line.
+    kind : str
+        ``"int"``, ``"number"`` (int or float, finite), ``"str"`` or ``"bool"``.
+    choices : tuple, optional
+        Allowed values (``kind="str"``).
+    lo, hi : float, optional
+        Inclusive bounds (``kind`` int or number); ``lo_open`` makes ``lo`` exclusive.
+    pattern : str, optional
+        A regular expression a string value must match in full (e.g. ``cuda(:\\d+)?``); used
+        instead of ``choices``.
+    """
+
+    name: str
+    default: Any
+    doc: str
+    kind: str = "number"
+    choices: tuple | None = None
+    lo: float | None = None
+    hi: float | None = None
+    lo_open: bool = False
+    pattern: str | None = None
+
+    def expected(self) -> str:
+        """What a valid value is, in words."""
+        if self.choices is not None:
+            return "one of " + ", ".join(repr(c) for c in self.choices)
+        text = _KINDS[self.kind]
+        if self.pattern is not None:
+            text += f" matching {self.pattern!r}"
+        if self.lo is not None and self.hi is not None:
+            text += f" in {'(' if self.lo_open else '['}{self.lo:g}, {self.hi:g}]"
+        elif self.lo is not None:
+            text += f" {'>' if self.lo_open else '>='} {self.lo:g}"
+        elif self.hi is not None:
+            text += f" <= {self.hi:g}"
+        return text
+
+    def valid(self, value: Any) -> bool:
+        """True when ``value`` is acceptable (``None`` always is)."""
+        if value is None:
+            return True
+        if self.kind == "bool":
+            return isinstance(value, bool)
+        if self.kind == "str":
+            if not isinstance(value, str):
+                return False
+            if self.pattern is not None:
+                return re.fullmatch(self.pattern, value) is not None
+            return self.choices is None or value in self.choices
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+            return False
+        if self.kind == "int" and not isinstance(value, (int, np.integer)):
+            return False
+        if not math.isfinite(value):
+            return False
+        if self.choices is not None and value not in self.choices:
+            return False
+        if self.lo is not None and (value <= self.lo if self.lo_open else value < self.lo):
+            return False
+        return self.hi is None or value <= self.hi
+
+
+def check_options(options: Mapping[str, Any], declared: Iterable[Option], engine: str) -> dict[str, Any]:
+    """Every declared option's value: the scene's where given, else the default.
+
+    Parameters
+    ----------
+    options : mapping
+        The scene's ``[engine] options``.
+    declared : iterable of Option
+        :attr:`EngineInfo.options`.
+    engine : str
+        Engine name, for messages.
+
+    Returns
+    -------
+    dict
+        ``{name: value}`` for every declared option.
+
+    Raises
+    ------
+    SceneError
+        An unknown option (the message lists the declared ones), or a value of the wrong type or
+        out of range (the message names the option, the value and what is expected).
+    """
+    by_name = {o.name: o for o in declared}
+    if not isinstance(options, Mapping):
+        raise SceneError(f"engine '{engine}': options must be a table like {{ name = value }}, "
+                         f"got {options!r}")
+    unknown = sorted(set(options) - set(by_name))
+    if unknown:
+        raise SceneError(f"engine '{engine}': unknown option(s) {unknown}; allowed: {sorted(by_name)}")
+    merged = {name: o.default for name, o in by_name.items()}
+    for name, value in options.items():
+        if not by_name[name].valid(value):
+            raise SceneError(f"engine '{engine}': option {name}={value!r}; expected {by_name[name].expected()}")
+        merged[name] = value
+    return merged
 
 
 @runtime_checkable
@@ -321,11 +234,23 @@ class EngineInfo:
     Attributes
     ----------
     name : str
-        Engine name used in scene files (``engine = "taichi_mpm"``).
+        Engine name used in scene files (``[engine] name = "my_engine"``).
     factory : callable
         ``factory(setup: SimSetup) -> PointEngine``. Imports the engine package lazily, so
-        that listing engines stays cheap.
+        that listing engines stays cheap. It gets a setup that :func:`check_supported` passed,
+        with ``setup.options`` holding every declared option (defaults filled in).
     capabilities : Capabilities
+    options : tuple of Option
+        Every option the engine takes; anything else in a scene is refused before the factory runs.
+    deterministic_options : dict
+        Option values that make a run repeat bit for bit on the devices of
+        ``capabilities.deterministic`` (e.g. ``{"threads": 1}``); the conformance kit uses them.
+    known_failures : dict
+        ``{conformance scene name: reason with measured figures}``: run as strict expected failures.
+    sweep : callable or None
+        ``sweep(quick: bool) -> (settings, reference)`` for ``gasp bench``: a list of setting dicts
+        and the reference setting. Keys ``n_grid``, ``particles_per_cell``, ``fill`` and
+        ``core_fraction`` change the scene; every other key is an engine option.
     distribution, version : str
         The installed distribution that provides it (filled in by the plugin manager).
     available : callable or None
@@ -337,6 +262,10 @@ class EngineInfo:
     name: str
     factory: Callable[[SimSetup], PointEngine]
     capabilities: Capabilities
+    options: tuple[Option, ...] = ()
+    deterministic_options: Mapping[str, Any] = field(default_factory=dict)
+    known_failures: Mapping[str, str] = field(default_factory=dict)
+    sweep: Callable[[bool], tuple[list[dict], dict]] | None = None
     distribution: str = ""
     version: str = ""
     available: Callable[[], str | None] | None = None
@@ -346,75 +275,89 @@ class EngineInfo:
         return self.available() if self.available is not None else None
 
 
-def check_supported(setup: SimSetup, engine: str, capabilities: Capabilities) -> None:
-    """Raise :class:`SceneError` if ``setup`` uses a material or boundary the engine lacks.
+def check_supported(info: EngineInfo, materials: Iterable[str] = (), boundaries: Iterable[str] = (),
+                    features: Iterable[str] = (), others: Mapping[str, EngineInfo] | None = None) -> None:
+    """The one capability check: refuse what the engine lacks, before any work.
 
-    The message names the engine, what is missing and what it supports.
-    """
-    for m in setup.materials:
-        if m.name not in capabilities.materials:
-            raise SceneError(f"engine '{engine}': material {m.name!r} is not supported; "
-                             f"supported: {sorted(capabilities.materials)}")
-    for b in setup.boundaries:
-        if b.kind not in capabilities.boundaries:
-            raise SceneError(f"engine '{engine}': boundary kind {b.kind!r} is not supported; "
-                             f"supported: {sorted(capabilities.boundaries)}")
-
-
-def check_mpm_options(options: Mapping[str, Any], defaults: Mapping[str, Any], engine: str) -> dict[str, Any]:
-    """:func:`check_options` plus the grid-engine options of ``docs/mpm.md``.
-
-    Checks ``device`` ("cpu" | "cuda"), ``precision`` ("f32" | "f64"), ``dt`` (s, > 0) or
-    ``n_substeps`` (int >= 1, not both), ``cfl`` in (0, 1], and ``threads`` (int >= 1) when the
-    engine has that option.
+    Parameters
+    ----------
+    info : EngineInfo
+    materials, boundaries, features : iterable of str
+        What the scene uses.
+    others : mapping, optional
+        Installed engines by name, to name those that have what is missing.
 
     Raises
     ------
     SceneError
-        Naming the engine, the option, its value and what was expected.
+        Naming the engine, what it lacks, and the installed engines that have it.
     """
-    import math
-
-    opt = check_options(options, defaults, engine)
-
-    def bad(name, expected):
-        raise SceneError(f"engine '{engine}': option {name}={opt[name]!r}; expected {expected}")
-
-    def is_int(v):
-        return isinstance(v, (int, np.integer)) and not isinstance(v, bool)
-
-    if opt["device"] not in ("cpu", "cuda"):
-        bad("device", "'cpu' or 'cuda'")
-    if opt["precision"] not in ("f32", "f64"):
-        bad("precision", "'f32' or 'f64'")
-    if opt["dt"] is not None and opt["n_substeps"] is not None:
-        raise SceneError(f"engine '{engine}': give option dt or option n_substeps, not both")
-    dt = opt["dt"]
-    if dt is not None and (isinstance(dt, bool) or not isinstance(dt, (int, float))
-                           or not (math.isfinite(dt) and dt > 0)):
-        bad("dt", "a positive number of seconds")
-    if opt["n_substeps"] is not None and not (is_int(opt["n_substeps"]) and opt["n_substeps"] >= 1):
-        bad("n_substeps", "an integer >= 1")
-    cfl = opt["cfl"]
-    if isinstance(cfl, bool) or not isinstance(cfl, (int, float)) or not (0.0 < cfl <= 1.0):
-        bad("cfl", "a number in (0, 1]")
-    if "threads" in opt and opt["threads"] is not None and not (is_int(opt["threads"]) and opt["threads"] >= 1):
-        bad("threads", "an integer >= 1")
-    return opt
+    missing = info.capabilities.missing(materials, boundaries, features)
+    if not missing:
+        return
+    kind, name = missing[0]
+    attr = {"material": "materials", "boundary": "boundaries", "feature": "features"}[kind]
+    able = sorted(n for n, e in (others or {}).items() if name in getattr(e.capabilities, attr))
+    raise SceneError(f"engine '{info.name}' does not support the {kind} '{name}' "
+                     f"(it supports {attr}: {sorted(getattr(info.capabilities, attr)) or 'none'}); "
+                     f"engines that do: {able or 'none installed'}")
 
 
-def check_options(options: Mapping[str, Any], allowed: Mapping[str, Any], engine: str) -> dict[str, Any]:
-    """Merge ``options`` over ``allowed`` defaults; unknown keys are an error naming them.
+def setup_needs(setup: SimSetup) -> dict[str, list[str]]:
+    """What a setup asks of an engine: ``materials``, ``boundaries`` and ``features`` names."""
+    features = ["initial_C"] if setup.C is not None and np.any(setup.C) else []
+    return {"materials": [m.name for m in setup.materials], "boundaries": [b.kind for b in setup.boundaries],
+            "features": features}
+
+
+def _bug(info: EngineInfo, where: str, e: BaseException) -> EngineBug:
+    path = ""
+    try:
+        fd, path = tempfile.mkstemp(prefix=f"gasp-bug-{info.name}-", suffix=".txt")
+        with os.fdopen(fd, "w") as f:
+            f.write(f"engine {info.name} ({info.distribution} {info.version}) at {where}\n")
+            f.write("".join(traceback.format_exception(e)))
+    except OSError:
+        path = ""
+    return EngineBug(info.name, info.distribution, where, e, path)
+
+
+def call_engine(info: EngineInfo, where: str, fn: Callable, *args):
+    """Call into an engine under the error contract.
+
+    ``GaspError`` s pass through; any other exception becomes :class:`EngineBug` (its traceback
+    saved to a temporary file). ``KeyboardInterrupt`` and ``SystemExit`` pass through.
+    """
+    try:
+        return fn(*args)
+    except GaspError:
+        raise
+    except Exception as e:  # the contract: anything else is a bug in the engine
+        raise _bug(info, where, e) from e
+
+
+def build_engine(info: EngineInfo, setup: SimSetup) -> PointEngine:
+    """Check ``setup`` against the engine's capabilities and options, then call its factory.
+
+    Parameters
+    ----------
+    info : EngineInfo
+    setup : SimSetup
+        ``setup.options`` are checked and completed with the declared defaults (in place).
+
+    Returns
+    -------
+    PointEngine
 
     Raises
     ------
     SceneError
-        If a key is not in ``allowed``; the message lists the allowed keys.
+        A material, boundary or feature the engine lacks; an unknown or invalid option.
+    EngineError
+        The engine cannot run here.
+    EngineBug
+        The factory raised anything outside the error contract.
     """
-    unknown = sorted(set(options) - set(allowed))
-    if unknown:
-        raise SceneError(
-            f"engine '{engine}': unknown option(s) {unknown}; allowed: {sorted(allowed)}")
-    merged = dict(allowed)
-    merged.update(options)
-    return merged
+    check_supported(info, **setup_needs(setup))
+    setup.options = check_options(setup.options, info.options, info.name)
+    return call_engine(info, "build", info.factory, setup)

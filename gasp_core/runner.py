@@ -1,8 +1,9 @@
 """Drive an engine frame by frame and stop it cleanly when it blows up.
 
-Every engine goes through :func:`run_engine`, so NaN, points leaving the domain and engine
-exceptions are caught in one place and reported as :class:`EngineDivergence` with the frame and
-the likely cause, before anything is written.
+Every engine goes through :func:`run_engine`, so NaN and points leaving the domain are caught
+in one place and reported as :class:`EngineDivergence` with the frame and the likely cause,
+before anything is written. Exceptions follow the error contract of :mod:`gasp_core.errors`:
+an engine's ``GaspError`` passes through, anything else becomes :class:`EngineBug`.
 """
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from typing import Callable, Iterator
 
 import numpy as np
 
-from .engine import EngineDivergence, EngineInfo, GaspError, PointEngine, SimSetup
+from .engine import EngineDivergence, EngineInfo, PointEngine, SimSetup, build_engine, call_engine
 
 
 @dataclass
@@ -100,34 +101,34 @@ def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int,
 
     Raises
     ------
+    SceneError, EngineError
+        From :func:`gasp_core.engine.build_engine` (capabilities, options) or the engine.
     EngineDivergence
         At the first frame whose state is non-finite or outside the domain, or when the engine
-        itself reports a blow-up or fails with an unexpected exception (chained).
+        itself reports a blow-up.
+    EngineBug
+        The engine raised anything outside the error contract.
     """
     stats = stats if stats is not None else RunStats()
     t0 = time.perf_counter()
-    engine: PointEngine = info.factory(setup)
+    engine: PointEngine = build_engine(info, setup)
     stats.build_s = time.perf_counter() - t0
+
+    def advance():
+        engine.step_frame()
+        return np.asarray(engine.positions(), dtype=np.float64)
+
     try:
         for frame in range(1, n_frames + 1):
             t0 = time.perf_counter()
-            try:
-                engine.step_frame()
-                x = np.asarray(engine.positions(), dtype=np.float64)
-            except GaspError as e:
-                if isinstance(e, EngineDivergence):
-                    raise
-                raise EngineDivergence(str(e), frame, "engine error") from e
-            except (FloatingPointError, ArithmeticError, RuntimeError, ValueError) as e:
-                raise EngineDivergence(f"engine '{info.name}' failed: {e}", frame,
-                                       "engine error") from e
+            x = call_engine(info, f"frame {frame}", advance)
             dt_wall = time.perf_counter() - t0
             check_state(x, setup, frame)
             stats.frame_s.append(dt_wall)
             yield FrameRecord(frame, x, dt_wall)
-        stats.engine = dict(engine.stats())
+        stats.engine = dict(call_engine(info, "stats", engine.stats))
     finally:
-        engine.close()
+        call_engine(info, "close", engine.close)
 
 
 def simulate(info: EngineInfo, setup: SimSetup, n_frames: int,

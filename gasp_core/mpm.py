@@ -1,7 +1,9 @@
-"""Engine-independent physics helpers: wave speeds and explicit time-step limits.
+"""The optional MPM toolkit: what every grid (MPM) engine of GASP shares, and nothing the seam needs.
 
-Both MPM plugins take their substep from :func:`mpm_stable_dt` so that, with the same scene,
-they run the same ``dt`` and ``n_substeps``.
+Engines opt in by importing it; :mod:`gasp_core.engine` never does. It holds the declared options
+of a grid engine (:data:`MPM_OPTIONS`), the stable time step and substeps (``docs/mpm.md``,
+"Time step"), so that with the same scene every MPM engine runs the same ``dt`` and
+``n_substeps``.
 """
 from __future__ import annotations
 
@@ -10,7 +12,8 @@ from typing import Iterable
 
 import numpy as np
 
-from .engine import Material
+from .engine import Option
+from .setup import Material
 
 
 def p_wave_speed(m: Material) -> float:
@@ -102,3 +105,27 @@ def substeps_for(frame_dt: float, dt_max: float) -> tuple[int, float]:
     """Whole substeps per frame: ``n_substeps = ceil(frame_dt / dt_max)``, ``dt = frame_dt / n_substeps``."""
     n = max(1, math.ceil(frame_dt / dt_max - 1e-9))
     return n, frame_dt / n
+
+
+#: The options every MPM engine of this project takes (``docs/mpm.md``); engines add their own.
+MPM_OPTIONS = (
+    Option("device", "cpu", "where to run: 'cpu' or 'cuda' ('cuda:N' picks a GPU)", kind="str",
+           pattern=r"cpu|cuda(:\d+)?"),
+    Option("precision", "f32", "floating-point precision of the solver", kind="str", choices=("f32", "f64")),
+    Option("dt", None, "substep length, s (default: from cfl)", kind="number", lo=0.0, lo_open=True),
+    Option("n_substeps", None, "substeps per frame (default: from cfl); not with dt", kind="int", lo=1),
+    Option("cfl", 0.4, "Courant number of the automatic substep: dt = cfl dx / max(c_p, v_max)",
+           kind="number", lo=0.0, hi=1.0, lo_open=True),
+)
+
+
+def check_time_options(options, engine: str) -> None:
+    """Refuse ``dt`` and ``n_substeps`` given together (each is checked alone by its :class:`Option`).
+
+    Raises
+    ------
+    SceneError
+    """
+    from .errors import SceneError
+    if options.get("dt") is not None and options.get("n_substeps") is not None:
+        raise SceneError(f"engine '{engine}': give option dt or option n_substeps, not both")
