@@ -1,7 +1,10 @@
 """``gasp`` command line: simulate, engines, info (compare and bench where installed).
 
-Errors the user can fix are one line on stderr, ``gasp: error: ...``, with exit status 2
-(bad input, unknown engine, missing capability, existing output) or 3 (the engine blew up).
+Every error is one line on stderr, ``gasp: error: ...``, with an exit status from the error
+contract (:mod:`gasp_core.errors`): 2 for what the user can fix (bad input, unknown engine,
+missing capability, existing output, a folder that cannot be written), 3 when the engine blew up,
+4 for a bug in an engine (its traceback saved to a file the line names), 130 when interrupted
+(Ctrl-C, SIGTERM, SIGHUP; nothing partial is kept).
 """
 from __future__ import annotations
 
@@ -10,7 +13,9 @@ import json
 import sys
 from pathlib import Path
 
-from .engine import EngineDivergence, GaspError
+import signal
+
+from .errors import EngineBug, EngineDivergence, GaspError
 
 
 def _cmd_simulate(args) -> int:
@@ -32,16 +37,22 @@ def _cmd_simulate(args) -> int:
 
 
 def _cmd_engines(args) -> int:
-    from .plugins import engines
+    from .plugins import BROKEN, engines
     found = engines()
+    for name, (dist, err) in BROKEN.items():
+        print(f"gasp: warning: plugin '{name}' ({dist}) fails to import: {err}", file=sys.stderr)
     if args.json:
         print(json.dumps({n: {"distribution": e.distribution, "version": e.version,
                               "available": e.unavailable_reason() or "yes",
                               "capabilities": e.capabilities.as_dict(),
+                              "options": [{"name": o.name, "default": o.default, "expected": o.expected(),
+                                           "doc": o.doc} for o in e.options],
+                              "deterministic_options": dict(e.deterministic_options),
+                              "known_failures": dict(e.known_failures),
                               "description": e.description} for n, e in found.items()}, indent=2))
         return 0
     if not found:
-        print("no engines installed (pip install -e plugins/taichi_mpm)")
+        print("no engines installed (each engine is a plugin distribution: see README, 'Engines')")
         return 0
     for name, e in found.items():
         c = e.capabilities
@@ -49,8 +60,13 @@ def _cmd_engines(args) -> int:
         print(f"{name}  ({e.distribution} {e.version})" + (f"  NOT AVAILABLE: {reason}" if reason else ""))
         print(f"    materials:  {', '.join(sorted(c.materials))}")
         print(f"    boundaries: {', '.join(sorted(c.boundaries))}")
-        print(f"    devices:    {', '.join(sorted(c.devices))}; precisions: {', '.join(sorted(c.precisions))}; "
-              f"dims: {', '.join(map(str, sorted(c.dims)))}")
+        print(f"    devices:    {', '.join(sorted(c.devices))}; precisions: {', '.join(sorted(c.precisions))}")
+        if c.features:
+            print(f"    features:   {', '.join(sorted(c.features))}")
+        for o in e.options:
+            print(f"    option {o.name} = {o.default!r}: {o.doc} ({o.expected()})")
+        if e.known_failures:
+            print(f"    known failures: {', '.join(sorted(e.known_failures))}")
         if e.description:
             print(f"    {e.description}")
     return 0
@@ -133,22 +149,45 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _interrupt(signum, _frame):
+    raise KeyboardInterrupt(signal.Signals(signum).name)
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    previous = {}
+    for sig in (signal.SIGTERM, signal.SIGHUP):
+        try:
+            previous[sig] = signal.signal(sig, _interrupt)
+        except ValueError:  # not the main thread (tests calling main in a thread)
+            pass
     try:
         return args.func(args)
     except EngineDivergence as e:
         print(f"gasp: error: simulation diverged at {e}", file=sys.stderr)
         return 3
-    except (FileExistsError, FileNotFoundError) as e:
+    except EngineBug as e:
         print(f"gasp: error: {e}", file=sys.stderr)
-        return 2
+        return 4
     except GaspError as e:
         print(f"gasp: error: {e}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("gasp: interrupted; no partial output was kept", file=sys.stderr)
+    except (FileExistsError, FileNotFoundError, IsADirectoryError, NotADirectoryError) as e:
+        print(f"gasp: error: {e}", file=sys.stderr)
+        return 2
+    except PermissionError as e:
+        print(f"gasp: error: permission denied: {e.filename or e}", file=sys.stderr)
+        return 2
+    except OSError as e:
+        print(f"gasp: error: {e.strerror or e}{f': {e.filename}' if e.filename else ''}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt as e:
+        why = f" by {e.args[0]}" if e.args else ""
+        print(f"gasp: interrupted{why}; no partial output was kept", file=sys.stderr)
         return 130
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
 
 
 if __name__ == "__main__":

@@ -34,7 +34,8 @@ __all__ = ["BOUNDARIES", "FEATURES", "MATERIALS", "Boundary", "Capabilities", "E
 
 #: Feature names an engine may declare in :attr:`Capabilities.features` (beyond materials and boundaries).
 FEATURES = {
-    "initial_C": "starts from SimSetup.C, the initial velocity gradient (APIC's affine matrix)",
+    "initial_C": "starts from SimSetup.C, the initial velocity gradient (APIC's affine matrix); "
+                 "engines without it ignore C and start from v alone",
     "grid": "simulates on a background grid of SimSetup.n_grid cells; points within a few dx of "
             "a wall are inside the grid's transfer stencil",
 }
@@ -305,9 +306,8 @@ def check_supported(info: EngineInfo, materials: Iterable[str] = (), boundaries:
 
 def setup_needs(setup: SimSetup) -> dict[str, list[str]]:
     """What a setup asks of an engine: ``materials``, ``boundaries`` and ``features`` names."""
-    features = ["initial_C"] if setup.C is not None and np.any(setup.C) else []
     return {"materials": [m.name for m in setup.materials], "boundaries": [b.kind for b in setup.boundaries],
-            "features": features}
+            "features": []}
 
 
 def _bug(info: EngineInfo, where: str, e: BaseException) -> EngineBug:

@@ -1,7 +1,7 @@
 """The in-memory Gaussian Splatting model and quaternion / rotation-matrix helpers.
 
 A :class:`Gaussians` holds one trained scene in the field's standard terms (see
-``/work/shared/STYLE.md``): ``means (N,3)``, activated ``scales (N,3)``, unit quaternions
+the project's style guide, ``shared/STYLE.md``): ``means (N,3)``, activated ``scales (N,3)``, unit quaternions
 ``rotations (N,4)`` in **wxyz** order, raw logit ``opacities (N,)``, ``sh_dc (N,3)`` and
 ``sh_rest (N,K,3)``. Geometry is float64 (it is transformed and simulated); appearance fields
 stay the float32 values read from the file so that a write-back is bit for bit
@@ -24,17 +24,14 @@ from typing import Any
 
 import numpy as np
 
-from .engine import SceneError
+from .errors import SceneError
+from .games import EPS as FLAT_EPS  # the GaMeS thin-axis scale, one constant for the project
 
 #: Spherical-harmonics rest coefficients per colour channel, by SH degree 0..3.
 SH_REST_COUNT = {0: 0, 1: 3, 2: 8, 3: 15}
 
 #: Layout names a :class:`Gaussians` may carry (the file layout it was read from).
 LAYOUTS = frozenset({"3dgs", "games", "2dgs", "compressed", "splatv"})
-
-#: Thin-axis scale of a flat Gaussian, file units (GaMeS writes ``scale_0 = log(1e-8)``).
-FLAT_EPS = 1e-8
-
 
 def quat_to_rotmat(q: np.ndarray) -> np.ndarray:
     """Rotation matrices of quaternions, vectorised.

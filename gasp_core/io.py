@@ -27,9 +27,7 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import struct
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -37,6 +35,7 @@ import numpy as np
 from plyfile import PlyData, PlyElement
 
 from .engine import SceneError
+from .fsutil import atomic_write
 from .gaussians import FLAT_EPS, SH_REST_COUNT, Gaussians, quat_to_rotmat, rotmat_to_quat
 
 __all__ = ["read_gaussians", "write_gaussians", "read_splatv", "splatv_at", "describe", "SH_C0"]
@@ -427,22 +426,7 @@ def write_gaussians(path, g: Gaussians, *, overwrite: bool = False, layout: str 
     el = PlyElement.describe(data, "vertex")
     ply = PlyData([el], text=False, byte_order="<")
 
-    directory = path.parent if str(path.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            ply.write(f)
-            f.flush()
-            os.fsync(f.fileno())
-        if path.exists() and not overwrite:  # appeared while we were writing
-            raise FileExistsError(f"{path}: file exists; pass overwrite=True to replace it")
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
+    atomic_write(path, ply.write, overwrite=overwrite)
     return path
 
 

@@ -23,7 +23,7 @@ hookspec = pluggy.HookspecMarker(PROJECT)
 hookimpl = pluggy.HookimplMarker(PROJECT)
 
 
-class EngineSpec:
+class HookSpec:
     """Hook specifications (namespace passed to ``PluginManager.add_hookspecs``)."""
 
     @hookspec
@@ -47,6 +47,10 @@ def _entry_points():
     return list(eps)
 
 
+#: Plugins whose module failed to import: ``{entry point name: (distribution, error)}``.
+BROKEN: dict[str, tuple[str, str]] = {}
+
+
 @functools.cache
 def get_plugin_manager() -> pluggy.PluginManager:
     """The process-wide plugin manager, built once: entry points of group ``gasp``, then checked.
@@ -57,11 +61,17 @@ def get_plugin_manager() -> pluggy.PluginManager:
         If a plugin implements a hook that is not in the specification (a typo fails loudly).
     """
     pm = pluggy.PluginManager(PROJECT)
-    pm.add_hookspecs(EngineSpec)
+    pm.add_hookspecs(HookSpec)
     for ep in _entry_points():
         if pm.get_plugin(ep.name) is not None:
             continue
-        module = ep.load()
+        try:
+            module = ep.load()
+        except Exception as e:  # a broken plugin must not take the others down
+            dist = getattr(ep, "dist", None)
+            BROKEN[ep.name] = (f"{dist.metadata['Name']} {dist.version}" if dist is not None else ep.value,
+                               f"{type(e).__name__}: {e}")
+            continue
         pm.register(module, name=ep.name)
         dist = getattr(ep, "dist", None)
         if dist is not None:
@@ -103,6 +113,9 @@ def get_engine(name: str, pm: pluggy.PluginManager | None = None) -> EngineInfo:
         installed but cannot run here (the message gives the reason).
     """
     found = engines(pm)
+    if name not in found and name in BROKEN:
+        dist, err = BROKEN[name]
+        raise EngineError(f"engine plugin '{name}' ({dist}) is installed but fails to import: {err}")
     if name not in found:
         raise EngineError(f"unknown engine '{name}'; installed engines: {sorted(found) or 'none'}")
     info = found[name]

@@ -7,7 +7,7 @@ Example::
     gravity = [0.0, 0.0, -9.81]
 
     [engine]
-    name = "taichi_mpm"
+    name = "my_engine"             # an installed engine: see `gasp engines`
     options = { threads = 2 }
 
     [domain]
@@ -67,6 +67,10 @@ class ObjectSpec:
         Metres.
     velocity : (3,) float
         Initial velocity, m/s.
+    angular_velocity : (3,) float
+        Initial angular velocity about the object's centroid (mean of its simulated points),
+        rad/s, world frame: ``v = velocity + w x (x - centroid)``; engines with the feature
+        ``initial_C`` also start their velocity gradient from it (``SimSetup.C``).
     material : Material
     fill : bool
         Fill the interior with simulated (never rendered) points (solids); false keeps the
@@ -93,6 +97,7 @@ class ObjectSpec:
     recentre: bool = True
     position: tuple[float, float, float] = (0.0, 0.0, 0.0)
     velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    angular_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
     material: Material = field(default_factory=Material)
     fill: bool = True
     alpha: float | None = 1.5
@@ -104,9 +109,12 @@ class ObjectSpec:
 
 @dataclass
 class EngineSpec:
-    """``[engine]``: ``name`` (a registered engine) and its ``options`` (engine-validated)."""
+    """``[engine]``: ``name`` (a registered engine; ``gasp engines`` lists them) and its ``options``.
 
-    name: str = "taichi_mpm"
+    ``name`` may be left out when the command line names the engine (``--engine``).
+    """
+
+    name: str | None = None
     options: dict[str, Any] = field(default_factory=dict)
 
 
@@ -249,7 +257,7 @@ def parse_scene(data: dict, src: Path) -> Scene:
 
     engine_t = data.get("engine", {})
     _check_keys(engine_t, _ENGINE_KEYS, "[engine]", src)
-    engine = EngineSpec(name=str(engine_t.get("name", "taichi_mpm")), options=dict(engine_t.get("options", {})))
+    engine = EngineSpec(name=engine_t.get("name"), options=dict(engine_t.get("options", {})))
 
     dom_t = data.get("domain", {})
     _check_keys(dom_t, _DOMAIN_KEYS, "[domain]", src)
@@ -319,6 +327,7 @@ def parse_scene(data: dict, src: Path) -> Scene:
             recentre=bool(o.get("recentre", True)),
             position=_vec3(o.get("position", (0, 0, 0)), f"{where}.position", src),
             velocity=_vec3(o.get("velocity", (0, 0, 0)), f"{where}.velocity", src),
+            angular_velocity=_vec3(o.get("angular_velocity", (0, 0, 0)), f"{where}.angular_velocity", src),
             material=_material(o.get("material", {}), f"{where}.material", src),
             fill=bool(o.get("fill", True)), alpha=alpha, thickness=thickness,
             min_opacity=_positive(o.get("min_opacity", 0.1), f"{where}.min_opacity", src, allow_zero=True),

@@ -1,4 +1,4 @@
-"""Gaussian Splatting file I/O on the real files in /work/shared/data (gs/ and dynamic/)."""
+"""Gaussian Splatting file I/O on the real files in the shared data folder beside the checkout (``../shared/data``: gs/ and dynamic/)."""
 import math
 import os
 from pathlib import Path

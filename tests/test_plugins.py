@@ -72,7 +72,7 @@ def test_env_var_narrows_plugins(tmp_path, monkeypatch, fresh_pm):
 
 def test_unknown_and_unavailable_engines(fresh_pm):
     pm = pluggy.PluginManager("gasp")
-    pm.add_hookspecs(plugins.EngineSpec)
+    pm.add_hookspecs(plugins.HookSpec)
 
     class P:
         @plugins.hookimpl
@@ -88,9 +88,9 @@ def test_unknown_and_unavailable_engines(fresh_pm):
 
 
 def test_every_hook_is_documented():
-    for name in dir(plugins.EngineSpec):
+    for name in dir(plugins.HookSpec):
         if name.startswith("gasp_"):
-            doc = getattr(plugins.EngineSpec, name).__doc__
+            doc = getattr(plugins.HookSpec, name).__doc__
             assert doc and "Returns" in doc, name
 
 

@@ -17,7 +17,7 @@ from gasp_mujoco_flex import CAPABILITIES, make_engine  # noqa: E402
 from gasp_mujoco_flex.lattice import build_lattice, embed_points, interpolate  # noqa: E402
 
 G = 9.81
-DONUT = Path("/work/shared/data/gs/donut_v3dg.ply")
+DONUT = Path(__file__).resolve().parents[3] / "examples" / "data" / "donut_v3dg.ply"
 
 
 def block_points(n=6, size=0.1, z0=0.3, x0=0.0):

@@ -1,0 +1,104 @@
+"""Point assembly: every object's simulated triangle vertices and fill points become one :class:`SimSetup`."""
+from __future__ import annotations
+
+import numpy as np
+
+from .engine import SceneError, SimSetup
+from .fill import fill_interior
+from .placement import PreparedObject, simulated_triangles
+from .scene import Scene
+
+def default_domain(scene: Scene, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A cubic domain around ``points`` padded by ``domain.padding`` times their extent.
+
+    With a ground plane the box starts three cells below it, so points resting on the ground
+    stay inside the grid's interpolation stencil.
+    """
+    if scene.domain.lo is not None:
+        return np.array(scene.domain.lo, float), np.array(scene.domain.hi, float)
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    ext = float(np.max(hi - lo))
+    side = ext * (1.0 + 2.0 * scene.domain.padding)
+    centre = (lo + hi) / 2
+    dlo = centre - side / 2
+    grounds = [b.height for b in scene.boundaries if b.kind == "ground"]
+    if grounds:
+        dlo[2] = min(grounds) - 3.0 * side / scene.domain.n_grid
+    return dlo, dlo + side
+
+
+def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
+    """Assemble the engine's point set: all objects' triangle vertices, then their fill points.
+
+    Raises
+    ------
+    SceneError
+        If an object lies outside an explicit domain.
+    """
+    vertices = [simulated_triangles(o).reshape(-1, 3) for o in objects]
+    lo, hi = default_domain(scene, np.concatenate([o.tri_rest.reshape(-1, 3) for o in objects]))
+    n_grid = scene.domain.n_grid
+    dx = float(np.max(hi - lo)) / n_grid
+    h = dx / scene.domain.particles_per_cell ** (1.0 / 3.0)
+    xs, vols, bodies, vels, fills = [], [], [], [], []
+    start = 0
+    for i, (o, verts) in enumerate(zip(objects, vertices)):
+        opaque = 1.0 / (1.0 + np.exp(-o.gaussians.opacities.astype(np.float64))) >= o.spec.min_opacity
+        fr = fill_interior(verts, h, occupancy=o.tri_rest[opaque].reshape(-1, 3), fill=o.spec.fill)
+        o.vertex_slice = slice(start, start + len(verts))
+        start += len(verts)
+        xs.append(verts)
+        vols.append(fr.p_vol_surface)
+        bodies.append(np.full(len(verts), i))
+        vels.append(np.broadcast_to(o.spec.velocity, verts.shape))
+        fills.append((i, fr))
+    for i, fr in fills:
+        objects[i].fill_slice = slice(start, start + len(fr.fill_x))
+        start += len(fr.fill_x)
+        xs.append(fr.fill_x)
+        vols.append(fr.p_vol_fill)
+        bodies.append(np.full(len(fr.fill_x), i))
+        vels.append(np.broadcast_to(objects[i].spec.velocity, fr.fill_x.shape))
+    x = np.concatenate(xs)
+    v, p_vol, body_id = np.concatenate(vels), np.concatenate(vols), np.concatenate(bodies)
+    C = spin(objects, x, v, p_vol, body_id)
+    outside = ((x < lo) | (x > hi)).any(axis=1)
+    if outside.any():
+        k = int(np.flatnonzero(outside)[0])
+        raise SceneError(f"{scene.path}: {int(outside.sum())} point(s) start outside the domain "
+                         f"[{lo.tolist()}, {hi.tolist()}] (first at {x[k].tolist()}); enlarge [domain]")
+    return SimSetup(
+        x=x, v=v, p_vol=p_vol, body_id=body_id, C=C,
+        materials=[o.spec.material for o in objects], gravity=np.array(scene.gravity),
+        domain_lo=lo, domain_hi=hi, n_grid=n_grid, boundaries=list(scene.boundaries),
+        frame_dt=scene.frame_dt, n_render=sum(len(v) for v in vertices),
+        options=dict(scene.engine.options))
+
+
+def skew(w) -> np.ndarray:
+    """Cross-product matrix ``[w]_x`` (``[w]_x r = w x r``), shape (3, 3)."""
+    wx, wy, wz = w
+    return np.array([[0.0, -wz, wy], [wz, 0.0, -wx], [-wy, wx, 0.0]])
+
+
+def spin(objects: list[PreparedObject], x: np.ndarray, v: np.ndarray, p_vol: np.ndarray,
+         body_id: np.ndarray) -> np.ndarray | None:
+    """Add each object's rigid spin ``w x (x - c)`` to ``v`` (in place); return ``C`` or None.
+
+    ``c`` is the object's centre of mass (volume-weighted mean of its points: one density per
+    object). ``C`` (shape (n, 3, 3), 1/s) is ``[w]_x`` on the object's points, the velocity
+    gradient of the rigid spin, which engines with the feature ``initial_C`` start from.
+    None when no object spins.
+    """
+    if not any(np.any(o.spec.angular_velocity) for o in objects):
+        return None
+    C = np.zeros((len(x), 3, 3))
+    for i, o in enumerate(objects):
+        w = np.asarray(o.spec.angular_velocity, dtype=np.float64)
+        if not np.any(w):
+            continue
+        rows = body_id == i
+        c = np.average(x[rows], axis=0, weights=p_vol[rows])
+        v[rows] += np.cross(w, x[rows] - c)
+        C[rows] = skew(w)
+    return C

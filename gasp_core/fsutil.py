@@ -1,0 +1,260 @@
+"""Filesystem safety: every atomic write and every output folder goes through here.
+
+Rules (README, "Reliability"):
+
+- A file is written to a temporary file beside it, flushed, fsynced and ``os.replace``-d onto its
+  name (:func:`atomic_write`); on any error the temporary file is removed and the target is
+  untouched. New files get the usual ``0666 & ~umask`` mode, not ``mkstemp``'s 0600.
+- An output folder is **claimed** when a run starts (:class:`OutputClaim`): created exclusively
+  (``os.mkdir``), or, with ``overwrite``, locked by a claim file created with ``O_EXCL``. Two
+  runs to one folder: exactly one gets it; the other fails at once, naming the folder.
+- Results are written into a hidden sibling ``.<name>.partial-<token>/`` and committed only at the
+  end, and only if the claim is still ours and the folder holds nothing the run did not expect.
+  With ``overwrite`` the old folder is replaced only if it is a GASP output (``run.json`` and
+  object folders); ``overwrite`` refuses a folder that is, contains or lies above an input file,
+  the scene file or the working directory.
+"""
+from __future__ import annotations
+
+import json
+import os
+import secrets
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Callable, Iterable
+
+from .errors import GaspError
+
+CLAIM = ".gasp-claim"
+PARTIAL_INFIX = ".partial-"
+
+
+class OutputConflict(GaspError):
+    """The output folder changed under a run; the finished results are kept in the partial folder it names."""
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def atomic_write(path: str | os.PathLike, write: Callable, *, binary: bool = True, overwrite: bool = True) -> Path:
+    """Write ``path`` atomically: ``write(f)`` fills a temporary file that then replaces ``path``.
+
+    Parameters
+    ----------
+    path : path-like
+        Destination; its folder must exist.
+    write : callable
+        ``write(file_object)``.
+    binary : bool
+        Open the temporary file in binary mode.
+    overwrite : bool
+        If False, refuse when ``path`` exists (also if it appeared while writing).
+
+    Raises
+    ------
+    FileExistsError
+        ``path`` exists and ``overwrite`` is False.
+    OSError
+        From the filesystem (disk full, permission); the temporary file is removed.
+    """
+    path = Path(path)
+    if not overwrite and path.exists():
+        raise FileExistsError(f"{path}: file exists; pass overwrite=True to replace it")
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        os.fchmod(fd, 0o666 & ~_umask())
+        with os.fdopen(fd, "wb" if binary else "w") as f:
+            write(f)
+            f.flush()
+            os.fsync(f.fileno())
+        if not overwrite and path.exists():
+            raise FileExistsError(f"{path}: file exists; pass overwrite=True to replace it")
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+    return path
+
+
+def atomic_json(path: str | os.PathLike, obj) -> Path:
+    """:func:`atomic_write` of ``obj`` as indented JSON (non-JSON values through ``str``)."""
+    return atomic_write(path, lambda f: json.dump(obj, f, indent=2, default=str), binary=False)
+
+
+def make_partial_dir(outdir: Path) -> Path:
+    """A new hidden sibling folder ``.<name>.partial-<token>`` with the umask's usual mode."""
+    tmp = Path(tempfile.mkdtemp(dir=outdir.parent, prefix=f".{outdir.name}{PARTIAL_INFIX}"))
+    os.chmod(tmp, 0o777 & ~_umask())
+    (tmp / ".gasp-pid").write_text(str(os.getpid()))
+    return tmp
+
+
+def leftover_partials(outdir: Path) -> list[Path]:
+    """Partial folders of earlier runs to ``outdir`` whose process is gone (killed, crashed)."""
+    out = []
+    for p in sorted(outdir.parent.glob(f".{outdir.name}{PARTIAL_INFIX}*")):
+        try:
+            pid = int((p / ".gasp-pid").read_text())
+        except (OSError, ValueError):
+            pid = -1
+        if pid > 0 and _alive(pid):
+            continue
+        out.append(p)
+    return out
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def _is_within(a: Path, b: Path) -> bool:
+    """True if ``a`` is ``b`` or lies inside it."""
+    try:
+        a.relative_to(b)
+        return True
+    except ValueError:
+        return False
+
+
+def looks_like_output(folder: Path) -> list[str]:
+    """Entries of ``folder`` that a GASP output would not hold (empty list: it is one)."""
+    names = [p.name for p in folder.iterdir()]
+    if "run.json" not in names:
+        return names or []
+    try:
+        objects = {o["name"] for o in json.loads((folder / "run.json").read_text()).get("objects", [])}
+    except (OSError, ValueError, KeyError, TypeError):
+        objects = set()
+    ours = {"run.json", CLAIM} | objects
+    return [n for n in names if n not in ours and not n.startswith(".gasp-")]
+
+
+class OutputClaim:
+    """An output folder claimed for one run (see the module docstring).
+
+    Parameters
+    ----------
+    outdir : path-like
+        The folder the run will produce.
+    overwrite : bool
+        Allow replacing an existing GASP output folder at commit time.
+    protected : iterable of path-like
+        Input files and the scene file: ``outdir`` must not be, contain or lie above any of them,
+        nor the working directory.
+
+    Raises
+    ------
+    GaspError
+        The folder is unsafe to replace, not a GASP output, a file, or not writable.
+    FileExistsError
+        It exists (without ``overwrite``) or another run holds it.
+    """
+
+    def __init__(self, outdir: str | os.PathLike, overwrite: bool = False, protected: Iterable = ()):
+        self.outdir = Path(outdir)
+        self.overwrite = overwrite
+        self.token = secrets.token_hex(8)
+        self.created = False
+        out = self.outdir.resolve()
+        for p in [Path.cwd(), *map(Path, protected)]:
+            p = p.resolve()
+            if _is_within(p, out):
+                what = "the working directory" if p == Path.cwd().resolve() else f"'{p}'"
+                raise GaspError(f"output folder '{self.outdir}' is, contains or lies above {what}; "
+                                f"choose a new folder for the results")
+        if self.outdir.exists() and not self.outdir.is_dir():
+            raise GaspError(f"output '{self.outdir}' exists and is not a folder; choose a folder name")
+        try:
+            self.outdir.parent.mkdir(parents=True, exist_ok=True)
+            os.mkdir(self.outdir)
+            self.created = True
+        except FileExistsError:
+            if not overwrite:
+                raise FileExistsError(f"output folder '{self.outdir}' exists; pass --overwrite to replace it "
+                                      f"(only a folder written by gasp is replaced)") from None
+            self._check_replaceable()
+        except PermissionError as e:
+            raise GaspError(f"cannot create output folder '{self.outdir}': permission denied ({e.strerror})") from None
+        try:
+            fd = os.open(self.outdir / CLAIM, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+        except FileExistsError:
+            raise FileExistsError(f"output folder '{self.outdir}' is being written by another gasp run "
+                                  f"(claim file {self.outdir / CLAIM}); wait for it or choose another folder") from None
+        except PermissionError as e:
+            self._undo_mkdir()
+            raise GaspError(f"cannot write to output folder '{self.outdir}': permission denied ({e.strerror})") from None
+        with os.fdopen(fd, "w") as f:
+            f.write(f"{self.token} {os.getpid()}\n")
+
+    def _check_replaceable(self) -> None:
+        extra = looks_like_output(self.outdir)
+        if extra:
+            raise GaspError(f"--overwrite refuses '{self.outdir}': it is not a gasp output folder "
+                            f"(unexpected entries: {sorted(extra)[:5]}); choose another folder")
+
+    def _undo_mkdir(self) -> None:
+        if self.created:
+            try:
+                os.rmdir(self.outdir)
+            except OSError:
+                pass
+
+    def still_ours(self) -> bool:
+        try:
+            return (self.outdir / CLAIM).read_text().split()[0] == self.token
+        except (OSError, IndexError):
+            return False
+
+    def partial_dir(self) -> Path:
+        """A fresh partial folder to write the results into."""
+        return make_partial_dir(self.outdir)
+
+    def commit(self, tmp: Path) -> None:
+        """Move the finished ``tmp`` folder into place, if the claim is still ours.
+
+        Raises
+        ------
+        GaspError
+            The claim was taken or the folder gained entries the run did not make; ``tmp`` is kept
+            and named in the message.
+        """
+        (tmp / ".gasp-pid").unlink(missing_ok=True)
+        if not self.still_ours():
+            raise OutputConflict(f"output folder '{self.outdir}' was changed by someone else during the run; "
+                            f"the results are kept in '{tmp}'")
+        if self.created:
+            extra = [p.name for p in self.outdir.iterdir() if p.name != CLAIM]
+        else:
+            extra = looks_like_output(self.outdir)
+        if extra:
+            raise OutputConflict(f"output folder '{self.outdir}' gained entries during the run ({sorted(extra)[:5]}); "
+                            f"nothing was replaced; the results are kept in '{tmp}'")
+        if self.created:
+            (self.outdir / CLAIM).unlink()
+            os.rmdir(self.outdir)
+            os.replace(tmp, self.outdir)
+            return
+        trash = Path(tempfile.mkdtemp(dir=self.outdir.parent, prefix=f".{self.outdir.name}.old-"))
+        os.replace(self.outdir, trash / "old")
+        os.replace(tmp, self.outdir)
+        shutil.rmtree(trash, ignore_errors=True)
+
+    def release(self) -> None:
+        """Give the folder back after a failed run: remove our claim (and the folder if we made it)."""
+        if self.still_ours():
+            (self.outdir / CLAIM).unlink(missing_ok=True)
+        self._undo_mkdir()
+

@@ -1,0 +1,136 @@
+"""Placing an object: read its Gaussians, turn them into the world frame, flatten, triangulate.
+
+World frame: metres, z up. ``x_world = scale * R @ x_file + t`` (:class:`Placement`); the GaMeS map
+``T`` (GASP paper Sec. 3) turns each flattened Gaussian into its triangle.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .games import FlattenReport, flatten, gaussians_to_triangles
+from .gaussians import Gaussians
+from .hierarchy import Hierarchy, build_hierarchy
+from .io import read_gaussians, read_splatv, splatv_at
+from .scene import ObjectSpec
+
+#: Rotation taking each file up-axis to world +z (proper rotations; x_world = R @ x_file).
+UP_ROTATIONS = {
+    "+z": np.eye(3),
+    "-z": np.diag([1.0, -1.0, -1.0]),
+    "+y": np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]]),
+    "-y": np.array([[1.0, 0, 0], [0, 0, 1], [0, -1, 0]]),
+    "+x": np.array([[0.0, 0, -1], [0, 1, 0], [1, 0, 0]]),
+    "-x": np.array([[0.0, 0, 1], [0, 1, 0], [-1, 0, 0]]),
+}
+
+
+@dataclass
+class Placement:
+    """Similarity transform file -> world: ``x_world = scale * R @ x_file + t``."""
+
+    R: np.ndarray
+    scale: float
+    t: np.ndarray
+
+    def to_world(self, x: np.ndarray) -> np.ndarray:
+        return self.scale * x @ self.R.T + self.t
+
+    def to_file(self, x: np.ndarray) -> np.ndarray:
+        return ((x - self.t) / self.scale) @ self.R
+
+
+@dataclass
+class PreparedObject:
+    """One object ready to simulate, and what is needed to rebuild its Gaussians.
+
+    Attributes
+    ----------
+    spec : ObjectSpec
+    gaussians : Gaussians
+        As read (file frame).
+    placement : Placement
+    rot_rest, scales_rest : ndarray, shapes (n, 3, 3), (n, 3)
+        Flattened rest rotations and scales, world frame (metres).
+    tri_rest : ndarray, shape (n, 3, 3)
+        Rest triangles, world frame.
+    hierarchy : Hierarchy or None
+        Core Gaussians and bindings when ``spec.core_fraction < 1``.
+    thin_scale : ndarray, shape (n,)
+        The input's own thinnest scale, file units (``thickness = "keep"``).
+    flatten_report : FlattenReport
+    vertex_slice, fill_slice : slice
+        Rows of this object's triangle vertices and fill points in ``SimSetup.x``.
+    """
+
+    spec: ObjectSpec
+    gaussians: Gaussians
+    placement: Placement
+    rot_rest: np.ndarray
+    scales_rest: np.ndarray
+    tri_rest: np.ndarray
+    thin_scale: np.ndarray
+    flatten_report: FlattenReport
+    hierarchy: Hierarchy | None = None
+    vertex_slice: slice = field(default_factory=lambda: slice(0, 0))
+    fill_slice: slice = field(default_factory=lambda: slice(0, 0))
+    name: str = ""
+
+
+def place(g: Gaussians, spec: ObjectSpec) -> Placement:
+    """The file -> world transform of an object (up-axis, metres, position).
+
+    With ``recentre``, the bottom centre of the means' bounding box (world orientation) lands on
+    ``spec.position``; otherwise ``spec.position`` is a plain offset.
+    """
+    R = UP_ROTATIONS[spec.up_axis]
+    s = float(spec.scale)
+    x = s * g.means @ R.T
+    if spec.recentre:
+        lo, hi = x.min(axis=0), x.max(axis=0)
+        anchor = np.array([(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, lo[2]])
+        t = np.asarray(spec.position) - anchor
+    else:
+        t = np.asarray(spec.position, dtype=np.float64)
+    return Placement(R, s, t)
+
+
+def load_gaussians(spec: ObjectSpec) -> Gaussians:
+    """An object's Gaussians: a static file, or a dynamic model ``psi(V, s)`` at ``s = spec.dynamic_time``.
+
+    Raises
+    ------
+    SceneError
+        From :func:`gasp_core.io.read_gaussians` / :func:`gasp_core.io.read_splatv`.
+    """
+    if spec.dynamic_time is not None:
+        base, motion = read_splatv(spec.file)
+        return splatv_at(base, motion, spec.dynamic_time)
+    return read_gaussians(spec.file)
+
+
+def prepare_object(spec: ObjectSpec, g: Gaussians | None = None) -> PreparedObject:
+    """Read (unless given), place, flatten and triangulate one object.
+
+    Raises
+    ------
+    SceneError
+        From reading the file (see :func:`load_gaussians`).
+    """
+    g = load_gaussians(spec) if g is None else g
+    pl = place(g, spec)
+    R_world = pl.R @ g.rotmats()
+    scales_flat, rot_flat, report = flatten(g.scales * pl.scale, R_world)
+    means_w = pl.to_world(g.means)
+    tri = gaussians_to_triangles(means_w, rot_flat, scales_flat)
+    hier = build_hierarchy(means_w, tri, spec.core_fraction) if spec.core_fraction < 1.0 else None
+    return PreparedObject(spec=spec, gaussians=g, placement=pl, rot_rest=rot_flat,
+                          scales_rest=scales_flat, tri_rest=tri, thin_scale=g.scales.min(axis=1),
+                          flatten_report=report, hierarchy=hier, name=Path(spec.file).stem)
+
+
+def simulated_triangles(o: PreparedObject) -> np.ndarray:
+    """The triangles whose vertices the engine moves: the cores' if there is a hierarchy, else all."""
+    return o.tri_rest if o.hierarchy is None else o.hierarchy.core_tri
