@@ -8,20 +8,27 @@ from .fill import fill_interior
 from .placement import PreparedObject, simulated_triangles
 from .scene import Scene
 
+#: Smallest default domain side, metres (a single Gaussian, or all Gaussians at one point).
+MIN_DOMAIN_SIDE = 1e-3
+
+
 def default_domain(scene: Scene, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """A cubic domain around ``points`` padded by ``domain.padding`` times their extent.
 
-    With a ground plane the box starts three cells below it, so points resting on the ground
-    stay inside the grid's interpolation stencil.
+    With a ground plane the extent reaches down to the ground (an object dropped from a height
+    stays inside), and the box starts three cells below it, so points resting on the ground stay
+    inside the grid's interpolation stencil. The side is at least :data:`MIN_DOMAIN_SIDE`.
     """
     if scene.domain.lo is not None:
         return np.array(scene.domain.lo, float), np.array(scene.domain.hi, float)
     lo, hi = points.min(axis=0), points.max(axis=0)
-    ext = float(np.max(hi - lo))
+    grounds = [b.height for b in scene.boundaries if b.kind == "ground"]
+    if grounds:
+        lo[2] = min(lo[2], min(grounds))
+    ext = max(float(np.max(hi - lo)), MIN_DOMAIN_SIDE)
     side = ext * (1.0 + 2.0 * scene.domain.padding)
     centre = (lo + hi) / 2
     dlo = centre - side / 2
-    grounds = [b.height for b in scene.boundaries if b.kind == "ground"]
     if grounds:
         dlo[2] = min(grounds) - 3.0 * side / scene.domain.n_grid
     return dlo, dlo + side

@@ -200,6 +200,9 @@ class OutputClaim:
             f.write(f"{self.token} {os.getpid()}\n")
 
     def _check_replaceable(self) -> None:
+        if (self.outdir / CLAIM).exists():
+            raise FileExistsError(f"output folder '{self.outdir}' is being written by another gasp run "
+                                  f"(claim file {self.outdir / CLAIM}); wait for it or choose another folder")
         extra = looks_like_output(self.outdir)
         if extra:
             raise GaspError(f"--overwrite refuses '{self.outdir}': it is not a gasp output folder "
