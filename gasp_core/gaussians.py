@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from .errors import SceneError
-from .games import EPS as FLAT_EPS  # the GaMeS thin-axis scale, one constant for the project
+from .games import EPS as FLAT_EPS  # noqa: F401  (re-exported: the GaMeS thin-axis scale, one constant)
 
 #: Spherical-harmonics rest coefficients per colour channel, by SH degree 0..3.
 SH_REST_COUNT = {0: 0, 1: 3, 2: 8, 3: 15}
