@@ -26,11 +26,12 @@ def _cmd_simulate(args) -> int:
     if out is None:
         raise GaspError("no output folder: pass -o OUTDIR or set 'output' in the scene")
     res = simulate_scene(scene, out, overwrite=args.overwrite, progress=not args.quiet,
-                         n_frames=args.frames, engine=args.engine)
+                         n_frames=args.frames, engine=args.engine, resume=args.resume,
+                         warn=lambda msg: print(f"gasp: warning: {msg}", file=sys.stderr))
     s = res.summary
     fps = len(s["frames"]) - 1
     per_frame = sum(f.get("sim_s", 0.0) for f in s["frames"]) / max(fps, 1)
-    print(f"wrote {fps + 1} frames x {len(s['objects'])} object(s) to {res.outdir} "
+    print(f"wrote {fps + 1} frames (frame 0 = the input) x {len(s['objects'])} object(s) to {res.outdir} "
           f"({s['n_points']} simulated points, {s['engine_stats'].get('n_substeps', '-')} substeps/frame, "
           f"{per_frame:.3f} s/frame)")
     return 0
@@ -110,7 +111,10 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("simulate", help="run a scene file and write one PLY per frame")
     s.add_argument("scene", type=Path)
     s.add_argument("-o", "--output", type=Path, help="output folder (must not exist unless --overwrite)")
-    s.add_argument("--overwrite", action="store_true", help="replace an existing output folder")
+    s.add_argument("--overwrite", action="store_true",
+                   help="replace an existing output folder written by gasp (never one holding the inputs)")
+    s.add_argument("--resume", action="store_true",
+                   help="continue a killed run to the same folder from its last complete frame")
     s.add_argument("--frames", type=int, help="override n_frames")
     s.add_argument("--engine", help="override the scene's engine name")
     s.add_argument("-q", "--quiet", action="store_true", help="no progress bar")

@@ -36,6 +36,8 @@ __all__ = ["BOUNDARIES", "FEATURES", "MATERIALS", "Boundary", "Capabilities", "E
 FEATURES = {
     "initial_C": "starts from SimSetup.C, the initial velocity gradient (APIC's affine matrix); "
                  "engines without it ignore C and start from v alone",
+    "state": "get_state() -> dict of arrays and set_state(dict) save and restore the whole simulation "
+             "state after a frame (gasp simulate --resume); set_state right after the factory",
     "grid": "simulates on a background grid of SimSetup.n_grid cells; points within a few dx of "
             "a wall are inside the grid's transfer stencil",
 }
@@ -215,6 +217,10 @@ class PointEngine(Protocol):
         (per frame), ``n_grid``.
     close()
         Free engine resources.
+    get_state() -> dict of ndarray, set_state(state)
+        Only engines with the feature ``state``: everything needed to continue after the current
+        frame bit for bit (``gasp simulate --resume``). ``set_state`` is called right after the
+        factory, before any ``step_frame``.
     """
 
     def step_frame(self) -> None: ...

@@ -2,7 +2,8 @@
 from __future__ import annotations
 
 import dataclasses
-from typing import TYPE_CHECKING
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
@@ -14,6 +15,16 @@ from .runner import RunStats, run_engine
 
 if TYPE_CHECKING:
     from .pipeline import PreparedScene
+    from .resume import Checkpoint
+
+
+@dataclass
+class FrameState:
+    """What a checkpoint needs after each frame: the rebuild's rotations and the engine's state."""
+
+    prev_rot: list[np.ndarray] = field(default_factory=list)
+    get_state: Callable[[], dict] | None = None
+
 
 def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray) -> tuple[Gaussians, np.ndarray, dict]:
     """``T^-1`` and the alpha rule for one object at one frame, back in the file frame.
@@ -51,18 +62,31 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray) -> tuple[Gau
     return out, rot, {"degenerate": int(degenerate.sum()), "clamped": int(clamped.sum())}
 
 
-def iter_frames(prep: PreparedScene, n_frames: int, stats: RunStats | None = None):
+def iter_frames(prep: PreparedScene, n_frames: int, stats: RunStats | None = None,
+                resume: Checkpoint | None = None, state: FrameState | None = None):
     """Yield ``(frame, gaussians_per_object, counts)`` for frame 0 (the input) to ``n_frames``.
 
     ``counts`` holds ``frame``, ``degenerate`` faces and ``clamped`` scales, and ``sim_s`` (engine
     wall time) from frame 1 on.
 
+    Parameters
+    ----------
+    prep : PreparedScene
+    n_frames : int
+    stats : RunStats, optional
+    resume : Checkpoint, optional
+        Continue after ``resume.frame`` (frames up to it are not yielded again).
+    state : FrameState, optional
+        Updated before each yield with the frame's rotations and the engine's ``get_state``.
+
     Raises
     ------
-    EngineDivergence
+    EngineDivergence, EngineBug
         See :func:`gasp_core.runner.run_engine`.
     """
-    prev = [o.rot_rest for o in prep.objects]
+    state = state if state is not None else FrameState()
+    state.prev_rot = [o.rot_rest for o in prep.objects] if resume is None else list(resume.prev_rot)
+    prev = state.prev_rot
 
     def rebuild_all(frame: int, x: np.ndarray):
         gs, row = [], {"frame": frame, "degenerate": 0, "clamped": 0}
@@ -73,9 +97,13 @@ def iter_frames(prep: PreparedScene, n_frames: int, stats: RunStats | None = Non
             gs.append(g)
         return gs, row
 
-    gs, row = rebuild_all(0, prep.setup.x)
-    yield 0, gs, row
-    for rec in run_engine(prep.info, prep.setup, n_frames, stats):
+    start = 0 if resume is None else resume.frame
+    if resume is None:
+        gs, row = rebuild_all(0, prep.setup.x)
+        yield 0, gs, row
+    for rec in run_engine(prep.info, prep.setup, n_frames, stats, start_frame=start,
+                          state=None if resume is None else resume.engine_state):
         gs, row = rebuild_all(rec.frame, rec.x)
         row["sim_s"] = rec.wall_s
+        state.get_state = rec.get_state
         yield rec.frame, gs, row

@@ -163,7 +163,8 @@ class OutputClaim:
         It exists (without ``overwrite``) or another run holds it.
     """
 
-    def __init__(self, outdir: str | os.PathLike, overwrite: bool = False, protected: Iterable = ()):
+    def __init__(self, outdir: str | os.PathLike, overwrite: bool = False, protected: Iterable = (),
+                 resume: bool = False):
         self.outdir = Path(outdir)
         self.overwrite = overwrite
         self.token = secrets.token_hex(8)
@@ -182,7 +183,14 @@ class OutputClaim:
             os.mkdir(self.outdir)
             self.created = True
         except FileExistsError:
+            if resume and self._take_over_stale_claim():
+                return
             if not overwrite:
+                stale = self._stale_claim_pid()
+                if stale:
+                    raise FileExistsError(
+                        f"output folder '{self.outdir}' belongs to a run that was killed (pid {stale}); pass "
+                        f"--resume to continue it, or remove '{self.outdir}' and its partial folder") from None
                 raise FileExistsError(f"output folder '{self.outdir}' exists; pass --overwrite to replace it "
                                       f"(only a folder written by gasp is replaced)") from None
             self._check_replaceable()
@@ -198,6 +206,22 @@ class OutputClaim:
             raise GaspError(f"cannot write to output folder '{self.outdir}': permission denied ({e.strerror})") from None
         with os.fdopen(fd, "w") as f:
             f.write(f"{self.token} {os.getpid()}\n")
+
+    def _stale_claim_pid(self) -> int:
+        """The pid of a dead run that still holds the claim file, else 0."""
+        try:
+            pid = int((self.outdir / CLAIM).read_text().split()[1])
+        except (OSError, IndexError, ValueError):
+            return 0
+        return 0 if _alive(pid) else pid
+
+    def _take_over_stale_claim(self) -> bool:
+        """For ``--resume``: take the claim of a killed run (True), or leave a live one alone (False)."""
+        if not self._stale_claim_pid():
+            return False
+        self.created = all(p.name == CLAIM for p in self.outdir.iterdir())
+        (self.outdir / CLAIM).write_text(f"{self.token} {os.getpid()}\n")
+        return True
 
     def _check_replaceable(self) -> None:
         if (self.outdir / CLAIM).exists():

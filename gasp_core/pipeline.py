@@ -10,6 +10,8 @@ and extra properties are carried bit for bit.
 """
 from __future__ import annotations
 
+import os
+import shutil
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,7 +19,9 @@ from typing import Callable
 
 from .assembly import build_setup, default_domain  # noqa: F401  (public names of the pipeline)
 from .engine import EngineInfo, SceneError, SimSetup, check_supported
-from .frames import iter_frames, rebuild  # noqa: F401
+from . import resume as resume_mod
+from .errors import GaspError
+from .frames import FrameState, iter_frames, rebuild  # noqa: F401
 from .fsutil import OutputClaim, OutputConflict, atomic_json, leftover_partials
 from .gaussians import Gaussians
 from .io import write_gaussians
@@ -107,7 +111,7 @@ def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
                    progress: bool = True, n_frames: int | None = None,
                    engine: str | None = None,
                    on_frame: Callable[[int, list[Gaussians]], None] | None = None,
-                   warn: Callable[[str], None] | None = None) -> RunResult:
+                   warn: Callable[[str], None] | None = None, resume: bool = False) -> RunResult:
     """Run a scene and write one graphdeco PLY per object per frame.
 
     Layout: ``OUTDIR/<object>/frame_0000.ply`` (frame 0 = the input state) to
@@ -130,6 +134,9 @@ def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
         ``on_frame(frame, gaussians_per_object)`` after each frame is written.
     warn : callable, optional
         Receives warnings in words (leftover partial folders of killed runs).
+    resume : bool
+        Continue a killed run to ``outdir`` from its last checkpoint (:mod:`gasp_core.resume`;
+        engines with the feature ``state``).
 
     Returns
     -------
@@ -150,40 +157,59 @@ def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
     EngineBug
         The engine raised an exception outside the error contract.
     """
-    import shutil
-
     outdir = Path(outdir)
     n_frames = scene.n_frames if n_frames is None else n_frames
-    claim = OutputClaim(outdir, overwrite=overwrite, protected=input_files(scene))
+    claim = OutputClaim(outdir, overwrite=overwrite, protected=input_files(scene), resume=resume)
     tmp = None
     try:
-        if warn is not None:
-            for p in leftover_partials(outdir):
-                warn(f"a killed run left partial output in '{p}' (remove it when no longer needed)")
         prep = prepare_scene(scene, engine)
-        tmp = claim.partial_dir()
-        for name in prep.names:
-            (tmp / name).mkdir()
-        per_frame = []
-        stats = RunStats()
+        fp = resume_mod.fingerprint(scene, prep.info.name, prep.setup.options, n_frames)
+        stats, per_frame, ck = RunStats(), [], None
+        if resume:
+            if "state" not in prep.info.capabilities.features:
+                raise GaspError(f"engine '{prep.info.name}' cannot save its state (feature 'state'), so a "
+                                f"killed run cannot be resumed; run again without --resume")
+            tmp, ck = resume_mod.find_resumable(outdir, fp)
+            (tmp / ".gasp-pid").write_text(str(os.getpid()))
+            per_frame = list(ck.meta["per_frame"])
+            stats.frame_s = list(ck.meta.get("frame_s", []))
+        else:
+            if warn is not None:
+                for p in leftover_partials(outdir):
+                    warn(f"a killed run left partial output in '{p}' (continue it with --resume, "
+                         f"or remove it when no longer needed)")
+            tmp = claim.partial_dir()
+            for name in prep.names:
+                (tmp / name).mkdir()
         bar = None
         if progress:
             from tqdm import tqdm
-            bar = tqdm(total=n_frames, unit="frame", desc=f"{prep.info.name}", leave=True)
+            bar = tqdm(total=n_frames, initial=0 if ck is None else ck.frame, unit="frame",
+                       desc=f"{prep.info.name}", leave=True)
         t_run = time.perf_counter()
-        for frame, gs, row in iter_frames(prep, n_frames, stats):
+        fs = FrameState()
+        for frame, gs, row in iter_frames(prep, n_frames, stats, resume=ck, state=fs):
             t0 = time.perf_counter()
             for g, name in zip(gs, prep.names):
-                write_gaussians(tmp / name / f"frame_{frame:04d}.ply", g)
+                write_gaussians(tmp / name / f"frame_{frame:04d}.ply", g, overwrite=ck is not None)
             row["write_s"] = time.perf_counter() - t0
             per_frame.append(row)
+            if fs.get_state is not None and frame < n_frames:
+                t0 = time.perf_counter()
+                resume_mod.save(tmp, resume_mod.Checkpoint(
+                    frame, fs.get_state(), fs.prev_rot,
+                    {"fingerprint": fp, "per_frame": per_frame, "frame_s": stats.frame_s}))
+                row["checkpoint_s"] = time.perf_counter() - t0
             if bar is not None and frame > 0:
                 bar.update(1)
             if on_frame is not None:
                 on_frame(frame, gs)
         if bar is not None:
             bar.close()
+        (tmp / resume_mod.CHECKPOINT).unlink(missing_ok=True)
         summary = run_summary(prep, stats, n_frames, per_frame, time.perf_counter() - t_run)
+        if ck is not None:
+            summary["resumed_after_frame"] = ck.frame
         atomic_json(tmp / "run.json", summary)
         claim.commit(tmp)
     except BaseException as e:

@@ -28,11 +28,14 @@ class FrameRecord:
         Positions, metres, world frame.
     wall_s : float
         Wall time of ``step_frame`` plus read-back, seconds.
+    get_state : callable or None
+        The engine's ``get_state`` (engines with the feature ``state``), for checkpoints.
     """
 
     frame: int
     x: np.ndarray
     wall_s: float
+    get_state: Callable[[], dict] | None = None
 
 
 @dataclass
@@ -82,7 +85,8 @@ def check_state(x: np.ndarray, setup: SimSetup, frame: int, margin: float | None
 
 
 def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int,
-               stats: RunStats | None = None) -> Iterator[FrameRecord]:
+               stats: RunStats | None = None, start_frame: int = 0,
+               state: dict | None = None) -> Iterator[FrameRecord]:
     """Build the engine and yield ``n_frames`` checked frames.
 
     Parameters
@@ -94,6 +98,10 @@ def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int,
         Frames to simulate, each ``setup.frame_dt`` seconds.
     stats : RunStats, optional
         Filled with build time, per-frame wall times and ``engine.stats()``.
+    start_frame : int
+        Resume after this frame: ``state`` (from the engine's ``get_state``) is restored with
+        ``set_state`` and frames ``start_frame + 1 .. n_frames`` are simulated.
+    state : dict, optional
 
     Yields
     ------
@@ -112,20 +120,24 @@ def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int,
     stats = stats if stats is not None else RunStats()
     t0 = time.perf_counter()
     engine: PointEngine = build_engine(info, setup)
+    if start_frame:
+        call_engine(info, "set_state", engine.set_state, state)
     stats.build_s = time.perf_counter() - t0
+    get_state = getattr(engine, "get_state", None) if "state" in info.capabilities.features else None
 
     def advance():
         engine.step_frame()
         return np.asarray(engine.positions(), dtype=np.float64)
 
     try:
-        for frame in range(1, n_frames + 1):
+        for frame in range(start_frame + 1, n_frames + 1):
             t0 = time.perf_counter()
             x = call_engine(info, f"frame {frame}", advance)
             dt_wall = time.perf_counter() - t0
             check_state(x, setup, frame)
             stats.frame_s.append(dt_wall)
-            yield FrameRecord(frame, x, dt_wall)
+            yield FrameRecord(frame, x, dt_wall,
+                              None if get_state is None else (lambda: call_engine(info, "get_state", get_state)))
         stats.engine = dict(call_engine(info, "stats", engine.stats))
     finally:
         call_engine(info, "close", engine.close)
