@@ -50,7 +50,7 @@ def _cmd_engines(args) -> int:
         print(f"    materials:  {', '.join(sorted(c.materials))}")
         print(f"    boundaries: {', '.join(sorted(c.boundaries))}")
         print(f"    devices:    {', '.join(sorted(c.devices))}; precisions: {', '.join(sorted(c.precisions))}; "
-              f"dims: {', '.join(map(str, sorted(c.dims)))}")
+              f"features: {', '.join(sorted(c.features)) or 'none'}")
         if e.description:
             print(f"    {e.description}")
     return 0
