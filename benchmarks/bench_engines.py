@@ -80,6 +80,7 @@ def donut_setup(engine: str):
 def worker(engine: str, scene: str, frames: int) -> dict:
     """Time one engine on one scene; runs inside the subprocess."""
     import resource
+    from gasp_core.engine import build_engine
     from gasp_core.plugins import get_engine
     from gasp_core.runner import check_state
     info = get_engine(engine)
@@ -88,7 +89,7 @@ def worker(engine: str, scene: str, frames: int) -> dict:
         setup = block_setup(engine) if scene == "block" else donut_setup(engine)
         rec["n_points"] = len(setup.x)
         t0 = time.perf_counter()
-        eng = info.factory(setup)
+        eng = build_engine(info, setup)
         rec["build_s"] = time.perf_counter() - t0
         try:
             t0 = time.perf_counter()
@@ -109,8 +110,8 @@ def worker(engine: str, scene: str, frames: int) -> dict:
         rec.update(status="ok", frame_s=wall, frame_cpu_s=cpu, s_per_frame=float(np.mean(wall)),
                    cpu_s_per_frame=float(np.mean(cpu)), fps=1.0 / float(np.mean(wall)),
                    n_substeps=st.get("n_substeps"), precision=st.get("precision"),
-                   threads=st.get("threads"), grid_based=info.capabilities.grid_based)
-        if info.capabilities.grid_based and st.get("n_substeps"):
+                   threads=st.get("threads"), grid_based="grid" in info.capabilities.features)
+        if "grid" in info.capabilities.features and st.get("n_substeps"):
             rec["Mpss"] = rec["n_points"] * st["n_substeps"] / rec["s_per_frame"] / 1e6
             rec["Mpss_per_cpu_s"] = rec["n_points"] * st["n_substeps"] / rec["cpu_s_per_frame"] / 1e6
     except Exception as e:  # reported in the table, never fatal to the run

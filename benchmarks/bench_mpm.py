@@ -2,7 +2,7 @@
 
 Scene: a cube of jelly (or neo-Hookean) points sampled at 8 points per grid cell (2 per axis),
 released 1 cell above a ground plane at 1 m/s downwards, in a 1 m box with ``n_grid = 64``,
-f32, CPU. Every engine runs the same substep ``dt = gasp_core.physics.mpm_stable_dt(...)``:
+f32, CPU. Every engine runs the same substep ``dt = gasp_core.mpm.mpm_stable_dt(...)``:
 ``frame_dt = SUBSTEPS * dt`` and the option ``n_substeps = SUBSTEPS``.
 
 Each engine runs in its own subprocess (Taichi and Warp keep process-global state), one after
@@ -12,7 +12,7 @@ with the wall clock (``time.perf_counter``) and the process CPU time.
 
 Usage::
 
-    python benchmarks/bench_mpm.py                       # all installed grid_based engines
+    python benchmarks/bench_mpm.py                       # all installed grid engines
     python benchmarks/bench_mpm.py --engines taichi_mpm,warp_mpm --sizes 50000
 
 Writes ``benchmarks/results/bench_mpm.json`` and ``benchmarks/results/bench_mpm.md``.
@@ -46,7 +46,7 @@ def make_setup(n_target: int, material: str):
         World frame, z up; ``options`` ask for CPU, f32 and ``SUBSTEPS`` substeps per frame.
     """
     from gasp_core.engine import Boundary, Material, SimSetup
-    from gasp_core.physics import mpm_stable_dt
+    from gasp_core.mpm import mpm_stable_dt
 
     dx = 1.0 / N_GRID
     cells = max(1, int(round((n_target / 8) ** (1 / 3))))
@@ -69,6 +69,7 @@ def make_setup(n_target: int, material: str):
 def worker(engine: str, sizes: list[int], materials: list[str], frames: int,
            with_donut: bool = True) -> list[dict]:
     """Time one engine on every (size, material); runs inside the subprocess."""
+    from gasp_core.engine import build_engine
     from gasp_core.plugins import get_engine
 
     info = get_engine(engine)
@@ -79,7 +80,7 @@ def worker(engine: str, sizes: list[int], materials: list[str], frames: int,
             rec = {"engine": engine, "material": mat, "n_target": n, "n_points": len(setup.x)}
             try:
                 t0 = time.perf_counter()
-                eng = info.factory(setup)
+                eng = build_engine(info, setup)
                 rec["build_s"] = time.perf_counter() - t0
                 t0 = time.perf_counter()
                 eng.step_frame()
@@ -190,7 +191,7 @@ def _markdown(doc: dict) -> str:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--engines", default=None,
-                    help="comma-separated engine names (default: all installed grid_based engines)")
+                    help="comma-separated engine names (default: all installed grid engines)")
     ap.add_argument("--sizes", default="50000,200000", help="target point counts")
     ap.add_argument("--materials", default="jelly,neo_hookean")
     ap.add_argument("--frames", type=int, default=3, help=f"timed frames ({SUBSTEPS} substeps each)")
@@ -213,7 +214,7 @@ def main(argv=None) -> int:
         if missing:
             ap.error(f"--engines: not installed: {missing}; installed: {sorted(found)}")
     else:
-        names = [k for k, v in found.items() if v.capabilities.grid_based and not v.unavailable_reason()]
+        names = [k for k, v in found.items() if "grid" in v.capabilities.features and not v.unavailable_reason()]
     doc = {"machine": {"cpu_count": os.cpu_count(), "processor": platform.processor() or platform.machine(),
                        "platform": platform.platform(), "loadavg_start": [round(x, 2) for x in os.getloadavg()]},
            "versions": _versions(), "substeps_per_frame": SUBSTEPS, "n_grid": N_GRID, "frames": a.frames,

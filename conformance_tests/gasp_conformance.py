@@ -96,7 +96,7 @@ class Requires:
             out.append(f"material '{m}'")
         for b in sorted(self.boundaries - caps.boundaries):
             out.append(f"boundary '{b}'")
-        if self.grid_based and not caps.grid_based:
+        if self.grid_based and "grid" not in caps.features:
             out.append("grid_based")
         if self.deterministic and "cpu" not in caps.deterministic:
             out.append("deterministic on cpu")
@@ -401,7 +401,7 @@ def wall_margin(info: EngineInfo, dx: float) -> float:
     docs/mpm.md makes the grid nodes within ``3 dx`` of a domain face wall nodes; other engines
     put the wall on the face itself.
     """
-    return 3.0 * dx if info.capabilities.grid_based else 0.0
+    return 3.0 * dx if "grid" in info.capabilities.features else 0.0
 
 
 def _setup(x, p_vol, material: Material, *, v=0.0, gravity=(0.0, 0.0, -G), lo=(0, 0, 0),

@@ -22,7 +22,7 @@ import pytest
 from gasp_conformance import GROUND_H, G, box_points, installed_engines, record
 from gasp_core.engine import (Boundary, EngineDivergence, EngineError, Material, SceneError,
                               SimSetup)
-from gasp_core.physics import mpm_stable_dt
+from gasp_core.mpm import mpm_stable_dt
 from gasp_core.runner import simulate
 
 N_FRAMES = 2

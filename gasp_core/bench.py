@@ -383,7 +383,7 @@ def bench_scene(scene_path: str | Path, output: str | Path, engines: list[str] |
     skipped: dict[str, str] = {}
     if engines is None:
         requested = [n for n, e in found.items()
-                     if (e.capabilities.grid_based or n == "mujoco_flex") and n not in DEFAULT_EXCLUDE]
+                     if ("grid" in e.capabilities.features or n == "mujoco_flex") and n not in DEFAULT_EXCLUDE]
         skipped.update({n: r for n, r in DEFAULT_EXCLUDE.items() if n in found})
     else:
         requested = list(dict.fromkeys(e.strip() for e in engines if e.strip()))
@@ -397,7 +397,7 @@ def bench_scene(scene_path: str | Path, output: str | Path, engines: list[str] |
         caps = found[name].capabilities
         if settings and name in settings:
             plan[name] = [dict(s) for s in settings[name]]
-        elif caps.grid_based:
+        elif "grid" in caps.features:
             prec = [p for p in precision if p in caps.precisions] or sorted(caps.precisions)[:1]
             plan[name] = mpm_sweep(n_grid, cfl, particles_per_cell, fill, prec, core_fraction,
                                    reference_n_grid)

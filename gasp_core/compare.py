@@ -123,7 +123,7 @@ def select_engines(scene: Scene, requested: Iterable[str] | None,
     from .plugins import engines as all_engines
     found = all_engines()
     names = list(requested) if requested is not None else \
-        [n for n, e in found.items() if not grid_only or e.capabilities.grid_based]
+        [n for n, e in found.items() if not grid_only or "grid" in e.capabilities.features]
     runnable, skipped = [], {}
     for name in names:
         if name not in found:

@@ -1,19 +1,35 @@
 """The optional MPM toolkit: what every grid (MPM) engine of GASP shares, and nothing the seam needs.
 
-Engines opt in by importing it; :mod:`gasp_core.engine` never does. It holds the declared options
-of a grid engine (:data:`MPM_OPTIONS`), the stable time step and substeps (``docs/mpm.md``,
-"Time step"), so that with the same scene every MPM engine runs the same ``dt`` and
-``n_substeps``.
+Engines opt in by importing it; :mod:`gasp_core.engine` never does. So that with the same scene
+every MPM engine starts from the same numbers, it holds:
+
+- the declared options of a grid engine (:func:`mpm_options`, :data:`MPM_OPTIONS`) and their one
+  extra rule (:func:`check_mpm_options`: ``dt`` or ``n_substeps``, not both);
+- the stable time step and substeps (:func:`mpm_stable_dt`, :func:`mpm_substeps`; ``docs/mpm.md``,
+  "Time step");
+- the material codes and the per-body parameter table the kernels read (:data:`MATERIAL_CODES`,
+  ``P_*`` columns, :func:`material_table`) and the initial ``Jp`` (:func:`initial_Jp`);
+- the points held by ``fixed_region`` boundaries (:func:`fixed_mask`) and the order of points by
+  grid cell (:func:`cell_order`);
+- the likely causes of a blow-up, in words (:data:`CAUSE_DT`, :data:`CAUSE_DOMAIN`);
+- the ``gasp bench`` sweep of a grid engine (:func:`mpm_sweep`, :func:`grid_sweep`).
+
+Material parameters are checked once, by :class:`gasp_core.setup.SimSetup` (``E > 0``,
+``rho > 0``, ``-1 < nu < 0.5``): every model of ``docs/mpm.md`` is well posed on that whole range
+(``lam + 2 mu``, ``3 lam + 2 mu`` and the bulk modulus ``K`` stay positive), so an MPM engine adds
+no rule of its own on ``nu``.
 """
 from __future__ import annotations
 
+import itertools
 import math
-from typing import Iterable
+from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from .engine import Option
-from .setup import Material
+from .engine import Option, check_options
+from .errors import SceneError
+from .setup import Boundary, Material
 
 
 def p_wave_speed(m: Material) -> float:
@@ -107,25 +123,284 @@ def substeps_for(frame_dt: float, dt_max: float) -> tuple[int, float]:
     return n, frame_dt / n
 
 
-#: The options every MPM engine of this project takes (``docs/mpm.md``); engines add their own.
-MPM_OPTIONS = (
-    Option("device", "cpu", "where to run: 'cpu' or 'cuda' ('cuda:N' picks a GPU)", kind="str",
-           pattern=r"cpu|cuda(:\d+)?"),
-    Option("precision", "f32", "floating-point precision of the solver", kind="str", choices=("f32", "f64")),
-    Option("dt", None, "substep length, s (default: from cfl)", kind="number", lo=0.0, lo_open=True),
-    Option("n_substeps", None, "substeps per frame (default: from cfl); not with dt", kind="int", lo=1),
-    Option("cfl", 0.4, "Courant number of the automatic substep: dt = cfl dx / max(c_p, v_max)",
-           kind="number", lo=0.0, hi=1.0, lo_open=True),
-)
+
+def substeps_from_options(setup, options: Mapping[str, Any]) -> tuple[int, float]:
+    """:func:`mpm_substeps` with the engine options ``dt``, ``n_substeps`` and ``cfl`` of ``options``."""
+    return mpm_substeps(setup, options.get("dt"), options.get("n_substeps"), options.get("cfl", 0.4))
 
 
-def check_time_options(options, engine: str) -> None:
-    """Refuse ``dt`` and ``n_substeps`` given together (each is checked alone by its :class:`Option`).
+# --------------------------------------------------------------------------- options
+def mpm_options(*extra: Option, cuda_index: bool = False) -> tuple[Option, ...]:
+    """The options of a grid engine: ``device``, ``precision``, ``dt``, ``n_substeps``, ``cfl``, then ``extra``.
+
+    Parameters
+    ----------
+    *extra : Option
+        The engine's own options (e.g. a CPU thread count).
+    cuda_index : bool
+        True when the engine can run on a chosen GPU: ``device`` then also takes ``"cuda:N"``.
+        False for an engine that only runs on the default CUDA device (``"cpu"`` or ``"cuda"``).
+
+    Returns
+    -------
+    tuple of Option
+        For :attr:`gasp_core.engine.EngineInfo.options`.
+    """
+    if cuda_index:
+        device = Option("device", "cpu", "where to run: 'cpu', 'cuda' (the default GPU) or 'cuda:N' (GPU N)",
+                        kind="str", pattern=r"cpu|cuda(:\d+)?")
+    else:
+        device = Option("device", "cpu", "where to run: 'cpu' or 'cuda' (the default GPU)", kind="str",
+                        choices=("cpu", "cuda"))
+    return (
+        device,
+        Option("precision", "f32", "floating-point precision of the solver", kind="str", choices=("f32", "f64")),
+        Option("dt", None, "substep length, s (default: from cfl); not with n_substeps", kind="number",
+               lo=0.0, lo_open=True),
+        Option("n_substeps", None, "substeps per frame (default: from cfl); not with dt", kind="int", lo=1),
+        Option("cfl", 0.4, "Courant number of the automatic substep: dt = cfl dx / max(c_p, v_max)",
+               kind="number", lo=0.0, hi=1.0, lo_open=True),
+    ) + tuple(extra)
+
+
+#: The options every MPM engine of this project takes (``docs/mpm.md``), ``device`` "cpu" or "cuda".
+MPM_OPTIONS = mpm_options()
+
+
+def check_mpm_options(options: Mapping[str, Any], declared: Iterable[Option], engine: str) -> dict[str, Any]:
+    """:func:`gasp_core.engine.check_options`, and ``dt`` and ``n_substeps`` not given together.
+
+    Parameters
+    ----------
+    options : mapping
+        The scene's ``[engine] options`` (or those already completed by the core: the check is
+        idempotent).
+    declared : iterable of Option
+        The engine's options (:func:`mpm_options`).
+    engine : str
+        Engine name, for messages.
+
+    Returns
+    -------
+    dict
+        Every declared option's value.
 
     Raises
     ------
     SceneError
+        An unknown option, a value of the wrong type or out of range, or both ``dt`` and
+        ``n_substeps``; the message names the engine and the option.
     """
-    from .errors import SceneError
-    if options.get("dt") is not None and options.get("n_substeps") is not None:
+    opts = check_options(options, declared, engine)
+    if opts.get("dt") is not None and opts.get("n_substeps") is not None:
         raise SceneError(f"engine '{engine}': give option dt or option n_substeps, not both")
+    return opts
+
+
+# --------------------------------------------------------------------------- materials
+#: Material codes of the kernels (index of the branch in the constitutive update).
+JELLY, NEO_HOOKEAN, METAL, SAND, SNOW, PLASTICINE, LIQUID = range(7)
+MATERIAL_CODES = {"jelly": JELLY, "neo_hookean": NEO_HOOKEAN, "metal": METAL, "sand": SAND, "snow": SNOW,
+                  "plasticine": PLASTICINE, "liquid": LIQUID}
+#: Columns of the per-body parameter table (:func:`material_table`).
+P_MU, P_LAM, P_YIELD, P_SOFTENING, P_HARDENING, P_THETA_C, P_THETA_S, P_ALPHA, P_K = range(9)
+N_PARAMS = 9
+
+
+def material_table(materials: Sequence[Material]) -> tuple[np.ndarray, np.ndarray]:
+    """Material code and parameter row of each body, as the kernels read them.
+
+    Parameters
+    ----------
+    materials : sequence of Material
+        One per body; names in :data:`MATERIAL_CODES`.
+
+    Returns
+    -------
+    kinds : ndarray, shape (n_bodies,), int32
+        :data:`MATERIAL_CODES` value of each body.
+    params : ndarray, shape (n_bodies, N_PARAMS), float64
+        Columns ``P_MU`` (Lame mu, Pa), ``P_LAM`` (Lame lam, Pa), ``P_YIELD`` (von Mises yield
+        stress, Pa), ``P_SOFTENING``, ``P_HARDENING`` (snow xi), ``P_THETA_C``, ``P_THETA_S``,
+        ``P_ALPHA`` (Drucker-Prager ``alpha = sqrt(2/3) 2 sin(phi) / (3 - sin(phi))`` of the
+        friction angle phi, Klar et al. 2016 Eq. 27) and ``P_K`` (bulk modulus
+        ``E / (3 (1 - 2 nu))``, Pa, of the liquid's equation of state).
+
+    Raises
+    ------
+    SceneError
+        A material without an MPM model here (``rigid``); the engine's capabilities normally
+        refuse it before.
+    """
+    kinds = np.zeros(len(materials), dtype=np.int32)
+    params = np.zeros((len(materials), N_PARAMS), dtype=np.float64)
+    for b, m in enumerate(materials):
+        if m.name not in MATERIAL_CODES:
+            raise SceneError(f"material '{m.name}' (body {b}) has no MPM model; MPM materials: "
+                             f"{sorted(MATERIAL_CODES)}")
+        kinds[b] = MATERIAL_CODES[m.name]
+        s = math.sin(math.radians(m.friction_angle))
+        params[b, P_MU] = m.mu
+        params[b, P_LAM] = m.lam
+        params[b, P_YIELD] = m.yield_stress
+        params[b, P_SOFTENING] = m.softening
+        params[b, P_HARDENING] = m.hardening
+        params[b, P_THETA_C] = m.theta_c
+        params[b, P_THETA_S] = m.theta_s
+        params[b, P_ALPHA] = math.sqrt(2.0 / 3.0) * 2.0 * s / (3.0 - s)
+        params[b, P_K] = m.E / (3.0 * (1.0 - 2.0 * m.nu))
+    return kinds, params
+
+
+def initial_Jp(materials: Sequence[Material], body_id: np.ndarray) -> np.ndarray:
+    """Initial ``Jp`` of each point, shape (n,), float64.
+
+    ``Jp`` is the plastic volume ratio for ``snow`` (1 at rest; Stomakhin et al. 2013) and the
+    accumulated plastic strain for ``plasticine`` (0 at rest); no other model reads it (1).
+    """
+    start = np.array([0.0 if m.name == "plasticine" else 1.0 for m in materials])
+    return start[np.asarray(body_id)]
+
+
+# --------------------------------------------------------------------------- points
+def fixed_mask(x: np.ndarray, boundaries: Iterable[Boundary]) -> np.ndarray:
+    """Points held still: those inside the box ``[lo, hi]`` (closed) of any ``fixed_region``.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n, 3)
+        Initial positions, metres.
+    boundaries : iterable of Boundary
+
+    Returns
+    -------
+    ndarray, shape (n,), bool
+    """
+    x = np.asarray(x, dtype=np.float64)
+    mask = np.zeros(len(x), dtype=bool)
+    for b in boundaries:
+        if b.kind == "fixed_region":
+            mask |= np.all((x >= np.asarray(b.lo, float)) & (x <= np.asarray(b.hi, float)), axis=1)
+    return mask
+
+
+def cell_order(x: np.ndarray, domain_lo: np.ndarray, dx: float, n_grid: int) -> np.ndarray:
+    """Stable order of the points by flat grid-cell index ``(i n_grid + j) n_grid + k``.
+
+    Scatter and gather then touch neighbouring memory (cache locality); being stable, the order
+    is the same on every run. Cells are ``floor((x - domain_lo) * (1 / dx))`` clipped to the grid;
+    a non-finite position counts as cell 0.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n, 3)
+        Positions, metres.
+    domain_lo : ndarray, shape (3,)
+        Grid origin, metres.
+    dx : float
+        Grid spacing, metres.
+    n_grid : int
+
+    Returns
+    -------
+    ndarray, shape (n,), int64
+        ``order[i]`` is the index in ``x`` of the i-th point in cell order.
+    """
+    X = (np.asarray(x, dtype=np.float64) - domain_lo) * (1.0 / dx)
+    with np.errstate(invalid="ignore"):
+        c = np.clip(np.nan_to_num(np.floor(X), nan=0.0), 0, n_grid - 1).astype(np.int64)
+    key = (c[:, 0] * n_grid + c[:, 1]) * n_grid + c[:, 2]
+    return np.argsort(key, kind="stable")
+
+
+# --------------------------------------------------------------------------- blow-ups
+#: Likely cause of non-finite values, or of points jumping out of the grid within a substep.
+CAUSE_DT = "time step above the stability limit or material too stiff for dt"
+#: Likely cause of points drifting out of the grid.
+CAUSE_DOMAIN = "points left the domain: add walls/ground or enlarge the domain"
+
+
+# --------------------------------------------------------------------------- gasp bench
+def grid_sweep(n_grid: Sequence[int], cfl: Sequence[float], particles_per_cell: Sequence[int],
+               fill: Sequence[bool], precision: Sequence[str], core_fraction: Sequence[float],
+               reference_n_grid: int | None = None) -> tuple[list[dict], dict]:
+    """Settings of a grid-engine sweep for ``gasp bench``, and its reference (the finest).
+
+    ``n_grid`` x ``cfl`` are crossed (f32 if offered, most particles per cell, fill on, all
+    Gaussians simulated); the others vary one at a time around the largest ``n_grid`` and smallest
+    ``cfl``; one more run takes the cheapest value of every setting.
+
+    Parameters
+    ----------
+    n_grid, cfl, particles_per_cell, fill, precision, core_fraction : sequences
+        Values to try (``precision``: those the engine offers).
+    reference_n_grid : int, optional
+        A finer grid for the reference run alone; default: the largest ``n_grid``.
+
+    Returns
+    -------
+    settings : list of dict
+        Keys ``n_grid, cfl, particles_per_cell, fill, precision, core_fraction``; no duplicates
+        and never the reference itself.
+    reference : dict
+        The finest setting: largest grid, smallest ``cfl``, most particles per cell, fill on,
+        ``f64`` where offered, all Gaussians.
+    """
+    ng, cf = sorted(n_grid), sorted(cfl)
+    ppc, prec = sorted(particles_per_cell), list(precision)
+    cores = sorted(core_fraction)
+    fills = sorted(set(fill), reverse=True)
+    lo_prec = "f32" if "f32" in prec else prec[0]
+    ref = {"n_grid": max(ng[-1], reference_n_grid or 0), "cfl": cf[0], "particles_per_cell": ppc[-1],
+           "fill": fills[0], "precision": "f64" if "f64" in prec else prec[0], "core_fraction": cores[-1]}
+    out = []
+    base = {**ref, "n_grid": ng[-1], "precision": lo_prec}
+    for g, c in itertools.product(ng, cf):
+        out.append({**base, "n_grid": g, "cfl": c})
+    for key, values in (("particles_per_cell", ppc), ("fill", fills), ("precision", prec),
+                        ("core_fraction", cores)):
+        for v in values:
+            out.append({**base, key: v})
+    out.append({"n_grid": ng[0], "cfl": cf[-1], "particles_per_cell": ppc[0], "fill": fills[-1],
+                "precision": lo_prec, "core_fraction": cores[0]})
+    return dedupe_settings(out, ref), ref
+
+
+#: ``gasp bench`` sweep of a grid engine (``docs/speed_accuracy.md``), full and ``--quick``.
+MPM_SWEEP = {"n_grid": (32, 48, 64, 80, 96), "cfl": (0.2, 0.4, 0.8), "particles_per_cell": (1, 8),
+             "fill": (True, False), "precision": ("f32", "f64"), "core_fraction": (1.0, 0.5, 0.2)}
+MPM_SWEEP_QUICK = {**MPM_SWEEP, "n_grid": (32, 48), "cfl": (0.4, 0.8), "particles_per_cell": (8,),
+                   "fill": (True,), "precision": ("f32",)}
+
+
+def mpm_sweep(quick: bool, precisions: Iterable[str] = ("f32", "f64")) -> tuple[list[dict], dict]:
+    """The ``gasp bench`` sweep of a grid engine (:data:`MPM_SWEEP` or :data:`MPM_SWEEP_QUICK`).
+
+    Parameters
+    ----------
+    quick : bool
+        The small sweep (``n_grid`` 32/48, ``cfl`` 0.4/0.8, f32, 8 particles per cell, fill on).
+    precisions : iterable of str
+        The precisions the engine offers; the sweep's are cut to them.
+
+    Returns
+    -------
+    settings, reference
+        As :func:`grid_sweep`.
+    """
+    values = dict(MPM_SWEEP_QUICK if quick else MPM_SWEEP)
+    offered = set(precisions)
+    values["precision"] = tuple(p for p in values["precision"] if p in offered) or tuple(sorted(offered))[:1]
+    return grid_sweep(**values)
+
+
+def dedupe_settings(settings: Iterable[dict], reference: dict | None = None) -> list[dict]:
+    """``settings`` without repeats, in order, and without ``reference``."""
+    seen = {tuple(sorted(reference.items()))} if reference is not None else set()
+    out = []
+    for s in settings:
+        key = tuple(sorted(s.items()))
+        if key not in seen:
+            seen.add(key)
+            out.append(s)
+    return out

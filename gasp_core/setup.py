@@ -40,7 +40,7 @@ class Material:
     E : float
         Young's modulus, Pa.
     nu : float
-        Poisson's ratio, in [0, 0.5).
+        Poisson's ratio, in (-1, 0.5).
     rho : float
         Density, kg/m^3.
     yield_stress : float
@@ -191,8 +191,9 @@ class SimSetup:
         if not (self.frame_dt > 0 and np.isfinite(self.frame_dt)):
             raise SceneError(f"SimSetup.frame_dt = {self.frame_dt}; expected a positive number of seconds")
         for m in self.materials:
-            if not (m.E > 0 and m.rho > 0 and -1.0 < m.nu < 0.5 and m.yield_stress >= 0):
-                raise SceneError(f"material {m.name!r} needs E > 0, rho > 0, -1 < nu < 0.5, yield_stress >= 0; "
+            if not (np.isfinite([m.E, m.rho, m.nu, m.yield_stress]).all()
+                    and m.E > 0 and m.rho > 0 and -1.0 < m.nu < 0.5 and m.yield_stress >= 0):
+                raise SceneError(f"material {m.name!r} needs finite E > 0, rho > 0, -1 < nu < 0.5, yield_stress >= 0; "
                                  f"got E={m.E}, rho={m.rho}, nu={m.nu}, yield_stress={m.yield_stress}")
 
     @property

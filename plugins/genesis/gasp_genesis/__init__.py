@@ -33,9 +33,13 @@ from __future__ import annotations
 import importlib.util
 
 from gasp_core.engine import Capabilities, EngineInfo, SimSetup
+from gasp_core.mpm import mpm_options, mpm_sweep
 from gasp_core.plugins import hookimpl
 
-__all__ = ["CAPABILITIES", "INSTALL_HINT", "gasp_engines", "genesis_available", "make_engine"]
+__all__ = ["BENCH_EXCLUDED", "CAPABILITIES", "ENGINE", "INSTALL_HINT", "OPTIONS", "gasp_engines",
+           "genesis_available", "make_engine", "sweep"]
+
+ENGINE = "genesis"
 
 #: Reason given when Genesis is missing.
 INSTALL_HINT = "genesis-world is not installed: pip install 'gasp-genesis[engine]' (see README)"
@@ -45,10 +49,30 @@ CAPABILITIES = Capabilities(
     boundaries=frozenset({"ground", "walls"}),
     devices=frozenset({"cpu", "cuda"}),
     precisions=frozenset({"f32", "f64"}),
-    dims=frozenset({3}),
     deterministic=frozenset(),  # multithreaded atomic P2G on every backend
-    grid_based=True,
+    # no "initial_C": Genesis starts every particle's C at zero (set_particles_vel sets v only)
+    features=frozenset({"grid"}),
 )
+
+#: The grid-engine options of ``gasp_core.mpm``; ``device`` "cpu" or "cuda" (``gs.init(backend=gs.cuda)``
+#: takes the default GPU).
+OPTIONS = mpm_options()
+
+#: Why ``gasp bench`` leaves Genesis out unless it is asked for by name (``sweep.excluded_by_default``).
+BENCH_EXCLUDED = ("left out of the default sweep: on CPU its build takes ~50 s and a frame ~5x longer "
+                  "than taichi_mpm's; pass engines=genesis to bench it")
+
+
+def sweep(quick: bool) -> tuple[list[dict], dict]:
+    """``gasp bench`` settings and reference: the grid-engine sweep of ``gasp_core.mpm.mpm_sweep``.
+
+    ``sweep.excluded_by_default`` (:data:`BENCH_EXCLUDED`) says why a default ``gasp bench`` leaves
+    this engine out.
+    """
+    return mpm_sweep(quick, CAPABILITIES.precisions)
+
+
+sweep.excluded_by_default = BENCH_EXCLUDED
 
 
 def genesis_available() -> str | None:
@@ -87,9 +111,13 @@ def make_engine(setup: SimSetup):
 @hookimpl
 def gasp_engines():
     return [EngineInfo(
-        name="genesis",
+        name=ENGINE,
         factory=make_engine,
         capabilities=CAPABILITIES,
+        options=OPTIONS,
+        deterministic_options={},
+        known_failures={},
+        sweep=sweep,
         available=genesis_available,
         description=("MPM solver of Genesis (genesis-world; MLS-MPM, quadratic B-splines, APIC) "
                      "on CPU or CUDA. Ground and walls via rigid planes with Coulomb coupling "

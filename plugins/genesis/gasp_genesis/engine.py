@@ -38,30 +38,20 @@ from typing import Any
 
 import numpy as np
 
-from gasp_core.engine import (EngineDivergence, EngineError, Material, SceneError, SimSetup, check_mpm_options,
-                              check_supported)
-from gasp_core.physics import mpm_substeps
+from gasp_core import mpm
+from gasp_core.engine import EngineDivergence, EngineError, Material, SceneError, SimSetup
+from gasp_core.mpm import CAUSE_DOMAIN, CAUSE_DT
 
-from . import CAPABILITIES, INSTALL_HINT
-
-ENGINE = "genesis"
-DEFAULT_OPTIONS = {"device": "cpu", "precision": "f32", "dt": None, "n_substeps": None, "cfl": 0.4}
+from . import ENGINE, INSTALL_HINT, OPTIONS
 #: Genesis pads its MPM domain by this many cells (``MPMSolver.setup_boundary``).
 PADDING_CELLS = 3
 #: Snow hardening coefficient hard-coded in ``genesis/engine/materials/MPM/snow.py``.
 GENESIS_SNOW_HARDENING = 10.0
 
-CAUSE_DT = "time step above the stability limit or material too stiff for dt"
-CAUSE_DOMAIN = "points left the domain: add walls/ground or enlarge the domain"
-
 
 # ---------------------------------------------------------------------- validation
-def _validate_options(setup: SimSetup) -> dict[str, Any]:
-    return check_mpm_options(setup.options, DEFAULT_OPTIONS, ENGINE)
-
-
 def _validate_setup(setup: SimSetup) -> None:
-    check_supported(setup, ENGINE, CAPABILITIES)
+    """What Genesis adds to the core's checks (capabilities, ``SimSetup``): its own parameter ranges."""
     for m in setup.materials:
         if m.name == "metal" and not m.yield_stress > 0:
             raise SceneError(f"engine '{ENGINE}': material 'metal': yield_stress must be > 0 "
@@ -85,8 +75,8 @@ def _validate_setup(setup: SimSetup) -> None:
 
 
 def time_step(setup: SimSetup, opt: dict[str, Any]) -> tuple[int, float]:
-    """Substeps per frame and substep length (``gasp_core.physics.mpm_substeps``, docs/mpm.md)."""
-    return mpm_substeps(setup, opt["dt"], opt["n_substeps"], opt["cfl"])
+    """Substeps per frame and substep length (``gasp_core.mpm.mpm_substeps``, docs/mpm.md)."""
+    return mpm.substeps_from_options(setup, opt)
 
 
 # ---------------------------------------------------------------------- Genesis
@@ -199,7 +189,7 @@ class GenesisMPMEngine:
     """
 
     def __init__(self, setup: SimSetup):
-        opt = _validate_options(setup)
+        opt = mpm.check_mpm_options(setup.options, OPTIONS, ENGINE)
         _validate_setup(setup)
         self.setup = setup
         self.options = opt
@@ -223,6 +213,19 @@ class GenesisMPMEngine:
         self.p_vol_spread = float(np.max(setup.p_vol) / np.min(setup.p_vol) - 1.0)
 
         t0 = time.perf_counter()
+        try:
+            scene = self._build_scene(gs, setup, dx)
+        except gs.GenesisException as e:  # Genesis refused a parameter (gs.raise_exception)
+            raise SceneError(f"engine '{ENGINE}': Genesis refused the scene: {e}") from e
+        self.build_s = time.perf_counter() - t0
+        self.scene = scene
+        self.frame = 0
+        self._x = setup.x.astype(self._np_float)
+        self._v = setup.v.astype(self._np_float)
+        self._closed = False
+
+    def _build_scene(self, gs, setup: SimSetup, dx: float):
+        """The Genesis scene: planes for ground and walls, one MPM entity per body, particles set."""
         scene = gs.Scene(
             sim_options=gs.options.SimOptions(dt=float(setup.frame_dt), substeps=int(self.n_substeps),
                                               gravity=tuple(float(g) for g in setup.gravity)),
@@ -268,12 +271,7 @@ class GenesisMPMEngine:
             ent.set_particles_pos(np.ascontiguousarray(setup.x[idx], dtype=self._np_float))
             ent.set_particles_vel(np.ascontiguousarray(setup.v[idx], dtype=self._np_float))
             ent.set_particles_active(np.ones(len(idx), dtype=bool))
-        self.build_s = time.perf_counter() - t0
-        self.scene = scene
-        self.frame = 0
-        self._x = setup.x.astype(self._np_float)
-        self._v = setup.v.astype(self._np_float)
-        self._closed = False
+        return scene
 
     # ------------------------------------------------------------------ interface
     def _read(self, getter: str) -> np.ndarray:

@@ -35,6 +35,7 @@ def test_available_and_capabilities():
     assert genesis_available() is None
     assert {"jelly", "sand", "liquid"} <= CAPABILITIES.materials
     assert "plasticine" not in CAPABILITIES.materials and "fixed_region" not in CAPABILITIES.boundaries
+    assert CAPABILITIES.features == {"grid"}  # Genesis starts C at zero: no "initial_C"
 
 
 def test_unknown_option_is_scene_error():
@@ -46,11 +47,14 @@ def test_unknown_option_is_scene_error():
 
 
 def test_unsupported_material_and_boundary_are_scene_errors():
+    from gasp_core.engine import build_engine
+    from gasp_core.plugins import engines
+    info = engines()["genesis"]
     x, vol = block((0.4, 0.4, 0.6), (0.6, 0.6, 0.8), 1 / 32)
     with pytest.raises(SceneError, match="plasticine"):
-        make_engine(setup_for(x, vol, material=Material("plasticine")))
+        build_engine(info, setup_for(x, vol, material=Material("plasticine")))
     with pytest.raises(SceneError, match="fixed_region"):
-        make_engine(setup_for(x, vol, boundaries=[Boundary("fixed_region")]))
+        build_engine(info, setup_for(x, vol, boundaries=[Boundary("fixed_region")]))
     with pytest.raises(SceneError, match="outside Genesis's MPM box"):  # within 3 dx of the floor
         make_engine(setup_for(x - [0, 0, 0.55], vol))
 

@@ -10,11 +10,15 @@ Importing this module does not import ``mujoco``; the factory does.
 from __future__ import annotations
 
 import importlib.util
+import itertools
 
-from gasp_core.engine import Capabilities, EngineInfo
+from gasp_core.engine import Capabilities, EngineInfo, Option
+from gasp_core.mpm import dedupe_settings
 from gasp_core.plugins import hookimpl
 
-__all__ = ["gasp_engines", "make_engine", "CAPABILITIES"]
+__all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "gasp_engines", "make_engine", "sweep"]
+
+ENGINE = "mujoco_flex"
 
 #: What the engine offers. ``metal`` is MuJoCo's flex von Mises plasticity (elasticity ``yield``).
 CAPABILITIES = Capabilities(
@@ -22,10 +26,59 @@ CAPABILITIES = Capabilities(
     boundaries=frozenset({"ground", "fixed_region"}),
     devices=frozenset({"cpu"}),
     precisions=frozenset({"f64"}),
-    dims=frozenset({3}),
     deterministic=frozenset({"cpu"}),
-    grid_based=False,
 )
+
+#: Engine options (``[engine] options`` of a scene), declared as data.
+OPTIONS = (
+    Option("device", "cpu", "where to run: only 'cpu'", kind="str", choices=("cpu",)),
+    Option("precision", "f64", "floating-point precision: only 'f64' (MuJoCo is double precision)",
+           kind="str", choices=("f64",)),
+    Option("dt", None, "MuJoCo timestep, s (default: from the elastic-wave estimate); <= frame_dt",
+           lo=0.0, lo_open=True),
+    Option("cfl", 0.5, "safety factor of the elastic-wave estimate dt = cfl h / c_p", lo=0.0, lo_open=True),
+    Option("dt_max", 2e-3, "upper bound of the automatic dt (contact resolution), s", lo=0.0, lo_open=True),
+    Option("cell_size", None, "lattice cell size h, m (default: a body's longest side / cells_across)",
+           lo=0.0, lo_open=True),
+    Option("cells_across", 8, "lattice cells along a body's longest side when cell_size is not given",
+           lo=0.0, lo_open=True),
+    Option("damping", 2e-3, "Rayleigh damping coefficient of the flex elasticity, s", lo=0.0),
+    Option("integrator", "discrete", "MuJoCo integrator (the implicit ones reject flex elasticity)",
+           kind="str", choices=("discrete", "Euler")),
+    Option("solver", "Newton", "MuJoCo constraint solver (PGS rejects flex elasticity under discrete)",
+           kind="str", choices=("Newton", "CG")),
+    Option("iterations", 50, "constraint solver iterations", kind="int", lo=1),
+    Option("radius", None, "flex collision radius, m (default: 0.05 h)", lo=0.0, lo_open=True),
+    Option("max_strain", 5.0, "a tet edge stretched beyond (1 + max_strain) x its rest length is a divergence",
+           lo=0.0, lo_open=True),
+)
+
+#: ``gasp bench`` sweep: lattice ``cells_across`` x ``cfl``, then the hierarchy share ``core_fraction``.
+SWEEP = {"cells_across": (4, 8, 12), "cfl": (0.25, 0.5, 1.0), "reference_cells": 16,
+         "core_fraction": (1.0, 0.5, 0.2)}
+SWEEP_QUICK = {**SWEEP, "cells_across": (4, 8), "cfl": (0.5,), "reference_cells": 8}
+
+
+def sweep(quick: bool) -> tuple[list[dict], dict]:
+    """``gasp bench`` settings and reference of this engine.
+
+    ``cells_across`` x ``cfl`` (all Gaussians simulated), then ``core_fraction`` at the middle
+    ``cells_across`` and ``cfl``; the reference takes ``reference_cells`` cells across and the
+    smallest ``cfl``. ``cells_across`` and ``cfl`` are engine options, ``core_fraction`` a scene key.
+
+    Returns
+    -------
+    settings : list of dict
+        No duplicates, never the reference.
+    reference : dict
+    """
+    v = SWEEP_QUICK if quick else SWEEP
+    cf, cores, cells = sorted(v["cfl"]), sorted(v["core_fraction"]), sorted(v["cells_across"])
+    ref = {"cells_across": int(v["reference_cells"]), "cfl": cf[0], "core_fraction": cores[-1]}
+    out = [{"cells_across": int(n), "cfl": c, "core_fraction": cores[-1]} for n, c in itertools.product(cells, cf)]
+    mid = cells[len(cells) // 2]
+    out += [{"cells_across": mid, "cfl": cf[len(cf) // 2], "core_fraction": k} for k in cores]
+    return dedupe_settings(out, ref), ref
 
 
 def _available() -> str | None:
@@ -44,9 +97,13 @@ def make_engine(setup):
 def gasp_engines():
     """The ``mujoco_flex`` engine record."""
     return [EngineInfo(
-        name="mujoco_flex",
+        name=ENGINE,
         factory=make_engine,
         capabilities=CAPABILITIES,
+        options=OPTIONS,
+        deterministic_options={},
+        known_failures={},
+        sweep=sweep,
         available=_available,
         description="MuJoCo 4 flex: tetrahedral FEM lattice per body (SVK elasticity, von Mises "
                     "plasticity), points embedded barycentrically; rigid bodies as free bodies",

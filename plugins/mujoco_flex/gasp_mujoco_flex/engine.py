@@ -32,28 +32,10 @@ import numpy as np
 import mujoco
 
 from gasp_core.engine import EngineDivergence, EngineError, SceneError, SimSetup, check_options
-from gasp_core.physics import p_wave_speed, substeps_for
+from gasp_core.mpm import fixed_mask, p_wave_speed, substeps_for
 
+from . import ENGINE, OPTIONS
 from .lattice import Lattice, build_lattice, embed_points, interpolate
-
-ENGINE = "mujoco_flex"
-
-#: Engine options (``[engine]`` table of a scene) and their defaults.
-DEFAULT_OPTIONS: dict[str, Any] = {
-    "device": "cpu",          # only "cpu"
-    "precision": "f64",       # only "f64" (MuJoCo is double precision)
-    "dt": None,               # MuJoCo timestep, s; default from the elastic-wave estimate
-    "cfl": 0.5,               # safety factor of the elastic-wave estimate dt = cfl * h / c_p
-    "dt_max": 2e-3,           # upper bound of the automatic dt (contact resolution), s
-    "cell_size": None,        # lattice cell size h, m; default max extent / cells_across per body
-    "cells_across": 8,        # cells along a body's longest side when cell_size is not given
-    "damping": 2e-3,          # Rayleigh damping coefficient of the flex elasticity, s
-    "integrator": "discrete",  # "discrete" or "Euler" (implicit ones reject flex elasticity)
-    "solver": "Newton",       # "Newton" or "CG" (PGS rejects flex elasticity under discrete)
-    "iterations": 50,         # constraint solver iterations
-    "radius": None,           # flex collision radius, m; default 0.05 * h
-    "max_strain": 5.0,        # a tet edge stretched beyond (1 + max_strain) x rest is a divergence
-}
 
 _WARN_NAMES = {
     int(mujoco.mjtWarning.mjWARN_INERTIA): "singular inertia",
@@ -103,12 +85,14 @@ class MujocoFlexEngine:
     Parameters
     ----------
     setup : SimSetup
-        World frame, metres, z up. ``setup.options`` may hold the keys of :data:`DEFAULT_OPTIONS`.
+        World frame, metres, z up. ``setup.options`` may hold the options of
+        :data:`gasp_mujoco_flex.OPTIONS`. Materials and boundaries are checked against the
+        capabilities by the core (``gasp_core.engine.build_engine``).
 
     Raises
     ------
     SceneError
-        Unknown option, bad option value, or a material the engine does not offer.
+        Unknown option or bad option value; ``nu < 0``; ``metal`` without a yield stress.
     EngineError
         MuJoCo rejects the generated model (the message quotes MuJoCo's error).
 
@@ -122,63 +106,27 @@ class MujocoFlexEngine:
 
     def __init__(self, setup: SimSetup):
         self.setup = setup
-        o = check_options(setup.options, DEFAULT_OPTIONS, ENGINE)
+        o = check_options(setup.options, OPTIONS, ENGINE)
         self.options = o
-        if o["device"] != "cpu":
-            raise SceneError(f"engine '{ENGINE}': option device={o['device']!r}; only 'cpu' is offered")
-        if o["precision"] != "f64":
-            raise SceneError(f"engine '{ENGINE}': option precision={o['precision']!r}; only 'f64' is offered")
-        if o["integrator"] not in ("discrete", "Euler"):
-            raise SceneError(f"engine '{ENGINE}': option integrator={o['integrator']!r}; expected 'discrete' "
-                             "or 'Euler' (MuJoCo 4 rejects flex elasticity under implicit/implicitfast)")
-        if o["solver"] not in ("Newton", "CG"):
-            raise SceneError(f"engine '{ENGINE}': option solver={o['solver']!r}; expected 'Newton' or 'CG'")
-        for key in ("cfl", "dt_max", "cells_across", "iterations", "max_strain"):
-            if not (isinstance(o[key], (int, float)) and np.isfinite(o[key]) and o[key] > 0):
-                raise SceneError(f"engine '{ENGINE}': option {key}={o[key]!r}; expected a positive number")
-        for key in ("dt", "cell_size", "radius"):
-            if o[key] is not None and not (isinstance(o[key], (int, float)) and np.isfinite(o[key]) and o[key] > 0):
-                raise SceneError(f"engine '{ENGINE}': option {key}={o[key]!r}; expected a positive number")
-        if not (isinstance(o["damping"], (int, float)) and o["damping"] >= 0):
-            raise SceneError(f"engine '{ENGINE}': option damping={o['damping']!r}; expected a number >= 0 (s)")
         for m in setup.materials:
-            if m.name not in ("jelly", "metal", "rigid"):
-                raise SceneError(f"engine '{ENGINE}': material '{m.name}' is not offered; "
-                                 "offered: ['jelly', 'metal', 'rigid']")
-            if not (m.rho > 0 and np.isfinite(m.rho)):
-                raise SceneError(f"engine '{ENGINE}': material '{m.name}': rho={m.rho!r}; expected > 0 kg/m^3")
-            if m.name != "rigid" and not (m.E > 0 and np.isfinite(m.E) and 0.0 <= m.nu < 0.5):
-                raise SceneError(f"engine '{ENGINE}': material '{m.name}': E={m.E!r}, nu={m.nu!r}; "
-                                 "expected E > 0 Pa and 0 <= nu < 0.5")
+            if m.name != "rigid" and m.nu < 0:
+                raise SceneError(f"engine '{ENGINE}': material '{m.name}': nu={m.nu!r}; MuJoCo's flex "
+                                 "elasticity takes 0 <= nu < 0.5")
             if m.name == "metal" and not (m.yield_stress > 0):
                 raise SceneError(f"engine '{ENGINE}': material 'metal': yield_stress={m.yield_stress!r}; "
                                  "expected > 0 Pa")
-        for b in setup.boundaries:
-            if b.kind not in ("ground", "fixed_region"):
-                raise SceneError(f"engine '{ENGINE}': boundary '{b.kind}' is not offered; "
-                                 "offered: ['fixed_region', 'ground']")
-        if not (setup.frame_dt > 0 and np.isfinite(setup.frame_dt)):
-            raise SceneError(f"SimSetup.frame_dt: expected a positive number, got {setup.frame_dt}")
 
         self.frame = 0
         self.n_points = len(setup.x)
         self._build()
 
     # ------------------------------------------------------------------ model construction
-    def _fixed_mask(self, x: np.ndarray) -> np.ndarray:
-        mask = np.zeros(len(x), dtype=bool)
-        for b in self.setup.boundaries:
-            if b.kind == "fixed_region":
-                lo, hi = np.asarray(b.lo, float), np.asarray(b.hi, float)
-                mask |= np.all((x >= lo) & (x <= hi), axis=1)
-        return mask
-
     def _build(self) -> None:
         s, o = self.setup, self.options
         self.flex: list[_FlexBody] = []
         self.rigid: list[_RigidBody] = []
         parts = []
-        fixed_pt = self._fixed_mask(s.x)
+        fixed_pt = fixed_mask(s.x, s.boundaries)
         h_min = math.inf
         for b, mat in enumerate(s.materials):
             idx = np.flatnonzero(s.body_id == b)
@@ -340,8 +288,8 @@ class MujocoFlexEngine:
         Raises
         ------
         EngineDivergence
-            On a MuJoCo warning, non-finite state, an inverted or over-stretched tet, or a point
-            leaving the domain.
+            On a MuJoCo warning or fatal error during a step, non-finite state, an inverted or
+            over-stretched tet, or a point leaving the domain.
         """
         self.frame += 1
         m, d = self.model, self.data
@@ -352,7 +300,12 @@ class MujocoFlexEngine:
         mujoco.set_mju_user_warning(messages.append)
         try:
             for _ in range(self.n_substeps):
-                mujoco.mj_step(m, d)
+                try:
+                    mujoco.mj_step(m, d)
+                except mujoco.FatalError as e:  # mju_error inside a step of a model that compiled
+                    raise EngineDivergence(f"MuJoCo stopped at t = {d.time:.6g} s: {e}", self.frame,
+                                           cause=f"time step too large for the stiffness (dt = {self.dt:.3g} s) "
+                                                 "or stiffness too high") from e
                 counts = np.array([w.number for w in d.warning])
                 if np.any(counts > self._warn0) or messages:
                     bad = np.flatnonzero(counts > self._warn0)

@@ -45,6 +45,9 @@ def test_plugin_is_registered_and_import_is_lazy():
     info = engines()["mujoco_flex"]
     assert info.capabilities == CAPABILITIES
     assert info.capabilities.materials == {"jelly", "metal", "rigid"}
+    assert "grid" not in info.capabilities.features
+    settings, reference = info.sweep(False)
+    assert reference == {"cells_across": 16, "cfl": 0.25, "core_fraction": 1.0} and reference not in settings
     assert info.unavailable_reason() is None
     code = "import sys, gasp_mujoco_flex; print('mujoco' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
@@ -187,9 +190,17 @@ def test_bad_option_values_are_scene_errors(key, value):
         make_engine(make_setup(block_points(), JELLY, **{key: value}))
 
 
-def test_unsupported_material_is_a_scene_error():
-    with pytest.raises(SceneError, match="sand"):
-        make_engine(make_setup(block_points(), Material("sand")))
+def test_unsupported_material_is_refused_by_the_core():
+    from gasp_core.engine import build_engine
+    from gasp_core.plugins import engines
+    with pytest.raises(SceneError, match="material 'sand'"):
+        build_engine(engines()["mujoco_flex"], make_setup(block_points(), Material("sand")))
+
+
+def test_negative_poisson_ratio_is_a_scene_error():
+    """MuJoCo's flex elasticity takes 0 <= nu < 0.5 ("Poisson ratio must be in [0, 0.5)")."""
+    with pytest.raises(SceneError, match="nu=-0.3"):
+        make_engine(make_setup(block_points(), Material("jelly", E=1e5, nu=-0.3, rho=1000.0)))
 
 
 def test_absurd_dt_raises_engine_divergence_not_nan(tmp_path, monkeypatch):

@@ -9,20 +9,33 @@ then raise :class:`gasp_core.engine.EngineError`).
 """
 from __future__ import annotations
 
-from gasp_core.engine import Capabilities, EngineInfo, SimSetup
+from gasp_core.engine import Capabilities, EngineInfo, Option, SimSetup
+from gasp_core.mpm import mpm_options, mpm_sweep
 from gasp_core.plugins import hookimpl
 
-__all__ = ["gasp_engines", "make_engine", "taichi_available"]
+__all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "gasp_engines", "make_engine", "sweep", "taichi_available"]
+
+ENGINE = "taichi_mpm"
 
 CAPABILITIES = Capabilities(
     materials=frozenset({"jelly", "neo_hookean", "metal", "sand", "snow", "plasticine", "liquid"}),
     boundaries=frozenset({"ground", "walls", "fixed_region"}),
     devices=frozenset({"cpu", "cuda"}),
     precisions=frozenset({"f32", "f64"}),
-    dims=frozenset({3}),
     deterministic=frozenset({"cpu"}),
-    grid_based=True,
+    features=frozenset({"grid", "initial_C"}),
 )
+
+#: The grid-engine options of ``gasp_core.mpm`` (``device``: Taichi runs on the default CUDA device
+#: only, so "cpu" or "cuda") and ``threads``.
+OPTIONS = mpm_options(
+    Option("threads", None, "CPU threads (Taichi's cpu_max_num_threads; default: all cores); a run "
+                            "repeats bit for bit for a fixed count", kind="int", lo=1))
+
+
+def sweep(quick: bool) -> tuple[list[dict], dict]:
+    """``gasp bench`` settings and reference: the grid-engine sweep of ``gasp_core.mpm.mpm_sweep``."""
+    return mpm_sweep(quick, CAPABILITIES.precisions)
 
 
 def taichi_available() -> str | None:
@@ -51,9 +64,13 @@ def make_engine(setup: SimSetup):
 @hookimpl
 def gasp_engines():
     return [EngineInfo(
-        name="taichi_mpm",
+        name=ENGINE,
         factory=make_engine,
         capabilities=CAPABILITIES,
+        options=OPTIONS,
+        deterministic_options={"threads": 1},
+        known_failures={},
+        sweep=sweep,
         available=taichi_available,
         description=("MLS-MPM with APIC transfers and quadratic B-splines (Hu et al. 2018), "
                      "docs/mpm.md, on Taichi (CPU or CUDA, f32 or f64). Deterministic on CPU only "

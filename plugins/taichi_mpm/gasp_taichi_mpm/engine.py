@@ -11,35 +11,21 @@ from typing import Any
 
 import numpy as np
 
-from gasp_core.engine import EngineDivergence, EngineError, SimSetup, check_mpm_options, check_supported
-from gasp_core.physics import mpm_substeps
+from gasp_core import mpm
+from gasp_core.engine import EngineDivergence, EngineError, SimSetup
+from gasp_core.mpm import CAUSE_DOMAIN, CAUSE_DT
 
-from . import CAPABILITIES
+from . import ENGINE, OPTIONS
 
-ENGINE = "taichi_mpm"
-DEFAULT_OPTIONS = {"device": "cpu", "precision": "f32", "dt": None, "n_substeps": None, "cfl": 0.4,
-                   "threads": None}
 #: Private grid copies are used on CPU while they take at most this many bytes in all.
 MAX_PRIVATE_GRID_BYTES = 1 << 30
-
-CAUSE_DT = "time step above the stability limit or material too stiff for dt"
-CAUSE_DOMAIN = "points left the domain: add walls/ground or enlarge the domain"
 
 _generation = 0  # bumped by every engine built; an engine is live while its generation is current
 
 
-def _validate_options(setup: SimSetup) -> dict[str, Any]:
-    return check_mpm_options(setup.options, DEFAULT_OPTIONS, ENGINE)
-
-
-def _validate_setup(setup: SimSetup) -> None:
-    """What this engine adds to ``SimSetup``'s own checks: its capabilities."""
-    check_supported(setup, ENGINE, CAPABILITIES)
-
-
 def time_step(setup: SimSetup, opt: dict[str, Any]) -> tuple[int, float]:
-    """Substeps per frame and substep length (``gasp_core.physics.mpm_substeps``, docs/mpm.md)."""
-    return mpm_substeps(setup, opt["dt"], opt["n_substeps"], opt["cfl"])
+    """Substeps per frame and substep length (``gasp_core.mpm.mpm_substeps``, docs/mpm.md)."""
+    return mpm.substeps_from_options(setup, opt)
 
 
 class TaichiMPMEngine:
@@ -55,7 +41,8 @@ class TaichiMPMEngine:
     Raises
     ------
     SceneError
-        Unknown or invalid option (the message names it), unsupported material or boundary.
+        Unknown or invalid option (the message names it). Materials and boundaries are checked
+        against the capabilities by the core (``gasp_core.engine.build_engine``) before.
     EngineError
         ``device="cuda"`` where Taichi has no CUDA.
 
@@ -70,8 +57,7 @@ class TaichiMPMEngine:
 
     def __init__(self, setup: SimSetup):
         global _generation
-        opt = _validate_options(setup)
-        _validate_setup(setup)
+        opt = mpm.check_mpm_options(setup.options, OPTIONS, ENGINE)
         import taichi as ti
 
         self.setup = setup
@@ -95,32 +81,24 @@ class TaichiMPMEngine:
         self._gen = _generation
         self._ti = ti
         self.threads = threads
-        from .solver import KIND, MPMSolver, material_params, node_ranges
+        from .solver import MPMSolver, node_ranges
 
         dx = setup.dx
         n = len(setup.x)
-        # Sort points by grid cell for memory locality; outputs go back to the setup order.
-        cell = np.floor((setup.x - setup.domain_lo) / dx).astype(np.int64)
-        cell = np.clip(cell, 0, setup.n_grid - 1)
-        key = (cell[:, 0] * setup.n_grid + cell[:, 1]) * setup.n_grid + cell[:, 2]
-        self._order = np.argsort(key, kind="stable")
+        # Points sorted by grid cell for memory locality; outputs go back to the setup order.
+        self._order = mpm.cell_order(setup.x, setup.domain_lo, dx, setup.n_grid)
         self._inverse = np.empty(n, np.int64)
         self._inverse[self._order] = np.arange(n)
         o = self._order
 
         walls, grounds, regions = node_ranges(setup, dx)
-        fixed = np.zeros(n, bool)
-        for b in setup.boundaries:
-            if b.kind == "fixed_region":
-                fixed |= np.all((setup.x >= np.asarray(b.lo)) & (setup.x <= np.asarray(b.hi)), axis=1)
-        kinds = [KIND[m.name] for m in setup.materials]
-        jp0 = np.where(np.asarray(kinds)[setup.body_id] == KIND["plasticine"], 0.0, 1.0)
-        params = np.stack([material_params(m) for m in setup.materials])
+        fixed = mpm.fixed_mask(setup.x, setup.boundaries)
+        kinds, params = mpm.material_table(setup.materials)
+        jp0 = mpm.initial_Jp(setup.materials, setup.body_id)
         bytes_per = 4 if real == ti.f32 else 8
         grid_bytes = 4 * bytes_per * setup.n_grid ** 3
         atomic = opt["device"] == "cuda" or threads * grid_bytes > MAX_PRIVATE_GRID_BYTES
-        C0 = getattr(setup, "C", None)
-        C0 = np.zeros((n, 3, 3)) if C0 is None else np.asarray(C0, float)[o]
+        C0 = np.zeros((n, 3, 3)) if setup.C is None else setup.C[o]
         self.solver = MPMSolver(
             x=setup.x[o], v=setup.v[o], C0=C0, p_mass=setup.p_mass[o], p_vol=setup.p_vol[o],
             body=setup.body_id[o], fixed=fixed[o], jp0=jp0[o], params=params, kinds=kinds,

@@ -27,30 +27,13 @@ import math
 import numpy as np
 import taichi as ti
 
-JELLY, NEO_HOOKEAN, METAL, SAND, SNOW, PLASTICINE, LIQUID = range(7)
-KIND = {"jelly": JELLY, "neo_hookean": NEO_HOOKEAN, "metal": METAL, "sand": SAND, "snow": SNOW,
-        "plasticine": PLASTICINE, "liquid": LIQUID}
-#: Per-body parameter vector layout (``MPMSolver.mat``).
-P_MU, P_LAM, P_YIELD, P_SOFT, P_HARD, P_TC, P_TS, P_ALPHA, P_K = range(9)
-N_PARAMS = 9
+# Material codes and the per-body parameter columns (``MPMSolver.mat``) are gasp_core.mpm's.
+from gasp_core.errors import SceneError
+from gasp_core.mpm import (JELLY, LIQUID, METAL, N_PARAMS, NEO_HOOKEAN, P_ALPHA, P_HARDENING, P_K,
+                           P_LAM, P_MU, P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND,
+                           SNOW)
 
 _TIE = 1e-9  # cells: tolerance for ties when boundary tests become node-index ranges
-
-
-def material_params(m) -> np.ndarray:
-    """Per-body parameter row (layout ``P_*``) for a :class:`gasp_core.engine.Material`."""
-    row = np.zeros(N_PARAMS)
-    row[P_MU] = m.mu
-    row[P_LAM] = m.lam
-    row[P_YIELD] = m.yield_stress
-    row[P_SOFT] = m.softening
-    row[P_HARD] = m.hardening
-    row[P_TC] = m.theta_c
-    row[P_TS] = m.theta_s
-    s = math.sin(math.radians(m.friction_angle))
-    row[P_ALPHA] = math.sqrt(2.0 / 3.0) * 2.0 * s / (3.0 - s)
-    row[P_K] = m.E / (3.0 * (1.0 - 2.0 * m.nu))
-    return row
 
 
 def node_ranges(setup, dx: float):
@@ -102,10 +85,11 @@ class MPMSolver:
     fixed : ndarray, shape (n,), bool
         Points held still (started inside a fixed region).
     jp0 : ndarray, shape (n,)
-        Initial Jp (1 for snow, 0 for plasticine).
+        Initial Jp (``gasp_core.mpm.initial_Jp``: 0 for plasticine, 1 otherwise).
     params : ndarray, shape (n_bodies, N_PARAMS)
+        ``gasp_core.mpm.material_table``.
     kinds : sequence of int
-        Material kind per body (``KIND`` values).
+        Material code per body (``gasp_core.mpm.MATERIAL_CODES`` values).
     n_grid : int
     lo : ndarray, shape (3,)
         Grid origin (domain_lo), metres.
@@ -170,7 +154,8 @@ class MPMSolver:
         self.reg_lo = ti.Vector.field(3, ti.i32, shape=nb)
         self.reg_hi = ti.Vector.field(3, ti.i32, shape=nb)
         if max(self.n_walls, self.n_grounds, self.n_regions) > nb:
-            raise ValueError(f"at most {nb} boundaries of each kind")
+            raise SceneError(f"engine 'taichi_mpm': at most {nb} boundaries of each kind (walls, ground, "
+                             f"fixed_region); got {self.n_walls}, {self.n_grounds}, {self.n_regions}")
 
         np_real = np.float32 if real == ti.f32 else np.float64
 
@@ -400,9 +385,9 @@ class MPMSolver:
                 tau = mu * (F @ F.transpose() - eye) + eye * (lam * ti.log(ti.max(J, 1e-6)))
         if ti.static(SNOW in self.kinds):
             if kind == SNOW:
-                h = ti.exp(prm[P_HARD] * (1.0 - Jp))
+                h = ti.exp(prm[P_HARDENING] * (1.0 - Jp))
                 U, sig, V = self._svd(F)
-                sig_c = ti.min(ti.max(sig, 1.0 - prm[P_TC]), 1.0 + prm[P_TS])
+                sig_c = ti.min(ti.max(sig, 1.0 - prm[P_THETA_C]), 1.0 + prm[P_THETA_S])
                 Jp *= (sig[0] * sig[1] * sig[2]) / (sig_c[0] * sig_c[1] * sig_c[2])
                 F = self._udvt(U, sig_c, V)
                 tau = self._fixed_corotated(F, U, V, mu * h, lam * h)
@@ -424,7 +409,7 @@ class MPMSolver:
                 else:
                     yield_stress = prm[P_YIELD]
                     if kind == PLASTICINE:
-                        yield_stress = prm[P_YIELD] * ti.max(0.0, 1.0 - prm[P_SOFT] * Jp)
+                        yield_stress = prm[P_YIELD] * ti.max(0.0, 1.0 - prm[P_SOFTENING] * Jp)
                     dg = ne - yield_stress / (2.0 * mu)
                     if dg > 0.0:
                         eps -= dg * e / ne

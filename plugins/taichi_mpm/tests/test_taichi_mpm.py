@@ -41,8 +41,10 @@ def run(setup, n_frames):
 def test_plugin_is_registered_and_import_is_cheap():
     from gasp_core.plugins import engines
     info = engines()["taichi_mpm"]
-    assert info.capabilities.grid_based
+    assert {"grid", "initial_C"} <= info.capabilities.features
     assert info.unavailable_reason() is None
+    assert info.deterministic_options == {"threads": 1}
+    assert {o.name for o in info.options} == {"device", "precision", "dt", "n_substeps", "cfl", "threads"}
     code = "import sys, gasp_taichi_mpm; assert 'taichi' not in sys.modules, 'taichi imported'"
     subprocess.run([sys.executable, "-c", code], check=True)
 
@@ -212,6 +214,24 @@ def test_unknown_option_is_a_scene_error_naming_it():
         TaichiMPMEngine(block_setup(precision="f16"))
 
 
+def test_options_are_checked_as_declared():
+    with pytest.raises(SceneError, match="not both"):
+        TaichiMPMEngine(block_setup(dt=1e-4, n_substeps=10))
+    with pytest.raises(SceneError, match="threads=0"):
+        TaichiMPMEngine(block_setup(threads=0))
+    # Taichi runs on the default CUDA device only: an indexed device is refused by name
+    with pytest.raises(SceneError, match="device='cuda:1'"):
+        TaichiMPMEngine(block_setup(device="cuda:1"))
+
+
+def test_material_it_lacks_is_refused_by_the_core_before_taichi_starts():
+    from gasp_core.engine import build_engine
+    from gasp_core.plugins import engines
+    s = block_setup(material=Material("rigid"))
+    with pytest.raises(SceneError, match="material 'rigid'"):
+        build_engine(engines()["taichi_mpm"], s)
+
+
 def test_cuda_without_gpu_is_an_engine_error():
     import taichi as ti
     if ti.lang.misc.is_arch_supported(ti.cuda):
@@ -237,8 +257,8 @@ def test_old_engine_is_invalidated_by_a_new_one():
         a.step_frame()
 
 
-def test_stats_report_the_time_step_from_gasp_core_physics():
-    from gasp_core.physics import mpm_stable_dt, substeps_for
+def test_stats_report_the_time_step_from_gasp_core_mpm():
+    from gasp_core.mpm import mpm_stable_dt, substeps_for
     s = block_setup()
     st = TaichiMPMEngine(s).stats()
     n, dt = substeps_for(s.frame_dt, mpm_stable_dt(s.materials, s.dx, s.gravity, 1.0, 0.0, 0.4))

@@ -8,10 +8,13 @@ from __future__ import annotations
 
 import importlib.util
 
-from gasp_core.engine import Capabilities, EngineInfo, SimSetup
+from gasp_core.engine import Capabilities, EngineInfo, Option, SimSetup
+from gasp_core.mpm import mpm_options, mpm_sweep
 from gasp_core.plugins import hookimpl
 
-__all__ = ["gasp_engines", "make_engine", "CAPABILITIES"]
+__all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "gasp_engines", "make_engine", "sweep"]
+
+ENGINE = "warp_mpm"
 
 CAPABILITIES = Capabilities(
     materials=frozenset({"jelly", "neo_hookean", "metal", "sand", "snow", "plasticine", "liquid"}),
@@ -19,8 +22,20 @@ CAPABILITIES = Capabilities(
     devices=frozenset({"cpu", "cuda"}),
     precisions=frozenset({"f32", "f64"}),
     deterministic=frozenset({"cpu"}),
-    grid_based=True,
+    features=frozenset({"grid", "initial_C"}),
 )
+
+#: The grid-engine options of ``gasp_core.mpm`` (``device``: "cpu", "cuda" or "cuda:N", Warp's device
+#: names) and ``threads``, accepted so that a scene written for another MPM engine runs unchanged.
+OPTIONS = mpm_options(
+    Option("threads", None, "accepted and ignored: Warp runs CPU kernels on one thread (runs repeat bit "
+                            "for bit)", kind="int", lo=1),
+    cuda_index=True)
+
+
+def sweep(quick: bool) -> tuple[list[dict], dict]:
+    """``gasp bench`` settings and reference: the grid-engine sweep of ``gasp_core.mpm.mpm_sweep``."""
+    return mpm_sweep(quick, CAPABILITIES.precisions)
 
 
 def make_engine(setup: SimSetup):
@@ -43,9 +58,13 @@ def _available() -> str | None:
 def gasp_engines():
     """The ``warp_mpm`` engine record (GASP ``gasp_engines`` hook)."""
     return [EngineInfo(
-        name="warp_mpm",
+        name=ENGINE,
         factory=make_engine,
         capabilities=CAPABILITIES,
+        options=OPTIONS,
+        deterministic_options={},
+        known_failures={},
+        sweep=sweep,
         available=_available,
         description="MLS-MPM (docs/mpm.md) in NVIDIA Warp; CPU (single thread, deterministic) or CUDA",
     )]

@@ -21,15 +21,10 @@ import functools
 
 import warp as wp
 
-# Material codes (index into the per-body tables).
-JELLY, NEO_HOOKEAN, METAL, SAND, SNOW, PLASTICINE, LIQUID = range(7)
-MATERIAL_CODES = {
-    "jelly": JELLY, "neo_hookean": NEO_HOOKEAN, "metal": METAL, "sand": SAND,
-    "snow": SNOW, "plasticine": PLASTICINE, "liquid": LIQUID,
-}
-# Columns of the per-body parameter table ``mat_par``.
-P_MU, P_LAM, P_YIELD, P_SOFTENING, P_HARDENING, P_THETA_C, P_THETA_S, P_ALPHA, P_K = range(9)
-N_PAR = 9
+# Material codes and the columns of the per-body parameter table ``mat_par`` are gasp_core.mpm's.
+from gasp_core.mpm import (JELLY, METAL, NEO_HOOKEAN, P_ALPHA, P_HARDENING, P_K, P_LAM, P_MU,
+                           P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND, SNOW)
+
 # Warp compiles CPU code at -O2 by default; -O3 is several times faster on these kernels.
 _OPTS = {"optimization_level": 3}
 

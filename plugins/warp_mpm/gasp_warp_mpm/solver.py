@@ -27,82 +27,22 @@ Choices where docs/mpm.md leaves room (the Taichi plugin agrees to ~1e-5 m on al
 """
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
 import warp as wp
 
-from gasp_core import physics
-from gasp_core.engine import EngineDivergence, EngineError, SceneError, SimSetup, check_options
+from gasp_core import mpm
+from gasp_core.engine import EngineDivergence, EngineError, SimSetup
+from gasp_core.mpm import CAUSE_DOMAIN, CAUSE_DT
 
+from . import ENGINE, OPTIONS
 from . import kernels as K
-
-ENGINE = "warp_mpm"
-DEFAULT_OPTIONS = {"device": "cpu", "precision": "f32", "dt": None, "n_substeps": None,
-                   "cfl": 0.4, "threads": None}
-SUPPORTED_BOUNDARIES = frozenset({"ground", "walls", "fixed_region"})
-
-CAUSE_UNSTABLE = "time step above the stability limit or material too stiff for dt"
-CAUSE_LEFT = "points left the domain: add walls/ground or enlarge the domain"
-
-
-def _check(cond: bool, msg: str) -> None:
-    if not cond:
-        raise SceneError(f"engine '{ENGINE}': {msg}")
-
-
-def _validate_options(options: dict[str, Any]) -> dict[str, Any]:
-    opts = check_options(options, DEFAULT_OPTIONS, ENGINE)
-    dev = opts["device"]
-    _check(isinstance(dev, str) and (dev == "cpu" or dev == "cuda" or dev.startswith("cuda:")),
-           f"option 'device' must be \"cpu\" or \"cuda\", got {dev!r}")
-    _check(opts["precision"] in ("f32", "f64"),
-           f"option 'precision' must be \"f32\" or \"f64\", got {opts['precision']!r}")
-    dt = opts["dt"]
-    _check(dt is None or (isinstance(dt, (int, float)) and not isinstance(dt, bool)
-                          and math.isfinite(dt) and dt > 0),
-           f"option 'dt' must be a positive number of seconds, got {dt!r}")
-    ns = opts["n_substeps"]
-    _check(ns is None or (isinstance(ns, (int, np.integer)) and not isinstance(ns, bool) and ns >= 1),
-           f"option 'n_substeps' must be an integer >= 1, got {ns!r}")
-    _check(dt is None or ns is None, "options 'dt' and 'n_substeps' are exclusive; give one")
-    cfl = opts["cfl"]
-    _check(isinstance(cfl, (int, float)) and not isinstance(cfl, bool) and 0 < cfl <= 1,
-           f"option 'cfl' must be a number in (0, 1], got {cfl!r}")
-    th = opts["threads"]
-    _check(th is None or (isinstance(th, (int, np.integer)) and not isinstance(th, bool) and th >= 1),
-           f"option 'threads' must be an integer >= 1 or omitted, got {th!r}")
-    return opts
 
 
 def choose_dt(setup: SimSetup, opts: dict[str, Any]) -> tuple[int, float]:
-    """Substeps per frame and substep (``gasp_core.physics.mpm_substeps``, docs/mpm.md "Time step")."""
-    return physics.mpm_substeps(setup, opts["dt"], opts["n_substeps"], opts["cfl"])
-
-
-def _material_tables(setup: SimSetup) -> tuple[np.ndarray, np.ndarray]:
-    kinds = np.zeros(len(setup.materials), dtype=np.int32)
-    par = np.zeros((len(setup.materials), K.N_PAR), dtype=np.float64)
-    for b, m in enumerate(setup.materials):
-        if m.name not in K.MATERIAL_CODES:
-            raise EngineError(f"engine '{ENGINE}' does not offer material '{m.name}' (body {b}); "
-                              f"it offers {sorted(K.MATERIAL_CODES)}")
-        _check(m.E > 0 and math.isfinite(m.E), f"material {b} ('{m.name}'): E must be > 0 Pa, got {m.E}")
-        _check(0 <= m.nu < 0.5, f"material {b} ('{m.name}'): nu must be in [0, 0.5), got {m.nu}")
-        _check(m.rho > 0, f"material {b} ('{m.name}'): rho must be > 0 kg/m^3, got {m.rho}")
-        kinds[b] = K.MATERIAL_CODES[m.name]
-        s = math.sin(math.radians(m.friction_angle))
-        par[b, K.P_MU] = m.mu
-        par[b, K.P_LAM] = m.lam
-        par[b, K.P_YIELD] = m.yield_stress
-        par[b, K.P_SOFTENING] = m.softening
-        par[b, K.P_HARDENING] = m.hardening
-        par[b, K.P_THETA_C] = m.theta_c
-        par[b, K.P_THETA_S] = m.theta_s
-        par[b, K.P_ALPHA] = math.sqrt(2.0 / 3.0) * 2.0 * s / (3.0 - s)
-        par[b, K.P_K] = m.E / (3.0 * (1.0 - 2.0 * m.nu))
-    return kinds, par
+    """Substeps per frame and substep (``gasp_core.mpm.mpm_substeps``, docs/mpm.md "Time step")."""
+    return mpm.substeps_from_options(setup, opts)
 
 
 class WarpMPMEngine:
@@ -113,30 +53,25 @@ class WarpMPMEngine:
     setup : SimSetup
         Points, materials (``jelly, neo_hookean, metal, sand, snow, plasticine, liquid``),
         boundaries (``ground, walls, fixed_region``), domain and ``n_grid``. ``setup.options``
-        may hold ``device`` ("cpu" | "cuda"), ``precision`` ("f32" | "f64"), ``dt`` (s) or
+        may hold ``device`` ("cpu" | "cuda" | "cuda:N"), ``precision`` ("f32" | "f64"), ``dt`` (s) or
         ``n_substeps``, ``cfl`` (0.4) and ``threads`` (accepted and ignored: Warp runs CPU
-        kernels on one thread, so CPU runs repeat bit for bit).
+        kernels on one thread, so CPU runs repeat bit for bit). Materials and boundaries are
+        checked against the capabilities by the core (``gasp_core.engine.build_engine``), the
+        material parameters and ``n_grid`` by :class:`SimSetup`.
 
     Raises
     ------
     SceneError
-        Unknown or malformed option, bad material parameters, ``n_grid < 4``.
+        Unknown or malformed option (the message names it).
     EngineError
-        Material or boundary this engine does not offer; ``device="cuda"`` without a CUDA device.
+        ``device="cuda"`` (or ``"cuda:N"``) without that CUDA device.
     """
 
     def __init__(self, setup: SimSetup):
         self.setup = setup
-        opts = _validate_options(dict(setup.options))
+        opts = mpm.check_mpm_options(setup.options, OPTIONS, ENGINE)
         self.options = opts
-        _check(isinstance(setup.n_grid, (int, np.integer)) and setup.n_grid >= 4,
-               f"n_grid must be an integer >= 4, got {setup.n_grid!r}")
-        _check(setup.frame_dt > 0, f"frame_dt must be > 0 s, got {setup.frame_dt}")
-        for bd in setup.boundaries:
-            if bd.kind not in SUPPORTED_BOUNDARIES:
-                raise EngineError(f"engine '{ENGINE}' does not offer boundary '{bd.kind}'; "
-                                  f"it offers {sorted(SUPPORTED_BOUNDARIES)}")
-        kinds, par = _material_tables(setup)
+        kinds, par = mpm.material_table(setup.materials)
 
         wp.init()
         dev = opts["device"]
@@ -162,14 +97,12 @@ class WarpMPMEngine:
         lo = setup.domain_lo
 
         # Points that start inside a fixed region are held (docs/mpm.md G2P).
-        fixed = np.zeros(n, dtype=np.int32)
+        fixed = mpm.fixed_mask(setup.x, setup.boundaries).astype(np.int32)
         fixed_lo, fixed_hi, ground, wall_mu = [], [], [], []
         for bd in setup.boundaries:
             if bd.kind == "fixed_region":
-                blo, bhi = np.asarray(bd.lo, float), np.asarray(bd.hi, float)
-                fixed_lo.append(blo)
-                fixed_hi.append(bhi)
-                fixed |= np.all((setup.x >= blo) & (setup.x <= bhi), axis=1).astype(np.int32)
+                fixed_lo.append(np.asarray(bd.lo, float))
+                fixed_hi.append(np.asarray(bd.hi, float))
             elif bd.kind == "ground":
                 ground.append((bd.height, bd.friction, 0.0))
             else:
@@ -179,7 +112,7 @@ class WarpMPMEngine:
         # setup index of internal point i.
         order = self._cell_order(setup.x) if n else np.zeros(0, dtype=np.int64)
         self._order = order
-        jp0 = np.array([1.0 if m.name == "snow" else 0.0 for m in setup.materials])[setup.body_id]
+        jp0 = mpm.initial_Jp(setup.materials, setup.body_id)
         d, dt_np = self.device, self._np_dtype
         k = self.k
 
@@ -230,12 +163,8 @@ class WarpMPMEngine:
 
     # ------------------------------------------------------------------ helpers
     def _cell_order(self, x: np.ndarray) -> np.ndarray:
-        """Stable order of points by flat cell index (deterministic)."""
-        X = (np.asarray(x, dtype=np.float64) - self.setup.domain_lo) * self.inv_dx
-        with np.errstate(invalid="ignore"):
-            c = np.clip(np.nan_to_num(np.floor(X), nan=0.0), 0, self.n_grid - 1).astype(np.int64)
-        key = (c[:, 0] * self.n_grid + c[:, 1]) * self.n_grid + c[:, 2]
-        return np.argsort(key, kind="stable")
+        """Stable order of points by flat cell index (``gasp_core.mpm.cell_order``)."""
+        return mpm.cell_order(x, self.setup.domain_lo, self.dx, self.n_grid)
 
     def _resort(self) -> None:
         """Re-sort the points by cell (CPU only: the arrays are host memory, numpy views)."""
@@ -283,11 +212,11 @@ class WarpMPMEngine:
         if n_bad:
             raise EngineDivergence(
                 f"{n_bad} of {self.n_points} points have non-finite position or velocity "
-                f"(dt = {self.dt:.3g} s, {self.n_substeps} substeps/frame)", self.frame, CAUSE_UNSTABLE)
+                f"(dt = {self.dt:.3g} s, {self.n_substeps} substeps/frame)", self.frame, CAUSE_DT)
         if n_out:
             raise EngineDivergence(
                 f"{n_out} point-substeps were out of the grid (domain {self.setup.domain_lo.tolist()} to "
-                f"{self.setup.domain_hi.tolist()}, n_grid {self.n_grid})", self.frame, CAUSE_LEFT)
+                f"{self.setup.domain_hi.tolist()}, n_grid {self.n_grid})", self.frame, CAUSE_DOMAIN)
         if not self.device.is_cuda:
             self._resort()
 

@@ -49,7 +49,10 @@ def test_registered_and_lazy():
     info = engines()["warp_mpm"]
     assert info.distribution == "gasp-warp-mpm"
     assert info.unavailable_reason() is None
-    assert info.capabilities.grid_based and "sand" in info.capabilities.materials
+    assert {"grid", "initial_C"} <= info.capabilities.features and "sand" in info.capabilities.materials
+    assert info.deterministic_options == {}  # Warp's CPU kernels run on one thread
+    settings, reference = info.sweep(True)
+    assert reference not in settings and all(s["precision"] == "f32" for s in settings)
     code = "import sys, gasp_warp_mpm; assert 'warp' not in sys.modules, 'warp imported eagerly'"
     subprocess.run([sys.executable, "-c", code], check=True)
 
@@ -69,9 +72,12 @@ def test_svd3_convention():
     assert np.all(sig[:, 0] >= sig[:, 1]) and np.all(sig[:, 1] >= np.abs(sig[:, 2]))
 
 
-def test_free_fall_com():
-    """No floor: the centre of mass falls g t^2 / 2 (within 1 %) in t = 0.2 s; x, y stay."""
-    s = make_setup(lo=(0.35, 0.35, 0.6), options={"n_substeps": 40})
+@pytest.mark.parametrize("nu", [0.3, -0.3])
+def test_free_fall_com(nu):
+    """No floor: the centre of mass falls g t^2 / 2 (within 1 %) in t = 0.2 s; x, y stay.
+
+    An auxetic material (nu < 0, within SimSetup's -1 < nu < 0.5) is accepted and falls alike."""
+    s = make_setup(lo=(0.35, 0.35, 0.6), options={"n_substeps": 40}, nu=nu)
     e = WarpMPMEngine(s)
     c0 = e.positions().mean(axis=0)
     for _ in range(6):
@@ -199,11 +205,20 @@ def test_bad_options():
         WarpMPMEngine(make_setup(options={"bogus": 1}))
     with pytest.raises(SceneError, match="precision"):
         WarpMPMEngine(make_setup(options={"precision": "f16"}))
-    with pytest.raises(SceneError, match="'dt'"):
+    with pytest.raises(SceneError, match="option dt=-1.0"):
         WarpMPMEngine(make_setup(options={"dt": -1.0}))
-    with pytest.raises(EngineError, match="rigid"):
-        WarpMPMEngine(make_setup("rigid"))
+    with pytest.raises(SceneError, match="device='gpu'"):
+        WarpMPMEngine(make_setup(options={"device": "gpu"}))
+    with pytest.raises(SceneError, match="not both"):
+        WarpMPMEngine(make_setup(options={"dt": 1e-4, "n_substeps": 10}))
     WarpMPMEngine(make_setup(options={"threads": 2, "cfl": 0.3}))  # accepted
+
+
+def test_material_it_lacks_is_refused_by_the_core():
+    from gasp_core.engine import build_engine
+    from gasp_core.plugins import engines
+    with pytest.raises(SceneError, match="material 'rigid'"):
+        build_engine(engines()["warp_mpm"], make_setup("rigid"))
 
 
 def test_cuda_without_device():
@@ -213,6 +228,8 @@ def test_cuda_without_device():
         pytest.skip("a CUDA device is present")
     with pytest.raises(EngineError, match="cuda"):
         WarpMPMEngine(make_setup(options={"device": "cuda"}))
+    with pytest.raises(EngineError, match="cuda:1"):
+        WarpMPMEngine(make_setup(options={"device": "cuda:1"}))
 
 
 def test_f64_matches_f32():
