@@ -19,10 +19,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gasp_conformance import GROUND_H, G, box_points, installed_engines, record
+from gasp_core.plugins import engines as installed_engines
+from gasp_core.testing import G, box_points, record
+from gasp_core.testing.scenes_basic import GROUND_H
 from gasp_core.engine import (Boundary, EngineDivergence, EngineError, Material, SceneError,
                               SimSetup)
-from gasp_core.physics import mpm_stable_dt
+from gasp_core.mpm import mpm_stable_dt
 from gasp_core.runner import simulate
 
 N_FRAMES = 2

@@ -1,7 +1,8 @@
 """``gasp`` command line: simulate, engines, info (compare and bench where installed).
 
 Errors the user can fix are one line on stderr, ``gasp: error: ...``, with exit status 2
-(bad input, unknown engine, missing capability, existing output) or 3 (the engine blew up).
+(bad input, unknown engine, missing capability, existing output), 3 (the engine blew up) or 4
+(an engine raised outside the error contract: a bug in the engine, reported in one line).
 """
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ import json
 import sys
 from pathlib import Path
 
-from .engine import EngineDivergence, GaspError
+from .engine import EngineBug, EngineDivergence, GaspError
 
 
 def _cmd_simulate(args) -> int:
@@ -50,7 +51,7 @@ def _cmd_engines(args) -> int:
         print(f"    materials:  {', '.join(sorted(c.materials))}")
         print(f"    boundaries: {', '.join(sorted(c.boundaries))}")
         print(f"    devices:    {', '.join(sorted(c.devices))}; precisions: {', '.join(sorted(c.precisions))}; "
-              f"dims: {', '.join(map(str, sorted(c.dims)))}")
+              f"features: {', '.join(sorted(c.features)) or '-'}")
         if e.description:
             print(f"    {e.description}")
     return 0
@@ -130,6 +131,9 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--reference-n-grid", type=int, default=0,
                    help="a finer grid for the MPM engines' reference run alone (default 0: the finest of the sweep, n_grid 96)")
     b.set_defaults(func=_cmd_bench)
+
+    from .testing.cli import add_parser as add_conform_parser
+    add_conform_parser(sub)
     return p
 
 
@@ -140,6 +144,9 @@ def main(argv: list[str] | None = None) -> int:
     except EngineDivergence as e:
         print(f"gasp: error: simulation diverged at {e}", file=sys.stderr)
         return 3
+    except EngineBug as e:
+        print(f"gasp: error: {e}", file=sys.stderr)
+        return 4
     except (FileExistsError, FileNotFoundError) as e:
         print(f"gasp: error: {e}", file=sys.stderr)
         return 2

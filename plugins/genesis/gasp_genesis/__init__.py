@@ -45,10 +45,17 @@ CAPABILITIES = Capabilities(
     boundaries=frozenset({"ground", "walls"}),
     devices=frozenset({"cpu", "cuda"}),
     precisions=frozenset({"f32", "f64"}),
-    dims=frozenset({3}),
     deterministic=frozenset(),  # multithreaded atomic P2G on every backend
-    grid_based=True,
+    features=frozenset({"grid"}),
 )
+
+#: Conformance scenes this engine fails, with the measured figures (run as strict xfail).
+KNOWN_FAILURES = {"spinning": (
+    "the body spins 11.7% slow: rigid-fit angle 79.47 deg after 0.5 s vs 90 deg; L_z(frame 1) / L_z(0) = 0.883, "
+    "then constant within 0.2%. The plugin does not start the APIC affine matrix from SimSetup.C (the Genesis "
+    "1.4.5 entity API sets only positions, velocities and active flags; its MPM solver state setter also writes "
+    "C, but the plugin does not use that internal path yet), so the first P2G loses the points' own spin; "
+    "taichi_mpm and warp_mpm, which read SimSetup.C, turn 89.90 deg")}
 
 
 def genesis_available() -> str | None:
@@ -90,6 +97,7 @@ def gasp_engines():
         name="genesis",
         factory=make_engine,
         capabilities=CAPABILITIES,
+        known_failures=KNOWN_FAILURES,
         available=genesis_available,
         description=("MPM solver of Genesis (genesis-world; MLS-MPM, quadratic B-splines, APIC) "
                      "on CPU or CUDA. Ground and walls via rigid planes with Coulomb coupling "

@@ -32,7 +32,7 @@ import numpy as np
 import mujoco
 
 from gasp_core.engine import EngineDivergence, EngineError, SceneError, SimSetup, check_options
-from gasp_core.physics import p_wave_speed, substeps_for
+from gasp_core.mpm import p_wave_speed, substeps_for
 
 from .lattice import Lattice, build_lattice, embed_points, interpolate
 
@@ -122,7 +122,8 @@ class MujocoFlexEngine:
 
     def __init__(self, setup: SimSetup):
         self.setup = setup
-        o = check_options(setup.options, DEFAULT_OPTIONS, ENGINE)
+        from . import OPTIONS
+        o = check_options(setup.options, OPTIONS, ENGINE)
         self.options = o
         if o["device"] != "cpu":
             raise SceneError(f"engine '{ENGINE}': option device={o['device']!r}; only 'cpu' is offered")

@@ -11,10 +11,10 @@ from typing import Any
 
 import numpy as np
 
-from gasp_core.engine import EngineDivergence, EngineError, SimSetup, check_mpm_options, check_supported
-from gasp_core.physics import mpm_substeps
+from gasp_core.engine import EngineDivergence, EngineError, SimSetup, check_options
+from gasp_core.mpm import check_time_options, mpm_substeps
 
-from . import CAPABILITIES
+from . import CAPABILITIES, OPTIONS  # noqa: F401
 
 ENGINE = "taichi_mpm"
 DEFAULT_OPTIONS = {"device": "cpu", "precision": "f32", "dt": None, "n_substeps": None, "cfl": 0.4,
@@ -29,12 +29,14 @@ _generation = 0  # bumped by every engine built; an engine is live while its gen
 
 
 def _validate_options(setup: SimSetup) -> dict[str, Any]:
-    return check_mpm_options(setup.options, DEFAULT_OPTIONS, ENGINE)
+    opt = check_options(setup.options, OPTIONS, ENGINE)
+    check_time_options(opt, ENGINE)
+    return opt
 
 
 def _validate_setup(setup: SimSetup) -> None:
     """What this engine adds to ``SimSetup``'s own checks: its capabilities."""
-    check_supported(setup, ENGINE, CAPABILITIES)
+    # checked by gasp_core.engine.build_engine (capabilities) before the factory runs
 
 
 def time_step(setup: SimSetup, opt: dict[str, Any]) -> tuple[int, float]:

@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import importlib.util
 
-from gasp_core.engine import Capabilities, EngineInfo, SimSetup
+from gasp_core.engine import Capabilities, EngineInfo, Option, SimSetup
+from gasp_core.mpm import MPM_OPTIONS
 from gasp_core.plugins import hookimpl
 
 __all__ = ["gasp_engines", "make_engine", "CAPABILITIES"]
@@ -19,8 +20,20 @@ CAPABILITIES = Capabilities(
     devices=frozenset({"cpu", "cuda"}),
     precisions=frozenset({"f32", "f64"}),
     deterministic=frozenset({"cpu"}),
-    grid_based=True,
+    features=frozenset({"grid", "initial_C"}),
 )
+
+#: Declared options (docs/mpm.md) plus CPU threads.
+OPTIONS = MPM_OPTIONS + (
+    Option("threads", None, "CPU threads (default all cores; 1 makes a run repeat bit for bit)", kind="int", lo=1),)
+
+#: Conformance scenes this engine fails, with the measured figures (run as strict xfail).
+_CLAMP_OFF_GRID = ("clamp face 0.6 dx past a grid node: time-averaged tip deflection 30.83 mm vs Euler-Bernoulli "
+                   "19.99 mm (+54%); with the face on a node 21.68 mm (+8.4%). Measured also: n_grid 28/48/64 (face "
+                   "0.6/0.6/0.8 dx off a node) the bar swings down as if hinged and leaves the grid by frame ~22; "
+                   "n_grid 40 (on a node) 21.45 mm. fixed_region acts on whole nodes (docs/mpm.md), so the clamp is "
+                   "soft when its face falls between nodes")
+KNOWN_FAILURES = {"cantilever_offgrid": _CLAMP_OFF_GRID}
 
 
 def make_engine(setup: SimSetup):
@@ -46,6 +59,9 @@ def gasp_engines():
         name="warp_mpm",
         factory=make_engine,
         capabilities=CAPABILITIES,
+        options=OPTIONS,
+        deterministic_options={"threads": 1},
+        known_failures=KNOWN_FAILURES,
         available=_available,
         description="MLS-MPM (docs/mpm.md) in NVIDIA Warp; CPU (single thread, deterministic) or CUDA",
     )]

@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 import warp as wp
 
-from gasp_core import physics
+from gasp_core import mpm as physics
 from gasp_core.engine import EngineDivergence, EngineError, SceneError, SimSetup, check_options
 
 from . import kernels as K
@@ -53,7 +53,8 @@ def _check(cond: bool, msg: str) -> None:
 
 
 def _validate_options(options: dict[str, Any]) -> dict[str, Any]:
-    opts = check_options(options, DEFAULT_OPTIONS, ENGINE)
+    from . import OPTIONS
+    opts = check_options(options, OPTIONS, ENGINE)
     dev = opts["device"]
     _check(isinstance(dev, str) and (dev == "cpu" or dev == "cuda" or dev.startswith("cuda:")),
            f"option 'device' must be \"cpu\" or \"cuda\", got {dev!r}")
