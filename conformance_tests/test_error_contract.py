@@ -51,11 +51,12 @@ def gasp_engines():
 def buggy_engine(tmp_path, monkeypatch):
     """Install the buggy engine (failing at ``where``) for this test only."""
     def install(where: str):
-        (tmp_path / "gasp_buggy.py").write_text(textwrap.dedent(PLUGIN.format(where=where)))
+        module = f"gasp_buggy_{where}"  # one module per case: a module imported once stays in sys.modules
+        (tmp_path / f"{module}.py").write_text(textwrap.dedent(PLUGIN.format(where=where)))
         info = tmp_path / "gasp_buggy-0.1.dist-info"
         info.mkdir()
         (info / "METADATA").write_text("Metadata-Version: 2.1\nName: gasp-buggy\nVersion: 0.1\n")
-        (info / "entry_points.txt").write_text("[gasp]\nbuggy = gasp_buggy\n")
+        (info / "entry_points.txt").write_text(f"[gasp]\nbuggy = {module}\n")
         monkeypatch.syspath_prepend(str(tmp_path))
         monkeypatch.setenv("GASP_LOAD_PLUGINS", "buggy")
         plugins.get_plugin_manager.cache_clear()

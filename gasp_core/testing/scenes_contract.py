@@ -11,8 +11,8 @@ contract_refusals          a material, boundary or feature the engine lacks, an 
                            with ``SceneError`` naming them, before the factory runs
 contract_declared_accepted every declared material (one body each) and boundary in one scene is
                            built and run for 2 frames without any error
-contract_blowup            a stiff body (E = 1e10 Pa) with the time step forced to one substep per
-                           frame (the engine's ``n_substeps`` or ``dt`` option) ends in
+contract_blowup            a stiff body (E = 1e10 Pa, random velocities of 0.1 m/s) with the time
+                           step forced to one substep per frame (the engine's ``n_substeps`` or ``dt`` option) ends in
                            ``EngineDivergence``, never NaN output or another exception
 contract_outside_domain    points 3 cells outside the domain: ``SceneError`` at build or
                            ``EngineDivergence``, never a crash and never a run that accepts them
@@ -171,6 +171,8 @@ def _run_declared_accepted(info: EngineInfo) -> list[Check]:
 def _run_blowup(info: EngineInfo) -> list[Check]:
     declared = {o.name for o in info.options}
     setup = _base(info, _material(info, E=1e10))
+    # a uniform fall strains nothing (F stays I, springs at rest): random velocities load the material
+    setup.v = np.random.default_rng(11).uniform(-0.1, 0.1, size=setup.x.shape)
     if "n_substeps" in declared:
         setup.options, forced = {"n_substeps": 1}, "n_substeps=1"
     elif "dt" in declared:

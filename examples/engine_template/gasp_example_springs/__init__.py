@@ -30,7 +30,7 @@ OPTIONS = (
            kind="number", lo=0.0, hi=1.0, lo_open=True),
     Option("radius", 1.5, "springs join points closer than radius x the lattice spacing p_vol^(1/3)",
            kind="number", lo=1.0, hi=3.0),
-    Option("damping", 0.05, "damping ratio of each spring's dashpot (0 = none, 1 = critical)",
+    Option("damping", 0.3, "damping ratio of each spring's dashpot (0 = none, 1 = critical)",
            kind="number", lo=0.0, hi=1.0),
 )
 

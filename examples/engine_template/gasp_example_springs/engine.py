@@ -18,6 +18,7 @@ import math
 from typing import Any
 
 import numpy as np
+from scipy import sparse
 from scipy.spatial import cKDTree
 
 from gasp_core.engine import EngineDivergence, SceneError, SimSetup
@@ -57,12 +58,17 @@ class SpringEngine:
         pairs = cKDTree(self.x).query_pairs(o["radius"] * h, output_type="ndarray").reshape(-1, 2)
         pairs = pairs[setup.body_id[pairs[:, 0]] == setup.body_id[pairs[:, 1]]]  # bodies are not glued
         self.i, self.j = pairs[:, 0], pairs[:, 1]
-        self.rest = np.linalg.norm(self.x[self.j] - self.x[self.i], axis=1)
+        n = len(self.x)
+        # incidence matrix: (D @ x)[s] = x[j_s] - x[i_s]; -(D.T @ F) puts +F on i_s and -F on j_s
+        rows = np.repeat(np.arange(len(self.i)), 2)
+        self.D = sparse.csr_matrix((np.tile([-1.0, 1.0], len(self.i)), (rows, np.stack([self.i, self.j], 1).ravel())),
+                                   shape=(len(self.i), n))
+        self.DT = self.D.T.tocsr()
+        self.rest = np.linalg.norm(self.D @ self.x, axis=1)
         E = np.array([m.E for m in setup.materials])[setup.body_id]
         self.k = 0.5 * (E[self.i] + E[self.j]) * h
         m_red = self.m[self.i] * self.m[self.j] / (self.m[self.i] + self.m[self.j])
         self.c = 2.0 * o["damping"] * np.sqrt(self.k * m_red)
-        n = len(self.x)
         k_sum = np.bincount(self.i, self.k, n) + np.bincount(self.j, self.k, n)
         linked = k_sum > 0
         dt_max = o["cfl"] * math.sqrt(float(np.min(self.m[linked] / k_sum[linked]))) if linked.any() else setup.frame_dt
@@ -75,16 +81,12 @@ class SpringEngine:
         self.ground = (grounds[0].height, grounds[0].friction) if grounds else None
 
     def _substep(self, dt: float) -> None:
-        x, v, i, j, n = self.x, self.v, self.i, self.j, len(self.x)
-        d = x[j] - x[i]
-        length = np.linalg.norm(d, axis=1)
+        x, v = self.x, self.v
+        d = self.D @ x
+        length = np.sqrt(np.einsum("sd,sd->s", d, d))
         u = d / np.maximum(length, 1e-12)[:, None]
-        f = self.k * (length - self.rest) + self.c * np.einsum("sd,sd->s", v[j] - v[i], u)  # > 0 pulls together
-        F = f[:, None] * u
-        force = self.m[:, None] * self.g
-        for a in range(3):
-            force[:, a] += np.bincount(i, F[:, a], n) - np.bincount(j, F[:, a], n)
-        v += dt * force / self.m[:, None]
+        f = self.k * (length - self.rest) + self.c * np.einsum("sd,sd->s", self.D @ v, u)  # > 0 pulls together
+        v += dt * (self.g - (self.DT @ (f[:, None] * u)) / self.m[:, None])
         if self.ground is not None:
             height, friction = self.ground
             hit = (x[:, 2] + dt * v[:, 2] < height) & (v[:, 2] < 0.0)
