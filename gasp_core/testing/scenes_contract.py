@@ -155,7 +155,7 @@ def _run_declared_accepted(info: EngineInfo) -> list[Check]:
         if b == "ground":
             bounds.append(Boundary("ground", height=GROUND_H, friction=0.5))
         elif b == "fixed_region":  # holds the bottom layer of the first cube
-            lo = x[ids[0] == 0].min(axis=0) - DX / 8
+            lo = xs[0].min(axis=0) - DX / 8
             bounds.append(Boundary("fixed_region", lo=tuple(lo), hi=tuple(lo + np.array([0.07, 0.11, DX / 2]))))
         else:
             bounds.append(Boundary(b))
