@@ -47,7 +47,8 @@ class _Broken:
                 self.inner.step_frame()
             except EngineDivergence as e:
                 raise FloatingPointError(f"overflow: {e}") from None
-            if not np.isfinite(np.asarray(self.inner.positions())).all():
+            x = np.asarray(self.inner.positions())
+            if not np.isfinite(x).all() or (x < self.setup.domain_lo).any() or (x > self.setup.domain_hi).any():
                 raise FloatingPointError("overflow in the stress update")
         else:
             self.inner.step_frame()

@@ -3,7 +3,7 @@
 It gives:
 
 - :func:`parametrize_conformance`, a ``pytest.mark.parametrize`` over installed engines x scenes with
-  ids ``engine-scene`` (so ``-k warp`` or ``-k free_fall`` select), a missing capability as a skip
+  ids ``engine-scene`` (so ``-k my_engine`` or ``-k free_fall`` select), a missing capability as a skip
   with its reason, an ``EngineInfo.known_failures`` entry as a strict xfail, slow scenes marked
   ``slow``; and :func:`assert_conformance`, the test body;
 - a result table of every test marked ``gasp_conformance`` (the parametrised ones are), printed at
