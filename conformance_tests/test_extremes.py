@@ -117,6 +117,8 @@ def _cases():
                 marks.append(pytest.mark.skip(reason=f"engine unavailable: {reason}"))
             elif not needs:
                 marks.append(pytest.mark.skip(reason="missing capability: material 'jelly' or boundary 'ground'"))
+            elif case.startswith("dt_") and "dt" not in {o.name for o in info.options}:
+                marks.append(pytest.mark.skip(reason="the engine declares no option 'dt'"))
             yield pytest.param(name, case, id=f"{name}-{case}", marks=marks)
 
 
