@@ -1,142 +1,31 @@
-"""Collect the conformance outcomes and print/write a result table at the end of the session.
+"""Conformance tests of this repository: every case goes into the kit's result table.
 
-The table (per engine: pass / fail / skip with reason / xfail with reason, with the measured
-figures) is printed in the terminal summary and written atomically to ``RESULTS.md`` next to this
-file when the session ran the conformance tests without a ``-k`` selection; the marker
-expression and the command-line arguments of the run are written into the file.
+The table is printed at the end of the session and written to ``build/conformance/RESULTS.md`` by the
+kit's pytest plugin (:mod:`gasp_core.testing.pytest_plugin`); the committed ``RESULTS.md`` beside this
+file is replaced only on request: ``python -m pytest conformance_tests --gasp-update-results`` (or
+``GASP_UPDATE_RESULTS=1``), and only by a run without ``-k``.
 """
 from __future__ import annotations
 
-import datetime
-import os
-import platform
-import tempfile
 from pathlib import Path
 
 import pytest
 
-HERE = Path(__file__).resolve().parent
-_KEY = pytest.StashKey[dict]()
-_config = None  # the session's config, for pytest_runtest_logreport (which gets no config)
+from gasp_core.testing.pytest_plugin import MARK, configure_results
 
-_GROUPS = {
-    "test_conformance.py": "Conformance scenes",
-    "test_extremes.py": "Stability at the extremes",
-    "test_checks_catch_broken.py": "Checks against deliberately broken engines",
-}
+HERE = Path(__file__).resolve().parent
 
 
 def pytest_configure(config):
-    config.stash[_KEY] = {}
+    configure_results(config, committed=HERE / "RESULTS.md", titles={
+        "test_conformance.py": "Conformance scenes",
+        "test_extremes.py": "Stability at the extremes",
+        "test_checks_catch_broken.py": "Checks against deliberately broken engines",
+        "test_error_contract.py": "The error contract through the command line",
+    })
 
 
-def _split_id(nodeid: str) -> tuple[str, str, str]:
-    path, _, rest = nodeid.partition("::")
-    name, _, param = rest.partition("[")
-    param = param.rstrip("]")
-    engine, sep, case = param.partition("-")
-    if not sep:  # not an engine-case id
-        return Path(path).name, "all", f"{name}[{param}]" if param else name
-    return Path(path).name, engine, case
-
-
-def _reason(report) -> str:
-    if hasattr(report, "wasxfail") and report.wasxfail:
-        return str(report.wasxfail)
-    lr = report.longrepr
-    if isinstance(lr, tuple) and len(lr) == 3:
-        return str(lr[2]).removeprefix("Skipped: ")
-    text = str(getattr(report, "longreprtext", "") or lr or "")
-    lines = [ln for ln in text.splitlines() if ln.startswith("E ")]
-    return (lines[0][1:].strip() if lines else text.strip().splitlines()[-1] if text.strip() else "")
-
-
-def pytest_runtest_logreport(report):
-    if not str(Path(report.fspath).resolve()).startswith(str(HERE)):
-        return
-    store = _config.stash[_KEY] if _config is not None else {}
-    detail = " ".join(v for k, v in report.user_properties if k == "conformance_detail")
-    entry = store.get(report.nodeid)
-    if report.when == "setup" and report.skipped:
-        status = "xfail" if getattr(report, "wasxfail", None) else "skip"
-        store[report.nodeid] = (status, _reason(report))
-    elif report.when == "call":
-        if getattr(report, "wasxfail", None) is not None and report.skipped:
-            status, text = "xfail", f"{report.wasxfail} | observed: {detail}"
-        elif report.failed and "XPASS" in str(report.longrepr):
-            status, text = "XPASS(strict)", detail
-        elif report.passed:
-            status, text = "pass", detail
-        elif report.skipped:
-            status, text = "skip", _reason(report)
-        else:
-            status, text = "FAIL", detail or _reason(report)
-        store[report.nodeid] = (status, text)
-    elif report.failed and entry is None:  # setup/teardown error
-        store[report.nodeid] = ("ERROR", _reason(report))
-
-
-@pytest.hookimpl(tryfirst=True)
-def pytest_sessionstart(session):
-    global _config
-    _config = session.config
-
-
-def _table(store: dict) -> str:
-    groups: dict[str, dict[str, list]] = {}
-    for nodeid, (status, text) in sorted(store.items()):
-        fname, engine, case = _split_id(nodeid)
-        groups.setdefault(fname, {}).setdefault(engine, []).append((case, status, text))
-    out = []
-    for fname, title in _GROUPS.items():
-        if fname not in groups:
-            continue
-        out.append(f"## {title} (`{fname}`)\n")
-        for engine, rows in groups[fname].items():
-            counts = {}
-            for _, st, _ in rows:
-                counts[st] = counts.get(st, 0) + 1
-            summary = ", ".join(f"{n} {st}" for st, n in sorted(counts.items()))
-            out.append(f"### {engine}: {summary}\n")
-            out.append("| case | outcome | details |\n|---|---|---|")
-            for case, st, text in rows:
-                text = " ".join(str(text).split()).replace("|", "/")
-                out.append(f"| {case} | {st} | {text} |")
-            out.append("")
-    return "\n".join(out)
-
-
-def pytest_terminal_summary(terminalreporter, exitstatus, config):
-    store = config.stash.get(_KEY, {})
-    if not store:
-        return
-    table = _table(store)
-    terminalreporter.section("GASP conformance results")
-    terminalreporter.write_line(table)
-    keyword = config.option.keyword
-    ran_suite = any(_split_id(n)[0] == "test_conformance.py" for n in store)
-    if keyword or not ran_suite:
-        terminalreporter.write_line(
-            "RESULTS.md not written: " + (f"-k '{keyword}' selects a subset" if keyword
-                                          else "test_conformance.py did not run"))
-        return
-    from gasp_core.plugins import engines
-    header = [
-        "# GASP conformance results",
-        "",
-        f"Generated by `pytest` on {datetime.datetime.now().isoformat(timespec='seconds')} "
-        f"(Python {platform.python_version()}, {platform.machine()}, {os.cpu_count()} CPU).",
-        f"Selection: arguments `{' '.join(config.invocation_params.args) or '(none)'}`, "
-        f"marker expression `{config.option.markexpr or '(none)'}`; exit status {int(exitstatus)}.",
-        "Engines: " + ", ".join(f"{n} ({i.distribution} {i.version})" for n, i in engines().items()),
-        "",
-        "Tolerances and the reasons for them are in `gasp_conformance.py`; known failures in "
-        "`KNOWN_FAILURES` there.",
-        "",
-    ]
-    text = "\n".join(header) + table + "\n"
-    fd, tmp = tempfile.mkstemp(dir=HERE, prefix=".RESULTS.", suffix=".tmp")
-    with os.fdopen(fd, "w") as f:
-        f.write(text)
-    os.replace(tmp, HERE / "RESULTS.md")
-    terminalreporter.write_line(f"wrote {HERE / 'RESULTS.md'}")
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        if Path(str(item.fspath)).resolve().parent == HERE:
+            item.add_marker(getattr(pytest.mark, MARK))

@@ -1,8 +1,10 @@
 """The conformance checks must catch deliberately broken engines (a check that cannot fail is a defect).
 
 Each broken engine wraps a real installed engine: its factory builds the real engine and then
-spoils the setup or the output. Every one must make at least one scene fail where the real engine
-passes the same scene; NaN output and dropped points must be reported as ``EngineDivergence``.
+spoils the setup or the output, or breaks the error contract, or its record declares something
+inconsistent. Every one must make at least one scene of its screen fail where the real engine passes
+the same scene; NaN output and dropped points must be reported as ``EngineDivergence``, an engine
+raising outside the contract as an ``EngineBug`` (status ``error``).
 """
 from __future__ import annotations
 
@@ -11,12 +13,25 @@ import dataclasses
 import numpy as np
 import pytest
 
-from gasp_conformance import (check_engine, evaluate_scene, installed_engines, record, scene_by_name)
+from gasp_core.engine import Option, SceneError
+from gasp_core.errors import EngineDivergence
+from gasp_core.plugins import engines as installed_engines
+from gasp_core.testing import check_engine, evaluate_scene, record, scene_by_name
 
 #: Real engines to wrap, in order of preference (the first installed and available one is used).
 PREFERRED = ("warp_mpm", "taichi_mpm", "mujoco_flex")
 #: Quick scenes the broken engines are screened with.
 SCREEN = ("free_fall", "bounce", "spinning")
+#: Broken engine kind -> the scenes it is screened with (default SCREEN) and the one that must catch it.
+CONTRACT_SCREEN = {
+    "nondeterministic": "determinism",
+    "raises_on_blowup": "contract_blowup",
+    "crash_outside_domain": "contract_outside_domain",
+    "refuses_declared": "contract_declared_accepted",
+    "bad_option_default": "contract_declarations",
+    "undeclared_deterministic_option": "contract_declarations",
+    "known_failure_typo": "contract_declarations",
+}
 
 
 class _Broken:
@@ -27,7 +42,16 @@ class _Broken:
         self.perm = np.random.default_rng(0).permutation(len(setup.x))
 
     def step_frame(self):
-        self.inner.step_frame()
+        if self.kind == "raises_on_blowup":  # reports a blow-up with its own exception type
+            try:
+                self.inner.step_frame()
+            except EngineDivergence as e:
+                raise FloatingPointError(f"overflow: {e}") from None
+            x = np.asarray(self.inner.positions())
+            if not np.isfinite(x).all() or (x < self.setup.domain_lo).any() or (x > self.setup.domain_hi).any():
+                raise FloatingPointError("overflow in the stress update")
+        else:
+            self.inner.step_frame()
         self.frame += 1
 
     def positions(self):
@@ -41,6 +65,8 @@ class _Broken:
             x = x[:-1]
         elif self.kind == "reordered":
             x = x[self.perm]
+        elif self.kind == "nondeterministic":  # unseeded rounding-level noise, as from racing atomics
+            x = x + np.random.default_rng().normal(scale=1e-9, size=x.shape)
         return x
 
     def velocities(self):
@@ -58,7 +84,8 @@ class _Broken:
         self.inner.close()
 
 
-KINDS = ("no_gravity", "scale_velocity", "push_outward", "nan_at_frame", "drop_point", "reordered")
+KINDS = ("no_gravity", "scale_velocity", "push_outward", "nan_at_frame", "drop_point", "reordered",
+         *CONTRACT_SCREEN)
 
 
 def broken_engine(info, kind: str):
@@ -69,9 +96,20 @@ def broken_engine(info, kind: str):
     def factory(setup):
         if kind == "no_gravity":  # the engine ignores gravity
             return info.factory(setup.replace(gravity=np.zeros(3)))
+        if kind == "crash_outside_domain" and ((setup.x < setup.domain_lo) | (setup.x > setup.domain_hi)).any():
+            raise IndexError("index 19 is out of bounds for axis 0 with size 19")  # a grid lookup
+        if kind == "refuses_declared" and len(setup.materials) > 1:  # declares what it cannot do
+            raise SceneError(f"engine 'broken_{kind}': only one material per scene")
         return _Broken(info.factory(setup), setup, kind)
 
-    return dataclasses.replace(info, name=f"broken_{kind}", factory=factory)
+    record = dict(name=f"broken_{kind}", factory=factory)
+    if kind == "bad_option_default":
+        record["options"] = tuple(info.options) + (Option("stiffness_scale", "high", "a number", kind="number"),)
+    elif kind == "undeclared_deterministic_option":
+        record["deterministic_options"] = {"single_threaded": True}
+    elif kind == "known_failure_typo":
+        record["known_failures"] = {"free_fal": "measured: a typo of free_fall"}
+    return dataclasses.replace(info, **record)
 
 
 @pytest.fixture(scope="module")
@@ -82,7 +120,8 @@ def reference():
         info = found.get(name)
         if info is None or info.unavailable_reason():
             continue
-        passed = {s for s in SCREEN if evaluate_scene(info, scene_by_name(s), {}).status == "pass"}
+        screen = SCREEN + tuple(dict.fromkeys(CONTRACT_SCREEN.values()))
+        passed = {s for s in screen if evaluate_scene(info, scene_by_name(s), {}).status == "pass"}
         if passed:
             return info, passed
     pytest.skip("no installed engine passes any of the screen scenes " + str(SCREEN))
@@ -91,7 +130,10 @@ def reference():
 @pytest.mark.parametrize("kind", KINDS)
 def test_broken_engine_is_caught(kind, reference, request):
     info, passed_by_real = reference
-    report = check_engine(broken_engine(info, kind), scenes=sorted(passed_by_real), known_failures={})
+    screen = (CONTRACT_SCREEN[kind],) if kind in CONTRACT_SCREEN else SCREEN
+    if not set(screen) & passed_by_real:
+        pytest.skip(f"the real {info.name} does not pass {screen}")
+    report = check_engine(broken_engine(info, kind), scenes=sorted(set(screen) & passed_by_real), known_failures={})
     caught = [r for r in report.results if r.status in ("fail", "error")]
     record(request.node, f"wrapping {info.name}: " + "; ".join(
         f"{r.scene} {r.status}" + (": " + (", ".join(str(c) for c in r.checks if not c.passed)
@@ -105,6 +147,12 @@ def test_broken_engine_is_caught(kind, reference, request):
         assert report.by_scene()["free_fall"].status == "fail", report.table()
     if kind == "scale_velocity" and "bounce" in passed_by_real:
         assert report.by_scene()["bounce"].status == "fail", report.table()
+    if kind in CONTRACT_SCREEN:
+        r = report.by_scene()[CONTRACT_SCREEN[kind]]
+        assert r.status == "fail", report.table()
+    if kind in ("raises_on_blowup", "crash_outside_domain"):  # seen as EngineBug, named in the check
+        msg = report.results[0].message
+        assert "EngineBug" in msg and ("FloatingPointError" in msg or "IndexError" in msg), report.table()
 
 
 def test_broken_kind_is_validated():

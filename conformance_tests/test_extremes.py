@@ -19,7 +19,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gasp_conformance import GROUND_H, G, box_points, installed_engines, record
+from gasp_core.plugins import engines as installed_engines
+from gasp_core.testing import G, box_points, record
+from gasp_core.testing.scenes_basic import GROUND_H
 from gasp_core.engine import (Boundary, EngineDivergence, EngineError, Material, SceneError,
                               SimSetup)
 from gasp_core.mpm import mpm_stable_dt
@@ -115,6 +117,8 @@ def _cases():
                 marks.append(pytest.mark.skip(reason=f"engine unavailable: {reason}"))
             elif not needs:
                 marks.append(pytest.mark.skip(reason="missing capability: material 'jelly' or boundary 'ground'"))
+            elif case.startswith("dt_") and "dt" not in {o.name for o in info.options}:
+                marks.append(pytest.mark.skip(reason="the engine declares no option 'dt'"))
             yield pytest.param(name, case, id=f"{name}-{case}", marks=marks)
 
 

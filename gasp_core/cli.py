@@ -150,6 +150,9 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--reference-n-grid", type=int, default=0,
                    help="a finer grid for the MPM engines' reference run alone (default 0: the finest of the sweep, n_grid 96)")
     b.set_defaults(func=_cmd_bench)
+
+    from .testing.cli import add_parser as add_conform_parser
+    add_conform_parser(sub)
     return p
 
 

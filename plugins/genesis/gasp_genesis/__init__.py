@@ -108,6 +108,14 @@ def make_engine(setup: SimSetup):
     return GenesisMPMEngine(setup)
 
 
+KNOWN_FAILURES = {"spinning": (
+    "the body spins 11.7% slow: rigid-fit angle 79.47 deg after 0.5 s vs 90 deg; L_z(frame 1) / L_z(0) = 0.883, "
+    "then constant within 0.2%. The plugin does not start the APIC affine matrix from SimSetup.C (the Genesis "
+    "1.4.5 entity API sets only positions, velocities and active flags; its MPM solver state setter also writes "
+    "C, but the plugin does not use that internal path yet), so the first P2G loses the points' own spin; "
+    "taichi_mpm and warp_mpm, which read SimSetup.C, turn 89.90 deg")}
+
+
 @hookimpl
 def gasp_engines():
     return [EngineInfo(
@@ -116,7 +124,7 @@ def gasp_engines():
         capabilities=CAPABILITIES,
         options=OPTIONS,
         deterministic_options={},
-        known_failures={},
+        known_failures=KNOWN_FAILURES,
         sweep=sweep,
         available=genesis_available,
         description=("MPM solver of Genesis (genesis-world; MLS-MPM, quadratic B-splines, APIC) "

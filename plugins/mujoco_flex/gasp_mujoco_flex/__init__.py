@@ -93,6 +93,16 @@ def make_engine(setup):
     return MujocoFlexEngine(setup)
 
 
+KNOWN_FAILURES = {
+    "bounce": "EngineDivergence at frame 13 (t = 0.22 s): 6 lattice tetrahedra inverted on impact of "
+              "the E = 2e5 Pa ball after a 0.14 m drop (dt 0.794 ms)",
+    "cantilever": "tip deflection 5.66 mm vs Euler-Bernoulli 19.99 mm (-72%): the default lattice "
+                  "(8 cells along the 0.6 m bar, ~1.3 across its 0.1 m section) is far too stiff in "
+                  "bending (linear tetrahedra lock)",
+    "cantilever_offgrid": "same lattice as 'cantilever': 5.66 mm vs 19.99 mm (-72%)",
+}
+
+
 @hookimpl
 def gasp_engines():
     """The ``mujoco_flex`` engine record."""
@@ -102,7 +112,7 @@ def gasp_engines():
         capabilities=CAPABILITIES,
         options=OPTIONS,
         deterministic_options={},
-        known_failures={},
+        known_failures=KNOWN_FAILURES,
         sweep=sweep,
         available=_available,
         description="MuJoCo 4 flex: tetrahedral FEM lattice per body (SVK elasticity, von Mises "

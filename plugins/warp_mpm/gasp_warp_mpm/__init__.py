@@ -54,6 +54,14 @@ def _available() -> str | None:
     return None
 
 
+_CLAMP_OFF_GRID = ("clamp face 0.6 dx past a grid node: time-averaged tip deflection 30.83 mm vs Euler-Bernoulli "
+                   "19.99 mm (+54%); with the face on a node 21.68 mm (+8.4%). Measured also: n_grid 28/48/64 (face "
+                   "0.6/0.6/0.8 dx off a node) the bar swings down as if hinged and leaves the grid by frame ~22; "
+                   "n_grid 40 (on a node) 21.45 mm. fixed_region acts on whole nodes (docs/mpm.md), so the clamp is "
+                   "soft when its face falls between nodes")
+KNOWN_FAILURES = {"cantilever_offgrid": _CLAMP_OFF_GRID}
+
+
 @hookimpl
 def gasp_engines():
     """The ``warp_mpm`` engine record (GASP ``gasp_engines`` hook)."""
@@ -63,7 +71,7 @@ def gasp_engines():
         capabilities=CAPABILITIES,
         options=OPTIONS,
         deterministic_options={},
-        known_failures={},
+        known_failures=KNOWN_FAILURES,
         sweep=sweep,
         available=_available,
         description="MLS-MPM (docs/mpm.md) in NVIDIA Warp; CPU (single thread, deterministic) or CUDA",

@@ -1,0 +1,55 @@
+"""GASP engine plugin ``example_springs``: a template for engine authors (``docs/writing_an_engine.md``).
+
+A NumPy mass-spring network: every point is a mass ``rho * p_vol``, joined by springs to the points
+within 1.5 lattice spacings, with ground contact. It is small on purpose; copy the layout, not the
+physics. Importing this module is cheap (no NumPy work, no engine import): the factory imports
+:mod:`gasp_example_springs.engine` when a simulation is built.
+"""
+from __future__ import annotations
+
+from gasp_core.engine import Capabilities, EngineInfo, Option, SimSetup
+from gasp_core.plugins import hookimpl
+
+__all__ = ["CAPABILITIES", "OPTIONS", "gasp_engines", "make_engine"]
+
+#: What the engine can do, as data: the core refuses anything else before the factory runs, and the
+#: conformance kit skips the scenes that need more.
+CAPABILITIES = Capabilities(
+    materials=frozenset({"jelly"}),
+    boundaries=frozenset({"ground"}),
+    devices=frozenset({"cpu"}),
+    precisions=frozenset({"f64"}),
+    deterministic=frozenset({"cpu"}),  # single-threaded NumPy: a run repeats bit for bit
+    features=frozenset(),              # no grid, does not read SimSetup.C
+)
+
+#: Every option a scene may give in ``[engine] options``; the core checks names, types and ranges.
+OPTIONS = (
+    Option("n_substeps", None, "substeps per frame (default: from cfl and the stiffest spring)", kind="int", lo=1),
+    Option("cfl", 0.5, "substep as a fraction of the period of the stiffest point: dt = cfl sqrt(m / sum k)",
+           kind="number", lo=0.0, hi=1.0, lo_open=True),
+    Option("radius", 1.5, "springs join points closer than radius x the lattice spacing p_vol^(1/3)",
+           kind="number", lo=1.0, hi=3.0),
+    Option("damping", 0.3, "damping ratio of each spring's dashpot (0 = none, 1 = critical)",
+           kind="number", lo=0.0, hi=1.0),
+)
+
+
+def make_engine(setup: SimSetup):
+    """Build a :class:`gasp_example_springs.engine.SpringEngine` (imports it lazily)."""
+    from .engine import SpringEngine
+    return SpringEngine(setup)
+
+
+@hookimpl
+def gasp_engines():
+    """The engine records of this plugin (the ``gasp_engines`` hook)."""
+    return [EngineInfo(
+        name="example_springs",
+        factory=make_engine,
+        capabilities=CAPABILITIES,
+        options=OPTIONS,
+        deterministic_options={},   # nothing to ask for: every run on cpu is deterministic
+        known_failures={},          # conformance scenes it fails, with measured figures: none
+        description="template: NumPy mass-spring network (semi-implicit Euler) with ground contact",
+    )]

@@ -1,0 +1,78 @@
+"""Helpers for building conformance scenes: lattices of points, one-body setups, checks with figures."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..engine import EngineInfo
+from ..setup import Material, SimSetup
+
+#: Standard gravity, m/s^2.
+G = 9.81
+
+
+@dataclass
+class Check:
+    """One named check of a scene with its measured figures."""
+
+    name: str
+    passed: bool
+    message: str
+    figures: dict[str, float] = field(default_factory=dict)
+
+    def __str__(self) -> str:
+        return f"[{'ok' if self.passed else 'FAIL'}] {self.name}: {self.message}"
+
+
+
+
+def box_points(lo, hi, spacing: float) -> tuple[np.ndarray, float]:
+    """Points on a regular lattice filling the box ``[lo, hi]``, cell-centred.
+
+    Returns
+    -------
+    x : ndarray, shape (n, 3), float64
+        Metres.
+    p_vol : float
+        Volume per point, m^3 (the box volume divided by n).
+    """
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    counts = np.maximum(1, np.round((hi - lo) / spacing).astype(int))
+    axes = [lo[d] + (np.arange(counts[d]) + 0.5) * (hi[d] - lo[d]) / counts[d] for d in range(3)]
+    x = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    return x, float(np.prod(hi - lo)) / len(x)
+
+
+def sphere_points(center, radius: float, spacing: float) -> tuple[np.ndarray, float]:
+    """Lattice points inside a ball; ``p_vol`` = ball volume / n."""
+    c = np.asarray(center, float)
+    x, _ = box_points(c - radius, c + radius, spacing)
+    x = x[np.linalg.norm(x - c, axis=1) <= radius]
+    return x, (4.0 / 3.0) * math.pi * radius ** 3 / len(x)
+
+
+def wall_margin(info: EngineInfo, dx: float) -> float:
+    """Where a body must start to touch the ``walls``: ``3 dx`` inside the domain for grid engines.
+
+    docs/mpm.md makes the grid nodes within ``3 dx`` of a domain face wall nodes (feature
+    ``"grid"``); other engines put the wall on the face itself.
+    """
+    return 3.0 * dx if "grid" in info.capabilities.features else 0.0
+
+
+def make_setup(x, p_vol, material: Material, *, v=0.0, gravity=(0.0, 0.0, -G), lo=(0, 0, 0), hi=(1, 1, 1),
+               n_grid=16, boundaries=(), frame_dt=1.0 / 30.0, options=None, C=None) -> SimSetup:
+    """A one-body :class:`SimSetup` in the domain ``[lo, hi]`` (default the unit cube), SI units."""
+    return SimSetup(x=x, v=v, p_vol=p_vol, body_id=0, materials=[material],
+                    gravity=np.asarray(gravity, float), domain_lo=np.asarray(lo, float),
+                    domain_hi=np.asarray(hi, float), n_grid=n_grid, boundaries=list(boundaries),
+                    frame_dt=frame_dt, options=dict(options or {}), C=C)
+
+
+def check(name: str, value: float, limit: float, what: str, unit: str = "", **figures) -> Check:
+    """A :class:`Check` that passes when ``value <= limit`` (and is finite), with the figures."""
+    passed = bool(np.isfinite(value) and value <= limit)
+    return Check(name, passed, f"{what} = {value:.4g}{unit} (limit {limit:.4g}{unit})",
+                 {"value": float(value), "limit": float(limit), **{k: float(v) for k, v in figures.items()}})
