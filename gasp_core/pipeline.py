@@ -15,6 +15,7 @@ import platform
 import shutil
 import tempfile
 import time
+import warnings
 from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
@@ -24,7 +25,7 @@ import numpy as np
 
 from . import __version__
 from .engine import EngineError, EngineInfo, SceneError, SimSetup
-from .fill import fill_interior
+from .fill import FillReport, fill_interior, fill_spacing
 from .games import EPS, FlattenReport, alpha_rule, flatten, gaussians_to_triangles, triangles_to_gaussians
 from .gaussians import Gaussians, rotmat_to_quat
 from .hierarchy import Hierarchy, build_hierarchy, sub_triangles
@@ -91,6 +92,7 @@ class PreparedObject:
     thin_scale: np.ndarray
     flatten_report: FlattenReport
     hierarchy: Hierarchy | None = None
+    fill_report: FillReport | None = None
     vertex_slice: slice = field(default_factory=lambda: slice(0, 0))
     fill_slice: slice = field(default_factory=lambda: slice(0, 0))
     name: str = ""
@@ -142,15 +144,16 @@ def prepare_object(spec: ObjectSpec, g: Gaussians | None = None) -> PreparedObje
     scales_flat, rot_flat, report = flatten(g.scales * pl.scale, R_world)
     means_w = pl.to_world(g.means)
     tri = gaussians_to_triangles(means_w, rot_flat, scales_flat)
-    hier = build_hierarchy(means_w, tri, spec.core_fraction) if spec.core_fraction < 1.0 else None
+    hier = (build_hierarchy(means_w, tri, spec.core_fraction, name=f"{spec.file}: core_fraction")
+            if spec.core_fraction < 1.0 else None)
     return PreparedObject(spec=spec, gaussians=g, placement=pl, rot_rest=rot_flat,
                           scales_rest=scales_flat, tri_rest=tri, thin_scale=g.scales.min(axis=1),
                           flatten_report=report, hierarchy=hier, name=Path(spec.file).stem)
 
 
 def simulated_triangles(o: PreparedObject) -> np.ndarray:
-    """The triangles whose vertices the engine moves: the cores' if there is a hierarchy, else all."""
-    return o.tri_rest if o.hierarchy is None else o.hierarchy.core_tri
+    """The triangles (or, with a hierarchy, the cores' 4-point frames) whose vertices the engine moves."""
+    return o.tri_rest if o.hierarchy is None else o.hierarchy.core_points
 
 
 def default_domain(scene: Scene, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -184,12 +187,16 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
     lo, hi = default_domain(scene, np.concatenate([o.tri_rest.reshape(-1, 3) for o in objects]))
     n_grid = scene.domain.n_grid
     dx = float(np.max(hi - lo)) / n_grid
-    h = dx / scene.domain.particles_per_cell ** (1.0 / 3.0)
     xs, vols, bodies, vels, fills = [], [], [], [], []
     start = 0
     for i, (o, verts) in enumerate(zip(objects, vertices)):
         opaque = 1.0 / (1.0 + np.exp(-o.gaussians.opacities.astype(np.float64))) >= o.spec.min_opacity
-        fr = fill_interior(verts, h, occupancy=o.tri_rest[opaque].reshape(-1, 3), fill=o.spec.fill)
+        h = fill_spacing(dx, scene.domain.particles_per_cell, o.spec.core_fraction)
+        fr = fill_interior(verts, h, splats=o.tri_rest[opaque], fill=o.spec.fill, name=o.name,
+                           if_open=o.spec.if_open)
+        o.fill_report = fr.report
+        if fr.report.warning:
+            warnings.warn(fr.report.warning, stacklevel=2)
         o.vertex_slice = slice(start, start + len(verts))
         start += len(verts)
         xs.append(verts)
@@ -257,9 +264,8 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray) -> tuple[Gau
     counts : dict
         ``degenerate`` faces and ``clamped`` scales (alpha rule) this frame.
     """
-    tri = x[o.vertex_slice].reshape(-1, 3, 3)
-    if o.hierarchy is not None:
-        tri = sub_triangles(o.hierarchy, tri)
+    tri = x[o.vertex_slice]
+    tri = tri.reshape(-1, 3, 3) if o.hierarchy is None else sub_triangles(o.hierarchy, tri)
     means_w, rot, scales_w, degenerate = triangles_to_gaussians(tri, fallback=prev_rot)
     clamped = np.zeros((len(tri), 2), bool)
     if o.spec.alpha is not None:
@@ -465,6 +471,9 @@ def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
                 "layout": o.gaussians.layout, "material": dataclasses.asdict(o.spec.material),
                 "up_axis": o.spec.up_axis, "dynamic_time": o.spec.dynamic_time, "scale": o.spec.scale, "fill": o.spec.fill,
                 "n_fill_points": o.fill_slice.stop - o.fill_slice.start,
+                "fill_report": o.fill_report.as_dict() if o.fill_report else None,
+                "volume": o.fill_report.volume if o.fill_report else None,
+                "mass": o.spec.material.rho * o.fill_report.volume if o.fill_report else None,
                 "core_fraction": o.spec.core_fraction,
                 "n_simulated_gaussians": len(simulated_triangles(o)),
                 "alpha": o.spec.alpha, "thickness": o.spec.thickness,
