@@ -21,10 +21,15 @@ What decides "interior" here:
    would keep growing the volume. If no ``r`` up to ``max_dilation`` gives a stable enclosed
    volume the object is *open*: it is simulated as a shell, with a warning naming it (or a
    :class:`~gasp_core.engine.SceneError` with ``if_open = "error"``).
-4. **Sub-voxel surface.** The signed field ``phi = (d_ext - d_core) / 2`` (taxicab distances in voxels to
-   the exterior and to the interior core, :func:`scipy.ndimage.distance_transform_cdt`) is zero mid-shell, where the splats lie; fill-grid cell
-   centres at the simulation spacing ``h`` are inside where the trilinear interpolation of ``phi``
-   is positive. The solid's volume is the count of inside cells times ``h^3``.
+4. **Sub-voxel surface.** With ``d_ext``, ``d_core`` the taxicab distances (voxels,
+   :func:`scipy.ndimage.distance_transform_cdt`) to the exterior and to the interior core (enclosed,
+   not shell), ``phi = d_ext - min((d_ext + d_core) / 2, HALF_SHELL)``: zero mid-shell where the
+   shell is a sheet of splats on the surface, at most ``HALF_SHELL`` voxels under its outside where
+   the footprints fill the object (a trained splat's interior Gaussians). Fill-grid cell centres at
+   the simulation spacing ``h`` are inside where the trilinear interpolation of ``phi`` is
+   positive; the solid's volume is the count of inside cells times ``h^3``. The enclosure is
+   *closed* when, besides being stable, more than ``DEEP_SHARE`` of it lies deeper than ``DEEP``
+   voxels (an open sheet, such as a bowl, has nothing that deep).
 
 Volumes: each inside cell's ``h^3`` is shared equally by the simulated surface points assigned to
 it (a surface point outside every inside cell goes to the nearest one), and a cell with none gets
@@ -50,6 +55,10 @@ STABLE_TOL = 0.03
 #: Largest fill grid (cells) before the fill spacing is refused as too fine.
 MAX_FILL_CELLS = 512 ** 3
 IF_OPEN = ("warn", "error")
+#: A closed solid has more than DEEP_SHARE of its cells deeper than DEEP voxels (a sheet has none).
+DEEP, DEEP_SHARE = 3, 0.05
+#: Largest depth of the surface below the outside of the occupied shell, voxels.
+HALF_SHELL = 1.5
 
 
 @dataclass(frozen=True)
@@ -220,7 +229,7 @@ def solid_field(splats: np.ndarray, max_dilation: int = 4, voxel: float | None =
     Returns
     -------
     phi : ndarray, 3-D float32 or None
-        ``(d_ext - d_core) / 2`` in voxels, positive inside; None if the footprints enclose nothing.
+        Signed depth in voxels, positive inside (module notes, step 4); None if the footprints enclose nothing.
     lo : ndarray, shape (3,)
         Corner of the grid (cell ``i`` has centre ``lo + (i + 0.5) voxel``).
     voxel : float
@@ -243,20 +252,23 @@ def solid_field(splats: np.ndarray, max_dilation: int = 4, voxel: float | None =
         ext = _exterior(closed_shell, r)
         solids.append(ext)
         enclosed.append(float((~ext).sum()) * voxel ** 3)
-        if r >= 2:
-            prev = r - 1
-            core = int((~solids[-2] & ~shell).sum())
-            band = int((~solids[-2] & shell).sum())
-            if core > 0.25 * band and enclosed[-1] <= enclosed[-2] * (1.0 + STABLE_TOL):
-                chosen = prev
+        if r >= 2 and enclosed[-1] <= enclosed[-2] * (1.0 + STABLE_TOL):
+            # stable; and a solid, not a sheet: some of it lies deeper than DEEP voxels
+            solid = ~solids[-2]
+            deep = int((ndimage.distance_transform_cdt(solid, metric="taxicab") > DEEP).sum())
+            if deep > DEEP_SHARE * solid.sum():
+                chosen = r - 1
                 break
     if not chosen:
         return None, lo, voxel, 0, enclosed
     ext = solids[chosen - 1]
     core = ~ext & ~shell
-    phi = 0.5 * (ndimage.distance_transform_cdt(~ext, metric="taxicab").astype(np.float32)
-                 - ndimage.distance_transform_cdt(~core, metric="taxicab"))
-    return phi.astype(np.float32), lo, voxel, chosen, enclosed
+    d_ext = ndimage.distance_transform_cdt(~ext, metric="taxicab").astype(np.float32)
+    d_core = (ndimage.distance_transform_cdt(~core, metric="taxicab").astype(np.float32) if core.any()
+              else np.full(shape, np.inf, np.float32))
+    # surface mid-shell where the shell is a sheet, at most HALF_SHELL voxels inside a thick one
+    phi = d_ext - np.minimum(0.5 * (d_ext + d_core), HALF_SHELL)
+    return phi, lo, voxel, chosen, enclosed
 
 
 def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None, fill: bool = True,
