@@ -9,9 +9,10 @@ subclusters on the 45k donut). Here the clusters are built in ``O(n log n)``:
 1. **Grid seeds.** The Gaussian means are binned into cubic cells; the cell size is found by
    bisection (on its logarithm) so that at least ``k`` cells are occupied, and the ``k`` most
    populated cells' centroids are the seeds (ties: by cell order).
-2. **Two Lloyd steps.** Every mean goes to its nearest seed (:class:`scipy.spatial.cKDTree`) and
-   the seeds move to their members' centroids, twice: compact, Voronoi-shaped clusters as
-   k-means would give, at the cost of two nearest-neighbour queries.
+2. **Surplus cells.** Means in the occupied cells beyond the ``k`` most populated go to the
+   nearest kept centroid (:class:`scipy.spatial.cKDTree`); optional Lloyd (k-means) steps
+   (``lloyd_steps``, default ``LLOYD_STEPS = 0``: a cell is already compact, diameter at most
+   ``sqrt(3)`` cell sizes, and each step costs a nearest-seed query of every mean).
 
 Each cluster gets one Core Gaussian whose *frame* encloses its members: a tetrahedron ``v1, v2,
 v3, v4`` with ``v1`` the members' centroid and ``v2 - v1``, ``v3 - v1``, ``v4 - v1`` along the
@@ -35,8 +36,8 @@ from .engine import SceneError
 
 #: Shortest frame axis, as a share of the longest: bounds the coefficients' conditioning.
 MIN_AXIS = 0.1
-#: Lloyd steps after the grid seeding.
-LLOYD_STEPS = 2
+#: Lloyd (k-means) steps after the grid seeding; each is a nearest-seed query of every mean.
+LLOYD_STEPS = 0
 
 
 @dataclass(frozen=True)
@@ -97,7 +98,7 @@ def check_core_fraction(core_fraction: float, n: int, where: str = "core_fractio
 def grid_clusters(means: np.ndarray, k: int, lloyd_steps: int = LLOYD_STEPS) -> np.ndarray:
     """Labels of ``k`` compact clusters of ``means`` (module notes, steps 1-2), shape (n,), int64.
 
-    Clusters left empty by a Lloyd step are dropped, so there may be a few fewer than ``k``.
+    Clusters left empty (by a Lloyd step) are dropped, so there may be a few fewer than ``k``.
     """
     n = len(means)
     if k >= n:
@@ -125,13 +126,18 @@ def grid_clusters(means: np.ndarray, k: int, lloyd_steps: int = LLOYD_STEPS) -> 
     keep = np.sort(np.argsort(-count, kind="stable")[:k])
     sums = np.stack([np.bincount(inv, means[:, d]) for d in range(3)], 1)
     seeds = sums[keep] / count[keep, None]
-    labels = inv
-    for _ in range(max(lloyd_steps, 1)):
-        _, labels = cKDTree(seeds).query(means)
+    new_id = np.full(len(count), -1)
+    new_id[keep] = np.arange(len(keep))
+    labels = new_id[inv]
+    lost = labels < 0                      # members of the surplus (least populated) cells
+    if lost.any():
+        labels[lost] = cKDTree(seeds).query(means[lost])[1]
+    for _ in range(lloyd_steps):
         cnt = np.bincount(labels, minlength=len(seeds))
         used = cnt > 0
         seeds = (np.stack([np.bincount(labels, means[:, d], minlength=len(seeds)) for d in range(3)], 1)
                  [used] / cnt[used, None])
+        labels = cKDTree(seeds).query(means, workers=-1)[1]
     _, labels = np.unique(labels, return_inverse=True)
     return labels.astype(np.int64)
 
@@ -185,9 +191,9 @@ def build_hierarchy(means: np.ndarray, triangles: np.ndarray, core_fraction: flo
     _, evecs = np.linalg.eigh(cov)                              # ascending variance
     axes = evecs[:, :, ::-1]                                    # columns: largest, middle, smallest
     proj = np.einsum("nij,ni->nj", axes[lab3], d)               # (3n, 3) coordinates along the axes
-    reach = np.zeros((k, 3))
-    for j in range(3):
-        np.maximum.at(reach[:, j], lab3, np.abs(proj[:, j]))
+    order = np.argsort(lab3, kind="stable")
+    starts = np.searchsorted(lab3[order], np.arange(k))
+    reach = np.maximum.reduceat(np.abs(proj[order]), starts, axis=0)     # every cluster has members
     longest = reach.max(axis=1, keepdims=True)
     longest = np.where(longest > 0, longest, 1e-9)
     reach = np.maximum(reach, MIN_AXIS * longest)
