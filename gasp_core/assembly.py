@@ -1,10 +1,12 @@
 """Point assembly: every object's simulated triangle vertices and fill points become one :class:`SimSetup`."""
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from .engine import SceneError, SimSetup
-from .fill import fill_interior
+from .fill import fill_interior, fill_spacing
 from .placement import PreparedObject, simulated_triangles
 from .scene import Scene
 
@@ -46,12 +48,16 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
     lo, hi = default_domain(scene, np.concatenate([o.tri_rest.reshape(-1, 3) for o in objects]))
     n_grid = scene.domain.n_grid
     dx = float(np.max(hi - lo)) / n_grid
-    h = dx / scene.domain.particles_per_cell ** (1.0 / 3.0)
     xs, vols, bodies, vels, fills = [], [], [], [], []
     start = 0
     for i, (o, verts) in enumerate(zip(objects, vertices)):
         opaque = 1.0 / (1.0 + np.exp(-o.gaussians.opacities.astype(np.float64))) >= o.spec.min_opacity
-        fr = fill_interior(verts, h, occupancy=o.tri_rest[opaque].reshape(-1, 3), fill=o.spec.fill)
+        h = fill_spacing(dx, scene.domain.particles_per_cell, o.spec.core_fraction)
+        fr = fill_interior(verts, h, splats=o.tri_rest[opaque], fill=o.spec.fill, name=o.name,
+                           if_open=o.spec.if_open)
+        o.fill_report = fr.report
+        if fr.report.warning:
+            warnings.warn(fr.report.warning, stacklevel=2)
         o.vertex_slice = slice(start, start + len(verts))
         start += len(verts)
         xs.append(verts)

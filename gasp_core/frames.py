@@ -46,9 +46,8 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray) -> tuple[Gau
     counts : dict
         ``degenerate`` faces and ``clamped`` scales (alpha rule) this frame.
     """
-    tri = x[o.vertex_slice].reshape(-1, 3, 3)
-    if o.hierarchy is not None:
-        tri = sub_triangles(o.hierarchy, tri)
+    tri = x[o.vertex_slice]
+    tri = tri.reshape(-1, 3, 3) if o.hierarchy is None else sub_triangles(o.hierarchy, tri)
     means_w, rot, scales_w, degenerate = triangles_to_gaussians(tri, fallback=prev_rot)
     clamped = np.zeros((len(tri), 2), bool)
     if o.spec.alpha is not None:

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .fill import FillReport
 from .games import FlattenReport, flatten, gaussians_to_triangles
 from .gaussians import Gaussians
 from .hierarchy import Hierarchy, build_hierarchy
@@ -74,6 +75,7 @@ class PreparedObject:
     thin_scale: np.ndarray
     flatten_report: FlattenReport
     hierarchy: Hierarchy | None = None
+    fill_report: FillReport | None = None
     vertex_slice: slice = field(default_factory=lambda: slice(0, 0))
     fill_slice: slice = field(default_factory=lambda: slice(0, 0))
     name: str = ""
@@ -125,12 +127,13 @@ def prepare_object(spec: ObjectSpec, g: Gaussians | None = None) -> PreparedObje
     scales_flat, rot_flat, report = flatten(g.scales * pl.scale, R_world)
     means_w = pl.to_world(g.means)
     tri = gaussians_to_triangles(means_w, rot_flat, scales_flat)
-    hier = build_hierarchy(means_w, tri, spec.core_fraction) if spec.core_fraction < 1.0 else None
+    hier = (build_hierarchy(means_w, tri, spec.core_fraction, name=f"{spec.file}: core_fraction")
+            if spec.core_fraction < 1.0 else None)
     return PreparedObject(spec=spec, gaussians=g, placement=pl, rot_rest=rot_flat,
                           scales_rest=scales_flat, tri_rest=tri, thin_scale=g.scales.min(axis=1),
                           flatten_report=report, hierarchy=hier, name=Path(spec.file).stem)
 
 
 def simulated_triangles(o: PreparedObject) -> np.ndarray:
-    """The triangles whose vertices the engine moves: the cores' if there is a hierarchy, else all."""
-    return o.tri_rest if o.hierarchy is None else o.hierarchy.core_tri
+    """The triangles (or, with a hierarchy, the cores' 4-point frames) whose vertices the engine moves."""
+    return o.tri_rest if o.hierarchy is None else o.hierarchy.core_points

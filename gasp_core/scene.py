@@ -83,6 +83,10 @@ class ObjectSpec:
     min_opacity : float
         Gaussians below this activated opacity are carried but do not mark occupied space for
         the interior fill.
+    if_open : str
+        What a filled object whose Gaussians enclose no volume does (:mod:`gasp_core.fill`):
+        ``"warn"`` (simulate a hollow shell, warn and record it in run.json) or ``"error"``
+        (refuse before the run starts).
     core_fraction : float
         Share of Gaussians simulated, in (0, 1]: below 1, BIRCH clusters build that many Core
         Gaussians and the rest follow them (paper Sec. 3, hierarchy; :mod:`gasp_core.hierarchy`).
@@ -104,6 +108,7 @@ class ObjectSpec:
     thickness: str = "keep"
     min_opacity: float = 0.1
     core_fraction: float = 1.0
+    if_open: str = "warn"
     dynamic_time: float | None = None
 
 
@@ -316,6 +321,9 @@ def parse_scene(data: dict, src: Path) -> Scene:
         thickness = o.get("thickness", "keep")
         if thickness not in ("keep", "eps"):
             raise SceneError(f"{src}: {where}.thickness = {thickness!r}; expected 'keep' or 'eps'")
+        if_open = o.get("if_open", "warn")
+        if if_open not in ("warn", "error"):
+            raise SceneError(f"{src}: {where}.if_open = {if_open!r}; expected 'warn' or 'error'")
         alpha = o.get("alpha", 1.5)
         if alpha is False:
             alpha = None
@@ -332,6 +340,7 @@ def parse_scene(data: dict, src: Path) -> Scene:
             fill=bool(o.get("fill", True)), alpha=alpha, thickness=thickness,
             min_opacity=_positive(o.get("min_opacity", 0.1), f"{where}.min_opacity", src, allow_zero=True),
             core_fraction=_fraction(o.get("core_fraction", 1.0), f"{where}.core_fraction", src),
+            if_open=if_open,
             dynamic_time=_dynamic_time(o, f, where, src)))
 
     n_frames = data.get("n_frames", 30)
