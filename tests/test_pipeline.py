@@ -6,6 +6,7 @@ import pytest
 from gasp_testing import scene_text
 from plyfile import PlyData
 
+from gasp_core.errors import GaspError
 from gasp_core.gaussians import quat_to_rotmat
 from gasp_core.io import read_gaussians
 from gasp_core.pipeline import UP_ROTATIONS, simulate_scene
@@ -93,9 +94,14 @@ def test_overwrite_replaces_only_after_success(tmp_path, donut_small):
     with pytest.raises(FileExistsError, match="exists"):
         simulate_scene(load_scene(scene), out, progress=False)
     marker = out / "keep.txt"
-    marker.write_text("old run")
+    marker.write_text("not made by gasp")
+    with pytest.raises(GaspError, match="not a gasp output"):   # never replaces what a run did not make
+        simulate_scene(load_scene(scene), out, overwrite=True, progress=False)
+    assert marker.read_text() == "not made by gasp"
+    marker.unlink()
+    old = (out / "run.json").read_text()
     simulate_scene(load_scene(scene), out, overwrite=True, progress=False)
-    assert not marker.exists() and (out / "run.json").exists()
+    assert (out / "run.json").read_text() != old
 
 
 def test_up_axis_and_scale_round_trip(tmp_path, donut_small):
