@@ -10,6 +10,7 @@ import json
 import sys
 from pathlib import Path
 
+from .cliargs import GaspArgumentParser, positive_int
 from .engine import EngineDivergence, GaspError
 
 
@@ -88,14 +89,14 @@ def _cmd_bench(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="gasp", description="GASP: physics for Gaussian Splatting scenes.")
+    p = GaspArgumentParser(prog="gasp", description="GASP: physics for Gaussian Splatting scenes.")
     sub = p.add_subparsers(dest="command", required=True)
 
     s = sub.add_parser("simulate", help="run a scene file and write one PLY per frame")
     s.add_argument("scene", type=Path)
     s.add_argument("-o", "--output", type=Path, help="output folder (must not exist unless --overwrite)")
     s.add_argument("--overwrite", action="store_true", help="replace an existing output folder")
-    s.add_argument("--frames", type=int, help="override n_frames")
+    s.add_argument("--frames", type=positive_int, help="override n_frames")
     s.add_argument("--engine", help="override the scene's engine name")
     s.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     s.set_defaults(func=_cmd_simulate)
@@ -114,7 +115,7 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--engines", help="comma-separated engine names (default: all installed that can run it)")
     c.add_argument("-o", "--output", type=Path, required=True)
     c.add_argument("--overwrite", action="store_true")
-    c.add_argument("--frames", type=int)
+    c.add_argument("--frames", type=positive_int)
     c.add_argument("--max-gaussians", type=int, help="keep every k-th Gaussian so each object has at most this many")
     c.set_defaults(func=_cmd_compare)
 
@@ -123,7 +124,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--engines", help="comma-separated engine names (default: all installed grid engines)")
     b.add_argument("-o", "--output", type=Path, required=True)
     b.add_argument("--overwrite", action="store_true")
-    b.add_argument("--frames", type=int)
+    b.add_argument("--frames", type=positive_int)
     b.add_argument("--max-gaussians", type=int,
                    help="keep every k-th Gaussian so each object has at most this many (default 6000; 0 = all)")
     b.add_argument("--quick", action="store_true", help="a small sweep (n_grid 32/48, cfl 0.4/0.8, f32)")

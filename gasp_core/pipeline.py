@@ -31,7 +31,7 @@ from .hierarchy import Hierarchy, build_hierarchy, sub_triangles
 from .io import read_gaussians, read_splatv, splatv_at, write_gaussians
 from .plugins import engines as all_engines, get_engine
 from .runner import RunStats, run_engine
-from .scene import ObjectSpec, Scene
+from .scene import ObjectSpec, Scene, check_object
 
 #: Rotation taking each file up-axis to world +z (proper rotations; x_world = R @ x_file).
 UP_ROTATIONS = {
@@ -137,6 +137,7 @@ def prepare_object(spec: ObjectSpec, g: Gaussians | None = None) -> PreparedObje
         From reading the file (see :func:`load_gaussians`).
     """
     g = load_gaussians(spec) if g is None else g
+    check_object(spec, g)
     pl = place(g, spec)
     R_world = pl.R @ g.rotmats()
     scales_flat, rot_flat, report = flatten(g.scales * pl.scale, R_world)
