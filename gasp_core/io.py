@@ -92,7 +92,7 @@ def _check_is_file(path: Path, what: str) -> None:
 
 
 def _check_columns(path, data: np.ndarray, names, element: str = "vertex", lo: float = -np.inf,
-                   hi: float = np.inf, allow_neg_inf: bool = False) -> None:
+                   hi: float = np.inf, allow_neg_inf: bool = False, expected: str | None = None) -> None:
     """Every value of the named columns finite (or -inf if allowed) and in ``[lo, hi]``.
 
     Raises SceneError naming the file, the property, the value and the first bad row.
@@ -109,7 +109,8 @@ def _check_columns(path, data: np.ndarray, names, element: str = "vertex", lo: f
         if not ok.all():
             i = int(np.flatnonzero(~ok)[0])
             rng = "a finite number" if (lo, hi) == (-np.inf, np.inf) else f"a finite number in [{lo:g}, {hi:g}]"
-            _fail(path, f"{element} property '{nm}' = {col[i]!r} at {element} {i}; expected {rng}")
+            rng = expected or rng
+            _fail(path, f"{element} property '{nm}' = {float(col[i])!r} at {element} {i}; expected {rng}")
 
 
 def _col(vertex: np.ndarray, name: str) -> np.ndarray:
@@ -210,7 +211,8 @@ def read_gaussians(path) -> Gaussians:
         _fail(path, f"non-finite position (x, y, z) at vertex {int(np.flatnonzero(bad)[0])}")
     _check_columns(path, vertex, ("x", "y", "z"), lo=-MAX_MAGNITUDE, hi=MAX_MAGNITUDE)
     # log scales: exp must stay <= MAX_MAGNITUDE; -inf is a zero scale (write_gaussians writes those)
-    _check_columns(path, vertex, scale_names, hi=math.log(MAX_MAGNITUDE), allow_neg_inf=True)
+    _check_columns(path, vertex, scale_names, hi=math.log(MAX_MAGNITUDE), allow_neg_inf=True,
+                   expected=f"a log-scale <= {math.log(MAX_MAGNITUDE):.2f} (scale <= {MAX_MAGNITUDE:g})")
     _check_columns(path, vertex, ["opacity", "f_dc_0", "f_dc_1", "f_dc_2", *rest_names])
     q = _stack(vertex, ("rot_0", "rot_1", "rot_2", "rot_3"))
     norm = np.linalg.norm(q, axis=1)
@@ -310,7 +312,8 @@ def _decode_compressed(path: Path, ply: PlyData) -> Gaussians:
         if vertex[c].dtype.kind not in "iu":
             _fail(path, f"compressed PLY vertex property '{c}' has type {vertex[c].dtype}; expected uint32")
     _check_columns(path, chunk, _CHUNK_REQUIRED[:6], "chunk", -MAX_MAGNITUDE, MAX_MAGNITUDE)
-    _check_columns(path, chunk, _CHUNK_REQUIRED[6:], "chunk", hi=math.log(MAX_MAGNITUDE))
+    _check_columns(path, chunk, _CHUNK_REQUIRED[6:], "chunk", hi=math.log(MAX_MAGNITUDE),
+                   expected=f"a finite log-scale <= {math.log(MAX_MAGNITUDE):.2f} (scale <= {MAX_MAGNITUDE:g})")
     _check_columns(path, chunk, [c for c in _CHUNK_COLOUR if c in cnames], "chunk")
     n = len(vertex)
     n_chunks = len(chunk)
