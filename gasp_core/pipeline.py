@@ -134,7 +134,8 @@ def prepare_object(spec: ObjectSpec, g: Gaussians | None = None) -> PreparedObje
     Raises
     ------
     SceneError
-        From reading the file (see :func:`load_gaussians`).
+        From reading the file (see :func:`load_gaussians`), or from
+        :func:`gasp_core.scene.check_object` (no Gaussians, placed beyond the float32 limits).
     """
     g = load_gaussians(spec) if g is None else g
     check_object(spec, g)

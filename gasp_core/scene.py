@@ -30,8 +30,13 @@ Example::
     nu = 0.3
     rho = 200
 
+``engine = "taichi_mpm"`` at the top level is shorthand for ``[engine] name = "taichi_mpm"``.
+
 Every table accepts only the keys listed in this module; a mistyped key is a :class:`SceneError`
-that names it and the allowed ones. Units are SI: metres, seconds, Pa, kg/m^3, degrees.
+that names it and the allowed ones. Every value is type-checked before use (a wrong type is a
+:class:`SceneError` naming the key, the value, its TOML type and what was expected: integers are
+integers, ``n_grid = 24.9`` is not 24) and range-checked (:data:`MAX_COORD`, :data:`MAX_SPEED`,
+:data:`MAX_GRAVITY`, :data:`SCALE_RANGE`). Units are SI: metres, seconds, Pa, kg/m^3, degrees.
 """
 from __future__ import annotations
 
