@@ -15,6 +15,7 @@ from pathlib import Path
 
 import signal
 
+from .cliargs import GaspArgumentParser, positive_int
 from .errors import EngineBug, EngineDivergence, GaspError
 
 
@@ -105,7 +106,7 @@ def _cmd_bench(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="gasp", description="GASP: physics for Gaussian Splatting scenes.")
+    p = GaspArgumentParser(prog="gasp", description="GASP: physics for Gaussian Splatting scenes.")
     sub = p.add_subparsers(dest="command", required=True)
 
     s = sub.add_parser("simulate", help="run a scene file and write one PLY per frame")
@@ -115,7 +116,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="replace an existing output folder written by gasp (never one holding the inputs)")
     s.add_argument("--resume", action="store_true",
                    help="continue a killed run to the same folder from its last complete frame")
-    s.add_argument("--frames", type=int, help="override n_frames")
+    s.add_argument("--frames", type=positive_int, help="override n_frames")
     s.add_argument("--engine", help="override the scene's engine name")
     s.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     s.set_defaults(func=_cmd_simulate)
@@ -134,7 +135,7 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--engines", help="comma-separated engine names (default: all installed that can run it)")
     c.add_argument("-o", "--output", type=Path, required=True)
     c.add_argument("--overwrite", action="store_true")
-    c.add_argument("--frames", type=int)
+    c.add_argument("--frames", type=positive_int)
     c.add_argument("--max-gaussians", type=int, help="keep every k-th Gaussian so each object has at most this many")
     c.set_defaults(func=_cmd_compare)
 
@@ -143,7 +144,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--engines", help="comma-separated engine names (default: all installed grid engines)")
     b.add_argument("-o", "--output", type=Path, required=True)
     b.add_argument("--overwrite", action="store_true")
-    b.add_argument("--frames", type=int)
+    b.add_argument("--frames", type=positive_int)
     b.add_argument("--max-gaussians", type=int,
                    help="keep every k-th Gaussian so each object has at most this many (default 6000; 0 = all)")
     b.add_argument("--quick", action="store_true", help="a small sweep (n_grid 32/48, cfl 0.4/0.8, f32)")

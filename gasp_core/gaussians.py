@@ -33,6 +33,11 @@ SH_REST_COUNT = {0: 0, 1: 3, 2: 8, 3: 15}
 #: Layout names a :class:`Gaussians` may carry (the file layout it was read from).
 LAYOUTS = frozenset({"3dgs", "games", "2dgs", "compressed", "splatv"})
 
+#: Largest ``|mean|`` component and largest scale accepted, file units: their squares (distances,
+#: covariances) stay finite in float32 (largest 3.4e38) with a factor 300 to spare.
+MAX_MAGNITUDE = 1e18
+
+
 def quat_to_rotmat(q: np.ndarray) -> np.ndarray:
     """Rotation matrices of quaternions, vectorised.
 
@@ -193,8 +198,9 @@ class Gaussians:
     ------
     SceneError
         From the constructor, if a shape is wrong, a mean or rotation is not finite, a quaternion
-        has zero norm, or a scale is negative or not finite; the message names ``source``, the
-        field and the first bad index.
+        has zero norm, a scale is negative or not finite, a mean or scale exceeds
+        :data:`MAX_MAGNITUDE`, or an opacity or SH coefficient is not finite; the message names
+        ``source``, the field and the first bad index.
     """
 
     means: np.ndarray
@@ -254,6 +260,16 @@ class Gaussians:
         bad = ~(np.isfinite(self.scales) & (self.scales >= 0))
         if bad.any():
             fail(f"field 'scales': expected finite scales >= 0, bad at index {_first_bad_row(bad)}")
+        for name, limit in (("means", MAX_MAGNITUDE), ("scales", MAX_MAGNITUDE)):
+            bad = np.abs(getattr(self, name)) > limit
+            if bad.any():
+                i = _first_bad_row(bad)
+                fail(f"field '{name}': {getattr(self, name)[i].tolist()} at index {i}; expected magnitudes "
+                     f"<= {limit:g} (float32 headroom)")
+        for name in ("opacities", "sh_dc", "sh_rest"):
+            bad = ~np.isfinite(getattr(self, name))
+            if bad.any():
+                fail(f"field '{name}': non-finite value at index {_first_bad_row(bad)}")
         off = np.abs(norm - 1.0) > 1e-12  # leave unit rows untouched so copies stay equal
         if off.any():
             self.rotations = self.rotations.copy()  # never scale the caller's array in place

@@ -15,7 +15,7 @@ from .games import FlattenReport, flatten, gaussians_to_triangles
 from .gaussians import Gaussians
 from .hierarchy import Hierarchy, build_hierarchy
 from .io import read_gaussians, read_splatv, splatv_at
-from .scene import ObjectSpec
+from .scene import ObjectSpec, check_object
 
 #: Rotation taking each file up-axis to world +z (proper rotations; x_world = R @ x_file).
 UP_ROTATIONS = {
@@ -119,9 +119,11 @@ def prepare_object(spec: ObjectSpec, g: Gaussians | None = None) -> PreparedObje
     Raises
     ------
     SceneError
-        From reading the file (see :func:`load_gaussians`).
+        From reading the file (see :func:`load_gaussians`), or from
+        :func:`gasp_core.scene.check_object` (no Gaussians, placed beyond the float32 limits).
     """
     g = load_gaussians(spec) if g is None else g
+    check_object(spec, g)
     pl = place(g, spec)
     R_world = pl.R @ g.rotmats()
     scales_flat, rot_flat, report = flatten(g.scales * pl.scale, R_world)

@@ -30,8 +30,13 @@ Example::
     nu = 0.3
     rho = 200
 
+``engine = "NAME"`` at the top level is shorthand for ``[engine] name = "NAME"``.
+
 Every table accepts only the keys listed in this module; a mistyped key is a :class:`SceneError`
-that names it and the allowed ones. Units are SI: metres, seconds, Pa, kg/m^3, degrees.
+that names it and the allowed ones. Every value is type-checked before use (a wrong type is a
+:class:`SceneError` naming the key, the value, its TOML type and what was expected: integers are
+integers, ``n_grid = 24.9`` is not 24) and range-checked (:data:`MAX_COORD`, :data:`MAX_SPEED`,
+:data:`MAX_GRAVITY`, :data:`SCALE_RANGE`). Units are SI: metres, seconds, Pa, kg/m^3, degrees.
 """
 from __future__ import annotations
 
@@ -39,7 +44,7 @@ import math
 import tomllib
 from dataclasses import dataclass, field, fields
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 
@@ -159,8 +164,45 @@ _TOP_KEYS = {"name", "frame_dt", "n_frames", "gravity", "output", "engine", "dom
 _OBJECT_KEYS = {f.name for f in fields(ObjectSpec)}
 _MATERIAL_KEYS = {f.name for f in fields(Material)}
 _BOUNDARY_KEYS = {f.name for f in fields(Boundary)}
+_BOUNDARY_KIND_KEYS = {"ground": {"kind", "height", "friction"}, "walls": {"kind", "friction"},
+                       "fixed_region": {"kind", "lo", "hi"}}
 _DOMAIN_KEYS = {f.name for f in fields(DomainSpec)}
 _ENGINE_KEYS = {"name", "options"}
+
+#: Largest ``|coordinate|`` (metres) anything may be placed at: object positions, domain and
+#: fixed-region corners, ground height, and every Gaussian after placement. Engines compute in
+#: float32, whose spacing at 1e6 m is 6 cm; beyond it no object of everyday size is resolved.
+MAX_COORD = 1e6
+#: Largest initial angular speed ``|angular_velocity|``, rad/s (a fast turbine).
+MAX_SPIN = 1e4
+#: Largest initial speed ``|velocity|``, m/s (ten times a rifle bullet).
+MAX_SPEED = 1e4
+#: Largest ``|gravity|``, m/s^2 (about 1000 g).
+MAX_GRAVITY = 1e4
+#: ``scale`` (metres per file unit) range: micrometres to thousands of kilometres.
+SCALE_RANGE = (1e-6, 1e6)
+#: Largest ``[domain] padding`` (times the objects' extent on each side): beyond it the objects
+#: span fewer than ``n_grid / 21`` cells.
+MAX_PADDING = 10.0
+#: ``[domain] n_grid`` and ``particles_per_cell`` ranges (integers).
+N_GRID_RANGE = (8, 1024)
+PPC_RANGE = (1, 64)
+
+_TOML_TYPES = ((bool, "boolean"), (int, "integer"), (float, "float"), (str, "string"),
+               (list, "array"), (dict, "table"))
+
+
+def _shown(value) -> str:
+    """``value`` as the message shows it: its repr (shortened) and its TOML type."""
+    r = repr(value)
+    if len(r) > 60:
+        r = r[:57] + "..."
+    kind = next((n for t, n in _TOML_TYPES if isinstance(value, t)), type(value).__name__)
+    return f"{r} ({kind})"
+
+
+def _bad(src: Path, key: str, value, expected: str) -> NoReturn:
+    raise SceneError(f"{src}: {key} = {_shown(value)}; expected {expected}")
 
 
 def _check_keys(table: dict, allowed: set[str], where: str, src: Path) -> None:
@@ -169,22 +211,78 @@ def _check_keys(table: dict, allowed: set[str], where: str, src: Path) -> None:
         raise SceneError(f"{src}: unknown key(s) {unknown} in {where}; allowed: {sorted(allowed)}")
 
 
-def _vec3(value, key: str, src: Path) -> tuple[float, float, float]:
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        arr = None
-    if arr is None or arr.shape != (3,) or not np.all(np.isfinite(arr)):
-        raise SceneError(f"{src}: '{key}' must be a list of 3 finite numbers, got {value!r}")
-    return tuple(float(a) for a in arr)
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
-def _positive(value, key: str, src: Path, allow_zero: bool = False) -> float:
-    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) \
-        and (value >= 0 if allow_zero else value > 0)
+def _table(value, key: str, src: Path) -> dict:
+    if not isinstance(value, dict):
+        _bad(src, key, value, "a table")
+    return value
+
+
+def _tables(value, key: str, src: Path) -> list[dict]:
+    """An array of tables (``[[key]]``); a single table is an error, not a one-element list."""
+    if not isinstance(value, list) or not all(isinstance(t, dict) for t in value):
+        _bad(src, key, value, f"an array of tables ([[{key}]] sections)")
+    return value
+
+
+def _string(value, key: str, src: Path, choices=None) -> str:
+    if choices is not None:
+        if not isinstance(value, str) or value not in choices:
+            _bad(src, key, value, f"one of {sorted(choices) if isinstance(choices, (set, frozenset)) else list(choices)}")
+    elif not isinstance(value, str) or not value:
+        _bad(src, key, value, "a non-empty string")
+    return value
+
+
+def _boolean(value, key: str, src: Path) -> bool:
+    if not isinstance(value, bool):
+        _bad(src, key, value, "true or false")
+    return value
+
+
+def _number(value, key: str, src: Path, lo: float | None = None, hi: float | None = None,
+            lo_open: bool = False, hi_open: bool = False) -> float:
+    """A finite float or integer (never a boolean) in the range given; ``float``."""
+    ok = _is_number(value) and math.isfinite(value)
+    if ok and lo is not None:
+        ok = value > lo if lo_open else value >= lo
+    if ok and hi is not None:
+        ok = value < hi if hi_open else value <= hi
     if not ok:
-        raise SceneError(f"{src}: '{key}' must be a {'non-negative' if allow_zero else 'positive'} number, got {value!r}")
+        if lo is None and hi is None:
+            rng = ""
+        elif hi is None:
+            rng = f" {'>' if lo_open else '>='} {lo:g}"
+        elif lo is None:
+            rng = f" {'<' if hi_open else '<='} {hi:g}"
+        else:
+            rng = f" in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
+        _bad(src, key, value, f"a finite number{rng}")
     return float(value)
+
+
+def _integer(value, key: str, src: Path, lo: int, hi: int | None = None) -> int:
+    """An integer (not a float such as 24.9 or 24.0, not a boolean) in ``[lo, hi]``."""
+    if not isinstance(value, int) or isinstance(value, bool) or value < lo or (hi is not None and value > hi):
+        _bad(src, key, value, f"an integer in [{lo}, {hi}]" if hi is not None else f"an integer >= {lo}")
+    return value
+
+
+def _vec3(value, key: str, src: Path, max_abs: float | None = None, max_norm: float | None = None,
+          unit: str = "") -> tuple[float, float, float]:
+    """A list of 3 finite numbers; each ``|component| <= max_abs`` and the length ``<= max_norm``."""
+    if not isinstance(value, list) or len(value) != 3 or \
+            not all(_is_number(a) and math.isfinite(a) for a in value):
+        _bad(src, key, value, "a list of 3 finite numbers")
+    v = tuple(float(a) for a in value)
+    if max_abs is not None and max(abs(a) for a in v) > max_abs:
+        _bad(src, key, value, f"every component within +-{max_abs:g}{unit}")
+    if max_norm is not None and math.sqrt(sum(a * a for a in v)) > max_norm:
+        _bad(src, key, value, f"a length of at most {max_norm:g}{unit}")
+    return v
 
 
 def _dynamic_time(o: dict, f: Path, where: str, src: Path) -> float | None:
@@ -195,35 +293,116 @@ def _dynamic_time(o: dict, f: Path, where: str, src: Path) -> float | None:
         return None
     if t is None:
         return 0.0
-    if not isinstance(t, (int, float)) or isinstance(t, bool) or not math.isfinite(t):
-        raise SceneError(f"{src}: {where}.dynamic_time must be a finite number, got {t!r}")
-    return float(t)
+    return _number(t, f"{where}.dynamic_time", src)
 
 
-def _fraction(value, key: str, src: Path) -> float:
-    v = _positive(value, key, src)
-    if v > 1.0:
-        raise SceneError(f"{src}: '{key}' must be in (0, 1], got {value!r}")
-    return v
+#: Material parameter ranges: (lo, hi, lo_open, hi_open); hi None = unbounded.
+_MATERIAL_RANGES = {
+    "E": (0.0, None, True, False), "nu": (0.0, 0.5, False, True), "rho": (0.0, None, True, False),
+    "yield_stress": (0.0, None, True, False), "friction_angle": (0.0, 90.0, False, True),
+    "softening": (0.0, None, False, False), "hardening": (0.0, None, True, False),
+    "theta_c": (0.0, None, True, False), "theta_s": (0.0, None, True, False),
+}
 
 
-def _material(table: dict, where: str, src: Path) -> Material:
-    if not isinstance(table, dict):
-        raise SceneError(f"{src}: {where} must be a table")
+def _material(value, where: str, src: Path) -> Material:
+    table = _table(value, where, src)
     _check_keys(table, _MATERIAL_KEYS, where, src)
-    name = table.get("name", "jelly")
-    if name not in MATERIALS:
-        raise SceneError(f"{src}: {where}.name = {name!r} is not a material; known: {sorted(MATERIALS)}")
-    kw = {"name": name}
-    for k in _MATERIAL_KEYS - {"name"}:
+    kw: dict[str, Any] = {"name": _string(table.get("name", "jelly"), f"{where}.name", src, MATERIALS)}
+    for k in sorted(_MATERIAL_KEYS - {"name"}):
         if k in table:
-            kw[k] = _positive(table[k], f"{where}.{k}", src, allow_zero=k in {"softening", "friction_angle", "nu"})
-    m = Material(**kw)
-    if not 0.0 <= m.nu < 0.5:
-        raise SceneError(f"{src}: {where}.nu = {m.nu} must be in [0, 0.5)")
-    if not 0.0 <= m.friction_angle < 90.0:
-        raise SceneError(f"{src}: {where}.friction_angle = {m.friction_angle} must be in [0, 90) degrees")
-    return m
+            lo, hi, lo_open, hi_open = _MATERIAL_RANGES[k]
+            kw[k] = _number(table[k], f"{where}.{k}", src, lo, hi, lo_open, hi_open)
+    return Material(**kw)
+
+
+def _engine(value, src: Path) -> EngineSpec:
+    """``[engine] name = ..., options = {...}``, or the shorthand ``engine = "name"``."""
+    if isinstance(value, str):
+        value = {"name": value}
+    elif not isinstance(value, dict):
+        _bad(src, "engine", value, 'an engine name (engine = "NAME") or an [engine] table with name and options')
+    _check_keys(value, _ENGINE_KEYS, "[engine]", src)
+    name = value.get("name")
+    name = None if name is None else _string(name, "engine.name", src)
+    options = _table(value.get("options", {}), "engine.options", src)
+    return EngineSpec(name=name, options=dict(options))
+
+
+def _domain(value, src: Path) -> DomainSpec:
+    dom_t = _table(value, "domain", src)
+    _check_keys(dom_t, _DOMAIN_KEYS, "[domain]", src)
+    domain = DomainSpec(
+        lo=_vec3(dom_t["lo"], "domain.lo", src, max_abs=MAX_COORD, unit=" m") if "lo" in dom_t else None,
+        hi=_vec3(dom_t["hi"], "domain.hi", src, max_abs=MAX_COORD, unit=" m") if "hi" in dom_t else None,
+        n_grid=_integer(dom_t.get("n_grid", DomainSpec.n_grid), "domain.n_grid", src, *N_GRID_RANGE),
+        padding=_number(dom_t.get("padding", DomainSpec.padding), "domain.padding", src, 0.0, MAX_PADDING),
+        particles_per_cell=_integer(dom_t.get("particles_per_cell", DomainSpec.particles_per_cell),
+                                    "domain.particles_per_cell", src, *PPC_RANGE))
+    if (domain.lo is None) != (domain.hi is None):
+        raise SceneError(f"{src}: [domain] needs both 'lo' and 'hi', or neither")
+    if domain.lo is not None and not all(h > l for l, h in zip(domain.lo, domain.hi)):
+        raise SceneError(f"{src}: [domain] 'hi' must exceed 'lo' on every axis, got lo={list(domain.lo)} "
+                         f"hi={list(domain.hi)}")
+    return domain
+
+
+def _boundary(b: dict, where: str, src: Path) -> Boundary:
+    kind = _string(b.get("kind"), f"{where}.kind", src, BOUNDARIES)
+    _check_keys(b, _BOUNDARY_KIND_KEYS.get(kind, _BOUNDARY_KEYS), f"{where} (kind = {kind!r})", src)
+    kw: dict[str, Any] = {"kind": kind}
+    if "height" in b:
+        kw["height"] = _number(b["height"], f"{where}.height", src, -MAX_COORD, MAX_COORD)
+    if "friction" in b:
+        kw["friction"] = _number(b["friction"], f"{where}.friction", src, 0.0)
+    if kind == "fixed_region":
+        if "lo" not in b or "hi" not in b:
+            raise SceneError(f"{src}: {where} (fixed_region) needs 'lo' and 'hi'")
+        kw["lo"] = _vec3(b["lo"], f"{where}.lo", src, max_abs=MAX_COORD, unit=" m")
+        kw["hi"] = _vec3(b["hi"], f"{where}.hi", src, max_abs=MAX_COORD, unit=" m")
+        if not all(h > l for l, h in zip(kw["lo"], kw["hi"])):
+            raise SceneError(f"{src}: {where} (fixed_region) 'hi' must exceed 'lo' on every axis, got "
+                             f"lo={list(kw['lo'])} hi={list(kw['hi'])}; the box holds nothing")
+    return Boundary(**kw)
+
+
+def _object(o: dict, where: str, src: Path) -> ObjectSpec:
+    _check_keys(o, _OBJECT_KEYS, where, src)
+    if "file" not in o:
+        raise SceneError(f"{src}: {where} needs 'file'")
+    name = _string(o["file"], f"{where}.file", src)
+    f = (src.parent / name).resolve()
+    if f.is_dir():
+        raise SceneError(f"{src}: {where}.file '{name}' is a directory (looked at {f}); expected a Gaussian "
+                         "Splatting file")
+    if not f.exists():
+        raise SceneError(f"{src}: {where}.file '{name}' does not exist (looked for {f})")
+    alpha = o.get("alpha", 1.5)
+    if alpha is False or alpha is None:
+        alpha = None
+    elif not _is_number(alpha) or not math.isfinite(alpha) or alpha <= 0:
+        _bad(src, f"{where}.alpha", alpha, "a positive number, or false to disable the control rule")
+    else:
+        alpha = float(alpha)
+    return ObjectSpec(
+        file=f,
+        up_axis=_string(o.get("up_axis", "+z"), f"{where}.up_axis", src, UP_AXES),
+        scale=_number(o.get("scale", 1.0), f"{where}.scale", src, *SCALE_RANGE),
+        recentre=_boolean(o.get("recentre", True), f"{where}.recentre", src),
+        position=_vec3(o.get("position", [0.0, 0.0, 0.0]), f"{where}.position", src, max_abs=MAX_COORD,
+                       unit=" m"),
+        velocity=_vec3(o.get("velocity", [0.0, 0.0, 0.0]), f"{where}.velocity", src, max_norm=MAX_SPEED,
+                       unit=" m/s"),
+        angular_velocity=_vec3(o.get("angular_velocity", [0.0, 0.0, 0.0]), f"{where}.angular_velocity", src,
+                               max_norm=MAX_SPIN, unit=" rad/s"),
+        material=_material(o.get("material", {}), f"{where}.material", src),
+        fill=_boolean(o.get("fill", True), f"{where}.fill", src), alpha=alpha,
+        thickness=_string(o.get("thickness", "keep"), f"{where}.thickness", src, ("keep", "eps")),
+        min_opacity=_number(o.get("min_opacity", 0.1), f"{where}.min_opacity", src, 0.0, 1.0),
+        core_fraction=_number(o.get("core_fraction", 1.0), f"{where}.core_fraction", src, 0.0, 1.0,
+                              lo_open=True),
+        if_open=_string(o.get("if_open", "warn"), f"{where}.if_open", src, ("warn", "error")),
+        dynamic_time=_dynamic_time(o, f, where, src))
 
 
 def load_scene(path: str | Path) -> Scene:
@@ -232,7 +411,7 @@ def load_scene(path: str | Path) -> Scene:
     Parameters
     ----------
     path : str or Path
-        TOML file. Relative object paths are resolved against its folder.
+        TOML file (UTF-8). Relative object paths are resolved against its folder.
 
     Returns
     -------
@@ -241,114 +420,96 @@ def load_scene(path: str | Path) -> Scene:
     Raises
     ------
     SceneError
-        If the file is missing or not TOML, a key is unknown (the message lists the allowed
-        keys), a value has the wrong type or range, or an object file does not exist.
+        One line naming the file, the key, the value and what was expected: the file is missing,
+        a directory, unreadable, not UTF-8 or not TOML; a key is unknown (the message lists the
+        allowed keys); a value has the wrong type (every key is type-checked: an integer where a
+        table is expected, ``24.9`` for an integer, a string for a boolean) or is out of range
+        (see the module constants :data:`MAX_COORD`, :data:`MAX_SPEED`, :data:`MAX_GRAVITY`,
+        :data:`SCALE_RANGE`); a fixed region or domain whose ``hi`` does not exceed ``lo``; an
+        object file does not exist or is a directory.
     """
     src = Path(path)
+    if src.is_dir():
+        raise SceneError(f"{src}: is a directory; expected a scene file (TOML)")
     try:
-        data = tomllib.loads(src.read_text())
+        data = tomllib.loads(src.read_bytes().decode("utf-8"))
     except FileNotFoundError:
         raise SceneError(f"{src}: scene file not found") from None
+    except UnicodeDecodeError as e:
+        raise SceneError(f"{src}: not a UTF-8 text file (byte 0x{e.object[e.start]:02x} at offset {e.start}); "
+                         "expected a TOML scene file") from None
+    except OSError as e:
+        raise SceneError(f"{src}: cannot read the scene file: {e.strerror or e}") from None
     except tomllib.TOMLDecodeError as e:
         raise SceneError(f"{src}: not valid TOML: {e}") from None
     return parse_scene(data, src)
 
 
 def parse_scene(data: dict, src: Path) -> Scene:
-    """Validate an already-parsed TOML document (see :func:`load_scene`)."""
+    """Validate an already-parsed TOML document (see :func:`load_scene`).
+
+    Raises
+    ------
+    SceneError
+        As :func:`load_scene`; never another exception type for any ``data`` a TOML parser returns.
+    """
     src = Path(src)
+    data = _table(data, "the scene", src)
     _check_keys(data, _TOP_KEYS, "the top level", src)
     base = src.parent
-
-    engine_t = data.get("engine", {})
-    _check_keys(engine_t, _ENGINE_KEYS, "[engine]", src)
-    engine = EngineSpec(name=engine_t.get("name"), options=dict(engine_t.get("options", {})))
-
-    dom_t = data.get("domain", {})
-    _check_keys(dom_t, _DOMAIN_KEYS, "[domain]", src)
-    domain = DomainSpec(
-        lo=_vec3(dom_t["lo"], "domain.lo", src) if "lo" in dom_t else None,
-        hi=_vec3(dom_t["hi"], "domain.hi", src) if "hi" in dom_t else None,
-        n_grid=int(dom_t.get("n_grid", 64)),
-        padding=_positive(dom_t.get("padding", 0.5), "domain.padding", src, allow_zero=True),
-        particles_per_cell=int(dom_t.get("particles_per_cell", 8)))
-    if (domain.lo is None) != (domain.hi is None):
-        raise SceneError(f"{src}: [domain] needs both 'lo' and 'hi', or neither")
-    if domain.lo is not None and not np.all(np.array(domain.hi) > np.array(domain.lo)):
-        raise SceneError(f"{src}: [domain] 'hi' must exceed 'lo' on every axis, got lo={domain.lo} hi={domain.hi}")
-    if not 8 <= domain.n_grid <= 1024:
-        raise SceneError(f"{src}: domain.n_grid = {domain.n_grid} must be in [8, 1024]")
-    if not 1 <= domain.particles_per_cell <= 64:
-        raise SceneError(f"{src}: domain.particles_per_cell = {domain.particles_per_cell} must be in [1, 64]")
-
-    boundaries = []
-    for i, b in enumerate(data.get("boundary", [])):
-        where = f"[[boundary]] #{i + 1}"
-        _check_keys(b, _BOUNDARY_KEYS, where, src)
-        kind = b.get("kind")
-        if kind not in BOUNDARIES:
-            raise SceneError(f"{src}: {where}.kind = {kind!r}; expected one of {sorted(BOUNDARIES)}")
-        kw: dict[str, Any] = {"kind": kind}
-        if "height" in b:
-            h = b["height"]
-            if not isinstance(h, (int, float)) or not math.isfinite(h):
-                raise SceneError(f"{src}: {where}.height must be a finite number, got {h!r}")
-            kw["height"] = float(h)
-        if "friction" in b:
-            kw["friction"] = _positive(b["friction"], f"{where}.friction", src, allow_zero=True)
-        if kind == "fixed_region":
-            if "lo" not in b or "hi" not in b:
-                raise SceneError(f"{src}: {where} (fixed_region) needs 'lo' and 'hi'")
-            kw["lo"] = _vec3(b["lo"], f"{where}.lo", src)
-            kw["hi"] = _vec3(b["hi"], f"{where}.hi", src)
-        boundaries.append(Boundary(**kw))
-
-    objects = []
-    obj_list = data.get("object", [])
+    engine = _engine(data.get("engine", {}), src)
+    domain = _domain(data.get("domain", {}), src)
+    boundaries = [_boundary(b, f"[[boundary]] #{i + 1}", src)
+                  for i, b in enumerate(_tables(data.get("boundary", []), "boundary", src))]
+    obj_list = _tables(data.get("object", []), "object", src)
     if not obj_list:
         raise SceneError(f"{src}: the scene has no [[object]]")
-    for i, o in enumerate(obj_list):
-        where = f"[[object]] #{i + 1}"
-        _check_keys(o, _OBJECT_KEYS, where, src)
-        if "file" not in o:
-            raise SceneError(f"{src}: {where} needs 'file'")
-        f = (base / o["file"]).resolve()
-        if not f.exists():
-            raise SceneError(f"{src}: {where}.file '{o['file']}' does not exist (looked for {f})")
-        up = o.get("up_axis", "+z")
-        if up not in UP_AXES:
-            raise SceneError(f"{src}: {where}.up_axis = {up!r}; expected one of {list(UP_AXES)}")
-        thickness = o.get("thickness", "keep")
-        if thickness not in ("keep", "eps"):
-            raise SceneError(f"{src}: {where}.thickness = {thickness!r}; expected 'keep' or 'eps'")
-        if_open = o.get("if_open", "warn")
-        if if_open not in ("warn", "error"):
-            raise SceneError(f"{src}: {where}.if_open = {if_open!r}; expected 'warn' or 'error'")
-        alpha = o.get("alpha", 1.5)
-        if alpha is False:
-            alpha = None
-        elif alpha is not None:
-            alpha = _positive(alpha, f"{where}.alpha", src)
-        objects.append(ObjectSpec(
-            file=f, up_axis=up,
-            scale=_positive(o.get("scale", 1.0), f"{where}.scale", src),
-            recentre=bool(o.get("recentre", True)),
-            position=_vec3(o.get("position", (0, 0, 0)), f"{where}.position", src),
-            velocity=_vec3(o.get("velocity", (0, 0, 0)), f"{where}.velocity", src),
-            angular_velocity=_vec3(o.get("angular_velocity", (0, 0, 0)), f"{where}.angular_velocity", src),
-            material=_material(o.get("material", {}), f"{where}.material", src),
-            fill=bool(o.get("fill", True)), alpha=alpha, thickness=thickness,
-            min_opacity=_positive(o.get("min_opacity", 0.1), f"{where}.min_opacity", src, allow_zero=True),
-            core_fraction=_fraction(o.get("core_fraction", 1.0), f"{where}.core_fraction", src),
-            if_open=if_open,
-            dynamic_time=_dynamic_time(o, f, where, src)))
-
-    n_frames = data.get("n_frames", 30)
-    if not isinstance(n_frames, int) or isinstance(n_frames, bool) or n_frames < 1:
-        raise SceneError(f"{src}: 'n_frames' must be a positive integer, got {n_frames!r}")
+    objects = [_object(o, f"[[object]] #{i + 1}", src) for i, o in enumerate(obj_list)]
+    n_frames = _integer(data.get("n_frames", 30), "n_frames", src, 1)
     output = data.get("output")
+    if output is not None:
+        output = base / _string(output, "output", src)
     return Scene(
         path=src, objects=objects, engine=engine, domain=domain, boundaries=boundaries,
-        gravity=_vec3(data.get("gravity", (0.0, 0.0, -9.81)), "gravity", src),
-        frame_dt=_positive(data.get("frame_dt", 1.0 / 30.0), "frame_dt", src),
-        n_frames=n_frames, output=(base / output) if output else None, name=str(data.get("name", src.stem)))
+        gravity=_vec3(data.get("gravity", [0.0, 0.0, -9.81]), "gravity", src, max_norm=MAX_GRAVITY,
+                      unit=" m/s^2"),
+        frame_dt=_number(data.get("frame_dt", 1.0 / 30.0), "frame_dt", src, 0.0, lo_open=True),
+        n_frames=n_frames, output=output, name=_string(data.get("name", src.stem), "name", src))
+
+
+def check_object(spec: ObjectSpec, g) -> None:
+    """Check an object's Gaussians against its placement before any work.
+
+    Parameters
+    ----------
+    spec : ObjectSpec
+    g : Gaussians
+        As read from ``spec.file`` (file units).
+
+    Raises
+    ------
+    SceneError
+        If there are no Gaussians, or if placed with ``spec.scale`` and ``spec.position`` a
+        Gaussian's centre would lie beyond :data:`MAX_COORD` metres from the origin on some axis,
+        or a Gaussian's largest scale would exceed :data:`MAX_COORD` metres; the message names the
+        file, the value and the limit.
+    """
+    f = spec.file
+    if g.n == 0:
+        raise SceneError(f"{f}: the file has 0 Gaussians; nothing to simulate")
+    x = g.means
+    lo, hi = x.min(axis=0), x.max(axis=0)
+    pos = max(abs(p) for p in spec.position)
+    if spec.recentre:  # centred on position horizontally, bottom at position: within one extent of it
+        reach = spec.scale * float(np.max(hi - lo)) + pos
+    else:
+        reach = spec.scale * float(np.max(np.maximum(np.abs(lo), np.abs(hi)))) + pos
+    if not reach <= MAX_COORD:
+        raise SceneError(f"{f}: placed with scale = {spec.scale:g} at position = {list(spec.position)}, the "
+                         f"Gaussians reach {reach:.3g} m from the origin; expected at most {MAX_COORD:g} m "
+                         "(engines compute in float32; check 'scale' and the file's units)")
+    s_max = spec.scale * float(g.scales.max())
+    if not s_max <= MAX_COORD:
+        k = int(np.argmax(g.scales.max(axis=1)))
+        raise SceneError(f"{f}: Gaussian {k} has a scale of {s_max:.3g} m after scale = {spec.scale:g}; "
+                         f"expected at most {MAX_COORD:g} m")
