@@ -124,9 +124,58 @@ def substeps_for(frame_dt: float, dt_max: float) -> tuple[int, float]:
 
 
 
-def substeps_from_options(setup, options: Mapping[str, Any]) -> tuple[int, float]:
-    """:func:`mpm_substeps` with the engine options ``dt``, ``n_substeps`` and ``cfl`` of ``options``."""
-    return mpm_substeps(setup, options.get("dt"), options.get("n_substeps"), options.get("cfl", 0.4))
+#: Default bound on substeps per frame (engine option ``max_substeps``): the README donut needs 122.
+MAX_SUBSTEPS = 20_000
+
+
+def substeps_from_options(setup, options: Mapping[str, Any], engine: str = "") -> tuple[int, float]:
+    """:func:`mpm_substeps` with the engine options ``dt``, ``n_substeps``, ``cfl`` and ``max_substeps``.
+
+    Raises
+    ------
+    SceneError
+        More substeps per frame than ``max_substeps`` (default :data:`MAX_SUBSTEPS`): the message
+        gives the count, what drives it (the stiffest material's wave speed, the fall speed or
+        ``frame_dt``) and how to raise the bound, instead of a run that never finishes a frame.
+    """
+    n, dt = mpm_substeps(setup, options.get("dt"), options.get("n_substeps"), options.get("cfl", 0.4))
+    bound = options.get("max_substeps") or MAX_SUBSTEPS
+    if n > bound:
+        c = max(p_wave_speed(m) for m in setup.materials)
+        raise SceneError(
+            f"engine '{engine}': {n:.3g} substeps per frame (dt = {dt:.3g} s for frame_dt = {setup.frame_dt:g} s; "
+            f"fastest wave {c:.3g} m/s, dx = {setup.dx:.3g} m) exceeds max_substeps = {bound}: lower E, frame_dt, "
+            f"the speeds or n_grid, or raise the engine option max_substeps")
+    return n, dt
+
+
+def estimate_bytes(n_points: int, n_grid: int, precision: str, grid_copies: int = 1) -> int:
+    """Memory an MLS-MPM engine allocates, bytes: particles (x, v, F, C, Jp, mass, volume, ids) and grid.
+
+    ``grid_copies`` counts private grid copies (one per CPU thread where an engine keeps them).
+    """
+    b = 4 if precision == "f32" else 8
+    particles = n_points * (3 + 3 + 9 + 9 + 1 + 1 + 1) * b + n_points * 3 * 4
+    grid = (n_grid + 3) ** 3 * 4 * b * (1 + grid_copies)
+    return int(particles + grid)
+
+
+def check_memory(need: int, engine: str, what: str = "") -> None:
+    """Refuse before allocating when ``need`` bytes exceed 80 % of this machine's physical memory.
+
+    Raises
+    ------
+    SceneError
+        Naming the estimate, the memory here and the settings that drive it.
+    """
+    import os
+    try:
+        total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        return
+    if need > 0.8 * total:
+        raise SceneError(f"engine '{engine}': needs about {need / 2**30:.1f} GiB ({what}); this machine has "
+                         f"{total / 2**30:.1f} GiB: lower n_grid or the number of points")
 
 
 # --------------------------------------------------------------------------- options
@@ -160,6 +209,8 @@ def mpm_options(*extra: Option, cuda_index: bool = False) -> tuple[Option, ...]:
         Option("n_substeps", None, "substeps per frame (default: from cfl); not with dt", kind="int", lo=1),
         Option("cfl", 0.4, "Courant number of the automatic substep: dt = cfl dx / max(c_p, v_max)",
                kind="number", lo=0.0, hi=1.0, lo_open=True),
+        Option("max_substeps", MAX_SUBSTEPS, "refuse a scene needing more substeps per frame than this "
+               "(bounds the work a bad value can ask for)", kind="int", lo=1),
     ) + tuple(extra)
 
 

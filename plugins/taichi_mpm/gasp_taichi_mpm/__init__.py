@@ -9,6 +9,13 @@ then raise :class:`gasp_core.engine.EngineError`).
 """
 from __future__ import annotations
 
+import os
+
+# Taichi prints a banner on stdout when imported; GASP's output (``gasp engines --json``) must stay
+# clean, so the banner is off unless the user asked for it.
+os.environ.setdefault("ENABLE_TAICHI_HEADER_PRINT", "False")
+os.environ.setdefault("TI_LOG_LEVEL", "warn")
+
 from gasp_core.engine import Capabilities, EngineInfo, Option, SimSetup
 from gasp_core.mpm import mpm_options, mpm_sweep
 from gasp_core.plugins import hookimpl
@@ -39,11 +46,11 @@ def sweep(quick: bool) -> tuple[list[dict], dict]:
 
 
 def taichi_available() -> str | None:
-    """None if Taichi imports here, else the reason it does not."""
-    try:
-        import taichi  # noqa: F401
-    except Exception as e:  # ImportError, or a broken binary wheel
-        return f"taichi cannot be imported: {type(e).__name__}: {e}"
+    """None if Taichi is installed here, else the reason it is not (found without importing it:
+    listing engines stays quick and prints nothing)."""
+    import importlib.util
+    if importlib.util.find_spec("taichi") is None:
+        return "taichi is not installed (pip install taichi)"
     return None
 
 

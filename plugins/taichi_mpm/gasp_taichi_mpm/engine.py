@@ -25,7 +25,7 @@ _generation = 0  # bumped by every engine built; an engine is live while its gen
 
 def time_step(setup: SimSetup, opt: dict[str, Any]) -> tuple[int, float]:
     """Substeps per frame and substep length (``gasp_core.mpm.mpm_substeps``, docs/mpm.md)."""
-    return mpm.substeps_from_options(setup, opt)
+    return mpm.substeps_from_options(setup, opt, ENGINE)
 
 
 class TaichiMPMEngine:
@@ -58,11 +58,13 @@ class TaichiMPMEngine:
     def __init__(self, setup: SimSetup):
         global _generation
         opt = mpm.check_mpm_options(setup.options, OPTIONS, ENGINE)
+        self.n_substeps, self.dt = time_step(setup, opt)
+        mpm.check_memory(mpm.estimate_bytes(len(setup.x), setup.n_grid, opt["precision"]) + MAX_PRIVATE_GRID_BYTES,
+                         ENGINE, f"{len(setup.x)} points, n_grid {setup.n_grid}, {opt['precision']}")
         import taichi as ti
 
         self.setup = setup
         self.options = opt
-        self.n_substeps, self.dt = time_step(setup, opt)
         real = ti.f32 if opt["precision"] == "f32" else ti.f64
         if opt["device"] == "cuda":
             if not ti.lang.misc.is_arch_supported(ti.cuda):

@@ -42,7 +42,7 @@ from . import kernels as K
 
 def choose_dt(setup: SimSetup, opts: dict[str, Any]) -> tuple[int, float]:
     """Substeps per frame and substep (``gasp_core.mpm.mpm_substeps``, docs/mpm.md "Time step")."""
-    return mpm.substeps_from_options(setup, opts)
+    return mpm.substeps_from_options(setup, opts, ENGINE)
 
 
 class WarpMPMEngine:
@@ -72,7 +72,11 @@ class WarpMPMEngine:
         opts = mpm.check_mpm_options(setup.options, OPTIONS, ENGINE)
         self.options = opts
         kinds, par = mpm.material_table(setup.materials)
+        choose_dt(setup, opts)  # refuses a scene past max_substeps before any build work
+        mpm.check_memory(mpm.estimate_bytes(len(setup.x), setup.n_grid, opts["precision"]), ENGINE,
+                         f"{len(setup.x)} points, n_grid {setup.n_grid}, {opts['precision']}")
 
+        wp.config.quiet = True  # no start-up banner
         wp.init()
         dev = opts["device"]
         if dev.startswith("cuda") and not wp.is_cuda_available():
