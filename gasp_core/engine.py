@@ -364,6 +364,9 @@ def build_engine(info: EngineInfo, setup: SimSetup) -> PointEngine:
     EngineBug
         The factory raised anything outside the error contract.
     """
-    check_supported(info, **setup_needs(setup))
+    needs = setup_needs(setup)
+    if "grid" not in info.capabilities.features:  # SimSetup.C: only grid engines need it, others may ignore it
+        needs["features"] = [f for f in needs["features"] if f != "initial_C"]
+    check_supported(info, **needs)
     setup.options = check_options(setup.options, info.options, info.name)
     return call_engine(info, "build", info.factory, setup)

@@ -197,6 +197,20 @@ def test_unsupported_material_is_refused_by_the_core():
         build_engine(engines()["mujoco_flex"], make_setup(block_points(), Material("sand")))
 
 
+def test_initial_velocity_gradient_is_not_asked_of_a_non_grid_engine():
+    """SimSetup.C is for grid engines; mujoco_flex carries a rotation in the point velocities."""
+    from gasp_core.engine import build_engine
+    from gasp_core.plugins import engines
+    x = block_points()
+    w = np.array([0.0, 0.0, np.pi])
+    C = np.broadcast_to(np.array([[0, -w[2], 0], [w[2], 0, 0], [0, 0, 0]]), (len(x), 3, 3))
+    s = make_setup(x, JELLY, v=np.cross(w, x - x.mean(0))).replace(C=C)
+    e = build_engine(engines()["mujoco_flex"], s)
+    r = x - x.mean(0)
+    lz = np.cross(r, e.velocities())[:, 2].sum() / np.cross(r, s.v)[:, 2].sum()
+    assert 0.8 < lz < 1.2, lz  # the spin reaches the lattice through the point velocities
+
+
 def test_negative_poisson_ratio_is_a_scene_error():
     """MuJoCo's flex elasticity takes 0 <= nu < 0.5 ("Poisson ratio must be in [0, 0.5)")."""
     with pytest.raises(SceneError, match="nu=-0.3"):
