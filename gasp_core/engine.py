@@ -304,7 +304,13 @@ def check_supported(info: EngineInfo, materials: Iterable[str] = (), boundaries:
         return
     kind, name = missing[0]
     attr = {"material": "materials", "boundary": "boundaries", "feature": "features"}[kind]
-    able = sorted(n for n, e in (others or {}).items() if name in getattr(e.capabilities, attr))
+    if others is None:
+        from .plugins import engines as installed
+        try:
+            others = installed()
+        except GaspError:
+            others = {}
+    able = sorted(n for n, e in others.items() if name in getattr(e.capabilities, attr))
     raise SceneError(f"engine '{info.name}' does not support the {kind} '{name}' "
                      f"(it supports {attr}: {sorted(getattr(info.capabilities, attr)) or 'none'}); "
                      f"engines that do: {able or 'none installed'}")
@@ -364,9 +370,6 @@ def build_engine(info: EngineInfo, setup: SimSetup) -> PointEngine:
     EngineBug
         The factory raised anything outside the error contract.
     """
-    needs = setup_needs(setup)
-    if "grid" not in info.capabilities.features:  # SimSetup.C: only grid engines need it, others may ignore it
-        needs["features"] = [f for f in needs["features"] if f != "initial_C"]
-    check_supported(info, **needs)
+    check_supported(info, **setup_needs(setup))
     setup.options = check_options(setup.options, info.options, info.name)
     return call_engine(info, "build", info.factory, setup)
