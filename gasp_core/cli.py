@@ -130,6 +130,8 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--reference-n-grid", type=int, default=0,
                    help="a finer grid for the MPM engines' reference run alone (default 0: the finest of the sweep, n_grid 96)")
     b.set_defaults(func=_cmd_bench)
+    from .render.cli import add_parsers as _render_parsers
+    _render_parsers(sub)
     return p
 
 
