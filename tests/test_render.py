@@ -85,7 +85,7 @@ def test_builtin_renderers_registered():
 
 def _psnr(a, b):
     mse = np.mean((a.astype(float) - b.astype(float)) ** 2)
-    return 10 * math.log10(255.0 ** 2 / mse)
+    return math.inf if mse == 0 else 10 * math.log10(255.0 ** 2 / mse)
 
 
 def test_frame0_matches_reference_render_of_input(donut_run):
@@ -96,8 +96,9 @@ def test_frame0_matches_reference_render_of_input(donut_run):
     f0 = next(render_runs([donut_run], frames=[0], width=320, height=240))[1]
     view = make_view(*sequence_bounds([run.splats(0)]), run.ground_z, 320, 240)
     ref = to_uint8(get_renderer("cpu")(ref_splats, view.camera, view.background)[0])
-    # frame 0 is the flattened input rebuilt by T^-1 (GaMeS): nearly the same picture
-    assert _psnr(f0, ref) > 30.0, _psnr(f0, ref)
+    # frame 0 is written as the input (README: "frame 0 sits exactly where the input was"); measured
+    # identical here (PSNR inf); 40 dB allows float round-off in the written PLY
+    assert _psnr(f0, ref) > 40.0, _psnr(f0, ref)
 
 
 def _centroid_rows(run_dir):
@@ -111,12 +112,18 @@ def _centroid_rows(run_dir):
     return np.array(rows)
 
 
-def test_rendered_donut_falls_lands_and_rests(donut_run, tmp_path):
-    rows = _centroid_rows(donut_run)
-    drop = rows[-1] - rows[0]
-    assert drop > 5.0, rows                     # image rows grow downwards: it moved down
-    assert np.all(np.diff(rows[:4]) > 0), rows  # falling in the first frames
-    assert abs(rows[-1] - rows[-2]) < 0.1 * drop, rows  # and stopped at the end
+def _falls_and_lands(rows):
+    """Image rows grow downwards: the object's centroid moves down over the first 3 frames (the 5 cm fall
+    takes sqrt(2 h / g) = 0.10 s) and never climbs back to where it started."""
+    drop = rows[3] - rows[0]
+    assert drop > 5.0, rows
+    assert np.all(np.diff(rows[:4]) > 0), rows
+    assert rows[4:].min() > rows[0] + 0.25 * drop, rows
+    return drop
+
+
+def test_rendered_donut_falls_and_lands(donut_run, tmp_path):
+    _falls_and_lands(_centroid_rows(donut_run))
     out = tmp_path / "donut.mp4"
     from gasp_core.cli import main
     assert main(["render", str(donut_run), "-o", str(out), "--resolution", "160x120", "-q"]) == 0
@@ -142,3 +149,18 @@ def test_bad_run_folder_is_one_clear_error(tmp_path, capsys):
     from gasp_core.cli import main
     assert main(["render", str(tmp_path), "-o", str(tmp_path / "x.mp4")]) == 2
     assert "no run.json" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_readme_donut_falls_lands_and_rests(tmp_path):
+    """The README example (36 frames, n_grid 64; ~2.5 min of simulation) rendered: it falls, lands
+    and rests (the centroid over the last 20 frames stays within 10 % of the drop)."""
+    pytest.importorskip("gasp_taichi_mpm", reason="taichi_mpm plugin not installed")
+    from gasp_core.cli import main
+    from gasp_testing import ROOT
+    run = tmp_path / "donut"
+    assert main(["simulate", str(ROOT / "examples" / "donut_jelly.toml"), "-o", str(run), "-q"]) == 0
+    rows = _centroid_rows(run)
+    drop = _falls_and_lands(rows)
+    assert np.ptp(rows[-20:]) < 0.1 * drop, rows
+    assert main(["render", str(run), "-o", str(tmp_path / "donut.mp4"), "-q"]) == 0

@@ -16,15 +16,21 @@ ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-net
         "--enable-unsafe-swiftshader"]
 
 
-def _shot(page, path, wait_s=20.0):
-    """Screenshot once the picture stops changing (software WebGL takes a while to sort splats)."""
+def _sat(im):
+    """Pixels of the donut: saturated pink/blue/tan, which the grey grid and the white page lack."""
+    return (im.max(axis=2) - im.min(axis=2)) > 60
+
+
+def _shot(page, path, timeout_s=90.0):
+    """Screenshot once the splats are drawn and the picture stops changing (software WebGL is slow)."""
     import imageio.v3 as iio
     prev, t0 = None, time.time()
     while True:
         time.sleep(2.0)
         page.screenshot(path=str(path))
         img = iio.imread(path)[..., :3].astype(int)
-        if prev is not None and np.abs(img - prev).mean() < 0.05 or time.time() - t0 > wait_s:
+        drawn = _sat(img).sum() > 2000
+        if drawn and prev is not None and np.abs(img - prev).mean() < 0.05 or time.time() - t0 > timeout_s:
             return img
         prev = img
 
@@ -43,8 +49,7 @@ def test_view_shows_donut_and_slider_changes_picture(donut_run, tmp_path):
             browser.close()
     finally:
         v.stop()
-    # the donut is there: saturated pink/blue pixels, which the grey grid and white page lack
-    sat = lambda im: (im.max(axis=2) - im.min(axis=2)) > 60  # noqa: E731
+    sat = _sat
     assert sat(a).sum() > 2000 and sat(b).sum() > 2000
     # it moved down the screen between frame 0 and the last frame
     assert np.nonzero(sat(b))[0].mean() > np.nonzero(sat(a))[0].mean() + 3
