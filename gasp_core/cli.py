@@ -154,6 +154,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     from .testing.cli import add_parser as add_conform_parser
     add_conform_parser(sub)
+    from .render.cli import add_parsers as _render_parsers
+    _render_parsers(sub)
     return p
 
 
