@@ -7,7 +7,7 @@ built-in CPU renderers live in :mod:`gasp_core.render.builtin`: ``cpu`` (a numba
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Callable
 
 from ..engine import GaspError

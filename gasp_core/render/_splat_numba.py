@@ -7,7 +7,6 @@ above ``t_min``. The maths is that of :mod:`gasp_core.render.splat_numpy`.
 import math
 
 import numba
-import numpy as np
 
 ALPHA_MIN = 1.0 / 255.0
 ALPHA_MAX = 0.99
