@@ -10,8 +10,8 @@ Results come back through Dask; nothing is handed over through files.
 processes (``processes=True``, ``threads_per_worker=1``, at most one worker per core); with
 ``scheduler`` it connects to an existing cluster instead. It gives each worker one run at a
 time and restarts the worker (through its nanny) after every run, so every run starts in a
-fresh process: an engine's runtime may be process-global (one per process, reset by its init), and a fresh process
-gives an honest peak memory. A run that passes ``timeout_s`` is cancelled and its worker is
+fresh process: an engine's runtime may be process-global (one per process, reset by its
+init), and a fresh process gives an honest peak memory. A run that passes ``timeout_s`` is cancelled and its worker is
 restarted (which kills it); a worker that dies mid-run is reported as ``crashed``.
 """
 from __future__ import annotations
@@ -250,21 +250,29 @@ class Runner:
         self._client = self._cluster = None
         return False
 
-    def _workers_now(self) -> list[str]:
-        return sorted(self._client.nthreads())
+    def _workers_now(self) -> dict[str, int]:
+        """``{address: pid}`` of the workers the scheduler knows now (asked, not cached)."""
+        return self._client.run_on_scheduler(
+            lambda dask_scheduler: {a: ws.pid for a, ws in dask_scheduler.workers.items()})
 
-    def _restart(self, addr: str) -> float:
+    def _restart(self, addr: str, pid: int | None) -> float:
+        """Restart the worker ``addr`` (process ``pid``) and wait for its replacement; seconds taken."""
         t0 = time.perf_counter()
-        try:
-            self._client.restart_workers([addr], timeout=120)
-        except Exception as e:  # no nanny (external cluster), or the worker is already gone
-            if addr in self._workers_now():
-                if self.isolated:
-                    self.notes.append(f"worker {addr} could not be restarted between runs ({type(e).__name__}: "
-                                      f"{e}); later runs shared worker processes")
-                self.isolated = False
+        if self._workers_now().get(addr) == pid:
+            try:
+                self._client.restart_workers([addr], timeout=120)
+            except Exception as e:  # no nanny (external cluster), or the worker is already gone
+                if self._workers_now().get(addr) == pid:
+                    if self.isolated:
+                        self.notes.append(f"worker {addr} could not be restarted between runs "
+                                          f"({type(e).__name__}: {e}); later runs shared worker processes")
+                    self.isolated = False
+                    return time.perf_counter() - t0
         deadline = time.monotonic() + 120
-        while len(self._workers_now()) < self._n_workers and time.monotonic() < deadline:
+        while time.monotonic() < deadline:
+            now = self._workers_now()
+            if now.get(addr) != pid and len(now) >= self._n_workers:
+                break
             time.sleep(0.05)
         return time.perf_counter() - t0
 
@@ -288,14 +296,16 @@ class Runner:
             raise GaspError("Runner.run: use the Runner as a context manager (with Runner() as r: ...)")
         pending = list(enumerate(specs))
         running: dict[Any, tuple[int, str, float]] = {}
+        pids: dict[str, int] = {}
         results: list[RunOutput | None] = [None] * len(specs)
         tag = uuid.uuid4().hex[:8]
+        starved = 0.0
 
         def finish(i: int, out: RunOutput, addr: str, t0: float) -> None:
             out.record.setdefault("task_s", 0.0)
             out.record["run_wall_s"] = time.perf_counter() - t0
             out.record["dispatch_s"] = out.record["run_wall_s"] - out.record["task_s"]
-            out.record["restart_s"] = self._restart(addr)
+            out.record["restart_s"] = self._restart(addr, pids.pop(addr, None))
             out.record["isolated"] = self.isolated
             results[i] = out
             if on_result is not None:
@@ -303,30 +313,45 @@ class Runner:
 
         while pending or running:
             busy = {a for _, a, _ in running.values()}
-            for addr in [a for a in self._workers_now() if a not in busy]:
+            for addr, pid in sorted(self._workers_now().items()):
+                if addr in busy:
+                    continue
                 if not pending:
                     break
                 i, spec = pending.pop(0)
                 fut = self._client.submit(execute, spec, key=f"gasp-run-{tag}-{i}", workers=[addr],
                                           allow_other_workers=False, pure=False)
                 running[fut] = (i, addr, time.perf_counter())
+                pids[addr] = pid
             if not running:
+                starved = starved or time.monotonic()
+                if time.monotonic() - starved > 120:  # the cluster lost its workers for good
+                    for i, spec in pending:
+                        results[i] = _failed(spec, "crashed", "no Dask worker was available for 120 s")
+                        if on_result is not None:
+                            on_result(i, results[i])
+                    break
                 time.sleep(0.05)
                 continue
+            starved = 0.0
             now = time.perf_counter()
             first_deadline = min(t0 + self.timeout_s for _, _, t0 in running.values())
-            wait(list(running), timeout=max(0.01, min(1.0, first_deadline - now)), return_when="FIRST_COMPLETED")
-            alive = set(self._workers_now())
+            try:
+                wait(list(running), timeout=max(0.01, min(1.0, first_deadline - now)), return_when="FIRST_COMPLETED")
+            except TimeoutError:  # distributed.wait raises when nothing finished in time
+                pass
+            alive = self._workers_now()
             for fut in list(running):
                 i, addr, t0 = running[fut]
                 spec = specs[i]
                 if fut.status == "finished":
                     del running[fut]
                     finish(i, fut.result(), addr, t0)
-                elif fut.status in ("error", "cancelled"):
+                elif fut.status in ("error", "cancelled", "lost"):
                     del running[fut]
-                    finish(i, _failed(spec, "crashed", f"the worker process failed: {fut.exception()!r}"), addr, t0)
-                elif addr not in alive:
+                    why = repr(fut.exception()) if fut.status == "error" else fut.status
+                    finish(i, _failed(spec, "crashed", f"the worker process failed: {why}"), addr, t0)
+                elif alive.get(addr) != pids.get(addr):
                     del running[fut]
                     fut.cancel()
                     finish(i, _failed(spec, "crashed", "the worker process died during the run (killed, "
