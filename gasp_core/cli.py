@@ -1,4 +1,4 @@
-"""``gasp`` command line: simulate, engines, info (compare and bench where installed).
+"""``gasp`` command line: simulate, engines, info; compare and bench with the studies extra.
 
 Every error is one line on stderr, ``gasp: error: ...``, with an exit status from the error
 contract (:mod:`gasp_core.errors`): 2 for what the user can fix (bad input, unknown engine,
@@ -85,24 +85,44 @@ def _cmd_info(args) -> int:
     return 0
 
 
+def _studies(module: str):
+    """``gasp_studies.<module>``, imported only for compare and bench (an optional extra)."""
+    import importlib
+    import importlib.util
+    missing = [m for m in ("gasp_studies", "distributed") if importlib.util.find_spec(m) is None]
+    if missing:
+        raise GaspError(f"'gasp {module}' needs the studies extra ({', '.join(missing)} not installed): "
+                        f'pip install -e ".[studies]"')
+    return importlib.import_module(f"gasp_studies.{module}")
+
+
 def _cmd_compare(args) -> int:
-    from .compare import compare_scene
-    compare_scene(args.scene, [e.strip() for e in args.engines.split(",") if e.strip()] if args.engines else None,
-                  args.output, overwrite=args.overwrite, n_frames=args.frames, max_gaussians=args.max_gaussians)
+    kw = {"timeout_s": args.timeout} if args.timeout else {}
+    _studies("compare").compare_scene(
+        args.scene, [e.strip() for e in args.engines.split(",") if e.strip()] if args.engines else None,
+        args.output, overwrite=args.overwrite, n_frames=args.frames, max_gaussians=args.max_gaussians,
+        scheduler=args.scheduler, workers=args.workers, **kw)
     return 0
 
 
 def _cmd_bench(args) -> int:
-    from .bench import bench_scene
-    from .bench import DEFAULT_MAX_GAUSSIANS
-    kw = dict(n_grid=(32, 48), cfl=(0.4, 0.8), particles_per_cell=(8,), fill=(True,), precision=("f32",),
-              cells_across=(4, 8), flex_cfl=(0.5,), flex_reference_cells=8) if args.quick else {}
-    kw["reference_n_grid"] = args.reference_n_grid or None
-    bench_scene(args.scene, args.output, engines=args.engines.split(",") if args.engines else None,
-                overwrite=args.overwrite, n_frames=args.frames,
-                max_gaussians=DEFAULT_MAX_GAUSSIANS if args.max_gaussians is None else
-                (None if args.max_gaussians == 0 else args.max_gaussians), **kw)
+    bench = _studies("bench")
+    kw = {"timeout_s": args.timeout} if args.timeout else {}
+    bench.bench_scene(args.scene, args.output, engines=args.engines.split(",") if args.engines else None,
+                      overwrite=args.overwrite, n_frames=args.frames, quick=args.quick,
+                      reference_n_grid=args.reference_n_grid or None,
+                      max_gaussians=bench.DEFAULT_MAX_GAUSSIANS if args.max_gaussians is None else
+                      (None if args.max_gaussians == 0 else args.max_gaussians),
+                      scheduler=args.scheduler, workers=args.workers, **kw)
     return 0
+
+
+def _add_study_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run on an existing Dask cluster (default: a local one, a fresh process per run)")
+    p.add_argument("--workers", type=int, default=1,
+                   help="local worker processes running at once (default 1: comparable timings)")
+    p.add_argument("--timeout", type=float, help="wall-clock limit of one run, seconds")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -137,19 +157,21 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--overwrite", action="store_true")
     c.add_argument("--frames", type=positive_int)
     c.add_argument("--max-gaussians", type=int, help="keep every k-th Gaussian so each object has at most this many")
+    _add_study_args(c)
     c.set_defaults(func=_cmd_compare)
 
     b = sub.add_parser("bench", help="sweep speed/accuracy settings against a converged reference")
     b.add_argument("scene", type=Path)
-    b.add_argument("--engines", help="comma-separated engine names (default: all installed grid engines)")
+    b.add_argument("--engines", help="comma-separated engine names (default: all installed that can run it and offer a sweep)")
     b.add_argument("-o", "--output", type=Path, required=True)
     b.add_argument("--overwrite", action="store_true")
     b.add_argument("--frames", type=positive_int)
     b.add_argument("--max-gaussians", type=int,
                    help="keep every k-th Gaussian so each object has at most this many (default 6000; 0 = all)")
-    b.add_argument("--quick", action="store_true", help="a small sweep (n_grid 32/48, cfl 0.4/0.8, f32)")
+    b.add_argument("--quick", action="store_true", help="each engine's quick sweep (a few settings)")
     b.add_argument("--reference-n-grid", type=int, default=0,
-                   help="a finer grid for the MPM engines' reference run alone (default 0: the finest of the sweep, n_grid 96)")
+                   help="a finer n_grid for the reference runs alone (default 0: each engine's own reference)")
+    _add_study_args(b)
     b.set_defaults(func=_cmd_bench)
 
     from .testing.cli import add_parser as add_conform_parser
