@@ -1,0 +1,318 @@
+"""The ``blender`` engine: one headless Blender scene built from a :class:`~gasp_core.engine.SimSetup`.
+
+Per body (``setup.body_id``), a soft body on a coarse voxel cage (:mod:`.cage`): a Blender mesh
+whose vertices are the cage corners and whose edges are the cage springs, with a ``SOFT_BODY``
+modifier; the input points ride on the cage trilinearly. ``ground`` is a plane with a
+``COLLISION`` modifier; ``fixed_region`` pins cage vertices through the soft-body goal (a vertex
+group of weight 1, which Blender snaps exactly onto the rest position).
+
+Units (Blender 4.x ``softbody.cc``): the soft-body solver is frame based. One frame advances its
+clock by ``speed`` (``SoftBodySettings.speed``) time units; gravity enters as ``0.001 g`` per unit
+mass ("unit mass of node rescaled to 1 gram"); a spring of rest length ``L0`` pulls with
+``k (L0 - L) / L0`` where ``k = 1 / (1 - pull) - 1``. With ``speed = frame_dt * sqrt(1000)``, one
+frame is ``frame_dt`` seconds and gravity is SI; with a mass unit ``mu`` kg (the heaviest cage vertex
+weighs 1), an SI spring ``k_SI`` becomes ``k = k_SI L0 / (1000 mu)``. See ``README.md``.
+"""
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from gasp_core.engine import EngineDivergence, EngineError, SceneError, SimSetup, check_options
+
+from .cage import Cage, build_cage, embed, interpolate, lump
+
+ENGINE = "blender"
+
+#: Engine options (``[engine]`` table of a scene) and their defaults.
+DEFAULT_OPTIONS: dict[str, Any] = {
+    "device": "cpu",        # only "cpu"
+    "precision": "f32",     # only "f32" (Blender stores positions in float32)
+    "mode": "softbody",     # only "softbody" in this version (cloth: see README)
+    "cells_across": 6,      # cage cells along a body's longest side
+    "cell_size": None,      # cage cell size h, m (overrides cells_across)
+    "step_min": 10,         # soft-body solver: minimum steps per frame (SoftBodySettings.step_min)
+    "step_max": 300,        # maximum steps per frame (step_max)
+    "error_threshold": 0.1,  # Runge-Kutta (Heun) error limit (error_threshold)
+    "damping": 0.5,         # edge spring damping, Blender units (SoftBodySettings.damping, 0-50)
+    "collision_damping": 0.5,  # ground collision damping (CollisionSettings.damping, 0-1)
+    "thickness": 0.001,     # ground outer thickness, m (CollisionSettings.thickness_outer, >= 0.001)
+}
+
+#: Largest spring constant Blender accepts: pull <= 0.999 -> k = 1 / (1 - pull) - 1 = 999.
+K_MAX = 999.0
+
+
+def _import_bpy():
+    try:
+        import bpy  # noqa: F401
+    except Exception as e:  # ImportError, or a broken install raising something else
+        raise EngineError(f"engine '{ENGINE}': cannot import bpy ({type(e).__name__}: {e}); "
+                          "pip install 'gasp-blender[engine]'") from None
+    return bpy
+
+
+class _Body:
+    def __init__(self, idx, cage: Cage, cell, w, pinned, mu, k, k_si, mass_kg):
+        self.idx, self.cage, self.cell, self.w = idx, cage, cell, w
+        self.pinned, self.mu, self.k, self.k_si, self.mass_kg = pinned, mu, k, k_si, mass_kg
+        self.obj = None
+
+
+class BlenderSoftBodyEngine:
+    """A running Blender soft-body simulation of a :class:`~gasp_core.engine.SimSetup`.
+
+    Parameters
+    ----------
+    setup : SimSetup
+        World frame, metres, z up. ``setup.options`` may hold the keys of :data:`DEFAULT_OPTIONS`.
+
+    Raises
+    ------
+    SceneError
+        Unknown option or bad value, a material/boundary the engine lacks, non-zero initial
+        velocities (Blender starts soft bodies at rest), ``frame_dt`` outside what Blender's
+        ``speed`` accepts.
+    EngineError
+        bpy cannot be imported.
+
+    Notes
+    -----
+    ``velocities()`` are backward differences of the positions over one frame (Blender's point
+    cache holds the solver's velocities but bpy does not expose them).
+    """
+
+    def __init__(self, setup: SimSetup):
+        self.setup = setup
+        o = check_options(setup.options, DEFAULT_OPTIONS, ENGINE)
+        self.options = o
+        if o["device"] != "cpu":
+            raise SceneError(f"engine '{ENGINE}': option device={o['device']!r}; only 'cpu' is offered")
+        if o["precision"] != "f32":
+            raise SceneError(f"engine '{ENGINE}': option precision={o['precision']!r}; only 'f32' is offered")
+        if o["mode"] != "softbody":
+            raise SceneError(f"engine '{ENGINE}': option mode={o['mode']!r}; only 'softbody' is offered "
+                             "in this version")
+        for key, lo in (("cells_across", 1), ("step_min", 1), ("step_max", 1)):
+            if isinstance(o[key], bool) or not isinstance(o[key], int) or o[key] < lo:
+                raise SceneError(f"engine '{ENGINE}': option {key}={o[key]!r}; expected an integer >= {lo}")
+        if o["step_max"] < o["step_min"]:
+            raise SceneError(f"engine '{ENGINE}': option step_max={o['step_max']} < step_min={o['step_min']}")
+        for key, lo, hi in (("error_threshold", 0.001, 10.0), ("damping", 0.0, 50.0),
+                            ("collision_damping", 0.0, 1.0), ("thickness", 0.001, 1.0)):
+            v = o[key]
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not (lo <= v <= hi):
+                raise SceneError(f"engine '{ENGINE}': option {key}={v!r}; expected a number in [{lo}, {hi}]")
+        if o["cell_size"] is not None and not (isinstance(o["cell_size"], (int, float)) and o["cell_size"] > 0):
+            raise SceneError(f"engine '{ENGINE}': option cell_size={o['cell_size']!r}; expected a positive number (m)")
+        for m in setup.materials:
+            if m.name != "jelly":
+                raise SceneError(f"engine '{ENGINE}': material {m.name!r} is not supported; supported: ['jelly']")
+        for b in setup.boundaries:
+            if b.kind not in ("ground", "fixed_region"):
+                raise SceneError(f"engine '{ENGINE}': boundary kind {b.kind!r} is not supported; "
+                                 "supported: ['fixed_region', 'ground']")
+        if np.any(setup.v != 0.0):
+            raise SceneError(f"engine '{ENGINE}': initial velocities are not supported (Blender starts "
+                             "soft bodies at rest and bpy cannot set their velocities)")
+        self.speed = setup.frame_dt * math.sqrt(1000.0)
+        if not (0.01 <= self.speed <= 100.0):
+            raise SceneError(f"engine '{ENGINE}': frame_dt={setup.frame_dt} s needs soft-body speed "
+                             f"{self.speed:.4g}, outside Blender's [0.01, 100]")
+        self.frame = 0
+        self.n_points = len(setup.x)
+        self._x = setup.x.copy()
+        self._v = np.zeros_like(setup.x)
+        self.bpy = _import_bpy()
+        self._build()
+
+    # ------------------------------------------------------------------ scene construction
+    def _fixed_mask(self, x: np.ndarray) -> np.ndarray:
+        mask = np.zeros(len(x), dtype=bool)
+        for b in self.setup.boundaries:
+            if b.kind == "fixed_region":
+                mask |= np.all((x >= np.asarray(b.lo)) & (x <= np.asarray(b.hi)), axis=1)
+        return mask
+
+    def _build(self) -> None:
+        bpy, s, o = self.bpy, self.setup, self.options
+        bpy.ops.wm.read_factory_settings(use_empty=True)
+        scene = bpy.context.scene
+        scene.unit_settings.system = "METRIC"
+        scene.unit_settings.scale_length = 1.0
+        scene.use_gravity = True
+        scene.gravity = tuple(float(g) for g in s.gravity)
+        # one Blender frame = frame_dt (the soft-body solver itself is frame based: see speed)
+        fps = max(1, int(round(1.0 / s.frame_dt)))
+        scene.render.fps = fps
+        scene.render.fps_base = fps * s.frame_dt
+        scene.frame_start = 1
+        scene.frame_end = 1_000_000
+        scene.frame_set(1)
+
+        self.bodies: list[_Body] = []
+        fixed = self._fixed_mask(s.x)
+        for b, mat in enumerate(s.materials):
+            idx = np.flatnonzero(s.body_id == b)
+            if len(idx) == 0:
+                continue
+            xb = s.x[idx]
+            ext = float(np.max(xb.max(0) - xb.min(0)))
+            h = float(o["cell_size"]) if o["cell_size"] is not None else max(ext, 1e-6) / o["cells_across"]
+            cage = build_cage(xb, h)
+            cell, w = embed(cage, xb)
+            m_kg = lump(cage, cell, np.clip(w, 0.0, None), mat.rho * s.p_vol[idx])
+            m_kg = np.maximum(m_kg, 0.01 * m_kg.max())   # Blender clamps node masses below 0.01 units
+            mu = float(m_kg.max())                        # mass unit: the heaviest vertex weighs 1
+            # E on the axis-parallel springs: an interior cell edge shared by 4 cells carries the
+            # stress of an area h^2 -> k_SI = E h; Blender's k for the rest length h
+            k_si = mat.E * h
+            k = k_si * h / (1000.0 * mu)
+            pinned = np.zeros(len(cage.vertices), dtype=bool)
+            if fixed[idx].any():
+                pinned[np.unique(cage.cell_vertices[cell[fixed[idx]]])] = True
+            body = _Body(idx, cage, cell, w, pinned, mu, k, k_si, m_kg)
+            body.obj = self._add_softbody(f"gasp_body_{b}", body)
+            self.bodies.append(body)
+        for bd in s.boundaries:
+            if bd.kind == "ground":
+                self._add_ground(bd)
+        self.depsgraph = bpy.context.evaluated_depsgraph_get()
+        self._x = self._read_positions()
+
+    def _add_softbody(self, name: str, body: _Body):
+        bpy, o = self.bpy, self.options
+        cage = body.cage
+        me = bpy.data.meshes.new(name)
+        me.from_pydata(cage.vertices.tolist(), cage.edges.tolist(), [])
+        me.update()
+        obj = bpy.data.objects.new(name, me)
+        bpy.context.scene.collection.objects.link(obj)
+        vg_mass = obj.vertex_groups.new(name="mass")
+        w = body.mass_kg / body.mu
+        for i, wi in enumerate(w):
+            vg_mass.add([i], float(wi), "REPLACE")
+        mod = obj.modifiers.new("softbody", "SOFT_BODY")
+        sb = mod.settings
+        sb.mass = 1.0
+        sb.vertex_group_mass = "mass"
+        sb.friction = 0.0              # no drag of a surrounding medium (air)
+        sb.speed = self.speed
+        sb.use_edges = True
+        sb.use_stiff_quads = False
+        sb.bend = 0.0
+        k = min(body.k, K_MAX)
+        self.k_clamped = body.k > K_MAX
+        sb.pull = 1.0 - 1.0 / (1.0 + k)
+        sb.push = sb.pull
+        sb.damping = float(o["damping"])
+        sb.plastic = 0
+        sb.use_self_collision = False
+        sb.step_min = int(o["step_min"])
+        sb.step_max = int(o["step_max"])
+        sb.use_auto_step = False
+        sb.error_threshold = float(o["error_threshold"])
+        if body.pinned.any():
+            vg = obj.vertex_groups.new(name="pin")
+            vg.add([int(i) for i in np.flatnonzero(body.pinned)], 1.0, "REPLACE")
+            sb.use_goal = True
+            sb.vertex_group_goal = "pin"
+            sb.goal_min = 0.0
+            sb.goal_max = 1.0
+            sb.goal_default = 0.0
+        else:
+            sb.use_goal = False
+        sb.effector_weights.gravity = 1.0
+        cache = mod.point_cache
+        cache.frame_start = 1
+        cache.frame_end = 1_000_000
+        return obj
+
+    def _add_ground(self, bd) -> None:
+        bpy, s = self.bpy, self.setup
+        half = 2.0 * float(np.max(s.domain_hi - s.domain_lo)) + 10.0
+        c = 0.5 * (s.domain_lo + s.domain_hi)
+        z = float(bd.height)
+        verts = [(c[0] - half, c[1] - half, z), (c[0] + half, c[1] - half, z),
+                 (c[0] + half, c[1] + half, z), (c[0] - half, c[1] + half, z)]
+        me = bpy.data.meshes.new("gasp_ground")
+        me.from_pydata(verts, [], [(0, 1, 2, 3)])
+        me.update()
+        obj = bpy.data.objects.new("gasp_ground", me)
+        bpy.context.scene.collection.objects.link(obj)
+        obj.modifiers.new("collision", "COLLISION")
+        col = obj.collision
+        col.use = True
+        col.damping = float(self.options["collision_damping"])
+        col.thickness_outer = float(self.options["thickness"])
+        col.cloth_friction = float(min(80.0, bd.friction * 5.0))  # cloth only (soft bodies have none)
+
+    # ------------------------------------------------------------------ stepping
+    def _read_positions(self) -> np.ndarray:
+        x = np.empty((self.n_points, 3))
+        for body in self.bodies:
+            ev = body.obj.evaluated_get(self.depsgraph)
+            me = ev.to_mesh()
+            co = np.empty(3 * len(me.vertices), dtype=np.float32)
+            me.vertices.foreach_get("co", co)
+            ev.to_mesh_clear()
+            verts = co.reshape(-1, 3).astype(np.float64)
+            x[body.idx] = interpolate(verts, body.cage, body.cell, body.w)
+        return x
+
+    def step_frame(self) -> None:
+        """Advance by ``frame_dt``: ``scene.frame_set(frame + 1)`` and read the cage back.
+
+        Raises
+        ------
+        EngineDivergence
+            Non-finite positions or a point leaving the domain.
+        """
+        self.frame += 1
+        scene = self.bpy.context.scene
+        scene.frame_set(self.frame + 1)
+        self.depsgraph = self.bpy.context.evaluated_depsgraph_get()
+        x = self._read_positions()
+        if not np.isfinite(x).all():
+            raise EngineDivergence("non-finite positions from Blender's soft body", self.frame,
+                                   cause="springs too stiff for the solver's steps (raise step_min)")
+        s = self.setup
+        out = np.any((x < s.domain_lo) | (x > s.domain_hi), axis=1)
+        if out.any():
+            i = int(np.flatnonzero(out)[0])
+            raise EngineDivergence(f"{int(out.sum())} point(s) left the domain (first: point {i} at "
+                                   f"{x[i].round(4).tolist()})", self.frame,
+                                   cause="springs too stiff for the solver's steps, or missing ground")
+        self._v = (x - self._x) / s.frame_dt
+        self._x = x
+
+    def positions(self) -> np.ndarray:
+        """Point positions, shape (n, 3), float64 (from Blender's float32), metres."""
+        return self._x.copy()
+
+    def velocities(self) -> np.ndarray:
+        """Backward-difference point velocities over the last frame, shape (n, 3), m/s."""
+        return self._v.copy()
+
+    def stats(self) -> dict[str, Any]:
+        """device, precision, n_points, cage sizes, Blender settings derived from the material."""
+        return {
+            "device": "cpu", "precision": "f32", "n_points": self.n_points, "frame": self.frame,
+            "mode": self.options["mode"], "speed": self.speed,
+            "n_cage_vertices": int(sum(len(b.cage.vertices) for b in self.bodies)),
+            "n_springs": int(sum(len(b.cage.edges) for b in self.bodies)),
+            "cell_size": [b.cage.h for b in self.bodies],
+            "mass_unit_kg": [b.mu for b in self.bodies],
+            "spring_k_blender": [b.k for b in self.bodies],
+            "spring_k_clamped": [bool(b.k > K_MAX) for b in self.bodies],
+            "step_min": self.options["step_min"], "step_max": self.options["step_max"],
+            "blender": ".".join(map(str, self.bpy.app.version)),
+        }
+
+    def close(self) -> None:
+        """Empty the Blender scene."""
+        if self.bpy is not None:
+            self.bpy.ops.wm.read_factory_settings(use_empty=True)
+        self.bodies = []
