@@ -33,13 +33,17 @@ DEFAULT_OPTIONS: dict[str, Any] = {
     "mode": "softbody",     # only "softbody" in this version (cloth: see README)
     "cells_across": 6,      # cage cells along a body's longest side
     "cell_size": None,      # cage cell size h, m (overrides cells_across)
-    "step_min": 10,         # soft-body solver: minimum steps per frame (SoftBodySettings.step_min)
+    "step_min": 20,         # soft-body solver: minimum steps per frame (SoftBodySettings.step_min)
     "step_max": 300,        # maximum steps per frame (step_max)
-    "error_threshold": 0.1,  # Runge-Kutta (Heun) error limit (error_threshold)
+    "dt": None,             # largest solver step, s: sets step_min = ceil(frame_dt / dt)
+    "error_threshold": 0.001,  # Heun error limit (error_threshold); 0.1 (Blender default) lets light cage corners go unstable
     "damping": 0.5,         # edge spring damping, Blender units (SoftBodySettings.damping, 0-50)
     "collision_damping": 0.5,  # ground collision damping (CollisionSettings.damping, 0-1)
     "thickness": 0.001,     # ground outer thickness, m (CollisionSettings.thickness_outer, >= 0.001)
 }
+
+#: Young's modulus of the cubic spring cage in units of K' / h^2 (see _build).
+LATTICE_E = (1.0 + math.sqrt(2.0) + 4.0 / (3.0 * math.sqrt(3.0))) * (1.25 * 0.5 / 0.75)
 
 #: Largest spring constant Blender accepts: pull <= 0.999 -> k = 1 / (1 - pull) - 1 = 999.
 K_MAX = 999.0
@@ -98,6 +102,12 @@ class BlenderSoftBodyEngine:
         for key, lo in (("cells_across", 1), ("step_min", 1), ("step_max", 1)):
             if isinstance(o[key], bool) or not isinstance(o[key], int) or o[key] < lo:
                 raise SceneError(f"engine '{ENGINE}': option {key}={o[key]!r}; expected an integer >= {lo}")
+        if o["dt"] is not None:
+            dt = o["dt"]
+            if isinstance(dt, bool) or not isinstance(dt, (int, float)) or not (math.isfinite(dt) and dt > 0):
+                raise SceneError(f"engine '{ENGINE}': option dt={dt!r}; expected a positive number of seconds")
+            o["step_min"] = max(1, math.ceil(setup.frame_dt / dt - 1e-9))
+            o["step_max"] = max(o["step_max"], o["step_min"])
         if o["step_max"] < o["step_min"]:
             raise SceneError(f"engine '{ENGINE}': option step_max={o['step_max']} < step_min={o['step_min']}")
         for key, lo, hi in (("error_threshold", 0.001, 10.0), ("damping", 0.0, 50.0),
@@ -166,10 +176,12 @@ class BlenderSoftBodyEngine:
             m_kg = lump(cage, cell, np.clip(w, 0.0, None), mat.rho * s.p_vol[idx])
             m_kg = np.maximum(m_kg, 0.01 * m_kg.max())   # Blender clamps node masses below 0.01 units
             mu = float(m_kg.max())                        # mass unit: the heaviest vertex weighs 1
-            # E on the axis-parallel springs: an interior cell edge shared by 4 cells carries the
-            # stress of an area h^2 -> k_SI = E h; Blender's k for the rest length h
-            k_si = mat.E * h
-            k = k_si * h / (1000.0 * mu)
+            # Blender gives every spring the same k: SI stiffness K' / L0 with K' = 1000 mu k.
+            # A cubic cell with its 12 edges, 12 face and 4 body diagonals at stiffness K' / L0 has
+            # C11 = (1 + sqrt 2 + 4 / (3 sqrt 3)) K' / h^2 and Poisson's ratio 1/4 (Cauchy), so
+            # Young's modulus E_lattice = LATTICE_E * K' / h^2; pick K' so that E_lattice = E.
+            k_si = mat.E * h * h / LATTICE_E      # K', N (SI spring constant times rest length)
+            k = k_si / (1000.0 * mu)
             pinned = np.zeros(len(cage.vertices), dtype=bool)
             if fixed[idx].any():
                 pinned[np.unique(cage.cell_vertices[cell[fixed[idx]]])] = True
@@ -221,7 +233,9 @@ class BlenderSoftBodyEngine:
             sb.vertex_group_goal = "pin"
             sb.goal_min = 0.0
             sb.goal_max = 1.0
-            sb.goal_default = 0.0
+            # Blender multiplies goal_default by the group weight (1 pinned, 0 = not in the group);
+            # a goal >= 0.999 snaps the vertex onto its rest position (SOFTGOALSNAP)
+            sb.goal_default = 1.0
         else:
             sb.use_goal = False
         sb.effector_weights.gravity = 1.0
