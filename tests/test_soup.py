@@ -94,7 +94,7 @@ def test_rigid_round_trip_trimesh(donut_scene, exported, tmp_path):
     m0, a0, b0 = _world(g0, pl)
     size = float(np.max(np.ptp(m0, axis=0)))
     src = read_gaussians(DONUT)
-    assert np.array_equal(g0.opacities, src.opacities) and np.array_equal(g0.sh, src.sh)
+    assert np.array_equal(g0.opacities, src.opacities) and np.array_equal(g0.sh_dc, src.sh_dc)
     # frame 0 sits where the input was
     assert np.abs(g0.means - src.means).max() <= 1e-6 * size
     for f in (1, 2):
@@ -121,7 +121,7 @@ def test_import_errors_are_scene_errors(donut_scene, exported, tmp_path):
 BLENDER_SCRIPT = r"""
 import sys, math
 import bpy
-src, outdir = sys.argv[1], sys.argv[2]
+src, outdir, fmt = sys.argv[1], sys.argv[2], sys.argv[3]
 bpy.ops.wm.read_factory_settings(use_empty=True)
 bpy.ops.wm.obj_import(filepath=src, forward_axis="Y", up_axis="Z")
 obj = bpy.context.selected_objects[0]
@@ -129,14 +129,27 @@ for k in range(3):
     obj.location = (0.05 * k, -0.02 * k, 0.3 * k)
     obj.rotation_euler = (0.0, 0.0, 0.7 * k)
     bpy.context.view_layer.update()
-    bpy.ops.wm.obj_export(filepath=f"{outdir}/frame_{k:04d}.obj", export_selected_objects=False,
-                          forward_axis="Y", up_axis="Z", export_normals=False, export_uv=False,
-                          export_materials=False, apply_modifiers=False)
+    if fmt == "obj":
+        bpy.ops.wm.obj_export(filepath=f"{outdir}/frame_{k:04d}.obj", export_selected_objects=False,
+                              forward_axis="Y", up_axis="Z", export_normals=False, export_uv=False,
+                              export_materials=False, apply_modifiers=False)
+    else:
+        bpy.ops.wm.ply_export(filepath=f"{outdir}/frame_{k:04d}.ply", export_selected_objects=False,
+                              forward_axis="Y", up_axis="Z", export_normals=False, export_uv=False,
+                              export_colors="NONE", export_attributes=False, ascii_format=False,
+                              apply_modifiers=False)
 """
 
 
-def test_blender_written_soup_imports(donut_scene, exported, tmp_path):
-    """Blender itself loads the exported OBJ, moves it rigidly and writes OBJ frames; they import rigidly."""
+#: Tolerance per format, in object sizes. Blender's OBJ writer prints 6 decimals (5e-7 m rounding;
+#: measured 5.7e-6 of the size on the means, 1.1e-5 on the in-plane axes, where a short edge turns
+#: the rounding into an angle error); its PLY writer stores float32 coordinates.
+BLENDER_TOL = {"obj": 3e-5, "ply": 1e-6}
+
+
+@pytest.mark.parametrize("fmt", ["obj", "ply"])
+def test_blender_written_soup_imports(donut_scene, exported, tmp_path, fmt):
+    """Blender itself loads the exported OBJ, moves it rigidly and writes frames; they import rigidly."""
     pytest.importorskip("bpy", reason="bpy is not installed: pip install 'gasp-blender[engine]'")
     man = json.loads((exported / "soup.json").read_text())
     (obj,) = man["objects"]
@@ -144,7 +157,7 @@ def test_blender_written_soup_imports(donut_scene, exported, tmp_path):
     motion.mkdir()
     script = tmp_path / "move.py"
     script.write_text(BLENDER_SCRIPT)
-    subprocess.run([sys.executable, str(script), str(exported / obj["files"]["obj"]), str(motion)],
+    subprocess.run([sys.executable, str(script), str(exported / obj["files"]["obj"]), str(motion), fmt],
                    check=True, capture_output=True, timeout=600)
     out = tmp_path / "out"
     assert main(["import-motion", str(donut_scene), str(motion), "-o", str(out)]) == 0
@@ -153,8 +166,8 @@ def test_blender_written_soup_imports(donut_scene, exported, tmp_path):
     m0, a0, b0 = _world(g0, pl)
     size = float(np.max(np.ptp(m0, axis=0)))
     src = read_gaussians(DONUT)
-    # Blender's OBJ writer prints 6 decimals: 5e-7 m rounding on ~0.1 m -> compare at 1e-5 of the size
-    assert np.abs(g0.means - src.means).max() <= 1e-5 * size
+    tol = BLENDER_TOL[fmt]
+    assert np.abs(g0.means - src.means).max() <= tol * size
     for k in (1, 2):
         ang = 0.7 * k
         Q = np.array([[np.cos(ang), -np.sin(ang), 0], [np.sin(ang), np.cos(ang), 0], [0, 0, 1]])
@@ -163,4 +176,5 @@ def test_blender_written_soup_imports(donut_scene, exported, tmp_path):
         m, a, b = _world(g, pl)
         err_m = np.abs(m - (m0 @ Q.T + c)).max()
         err_ax = max(np.abs(a - a0 @ Q.T).max(), np.abs(b - b0 @ Q.T).max())
-        assert err_m <= 1e-5 * size and err_ax <= 1e-5 * size, (err_m / size, err_ax / size)
+        print(f"{fmt} frame {k}: means {err_m / size:.3g}, axes {err_ax / size:.3g} of the size")
+        assert err_m <= tol * size and err_ax <= tol * size, (err_m / size, err_ax / size)

@@ -2,7 +2,8 @@
 
 A cage is a voxel grid of cell size ``h``: the cells holding a point, closed and hole-filled, with
 their corners as vertices and, as springs, the 12 cell edges, the 12 face diagonals and the 4 body
-diagonals of every occupied cell (shared ones once). Every point is tied to the 8 corners of its
+diagonals of every occupied cell (shared ones once). The cage's bottom face passes through the
+lowest point (world z up), so the cage touches a ground where the body does. Every point is tied to the 8 corners of its
 cell by trilinear weights.
 """
 from __future__ import annotations
@@ -76,6 +77,9 @@ def build_cage(x: np.ndarray, h: float, close_iters: int = 1) -> Cage:
     n = np.floor(ext / h).astype(np.int64) + 1
     pad = close_iters + 1
     origin = lo - 0.5 * (n * h - ext) - pad * h
+    # the lowest point lies on the cage's bottom face: the cage, which is what collides, then
+    # meets the ground where the body does (z up)
+    origin[2] = lo[2] - pad * h
     shape = tuple(int(v) for v in n + 2 * pad)
     idx = np.clip(np.floor((x - origin) / h).astype(np.int64), 0, np.array(shape) - 1)
     occ = np.zeros(shape, dtype=bool)
