@@ -23,6 +23,7 @@ import numpy as np
 from gasp_core.engine import EngineDivergence, EngineError, SceneError, SimSetup, check_options
 
 from .cage import Cage, build_cage, embed, interpolate, lump
+from .sheet import build_sheet, place
 
 ENGINE = "blender"
 
@@ -30,7 +31,9 @@ ENGINE = "blender"
 DEFAULT_OPTIONS: dict[str, Any] = {
     "device": "cpu",        # only "cpu"
     "precision": "f32",     # only "f32" (Blender stores positions in float32)
-    "mode": "softbody",     # only "softbody" in this version (cloth: see README)
+    "mode": "softbody",     # "softbody" (voxel cage) or "cloth" (a quad sheet through a thin body)
+    "tension": 15.0,        # cloth only: tension/compression/shear stiffness, Blender units (not from E)
+    "bending": 0.5,         # cloth only: bending stiffness, Blender units (not from E)
     "cells_across": 6,      # cage cells along a body's longest side
     "cell_size": None,      # cage cell size h, m (overrides cells_across)
     "step_min": 20,         # soft-body solver: minimum steps per frame (SoftBodySettings.step_min)
@@ -96,9 +99,11 @@ class BlenderSoftBodyEngine:
             raise SceneError(f"engine '{ENGINE}': option device={o['device']!r}; only 'cpu' is offered")
         if o["precision"] != "f32":
             raise SceneError(f"engine '{ENGINE}': option precision={o['precision']!r}; only 'f32' is offered")
-        if o["mode"] != "softbody":
-            raise SceneError(f"engine '{ENGINE}': option mode={o['mode']!r}; only 'softbody' is offered "
-                             "in this version")
+        if o["mode"] not in ("softbody", "cloth"):
+            raise SceneError(f"engine '{ENGINE}': option mode={o['mode']!r}; expected 'softbody' or 'cloth'")
+        for key in ("tension", "bending"):
+            if isinstance(o[key], bool) or not isinstance(o[key], (int, float)) or not (0 <= o[key] <= 10000):
+                raise SceneError(f"engine '{ENGINE}': option {key}={o[key]!r}; expected a number in [0, 10000]")
         for key, lo in (("cells_across", 1), ("step_min", 1), ("step_max", 1)):
             if isinstance(o[key], bool) or not isinstance(o[key], int) or o[key] < lo:
                 raise SceneError(f"engine '{ENGINE}': option {key}={o[key]!r}; expected an integer >= {lo}")
@@ -169,6 +174,9 @@ class BlenderSoftBodyEngine:
             if len(idx) == 0:
                 continue
             xb = s.x[idx]
+            if o["mode"] == "cloth":
+                self.bodies.append(self._add_cloth(f"gasp_body_{b}", idx, xb, mat, fixed[idx]))
+                continue
             ext = float(np.max(xb.max(0) - xb.min(0)))
             h = float(o["cell_size"]) if o["cell_size"] is not None else max(ext, 1e-6) / o["cells_across"]
             cage = build_cage(xb, h)
@@ -244,6 +252,51 @@ class BlenderSoftBodyEngine:
         cache.frame_end = 1_000_000
         return obj
 
+    def _add_cloth(self, name: str, idx: np.ndarray, xb: np.ndarray, mat, fixed: np.ndarray) -> _Body:
+        bpy, o, s = self.bpy, self.options, self.setup
+        sheet, quad, w, d = build_sheet(xb, o["cells_across"])
+        me = bpy.data.meshes.new(name)
+        me.from_pydata(sheet.vertices.tolist(), [], sheet.quads.tolist())
+        me.update()
+        obj = bpy.data.objects.new(name, me)
+        bpy.context.scene.collection.objects.link(obj)
+        pinned = np.zeros(len(sheet.vertices), dtype=bool)
+        if fixed.any():
+            pinned[np.unique(sheet.quads[quad[fixed]])] = True
+            for bd in s.boundaries:
+                if bd.kind == "fixed_region":
+                    pinned |= np.all((sheet.vertices >= np.asarray(bd.lo)) & (sheet.vertices <= np.asarray(bd.hi)), axis=1)
+        mod = obj.modifiers.new("cloth", "CLOTH")
+        cs = mod.settings
+        total = float(mat.rho * s.p_vol[idx].sum())
+        # Blender cloth has one mass per vertex; light vertices (~0.02) fall 10 % slow in free fall
+        # (measured, Blender 5.0.1), so the vertex mass total / n_vertices kg is the mass unit
+        # (cs.mass = 1) and tension/bending are in Blender units relative to it
+        mu = total / len(sheet.vertices)
+        cs.mass = 1.0
+        cs.time_scale = self.speed                  # cloth is frame based like soft bodies: same clock
+        cs.quality = int(o["step_min"])
+        cs.air_damping = 0.0
+        cs.tension_stiffness = cs.compression_stiffness = cs.shear_stiffness = float(o["tension"])
+        cs.bending_stiffness = float(o["bending"])
+        if pinned.any():
+            vg = obj.vertex_groups.new(name="pin")
+            vg.add([int(i) for i in np.flatnonzero(pinned)], 1.0, "REPLACE")
+            cs.vertex_group_mass = "pin"            # Blender's cloth pin group
+        col = mod.collision_settings
+        col.use_collision = True
+        col.use_self_collision = False
+        col.distance_min = float(o["thickness"])
+        friction = [bd.friction for bd in s.boundaries if bd.kind == "ground"]
+        if friction:
+            col.friction = float(min(80.0, friction[0]))
+        mod.point_cache.frame_start = 1
+        mod.point_cache.frame_end = 1_000_000
+        body = _Body(idx, None, quad, w, pinned, mu, float(o["tension"]), 0.0, None)
+        body.sheet, body.d = sheet, d
+        body.obj = obj
+        return body
+
     def _add_ground(self, bd) -> None:
         bpy, s = self.bpy, self.setup
         half = 2.0 * float(np.max(s.domain_hi - s.domain_lo)) + 10.0
@@ -261,7 +314,7 @@ class BlenderSoftBodyEngine:
         col.use = True
         col.damping = float(self.options["collision_damping"])
         col.thickness_outer = float(self.options["thickness"])
-        col.cloth_friction = float(min(80.0, bd.friction * 5.0))  # cloth only (soft bodies have none)
+        col.cloth_friction = float(min(80.0, bd.friction))  # cloth only (soft bodies have no friction)
 
     # ------------------------------------------------------------------ stepping
     def _read_positions(self) -> np.ndarray:
@@ -273,7 +326,10 @@ class BlenderSoftBodyEngine:
             me.vertices.foreach_get("co", co)
             ev.to_mesh_clear()
             verts = co.reshape(-1, 3).astype(np.float64)
-            x[body.idx] = interpolate(verts, body.cage, body.cell, body.w)
+            if body.cage is None:
+                x[body.idx] = place(verts, body.sheet, body.cell, body.w, body.d)
+            else:
+                x[body.idx] = interpolate(verts, body.cage, body.cell, body.w)
         return x
 
     def step_frame(self) -> None:
@@ -315,9 +371,10 @@ class BlenderSoftBodyEngine:
         return {
             "device": "cpu", "precision": "f32", "n_points": self.n_points, "frame": self.frame,
             "mode": self.options["mode"], "speed": self.speed,
-            "n_cage_vertices": int(sum(len(b.cage.vertices) for b in self.bodies)),
-            "n_springs": int(sum(len(b.cage.edges) for b in self.bodies)),
-            "cell_size": [b.cage.h for b in self.bodies],
+            "n_cage_vertices": int(sum(len(b.cage.vertices) if b.cage is not None else len(b.sheet.vertices)
+                                       for b in self.bodies)),
+            "n_springs": int(sum(len(b.cage.edges) for b in self.bodies if b.cage is not None)),
+            "cell_size": [b.cage.h if b.cage is not None else b.sheet.h for b in self.bodies],
             "mass_unit_kg": [b.mu for b in self.bodies],
             "spring_k_blender": [b.k for b in self.bodies],
             "spring_k_clamped": [bool(b.k > K_MAX) for b in self.bodies],
