@@ -52,6 +52,10 @@ LATTICE_E = (1.0 + math.sqrt(2.0) + 4.0 / (3.0 * math.sqrt(3.0))) * (1.25 * 0.5 
 K_MAX = 999.0
 
 
+#: The engine that owns bpy's one scene in this process (a new engine takes it over).
+_OWNER = None
+
+
 def _import_bpy():
     try:
         import bpy  # noqa: F401
@@ -87,7 +91,8 @@ class BlenderSoftBodyEngine:
 
     Notes
     -----
-    ``velocities()`` are backward differences of the positions over one frame (Blender's point
+    bpy has one scene per process: building a second ``blender`` engine takes it over, and stepping
+    the first one then raises :class:`EngineError`. ``velocities()`` are backward differences of the positions over one frame (Blender's point
     cache holds the solver's velocities but bpy does not expose them).
     """
 
@@ -141,6 +146,8 @@ class BlenderSoftBodyEngine:
         self._x = setup.x.copy()
         self._v = np.zeros_like(setup.x)
         self.bpy = _import_bpy()
+        global _OWNER
+        _OWNER = self
         self._build()
 
     # ------------------------------------------------------------------ scene construction
@@ -340,6 +347,9 @@ class BlenderSoftBodyEngine:
         EngineDivergence
             Non-finite positions or a point leaving the domain.
         """
+        if _OWNER is not self:
+            raise EngineError(f"engine '{ENGINE}': this simulation's Blender scene was replaced by another "
+                              "'blender' engine built in the same process (bpy has one scene per process)")
         self.frame += 1
         scene = self.bpy.context.scene
         scene.frame_set(self.frame + 1)
@@ -383,7 +393,9 @@ class BlenderSoftBodyEngine:
         }
 
     def close(self) -> None:
-        """Empty the Blender scene."""
-        if self.bpy is not None:
+        """Empty the Blender scene (if this engine still owns it)."""
+        global _OWNER
+        if _OWNER is self:
             self.bpy.ops.wm.read_factory_settings(use_empty=True)
+            _OWNER = None
         self.bodies = []

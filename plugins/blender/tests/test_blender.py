@@ -177,3 +177,19 @@ def test_cloth_free_fall_and_pinned_edge():
         assert (x[:, 2] - p[:, 2])[x[:, 0] > 0.68].mean() > 0.05   # the free edge hangs down
     finally:
         eng.close()
+
+
+@needs_bpy
+def test_second_engine_takes_the_scene_over():
+    """bpy has one scene per process: the first engine refuses to step once a second one is built."""
+    from gasp_core.engine import EngineError
+    x, vol = block((0.4, 0.4, 0.5), (0.6, 0.6, 0.7), 0.05)
+    first = make_engine(setup_for(x, vol))
+    second = make_engine(setup_for(x, vol))
+    try:
+        with pytest.raises(EngineError, match="replaced by another"):
+            first.step_frame()
+        second.step_frame()
+    finally:
+        first.close()
+        second.close()
