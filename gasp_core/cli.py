@@ -125,6 +125,24 @@ def _add_study_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--timeout", type=float, help="wall-clock limit of one run, seconds")
 
 
+def _cmd_export_soup(args) -> int:
+    from .scene import load_scene
+    from .soup import export_soup
+    m = export_soup(load_scene(args.scene), args.output, overwrite=args.overwrite)
+    faces = ", ".join(f"{o['name']}: {o['n_gaussians']} faces" for o in m["objects"])
+    skipped = "".join(f"; {k} skipped: {v}" for k, v in m["skipped_writers"].items())
+    print(f"wrote the rest triangle soup of {len(m['objects'])} object(s) to {args.output} ({faces}){skipped}")
+    return 0
+
+
+def _cmd_import_motion(args) -> int:
+    from .scene import load_scene
+    from .soup import import_motion
+    s = import_motion(load_scene(args.scene), args.motion_dir, args.output, overwrite=args.overwrite)
+    print(f"wrote {s['n_frames'] + 1} frames x {len(s['objects'])} object(s) to {args.output}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = GaspArgumentParser(prog="gasp", description="GASP: physics for Gaussian Splatting scenes.")
     sub = p.add_subparsers(dest="command", required=True)
@@ -178,6 +196,19 @@ def build_parser() -> argparse.ArgumentParser:
     add_conform_parser(sub)
     from .render.cli import add_parsers as _render_parsers
     _render_parsers(sub)
+
+    x = sub.add_parser("export-soup", help="write the rest triangle soup per object (OBJ, PLY, ...) for a mesh tool")
+    x.add_argument("scene", type=Path)
+    x.add_argument("-o", "--output", type=Path, required=True)
+    x.add_argument("--overwrite", action="store_true")
+    x.set_defaults(func=_cmd_export_soup)
+
+    m = sub.add_parser("import-motion", help="rebuild Gaussian frames from an animated triangle soup")
+    m.add_argument("scene", type=Path)
+    m.add_argument("motion_dir", type=Path)
+    m.add_argument("-o", "--output", type=Path, required=True)
+    m.add_argument("--overwrite", action="store_true")
+    m.set_defaults(func=_cmd_import_motion)
     return p
 
 
