@@ -219,19 +219,3 @@ def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
         raise
     return RunResult(outdir=outdir, n_frames=n_frames, stats=stats, summary=summary)
 
-
-def commit_dir(tmp: Path, outdir: Path) -> None:
-    """Move a finished ``tmp`` folder to ``outdir``, replacing an old one only now (reports of studies).
-
-    Kept for :mod:`gasp_studies`; new code should use :class:`gasp_core.fsutil.OutputClaim`.
-    """
-    import os
-    import shutil
-    import tempfile
-    if outdir.exists():
-        trash = Path(tempfile.mkdtemp(dir=outdir.parent, prefix=f".{outdir.name}.old-"))
-        os.replace(outdir, trash / "old")
-        os.replace(tmp, outdir)
-        shutil.rmtree(trash, ignore_errors=True)
-    else:
-        os.replace(tmp, outdir)

@@ -22,10 +22,7 @@ here; the manifest records the reason.
 from __future__ import annotations
 
 import dataclasses
-import json
 import re
-import shutil
-import tempfile
 from importlib import metadata
 from pathlib import Path
 
@@ -34,7 +31,8 @@ import numpy as np
 from . import __version__
 from .engine import EngineError, SceneError
 from .io import write_gaussians
-from .pipeline import PreparedObject, commit_dir, prepare_object, rebuild
+from .fsutil import atomic_json, output_folder
+from .pipeline import PreparedObject, prepare_object, rebuild
 from .scene import Scene
 
 __all__ = ["SOUP_FORMAT", "WRITER_GROUP", "MANIFEST", "MESH_SUFFIXES", "object_names", "soup_mesh",
@@ -68,14 +66,6 @@ def soup_mesh(tri: np.ndarray):
     tri = np.asarray(tri, dtype=np.float64)
     faces = np.arange(3 * len(tri), dtype=np.int64).reshape(-1, 3)
     return trimesh.Trimesh(vertices=tri.reshape(-1, 3), faces=faces, process=False, validate=False)
-
-
-def _atomic_json(path: Path, obj) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-    import os
-    with os.fdopen(fd, "w") as f:
-        json.dump(obj, f, indent=2, default=str)
-    os.replace(tmp, path)
 
 
 def _write_mesh(path: Path, tri: np.ndarray) -> None:
@@ -130,13 +120,10 @@ def export_soup(scene: Scene, outdir: str | Path, overwrite: bool = False,
     bad = sorted(set(formats) - {"obj", "ply"})
     if bad:
         raise SceneError(f"export-soup: unknown format(s) {bad}; offered: ['obj', 'ply']")
-    if outdir.exists() and not overwrite:
-        raise FileExistsError(f"output folder '{outdir}' exists; pass --overwrite to replace it")
-    objects = [prepare_object(spec) for spec in scene.objects]
-    names = object_names(objects)
-    outdir.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(dir=outdir.parent, prefix=f".{outdir.name}.partial-"))
-    try:
+    protected = [scene.path] + [o.file for o in scene.objects]
+    with output_folder(outdir, overwrite=overwrite, protected=protected) as tmp:
+        objects = [prepare_object(spec) for spec in scene.objects]
+        names = object_names(objects)
         entries = []
         for o, name in zip(objects, names):
             files = {}
@@ -164,11 +151,7 @@ def export_soup(scene: Scene, outdir: str | Path, overwrite: bool = False,
             "binding": ("face i = Gaussian i of the object's input file; corners (v1, v2, v3) = "
                         "(m, m + s2 r2, m + s3 r3); vertex 3 i + k = corner k of face i"),
             "objects": entries, "extra_files": extra, "skipped_writers": skipped}
-        _atomic_json(tmp / MANIFEST, manifest)
-        commit_dir(tmp, outdir)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
+        atomic_json(tmp / MANIFEST, manifest)
     return manifest
 
 
@@ -272,8 +255,6 @@ def import_motion(scene: Scene, motion_dir: str | Path, outdir: str | Path,
         Missing or malformed frame files (wrong face count, unreadable, non-finite).
     """
     outdir = Path(outdir)
-    if outdir.exists() and not overwrite:
-        raise FileExistsError(f"output folder '{outdir}' exists; pass --overwrite to replace it")
     objects = [prepare_object(spec) for spec in scene.objects]
     names = object_names(objects)
     # every face of the object (Core Gaussians or not): the soup carries one face per Gaussian
@@ -288,9 +269,8 @@ def import_motion(scene: Scene, motion_dir: str | Path, outdir: str | Path,
         n_frames = len(files)
         frame_sources = [[p] for p in files]
 
-    outdir.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(dir=outdir.parent, prefix=f".{outdir.name}.partial-"))
-    try:
+    protected = [scene.path, motion_dir] + [o.file for o in scene.objects]
+    with output_folder(outdir, overwrite=overwrite, protected=protected) as tmp:
         for name in names:
             (tmp / name).mkdir()
         prev = [o.rot_rest for o in objects]
@@ -315,9 +295,5 @@ def import_motion(scene: Scene, motion_dir: str | Path, outdir: str | Path,
                          "layout": o.gaussians.layout, "alpha": o.spec.alpha, "thickness": o.spec.thickness,
                          "placement": _placement_dict(o)} for o, name in zip(objects, names)],
             "frames": rows}
-        _atomic_json(tmp / "run.json", summary)
-        commit_dir(tmp, outdir)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
+        atomic_json(tmp / "run.json", summary)
     return summary

@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from gasp_core.fsutil import output_folder
 from gasp_core.errors import EngineError, SceneError
 from gasp_core.scene import Scene, load_scene
 
@@ -196,7 +197,7 @@ def bench_scene(scene_path: str | Path, output: str | Path, engines: list[str] |
         No engine can run the scene, or none offers a sweep.
     """
     output = Path(output)
-    if output.exists() and not overwrite:
+    if output.exists() and not overwrite:  # early, before any work; output_folder claims it for good
         raise FileExistsError(f"output folder '{output}' exists; pass --overwrite to replace it")
     scene = load_scene(scene_path)
     if n_frames is not None and (isinstance(n_frames, bool) or not isinstance(n_frames, int) or n_frames < 2):
@@ -214,77 +215,71 @@ def bench_scene(scene_path: str | Path, output: str | Path, engines: list[str] |
     option_keys = sorted({k for sw in plan.values() for s in sw for k in s if k not in SCENE_KEYS})
     columns = report.bench_columns(option_keys)
 
-    from gasp_core.pipeline import commit_dir
-    output.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(dir=output.parent, prefix=f".{output.name}.partial-"))
     work = Path(tempfile.mkdtemp(prefix="gasp-bench-"))
     t_all = time.perf_counter()
     try:
-        runs = tmp / "runs"
-        runs.mkdir()
-        scene_run, strides = subsample_scene(scene, max_gaussians, work)
-        specs, where = [], []
-        for name, sweep in plan.items():
-            base = engine_options(scene, name, options)
-            for i, s in enumerate(sweep):
-                sc, opts = apply_setting(scene_run, s, base)
-                specs.append(RunSpec(sc, name, opts, n_frames, f"{name}_{i:02d}"))
-                where.append((name, i, s))
-        outputs: list[RunOutput | None] = [None] * len(specs)
-        n_done = [0]
+        with output_folder(output, overwrite=overwrite, protected=[scene_path]) as tmp:
+            runs = tmp / "runs"
+            runs.mkdir()
+            scene_run, strides = subsample_scene(scene, max_gaussians, work)
+            specs, where = [], []
+            for name, sweep in plan.items():
+                base = engine_options(scene, name, options)
+                for i, s in enumerate(sweep):
+                    sc, opts = apply_setting(scene_run, s, base)
+                    specs.append(RunSpec(sc, name, opts, n_frames, f"{name}_{i:02d}"))
+                    where.append((name, i, s))
+            outputs: list[RunOutput | None] = [None] * len(specs)
+            n_done = [0]
 
-        def done(k: int, out: RunOutput) -> None:
-            outputs[k] = out
-            save_run(out, runs, specs[k].label, keep_means=False)
-            n_done[0] += 1
-            if progress:
-                name, _, s = where[k]
-                print(f"[{n_done[0]}/{len(specs)}, {time.perf_counter() - t_all:.0f} s] "
-                      + progress_line("bench", f"{name} {setting_label(s)}", out.record), file=sys.stderr, flush=True)
+            def done(k: int, out: RunOutput) -> None:
+                outputs[k] = out
+                save_run(out, runs, specs[k].label, keep_means=False)
+                n_done[0] += 1
+                if progress:
+                    name, _, s = where[k]
+                    print(f"[{n_done[0]}/{len(specs)}, {time.perf_counter() - t_all:.0f} s] "
+                          + progress_line("bench", f"{name} {setting_label(s)}", out.record), file=sys.stderr, flush=True)
 
-        with Runner(scheduler=scheduler, workers=workers, timeout_s=timeout_s) as runner:
-            runner.run(specs, done)
-            how = report.runner_line(runner)
-        rows: list[dict] = []
-        for name in plan:
-            ks = [k for k, w in enumerate(where) if w[0] == name]
-            ref = outputs[ks[0]] if outputs[ks[0]].record["status"] == "ok" else None
-            eng_rows = []
-            for k in ks:
-                _, i, s = where[k]
-                rec = outputs[k].record
-                frame_s = rec.get("frame_s") or []
-                ok = rec["status"] == "ok"
-                sp = steady_s_per_frame(frame_s) if ok else float("nan")
-                msg = "" if ok else rec.get("message", "")
-                if i == 0 and ref is None:
-                    msg = "reference run failed, no errors can be measured: " + msg
-                st = rec.get("engine_stats") or {}
-                eng_rows.append({
-                    "engine": name, "setting": setting_label(s), **{c: s.get(c) for c in columns if c in s},
-                    "is_reference": i == 0,
-                    "status": rec["status"] if rec["status"] != "diverged" else f"diverged@{rec.get('frame')}",
-                    "simulated_points": rec.get("simulated_points"), "substeps_per_frame": st.get("n_substeps"),
-                    "build_s": rec.get("build_s"), "first_frame_s": frame_s[0] if frame_s else None,
-                    "s_per_frame": sp,
-                    "cpu_s_per_frame": steady_s_per_frame(rec.get("frame_cpu_s") or []) if ok else float("nan"),
-                    "wall_s": sp * n_frames, **run_errors(ref, outputs[k]), "message": msg})
-            front = pareto_front([r["wall_s"] for r in eng_rows], [r["err_max"] for r in eng_rows])
-            for r, p in zip(eng_rows, front):
-                r["pareto"] = bool(p)
-            rows += eng_rows
-        outputs.clear()
-        report.write_csv(tmp / "bench.csv", rows, columns)
-        names = list(plan)
-        plots = report.bench_plots(tmp, rows, names)
-        summary = report.bench_summary(tmp / "summary.md", scene_name=scene.name, scene_path=scene_path,
-                                       n_frames=n_frames, frame_dt=scene.frame_dt, rows=rows, engines=names,
-                                       skipped=skipped, strides=strides, total_s=time.perf_counter() - t_all,
-                                       runner_line=how, plots=plots)
-        commit_dir(tmp, output)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
+            with Runner(scheduler=scheduler, workers=workers, timeout_s=timeout_s) as runner:
+                runner.run(specs, done)
+                how = report.runner_line(runner)
+            rows: list[dict] = []
+            for name in plan:
+                ks = [k for k, w in enumerate(where) if w[0] == name]
+                ref = outputs[ks[0]] if outputs[ks[0]].record["status"] == "ok" else None
+                eng_rows = []
+                for k in ks:
+                    _, i, s = where[k]
+                    rec = outputs[k].record
+                    frame_s = rec.get("frame_s") or []
+                    ok = rec["status"] == "ok"
+                    sp = steady_s_per_frame(frame_s) if ok else float("nan")
+                    msg = "" if ok else rec.get("message", "")
+                    if i == 0 and ref is None:
+                        msg = "reference run failed, no errors can be measured: " + msg
+                    st = rec.get("engine_stats") or {}
+                    eng_rows.append({
+                        "engine": name, "setting": setting_label(s), **{c: s.get(c) for c in columns if c in s},
+                        "is_reference": i == 0,
+                        "status": rec["status"] if rec["status"] != "diverged" else f"diverged@{rec.get('frame')}",
+                        "simulated_points": rec.get("simulated_points"), "substeps_per_frame": st.get("n_substeps"),
+                        "build_s": rec.get("build_s"), "first_frame_s": frame_s[0] if frame_s else None,
+                        "s_per_frame": sp,
+                        "cpu_s_per_frame": steady_s_per_frame(rec.get("frame_cpu_s") or []) if ok else float("nan"),
+                        "wall_s": sp * n_frames, **run_errors(ref, outputs[k]), "message": msg})
+                front = pareto_front([r["wall_s"] for r in eng_rows], [r["err_max"] for r in eng_rows])
+                for r, p in zip(eng_rows, front):
+                    r["pareto"] = bool(p)
+                rows += eng_rows
+            outputs.clear()
+            report.write_csv(tmp / "bench.csv", rows, columns)
+            names = list(plan)
+            plots = report.bench_plots(tmp, rows, names)
+            summary = report.bench_summary(tmp / "summary.md", scene_name=scene.name, scene_path=scene_path,
+                                           n_frames=n_frames, frame_dt=scene.frame_dt, rows=rows, engines=names,
+                                           skipped=skipped, strides=strides, total_s=time.perf_counter() - t_all,
+                                           runner_line=how, plots=plots)
     finally:
         shutil.rmtree(work, ignore_errors=True)
     if progress:

@@ -11,15 +11,14 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import shutil
 import sys
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterable, Mapping
 
 import numpy as np
 
+from gasp_core.fsutil import output_folder
 from gasp_core.errors import EngineError, GaspError, SceneError
 from gasp_core.scene import Scene, load_scene
 
@@ -203,7 +202,7 @@ def compare_scene(scene_path: str | Path, engines: list[str] | None, output: str
         No engine could run the scene at all (the reasons are in the message).
     """
     output = Path(output)
-    if output.exists() and not overwrite:
+    if output.exists() and not overwrite:  # early, before any work; output_folder claims it for good
         raise FileExistsError(f"output folder '{output}' exists; pass --overwrite to replace it")
     scene = load_scene(scene_path)
     if n_frames is not None and (isinstance(n_frames, bool) or not isinstance(n_frames, int) or n_frames < 1):
@@ -212,10 +211,7 @@ def compare_scene(scene_path: str | Path, engines: list[str] | None, output: str
     runnable, skipped = select_engines(scene, engines)
     if not runnable:
         raise EngineError(f"no engine can run {scene_path}: " + "; ".join(f"{k}: {v}" for k, v in skipped.items()))
-    from gasp_core.pipeline import commit_dir
-    output.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(dir=output.parent, prefix=f".{output.name}.partial-"))
-    try:
+    with output_folder(output, overwrite=overwrite, protected=[scene_path]) as tmp:
         runs = tmp / "runs"
         runs.mkdir()
         scene_run, strides = subsample_scene(scene, max_gaussians, runs)
@@ -255,10 +251,6 @@ def compare_scene(scene_path: str | Path, engines: list[str] | None, output: str
                               frame_dt=scene.frame_dt, table_md=table_md, div=div, records=records,
                               reference=ref.record if ref else None, skipped=skipped, failed=failed,
                               strides=strides, runner_line=how, plots=plots)
-        commit_dir(tmp, output)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     if progress:
         print(f"gasp compare: wrote {output}/report.md", file=sys.stderr)
     return CompareResult(output, ref.record["label"] if ref else None, table, div, skipped, failed, outputs,

@@ -1,13 +1,12 @@
 """Write rendered frames: MP4 (imageio-ffmpeg), GIF (Pillow) or a folder of PNGs, atomically."""
 from __future__ import annotations
 
-import os
-import shutil
-import tempfile
 from pathlib import Path
 from typing import Iterable
 
 import numpy as np
+
+from ..fsutil import atomic_path, output_folder
 
 from ..engine import SceneError
 
@@ -39,10 +38,7 @@ def write_frames(frames: Iterable[np.ndarray], output, fps: float = 30.0, overwr
     _check_target(out, overwrite)
     suffix = out.suffix.lower()
     if suffix in VIDEO_SUFFIXES:
-        fd, tmp_name = tempfile.mkstemp(prefix=f".{out.stem}.", suffix=suffix, dir=out.parent)
-        os.close(fd)
-        tmp = Path(tmp_name)
-        try:
+        with atomic_path(out, overwrite=True) as tmp:
             count = 0
             if suffix == ".mp4":
                 import imageio.v2 as iio2
@@ -58,27 +54,14 @@ def write_frames(frames: Iterable[np.ndarray], output, fps: float = 30.0, overwr
                     iio.imwrite(tmp, np.stack(stack), extension=".gif", duration=1000.0 / fps, loop=0)
             if count == 0:
                 raise SceneError(f"output '{out}': no frames to write")
-            os.replace(tmp, out)
-        finally:
-            tmp.unlink(missing_ok=True)
         return out
-    tmpdir = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
-    try:
+    with output_folder(out, overwrite=overwrite) as tmpdir:
         count = 0
         for i, img in enumerate(frames):
             iio.imwrite(tmpdir / f"frame_{i:04d}.png", img)
             count += 1
         if count == 0:
             raise SceneError(f"output '{out}': no frames to write")
-        if out.exists():
-            old = out.with_name(f".{out.name}.old")
-            os.replace(out, old)
-            os.replace(tmpdir, out)
-            shutil.rmtree(old) if old.is_dir() else old.unlink()
-        else:
-            os.replace(tmpdir, out)
-    finally:
-        shutil.rmtree(tmpdir, ignore_errors=True)
     return out
 
 
@@ -86,11 +69,6 @@ def write_png(img: np.ndarray, output) -> Path:
     """Write one uint8 RGB image atomically (replaces an existing file)."""
     import imageio.v3 as iio
     out = Path(output)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{out.stem}.", suffix=".png", dir=out.parent)
-    os.close(fd)
-    try:
-        iio.imwrite(tmp_name, img)
-        os.replace(tmp_name, out)
-    finally:
-        Path(tmp_name).unlink(missing_ok=True)
+    with atomic_path(out, overwrite=True) as tmp:
+        iio.imwrite(tmp, img)
     return out

@@ -26,10 +26,18 @@ CAPABILITIES = Capabilities(
     boundaries=frozenset({"ground", "fixed_region"}),
     devices=frozenset({"cpu"}),
     precisions=frozenset({"f32"}),
-    dims=frozenset({3}),
     deterministic=frozenset({"cpu"}),
-    grid_based=False,
 )
+
+_V0 = ("SceneError at build: the scene starts with non-zero velocities and Blender starts soft "
+       "bodies at rest (bpy exposes no way to set a soft body's point velocities; Blender 5.0.1)")
+_CANT = ("tip deflection 2.71 mm vs Euler-Bernoulli 19.99 mm (-86%), largest 5.26 mm: the default "
+         "cage (6 cells along the 0.5 m bar, cell 0.083 m, so the 0.1 m section is 2-3 cells of "
+         "springs) is far too stiff in bending; the springs are set so that the cage's uniaxial "
+         "modulus is E")
+#: Conformance scenes this engine fails, with the measured figures (run as strict expected failures).
+KNOWN_FAILURES = {"momentum": _V0, "spinning": _V0, "determinism": _V0, "invariance": _V0,
+                  "cantilever": _CANT, "cantilever_offgrid": "same cage as 'cantilever': 2.71 mm vs 19.99 mm (-86%)"}
 
 
 def bpy_available() -> str | None:
@@ -55,12 +63,19 @@ def make_engine(setup: SimSetup):
     return BlenderSoftBodyEngine(setup)
 
 
+def _options():
+    from .engine import OPTIONS  # the engine module imports bpy only inside its functions
+    return OPTIONS
+
+
 @hookimpl
 def gasp_engines():
     return [EngineInfo(
         name="blender",
         factory=make_engine,
         capabilities=CAPABILITIES,
+        options=_options(),
+        known_failures=KNOWN_FAILURES,
         available=bpy_available,
         description=("Blender soft bodies (bpy, headless): a coarse voxel cage per body with edge, "
                      "face- and body-diagonal springs, points carried trilinearly; ground as a "

@@ -20,30 +20,33 @@ from typing import Any
 
 import numpy as np
 
-from gasp_core.engine import EngineDivergence, EngineError, SceneError, SimSetup, check_options
+from gasp_core.engine import EngineDivergence, EngineError, Option, SceneError, SimSetup, check_options
 
 from .cage import Cage, build_cage, embed, interpolate, lump
 from .sheet import build_sheet, place
 
 ENGINE = "blender"
 
-#: Engine options (``[engine]`` table of a scene) and their defaults.
-DEFAULT_OPTIONS: dict[str, Any] = {
-    "device": "cpu",        # only "cpu"
-    "precision": "f32",     # only "f32" (Blender stores positions in float32)
-    "mode": "softbody",     # "softbody" (voxel cage) or "cloth" (a quad sheet through a thin body)
-    "tension": 15.0,        # cloth only: tension/compression/shear stiffness, Blender units (not from E)
-    "bending": 0.5,         # cloth only: bending stiffness, Blender units (not from E)
-    "cells_across": 6,      # cage cells along a body's longest side
-    "cell_size": None,      # cage cell size h, m (overrides cells_across)
-    "step_min": 20,         # soft-body solver: minimum steps per frame (SoftBodySettings.step_min)
-    "step_max": 300,        # maximum steps per frame (step_max)
-    "dt": None,             # largest solver step, s: sets step_min = ceil(frame_dt / dt)
-    "error_threshold": 0.001,  # Heun error limit (error_threshold); 0.1 (Blender default) lets light cage corners go unstable
-    "damping": 0.5,         # edge spring damping, Blender units (SoftBodySettings.damping, 0-50)
-    "collision_damping": 0.5,  # ground collision damping (CollisionSettings.damping, 0-1)
-    "thickness": 0.001,     # ground outer thickness, m (CollisionSettings.thickness_outer, >= 0.001)
-}
+#: Engine options (``[engine]`` table of a scene), declared as data (``gasp engines`` lists them).
+OPTIONS = (
+    Option("device", "cpu", "where to run: only 'cpu'", kind="str", choices=("cpu",)),
+    Option("precision", "f32", "only 'f32' (Blender stores positions in float32)", kind="str", choices=("f32",)),
+    Option("mode", "softbody", "'softbody' (voxel cage) or 'cloth' (a quad sheet through a thin body)",
+           kind="str", choices=("softbody", "cloth")),
+    Option("tension", 15.0, "cloth only: tension/compression/shear stiffness, Blender units (not from E)",
+           lo=0.0, hi=10000.0),
+    Option("bending", 0.5, "cloth only: bending stiffness, Blender units (not from E)", lo=0.0, hi=10000.0),
+    Option("cells_across", 6, "cage cells along a body's longest side", kind="int", lo=1),
+    Option("cell_size", None, "cage cell size h, m (overrides cells_across)", lo=0.0, lo_open=True),
+    Option("step_min", 20, "soft-body solver: minimum steps per frame (SoftBodySettings.step_min)", kind="int", lo=1),
+    Option("step_max", 300, "soft-body solver: maximum steps per frame (step_max)", kind="int", lo=1),
+    Option("dt", None, "largest solver step, s: sets step_min = ceil(frame_dt / dt)", lo=0.0, lo_open=True),
+    Option("error_threshold", 0.001, "Heun error limit (error_threshold); Blender's 0.1 lets light cage "
+           "corners go unstable", lo=0.001, hi=10.0),
+    Option("damping", 0.5, "edge spring damping, Blender units (SoftBodySettings.damping)", lo=0.0, hi=50.0),
+    Option("collision_damping", 0.5, "ground collision damping (CollisionSettings.damping)", lo=0.0, hi=1.0),
+    Option("thickness", 0.001, "ground outer thickness, m (CollisionSettings.thickness_outer)", lo=0.001, hi=1.0),
+)
 
 #: Young's modulus of the cubic spring cage in units of K' / h^2 (see _build).
 LATTICE_E = (1.0 + math.sqrt(2.0) + 4.0 / (3.0 * math.sqrt(3.0))) * (1.25 * 0.5 / 0.75)
@@ -78,7 +81,7 @@ class BlenderSoftBodyEngine:
     Parameters
     ----------
     setup : SimSetup
-        World frame, metres, z up. ``setup.options`` may hold the keys of :data:`DEFAULT_OPTIONS`.
+        World frame, metres, z up. ``setup.options`` may hold the options of :data:`OPTIONS`.
 
     Raises
     ------
@@ -98,42 +101,13 @@ class BlenderSoftBodyEngine:
 
     def __init__(self, setup: SimSetup):
         self.setup = setup
-        o = check_options(setup.options, DEFAULT_OPTIONS, ENGINE)
+        o = check_options(setup.options, OPTIONS, ENGINE)  # types and ranges (idempotent after the core's check)
         self.options = o
-        if o["device"] != "cpu":
-            raise SceneError(f"engine '{ENGINE}': option device={o['device']!r}; only 'cpu' is offered")
-        if o["precision"] != "f32":
-            raise SceneError(f"engine '{ENGINE}': option precision={o['precision']!r}; only 'f32' is offered")
-        if o["mode"] not in ("softbody", "cloth"):
-            raise SceneError(f"engine '{ENGINE}': option mode={o['mode']!r}; expected 'softbody' or 'cloth'")
-        for key in ("tension", "bending"):
-            if isinstance(o[key], bool) or not isinstance(o[key], (int, float)) or not (0 <= o[key] <= 10000):
-                raise SceneError(f"engine '{ENGINE}': option {key}={o[key]!r}; expected a number in [0, 10000]")
-        for key, lo in (("cells_across", 1), ("step_min", 1), ("step_max", 1)):
-            if isinstance(o[key], bool) or not isinstance(o[key], int) or o[key] < lo:
-                raise SceneError(f"engine '{ENGINE}': option {key}={o[key]!r}; expected an integer >= {lo}")
         if o["dt"] is not None:
-            dt = o["dt"]
-            if isinstance(dt, bool) or not isinstance(dt, (int, float)) or not (math.isfinite(dt) and dt > 0):
-                raise SceneError(f"engine '{ENGINE}': option dt={dt!r}; expected a positive number of seconds")
-            o["step_min"] = max(1, math.ceil(setup.frame_dt / dt - 1e-9))
+            o["step_min"] = max(1, math.ceil(setup.frame_dt / o["dt"] - 1e-9))
             o["step_max"] = max(o["step_max"], o["step_min"])
         if o["step_max"] < o["step_min"]:
             raise SceneError(f"engine '{ENGINE}': option step_max={o['step_max']} < step_min={o['step_min']}")
-        for key, lo, hi in (("error_threshold", 0.001, 10.0), ("damping", 0.0, 50.0),
-                            ("collision_damping", 0.0, 1.0), ("thickness", 0.001, 1.0)):
-            v = o[key]
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not (lo <= v <= hi):
-                raise SceneError(f"engine '{ENGINE}': option {key}={v!r}; expected a number in [{lo}, {hi}]")
-        if o["cell_size"] is not None and not (isinstance(o["cell_size"], (int, float)) and o["cell_size"] > 0):
-            raise SceneError(f"engine '{ENGINE}': option cell_size={o['cell_size']!r}; expected a positive number (m)")
-        for m in setup.materials:
-            if m.name != "jelly":
-                raise SceneError(f"engine '{ENGINE}': material {m.name!r} is not supported; supported: ['jelly']")
-        for b in setup.boundaries:
-            if b.kind not in ("ground", "fixed_region"):
-                raise SceneError(f"engine '{ENGINE}': boundary kind {b.kind!r} is not supported; "
-                                 "supported: ['fixed_region', 'ground']")
         if np.any(setup.v != 0.0):
             raise SceneError(f"engine '{ENGINE}': initial velocities are not supported (Blender starts "
                              "soft bodies at rest and bpy cannot set their velocities)")
