@@ -4,6 +4,7 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
+from scipy.special import expit
 
 from .engine import SceneError, SimSetup
 from .fill import fill_interior, fill_spacing
@@ -51,7 +52,7 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
     xs, vols, bodies, vels, fills = [], [], [], [], []
     start = 0
     for i, (o, verts) in enumerate(zip(objects, vertices)):
-        opaque = 1.0 / (1.0 + np.exp(-o.gaussians.opacities.astype(np.float64))) >= o.spec.min_opacity
+        opaque = expit(o.gaussians.opacities.astype(np.float64)) >= o.spec.min_opacity
         h = fill_spacing(dx, scene.domain.particles_per_cell, o.spec.core_fraction)
         fr = fill_interior(verts, h, splats=o.tri_rest[opaque], fill=o.spec.fill, name=o.name,
                            if_open=o.spec.if_open)

@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 import signal
+import warnings
 
 from .cliargs import GaspArgumentParser, positive_int
 from .errors import EngineBug, EngineDivergence, GaspError
@@ -216,8 +217,13 @@ def _interrupt(signum, _frame):
     raise KeyboardInterrupt(signal.Signals(signum).name)
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    print(f"gasp: warning: {message}", file=sys.stderr)
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    warnings.showwarning = _show_warning  # a warning is one line, not a source location and code
     previous = {}
     for sig in (signal.SIGTERM, signal.SIGHUP):
         try:

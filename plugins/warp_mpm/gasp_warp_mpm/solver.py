@@ -40,6 +40,31 @@ from . import ENGINE, OPTIONS
 from . import kernels as K
 
 
+def _init_warp(cpu_only: bool) -> None:
+    """``wp.init()``; on a CPU run, drop the native "no CUDA driver" warning it prints on machines
+    without a GPU (it is written by Warp's C++ core to the process's stderr, past Python's
+    ``sys.stderr``). Every other line it prints is passed on."""
+    import os
+    import sys
+    import tempfile
+    if not cpu_only:
+        wp.init()
+        return
+    with tempfile.TemporaryFile(mode="w+b") as cap:
+        sys.stderr.flush()
+        saved = os.dup(2)
+        os.dup2(cap.fileno(), 2)
+        try:
+            wp.init()
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+        cap.seek(0)
+        for line in cap.read().decode(errors="replace").splitlines():
+            if "CUDA driver" not in line:
+                print(line, file=sys.stderr)
+
+
 def choose_dt(setup: SimSetup, opts: dict[str, Any]) -> tuple[int, float]:
     """Substeps per frame and substep (``gasp_core.mpm.mpm_substeps``, docs/mpm.md "Time step")."""
     return mpm.substeps_from_options(setup, opts, ENGINE)
@@ -76,8 +101,8 @@ class WarpMPMEngine:
         mpm.check_memory(mpm.estimate_bytes(len(setup.x), setup.n_grid, opts["precision"]), ENGINE,
                          f"{len(setup.x)} points, n_grid {setup.n_grid}, {opts['precision']}")
 
-        wp.config.quiet = True  # no start-up banner
-        wp.init()
+        wp.config.log_level = wp.LOG_WARNING  # no start-up banner or module-load lines on stdout
+        _init_warp(cpu_only=not opts["device"].startswith("cuda"))
         dev = opts["device"]
         if dev.startswith("cuda") and not wp.is_cuda_available():
             raise EngineError(f"engine '{ENGINE}': device '{dev}' requested but Warp finds no CUDA "
