@@ -17,7 +17,7 @@ from gasp_core.cli import main  # noqa: E402
 from gasp_core.engine import SceneError  # noqa: E402
 from gasp_core.io import read_gaussians  # noqa: E402
 from gasp_core.scene import load_scene  # noqa: E402
-from gasp_core.soup import export_soup, import_motion, read_soup  # noqa: E402
+from gasp_core.soup import export_soup, import_motion  # noqa: E402
 from gasp_testing import DONUT, scene_text  # noqa: E402
 
 
