@@ -66,7 +66,7 @@ def test_compare_writes_report_self_divergence_zero_and_lists_missing(donut_tiny
     assert cols == report.TABLE_COLUMNS
     assert [r["engine"] for r in table] == ["warp_mpm", "warp_mpm#2", "mujoco_flex"]
     assert all(r["status"] == "ok" and int(r["simulated_points"]) > 3 * 1426 for r in table)
-    assert all(float(r["s_per_frame"]) > 0 and float(r["peak_rss_mb"]) > float(r["worker_base_rss_mb"]) > 50
+    assert all(float(r["s_per_frame"]) > 0 and float(r["peak_rss_mb"]) >= float(r["worker_base_rss_mb"]) > 50
                for r in table)
     # every run in its own fresh worker process
     pids = [o.record["pid"] for o in res.outputs]
