@@ -111,11 +111,8 @@ def _run_refusals(info: EngineInfo) -> list[Check]:
         s = _base(info)
         s.boundaries = s.boundaries + [Boundary(lacking[0], lo=(0.0, 0.0, 0.0), hi=(0.1, 0.1, 0.1))]
         checks.append(_refused(info, s, lacking[0], "boundary"))
-    if "initial_C" not in caps.features:  # the one feature a setup asks for by itself (FEATURES)
-        s = _base(info)
-        s.C = np.broadcast_to(np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 0.0]]),
-                              (len(s.x), 3, 3)).copy()
-        checks.append(_refused(info, s, "initial_C", "feature"))
+    # SimSetup.C is a hint ("initial_C" engines start from it, others may ignore it), so it is not
+    # refused; the features a setup does require (colliders, forces) are checked when the core has them.
     checks.append(_refused(info, _base(info, options={UNKNOWN_OPTION: 1}), UNKNOWN_OPTION, "unknown_option"))
     for o in info.options:
         checks.append(_refused(info, _base(info, options={o.name: _wrong_value(o)}), o.name, f"mistyped_option_{o.name}"))
