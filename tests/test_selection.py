@@ -320,3 +320,21 @@ def test_kitchen_two_frames(tmp_path):
     # the spinach moves: file y points down, so it sinks with +y (scale 0.08 m per unit)
     dy = frames[2]["y"][rows].astype(np.float64) - frames[0]["y"][rows]
     assert np.median(dy) > 1e-3 and np.all(np.isfinite(dz))
+
+
+def test_selection_with_core_gaussians_rebuilds_the_whole_file():
+    """select and core_fraction together: the hierarchy is built on the selected rows only."""
+    from gasp_core.frames import rebuild
+    prep = prepare_scene(parse(donut_scene(extra="core_fraction = 0.25")))
+    o = prep.objects[0]
+    n_sel = len(o.moving)
+    assert o.hierarchy is not None and len(o.tri_rest) == n_sel
+    assert prep.setup.n_render == 4 * len(o.hierarchy.core_points)  # 4-point frames of the cores
+    g, rot, _ = rebuild(o, prep.setup.x, o.rot_rest)
+    assert g.n == N_DONUT and rot.shape == (n_sel, 3, 3)
+    static = np.ones(N_DONUT, bool)
+    static[o.moving] = False
+    src = read_gaussians(DONUT)
+    for k in ("means", "scales", "rotations", "opacities", "sh_dc"):
+        assert np.array_equal(getattr(g, k)[static], getattr(src, k)[static]), k
+    assert np.allclose(g.means[o.moving], src.means[o.moving], atol=1e-9)
