@@ -20,6 +20,7 @@ collider occupancy from them.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -36,7 +37,7 @@ if TYPE_CHECKING:
 __all__ = ["GROW_SIGMAS", "grow_selection", "moving_rows", "region_rows", "scatter", "selection_record",
            "selection_totals", "static_rows", "static_splats", "world_triangles"]
 
-#: Splat radius used by :func:`grow_selection`: this many times the Gaussian's largest scale.
+#: Splat radius used by :func:`grow_selection`: this many times the Gaussian's largest scale (2 sigma).
 GROW_SIGMAS = 2.0
 
 
@@ -129,9 +130,9 @@ def grow_selection(rows: np.ndarray, means: np.ndarray, radii: np.ndarray,
                    linking: np.ndarray | None = None) -> np.ndarray:
     """Grow a selection to the whole connected pieces it touches.
 
-    Two Gaussians are linked when their splats overlap, ``|m_i - m_j| < r_i + r_j``; the
-    selection becomes every connected component (of the graph of links) that holds a selected
-    Gaussian.
+    Two Gaussians are linked when the centre of one lies within the other's splat,
+    ``|m_i - m_j| <= max(r_i, r_j)``; the selection becomes every connected component (of the
+    graph of links) that holds a selected Gaussian.
 
     Parameters
     ----------
@@ -152,11 +153,12 @@ def grow_selection(rows: np.ndarray, means: np.ndarray, radii: np.ndarray,
 
     Notes
     -----
-    Radius graph from :class:`scipy.spatial.cKDTree` (each Gaussian queried at ``2 r_i``, so
-    every pair with ``d < r_i + r_j <= 2 max(r_i, r_j)`` is found from its larger end), then
-    :func:`scipy.sparse.csgraph.connected_components`. A large splat links everything it
-    covers: in a scene with big background splats, growing can take in much of the scene
-    (``run.json`` records ``n_selected``).
+    Radius graph from :meth:`scipy.spatial.cKDTree.query_ball_point` (each Gaussian queried at
+    its own radius; the graph is taken as undirected), then
+    :func:`scipy.sparse.csgraph.connected_components`. On the real donut (39,963 opaque
+    Gaussians) this is 6.5 million links and one component, about 3 s. A large splat links
+    everything its radius covers: in a scene with big background splats, growing can take in
+    much of the scene (``run.json`` records ``n_selected``).
     """
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
@@ -165,18 +167,14 @@ def grow_selection(rows: np.ndarray, means: np.ndarray, radii: np.ndarray,
     n = len(means)
     nodes = np.arange(n) if linking is None else np.flatnonzero(linking)
     tree = cKDTree(means[nodes])
-    r = radii[nodes]
     src, dst = [], []
     for start in range(0, len(nodes), 20000):
         stop = min(start + 20000, len(nodes))
-        hits = tree.query_ball_point(means[nodes[start:stop]], 2.0 * r[start:stop], return_sorted=False)
-        counts = np.fromiter((len(h) for h in hits), dtype=np.int64, count=len(hits))
-        i = np.repeat(np.arange(start, stop), counts)
-        j = np.fromiter((k for h in hits for k in h), dtype=np.int64, count=int(counts.sum()))
-        d = np.linalg.norm(means[nodes[i]] - means[nodes[j]], axis=1)
-        keep = d < r[i] + r[j]
-        src.append(nodes[i[keep]])
-        dst.append(nodes[j[keep]])
+        hits = tree.query_ball_point(means[nodes[start:stop]], radii[nodes[start:stop]], return_sorted=False)
+        counts = np.fromiter(map(len, hits), dtype=np.int64, count=len(hits))
+        src.append(nodes[np.repeat(np.arange(start, stop), counts)])
+        dst.append(nodes[np.fromiter(itertools.chain.from_iterable(hits), dtype=np.int64,
+                                     count=int(counts.sum()))])
     src, dst = np.concatenate(src), np.concatenate(dst)
     graph = coo_matrix((np.ones(len(src), np.int8), (src, dst)), shape=(n, n))
     _, label = connected_components(graph, directed=False)

@@ -194,18 +194,20 @@ def test_grow_takes_the_whole_donut_from_a_small_piece():
 
 
 def test_grow_selection_links_overlapping_splats_only():
-    """Two chains of touching splats 1 apart: growing from one chain never crosses to the other."""
+    """Two chains of splats 0.1 apart, the chains 1 apart: growing never crosses between them."""
     chain = np.arange(10) * 0.1
     means = np.concatenate([np.stack([chain, 0 * chain, 0 * chain], 1),
                             np.stack([chain, 0 * chain + 1.0, 0 * chain], 1)])
-    radii = np.full(20, 0.06)  # neighbours 0.1 apart overlap (0.12), the chains (1.0) do not
+    radii = np.full(20, 0.15)  # each splat reaches its neighbours' centres (0.1), not the next ones (0.2)
     assert np.array_equal(grow_selection(np.array([3]), means, radii), np.arange(10))
     assert np.array_equal(grow_selection(np.array([3, 15]), means, radii), np.arange(20))
-    radii[5] = 0.01  # a gap: 0.07 < 0.1 between rows 4-5 and 5-6
-    assert np.array_equal(grow_selection(np.array([3]), means, radii), np.arange(5))
+    gap = radii.copy()
+    gap[4:6] = 0.05  # rows 4 and 5 reach neither each other nor, 0.2 away, rows 3 and 6's neighbours
+    assert np.array_equal(grow_selection(np.array([3]), means, gap), np.arange(5))
     linking = np.ones(20, bool)
     linking[2] = False  # a transparent splat links nothing
-    assert np.array_equal(grow_selection(np.array([3]), means, radii, linking), np.array([3, 4]))
+    assert np.array_equal(grow_selection(np.array([3]), means, radii, linking), np.arange(3, 10))
+    assert np.array_equal(grow_selection(np.array([2]), means, radii, linking), np.array([2]))
 
 
 def test_static_object_reaches_no_engine_and_gives_its_splats(donut_box_rows):
