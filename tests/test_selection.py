@@ -305,6 +305,7 @@ def test_kitchen_two_frames(tmp_path):
     pytest.importorskip("gasp_taichi_mpm", reason="the taichi_mpm plugin is not installed")
     data = tomllib.loads(KITCHEN.read_text())
     data["domain"]["n_grid"] = 16
+    data["domain"]["lo"][2], data["domain"]["hi"][2] = -0.75, -0.20  # 3 coarse cells below the lowest point
     data["engine"]["options"] = {"threads": 1}
     scene = parse_scene(data, KITCHEN)
     res = simulate_scene(scene, tmp_path / "out", n_frames=2, progress=False)
