@@ -40,11 +40,15 @@ def default_domain(scene: Scene, points: np.ndarray) -> tuple[np.ndarray, np.nda
 def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
     """Assemble the engine's point set: all objects' triangle vertices, then their fill points.
 
+    Static objects (``static = true``) take no part; a selected object brings its selected rows
+    only (:mod:`gasp_core.selection`), and the default domain is around what moves.
+
     Raises
     ------
     SceneError
         If an object lies outside an explicit domain.
     """
+    objects = [o for o in objects if not o.spec.static]
     vertices = [simulated_triangles(o).reshape(-1, 3) for o in objects]
     lo, hi = default_domain(scene, np.concatenate([o.tri_rest.reshape(-1, 3) for o in objects]))
     n_grid = scene.domain.n_grid
@@ -52,7 +56,8 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
     xs, vols, bodies, vels, fills = [], [], [], [], []
     start = 0
     for i, (o, verts) in enumerate(zip(objects, vertices)):
-        opaque = expit(o.gaussians.opacities.astype(np.float64)) >= o.spec.min_opacity
+        opacities = o.simulated_rows(o.gaussians.opacities).astype(np.float64)
+        opaque = expit(opacities) >= o.spec.min_opacity
         h = fill_spacing(dx, scene.domain.particles_per_cell, o.spec.core_fraction)
         fr = fill_interior(verts, h, splats=o.tri_rest[opaque], fill=o.spec.fill, name=o.name,
                            if_open=o.spec.if_open)

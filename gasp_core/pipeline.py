@@ -63,7 +63,7 @@ class RunResult:
 
 def scene_needs(scene: Scene) -> dict[str, list[str]]:
     """What a scene asks of an engine, before any file is read (see :func:`gasp_core.engine.check_supported`)."""
-    return {"materials": [o.material.name for o in scene.objects],
+    return {"materials": [o.material.name for o in scene.objects if not o.static],
             "boundaries": [b.kind for b in scene.boundaries], "features": []}
 
 
@@ -104,7 +104,8 @@ def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None 
 
 def input_files(scene: Scene) -> list[Path]:
     """The files a run reads: the scene file and every object's file (never to be overwritten)."""
-    return [Path(scene.path)] + [Path(o.file) for o in scene.objects]
+    return [Path(scene.path)] + [Path(o.file) for o in scene.objects] + \
+        [Path(o.select.mask) for o in scene.objects if o.select is not None and o.select.mask is not None]
 
 
 def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,

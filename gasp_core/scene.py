@@ -56,6 +56,68 @@ from .scene_values import (_bad, _boolean, _check_keys, _integer, _is_number, _n
 UP_AXES = ("+x", "-x", "+y", "-y", "+z", "-z")
 
 
+#: Kinds of ``select`` region, one per ``select`` table.
+SELECT_KINDS = ("box", "sphere", "indices", "mask")
+#: Frames a ``select`` box or sphere may be given in.
+SELECT_FRAMES = ("file", "world")
+
+
+@dataclass(frozen=True)
+class SelectSpec:
+    """``select = {...}`` on an object: the part of its file that moves (the rest is static).
+
+    Exactly one kind: ``box = {lo = [x, y, z], hi = [x, y, z]}``, ``sphere = {centre = [x, y, z],
+    radius = r}`` (a Gaussian is in when its centre is; bounds inclusive), ``indices = [i, ...]``
+    (rows of the file, 0-based) or ``mask = "file.npy"`` (a boolean array of one entry per
+    Gaussian, or an integer array of indices; path relative to the scene file). Optional
+    ``frame = "file"`` (default: the file's own coordinates and units, as a viewer shows the
+    input file; for a dynamic model, its positions at ``dynamic_time``) or ``"world"`` (metres,
+    z up, after ``up_axis``, ``scale``, ``position``, ``recentre``; placement is always computed
+    from the whole file). Optional ``grow = true`` grows the selection to the whole connected
+    pieces it touches (:func:`gasp_core.selection.grow_selection`).
+
+    Attributes
+    ----------
+    kind : str
+        One of :data:`SELECT_KINDS`.
+    lo, hi : (3,) float or None
+        Box corners (``kind == "box"``).
+    centre : (3,) float or None
+    radius : float or None
+        Sphere (``kind == "sphere"``).
+    indices : tuple of int or None
+        ``kind == "indices"``.
+    mask : Path or None
+        ``kind == "mask"``, resolved against the scene file's folder.
+    frame : str
+        ``"file"`` or ``"world"`` (box and sphere only).
+    grow : bool
+    """
+
+    kind: str
+    lo: tuple[float, float, float] | None = None
+    hi: tuple[float, float, float] | None = None
+    centre: tuple[float, float, float] | None = None
+    radius: float | None = None
+    indices: tuple[int, ...] | None = None
+    mask: Path | None = None
+    frame: str = "file"
+    grow: bool = False
+
+    def describe(self) -> dict:
+        """A JSON-ready summary (``run.json``)."""
+        out: dict[str, Any] = {"kind": self.kind, "frame": self.frame, "grow": self.grow}
+        if self.kind == "box":
+            out.update(lo=list(self.lo), hi=list(self.hi))
+        elif self.kind == "sphere":
+            out.update(centre=list(self.centre), radius=self.radius)
+        elif self.kind == "indices":
+            out.update(n_indices=len(self.indices))
+        else:
+            out.update(mask=str(self.mask))
+        return out
+
+
 @dataclass
 class ObjectSpec:
     """One scene object: a Gaussian Splatting file placed in the world (z up, metres).
@@ -101,6 +163,12 @@ class ObjectSpec:
     dynamic_time : float or None
         For a dynamic model (``.splatv``): the model time ``s`` at which physics takes over,
         ``G_t = T^-1(phi(psi(V, s), t))`` (paper Sec. 3, dynamic scenes); default 0.
+    select : SelectSpec or None
+        The part of the file that moves (``select = { box = {...} }``, see :class:`SelectSpec`);
+        the rest is static background, written unchanged in every frame. None: all of it moves.
+    static : bool
+        The whole object is static: never simulated, written unchanged in every frame (scenery,
+        and a collider where a ``[[collider]]`` names it).
     """
 
     file: Path
@@ -118,6 +186,8 @@ class ObjectSpec:
     core_fraction: float = 1.0
     if_open: str = "warn"
     dynamic_time: float | None = None
+    select: SelectSpec | None = None
+    static: bool = False
 
 
 @dataclass
@@ -272,6 +342,68 @@ def _boundary(b: dict, where: str, src: Path) -> Boundary:
     return Boundary(**kw)
 
 
+#: Object keys that only matter when the object is simulated: refused beside ``static = true``.
+_SIMULATION_KEYS = ("material", "select", "velocity", "angular_velocity", "fill", "alpha", "thickness",
+                    "core_fraction", "if_open")
+
+
+def _static(o: dict, where: str, src: Path) -> bool:
+    """``static = true``: never simulated; keys that only a simulation reads are an error beside it."""
+    static = _boolean(o.get("static", False), f"{where}.static", src)
+    if static:
+        extra = [k for k in _SIMULATION_KEYS if k in o]
+        if extra:
+            raise SceneError(f"{src}: {where} is static = true (never simulated) but also sets {extra}; "
+                             f"remove them, or set static = false to simulate it")
+    return static
+
+
+def _select(value, where: str, src: Path) -> SelectSpec:
+    """``select = { box | sphere | indices | mask, frame, grow }`` (see :class:`SelectSpec`)."""
+    t = _table(value, where, src)
+    _check_keys(t, set(SELECT_KINDS) | {"frame", "grow"}, where, src)
+    kinds = [k for k in SELECT_KINDS if k in t]
+    if len(kinds) != 1:
+        raise SceneError(f"{src}: {where} needs exactly one of {list(SELECT_KINDS)}, got {kinds or 'none'}")
+    kind = kinds[0]
+    frame = _string(t.get("frame", "file"), f"{where}.frame", src, SELECT_FRAMES)
+    if "frame" in t and kind in ("indices", "mask"):
+        raise SceneError(f"{src}: {where}.frame applies to a box or sphere, not to {kind}")
+    kw: dict[str, Any] = {"kind": kind, "frame": frame,
+                          "grow": _boolean(t.get("grow", False), f"{where}.grow", src)}
+    key = f"{where}.{kind}"
+    if kind == "box":
+        b = _table(t["box"], key, src)
+        _check_keys(b, {"lo", "hi"}, key, src)
+        if "lo" not in b or "hi" not in b:
+            raise SceneError(f"{src}: {key} needs 'lo' and 'hi'")
+        kw["lo"] = _vec3(b["lo"], f"{key}.lo", src, max_abs=MAX_COORD)
+        kw["hi"] = _vec3(b["hi"], f"{key}.hi", src, max_abs=MAX_COORD)
+        if not all(h > l for l, h in zip(kw["lo"], kw["hi"])):
+            raise SceneError(f"{src}: {key} 'hi' must exceed 'lo' on every axis, got lo={list(kw['lo'])} "
+                             f"hi={list(kw['hi'])}")
+    elif kind == "sphere":
+        b = _table(t["sphere"], key, src)
+        _check_keys(b, {"centre", "radius"}, key, src)
+        if "centre" not in b or "radius" not in b:
+            raise SceneError(f"{src}: {key} needs 'centre' and 'radius'")
+        kw["centre"] = _vec3(b["centre"], f"{key}.centre", src, max_abs=MAX_COORD)
+        kw["radius"] = _number(b["radius"], f"{key}.radius", src, 0.0, MAX_COORD, lo_open=True)
+    elif kind == "indices":
+        idx = t["indices"]
+        if not isinstance(idx, list) or not idx or \
+                not all(isinstance(i, int) and not isinstance(i, bool) and i >= 0 for i in idx):
+            _bad(src, key, idx, "a non-empty list of row indices (integers >= 0)")
+        kw["indices"] = tuple(idx)
+    else:
+        name = _string(t["mask"], key, src)
+        m = (src.parent / name).resolve()
+        if not m.is_file():
+            raise SceneError(f"{src}: {key} '{name}' is not a file (looked for {m}); expected a .npy array")
+        kw["mask"] = m
+    return SelectSpec(**kw)
+
+
 def _object(o: dict, where: str, src: Path) -> ObjectSpec:
     _check_keys(o, _OBJECT_KEYS, where, src)
     if "file" not in o:
@@ -308,7 +440,9 @@ def _object(o: dict, where: str, src: Path) -> ObjectSpec:
         core_fraction=_number(o.get("core_fraction", 1.0), f"{where}.core_fraction", src, 0.0, 1.0,
                               lo_open=True),
         if_open=_string(o.get("if_open", "warn"), f"{where}.if_open", src, ("warn", "error")),
-        dynamic_time=_dynamic_time(o, f, where, src))
+        dynamic_time=_dynamic_time(o, f, where, src),
+        select=_select(o["select"], f"{where}.select", src) if "select" in o else None,
+        static=_static(o, where, src))
 
 
 def load_scene(path: str | Path) -> Scene:
@@ -371,6 +505,8 @@ def parse_scene(data: dict, src: Path) -> Scene:
     if not obj_list:
         raise SceneError(f"{src}: the scene has no [[object]]")
     objects = [_object(o, f"[[object]] #{i + 1}", src) for i, o in enumerate(obj_list)]
+    if all(o.static for o in objects):
+        raise SceneError(f"{src}: every [[object]] is static = true; nothing to simulate")
     n_frames = _integer(data.get("n_frames", 30), "n_frames", src, 1)
     output = data.get("output")
     if output is not None:
