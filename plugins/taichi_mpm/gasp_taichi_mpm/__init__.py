@@ -23,7 +23,8 @@ CAPABILITIES = Capabilities(
     devices=frozenset({"cpu", "cuda"}),
     precisions=frozenset({"f32", "f64"}),
     deterministic=frozenset({"cpu"}),
-    features=frozenset({"grid", "initial_C"}),
+    features=frozenset({"grid", "initial_C", "static_colliders", "moving_colliders", "impulse", "wind",
+                        "attractors"}),
 )
 
 #: The grid-engine options of ``gasp_core.mpm`` (``device``: Taichi runs on the default CUDA device

@@ -22,7 +22,8 @@ CAPABILITIES = Capabilities(
     devices=frozenset({"cpu", "cuda"}),
     precisions=frozenset({"f32", "f64"}),
     deterministic=frozenset({"cpu"}),
-    features=frozenset({"grid", "initial_C"}),
+    features=frozenset({"grid", "initial_C", "static_colliders", "moving_colliders", "impulse", "wind",
+                        "attractors"}),
 )
 
 #: The grid-engine options of ``gasp_core.mpm`` (``device``: "cpu", "cuda" or "cuda:N", Warp's device
