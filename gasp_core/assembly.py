@@ -86,12 +86,29 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
         k = int(np.flatnonzero(outside)[0])
         raise SceneError(f"{scene.path}: {int(outside.sum())} point(s) start outside the domain "
                          f"[{lo.tolist()}, {hi.tolist()}] (first at {x[k].tolist()}); enlarge [domain]")
+    extras = scene_extras(scene, objects, x, dx)
     return SimSetup(
-        x=x, v=v, p_vol=p_vol, body_id=body_id, C=C,
+        **extras, x=x, v=v, p_vol=p_vol, body_id=body_id, C=C,
         materials=[o.spec.material for o in objects], gravity=np.array(scene.gravity),
         domain_lo=lo, domain_hi=hi, n_grid=n_grid, boundaries=list(scene.boundaries),
         frame_dt=scene.frame_dt, n_render=sum(len(v) for v in vertices),
         options=dict(scene.engine.options))
+
+
+def scene_extras(scene: Scene, objects: list[PreparedObject], x: np.ndarray, dx: float) -> dict:
+    """``colliders``, ``forces`` and ``impulses`` of the setup (:mod:`gasp_core.colliders`).
+
+    Raises
+    ------
+    SceneError
+        A collider that cannot be built, or simulated points that start inside a collider.
+    """
+    if not (scene.colliders or scene.forces or scene.impulses):
+        return {}
+    from .colliders import build_colliders, check_start
+    colliders = build_colliders(scene, objects, dx)
+    check_start(colliders, x)
+    return {"colliders": colliders, "forces": list(scene.forces), "impulses": list(scene.impulses)}
 
 
 def skew(w) -> np.ndarray:

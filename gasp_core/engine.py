@@ -40,6 +40,13 @@ FEATURES = {
              "state after a frame (gasp simulate --resume); set_state right after the factory",
     "grid": "simulates on a background grid of SimSetup.n_grid cells; points within a few dx of "
             "a wall are inside the grid's transfer stencil",
+    "static_colliders": "SimSetup.colliders without motion: rigid obstacles as signed distance fields "
+                        "(gasp_core.colliders.Collider), Coulomb friction",
+    "moving_colliders": "SimSetup.colliders with a prescribed rigid motion (Collider.pose(t)); "
+                        "contact uses the velocity relative to the collider",
+    "impulse": "SimSetup.impulses: a velocity change (or imposed velocity) inside a box or sphere over [t0, t1]",
+    "wind": "SimSetup.forces of kind 'wind': a uniform acceleration plus divergence-free turbulence",
+    "attractors": "SimSetup.forces of kind 'attractor': acceleration towards a point with a falloff",
 }
 
 
@@ -318,8 +325,9 @@ def check_supported(info: EngineInfo, materials: Iterable[str] = (), boundaries:
 
 def setup_needs(setup: SimSetup) -> dict[str, list[str]]:
     """What a setup asks of an engine: ``materials``, ``boundaries`` and ``features`` names."""
+    from .colliders import feature_needs
     return {"materials": [m.name for m in setup.materials], "boundaries": [b.kind for b in setup.boundaries],
-            "features": []}
+            "features": feature_needs(setup.colliders, setup.forces, setup.impulses)}
 
 
 def _bug(info: EngineInfo, where: str, e: BaseException) -> EngineBug:

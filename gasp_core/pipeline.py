@@ -63,8 +63,9 @@ class RunResult:
 
 def scene_needs(scene: Scene) -> dict[str, list[str]]:
     """What a scene asks of an engine, before any file is read (see :func:`gasp_core.engine.check_supported`)."""
+    from .colliders import scene_feature_needs
     return {"materials": [o.material.name for o in scene.objects if not o.static],
-            "boundaries": [b.kind for b in scene.boundaries], "features": []}
+            "boundaries": [b.kind for b in scene.boundaries], "features": scene_feature_needs(scene)}
 
 
 def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None = None) -> PreparedScene:

@@ -140,6 +140,13 @@ class SimSetup:
         at angular velocity w it is the cross-product matrix of w). None means zero. Grid engines
         start their ``C`` from it, so a rotating body does not lose the sub-cell part of its
         angular momentum in the first transfer; other engines may ignore it.
+    colliders : list of gasp_core.colliders.Collider
+        Rigid obstacles (signed distance fields, friction, prescribed motion); features
+        ``static_colliders`` / ``moving_colliders``.
+    forces : list of gasp_core.colliders.ForceField
+        Acceleration fields (``wind``, ``attractor``); features ``wind`` / ``attractors``.
+    impulses : list of gasp_core.colliders.Impulse
+        Velocity changes of a region over a time window; feature ``impulse``.
     """
 
     x: np.ndarray
@@ -156,6 +163,9 @@ class SimSetup:
     n_render: int = -1
     options: dict[str, Any] = field(default_factory=dict)
     C: np.ndarray | None = None
+    colliders: list = field(default_factory=list)
+    forces: list = field(default_factory=list)
+    impulses: list = field(default_factory=list)
 
     def __post_init__(self):
         self.x = np.ascontiguousarray(self.x, dtype=np.float64)

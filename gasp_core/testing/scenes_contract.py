@@ -113,6 +113,7 @@ def _run_refusals(info: EngineInfo) -> list[Check]:
         checks.append(_refused(info, s, lacking[0], "boundary"))
     # SimSetup.C is a hint ("initial_C" engines start from it, others may ignore it), so it is not
     # refused; the features a setup does require (colliders, forces) are checked when the core has them.
+    checks += _refused_extras(info)
     checks.append(_refused(info, _base(info, options={UNKNOWN_OPTION: 1}), UNKNOWN_OPTION, "unknown_option"))
     for o in info.options:
         checks.append(_refused(info, _base(info, options={o.name: _wrong_value(o)}), o.name, f"mistyped_option_{o.name}"))
@@ -120,6 +121,28 @@ def _run_refusals(info: EngineInfo) -> list[Check]:
         checks.append(Check("refuses_unsupported", True, "the engine declares every material, boundary "
                             f"and setup feature ({sorted(FEATURES)}): nothing else to refuse"))
     return checks
+
+
+def _refused_extras(info: EngineInfo) -> list[Check]:
+    """Colliders, forces and impulses the engine lacks are refused before the factory (gasp_core.colliders)."""
+    from ..colliders import ForceField, Impulse, Motion, box_collider
+    far = np.array([0.5, 0.5, 0.9])
+    extras = {
+        "static_colliders": {"colliders": [box_collider((0.05, 0.05, 0.05), DX, position=far)]},
+        "moving_colliders": {"colliders": [box_collider((0.05, 0.05, 0.05), DX, position=far,
+                                                        motion=Motion(velocity=(0.1, 0.0, 0.0)))]},
+        "impulse": {"impulses": [Impulse("box", (0.1, 0.0, 0.0), lo=(0, 0, 0), hi=(1, 1, 1))]},
+        "wind": {"forces": [ForceField("wind", strength=1.0)]},
+        "attractors": {"forces": [ForceField("attractor", strength=1.0, point=(0.5, 0.5, 0.5))]},
+    }
+    out = []
+    for feature, fields in extras.items():
+        if feature not in info.capabilities.features:
+            s = _base(info)
+            for k, v in fields.items():
+                setattr(s, k, v)
+            out.append(_refused(info, s, feature, f"feature_{feature}"))
+    return out
 
 
 def _outcome(info: EngineInfo, setup: SimSetup, n_frames: int):

@@ -106,12 +106,23 @@ class TaichiMPMEngine:
             body=setup.body_id[o], fixed=fixed[o], jp0=jp0[o], params=params, kinds=kinds,
             n_grid=setup.n_grid, lo=setup.domain_lo, dx=dx, dt=self.dt, gravity=setup.gravity,
             walls=walls, grounds=grounds, regions=regions, real=real,
-            n_chunks=threads or 1, atomic=atomic)
+            n_chunks=threads or 1, atomic=atomic, **self._extras(setup))
         self._p2g_mode = "atomic" if atomic else f"private grids x{self.solver.n_chunks}"
         self.frame = 0
         self._x = setup.x.astype(np.float32 if real == ti.f32 else np.float64)
         self._v = setup.v.astype(self._x.dtype)
         self._closed = False
+
+    def _extras(self, setup: SimSetup) -> dict[str, Any]:
+        """Colliders, forces and impulses for the solver (``gasp_core.colliders``); none: nothing."""
+        from gasp_core.colliders import frame_table, grid_tables
+        ex = grid_tables(setup)
+        if not ex.any:
+            return {}
+
+        def next_table():
+            return frame_table(setup, self.frame * setup.frame_dt, self.n_substeps, self.dt)
+        return {"extras": ex, "time_table": next_table, "n_substeps": self.n_substeps}
 
     # ------------------------------------------------------------------ interface
     def _check_live(self) -> None:
@@ -139,7 +150,10 @@ class TaichiMPMEngine:
         self._check_live()
         s = self.solver
         s.reset_out()
-        s.substeps(self.n_substeps)
+        if s.has_extras:
+            s.substeps_with_extras(self.n_substeps)
+        else:
+            s.substeps(self.n_substeps)
         self.frame += 1
         x = s.get(s.x)[self._inverse]
         v = s.get(s.v)[self._inverse]

@@ -173,6 +173,7 @@ class WarpMPMEngine:
         hi_v = k.vec3(*[float(c) for c in setup.domain_hi])
         g_v = k.vec3(*[float(c) for c in setup.gravity])
         inv_dx, dx, dt_f, ng = Ft(self.inv_dx), Ft(self.dx), Ft(self.dt), self.n_grid
+        has_extras, ex = self._extras(setup, arr, Ft)
         self._launches = []
         if n:
             self._launches = [
@@ -181,14 +182,42 @@ class WarpMPMEngine:
                     self.mat_kind, self.mat_par, self.grid_mv, self.flags, lo_v, inv_dx, dx, dt_f, ng]),
                 wp.launch(k.grid_update, dim=n_nodes, device=d, record_cmd=True, inputs=[
                     self.grid_mv, self.grid_vel, g_v, lo_v, hi_v, dx, dt_f, ng, self.wall_mu,
-                    self.ground, self.fixed_lo, self.fixed_hi]),
+                    self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex]),
                 wp.launch(k.g2p, dim=n, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.fixed, self.grid_vel, lo_v, inv_dx, dt_f, ng]),
             ]
+            if has_extras:
+                self._launches.append(wp.launch(k.tick, dim=1, device=d, record_cmd=True, inputs=[ex.step]))
             self._check_launch = wp.launch(k.check, dim=n, device=d, record_cmd=True,
                                            inputs=[self.x, self.v, self.flags])
         self._graph = None
         self._closed = False
+
+    # ------------------------------------------------------------------ colliders, forces, impulses
+    def _extras(self, setup: SimSetup, arr, Ft):
+        """``(has_extras, Extras struct)`` from ``gasp_core.colliders.grid_tables`` (empty arrays when none)."""
+        from gasp_core.colliders import grid_tables
+        tables = grid_tables(setup)
+        ex = self.k.Extras()
+        self._ex_tables = tables if tables.any else None
+        np_t = self._np_dtype
+        ex.sdf, ex.grad, ex.meta = arr(tables.sdf.astype(np_t), Ft), arr(tables.sdf_grad.astype(np_t), Ft), \
+            arr(tables.col_meta.astype(np_t), Ft)
+        ex.forces, ex.modes, ex.imps = arr(tables.forces.astype(np_t), Ft), arr(tables.modes.astype(np_t), Ft), \
+            arr(tables.impulses.astype(np_t), Ft)
+        ex.tab = wp.zeros(max(1, self.n_substeps * tables.width), dtype=Ft, device=self.device)
+        ex.step = wp.zeros(1, dtype=wp.int32, device=self.device)
+        ex.n_col, ex.n_force, ex.n_imp, ex.width = (tables.n_colliders, tables.n_forces, tables.n_impulses,
+                                                     tables.width)
+        self._ex = ex
+        return int(tables.any), ex
+
+    def _load_frame_table(self) -> None:
+        """The time-dependent inputs of this frame's substeps (collider poses, impulse weights)."""
+        from gasp_core.colliders import frame_table
+        tab = frame_table(self.setup, (self.frame - 1) * self.setup.frame_dt, self.n_substeps, self.dt).astype(self._np_dtype)
+        self._ex.tab.assign(tab)
+        self._ex.step.zero_()
 
     # ------------------------------------------------------------------ helpers
     def _cell_order(self, x: np.ndarray) -> np.ndarray:
@@ -227,6 +256,8 @@ class WarpMPMEngine:
             self.sim_time += self.setup.frame_dt
             return
         self.flags.zero_()
+        if self._ex_tables is not None:
+            self._load_frame_table()
         if self.device.is_cuda:
             if self._graph is None:
                 with wp.ScopedCapture(device=self.device) as capture:
