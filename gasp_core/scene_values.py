@@ -106,3 +106,23 @@ def _vec3(value, key: str, src: Path, max_abs: float | None = None, max_norm: fl
     return v
 
 
+# --------------------------------------------------------------------------- limits of scene values
+UP_AXES = ("+x", "-x", "+y", "-y", "+z", "-z")
+#: Largest ``|coordinate|`` (metres) anything may be placed at: object positions, domain and
+#: fixed-region corners, ground height, and every Gaussian after placement. Engines compute in
+#: float32, whose spacing at 1e6 m is 6 cm; beyond it no object of everyday size is resolved.
+MAX_COORD = 1e6
+#: Largest initial angular speed ``|angular_velocity|``, rad/s (a fast turbine).
+MAX_SPIN = 1e4
+#: Largest initial speed ``|velocity|``, m/s (ten times a rifle bullet).
+MAX_SPEED = 1e4
+#: Largest ``|gravity|``, m/s^2 (about 1000 g).
+MAX_GRAVITY = 1e4
+#: ``scale`` (metres per file unit) range: micrometres to thousands of kilometres.
+SCALE_RANGE = (1e-6, 1e6)
+#: Largest ``[domain] padding`` (times the objects' extent on each side): beyond it the objects
+#: span fewer than ``n_grid / 21`` cells.
+MAX_PADDING = 10.0
+#: ``[domain] n_grid`` and ``particles_per_cell`` ranges (integers).
+N_GRID_RANGE = (8, 1024)
+PPC_RANGE = (1, 64)
