@@ -14,7 +14,6 @@ import os
 # Taichi prints a banner on stdout when imported; GASP's output (``gasp engines --json``) must stay
 # clean, so the banner is off unless the user asked for it.
 os.environ.setdefault("ENABLE_TAICHI_HEADER_PRINT", "False")
-os.environ.setdefault("TI_LOG_LEVEL", "warn")
 
 from gasp_core.engine import Capabilities, EngineInfo, Option, SimSetup
 from gasp_core.mpm import mpm_options, mpm_sweep

@@ -23,6 +23,20 @@ MAX_PRIVATE_GRID_BYTES = 1 << 30
 _generation = 0  # bumped by every engine built; an engine is live while its generation is current
 
 
+def _quiet_init(ti, **kw) -> None:
+    """``ti.init(**kw)`` without its unconditional "[Taichi] Starting on arch=..." line on stdout
+    (GASP's stdout carries results, e.g. ``gasp engines --json``); anything else it prints goes to stderr."""
+    import contextlib
+    import io
+    import sys
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        ti.init(**kw)
+    for line in buf.getvalue().splitlines():
+        if not line.startswith("[Taichi] Starting on arch="):
+            print(line, file=sys.stderr)
+
+
 def time_step(setup: SimSetup, opt: dict[str, Any]) -> tuple[int, float]:
     """Substeps per frame and substep length (``gasp_core.mpm.mpm_substeps``, docs/mpm.md)."""
     return mpm.substeps_from_options(setup, opt, ENGINE)
@@ -70,14 +84,14 @@ class TaichiMPMEngine:
             if not ti.lang.misc.is_arch_supported(ti.cuda):
                 raise EngineError(f"engine '{ENGINE}': device 'cuda' requested but this Taichi build "
                                   "or machine has no CUDA; use device='cpu'")
-            ti.init(arch=ti.cuda, default_fp=real, offline_cache=True, fast_math=False, log_level=ti.WARN)
+            _quiet_init(ti, arch=ti.cuda, default_fp=real, offline_cache=True, fast_math=False, log_level=ti.WARN)
             if ti.lang.impl.current_cfg().arch != ti.cuda:
                 raise EngineError(f"engine '{ENGINE}': device 'cuda' requested but Taichi could not "
                                   "start CUDA (no GPU or driver); use device='cpu'")
             threads = None
         else:
             threads = int(opt["threads"]) if opt["threads"] is not None else (os.cpu_count() or 1)
-            ti.init(arch=ti.cpu, default_fp=real, offline_cache=True, cpu_max_num_threads=threads,
+            _quiet_init(ti, arch=ti.cpu, default_fp=real, offline_cache=True, cpu_max_num_threads=threads,
                     fast_math=False, log_level=ti.WARN)
         _generation += 1
         self._gen = _generation
