@@ -224,6 +224,7 @@ def _show_warning(message, category, filename, lineno, file=None, line=None):
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     warnings.showwarning = _show_warning  # a warning is one line, not a source location and code
+    warnings.filterwarnings("ignore", category=ResourceWarning)  # libraries' unclosed files: not the user's concern
     previous = {}
     for sig in (signal.SIGTERM, signal.SIGHUP):
         try:
