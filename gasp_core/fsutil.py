@@ -291,6 +291,13 @@ class OutputClaim:
         os.replace(tmp, self.outdir)
         shutil.rmtree(trash, ignore_errors=True)
 
+    def abandon(self, tmp: Path | None, error: BaseException) -> None:
+        """After a failed run: give the claim back and remove ``tmp``, unless ``error`` is an
+        :class:`OutputConflict` (the finished results in ``tmp`` are then kept and named)."""
+        self.release()
+        if tmp is not None and not isinstance(error, OutputConflict):
+            shutil.rmtree(tmp, ignore_errors=True)
+
     def release(self) -> None:
         """Give the folder back after a failed run: remove our claim (and the folder if we made it)."""
         if self.still_ours():
@@ -313,9 +320,7 @@ def output_folder(outdir: str | os.PathLike, overwrite: bool = False, protected:
         yield tmp
         claim.commit(tmp)
     except BaseException as e:
-        claim.release()
-        if tmp is not None and not isinstance(e, OutputConflict):
-            shutil.rmtree(tmp, ignore_errors=True)
+        claim.abandon(tmp, e)
         raise
 
 

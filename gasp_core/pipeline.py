@@ -11,7 +11,6 @@ and extra properties are carried bit for bit.
 from __future__ import annotations
 
 import os
-import shutil
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -22,7 +21,7 @@ from .engine import EngineInfo, SceneError, SimSetup, check_supported
 from . import resume as resume_mod
 from .errors import GaspError
 from .frames import FrameState, iter_frames, rebuild  # noqa: F401
-from .fsutil import OutputClaim, OutputConflict, atomic_json, leftover_partials
+from .fsutil import OutputClaim, atomic_json, leftover_partials
 from .gaussians import Gaussians
 from .io import write_gaussians
 from .placement import (UP_ROTATIONS, Placement, PreparedObject, load_gaussians, place,  # noqa: F401
@@ -216,9 +215,7 @@ def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
         atomic_json(tmp / "run.json", summary)
         claim.commit(tmp)
     except BaseException as e:
-        claim.release()
-        if tmp is not None and not isinstance(e, OutputConflict):
-            shutil.rmtree(tmp, ignore_errors=True)
+        claim.abandon(tmp, e)
         raise
     return RunResult(outdir=outdir, n_frames=n_frames, stats=stats, summary=summary)
 
