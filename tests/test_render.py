@@ -152,9 +152,11 @@ def test_bad_run_folder_is_one_clear_error(tmp_path, capsys):
 
 
 @pytest.mark.slow
-def test_readme_donut_falls_lands_and_rests(tmp_path):
-    """The README example (36 frames, n_grid 64; ~2.5 min of simulation) rendered: it falls, lands
-    and rests (the centroid over the last 20 frames stays within 10 % of the drop)."""
+def test_readme_donut_falls_lands_and_bounces_lower_each_time(tmp_path):
+    """The README example (36 frames, n_grid 64; ~2.5 min of simulation on a quiet machine) rendered:
+    it falls, lands, and bounces ever lower. The filled jelly is a solid undamped elastic body, so it
+    does not come to rest within 1.2 s (README "Known limits"); measured image rows of the bounce
+    apexes: 84.7, 87.1, 89.6, 91.9, 95.7, 97.6 (the image row grows downwards)."""
     pytest.importorskip("gasp_taichi_mpm", reason="taichi_mpm plugin not installed")
     from gasp_core.cli import main
     from gasp_testing import ROOT
@@ -162,5 +164,9 @@ def test_readme_donut_falls_lands_and_rests(tmp_path):
     assert main(["simulate", str(ROOT / "examples" / "donut_jelly.toml"), "-o", str(run), "-q"]) == 0
     rows = _centroid_rows(run)
     drop = _falls_and_lands(rows)
-    assert np.ptp(rows[-20:]) < 0.1 * drop, rows
+    land = int(np.argmax(rows[:8]))
+    after = rows[land:]
+    apex = [after[i] for i in range(1, len(after) - 1) if after[i - 1] > after[i] <= after[i + 1]]
+    assert len(apex) >= 2 and all(b >= a - 0.5 for a, b in zip(apex, apex[1:])), rows   # never higher again
+    assert min(after) > rows[0] + 0.1 * drop, rows                                      # never back to the start
     assert main(["render", str(run), "-o", str(tmp_path / "donut.mp4"), "-q"]) == 0
