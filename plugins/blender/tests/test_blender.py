@@ -55,10 +55,14 @@ def test_bad_options_and_inputs_are_scene_errors():
         make_engine(setup_for(x, vol, options={"substeps": 3}))
     with pytest.raises(SceneError, match="mode"):
         make_engine(setup_for(x, vol, options={"mode": "fluid"}))
+    # capabilities are checked by the core, before the factory (gasp_core.engine.build_engine)
+    from gasp_core.engine import build_engine
+    from gasp_core.plugins import get_engine
+    info = get_engine("blender")
     with pytest.raises(SceneError, match="sand"):
-        make_engine(setup_for(x, vol, material=Material("sand")))
+        build_engine(info, setup_for(x, vol, material=Material("sand")))
     with pytest.raises(SceneError, match="walls"):
-        make_engine(setup_for(x, vol, boundaries=[Boundary("walls")]))
+        build_engine(info, setup_for(x, vol, boundaries=[Boundary("walls")]))
     with pytest.raises(SceneError, match="initial velocities"):
         make_engine(setup_for(x, vol, v=np.array([0.0, 0.0, 1.0])))
 
