@@ -239,10 +239,7 @@ def main(argv: list[str] | None = None) -> int:
     except EngineBug as e:
         print(f"gasp: error: {e}", file=sys.stderr)
         return 4
-    except GaspError as e:
-        print(f"gasp: error: {e}", file=sys.stderr)
-        return 2
-    except (FileExistsError, FileNotFoundError, IsADirectoryError, NotADirectoryError) as e:
+    except (GaspError, FileExistsError, FileNotFoundError, IsADirectoryError, NotADirectoryError) as e:
         print(f"gasp: error: {e}", file=sys.stderr)
         return 2
     except PermissionError as e:

@@ -370,4 +370,16 @@ CAUSE_DT = "time step above the stability limit or material too stiff for dt"
 CAUSE_DOMAIN = "points left the domain: add walls/ground or enlarge the domain"
 
 
+
+#: Conformance scenes the grid engines built on this toolkit fail (taichi_mpm and warp_mpm run the
+#: same algorithm, docs/mpm.md), each with the measured figures; engines copy them into
+#: ``EngineInfo.known_failures``.
+_CLAMP_OFF_GRID = ("clamp face 0.6 dx past a grid node: time-averaged tip deflection 30.83 mm vs Euler-Bernoulli "
+                   "19.99 mm (+54%); with the face on a node 21.68 mm (+8.4%). Measured also: n_grid 28/48/64 (face "
+                   "0.6/0.6/0.8 dx off a node) the bar swings down as if hinged and leaves the grid by frame ~22; "
+                   "n_grid 40 (on a node) 21.45 mm. fixed_region acts on whole nodes (docs/mpm.md), so the clamp is "
+                   "soft when its face falls between nodes")
+KNOWN_FAILURES = {"cantilever_offgrid": _CLAMP_OFF_GRID,
+                  "incline_stick": ("grid-node Coulomb friction (the grid-node 'separate' collider rule) lets a block creep down a 25 deg slope even with mu = 0.8 (and 2.0): 1.92 dx in 0.4 s (frictionless: 11 dx), accelerating; the contact nodes alternate between approaching (friction applied) and separating (elastic rebound, no friction)")}
+
 from .mpm_sweep import MPM_SWEEP, MPM_SWEEP_QUICK, dedupe_settings, grid_sweep, mpm_sweep  # noqa: E402,F401

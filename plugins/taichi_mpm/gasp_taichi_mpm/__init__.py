@@ -17,6 +17,7 @@ os.environ.setdefault("ENABLE_TAICHI_HEADER_PRINT", "False")
 
 from gasp_core.engine import Capabilities, EngineInfo, Option, SimSetup
 from gasp_core.mpm import mpm_options, mpm_sweep
+from gasp_core import mpm
 from gasp_core.plugins import hookimpl
 
 __all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "gasp_engines", "make_engine", "sweep", "taichi_available"]
@@ -68,13 +69,8 @@ def make_engine(setup: SimSetup):
     return TaichiMPMEngine(setup)
 
 
-_CLAMP_OFF_GRID = ("clamp face 0.6 dx past a grid node: time-averaged tip deflection 30.83 mm vs Euler-Bernoulli "
-                   "19.99 mm (+54%); with the face on a node 21.68 mm (+8.4%). Measured also: n_grid 28/48/64 (face "
-                   "0.6/0.6/0.8 dx off a node) the bar swings down as if hinged and leaves the grid by frame ~22; "
-                   "n_grid 40 (on a node) 21.45 mm. fixed_region acts on whole nodes (docs/mpm.md), so the clamp is "
-                   "soft when its face falls between nodes")
-KNOWN_FAILURES = {"cantilever_offgrid": _CLAMP_OFF_GRID,
-                  "incline_stick": ("grid-node Coulomb friction (taichi_elements' separate collider) lets a block creep down a 25 deg slope even with mu = 0.8 (and 2.0): 1.92 dx in 0.4 s (frictionless: 11 dx), accelerating; the contact nodes alternate between approaching (friction applied) and separating (elastic rebound, no friction)")}
+#: Known failures of the shared MLS-MPM algorithm (docs/mpm.md), measured figures in the reasons.
+KNOWN_FAILURES = dict(mpm.KNOWN_FAILURES)
 
 
 @hookimpl
