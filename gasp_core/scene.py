@@ -109,7 +109,9 @@ class ObjectSpec:
         the rest is static background, written unchanged in every frame. None: all of it moves.
     static : bool
         The whole object is static: never simulated, written unchanged in every frame (scenery,
-        and a collider where a ``[[collider]]`` names it).
+        and a collider where a ``[[collider]]`` names it). A static object takes no ``material``,
+        ``select`` or other key only a simulation reads (a :class:`SceneError` names them), and
+        a scene needs at least one object that is not static.
     """
 
     file: Path
