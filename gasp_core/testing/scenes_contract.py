@@ -165,9 +165,17 @@ def _run_declared_accepted(info: EngineInfo) -> list[Check]:
     caps = info.capabilities
     mats = sorted(caps.materials)
     xs, vols, ids = [], [], []
-    for k, m in enumerate(mats):  # one 0.1 m cube per material, side by side along x
-        x0 = 0.1 + k * (0.8 / max(len(mats), 1))
-        x, p_vol = box_points((x0, 0.45, GROUND_H + DX), (x0 + 0.0625, 0.55, GROUND_H + DX + 0.0625), DX / 2)
+    # one block (1 x 1.6 x 1 cells) per material on a grid of columns x rows inside [0.25, 0.75]^2, so
+    # every point is 4 cells or more from the domain's faces: an engine may keep a boundary band of a
+    # few cells (Genesis's MPM box is the domain less 3 dx on each side)
+    cols = int(np.ceil(np.sqrt(len(mats))))
+    rows = int(np.ceil(len(mats) / cols))
+    size = np.array([DX, 0.1, DX])
+    for k, m in enumerate(mats):
+        x0 = 0.25 + (k % cols) * (0.5 - size[0]) / max(cols - 1, 1)
+        y0 = 0.25 + (k // cols) * (0.5 - size[1]) / max(rows - 1, 1)
+        lo = np.array([x0, y0, GROUND_H + DX])
+        x, p_vol = box_points(tuple(lo), tuple(lo + size), DX / 2)
         xs.append(x), vols.append(np.full(len(x), p_vol)), ids.append(np.full(len(x), k))
     x = np.concatenate(xs)
     bounds = []
