@@ -1,0 +1,243 @@
+"""What "model only what a scene requires" buys, end to end, on the full real scenes.
+
+Each variant is the bundled scene with a few keys changed, run as a user runs it: a fresh
+``gasp simulate SCENE -o OUT -q`` process, timed from its start to its exit (Python start-up,
+reading, flattening, fill, hierarchy, engine build and JIT compiles, every frame, the PLY writes).
+Its frames are then read back and compared, Gaussian by Gaussian, with a chosen run of the same
+script:
+
+* ``err_vs_full``: the worst frame's mean distance between the same Gaussian's means in this run and
+  in the ``full`` run (every triangle vertex simulated as material: the baseline), world frame,
+  divided by the object size (diagonal of the bounding box of the frame-0 means);
+* ``err_vs_ref``: the same against the finest run (``ref``, a finer grid), the converged answer; the
+  difference between the two finest grids shows how far that reference itself is from convergence.
+
+Variants (donut, ``examples/donut_jelly.toml``; the guitar, ``examples/guitar_sand.toml``, takes
+the same keys)::
+
+    full        surface = "material", core_fraction = 1      (every vertex simulated)
+    passive     surface = "passive"                          (the fill is the material, vertices advected)
+    core0.2     core_fraction = 0.2                          (hierarchy: 20 % of the Gaussians as cores)
+    ...
+
+Usage::
+
+    python benchmarks/bench_trade.py                        # donut: all variants, 36 frames
+    python benchmarks/bench_trade.py --scene guitar --frames 20
+    python benchmarks/bench_trade.py --variants full,passive --frames 10
+
+Writes ``benchmarks/results/bench_trade_<scene>.{json,md}``. All variants of one call run one
+after another on the same machine, so their ratios come from one run; the machine's load is
+recorded before and after.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+RESULTS = ROOT / "benchmarks" / "results"
+SCENES = {"donut": ROOT / "examples" / "donut_jelly.toml", "guitar": ROOT / "examples" / "guitar_sand.toml"}
+
+#: variant name -> (object keys, domain keys). The last one is the reference (finest grid).
+VARIANTS: dict[str, tuple[dict, dict]] = {
+    "full": ({"surface": "material", "core_fraction": 1.0}, {}),
+    "passive": ({"surface": "passive"}, {}),
+    "core0.5": ({"surface": "material", "core_fraction": 0.5}, {}),
+    "core0.2": ({"surface": "material", "core_fraction": 0.2}, {}),
+    "passive_core0.2": ({"surface": "passive", "core_fraction": 0.2}, {}),
+    "passive_g96": ({"surface": "passive"}, {"n_grid": 96}),
+    "ref": ({"surface": "passive"}, {"n_grid": 128}),
+}
+
+
+def _toml_value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (int, float)):
+        return repr(v)
+    if isinstance(v, str):
+        return json.dumps(v)
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    raise TypeError(f"no TOML form for {v!r}")
+
+
+def dump_toml(doc: dict) -> str:
+    """TOML text of a scene document (scalars, arrays, tables, arrays of tables; two levels deep)."""
+    lines = [f"{k} = {_toml_value(v)}" for k, v in doc.items() if not isinstance(v, (dict, list)) or
+             (isinstance(v, list) and not (v and isinstance(v[0], dict)))]
+
+    def table(header: str, t: dict):
+        lines.append(f"\n{header}")
+        subs = []
+        for k, v in t.items():
+            if isinstance(v, dict):
+                subs.append((k, v))
+            else:
+                lines.append(f"{k} = {_toml_value(v)}")
+        return subs
+
+    for k, v in doc.items():
+        if isinstance(v, dict):
+            for sk, sv in table(f"[{k}]", v):
+                table(f"[{k}.{sk}]", sv)
+        elif isinstance(v, list) and v and isinstance(v[0], dict):
+            for item in v:
+                for sk, sv in table(f"[[{k}]]", item):
+                    table(f"[{k}.{sk}]", sv)
+    return "\n".join(lines) + "\n"
+
+
+def variant_scene(src: Path, obj_keys: dict, domain_keys: dict, n_frames: int, dst: Path) -> Path:
+    """Write the scene ``src`` with the variant's keys to ``dst`` (object files made absolute)."""
+    doc = tomllib.loads(src.read_text())
+    doc["n_frames"] = n_frames
+    doc.setdefault("domain", {}).update(domain_keys)
+    for o in doc.get("object", []):
+        o["file"] = str((src.parent / o["file"]).resolve())
+        o.update(obj_keys)
+    dst.write_text(dump_toml(doc))
+    return dst
+
+
+def read_means(run_dir: Path) -> tuple[np.ndarray, float]:
+    """Means of every frame, shape (n_frames + 1, n, 3), world metres, and the object size, m."""
+    from gasp_core.io import read_gaussians
+    summary = json.loads((run_dir / "run.json").read_text())
+    per_obj = []
+    for o in summary["objects"]:
+        files = sorted((run_dir / o["name"]).glob("frame_*.ply"))
+        per_obj.append(np.stack([read_gaussians(f).means.astype(np.float64) for f in files]) * o["scale"])
+    means = np.concatenate(per_obj, axis=1)
+    size = float(np.linalg.norm(np.ptp(means[0], axis=0)))
+    return means, size
+
+
+def error(a: np.ndarray, b: np.ndarray, size: float) -> dict:
+    """Worst frame's mean / max distance between the same Gaussians, as fractions of ``size``."""
+    n = min(len(a), len(b))
+    d = np.linalg.norm(a[:n] - b[:n], axis=2)
+    return {"mean": float(d.mean(axis=1).max() / size), "max": float(d.max() / size), "frames": n}
+
+
+def run_variant(scene: Path, out: Path, timeout_s: float) -> dict:
+    t0 = time.perf_counter()
+    p = subprocess.run([sys.executable, "-m", "gasp_core.cli", "simulate", str(scene), "-o", str(out), "-q"],
+                       capture_output=True, text=True, timeout=timeout_s)
+    wall = time.perf_counter() - t0
+    rec = {"returncode": p.returncode, "process_wall_s": wall}
+    if p.returncode != 0:
+        rec["stderr"] = p.stderr[-2000:]
+        return rec
+    s = json.loads((out / "run.json").read_text())
+    rec.update(prepare_s=s["prepare_s"], build_s=s["build_s"], run_wall_s=s["wall_s"],
+               n_points=s["n_points"], n_render_points=s["n_render_points"],
+               n_substeps=s["engine_stats"].get("n_substeps"), n_grid=s["domain"]["n_grid"],
+               mass_kg=s["engine_stats"].get("mass_kg"),
+               n_fill_points=sum(o["n_fill_points"] for o in s["objects"]),
+               n_gaussians=sum(o["n_gaussians"] for o in s["objects"]))
+    return rec
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--scene", choices=sorted(SCENES), default="donut")
+    ap.add_argument("--frames", type=int, default=None, help="frames per run (default: the scene's)")
+    ap.add_argument("--variants", default=",".join(VARIANTS), help="comma-separated, from " + ", ".join(VARIANTS))
+    ap.add_argument("--timeout", type=float, default=3600.0, help="seconds per run")
+    ap.add_argument("--keep", type=Path, default=None, help="keep the run folders here")
+    args = ap.parse_args(argv)
+    src = SCENES[args.scene]
+    n_frames = args.frames or tomllib.loads(src.read_text())["n_frames"]
+    names = [v.strip() for v in args.variants.split(",") if v.strip()]
+    bad = [v for v in names if v not in VARIANTS]
+    if bad:
+        ap.error(f"--variants: unknown {bad}; known: {list(VARIANTS)}")
+    work = Path(tempfile.mkdtemp(prefix="gasp_trade_"))
+    rows: dict[str, dict] = {}
+    means: dict[str, np.ndarray] = {}
+    size = None
+    load = [os.getloadavg()[0]]
+    try:
+        for name in names:
+            obj_keys, dom_keys = VARIANTS[name]
+            scene = variant_scene(src, obj_keys, dom_keys, n_frames, work / f"{name}.toml")
+            out = (args.keep or work) / name
+            print(f"[bench_trade] {args.scene} {name} ...", flush=True)
+            rec = run_variant(scene, out, args.timeout)
+            rec["keys"] = {**obj_keys, **dom_keys}
+            rows[name] = rec
+            if rec["returncode"] == 0:
+                means[name], size = read_means(out)
+                if args.keep is None:
+                    shutil.rmtree(out)
+            print(f"[bench_trade]   {json.dumps({k: v for k, v in rec.items() if k != 'stderr'})}", flush=True)
+            load.append(os.getloadavg()[0])
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    finest = [n for n in names if n in means and VARIANTS[n][1].get("n_grid")]
+    finest.sort(key=lambda n: VARIANTS[n][1]["n_grid"])
+    ref = finest[-1] if finest else None
+    for name, rec in rows.items():
+        if name not in means:
+            continue
+        if "full" in means:
+            rec["err_vs_full"] = error(means[name], means["full"], size)
+            rec["speedup_vs_full"] = rows["full"]["process_wall_s"] / rec["process_wall_s"]
+        if ref:
+            rec["err_vs_ref"] = error(means[name], means[ref], size)
+    doc = {"scene": str(src.relative_to(ROOT)), "n_frames": n_frames, "object_size_m": size, "reference": ref,
+           "machine": f"{platform.platform()}, {os.cpu_count()} CPUs, Python {platform.python_version()}",
+           "load_avg_1min": load, "runs": rows}
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    stem = RESULTS / f"bench_trade_{args.scene}"
+    tmp = stem.with_suffix(".json.tmp")
+    tmp.write_text(json.dumps(doc, indent=1))
+    os.replace(tmp, stem.with_suffix(".json"))
+    tmp = stem.with_suffix(".md.tmp")
+    tmp.write_text(report(doc))
+    os.replace(tmp, stem.with_suffix(".md"))
+    print(report(doc))
+    return 0
+
+
+def _pct(e: dict | None, key: str = "mean") -> str:
+    return "-" if not e else f"{100 * e[key]:.2f} %"
+
+
+def report(doc: dict) -> str:
+    ref = doc["reference"]
+    out = [f"# End-to-end trade on `{doc['scene']}` (benchmarks/bench_trade.py)", "",
+           f"{doc['n_frames']} frames; object size {doc['object_size_m'] or float('nan'):.3f} m; {doc['machine']}; "
+           f"1-min load average during the runs {min(doc['load_avg_1min']):.1f}-{max(doc['load_avg_1min']):.1f}.",
+           "`wall` is the whole `gasp simulate` process (start-up, read, fill, hierarchy, build, frames, writes). "
+           "Errors: the worst frame's mean distance between the same Gaussians' means, / object size "
+           f"(max over Gaussians in brackets); reference = `{ref}`.", "",
+           "| variant | keys | simulated points | n_substeps | prepare s | build s | wall s | speed-up vs full | err vs full | err vs ref |",
+           "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for name, r in doc["runs"].items():
+        keys = ", ".join(f"{k}={v}" for k, v in r["keys"].items())
+        if r["returncode"] != 0:
+            out.append(f"| {name} | {keys} | failed (exit {r['returncode']}): {r.get('stderr', '').strip().splitlines()[-1:]} |")
+            continue
+        out.append(f"| {name} | {keys} | {r['n_points']:,} | {r['n_substeps']} | {r['prepare_s']:.1f} | "
+                   f"{r['build_s']:.1f} | {r['process_wall_s']:.1f} | {r.get('speedup_vs_full', float('nan')):.2f} | "
+                   f"{_pct(r.get('err_vs_full'))} ({_pct(r.get('err_vs_full'), 'max')}) | "
+                   f"{_pct(r.get('err_vs_ref'))} ({_pct(r.get('err_vs_ref'), 'max')}) |")
+    return "\n".join(out) + "\n"
+
+
+if __name__ == "__main__":
+    sys.exit(main())
