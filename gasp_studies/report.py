@@ -152,8 +152,10 @@ def compare_plots(outdir: Path, table: list[dict], div: list[dict], reference: s
 
 def compare_report(path: Path, *, scene_name: str, scene_path: Any, n_frames: int, frame_dt: float,
                    table_md: str, div: list[dict], records: list[dict], reference: dict | None,
-                   skipped: dict, failed: dict, strides: list[int], runner_line: str, plots: bool) -> None:
-    """Write ``report.md`` of ``gasp compare``."""
+                   skipped: dict, failed: dict, strides: list[int], runner_line: str, plots: bool,
+                   strips_md: list[str] | None = None) -> None:
+    """Write ``report.md`` of ``gasp compare``; ``strips_md``: its ``## Frames`` section
+    (:func:`gasp_studies.strips.strips_markdown`)."""
     lines = [f"# Engine comparison: {scene_name}", "",
              f"Scene `{scene_path}`, {n_frames} frames of {frame_dt:.4g} s ({n_frames * frame_dt:.3g} s "
              f"simulated), on {machine_line()}. {runner_line}", ""]
@@ -194,6 +196,7 @@ def compare_report(path: Path, *, scene_name: str, scene_path: Any, n_frames: in
                                 "final max, % size", "final Chamfer, % size", "worst mean, % size",
                                 "at frame"]), ""]
         lines += (["![divergence](divergence.png)", "", "![timing](timing.png)", ""] if plots else [NO_PLOTS, ""])
+    lines += strips_md or []
     path.write_text("\n".join(lines))
 
 
