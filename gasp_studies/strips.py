@@ -86,7 +86,8 @@ def file_stem(name: str) -> str:
 
 @dataclass
 class StripRow:
-    """One run in a strip: a ``label`` and its ``keyframes`` ``{frame: Splats}`` (missing frames: not reached)."""
+    """One run in a strip: a ``label`` (may hold line breaks) and its ``keyframes`` ``{frame: Splats}``
+    (missing frames: not reached)."""
 
     label: str
     keyframes: Mapping[int, object]
@@ -197,7 +198,7 @@ def render_strips(outdir: Path, groups: Mapping[str, Sequence[StripRow]], frames
                                      np.asarray(s.rgb, np.float32), np.asarray(s.opacities, np.float32))
                         tile, when = to_uint8(draw(s64, view.camera, view.background)[0]), ""
                     text = [f"t = {f * frame_dt:.3f} s (frame {f})" + (f": {when}" if when else "")]
-                    tiles.append(_label(tile, ([r.label] if j == 0 else []) + text))
+                    tiles.append(_label(tile, (r.label.splitlines() if j == 0 else []) + text))
                 grid.append(np.concatenate(tiles, axis=1))
             images[name] = np.concatenate(grid, axis=0)
         for name, img in images.items():
