@@ -44,11 +44,13 @@ def strip_frames(n_frames: int, count: int = DEFAULT_STRIP_FRAMES) -> tuple[int,
 
     Raises
     ------
-    ValueError
+    SceneError
         ``count`` is negative or not an integer.
     """
     if isinstance(count, bool) or not isinstance(count, int) or count < 0:
-        raise ValueError(f"strip_frames: expected an integer >= 0, got {count!r}")
+        from gasp_core.errors import SceneError
+        raise SceneError(f"frames per strip (n_strip_frames, --strip-frames): expected an integer >= 0, "
+                         f"got {count!r}")
     if count == 0:
         return ()
     if count == 1:
