@@ -269,7 +269,7 @@ def compare_scene(scene_path: str | Path, engines: list[str] | None, output: str
                 o.keyframes = {}
             strips_md = strips_markdown(strips, scene.frame_dt)
             if progress:
-                print(f"gasp compare: strips: " + (f"skipped ({strips.skipped})" if strips.skipped else
+                print("gasp compare: strips: " + (f"skipped ({strips.skipped})" if strips.skipped else
                       f"{len(strips.files)} rendered in {strips.render_s:.1f} s"), file=sys.stderr, flush=True)
         report.compare_report(tmp / "report.md", scene_name=scene.name, scene_path=scene_path, n_frames=n_frames,
                               frame_dt=scene.frame_dt, table_md=table_md, div=div, records=records,

@@ -15,9 +15,12 @@ import re
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Mapping, Sequence
+from typing import TYPE_CHECKING, Mapping, Sequence
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from gasp_core.render.splat_numpy import Splats
 
 #: Frames per strip (evenly spaced from the first to the last frame).
 DEFAULT_STRIP_FRAMES = 6
