@@ -102,7 +102,7 @@ def _cmd_compare(args) -> int:
     _studies("compare").compare_scene(
         args.scene, [e.strip() for e in args.engines.split(",") if e.strip()] if args.engines else None,
         args.output, overwrite=args.overwrite, n_frames=args.frames, max_gaussians=args.max_gaussians,
-        scheduler=args.scheduler, workers=args.workers, **kw)
+        scheduler=args.scheduler, workers=args.workers, n_strip_frames=args.strip_frames, **kw)
     return 0
 
 
@@ -114,7 +114,7 @@ def _cmd_bench(args) -> int:
                       reference_n_grid=args.reference_n_grid or None,
                       max_gaussians=bench.DEFAULT_MAX_GAUSSIANS if args.max_gaussians is None else
                       (None if args.max_gaussians == 0 else args.max_gaussians),
-                      scheduler=args.scheduler, workers=args.workers, **kw)
+                      scheduler=args.scheduler, workers=args.workers, n_strip_frames=args.strip_frames, **kw)
     return 0
 
 
@@ -124,6 +124,8 @@ def _add_study_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--workers", type=int, default=1,
                    help="local worker processes running at once (default 1: comparable timings)")
     p.add_argument("--timeout", type=float, help="wall-clock limit of one run, seconds")
+    p.add_argument("--strip-frames", type=int, default=6, metavar="N",
+                   help="frames per rendered strip in the report (default 6; 0 = none; needs the render extra)")
 
 
 def _cmd_export_soup(args) -> int:

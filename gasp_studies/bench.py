@@ -29,10 +29,11 @@ from gasp_core.errors import EngineError, SceneError
 from gasp_core.scene import Scene, load_scene
 
 from . import report
-from .compare import engine_options, progress_line, save_run, select_engines, subsample_scene
-from .measure import pareto_front, run_errors, steady_s_per_frame
+from .compare import engine_options, ground_height, progress_line, save_run, select_engines, subsample_scene
+from .measure import cheapest_within, pareto_front, run_errors, steady_s_per_frame
 from .report import SCENE_KEYS
 from .run import RunOutput, Runner, RunSpec
+from .strips import DEFAULT_STRIP_FRAMES, StripRow, render_strips, strip_frames, strips_markdown
 
 #: Default number of frames (0.5 s at 30 fps: the fall, the impact and the rebound of the donut).
 DEFAULT_FRAMES = 15
@@ -129,6 +130,37 @@ def plan_sweeps(found: dict, names: list[str], quick: bool, settings: dict[str, 
     return plan, skipped
 
 
+def bench_strips(outdir: Path, scene: Scene, keep: tuple[int, ...], rows: list[dict], row_k: list[int],
+                 outputs: list[RunOutput], progress: bool) -> list[str]:
+    """Render ``strip_<engine>.png`` (rows: the reference, the cheapest setting within 1 % and within 5 %
+    of the object size, as in the summary table) and return the summary's ``## Frames`` lines."""
+    groups: dict[str, list[StripRow]] = {}
+    captions: dict[str, str] = {}
+    for eng in dict.fromkeys(r["engine"] for r in rows):
+        idx = [i for i, r in enumerate(rows) if r["engine"] == eng]
+        ref = rows[idx[0]]
+        shown = {idx[0]: ["reference"]}
+        for level, c in ((1, cheapest_within([rows[i] for i in idx[1:]], 0.01)),
+                         (5, cheapest_within([rows[i] for i in idx[1:]], 0.05))):
+            if c is not None:
+                shown.setdefault(next(i for i in idx if rows[i] is c), []).append(f"within {level} %")
+        groups[eng], parts = [], []
+        for i, what in shown.items():
+            r, name = rows[i], " and ".join(what)
+            groups[eng].append(StripRow(f"{name}:\n{r['setting']}", outputs[row_k[i]].keyframes))
+            cost = f"{r['wall_s']:.3g} s" if r["status"] == "ok" else r["status"]
+            err = "" if i == idx[0] else f", err_max {100 * r['err_max']:.2g} %"
+            parts.append(f"{name} `{r['setting']}` ({cost}{err})")
+        captions[eng] = f"`{eng}`, rows top to bottom: " + "; ".join(parts)
+        if ref["status"] != "ok":
+            captions[eng] += " (no reference: no errors to choose by)"
+    strips = render_strips(outdir, groups, keep, scene.frame_dt, ground_height(scene))
+    if progress:
+        print("gasp bench: strips: " + (f"skipped ({strips.skipped})" if strips.skipped else
+              f"{len(strips.files)} rendered in {strips.render_s:.1f} s"), file=sys.stderr, flush=True)
+    return strips_markdown(strips, scene.frame_dt, captions)
+
+
 @dataclass
 class BenchResult:
     """What :func:`bench_scene` did."""
@@ -145,13 +177,15 @@ def bench_scene(scene_path: str | Path, output: str | Path, engines: list[str] |
                 max_gaussians: int | None = DEFAULT_MAX_GAUSSIANS,
                 settings: dict[str, list[dict]] | None = None, reference_n_grid: int | None = None,
                 options: dict[str, dict] | None = None, timeout_s: float = BENCH_TIMEOUT_S,
-                progress: bool = True, scheduler: str | None = None, workers: int = 1) -> BenchResult:
+                progress: bool = True, scheduler: str | None = None, workers: int = 1,
+                n_strip_frames: int = DEFAULT_STRIP_FRAMES) -> BenchResult:
     """Sweep each engine's speed/accuracy settings against its reference and write a report.
 
     Layout of ``output``: ``bench.csv`` (one row per engine and setting; columns from
     :func:`gasp_studies.report.bench_columns`; errors are fractions of the object size),
-    ``pareto_<engine>.png`` and ``pareto.png`` (with matplotlib), ``summary.md``, ``runs/``
-    (records and logs).
+    ``pareto_<engine>.png`` and ``pareto.png`` (with matplotlib), ``strip_<engine>.png`` (frames of
+    the reference run and of the cheapest settings within 1 % and 5 %, rendered through one camera
+    for every engine, see :mod:`gasp_studies.strips`), ``summary.md``, ``runs/`` (records and logs).
 
     Parameters
     ----------
@@ -182,6 +216,10 @@ def bench_scene(scene_path: str | Path, output: str | Path, engines: list[str] |
         Address of an existing Dask scheduler (default: a local cluster).
     workers : int
         Local worker processes (1 keeps timings comparable).
+    n_strip_frames : int
+        Frames per rendered strip, evenly spaced from frame 0 to the last (0: no strips). Every run
+        keeps these frames (world-frame splats, in memory; not timed), the few shown are rendered at
+        the end. Without the ``render`` extra the summary says the strips were skipped and why.
 
     Returns
     -------
@@ -203,6 +241,7 @@ def bench_scene(scene_path: str | Path, output: str | Path, engines: list[str] |
     if n_frames is not None and (isinstance(n_frames, bool) or not isinstance(n_frames, int) or n_frames < 2):
         raise SceneError(f"n_frames: expected an integer >= 2 (frame 1 is left out of the timing), got {n_frames!r}")
     n_frames = min(scene.n_frames, DEFAULT_FRAMES) if n_frames is None else n_frames
+    keep = strip_frames(n_frames, n_strip_frames)
     from gasp_core.plugins import engines as all_engines
     found = all_engines()
     requested = None if engines is None else list(dict.fromkeys(e.strip() for e in engines if e.strip()))
@@ -227,7 +266,7 @@ def bench_scene(scene_path: str | Path, output: str | Path, engines: list[str] |
                 base = engine_options(scene, name, options)
                 for i, s in enumerate(sweep):
                     sc, opts = apply_setting(scene_run, s, base)
-                    specs.append(RunSpec(sc, name, opts, n_frames, f"{name}_{i:02d}"))
+                    specs.append(RunSpec(sc, name, opts, n_frames, f"{name}_{i:02d}", keep))
                     where.append((name, i, s))
             outputs: list[RunOutput | None] = [None] * len(specs)
             n_done = [0]
@@ -245,6 +284,7 @@ def bench_scene(scene_path: str | Path, output: str | Path, engines: list[str] |
                 runner.run(specs, done)
                 how = report.runner_line(runner)
             rows: list[dict] = []
+            row_k: list[int] = []  # the output behind each row
             for name in plan:
                 ks = [k for k, w in enumerate(where) if w[0] == name]
                 ref = outputs[ks[0]] if outputs[ks[0]].record["status"] == "ok" else None
@@ -272,6 +312,8 @@ def bench_scene(scene_path: str | Path, output: str | Path, engines: list[str] |
                 for r, p in zip(eng_rows, front):
                     r["pareto"] = bool(p)
                 rows += eng_rows
+                row_k += ks
+            strips_md = bench_strips(tmp, scene, keep, rows, row_k, outputs, progress) if keep else []
             outputs.clear()
             report.write_csv(tmp / "bench.csv", rows, columns)
             names = list(plan)
@@ -279,7 +321,7 @@ def bench_scene(scene_path: str | Path, output: str | Path, engines: list[str] |
             summary = report.bench_summary(tmp / "summary.md", scene_name=scene.name, scene_path=scene_path,
                                            n_frames=n_frames, frame_dt=scene.frame_dt, rows=rows, engines=names,
                                            skipped=skipped, strides=strides, total_s=time.perf_counter() - t_all,
-                                           runner_line=how, plots=plots)
+                                           runner_line=how, plots=plots, strips_md=strips_md)
     finally:
         shutil.rmtree(work, ignore_errors=True)
     if progress:

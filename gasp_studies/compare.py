@@ -25,6 +25,7 @@ from gasp_core.scene import Scene, load_scene
 from . import report
 from .measure import divergence_rows, steady_s_per_frame
 from .run import RUN_TIMEOUT_S, RunOutput, Runner, RunSpec
+from .strips import DEFAULT_STRIP_FRAMES, StripRow, render_strips, strip_frames, strips_markdown
 
 
 def subsample_scene(scene: Scene, max_gaussians: int | None, workdir: Path) -> tuple[Scene, list[int]]:
@@ -62,6 +63,12 @@ def subsample_scene(scene: Scene, max_gaussians: int | None, workdir: Path) -> t
         write_gaussians(path, g.subset(np.arange(0, g.n, k)), overwrite=True)
         objects.append(dataclasses.replace(spec, file=path))
     return dataclasses.replace(scene, objects=objects), strides
+
+
+def ground_height(scene: Scene) -> float | None:
+    """Height of the scene's lowest ground boundary, metres (None without one)."""
+    grounds = [b.height for b in scene.boundaries if b.kind == "ground"]
+    return min(grounds) if grounds else None
 
 
 def engine_options(scene: Scene, engine: str, options: Mapping[str, Mapping] | None = None) -> dict:
@@ -152,13 +159,16 @@ def compare_scene(scene_path: str | Path, engines: list[str] | None, output: str
                   overwrite: bool = False, n_frames: int | None = None,
                   options: Mapping[str, Mapping] | None = None, max_gaussians: int | None = None,
                   timeout_s: float = RUN_TIMEOUT_S, keep_runs: bool = True, progress: bool = True,
-                  scheduler: str | None = None, workers: int = 1) -> CompareResult:
+                  scheduler: str | None = None, workers: int = 1,
+                  n_strip_frames: int = DEFAULT_STRIP_FRAMES) -> CompareResult:
     """Run one scene on several engines (a fresh Dask worker process each) and write a report.
 
     Layout of ``output``: ``table.csv``/``table.md`` (per engine: version, device, simulated
     points, substeps per frame, wall time per frame, peak memory), ``divergence.csv`` (per frame
     and engine against the reference), ``divergence.png``, ``timing.png`` (with matplotlib),
-    ``report.md``, and ``runs/`` (per run: means ``.npz``, record ``.json``, log).
+    ``strip_<engine>.png`` (frames rendered through one camera for every engine, see
+    :mod:`gasp_studies.strips`), ``report.md``, and ``runs/`` (per run: means ``.npz``, record
+    ``.json``, log).
 
     Parameters
     ----------
@@ -187,6 +197,9 @@ def compare_scene(scene_path: str | Path, engines: list[str] | None, output: str
         Address of an existing Dask scheduler (default: a local cluster, see :class:`Runner`).
     workers : int
         Local worker processes (runs in parallel; 1 keeps timings comparable).
+    n_strip_frames : int
+        Frames per rendered strip, evenly spaced from frame 0 to the last (0: no strips). Without
+        the ``render`` extra the report says the strips were skipped and why.
 
     Returns
     -------
@@ -208,6 +221,7 @@ def compare_scene(scene_path: str | Path, engines: list[str] | None, output: str
     if n_frames is not None and (isinstance(n_frames, bool) or not isinstance(n_frames, int) or n_frames < 1):
         raise SceneError(f"n_frames: expected a positive integer, got {n_frames!r}")
     n_frames = scene.n_frames if n_frames is None else n_frames
+    keep = strip_frames(n_frames, n_strip_frames)
     runnable, skipped = select_engines(scene, engines)
     if not runnable:
         raise EngineError(f"no engine can run {scene_path}: " + "; ".join(f"{k}: {v}" for k, v in skipped.items()))
@@ -219,7 +233,7 @@ def compare_scene(scene_path: str | Path, engines: list[str] | None, output: str
         for name in runnable:
             seen[name] = seen.get(name, 0) + 1
             label = name if seen[name] == 1 else f"{name}#{seen[name]}"
-            specs.append(RunSpec(scene_run, name, engine_options(scene, name, options), n_frames, label))
+            specs.append(RunSpec(scene_run, name, engine_options(scene, name, options), n_frames, label, keep))
 
         def done(i: int, out: RunOutput) -> None:
             save_run(out, runs, specs[i].label.replace("#", "_"), keep_runs)
@@ -247,10 +261,20 @@ def compare_scene(scene_path: str | Path, engines: list[str] | None, output: str
         (tmp / "table.md").write_text(table_md)
         report.write_csv(tmp / "divergence.csv", div, report.DIVERGENCE_COLUMNS)
         plots = report.compare_plots(tmp, table, div, ref.record["label"] if ref else None)
+        strips_md = []
+        if keep:
+            strips = render_strips(tmp, {o.record["label"]: [StripRow(o.record["label"], o.keyframes)]
+                                         for o in outputs if o.keyframes}, keep, scene.frame_dt, ground_height(scene))
+            for o in outputs:
+                o.keyframes = {}
+            strips_md = strips_markdown(strips, scene.frame_dt)
+            if progress:
+                print("gasp compare: strips: " + (f"skipped ({strips.skipped})" if strips.skipped else
+                      f"{len(strips.files)} rendered in {strips.render_s:.1f} s"), file=sys.stderr, flush=True)
         report.compare_report(tmp / "report.md", scene_name=scene.name, scene_path=scene_path, n_frames=n_frames,
                               frame_dt=scene.frame_dt, table_md=table_md, div=div, records=records,
                               reference=ref.record if ref else None, skipped=skipped, failed=failed,
-                              strides=strides, runner_line=how, plots=plots)
+                              strides=strides, runner_line=how, plots=plots, strips_md=strips_md)
     if progress:
         print(f"gasp compare: wrote {output}/report.md", file=sys.stderr)
     return CompareResult(output, ref.record["label"] if ref else None, table, div, skipped, failed, outputs,

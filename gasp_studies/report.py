@@ -152,8 +152,10 @@ def compare_plots(outdir: Path, table: list[dict], div: list[dict], reference: s
 
 def compare_report(path: Path, *, scene_name: str, scene_path: Any, n_frames: int, frame_dt: float,
                    table_md: str, div: list[dict], records: list[dict], reference: dict | None,
-                   skipped: dict, failed: dict, strides: list[int], runner_line: str, plots: bool) -> None:
-    """Write ``report.md`` of ``gasp compare``."""
+                   skipped: dict, failed: dict, strides: list[int], runner_line: str, plots: bool,
+                   strips_md: list[str] | None = None) -> None:
+    """Write ``report.md`` of ``gasp compare``; ``strips_md``: its ``## Frames`` section
+    (:func:`gasp_studies.strips.strips_markdown`)."""
     lines = [f"# Engine comparison: {scene_name}", "",
              f"Scene `{scene_path}`, {n_frames} frames of {frame_dt:.4g} s ({n_frames * frame_dt:.3g} s "
              f"simulated), on {machine_line()}. {runner_line}", ""]
@@ -194,6 +196,7 @@ def compare_report(path: Path, *, scene_name: str, scene_path: Any, n_frames: in
                                 "final max, % size", "final Chamfer, % size", "worst mean, % size",
                                 "at frame"]), ""]
         lines += (["![divergence](divergence.png)", "", "![timing](timing.png)", ""] if plots else [NO_PLOTS, ""])
+    lines += strips_md or []
     path.write_text("\n".join(lines))
 
 
@@ -254,8 +257,11 @@ def bench_plots(outdir: Path, rows: list[dict], engines: list[str]) -> bool:
 
 def bench_summary(path: Path, *, scene_name: str, scene_path: Any, n_frames: int, frame_dt: float,
                   rows: list[dict], engines: list[str], skipped: dict, strides: list[int], total_s: float,
-                  runner_line: str, plots: bool) -> dict[str, dict]:
-    """Write ``summary.md`` of ``gasp bench``; return ``{engine: {reference, within_1pct, within_5pct}}``."""
+                  runner_line: str, plots: bool, strips_md: list[str] | None = None) -> dict[str, dict]:
+    """Write ``summary.md`` of ``gasp bench``; return ``{engine: {reference, within_1pct, within_5pct}}``.
+
+    ``strips_md``: its ``## Frames`` section (:func:`gasp_studies.strips.strips_markdown`), after the
+    Pareto plot."""
     out: dict[str, dict] = {}
     lines = [f"# Speed / accuracy: {scene_name}", "",
              f"Scene `{scene_path}`, {n_frames} frames of {frame_dt:.4g} s ({n_frames * frame_dt:.3g} s simulated)"
@@ -286,7 +292,7 @@ def bench_summary(path: Path, *, scene_name: str, scene_path: Any, n_frames: int
             return (f"{c['setting']} | {c['wall_s']:.3g} | {100 * c['err_max']:.2g} % | "
                     f"{ref['wall_s'] / c['wall_s']:.1f}x")
         lines.append(f"| {eng} | {ref['setting']} ({ref['status']}) | {ref['wall_s']:.3g} | {cell(c1)} | {cell(c5)} |")
-    lines += ["", "![pareto](pareto.png)" if plots else NO_PLOTS, "", "## All runs", ""]
+    lines += ["", "![pareto](pareto.png)" if plots else NO_PLOTS, ""] + (strips_md or []) + ["## All runs", ""]
     view = [{**r, "err_mean_pct": 100 * r["err_mean"], "err_max_pct": 100 * r["err_max"],
              "err_final_pct": 100 * r["err_final"], "front": "yes" if r.get("pareto") else ""} for r in rows]
     lines += [md_table(view, ["engine", "setting", "status", "simulated_points", "substeps_per_frame",

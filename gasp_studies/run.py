@@ -40,6 +40,8 @@ class RunSpec:
 
     ``label`` names the run in tables and file names. The scene's object files must be readable
     by the workers (the same machine, or a shared file system for a remote cluster).
+    ``keep_frames``: frames whose rebuilt Gaussians come back as world-frame splats
+    (:attr:`RunOutput.keyframes`, for the reports' strips of rendered frames).
     """
 
     scene: Scene
@@ -47,6 +49,7 @@ class RunSpec:
     options: dict
     n_frames: int
     label: str
+    keep_frames: tuple[int, ...] = ()
 
 
 @dataclass
@@ -72,6 +75,9 @@ class RunOutput:
         Row offsets of the objects.
     log : str
         The run's stdout and stderr (file-descriptor level, so native libraries' output too).
+    keyframes : dict of int -> Splats
+        World-frame splats (float32) of the frames in :attr:`RunSpec.keep_frames` the run reached
+        (:func:`gasp_studies.strips.world_splats`).
     """
 
     record: dict
@@ -79,6 +85,7 @@ class RunOutput:
     m_per_unit: np.ndarray | None = None
     obj_start: np.ndarray | None = None
     log: str = ""
+    keyframes: dict = field(default_factory=dict)
 
 
 def _rss_peak_mb() -> float:
@@ -120,10 +127,13 @@ def execute(spec: RunSpec, capture: bool = True) -> RunOutput:
     from gasp_core.pipeline import iter_frames, prepare_scene
     from gasp_core.runner import RunStats
 
+    from .strips import world_splats
+
     rec: dict[str, Any] = {"engine": spec.engine, "label": spec.label, "status": "ok",
                            "options": dict(spec.options), "worker_base_rss_mb": _rss_peak_mb(),
                            "pid": os.getpid()}
     means: list[np.ndarray] = []
+    keyframes: dict = {}
     m_per_unit = obj_start = None
     t_start = time.perf_counter()
     cap = _CaptureFds() if capture else None
@@ -148,9 +158,14 @@ def execute(spec: RunSpec, capture: bool = True) -> RunOutput:
         stats = RunStats()
         cpu_marks = []
         try:
-            for _frame, gs, _row in iter_frames(prep, spec.n_frames, stats):
-                cpu_marks.append(time.process_time())
+            kept_cpu = 0.0  # CPU time spent keeping keyframes: not the engine's, left out of frame_cpu_s
+            for frame, gs, _row in iter_frames(prep, spec.n_frames, stats):
+                cpu_marks.append(time.process_time() - kept_cpu)
                 means.append(np.concatenate([g.means for g in gs]).astype(np.float32))
+                if frame in spec.keep_frames:
+                    c0 = time.process_time()
+                    keyframes[frame] = world_splats(prep.objects, gs)
+                    kept_cpu += time.process_time() - c0
         except EngineDivergence as e:
             rec.update(status="diverged", frame=e.frame, cause=e.cause, message=str(e))
         rec["build_s"] = stats.build_s
@@ -169,7 +184,7 @@ def execute(spec: RunSpec, capture: bool = True) -> RunOutput:
     rec["peak_rss_mb"] = _rss_peak_mb()
     rec["frames_saved"] = len(means)
     return RunOutput(rec, np.stack(means) if means else None, m_per_unit if means else None,
-                     obj_start if means else None, cap.text if cap is not None else "")
+                     obj_start if means else None, cap.text if cap is not None else "", keyframes)
 
 
 def _failed(spec: RunSpec, status: str, message: str) -> RunOutput:
