@@ -76,9 +76,11 @@ def check_guitar_unchanged(scene, outdir: Path) -> int:
     return len(frames)
 
 
-def _engines_with_colliders(known: dict[str, str]) -> list:
+def _engines_with_colliders(known: dict[str, str], run_known: bool = True) -> list:
+    """Engines with the ``static_colliders`` feature; a known failure as a strict xfail, or left out."""
     return [pytest.param(n, marks=pytest.mark.xfail(strict=True, reason=known[n])) if n in known else n
-            for n, e in sorted(engines().items()) if "static_colliders" in e.capabilities.features]
+            for n, e in sorted(engines().items()) if "static_colliders" in e.capabilities.features
+            and (run_known or n not in known)]
 
 
 def _assert_rests(f: dict) -> None:
@@ -97,8 +99,9 @@ def _assert_rests(f: dict) -> None:
     assert 0.0 <= col["max_depth_dx"] < 1.0
 
 
-#: Measured (full run): MuJoCo collides with the guitar's convex hull, which spans the bridge: the
-#: donut rests 4.88 dx above the true surface (never inside: 1.16 dx above at the deepest).
+#: Measured: MuJoCo collides with the guitar's convex hull, which spans the bridge: the donut rests
+#: about 37 mm above the true surface, 4.88 dx in the full run (never inside: 1.16 dx above at the
+#: deepest) and 2.36 dx in the reduced one. The reduced tier leaves it out (84 s for a known failure).
 KNOWN = {"mujoco_flex": "rests on the guitar's convex hull: lowest Gaussians 4.88 dx above the surface (limit 1.5 dx)"}
 
 
@@ -114,7 +117,7 @@ def _run(engine: str, tmp_path: Path, reduced: bool):
     return scene
 
 
-@pytest.mark.parametrize("engine", _engines_with_colliders(KNOWN))
+@pytest.mark.parametrize("engine", _engines_with_colliders(KNOWN, run_known=False))
 def test_donut_rests_on_guitar_reduced(engine, tmp_path):
     scene = _run(engine, tmp_path, True)
     assert check_guitar_unchanged(scene, tmp_path / "out") == scene.n_frames + 1
