@@ -48,7 +48,7 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
     SceneError
         If an object lies outside an explicit domain.
     """
-    objects = [o for o in objects if not o.spec.static]
+    scenery, objects = objects, [o for o in objects if not o.spec.static]
     vertices = [simulated_triangles(o).reshape(-1, 3) for o in objects]
     lo, hi = default_domain(scene, np.concatenate([o.tri_rest.reshape(-1, 3) for o in objects]))
     n_grid = scene.domain.n_grid
@@ -86,7 +86,7 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
         k = int(np.flatnonzero(outside)[0])
         raise SceneError(f"{scene.path}: {int(outside.sum())} point(s) start outside the domain "
                          f"[{lo.tolist()}, {hi.tolist()}] (first at {x[k].tolist()}); enlarge [domain]")
-    extras = scene_extras(scene, objects, x, dx)
+    extras = scene_extras(scene, scenery, x, dx)  # colliders may name static objects
     return SimSetup(
         **extras, x=x, v=v, p_vol=p_vol, body_id=body_id, C=C,
         materials=[o.spec.material for o in objects], gravity=np.array(scene.gravity),

@@ -115,6 +115,9 @@ class Collider:
     triangles : ndarray, shape (m, 3, 3) or None
         Collider-frame triangles (metres) when built from a mesh, for engines that collide with
         meshes.
+    source : str
+        Where it came from, for ``run.json``: ``mesh:<file>``, ``gaussians:<file>``,
+        ``object:<name>``; empty for colliders built in code.
     """
 
     name: str
@@ -127,6 +130,7 @@ class Collider:
     rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
     motion: Motion = field(default_factory=Motion)
     triangles: np.ndarray | None = None
+    source: str = ""
 
     @property
     def moving(self) -> bool:

@@ -19,12 +19,9 @@ def scene_feature_needs(scene) -> list[str]:
 
 
 def _euler_deg(r) -> np.ndarray:
-    """Rotation about x, then y, then z (degrees), as a matrix."""
-    ax, ay, az = (math.radians(a) for a in r)
-    Rx = _rotvec_matrix(np.array([ax, 0.0, 0.0]))
-    Ry = _rotvec_matrix(np.array([0.0, ay, 0.0]))
-    Rz = _rotvec_matrix(np.array([0.0, 0.0, az]))
-    return Rz @ Ry @ Rx
+    """Rotation about x, then y, then z (degrees), as a matrix (the objects' own rule)."""
+    from .placement import euler_matrix
+    return euler_matrix(r)
 
 
 def _placed_frame(points: np.ndarray, spec) -> np.ndarray:
@@ -73,12 +70,13 @@ def build_colliders(scene, objects, dx: float) -> list[Collider]:
             tris = verts[np.asarray(mesh.faces)]
             out.append(collider_from_triangles(tris, h, name=f"{spec.where} ({spec.mesh.name})",
                                                friction=spec.friction, position=np.array(spec.position, float),
-                                               rotation=R, motion=motion))
+                                               rotation=R, motion=motion, source=f"mesh:{spec.mesh}"))
             continue
         splats = _collider_splats(spec, objects)
         if spec.object is None:
             splats = (splats.reshape(-1, 3) @ R.T + np.asarray(spec.position, float)).reshape(-1, 3, 3)
-        out.append(collider_from_splats(splats, h, name=spec.where, friction=spec.friction))
+        source = f"gaussians:{spec.gaussians}" if spec.object is None else f"object:{spec.object}"
+        out.append(collider_from_splats(splats, h, name=spec.where, friction=spec.friction, source=source))
     return out
 
 
@@ -102,12 +100,14 @@ def _collider_splats(spec, objects) -> np.ndarray:
     else:
         raise SceneError(f"{spec.where}.object = {spec.object!r}: no [[object]] with that file stem; "
                          f"objects: {names}")
-    if not getattr(o.spec, "static", False):
+    from .selection import static_rows
+    rows = static_rows(o)
+    if not len(rows):
         raise SceneError(f"{spec.where}.object = {spec.object!r}: the object is simulated; a collider can only "
-                         "be made from a static object (static = true), or use gaussians = \"file.ply\"")
+                         "be made from a static object (static = true) or the unselected rest of one with "
+                         "'select', or use gaussians = \"file.ply\"")
     if any(spec.position) or any(spec.rotation):
-        raise SceneError(f"{spec.where}: a collider from an [[object]] sits where the object is; "
-                         "remove 'position' and 'rotation'")
-    return o.tri_rest[_opaque(o, spec.min_opacity)]
-
-
+        raise SceneError(f"{spec.where}: a collider from an [[object]] sits where the object is (its position "
+                         "and rotation); remove 'position' and 'rotation' here")
+    alpha = 1.0 / (1.0 + np.exp(-o.gaussians.opacities[rows].astype(np.float64)))
+    return o.static_tri[alpha >= spec.min_opacity]

@@ -96,6 +96,9 @@ def iter_frames(prep: PreparedScene, n_frames: int, stats: RunStats | None = Non
             row["degenerate"] += counts["degenerate"]
             row["clamped"] += counts["clamped"]
             gs.append(g)
+        if prep.setup.colliders:  # run.json collider figures (gasp_core.colliders_record)
+            from .colliders_record import contact_row
+            row["colliders"] = contact_row(prep.setup, x, frame * prep.setup.frame_dt)
         return gs, row
 
     start = 0 if resume is None else resume.frame

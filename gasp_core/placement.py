@@ -1,6 +1,7 @@
 """Placing an object: read its Gaussians, turn them into the world frame, flatten, triangulate.
 
-World frame: metres, z up. ``x_world = scale * R @ x_file + t`` (:class:`Placement`); the GaMeS map
+World frame: metres, z up. ``x_world = scale * R @ x_file + t`` (:class:`Placement`), ``R`` the
+object's ``rotation`` after its up axis; the GaMeS map
 ``T`` (GASP paper Sec. 3) turns each flattened Gaussian into its triangle.
 """
 from __future__ import annotations
@@ -27,6 +28,19 @@ UP_ROTATIONS = {
     "+x": np.array([[0.0, 0, -1], [0, 1, 0], [1, 0, 0]]),
     "-x": np.array([[0.0, 0, 1], [0, 1, 0], [-1, 0, 0]]),
 }
+
+
+def euler_matrix(degrees) -> np.ndarray:
+    """Rotation about world x, then y, then z (degrees), as a matrix ``Rz @ Ry @ Rx``, shape (3, 3).
+
+    The ``rotation`` of objects and of ``[[collider]]`` entries (extrinsic x-y-z angles).
+    """
+    ax, ay, az = (np.radians(float(a)) for a in degrees)
+    cx, sx, cy, sy, cz, sz = np.cos(ax), np.sin(ax), np.cos(ay), np.sin(ay), np.cos(az), np.sin(az)
+    Rx = np.array([[1.0, 0.0, 0.0], [0.0, cx, -sx], [0.0, sx, cx]])
+    Ry = np.array([[cy, 0.0, sy], [0.0, 1.0, 0.0], [-sy, 0.0, cy]])
+    Rz = np.array([[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]])
+    return Rz @ Ry @ Rx
 
 
 @dataclass
@@ -97,12 +111,14 @@ class PreparedObject:
 
 
 def place(g: Gaussians, spec: ObjectSpec) -> Placement:
-    """The file -> world transform of an object (up-axis, metres, position).
+    """The file -> world transform of an object (up-axis, rotation, metres, position).
 
-    With ``recentre``, the bottom centre of the means' bounding box (world orientation) lands on
+    ``R = euler_matrix(spec.rotation) @ UP_ROTATIONS[spec.up_axis]``. With ``recentre``, the bottom centre of the means' bounding box (world orientation) lands on
     ``spec.position``; otherwise ``spec.position`` is a plain offset.
     """
     R = UP_ROTATIONS[spec.up_axis]
+    if any(getattr(spec, "rotation", (0.0, 0.0, 0.0))):
+        R = euler_matrix(spec.rotation) @ R
     s = float(spec.scale)
     x = s * g.means @ R.T
     if spec.recentre:

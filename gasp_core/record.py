@@ -7,6 +7,7 @@ from importlib import metadata
 
 from . import __version__
 from .engine import EngineInfo
+from .colliders_record import collider_records
 from .selection import selection_record, selection_totals
 
 def _versions(info: EngineInfo) -> dict:
@@ -28,7 +29,9 @@ def run_summary(prep, stats, n_frames: int, per_frame: list[dict], wall_s: float
     stats : RunStats
     n_frames : int
     per_frame : list of dict
-        One row per frame (frame 0 included): ``frame``, ``degenerate``, ``clamped``, ``sim_s``, ``write_s``.
+        One row per frame (frame 0 included): ``frame``, ``degenerate``, ``clamped``, ``sim_s``, ``write_s``,
+        and ``colliders`` when the scene has colliders (:mod:`gasp_core.colliders_record`, which
+        also gives ``run.json`` ``colliders``).
     wall_s : float
         Seconds from the engine build to the last frame written.
     """
@@ -44,6 +47,7 @@ def run_summary(prep, stats, n_frames: int, per_frame: list[dict], wall_s: float
         "boundaries": [dataclasses.asdict(b) for b in setup.boundaries],
         "n_points": len(setup.x), "n_render_points": setup.n_render, **selection_totals(prep),
         "objects": [_object_record(o, name) for o, name in zip(prep.objects, prep.names)],
+        "colliders": collider_records(setup, per_frame),
         "frames": per_frame,
     }
 

@@ -76,6 +76,10 @@ class ObjectSpec:
         if false, ``position`` is added to the rotated, scaled file coordinates.
     position : (3,) float
         Metres.
+    rotation : (3,) float
+        Degrees about world x, then y, then z, applied after ``up_axis`` and before ``recentre``
+        (:func:`gasp_core.placement.euler_matrix`); a static object and the ``[[collider]]``
+        made from it share this placement.
     velocity : (3,) float
         Initial velocity, m/s.
     angular_velocity : (3,) float
@@ -122,6 +126,7 @@ class ObjectSpec:
     velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
     angular_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
     material: Material = field(default_factory=Material)
+    rotation: tuple[float, float, float] = (0.0, 0.0, 0.0)
     fill: bool = True
     alpha: float | None = 1.5
     thickness: str = "keep"
@@ -311,7 +316,8 @@ def _object(o: dict, where: str, src: Path) -> ObjectSpec:
         if_open=_string(o.get("if_open", "warn"), f"{where}.if_open", src, ("warn", "error")),
         dynamic_time=_dynamic_time(o, f, where, src),
         select=_select(o["select"], f"{where}.select", src) if "select" in o else None,
-        static=_static(o, where, src))
+        static=_static(o, where, src),
+        rotation=_vec3(o.get("rotation", [0.0, 0.0, 0.0]), f"{where}.rotation", src, max_abs=360.0, unit=" degrees"))
 
 
 def load_scene(path: str | Path) -> Scene:

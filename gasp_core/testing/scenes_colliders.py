@@ -2,7 +2,10 @@
 
 - ``incline_slide`` / ``incline_stick``: an elastic block on a static box collider tilted by
   ``INCLINE_DEG``; with Coulomb friction ``mu`` below ``tan(theta)`` it slides with
-  ``a = g (sin theta - mu cos theta)``, above it stays put.
+  ``a = g (sin theta - mu cos theta)``, above it stays put. ``incline_slide`` uses a cube,
+  ``incline_stick`` a flat slab (``SLAB``: 8 x 4 x 2 dx, so that it cannot tip: its weight's line
+  stays over its base up to ``atan(4) = 76`` deg), and ``incline_stick_cube`` the cube, which a rigid
+  cube's statics also hold still (it tips only beyond ``atan(1) = 45`` deg).
 - ``pusher``: a box collider moving at ``PUSH_SPEED`` along x pushes a block over a ground with
   friction; in the long run the block can neither fall behind the pusher (no penetration) nor
   run ahead of it (friction stops it), so its mean speed is the pusher's.
@@ -43,19 +46,34 @@ def _incline_frame():
     return n, s, R
 
 
-def _build_incline(mu: float) -> SimSetup:
+#: Block sides (along the slope, across, normal to it), metres: the cube and the slab.
+CUBE = (0.125, 0.125, 0.125)
+SLAB = (0.25, 0.125, 0.0625)
+
+
+def _build_incline(mu: float, size=CUBE) -> SimSetup:
     n, s, R = _incline_frame()
     top = np.array([0.45, 0.5, 0.45])                          # centre of the slope's top face
     half = np.array([0.8, 0.6, 0.1])
     col = box_collider(half, SDF_SPACING * DX, name="incline", friction=mu, position=top - half[2] * n,
                        rotation=R)
-    L = 0.125
-    local, p_vol = box_points((-L / 2, -L / 2, 0.25 * DX), (L / 2, L / 2, 0.25 * DX + L), DX / 2)
+    Ls, Ly, Ln = size
+    local, p_vol = box_points((-Ls / 2, -Ly / 2, 0.25 * DX), (Ls / 2, Ly / 2, 0.25 * DX + Ln), DX / 2)
     start = top - 0.08 * s                                      # upslope of the face centre
     x = start + local[:, :1] * s + local[:, 1:2] * np.array([0.0, 1.0, 0.0]) + local[:, 2:] * n
     setup = _setup(x, p_vol, BLOCK, n_grid=N_GRID, frame_dt=0.02)
     setup.colliders = [col]
     return setup
+
+
+def _tilt_deg(x0: np.ndarray, x1: np.ndarray) -> float:
+    """Angle (degrees) of the best-fit rotation from ``x0`` to ``x1`` (Kabsch, centroids removed)."""
+    U, _, Vt = np.linalg.svd((x0 - x0.mean(axis=0)).T @ (x1 - x1.mean(axis=0)))
+    R = (U @ Vt).T
+    if np.linalg.det(R) < 0:
+        U[:, -1] *= -1
+        R = (U @ Vt).T
+    return math.degrees(math.acos(float(np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0))))
 
 
 def _eval_incline(mu: float):
@@ -75,9 +93,11 @@ def _eval_incline(mu: float):
                                  f"{expected:.3f} m/s^2, mu = {mu})", a=a_fit, expected=expected))
         else:
             free = 0.5 * G * math.sin(th) * t[-1] ** 2
+            tilt = _tilt_deg(tr.x[0], tr.x[-1])
             checks.append(_check("stick_displacement", float(abs(along[-1])) / DX, 0.5,
                                  f"|centroid travel down the slope| after {t[-1]:.2f} s, in dx (frictionless "
-                                 f"it would be {free / DX:.0f} dx; mu = {mu} > tan th = {math.tan(th):.3f})"))
+                                 f"it would be {free / DX:.0f} dx; mu = {mu} > tan th = {math.tan(th):.3f}; "
+                                 f"block turned {tilt:.1f} deg)", tilt_deg=tilt))
         depth = float(np.max(-((tr.x[-1] - (np.array([0.45, 0.5, 0.45]))) @ n)))
         checks.append(_check("penetration", depth / DX, 1.0, "deepest point below the slope's surface at the end, "
                              "in dx"))
@@ -150,7 +170,12 @@ SCENES_COLLIDERS: list[Scene] = [
           f"{MU_SLIDE}: slides with a = g (sin th - mu cos th) within {INCLINE_TOL:.0%}",
           Requires(frozenset({"jelly"}), features=frozenset({"static_colliders"})),
           lambda info: _build_incline(MU_SLIDE), round(INCLINE_T / 0.02), _eval_incline(MU_SLIDE)),
-    Scene("incline_stick", f"the same block with friction {MU_STICK} > tan th: moves less than dx/2",
+    Scene("incline_stick", f"a flat slab (8 x 4 x 2 dx) on the same slope with friction {MU_STICK} > tan th: "
+          "moves less than dx/2",
+          Requires(frozenset({"jelly"}), features=frozenset({"static_colliders"})),
+          lambda info: _build_incline(MU_STICK, SLAB), round(INCLINE_T / 0.02), _eval_incline(MU_STICK)),
+    Scene("incline_stick_cube", f"the cube on the same slope with friction {MU_STICK} > tan th (a rigid cube "
+          "tips only beyond 45 deg): moves less than dx/2",
           Requires(frozenset({"jelly"}), features=frozenset({"static_colliders"})),
           lambda info: _build_incline(MU_STICK), round(INCLINE_T / 0.02), _eval_incline(MU_STICK)),
     Scene("pusher", f"box collider moving at {PUSH_SPEED} m/s pushes a block over a ground with friction: "
