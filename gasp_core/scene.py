@@ -51,6 +51,8 @@ import numpy as np
 from .engine import BOUNDARIES, MATERIALS, Boundary, Material, SceneError
 
 UP_AXES = ("+x", "-x", "+y", "-y", "+z", "-z")
+#: ``[[object]] surface``: the triangle vertices are material points, or passive (massless, carried).
+SURFACES = ("material", "passive")
 
 
 @dataclass
@@ -95,6 +97,10 @@ class ObjectSpec:
     core_fraction : float
         Share of Gaussians simulated, in (0, 1]: below 1, BIRCH clusters build that many Core
         Gaussians and the rest follow them (paper Sec. 3, hierarchy; :mod:`gasp_core.hierarchy`).
+    surface : str
+        ``"material"``: the triangle vertices are material points sharing the solid's volume
+        with the fill. ``"passive"``: they carry no mass and follow the material (the fill alone
+        is the solid; :mod:`gasp_core.passive`, ``SimSetup.passive``).
     dynamic_time : float or None
         For a dynamic model (``.splatv``): the model time ``s`` at which physics takes over,
         ``G_t = T^-1(phi(psi(V, s), t))`` (paper Sec. 3, dynamic scenes); default 0.
@@ -115,6 +121,7 @@ class ObjectSpec:
     core_fraction: float = 1.0
     if_open: str = "warn"
     dynamic_time: float | None = None
+    surface: str = "material"
 
 
 @dataclass
@@ -402,6 +409,7 @@ def _object(o: dict, where: str, src: Path) -> ObjectSpec:
         core_fraction=_number(o.get("core_fraction", 1.0), f"{where}.core_fraction", src, 0.0, 1.0,
                               lo_open=True),
         if_open=_string(o.get("if_open", "warn"), f"{where}.if_open", src, ("warn", "error")),
+        surface=_string(o.get("surface", ObjectSpec.surface), f"{where}.surface", src, SURFACES),
         dynamic_time=_dynamic_time(o, f, where, src))
 
 

@@ -20,7 +20,10 @@ How the setup maps onto Genesis (API of ``genesis/options/solvers.py``, ``genesi
   ``set_particles_pos``, ``set_particles_vel`` and ``set_particles_active`` with our points.
 - ``MPMOptions.particle_size = cbrt(mean(p_vol))``: Genesis has **one particle volume per solver**
   (mass = rho * particle_size^3), so per-point volumes are replaced by their mean (total volume
-  and mass kept). ``stats()["p_vol_spread"]`` gives ``max/min - 1`` of the input volumes.
+  and mass kept). ``stats()["p_vol_spread"]`` gives ``max/min - 1`` of the input volumes. So that
+  each body keeps its mass, its density is scaled to ``rho_b' = sum_i rho_b p_vol_i / (n_b p_vol)``
+  (elastic moduli unchanged); what remains is the spread of mass *within* a body, reported by
+  ``stats()`` as the centre-of-mass and inertia residuals against the setup's.
 - ``ground``: a fixed rigid ``gs.morphs.Plane`` at ``z = height`` with
   ``gs.materials.Rigid(coup_friction=friction, coup_softness=0, coup_restitution=0)``; Genesis's
   MPM-rigid coupling (``legacy_coupler._func_collide_in_rigid_geom``) applies the same Coulomb rule
@@ -43,6 +46,11 @@ from gasp_core.engine import EngineDivergence, EngineError, Material, SceneError
 from gasp_core.mpm import CAUSE_DOMAIN, CAUSE_DT
 
 from . import ENGINE, INSTALL_HINT, OPTIONS
+
+
+def _with_rho(m: Material, rho: float) -> Material:
+    import dataclasses
+    return dataclasses.replace(m, rho=rho)
 #: Genesis pads its MPM domain by this many cells (``MPMSolver.setup_boundary``).
 PADDING_CELLS = 3
 #: Snow hardening coefficient hard-coded in ``genesis/engine/materials/MPM/snow.py``.
@@ -256,12 +264,15 @@ class GenesisMPMEngine:
 
         # One MPM entity per body, points in body order; self._order maps back to setup order.
         self._bodies = []
+        self._rho_used = []
         order = []
         for b, m in enumerate(setup.materials):
             idx = np.flatnonzero(setup.body_id == b)
             if len(idx) == 0:
                 continue
-            ent = scene.add_entity(material=genesis_material(gs, m),
+            rho_b = float(setup.p_mass[idx].sum()) / (len(idx) * self.p_vol_used)   # keeps the body's mass
+            self._rho_used.append((idx, rho_b))
+            ent = scene.add_entity(material=genesis_material(gs, _with_rho(m, rho_b)),
                                    morph=gs.morphs.Nowhere(n_particles=int(len(idx))))
             self._bodies.append((ent, idx))
             order.append(idx)
@@ -361,7 +372,22 @@ class GenesisMPMEngine:
             "wall_friction": self.wall_friction,
             "genesis_version": version,
             "frame": self.frame,
+            **self._mass_stats(),
         }
+
+    def _mass_stats(self) -> dict[str, Any]:
+        """Mass, centre of mass and inertia Genesis simulates (one particle volume, per-body density),
+        and their residuals against the setup's (``mass_residual`` relative, ``com_residual`` m)."""
+        from gasp_core.passive import mass_properties
+        m = np.zeros(len(self.setup.x))
+        for idx, rho_b in self._rho_used:
+            m[idx] = rho_b * self.p_vol_used
+        x = self._x.astype(np.float64)
+        got = mass_properties(x, m)
+        want = mass_properties(x, self.setup.p_mass)
+        got["mass_residual"] = got["mass"] / want["mass"] - 1.0
+        got["com_residual"] = float(np.linalg.norm(np.subtract(got["centre_of_mass"], want["centre_of_mass"])))
+        return got
 
     def close(self) -> None:
         """Destroy the Genesis scene (frees its fields); later calls raise ``EngineError``."""

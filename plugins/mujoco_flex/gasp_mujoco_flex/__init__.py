@@ -27,6 +27,7 @@ CAPABILITIES = Capabilities(
     devices=frozenset({"cpu"}),
     precisions=frozenset({"f64"}),
     deterministic=frozenset({"cpu"}),
+    features=frozenset({"passive_points"}),   # every point rides on its tet (barycentric)
 )
 
 #: Engine options (``[engine] options`` of a scene), declared as data.

@@ -135,15 +135,17 @@ class MujocoFlexEngine:
             xb = s.x[idx]
             ext = float(np.max(xb.max(0) - xb.min(0)))
             h = float(o["cell_size"]) if o["cell_size"] is not None else max(ext, 1e-6) / float(o["cells_across"])
-            lat = build_lattice(xb, h)
+            pm = s.p_mass[idx]
+            lat = build_lattice(xb, h, conform=xb[pm > 0])
             name = f"b{b}"
             if mat.name == "rigid":
                 centres = lat.origin + (lat.cells + 0.5) * h
                 com = centres.mean(axis=0)
+                rho_eff = float(pm.sum()) / (len(centres) * h ** 3)   # the points' mass, spread on the cells
                 rb = _RigidBody(name, idx, com, xb - com, bool(fixed_pt[idx].any()))
                 geoms = "\n".join(
                     f'<geom type="box" size="{h / 2:.17g} {h / 2:.17g} {h / 2:.17g}" pos="{_fmt(c - com)}" '
-                    f'density="{mat.rho:.17g}"/>' for c in centres)
+                    f'density="{rho_eff:.17g}"/>' for c in centres)
                 joint = "" if rb.fixed else "<freejoint/>"
                 parts.append(f'<body name="{name}" pos="{_fmt(com)}">{joint}\n{geoms}\n</body>')
                 self.rigid.append(rb)
@@ -216,7 +218,7 @@ class MujocoFlexEngine:
             fb.vert_body = m.flex_vertbodyid[fb.vert_adr:fb.vert_adr + nv].astype(np.int64)
             fb.vert_dof = np.where(fb.pinned, -1, m.body_dofadr[fb.vert_body]).astype(np.int64)
             # lumped masses (rho V_tet / 4 per incident tet) replace flexcomp's equal split
-            vm = fb.lat.vertex_masses(fb.rho)
+            vm = fb.lat.point_masses(fb.tet, fb.w, s.p_mass[fb.idx])
             free = ~fb.pinned
             m.body_mass[fb.vert_body[free]] = vm[free]
             edge = fb.lat.h
@@ -397,7 +399,26 @@ class MujocoFlexEngine:
             "sim_time": float(self.data.time),
             "integrator": self.options["integrator"],
             "nv": int(self.model.nv),
+            **self._mass_stats(),
         }
+
+    def _mass_stats(self) -> dict[str, Any]:
+        """Mass, centre of mass and inertia of what MuJoCo simulates (flex vertices and rigid bodies)."""
+        from gasp_core.passive import mass_properties
+        m, d = self.model, self.data
+        xs, ms = [], []
+        for fb in self.flex:
+            free = ~fb.pinned
+            xs.append(d.flexvert_xpos[fb.vert_adr:fb.vert_adr + len(fb.lat.vertices)][free])
+            ms.append(m.body_mass[fb.vert_body[free]])
+            if fb.pinned.any():   # pinned vertices are not bodies: their share of the points' mass
+                vm = fb.lat.point_masses(fb.tet, fb.w, self.setup.p_mass[fb.idx])
+                xs.append(fb.lat.vertices[fb.pinned])
+                ms.append(vm[fb.pinned])
+        for rb in self.rigid:
+            xs.append(d.xipos[rb.body_id][None])
+            ms.append(np.array([m.body_subtreemass[rb.body_id]]))
+        return mass_properties(np.concatenate(xs), np.concatenate(ms))
 
     def close(self) -> None:
         """Drop the MuJoCo model and data."""

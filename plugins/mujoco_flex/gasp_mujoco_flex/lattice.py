@@ -70,6 +70,22 @@ class Lattice:
         """Total lattice volume, m^3."""
         return len(self.cells) * self.h ** 3
 
+    def point_masses(self, tet: np.ndarray, w: np.ndarray, mass: np.ndarray, floor: float = 0.05) -> np.ndarray:
+        """Vertex masses lumped from embedded point masses, kg, shape (n_vertices,).
+
+        Each point's mass goes to its tetrahedron's vertices by its barycentric weights (negative,
+        extrapolated weights clipped, rows renormalised), so the total and the centre of mass are
+        the points' own. Vertices that get less than ``floor`` times the mean vertex mass are raised
+        to it (a free flex vertex needs mass), and all are then scaled back to the points' total.
+        """
+        wc = np.clip(w, 0.0, None)
+        wc /= np.maximum(wc.sum(axis=1, keepdims=True), 1e-300)
+        m = np.zeros(len(self.vertices))
+        np.add.at(m, self.tets[tet].ravel(), (wc * np.asarray(mass, np.float64)[:, None]).ravel())
+        total = float(np.sum(mass))
+        m = np.maximum(m, floor * total / len(m))
+        return m * (total / m.sum())
+
     def vertex_masses(self, rho: float) -> np.ndarray:
         """Lumped vertex masses ``rho * V_tet / 4`` summed over incident tets, kg, shape (n_vertices,)."""
         m = np.zeros(len(self.vertices))
@@ -77,7 +93,7 @@ class Lattice:
         return m
 
 
-def build_lattice(x: np.ndarray, h: float, close_iters: int = 1) -> Lattice:
+def build_lattice(x: np.ndarray, h: float, close_iters: int = 1, conform: np.ndarray | None = None) -> Lattice:
     """Voxelise points, close and fill the interior, and split each cell into 6 tetrahedra.
 
     Parameters
@@ -89,6 +105,10 @@ def build_lattice(x: np.ndarray, h: float, close_iters: int = 1) -> Lattice:
     close_iters : int
         Iterations of the binary closing applied before ``binary_fill_holes`` (bridges gaps between
         surface samples so a hollow shell encloses its interior).
+    conform : ndarray, shape (m, 3), optional
+        The material points: after closing and hole filling, cells holding none of them are
+        dropped, so the lattice covers the simulated solid and not, e.g., a donut's hole that the
+        closing bridged at a coarse ``h``.
 
     Returns
     -------
@@ -117,6 +137,12 @@ def build_lattice(x: np.ndarray, h: float, close_iters: int = 1) -> Lattice:
     if close_iters > 0:
         occ |= ndimage.binary_closing(occ, structure=np.ones((3, 3, 3), bool), iterations=close_iters)
     occ = ndimage.binary_fill_holes(occ)
+    if conform is not None and len(conform):
+        cidx = np.clip(np.floor((np.asarray(conform, np.float64) - origin) / h).astype(np.int64), 0,
+                       np.array(shape) - 1)
+        has = np.zeros(shape, dtype=bool)
+        has[cidx[:, 0], cidx[:, 1], cidx[:, 2]] = True
+        occ &= has
 
     cells = np.argwhere(occ).astype(np.int64)                        # (nc, 3)
     corner_nodes = cells[:, None, None, :] + KUHN_CORNERS[None]      # (nc, 6, 4, 3)

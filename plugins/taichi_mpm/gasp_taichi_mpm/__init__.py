@@ -23,7 +23,7 @@ CAPABILITIES = Capabilities(
     devices=frozenset({"cpu", "cuda"}),
     precisions=frozenset({"f32", "f64"}),
     deterministic=frozenset({"cpu"}),
-    features=frozenset({"grid", "initial_C"}),
+    features=frozenset({"grid", "initial_C", "passive_points"}),
 )
 
 #: The grid-engine options of ``gasp_core.mpm`` (``device``: Taichi runs on the default CUDA device

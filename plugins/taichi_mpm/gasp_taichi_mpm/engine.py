@@ -85,8 +85,9 @@ class TaichiMPMEngine:
 
         dx = setup.dx
         n = len(setup.x)
-        # Points sorted by grid cell for memory locality; outputs go back to the setup order.
-        self._order = mpm.cell_order(setup.x, setup.domain_lo, dx, setup.n_grid)
+        # Points sorted by grid cell for memory locality (material points first, then the passive
+        # ones: G2P only); outputs go back to the setup order.
+        self._order, self.n_material = mpm.material_first_order(setup, dx)
         self._inverse = np.empty(n, np.int64)
         self._inverse[self._order] = np.arange(n)
         o = self._order
@@ -104,7 +105,7 @@ class TaichiMPMEngine:
             body=setup.body_id[o], fixed=fixed[o], jp0=jp0[o], params=params, kinds=kinds,
             n_grid=setup.n_grid, lo=setup.domain_lo, dx=dx, dt=self.dt, gravity=setup.gravity,
             walls=walls, grounds=grounds, regions=regions, real=real,
-            n_chunks=threads or 1, atomic=atomic)
+            n_chunks=threads or 1, atomic=atomic, n_material=self.n_material)
         self._p2g_mode = "atomic" if atomic else f"private grids x{self.solver.n_chunks}"
         self.frame = 0
         self._x = setup.x.astype(np.float32 if real == ti.f32 else np.float64)
@@ -169,6 +170,7 @@ class TaichiMPMEngine:
 
     def stats(self) -> dict[str, Any]:
         """``device, precision, n_points, dt, n_substeps, n_grid, threads`` and ``dx``, ``p2g``, ``frame``."""
+        n = len(self.setup.x)
         return {
             "device": self.options["device"],
             "precision": self.options["precision"],
@@ -180,6 +182,8 @@ class TaichiMPMEngine:
             "threads": self.threads,
             "p2g": self._p2g_mode,
             "frame": self.frame,
+            "n_passive": int(n - self.n_material),
+            **mpm.engine_mass_stats(self.setup, self._x),
         }
 
     def close(self) -> None:

@@ -110,7 +110,8 @@ class WarpMPMEngine:
 
         # Sort points by grid cell (cache locality of scatter and gather); order[i] is the
         # setup index of internal point i.
-        order = self._cell_order(setup.x) if n else np.zeros(0, dtype=np.int64)
+        # Material points first, then the passive ones (SimSetup.passive: G2P only, no P2G).
+        order, self.n_material = mpm.material_first_order(setup, self.dx)
         self._order = order
         jp0 = mpm.initial_Jp(setup.materials, setup.body_id)
         d, dt_np = self.device, self._np_dtype
@@ -147,7 +148,7 @@ class WarpMPMEngine:
         self._launches = []
         if n:
             self._launches = [
-                wp.launch(k.p2g, dim=n, device=d, record_cmd=True, inputs=[
+                wp.launch(k.p2g, dim=self.n_material, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.F, self.C, self.Jp, self.p_mass, self.p_vol, self.body,
                     self.mat_kind, self.mat_par, self.grid_mv, self.flags, lo_v, inv_dx, dx, dt_f, ng]),
                 wp.launch(k.grid_update, dim=n_nodes, device=d, record_cmd=True, inputs=[
@@ -168,7 +169,9 @@ class WarpMPMEngine:
 
     def _resort(self) -> None:
         """Re-sort the points by cell (CPU only: the arrays are host memory, numpy views)."""
-        perm = self._cell_order(self.x.numpy())
+        x = self.x.numpy()
+        m = self.n_material
+        perm = np.concatenate([self._cell_order(x[:m]), m + self._cell_order(x[m:])])
         if np.array_equal(perm, np.arange(self.n_points)):
             return
         for a in (self.x, self.v, self.F, self.C, self.Jp, self.p_mass, self.p_vol, self.body, self.fixed):
@@ -241,7 +244,8 @@ class WarpMPMEngine:
         ``frame``, ``sim_time`` (s)."""
         return {"device": str(self.device), "precision": self.precision, "n_points": self.n_points,
                 "dt": self.dt, "n_substeps": self.n_substeps, "n_grid": self.n_grid, "dx": self.dx,
-                "frame": self.frame, "sim_time": self.sim_time}
+                "frame": self.frame, "sim_time": self.sim_time, "n_passive": self.n_points - self.n_material,
+                **mpm.engine_mass_stats(self.setup, self.positions())}
 
     def close(self) -> None:
         """Release the Warp arrays and the CUDA graph."""
