@@ -128,6 +128,7 @@ class MujocoFlexEngine:
         parts = []
         fixed_pt = fixed_mask(s.x, s.boundaries)
         h_min = math.inf
+        wave = 1.0
         for b, mat in enumerate(s.materials):
             idx = np.flatnonzero(s.body_id == b)
             if len(idx) == 0:
@@ -136,7 +137,7 @@ class MujocoFlexEngine:
             ext = float(np.max(xb.max(0) - xb.min(0)))
             h = float(o["cell_size"]) if o["cell_size"] is not None else max(ext, 1e-6) / float(o["cells_across"])
             pm = s.p_mass[idx]
-            lat = build_lattice(xb, h, conform=xb[pm > 0])
+            lat = build_lattice(xb, h)   # conform=xb[pm > 0] drops empty cells but left ill-conditioned flexes (see report)
             name = f"b{b}"
             if mat.name == "rigid":
                 centres = lat.origin + (lat.cells + 0.5) * h
@@ -161,6 +162,8 @@ class MujocoFlexEngine:
                             pinned |= np.all((lat.vertices >= np.asarray(bd.lo)) &
                                              (lat.vertices <= np.asarray(bd.hi)), axis=1)
                 fb = _FlexBody(name, idx, lat, tet, w, pinned, mat.rho)
+                # vertex masses are scaled to the points' mass: the waves speed up by sqrt(lattice/points)
+                wave = max(wave, math.sqrt(max(1.0, mat.rho * lat.volume / max(float(pm.sum()), 1e-300))))
                 radius = float(o["radius"]) if o["radius"] is not None else 0.05 * h
                 elastic = f'young="{mat.E:.17g}" poisson="{mat.nu:.17g}" damping="{float(o["damping"]):.17g}"'
                 if mat.name == "metal":
@@ -187,7 +190,7 @@ class MujocoFlexEngine:
         v_fall = v0 + math.sqrt(2.0 * float(np.linalg.norm(s.gravity)) * max(height, 0.0))
         dt_max = float(o["dt_max"])
         if self.flex:
-            c = max(p_wave_speed(m) for m in s.materials if m.name != "rigid")
+            c = max(p_wave_speed(m) for m in s.materials if m.name != "rigid") * wave
             dt_max = min(dt_max, float(o["cfl"]) * h_min / max(c, v_fall, 1e-12))
         if o["dt"] is not None:
             dt_max = float(o["dt"])
@@ -218,7 +221,10 @@ class MujocoFlexEngine:
             fb.vert_body = m.flex_vertbodyid[fb.vert_adr:fb.vert_adr + nv].astype(np.int64)
             fb.vert_dof = np.where(fb.pinned, -1, m.body_dofadr[fb.vert_body]).astype(np.int64)
             # lumped masses (rho V_tet / 4 per incident tet) replace flexcomp's equal split
-            vm = fb.lat.point_masses(fb.tet, fb.w, s.p_mass[fb.idx])
+            # lumped from the tets (point-lumped masses leave light vertices that MuJoCo's M+K solve
+            # cannot condition), scaled to the material points' total: the setup's mass
+            vm = fb.lat.vertex_masses(fb.rho)
+            vm *= float(s.p_mass[fb.idx].sum()) / vm.sum()
             free = ~fb.pinned
             m.body_mass[fb.vert_body[free]] = vm[free]
             edge = fb.lat.h
@@ -412,7 +418,8 @@ class MujocoFlexEngine:
             xs.append(d.flexvert_xpos[fb.vert_adr:fb.vert_adr + len(fb.lat.vertices)][free])
             ms.append(m.body_mass[fb.vert_body[free]])
             if fb.pinned.any():   # pinned vertices are not bodies: their share of the points' mass
-                vm = fb.lat.point_masses(fb.tet, fb.w, self.setup.p_mass[fb.idx])
+                vm = fb.lat.vertex_masses(fb.rho)
+                vm *= float(self.setup.p_mass[fb.idx].sum()) / vm.sum()
                 xs.append(fb.lat.vertices[fb.pinned])
                 ms.append(vm[fb.pinned])
         for rb in self.rigid:

@@ -70,7 +70,7 @@ class Lattice:
         """Total lattice volume, m^3."""
         return len(self.cells) * self.h ** 3
 
-    def point_masses(self, tet: np.ndarray, w: np.ndarray, mass: np.ndarray, floor: float = 0.05) -> np.ndarray:
+    def point_masses(self, tet: np.ndarray, w: np.ndarray, mass: np.ndarray, floor: float = 0.25) -> np.ndarray:
         """Vertex masses lumped from embedded point masses, kg, shape (n_vertices,).
 
         Each point's mass goes to its tetrahedron's vertices by its barycentric weights (negative,
@@ -106,8 +106,8 @@ def build_lattice(x: np.ndarray, h: float, close_iters: int = 1, conform: np.nda
         Iterations of the binary closing applied before ``binary_fill_holes`` (bridges gaps between
         surface samples so a hollow shell encloses its interior).
     conform : ndarray, shape (m, 3), optional
-        The material points: after closing and hole filling, cells holding none of them are
-        dropped, so the lattice covers the simulated solid and not, e.g., a donut's hole that the
+        The material points: after closing and hole filling, cells with none of them in the cell
+        or its 26 neighbours are dropped, so the lattice covers the simulated solid and not, e.g., a donut's hole that the
         closing bridged at a coarse ``h``.
 
     Returns
@@ -142,7 +142,8 @@ def build_lattice(x: np.ndarray, h: float, close_iters: int = 1, conform: np.nda
                        np.array(shape) - 1)
         has = np.zeros(shape, dtype=bool)
         has[cidx[:, 0], cidx[:, 1], cidx[:, 2]] = True
-        occ &= has
+        # cells next to a material point stay: points sparser than h still hold their neighbours
+        occ &= ndimage.binary_dilation(has, structure=np.ones((3, 3, 3), bool))
 
     cells = np.argwhere(occ).astype(np.int64)                        # (nc, 3)
     corner_nodes = cells[:, None, None, :] + KUHN_CORNERS[None]      # (nc, 6, 4, 3)
