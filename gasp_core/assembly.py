@@ -4,6 +4,7 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
+from scipy.special import expit
 
 from .engine import SceneError, SimSetup
 from .fill import fill_interior, fill_spacing
@@ -39,11 +40,15 @@ def default_domain(scene: Scene, points: np.ndarray) -> tuple[np.ndarray, np.nda
 def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
     """Assemble the engine's point set: all objects' triangle vertices, then their fill points.
 
+    Static objects (``static = true``) take no part; a selected object brings its selected rows
+    only (:mod:`gasp_core.selection`), and the default domain is around what moves.
+
     Raises
     ------
     SceneError
         If an object lies outside an explicit domain.
     """
+    objects = [o for o in objects if not o.spec.static]
     vertices = [simulated_triangles(o).reshape(-1, 3) for o in objects]
     lo, hi = default_domain(scene, np.concatenate([o.tri_rest.reshape(-1, 3) for o in objects]))
     n_grid = scene.domain.n_grid
@@ -51,7 +56,8 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
     xs, vols, bodies, vels, fills, passives = [], [], [], [], [], []
     start = 0
     for i, (o, verts) in enumerate(zip(objects, vertices)):
-        opaque = 1.0 / (1.0 + np.exp(-o.gaussians.opacities.astype(np.float64))) >= o.spec.min_opacity
+        opacities = o.simulated_rows(o.gaussians.opacities).astype(np.float64)
+        opaque = expit(opacities) >= o.spec.min_opacity
         h = fill_spacing(dx, scene.domain.particles_per_cell, o.spec.core_fraction)
         passive = o.spec.surface == "passive"
         fr = fill_interior(verts, h, splats=o.tri_rest[opaque], fill=o.spec.fill, name=o.name,
@@ -84,12 +90,29 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
         k = int(np.flatnonzero(outside)[0])
         raise SceneError(f"{scene.path}: {int(outside.sum())} point(s) start outside the domain "
                          f"[{lo.tolist()}, {hi.tolist()}] (first at {x[k].tolist()}); enlarge [domain]")
+    extras = scene_extras(scene, objects, x, dx)
     return SimSetup(
-        x=x, v=v, p_vol=p_vol, body_id=body_id, C=C, passive=passive if passive.any() else None,
+        **extras, x=x, v=v, p_vol=p_vol, body_id=body_id, C=C, passive=passive if passive.any() else None,
         materials=[o.spec.material for o in objects], gravity=np.array(scene.gravity),
         domain_lo=lo, domain_hi=hi, n_grid=n_grid, boundaries=list(scene.boundaries),
         frame_dt=scene.frame_dt, n_render=sum(len(v) for v in vertices),
         options=dict(scene.engine.options))
+
+
+def scene_extras(scene: Scene, objects: list[PreparedObject], x: np.ndarray, dx: float) -> dict:
+    """``colliders``, ``forces`` and ``impulses`` of the setup (:mod:`gasp_core.colliders`).
+
+    Raises
+    ------
+    SceneError
+        A collider that cannot be built, or simulated points that start inside a collider.
+    """
+    if not (scene.colliders or scene.forces or scene.impulses):
+        return {}
+    from .colliders import build_colliders, check_start
+    colliders = build_colliders(scene, objects, dx)
+    check_start(colliders, x)
+    return {"colliders": colliders, "forces": list(scene.forces), "impulses": list(scene.impulses)}
 
 
 def skew(w) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""``gasp`` command line: simulate, engines, info (compare and bench where installed).
+"""``gasp`` command line: simulate, engines, info; compare and bench with the studies extra.
 
 Every error is one line on stderr, ``gasp: error: ...``, with an exit status from the error
 contract (:mod:`gasp_core.errors`): 2 for what the user can fix (bad input, unknown engine,
@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 import signal
+import warnings
 
 from .cliargs import GaspArgumentParser, positive_int
 from .errors import EngineBug, EngineDivergence, GaspError
@@ -85,23 +86,61 @@ def _cmd_info(args) -> int:
     return 0
 
 
+def _studies(module: str):
+    """``gasp_studies.<module>``, imported only for compare and bench (an optional extra)."""
+    import importlib
+    import importlib.util
+    missing = [m for m in ("gasp_studies", "distributed") if importlib.util.find_spec(m) is None]
+    if missing:
+        raise GaspError(f"'gasp {module}' needs the studies extra ({', '.join(missing)} not installed): "
+                        f'pip install -e ".[studies]"')
+    return importlib.import_module(f"gasp_studies.{module}")
+
+
 def _cmd_compare(args) -> int:
-    from .compare import compare_scene
-    compare_scene(args.scene, [e.strip() for e in args.engines.split(",") if e.strip()] if args.engines else None,
-                  args.output, overwrite=args.overwrite, n_frames=args.frames, max_gaussians=args.max_gaussians)
+    kw = {"timeout_s": args.timeout} if args.timeout else {}
+    _studies("compare").compare_scene(
+        args.scene, [e.strip() for e in args.engines.split(",") if e.strip()] if args.engines else None,
+        args.output, overwrite=args.overwrite, n_frames=args.frames, max_gaussians=args.max_gaussians,
+        scheduler=args.scheduler, workers=args.workers, **kw)
     return 0
 
 
 def _cmd_bench(args) -> int:
-    from .bench import bench_scene
-    from .bench import DEFAULT_MAX_GAUSSIANS
-    kw = dict(n_grid=(32, 48), cfl=(0.4, 0.8), particles_per_cell=(8,), fill=(True,), precision=("f32",),
-              cells_across=(4, 8), flex_cfl=(0.5,), flex_reference_cells=8) if args.quick else {}
-    kw["reference_n_grid"] = args.reference_n_grid or None
-    bench_scene(args.scene, args.output, engines=args.engines.split(",") if args.engines else None,
-                overwrite=args.overwrite, n_frames=args.frames,
-                max_gaussians=DEFAULT_MAX_GAUSSIANS if args.max_gaussians is None else
-                (None if args.max_gaussians == 0 else args.max_gaussians), **kw)
+    bench = _studies("bench")
+    kw = {"timeout_s": args.timeout} if args.timeout else {}
+    bench.bench_scene(args.scene, args.output, engines=args.engines.split(",") if args.engines else None,
+                      overwrite=args.overwrite, n_frames=args.frames, quick=args.quick,
+                      reference_n_grid=args.reference_n_grid or None,
+                      max_gaussians=bench.DEFAULT_MAX_GAUSSIANS if args.max_gaussians is None else
+                      (None if args.max_gaussians == 0 else args.max_gaussians),
+                      scheduler=args.scheduler, workers=args.workers, **kw)
+    return 0
+
+
+def _add_study_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run on an existing Dask cluster (default: a local one, a fresh process per run)")
+    p.add_argument("--workers", type=int, default=1,
+                   help="local worker processes running at once (default 1: comparable timings)")
+    p.add_argument("--timeout", type=float, help="wall-clock limit of one run, seconds")
+
+
+def _cmd_export_soup(args) -> int:
+    from .scene import load_scene
+    from .soup import export_soup
+    m = export_soup(load_scene(args.scene), args.output, overwrite=args.overwrite)
+    faces = ", ".join(f"{o['name']}: {o['n_gaussians']} faces" for o in m["objects"])
+    skipped = "".join(f"; {k} skipped: {v}" for k, v in m["skipped_writers"].items())
+    print(f"wrote the rest triangle soup of {len(m['objects'])} object(s) to {args.output} ({faces}){skipped}")
+    return 0
+
+
+def _cmd_import_motion(args) -> int:
+    from .scene import load_scene
+    from .soup import import_motion
+    s = import_motion(load_scene(args.scene), args.motion_dir, args.output, overwrite=args.overwrite)
+    print(f"wrote {s['n_frames'] + 1} frames x {len(s['objects'])} object(s) to {args.output}")
     return 0
 
 
@@ -137,23 +176,40 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--overwrite", action="store_true")
     c.add_argument("--frames", type=positive_int)
     c.add_argument("--max-gaussians", type=int, help="keep every k-th Gaussian so each object has at most this many")
+    _add_study_args(c)
     c.set_defaults(func=_cmd_compare)
 
     b = sub.add_parser("bench", help="sweep speed/accuracy settings against a converged reference")
     b.add_argument("scene", type=Path)
-    b.add_argument("--engines", help="comma-separated engine names (default: all installed grid engines)")
+    b.add_argument("--engines", help="comma-separated engine names (default: all installed that can run it and offer a sweep)")
     b.add_argument("-o", "--output", type=Path, required=True)
     b.add_argument("--overwrite", action="store_true")
     b.add_argument("--frames", type=positive_int)
     b.add_argument("--max-gaussians", type=int,
                    help="keep every k-th Gaussian so each object has at most this many (default 6000; 0 = all)")
-    b.add_argument("--quick", action="store_true", help="a small sweep (n_grid 32/48, cfl 0.4/0.8, f32)")
+    b.add_argument("--quick", action="store_true", help="each engine's quick sweep (a few settings)")
     b.add_argument("--reference-n-grid", type=int, default=0,
-                   help="a finer grid for the MPM engines' reference run alone (default 0: the finest of the sweep, n_grid 96)")
+                   help="a finer n_grid for the reference runs alone (default 0: each engine's own reference)")
+    _add_study_args(b)
     b.set_defaults(func=_cmd_bench)
 
     from .testing.cli import add_parser as add_conform_parser
     add_conform_parser(sub)
+    from .render.cli import add_parsers as _render_parsers
+    _render_parsers(sub)
+
+    x = sub.add_parser("export-soup", help="write the rest triangle soup per object (OBJ, PLY, ...) for a mesh tool")
+    x.add_argument("scene", type=Path)
+    x.add_argument("-o", "--output", type=Path, required=True)
+    x.add_argument("--overwrite", action="store_true")
+    x.set_defaults(func=_cmd_export_soup)
+
+    m = sub.add_parser("import-motion", help="rebuild Gaussian frames from an animated triangle soup")
+    m.add_argument("scene", type=Path)
+    m.add_argument("motion_dir", type=Path)
+    m.add_argument("-o", "--output", type=Path, required=True)
+    m.add_argument("--overwrite", action="store_true")
+    m.set_defaults(func=_cmd_import_motion)
     return p
 
 
@@ -161,8 +217,14 @@ def _interrupt(signum, _frame):
     raise KeyboardInterrupt(signal.Signals(signum).name)
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    print(f"gasp: warning: {message}", file=sys.stderr)
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    warnings.showwarning = _show_warning  # a warning is one line, not a source location and code
+    warnings.filterwarnings("ignore", category=ResourceWarning)  # libraries' unclosed files: not the user's concern
     previous = {}
     for sig in (signal.SIGTERM, signal.SIGHUP):
         try:
@@ -177,10 +239,7 @@ def main(argv: list[str] | None = None) -> int:
     except EngineBug as e:
         print(f"gasp: error: {e}", file=sys.stderr)
         return 4
-    except GaspError as e:
-        print(f"gasp: error: {e}", file=sys.stderr)
-        return 2
-    except (FileExistsError, FileNotFoundError, IsADirectoryError, NotADirectoryError) as e:
+    except (GaspError, FileExistsError, FileNotFoundError, IsADirectoryError, NotADirectoryError) as e:
         print(f"gasp: error: {e}", file=sys.stderr)
         return 2
     except PermissionError as e:

@@ -44,6 +44,13 @@ FEATURES = {
                       "motion (gasp_core.passive)",
     "grid": "simulates on a background grid of SimSetup.n_grid cells; points within a few dx of "
             "a wall are inside the grid's transfer stencil",
+    "static_colliders": "SimSetup.colliders without motion: rigid obstacles as signed distance fields "
+                        "(gasp_core.colliders.Collider), Coulomb friction",
+    "moving_colliders": "SimSetup.colliders with a prescribed rigid motion (Collider.pose(t)); "
+                        "contact uses the velocity relative to the collider",
+    "impulse": "SimSetup.impulses: a velocity change (or imposed velocity) inside a box or sphere over [t0, t1]",
+    "wind": "SimSetup.forces of kind 'wind': a uniform acceleration plus divergence-free turbulence",
+    "attractors": "SimSetup.forces of kind 'attractor': acceleration towards a point with a falloff",
 }
 
 
@@ -308,7 +315,13 @@ def check_supported(info: EngineInfo, materials: Iterable[str] = (), boundaries:
         return
     kind, name = missing[0]
     attr = {"material": "materials", "boundary": "boundaries", "feature": "features"}[kind]
-    able = sorted(n for n, e in (others or {}).items() if name in getattr(e.capabilities, attr))
+    if others is None:
+        from .plugins import engines as installed
+        try:
+            others = installed()
+        except GaspError:
+            others = {}
+    able = sorted(n for n, e in others.items() if name in getattr(e.capabilities, attr))
     raise SceneError(f"engine '{info.name}' does not support the {kind} '{name}' "
                      f"(it supports {attr}: {sorted(getattr(info.capabilities, attr)) or 'none'}); "
                      f"engines that do: {able or 'none installed'}")
@@ -316,8 +329,9 @@ def check_supported(info: EngineInfo, materials: Iterable[str] = (), boundaries:
 
 def setup_needs(setup: SimSetup) -> dict[str, list[str]]:
     """What a setup asks of an engine: ``materials``, ``boundaries`` and ``features`` names."""
+    from .colliders import feature_needs
     return {"materials": [m.name for m in setup.materials], "boundaries": [b.kind for b in setup.boundaries],
-            "features": []}
+            "features": feature_needs(setup.colliders, setup.forces, setup.impulses)}
 
 
 def _bug(info: EngineInfo, where: str, e: BaseException) -> EngineBug:

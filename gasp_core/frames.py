@@ -1,7 +1,6 @@
 """Frame rebuild: ``G_t = T^-1(phi(T(G), t))`` with the alpha rule, per object and frame (GASP paper Sec. 3)."""
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Callable
 
@@ -12,6 +11,7 @@ from .gaussians import Gaussians, rotmat_to_quat
 from .hierarchy import sub_triangles
 from .placement import PreparedObject
 from .runner import RunStats, run_engine
+from .selection import scatter
 
 if TYPE_CHECKING:
     from .pipeline import PreparedScene
@@ -40,12 +40,16 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray) -> tuple[Gau
     Returns
     -------
     gaussians : Gaussians
-        File frame; opacity, SH and extra fields shared with the input (never modified).
+        The whole file, file frame, input order; opacity, SH and extra fields shared with the
+        input (never modified); rows that do not move (``select``, ``static``) as read
+        (:func:`gasp_core.selection.scatter`).
     rot : ndarray, shape (n, 3, 3)
         World rotations of this frame.
     counts : dict
         ``degenerate`` faces and ``clamped`` scales (alpha rule) this frame.
     """
+    if o.spec.static:
+        return o.gaussians, prev_rot, {"degenerate": 0, "clamped": 0}
     tri = x[o.vertex_slice]
     tri = tri.reshape(-1, 3, 3) if o.hierarchy is None else sub_triangles(o.hierarchy, tri)
     means_w, rot, scales_w, degenerate = triangles_to_gaussians(tri, fallback=prev_rot)
@@ -55,9 +59,7 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray) -> tuple[Gau
     pl = o.placement
     scales = scales_w / pl.scale
     scales[:, 0] = o.thin_scale if o.spec.thickness == "keep" else EPS
-    g = o.gaussians
-    out = dataclasses.replace(g, means=pl.to_file(means_w), scales=scales,
-                              rotations=rotmat_to_quat(pl.R.T @ rot))
+    out = scatter(o, pl.to_file(means_w), scales, rotmat_to_quat(pl.R.T @ rot))
     return out, rot, {"degenerate": int(degenerate.sum()), "clamped": int(clamped.sum())}
 
 

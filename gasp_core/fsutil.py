@@ -22,11 +22,15 @@ import secrets
 import shutil
 import tempfile
 from pathlib import Path
-from typing import Callable, Iterable
+from contextlib import contextmanager
+from typing import Callable, Iterable, Iterator
 
 from .errors import GaspError
 
 CLAIM = ".gasp-claim"
+#: Written into every folder gasp commits: the entries that run made (``--overwrite`` replaces
+#: only a folder holding this marker and nothing beyond what it lists).
+MARKER = ".gasp-output"
 PARTIAL_INFIX = ".partial-"
 
 
@@ -130,16 +134,22 @@ def _is_within(a: Path, b: Path) -> bool:
 
 
 def looks_like_output(folder: Path) -> list[str]:
-    """Entries of ``folder`` that a GASP output would not hold (empty list: it is one)."""
-    names = [p.name for p in folder.iterdir()]
-    if "run.json" not in names:
-        return names or []
+    """Entries of ``folder`` that a gasp output would not hold (empty list: it is one).
+
+    A gasp output holds :data:`MARKER` listing what the run made; folders from before the marker
+    are recognised by their ``run.json`` and object folders.
+    """
+    names = [p.name for p in folder.iterdir() if p.name not in (CLAIM, MARKER)]
     try:
-        objects = {o["name"] for o in json.loads((folder / "run.json").read_text()).get("objects", [])}
+        made = set(json.loads((folder / MARKER).read_text())["entries"])
     except (OSError, ValueError, KeyError, TypeError):
-        objects = set()
-    ours = {"run.json", CLAIM} | objects
-    return [n for n in names if n not in ours and not n.startswith(".gasp-")]
+        if "run.json" not in names:
+            return names
+        try:
+            made = {"run.json"} | {o["name"] for o in json.loads((folder / "run.json").read_text()).get("objects", [])}
+        except (OSError, ValueError, KeyError, TypeError):
+            made = {"run.json"}
+    return [n for n in names if n not in made and not n.startswith(".gasp-")]
 
 
 class OutputClaim:
@@ -259,6 +269,8 @@ class OutputClaim:
             and named in the message.
         """
         (tmp / ".gasp-pid").unlink(missing_ok=True)
+        entries = sorted(p.name for p in tmp.iterdir() if p.name != MARKER)
+        (tmp / MARKER).write_text(json.dumps({"entries": entries}) + "\n")
         if not self.still_ours():
             raise OutputConflict(f"output folder '{self.outdir}' was changed by someone else during the run; "
                             f"the results are kept in '{tmp}'")
@@ -279,9 +291,57 @@ class OutputClaim:
         os.replace(tmp, self.outdir)
         shutil.rmtree(trash, ignore_errors=True)
 
+    def abandon(self, tmp: Path | None, error: BaseException) -> None:
+        """After a failed run: give the claim back and remove ``tmp``, unless ``error`` is an
+        :class:`OutputConflict` (the finished results in ``tmp`` are then kept and named)."""
+        self.release()
+        if tmp is not None and not isinstance(error, OutputConflict):
+            shutil.rmtree(tmp, ignore_errors=True)
+
     def release(self) -> None:
         """Give the folder back after a failed run: remove our claim (and the folder if we made it)."""
         if self.still_ours():
             (self.outdir / CLAIM).unlink(missing_ok=True)
         self._undo_mkdir()
 
+
+
+@contextmanager
+def output_folder(outdir: str | os.PathLike, overwrite: bool = False, protected: Iterable = ()) -> Iterator[Path]:
+    """Claim ``outdir``, yield a partial folder to fill, commit it when the block ends without error.
+
+    On an error (or Ctrl-C) the partial folder is removed and the claim given back; nothing the
+    run did not make is touched. See :class:`OutputClaim` for the rules and the errors raised.
+    """
+    claim = OutputClaim(outdir, overwrite=overwrite, protected=protected)
+    tmp = None
+    try:
+        tmp = claim.partial_dir()
+        yield tmp
+        claim.commit(tmp)
+    except BaseException as e:
+        claim.abandon(tmp, e)
+        raise
+
+
+@contextmanager
+def atomic_path(path: str | os.PathLike, overwrite: bool = False) -> Iterator[Path]:
+    """Yield a temporary path beside ``path`` (same suffix) for a writer that needs a file name
+    (a video encoder); it replaces ``path`` when the block ends without error, else is removed.
+
+    Raises
+    ------
+    FileExistsError
+        ``path`` exists and ``overwrite`` is False.
+    """
+    path = Path(path)
+    if not overwrite and path.exists():
+        raise FileExistsError(f"{path}: file exists; pass --overwrite to replace it")
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
+    os.fchmod(fd, 0o666 & ~_umask())
+    os.close(fd)
+    try:
+        yield Path(tmp)
+        os.replace(tmp, path)
+    finally:
+        Path(tmp).unlink(missing_ok=True)

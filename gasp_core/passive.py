@@ -140,6 +140,14 @@ class EmbeddedEngine:
         out["passive"] = "embedded by the core (MLS, gasp_core.passive)"
         return out
 
+    def get_state(self) -> dict[str, np.ndarray]:
+        """The inner engine's state (the embedding is fixed at rest, so it needs none of its own)."""
+        return self.inner.get_state()
+
+    def set_state(self, state: dict[str, np.ndarray]) -> None:
+        """Restore :meth:`get_state` into the inner engine."""
+        self.inner.set_state(state)
+
     def close(self) -> None:
         self.inner.close()
 

@@ -11,7 +11,6 @@ and extra properties are carried bit for bit.
 from __future__ import annotations
 
 import os
-import shutil
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -22,7 +21,7 @@ from .engine import EngineInfo, SceneError, SimSetup, check_supported
 from . import resume as resume_mod
 from .errors import GaspError
 from .frames import FrameState, iter_frames, rebuild  # noqa: F401
-from .fsutil import OutputClaim, OutputConflict, atomic_json, leftover_partials
+from .fsutil import OutputClaim, atomic_json, leftover_partials
 from .gaussians import Gaussians
 from .io import write_gaussians
 from .placement import (UP_ROTATIONS, Placement, PreparedObject, load_gaussians, place,  # noqa: F401
@@ -63,8 +62,9 @@ class RunResult:
 
 def scene_needs(scene: Scene) -> dict[str, list[str]]:
     """What a scene asks of an engine, before any file is read (see :func:`gasp_core.engine.check_supported`)."""
-    return {"materials": [o.material.name for o in scene.objects],
-            "boundaries": [b.kind for b in scene.boundaries], "features": []}
+    from .colliders import scene_feature_needs
+    return {"materials": [o.material.name for o in scene.objects if not o.static],
+            "boundaries": [b.kind for b in scene.boundaries], "features": scene_feature_needs(scene)}
 
 
 def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None = None) -> PreparedScene:
@@ -104,7 +104,9 @@ def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None 
 
 def input_files(scene: Scene) -> list[Path]:
     """The files a run reads: the scene file and every object's file (never to be overwritten)."""
-    return [Path(scene.path)] + [Path(o.file) for o in scene.objects]
+    return ([Path(scene.path)] + [Path(o.file) for o in scene.objects]
+            + [Path(o.select.mask) for o in scene.objects if o.select is not None and o.select.mask is not None]
+            + [Path(c.mesh or c.gaussians) for c in scene.colliders if (c.mesh or c.gaussians) is not None])
 
 
 def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
@@ -213,25 +215,7 @@ def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
         atomic_json(tmp / "run.json", summary)
         claim.commit(tmp)
     except BaseException as e:
-        claim.release()
-        if tmp is not None and not isinstance(e, OutputConflict):
-            shutil.rmtree(tmp, ignore_errors=True)
+        claim.abandon(tmp, e)
         raise
     return RunResult(outdir=outdir, n_frames=n_frames, stats=stats, summary=summary)
 
-
-def commit_dir(tmp: Path, outdir: Path) -> None:
-    """Move a finished ``tmp`` folder to ``outdir``, replacing an old one only now (reports of studies).
-
-    Kept for :mod:`gasp_studies`; new code should use :class:`gasp_core.fsutil.OutputClaim`.
-    """
-    import os
-    import shutil
-    import tempfile
-    if outdir.exists():
-        trash = Path(tempfile.mkdtemp(dir=outdir.parent, prefix=f".{outdir.name}.old-"))
-        os.replace(outdir, trash / "old")
-        os.replace(tmp, outdir)
-        shutil.rmtree(trash, ignore_errors=True)
-    else:
-        os.replace(tmp, outdir)

@@ -16,6 +16,7 @@ from .gaussians import Gaussians
 from .hierarchy import Hierarchy, build_hierarchy
 from .io import read_gaussians, read_splatv, splatv_at
 from .scene import ObjectSpec, check_object
+from .selection import moving_rows
 
 #: Rotation taking each file up-axis to world +z (proper rotations; x_world = R @ x_file).
 UP_ROTATIONS = {
@@ -64,6 +65,14 @@ class PreparedObject:
     flatten_report : FlattenReport
     vertex_slice, fill_slice : slice
         Rows of this object's triangle vertices and fill points in ``SimSetup.x``.
+    moving : ndarray of int64, or None
+        Rows of the file that are simulated (``select``; empty for a ``static`` object); None
+        when all are. ``rot_rest``, ``scales_rest``, ``tri_rest``, ``thin_scale`` and
+        ``hierarchy`` hold those rows only; ``gaussians`` is always the whole file
+        (:mod:`gasp_core.selection`).
+    static_tri : ndarray, shape (m, 3, 3)
+        World-frame triangles of the rows that never move, metres (colliders:
+        :func:`gasp_core.selection.static_splats`).
     """
 
     spec: ObjectSpec
@@ -79,6 +88,12 @@ class PreparedObject:
     vertex_slice: slice = field(default_factory=lambda: slice(0, 0))
     fill_slice: slice = field(default_factory=lambda: slice(0, 0))
     name: str = ""
+    moving: np.ndarray | None = None
+    static_tri: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3)))
+
+    def simulated_rows(self, a: np.ndarray) -> np.ndarray:
+        """The rows of a per-Gaussian array ``a`` (shape (n, ...)) that are simulated."""
+        return a if self.moving is None else a[self.moving]
 
 
 def place(g: Gaussians, spec: ObjectSpec) -> Placement:
@@ -124,16 +139,19 @@ def prepare_object(spec: ObjectSpec, g: Gaussians | None = None) -> PreparedObje
     """
     g = load_gaussians(spec) if g is None else g
     check_object(spec, g)
-    pl = place(g, spec)
-    R_world = pl.R @ g.rotmats()
-    scales_flat, rot_flat, report = flatten(g.scales * pl.scale, R_world)
-    means_w = pl.to_world(g.means)
+    pl = place(g, spec)  # from the whole file: a selection moves, the background stays put
+    moving, static_tri = moving_rows(spec, g, pl)
+    sim = g if moving is None else g.subset(moving)
+    R_world = pl.R @ sim.rotmats()
+    scales_flat, rot_flat, report = flatten(sim.scales * pl.scale, R_world)
+    means_w = pl.to_world(sim.means)
     tri = gaussians_to_triangles(means_w, rot_flat, scales_flat)
     hier = (build_hierarchy(means_w, tri, spec.core_fraction, name=f"{spec.file}: core_fraction")
-            if spec.core_fraction < 1.0 else None)
+            if spec.core_fraction < 1.0 and sim.n else None)
     return PreparedObject(spec=spec, gaussians=g, placement=pl, rot_rest=rot_flat,
-                          scales_rest=scales_flat, tri_rest=tri, thin_scale=g.scales.min(axis=1),
-                          flatten_report=report, hierarchy=hier, name=Path(spec.file).stem)
+                          scales_rest=scales_flat, tri_rest=tri, thin_scale=sim.scales.min(axis=1),
+                          flatten_report=report, hierarchy=hier, name=Path(spec.file).stem,
+                          moving=moving, static_tri=static_tri)
 
 
 def simulated_triangles(o: PreparedObject) -> np.ndarray:

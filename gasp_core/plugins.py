@@ -38,6 +38,14 @@ class HookSpec:
         """
 
 
+class RendererSpec:
+    """Renderer hook (``gasp_core.render``): return a list of ``RendererInfo``."""
+
+    @hookspec
+    def gasp_renderers(self) -> list:
+        """Return the renderers this plugin provides (``gasp_core.render.RendererInfo``)."""
+
+
 def _entry_points():
     eps = md.entry_points(group=PROJECT)
     only = os.environ.get("GASP_LOAD_PLUGINS")
@@ -62,6 +70,9 @@ def get_plugin_manager() -> pluggy.PluginManager:
     """
     pm = pluggy.PluginManager(PROJECT)
     pm.add_hookspecs(HookSpec)
+    pm.add_hookspecs(RendererSpec)
+    from .render import builtin as _render_builtin
+    pm.register(_render_builtin, name="gasp_render_builtin")
     for ep in _entry_points():
         if pm.get_plugin(ep.name) is not None:
             continue

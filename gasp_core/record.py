@@ -7,6 +7,7 @@ from importlib import metadata
 
 from . import __version__
 from .engine import EngineInfo
+from .selection import selection_record, selection_totals
 
 def _versions(info: EngineInfo) -> dict:
     out = {"gasp": __version__, "python": platform.python_version()}
@@ -41,7 +42,7 @@ def run_summary(prep, stats, n_frames: int, per_frame: list[dict], wall_s: float
         "domain": {"lo": setup.domain_lo.tolist(), "hi": setup.domain_hi.tolist(),
                    "n_grid": setup.n_grid, "dx": setup.dx},
         "boundaries": [dataclasses.asdict(b) for b in setup.boundaries],
-        "n_points": len(setup.x), "n_render_points": setup.n_render,
+        "n_points": len(setup.x), "n_render_points": setup.n_render, **selection_totals(prep),
         "objects": [_object_record(o, name) for o, name in zip(prep.objects, prep.names)],
         "frames": per_frame,
     }
@@ -61,6 +62,7 @@ def _object_record(o, name: str) -> dict:
         "mass": s.material.rho * o.fill_report.volume if o.fill_report else None,
         "core_fraction": s.core_fraction,
         "n_simulated_gaussians": len(simulated_triangles(o)),
+        **selection_record(o),
         "alpha": s.alpha, "thickness": s.thickness,
         "flatten": o.flatten_report.as_dict(),
         "placement": {"R": o.placement.R.tolist(), "scale": o.placement.scale, "t": o.placement.t.tolist()},

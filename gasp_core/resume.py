@@ -50,7 +50,8 @@ class Checkpoint:
 def fingerprint(scene, engine: str, options: dict, n_frames: int) -> str:
     """SHA-256 of what a resumed run must share with the killed one: scene text, inputs, engine, options."""
     h = hashlib.sha256()
-    for p in [Path(scene.path)] + [Path(o.file) for o in scene.objects]:
+    masks = [Path(o.select.mask) for o in scene.objects if o.select is not None and o.select.mask is not None]
+    for p in [Path(scene.path)] + [Path(o.file) for o in scene.objects] + masks:
         h.update(str(p).encode())
         with open(p, "rb") as f:
             for chunk in iter(lambda: f.read(1 << 20), b""):

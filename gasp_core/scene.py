@@ -44,13 +44,19 @@ import math
 import tomllib
 from dataclasses import dataclass, field, fields
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any
 
 import numpy as np
 
 from .engine import BOUNDARIES, MATERIALS, Boundary, Material, SceneError
 
-UP_AXES = ("+x", "-x", "+y", "-y", "+z", "-z")
+from .scene_values import (_bad, _boolean, _check_keys, _integer, _is_number, _number, _string, _table,  # noqa: F401
+                           _tables, _vec3)
+from .scene_values import (MAX_COORD, MAX_GRAVITY, MAX_PADDING, MAX_SPEED, MAX_SPIN, N_GRID_RANGE,  # noqa: F401
+                           PPC_RANGE, SCALE_RANGE, UP_AXES)
+from .scene_extras import ColliderSpec, _scene_extras  # noqa: F401
+from .scene_select import SELECT_FRAMES, SELECT_KINDS, SelectSpec, _select, _static  # noqa: F401
+
 #: ``[[object]] surface``: the triangle vertices are material points, or passive (massless, carried).
 SURFACES = ("material", "passive")
 
@@ -104,6 +110,14 @@ class ObjectSpec:
     dynamic_time : float or None
         For a dynamic model (``.splatv``): the model time ``s`` at which physics takes over,
         ``G_t = T^-1(phi(psi(V, s), t))`` (paper Sec. 3, dynamic scenes); default 0.
+    select : SelectSpec or None
+        The part of the file that moves (``select = { box = {...} }``, see :class:`SelectSpec`);
+        the rest is static background, written unchanged in every frame. None: all of it moves.
+    static : bool
+        The whole object is static: never simulated, written unchanged in every frame (scenery,
+        and a collider where a ``[[collider]]`` names it). A static object takes no ``material``,
+        ``select`` or other key only a simulation reads (a :class:`SceneError` names them), and
+        a scene needs at least one object that is not static.
     """
 
     file: Path
@@ -122,6 +136,8 @@ class ObjectSpec:
     if_open: str = "warn"
     dynamic_time: float | None = None
     surface: str = "material"
+    select: SelectSpec | None = None
+    static: bool = False
 
 
 @dataclass
@@ -165,9 +181,13 @@ class Scene:
     n_frames: int = 30
     output: Path | None = None
     name: str = ""
+    colliders: list = field(default_factory=list)
+    forces: list = field(default_factory=list)
+    impulses: list = field(default_factory=list)
 
 
-_TOP_KEYS = {"name", "frame_dt", "n_frames", "gravity", "output", "engine", "domain", "boundary", "object"}
+_TOP_KEYS = {"name", "frame_dt", "n_frames", "gravity", "output", "engine", "domain", "boundary", "object",
+             "collider", "force", "impulse"}
 _OBJECT_KEYS = {f.name for f in fields(ObjectSpec)}
 _MATERIAL_KEYS = {f.name for f in fields(Material)}
 _BOUNDARY_KEYS = {f.name for f in fields(Boundary)}
@@ -175,121 +195,6 @@ _BOUNDARY_KIND_KEYS = {"ground": {"kind", "height", "friction"}, "walls": {"kind
                        "fixed_region": {"kind", "lo", "hi"}}
 _DOMAIN_KEYS = {f.name for f in fields(DomainSpec)}
 _ENGINE_KEYS = {"name", "options"}
-
-#: Largest ``|coordinate|`` (metres) anything may be placed at: object positions, domain and
-#: fixed-region corners, ground height, and every Gaussian after placement. Engines compute in
-#: float32, whose spacing at 1e6 m is 6 cm; beyond it no object of everyday size is resolved.
-MAX_COORD = 1e6
-#: Largest initial angular speed ``|angular_velocity|``, rad/s (a fast turbine).
-MAX_SPIN = 1e4
-#: Largest initial speed ``|velocity|``, m/s (ten times a rifle bullet).
-MAX_SPEED = 1e4
-#: Largest ``|gravity|``, m/s^2 (about 1000 g).
-MAX_GRAVITY = 1e4
-#: ``scale`` (metres per file unit) range: micrometres to thousands of kilometres.
-SCALE_RANGE = (1e-6, 1e6)
-#: Largest ``[domain] padding`` (times the objects' extent on each side): beyond it the objects
-#: span fewer than ``n_grid / 21`` cells.
-MAX_PADDING = 10.0
-#: ``[domain] n_grid`` and ``particles_per_cell`` ranges (integers).
-N_GRID_RANGE = (8, 1024)
-PPC_RANGE = (1, 64)
-
-_TOML_TYPES = ((bool, "boolean"), (int, "integer"), (float, "float"), (str, "string"),
-               (list, "array"), (dict, "table"))
-
-
-def _shown(value) -> str:
-    """``value`` as the message shows it: its repr (shortened) and its TOML type."""
-    r = repr(value)
-    if len(r) > 60:
-        r = r[:57] + "..."
-    kind = next((n for t, n in _TOML_TYPES if isinstance(value, t)), type(value).__name__)
-    return f"{r} ({kind})"
-
-
-def _bad(src: Path, key: str, value, expected: str) -> NoReturn:
-    raise SceneError(f"{src}: {key} = {_shown(value)}; expected {expected}")
-
-
-def _check_keys(table: dict, allowed: set[str], where: str, src: Path) -> None:
-    unknown = sorted(set(table) - allowed)
-    if unknown:
-        raise SceneError(f"{src}: unknown key(s) {unknown} in {where}; allowed: {sorted(allowed)}")
-
-
-def _is_number(value) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
-
-
-def _table(value, key: str, src: Path) -> dict:
-    if not isinstance(value, dict):
-        _bad(src, key, value, "a table")
-    return value
-
-
-def _tables(value, key: str, src: Path) -> list[dict]:
-    """An array of tables (``[[key]]``); a single table is an error, not a one-element list."""
-    if not isinstance(value, list) or not all(isinstance(t, dict) for t in value):
-        _bad(src, key, value, f"an array of tables ([[{key}]] sections)")
-    return value
-
-
-def _string(value, key: str, src: Path, choices=None) -> str:
-    if choices is not None:
-        if not isinstance(value, str) or value not in choices:
-            _bad(src, key, value, f"one of {sorted(choices) if isinstance(choices, (set, frozenset)) else list(choices)}")
-    elif not isinstance(value, str) or not value:
-        _bad(src, key, value, "a non-empty string")
-    return value
-
-
-def _boolean(value, key: str, src: Path) -> bool:
-    if not isinstance(value, bool):
-        _bad(src, key, value, "true or false")
-    return value
-
-
-def _number(value, key: str, src: Path, lo: float | None = None, hi: float | None = None,
-            lo_open: bool = False, hi_open: bool = False) -> float:
-    """A finite float or integer (never a boolean) in the range given; ``float``."""
-    ok = _is_number(value) and math.isfinite(value)
-    if ok and lo is not None:
-        ok = value > lo if lo_open else value >= lo
-    if ok and hi is not None:
-        ok = value < hi if hi_open else value <= hi
-    if not ok:
-        if lo is None and hi is None:
-            rng = ""
-        elif hi is None:
-            rng = f" {'>' if lo_open else '>='} {lo:g}"
-        elif lo is None:
-            rng = f" {'<' if hi_open else '<='} {hi:g}"
-        else:
-            rng = f" in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
-        _bad(src, key, value, f"a finite number{rng}")
-    return float(value)
-
-
-def _integer(value, key: str, src: Path, lo: int, hi: int | None = None) -> int:
-    """An integer (not a float such as 24.9 or 24.0, not a boolean) in ``[lo, hi]``."""
-    if not isinstance(value, int) or isinstance(value, bool) or value < lo or (hi is not None and value > hi):
-        _bad(src, key, value, f"an integer in [{lo}, {hi}]" if hi is not None else f"an integer >= {lo}")
-    return value
-
-
-def _vec3(value, key: str, src: Path, max_abs: float | None = None, max_norm: float | None = None,
-          unit: str = "") -> tuple[float, float, float]:
-    """A list of 3 finite numbers; each ``|component| <= max_abs`` and the length ``<= max_norm``."""
-    if not isinstance(value, list) or len(value) != 3 or \
-            not all(_is_number(a) and math.isfinite(a) for a in value):
-        _bad(src, key, value, "a list of 3 finite numbers")
-    v = tuple(float(a) for a in value)
-    if max_abs is not None and max(abs(a) for a in v) > max_abs:
-        _bad(src, key, value, f"every component within +-{max_abs:g}{unit}")
-    if max_norm is not None and math.sqrt(sum(a * a for a in v)) > max_norm:
-        _bad(src, key, value, f"a length of at most {max_norm:g}{unit}")
-    return v
 
 
 def _dynamic_time(o: dict, f: Path, where: str, src: Path) -> float | None:
@@ -373,6 +278,8 @@ def _boundary(b: dict, where: str, src: Path) -> Boundary:
     return Boundary(**kw)
 
 
+
+
 def _object(o: dict, where: str, src: Path) -> ObjectSpec:
     _check_keys(o, _OBJECT_KEYS, where, src)
     if "file" not in o:
@@ -410,7 +317,9 @@ def _object(o: dict, where: str, src: Path) -> ObjectSpec:
                               lo_open=True),
         if_open=_string(o.get("if_open", "warn"), f"{where}.if_open", src, ("warn", "error")),
         surface=_string(o.get("surface", ObjectSpec.surface), f"{where}.surface", src, SURFACES),
-        dynamic_time=_dynamic_time(o, f, where, src))
+        dynamic_time=_dynamic_time(o, f, where, src),
+        select=_select(o["select"], f"{where}.select", src) if "select" in o else None,
+        static=_static(o, where, src))
 
 
 def load_scene(path: str | Path) -> Scene:
@@ -473,12 +382,15 @@ def parse_scene(data: dict, src: Path) -> Scene:
     if not obj_list:
         raise SceneError(f"{src}: the scene has no [[object]]")
     objects = [_object(o, f"[[object]] #{i + 1}", src) for i, o in enumerate(obj_list)]
+    if all(o.static for o in objects):
+        raise SceneError(f"{src}: every [[object]] is static = true; nothing to simulate")
     n_frames = _integer(data.get("n_frames", 30), "n_frames", src, 1)
     output = data.get("output")
     if output is not None:
         output = base / _string(output, "output", src)
+    extras = _scene_extras(data, src, objects)
     return Scene(
-        path=src, objects=objects, engine=engine, domain=domain, boundaries=boundaries,
+        **extras, path=src, objects=objects, engine=engine, domain=domain, boundaries=boundaries,
         gravity=_vec3(data.get("gravity", [0.0, 0.0, -9.81]), "gravity", src, max_norm=MAX_GRAVITY,
                       unit=" m/s^2"),
         frame_dt=_number(data.get("frame_dt", 1.0 / 30.0), "frame_dt", src, 0.0, lo_open=True),

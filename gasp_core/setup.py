@@ -148,6 +148,13 @@ class SimSetup:
         then represent the whole solid. Engines with the feature ``passive_points`` move them
         themselves (grid engines: G2P only, no P2G); for the others the core embeds them in the
         material points' motion (:mod:`gasp_core.passive`). None means no passive point.
+    colliders : list of gasp_core.colliders.Collider
+        Rigid obstacles (signed distance fields, friction, prescribed motion); features
+        ``static_colliders`` / ``moving_colliders``.
+    forces : list of gasp_core.colliders.ForceField
+        Acceleration fields (``wind``, ``attractor``); features ``wind`` / ``attractors``.
+    impulses : list of gasp_core.colliders.Impulse
+        Velocity changes of a region over a time window; feature ``impulse``.
     """
 
     x: np.ndarray
@@ -165,6 +172,9 @@ class SimSetup:
     options: dict[str, Any] = field(default_factory=dict)
     C: np.ndarray | None = None
     passive: np.ndarray | None = None
+    colliders: list = field(default_factory=list)
+    forces: list = field(default_factory=list)
+    impulses: list = field(default_factory=list)
 
     def __post_init__(self):
         self.x = np.ascontiguousarray(self.x, dtype=np.float64)

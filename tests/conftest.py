@@ -28,3 +28,20 @@ def write_scene(tmp_path):
         p.write_text(text)
         return p
     return _write
+
+
+@pytest.fixture(scope="session")
+def donut_run(tmp_path_factory):
+    """A short real run for the renderer tests: the donut dropped 5 cm onto the ground, taichi_mpm,
+    n_grid 24, 14 frames, no interior fill, jelly (falls for 4 frames, lands, and at this coarse grid
+    keeps bouncing: the resting check runs on the README example, ``-m slow``)."""
+    pytest.importorskip("gasp_taichi_mpm", reason="taichi_mpm plugin not installed")
+    from gasp_core.pipeline import simulate_scene
+    from gasp_core.scene import load_scene
+    from gasp_testing import scene_text
+    d = tmp_path_factory.mktemp("render_run")
+    toml = d / "scene.toml"
+    toml.write_text(scene_text(DONUT, n_frames=14, n_grid=24, engine_options="{ threads = 2 }",
+                               extra_object="fill = false"))
+    simulate_scene(load_scene(toml), d / "run", progress=False)
+    return d / "run"

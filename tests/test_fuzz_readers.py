@@ -7,7 +7,6 @@ and never a numpy RuntimeWarning. Bounded (``max_examples``) so the module runs 
 from __future__ import annotations
 
 import math
-import tomllib
 import warnings
 from pathlib import Path
 

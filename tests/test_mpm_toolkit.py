@@ -63,7 +63,8 @@ def test_device_rule_is_declared_per_engine():
 
 def test_check_mpm_options_fills_defaults_and_refuses_dt_with_n_substeps():
     opts = check_mpm_options({}, mpm_options(), "e")
-    assert opts == {"device": "cpu", "precision": "f32", "dt": None, "n_substeps": None, "cfl": 0.4}
+    assert opts == {"device": "cpu", "precision": "f32", "dt": None, "n_substeps": None, "cfl": 0.4,
+                    "max_substeps": 20000}
     assert check_mpm_options(opts, mpm_options(), "e") == opts  # idempotent
     with pytest.raises(SceneError, match="not both"):
         check_mpm_options({"dt": 1e-4, "n_substeps": 3}, mpm_options(), "e")

@@ -45,7 +45,7 @@ def test_overwrite_replaces_only_a_gasp_output(tmp_path):
     out = tmp_path / "res"
     finished_run(OutputClaim(out), objects=("old",))
     finished_run(OutputClaim(out, overwrite=True), objects=("new",))
-    assert sorted(p.name for p in out.iterdir()) == ["new", "run.json"]
+    assert sorted(p.name for p in out.iterdir()) == [".gasp-output", "new", "run.json"]
     mine = tmp_path / "mine"
     mine.mkdir()
     (mine / "thesis.tex").write_text("x")

@@ -4,7 +4,6 @@ from __future__ import annotations
 import datetime
 import os
 import platform
-import tempfile
 from pathlib import Path
 
 
@@ -63,15 +62,8 @@ def render_results(store: dict, config, exitstatus: int, titles: dict[str, str])
 
 
 def write_atomic(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file in the same folder (created if needed)."""
+    """Write ``text`` to ``path`` atomically (:func:`gasp_core.fsutil.atomic_write`), creating its folder."""
+    from ..fsutil import atomic_write
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    atomic_write(path, lambda f: f.write(text), binary=False)

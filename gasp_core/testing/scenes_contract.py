@@ -111,11 +111,9 @@ def _run_refusals(info: EngineInfo) -> list[Check]:
         s = _base(info)
         s.boundaries = s.boundaries + [Boundary(lacking[0], lo=(0.0, 0.0, 0.0), hi=(0.1, 0.1, 0.1))]
         checks.append(_refused(info, s, lacking[0], "boundary"))
-    if "initial_C" not in caps.features:  # the one feature a setup asks for by itself (FEATURES)
-        s = _base(info)
-        s.C = np.broadcast_to(np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 0.0]]),
-                              (len(s.x), 3, 3)).copy()
-        checks.append(_refused(info, s, "initial_C", "feature"))
+    # SimSetup.C is a hint ("initial_C" engines start from it, others may ignore it), so it is not
+    # refused; the features a setup does require (colliders, forces) are checked when the core has them.
+    checks += _refused_extras(info)
     checks.append(_refused(info, _base(info, options={UNKNOWN_OPTION: 1}), UNKNOWN_OPTION, "unknown_option"))
     for o in info.options:
         checks.append(_refused(info, _base(info, options={o.name: _wrong_value(o)}), o.name, f"mistyped_option_{o.name}"))
@@ -123,6 +121,28 @@ def _run_refusals(info: EngineInfo) -> list[Check]:
         checks.append(Check("refuses_unsupported", True, "the engine declares every material, boundary "
                             f"and setup feature ({sorted(FEATURES)}): nothing else to refuse"))
     return checks
+
+
+def _refused_extras(info: EngineInfo) -> list[Check]:
+    """Colliders, forces and impulses the engine lacks are refused before the factory (gasp_core.colliders)."""
+    from ..colliders import ForceField, Impulse, Motion, box_collider
+    far = np.array([0.5, 0.5, 0.9])
+    extras = {
+        "static_colliders": {"colliders": [box_collider((0.05, 0.05, 0.05), DX, position=far)]},
+        "moving_colliders": {"colliders": [box_collider((0.05, 0.05, 0.05), DX, position=far,
+                                                        motion=Motion(velocity=(0.1, 0.0, 0.0)))]},
+        "impulse": {"impulses": [Impulse("box", (0.1, 0.0, 0.0), lo=(0, 0, 0), hi=(1, 1, 1))]},
+        "wind": {"forces": [ForceField("wind", strength=1.0)]},
+        "attractors": {"forces": [ForceField("attractor", strength=1.0, point=(0.5, 0.5, 0.5))]},
+    }
+    out = []
+    for feature, fields in extras.items():
+        if feature not in info.capabilities.features:
+            s = _base(info)
+            for k, v in fields.items():
+                setattr(s, k, v)
+            out.append(_refused(info, s, feature, f"feature_{feature}"))
+    return out
 
 
 def _outcome(info: EngineInfo, setup: SimSetup, n_frames: int):
@@ -145,9 +165,17 @@ def _run_declared_accepted(info: EngineInfo) -> list[Check]:
     caps = info.capabilities
     mats = sorted(caps.materials)
     xs, vols, ids = [], [], []
-    for k, m in enumerate(mats):  # one 0.1 m cube per material, side by side along x
-        x0 = 0.1 + k * (0.8 / max(len(mats), 1))
-        x, p_vol = box_points((x0, 0.45, GROUND_H + DX), (x0 + 0.0625, 0.55, GROUND_H + DX + 0.0625), DX / 2)
+    # one block (1 x 1.6 x 1 cells) per material on a grid of columns x rows inside [0.25, 0.75]^2, so
+    # every point is 4 cells or more from the domain's faces: an engine may keep a boundary band of a
+    # few cells (Genesis's MPM box is the domain less 3 dx on each side)
+    cols = int(np.ceil(np.sqrt(len(mats))))
+    rows = int(np.ceil(len(mats) / cols))
+    size = np.array([DX, 0.1, DX])
+    for k, m in enumerate(mats):
+        x0 = 0.25 + (k % cols) * (0.5 - size[0]) / max(cols - 1, 1)
+        y0 = 0.25 + (k // cols) * (0.5 - size[1]) / max(rows - 1, 1)
+        lo = np.array([x0, y0, GROUND_H + DX])
+        x, p_vol = box_points(tuple(lo), tuple(lo + size), DX / 2)
         xs.append(x), vols.append(np.full(len(x), p_vol)), ids.append(np.full(len(x), k))
     x = np.concatenate(xs)
     bounds = []

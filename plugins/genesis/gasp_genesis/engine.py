@@ -84,7 +84,7 @@ def _validate_setup(setup: SimSetup) -> None:
 
 def time_step(setup: SimSetup, opt: dict[str, Any]) -> tuple[int, float]:
     """Substeps per frame and substep length (``gasp_core.mpm.mpm_substeps``, docs/mpm.md)."""
-    return mpm.substeps_from_options(setup, opt)
+    return mpm.substeps_from_options(setup, opt, ENGINE)
 
 
 # ---------------------------------------------------------------------- Genesis

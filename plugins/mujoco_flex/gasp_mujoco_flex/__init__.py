@@ -27,7 +27,9 @@ CAPABILITIES = Capabilities(
     devices=frozenset({"cpu"}),
     precisions=frozenset({"f64"}),
     deterministic=frozenset({"cpu"}),
-    features=frozenset({"passive_points"}),   # every point rides on its tet (barycentric)
+    # mesh colliders as MuJoCo mesh geoms: collisions with their convex hull (gasp_mujoco_flex.colliders);
+    # passive points ride on their tet (barycentric), like every point
+    features=frozenset({"static_colliders", "passive_points"}),
 )
 
 #: Engine options (``[engine] options`` of a scene), declared as data.
@@ -101,6 +103,8 @@ KNOWN_FAILURES = {
                   "(8 cells along the 0.6 m bar, ~1.3 across its 0.1 m section) is far too stiff in "
                   "bending (linear tetrahedra lock)",
     "cantilever_offgrid": "same lattice as 'cantilever': 5.66 mm vs 19.99 mm (-72%)",
+    "incline_stick": "MuJoCo's soft contacts creep: the block moves 4.06 dx down the 25 deg slope in 0.4 s with "
+                     "mu = 0.8 > tan(25 deg) (frictionless: 11 dx); incline_slide passes (a = 2.365 vs 2.368 m/s^2)",
 }
 
 

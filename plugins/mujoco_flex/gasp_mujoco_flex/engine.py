@@ -200,11 +200,13 @@ class MujocoFlexEngine:
         self.n_substeps, self.dt = substeps_for(s.frame_dt, dt_max)
 
         g = _fmt(s.gravity)
+        from .colliders import collider_xml
+        col_asset, col_bodies = collider_xml(s.colliders, ENGINE)
         xml = (f'<mujoco model="gasp_mujoco_flex">\n'
-               f'<compiler angle="radian"/>\n'
+               f'<compiler angle="radian"/>\n{col_asset}'
                f'<option timestep="{self.dt:.17g}" gravity="{g}" integrator="{o["integrator"]}" '
                f'solver="{o["solver"]}" iterations="{int(o["iterations"])}" cone="pyramidal"/>\n'
-               f'<worldbody>\n{ground}' + "\n".join(parts) + '\n</worldbody>\n</mujoco>')
+               f'<worldbody>\n{ground}{col_bodies}\n' + "\n".join(parts) + '\n</worldbody>\n</mujoco>')
         self.xml = xml
         try:
             self.model = mujoco.MjModel.from_xml_string(xml)

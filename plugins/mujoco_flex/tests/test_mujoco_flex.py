@@ -30,8 +30,8 @@ def block_points(n=6, size=0.1, z0=0.3, x0=0.0):
     return x
 
 
-def make_setup(x, material, boundaries=(), v=0.0, **options):
-    return SimSetup(x=x, v=v, p_vol=1e-6, body_id=0, materials=[material],
+def make_setup(x, material, boundaries=(), v=0.0, p_vol=1e-6, **options):
+    return SimSetup(x=x, v=v, p_vol=p_vol, body_id=0, materials=[material],
                     gravity=[0.0, 0.0, -G], domain_lo=[-1, -1, -1], domain_hi=[1, 1, 1],
                     frame_dt=1 / 30, boundaries=list(boundaries), options={"cells_across": 4, **options})
 
@@ -197,6 +197,20 @@ def test_unsupported_material_is_refused_by_the_core():
         build_engine(engines()["mujoco_flex"], make_setup(block_points(), Material("sand")))
 
 
+def test_initial_velocity_gradient_is_not_asked_of_a_non_grid_engine():
+    """SimSetup.C is for grid engines; mujoco_flex carries a rotation in the point velocities."""
+    from gasp_core.engine import build_engine
+    from gasp_core.plugins import engines
+    x = block_points()
+    w = np.array([0.0, 0.0, np.pi])
+    C = np.broadcast_to(np.array([[0, -w[2], 0], [w[2], 0, 0], [0, 0, 0]]), (len(x), 3, 3))
+    s = make_setup(x, JELLY, v=np.cross(w, x - x.mean(0))).replace(C=C)
+    e = build_engine(engines()["mujoco_flex"], s)
+    r = x - x.mean(0)
+    lz = np.cross(r, e.velocities())[:, 2].sum() / np.cross(r, s.v)[:, 2].sum()
+    assert 0.8 < lz < 1.2, lz  # the spin reaches the lattice through the point velocities
+
+
 def test_negative_poisson_ratio_is_a_scene_error():
     """MuJoCo's flex elasticity takes 0 <= nu < 0.5 ("Poisson ratio must be in [0, 0.5)")."""
     with pytest.raises(SceneError, match="nu=-0.3"):
@@ -256,7 +270,10 @@ def test_metal_keeps_a_permanent_dent_where_jelly_springs_back():
     shape = {}
     for m in (Material("jelly", E=1e6, nu=0.3, rho=1000.0),
               Material("metal", E=1e6, nu=0.3, rho=1000.0, yield_stress=1e3)):
-        e = make_engine(make_setup(x, m, [Boundary("ground")], v=[0.0, 0.0, -3.0], cells_across=3))
+        # p_vol: each point stands for its (0.1 m / 6)^3 cube, so the block weighs rho (0.1 m)^3 = 1 kg
+        # (the engine simulates sum rho p_vol: with 1e-6 m^3 per point it would be 0.216 kg)
+        e = make_engine(make_setup(x, m, [Boundary("ground")], v=[0.0, 0.0, -3.0], p_vol=(0.1 / 6) ** 3,
+                                   cells_across=3))
         for _ in range(10):
             e.step_frame()
         p = e.positions()

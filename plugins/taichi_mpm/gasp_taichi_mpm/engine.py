@@ -23,9 +23,23 @@ MAX_PRIVATE_GRID_BYTES = 1 << 30
 _generation = 0  # bumped by every engine built; an engine is live while its generation is current
 
 
+def _quiet_init(ti, **kw) -> None:
+    """``ti.init(**kw)`` without its unconditional "[Taichi] Starting on arch=..." line on stdout
+    (GASP's stdout carries results, e.g. ``gasp engines --json``); anything else it prints goes to stderr."""
+    import contextlib
+    import io
+    import sys
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        ti.init(**kw)
+    for line in buf.getvalue().splitlines():
+        if not line.startswith("[Taichi] Starting on arch="):
+            print(line, file=sys.stderr)
+
+
 def time_step(setup: SimSetup, opt: dict[str, Any]) -> tuple[int, float]:
     """Substeps per frame and substep length (``gasp_core.mpm.mpm_substeps``, docs/mpm.md)."""
-    return mpm.substeps_from_options(setup, opt)
+    return mpm.substeps_from_options(setup, opt, ENGINE)
 
 
 class TaichiMPMEngine:
@@ -58,24 +72,26 @@ class TaichiMPMEngine:
     def __init__(self, setup: SimSetup):
         global _generation
         opt = mpm.check_mpm_options(setup.options, OPTIONS, ENGINE)
+        self.n_substeps, self.dt = time_step(setup, opt)
+        mpm.check_memory(mpm.estimate_bytes(len(setup.x), setup.n_grid, opt["precision"]) + MAX_PRIVATE_GRID_BYTES,
+                         ENGINE, f"{len(setup.x)} points, n_grid {setup.n_grid}, {opt['precision']}")
         import taichi as ti
 
         self.setup = setup
         self.options = opt
-        self.n_substeps, self.dt = time_step(setup, opt)
         real = ti.f32 if opt["precision"] == "f32" else ti.f64
         if opt["device"] == "cuda":
             if not ti.lang.misc.is_arch_supported(ti.cuda):
                 raise EngineError(f"engine '{ENGINE}': device 'cuda' requested but this Taichi build "
                                   "or machine has no CUDA; use device='cpu'")
-            ti.init(arch=ti.cuda, default_fp=real, offline_cache=True, fast_math=False, log_level=ti.WARN)
+            _quiet_init(ti, arch=ti.cuda, default_fp=real, offline_cache=True, fast_math=False, log_level=ti.WARN)
             if ti.lang.impl.current_cfg().arch != ti.cuda:
                 raise EngineError(f"engine '{ENGINE}': device 'cuda' requested but Taichi could not "
                                   "start CUDA (no GPU or driver); use device='cpu'")
             threads = None
         else:
             threads = int(opt["threads"]) if opt["threads"] is not None else (os.cpu_count() or 1)
-            ti.init(arch=ti.cpu, default_fp=real, offline_cache=True, cpu_max_num_threads=threads,
+            _quiet_init(ti, arch=ti.cpu, default_fp=real, offline_cache=True, cpu_max_num_threads=threads,
                     fast_math=False, log_level=ti.WARN)
         _generation += 1
         self._gen = _generation
@@ -105,12 +121,23 @@ class TaichiMPMEngine:
             body=setup.body_id[o], fixed=fixed[o], jp0=jp0[o], params=params, kinds=kinds,
             n_grid=setup.n_grid, lo=setup.domain_lo, dx=dx, dt=self.dt, gravity=setup.gravity,
             walls=walls, grounds=grounds, regions=regions, real=real,
-            n_chunks=threads or 1, atomic=atomic, n_material=self.n_material)
+            n_chunks=threads or 1, atomic=atomic, n_material=self.n_material, **self._extras(setup))
         self._p2g_mode = "atomic" if atomic else f"private grids x{self.solver.n_chunks}"
         self.frame = 0
         self._x = setup.x.astype(np.float32 if real == ti.f32 else np.float64)
         self._v = setup.v.astype(self._x.dtype)
         self._closed = False
+
+    def _extras(self, setup: SimSetup) -> dict[str, Any]:
+        """Colliders, forces and impulses for the solver (``gasp_core.colliders``); none: nothing."""
+        from gasp_core.colliders import frame_table, grid_tables
+        ex = grid_tables(setup)
+        if not ex.any:
+            return {}
+
+        def next_table():
+            return frame_table(setup, self.frame * setup.frame_dt, self.n_substeps, self.dt)
+        return {"extras": ex, "time_table": next_table, "n_substeps": self.n_substeps}
 
     # ------------------------------------------------------------------ interface
     def _check_live(self) -> None:
@@ -138,7 +165,10 @@ class TaichiMPMEngine:
         self._check_live()
         s = self.solver
         s.reset_out()
-        s.substeps(self.n_substeps)
+        if s.has_extras:
+            s.substeps_with_extras(self.n_substeps)
+        else:
+            s.substeps(self.n_substeps)
         self.frame += 1
         x = s.get(s.x)[self._inverse]
         v = s.get(s.v)[self._inverse]
@@ -167,6 +197,40 @@ class TaichiMPMEngine:
     def velocities(self) -> np.ndarray:
         """Current velocities, shape (n, 3), m/s, setup order."""
         return self._v.copy()
+
+    _STATE = ("x", "v", "C", "F", "Jp")
+
+    def get_state(self) -> dict[str, np.ndarray]:
+        """The particle state after the current frame (solver order): ``x, v, C, F, Jp`` and ``frame``.
+
+        With :meth:`set_state` on a fresh engine of the same setup, the run continues bit for bit
+        (feature ``state``; ``gasp simulate --resume``).
+        """
+        self._check_live()
+        s = self.solver
+        out = {k: s.get(getattr(s, k)) for k in self._STATE}
+        out["frame"] = np.array(self.frame)
+        return out
+
+    def set_state(self, state: dict[str, np.ndarray]) -> None:
+        """Restore :meth:`get_state` into this engine (built from the same setup).
+
+        Raises
+        ------
+        EngineError
+            A key is missing or an array has the wrong shape.
+        """
+        self._check_live()
+        s = self.solver
+        for k in self._STATE:
+            a = np.asarray(state.get(k))
+            if a.shape != s.get(getattr(s, k)).shape:
+                raise EngineError(f"engine '{ENGINE}': saved state '{k}' has shape {a.shape}; this setup needs "
+                                  f"{s.get(getattr(s, k)).shape}")
+            s.set(getattr(s, k), a)
+        self.frame = int(state["frame"])
+        self._x = s.get(s.x)[self._inverse]
+        self._v = s.get(s.v)[self._inverse]
 
     def stats(self) -> dict[str, Any]:
         """``device, precision, n_points, dt, n_substeps, n_grid, threads`` and ``dx``, ``p2g``, ``frame``."""

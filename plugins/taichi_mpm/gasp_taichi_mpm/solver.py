@@ -111,7 +111,8 @@ class MPMSolver:
     """
 
     def __init__(self, *, x, v, C0, p_mass, p_vol, body, fixed, jp0, params, kinds, n_grid, lo, dx, dt,
-                 gravity, walls, grounds, regions, real, n_chunks, atomic, n_material=None):
+                 gravity, walls, grounds, regions, real, n_chunks, atomic, extras=None, time_table=None, n_substeps=1,
+                 n_material=None):
         n = len(x)
         self.n = n
         self.n_material = n if n_material is None else int(n_material)
@@ -211,6 +212,7 @@ class MPMSolver:
         self.pchunk_lo.from_numpy(pb[:-1].copy())
         self.pchunk_hi.from_numpy(pb[1:].copy())
         self._init_box()
+        self._setup_extras(extras, time_table, np_real, n_substeps)
         if self.has_passive:
             self.passive_box()
 
@@ -226,7 +228,11 @@ class MPMSolver:
 
     # ------------------------------------------------------------------ driver
     def substeps(self, n_substeps: int) -> None:
-        """Advance ``n_substeps`` substeps (P2G, grid update, G2P each), no host sync in between."""
+        """Advance ``n_substeps`` substeps (P2G, grid update, G2P each), no host sync in between.
+
+        Passive points (``n_material < n``) are moved after every grid update, by the grid velocity
+        that already holds the forces, colliders and boundaries, so they follow the material and
+        respect what it respects; they add nothing to the grid."""
         self.g2p_p2g(0)
         for s in range(n_substeps - 1):
             self.grid_update()
@@ -237,6 +243,138 @@ class MPMSolver:
         self.g2p()
         if self.has_passive:
             self.g2p_passive()
+
+    def substeps_with_extras(self, n_substeps: int) -> None:
+        """:meth:`substeps` with colliders, forces and impulses: the frame's table loaded, the substep index set."""
+        self.ex_tab.from_numpy(self._time_table().astype(self._ex_np))
+        self.ex_step[None] = 0
+        self.g2p_p2g(0)
+        for s in range(n_substeps - 1):
+            self.grid_update()
+            if self.has_passive:
+                self.g2p_passive()
+            self.ex_step[None] = s + 1
+            self.g2p_p2g(1)
+        self.grid_update()
+        self.g2p()
+        if self.has_passive:
+            self.g2p_passive()
+
+    # ------------------------------------------------------------------ colliders, forces, impulses
+    def _setup_extras(self, ex, time_table, np_real, n_substeps) -> None:
+        """Fields of :func:`gasp_core.colliders.grid_tables` (``ex``); none when ``ex`` is None or empty."""
+        self.has_extras = ex is not None and ex.any
+        if not self.has_extras:
+            return
+        self._ex_np = np_real
+        self._time_table = time_table
+        self.n_col, self.n_force, self.n_imp, self.ex_width = ex.n_colliders, ex.n_forces, ex.n_impulses, ex.width
+        for name, arr in (("ex_sdf", ex.sdf), ("ex_grad", ex.sdf_grad), ("ex_meta", ex.col_meta),
+                          ("ex_forces", ex.forces), ("ex_modes", ex.modes), ("ex_imps", ex.impulses)):
+            f = ti.field(self.real, shape=len(arr))
+            f.from_numpy(np.asarray(arr, np_real))
+            setattr(self, name, f)
+        self.ex_tab = ti.field(self.real, shape=n_substeps * self.ex_width)
+        self.ex_step = ti.field(ti.i32, shape=())
+
+    @ti.func
+    def _collide_n(self, v, n, mu_b):
+        """taichi_elements' separate collider with Coulomb friction, unit normal ``n`` (any direction)."""
+        vn = v.dot(n)
+        out = v
+        if vn < 0.0:
+            vt = v - vn * n
+            lt = vt.norm()
+            if lt > 1e-30:
+                out = vt * ti.max(0.0, 1.0 + mu_b * vn / lt)
+            else:
+                out = ti.Vector.zero(self.real, 3)
+        return out
+
+    @ti.func
+    def _extras(self, I, v):
+        """Forces, impulses, then colliders at node ``I`` (docs/colliders.md; the same order as warp_mpm)."""
+        dt = self.sc[0]
+        X = self.lo[None] + self.sc[1] * ti.Vector([ti.cast(I[0], self.real), ti.cast(I[1], self.real),
+                                                    ti.cast(I[2], self.real)])
+        base = self.ex_step[None] * self.ex_width
+        t = self.ex_tab[base]
+        for f in range(self.n_force):
+            r = f * 12
+            a = ti.Vector.zero(self.real, 3)
+            if self.ex_forces[r] == 0.0:
+                a = ti.Vector([self.ex_forces[r + 1], self.ex_forces[r + 2], self.ex_forces[r + 3]])
+                m0 = ti.cast(self.ex_forces[r + 10], ti.i32)
+                for m in range(m0, m0 + ti.cast(self.ex_forces[r + 11], ti.i32)):
+                    q = m * 8
+                    k = ti.Vector([self.ex_modes[q], self.ex_modes[q + 1], self.ex_modes[q + 2]])
+                    A = ti.Vector([self.ex_modes[q + 3], self.ex_modes[q + 4], self.ex_modes[q + 5]])
+                    a += A * ti.sin(k.dot(X) + self.ex_modes[q + 7] * t + self.ex_modes[q + 6])
+            else:
+                d = ti.Vector([self.ex_forces[r + 1], self.ex_forces[r + 2], self.ex_forces[r + 3]]) - X
+                rr = d.norm()
+                strength = self.ex_forces[r + 7]
+                radius = self.ex_forces[r + 8]
+                mag = strength * rr / radius
+                if rr >= radius:
+                    mag = strength
+                    if self.ex_forces[r + 9] == 1.0:
+                        mag = strength * (radius / rr) * (radius / rr)
+                if rr > 0.0:
+                    a = d * (mag / rr)
+            v += dt * a
+        for q in range(self.n_imp):
+            r = q * 11
+            inside = False
+            c = ti.Vector([self.ex_imps[r + 1], self.ex_imps[r + 2], self.ex_imps[r + 3]])
+            b = ti.Vector([self.ex_imps[r + 4], self.ex_imps[r + 5], self.ex_imps[r + 6]])
+            if self.ex_imps[r] == 0.0:
+                inside = (X >= c).all() and (X <= b).all()
+            else:
+                inside = (X - c).norm() <= b[0]
+            w = self.ex_tab[base + 1 + 18 * self.n_col + q]
+            if inside and w > 0.0:
+                dv = ti.Vector([self.ex_imps[r + 8], self.ex_imps[r + 9], self.ex_imps[r + 10]])
+                if self.ex_imps[r + 7] == 0.0:
+                    v += w * dv
+                else:
+                    v = dv
+        for c in range(self.n_col):
+            r = c * 9
+            p0 = base + 1 + 18 * c
+            R = ti.Matrix([[self.ex_tab[p0 + 0], self.ex_tab[p0 + 1], self.ex_tab[p0 + 2]],
+                           [self.ex_tab[p0 + 3], self.ex_tab[p0 + 4], self.ex_tab[p0 + 5]],
+                           [self.ex_tab[p0 + 6], self.ex_tab[p0 + 7], self.ex_tab[p0 + 8]]])
+            T = ti.Vector([self.ex_tab[p0 + 9], self.ex_tab[p0 + 10], self.ex_tab[p0 + 11]])
+            h = self.ex_meta[r + 3]
+            org = ti.Vector([self.ex_meta[r], self.ex_meta[r + 1], self.ex_meta[r + 2]])
+            nx = ti.cast(self.ex_meta[r + 4], ti.i32)
+            ny = ti.cast(self.ex_meta[r + 5], ti.i32)
+            nz = ti.cast(self.ex_meta[r + 6], ti.i32)
+            off = ti.cast(self.ex_meta[r + 7], ti.i32)
+            u = (R.transpose() @ (X - T) - org) / h
+            if (u[0] >= 0.0 and u[1] >= 0.0 and u[2] >= 0.0 and u[0] <= nx - 1.0 and u[1] <= ny - 1.0
+                    and u[2] <= nz - 1.0):
+                i0 = ti.min(ti.cast(ti.floor(u[0]), ti.i32), nx - 2)
+                j0 = ti.min(ti.cast(ti.floor(u[1]), ti.i32), ny - 2)
+                k0 = ti.min(ti.cast(ti.floor(u[2]), ti.i32), nz - 2)
+                fx = u - ti.Vector([ti.cast(i0, self.real), ti.cast(j0, self.real), ti.cast(k0, self.real)])
+                phi = ti.cast(0.0, self.real)
+                g = ti.Vector.zero(self.real, 3)
+                for di, dj, dk in ti.static(ti.ndrange(2, 2, 2)):
+                    wgt = ((fx[0] if di else 1.0 - fx[0]) * (fx[1] if dj else 1.0 - fx[1])
+                           * (fx[2] if dk else 1.0 - fx[2]))
+                    idx = off + ((i0 + di) * ny + (j0 + dj)) * nz + (k0 + dk)
+                    phi += wgt * self.ex_sdf[idx]
+                    g += wgt * ti.Vector([self.ex_grad[3 * idx], self.ex_grad[3 * idx + 1], self.ex_grad[3 * idx + 2]])
+                gl = g.norm()
+                if phi <= 0.0 and gl > 0.0:
+                    n = R @ (g / gl)
+                    vl = ti.Vector([self.ex_tab[p0 + 12], self.ex_tab[p0 + 13], self.ex_tab[p0 + 14]])
+                    om = ti.Vector([self.ex_tab[p0 + 15], self.ex_tab[p0 + 16], self.ex_tab[p0 + 17]])
+                    vc = vl + om.cross(X - T)
+                    v = vc + self._collide_n(v - vc, n, self.ex_meta[r + 8])
+        return v
 
     # ------------------------------------------------------------------ helpers
     @ti.kernel
@@ -634,6 +772,8 @@ class MPMSolver:
             v = ti.Vector.zero(self.real, 3)
             if acc[3] > 0.0:
                 v = ti.Vector([acc[0], acc[1], acc[2]]) / acc[3] + self.sc[0] * self.gravity[None]
+                if ti.static(self.has_extras):
+                    v = self._extras(I, v)
                 for b in ti.static(range(self.n_walls)):
                     mu_b = self.wall_fric[b]
                     hi_first = self.wall_hi_first[b]

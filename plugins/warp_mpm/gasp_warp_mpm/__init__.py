@@ -10,6 +10,7 @@ import importlib.util
 
 from gasp_core.engine import Capabilities, EngineInfo, Option, SimSetup
 from gasp_core.mpm import mpm_options, mpm_sweep
+from gasp_core import mpm
 from gasp_core.plugins import hookimpl
 
 __all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "gasp_engines", "make_engine", "sweep"]
@@ -22,7 +23,8 @@ CAPABILITIES = Capabilities(
     devices=frozenset({"cpu", "cuda"}),
     precisions=frozenset({"f32", "f64"}),
     deterministic=frozenset({"cpu"}),
-    features=frozenset({"grid", "initial_C", "passive_points"}),
+    features=frozenset({"grid", "initial_C", "state", "static_colliders", "moving_colliders", "impulse", "wind",
+                        "attractors", "passive_points"}),
 )
 
 #: The grid-engine options of ``gasp_core.mpm`` (``device``: "cpu", "cuda" or "cuda:N", Warp's device
@@ -54,12 +56,8 @@ def _available() -> str | None:
     return None
 
 
-_CLAMP_OFF_GRID = ("clamp face 0.6 dx past a grid node: time-averaged tip deflection 30.83 mm vs Euler-Bernoulli "
-                   "19.99 mm (+54%); with the face on a node 21.68 mm (+8.4%). Measured also: n_grid 28/48/64 (face "
-                   "0.6/0.6/0.8 dx off a node) the bar swings down as if hinged and leaves the grid by frame ~22; "
-                   "n_grid 40 (on a node) 21.45 mm. fixed_region acts on whole nodes (docs/mpm.md), so the clamp is "
-                   "soft when its face falls between nodes")
-KNOWN_FAILURES = {"cantilever_offgrid": _CLAMP_OFF_GRID}
+#: Known failures of the shared MLS-MPM algorithm (docs/mpm.md), measured figures in the reasons.
+KNOWN_FAILURES = dict(mpm.KNOWN_FAILURES)
 
 
 @hookimpl

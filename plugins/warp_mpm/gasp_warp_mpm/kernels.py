@@ -125,6 +125,120 @@ def build_kernels(Ft):
                 out = vec3(Ft(0.0))
         return out
 
+    @wp.struct
+    class Extras:
+        # gasp_core.colliders.grid_tables / frame_table (docs/colliders.md)
+        sdf: wp.array(dtype=Ft)
+        grad: wp.array(dtype=Ft)
+        meta: wp.array(dtype=Ft)
+        forces: wp.array(dtype=Ft)
+        modes: wp.array(dtype=Ft)
+        imps: wp.array(dtype=Ft)
+        tab: wp.array(dtype=Ft)
+        step: wp.array(dtype=wp.int32)
+        n_col: int
+        n_force: int
+        n_imp: int
+        width: int
+
+    @wp.func
+    def extras(v_in: vec3, X: vec3, dt: Ft, ex: Extras):
+        # Forces, impulses, then colliders at a node (the same order as taichi_mpm's _extras).
+        v = v_in
+        base = ex.step[0] * ex.width
+        t = ex.tab[base]
+        for f in range(ex.n_force):
+            r = f * 12
+            a = vec3(Ft(0.0))
+            if ex.forces[r] == Ft(0.0):
+                a = vec3(ex.forces[r + 1], ex.forces[r + 2], ex.forces[r + 3])
+                m0 = int(ex.forces[r + 10])
+                for mm in range(m0, m0 + int(ex.forces[r + 11])):
+                    q = mm * 8
+                    kv = vec3(ex.modes[q], ex.modes[q + 1], ex.modes[q + 2])
+                    A = vec3(ex.modes[q + 3], ex.modes[q + 4], ex.modes[q + 5])
+                    a = a + A * wp.sin(wp.dot(kv, X) + ex.modes[q + 7] * t + ex.modes[q + 6])
+            else:
+                d = vec3(ex.forces[r + 1], ex.forces[r + 2], ex.forces[r + 3]) - X
+                rr = wp.length(d)
+                strength = ex.forces[r + 7]
+                radius = ex.forces[r + 8]
+                mag = strength * rr / radius
+                if rr >= radius:
+                    mag = strength
+                    if ex.forces[r + 9] == Ft(1.0):
+                        mag = strength * (radius / rr) * (radius / rr)
+                if rr > Ft(0.0):
+                    a = d * (mag / rr)
+            v = v + dt * a
+        for q in range(ex.n_imp):
+            r = q * 11
+            c = vec3(ex.imps[r + 1], ex.imps[r + 2], ex.imps[r + 3])
+            b = vec3(ex.imps[r + 4], ex.imps[r + 5], ex.imps[r + 6])
+            inside = False
+            if ex.imps[r] == Ft(0.0):
+                inside = (X[0] >= c[0] and X[1] >= c[1] and X[2] >= c[2] and X[0] <= b[0] and X[1] <= b[1]
+                          and X[2] <= b[2])
+            else:
+                inside = wp.length(X - c) <= b[0]
+            w = ex.tab[base + 1 + 18 * ex.n_col + q]
+            if inside and w > Ft(0.0):
+                dv = vec3(ex.imps[r + 8], ex.imps[r + 9], ex.imps[r + 10])
+                if ex.imps[r + 7] == Ft(0.0):
+                    v = v + w * dv
+                else:
+                    v = dv
+        for cc in range(ex.n_col):
+            r = cc * 9
+            p0 = base + 1 + 18 * cc
+            R = mat33(ex.tab[p0 + 0], ex.tab[p0 + 1], ex.tab[p0 + 2],
+                      ex.tab[p0 + 3], ex.tab[p0 + 4], ex.tab[p0 + 5],
+                      ex.tab[p0 + 6], ex.tab[p0 + 7], ex.tab[p0 + 8])
+            T = vec3(ex.tab[p0 + 9], ex.tab[p0 + 10], ex.tab[p0 + 11])
+            h = ex.meta[r + 3]
+            org = vec3(ex.meta[r], ex.meta[r + 1], ex.meta[r + 2])
+            nx = int(ex.meta[r + 4])
+            ny = int(ex.meta[r + 5])
+            nz = int(ex.meta[r + 6])
+            off = int(ex.meta[r + 7])
+            u = (wp.transpose(R) * (X - T) - org) / h
+            if (u[0] >= Ft(0.0) and u[1] >= Ft(0.0) and u[2] >= Ft(0.0) and u[0] <= Ft(nx - 1)
+                    and u[1] <= Ft(ny - 1) and u[2] <= Ft(nz - 1)):
+                i0 = wp.min(int(wp.floor(u[0])), nx - 2)
+                j0 = wp.min(int(wp.floor(u[1])), ny - 2)
+                k0 = wp.min(int(wp.floor(u[2])), nz - 2)
+                fx = u - vec3(Ft(i0), Ft(j0), Ft(k0))
+                phi = Ft(0.0)
+                gr = vec3(Ft(0.0))
+                for di in range(2):
+                    for dj in range(2):
+                        for dk in range(2):
+                            wx = Ft(1.0) - fx[0]
+                            if di == 1:
+                                wx = fx[0]
+                            wy = Ft(1.0) - fx[1]
+                            if dj == 1:
+                                wy = fx[1]
+                            wz = Ft(1.0) - fx[2]
+                            if dk == 1:
+                                wz = fx[2]
+                            wgt = wx * wy * wz
+                            idx = off + ((i0 + di) * ny + (j0 + dj)) * nz + (k0 + dk)
+                            phi = phi + wgt * ex.sdf[idx]
+                            gr = gr + wgt * vec3(ex.grad[3 * idx], ex.grad[3 * idx + 1], ex.grad[3 * idx + 2])
+                gl = wp.length(gr)
+                if phi <= Ft(0.0) and gl > Ft(0.0):
+                    n = R * (gr / gl)
+                    vl = vec3(ex.tab[p0 + 12], ex.tab[p0 + 13], ex.tab[p0 + 14])
+                    om = vec3(ex.tab[p0 + 15], ex.tab[p0 + 16], ex.tab[p0 + 17])
+                    vc = vl + wp.cross(om, X - T)
+                    v = vc + collide(v - vc, n, ex.meta[r + 8])
+        return v
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=_OPTS)
+    def tick(step: wp.array(dtype=wp.int32)):
+        step[0] = step[0] + 1
+
     @wp.kernel(enable_backward=False, module="unique", module_options=_OPTS)
     def p2g(
         x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), F: wp.array(dtype=mat33),
@@ -247,6 +361,7 @@ def build_kernels(Ft):
         gravity: vec3, lo: vec3, hi: vec3, dx: Ft, dt: Ft, n_grid: int,
         wall_mu: wp.array(dtype=Ft), ground: wp.array(dtype=vec3),
         fixed_lo: wp.array(dtype=vec3), fixed_hi: wp.array(dtype=vec3),
+        has_extras: int, ex: Extras,
     ):
         # ground[g] = (height, friction, unused)
         node = wp.tid()
@@ -259,6 +374,8 @@ def build_kernels(Ft):
             j = (node / n_grid) % n_grid
             k = node % n_grid
             X = lo + dx * vec3(Ft(i), Ft(j), Ft(k))
+            if has_extras != 0:
+                vel = extras(vel, X, dt, ex)
             for w in range(wall_mu.shape[0]):
                 mu_b = wall_mu[w]
                 for d in range(3):
@@ -380,5 +497,5 @@ def build_kernels(Ft):
         wp.launch(svd_kernel, dim=n, inputs=[a, U, sig, V], device="cpu")
         return U.numpy(), sig.numpy(), V.numpy()
 
-    return types.SimpleNamespace(vec3=vec3, vec4=vec4, mat33=mat33, p2g=p2g,
+    return types.SimpleNamespace(vec3=vec3, vec4=vec4, mat33=mat33, p2g=p2g, Extras=Extras, tick=tick,
                                  grid_update=grid_update, g2p=g2p, check=check, svd=svd)

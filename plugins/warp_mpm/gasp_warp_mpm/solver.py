@@ -40,9 +40,34 @@ from . import ENGINE, OPTIONS
 from . import kernels as K
 
 
+def _init_warp(cpu_only: bool) -> None:
+    """``wp.init()``; on a CPU run, drop the native "no CUDA driver" warning it prints on machines
+    without a GPU (it is written by Warp's C++ core to the process's stderr, past Python's
+    ``sys.stderr``). Every other line it prints is passed on."""
+    import os
+    import sys
+    import tempfile
+    if not cpu_only:
+        wp.init()
+        return
+    with tempfile.TemporaryFile(mode="w+b") as cap:
+        sys.stderr.flush()
+        saved = os.dup(2)
+        os.dup2(cap.fileno(), 2)
+        try:
+            wp.init()
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+        cap.seek(0)
+        for line in cap.read().decode(errors="replace").splitlines():
+            if "CUDA driver" not in line:
+                print(line, file=sys.stderr)
+
+
 def choose_dt(setup: SimSetup, opts: dict[str, Any]) -> tuple[int, float]:
     """Substeps per frame and substep (``gasp_core.mpm.mpm_substeps``, docs/mpm.md "Time step")."""
-    return mpm.substeps_from_options(setup, opts)
+    return mpm.substeps_from_options(setup, opts, ENGINE)
 
 
 class WarpMPMEngine:
@@ -72,8 +97,12 @@ class WarpMPMEngine:
         opts = mpm.check_mpm_options(setup.options, OPTIONS, ENGINE)
         self.options = opts
         kinds, par = mpm.material_table(setup.materials)
+        choose_dt(setup, opts)  # refuses a scene past max_substeps before any build work
+        mpm.check_memory(mpm.estimate_bytes(len(setup.x), setup.n_grid, opts["precision"]), ENGINE,
+                         f"{len(setup.x)} points, n_grid {setup.n_grid}, {opts['precision']}")
 
-        wp.init()
+        wp.config.log_level = wp.LOG_WARNING  # no start-up banner or module-load lines on stdout
+        _init_warp(cpu_only=not opts["device"].startswith("cuda"))
         dev = opts["device"]
         if dev.startswith("cuda") and not wp.is_cuda_available():
             raise EngineError(f"engine '{ENGINE}': device '{dev}' requested but Warp finds no CUDA "
@@ -145,6 +174,7 @@ class WarpMPMEngine:
         hi_v = k.vec3(*[float(c) for c in setup.domain_hi])
         g_v = k.vec3(*[float(c) for c in setup.gravity])
         inv_dx, dx, dt_f, ng = Ft(self.inv_dx), Ft(self.dx), Ft(self.dt), self.n_grid
+        has_extras, ex = self._extras(setup, arr, Ft)
         self._launches = []
         if n:
             self._launches = [
@@ -153,14 +183,42 @@ class WarpMPMEngine:
                     self.mat_kind, self.mat_par, self.grid_mv, self.flags, lo_v, inv_dx, dx, dt_f, ng]),
                 wp.launch(k.grid_update, dim=n_nodes, device=d, record_cmd=True, inputs=[
                     self.grid_mv, self.grid_vel, g_v, lo_v, hi_v, dx, dt_f, ng, self.wall_mu,
-                    self.ground, self.fixed_lo, self.fixed_hi]),
+                    self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex]),
                 wp.launch(k.g2p, dim=n, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.fixed, self.grid_vel, lo_v, inv_dx, dt_f, ng]),
             ]
+            if has_extras:
+                self._launches.append(wp.launch(k.tick, dim=1, device=d, record_cmd=True, inputs=[ex.step]))
             self._check_launch = wp.launch(k.check, dim=n, device=d, record_cmd=True,
                                            inputs=[self.x, self.v, self.flags])
         self._graph = None
         self._closed = False
+
+    # ------------------------------------------------------------------ colliders, forces, impulses
+    def _extras(self, setup: SimSetup, arr, Ft):
+        """``(has_extras, Extras struct)`` from ``gasp_core.colliders.grid_tables`` (empty arrays when none)."""
+        from gasp_core.colliders import grid_tables
+        tables = grid_tables(setup)
+        ex = self.k.Extras()
+        self._ex_tables = tables if tables.any else None
+        np_t = self._np_dtype
+        ex.sdf, ex.grad, ex.meta = arr(tables.sdf.astype(np_t), Ft), arr(tables.sdf_grad.astype(np_t), Ft), \
+            arr(tables.col_meta.astype(np_t), Ft)
+        ex.forces, ex.modes, ex.imps = arr(tables.forces.astype(np_t), Ft), arr(tables.modes.astype(np_t), Ft), \
+            arr(tables.impulses.astype(np_t), Ft)
+        ex.tab = wp.zeros(max(1, self.n_substeps * tables.width), dtype=Ft, device=self.device)
+        ex.step = wp.zeros(1, dtype=wp.int32, device=self.device)
+        ex.n_col, ex.n_force, ex.n_imp, ex.width = (tables.n_colliders, tables.n_forces, tables.n_impulses,
+                                                     tables.width)
+        self._ex = ex
+        return int(tables.any), ex
+
+    def _load_frame_table(self) -> None:
+        """The time-dependent inputs of this frame's substeps (collider poses, impulse weights)."""
+        from gasp_core.colliders import frame_table
+        tab = frame_table(self.setup, (self.frame - 1) * self.setup.frame_dt, self.n_substeps, self.dt).astype(self._np_dtype)
+        self._ex.tab.assign(tab)
+        self._ex.step.zero_()
 
     # ------------------------------------------------------------------ helpers
     def _cell_order(self, x: np.ndarray) -> np.ndarray:
@@ -201,6 +259,8 @@ class WarpMPMEngine:
             self.sim_time += self.setup.frame_dt
             return
         self.flags.zero_()
+        if self._ex_tables is not None:
+            self._load_frame_table()
         if self.device.is_cuda:
             if self._graph is None:
                 with wp.ScopedCapture(device=self.device) as capture:
@@ -238,6 +298,37 @@ class WarpMPMEngine:
     def velocities(self) -> np.ndarray:
         """Current velocities, shape (n, 3), float32 or float64, m/s, setup order."""
         return self._to_setup_order(self.v)
+
+    _STATE = ("x", "v", "F", "C", "Jp", "p_mass", "p_vol", "body", "fixed")
+
+    def get_state(self) -> dict[str, np.ndarray]:
+        """The state after the current frame: the particle arrays in internal (cell-sorted) order,
+        that order, ``frame`` and ``sim_time``. With :meth:`set_state` on a fresh engine of the same
+        setup the run continues bit for bit (feature ``state``; ``gasp simulate --resume``)."""
+        if self._closed:
+            raise EngineError(f"engine '{ENGINE}': engine was closed")
+        out = {k: getattr(self, k).numpy().copy() for k in self._STATE}
+        out.update(order=self._order.copy(), frame=np.array(self.frame), sim_time=np.array(self.sim_time))
+        return out
+
+    def set_state(self, state: dict[str, np.ndarray]) -> None:
+        """Restore :meth:`get_state` into this engine (built from the same setup).
+
+        Raises
+        ------
+        EngineError
+            A key is missing or an array has the wrong shape.
+        """
+        for k in self._STATE:
+            a = getattr(self, k)
+            v = np.asarray(state.get(k))
+            if v.shape != a.numpy().shape:
+                raise EngineError(f"engine '{ENGINE}': saved state '{k}' has shape {v.shape}; this setup needs "
+                                  f"{a.numpy().shape}")
+            a.assign(v)
+        self._order = np.asarray(state["order"]).astype(np.int64)
+        self.frame = int(state["frame"])
+        self.sim_time = float(state["sim_time"])
 
     def stats(self) -> dict[str, Any]:
         """``device, precision, n_points, dt`` (s), ``n_substeps`` (per frame), ``n_grid``, ``dx`` (m),

@@ -1,0 +1,257 @@
+"""Render the frames of a ``gasp simulate`` run (or several side by side) in the world frame, z up.
+
+A run folder holds ``run.json`` and ``<object>/frame_0000.ply ...``; ``run.json``'s
+``objects[].placement`` ``{R, scale, t}`` maps each object's file frame to the world:
+``x_world = scale * R @ x_file + t``.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterable, Sequence
+
+import numpy as np
+
+from ..engine import SceneError
+from .camera import Camera, auto_camera, ground_background, nice_step
+from .splat_numpy import Splats, splats_from_gaussians
+
+
+@dataclass
+class Run:
+    """A run folder: frame files per object, placements, ground height, frame interval."""
+
+    path: Path
+    objects: list[dict]
+    frame_files: list[list[Path]]      # [frame][object]
+    ground_z: float | None
+    frame_dt: float
+    label: str
+
+    @property
+    def n_frames(self) -> int:
+        return len(self.frame_files)
+
+    def splats(self, frame: int) -> Splats:
+        """World-frame splats of every object at ``frame``."""
+        from ..io import read_gaussians
+        parts = []
+        for f, o in zip(self.frame_files[frame], self.objects):
+            pl = o["placement"]
+            parts.append(splats_from_gaussians(read_gaussians(f), pl["R"], float(pl["scale"]), pl["t"]))
+        return Splats.concat(parts)
+
+
+def load_run(path) -> Run:
+    """Read ``run.json`` and list the frame files of a run folder.
+
+    Raises
+    ------
+    SceneError
+        If the folder, ``run.json``, an object's ``placement`` or its frame files are missing; the
+        message names the path or field.
+    """
+    path = Path(path)
+    meta_path = path / "run.json"
+    if not meta_path.is_file():
+        raise SceneError(f"{path}: not a run folder (no run.json; make one with 'gasp simulate')")
+    try:
+        meta = json.loads(meta_path.read_text())
+        objects = meta["objects"]
+        for o in objects:
+            o["placement"]["R"], o["placement"]["scale"], o["placement"]["t"]  # noqa: B018 (presence)
+    except (ValueError, KeyError, TypeError) as e:
+        raise SceneError(f"{meta_path}: no usable objects[].placement {{R, scale, t}} ({e!r})") from None
+    per_obj = []
+    for o in objects:
+        files = sorted((path / o["name"]).glob("frame_*.ply"))
+        if not files:
+            raise SceneError(f"{path / o['name']}: no frame_*.ply files for object '{o['name']}'")
+        per_obj.append(files)
+    n = min(len(f) for f in per_obj)
+    grounds = [b.get("height", 0.0) for b in meta.get("boundaries", []) if b.get("kind") == "ground"]
+    return Run(path, objects, [[f[i] for f in per_obj] for i in range(n)],
+               min(grounds) if grounds else None, float(meta.get("frame_dt", 1 / 30)),
+               f"{meta.get('engine', '')}" or path.name)
+
+
+def sequence_bounds(frames: Iterable[Splats], q: float = 0.1) -> tuple[np.ndarray, np.ndarray]:
+    """Box holding the means of every frame (``q``/``100 - q`` percentiles, so strays do not count)."""
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    for s in frames:
+        lo = np.minimum(lo, np.percentile(s.means, q, axis=0))
+        hi = np.maximum(hi, np.percentile(s.means, 100 - q, axis=0))
+    return lo, hi
+
+
+@dataclass
+class View:
+    """Camera plus ground-grid background shared by every frame of a rendering."""
+
+    camera: Camera
+    background: np.ndarray
+    ground_z: float
+
+
+def make_view(lo, hi, ground_z: float | None, width: int = 640, height: int = 480, fov_deg: float = 40.0,
+              position=None, look_at=None) -> View:
+    """The camera (given, or framing the box ``[lo, hi]``) and a grid at ``ground_z`` (else ``lo[2]``)."""
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    gz = float(lo[2]) if ground_z is None else float(ground_z)
+    lo_g = lo.copy()
+    lo_g[2] = min(lo[2], gz)
+    if position is None:
+        cam = auto_camera(lo_g, hi, width, height, fov_deg)
+        if look_at is not None:
+            cam = Camera(cam.position, look_at, fov_deg, width, height, cam.near)
+    else:
+        target = 0.5 * (lo + hi) if look_at is None else look_at
+        cam = Camera(position, target, fov_deg, width, height,
+                     near=1e-3 * float(np.linalg.norm(np.asarray(position) - target)))
+    size = float(np.max(hi[:2] - lo[:2]))
+    bg = ground_background(cam, gz, nice_step(max(size, 1e-3) / 4.0), 3.0 * max(size, 1e-3),
+                           centre=0.5 * (lo + hi)[:2])
+    return View(cam, bg, gz)
+
+
+def to_uint8(img: np.ndarray) -> np.ndarray:
+    return (np.clip(img, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
+
+
+def _label(img: np.ndarray, text: str) -> np.ndarray:
+    from PIL import Image, ImageDraw
+    im = Image.fromarray(img)
+    d = ImageDraw.Draw(im)
+    d.rectangle([0, 0, 8 + 7 * len(text), 18], fill=(255, 255, 255))
+    d.text((4, 3), text, fill=(0, 0, 0))
+    return np.asarray(im)
+
+
+def render_runs(run_dirs: Sequence, renderer=None, frames: Sequence[int] | None = None, width: int = 640,
+                height: int = 480, fov_deg: float = 40.0, position=None, look_at=None, labels: bool | None = None,
+                progress: bool = False):
+    """Yield ``(frame, image)`` for the runs in ``run_dirs``, side by side (one camera for all).
+
+    Parameters
+    ----------
+    run_dirs : sequence of path
+        One or more run folders; with several, each frame is the runs' images left to right.
+    renderer : callable or None
+        From :func:`gasp_core.render.get_renderer` (default: the best available CPU renderer).
+    frames : sequence of int, optional
+        Frame numbers (default: all frames every run has).
+    width, height : int
+        Size of each run's picture, pixels.
+    fov_deg : float
+        Vertical field of view, degrees.
+    position, look_at : array-like (3,), optional
+        Camera placement, world metres; by default the camera frames the whole sequence.
+    labels : bool, optional
+        Write the engine name in the corner (default: when there are several runs).
+
+    Yields
+    ------
+    frame : int
+    image : ndarray, shape (height, width * len(run_dirs), 3), uint8
+
+    Raises
+    ------
+    SceneError
+        A run folder is unusable (see :func:`load_run`).
+    """
+    from . import get_renderer
+    renderer = renderer or get_renderer()
+    runs = [load_run(p) for p in run_dirs]
+    n = min(r.n_frames for r in runs)
+    frames = list(range(n)) if frames is None else [f for f in frames if 0 <= f < n]
+    cache = {}
+    for i, r in enumerate(runs):
+        for f in frames:
+            cache[i, f] = r.splats(f)
+    lo, hi = sequence_bounds(cache.values())
+    grounds = [r.ground_z for r in runs if r.ground_z is not None]
+    view = make_view(lo, hi, min(grounds) if grounds else None, width, height, fov_deg, position, look_at)
+    labels = len(runs) > 1 if labels is None else labels
+    bar = None
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(total=len(frames), unit="frame", desc="render")
+    for f in frames:
+        tiles = []
+        for i, r in enumerate(runs):
+            img, _ = renderer(cache.pop((i, f)), view.camera, view.background)
+            tile = to_uint8(img)
+            tiles.append(_label(tile, r.label) if labels else tile)
+        if bar is not None:
+            bar.update(1)
+        yield f, np.concatenate(tiles, axis=1)
+    if bar is not None:
+        bar.close()
+
+
+def render_run(run_dirs, output, *, overwrite: bool = False, fps: float | None = None, **kw) -> Path:
+    """Render one run (or several side by side) to ``output``: ``.mp4``, ``.gif`` or a PNG folder.
+
+    Parameters
+    ----------
+    run_dirs : path or sequence of path
+    output : path
+        ``*.mp4`` / ``*.gif``, or any other name: a folder of ``frame_0000.png ...``.
+    overwrite : bool
+        Replace an existing output; otherwise an existing output is an error.
+    fps : float, optional
+        Frames per second (default ``1 / frame_dt`` of the first run).
+    **kw
+        Passed to :func:`render_runs` (``renderer``, ``frames``, ``width``, ``height``, camera).
+
+    Returns
+    -------
+    Path
+        ``output``, written atomically (temporary file or folder, then renamed).
+
+    Raises
+    ------
+    SceneError
+        Bad run folder, or ``output`` exists and ``overwrite`` is false.
+    """
+    from .video import write_frames
+    if isinstance(run_dirs, (str, Path)):
+        run_dirs = [run_dirs]
+    fps = fps or 1.0 / load_run(run_dirs[0]).frame_dt
+    return write_frames((img for _, img in render_runs(run_dirs, **kw)), output, fps=fps, overwrite=overwrite)
+
+
+def render_strip(run_dirs: dict, out_png, frames: Sequence[int] | int = 5, width: int = 320, height: int = 240,
+                 renderer=None) -> Path:
+    """A PNG with one row per run (e.g. per engine) and one column per chosen frame, one camera for all.
+
+    Parameters
+    ----------
+    run_dirs : dict of str -> path
+        Row label (engine name) -> run folder.
+    out_png : path
+        Written atomically.
+    frames : int or sequence of int
+        Frame numbers, or how many frames evenly spaced from first to last (default 5).
+    width, height : int
+        Size of each cell, pixels.
+
+    Returns
+    -------
+    Path
+    """
+    from .video import write_png
+    labels = list(run_dirs)
+    runs = [load_run(run_dirs[k]) for k in labels]
+    n = min(r.n_frames for r in runs)
+    if isinstance(frames, int):
+        frames = sorted(set(np.linspace(0, n - 1, max(1, frames)).round().astype(int).tolist()))
+    rows = {k: [] for k in labels}
+    all_frames = list(render_runs([run_dirs[k] for k in labels], renderer, frames, width, height, labels=False))
+    for f, img in all_frames:
+        for i, k in enumerate(labels):
+            tile = img[:, i * width:(i + 1) * width]
+            rows[k].append(_label(tile, f"{k}  frame {f}"))
+    grid = np.concatenate([np.concatenate(rows[k], axis=1) for k in labels], axis=0)
+    return write_png(grid, out_png)

@@ -1,0 +1,267 @@
+"""CPU Gaussian splatting in vectorised NumPy: EWA projection and front-to-back alpha blending.
+
+The maths follows 3D Gaussian Splatting (Kerbl et al. 2023, Sec. 4 and the reference CUDA rasteriser):
+the 3D covariance ``Sigma = M M^T`` with ``M = R diag(s)`` is projected with the Jacobian of the
+perspective map at the Gaussian's centre (EWA splatting, Zwicker et al. 2002), ``Sigma' = J W Sigma
+W^T J^T``, plus ``dilation`` px^2 on the diagonal (3DGS's 0.3 low-pass filter). A pixel at offset
+``d`` from the projected centre gets ``alpha = min(0.99, opacity * exp(-d^T Sigma'^-1 d / 2))``;
+pairs with ``alpha < 1/255`` or outside the 3-sigma ellipse are dropped, and the pixel colour is
+``sum_i c_i alpha_i prod_{j<i} (1 - alpha_j)`` over Gaussians sorted near to far, plus the remaining
+transmittance times the background.
+
+Implementation: every (Gaussian, pixel) pair inside the Gaussian's footprint is generated, in
+chunks of Gaussians taken near to far; inside a chunk pairs are grouped by pixel with a stable sort
+(pairs were generated in depth order, so each pixel's run stays depth-sorted), and the per-pixel
+exclusive cumulative sum of ``log(1 - alpha)`` gives each pair's transmittance. The transmittance left
+after earlier chunks multiplies in, so chunking is exact.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .camera import Camera
+
+SH_C0 = 0.28209479177387814
+ALPHA_MIN = 1.0 / 255.0
+ALPHA_MAX = 0.99
+
+
+@dataclass
+class Splats:
+    """Gaussians ready to render, world frame.
+
+    Attributes
+    ----------
+    means : ndarray, shape (n, 3), float64
+        Centres, metres.
+    covs : ndarray, shape (n, 3, 3), float64
+        3D covariances, m^2.
+    rgb : ndarray, shape (n, 3), float32
+        Colours in [0, 1].
+    opacities : ndarray, shape (n,), float32
+        Activated opacities in [0, 1].
+    """
+
+    means: np.ndarray
+    covs: np.ndarray
+    rgb: np.ndarray
+    opacities: np.ndarray
+
+    @property
+    def n(self) -> int:
+        return len(self.means)
+
+    @staticmethod
+    def concat(parts: list["Splats"]) -> "Splats":
+        """All Gaussians of ``parts`` in one record."""
+        return Splats(*(np.concatenate([getattr(p, k) for p in parts])
+                        for k in ("means", "covs", "rgb", "opacities")))
+
+
+def splats_from_gaussians(g, R=None, scale: float = 1.0, t=None) -> Splats:
+    """World-frame splats from :class:`~gasp_core.gaussians.Gaussians` placed by ``x = scale R x_file + t``.
+
+    Parameters
+    ----------
+    g : Gaussians
+        File frame; ``scales`` activated, ``opacities`` logits, ``sh_dc`` degree-0 SH.
+    R : ndarray, shape (3, 3), optional
+        Rotation file -> world (identity by default).
+    scale : float
+        Metres per file unit.
+    t : ndarray, shape (3,), optional
+        Translation, metres.
+
+    Returns
+    -------
+    Splats
+        Colour ``clip(0.5 + 0.28209479 * sh_dc, 0, 1)`` (SH degree 0 only, as the 3DGS convention),
+        opacity ``sigmoid(opacities)``.
+    """
+    R = np.eye(3) if R is None else np.asarray(R, dtype=np.float64)
+    t = np.zeros(3) if t is None else np.asarray(t, dtype=np.float64)
+    M = np.einsum("ij,njk->nik", R, g.rotmats()) * (scale * g.scales)[:, None, :]
+    covs = M @ M.transpose(0, 2, 1)
+    means = scale * g.means @ R.T + t
+    rgb = np.clip(0.5 + SH_C0 * g.sh_dc.astype(np.float32), 0.0, 1.0)
+    opac = (1.0 / (1.0 + np.exp(-g.opacities.astype(np.float64)))).astype(np.float32)
+    return Splats(means, covs, rgb, opac)
+
+
+def project(splats: Splats, cam: Camera, dilation: float = 0.3):
+    """Project splats to the image: centres, inverse 2D covariances (conics) and pixel footprints.
+
+    Returns
+    -------
+    dict of ndarray
+        For the Gaussians in front of the camera whose footprint meets the image, sorted near to far:
+        ``idx`` (rows of ``splats``), ``depth``, ``u, v`` (pixel coordinates, pixel ``i`` spans
+        ``[i, i+1)``), ``conic`` (n, 3) = (A, B, C) of ``Sigma'^-1``, ``x0, x1, y0, y1`` (int32,
+        half-open pixel boxes), ``opacity``, ``rgb``.
+    """
+    W, t = cam.world_to_camera()
+    pc = splats.means @ W.T + t
+    z = pc[:, 2]
+    front = z > cam.near
+    idx = np.flatnonzero(front)
+    pc, z = pc[idx], z[idx]
+    fx = fy = cam.focal_px
+    # 3DGS clamps the Jacobian's x/z, y/z to 1.3x the half field of view (stable for off-screen centres)
+    lim_x = 1.3 * (0.5 * cam.width / fx)
+    lim_y = 1.3 * (0.5 * cam.height / fy)
+    tx = np.clip(pc[:, 0] / z, -lim_x, lim_x) * z
+    ty = np.clip(pc[:, 1] / z, -lim_y, lim_y) * z
+    J = np.zeros((len(idx), 2, 3))
+    J[:, 0, 0] = fx / z
+    J[:, 0, 2] = -fx * tx / z**2
+    J[:, 1, 1] = fy / z
+    J[:, 1, 2] = -fy * ty / z**2
+    T = J @ W
+    S = T @ splats.covs[idx] @ T.transpose(0, 2, 1)
+    a = S[:, 0, 0] + dilation
+    b = S[:, 0, 1]
+    c = S[:, 1, 1] + dilation
+    det = a * c - b * b
+    ok = det > 1e-12
+    u = fx * pc[:, 0] / z + cam.cx
+    v = fy * pc[:, 1] / z + cam.cy
+    op = splats.opacities[idx].astype(np.float64)
+    # footprint: the 3-sigma ellipse, shrunk to where opacity * exp(-m^2/2) >= 1/255
+    m2 = np.minimum(9.0, 2.0 * np.log(np.maximum(op, 1e-12) / ALPHA_MIN))
+    ok &= m2 > 0
+    rx = np.sqrt(np.maximum(m2 * a, 0.0))
+    ry = np.sqrt(np.maximum(m2 * c, 0.0))
+    x0 = np.floor(u - rx).clip(0, cam.width).astype(np.int32)
+    x1 = np.ceil(u + rx).clip(0, cam.width).astype(np.int32)
+    y0 = np.floor(v - ry).clip(0, cam.height).astype(np.int32)
+    y1 = np.ceil(v + ry).clip(0, cam.height).astype(np.int32)
+    ok &= (x1 > x0) & (y1 > y0)
+    sel = np.flatnonzero(ok)
+    sel = sel[np.argsort(z[sel], kind="stable")]
+    det = det[sel]
+    conic = np.stack([c[sel] / det, -b[sel] / det, a[sel] / det], axis=1)
+    return {"idx": idx[sel], "depth": z[sel], "u": u[sel], "v": v[sel], "conic": conic,
+            "m2": m2[sel], "x0": x0[sel], "x1": x1[sel], "y0": y0[sel], "y1": y1[sel],
+            "opacity": op[sel], "rgb": splats.rgb[idx[sel]].astype(np.float64)}
+
+
+def _stable_group(pix: np.ndarray) -> np.ndarray:
+    """Stable permutation grouping equal pixel indices (two 16-bit radix passes)."""
+    lo = (pix & 0xFFFF).astype(np.uint16)
+    hi = (pix >> 16).astype(np.uint16)
+    o1 = np.argsort(lo, kind="stable")
+    o2 = np.argsort(hi[o1], kind="stable")
+    return o1[o2]
+
+
+def render(splats: Splats, cam: Camera, background=None, *, dilation: float = 0.3,
+           chunk_pairs: int = 4_000_000):
+    """Render splats seen by ``cam`` (vectorised NumPy, CPU).
+
+    Parameters
+    ----------
+    splats : Splats
+    cam : Camera
+    background : ndarray, shape (height, width, 3) or (3,), optional
+        Colour behind the Gaussians (black by default).
+    dilation : float
+        Added to the 2D covariance's diagonal, px^2 (3DGS uses 0.3).
+    chunk_pairs : int
+        Approximate number of (Gaussian, pixel) pairs handled at once (memory bound).
+
+    Returns
+    -------
+    image : ndarray, shape (height, width, 3), float32
+        Linear colour, not clipped.
+    alpha : ndarray, shape (height, width), float32
+        Accumulated opacity ``1 - T``.
+    """
+    H, Wd = cam.height, cam.width
+    npix = H * Wd
+    p = project(splats, cam, dilation)
+    bw = (p["x1"] - p["x0"]).astype(np.int64)
+    bh = (p["y1"] - p["y0"]).astype(np.int64)
+    counts = bw * bh
+    ends = np.cumsum(counts)
+    colour = np.zeros((3, npix))
+    logT = np.zeros(npix)
+    g0 = 0
+    n = len(counts)
+    while g0 < n:
+        base = ends[g0 - 1] if g0 else 0
+        g1 = int(np.searchsorted(ends, base + chunk_pairs, side="right"))
+        g1 = max(g1, g0 + 1)
+        _composite_chunk(p, g0, g1, counts, bw, Wd, colour, logT)
+        g0 = g1
+    T = np.exp(logT)
+    img = colour.T.reshape(H, Wd, 3)
+    if background is not None:
+        bg = np.broadcast_to(np.asarray(background, dtype=np.float64), (H, Wd, 3))
+        img = img + T.reshape(H, Wd, 1) * bg
+    return img.astype(np.float32), (1.0 - T).reshape(H, Wd).astype(np.float32)
+
+
+def _composite_chunk(p, g0, g1, counts, bw, width, colour, logT):
+    cnt = counts[g0:g1]
+    total = int(cnt.sum())
+    if total == 0:
+        return
+    g = np.repeat(np.arange(g0, g1), cnt)
+    starts = np.cumsum(cnt) - cnt
+    k = np.arange(total) - np.repeat(starts, cnt)
+    w = bw[g]
+    py, px = np.divmod(k, w)
+    px += p["x0"][g]
+    py += p["y0"][g]
+    dx = px + 0.5 - p["u"][g]
+    dy = py + 0.5 - p["v"][g]
+    con = p["conic"][g]
+    m = con[:, 0] * dx * dx + 2.0 * con[:, 1] * dx * dy + con[:, 2] * dy * dy
+    alpha = np.minimum(ALPHA_MAX, p["opacity"][g] * np.exp(-0.5 * m))
+    keep = (m <= p["m2"][g]) & (alpha >= ALPHA_MIN)
+    g, alpha = g[keep], alpha[keep]
+    pix = (py[keep] * width + px[keep]).astype(np.int64)
+    order = _stable_group(pix)
+    pix, alpha, g = pix[order], alpha[order], g[order]
+    la = np.log1p(-alpha)
+    cs = np.cumsum(la)
+    first = np.empty(len(pix), dtype=bool)
+    first[0] = True
+    np.not_equal(pix[1:], pix[:-1], out=first[1:])
+    seg = np.cumsum(first) - 1
+    seg_base = (cs - la)[first]                      # cumulative sum before each pixel's first pair
+    excl = cs - la - seg_base[seg]                   # sum of log(1 - alpha) of nearer pairs, this chunk
+    wgt = alpha * np.exp(excl + logT[pix])
+    rgb = p["rgb"][g]
+    npix = colour.shape[1]
+    for ch in range(3):
+        colour[ch] += np.bincount(pix, weights=wgt * rgb[:, ch], minlength=npix)
+    logT += np.bincount(pix, weights=la, minlength=npix)
+
+
+def composite_ordered(p, width: int, height: int, t_min: float = 1e-4):
+    """Front-to-back blending of projected splats ``p`` (from :func:`project`) with the JIT kernel.
+
+    Same maths as :func:`render`'s NumPy path; a pixel stops taking Gaussians once its
+    transmittance falls below ``t_min`` (as the 3DGS rasteriser does).
+
+    Returns
+    -------
+    colour : ndarray, shape (height * width, 3), float64
+    T : ndarray, shape (height * width,), float64
+        Transmittance left.
+
+    Raises
+    ------
+    ImportError
+        If numba is not installed (``pip install gasp[render]``).
+    """
+    from ._splat_numba import composite
+    colour = np.zeros((height * width, 3))
+    T = np.ones(height * width)
+    composite(p["u"], p["v"], np.ascontiguousarray(p["conic"]), p["m2"], p["opacity"],
+              np.ascontiguousarray(p["rgb"]), p["x0"], p["x1"], p["y0"], p["y1"], width, height,
+              colour, T, t_min)
+    return colour, T

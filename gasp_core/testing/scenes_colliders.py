@@ -1,0 +1,163 @@
+"""Conformance scenes of colliders and force fields with known answers (:mod:`gasp_core.colliders`).
+
+- ``incline_slide`` / ``incline_stick``: an elastic block on a static box collider tilted by
+  ``INCLINE_DEG``; with Coulomb friction ``mu`` below ``tan(theta)`` it slides with
+  ``a = g (sin theta - mu cos theta)``, above it stays put.
+- ``pusher``: a box collider moving at ``PUSH_SPEED`` along x pushes a block over a ground with
+  friction; in the long run the block can neither fall behind the pusher (no penetration) nor
+  run ahead of it (friction stops it), so its mean speed is the pusher's.
+- ``wind``: a free body (no gravity) in a uniform wind of ``WIND_A`` m/s^2: centroid
+  ``x0 + a t^2 / 2``.
+
+All use the domain ``[0, 1]^3`` at ``n_grid = 32`` and points at ``dx / 2``.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..colliders import ForceField, Motion, SDF_SPACING, box_collider
+from ..engine import EngineInfo
+from ..setup import Boundary, Material, SimSetup
+from .kit import G, Check, Requires, Scene, Trace, box_points, check as _check, make_setup as _setup
+
+N_GRID = 32
+DX = 1.0 / N_GRID
+BLOCK = Material("jelly", E=1e5, nu=0.3, rho=1000.0)
+
+# --- block on an inclined plane -------------------------------------------------------------
+INCLINE_DEG = 25.0
+MU_SLIDE, MU_STICK = 0.2, 0.8          # tan(25 deg) = 0.466
+INCLINE_T = 0.4                        # s simulated
+#: Relative error allowed on the sliding acceleration: the grid resolves the contact layer over
+#: about one cell, and the block rocks a little while it settles onto the slope.
+INCLINE_TOL = 0.15
+
+
+def _incline_frame():
+    th = math.radians(INCLINE_DEG)
+    n = np.array([math.sin(th), 0.0, math.cos(th)])             # outward normal of the slope's top face
+    s = np.array([math.cos(th), 0.0, -math.sin(th)])            # down the slope
+    R = np.array([[math.cos(th), 0.0, math.sin(th)], [0.0, 1.0, 0.0], [-math.sin(th), 0.0, math.cos(th)]])
+    return n, s, R
+
+
+def _build_incline(mu: float) -> SimSetup:
+    n, s, R = _incline_frame()
+    top = np.array([0.45, 0.5, 0.45])                          # centre of the slope's top face
+    half = np.array([0.8, 0.6, 0.1])
+    col = box_collider(half, SDF_SPACING * DX, name="incline", friction=mu, position=top - half[2] * n,
+                       rotation=R)
+    L = 0.125
+    local, p_vol = box_points((-L / 2, -L / 2, 0.25 * DX), (L / 2, L / 2, 0.25 * DX + L), DX / 2)
+    start = top - 0.08 * s                                      # upslope of the face centre
+    x = start + local[:, :1] * s + local[:, 1:2] * np.array([0.0, 1.0, 0.0]) + local[:, 2:] * n
+    setup = _setup(x, p_vol, BLOCK, n_grid=N_GRID, frame_dt=0.02)
+    setup.colliders = [col]
+    return setup
+
+
+def _eval_incline(mu: float):
+    def evaluate(info: EngineInfo, tr: Trace) -> list[Check]:
+        n, s, _ = _incline_frame()
+        th = math.radians(INCLINE_DEG)
+        c = tr.centroid()
+        along = (c - c[0]) @ s
+        t = tr.t
+        checks = []
+        if mu < math.tan(th):
+            expected = G * (math.sin(th) - mu * math.cos(th))
+            late = t >= 0.1                                      # after settling onto the slope
+            a_fit = 2.0 * np.polyfit(t[late], along[late], 2)[0]
+            checks.append(_check("slide_acceleration", abs(a_fit - expected) / expected, INCLINE_TOL,
+                                 f"|a - g (sin th - mu cos th)| / expected (a = {a_fit:.3f}, expected "
+                                 f"{expected:.3f} m/s^2, mu = {mu})", a=a_fit, expected=expected))
+        else:
+            free = 0.5 * G * math.sin(th) * t[-1] ** 2
+            checks.append(_check("stick_displacement", float(abs(along[-1])) / DX, 0.5,
+                                 f"|centroid travel down the slope| after {t[-1]:.2f} s, in dx (frictionless "
+                                 f"it would be {free / DX:.0f} dx; mu = {mu} > tan th = {math.tan(th):.3f})"))
+        depth = float(np.max(-((tr.x[-1] - (np.array([0.45, 0.5, 0.45]))) @ n)))
+        checks.append(_check("penetration", depth / DX, 1.0, "deepest point below the slope's surface at the end, "
+                             "in dx"))
+        return checks
+    return evaluate
+
+
+# --- pusher ---------------------------------------------------------------------------------
+PUSH_SPEED = 0.5
+GROUND_H = 3 * DX
+PUSH_T = 0.6
+#: Relative error allowed on the block's mean speed over the last 0.3 s.
+PUSH_TOL = 0.08
+
+
+def _build_pusher(info: EngineInfo) -> SimSetup:
+    L = 0.125
+    lo = np.array([0.35, 0.5 - L / 2, GROUND_H])
+    x, p_vol = box_points(lo, lo + L, DX / 2)
+    half = np.array([0.05, 0.12, 0.08])
+    gap = 0.03
+    centre = np.array([lo[0] - gap - half[0], 0.5, GROUND_H + half[2] + DX])
+    col = box_collider(half, SDF_SPACING * DX, name="pusher", friction=0.0, position=centre,
+                       motion=Motion(velocity=(PUSH_SPEED, 0.0, 0.0)))
+    setup = _setup(x, p_vol, BLOCK, n_grid=N_GRID, frame_dt=0.02,
+                   boundaries=[Boundary("ground", height=GROUND_H, friction=0.3)])
+    setup.colliders = [col]
+    return setup
+
+
+def _eval_pusher(info: EngineInfo, tr: Trace) -> list[Check]:
+    c = tr.centroid()
+    t = tr.t
+    late = t >= t[-1] - 0.3
+    speed = (c[late][-1, 0] - c[late][0, 0]) / (t[late][-1] - t[late][0])
+    col = tr.setup.colliders[0]
+    inside = max(float(-np.min(col.distance(tr.x[f], t[f]))) for f in range(len(t)))
+    return [_check("block_speed", abs(speed - PUSH_SPEED) / PUSH_SPEED, PUSH_TOL,
+                   f"|mean block speed over the last 0.3 s - pusher speed| / pusher speed (block "
+                   f"{speed:.4f} m/s, pusher {PUSH_SPEED} m/s)", speed=speed),
+            _check("pusher_penetration", inside / DX, 1.0, "deepest point inside the pusher over the run, in dx")]
+
+
+# --- wind -----------------------------------------------------------------------------------
+WIND_A = 2.0
+WIND_T = 0.3
+
+
+def _build_wind(info: EngineInfo) -> SimSetup:
+    x, p_vol = box_points((0.3, 0.4, 0.4), (0.45, 0.55, 0.55), DX / 2)
+    setup = _setup(x, p_vol, BLOCK, n_grid=N_GRID, gravity=(0.0, 0.0, 0.0), frame_dt=0.02)
+    setup.forces = [ForceField("wind", direction=(1.0, 0.0, 0.0), strength=WIND_A)]
+    return setup
+
+
+def _eval_wind(info: EngineInfo, tr: Trace) -> list[Check]:
+    c = tr.centroid()
+    d = c - c[0]
+    expected = 0.5 * WIND_A * tr.t ** 2
+    # at the end, as free_fall: the explicit update lags a t^2/2 by about a t dt / 2 (1/n_steps relative)
+    err = float(abs(d[-1, 0] - expected[-1]) / expected[-1])
+    return [_check("centroid_x", err, 0.01, f"|x - a t^2/2| / (a t^2/2) at t = {tr.t[-1]:.2f} s "
+                   f"({d[-1, 0]:.5f} m vs {expected[-1]:.5f} m)", x=d[-1, 0], expected=expected[-1]),
+            _check("cross_drift", float(np.abs(d[:, 1:]).max()), 1e-3 * expected[-1], "max |y, z centroid drift|",
+                   " m")]
+
+
+SCENES_COLLIDERS: list[Scene] = [
+    Scene("incline_slide", f"elastic block on a static box collider tilted {INCLINE_DEG:g} deg, friction "
+          f"{MU_SLIDE}: slides with a = g (sin th - mu cos th) within {INCLINE_TOL:.0%}",
+          Requires(frozenset({"jelly"}), features=frozenset({"static_colliders"})),
+          lambda info: _build_incline(MU_SLIDE), round(INCLINE_T / 0.02), _eval_incline(MU_SLIDE)),
+    Scene("incline_stick", f"the same block with friction {MU_STICK} > tan th: moves less than dx/2",
+          Requires(frozenset({"jelly"}), features=frozenset({"static_colliders"})),
+          lambda info: _build_incline(MU_STICK), round(INCLINE_T / 0.02), _eval_incline(MU_STICK)),
+    Scene("pusher", f"box collider moving at {PUSH_SPEED} m/s pushes a block over a ground with friction: "
+          f"block's mean speed = pusher's within {PUSH_TOL:.0%}",
+          Requires(frozenset({"jelly"}), frozenset({"ground"}), features=frozenset({"moving_colliders"})),
+          _build_pusher, round(PUSH_T / 0.02), _eval_pusher),
+    Scene("wind", f"free body in a uniform wind of {WIND_A} m/s^2: centroid a t^2/2 within 1%",
+          Requires(frozenset({"jelly"}), features=frozenset({"wind"})), _build_wind, round(WIND_T / 0.02),
+          _eval_wind),
+]

@@ -1,0 +1,96 @@
+"""Issue 11 cases that need an engine or a process: bounded work, the default domain, signals, quiet output."""
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+from gasp_testing import scene_text
+
+from gasp_core.cli import main
+
+ENGINE = "warp_mpm"
+pytest.importorskip("gasp_warp_mpm", reason="the warp_mpm plugin is not installed")
+
+
+def gasp(*argv, cwd=None, timeout=600):
+    return subprocess.run([sys.executable, "-m", "gasp_core.cli", *map(str, argv)], capture_output=True, text=True,
+                          cwd=cwd, timeout=timeout)
+
+
+def one_error_line(err: str) -> str:
+    lines = [l for l in err.splitlines() if l.strip()]
+    assert len(lines) == 1 and lines[0].startswith("gasp: error:"), err
+    return lines[0]
+
+
+@pytest.mark.parametrize("material, top", [
+    ('name = "jelly"\nE = 1.0e12\nnu = 0.3\nrho = 300.0', ""),          # 6e5 substeps per frame
+    ('name = "jelly"\nE = 2.0e4\nnu = 0.3\nrho = 300.0', "frame_dt = 1.0e6"),  # 2.6e9 substeps per frame
+])
+def test_work_a_bad_value_asks_for_is_refused_at_once(tmp_path, donut_small, capsys, material, top):
+    text = scene_text(donut_small, n_frames=2, engine=ENGINE, engine_options="{ }", material=material)
+    if top:
+        text = text.replace("frame_dt = 0.0333333", top)
+    scene = tmp_path / "s.toml"
+    scene.write_text(text)
+    t0 = time.perf_counter()
+    code = main(["simulate", str(scene), "-o", str(tmp_path / "o"), "-q"])
+    err = capsys.readouterr().err
+    assert code == 2 and "max_substeps" in one_error_line(err)
+    assert not (tmp_path / "o").exists()
+    assert time.perf_counter() - t0 < 300          # not a hang (the old code never finished frame 1)
+
+
+def test_raising_max_substeps_is_the_documented_way_out(tmp_path, donut_small, capsys):
+    scene = tmp_path / "s.toml"
+    scene.write_text(scene_text(donut_small, n_frames=1, n_grid=16, engine=ENGINE, engine_options="{ max_substeps = 5 }"))
+    assert main(["simulate", str(scene), "-o", str(tmp_path / "o"), "-q"]) == 2
+    assert "exceeds max_substeps = 5" in capsys.readouterr().err
+
+
+def test_an_object_dropped_from_a_height_fits_the_default_domain(tmp_path, donut_small, capsys):
+    scene = tmp_path / "s.toml"
+    scene.write_text(scene_text(donut_small, n_frames=1, n_grid=16, engine=ENGINE, engine_options="{ }",
+                                position_z=0.3))
+    assert main(["simulate", str(scene), "-o", str(tmp_path / "o"), "-q"]) == 0, capsys.readouterr().err
+    run = json.loads((tmp_path / "o" / "run.json").read_text())
+    assert run["domain"]["hi"][2] > 0.3 + 0.09             # top of the donut inside the box
+
+
+def test_sigterm_cleans_up_like_ctrl_c(tmp_path, donut_small):
+    scene = tmp_path / "s.toml"
+    scene.write_text(scene_text(donut_small, n_frames=200, n_grid=16, engine=ENGINE, engine_options="{ }"))
+    proc = subprocess.Popen([sys.executable, "-m", "gasp_core.cli", "simulate", str(scene), "-o", "o", "-q"],
+                            cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 600
+    while time.time() < deadline:
+        parts = list(tmp_path.glob(".o.partial-*"))
+        if parts and len(list(parts[0].glob("*/frame_*.ply"))) >= 3:
+            break
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGTERM)
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert "interrupted by SIGTERM" in err
+    assert not (tmp_path / "o").exists() and not list(tmp_path.glob(".o.*"))
+
+
+@pytest.mark.parametrize("engine", ["warp_mpm", "taichi_mpm"])
+def test_no_library_chatter_and_engines_json_parses(tmp_path, donut_small, engine):
+    pytest.importorskip(f"gasp_{engine}")
+    scene = tmp_path / "s.toml"
+    scene.write_text(scene_text(donut_small, n_frames=1, n_grid=16, engine=engine, engine_options="{ }"))
+    r = gasp("simulate", scene, "-o", tmp_path / "o", "-q")
+    assert r.returncode == 0, r.stderr
+    assert r.stderr == ""                                   # no banner, no CUDA warning, no RuntimeWarning
+    assert r.stdout.count("\n") == 1 and r.stdout.startswith("wrote 2 frames (frame 0 = the input)")
+    r = gasp("engines", "--json")
+    assert engine in json.loads(r.stdout)                   # stdout is JSON and nothing else
+    env = dict(os.environ, GASP_LOAD_PLUGINS="taichi_mpm")
+    r = subprocess.run([sys.executable, "-m", "gasp_core.cli", "engines", "--json"], capture_output=True, text=True,
+                       env=env)
+    if "taichi_mpm" in r.stdout:
+        assert "taichi_mpm" in json.loads(r.stdout)         # Taichi's banner used to precede the JSON
