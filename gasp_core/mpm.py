@@ -389,11 +389,20 @@ def material_first_order(setup, dx: float) -> tuple[np.ndarray, int]:
     return order, len(mat)
 
 
-def engine_mass_stats(setup, x: np.ndarray) -> dict[str, Any]:
-    """``mass`` (kg), ``centre_of_mass`` (m, at the current positions ``x``) and ``inertia`` (kg m^2)
-    of the material points of a grid engine, for its ``stats()`` (every point carries ``rho p_vol``)."""
+def engine_mass_stats(x: np.ndarray, p_mass: np.ndarray) -> dict[str, Any]:
+    """``mass`` (kg), ``centre_of_mass`` (m) and ``inertia`` (kg m^2, about the centre of mass) of a grid
+    engine's points, for its ``stats()``.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n, 3)
+        Current positions, metres, read back from the engine.
+    p_mass : ndarray, shape (n,)
+        The point masses the engine's P2G scatters, kg, read back from the engine in the same
+        order (passive points hold 0).
+    """
     from .passive import mass_properties
-    return mass_properties(x, setup.p_mass)
+    return mass_properties(x, p_mass)
 
 
 # --------------------------------------------------------------------------- blow-ups

@@ -35,7 +35,7 @@ from gasp_core.engine import EngineDivergence, EngineError, SceneError, SimSetup
 from gasp_core.mpm import fixed_mask, p_wave_speed, substeps_for
 
 from . import ENGINE, OPTIONS
-from .lattice import Lattice, build_lattice, embed_points, interpolate
+from .lattice import Lattice, build_lattice, embed_points, interpolate, matched_masses
 
 _WARN_NAMES = {
     int(mujoco.mjtWarning.mjWARN_INERTIA): "singular inertia",
@@ -68,6 +68,7 @@ class _FlexBody:
         self.vert_adr = 0
         self.vert_body = np.zeros(0, np.int64)   # MuJoCo body id of each vertex
         self.vert_dof = np.zeros(0, np.int64)    # first dof of each unpinned vertex, -1 if pinned
+        self.vertex_mass = np.zeros(0)           # kg, Lattice.matched_masses
 
 
 class _RigidBody:
@@ -137,16 +138,17 @@ class MujocoFlexEngine:
             ext = float(np.max(xb.max(0) - xb.min(0)))
             h = float(o["cell_size"]) if o["cell_size"] is not None else max(ext, 1e-6) / float(o["cells_across"])
             pm = s.p_mass[idx]
-            lat = build_lattice(xb, h)   # conform=xb[pm > 0] drops empty cells but left ill-conditioned flexes (see report)
+            lat = build_lattice(xb, h)
             name = f"b{b}"
             if mat.name == "rigid":
                 centres = lat.origin + (lat.cells + 0.5) * h
                 com = centres.mean(axis=0)
-                rho_eff = float(pm.sum()) / (len(centres) * h ** 3)   # the points' mass, spread on the cells
+                # the points' mass and centre of mass, spread on the cells (lattice.matched_masses)
+                m_box = matched_masses(np.full(len(centres), h ** 3), centres, float(pm.sum()), pm @ xb / pm.sum())
                 rb = _RigidBody(name, idx, com, xb - com, bool(fixed_pt[idx].any()))
                 geoms = "\n".join(
                     f'<geom type="box" size="{h / 2:.17g} {h / 2:.17g} {h / 2:.17g}" pos="{_fmt(c - com)}" '
-                    f'density="{rho_eff:.17g}"/>' for c in centres)
+                    f'density="{mb / h ** 3:.17g}"/>' for c, mb in zip(centres, m_box))
                 joint = "" if rb.fixed else "<freejoint/>"
                 parts.append(f'<body name="{name}" pos="{_fmt(com)}">{joint}\n{geoms}\n</body>')
                 self.rigid.append(rb)
@@ -162,8 +164,10 @@ class MujocoFlexEngine:
                             pinned |= np.all((lat.vertices >= np.asarray(bd.lo)) &
                                              (lat.vertices <= np.asarray(bd.hi)), axis=1)
                 fb = _FlexBody(name, idx, lat, tet, w, pinned, mat.rho)
-                # vertex masses are scaled to the points' mass: the waves speed up by sqrt(lattice/points)
-                wave = max(wave, math.sqrt(max(1.0, mat.rho * lat.volume / max(float(pm.sum()), 1e-300))))
+                # vertex masses carry the points' total mass and centre of mass (Lattice.matched_masses);
+                # where a vertex is lighter than rho's lumped mass the waves speed up by sqrt(ratio)
+                fb.vertex_mass = lat.matched_masses(mat.rho, float(pm.sum()), pm @ xb / pm.sum())
+                wave = max(wave, math.sqrt(float(np.max(lat.vertex_masses(mat.rho) / fb.vertex_mass))))
                 radius = float(o["radius"]) if o["radius"] is not None else 0.05 * h
                 elastic = f'young="{mat.E:.17g}" poisson="{mat.nu:.17g}" damping="{float(o["damping"]):.17g}"'
                 if mat.name == "metal":
@@ -222,11 +226,9 @@ class MujocoFlexEngine:
                                   f"expected {len(fb.lat.vertices)}")
             fb.vert_body = m.flex_vertbodyid[fb.vert_adr:fb.vert_adr + nv].astype(np.int64)
             fb.vert_dof = np.where(fb.pinned, -1, m.body_dofadr[fb.vert_body]).astype(np.int64)
-            # lumped masses (rho V_tet / 4 per incident tet) replace flexcomp's equal split
-            # lumped from the tets (point-lumped masses leave light vertices that MuJoCo's M+K solve
-            # cannot condition), scaled to the material points' total: the setup's mass
-            vm = fb.lat.vertex_masses(fb.rho)
-            vm *= float(s.p_mass[fb.idx].sum()) / vm.sum()
+            # lumped masses (rho V_tet / 4 per incident tet, reweighted to the points' mass and centre
+            # of mass: Lattice.matched_masses) replace flexcomp's equal split
+            vm = fb.vertex_mass
             free = ~fb.pinned
             m.body_mass[fb.vert_body[free]] = vm[free]
             edge = fb.lat.h
@@ -420,10 +422,8 @@ class MujocoFlexEngine:
             xs.append(d.flexvert_xpos[fb.vert_adr:fb.vert_adr + len(fb.lat.vertices)][free])
             ms.append(m.body_mass[fb.vert_body[free]])
             if fb.pinned.any():   # pinned vertices are not bodies: their share of the points' mass
-                vm = fb.lat.vertex_masses(fb.rho)
-                vm *= float(self.setup.p_mass[fb.idx].sum()) / vm.sum()
                 xs.append(fb.lat.vertices[fb.pinned])
-                ms.append(vm[fb.pinned])
+                ms.append(fb.vertex_mass[fb.pinned])
         for rb in self.rigid:
             xs.append(d.xipos[rb.body_id][None])
             ms.append(np.array([m.body_subtreemass[rb.body_id]]))

@@ -70,21 +70,29 @@ class Lattice:
         """Total lattice volume, m^3."""
         return len(self.cells) * self.h ** 3
 
-    def point_masses(self, tet: np.ndarray, w: np.ndarray, mass: np.ndarray, floor: float = 0.25) -> np.ndarray:
-        """Vertex masses lumped from embedded point masses, kg, shape (n_vertices,).
+    def matched_masses(self, rho: float, mass: float, com: np.ndarray, floor: float = 0.25,
+                       cap: float = 4.0) -> np.ndarray:
+        """Lumped vertex masses reweighted to the points' total mass and centre of mass, kg, shape (n_vertices,).
 
-        Each point's mass goes to its tetrahedron's vertices by its barycentric weights (negative,
-        extrapolated weights clipped, rows renormalised), so the total and the centre of mass are
-        the points' own. Vertices that get less than ``floor`` times the mean vertex mass are raised
-        to it (a free flex vertex needs mass), and all are then scaled back to the points' total.
+        The lattice's own masses (:meth:`vertex_masses`, uniform ``rho``) are multiplied by an affine
+        density factor ``f(x) = (M / M0) (1 + beta . (x - c0))``. With ``M0``, ``c0`` the lattice's
+        mass and centre of mass and ``S = sum_v m0_v r_v r_v^T`` (``r_v = x_v - c0``), the first
+        moment condition ``sum_v m0_v f_v r_v = M (com - c0)`` gives ``beta = M0 S^-1 (com - c0)``, so
+        the total is ``M`` and the centre of mass is ``com`` exactly. The factor is kept in
+        ``[floor, cap]`` times ``M / M0`` (then rescaled to ``M``): MuJoCo's implicit solve needs no
+        vertex much lighter than its neighbours (point-lumped masses, which leave light vertices, were
+        ill-conditioned). A centre of mass too far off for that range is only approached.
+
+        Parameters
+        ----------
+        rho : float
+            Lattice density, kg/m^3 (only the shape of the distribution matters).
+        mass : float
+            Points' total mass ``sum rho p_vol``, kg.
+        com : ndarray, shape (3,)
+            Points' centre of mass, metres.
         """
-        wc = np.clip(w, 0.0, None)
-        wc /= np.maximum(wc.sum(axis=1, keepdims=True), 1e-300)
-        m = np.zeros(len(self.vertices))
-        np.add.at(m, self.tets[tet].ravel(), (wc * np.asarray(mass, np.float64)[:, None]).ravel())
-        total = float(np.sum(mass))
-        m = np.maximum(m, floor * total / len(m))
-        return m * (total / m.sum())
+        return matched_masses(self.vertex_masses(rho), self.vertices, mass, com, floor, cap)
 
     def vertex_masses(self, rho: float) -> np.ndarray:
         """Lumped vertex masses ``rho * V_tet / 4`` summed over incident tets, kg, shape (n_vertices,)."""
@@ -93,7 +101,20 @@ class Lattice:
         return m
 
 
-def build_lattice(x: np.ndarray, h: float, close_iters: int = 1, conform: np.ndarray | None = None) -> Lattice:
+def matched_masses(m0: np.ndarray, at: np.ndarray, mass: float, com: np.ndarray, floor: float = 0.25,
+                   cap: float = 4.0) -> np.ndarray:
+    """Masses ``m0`` at ``at`` (shape (k,), (k, 3)) times the affine factor of :meth:`Lattice.matched_masses`:
+    total ``mass`` (kg) and centre of mass ``com`` (m) where ``[floor, cap]`` allows, shape (k,)."""
+    M0 = float(m0.sum())
+    c0 = m0 @ at / M0
+    r = at - c0
+    S = (m0[:, None] * r).T @ r
+    beta = M0 * np.linalg.lstsq(S, np.asarray(com, np.float64) - c0, rcond=1e-12)[0]
+    m = m0 * np.clip(1.0 + r @ beta, floor, cap)
+    return m * (float(mass) / float(m.sum()))
+
+
+def build_lattice(x: np.ndarray, h: float, close_iters: int = 1) -> Lattice:
     """Voxelise points, close and fill the interior, and split each cell into 6 tetrahedra.
 
     Parameters
@@ -105,10 +126,6 @@ def build_lattice(x: np.ndarray, h: float, close_iters: int = 1, conform: np.nda
     close_iters : int
         Iterations of the binary closing applied before ``binary_fill_holes`` (bridges gaps between
         surface samples so a hollow shell encloses its interior).
-    conform : ndarray, shape (m, 3), optional
-        The material points: after closing and hole filling, cells with none of them in the cell
-        or its 26 neighbours are dropped, so the lattice covers the simulated solid and not, e.g., a donut's hole that the
-        closing bridged at a coarse ``h``.
 
     Returns
     -------
@@ -137,13 +154,6 @@ def build_lattice(x: np.ndarray, h: float, close_iters: int = 1, conform: np.nda
     if close_iters > 0:
         occ |= ndimage.binary_closing(occ, structure=np.ones((3, 3, 3), bool), iterations=close_iters)
     occ = ndimage.binary_fill_holes(occ)
-    if conform is not None and len(conform):
-        cidx = np.clip(np.floor((np.asarray(conform, np.float64) - origin) / h).astype(np.int64), 0,
-                       np.array(shape) - 1)
-        has = np.zeros(shape, dtype=bool)
-        has[cidx[:, 0], cidx[:, 1], cidx[:, 2]] = True
-        # cells next to a material point stay: points sparser than h still hold their neighbours
-        occ &= ndimage.binary_dilation(has, structure=np.ones((3, 3, 3), bool))
 
     cells = np.argwhere(occ).astype(np.int64)                        # (nc, 3)
     corner_nodes = cells[:, None, None, :] + KUHN_CORNERS[None]      # (nc, 6, 4, 3)

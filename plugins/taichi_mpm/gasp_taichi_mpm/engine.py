@@ -233,8 +233,10 @@ class TaichiMPMEngine:
         self._v = s.get(s.v)[self._inverse]
 
     def stats(self) -> dict[str, Any]:
-        """``device, precision, n_points, dt, n_substeps, n_grid, threads`` and ``dx``, ``p2g``, ``frame``."""
+        """``device, precision, n_points, dt, n_substeps, n_grid, threads`` and ``dx``, ``p2g``, ``frame``,
+        ``n_passive``, ``mass`` (kg), ``centre_of_mass`` (m), ``inertia`` (kg m^2)."""
         n = len(self.setup.x)
+        live = not self._closed and self._gen == _generation
         return {
             "device": self.options["device"],
             "precision": self.options["precision"],
@@ -247,7 +249,9 @@ class TaichiMPMEngine:
             "p2g": self._p2g_mode,
             "frame": self.frame,
             "n_passive": int(n - self.n_material),
-            **mpm.engine_mass_stats(self.setup, self._x),
+            # mass as the solver holds it (its p_mass field, solver order)
+            **(mpm.engine_mass_stats(self.solver.get(self.solver.x), self.solver.get(self.solver.p_mass))
+               if live else {}),
         }
 
     def close(self) -> None:

@@ -709,7 +709,7 @@ class MPMSolver:
         for p in range(self.pchunk_lo[t], self.pchunk_hi[t]):
             if ti.static(move):
                 self._g2p_passive_point(p)
-            base, fx, ok = self._base_fx(self.x[p])
+            base, _fx, ok = self._base_fx(self.x[p])
             if ok:
                 bmin = ti.min(bmin, base)
                 bmax = ti.max(bmax, base + 2)

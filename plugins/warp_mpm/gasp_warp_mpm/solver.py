@@ -332,11 +332,12 @@ class WarpMPMEngine:
 
     def stats(self) -> dict[str, Any]:
         """``device, precision, n_points, dt`` (s), ``n_substeps`` (per frame), ``n_grid``, ``dx`` (m),
-        ``frame``, ``sim_time`` (s)."""
+        ``frame``, ``sim_time`` (s), ``n_passive``, ``mass`` (kg), ``centre_of_mass`` (m), ``inertia`` (kg m^2)."""
         return {"device": str(self.device), "precision": self.precision, "n_points": self.n_points,
                 "dt": self.dt, "n_substeps": self.n_substeps, "n_grid": self.n_grid, "dx": self.dx,
                 "frame": self.frame, "sim_time": self.sim_time, "n_passive": self.n_points - self.n_material,
-                **mpm.engine_mass_stats(self.setup, self.positions())}
+                # as the engine's arrays hold it (not after close)
+                **({} if self._closed else mpm.engine_mass_stats(self.x.numpy(), self.p_mass.numpy()))}
 
     def close(self) -> None:
         """Release the Warp arrays and the CUDA graph."""
