@@ -9,9 +9,10 @@ at rest: each passive point ``p`` is bound to its ``K`` nearest material points 
 body with weights ``phi_i`` from a linear moving-least-squares fit (weights ``w_i = (1 - d_i^2 /
 R^2)^2`` with ``R`` just beyond the ``K``-th distance). A linear MLS basis reproduces affine
 fields, so ``sum_i phi_i = 1`` and ``sum_i phi_i x_i = p``: ``p(t) = sum_i phi_i x_i(t)`` is exact at
-rest and for every affine (rigid included) motion of the neighbours. Where the neighbours are
-nearly coplanar the moment matrix is regularised (Tikhonov, relative ``MLS_RIDGE``), which blends
-towards the weighted average.
+rest and for every affine (rigid included) motion of the neighbours. The basis is scaled by ``R``
+so the moment matrix is of order one; where the neighbours are nearly coplanar its eigenvalues below
+``MLS_RCOND`` times the largest are dropped (pseudo-inverse), which blends towards the weighted
+average along the missing direction only.
 
 Also here: the mass properties of a setup (:func:`mass_properties`), which every engine's
 ``stats()`` reports and the ``mass_agreement`` conformance scene compares.
@@ -27,8 +28,8 @@ from .setup import SimSetup
 
 #: Material neighbours of each passive point in the core's embedding.
 K_NEIGHBOURS = 12
-#: Relative Tikhonov regularisation of the MLS moment matrix.
-MLS_RIDGE = 1e-6
+#: Relative eigenvalue cut-off of the (scaled) MLS moment matrix's pseudo-inverse.
+MLS_RCOND = 1e-8
 
 
 def mls_embedding(points: np.ndarray, anchors: np.ndarray, k: int = K_NEIGHBOURS) -> tuple[np.ndarray, np.ndarray]:
@@ -58,14 +59,13 @@ def mls_embedding(points: np.ndarray, anchors: np.ndarray, k: int = K_NEIGHBOURS
     d, idx = d.reshape(len(points), k), idx.reshape(len(points), k)
     R = d[:, -1:] * 1.5 + 1e-12
     w = (1.0 - (d / R) ** 2) ** 2                                   # (m, k) > 0
-    r = anchors[idx] - points[:, None, :]                           # (m, k, 3)
-    P = np.concatenate([np.ones((len(points), k, 1)), r], axis=2)   # basis [1, r] at the neighbours
+    r = (anchors[idx] - points[:, None, :]) / R[:, :, None]         # (m, k, 3), scaled by R
+    P = np.concatenate([np.ones((len(points), k, 1)), r], axis=2)   # basis [1, r / R] at the neighbours
     M = np.einsum("mk,mki,mkj->mij", w, P, P)                       # (m, 4, 4) moment matrix
-    scale = np.einsum("mii->m", M)[:, None, None]
-    M = M + MLS_RIDGE * scale * np.eye(4)
-    e0 = np.zeros((len(points), 4))
-    e0[:, 0] = 1.0
-    c = np.linalg.solve(M, e0[..., None])[..., 0]                   # M^-1 [1,0,0,0] (M symmetric)
+    lam, V = np.linalg.eigh(M)
+    keep = lam > MLS_RCOND * lam[:, -1:]
+    inv_lam = np.where(keep, 1.0 / np.where(keep, lam, 1.0), 0.0)
+    c = np.einsum("mij,mj,mj->mi", V, inv_lam, V[:, 0, :])          # M^+ [1,0,0,0] (M symmetric)
     phi = w * np.einsum("mkj,mj->mk", P, c)                         # value of the fit at r = 0
     phi /= phi.sum(axis=1, keepdims=True)
     return idx.astype(np.int64), phi

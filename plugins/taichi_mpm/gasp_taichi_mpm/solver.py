@@ -145,6 +145,8 @@ class MPMSolver:
         ng = self.n_grid
         self.grid_acc = ti.Vector.field(4, real, shape=(self.n_chunks, ng, ng, ng))
         self.grid_v = ti.Vector.field(3, real, shape=(ng, ng, ng))
+        # node mass of the last grid update, read by the passive points' G2P (only with passive points)
+        self.grid_m = ti.field(real, shape=(ng, ng, ng) if self.has_passive else (1, 1, 1))
         self.box = ti.Vector.field(3, ti.i32, shape=(self.n_chunks, 2))  # touched node box per chunk
         self.n_out = ti.field(ti.i32, shape=())  # out-of-grid point-substeps since last reset
         self.n_points = ti.field(ti.i32, shape=())
@@ -686,15 +688,26 @@ class MPMSolver:
 
     @ti.func
     def _g2p_passive_point(self, p):
-        """A passive point: velocity and position from the grid, nothing else (no C, F, P2G)."""
+        """A passive point: velocity and position from the grid, nothing else (no C, F, P2G).
+
+        Only nodes that received mass count, with the weights renormalised over them: a surface
+        point half a spacing outside the material sees empty nodes (velocity 0, not the material's)
+        in its stencil, which would hold it back. Inside the material this is plain G2P."""
         base, fx, ok = self._base_fx(self.x[p])
         if not ok:
             ti.atomic_add(self.n_out[None], 1)
         else:
             w = self._weights(fx)
             new_v = ti.Vector.zero(self.real, 3)
+            wsum = ti.cast(0.0, self.real)
             for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
-                new_v += w[i][0] * w[j][1] * w[k][2] * self.grid_v[base + ti.Vector([i, j, k])]
+                node = base + ti.Vector([i, j, k])
+                if self.grid_m[node] > 0.0:
+                    wn = w[i][0] * w[j][1] * w[k][2]
+                    new_v += wn * self.grid_v[node]
+                    wsum += wn
+            if wsum > 0.0:
+                new_v /= wsum
             if ti.static(self.any_fixed):
                 if self.fixed[p] != 0:
                     new_v = ti.Vector.zero(self.real, 3)
@@ -789,6 +802,8 @@ class MPMSolver:
                     if (I >= self.reg_lo[b]).all() and (I <= self.reg_hi[b]).all():
                         v = ti.Vector.zero(self.real, 3)
             self.grid_v[I] = v
+            if ti.static(self.has_passive):
+                self.grid_m[I] = acc[3]
 
     @ti.kernel
     def reset_out(self):

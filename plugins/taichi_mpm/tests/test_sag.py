@@ -28,7 +28,8 @@ with ``10 E``: the test compares ``drop(E) - drop(10 E)`` with ``delta(E) - delt
 Tolerance: 35 % either way, the sum of four error sources. (a) The mean over a not-whole number of
 periods is off by up to ``delta / (2 pi N)``: 4.8 % of the soft drop, 0.3 % of the stiff one, about
 6 % of the difference. (b) Both parts are plane-strain, small-strain estimates for a 3-D torus
-whose tube radius is about half its centre-line radius (a / R = 0.49) (and the icing makes it no exact torus).
+whose tube radius is about half its centre-line radius (a / R = 0.49; the icing makes it no exact
+torus either).
 (c) The contact half-width is 0.48 times the tube radius, beyond Hertz's small-contact assumption.
 (d) The grid has about five cells across the tube (n_grid 32). (b)-(d) are first-order modelling
 errors, each put at about 10 %. The test takes about 15 s (two runs of 18 frames at n_grid 32,

@@ -164,6 +164,8 @@ class WarpMPMEngine:
         n_nodes = self.n_grid ** 3
         self.grid_mv = wp.zeros(n_nodes, dtype=k.vec4, device=d)
         self.grid_vel = wp.zeros(n_nodes, dtype=k.vec3, device=d)
+        n_passive = n - self.n_material
+        self.grid_m = wp.zeros(n_nodes if n_passive else 1, dtype=Ft, device=d)   # node mass (passive G2P)
         self.flags = wp.zeros(2, dtype=wp.int32, device=d)  # [out-of-grid count, non-finite count]
         self.wall_mu = arr(np.array(wall_mu, dtype=dt_np), Ft)
         self.ground = arr(np.array(ground, dtype=dt_np).reshape(-1, 3), k.vec3)
@@ -182,11 +184,15 @@ class WarpMPMEngine:
                     self.x, self.v, self.F, self.C, self.Jp, self.p_mass, self.p_vol, self.body,
                     self.mat_kind, self.mat_par, self.grid_mv, self.flags, lo_v, inv_dx, dx, dt_f, ng]),
                 wp.launch(k.grid_update, dim=n_nodes, device=d, record_cmd=True, inputs=[
-                    self.grid_mv, self.grid_vel, g_v, lo_v, hi_v, dx, dt_f, ng, self.wall_mu,
+                    self.grid_mv, self.grid_vel, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, self.wall_mu,
                     self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex]),
-                wp.launch(k.g2p, dim=n, device=d, record_cmd=True, inputs=[
+                wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.fixed, self.grid_vel, lo_v, inv_dx, dt_f, ng]),
             ]
+            if n_passive:   # after the grid update: the grid velocity holds forces, colliders, boundaries
+                self._launches.append(wp.launch(k.g2p_passive, dim=n_passive, device=d, record_cmd=True, inputs=[
+                    self.x, self.v, self.fixed, self.grid_vel, self.grid_m, self.flags, lo_v, inv_dx, dt_f, ng,
+                    self.n_material]))
             if has_extras:
                 self._launches.append(wp.launch(k.tick, dim=1, device=d, record_cmd=True, inputs=[ex.step]))
             self._check_launch = wp.launch(k.check, dim=n, device=d, record_cmd=True,
@@ -344,7 +350,7 @@ class WarpMPMEngine:
         self._graph = None
         self._launches = []
         self._check_launch = None
-        for name in ("x", "v", "F", "C", "Jp", "p_mass", "p_vol", "body", "fixed", "grid_mv", "grid_vel"):
+        for name in ("x", "v", "F", "C", "Jp", "p_mass", "p_vol", "body", "fixed", "grid_mv", "grid_vel", "grid_m"):
             if hasattr(self, name):
                 setattr(self, name, None)
         self._closed = True
