@@ -69,6 +69,7 @@ class _FlexBody:
         self.vert_body = np.zeros(0, np.int64)   # MuJoCo body id of each vertex
         self.vert_dof = np.zeros(0, np.int64)    # first dof of each unpinned vertex, -1 if pinned
         self.vertex_mass = np.zeros(0)           # kg, Lattice.matched_masses
+        self.stiffness_scale = 1.0               # E' / E = the points' mass / the lattice's at rho
 
 
 class _RigidBody:
@@ -164,16 +165,25 @@ class MujocoFlexEngine:
                             pinned |= np.all((lat.vertices >= np.asarray(bd.lo)) &
                                              (lat.vertices <= np.asarray(bd.hi)), axis=1)
                 fb = _FlexBody(name, idx, lat, tet, w, pinned, mat.rho)
-                # vertex masses carry the points' total mass and centre of mass (Lattice.matched_masses);
-                # where a vertex is lighter than rho's lumped mass the waves speed up by sqrt(ratio)
-                fb.vertex_mass = lat.matched_masses(mat.rho, float(pm.sum()), pm @ xb / pm.sum())
-                wave = max(wave, math.sqrt(float(np.max(lat.vertex_masses(mat.rho) / fb.vertex_mass))))
+                # Vertex masses carry the points' total mass and centre of mass (Lattice.matched_masses).
+                # The lattice covers more (or less) than the solid: the points' mass is r = M / (rho V_lat)
+                # of the lattice's. Spread on the lattice at density r rho, the solid keeps its wave speed
+                # and its sag under its own weight (rho g L^2 / E) with E' = r E (yield strain kept), and
+                # M + dt^2 K is r times that of the unscaled lattice: lighter vertices with the full E
+                # left MuJoCo's M+K solve ill-conditioned. Where the centre-of-mass reweighting makes a
+                # vertex lighter than r times its lumped mass, waves speed up by sqrt(ratio).
+                M = float(pm.sum())
+                r = M / (mat.rho * lat.volume)
+                fb.vertex_mass = lat.matched_masses(mat.rho, M, pm @ xb / M)
+                fb.stiffness_scale = r
+                wave = max(wave, math.sqrt(float(np.max(r * lat.vertex_masses(mat.rho) / fb.vertex_mass))))
                 radius = float(o["radius"]) if o["radius"] is not None else 0.05 * h
-                elastic = f'young="{mat.E:.17g}" poisson="{mat.nu:.17g}" damping="{float(o["damping"]):.17g}"'
+                elastic = (f'young="{r * mat.E:.17g}" poisson="{mat.nu:.17g}" '
+                           f'damping="{float(o["damping"]):.17g}"')
                 if mat.name == "metal":
                     elastic += f' yield="{mat.yield_stress / mat.E:.17g}"'
                 pin = f'<pin id="{_ifmt(np.flatnonzero(pinned))}"/>' if pinned.any() else ""
-                mass = mat.rho * lat.volume
+                mass = M
                 parts.append(
                     f'<flexcomp name="{name}" type="direct" dim="3" radius="{radius:.17g}" mass="{mass:.17g}" '
                     f'point="{_fmt(lat.vertices)}" element="{_ifmt(lat.tets)}">\n'
@@ -409,6 +419,7 @@ class MujocoFlexEngine:
             "sim_time": float(self.data.time),
             "integrator": self.options["integrator"],
             "nv": int(self.model.nv),
+            "stiffness_scale": [float(fb.stiffness_scale) for fb in self.flex],   # E' / E per flex body
             **self._mass_stats(),
         }
 
