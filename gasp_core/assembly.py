@@ -53,14 +53,15 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
     lo, hi = default_domain(scene, np.concatenate([o.tri_rest.reshape(-1, 3) for o in objects]))
     n_grid = scene.domain.n_grid
     dx = float(np.max(hi - lo)) / n_grid
-    xs, vols, bodies, vels, fills = [], [], [], [], []
+    xs, vols, bodies, vels, fills, passives = [], [], [], [], [], []
     start = 0
     for i, (o, verts) in enumerate(zip(objects, vertices)):
         opacities = o.simulated_rows(o.gaussians.opacities).astype(np.float64)
         opaque = expit(opacities) >= o.spec.min_opacity
         h = fill_spacing(dx, scene.domain.particles_per_cell, o.spec.core_fraction)
+        passive = o.spec.surface == "passive"
         fr = fill_interior(verts, h, splats=o.tri_rest[opaque], fill=o.spec.fill, name=o.name,
-                           if_open=o.spec.if_open)
+                           if_open=o.spec.if_open, surface_mass=not passive)
         o.fill_report = fr.report
         if fr.report.warning:
             warnings.warn(fr.report.warning, stacklevel=2)
@@ -70,6 +71,7 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
         vols.append(fr.p_vol_surface)
         bodies.append(np.full(len(verts), i))
         vels.append(np.broadcast_to(o.spec.velocity, verts.shape))
+        passives.append(np.full(len(verts), passive))
         fills.append((i, fr))
     for i, fr in fills:
         objects[i].fill_slice = slice(start, start + len(fr.fill_x))
@@ -78,7 +80,9 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
         vols.append(fr.p_vol_fill)
         bodies.append(np.full(len(fr.fill_x), i))
         vels.append(np.broadcast_to(objects[i].spec.velocity, fr.fill_x.shape))
+        passives.append(np.zeros(len(fr.fill_x), bool))
     x = np.concatenate(xs)
+    passive = np.concatenate(passives)
     v, p_vol, body_id = np.concatenate(vels), np.concatenate(vols), np.concatenate(bodies)
     C = spin(objects, x, v, p_vol, body_id)
     outside = ((x < lo) | (x > hi)).any(axis=1)
@@ -88,7 +92,7 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
                          f"[{lo.tolist()}, {hi.tolist()}] (first at {x[k].tolist()}); enlarge [domain]")
     extras = scene_extras(scene, scenery, x, dx)  # colliders may name static objects
     return SimSetup(
-        **extras, x=x, v=v, p_vol=p_vol, body_id=body_id, C=C,
+        **extras, x=x, v=v, p_vol=p_vol, body_id=body_id, C=C, passive=passive if passive.any() else None,
         materials=[o.spec.material for o in objects], gravity=np.array(scene.gravity),
         domain_lo=lo, domain_hi=hi, n_grid=n_grid, boundaries=list(scene.boundaries),
         frame_dt=scene.frame_dt, n_render=sum(len(v) for v in vertices),

@@ -38,6 +38,10 @@ FEATURES = {
                  "engines without it ignore C and start from v alone",
     "state": "get_state() -> dict of arrays and set_state(dict) save and restore the whole simulation "
              "state after a frame (gasp simulate --resume); set_state right after the factory",
+    "passive_points": "moves the passive rows of SimSetup (SimSetup.passive: rendered points with p_vol = 0) "
+                      "itself, carried by the material's motion with no mass, stress or F (a grid engine: "
+                      "G2P only); for engines without it the core embeds them in the material points' "
+                      "motion (gasp_core.passive)",
     "grid": "simulates on a background grid of SimSetup.n_grid cells; points within a few dx of "
             "a wall are inside the grid's transfer stencil",
     "static_colliders": "SimSetup.colliders without motion: rigid obstacles as signed distance fields "
@@ -380,4 +384,7 @@ def build_engine(info: EngineInfo, setup: SimSetup) -> PointEngine:
     """
     check_supported(info, **setup_needs(setup))
     setup.options = check_options(setup.options, info.options, info.name)
+    if setup.passive is not None and "passive_points" not in info.capabilities.features:
+        from .passive import build_with_fallback     # the core moves the passive rows
+        return build_with_fallback(info, setup, lambda i, s: call_engine(i, "build", i.factory, s))
     return call_engine(info, "build", info.factory, setup)

@@ -273,7 +273,7 @@ def solid_field(splats: np.ndarray, max_dilation: int = 4, voxel: float | None =
 
 def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None, fill: bool = True,
                   name: str = "object", if_open: str = "warn", max_dilation: int = 4,
-                  voxel: float | None = None) -> FillResult:
+                  voxel: float | None = None, surface_mass: bool = True) -> FillResult:
     """Fill an object's enclosed interior at spacing ``h`` and give every point its volume.
 
     Parameters
@@ -298,6 +298,10 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
         Largest closing radius, occupancy voxels.
     voxel : float, optional
         Occupancy voxel, metres; default from the splat density.
+    surface_mass : bool
+        True: the surface points share their cells' volume and only cells without one get a
+        fill point. False (passive surface, ``surface = "passive"``): the surface points get
+        volume 0 and every inside cell gets a fill point, so the fill alone is the whole solid.
 
     Returns
     -------
@@ -351,6 +355,16 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
         if fill and if_open == "error":
             raise SceneError(warning.replace("; simulated as a hollow shell", "; refusing to simulate a hollow shell"))
     cells = np.argwhere(inside)
+    if not surface_mass:
+        idx = np.clip(np.floor((points - lo) / h).astype(np.int64), 0, np.array(shape) - 1)
+        if not len(cells):      # nothing inside at this spacing: the surface points' own cells
+            cells = np.unique(idx, axis=0)
+        fill_x = centres(cells)
+        p_vol_fill = np.full(len(fill_x), h ** 3)
+        volume = float(p_vol_fill.sum())
+        report = FillReport(name=name, volume=volume, n_fill=len(fill_x), h=float(h), voxel=float(voxel_used),
+                            method=method, closed=closed, dilation=int(r), enclosed=enclosed, warning=warning)
+        return FillResult(fill_x, np.zeros(len(points)), p_vol_fill, float(h), volume, report)
     flat_inside = np.ravel_multi_index(cells.T, shape)
     idx = np.clip(np.floor((points - lo) / h).astype(np.int64), 0, np.array(shape) - 1)
     flat_pts = np.ravel_multi_index(idx.T, shape)

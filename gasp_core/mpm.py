@@ -363,6 +363,48 @@ def cell_order(x: np.ndarray, domain_lo: np.ndarray, dx: float, n_grid: int) -> 
     return np.argsort(key, kind="stable")
 
 
+def material_first_order(setup, dx: float) -> tuple[np.ndarray, int]:
+    """Point order of a grid engine: material points by cell, then passive points by cell.
+
+    Parameters
+    ----------
+    setup : SimSetup
+        ``setup.passive`` marks the passive rows (G2P only).
+    dx : float
+        Grid spacing, metres.
+
+    Returns
+    -------
+    order : ndarray, shape (n,), int64
+        ``order[i]`` is the setup row of the engine's i-th point (:func:`cell_order` within each group).
+    n_material : int
+        Engine points ``[:n_material]`` are material points.
+    """
+    if setup.passive is None:
+        return cell_order(setup.x, setup.domain_lo, dx, setup.n_grid), len(setup.x)
+    mat = np.flatnonzero(~setup.passive)
+    pas = np.flatnonzero(setup.passive)
+    order = np.concatenate([mat[cell_order(setup.x[mat], setup.domain_lo, dx, setup.n_grid)],
+                            pas[cell_order(setup.x[pas], setup.domain_lo, dx, setup.n_grid)]])
+    return order, len(mat)
+
+
+def engine_mass_stats(x: np.ndarray, p_mass: np.ndarray) -> dict[str, Any]:
+    """``mass`` (kg), ``centre_of_mass`` (m) and ``inertia`` (kg m^2, about the centre of mass) of a grid
+    engine's points, for its ``stats()``.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n, 3)
+        Current positions, metres, read back from the engine.
+    p_mass : ndarray, shape (n,)
+        The point masses the engine's P2G scatters, kg, read back from the engine in the same
+        order (passive points hold 0).
+    """
+    from .passive import mass_properties
+    return mass_properties(x, p_mass)
+
+
 # --------------------------------------------------------------------------- blow-ups
 #: Likely cause of non-finite values, or of points jumping out of the grid within a substep.
 CAUSE_DT = "time step above the stability limit or material too stiff for dt"

@@ -57,6 +57,8 @@ from .scene_values import (MAX_COORD, MAX_GRAVITY, MAX_PADDING, MAX_SPEED, MAX_S
 from .scene_extras import ColliderSpec, _scene_extras  # noqa: F401
 from .scene_select import SELECT_FRAMES, SELECT_KINDS, SelectSpec, _select, _static  # noqa: F401
 
+#: ``[[object]] surface``: the triangle vertices are material points, or passive (massless, carried).
+SURFACES = ("material", "passive")
 
 
 @dataclass
@@ -105,6 +107,10 @@ class ObjectSpec:
     core_fraction : float
         Share of Gaussians simulated, in (0, 1]: below 1, BIRCH clusters build that many Core
         Gaussians and the rest follow them (paper Sec. 3, hierarchy; :mod:`gasp_core.hierarchy`).
+    surface : str
+        ``"material"``: the triangle vertices are material points sharing the solid's volume
+        with the fill. ``"passive"``: they carry no mass and follow the material (the fill alone
+        is the solid; :mod:`gasp_core.passive`, ``SimSetup.passive``).
     dynamic_time : float or None
         For a dynamic model (``.splatv``): the model time ``s`` at which physics takes over,
         ``G_t = T^-1(phi(psi(V, s), t))`` (paper Sec. 3, dynamic scenes); default 0.
@@ -134,6 +140,7 @@ class ObjectSpec:
     core_fraction: float = 1.0
     if_open: str = "warn"
     dynamic_time: float | None = None
+    surface: str = "material"
     select: SelectSpec | None = None
     static: bool = False
 
@@ -314,6 +321,7 @@ def _object(o: dict, where: str, src: Path) -> ObjectSpec:
         core_fraction=_number(o.get("core_fraction", 1.0), f"{where}.core_fraction", src, 0.0, 1.0,
                               lo_open=True),
         if_open=_string(o.get("if_open", "warn"), f"{where}.if_open", src, ("warn", "error")),
+        surface=_string(o.get("surface", ObjectSpec.surface), f"{where}.surface", src, SURFACES),
         dynamic_time=_dynamic_time(o, f, where, src),
         select=_select(o["select"], f"{where}.select", src) if "select" in o else None,
         static=_static(o, where, src),

@@ -116,7 +116,8 @@ class SimSetup:
     v : ndarray, shape (n, 3), float64
         Initial velocities, m/s.
     p_vol : ndarray, shape (n,), float64
-        Rest volume each point stands for, m^3 (mass = rho * p_vol).
+        Rest volume each point stands for, m^3 (mass = rho * p_vol). Positive, except on passive
+        rows (``passive``), where it is 0.
     body_id : ndarray, shape (n,), int32
         Index into ``materials`` (one body per scene object).
     materials : list of Material
@@ -140,6 +141,13 @@ class SimSetup:
         at angular velocity w it is the cross-product matrix of w). None means zero. Grid engines
         start their ``C`` from it, so a rotating body does not lose the sub-cell part of its
         angular momentum in the first transfer; other engines may ignore it.
+    passive : ndarray, shape (n,), bool, or None
+        Passive points (objects with ``surface = "passive"``): they are carried by the motion of
+        the material but carry no mass (``p_vol == 0``), no stress and no deformation gradient.
+        Only rendered rows (``[:n_render]``) may be passive; the material points (the fill)
+        then represent the whole solid. Engines with the feature ``passive_points`` move them
+        themselves (grid engines: G2P only, no P2G); for the others the core embeds them in the
+        material points' motion (:mod:`gasp_core.passive`). None means no passive point.
     colliders : list of gasp_core.colliders.Collider
         Rigid obstacles (signed distance fields, friction, prescribed motion); features
         ``static_colliders`` / ``moving_colliders``.
@@ -163,6 +171,7 @@ class SimSetup:
     n_render: int = -1
     options: dict[str, Any] = field(default_factory=dict)
     C: np.ndarray | None = None
+    passive: np.ndarray | None = None
     colliders: list = field(default_factory=list)
     forces: list = field(default_factory=list)
     impulses: list = field(default_factory=list)
@@ -191,8 +200,25 @@ class SimSetup:
             raise SceneError("SimSetup.x: no points")
         if not np.all(np.isfinite(self.v)):
             raise SceneError("SimSetup.v: velocities must be finite")
-        if np.any(self.p_vol <= 0) or not np.all(np.isfinite(self.p_vol)):
-            raise SceneError("SimSetup.p_vol: volumes must be positive and finite")
+        if self.passive is not None:
+            self.passive = np.ascontiguousarray(np.broadcast_to(self.passive, (n,)), dtype=bool)
+            if not self.passive.any():
+                self.passive = None
+        massless = np.zeros(n, bool) if self.passive is None else self.passive
+        if np.any(self.p_vol[~massless] <= 0) or not np.all(np.isfinite(self.p_vol)):
+            raise SceneError("SimSetup.p_vol: volumes must be positive and finite (0 only on passive rows)")
+        if self.passive is not None:
+            if np.any(self.p_vol[massless] != 0):
+                raise SceneError("SimSetup.p_vol: passive rows (SimSetup.passive) must have volume 0")
+            if self.passive[self.n_render:].any():
+                raise SceneError("SimSetup.passive: only rendered rows [:n_render] may be passive")
+            if self.passive.all():
+                raise SceneError("SimSetup.passive: every point is passive; the material needs points with volume")
+            has = np.bincount(self.body_id[~massless], minlength=len(self.materials)) > 0
+            used = np.bincount(self.body_id, minlength=len(self.materials)) > 0
+            if np.any(used & ~has):
+                b = int(np.flatnonzero(used & ~has)[0])
+                raise SceneError(f"SimSetup.passive: body {b} has only passive points; it needs material points")
         if not np.all(self.domain_hi > self.domain_lo):
             raise SceneError(f"SimSetup.domain_hi must exceed domain_lo on every axis, got "
                              f"{self.domain_lo.tolist()} / {self.domain_hi.tolist()}")
@@ -210,6 +236,16 @@ class SimSetup:
     def dx(self) -> float:
         """Grid spacing, metres: the longest domain side divided by ``n_grid``."""
         return float(np.max(self.domain_hi - self.domain_lo)) / self.n_grid
+
+    @property
+    def n_passive(self) -> int:
+        """Number of passive rows (``passive``), 0 when there are none."""
+        return 0 if self.passive is None else int(self.passive.sum())
+
+    @property
+    def material_mask(self) -> np.ndarray:
+        """Rows that carry mass (not passive), shape (n,), bool."""
+        return np.ones(len(self.x), bool) if self.passive is None else ~self.passive
 
     @property
     def p_mass(self) -> np.ndarray:

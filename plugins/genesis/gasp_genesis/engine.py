@@ -20,7 +20,13 @@ How the setup maps onto Genesis (API of ``genesis/options/solvers.py``, ``genesi
   ``set_particles_pos``, ``set_particles_vel`` and ``set_particles_active`` with our points.
 - ``MPMOptions.particle_size = cbrt(mean(p_vol))``: Genesis has **one particle volume per solver**
   (mass = rho * particle_size^3), so per-point volumes are replaced by their mean (total volume
-  and mass kept). ``stats()["p_vol_spread"]`` gives ``max/min - 1`` of the input volumes.
+  and mass kept). ``stats()["p_vol_spread"]`` gives ``max/min - 1`` of the input volumes. So that
+  every point keeps its mass, each body is split into up to :data:`MASS_CLASSES` entities of
+  points of similar mass (:func:`mass_classes`; one MPM grid, so the split does not change the
+  motion), each with its density scaled to ``rho_g' = mean_g(rho_b p_vol_i) / p_vol`` (elastic
+  moduli unchanged). ``stats()`` reads the mass back from Genesis (``entity.get_mass()``) and
+  reports the centre-of-mass and mass residuals against the setup's (conformance scene
+  ``mass_agreement``).
 - ``ground``: a fixed rigid ``gs.morphs.Plane`` at ``z = height`` with
   ``gs.materials.Rigid(coup_friction=friction, coup_softness=0, coup_restitution=0)``; Genesis's
   MPM-rigid coupling (``legacy_coupler._func_collide_in_rigid_geom``) applies the same Coulomb rule
@@ -31,6 +37,7 @@ How the setup maps onto Genesis (API of ``genesis/options/solvers.py``, ``genesi
 """
 from __future__ import annotations
 
+import dataclasses
 import importlib.metadata as md
 import math
 import time
@@ -43,6 +50,40 @@ from gasp_core.engine import EngineDivergence, EngineError, Material, SceneError
 from gasp_core.mpm import CAUSE_DOMAIN, CAUSE_DT
 
 from . import ENGINE, INSTALL_HINT, OPTIONS
+
+
+#: Most Genesis entities per body: Genesis gives every particle of an entity the same mass.
+MASS_CLASSES = 8
+
+
+def _with_rho(m: Material, rho: float) -> Material:
+    return dataclasses.replace(m, rho=rho)
+
+
+def mass_classes(p_mass: np.ndarray, k: int = MASS_CLASSES) -> list[np.ndarray]:
+    """Rows of one body grouped by mass, one Genesis entity each.
+
+    Parameters
+    ----------
+    p_mass : ndarray, shape (n,)
+        Point masses of the body, kg.
+    k : int
+        Most groups.
+
+    Returns
+    -------
+    list of ndarray of int64
+        Rows of ``p_mass``, every row in one group: one group per distinct mass when there are at
+        most ``k`` of them (exact), else ``k`` groups of equal count in order of mass (each point
+        then gets its group's mean mass; total mass and the groups' centres of mass are kept).
+    """
+    p_mass = np.asarray(p_mass, dtype=np.float64)
+    values, inverse = np.unique(p_mass, return_inverse=True)
+    if len(values) <= k:
+        return [np.flatnonzero(inverse == j) for j in range(len(values))]
+    return [g for g in np.array_split(np.argsort(p_mass, kind="stable"), k) if len(g)]
+
+
 #: Genesis pads its MPM domain by this many cells (``MPMSolver.setup_boundary``).
 PADDING_CELLS = 3
 #: Snow hardening coefficient hard-coded in ``genesis/engine/materials/MPM/snow.py``.
@@ -254,17 +295,20 @@ class GenesisMPMEngine:
                 self.n_planes += 2
         self.wall_friction = wall_friction if self.walls else None
 
-        # One MPM entity per body, points in body order; self._order maps back to setup order.
+        # MPM entities per body, one per mass class (mass_classes), points in entity order;
+        # self._order maps back to setup order.
         self._bodies = []
         order = []
+        p_mass = setup.p_mass
         for b, m in enumerate(setup.materials):
-            idx = np.flatnonzero(setup.body_id == b)
-            if len(idx) == 0:
-                continue
-            ent = scene.add_entity(material=genesis_material(gs, m),
-                                   morph=gs.morphs.Nowhere(n_particles=int(len(idx))))
-            self._bodies.append((ent, idx))
-            order.append(idx)
+            rows = np.flatnonzero(setup.body_id == b)
+            for g in mass_classes(p_mass[rows]):
+                idx = rows[g]
+                rho_g = float(p_mass[idx].mean()) / self.p_vol_used   # the class's mean point mass
+                ent = scene.add_entity(material=genesis_material(gs, _with_rho(m, rho_g)),
+                                       morph=gs.morphs.Nowhere(n_particles=int(len(idx))))
+                self._bodies.append((ent, idx))
+                order.append(idx)
         self._order = np.concatenate(order)
         scene.build()
         for ent, idx in self._bodies:
@@ -361,7 +405,26 @@ class GenesisMPMEngine:
             "wall_friction": self.wall_friction,
             "genesis_version": version,
             "frame": self.frame,
+            **self._mass_stats(),
         }
+
+    def _mass_stats(self) -> dict[str, Any]:
+        """``mass`` (kg), ``centre_of_mass`` (m) and ``inertia`` (kg m^2) as Genesis holds them (each
+        entity's ``get_mass()`` spread evenly on its particles), and ``mass_residual`` (relative) and
+        ``com_residual`` (m) against the setup's ``rho p_vol`` at the same positions."""
+        from gasp_core.passive import mass_properties
+        if self._closed:
+            return {}
+        m = np.zeros(len(self.setup.x))
+        for ent, idx in self._bodies:
+            total = float(np.asarray(ent.get_mass().cpu().numpy(), dtype=np.float64).ravel()[0])
+            m[idx] = total / len(idx)
+        x = self._x.astype(np.float64)
+        got = mass_properties(x, m)
+        want = mass_properties(x, self.setup.p_mass)
+        got["mass_residual"] = got["mass"] / want["mass"] - 1.0
+        got["com_residual"] = float(np.linalg.norm(np.subtract(got["centre_of_mass"], want["centre_of_mass"])))
+        return got
 
     def close(self) -> None:
         """Destroy the Genesis scene (frees its fields); later calls raise ``EngineError``."""

@@ -27,8 +27,9 @@ CAPABILITIES = Capabilities(
     devices=frozenset({"cpu"}),
     precisions=frozenset({"f64"}),
     deterministic=frozenset({"cpu"}),
-    # mesh colliders as MuJoCo mesh geoms: collisions with their convex hull (gasp_mujoco_flex.colliders)
-    features=frozenset({"static_colliders"}),
+    # mesh colliders as MuJoCo mesh geoms: collisions with their convex hull (gasp_mujoco_flex.colliders);
+    # passive points ride on their tet (barycentric), like every point
+    features=frozenset({"static_colliders", "passive_points"}),
 )
 
 #: Engine options (``[engine] options`` of a scene), declared as data.

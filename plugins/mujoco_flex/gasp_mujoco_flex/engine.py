@@ -35,7 +35,7 @@ from gasp_core.engine import EngineDivergence, EngineError, SceneError, SimSetup
 from gasp_core.mpm import fixed_mask, p_wave_speed, substeps_for
 
 from . import ENGINE, OPTIONS
-from .lattice import Lattice, build_lattice, embed_points, interpolate
+from .lattice import Lattice, build_lattice, embed_points, interpolate, matched_masses
 
 _WARN_NAMES = {
     int(mujoco.mjtWarning.mjWARN_INERTIA): "singular inertia",
@@ -68,6 +68,8 @@ class _FlexBody:
         self.vert_adr = 0
         self.vert_body = np.zeros(0, np.int64)   # MuJoCo body id of each vertex
         self.vert_dof = np.zeros(0, np.int64)    # first dof of each unpinned vertex, -1 if pinned
+        self.vertex_mass = np.zeros(0)           # kg, Lattice.matched_masses
+        self.stiffness_scale = 1.0               # E' / E = the points' mass / the lattice's at rho
 
 
 class _RigidBody:
@@ -128,6 +130,7 @@ class MujocoFlexEngine:
         parts = []
         fixed_pt = fixed_mask(s.x, s.boundaries)
         h_min = math.inf
+        wave = 1.0
         for b, mat in enumerate(s.materials):
             idx = np.flatnonzero(s.body_id == b)
             if len(idx) == 0:
@@ -135,15 +138,18 @@ class MujocoFlexEngine:
             xb = s.x[idx]
             ext = float(np.max(xb.max(0) - xb.min(0)))
             h = float(o["cell_size"]) if o["cell_size"] is not None else max(ext, 1e-6) / float(o["cells_across"])
+            pm = s.p_mass[idx]
             lat = build_lattice(xb, h)
             name = f"b{b}"
             if mat.name == "rigid":
                 centres = lat.origin + (lat.cells + 0.5) * h
                 com = centres.mean(axis=0)
+                # the points' mass and centre of mass, spread on the cells (lattice.matched_masses)
+                m_box = matched_masses(np.full(len(centres), h ** 3), centres, float(pm.sum()), pm @ xb / pm.sum())
                 rb = _RigidBody(name, idx, com, xb - com, bool(fixed_pt[idx].any()))
                 geoms = "\n".join(
                     f'<geom type="box" size="{h / 2:.17g} {h / 2:.17g} {h / 2:.17g}" pos="{_fmt(c - com)}" '
-                    f'density="{mat.rho:.17g}"/>' for c in centres)
+                    f'density="{mb / h ** 3:.17g}"/>' for c, mb in zip(centres, m_box))
                 joint = "" if rb.fixed else "<freejoint/>"
                 parts.append(f'<body name="{name}" pos="{_fmt(com)}">{joint}\n{geoms}\n</body>')
                 self.rigid.append(rb)
@@ -159,12 +165,25 @@ class MujocoFlexEngine:
                             pinned |= np.all((lat.vertices >= np.asarray(bd.lo)) &
                                              (lat.vertices <= np.asarray(bd.hi)), axis=1)
                 fb = _FlexBody(name, idx, lat, tet, w, pinned, mat.rho)
+                # Vertex masses carry the points' total mass and centre of mass (Lattice.matched_masses).
+                # The lattice covers more (or less) than the solid: the points' mass is r = M / (rho V_lat)
+                # of the lattice's. Spread on the lattice at density r rho, the solid keeps its wave speed
+                # and its sag under its own weight (rho g L^2 / E) with E' = r E (yield strain kept), and
+                # M + dt^2 K is r times that of the unscaled lattice: lighter vertices with the full E
+                # left MuJoCo's M+K solve ill-conditioned. Where the centre-of-mass reweighting makes a
+                # vertex lighter than r times its lumped mass, waves speed up by sqrt(ratio).
+                M = float(pm.sum())
+                r = M / (mat.rho * lat.volume)
+                fb.vertex_mass = lat.matched_masses(mat.rho, M, pm @ xb / M)
+                fb.stiffness_scale = r
+                wave = max(wave, math.sqrt(float(np.max(r * lat.vertex_masses(mat.rho) / fb.vertex_mass))))
                 radius = float(o["radius"]) if o["radius"] is not None else 0.05 * h
-                elastic = f'young="{mat.E:.17g}" poisson="{mat.nu:.17g}" damping="{float(o["damping"]):.17g}"'
+                elastic = (f'young="{r * mat.E:.17g}" poisson="{mat.nu:.17g}" '
+                           f'damping="{float(o["damping"]):.17g}"')
                 if mat.name == "metal":
                     elastic += f' yield="{mat.yield_stress / mat.E:.17g}"'
                 pin = f'<pin id="{_ifmt(np.flatnonzero(pinned))}"/>' if pinned.any() else ""
-                mass = mat.rho * lat.volume
+                mass = M
                 parts.append(
                     f'<flexcomp name="{name}" type="direct" dim="3" radius="{radius:.17g}" mass="{mass:.17g}" '
                     f'point="{_fmt(lat.vertices)}" element="{_ifmt(lat.tets)}">\n'
@@ -185,7 +204,7 @@ class MujocoFlexEngine:
         v_fall = v0 + math.sqrt(2.0 * float(np.linalg.norm(s.gravity)) * max(height, 0.0))
         dt_max = float(o["dt_max"])
         if self.flex:
-            c = max(p_wave_speed(m) for m in s.materials if m.name != "rigid")
+            c = max(p_wave_speed(m) for m in s.materials if m.name != "rigid") * wave
             dt_max = min(dt_max, float(o["cfl"]) * h_min / max(c, v_fall, 1e-12))
         if o["dt"] is not None:
             dt_max = float(o["dt"])
@@ -217,8 +236,9 @@ class MujocoFlexEngine:
                                   f"expected {len(fb.lat.vertices)}")
             fb.vert_body = m.flex_vertbodyid[fb.vert_adr:fb.vert_adr + nv].astype(np.int64)
             fb.vert_dof = np.where(fb.pinned, -1, m.body_dofadr[fb.vert_body]).astype(np.int64)
-            # lumped masses (rho V_tet / 4 per incident tet) replace flexcomp's equal split
-            vm = fb.lat.vertex_masses(fb.rho)
+            # lumped masses (rho V_tet / 4 per incident tet, reweighted to the points' mass and centre
+            # of mass: Lattice.matched_masses) replace flexcomp's equal split
+            vm = fb.vertex_mass
             free = ~fb.pinned
             m.body_mass[fb.vert_body[free]] = vm[free]
             edge = fb.lat.h
@@ -399,7 +419,26 @@ class MujocoFlexEngine:
             "sim_time": float(self.data.time),
             "integrator": self.options["integrator"],
             "nv": int(self.model.nv),
+            "stiffness_scale": [float(fb.stiffness_scale) for fb in self.flex],   # E' / E per flex body
+            **self._mass_stats(),
         }
+
+    def _mass_stats(self) -> dict[str, Any]:
+        """Mass, centre of mass and inertia of what MuJoCo simulates (flex vertices and rigid bodies)."""
+        from gasp_core.passive import mass_properties
+        m, d = self.model, self.data
+        xs, ms = [], []
+        for fb in self.flex:
+            free = ~fb.pinned
+            xs.append(d.flexvert_xpos[fb.vert_adr:fb.vert_adr + len(fb.lat.vertices)][free])
+            ms.append(m.body_mass[fb.vert_body[free]])
+            if fb.pinned.any():   # pinned vertices are not bodies: their share of the points' mass
+                xs.append(fb.lat.vertices[fb.pinned])
+                ms.append(fb.vertex_mass[fb.pinned])
+        for rb in self.rigid:
+            xs.append(d.xipos[rb.body_id][None])
+            ms.append(np.array([m.body_subtreemass[rb.body_id]]))
+        return mass_properties(np.concatenate(xs), np.concatenate(ms))
 
     def close(self) -> None:
         """Drop the MuJoCo model and data."""

@@ -30,8 +30,8 @@ def block_points(n=6, size=0.1, z0=0.3, x0=0.0):
     return x
 
 
-def make_setup(x, material, boundaries=(), v=0.0, **options):
-    return SimSetup(x=x, v=v, p_vol=1e-6, body_id=0, materials=[material],
+def make_setup(x, material, boundaries=(), v=0.0, p_vol=1e-6, **options):
+    return SimSetup(x=x, v=v, p_vol=p_vol, body_id=0, materials=[material],
                     gravity=[0.0, 0.0, -G], domain_lo=[-1, -1, -1], domain_hi=[1, 1, 1],
                     frame_dt=1 / 30, boundaries=list(boundaries), options={"cells_across": 4, **options})
 
@@ -270,7 +270,10 @@ def test_metal_keeps_a_permanent_dent_where_jelly_springs_back():
     shape = {}
     for m in (Material("jelly", E=1e6, nu=0.3, rho=1000.0),
               Material("metal", E=1e6, nu=0.3, rho=1000.0, yield_stress=1e3)):
-        e = make_engine(make_setup(x, m, [Boundary("ground")], v=[0.0, 0.0, -3.0], cells_across=3))
+        # p_vol: each point stands for its (0.1 m / 6)^3 cube, so the block weighs rho (0.1 m)^3 = 1 kg
+        # (the engine simulates sum rho p_vol: with 1e-6 m^3 per point it would be 0.216 kg)
+        e = make_engine(make_setup(x, m, [Boundary("ground")], v=[0.0, 0.0, -3.0], p_vol=(0.1 / 6) ** 3,
+                                   cells_across=3))
         for _ in range(10):
             e.step_frame()
         p = e.positions()

@@ -101,8 +101,9 @@ class TaichiMPMEngine:
 
         dx = setup.dx
         n = len(setup.x)
-        # Points sorted by grid cell for memory locality; outputs go back to the setup order.
-        self._order = mpm.cell_order(setup.x, setup.domain_lo, dx, setup.n_grid)
+        # Points sorted by grid cell for memory locality (material points first, then the passive
+        # ones: G2P only); outputs go back to the setup order.
+        self._order, self.n_material = mpm.material_first_order(setup, dx)
         self._inverse = np.empty(n, np.int64)
         self._inverse[self._order] = np.arange(n)
         o = self._order
@@ -120,7 +121,7 @@ class TaichiMPMEngine:
             body=setup.body_id[o], fixed=fixed[o], jp0=jp0[o], params=params, kinds=kinds,
             n_grid=setup.n_grid, lo=setup.domain_lo, dx=dx, dt=self.dt, gravity=setup.gravity,
             walls=walls, grounds=grounds, regions=regions, real=real,
-            n_chunks=threads or 1, atomic=atomic, **self._extras(setup))
+            n_chunks=threads or 1, atomic=atomic, n_material=self.n_material, **self._extras(setup))
         self._p2g_mode = "atomic" if atomic else f"private grids x{self.solver.n_chunks}"
         self.frame = 0
         self._x = setup.x.astype(np.float32 if real == ti.f32 else np.float64)
@@ -232,7 +233,10 @@ class TaichiMPMEngine:
         self._v = s.get(s.v)[self._inverse]
 
     def stats(self) -> dict[str, Any]:
-        """``device, precision, n_points, dt, n_substeps, n_grid, threads`` and ``dx``, ``p2g``, ``frame``."""
+        """``device, precision, n_points, dt, n_substeps, n_grid, threads`` and ``dx``, ``p2g``, ``frame``,
+        ``n_passive``, ``mass`` (kg), ``centre_of_mass`` (m), ``inertia`` (kg m^2)."""
+        n = len(self.setup.x)
+        live = not self._closed and self._gen == _generation
         return {
             "device": self.options["device"],
             "precision": self.options["precision"],
@@ -244,6 +248,10 @@ class TaichiMPMEngine:
             "threads": self.threads,
             "p2g": self._p2g_mode,
             "frame": self.frame,
+            "n_passive": int(n - self.n_material),
+            # mass as the solver holds it (its p_mass field, solver order)
+            **(mpm.engine_mass_stats(self.solver.get(self.solver.x), self.solver.get(self.solver.p_mass))
+               if live else {}),
         }
 
     def close(self) -> None:

@@ -103,12 +103,20 @@ class MPMSolver:
         Number of private grid copies / point chunks (CPU threads); ignored with ``atomic``.
     atomic : bool
         Scatter with atomics into one grid copy and visit the whole grid (CUDA).
+    n_material : int, optional
+        Points ``[:n_material]`` are material points; the rest (``SimSetup.passive``) are passive:
+        G2P only (velocity and position from the grid), no P2G, stress, ``F`` or ``C``. Default all
+        are material. Their touched-node box is added to their chunk's box, so the grid update
+        visits every node they read.
     """
 
     def __init__(self, *, x, v, C0, p_mass, p_vol, body, fixed, jp0, params, kinds, n_grid, lo, dx, dt,
-                 gravity, walls, grounds, regions, real, n_chunks, atomic, extras=None, time_table=None, n_substeps=1):
+                 gravity, walls, grounds, regions, real, n_chunks, atomic, extras=None, time_table=None, n_substeps=1,
+                 n_material=None):
         n = len(x)
         self.n = n
+        self.n_material = n if n_material is None else int(n_material)
+        self.has_passive = self.n_material < n
         # Field sizes are rounded up so that Taichi's offline cache (keyed on the kernel IR and
         # the field layout) is hit by scenes of similar size; the live count is a field.
         cap = max(1024, 1 << (n - 1).bit_length())
@@ -137,11 +145,17 @@ class MPMSolver:
         ng = self.n_grid
         self.grid_acc = ti.Vector.field(4, real, shape=(self.n_chunks, ng, ng, ng))
         self.grid_v = ti.Vector.field(3, real, shape=(ng, ng, ng))
+        # node mass of the last grid update, read by the passive points' G2P (only with passive points)
+        self.grid_m = ti.field(real, shape=(ng, ng, ng) if self.has_passive else (1, 1, 1))
         self.box = ti.Vector.field(3, ti.i32, shape=(self.n_chunks, 2))  # touched node box per chunk
         self.n_out = ti.field(ti.i32, shape=())  # out-of-grid point-substeps since last reset
         self.n_points = ti.field(ti.i32, shape=())
         self.chunk_lo = ti.field(ti.i32, shape=self.n_chunks)
         self.chunk_hi = ti.field(ti.i32, shape=self.n_chunks)
+        self.n_total = ti.field(ti.i32, shape=())
+        self.pchunk_lo = ti.field(ti.i32, shape=self.n_chunks)   # passive points of each chunk
+        self.pchunk_hi = ti.field(ti.i32, shape=self.n_chunks)
+        self.pbox = ti.Vector.field(3, ti.i32, shape=(self.n_chunks, 2))  # passive points' node box
         # scalars: dt, dx, inv_dx; vectors: lo, gravity
         self.sc = ti.field(real, shape=3)
         self.lo = ti.Vector.field(3, real, shape=())
@@ -177,7 +191,8 @@ class MPMSolver:
         put(self.fixed, fixed, np.int8)
         put(self.kind, kinds, np.int32)
         put(self.mat, params, np_real)
-        self.n_points[None] = n
+        self.n_points[None] = self.n_material
+        self.n_total[None] = n
         self.sc.from_numpy(np.array([dt, dx, 1.0 / dx], np_real))
         self.lo[None] = [float(a) for a in lo]
         self.gravity[None] = [float(a) for a in gravity]
@@ -192,11 +207,16 @@ class MPMSolver:
             self.reg_hi[i] = rhi
         self.grid_acc.fill(0)
         self.grid_v.fill(0)
-        bounds = np.linspace(0, n, self.n_chunks + 1).round().astype(np.int32)
+        bounds = np.linspace(0, self.n_material, self.n_chunks + 1).round().astype(np.int32)
         self.chunk_lo.from_numpy(bounds[:-1].copy())
         self.chunk_hi.from_numpy(bounds[1:].copy())
+        pb = np.linspace(self.n_material, n, self.n_chunks + 1).round().astype(np.int32)
+        self.pchunk_lo.from_numpy(pb[:-1].copy())
+        self.pchunk_hi.from_numpy(pb[1:].copy())
         self._init_box()
         self._setup_extras(extras, time_table, np_real, n_substeps)
+        if self.has_passive:
+            self.passive_box()
 
     def get(self, field) -> np.ndarray:
         """A particle field as NumPy, first ``n`` rows (solver order)."""
@@ -210,13 +230,21 @@ class MPMSolver:
 
     # ------------------------------------------------------------------ driver
     def substeps(self, n_substeps: int) -> None:
-        """Advance ``n_substeps`` substeps (P2G, grid update, G2P each), no host sync in between."""
+        """Advance ``n_substeps`` substeps (P2G, grid update, G2P each), no host sync in between.
+
+        Passive points (``n_material < n``) are moved after every grid update, by the grid velocity
+        that already holds the forces, colliders and boundaries, so they follow the material and
+        respect what it respects; they add nothing to the grid."""
         self.g2p_p2g(0)
         for s in range(n_substeps - 1):
             self.grid_update()
+            if self.has_passive:
+                self.g2p_passive()
             self.g2p_p2g(1)
         self.grid_update()
         self.g2p()
+        if self.has_passive:
+            self.g2p_passive()
 
     def substeps_with_extras(self, n_substeps: int) -> None:
         """:meth:`substeps` with colliders, forces and impulses: the frame's table loaded, the substep index set."""
@@ -225,10 +253,14 @@ class MPMSolver:
         self.g2p_p2g(0)
         for s in range(n_substeps - 1):
             self.grid_update()
+            if self.has_passive:
+                self.g2p_passive()
             self.ex_step[None] = s + 1
             self.g2p_p2g(1)
         self.grid_update()
         self.g2p()
+        if self.has_passive:
+            self.g2p_passive()
 
     # ------------------------------------------------------------------ colliders, forces, impulses
     def _setup_extras(self, ex, time_table, np_real, n_substeps) -> None:
@@ -644,12 +676,76 @@ class MPMSolver:
             for t in range(self.n_chunks):
                 bmin = ti.Vector([self.n_grid, self.n_grid, self.n_grid])
                 bmax = ti.Vector([-1, -1, -1])
+                if ti.static(self.has_passive):   # nodes the passive points will read
+                    bmin = self.pbox[t, 0]
+                    bmax = self.pbox[t, 1]
                 for p in range(self.chunk_lo[t], self.chunk_hi[t]):
                     if with_g2p:
                         self._g2p_point(p)
                     bmin, bmax = self._p2g_point(p, t, bmin, bmax)
                 self.box[t, 0] = bmin
                 self.box[t, 1] = bmax
+
+    @ti.func
+    def _g2p_passive_point(self, p):
+        """A passive point: velocity and position from the grid, nothing else (no C, F, P2G).
+
+        Only nodes that received mass count, with the weights renormalised over them: a surface
+        point half a spacing outside the material sees empty nodes (velocity 0, not the material's)
+        in its stencil, which would hold it back. Inside the material this is plain G2P."""
+        base, fx, ok = self._base_fx(self.x[p])
+        if not ok:
+            ti.atomic_add(self.n_out[None], 1)
+        else:
+            w = self._weights(fx)
+            new_v = ti.Vector.zero(self.real, 3)
+            wsum = ti.cast(0.0, self.real)
+            for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
+                node = base + ti.Vector([i, j, k])
+                if self.grid_m[node] > 0.0:
+                    wn = w[i][0] * w[j][1] * w[k][2]
+                    new_v += wn * self.grid_v[node]
+                    wsum += wn
+            if wsum > 0.0:
+                new_v /= wsum
+            if ti.static(self.any_fixed):
+                if self.fixed[p] != 0:
+                    new_v = ti.Vector.zero(self.real, 3)
+            self.v[p] = new_v
+            self.x[p] += self.sc[0] * new_v
+
+    @ti.func
+    def _passive_chunk(self, t, move: ti.template()):
+        """(G2P and) the node box of chunk t's passive points, for the next grid update."""
+        bmin = ti.Vector([self.n_grid, self.n_grid, self.n_grid])
+        bmax = ti.Vector([-1, -1, -1])
+        for p in range(self.pchunk_lo[t], self.pchunk_hi[t]):
+            if ti.static(move):
+                self._g2p_passive_point(p)
+            base, _fx, ok = self._base_fx(self.x[p])
+            if ok:
+                bmin = ti.min(bmin, base)
+                bmax = ti.max(bmax, base + 2)
+        self.pbox[t, 0] = bmin
+        self.pbox[t, 1] = bmax
+
+    @ti.kernel
+    def g2p_passive(self):
+        """G2P of the passive points (and, on private grids, their node box for the next grid update)."""
+        if ti.static(self.atomic):
+            for p in range(self.n_points[None], self.n_total[None]):
+                self._g2p_passive_point(p)
+        else:
+            ti.loop_config(block_dim=1)
+            for t in range(self.n_chunks):
+                self._passive_chunk(t, True)
+
+    @ti.kernel
+    def passive_box(self):
+        """The passive points' node box per chunk, at the start."""
+        ti.loop_config(block_dim=1)
+        for t in range(self.n_chunks):
+            self._passive_chunk(t, False)
 
     @ti.func
     def _friction(self, v, d: ti.template(), sign: ti.template(), mu_b):
@@ -706,6 +802,8 @@ class MPMSolver:
                     if (I >= self.reg_lo[b]).all() and (I <= self.reg_hi[b]).all():
                         v = ti.Vector.zero(self.real, 3)
             self.grid_v[I] = v
+            if ti.static(self.has_passive):
+                self.grid_m[I] = acc[3]
 
     @ti.kernel
     def reset_out(self):

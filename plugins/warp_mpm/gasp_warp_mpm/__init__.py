@@ -24,7 +24,7 @@ CAPABILITIES = Capabilities(
     precisions=frozenset({"f32", "f64"}),
     deterministic=frozenset({"cpu"}),
     features=frozenset({"grid", "initial_C", "state", "static_colliders", "moving_colliders", "impulse", "wind",
-                        "attractors"}),
+                        "attractors", "passive_points"}),
 )
 
 #: The grid-engine options of ``gasp_core.mpm`` (``device``: "cpu", "cuda" or "cuda:N", Warp's device

@@ -36,7 +36,7 @@ def build_kernels(Ft):
     Returns
     -------
     types.SimpleNamespace
-        ``vec3, vec4, mat33`` (types) and the kernels ``p2g, grid_update, g2p, check``.
+        ``vec3, vec4, mat33`` (types) and the kernels ``p2g, grid_update, g2p, g2p_passive, check``.
     """
     import types
 
@@ -357,16 +357,19 @@ def build_kernels(Ft):
 
     @wp.kernel(enable_backward=False, module="unique", module_options=_OPTS)
     def grid_update(
-        grid_mv: wp.array(dtype=vec4), grid_vel: wp.array(dtype=vec3),
+        grid_mv: wp.array(dtype=vec4), grid_vel: wp.array(dtype=vec3), grid_m: wp.array(dtype=Ft),
         gravity: vec3, lo: vec3, hi: vec3, dx: Ft, dt: Ft, n_grid: int,
         wall_mu: wp.array(dtype=Ft), ground: wp.array(dtype=vec3),
         fixed_lo: wp.array(dtype=vec3), fixed_hi: wp.array(dtype=vec3),
         has_extras: int, ex: Extras,
     ):
-        # ground[g] = (height, friction, unused)
+        # ground[g] = (height, friction, unused); grid_m (node mass, for passive points) has
+        # one entry per node when the setup has passive points, else one unused entry
         node = wp.tid()
         g = grid_mv[node]
         m = g[3]
+        if grid_m.shape[0] > 1:
+            grid_m[node] = m
         out = vec3(Ft(0.0))
         if m > Ft(0.0):
             vel = vec3(g[0], g[1], g[2]) / m + dt * gravity
@@ -464,6 +467,45 @@ def build_kernels(Ft):
         x[p] = xp + dt * new_v
 
     @wp.kernel(enable_backward=False, module="unique", module_options=_OPTS)
+    def g2p_passive(
+        x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), fixed: wp.array(dtype=wp.int32),
+        grid_vel: wp.array(dtype=vec3), grid_m: wp.array(dtype=Ft), flags: wp.array(dtype=wp.int32),
+        lo: vec3, inv_dx: Ft, dt: Ft, n_grid: int, first: int,
+    ):
+        # Passive points (rows first..): velocity and position from the grid only (no C, F, P2G).
+        # Only nodes with mass count, weights renormalised over them: a surface point outside the
+        # material would otherwise be held back by the empty nodes' zero velocity.
+        p = first + wp.tid()
+        if fixed[p] != 0:
+            v[p] = vec3(Ft(0.0))
+            return
+        xp = x[p]
+        X = (xp - lo) * inv_dx
+        if not in_grid(X, n_grid):
+            wp.atomic_add(flags, 0, 1)
+            return
+        b0 = wp.floor(X[0] - Ft(0.5))
+        b1 = wp.floor(X[1] - Ft(0.5))
+        b2 = wp.floor(X[2] - Ft(0.5))
+        W = weights(X - vec3(b0, b1, b2))
+        nn = n_grid * n_grid
+        idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
+        new_v = vec3(Ft(0.0))
+        wsum = Ft(0.0)
+        for i in range(3):
+            for j in range(3):
+                row = idx0 + i * nn + j * n_grid
+                for k in range(3):
+                    if grid_m[row + k] > Ft(0.0):
+                        w = W[i, 0] * W[j, 1] * W[k, 2]
+                        new_v = new_v + w * grid_vel[row + k]
+                        wsum = wsum + w
+        if wsum > Ft(0.0):
+            new_v = new_v / wsum
+        v[p] = new_v
+        x[p] = xp + dt * new_v
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=_OPTS)
     def check(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), flags: wp.array(dtype=wp.int32)):
         # flags[1] counts points whose x or v is not finite.
         p = wp.tid()
@@ -498,4 +540,4 @@ def build_kernels(Ft):
         return U.numpy(), sig.numpy(), V.numpy()
 
     return types.SimpleNamespace(vec3=vec3, vec4=vec4, mat33=mat33, p2g=p2g, Extras=Extras, tick=tick,
-                                 grid_update=grid_update, g2p=g2p, check=check, svd=svd)
+                                 grid_update=grid_update, g2p=g2p, g2p_passive=g2p_passive, check=check, svd=svd)

@@ -139,7 +139,8 @@ class WarpMPMEngine:
 
         # Sort points by grid cell (cache locality of scatter and gather); order[i] is the
         # setup index of internal point i.
-        order = self._cell_order(setup.x) if n else np.zeros(0, dtype=np.int64)
+        # Material points first, then the passive ones (SimSetup.passive: G2P only, no P2G).
+        order, self.n_material = mpm.material_first_order(setup, self.dx)
         self._order = order
         jp0 = mpm.initial_Jp(setup.materials, setup.body_id)
         d, dt_np = self.device, self._np_dtype
@@ -163,6 +164,8 @@ class WarpMPMEngine:
         n_nodes = self.n_grid ** 3
         self.grid_mv = wp.zeros(n_nodes, dtype=k.vec4, device=d)
         self.grid_vel = wp.zeros(n_nodes, dtype=k.vec3, device=d)
+        n_passive = n - self.n_material
+        self.grid_m = wp.zeros(n_nodes if n_passive else 1, dtype=Ft, device=d)   # node mass (passive G2P)
         self.flags = wp.zeros(2, dtype=wp.int32, device=d)  # [out-of-grid count, non-finite count]
         self.wall_mu = arr(np.array(wall_mu, dtype=dt_np), Ft)
         self.ground = arr(np.array(ground, dtype=dt_np).reshape(-1, 3), k.vec3)
@@ -177,15 +180,19 @@ class WarpMPMEngine:
         self._launches = []
         if n:
             self._launches = [
-                wp.launch(k.p2g, dim=n, device=d, record_cmd=True, inputs=[
+                wp.launch(k.p2g, dim=self.n_material, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.F, self.C, self.Jp, self.p_mass, self.p_vol, self.body,
                     self.mat_kind, self.mat_par, self.grid_mv, self.flags, lo_v, inv_dx, dx, dt_f, ng]),
                 wp.launch(k.grid_update, dim=n_nodes, device=d, record_cmd=True, inputs=[
-                    self.grid_mv, self.grid_vel, g_v, lo_v, hi_v, dx, dt_f, ng, self.wall_mu,
+                    self.grid_mv, self.grid_vel, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, self.wall_mu,
                     self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex]),
-                wp.launch(k.g2p, dim=n, device=d, record_cmd=True, inputs=[
+                wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.fixed, self.grid_vel, lo_v, inv_dx, dt_f, ng]),
             ]
+            if n_passive:   # after the grid update: the grid velocity holds forces, colliders, boundaries
+                self._launches.append(wp.launch(k.g2p_passive, dim=n_passive, device=d, record_cmd=True, inputs=[
+                    self.x, self.v, self.fixed, self.grid_vel, self.grid_m, self.flags, lo_v, inv_dx, dt_f, ng,
+                    self.n_material]))
             if has_extras:
                 self._launches.append(wp.launch(k.tick, dim=1, device=d, record_cmd=True, inputs=[ex.step]))
             self._check_launch = wp.launch(k.check, dim=n, device=d, record_cmd=True,
@@ -226,7 +233,9 @@ class WarpMPMEngine:
 
     def _resort(self) -> None:
         """Re-sort the points by cell (CPU only: the arrays are host memory, numpy views)."""
-        perm = self._cell_order(self.x.numpy())
+        x = self.x.numpy()
+        m = self.n_material
+        perm = np.concatenate([self._cell_order(x[:m]), m + self._cell_order(x[m:])])
         if np.array_equal(perm, np.arange(self.n_points)):
             return
         for a in (self.x, self.v, self.F, self.C, self.Jp, self.p_mass, self.p_vol, self.body, self.fixed):
@@ -329,17 +338,19 @@ class WarpMPMEngine:
 
     def stats(self) -> dict[str, Any]:
         """``device, precision, n_points, dt`` (s), ``n_substeps`` (per frame), ``n_grid``, ``dx`` (m),
-        ``frame``, ``sim_time`` (s)."""
+        ``frame``, ``sim_time`` (s), ``n_passive``, ``mass`` (kg), ``centre_of_mass`` (m), ``inertia`` (kg m^2)."""
         return {"device": str(self.device), "precision": self.precision, "n_points": self.n_points,
                 "dt": self.dt, "n_substeps": self.n_substeps, "n_grid": self.n_grid, "dx": self.dx,
-                "frame": self.frame, "sim_time": self.sim_time}
+                "frame": self.frame, "sim_time": self.sim_time, "n_passive": self.n_points - self.n_material,
+                # as the engine's arrays hold it (not after close)
+                **({} if self._closed else mpm.engine_mass_stats(self.x.numpy(), self.p_mass.numpy()))}
 
     def close(self) -> None:
         """Release the Warp arrays and the CUDA graph."""
         self._graph = None
         self._launches = []
         self._check_launch = None
-        for name in ("x", "v", "F", "C", "Jp", "p_mass", "p_vol", "body", "fixed", "grid_mv", "grid_vel"):
+        for name in ("x", "v", "F", "C", "Jp", "p_mass", "p_vol", "body", "fixed", "grid_mv", "grid_vel", "grid_m"):
             if hasattr(self, name):
                 setattr(self, name, None)
         self._closed = True

@@ -1,0 +1,92 @@
+"""Passive surface points (``SimSetup.passive``, ``surface = "passive"``): the core's MLS embedding,
+the setup's checks, and engines carrying passive points in free fall (a known answer: a body in free
+fall moves rigidly, so a massless point on it falls with it, ``1/2 g t^2``)."""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from gasp_core.engine import Material, SceneError, SimSetup, build_engine
+from gasp_core.passive import EmbeddedEngine, mls_embedding
+from gasp_core.plugins import engines
+from gasp_core.testing.helpers import box_points
+
+G = 9.81
+JELLY = Material("jelly", E=1e5, nu=0.3, rho=500.0)
+
+
+def test_mls_embedding_reproduces_affine_motion():
+    """A linear MLS basis reproduces affine fields: any affine map of the anchors moves the embedded
+    points by the same map, to rounding."""
+    rng = np.random.default_rng(0)
+    anchors = rng.uniform(-1, 1, size=(400, 3))
+    points = rng.uniform(-0.9, 0.9, size=(50, 3))
+    idx, phi = mls_embedding(points, anchors)
+    np.testing.assert_allclose(phi.sum(axis=1), 1.0, atol=1e-12)
+    np.testing.assert_allclose(np.einsum("mk,mkj->mj", phi, anchors[idx]), points, atol=1e-9)
+    A = np.array([[1.1, 0.2, -0.1], [0.0, 0.9, 0.3], [0.05, -0.2, 1.2]])
+    b = np.array([0.3, -0.1, 2.0])
+    moved = anchors @ A.T + b
+    np.testing.assert_allclose(np.einsum("mk,mkj->mj", phi, moved[idx]), points @ A.T + b, atol=1e-9)
+
+
+def block_with_skin(n_grid=24):
+    """A jelly block of material points at dx/2 spacing and passive points on its top face."""
+    dx = 1.0 / n_grid
+    x, p_vol = box_points([0.4, 0.4, 0.5], [0.6, 0.6, 0.7], dx / 2)
+    g = np.linspace(0.41, 0.59, 7)
+    top = np.stack(np.meshgrid(g, g, [0.7], indexing="ij"), -1).reshape(-1, 3)
+    xs = np.concatenate([top, x])
+    vol = np.concatenate([np.zeros(len(top)), np.full(len(x), p_vol)])
+    passive = np.r_[np.ones(len(top), bool), np.zeros(len(x), bool)]
+    return SimSetup(x=xs, v=0.0, p_vol=vol, body_id=0, materials=[JELLY], gravity=[0, 0, -G],
+                    domain_lo=np.zeros(3), domain_hi=np.ones(3), n_grid=n_grid, frame_dt=1 / 30,
+                    n_render=len(top), passive=passive)
+
+
+def test_setup_checks_passive_rows():
+    s = block_with_skin()
+    assert s.n_passive == 49 and s.material_mask.sum() == len(s.x) - 49
+    with pytest.raises(SceneError, match="passive rows .* must have volume 0"):
+        dataclasses.replace(s, p_vol=np.where(s.passive, 1e-6, s.p_vol))
+    with pytest.raises(SceneError, match="only rendered rows"):
+        dataclasses.replace(s, n_render=10)
+    with pytest.raises(SceneError, match="every point is passive"):
+        dataclasses.replace(s, p_vol=np.zeros(len(s.x)), passive=np.ones(len(s.x), bool), n_render=len(s.x))
+
+
+def _engine_names():
+    return [n for n, i in engines().items() if i.unavailable_reason() is None and n in
+            ("taichi_mpm", "warp_mpm", "mujoco_flex")]
+
+
+@pytest.mark.parametrize("name", _engine_names())
+@pytest.mark.parametrize("own", [True, False], ids=["feature", "core_embedding"])
+def test_passive_points_fall_with_the_body(name, own):
+    """Free fall for 0.2 s: the passive points move like the material points (rigid translation,
+    ``1/2 g t^2``), to 1e-4 of the drop (f32 rounding of the positions); with ``own=False`` the
+    engine is registered without ``passive_points`` and the core embeds them."""
+    info = engines()[name]
+    if not own:
+        caps = dataclasses.replace(info.capabilities, features=info.capabilities.features - {"passive_points"})
+        info = dataclasses.replace(info, capabilities=caps)
+    s = block_with_skin()
+    if name != "mujoco_flex":
+        s.options = {"threads": 1}
+    e = build_engine(info, s)
+    try:
+        assert isinstance(e, EmbeddedEngine) is (not own)
+        st = e.stats()
+        np.testing.assert_allclose(st["mass"], JELLY.rho * s.p_vol.sum(), rtol=1e-6)
+        x0 = e.positions().astype(np.float64)
+        for _ in range(6):
+            e.step_frame()
+        d = e.positions().astype(np.float64) - x0
+    finally:
+        e.close()
+    drop = 0.5 * G * 0.2 ** 2
+    mat = d[~s.passive].mean(axis=0)
+    assert abs(-mat[2] / drop - 1.0) < 0.02                       # the body fell (grid time stepping)
+    np.testing.assert_allclose(d[s.passive], np.broadcast_to(mat, (s.n_passive, 3)), atol=1e-4 * drop)
