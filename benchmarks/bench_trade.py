@@ -22,11 +22,12 @@ the same keys)::
 
 Usage::
 
-    python benchmarks/bench_trade.py                        # donut: all variants, 36 frames
-    python benchmarks/bench_trade.py --scene guitar --frames 20
+    python benchmarks/bench_trade.py                        # donut: the 'trade' set, 36 frames
+    python benchmarks/bench_trade.py --variants convergence --frames 12
+    python benchmarks/bench_trade.py --scene guitar --frames 10
     python benchmarks/bench_trade.py --variants full,passive --frames 10
 
-Writes ``benchmarks/results/bench_trade_<scene>.{json,md}``. All variants of one call run one
+Writes ``benchmarks/results/bench_trade_<scene>_<set>.{json,md}``. All variants of one call run one
 after another on the same machine, so their ratios come from one run; the machine's load is
 recorded before and after.
 """
@@ -50,15 +51,24 @@ ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
 SCENES = {"donut": ROOT / "examples" / "donut_jelly.toml", "guitar": ROOT / "examples" / "guitar_sand.toml"}
 
-#: variant name -> (object keys, domain keys). The last one is the reference (finest grid).
+#: variant name -> (object keys, domain keys).
 VARIANTS: dict[str, tuple[dict, dict]] = {
     "full": ({"surface": "material", "core_fraction": 1.0}, {}),
     "passive": ({"surface": "passive"}, {}),
     "core0.5": ({"surface": "material", "core_fraction": 0.5}, {}),
     "core0.2": ({"surface": "material", "core_fraction": 0.2}, {}),
     "passive_core0.2": ({"surface": "passive", "core_fraction": 0.2}, {}),
-    "passive_g96": ({"surface": "passive"}, {"n_grid": 96}),
-    "ref": ({"surface": "passive"}, {"n_grid": 128}),
+    # the grid sequence of one model, for the convergence check (errors against the finest)
+    "passive_core0.2_g48": ({"surface": "passive", "core_fraction": 0.2}, {"n_grid": 48}),
+    "passive_core0.2_g96": ({"surface": "passive", "core_fraction": 0.2}, {"n_grid": 96}),
+    "passive_core0.2_g128": ({"surface": "passive", "core_fraction": 0.2}, {"n_grid": 128}),
+    "full_g96": ({"surface": "material", "core_fraction": 1.0}, {"n_grid": 96}),
+}
+#: what a call runs unless ``--variants`` says otherwise
+SETS = {
+    "trade": ["full", "passive", "core0.5", "core0.2", "passive_core0.2"],
+    "convergence": ["passive_core0.2_g48", "passive_core0.2", "passive_core0.2_g96", "passive_core0.2_g128",
+                    "full", "passive", "core0.2"],
 }
 
 
@@ -100,10 +110,13 @@ def dump_toml(doc: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def variant_scene(src: Path, obj_keys: dict, domain_keys: dict, n_frames: int, dst: Path) -> Path:
+def variant_scene(src: Path, obj_keys: dict, domain_keys: dict, n_frames: int, dst: Path,
+                  options: dict | None = None) -> Path:
     """Write the scene ``src`` with the variant's keys to ``dst`` (object files made absolute)."""
     doc = tomllib.loads(src.read_text())
     doc["n_frames"] = n_frames
+    if options:
+        doc.setdefault("engine", {}).setdefault("options", {}).update(options)
     doc.setdefault("domain", {}).update(domain_keys)
     for o in doc.get("object", []):
         o["file"] = str((src.parent / o["file"]).resolve())
@@ -129,7 +142,9 @@ def error(a: np.ndarray, b: np.ndarray, size: float) -> dict:
     """Worst frame's mean / max distance between the same Gaussians, as fractions of ``size``."""
     n = min(len(a), len(b))
     d = np.linalg.norm(a[:n] - b[:n], axis=2)
-    return {"mean": float(d.mean(axis=1).max() / size), "max": float(d.max() / size), "frames": n}
+    per_frame = d.mean(axis=1) / size
+    return {"mean": float(per_frame.max()), "max": float(d.max() / size), "frames": n,
+            "per_frame_mean": [round(float(e), 6) for e in per_frame]}
 
 
 def run_variant(scene: Path, out: Path, timeout_s: float) -> dict:
@@ -145,7 +160,7 @@ def run_variant(scene: Path, out: Path, timeout_s: float) -> dict:
     rec.update(prepare_s=s["prepare_s"], build_s=s["build_s"], run_wall_s=s["wall_s"],
                n_points=s["n_points"], n_render_points=s["n_render_points"],
                n_substeps=s["engine_stats"].get("n_substeps"), n_grid=s["domain"]["n_grid"],
-               mass_kg=s["engine_stats"].get("mass_kg"),
+               mass_kg=s["engine_stats"].get("mass"),
                n_fill_points=sum(o["n_fill_points"] for o in s["objects"]),
                n_gaussians=sum(o["n_gaussians"] for o in s["objects"]))
     return rec
@@ -155,13 +170,18 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--scene", choices=sorted(SCENES), default="donut")
     ap.add_argument("--frames", type=int, default=None, help="frames per run (default: the scene's)")
-    ap.add_argument("--variants", default=",".join(VARIANTS), help="comma-separated, from " + ", ".join(VARIANTS))
+    ap.add_argument("--variants", default="trade", help=f"a set ({', '.join(SETS)}) or comma-separated names from "
+                    + ", ".join(VARIANTS))
+    ap.add_argument("--tag", default=None, help="results file suffix (default: the set's name, or 'custom')")
+    ap.add_argument("--threads", type=int, default=None, help="engine option 'threads' for every run "
+                    "(default: the engine's; 1 keeps runs comparable on a machine shared with other work)")
     ap.add_argument("--timeout", type=float, default=3600.0, help="seconds per run")
     ap.add_argument("--keep", type=Path, default=None, help="keep the run folders here")
     args = ap.parse_args(argv)
     src = SCENES[args.scene]
     n_frames = args.frames or tomllib.loads(src.read_text())["n_frames"]
-    names = [v.strip() for v in args.variants.split(",") if v.strip()]
+    names = SETS.get(args.variants) or [v.strip() for v in args.variants.split(",") if v.strip()]
+    tag = args.tag or (args.variants if args.variants in SETS else "custom")
     bad = [v for v in names if v not in VARIANTS]
     if bad:
         ap.error(f"--variants: unknown {bad}; known: {list(VARIANTS)}")
@@ -173,7 +193,8 @@ def main(argv=None) -> int:
     try:
         for name in names:
             obj_keys, dom_keys = VARIANTS[name]
-            scene = variant_scene(src, obj_keys, dom_keys, n_frames, work / f"{name}.toml")
+            scene = variant_scene(src, obj_keys, dom_keys, n_frames, work / f"{name}.toml",
+                                  {"threads": args.threads} if args.threads else None)
             out = (args.keep or work) / name
             print(f"[bench_trade] {args.scene} {name} ...", flush=True)
             rec = run_variant(scene, out, args.timeout)
@@ -187,9 +208,10 @@ def main(argv=None) -> int:
             load.append(os.getloadavg()[0])
     finally:
         shutil.rmtree(work, ignore_errors=True)
-    finest = [n for n in names if n in means and VARIANTS[n][1].get("n_grid")]
-    finest.sort(key=lambda n: VARIANTS[n][1]["n_grid"])
-    ref = finest[-1] if finest else None
+    # the reference: the finest grid run (the scene's n_grid where a variant does not set it)
+    base_grid = tomllib.loads(src.read_text()).get("domain", {}).get("n_grid", 64)
+    grids = {n: VARIANTS[n][1].get("n_grid", base_grid) for n in names if n in means}
+    ref = max(grids, key=grids.get) if grids and len(set(grids.values())) > 1 else None
     for name, rec in rows.items():
         if name not in means:
             continue
@@ -198,11 +220,11 @@ def main(argv=None) -> int:
             rec["speedup_vs_full"] = rows["full"]["process_wall_s"] / rec["process_wall_s"]
         if ref:
             rec["err_vs_ref"] = error(means[name], means[ref], size)
-    doc = {"scene": str(src.relative_to(ROOT)), "n_frames": n_frames, "object_size_m": size, "reference": ref,
+    doc = {"scene": str(src.relative_to(ROOT)), "n_frames": n_frames, "threads": args.threads, "object_size_m": size, "reference": ref,
            "machine": f"{platform.platform()}, {os.cpu_count()} CPUs, Python {platform.python_version()}",
            "load_avg_1min": load, "runs": rows}
     RESULTS.mkdir(parents=True, exist_ok=True)
-    stem = RESULTS / f"bench_trade_{args.scene}"
+    stem = RESULTS / f"bench_trade_{args.scene}_{tag}"
     tmp = stem.with_suffix(".json.tmp")
     tmp.write_text(json.dumps(doc, indent=1))
     os.replace(tmp, stem.with_suffix(".json"))
@@ -220,7 +242,7 @@ def _pct(e: dict | None, key: str = "mean") -> str:
 def report(doc: dict) -> str:
     ref = doc["reference"]
     out = [f"# End-to-end trade on `{doc['scene']}` (benchmarks/bench_trade.py)", "",
-           f"{doc['n_frames']} frames; object size {doc['object_size_m'] or float('nan'):.3f} m; {doc['machine']}; "
+           f"{doc['n_frames']} frames; engine threads {doc.get('threads') or 'default'}; object size {doc['object_size_m'] or float('nan'):.3f} m; {doc['machine']}; "
            f"1-min load average during the runs {min(doc['load_avg_1min']):.1f}-{max(doc['load_avg_1min']):.1f}.",
            "`wall` is the whole `gasp simulate` process (start-up, read, fill, hierarchy, build, frames, writes). "
            "Errors: the worst frame's mean distance between the same Gaussians' means, / object size "
@@ -236,7 +258,46 @@ def report(doc: dict) -> str:
                    f"{r['build_s']:.1f} | {r['process_wall_s']:.1f} | {r.get('speedup_vs_full', float('nan')):.2f} | "
                    f"{_pct(r.get('err_vs_full'))} ({_pct(r.get('err_vs_full'), 'max')}) | "
                    f"{_pct(r.get('err_vs_ref'))} ({_pct(r.get('err_vs_ref'), 'max')}) |")
+    conv = convergence(doc)
+    if conv:
+        out += ["", f"Convergence: errors against the finest grid (n_grid {conv['grids'][-1]}) fitted as "
+                f"`C (h^p - h_ref^p)` over the coarser grids {conv['grids'][:-1]}: order p = {conv['p']:.2f}; "
+                f"the finest grid's own error, `C h_ref^p`, is about {100 * conv['ref_error']:.2f} % of the size, and "
+                + ", ".join(f"n_grid {g}: {100 * e:.2f} %" for g, e in conv["exact_error"].items())
+                + " against the extrapolated converged answer."]
     return "\n".join(out) + "\n"
+
+
+def convergence(doc: dict) -> dict | None:
+    """Richardson-style fit of the grid sequence: ``e(g) = C (g^-p - g_ref^-p)`` (``h`` = 1/n_grid).
+
+    Needs three or more grids among the runs of the reference's model (its keys but ``n_grid``);
+    uses each run's ``err_vs_ref`` (worst frame's mean).
+    """
+    if not doc.get("reference"):
+        return None
+    model = {k: v for k, v in doc["runs"][doc["reference"]]["keys"].items() if k != "n_grid"}
+    pts = {}
+    for r in doc["runs"].values():
+        same = {k: v for k, v in r["keys"].items() if k != "n_grid"} == model
+        if same and r.get("returncode") == 0 and "err_vs_ref" in r:
+            pts[r["n_grid"]] = r["err_vs_ref"]["mean"]
+    if len(pts) < 3:
+        return None
+    grids = sorted(pts)
+    g_ref = grids[-1]
+    g = np.array(grids[:-1], float)
+    e = np.array([pts[k] for k in grids[:-1]])
+    best = None
+    for p in np.linspace(0.25, 4.0, 376):
+        basis = g ** -p - g_ref ** -p
+        C = float(basis @ e / (basis @ basis))
+        res = float(np.sum((C * basis - e) ** 2))
+        if best is None or res < best[0]:
+            best = (res, p, C)
+    _, p, C = best
+    return {"grids": grids, "p": float(p), "C": C, "ref_error": C * g_ref ** -p,
+            "exact_error": {int(k): C * k ** -p for k in grids}}
 
 
 if __name__ == "__main__":
