@@ -137,7 +137,9 @@ class MujocoFlexEngine:
                 continue
             xb = s.x[idx]
             ext = float(np.max(xb.max(0) - xb.min(0)))
-            h = float(o["cell_size"]) if o["cell_size"] is not None else max(ext, 1e-6) / float(o["cells_across"])
+            # by default no finer than the volume a point stands for (a single point: one cell of its volume)
+            h = (float(o["cell_size"]) if o["cell_size"] is not None else
+                 max(max(ext, 1e-6) / float(o["cells_across"]), float(np.mean(s.p_vol[idx])) ** (1.0 / 3.0)))
             pm = s.p_mass[idx]
             lat = build_lattice(xb, h)
             name = f"b{b}"
