@@ -137,9 +137,10 @@ class MujocoFlexEngine:
                 continue
             xb = s.x[idx]
             ext = float(np.max(xb.max(0) - xb.min(0)))
-            # by default no finer than the volume a point stands for (a single point: one cell of its volume)
-            h = (float(o["cell_size"]) if o["cell_size"] is not None else
-                 max(max(ext, 1e-6) / float(o["cells_across"]), float(np.mean(s.p_vol[idx])) ** (1.0 / 3.0)))
+            # the body's size is at least the side of the volume one point stands for (a single point
+            # had 1e-6 m / cells_across cells, with its real mass: millions of substeps a frame)
+            size = max(ext, float(np.mean(s.p_vol[idx])) ** (1.0 / 3.0), 1e-6)
+            h = float(o["cell_size"]) if o["cell_size"] is not None else size / float(o["cells_across"])
             pm = s.p_mass[idx]
             lat = build_lattice(xb, h)
             name = f"b{b}"
