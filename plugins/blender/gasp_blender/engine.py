@@ -364,7 +364,22 @@ class BlenderSoftBodyEngine:
             "spring_k_clamped": [bool(b.k > K_MAX) for b in self.bodies],
             "step_min": self.options["step_min"], "step_max": self.options["step_max"],
             "blender": ".".join(map(str, self.bpy.app.version)),
+            **self._mass_properties(),
         }
+
+    def _mass_properties(self) -> dict[str, Any]:
+        """``mass`` (kg) and ``centre_of_mass`` (m) of the cage or sheet vertices Blender simulates,
+        at their rest positions (node masses as lumped, after Blender's 1 % floor); nothing in cloth
+        mode, whose sheet takes Blender's uniform vertex mass."""
+        if any(b.mass_kg is None for b in self.bodies):
+            return {}
+        m = [np.asarray(b.mass_kg, float) for b in self.bodies]
+        v = [b.cage.vertices if b.cage is not None else b.sheet.vertices for b in self.bodies]
+        total = float(sum(mi.sum() for mi in m))
+        if total <= 0.0:
+            return {}
+        com = sum(mi @ vi for mi, vi in zip(m, v)) / total
+        return {"mass": total, "centre_of_mass": [float(c) for c in com]}
 
     def close(self) -> None:
         """Empty the Blender scene (if this engine still owns it)."""
