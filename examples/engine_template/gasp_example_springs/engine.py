@@ -126,8 +126,11 @@ class SpringEngine:
         return self.v.copy()
 
     def stats(self) -> dict[str, Any]:
+        # mass and centre of mass as simulated: the conformance scene ``mass_agreement`` checks them
+        mass = float(self.m.sum())
         return {"device": "cpu", "precision": "f64", "n_points": len(self.x), "n_springs": len(self.i),
-                "n_substeps": self.n_substeps, "dt": self.dt}
+                "n_substeps": self.n_substeps, "dt": self.dt, "mass": mass,
+                "centre_of_mass": (self.m @ self.x / mass).tolist() if mass > 0 else None}
 
     def close(self) -> None:
         pass
