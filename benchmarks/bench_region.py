@@ -32,36 +32,11 @@ import time
 import tomllib
 from pathlib import Path
 
+import tomli_w  # pip install -e ".[studies]"
+
 ROOT = Path(__file__).resolve().parents[1]
 KITCHEN = ROOT / "examples" / "kitchen_spinach.toml"
 RESULTS = ROOT / "benchmarks" / "results"
-
-
-def toml_value(v) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, (int, float)):
-        return repr(v)
-    if isinstance(v, str):
-        return json.dumps(v)
-    if isinstance(v, list):
-        return "[" + ", ".join(toml_value(a) for a in v) + "]"
-    if isinstance(v, dict):
-        return "{ " + ", ".join(f"{k} = {toml_value(a)}" for k, a in v.items()) + " }"
-    raise TypeError(type(v))
-
-
-def dump_toml(data: dict) -> str:
-    """A scene dict as TOML (the shapes scene files use: scalars, tables, arrays of tables)."""
-    lines = [f"{k} = {toml_value(v)}" for k, v in data.items() if not isinstance(v, (dict, list))
-             or (isinstance(v, list) and not (v and isinstance(v[0], dict)))]
-    for k, v in data.items():
-        if isinstance(v, dict):
-            lines += [f"[{k}]"] + [f"{a} = {toml_value(b)}" for a, b in v.items()]
-        elif isinstance(v, list) and v and isinstance(v[0], dict):
-            for t in v:
-                lines += [f"[[{k}]]"] + [f"{a} = {toml_value(b)}" for a, b in t.items()]
-    return "\n".join(lines) + "\n"
 
 
 def cut_out(tmp: Path) -> tuple[Path, int]:
@@ -82,7 +57,7 @@ def cut_out(tmp: Path) -> tuple[Path, int]:
     # the same grid: the region's default domain, written out
     data["domain"] = dict(data["domain"], lo=prep.setup.domain_lo.tolist(), hi=prep.setup.domain_hi.tolist())
     path = tmp / "spinach_region.toml"
-    path.write_text(dump_toml(data))
+    path.write_text(tomli_w.dumps(data))
     return path, len(o.moving)
 
 

@@ -46,6 +46,7 @@ import tomllib
 from pathlib import Path
 
 import numpy as np
+import tomli_w  # pip install -e ".[studies]"
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
@@ -72,44 +73,6 @@ SETS = {
 }
 
 
-def _toml_value(v) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, (int, float)):
-        return repr(v)
-    if isinstance(v, str):
-        return json.dumps(v)
-    if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    raise TypeError(f"no TOML form for {v!r}")
-
-
-def dump_toml(doc: dict) -> str:
-    """TOML text of a scene document (scalars, arrays, tables, arrays of tables; two levels deep)."""
-    lines = [f"{k} = {_toml_value(v)}" for k, v in doc.items() if not isinstance(v, (dict, list)) or
-             (isinstance(v, list) and not (v and isinstance(v[0], dict)))]
-
-    def table(header: str, t: dict):
-        lines.append(f"\n{header}")
-        subs = []
-        for k, v in t.items():
-            if isinstance(v, dict):
-                subs.append((k, v))
-            else:
-                lines.append(f"{k} = {_toml_value(v)}")
-        return subs
-
-    for k, v in doc.items():
-        if isinstance(v, dict):
-            for sk, sv in table(f"[{k}]", v):
-                table(f"[{k}.{sk}]", sv)
-        elif isinstance(v, list) and v and isinstance(v[0], dict):
-            for item in v:
-                for sk, sv in table(f"[[{k}]]", item):
-                    table(f"[{k}.{sk}]", sv)
-    return "\n".join(lines) + "\n"
-
-
 def variant_scene(src: Path, obj_keys: dict, domain_keys: dict, n_frames: int, dst: Path,
                   options: dict | None = None) -> Path:
     """Write the scene ``src`` with the variant's keys to ``dst`` (object files made absolute)."""
@@ -121,7 +84,7 @@ def variant_scene(src: Path, obj_keys: dict, domain_keys: dict, n_frames: int, d
     for o in doc.get("object", []):
         o["file"] = str((src.parent / o["file"]).resolve())
         o.update(obj_keys)
-    dst.write_text(dump_toml(doc))
+    dst.write_text(tomli_w.dumps(doc))
     return dst
 
 
