@@ -413,8 +413,8 @@ CAUSE_DOMAIN = "points left the domain: add walls/ground or enlarge the domain"
 
 
 
-#: Conformance scenes the grid engines built on this toolkit fail (taichi_mpm and warp_mpm run the
-#: same algorithm, docs/mpm.md), each with the measured figures; engines copy them into
+#: Conformance scenes the grid engines built on this toolkit fail (they run the same algorithm,
+#: docs/mpm.md), each with the measured figures; engines copy them into
 #: ``EngineInfo.known_failures``.
 _CLAMP_OFF_GRID = ("clamp face 0.6 dx past a grid node: time-averaged tip deflection 30.83 mm vs Euler-Bernoulli "
                    "19.99 mm (+54%); with the face on a node 21.68 mm (+8.4%). Measured also: n_grid 28/48/64 (face "

@@ -167,7 +167,7 @@ def _run_declared_accepted(info: EngineInfo) -> list[Check]:
     xs, vols, ids = [], [], []
     # one block (1 x 1.6 x 1 cells) per material on a grid of columns x rows inside [0.25, 0.75]^2, so
     # every point is 4 cells or more from the domain's faces: an engine may keep a boundary band of a
-    # few cells (Genesis's MPM box is the domain less 3 dx on each side)
+    # few cells (an MPM box may be the domain less 3 dx on each side)
     cols = int(np.ceil(np.sqrt(len(mats))))
     rows = int(np.ceil(len(mats) / cols))
     size = np.array([DX, 0.1, DX])

@@ -749,17 +749,10 @@ class MPMSolver:
 
     @ti.func
     def _friction(self, v, d: ti.template(), sign: ti.template(), mu_b):
-        """taichi_elements' separate collider with Coulomb friction, normal ``sign * e_d``."""
-        vn = sign * v[d]
-        if vn < 0.0:
-            vt = v
-            vt[d] = 0.0
-            nt = vt.norm()
-            if nt > 1e-30:
-                v = vt * ti.max(0.0, 1.0 + mu_b * vn / nt)
-            else:
-                v = ti.Vector.zero(self.real, 3)
-        return v
+        """:meth:`_collide_n` with the axis normal ``sign * e_d`` (walls and grounds)."""
+        n = ti.Vector.zero(self.real, 3)
+        n[d] = sign
+        return self._collide_n(v, n, mu_b)
 
     @ti.kernel
     def grid_update(self):
