@@ -148,6 +148,51 @@ def substeps_from_options(setup, options: Mapping[str, Any], engine: str = "") -
     return n, dt
 
 
+#: Option of the grid engines with the feature ``passive_points`` (:func:`passive_schedule`).
+PASSIVE_EVERY = Option(
+    "passive_every", 1, "move passive points every this many substeps, by the grid velocity interpolated "
+    "linearly in time between updates (1: every substep, plain G2P)", kind="int", lo=1, hi=MAX_SUBSTEPS)
+
+
+def passive_schedule(n_substeps: int, every: int, dt: float) -> list[tuple[int, float, float]]:
+    """When a frame moves its passive points, and with which weights.
+
+    A passive point is carried by the grid velocity: with an update after every substep ``s``,
+    ``x += dt v_s`` (``v_s`` gathered at the point after the grid update of substep ``s``). Gathering
+    only every ``m`` substeps, the velocity between two gathers ``v_prev`` (substep ``s - m``, the
+    point's stored ``v``) and ``v_now`` (substep ``s``) is taken linear in the substep, which sums to
+
+        ``x += a v_prev + b v_now``,  ``a = dt (m - 1) / 2``,  ``b = dt (m + 1) / 2``
+
+    (``m = 1`` is the plain update: ``a = 0``, ``b = dt``). The error is second order in ``m dt``
+    where the grid velocity changes smoothly, and nothing crosses a frame: the last substep of every
+    frame updates, so frames are written and saved states resumed with every point in place.
+
+    Parameters
+    ----------
+    n_substeps : int
+        Substeps per frame (>= 1).
+    every : int
+        ``m``, the engine option ``passive_every`` (>= 1); cut to ``n_substeps``.
+    dt : float
+        Substep length, s.
+
+    Returns
+    -------
+    list of (int, float, float)
+        ``(s, a, b)`` per update: after the grid update of substep ``s`` (0-based), move by
+        ``a v_prev + b v_now`` (metres per m/s). At most two distinct ``(a, b)`` pairs occur.
+    """
+    every = max(1, min(int(every), int(n_substeps)))
+    out, last = [], -1
+    for s in range(n_substeps):
+        if (s + 1) % every == 0 or s == n_substeps - 1:
+            m = s - last
+            out.append((s, dt * (m - 1) / 2.0, dt * (m + 1) / 2.0))
+            last = s
+    return out
+
+
 def estimate_bytes(n_points: int, n_grid: int, precision: str, grid_copies: int = 1) -> int:
     """Memory an MLS-MPM engine allocates, bytes: particles (x, v, F, C, Jp, mass, volume, ids) and grid.
 

@@ -35,10 +35,11 @@ CAPABILITIES = Capabilities(
 )
 
 #: The grid-engine options of ``gasp_core.mpm`` (``device``: Taichi runs on the default CUDA device
-#: only, so "cpu" or "cuda") and ``threads``.
+#: only, so "cpu" or "cuda"), ``threads`` and ``passive_every``.
 OPTIONS = mpm_options(
     Option("threads", None, "CPU threads (Taichi's cpu_max_num_threads; default: all cores); a run "
-                            "repeats bit for bit for a fixed count", kind="int", lo=1))
+                            "repeats bit for bit for a fixed count", kind="int", lo=1),
+    mpm.PASSIVE_EVERY)
 
 
 def sweep(quick: bool) -> tuple[list[dict], dict]:

@@ -121,7 +121,8 @@ class TaichiMPMEngine:
             body=setup.body_id[o], fixed=fixed[o], jp0=jp0[o], params=params, kinds=kinds,
             n_grid=setup.n_grid, lo=setup.domain_lo, dx=dx, dt=self.dt, gravity=setup.gravity,
             walls=walls, grounds=grounds, regions=regions, real=real,
-            n_chunks=threads or 1, atomic=atomic, n_material=self.n_material, **self._extras(setup))
+            n_chunks=threads or 1, atomic=atomic, n_material=self.n_material,
+            passive_every=opt["passive_every"], **self._extras(setup))
         self._p2g_mode = "atomic" if atomic else f"private grids x{self.solver.n_chunks}"
         self.frame = 0
         self._x = setup.x.astype(np.float32 if real == ti.f32 else np.float64)

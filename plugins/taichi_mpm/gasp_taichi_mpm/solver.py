@@ -28,6 +28,7 @@ import numpy as np
 import taichi as ti
 
 # Material codes and the per-body parameter columns (``MPMSolver.mat``) are gasp_core.mpm's.
+from gasp_core import mpm
 from gasp_core.errors import SceneError
 from gasp_core.mpm import (JELLY, LIQUID, METAL, N_PARAMS, NEO_HOOKEAN, P_ALPHA, P_HARDENING, P_K,
                            P_LAM, P_MU, P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND,
@@ -112,7 +113,7 @@ class MPMSolver:
 
     def __init__(self, *, x, v, C0, p_mass, p_vol, body, fixed, jp0, params, kinds, n_grid, lo, dx, dt,
                  gravity, walls, grounds, regions, real, n_chunks, atomic, extras=None, time_table=None, n_substeps=1,
-                 n_material=None):
+                 n_material=None, passive_every=1):
         n = len(x)
         self.n = n
         self.n_material = n if n_material is None else int(n_material)
@@ -158,6 +159,8 @@ class MPMSolver:
         self.pbox = ti.Vector.field(3, ti.i32, shape=(self.n_chunks, 2))  # passive points' node box
         # scalars: dt, dx, inv_dx; vectors: lo, gravity
         self.sc = ti.field(real, shape=3)
+        # passive points' update weights (gasp_core.mpm.passive_schedule): [a, b] of a full interval, of the last
+        self.pab = ti.field(real, shape=4)
         self.lo = ti.Vector.field(3, real, shape=())
         self.gravity = ti.Vector.field(3, real, shape=())
         nb = 4
@@ -194,6 +197,8 @@ class MPMSolver:
         self.n_points[None] = self.n_material
         self.n_total[None] = n
         self.sc.from_numpy(np.array([dt, dx, 1.0 / dx], np_real))
+        self._passive_every = int(passive_every)
+        self._passive_plan: dict[int, list] = {}
         self.lo[None] = [float(a) for a in lo]
         self.gravity[None] = [float(a) for a in gravity]
         for i, (fr, _, hi_first) in enumerate(walls):
@@ -229,38 +234,55 @@ class MPMSolver:
         field.from_numpy(buf)
 
     # ------------------------------------------------------------------ driver
+    def _passive_at(self, n_substeps: int) -> list:
+        """Per substep of a frame: None, or which weight pair (0 full interval, 1 last) moves the passive
+        points after its grid update (:func:`gasp_core.mpm.passive_schedule`)."""
+        if n_substeps not in self._passive_plan:
+            plan = mpm.passive_schedule(n_substeps, self._passive_every, float(self.sc[0]))
+            pairs = list(dict.fromkeys((a, b) for _s, a, b in plan))
+            pairs += pairs[-1:] * (2 - len(pairs))
+            self.pab.from_numpy(np.array([c for ab in pairs for c in ab], self.pab.to_numpy().dtype))
+            at = [None] * n_substeps
+            for s, a, b in plan:
+                at[s] = pairs.index((a, b))
+            self._passive_plan = {n_substeps: at}
+        return self._passive_plan[n_substeps]
+
     def substeps(self, n_substeps: int) -> None:
         """Advance ``n_substeps`` substeps (P2G, grid update, G2P each), no host sync in between.
 
-        Passive points (``n_material < n``) are moved after every grid update, by the grid velocity
-        that already holds the forces, colliders and boundaries, so they follow the material and
-        respect what it respects; they add nothing to the grid."""
+        Passive points (``n_material < n``) are moved after a grid update (every one, or every
+        ``passive_every``-th and the frame's last: :func:`gasp_core.mpm.passive_schedule`), by the
+        grid velocity that already holds the forces, colliders and boundaries, so they follow the
+        material and respect what it respects; they add nothing to the grid."""
+        at = self._passive_at(n_substeps) if self.has_passive else [None] * n_substeps
         self.g2p_p2g(0)
         for s in range(n_substeps - 1):
             self.grid_update()
-            if self.has_passive:
-                self.g2p_passive()
+            if at[s] is not None:
+                self.g2p_passive(at[s])
             self.g2p_p2g(1)
         self.grid_update()
         self.g2p()
-        if self.has_passive:
-            self.g2p_passive()
+        if at[-1] is not None:
+            self.g2p_passive(at[-1])
 
     def substeps_with_extras(self, n_substeps: int) -> None:
         """:meth:`substeps` with colliders, forces and impulses: the frame's table loaded, the substep index set."""
         self.ex_tab.from_numpy(self._time_table().astype(self._ex_np))
         self.ex_step[None] = 0
+        at = self._passive_at(n_substeps) if self.has_passive else [None] * n_substeps
         self.g2p_p2g(0)
         for s in range(n_substeps - 1):
             self.grid_update()
-            if self.has_passive:
-                self.g2p_passive()
+            if at[s] is not None:
+                self.g2p_passive(at[s])
             self.ex_step[None] = s + 1
             self.g2p_p2g(1)
         self.grid_update()
         self.g2p()
-        if self.has_passive:
-            self.g2p_passive()
+        if at[-1] is not None:
+            self.g2p_passive(at[-1])
 
     # ------------------------------------------------------------------ colliders, forces, impulses
     def _setup_extras(self, ex, time_table, np_real, n_substeps) -> None:
@@ -687,12 +709,14 @@ class MPMSolver:
                 self.box[t, 1] = bmax
 
     @ti.func
-    def _g2p_passive_point(self, p):
+    def _g2p_passive_point(self, p, pair):
         """A passive point: velocity and position from the grid, nothing else (no C, F, P2G).
 
         Only nodes that received mass count, with the weights renormalised over them: a surface
         point half a spacing outside the material sees empty nodes (velocity 0, not the material's)
-        in its stencil, which would hold it back. Inside the material this is plain G2P."""
+        in its stencil, which would hold it back. Inside the material this is plain G2P. The move is
+        ``a v_prev + b v_new`` with ``(a, b) = pab[2 pair], pab[2 pair + 1]``
+        (:func:`gasp_core.mpm.passive_schedule`; ``(0, dt)`` when every substep moves them)."""
         base, fx, ok = self._base_fx(self.x[p])
         if not ok:
             ti.atomic_add(self.n_out[None], 1)
@@ -708,20 +732,22 @@ class MPMSolver:
                     wsum += wn
             if wsum > 0.0:
                 new_v /= wsum
+            v_prev = self.v[p]
             if ti.static(self.any_fixed):
                 if self.fixed[p] != 0:
                     new_v = ti.Vector.zero(self.real, 3)
+                    v_prev = new_v
             self.v[p] = new_v
-            self.x[p] += self.sc[0] * new_v
+            self.x[p] += self.pab[2 * pair] * v_prev + self.pab[2 * pair + 1] * new_v
 
     @ti.func
-    def _passive_chunk(self, t, move: ti.template()):
+    def _passive_chunk(self, t, move: ti.template(), pair):
         """(G2P and) the node box of chunk t's passive points, for the next grid update."""
         bmin = ti.Vector([self.n_grid, self.n_grid, self.n_grid])
         bmax = ti.Vector([-1, -1, -1])
         for p in range(self.pchunk_lo[t], self.pchunk_hi[t]):
             if ti.static(move):
-                self._g2p_passive_point(p)
+                self._g2p_passive_point(p, pair)
             base, _fx, ok = self._base_fx(self.x[p])
             if ok:
                 bmin = ti.min(bmin, base)
@@ -730,22 +756,23 @@ class MPMSolver:
         self.pbox[t, 1] = bmax
 
     @ti.kernel
-    def g2p_passive(self):
-        """G2P of the passive points (and, on private grids, their node box for the next grid update)."""
+    def g2p_passive(self, pair: ti.i32):
+        """G2P of the passive points with weight pair ``pair`` (and, on private grids, their node box
+        for the next grid update)."""
         if ti.static(self.atomic):
             for p in range(self.n_points[None], self.n_total[None]):
-                self._g2p_passive_point(p)
+                self._g2p_passive_point(p, pair)
         else:
             ti.loop_config(block_dim=1)
             for t in range(self.n_chunks):
-                self._passive_chunk(t, True)
+                self._passive_chunk(t, True, pair)
 
     @ti.kernel
     def passive_box(self):
         """The passive points' node box per chunk, at the start."""
         ti.loop_config(block_dim=1)
         for t in range(self.n_chunks):
-            self._passive_chunk(t, False)
+            self._passive_chunk(t, False, 0)
 
     @ti.func
     def _friction(self, v, d: ti.template(), sign: ti.template(), mu_b):

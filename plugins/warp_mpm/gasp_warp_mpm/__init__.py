@@ -32,7 +32,7 @@ CAPABILITIES = Capabilities(
 OPTIONS = mpm_options(
     Option("threads", None, "accepted and ignored: Warp runs CPU kernels on one thread (runs repeat bit "
                             "for bit)", kind="int", lo=1),
-    cuda_index=True)
+    mpm.PASSIVE_EVERY, cuda_index=True)
 
 
 def sweep(quick: bool) -> tuple[list[dict], dict]:

@@ -470,11 +470,12 @@ def build_kernels(Ft):
     def g2p_passive(
         x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), fixed: wp.array(dtype=wp.int32),
         grid_vel: wp.array(dtype=vec3), grid_m: wp.array(dtype=Ft), flags: wp.array(dtype=wp.int32),
-        lo: vec3, inv_dx: Ft, dt: Ft, n_grid: int, first: int,
+        lo: vec3, inv_dx: Ft, a: Ft, b: Ft, n_grid: int, first: int,
     ):
         # Passive points (rows first..): velocity and position from the grid only (no C, F, P2G).
         # Only nodes with mass count, weights renormalised over them: a surface point outside the
-        # material would otherwise be held back by the empty nodes' zero velocity.
+        # material would otherwise be held back by the empty nodes' zero velocity. The move is
+        # a v_prev + b v_new (gasp_core.mpm.passive_schedule; a = 0, b = dt every substep).
         p = first + wp.tid()
         if fixed[p] != 0:
             v[p] = vec3(Ft(0.0))
@@ -502,8 +503,8 @@ def build_kernels(Ft):
                         wsum = wsum + w
         if wsum > Ft(0.0):
             new_v = new_v / wsum
+        x[p] = xp + a * v[p] + b * new_v
         v[p] = new_v
-        x[p] = xp + dt * new_v
 
     @wp.kernel(enable_backward=False, module="unique", module_options=_OPTS)
     def check(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), flags: wp.array(dtype=wp.int32)):

@@ -178,6 +178,7 @@ class WarpMPMEngine:
         inv_dx, dx, dt_f, ng = Ft(self.inv_dx), Ft(self.dx), Ft(self.dt), self.n_grid
         has_extras, ex = self._extras(setup, arr, Ft)
         self._launches = []
+        self._passive_at, self._tick = [None] * self.n_substeps, None
         if n:
             self._launches = [
                 wp.launch(k.p2g, dim=self.n_material, device=d, record_cmd=True, inputs=[
@@ -189,12 +190,20 @@ class WarpMPMEngine:
                 wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.fixed, self.grid_vel, lo_v, inv_dx, dt_f, ng]),
             ]
-            if n_passive:   # after the grid update: the grid velocity holds forces, colliders, boundaries
-                self._launches.append(wp.launch(k.g2p_passive, dim=n_passive, device=d, record_cmd=True, inputs=[
-                    self.x, self.v, self.fixed, self.grid_vel, self.grid_m, self.flags, lo_v, inv_dx, dt_f, ng,
-                    self.n_material]))
-            if has_extras:
-                self._launches.append(wp.launch(k.tick, dim=1, device=d, record_cmd=True, inputs=[ex.step]))
+            # passive points after the grid update (the grid velocity holds forces, colliders, boundaries):
+            # one launch per distinct weight pair of mpm.passive_schedule, at the substeps it names
+            self._passive_at = [None] * self.n_substeps
+            if n_passive:
+                pairs: dict = {}
+                for s_, a_, b_ in mpm.passive_schedule(self.n_substeps, opts["passive_every"], self.dt):
+                    if (a_, b_) not in pairs:
+                        pairs[(a_, b_)] = wp.launch(
+                            k.g2p_passive, dim=n_passive, device=d, record_cmd=True, inputs=[
+                                self.x, self.v, self.fixed, self.grid_vel, self.grid_m, self.flags, lo_v, inv_dx,
+                                Ft(a_), Ft(b_), ng, self.n_material])
+                    self._passive_at[s_] = pairs[(a_, b_)]
+            self._tick = (wp.launch(k.tick, dim=1, device=d, record_cmd=True, inputs=[ex.step])
+                          if has_extras else None)
             self._check_launch = wp.launch(k.check, dim=n, device=d, record_cmd=True,
                                            inputs=[self.x, self.v, self.flags])
         self._graph = None
@@ -244,9 +253,13 @@ class WarpMPMEngine:
         self._order = self._order[perm]
 
     def _substeps(self) -> None:
-        for _ in range(self.n_substeps):
+        for s in range(self.n_substeps):
             for cmd in self._launches:
                 cmd.launch()
+            if self._passive_at[s] is not None:
+                self._passive_at[s].launch()
+            if self._tick is not None:
+                self._tick.launch()
 
     # ------------------------------------------------------------------ PointEngine
     def step_frame(self) -> None:
@@ -348,7 +361,7 @@ class WarpMPMEngine:
     def close(self) -> None:
         """Release the Warp arrays and the CUDA graph."""
         self._graph = None
-        self._launches = []
+        self._launches, self._passive_at, self._tick = [], [], None
         self._check_launch = None
         for name in ("x", "v", "F", "C", "Jp", "p_mass", "p_vol", "body", "fixed", "grid_mv", "grid_vel", "grid_m"):
             if hasattr(self, name):
