@@ -52,18 +52,26 @@ ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
 SCENES = {"donut": ROOT / "examples" / "donut_jelly.toml", "guitar": ROOT / "examples" / "guitar_sand.toml"}
 
-#: variant name -> (object keys, domain keys).
-VARIANTS: dict[str, tuple[dict, dict]] = {
-    "full": ({"surface": "material", "core_fraction": 1.0}, {}),
-    "passive": ({"surface": "passive"}, {}),
-    "core0.5": ({"surface": "material", "core_fraction": 0.5}, {}),
-    "core0.2": ({"surface": "material", "core_fraction": 0.2}, {}),
-    "passive_core0.2": ({"surface": "passive", "core_fraction": 0.2}, {}),
+#: variant name -> (object keys, domain keys, engine options). The domain key ``shift_cells`` (cells
+#: along x, y, z) moves the ``full`` run's grid by that much: the same physics on a shifted grid, which
+#: shows how far the full run itself moves with its grid's alignment (the floor of any comparison).
+VARIANTS: dict[str, tuple[dict, dict, dict]] = {
+    "full": ({"surface": "material", "core_fraction": 1.0}, {}, {}),
+    "full_shift": ({"surface": "material", "core_fraction": 1.0}, {"shift_cells": [0.5, 0.5, 0.0]}, {}),
+    "passive": ({"surface": "passive"}, {}, {}),
+    "passive_every4": ({"surface": "passive"}, {}, {"passive_every": 4}),
+    "passive_every8": ({"surface": "passive"}, {}, {"passive_every": 8}),
+    "core0.5": ({"surface": "material", "core_fraction": 0.5}, {}, {}),
+    "core0.2": ({"surface": "material", "core_fraction": 0.2}, {}, {}),
+    "passive_core0.2": ({"surface": "passive", "core_fraction": 0.2}, {}, {}),
+    "passive_every4_core0.5": ({"surface": "passive", "core_fraction": 0.5}, {}, {"passive_every": 4}),
     # the grid sequence of one model, for the convergence check (errors against the finest)
-    "passive_core0.2_g48": ({"surface": "passive", "core_fraction": 0.2}, {"n_grid": 48}),
-    "passive_core0.2_g96": ({"surface": "passive", "core_fraction": 0.2}, {"n_grid": 96}),
-    "passive_core0.2_g128": ({"surface": "passive", "core_fraction": 0.2}, {"n_grid": 128}),
-    "full_g96": ({"surface": "material", "core_fraction": 1.0}, {"n_grid": 96}),
+    "passive_core0.2_g48": ({"surface": "passive", "core_fraction": 0.2}, {"n_grid": 48}, {}),
+    "passive_core0.2_g96": ({"surface": "passive", "core_fraction": 0.2}, {"n_grid": 96}, {}),
+    "passive_core0.2_g128": ({"surface": "passive", "core_fraction": 0.2}, {"n_grid": 128}, {}),
+    "full_g96": ({"surface": "material", "core_fraction": 1.0}, {"n_grid": 96}, {}),
+    "passive_every4_g96": ({"surface": "passive"}, {"n_grid": 96}, {"passive_every": 4}),
+    "passive_every4_g128": ({"surface": "passive"}, {"n_grid": 128}, {"passive_every": 4}),
 }
 #: what a call runs unless ``--variants`` says otherwise
 SETS = {
@@ -74,12 +82,23 @@ SETS = {
 
 
 def variant_scene(src: Path, obj_keys: dict, domain_keys: dict, n_frames: int, dst: Path,
-                  options: dict | None = None) -> Path:
-    """Write the scene ``src`` with the variant's keys to ``dst`` (object files made absolute)."""
+                  options: dict | None = None, full_domain: dict | None = None) -> Path:
+    """Write the scene ``src`` with the variant's keys to ``dst`` (object files made absolute).
+
+    ``shift_cells`` in ``domain_keys`` becomes an explicit ``lo``/``hi``: ``full_domain`` (the
+    ``full`` run's ``run.json`` domain) moved by that many cells.
+    """
     doc = tomllib.loads(src.read_text())
     doc["n_frames"] = n_frames
     if options:
         doc.setdefault("engine", {}).setdefault("options", {}).update(options)
+    domain_keys = dict(domain_keys)
+    shift = domain_keys.pop("shift_cells", None)
+    if shift is not None:
+        if full_domain is None:
+            raise SystemExit("bench_trade: a 'shift_cells' variant needs the 'full' run before it")
+        d = np.asarray(shift, float) * full_domain["dx"]
+        domain_keys.update(lo=(np.asarray(full_domain["lo"]) + d).tolist(), hi=(np.asarray(full_domain["hi"]) + d).tolist())
     doc.setdefault("domain", {}).update(domain_keys)
     for o in doc.get("object", []):
         o["file"] = str((src.parent / o["file"]).resolve())
@@ -124,7 +143,7 @@ def run_variant(scene: Path, out: Path, timeout_s: float) -> dict:
                n_points=s["n_points"], n_render_points=s["n_render_points"],
                n_substeps=s["engine_stats"].get("n_substeps"), n_grid=s["domain"]["n_grid"],
                mass_kg=s["engine_stats"].get("mass"),
-               n_fill_points=sum(o["n_fill_points"] for o in s["objects"]),
+               n_fill_points=sum(o["n_fill_points"] for o in s["objects"]), domain=s["domain"],
                n_gaussians=sum(o["n_gaussians"] for o in s["objects"]))
     return rec
 
@@ -155,13 +174,14 @@ def main(argv=None) -> int:
     load = [os.getloadavg()[0]]
     try:
         for name in names:
-            obj_keys, dom_keys = VARIANTS[name]
-            scene = variant_scene(src, obj_keys, dom_keys, n_frames, work / f"{name}.toml",
-                                  {"threads": args.threads} if args.threads else None)
+            obj_keys, dom_keys, opts = VARIANTS[name]
+            opts = {**({"threads": args.threads} if args.threads else {}), **opts}
+            scene = variant_scene(src, obj_keys, dom_keys, n_frames, work / f"{name}.toml", opts,
+                                  rows.get("full", {}).get("domain"))
             out = (args.keep or work) / name
             print(f"[bench_trade] {args.scene} {name} ...", flush=True)
             rec = run_variant(scene, out, args.timeout)
-            rec["keys"] = {**obj_keys, **dom_keys}
+            rec["keys"] = {**obj_keys, **dom_keys, **VARIANTS[name][2]}
             rows[name] = rec
             if rec["returncode"] == 0:
                 means[name], size = read_means(out)

@@ -82,12 +82,14 @@ def test_negative_poisson_ratio_is_accepted_once_and_gives_positive_wave_speeds(
 def test_mpm_sweep_reference_is_the_finest_and_never_repeated():
     settings, ref = mpm_sweep(False)
     assert ref == {"n_grid": 96, "cfl": 0.2, "particles_per_cell": 8, "fill": True, "precision": "f64",
-                   "core_fraction": 1.0}
+                   "core_fraction": 1.0, "surface": "material"}
+    assert {s.get("surface") for s in settings} == {"material", "passive"}
     keys = [tuple(sorted(s.items())) for s in settings]
     assert len(keys) == len(set(keys)) and ref not in settings
     assert all(s["n_grid"] <= ref["n_grid"] and s["cfl"] >= ref["cfl"] for s in settings)
     quick, qref = mpm_sweep(True, precisions={"f32", "f64"})
     assert {s["precision"] for s in quick} | {qref["precision"]} == {"f32"} and qref["n_grid"] == 48
+    assert all("surface" not in s for s in quick + [qref])   # one model: the key is left out
     only64, ref64 = mpm_sweep(False, precisions={"f64"})
     assert {s["precision"] for s in only64} == {"f64"} and ref64["precision"] == "f64"
 

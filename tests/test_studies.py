@@ -12,6 +12,7 @@ pytest.importorskip("distributed", reason="the studies extra is not installed (p
 
 from gasp_testing import scene_text  # noqa: E402
 from gasp_core.cli import main  # noqa: E402
+from gasp_core.errors import SceneError  # noqa: E402
 from gasp_core.io import write_gaussians  # noqa: E402
 from gasp_core.pipeline import iter_frames, prepare_scene  # noqa: E402
 from gasp_core.plugins import engines  # noqa: E402
@@ -204,13 +205,15 @@ def test_pareto_front_on_synthetic_points():
 def test_settings_split_into_scene_keys_and_engine_options(donut_tiny, write_scene):
     scene = load_scene(write_scene(scene_text(donut_tiny, n_grid=24)))
     s = {"n_grid": 48, "particles_per_cell": 1, "fill": False, "core_fraction": 0.5, "cfl": 0.8,
-         "precision": "f64", "threads": 1}
+         "precision": "f64", "threads": 1, "surface": "passive"}
     sc, opts = apply_setting(scene, s, {"device": "cpu", "cfl": 0.4})
     assert (sc.domain.n_grid, sc.domain.particles_per_cell) == (48, 1)
-    assert [(o.fill, o.core_fraction) for o in sc.objects] == [(False, 0.5)]
+    assert [(o.fill, o.core_fraction, o.surface) for o in sc.objects] == [(False, 0.5, "passive")]
+    with pytest.raises(SceneError, match="surface: expected 'material' or 'passive'"):
+        apply_setting(scene, {"surface": "hollow"}, {})
     assert opts == {"device": "cpu", "cfl": 0.8, "precision": "f64", "threads": 1}
     assert (scene.domain.n_grid, scene.objects[0].fill) == (24, True)          # the input is untouched
-    assert setting_label(s) == "g48 cfl0.8 threads1 ppc1 nofill f64 core0.5"
+    assert setting_label(s) == "g48 cfl0.8 threads1 ppc1 nofill f64 core0.5 passive"
     assert setting_label({"n_grid": 96, "cfl": 0.2, "particles_per_cell": 8, "fill": True,
                           "precision": "f64", "core_fraction": 1.0}) == "g96 cfl0.2 ppc8 fill f64"
 
@@ -250,6 +253,9 @@ def test_bench_rows_reference_zero_and_error_grows_as_grid_coarsens(donut_tiny, 
     # same grid as the reference, f32 instead of f64: rounding only; coarser grids: discretisation
     assert f32[24] < 1e-4 < f32[18] < f32[14]
     assert all(float(r["wall_s"]) > 0 for r in rows)
+    for r in rows:   # end to end: read, fill, build, frame 1 and the T^-1 rebuilds on top of frames 2..n
+        steady = 3 * float(r["s_per_frame"])
+        assert float(r["end_to_end_s"]) > steady + float(r["build_s"]) + float(r["prepare_s"])
     for name in ("summary.md", "pareto_warp_mpm.png", "pareto.png"):
         assert (out / name).stat().st_size > 0
     assert rows[0]["pareto"] == "True"                               # error 0: nothing beats it
