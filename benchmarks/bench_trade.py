@@ -22,7 +22,9 @@ the same keys)::
 
 Usage::
 
-    python benchmarks/bench_trade.py                        # donut: the 'trade' set, 36 frames
+    python benchmarks/bench_trade.py --threads 1 --window 18 --compare out/full_g96 out/passive_every4_g96
+                                                            # donut: the 'trade' set, 36 frames, and the
+                                                            # n_grid 96 runs of --variants full_g96,passive_every4_g96 --keep out
     python benchmarks/bench_trade.py --variants convergence --frames 12
     python benchmarks/bench_trade.py --scene guitar --frames 10
     python benchmarks/bench_trade.py --variants full,passive --frames 10
@@ -75,7 +77,8 @@ VARIANTS: dict[str, tuple[dict, dict, dict]] = {
 }
 #: what a call runs unless ``--variants`` says otherwise
 SETS = {
-    "trade": ["full", "passive", "core0.5", "core0.2", "passive_core0.2"],
+    "trade": ["full", "full_shift", "passive", "passive_every4", "passive_every8", "passive_every4_core0.5",
+              "core0.2"],
     "convergence": ["passive_core0.2_g48", "passive_core0.2", "passive_core0.2_g96", "passive_core0.2_g128",
                     "full", "passive", "core0.2"],
 }
@@ -159,6 +162,11 @@ def main(argv=None) -> int:
                     "(default: the engine's; 1 keeps runs comparable on a machine shared with other work)")
     ap.add_argument("--timeout", type=float, default=3600.0, help="seconds per run")
     ap.add_argument("--keep", type=Path, default=None, help="keep the run folders here")
+    ap.add_argument("--compare", type=Path, nargs="*", default=[], metavar="RUN_DIR",
+                    help="finished `gasp simulate` outputs of the same scene (e.g. finer grids, too slow to "
+                    "repeat): every variant's error against each is reported as err_vs_<folder name>; not timed")
+    ap.add_argument("--window", type=int, default=None, metavar="K",
+                    help="also report each error's worst frame over frames 0..K")
     args = ap.parse_args(argv)
     src = SCENES[args.scene]
     n_frames = args.frames or tomllib.loads(src.read_text())["n_frames"]
@@ -195,6 +203,7 @@ def main(argv=None) -> int:
     base_grid = tomllib.loads(src.read_text()).get("domain", {}).get("n_grid", 64)
     grids = {n: VARIANTS[n][1].get("n_grid", base_grid) for n in names if n in means}
     ref = max(grids, key=grids.get) if grids and len(set(grids.values())) > 1 else None
+    others = {d.name: read_means(d)[0] for d in args.compare}
     for name, rec in rows.items():
         if name not in means:
             continue
@@ -203,9 +212,14 @@ def main(argv=None) -> int:
             rec["speedup_vs_full"] = rows["full"]["process_wall_s"] / rec["process_wall_s"]
         if ref:
             rec["err_vs_ref"] = error(means[name], means[ref], size)
+        for other, m in others.items():
+            rec[f"err_vs_{other}"] = error(means[name], m, size)
+        if args.window is not None:
+            for key in [k for k in rec if k.startswith("err_vs_")]:
+                rec[key]["window_mean"] = max(rec[key]["per_frame_mean"][:args.window + 1])
     doc = {"scene": str(src.relative_to(ROOT)), "n_frames": n_frames, "threads": args.threads, "object_size_m": size, "reference": ref,
            "machine": f"{platform.platform()}, {os.cpu_count()} CPUs, Python {platform.python_version()}",
-           "load_avg_1min": load, "runs": rows}
+           "load_avg_1min": load, "window": args.window, "compared": [d.name for d in args.compare], "runs": rows}
     RESULTS.mkdir(parents=True, exist_ok=True)
     stem = RESULTS / f"bench_trade_{args.scene}_{tag}"
     tmp = stem.with_suffix(".json.tmp")
@@ -228,11 +242,24 @@ def report(doc: dict) -> str:
            f"{doc['n_frames']} frames; engine threads {doc.get('threads') or 'default'}; object size {doc['object_size_m'] or float('nan'):.3f} m; {doc['machine']}; "
            f"1-min load average during the runs {min(doc['load_avg_1min']):.1f}-{max(doc['load_avg_1min']):.1f}.",
            "`wall` is the whole `gasp simulate` process (start-up, read, fill, hierarchy, build, frames, writes). "
-           "Errors: the worst frame's mean distance between the same Gaussians' means, / object size "
-           f"(max over Gaussians in brackets); reference = "
-           + (f"`{ref}`." if ref else "none (no finer grid in this set)."), "",
-           "| variant | keys | simulated points | n_substeps | prepare s | build s | wall s | speed-up vs full | err vs full | err vs ref |",
-           "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+           "Errors: the worst frame's mean distance between the same Gaussians' means, / object size; "
+           "reference (`err vs ref`) = " + (f"`{ref}`" if ref else "none (no finer grid in this set)")
+           + (f"; also compared, not timed: {', '.join(f'`{c}`' for c in doc['compared'])}" if doc.get("compared") else "")
+           + ".", "",
+           ]
+    win = doc.get("window")
+    if win is not None:
+        out += [f"Each error cell: worst frame over all {doc['n_frames']} frames / over frames 0..{win} only.", ""]
+    cmp_keys = sorted({k for r in doc["runs"].values() for k in r if k.startswith("err_vs_")},
+                      key=lambda k: (k != "err_vs_full", k != "err_vs_ref", k))
+    out += ["| variant | keys | simulated points | n_substeps | prepare s | build s | wall s | speed-up vs full | "
+            + " | ".join(k.replace("err_vs_", "err vs ") for k in cmp_keys) + " |",
+            "|---|---|---:|---:|---:|---:|---:|---:|" + "---:|" * len(cmp_keys)]
+
+    def cell(e):
+        if not e:
+            return "-"
+        return _pct(e) + (f" / {100 * e['window_mean']:.2f} %" if "window_mean" in e else "")
     for name, r in doc["runs"].items():
         keys = ", ".join(f"{k}={v}" for k, v in r["keys"].items())
         if r["returncode"] != 0:
@@ -240,8 +267,7 @@ def report(doc: dict) -> str:
             continue
         out.append(f"| {name} | {keys} | {r['n_points']:,} | {r['n_substeps']} | {r['prepare_s']:.1f} | "
                    f"{r['build_s']:.1f} | {r['process_wall_s']:.1f} | {r.get('speedup_vs_full', float('nan')):.2f} | "
-                   f"{_pct(r.get('err_vs_full'))} ({_pct(r.get('err_vs_full'), 'max')}) | "
-                   f"{_pct(r.get('err_vs_ref'))} ({_pct(r.get('err_vs_ref'), 'max')}) |")
+                   + " | ".join(cell(r.get(k)) for k in cmp_keys) + " |")
     conv = convergence(doc)
     if conv:
         out += ["", f"Grid convergence ({', '.join(f'n_grid {g}' for g in conv['grids'])}, the reference's model): the "
