@@ -21,6 +21,7 @@ no rule of its own on ``nu``.
 """
 from __future__ import annotations
 
+import itertools
 import math
 from typing import Any, Iterable, Mapping, Sequence
 
@@ -448,6 +449,36 @@ def engine_mass_stats(x: np.ndarray, p_mass: np.ndarray) -> dict[str, Any]:
     """
     from .passive import mass_properties
     return mass_properties(x, p_mass)
+
+
+def stranded_passive(x: np.ndarray, grid_m: np.ndarray, domain_lo: np.ndarray, dx: float) -> int:
+    """How many passive points see no node with mass in their quadratic stencil (27 nodes).
+
+    Such a point gathers no velocity (it stays where it is) because the material has moved away
+    from it: a surface left hanging where sand or liquid flowed off. Engines report it in
+    ``stats()`` as ``passive_stranded``, from the last grid update.
+
+    Parameters
+    ----------
+    x : ndarray, shape (m, 3)
+        Passive points, metres.
+    grid_m : ndarray, shape (n_grid, n_grid, n_grid)
+        Node masses of the last grid update, kg (index ``[i, j, k]`` = node at ``lo + (i, j, k) dx``).
+    domain_lo : ndarray, shape (3,)
+        Grid origin, metres.
+    dx : float
+        Grid spacing, metres.
+    """
+    if len(x) == 0:
+        return 0
+    ng = grid_m.shape[0]
+    base = np.floor((np.asarray(x, np.float64) - domain_lo) / dx - 0.5).astype(np.int64)
+    has = grid_m > 0
+    seen = np.zeros(len(x), bool)
+    for o in itertools.product(range(3), repeat=3):
+        idx = np.clip(base + np.array(o), 0, ng - 1)
+        seen |= has[idx[:, 0], idx[:, 1], idx[:, 2]]
+    return int((~seen).sum())
 
 
 # --------------------------------------------------------------------------- blow-ups

@@ -142,3 +142,28 @@ def test_passive_every_follows_an_impact(name):
     assert top.min() < 0.6 + 0.01 and runs[1][-1, :, 0].mean() > 0.55   # it reached the ground and moved on
     assert d[:4].max() < 1e-3, d
     assert 1e-3 < d.max() < 0.05, d
+
+
+@pytest.mark.parametrize("name", [n for n in _engine_names() if n != "mujoco_flex"])
+def test_stranded_passive_points_are_counted(name):
+    """A passive point with no material within its stencil gathers no velocity: it stays put while
+    the body falls away, and ``stats()["passive_stranded"]`` counts it (the skin on the block is
+    not counted)."""
+    s = block_with_skin()
+    far = np.array([[0.2, 0.2, 0.8]])                              # 5 dx from the block's corner
+    n = len(s.x) + 1
+    s = dataclasses.replace(s, x=np.concatenate([far, s.x]), v=np.zeros((n, 3)), body_id=np.zeros(n, np.int64),
+                            p_vol=np.r_[0.0, s.p_vol], passive=np.r_[True, s.passive], n_render=s.n_render + 1,
+                            options={"threads": 1})
+    e = build_engine(engines()[name], s)
+    try:
+        assert "passive_stranded" not in e.stats()                # before any frame
+        for _ in range(3):
+            e.step_frame()
+        x = e.positions().astype(np.float64)
+        st = e.stats()
+    finally:
+        e.close()
+    assert st["passive_stranded"] == 1
+    np.testing.assert_array_equal(x[0], far[0].astype(np.float32).astype(np.float64))   # not moved (f32)
+    assert x[1:, 2][s.passive[1:]].mean() < 0.7 - 0.5 * G * 0.1 ** 2 * 0.9   # the skin fell with the block

@@ -235,7 +235,8 @@ class TaichiMPMEngine:
 
     def stats(self) -> dict[str, Any]:
         """``device, precision, n_points, dt, n_substeps, n_grid, threads`` and ``dx``, ``p2g``, ``frame``,
-        ``n_passive``, ``mass`` (kg), ``centre_of_mass`` (m), ``inertia`` (kg m^2)."""
+        ``n_passive``, ``mass`` (kg), ``centre_of_mass`` (m), ``inertia`` (kg m^2) and, with passive points
+        after a frame, ``passive_stranded`` (:func:`gasp_core.mpm.stranded_passive`)."""
         n = len(self.setup.x)
         live = not self._closed and self._gen == _generation
         return {
@@ -253,6 +254,10 @@ class TaichiMPMEngine:
             # mass as the solver holds it (its p_mass field, solver order)
             **(mpm.engine_mass_stats(self.solver.get(self.solver.x), self.solver.get(self.solver.p_mass))
                if live else {}),
+            **({"passive_stranded": mpm.stranded_passive(self.solver.get(self.solver.x)[self.n_material:],
+                                                         self.solver.grid_m.to_numpy(), self.setup.domain_lo,
+                                                         self.setup.dx)}
+               if live and self.n_material < n and self.frame > 0 else {}),
         }
 
     def close(self) -> None:

@@ -351,12 +351,17 @@ class WarpMPMEngine:
 
     def stats(self) -> dict[str, Any]:
         """``device, precision, n_points, dt`` (s), ``n_substeps`` (per frame), ``n_grid``, ``dx`` (m),
-        ``frame``, ``sim_time`` (s), ``n_passive``, ``mass`` (kg), ``centre_of_mass`` (m), ``inertia`` (kg m^2)."""
+        ``frame``, ``sim_time`` (s), ``n_passive``, ``mass`` (kg), ``centre_of_mass`` (m), ``inertia`` (kg m^2) and,
+        with passive points after a frame, ``passive_stranded`` (:func:`gasp_core.mpm.stranded_passive`)."""
         return {"device": str(self.device), "precision": self.precision, "n_points": self.n_points,
                 "dt": self.dt, "n_substeps": self.n_substeps, "n_grid": self.n_grid, "dx": self.dx,
                 "frame": self.frame, "sim_time": self.sim_time, "n_passive": self.n_points - self.n_material,
                 # as the engine's arrays hold it (not after close)
-                **({} if self._closed else mpm.engine_mass_stats(self.x.numpy(), self.p_mass.numpy()))}
+                **({} if self._closed else mpm.engine_mass_stats(self.x.numpy(), self.p_mass.numpy())),
+                **({"passive_stranded": mpm.stranded_passive(
+                    self.x.numpy()[self.n_material:], self.grid_m.numpy().reshape((self.n_grid,) * 3),
+                    self.setup.domain_lo, self.dx)}
+                   if not self._closed and self.n_material < self.n_points and self.frame > 0 else {})}
 
     def close(self) -> None:
         """Release the Warp arrays and the CUDA graph."""
