@@ -167,8 +167,13 @@ def main(argv=None) -> int:
                     "repeat): every variant's error against each is reported as err_vs_<folder name>; not timed")
     ap.add_argument("--window", type=int, default=None, metavar="K",
                     help="also report each error's worst frame over frames 0..K")
+    ap.add_argument("--replot", action="store_true",
+                    help="only redraw the figure of an existing results file (--tag); centroid heights missing "
+                    "from it are read from the run folders in --keep, if there, and from --compare")
     args = ap.parse_args(argv)
     src = SCENES[args.scene]
+    if args.replot:
+        return replot(RESULTS / f"bench_trade_{args.scene}_{args.tag or args.variants}.json", args.keep, args.compare)
     n_frames = args.frames or tomllib.loads(src.read_text())["n_frames"]
     names = SETS.get(args.variants) or [v.strip() for v in args.variants.split(",") if v.strip()]
     tag = args.tag or (args.variants if args.variants in SETS else "custom")
@@ -193,6 +198,7 @@ def main(argv=None) -> int:
             rows[name] = rec
             if rec["returncode"] == 0:
                 means[name], size = read_means(out)
+                rec["centroid_dz_m"] = centroid_dz(means[name])
                 if args.keep is None:
                     shutil.rmtree(out)
             print(f"[bench_trade]   {json.dumps({k: v for k, v in rec.items() if k != 'stderr'})}", flush=True)
@@ -204,6 +210,7 @@ def main(argv=None) -> int:
     grids = {n: VARIANTS[n][1].get("n_grid", base_grid) for n in names if n in means}
     ref = max(grids, key=grids.get) if grids and len(set(grids.values())) > 1 else None
     others = {d.name: read_means(d)[0] for d in args.compare}
+    compared_dz = {name: centroid_dz(m) for name, m in others.items()}
     for name, rec in rows.items():
         if name not in means:
             continue
@@ -219,7 +226,8 @@ def main(argv=None) -> int:
                 rec[key]["window_mean"] = max(rec[key]["per_frame_mean"][:args.window + 1])
     doc = {"scene": str(src.relative_to(ROOT)), "n_frames": n_frames, "threads": args.threads, "object_size_m": size, "reference": ref,
            "machine": f"{platform.platform()}, {os.cpu_count()} CPUs, Python {platform.python_version()}",
-           "load_avg_1min": load, "window": args.window, "compared": [d.name for d in args.compare], "runs": rows}
+           "load_avg_1min": load, "window": args.window, "compared": [d.name for d in args.compare],
+           "compared_centroid_dz_m": compared_dz, "runs": rows}
     RESULTS.mkdir(parents=True, exist_ok=True)
     stem = RESULTS / f"bench_trade_{args.scene}_{tag}"
     tmp = stem.with_suffix(".json.tmp")
@@ -228,8 +236,76 @@ def main(argv=None) -> int:
     tmp = stem.with_suffix(".md.tmp")
     tmp.write_text(report(doc))
     os.replace(tmp, stem.with_suffix(".md"))
+    plot(doc, stem.with_suffix(".png"))
     print(report(doc))
     return 0
+
+
+def replot(path: Path, keep: Path | None, compare: list[Path]) -> int:
+    """Redraw ``path``'s figure, filling missing centroid heights from ``keep/<variant>`` folders
+    and from the ``compare`` runs."""
+    doc = json.loads(path.read_text())
+    cdz = doc.setdefault("compared_centroid_dz_m", {})
+    for d in compare:
+        cdz.setdefault(d.name, centroid_dz(read_means(d)[0]))
+    for name, r in doc["runs"].items():
+        if "centroid_dz_m" not in r and keep is not None and (keep / name / "run.json").exists():
+            r["centroid_dz_m"] = centroid_dz(read_means(keep / name)[0])
+    tmp = path.with_suffix(".json.tmp")
+    tmp.write_text(json.dumps(doc, indent=1))
+    os.replace(tmp, path)
+    return 0 if plot(doc, path.with_suffix(".png")) else 1
+
+
+def centroid_dz(means: np.ndarray) -> list[float]:
+    """Height of the Gaussians' centroid relative to frame 0, per frame, metres."""
+    z = means[:, :, 2].mean(axis=1)
+    return [round(float(v), 7) for v in z - z[0]]
+
+
+def plot(doc: dict, path: Path) -> bool:
+    """Per-frame figures of a results ``doc``: the centroid's height (every run, the compared ones
+    dashed), the error against ``full`` and against the first compared run. False without matplotlib."""
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return False
+    runs = {k: r for k, r in doc["runs"].items() if r.get("returncode") == 0}
+    first = (doc.get("compared") or [None])[0]
+    panels = [("centroid height - frame 0, mm", None), ("error vs full, % of size", "err_vs_full")]
+    if first:
+        panels.append((f"error vs {first}, % of size", f"err_vs_{first}"))
+    fig, axes = plt.subplots(len(panels), 1, figsize=(8, 2.8 * len(panels)), sharex=True)
+    compared = doc.get("compared_centroid_dz_m") or {}
+    colour = {name: f"C{i % 10}" for i, name in enumerate(list(runs) + list(compared))}
+    for ax, (label, key) in zip(axes, panels):
+        for name, r in runs.items():
+            y = [1e3 * v for v in r.get("centroid_dz_m", [])] if key is None else \
+                [100 * v for v in (r.get(key) or {}).get("per_frame_mean", [])]
+            if y:
+                ax.plot(range(len(y)), y, label=name, lw=1.2, color=colour[name])
+        if key is None:
+            for name, dz in compared.items():
+                ax.plot(range(len(dz)), [1e3 * v for v in dz], "--", label=f"{name} (compared)", lw=1.2,
+                        color=colour[name])
+        elif doc.get("window") is not None:
+            ax.axvline(doc["window"], color="grey", lw=0.8, ls=":")
+        if key is not None:
+            ax.axhline(1.0, color="black", lw=0.8, ls="--")
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+    for ax in axes[:2]:
+        ax.legend(fontsize=7, ncol=3)
+    axes[-1].set_xlabel("frame")
+    fig.suptitle(f"{doc['scene']}: {doc['n_frames']} frames (benchmarks/bench_trade.py)", fontsize=9)
+    fig.tight_layout()
+    tmp = path.with_suffix(".tmp.png")
+    fig.savefig(tmp, dpi=110)
+    plt.close(fig)
+    os.replace(tmp, path)
+    return True
 
 
 def _pct(e: dict | None, key: str = "mean") -> str:

@@ -135,7 +135,8 @@ def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
     on_frame : callable, optional
         ``on_frame(frame, gaussians_per_object)`` after each frame is written.
     warn : callable, optional
-        Receives warnings in words (leftover partial folders of killed runs).
+        Receives warnings in words (leftover partial folders of killed runs; passive surface points
+        the material left behind, the engine's ``passive_stranded``).
     resume : bool
         Continue a killed run to ``outdir`` from its last checkpoint (:mod:`gasp_core.resume`;
         engines with the feature ``state``).
@@ -214,6 +215,12 @@ def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
             summary["resumed_after_frame"] = ck.frame
         atomic_json(tmp / "run.json", summary)
         claim.commit(tmp)
+        stranded = (stats.engine or {}).get("passive_stranded")
+        if stranded and warn is not None:
+            warn(f"{stranded} of {int(prep.setup.n_passive)} passive surface points had no material within "
+                 "their interpolation stencil at the last frame: they stayed where the material left them "
+                 "(pieces of surface left hanging, typical of sand or liquid flowing away); surface = "
+                 "\"material\" simulates the surface points as material")
     except BaseException as e:
         claim.abandon(tmp, e)
         raise
