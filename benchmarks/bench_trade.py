@@ -117,7 +117,9 @@ def read_means(run_dir: Path) -> tuple[np.ndarray, float]:
     per_obj = []
     for o in summary["objects"]:
         files = sorted((run_dir / o["name"]).glob("frame_*.ply"))
-        per_obj.append(np.stack([read_gaussians(f).means.astype(np.float64) for f in files]) * o["scale"])
+        pl = o["placement"]   # file frame -> world: scale x R^T + t
+        R, t = np.asarray(pl["R"], float), np.asarray(pl["t"], float)
+        per_obj.append(pl["scale"] * np.stack([read_gaussians(f).means.astype(np.float64) for f in files]) @ R.T + t)
     means = np.concatenate(per_obj, axis=1)
     size = float(np.linalg.norm(np.ptp(means[0], axis=0)))
     return means, size
@@ -168,8 +170,8 @@ def main(argv=None) -> int:
     ap.add_argument("--window", type=int, default=None, metavar="K",
                     help="also report each error's worst frame over frames 0..K")
     ap.add_argument("--replot", action="store_true",
-                    help="only redraw the figure of an existing results file (--tag); centroid heights missing "
-                    "from it are read from the run folders in --keep, if there, and from --compare")
+                    help="only redraw the figure of an existing results file (--tag); centroid heights are "
+                    "(re)read from the run folders in --keep, where there, and from --compare")
     args = ap.parse_args(argv)
     src = SCENES[args.scene]
     if args.replot:
@@ -249,7 +251,7 @@ def replot(path: Path, keep: Path | None, compare: list[Path]) -> int:
     for d in compare:
         cdz.setdefault(d.name, centroid_dz(read_means(d)[0]))
     for name, r in doc["runs"].items():
-        if "centroid_dz_m" not in r and keep is not None and (keep / name / "run.json").exists():
+        if keep is not None and (keep / name / "run.json").exists():
             r["centroid_dz_m"] = centroid_dz(read_means(keep / name)[0])
     tmp = path.with_suffix(".json.tmp")
     tmp.write_text(json.dumps(doc, indent=1))
