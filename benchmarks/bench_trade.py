@@ -244,18 +244,30 @@ def main(argv=None) -> int:
 
 
 def replot(path: Path, keep: Path | None, compare: list[Path]) -> int:
-    """Redraw ``path``'s figure, filling missing centroid heights from ``keep/<variant>`` folders
-    and from the ``compare`` runs."""
+    """Redraw ``path``'s figure and report: centroid heights (re)read from the ``keep/<variant>``
+    folders, where there, and from the ``compare`` runs, and each kept variant's errors against the
+    ``compare`` runs (``err_vs_<folder name>``) added."""
     doc = json.loads(path.read_text())
     cdz = doc.setdefault("compared_centroid_dz_m", {})
-    for d in compare:
-        cdz.setdefault(d.name, centroid_dz(read_means(d)[0]))
+    others = {d.name: read_means(d)[0] for d in compare}
+    for name, m in others.items():
+        cdz[name] = centroid_dz(m)
+        if name not in doc.setdefault("compared", []):
+            doc["compared"].append(name)
     for name, r in doc["runs"].items():
         if keep is not None and (keep / name / "run.json").exists():
-            r["centroid_dz_m"] = centroid_dz(read_means(keep / name)[0])
+            mine, size = read_means(keep / name)
+            r["centroid_dz_m"] = centroid_dz(mine)
+            for other, m in others.items():
+                r[f"err_vs_{other}"] = e = error(mine, m, size)
+                if doc.get("window") is not None:
+                    e["window_mean"] = max(e["per_frame_mean"][:doc["window"] + 1])
     tmp = path.with_suffix(".json.tmp")
     tmp.write_text(json.dumps(doc, indent=1))
     os.replace(tmp, path)
+    tmp = path.with_suffix(".md.tmp")
+    tmp.write_text(report(doc))
+    os.replace(tmp, path.with_suffix(".md"))
     return 0 if plot(doc, path.with_suffix(".png")) else 1
 
 
@@ -299,7 +311,8 @@ def plot(doc: dict, path: Path) -> bool:
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
     for ax in axes[:2]:
-        ax.legend(fontsize=7, ncol=3)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=7, ncol=3)
     axes[-1].set_xlabel("frame")
     fig.suptitle(f"{doc['scene']}: {doc['n_frames']} frames (benchmarks/bench_trade.py)", fontsize=9)
     fig.tight_layout()
@@ -330,9 +343,9 @@ def report(doc: dict) -> str:
         out += [f"Each error cell: worst frame over all {doc['n_frames']} frames / over frames 0..{win} only.", ""]
     cmp_keys = sorted({k for r in doc["runs"].values() for k in r if k.startswith("err_vs_")},
                       key=lambda k: (k != "err_vs_full", k != "err_vs_ref", k))
-    out += ["| variant | keys | simulated points | n_substeps | prepare s | build s | wall s | speed-up vs full | "
-            + " | ".join(k.replace("err_vs_", "err vs ") for k in cmp_keys) + " |",
-            "|---|---|---:|---:|---:|---:|---:|---:|" + "---:|" * len(cmp_keys)]
+    head = ["variant", "keys", "simulated points", "n_substeps", "prepare s", "build s", "wall s", "speed-up vs full"]
+    out += ["| " + " | ".join(head + [k.replace("err_vs_", "err vs ") for k in cmp_keys]) + " |",
+            "|---|---|" + "---:|" * (len(head) - 2 + len(cmp_keys))]
 
     def cell(e):
         if not e:
@@ -344,8 +357,8 @@ def report(doc: dict) -> str:
             out.append(f"| {name} | {keys} | failed (exit {r['returncode']}): {r.get('stderr', '').strip().splitlines()[-1:]} |")
             continue
         out.append(f"| {name} | {keys} | {r['n_points']:,} | {r['n_substeps']} | {r['prepare_s']:.1f} | "
-                   f"{r['build_s']:.1f} | {r['process_wall_s']:.1f} | {r.get('speedup_vs_full', float('nan')):.2f} | "
-                   + " | ".join(cell(r.get(k)) for k in cmp_keys) + " |")
+                   f"{r['build_s']:.1f} | {r['process_wall_s']:.1f} | {r.get('speedup_vs_full', float('nan')):.2f} |"
+                   + "".join(f" {cell(r.get(k))} |" for k in cmp_keys))
     conv = convergence(doc)
     if conv:
         out += ["", f"Grid convergence ({', '.join(f'n_grid {g}' for g in conv['grids'])}, the reference's model): the "
