@@ -167,3 +167,25 @@ def test_stranded_passive_points_are_counted(name):
     assert st["passive_stranded"] == 1
     np.testing.assert_array_equal(x[0], far[0].astype(np.float32).astype(np.float64))   # not moved (f32)
     assert x[1:, 2][s.passive[1:]].mean() < 0.7 - 0.5 * G * 0.1 ** 2 * 0.9   # the skin fell with the block
+
+
+def test_simulate_warns_about_stranded_passive_points(donut, write_scene, tmp_path, monkeypatch):
+    """``gasp simulate`` passes the engine's ``passive_stranded`` on as a warning naming the count
+    (the count itself is tested on the engines above; here the engine is made to report 5)."""
+    pytest.importorskip("warp")
+    from gasp_testing import scene_text
+    from gasp_core.io import write_gaussians
+    from gasp_core.pipeline import simulate_scene
+    from gasp_core.scene import load_scene
+    from gasp_warp_mpm.solver import WarpMPMEngine
+    ply = tmp_path / "donut_tiny.ply"
+    write_gaussians(ply, donut.subset(np.arange(0, donut.n, 64)))
+    scene = load_scene(write_scene(scene_text(ply, n_frames=2, n_grid=16, engine="warp_mpm", engine_options="{}",
+                                              extra_object='surface = "passive"')))
+    real = WarpMPMEngine.stats
+    monkeypatch.setattr(WarpMPMEngine, "stats", lambda self: {**real(self), "passive_stranded": 5})
+    said = []
+    res = simulate_scene(scene, tmp_path / "out", progress=False, warn=said.append)
+    assert res.summary["engine_stats"]["passive_stranded"] == 5
+    n_passive = res.summary["n_render_points"]
+    assert [m for m in said if m.startswith(f"5 of {n_passive} passive surface points")], said
