@@ -125,13 +125,17 @@ def read_means(run_dir: Path) -> tuple[np.ndarray, float]:
     return means, size
 
 
-def error(a: np.ndarray, b: np.ndarray, size: float) -> dict:
-    """Worst frame's mean / max distance between the same Gaussians, as fractions of ``size``."""
+def error(a: np.ndarray, b: np.ndarray, size: float, window: int | None = None) -> dict:
+    """Worst frame's mean / max distance between the same Gaussians, as fractions of ``size``;
+    with ``window`` also the worst frame's mean over frames 0..window (``window_mean``)."""
     n = min(len(a), len(b))
     d = np.linalg.norm(a[:n] - b[:n], axis=2)
     per_frame = d.mean(axis=1) / size
-    return {"mean": float(per_frame.max()), "max": float(d.max() / size), "frames": n,
-            "per_frame_mean": [round(float(e), 6) for e in per_frame]}
+    out = {"mean": float(per_frame.max()), "max": float(d.max() / size), "frames": n,
+           "per_frame_mean": [round(float(e), 6) for e in per_frame]}
+    if window is not None:
+        out["window_mean"] = max(out["per_frame_mean"][:window + 1])
+    return out
 
 
 def run_variant(scene: Path, out: Path, timeout_s: float) -> dict:
@@ -217,15 +221,12 @@ def main(argv=None) -> int:
         if name not in means:
             continue
         if "full" in means:
-            rec["err_vs_full"] = error(means[name], means["full"], size)
+            rec["err_vs_full"] = error(means[name], means["full"], size, args.window)
             rec["speedup_vs_full"] = rows["full"]["process_wall_s"] / rec["process_wall_s"]
         if ref:
-            rec["err_vs_ref"] = error(means[name], means[ref], size)
+            rec["err_vs_ref"] = error(means[name], means[ref], size, args.window)
         for other, m in others.items():
-            rec[f"err_vs_{other}"] = error(means[name], m, size)
-        if args.window is not None:
-            for key in [k for k in rec if k.startswith("err_vs_")]:
-                rec[key]["window_mean"] = max(rec[key]["per_frame_mean"][:args.window + 1])
+            rec[f"err_vs_{other}"] = error(means[name], m, size, args.window)
     doc = {"scene": str(src.relative_to(ROOT)), "n_frames": n_frames, "threads": args.threads, "object_size_m": size, "reference": ref,
            "machine": f"{platform.platform()}, {os.cpu_count()} CPUs, Python {platform.python_version()}",
            "load_avg_1min": load, "window": args.window, "compared": [d.name for d in args.compare],
@@ -259,9 +260,7 @@ def replot(path: Path, keep: Path | None, compare: list[Path]) -> int:
             mine, size = read_means(keep / name)
             r["centroid_dz_m"] = centroid_dz(mine)
             for other, m in others.items():
-                r[f"err_vs_{other}"] = e = error(mine, m, size)
-                if doc.get("window") is not None:
-                    e["window_mean"] = max(e["per_frame_mean"][:doc["window"] + 1])
+                r[f"err_vs_{other}"] = error(mine, m, size, doc.get("window"))
     tmp = path.with_suffix(".json.tmp")
     tmp.write_text(json.dumps(doc, indent=1))
     os.replace(tmp, path)

@@ -117,20 +117,20 @@ def _run(engine: str, tmp_path: Path, reduced: bool):
     return scene
 
 
-@pytest.mark.parametrize("engine", _engines_with_colliders(KNOWN, run_known=False))
-def test_donut_rests_on_guitar_reduced(engine, tmp_path):
-    scene = _run(engine, tmp_path, True)
+def _check_rests(engine: str, tmp_path: Path, reduced: bool) -> None:
+    scene = _run(engine, tmp_path, reduced)
     assert check_guitar_unchanged(scene, tmp_path / "out") == scene.n_frames + 1
     f = contact_figures(scene, tmp_path / "out")
     print(engine, f)
     _assert_rests(f)
+
+
+@pytest.mark.parametrize("engine", _engines_with_colliders(KNOWN, run_known=False))
+def test_donut_rests_on_guitar_reduced(engine, tmp_path):
+    _check_rests(engine, tmp_path, True)
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("engine", _engines_with_colliders(KNOWN))
 def test_donut_rests_on_guitar(engine, tmp_path):
-    scene = _run(engine, tmp_path, False)
-    assert check_guitar_unchanged(scene, tmp_path / "out") == scene.n_frames + 1
-    f = contact_figures(scene, tmp_path / "out")
-    print(engine, f)
-    _assert_rests(f)
+    _check_rests(engine, tmp_path, False)

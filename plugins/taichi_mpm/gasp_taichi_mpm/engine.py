@@ -166,10 +166,7 @@ class TaichiMPMEngine:
         self._check_live()
         s = self.solver
         s.reset_out()
-        if s.has_extras:
-            s.substeps_with_extras(self.n_substeps)
-        else:
-            s.substeps(self.n_substeps)
+        s.substeps(self.n_substeps)
         self.frame += 1
         x = s.get(s.x)[self._inverse]
         v = s.get(s.v)[self._inverse]

@@ -198,7 +198,8 @@ class MPMSolver:
         self.n_total[None] = n
         self.sc.from_numpy(np.array([dt, dx, 1.0 / dx], np_real))
         self._passive_every = int(passive_every)
-        self._passive_plan: dict[int, list] = {}
+        self._np_real = np_real
+        self._passive_plan: tuple[int, list] = (0, [])   # (n_substeps, per-substep weight pair or None)
         self.lo[None] = [float(a) for a in lo]
         self.gravity[None] = [float(a) for a in gravity]
         for i, (fr, _, hi_first) in enumerate(walls):
@@ -237,16 +238,18 @@ class MPMSolver:
     def _passive_at(self, n_substeps: int) -> list:
         """Per substep of a frame: None, or which weight pair (0 full interval, 1 last) moves the passive
         points after its grid update (:func:`gasp_core.mpm.passive_schedule`)."""
-        if n_substeps not in self._passive_plan:
+        if not self.has_passive:
+            return [None] * n_substeps
+        if self._passive_plan[0] != n_substeps:
             plan = mpm.passive_schedule(n_substeps, self._passive_every, float(self.sc[0]))
             pairs = list(dict.fromkeys((a, b) for _s, a, b in plan))
             pairs += pairs[-1:] * (2 - len(pairs))
-            self.pab.from_numpy(np.array([c for ab in pairs for c in ab], self.pab.to_numpy().dtype))
+            self.pab.from_numpy(np.array([c for ab in pairs for c in ab], self._np_real))
             at = [None] * n_substeps
             for s, a, b in plan:
                 at[s] = pairs.index((a, b))
-            self._passive_plan = {n_substeps: at}
-        return self._passive_plan[n_substeps]
+            self._passive_plan = (n_substeps, at)
+        return self._passive_plan[1]
 
     def substeps(self, n_substeps: int) -> None:
         """Advance ``n_substeps`` substeps (P2G, grid update, G2P each), no host sync in between.
@@ -254,30 +257,19 @@ class MPMSolver:
         Passive points (``n_material < n``) are moved after a grid update (every one, or every
         ``passive_every``-th and the frame's last: :func:`gasp_core.mpm.passive_schedule`), by the
         grid velocity that already holds the forces, colliders and boundaries, so they follow the
-        material and respect what it respects; they add nothing to the grid."""
-        at = self._passive_at(n_substeps) if self.has_passive else [None] * n_substeps
+        material and respect what it respects; they add nothing to the grid. With colliders, forces
+        or impulses the frame's time table is loaded first and the substep index set before each P2G."""
+        at = self._passive_at(n_substeps)
+        if self.has_extras:
+            self.ex_tab.from_numpy(self._time_table().astype(self._ex_np))
+            self.ex_step[None] = 0
         self.g2p_p2g(0)
         for s in range(n_substeps - 1):
             self.grid_update()
             if at[s] is not None:
                 self.g2p_passive(at[s])
-            self.g2p_p2g(1)
-        self.grid_update()
-        self.g2p()
-        if at[-1] is not None:
-            self.g2p_passive(at[-1])
-
-    def substeps_with_extras(self, n_substeps: int) -> None:
-        """:meth:`substeps` with colliders, forces and impulses: the frame's table loaded, the substep index set."""
-        self.ex_tab.from_numpy(self._time_table().astype(self._ex_np))
-        self.ex_step[None] = 0
-        at = self._passive_at(n_substeps) if self.has_passive else [None] * n_substeps
-        self.g2p_p2g(0)
-        for s in range(n_substeps - 1):
-            self.grid_update()
-            if at[s] is not None:
-                self.g2p_passive(at[s])
-            self.ex_step[None] = s + 1
+            if self.has_extras:
+                self.ex_step[None] = s + 1
             self.g2p_p2g(1)
         self.grid_update()
         self.g2p()
