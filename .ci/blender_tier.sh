@@ -18,7 +18,7 @@ PY=.ci/.venv-blender/bin/python
 $PY -m pip install -q -e ".[test]" -e "plugins/blender[engine,test]"
 $PY - <<'PYEOF'
 import importlib.metadata as md
-from gasp_core.plugins import get_engine
+from gasp_core.seam.plugins import get_engine
 print("bpy", md.version("bpy"), "| gasp-blender", md.version("gasp-blender"))
 get_engine("blender")  # raises EngineError if the plugin cannot run here
 PYEOF

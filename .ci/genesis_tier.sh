@@ -17,7 +17,7 @@ python -m pip install -q genesis-world
 python -m pip install -q -e . -e "plugins/genesis[engine,test]"
 python - <<'PY'
 import importlib.metadata as md
-from gasp_core.plugins import get_engine
+from gasp_core.seam.plugins import get_engine
 print("genesis-world", md.version("genesis-world"), "| torch", md.version("torch"),
       "| gasp-genesis", md.version("gasp-genesis"))
 get_engine("genesis")  # raises EngineError if the plugin cannot run here

@@ -4,10 +4,10 @@ Inputs (real data): the donut (``examples/data/donut_v3dg.ply``, 45,624 Gaussian
 (``examples/data/guitar.compressed.ply``, 90,854) tiled side by side 11 times (999,394 Gaussians,
 each copy shifted by 1.1 times the guitar's extent along x so the copies do not touch).
 
-Each case runs :func:`gasp_core.hierarchy.build_hierarchy` in its own subprocess so that the peak
+Each case runs :func:`gasp_core.maps.hierarchy.build_hierarchy` in its own subprocess so that the peak
 resident memory (``ru_maxrss``) is that build's alone (reading and flattening the file included);
 the wall time is the build only. ``--baseline`` also runs the former BIRCH build (the parent
-commit's ``gasp_core/hierarchy.py``, from git) on the donut for the coefficient comparison.
+commit's ``gasp_core/maps/hierarchy.py``, from git) on the donut for the coefficient comparison.
 
 Usage::
 
@@ -33,8 +33,8 @@ RESULTS = ROOT / "benchmarks" / "results"
 CHILD = r"""
 import json, resource, sys, time, importlib.util
 import numpy as np
-from gasp_core.io import read_gaussians
-from gasp_core.games import flatten, gaussians_to_triangles
+from gasp_core.gs.io import read_gaussians
+from gasp_core.maps.games import flatten, gaussians_to_triangles
 src, tiles, frac, module = sys.argv[1], int(sys.argv[2]), float(sys.argv[3]), sys.argv[4]
 g = read_gaussians(src)
 s, R, _ = flatten(g.scales, g.rotmats())
@@ -45,7 +45,7 @@ if tiles > 1:
     tri = np.concatenate([tri + i * shift for i in range(tiles)])
     means = np.concatenate([means + i * shift for i in range(tiles)])
 if module == "new":
-    from gasp_core.hierarchy import build_hierarchy
+    from gasp_core.maps.hierarchy import build_hierarchy
 else:
     spec = importlib.util.spec_from_file_location("hierarchy_old", module)
     mod = importlib.util.module_from_spec(spec); spec.loader.exec_module(mod)
@@ -80,7 +80,7 @@ def main(argv=None) -> int:
         rows.append(run_case(src, tiles, frac))
         print(rows[-1], flush=True)
     if args.baseline:
-        old = subprocess.run(["git", "show", "e7eb22b~1:gasp_core/hierarchy.py"], capture_output=True,
+        old = subprocess.run(["git", "show", "e7eb22b~1:gasp_core/maps/hierarchy.py"], capture_output=True,
                              text=True, cwd=ROOT, check=True).stdout.replace("from .games import EPS", "EPS = 1e-8")
         with tempfile.TemporaryDirectory() as d:
             path = Path(d) / "hierarchy_old.py"

@@ -2,7 +2,7 @@
 
 Scene: a cube of jelly (or neo-Hookean) points sampled at 8 points per grid cell (2 per axis),
 released 1 cell above a ground plane at 1 m/s downwards, in a 1 m box with ``n_grid = 64``,
-f32, CPU. Every engine runs the same substep ``dt = gasp_core.mpm.mpm_stable_dt(...)``:
+f32, CPU. Every engine runs the same substep ``dt = gasp_core.toolkit.mpm.mpm_stable_dt(...)``:
 ``frame_dt = SUBSTEPS * dt`` and the option ``n_substeps = SUBSTEPS``.
 
 Each engine runs in its own subprocess (Taichi and Warp keep process-global state), one after
@@ -45,8 +45,8 @@ def make_setup(n_target: int, material: str):
     SimSetup
         World frame, z up; ``options`` ask for CPU, f32 and ``SUBSTEPS`` substeps per frame.
     """
-    from gasp_core.engine import Boundary, Material, SimSetup
-    from gasp_core.mpm import mpm_stable_dt
+    from gasp_core.seam.engine import Boundary, Material, SimSetup
+    from gasp_core.toolkit.mpm import mpm_stable_dt
 
     dx = 1.0 / N_GRID
     cells = max(1, int(round((n_target / 8) ** (1 / 3))))
@@ -69,8 +69,8 @@ def make_setup(n_target: int, material: str):
 def worker(engine: str, sizes: list[int], materials: list[str], frames: int,
            with_donut: bool = True) -> list[dict]:
     """Time one engine on every (size, material); runs inside the subprocess."""
-    from gasp_core.engine import build_engine
-    from gasp_core.plugins import get_engine
+    from gasp_core.seam.engine import build_engine
+    from gasp_core.seam.plugins import get_engine
 
     info = get_engine(engine)
     out = []
@@ -121,9 +121,9 @@ def donut_frame(engine: str) -> dict:
 
     Frame 1 (kernel compilation) is excluded; frame 2 is timed, then the point count and substeps.
     """
-    from gasp_core.pipeline import prepare_scene
-    from gasp_core.runner import RunStats, run_engine
-    from gasp_core.scene import load_scene
+    from gasp_core.run.pipeline import prepare_scene
+    from gasp_core.seam.runner import RunStats, run_engine
+    from gasp_core.scene.spec import load_scene
 
     prep = prepare_scene(load_scene(DONUT), engine)
     stats = RunStats()
@@ -206,7 +206,7 @@ def main(argv=None) -> int:
         print(json.dumps(worker(a.worker, sizes, materials, a.frames, not a.no_donut)))
         return 0
 
-    from gasp_core.plugins import engines
+    from gasp_core.seam.plugins import engines
     found = engines()
     if a.engines:
         names = [s.strip() for s in a.engines.split(",") if s.strip()]

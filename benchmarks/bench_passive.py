@@ -14,7 +14,7 @@ variants:
 - ``core=f``: the hierarchy at ``core_fraction = f`` (material surface);
 - ``passive+core=f``: both.
 
-Accuracy: the Gaussians' means (``T^-1`` of the moved triangles, :func:`gasp_core.frames.rebuild`)
+Accuracy: the Gaussians' means (``T^-1`` of the moved triangles, :func:`gasp_core.run.frames.rebuild`)
 of every frame against a reference run, as a share of the object's size (the diagonal of the
 bounding box of the reference's frame-0 means, as in ``docs/speed_accuracy.md``): the mean over
 Gaussians, the 99th percentile and the max, the worst frame, and the per-frame mean.
@@ -60,9 +60,9 @@ def variant_scene(scene, variant: str, n_grid: int | None):
 
 def run_variant(scene, n_frames: int, threads: int | None, embed: bool = False) -> dict:
     """Prepare, build and step; the means of every frame per object and the timings."""
-    from gasp_core.frames import rebuild
-    from gasp_core.pipeline import prepare_scene
-    from gasp_core.runner import RunStats, run_engine
+    from gasp_core.run.frames import rebuild
+    from gasp_core.run.pipeline import prepare_scene
+    from gasp_core.seam.runner import RunStats, run_engine
 
     load0 = os.getloadavg()
     t0 = time.perf_counter()
@@ -123,7 +123,7 @@ def main(argv=None) -> int:
                     help="n_grid of a finer full run used as the reference (default: the full run)")
     ap.add_argument("--out", default=str(RESULTS / "bench_passive"))
     args = ap.parse_args(argv)
-    from gasp_core.scene import load_scene
+    from gasp_core.scene.spec import load_scene
 
     rows, report = [], {"machine": {"cpus": os.cpu_count(), "platform": platform.platform()}, "scenes": {}}
     for name in args.scenes.split(","):

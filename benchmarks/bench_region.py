@@ -41,9 +41,9 @@ RESULTS = ROOT / "benchmarks" / "results"
 
 def cut_out(tmp: Path) -> tuple[Path, int]:
     """Write the selected region as its own PLY and a scene simulating it alone."""
-    from gasp_core.io import write_gaussians
-    from gasp_core.pipeline import prepare_scene
-    from gasp_core.scene import load_scene
+    from gasp_core.gs.io import write_gaussians
+    from gasp_core.run.pipeline import prepare_scene
+    from gasp_core.scene.spec import load_scene
     scene = load_scene(KITCHEN)
     prep = prepare_scene(scene)
     o = prep.objects[0]
@@ -63,7 +63,7 @@ def cut_out(tmp: Path) -> tuple[Path, int]:
 
 def run(scene: Path, out: Path, frames: int) -> dict:
     t0 = time.perf_counter()
-    subprocess.run([sys.executable, "-m", "gasp_core.cli", "simulate", str(scene), "-o", str(out),
+    subprocess.run([sys.executable, "-m", "gasp_core.cli.main", "simulate", str(scene), "-o", str(out),
                     "--frames", str(frames), "-q"], check=True)
     wall = time.perf_counter() - t0
     r = json.loads((out / "run.json").read_text())

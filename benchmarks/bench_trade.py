@@ -112,7 +112,7 @@ def variant_scene(src: Path, obj_keys: dict, domain_keys: dict, n_frames: int, d
 
 def read_means(run_dir: Path) -> tuple[np.ndarray, float]:
     """Means of every frame, shape (n_frames + 1, n, 3), world metres, and the object size, m."""
-    from gasp_core.io import read_gaussians
+    from gasp_core.gs.io import read_gaussians
     summary = json.loads((run_dir / "run.json").read_text())
     per_obj = []
     for o in summary["objects"]:
@@ -140,7 +140,7 @@ def error(a: np.ndarray, b: np.ndarray, size: float, window: int | None = None) 
 
 def run_variant(scene: Path, out: Path, timeout_s: float) -> dict:
     t0 = time.perf_counter()
-    p = subprocess.run([sys.executable, "-m", "gasp_core.cli", "simulate", str(scene), "-o", str(out), "-q"],
+    p = subprocess.run([sys.executable, "-m", "gasp_core.cli.main", "simulate", str(scene), "-o", str(out), "-q"],
                        capture_output=True, text=True, timeout=timeout_s)
     wall = time.perf_counter() - t0
     rec = {"returncode": p.returncode, "process_wall_s": wall}

@@ -13,9 +13,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from gasp_core.engine import Option, SceneError
+from gasp_core.seam.engine import Option, SceneError
 from gasp_core.errors import EngineDivergence
-from gasp_core.plugins import engines as installed_engines
+from gasp_core.seam.plugins import engines as installed_engines
 from gasp_core.testing import check_engine, evaluate_scene, record, scene_by_name
 
 #: Real engines to wrap, in order of preference (the first installed and available one is used).
@@ -178,6 +178,6 @@ def test_check_engine_classifies(reference):
 
 
 def test_check_engine_unknown_name():
-    from gasp_core.engine import EngineError
+    from gasp_core.seam.engine import EngineError
     with pytest.raises(EngineError, match="unknown engine 'no_such_engine'"):
         check_engine("no_such_engine")

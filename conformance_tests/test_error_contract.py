@@ -12,15 +12,16 @@ from pathlib import Path
 
 import pytest
 
-from gasp_core import cli, plugins
+from gasp_core.cli import main as cli
+from gasp_core.seam import plugins
 
 ROOT = Path(__file__).resolve().parents[1]
 DONUT = ROOT / "examples" / "data" / "donut_v3dg.ply"
 
 PLUGIN = '''
 import numpy as np
-from gasp_core.engine import Capabilities, EngineInfo
-from gasp_core.plugins import hookimpl
+from gasp_core.seam.engine import Capabilities, EngineInfo
+from gasp_core.seam.plugins import hookimpl
 
 WHERE = "{where}"
 

@@ -3,7 +3,7 @@
 Base case: an elastic cube (0.2 m, 216 points) one cell above the ground in [0, 1]^3,
 ``n_grid`` 16, ``frame_dt`` 0.01 s, 2 frames. Each case changes one thing. Allowed outcomes:
 
-- ``ok``: :func:`gasp_core.runner.run_engine` returned finite positions and the result is plausible
+- ``ok``: :func:`gasp_core.seam.runner.run_engine` returned finite positions and the result is plausible
   (no point moved farther than free fall plus the initial speed allows, plus 2 dx; no point more
   than dx below the ground);
 - a clear error: :class:`SceneError` / :class:`EngineError` at build, or
@@ -19,13 +19,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gasp_core.plugins import engines as installed_engines
+from gasp_core.seam.plugins import engines as installed_engines
 from gasp_core.testing import G, box_points, record
 from gasp_core.testing.scenes_basic import GROUND_H
-from gasp_core.engine import (Boundary, EngineDivergence, EngineError, Material, SceneError,
+from gasp_core.seam.engine import (Boundary, EngineDivergence, EngineError, Material, SceneError,
                               SimSetup)
-from gasp_core.mpm import mpm_stable_dt
-from gasp_core.runner import simulate
+from gasp_core.toolkit.mpm import mpm_stable_dt
+from gasp_core.seam.runner import simulate
 
 N_FRAMES = 2
 FRAME_DT = 0.01

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gasp_core.io import read_gaussians, write_gaussians
+from gasp_core.gs.io import read_gaussians, write_gaussians
 
 HERE = Path(__file__).resolve().parent
 HALF_THICKNESS = 0.03  # file units

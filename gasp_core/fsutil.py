@@ -25,7 +25,7 @@ from pathlib import Path
 from contextlib import contextmanager
 from typing import Callable, Iterable, Iterator
 
-from .errors import GaspError
+from gasp_core.errors import GaspError
 
 CLAIM = ".gasp-claim"
 #: Written into every folder gasp commits: the entries that run made (``--overwrite`` replaces

@@ -11,5 +11,5 @@ Not part of the core: ``pip install -e ".[studies]"`` adds it (Dask and matplotl
 
 :mod:`gasp_studies.compare` (``gasp compare``) and :mod:`gasp_studies.bench` (``gasp bench``)
 put them together. Nothing here names an engine: an engine's sweep of settings comes from its
-own :attr:`gasp_core.engine.EngineInfo.sweep`.
+own :attr:`gasp_core.seam.engine.EngineInfo.sweep`.
 """

@@ -1,6 +1,6 @@
 """``gasp bench``: the speed/accuracy trade of the settings a user chooses, per engine.
 
-Each engine offers its own sweep (:attr:`gasp_core.engine.EngineInfo.sweep`,
+Each engine offers its own sweep (:attr:`gasp_core.seam.engine.EngineInfo.sweep`,
 ``sweep(quick) -> (settings, reference)``): the settings to try and the reference setting, its
 finest. Keys ``n_grid``, ``particles_per_cell``, ``fill`` and ``core_fraction`` change the scene
 (:data:`gasp_studies.report.SCENE_KEYS`); every other key is an engine option. An engine without a
@@ -27,7 +27,7 @@ from typing import Any
 
 from gasp_core.fsutil import output_folder
 from gasp_core.errors import EngineError, SceneError
-from gasp_core.scene import Scene, load_scene
+from gasp_core.scene.spec import Scene, load_scene
 
 from . import report
 from .compare import engine_options, ground_height, progress_line, save_run, select_engines, subsample_scene
@@ -249,7 +249,7 @@ def bench_scene(scene_path: str | Path, output: str | Path, engines: list[str] |
         raise SceneError(f"n_frames: expected an integer >= 2 (frame 1 is left out of the timing), got {n_frames!r}")
     n_frames = min(scene.n_frames, DEFAULT_FRAMES) if n_frames is None else n_frames
     keep = strip_frames(n_frames, n_strip_frames)
-    from gasp_core.plugins import engines as all_engines
+    from gasp_core.seam.plugins import engines as all_engines
     found = all_engines()
     requested = None if engines is None else list(dict.fromkeys(e.strip() for e in engines if e.strip()))
     runnable, skipped = select_engines(scene, requested)

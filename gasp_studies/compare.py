@@ -20,7 +20,7 @@ import numpy as np
 
 from gasp_core.fsutil import output_folder
 from gasp_core.errors import EngineError, GaspError, SceneError
-from gasp_core.scene import Scene, load_scene
+from gasp_core.scene.spec import Scene, load_scene
 
 from . import report
 from .measure import divergence_rows, steady_s_per_frame
@@ -46,7 +46,7 @@ def subsample_scene(scene: Scene, max_gaussians: int | None, workdir: Path) -> t
     SceneError
         If ``max_gaussians`` is not a positive integer, or an object file cannot be read.
     """
-    from gasp_core.io import read_gaussians, write_gaussians
+    from gasp_core.gs.io import read_gaussians, write_gaussians
     if max_gaussians is None:
         return scene, [1] * len(scene.objects)
     if isinstance(max_gaussians, bool) or not isinstance(max_gaussians, int) or max_gaussians < 1:
@@ -95,10 +95,10 @@ def select_engines(scene: Scene, requested: Iterable[str] | None) -> tuple[list[
     runnable : list of str
     skipped : dict
         ``{engine: reason}``: not installed, not available here, or a material or boundary it
-        lacks (:func:`gasp_core.engine.check_supported`).
+        lacks (:func:`gasp_core.seam.engine.check_supported`).
     """
-    from gasp_core.engine import check_supported
-    from gasp_core.plugins import engines as all_engines
+    from gasp_core.seam.engine import check_supported
+    from gasp_core.seam.plugins import engines as all_engines
     found = all_engines()
     names = list(requested) if requested is not None else list(found)
     runnable, skipped = [], {}

@@ -1,8 +1,8 @@
 """Fan scene runs out on Dask, one fresh worker process per run, each with a wall-clock limit.
 
 A run is a :class:`RunSpec` (scene, engine, options, frames). :func:`execute` runs it inside a
-Dask worker through the core's own pipeline (:func:`gasp_core.pipeline.prepare_scene`,
-:func:`gasp_core.pipeline.iter_frames`) and returns a :class:`RunOutput`: the Gaussian means of
+Dask worker through the core's own pipeline (:func:`gasp_core.run.pipeline.prepare_scene`,
+:func:`gasp_core.run.pipeline.iter_frames`) and returns a :class:`RunOutput`: the Gaussian means of
 every frame (file frame, float32) and a JSON-able record of timings and engine statistics.
 Results come back through Dask; nothing is handed over through files.
 
@@ -28,7 +28,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from gasp_core.errors import GaspError
-from gasp_core.scene import Scene
+from gasp_core.scene.spec import Scene
 
 #: Default wall-clock limit of one run, seconds.
 RUN_TIMEOUT_S = 3600.0
@@ -124,8 +124,8 @@ def execute(spec: RunSpec, capture: bool = True) -> RunOutput:
     raised: one engine's failure does not stop a study.
     """
     from gasp_core.errors import EngineDivergence
-    from gasp_core.pipeline import iter_frames, prepare_scene
-    from gasp_core.runner import RunStats
+    from gasp_core.run.pipeline import iter_frames, prepare_scene
+    from gasp_core.seam.runner import RunStats
 
     from .strips import world_splats
 

@@ -70,7 +70,7 @@ def world_splats(objects, gaussians) -> "Splats":
         Their ``placement`` (``x_world = scale R x_file + t``) maps each object to the world.
     gaussians : sequence of Gaussians
         The frame's rebuilt Gaussians per object, file frame
-        (:func:`gasp_core.frames.iter_frames`).
+        (:func:`gasp_core.run.frames.iter_frames`).
 
     Returns
     -------

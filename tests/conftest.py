@@ -4,7 +4,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gasp_core.io import read_gaussians, write_gaussians
+from gasp_core.gs.io import read_gaussians, write_gaussians
 from gasp_testing import DONUT
 
 
@@ -36,8 +36,8 @@ def donut_run(tmp_path_factory):
     n_grid 24, 14 frames, no interior fill, jelly (falls for 4 frames, lands, and at this coarse grid
     keeps bouncing: the resting check runs on the README example, ``-m slow``)."""
     pytest.importorskip("gasp_taichi_mpm", reason="taichi_mpm plugin not installed")
-    from gasp_core.pipeline import simulate_scene
-    from gasp_core.scene import load_scene
+    from gasp_core.run.pipeline import simulate_scene
+    from gasp_core.scene.spec import load_scene
     from gasp_testing import scene_text
     d = tmp_path_factory.mktemp("render_run")
     toml = d / "scene.toml"

@@ -1,7 +1,7 @@
 """Bad-input corpus: every case is one ``gasp: error:`` line, exit status 2, and nothing written.
 
 Each case builds its bad file(s) from the real donut (every 16th Gaussian) or the real guitar, runs
-the CLI in-process (``gasp_core.cli.main``) and checks:
+the CLI in-process (``gasp_core.cli.main.main``) and checks:
 
 * exit status 2;
 * stderr is exactly one line, starting ``gasp: error:``, naming what is wrong (the needles);
@@ -22,8 +22,8 @@ import pytest
 from gasp_testing import GUITAR, scene_text
 from plyfile import PlyData, PlyElement
 
-from gasp_core.cli import main
-from gasp_core.scene import load_scene
+from gasp_core.cli.main import main
+from gasp_core.scene.spec import load_scene
 
 
 @pytest.fixture(scope="module")
@@ -369,7 +369,7 @@ def test_bad_input_as_subprocess(name, tmp_path, donut_small, donut_vertex):
     build, needles = CASES[name]
     argv = build(tmp_path, donut_small, donut_vertex)
     before = snapshot(tmp_path)
-    p = subprocess.run([sys.executable, "-m", "gasp_core.cli", *argv],
+    p = subprocess.run([sys.executable, "-m", "gasp_core.cli.main", *argv],
                        capture_output=True, text=True, timeout=600)
     lines = p.stderr.strip().splitlines()
     assert p.returncode == 2 and len(lines) == 1 and lines[0].startswith("gasp: error:"), p.stderr

@@ -7,7 +7,7 @@ import pytest
 from gasp_testing import DONUT, scene_text
 from plyfile import PlyData, PlyElement
 
-from gasp_core.cli import main
+from gasp_core.cli.main import main
 
 
 def run(capsys, *argv):

@@ -1,4 +1,4 @@
-"""Colliders, impulses and force fields: scene keys, distance fields, feature checks (gasp_core.colliders)."""
+"""Colliders, impulses and force fields: scene keys, distance fields, feature checks (gasp_core.colliders.model)."""
 from __future__ import annotations
 
 import math
@@ -7,10 +7,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gasp_core.colliders import (ForceField, Impulse, Motion, box_collider, collider_from_triangles,
+from gasp_core.colliders.model import (ForceField, Impulse, Motion, box_collider, collider_from_triangles,
                                  feature_needs, frame_table, grid_tables)
-from gasp_core.engine import Capabilities, EngineInfo, SceneError, check_supported
-from gasp_core.scene import parse_scene
+from gasp_core.seam.engine import Capabilities, EngineInfo, SceneError, check_supported
+from gasp_core.scene.spec import parse_scene
 
 DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
 

@@ -6,9 +6,9 @@ import importlib.util
 import numpy as np
 import pytest
 
-from gasp_core.colliders import ForceField, Impulse, Motion, box_collider
-from gasp_core.engine import build_engine
-from gasp_core.setup import Boundary, Material
+from gasp_core.colliders.model import ForceField, Impulse, Motion, box_collider
+from gasp_core.seam.engine import build_engine
+from gasp_core.seam.setup import Boundary, Material
 from gasp_core.testing.helpers import box_points, make_setup
 
 ENGINES = [e for e, mod in (("taichi_mpm", "gasp_taichi_mpm"), ("warp_mpm", "gasp_warp_mpm"))
@@ -24,7 +24,7 @@ def _block(**kw):
 
 
 def _run(engine, setup, n):
-    from gasp_core.plugins import engines
+    from gasp_core.seam.plugins import engines
     eng = build_engine(engines()[engine], setup)
     for _ in range(n):
         eng.step_frame()

@@ -4,10 +4,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gasp_core.engine import SceneError
-from gasp_core.io import read_splatv, splatv_at
-from gasp_core.pipeline import prepare_object
-from gasp_core.scene import parse_scene
+from gasp_core.seam.engine import SceneError
+from gasp_core.gs.io import read_splatv, splatv_at
+from gasp_core.run.pipeline import prepare_object
+from gasp_core.scene.spec import parse_scene
 
 SPLATV = Path(__file__).resolve().parents[2] / "shared" / "data" / "dynamic" / "spinach_4.splatv"
 pytestmark = pytest.mark.skipif(not SPLATV.exists(), reason=f"{SPLATV} not present")

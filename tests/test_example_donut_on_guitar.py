@@ -17,11 +17,11 @@ import numpy as np
 import pytest
 from plyfile import PlyData
 
-from gasp_core.colliders import build_colliders
-from gasp_core.io import read_gaussians
-from gasp_core.placement import prepare_object
-from gasp_core.plugins import engines
-from gasp_core.scene import load_scene
+from gasp_core.colliders.model import build_colliders
+from gasp_core.gs.io import read_gaussians
+from gasp_core.prepare.placement import prepare_object
+from gasp_core.seam.plugins import engines
+from gasp_core.scene.spec import load_scene
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "donut_on_guitar.toml"
 #: The reduced run: the example's domain at half its resolution, a tenth of the donut simulated.
@@ -106,7 +106,7 @@ KNOWN = {"mujoco_flex": "rests on the guitar's convex hull: lowest Gaussians 4.8
 
 
 def _run(engine: str, tmp_path: Path, reduced: bool):
-    from gasp_core.pipeline import simulate_scene
+    from gasp_core.run.pipeline import simulate_scene
     scene = load_scene(EXAMPLE)
     if reduced:
         objects = [o if o.static else dataclasses.replace(o, core_fraction=REDUCED_CORE_FRACTION)

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from plyfile import PlyData
 
-from gasp_core.io import read_gaussians
-from gasp_core.pipeline import simulate_scene
-from gasp_core.scene import load_scene
+from gasp_core.gs.io import read_gaussians
+from gasp_core.run.pipeline import simulate_scene
+from gasp_core.scene.spec import load_scene
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 SCENES = sorted(p for p in EXAMPLES.glob("*.toml"))
@@ -45,7 +45,7 @@ DONUT_KNOWN = {"genesis": "still bouncing after 1.2 s: end speed 0.10 of the imp
 
 
 def _installed():
-    from gasp_core.plugins import engines
+    from gasp_core.seam.plugins import engines
     return [pytest.param(n, marks=pytest.mark.xfail(strict=True, reason=DONUT_KNOWN[n])) if n in DONUT_KNOWN
             else n for n, e in engines().items() if not e.unavailable_reason()]
 

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from gasp_testing import ROOT
 
-from gasp_core.engine import SceneError
-from gasp_core.fill import fill_interior, fill_spacing
-from gasp_core.games import flatten, gaussians_to_triangles
+from gasp_core.seam.engine import SceneError
+from gasp_core.maps.fill import fill_interior, fill_spacing
+from gasp_core.maps.games import flatten, gaussians_to_triangles
 
 trimesh = pytest.importorskip("trimesh")
 SPOT = Path(os.environ.get("GASP_SHARED_DATA", ROOT.parent / "shared" / "data")) / "mesh" / "spot_triangulated.obj"

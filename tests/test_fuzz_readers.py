@@ -1,7 +1,7 @@
 """Property-based fuzzing of the PLY and scene readers (hypothesis).
 
 Whatever bytes or TOML document they get, the readers either return a valid object or raise
-:class:`~gasp_core.engine.SceneError` (one line naming the file), never another exception type
+:class:`~gasp_core.seam.engine.SceneError` (one line naming the file), never another exception type
 and never a numpy RuntimeWarning. Bounded (``max_examples``) so the module runs in well under 60 s.
 """
 from __future__ import annotations
@@ -18,10 +18,10 @@ hypothesis = pytest.importorskip("hypothesis")
 from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
-from gasp_core.engine import SceneError  # noqa: E402
-from gasp_core.gaussians import Gaussians  # noqa: E402
-from gasp_core.io import read_gaussians  # noqa: E402
-from gasp_core.scene import Scene, parse_scene  # noqa: E402
+from gasp_core.seam.engine import SceneError  # noqa: E402
+from gasp_core.gs.gaussians import Gaussians  # noqa: E402
+from gasp_core.gs.io import read_gaussians  # noqa: E402
+from gasp_core.scene.spec import Scene, parse_scene  # noqa: E402
 
 FUZZ = settings(max_examples=100, deadline=None, derandomize=True,
                 suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
@@ -184,7 +184,7 @@ def test_scene_documents_parse_or_raise_scene_error(scene_dir, doc):
 @given(text=st.text(max_size=300))
 def test_scene_text_parses_or_raises_scene_error(tmp_path, text):
     """Arbitrary text through load_scene (TOML errors included) gives SceneError or a Scene."""
-    from gasp_core.scene import load_scene
+    from gasp_core.scene.spec import load_scene
     p = tmp_path / "s.toml"
     p.write_text(text, encoding="utf-8")
     try:

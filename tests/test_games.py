@@ -4,9 +4,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gasp_core.games import EPS, alpha_rule, flatten, gaussians_to_triangles, triangles_to_gaussians
-from gasp_core.gaussians import quat_to_rotmat, rotmat_to_quat
-from gasp_core.io import read_gaussians
+from gasp_core.maps.games import EPS, alpha_rule, flatten, gaussians_to_triangles, triangles_to_gaussians
+from gasp_core.gs.gaussians import quat_to_rotmat, rotmat_to_quat
+from gasp_core.gs.io import read_gaussians
 
 DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "gs"

@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 from gasp_testing import scene_text
 
-from gasp_core.games import flatten, gaussians_to_triangles, triangles_to_gaussians
-from gasp_core.hierarchy import build_hierarchy, sub_triangles
+from gasp_core.maps.games import flatten, gaussians_to_triangles, triangles_to_gaussians
+from gasp_core.maps.hierarchy import build_hierarchy, sub_triangles
 
 
 @pytest.fixture(scope="module")
@@ -67,7 +67,7 @@ def test_degenerate_core_gives_finite_subs(hier):
 @pytest.mark.parametrize("frac, msg", [(1.5, "must be in"), (0.0, "must be in"), ("x", "must be a number"),
                                        (1e-6, "cores for")])
 def test_bad_fraction_is_one_line_scene_error(donut_tri, frac, msg):
-    from gasp_core.engine import SceneError
+    from gasp_core.seam.engine import SceneError
     with pytest.raises(SceneError, match=msg) as e:
         build_hierarchy(*donut_tri, core_fraction=frac)
     assert "\n" not in str(e.value)
@@ -86,9 +86,9 @@ def test_tiny_fraction_on_full_donut(donut):
 def test_pipeline_with_cores_tracks_full_run(tmp_path, donut_small):
     """Simulating 25 % of the donut's Gaussians as cores stays close to simulating all of them."""
     pytest.importorskip("gasp_taichi_mpm")
-    from gasp_core.io import read_gaussians
-    from gasp_core.pipeline import simulate_scene
-    from gasp_core.scene import load_scene
+    from gasp_core.gs.io import read_gaussians
+    from gasp_core.run.pipeline import simulate_scene
+    from gasp_core.scene.spec import load_scene
     runs = {}
     for frac in (1.0, 0.25):
         p = tmp_path / f"s{frac}.toml"

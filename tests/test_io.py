@@ -9,9 +9,9 @@ from plyfile import PlyData, PlyElement
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
-from gasp_core.engine import SceneError
-from gasp_core.gaussians import FLAT_EPS, Gaussians, quat_to_rotmat, rotmat_to_quat
-from gasp_core.io import SH_C0, describe, read_gaussians, read_splatv, splatv_at, write_gaussians
+from gasp_core.seam.engine import SceneError
+from gasp_core.gs.gaussians import FLAT_EPS, Gaussians, quat_to_rotmat, rotmat_to_quat
+from gasp_core.gs.io import SH_C0, describe, read_gaussians, read_splatv, splatv_at, write_gaussians
 
 SHARED = Path(os.environ.get("GASP_DATA", Path(__file__).resolve().parents[2] / "shared" / "data"))
 GS = SHARED / "gs"

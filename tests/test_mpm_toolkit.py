@@ -1,11 +1,11 @@
-"""Tests of the MPM toolkit (gasp_core.mpm) that the grid engines share."""
+"""Tests of the MPM toolkit (gasp_core.toolkit.mpm) that the grid engines share."""
 import math
 
 import numpy as np
 import pytest
 
-from gasp_core.engine import Boundary, Material, SceneError, check_options
-from gasp_core.mpm import (CAUSE_DOMAIN, CAUSE_DT, MATERIAL_CODES, N_PARAMS, P_ALPHA, P_K, P_LAM, P_MU,
+from gasp_core.seam.engine import Boundary, Material, SceneError, check_options
+from gasp_core.toolkit.mpm import (CAUSE_DOMAIN, CAUSE_DT, MATERIAL_CODES, N_PARAMS, P_ALPHA, P_K, P_LAM, P_MU,
                            P_THETA_C, cell_order, check_mpm_options, fixed_mask, initial_Jp, material_table,
                            mpm_options, mpm_sweep)
 

@@ -8,9 +8,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from gasp_core.engine import Material, SceneError, SimSetup, build_engine
-from gasp_core.passive import EmbeddedEngine, mls_embedding
-from gasp_core.plugins import engines
+from gasp_core.seam.engine import Material, SceneError, SimSetup, build_engine
+from gasp_core.seam.passive import EmbeddedEngine, mls_embedding
+from gasp_core.seam.plugins import engines
 from gasp_core.testing.helpers import box_points
 
 G = 9.81
@@ -98,7 +98,7 @@ def test_passive_schedule_is_exact_for_velocity_linear_in_time(n, every):
     velocity linear in the substep (free fall, any uniform acceleration) the sum equals the plain
     per-substep update ``dt * sum_s v_s`` exactly, whatever ``every``, and the frame's last substep
     always updates."""
-    from gasp_core.mpm import passive_schedule
+    from gasp_core.toolkit.mpm import passive_schedule
     dt = 1e-3
     c0, c1 = np.array([0.3, -1.0, 2.0]), np.array([0.01, 0.5, -0.2])
 
@@ -118,11 +118,11 @@ def test_passive_schedule_is_exact_for_velocity_linear_in_time(n, every):
 def test_passive_every_follows_an_impact(name):
     """The engine option ``passive_every``: a jelly block thrown sideways lands on the ground at
     frame 5 of 10. Gathering the grid velocity every 4th substep instead of every one (the linear
-    in time interpolation of :func:`gasp_core.mpm.passive_schedule`) keeps the passive points to
+    in time interpolation of :func:`gasp_core.toolkit.mpm.passive_schedule`) keeps the passive points to
     1e-3 dx of the per-substep run during the fall (velocity linear in time: exact but for f32
     rounding) and within 0.05 dx through the impact and the sliding (measured 0.021 dx on both
     engines; it grows to 0.09 dx at every 16th and 0.35 dx at one update per frame)."""
-    from gasp_core.setup import Boundary
+    from gasp_core.seam.setup import Boundary
     runs = {}
     for every in (1, 4):
         s = block_with_skin()
@@ -174,9 +174,9 @@ def test_simulate_warns_about_stranded_passive_points(donut, write_scene, tmp_pa
     (the count itself is tested on the engines above; here the engine is made to report 5)."""
     pytest.importorskip("warp")
     from gasp_testing import scene_text
-    from gasp_core.io import write_gaussians
-    from gasp_core.pipeline import simulate_scene
-    from gasp_core.scene import load_scene
+    from gasp_core.gs.io import write_gaussians
+    from gasp_core.run.pipeline import simulate_scene
+    from gasp_core.scene.spec import load_scene
     from gasp_warp_mpm.solver import WarpMPMEngine
     ply = tmp_path / "donut_tiny.ply"
     write_gaussians(ply, donut.subset(np.arange(0, donut.n, 64)))

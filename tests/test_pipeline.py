@@ -7,10 +7,10 @@ from gasp_testing import scene_text
 from plyfile import PlyData
 
 from gasp_core.errors import GaspError
-from gasp_core.gaussians import quat_to_rotmat
-from gasp_core.io import read_gaussians
-from gasp_core.pipeline import UP_ROTATIONS, simulate_scene
-from gasp_core.scene import load_scene
+from gasp_core.gs.gaussians import quat_to_rotmat
+from gasp_core.gs.io import read_gaussians
+from gasp_core.run.pipeline import UP_ROTATIONS, simulate_scene
+from gasp_core.scene.spec import load_scene
 
 pytest.importorskip("gasp_taichi_mpm", reason="the taichi_mpm plugin is not installed")
 
@@ -109,8 +109,8 @@ def test_up_axis_and_scale_round_trip(tmp_path, donut_small):
     """A -Y-up, centimetre copy of the donut gives the same motion, written back in its own frame."""
     g = read_gaussians(donut_small)
     R = UP_ROTATIONS["-y"].T        # world -> file for a -Y-up file
-    from gasp_core.gaussians import rotmat_to_quat
-    from gasp_core.io import write_gaussians
+    from gasp_core.gs.gaussians import rotmat_to_quat
+    from gasp_core.gs.io import write_gaussians
     g2 = g.copy()
     g2.means = 100.0 * g.means @ R.T
     g2.scales = 100.0 * g.scales

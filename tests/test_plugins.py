@@ -4,8 +4,8 @@ import textwrap
 import pluggy
 import pytest
 
-from gasp_core import plugins
-from gasp_core.engine import Capabilities, EngineError, EngineInfo, PointEngine
+from gasp_core.seam import plugins
+from gasp_core.seam.engine import Capabilities, EngineError, EngineInfo, PointEngine
 
 
 @pytest.fixture
@@ -25,8 +25,8 @@ def make_dist(tmp_path, dist: str, module: str, entry: str, body: str):
 
 
 PLUGIN = """
-from gasp_core.engine import Capabilities, EngineInfo
-from gasp_core.plugins import hookimpl
+from gasp_core.seam.engine import Capabilities, EngineInfo
+from gasp_core.seam.plugins import hookimpl
 
 @hookimpl
 def gasp_engines():
@@ -53,7 +53,7 @@ def test_duplicate_engine_names_both_distributions(tmp_path, monkeypatch, fresh_
 
 
 def test_misspelled_hook_fails_loudly(tmp_path, monkeypatch, fresh_pm):
-    body = "from gasp_core.plugins import hookimpl\n@hookimpl\ndef gasp_engine():\n    return []\n"
+    body = "from gasp_core.seam.plugins import hookimpl\n@hookimpl\ndef gasp_engine():\n    return []\n"
     make_dist(tmp_path, "gasp-typo", "gasp_typo", "typo", body)
     monkeypatch.syspath_prepend(str(tmp_path))
     with pytest.raises(pluggy.PluginValidationError, match="gasp_engine"):
@@ -97,7 +97,7 @@ def test_every_hook_is_documented():
 def test_installed_engines_implement_the_protocol():
     """Every installed, available engine builds from a tiny real setup and follows PointEngine."""
     import numpy as np
-    from gasp_core.engine import Material, SimSetup
+    from gasp_core.seam.engine import Material, SimSetup
     g = np.stack(np.meshgrid(*[np.linspace(0.4, 0.6, 4)] * 3, indexing="ij"), -1).reshape(-1, 3)
     for name, info in plugins.engines().items():
         if info.unavailable_reason():

@@ -9,14 +9,14 @@ import time
 import pytest
 from gasp_testing import scene_text
 
-from gasp_core.cli import main
+from gasp_core.cli.main import main
 
 ENGINE = "warp_mpm"
 pytest.importorskip("gasp_warp_mpm", reason="the warp_mpm plugin is not installed")
 
 
 def gasp(*argv, cwd=None, timeout=600):
-    return subprocess.run([sys.executable, "-m", "gasp_core.cli", *map(str, argv)], capture_output=True, text=True,
+    return subprocess.run([sys.executable, "-m", "gasp_core.cli.main", *map(str, argv)], capture_output=True, text=True,
                           cwd=cwd, timeout=timeout)
 
 
@@ -63,7 +63,7 @@ def test_an_object_dropped_from_a_height_fits_the_default_domain(tmp_path, donut
 def test_sigterm_cleans_up_like_ctrl_c(tmp_path, donut_small):
     scene = tmp_path / "s.toml"
     scene.write_text(scene_text(donut_small, n_frames=200, n_grid=16, engine=ENGINE, engine_options="{ }"))
-    proc = subprocess.Popen([sys.executable, "-m", "gasp_core.cli", "simulate", str(scene), "-o", "o", "-q"],
+    proc = subprocess.Popen([sys.executable, "-m", "gasp_core.cli.main", "simulate", str(scene), "-o", "o", "-q"],
                             cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.time() + 600
     while time.time() < deadline:
@@ -90,7 +90,7 @@ def test_no_library_chatter_and_engines_json_parses(tmp_path, donut_small, engin
     r = gasp("engines", "--json")
     assert engine in json.loads(r.stdout)                   # stdout is JSON and nothing else
     env = dict(os.environ, GASP_LOAD_PLUGINS="taichi_mpm")
-    r = subprocess.run([sys.executable, "-m", "gasp_core.cli", "engines", "--json"], capture_output=True, text=True,
+    r = subprocess.run([sys.executable, "-m", "gasp_core.cli.main", "engines", "--json"], capture_output=True, text=True,
                        env=env)
     if "taichi_mpm" in r.stdout:
         assert "taichi_mpm" in json.loads(r.stdout)         # Taichi's banner used to precede the JSON

@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from gasp_core.io import read_gaussians
+from gasp_core.gs.io import read_gaussians
 from gasp_core.render import get_renderer, renderers
 from gasp_core.render.camera import Camera
 from gasp_core.render.splat_numpy import Splats, splats_from_gaussians
@@ -127,7 +127,7 @@ def _falls_and_lands(rows):
 def test_rendered_donut_falls_and_lands(donut_run, tmp_path):
     _falls_and_lands(_centroid_rows(donut_run))
     out = tmp_path / "donut.mp4"
-    from gasp_core.cli import main
+    from gasp_core.cli.main import main
     assert main(["render", str(donut_run), "-o", str(out), "--resolution", "160x120", "-q"]) == 0
     import imageio.v2 as iio2
     with iio2.get_reader(out, format="FFMPEG") as reader:
@@ -136,7 +136,7 @@ def test_rendered_donut_falls_and_lands(donut_run, tmp_path):
 
 
 def test_side_by_side_and_strip(donut_run, tmp_path):
-    from gasp_core.cli import main
+    from gasp_core.cli.main import main
     from gasp_core.render import render_strip
     import imageio.v3 as iio
     out = tmp_path / "frames"
@@ -148,7 +148,7 @@ def test_side_by_side_and_strip(donut_run, tmp_path):
 
 
 def test_bad_run_folder_is_one_clear_error(tmp_path, capsys):
-    from gasp_core.cli import main
+    from gasp_core.cli.main import main
     assert main(["render", str(tmp_path), "-o", str(tmp_path / "x.mp4")]) == 2
     assert "no run.json" in capsys.readouterr().err
 
@@ -160,7 +160,7 @@ def test_readme_donut_falls_lands_and_bounces_lower_each_time(tmp_path):
     does not come to rest within 1.2 s (README "Known limits"); measured image rows of the bounce
     apexes: 84.7, 87.1, 89.6, 91.9, 95.7, 97.6 (the image row grows downwards)."""
     pytest.importorskip("gasp_taichi_mpm", reason="taichi_mpm plugin not installed")
-    from gasp_core.cli import main
+    from gasp_core.cli.main import main
     from gasp_testing import ROOT
     run = tmp_path / "donut"
     assert main(["simulate", str(ROOT / "examples" / "donut_jelly.toml"), "-o", str(run), "-q"]) == 0

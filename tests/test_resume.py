@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 from gasp_testing import scene_text
 
-from gasp_core.cli import main
+from gasp_core.cli.main import main
 from gasp_core.fsutil import CLAIM
 
 ENGINES = {"warp_mpm": "{ }", "taichi_mpm": "{ threads = 1 }"}   # deterministic settings
@@ -31,12 +31,12 @@ def test_kill_9_then_resume_is_bit_identical(engine, tmp_path, donut_small, caps
     # process, after the taichi case had run in it, warp's frames differed in the last bits (cause not
     # isolated: a standalone taichi-then-warp script in one process repeats bit for bit).
     ref = tmp_path / "ref"
-    subprocess.run([sys.executable, "-m", "gasp_core.cli", "simulate", str(scene), "-o", str(ref), "-q"],
+    subprocess.run([sys.executable, "-m", "gasp_core.cli.main", "simulate", str(scene), "-o", str(ref), "-q"],
                    check=True, capture_output=True, cwd=tmp_path)
 
     out = tmp_path / "out"
     kill_after = random.Random(7).randint(2, n_frames - 2)       # frames written before the kill
-    proc = subprocess.Popen([sys.executable, "-m", "gasp_core.cli", "simulate", str(scene), "-o", str(out), "-q"],
+    proc = subprocess.Popen([sys.executable, "-m", "gasp_core.cli.main", "simulate", str(scene), "-o", str(out), "-q"],
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=tmp_path)
     deadline = time.time() + 600
     partial, written = None, 0
@@ -57,7 +57,7 @@ def test_kill_9_then_resume_is_bit_identical(engine, tmp_path, donut_small, caps
     assert main(["simulate", str(scene), "-o", str(out), "-q"]) == 2
     assert "--resume" in capsys.readouterr().err
 
-    resumed = subprocess.run([sys.executable, "-m", "gasp_core.cli", "simulate", str(scene), "-o", str(out), "-q",
+    resumed = subprocess.run([sys.executable, "-m", "gasp_core.cli.main", "simulate", str(scene), "-o", str(out), "-q",
                               "--resume"], capture_output=True, text=True, cwd=tmp_path)
     assert resumed.returncode == 0, resumed.stderr
     import json

@@ -12,12 +12,12 @@ import pytest
 from gasp_testing import DONUT, ROOT
 from plyfile import PlyData
 
-from gasp_core.engine import SceneError
-from gasp_core.io import read_gaussians, read_splatv, splatv_at
-from gasp_core.pipeline import prepare_scene, simulate_scene
-from gasp_core.placement import prepare_object
-from gasp_core.scene import load_scene, parse_scene
-from gasp_core.selection import grow_selection, static_splats
+from gasp_core.seam.engine import SceneError
+from gasp_core.gs.io import read_gaussians, read_splatv, splatv_at
+from gasp_core.run.pipeline import prepare_scene, simulate_scene
+from gasp_core.prepare.placement import prepare_object
+from gasp_core.scene.spec import load_scene, parse_scene
+from gasp_core.prepare.selection import grow_selection, static_splats
 
 KITCHEN = ROOT / "examples" / "kitchen_spinach.toml"
 SPLATV = ROOT / "examples" / "data" / "spinach_4.splatv"
@@ -327,7 +327,7 @@ def test_kitchen_two_frames(tmp_path):
 
 def test_selection_with_core_gaussians_rebuilds_the_whole_file():
     """select and core_fraction together: the hierarchy is built on the selected rows only."""
-    from gasp_core.frames import rebuild
+    from gasp_core.run.frames import rebuild
     prep = prepare_scene(parse(donut_scene(extra="core_fraction = 0.25")))
     o = prep.objects[0]
     n_sel = len(o.moving)

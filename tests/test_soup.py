@@ -1,4 +1,4 @@
-"""Triangle-soup exchange (gasp_core.soup): export the rest soup, move it outside GASP, import it.
+"""Triangle-soup exchange (gasp_core.run.soup): export the rest soup, move it outside GASP, import it.
 
 The donut (real data, examples/data) is exported, moved with a rigid transform by trimesh (and, when
 bpy is installed, by Blender itself through its own OBJ importer/exporter), and imported: a rigid
@@ -13,11 +13,11 @@ import pytest
 
 trimesh = pytest.importorskip("trimesh")
 
-from gasp_core.cli import main  # noqa: E402
-from gasp_core.engine import SceneError  # noqa: E402
-from gasp_core.io import read_gaussians  # noqa: E402
-from gasp_core.scene import load_scene  # noqa: E402
-from gasp_core.soup import export_soup, import_motion  # noqa: E402
+from gasp_core.cli.main import main  # noqa: E402
+from gasp_core.seam.engine import SceneError  # noqa: E402
+from gasp_core.gs.io import read_gaussians  # noqa: E402
+from gasp_core.scene.spec import load_scene  # noqa: E402
+from gasp_core.run.soup import export_soup, import_motion  # noqa: E402
 from gasp_testing import DONUT, scene_text  # noqa: E402
 
 

@@ -7,12 +7,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gasp_core.colliders import Motion, _rotvec_matrix, box_collider, build_colliders
-from gasp_core.colliders_record import CONTACT_DX, collider_records, contact_row
+from gasp_core.colliders.model import Motion, _rotvec_matrix, box_collider, build_colliders
+from gasp_core.run.contact import CONTACT_DX, collider_records, contact_row
 from gasp_core.errors import SceneError
-from gasp_core.placement import UP_ROTATIONS, euler_matrix, place, prepare_object
-from gasp_core.scene import parse_scene
-from gasp_core.setup import Material, SimSetup
+from gasp_core.prepare.placement import UP_ROTATIONS, euler_matrix, place, prepare_object
+from gasp_core.scene.spec import parse_scene
+from gasp_core.seam.setup import Material, SimSetup
 
 DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
 DONUT = DATA / "donut_v3dg.ply"

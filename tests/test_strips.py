@@ -8,8 +8,8 @@ pytest.importorskip("distributed", reason="the studies extra is not installed (p
 
 from gasp_testing import DONUT, scene_text  # noqa: E402
 from gasp_core.errors import SceneError  # noqa: E402
-from gasp_core.io import read_gaussians, write_gaussians  # noqa: E402
-from gasp_core.plugins import engines  # noqa: E402
+from gasp_core.gs.io import read_gaussians, write_gaussians  # noqa: E402
+from gasp_core.seam.plugins import engines  # noqa: E402
 from gasp_core.render.splat_numpy import splats_from_gaussians  # noqa: E402
 from gasp_studies import strips  # noqa: E402
 from gasp_studies.bench import bench_scene  # noqa: E402

@@ -11,12 +11,12 @@ import pytest
 pytest.importorskip("distributed", reason="the studies extra is not installed (pip install -e '.[studies]')")
 
 from gasp_testing import scene_text  # noqa: E402
-from gasp_core.cli import main  # noqa: E402
+from gasp_core.cli.main import main  # noqa: E402
 from gasp_core.errors import SceneError  # noqa: E402
-from gasp_core.io import write_gaussians  # noqa: E402
-from gasp_core.pipeline import iter_frames, prepare_scene  # noqa: E402
-from gasp_core.plugins import engines  # noqa: E402
-from gasp_core.scene import load_scene  # noqa: E402
+from gasp_core.gs.io import write_gaussians  # noqa: E402
+from gasp_core.run.pipeline import iter_frames, prepare_scene  # noqa: E402
+from gasp_core.seam.plugins import engines  # noqa: E402
+from gasp_core.scene.spec import load_scene  # noqa: E402
 from gasp_studies import report  # noqa: E402
 from gasp_studies.bench import apply_setting, bench_scene, plan_sweeps, setting_label  # noqa: E402
 from gasp_studies.compare import compare_scene, select_engines, subsample_scene  # noqa: E402

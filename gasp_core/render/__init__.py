@@ -1,6 +1,6 @@
 """See the result: render a run's Gaussian frames to video, PNGs or a strip, or play them in a browser.
 
-Renderers are plugins, found through the ``gasp_renderers`` hook (:mod:`gasp_core.plugins`). The
+Renderers are plugins, found through the ``gasp_renderers`` hook (:mod:`gasp_core.seam.plugins`). The
 built-in CPU renderers live in :mod:`gasp_core.render.builtin`: ``cpu`` (a numba kernel, needs the
 ``render`` extra) and ``numpy`` (pure NumPy, always available, much slower).
 """
@@ -10,7 +10,7 @@ import dataclasses
 from dataclasses import dataclass
 from typing import Callable
 
-from ..engine import GaspError
+from gasp_core.seam.engine import GaspError
 
 
 @dataclass(frozen=True)
@@ -52,7 +52,7 @@ def renderers(pm=None) -> dict[str, RendererInfo]:
     GaspError
         If two plugins register the same renderer name (the message names both).
     """
-    from ..plugins import get_plugin_manager
+    from gasp_core.seam.plugins import get_plugin_manager
     pm = pm or get_plugin_manager()
     found: dict[str, RendererInfo] = {}
     for impl in pm.hook.gasp_renderers.get_hookimpls():
@@ -88,6 +88,6 @@ def get_renderer(name: str | None = None, **options):
 
 def __getattr__(name):  # lazy re-exports, so that listing renderers stays cheap
     if name in ("render_run", "render_runs", "render_strip", "load_run"):
-        from . import run
+        from gasp_core.render import run
         return getattr(run, name)
     raise AttributeError(name)

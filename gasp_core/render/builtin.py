@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import importlib.util
 
-from ..plugins import hookimpl
-from . import RendererInfo
+from gasp_core.seam.plugins import hookimpl
+from gasp_core.render import RendererInfo
 
 
 class CpuRenderer:
@@ -21,7 +21,7 @@ class CpuRenderer:
 
     def __call__(self, splats, camera, background=None):
         import numpy as np
-        from .splat_numpy import composite_ordered, project, render
+        from gasp_core.render.splat_numpy import composite_ordered, project, render
         if not self.jit:
             return render(splats, camera, background, dilation=self.dilation)
         p = project(splats, camera, self.dilation)

@@ -1,9 +1,9 @@
-"""``gasp render`` and ``gasp view`` command-line handlers (argparse wiring for :mod:`gasp_core.cli`)."""
+"""``gasp render`` and ``gasp view`` command-line handlers (argparse wiring for :mod:`gasp_core.cli.main`)."""
 from __future__ import annotations
 
 import time
 
-from ..engine import SceneError
+from gasp_core.seam.engine import SceneError
 
 
 def _vec3(text: str, what: str):
@@ -38,8 +38,8 @@ def add_parsers(sub) -> None:
 
 
 def cmd_render(args) -> int:
-    from . import get_renderer
-    from .run import render_run
+    from gasp_core.render import get_renderer
+    from gasp_core.render.run import render_run
     try:
         w, h = (int(x) for x in args.resolution.lower().split("x"))
     except ValueError:
@@ -55,6 +55,6 @@ def cmd_render(args) -> int:
 
 
 def cmd_view(args) -> int:
-    from .viewer import serve
+    from gasp_core.render.viewer import serve
     serve(args.run, host=args.host, port=args.port)
     return 0

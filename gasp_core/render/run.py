@@ -13,9 +13,9 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
-from ..engine import SceneError
-from .camera import Camera, auto_camera, ground_background, nice_step
-from .splat_numpy import Splats, splats_from_gaussians
+from gasp_core.seam.engine import SceneError
+from gasp_core.render.camera import Camera, auto_camera, ground_background, nice_step
+from gasp_core.render.splat_numpy import Splats, splats_from_gaussians
 
 
 @dataclass
@@ -35,7 +35,7 @@ class Run:
 
     def splats(self, frame: int) -> Splats:
         """World-frame splats of every object at ``frame``."""
-        from ..io import read_gaussians
+        from gasp_core.gs.io import read_gaussians
         parts = []
         for f, o in zip(self.frame_files[frame], self.objects):
             pl = o["placement"]
@@ -160,7 +160,7 @@ def render_runs(run_dirs: Sequence, renderer=None, frames: Sequence[int] | None 
     SceneError
         A run folder is unusable (see :func:`load_run`).
     """
-    from . import get_renderer
+    from gasp_core.render import get_renderer
     renderer = renderer or get_renderer()
     runs = [load_run(p) for p in run_dirs]
     n = min(r.n_frames for r in runs)
@@ -215,7 +215,7 @@ def render_run(run_dirs, output, *, overwrite: bool = False, fps: float | None =
     SceneError
         Bad run folder, or ``output`` exists and ``overwrite`` is false.
     """
-    from .video import write_frames
+    from gasp_core.render.video import write_frames
     if isinstance(run_dirs, (str, Path)):
         run_dirs = [run_dirs]
     fps = fps or 1.0 / load_run(run_dirs[0]).frame_dt
@@ -241,7 +241,7 @@ def render_strip(run_dirs: dict, out_png, frames: Sequence[int] | int = 5, width
     -------
     Path
     """
-    from .video import write_png
+    from gasp_core.render.video import write_png
     labels = list(run_dirs)
     runs = [load_run(run_dirs[k]) for k in labels]
     n = min(r.n_frames for r in runs)

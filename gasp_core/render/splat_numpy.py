@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .camera import Camera
+from gasp_core.render.camera import Camera
 
 SH_C0 = 0.28209479177387814
 ALPHA_MIN = 1.0 / 255.0
@@ -61,7 +61,7 @@ class Splats:
 
 
 def splats_from_gaussians(g, R=None, scale: float = 1.0, t=None) -> Splats:
-    """World-frame splats from :class:`~gasp_core.gaussians.Gaussians` placed by ``x = scale R x_file + t``.
+    """World-frame splats from :class:`~gasp_core.gs.gaussians.Gaussians` placed by ``x = scale R x_file + t``.
 
     Parameters
     ----------
@@ -258,7 +258,7 @@ def composite_ordered(p, width: int, height: int, t_min: float = 1e-4):
     ImportError
         If numba is not installed (``pip install gasp[render]``).
     """
-    from ._splat_numba import composite
+    from gasp_core.render._splat_numba import composite
     colour = np.zeros((height * width, 3))
     T = np.ones(height * width)
     composite(p["u"], p["v"], np.ascontiguousarray(p["conic"]), p["m2"], p["opacity"],

@@ -6,9 +6,9 @@ from typing import Iterable
 
 import numpy as np
 
-from ..fsutil import atomic_path, output_folder
+from gasp_core.fsutil import atomic_path, output_folder
 
-from ..engine import SceneError
+from gasp_core.seam.engine import SceneError
 
 VIDEO_SUFFIXES = (".mp4", ".gif")
 

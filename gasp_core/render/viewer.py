@@ -10,7 +10,7 @@ import time
 
 import numpy as np
 
-from .run import Run, load_run, sequence_bounds
+from gasp_core.render.run import Run, load_run, sequence_bounds
 
 
 class RunViewer:

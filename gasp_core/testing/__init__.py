@@ -11,10 +11,10 @@ See ``docs/writing_an_engine.md``.
 """
 from __future__ import annotations
 
-from .helpers import G, Check, box_points, check, make_setup, sphere_points, wall_margin
-from .kit import (EngineReport, Requires, Scene, SceneResult, Trace, check_engine, evaluate_scene, record,
+from gasp_core.testing.helpers import G, Check, box_points, check, make_setup, sphere_points, wall_margin
+from gasp_core.testing.kit import (EngineReport, Requires, Scene, SceneResult, Trace, check_engine, evaluate_scene, record,
                   resolve_engine, run_trace, select_scenes)
-from .scenes import SCENES, scene_by_name
+from gasp_core.testing.scenes import SCENES, scene_by_name
 
 __all__ = ["G", "Check", "EngineReport", "Requires", "SCENES", "Scene", "SceneResult", "Trace", "assert_conformance",
            "box_points", "check", "check_engine", "conformance_params", "evaluate_scene", "make_setup",
@@ -24,6 +24,6 @@ __all__ = ["G", "Check", "EngineReport", "Requires", "SCENES", "Scene", "SceneRe
 
 def __getattr__(name):  # the pytest helpers import pytest: only when asked for
     if name in ("assert_conformance", "conformance_params", "parametrize_conformance"):
-        from . import pytest_plugin
+        from gasp_core.testing import pytest_plugin
         return getattr(pytest_plugin, name)
     raise AttributeError(f"module 'gasp_core.testing' has no attribute {name!r}")

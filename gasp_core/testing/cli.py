@@ -2,7 +2,7 @@
 
 Exit status 0 when every scene passed, was skipped for a missing capability or failed as a declared
 known failure; 1 otherwise (a failure, an ``EngineBug``, or a known failure that passed). An unknown
-engine or scene is a user error (exit 2, through :func:`gasp_core.cli.main`).
+engine or scene is a user error (exit 2, through :func:`gasp_core.cli.main.main`).
 """
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ def add_parser(sub) -> None:
 
 def conform_command(args) -> int:
     """Run :func:`gasp_core.testing.check_engine` and print a table (or JSON); see the module doc."""
-    from .kit import check_engine
+    from gasp_core.testing.kit import check_engine
     scenes = [s.strip() for s in args.scenes.split(",") if s.strip()] if args.scenes else None
     report = check_engine(args.engine, scenes=scenes, include_slow=args.slow)
     if args.json:

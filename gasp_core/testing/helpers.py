@@ -6,8 +6,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..engine import EngineInfo
-from ..setup import Material, SimSetup
+from gasp_core.seam.engine import EngineInfo
+from gasp_core.seam.setup import Material, SimSetup
 
 #: Standard gravity, m/s^2.
 G = 9.81

@@ -1,11 +1,11 @@
 """The conformance kit's machinery: requirements, results, running a scene, :func:`check_engine`.
 
-A :class:`Scene` is a small :class:`~gasp_core.setup.SimSetup` factory (hundreds to a few
+A :class:`Scene` is a small :class:`~gasp_core.seam.setup.SimSetup` factory (hundreds to a few
 thousand points) plus an ``evaluate`` function that turns the simulated frames into named
 :class:`Check` s with the measured figures; a contract scene has a ``run`` function instead,
 which builds and drives the engine itself. A scene declares what it :class:`Requires`; an engine
 that lacks it is skipped with the missing capability as the reason. An engine declares its known
-failures in :attr:`EngineInfo.known_failures <gasp_core.engine.EngineInfo>` (scene name ->
+failures in :attr:`EngineInfo.known_failures <gasp_core.seam.engine.EngineInfo>` (scene name ->
 reason with measured figures); they run as strict expected failures.
 
 Conventions: world frame, metres, z up; ``x``, ``v`` are (n, 3) float64 arrays; kinetic energy
@@ -21,21 +21,21 @@ from typing import Any, Callable, Iterable, Mapping
 
 import numpy as np
 
-from ..engine import Capabilities, EngineInfo, call_engine
-from ..errors import EngineBug, EngineDivergence, EngineError, GaspError
-from ..runner import RunStats, run_engine
-from ..setup import SimSetup
-from .helpers import G, Check, box_points, check, make_setup, sphere_points, wall_margin  # noqa: F401 (re-exported)
+from gasp_core.seam.engine import Capabilities, EngineInfo, call_engine
+from gasp_core.errors import EngineBug, EngineDivergence, EngineError, GaspError
+from gasp_core.seam.runner import RunStats, run_engine
+from gasp_core.seam.setup import SimSetup
+from gasp_core.testing.helpers import G, Check, box_points, check, make_setup, sphere_points, wall_margin  # noqa: F401 (re-exported)
 
 
 @dataclass(frozen=True)
 class Requires:
-    """What a scene needs from an engine (names as in :class:`~gasp_core.engine.Capabilities`).
+    """What a scene needs from an engine (names as in :class:`~gasp_core.seam.engine.Capabilities`).
 
     Attributes
     ----------
     materials, boundaries, features : frozenset of str
-        ``features`` are keys of :data:`gasp_core.engine.FEATURES` (e.g. ``"grid"``).
+        ``features`` are keys of :data:`gasp_core.seam.engine.FEATURES` (e.g. ``"grid"``).
     deterministic : bool
         The engine must promise bit-identical repeats on ``cpu`` (``Capabilities.deterministic``),
         with the option values of ``EngineInfo.deterministic_options``.
@@ -202,7 +202,7 @@ def resolve_engine(engine: str | EngineInfo) -> EngineInfo:
     """
     if isinstance(engine, EngineInfo):
         return engine
-    from ..plugins import engines
+    from gasp_core.seam.plugins import engines
     found = engines()
     if engine not in found:
         raise EngineError(f"unknown engine '{engine}'; installed engines: {sorted(found) or 'none'}")
@@ -210,7 +210,7 @@ def resolve_engine(engine: str | EngineInfo) -> EngineInfo:
 
 
 def run_trace(info: EngineInfo, setup: SimSetup, n_frames: int) -> Trace:
-    """Run ``n_frames`` through :func:`gasp_core.runner.run_engine`, recording velocities too.
+    """Run ``n_frames`` through :func:`gasp_core.seam.runner.run_engine`, recording velocities too.
 
     Raises
     ------
@@ -289,7 +289,7 @@ def select_scenes(scenes: Iterable[Scene | str] | None = None, include_slow: boo
     SceneError
         An unknown scene name (the message lists the known ones).
     """
-    from .scenes import SCENES, scene_by_name
+    from gasp_core.testing.scenes import SCENES, scene_by_name
     if scenes is None:
         return [s for s in SCENES if include_slow or not s.slow]
     return [scene_by_name(s) if isinstance(s, str) else s for s in scenes]

@@ -29,7 +29,7 @@ from typing import Iterable
 
 import pytest
 
-from .results import render_results, write_atomic
+from gasp_core.testing.results import render_results, write_atomic
 
 _STORE = pytest.StashKey[dict]()
 _SETTINGS = pytest.StashKey[dict]()
@@ -66,12 +66,12 @@ def conformance_params(engines: Iterable | None = None, scenes: Iterable | None 
     Parameters
     ----------
     engines : iterable of str or EngineInfo, optional
-        Default: every installed engine (:func:`gasp_core.plugins.engines`).
+        Default: every installed engine (:func:`gasp_core.seam.plugins.engines`).
     scenes : iterable of str or Scene, optional
         Default: every scene of :data:`gasp_core.testing.SCENES` (slow ones marked ``slow``).
     """
-    from ..plugins import engines as installed
-    from .kit import resolve_engine, select_scenes
+    from gasp_core.seam.plugins import engines as installed
+    from gasp_core.testing.kit import resolve_engine, select_scenes
     infos = list(installed().values()) if engines is None else [resolve_engine(e) for e in engines]
     chosen = select_scenes(scenes, include_slow=True)
     if not infos:
@@ -100,7 +100,7 @@ def parametrize_conformance(engines: Iterable | None = None, scenes: Iterable | 
 
 def assert_conformance(gasp_engine, gasp_scene, request=None) -> None:
     """Run one scene on one engine, record it for the result table, and assert it passed."""
-    from .kit import evaluate_scene, record
+    from gasp_core.testing.kit import evaluate_scene, record
     result = evaluate_scene(gasp_engine, gasp_scene, known_failures={})  # xfail is pytest's business here
     if request is not None:
         record(request.node, result)

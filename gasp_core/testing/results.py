@@ -43,7 +43,7 @@ def table(store: dict, titles: dict[str, str]) -> str:
 
 def render_results(store: dict, config, exitstatus: int, titles: dict[str, str]) -> tuple[str, str]:
     """``(whole file text, table)`` for a session's collected outcomes."""
-    from ..plugins import engines
+    from gasp_core.seam.plugins import engines
     body = table(store, titles)
     header = [
         "# GASP conformance results",
@@ -63,7 +63,7 @@ def render_results(store: dict, config, exitstatus: int, titles: dict[str, str])
 
 def write_atomic(path: Path, text: str) -> None:
     """Write ``text`` to ``path`` atomically (:func:`gasp_core.fsutil.atomic_write`), creating its folder."""
-    from ..fsutil import atomic_write
+    from gasp_core.fsutil import atomic_write
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     atomic_write(path, lambda f: f.write(text), binary=False)

@@ -1,13 +1,13 @@
 """Every conformance scene, in the order they run: :data:`SCENES` and :func:`scene_by_name`."""
 from __future__ import annotations
 
-from ..errors import SceneError
-from .kit import Scene
-from .scenes_basic import SCENES_BASIC
-from .scenes_colliders import SCENES_COLLIDERS
-from .scenes_contract import SCENES_CONTRACT
-from .scenes_mass import SCENES_MASS
-from .scenes_materials import SCENES_MATERIALS
+from gasp_core.errors import SceneError
+from gasp_core.testing.kit import Scene
+from gasp_core.testing.scenes_basic import SCENES_BASIC
+from gasp_core.testing.scenes_colliders import SCENES_COLLIDERS
+from gasp_core.testing.scenes_contract import SCENES_CONTRACT
+from gasp_core.testing.scenes_mass import SCENES_MASS
+from gasp_core.testing.scenes_materials import SCENES_MATERIALS
 
 #: All scenes: physics with known answers first, then the error contract.
 SCENES: list[Scene] = [*SCENES_BASIC, *SCENES_MATERIALS, *SCENES_COLLIDERS, *SCENES_MASS, *SCENES_CONTRACT]

@@ -1,4 +1,4 @@
-"""Conformance scenes of colliders and force fields with known answers (:mod:`gasp_core.colliders`).
+"""Conformance scenes of colliders and force fields with known answers (:mod:`gasp_core.colliders.model`).
 
 - ``incline_slide`` / ``incline_stick``: an elastic block on a static box collider tilted by
   ``INCLINE_DEG``; with Coulomb friction ``mu`` below ``tan(theta)`` it slides with
@@ -20,10 +20,10 @@ import math
 
 import numpy as np
 
-from ..colliders import ForceField, Motion, SDF_SPACING, box_collider
-from ..engine import EngineInfo
-from ..setup import Boundary, Material, SimSetup
-from .kit import G, Check, Requires, Scene, Trace, box_points, check as _check, make_setup as _setup
+from gasp_core.colliders.model import ForceField, Motion, SDF_SPACING, box_collider
+from gasp_core.seam.engine import EngineInfo
+from gasp_core.seam.setup import Boundary, Material, SimSetup
+from gasp_core.testing.kit import G, Check, Requires, Scene, Trace, box_points, check as _check, make_setup as _setup
 
 N_GRID = 32
 DX = 1.0 / N_GRID

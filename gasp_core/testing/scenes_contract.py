@@ -7,7 +7,7 @@ contract_declarations      the engine's declarations are consistent: option defa
                            own declaration, ``deterministic_options`` and ``known_failures`` name
                            declared options and existing scenes
 contract_refusals          a material, boundary or feature the engine lacks, an unknown option and a
-                           wrongly typed option are refused by :func:`~gasp_core.engine.build_engine`
+                           wrongly typed option are refused by :func:`~gasp_core.seam.engine.build_engine`
                            with ``SceneError`` naming them, before the factory runs
 contract_declared_accepted every declared material (one body each) and boundary in one scene is
                            built and run for 2 frames without any error
@@ -24,11 +24,11 @@ import dataclasses
 
 import numpy as np
 
-from ..engine import FEATURES, EngineInfo, Option, build_engine
-from ..errors import EngineBug, EngineDivergence, GaspError, SceneError
-from ..setup import BOUNDARIES, MATERIALS, Boundary, Material, SimSetup
-from .helpers import G, Check, box_points
-from .kit import Requires, Scene, run_trace
+from gasp_core.seam.engine import FEATURES, EngineInfo, Option, build_engine
+from gasp_core.errors import EngineBug, EngineDivergence, GaspError, SceneError
+from gasp_core.seam.setup import BOUNDARIES, MATERIALS, Boundary, Material, SimSetup
+from gasp_core.testing.helpers import G, Check, box_points
+from gasp_core.testing.kit import Requires, Scene, run_trace
 
 DX = 1.0 / 16
 GROUND_H = 3 * DX
@@ -80,7 +80,7 @@ def _wrong_value(o: Option):
 
 
 def _run_declarations(info: EngineInfo) -> list[Check]:
-    from .scenes import SCENES
+    from gasp_core.testing.scenes import SCENES
     declared = {o.name: o for o in info.options}
     bad_defaults = [f"{o.name}={o.default!r} (expected {o.expected()})" for o in info.options
                     if o.kind not in ("int", "number", "str", "bool") or not o.valid(o.default)]
@@ -124,8 +124,8 @@ def _run_refusals(info: EngineInfo) -> list[Check]:
 
 
 def _refused_extras(info: EngineInfo) -> list[Check]:
-    """Colliders, forces and impulses the engine lacks are refused before the factory (gasp_core.colliders)."""
-    from ..colliders import ForceField, Impulse, Motion, box_collider
+    """Colliders, forces and impulses the engine lacks are refused before the factory (gasp_core.colliders.model)."""
+    from gasp_core.colliders.model import ForceField, Impulse, Motion, box_collider
     far = np.array([0.5, 0.5, 0.9])
     extras = {
         "static_colliders": {"colliders": [box_collider((0.05, 0.05, 0.05), DX, position=far)]},

@@ -10,7 +10,7 @@ tube's surface. Right after the build (nothing has moved) the engine's ``stats()
 An engine that gave every material point the same mass (the mean) would put the centre of mass
 1.4 % of the size off, and one that gave the passive points
 the mean volume too would be 23 % off in mass: both fail. An engine without the feature
-``passive_points`` runs through the core's embedding (:mod:`gasp_core.passive`).
+``passive_points`` runs through the core's embedding (:mod:`gasp_core.seam.passive`).
 """
 from __future__ import annotations
 
@@ -18,10 +18,10 @@ import math
 
 import numpy as np
 
-from ..engine import EngineInfo, build_engine, call_engine
-from ..passive import setup_mass_properties
-from ..setup import Material, SimSetup
-from .kit import Check, Requires, Scene, box_points
+from gasp_core.seam.engine import EngineInfo, build_engine, call_engine
+from gasp_core.seam.passive import setup_mass_properties
+from gasp_core.seam.setup import Material, SimSetup
+from gasp_core.testing.kit import Check, Requires, Scene, box_points
 
 #: Relative tolerance on the total mass.
 MASS_TOL = 0.02

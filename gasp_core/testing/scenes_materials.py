@@ -10,9 +10,9 @@ from typing import Callable
 
 import numpy as np
 
-from ..engine import EngineInfo
-from ..setup import Boundary, Material, SimSetup
-from .kit import G, Check, Requires, Scene, Trace, box_points, check as _check, make_setup as _setup, wall_margin
+from gasp_core.seam.engine import EngineInfo
+from gasp_core.seam.setup import Boundary, Material, SimSetup
+from gasp_core.testing.kit import G, Check, Requires, Scene, Trace, box_points, check as _check, make_setup as _setup, wall_margin
 
 # --- cantilever (Euler-Bernoulli) -----------------------------------------------------------
 CANT_L, CANT_H = 0.5, 0.1  # free length, side of the square section (m)

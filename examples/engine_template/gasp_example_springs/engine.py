@@ -21,13 +21,13 @@ import numpy as np
 from scipy import sparse
 from scipy.spatial import cKDTree
 
-from gasp_core.engine import EngineDivergence, SceneError, SimSetup
+from gasp_core.seam.engine import EngineDivergence, SceneError, SimSetup
 
 ENGINE = "example_springs"
 
 
 class SpringEngine:
-    """A :class:`gasp_core.engine.PointEngine` over a mass-spring network.
+    """A :class:`gasp_core.seam.engine.PointEngine` over a mass-spring network.
 
     Parameters
     ----------

@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import importlib.util
 
-from gasp_core.engine import Capabilities, EngineInfo, SimSetup
-from gasp_core.plugins import hookimpl
+from gasp_core.seam.engine import Capabilities, EngineInfo, SimSetup
+from gasp_core.seam.plugins import hookimpl
 
 __all__ = ["CAPABILITIES", "INSTALL_HINT", "bpy_available", "gasp_engines", "make_engine"]
 

@@ -1,4 +1,4 @@
-"""The ``blender`` engine: one headless Blender scene built from a :class:`~gasp_core.engine.SimSetup`.
+"""The ``blender`` engine: one headless Blender scene built from a :class:`~gasp_core.seam.engine.SimSetup`.
 
 Per body (``setup.body_id``), a soft body on a coarse voxel cage (:mod:`.cage`): a Blender mesh
 whose vertices are the cage corners and whose edges are the cage springs, with a ``SOFT_BODY``
@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from gasp_core.engine import EngineDivergence, EngineError, Option, SceneError, SimSetup, check_options
+from gasp_core.seam.engine import EngineDivergence, EngineError, Option, SceneError, SimSetup, check_options
 
 from .cage import Cage, build_cage, embed, interpolate, lump
 from .sheet import build_sheet, place
@@ -76,7 +76,7 @@ class _Body:
 
 
 class BlenderSoftBodyEngine:
-    """A running Blender soft-body simulation of a :class:`~gasp_core.engine.SimSetup`.
+    """A running Blender soft-body simulation of a :class:`~gasp_core.seam.engine.SimSetup`.
 
     Parameters
     ----------

@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from gasp_core.engine import Boundary, Material, SceneError, SimSetup
+from gasp_core.seam.engine import Boundary, Material, SceneError, SimSetup
 from gasp_blender import CAPABILITIES, INSTALL_HINT, bpy_available, make_engine
 from gasp_blender.cage import build_cage, embed, interpolate
 
@@ -29,7 +29,7 @@ def setup_for(x, p_vol, boundaries=(), options=None, material=None, frame_dt=1 /
 
 
 def test_listed_with_capabilities():
-    from gasp_core.plugins import engines
+    from gasp_core.seam.plugins import engines
     info = engines()["blender"]
     assert info.capabilities == CAPABILITIES
     assert info.unavailable_reason() in (None, INSTALL_HINT)
@@ -55,9 +55,9 @@ def test_bad_options_and_inputs_are_scene_errors():
         make_engine(setup_for(x, vol, options={"substeps": 3}))
     with pytest.raises(SceneError, match="mode"):
         make_engine(setup_for(x, vol, options={"mode": "fluid"}))
-    # capabilities are checked by the core, before the factory (gasp_core.engine.build_engine)
-    from gasp_core.engine import build_engine
-    from gasp_core.plugins import get_engine
+    # capabilities are checked by the core, before the factory (gasp_core.seam.engine.build_engine)
+    from gasp_core.seam.engine import build_engine
+    from gasp_core.seam.plugins import get_engine
     info = get_engine("blender")
     with pytest.raises(SceneError, match="sand"):
         build_engine(info, setup_for(x, vol, material=Material("sand")))
@@ -123,9 +123,9 @@ def test_fixed_region_holds_points():
 def test_readme_donut_on_blender(tmp_path):
     """The README donut scene with only the engine changed: falls, lands on the ground, rests."""
     from pathlib import Path
-    from gasp_core.pipeline import simulate_scene
-    from gasp_core.scene import load_scene
-    from gasp_core.io import read_gaussians
+    from gasp_core.run.pipeline import simulate_scene
+    from gasp_core.scene.spec import load_scene
+    from gasp_core.gs.io import read_gaussians
     root = Path(__file__).resolve().parents[3]
     scene = load_scene(root / "examples" / "donut_blender.toml")
     res = simulate_scene(scene, tmp_path / "out", progress=False)
@@ -186,7 +186,7 @@ def test_cloth_free_fall_and_pinned_edge():
 @needs_bpy
 def test_second_engine_takes_the_scene_over():
     """bpy has one scene per process: the first engine refuses to step once a second one is built."""
-    from gasp_core.engine import EngineError
+    from gasp_core.seam.engine import EngineError
     x, vol = block((0.4, 0.4, 0.5), (0.6, 0.6, 0.7), 0.05)
     first = make_engine(setup_for(x, vol))
     second = make_engine(setup_for(x, vol))

@@ -32,9 +32,9 @@ from __future__ import annotations
 
 import importlib.util
 
-from gasp_core.engine import Capabilities, EngineInfo, SimSetup
-from gasp_core.mpm import mpm_options, mpm_sweep
-from gasp_core.plugins import hookimpl
+from gasp_core.seam.engine import Capabilities, EngineInfo, SimSetup
+from gasp_core.toolkit.mpm import mpm_options, mpm_sweep
+from gasp_core.seam.plugins import hookimpl
 
 __all__ = ["BENCH_EXCLUDED", "CAPABILITIES", "ENGINE", "INSTALL_HINT", "OPTIONS", "gasp_engines",
            "genesis_available", "make_engine", "sweep"]
@@ -54,7 +54,7 @@ CAPABILITIES = Capabilities(
     features=frozenset({"grid"}),
 )
 
-#: The grid-engine options of ``gasp_core.mpm``; ``device`` "cpu" or "cuda" (``gs.init(backend=gs.cuda)``
+#: The grid-engine options of ``gasp_core.toolkit.mpm``; ``device`` "cpu" or "cuda" (``gs.init(backend=gs.cuda)``
 #: takes the default GPU).
 OPTIONS = mpm_options()
 
@@ -64,7 +64,7 @@ BENCH_EXCLUDED = ("left out of the default sweep: on CPU its build takes ~50 s a
 
 
 def sweep(quick: bool) -> tuple[list[dict], dict]:
-    """``gasp bench`` settings and reference: the grid-engine sweep of ``gasp_core.mpm.mpm_sweep``.
+    """``gasp bench`` settings and reference: the grid-engine sweep of ``gasp_core.toolkit.mpm.mpm_sweep``.
 
     ``sweep.excluded_by_default`` (:data:`BENCH_EXCLUDED`) says why a default ``gasp bench`` leaves
     this engine out.

@@ -1,8 +1,8 @@
-"""The ``genesis`` engine: a :class:`gasp_core.engine.PointEngine` over Genesis's MPM solver.
+"""The ``genesis`` engine: a :class:`gasp_core.seam.engine.PointEngine` over Genesis's MPM solver.
 
 Genesis (``genesis-world``, tested with 1.4.5 on torch 2.13 CPU) runs MLS-MPM with quadratic
 B-splines and APIC transfers in ``genesis/engine/solvers/mpm_solver.py``; this module builds one
-Genesis ``Scene`` per engine from a :class:`gasp_core.engine.SimSetup` and reads the particles back.
+Genesis ``Scene`` per engine from a :class:`gasp_core.seam.engine.SimSetup` and reads the particles back.
 
 How the setup maps onto Genesis (API of ``genesis/options/solvers.py``, ``genesis/options/morphs.py``,
 ``genesis/engine/entities/mpm_entity.py``):
@@ -45,9 +45,9 @@ from typing import Any
 
 import numpy as np
 
-from gasp_core import mpm
-from gasp_core.engine import EngineDivergence, EngineError, Material, SceneError, SimSetup
-from gasp_core.mpm import CAUSE_DOMAIN, CAUSE_DT
+from gasp_core.toolkit import mpm
+from gasp_core.seam.engine import EngineDivergence, EngineError, Material, SceneError, SimSetup
+from gasp_core.toolkit.mpm import CAUSE_DOMAIN, CAUSE_DT
 
 from . import ENGINE, INSTALL_HINT, OPTIONS
 
@@ -116,7 +116,7 @@ def _validate_setup(setup: SimSetup) -> None:
 
 
 def time_step(setup: SimSetup, opt: dict[str, Any]) -> tuple[int, float]:
-    """Substeps per frame and substep length (``gasp_core.mpm.mpm_substeps``, docs/mpm.md)."""
+    """Substeps per frame and substep length (``gasp_core.toolkit.mpm.mpm_substeps``, docs/mpm.md)."""
     return mpm.substeps_from_options(setup, opt, ENGINE)
 
 
@@ -161,7 +161,7 @@ def init_genesis(device: str = "cpu", precision: str = "f32"):
 
 
 def genesis_material(gs, m: Material):
-    """The Genesis MPM material for a GASP :class:`~gasp_core.engine.Material`.
+    """The Genesis MPM material for a GASP :class:`~gasp_core.seam.engine.Material`.
 
     Parameters
     ----------
@@ -412,7 +412,7 @@ class GenesisMPMEngine:
         """``mass`` (kg), ``centre_of_mass`` (m) and ``inertia`` (kg m^2) as Genesis holds them (each
         entity's ``get_mass()`` spread evenly on its particles), and ``mass_residual`` (relative) and
         ``com_residual`` (m) against the setup's ``rho p_vol`` at the same positions."""
-        from gasp_core.passive import mass_properties
+        from gasp_core.seam.passive import mass_properties
         if self._closed:
             return {}
         m = np.zeros(len(self.setup.x))

@@ -12,9 +12,9 @@ from __future__ import annotations
 import importlib.util
 import itertools
 
-from gasp_core.engine import Capabilities, EngineInfo, Option
-from gasp_core.mpm import dedupe_settings
-from gasp_core.plugins import hookimpl
+from gasp_core.seam.engine import Capabilities, EngineInfo, Option
+from gasp_core.toolkit.mpm import dedupe_settings
+from gasp_core.seam.plugins import hookimpl
 
 __all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "gasp_engines", "make_engine", "sweep"]
 

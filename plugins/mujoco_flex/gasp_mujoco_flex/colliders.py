@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from gasp_core.engine import SceneError
+from gasp_core.seam.engine import SceneError
 
 
 def _fmt(a) -> str:
@@ -22,7 +22,7 @@ def _fmt(a) -> str:
 
 def _quat(R: np.ndarray) -> np.ndarray:
     """Unit quaternion (w, x, y, z) of a rotation matrix."""
-    from gasp_core.gaussians import rotmat_to_quat
+    from gasp_core.gs.gaussians import rotmat_to_quat
     return np.asarray(rotmat_to_quat(np.asarray(R, float)[None]))[0]
 
 

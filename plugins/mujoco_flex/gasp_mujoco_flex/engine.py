@@ -1,4 +1,4 @@
-"""The ``mujoco_flex`` engine: one MuJoCo model built from a :class:`~gasp_core.engine.SimSetup`.
+"""The ``mujoco_flex`` engine: one MuJoCo model built from a :class:`~gasp_core.seam.engine.SimSetup`.
 
 Per body (``setup.body_id``):
 
@@ -31,8 +31,8 @@ import numpy as np
 
 import mujoco
 
-from gasp_core.engine import EngineDivergence, EngineError, SceneError, SimSetup, check_options
-from gasp_core.mpm import fixed_mask, p_wave_speed, substeps_for
+from gasp_core.seam.engine import EngineDivergence, EngineError, SceneError, SimSetup, check_options
+from gasp_core.toolkit.mpm import fixed_mask, p_wave_speed, substeps_for
 
 from . import ENGINE, OPTIONS
 from .lattice import Lattice, build_lattice, embed_points, interpolate, matched_masses
@@ -82,14 +82,14 @@ class _RigidBody:
 
 
 class MujocoFlexEngine:
-    """A running MuJoCo flex simulation of a :class:`~gasp_core.engine.SimSetup`.
+    """A running MuJoCo flex simulation of a :class:`~gasp_core.seam.engine.SimSetup`.
 
     Parameters
     ----------
     setup : SimSetup
         World frame, metres, z up. ``setup.options`` may hold the options of
         :data:`gasp_mujoco_flex.OPTIONS`. Materials and boundaries are checked against the
-        capabilities by the core (``gasp_core.engine.build_engine``).
+        capabilities by the core (``gasp_core.seam.engine.build_engine``).
 
     Raises
     ------
@@ -428,7 +428,7 @@ class MujocoFlexEngine:
 
     def _mass_stats(self) -> dict[str, Any]:
         """Mass, centre of mass and inertia of what MuJoCo simulates (flex vertices and rigid bodies)."""
-        from gasp_core.passive import mass_properties
+        from gasp_core.seam.passive import mass_properties
         m, d = self.model, self.data
         xs, ms = [], []
         for fb in self.flex:

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gasp_core.engine import Boundary, EngineDivergence, Material, SceneError, SimSetup
+from gasp_core.seam.engine import Boundary, EngineDivergence, Material, SceneError, SimSetup
 
 mujoco = pytest.importorskip("mujoco")
 
@@ -41,7 +41,7 @@ JELLY = Material("jelly", E=1e5, nu=0.3, rho=1000.0)
 
 # ----------------------------------------------------------------------------- plugin
 def test_plugin_is_registered_and_import_is_lazy():
-    from gasp_core.plugins import engines
+    from gasp_core.seam.plugins import engines
     info = engines()["mujoco_flex"]
     assert info.capabilities == CAPABILITIES
     assert info.capabilities.materials == {"jelly", "metal", "rigid"}
@@ -191,16 +191,16 @@ def test_bad_option_values_are_scene_errors(key, value):
 
 
 def test_unsupported_material_is_refused_by_the_core():
-    from gasp_core.engine import build_engine
-    from gasp_core.plugins import engines
+    from gasp_core.seam.engine import build_engine
+    from gasp_core.seam.plugins import engines
     with pytest.raises(SceneError, match="material 'sand'"):
         build_engine(engines()["mujoco_flex"], make_setup(block_points(), Material("sand")))
 
 
 def test_initial_velocity_gradient_is_not_asked_of_a_non_grid_engine():
     """SimSetup.C is for grid engines; mujoco_flex carries a rotation in the point velocities."""
-    from gasp_core.engine import build_engine
-    from gasp_core.plugins import engines
+    from gasp_core.seam.engine import build_engine
+    from gasp_core.seam.plugins import engines
     x = block_points()
     w = np.array([0.0, 0.0, np.pi])
     C = np.broadcast_to(np.array([[0, -w[2], 0], [w[2], 0, 0], [0, 0, 0]]), (len(x), 3, 3))

@@ -9,7 +9,7 @@ import importlib.util
 
 import numpy as np
 
-from gasp_core.plugins import hookimpl
+from gasp_core.seam.plugins import hookimpl
 from gasp_core.render import RendererInfo
 
 

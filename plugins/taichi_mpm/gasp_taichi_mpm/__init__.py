@@ -5,7 +5,7 @@ Importing this module is cheap: it does not import Taichi. The factory imports
 
 Taichi keeps one runtime per process and ``ti.init`` resets it, so **one taichi_mpm engine is
 live per process at a time**: building a new engine invalidates the previous one (its methods
-then raise :class:`gasp_core.engine.EngineError`).
+then raise :class:`gasp_core.seam.engine.EngineError`).
 """
 from __future__ import annotations
 
@@ -15,10 +15,10 @@ import os
 # clean, so the banner is off unless the user asked for it.
 os.environ.setdefault("ENABLE_TAICHI_HEADER_PRINT", "False")
 
-from gasp_core.engine import Capabilities, EngineInfo, Option, SimSetup
-from gasp_core.mpm import mpm_options, mpm_sweep
-from gasp_core import mpm
-from gasp_core.plugins import hookimpl
+from gasp_core.seam.engine import Capabilities, EngineInfo, Option, SimSetup
+from gasp_core.toolkit.mpm import mpm_options, mpm_sweep
+from gasp_core.toolkit import mpm
+from gasp_core.seam.plugins import hookimpl
 
 __all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "gasp_engines", "make_engine", "sweep", "taichi_available"]
 
@@ -34,7 +34,7 @@ CAPABILITIES = Capabilities(
                         "attractors", "passive_points"}),
 )
 
-#: The grid-engine options of ``gasp_core.mpm`` (``device``: Taichi runs on the default CUDA device
+#: The grid-engine options of ``gasp_core.toolkit.mpm`` (``device``: Taichi runs on the default CUDA device
 #: only, so "cpu" or "cuda"), ``threads`` and ``passive_every``.
 OPTIONS = mpm_options(
     Option("threads", None, "CPU threads (Taichi's cpu_max_num_threads; default: all cores); a run "
@@ -43,7 +43,7 @@ OPTIONS = mpm_options(
 
 
 def sweep(quick: bool) -> tuple[list[dict], dict]:
-    """``gasp bench`` settings and reference: the grid-engine sweep of ``gasp_core.mpm.mpm_sweep``."""
+    """``gasp bench`` settings and reference: the grid-engine sweep of ``gasp_core.toolkit.mpm.mpm_sweep``."""
     return mpm_sweep(quick, CAPABILITIES.precisions)
 
 

@@ -1,8 +1,8 @@
-"""The ``taichi_mpm`` engine: a :class:`gasp_core.engine.PointEngine` over :class:`MPMSolver`.
+"""The ``taichi_mpm`` engine: a :class:`gasp_core.seam.engine.PointEngine` over :class:`MPMSolver`.
 
 Taichi has one runtime per process and ``ti.init`` resets it: **one taichi_mpm engine is live
 per process at a time**. Building a new engine invalidates every earlier one; calling an
-invalidated engine raises :class:`gasp_core.engine.EngineError`.
+invalidated engine raises :class:`gasp_core.seam.engine.EngineError`.
 """
 from __future__ import annotations
 
@@ -11,9 +11,9 @@ from typing import Any
 
 import numpy as np
 
-from gasp_core import mpm
-from gasp_core.engine import EngineDivergence, EngineError, SimSetup
-from gasp_core.mpm import CAUSE_DOMAIN, CAUSE_DT
+from gasp_core.toolkit import mpm
+from gasp_core.seam.engine import EngineDivergence, EngineError, SimSetup
+from gasp_core.toolkit.mpm import CAUSE_DOMAIN, CAUSE_DT
 
 from . import ENGINE, OPTIONS
 
@@ -38,7 +38,7 @@ def _quiet_init(ti, **kw) -> None:
 
 
 def time_step(setup: SimSetup, opt: dict[str, Any]) -> tuple[int, float]:
-    """Substeps per frame and substep length (``gasp_core.mpm.mpm_substeps``, docs/mpm.md)."""
+    """Substeps per frame and substep length (``gasp_core.toolkit.mpm.mpm_substeps``, docs/mpm.md)."""
     return mpm.substeps_from_options(setup, opt, ENGINE)
 
 
@@ -56,7 +56,7 @@ class TaichiMPMEngine:
     ------
     SceneError
         Unknown or invalid option (the message names it). Materials and boundaries are checked
-        against the capabilities by the core (``gasp_core.engine.build_engine``) before.
+        against the capabilities by the core (``gasp_core.seam.engine.build_engine``) before.
     EngineError
         ``device="cuda"`` where Taichi has no CUDA.
 
@@ -130,8 +130,8 @@ class TaichiMPMEngine:
         self._closed = False
 
     def _extras(self, setup: SimSetup) -> dict[str, Any]:
-        """Colliders, forces and impulses for the solver (``gasp_core.colliders``); none: nothing."""
-        from gasp_core.colliders import frame_table, grid_tables
+        """Colliders, forces and impulses for the solver (``gasp_core.colliders.model``); none: nothing."""
+        from gasp_core.colliders.model import frame_table, grid_tables
         ex = grid_tables(setup)
         if not ex.any:
             return {}
@@ -233,7 +233,7 @@ class TaichiMPMEngine:
     def stats(self) -> dict[str, Any]:
         """``device, precision, n_points, dt, n_substeps, n_grid, threads`` and ``dx``, ``p2g``, ``frame``,
         ``n_passive``, ``mass`` (kg), ``centre_of_mass`` (m), ``inertia`` (kg m^2) and, with passive points
-        after a frame, ``passive_stranded`` (:func:`gasp_core.mpm.stranded_passive`)."""
+        after a frame, ``passive_stranded`` (:func:`gasp_core.toolkit.mpm.stranded_passive`)."""
         n = len(self.setup.x)
         live = not self._closed and self._gen == _generation
         return {

@@ -27,10 +27,10 @@ import math
 import numpy as np
 import taichi as ti
 
-# Material codes and the per-body parameter columns (``MPMSolver.mat``) are gasp_core.mpm's.
-from gasp_core import mpm
+# Material codes and the per-body parameter columns (``MPMSolver.mat``) are gasp_core.toolkit.mpm's.
+from gasp_core.toolkit import mpm
 from gasp_core.errors import SceneError
-from gasp_core.mpm import (JELLY, LIQUID, METAL, N_PARAMS, NEO_HOOKEAN, P_ALPHA, P_HARDENING, P_K,
+from gasp_core.toolkit.mpm import (JELLY, LIQUID, METAL, N_PARAMS, NEO_HOOKEAN, P_ALPHA, P_HARDENING, P_K,
                            P_LAM, P_MU, P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND,
                            SNOW)
 
@@ -86,11 +86,11 @@ class MPMSolver:
     fixed : ndarray, shape (n,), bool
         Points held still (started inside a fixed region).
     jp0 : ndarray, shape (n,)
-        Initial Jp (``gasp_core.mpm.initial_Jp``: 0 for plasticine, 1 otherwise).
+        Initial Jp (``gasp_core.toolkit.mpm.initial_Jp``: 0 for plasticine, 1 otherwise).
     params : ndarray, shape (n_bodies, N_PARAMS)
-        ``gasp_core.mpm.material_table``.
+        ``gasp_core.toolkit.mpm.material_table``.
     kinds : sequence of int
-        Material code per body (``gasp_core.mpm.MATERIAL_CODES`` values).
+        Material code per body (``gasp_core.toolkit.mpm.MATERIAL_CODES`` values).
     n_grid : int
     lo : ndarray, shape (3,)
         Grid origin (domain_lo), metres.
@@ -159,7 +159,7 @@ class MPMSolver:
         self.pbox = ti.Vector.field(3, ti.i32, shape=(self.n_chunks, 2))  # passive points' node box
         # scalars: dt, dx, inv_dx; vectors: lo, gravity
         self.sc = ti.field(real, shape=3)
-        # passive points' update weights (gasp_core.mpm.passive_schedule): [a, b] of a full interval, of the last
+        # passive points' update weights (gasp_core.toolkit.mpm.passive_schedule): [a, b] of a full interval, of the last
         self.pab = ti.field(real, shape=4)
         self.lo = ti.Vector.field(3, real, shape=())
         self.gravity = ti.Vector.field(3, real, shape=())
@@ -237,7 +237,7 @@ class MPMSolver:
     # ------------------------------------------------------------------ driver
     def _passive_at(self, n_substeps: int) -> list:
         """Per substep of a frame: None, or which weight pair (0 full interval, 1 last) moves the passive
-        points after its grid update (:func:`gasp_core.mpm.passive_schedule`)."""
+        points after its grid update (:func:`gasp_core.toolkit.mpm.passive_schedule`)."""
         if not self.has_passive:
             return [None] * n_substeps
         if self._passive_plan[0] != n_substeps:
@@ -255,7 +255,7 @@ class MPMSolver:
         """Advance ``n_substeps`` substeps (P2G, grid update, G2P each), no host sync in between.
 
         Passive points (``n_material < n``) are moved after a grid update (every one, or every
-        ``passive_every``-th and the frame's last: :func:`gasp_core.mpm.passive_schedule`), by the
+        ``passive_every``-th and the frame's last: :func:`gasp_core.toolkit.mpm.passive_schedule`), by the
         grid velocity that already holds the forces, colliders and boundaries, so they follow the
         material and respect what it respects; they add nothing to the grid. With colliders, forces
         or impulses the frame's time table is loaded first and the substep index set before each P2G."""
@@ -278,7 +278,7 @@ class MPMSolver:
 
     # ------------------------------------------------------------------ colliders, forces, impulses
     def _setup_extras(self, ex, time_table, np_real, n_substeps) -> None:
-        """Fields of :func:`gasp_core.colliders.grid_tables` (``ex``); none when ``ex`` is None or empty."""
+        """Fields of :func:`gasp_core.colliders.model.grid_tables` (``ex``); none when ``ex`` is None or empty."""
         self.has_extras = ex is not None and ex.any
         if not self.has_extras:
             return
@@ -708,7 +708,7 @@ class MPMSolver:
         point half a spacing outside the material sees empty nodes (velocity 0, not the material's)
         in its stencil, which would hold it back. Inside the material this is plain G2P. The move is
         ``a v_prev + b v_new`` with ``(a, b) = pab[2 pair], pab[2 pair + 1]``
-        (:func:`gasp_core.mpm.passive_schedule`; ``(0, dt)`` when every substep moves them)."""
+        (:func:`gasp_core.toolkit.mpm.passive_schedule`; ``(0, dt)`` when every substep moves them)."""
         base, fx, ok = self._base_fx(self.x[p])
         if not ok:
             ti.atomic_add(self.n_out[None], 1)

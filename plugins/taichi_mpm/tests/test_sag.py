@@ -45,9 +45,9 @@ import pytest
 
 pytest.importorskip("taichi")
 
-from gasp_core.pipeline import prepare_scene  # noqa: E402
-from gasp_core.runner import simulate  # noqa: E402
-from gasp_core.scene import load_scene  # noqa: E402
+from gasp_core.run.pipeline import prepare_scene  # noqa: E402
+from gasp_core.seam.runner import simulate  # noqa: E402
+from gasp_core.scene.spec import load_scene  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[3]
 RHO, E_SOFT, G = 300.0, 1500.0, 9.81

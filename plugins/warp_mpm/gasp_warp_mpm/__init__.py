@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import importlib.util
 
-from gasp_core.engine import Capabilities, EngineInfo, Option, SimSetup
-from gasp_core.mpm import mpm_options, mpm_sweep
-from gasp_core import mpm
-from gasp_core.plugins import hookimpl
+from gasp_core.seam.engine import Capabilities, EngineInfo, Option, SimSetup
+from gasp_core.toolkit.mpm import mpm_options, mpm_sweep
+from gasp_core.toolkit import mpm
+from gasp_core.seam.plugins import hookimpl
 
 __all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "gasp_engines", "make_engine", "sweep"]
 
@@ -27,7 +27,7 @@ CAPABILITIES = Capabilities(
                         "attractors", "passive_points"}),
 )
 
-#: The grid-engine options of ``gasp_core.mpm`` (``device``: "cpu", "cuda" or "cuda:N", Warp's device
+#: The grid-engine options of ``gasp_core.toolkit.mpm`` (``device``: "cpu", "cuda" or "cuda:N", Warp's device
 #: names) and ``threads``, accepted so that a scene written for another MPM engine runs unchanged.
 OPTIONS = mpm_options(
     Option("threads", None, "accepted and ignored: Warp runs CPU kernels on one thread (runs repeat bit "
@@ -36,7 +36,7 @@ OPTIONS = mpm_options(
 
 
 def sweep(quick: bool) -> tuple[list[dict], dict]:
-    """``gasp bench`` settings and reference: the grid-engine sweep of ``gasp_core.mpm.mpm_sweep``."""
+    """``gasp bench`` settings and reference: the grid-engine sweep of ``gasp_core.toolkit.mpm.mpm_sweep``."""
     return mpm_sweep(quick, CAPABILITIES.precisions)
 
 

@@ -21,8 +21,8 @@ import functools
 
 import warp as wp
 
-# Material codes and the columns of the per-body parameter table ``mat_par`` are gasp_core.mpm's.
-from gasp_core.mpm import (JELLY, METAL, NEO_HOOKEAN, P_ALPHA, P_HARDENING, P_K, P_LAM, P_MU,
+# Material codes and the columns of the per-body parameter table ``mat_par`` are gasp_core.toolkit.mpm's.
+from gasp_core.toolkit.mpm import (JELLY, METAL, NEO_HOOKEAN, P_ALPHA, P_HARDENING, P_K, P_LAM, P_MU,
                            P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND, SNOW)
 
 # Warp compiles CPU code at -O2 by default; -O3 is several times faster on these kernels.
@@ -127,7 +127,7 @@ def build_kernels(Ft):
 
     @wp.struct
     class Extras:
-        # gasp_core.colliders.grid_tables / frame_table (docs/colliders.md)
+        # gasp_core.colliders.model.grid_tables / frame_table (docs/colliders.md)
         sdf: wp.array(dtype=Ft)
         grad: wp.array(dtype=Ft)
         meta: wp.array(dtype=Ft)
@@ -475,7 +475,7 @@ def build_kernels(Ft):
         # Passive points (rows first..): velocity and position from the grid only (no C, F, P2G).
         # Only nodes with mass count, weights renormalised over them: a surface point outside the
         # material would otherwise be held back by the empty nodes' zero velocity. The move is
-        # a v_prev + b v_new (gasp_core.mpm.passive_schedule; a = 0, b = dt every substep).
+        # a v_prev + b v_new (gasp_core.toolkit.mpm.passive_schedule; a = 0, b = dt every substep).
         p = first + wp.tid()
         if fixed[p] != 0:
             v[p] = vec3(Ft(0.0))

@@ -1,4 +1,4 @@
-"""The Warp MLS-MPM engine: :class:`WarpMPMEngine`, built from a :class:`~gasp_core.engine.SimSetup`.
+"""The Warp MLS-MPM engine: :class:`WarpMPMEngine`, built from a :class:`~gasp_core.seam.engine.SimSetup`.
 
 Implements ``docs/mpm.md`` (3D MLS-MPM, quadratic B-splines, APIC; Hu et al. 2018) with the
 kernels of :mod:`gasp_warp_mpm.kernels`. Per substep three launches: P2G (return mapping, stress
@@ -32,9 +32,9 @@ from typing import Any
 import numpy as np
 import warp as wp
 
-from gasp_core import mpm
-from gasp_core.engine import EngineDivergence, EngineError, SimSetup
-from gasp_core.mpm import CAUSE_DOMAIN, CAUSE_DT
+from gasp_core.toolkit import mpm
+from gasp_core.seam.engine import EngineDivergence, EngineError, SimSetup
+from gasp_core.toolkit.mpm import CAUSE_DOMAIN, CAUSE_DT
 
 from . import ENGINE, OPTIONS
 from . import kernels as K
@@ -66,7 +66,7 @@ def _init_warp(cpu_only: bool) -> None:
 
 
 def choose_dt(setup: SimSetup, opts: dict[str, Any]) -> tuple[int, float]:
-    """Substeps per frame and substep (``gasp_core.mpm.mpm_substeps``, docs/mpm.md "Time step")."""
+    """Substeps per frame and substep (``gasp_core.toolkit.mpm.mpm_substeps``, docs/mpm.md "Time step")."""
     return mpm.substeps_from_options(setup, opts, ENGINE)
 
 
@@ -81,7 +81,7 @@ class WarpMPMEngine:
         may hold ``device`` ("cpu" | "cuda" | "cuda:N"), ``precision`` ("f32" | "f64"), ``dt`` (s) or
         ``n_substeps``, ``cfl`` (0.4) and ``threads`` (accepted and ignored: Warp runs CPU
         kernels on one thread, so CPU runs repeat bit for bit). Materials and boundaries are
-        checked against the capabilities by the core (``gasp_core.engine.build_engine``), the
+        checked against the capabilities by the core (``gasp_core.seam.engine.build_engine``), the
         material parameters and ``n_grid`` by :class:`SimSetup`.
 
     Raises
@@ -211,8 +211,8 @@ class WarpMPMEngine:
 
     # ------------------------------------------------------------------ colliders, forces, impulses
     def _extras(self, setup: SimSetup, arr, Ft):
-        """``(has_extras, Extras struct)`` from ``gasp_core.colliders.grid_tables`` (empty arrays when none)."""
-        from gasp_core.colliders import grid_tables
+        """``(has_extras, Extras struct)`` from ``gasp_core.colliders.model.grid_tables`` (empty arrays when none)."""
+        from gasp_core.colliders.model import grid_tables
         tables = grid_tables(setup)
         ex = self.k.Extras()
         self._ex_tables = tables if tables.any else None
@@ -230,14 +230,14 @@ class WarpMPMEngine:
 
     def _load_frame_table(self) -> None:
         """The time-dependent inputs of this frame's substeps (collider poses, impulse weights)."""
-        from gasp_core.colliders import frame_table
+        from gasp_core.colliders.model import frame_table
         tab = frame_table(self.setup, (self.frame - 1) * self.setup.frame_dt, self.n_substeps, self.dt).astype(self._np_dtype)
         self._ex.tab.assign(tab)
         self._ex.step.zero_()
 
     # ------------------------------------------------------------------ helpers
     def _cell_order(self, x: np.ndarray) -> np.ndarray:
-        """Stable order of points by flat cell index (``gasp_core.mpm.cell_order``)."""
+        """Stable order of points by flat cell index (``gasp_core.toolkit.mpm.cell_order``)."""
         return mpm.cell_order(x, self.setup.domain_lo, self.dx, self.n_grid)
 
     def _resort(self) -> None:
@@ -352,7 +352,7 @@ class WarpMPMEngine:
     def stats(self) -> dict[str, Any]:
         """``device, precision, n_points, dt`` (s), ``n_substeps`` (per frame), ``n_grid``, ``dx`` (m),
         ``frame``, ``sim_time`` (s), ``n_passive``, ``mass`` (kg), ``centre_of_mass`` (m), ``inertia`` (kg m^2) and,
-        with passive points after a frame, ``passive_stranded`` (:func:`gasp_core.mpm.stranded_passive`)."""
+        with passive points after a frame, ``passive_stranded`` (:func:`gasp_core.toolkit.mpm.stranded_passive`)."""
         return {"device": str(self.device), "precision": self.precision, "n_points": self.n_points,
                 "dt": self.dt, "n_substeps": self.n_substeps, "n_grid": self.n_grid, "dx": self.dx,
                 "frame": self.frame, "sim_time": self.sim_time, "n_passive": self.n_points - self.n_material,

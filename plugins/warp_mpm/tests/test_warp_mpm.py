@@ -10,7 +10,7 @@ import sys
 import numpy as np
 import pytest
 
-from gasp_core.engine import (Boundary, EngineDivergence, EngineError, Material, SceneError,
+from gasp_core.seam.engine import (Boundary, EngineDivergence, EngineError, Material, SceneError,
                               SimSetup)
 
 pytest.importorskip("warp")
@@ -45,7 +45,7 @@ def run(setup, n_frames):
 
 
 def test_registered_and_lazy():
-    from gasp_core.plugins import engines
+    from gasp_core.seam.plugins import engines
     info = engines()["warp_mpm"]
     assert info.distribution == "gasp-warp-mpm"
     assert info.unavailable_reason() is None
@@ -215,8 +215,8 @@ def test_bad_options():
 
 
 def test_material_it_lacks_is_refused_by_the_core():
-    from gasp_core.engine import build_engine
-    from gasp_core.plugins import engines
+    from gasp_core.seam.engine import build_engine
+    from gasp_core.seam.plugins import engines
     with pytest.raises(SceneError, match="material 'rigid'"):
         build_engine(engines()["warp_mpm"], make_setup("rigid"))
 

@@ -1,0 +1,463 @@
+"""Colliders, impulses and force fields: what a scene asks of an engine beyond its bodies and boundaries.
+
+Everything here is data in the world frame (metres, seconds, z up) that every engine can read from
+:class:`~gasp_core.seam.setup.SimSetup` (``colliders``, ``forces``, ``impulses``):
+
+- :class:`Collider`: a rigid obstacle, as a **signed distance field** sampled on a regular grid in
+  the collider's own frame (negative inside, metres) with its gradient, the triangles it came from
+  (when it came from a mesh), a Coulomb ``friction`` and a prescribed rigid motion
+  (:meth:`Collider.pose` at time ``t``: rotation ``R``, translation ``T``, linear and angular
+  velocity). A static collider has no motion. Built by :func:`collider_from_triangles` (a closed
+  triangle mesh; ``trimesh``'s signed distance) or :func:`collider_from_splats` (a static object's
+  Gaussians: the interior fill's occupancy, :func:`gasp_core.maps.fill.solid_field`, turned into
+  Euclidean distances by :func:`scipy.ndimage.distance_transform_edt`).
+- :class:`Impulse`: a velocity change given to whatever is inside a box or sphere between ``t0``
+  and ``t1`` (``mode = "add"``, PhysGaussian's ``impulse``), or a velocity imposed there
+  (``mode = "set"``, PhysGaussian's ``enforce_particle_translation``).
+- :class:`ForceField`: ``wind`` (a uniform acceleration plus optional divergence-free turbulence,
+  deterministic for a seed) or ``attractor`` (towards a point, with a falloff). Forces are
+  **accelerations** (m/s^2, mass independent, like gravity).
+
+Grid (MPM) engines apply all three on the grid nodes; :func:`grid_tables` packs them into the flat
+arrays their kernels read, and :func:`frame_table` the time-dependent part of one frame (collider
+poses and impulse weights per substep). Colliders follow taichi_elements / PhysGaussian: at a node
+inside the collider (``phi <= 0``), the velocity relative to the collider's velocity there loses
+its normal component if approaching, and its tangential part is reduced by Coulomb friction.
+
+Engine features (``gasp_core.seam.engine.FEATURES``): ``static_colliders``, ``moving_colliders``,
+``impulse``, ``wind``, ``attractors`` (:func:`feature_needs`).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import ndimage
+
+from gasp_core.errors import SceneError
+
+#: Wind turbulence: number of Fourier modes of the divergence-free field.
+TURBULENCE_MODES = 16
+#: SDF sample spacing as a fraction of the simulation grid spacing ``dx``.
+SDF_SPACING = 0.5
+#: Cells of padding around a collider's SDF grid (the field is exact out to this distance).
+SDF_PAD = 4
+#: Largest SDF grid, samples.
+MAX_SDF_SAMPLES = 256 ** 3
+#: Floats per collider in :func:`grid_tables` ``col_meta`` and per substep pose in :func:`frame_table`.
+COL_META, COL_POSE = 9, 18
+#: Floats per force row and per turbulence mode (:func:`grid_tables`).
+FORCE_ROW, MODE_ROW = 12, 8
+#: Floats per impulse row (:func:`grid_tables`).
+IMPULSE_ROW = 11
+FALLOFFS = ("none", "inverse_square")
+
+
+@dataclass
+class Motion:
+    """Prescribed rigid motion of a collider, world frame.
+
+    Attributes
+    ----------
+    velocity : (3,) float
+        Constant linear velocity, m/s (ignored with ``path``).
+    angular_velocity : (3,) float
+        Constant angular velocity about the collider's origin (its ``position``), rad/s.
+    path : ndarray, shape (k, 4), or None
+        Keyframes ``[t, x, y, z]`` (s, m) of the origin, times increasing: linearly interpolated,
+        held before the first and after the last.
+    """
+
+    velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    angular_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    path: np.ndarray | None = None
+
+    @property
+    def moving(self) -> bool:
+        return self.path is not None or bool(np.any(self.velocity)) or bool(np.any(self.angular_velocity))
+
+
+def _rotvec_matrix(w: np.ndarray) -> np.ndarray:
+    """Rotation matrix of the rotation vector ``w`` (axis times angle, rad), Rodrigues."""
+    a = float(np.linalg.norm(w))
+    if a == 0.0:
+        return np.eye(3)
+    k = w / a
+    K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + math.sin(a) * K + (1.0 - math.cos(a)) * K @ K
+
+
+@dataclass
+class Collider:
+    """A rigid obstacle as a signed distance field (see the module notes).
+
+    Attributes
+    ----------
+    name : str
+        For messages (``[[collider]] #1``, a file name).
+    phi : ndarray, shape (nx, ny, nz), float64
+        Signed distance at the samples ``origin + (i, j, k) * h`` of the collider frame, metres,
+        negative inside.
+    grad : ndarray, shape (nx, ny, nz, 3), float64
+        Its gradient (central differences), dimensionless; the outward normal where normalised.
+    origin : ndarray, shape (3,)
+        Collider-frame position of sample ``(0, 0, 0)``, metres.
+    h : float
+        Sample spacing, metres.
+    friction : float
+        Coulomb friction coefficient (0 slip; large sticks).
+    position : ndarray, shape (3,)
+        World position of the collider frame's origin at ``t = 0``, metres.
+    rotation : ndarray, shape (3, 3)
+        World rotation of the collider frame at ``t = 0``.
+    motion : Motion
+    triangles : ndarray, shape (m, 3, 3) or None
+        Collider-frame triangles (metres) when built from a mesh, for engines that collide with
+        meshes.
+    source : str
+        Where it came from, for ``run.json``: ``mesh:<file>``, ``gaussians:<file>``,
+        ``object:<name>``; empty for colliders built in code.
+    """
+
+    name: str
+    phi: np.ndarray
+    grad: np.ndarray
+    origin: np.ndarray
+    h: float
+    friction: float = 0.5
+    position: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
+    motion: Motion = field(default_factory=Motion)
+    triangles: np.ndarray | None = None
+    source: str = ""
+
+    @property
+    def moving(self) -> bool:
+        return self.motion.moving
+
+    def pose(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``(R, T, v, w)`` at time ``t`` (s): world rotation, world origin (m), linear (m/s) and angular (rad/s) velocity.
+
+        A collider-frame point ``p`` is at ``R p + T``; a world point ``X`` attached to the collider
+        moves at ``v + w x (X - T)``.
+        """
+        m = self.motion
+        w = np.asarray(m.angular_velocity, float)
+        R = _rotvec_matrix(w * t) @ self.rotation
+        if m.path is not None:
+            ts, ps = m.path[:, 0], m.path[:, 1:]
+            T = np.array([np.interp(t, ts, ps[:, d]) for d in range(3)])
+            k = int(np.searchsorted(ts, t, side="right"))
+            if 0 < k < len(ts):
+                v = (ps[k] - ps[k - 1]) / (ts[k] - ts[k - 1])
+            else:
+                v = np.zeros(3)
+        else:
+            v = np.asarray(m.velocity, float)
+            T = np.asarray(self.position, float) + v * t
+        return R, T, v, w
+
+    def distance(self, X: np.ndarray, t: float = 0.0) -> np.ndarray:
+        """Signed distance (m, negative inside) of world points ``X`` (n, 3) at time ``t``; +inf off the field's grid."""
+        R, T, _, _ = self.pose(t)
+        p = (np.asarray(X, float) - T) @ R
+        u = (p - self.origin) / self.h
+        dims = np.array(self.phi.shape)
+        off = ((u < 0) | (u > dims - 1)).any(axis=1)
+        out = ndimage.map_coordinates(self.phi, u.T, order=1, mode="nearest")
+        out[off] = np.inf
+        return out
+
+
+@dataclass
+class Impulse:
+    """A velocity change (``add``) or an imposed velocity (``set``) inside a region between ``t0`` and ``t1``.
+
+    Attributes
+    ----------
+    shape : {"box", "sphere"}
+    lo, hi : (3,) float
+        Box corners, metres (``box``).
+    centre : (3,) float
+        Sphere centre, metres, and ``radius`` (m) (``sphere``).
+    velocity_change : (3,) float
+        ``add``: total velocity change, m/s, spread evenly over ``[t0, t1]`` (all at once in the
+        substep holding ``t0`` when ``t1 == t0``). ``set``: the velocity imposed, m/s.
+    t0, t1 : float
+        Seconds.
+    mode : {"add", "set"}
+    """
+
+    shape: str
+    velocity_change: tuple[float, float, float]
+    t0: float = 0.0
+    t1: float = 0.0
+    lo: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    hi: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    centre: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    radius: float = 0.0
+    mode: str = "add"
+
+    def weight(self, t: float, dt: float) -> float:
+        """Share of ``velocity_change`` given in the substep ``[t, t + dt)`` (``add``), or 1/0 active (``set``)."""
+        if self.mode == "set":
+            return 1.0 if (self.t0 <= t + 0.5 * dt and t + 0.5 * dt <= self.t1 + 1e-12) else 0.0
+        if self.t1 <= self.t0:
+            return 1.0 if t <= self.t0 < t + dt else 0.0
+        overlap = min(t + dt, self.t1) - max(t, self.t0)
+        return max(0.0, overlap) / (self.t1 - self.t0)
+
+    def contains(self, X: np.ndarray) -> np.ndarray:
+        X = np.asarray(X, float)
+        if self.shape == "box":
+            return np.all((X >= np.asarray(self.lo)) & (X <= np.asarray(self.hi)), axis=1)
+        return np.linalg.norm(X - np.asarray(self.centre), axis=1) <= self.radius
+
+
+@dataclass
+class ForceField:
+    """An acceleration field (m/s^2), applied to all material like gravity.
+
+    Attributes
+    ----------
+    kind : {"wind", "attractor"}
+    direction : (3,) float
+        ``wind``: unit direction of the mean acceleration.
+    strength : float
+        ``wind``: mean acceleration, m/s^2. ``attractor``: acceleration towards ``point`` at
+        distance ``radius`` (negative repels), m/s^2.
+    turbulence : float
+        ``wind``: RMS of the turbulent acceleration, m/s^2 (0: uniform wind).
+    turbulence_scale : float
+        ``wind``: wavelength of the turbulence, metres.
+    turbulence_time : float
+        ``wind``: period over which the turbulence changes, seconds (inf: frozen).
+    seed : int
+        ``wind``: random seed of the turbulence (same seed, same field).
+    point : (3,) float
+        ``attractor``: metres.
+    radius : float
+        ``attractor``: softening radius, metres; inside it the pull falls linearly to 0 at ``point``.
+    falloff : {"none", "inverse_square"}
+        ``attractor``: ``|a| = strength`` beyond ``radius``, or ``strength (radius / r)^2``.
+    """
+
+    kind: str
+    direction: tuple[float, float, float] = (1.0, 0.0, 0.0)
+    strength: float = 0.0
+    turbulence: float = 0.0
+    turbulence_scale: float = 0.5
+    turbulence_time: float = math.inf
+    seed: int = 0
+    point: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    radius: float = 0.05
+    falloff: str = "none"
+
+    def modes(self) -> np.ndarray:
+        """Turbulence modes, shape (K, 8): wave vector k (1/m), amplitude A (m/s^2, A . k = 0), phase, omega (rad/s).
+
+        The turbulent acceleration is ``sum A sin(k . x + omega t + phase)``: divergence-free
+        (each ``A`` is perpendicular to its ``k``), smooth, with RMS ``turbulence``; the same
+        ``seed`` gives the same field.
+        """
+        if self.kind != "wind" or self.turbulence == 0.0:
+            return np.zeros((0, MODE_ROW))
+        rng = np.random.default_rng(self.seed)
+        K = TURBULENCE_MODES
+        d = rng.normal(size=(K, 3))
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        a = np.cross(d, rng.normal(size=(K, 3)))
+        a /= np.linalg.norm(a, axis=1, keepdims=True)
+        k = d * (2.0 * math.pi / self.turbulence_scale)
+        A = a * self.turbulence * math.sqrt(2.0 / K)
+        phase = rng.uniform(0.0, 2.0 * math.pi, size=K)
+        omega = (np.zeros(K) if not math.isfinite(self.turbulence_time)
+                 else rng.uniform(0.5, 1.5, size=K) * 2.0 * math.pi / self.turbulence_time)
+        return np.column_stack([k, A, phase, omega])
+
+    def acceleration(self, X: np.ndarray, t: float = 0.0) -> np.ndarray:
+        """The field at world points ``X`` (n, 3) and time ``t``, m/s^2 (reference for the kernels)."""
+        X = np.asarray(X, float)
+        if self.kind == "wind":
+            a = np.broadcast_to(self.strength * np.asarray(self.direction, float), X.shape).copy()
+            for row in self.modes():
+                a += row[3:6] * np.sin(X @ row[:3] + row[7] * t + row[6])[:, None]
+            return a
+        r_vec = np.asarray(self.point, float) - X
+        r = np.linalg.norm(r_vec, axis=1)
+        mag = np.where(r >= self.radius,
+                       self.strength * ((self.radius / np.maximum(r, 1e-300)) ** 2 if self.falloff == "inverse_square"
+                                        else 1.0),
+                       self.strength * r / self.radius)
+        return r_vec / np.maximum(r, 1e-300)[:, None] * mag[:, None]
+
+
+# --------------------------------------------------------------------------- building colliders
+def _grid_around(lo: np.ndarray, hi: np.ndarray, h: float, name: str) -> tuple[np.ndarray, tuple[int, int, int]]:
+    origin = lo - SDF_PAD * h
+    shape = tuple(int(s) for s in np.ceil((hi - lo) / h).astype(np.int64) + 2 * SDF_PAD + 1)
+    if np.prod(shape, dtype=np.float64) > MAX_SDF_SAMPLES:
+        raise SceneError(f"collider '{name}': its distance field would need {shape} samples at "
+                         f"{h:.3g} m (more than {MAX_SDF_SAMPLES}); lower [domain] n_grid or make it smaller")
+    return origin, shape
+
+
+def _finish(name: str, phi: np.ndarray, origin: np.ndarray, h: float, **kw) -> Collider:
+    grad = np.stack(np.gradient(phi, h), axis=-1)
+    return Collider(name=name, phi=phi, grad=grad, origin=origin, h=float(h), **kw)
+
+
+def collider_from_triangles(triangles: np.ndarray, h: float, name: str = "collider", **kw) -> Collider:
+    """A collider from a closed triangle mesh (collider frame, metres).
+
+    Parameters
+    ----------
+    triangles : ndarray, shape (m, 3, 3)
+        The mesh, collider frame; it must be closed (watertight) so that inside is defined.
+    h : float
+        SDF sample spacing, metres (:data:`SDF_SPACING` times the grid's ``dx``).
+    name : str
+        For messages.
+    **kw
+        ``friction``, ``position``, ``rotation``, ``motion`` of :class:`Collider`.
+
+    Returns
+    -------
+    Collider
+        ``phi`` from ``trimesh.proximity.signed_distance`` (exact distance to the triangles,
+        sign from ray tests), negated to be negative inside.
+
+    Raises
+    ------
+    SceneError
+        trimesh missing, no triangles, or a mesh that is not watertight.
+    """
+    try:
+        import trimesh
+    except ImportError:
+        raise SceneError(f"collider '{name}': mesh colliders need trimesh and rtree "
+                         "(pip install 'gasp[mesh]')") from None
+    tris = np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
+    if len(tris) == 0:
+        raise SceneError(f"collider '{name}': the mesh has no triangles")
+    mesh = trimesh.Trimesh(**trimesh.triangles.to_kwargs(tris))
+    mesh.merge_vertices()
+    if not mesh.is_watertight:
+        raise SceneError(f"collider '{name}': the mesh is not closed (watertight), so its inside is not "
+                         "defined; close it (e.g. give the surface a thickness)")
+    origin, shape = _grid_around(mesh.bounds[0], mesh.bounds[1], h, name)
+    ii = np.stack(np.meshgrid(*[np.arange(s) for s in shape], indexing="ij"), axis=-1).reshape(-1, 3)
+    pts = origin + ii * h
+    try:
+        sd = trimesh.proximity.signed_distance(mesh, pts)
+    except (ImportError, ModuleNotFoundError, ValueError) as e:
+        raise SceneError(f"collider '{name}': trimesh could not compute distances ({e}); "
+                         "pip install rtree") from None
+    phi = (-np.asarray(sd, dtype=np.float64)).reshape(shape)
+    return _finish(name, phi, origin, h, triangles=tris, **kw)
+
+
+def collider_from_splats(splats: np.ndarray, h: float, name: str = "collider", **kw) -> Collider:
+    """A collider from Gaussians (world frame): the space their footprints enclose, as the fill finds it.
+
+    Parameters
+    ----------
+    splats : ndarray, shape (n, 3, 3)
+        GaMeS triangles of the opaque Gaussians, world frame, metres.
+    h : float
+        SDF sample spacing, metres.
+    name : str
+    **kw
+        ``friction`` of :class:`Collider` (a collider from Gaussians is static).
+
+    Returns
+    -------
+    Collider
+        Occupancy = inside of :func:`gasp_core.maps.fill.solid_field` (or, for an open object, the
+        voxels its footprints touch); ``phi`` = Euclidean distance to it outside minus the
+        distance to its outside inside (:func:`scipy.ndimage.distance_transform_edt`), each with
+        half a sample removed, so the surface lies between occupied and free samples.
+    """
+    from gasp_core.maps.fill import _rasterize, solid_field
+    splats = np.asarray(splats, dtype=np.float64).reshape(-1, 3, 3)
+    if len(splats) == 0:
+        raise SceneError(f"collider '{name}': no opaque Gaussians to collide with")
+    pts = splats.reshape(-1, 3)
+    origin, shape = _grid_around(pts.min(axis=0), pts.max(axis=0), h, name)
+    field_, flo, voxel, _, _ = solid_field(splats)
+    ii = np.stack(np.meshgrid(*[np.arange(s) for s in shape], indexing="ij"), axis=-1).reshape(-1, 3)
+    samples = origin + ii * h
+    if field_ is not None:
+        u = (samples - flo) / voxel - 0.5
+        occ = (ndimage.map_coordinates(field_, u.T, order=1, mode="constant", cval=-1.0) > 0).reshape(shape)
+    else:
+        occ = _rasterize(splats, origin - 0.5 * h, shape, h)
+    if not occ.any():
+        raise SceneError(f"collider '{name}': its Gaussians occupy no sample of the {h:.3g} m distance grid")
+    out = ndimage.distance_transform_edt(~occ) * h
+    ins = ndimage.distance_transform_edt(occ) * h
+    phi = np.where(occ, -(ins - 0.5 * h), out - 0.5 * h)
+    return _finish(name, phi, origin, h, **kw)
+
+
+# --------------------------------------------------------------------------- engine needs
+def feature_needs(colliders=(), forces=(), impulses=()) -> list[str]:
+    """Engine feature names (``gasp_core.seam.engine.FEATURES``) that these colliders, forces and impulses need."""
+    out = []
+    for c in colliders:
+        out.append("moving_colliders" if c.moving else "static_colliders")
+    for f in forces:
+        out.append("wind" if f.kind == "wind" else "attractors")
+    if impulses:
+        out.append("impulse")
+    return list(dict.fromkeys(out))
+
+
+def check_start(colliders, x: np.ndarray, name_of=None) -> None:
+    """Refuse simulated points that start inside a collider (more than a quarter sample deep).
+
+    Raises
+    ------
+    SceneError
+        Naming the collider, the count and the first point.
+    """
+    for c in colliders:
+        d = c.distance(x, 0.0)
+        inside = d < -0.25 * c.h
+        if inside.any():
+            k = int(np.flatnonzero(inside)[0])
+            raise SceneError(f"collider '{c.name}': {int(inside.sum())} simulated point(s) start inside it "
+                             f"(first at {np.round(x[k], 4).tolist()}, {-d[k]:.3g} m deep); move the object "
+                             "or the collider apart")
+
+
+def box_collider(half_extents, h: float, name: str = "box", **kw) -> Collider:
+    """A box collider, exact signed distance (no mesh library needed).
+
+    Parameters
+    ----------
+    half_extents : (3,) float
+        Half sides along the collider frame's axes, metres; the box is centred on the frame's origin.
+    h : float
+        Sample spacing, metres.
+    name : str
+    **kw
+        ``friction``, ``position`` (world position of the centre), ``rotation``, ``motion`` of :class:`Collider`.
+    """
+    b = np.asarray(half_extents, float)
+    if not np.all(b > 0):
+        raise SceneError(f"collider '{name}': half extents must be positive, got {b.tolist()}")
+    origin, shape = _grid_around(-b, b, h, name)
+    ii = np.stack(np.meshgrid(*[np.arange(s) for s in shape], indexing="ij"), axis=-1)
+    p = origin + ii * h
+    q = np.abs(p) - b
+    phi = np.linalg.norm(np.maximum(q, 0.0), axis=-1) + np.minimum(q.max(axis=-1), 0.0)
+    corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * b
+    faces = [(0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1), (2, 3, 7), (2, 7, 6),
+             (0, 2, 6), (0, 6, 4), (1, 5, 7), (1, 7, 3)]
+    return _finish(name, phi, origin, h, triangles=corners[np.array(faces)], **kw)
+
+
+from gasp_core.toolkit.grid_tables import GridTables, frame_table, grid_tables  # noqa: E402,F401  (public names)
+from gasp_core.prepare.colliders import build_colliders, scene_feature_needs  # noqa: E402,F401

@@ -1,0 +1,144 @@
+"""Point assembly: every object's simulated triangle vertices and fill points become one :class:`SimSetup`."""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+from scipy.special import expit
+
+from gasp_core.seam.engine import SceneError, SimSetup
+from gasp_core.maps.fill import fill_interior, fill_spacing
+from gasp_core.prepare.placement import PreparedObject, simulated_triangles
+from gasp_core.scene.spec import Scene
+
+#: Smallest default domain side, metres (a single Gaussian, or all Gaussians at one point).
+MIN_DOMAIN_SIDE = 1e-3
+
+
+def default_domain(scene: Scene, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A cubic domain around ``points`` padded by ``domain.padding`` times their extent.
+
+    With a ground plane the extent reaches down to the ground (an object dropped from a height
+    stays inside), and the box starts three cells below it, so points resting on the ground stay
+    inside the grid's interpolation stencil. The side is at least :data:`MIN_DOMAIN_SIDE`.
+    """
+    if scene.domain.lo is not None:
+        return np.array(scene.domain.lo, float), np.array(scene.domain.hi, float)
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    grounds = [b.height for b in scene.boundaries if b.kind == "ground"]
+    if grounds:
+        lo[2] = min(lo[2], min(grounds))
+    ext = max(float(np.max(hi - lo)), MIN_DOMAIN_SIDE)
+    side = ext * (1.0 + 2.0 * scene.domain.padding)
+    centre = (lo + hi) / 2
+    dlo = centre - side / 2
+    if grounds:
+        dlo[2] = min(grounds) - 3.0 * side / scene.domain.n_grid
+    return dlo, dlo + side
+
+
+def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
+    """Assemble the engine's point set: all objects' triangle vertices, then their fill points.
+
+    Static objects (``static = true``) take no part; a selected object brings its selected rows
+    only (:mod:`gasp_core.prepare.selection`), and the default domain is around what moves.
+
+    Raises
+    ------
+    SceneError
+        If an object lies outside an explicit domain.
+    """
+    scenery, objects = objects, [o for o in objects if not o.spec.static]
+    vertices = [simulated_triangles(o).reshape(-1, 3) for o in objects]
+    lo, hi = default_domain(scene, np.concatenate([o.tri_rest.reshape(-1, 3) for o in objects]))
+    n_grid = scene.domain.n_grid
+    dx = float(np.max(hi - lo)) / n_grid
+    xs, vols, bodies, vels, fills, passives = [], [], [], [], [], []
+    start = 0
+    for i, (o, verts) in enumerate(zip(objects, vertices)):
+        opacities = o.simulated_rows(o.gaussians.opacities).astype(np.float64)
+        opaque = expit(opacities) >= o.spec.min_opacity
+        h = fill_spacing(dx, scene.domain.particles_per_cell, o.spec.core_fraction)
+        passive = o.spec.surface == "passive"
+        fr = fill_interior(verts, h, splats=o.tri_rest[opaque], fill=o.spec.fill, name=o.name,
+                           if_open=o.spec.if_open, surface_mass=not passive)
+        o.fill_report = fr.report
+        if fr.report.warning:
+            warnings.warn(fr.report.warning, stacklevel=2)
+        o.vertex_slice = slice(start, start + len(verts))
+        start += len(verts)
+        xs.append(verts)
+        vols.append(fr.p_vol_surface)
+        bodies.append(np.full(len(verts), i))
+        vels.append(np.broadcast_to(o.spec.velocity, verts.shape))
+        passives.append(np.full(len(verts), passive))
+        fills.append((i, fr))
+    for i, fr in fills:
+        objects[i].fill_slice = slice(start, start + len(fr.fill_x))
+        start += len(fr.fill_x)
+        xs.append(fr.fill_x)
+        vols.append(fr.p_vol_fill)
+        bodies.append(np.full(len(fr.fill_x), i))
+        vels.append(np.broadcast_to(objects[i].spec.velocity, fr.fill_x.shape))
+        passives.append(np.zeros(len(fr.fill_x), bool))
+    x = np.concatenate(xs)
+    passive = np.concatenate(passives)
+    v, p_vol, body_id = np.concatenate(vels), np.concatenate(vols), np.concatenate(bodies)
+    C = spin(objects, x, v, p_vol, body_id)
+    outside = ((x < lo) | (x > hi)).any(axis=1)
+    if outside.any():
+        k = int(np.flatnonzero(outside)[0])
+        raise SceneError(f"{scene.path}: {int(outside.sum())} point(s) start outside the domain "
+                         f"[{lo.tolist()}, {hi.tolist()}] (first at {x[k].tolist()}); enlarge [domain]")
+    extras = scene_extras(scene, scenery, x, dx)  # colliders may name static objects
+    return SimSetup(
+        **extras, x=x, v=v, p_vol=p_vol, body_id=body_id, C=C, passive=passive if passive.any() else None,
+        materials=[o.spec.material for o in objects], gravity=np.array(scene.gravity),
+        domain_lo=lo, domain_hi=hi, n_grid=n_grid, boundaries=list(scene.boundaries),
+        frame_dt=scene.frame_dt, n_render=sum(len(v) for v in vertices),
+        options=dict(scene.engine.options))
+
+
+def scene_extras(scene: Scene, objects: list[PreparedObject], x: np.ndarray, dx: float) -> dict:
+    """``colliders``, ``forces`` and ``impulses`` of the setup (:mod:`gasp_core.colliders.model`).
+
+    Raises
+    ------
+    SceneError
+        A collider that cannot be built, or simulated points that start inside a collider.
+    """
+    if not (scene.colliders or scene.forces or scene.impulses):
+        return {}
+    from gasp_core.colliders.model import build_colliders, check_start
+    colliders = build_colliders(scene, objects, dx)
+    check_start(colliders, x)
+    return {"colliders": colliders, "forces": list(scene.forces), "impulses": list(scene.impulses)}
+
+
+def skew(w) -> np.ndarray:
+    """Cross-product matrix ``[w]_x`` (``[w]_x r = w x r``), shape (3, 3)."""
+    wx, wy, wz = w
+    return np.array([[0.0, -wz, wy], [wz, 0.0, -wx], [-wy, wx, 0.0]])
+
+
+def spin(objects: list[PreparedObject], x: np.ndarray, v: np.ndarray, p_vol: np.ndarray,
+         body_id: np.ndarray) -> np.ndarray | None:
+    """Add each object's rigid spin ``w x (x - c)`` to ``v`` (in place); return ``C`` or None.
+
+    ``c`` is the object's centre of mass (volume-weighted mean of its points: one density per
+    object). ``C`` (shape (n, 3, 3), 1/s) is ``[w]_x`` on the object's points, the velocity
+    gradient of the rigid spin, which engines with the feature ``initial_C`` start from.
+    None when no object spins.
+    """
+    if not any(np.any(o.spec.angular_velocity) for o in objects):
+        return None
+    C = np.zeros((len(x), 3, 3))
+    for i, o in enumerate(objects):
+        w = np.asarray(o.spec.angular_velocity, dtype=np.float64)
+        if not np.any(w):
+            continue
+        rows = body_id == i
+        c = np.average(x[rows], axis=0, weights=p_vol[rows])
+        v[rows] += np.cross(w, x[rows] - c)
+        C[rows] = skew(w)
+    return C

@@ -1,0 +1,175 @@
+"""Placing an object: read its Gaussians, turn them into the world frame, flatten, triangulate.
+
+World frame: metres, z up. ``x_world = scale * R @ x_file + t`` (:class:`Placement`), ``R`` the
+object's ``rotation`` after its up axis; the GaMeS map
+``T`` (GASP paper Sec. 3) turns each flattened Gaussian into its triangle.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from gasp_core.maps.fill import FillReport
+from gasp_core.maps.games import FlattenReport, flatten, gaussians_to_triangles
+from gasp_core.gs.gaussians import Gaussians
+from gasp_core.maps.hierarchy import Hierarchy, build_hierarchy
+from gasp_core.gs.io import read_gaussians, read_splatv, splatv_at
+from gasp_core.scene.spec import ObjectSpec, check_object
+from gasp_core.prepare.selection import moving_rows
+
+#: Rotation taking each file up-axis to world +z (proper rotations; x_world = R @ x_file).
+UP_ROTATIONS = {
+    "+z": np.eye(3),
+    "-z": np.diag([1.0, -1.0, -1.0]),
+    "+y": np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]]),
+    "-y": np.array([[1.0, 0, 0], [0, 0, 1], [0, -1, 0]]),
+    "+x": np.array([[0.0, 0, -1], [0, 1, 0], [1, 0, 0]]),
+    "-x": np.array([[0.0, 0, 1], [0, 1, 0], [-1, 0, 0]]),
+}
+
+
+def euler_matrix(degrees) -> np.ndarray:
+    """Rotation about world x, then y, then z (degrees), as a matrix ``Rz @ Ry @ Rx``, shape (3, 3).
+
+    The ``rotation`` of objects and of ``[[collider]]`` entries (extrinsic x-y-z angles).
+    """
+    ax, ay, az = (np.radians(float(a)) for a in degrees)
+    cx, sx, cy, sy, cz, sz = np.cos(ax), np.sin(ax), np.cos(ay), np.sin(ay), np.cos(az), np.sin(az)
+    Rx = np.array([[1.0, 0.0, 0.0], [0.0, cx, -sx], [0.0, sx, cx]])
+    Ry = np.array([[cy, 0.0, sy], [0.0, 1.0, 0.0], [-sy, 0.0, cy]])
+    Rz = np.array([[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]])
+    return Rz @ Ry @ Rx
+
+
+@dataclass
+class Placement:
+    """Similarity transform file -> world: ``x_world = scale * R @ x_file + t``."""
+
+    R: np.ndarray
+    scale: float
+    t: np.ndarray
+
+    def to_world(self, x: np.ndarray) -> np.ndarray:
+        return self.scale * x @ self.R.T + self.t
+
+    def to_file(self, x: np.ndarray) -> np.ndarray:
+        return ((x - self.t) / self.scale) @ self.R
+
+
+@dataclass
+class PreparedObject:
+    """One object ready to simulate, and what is needed to rebuild its Gaussians.
+
+    Attributes
+    ----------
+    spec : ObjectSpec
+    gaussians : Gaussians
+        As read (file frame).
+    placement : Placement
+    rot_rest, scales_rest : ndarray, shapes (n, 3, 3), (n, 3)
+        Flattened rest rotations and scales, world frame (metres).
+    tri_rest : ndarray, shape (n, 3, 3)
+        Rest triangles, world frame.
+    hierarchy : Hierarchy or None
+        Core Gaussians and bindings when ``spec.core_fraction < 1``.
+    thin_scale : ndarray, shape (n,)
+        The input's own thinnest scale, file units (``thickness = "keep"``).
+    flatten_report : FlattenReport
+    vertex_slice, fill_slice : slice
+        Rows of this object's triangle vertices and fill points in ``SimSetup.x``.
+    moving : ndarray of int64, or None
+        Rows of the file that are simulated (``select``; empty for a ``static`` object); None
+        when all are. ``rot_rest``, ``scales_rest``, ``tri_rest``, ``thin_scale`` and
+        ``hierarchy`` hold those rows only; ``gaussians`` is always the whole file
+        (:mod:`gasp_core.prepare.selection`).
+    static_tri : ndarray, shape (m, 3, 3)
+        World-frame triangles of the rows that never move, metres (colliders:
+        :func:`gasp_core.prepare.selection.static_splats`).
+    """
+
+    spec: ObjectSpec
+    gaussians: Gaussians
+    placement: Placement
+    rot_rest: np.ndarray
+    scales_rest: np.ndarray
+    tri_rest: np.ndarray
+    thin_scale: np.ndarray
+    flatten_report: FlattenReport
+    hierarchy: Hierarchy | None = None
+    fill_report: FillReport | None = None
+    vertex_slice: slice = field(default_factory=lambda: slice(0, 0))
+    fill_slice: slice = field(default_factory=lambda: slice(0, 0))
+    name: str = ""
+    moving: np.ndarray | None = None
+    static_tri: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3)))
+
+    def simulated_rows(self, a: np.ndarray) -> np.ndarray:
+        """The rows of a per-Gaussian array ``a`` (shape (n, ...)) that are simulated."""
+        return a if self.moving is None else a[self.moving]
+
+
+def place(g: Gaussians, spec: ObjectSpec) -> Placement:
+    """The file -> world transform of an object (up-axis, rotation, metres, position).
+
+    ``R = euler_matrix(spec.rotation) @ UP_ROTATIONS[spec.up_axis]``. With ``recentre``, the bottom centre of the means' bounding box (world orientation) lands on
+    ``spec.position``; otherwise ``spec.position`` is a plain offset.
+    """
+    R = UP_ROTATIONS[spec.up_axis]
+    if any(getattr(spec, "rotation", (0.0, 0.0, 0.0))):
+        R = euler_matrix(spec.rotation) @ R
+    s = float(spec.scale)
+    x = s * g.means @ R.T
+    if spec.recentre:
+        lo, hi = x.min(axis=0), x.max(axis=0)
+        anchor = np.array([(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, lo[2]])
+        t = np.asarray(spec.position) - anchor
+    else:
+        t = np.asarray(spec.position, dtype=np.float64)
+    return Placement(R, s, t)
+
+
+def load_gaussians(spec: ObjectSpec) -> Gaussians:
+    """An object's Gaussians: a static file, or a dynamic model ``psi(V, s)`` at ``s = spec.dynamic_time``.
+
+    Raises
+    ------
+    SceneError
+        From :func:`gasp_core.gs.io.read_gaussians` / :func:`gasp_core.gs.io.read_splatv`.
+    """
+    if spec.dynamic_time is not None:
+        base, motion = read_splatv(spec.file)
+        return splatv_at(base, motion, spec.dynamic_time)
+    return read_gaussians(spec.file)
+
+
+def prepare_object(spec: ObjectSpec, g: Gaussians | None = None) -> PreparedObject:
+    """Read (unless given), place, flatten and triangulate one object.
+
+    Raises
+    ------
+    SceneError
+        From reading the file (see :func:`load_gaussians`), or from
+        :func:`gasp_core.scene.spec.check_object` (no Gaussians, placed beyond the float32 limits).
+    """
+    g = load_gaussians(spec) if g is None else g
+    check_object(spec, g)
+    pl = place(g, spec)  # from the whole file: a selection moves, the background stays put
+    moving, static_tri = moving_rows(spec, g, pl)
+    sim = g if moving is None else g.subset(moving)
+    R_world = pl.R @ sim.rotmats()
+    scales_flat, rot_flat, report = flatten(sim.scales * pl.scale, R_world)
+    means_w = pl.to_world(sim.means)
+    tri = gaussians_to_triangles(means_w, rot_flat, scales_flat)
+    hier = (build_hierarchy(means_w, tri, spec.core_fraction, name=f"{spec.file}: core_fraction")
+            if spec.core_fraction < 1.0 and sim.n else None)
+    return PreparedObject(spec=spec, gaussians=g, placement=pl, rot_rest=rot_flat,
+                          scales_rest=scales_flat, tri_rest=tri, thin_scale=sim.scales.min(axis=1),
+                          flatten_report=report, hierarchy=hier, name=Path(spec.file).stem,
+                          moving=moving, static_tri=static_tri)
+
+
+def simulated_triangles(o: PreparedObject) -> np.ndarray:
+    """The triangles (or, with a hierarchy, the cores' 4-point frames) whose vertices the engine moves."""
+    return o.tri_rest if o.hierarchy is None else o.hierarchy.core_points

@@ -1,0 +1,228 @@
+"""The GASP pipeline: load -> world frame -> flatten -> T -> engine -> T^-1 (+ alpha rule) -> frames.
+
+``G_t = T^-1(phi(T(G), t))`` (GASP paper Sec. 3, Eq. for ``G_t``). The steps live in their own
+modules: placement and ``T`` (:mod:`~gasp_core.prepare.placement`), point assembly
+(:mod:`~gasp_core.prepare.assembly`), the engine seam (:mod:`~gasp_core.seam.engine`, :mod:`~gasp_core.seam.runner`),
+``T^-1`` per frame (:mod:`~gasp_core.run.frames`), the run record (:mod:`~gasp_core.run.record`) and the
+output folder (:mod:`~gasp_core.fsutil`). This module strings them together. Frames are written
+back in the input file's own frame and order, so frame 0 sits where the input was; opacity, SH
+and extra properties are carried bit for bit.
+"""
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+from gasp_core.prepare.assembly import build_setup, default_domain  # noqa: F401  (public names of the pipeline)
+from gasp_core.seam.engine import EngineInfo, SceneError, SimSetup, check_supported
+from gasp_core.run import resume as resume_mod
+from gasp_core.errors import GaspError
+from gasp_core.run.frames import FrameState, iter_frames, rebuild  # noqa: F401
+from gasp_core.fsutil import OutputClaim, atomic_json, leftover_partials
+from gasp_core.gs.gaussians import Gaussians
+from gasp_core.gs.io import write_gaussians
+from gasp_core.prepare.placement import (UP_ROTATIONS, Placement, PreparedObject, load_gaussians, place,  # noqa: F401
+                        prepare_object, simulated_triangles)
+from gasp_core.seam.plugins import engines as all_engines, get_engine
+from gasp_core.run.record import run_summary
+from gasp_core.seam.runner import RunStats
+from gasp_core.scene.spec import Scene
+
+
+@dataclass
+class PreparedScene:
+    """A scene ready to run: engine chosen and checked, objects placed, points assembled.
+
+    Attributes
+    ----------
+    prepare_s : float
+        Wall time of reading, placing, flattening, the hierarchy and point assembly, seconds.
+    """
+
+    scene: Scene
+    info: EngineInfo
+    objects: list[PreparedObject]
+    names: list[str]
+    setup: SimSetup
+    prepare_s: float = 0.0
+
+
+@dataclass
+class RunResult:
+    """What :func:`simulate_scene` did."""
+
+    outdir: Path
+    n_frames: int
+    stats: RunStats
+    summary: dict = field(default_factory=dict)
+
+
+def scene_needs(scene: Scene) -> dict[str, list[str]]:
+    """What a scene asks of an engine, before any file is read (see :func:`gasp_core.seam.engine.check_supported`)."""
+    from gasp_core.colliders.model import scene_feature_needs
+    return {"materials": [o.material.name for o in scene.objects if not o.static],
+            "boundaries": [b.kind for b in scene.boundaries], "features": scene_feature_needs(scene)}
+
+
+def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None = None) -> PreparedScene:
+    """Choose and check the engine, read and place every object, build the point set.
+
+    Parameters
+    ----------
+    scene : Scene
+    engine : str, optional
+        Override ``scene.engine.name``.
+    options : dict, optional
+        Engine options replacing ``scene.engine.options`` (e.g. from a settings sweep).
+
+    Raises
+    ------
+    EngineError
+        Unknown engine, or an engine that cannot run here.
+    SceneError
+        A material, boundary or feature the engine lacks (before any file is read), an
+        unreadable object file, an object outside an explicit domain.
+    """
+    t0 = time.perf_counter()
+    name = engine or scene.engine.name
+    if not name:
+        raise SceneError(f"{scene.path}: no engine: set [engine] name = \"...\" or pass --engine "
+                         f"(installed: {sorted(all_engines()) or 'none'})")
+    info = get_engine(name)
+    check_supported(info, **scene_needs(scene), others=all_engines())
+    objects = [prepare_object(spec) for spec in scene.objects]
+    stems = [o.name for o in objects]
+    names = [n if stems.count(n) == 1 else f"{i}_{n}" for i, n in enumerate(stems)]
+    setup = build_setup(scene, objects)
+    if options is not None:
+        setup.options = dict(options)
+    return PreparedScene(scene, info, objects, names, setup, prepare_s=time.perf_counter() - t0)
+
+
+def input_files(scene: Scene) -> list[Path]:
+    """The files a run reads: the scene file and every object's file (never to be overwritten)."""
+    return ([Path(scene.path)] + [Path(o.file) for o in scene.objects]
+            + [Path(o.select.mask) for o in scene.objects if o.select is not None and o.select.mask is not None]
+            + [Path(c.mesh or c.gaussians) for c in scene.colliders if (c.mesh or c.gaussians) is not None])
+
+
+def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
+                   progress: bool = True, n_frames: int | None = None,
+                   engine: str | None = None,
+                   on_frame: Callable[[int, list[Gaussians]], None] | None = None,
+                   warn: Callable[[str], None] | None = None, resume: bool = False) -> RunResult:
+    """Run a scene and write one graphdeco PLY per object per frame.
+
+    Layout: ``OUTDIR/<object>/frame_0000.ply`` (frame 0 = the input state) to
+    ``frame_<n_frames>.ply``, that is ``n_frames + 1`` files per object, and ``OUTDIR/run.json``
+    (engine, versions, parameters, per-frame timings, flatten reports, alpha-rule and
+    degenerate counts).
+
+    Parameters
+    ----------
+    scene : Scene
+    outdir : str or Path
+        Output folder. It is claimed before any work (see :class:`gasp_core.fsutil.OutputClaim`).
+    overwrite : bool
+        Replace an existing gasp output folder (only after the new run succeeded).
+    progress : bool
+        Show a tqdm progress bar.
+    n_frames, engine : optional
+        Override the scene's ``n_frames`` and ``engine.name``.
+    on_frame : callable, optional
+        ``on_frame(frame, gaussians_per_object)`` after each frame is written.
+    warn : callable, optional
+        Receives warnings in words (leftover partial folders of killed runs; passive surface points
+        the material left behind, the engine's ``passive_stranded``).
+    resume : bool
+        Continue a killed run to ``outdir`` from its last checkpoint (:mod:`gasp_core.run.resume`;
+        engines with the feature ``state``).
+
+    Returns
+    -------
+    RunResult
+
+    Raises
+    ------
+    FileExistsError
+        ``outdir`` exists and ``overwrite`` is false, or another run holds it (before any work).
+    GaspError
+        ``outdir`` unsafe to replace (it holds an input, the scene or the working directory) or
+        not a gasp output; the claim lost during the run.
+    SceneError, EngineError
+        Bad input or an engine that cannot run the scene, before any simulation.
+    EngineDivergence
+        The engine blew up; the message names the frame and the likely cause. Nothing is left
+        in ``outdir`` (the partial run is removed).
+    EngineBug
+        The engine raised an exception outside the error contract.
+    """
+    outdir = Path(outdir)
+    n_frames = scene.n_frames if n_frames is None else n_frames
+    claim = OutputClaim(outdir, overwrite=overwrite, protected=input_files(scene), resume=resume)
+    tmp = None
+    try:
+        prep = prepare_scene(scene, engine)
+        fp = resume_mod.fingerprint(scene, prep.info.name, prep.setup.options, n_frames)
+        stats, per_frame, ck = RunStats(), [], None
+        if resume:
+            if "state" not in prep.info.capabilities.features:
+                raise GaspError(f"engine '{prep.info.name}' cannot save its state (feature 'state'), so a "
+                                f"killed run cannot be resumed; run again without --resume")
+            tmp, ck = resume_mod.find_resumable(outdir, fp)
+            (tmp / ".gasp-pid").write_text(str(os.getpid()))
+            per_frame = list(ck.meta["per_frame"])
+            stats.frame_s = list(ck.meta.get("frame_s", []))
+        else:
+            if warn is not None:
+                for p in leftover_partials(outdir):
+                    warn(f"a killed run left partial output in '{p}' (continue it with --resume, "
+                         f"or remove it when no longer needed)")
+            tmp = claim.partial_dir()
+            for name in prep.names:
+                (tmp / name).mkdir()
+        bar = None
+        if progress:
+            from tqdm import tqdm
+            bar = tqdm(total=n_frames, initial=0 if ck is None else ck.frame, unit="frame",
+                       desc=f"{prep.info.name}", leave=True)
+        t_run = time.perf_counter()
+        fs = FrameState()
+        for frame, gs, row in iter_frames(prep, n_frames, stats, resume=ck, state=fs):
+            t0 = time.perf_counter()
+            for g, name in zip(gs, prep.names):
+                write_gaussians(tmp / name / f"frame_{frame:04d}.ply", g, overwrite=ck is not None)
+            row["write_s"] = time.perf_counter() - t0
+            per_frame.append(row)
+            if fs.get_state is not None and frame < n_frames:
+                t0 = time.perf_counter()
+                resume_mod.save(tmp, resume_mod.Checkpoint(
+                    frame, fs.get_state(), fs.prev_rot,
+                    {"fingerprint": fp, "per_frame": per_frame, "frame_s": stats.frame_s}))
+                row["checkpoint_s"] = time.perf_counter() - t0
+            if bar is not None and frame > 0:
+                bar.update(1)
+            if on_frame is not None:
+                on_frame(frame, gs)
+        if bar is not None:
+            bar.close()
+        (tmp / resume_mod.CHECKPOINT).unlink(missing_ok=True)
+        summary = run_summary(prep, stats, n_frames, per_frame, time.perf_counter() - t_run)
+        if ck is not None:
+            summary["resumed_after_frame"] = ck.frame
+        atomic_json(tmp / "run.json", summary)
+        claim.commit(tmp)
+        stranded = (stats.engine or {}).get("passive_stranded")
+        if stranded and warn is not None:
+            warn(f"{stranded} of {int(prep.setup.n_passive)} passive surface points had no material within "
+                 "their interpolation stencil at the last frame: they stayed where the material left them "
+                 "(pieces of surface left hanging, typical of sand or liquid flowing away); surface = "
+                 "\"material\" simulates the surface points as material")
+    except BaseException as e:
+        claim.abandon(tmp, e)
+        raise
+    return RunResult(outdir=outdir, n_frames=n_frames, stats=stats, summary=summary)
+

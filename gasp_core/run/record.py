@@ -1,0 +1,73 @@
+"""The run record: what ``run.json`` holds (engine, versions, parameters, per-frame timings, objects)."""
+from __future__ import annotations
+
+import dataclasses
+import platform
+from importlib import metadata
+
+from gasp_core import __version__
+from gasp_core.seam.engine import EngineInfo
+from gasp_core.run.contact import collider_records
+from gasp_core.prepare.selection import selection_record, selection_totals
+
+def _versions(info: EngineInfo) -> dict:
+    out = {"gasp": __version__, "python": platform.python_version()}
+    for dist in ("numpy", "pluggy", "plyfile", "scipy", info.distribution):
+        try:
+            out[dist] = metadata.version(dist)
+        except metadata.PackageNotFoundError:
+            pass
+    return out
+
+
+def run_summary(prep, stats, n_frames: int, per_frame: list[dict], wall_s: float) -> dict:
+    """The ``run.json`` document of a finished run.
+
+    Parameters
+    ----------
+    prep : PreparedScene
+    stats : RunStats
+    n_frames : int
+    per_frame : list of dict
+        One row per frame (frame 0 included): ``frame``, ``degenerate``, ``clamped``, ``sim_s``, ``write_s``,
+        and ``colliders`` when the scene has colliders (:mod:`gasp_core.run.contact`, which
+        also gives ``run.json`` ``colliders``).
+    wall_s : float
+        Seconds from the engine build to the last frame written.
+    """
+    scene, info, setup = prep.scene, prep.info, prep.setup
+    return {
+        "scene": str(scene.path), "engine": info.name, "engine_distribution": info.distribution,
+        "versions": _versions(info), "engine_stats": stats.engine,
+        "engine_options": setup.options, "build_s": stats.build_s, "prepare_s": prep.prepare_s,
+        "wall_s": wall_s, "n_frames": n_frames, "frame_dt": scene.frame_dt,
+        "gravity": list(scene.gravity),
+        "domain": {"lo": setup.domain_lo.tolist(), "hi": setup.domain_hi.tolist(),
+                   "n_grid": setup.n_grid, "dx": setup.dx},
+        "boundaries": [dataclasses.asdict(b) for b in setup.boundaries],
+        "n_points": len(setup.x), "n_render_points": setup.n_render, **selection_totals(prep),
+        "objects": [_object_record(o, name) for o, name in zip(prep.objects, prep.names)],
+        "colliders": collider_records(setup, per_frame),
+        "frames": per_frame,
+    }
+
+
+def _object_record(o, name: str) -> dict:
+    from gasp_core.prepare.placement import simulated_triangles
+    s = o.spec
+    return {
+        "name": name, "file": str(s.file), "n_gaussians": o.gaussians.n,
+        "layout": o.gaussians.layout, "material": dataclasses.asdict(s.material),
+        "up_axis": s.up_axis, "dynamic_time": s.dynamic_time, "scale": s.scale, "fill": s.fill,
+        "velocity": list(s.velocity), "angular_velocity": list(s.angular_velocity),
+        "n_fill_points": o.fill_slice.stop - o.fill_slice.start,
+        "fill_report": o.fill_report.as_dict() if o.fill_report else None,
+        "volume": o.fill_report.volume if o.fill_report else None,
+        "mass": s.material.rho * o.fill_report.volume if o.fill_report else None,
+        "core_fraction": s.core_fraction,
+        "n_simulated_gaussians": len(simulated_triangles(o)),
+        **selection_record(o),
+        "alpha": s.alpha, "thickness": s.thickness,
+        "flatten": o.flatten_report.as_dict(),
+        "placement": {"R": o.placement.R.tolist(), "scale": o.placement.scale, "t": o.placement.t.tolist()},
+    }

@@ -1,0 +1,176 @@
+"""Scene keys for colliders, force fields and impulses (``[[collider]]``, ``[[force]]``, ``[[impulse]]``;
+``docs/colliders.md``), read with the checked value readers of :mod:`gasp_core.scene.values`."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import Any
+
+
+from gasp_core.errors import SceneError
+from gasp_core.scene.values import (MAX_COORD, MAX_GRAVITY, MAX_SPEED, MAX_SPIN, SCALE_RANGE, UP_AXES, _bad,  # noqa: F401
+                           _boolean, _check_keys, _integer, _is_number, _number, _string, _table, _tables, _vec3)
+
+# --------------------------------------------------------------------------- colliders, forces, impulses
+@dataclass
+class ColliderSpec:
+    """``[[collider]]``: a rigid obstacle (built into a :class:`gasp_core.colliders.model.Collider` by the core).
+
+    Exactly one source: ``mesh`` (a closed triangle mesh file, .obj/.ply/.stl, read by trimesh),
+    ``gaussians`` (a Gaussian Splatting file whose footprints' enclosed space is the obstacle) or
+    ``object`` (index from 1, or file stem, of a static ``[[object]]``). ``mesh`` and ``gaussians``
+    are placed like objects (``up_axis``, ``scale``, ``recentre``, ``position``) and then turned by
+    ``rotation`` (degrees about x, then y, then z, about ``position``). ``friction`` is Coulomb's
+    coefficient. Motion: ``velocity`` (m/s) and ``angular_velocity`` (rad/s, about ``position``), or
+    ``path = [[t, x, y, z], ...]`` keyframes of the position (linear in between); not for
+    ``gaussians`` / ``object`` colliders, which are static.
+    """
+
+    where: str
+    mesh: Path | None = None
+    gaussians: Path | None = None
+    object: int | str | None = None
+    up_axis: str = "+z"
+    scale: float = 1.0
+    recentre: bool = True
+    position: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rotation: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    friction: float = 0.5
+    velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    angular_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    path: list | None = None
+    min_opacity: float = 0.1
+
+
+_COLLIDER_KEYS = {f.name for f in fields(ColliderSpec)} - {"where"}
+_FORCE_KIND_KEYS = {"wind": {"kind", "direction", "strength", "turbulence", "turbulence_scale", "turbulence_time", "seed"},
+                    "attractor": {"kind", "point", "strength", "radius", "falloff"}}
+_IMPULSE_SHAPE_KEYS = {"box": {"lo", "hi"}, "sphere": {"centre", "radius"}}
+_IMPULSE_KEYS = {"shape", "velocity_change", "t0", "t1", "mode"}
+#: Largest acceleration of a force field, m/s^2 (as gravity).
+MAX_ACCEL = MAX_GRAVITY
+
+
+def _input_file(value, key: str, src: Path, suffixes=None) -> Path:
+    name = _string(value, key, src)
+    f = (src.parent / name).resolve()
+    if not f.is_file():
+        raise SceneError(f"{src}: {key} '{name}' does not exist or is not a file (looked for {f})")
+    if suffixes and f.suffix.lower() not in suffixes:
+        raise SceneError(f"{src}: {key} '{name}' has suffix {f.suffix!r}; expected one of {list(suffixes)}")
+    return f
+
+
+def _collider(c: dict, where: str, src: Path, n_objects: int) -> ColliderSpec:
+    _check_keys(c, _COLLIDER_KEYS, where, src)
+    sources = [k for k in ("mesh", "gaussians", "object") if k in c]
+    if len(sources) != 1:
+        raise SceneError(f"{src}: {where} needs exactly one of 'mesh', 'gaussians' or 'object', got {sources or 'none'}")
+    kw: dict[str, Any] = {"where": where}
+    if "mesh" in c:
+        kw["mesh"] = _input_file(c["mesh"], f"{where}.mesh", src, (".obj", ".ply", ".stl", ".off", ".glb", ".gltf"))
+    elif "gaussians" in c:
+        kw["gaussians"] = _input_file(c["gaussians"], f"{where}.gaussians", src)
+    else:
+        o = c["object"]
+        if isinstance(o, int) and not isinstance(o, bool):
+            kw["object"] = _integer(o, f"{where}.object", src, 1, max(n_objects, 1))
+        else:
+            kw["object"] = _string(o, f"{where}.object", src)
+    kw["up_axis"] = _string(c.get("up_axis", "+z"), f"{where}.up_axis", src, UP_AXES)
+    kw["scale"] = _number(c.get("scale", 1.0), f"{where}.scale", src, *SCALE_RANGE)
+    kw["recentre"] = _boolean(c.get("recentre", True), f"{where}.recentre", src)
+    kw["position"] = _vec3(c.get("position", [0.0, 0.0, 0.0]), f"{where}.position", src, max_abs=MAX_COORD, unit=" m")
+    kw["rotation"] = _vec3(c.get("rotation", [0.0, 0.0, 0.0]), f"{where}.rotation", src, max_abs=360.0, unit=" degrees")
+    kw["friction"] = _number(c.get("friction", 0.5), f"{where}.friction", src, 0.0)
+    kw["min_opacity"] = _number(c.get("min_opacity", 0.1), f"{where}.min_opacity", src, 0.0, 1.0)
+    kw["velocity"] = _vec3(c.get("velocity", [0.0, 0.0, 0.0]), f"{where}.velocity", src, max_norm=MAX_SPEED, unit=" m/s")
+    kw["angular_velocity"] = _vec3(c.get("angular_velocity", [0.0, 0.0, 0.0]), f"{where}.angular_velocity", src,
+                                   max_norm=MAX_SPIN, unit=" rad/s")
+    if "path" in c:
+        if "velocity" in c:
+            raise SceneError(f"{src}: {where}: give 'velocity' or 'path', not both")
+        p = c["path"]
+        if not isinstance(p, list) or len(p) < 2 or not all(
+                isinstance(r, list) and len(r) == 4 and all(_is_number(a) and math.isfinite(a) for a in r) for r in p):
+            _bad(src, f"{where}.path", p, "a list of at least 2 keyframes [t, x, y, z] of finite numbers")
+        ts = [float(r[0]) for r in p]
+        if any(b <= a for a, b in zip(ts, ts[1:])) or ts[0] < 0:
+            _bad(src, f"{where}.path", p, "keyframe times >= 0 and strictly increasing")
+        if max(abs(a) for r in p for a in r[1:]) > MAX_COORD:
+            _bad(src, f"{where}.path", p, f"positions within +-{MAX_COORD:g} m")
+        kw["path"] = [[float(a) for a in r] for r in p]
+    moving = "path" in kw or any(kw["velocity"]) or any(kw["angular_velocity"])
+    if moving and "mesh" not in kw:
+        raise SceneError(f"{src}: {where}: only a 'mesh' collider can move (velocity, angular_velocity, path); "
+                         f"a collider from Gaussians is static")
+    return ColliderSpec(**kw)
+
+
+def _force(f: dict, where: str, src: Path):
+    from gasp_core.colliders.model import FALLOFFS, ForceField
+    kind = _string(f.get("kind"), f"{where}.kind", src, tuple(_FORCE_KIND_KEYS))
+    _check_keys(f, _FORCE_KIND_KEYS[kind], f"{where} (kind = {kind!r})", src)
+    if "strength" not in f:
+        raise SceneError(f"{src}: {where} (kind = {kind!r}) needs 'strength' (m/s^2)")
+    strength = _number(f["strength"], f"{where}.strength", src, -MAX_ACCEL, MAX_ACCEL)
+    if kind == "wind":
+        d = _vec3(f.get("direction", [1.0, 0.0, 0.0]), f"{where}.direction", src)
+        n = math.sqrt(sum(a * a for a in d))
+        if n == 0.0:
+            _bad(src, f"{where}.direction", f["direction"], "a non-zero vector")
+        return ForceField("wind", direction=tuple(a / n for a in d), strength=strength,
+                          turbulence=_number(f.get("turbulence", 0.0), f"{where}.turbulence", src, 0.0, MAX_ACCEL),
+                          turbulence_scale=_number(f.get("turbulence_scale", 0.5), f"{where}.turbulence_scale", src,
+                                                   0.0, MAX_COORD, lo_open=True),
+                          turbulence_time=(_number(f["turbulence_time"], f"{where}.turbulence_time", src, 0.0,
+                                                   lo_open=True) if "turbulence_time" in f else math.inf),
+                          seed=_integer(f.get("seed", 0), f"{where}.seed", src, 0, 2 ** 32 - 1))
+    if "point" not in f:
+        raise SceneError(f"{src}: {where} (kind = 'attractor') needs 'point'")
+    return ForceField("attractor", strength=strength,
+                      point=_vec3(f["point"], f"{where}.point", src, max_abs=MAX_COORD, unit=" m"),
+                      radius=_number(f.get("radius", 0.05), f"{where}.radius", src, 0.0, MAX_COORD, lo_open=True),
+                      falloff=_string(f.get("falloff", "none"), f"{where}.falloff", src, FALLOFFS))
+
+
+def _impulse(i: dict, where: str, src: Path):
+    from gasp_core.colliders.model import Impulse
+    shape = _string(i.get("shape"), f"{where}.shape", src, tuple(_IMPULSE_SHAPE_KEYS))
+    _check_keys(i, _IMPULSE_KEYS | _IMPULSE_SHAPE_KEYS[shape], f"{where} (shape = {shape!r})", src)
+    for k in sorted(_IMPULSE_SHAPE_KEYS[shape]) + ["velocity_change"]:
+        if k not in i:
+            raise SceneError(f"{src}: {where} (shape = {shape!r}) needs '{k}'")
+    kw: dict[str, Any] = {"shape": shape}
+    if shape == "box":
+        kw["lo"] = _vec3(i["lo"], f"{where}.lo", src, max_abs=MAX_COORD, unit=" m")
+        kw["hi"] = _vec3(i["hi"], f"{where}.hi", src, max_abs=MAX_COORD, unit=" m")
+        if not all(h > l for l, h in zip(kw["lo"], kw["hi"])):
+            raise SceneError(f"{src}: {where} 'hi' must exceed 'lo' on every axis, got lo={list(kw['lo'])} "
+                             f"hi={list(kw['hi'])}")
+    else:
+        kw["centre"] = _vec3(i["centre"], f"{where}.centre", src, max_abs=MAX_COORD, unit=" m")
+        kw["radius"] = _number(i["radius"], f"{where}.radius", src, 0.0, MAX_COORD, lo_open=True)
+    kw["velocity_change"] = _vec3(i["velocity_change"], f"{where}.velocity_change", src, max_norm=MAX_SPEED,
+                                  unit=" m/s")
+    kw["mode"] = _string(i.get("mode", "add"), f"{where}.mode", src, ("add", "set"))
+    kw["t0"] = _number(i.get("t0", 0.0), f"{where}.t0", src, 0.0)
+    kw["t1"] = _number(i.get("t1", kw["t0"]), f"{where}.t1", src, 0.0)
+    if kw["t1"] < kw["t0"]:
+        raise SceneError(f"{src}: {where}: t1 = {kw['t1']:g} s is before t0 = {kw['t0']:g} s")
+    if kw["mode"] == "set" and kw["t1"] <= kw["t0"]:
+        raise SceneError(f"{src}: {where}: mode = 'set' needs t1 > t0 (the window the velocity is imposed)")
+    return Impulse(**kw)
+
+
+def _scene_extras(data: dict, src: Path, objects: list) -> dict:
+    """``[[collider]]``, ``[[force]]`` and ``[[impulse]]`` of a scene, checked (see :class:`ColliderSpec`)."""
+    return {
+        "colliders": [_collider(c, f"[[collider]] #{i + 1}", src, len(objects))
+                      for i, c in enumerate(_tables(data.get("collider", []), "collider", src))],
+        "forces": [_force(f, f"[[force]] #{i + 1}", src)
+                   for i, f in enumerate(_tables(data.get("force", []), "force", src))],
+        "impulses": [_impulse(m, f"[[impulse]] #{i + 1}", src)
+                     for i, m in enumerate(_tables(data.get("impulse", []), "impulse", src))],
+    }

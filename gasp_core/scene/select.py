@@ -1,0 +1,136 @@
+"""``select`` and ``static`` of a scene object: which part of a file moves (:mod:`gasp_core.prepare.selection`)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+
+from gasp_core.errors import SceneError
+from gasp_core.scene.values import (MAX_COORD, _bad, _boolean, _check_keys, _integer, _is_number, _number,  # noqa: F401
+                           _string, _table, _tables, _vec3)
+
+
+#: Object keys that only matter when the object is simulated: refused beside ``static = true``.
+_SIMULATION_KEYS = ("material", "select", "velocity", "angular_velocity", "fill", "alpha", "thickness",
+                    "core_fraction", "if_open")
+
+#: Kinds of ``select`` region, one per ``select`` table.
+SELECT_KINDS = ("box", "sphere", "indices", "mask")
+#: Frames a ``select`` box or sphere may be given in.
+SELECT_FRAMES = ("file", "world")
+
+
+@dataclass(frozen=True)
+class SelectSpec:
+    """``select = {...}`` on an object: the part of its file that moves (the rest is static).
+
+    Exactly one kind: ``box = {lo = [x, y, z], hi = [x, y, z]}``, ``sphere = {centre = [x, y, z],
+    radius = r}`` (a Gaussian is in when its centre is; bounds inclusive), ``indices = [i, ...]``
+    (rows of the file, 0-based) or ``mask = "file.npy"`` (a boolean array of one entry per
+    Gaussian, or an integer array of indices; path relative to the scene file). Optional
+    ``frame = "file"`` (default: the file's own coordinates and units, as a viewer shows the
+    input file; for a dynamic model, its positions at ``dynamic_time``) or ``"world"`` (metres,
+    z up, after ``up_axis``, ``scale``, ``position``, ``recentre``; placement is always computed
+    from the whole file). Optional ``grow = true`` grows the selection to the whole connected
+    pieces it touches (:func:`gasp_core.prepare.selection.grow_selection`).
+
+    Attributes
+    ----------
+    kind : str
+        One of :data:`SELECT_KINDS`.
+    lo, hi : (3,) float or None
+        Box corners (``kind == "box"``).
+    centre : (3,) float or None
+    radius : float or None
+        Sphere (``kind == "sphere"``).
+    indices : tuple of int or None
+        ``kind == "indices"``.
+    mask : Path or None
+        ``kind == "mask"``, resolved against the scene file's folder.
+    frame : str
+        ``"file"`` or ``"world"`` (box and sphere only).
+    grow : bool
+    """
+
+    kind: str
+    lo: tuple[float, float, float] | None = None
+    hi: tuple[float, float, float] | None = None
+    centre: tuple[float, float, float] | None = None
+    radius: float | None = None
+    indices: tuple[int, ...] | None = None
+    mask: Path | None = None
+    frame: str = "file"
+    grow: bool = False
+
+    def describe(self) -> dict:
+        """A JSON-ready summary (``run.json``)."""
+        out: dict[str, Any] = {"kind": self.kind, "frame": self.frame, "grow": self.grow}
+        if self.kind == "box":
+            out.update(lo=list(self.lo), hi=list(self.hi))
+        elif self.kind == "sphere":
+            out.update(centre=list(self.centre), radius=self.radius)
+        elif self.kind == "indices":
+            out.update(n_indices=len(self.indices))
+        else:
+            out.update(mask=str(self.mask))
+        return out
+
+
+def _static(o: dict, where: str, src: Path) -> bool:
+    """``static = true``: never simulated; keys that only a simulation reads are an error beside it."""
+    static = _boolean(o.get("static", False), f"{where}.static", src)
+    if static:
+        extra = [k for k in _SIMULATION_KEYS if k in o]
+        if extra:
+            raise SceneError(f"{src}: {where} is static = true (never simulated) but also sets {extra}; "
+                             f"remove them, or set static = false to simulate it")
+    return static
+
+
+def _select(value, where: str, src: Path) -> SelectSpec:
+    """``select = { box | sphere | indices | mask, frame, grow }`` (see :class:`SelectSpec`)."""
+    t = _table(value, where, src)
+    _check_keys(t, set(SELECT_KINDS) | {"frame", "grow"}, where, src)
+    kinds = [k for k in SELECT_KINDS if k in t]
+    if len(kinds) != 1:
+        raise SceneError(f"{src}: {where} needs exactly one of {list(SELECT_KINDS)}, got {kinds or 'none'}")
+    kind = kinds[0]
+    frame = _string(t.get("frame", "file"), f"{where}.frame", src, SELECT_FRAMES)
+    if "frame" in t and kind in ("indices", "mask"):
+        raise SceneError(f"{src}: {where}.frame applies to a box or sphere, not to {kind}")
+    kw: dict[str, Any] = {"kind": kind, "frame": frame,
+                          "grow": _boolean(t.get("grow", False), f"{where}.grow", src)}
+    key = f"{where}.{kind}"
+    if kind == "box":
+        b = _table(t["box"], key, src)
+        _check_keys(b, {"lo", "hi"}, key, src)
+        if "lo" not in b or "hi" not in b:
+            raise SceneError(f"{src}: {key} needs 'lo' and 'hi'")
+        kw["lo"] = _vec3(b["lo"], f"{key}.lo", src, max_abs=MAX_COORD)
+        kw["hi"] = _vec3(b["hi"], f"{key}.hi", src, max_abs=MAX_COORD)
+        if not all(h > l for l, h in zip(kw["lo"], kw["hi"])):
+            raise SceneError(f"{src}: {key} 'hi' must exceed 'lo' on every axis, got lo={list(kw['lo'])} "
+                             f"hi={list(kw['hi'])}")
+    elif kind == "sphere":
+        b = _table(t["sphere"], key, src)
+        _check_keys(b, {"centre", "radius"}, key, src)
+        if "centre" not in b or "radius" not in b:
+            raise SceneError(f"{src}: {key} needs 'centre' and 'radius'")
+        kw["centre"] = _vec3(b["centre"], f"{key}.centre", src, max_abs=MAX_COORD)
+        kw["radius"] = _number(b["radius"], f"{key}.radius", src, 0.0, MAX_COORD, lo_open=True)
+    elif kind == "indices":
+        idx = t["indices"]
+        if not isinstance(idx, list) or not idx or \
+                not all(isinstance(i, int) and not isinstance(i, bool) and i >= 0 for i in idx):
+            _bad(src, key, idx, "a non-empty list of row indices (integers >= 0)")
+        kw["indices"] = tuple(idx)
+    else:
+        name = _string(t["mask"], key, src)
+        m = (src.parent / name).resolve()
+        if not m.is_file():
+            raise SceneError(f"{src}: {key} '{name}' is not a file (looked for {m}); expected a .npy array")
+        kw["mask"] = m
+    return SelectSpec(**kw)
+
+

@@ -1,0 +1,128 @@
+"""Checked reading of TOML values: every scene value goes through one of these, so that a wrong type
+or range is a :class:`~gasp_core.errors.SceneError` naming the file, the key, the value and what was
+expected (never another exception, never a silent conversion)."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import NoReturn
+
+from gasp_core.errors import SceneError
+
+_TOML_TYPES = ((bool, "boolean"), (int, "integer"), (float, "float"), (str, "string"),
+               (list, "array"), (dict, "table"))
+
+
+def _shown(value) -> str:
+    """``value`` as the message shows it: its repr (shortened) and its TOML type."""
+    r = repr(value)
+    if len(r) > 60:
+        r = r[:57] + "..."
+    kind = next((n for t, n in _TOML_TYPES if isinstance(value, t)), type(value).__name__)
+    return f"{r} ({kind})"
+
+
+def _bad(src: Path, key: str, value, expected: str) -> NoReturn:
+    raise SceneError(f"{src}: {key} = {_shown(value)}; expected {expected}")
+
+
+def _check_keys(table: dict, allowed: set[str], where: str, src: Path) -> None:
+    unknown = sorted(set(table) - allowed)
+    if unknown:
+        raise SceneError(f"{src}: unknown key(s) {unknown} in {where}; allowed: {sorted(allowed)}")
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _table(value, key: str, src: Path) -> dict:
+    if not isinstance(value, dict):
+        _bad(src, key, value, "a table")
+    return value
+
+
+def _tables(value, key: str, src: Path) -> list[dict]:
+    """An array of tables (``[[key]]``); a single table is an error, not a one-element list."""
+    if not isinstance(value, list) or not all(isinstance(t, dict) for t in value):
+        _bad(src, key, value, f"an array of tables ([[{key}]] sections)")
+    return value
+
+
+def _string(value, key: str, src: Path, choices=None) -> str:
+    if choices is not None:
+        if not isinstance(value, str) or value not in choices:
+            _bad(src, key, value, f"one of {sorted(choices) if isinstance(choices, (set, frozenset)) else list(choices)}")
+    elif not isinstance(value, str) or not value:
+        _bad(src, key, value, "a non-empty string")
+    return value
+
+
+def _boolean(value, key: str, src: Path) -> bool:
+    if not isinstance(value, bool):
+        _bad(src, key, value, "true or false")
+    return value
+
+
+def _number(value, key: str, src: Path, lo: float | None = None, hi: float | None = None,
+            lo_open: bool = False, hi_open: bool = False) -> float:
+    """A finite float or integer (never a boolean) in the range given; ``float``."""
+    ok = _is_number(value) and math.isfinite(value)
+    if ok and lo is not None:
+        ok = value > lo if lo_open else value >= lo
+    if ok and hi is not None:
+        ok = value < hi if hi_open else value <= hi
+    if not ok:
+        if lo is None and hi is None:
+            rng = ""
+        elif hi is None:
+            rng = f" {'>' if lo_open else '>='} {lo:g}"
+        elif lo is None:
+            rng = f" {'<' if hi_open else '<='} {hi:g}"
+        else:
+            rng = f" in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
+        _bad(src, key, value, f"a finite number{rng}")
+    return float(value)
+
+
+def _integer(value, key: str, src: Path, lo: int, hi: int | None = None) -> int:
+    """An integer (not a float such as 24.9 or 24.0, not a boolean) in ``[lo, hi]``."""
+    if not isinstance(value, int) or isinstance(value, bool) or value < lo or (hi is not None and value > hi):
+        _bad(src, key, value, f"an integer in [{lo}, {hi}]" if hi is not None else f"an integer >= {lo}")
+    return value
+
+
+def _vec3(value, key: str, src: Path, max_abs: float | None = None, max_norm: float | None = None,
+          unit: str = "") -> tuple[float, float, float]:
+    """A list of 3 finite numbers; each ``|component| <= max_abs`` and the length ``<= max_norm``."""
+    if not isinstance(value, list) or len(value) != 3 or \
+            not all(_is_number(a) and math.isfinite(a) for a in value):
+        _bad(src, key, value, "a list of 3 finite numbers")
+    v = tuple(float(a) for a in value)
+    if max_abs is not None and max(abs(a) for a in v) > max_abs:
+        _bad(src, key, value, f"every component within +-{max_abs:g}{unit}")
+    if max_norm is not None and math.sqrt(sum(a * a for a in v)) > max_norm:
+        _bad(src, key, value, f"a length of at most {max_norm:g}{unit}")
+    return v
+
+
+# --------------------------------------------------------------------------- limits of scene values
+UP_AXES = ("+x", "-x", "+y", "-y", "+z", "-z")
+#: Largest ``|coordinate|`` (metres) anything may be placed at: object positions, domain and
+#: fixed-region corners, ground height, and every Gaussian after placement. Engines compute in
+#: float32, whose spacing at 1e6 m is 6 cm; beyond it no object of everyday size is resolved.
+MAX_COORD = 1e6
+#: Largest initial angular speed ``|angular_velocity|``, rad/s (a fast turbine).
+MAX_SPIN = 1e4
+#: Largest initial speed ``|velocity|``, m/s (ten times a rifle bullet).
+MAX_SPEED = 1e4
+#: Largest ``|gravity|``, m/s^2 (about 1000 g).
+MAX_GRAVITY = 1e4
+#: ``scale`` (metres per file unit) range: micrometres to thousands of kilometres.
+SCALE_RANGE = (1e-6, 1e6)
+#: Largest ``[domain] padding`` (times the objects' extent on each side): beyond it the objects
+#: span fewer than ``n_grid / 21`` cells.
+MAX_PADDING = 10.0
+#: ``[domain] n_grid`` and ``particles_per_cell`` ranges (integers).
+N_GRID_RANGE = (8, 1024)
+PPC_RANGE = (1, 64)

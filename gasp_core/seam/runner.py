@@ -1,0 +1,161 @@
+"""Drive an engine frame by frame and stop it cleanly when it blows up.
+
+Every engine goes through :func:`run_engine`, so NaN and points leaving the domain are caught
+in one place and reported as :class:`EngineDivergence` with the frame and the likely cause,
+before anything is written. Exceptions follow the error contract of :mod:`gasp_core.errors`:
+an engine's ``GaspError`` passes through, anything else becomes :class:`EngineBug`.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Iterator
+
+import numpy as np
+
+from gasp_core.seam.engine import EngineDivergence, EngineInfo, PointEngine, SimSetup, build_engine, call_engine
+
+
+@dataclass
+class FrameRecord:
+    """One simulated frame.
+
+    Attributes
+    ----------
+    frame : int
+        1-based frame index (frame 0 is the initial state and is not simulated).
+    x : ndarray, shape (n, 3), float64
+        Positions, metres, world frame.
+    wall_s : float
+        Wall time of ``step_frame`` plus read-back, seconds.
+    get_state : callable or None
+        The engine's ``get_state`` (engines with the feature ``state``), for checkpoints.
+    """
+
+    frame: int
+    x: np.ndarray
+    wall_s: float
+    get_state: Callable[[], dict] | None = None
+
+
+@dataclass
+class RunStats:
+    """Timings and engine statistics of a run."""
+
+    build_s: float = 0.0
+    frame_s: list[float] = field(default_factory=list)
+    engine: dict = field(default_factory=dict)
+
+
+def check_state(x: np.ndarray, setup: SimSetup, frame: int, margin: float | None = None) -> None:
+    """Raise :class:`EngineDivergence` if ``x`` is non-finite or outside the domain.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n, 3)
+        Positions, metres.
+    setup : SimSetup
+    frame : int
+    margin : float, optional
+        Tolerance outside the domain box, metres (default ``setup.dx``).
+
+    Raises
+    ------
+    EngineDivergence
+        With the count and first index of the offending points and the likely cause.
+    """
+    if x.shape != setup.x.shape:
+        raise EngineDivergence(
+            f"engine returned positions of shape {x.shape}, expected {setup.x.shape}", frame,
+            "the engine dropped or added points")
+    finite = np.isfinite(x).all(axis=1)
+    if not finite.all():
+        bad = np.flatnonzero(~finite)
+        raise EngineDivergence(
+            f"{len(bad)} point(s) non-finite (first index {bad[0]})", frame,
+            "time step above the stability limit, or material too stiff for the time step")
+    m = setup.dx if margin is None else margin
+    out = ((x < setup.domain_lo - m) | (x > setup.domain_hi + m)).any(axis=1)
+    if out.any():
+        bad = np.flatnonzero(out)
+        raise EngineDivergence(
+            f"{len(bad)} point(s) left the domain [{setup.domain_lo.tolist()}, {setup.domain_hi.tolist()}] "
+            f"(first index {bad[0]} at {x[bad[0]].tolist()})", frame,
+            "no ground or walls to stop them, a domain too small, or an unstable time step")
+
+
+def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int,
+               stats: RunStats | None = None, start_frame: int = 0,
+               state: dict | None = None) -> Iterator[FrameRecord]:
+    """Build the engine and yield ``n_frames`` checked frames.
+
+    Parameters
+    ----------
+    info : EngineInfo
+        From :func:`gasp_core.seam.plugins.get_engine`.
+    setup : SimSetup
+    n_frames : int
+        Frames to simulate, each ``setup.frame_dt`` seconds.
+    stats : RunStats, optional
+        Filled with build time, per-frame wall times and ``engine.stats()``.
+    start_frame : int
+        Resume after this frame: ``state`` (from the engine's ``get_state``) is restored with
+        ``set_state`` and frames ``start_frame + 1 .. n_frames`` are simulated.
+    state : dict, optional
+
+    Yields
+    ------
+    FrameRecord
+
+    Raises
+    ------
+    SceneError, EngineError
+        From :func:`gasp_core.seam.engine.build_engine` (capabilities, options) or the engine.
+    EngineDivergence
+        At the first frame whose state is non-finite or outside the domain, or when the engine
+        itself reports a blow-up.
+    EngineBug
+        The engine raised anything outside the error contract.
+    """
+    stats = stats if stats is not None else RunStats()
+    t0 = time.perf_counter()
+    engine: PointEngine = build_engine(info, setup)
+    if start_frame:
+        call_engine(info, "set_state", engine.set_state, state)
+    stats.build_s = time.perf_counter() - t0
+    get_state = getattr(engine, "get_state", None) if "state" in info.capabilities.features else None
+
+    def advance():
+        engine.step_frame()
+        return np.asarray(engine.positions(), dtype=np.float64)
+
+    try:
+        for frame in range(start_frame + 1, n_frames + 1):
+            t0 = time.perf_counter()
+            x = call_engine(info, f"frame {frame}", advance)
+            dt_wall = time.perf_counter() - t0
+            check_state(x, setup, frame)
+            stats.frame_s.append(dt_wall)
+            yield FrameRecord(frame, x, dt_wall,
+                              None if get_state is None else (lambda: call_engine(info, "get_state", get_state)))
+        stats.engine = dict(call_engine(info, "stats", engine.stats))
+    finally:
+        call_engine(info, "close", engine.close)
+
+
+def simulate(info: EngineInfo, setup: SimSetup, n_frames: int,
+             on_frame: Callable[[FrameRecord], None] | None = None) -> tuple[np.ndarray, RunStats]:
+    """Run ``n_frames`` and return all positions, shape (n_frames + 1, n, 3), frame 0 = ``setup.x``.
+
+    Raises
+    ------
+    EngineDivergence
+        See :func:`run_engine`.
+    """
+    stats = RunStats()
+    xs = [setup.x.copy()]
+    for rec in run_engine(info, setup, n_frames, stats):
+        xs.append(rec.x)
+        if on_frame is not None:
+            on_frame(rec)
+    return np.stack(xs), stats

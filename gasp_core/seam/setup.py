@@ -1,0 +1,260 @@
+"""What the core hands an engine: materials, boundaries and the point set (:class:`SimSetup`).
+
+World frame: metres, **z up**, gravity usually ``(0, 0, -9.81)`` m/s^2. The core converts every
+object into this frame before the engine sees it and converts the result back.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from gasp_core.errors import SceneError
+
+#: Material models an engine may offer (capability names).
+MATERIALS = frozenset({
+    "jelly",        # elastic, fixed corotated (Stomakhin et al. 2012)
+    "neo_hookean",  # elastic, compressible neo-Hookean
+    "metal",        # von Mises plasticity on Hencky strain (StVK Hencky elasticity)
+    "sand",         # Drucker-Prager plasticity on Hencky strain (Klar et al. 2016)
+    "snow",         # Stomakhin et al. 2013 hardening plasticity
+    "plasticine",   # von Mises with softening
+    "liquid",       # weakly compressible fluid (equation of state from lam)
+    "rigid",        # rigid body (engines with rigid bodies)
+})
+
+#: Boundary kinds an engine may offer (capability names).
+BOUNDARIES = frozenset({"ground", "walls", "fixed_region"})
+
+
+@dataclass(frozen=True)
+class Material:
+    """Constitutive parameters of one body, SI units.
+
+    Attributes
+    ----------
+    name : str
+        One of :data:`MATERIALS`.
+    E : float
+        Young's modulus, Pa.
+    nu : float
+        Poisson's ratio, in (-1, 0.5).
+    rho : float
+        Density, kg/m^3.
+    yield_stress : float
+        von Mises yield stress, Pa (metal, plasticine).
+    friction_angle : float
+        Drucker-Prager friction angle, degrees (sand).
+    softening : float
+        Plasticine softening: yield stress drop per unit plastic strain, dimensionless factor.
+    hardening : float
+        Snow hardening coefficient xi (Stomakhin et al. 2013), default 10.
+    theta_c, theta_s : float
+        Snow critical compression and stretch (Stomakhin et al. 2013).
+    """
+
+    name: str = "jelly"
+    E: float = 1e5
+    nu: float = 0.3
+    rho: float = 1000.0
+    yield_stress: float = 1e4
+    friction_angle: float = 30.0
+    softening: float = 0.1
+    hardening: float = 10.0
+    theta_c: float = 2.5e-2
+    theta_s: float = 4.5e-3
+
+    @property
+    def mu(self) -> float:
+        """Lame's second parameter (shear modulus), Pa."""
+        return self.E / (2.0 * (1.0 + self.nu))
+
+    @property
+    def lam(self) -> float:
+        """Lame's first parameter, Pa."""
+        return self.E * self.nu / ((1.0 + self.nu) * (1.0 - 2.0 * self.nu))
+
+
+@dataclass(frozen=True)
+class Boundary:
+    """One boundary condition, world frame.
+
+    Attributes
+    ----------
+    kind : str
+        ``"ground"``: a horizontal plane ``z = height``; nothing passes below it; tangential
+        velocity is reduced by Coulomb friction ``friction`` (0 = slip, large = sticky).
+        ``"walls"``: the faces of the domain box are walls with the same friction rule.
+        ``"fixed_region"``: points that start inside the box ``[lo, hi]`` are held still.
+    height : float
+        Ground height, metres (``"ground"``).
+    friction : float
+        Coulomb friction coefficient (``"ground"``, ``"walls"``).
+    lo, hi : tuple of 3 floats
+        Corners of the fixed box, metres (``"fixed_region"``).
+    """
+
+    kind: str
+    height: float = 0.0
+    friction: float = 0.5
+    lo: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    hi: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+@dataclass
+class SimSetup:
+    """Everything an engine needs, world frame, SI units.
+
+    Attributes
+    ----------
+    x : ndarray, shape (n, 3), float64
+        Initial point positions, metres. Rows ``[:n_render]`` are the triangle vertices of the
+        Gaussians (or the core Gaussians' vertices); rows after are interior fill points that
+        are simulated but never rendered.
+    v : ndarray, shape (n, 3), float64
+        Initial velocities, m/s.
+    p_vol : ndarray, shape (n,), float64
+        Rest volume each point stands for, m^3 (mass = rho * p_vol). Positive, except on passive
+        rows (``passive``), where it is 0.
+    body_id : ndarray, shape (n,), int32
+        Index into ``materials`` (one body per scene object).
+    materials : list of Material
+        One per body.
+    gravity : ndarray, shape (3,), float64
+        m/s^2.
+    domain_lo, domain_hi : ndarray, shape (3,), float64
+        The simulation box, metres. Points leaving it are a divergence.
+    n_grid : int
+        Grid cells along the longest domain side (grid engines); sets ``dx``.
+    boundaries : list of Boundary
+    frame_dt : float
+        Seconds between output frames.
+    n_render : int
+        Number of leading points that carry Gaussians.
+    options : dict
+        Engine options from the scene's ``[engine]`` table (``device``, ``precision``,
+        ``dt``, ``n_substeps``, ``cfl``, ...). Each engine validates its own.
+    C : ndarray, shape (n, 3, 3), float64, or None
+        Initial velocity gradient per point, 1/s (APIC's affine matrix ``C``; for a body spinning
+        at angular velocity w it is the cross-product matrix of w). None means zero. Grid engines
+        start their ``C`` from it, so a rotating body does not lose the sub-cell part of its
+        angular momentum in the first transfer; other engines may ignore it.
+    passive : ndarray, shape (n,), bool, or None
+        Passive points (objects with ``surface = "passive"``): they are carried by the motion of
+        the material but carry no mass (``p_vol == 0``), no stress and no deformation gradient.
+        Only rendered rows (``[:n_render]``) may be passive; the material points (the fill)
+        then represent the whole solid. Engines with the feature ``passive_points`` move them
+        themselves (grid engines: G2P only, no P2G); for the others the core embeds them in the
+        material points' motion (:mod:`gasp_core.seam.passive`). None means no passive point.
+    colliders : list of gasp_core.colliders.model.Collider
+        Rigid obstacles (signed distance fields, friction, prescribed motion); features
+        ``static_colliders`` / ``moving_colliders``.
+    forces : list of gasp_core.colliders.model.ForceField
+        Acceleration fields (``wind``, ``attractor``); features ``wind`` / ``attractors``.
+    impulses : list of gasp_core.colliders.model.Impulse
+        Velocity changes of a region over a time window; feature ``impulse``.
+    """
+
+    x: np.ndarray
+    v: np.ndarray
+    p_vol: np.ndarray
+    body_id: np.ndarray
+    materials: list[Material]
+    gravity: np.ndarray
+    domain_lo: np.ndarray
+    domain_hi: np.ndarray
+    n_grid: int = 64
+    boundaries: list[Boundary] = field(default_factory=list)
+    frame_dt: float = 1.0 / 30.0
+    n_render: int = -1
+    options: dict[str, Any] = field(default_factory=dict)
+    C: np.ndarray | None = None
+    passive: np.ndarray | None = None
+    colliders: list = field(default_factory=list)
+    forces: list = field(default_factory=list)
+    impulses: list = field(default_factory=list)
+
+    def __post_init__(self):
+        self.x = np.ascontiguousarray(self.x, dtype=np.float64)
+        n = len(self.x)
+        if self.x.ndim != 2 or self.x.shape[1] != 3:
+            raise SceneError(f"SimSetup.x: expected shape (n, 3), got {self.x.shape}")
+        self.v = np.ascontiguousarray(np.broadcast_to(self.v, (n, 3)), dtype=np.float64)
+        self.p_vol = np.ascontiguousarray(np.broadcast_to(self.p_vol, (n,)), dtype=np.float64)
+        self.body_id = np.ascontiguousarray(np.broadcast_to(self.body_id, (n,)), dtype=np.int32)
+        self.gravity = np.asarray(self.gravity, dtype=np.float64).reshape(3)
+        self.domain_lo = np.asarray(self.domain_lo, dtype=np.float64).reshape(3)
+        self.domain_hi = np.asarray(self.domain_hi, dtype=np.float64).reshape(3)
+        if self.n_render < 0:
+            self.n_render = n
+        if self.C is not None:
+            self.C = np.ascontiguousarray(np.broadcast_to(self.C, (n, 3, 3)), dtype=np.float64)
+        if not np.all(np.isfinite(self.x)):
+            bad = int(np.flatnonzero(~np.isfinite(self.x).all(axis=1))[0])
+            raise SceneError(f"SimSetup.x: non-finite position at point {bad}")
+        if len(self.materials) == 0 or (n and self.body_id.max() >= len(self.materials)):
+            raise SceneError("SimSetup.body_id: refers to a material that is not in SimSetup.materials")
+        if n == 0:
+            raise SceneError("SimSetup.x: no points")
+        if not np.all(np.isfinite(self.v)):
+            raise SceneError("SimSetup.v: velocities must be finite")
+        if self.passive is not None:
+            self.passive = np.ascontiguousarray(np.broadcast_to(self.passive, (n,)), dtype=bool)
+            if not self.passive.any():
+                self.passive = None
+        massless = np.zeros(n, bool) if self.passive is None else self.passive
+        if np.any(self.p_vol[~massless] <= 0) or not np.all(np.isfinite(self.p_vol)):
+            raise SceneError("SimSetup.p_vol: volumes must be positive and finite (0 only on passive rows)")
+        if self.passive is not None:
+            if np.any(self.p_vol[massless] != 0):
+                raise SceneError("SimSetup.p_vol: passive rows (SimSetup.passive) must have volume 0")
+            if self.passive[self.n_render:].any():
+                raise SceneError("SimSetup.passive: only rendered rows [:n_render] may be passive")
+            if self.passive.all():
+                raise SceneError("SimSetup.passive: every point is passive; the material needs points with volume")
+            has = np.bincount(self.body_id[~massless], minlength=len(self.materials)) > 0
+            used = np.bincount(self.body_id, minlength=len(self.materials)) > 0
+            if np.any(used & ~has):
+                b = int(np.flatnonzero(used & ~has)[0])
+                raise SceneError(f"SimSetup.passive: body {b} has only passive points; it needs material points")
+        if not np.all(self.domain_hi > self.domain_lo):
+            raise SceneError(f"SimSetup.domain_hi must exceed domain_lo on every axis, got "
+                             f"{self.domain_lo.tolist()} / {self.domain_hi.tolist()}")
+        if not (isinstance(self.n_grid, (int, np.integer)) and self.n_grid >= 4):
+            raise SceneError(f"SimSetup.n_grid = {self.n_grid!r}; expected an integer >= 4")
+        if not (self.frame_dt > 0 and np.isfinite(self.frame_dt)):
+            raise SceneError(f"SimSetup.frame_dt = {self.frame_dt}; expected a positive number of seconds")
+        for m in self.materials:
+            if not (np.isfinite([m.E, m.rho, m.nu, m.yield_stress]).all()
+                    and m.E > 0 and m.rho > 0 and -1.0 < m.nu < 0.5 and m.yield_stress >= 0):
+                raise SceneError(f"material {m.name!r} needs finite E > 0, rho > 0, -1 < nu < 0.5, yield_stress >= 0; "
+                                 f"got E={m.E}, rho={m.rho}, nu={m.nu}, yield_stress={m.yield_stress}")
+
+    @property
+    def dx(self) -> float:
+        """Grid spacing, metres: the longest domain side divided by ``n_grid``."""
+        return float(np.max(self.domain_hi - self.domain_lo)) / self.n_grid
+
+    @property
+    def n_passive(self) -> int:
+        """Number of passive rows (``passive``), 0 when there are none."""
+        return 0 if self.passive is None else int(self.passive.sum())
+
+    @property
+    def material_mask(self) -> np.ndarray:
+        """Rows that carry mass (not passive), shape (n,), bool."""
+        return np.ones(len(self.x), bool) if self.passive is None else ~self.passive
+
+    @property
+    def p_mass(self) -> np.ndarray:
+        """Point masses, kg, shape (n,)."""
+        rho = np.array([m.rho for m in self.materials])
+        return rho[self.body_id] * self.p_vol
+
+    def replace(self, **changes) -> "SimSetup":
+        """A copy with some fields changed (``dataclasses.replace``)."""
+        return dataclasses.replace(self, **changes)
+
+
