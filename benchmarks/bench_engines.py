@@ -5,7 +5,7 @@ Scenes (CPU, f32 where the engine offers it, the engine's own automatic substeps
 * ``block``: a jelly cube of 46,656 points (36^3, 8 points per grid cell) in a 1 m box with
   ``n_grid = 64``, dropped from 1 cell above a ground plane at 1 m/s, ``frame_dt = 1/30`` s;
 * ``donut``: ``examples/donut_jelly.toml`` (the real 45,624-Gaussian donut, 146k simulated points
-  with the interior fill, ``n_grid = 64``) through :func:`gasp_core.run.pipeline.prepare_scene`.
+  with the interior fill, ``n_grid = 64``) through :func:`gasp_core.prepare.scene.prepare_scene`.
 
 Each (scene, engine) runs in its own subprocess (Taichi and Genesis keep process-global state),
 one after another in this run, so the ratios compare engines under the same machine load. The
@@ -49,7 +49,7 @@ GROUND = 0.1
 
 def block_setup(engine: str):
     """The ``block`` scene as a :class:`gasp_core.seam.engine.SimSetup` (world frame, z up, metres)."""
-    from gasp_core.seam.engine import Boundary, Material, SimSetup
+    from gasp_core.seam.setup import Boundary, Material, SimSetup
     dx = 1.0 / N_GRID
     cells = 18                                   # 36^3 = 46,656 points at 2 per axis per cell
     h = dx / 2
@@ -72,7 +72,7 @@ def _options(engine: str) -> dict:
 
 def donut_setup(engine: str):
     """The ``donut`` scene's :class:`SimSetup` (the example file, engine options for CPU/f32)."""
-    from gasp_core.run.pipeline import prepare_scene
+    from gasp_core.prepare.scene import prepare_scene
     from gasp_core.scene.spec import load_scene
     return prepare_scene(load_scene(DONUT), engine, _options(engine)).setup
 
@@ -80,7 +80,7 @@ def donut_setup(engine: str):
 def worker(engine: str, scene: str, frames: int) -> dict:
     """Time one engine on one scene; runs inside the subprocess."""
     import resource
-    from gasp_core.seam.engine import build_engine
+    from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import get_engine
     from gasp_core.seam.runner import check_state
     info = get_engine(engine)

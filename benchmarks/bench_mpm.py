@@ -45,7 +45,7 @@ def make_setup(n_target: int, material: str):
     SimSetup
         World frame, z up; ``options`` ask for CPU, f32 and ``SUBSTEPS`` substeps per frame.
     """
-    from gasp_core.seam.engine import Boundary, Material, SimSetup
+    from gasp_core.seam.setup import Boundary, Material, SimSetup
     from gasp_core.toolkit.mpm import mpm_stable_dt
 
     dx = 1.0 / N_GRID
@@ -69,7 +69,7 @@ def make_setup(n_target: int, material: str):
 def worker(engine: str, sizes: list[int], materials: list[str], frames: int,
            with_donut: bool = True) -> list[dict]:
     """Time one engine on every (size, material); runs inside the subprocess."""
-    from gasp_core.seam.engine import build_engine
+    from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import get_engine
 
     info = get_engine(engine)
@@ -121,7 +121,7 @@ def donut_frame(engine: str) -> dict:
 
     Frame 1 (kernel compilation) is excluded; frame 2 is timed, then the point count and substeps.
     """
-    from gasp_core.run.pipeline import prepare_scene
+    from gasp_core.prepare.scene import prepare_scene
     from gasp_core.seam.runner import RunStats, run_engine
     from gasp_core.scene.spec import load_scene
 

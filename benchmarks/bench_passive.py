@@ -61,7 +61,7 @@ def variant_scene(scene, variant: str, n_grid: int | None):
 def run_variant(scene, n_frames: int, threads: int | None, embed: bool = False) -> dict:
     """Prepare, build and step; the means of every frame per object and the timings."""
     from gasp_core.run.frames import rebuild
-    from gasp_core.run.pipeline import prepare_scene
+    from gasp_core.prepare.scene import prepare_scene
     from gasp_core.seam.runner import RunStats, run_engine
 
     load0 = os.getloadavg()

@@ -42,7 +42,7 @@ RESULTS = ROOT / "benchmarks" / "results"
 def cut_out(tmp: Path) -> tuple[Path, int]:
     """Write the selected region as its own PLY and a scene simulating it alone."""
     from gasp_core.gs.io import write_gaussians
-    from gasp_core.run.pipeline import prepare_scene
+    from gasp_core.prepare.scene import prepare_scene
     from gasp_core.scene.spec import load_scene
     scene = load_scene(KITCHEN)
     prep = prepare_scene(scene)

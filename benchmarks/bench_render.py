@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from gasp_core.gs.io import read_gaussians
-from gasp_core.render import get_renderer
+from gasp_core.render.registry import get_renderer
 from gasp_core.render.run import make_view
 from gasp_core.render.splat_numpy import Splats, project, splats_from_gaussians
 

@@ -13,7 +13,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from gasp_core.seam.engine import Option, SceneError
+from gasp_core.errors import SceneError
+from gasp_core.seam.engine import Option
 from gasp_core.errors import EngineDivergence
 from gasp_core.seam.plugins import engines as installed_engines
 from gasp_core.testing import check_engine, evaluate_scene, record, scene_by_name
@@ -178,6 +179,6 @@ def test_check_engine_classifies(reference):
 
 
 def test_check_engine_unknown_name():
-    from gasp_core.seam.engine import EngineError
+    from gasp_core.errors import EngineError
     with pytest.raises(EngineError, match="unknown engine 'no_such_engine'"):
         check_engine("no_such_engine")

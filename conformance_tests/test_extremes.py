@@ -22,8 +22,8 @@ import pytest
 from gasp_core.seam.plugins import engines as installed_engines
 from gasp_core.testing import G, box_points, record
 from gasp_core.testing.scenes_basic import GROUND_H
-from gasp_core.seam.engine import (Boundary, EngineDivergence, EngineError, Material, SceneError,
-                              SimSetup)
+from gasp_core.errors import EngineDivergence, EngineError, SceneError
+from gasp_core.seam.setup import Boundary, Material, SimSetup
 from gasp_core.toolkit.mpm import mpm_stable_dt
 from gasp_core.seam.runner import simulate
 

@@ -95,9 +95,9 @@ def select_engines(scene: Scene, requested: Iterable[str] | None) -> tuple[list[
     runnable : list of str
     skipped : dict
         ``{engine: reason}``: not installed, not available here, or a material or boundary it
-        lacks (:func:`gasp_core.seam.engine.check_supported`).
+        lacks (:func:`gasp_core.seam.build.check_supported`).
     """
-    from gasp_core.seam.engine import check_supported
+    from gasp_core.seam.build import check_supported
     from gasp_core.seam.plugins import engines as all_engines
     found = all_engines()
     names = list(requested) if requested is not None else list(found)

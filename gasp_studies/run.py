@@ -1,7 +1,7 @@
 """Fan scene runs out on Dask, one fresh worker process per run, each with a wall-clock limit.
 
 A run is a :class:`RunSpec` (scene, engine, options, frames). :func:`execute` runs it inside a
-Dask worker through the core's own pipeline (:func:`gasp_core.run.pipeline.prepare_scene`,
+Dask worker through the core's own pipeline (:func:`gasp_core.prepare.scene.prepare_scene`,
 :func:`gasp_core.run.pipeline.iter_frames`) and returns a :class:`RunOutput`: the Gaussian means of
 every frame (file frame, float32) and a JSON-able record of timings and engine statistics.
 Results come back through Dask; nothing is handed over through files.
@@ -124,7 +124,8 @@ def execute(spec: RunSpec, capture: bool = True) -> RunOutput:
     raised: one engine's failure does not stop a study.
     """
     from gasp_core.errors import EngineDivergence
-    from gasp_core.run.pipeline import iter_frames, prepare_scene
+    from gasp_core.run.frames import iter_frames
+    from gasp_core.prepare.scene import prepare_scene
     from gasp_core.seam.runner import RunStats
 
     from .strips import world_splats

@@ -162,7 +162,7 @@ def render_strips(outdir: Path, groups: Mapping[str, Sequence[StripRow]], frames
     size : (int, int)
         Width and height of one frame, pixels.
     renderer : str
-        A registered renderer (:func:`gasp_core.render.get_renderer`).
+        A registered renderer (:func:`gasp_core.render.registry.get_renderer`).
 
     Returns
     -------
@@ -180,7 +180,7 @@ def render_strips(outdir: Path, groups: Mapping[str, Sequence[StripRow]], frames
         return res
     res.n_gaussians = int(next(r.keyframes[f] for r in drawn for f in frames if f in r.keyframes).n)
     try:
-        from gasp_core.render import get_renderer
+        from gasp_core.render.registry import get_renderer
         from gasp_core.render.run import make_view, sequence_bounds, to_uint8
         from gasp_core.render.splat_numpy import Splats
         from gasp_core.render.video import write_png

@@ -7,9 +7,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gasp_core.colliders.model import (ForceField, Impulse, Motion, box_collider, collider_from_triangles,
-                                 feature_needs, frame_table, grid_tables)
-from gasp_core.seam.engine import Capabilities, EngineInfo, SceneError, check_supported
+from gasp_core.colliders.model import box_collider, collider_from_triangles, feature_needs, ForceField, Impulse, Motion
+from gasp_core.toolkit.grid_tables import frame_table, grid_tables
+from gasp_core.errors import SceneError
+from gasp_core.seam.build import check_supported
+from gasp_core.seam.engine import Capabilities, EngineInfo
 from gasp_core.scene.spec import parse_scene
 
 DATA = Path(__file__).resolve().parents[1] / "examples" / "data"

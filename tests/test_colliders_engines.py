@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from gasp_core.colliders.model import ForceField, Impulse, Motion, box_collider
-from gasp_core.seam.engine import build_engine
+from gasp_core.seam.build import build_engine
 from gasp_core.seam.setup import Boundary, Material
 from gasp_core.testing.helpers import box_points, make_setup
 

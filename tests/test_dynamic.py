@@ -4,9 +4,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gasp_core.seam.engine import SceneError
-from gasp_core.gs.io import read_splatv, splatv_at
-from gasp_core.run.pipeline import prepare_object
+from gasp_core.errors import SceneError
+from gasp_core.gs.splatv import read_splatv, splatv_at
+from gasp_core.prepare.placement import prepare_object
 from gasp_core.scene.spec import parse_scene
 
 SPLATV = Path(__file__).resolve().parents[2] / "shared" / "data" / "dynamic" / "spinach_4.splatv"

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from plyfile import PlyData
 
-from gasp_core.colliders.model import build_colliders
+from gasp_core.prepare.colliders import build_colliders
 from gasp_core.gs.io import read_gaussians
 from gasp_core.prepare.placement import prepare_object
 from gasp_core.seam.plugins import engines

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from gasp_testing import ROOT
 
-from gasp_core.seam.engine import SceneError
+from gasp_core.errors import SceneError
 from gasp_core.maps.fill import fill_interior, fill_spacing
 from gasp_core.maps.games import flatten, gaussians_to_triangles
 

@@ -18,7 +18,7 @@ hypothesis = pytest.importorskip("hypothesis")
 from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
-from gasp_core.seam.engine import SceneError  # noqa: E402
+from gasp_core.errors import SceneError  # noqa: E402
 from gasp_core.gs.gaussians import Gaussians  # noqa: E402
 from gasp_core.gs.io import read_gaussians  # noqa: E402
 from gasp_core.scene.spec import Scene, parse_scene  # noqa: E402

@@ -67,7 +67,7 @@ def test_degenerate_core_gives_finite_subs(hier):
 @pytest.mark.parametrize("frac, msg", [(1.5, "must be in"), (0.0, "must be in"), ("x", "must be a number"),
                                        (1e-6, "cores for")])
 def test_bad_fraction_is_one_line_scene_error(donut_tri, frac, msg):
-    from gasp_core.seam.engine import SceneError
+    from gasp_core.errors import SceneError
     with pytest.raises(SceneError, match=msg) as e:
         build_hierarchy(*donut_tri, core_fraction=frac)
     assert "\n" not in str(e.value)

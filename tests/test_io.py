@@ -9,9 +9,13 @@ from plyfile import PlyData, PlyElement
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
-from gasp_core.seam.engine import SceneError
-from gasp_core.gs.gaussians import FLAT_EPS, Gaussians, quat_to_rotmat, rotmat_to_quat
-from gasp_core.gs.io import SH_C0, describe, read_gaussians, read_splatv, splatv_at, write_gaussians
+from gasp_core.errors import SceneError
+from gasp_core.gs.gaussians import Gaussians, quat_to_rotmat, rotmat_to_quat
+from gasp_core.maps.games import EPS as FLAT_EPS
+from gasp_core.gs.describe import describe
+from gasp_core.gs.io import read_gaussians, write_gaussians
+from gasp_core.gs.ply import SH_C0
+from gasp_core.gs.splatv import read_splatv, splatv_at
 
 SHARED = Path(os.environ.get("GASP_DATA", Path(__file__).resolve().parents[2] / "shared" / "data"))
 GS = SHARED / "gs"

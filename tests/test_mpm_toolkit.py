@@ -4,10 +4,11 @@ import math
 import numpy as np
 import pytest
 
-from gasp_core.seam.engine import Boundary, Material, SceneError, check_options
-from gasp_core.toolkit.mpm import (CAUSE_DOMAIN, CAUSE_DT, MATERIAL_CODES, N_PARAMS, P_ALPHA, P_K, P_LAM, P_MU,
-                           P_THETA_C, cell_order, check_mpm_options, fixed_mask, initial_Jp, material_table,
-                           mpm_options, mpm_sweep)
+from gasp_core.errors import SceneError
+from gasp_core.seam.engine import check_options
+from gasp_core.seam.setup import Boundary, Material
+from gasp_core.toolkit.mpm import CAUSE_DOMAIN, CAUSE_DT, cell_order, check_mpm_options, fixed_mask, initial_Jp, MATERIAL_CODES, material_table, mpm_options, N_PARAMS, P_ALPHA, P_K, P_LAM, P_MU, P_THETA_C
+from gasp_core.toolkit.sweep import mpm_sweep
 
 
 def test_material_table_holds_the_lame_parameters_and_the_derived_constants():

@@ -8,7 +8,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from gasp_core.seam.engine import Material, SceneError, SimSetup, build_engine
+from gasp_core.errors import SceneError
+from gasp_core.seam.build import build_engine
+from gasp_core.seam.setup import Material, SimSetup
 from gasp_core.seam.passive import EmbeddedEngine, mls_embedding
 from gasp_core.seam.plugins import engines
 from gasp_core.testing.helpers import box_points

@@ -5,7 +5,8 @@ import pluggy
 import pytest
 
 from gasp_core.seam import plugins
-from gasp_core.seam.engine import Capabilities, EngineError, EngineInfo, PointEngine
+from gasp_core.errors import EngineError
+from gasp_core.seam.engine import Capabilities, EngineInfo, PointEngine
 
 
 @pytest.fixture
@@ -97,7 +98,7 @@ def test_every_hook_is_documented():
 def test_installed_engines_implement_the_protocol():
     """Every installed, available engine builds from a tiny real setup and follows PointEngine."""
     import numpy as np
-    from gasp_core.seam.engine import Material, SimSetup
+    from gasp_core.seam.setup import Material, SimSetup
     g = np.stack(np.meshgrid(*[np.linspace(0.4, 0.6, 4)] * 3, indexing="ij"), -1).reshape(-1, 3)
     for name, info in plugins.engines().items():
         if info.unavailable_reason():

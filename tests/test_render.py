@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from gasp_core.gs.io import read_gaussians
-from gasp_core.render import get_renderer, renderers
+from gasp_core.render.registry import get_renderer, renderers
 from gasp_core.render.camera import Camera
 from gasp_core.render.splat_numpy import Splats, splats_from_gaussians
 from gasp_testing import DONUT
@@ -137,7 +137,7 @@ def test_rendered_donut_falls_and_lands(donut_run, tmp_path):
 
 def test_side_by_side_and_strip(donut_run, tmp_path):
     from gasp_core.cli.main import main
-    from gasp_core.render import render_strip
+    from gasp_core.render.run import render_strip
     import imageio.v3 as iio
     out = tmp_path / "frames"
     assert main(["render", str(donut_run), str(donut_run), "-o", str(out), "--resolution", "80x60", "-q"]) == 0

@@ -12,9 +12,11 @@ import pytest
 from gasp_testing import DONUT, ROOT
 from plyfile import PlyData
 
-from gasp_core.seam.engine import SceneError
-from gasp_core.gs.io import read_gaussians, read_splatv, splatv_at
-from gasp_core.run.pipeline import prepare_scene, simulate_scene
+from gasp_core.errors import SceneError
+from gasp_core.gs.io import read_gaussians
+from gasp_core.gs.splatv import read_splatv, splatv_at
+from gasp_core.prepare.scene import prepare_scene
+from gasp_core.run.pipeline import simulate_scene
 from gasp_core.prepare.placement import prepare_object
 from gasp_core.scene.spec import load_scene, parse_scene
 from gasp_core.prepare.selection import grow_selection, static_splats

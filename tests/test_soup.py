@@ -14,7 +14,7 @@ import pytest
 trimesh = pytest.importorskip("trimesh")
 
 from gasp_core.cli.main import main  # noqa: E402
-from gasp_core.seam.engine import SceneError  # noqa: E402
+from gasp_core.errors import SceneError  # noqa: E402
 from gasp_core.gs.io import read_gaussians  # noqa: E402
 from gasp_core.scene.spec import load_scene  # noqa: E402
 from gasp_core.run.soup import export_soup, import_motion  # noqa: E402

@@ -7,7 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gasp_core.colliders.model import Motion, _rotvec_matrix, box_collider, build_colliders
+from gasp_core.colliders.model import _rotvec_matrix, box_collider, Motion
+from gasp_core.prepare.colliders import build_colliders
 from gasp_core.run.contact import CONTACT_DX, collider_records, contact_row
 from gasp_core.errors import SceneError
 from gasp_core.prepare.placement import UP_ROTATIONS, euler_matrix, place, prepare_object

@@ -104,7 +104,7 @@ def test_compare_without_numba_keeps_the_report_and_says_why(donut_tiny, write_s
 
 @needs_numba
 def test_a_renderer_failing_midway_leaves_no_strip_and_a_reason(tmp_path, monkeypatch):
-    import gasp_core.render as render
+    import gasp_core.render.registry as render
     g = read_gaussians(DONUT)
     s = splats_from_gaussians(g.subset(np.arange(0, g.n, 64)))
     calls = []

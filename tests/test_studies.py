@@ -14,7 +14,8 @@ from gasp_testing import scene_text  # noqa: E402
 from gasp_core.cli.main import main  # noqa: E402
 from gasp_core.errors import SceneError  # noqa: E402
 from gasp_core.gs.io import write_gaussians  # noqa: E402
-from gasp_core.run.pipeline import iter_frames, prepare_scene  # noqa: E402
+from gasp_core.run.frames import iter_frames
+from gasp_core.prepare.scene import prepare_scene
 from gasp_core.seam.plugins import engines  # noqa: E402
 from gasp_core.scene.spec import load_scene  # noqa: E402
 from gasp_studies import report  # noqa: E402

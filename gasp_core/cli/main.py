@@ -76,7 +76,7 @@ def _cmd_engines(args) -> int:
 
 
 def _cmd_info(args) -> int:
-    from gasp_core.gs.io import describe
+    from gasp_core.gs.describe import describe
     d = describe(args.file)
     if args.json:
         print(json.dumps(d, indent=2, default=str))

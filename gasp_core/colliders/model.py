@@ -459,5 +459,3 @@ def box_collider(half_extents, h: float, name: str = "box", **kw) -> Collider:
     return _finish(name, phi, origin, h, triangles=corners[np.array(faces)], **kw)
 
 
-from gasp_core.toolkit.grid_tables import GridTables, frame_table, grid_tables  # noqa: E402,F401  (public names)
-from gasp_core.prepare.colliders import build_colliders, scene_feature_needs  # noqa: E402,F401

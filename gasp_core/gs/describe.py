@@ -7,7 +7,8 @@ from typing import Any
 import numpy as np
 
 from gasp_core.gs.gaussians import Gaussians, quat_to_rotmat
-from gasp_core.gs.io import read_gaussians, read_splatv, splatv_at
+from gasp_core.gs.io import read_gaussians
+from gasp_core.gs.splatv import read_splatv, splatv_at
 
 
 # --------------------------------------------------------------------------------------------

@@ -25,7 +25,6 @@ from typing import Any
 import numpy as np
 
 from gasp_core.errors import SceneError
-from gasp_core.maps.games import EPS as FLAT_EPS  # noqa: F401  (re-exported: the GaMeS thin-axis scale, one constant)
 
 #: Spherical-harmonics rest coefficients per colour channel, by SH degree 0..3.
 SH_REST_COUNT = {0: 0, 1: 3, 2: 8, 3: 15}

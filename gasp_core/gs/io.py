@@ -33,14 +33,14 @@ import numpy as np
 from plyfile import PlyData, PlyElement
 
 from gasp_core.fsutil import atomic_write
-from gasp_core.gs.gaussians import FLAT_EPS, MAX_MAGNITUDE, SH_REST_COUNT, Gaussians, quat_to_rotmat, rotmat_to_quat
+from gasp_core.gs.gaussians import Gaussians, MAX_MAGNITUDE, quat_to_rotmat, rotmat_to_quat, SH_REST_COUNT
+from gasp_core.maps.games import EPS as FLAT_EPS
 
-from gasp_core.gs.ply import (_2DGS_PERM, _LOGIT_CLAMP, SH_C0, _check_columns, _check_is_file, _col, _fail,  # noqa: F401
-                        _numbered, _read_ply, _require, _stack)
+from gasp_core.gs.ply import (_2DGS_PERM, _check_columns, _col, _fail, _numbered, _read_ply, _require,
+                        _stack)
 from gasp_core.gs.compressed import _decode_compressed
-from gasp_core.gs.splatv import read_splatv, splatv_at  # noqa: F401  (public names of gasp_core.gs.io)
 
-__all__ = ["read_gaussians", "write_gaussians", "read_splatv", "splatv_at", "describe", "SH_C0"]
+__all__ = ["read_gaussians", "write_gaussians"]
 
 
 def read_gaussians(path) -> Gaussians:
@@ -243,11 +243,3 @@ def write_gaussians(path, g: Gaussians, *, overwrite: bool = False, layout: str 
 
     atomic_write(path, ply.write, overwrite=overwrite)
     return path
-
-
-
-
-def describe(path) -> dict[str, Any]:
-    """Summary of a Gaussian Splatting file (:func:`gasp_core.gs.describe.describe`)."""
-    from gasp_core.gs.describe import describe as _describe
-    return _describe(path)

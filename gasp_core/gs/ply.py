@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 from plyfile import PlyData, PlyListProperty
 
-from gasp_core.seam.engine import SceneError
+from gasp_core.errors import SceneError
 
 
 #: Degree-0 real spherical harmonic, ``1 / (2 sqrt(pi))``; colour = ``0.5 + SH_C0 * f_dc``.

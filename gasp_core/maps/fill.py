@@ -44,7 +44,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
-from gasp_core.seam.engine import SceneError
+from gasp_core.errors import SceneError
 
 #: Footprint radius of a splat, in standard deviations of its in-plane scales.
 SPLAT_SIGMA = 2.0

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from gasp_core.seam.engine import SceneError
+from gasp_core.errors import SceneError
 
 #: Shortest frame axis, as a share of the longest: bounds the coefficients' conditioning.
 MIN_AXIS = 0.1

@@ -6,7 +6,8 @@ import warnings
 import numpy as np
 from scipy.special import expit
 
-from gasp_core.seam.engine import SceneError, SimSetup
+from gasp_core.errors import SceneError
+from gasp_core.seam.setup import SimSetup
 from gasp_core.maps.fill import fill_interior, fill_spacing
 from gasp_core.prepare.placement import PreparedObject, simulated_triangles
 from gasp_core.scene.spec import Scene
@@ -109,7 +110,8 @@ def scene_extras(scene: Scene, objects: list[PreparedObject], x: np.ndarray, dx:
     """
     if not (scene.colliders or scene.forces or scene.impulses):
         return {}
-    from gasp_core.colliders.model import build_colliders, check_start
+    from gasp_core.colliders.model import check_start
+    from gasp_core.prepare.colliders import build_colliders
     colliders = build_colliders(scene, objects, dx)
     check_start(colliders, x)
     return {"colliders": colliders, "forces": list(scene.forces), "impulses": list(scene.impulses)}

@@ -1,10 +1,9 @@
 """Colliders from a scene: ``[[collider]]`` entries and static objects turned into :class:`~gasp_core.colliders.model.Collider` s."""
 from __future__ import annotations
-import math
 import numpy as np
 from gasp_core.errors import SceneError
 
-from gasp_core.colliders.model import (Collider, Motion, SDF_SPACING, _rotvec_matrix, collider_from_splats, collider_from_triangles)
+from gasp_core.colliders.model import (Collider, Motion, SDF_SPACING, collider_from_splats, collider_from_triangles)
 
 
 # --------------------------------------------------------------------------- from a scene

@@ -15,7 +15,8 @@ from gasp_core.maps.fill import FillReport
 from gasp_core.maps.games import FlattenReport, flatten, gaussians_to_triangles
 from gasp_core.gs.gaussians import Gaussians
 from gasp_core.maps.hierarchy import Hierarchy, build_hierarchy
-from gasp_core.gs.io import read_gaussians, read_splatv, splatv_at
+from gasp_core.gs.io import read_gaussians
+from gasp_core.gs.splatv import read_splatv, splatv_at
 from gasp_core.scene.spec import ObjectSpec, check_object
 from gasp_core.prepare.selection import moving_rows
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import importlib.util
 
 from gasp_core.seam.plugins import hookimpl
-from gasp_core.render import RendererInfo
+from gasp_core.render.info import RendererInfo
 
 
 class CpuRenderer:

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import time
 
-from gasp_core.seam.engine import SceneError
+from gasp_core.errors import SceneError
 
 
 def _vec3(text: str, what: str):
@@ -38,7 +38,7 @@ def add_parsers(sub) -> None:
 
 
 def cmd_render(args) -> int:
-    from gasp_core.render import get_renderer
+    from gasp_core.render.registry import get_renderer
     from gasp_core.render.run import render_run
     try:
         w, h = (int(x) for x in args.resolution.lower().split("x"))

@@ -13,7 +13,7 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
-from gasp_core.seam.engine import SceneError
+from gasp_core.errors import SceneError
 from gasp_core.render.camera import Camera, auto_camera, ground_background, nice_step
 from gasp_core.render.splat_numpy import Splats, splats_from_gaussians
 
@@ -138,7 +138,7 @@ def render_runs(run_dirs: Sequence, renderer=None, frames: Sequence[int] | None 
     run_dirs : sequence of path
         One or more run folders; with several, each frame is the runs' images left to right.
     renderer : callable or None
-        From :func:`gasp_core.render.get_renderer` (default: the best available CPU renderer).
+        From :func:`gasp_core.render.registry.get_renderer` (default: the best available CPU renderer).
     frames : sequence of int, optional
         Frame numbers (default: all frames every run has).
     width, height : int
@@ -160,7 +160,7 @@ def render_runs(run_dirs: Sequence, renderer=None, frames: Sequence[int] | None 
     SceneError
         A run folder is unusable (see :func:`load_run`).
     """
-    from gasp_core.render import get_renderer
+    from gasp_core.render.registry import get_renderer
     renderer = renderer or get_renderer()
     runs = [load_run(p) for p in run_dirs]
     n = min(r.n_frames for r in runs)

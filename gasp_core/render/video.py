@@ -8,7 +8,7 @@ import numpy as np
 
 from gasp_core.fsutil import atomic_path, output_folder
 
-from gasp_core.seam.engine import SceneError
+from gasp_core.errors import SceneError
 
 VIDEO_SUFFIXES = (".mp4", ".gif")
 

@@ -14,7 +14,7 @@ from gasp_core.seam.runner import RunStats, run_engine
 from gasp_core.prepare.selection import scatter
 
 if TYPE_CHECKING:
-    from gasp_core.run.pipeline import PreparedScene
+    from gasp_core.prepare.scene import PreparedScene
     from gasp_core.run.resume import Checkpoint
 
 

@@ -16,38 +16,16 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
-from gasp_core.prepare.assembly import build_setup, default_domain  # noqa: F401  (public names of the pipeline)
-from gasp_core.seam.engine import EngineInfo, SceneError, SimSetup, check_supported
 from gasp_core.run import resume as resume_mod
 from gasp_core.errors import GaspError
-from gasp_core.run.frames import FrameState, iter_frames, rebuild  # noqa: F401
+from gasp_core.run.frames import FrameState, iter_frames
 from gasp_core.fsutil import OutputClaim, atomic_json, leftover_partials
 from gasp_core.gs.gaussians import Gaussians
 from gasp_core.gs.io import write_gaussians
-from gasp_core.prepare.placement import (UP_ROTATIONS, Placement, PreparedObject, load_gaussians, place,  # noqa: F401
-                        prepare_object, simulated_triangles)
-from gasp_core.seam.plugins import engines as all_engines, get_engine
+from gasp_core.prepare.scene import input_files, prepare_scene
 from gasp_core.run.record import run_summary
 from gasp_core.seam.runner import RunStats
 from gasp_core.scene.spec import Scene
-
-
-@dataclass
-class PreparedScene:
-    """A scene ready to run: engine chosen and checked, objects placed, points assembled.
-
-    Attributes
-    ----------
-    prepare_s : float
-        Wall time of reading, placing, flattening, the hierarchy and point assembly, seconds.
-    """
-
-    scene: Scene
-    info: EngineInfo
-    objects: list[PreparedObject]
-    names: list[str]
-    setup: SimSetup
-    prepare_s: float = 0.0
 
 
 @dataclass
@@ -58,55 +36,6 @@ class RunResult:
     n_frames: int
     stats: RunStats
     summary: dict = field(default_factory=dict)
-
-
-def scene_needs(scene: Scene) -> dict[str, list[str]]:
-    """What a scene asks of an engine, before any file is read (see :func:`gasp_core.seam.engine.check_supported`)."""
-    from gasp_core.colliders.model import scene_feature_needs
-    return {"materials": [o.material.name for o in scene.objects if not o.static],
-            "boundaries": [b.kind for b in scene.boundaries], "features": scene_feature_needs(scene)}
-
-
-def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None = None) -> PreparedScene:
-    """Choose and check the engine, read and place every object, build the point set.
-
-    Parameters
-    ----------
-    scene : Scene
-    engine : str, optional
-        Override ``scene.engine.name``.
-    options : dict, optional
-        Engine options replacing ``scene.engine.options`` (e.g. from a settings sweep).
-
-    Raises
-    ------
-    EngineError
-        Unknown engine, or an engine that cannot run here.
-    SceneError
-        A material, boundary or feature the engine lacks (before any file is read), an
-        unreadable object file, an object outside an explicit domain.
-    """
-    t0 = time.perf_counter()
-    name = engine or scene.engine.name
-    if not name:
-        raise SceneError(f"{scene.path}: no engine: set [engine] name = \"...\" or pass --engine "
-                         f"(installed: {sorted(all_engines()) or 'none'})")
-    info = get_engine(name)
-    check_supported(info, **scene_needs(scene), others=all_engines())
-    objects = [prepare_object(spec) for spec in scene.objects]
-    stems = [o.name for o in objects]
-    names = [n if stems.count(n) == 1 else f"{i}_{n}" for i, n in enumerate(stems)]
-    setup = build_setup(scene, objects)
-    if options is not None:
-        setup.options = dict(options)
-    return PreparedScene(scene, info, objects, names, setup, prepare_s=time.perf_counter() - t0)
-
-
-def input_files(scene: Scene) -> list[Path]:
-    """The files a run reads: the scene file and every object's file (never to be overwritten)."""
-    return ([Path(scene.path)] + [Path(o.file) for o in scene.objects]
-            + [Path(o.select.mask) for o in scene.objects if o.select is not None and o.select.mask is not None]
-            + [Path(c.mesh or c.gaussians) for c in scene.colliders if (c.mesh or c.gaussians) is not None])
 
 
 def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,

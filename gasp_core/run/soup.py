@@ -13,35 +13,35 @@ the faces are read through their own vertex indices, so a tool may re-index vert
 it keeps the face order and each face's first corner.
 
 Formats: OBJ and PLY through trimesh (``process=False``: nothing merged or reordered). More
-formats come from installed plugins: a callable registered under the entry-point group
-:data:`WRITER_GROUP` as ``name = "module:function"`` is called as
-``function(outdir: Path, soups: dict[str, ndarray (n, 3, 3)]) -> list[str]`` (file names it wrote,
-relative to ``outdir``) and may raise :class:`~gasp_core.seam.engine.EngineError` when it cannot run
-here; the manifest records the reason.
+formats come from installed plugins: a ``gasp_soup_writers`` hook returns
+:class:`~gasp_core.seam.plugins.SoupWriterInfo` records whose ``write`` is called as
+``write(outdir: Path, soups: dict[str, ndarray (n, 3, 3)]) -> list[str]`` (file names it wrote,
+relative to ``outdir``) and may raise :class:`~gasp_core.errors.EngineError` when it cannot run
+here; the manifest records the reason. They are found like engines (:func:`gasp_core.seam.plugins.registered`),
+so ``GASP_LOAD_PLUGINS`` and the duplicate-name check apply.
 """
 from __future__ import annotations
 
 import dataclasses
 import re
-from importlib import metadata
 from pathlib import Path
 
 import numpy as np
 
 from gasp_core import __version__
-from gasp_core.seam.engine import EngineError, SceneError
+from gasp_core.errors import EngineError, SceneError
 from gasp_core.gs.io import write_gaussians
 from gasp_core.fsutil import atomic_json, output_folder
-from gasp_core.run.pipeline import PreparedObject, prepare_object, rebuild
+from gasp_core.prepare.placement import prepare_object, PreparedObject
+from gasp_core.run.frames import rebuild
 from gasp_core.scene.spec import Scene
+from gasp_core.seam.plugins import soup_writers
 
-__all__ = ["SOUP_FORMAT", "WRITER_GROUP", "MANIFEST", "MESH_SUFFIXES", "object_names", "soup_mesh",
+__all__ = ["SOUP_FORMAT", "MANIFEST", "MESH_SUFFIXES", "object_names", "soup_mesh",
            "export_soup", "read_soup", "motion_files", "import_motion"]
 
 #: Manifest format tag.
 SOUP_FORMAT = "gasp-soup/1"
-#: Entry-point group of extra soup writers (e.g. a ``.blend`` writer from an engine plugin).
-WRITER_GROUP = "gasp.soup_writers"
 #: Manifest file name inside an export folder.
 MANIFEST = "soup.json"
 #: Mesh files :func:`import_motion` reads.
@@ -91,7 +91,7 @@ def export_soup(scene: Scene, outdir: str | Path, overwrite: bool = False,
     """Write the rest triangle soup of every scene object, and a manifest.
 
     Layout: ``OUTDIR/<object>.obj``, ``OUTDIR/<object>.ply`` (world frame, metres, z up; one face
-    per Gaussian in input order), files from extra writers (:data:`WRITER_GROUP`), and
+    per Gaussian in input order), files from extra writers (``gasp_soup_writers`` plugins), and
     ``OUTDIR/soup.json`` (format, binding, placement, alpha rule, files, skipped writers).
 
     Parameters
@@ -140,11 +140,11 @@ def export_soup(scene: Scene, outdir: str | Path, overwrite: bool = False,
         extra, skipped = {}, {}
         if extra_writers:
             soups = {name: o.tri_rest for o, name in zip(objects, names)}
-            for ep in metadata.entry_points(group=WRITER_GROUP):
+            for name, writer in soup_writers().items():
                 try:
-                    extra[ep.name] = list(ep.load()(tmp, soups))
+                    extra[name] = list(writer.write(tmp, soups))
                 except EngineError as e:
-                    skipped[ep.name] = str(e)
+                    skipped[name] = str(e)
         manifest = {
             "format": SOUP_FORMAT, "gasp": __version__, "scene": str(scene.path),
             "frame": "world: metres, z up (the frame the engines see)",

@@ -9,8 +9,8 @@ from typing import Any
 
 
 from gasp_core.errors import SceneError
-from gasp_core.scene.values import (MAX_COORD, MAX_GRAVITY, MAX_SPEED, MAX_SPIN, SCALE_RANGE, UP_AXES, _bad,  # noqa: F401
-                           _boolean, _check_keys, _integer, _is_number, _number, _string, _table, _tables, _vec3)
+from gasp_core.scene.values import (MAX_COORD, MAX_GRAVITY, MAX_SPEED, MAX_SPIN, SCALE_RANGE, UP_AXES, _bad,
+                           _boolean, _check_keys, _integer, _is_number, _number, _string, _tables, _vec3)
 
 # --------------------------------------------------------------------------- colliders, forces, impulses
 @dataclass

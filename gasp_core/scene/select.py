@@ -7,8 +7,8 @@ from typing import Any
 
 
 from gasp_core.errors import SceneError
-from gasp_core.scene.values import (MAX_COORD, _bad, _boolean, _check_keys, _integer, _is_number, _number,  # noqa: F401
-                           _string, _table, _tables, _vec3)
+from gasp_core.scene.values import (MAX_COORD, _bad, _boolean, _check_keys, _number, _string, _table,
+                           _vec3)
 
 
 #: Object keys that only matter when the object is simulated: refused beside ``static = true``.

@@ -48,14 +48,15 @@ from typing import Any
 
 import numpy as np
 
-from gasp_core.seam.engine import BOUNDARIES, MATERIALS, Boundary, Material, SceneError
+from gasp_core.errors import SceneError
+from gasp_core.seam.setup import BOUNDARIES, Boundary, Material, MATERIALS
 
-from gasp_core.scene.values import (_bad, _boolean, _check_keys, _integer, _is_number, _number, _string, _table,  # noqa: F401
+from gasp_core.scene.values import (_bad, _boolean, _check_keys, _integer, _is_number, _number, _string, _table,
                            _tables, _vec3)
-from gasp_core.scene.values import (MAX_COORD, MAX_GRAVITY, MAX_PADDING, MAX_SPEED, MAX_SPIN, N_GRID_RANGE,  # noqa: F401
+from gasp_core.scene.values import (MAX_COORD, MAX_GRAVITY, MAX_PADDING, MAX_SPEED, MAX_SPIN, N_GRID_RANGE,
                            PPC_RANGE, SCALE_RANGE, UP_AXES)
-from gasp_core.scene.extras import ColliderSpec, _scene_extras  # noqa: F401
-from gasp_core.scene.select import SELECT_FRAMES, SELECT_KINDS, SelectSpec, _select, _static  # noqa: F401
+from gasp_core.scene.extras import _scene_extras
+from gasp_core.scene.select import SelectSpec, _select, _static
 
 #: ``[[object]] surface``: the triangle vertices are material points, or passive (massless, carried).
 SURFACES = ("material", "passive")

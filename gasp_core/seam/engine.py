@@ -24,12 +24,9 @@ from typing import Any, Callable, Iterable, Mapping, Protocol, runtime_checkable
 
 import numpy as np
 
-from gasp_core.errors import EngineBug, EngineDivergence, EngineError, GaspError, SceneError
-from gasp_core.seam.setup import BOUNDARIES, MATERIALS, Boundary, Material, SimSetup
+from gasp_core.errors import EngineBug, GaspError, SceneError
+from gasp_core.seam.setup import SimSetup
 
-__all__ = ["BOUNDARIES", "FEATURES", "MATERIALS", "Boundary", "Capabilities", "EngineBug", "EngineDivergence",
-           "EngineError", "EngineInfo", "GaspError", "Material", "Option", "PointEngine", "SceneError", "SimSetup",
-           "build_engine", "check_options", "check_supported", "call_engine"]
 
 
 #: Feature names an engine may declare in :attr:`Capabilities.features` (beyond materials and boundaries).
@@ -293,47 +290,6 @@ class EngineInfo:
         return self.available() if self.available is not None else None
 
 
-def check_supported(info: EngineInfo, materials: Iterable[str] = (), boundaries: Iterable[str] = (),
-                    features: Iterable[str] = (), others: Mapping[str, EngineInfo] | None = None) -> None:
-    """The one capability check: refuse what the engine lacks, before any work.
-
-    Parameters
-    ----------
-    info : EngineInfo
-    materials, boundaries, features : iterable of str
-        What the scene uses.
-    others : mapping, optional
-        Installed engines by name, to name those that have what is missing.
-
-    Raises
-    ------
-    SceneError
-        Naming the engine, what it lacks, and the installed engines that have it.
-    """
-    missing = info.capabilities.missing(materials, boundaries, features)
-    if not missing:
-        return
-    kind, name = missing[0]
-    attr = {"material": "materials", "boundary": "boundaries", "feature": "features"}[kind]
-    if others is None:
-        from gasp_core.seam.plugins import engines as installed
-        try:
-            others = installed()
-        except GaspError:
-            others = {}
-    able = sorted(n for n, e in others.items() if name in getattr(e.capabilities, attr))
-    raise SceneError(f"engine '{info.name}' does not support the {kind} '{name}' "
-                     f"(it supports {attr}: {sorted(getattr(info.capabilities, attr)) or 'none'}); "
-                     f"engines that do: {able or 'none installed'}")
-
-
-def setup_needs(setup: SimSetup) -> dict[str, list[str]]:
-    """What a setup asks of an engine: ``materials``, ``boundaries`` and ``features`` names."""
-    from gasp_core.colliders.model import feature_needs
-    return {"materials": [m.name for m in setup.materials], "boundaries": [b.kind for b in setup.boundaries],
-            "features": feature_needs(setup.colliders, setup.forces, setup.impulses)}
-
-
 def _bug(info: EngineInfo, where: str, e: BaseException) -> EngineBug:
     path = ""
     try:
@@ -358,33 +314,3 @@ def call_engine(info: EngineInfo, where: str, fn: Callable, *args):
         raise
     except Exception as e:  # the contract: anything else is a bug in the engine
         raise _bug(info, where, e) from e
-
-
-def build_engine(info: EngineInfo, setup: SimSetup) -> PointEngine:
-    """Check ``setup`` against the engine's capabilities and options, then call its factory.
-
-    Parameters
-    ----------
-    info : EngineInfo
-    setup : SimSetup
-        ``setup.options`` are checked and completed with the declared defaults (in place).
-
-    Returns
-    -------
-    PointEngine
-
-    Raises
-    ------
-    SceneError
-        A material, boundary or feature the engine lacks; an unknown or invalid option.
-    EngineError
-        The engine cannot run here.
-    EngineBug
-        The factory raised anything outside the error contract.
-    """
-    check_supported(info, **setup_needs(setup))
-    setup.options = check_options(setup.options, info.options, info.name)
-    if setup.passive is not None and "passive_points" not in info.capabilities.features:
-        from gasp_core.seam.passive import build_with_fallback     # the core moves the passive rows
-        return build_with_fallback(info, setup, lambda i, s: call_engine(i, "build", i.factory, s))
-    return call_engine(info, "build", info.factory, setup)

@@ -170,7 +170,7 @@ def build_with_fallback(info, setup: SimSetup, build):
     setup : SimSetup
         With ``setup.passive``.
     build : callable
-        ``build(info, setup) -> PointEngine`` (:func:`gasp_core.seam.engine.build_engine`).
+        ``build(info, setup) -> PointEngine`` (:func:`gasp_core.seam.build.build_engine`).
 
     Returns
     -------

@@ -1,8 +1,9 @@
-"""Engine discovery through pluggy and the ``gasp`` entry-point group.
+"""Plugin discovery through pluggy and the ``gasp`` entry-point group: engines, renderers, soup writers.
 
-A plugin is a module with a ``gasp_engines`` hook implementation that returns a list of
-:class:`~gasp_core.seam.engine.EngineInfo`. Installed distributions register the module under
-``[project.entry-points.gasp]``. The core never imports an engine package: factories import
+A plugin is a module with hook implementations (:class:`HookSpec`): ``gasp_engines`` returns
+:class:`~gasp_core.seam.engine.EngineInfo` records, ``gasp_renderers`` renderer records,
+``gasp_soup_writers`` :class:`SoupWriterInfo` records. Installed distributions register the module under
+``[project.entry-points.gasp]``; every kind is listed by the one function :func:`registered`. The core never imports an engine package: factories import
 lazily when a simulation is built.
 
 ``GASP_LOAD_PLUGINS`` (comma-separated entry-point names) narrows which plugins load;
@@ -10,13 +11,16 @@ an empty string loads none.
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
 import importlib.metadata as md
 import os
+from typing import Any, Callable
 
 import pluggy
 
-from gasp_core.seam.engine import EngineError, EngineInfo
+from gasp_core.errors import EngineError, GaspError
+from gasp_core.seam.engine import EngineInfo
 
 PROJECT = "gasp"
 hookspec = pluggy.HookspecMarker(PROJECT)
@@ -24,7 +28,11 @@ hookimpl = pluggy.HookimplMarker(PROJECT)
 
 
 class HookSpec:
-    """Hook specifications (namespace passed to ``PluginManager.add_hookspecs``)."""
+    """Hook specifications (namespace passed to ``PluginManager.add_hookspecs``).
+
+    Every kind of plugin is one hook here, found by one registry (:func:`registered`), so that
+    ``GASP_LOAD_PLUGINS``, broken-plugin isolation and the duplicate-name check apply to all of them.
+    """
 
     @hookspec
     def gasp_engines(self) -> list[EngineInfo]:
@@ -37,13 +45,35 @@ class HookSpec:
             the plugin manager fills them from the entry point's distribution.
         """
 
-
-class RendererSpec:
-    """Renderer hook (``gasp_core.render``): return a list of ``RendererInfo``."""
-
     @hookspec
     def gasp_renderers(self) -> list:
-        """Return the renderers this plugin provides (``gasp_core.render.RendererInfo``)."""
+        """Return the renderers this plugin provides (``gasp_core.render.registry.RendererInfo``)."""
+
+    @hookspec
+    def gasp_soup_writers(self) -> list:
+        """Return the extra triangle-soup writers this plugin provides (:class:`SoupWriterInfo`)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class SoupWriterInfo:
+    """An extra writer for ``gasp export-soup`` (``gasp_soup_writers`` hook).
+
+    Attributes
+    ----------
+    name : str
+        Format name, the key in ``soup.json``'s ``extra_files``.
+    write : callable
+        ``write(outdir: Path, soups: dict[str, ndarray (n, 3, 3) float64, metres]) -> list[str]`` of the
+        files written in ``outdir``; raises :class:`~gasp_core.errors.EngineError` when it cannot run here
+        (the writer is then listed as skipped with the reason).
+    distribution, version, description : str
+    """
+
+    name: str
+    write: Callable
+    distribution: str = ""
+    version: str = ""
+    description: str = ""
 
 
 def _entry_points():
@@ -70,9 +100,6 @@ def get_plugin_manager() -> pluggy.PluginManager:
     """
     pm = pluggy.PluginManager(PROJECT)
     pm.add_hookspecs(HookSpec)
-    pm.add_hookspecs(RendererSpec)
-    from gasp_core.render import builtin as _render_builtin
-    pm.register(_render_builtin, name="gasp_render_builtin")
     for ep in _entry_points():
         if pm.get_plugin(ep.name) is not None:
             continue
@@ -91,27 +118,59 @@ def get_plugin_manager() -> pluggy.PluginManager:
     return pm
 
 
+def registered(hook: str, kind: str, pm: pluggy.PluginManager | None = None,
+               error: type[GaspError] = GaspError) -> dict[str, Any]:
+    """Every record that the plugins return from ``hook``, by name: the one registry of every plugin kind.
+
+    Parameters
+    ----------
+    hook : str
+        ``"gasp_engines"``, ``"gasp_renderers"`` or ``"gasp_soup_writers"``.
+    kind : str
+        What the records are, for the error message (``"engine"``, ``"renderer"``, ``"soup writer"``).
+    pm : pluggy.PluginManager, optional
+        Default :func:`get_plugin_manager`.
+    error : type
+        The error raised for a duplicate name.
+
+    Returns
+    -------
+    dict of str -> record
+        Sorted by name; ``distribution`` and ``version`` filled from the plugin's distribution.
+
+    Raises
+    ------
+    GaspError (``error``)
+        If two plugins register the same name; the message names both distributions.
+    """
+    pm = pm or get_plugin_manager()
+    found: dict[str, Any] = {}
+    for impl in getattr(pm.hook, hook).get_hookimpls():
+        dist, version = getattr(impl.plugin, "__gasp_dist__", (impl.plugin_name, ""))
+        for info in impl.function() or []:
+            if not info.distribution:
+                info = dataclasses.replace(info, distribution=dist, version=version or info.version)
+            if info.name in found:
+                raise error(f"{kind} '{info.name}' is registered twice: by '{found[info.name].distribution}' "
+                            f"and by '{info.distribution}'")
+            found[info.name] = info
+    return dict(sorted(found.items()))
+
+
 def engines(pm: pluggy.PluginManager | None = None) -> dict[str, EngineInfo]:
-    """All registered engines by name.
+    """All registered engines by name (:func:`registered` of ``gasp_engines``).
 
     Raises
     ------
     EngineError
         If two plugins register the same engine name; the message names both distributions.
     """
-    pm = pm or get_plugin_manager()
-    found: dict[str, EngineInfo] = {}
-    for impl in pm.hook.gasp_engines.get_hookimpls():
-        dist, version = getattr(impl.plugin, "__gasp_dist__", (impl.plugin_name, ""))
-        for info in impl.function() or []:
-            if not info.distribution:
-                info = _with(info, distribution=dist, version=version or info.version)
-            if info.name in found:
-                raise EngineError(
-                    f"engine '{info.name}' is registered twice: by '{found[info.name].distribution}' "
-                    f"and by '{info.distribution}'")
-            found[info.name] = info
-    return dict(sorted(found.items()))
+    return registered("gasp_engines", "engine", pm, EngineError)
+
+
+def soup_writers(pm: pluggy.PluginManager | None = None) -> dict[str, SoupWriterInfo]:
+    """All registered extra soup writers by name (:func:`registered` of ``gasp_soup_writers``)."""
+    return registered("gasp_soup_writers", "soup writer", pm)
 
 
 def get_engine(name: str, pm: pluggy.PluginManager | None = None) -> EngineInfo:
@@ -134,8 +193,3 @@ def get_engine(name: str, pm: pluggy.PluginManager | None = None) -> EngineInfo:
     if reason:
         raise EngineError(f"engine '{name}' is installed but cannot run: {reason}")
     return info
-
-
-def _with(info: EngineInfo, **kw) -> EngineInfo:
-    import dataclasses
-    return dataclasses.replace(info, **kw)

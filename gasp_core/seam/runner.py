@@ -13,7 +13,10 @@ from typing import Callable, Iterator
 
 import numpy as np
 
-from gasp_core.seam.engine import EngineDivergence, EngineInfo, PointEngine, SimSetup, build_engine, call_engine
+from gasp_core.errors import EngineDivergence
+from gasp_core.seam.build import build_engine
+from gasp_core.seam.engine import call_engine, EngineInfo, PointEngine
+from gasp_core.seam.setup import SimSetup
 
 
 @dataclass
@@ -110,7 +113,7 @@ def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int,
     Raises
     ------
     SceneError, EngineError
-        From :func:`gasp_core.seam.engine.build_engine` (capabilities, options) or the engine.
+        From :func:`gasp_core.seam.build.build_engine` (capabilities, options) or the engine.
     EngineDivergence
         At the first frame whose state is non-finite or outside the domain, or when the engine
         itself reports a blow-up.

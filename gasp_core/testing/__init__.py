@@ -12,9 +12,9 @@ See ``docs/writing_an_engine.md``.
 from __future__ import annotations
 
 from gasp_core.testing.helpers import G, Check, box_points, check, make_setup, sphere_points, wall_margin
-from gasp_core.testing.kit import (EngineReport, Requires, Scene, SceneResult, Trace, check_engine, evaluate_scene, record,
-                  resolve_engine, run_trace, select_scenes)
-from gasp_core.testing.scenes import SCENES, scene_by_name
+from gasp_core.testing.kit import (EngineReport, evaluate_scene, record, Requires, resolve_engine, run_trace, Scene,
+                                   SceneResult, Trace)
+from gasp_core.testing.scenes import check_engine, SCENES, scene_by_name, select_scenes
 
 __all__ = ["G", "Check", "EngineReport", "Requires", "SCENES", "Scene", "SceneResult", "Trace", "assert_conformance",
            "box_points", "check", "check_engine", "conformance_params", "evaluate_scene", "make_setup",

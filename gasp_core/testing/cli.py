@@ -21,7 +21,7 @@ def add_parser(sub) -> None:
 
 def conform_command(args) -> int:
     """Run :func:`gasp_core.testing.check_engine` and print a table (or JSON); see the module doc."""
-    from gasp_core.testing.kit import check_engine
+    from gasp_core.testing.scenes import check_engine
     scenes = [s.strip() for s in args.scenes.split(",") if s.strip()] if args.scenes else None
     report = check_engine(args.engine, scenes=scenes, include_slow=args.slow)
     if args.json:

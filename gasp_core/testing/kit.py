@@ -17,7 +17,7 @@ from __future__ import annotations
 import dataclasses
 import time
 from dataclasses import dataclass, field
-from typing import Any, Callable, Iterable, Mapping
+from typing import Any, Callable, Mapping
 
 import numpy as np
 
@@ -25,7 +25,7 @@ from gasp_core.seam.engine import Capabilities, EngineInfo, call_engine
 from gasp_core.errors import EngineBug, EngineDivergence, EngineError, GaspError
 from gasp_core.seam.runner import RunStats, run_engine
 from gasp_core.seam.setup import SimSetup
-from gasp_core.testing.helpers import G, Check, box_points, check, make_setup, sphere_points, wall_margin  # noqa: F401 (re-exported)
+from gasp_core.testing.helpers import Check
 
 
 @dataclass(frozen=True)
@@ -278,53 +278,6 @@ def evaluate_scene(info: EngineInfo, scene: Scene, known_failures: Mapping[str, 
     else:
         status = "pass" if passed else ("error" if errored else "fail")
     return SceneResult(info.name, scene.name, status, message, checks, wall)
-
-
-def select_scenes(scenes: Iterable[Scene | str] | None = None, include_slow: bool = False) -> list[Scene]:
-    """Scenes by name or object; default every scene of :data:`gasp_core.testing.SCENES` (no slow ones
-    unless ``include_slow``).
-
-    Raises
-    ------
-    SceneError
-        An unknown scene name (the message lists the known ones).
-    """
-    from gasp_core.testing.scenes import SCENES, scene_by_name
-    if scenes is None:
-        return [s for s in SCENES if include_slow or not s.slow]
-    return [scene_by_name(s) if isinstance(s, str) else s for s in scenes]
-
-
-def check_engine(engine: str | EngineInfo, scenes: Iterable[Scene | str] | None = None,
-                 include_slow: bool = False, known_failures: Mapping[str, str] | None = None) -> EngineReport:
-    """Run every applicable conformance scene on one engine, outside pytest.
-
-    Parameters
-    ----------
-    engine : str or EngineInfo
-        An installed engine's name, or a registration record (a plugin under development passes its own).
-    scenes : iterable of Scene or str, optional
-        Default: all of :data:`gasp_core.testing.SCENES` (without slow ones unless ``include_slow``).
-    include_slow : bool
-    known_failures : mapping, optional
-        ``{scene_name: reason}``; default the engine's own ``EngineInfo.known_failures``.
-
-    Returns
-    -------
-    EngineReport
-        One :class:`SceneResult` per scene: pass / fail / skip (with the missing capability) /
-        xfail / xpass / error, each with its messages and measured figures.
-
-    Raises
-    ------
-    EngineError
-        If ``engine`` is a name that is not installed.
-    SceneError
-        An unknown scene name.
-    """
-    info = resolve_engine(engine)
-    chosen = select_scenes(scenes, include_slow)
-    return EngineReport(info.name, [evaluate_scene(info, s, known_failures) for s in chosen])
 
 
 def record(node, result: SceneResult | str) -> None:

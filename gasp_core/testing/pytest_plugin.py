@@ -71,7 +71,8 @@ def conformance_params(engines: Iterable | None = None, scenes: Iterable | None 
         Default: every scene of :data:`gasp_core.testing.SCENES` (slow ones marked ``slow``).
     """
     from gasp_core.seam.plugins import engines as installed
-    from gasp_core.testing.kit import resolve_engine, select_scenes
+    from gasp_core.testing.kit import resolve_engine
+    from gasp_core.testing.scenes import select_scenes
     infos = list(installed().values()) if engines is None else [resolve_engine(e) for e in engines]
     chosen = select_scenes(scenes, include_slow=True)
     if not infos:

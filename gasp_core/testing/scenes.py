@@ -1,16 +1,21 @@
-"""Every conformance scene, in the order they run: :data:`SCENES` and :func:`scene_by_name`."""
+"""Every conformance scene, in the order they run (:data:`SCENES`, :func:`scene_by_name`), and running them
+(:func:`select_scenes`, :func:`check_engine`)."""
 from __future__ import annotations
 
+from typing import Iterable, Mapping
+
 from gasp_core.errors import SceneError
-from gasp_core.testing.kit import Scene
+from gasp_core.seam.engine import EngineInfo
+from gasp_core.testing.kit import EngineReport, evaluate_scene, resolve_engine, Scene
 from gasp_core.testing.scenes_basic import SCENES_BASIC
 from gasp_core.testing.scenes_colliders import SCENES_COLLIDERS
-from gasp_core.testing.scenes_contract import SCENES_CONTRACT
+from gasp_core.testing.scenes_contract import contract_scenes
 from gasp_core.testing.scenes_mass import SCENES_MASS
 from gasp_core.testing.scenes_materials import SCENES_MATERIALS
 
 #: All scenes: physics with known answers first, then the error contract.
-SCENES: list[Scene] = [*SCENES_BASIC, *SCENES_MATERIALS, *SCENES_COLLIDERS, *SCENES_MASS, *SCENES_CONTRACT]
+SCENES: list[Scene] = [*SCENES_BASIC, *SCENES_MATERIALS, *SCENES_COLLIDERS, *SCENES_MASS]
+SCENES += contract_scenes(lambda: {s.name for s in SCENES})
 
 
 def scene_by_name(name: str) -> Scene:
@@ -25,3 +30,49 @@ def scene_by_name(name: str) -> Scene:
         if s.name == name:
             return s
     raise SceneError(f"unknown conformance scene '{name}'; known: {[s.name for s in SCENES]}")
+
+
+def select_scenes(scenes: Iterable[Scene | str] | None = None, include_slow: bool = False) -> list[Scene]:
+    """Scenes by name or object; default every scene of :data:`gasp_core.testing.SCENES` (no slow ones
+    unless ``include_slow``).
+
+    Raises
+    ------
+    SceneError
+        An unknown scene name (the message lists the known ones).
+    """
+    if scenes is None:
+        return [s for s in SCENES if include_slow or not s.slow]
+    return [scene_by_name(s) if isinstance(s, str) else s for s in scenes]
+
+
+def check_engine(engine: str | EngineInfo, scenes: Iterable[Scene | str] | None = None,
+                 include_slow: bool = False, known_failures: Mapping[str, str] | None = None) -> EngineReport:
+    """Run every applicable conformance scene on one engine, outside pytest.
+
+    Parameters
+    ----------
+    engine : str or EngineInfo
+        An installed engine's name, or a registration record (a plugin under development passes its own).
+    scenes : iterable of Scene or str, optional
+        Default: all of :data:`gasp_core.testing.SCENES` (without slow ones unless ``include_slow``).
+    include_slow : bool
+    known_failures : mapping, optional
+        ``{scene_name: reason}``; default the engine's own ``EngineInfo.known_failures``.
+
+    Returns
+    -------
+    EngineReport
+        One :class:`SceneResult` per scene: pass / fail / skip (with the missing capability) /
+        xfail / xpass / error, each with its messages and measured figures.
+
+    Raises
+    ------
+    EngineError
+        If ``engine`` is a name that is not installed.
+    SceneError
+        An unknown scene name.
+    """
+    info = resolve_engine(engine)
+    chosen = select_scenes(scenes, include_slow)
+    return EngineReport(info.name, [evaluate_scene(info, s, known_failures) for s in chosen])

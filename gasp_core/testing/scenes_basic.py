@@ -15,7 +15,8 @@ import numpy as np
 
 from gasp_core.seam.engine import EngineInfo
 from gasp_core.seam.setup import Boundary, Material, SimSetup
-from gasp_core.testing.kit import G, Check, Requires, Scene, Trace, box_points, check as _check, make_setup as _setup, run_trace, sphere_points
+from gasp_core.testing.helpers import box_points, Check, check as _check, G, make_setup as _setup, sphere_points
+from gasp_core.testing.kit import Requires, run_trace, Scene, Trace
 
 def _kabsch_angle_z(a: np.ndarray, b: np.ndarray) -> float:
     """Rotation angle about z (rad) of the best rigid fit mapping centred ``a`` onto centred ``b``."""

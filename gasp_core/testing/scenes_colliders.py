@@ -23,7 +23,8 @@ import numpy as np
 from gasp_core.colliders.model import ForceField, Motion, SDF_SPACING, box_collider
 from gasp_core.seam.engine import EngineInfo
 from gasp_core.seam.setup import Boundary, Material, SimSetup
-from gasp_core.testing.kit import G, Check, Requires, Scene, Trace, box_points, check as _check, make_setup as _setup
+from gasp_core.testing.helpers import box_points, Check, check as _check, G, make_setup as _setup
+from gasp_core.testing.kit import Requires, Scene, Trace
 
 N_GRID = 32
 DX = 1.0 / N_GRID

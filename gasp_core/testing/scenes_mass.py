@@ -18,10 +18,12 @@ import math
 
 import numpy as np
 
-from gasp_core.seam.engine import EngineInfo, build_engine, call_engine
+from gasp_core.seam.build import build_engine
+from gasp_core.seam.engine import call_engine, EngineInfo
 from gasp_core.seam.passive import setup_mass_properties
 from gasp_core.seam.setup import Material, SimSetup
-from gasp_core.testing.kit import Check, Requires, Scene, box_points
+from gasp_core.testing.helpers import box_points, Check
+from gasp_core.testing.kit import Requires, Scene
 
 #: Relative tolerance on the total mass.
 MASS_TOL = 0.02

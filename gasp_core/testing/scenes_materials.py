@@ -12,7 +12,8 @@ import numpy as np
 
 from gasp_core.seam.engine import EngineInfo
 from gasp_core.seam.setup import Boundary, Material, SimSetup
-from gasp_core.testing.kit import G, Check, Requires, Scene, Trace, box_points, check as _check, make_setup as _setup, wall_margin
+from gasp_core.testing.helpers import box_points, Check, check as _check, G, make_setup as _setup, wall_margin
+from gasp_core.testing.kit import Requires, Scene, Trace
 
 # --- cantilever (Euler-Bernoulli) -----------------------------------------------------------
 CANT_L, CANT_H = 0.5, 0.1  # free length, side of the square section (m)

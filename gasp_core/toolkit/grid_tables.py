@@ -6,7 +6,7 @@ from dataclasses import dataclass
 import numpy as np
 
 
-from gasp_core.colliders.model import COL_META, COL_POSE, FALLOFFS, FORCE_ROW, IMPULSE_ROW, MODE_ROW  # noqa: F401
+from gasp_core.colliders.model import COL_META, COL_POSE, FALLOFFS, FORCE_ROW, IMPULSE_ROW, MODE_ROW
 
 
 # --------------------------------------------------------------------------- grid-engine tables

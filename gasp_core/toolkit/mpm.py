@@ -507,5 +507,3 @@ KNOWN_FAILURES = {"cantilever_offgrid": _CLAMP_OFF_GRID,
                       "contact (a node in the collider stops only while approaching, and carries a few % of the "
                       "block's mass), not the collider's distance field. Stiffer (E = 1e6 Pa) it stands (0.17 dx); "
                       "n_grid 48: 5.6 dx, 64: 0.85 dx (docs/colliders.md)")}
-
-from gasp_core.toolkit.sweep import MPM_SWEEP, MPM_SWEEP_QUICK, dedupe_settings, grid_sweep, mpm_sweep  # noqa: E402,F401

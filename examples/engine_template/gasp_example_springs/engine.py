@@ -21,7 +21,8 @@ import numpy as np
 from scipy import sparse
 from scipy.spatial import cKDTree
 
-from gasp_core.seam.engine import EngineDivergence, SceneError, SimSetup
+from gasp_core.errors import EngineDivergence, SceneError
+from gasp_core.seam.setup import SimSetup
 
 ENGINE = "example_springs"
 

@@ -13,10 +13,11 @@ from __future__ import annotations
 
 import importlib.util
 
-from gasp_core.seam.engine import Capabilities, EngineInfo, SimSetup
-from gasp_core.seam.plugins import hookimpl
+from gasp_core.seam.engine import Capabilities, EngineInfo
+from gasp_core.seam.setup import SimSetup
+from gasp_core.seam.plugins import hookimpl, SoupWriterInfo
 
-__all__ = ["CAPABILITIES", "INSTALL_HINT", "bpy_available", "gasp_engines", "make_engine"]
+__all__ = ["CAPABILITIES", "INSTALL_HINT", "bpy_available", "gasp_engines", "gasp_soup_writers", "make_engine"]
 
 #: Reason given when bpy is missing.
 INSTALL_HINT = "bpy (Blender as a Python module) is not installed: pip install 'gasp-blender[engine]'"
@@ -82,3 +83,14 @@ def gasp_engines():
                      "face- and body-diagonal springs, points carried trilinearly; ground as a "
                      "collision plane; fixed_region as goal-pinned cage vertices."),
     )]
+
+
+def _write_blend(outdir, soups):
+    from .soup import write_blend       # lazily: importing the plugin stays cheap
+    return write_blend(outdir, soups)
+
+
+@hookimpl
+def gasp_soup_writers():
+    return [SoupWriterInfo(name="blend", write=_write_blend,
+                           description="soup.blend: one mesh object per scene object (needs bpy)")]

@@ -20,7 +20,9 @@ from typing import Any
 
 import numpy as np
 
-from gasp_core.seam.engine import EngineDivergence, EngineError, Option, SceneError, SimSetup, check_options
+from gasp_core.errors import EngineDivergence, EngineError, SceneError
+from gasp_core.seam.engine import check_options, Option
+from gasp_core.seam.setup import SimSetup
 
 from .cage import Cage, build_cage, embed, interpolate, lump
 from .sheet import build_sheet, place

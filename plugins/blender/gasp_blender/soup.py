@@ -1,11 +1,11 @@
-"""A ``.blend`` writer for ``gasp export-soup`` (entry point ``blend`` in group ``gasp.soup_writers``)."""
+"""A ``.blend`` writer for ``gasp export-soup`` (``gasp_soup_writers`` hook of :mod:`gasp_blender`, format ``blend``)."""
 from __future__ import annotations
 
 from pathlib import Path
 
 import numpy as np
 
-from gasp_core.seam.engine import EngineError
+from gasp_core.errors import EngineError
 
 from . import bpy_available
 

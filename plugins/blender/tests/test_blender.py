@@ -7,7 +7,8 @@ import json
 import numpy as np
 import pytest
 
-from gasp_core.seam.engine import Boundary, Material, SceneError, SimSetup
+from gasp_core.errors import SceneError
+from gasp_core.seam.setup import Boundary, Material, SimSetup
 from gasp_blender import CAPABILITIES, INSTALL_HINT, bpy_available, make_engine
 from gasp_blender.cage import build_cage, embed, interpolate
 
@@ -55,8 +56,8 @@ def test_bad_options_and_inputs_are_scene_errors():
         make_engine(setup_for(x, vol, options={"substeps": 3}))
     with pytest.raises(SceneError, match="mode"):
         make_engine(setup_for(x, vol, options={"mode": "fluid"}))
-    # capabilities are checked by the core, before the factory (gasp_core.seam.engine.build_engine)
-    from gasp_core.seam.engine import build_engine
+    # capabilities are checked by the core, before the factory (gasp_core.seam.build.build_engine)
+    from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import get_engine
     info = get_engine("blender")
     with pytest.raises(SceneError, match="sand"):
@@ -186,7 +187,7 @@ def test_cloth_free_fall_and_pinned_edge():
 @needs_bpy
 def test_second_engine_takes_the_scene_over():
     """bpy has one scene per process: the first engine refuses to step once a second one is built."""
-    from gasp_core.seam.engine import EngineError
+    from gasp_core.errors import EngineError
     x, vol = block((0.4, 0.4, 0.5), (0.6, 0.6, 0.7), 0.05)
     first = make_engine(setup_for(x, vol))
     second = make_engine(setup_for(x, vol))

@@ -32,8 +32,10 @@ from __future__ import annotations
 
 import importlib.util
 
-from gasp_core.seam.engine import Capabilities, EngineInfo, SimSetup
-from gasp_core.toolkit.mpm import mpm_options, mpm_sweep
+from gasp_core.seam.engine import Capabilities, EngineInfo
+from gasp_core.seam.setup import SimSetup
+from gasp_core.toolkit.mpm import mpm_options
+from gasp_core.toolkit.sweep import mpm_sweep
 from gasp_core.seam.plugins import hookimpl
 
 __all__ = ["BENCH_EXCLUDED", "CAPABILITIES", "ENGINE", "INSTALL_HINT", "OPTIONS", "gasp_engines",

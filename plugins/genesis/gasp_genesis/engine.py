@@ -46,7 +46,8 @@ from typing import Any
 import numpy as np
 
 from gasp_core.toolkit import mpm
-from gasp_core.seam.engine import EngineDivergence, EngineError, Material, SceneError, SimSetup
+from gasp_core.errors import EngineDivergence, EngineError, SceneError
+from gasp_core.seam.setup import Material, SimSetup
 from gasp_core.toolkit.mpm import CAUSE_DOMAIN, CAUSE_DT
 
 from . import ENGINE, INSTALL_HINT, OPTIONS

@@ -13,7 +13,7 @@ import importlib.util
 import itertools
 
 from gasp_core.seam.engine import Capabilities, EngineInfo, Option
-from gasp_core.toolkit.mpm import dedupe_settings
+from gasp_core.toolkit.sweep import dedupe_settings
 from gasp_core.seam.plugins import hookimpl
 
 __all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "gasp_engines", "make_engine", "sweep"]

@@ -31,7 +31,9 @@ import numpy as np
 
 import mujoco
 
-from gasp_core.seam.engine import EngineDivergence, EngineError, SceneError, SimSetup, check_options
+from gasp_core.errors import EngineDivergence, EngineError, SceneError
+from gasp_core.seam.engine import check_options
+from gasp_core.seam.setup import SimSetup
 from gasp_core.toolkit.mpm import fixed_mask, p_wave_speed, substeps_for
 
 from . import ENGINE, OPTIONS
@@ -89,7 +91,7 @@ class MujocoFlexEngine:
     setup : SimSetup
         World frame, metres, z up. ``setup.options`` may hold the options of
         :data:`gasp_mujoco_flex.OPTIONS`. Materials and boundaries are checked against the
-        capabilities by the core (``gasp_core.seam.engine.build_engine``).
+        capabilities by the core (``gasp_core.seam.build.build_engine``).
 
     Raises
     ------

@@ -9,7 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gasp_core.seam.engine import Boundary, EngineDivergence, Material, SceneError, SimSetup
+from gasp_core.errors import EngineDivergence, SceneError
+from gasp_core.seam.setup import Boundary, Material, SimSetup
 
 mujoco = pytest.importorskip("mujoco")
 
@@ -191,7 +192,7 @@ def test_bad_option_values_are_scene_errors(key, value):
 
 
 def test_unsupported_material_is_refused_by_the_core():
-    from gasp_core.seam.engine import build_engine
+    from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import engines
     with pytest.raises(SceneError, match="material 'sand'"):
         build_engine(engines()["mujoco_flex"], make_setup(block_points(), Material("sand")))
@@ -199,7 +200,7 @@ def test_unsupported_material_is_refused_by_the_core():
 
 def test_initial_velocity_gradient_is_not_asked_of_a_non_grid_engine():
     """SimSetup.C is for grid engines; mujoco_flex carries a rotation in the point velocities."""
-    from gasp_core.seam.engine import build_engine
+    from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import engines
     x = block_points()
     w = np.array([0.0, 0.0, np.pi])

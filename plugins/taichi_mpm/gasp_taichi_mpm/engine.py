@@ -12,7 +12,8 @@ from typing import Any
 import numpy as np
 
 from gasp_core.toolkit import mpm
-from gasp_core.seam.engine import EngineDivergence, EngineError, SimSetup
+from gasp_core.errors import EngineDivergence, EngineError
+from gasp_core.seam.setup import SimSetup
 from gasp_core.toolkit.mpm import CAUSE_DOMAIN, CAUSE_DT
 
 from . import ENGINE, OPTIONS
@@ -56,7 +57,7 @@ class TaichiMPMEngine:
     ------
     SceneError
         Unknown or invalid option (the message names it). Materials and boundaries are checked
-        against the capabilities by the core (``gasp_core.seam.engine.build_engine``) before.
+        against the capabilities by the core (``gasp_core.seam.build.build_engine``) before.
     EngineError
         ``device="cuda"`` where Taichi has no CUDA.
 
@@ -131,7 +132,7 @@ class TaichiMPMEngine:
 
     def _extras(self, setup: SimSetup) -> dict[str, Any]:
         """Colliders, forces and impulses for the solver (``gasp_core.colliders.model``); none: nothing."""
-        from gasp_core.colliders.model import frame_table, grid_tables
+        from gasp_core.toolkit.grid_tables import frame_table, grid_tables
         ex = grid_tables(setup)
         if not ex.any:
             return {}

@@ -278,7 +278,7 @@ class MPMSolver:
 
     # ------------------------------------------------------------------ colliders, forces, impulses
     def _setup_extras(self, ex, time_table, np_real, n_substeps) -> None:
-        """Fields of :func:`gasp_core.colliders.model.grid_tables` (``ex``); none when ``ex`` is None or empty."""
+        """Fields of :func:`gasp_core.toolkit.grid_tables.grid_tables` (``ex``); none when ``ex`` is None or empty."""
         self.has_extras = ex is not None and ex.any
         if not self.has_extras:
             return

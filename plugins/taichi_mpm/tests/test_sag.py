@@ -45,7 +45,7 @@ import pytest
 
 pytest.importorskip("taichi")
 
-from gasp_core.run.pipeline import prepare_scene  # noqa: E402
+from gasp_core.prepare.scene import prepare_scene
 from gasp_core.seam.runner import simulate  # noqa: E402
 from gasp_core.scene.spec import load_scene  # noqa: E402
 

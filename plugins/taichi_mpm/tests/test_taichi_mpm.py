@@ -6,7 +6,8 @@ import sys
 import numpy as np
 import pytest
 
-from gasp_core.seam.engine import Boundary, EngineDivergence, EngineError, Material, SceneError, SimSetup
+from gasp_core.errors import EngineDivergence, EngineError, SceneError
+from gasp_core.seam.setup import Boundary, Material, SimSetup
 
 pytest.importorskip("taichi")
 
@@ -226,7 +227,7 @@ def test_options_are_checked_as_declared():
 
 
 def test_material_it_lacks_is_refused_by_the_core_before_taichi_starts():
-    from gasp_core.seam.engine import build_engine
+    from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import engines
     s = block_setup(material=Material("rigid"))
     with pytest.raises(SceneError, match="material 'rigid'"):

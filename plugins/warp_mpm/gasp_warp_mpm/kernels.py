@@ -127,7 +127,7 @@ def build_kernels(Ft):
 
     @wp.struct
     class Extras:
-        # gasp_core.colliders.model.grid_tables / frame_table (docs/colliders.md)
+        # gasp_core.toolkit.grid_tables.grid_tables / frame_table (docs/colliders.md)
         sdf: wp.array(dtype=Ft)
         grad: wp.array(dtype=Ft)
         meta: wp.array(dtype=Ft)

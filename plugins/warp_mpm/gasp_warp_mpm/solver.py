@@ -33,7 +33,8 @@ import numpy as np
 import warp as wp
 
 from gasp_core.toolkit import mpm
-from gasp_core.seam.engine import EngineDivergence, EngineError, SimSetup
+from gasp_core.errors import EngineDivergence, EngineError
+from gasp_core.seam.setup import SimSetup
 from gasp_core.toolkit.mpm import CAUSE_DOMAIN, CAUSE_DT
 
 from . import ENGINE, OPTIONS
@@ -81,7 +82,7 @@ class WarpMPMEngine:
         may hold ``device`` ("cpu" | "cuda" | "cuda:N"), ``precision`` ("f32" | "f64"), ``dt`` (s) or
         ``n_substeps``, ``cfl`` (0.4) and ``threads`` (accepted and ignored: Warp runs CPU
         kernels on one thread, so CPU runs repeat bit for bit). Materials and boundaries are
-        checked against the capabilities by the core (``gasp_core.seam.engine.build_engine``), the
+        checked against the capabilities by the core (``gasp_core.seam.build.build_engine``), the
         material parameters and ``n_grid`` by :class:`SimSetup`.
 
     Raises
@@ -211,8 +212,8 @@ class WarpMPMEngine:
 
     # ------------------------------------------------------------------ colliders, forces, impulses
     def _extras(self, setup: SimSetup, arr, Ft):
-        """``(has_extras, Extras struct)`` from ``gasp_core.colliders.model.grid_tables`` (empty arrays when none)."""
-        from gasp_core.colliders.model import grid_tables
+        """``(has_extras, Extras struct)`` from ``gasp_core.toolkit.grid_tables.grid_tables`` (empty arrays when none)."""
+        from gasp_core.toolkit.grid_tables import grid_tables
         tables = grid_tables(setup)
         ex = self.k.Extras()
         self._ex_tables = tables if tables.any else None
@@ -230,7 +231,7 @@ class WarpMPMEngine:
 
     def _load_frame_table(self) -> None:
         """The time-dependent inputs of this frame's substeps (collider poses, impulse weights)."""
-        from gasp_core.colliders.model import frame_table
+        from gasp_core.toolkit.grid_tables import frame_table
         tab = frame_table(self.setup, (self.frame - 1) * self.setup.frame_dt, self.n_substeps, self.dt).astype(self._np_dtype)
         self._ex.tab.assign(tab)
         self._ex.step.zero_()

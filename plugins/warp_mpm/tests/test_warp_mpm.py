@@ -10,8 +10,8 @@ import sys
 import numpy as np
 import pytest
 
-from gasp_core.seam.engine import (Boundary, EngineDivergence, EngineError, Material, SceneError,
-                              SimSetup)
+from gasp_core.errors import EngineDivergence, EngineError, SceneError
+from gasp_core.seam.setup import Boundary, Material, SimSetup
 
 pytest.importorskip("warp")
 from gasp_warp_mpm.solver import WarpMPMEngine  # noqa: E402
@@ -215,7 +215,7 @@ def test_bad_options():
 
 
 def test_material_it_lacks_is_refused_by_the_core():
-    from gasp_core.seam.engine import build_engine
+    from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import engines
     with pytest.raises(SceneError, match="material 'rigid'"):
         build_engine(engines()["warp_mpm"], make_setup("rigid"))
