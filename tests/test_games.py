@@ -131,3 +131,75 @@ def test_alpha_rule_clamps_only_stretched_edges():
     assert clamped1[2, 1] and out1[2, 2] == pytest.approx(2.0)
     with pytest.raises(ValueError, match="alpha"):
         alpha_rule(rest, moved, s_t, s_rest, alpha=0.0)
+
+
+def _sheared_random_gaussians(n: int, gamma: float, seed: int = 0):
+    """``n`` random flat Gaussians (uniform random rotations, in-plane scales 0.5-2, s2 >= s3) as
+    rest triangles, and the same triangles under simple shear ``x += gamma y``."""
+    rng = np.random.default_rng(seed)
+    q = rng.normal(size=(n, 4))
+    rot = quat_to_rotmat(q / np.linalg.norm(q, axis=1, keepdims=True))
+    s = np.sort(rng.uniform(0.5, 2.0, size=(n, 2)), axis=1)[:, ::-1]
+    scales = np.column_stack([np.full(n, EPS), s])
+    means = rng.normal(size=(n, 3))
+    rest = gaussians_to_triangles(means, rot, scales)
+    F = np.eye(3)
+    F[0, 1] = gamma
+    return rest, rest @ F.T
+
+
+def _alpha_rule_faults(rule, gamma: float, alpha: float = 1.5) -> list[str]:
+    """What is wrong with control rule ``rule`` (signature of :func:`alpha_rule`) on 20k random
+    Gaussians under simple shear ``gamma``: an empty list when it only ever shrinks (no scale above
+    what T^-1 gives), bounds every triggered scale by alpha s_rest, and leaves untriggered scales alone."""
+    rest, moved = _sheared_random_gaussians(20_000, gamma)
+    _, _, s_rest, _ = triangles_to_gaussians(rest)
+    _, _, s_t, _ = triangles_to_gaussians(moved)
+    out, _ = rule(rest, moved, s_t, s_rest, alpha)
+    d_t = np.linalg.norm(moved[:, 1:] - moved[:, :1], axis=2)
+    d_0 = np.linalg.norm(rest[:, 1:] - rest[:, :1], axis=2)
+    triggered = d_t > alpha * d_0
+    faults = []
+    grown = np.any(out[:, 1:] > s_t[:, 1:] * (1 + 1e-12), axis=1)
+    if grown.any():
+        faults.append(f"gamma {gamma}: {grown.mean():.1%} of Gaussians enlarged, largest factor "
+                      f"x{(out[:, 1:] / s_t[:, 1:]).max():.2f}")
+    if not triggered.any():
+        faults.append(f"gamma {gamma}: the rule never triggers (the test shears too little)")
+    if np.any(out[:, 1:][triggered] > alpha * s_rest[:, 1:][triggered] * (1 + 1e-12)):
+        faults.append(f"gamma {gamma}: a triggered scale above alpha s_rest")
+    if not np.array_equal(out[:, 1:][~triggered], s_t[:, 1:][~triggered]):
+        faults.append(f"gamma {gamma}: an untriggered scale changed")
+    return faults
+
+
+@pytest.mark.parametrize("gamma", [1.0, 2.0, 3.0])
+def test_alpha_rule_never_enlarges_under_shear(gamma):
+    """The control rule only shrinks: under simple shear (gamma 1, 2, 3) on 20k random Gaussians at
+    alpha 1.5 no scale ends above what T^-1 of the sheared triangle gives, every triggered scale is
+    at most alpha times its rest value, and untriggered scales are left as T^-1 gives them; ``clamped``
+    marks exactly the scales it made smaller.
+
+    Before the fix (the rule *set* s_i = alpha s_i_rest) 4.7 %, 24.6 % and 36.2 % of the Gaussians grew,
+    by up to x1.29, x2.84 and x4.39 (issue 17, item 2)."""
+    assert _alpha_rule_faults(alpha_rule, gamma) == []
+    rest, moved = _sheared_random_gaussians(20_000, gamma)
+    _, _, s_rest, _ = triangles_to_gaussians(rest)
+    _, _, s_t, _ = triangles_to_gaussians(moved)
+    out, clamped = alpha_rule(rest, moved, s_t, s_rest, alpha=1.5)
+    assert np.array_equal(clamped, out[:, 1:] < s_t[:, 1:])
+
+
+def test_enlarging_control_rule_is_caught():
+    """The check above fails on a control rule that enlarges: the rule before issue 17, which set
+    s_i = alpha s_i_rest wherever the edge stretched past alpha."""
+    def enlarging(tri_rest, tri_t, scales_t, scales_rest, alpha):
+        d_t = np.linalg.norm(tri_t[:, 1:] - tri_t[:, :1], axis=2)
+        d_0 = np.linalg.norm(tri_rest[:, 1:] - tri_rest[:, :1], axis=2)
+        hit = d_t > alpha * d_0
+        out = np.array(scales_t, dtype=np.float64)
+        out[:, 1:] = np.where(hit, alpha * scales_rest[:, 1:], out[:, 1:])
+        return out, hit
+
+    faults = [f for g in (1.0, 2.0, 3.0) for f in _alpha_rule_faults(enlarging, g)]
+    assert len(faults) == 3 and all("enlarged" in f for f in faults), faults

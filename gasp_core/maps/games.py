@@ -212,8 +212,10 @@ def alpha_rule(tri_rest: np.ndarray, tri_t: np.ndarray, scales_t: np.ndarray,
                scales_rest: np.ndarray, alpha: float) -> tuple[np.ndarray, np.ndarray]:
     """The paper's control rule on Gaussian size.
 
-    Where ``|phi(v1) - phi(vi)| > alpha |v1 - vi|`` (i = 2, 3), the scale ``s_i`` becomes
-    ``alpha`` times its rest value.
+    Where ``|phi(v1) - phi(vi)| > alpha |v1 - vi|`` (i = 2, 3), the scale ``s_i`` is limited to
+    ``alpha`` times its rest value: ``s_i = min(s_i, alpha s_i_rest)``. The rule only ever shrinks
+    a scale; under shear ``s3`` from ``T^-1`` (the height of the triangle) can be far below the
+    stretched edge, and setting it to ``alpha s3_rest`` would enlarge it (issue 17).
 
     Parameters
     ----------
@@ -229,7 +231,8 @@ def alpha_rule(tri_rest: np.ndarray, tri_t: np.ndarray, scales_t: np.ndarray,
     scales : ndarray, shape (n, 3), float64
         Clamped copy of ``scales_t``.
     clamped : ndarray, shape (n, 2), bool
-        Which of s2, s3 were clamped.
+        Which of s2, s3 the rule made smaller (edge over ``alpha`` and scale over
+        ``alpha s_rest``).
 
     Raises
     ------
@@ -238,13 +241,16 @@ def alpha_rule(tri_rest: np.ndarray, tri_t: np.ndarray, scales_t: np.ndarray,
 
     Notes
     -----
-    GASP paper Eq. (alpha_rule); Table 4 ablates alpha = 1 (best FID) to 5 and no rule.
+    GASP paper Eq. (alpha_rule); Table 4 ablates alpha = 1 (best FID) to 5 and no rule. The paper
+    says ``s_i`` "should be identical to" ``alpha s_i_rest``; it is a rule against oversized
+    Gaussians, so a scale already below that bound is kept.
     """
     if not alpha > 0:
         raise ValueError(f"alpha_rule: alpha must be > 0, got {alpha}")
     d_t = np.linalg.norm(tri_t[:, 1:] - tri_t[:, :1], axis=2)          # (n, 2)
     d_0 = np.linalg.norm(tri_rest[:, 1:] - tri_rest[:, :1], axis=2)
-    clamped = d_t > alpha * d_0
     out = np.array(scales_t, dtype=np.float64, copy=True)
-    out[:, 1:] = np.where(clamped, alpha * np.asarray(scales_rest)[:, 1:], out[:, 1:])
+    bound = alpha * np.asarray(scales_rest, dtype=np.float64)[:, 1:]
+    clamped = (d_t > alpha * d_0) & (out[:, 1:] > bound)
+    out[:, 1:] = np.where(clamped, bound, out[:, 1:])
     return out, clamped

@@ -222,7 +222,8 @@ class PointEngine(Protocol):
         Current point velocities, m/s.
     stats() -> dict
         At least ``device``, ``precision``, ``n_points``; grid engines add ``dt``, ``n_substeps``
-        (per frame), ``n_grid``.
+        (per frame), ``n_grid``. ``n_substeps`` (fixed per run) is the ``N`` of the ``free_fall``
+        scene's exact semi-implicit Euler answer (:mod:`gasp_core.testing.scenes_freefall`).
     close()
         Free engine resources.
     get_state() -> dict of ndarray, set_state(state)

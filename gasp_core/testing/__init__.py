@@ -4,7 +4,7 @@
   ``gasp conform ENGINE`` does the same from the command line.
 - :mod:`gasp_core.testing.pytest_plugin` (loaded automatically through the ``pytest11`` entry point)
   gives :func:`parametrize_conformance` / :func:`assert_conformance` and the result table.
-- Scenes: :data:`SCENES` (physics with known answers in :mod:`.scenes_basic` and
+- Scenes: :data:`SCENES` (physics with known answers in :mod:`.scenes_freefall`, :mod:`.scenes_basic` and
   :mod:`.scenes_materials`, the error contract in :mod:`.scenes_contract`).
 
 See ``docs/writing_an_engine.md``.

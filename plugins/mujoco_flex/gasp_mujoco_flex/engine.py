@@ -310,7 +310,8 @@ class MujocoFlexEngine:
 
     # ------------------------------------------------------------------ stepping
     def step_frame(self) -> None:
-        """Advance by ``frame_dt``: ``n_substeps`` calls of ``mj_step``.
+        """Advance by ``frame_dt``: ``n_substeps`` calls of ``mj_step``, then ``mj_fwdKinematics`` so that
+        positions (``flexvert_xpos``, ``xpos``, ``xmat``) belong to the final ``qpos``, as velocities do.
 
         Raises
         ------
@@ -346,6 +347,10 @@ class MujocoFlexEngine:
         if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
             raise EngineDivergence("non-finite MuJoCo state", self.frame,
                                    cause=f"time step too large (dt = {self.dt:.3g} s)")
+        # mj_step computes xpos / xmat / flexvert_xpos from qpos *before* it integrates, so after
+        # the loop they are one substep old while qvel is current; recompute them from the new qpos
+        # (kinematics, comPos, flex, tendon; no collision or dynamics, so the next mj_step is unchanged)
+        mujoco.mj_fwdKinematics(m, d)
         self._check_lattice()
         x = self.positions()
         s = self.setup

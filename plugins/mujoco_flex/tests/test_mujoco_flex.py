@@ -123,6 +123,22 @@ def test_free_fall_of_elastic_block():
     np.testing.assert_allclose(e.velocities()[:, 2].mean(), -G * t, rtol=0.01)
 
 
+@pytest.mark.parametrize("material", [JELLY, Material("rigid", rho=500)], ids=["flex", "rigid"])
+def test_positions_are_current_after_every_frame(material):
+    """After ``step_frame`` positions belong to the same state as the velocities: frame k's drop is
+    exactly what MuJoCo's semi-implicit Euler gives, g (kT)^2/2 (1 + 1/(kN)) (the sum of n g dt^2 over
+    the kN substeps). Before the fix they were one substep late (xpos / flexvert_xpos are computed
+    before mj_step integrates): -1/N against g T^2/2, -2/N against this (issue 17, item 3)."""
+    x = block_points(z0=0.5)
+    e = make_engine(make_setup(x, material))
+    n, dt = e.stats()["n_substeps"], e.stats()["dt"]
+    for k in (1, 2):
+        e.step_frame()
+        drop = x[:, 2].mean() - e.positions()[:, 2].mean()
+        assert drop == pytest.approx(G * dt ** 2 * (k * n) * (k * n + 1) / 2, rel=1e-9), (k, n)
+        np.testing.assert_allclose(e.velocities()[:, 2], -G * k * n * dt, rtol=1e-9)
+
+
 def test_elastic_block_settles_on_ground():
     x = block_points(z0=0.15)
     e = make_engine(make_setup(x, JELLY, [Boundary("ground", height=0.0, friction=0.5)]))
