@@ -47,11 +47,23 @@ class HookSpec:
 
     @hookspec
     def gasp_renderers(self) -> list:
-        """Return the renderers this plugin provides (``gasp_core.render.registry.RendererInfo``)."""
+        """Return the renderers this plugin provides.
+
+        Returns
+        -------
+        list of gasp_core.render.info.RendererInfo
+            Each with a unique ``name``; ``distribution`` and ``version`` are filled as for engines.
+        """
 
     @hookspec
     def gasp_soup_writers(self) -> list:
-        """Return the extra triangle-soup writers this plugin provides (:class:`SoupWriterInfo`)."""
+        """Return the extra triangle-soup writers this plugin provides (``gasp export-soup``).
+
+        Returns
+        -------
+        list of SoupWriterInfo
+            Each with a unique ``name`` (the format); ``distribution`` and ``version`` are filled as for engines.
+        """
 
 
 @dataclasses.dataclass(frozen=True)
