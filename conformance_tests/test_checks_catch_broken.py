@@ -32,6 +32,7 @@ CONTRACT_SCREEN = {
     "bad_option_default": "contract_declarations",
     "undeclared_deterministic_option": "contract_declarations",
     "known_failure_typo": "contract_declarations",
+    "friction_pushes": "rest_on_ground",
 }
 
 
@@ -71,7 +72,17 @@ class _Broken:
             x = x - np.asarray(self.inner.velocities(), dtype=np.float64) * (self.setup.frame_dt / st["n_substeps"])
         elif self.kind == "nondeterministic":  # unseeded rounding-level noise, as from racing atomics
             x = x + np.random.default_rng().normal(scale=1e-9, size=x.shape)
+        elif self.kind == "friction_pushes":  # the ground carries what touches it along +x at 1% dx / frame
+            x[self._contact(x), 0] += 0.01 * self.setup.dx * self.frame
         return x
+
+    def _contact(self, x):
+        """Points within one cell above a ground (none without one)."""
+        near = np.zeros(len(x), dtype=bool)
+        for b in self.setup.boundaries:
+            if b.kind == "ground":
+                near |= x[:, 2] - b.height < self.setup.dx
+        return near
 
     def velocities(self):
         v = np.array(self.inner.velocities(), dtype=np.float64)
@@ -79,6 +90,9 @@ class _Broken:
             v = v * 1.1 ** self.frame
         elif self.kind == "reordered":
             v = v[self.perm]
+        elif self.kind == "friction_pushes":
+            v[self._contact(np.asarray(self.inner.positions(), dtype=np.float64)), 0] += (
+                0.01 * self.setup.dx / self.setup.frame_dt)
         return v
 
     def stats(self):

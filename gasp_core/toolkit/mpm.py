@@ -358,6 +358,33 @@ def initial_Jp(materials: Sequence[Material], body_id: np.ndarray) -> np.ndarray
     return start[np.asarray(body_id)]
 
 
+#: Cells: a boundary plane within this of a node layer passes through it (ties are exact ties).
+NODE_TIE = 1e-9
+
+
+def ground_top_node(height: float, domain_lo_z: float, dx: float) -> int:
+    """The highest node layer of a ``ground``: nodes with ``k <= ground_top_node(...)`` are ground nodes.
+
+    The test ``X_z <= height`` of docs/mpm.md, decided once in float64 on the node index, so that
+    the node lying on the plane is a ground node in every engine and at every precision. (Decided
+    per node in float32, ``lo + k dx`` lands a few 1e-9 m above or below the plane by rounding, and
+    the ground moves by a whole cell: the body then sinks one cell deeper and rocks.)
+
+    Parameters
+    ----------
+    height, domain_lo_z : float
+        Ground height and the grid origin's z, metres.
+    dx : float
+        Cell size, metres.
+
+    Returns
+    -------
+    int
+        ``floor((height - domain_lo_z) / dx + NODE_TIE)``; negative when the ground is below the grid.
+    """
+    return int(math.floor((float(height) - float(domain_lo_z)) / float(dx) + NODE_TIE))
+
+
 # --------------------------------------------------------------------------- points
 def fixed_mask(x: np.ndarray, boundaries: Iterable[Boundary]) -> np.ndarray:
     """Points held still: those inside the box ``[lo, hi]`` (closed) of any ``fixed_region``.

@@ -60,7 +60,7 @@ def node_ranges(setup, dx: float):
             hi_first = tuple(int(math.floor(r[d] + _TIE)) + 1 for d in range(3))
             walls.append((float(b.friction), (3, 3, 3), hi_first))
         elif b.kind == "ground":
-            grounds.append((float(b.friction), int(math.floor((b.height - lo[2]) / dx + _TIE))))
+            grounds.append((float(b.friction), mpm.ground_top_node(b.height, lo[2], dx)))
         elif b.kind == "fixed_region":
             a = (np.asarray(b.lo, float) - lo) / dx
             c = (np.asarray(b.hi, float) - lo) / dx

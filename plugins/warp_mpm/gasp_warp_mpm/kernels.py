@@ -363,8 +363,8 @@ def build_kernels(Ft):
         fixed_lo: wp.array(dtype=vec3), fixed_hi: wp.array(dtype=vec3),
         has_extras: int, ex: Extras,
     ):
-        # ground[g] = (height, friction, unused); grid_m (node mass, for passive points) has
-        # one entry per node when the setup has passive points, else one unused entry
+        # ground[g] = (top node layer k_max as a float, friction, unused); grid_m (node mass, for
+        # passive points) has one entry per node when the setup has passive points, else one unused entry
         node = wp.tid()
         g = grid_mv[node]
         m = g[3]
@@ -392,7 +392,7 @@ def build_kernels(Ft):
                         vel = collide(vel, n, mu_b)
             for q in range(ground.shape[0]):
                 gr = ground[q]
-                if X[2] <= gr[0]:
+                if Ft(k) <= gr[0]:  # node layer k at or below the ground's top layer (exact small integers)
                     vel = collide(vel, vec3(Ft(0.0), Ft(0.0), Ft(1.0)), gr[1])
             for r in range(fixed_lo.shape[0]):
                 flo = fixed_lo[r]

@@ -134,7 +134,8 @@ class WarpMPMEngine:
                 fixed_lo.append(np.asarray(bd.lo, float))
                 fixed_hi.append(np.asarray(bd.hi, float))
             elif bd.kind == "ground":
-                ground.append((bd.height, bd.friction, 0.0))
+                # the ground's top node layer, decided in float64 (gasp_core.toolkit.mpm.ground_top_node)
+                ground.append((float(mpm.ground_top_node(bd.height, lo[2], self.dx)), bd.friction, 0.0))
             else:
                 wall_mu.append(bd.friction)
 
