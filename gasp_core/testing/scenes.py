@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from ..errors import SceneError
 from .kit import Scene
+from .scenes_analytic import SCENES_ANALYTIC
 from .scenes_basic import SCENES_BASIC
 from .scenes_colliders import SCENES_COLLIDERS
 from .scenes_contract import SCENES_CONTRACT
@@ -10,7 +11,8 @@ from .scenes_mass import SCENES_MASS
 from .scenes_materials import SCENES_MATERIALS
 
 #: All scenes: physics with known answers first, then the error contract.
-SCENES: list[Scene] = [*SCENES_BASIC, *SCENES_MATERIALS, *SCENES_COLLIDERS, *SCENES_MASS, *SCENES_CONTRACT]
+SCENES: list[Scene] = [*SCENES_BASIC, *SCENES_MATERIALS, *SCENES_COLLIDERS, *SCENES_MASS, *SCENES_ANALYTIC,
+                      *SCENES_CONTRACT]
 
 
 def scene_by_name(name: str) -> Scene:
