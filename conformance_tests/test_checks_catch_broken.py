@@ -38,6 +38,8 @@ ANALYTIC_ALSO = {"inelastic_bounce": ("bounce",)}
 #: screened with that scene alone.
 ANALYTIC_SCREEN = {
     "inelastic_bounce": "bounce_hertz",
+    "friction_high": "incline_slide",
+    "softer_E": "cantilever",
 }
 
 
@@ -117,6 +119,12 @@ def broken_engine(info, kind: str):
     def factory(setup):
         if kind == "no_gravity":  # the engine ignores gravity
             return info.factory(setup.replace(gravity=np.zeros(3)))
+        if kind == "friction_high":  # collider friction 10 % too high (incline: a 7.5 % low)
+            cols = [dataclasses.replace(c, friction=1.1 * c.friction) for c in (setup.colliders or [])]
+            return info.factory(setup.replace(colliders=cols))
+        if kind == "softer_E":  # Young's modulus 10 % low: wave speed -5 %, sag and deflection +11 %
+            mats = [dataclasses.replace(m, E=0.9 * m.E) for m in setup.materials]
+            return info.factory(setup.replace(materials=mats))
         if kind == "crash_outside_domain" and ((setup.x < setup.domain_lo) | (setup.x > setup.domain_hi)).any():
             raise IndexError("index 19 is out of bounds for axis 0 with size 19")  # a grid lookup
         if kind == "refuses_declared" and len(setup.materials) > 1:  # declares what it cannot do

@@ -26,7 +26,7 @@ from ..engine import EngineInfo
 from ..setup import Boundary, Material, SimSetup
 from .kit import G, Check, Requires, Scene, Trace, box_points, check as _check, make_setup as _setup, sphere_points
 
-__all__ = ["SCENES_ANALYTIC", "hertz_contact", "HERTZ_FORCE_FRAC"]
+__all__ = ["SCENES_ANALYTIC", "hertz_contact", "HERTZ_FORCE_FRAC", "timoshenko_cantilever"]
 
 
 def _band(name: str, value: float, lo: float, hi: float, what: str, **figures) -> Check:
@@ -34,6 +34,51 @@ def _band(name: str, value: float, lo: float, hi: float, what: str, **figures) -
     ok = bool(np.isfinite(value) and lo <= value <= hi)
     return Check(name, ok, f"{what} = {value:.4g} (band [{lo:.4g}, {hi:.4g}])",
                  {"value": float(value), "lo": float(lo), "hi": float(hi), **{k: float(v) for k, v in figures.items()}})
+
+
+def timoshenko_cantilever(E: float, nu: float, rho: float, L: float, h: float, g: float = G,
+                          n_el: int = 200) -> tuple[float, float]:
+    """Static tip deflection under self-weight and first bending frequency of a clamped-free bar of
+    square section ``h x h``, Timoshenko beam theory (shear deformation and rotary inertia).
+
+    Finite elements with linear ``w``, ``theta`` and one-point shear integration (free of shear
+    locking, converged to < 0.1 % at 200 elements), shear coefficient ``kappa = 10 (1 + nu) /
+    (12 + 11 nu)`` for a rectangle (Cowper 1966, J. Appl. Mech. 33:335). At ``h / L -> 0`` it gives
+    Euler-Bernoulli: ``q L^4 / (8 E I)`` and ``f1 = 1.8751^2 / (2 pi) sqrt(E I / (rho A L^4))``.
+
+    Returns
+    -------
+    deflection : float
+        Tip deflection, m.
+    f1 : float
+        First bending frequency, Hz.
+    """
+    A, I = h * h, h ** 4 / 12.0
+    Gs = E / (2.0 * (1.0 + nu))
+    kappa = 10.0 * (1.0 + nu) / (12.0 + 11.0 * nu)
+    le = L / n_el
+    n = 2 * (n_el + 1)                                   # dofs (w_i, theta_i)
+    K = np.zeros((n, n))
+    M = np.zeros((n, n))
+    kb = E * I / le * np.array([[0, 0, 0, 0], [0, 1, 0, -1], [0, 0, 0, 0], [0, -1, 0, 1]], float)
+    b = np.array([-1.0 / le, -0.5, 1.0 / le, -0.5])     # shear strain w' - theta at the midpoint
+    ks = kappa * Gs * A * le * np.outer(b, b)
+    mw = rho * A * le / 6.0 * np.array([[2, 0, 1, 0], [0, 0, 0, 0], [1, 0, 2, 0], [0, 0, 0, 0]], float)
+    mt = rho * I * le / 6.0 * np.array([[0, 0, 0, 0], [0, 2, 0, 1], [0, 0, 0, 0], [0, 1, 0, 2]], float)
+    f = np.zeros(n)
+    for e in range(n_el):
+        d = slice(2 * e, 2 * e + 4)
+        K[d, d] += kb + ks
+        M[d, d] += mw + mt
+        f[2 * e] += 0.5 * rho * g * A * le
+        f[2 * e + 2] += 0.5 * rho * g * A * le
+    free = slice(2, n)                                   # node 0 clamped
+    Kf, Mf = K[free, free], M[free, free]
+    w = np.linalg.solve(Kf, f[free])
+    Lc = np.linalg.cholesky(Mf)
+    Li = np.linalg.inv(Lc)
+    lam = np.linalg.eigvalsh(Li @ Kf @ Li.T)
+    return float(w[-2]), float(math.sqrt(lam[0]) / (2 * math.pi))
 
 
 # --------------------------------------------------------------------------------------------
