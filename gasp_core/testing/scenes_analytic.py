@@ -228,9 +228,162 @@ def _eval_bounce(info: EngineInfo, tr: Trace) -> list[Check]:
                    measured=dur, expected=hz["t_above"], signed=rel)]
 
 
+# --------------------------------------------------------------------------------------------
+# Self-weight sag of a column
+# --------------------------------------------------------------------------------------------
+SAG_NGRID = 32
+SAG_SIDE, SAG_H = 0.125, 0.25          # square column 4 x 4 x 8 dx, m
+SAG_MAT = Material("jelly", E=1.2e5, nu=0.3, rho=1000.0)   # rho g H / E = 2 % strain at the base
+SAG_FRAME_DT = 0.01
+SAG_T = 0.6                            # ~6.6 periods of the first axial mode (quarter wave, ~11 Hz)
+#: Relative error on the shortening (two-sided). Measured +1.7 % on taichi_mpm / warp_mpm (n_grid 32),
+#: +8.1 % on mujoco_flex (declared known failure). 5 % as the issue asks (3x the MPM error); E 10 %
+#: off moves the sag by 11 %.
+SAG_TOL = 0.05
+
+
+def sag_shortening(z_b: float, z_t: float, H: float, rho: float, E: float, g: float = G) -> float:
+    """Shortening (m) between heights ``z_b < z_t`` (above the base) of a column of height ``H``
+    under its own weight in uniaxial stress: ``sigma_zz = rho g (H - z)``, so
+    ``delta = rho g ((H - z_b)^2 - (H - z_t)^2) / (2 E)``; ``rho g H^2 / (2 E)`` from base to top.
+
+    Exact in linear elasticity for a column on a frictionless base with free sides (the lateral
+    stresses vanish, so it does not depend on ``nu``); a base that holds the column laterally
+    confines it there and shortens it less (fully confined: by ``(1 + nu)(1 - 2 nu) / (1 - nu)``,
+    0.74 at ``nu = 0.3``).
+    """
+    return rho * g * ((H - z_b) ** 2 - (H - z_t) ** 2) / (2.0 * E)
+
+
+def _build_sag(info: EngineInfo) -> SimSetup:
+    dx = 1.0 / SAG_NGRID
+    ground = 3 * dx
+    c = 0.5
+    x, p_vol = box_points((c - SAG_SIDE / 2, c - SAG_SIDE / 2, ground), (c + SAG_SIDE / 2, c + SAG_SIDE / 2,
+                                                                      ground + SAG_H), dx / 2)
+    return _setup(x, p_vol, SAG_MAT, n_grid=SAG_NGRID, frame_dt=SAG_FRAME_DT,
+                  boundaries=[Boundary("ground", height=ground, friction=0.0)])
+
+
+def _fit_mean(t: np.ndarray, y: np.ndarray, f_lo: float, f_hi: float) -> tuple[float, float]:
+    """``(a, f)`` of the least-squares fit ``a + b cos(2 pi f t) + c sin(2 pi f t)``, f searched on a
+    log grid in ``[f_lo, f_hi]``: the level a signal oscillates about, and its frequency (Hz)."""
+    best = (np.inf, float("nan"), float("nan"))
+    for f in np.exp(np.linspace(math.log(f_lo), math.log(f_hi), 1500)):
+        A = np.stack([np.ones_like(t), np.cos(2 * math.pi * f * t), np.sin(2 * math.pi * f * t)], axis=1)
+        coef = np.linalg.lstsq(A, y, rcond=None)[0]
+        r = float(np.sum((A @ coef - y) ** 2))
+        if r < best[0]:
+            best = (r, float(coef[0]), float(f))
+    return best[1], best[2]
+
+
+def _eval_sag(info: EngineInfo, tr: Trace) -> list[Check]:
+    z0 = tr.x[0, :, 2]
+    top = z0 > z0.max() - 1e-9
+    bot = z0 < z0.min() + 1e-9
+    length = tr.x[:, top, 2].mean(axis=1) - tr.x[:, bot, 2].mean(axis=1)   # bottom to top point layer
+    short = length[0] - length
+    mat = tr.setup.materials[0]
+    ground = 3.0 / SAG_NGRID
+    zb, zt = float(z0[bot].mean() - ground), float(z0[top].mean() - ground)
+    expected = sag_shortening(zb, zt, SAG_H, mat.rho, mat.E)
+    c_bar = math.sqrt(mat.E / mat.rho)
+    f_ref = c_bar / (4 * SAG_H)
+    level, f = _fit_mean(tr.t[1:], short[1:], 0.5 * f_ref, 2.0 * f_ref)
+    rel = (level - expected) / expected
+    return [_check("sag", abs(rel), SAG_TOL,
+                   f"|shortening - rho g (H^2 - ...)/(2E)| / expected, bottom to top point layer, level the "
+                   f"axial oscillation is about (measured {level * 1e3:.4f} mm, expected {expected * 1e3:.4f} mm; "
+                   f"rho g H^2/(2E) = {sag_shortening(0, SAG_H, SAG_H, mat.rho, mat.E) * 1e3:.4f} mm; oscillation "
+                   f"{f:.1f} Hz, quarter wave c/(4H) {f_ref:.1f} Hz; signed {rel:+.4f})",
+                   measured=level, expected=expected, signed=rel)]
+
+
+# --------------------------------------------------------------------------------------------
+# Bar wave speed
+# --------------------------------------------------------------------------------------------
+WAVE_NGRID = 32
+WAVE_MAT = Material("jelly", E=1e5, nu=0.3, rho=1000.0)    # c = sqrt(E / rho) = 10 m/s
+WAVE_V0 = 0.2                           # m/s: strain v0 / (2 c) = 1 %
+WAVE_X = (0.05, 0.95)                   # bar ends, m
+WAVE_SPLIT = 0.35                       # [0.05, 0.35] moves at v0, [0.35, 0.95] rests
+WAVE_STATIONS = (0.45, 0.75)            # where the front's arrival is timed, m
+WAVE_SIDE = 2.0 / WAVE_NGRID            # section 2 x 2 dx: width / path = 0.2, long-wave limit
+WAVE_FRAME_DT = 1e-3
+WAVE_T = 0.055
+#: Relative error on c (two-sided). Measured +0.43 % on taichi_mpm / warp_mpm (+0.78 % at cfl 0.1,
+#: +0.12 % at nu = 0), -6.2 % on mujoco_flex (declared known failure). 1.5 %, about 3x the MPM error (the issue
+#: asks for 3 %): E 10 % off moves c by 5 %.
+WAVE_TOL = 0.015
+
+
+def _build_wave(info: EngineInfo) -> SimSetup:
+    dx = 1.0 / WAVE_NGRID
+    h = WAVE_SIDE / 2
+    x, p_vol = box_points((WAVE_X[0], 0.5 - h, 0.5 - h), (WAVE_X[1], 0.5 + h, 0.5 + h), dx / 2)
+    v = np.zeros_like(x)
+    v[x[:, 0] < WAVE_SPLIT, 0] = WAVE_V0
+    return _setup(x, p_vol, WAVE_MAT, v=v, gravity=(0.0, 0.0, 0.0), n_grid=WAVE_NGRID, frame_dt=WAVE_FRAME_DT)
+
+
+def _front_speed(tr: Trace) -> float:
+    """Speed (m/s) of the step front between the two stations, timed where the resting part's velocity
+    reaches half the step (v0 / 4); NaN when the front does not reach a station."""
+    dx = tr.setup.dx
+    x0 = tr.x[0, :, 0]
+    times = []
+    for xs in WAVE_STATIONS:
+        u = tr.v[:, np.abs(x0 - xs) < 0.3 * dx, 0].mean(axis=1)
+        k = np.nonzero(u > 0.25 * WAVE_V0)[0]
+        if len(k) == 0 or k[0] == 0:
+            return float("nan")
+        i = int(k[0])
+        times.append(tr.t[i - 1] + (0.25 * WAVE_V0 - u[i - 1]) / (u[i] - u[i - 1]) * (tr.t[i] - tr.t[i - 1]))
+    return (WAVE_STATIONS[1] - WAVE_STATIONS[0]) / (times[1] - times[0])
+
+
+def _eval_wave(info: EngineInfo, tr: Trace) -> list[Check]:
+    """c from the momentum the compression front carries into the resting part.
+
+    Across the front, momentum balance (Rankine-Hugoniot) gives ``[sigma] = rho c [v]``; the front
+    lifts the resting part to ``v0 / 2`` at the stress ``rho c v0 / 2``, so that part's momentum grows
+    as ``P(t) = (M / L) c (v0 / 2) t`` until the front reaches its far end. The slope of ``P(t)`` (fitted
+    over 5-50 ms) gives c at long wavelengths, where a thin bar's c is ``sqrt(E / rho)``.
+
+    The front's own arrival (half its height, or a pulse's peak) travels at the group velocity of the
+    discretisation, which the grid's dispersion lowers: measured -6.1 % on MPM at n_grid 32 (-5.6 % at
+    nu = 0, -3.0 % at n_grid 64 with a smooth pulse), -6.4 % on mujoco_flex. It is reported, not checked.
+    """
+    x0 = tr.x[0, :, 0]
+    right = x0 > WAVE_SPLIT
+    m = tr.p_mass
+    P = tr.v[:, right, 0] @ m[right]
+    m_line = float(m.sum()) / (WAVE_X[1] - WAVE_X[0])
+    sel = (tr.t > 0.005) & (tr.t < 0.05)
+    c = 2.0 * float(np.polyfit(tr.t[sel], P[sel], 1)[0]) / (m_line * WAVE_V0)
+    mat = tr.setup.materials[0]
+    c0 = math.sqrt(mat.E / mat.rho)
+    lam_2mu = mat.E * (1 - mat.nu) / ((1 + mat.nu) * (1 - 2 * mat.nu))
+    rel = (c - c0) / c0
+    cf = _front_speed(tr)
+    return [_check("wave_speed", abs(rel), WAVE_TOL,
+                   f"|c - sqrt(E/rho)| / sqrt(E/rho), c = 2 (dP/dt) / ((M/L) v0) from the momentum the front "
+                   f"carries into the resting part (c {c:.3f} m/s, sqrt(E/rho) {c0:.3f} m/s, P wave "
+                   f"{math.sqrt(lam_2mu / mat.rho):.3f} m/s; signed {rel:+.4f}; the front's half-height arrival "
+                   f"between x = {WAVE_STATIONS[0]} and {WAVE_STATIONS[1]} m runs at {cf:.3f} m/s, the group velocity "
+                   f"of the discretisation)", measured=c, expected=c0, signed=rel, front_speed=cf)]
+
+
 SCENES_ANALYTIC: list[Scene] = [
     Scene("bounce_hertz", f"elastic ball (R {BOUNCE_R} m = 3.8 dx, E 2e5 Pa) dropped {BOUNCE_DROP} m on a "
           f"frictionless ground: restitution in [{RESTITUTION_BAND[0]}, {RESTITUTION_BAND[1]}] and the contact "
           f"duration within {HERTZ_TOL:.0%} of Hertz",
           Requires(frozenset({"jelly"}), frozenset({"ground"})), _build_bounce, _bounce_frames(), _eval_bounce),
+    Scene("self_weight_sag", f"column {SAG_SIDE} x {SAG_SIDE} x {SAG_H} m (nu 0.3) standing on a frictionless "
+          f"ground, sides free: shortening rho g H^2 / (2E) (uniaxial stress) within {SAG_TOL:.0%}",
+          Requires(frozenset({"jelly"}), frozenset({"ground"})), _build_sag, round(SAG_T / SAG_FRAME_DT), _eval_sag),
+    Scene("bar_wave", f"thin bar (2 x 2 dx, nu 0.3, no gravity), one part set moving into the rest: the "
+          f"compression front runs at sqrt(E/rho) within {WAVE_TOL:.0%}",
+          Requires(frozenset({"jelly"})), _build_wave, round(WAVE_T / WAVE_FRAME_DT), _eval_wave),
 ]
