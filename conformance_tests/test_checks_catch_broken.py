@@ -78,6 +78,8 @@ class _Broken:
         if self.kind == "push_outward":  # positions pushed away from the centroid, 2% per frame
             c = x.mean(axis=0)
             x = c + (x - c) * (1.0 + 0.02 * self.frame)
+        elif self.kind == "sinking":  # reported positions sink 0.3 dx per frame (e.g. through the ground)
+            x[:, 2] -= 0.3 * self.setup.dx * self.frame
         elif self.kind == "nan_at_frame" and self.frame >= 3:
             x[len(x) // 2] = np.nan
         elif self.kind == "drop_point":
@@ -107,7 +109,7 @@ class _Broken:
         self.inner.close()
 
 
-KINDS = ("no_gravity", "scale_velocity", "push_outward", "nan_at_frame", "drop_point", "reordered",
+KINDS = ("no_gravity", "scale_velocity", "push_outward", "sinking", "nan_at_frame", "drop_point", "reordered",
          *CONTRACT_SCREEN, *ANALYTIC_SCREEN)
 
 
