@@ -92,7 +92,8 @@ def _eval_incline(mu: float):
             a_fit = 2.0 * np.polyfit(t[late], along[late], 2)[0]
             checks.append(_check("slide_acceleration", abs(a_fit - expected) / expected, INCLINE_TOL,
                                  f"|a - g (sin th - mu cos th)| / expected (a = {a_fit:.3f}, expected "
-                                 f"{expected:.3f} m/s^2, mu = {mu})", a=a_fit, expected=expected))
+                                 f"{expected:.3f} m/s^2, mu = {mu})", a=a_fit, expected=expected,
+                                 signed=(a_fit - expected) / expected))
         else:
             free = 0.5 * G * math.sin(th) * t[-1] ** 2
             tilt = _tilt_deg(tr.x[0], tr.x[-1])
