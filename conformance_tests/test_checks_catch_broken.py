@@ -34,6 +34,15 @@ CONTRACT_SCREEN = {
     "known_failure_typo": "contract_declarations",
     "friction_pushes": "rest_on_ground",
 }
+#: Scenes an analytic broken engine is also run on, to show what the older, one-sided check missed.
+ANALYTIC_ALSO = {"inelastic_bounce": ("bounce",)}
+#: Broken engine kind -> the analytic scenes (gasp_core/testing/scenes_analytic.py and the tightened
+#: older ones) that must each catch it (those the real engine passes); screened with them alone.
+ANALYTIC_SCREEN = {
+    "inelastic_bounce": ("bounce_hertz",),
+    "friction_high": ("incline_slide",),
+    "softer_E": ("cantilever", "self_weight_sag", "bar_wave"),
+}
 
 
 class _Broken:
@@ -42,6 +51,8 @@ class _Broken:
     def __init__(self, inner, setup, kind: str):
         self.inner, self.setup, self.kind, self.frame = inner, setup, kind, 0
         self.perm = np.random.default_rng(0).permutation(len(setup.x))
+        self.stuck = None  # inelastic_bounce: the positions the body stopped at
+        self.vz = 0.0
 
     def step_frame(self):
         if self.kind == "raises_on_blowup":  # reports a blow-up with its own exception type
@@ -54,6 +65,14 @@ class _Broken:
                 raise FloatingPointError("overflow in the stress update")
         else:
             self.inner.step_frame()
+        if self.kind == "inelastic_bounce" and self.stuck is None:
+            # a perfectly inelastic impact: once the ground decelerates the body (its mean vertical
+            # velocity falls by less than half of g dt over a frame), it stops where it is
+            m = self.setup.p_mass
+            vz = float(np.asarray(self.inner.velocities())[:, 2] @ m / m.sum())
+            if self.frame > 0 and vz > self.vz - 0.5 * abs(self.setup.gravity[2]) * self.setup.frame_dt:
+                self.stuck = np.array(self.inner.positions(), dtype=np.float64)
+            self.vz = vz
         self.frame += 1
 
     def positions(self):
@@ -61,6 +80,8 @@ class _Broken:
         if self.kind == "push_outward":  # positions pushed away from the centroid, 2% per frame
             c = x.mean(axis=0)
             x = c + (x - c) * (1.0 + 0.02 * self.frame)
+        elif self.kind == "sinking":  # reported positions sink 0.3 dx per frame (e.g. through the ground)
+            x[:, 2] -= 0.3 * self.setup.dx * self.frame
         elif self.kind == "nan_at_frame" and self.frame >= 3:
             x[len(x) // 2] = np.nan
         elif self.kind == "drop_point":
@@ -70,6 +91,8 @@ class _Broken:
         elif self.kind == "positions_one_substep_late":  # as mujoco_flex before issue 17: x of the previous substep
             st = self.inner.stats()
             x = x - np.asarray(self.inner.velocities(), dtype=np.float64) * (self.setup.frame_dt / st["n_substeps"])
+        elif self.stuck is not None:
+            x = self.stuck.copy()
         elif self.kind == "nondeterministic":  # unseeded rounding-level noise, as from racing atomics
             x = x + np.random.default_rng().normal(scale=1e-9, size=x.shape)
         elif self.kind == "friction_pushes":  # the ground carries what touches it along +x at 1% dx / frame
@@ -93,6 +116,8 @@ class _Broken:
         elif self.kind == "friction_pushes":
             v[self._contact(np.asarray(self.inner.positions(), dtype=np.float64)), 0] += (
                 0.01 * self.setup.dx / self.setup.frame_dt)
+        elif self.stuck is not None:
+            v = np.zeros_like(v)
         return v
 
     def stats(self):
@@ -103,7 +128,7 @@ class _Broken:
 
 
 KINDS = ("no_gravity", "gravity_5pct", "positions_one_substep_late", "scale_velocity", "push_outward",
-         "nan_at_frame", "drop_point", "reordered", *CONTRACT_SCREEN)
+         "sinking", "nan_at_frame", "drop_point", "reordered", *CONTRACT_SCREEN, *ANALYTIC_SCREEN)
 #: Kinds that the free_fall scene itself must catch (a 5 % bias, a one-substep lag: issue 17).
 FREE_FALL_KINDS = ("no_gravity", "gravity_5pct", "positions_one_substep_late")
 
@@ -118,6 +143,12 @@ def broken_engine(info, kind: str):
             return info.factory(setup.replace(gravity=np.zeros(3)))
         if kind == "gravity_5pct":  # a 5 % bias (gravity, or equally time)
             return info.factory(setup.replace(gravity=1.05 * np.asarray(setup.gravity)))
+        if kind == "friction_high":  # collider friction 10 % too high (incline: a 7.5 % low)
+            cols = [dataclasses.replace(c, friction=1.1 * c.friction) for c in (setup.colliders or [])]
+            return info.factory(setup.replace(colliders=cols))
+        if kind == "softer_E":  # Young's modulus 10 % low: wave speed -5 %, sag and deflection +11 %
+            mats = [dataclasses.replace(m, E=0.9 * m.E) for m in setup.materials]
+            return info.factory(setup.replace(materials=mats))
         if kind == "crash_outside_domain" and ((setup.x < setup.domain_lo) | (setup.x > setup.domain_hi)).any():
             raise IndexError("index 19 is out of bounds for axis 0 with size 19")  # a grid lookup
         if kind == "refuses_declared" and len(setup.materials) > 1:  # declares what it cannot do
@@ -142,7 +173,7 @@ def reference():
         info = found.get(name)
         if info is None or info.unavailable_reason():
             continue
-        screen = SCREEN + tuple(dict.fromkeys(CONTRACT_SCREEN.values()))
+        screen = SCREEN + tuple(dict.fromkeys([*CONTRACT_SCREEN.values(), *sum(ANALYTIC_SCREEN.values(), ())]))
         passed = {s for s in screen if evaluate_scene(info, scene_by_name(s), {}).status == "pass"}
         if passed:
             return info, passed
@@ -152,7 +183,8 @@ def reference():
 @pytest.mark.parametrize("kind", KINDS)
 def test_broken_engine_is_caught(kind, reference, request):
     info, passed_by_real = reference
-    screen = (CONTRACT_SCREEN[kind],) if kind in CONTRACT_SCREEN else SCREEN
+    screen = ((CONTRACT_SCREEN[kind],) if kind in CONTRACT_SCREEN else
+              (*ANALYTIC_SCREEN[kind], *ANALYTIC_ALSO.get(kind, ())) if kind in ANALYTIC_SCREEN else SCREEN)
     if not set(screen) & passed_by_real:
         pytest.skip(f"the real {info.name} does not pass {screen}")
     report = check_engine(broken_engine(info, kind), scenes=sorted(set(screen) & passed_by_real), known_failures={})
@@ -172,6 +204,11 @@ def test_broken_engine_is_caught(kind, reference, request):
     if kind in CONTRACT_SCREEN:
         r = report.by_scene()[CONTRACT_SCREEN[kind]]
         assert r.status == "fail", report.table()
+    if kind in ANALYTIC_SCREEN:
+        for name in set(ANALYTIC_SCREEN[kind]) & passed_by_real:
+            assert report.by_scene()[name].status == "fail", report.table()
+    if kind == "inelastic_bounce" and "bounce" in passed_by_real:  # the weak check it slips through
+        assert report.by_scene()["bounce"].status == "pass", report.table()
     if kind in ("raises_on_blowup", "crash_outside_domain"):  # seen as EngineBug, named in the check
         msg = report.results[0].message
         assert "EngineBug" in msg and ("FloatingPointError" in msg or "IndexError" in msg), report.table()

@@ -17,7 +17,7 @@ from __future__ import annotations
 import dataclasses
 import time
 from dataclasses import dataclass, field
-from typing import Any, Callable, Mapping
+from typing import Any, Callable, Iterable, Mapping
 
 import numpy as np
 
@@ -285,6 +285,26 @@ def record(node, result: SceneResult | str) -> None:
     if isinstance(result, SceneResult):
         text = "; ".join(f"{c.name} {'ok' if c.passed else 'FAIL'}: {c.message}" for c in result.checks)
         text = f"{text or result.message} [{result.wall_s:.1f} s]"
+        measured, tolerance = measured_and_tolerance(result.checks)
+        node.user_properties.append(("conformance_measured", measured))
+        node.user_properties.append(("conformance_tolerance", tolerance))
     else:
         text = str(result)
     node.user_properties.append(("conformance_detail", text))
+
+
+def measured_and_tolerance(checks: Iterable[Check]) -> tuple[str, str]:
+    """Two short columns for the result table: each check's measured value (``name value``, with the
+    signed error where the scene gives one) and its tolerance (``<= limit`` or ``[lo, hi]``)."""
+    meas, tol = [], []
+    for c in checks:
+        f = c.figures
+        if "value" not in f:
+            continue
+        v = f"{f['signed']:+.3g}" if "signed" in f else f"{f['value']:.3g}"
+        meas.append(f"{c.name} {v}")
+        if "limit" in f:
+            tol.append(f"{c.name} <= {f['limit']:.3g}" if "signed" not in f else f"{c.name} +-{f['limit']:.3g}")
+        elif "lo" in f and "hi" in f:
+            tol.append(f"{c.name} [{f['lo']:.3g}, {f['hi']:.3g}]")
+    return "; ".join(meas), "; ".join(tol)

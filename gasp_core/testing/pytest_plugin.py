@@ -124,6 +124,8 @@ def pytest_runtest_logreport(report):
         return
     store = _config.stash[_STORE]
     detail = " ".join(v for k, v in report.user_properties if k == "conformance_detail")
+    measured = " ".join(v for k, v in report.user_properties if k == "conformance_measured")
+    tolerance = " ".join(v for k, v in report.user_properties if k == "conformance_tolerance")
     if report.when == "setup" and report.skipped:
         store[report.nodeid] = ("xfail" if getattr(report, "wasxfail", None) else "skip", _reason(report))
     elif report.when == "call":
@@ -137,7 +139,7 @@ def pytest_runtest_logreport(report):
             status, text = "skip", _reason(report)
         else:
             status, text = "FAIL", detail or _reason(report)
-        store[report.nodeid] = (status, text)
+        store[report.nodeid] = (status, text, measured, tolerance)
     elif report.failed and report.nodeid not in store:  # setup/teardown error
         store[report.nodeid] = ("ERROR", _reason(report))
 

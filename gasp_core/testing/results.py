@@ -22,21 +22,23 @@ def split_id(nodeid: str) -> tuple[str, str, str]:
 def table(store: dict, titles: dict[str, str]) -> str:
     """Sections per test file (titled by ``titles``), per engine: counts and one row per case."""
     groups: dict[str, dict[str, list]] = {}
-    for nodeid, (status, text) in sorted(store.items()):
+    for nodeid, (status, text, *cols) in sorted(store.items()):
         fname, engine, case = split_id(nodeid)
-        groups.setdefault(fname, {}).setdefault(engine, []).append((case, status, text))
+        measured, tolerance = (list(cols) + ["", ""])[:2]
+        groups.setdefault(fname, {}).setdefault(engine, []).append((case, status, measured, tolerance, text))
     order = [f for f in titles if f in groups] + sorted(f for f in groups if f not in titles)
     out = []
     for fname in order:
         out.append(f"## {titles.get(fname, fname)} (`{fname}`)\n")
         for engine, rows in groups[fname].items():
             counts: dict[str, int] = {}
-            for _, st, _ in rows:
+            for _, st, *_ in rows:
                 counts[st] = counts.get(st, 0) + 1
             out.append(f"### {engine}: {', '.join(f'{n} {st}' for st, n in sorted(counts.items()))}\n")
-            out.append("| case | outcome | details |\n|---|---|---|")
-            for case, st, text in rows:
-                out.append(f"| {case} | {st} | {' '.join(str(text).split()).replace('|', '/')} |")
+            out.append("| case | outcome | measured | tolerance | details |\n|---|---|---|---|---|")
+            for case, st, measured, tolerance, text in rows:
+                cells = [' '.join(str(c).split()).replace('|', '/') for c in (measured, tolerance, text)]
+                out.append(f"| {case} | {st} | {cells[0]} | {cells[1]} | {cells[2]} |")
             out.append("")
     return "\n".join(out)
 

@@ -34,9 +34,11 @@ BLOCK = Material("jelly", E=1e5, nu=0.3, rho=1000.0)
 INCLINE_DEG = 25.0
 MU_SLIDE, MU_STICK = 0.2, 0.8          # tan(25 deg) = 0.466
 INCLINE_T = 0.4                        # s simulated
-#: Relative error allowed on the sliding acceleration: the grid resolves the contact layer over
-#: about one cell, and the block rocks a little while it settles onto the slope.
-INCLINE_TOL = 0.15
+#: Relative error allowed on the sliding acceleration (two-sided). Measured: 0.24 % on taichi_mpm /
+#: warp_mpm, 0.13 % on mujoco_flex (quadratic fit of the centroid over 0.1-0.4 s). 1 % is about 4x
+#: the worst of them (the issue asks for 3 %): the grid resolves the contact layer over about one
+#: cell and the block rocks a little while it settles; friction 10 % off moves a by 7.5 %.
+INCLINE_TOL = 0.01
 
 
 def _incline_frame():
@@ -91,7 +93,8 @@ def _eval_incline(mu: float):
             a_fit = 2.0 * np.polyfit(t[late], along[late], 2)[0]
             checks.append(_check("slide_acceleration", abs(a_fit - expected) / expected, INCLINE_TOL,
                                  f"|a - g (sin th - mu cos th)| / expected (a = {a_fit:.3f}, expected "
-                                 f"{expected:.3f} m/s^2, mu = {mu})", a=a_fit, expected=expected))
+                                 f"{expected:.3f} m/s^2, mu = {mu})", a=a_fit, expected=expected,
+                                 signed=(a_fit - expected) / expected))
         else:
             free = 0.5 * G * math.sin(th) * t[-1] ** 2
             tilt = _tilt_deg(tr.x[0], tr.x[-1])
