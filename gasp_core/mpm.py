@@ -301,6 +301,12 @@ MATERIAL_CODES = {"jelly": JELLY, "neo_hookean": NEO_HOOKEAN, "metal": METAL, "s
 #: Columns of the per-body parameter table (:func:`material_table`).
 P_MU, P_LAM, P_YIELD, P_SOFTENING, P_HARDENING, P_THETA_C, P_THETA_S, P_ALPHA, P_K = range(9)
 N_PARAMS = 9
+#: von Mises yield surface radius per unit yield stress: metal and plasticine return-map the Hencky
+#: strain's deviator ``e`` onto ``2 mu ||e|| <= sqrt(2/3) Y``, i.e. ``||dev tau|| <= sqrt(2/3) Y``, so a
+#: bar in uniaxial stress yields at ``Y`` (von Mises: ``sigma_vm = sqrt(3/2) ||dev tau||``;
+#: de Souza Neto, Peric & Owen, Computational Methods for Plasticity, 2008, Ch. 6). taichi_elements
+#: and PhysGaussian use ``||e|| <= Y / (2 mu)``, which yields at ``sqrt(3/2) Y = 1.22 Y``.
+VON_MISES_RADIUS = math.sqrt(2.0 / 3.0)
 
 
 def material_table(materials: Sequence[Material]) -> tuple[np.ndarray, np.ndarray]:

@@ -44,7 +44,8 @@ class Material:
     rho : float
         Density, kg/m^3.
     yield_stress : float
-        von Mises yield stress, Pa (metal, plasticine).
+        von Mises yield stress, Pa (metal, plasticine): the uniaxial stress at which a bar yields
+        (``gasp_core.mpm.VON_MISES_RADIUS``).
     friction_angle : float
         Drucker-Prager friction angle, degrees (sand).
     softening : float

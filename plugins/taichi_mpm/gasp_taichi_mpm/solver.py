@@ -32,7 +32,7 @@ from gasp_core import mpm
 from gasp_core.errors import SceneError
 from gasp_core.mpm import (JELLY, LIQUID, METAL, N_PARAMS, NEO_HOOKEAN, P_ALPHA, P_HARDENING, P_K,
                            P_LAM, P_MU, P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND,
-                           SNOW)
+                           SNOW, VON_MISES_RADIUS)
 
 _TIE = 1e-9  # cells: tolerance for ties when boundary tests become node-index ranges
 
@@ -585,7 +585,7 @@ class MPMSolver:
                     yield_stress = prm[P_YIELD]
                     if kind == PLASTICINE:
                         yield_stress = prm[P_YIELD] * ti.max(0.0, 1.0 - prm[P_SOFTENING] * Jp)
-                    dg = ne - yield_stress / (2.0 * mu)
+                    dg = ne - VON_MISES_RADIUS * yield_stress / (2.0 * mu)   # ||dev tau|| <= sqrt(2/3) Y
                     if dg > 0.0:
                         eps -= dg * e / ne
                         F = self._udvt(U, ti.exp(eps), V)

@@ -23,7 +23,8 @@ import warp as wp
 
 # Material codes and the columns of the per-body parameter table ``mat_par`` are gasp_core.mpm's.
 from gasp_core.mpm import (JELLY, METAL, NEO_HOOKEAN, P_ALPHA, P_HARDENING, P_K, P_LAM, P_MU,
-                           P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND, SNOW)
+                           P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND, SNOW,
+                           VON_MISES_RADIUS)
 
 # Warp compiles CPU code at -O2 by default; -O3 is several times faster on these kernels.
 _OPTS = {"optimization_level": 3}
@@ -304,7 +305,7 @@ def build_kernels(Ft):
                 jp = Jp[p]
                 if kind == PLASTICINE:
                     ys = ys * wp.max(Ft(0.0), Ft(1.0) - mat_par[b, P_SOFTENING] * jp)
-                dg = e_norm - ys / (Ft(2.0) * mu)
+                dg = e_norm - Ft(VON_MISES_RADIUS) * ys / (Ft(2.0) * mu)   # ||dev tau|| <= sqrt(2/3) Y
                 if dg > Ft(0.0):
                     eps = eps - (dg / e_norm) * e
                     Fp = U * wp.diag(vec3(wp.exp(eps[0]), wp.exp(eps[1]), wp.exp(eps[2]))) * wp.transpose(V)
