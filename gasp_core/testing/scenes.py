@@ -8,9 +8,10 @@ from .scenes_colliders import SCENES_COLLIDERS
 from .scenes_contract import SCENES_CONTRACT
 from .scenes_mass import SCENES_MASS
 from .scenes_materials import SCENES_MATERIALS
+from .scenes_passive import SCENES_PASSIVE
 
 #: All scenes: physics with known answers first, then the error contract.
-SCENES: list[Scene] = [*SCENES_BASIC, *SCENES_MATERIALS, *SCENES_COLLIDERS, *SCENES_MASS, *SCENES_CONTRACT]
+SCENES: list[Scene] = [*SCENES_BASIC, *SCENES_MATERIALS, *SCENES_COLLIDERS, *SCENES_PASSIVE, *SCENES_MASS, *SCENES_CONTRACT]
 
 
 def scene_by_name(name: str) -> Scene:

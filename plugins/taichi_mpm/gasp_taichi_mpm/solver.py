@@ -159,7 +159,7 @@ class MPMSolver:
         self.pbox = ti.Vector.field(3, ti.i32, shape=(self.n_chunks, 2))  # passive points' node box
         # scalars: dt, dx, inv_dx; vectors: lo, gravity
         self.sc = ti.field(real, shape=3)
-        # passive points' update weights (gasp_core.mpm.passive_schedule): [a, b] of a full interval, of the last
+        # passive points' intervals (gasp_core.mpm.passive_schedule): [m, 0] of a full interval, of the last
         self.pab = ti.field(real, shape=4)
         self.lo = ti.Vector.field(3, real, shape=())
         self.gravity = ti.Vector.field(3, real, shape=())
@@ -236,18 +236,19 @@ class MPMSolver:
 
     # ------------------------------------------------------------------ driver
     def _passive_at(self, n_substeps: int) -> list:
-        """Per substep of a frame: None, or which weight pair (0 full interval, 1 last) moves the passive
+        """Per substep of a frame: None, or which interval (0 full, 1 last) moves the passive
         points after its grid update (:func:`gasp_core.mpm.passive_schedule`)."""
         if not self.has_passive:
             return [None] * n_substeps
         if self._passive_plan[0] != n_substeps:
             plan = mpm.passive_schedule(n_substeps, self._passive_every, float(self.sc[0]))
-            pairs = list(dict.fromkeys((a, b) for _s, a, b in plan))
-            pairs += pairs[-1:] * (2 - len(pairs))
-            self.pab.from_numpy(np.array([c for ab in pairs for c in ab], self._np_real))
+            dt = float(self.sc[0])
+            ms = list(dict.fromkeys(int(round((a + b) / dt)) for _s, a, b in plan))   # substeps per interval
+            ms += ms[-1:] * (2 - len(ms))
+            self.pab.from_numpy(np.array([c for m in ms for c in (m, 0.0)], self._np_real))
             at = [None] * n_substeps
             for s, a, b in plan:
-                at[s] = pairs.index((a, b))
+                at[s] = ms.index(int(round((a + b) / dt)))
             self._passive_plan = (n_substeps, at)
         return self._passive_plan[1]
 
@@ -702,13 +703,16 @@ class MPMSolver:
 
     @ti.func
     def _g2p_passive_point(self, p, pair):
-        """A passive point: velocity and position from the grid, nothing else (no C, F, P2G).
+        """A passive point: velocity ``v`` and affine velocity gradient ``C`` from the grid (no F, no P2G).
 
-        Only nodes that received mass count, with the weights renormalised over them: a surface
-        point half a spacing outside the material sees empty nodes (velocity 0, not the material's)
-        in its stencil, which would hold it back. Inside the material this is plain G2P. The move is
-        ``a v_prev + b v_new`` with ``(a, b) = pab[2 pair], pab[2 pair + 1]``
-        (:func:`gasp_core.mpm.passive_schedule`; ``(0, dt)`` when every substep moves them)."""
+        Only nodes that received mass count, with the weights renormalised over them: a surface point
+        half a spacing outside the material sees empty nodes (velocity 0, not the material's) in its
+        stencil, which would hold it back. ``C`` is the weighted least-squares fit of those nodes'
+        velocities (APIC's ``C`` on a full stencil). The point then advances over the ``m = pab[2 pair]``
+        substeps since its last gather through the affine field
+        ``v(y, k) = v_prev + (k/m)(v_new - v_prev) + (C_prev + (k/m)(C_new - C_prev)) y``,
+        ``y += dt v(y, k)`` for ``k = 1..m`` (:func:`gasp_core.mpm.passive_schedule`), so it turns with
+        the material; ``m = 1`` is plain G2P."""
         base, fx, ok = self._base_fx(self.x[p])
         if not ok:
             ti.atomic_add(self.n_out[None], 1)
@@ -716,21 +720,45 @@ class MPMSolver:
             w = self._weights(fx)
             new_v = ti.Vector.zero(self.real, 3)
             wsum = ti.cast(0.0, self.real)
+            rbar = ti.Vector.zero(self.real, 3)
+            Svr = ti.Matrix.zero(self.real, 3, 3)
+            Srr = ti.Matrix.zero(self.real, 3, 3)
             for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                 node = base + ti.Vector([i, j, k])
                 if self.grid_m[node] > 0.0:
                     wn = w[i][0] * w[j][1] * w[k][2]
-                    new_v += wn * self.grid_v[node]
+                    r = ti.Vector([ti.static(float(i)), ti.static(float(j)), ti.static(float(k))], self.real) - fx
+                    gv = self.grid_v[node]
+                    new_v += wn * gv
                     wsum += wn
+                    rbar += wn * r
+                    Svr += wn * gv.outer_product(r)
+                    Srr += wn * r.outer_product(r)
+            new_C = ti.Matrix.zero(self.real, 3, 3)
             if wsum > 0.0:
                 new_v /= wsum
+                rbar /= wsum
+                # centred moments; a tiny ridge (1e-4 of a full stencil's wsum / 4) where the nodes with mass are planar
+                Svr -= wsum * new_v.outer_product(rbar)
+                Srr += ti.Matrix.identity(self.real, 3) * (2.5e-5 * wsum) - wsum * rbar.outer_product(rbar)
+                new_C = self.sc[2] * (Svr @ Srr.inverse())
             v_prev = self.v[p]
+            C_prev = self.C[p]
             if ti.static(self.any_fixed):
                 if self.fixed[p] != 0:
                     new_v = ti.Vector.zero(self.real, 3)
+                    new_C = ti.Matrix.zero(self.real, 3, 3)
                     v_prev = new_v
-            self.v[p] = new_v
-            self.x[p] += self.pab[2 * pair] * v_prev + self.pab[2 * pair + 1] * new_v
+                    C_prev = new_C
+            m = ti.cast(self.pab[2 * pair] + 0.5, ti.i32)
+            dt = self.sc[0]
+            y = ti.Vector.zero(self.real, 3)
+            for kk in range(m):
+                t = ti.cast(kk + 1, self.real) / ti.cast(m, self.real)
+                y += dt * (v_prev + t * (new_v - v_prev) + (C_prev + t * (new_C - C_prev)) @ y)
+            self.x[p] += y
+            self.v[p] = new_v + new_C @ y
+            self.C[p] = new_C
 
     @ti.func
     def _passive_chunk(self, t, move: ti.template(), pair):

@@ -469,17 +469,21 @@ def build_kernels(Ft):
 
     @wp.kernel(enable_backward=False, module="unique", module_options=_OPTS)
     def g2p_passive(
-        x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), fixed: wp.array(dtype=wp.int32),
+        x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33), fixed: wp.array(dtype=wp.int32),
         grid_vel: wp.array(dtype=vec3), grid_m: wp.array(dtype=Ft), flags: wp.array(dtype=wp.int32),
-        lo: vec3, inv_dx: Ft, a: Ft, b: Ft, n_grid: int, first: int,
+        lo: vec3, inv_dx: Ft, dt: Ft, m: int, n_grid: int, first: int,
     ):
-        # Passive points (rows first..): velocity and position from the grid only (no C, F, P2G).
-        # Only nodes with mass count, weights renormalised over them: a surface point outside the
-        # material would otherwise be held back by the empty nodes' zero velocity. The move is
-        # a v_prev + b v_new (gasp_core.mpm.passive_schedule; a = 0, b = dt every substep).
+        # Passive points (rows first..): velocity v and affine velocity gradient C from the grid
+        # (no F, no P2G). Only nodes with mass count, weights renormalised over them: a surface point
+        # outside the material would otherwise be held back by the empty nodes' zero velocity; C is
+        # the weighted least-squares fit of the node velocities (APIC's C on a full stencil). The
+        # point then advances over the m substeps since its last gather through the affine field
+        # v(y, k) = v_prev + (k/m)(v_new - v_prev) + (C_prev + (k/m)(C_new - C_prev)) y,
+        # y += dt v(y, k), k = 1..m (gasp_core.mpm.passive_schedule), so it turns with the material.
         p = first + wp.tid()
         if fixed[p] != 0:
             v[p] = vec3(Ft(0.0))
+            C[p] = mat33()
             return
         xp = x[p]
         X = (xp - lo) * inv_dx
@@ -489,23 +493,45 @@ def build_kernels(Ft):
         b0 = wp.floor(X[0] - Ft(0.5))
         b1 = wp.floor(X[1] - Ft(0.5))
         b2 = wp.floor(X[2] - Ft(0.5))
-        W = weights(X - vec3(b0, b1, b2))
+        fx = X - vec3(b0, b1, b2)
+        W = weights(fx)
         nn = n_grid * n_grid
         idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
         new_v = vec3(Ft(0.0))
         wsum = Ft(0.0)
+        rbar = vec3(Ft(0.0))
+        Svr = mat33()
+        Srr = mat33()
         for i in range(3):
             for j in range(3):
                 row = idx0 + i * nn + j * n_grid
                 for k in range(3):
                     if grid_m[row + k] > Ft(0.0):
                         w = W[i, 0] * W[j, 1] * W[k, 2]
-                        new_v = new_v + w * grid_vel[row + k]
+                        r = vec3(Ft(i), Ft(j), Ft(k)) - fx          # node - point, cells
+                        gv = grid_vel[row + k]
+                        new_v = new_v + w * gv
                         wsum = wsum + w
+                        rbar = rbar + w * r
+                        Svr = Svr + w * wp.outer(gv, r)
+                        Srr = Srr + w * wp.outer(r, r)
+        Cn = mat33()
         if wsum > Ft(0.0):
             new_v = new_v / wsum
-        x[p] = xp + a * v[p] + b * new_v
-        v[p] = new_v
+            rbar = rbar / wsum
+            # centred moments; a tiny ridge (1e-4 of a full stencil's wsum / 4) where the nodes with mass are planar
+            Svr = Svr - wsum * wp.outer(new_v, rbar)
+            Srr = Srr - wsum * wp.outer(rbar, rbar) + wp.identity(3, dtype=Ft) * (Ft(2.5e-5) * wsum)
+            Cn = inv_dx * (Svr * wp.inverse(Srr))
+        vp = v[p]
+        Cp = C[p]
+        y = vec3(Ft(0.0))
+        for kk in range(m):
+            t = Ft(kk + 1) / Ft(m)
+            y = y + dt * (vp + t * (new_v - vp) + (Cp + t * (Cn - Cp)) * y)
+        x[p] = xp + y
+        v[p] = new_v + Cn * y
+        C[p] = Cn
 
     @wp.kernel(enable_backward=False, module="unique", module_options=_OPTS)
     def check(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), flags: wp.array(dtype=wp.int32)):

@@ -191,17 +191,18 @@ class WarpMPMEngine:
                     self.x, self.v, self.C, self.fixed, self.grid_vel, lo_v, inv_dx, dt_f, ng]),
             ]
             # passive points after the grid update (the grid velocity holds forces, colliders, boundaries):
-            # one launch per distinct weight pair of mpm.passive_schedule, at the substeps it names
+            # one launch per distinct interval m of mpm.passive_schedule, at the substeps it names
             self._passive_at = [None] * self.n_substeps
             if n_passive:
-                pairs: dict = {}
+                by_m: dict = {}
                 for s_, a_, b_ in mpm.passive_schedule(self.n_substeps, opts["passive_every"], self.dt):
-                    if (a_, b_) not in pairs:
-                        pairs[(a_, b_)] = wp.launch(
+                    m_ = int(round((a_ + b_) / self.dt))      # substeps since the last gather
+                    if m_ not in by_m:
+                        by_m[m_] = wp.launch(
                             k.g2p_passive, dim=n_passive, device=d, record_cmd=True, inputs=[
-                                self.x, self.v, self.fixed, self.grid_vel, self.grid_m, self.flags, lo_v, inv_dx,
-                                Ft(a_), Ft(b_), ng, self.n_material])
-                    self._passive_at[s_] = pairs[(a_, b_)]
+                                self.x, self.v, self.C, self.fixed, self.grid_vel, self.grid_m, self.flags, lo_v,
+                                inv_dx, dt_f, m_, ng, self.n_material])
+                    self._passive_at[s_] = by_m[m_]
             self._tick = (wp.launch(k.tick, dim=1, device=d, record_cmd=True, inputs=[ex.step])
                           if has_extras else None)
             self._check_launch = wp.launch(k.check, dim=n, device=d, record_cmd=True,
