@@ -153,7 +153,7 @@ class SimSetup:
         Rigid obstacles (signed distance fields, friction, prescribed motion); features
         ``static_colliders`` / ``moving_colliders``.
     forces : list of gasp_core.colliders.ForceField
-        Acceleration fields (``wind``, ``attractor``); features ``wind`` / ``attractors``.
+        Wind (a surface drag law) and attractors (acceleration fields); features ``wind`` / ``attractors``.
     impulses : list of gasp_core.colliders.Impulse
         Velocity changes of a region over a time window; feature ``impulse``.
     """

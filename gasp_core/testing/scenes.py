@@ -9,9 +9,10 @@ from .scenes_contract import SCENES_CONTRACT
 from .scenes_mass import SCENES_MASS
 from .scenes_materials import SCENES_MATERIALS
 from .scenes_passive import SCENES_PASSIVE
+from .scenes_wind import SCENES_WIND
 
 #: All scenes: physics with known answers first, then the error contract.
-SCENES: list[Scene] = [*SCENES_BASIC, *SCENES_MATERIALS, *SCENES_COLLIDERS, *SCENES_PASSIVE, *SCENES_MASS, *SCENES_CONTRACT]
+SCENES: list[Scene] = [*SCENES_BASIC, *SCENES_MATERIALS, *SCENES_COLLIDERS, *SCENES_WIND, *SCENES_PASSIVE, *SCENES_MASS, *SCENES_CONTRACT]
 
 
 def scene_by_name(name: str) -> Scene:

@@ -143,8 +143,12 @@ def build_kernels(Ft):
         width: int
 
     @wp.func
-    def extras(v_in: vec3, X: vec3, dt: Ft, ex: Extras):
+    def extras(v_in: vec3, X: vec3, dt: Ft, m: Ft, gsurf: vec3, ex: Extras):
         # Forces, impulses, then colliders at a node (the same order as taichi_mpm's _extras).
+        # Wind (docs/colliders.md): quadratic drag on the windward surface, F = 1/2 rho_air C_d A |w| w,
+        # w = u - v, A = max(0, gsurf . w / |w|) (gsurf = sum_p p_vol grad N_ip, m^2: the node's share
+        # of the area the body shows the relative wind); applied implicitly in the drag rate
+        # k = 1/2 rho_air C_d A |w| / m: v += w dt k / (1 + dt k), so it never overshoots the wind.
         v = v_in
         base = ex.step[0] * ex.width
         t = ex.tab[base]
@@ -152,13 +156,19 @@ def build_kernels(Ft):
             r = f * 12
             a = vec3(Ft(0.0))
             if ex.forces[r] == Ft(0.0):
-                a = vec3(ex.forces[r + 1], ex.forces[r + 2], ex.forces[r + 3])
+                u = vec3(ex.forces[r + 1], ex.forces[r + 2], ex.forces[r + 3])
                 m0 = int(ex.forces[r + 10])
                 for mm in range(m0, m0 + int(ex.forces[r + 11])):
                     q = mm * 8
                     kv = vec3(ex.modes[q], ex.modes[q + 1], ex.modes[q + 2])
                     A = vec3(ex.modes[q + 3], ex.modes[q + 4], ex.modes[q + 5])
-                    a = a + A * wp.sin(wp.dot(kv, X) + ex.modes[q + 7] * t + ex.modes[q + 6])
+                    u = u + A * wp.sin(wp.dot(kv, X) + ex.modes[q + 7] * t + ex.modes[q + 6])
+                wrel = u - v
+                wn = wp.length(wrel)
+                if wn > Ft(0.0):
+                    area = wp.max(Ft(0.0), wp.dot(gsurf, wrel) / wn)
+                    kdt = dt * ex.forces[r + 4] * area * wn / m
+                    v = v + (kdt / (Ft(1.0) + kdt)) * wrel
             else:
                 d = vec3(ex.forces[r + 1], ex.forces[r + 2], ex.forces[r + 3]) - X
                 rr = wp.length(d)
@@ -247,8 +257,9 @@ def build_kernels(Ft):
         p_vol: wp.array(dtype=Ft), body: wp.array(dtype=wp.int32),
         mat_kind: wp.array(dtype=wp.int32), mat_par: wp.array2d(dtype=Ft),
         grid_mv: wp.array(dtype=vec4), n_out: wp.array(dtype=wp.int32),
-        lo: vec3, inv_dx: Ft, dx: Ft, dt: Ft, n_grid: int,
+        lo: vec3, inv_dx: Ft, dx: Ft, dt: Ft, n_grid: int, grid_g: wp.array(dtype=vec3), has_wind: int,
     ):
+        # with wind, grid_g += p_vol grad N_ip (m^2; the gradient of the volume fraction times dx^3)
         p = wp.tid()
         X = (x[p] - lo) * inv_dx
         if not in_grid(X, n_grid):
@@ -355,6 +366,16 @@ def build_kernels(Ft):
                     mk = mk + a2
                 mj = mj + a1
             mi = mi + a0
+        if has_wind != 0:
+            # d N / d x_node per axis (cells): rows of node offsets 0, 1, 2
+            dW = wp.matrix_from_rows(vec3(Ft(1.5)) - fx, Ft(2.0) * (fx - vec3(Ft(1.0))), vec3(Ft(0.5)) - fx)
+            sv = p_vol[p] * inv_dx
+            for i in range(3):
+                for j in range(3):
+                    row = idx0 + i * nn + j * n_grid
+                    for k in range(3):
+                        grid_g[row + k] += sv * vec3(dW[i, 0] * W[j, 1] * W[k, 2], W[i, 0] * dW[j, 1] * W[k, 2],
+                                                     W[i, 0] * W[j, 1] * dW[k, 2])
 
     @wp.kernel(enable_backward=False, module="unique", module_options=_OPTS)
     def grid_update(
@@ -362,7 +383,7 @@ def build_kernels(Ft):
         gravity: vec3, lo: vec3, hi: vec3, dx: Ft, dt: Ft, n_grid: int,
         wall_mu: wp.array(dtype=Ft), ground: wp.array(dtype=vec3),
         fixed_lo: wp.array(dtype=vec3), fixed_hi: wp.array(dtype=vec3),
-        has_extras: int, ex: Extras,
+        has_extras: int, ex: Extras, grid_g: wp.array(dtype=vec3), has_wind: int,
     ):
         # ground[g] = (height, friction, unused); grid_m (node mass, for passive points) has
         # one entry per node when the setup has passive points, else one unused entry
@@ -379,7 +400,10 @@ def build_kernels(Ft):
             k = node % n_grid
             X = lo + dx * vec3(Ft(i), Ft(j), Ft(k))
             if has_extras != 0:
-                vel = extras(vel, X, dt, ex)
+                gsurf = vec3(Ft(0.0))
+                if has_wind != 0:
+                    gsurf = grid_g[node]
+                vel = extras(vel, X, dt, m, gsurf, ex)
             for w in range(wall_mu.shape[0]):
                 mu_b = wall_mu[w]
                 for d in range(3):
@@ -404,6 +428,8 @@ def build_kernels(Ft):
             out = vel
         grid_vel[node] = out
         grid_mv[node] = vec4(Ft(0.0))
+        if has_wind != 0:
+            grid_g[node] = vec3(Ft(0.0))
 
     @wp.kernel(enable_backward=False, module="unique", module_options=_OPTS)
     def g2p(

@@ -166,6 +166,9 @@ class WarpMPMEngine:
         self.grid_vel = wp.zeros(n_nodes, dtype=k.vec3, device=d)
         n_passive = n - self.n_material
         self.grid_m = wp.zeros(n_nodes if n_passive else 1, dtype=Ft, device=d)   # node mass (passive G2P)
+        # with wind: sum_p p_vol grad N_ip per node (m^2), the windward area the drag acts on
+        has_wind = int(any(f.kind == "wind" for f in (getattr(setup, "forces", None) or [])))
+        self.grid_g = wp.zeros(n_nodes if has_wind else 1, dtype=k.vec3, device=d)
         self.flags = wp.zeros(2, dtype=wp.int32, device=d)  # [out-of-grid count, non-finite count]
         self.wall_mu = arr(np.array(wall_mu, dtype=dt_np), Ft)
         self.ground = arr(np.array(ground, dtype=dt_np).reshape(-1, 3), k.vec3)
@@ -183,10 +186,11 @@ class WarpMPMEngine:
             self._launches = [
                 wp.launch(k.p2g, dim=self.n_material, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.F, self.C, self.Jp, self.p_mass, self.p_vol, self.body,
-                    self.mat_kind, self.mat_par, self.grid_mv, self.flags, lo_v, inv_dx, dx, dt_f, ng]),
+                    self.mat_kind, self.mat_par, self.grid_mv, self.flags, lo_v, inv_dx, dx, dt_f, ng,
+                    self.grid_g, has_wind]),
                 wp.launch(k.grid_update, dim=n_nodes, device=d, record_cmd=True, inputs=[
                     self.grid_mv, self.grid_vel, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, self.wall_mu,
-                    self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex]),
+                    self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex, self.grid_g, has_wind]),
                 wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.fixed, self.grid_vel, lo_v, inv_dx, dt_f, ng]),
             ]
