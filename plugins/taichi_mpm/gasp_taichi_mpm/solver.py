@@ -281,6 +281,10 @@ class MPMSolver:
     def _setup_extras(self, ex, time_table, np_real, n_substeps) -> None:
         """Fields of :func:`gasp_core.colliders.grid_tables` (``ex``); none when ``ex`` is None or empty."""
         self.has_extras = ex is not None and ex.any
+        # wind: per node sum_p p_vol grad N_ip (m^2), the windward area its drag acts on (private copies as grid_acc)
+        self.has_wind = bool(self.has_extras and any(ex.forces[r * 12] == 0.0 for r in range(ex.n_forces)))
+        ng = self.n_grid
+        self.grid_g = ti.Vector.field(3, self.real, shape=(self.n_chunks, ng, ng, ng) if self.has_wind else (1, 1, 1, 1))
         if not self.has_extras:
             return
         self._ex_np = np_real
@@ -309,8 +313,12 @@ class MPMSolver:
         return out
 
     @ti.func
-    def _extras(self, I, v):
-        """Forces, impulses, then colliders at node ``I`` (docs/colliders.md; the same order as warp_mpm)."""
+    def _extras(self, I, v, m, gsurf):
+        """Forces, impulses, then colliders at node ``I`` (docs/colliders.md; the same order as warp_mpm).
+
+        Wind is quadratic drag on the windward surface, ``F = 1/2 rho_air C_d A |w| w``, ``w = u - v``,
+        ``A = max(0, gsurf . w / |w|)`` (``gsurf = sum_p p_vol grad N_ip``, m^2; node mass ``m``, kg),
+        applied implicitly in the drag rate ``k = F / (m |w|)``: ``v += w dt k / (1 + dt k)``."""
         dt = self.sc[0]
         X = self.lo[None] + self.sc[1] * ti.Vector([ti.cast(I[0], self.real), ti.cast(I[1], self.real),
                                                     ti.cast(I[2], self.real)])
@@ -320,13 +328,19 @@ class MPMSolver:
             r = f * 12
             a = ti.Vector.zero(self.real, 3)
             if self.ex_forces[r] == 0.0:
-                a = ti.Vector([self.ex_forces[r + 1], self.ex_forces[r + 2], self.ex_forces[r + 3]])
+                u = ti.Vector([self.ex_forces[r + 1], self.ex_forces[r + 2], self.ex_forces[r + 3]])
                 m0 = ti.cast(self.ex_forces[r + 10], ti.i32)
-                for m in range(m0, m0 + ti.cast(self.ex_forces[r + 11], ti.i32)):
-                    q = m * 8
+                for mm in range(m0, m0 + ti.cast(self.ex_forces[r + 11], ti.i32)):
+                    q = mm * 8
                     k = ti.Vector([self.ex_modes[q], self.ex_modes[q + 1], self.ex_modes[q + 2]])
                     A = ti.Vector([self.ex_modes[q + 3], self.ex_modes[q + 4], self.ex_modes[q + 5]])
-                    a += A * ti.sin(k.dot(X) + self.ex_modes[q + 7] * t + self.ex_modes[q + 6])
+                    u += A * ti.sin(k.dot(X) + self.ex_modes[q + 7] * t + self.ex_modes[q + 6])
+                wrel = u - v
+                wn = wrel.norm()
+                if wn > 0.0:
+                    area = ti.max(0.0, gsurf.dot(wrel) / wn)
+                    kdt = dt * self.ex_forces[r + 4] * area * wn / m
+                    v += (kdt / (1.0 + kdt)) * wrel
             else:
                 d = ti.Vector([self.ex_forces[r + 1], self.ex_forces[r + 2], self.ex_forces[r + 3]]) - X
                 rr = d.norm()
@@ -635,6 +649,15 @@ class MPMSolver:
                     self.grid_acc[0, node] += val
                 else:
                     self.grid_acc[t, node] = self.grid_acc[t, node] + val
+                if ti.static(self.has_wind):
+                    # p_vol grad N_ip: d N / d x_node per axis is (1.5 - fx, 2 (fx - 1), 0.5 - fx) inv_dx
+                    dw = [1.5 - fx, 2.0 * (fx - 1.0), 0.5 - fx]
+                    gv = (self.p_vol[p] * inv_dx) * ti.Vector([dw[i][0] * w[j][1] * w[k][2], w[i][0] * dw[j][1] * w[k][2],
+                                                               w[i][0] * w[j][1] * dw[k][2]])
+                    if ti.static(self.atomic):
+                        self.grid_g[0, node] += gv
+                    else:
+                        self.grid_g[t, node] = self.grid_g[t, node] + gv
             bmin = ti.min(bmin, base)
             bmax = ti.max(bmax, base + 2)
         return bmin, bmax
@@ -822,11 +845,16 @@ class MPMSolver:
                 acc += self.grid_acc[t, I]
             for t in ti.static(range(self.n_chunks)):
                 self.grid_acc[t, I] = ti.Vector.zero(self.real, 4)
+            gsurf = ti.Vector.zero(self.real, 3)
+            if ti.static(self.has_wind):
+                for t in ti.static(range(self.n_chunks)):
+                    gsurf += self.grid_g[t, I]
+                    self.grid_g[t, I] = ti.Vector.zero(self.real, 3)
             v = ti.Vector.zero(self.real, 3)
             if acc[3] > 0.0:
                 v = ti.Vector([acc[0], acc[1], acc[2]]) / acc[3] + self.sc[0] * self.gravity[None]
                 if ti.static(self.has_extras):
-                    v = self._extras(I, v)
+                    v = self._extras(I, v, acc[3], gsurf)
                 for b in ti.static(range(self.n_walls)):
                     mu_b = self.wall_fric[b]
                     hi_first = self.wall_hi_first[b]
