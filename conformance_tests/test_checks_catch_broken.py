@@ -31,6 +31,8 @@ CONTRACT_SCREEN = {
     "bad_option_default": "contract_declarations",
     "undeclared_deterministic_option": "contract_declarations",
     "known_failure_typo": "contract_declarations",
+    "wind_as_acceleration": "wind",
+    "passive_straight_lines": "passive_spin",
 }
 
 
@@ -42,6 +44,13 @@ class _Broken:
         self.perm = np.random.default_rng(0).permutation(len(setup.x))
 
     def step_frame(self):
+        if self.kind == "passive_straight_lines" and self.setup.passive is not None:
+            # passive points moved in a straight line over each frame by their velocity at its start
+            # (what passive_every did between gathers before the affine advance)
+            mask = self.setup.passive
+            if not hasattr(self, "xp"):
+                self.xp = np.array(self.setup.x[mask], dtype=np.float64)
+            self.xp = self.xp + self.setup.frame_dt * np.asarray(self.inner.velocities(), np.float64)[mask]
         if self.kind == "raises_on_blowup":  # reports a blow-up with its own exception type
             try:
                 self.inner.step_frame()
@@ -67,6 +76,8 @@ class _Broken:
             x = x[self.perm]
         elif self.kind == "nondeterministic":  # unseeded rounding-level noise, as from racing atomics
             x = x + np.random.default_rng().normal(scale=1e-9, size=x.shape)
+        elif self.kind == "passive_straight_lines" and hasattr(self, "xp"):
+            x[self.setup.passive] = self.xp
         return x
 
     def velocities(self):
@@ -96,6 +107,22 @@ def broken_engine(info, kind: str):
     def factory(setup):
         if kind == "no_gravity":  # the engine ignores gravity
             return info.factory(setup.replace(gravity=np.zeros(3)))
+        if kind == "wind_as_acceleration" and any(f.kind == "wind" for f in setup.forces):
+            # the wind before issue 17: the drag on the body at rest, 1/2 rho_air C_d A |u| u / M, given to
+            # every node as an acceleration (A: the area the points cover seen along u, at dx/2)
+            a = np.zeros(3)
+            M = float(setup.p_mass.sum())
+            for f in setup.forces:
+                if f.kind == "wind":
+                    d = np.asarray(f.direction, float)
+                    e1 = np.cross(d, [1.0, 0.0, 0.0] if abs(d[0]) < 0.9 else [0.0, 1.0, 0.0])
+                    e1 /= np.linalg.norm(e1)
+                    e2 = np.cross(d, e1)
+                    h = setup.dx / 2
+                    A = len(np.unique(np.floor(np.c_[setup.x @ e1, setup.x @ e2] / h).astype(np.int64), axis=0)) * h * h
+                    a += f.drag_factor * A * f.speed ** 2 * d / M
+            return info.factory(setup.replace(gravity=np.asarray(setup.gravity, float) + a,
+                                              forces=[f for f in setup.forces if f.kind != "wind"]))
         if kind == "crash_outside_domain" and ((setup.x < setup.domain_lo) | (setup.x > setup.domain_hi)).any():
             raise IndexError("index 19 is out of bounds for axis 0 with size 19")  # a grid lookup
         if kind == "refuses_declared" and len(setup.materials) > 1:  # declares what it cannot do
