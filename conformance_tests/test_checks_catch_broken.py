@@ -33,6 +33,8 @@ CONTRACT_SCREEN = {
     "undeclared_deterministic_option": "contract_declarations",
     "known_failure_typo": "contract_declarations",
     "friction_pushes": "rest_on_ground",
+    "wind_as_acceleration": "wind",
+    "passive_straight_lines": "passive_spin",
 }
 #: Scenes an analytic broken engine is also run on, to show what the older, one-sided check missed.
 ANALYTIC_ALSO = {"inelastic_bounce": ("bounce",)}
@@ -55,6 +57,13 @@ class _Broken:
         self.vz = 0.0
 
     def step_frame(self):
+        if self.kind == "passive_straight_lines" and self.setup.passive is not None:
+            # passive points moved in a straight line over each frame by their velocity at its start
+            # (what passive_every did between gathers before the affine advance)
+            mask = self.setup.passive
+            if not hasattr(self, "xp"):
+                self.xp = np.array(self.setup.x[mask], dtype=np.float64)
+            self.xp = self.xp + self.setup.frame_dt * np.asarray(self.inner.velocities(), np.float64)[mask]
         if self.kind == "raises_on_blowup":  # reports a blow-up with its own exception type
             try:
                 self.inner.step_frame()
@@ -97,6 +106,8 @@ class _Broken:
             x = x + np.random.default_rng().normal(scale=1e-9, size=x.shape)
         elif self.kind == "friction_pushes":  # the ground carries what touches it along +x at 1% dx / frame
             x[self._contact(x), 0] += 0.01 * self.setup.dx * self.frame
+        elif self.kind == "passive_straight_lines" and hasattr(self, "xp"):
+            x[self.setup.passive] = self.xp
         return x
 
     def _contact(self, x):
@@ -149,6 +160,22 @@ def broken_engine(info, kind: str):
         if kind == "softer_E":  # Young's modulus 10 % low: wave speed -5 %, sag and deflection +11 %
             mats = [dataclasses.replace(m, E=0.9 * m.E) for m in setup.materials]
             return info.factory(setup.replace(materials=mats))
+        if kind == "wind_as_acceleration" and any(f.kind == "wind" for f in setup.forces):
+            # the wind before issue 17: the drag on the body at rest, 1/2 rho_air C_d A |u| u / M, given to
+            # every node as an acceleration (A: the area the points cover seen along u, at dx/2)
+            a = np.zeros(3)
+            M = float(setup.p_mass.sum())
+            for f in setup.forces:
+                if f.kind == "wind":
+                    d = np.asarray(f.direction, float)
+                    e1 = np.cross(d, [1.0, 0.0, 0.0] if abs(d[0]) < 0.9 else [0.0, 1.0, 0.0])
+                    e1 /= np.linalg.norm(e1)
+                    e2 = np.cross(d, e1)
+                    h = setup.dx / 2
+                    A = len(np.unique(np.floor(np.c_[setup.x @ e1, setup.x @ e2] / h).astype(np.int64), axis=0)) * h * h
+                    a += f.drag_factor * A * f.speed ** 2 * d / M
+            return info.factory(setup.replace(gravity=np.asarray(setup.gravity, float) + a,
+                                              forces=[f for f in setup.forces if f.kind != "wind"]))
         if kind == "crash_outside_domain" and ((setup.x < setup.domain_lo) | (setup.x > setup.domain_hi)).any():
             raise IndexError("index 19 is out of bounds for axis 0 with size 19")  # a grid lookup
         if kind == "refuses_declared" and len(setup.materials) > 1:  # declares what it cannot do

@@ -63,16 +63,26 @@ def test_impulse_weights_sum_to_one():
 
 
 def test_turbulence_divergence_free_and_seeded():
-    f = ForceField("wind", strength=1.0, turbulence=2.0, turbulence_scale=0.2, seed=3)
+    f = ForceField("wind", speed=1.0, turbulence=2.0, turbulence_scale=0.2, seed=3)
     x = np.random.default_rng(0).uniform(-1, 1, (2000, 3))
-    a = f.acceleration(x) - 1.0 * np.array(f.direction)
+    a = f.wind_velocity(x) - 1.0 * np.array(f.direction)
     assert np.sqrt((a ** 2).sum(axis=1).mean()) == pytest.approx(2.0, rel=0.15)
     eps = 1e-6
-    div = sum((f.acceleration(x + eps * e) - f.acceleration(x - eps * e))[:, d] / (2 * eps)
+    div = sum((f.wind_velocity(x + eps * e) - f.wind_velocity(x - eps * e))[:, d] / (2 * eps)
               for d, e in enumerate(np.eye(3)))
     assert np.abs(div).max() < 1e-4
-    np.testing.assert_array_equal(f.modes(), ForceField("wind", strength=1.0, turbulence=2.0,
+    np.testing.assert_array_equal(f.modes(), ForceField("wind", speed=1.0, turbulence=2.0,
                                                         turbulence_scale=0.2, seed=3).modes())
+
+
+def test_wind_as_an_acceleration_is_refused_naming_the_new_keys(tmp_path):
+    """The scene format before issue 17 gave wind an acceleration 'strength'; it now fails with the drag keys."""
+    with pytest.raises(SceneError, match=r"'strength'.*no longer read.*'speed'.*'air_density'.*'drag_coefficient'"):
+        _scene(tmp_path, force=[{"kind": "wind", "strength": 2.5, "direction": [1, 0, 0]}])
+    with pytest.raises(SceneError, match="'speed'"):
+        ForceField("wind", strength=1.0)
+    f = _scene(tmp_path, force=[{"kind": "wind", "speed": 3.0, "air_density": 1.2, "drag_coefficient": 0.5}]).forces[0]
+    assert (f.speed, f.drag_factor) == (3.0, pytest.approx(0.3))
 
 
 def test_attractor_falloff():
@@ -82,7 +92,7 @@ def test_attractor_falloff():
 
 
 def test_scene_keys_parsed(tmp_path):
-    s = _scene(tmp_path, force=[{"kind": "wind", "strength": 2.0, "direction": [0, 2, 0]}],
+    s = _scene(tmp_path, force=[{"kind": "wind", "speed": 2.0, "direction": [0, 2, 0]}],
                impulse=[{"shape": "sphere", "centre": [0, 0, 0], "radius": 0.1, "velocity_change": [0, 0, 1],
                          "t0": 0.1}])
     assert s.forces[0].direction == (0.0, 1.0, 0.0)
@@ -95,8 +105,8 @@ def test_scene_keys_parsed(tmp_path):
     ({"collider": [{"gaussians": str(DATA / "donut_v3dg.ply"), "velocity": [1, 0, 0]}]}, "only a 'mesh' collider can move"),
     ({"collider": [{"object": 3}]}, r"object = 3"),
     ({"collider": [{"object": 1, "frction": 0.1}]}, "unknown key"),
-    ({"force": [{"kind": "wind"}]}, "needs 'strength'"),
-    ({"force": [{"kind": "wind", "strength": 1, "direction": [0, 0, 0]}]}, "non-zero vector"),
+    ({"force": [{"kind": "wind"}]}, "needs 'speed'"),
+    ({"force": [{"kind": "wind", "speed": 1, "direction": [0, 0, 0]}]}, "non-zero vector"),
     ({"force": [{"kind": "vortex", "strength": 1}]}, "kind"),
     ({"force": [{"kind": "attractor", "strength": 1}]}, "needs 'point'"),
     ({"force": [{"kind": "attractor", "strength": 1, "point": [0, 0, 0], "falloff": "cubic"}]}, "falloff"),
@@ -125,7 +135,7 @@ def test_missing_feature_names_engines_that_have_it():
 def test_grid_tables_layout():
     class S:
         colliders = [box_collider((0.1, 0.1, 0.1), 0.05, motion=Motion(velocity=(1.0, 0, 0)))]
-        forces = [ForceField("wind", strength=1.0)]
+        forces = [ForceField("wind", speed=1.0)]
         impulses = [Impulse("box", (1.0, 0, 0), lo=(0, 0, 0), hi=(1, 1, 1))]
     t = grid_tables(S)
     assert (t.n_colliders, t.n_forces, t.n_impulses) == (1, 1, 1)

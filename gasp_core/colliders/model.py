@@ -14,9 +14,9 @@ Everything here is data in the world frame (metres, seconds, z up) that every en
 - :class:`Impulse`: a velocity change given to whatever is inside a box or sphere between ``t0``
   and ``t1`` (``mode = "add"``, PhysGaussian's ``impulse``), or a velocity imposed there
   (``mode = "set"``, PhysGaussian's ``enforce_particle_translation``).
-- :class:`ForceField`: ``wind`` (a uniform acceleration plus optional divergence-free turbulence,
-  deterministic for a seed) or ``attractor`` (towards a point, with a falloff). Forces are
-  **accelerations** (m/s^2, mass independent, like gravity).
+- :class:`ForceField`: ``wind`` (quadratic drag on the body's surface towards a wind velocity, a
+  uniform speed plus optional divergence-free turbulence, deterministic for a seed) or ``attractor``
+  (an **acceleration** towards a point, m/s^2, mass independent like gravity, with a falloff).
 
 Grid (MPM) engines apply all three on the grid nodes; :func:`grid_tables` packs them into the flat
 arrays their kernels read, and :func:`frame_table` the time-dependent part of one frame (collider
@@ -52,6 +52,11 @@ FORCE_ROW, MODE_ROW = 12, 8
 #: Floats per impulse row (:func:`grid_tables`).
 IMPULSE_ROW = 11
 FALLOFFS = ("none", "inverse_square")
+#: The error for a wind given as an acceleration (the scene format before issue 17).
+WIND_ACCELERATION_REMOVED = (
+    "wind is a drag law on the body's surface, F = 1/2 rho_air C_d A |u - v| (u - v): 'strength' (an acceleration, "
+    "m/s^2) is no longer read; give 'speed' (wind speed, m/s) with 'direction', and optionally 'air_density' "
+    "(kg/m^3, default 1.2) and 'drag_coefficient' (C_d, default 1.0); 'turbulence' is now an RMS wind speed, m/s")
 
 
 @dataclass
@@ -217,18 +222,33 @@ class Impulse:
 
 @dataclass
 class ForceField:
-    """An acceleration field (m/s^2), applied to all material like gravity.
+    """Wind (a drag law on the surface) or an attractor (an acceleration field, m/s^2).
+
+    ``wind`` is the field-standard quadratic drag on the body's surface,
+
+        ``F = 1/2 rho_air C_d A |u - v| (u - v)``,
+
+    with ``u`` the wind velocity, ``v`` the body's and ``A`` the area the body shows the relative
+    wind (its projection on the plane normal to ``u - v``): a body in wind reaches a terminal
+    velocity (a falling one ``sqrt(2 m g / (rho_air C_d A))`` in still air). Grid engines apply it
+    at the nodes on the body's windward surface (docs/colliders.md).
 
     Attributes
     ----------
     kind : {"wind", "attractor"}
     direction : (3,) float
-        ``wind``: unit direction of the mean acceleration.
+        ``wind``: unit direction of the mean wind velocity.
+    speed : float
+        ``wind``: mean wind speed, m/s (``u = speed * direction``).
+    air_density : float
+        ``wind``: density of the air (or other fluid) ``rho_air``, kg/m^3 (default 1.2, air at 20 C).
+    drag_coefficient : float
+        ``wind``: ``C_d``, dimensionless (default 1.0; about 0.47 for a sphere, 1.05 for a cube face on).
     strength : float
-        ``wind``: mean acceleration, m/s^2. ``attractor``: acceleration towards ``point`` at
-        distance ``radius`` (negative repels), m/s^2.
+        ``attractor``: acceleration towards ``point`` at distance ``radius`` (negative repels), m/s^2.
+        Must be 0 for ``wind`` (the old wind acceleration; :class:`~gasp_core.errors.SceneError`).
     turbulence : float
-        ``wind``: RMS of the turbulent acceleration, m/s^2 (0: uniform wind).
+        ``wind``: RMS of the turbulent wind velocity, m/s (0: uniform wind).
     turbulence_scale : float
         ``wind``: wavelength of the turbulence, metres.
     turbulence_time : float
@@ -241,6 +261,12 @@ class ForceField:
         ``attractor``: softening radius, metres; inside it the pull falls linearly to 0 at ``point``.
     falloff : {"none", "inverse_square"}
         ``attractor``: ``|a| = strength`` beyond ``radius``, or ``strength (radius / r)^2``.
+
+    Raises
+    ------
+    SceneError
+        ``wind`` with a non-zero ``strength`` (wind is no longer an acceleration), or a negative
+        ``speed``, ``air_density`` or ``drag_coefficient``.
     """
 
     kind: str
@@ -253,11 +279,35 @@ class ForceField:
     point: tuple[float, float, float] = (0.0, 0.0, 0.0)
     radius: float = 0.05
     falloff: str = "none"
+    speed: float = 0.0
+    air_density: float = 1.2
+    drag_coefficient: float = 1.0
+
+    def __post_init__(self):
+        if self.kind == "wind":
+            if self.strength != 0.0:
+                raise SceneError(WIND_ACCELERATION_REMOVED)
+            if not (self.speed >= 0.0 and self.air_density >= 0.0 and self.drag_coefficient >= 0.0):
+                raise SceneError(f"wind needs speed >= 0 (m/s), air_density >= 0 (kg/m^3) and drag_coefficient >= 0; "
+                                 f"got {self.speed}, {self.air_density}, {self.drag_coefficient}")
+
+    @property
+    def drag_factor(self) -> float:
+        """``1/2 rho_air C_d``, kg/m^3: drag force per unit area per (m/s)^2."""
+        return 0.5 * self.air_density * self.drag_coefficient
+
+    def wind_velocity(self, X: np.ndarray, t: float = 0.0) -> np.ndarray:
+        """``wind``: the wind velocity ``u`` at world points ``X`` (n, 3) and time ``t``, m/s (reference for the kernels)."""
+        X = np.asarray(X, float)
+        u = np.broadcast_to(self.speed * np.asarray(self.direction, float), X.shape).copy()
+        for row in self.modes():
+            u += row[3:6] * np.sin(X @ row[:3] + row[7] * t + row[6])[:, None]
+        return u
 
     def modes(self) -> np.ndarray:
-        """Turbulence modes, shape (K, 8): wave vector k (1/m), amplitude A (m/s^2, A . k = 0), phase, omega (rad/s).
+        """Turbulence modes, shape (K, 8): wave vector k (1/m), amplitude A (m/s, A . k = 0), phase, omega (rad/s).
 
-        The turbulent acceleration is ``sum A sin(k . x + omega t + phase)``: divergence-free
+        The turbulent wind velocity is ``sum A sin(k . x + omega t + phase)``: divergence-free
         (each ``A`` is perpendicular to its ``k``), smooth, with RMS ``turbulence``; the same
         ``seed`` gives the same field.
         """
@@ -277,13 +327,16 @@ class ForceField:
         return np.column_stack([k, A, phase, omega])
 
     def acceleration(self, X: np.ndarray, t: float = 0.0) -> np.ndarray:
-        """The field at world points ``X`` (n, 3) and time ``t``, m/s^2 (reference for the kernels)."""
+        """``attractor``: the field at world points ``X`` (n, 3), m/s^2 (reference for the kernels).
+
+        Raises
+        ------
+        ValueError
+            For ``wind``, which is a drag law (:meth:`wind_velocity`), not an acceleration.
+        """
         X = np.asarray(X, float)
         if self.kind == "wind":
-            a = np.broadcast_to(self.strength * np.asarray(self.direction, float), X.shape).copy()
-            for row in self.modes():
-                a += row[3:6] * np.sin(X @ row[:3] + row[7] * t + row[6])[:, None]
-            return a
+            raise ValueError("wind is a drag law, not an acceleration: see ForceField.wind_velocity")
         r_vec = np.asarray(self.point, float) - X
         r = np.linalg.norm(r_vec, axis=1)
         mag = np.where(r >= self.radius,

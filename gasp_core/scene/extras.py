@@ -44,7 +44,8 @@ class ColliderSpec:
 
 
 _COLLIDER_KEYS = {f.name for f in fields(ColliderSpec)} - {"where"}
-_FORCE_KIND_KEYS = {"wind": {"kind", "direction", "strength", "turbulence", "turbulence_scale", "turbulence_time", "seed"},
+_FORCE_KIND_KEYS = {"wind": {"kind", "direction", "speed", "air_density", "drag_coefficient", "turbulence",
+                             "turbulence_scale", "turbulence_time", "seed"},
                     "attractor": {"kind", "point", "strength", "radius", "falloff"}}
 _IMPULSE_SHAPE_KEYS = {"box": {"lo", "hi"}, "sphere": {"centre", "radius"}}
 _IMPULSE_KEYS = {"shape", "velocity_change", "t0", "t1", "mode"}
@@ -111,22 +112,32 @@ def _collider(c: dict, where: str, src: Path, n_objects: int) -> ColliderSpec:
 def _force(f: dict, where: str, src: Path):
     from gasp_core.colliders.model import FALLOFFS, ForceField
     kind = _string(f.get("kind"), f"{where}.kind", src, tuple(_FORCE_KIND_KEYS))
-    _check_keys(f, _FORCE_KIND_KEYS[kind], f"{where} (kind = {kind!r})", src)
-    if "strength" not in f:
-        raise SceneError(f"{src}: {where} (kind = {kind!r}) needs 'strength' (m/s^2)")
-    strength = _number(f["strength"], f"{where}.strength", src, -MAX_ACCEL, MAX_ACCEL)
     if kind == "wind":
+        from gasp_core.scene.spec.colliders import WIND_ACCELERATION_REMOVED
+        if "strength" in f:                  # the wind of before issue 17: an acceleration
+            raise SceneError(f"{src}: {where} (kind = 'wind'): {WIND_ACCELERATION_REMOVED}")
+        _check_keys(f, _FORCE_KIND_KEYS[kind], f"{where} (kind = {kind!r})", src)
+        if "speed" not in f:
+            raise SceneError(f"{src}: {where} (kind = 'wind') needs 'speed' (m/s)")
         d = _vec3(f.get("direction", [1.0, 0.0, 0.0]), f"{where}.direction", src)
         n = math.sqrt(sum(a * a for a in d))
         if n == 0.0:
             _bad(src, f"{where}.direction", f["direction"], "a non-zero vector")
-        return ForceField("wind", direction=tuple(a / n for a in d), strength=strength,
-                          turbulence=_number(f.get("turbulence", 0.0), f"{where}.turbulence", src, 0.0, MAX_ACCEL),
+        return ForceField("wind", direction=tuple(a / n for a in d),
+                          speed=_number(f["speed"], f"{where}.speed", src, 0.0, MAX_SPEED),
+                          air_density=_number(f.get("air_density", 1.2), f"{where}.air_density", src, 0.0, 1e5),
+                          drag_coefficient=_number(f.get("drag_coefficient", 1.0), f"{where}.drag_coefficient", src,
+                                                   0.0, 100.0),
+                          turbulence=_number(f.get("turbulence", 0.0), f"{where}.turbulence", src, 0.0, MAX_SPEED),
                           turbulence_scale=_number(f.get("turbulence_scale", 0.5), f"{where}.turbulence_scale", src,
                                                    0.0, MAX_COORD, lo_open=True),
                           turbulence_time=(_number(f["turbulence_time"], f"{where}.turbulence_time", src, 0.0,
                                                    lo_open=True) if "turbulence_time" in f else math.inf),
                           seed=_integer(f.get("seed", 0), f"{where}.seed", src, 0, 2 ** 32 - 1))
+    _check_keys(f, _FORCE_KIND_KEYS[kind], f"{where} (kind = {kind!r})", src)
+    if "strength" not in f:
+        raise SceneError(f"{src}: {where} (kind = {kind!r}) needs 'strength' (m/s^2)")
+    strength = _number(f["strength"], f"{where}.strength", src, -MAX_ACCEL, MAX_ACCEL)
     if "point" not in f:
         raise SceneError(f"{src}: {where} (kind = 'attractor') needs 'point'")
     return ForceField("attractor", strength=strength,

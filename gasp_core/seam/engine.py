@@ -46,7 +46,8 @@ FEATURES = {
     "moving_colliders": "SimSetup.colliders with a prescribed rigid motion (Collider.pose(t)); "
                         "contact uses the velocity relative to the collider",
     "impulse": "SimSetup.impulses: a velocity change (or imposed velocity) inside a box or sphere over [t0, t1]",
-    "wind": "SimSetup.forces of kind 'wind': a uniform acceleration plus divergence-free turbulence",
+    "wind": "SimSetup.forces of kind 'wind': quadratic drag 1/2 rho_air C_d A |u - v| (u - v) on the windward "
+            "surface, towards a uniform wind plus divergence-free turbulence",
     "attractors": "SimSetup.forces of kind 'attractor': acceleration towards a point with a falloff",
 }
 

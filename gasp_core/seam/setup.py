@@ -44,7 +44,8 @@ class Material:
     rho : float
         Density, kg/m^3.
     yield_stress : float
-        von Mises yield stress, Pa (metal, plasticine).
+        von Mises yield stress, Pa (metal, plasticine): the uniaxial stress at which a bar yields
+        (``gasp_core.toolkit.mpm.VON_MISES_RADIUS``).
     friction_angle : float
         Drucker-Prager friction angle, degrees (sand).
     softening : float
@@ -152,7 +153,7 @@ class SimSetup:
         Rigid obstacles (signed distance fields, friction, prescribed motion); features
         ``static_colliders`` / ``moving_colliders``.
     forces : list of gasp_core.colliders.model.ForceField
-        Acceleration fields (``wind``, ``attractor``); features ``wind`` / ``attractors``.
+        Wind (a surface drag law) and attractors (acceleration fields); features ``wind`` / ``attractors``.
     impulses : list of gasp_core.colliders.model.Impulse
         Velocity changes of a region over a time window; feature ``impulse``.
     """

@@ -10,6 +10,8 @@ from gasp_core.testing.kit import EngineReport, evaluate_scene, resolve_engine, 
 from gasp_core.testing.scenes_basic import SCENES_BASIC
 from gasp_core.testing.scenes_colliders import SCENES_COLLIDERS
 from gasp_core.testing.scenes_contract import contract_scenes
+from gasp_core.testing.scenes_wind import SCENES_WIND
+from gasp_core.testing.scenes_passive import SCENES_PASSIVE
 from gasp_core.testing.scenes_analytic import SCENES_ANALYTIC
 from gasp_core.testing.scenes_rest import SCENES_REST
 from gasp_core.testing.scenes_freefall import SCENES_FREEFALL
@@ -17,7 +19,7 @@ from gasp_core.testing.scenes_mass import SCENES_MASS
 from gasp_core.testing.scenes_materials import SCENES_MATERIALS
 
 #: All scenes: physics with known answers first, then the error contract.
-SCENES: list[Scene] = [*SCENES_FREEFALL, *SCENES_BASIC, *SCENES_MATERIALS, *SCENES_COLLIDERS, *SCENES_REST, *SCENES_ANALYTIC, *SCENES_MASS]
+SCENES: list[Scene] = [*SCENES_FREEFALL, *SCENES_BASIC, *SCENES_MATERIALS, *SCENES_COLLIDERS, *SCENES_REST, *SCENES_ANALYTIC, *SCENES_PASSIVE, *SCENES_WIND, *SCENES_MASS]
 SCENES += contract_scenes(lambda: {s.name for s in SCENES})
 
 

@@ -9,8 +9,7 @@
 - ``pusher``: a box collider moving at ``PUSH_SPEED`` along x pushes a block over a ground with
   friction; in the long run the block can neither fall behind the pusher (no penetration) nor
   run ahead of it (friction stops it), so its mean speed is the pusher's.
-- ``wind``: a free body (no gravity) in a uniform wind of ``WIND_A`` m/s^2: centroid
-  ``x0 + a t^2 / 2``.
+(The ``wind`` scene is in :mod:`gasp_core.testing.scenes_wind`.)
 
 All use the domain ``[0, 1]^3`` at ``n_grid = 32`` and points at ``dx / 2``.
 """
@@ -20,7 +19,7 @@ import math
 
 import numpy as np
 
-from gasp_core.colliders.model import ForceField, Motion, SDF_SPACING, box_collider
+from gasp_core.colliders.model import Motion, SDF_SPACING, box_collider
 from gasp_core.seam.engine import EngineInfo
 from gasp_core.seam.setup import Boundary, Material, SimSetup
 from gasp_core.testing.helpers import box_points, Check, check as _check, G, make_setup as _setup
@@ -145,30 +144,6 @@ def _eval_pusher(info: EngineInfo, tr: Trace) -> list[Check]:
             _check("pusher_penetration", inside / DX, 1.0, "deepest point inside the pusher over the run, in dx")]
 
 
-# --- wind -----------------------------------------------------------------------------------
-WIND_A = 2.0
-WIND_T = 0.3
-
-
-def _build_wind(info: EngineInfo) -> SimSetup:
-    x, p_vol = box_points((0.3, 0.4, 0.4), (0.45, 0.55, 0.55), DX / 2)
-    setup = _setup(x, p_vol, BLOCK, n_grid=N_GRID, gravity=(0.0, 0.0, 0.0), frame_dt=0.02)
-    setup.forces = [ForceField("wind", direction=(1.0, 0.0, 0.0), strength=WIND_A)]
-    return setup
-
-
-def _eval_wind(info: EngineInfo, tr: Trace) -> list[Check]:
-    c = tr.centroid()
-    d = c - c[0]
-    expected = 0.5 * WIND_A * tr.t ** 2
-    # at the end, as free_fall: the explicit update lags a t^2/2 by about a t dt / 2 (1/n_steps relative)
-    err = float(abs(d[-1, 0] - expected[-1]) / expected[-1])
-    return [_check("centroid_x", err, 0.01, f"|x - a t^2/2| / (a t^2/2) at t = {tr.t[-1]:.2f} s "
-                   f"({d[-1, 0]:.5f} m vs {expected[-1]:.5f} m)", x=d[-1, 0], expected=expected[-1]),
-            _check("cross_drift", float(np.abs(d[:, 1:]).max()), 1e-3 * expected[-1], "max |y, z centroid drift|",
-                   " m")]
-
-
 SCENES_COLLIDERS: list[Scene] = [
     Scene("incline_slide", f"elastic block on a static box collider tilted {INCLINE_DEG:g} deg, friction "
           f"{MU_SLIDE}: slides with a = g (sin th - mu cos th) within {INCLINE_TOL:.0%}",
@@ -186,7 +161,4 @@ SCENES_COLLIDERS: list[Scene] = [
           f"block's mean speed = pusher's within {PUSH_TOL:.0%}",
           Requires(frozenset({"jelly"}), frozenset({"ground"}), features=frozenset({"moving_colliders"})),
           _build_pusher, round(PUSH_T / 0.02), _eval_pusher),
-    Scene("wind", f"free body in a uniform wind of {WIND_A} m/s^2: centroid a t^2/2 within 1%",
-          Requires(frozenset({"jelly"}), features=frozenset({"wind"})), _build_wind, round(WIND_T / 0.02),
-          _eval_wind),
 ]

@@ -134,7 +134,7 @@ def _refused_extras(info: EngineInfo) -> list[Check]:
         "moving_colliders": {"colliders": [box_collider((0.05, 0.05, 0.05), DX, position=far,
                                                         motion=Motion(velocity=(0.1, 0.0, 0.0)))]},
         "impulse": {"impulses": [Impulse("box", (0.1, 0.0, 0.0), lo=(0, 0, 0), hi=(1, 1, 1))]},
-        "wind": {"forces": [ForceField("wind", strength=1.0)]},
+        "wind": {"forces": [ForceField("wind", speed=1.0)]},
         "attractors": {"forces": [ForceField("attractor", strength=1.0, point=(0.5, 0.5, 0.5))]},
     }
     out = []

@@ -16,9 +16,9 @@ class GridTables:
 
     ``sdf`` (N,) and ``sdf_grad`` (3N,) concatenate every collider's samples (x-major);
     ``col_meta`` rows of :data:`COL_META`: ``origin (3), h, nx, ny, nz, offset, friction``;
-    ``forces`` rows of :data:`FORCE_ROW`: ``kind (0 wind, 1 attractor), c (3) = wind acceleration
-    or attractor point, unused (3), strength, radius, falloff (0 none, 1 inverse_square), mode
-    start, mode count``; ``modes`` rows of :data:`MODE_ROW` (:meth:`ForceField.modes`);
+    ``forces`` rows of :data:`FORCE_ROW`: ``kind (0 wind, 1 attractor), c (3) = mean wind velocity
+    (m/s) or attractor point, (drag factor 1/2 rho_air C_d (kg/m^3) for wind, 0, 0), strength, radius,
+    falloff (0 none, 1 inverse_square), mode start, mode count``; ``modes`` rows of :data:`MODE_ROW` (:meth:`ForceField.modes`);
     ``impulses`` rows of :data:`IMPULSE_ROW`: ``shape (0 box, 1 sphere), a (3) = lo or centre,
     b (3) = hi or (radius, 0, 0), mode (0 add, 1 set), dv (3)``.
     """
@@ -60,7 +60,7 @@ def grid_tables(setup) -> GridTables:
     for f in forces:
         md = f.modes()
         if f.kind == "wind":
-            frows.append([0, *(f.strength * np.asarray(f.direction, float)), 0, 0, 0, f.strength, 0.0, 0, m0, len(md)])
+            frows.append([0, *(f.speed * np.asarray(f.direction, float)), f.drag_factor, 0, 0, 0.0, 0.0, 0, m0, len(md)])
         else:
             frows.append([1, *f.point, 0, 0, 0, f.strength, f.radius, FALLOFFS.index(f.falloff), m0, 0])
         modes.append(md)

@@ -151,8 +151,9 @@ def substeps_from_options(setup, options: Mapping[str, Any], engine: str = "") -
 
 #: Option of the grid engines with the feature ``passive_points`` (:func:`passive_schedule`).
 PASSIVE_EVERY = Option(
-    "passive_every", 1, "move passive points every this many substeps, by the grid velocity interpolated "
-    "linearly in time between updates (1: every substep, plain G2P)", kind="int", lo=1, hi=MAX_SUBSTEPS)
+    "passive_every", 1, "move passive points every this many substeps, through the grid's affine velocity field "
+    "(velocity and gradient gathered at the point, linear in time between updates; 1: every substep, plain G2P)",
+    kind="int", lo=1, hi=MAX_SUBSTEPS)
 
 
 def passive_schedule(n_substeps: int, every: int, dt: float) -> list[tuple[int, float, float]]:
@@ -165,9 +166,19 @@ def passive_schedule(n_substeps: int, every: int, dt: float) -> list[tuple[int, 
 
         ``x += a v_prev + b v_now``,  ``a = dt (m - 1) / 2``,  ``b = dt (m + 1) / 2``
 
-    (``m = 1`` is the plain update: ``a = 0``, ``b = dt``). The error is second order in ``m dt``
-    where the grid velocity changes smoothly, and nothing crosses a frame: the last substep of every
-    frame updates, so frames are written and saved states resumed with every point in place.
+    (``m = 1`` is the plain update: ``a = 0``, ``b = dt``). That alone moves the point in a straight
+    line between gathers, so on a spinning body it drifts outward (``exp(pi omega (m - 1) dt) - 1`` a
+    turn: 5.7 % at ``m = 4`` in the ``passive_spin`` scene). The engines therefore also gather the
+    affine velocity gradient ``C`` (weighted least-squares over the nodes with mass; APIC's ``C`` on a
+    full stencil) and advance through the affine field, linear in time as ``v``,
+
+        ``y += dt (v_prev + (k/m)(v_now - v_prev) + (C_prev + (k/m)(C_now - C_prev)) y)``, ``k = 1..m``,
+
+    then store ``v = v_now + C_now y`` (the field at the new position) and ``C = C_now``. With ``C = 0``
+    this is the sum above; on the spinning sphere the mean radius after one turn is off by 0.0006 %
+    at ``m = 4`` and 0.006 % at ``m = 8`` (0.0014 % at ``m = 1``). The error is second order in ``m dt`` where the grid velocity changes
+    smoothly, and nothing crosses a frame: the last substep of every frame updates, so frames are
+    written and saved states resumed with every point in place.
 
     Parameters
     ----------
@@ -182,7 +193,8 @@ def passive_schedule(n_substeps: int, every: int, dt: float) -> list[tuple[int, 
     -------
     list of (int, float, float)
         ``(s, a, b)`` per update: after the grid update of substep ``s`` (0-based), move by
-        ``a v_prev + b v_now`` (metres per m/s). At most two distinct ``(a, b)`` pairs occur.
+        ``a v_prev + b v_now`` (metres per m/s) when ``C = 0``; the interval is ``m = (a + b) / dt``
+        substeps. At most two distinct ``(a, b)`` pairs occur.
     """
     every = max(1, min(int(every), int(n_substeps)))
     out, last = [], -1
@@ -301,6 +313,12 @@ MATERIAL_CODES = {"jelly": JELLY, "neo_hookean": NEO_HOOKEAN, "metal": METAL, "s
 #: Columns of the per-body parameter table (:func:`material_table`).
 P_MU, P_LAM, P_YIELD, P_SOFTENING, P_HARDENING, P_THETA_C, P_THETA_S, P_ALPHA, P_K = range(9)
 N_PARAMS = 9
+#: von Mises yield surface radius per unit yield stress: metal and plasticine return-map the Hencky
+#: strain's deviator ``e`` onto ``2 mu ||e|| <= sqrt(2/3) Y``, i.e. ``||dev tau|| <= sqrt(2/3) Y``, so a
+#: bar in uniaxial stress yields at ``Y`` (von Mises: ``sigma_vm = sqrt(3/2) ||dev tau||``;
+#: de Souza Neto, Peric & Owen, Computational Methods for Plasticity, 2008, Ch. 6). taichi_elements
+#: and PhysGaussian use ``||e|| <= Y / (2 mu)``, which yields at ``sqrt(3/2) Y = 1.22 Y``.
+VON_MISES_RADIUS = math.sqrt(2.0 / 3.0)
 
 
 def material_table(materials: Sequence[Material]) -> tuple[np.ndarray, np.ndarray]:

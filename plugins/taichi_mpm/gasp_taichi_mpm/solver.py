@@ -32,7 +32,7 @@ from gasp_core.toolkit import mpm
 from gasp_core.errors import SceneError
 from gasp_core.toolkit.mpm import (JELLY, LIQUID, METAL, N_PARAMS, NEO_HOOKEAN, P_ALPHA, P_HARDENING, P_K,
                            P_LAM, P_MU, P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND,
-                           SNOW)
+                           SNOW, VON_MISES_RADIUS)
 
 _TIE = 1e-9  # cells: tolerance for ties when boundary tests become node-index ranges
 
@@ -159,7 +159,7 @@ class MPMSolver:
         self.pbox = ti.Vector.field(3, ti.i32, shape=(self.n_chunks, 2))  # passive points' node box
         # scalars: dt, dx, inv_dx; vectors: lo, gravity
         self.sc = ti.field(real, shape=3)
-        # passive points' update weights (gasp_core.toolkit.mpm.passive_schedule): [a, b] of a full interval, of the last
+        # passive points' intervals (gasp_core.toolkit.mpm.passive_schedule): [m, 0] of a full interval, of the last
         self.pab = ti.field(real, shape=4)
         self.lo = ti.Vector.field(3, real, shape=())
         self.gravity = ti.Vector.field(3, real, shape=())
@@ -236,18 +236,19 @@ class MPMSolver:
 
     # ------------------------------------------------------------------ driver
     def _passive_at(self, n_substeps: int) -> list:
-        """Per substep of a frame: None, or which weight pair (0 full interval, 1 last) moves the passive
+        """Per substep of a frame: None, or which interval (0 full, 1 last) moves the passive
         points after its grid update (:func:`gasp_core.toolkit.mpm.passive_schedule`)."""
         if not self.has_passive:
             return [None] * n_substeps
         if self._passive_plan[0] != n_substeps:
             plan = mpm.passive_schedule(n_substeps, self._passive_every, float(self.sc[0]))
-            pairs = list(dict.fromkeys((a, b) for _s, a, b in plan))
-            pairs += pairs[-1:] * (2 - len(pairs))
-            self.pab.from_numpy(np.array([c for ab in pairs for c in ab], self._np_real))
+            dt = float(self.sc[0])
+            ms = list(dict.fromkeys(int(round((a + b) / dt)) for _s, a, b in plan))   # substeps per interval
+            ms += ms[-1:] * (2 - len(ms))
+            self.pab.from_numpy(np.array([c for m in ms for c in (m, 0.0)], self._np_real))
             at = [None] * n_substeps
             for s, a, b in plan:
-                at[s] = pairs.index((a, b))
+                at[s] = ms.index(int(round((a + b) / dt)))
             self._passive_plan = (n_substeps, at)
         return self._passive_plan[1]
 
@@ -280,6 +281,10 @@ class MPMSolver:
     def _setup_extras(self, ex, time_table, np_real, n_substeps) -> None:
         """Fields of :func:`gasp_core.toolkit.grid_tables.grid_tables` (``ex``); none when ``ex`` is None or empty."""
         self.has_extras = ex is not None and ex.any
+        # wind: per node sum_p p_vol grad N_ip (m^2), the windward area its drag acts on (private copies as grid_acc)
+        self.has_wind = bool(self.has_extras and any(ex.forces[r * 12] == 0.0 for r in range(ex.n_forces)))
+        ng = self.n_grid
+        self.grid_g = ti.Vector.field(3, self.real, shape=(self.n_chunks, ng, ng, ng) if self.has_wind else (1, 1, 1, 1))
         if not self.has_extras:
             return
         self._ex_np = np_real
@@ -308,8 +313,12 @@ class MPMSolver:
         return out
 
     @ti.func
-    def _extras(self, I, v):
-        """Forces, impulses, then colliders at node ``I`` (docs/colliders.md; the same order as warp_mpm)."""
+    def _extras(self, I, v, m, gsurf):
+        """Forces, impulses, then colliders at node ``I`` (docs/colliders.md; the same order as warp_mpm).
+
+        Wind is quadratic drag on the windward surface, ``F = 1/2 rho_air C_d A |w| w``, ``w = u - v``,
+        ``A = max(0, gsurf . w / |w|)`` (``gsurf = sum_p p_vol grad N_ip``, m^2; node mass ``m``, kg),
+        applied implicitly in the drag rate ``k = F / (m |w|)``: ``v += w dt k / (1 + dt k)``."""
         dt = self.sc[0]
         X = self.lo[None] + self.sc[1] * ti.Vector([ti.cast(I[0], self.real), ti.cast(I[1], self.real),
                                                     ti.cast(I[2], self.real)])
@@ -319,13 +328,19 @@ class MPMSolver:
             r = f * 12
             a = ti.Vector.zero(self.real, 3)
             if self.ex_forces[r] == 0.0:
-                a = ti.Vector([self.ex_forces[r + 1], self.ex_forces[r + 2], self.ex_forces[r + 3]])
+                u = ti.Vector([self.ex_forces[r + 1], self.ex_forces[r + 2], self.ex_forces[r + 3]])
                 m0 = ti.cast(self.ex_forces[r + 10], ti.i32)
-                for m in range(m0, m0 + ti.cast(self.ex_forces[r + 11], ti.i32)):
-                    q = m * 8
+                for mm in range(m0, m0 + ti.cast(self.ex_forces[r + 11], ti.i32)):
+                    q = mm * 8
                     k = ti.Vector([self.ex_modes[q], self.ex_modes[q + 1], self.ex_modes[q + 2]])
                     A = ti.Vector([self.ex_modes[q + 3], self.ex_modes[q + 4], self.ex_modes[q + 5]])
-                    a += A * ti.sin(k.dot(X) + self.ex_modes[q + 7] * t + self.ex_modes[q + 6])
+                    u += A * ti.sin(k.dot(X) + self.ex_modes[q + 7] * t + self.ex_modes[q + 6])
+                wrel = u - v
+                wn = wrel.norm()
+                if wn > 0.0:
+                    area = ti.max(0.0, gsurf.dot(wrel) / wn)
+                    kdt = dt * self.ex_forces[r + 4] * area * wn / m
+                    v += (kdt / (1.0 + kdt)) * wrel
             else:
                 d = ti.Vector([self.ex_forces[r + 1], self.ex_forces[r + 2], self.ex_forces[r + 3]]) - X
                 rr = d.norm()
@@ -585,7 +600,7 @@ class MPMSolver:
                     yield_stress = prm[P_YIELD]
                     if kind == PLASTICINE:
                         yield_stress = prm[P_YIELD] * ti.max(0.0, 1.0 - prm[P_SOFTENING] * Jp)
-                    dg = ne - yield_stress / (2.0 * mu)
+                    dg = ne - VON_MISES_RADIUS * yield_stress / (2.0 * mu)   # ||dev tau|| <= sqrt(2/3) Y
                     if dg > 0.0:
                         eps -= dg * e / ne
                         F = self._udvt(U, ti.exp(eps), V)
@@ -634,6 +649,15 @@ class MPMSolver:
                     self.grid_acc[0, node] += val
                 else:
                     self.grid_acc[t, node] = self.grid_acc[t, node] + val
+                if ti.static(self.has_wind):
+                    # p_vol grad N_ip: d N / d x_node per axis is (1.5 - fx, 2 (fx - 1), 0.5 - fx) inv_dx
+                    dw = [1.5 - fx, 2.0 * (fx - 1.0), 0.5 - fx]
+                    gv = (self.p_vol[p] * inv_dx) * ti.Vector([dw[i][0] * w[j][1] * w[k][2], w[i][0] * dw[j][1] * w[k][2],
+                                                               w[i][0] * w[j][1] * dw[k][2]])
+                    if ti.static(self.atomic):
+                        self.grid_g[0, node] += gv
+                    else:
+                        self.grid_g[t, node] = self.grid_g[t, node] + gv
             bmin = ti.min(bmin, base)
             bmax = ti.max(bmax, base + 2)
         return bmin, bmax
@@ -702,13 +726,16 @@ class MPMSolver:
 
     @ti.func
     def _g2p_passive_point(self, p, pair):
-        """A passive point: velocity and position from the grid, nothing else (no C, F, P2G).
+        """A passive point: velocity ``v`` and affine velocity gradient ``C`` from the grid (no F, no P2G).
 
-        Only nodes that received mass count, with the weights renormalised over them: a surface
-        point half a spacing outside the material sees empty nodes (velocity 0, not the material's)
-        in its stencil, which would hold it back. Inside the material this is plain G2P. The move is
-        ``a v_prev + b v_new`` with ``(a, b) = pab[2 pair], pab[2 pair + 1]``
-        (:func:`gasp_core.toolkit.mpm.passive_schedule`; ``(0, dt)`` when every substep moves them)."""
+        Only nodes that received mass count, with the weights renormalised over them: a surface point
+        half a spacing outside the material sees empty nodes (velocity 0, not the material's) in its
+        stencil, which would hold it back. ``C`` is the weighted least-squares fit of those nodes'
+        velocities (APIC's ``C`` on a full stencil). The point then advances over the ``m = pab[2 pair]``
+        substeps since its last gather through the affine field
+        ``v(y, k) = v_prev + (k/m)(v_new - v_prev) + (C_prev + (k/m)(C_new - C_prev)) y``,
+        ``y += dt v(y, k)`` for ``k = 1..m`` (:func:`gasp_core.toolkit.mpm.passive_schedule`), so it turns with
+        the material; ``m = 1`` is plain G2P."""
         base, fx, ok = self._base_fx(self.x[p])
         if not ok:
             ti.atomic_add(self.n_out[None], 1)
@@ -716,21 +743,45 @@ class MPMSolver:
             w = self._weights(fx)
             new_v = ti.Vector.zero(self.real, 3)
             wsum = ti.cast(0.0, self.real)
+            rbar = ti.Vector.zero(self.real, 3)
+            Svr = ti.Matrix.zero(self.real, 3, 3)
+            Srr = ti.Matrix.zero(self.real, 3, 3)
             for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                 node = base + ti.Vector([i, j, k])
                 if self.grid_m[node] > 0.0:
                     wn = w[i][0] * w[j][1] * w[k][2]
-                    new_v += wn * self.grid_v[node]
+                    r = ti.Vector([ti.static(float(i)), ti.static(float(j)), ti.static(float(k))], self.real) - fx
+                    gv = self.grid_v[node]
+                    new_v += wn * gv
                     wsum += wn
+                    rbar += wn * r
+                    Svr += wn * gv.outer_product(r)
+                    Srr += wn * r.outer_product(r)
+            new_C = ti.Matrix.zero(self.real, 3, 3)
             if wsum > 0.0:
                 new_v /= wsum
+                rbar /= wsum
+                # centred moments; a tiny ridge (1e-4 of a full stencil's wsum / 4) where the nodes with mass are planar
+                Svr -= wsum * new_v.outer_product(rbar)
+                Srr += ti.Matrix.identity(self.real, 3) * (2.5e-5 * wsum) - wsum * rbar.outer_product(rbar)
+                new_C = self.sc[2] * (Svr @ Srr.inverse())
             v_prev = self.v[p]
+            C_prev = self.C[p]
             if ti.static(self.any_fixed):
                 if self.fixed[p] != 0:
                     new_v = ti.Vector.zero(self.real, 3)
+                    new_C = ti.Matrix.zero(self.real, 3, 3)
                     v_prev = new_v
-            self.v[p] = new_v
-            self.x[p] += self.pab[2 * pair] * v_prev + self.pab[2 * pair + 1] * new_v
+                    C_prev = new_C
+            m = ti.cast(self.pab[2 * pair] + 0.5, ti.i32)
+            dt = self.sc[0]
+            y = ti.Vector.zero(self.real, 3)
+            for kk in range(m):
+                t = ti.cast(kk + 1, self.real) / ti.cast(m, self.real)
+                y += dt * (v_prev + t * (new_v - v_prev) + (C_prev + t * (new_C - C_prev)) @ y)
+            self.x[p] += y
+            self.v[p] = new_v + new_C @ y
+            self.C[p] = new_C
 
     @ti.func
     def _passive_chunk(self, t, move: ti.template(), pair):
@@ -794,11 +845,16 @@ class MPMSolver:
                 acc += self.grid_acc[t, I]
             for t in ti.static(range(self.n_chunks)):
                 self.grid_acc[t, I] = ti.Vector.zero(self.real, 4)
+            gsurf = ti.Vector.zero(self.real, 3)
+            if ti.static(self.has_wind):
+                for t in ti.static(range(self.n_chunks)):
+                    gsurf += self.grid_g[t, I]
+                    self.grid_g[t, I] = ti.Vector.zero(self.real, 3)
             v = ti.Vector.zero(self.real, 3)
             if acc[3] > 0.0:
                 v = ti.Vector([acc[0], acc[1], acc[2]]) / acc[3] + self.sc[0] * self.gravity[None]
                 if ti.static(self.has_extras):
-                    v = self._extras(I, v)
+                    v = self._extras(I, v, acc[3], gsurf)
                 for b in ti.static(range(self.n_walls)):
                     mu_b = self.wall_fric[b]
                     hi_first = self.wall_hi_first[b]

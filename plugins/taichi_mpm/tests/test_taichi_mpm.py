@@ -320,7 +320,7 @@ def _spec_stress(m, F, Jp):
         F = U @ np.diag(np.exp(eps)) @ V.T
     else:
         ys = m.yield_stress * (max(0.0, 1 - m.softening * Jp) if m.name == "plasticine" else 1.0)
-        dg = ne - ys / (2 * mu)
+        dg = ne - np.sqrt(2.0 / 3.0) * ys / (2 * mu)   # docs/mpm.md: yield at the uniaxial Y
         if dg > 0:
             eps = eps - dg * e / ne
             F = U @ np.diag(np.exp(eps)) @ V.T

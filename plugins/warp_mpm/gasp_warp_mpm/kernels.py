@@ -23,7 +23,8 @@ import warp as wp
 
 # Material codes and the columns of the per-body parameter table ``mat_par`` are gasp_core.toolkit.mpm's.
 from gasp_core.toolkit.mpm import (JELLY, METAL, NEO_HOOKEAN, P_ALPHA, P_HARDENING, P_K, P_LAM, P_MU,
-                           P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND, SNOW)
+                           P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND, SNOW,
+                           VON_MISES_RADIUS)
 
 # Warp compiles CPU code at -O2 by default; -O3 is several times faster on these kernels.
 _OPTS = {"optimization_level": 3}
@@ -142,8 +143,12 @@ def build_kernels(Ft):
         width: int
 
     @wp.func
-    def extras(v_in: vec3, X: vec3, dt: Ft, ex: Extras):
+    def extras(v_in: vec3, X: vec3, dt: Ft, m: Ft, gsurf: vec3, ex: Extras):
         # Forces, impulses, then colliders at a node (the same order as taichi_mpm's _extras).
+        # Wind (docs/colliders.md): quadratic drag on the windward surface, F = 1/2 rho_air C_d A |w| w,
+        # w = u - v, A = max(0, gsurf . w / |w|) (gsurf = sum_p p_vol grad N_ip, m^2: the node's share
+        # of the area the body shows the relative wind); applied implicitly in the drag rate
+        # k = 1/2 rho_air C_d A |w| / m: v += w dt k / (1 + dt k), so it never overshoots the wind.
         v = v_in
         base = ex.step[0] * ex.width
         t = ex.tab[base]
@@ -151,13 +156,19 @@ def build_kernels(Ft):
             r = f * 12
             a = vec3(Ft(0.0))
             if ex.forces[r] == Ft(0.0):
-                a = vec3(ex.forces[r + 1], ex.forces[r + 2], ex.forces[r + 3])
+                u = vec3(ex.forces[r + 1], ex.forces[r + 2], ex.forces[r + 3])
                 m0 = int(ex.forces[r + 10])
                 for mm in range(m0, m0 + int(ex.forces[r + 11])):
                     q = mm * 8
                     kv = vec3(ex.modes[q], ex.modes[q + 1], ex.modes[q + 2])
                     A = vec3(ex.modes[q + 3], ex.modes[q + 4], ex.modes[q + 5])
-                    a = a + A * wp.sin(wp.dot(kv, X) + ex.modes[q + 7] * t + ex.modes[q + 6])
+                    u = u + A * wp.sin(wp.dot(kv, X) + ex.modes[q + 7] * t + ex.modes[q + 6])
+                wrel = u - v
+                wn = wp.length(wrel)
+                if wn > Ft(0.0):
+                    area = wp.max(Ft(0.0), wp.dot(gsurf, wrel) / wn)
+                    kdt = dt * ex.forces[r + 4] * area * wn / m
+                    v = v + (kdt / (Ft(1.0) + kdt)) * wrel
             else:
                 d = vec3(ex.forces[r + 1], ex.forces[r + 2], ex.forces[r + 3]) - X
                 rr = wp.length(d)
@@ -246,8 +257,9 @@ def build_kernels(Ft):
         p_vol: wp.array(dtype=Ft), body: wp.array(dtype=wp.int32),
         mat_kind: wp.array(dtype=wp.int32), mat_par: wp.array2d(dtype=Ft),
         grid_mv: wp.array(dtype=vec4), n_out: wp.array(dtype=wp.int32),
-        lo: vec3, inv_dx: Ft, dx: Ft, dt: Ft, n_grid: int,
+        lo: vec3, inv_dx: Ft, dx: Ft, dt: Ft, n_grid: int, grid_g: wp.array(dtype=vec3), has_wind: int,
     ):
+        # with wind, grid_g += p_vol grad N_ip (m^2; the gradient of the volume fraction times dx^3)
         p = wp.tid()
         X = (x[p] - lo) * inv_dx
         if not in_grid(X, n_grid):
@@ -304,7 +316,7 @@ def build_kernels(Ft):
                 jp = Jp[p]
                 if kind == PLASTICINE:
                     ys = ys * wp.max(Ft(0.0), Ft(1.0) - mat_par[b, P_SOFTENING] * jp)
-                dg = e_norm - ys / (Ft(2.0) * mu)
+                dg = e_norm - Ft(VON_MISES_RADIUS) * ys / (Ft(2.0) * mu)   # ||dev tau|| <= sqrt(2/3) Y
                 if dg > Ft(0.0):
                     eps = eps - (dg / e_norm) * e
                     Fp = U * wp.diag(vec3(wp.exp(eps[0]), wp.exp(eps[1]), wp.exp(eps[2]))) * wp.transpose(V)
@@ -354,6 +366,16 @@ def build_kernels(Ft):
                     mk = mk + a2
                 mj = mj + a1
             mi = mi + a0
+        if has_wind != 0:
+            # d N / d x_node per axis (cells): rows of node offsets 0, 1, 2
+            dW = wp.matrix_from_rows(vec3(Ft(1.5)) - fx, Ft(2.0) * (fx - vec3(Ft(1.0))), vec3(Ft(0.5)) - fx)
+            sv = p_vol[p] * inv_dx
+            for i in range(3):
+                for j in range(3):
+                    row = idx0 + i * nn + j * n_grid
+                    for k in range(3):
+                        grid_g[row + k] += sv * vec3(dW[i, 0] * W[j, 1] * W[k, 2], W[i, 0] * dW[j, 1] * W[k, 2],
+                                                     W[i, 0] * W[j, 1] * dW[k, 2])
 
     @wp.kernel(enable_backward=False, module="unique", module_options=_OPTS)
     def grid_update(
@@ -361,7 +383,7 @@ def build_kernels(Ft):
         gravity: vec3, lo: vec3, hi: vec3, dx: Ft, dt: Ft, n_grid: int,
         wall_mu: wp.array(dtype=Ft), ground: wp.array(dtype=vec3),
         fixed_lo: wp.array(dtype=vec3), fixed_hi: wp.array(dtype=vec3),
-        has_extras: int, ex: Extras,
+        has_extras: int, ex: Extras, grid_g: wp.array(dtype=vec3), has_wind: int,
     ):
         # ground[g] = (top node layer k_max as a float, friction, unused); grid_m (node mass, for
         # passive points) has one entry per node when the setup has passive points, else one unused entry
@@ -378,7 +400,10 @@ def build_kernels(Ft):
             k = node % n_grid
             X = lo + dx * vec3(Ft(i), Ft(j), Ft(k))
             if has_extras != 0:
-                vel = extras(vel, X, dt, ex)
+                gsurf = vec3(Ft(0.0))
+                if has_wind != 0:
+                    gsurf = grid_g[node]
+                vel = extras(vel, X, dt, m, gsurf, ex)
             for w in range(wall_mu.shape[0]):
                 mu_b = wall_mu[w]
                 for d in range(3):
@@ -403,6 +428,8 @@ def build_kernels(Ft):
             out = vel
         grid_vel[node] = out
         grid_mv[node] = vec4(Ft(0.0))
+        if has_wind != 0:
+            grid_g[node] = vec3(Ft(0.0))
 
     @wp.kernel(enable_backward=False, module="unique", module_options=_OPTS)
     def g2p(
@@ -468,17 +495,21 @@ def build_kernels(Ft):
 
     @wp.kernel(enable_backward=False, module="unique", module_options=_OPTS)
     def g2p_passive(
-        x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), fixed: wp.array(dtype=wp.int32),
+        x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33), fixed: wp.array(dtype=wp.int32),
         grid_vel: wp.array(dtype=vec3), grid_m: wp.array(dtype=Ft), flags: wp.array(dtype=wp.int32),
-        lo: vec3, inv_dx: Ft, a: Ft, b: Ft, n_grid: int, first: int,
+        lo: vec3, inv_dx: Ft, dt: Ft, m: int, n_grid: int, first: int,
     ):
-        # Passive points (rows first..): velocity and position from the grid only (no C, F, P2G).
-        # Only nodes with mass count, weights renormalised over them: a surface point outside the
-        # material would otherwise be held back by the empty nodes' zero velocity. The move is
-        # a v_prev + b v_new (gasp_core.toolkit.mpm.passive_schedule; a = 0, b = dt every substep).
+        # Passive points (rows first..): velocity v and affine velocity gradient C from the grid
+        # (no F, no P2G). Only nodes with mass count, weights renormalised over them: a surface point
+        # outside the material would otherwise be held back by the empty nodes' zero velocity; C is
+        # the weighted least-squares fit of the node velocities (APIC's C on a full stencil). The
+        # point then advances over the m substeps since its last gather through the affine field
+        # v(y, k) = v_prev + (k/m)(v_new - v_prev) + (C_prev + (k/m)(C_new - C_prev)) y,
+        # y += dt v(y, k), k = 1..m (gasp_core.toolkit.mpm.passive_schedule), so it turns with the material.
         p = first + wp.tid()
         if fixed[p] != 0:
             v[p] = vec3(Ft(0.0))
+            C[p] = mat33()
             return
         xp = x[p]
         X = (xp - lo) * inv_dx
@@ -488,23 +519,45 @@ def build_kernels(Ft):
         b0 = wp.floor(X[0] - Ft(0.5))
         b1 = wp.floor(X[1] - Ft(0.5))
         b2 = wp.floor(X[2] - Ft(0.5))
-        W = weights(X - vec3(b0, b1, b2))
+        fx = X - vec3(b0, b1, b2)
+        W = weights(fx)
         nn = n_grid * n_grid
         idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
         new_v = vec3(Ft(0.0))
         wsum = Ft(0.0)
+        rbar = vec3(Ft(0.0))
+        Svr = mat33()
+        Srr = mat33()
         for i in range(3):
             for j in range(3):
                 row = idx0 + i * nn + j * n_grid
                 for k in range(3):
                     if grid_m[row + k] > Ft(0.0):
                         w = W[i, 0] * W[j, 1] * W[k, 2]
-                        new_v = new_v + w * grid_vel[row + k]
+                        r = vec3(Ft(i), Ft(j), Ft(k)) - fx          # node - point, cells
+                        gv = grid_vel[row + k]
+                        new_v = new_v + w * gv
                         wsum = wsum + w
+                        rbar = rbar + w * r
+                        Svr = Svr + w * wp.outer(gv, r)
+                        Srr = Srr + w * wp.outer(r, r)
+        Cn = mat33()
         if wsum > Ft(0.0):
             new_v = new_v / wsum
-        x[p] = xp + a * v[p] + b * new_v
-        v[p] = new_v
+            rbar = rbar / wsum
+            # centred moments; a tiny ridge (1e-4 of a full stencil's wsum / 4) where the nodes with mass are planar
+            Svr = Svr - wsum * wp.outer(new_v, rbar)
+            Srr = Srr - wsum * wp.outer(rbar, rbar) + wp.identity(3, dtype=Ft) * (Ft(2.5e-5) * wsum)
+            Cn = inv_dx * (Svr * wp.inverse(Srr))
+        vp = v[p]
+        Cp = C[p]
+        y = vec3(Ft(0.0))
+        for kk in range(m):
+            t = Ft(kk + 1) / Ft(m)
+            y = y + dt * (vp + t * (new_v - vp) + (Cp + t * (Cn - Cp)) * y)
+        x[p] = xp + y
+        v[p] = new_v + Cn * y
+        C[p] = Cn
 
     @wp.kernel(enable_backward=False, module="unique", module_options=_OPTS)
     def check(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), flags: wp.array(dtype=wp.int32)):

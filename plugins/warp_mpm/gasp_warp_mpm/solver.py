@@ -168,6 +168,9 @@ class WarpMPMEngine:
         self.grid_vel = wp.zeros(n_nodes, dtype=k.vec3, device=d)
         n_passive = n - self.n_material
         self.grid_m = wp.zeros(n_nodes if n_passive else 1, dtype=Ft, device=d)   # node mass (passive G2P)
+        # with wind: sum_p p_vol grad N_ip per node (m^2), the windward area the drag acts on
+        has_wind = int(any(f.kind == "wind" for f in (getattr(setup, "forces", None) or [])))
+        self.grid_g = wp.zeros(n_nodes if has_wind else 1, dtype=k.vec3, device=d)
         self.flags = wp.zeros(2, dtype=wp.int32, device=d)  # [out-of-grid count, non-finite count]
         self.wall_mu = arr(np.array(wall_mu, dtype=dt_np), Ft)
         self.ground = arr(np.array(ground, dtype=dt_np).reshape(-1, 3), k.vec3)
@@ -185,25 +188,27 @@ class WarpMPMEngine:
             self._launches = [
                 wp.launch(k.p2g, dim=self.n_material, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.F, self.C, self.Jp, self.p_mass, self.p_vol, self.body,
-                    self.mat_kind, self.mat_par, self.grid_mv, self.flags, lo_v, inv_dx, dx, dt_f, ng]),
+                    self.mat_kind, self.mat_par, self.grid_mv, self.flags, lo_v, inv_dx, dx, dt_f, ng,
+                    self.grid_g, has_wind]),
                 wp.launch(k.grid_update, dim=n_nodes, device=d, record_cmd=True, inputs=[
                     self.grid_mv, self.grid_vel, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, self.wall_mu,
-                    self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex]),
+                    self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex, self.grid_g, has_wind]),
                 wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.fixed, self.grid_vel, lo_v, inv_dx, dt_f, ng]),
             ]
             # passive points after the grid update (the grid velocity holds forces, colliders, boundaries):
-            # one launch per distinct weight pair of mpm.passive_schedule, at the substeps it names
+            # one launch per distinct interval m of mpm.passive_schedule, at the substeps it names
             self._passive_at = [None] * self.n_substeps
             if n_passive:
-                pairs: dict = {}
+                by_m: dict = {}
                 for s_, a_, b_ in mpm.passive_schedule(self.n_substeps, opts["passive_every"], self.dt):
-                    if (a_, b_) not in pairs:
-                        pairs[(a_, b_)] = wp.launch(
+                    m_ = int(round((a_ + b_) / self.dt))      # substeps since the last gather
+                    if m_ not in by_m:
+                        by_m[m_] = wp.launch(
                             k.g2p_passive, dim=n_passive, device=d, record_cmd=True, inputs=[
-                                self.x, self.v, self.fixed, self.grid_vel, self.grid_m, self.flags, lo_v, inv_dx,
-                                Ft(a_), Ft(b_), ng, self.n_material])
-                    self._passive_at[s_] = pairs[(a_, b_)]
+                                self.x, self.v, self.C, self.fixed, self.grid_vel, self.grid_m, self.flags, lo_v,
+                                inv_dx, dt_f, m_, ng, self.n_material])
+                    self._passive_at[s_] = by_m[m_]
             self._tick = (wp.launch(k.tick, dim=1, device=d, record_cmd=True, inputs=[ex.step])
                           if has_extras else None)
             self._check_launch = wp.launch(k.check, dim=n, device=d, record_cmd=True,
