@@ -3,8 +3,7 @@ from __future__ import annotations
 
 from gasp_core.errors import GaspError
 from gasp_core.render import builtin
-from gasp_core.render.info import RendererInfo
-from gasp_core.seam.plugins import get_plugin_manager, registered
+from gasp_core.seam.plugins import get_plugin_manager, registered, RendererInfo
 
 #: Plugin name the built-in renderers are registered under.
 BUILTIN = "gasp_render_builtin"

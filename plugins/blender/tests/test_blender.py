@@ -7,8 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from gasp_core.errors import SceneError
-from gasp_core.seam.setup import Boundary, Material, SimSetup
+from gasp_core.seam import Boundary, Material, SceneError, SimSetup
 from gasp_blender import CAPABILITIES, INSTALL_HINT, bpy_available, make_engine
 from gasp_blender.cage import build_cage, embed, interpolate
 
@@ -30,7 +29,7 @@ def setup_for(x, p_vol, boundaries=(), options=None, material=None, frame_dt=1 /
 
 
 def test_listed_with_capabilities():
-    from gasp_core.seam.plugins import engines
+    from gasp_core.seam import engines
     info = engines()["blender"]
     assert info.capabilities == CAPABILITIES
     assert info.unavailable_reason() in (None, INSTALL_HINT)
@@ -57,8 +56,7 @@ def test_bad_options_and_inputs_are_scene_errors():
     with pytest.raises(SceneError, match="mode"):
         make_engine(setup_for(x, vol, options={"mode": "fluid"}))
     # capabilities are checked by the core, before the factory (gasp_core.seam.build.build_engine)
-    from gasp_core.seam.build import build_engine
-    from gasp_core.seam.plugins import get_engine
+    from gasp_core.seam import build_engine, get_engine
     info = get_engine("blender")
     with pytest.raises(SceneError, match="sand"):
         build_engine(info, setup_for(x, vol, material=Material("sand")))
@@ -187,7 +185,7 @@ def test_cloth_free_fall_and_pinned_edge():
 @needs_bpy
 def test_second_engine_takes_the_scene_over():
     """bpy has one scene per process: the first engine refuses to step once a second one is built."""
-    from gasp_core.errors import EngineError
+    from gasp_core.seam import EngineError
     x, vol = block((0.4, 0.4, 0.5), (0.6, 0.6, 0.7), 0.05)
     first = make_engine(setup_for(x, vol))
     second = make_engine(setup_for(x, vol))

@@ -8,8 +8,7 @@ import pytest
 
 pytest.importorskip("genesis", reason="genesis-world is not installed: pip install 'gasp-genesis[engine]'")
 
-from gasp_core.errors import EngineDivergence, EngineError, SceneError
-from gasp_core.seam.setup import Boundary, Material, SimSetup
+from gasp_core.seam import Boundary, EngineDivergence, EngineError, Material, SceneError, SimSetup
 from gasp_genesis import CAPABILITIES, genesis_available, make_engine  # noqa: E402
 from gasp_genesis.engine import init_genesis  # noqa: E402
 
@@ -47,8 +46,7 @@ def test_unknown_option_is_scene_error():
 
 
 def test_unsupported_material_and_boundary_are_scene_errors():
-    from gasp_core.seam.build import build_engine
-    from gasp_core.seam.plugins import engines
+    from gasp_core.seam import build_engine, engines
     info = engines()["genesis"]
     x, vol = block((0.4, 0.4, 0.6), (0.6, 0.6, 0.8), 1 / 32)
     with pytest.raises(SceneError, match="plasticine"):

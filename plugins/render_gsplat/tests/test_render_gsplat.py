@@ -10,7 +10,7 @@ def test_registers_with_reason():
     reason = gasp_render_gsplat.available()
     if reason is not None:
         assert "torch" in reason or "gsplat" in reason or "CUDA" in reason
-        from gasp_core.errors import GaspError
+        from gasp_core.seam import GaspError
         from gasp_core.render.registry import get_renderer
         with pytest.raises(GaspError, match="cannot run"):
             get_renderer("gsplat")

@@ -11,10 +11,8 @@ from typing import Any
 
 import numpy as np
 
-from gasp_core.toolkit import mpm
-from gasp_core.errors import EngineDivergence, EngineError
-from gasp_core.seam.setup import SimSetup
-from gasp_core.toolkit.mpm import CAUSE_DOMAIN, CAUSE_DT
+from gasp_core.seam import EngineDivergence, EngineError, SimSetup
+from gasp_core.toolkit import CAUSE_DOMAIN, CAUSE_DT, mpm
 
 from . import ENGINE, OPTIONS
 
@@ -132,7 +130,7 @@ class TaichiMPMEngine:
 
     def _extras(self, setup: SimSetup) -> dict[str, Any]:
         """Colliders, forces and impulses for the solver (``gasp_core.colliders.model``); none: nothing."""
-        from gasp_core.toolkit.grid_tables import frame_table, grid_tables
+        from gasp_core.toolkit import frame_table, grid_tables
         ex = grid_tables(setup)
         if not ex.any:
             return {}

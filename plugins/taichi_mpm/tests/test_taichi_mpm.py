@@ -6,8 +6,7 @@ import sys
 import numpy as np
 import pytest
 
-from gasp_core.errors import EngineDivergence, EngineError, SceneError
-from gasp_core.seam.setup import Boundary, Material, SimSetup
+from gasp_core.seam import Boundary, EngineDivergence, EngineError, Material, SceneError, SimSetup
 
 pytest.importorskip("taichi")
 
@@ -40,7 +39,7 @@ def run(setup, n_frames):
 
 # ---------------------------------------------------------------- plugin registration
 def test_plugin_is_registered_and_import_is_cheap():
-    from gasp_core.seam.plugins import engines
+    from gasp_core.seam import engines
     info = engines()["taichi_mpm"]
     assert {"grid", "initial_C"} <= info.capabilities.features
     assert info.unavailable_reason() is None
@@ -227,8 +226,7 @@ def test_options_are_checked_as_declared():
 
 
 def test_material_it_lacks_is_refused_by_the_core_before_taichi_starts():
-    from gasp_core.seam.build import build_engine
-    from gasp_core.seam.plugins import engines
+    from gasp_core.seam import build_engine, engines
     s = block_setup(material=Material("rigid"))
     with pytest.raises(SceneError, match="material 'rigid'"):
         build_engine(engines()["taichi_mpm"], s)
@@ -260,7 +258,7 @@ def test_old_engine_is_invalidated_by_a_new_one():
 
 
 def test_stats_report_the_time_step_from_gasp_core_mpm():
-    from gasp_core.toolkit.mpm import mpm_stable_dt, substeps_for
+    from gasp_core.toolkit import mpm_stable_dt, substeps_for
     s = block_setup()
     st = TaichiMPMEngine(s).stats()
     n, dt = substeps_for(s.frame_dt, mpm_stable_dt(s.materials, s.dx, s.gravity, 1.0, 0.0, 0.4))

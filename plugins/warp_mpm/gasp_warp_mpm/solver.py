@@ -32,10 +32,8 @@ from typing import Any
 import numpy as np
 import warp as wp
 
-from gasp_core.toolkit import mpm
-from gasp_core.errors import EngineDivergence, EngineError
-from gasp_core.seam.setup import SimSetup
-from gasp_core.toolkit.mpm import CAUSE_DOMAIN, CAUSE_DT
+from gasp_core.seam import EngineDivergence, EngineError, SimSetup
+from gasp_core.toolkit import CAUSE_DOMAIN, CAUSE_DT, mpm
 
 from . import ENGINE, OPTIONS
 from . import kernels as K
@@ -213,7 +211,7 @@ class WarpMPMEngine:
     # ------------------------------------------------------------------ colliders, forces, impulses
     def _extras(self, setup: SimSetup, arr, Ft):
         """``(has_extras, Extras struct)`` from ``gasp_core.toolkit.grid_tables.grid_tables`` (empty arrays when none)."""
-        from gasp_core.toolkit.grid_tables import grid_tables
+        from gasp_core.toolkit import grid_tables
         tables = grid_tables(setup)
         ex = self.k.Extras()
         self._ex_tables = tables if tables.any else None
@@ -231,7 +229,7 @@ class WarpMPMEngine:
 
     def _load_frame_table(self) -> None:
         """The time-dependent inputs of this frame's substeps (collider poses, impulse weights)."""
-        from gasp_core.toolkit.grid_tables import frame_table
+        from gasp_core.toolkit import frame_table
         tab = frame_table(self.setup, (self.frame - 1) * self.setup.frame_dt, self.n_substeps, self.dt).astype(self._np_dtype)
         self._ex.tab.assign(tab)
         self._ex.step.zero_()

@@ -10,8 +10,7 @@ import sys
 import numpy as np
 import pytest
 
-from gasp_core.errors import EngineDivergence, EngineError, SceneError
-from gasp_core.seam.setup import Boundary, Material, SimSetup
+from gasp_core.seam import Boundary, EngineDivergence, EngineError, Material, SceneError, SimSetup
 
 pytest.importorskip("warp")
 from gasp_warp_mpm.solver import WarpMPMEngine  # noqa: E402
@@ -45,7 +44,7 @@ def run(setup, n_frames):
 
 
 def test_registered_and_lazy():
-    from gasp_core.seam.plugins import engines
+    from gasp_core.seam import engines
     info = engines()["warp_mpm"]
     assert info.distribution == "gasp-warp-mpm"
     assert info.unavailable_reason() is None
@@ -215,8 +214,7 @@ def test_bad_options():
 
 
 def test_material_it_lacks_is_refused_by_the_core():
-    from gasp_core.seam.build import build_engine
-    from gasp_core.seam.plugins import engines
+    from gasp_core.seam import build_engine, engines
     with pytest.raises(SceneError, match="material 'rigid'"):
         build_engine(engines()["warp_mpm"], make_setup("rigid"))
 
