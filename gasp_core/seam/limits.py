@@ -65,6 +65,10 @@ class Limit:
             return f"{name} {'<' if self.hi_open else '<='} {self.hi:g}"
         return f"any {name}"
 
+    def describe(self, key: str) -> str:
+        """The range and the reason for a limit key, e.g. ``"nu >= 0 (MuJoCo's flex elasticity)"``."""
+        return self.expected(key.rpartition(".")[2]) + (f" ({self.why})" if self.why else "")
+
     def admits(self, value: float) -> bool:
         """True when ``value`` is finite and within the range."""
         v = float(value)
@@ -136,6 +140,4 @@ def check_limits(engine: str, limits: Mapping[str, Limit], setup: SimSetup) -> N
         qual, name = split_key(key)
         for where, value in _values(setup, qual, name):
             if not limit.admits(value):
-                why = f" ({limit.why})" if limit.why else ""
-                raise SceneError(f"engine '{engine}': {where}{name}={value!r}; "
-                                 f"this engine takes {limit.expected(name)}{why}")
+                raise SceneError(f"engine '{engine}': {where}{name}={value!r}; this engine takes {limit.describe(key)}")
