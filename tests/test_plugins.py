@@ -6,7 +6,7 @@ import pytest
 
 from gasp_core.seam import plugins
 from gasp_core.errors import EngineError
-from gasp_core.seam.engine import Capabilities, EngineInfo, PointEngine
+from gasp_core.seam.engine import Capabilities, EngineInfo, PointEngine, StatefulEngine
 
 
 @pytest.fixture
@@ -109,6 +109,7 @@ def test_installed_engines_implement_the_protocol():
         eng = info.factory(setup)
         try:
             assert isinstance(eng, PointEngine), name
+            assert "state" not in info.capabilities.features or isinstance(eng, StatefulEngine), name
             eng.step_frame()
             x = np.asarray(eng.positions())
             assert x.shape == g.shape and np.all(np.isfinite(x)), name
@@ -116,3 +117,153 @@ def test_installed_engines_implement_the_protocol():
             assert {"device", "precision", "n_points"} <= set(eng.stats()), name
         finally:
             eng.close()
+
+
+SOUP_ONLY = """
+from gasp_core.seam import SoupWriterInfo, hookimpl
+
+@hookimpl
+def gasp_soup_writers():
+    return [SoupWriterInfo(name="xyz_points", write=lambda outdir, soups: [], description="test: vertices as text")]
+"""
+
+
+def test_soup_writer_only_plugin_is_found_listed_and_switched_off(tmp_path, monkeypatch, capsys, fresh_pm):
+    """A plugin that registers nothing but a soup writer goes through the one registry like an engine."""
+    import json
+    from gasp_core.cli.main import main
+    make_dist(tmp_path, "gasp-soup-only", "gasp_soup_only", "soup_only", SOUP_ONLY)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    found = plugins.soup_writers()
+    assert found["xyz_points"].distribution == "gasp-soup-only" and found["xyz_points"].version == "9.9"
+    assert main(["plugins"]) == 0
+    out = capsys.readouterr().out
+    assert "soup writers:\n" in out and "    xyz_points  (gasp-soup-only 9.9)  test: vertices as text" in out
+    assert main(["plugins", "--json"]) == 0
+    listed = json.loads(capsys.readouterr().out)
+    assert listed["soup_writers"]["xyz_points"]["distribution"] == "gasp-soup-only"
+
+    plugins.get_plugin_manager.cache_clear()
+    monkeypatch.setenv("GASP_LOAD_PLUGINS", "soup_only")   # only it: no engine, its writer
+    assert plugins.engines() == {} and list(plugins.soup_writers()) == ["xyz_points"]
+    for off in ("", "some_other_plugin"):                   # switched off
+        plugins.get_plugin_manager.cache_clear()
+        monkeypatch.setenv("GASP_LOAD_PLUGINS", off)
+        assert "xyz_points" not in plugins.soup_writers()
+        assert main(["plugins"]) == 0
+        assert "xyz_points" not in capsys.readouterr().out
+
+
+def _tiny_setup(**kw):
+    import numpy as np
+    from gasp_core.seam.setup import Material, SimSetup
+    g = np.stack(np.meshgrid(*[np.linspace(0.4, 0.6, 3)] * 3, indexing="ij"), -1).reshape(-1, 3)
+    return SimSetup(**{"x": g, "v": 0.0, "p_vol": 1e-3, "body_id": 0, "materials": [Material()],
+                       "gravity": [0, 0, -9.81], "domain_lo": [0, 0, 0], "domain_hi": [1, 1, 1], "n_grid": 16,
+                       "frame_dt": 1 / 60, **kw})
+
+
+class _Still:
+    """A minimal PointEngine: nothing moves."""
+
+    def __init__(self, setup):
+        self.x = setup.x
+
+    def step_frame(self):
+        pass
+
+    def positions(self):
+        return self.x
+
+    def velocities(self):
+        return 0 * self.x
+
+    def stats(self):
+        return {"device": "cpu", "precision": "f64", "n_points": len(self.x), "mass": 0.0, "centre_of_mass": [0] * 3}
+
+    def close(self):
+        pass
+
+
+class _StillWithState(_Still):
+    def get_state(self):
+        return {"x": self.x.copy()}
+
+    def set_state(self, state):
+        self.x = state["x"]
+
+
+def test_engine_limits_are_data_checked_by_the_core():
+    """EngineInfo.limits: the core refuses a value outside them before the factory, with one text."""
+    from gasp_core.errors import SceneError
+    from gasp_core.seam.build import build_engine
+    from gasp_core.seam.engine import Capabilities, EngineInfo
+    from gasp_core.seam.limits import Limit
+    from gasp_core.seam.setup import Boundary, Material
+    built = []
+    info = EngineInfo(name="limited", factory=lambda s: built.append(s) or _Still(s),
+                      capabilities=Capabilities(frozenset({"jelly", "sand"}), frozenset({"ground"})),
+                      limits={"nu": Limit(lo=0.0, why="no auxetics"), "sand.friction_angle": Limit(0, 90, True, True),
+                              "ground.friction": Limit(hi=1.0), "n_grid": Limit(lo=8)})
+    for setup, text in [
+        (_tiny_setup(materials=[Material(nu=-0.2)]),
+         "engine 'limited': material 'jelly': nu=-0.2; this engine takes nu >= 0 (no auxetics)"),
+        (_tiny_setup(materials=[Material("sand", friction_angle=0.0)]),
+         "engine 'limited': material 'sand': friction_angle=0.0; this engine takes friction_angle in (0, 90)"),
+        (_tiny_setup(boundaries=[Boundary("ground", friction=2.0)]),
+         "engine 'limited': boundary 'ground': friction=2.0; this engine takes friction <= 1"),
+        (_tiny_setup(n_grid=6), "engine 'limited': n_grid=6; this engine takes n_grid >= 8"),
+    ]:
+        with pytest.raises(SceneError) as e:
+            build_engine(info, setup)
+        assert str(e.value) == text
+    assert built == []
+    build_engine(info, _tiny_setup(materials=[Material("sand", nu=0.0, friction_angle=30.0)])).close()
+    assert len(built) == 1
+    for bad in ("poisson", "rigid.friction", "ground.nu", "walls.n_grid"):
+        with pytest.raises(ValueError, match="limit"):
+            EngineInfo(name="x", factory=_Still, capabilities=Capabilities(frozenset(), frozenset()),
+                       limits={bad: Limit(lo=0.0)})
+
+
+def test_state_feature_means_a_stateful_engine():
+    """An engine declaring the feature 'state' must be a StatefulEngine (get_state, set_state)."""
+    from gasp_core.errors import EngineBug
+    from gasp_core.seam.build import build_engine
+    from gasp_core.seam.engine import Capabilities, EngineInfo, PointEngine, StatefulEngine
+    from gasp_core.seam.runner import check_state
+    from gasp_core.seam.runner import run_engine
+    caps = Capabilities(frozenset({"jelly"}), frozenset(), features=frozenset({"state"}))
+    with pytest.raises(EngineBug, match="declares the feature 'state'"):
+        build_engine(EngineInfo(name="forgetful", factory=_Still, capabilities=caps), _tiny_setup())
+    eng = build_engine(EngineInfo(name="stateful", factory=_StillWithState, capabilities=caps), _tiny_setup())
+    assert isinstance(eng, StatefulEngine) and isinstance(eng, PointEngine)
+    assert not isinstance(_Still(_tiny_setup()), StatefulEngine)
+    check_state(eng.positions(), _tiny_setup(), 1)
+    # resuming asks for the feature, before anything is built
+    plain = EngineInfo(name="plain", factory=_Still, capabilities=Capabilities(frozenset({"jelly"}), frozenset()))
+    with pytest.raises(EngineError, match="feature 'state'"):
+        next(run_engine(plain, _tiny_setup(), 3, start_frame=1, state={}))
+    s = _tiny_setup()
+    rec = next(run_engine(EngineInfo(name="stateful", factory=_StillWithState, capabilities=caps), s, 2,
+                          start_frame=1, state={"x": s.x + 0.01}))
+    assert rec.frame == 2 and abs(rec.x - s.x - 0.01).max() < 1e-12 and rec.get_state()["x"].shape == s.x.shape
+
+
+def test_the_core_never_imports_the_plugin_facades():
+    """gasp_core.seam and gasp_core.toolkit re-export the contract for plugins; core modules import every
+    name from the module that defines it, so that importing the contract cannot close a loop."""
+    import ast
+    import pathlib
+    import gasp_core
+    root = pathlib.Path(gasp_core.__file__).parent
+    facades = {"gasp_core.seam", "gasp_core.toolkit"}
+    bad = []
+    for p in root.rglob("*.py"):
+        if p.name == "__init__.py" and p.parent.name in ("seam", "toolkit"):
+            continue
+        for n in ast.walk(ast.parse(p.read_text())):
+            if (isinstance(n, ast.ImportFrom) and n.module in facades
+                    or isinstance(n, ast.Import) and any(a.name in facades for a in n.names)):
+                bad.append(f"{p.relative_to(root)}:{n.lineno}")
+    assert bad == []

@@ -50,6 +50,7 @@ def _cmd_engines(args) -> int:
                               "capabilities": e.capabilities.as_dict(),
                               "options": [{"name": o.name, "default": o.default, "expected": o.expected(),
                                            "doc": o.doc} for o in e.options],
+                              "limits": {k: lim.describe(k) for k, lim in e.limits.items()},
                               "deterministic_options": dict(e.deterministic_options),
                               "known_failures": dict(e.known_failures),
                               "description": e.description} for n, e in found.items()}, indent=2))
@@ -68,10 +69,38 @@ def _cmd_engines(args) -> int:
             print(f"    features:   {', '.join(sorted(c.features))}")
         for o in e.options:
             print(f"    option {o.name} = {o.default!r}: {o.doc} ({o.expected()})")
+        for k, lim in e.limits.items():
+            print(f"    limit {k}: {lim.describe(k)}")
         if e.known_failures:
             print(f"    known failures: {', '.join(sorted(e.known_failures))}")
         if e.description:
             print(f"    {e.description}")
+    return 0
+
+
+def _cmd_plugins(args) -> int:
+    """Every installed plugin record by kind (engines, renderers, soup writers): the one registry,
+    :func:`gasp_core.seam.plugins.registered`, so ``GASP_LOAD_PLUGINS`` narrows this list too."""
+    from gasp_core.render.registry import renderers
+    from gasp_core.seam.plugins import BROKEN, engines, soup_writers
+    kinds = {"engines": engines(), "renderers": renderers(), "soup_writers": soup_writers()}
+    for name, (dist, err) in BROKEN.items():
+        print(f"gasp: warning: plugin '{name}' ({dist}) fails to import: {err}", file=sys.stderr)
+    if args.json:
+        print(json.dumps({kind: {n: {"distribution": r.distribution, "version": r.version,
+                                     "available": (r.unavailable_reason() if hasattr(r, "unavailable_reason")
+                                                   else None) or "yes",
+                                     "description": r.description} for n, r in found.items()}
+                          for kind, found in kinds.items()}
+                         | {"broken": {n: {"distribution": d, "error": err} for n, (d, err) in BROKEN.items()}},
+                         indent=2))
+        return 0
+    for kind, found in kinds.items():
+        print(f"{kind.replace('_', ' ')}:" + ("" if found else " none"))
+        for n, r in found.items():
+            reason = r.unavailable_reason() if hasattr(r, "unavailable_reason") else None
+            print(f"    {n}  ({r.distribution} {r.version})" + (f"  NOT AVAILABLE: {reason}" if reason else "")
+                  + (f"  {r.description}" if r.description and not reason else ""))
     return 0
 
 
@@ -165,6 +194,11 @@ def build_parser() -> argparse.ArgumentParser:
     e = sub.add_parser("engines", help="list installed engines and their capabilities")
     e.add_argument("--json", action="store_true")
     e.set_defaults(func=_cmd_engines)
+
+    pl = sub.add_parser("plugins", help="list every installed plugin record by kind: engines, renderers, "
+                                        "soup writers")
+    pl.add_argument("--json", action="store_true")
+    pl.set_defaults(func=_cmd_plugins)
 
     i = sub.add_parser("info", help="describe a Gaussian Splatting file")
     i.add_argument("file", type=Path)

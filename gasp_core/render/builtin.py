@@ -8,8 +8,7 @@ from __future__ import annotations
 
 import importlib.util
 
-from gasp_core.seam.plugins import hookimpl
-from gasp_core.render.info import RendererInfo
+from gasp_core.seam.plugins import hookimpl, RendererInfo
 
 
 class CpuRenderer:

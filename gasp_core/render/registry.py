@@ -1,10 +1,10 @@
 """Finding a renderer: the built-in CPU renderers and every ``gasp_renderers`` plugin."""
 from __future__ import annotations
 
+from gasp_core import __version__
 from gasp_core.errors import GaspError
 from gasp_core.render import builtin
-from gasp_core.render.info import RendererInfo
-from gasp_core.seam.plugins import get_plugin_manager, registered
+from gasp_core.seam.plugins import get_plugin_manager, registered, RendererInfo
 
 #: Plugin name the built-in renderers are registered under.
 BUILTIN = "gasp_render_builtin"
@@ -21,6 +21,7 @@ def renderers(pm=None) -> dict[str, RendererInfo]:
     """
     pm = pm or get_plugin_manager()
     if pm.get_plugin(BUILTIN) is None:
+        builtin.__gasp_dist__ = ("gasp", __version__)
         pm.register(builtin, name=BUILTIN)
     return registered("gasp_renderers", "renderer", pm)
 

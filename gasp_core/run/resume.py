@@ -1,13 +1,13 @@
 """Checkpoints of a running simulation, so that ``gasp simulate --resume`` continues a killed run.
 
 After every frame whose PLYs are written, the pipeline saves the engine's state (engines with
-the feature ``state``: :meth:`get_state` / :meth:`set_state`), the frame rebuild's state (the
-previous rotations, the fallback of ``T^-1`` for degenerate faces) and the run record so far to
-``.gasp-checkpoint.npz`` in the partial folder, atomically. A run killed at any point (even
-``kill -9``) therefore loses at most the frame it was computing. ``--resume`` finds the partial
-folder of a run that is no longer alive, checks that the scene, its inputs, the engine and its
-options are the same (a fingerprint), restores the state and goes on; on an engine that is
-deterministic the resumed frames equal an uninterrupted run bit for bit.
+the feature ``state``, a :class:`~gasp_core.seam.engine.StatefulEngine`: ``get_state`` /
+``set_state``), the frame rebuild's state (the previous rotations, the fallback of ``T^-1`` for
+degenerate faces) and the run record so far to ``.gasp-checkpoint.npz`` in the partial folder,
+atomically. A run killed at any point (even ``kill -9``) therefore loses at most the frame it was
+computing. ``--resume`` finds the partial folder of a run that is no longer alive, checks that the
+scene, its inputs, the engine and its options are the same (a fingerprint), restores the state and
+goes on; on an engine that is deterministic the resumed frames equal an uninterrupted run bit for bit.
 """
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ import io
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -110,8 +110,3 @@ def find_resumable(outdir: Path, fp: str) -> tuple[Path, Checkpoint]:
         others.append(p.name)
     raise GaspError(f"cannot resume '{outdir}': the partial run(s) {others} were made from another scene, input "
                     f"file, engine, option or frame count; run without --resume")
-
-
-def engine_state_fn(engine) -> Callable[[], dict] | None:
-    """``engine.get_state`` if the engine offers it, else None."""
-    return getattr(engine, "get_state", None)

@@ -1,8 +1,9 @@
 """Building an engine: check what a setup needs against what the engine declares, then call its factory.
 
 One place (:func:`build_engine`) for every caller, the pipeline, the conformance kit and the studies:
-capabilities (:func:`check_supported`), options (:func:`gasp_core.seam.engine.check_options`), then the
-factory under the error contract (:func:`gasp_core.seam.engine.call_engine`).
+capabilities (:func:`check_supported`), options (:func:`gasp_core.seam.engine.check_options`), the
+engine's declared limits (:func:`gasp_core.seam.limits.check_limits`), then the factory under the error
+contract (:func:`gasp_core.seam.engine.call_engine`).
 """
 from __future__ import annotations
 
@@ -10,7 +11,8 @@ from typing import Iterable, Mapping
 
 from gasp_core.colliders.model import feature_needs
 from gasp_core.errors import GaspError, SceneError
-from gasp_core.seam.engine import EngineInfo, PointEngine, call_engine, check_options
+from gasp_core.seam.engine import EngineInfo, PointEngine, StatefulEngine, call_engine, check_options
+from gasp_core.seam.limits import check_limits
 from gasp_core.seam.passive import build_with_fallback
 from gasp_core.seam.plugins import engines as installed_engines
 from gasp_core.seam.setup import SimSetup
@@ -56,8 +58,25 @@ def setup_needs(setup: SimSetup) -> dict[str, list[str]]:
 
 
 
+def _factory(info: EngineInfo, setup: SimSetup) -> PointEngine:
+    """``info.factory(setup)``, and an engine that declares the feature ``state`` is a :class:`StatefulEngine`.
+
+    Raises
+    ------
+    TypeError
+        It declares ``state`` without ``get_state`` / ``set_state`` (an engine bug: wrapped as
+        ``EngineBug`` by the caller).
+    """
+    engine = info.factory(setup)
+    if "state" in info.capabilities.features and not isinstance(engine, StatefulEngine):
+        engine.close()
+        raise TypeError(f"engine '{info.name}' declares the feature 'state' but its {type(engine).__name__} "
+                        f"has no get_state() and set_state()")
+    return engine
+
+
 def build_engine(info: EngineInfo, setup: SimSetup) -> PointEngine:
-    """Check ``setup`` against the engine's capabilities and options, then call its factory.
+    """Check ``setup`` against the engine's capabilities, options and limits, then call its factory.
 
     Parameters
     ----------
@@ -72,15 +91,18 @@ def build_engine(info: EngineInfo, setup: SimSetup) -> PointEngine:
     Raises
     ------
     SceneError
-        A material, boundary or feature the engine lacks; an unknown or invalid option.
+        A material, boundary or feature the engine lacks; an unknown or invalid option; a value
+        outside the engine's declared limits (:attr:`EngineInfo.limits`).
     EngineError
         The engine cannot run here.
     EngineBug
-        The factory raised anything outside the error contract.
+        The factory raised anything outside the error contract, or returned an engine without
+        ``get_state`` / ``set_state`` although it declares the feature ``state``.
     """
     check_supported(info, **setup_needs(setup))
     setup.options = check_options(setup.options, info.options, info.name)
+    check_limits(info.name, info.limits, setup)
     if setup.passive is not None and "passive_points" not in info.capabilities.features:
         # the core moves the passive rows
-        return build_with_fallback(info, setup, lambda i, s: call_engine(i, "build", i.factory, s))
-    return call_engine(info, "build", info.factory, setup)
+        return build_with_fallback(info, setup, lambda i, s: call_engine(i, "build", _factory, i, s))
+    return call_engine(info, "build", _factory, info, setup)

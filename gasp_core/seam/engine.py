@@ -2,10 +2,10 @@
 
 An engine is a black box that moves points (GASP paper Sec. 3, ``V_t = phi(V, t)``). A plugin
 registers :class:`EngineInfo` records (``gasp_engines`` hook, :mod:`gasp_core.seam.plugins`): a name,
-a ``factory``, :class:`Capabilities` and declared :class:`Option` s. The core builds a
-:class:`~gasp_core.seam.setup.SimSetup`, checks it against the capabilities and options
-(:func:`check_supported`, one place), builds the engine with :func:`build_engine`, then calls
-:meth:`PointEngine.step_frame` once per frame and reads :meth:`PointEngine.positions`.
+a ``factory``, :class:`Capabilities`, declared :class:`Option` s and
+:class:`~gasp_core.seam.limits.Limit` s. The core builds a :class:`~gasp_core.seam.setup.SimSetup`,
+checks it against them and builds the engine (:func:`gasp_core.seam.build.build_engine`, one place),
+then calls :meth:`PointEngine.step_frame` once per frame and reads :meth:`PointEngine.positions`.
 Nothing here imports an engine package, and nothing here is specific to one kind of engine.
 
 The error contract (:mod:`gasp_core.errors`): unsupported input raises ``SceneError``, an engine
@@ -20,11 +20,12 @@ import re
 import tempfile
 import traceback
 from dataclasses import dataclass, field
-from typing import Any, Callable, Iterable, Mapping, Protocol, runtime_checkable
+from typing import Any, Callable, Iterable, Mapping, NotRequired, Protocol, Required, TypedDict, runtime_checkable
 
 import numpy as np
 
 from gasp_core.errors import EngineBug, GaspError, SceneError
+from gasp_core.seam.limits import Limit, split_key
 from gasp_core.seam.setup import SimSetup
 
 
@@ -33,8 +34,9 @@ from gasp_core.seam.setup import SimSetup
 FEATURES = {
     "initial_C": "starts from SimSetup.C, the initial velocity gradient (APIC's affine matrix); "
                  "engines without it ignore C and start from v alone",
-    "state": "get_state() -> dict of arrays and set_state(dict) save and restore the whole simulation "
-             "state after a frame (gasp simulate --resume); set_state right after the factory",
+    "state": "the engine is a StatefulEngine: get_state() -> dict of arrays and set_state(dict) save and "
+             "restore the whole simulation state after a frame (gasp simulate --resume); set_state right "
+             "after the factory",
     "passive_points": "moves the passive rows of SimSetup (SimSetup.passive: rendered points with p_vol = 0) "
                       "itself, carried by the material's motion with no mass, stress or F (a grid engine: "
                       "G2P only); for engines without it the core embeds them in the material points' "
@@ -208,6 +210,46 @@ def check_options(options: Mapping[str, Any], declared: Iterable[Option], engine
     return merged
 
 
+class EngineStats(TypedDict, total=False):
+    """What :meth:`PointEngine.stats` returns: the keys the core and the conformance kit read.
+
+    An engine may add any other key (JSON-serialisable values); they go to the run record.
+
+    Keys
+    ----
+    device : str
+        Where it ran (``"cpu"``, ``"cuda:0"``).
+    precision : str
+        ``"f32"`` or ``"f64"``.
+    n_points : int
+        Points simulated (``len(setup.x)``).
+    mass : float
+        Total simulated mass, kg, as the engine holds it (passive points weigh 0). The conformance
+        scene ``mass_agreement`` compares it with ``sum rho p_vol`` right after the build.
+    centre_of_mass : list of 3 float
+        Centre of that mass, metres, world frame (checked by ``mass_agreement`` too).
+    dt : float
+        Substep, seconds (engines with substeps).
+    n_substeps : int
+        Substeps per frame (``gasp simulate`` prints it).
+    n_grid : int
+        Grid cells along the longest domain side (grid engines).
+    passive_stranded : int
+        Passive points that gathered no velocity in the last grid update (feature ``passive_points``);
+        ``gasp simulate`` warns with the count.
+    """
+
+    device: Required[str]
+    precision: Required[str]
+    n_points: Required[int]
+    mass: Required[float]
+    centre_of_mass: Required[list[float]]
+    dt: NotRequired[float]
+    n_substeps: NotRequired[int]
+    n_grid: NotRequired[int]
+    passive_stranded: NotRequired[int]
+
+
 @runtime_checkable
 class PointEngine(Protocol):
     """A running simulation. Built by ``EngineInfo.factory(setup)``.
@@ -221,16 +263,15 @@ class PointEngine(Protocol):
         Current point positions, metres, in the order of ``setup.x``.
     velocities() -> ndarray, shape (n, 3)
         Current point velocities, m/s.
-    stats() -> dict
-        At least ``device``, ``precision``, ``n_points``; grid engines add ``dt``, ``n_substeps``
-        (per frame), ``n_grid``. ``n_substeps`` (fixed per run) is the ``N`` of the ``free_fall``
-        scene's exact semi-implicit Euler answer (:mod:`gasp_core.testing.scenes_freefall`).
+    stats() -> EngineStats
+        At least ``device``, ``precision``, ``n_points``, ``mass`` and ``centre_of_mass``
+        (:class:`EngineStats`); grid engines add ``dt``, ``n_substeps`` (per frame), ``n_grid``.
+        ``n_substeps`` (fixed per run) is the ``N`` of the ``free_fall`` scene's exact semi-implicit Euler answer (:mod:`gasp_core.testing.scenes_freefall`).
     close()
         Free engine resources.
-    get_state() -> dict of ndarray, set_state(state)
-        Only engines with the feature ``state``: everything needed to continue after the current
-        frame bit for bit (``gasp simulate --resume``). ``set_state`` is called right after the
-        factory, before any ``step_frame``.
+
+    An engine that declares the feature ``state`` is a :class:`StatefulEngine`: it adds
+    ``get_state`` and ``set_state``; the core checks that when it builds the engine.
     """
 
     def step_frame(self) -> None: ...
@@ -239,9 +280,30 @@ class PointEngine(Protocol):
 
     def velocities(self) -> np.ndarray: ...
 
-    def stats(self) -> dict[str, Any]: ...
+    def stats(self) -> EngineStats: ...
 
     def close(self) -> None: ...
+
+
+@runtime_checkable
+class StatefulEngine(PointEngine, Protocol):
+    """A :class:`PointEngine` that saves and restores its whole state (the feature ``state``).
+
+    Methods
+    -------
+    get_state() -> dict of str -> ndarray
+        Everything needed to continue after the current frame bit for bit (``gasp simulate
+        --resume`` saves it to ``.gasp-checkpoint.npz`` after every written frame): e.g. ``x``,
+        ``v``, ``F``, ``C``, ``Jp``, ``frame``, ``sim_time``. Arrays are copies.
+    set_state(state)
+        Restore a ``get_state()`` of an engine built from the same setup and options. Called right
+        after the factory, before any ``step_frame``. Raises :class:`SceneError` when a key is
+        missing or an array has the wrong shape.
+    """
+
+    def get_state(self) -> dict[str, np.ndarray]: ...
+
+    def set_state(self, state: Mapping[str, np.ndarray]) -> None: ...
 
 
 @dataclass(frozen=True)
@@ -254,7 +316,8 @@ class EngineInfo:
         Engine name used in scene files (``[engine] name = "my_engine"``).
     factory : callable
         ``factory(setup: SimSetup) -> PointEngine``. Imports the engine package lazily, so
-        that listing engines stays cheap. It gets a setup that :func:`check_supported` passed,
+        that listing engines stays cheap. It gets a setup that the core checked against
+        ``capabilities``, ``options`` and ``limits`` (:func:`gasp_core.seam.build.build_engine`),
         with ``setup.options`` holding every declared option (defaults filled in).
     capabilities : Capabilities
     options : tuple of Option
@@ -274,6 +337,15 @@ class EngineInfo:
         ``available() -> str | None``: None when the engine can run here, else the reason it
         cannot (package missing, ...).
     description : str
+    limits : dict of str -> Limit
+        Ranges this engine accepts that are narrower than the core's, as data
+        (:mod:`gasp_core.seam.limits`): ``{"nu": Limit(lo=0.0, why="MuJoCo's flex elasticity")}``.
+        The core refuses a setup outside them before the factory runs, with one error text.
+
+    Raises
+    ------
+    ValueError
+        A limit key that names no material, boundary or setup value.
     """
 
     name: str
@@ -287,6 +359,11 @@ class EngineInfo:
     version: str = ""
     available: Callable[[], str | None] | None = None
     description: str = ""
+    limits: Mapping[str, Limit] = field(default_factory=dict)
+
+    def __post_init__(self):
+        for key in self.limits:
+            split_key(key)
 
     def unavailable_reason(self) -> str | None:
         return self.available() if self.available is not None else None

@@ -46,24 +46,53 @@ class HookSpec:
         """
 
     @hookspec
-    def gasp_renderers(self) -> list:
-        """Return the renderers this plugin provides.
+    def gasp_renderers(self) -> list[RendererInfo]:
+        """Return the renderers this plugin provides (``gasp render --renderer NAME``).
 
         Returns
         -------
-        list of gasp_core.render.info.RendererInfo
-            Each with a unique ``name``; ``distribution`` and ``version`` are filled as for engines.
+        list of RendererInfo
         """
 
     @hookspec
-    def gasp_soup_writers(self) -> list:
+    def gasp_soup_writers(self) -> list[SoupWriterInfo]:
         """Return the extra triangle-soup writers this plugin provides (``gasp export-soup``).
 
         Returns
         -------
         list of SoupWriterInfo
-            Each with a unique ``name`` (the format); ``distribution`` and ``version`` are filled as for engines.
         """
+
+
+@dataclasses.dataclass(frozen=True)
+class RendererInfo:
+    """Registration record a plugin returns from the ``gasp_renderers`` hook.
+
+    Attributes
+    ----------
+    name : str
+        Renderer name (``gasp render --renderer NAME``).
+    factory : callable
+        ``factory(**options) -> renderer``; the renderer is called as
+        ``renderer(splats: Splats, camera: Camera, background) -> (image (h, w, 3) float32, alpha (h, w))``.
+        Imports heavy packages lazily.
+    available : callable or None
+        ``available() -> str | None``: None when it can run here, else the reason it cannot.
+    devices : tuple of str
+        Where it runs (``"cpu"``, ``"cuda"``).
+    distribution, version, description : str
+    """
+
+    name: str
+    factory: Callable
+    available: Callable[[], str | None] | None = None
+    devices: tuple[str, ...] = ("cpu",)
+    distribution: str = ""
+    version: str = ""
+    description: str = ""
+
+    def unavailable_reason(self) -> str | None:
+        return self.available() if self.available is not None else None
 
 
 @dataclasses.dataclass(frozen=True)

@@ -13,9 +13,9 @@ from typing import Callable, Iterator
 
 import numpy as np
 
-from gasp_core.errors import EngineDivergence
+from gasp_core.errors import EngineDivergence, EngineError
 from gasp_core.seam.build import build_engine
-from gasp_core.seam.engine import call_engine, EngineInfo, PointEngine
+from gasp_core.seam.engine import call_engine, EngineInfo, PointEngine, StatefulEngine
 from gasp_core.seam.setup import SimSetup
 
 
@@ -32,7 +32,8 @@ class FrameRecord:
     wall_s : float
         Wall time of ``step_frame`` plus read-back, seconds.
     get_state : callable or None
-        The engine's ``get_state`` (engines with the feature ``state``), for checkpoints.
+        The engine's :meth:`~gasp_core.seam.engine.StatefulEngine.get_state` (engines with the
+        feature ``state``; None for the others), for checkpoints.
     """
 
     frame: int
@@ -103,7 +104,9 @@ def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int,
         Filled with build time, per-frame wall times and ``engine.stats()``.
     start_frame : int
         Resume after this frame: ``state`` (from the engine's ``get_state``) is restored with
-        ``set_state`` and frames ``start_frame + 1 .. n_frames`` are simulated.
+        ``set_state`` (engines with the feature ``state``, a
+        :class:`~gasp_core.seam.engine.StatefulEngine`) and frames ``start_frame + 1 .. n_frames``
+        are simulated.
     state : dict, optional
 
     Yields
@@ -113,7 +116,8 @@ def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int,
     Raises
     ------
     SceneError, EngineError
-        From :func:`gasp_core.seam.build.build_engine` (capabilities, options) or the engine.
+        From :func:`gasp_core.seam.build.build_engine` (capabilities, options, limits) or the engine;
+        ``EngineError`` too for ``start_frame`` on an engine without the feature ``state``.
     EngineDivergence
         At the first frame whose state is non-finite or outside the domain, or when the engine
         itself reports a blow-up.
@@ -121,12 +125,16 @@ def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int,
         The engine raised anything outside the error contract.
     """
     stats = stats if stats is not None else RunStats()
+    if start_frame and "state" not in info.capabilities.features:
+        raise EngineError(f"engine '{info.name}' cannot resume after frame {start_frame}: "
+                          f"it does not have the feature 'state'")
     t0 = time.perf_counter()
     engine: PointEngine = build_engine(info, setup)
+    stateful: StatefulEngine | None = engine if "state" in info.capabilities.features else None
     if start_frame:
-        call_engine(info, "set_state", engine.set_state, state)
+        call_engine(info, "set_state", stateful.set_state, state)
     stats.build_s = time.perf_counter() - t0
-    get_state = getattr(engine, "get_state", None) if "state" in info.capabilities.features else None
+    get_state = None if stateful is None else stateful.get_state
 
     def advance():
         engine.step_frame()

@@ -8,8 +8,8 @@ physics. Importing this module is cheap (no NumPy work, no engine import): the f
 from __future__ import annotations
 
 from gasp_core.seam.engine import Capabilities, EngineInfo, Option
-from gasp_core.seam.setup import SimSetup
 from gasp_core.seam.plugins import hookimpl
+from gasp_core.seam.setup import SimSetup
 
 __all__ = ["CAPABILITIES", "OPTIONS", "gasp_engines", "make_engine"]
 
@@ -50,6 +50,7 @@ def gasp_engines():
         factory=make_engine,
         capabilities=CAPABILITIES,
         options=OPTIONS,
+        limits={},                  # ranges narrower than the core's, as gasp_core.seam.Limit: none here
         deterministic_options={},   # nothing to ask for: every run on cpu is deterministic
         known_failures={},          # conformance scenes it fails, with measured figures: none
         description="template: NumPy mass-spring network (semi-implicit Euler) with ground contact",

@@ -15,20 +15,20 @@ Model (deliberately simple; a template, not a calibrated elastic solver):
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 from scipy import sparse
 from scipy.spatial import cKDTree
 
 from gasp_core.errors import EngineDivergence, SceneError
+from gasp_core.seam.engine import EngineStats
 from gasp_core.seam.setup import SimSetup
 
 ENGINE = "example_springs"
 
 
 class SpringEngine:
-    """A :class:`gasp_core.seam.engine.PointEngine` over a mass-spring network.
+    """A :class:`gasp_core.seam.PointEngine` over a mass-spring network.
 
     Parameters
     ----------
@@ -126,7 +126,7 @@ class SpringEngine:
     def velocities(self) -> np.ndarray:
         return self.v.copy()
 
-    def stats(self) -> dict[str, Any]:
+    def stats(self) -> EngineStats:
         # mass and centre of mass as simulated: the conformance scene ``mass_agreement`` checks them
         mass = float(self.m.sum())
         return {"device": "cpu", "precision": "f64", "n_points": len(self.x), "n_springs": len(self.i),

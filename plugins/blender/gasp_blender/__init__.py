@@ -12,12 +12,15 @@ Blender is an optional extra: ``pip install 'gasp-blender[engine]'``.
 from __future__ import annotations
 
 import importlib.util
+import math
 
 from gasp_core.seam.engine import Capabilities, EngineInfo
-from gasp_core.seam.setup import SimSetup
+from gasp_core.seam.limits import Limit
 from gasp_core.seam.plugins import hookimpl, SoupWriterInfo
+from gasp_core.seam.setup import SimSetup
 
-__all__ = ["CAPABILITIES", "INSTALL_HINT", "bpy_available", "gasp_engines", "gasp_soup_writers", "make_engine"]
+__all__ = ["CAPABILITIES", "INSTALL_HINT", "LIMITS", "bpy_available", "gasp_engines", "gasp_soup_writers",
+           "make_engine"]
 
 #: Reason given when bpy is missing.
 INSTALL_HINT = "bpy (Blender as a Python module) is not installed: pip install 'gasp-blender[engine]'"
@@ -29,6 +32,12 @@ CAPABILITIES = Capabilities(
     precisions=frozenset({"f32"}),
     deterministic=frozenset({"cpu"}),
 )
+
+#: The soft-body clock: the engine sets ``SoftBodySettings.speed = frame_dt * sqrt(1000)`` (gasp_blender.engine),
+#: and Blender takes a speed in [0.01, 100]; so frame_dt is limited, checked by the core before the factory.
+SPEED_PER_FRAME_DT = math.sqrt(1000.0)
+LIMITS = {"frame_dt": Limit(lo=0.01 / SPEED_PER_FRAME_DT, hi=100.0 / SPEED_PER_FRAME_DT,
+                            why="Blender's soft-body speed = frame_dt sqrt(1000) must lie in [0.01, 100]")}
 
 _V0 = ("SceneError at build: the scene starts with non-zero velocities and Blender starts soft "
        "bodies at rest (bpy exposes no way to set a soft body's point velocities; Blender 5.0.1)")
@@ -57,7 +66,7 @@ def make_engine(setup: SimSetup):
     Raises
     ------
     SceneError
-        Unknown or invalid option, unsupported material/boundary, initial velocities.
+        Unknown or invalid option, initial velocities.
     EngineError
         bpy cannot be imported.
     """
@@ -77,6 +86,7 @@ def gasp_engines():
         factory=make_engine,
         capabilities=CAPABILITIES,
         options=_options(),
+        limits=LIMITS,
         known_failures=KNOWN_FAILURES,
         available=bpy_available,
         description=("Blender soft bodies (bpy, headless): a coarse voxel cage per body with edge, "

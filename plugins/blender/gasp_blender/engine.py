@@ -21,9 +21,11 @@ from typing import Any
 import numpy as np
 
 from gasp_core.errors import EngineDivergence, EngineError, SceneError
-from gasp_core.seam.engine import check_options, Option
+from gasp_core.seam.engine import Option
 from gasp_core.seam.setup import SimSetup
+from gasp_core.seam.engine import check_options
 
+from . import SPEED_PER_FRAME_DT
 from .cage import Cage, build_cage, embed, interpolate, lump
 from .sheet import build_sheet, place
 
@@ -88,9 +90,9 @@ class BlenderSoftBodyEngine:
     Raises
     ------
     SceneError
-        Unknown option or bad value, a material/boundary the engine lacks, non-zero initial
-        velocities (Blender starts soft bodies at rest), ``frame_dt`` outside what Blender's
-        ``speed`` accepts.
+        Unknown option or bad value, non-zero initial velocities (Blender starts soft bodies at
+        rest). (A material or boundary the engine lacks, and a ``frame_dt`` outside what Blender's
+        ``speed`` accepts, :data:`gasp_blender.LIMITS`, are refused by the core first.)
     EngineError
         bpy cannot be imported.
 
@@ -113,10 +115,7 @@ class BlenderSoftBodyEngine:
         if np.any(setup.v != 0.0):
             raise SceneError(f"engine '{ENGINE}': initial velocities are not supported (Blender starts "
                              "soft bodies at rest and bpy cannot set their velocities)")
-        self.speed = setup.frame_dt * math.sqrt(1000.0)
-        if not (0.01 <= self.speed <= 100.0):
-            raise SceneError(f"engine '{ENGINE}': frame_dt={setup.frame_dt} s needs soft-body speed "
-                             f"{self.speed:.4g}, outside Blender's [0.01, 100]")
+        self.speed = setup.frame_dt * SPEED_PER_FRAME_DT  # in Blender's range: gasp_blender.LIMITS, checked by the core
         self.frame = 0
         self.n_points = len(setup.x)
         self._x = setup.x.copy()

@@ -33,10 +33,11 @@ from __future__ import annotations
 import importlib.util
 
 from gasp_core.seam.engine import Capabilities, EngineInfo
+from gasp_core.seam.limits import Limit
+from gasp_core.seam.plugins import hookimpl
 from gasp_core.seam.setup import SimSetup
 from gasp_core.toolkit.mpm import mpm_options
 from gasp_core.toolkit.sweep import mpm_sweep
-from gasp_core.seam.plugins import hookimpl
 
 __all__ = ["BENCH_EXCLUDED", "CAPABILITIES", "ENGINE", "INSTALL_HINT", "OPTIONS", "gasp_engines",
            "genesis_available", "make_engine", "sweep"]
@@ -55,6 +56,24 @@ CAPABILITIES = Capabilities(
     # no "initial_C": Genesis starts every particle's C at zero (set_particles_vel sets v only)
     features=frozenset({"grid"}),
 )
+
+#: Genesis pads its MPM domain by this many cells (``MPMSolver.setup_boundary``).
+PADDING_CELLS = 3
+#: Snow hardening coefficient hard-coded in ``genesis/engine/materials/MPM/snow.py``.
+GENESIS_SNOW_HARDENING = 10.0
+
+#: Genesis's own parameter ranges, narrower than the core's; the core checks them before the factory
+#: runs (``gasp_core.seam.limits``).
+LIMITS = {
+    "metal.yield_stress": Limit(lo=0.0, lo_open=True, why="Genesis von_mises_yield_stress, Pa"),
+    "sand.friction_angle": Limit(lo=0.0, hi=90.0, lo_open=True, hi_open=True, why="Genesis MPM.Sand, degrees"),
+    "snow.hardening": Limit(lo=GENESIS_SNOW_HARDENING, hi=GENESIS_SNOW_HARDENING,
+                            why="Genesis fixes the snow hardening coefficient"),
+    "snow.theta_c": Limit(lo=0.0, why="Genesis MPM.Snow"),
+    "snow.theta_s": Limit(lo=0.0, why="Genesis MPM.Snow"),
+    "friction": Limit(lo=0.0, why="Genesis coupling friction of the ground and wall planes"),
+    "n_grid": Limit(lo=8, why=f"Genesis pads the domain by {PADDING_CELLS} cells on each side"),
+}
 
 #: The grid-engine options of ``gasp_core.toolkit.mpm``; ``device`` "cpu" or "cuda" (``gs.init(backend=gs.cuda)``
 #: takes the default GPU).
@@ -100,8 +119,8 @@ def make_engine(setup: SimSetup):
     Raises
     ------
     SceneError
-        Unknown or invalid engine option, unsupported material or boundary, points outside
-        Genesis's padded domain.
+        Unknown or invalid engine option, points outside Genesis's padded domain. (Unsupported
+        materials and boundaries, and values outside :data:`LIMITS`, are refused by the core first.)
     EngineError
         Genesis cannot be imported, the device is not available, or Genesis was already
         initialised in this process with another device or precision.
@@ -125,6 +144,7 @@ def gasp_engines():
         factory=make_engine,
         capabilities=CAPABILITIES,
         options=OPTIONS,
+        limits=LIMITS,
         deterministic_options={},
         known_failures=KNOWN_FAILURES,
         sweep=sweep,

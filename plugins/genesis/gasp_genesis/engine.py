@@ -39,18 +39,17 @@ from __future__ import annotations
 
 import dataclasses
 import importlib.metadata as md
-import math
 import time
 from typing import Any
 
 import numpy as np
 
-from gasp_core.toolkit import mpm
 from gasp_core.errors import EngineDivergence, EngineError, SceneError
 from gasp_core.seam.setup import Material, SimSetup
+from gasp_core.toolkit import mpm
 from gasp_core.toolkit.mpm import CAUSE_DOMAIN, CAUSE_DT
 
-from . import ENGINE, INSTALL_HINT, OPTIONS
+from . import ENGINE, INSTALL_HINT, OPTIONS, PADDING_CELLS
 
 
 #: Most Genesis entities per body: Genesis gives every particle of an entity the same mass.
@@ -83,37 +82,6 @@ def mass_classes(p_mass: np.ndarray, k: int = MASS_CLASSES) -> list[np.ndarray]:
     if len(values) <= k:
         return [np.flatnonzero(inverse == j) for j in range(len(values))]
     return [g for g in np.array_split(np.argsort(p_mass, kind="stable"), k) if len(g)]
-
-
-#: Genesis pads its MPM domain by this many cells (``MPMSolver.setup_boundary``).
-PADDING_CELLS = 3
-#: Snow hardening coefficient hard-coded in ``genesis/engine/materials/MPM/snow.py``.
-GENESIS_SNOW_HARDENING = 10.0
-
-
-# ---------------------------------------------------------------------- validation
-def _validate_setup(setup: SimSetup) -> None:
-    """What Genesis adds to the core's checks (capabilities, ``SimSetup``): its own parameter ranges."""
-    for m in setup.materials:
-        if m.name == "metal" and not m.yield_stress > 0:
-            raise SceneError(f"engine '{ENGINE}': material 'metal': yield_stress must be > 0 "
-                             f"(Genesis von_mises_yield_stress), got {m.yield_stress}")
-        if m.name == "sand" and not 0.0 < m.friction_angle < 90.0:
-            raise SceneError(f"engine '{ENGINE}': material 'sand': friction_angle must be in "
-                             f"(0, 90) degrees, got {m.friction_angle}")
-        if m.name == "snow":
-            if m.hardening != GENESIS_SNOW_HARDENING:
-                raise SceneError(
-                    f"engine '{ENGINE}': material 'snow': hardening={m.hardening}; Genesis fixes "
-                    f"the snow hardening coefficient at {GENESIS_SNOW_HARDENING:g}")
-            if not (m.theta_c >= 0 and m.theta_s >= 0):
-                raise SceneError(f"engine '{ENGINE}': material 'snow': theta_c and theta_s must be >= 0")
-    for b in setup.boundaries:
-        if not (math.isfinite(b.friction) and b.friction >= 0):
-            raise SceneError(f"engine '{ENGINE}': boundary {b.kind!r}: friction={b.friction}; expected >= 0")
-    if not (isinstance(setup.n_grid, (int, np.integer)) and setup.n_grid >= 8):
-        raise SceneError(f"engine '{ENGINE}': n_grid={setup.n_grid!r}; expected an integer >= 8 "
-                         f"(Genesis pads the domain by {PADDING_CELLS} cells on each side)")
 
 
 def time_step(setup: SimSetup, opt: dict[str, Any]) -> tuple[int, float]:
@@ -232,7 +200,6 @@ class GenesisMPMEngine:
 
     def __init__(self, setup: SimSetup):
         opt = mpm.check_mpm_options(setup.options, OPTIONS, ENGINE)
-        _validate_setup(setup)
         self.setup = setup
         self.options = opt
         self.n_substeps, self.dt = time_step(setup, opt)

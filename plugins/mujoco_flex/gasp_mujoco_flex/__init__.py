@@ -13,10 +13,11 @@ import importlib.util
 import itertools
 
 from gasp_core.seam.engine import Capabilities, EngineInfo, Option
-from gasp_core.toolkit.sweep import dedupe_settings
+from gasp_core.seam.limits import Limit
 from gasp_core.seam.plugins import hookimpl
+from gasp_core.toolkit.sweep import dedupe_settings
 
-__all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "gasp_engines", "make_engine", "sweep"]
+__all__ = ["CAPABILITIES", "ENGINE", "LIMITS", "OPTIONS", "gasp_engines", "make_engine", "sweep"]
 
 ENGINE = "mujoco_flex"
 
@@ -55,6 +56,14 @@ OPTIONS = (
     Option("max_strain", 5.0, "a tet edge stretched beyond (1 + max_strain) x its rest length is a divergence",
            lo=0.0, lo_open=True),
 )
+
+#: Ranges narrower than the core's, checked by the core before the factory runs (gasp_core.seam.limits).
+#: MuJoCo refuses a negative Poisson ratio ("Poisson ratio must be in [0, 0.5)"); rigid bodies have no
+#: elasticity, so their nu is not read.
+LIMITS = {
+    **{f"{m}.nu": Limit(lo=0.0, why="MuJoCo's flex elasticity") for m in sorted(CAPABILITIES.materials - {"rigid"})},
+    "metal.yield_stress": Limit(lo=0.0, lo_open=True, why="MuJoCo's flex plasticity needs a yield stress, Pa"),
+}
 
 #: ``gasp bench`` sweep: lattice ``cells_across`` x ``cfl``, then the hierarchy share ``core_fraction``.
 SWEEP = {"cells_across": (4, 8, 12), "cfl": (0.25, 0.5, 1.0), "reference_cells": 16,
@@ -128,6 +137,7 @@ def gasp_engines():
         factory=make_engine,
         capabilities=CAPABILITIES,
         options=OPTIONS,
+        limits=LIMITS,
         deterministic_options={},
         known_failures=KNOWN_FAILURES,
         sweep=sweep,

@@ -9,8 +9,7 @@ import importlib.util
 
 import numpy as np
 
-from gasp_core.seam.plugins import hookimpl
-from gasp_core.render.info import RendererInfo
+from gasp_core.seam.plugins import hookimpl, RendererInfo
 
 
 def available() -> str | None:

@@ -16,11 +16,11 @@ import os
 os.environ.setdefault("ENABLE_TAICHI_HEADER_PRINT", "False")
 
 from gasp_core.seam.engine import Capabilities, EngineInfo, Option
+from gasp_core.seam.plugins import hookimpl
 from gasp_core.seam.setup import SimSetup
+from gasp_core.toolkit import mpm
 from gasp_core.toolkit.mpm import mpm_options
 from gasp_core.toolkit.sweep import mpm_sweep
-from gasp_core.toolkit import mpm
-from gasp_core.seam.plugins import hookimpl
 
 __all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "gasp_engines", "make_engine", "sweep", "taichi_available"]
 

@@ -11,9 +11,9 @@ from typing import Any
 
 import numpy as np
 
-from gasp_core.toolkit import mpm
 from gasp_core.errors import EngineDivergence, EngineError
 from gasp_core.seam.setup import SimSetup
+from gasp_core.toolkit import mpm
 from gasp_core.toolkit.mpm import CAUSE_DOMAIN, CAUSE_DT
 
 from . import ENGINE, OPTIONS

@@ -28,11 +28,9 @@ import numpy as np
 import taichi as ti
 
 # Material codes and the per-body parameter columns (``MPMSolver.mat``) are gasp_core.toolkit.mpm's.
-from gasp_core.toolkit import mpm
 from gasp_core.errors import SceneError
-from gasp_core.toolkit.mpm import (JELLY, LIQUID, METAL, N_PARAMS, NEO_HOOKEAN, P_ALPHA, P_HARDENING, P_K,
-                           P_LAM, P_MU, P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND,
-                           SNOW, VON_MISES_RADIUS)
+from gasp_core.toolkit import mpm
+from gasp_core.toolkit.mpm import JELLY, LIQUID, METAL, N_PARAMS, NEO_HOOKEAN, P_ALPHA, P_HARDENING, P_K, P_LAM, P_MU, P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND, SNOW, VON_MISES_RADIUS
 
 _TIE = 1e-9  # cells: tolerance for ties when boundary tests become node-index ranges
 

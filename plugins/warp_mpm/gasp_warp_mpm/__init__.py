@@ -9,11 +9,11 @@ from __future__ import annotations
 import importlib.util
 
 from gasp_core.seam.engine import Capabilities, EngineInfo, Option
+from gasp_core.seam.plugins import hookimpl
 from gasp_core.seam.setup import SimSetup
+from gasp_core.toolkit import mpm
 from gasp_core.toolkit.mpm import mpm_options
 from gasp_core.toolkit.sweep import mpm_sweep
-from gasp_core.toolkit import mpm
-from gasp_core.seam.plugins import hookimpl
 
 __all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "gasp_engines", "make_engine", "sweep"]
 

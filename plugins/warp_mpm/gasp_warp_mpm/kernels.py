@@ -22,9 +22,7 @@ import functools
 import warp as wp
 
 # Material codes and the columns of the per-body parameter table ``mat_par`` are gasp_core.toolkit.mpm's.
-from gasp_core.toolkit.mpm import (JELLY, METAL, NEO_HOOKEAN, P_ALPHA, P_HARDENING, P_K, P_LAM, P_MU,
-                           P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND, SNOW,
-                           VON_MISES_RADIUS)
+from gasp_core.toolkit.mpm import JELLY, METAL, NEO_HOOKEAN, P_ALPHA, P_HARDENING, P_K, P_LAM, P_MU, P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND, SNOW, VON_MISES_RADIUS
 
 # Warp compiles CPU code at -O2 by default; -O3 is several times faster on these kernels.
 _OPTS = {"optimization_level": 3}

@@ -1,0 +1,143 @@
+"""Per-engine parameter limits, declared as data (:attr:`gasp_core.seam.engine.EngineInfo.limits`).
+
+Some engines accept a narrower range of a scene value than the core does: MuJoCo's flex elasticity
+takes ``nu >= 0`` where the core takes ``-1 < nu < 0.5``; Genesis fixes the snow hardening at 10 and
+pads its grid by 3 cells, so it needs ``n_grid >= 8``. A plugin declares such ranges as
+:class:`Limit` records keyed by the parameter; the core checks them in one place
+(:func:`check_limits`, called by :func:`gasp_core.seam.build.build_engine` before the factory) with
+one error text, and ``gasp engines`` lists them.
+
+Keys
+----
+``"<field>"`` or ``"<material>.<field>"`` for a :class:`~gasp_core.seam.setup.Material` field
+(``"nu"``: every material; ``"metal.yield_stress"``: metal only); ``"<field>"`` or
+``"<kind>.<field>"`` for a :class:`~gasp_core.seam.setup.Boundary` field (``"friction"``,
+``"ground.height"``); ``"n_grid"`` or ``"frame_dt"`` for the :class:`~gasp_core.seam.setup.SimSetup`
+values of those names. The field names of the three do not overlap.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any, Iterator, Mapping
+
+from gasp_core.errors import SceneError
+from gasp_core.seam.setup import BOUNDARIES, MATERIALS, Boundary, Material, SimSetup
+
+#: Numeric fields a limit may name, by where they live.
+MATERIAL_FIELDS = frozenset(f.name for f in dataclasses.fields(Material) if f.name != "name")
+BOUNDARY_FIELDS = frozenset({"height", "friction"})
+SETUP_FIELDS = frozenset({"n_grid", "frame_dt"})
+
+
+@dataclass(frozen=True)
+class Limit:
+    """The range an engine accepts for one parameter (within the core's own range).
+
+    Attributes
+    ----------
+    lo, hi : float, optional
+        Bounds, in the parameter's unit (Pa, kg/m^3, degrees, seconds, ...); None = unbounded.
+        ``lo == hi`` means the engine takes that value only.
+    lo_open, hi_open : bool
+        Make the bound exclusive.
+    why : str
+        The engine's reason, one line (quoted in the error), e.g. ``"MuJoCo's flex elasticity"``.
+    """
+
+    lo: float | None = None
+    hi: float | None = None
+    lo_open: bool = False
+    hi_open: bool = False
+    why: str = ""
+
+    def expected(self, name: str) -> str:
+        """The accepted range in words, e.g. ``"nu >= 0"``, ``"friction_angle in (0, 90)"``."""
+        if self.lo is not None and self.lo == self.hi:
+            return f"{name} = {self.lo:g}"
+        if self.lo is not None and self.hi is not None:
+            return (f"{name} in {'(' if self.lo_open else '['}{self.lo:g}, "
+                    f"{self.hi:g}{')' if self.hi_open else ']'}")
+        if self.lo is not None:
+            return f"{name} {'>' if self.lo_open else '>='} {self.lo:g}"
+        if self.hi is not None:
+            return f"{name} {'<' if self.hi_open else '<='} {self.hi:g}"
+        return f"any {name}"
+
+    def describe(self, key: str) -> str:
+        """The range and the reason for a limit key, e.g. ``"nu >= 0 (MuJoCo's flex elasticity)"``."""
+        return self.expected(key.rpartition(".")[2]) + (f" ({self.why})" if self.why else "")
+
+    def admits(self, value: float) -> bool:
+        """True when ``value`` is finite and within the range."""
+        v = float(value)
+        if not math.isfinite(v):
+            return False
+        if self.lo is not None and not (v > self.lo if self.lo_open else v >= self.lo):
+            return False
+        return self.hi is None or (v < self.hi if self.hi_open else v <= self.hi)
+
+
+def split_key(key: str) -> tuple[str | None, str]:
+    """``(qualifier, field)`` of a limit key: ``"metal.yield_stress"`` -> ``("metal", "yield_stress")``.
+
+    Raises
+    ------
+    ValueError
+        A field that no material, boundary or setup value has, or a qualifier that is not a material
+        name (for a material field) or a boundary kind (for a boundary field). The plugin author's
+        mistake: raised when the :class:`~gasp_core.seam.engine.EngineInfo` is made.
+    """
+    qual, _, name = key.rpartition(".")
+    qual = qual or None
+    if name in MATERIAL_FIELDS:
+        allowed, what = MATERIALS, "material"
+    elif name in BOUNDARY_FIELDS:
+        allowed, what = BOUNDARIES, "boundary kind"
+    elif name in SETUP_FIELDS:
+        allowed, what = frozenset(), "nothing"
+    else:
+        raise ValueError(f"limit {key!r}: unknown parameter {name!r}; expected a Material field "
+                         f"{sorted(MATERIAL_FIELDS)}, a Boundary field {sorted(BOUNDARY_FIELDS)} or "
+                         f"{sorted(SETUP_FIELDS)}")
+    if qual is not None and qual not in allowed:
+        raise ValueError(f"limit {key!r}: {qual!r} is not a {what}"
+                         + (f" (one of {sorted(allowed)})" if allowed else f"; write {name!r} alone"))
+    return qual, name
+
+
+def _values(setup: SimSetup, qual: str | None, name: str) -> Iterator[tuple[str, Any]]:
+    """``(where, value)`` of every value a limit key names in ``setup``."""
+    if name in SETUP_FIELDS:
+        yield "", getattr(setup, name)
+        return
+    items: list[Material | Boundary] = setup.materials if name in MATERIAL_FIELDS else setup.boundaries
+    for item in items:
+        label = item.name if isinstance(item, Material) else item.kind
+        if qual is None or qual == label:
+            yield f"{'material' if isinstance(item, Material) else 'boundary'} '{label}': ", getattr(item, name)
+
+
+def check_limits(engine: str, limits: Mapping[str, Limit], setup: SimSetup) -> None:
+    """The one check of an engine's declared limits against a setup.
+
+    Parameters
+    ----------
+    engine : str
+        Engine name, for the message.
+    limits : mapping of str -> Limit
+        :attr:`EngineInfo.limits`, keys as in this module's docstring.
+    setup : SimSetup
+
+    Raises
+    ------
+    SceneError
+        ``engine 'NAME': material 'jelly': nu=-0.3; this engine takes nu >= 0 (MuJoCo's flex
+        elasticity)``: the first value outside its limit.
+    """
+    for key, limit in limits.items():
+        qual, name = split_key(key)
+        for where, value in _values(setup, qual, name):
+            if not limit.admits(value):
+                raise SceneError(f"engine '{engine}': {where}{name}={value!r}; this engine takes {limit.describe(key)}")
