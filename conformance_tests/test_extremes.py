@@ -24,7 +24,7 @@ from gasp_core.testing import G, box_points, record
 from gasp_core.testing.scenes_basic import GROUND_H
 from gasp_core.errors import EngineDivergence, EngineError, SceneError
 from gasp_core.seam.setup import Boundary, Material, SimSetup
-from gasp_core.toolkit.mpm import mpm_stable_dt
+from gasp_core.toolkit.substeps import mpm_stable_dt
 from gasp_core.seam.runner import simulate
 
 N_FRAMES = 2

@@ -34,7 +34,7 @@ import importlib.util
 
 from gasp_core.seam.engine import Capabilities, EngineInfo
 from gasp_core.seam.setup import SimSetup
-from gasp_core.toolkit.mpm import mpm_options
+from gasp_core.toolkit.options import mpm_options
 from gasp_core.toolkit.sweep import mpm_sweep
 from gasp_core.seam.plugins import hookimpl
 
@@ -56,7 +56,7 @@ CAPABILITIES = Capabilities(
     features=frozenset({"grid"}),
 )
 
-#: The grid-engine options of ``gasp_core.toolkit.mpm``; ``device`` "cpu" or "cuda" (``gs.init(backend=gs.cuda)``
+#: The grid-engine options of ``gasp_core.toolkit.options``; ``device`` "cpu" or "cuda" (``gs.init(backend=gs.cuda)``
 #: takes the default GPU).
 OPTIONS = mpm_options()
 
@@ -66,7 +66,7 @@ BENCH_EXCLUDED = ("left out of the default sweep: on CPU its build takes ~50 s a
 
 
 def sweep(quick: bool) -> tuple[list[dict], dict]:
-    """``gasp bench`` settings and reference: the grid-engine sweep of ``gasp_core.toolkit.mpm.mpm_sweep``.
+    """``gasp bench`` settings and reference: the grid-engine sweep of ``gasp_core.toolkit.sweep.mpm_sweep``.
 
     ``sweep.excluded_by_default`` (:data:`BENCH_EXCLUDED`) says why a default ``gasp bench`` leaves
     this engine out.

@@ -45,10 +45,11 @@ from typing import Any
 
 import numpy as np
 
-from gasp_core.toolkit import mpm
+from gasp_core.toolkit.options import check_mpm_options
+from gasp_core.toolkit.substeps import substeps_from_options
 from gasp_core.errors import EngineDivergence, EngineError, SceneError
 from gasp_core.seam.setup import Material, SimSetup
-from gasp_core.toolkit.mpm import CAUSE_DOMAIN, CAUSE_DT
+from gasp_core.toolkit.failures import CAUSE_DOMAIN, CAUSE_DT
 
 from . import ENGINE, INSTALL_HINT, OPTIONS
 
@@ -117,8 +118,8 @@ def _validate_setup(setup: SimSetup) -> None:
 
 
 def time_step(setup: SimSetup, opt: dict[str, Any]) -> tuple[int, float]:
-    """Substeps per frame and substep length (``gasp_core.toolkit.mpm.mpm_substeps``, docs/mpm.md)."""
-    return mpm.substeps_from_options(setup, opt, ENGINE)
+    """Substeps per frame and substep length (``gasp_core.toolkit.substeps.mpm_substeps``, docs/mpm.md)."""
+    return substeps_from_options(setup, opt, ENGINE)
 
 
 # ---------------------------------------------------------------------- Genesis
@@ -231,7 +232,7 @@ class GenesisMPMEngine:
     """
 
     def __init__(self, setup: SimSetup):
-        opt = mpm.check_mpm_options(setup.options, OPTIONS, ENGINE)
+        opt = check_mpm_options(setup.options, OPTIONS, ENGINE)
         _validate_setup(setup)
         self.setup = setup
         self.options = opt

@@ -27,12 +27,11 @@ import math
 import numpy as np
 import taichi as ti
 
-# Material codes and the per-body parameter columns (``MPMSolver.mat``) are gasp_core.toolkit.mpm's.
-from gasp_core.toolkit import mpm
+# Material codes and the per-body parameter columns (``MPMSolver.mat``) are gasp_core.toolkit.materials'.
+from gasp_core.toolkit.substeps import passive_schedule
 from gasp_core.errors import SceneError
-from gasp_core.toolkit.mpm import (JELLY, LIQUID, METAL, N_PARAMS, NEO_HOOKEAN, P_ALPHA, P_HARDENING, P_K,
-                           P_LAM, P_MU, P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND,
-                           SNOW)
+from gasp_core.toolkit.materials import (JELLY, LIQUID, METAL, N_PARAMS, NEO_HOOKEAN, P_ALPHA, P_HARDENING, P_K, P_LAM,
+                                         P_MU, P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND, SNOW)
 
 _TIE = 1e-9  # cells: tolerance for ties when boundary tests become node-index ranges
 
@@ -86,11 +85,11 @@ class MPMSolver:
     fixed : ndarray, shape (n,), bool
         Points held still (started inside a fixed region).
     jp0 : ndarray, shape (n,)
-        Initial Jp (``gasp_core.toolkit.mpm.initial_Jp``: 0 for plasticine, 1 otherwise).
+        Initial Jp (``gasp_core.toolkit.materials.initial_Jp``: 0 for plasticine, 1 otherwise).
     params : ndarray, shape (n_bodies, N_PARAMS)
-        ``gasp_core.toolkit.mpm.material_table``.
+        ``gasp_core.toolkit.materials.material_table``.
     kinds : sequence of int
-        Material code per body (``gasp_core.toolkit.mpm.MATERIAL_CODES`` values).
+        Material code per body (``gasp_core.toolkit.materials.MATERIAL_CODES`` values).
     n_grid : int
     lo : ndarray, shape (3,)
         Grid origin (domain_lo), metres.
@@ -159,7 +158,7 @@ class MPMSolver:
         self.pbox = ti.Vector.field(3, ti.i32, shape=(self.n_chunks, 2))  # passive points' node box
         # scalars: dt, dx, inv_dx; vectors: lo, gravity
         self.sc = ti.field(real, shape=3)
-        # passive points' update weights (gasp_core.toolkit.mpm.passive_schedule): [a, b] of a full interval, of the last
+        # passive points' update weights (gasp_core.toolkit.substeps.passive_schedule): [a, b] of a full interval, of the last
         self.pab = ti.field(real, shape=4)
         self.lo = ti.Vector.field(3, real, shape=())
         self.gravity = ti.Vector.field(3, real, shape=())
@@ -237,11 +236,11 @@ class MPMSolver:
     # ------------------------------------------------------------------ driver
     def _passive_at(self, n_substeps: int) -> list:
         """Per substep of a frame: None, or which weight pair (0 full interval, 1 last) moves the passive
-        points after its grid update (:func:`gasp_core.toolkit.mpm.passive_schedule`)."""
+        points after its grid update (:func:`gasp_core.toolkit.substeps.passive_schedule`)."""
         if not self.has_passive:
             return [None] * n_substeps
         if self._passive_plan[0] != n_substeps:
-            plan = mpm.passive_schedule(n_substeps, self._passive_every, float(self.sc[0]))
+            plan = passive_schedule(n_substeps, self._passive_every, float(self.sc[0]))
             pairs = list(dict.fromkeys((a, b) for _s, a, b in plan))
             pairs += pairs[-1:] * (2 - len(pairs))
             self.pab.from_numpy(np.array([c for ab in pairs for c in ab], self._np_real))
@@ -255,7 +254,7 @@ class MPMSolver:
         """Advance ``n_substeps`` substeps (P2G, grid update, G2P each), no host sync in between.
 
         Passive points (``n_material < n``) are moved after a grid update (every one, or every
-        ``passive_every``-th and the frame's last: :func:`gasp_core.toolkit.mpm.passive_schedule`), by the
+        ``passive_every``-th and the frame's last: :func:`gasp_core.toolkit.substeps.passive_schedule`), by the
         grid velocity that already holds the forces, colliders and boundaries, so they follow the
         material and respect what it respects; they add nothing to the grid. With colliders, forces
         or impulses the frame's time table is loaded first and the substep index set before each P2G."""
@@ -708,7 +707,7 @@ class MPMSolver:
         point half a spacing outside the material sees empty nodes (velocity 0, not the material's)
         in its stencil, which would hold it back. Inside the material this is plain G2P. The move is
         ``a v_prev + b v_new`` with ``(a, b) = pab[2 pair], pab[2 pair + 1]``
-        (:func:`gasp_core.toolkit.mpm.passive_schedule`; ``(0, dt)`` when every substep moves them)."""
+        (:func:`gasp_core.toolkit.substeps.passive_schedule`; ``(0, dt)`` when every substep moves them)."""
         base, fx, ok = self._base_fx(self.x[p])
         if not ok:
             ti.atomic_add(self.n_out[None], 1)

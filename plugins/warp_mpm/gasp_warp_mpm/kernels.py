@@ -21,9 +21,9 @@ import functools
 
 import warp as wp
 
-# Material codes and the columns of the per-body parameter table ``mat_par`` are gasp_core.toolkit.mpm's.
-from gasp_core.toolkit.mpm import (JELLY, METAL, NEO_HOOKEAN, P_ALPHA, P_HARDENING, P_K, P_LAM, P_MU,
-                           P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND, SNOW)
+# Material codes and the columns of the per-body parameter table ``mat_par`` are gasp_core.toolkit.materials'.
+from gasp_core.toolkit.materials import (JELLY, METAL, NEO_HOOKEAN, P_ALPHA, P_HARDENING, P_K, P_LAM, P_MU, P_SOFTENING,
+                                         P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND, SNOW)
 
 # Warp compiles CPU code at -O2 by default; -O3 is several times faster on these kernels.
 _OPTS = {"optimization_level": 3}
@@ -475,7 +475,7 @@ def build_kernels(Ft):
         # Passive points (rows first..): velocity and position from the grid only (no C, F, P2G).
         # Only nodes with mass count, weights renormalised over them: a surface point outside the
         # material would otherwise be held back by the empty nodes' zero velocity. The move is
-        # a v_prev + b v_new (gasp_core.toolkit.mpm.passive_schedule; a = 0, b = dt every substep).
+        # a v_prev + b v_new (gasp_core.toolkit.substeps.passive_schedule; a = 0, b = dt every substep).
         p = first + wp.tid()
         if fixed[p] != 0:
             v[p] = vec3(Ft(0.0))
