@@ -193,7 +193,25 @@ def _grid(lo_pts: np.ndarray, hi_pts: np.ndarray, h: float, pad: int):
     return lo, shape
 
 
-def _rasterize(splats: np.ndarray, lo: np.ndarray, shape, h: float) -> np.ndarray:
+def rasterize(splats: np.ndarray, lo: np.ndarray, shape, h: float) -> np.ndarray:
+    """Voxels the Gaussians' footprints touch.
+
+    Parameters
+    ----------
+    splats : ndarray, shape (n, 3, 3)
+        GaMeS triangles, metres.
+    lo : ndarray, shape (3,)
+        Corner of voxel ``(0, 0, 0)``, metres.
+    shape : tuple of 3 int
+        Voxels per axis.
+    h : float
+        Voxel size, metres; footprints are sampled every ``h / 2`` (:func:`splat_samples`), samples
+        outside the grid count in the nearest edge voxel.
+
+    Returns
+    -------
+    ndarray, shape ``shape``, bool
+    """
     occ = np.zeros(shape, dtype=bool)
     hi = np.array(shape) - 1
     for pts in splat_samples(splats, 0.5 * h):
@@ -243,7 +261,7 @@ def solid_field(splats: np.ndarray, max_dilation: int = 4, voxel: float | None =
     pts = splats.reshape(-1, 3)
     reach = SPLAT_SIGMA * np.linalg.norm(splats[:, 1:] - splats[:, :1], axis=2).max()
     lo, shape = _grid(pts.min(axis=0) - reach, pts.max(axis=0) + reach, voxel, max_dilation + 3)
-    shell = _rasterize(splats, lo, shape, voxel)
+    shell = rasterize(splats, lo, shape, voxel)
     closed_shell = shell
     enclosed, solids = [], []
     chosen = 0
@@ -345,7 +363,7 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
             inside[i] = ndimage.map_coordinates(phi, [cx, cy, cz], order=1, mode="constant", cval=-1.0) > 0
         method, closed, warning = "flood", True, ""
     else:
-        inside = _rasterize(splats, lo, shape, h)
+        inside = rasterize(splats, lo, shape, h)
         closed = False
         method = "shell" if not fill else "shell-open"
         warning = "" if not fill else (

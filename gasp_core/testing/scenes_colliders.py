@@ -20,7 +20,8 @@ import math
 
 import numpy as np
 
-from gasp_core.colliders.model import ForceField, Motion, SDF_SPACING, box_collider
+from gasp_core.colliders.model import ForceField, Motion
+from gasp_core.colliders.sdf import box_collider, SDF_SPACING
 from gasp_core.seam.engine import EngineInfo
 from gasp_core.seam.setup import Boundary, Material, SimSetup
 from gasp_core.testing.helpers import box_points, Check, check as _check, G, make_setup as _setup

@@ -127,7 +127,8 @@ def _run_refusals(info: EngineInfo) -> list[Check]:
 
 def _refused_extras(info: EngineInfo) -> list[Check]:
     """Colliders, forces and impulses the engine lacks are refused before the factory (gasp_core.colliders.model)."""
-    from gasp_core.colliders.model import ForceField, Impulse, Motion, box_collider
+    from gasp_core.colliders.model import ForceField, Impulse, Motion
+    from gasp_core.colliders.sdf import box_collider
     far = np.array([0.5, 0.5, 0.9])
     extras = {
         "static_colliders": {"colliders": [box_collider((0.05, 0.05, 0.05), DX, position=far)]},
