@@ -2,7 +2,7 @@
 
 From a closed triangle mesh (:func:`collider_from_triangles`; ``trimesh``'s signed distance), from
 a static object's Gaussians (:func:`collider_from_splats`: the interior fill's occupancy,
-:func:`gasp_core.maps.fill.solid_field`, turned into Euclidean distances by
+:func:`gasp_core.maps.occupancy.solid_field`, turned into Euclidean distances by
 :func:`scipy.ndimage.distance_transform_edt`), or a box with its exact distance (:func:`box_collider`).
 Samples are :data:`SDF_SPACING` times the simulation grid's ``dx`` apart, with :data:`SDF_PAD`
 samples of padding, at most :data:`MAX_SDF_SAMPLES` of them.
@@ -14,7 +14,7 @@ from scipy import ndimage
 
 from gasp_core.colliders.model import Collider
 from gasp_core.errors import SceneError
-from gasp_core.maps.fill import rasterize, solid_field
+from gasp_core.maps.occupancy import rasterize, solid_field
 
 #: SDF sample spacing as a fraction of the simulation grid spacing ``dx``.
 SDF_SPACING = 0.5
@@ -104,7 +104,7 @@ def collider_from_splats(splats: np.ndarray, h: float, name: str = "collider", *
     Returns
     -------
     Collider
-        Occupancy = inside of :func:`gasp_core.maps.fill.solid_field` (or, for an open object, the
+        Occupancy = inside of :func:`gasp_core.maps.occupancy.solid_field` (or, for an open object, the
         voxels its footprints touch); ``phi`` = Euclidean distance to it outside minus the
         distance to its outside inside (:func:`scipy.ndimage.distance_transform_edt`), each with
         half a sample removed, so the surface lies between occupied and free samples.
