@@ -58,23 +58,7 @@ def read_splatv(path) -> tuple[Gaussians, dict[str, np.ndarray]]:
     (+1 unused); 13-14 float16 omega w,x,y,z; 15 float16 trbf_center, trbf_scale.
     """
     path = Path(path)
-    check_is_file(path, "splaTV file")
-    raw = path.read_bytes()
-    if len(raw) < 8:
-        reject_file(path, f"splaTV file of {len(raw)} bytes; expected at least an 8-byte header")
-    magic, hlen = struct.unpack_from("<II", raw, 0)
-    if magic != _SPLATV_MAGIC:
-        reject_file(path, f"magic 0x{magic:x}; expected 0x{_SPLATV_MAGIC:x} (a splaTV file)")
-    if 8 + hlen > len(raw):
-        reject_file(path, f"header length {hlen} runs past the end of the file ({len(raw)} bytes); truncated?")
-    try:
-        header = json.loads(raw[8:8 + hlen].decode("utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        reject_file(path, f"header is not JSON: {exc}")
-    body = raw[8 + hlen:]
-    if len(body) % _SPLATV_RECORD:
-        reject_file(path, f"body of {len(body)} bytes is not a whole number of {_SPLATV_RECORD}-byte "
-                    "records; truncated?")
+    header, body = _header_and_body(path)
     n = len(body) // _SPLATV_RECORD
     words = np.frombuffer(body, dtype="<u4").reshape(n, 16)
     halves = words.view("<f2").reshape(n, 32)  # half j of word w = column 2w + j (low half first)
@@ -108,6 +92,29 @@ def read_splatv(path) -> tuple[Gaussians, dict[str, np.ndarray]]:
                      source=str(path), layout="splatv", meta={"header": header})
     return base, {"motion": motion, "omega": omega, "trbf_center": trbf_center,
                   "trbf_scale": trbf_scale}
+
+
+def _header_and_body(path: Path) -> tuple[object, bytes]:
+    """The JSON header of a splaTV file and its body of whole 64-byte records; :class:`SceneError` for a wrong
+    magic number, a header that is not JSON or a truncated file."""
+    check_is_file(path, "splaTV file")
+    raw = path.read_bytes()
+    if len(raw) < 8:
+        reject_file(path, f"splaTV file of {len(raw)} bytes; expected at least an 8-byte header")
+    magic, hlen = struct.unpack_from("<II", raw, 0)
+    if magic != _SPLATV_MAGIC:
+        reject_file(path, f"magic 0x{magic:x}; expected 0x{_SPLATV_MAGIC:x} (a splaTV file)")
+    if 8 + hlen > len(raw):
+        reject_file(path, f"header length {hlen} runs past the end of the file ({len(raw)} bytes); truncated?")
+    try:
+        header = json.loads(raw[8:8 + hlen].decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        reject_file(path, f"header is not JSON: {exc}")
+    body = raw[8 + hlen:]
+    if len(body) % _SPLATV_RECORD:
+        reject_file(path, f"body of {len(body)} bytes is not a whole number of {_SPLATV_RECORD}-byte "
+                    "records; truncated?")
+    return header, body
 
 
 def splatv_at(base: Gaussians, motion: dict[str, np.ndarray], t: float) -> Gaussians:
