@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from gasp_core.seam.plugins import engines as installed_engines
-from gasp_core.testing import G, box_points, record
+from gasp_core.testing import GRAVITY, box_points, record
 from gasp_core.testing.scenes_basic import GROUND_H
 from gasp_core.errors import EngineDivergence, EngineError, SceneError
 from gasp_core.seam.setup import Boundary, Material, SimSetup
@@ -36,7 +36,7 @@ def _base(material: Material | None = None, x=None, p_vol=None, n_grid=16, optio
     if x is None:
         x, p_vol = box_points((0.4, 0.4, GROUND_H + DX), (0.6, 0.6, GROUND_H + DX + 0.2), DX / 2)
     return SimSetup(x=x, v=0.0, p_vol=p_vol, body_id=0, materials=[material or Material("jelly")],
-                    gravity=np.array([0.0, 0.0, -G]), domain_lo=np.zeros(3), domain_hi=np.ones(3),
+                    gravity=np.array([0.0, 0.0, -GRAVITY]), domain_lo=np.zeros(3), domain_hi=np.ones(3),
                     n_grid=n_grid, boundaries=[Boundary("ground", height=GROUND_H, friction=0.5)],
                     frame_dt=FRAME_DT, options=dict(options or {}))
 
@@ -124,7 +124,7 @@ def _cases():
 
 def _plausible(setup: SimSetup, xs: np.ndarray) -> str | None:
     t = FRAME_DT * (len(xs) - 1)
-    reach = 0.5 * G * t ** 2 + float(np.abs(setup.v).max(initial=0.0)) * t + 2 * setup.dx
+    reach = 0.5 * GRAVITY * t ** 2 + float(np.abs(setup.v).max(initial=0.0)) * t + 2 * setup.dx
     moved = float(np.linalg.norm(xs[-1] - xs[0], axis=1).max())
     if moved > reach:
         return f"a point moved {moved:.3g} m in {t:.2f} s; free fall allows {reach:.3g} m"

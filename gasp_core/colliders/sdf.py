@@ -114,12 +114,12 @@ def collider_from_splats(splats: np.ndarray, h: float, name: str = "collider", *
         raise SceneError(f"collider '{name}': no opaque Gaussians to collide with")
     pts = splats.reshape(-1, 3)
     origin, shape = _grid_around(pts.min(axis=0), pts.max(axis=0), h, name)
-    field_, flo, voxel, _, _ = solid_field(splats)
+    inside_field, field_lo, voxel, _, _ = solid_field(splats)
     ii = np.stack(np.meshgrid(*[np.arange(s) for s in shape], indexing="ij"), axis=-1).reshape(-1, 3)
     samples = origin + ii * h
-    if field_ is not None:
-        u = (samples - flo) / voxel - 0.5
-        occ = (ndimage.map_coordinates(field_, u.T, order=1, mode="constant", cval=-1.0) > 0).reshape(shape)
+    if inside_field is not None:
+        u = (samples - field_lo) / voxel - 0.5
+        occ = (ndimage.map_coordinates(inside_field, u.T, order=1, mode="constant", cval=-1.0) > 0).reshape(shape)
     else:
         occ = rasterize(splats, origin - 0.5 * h, shape, h)
     if not occ.any():

@@ -74,11 +74,11 @@ def decode_compressed(path: Path, ply: PlyData) -> Gaussians:
 
     q = _unpack_rotations(vertex["packed_rotation"].astype(np.uint32))
 
-    sc = vertex["packed_scale"].astype(np.uint32)
+    packed_scale = vertex["packed_scale"].astype(np.uint32)
     log_s = np.stack([
-        _lerp(cget("min_scale_x"), cget("max_scale_x"), _unorm(sc, 21, 11)),
-        _lerp(cget("min_scale_y"), cget("max_scale_y"), _unorm(sc, 11, 10)),
-        _lerp(cget("min_scale_z"), cget("max_scale_z"), _unorm(sc, 0, 11)),
+        _lerp(cget("min_scale_x"), cget("max_scale_x"), _unorm(packed_scale, 21, 11)),
+        _lerp(cget("min_scale_y"), cget("max_scale_y"), _unorm(packed_scale, 11, 10)),
+        _lerp(cget("min_scale_z"), cget("max_scale_z"), _unorm(packed_scale, 0, 11)),
     ], axis=1)
 
     col = vertex["packed_color"].astype(np.uint32)

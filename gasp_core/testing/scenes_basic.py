@@ -15,7 +15,7 @@ import numpy as np
 
 from gasp_core.seam.engine import EngineInfo
 from gasp_core.seam.setup import Boundary, Material, SimSetup
-from gasp_core.testing.helpers import box_points, Check, check as _check, G, make_setup as _setup, sphere_points
+from gasp_core.testing.helpers import box_points, Check, check as _check, GRAVITY, make_setup as _setup, sphere_points
 from gasp_core.testing.kit import Requires, run_trace, Scene, Trace
 
 def _kabsch_angle_z(a: np.ndarray, b: np.ndarray) -> float:
@@ -42,7 +42,7 @@ def _build_free_fall(info: EngineInfo) -> SimSetup:
 
 def _eval_free_fall(info: EngineInfo, tr: Trace) -> list[Check]:
     t = tr.t[-1]
-    expected = 0.5 * G * t ** 2
+    expected = 0.5 * GRAVITY * t ** 2
     d = tr.centroid()[-1] - tr.centroid()[0]
     rel = abs(-d[2] - expected) / expected
     checks = [_check("centroid_drop", rel, 0.01, f"|drop - g t^2/2| / (g t^2/2) at t={t:.2f}s "
@@ -72,7 +72,7 @@ def _eval_resting(info: EngineInfo, tr: Trace) -> list[Check]:
     dx = tr.setup.dx
     ke = tr.kinetic()
     m = tr.p_mass.sum()
-    e_drop = m * G * 0.5 * dx  # energy of the half-cell drop, J
+    e_drop = m * GRAVITY * 0.5 * dx  # energy of the half-cell drop, J
     late = float(ke[-5:].mean())
     checks = [_check("settles", late / e_drop, 0.05,
                      "mean kinetic energy of the last 5 frames / (M g drop height)", peak_ke=ke.max(),
@@ -100,7 +100,7 @@ def _build_bounce(info: EngineInfo) -> SimSetup:
 def _eval_bounce(info: EngineInfo, tr: Trace) -> list[Check]:
     e = tr.kinetic() + tr.potential()
     m = tr.p_mass.sum()
-    scale = m * G * float(tr.x[0, :, 2].min() - GROUND_H)  # energy released by the fall to contact
+    scale = m * GRAVITY * float(tr.x[0, :, 2].min() - GROUND_H)  # energy released by the fall to contact
     rise = float((e - e[0]).max())
     k = int(np.argmax(e - e[0]))
     return [_check("energy_never_increases", rise / scale, BOUNCE_TOL,

@@ -24,7 +24,7 @@ from gasp_core.colliders.model import ForceField, Motion
 from gasp_core.colliders.sdf import box_collider, SDF_SPACING
 from gasp_core.seam.engine import EngineInfo
 from gasp_core.seam.setup import Boundary, Material, SimSetup
-from gasp_core.testing.helpers import box_points, Check, check as _check, G, make_setup as _setup
+from gasp_core.testing.helpers import box_points, Check, check as _check, GRAVITY, make_setup as _setup
 from gasp_core.testing.kit import Requires, Scene, Trace
 
 N_GRID = 32
@@ -87,14 +87,14 @@ def _eval_incline(mu: float):
         t = tr.t
         checks = []
         if mu < math.tan(th):
-            expected = G * (math.sin(th) - mu * math.cos(th))
+            expected = GRAVITY * (math.sin(th) - mu * math.cos(th))
             late = t >= 0.1                                      # after settling onto the slope
             a_fit = 2.0 * np.polyfit(t[late], along[late], 2)[0]
             checks.append(_check("slide_acceleration", abs(a_fit - expected) / expected, INCLINE_TOL,
                                  f"|a - g (sin th - mu cos th)| / expected (a = {a_fit:.3f}, expected "
                                  f"{expected:.3f} m/s^2, mu = {mu})", a=a_fit, expected=expected))
         else:
-            free = 0.5 * G * math.sin(th) * t[-1] ** 2
+            free = 0.5 * GRAVITY * math.sin(th) * t[-1] ** 2
             tilt = _tilt_deg(tr.x[0], tr.x[-1])
             checks.append(_check("stick_displacement", float(abs(along[-1])) / DX, 0.5,
                                  f"|centroid travel down the slope| after {t[-1]:.2f} s, in dx (frictionless "

@@ -12,7 +12,7 @@ import numpy as np
 
 from gasp_core.seam.engine import EngineInfo
 from gasp_core.seam.setup import Boundary, Material, SimSetup
-from gasp_core.testing.helpers import box_points, Check, check as _check, G, make_setup as _setup, wall_margin
+from gasp_core.testing.helpers import box_points, Check, check as _check, GRAVITY, make_setup as _setup, wall_margin
 from gasp_core.testing.kit import Requires, Scene, Trace
 
 # --- cantilever (Euler-Bernoulli) -----------------------------------------------------------
@@ -24,7 +24,7 @@ CANT_TOL = 0.30
 
 
 def cantilever_deflection(E: float = CANT_E, rho: float = CANT_RHO, L: float = CANT_L,
-                          h: float = CANT_H, g: float = G) -> float:
+                          h: float = CANT_H, g: float = GRAVITY) -> float:
     """Static tip deflection of a clamped square bar under its weight, m.
 
     ``delta = q L^4 / (8 E I)`` with ``q = rho g h^2`` and ``I = h^4 / 12``, i.e.
@@ -136,7 +136,7 @@ def _build_dam(info: EngineInfo) -> SimSetup:
 
 
 def _eval_dam(info: EngineInfo, tr: Trace) -> list[Check]:
-    T = tr.t * math.sqrt(2 * G / DAM_A)
+    T = tr.t * math.sqrt(2 * GRAVITY / DAM_A)
     # front: farthest point from the symmetry plane on each side, averaged
     right = tr.x[:, :, 0].max(axis=1) - 0.6
     left = 0.6 - tr.x[:, :, 0].min(axis=1)
