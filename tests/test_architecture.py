@@ -19,7 +19,6 @@ import io
 import re
 import textwrap
 import tokenize
-from collections import defaultdict
 from pathlib import Path
 
 import gasp_core
