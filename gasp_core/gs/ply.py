@@ -50,7 +50,8 @@ def read_ply(path) -> PlyData:
 
 
 def check_is_file(path: Path, what: str) -> None:
-    """Refuse a directory (:class:`SceneError`) or a missing path (:class:`FileNotFoundError`), naming ``what`` was expected."""
+    """Refuse a directory (:class:`SceneError`) or a missing path (:class:`FileNotFoundError`); ``what`` names
+    the file expected."""
     if path.is_dir():
         reject_file(path, f"is a directory; expected a {what}")
     if not path.is_file():
@@ -100,7 +101,8 @@ def numbered_names(names, prefix: str) -> list[str]:
 
 
 def require_columns(path, names, wanted, what: str) -> None:
-    """Refuse (:class:`SceneError`) a vertex element without every property of ``wanted``; ``what`` says what was expected."""
+    """Refuse (:class:`SceneError`) a vertex element without every property of ``wanted``; ``what`` says what
+    was expected."""
     missing = [w for w in wanted if w not in names]
     if missing:
         reject_file(path, f"vertex element has no {', '.join(missing)} properties; expected {what}")

@@ -188,7 +188,8 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
 
 
 def _check_fill_arguments(points: np.ndarray, h: float, name: str, if_open: str) -> None:
-    """Refuse (:class:`SceneError`) points that are not a non-empty (n, 3) array, ``h <= 0`` or an unknown ``if_open``."""
+    """Refuse (:class:`SceneError`) points that are not a non-empty (n, 3) array, ``h <= 0`` or an unknown
+    ``if_open``."""
     if points.ndim != 2 or points.shape[1] != 3 or len(points) == 0:
         raise SceneError(f"object '{name}': fill_interior needs a non-empty (n, 3) point array, got {points.shape}")
     if not h > 0:

@@ -83,10 +83,12 @@ def _collider(c: dict, where: str, src: Path, n_objects: int) -> ColliderSpec:
     kw["scale"] = as_number(c.get("scale", 1.0), f"{where}.scale", src, *SCALE_RANGE)
     kw["recentre"] = as_boolean(c.get("recentre", True), f"{where}.recentre", src)
     kw["position"] = as_vec3(c.get("position", [0.0, 0.0, 0.0]), f"{where}.position", src, max_abs=MAX_COORD, unit=" m")
-    kw["rotation"] = as_vec3(c.get("rotation", [0.0, 0.0, 0.0]), f"{where}.rotation", src, max_abs=360.0, unit=" degrees")
+    kw["rotation"] = as_vec3(c.get("rotation", [0.0, 0.0, 0.0]), f"{where}.rotation", src, max_abs=360.0,
+                             unit=" degrees")
     kw["friction"] = as_number(c.get("friction", 0.5), f"{where}.friction", src, 0.0)
     kw["min_opacity"] = as_number(c.get("min_opacity", 0.1), f"{where}.min_opacity", src, 0.0, 1.0)
-    kw["velocity"] = as_vec3(c.get("velocity", [0.0, 0.0, 0.0]), f"{where}.velocity", src, max_norm=MAX_SPEED, unit=" m/s")
+    kw["velocity"] = as_vec3(c.get("velocity", [0.0, 0.0, 0.0]), f"{where}.velocity", src, max_norm=MAX_SPEED,
+                             unit=" m/s")
     kw["angular_velocity"] = as_vec3(c.get("angular_velocity", [0.0, 0.0, 0.0]), f"{where}.angular_velocity", src,
                                      max_norm=MAX_SPIN, unit=" rad/s")
     if "path" in c:

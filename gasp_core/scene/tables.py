@@ -85,7 +85,8 @@ def read_engine(value, src: Path) -> EngineSpec:
 
 
 def read_domain(value, src: Path) -> DomainSpec:
-    """``[domain]``: ``lo`` and ``hi`` both or neither (``hi > lo`` on every axis), ``n_grid``, ``padding``, ``particles_per_cell``."""
+    """``[domain]``: ``lo`` and ``hi`` both or neither (``hi > lo`` on every axis), ``n_grid``, ``padding``,
+    ``particles_per_cell``."""
     dom_t = as_table(value, "domain", src)
     check_keys(dom_t, _DOMAIN_KEYS, "[domain]", src)
     domain = DomainSpec(
@@ -104,7 +105,8 @@ def read_domain(value, src: Path) -> DomainSpec:
 
 
 def read_boundary(b: dict, where: str, src: Path) -> Boundary:
-    """One ``[[boundary]]``: the keys its ``kind`` takes; a ``fixed_region`` needs ``lo`` and ``hi`` with ``hi > lo``."""
+    """One ``[[boundary]]``: the keys its ``kind`` takes; a ``fixed_region`` needs ``lo`` and ``hi`` with
+    ``hi > lo``."""
     kind = as_string(b.get("kind"), f"{where}.kind", src, BOUNDARIES)
     check_keys(b, _BOUNDARY_KIND_KEYS.get(kind, _BOUNDARY_KEYS), f"{where} (kind = {kind!r})", src)
     kw: dict[str, Any] = {"kind": kind}

@@ -28,7 +28,8 @@ def bad_value(src: Path, key: str, value, expected: str) -> NoReturn:
 
 
 def check_keys(table: dict, allowed: set[str], where: str, src: Path) -> None:
-    """Refuse keys of ``table`` not in ``allowed``: a :class:`SceneError` naming them, ``where`` and the allowed keys."""
+    """Refuse keys of ``table`` not in ``allowed``: a :class:`SceneError` naming them, ``where`` and the
+    allowed keys."""
     unknown = sorted(set(table) - allowed)
     if unknown:
         raise SceneError(f"{src}: unknown key(s) {unknown} in {where}; allowed: {sorted(allowed)}")

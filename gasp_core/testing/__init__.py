@@ -17,9 +17,9 @@ from gasp_core.testing.kit import (EngineReport, evaluate_scene, record, Require
 from gasp_core.testing.scenes import check_engine, SCENES, scene_by_name, select_scenes
 
 __all__ = ["GRAVITY", "Check", "EngineReport", "Requires", "SCENES", "Scene", "SceneResult", "Trace",
-           "assert_conformance", "box_points", "check", "check_engine", "conformance_params", "evaluate_scene", "make_setup",
-           "parametrize_conformance", "record", "resolve_engine", "run_trace", "scene_by_name", "select_scenes",
-           "sphere_points", "wall_margin"]
+           "assert_conformance", "box_points", "check", "check_engine", "conformance_params", "evaluate_scene",
+           "make_setup", "parametrize_conformance", "record", "resolve_engine", "run_trace", "scene_by_name",
+           "select_scenes", "sphere_points", "wall_margin"]
 
 
 def __getattr__(name):  # the pytest helpers import pytest: only when asked for

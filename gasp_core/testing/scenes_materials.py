@@ -12,7 +12,7 @@ import numpy as np
 
 from gasp_core.seam.engine import EngineInfo
 from gasp_core.seam.setup import Boundary, Material, SimSetup
-from gasp_core.testing.helpers import box_points, Check, check as _check, GRAVITY, make_setup as _setup, wall_margin
+from gasp_core.testing.helpers import box_points, Check, check, GRAVITY, make_setup, wall_margin
 from gasp_core.testing.kit import Requires, Scene, Trace
 
 # --- cantilever (Euler-Bernoulli) -----------------------------------------------------------
@@ -40,8 +40,8 @@ def _cantilever_builder(x0: float) -> Callable[[EngineInfo], SimSetup]:
         hi = (x0 + CANT_L, 0.5 + CANT_H / 2, 0.55 + CANT_H)
         x, p_vol = box_points(lo, hi, dx / 2)
         clamp = Boundary("fixed_region", lo=(0.0, 0.0, 0.0), hi=(x0, 1.0, 1.0))
-        return _setup(x, p_vol, Material("jelly", E=CANT_E, nu=0.0, rho=CANT_RHO), n_grid=32,
-                      boundaries=[clamp], frame_dt=0.02)
+        return make_setup(x, p_vol, Material("jelly", E=CANT_E, nu=0.0, rho=CANT_RHO), n_grid=32,
+                          boundaries=[clamp], frame_dt=0.02)
     return build
 
 
@@ -57,10 +57,10 @@ def _eval_cantilever(info: EngineInfo, tr: Trace) -> list[Check]:
     mean_defl = float(-w[1:].mean())
     expected = cantilever_deflection()
     rel = abs(mean_defl - expected) / expected
-    return [_check("tip_deflection", rel, CANT_TOL,
-                   f"|time-averaged tip deflection - Euler-Bernoulli| / EB "
-                   f"(measured {mean_defl * 1e3:.2f} mm, EB {expected * 1e3:.2f} mm, "
-                   f"largest {-w.min() * 1e3:.2f} mm)", measured=mean_defl, expected=expected)]
+    return [check("tip_deflection", rel, CANT_TOL,
+                  f"|time-averaged tip deflection - Euler-Bernoulli| / EB "
+                  f"(measured {mean_defl * 1e3:.2f} mm, EB {expected * 1e3:.2f} mm, "
+                  f"largest {-w.min() * 1e3:.2f} mm)", measured=mean_defl, expected=expected)]
 
 
 # --- sand column collapse -------------------------------------------------------------------
@@ -76,10 +76,10 @@ def _build_sand(info: EngineInfo) -> SimSetup:
     z0 = 3 * dx
     x, p_vol = box_points((0.5 - half_w, m, z0), (0.5 + half_w, m + depth, z0 + height), dx / 2)
     hi = (1.0, 2 * m + depth, 0.5)
-    return _setup(x, p_vol, Material("sand", E=3.5e5, nu=0.3, rho=1600.0, friction_angle=SAND_PHI),
-                  hi=hi, n_grid=32, frame_dt=0.02,
-                  boundaries=[Boundary("ground", height=z0, friction=1.0),
-                              Boundary("walls", friction=0.0)])
+    return make_setup(x, p_vol, Material("sand", E=3.5e5, nu=0.3, rho=1600.0, friction_angle=SAND_PHI),
+                      hi=hi, n_grid=32, frame_dt=0.02,
+                      boundaries=[Boundary("ground", height=z0, friction=1.0),
+                                  Boundary("walls", friction=0.0)])
 
 
 def _surface_slope_deg(x: np.ndarray, z0: float, bin_w: float) -> tuple[float, float]:
@@ -102,10 +102,10 @@ def _eval_sand(info: EngineInfo, tr: Trace) -> list[Check]:
     z0 = 3 * SAND_DX
     angle, hmax = _surface_slope_deg(tr.x[-1], z0, SAND_DX)
     speed = float(np.sqrt((tr.v[-1] ** 2).sum(axis=1)).max())
-    return [_check("slope_vs_friction_angle", abs(angle - SAND_PHI), SAND_TOL_DEG,
-                   f"|final flank angle - friction angle| (flank {angle:.1f} deg, phi {SAND_PHI:.0f} "
-                   f"deg, pile height {hmax * 100:.1f} cm)", " deg", angle=angle),
-            _check("collapsed_and_stopped", speed, 0.05, "max point speed at the end", " m/s")]
+    return [check("slope_vs_friction_angle", abs(angle - SAND_PHI), SAND_TOL_DEG,
+                  f"|final flank angle - friction angle| (flank {angle:.1f} deg, phi {SAND_PHI:.0f} "
+                  f"deg, pile height {hmax * 100:.1f} cm)", " deg", angle=angle),
+            check("collapsed_and_stopped", speed, 0.05, "max point speed at the end", " m/s")]
 
 
 # --- dam break (Martin & Moyce 1952) --------------------------------------------------------
@@ -130,9 +130,9 @@ def _build_dam(info: EngineInfo) -> SimSetup:
     K = 4e5  # bulk modulus, Pa: sound speed 20 m/s, ten times the front speed sqrt(2 g a)
     nu = 0.3
     E = 3 * K * (1 - 2 * nu)
-    return _setup(x, p_vol, Material("liquid", E=E, nu=nu, rho=1000.0), hi=(length, 2 * m + depth, 0.5),
-                  n_grid=n_grid, frame_dt=0.01,
-                  boundaries=[Boundary("ground", height=z0, friction=0.0), Boundary("walls", friction=0.0)])
+    return make_setup(x, p_vol, Material("liquid", E=E, nu=nu, rho=1000.0), hi=(length, 2 * m + depth, 0.5),
+                      n_grid=n_grid, frame_dt=0.01,
+                      boundaries=[Boundary("ground", height=z0, friction=0.0), Boundary("walls", friction=0.0)])
 
 
 def _eval_dam(info: EngineInfo, tr: Trace) -> list[Check]:
@@ -145,8 +145,8 @@ def _eval_dam(info: EngineInfo, tr: Trace) -> list[Check]:
     Zs = np.interp(MARTIN_MOYCE_T, T, Z)
     rel = np.abs(Zs - MARTIN_MOYCE_Z) / MARTIN_MOYCE_Z
     pts = ", ".join(f"T={a:.2f}: Z={b:.2f} vs {c:.2f}" for a, b, c in zip(MARTIN_MOYCE_T, Zs, MARTIN_MOYCE_Z))
-    return [_check("front_vs_martin_moyce", float(rel.max()), DAM_TOL,
-                   f"max |Z_sim - Z_MM| / Z_MM ({pts})")]
+    return [check("front_vs_martin_moyce", float(rel.max()), DAM_TOL,
+                  f"max |Z_sim - Z_MM| / Z_MM ({pts})")]
 
 
 
