@@ -25,11 +25,11 @@ import numpy as np
 import pytest
 
 from gasp_core.seam.plugins import engines as installed_engines
-from gasp_core.testing import G, box_points, record
+from gasp_core.testing import GRAVITY, box_points, record
 from gasp_core.testing.scenes_basic import GROUND_H
 from gasp_core.errors import EngineDivergence, EngineError, SceneError
 from gasp_core.seam.setup import Boundary, Material, SimSetup
-from gasp_core.toolkit.mpm import mpm_stable_dt
+from gasp_core.toolkit.substeps import mpm_stable_dt
 from gasp_core.seam.runner import simulate
 
 N_FRAMES = 2
@@ -41,7 +41,7 @@ def _base(material: Material | None = None, x=None, p_vol=None, n_grid=16, optio
     if x is None:
         x, p_vol = box_points((0.4, 0.4, GROUND_H + DX), (0.6, 0.6, GROUND_H + DX + 0.2), DX / 2)
     return SimSetup(x=x, v=0.0, p_vol=p_vol, body_id=0, materials=[material or Material("jelly")],
-                    gravity=np.array([0.0, 0.0, -G]), domain_lo=np.zeros(3), domain_hi=np.ones(3),
+                    gravity=np.array([0.0, 0.0, -GRAVITY]), domain_lo=np.zeros(3), domain_hi=np.ones(3),
                     n_grid=n_grid, boundaries=[Boundary("ground", height=GROUND_H, friction=0.5)],
                     frame_dt=FRAME_DT, options=dict(options or {}))
 
@@ -129,7 +129,7 @@ def _cases():
 
 def _plausible(setup: SimSetup, xs: np.ndarray) -> str | None:
     t = FRAME_DT * (len(xs) - 1)
-    reach = 0.5 * G * t ** 2 + float(np.abs(setup.v).max(initial=0.0)) * t + 2 * setup.dx
+    reach = 0.5 * GRAVITY * t ** 2 + float(np.abs(setup.v).max(initial=0.0)) * t + 2 * setup.dx
     moved = float(np.linalg.norm(xs[-1] - xs[0], axis=1).max())
     if moved > reach:
         return f"a point moved {moved:.3g} m in {t:.2f} s; free fall allows {reach:.3g} m"
@@ -182,7 +182,7 @@ def _impact_base(material: Material | None = None, v0: float = IMPACT_V0, option
     x, p_vol = box_points((0.4, 0.4, GROUND_H + 0.5 * DX), (0.6, 0.6, GROUND_H + 0.5 * DX + 0.2), DX / 2)
     return SimSetup(x=x, v=np.array([0.0, 0.0, -v0]), p_vol=p_vol, body_id=0,
                     materials=[material or Material("jelly", E=1e5, nu=0.3, rho=1000.0)],
-                    gravity=np.array([0.0, 0.0, -G]), domain_lo=np.zeros(3), domain_hi=np.ones(3), n_grid=16,
+                    gravity=np.array([0.0, 0.0, -GRAVITY]), domain_lo=np.zeros(3), domain_hi=np.ones(3), n_grid=16,
                     boundaries=[Boundary("ground", height=GROUND_H, friction=0.5)], frame_dt=FRAME_DT,
                     options=dict(options or {}))
 
@@ -234,7 +234,7 @@ def impact_verdict(tr) -> str | None:
     if not np.isfinite(tr.x).all():
         return "non-finite positions"
     below = float(GROUND_H - z.min())
-    e = tr.kinetic() + tr.p_mass.sum() * G * (tr.centroid()[:, 2] - GROUND_H)
+    e = tr.kinetic() + tr.p_mass.sum() * GRAVITY * (tr.centroid()[:, 2] - GROUND_H)
     gain = float((e - e[0]).max() / e[0])
     landed = float(z.min(axis=1).min() - GROUND_H) < dx
     if not landed:
@@ -260,7 +260,7 @@ def test_extreme_impact(engine_name, case, request):
         return
     problem = impact_verdict(tr)
     dx = tr.setup.dx
-    e = tr.kinetic() + tr.p_mass.sum() * G * (tr.centroid()[:, 2] - GROUND_H)
+    e = tr.kinetic() + tr.p_mass.sum() * GRAVITY * (tr.centroid()[:, 2] - GROUND_H)
     vz = tr.v[:, :, 2] @ tr.p_mass / tr.p_mass.sum()
     record(request.node, f"ran: {len(setup.x)} points, {IMPACT_FRAMES} frames, n_substeps "
                          f"{tr.stats.engine.get('n_substeps', '?')}; deepest {(GROUND_H - tr.x[:, :, 2].min()) / dx:+.2f} dx "

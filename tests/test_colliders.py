@@ -7,7 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gasp_core.colliders.model import box_collider, collider_from_triangles, feature_needs, ForceField, Impulse, Motion
+from gasp_core.colliders.model import feature_needs, ForceField, Impulse, Motion
+from gasp_core.colliders.sdf import box_collider, collider_from_triangles
 from gasp_core.toolkit.grid_tables import frame_table, grid_tables
 from gasp_core.errors import SceneError
 from gasp_core.seam.build import check_supported

@@ -6,7 +6,8 @@ import importlib.util
 import numpy as np
 import pytest
 
-from gasp_core.colliders.model import ForceField, Impulse, Motion, box_collider
+from gasp_core.colliders.model import ForceField, Impulse, Motion
+from gasp_core.colliders.sdf import box_collider
 from gasp_core.seam.build import build_engine
 from gasp_core.seam.setup import Boundary, Material
 from gasp_core.testing.helpers import box_points, make_setup

@@ -1,4 +1,4 @@
-"""Tests of the MPM toolkit (gasp_core.toolkit.mpm) that the grid engines share."""
+"""Tests of the MPM toolkit (gasp_core.toolkit) that the grid engines share."""
 import math
 
 import numpy as np
@@ -7,7 +7,11 @@ import pytest
 from gasp_core.errors import SceneError
 from gasp_core.seam.engine import check_options
 from gasp_core.seam.setup import Boundary, Material
-from gasp_core.toolkit.mpm import CAUSE_DOMAIN, CAUSE_DT, cell_order, check_mpm_options, fixed_mask, initial_Jp, MATERIAL_CODES, material_table, mpm_options, N_PARAMS, P_ALPHA, P_K, P_LAM, P_MU, P_THETA_C
+from gasp_core.toolkit.failures import CAUSE_DOMAIN, CAUSE_DT
+from gasp_core.toolkit.materials import (initial_Jp, MATERIAL_CODES, material_table, N_PARAMS, P_ALPHA, P_K, P_LAM,
+                                         P_MU, P_THETA_C)
+from gasp_core.toolkit.options import check_mpm_options, mpm_options
+from gasp_core.toolkit.points import cell_order, fixed_mask
 from gasp_core.toolkit.sweep import mpm_sweep
 
 

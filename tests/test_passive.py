@@ -100,7 +100,7 @@ def test_passive_schedule_is_exact_for_velocity_linear_in_time(n, every):
     velocity linear in the substep (free fall, any uniform acceleration) the sum equals the plain
     per-substep update ``dt * sum_s v_s`` exactly, whatever ``every``, and the frame's last substep
     always updates."""
-    from gasp_core.toolkit.mpm import passive_schedule
+    from gasp_core.toolkit.substeps import passive_schedule
     dt = 1e-3
     c0, c1 = np.array([0.3, -1.0, 2.0]), np.array([0.01, 0.5, -0.2])
 
@@ -120,7 +120,7 @@ def test_passive_schedule_is_exact_for_velocity_linear_in_time(n, every):
 def test_passive_every_follows_an_impact(name):
     """The engine option ``passive_every``: a jelly block thrown sideways lands on the ground at
     frame 5 of 10. Gathering the grid velocity every 4th substep instead of every one (the linear
-    in time interpolation of :func:`gasp_core.toolkit.mpm.passive_schedule`) keeps the passive points to
+    in time interpolation of :func:`gasp_core.toolkit.substeps.passive_schedule`) keeps the passive points to
     1e-3 dx of the per-substep run during the fall (velocity linear in time: exact but for f32
     rounding; measured 4.9e-5 dx) and within 0.05 dx through the impact and the sliding (measured
     0.0037 dx on both engines with the affine advance; 0.021 dx with straight lines between gathers)."""

@@ -7,7 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gasp_core.colliders.model import _rotvec_matrix, box_collider, Motion
+from gasp_core.colliders.model import Motion, rotvec_matrix
+from gasp_core.colliders.sdf import box_collider
 from gasp_core.prepare.colliders import build_colliders
 from gasp_core.run.contact import CONTACT_DX, collider_records, contact_row
 from gasp_core.errors import SceneError
@@ -22,8 +23,8 @@ DONUT = DATA / "donut_v3dg.ply"
 def test_euler_matrix_is_x_then_y_then_z():
     r = (-15.0, 12.0, 40.0)
     a = [math.radians(v) for v in r]
-    expect = (_rotvec_matrix(np.array([0.0, 0.0, a[2]])) @ _rotvec_matrix(np.array([0.0, a[1], 0.0]))
-              @ _rotvec_matrix(np.array([a[0], 0.0, 0.0])))
+    expect = (rotvec_matrix(np.array([0.0, 0.0, a[2]])) @ rotvec_matrix(np.array([0.0, a[1], 0.0]))
+              @ rotvec_matrix(np.array([a[0], 0.0, 0.0])))
     R = euler_matrix(r)
     np.testing.assert_allclose(R, expect, atol=1e-15)
     np.testing.assert_allclose(R @ R.T, np.eye(3), atol=1e-15)

@@ -231,8 +231,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     from gasp_core.testing.cli import add_parser as add_conform_parser
     add_conform_parser(sub)
-    from gasp_core.render.cli import add_parsers as _render_parsers
-    _render_parsers(sub)
+    from gasp_core.render.cli import add_parsers as add_render_parsers
+    add_render_parsers(sub)
 
     x = sub.add_parser("export-soup", help="write the rest triangle soup per object (OBJ, PLY, ...) for a mesh tool")
     x.add_argument("scene", type=Path)

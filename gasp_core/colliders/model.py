@@ -7,10 +7,8 @@ Everything here is data in the world frame (metres, seconds, z up) that every en
   the collider's own frame (negative inside, metres) with its gradient, the triangles it came from
   (when it came from a mesh), a Coulomb ``friction`` and a prescribed rigid motion
   (:meth:`Collider.pose` at time ``t``: rotation ``R``, translation ``T``, linear and angular
-  velocity). A static collider has no motion. Built by :func:`collider_from_triangles` (a closed
-  triangle mesh; ``trimesh``'s signed distance) or :func:`collider_from_splats` (a static object's
-  Gaussians: the interior fill's occupancy, :func:`gasp_core.maps.fill.solid_field`, turned into
-  Euclidean distances by :func:`scipy.ndimage.distance_transform_edt`).
+  velocity). A static collider has no motion. Built by :mod:`gasp_core.colliders.sdf` (from a
+  closed triangle mesh, a static object's Gaussians or a box).
 - :class:`Impulse`: a velocity change given to whatever is inside a box or sphere between ``t0``
   and ``t1`` (``mode = "add"``, PhysGaussian's ``impulse``), or a velocity imposed there
   (``mode = "set"``, PhysGaussian's ``enforce_particle_translation``).
@@ -18,11 +16,12 @@ Everything here is data in the world frame (metres, seconds, z up) that every en
   uniform speed plus optional divergence-free turbulence, deterministic for a seed) or ``attractor``
   (an **acceleration** towards a point, m/s^2, mass independent like gravity, with a falloff).
 
-Grid (MPM) engines apply all three on the grid nodes; :func:`grid_tables` packs them into the flat
-arrays their kernels read, and :func:`frame_table` the time-dependent part of one frame (collider
-poses and impulse weights per substep). Colliders follow taichi_elements / PhysGaussian: at a node
-inside the collider (``phi <= 0``), the velocity relative to the collider's velocity there loses
-its normal component if approaching, and its tangential part is reduced by Coulomb friction.
+Grid (MPM) engines apply all three on the grid nodes: :mod:`gasp_core.toolkit.grid_tables` packs
+them into the flat arrays their kernels read (``grid_tables``), and the time-dependent part of one
+frame (``frame_table``: collider poses and impulse weights per substep). Colliders follow
+taichi_elements / PhysGaussian: at a node inside the collider (``phi <= 0``), the velocity
+relative to the collider's velocity there loses its normal component if approaching, and its
+tangential part is reduced by Coulomb friction.
 
 Engine features (``gasp_core.seam.engine.FEATURES``): ``static_colliders``, ``moving_colliders``,
 ``impulse``, ``wind``, ``attractors`` (:func:`feature_needs`).
@@ -39,12 +38,6 @@ from gasp_core.errors import SceneError
 
 #: Wind turbulence: number of Fourier modes of the divergence-free field.
 TURBULENCE_MODES = 16
-#: SDF sample spacing as a fraction of the simulation grid spacing ``dx``.
-SDF_SPACING = 0.5
-#: Cells of padding around a collider's SDF grid (the field is exact out to this distance).
-SDF_PAD = 4
-#: Largest SDF grid, samples.
-MAX_SDF_SAMPLES = 256 ** 3
 #: Floats per collider in :func:`grid_tables` ``col_meta`` and per substep pose in :func:`frame_table`.
 COL_META, COL_POSE = 9, 18
 #: Floats per force row and per turbulence mode (:func:`grid_tables`).
@@ -83,7 +76,7 @@ class Motion:
         return self.path is not None or bool(np.any(self.velocity)) or bool(np.any(self.angular_velocity))
 
 
-def _rotvec_matrix(w: np.ndarray) -> np.ndarray:
+def rotvec_matrix(w: np.ndarray) -> np.ndarray:
     """Rotation matrix of the rotation vector ``w`` (axis times angle, rad), Rodrigues."""
     a = float(np.linalg.norm(w))
     if a == 0.0:
@@ -149,7 +142,7 @@ class Collider:
         """
         m = self.motion
         w = np.asarray(m.angular_velocity, float)
-        R = _rotvec_matrix(w * t) @ self.rotation
+        R = rotvec_matrix(w * t) @ self.rotation
         if m.path is not None:
             ts, ps = m.path[:, 0], m.path[:, 1:]
             T = np.array([np.interp(t, ts, ps[:, d]) for d in range(3)])
@@ -346,114 +339,6 @@ class ForceField:
         return r_vec / np.maximum(r, 1e-300)[:, None] * mag[:, None]
 
 
-# --------------------------------------------------------------------------- building colliders
-def _grid_around(lo: np.ndarray, hi: np.ndarray, h: float, name: str) -> tuple[np.ndarray, tuple[int, int, int]]:
-    origin = lo - SDF_PAD * h
-    shape = tuple(int(s) for s in np.ceil((hi - lo) / h).astype(np.int64) + 2 * SDF_PAD + 1)
-    if np.prod(shape, dtype=np.float64) > MAX_SDF_SAMPLES:
-        raise SceneError(f"collider '{name}': its distance field would need {shape} samples at "
-                         f"{h:.3g} m (more than {MAX_SDF_SAMPLES}); lower [domain] n_grid or make it smaller")
-    return origin, shape
-
-
-def _finish(name: str, phi: np.ndarray, origin: np.ndarray, h: float, **kw) -> Collider:
-    grad = np.stack(np.gradient(phi, h), axis=-1)
-    return Collider(name=name, phi=phi, grad=grad, origin=origin, h=float(h), **kw)
-
-
-def collider_from_triangles(triangles: np.ndarray, h: float, name: str = "collider", **kw) -> Collider:
-    """A collider from a closed triangle mesh (collider frame, metres).
-
-    Parameters
-    ----------
-    triangles : ndarray, shape (m, 3, 3)
-        The mesh, collider frame; it must be closed (watertight) so that inside is defined.
-    h : float
-        SDF sample spacing, metres (:data:`SDF_SPACING` times the grid's ``dx``).
-    name : str
-        For messages.
-    **kw
-        ``friction``, ``position``, ``rotation``, ``motion`` of :class:`Collider`.
-
-    Returns
-    -------
-    Collider
-        ``phi`` from ``trimesh.proximity.signed_distance`` (exact distance to the triangles,
-        sign from ray tests), negated to be negative inside.
-
-    Raises
-    ------
-    SceneError
-        trimesh missing, no triangles, or a mesh that is not watertight.
-    """
-    try:
-        import trimesh
-    except ImportError:
-        raise SceneError(f"collider '{name}': mesh colliders need trimesh and rtree "
-                         "(pip install 'gasp[mesh]')") from None
-    tris = np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
-    if len(tris) == 0:
-        raise SceneError(f"collider '{name}': the mesh has no triangles")
-    mesh = trimesh.Trimesh(**trimesh.triangles.to_kwargs(tris))
-    mesh.merge_vertices()
-    if not mesh.is_watertight:
-        raise SceneError(f"collider '{name}': the mesh is not closed (watertight), so its inside is not "
-                         "defined; close it (e.g. give the surface a thickness)")
-    origin, shape = _grid_around(mesh.bounds[0], mesh.bounds[1], h, name)
-    ii = np.stack(np.meshgrid(*[np.arange(s) for s in shape], indexing="ij"), axis=-1).reshape(-1, 3)
-    pts = origin + ii * h
-    try:
-        sd = trimesh.proximity.signed_distance(mesh, pts)
-    except (ImportError, ModuleNotFoundError, ValueError) as e:
-        raise SceneError(f"collider '{name}': trimesh could not compute distances ({e}); "
-                         "pip install rtree") from None
-    phi = (-np.asarray(sd, dtype=np.float64)).reshape(shape)
-    return _finish(name, phi, origin, h, triangles=tris, **kw)
-
-
-def collider_from_splats(splats: np.ndarray, h: float, name: str = "collider", **kw) -> Collider:
-    """A collider from Gaussians (world frame): the space their footprints enclose, as the fill finds it.
-
-    Parameters
-    ----------
-    splats : ndarray, shape (n, 3, 3)
-        GaMeS triangles of the opaque Gaussians, world frame, metres.
-    h : float
-        SDF sample spacing, metres.
-    name : str
-    **kw
-        ``friction`` of :class:`Collider` (a collider from Gaussians is static).
-
-    Returns
-    -------
-    Collider
-        Occupancy = inside of :func:`gasp_core.maps.fill.solid_field` (or, for an open object, the
-        voxels its footprints touch); ``phi`` = Euclidean distance to it outside minus the
-        distance to its outside inside (:func:`scipy.ndimage.distance_transform_edt`), each with
-        half a sample removed, so the surface lies between occupied and free samples.
-    """
-    from gasp_core.maps.fill import _rasterize, solid_field
-    splats = np.asarray(splats, dtype=np.float64).reshape(-1, 3, 3)
-    if len(splats) == 0:
-        raise SceneError(f"collider '{name}': no opaque Gaussians to collide with")
-    pts = splats.reshape(-1, 3)
-    origin, shape = _grid_around(pts.min(axis=0), pts.max(axis=0), h, name)
-    field_, flo, voxel, _, _ = solid_field(splats)
-    ii = np.stack(np.meshgrid(*[np.arange(s) for s in shape], indexing="ij"), axis=-1).reshape(-1, 3)
-    samples = origin + ii * h
-    if field_ is not None:
-        u = (samples - flo) / voxel - 0.5
-        occ = (ndimage.map_coordinates(field_, u.T, order=1, mode="constant", cval=-1.0) > 0).reshape(shape)
-    else:
-        occ = _rasterize(splats, origin - 0.5 * h, shape, h)
-    if not occ.any():
-        raise SceneError(f"collider '{name}': its Gaussians occupy no sample of the {h:.3g} m distance grid")
-    out = ndimage.distance_transform_edt(~occ) * h
-    ins = ndimage.distance_transform_edt(occ) * h
-    phi = np.where(occ, -(ins - 0.5 * h), out - 0.5 * h)
-    return _finish(name, phi, origin, h, **kw)
-
-
 # --------------------------------------------------------------------------- engine needs
 def feature_needs(colliders=(), forces=(), impulses=()) -> list[str]:
     """Engine feature names (``gasp_core.seam.engine.FEATURES``) that these colliders, forces and impulses need."""
@@ -483,32 +368,3 @@ def check_start(colliders, x: np.ndarray, name_of=None) -> None:
             raise SceneError(f"collider '{c.name}': {int(inside.sum())} simulated point(s) start inside it "
                              f"(first at {np.round(x[k], 4).tolist()}, {-d[k]:.3g} m deep); move the object "
                              "or the collider apart")
-
-
-def box_collider(half_extents, h: float, name: str = "box", **kw) -> Collider:
-    """A box collider, exact signed distance (no mesh library needed).
-
-    Parameters
-    ----------
-    half_extents : (3,) float
-        Half sides along the collider frame's axes, metres; the box is centred on the frame's origin.
-    h : float
-        Sample spacing, metres.
-    name : str
-    **kw
-        ``friction``, ``position`` (world position of the centre), ``rotation``, ``motion`` of :class:`Collider`.
-    """
-    b = np.asarray(half_extents, float)
-    if not np.all(b > 0):
-        raise SceneError(f"collider '{name}': half extents must be positive, got {b.tolist()}")
-    origin, shape = _grid_around(-b, b, h, name)
-    ii = np.stack(np.meshgrid(*[np.arange(s) for s in shape], indexing="ij"), axis=-1)
-    p = origin + ii * h
-    q = np.abs(p) - b
-    phi = np.linalg.norm(np.maximum(q, 0.0), axis=-1) + np.minimum(q.max(axis=-1), 0.0)
-    corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * b
-    faces = [(0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1), (2, 3, 7), (2, 7, 6),
-             (0, 2, 6), (0, 6, 4), (1, 5, 7), (1, 7, 3)]
-    return _finish(name, phi, origin, h, triangles=corners[np.array(faces)], **kw)
-
-

@@ -8,7 +8,7 @@ import numpy as np
 from plyfile import PlyData
 
 from gasp_core.gs.gaussians import MAX_MAGNITUDE, SH_REST_COUNT, Gaussians
-from gasp_core.gs.ply import SH_C0, _LOGIT_CLAMP, _check_columns, _fail, _numbered, _stack
+from gasp_core.gs.ply import LOGIT_CLAMP, SH_C0, check_columns, numbered_names, reject_file, stack_columns
 
 
 _CHUNK_REQUIRED = ("min_x", "min_y", "min_z", "max_x", "max_y", "max_z",
@@ -28,7 +28,7 @@ def _lerp(a: np.ndarray, b: np.ndarray, t: np.ndarray) -> np.ndarray:
     return a * (1.0 - t) + b * t
 
 
-def _decode_compressed(path: Path, ply: PlyData) -> Gaussians:
+def decode_compressed(path: Path, ply: PlyData) -> Gaussians:
     """Decode a PlayCanvas / SuperSplat compressed PLY.
 
     Layout (one ``chunk`` row per 256 consecutive splats, all float32: min/max of position,
@@ -57,34 +57,9 @@ def _decode_compressed(path: Path, ply: PlyData) -> Gaussians:
     ``decompress()``: the +/-40 opacity clamp) and playcanvas/splat-transform
     ``src/lib/readers/decompress-ply.ts`` (12- or 18-float chunks, the ``sh`` element).
     """
-    names_el = [e.name for e in ply.elements]
-    if "chunk" not in names_el:
-        _fail(path, "unknown layout: packed_* vertex properties without a 'chunk' element; "
-                    "expected a PlayCanvas compressed PLY")
-    chunk = ply["chunk"].data
+    chunk, vertex = _checked_elements(path, ply)
     cnames = set(chunk.dtype.names or ())
-    vertex = ply["vertex"].data
-    vnames = set(vertex.dtype.names or ())
-    missing = [c for c in _CHUNK_REQUIRED if c not in cnames]
-    if missing:
-        _fail(path, f"compressed PLY chunk element has no {', '.join(missing)}; expected "
-                    f"{', '.join(_CHUNK_REQUIRED)} [+ {', '.join(_CHUNK_COLOUR)}]")
-    missing = [c for c in _PACKED if c not in vnames]
-    if missing:
-        _fail(path, f"compressed PLY vertex element has no {', '.join(missing)}; expected "
-                    f"{', '.join(_PACKED)} (uint32)")
-    for c in _PACKED:
-        if vertex[c].dtype.kind not in "iu":
-            _fail(path, f"compressed PLY vertex property '{c}' has type {vertex[c].dtype}; expected uint32")
-    _check_columns(path, chunk, _CHUNK_REQUIRED[:6], "chunk", -MAX_MAGNITUDE, MAX_MAGNITUDE)
-    _check_columns(path, chunk, _CHUNK_REQUIRED[6:], "chunk", hi=math.log(MAX_MAGNITUDE),
-                   expected=f"a finite log-scale <= {math.log(MAX_MAGNITUDE):.2f} (scale <= {MAX_MAGNITUDE:g})")
-    _check_columns(path, chunk, [c for c in _CHUNK_COLOUR if c in cnames], "chunk")
     n = len(vertex)
-    n_chunks = len(chunk)
-    if n_chunks != -(-n // 256):
-        _fail(path, f"compressed PLY has {n_chunks} chunks for {n} splats; expected ceil(n/256) "
-                    f"= {-(-n // 256)}")
     ci = np.arange(n) // 256
 
     def cget(name):
@@ -97,7 +72,74 @@ def _decode_compressed(path: Path, ply: PlyData) -> Gaussians:
         _lerp(cget("min_z"), cget("max_z"), _unorm(pos, 0, 11)),
     ], axis=1)
 
-    rot = vertex["packed_rotation"].astype(np.uint32)
+    q = _unpack_rotations(vertex["packed_rotation"].astype(np.uint32))
+
+    packed_scale = vertex["packed_scale"].astype(np.uint32)
+    log_s = np.stack([
+        _lerp(cget("min_scale_x"), cget("max_scale_x"), _unorm(packed_scale, 21, 11)),
+        _lerp(cget("min_scale_y"), cget("max_scale_y"), _unorm(packed_scale, 11, 10)),
+        _lerp(cget("min_scale_z"), cget("max_scale_z"), _unorm(packed_scale, 0, 11)),
+    ], axis=1)
+
+    col = vertex["packed_color"].astype(np.uint32)
+    rgb = np.stack([_unorm(col, s, 8) for s in (24, 16, 8)], axis=1)
+    if all(c in cnames for c in _CHUNK_COLOUR):
+        rgb = np.stack([_lerp(cget(f"min_{c}"), cget(f"max_{c}"), rgb[:, j])
+                        for j, c in enumerate("rgb")], axis=1)
+    alpha = _unorm(col, 0, 8)
+    with np.errstate(divide="ignore"):
+        opac = np.where(alpha <= 0, -LOGIT_CLAMP,
+                        np.where(alpha >= 1, LOGIT_CLAMP, -np.log(1.0 / alpha - 1.0)))
+    sh_dc = ((rgb - 0.5) / SH_C0).astype(np.float32)
+
+    sh_rest = _sh_rest(path, ply, n)
+    return Gaussians(means=means, scales=np.exp(log_s), rotations=q,
+                     opacities=opac.astype(np.float32), sh_dc=sh_dc, sh_rest=sh_rest,
+                     extra={}, source=str(path), layout="compressed",
+                     meta={"chunk_bounds": np.stack(
+                         [np.stack([np.asarray(chunk[f"min_{a}"], np.float64) for a in "xyz"], 1),
+                          np.stack([np.asarray(chunk[f"max_{a}"], np.float64) for a in "xyz"], 1)],
+                         axis=1)})
+
+
+def _checked_elements(path: Path, ply: PlyData) -> tuple[np.ndarray, np.ndarray]:
+    """The ``chunk`` and ``vertex`` elements of a compressed PLY, after refusing (:class:`SceneError`) a missing
+    element or property, a non-integer packed property, out-of-range chunk bounds or a chunk count other
+    than ``ceil(n / 256)``."""
+    if "chunk" not in [e.name for e in ply.elements]:
+        reject_file(path, "unknown layout: packed_* vertex properties without a 'chunk' element; "
+                    "expected a PlayCanvas compressed PLY")
+    chunk = ply["chunk"].data
+    cnames = set(chunk.dtype.names or ())
+    vertex = ply["vertex"].data
+    vnames = set(vertex.dtype.names or ())
+    missing = [c for c in _CHUNK_REQUIRED if c not in cnames]
+    if missing:
+        reject_file(path, f"compressed PLY chunk element has no {', '.join(missing)}; expected "
+                    f"{', '.join(_CHUNK_REQUIRED)} [+ {', '.join(_CHUNK_COLOUR)}]")
+    missing = [c for c in _PACKED if c not in vnames]
+    if missing:
+        reject_file(path, f"compressed PLY vertex element has no {', '.join(missing)}; expected "
+                    f"{', '.join(_PACKED)} (uint32)")
+    for c in _PACKED:
+        if vertex[c].dtype.kind not in "iu":
+            reject_file(path, f"compressed PLY vertex property '{c}' has type {vertex[c].dtype}; expected uint32")
+    check_columns(path, chunk, _CHUNK_REQUIRED[:6], "chunk", -MAX_MAGNITUDE, MAX_MAGNITUDE)
+    check_columns(path, chunk, _CHUNK_REQUIRED[6:], "chunk", hi=math.log(MAX_MAGNITUDE),
+                  expected=f"a finite log-scale <= {math.log(MAX_MAGNITUDE):.2f} (scale <= {MAX_MAGNITUDE:g})")
+    check_columns(path, chunk, [c for c in _CHUNK_COLOUR if c in cnames], "chunk")
+    n = len(vertex)
+    n_chunks = len(chunk)
+    if n_chunks != -(-n // 256):
+        reject_file(path, f"compressed PLY has {n_chunks} chunks for {n} splats; expected ceil(n/256) "
+                    f"= {-(-n // 256)}")
+    return chunk, vertex
+
+
+def _unpack_rotations(rot: np.ndarray) -> np.ndarray:
+    """Unit quaternions (n, 4) wxyz from ``packed_rotation`` (uint32): the largest component rebuilt from the
+    other three (see :func:`decode_compressed`)."""
+    n = len(rot)
     norm = math.sqrt(2.0)
     abc = np.stack([(_unorm(rot, s, 10) - 0.5) * norm for s in (20, 10, 0)], axis=1)
     m = np.sqrt(np.maximum(0.0, 1.0 - np.sum(abc * abc, axis=1)))
@@ -109,44 +151,22 @@ def _decode_compressed(path: Path, ply: PlyData) -> Gaussians:
     for j in range(3):
         q[rows, others[:, j]] = abc[:, j]
     q /= np.linalg.norm(q, axis=1, keepdims=True)
+    return q
 
-    sc = vertex["packed_scale"].astype(np.uint32)
-    log_s = np.stack([
-        _lerp(cget("min_scale_x"), cget("max_scale_x"), _unorm(sc, 21, 11)),
-        _lerp(cget("min_scale_y"), cget("max_scale_y"), _unorm(sc, 11, 10)),
-        _lerp(cget("min_scale_z"), cget("max_scale_z"), _unorm(sc, 0, 11)),
-    ], axis=1)
 
-    col = vertex["packed_color"].astype(np.uint32)
-    rgb = np.stack([_unorm(col, s, 8) for s in (24, 16, 8)], axis=1)
-    if all(c in cnames for c in _CHUNK_COLOUR):
-        rgb = np.stack([_lerp(cget(f"min_{c}"), cget(f"max_{c}"), rgb[:, j])
-                        for j, c in enumerate("rgb")], axis=1)
-    alpha = _unorm(col, 0, 8)
-    with np.errstate(divide="ignore"):
-        opac = np.where(alpha <= 0, -_LOGIT_CLAMP,
-                        np.where(alpha >= 1, _LOGIT_CLAMP, -np.log(1.0 / alpha - 1.0)))
-    sh_dc = ((rgb - 0.5) / SH_C0).astype(np.float32)
-
+def _sh_rest(path: Path, ply: PlyData, n: int) -> np.ndarray:
+    """``sh_rest`` (n, K, 3) float32 from the optional ``sh`` element of uint8 ``f_rest_*`` (else K = 0)."""
     sh_rest = np.zeros((n, 0, 3), dtype=np.float32)
-    if "sh" in names_el:
+    if "sh" in [e.name for e in ply.elements]:
         sh = ply["sh"].data
-        rest_names = _numbered(sh.dtype.names or (), "f_rest_")
+        rest_names = numbered_names(sh.dtype.names or (), "f_rest_")
         k3 = len(rest_names)
         if k3 % 3 or k3 // 3 not in SH_REST_COUNT.values() or len(sh) != n:
-            _fail(path, f"compressed PLY 'sh' element has {k3} f_rest_* x {len(sh)} rows; "
+            reject_file(path, f"compressed PLY 'sh' element has {k3} f_rest_* x {len(sh)} rows; "
                         f"expected 9, 24 or 45 x {n}")
-        _check_columns(path, sh, rest_names, "sh")
-        v = _stack(sh, rest_names)
+        check_columns(path, sh, rest_names, "sh")
+        v = stack_columns(sh, rest_names)
         u = np.where(v == 0, 0.0, np.where(v == 255, 1.0, (v + 0.5) / 256.0))
         f_rest = ((u - 0.5) * 8.0).astype(np.float32)
         sh_rest = np.ascontiguousarray(f_rest.reshape(n, 3, k3 // 3).transpose(0, 2, 1))
-    return Gaussians(means=means, scales=np.exp(log_s), rotations=q,
-                     opacities=opac.astype(np.float32), sh_dc=sh_dc, sh_rest=sh_rest,
-                     extra={}, source=str(path), layout="compressed",
-                     meta={"chunk_bounds": np.stack(
-                         [np.stack([np.asarray(chunk[f"min_{a}"], np.float64) for a in "xyz"], 1),
-                          np.stack([np.asarray(chunk[f"max_{a}"], np.float64) for a in "xyz"], 1)],
-                         axis=1)})
-
-
+    return sh_rest

@@ -36,9 +36,14 @@ from gasp_core.fsutil import atomic_write
 from gasp_core.gs.gaussians import Gaussians, MAX_MAGNITUDE, quat_to_rotmat, rotmat_to_quat, SH_REST_COUNT
 from gasp_core.maps.games import EPS as FLAT_EPS
 
-from gasp_core.gs.ply import (_2DGS_PERM, _check_columns, _col, _fail, _numbered, _read_ply, _require,
-                        _stack)
-from gasp_core.gs.compressed import _decode_compressed
+from gasp_core.gs.compressed import decode_compressed
+from gasp_core.gs.ply import (check_columns, column, numbered_names, read_ply, reject_file, require_columns,
+                              stack_columns)
+
+#: Column permutation from a 2DGS rotation (t_u, t_v, n) to the GaMeS convention (n, t_u, t_v):
+#: column j of the stored-in-memory R is column ``_2DGS_PERM[j]`` of the file's rotation. It is a
+#: cyclic permutation, so ``det`` stays +1.
+_2DGS_PERM = (2, 0, 1)
 
 __all__ = ["read_gaussians", "write_gaussians"]
 
@@ -80,63 +85,32 @@ def read_gaussians(path) -> Gaussians:
       ``(r1, r2, r3)`` become ``(r3, r1, r2)`` (a cyclic permutation, still a proper rotation)
       and the scales ``(s1, s2)`` become ``(1e-8, s1, s2)``. ``meta["rotation_columns_from_file"]
       = (2, 0, 1)`` records it; ``write_gaussians(..., layout="2dgs")`` undoes it.
-    * Compressed PLY: see :func:`_decode_compressed`.
+    * Compressed PLY: see :func:`gasp_core.gs.compressed.decode_compressed`.
     """
     path = Path(path)
-    ply = _read_ply(path)
+    ply = read_ply(path)
     names_el = [e.name for e in ply.elements]
     if "vertex" not in names_el:
-        _fail(path, f"no 'vertex' element (elements: {names_el}); expected a Gaussian Splatting PLY")
+        reject_file(path, f"no 'vertex' element (elements: {names_el}); expected a Gaussian Splatting PLY")
     vertex = ply["vertex"].data
     names = list(vertex.dtype.names or ())
     if "chunk" in names_el or any(n.startswith("packed_") for n in names):
-        return _decode_compressed(path, ply)
-    _require(path, names, ("x", "y", "z"), "positions x, y, z")
-    scale_names = _numbered(names, "scale_")
-    if scale_names == ["scale_0", "scale_1", "scale_2"]:
-        layout = "3dgs"
-    elif scale_names == ["scale_0", "scale_1"]:
-        layout = "2dgs"
-    else:
-        _fail(path, f"unknown layout: scale properties {scale_names or 'none'}; expected "
-                    "scale_0..scale_2 (3DGS, GaMeS) or scale_0, scale_1 (2DGS)")
-    _require(path, names, ("rot_0", "rot_1", "rot_2", "rot_3"), "a quaternion rot_0..rot_3 (w,x,y,z)")
-    _require(path, names, ("f_dc_0", "f_dc_1", "f_dc_2"), "SH DC colour f_dc_0..f_dc_2")
-    _require(path, names, ("opacity",), "an opacity logit")
-    rest_names = _numbered(names, "f_rest_")
-    if len(rest_names) % 3 or len(rest_names) // 3 not in SH_REST_COUNT.values() \
-            or rest_names != [f"f_rest_{i}" for i in range(len(rest_names))]:
-        _fail(path, f"unknown layout: {len(rest_names)} f_rest_* properties; expected 0, 9, 24 "
-                    "or 45 numbered from f_rest_0 (SH degree 0..3)")
+        return decode_compressed(path, ply)
+    layout, scale_names, rest_names = _vertex_layout(path, names)
     k = len(rest_names) // 3
-
     n = len(vertex)
-    means = _stack(vertex, ("x", "y", "z"))
-    bad = ~np.isfinite(means).all(axis=1)
-    if bad.any():
-        _fail(path, f"non-finite position (x, y, z) at vertex {int(np.flatnonzero(bad)[0])}")
-    _check_columns(path, vertex, ("x", "y", "z"), lo=-MAX_MAGNITUDE, hi=MAX_MAGNITUDE)
-    # log scales: exp must stay <= MAX_MAGNITUDE; -inf is a zero scale (write_gaussians writes those)
-    _check_columns(path, vertex, scale_names, hi=math.log(MAX_MAGNITUDE), allow_neg_inf=True,
-                   expected=f"a log-scale <= {math.log(MAX_MAGNITUDE):.2f} (scale <= {MAX_MAGNITUDE:g})")
-    _check_columns(path, vertex, ["opacity", "f_dc_0", "f_dc_1", "f_dc_2", *rest_names])
-    q = _stack(vertex, ("rot_0", "rot_1", "rot_2", "rot_3"))
-    norm = np.linalg.norm(q, axis=1)
-    bad = ~(np.isfinite(norm) & (norm > 1e-12))
-    if bad.any():
-        _fail(path, f"rot_0..rot_3: zero or non-finite quaternion at vertex {int(np.flatnonzero(bad)[0])}")
-    q = q / norm[:, None]
-    log_s = _stack(vertex, scale_names)
-    opacities = np.array(_col(vertex, "opacity"), dtype=np.float32)
-    sh_dc = _stack(vertex, ("f_dc_0", "f_dc_1", "f_dc_2"), dtype=np.float32)
+    means, q = _checked_values(path, vertex, scale_names, rest_names)
+    log_s = stack_columns(vertex, scale_names)
+    opacities = np.array(column(vertex, "opacity"), dtype=np.float32)
+    sh_dc = stack_columns(vertex, ("f_dc_0", "f_dc_1", "f_dc_2"), dtype=np.float32)
     if k:
-        f_rest = _stack(vertex, rest_names, dtype=np.float32)
+        f_rest = stack_columns(vertex, rest_names, dtype=np.float32)
         sh_rest = np.ascontiguousarray(f_rest.reshape(n, 3, k).transpose(0, 2, 1))
     else:
         sh_rest = np.zeros((n, 0, 3), dtype=np.float32)
     known = {"x", "y", "z", "opacity", *scale_names, *rest_names,
              "rot_0", "rot_1", "rot_2", "rot_3", "f_dc_0", "f_dc_1", "f_dc_2"}
-    extra = {nm: np.array(_col(vertex, nm)) for nm in names if nm not in known}
+    extra = {nm: np.array(column(vertex, nm)) for nm in names if nm not in known}
     meta: dict[str, Any] = {}
     with np.errstate(over="ignore"):
         if layout == "2dgs":
@@ -150,6 +124,52 @@ def read_gaussians(path) -> Gaussians:
             scales = np.exp(log_s)
     return Gaussians(means=means, scales=scales, rotations=q, opacities=opacities, sh_dc=sh_dc,
                      sh_rest=sh_rest, extra=extra, source=str(path), layout=layout, meta=meta)
+
+
+def _vertex_layout(path: Path, names: list[str]) -> tuple[str, list[str], list[str]]:
+    """The layout of an uncompressed vertex element from its property names: ``"3dgs"`` (three scales) or
+    ``"2dgs"`` (two), its ``scale_*`` and ``f_rest_*`` names. Refuses (:class:`SceneError`) a missing
+    position, rotation, colour or opacity, or an ``f_rest_*`` count other than 0, 9, 24 or 45."""
+    require_columns(path, names, ("x", "y", "z"), "positions x, y, z")
+    scale_names = numbered_names(names, "scale_")
+    if scale_names == ["scale_0", "scale_1", "scale_2"]:
+        layout = "3dgs"
+    elif scale_names == ["scale_0", "scale_1"]:
+        layout = "2dgs"
+    else:
+        reject_file(path, f"unknown layout: scale properties {scale_names or 'none'}; expected "
+                    "scale_0..scale_2 (3DGS, GaMeS) or scale_0, scale_1 (2DGS)")
+    require_columns(path, names, ("rot_0", "rot_1", "rot_2", "rot_3"), "a quaternion rot_0..rot_3 (w,x,y,z)")
+    require_columns(path, names, ("f_dc_0", "f_dc_1", "f_dc_2"), "SH DC colour f_dc_0..f_dc_2")
+    require_columns(path, names, ("opacity",), "an opacity logit")
+    rest_names = numbered_names(names, "f_rest_")
+    if len(rest_names) % 3 or len(rest_names) // 3 not in SH_REST_COUNT.values() \
+            or rest_names != [f"f_rest_{i}" for i in range(len(rest_names))]:
+        reject_file(path, f"unknown layout: {len(rest_names)} f_rest_* properties; expected 0, 9, 24 "
+                    "or 45 numbered from f_rest_0 (SH degree 0..3)")
+    return layout, scale_names, rest_names
+
+
+def _checked_values(path: Path, vertex: np.ndarray, scale_names: list[str],
+                    rest_names: list[str]) -> tuple[np.ndarray, np.ndarray]:
+    """Means (n, 3) float64 and unit quaternions (n, 4) wxyz of a vertex element, after refusing
+    (:class:`SceneError`) a non-finite or too distant position, a log-scale above ``log(MAX_MAGNITUDE)``,
+    a non-finite colour or opacity, and a zero or non-finite quaternion."""
+    means = stack_columns(vertex, ("x", "y", "z"))
+    bad = ~np.isfinite(means).all(axis=1)
+    if bad.any():
+        reject_file(path, f"non-finite position (x, y, z) at vertex {int(np.flatnonzero(bad)[0])}")
+    check_columns(path, vertex, ("x", "y", "z"), lo=-MAX_MAGNITUDE, hi=MAX_MAGNITUDE)
+    # log scales: exp must stay <= MAX_MAGNITUDE; -inf is a zero scale (write_gaussians writes those)
+    check_columns(path, vertex, scale_names, hi=math.log(MAX_MAGNITUDE), allow_neg_inf=True,
+                  expected=f"a log-scale <= {math.log(MAX_MAGNITUDE):.2f} (scale <= {MAX_MAGNITUDE:g})")
+    check_columns(path, vertex, ["opacity", "f_dc_0", "f_dc_1", "f_dc_2", *rest_names])
+    q = stack_columns(vertex, ("rot_0", "rot_1", "rot_2", "rot_3"))
+    norm = np.linalg.norm(q, axis=1)
+    bad = ~(np.isfinite(norm) & (norm > 1e-12))
+    if bad.any():
+        reject_file(path, f"rot_0..rot_3: zero or non-finite quaternion at vertex {int(np.flatnonzero(bad)[0])}")
+    return means, q / norm[:, None]
 
 
 # --------------------------------------------------------------------------------------------
@@ -199,8 +219,29 @@ def write_gaussians(path, g: Gaussians, *, overwrite: bool = False, layout: str 
     path = Path(path)
     if path.exists() and not overwrite:
         raise FileExistsError(f"{path}: file exists; pass overwrite=True to replace it")
-    n, k = g.n, g.sh_rest.shape[1]
+    n = g.n
     f4 = "<f4"
+    cols = _ply_columns(g, layout)
+
+    def ply_dtype(name, arr):
+        if name in g.extra:
+            return arr.dtype.newbyteorder("<")
+        return np.dtype(f4)
+
+    dtype = [(nm, ply_dtype(nm, arr)) for nm, arr in cols]
+    data = np.empty(n, dtype=dtype)
+    for nm, arr in cols:
+        data[nm] = arr
+    el = PlyElement.describe(data, "vertex")
+    ply = PlyData([el], text=False, byte_order="<")
+
+    atomic_write(path, ply.write, overwrite=overwrite)
+    return path
+
+
+def _ply_columns(g: Gaussians, layout: str) -> list[tuple[str, np.ndarray]]:
+    """The vertex properties :func:`write_gaussians` writes, in order, with their values (see its ``layout``)."""
+    n, k = g.n, g.sh_rest.shape[1]
     cols: list[tuple[str, np.ndarray]] = []
     for i, a in enumerate("xyz"):
         cols.append((a, g.means[:, i]))
@@ -228,18 +269,4 @@ def write_gaussians(path, g: Gaussians, *, overwrite: bool = False, layout: str 
     for nm, val in g.extra.items():
         if nm not in normals:
             cols.append((nm, val))
-
-    def ply_dtype(name, arr):
-        if name in g.extra:
-            return arr.dtype.newbyteorder("<")
-        return np.dtype(f4)
-
-    dtype = [(nm, ply_dtype(nm, arr)) for nm, arr in cols]
-    data = np.empty(n, dtype=dtype)
-    for nm, arr in cols:
-        data[nm] = arr
-    el = PlyElement.describe(data, "vertex")
-    ply = PlyData([el], text=False, byte_order="<")
-
-    atomic_write(path, ply.write, overwrite=overwrite)
-    return path
+    return cols

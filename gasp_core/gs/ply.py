@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import NoReturn
 
 import numpy as np
 from plyfile import PlyData, PlyListProperty
@@ -13,18 +14,11 @@ from gasp_core.errors import SceneError
 SH_C0 = 0.28209479177387814
 
 #: Opacity logit that PlayCanvas's decoder gives to an alpha byte of 0 (-) or 255 (+).
-_LOGIT_CLAMP = 40.0
-
-#: Column permutation from a 2DGS rotation (t_u, t_v, n) to the GaMeS convention (n, t_u, t_v):
-#: column j of the stored-in-memory R is column ``_2DGS_PERM[j]`` of the file's rotation. It is a
-#: cyclic permutation, so ``det`` stays +1.
-_2DGS_PERM = (2, 0, 1)
-
-_SPLATV_MAGIC = 0x674B
-_SPLATV_RECORD = 64  # bytes per splat
+LOGIT_CLAMP = 40.0
 
 
-def _fail(path, msg: str):
+def reject_file(path, msg: str) -> NoReturn:
+    """Raise the :class:`SceneError` ``"<path>: <msg>"`` (a reader's one-line refusal of a file)."""
     raise SceneError(f"{path}: {msg}")
 
 
@@ -32,10 +26,10 @@ def _fail(path, msg: str):
 # PLY reading
 
 
-def _read_ply(path) -> PlyData:
+def read_ply(path) -> PlyData:
     """Parse a PLY file fully into memory; any parse error -> SceneError naming the file."""
     path = Path(path)
-    _check_is_file(path, "Gaussian Splatting file")
+    check_is_file(path, "Gaussian Splatting file")
     try:
         with open(path, "rb") as f:
             # plyfile's mmap=False path parses row by row (seconds per 45k-vertex file); map the file
@@ -45,25 +39,27 @@ def _read_ply(path) -> PlyData:
                 el.data = np.array(el.data)
     except Exception as exc:  # plyfile raises PlyHeaderParseError, PlyElementParseError, ...
         msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        _fail(path, f"not a readable PLY file (truncated or corrupt?): {msg}")
+        reject_file(path, f"not a readable PLY file (truncated or corrupt?): {msg}")
     for el in ply.elements:
         if el.name in ("vertex", "chunk", "sh"):
             lists = [p.name for p in el.properties if isinstance(p, PlyListProperty)]
             if lists:
-                _fail(path, f"element '{el.name}' property '{lists[0]}' is a list; expected scalar "
+                reject_file(path, f"element '{el.name}' property '{lists[0]}' is a list; expected scalar "
                             "properties (one number per splat)")
     return ply
 
 
-def _check_is_file(path: Path, what: str) -> None:
+def check_is_file(path: Path, what: str) -> None:
+    """Refuse a directory (:class:`SceneError`) or a missing path (:class:`FileNotFoundError`); ``what`` names
+    the file expected."""
     if path.is_dir():
-        _fail(path, f"is a directory; expected a {what}")
+        reject_file(path, f"is a directory; expected a {what}")
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such {what}")
 
 
-def _check_columns(path, data: np.ndarray, names, element: str = "vertex", lo: float = -np.inf,
-                   hi: float = np.inf, allow_neg_inf: bool = False, expected: str | None = None) -> None:
+def check_columns(path, data: np.ndarray, names, element: str = "vertex", lo: float = -np.inf,
+                  hi: float = np.inf, allow_neg_inf: bool = False, expected: str | None = None) -> None:
     """Every value of the named columns finite (or -inf if allowed) and in ``[lo, hi]``.
 
     Raises SceneError naming the file, the property, the value and the first bad row.
@@ -71,7 +67,7 @@ def _check_columns(path, data: np.ndarray, names, element: str = "vertex", lo: f
     for nm in names:
         col = np.asarray(data[nm])
         if col.dtype.kind not in "fiub":
-            _fail(path, f"{element} property '{nm}' has type {col.dtype}; expected a number")
+            reject_file(path, f"{element} property '{nm}' has type {col.dtype}; expected a number")
         if col.dtype.kind != "f":
             continue
         ok = np.isfinite(col) & (col >= lo) & (col <= hi)
@@ -81,18 +77,20 @@ def _check_columns(path, data: np.ndarray, names, element: str = "vertex", lo: f
             i = int(np.flatnonzero(~ok)[0])
             rng = "a finite number" if (lo, hi) == (-np.inf, np.inf) else f"a finite number in [{lo:g}, {hi:g}]"
             rng = expected or rng
-            _fail(path, f"{element} property '{nm}' = {float(col[i])!r} at {element} {i}; expected {rng}")
+            reject_file(path, f"{element} property '{nm}' = {float(col[i])!r} at {element} {i}; expected {rng}")
 
 
-def _col(vertex: np.ndarray, name: str) -> np.ndarray:
+def column(vertex: np.ndarray, name: str) -> np.ndarray:
+    """Property ``name`` of a PLY element's structured array, as a plain array (file dtype)."""
     return np.asarray(vertex[name])
 
 
-def _stack(vertex: np.ndarray, names, dtype=np.float64) -> np.ndarray:
+def stack_columns(vertex: np.ndarray, names, dtype=np.float64) -> np.ndarray:
+    """Properties ``names`` of a PLY element side by side, shape (n, len(names)), ``dtype``."""
     return np.stack([np.asarray(vertex[n], dtype=dtype) for n in names], axis=1)
 
 
-def _numbered(names, prefix: str) -> list[str]:
+def numbered_names(names, prefix: str) -> list[str]:
     """``prefix0, prefix1, ...`` present in ``names``, in numeric order."""
     found = []
     for n in names:
@@ -102,9 +100,11 @@ def _numbered(names, prefix: str) -> list[str]:
     return [n for _, n in found]
 
 
-def _require(path, names, wanted, what: str):
+def require_columns(path, names, wanted, what: str) -> None:
+    """Refuse (:class:`SceneError`) a vertex element without every property of ``wanted``; ``what`` says what
+    was expected."""
     missing = [w for w in wanted if w not in names]
     if missing:
-        _fail(path, f"vertex element has no {', '.join(missing)} properties; expected {what}")
+        reject_file(path, f"vertex element has no {', '.join(missing)} properties; expected {what}")
 
 

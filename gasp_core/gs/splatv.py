@@ -8,7 +8,10 @@ from pathlib import Path
 import numpy as np
 
 from gasp_core.gs.gaussians import Gaussians
-from gasp_core.gs.ply import SH_C0, _LOGIT_CLAMP, _SPLATV_MAGIC, _SPLATV_RECORD, _check_is_file, _fail
+from gasp_core.gs.ply import LOGIT_CLAMP, SH_C0, check_is_file, reject_file
+
+_SPLATV_MAGIC = 0x674B
+_SPLATV_RECORD = 64  # bytes per splat
 
 
 # --------------------------------------------------------------------------------------------
@@ -55,30 +58,14 @@ def read_splatv(path) -> tuple[Gaussians, dict[str, np.ndarray]]:
     (+1 unused); 13-14 float16 omega w,x,y,z; 15 float16 trbf_center, trbf_scale.
     """
     path = Path(path)
-    _check_is_file(path, "splaTV file")
-    raw = path.read_bytes()
-    if len(raw) < 8:
-        _fail(path, f"splaTV file of {len(raw)} bytes; expected at least an 8-byte header")
-    magic, hlen = struct.unpack_from("<II", raw, 0)
-    if magic != _SPLATV_MAGIC:
-        _fail(path, f"magic 0x{magic:x}; expected 0x{_SPLATV_MAGIC:x} (a splaTV file)")
-    if 8 + hlen > len(raw):
-        _fail(path, f"header length {hlen} runs past the end of the file ({len(raw)} bytes); truncated?")
-    try:
-        header = json.loads(raw[8:8 + hlen].decode("utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        _fail(path, f"header is not JSON: {exc}")
-    body = raw[8 + hlen:]
-    if len(body) % _SPLATV_RECORD:
-        _fail(path, f"body of {len(body)} bytes is not a whole number of {_SPLATV_RECORD}-byte "
-                    "records; truncated?")
+    header, body = _header_and_body(path)
     n = len(body) // _SPLATV_RECORD
     words = np.frombuffer(body, dtype="<u4").reshape(n, 16)
     halves = words.view("<f2").reshape(n, 32)  # half j of word w = column 2w + j (low half first)
     means = words[:, 0:3].view("<f4").astype(np.float64)
     bad = ~np.isfinite(means).all(axis=1)
     if bad.any():
-        _fail(path, f"non-finite position (x, y, z) at record {int(np.flatnonzero(bad)[0])}")
+        reject_file(path, f"non-finite position (x, y, z) at record {int(np.flatnonzero(bad)[0])}")
     raw_rot = halves[:, 6:10].astype(np.float32)
     scales = halves[:, 10:13].astype(np.float64)
     rgba = words[:, 7:8].view(np.uint8).reshape(n, 4).astype(np.float64) / 255.0
@@ -90,13 +77,13 @@ def read_splatv(path) -> tuple[Gaussians, dict[str, np.ndarray]]:
         bad = ~np.isfinite(arr)
         if bad.any():
             i = int(np.flatnonzero(bad.reshape(n, -1).any(axis=1))[0])
-            _fail(path, f"non-finite {name} at record {i}; expected finite float16 values")
+            reject_file(path, f"non-finite {name} at record {i}; expected finite float16 values")
     bad = np.isnan(trbf_scale) | (trbf_scale < 0)
     if bad.any():
-        _fail(path, f"trbf_scale = {trbf_scale[bad][0]} at record {int(np.flatnonzero(bad)[0])}; expected >= 0")
+        reject_file(path, f"trbf_scale = {trbf_scale[bad][0]} at record {int(np.flatnonzero(bad)[0])}; expected >= 0")
     a = rgba[:, 3]
     with np.errstate(divide="ignore"):
-        opac = np.where(a <= 0, -_LOGIT_CLAMP, np.where(a >= 1, _LOGIT_CLAMP, -np.log(1.0 / a - 1.0)))
+        opac = np.where(a <= 0, -LOGIT_CLAMP, np.where(a >= 1, LOGIT_CLAMP, -np.log(1.0 / a - 1.0)))
     raw_rot = raw_rot.astype(np.float64)
     base = Gaussians(means=means, scales=scales, rotations=raw_rot,
                      opacities=opac.astype(np.float32),
@@ -105,6 +92,29 @@ def read_splatv(path) -> tuple[Gaussians, dict[str, np.ndarray]]:
                      source=str(path), layout="splatv", meta={"header": header})
     return base, {"motion": motion, "omega": omega, "trbf_center": trbf_center,
                   "trbf_scale": trbf_scale}
+
+
+def _header_and_body(path: Path) -> tuple[object, bytes]:
+    """The JSON header of a splaTV file and its body of whole 64-byte records; :class:`SceneError` for a wrong
+    magic number, a header that is not JSON or a truncated file."""
+    check_is_file(path, "splaTV file")
+    raw = path.read_bytes()
+    if len(raw) < 8:
+        reject_file(path, f"splaTV file of {len(raw)} bytes; expected at least an 8-byte header")
+    magic, hlen = struct.unpack_from("<II", raw, 0)
+    if magic != _SPLATV_MAGIC:
+        reject_file(path, f"magic 0x{magic:x}; expected 0x{_SPLATV_MAGIC:x} (a splaTV file)")
+    if 8 + hlen > len(raw):
+        reject_file(path, f"header length {hlen} runs past the end of the file ({len(raw)} bytes); truncated?")
+    try:
+        header = json.loads(raw[8:8 + hlen].decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        reject_file(path, f"header is not JSON: {exc}")
+    body = raw[8 + hlen:]
+    if len(body) % _SPLATV_RECORD:
+        reject_file(path, f"body of {len(body)} bytes is not a whole number of {_SPLATV_RECORD}-byte "
+                    "records; truncated?")
+    return header, body
 
 
 def splatv_at(base: Gaussians, motion: dict[str, np.ndarray], t: float) -> Gaussians:
@@ -145,8 +155,8 @@ def splatv_at(base: Gaussians, motion: dict[str, np.ndarray], t: float) -> Gauss
     factor = np.where(np.isfinite(factor), factor, 1.0)
     alpha = 1.0 / (1.0 + np.exp(-base.opacities.astype(np.float64))) * factor
     with np.errstate(divide="ignore"):
-        opac = np.where(alpha <= 0, -_LOGIT_CLAMP,
-                        np.where(alpha >= 1, _LOGIT_CLAMP, np.log(alpha) - np.log1p(-alpha)))
+        opac = np.where(alpha <= 0, -LOGIT_CLAMP,
+                        np.where(alpha >= 1, LOGIT_CLAMP, np.log(alpha) - np.log1p(-alpha)))
     g = base.copy()
     g.means, g.opacities = means, opac.astype(np.float32)
     norm = np.linalg.norm(rot, axis=1)

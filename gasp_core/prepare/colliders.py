@@ -3,7 +3,8 @@ from __future__ import annotations
 import numpy as np
 from gasp_core.errors import SceneError
 
-from gasp_core.colliders.model import (Collider, Motion, SDF_SPACING, collider_from_splats, collider_from_triangles)
+from gasp_core.colliders.model import Collider, Motion
+from gasp_core.colliders.sdf import collider_from_splats, collider_from_triangles, SDF_SPACING
 
 
 # --------------------------------------------------------------------------- from a scene

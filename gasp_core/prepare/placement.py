@@ -17,7 +17,8 @@ from gasp_core.gs.gaussians import Gaussians
 from gasp_core.maps.hierarchy import Hierarchy, build_hierarchy
 from gasp_core.gs.io import read_gaussians
 from gasp_core.gs.splatv import read_splatv, splatv_at
-from gasp_core.scene.spec import ObjectSpec, check_object
+from gasp_core.prepare.checks import check_object
+from gasp_core.scene.spec import ObjectSpec
 from gasp_core.prepare.selection import moving_rows
 
 #: Rotation taking each file up-axis to world +z (proper rotations; x_world = R @ x_file).
@@ -152,7 +153,7 @@ def prepare_object(spec: ObjectSpec, g: Gaussians | None = None) -> PreparedObje
     ------
     SceneError
         From reading the file (see :func:`load_gaussians`), or from
-        :func:`gasp_core.scene.spec.check_object` (no Gaussians, placed beyond the float32 limits).
+        :func:`gasp_core.prepare.checks.check_object` (no Gaussians, placed beyond the float32 limits).
     """
     g = load_gaussians(spec) if g is None else g
     check_object(spec, g)

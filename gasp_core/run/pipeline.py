@@ -22,7 +22,7 @@ from gasp_core.run.frames import FrameState, iter_frames
 from gasp_core.fsutil import OutputClaim, atomic_json, leftover_partials
 from gasp_core.gs.gaussians import Gaussians
 from gasp_core.gs.io import write_gaussians
-from gasp_core.prepare.scene import input_files, prepare_scene
+from gasp_core.prepare.scene import PreparedScene, input_files, prepare_scene
 from gasp_core.run.record import run_summary
 from gasp_core.seam.runner import RunStats
 from gasp_core.scene.spec import Scene
@@ -92,66 +92,105 @@ def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
     outdir = Path(outdir)
     n_frames = scene.n_frames if n_frames is None else n_frames
     claim = OutputClaim(outdir, overwrite=overwrite, protected=input_files(scene), resume=resume)
-    tmp = None
+    run = _Run()
     try:
-        prep = prepare_scene(scene, engine)
-        fp = resume_mod.fingerprint(scene, prep.info.name, prep.setup.options, n_frames)
-        stats, per_frame, ck = RunStats(), [], None
+        run.prep = prepare_scene(scene, engine)
+        run.fingerprint = resume_mod.fingerprint(scene, run.prep.info.name, run.prep.setup.options, n_frames)
         if resume:
-            if "state" not in prep.info.capabilities.features:
-                raise GaspError(f"engine '{prep.info.name}' cannot save its state (feature 'state'), so a "
-                                f"killed run cannot be resumed; run again without --resume")
-            tmp, ck = resume_mod.find_resumable(outdir, fp)
-            (tmp / ".gasp-pid").write_text(str(os.getpid()))
-            per_frame = list(ck.meta["per_frame"])
-            stats.frame_s = list(ck.meta.get("frame_s", []))
+            _continue_partial(run, outdir)
         else:
-            if warn is not None:
-                for p in leftover_partials(outdir):
-                    warn(f"a killed run left partial output in '{p}' (continue it with --resume, "
-                         f"or remove it when no longer needed)")
-            tmp = claim.partial_dir()
-            for name in prep.names:
-                (tmp / name).mkdir()
-        bar = None
-        if progress:
-            from tqdm import tqdm
-            bar = tqdm(total=n_frames, initial=0 if ck is None else ck.frame, unit="frame",
-                       desc=f"{prep.info.name}", leave=True)
-        t_run = time.perf_counter()
-        fs = FrameState()
-        for frame, gs, row in iter_frames(prep, n_frames, stats, resume=ck, state=fs):
-            t0 = time.perf_counter()
-            for g, name in zip(gs, prep.names):
-                write_gaussians(tmp / name / f"frame_{frame:04d}.ply", g, overwrite=ck is not None)
-            row["write_s"] = time.perf_counter() - t0
-            per_frame.append(row)
-            if fs.get_state is not None and frame < n_frames:
-                t0 = time.perf_counter()
-                resume_mod.save(tmp, resume_mod.Checkpoint(
-                    frame, fs.get_state(), fs.prev_rot,
-                    {"fingerprint": fp, "per_frame": per_frame, "frame_s": stats.frame_s}))
-                row["checkpoint_s"] = time.perf_counter() - t0
-            if bar is not None and frame > 0:
-                bar.update(1)
-            if on_frame is not None:
-                on_frame(frame, gs)
-        if bar is not None:
-            bar.close()
-        (tmp / resume_mod.CHECKPOINT).unlink(missing_ok=True)
-        summary = run_summary(prep, stats, n_frames, per_frame, time.perf_counter() - t_run)
-        if ck is not None:
-            summary["resumed_after_frame"] = ck.frame
-        atomic_json(tmp / "run.json", summary)
-        claim.commit(tmp)
-        stranded = (stats.engine or {}).get("passive_stranded")
-        if stranded and warn is not None:
-            warn(f"{stranded} of {int(prep.setup.n_passive)} passive surface points had no material within "
-                 "their interpolation stencil at the last frame: they stayed where the material left them "
-                 "(pieces of surface left hanging, typical of sand or liquid flowing away); surface = "
-                 "\"material\" simulates the surface points as material")
+            _start_partial(run, claim, outdir, warn)
+        run_s = _write_frames(run, n_frames, progress, on_frame)
+        summary = run_summary(run.prep, run.stats, n_frames, run.per_frame, run_s)
+        if run.checkpoint is not None:
+            summary["resumed_after_frame"] = run.checkpoint.frame
+        atomic_json(run.tmp / "run.json", summary)
+        claim.commit(run.tmp)
+        _warn_stranded(run, warn)
     except BaseException as e:
-        claim.abandon(tmp, e)
+        claim.abandon(run.tmp, e)
         raise
-    return RunResult(outdir=outdir, n_frames=n_frames, stats=stats, summary=summary)
+    return RunResult(outdir=outdir, n_frames=n_frames, stats=run.stats, summary=summary)
 
+
+@dataclass
+class _Run:
+    """What the steps of one :func:`simulate_scene` share."""
+
+    prep: PreparedScene | None = None
+    #: The partial output folder (``.<outdir>.partial-*``), once claimed or found; removed on failure.
+    tmp: Path | None = None
+    #: The checkpoint a resumed run continues from; None for a fresh run.
+    checkpoint: resume_mod.Checkpoint | None = None
+    fingerprint: str = ""
+    stats: RunStats = field(default_factory=RunStats)
+    #: One row of timings per frame written (``run.json`` ``per_frame``).
+    per_frame: list[dict] = field(default_factory=list)
+
+
+def _continue_partial(run: _Run, outdir: Path) -> None:
+    """Find the killed run's partial folder and checkpoint of the same fingerprint, and take it over."""
+    if "state" not in run.prep.info.capabilities.features:
+        raise GaspError(f"engine '{run.prep.info.name}' cannot save its state (feature 'state'), so a "
+                        f"killed run cannot be resumed; run again without --resume")
+    run.tmp, run.checkpoint = resume_mod.find_resumable(outdir, run.fingerprint)
+    (run.tmp / ".gasp-pid").write_text(str(os.getpid()))
+    run.per_frame = list(run.checkpoint.meta["per_frame"])
+    run.stats.frame_s = list(run.checkpoint.meta.get("frame_s", []))
+
+
+def _start_partial(run: _Run, claim: OutputClaim, outdir: Path, warn: Callable[[str], None] | None) -> None:
+    """Claim a fresh partial folder with one subfolder per object (warning of killed runs' leftovers)."""
+    if warn is not None:
+        for p in leftover_partials(outdir):
+            warn(f"a killed run left partial output in '{p}' (continue it with --resume, "
+                 f"or remove it when no longer needed)")
+    run.tmp = claim.partial_dir()
+    for name in run.prep.names:
+        (run.tmp / name).mkdir()
+
+
+def _write_frames(run: _Run, n_frames: int, progress: bool,
+                  on_frame: Callable[[int, list[Gaussians]], None] | None) -> float:
+    """Run the engine and write every frame (and a checkpoint after each, for engines with ``state``).
+
+    Returns the wall time of the frames, seconds.
+    """
+    prep, tmp, checkpoint = run.prep, run.tmp, run.checkpoint
+    bar = None
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(total=n_frames, initial=0 if checkpoint is None else checkpoint.frame, unit="frame",
+                   desc=f"{prep.info.name}", leave=True)
+    t_run = time.perf_counter()
+    frame_state = FrameState()
+    for frame, gs, row in iter_frames(prep, n_frames, run.stats, resume=checkpoint, state=frame_state):
+        t0 = time.perf_counter()
+        for g, name in zip(gs, prep.names):
+            write_gaussians(tmp / name / f"frame_{frame:04d}.ply", g, overwrite=checkpoint is not None)
+        row["write_s"] = time.perf_counter() - t0
+        run.per_frame.append(row)
+        if frame_state.get_state is not None and frame < n_frames:
+            t0 = time.perf_counter()
+            resume_mod.save(tmp, resume_mod.Checkpoint(
+                frame, frame_state.get_state(), frame_state.prev_rot,
+                {"fingerprint": run.fingerprint, "per_frame": run.per_frame, "frame_s": run.stats.frame_s}))
+            row["checkpoint_s"] = time.perf_counter() - t0
+        if bar is not None and frame > 0:
+            bar.update(1)
+        if on_frame is not None:
+            on_frame(frame, gs)
+    if bar is not None:
+        bar.close()
+    (tmp / resume_mod.CHECKPOINT).unlink(missing_ok=True)
+    return time.perf_counter() - t_run
+
+
+def _warn_stranded(run: _Run, warn: Callable[[str], None] | None) -> None:
+    """Pass on the engine's ``passive_stranded`` count (surface points the material left behind) as a warning."""
+    stranded = (run.stats.engine or {}).get("passive_stranded")
+    if stranded and warn is not None:
+        warn(f"{stranded} of {int(run.prep.setup.n_passive)} passive surface points had no material within "
+             "their interpolation stencil at the last frame: they stayed where the material left them "
+             "(pieces of surface left hanging, typical of sand or liquid flowing away); surface = "
+             "\"material\" simulates the surface points as material")

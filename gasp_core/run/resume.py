@@ -60,11 +60,11 @@ def fingerprint(scene, engine: str, options: dict, n_frames: int) -> str:
     return h.hexdigest()
 
 
-def save(folder: Path, ck: Checkpoint) -> None:
+def save(folder: Path, checkpoint: Checkpoint) -> None:
     """Write ``folder/.gasp-checkpoint.npz`` atomically (the previous checkpoint stays until replaced)."""
-    arrays = {f"engine/{k}": np.asarray(v) for k, v in ck.engine_state.items()}
-    arrays.update({f"rot/{i}": r for i, r in enumerate(ck.prev_rot)})
-    meta = dict(ck.meta, frame=ck.frame, n_rot=len(ck.prev_rot))
+    arrays = {f"engine/{k}": np.asarray(v) for k, v in checkpoint.engine_state.items()}
+    arrays.update({f"rot/{i}": r for i, r in enumerate(checkpoint.prev_rot)})
+    meta = dict(checkpoint.meta, frame=checkpoint.frame, n_rot=len(checkpoint.prev_rot))
     arrays["meta"] = np.frombuffer(json.dumps(meta, default=str).encode(), dtype=np.uint8)
     buf = io.BytesIO()
     np.savez(buf, **arrays)
@@ -90,8 +90,8 @@ def load(folder: Path) -> Checkpoint:
     return Checkpoint(int(meta["frame"]), engine_state, prev_rot, meta)
 
 
-def find_resumable(outdir: Path, fp: str) -> tuple[Path, Checkpoint]:
-    """The partial folder of a killed run to ``outdir`` with a checkpoint of the same fingerprint.
+def find_resumable(outdir: Path, run_fingerprint: str) -> tuple[Path, Checkpoint]:
+    """The partial folder of a killed run to ``outdir`` with a checkpoint of fingerprint ``run_fingerprint``.
 
     Raises
     ------
@@ -104,9 +104,9 @@ def find_resumable(outdir: Path, fp: str) -> tuple[Path, Checkpoint]:
                         f"(.{outdir.name}.partial-*/{CHECKPOINT}); run without --resume")
     others = []
     for p in sorted(candidates, key=lambda p: (p / CHECKPOINT).stat().st_mtime, reverse=True):
-        ck = load(p)
-        if ck.meta.get("fingerprint") == fp:
-            return p, ck
+        checkpoint = load(p)
+        if checkpoint.meta.get("fingerprint") == run_fingerprint:
+            return p, checkpoint
         others.append(p.name)
     raise GaspError(f"cannot resume '{outdir}': the partial run(s) {others} were made from another scene, input "
                     f"file, engine, option or frame count; run without --resume")

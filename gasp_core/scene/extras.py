@@ -9,8 +9,9 @@ from typing import Any
 
 
 from gasp_core.errors import SceneError
-from gasp_core.scene.values import (MAX_COORD, MAX_GRAVITY, MAX_SPEED, MAX_SPIN, SCALE_RANGE, UP_AXES, _bad,
-                           _boolean, _check_keys, _integer, _is_number, _number, _string, _tables, _vec3)
+from gasp_core.scene.values import (MAX_COORD, MAX_GRAVITY, MAX_SPEED, MAX_SPIN, SCALE_RANGE, UP_AXES, as_boolean,
+                                    as_integer, as_number, as_string, as_tables, as_vec3, bad_value, check_keys,
+                                    is_number)
 
 # --------------------------------------------------------------------------- colliders, forces, impulses
 @dataclass
@@ -54,7 +55,7 @@ MAX_ACCEL = MAX_GRAVITY
 
 
 def _input_file(value, key: str, src: Path, suffixes=None) -> Path:
-    name = _string(value, key, src)
+    name = as_string(value, key, src)
     f = (src.parent / name).resolve()
     if not f.is_file():
         raise SceneError(f"{src}: {key} '{name}' does not exist or is not a file (looked for {f})")
@@ -64,7 +65,7 @@ def _input_file(value, key: str, src: Path, suffixes=None) -> Path:
 
 
 def _collider(c: dict, where: str, src: Path, n_objects: int) -> ColliderSpec:
-    _check_keys(c, _COLLIDER_KEYS, where, src)
+    check_keys(c, _COLLIDER_KEYS, where, src)
     sources = [k for k in ("mesh", "gaussians", "object") if k in c]
     if len(sources) != 1:
         raise SceneError(f"{src}: {where} needs exactly one of 'mesh', 'gaussians' or 'object', got {sources or 'none'}")
@@ -76,31 +77,33 @@ def _collider(c: dict, where: str, src: Path, n_objects: int) -> ColliderSpec:
     else:
         o = c["object"]
         if isinstance(o, int) and not isinstance(o, bool):
-            kw["object"] = _integer(o, f"{where}.object", src, 1, max(n_objects, 1))
+            kw["object"] = as_integer(o, f"{where}.object", src, 1, max(n_objects, 1))
         else:
-            kw["object"] = _string(o, f"{where}.object", src)
-    kw["up_axis"] = _string(c.get("up_axis", "+z"), f"{where}.up_axis", src, UP_AXES)
-    kw["scale"] = _number(c.get("scale", 1.0), f"{where}.scale", src, *SCALE_RANGE)
-    kw["recentre"] = _boolean(c.get("recentre", True), f"{where}.recentre", src)
-    kw["position"] = _vec3(c.get("position", [0.0, 0.0, 0.0]), f"{where}.position", src, max_abs=MAX_COORD, unit=" m")
-    kw["rotation"] = _vec3(c.get("rotation", [0.0, 0.0, 0.0]), f"{where}.rotation", src, max_abs=360.0, unit=" degrees")
-    kw["friction"] = _number(c.get("friction", 0.5), f"{where}.friction", src, 0.0)
-    kw["min_opacity"] = _number(c.get("min_opacity", 0.1), f"{where}.min_opacity", src, 0.0, 1.0)
-    kw["velocity"] = _vec3(c.get("velocity", [0.0, 0.0, 0.0]), f"{where}.velocity", src, max_norm=MAX_SPEED, unit=" m/s")
-    kw["angular_velocity"] = _vec3(c.get("angular_velocity", [0.0, 0.0, 0.0]), f"{where}.angular_velocity", src,
-                                   max_norm=MAX_SPIN, unit=" rad/s")
+            kw["object"] = as_string(o, f"{where}.object", src)
+    kw["up_axis"] = as_string(c.get("up_axis", "+z"), f"{where}.up_axis", src, UP_AXES)
+    kw["scale"] = as_number(c.get("scale", 1.0), f"{where}.scale", src, *SCALE_RANGE)
+    kw["recentre"] = as_boolean(c.get("recentre", True), f"{where}.recentre", src)
+    kw["position"] = as_vec3(c.get("position", [0.0, 0.0, 0.0]), f"{where}.position", src, max_abs=MAX_COORD, unit=" m")
+    kw["rotation"] = as_vec3(c.get("rotation", [0.0, 0.0, 0.0]), f"{where}.rotation", src, max_abs=360.0,
+                             unit=" degrees")
+    kw["friction"] = as_number(c.get("friction", 0.5), f"{where}.friction", src, 0.0)
+    kw["min_opacity"] = as_number(c.get("min_opacity", 0.1), f"{where}.min_opacity", src, 0.0, 1.0)
+    kw["velocity"] = as_vec3(c.get("velocity", [0.0, 0.0, 0.0]), f"{where}.velocity", src, max_norm=MAX_SPEED,
+                             unit=" m/s")
+    kw["angular_velocity"] = as_vec3(c.get("angular_velocity", [0.0, 0.0, 0.0]), f"{where}.angular_velocity", src,
+                                     max_norm=MAX_SPIN, unit=" rad/s")
     if "path" in c:
         if "velocity" in c:
             raise SceneError(f"{src}: {where}: give 'velocity' or 'path', not both")
         p = c["path"]
         if not isinstance(p, list) or len(p) < 2 or not all(
-                isinstance(r, list) and len(r) == 4 and all(_is_number(a) and math.isfinite(a) for a in r) for r in p):
-            _bad(src, f"{where}.path", p, "a list of at least 2 keyframes [t, x, y, z] of finite numbers")
+                isinstance(r, list) and len(r) == 4 and all(is_number(a) and math.isfinite(a) for a in r) for r in p):
+            bad_value(src, f"{where}.path", p, "a list of at least 2 keyframes [t, x, y, z] of finite numbers")
         ts = [float(r[0]) for r in p]
         if any(b <= a for a, b in zip(ts, ts[1:])) or ts[0] < 0:
-            _bad(src, f"{where}.path", p, "keyframe times >= 0 and strictly increasing")
+            bad_value(src, f"{where}.path", p, "keyframe times >= 0 and strictly increasing")
         if max(abs(a) for r in p for a in r[1:]) > MAX_COORD:
-            _bad(src, f"{where}.path", p, f"positions within +-{MAX_COORD:g} m")
+            bad_value(src, f"{where}.path", p, f"positions within +-{MAX_COORD:g} m")
         kw["path"] = [[float(a) for a in r] for r in p]
     moving = "path" in kw or any(kw["velocity"]) or any(kw["angular_velocity"])
     if moving and "mesh" not in kw:
@@ -111,63 +114,63 @@ def _collider(c: dict, where: str, src: Path, n_objects: int) -> ColliderSpec:
 
 def _force(f: dict, where: str, src: Path):
     from gasp_core.colliders.model import FALLOFFS, ForceField
-    kind = _string(f.get("kind"), f"{where}.kind", src, tuple(_FORCE_KIND_KEYS))
+    kind = as_string(f.get("kind"), f"{where}.kind", src, tuple(_FORCE_KIND_KEYS))
     if kind == "wind":
-        from gasp_core.scene.spec.colliders import WIND_ACCELERATION_REMOVED
+        from gasp_core.colliders.model import WIND_ACCELERATION_REMOVED
         if "strength" in f:                  # the wind of before issue 17: an acceleration
             raise SceneError(f"{src}: {where} (kind = 'wind'): {WIND_ACCELERATION_REMOVED}")
-        _check_keys(f, _FORCE_KIND_KEYS[kind], f"{where} (kind = {kind!r})", src)
+        check_keys(f, _FORCE_KIND_KEYS[kind], f"{where} (kind = {kind!r})", src)
         if "speed" not in f:
             raise SceneError(f"{src}: {where} (kind = 'wind') needs 'speed' (m/s)")
-        d = _vec3(f.get("direction", [1.0, 0.0, 0.0]), f"{where}.direction", src)
+        d = as_vec3(f.get("direction", [1.0, 0.0, 0.0]), f"{where}.direction", src)
         n = math.sqrt(sum(a * a for a in d))
         if n == 0.0:
-            _bad(src, f"{where}.direction", f["direction"], "a non-zero vector")
+            bad_value(src, f"{where}.direction", f["direction"], "a non-zero vector")
         return ForceField("wind", direction=tuple(a / n for a in d),
-                          speed=_number(f["speed"], f"{where}.speed", src, 0.0, MAX_SPEED),
-                          air_density=_number(f.get("air_density", 1.2), f"{where}.air_density", src, 0.0, 1e5),
-                          drag_coefficient=_number(f.get("drag_coefficient", 1.0), f"{where}.drag_coefficient", src,
+                          speed=as_number(f["speed"], f"{where}.speed", src, 0.0, MAX_SPEED),
+                          air_density=as_number(f.get("air_density", 1.2), f"{where}.air_density", src, 0.0, 1e5),
+                          drag_coefficient=as_number(f.get("drag_coefficient", 1.0), f"{where}.drag_coefficient", src,
                                                    0.0, 100.0),
-                          turbulence=_number(f.get("turbulence", 0.0), f"{where}.turbulence", src, 0.0, MAX_SPEED),
-                          turbulence_scale=_number(f.get("turbulence_scale", 0.5), f"{where}.turbulence_scale", src,
+                          turbulence=as_number(f.get("turbulence", 0.0), f"{where}.turbulence", src, 0.0, MAX_SPEED),
+                          turbulence_scale=as_number(f.get("turbulence_scale", 0.5), f"{where}.turbulence_scale", src,
                                                    0.0, MAX_COORD, lo_open=True),
-                          turbulence_time=(_number(f["turbulence_time"], f"{where}.turbulence_time", src, 0.0,
+                          turbulence_time=(as_number(f["turbulence_time"], f"{where}.turbulence_time", src, 0.0,
                                                    lo_open=True) if "turbulence_time" in f else math.inf),
-                          seed=_integer(f.get("seed", 0), f"{where}.seed", src, 0, 2 ** 32 - 1))
-    _check_keys(f, _FORCE_KIND_KEYS[kind], f"{where} (kind = {kind!r})", src)
+                          seed=as_integer(f.get("seed", 0), f"{where}.seed", src, 0, 2 ** 32 - 1))
+    check_keys(f, _FORCE_KIND_KEYS[kind], f"{where} (kind = {kind!r})", src)
     if "strength" not in f:
         raise SceneError(f"{src}: {where} (kind = {kind!r}) needs 'strength' (m/s^2)")
-    strength = _number(f["strength"], f"{where}.strength", src, -MAX_ACCEL, MAX_ACCEL)
+    strength = as_number(f["strength"], f"{where}.strength", src, -MAX_ACCEL, MAX_ACCEL)
     if "point" not in f:
         raise SceneError(f"{src}: {where} (kind = 'attractor') needs 'point'")
     return ForceField("attractor", strength=strength,
-                      point=_vec3(f["point"], f"{where}.point", src, max_abs=MAX_COORD, unit=" m"),
-                      radius=_number(f.get("radius", 0.05), f"{where}.radius", src, 0.0, MAX_COORD, lo_open=True),
-                      falloff=_string(f.get("falloff", "none"), f"{where}.falloff", src, FALLOFFS))
+                      point=as_vec3(f["point"], f"{where}.point", src, max_abs=MAX_COORD, unit=" m"),
+                      radius=as_number(f.get("radius", 0.05), f"{where}.radius", src, 0.0, MAX_COORD, lo_open=True),
+                      falloff=as_string(f.get("falloff", "none"), f"{where}.falloff", src, FALLOFFS))
 
 
 def _impulse(i: dict, where: str, src: Path):
     from gasp_core.colliders.model import Impulse
-    shape = _string(i.get("shape"), f"{where}.shape", src, tuple(_IMPULSE_SHAPE_KEYS))
-    _check_keys(i, _IMPULSE_KEYS | _IMPULSE_SHAPE_KEYS[shape], f"{where} (shape = {shape!r})", src)
+    shape = as_string(i.get("shape"), f"{where}.shape", src, tuple(_IMPULSE_SHAPE_KEYS))
+    check_keys(i, _IMPULSE_KEYS | _IMPULSE_SHAPE_KEYS[shape], f"{where} (shape = {shape!r})", src)
     for k in sorted(_IMPULSE_SHAPE_KEYS[shape]) + ["velocity_change"]:
         if k not in i:
             raise SceneError(f"{src}: {where} (shape = {shape!r}) needs '{k}'")
     kw: dict[str, Any] = {"shape": shape}
     if shape == "box":
-        kw["lo"] = _vec3(i["lo"], f"{where}.lo", src, max_abs=MAX_COORD, unit=" m")
-        kw["hi"] = _vec3(i["hi"], f"{where}.hi", src, max_abs=MAX_COORD, unit=" m")
+        kw["lo"] = as_vec3(i["lo"], f"{where}.lo", src, max_abs=MAX_COORD, unit=" m")
+        kw["hi"] = as_vec3(i["hi"], f"{where}.hi", src, max_abs=MAX_COORD, unit=" m")
         if not all(h > l for l, h in zip(kw["lo"], kw["hi"])):
             raise SceneError(f"{src}: {where} 'hi' must exceed 'lo' on every axis, got lo={list(kw['lo'])} "
                              f"hi={list(kw['hi'])}")
     else:
-        kw["centre"] = _vec3(i["centre"], f"{where}.centre", src, max_abs=MAX_COORD, unit=" m")
-        kw["radius"] = _number(i["radius"], f"{where}.radius", src, 0.0, MAX_COORD, lo_open=True)
-    kw["velocity_change"] = _vec3(i["velocity_change"], f"{where}.velocity_change", src, max_norm=MAX_SPEED,
-                                  unit=" m/s")
-    kw["mode"] = _string(i.get("mode", "add"), f"{where}.mode", src, ("add", "set"))
-    kw["t0"] = _number(i.get("t0", 0.0), f"{where}.t0", src, 0.0)
-    kw["t1"] = _number(i.get("t1", kw["t0"]), f"{where}.t1", src, 0.0)
+        kw["centre"] = as_vec3(i["centre"], f"{where}.centre", src, max_abs=MAX_COORD, unit=" m")
+        kw["radius"] = as_number(i["radius"], f"{where}.radius", src, 0.0, MAX_COORD, lo_open=True)
+    kw["velocity_change"] = as_vec3(i["velocity_change"], f"{where}.velocity_change", src, max_norm=MAX_SPEED,
+                                    unit=" m/s")
+    kw["mode"] = as_string(i.get("mode", "add"), f"{where}.mode", src, ("add", "set"))
+    kw["t0"] = as_number(i.get("t0", 0.0), f"{where}.t0", src, 0.0)
+    kw["t1"] = as_number(i.get("t1", kw["t0"]), f"{where}.t1", src, 0.0)
     if kw["t1"] < kw["t0"]:
         raise SceneError(f"{src}: {where}: t1 = {kw['t1']:g} s is before t0 = {kw['t0']:g} s")
     if kw["mode"] == "set" and kw["t1"] <= kw["t0"]:
@@ -175,13 +178,19 @@ def _impulse(i: dict, where: str, src: Path):
     return Impulse(**kw)
 
 
-def _scene_extras(data: dict, src: Path, objects: list) -> dict:
-    """``[[collider]]``, ``[[force]]`` and ``[[impulse]]`` of a scene, checked (see :class:`ColliderSpec`)."""
+def read_extras(data: dict, src: Path, objects: list) -> dict:
+    """``[[collider]]``, ``[[force]]`` and ``[[impulse]]`` of a scene, checked (see :class:`ColliderSpec`).
+
+    Returns
+    -------
+    dict
+        ``colliders`` (list of ColliderSpec), ``forces`` (list of ForceField), ``impulses`` (list of Impulse).
+    """
     return {
         "colliders": [_collider(c, f"[[collider]] #{i + 1}", src, len(objects))
-                      for i, c in enumerate(_tables(data.get("collider", []), "collider", src))],
+                      for i, c in enumerate(as_tables(data.get("collider", []), "collider", src))],
         "forces": [_force(f, f"[[force]] #{i + 1}", src)
-                   for i, f in enumerate(_tables(data.get("force", []), "force", src))],
+                   for i, f in enumerate(as_tables(data.get("force", []), "force", src))],
         "impulses": [_impulse(m, f"[[impulse]] #{i + 1}", src)
-                     for i, m in enumerate(_tables(data.get("impulse", []), "impulse", src))],
+                     for i, m in enumerate(as_tables(data.get("impulse", []), "impulse", src))],
     }

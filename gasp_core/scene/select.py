@@ -7,8 +7,8 @@ from typing import Any
 
 
 from gasp_core.errors import SceneError
-from gasp_core.scene.values import (MAX_COORD, _bad, _boolean, _check_keys, _number, _string, _table,
-                           _vec3)
+from gasp_core.scene.values import (MAX_COORD, as_boolean, as_number, as_string, as_table, as_vec3, bad_value,
+                                    check_keys)
 
 
 #: Object keys that only matter when the object is simulated: refused beside ``static = true``.
@@ -77,9 +77,10 @@ class SelectSpec:
         return out
 
 
-def _static(o: dict, where: str, src: Path) -> bool:
-    """``static = true``: never simulated; keys that only a simulation reads are an error beside it."""
-    static = _boolean(o.get("static", False), f"{where}.static", src)
+def read_static(o: dict, where: str, src: Path) -> bool:
+    """An object's ``static`` (default false); with ``static = true`` (never simulated) keys that only a
+    simulation reads are a :class:`SceneError`."""
+    static = as_boolean(o.get("static", False), f"{where}.static", src)
     if static:
         extra = [k for k in _SIMULATION_KEYS if k in o]
         if extra:
@@ -88,45 +89,45 @@ def _static(o: dict, where: str, src: Path) -> bool:
     return static
 
 
-def _select(value, where: str, src: Path) -> SelectSpec:
-    """``select = { box | sphere | indices | mask, frame, grow }`` (see :class:`SelectSpec`)."""
-    t = _table(value, where, src)
-    _check_keys(t, set(SELECT_KINDS) | {"frame", "grow"}, where, src)
+def read_select(value, where: str, src: Path) -> SelectSpec:
+    """An object's ``select = { box | sphere | indices | mask, frame, grow }``, checked (see :class:`SelectSpec`)."""
+    t = as_table(value, where, src)
+    check_keys(t, set(SELECT_KINDS) | {"frame", "grow"}, where, src)
     kinds = [k for k in SELECT_KINDS if k in t]
     if len(kinds) != 1:
         raise SceneError(f"{src}: {where} needs exactly one of {list(SELECT_KINDS)}, got {kinds or 'none'}")
     kind = kinds[0]
-    frame = _string(t.get("frame", "file"), f"{where}.frame", src, SELECT_FRAMES)
+    frame = as_string(t.get("frame", "file"), f"{where}.frame", src, SELECT_FRAMES)
     if "frame" in t and kind in ("indices", "mask"):
         raise SceneError(f"{src}: {where}.frame applies to a box or sphere, not to {kind}")
     kw: dict[str, Any] = {"kind": kind, "frame": frame,
-                          "grow": _boolean(t.get("grow", False), f"{where}.grow", src)}
+                          "grow": as_boolean(t.get("grow", False), f"{where}.grow", src)}
     key = f"{where}.{kind}"
     if kind == "box":
-        b = _table(t["box"], key, src)
-        _check_keys(b, {"lo", "hi"}, key, src)
+        b = as_table(t["box"], key, src)
+        check_keys(b, {"lo", "hi"}, key, src)
         if "lo" not in b or "hi" not in b:
             raise SceneError(f"{src}: {key} needs 'lo' and 'hi'")
-        kw["lo"] = _vec3(b["lo"], f"{key}.lo", src, max_abs=MAX_COORD)
-        kw["hi"] = _vec3(b["hi"], f"{key}.hi", src, max_abs=MAX_COORD)
+        kw["lo"] = as_vec3(b["lo"], f"{key}.lo", src, max_abs=MAX_COORD)
+        kw["hi"] = as_vec3(b["hi"], f"{key}.hi", src, max_abs=MAX_COORD)
         if not all(h > l for l, h in zip(kw["lo"], kw["hi"])):
             raise SceneError(f"{src}: {key} 'hi' must exceed 'lo' on every axis, got lo={list(kw['lo'])} "
                              f"hi={list(kw['hi'])}")
     elif kind == "sphere":
-        b = _table(t["sphere"], key, src)
-        _check_keys(b, {"centre", "radius"}, key, src)
+        b = as_table(t["sphere"], key, src)
+        check_keys(b, {"centre", "radius"}, key, src)
         if "centre" not in b or "radius" not in b:
             raise SceneError(f"{src}: {key} needs 'centre' and 'radius'")
-        kw["centre"] = _vec3(b["centre"], f"{key}.centre", src, max_abs=MAX_COORD)
-        kw["radius"] = _number(b["radius"], f"{key}.radius", src, 0.0, MAX_COORD, lo_open=True)
+        kw["centre"] = as_vec3(b["centre"], f"{key}.centre", src, max_abs=MAX_COORD)
+        kw["radius"] = as_number(b["radius"], f"{key}.radius", src, 0.0, MAX_COORD, lo_open=True)
     elif kind == "indices":
         idx = t["indices"]
         if not isinstance(idx, list) or not idx or \
                 not all(isinstance(i, int) and not isinstance(i, bool) and i >= 0 for i in idx):
-            _bad(src, key, idx, "a non-empty list of row indices (integers >= 0)")
+            bad_value(src, key, idx, "a non-empty list of row indices (integers >= 0)")
         kw["indices"] = tuple(idx)
     else:
-        name = _string(t["mask"], key, src)
+        name = as_string(t["mask"], key, src)
         m = (src.parent / name).resolve()
         if not m.is_file():
             raise SceneError(f"{src}: {key} '{name}' is not a file (looked for {m}); expected a .npy array")

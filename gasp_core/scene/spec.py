@@ -32,7 +32,8 @@ Example::
 
 ``engine = "NAME"`` at the top level is shorthand for ``[engine] name = "NAME"``.
 
-Every table accepts only the keys listed in this module; a mistyped key is a :class:`SceneError`
+Every table accepts only the keys listed in this module and :mod:`gasp_core.scene.tables` (``[engine]``,
+``[domain]``, ``[[boundary]]``, ``material``); a mistyped key is a :class:`SceneError`
 that names it and the allowed ones. Every value is type-checked before use (a wrong type is a
 :class:`SceneError` naming the key, the value, its TOML type and what was expected: integers are
 integers, ``n_grid = 24.9`` is not 24) and range-checked (:data:`MAX_COORD`, :data:`MAX_SPEED`,
@@ -44,19 +45,15 @@ import math
 import tomllib
 from dataclasses import dataclass, field, fields
 from pathlib import Path
-from typing import Any
-
-import numpy as np
 
 from gasp_core.errors import SceneError
-from gasp_core.seam.setup import BOUNDARIES, Boundary, Material, MATERIALS
-
-from gasp_core.scene.values import (_bad, _boolean, _check_keys, _integer, _is_number, _number, _string, _table,
-                           _tables, _vec3)
-from gasp_core.scene.values import (MAX_COORD, MAX_GRAVITY, MAX_PADDING, MAX_SPEED, MAX_SPIN, N_GRID_RANGE,
-                           PPC_RANGE, SCALE_RANGE, UP_AXES)
-from gasp_core.scene.extras import _scene_extras
-from gasp_core.scene.select import SelectSpec, _select, _static
+from gasp_core.scene.extras import read_extras
+from gasp_core.scene.select import SelectSpec, read_select, read_static
+from gasp_core.scene.tables import DomainSpec, EngineSpec, read_boundary, read_domain, read_engine, read_material
+from gasp_core.scene.values import (MAX_COORD, MAX_GRAVITY, MAX_SPEED, MAX_SPIN, SCALE_RANGE, UP_AXES, as_boolean,
+                                    as_integer, as_number, as_string, as_table, as_tables, as_vec3, bad_value,
+                                    check_keys, is_number)
+from gasp_core.seam.setup import Boundary, Material
 
 #: ``[[object]] surface``: the triangle vertices are material points, or passive (massless, carried).
 SURFACES = ("material", "passive")
@@ -147,33 +144,6 @@ class ObjectSpec:
 
 
 @dataclass
-class EngineSpec:
-    """``[engine]``: ``name`` (a registered engine; ``gasp engines`` lists them) and its ``options``.
-
-    ``name`` may be left out when the command line names the engine (``--engine``).
-    """
-
-    name: str | None = None
-    options: dict[str, Any] = field(default_factory=dict)
-
-
-@dataclass
-class DomainSpec:
-    """``[domain]``: the simulation box (metres) and grid resolution.
-
-    ``lo``/``hi`` default to the objects' bounds padded by ``padding`` times their largest
-    extent (the ground, if any, at the bottom). ``particles_per_cell`` sets the interior fill
-    spacing ``dx / ppc^(1/3)``.
-    """
-
-    lo: tuple[float, float, float] | None = None
-    hi: tuple[float, float, float] | None = None
-    n_grid: int = 64
-    padding: float = 0.5
-    particles_per_cell: int = 8
-
-
-@dataclass
 class Scene:
     """A parsed scene file. See the module docstring for the format."""
 
@@ -195,12 +165,6 @@ class Scene:
 _TOP_KEYS = {"name", "frame_dt", "n_frames", "gravity", "output", "engine", "domain", "boundary", "object",
              "collider", "force", "impulse"}
 _OBJECT_KEYS = {f.name for f in fields(ObjectSpec)}
-_MATERIAL_KEYS = {f.name for f in fields(Material)}
-_BOUNDARY_KEYS = {f.name for f in fields(Boundary)}
-_BOUNDARY_KIND_KEYS = {"ground": {"kind", "height", "friction"}, "walls": {"kind", "friction"},
-                       "fixed_region": {"kind", "lo", "hi"}}
-_DOMAIN_KEYS = {f.name for f in fields(DomainSpec)}
-_ENGINE_KEYS = {"name", "options"}
 
 
 def _dynamic_time(o: dict, f: Path, where: str, src: Path) -> float | None:
@@ -211,86 +175,14 @@ def _dynamic_time(o: dict, f: Path, where: str, src: Path) -> float | None:
         return None
     if t is None:
         return 0.0
-    return _number(t, f"{where}.dynamic_time", src)
-
-
-#: Material parameter ranges: (lo, hi, lo_open, hi_open); hi None = unbounded.
-_MATERIAL_RANGES = {
-    "E": (0.0, None, True, False), "nu": (0.0, 0.5, False, True), "rho": (0.0, None, True, False),
-    "yield_stress": (0.0, None, True, False), "friction_angle": (0.0, 90.0, False, True),
-    "softening": (0.0, None, False, False), "hardening": (0.0, None, True, False),
-    "theta_c": (0.0, None, True, False), "theta_s": (0.0, None, True, False),
-}
-
-
-def _material(value, where: str, src: Path) -> Material:
-    table = _table(value, where, src)
-    _check_keys(table, _MATERIAL_KEYS, where, src)
-    kw: dict[str, Any] = {"name": _string(table.get("name", "jelly"), f"{where}.name", src, MATERIALS)}
-    for k in sorted(_MATERIAL_KEYS - {"name"}):
-        if k in table:
-            lo, hi, lo_open, hi_open = _MATERIAL_RANGES[k]
-            kw[k] = _number(table[k], f"{where}.{k}", src, lo, hi, lo_open, hi_open)
-    return Material(**kw)
-
-
-def _engine(value, src: Path) -> EngineSpec:
-    """``[engine] name = ..., options = {...}``, or the shorthand ``engine = "name"``."""
-    if isinstance(value, str):
-        value = {"name": value}
-    elif not isinstance(value, dict):
-        _bad(src, "engine", value, 'an engine name (engine = "NAME") or an [engine] table with name and options')
-    _check_keys(value, _ENGINE_KEYS, "[engine]", src)
-    name = value.get("name")
-    name = None if name is None else _string(name, "engine.name", src)
-    options = _table(value.get("options", {}), "engine.options", src)
-    return EngineSpec(name=name, options=dict(options))
-
-
-def _domain(value, src: Path) -> DomainSpec:
-    dom_t = _table(value, "domain", src)
-    _check_keys(dom_t, _DOMAIN_KEYS, "[domain]", src)
-    domain = DomainSpec(
-        lo=_vec3(dom_t["lo"], "domain.lo", src, max_abs=MAX_COORD, unit=" m") if "lo" in dom_t else None,
-        hi=_vec3(dom_t["hi"], "domain.hi", src, max_abs=MAX_COORD, unit=" m") if "hi" in dom_t else None,
-        n_grid=_integer(dom_t.get("n_grid", DomainSpec.n_grid), "domain.n_grid", src, *N_GRID_RANGE),
-        padding=_number(dom_t.get("padding", DomainSpec.padding), "domain.padding", src, 0.0, MAX_PADDING),
-        particles_per_cell=_integer(dom_t.get("particles_per_cell", DomainSpec.particles_per_cell),
-                                    "domain.particles_per_cell", src, *PPC_RANGE))
-    if (domain.lo is None) != (domain.hi is None):
-        raise SceneError(f"{src}: [domain] needs both 'lo' and 'hi', or neither")
-    if domain.lo is not None and not all(h > l for l, h in zip(domain.lo, domain.hi)):
-        raise SceneError(f"{src}: [domain] 'hi' must exceed 'lo' on every axis, got lo={list(domain.lo)} "
-                         f"hi={list(domain.hi)}")
-    return domain
-
-
-def _boundary(b: dict, where: str, src: Path) -> Boundary:
-    kind = _string(b.get("kind"), f"{where}.kind", src, BOUNDARIES)
-    _check_keys(b, _BOUNDARY_KIND_KEYS.get(kind, _BOUNDARY_KEYS), f"{where} (kind = {kind!r})", src)
-    kw: dict[str, Any] = {"kind": kind}
-    if "height" in b:
-        kw["height"] = _number(b["height"], f"{where}.height", src, -MAX_COORD, MAX_COORD)
-    if "friction" in b:
-        kw["friction"] = _number(b["friction"], f"{where}.friction", src, 0.0)
-    if kind == "fixed_region":
-        if "lo" not in b or "hi" not in b:
-            raise SceneError(f"{src}: {where} (fixed_region) needs 'lo' and 'hi'")
-        kw["lo"] = _vec3(b["lo"], f"{where}.lo", src, max_abs=MAX_COORD, unit=" m")
-        kw["hi"] = _vec3(b["hi"], f"{where}.hi", src, max_abs=MAX_COORD, unit=" m")
-        if not all(h > l for l, h in zip(kw["lo"], kw["hi"])):
-            raise SceneError(f"{src}: {where} (fixed_region) 'hi' must exceed 'lo' on every axis, got "
-                             f"lo={list(kw['lo'])} hi={list(kw['hi'])}; the box holds nothing")
-    return Boundary(**kw)
-
-
+    return as_number(t, f"{where}.dynamic_time", src)
 
 
 def _object(o: dict, where: str, src: Path) -> ObjectSpec:
-    _check_keys(o, _OBJECT_KEYS, where, src)
+    check_keys(o, _OBJECT_KEYS, where, src)
     if "file" not in o:
         raise SceneError(f"{src}: {where} needs 'file'")
-    name = _string(o["file"], f"{where}.file", src)
+    name = as_string(o["file"], f"{where}.file", src)
     f = (src.parent / name).resolve()
     if f.is_dir():
         raise SceneError(f"{src}: {where}.file '{name}' is a directory (looked at {f}); expected a Gaussian "
@@ -300,33 +192,33 @@ def _object(o: dict, where: str, src: Path) -> ObjectSpec:
     alpha = o.get("alpha", 1.5)
     if alpha is False or alpha is None:
         alpha = None
-    elif not _is_number(alpha) or not math.isfinite(alpha) or alpha <= 0:
-        _bad(src, f"{where}.alpha", alpha, "a positive number, or false to disable the control rule")
+    elif not is_number(alpha) or not math.isfinite(alpha) or alpha <= 0:
+        bad_value(src, f"{where}.alpha", alpha, "a positive number, or false to disable the control rule")
     else:
         alpha = float(alpha)
     return ObjectSpec(
         file=f,
-        up_axis=_string(o.get("up_axis", "+z"), f"{where}.up_axis", src, UP_AXES),
-        scale=_number(o.get("scale", 1.0), f"{where}.scale", src, *SCALE_RANGE),
-        recentre=_boolean(o.get("recentre", True), f"{where}.recentre", src),
-        position=_vec3(o.get("position", [0.0, 0.0, 0.0]), f"{where}.position", src, max_abs=MAX_COORD,
-                       unit=" m"),
-        velocity=_vec3(o.get("velocity", [0.0, 0.0, 0.0]), f"{where}.velocity", src, max_norm=MAX_SPEED,
-                       unit=" m/s"),
-        angular_velocity=_vec3(o.get("angular_velocity", [0.0, 0.0, 0.0]), f"{where}.angular_velocity", src,
-                               max_norm=MAX_SPIN, unit=" rad/s"),
-        material=_material(o.get("material", {}), f"{where}.material", src),
-        fill=_boolean(o.get("fill", True), f"{where}.fill", src), alpha=alpha,
-        thickness=_string(o.get("thickness", "keep"), f"{where}.thickness", src, ("keep", "eps")),
-        min_opacity=_number(o.get("min_opacity", 0.1), f"{where}.min_opacity", src, 0.0, 1.0),
-        core_fraction=_number(o.get("core_fraction", 1.0), f"{where}.core_fraction", src, 0.0, 1.0,
-                              lo_open=True),
-        if_open=_string(o.get("if_open", "warn"), f"{where}.if_open", src, ("warn", "error")),
-        surface=_string(o.get("surface", ObjectSpec.surface), f"{where}.surface", src, SURFACES),
+        up_axis=as_string(o.get("up_axis", "+z"), f"{where}.up_axis", src, UP_AXES),
+        scale=as_number(o.get("scale", 1.0), f"{where}.scale", src, *SCALE_RANGE),
+        recentre=as_boolean(o.get("recentre", True), f"{where}.recentre", src),
+        position=as_vec3(o.get("position", [0.0, 0.0, 0.0]), f"{where}.position", src, max_abs=MAX_COORD,
+                         unit=" m"),
+        velocity=as_vec3(o.get("velocity", [0.0, 0.0, 0.0]), f"{where}.velocity", src, max_norm=MAX_SPEED,
+                         unit=" m/s"),
+        angular_velocity=as_vec3(o.get("angular_velocity", [0.0, 0.0, 0.0]), f"{where}.angular_velocity", src,
+                                 max_norm=MAX_SPIN, unit=" rad/s"),
+        material=read_material(o.get("material", {}), f"{where}.material", src),
+        fill=as_boolean(o.get("fill", True), f"{where}.fill", src), alpha=alpha,
+        thickness=as_string(o.get("thickness", "keep"), f"{where}.thickness", src, ("keep", "eps")),
+        min_opacity=as_number(o.get("min_opacity", 0.1), f"{where}.min_opacity", src, 0.0, 1.0),
+        core_fraction=as_number(o.get("core_fraction", 1.0), f"{where}.core_fraction", src, 0.0, 1.0,
+                                lo_open=True),
+        if_open=as_string(o.get("if_open", "warn"), f"{where}.if_open", src, ("warn", "error")),
+        surface=as_string(o.get("surface", ObjectSpec.surface), f"{where}.surface", src, SURFACES),
         dynamic_time=_dynamic_time(o, f, where, src),
-        select=_select(o["select"], f"{where}.select", src) if "select" in o else None,
-        static=_static(o, where, src),
-        rotation=_vec3(o.get("rotation", [0.0, 0.0, 0.0]), f"{where}.rotation", src, max_abs=360.0, unit=" degrees"))
+        select=read_select(o["select"], f"{where}.select", src) if "select" in o else None,
+        static=read_static(o, where, src),
+        rotation=as_vec3(o.get("rotation", [0.0, 0.0, 0.0]), f"{where}.rotation", src, max_abs=360.0, unit=" degrees"))
 
 
 def load_scene(path: str | Path) -> Scene:
@@ -378,65 +270,27 @@ def parse_scene(data: dict, src: Path) -> Scene:
         As :func:`load_scene`; never another exception type for any ``data`` a TOML parser returns.
     """
     src = Path(src)
-    data = _table(data, "the scene", src)
-    _check_keys(data, _TOP_KEYS, "the top level", src)
+    data = as_table(data, "the scene", src)
+    check_keys(data, _TOP_KEYS, "the top level", src)
     base = src.parent
-    engine = _engine(data.get("engine", {}), src)
-    domain = _domain(data.get("domain", {}), src)
-    boundaries = [_boundary(b, f"[[boundary]] #{i + 1}", src)
-                  for i, b in enumerate(_tables(data.get("boundary", []), "boundary", src))]
-    obj_list = _tables(data.get("object", []), "object", src)
+    engine = read_engine(data.get("engine", {}), src)
+    domain = read_domain(data.get("domain", {}), src)
+    boundaries = [read_boundary(b, f"[[boundary]] #{i + 1}", src)
+                  for i, b in enumerate(as_tables(data.get("boundary", []), "boundary", src))]
+    obj_list = as_tables(data.get("object", []), "object", src)
     if not obj_list:
         raise SceneError(f"{src}: the scene has no [[object]]")
     objects = [_object(o, f"[[object]] #{i + 1}", src) for i, o in enumerate(obj_list)]
     if all(o.static for o in objects):
         raise SceneError(f"{src}: every [[object]] is static = true; nothing to simulate")
-    n_frames = _integer(data.get("n_frames", 30), "n_frames", src, 1)
+    n_frames = as_integer(data.get("n_frames", 30), "n_frames", src, 1)
     output = data.get("output")
     if output is not None:
-        output = base / _string(output, "output", src)
-    extras = _scene_extras(data, src, objects)
+        output = base / as_string(output, "output", src)
+    extras = read_extras(data, src, objects)
     return Scene(
         **extras, path=src, objects=objects, engine=engine, domain=domain, boundaries=boundaries,
-        gravity=_vec3(data.get("gravity", [0.0, 0.0, -9.81]), "gravity", src, max_norm=MAX_GRAVITY,
-                      unit=" m/s^2"),
-        frame_dt=_number(data.get("frame_dt", 1.0 / 30.0), "frame_dt", src, 0.0, lo_open=True),
-        n_frames=n_frames, output=output, name=_string(data.get("name", src.stem), "name", src))
-
-
-def check_object(spec: ObjectSpec, g) -> None:
-    """Check an object's Gaussians against its placement before any work.
-
-    Parameters
-    ----------
-    spec : ObjectSpec
-    g : Gaussians
-        As read from ``spec.file`` (file units).
-
-    Raises
-    ------
-    SceneError
-        If there are no Gaussians, or if placed with ``spec.scale`` and ``spec.position`` a
-        Gaussian's centre would lie beyond :data:`MAX_COORD` metres from the origin on some axis,
-        or a Gaussian's largest scale would exceed :data:`MAX_COORD` metres; the message names the
-        file, the value and the limit.
-    """
-    f = spec.file
-    if g.n == 0:
-        raise SceneError(f"{f}: the file has 0 Gaussians; nothing to simulate")
-    x = g.means
-    lo, hi = x.min(axis=0), x.max(axis=0)
-    pos = max(abs(p) for p in spec.position)
-    if spec.recentre:  # centred on position horizontally, bottom at position: within one extent of it
-        reach = spec.scale * float(np.max(hi - lo)) + pos
-    else:
-        reach = spec.scale * float(np.max(np.maximum(np.abs(lo), np.abs(hi)))) + pos
-    if not reach <= MAX_COORD:
-        raise SceneError(f"{f}: placed with scale = {spec.scale:g} at position = {list(spec.position)}, the "
-                         f"Gaussians reach {reach:.3g} m from the origin; expected at most {MAX_COORD:g} m "
-                         "(engines compute in float32; check 'scale' and the file's units)")
-    s_max = spec.scale * float(g.scales.max())
-    if not s_max <= MAX_COORD:
-        k = int(np.argmax(g.scales.max(axis=1)))
-        raise SceneError(f"{f}: Gaussian {k} has a scale of {s_max:.3g} m after scale = {spec.scale:g}; "
-                         f"expected at most {MAX_COORD:g} m")
+        gravity=as_vec3(data.get("gravity", [0.0, 0.0, -9.81]), "gravity", src, max_norm=MAX_GRAVITY,
+                        unit=" m/s^2"),
+        frame_dt=as_number(data.get("frame_dt", 1.0 / 30.0), "frame_dt", src, 0.0, lo_open=True),
+        n_frames=n_frames, output=output, name=as_string(data.get("name", src.stem), "name", src))

@@ -22,52 +22,59 @@ def _shown(value) -> str:
     return f"{r} ({kind})"
 
 
-def _bad(src: Path, key: str, value, expected: str) -> NoReturn:
+def bad_value(src: Path, key: str, value, expected: str) -> NoReturn:
+    """Raise the one-line :class:`SceneError` ``"<src>: <key> = <value> (<TOML type>); expected <expected>"``."""
     raise SceneError(f"{src}: {key} = {_shown(value)}; expected {expected}")
 
 
-def _check_keys(table: dict, allowed: set[str], where: str, src: Path) -> None:
+def check_keys(table: dict, allowed: set[str], where: str, src: Path) -> None:
+    """Refuse keys of ``table`` not in ``allowed``: a :class:`SceneError` naming them, ``where`` and the
+    allowed keys."""
     unknown = sorted(set(table) - allowed)
     if unknown:
         raise SceneError(f"{src}: unknown key(s) {unknown} in {where}; allowed: {sorted(allowed)}")
 
 
-def _is_number(value) -> bool:
+def is_number(value) -> bool:
+    """True for a TOML integer or float (a boolean is not a number here)."""
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
-def _table(value, key: str, src: Path) -> dict:
+def as_table(value, key: str, src: Path) -> dict:
+    """``value`` if it is a table (dict); else a :class:`SceneError` naming ``key``."""
     if not isinstance(value, dict):
-        _bad(src, key, value, "a table")
+        bad_value(src, key, value, "a table")
     return value
 
 
-def _tables(value, key: str, src: Path) -> list[dict]:
+def as_tables(value, key: str, src: Path) -> list[dict]:
     """An array of tables (``[[key]]``); a single table is an error, not a one-element list."""
     if not isinstance(value, list) or not all(isinstance(t, dict) for t in value):
-        _bad(src, key, value, f"an array of tables ([[{key}]] sections)")
+        bad_value(src, key, value, f"an array of tables ([[{key}]] sections)")
     return value
 
 
-def _string(value, key: str, src: Path, choices=None) -> str:
+def as_string(value, key: str, src: Path, choices=None) -> str:
+    """``value`` if it is a non-empty string, or one of ``choices`` when given; else a :class:`SceneError`."""
     if choices is not None:
         if not isinstance(value, str) or value not in choices:
-            _bad(src, key, value, f"one of {sorted(choices) if isinstance(choices, (set, frozenset)) else list(choices)}")
+            bad_value(src, key, value, f"one of {sorted(choices) if isinstance(choices, (set, frozenset)) else list(choices)}")
     elif not isinstance(value, str) or not value:
-        _bad(src, key, value, "a non-empty string")
+        bad_value(src, key, value, "a non-empty string")
     return value
 
 
-def _boolean(value, key: str, src: Path) -> bool:
+def as_boolean(value, key: str, src: Path) -> bool:
+    """``value`` if it is ``true`` or ``false`` (not 0/1, not a string); else a :class:`SceneError`."""
     if not isinstance(value, bool):
-        _bad(src, key, value, "true or false")
+        bad_value(src, key, value, "true or false")
     return value
 
 
-def _number(value, key: str, src: Path, lo: float | None = None, hi: float | None = None,
-            lo_open: bool = False, hi_open: bool = False) -> float:
-    """A finite float or integer (never a boolean) in the range given; ``float``."""
-    ok = _is_number(value) and math.isfinite(value)
+def as_number(value, key: str, src: Path, lo: float | None = None, hi: float | None = None,
+              lo_open: bool = False, hi_open: bool = False) -> float:
+    """A finite float or integer (never a boolean) in the range given, as ``float``; else a :class:`SceneError`."""
+    ok = is_number(value) and math.isfinite(value)
     if ok and lo is not None:
         ok = value > lo if lo_open else value >= lo
     if ok and hi is not None:
@@ -81,28 +88,29 @@ def _number(value, key: str, src: Path, lo: float | None = None, hi: float | Non
             rng = f" {'<' if hi_open else '<='} {hi:g}"
         else:
             rng = f" in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
-        _bad(src, key, value, f"a finite number{rng}")
+        bad_value(src, key, value, f"a finite number{rng}")
     return float(value)
 
 
-def _integer(value, key: str, src: Path, lo: int, hi: int | None = None) -> int:
-    """An integer (not a float such as 24.9 or 24.0, not a boolean) in ``[lo, hi]``."""
+def as_integer(value, key: str, src: Path, lo: int, hi: int | None = None) -> int:
+    """An integer (not a float such as 24.9 or 24.0, not a boolean) in ``[lo, hi]``; else a :class:`SceneError`."""
     if not isinstance(value, int) or isinstance(value, bool) or value < lo or (hi is not None and value > hi):
-        _bad(src, key, value, f"an integer in [{lo}, {hi}]" if hi is not None else f"an integer >= {lo}")
+        bad_value(src, key, value, f"an integer in [{lo}, {hi}]" if hi is not None else f"an integer >= {lo}")
     return value
 
 
-def _vec3(value, key: str, src: Path, max_abs: float | None = None, max_norm: float | None = None,
-          unit: str = "") -> tuple[float, float, float]:
-    """A list of 3 finite numbers; each ``|component| <= max_abs`` and the length ``<= max_norm``."""
+def as_vec3(value, key: str, src: Path, max_abs: float | None = None, max_norm: float | None = None,
+            unit: str = "") -> tuple[float, float, float]:
+    """A list of 3 finite numbers; each ``|component| <= max_abs`` and the length ``<= max_norm``; else a
+    :class:`SceneError`. Returns a tuple of 3 floats."""
     if not isinstance(value, list) or len(value) != 3 or \
-            not all(_is_number(a) and math.isfinite(a) for a in value):
-        _bad(src, key, value, "a list of 3 finite numbers")
+            not all(is_number(a) and math.isfinite(a) for a in value):
+        bad_value(src, key, value, "a list of 3 finite numbers")
     v = tuple(float(a) for a in value)
     if max_abs is not None and max(abs(a) for a in v) > max_abs:
-        _bad(src, key, value, f"every component within +-{max_abs:g}{unit}")
+        bad_value(src, key, value, f"every component within +-{max_abs:g}{unit}")
     if max_norm is not None and math.sqrt(sum(a * a for a in v)) > max_norm:
-        _bad(src, key, value, f"a length of at most {max_norm:g}{unit}")
+        bad_value(src, key, value, f"a length of at most {max_norm:g}{unit}")
     return v
 
 

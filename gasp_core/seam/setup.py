@@ -45,7 +45,7 @@ class Material:
         Density, kg/m^3.
     yield_stress : float
         von Mises yield stress, Pa (metal, plasticine): the uniaxial stress at which a bar yields
-        (``gasp_core.toolkit.mpm.VON_MISES_RADIUS``).
+        (``gasp_core.toolkit.materials.VON_MISES_RADIUS``).
     friction_angle : float
         Drucker-Prager friction angle, degrees (sand).
     softening : float

@@ -11,15 +11,15 @@ See ``docs/writing_an_engine.md``.
 """
 from __future__ import annotations
 
-from gasp_core.testing.helpers import G, Check, box_points, check, make_setup, sphere_points, wall_margin
+from gasp_core.testing.helpers import GRAVITY, Check, box_points, check, make_setup, sphere_points, wall_margin
 from gasp_core.testing.kit import (EngineReport, evaluate_scene, record, Requires, resolve_engine, run_trace, Scene,
                                    SceneResult, Trace)
 from gasp_core.testing.scenes import check_engine, SCENES, scene_by_name, select_scenes
 
-__all__ = ["G", "Check", "EngineReport", "Requires", "SCENES", "Scene", "SceneResult", "Trace", "assert_conformance",
-           "box_points", "check", "check_engine", "conformance_params", "evaluate_scene", "make_setup",
-           "parametrize_conformance", "record", "resolve_engine", "run_trace", "scene_by_name", "select_scenes",
-           "sphere_points", "wall_margin"]
+__all__ = ["GRAVITY", "Check", "EngineReport", "Requires", "SCENES", "Scene", "SceneResult", "Trace",
+           "assert_conformance", "box_points", "check", "check_engine", "conformance_params", "evaluate_scene",
+           "make_setup", "parametrize_conformance", "record", "resolve_engine", "run_trace", "scene_by_name",
+           "select_scenes", "sphere_points", "wall_margin"]
 
 
 def __getattr__(name):  # the pytest helpers import pytest: only when asked for

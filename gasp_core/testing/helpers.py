@@ -10,7 +10,7 @@ from gasp_core.seam.engine import EngineInfo
 from gasp_core.seam.setup import Material, SimSetup
 
 #: Standard gravity, m/s^2.
-G = 9.81
+GRAVITY = 9.81
 
 
 @dataclass
@@ -62,7 +62,7 @@ def wall_margin(info: EngineInfo, dx: float) -> float:
     return 3.0 * dx if "grid" in info.capabilities.features else 0.0
 
 
-def make_setup(x, p_vol, material: Material, *, v=0.0, gravity=(0.0, 0.0, -G), lo=(0, 0, 0), hi=(1, 1, 1),
+def make_setup(x, p_vol, material: Material, *, v=0.0, gravity=(0.0, 0.0, -GRAVITY), lo=(0, 0, 0), hi=(1, 1, 1),
                n_grid=16, boundaries=(), frame_dt=1.0 / 30.0, options=None, C=None) -> SimSetup:
     """A one-body :class:`SimSetup` in the domain ``[lo, hi]`` (default the unit cube), SI units."""
     return SimSetup(x=x, v=v, p_vol=p_vol, body_id=0, materials=[material],

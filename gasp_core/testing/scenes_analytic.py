@@ -24,7 +24,7 @@ import numpy as np
 
 from gasp_core.seam.engine import EngineInfo
 from gasp_core.seam.setup import Boundary, Material, SimSetup
-from gasp_core.testing.helpers import box_points, Check, check as _check, G, make_setup as _setup, sphere_points
+from gasp_core.testing.helpers import box_points, Check, check, GRAVITY, make_setup, sphere_points
 from gasp_core.testing.kit import Requires, Scene, Trace
 
 __all__ = ["SCENES_ANALYTIC", "hertz_contact", "HERTZ_FORCE_FRAC", "timoshenko_cantilever"]
@@ -37,7 +37,7 @@ def _band(name: str, value: float, lo: float, hi: float, what: str, **figures) -
                  {"value": float(value), "lo": float(lo), "hi": float(hi), **{k: float(v) for k, v in figures.items()}})
 
 
-def timoshenko_cantilever(E: float, nu: float, rho: float, L: float, h: float, g: float = G,
+def timoshenko_cantilever(E: float, nu: float, rho: float, L: float, h: float, g: float = GRAVITY,
                           n_el: int = 200) -> tuple[float, float]:
     """Static tip deflection under self-weight and first bending frequency of a clamped-free bar of
     square section ``h x h``, Timoshenko beam theory (shear deformation and rotary inertia).
@@ -108,7 +108,7 @@ RESTITUTION_BAND = (0.80, 1.02)
 HERTZ_TOL = 0.15
 
 
-def hertz_contact(m: float, R: float, E_star: float, v: float, g: float = G,
+def hertz_contact(m: float, R: float, E_star: float, v: float, g: float = GRAVITY,
                   frac: float = HERTZ_FORCE_FRAC, n: int = 20000) -> dict[str, float]:
     """Hertz impact of an elastic sphere on a rigid plane, with gravity during the contact.
 
@@ -159,13 +159,13 @@ def _build_bounce(info: EngineInfo) -> SimSetup:
     dx = 1.0 / BOUNCE_NGRID
     ground = 3 * dx
     x, p_vol = sphere_points((0.5, 0.5, ground + BOUNCE_R + BOUNCE_DROP), BOUNCE_R, dx / 2)
-    return _setup(x, p_vol, BOUNCE_MAT, n_grid=BOUNCE_NGRID, frame_dt=1.0 / BOUNCE_FPS,
+    return make_setup(x, p_vol, BOUNCE_MAT, n_grid=BOUNCE_NGRID, frame_dt=1.0 / BOUNCE_FPS,
                   boundaries=[Boundary("ground", height=ground, friction=0.0)])
 
 
 def _bounce_frames() -> int:
-    v = math.sqrt(2 * G * BOUNCE_DROP)
-    return int(math.ceil((v / G + 0.12 + 0.6 * v / G) * BOUNCE_FPS))  # fall, contact, part of the rise
+    v = math.sqrt(2 * GRAVITY * BOUNCE_DROP)
+    return int(math.ceil((v / GRAVITY + 0.12 + 0.6 * v / GRAVITY) * BOUNCE_FPS))  # fall, contact, part of the rise
 
 
 def ground_force(tr: Trace) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -194,14 +194,14 @@ def _eval_bounce(info: EngineInfo, tr: Trace) -> list[Check]:
     Fmax = float(F.max())
     thr = HERTZ_FORCE_FRAC * Fmax
     idx = np.nonzero(F > thr)[0]
-    fail = lambda why: [Check("rebound", False, why, {"F_max_over_Mg": Fmax / (M * G)})]  # noqa: E731
-    if Fmax < 0.5 * M * G or len(idx) == 0:
-        return fail(f"the ball never pressed on the ground (peak force {Fmax / (M * G):.2f} M g)")
+    fail = lambda why: [Check("rebound", False, why, {"F_max_over_Mg": Fmax / (M * GRAVITY)})]  # noqa: E731
+    if Fmax < 0.5 * M * GRAVITY or len(idx) == 0:
+        return fail(f"the ball never pressed on the ground (peak force {Fmax / (M * GRAVITY):.2f} M g)")
     i0, i1 = int(idx[0]), int(idx[-1])
     if i0 < 3:
         return fail("the ground force starts in the first frames: no free fall before the impact")
     if i1 + 4 >= len(F):
-        return fail(f"the ball is still on the ground at the end of the run (ground force {F[-1] / (M * G):.2f} "
+        return fail(f"the ball is still on the ground at the end of the run (ground force {F[-1] / (M * GRAVITY):.2f} "
                     f"M g in the last frame): no rebound")
     # threshold crossings, linearly interpolated between frame midpoints
     t_s = tm[i0 - 1] + (thr - F[i0 - 1]) / (F[i0] - F[i0 - 1]) * (tm[i0] - tm[i0 - 1])
@@ -220,12 +220,12 @@ def _eval_bounce(info: EngineInfo, tr: Trace) -> list[Check]:
     return [_band("restitution", e, *RESTITUTION_BAND,
                   f"v_out / v_in at the contact's ends (v_in {v_in:.3f}, v_out {v_out:.3f} m/s; elastic: 1)",
                   v_in=v_in, v_out=v_out),
-            _check("hertz_duration", abs(rel), HERTZ_TOL,
+            check("hertz_duration", abs(rel), HERTZ_TOL,
                    f"|t_above / t_above_Hertz - 1| with t_above the time the ground force exceeds "
                    f"{HERTZ_FORCE_FRAC:.0%} of its peak (measured {dur * 1e3:.2f} ms, Hertz {hz['t_above'] * 1e3:.2f} ms; "
                    f"whole contact 2.87(m^2/(R E*^2 v))^(1/5) = {hz['t_formula'] * 1e3:.2f} ms, "
                    f"{hz['t_contact'] * 1e3:.2f} ms with gravity; signed error {rel:+.3f}; "
-                   f"peak force {Fmax / (M * G):.2f} M g vs Hertz {hz['F_max'] / (M * G):.2f})",
+                   f"peak force {Fmax / (M * GRAVITY):.2f} M g vs Hertz {hz['F_max'] / (M * GRAVITY):.2f})",
                    measured=dur, expected=hz["t_above"], signed=rel)]
 
 
@@ -243,7 +243,7 @@ SAG_T = 0.6                            # ~6.6 periods of the first axial mode (q
 SAG_TOL = 0.05
 
 
-def sag_shortening(z_b: float, z_t: float, H: float, rho: float, E: float, g: float = G) -> float:
+def sag_shortening(z_b: float, z_t: float, H: float, rho: float, E: float, g: float = GRAVITY) -> float:
     """Shortening (m) between heights ``z_b < z_t`` (above the base) of a column of height ``H``
     under its own weight in uniaxial stress: ``sigma_zz = rho g (H - z)``, so
     ``delta = rho g ((H - z_b)^2 - (H - z_t)^2) / (2 E)``; ``rho g H^2 / (2 E)`` from base to top.
@@ -262,7 +262,7 @@ def _build_sag(info: EngineInfo) -> SimSetup:
     c = 0.5
     x, p_vol = box_points((c - SAG_SIDE / 2, c - SAG_SIDE / 2, ground), (c + SAG_SIDE / 2, c + SAG_SIDE / 2,
                                                                       ground + SAG_H), dx / 2)
-    return _setup(x, p_vol, SAG_MAT, n_grid=SAG_NGRID, frame_dt=SAG_FRAME_DT,
+    return make_setup(x, p_vol, SAG_MAT, n_grid=SAG_NGRID, frame_dt=SAG_FRAME_DT,
                   boundaries=[Boundary("ground", height=ground, friction=0.0)])
 
 
@@ -293,7 +293,7 @@ def _eval_sag(info: EngineInfo, tr: Trace) -> list[Check]:
     f_ref = c_bar / (4 * SAG_H)
     level, f = _fit_mean(tr.t[1:], short[1:], 0.5 * f_ref, 2.0 * f_ref)
     rel = (level - expected) / expected
-    return [_check("sag", abs(rel), SAG_TOL,
+    return [check("sag", abs(rel), SAG_TOL,
                    f"|shortening - rho g (H^2 - ...)/(2E)| / expected, bottom to top point layer, level the "
                    f"axial oscillation is about (measured {level * 1e3:.4f} mm, expected {expected * 1e3:.4f} mm; "
                    f"rho g H^2/(2E) = {sag_shortening(0, SAG_H, SAG_H, mat.rho, mat.E) * 1e3:.4f} mm; oscillation "
@@ -325,7 +325,7 @@ def _build_wave(info: EngineInfo) -> SimSetup:
     x, p_vol = box_points((WAVE_X[0], 0.5 - h, 0.5 - h), (WAVE_X[1], 0.5 + h, 0.5 + h), dx / 2)
     v = np.zeros_like(x)
     v[x[:, 0] < WAVE_SPLIT, 0] = WAVE_V0
-    return _setup(x, p_vol, WAVE_MAT, v=v, gravity=(0.0, 0.0, 0.0), n_grid=WAVE_NGRID, frame_dt=WAVE_FRAME_DT)
+    return make_setup(x, p_vol, WAVE_MAT, v=v, gravity=(0.0, 0.0, 0.0), n_grid=WAVE_NGRID, frame_dt=WAVE_FRAME_DT)
 
 
 def _front_speed(tr: Trace) -> float:
@@ -368,7 +368,7 @@ def _eval_wave(info: EngineInfo, tr: Trace) -> list[Check]:
     lam_2mu = mat.E * (1 - mat.nu) / ((1 + mat.nu) * (1 - 2 * mat.nu))
     rel = (c - c0) / c0
     cf = _front_speed(tr)
-    return [_check("wave_speed", abs(rel), WAVE_TOL,
+    return [check("wave_speed", abs(rel), WAVE_TOL,
                    f"|c - sqrt(E/rho)| / sqrt(E/rho), c = 2 (dP/dt) / ((M/L) v0) from the momentum the front "
                    f"carries into the resting part (c {c:.3f} m/s, sqrt(E/rho) {c0:.3f} m/s, P wave "
                    f"{math.sqrt(lam_2mu / mat.rho):.3f} m/s; signed {rel:+.4f}; the front's half-height arrival "

@@ -15,7 +15,7 @@ import numpy as np
 
 from gasp_core.seam.engine import EngineInfo
 from gasp_core.seam.setup import Boundary, Material, SimSetup
-from gasp_core.testing.helpers import box_points, Check, check as _check, G, make_setup as _setup, sphere_points
+from gasp_core.testing.helpers import box_points, Check, check, GRAVITY, make_setup, sphere_points
 from gasp_core.testing.kit import Requires, run_trace, Scene, Trace
 
 def _kabsch_angle_z(a: np.ndarray, b: np.ndarray) -> float:
@@ -38,25 +38,25 @@ def _build_resting(info: EngineInfo) -> SimSetup:
     dx = 1.0 / 16
     x, p_vol = box_points((0.375, 0.375, GROUND_H), (0.625, 0.625, GROUND_H + 0.25), dx / 2)
     x[:, 2] += 0.5 * dx  # dropped from half a cell: a small impact to settle from
-    return _setup(x, p_vol, Material("jelly", E=1e5, nu=0.3, rho=1000.0),
-                  boundaries=[Boundary("ground", height=GROUND_H, friction=0.5)], frame_dt=1 / 30)
+    return make_setup(x, p_vol, Material("jelly", E=1e5, nu=0.3, rho=1000.0),
+                      boundaries=[Boundary("ground", height=GROUND_H, friction=0.5)], frame_dt=1 / 30)
 
 
 def _eval_resting(info: EngineInfo, tr: Trace) -> list[Check]:
     dx = tr.setup.dx
     ke = tr.kinetic()
     m = tr.p_mass.sum()
-    e_drop = m * G * 0.5 * dx  # energy of the half-cell drop, J
+    e_drop = m * GRAVITY * 0.5 * dx  # energy of the half-cell drop, J
     late = float(ke[-5:].mean())
-    checks = [_check("settles", late / e_drop, 0.05,
-                     "mean kinetic energy of the last 5 frames / (M g drop height)", peak_ke=ke.max(),
-                     late_ke=late, e_drop=e_drop)]
+    checks = [check("settles", late / e_drop, 0.05,
+                    "mean kinetic energy of the last 5 frames / (M g drop height)", peak_ke=ke.max(),
+                    late_ke=late, e_drop=e_drop)]
     below = float(GROUND_H - tr.x[:, :, 2].min())
-    checks.append(_check("ground_penetration", below / dx, 1.0,
-                         "deepest point below the ground over all frames, in dx"))
+    checks.append(check("ground_penetration", below / dx, 1.0,
+                        "deepest point below the ground over all frames, in dx"))
     c = tr.centroid()
     drift = float(np.hypot(*(c[:, :2] - c[0, :2]).T).max())
-    checks.append(_check("horizontal_drift", drift / dx, 0.05, "max horizontal centroid drift, in dx"))
+    checks.append(check("horizontal_drift", drift / dx, 0.05, "max horizontal centroid drift, in dx"))
     return checks
 
 
@@ -67,22 +67,22 @@ BOUNCE_TOL = 0.02  # of the impact energy M g h
 def _build_bounce(info: EngineInfo) -> SimSetup:
     dx = 1.0 / 16
     x, p_vol = sphere_points((0.5, 0.5, 0.45), 0.12, dx / 2)
-    return _setup(x, p_vol, Material("jelly", E=2e5, nu=0.3, rho=1000.0),
-                  boundaries=[Boundary("ground", height=GROUND_H, friction=0.0)], frame_dt=1 / 60)
+    return make_setup(x, p_vol, Material("jelly", E=2e5, nu=0.3, rho=1000.0),
+                      boundaries=[Boundary("ground", height=GROUND_H, friction=0.0)], frame_dt=1 / 60)
 
 
 def _eval_bounce(info: EngineInfo, tr: Trace) -> list[Check]:
     e = tr.kinetic() + tr.potential()
     m = tr.p_mass.sum()
-    scale = m * G * float(tr.x[0, :, 2].min() - GROUND_H)  # energy released by the fall to contact
+    scale = m * GRAVITY * float(tr.x[0, :, 2].min() - GROUND_H)  # energy released by the fall to contact
     rise = float((e - e[0]).max())
     k = int(np.argmax(e - e[0]))
-    return [_check("energy_never_increases", rise / scale, BOUNCE_TOL,
-                   f"max over frames of (E_kin + E_pot - E0) / (M g h) (at frame {k})",
-                   scale=scale, e0=e[0], e_end=e[-1]),
-            _check("bounced", -float(tr.v[:, :, 2].mean(axis=1).max()), 0.0,
-                   "-(largest mean upward velocity) (must be <= 0: the body hit the ground and rebounded "
-                   "or stopped)", " m/s")]
+    return [check("energy_never_increases", rise / scale, BOUNCE_TOL,
+                  f"max over frames of (E_kin + E_pot - E0) / (M g h) (at frame {k})",
+                  scale=scale, e0=e[0], e_end=e[-1]),
+            check("bounced", -float(tr.v[:, :, 2].mean(axis=1).max()), 0.0,
+                  "-(largest mean upward velocity) (must be <= 0: the body hit the ground and rebounded "
+                  "or stopped)", " m/s")]
 
 
 # --- momentum in free flight ----------------------------------------------------------------
@@ -94,7 +94,7 @@ def _build_momentum(info: EngineInfo) -> SimSetup:
     x, p_vol = box_points((0.25, 0.375, 0.375), (0.5, 0.625, 0.625), dx / 2)
     rng = np.random.default_rng(7)
     v = np.array([0.5, 0.25, -0.2]) + rng.uniform(-0.3, 0.3, size=x.shape)
-    return _setup(x, p_vol, Material("jelly", E=1e5, nu=0.3, rho=1000.0), v=v, gravity=(0, 0, 0))
+    return make_setup(x, p_vol, Material("jelly", E=1e5, nu=0.3, rho=1000.0), v=v, gravity=(0, 0, 0))
 
 
 def _eval_momentum(info: EngineInfo, tr: Trace) -> list[Check]:
@@ -105,9 +105,9 @@ def _eval_momentum(info: EngineInfo, tr: Trace) -> list[Check]:
     m = tr.p_mass.sum()
     pred = c[0] + np.outer(tr.t, p[0] / m)
     cerr = float(np.linalg.norm(c - pred, axis=1).max() / np.linalg.norm(pred[-1] - c[0]))
-    return [_check("momentum_constant", err, MOMENTUM_TOL, "max |P(t) - P0| / |P0|"),
-            _check("centroid_uniform_motion", cerr, MOMENTUM_TOL,
-                   "max |c(t) - c0 - P0 t / M| / |P0 t_end / M|")]
+    return [check("momentum_constant", err, MOMENTUM_TOL, "max |P(t) - P0| / |P0|"),
+            check("centroid_uniform_motion", cerr, MOMENTUM_TOL,
+                  "max |c(t) - c0 - P0 t / M| / |P0 t_end / M|")]
 
 
 # --- spinning body --------------------------------------------------------------------------
@@ -125,7 +125,7 @@ def _build_spinning(info: EngineInfo) -> SimSetup:
     # engines that declare the feature "initial_C" (the core refuses it to the others)
     W = np.array([[0.0, -OMEGA, 0.0], [OMEGA, 0.0, 0.0], [0.0, 0.0, 0.0]])
     C = np.broadcast_to(W, (len(x), 3, 3)).copy() if "initial_C" in info.capabilities.features else None
-    return _setup(x, p_vol, Material("jelly", E=1e5, nu=0.3, rho=1000.0), v=v, gravity=(0, 0, 0), C=C)
+    return make_setup(x, p_vol, Material("jelly", E=1e5, nu=0.3, rho=1000.0), v=v, gravity=(0, 0, 0), C=C)
 
 
 def _pairs(n: int, x0: np.ndarray, min_dist: float, k: int = 400) -> tuple[np.ndarray, np.ndarray]:
@@ -152,13 +152,13 @@ def _eval_spinning(info: EngineInfo, tr: Trace) -> list[Check]:
     angle = _kabsch_angle_z(x0, tr.x[-1])
     expected = OMEGA * tr.t[-1]
     ang_err = abs(angle - expected) / expected
-    return [_check("distances_preserved", dist_err, SPIN_DIST_TOL,
-                   "max relative change of point-pair distances (pairs > 2 dx apart)"),
-            _check("angular_momentum", l_err, SPIN_L_TOL,
-                   f"max |L_z(t) / L_z(frame 1) - 1| (L_z(frame 1) / L_z(0) = {lz[1] / lz[0]:.4f})"),
-            _check("rotation_angle", ang_err, 0.05,
-                   f"|rigid-fit angle - omega t| / (omega t) (angle {math.degrees(angle):.2f} deg, "
-                   f"expected {math.degrees(expected):.2f} deg)")]
+    return [check("distances_preserved", dist_err, SPIN_DIST_TOL,
+                  "max relative change of point-pair distances (pairs > 2 dx apart)"),
+            check("angular_momentum", l_err, SPIN_L_TOL,
+                  f"max |L_z(t) / L_z(frame 1) - 1| (L_z(frame 1) / L_z(0) = {lz[1] / lz[0]:.4f})"),
+            check("rotation_angle", ang_err, 0.05,
+                  f"|rigid-fit angle - omega t| / (omega t) (angle {math.degrees(angle):.2f} deg, "
+                  f"expected {math.degrees(expected):.2f} deg)")]
 
 
 # --- determinism ----------------------------------------------------------------------------
@@ -168,8 +168,8 @@ def _build_determinism(info: EngineInfo) -> SimSetup:
     x, p_vol = box_points((0.35, 0.4, 0.3), (0.6, 0.6, 0.45), dx / 2)
     c = x.mean(axis=0)
     v = np.array([0.4, 0.0, 0.0]) + np.cross([0.0, 2.0, 1.0], x - c)
-    return _setup(x, p_vol, Material("jelly", E=1e5, nu=0.3, rho=1000.0), v=v,
-                  boundaries=[Boundary("ground", height=GROUND_H, friction=0.5)])
+    return make_setup(x, p_vol, Material("jelly", E=1e5, nu=0.3, rho=1000.0), v=v,
+                      boundaries=[Boundary("ground", height=GROUND_H, friction=0.5)])
 
 
 def _eval_determinism(info: EngineInfo, tr: Trace) -> list[Check]:
@@ -197,8 +197,8 @@ def _build_invariance(info: EngineInfo) -> SimSetup:
     x, p_vol = box_points((0.2, 0.3, 0.25), (0.5, 0.45, 0.35), dx / 2)
     c = x.mean(axis=0)
     v = np.array([0.6, 0.3, 0.0]) + np.cross([1.5, 0.0, 0.5], x - c)
-    return _setup(x, p_vol, Material("jelly", E=1e5, nu=0.3, rho=1000.0), v=v,
-                  boundaries=[Boundary("ground", height=GROUND_H, friction=0.2)])
+    return make_setup(x, p_vol, Material("jelly", E=1e5, nu=0.3, rho=1000.0), v=v,
+                      boundaries=[Boundary("ground", height=GROUND_H, friction=0.2)])
 
 
 def _rot_z90(p: np.ndarray, centre: np.ndarray) -> np.ndarray:
@@ -236,9 +236,9 @@ def _eval_invariance(info: EngineInfo, tr: Trace) -> list[Check]:
     err = np.linalg.norm(b.x - expect, axis=2)
     dx = tr.setup.dx
     moved = float(np.linalg.norm(tr.x[-1] - tr.x[0], axis=1).max())
-    return [_check("rotated_translated_matches", float(err.max()) / dx, INV_TOL_DX,
-                   f"max |x_B - (R x_A + t)| over all frames, in dx (mean {err.mean() / dx:.3g} dx; "
-                   f"points moved up to {moved / dx:.1f} dx)")]
+    return [check("rotated_translated_matches", float(err.max()) / dx, INV_TOL_DX,
+                  f"max |x_B - (R x_A + t)| over all frames, in dx (mean {err.mean() / dx:.3g} dx; "
+                  f"points moved up to {moved / dx:.1f} dx)")]
 
 
 

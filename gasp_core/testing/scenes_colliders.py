@@ -19,10 +19,11 @@ import math
 
 import numpy as np
 
-from gasp_core.colliders.model import Motion, SDF_SPACING, box_collider
+from gasp_core.colliders.model import Motion
+from gasp_core.colliders.sdf import box_collider, SDF_SPACING
 from gasp_core.seam.engine import EngineInfo
 from gasp_core.seam.setup import Boundary, Material, SimSetup
-from gasp_core.testing.helpers import box_points, Check, check as _check, G, make_setup as _setup
+from gasp_core.testing.helpers import box_points, Check, check, GRAVITY, make_setup
 from gasp_core.testing.kit import Requires, Scene, Trace
 
 N_GRID = 32
@@ -63,7 +64,7 @@ def _build_incline(mu: float, size=CUBE) -> SimSetup:
     local, p_vol = box_points((-Ls / 2, -Ly / 2, 0.25 * DX), (Ls / 2, Ly / 2, 0.25 * DX + Ln), DX / 2)
     start = top - 0.08 * s                                      # upslope of the face centre
     x = start + local[:, :1] * s + local[:, 1:2] * np.array([0.0, 1.0, 0.0]) + local[:, 2:] * n
-    setup = _setup(x, p_vol, BLOCK, n_grid=N_GRID, frame_dt=0.02)
+    setup = make_setup(x, p_vol, BLOCK, n_grid=N_GRID, frame_dt=0.02)
     setup.colliders = [col]
     return setup
 
@@ -87,23 +88,23 @@ def _eval_incline(mu: float):
         t = tr.t
         checks = []
         if mu < math.tan(th):
-            expected = G * (math.sin(th) - mu * math.cos(th))
+            expected = GRAVITY * (math.sin(th) - mu * math.cos(th))
             late = t >= 0.1                                      # after settling onto the slope
             a_fit = 2.0 * np.polyfit(t[late], along[late], 2)[0]
-            checks.append(_check("slide_acceleration", abs(a_fit - expected) / expected, INCLINE_TOL,
+            checks.append(check("slide_acceleration", abs(a_fit - expected) / expected, INCLINE_TOL,
                                  f"|a - g (sin th - mu cos th)| / expected (a = {a_fit:.3f}, expected "
                                  f"{expected:.3f} m/s^2, mu = {mu})", a=a_fit, expected=expected,
                                  signed=(a_fit - expected) / expected))
         else:
-            free = 0.5 * G * math.sin(th) * t[-1] ** 2
+            free = 0.5 * GRAVITY * math.sin(th) * t[-1] ** 2
             tilt = _tilt_deg(tr.x[0], tr.x[-1])
-            checks.append(_check("stick_displacement", float(abs(along[-1])) / DX, 0.5,
-                                 f"|centroid travel down the slope| after {t[-1]:.2f} s, in dx (frictionless "
-                                 f"it would be {free / DX:.0f} dx; mu = {mu} > tan th = {math.tan(th):.3f}; "
-                                 f"block turned {tilt:.1f} deg)", tilt_deg=tilt))
+            checks.append(check("stick_displacement", float(abs(along[-1])) / DX, 0.5,
+                                f"|centroid travel down the slope| after {t[-1]:.2f} s, in dx (frictionless "
+                                f"it would be {free / DX:.0f} dx; mu = {mu} > tan th = {math.tan(th):.3f}; "
+                                f"block turned {tilt:.1f} deg)", tilt_deg=tilt))
         depth = float(np.max(-((tr.x[-1] - (np.array([0.45, 0.5, 0.45]))) @ n)))
-        checks.append(_check("penetration", depth / DX, 1.0, "deepest point below the slope's surface at the end, "
-                             "in dx"))
+        checks.append(check("penetration", depth / DX, 1.0, "deepest point below the slope's surface at the end, "
+                            "in dx"))
         return checks
     return evaluate
 
@@ -125,8 +126,8 @@ def _build_pusher(info: EngineInfo) -> SimSetup:
     centre = np.array([lo[0] - gap - half[0], 0.5, GROUND_H + half[2] + DX])
     col = box_collider(half, SDF_SPACING * DX, name="pusher", friction=0.0, position=centre,
                        motion=Motion(velocity=(PUSH_SPEED, 0.0, 0.0)))
-    setup = _setup(x, p_vol, BLOCK, n_grid=N_GRID, frame_dt=0.02,
-                   boundaries=[Boundary("ground", height=GROUND_H, friction=0.3)])
+    setup = make_setup(x, p_vol, BLOCK, n_grid=N_GRID, frame_dt=0.02,
+                       boundaries=[Boundary("ground", height=GROUND_H, friction=0.3)])
     setup.colliders = [col]
     return setup
 
@@ -138,10 +139,10 @@ def _eval_pusher(info: EngineInfo, tr: Trace) -> list[Check]:
     speed = (c[late][-1, 0] - c[late][0, 0]) / (t[late][-1] - t[late][0])
     col = tr.setup.colliders[0]
     inside = max(float(-np.min(col.distance(tr.x[f], t[f]))) for f in range(len(t)))
-    return [_check("block_speed", abs(speed - PUSH_SPEED) / PUSH_SPEED, PUSH_TOL,
-                   f"|mean block speed over the last 0.3 s - pusher speed| / pusher speed (block "
-                   f"{speed:.4f} m/s, pusher {PUSH_SPEED} m/s)", speed=speed),
-            _check("pusher_penetration", inside / DX, 1.0, "deepest point inside the pusher over the run, in dx")]
+    return [check("block_speed", abs(speed - PUSH_SPEED) / PUSH_SPEED, PUSH_TOL,
+                  f"|mean block speed over the last 0.3 s - pusher speed| / pusher speed (block "
+                  f"{speed:.4f} m/s, pusher {PUSH_SPEED} m/s)", speed=speed),
+            check("pusher_penetration", inside / DX, 1.0, "deepest point inside the pusher over the run, in dx")]
 
 
 SCENES_COLLIDERS: list[Scene] = [

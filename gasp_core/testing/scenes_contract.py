@@ -30,7 +30,7 @@ from gasp_core.seam.build import build_engine
 from gasp_core.seam.engine import EngineInfo, FEATURES, Option
 from gasp_core.errors import EngineBug, EngineDivergence, GaspError, SceneError
 from gasp_core.seam.setup import BOUNDARIES, MATERIALS, Boundary, Material, SimSetup
-from gasp_core.testing.helpers import G, Check, box_points
+from gasp_core.testing.helpers import GRAVITY, Check, box_points
 from gasp_core.testing.kit import Requires, Scene, run_trace
 
 DX = 1.0 / 16
@@ -59,7 +59,7 @@ def _base(info: EngineInfo, material: Material | None = None, options=None, n_fr
     x, p_vol = box_points((0.4375, 0.4375, GROUND_H + DX), (0.5625, 0.5625, GROUND_H + DX + 0.125), DX / 2)
     bounds = [Boundary("ground", height=GROUND_H, friction=0.5)] if "ground" in info.capabilities.boundaries else []
     return SimSetup(x=x, v=0.0, p_vol=p_vol, body_id=0, materials=[material or _material(info)],
-                    gravity=np.array([0.0, 0.0, -G]), domain_lo=np.zeros(3), domain_hi=np.ones(3), n_grid=16,
+                    gravity=np.array([0.0, 0.0, -GRAVITY]), domain_lo=np.zeros(3), domain_hi=np.ones(3), n_grid=16,
                     boundaries=bounds, frame_dt=0.01, options=dict(options or {}))
 
 
@@ -127,7 +127,8 @@ def _run_refusals(info: EngineInfo) -> list[Check]:
 
 def _refused_extras(info: EngineInfo) -> list[Check]:
     """Colliders, forces and impulses the engine lacks are refused before the factory (gasp_core.colliders.model)."""
-    from gasp_core.colliders.model import ForceField, Impulse, Motion, box_collider
+    from gasp_core.colliders.model import ForceField, Impulse, Motion
+    from gasp_core.colliders.sdf import box_collider
     far = np.array([0.5, 0.5, 0.9])
     extras = {
         "static_colliders": {"colliders": [box_collider((0.05, 0.05, 0.05), DX, position=far)]},
@@ -190,7 +191,7 @@ def _run_declared_accepted(info: EngineInfo) -> list[Check]:
         else:
             bounds.append(Boundary(b))
     setup = SimSetup(x=x, v=0.0, p_vol=np.concatenate(vols), body_id=np.concatenate(ids).astype(np.int32),
-                     materials=[Material(m) for m in mats], gravity=np.array([0.0, 0.0, -G]),
+                     materials=[Material(m) for m in mats], gravity=np.array([0.0, 0.0, -GRAVITY]),
                      domain_lo=np.zeros(3), domain_hi=np.ones(3), n_grid=16, boundaries=bounds, frame_dt=0.01)
     kind, e = _outcome(info, setup, 2)
     what = f"materials {mats}, boundaries {sorted(caps.boundaries)}, {len(x)} points, 2 frames"

@@ -30,7 +30,7 @@ import numpy as np
 
 from gasp_core.seam.engine import EngineInfo
 from gasp_core.seam.setup import Material, SimSetup
-from gasp_core.testing.helpers import box_points, Check, check, G, make_setup
+from gasp_core.testing.helpers import box_points, Check, check, GRAVITY, make_setup
 from gasp_core.testing.kit import Requires, Scene, Trace
 
 #: Relative tolerance of each frame's drop, the drop so far and each frame's velocity change (issue 17:
@@ -49,7 +49,7 @@ def _build(info: EngineInfo) -> SimSetup:
                       frame_dt=FREE_FALL_DT)
 
 
-def symplectic_euler_drop(n_substeps: int | float, frame_dt: float, k: np.ndarray, g: float = G) -> np.ndarray:
+def symplectic_euler_drop(n_substeps: int | float, frame_dt: float, k: np.ndarray, g: float = GRAVITY) -> np.ndarray:
     """Drop from rest after ``k`` frames of ``n_substeps`` semi-implicit Euler substeps each, m.
 
     ``g (k T)^2 / 2 (1 + 1 / (k N))``; ``n_substeps = inf`` gives the continuous ``g t^2 / 2``.
@@ -65,7 +65,7 @@ def _evaluate(info: EngineInfo, tr: Trace) -> list[Check]:
     k = np.arange(len(c))
     per_point = tr.x[-1] - tr.x[0]
     if n is None:
-        expected = 0.5 * G * (k[-1] * T) ** 2
+        expected = 0.5 * GRAVITY * (k[-1] * T) ** 2
         rel = abs(-(c[-1, 2] - c[0, 2]) - expected) / expected
         checks = [check("drop_so_far", rel, FREE_FALL_TOL_UNDECLARED,
                         f"engine reports no n_substeps, so no exact answer: |drop - g t^2/2| / (g t^2/2) "
@@ -79,16 +79,16 @@ def _evaluate(info: EngineInfo, tr: Trace) -> list[Check]:
         err_frame = np.abs(d_frame - frame_ref) / frame_ref
         err_total = np.abs(drop[1:] - total[1:]) / total[1:]
         vz = np.einsum("i,fi->f", tr.p_mass, tr.v[:, :, 2]) / tr.p_mass.sum()
-        err_dv = np.abs(-np.diff(vz) - G * T) / (G * T)
+        err_dv = np.abs(-np.diff(vz) - GRAVITY * T) / (GRAVITY * T)
         # positions against velocities: D_k = T (|v_{k-1}| + |v_k|) / 2 + g T^2 / (2N)
-        lag = np.abs(d_frame - (-T * (vz[:-1] + vz[1:]) / 2 + 0.5 * G * T ** 2 / n)) / frame_ref
+        lag = np.abs(d_frame - (-T * (vz[:-1] + vz[1:]) / 2 + 0.5 * GRAVITY * T ** 2 / n)) / frame_ref
         f = int(np.argmax(err_frame))
         checks = [
             check("drop_per_frame", float(err_frame.max()), FREE_FALL_TOL,
                   f"max over frames k of |D_k - g T^2/2 ((2k-1) + 1/N)| / that, N = {n:g} substeps "
                   f"(worst frame {f + 1}: {d_frame[f] * 1e3:.5f} mm, expected {frame_ref[f] * 1e3:.5f} mm; "
-                  f"frame 1 vs g T^2/2: {d_frame[0] / (0.5 * G * T * T) - 1:+.4%})",
-                  n_substeps=n, frame1_vs_continuous=d_frame[0] / (0.5 * G * T * T) - 1),
+                  f"frame 1 vs g T^2/2: {d_frame[0] / (0.5 * GRAVITY * T * T) - 1:+.4%})",
+                  n_substeps=n, frame1_vs_continuous=d_frame[0] / (0.5 * GRAVITY * T * T) - 1),
             check("drop_so_far", float(err_total.max()), FREE_FALL_TOL,
                   f"max over k of |drop - g (kT)^2/2 (1 + 1/(kN))| / that (after {k[-1]} frames "
                   f"{drop[-1]:.6f} m, expected {total[-1]:.6f} m)", drop=drop[-1], expected=total[-1]),

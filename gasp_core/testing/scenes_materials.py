@@ -12,7 +12,7 @@ import numpy as np
 
 from gasp_core.seam.engine import EngineInfo
 from gasp_core.seam.setup import Boundary, Material, SimSetup
-from gasp_core.testing.helpers import box_points, Check, check as _check, G, make_setup as _setup, wall_margin
+from gasp_core.testing.helpers import box_points, Check, check, GRAVITY, make_setup, wall_margin
 from gasp_core.testing.kit import Requires, Scene, Trace
 
 # --- cantilever (Euler-Bernoulli) -----------------------------------------------------------
@@ -25,7 +25,7 @@ CANT_FREQ_TOL = 0.05  # first frequency vs Timoshenko (measured -3.3 %)
 
 
 def cantilever_deflection(E: float = CANT_E, rho: float = CANT_RHO, L: float = CANT_L,
-                          h: float = CANT_H, g: float = G) -> float:
+                          h: float = CANT_H, g: float = GRAVITY) -> float:
     """Static tip deflection of a clamped square bar under its weight, m.
 
     ``delta = q L^4 / (8 E I)`` with ``q = rho g h^2`` and ``I = h^4 / 12``, i.e.
@@ -41,7 +41,7 @@ def _cantilever_builder(x0: float, n_grid: int = 32) -> Callable[[EngineInfo], S
         hi = (x0 + CANT_L, 0.5 + CANT_H / 2, 0.55 + CANT_H)
         x, p_vol = box_points(lo, hi, dx / 2)
         clamp = Boundary("fixed_region", lo=(0.0, 0.0, 0.0), hi=(x0, 1.0, 1.0))
-        return _setup(x, p_vol, Material("jelly", E=CANT_E, nu=0.0, rho=CANT_RHO), n_grid=n_grid,
+        return make_setup(x, p_vol, Material("jelly", E=CANT_E, nu=0.0, rho=CANT_RHO), n_grid=n_grid,
                       boundaries=[clamp], frame_dt=0.02)
     return build
 
@@ -78,11 +78,11 @@ def _eval_cantilever(info: EngineInfo, tr: Trace) -> list[Check]:
     rel = (mean_defl - expected) / expected
     f1 = _first_frequency(tr.t, w, f_ref)
     frel = (f1 - f_ref) / f_ref
-    return [_check("first_frequency", abs(frel), CANT_FREQ_TOL,
+    return [check("first_frequency", abs(frel), CANT_FREQ_TOL,
                    f"|f1 - f1_Timoshenko| / f1_Timoshenko (measured {f1:.3f} Hz, Timoshenko {f_ref:.3f} Hz, "
                    f"Euler-Bernoulli {1.8751 ** 2 / (2 * math.pi) * math.sqrt(CANT_E * CANT_H ** 2 / (12 * CANT_RHO * CANT_L ** 4)):.3f} Hz; "
                    f"signed {frel:+.3f})", measured=f1, expected=f_ref, signed=frel),
-            _check("tip_deflection", abs(rel), CANT_TOL,
+            check("tip_deflection", abs(rel), CANT_TOL,
                    f"|time-averaged tip deflection - Timoshenko| / Timoshenko "
                    f"(measured {mean_defl * 1e3:.2f} mm, Timoshenko {expected * 1e3:.2f} mm, Euler-Bernoulli "
                    f"{cantilever_deflection() * 1e3:.2f} mm, largest {-w.min() * 1e3:.2f} mm; signed {rel:+.3f})",
@@ -102,10 +102,10 @@ def _build_sand(info: EngineInfo) -> SimSetup:
     z0 = 3 * dx
     x, p_vol = box_points((0.5 - half_w, m, z0), (0.5 + half_w, m + depth, z0 + height), dx / 2)
     hi = (1.0, 2 * m + depth, 0.5)
-    return _setup(x, p_vol, Material("sand", E=3.5e5, nu=0.3, rho=1600.0, friction_angle=SAND_PHI),
-                  hi=hi, n_grid=32, frame_dt=0.02,
-                  boundaries=[Boundary("ground", height=z0, friction=1.0),
-                              Boundary("walls", friction=0.0)])
+    return make_setup(x, p_vol, Material("sand", E=3.5e5, nu=0.3, rho=1600.0, friction_angle=SAND_PHI),
+                      hi=hi, n_grid=32, frame_dt=0.02,
+                      boundaries=[Boundary("ground", height=z0, friction=1.0),
+                                  Boundary("walls", friction=0.0)])
 
 
 def _surface_slope_deg(x: np.ndarray, z0: float, bin_w: float) -> tuple[float, float]:
@@ -128,10 +128,10 @@ def _eval_sand(info: EngineInfo, tr: Trace) -> list[Check]:
     z0 = 3 * SAND_DX
     angle, hmax = _surface_slope_deg(tr.x[-1], z0, SAND_DX)
     speed = float(np.sqrt((tr.v[-1] ** 2).sum(axis=1)).max())
-    return [_check("slope_vs_friction_angle", abs(angle - SAND_PHI), SAND_TOL_DEG,
-                   f"|final flank angle - friction angle| (flank {angle:.1f} deg, phi {SAND_PHI:.0f} "
-                   f"deg, pile height {hmax * 100:.1f} cm)", " deg", angle=angle),
-            _check("collapsed_and_stopped", speed, 0.05, "max point speed at the end", " m/s")]
+    return [check("slope_vs_friction_angle", abs(angle - SAND_PHI), SAND_TOL_DEG,
+                  f"|final flank angle - friction angle| (flank {angle:.1f} deg, phi {SAND_PHI:.0f} "
+                  f"deg, pile height {hmax * 100:.1f} cm)", " deg", angle=angle),
+            check("collapsed_and_stopped", speed, 0.05, "max point speed at the end", " m/s")]
 
 
 # --- dam break (Martin & Moyce 1952) --------------------------------------------------------
@@ -156,13 +156,13 @@ def _build_dam(info: EngineInfo) -> SimSetup:
     K = 4e5  # bulk modulus, Pa: sound speed 20 m/s, ten times the front speed sqrt(2 g a)
     nu = 0.3
     E = 3 * K * (1 - 2 * nu)
-    return _setup(x, p_vol, Material("liquid", E=E, nu=nu, rho=1000.0), hi=(length, 2 * m + depth, 0.5),
-                  n_grid=n_grid, frame_dt=0.01,
-                  boundaries=[Boundary("ground", height=z0, friction=0.0), Boundary("walls", friction=0.0)])
+    return make_setup(x, p_vol, Material("liquid", E=E, nu=nu, rho=1000.0), hi=(length, 2 * m + depth, 0.5),
+                      n_grid=n_grid, frame_dt=0.01,
+                      boundaries=[Boundary("ground", height=z0, friction=0.0), Boundary("walls", friction=0.0)])
 
 
 def _eval_dam(info: EngineInfo, tr: Trace) -> list[Check]:
-    T = tr.t * math.sqrt(2 * G / DAM_A)
+    T = tr.t * math.sqrt(2 * GRAVITY / DAM_A)
     # front: farthest point from the symmetry plane on each side, averaged
     right = tr.x[:, :, 0].max(axis=1) - 0.6
     left = 0.6 - tr.x[:, :, 0].min(axis=1)
@@ -171,8 +171,8 @@ def _eval_dam(info: EngineInfo, tr: Trace) -> list[Check]:
     Zs = np.interp(MARTIN_MOYCE_T, T, Z)
     rel = np.abs(Zs - MARTIN_MOYCE_Z) / MARTIN_MOYCE_Z
     pts = ", ".join(f"T={a:.2f}: Z={b:.2f} vs {c:.2f}" for a, b, c in zip(MARTIN_MOYCE_T, Zs, MARTIN_MOYCE_Z))
-    return [_check("front_vs_martin_moyce", float(rel.max()), DAM_TOL,
-                   f"max |Z_sim - Z_MM| / Z_MM ({pts})")]
+    return [check("front_vs_martin_moyce", float(rel.max()), DAM_TOL,
+                  f"max |Z_sim - Z_MM| / Z_MM ({pts})")]
 
 
 

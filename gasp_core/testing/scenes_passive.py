@@ -7,7 +7,7 @@
   ``passive_every`` run with ``PASSIVE_EVERY = 4`` (the README's setting): a passive point moved in
   a straight line between gathers drifts outward, by ``exp(pi omega (m - 1) dt) - 1`` a turn
   (measured 5.7 % at m = 4 and 14 % at m = 8 before the affine advance of
-  :func:`gasp_core.toolkit.mpm.passive_schedule`). The sphere's own centrifugal stretch,
+  :func:`gasp_core.toolkit.substeps.passive_schedule`). The sphere's own centrifugal stretch,
   ``~rho omega^2 R^2 / E``, is 0.04 % here.
 """
 from __future__ import annotations
@@ -18,7 +18,7 @@ import numpy as np
 
 from gasp_core.seam.engine import EngineInfo
 from gasp_core.seam.setup import Material, SimSetup
-from gasp_core.testing.helpers import box_points, Check, check as _check
+from gasp_core.testing.helpers import box_points, Check, check
 from gasp_core.testing.kit import Requires, Scene, Trace
 
 N_GRID = 16
@@ -66,7 +66,7 @@ def _eval_spin(info: EngineInfo, tr: Trace) -> list[Check]:
     r = np.linalg.norm(tr.x[:, tr.setup.passive] - c, axis=2)        # (frames, n_surface)
     r0 = float(r[0].mean())
     worst = float(np.abs(r.mean(axis=1) / r0 - 1.0).max())
-    return [_check("passive_radius", worst, PASSIVE_SPIN_TOL,
+    return [check("passive_radius", worst, PASSIVE_SPIN_TOL,
                    f"max over frames of |mean passive radius / R - 1| over one turn (end {r[-1].mean() / r0 - 1:+.4%}; "
                    f"passive_every {(tr.setup.options or {}).get('passive_every', 'n/a')})",
                    end=float(r[-1].mean() / r0 - 1.0))]

@@ -26,7 +26,7 @@ import numpy as np
 
 from gasp_core.seam.engine import EngineInfo
 from gasp_core.seam.setup import Boundary, Material
-from gasp_core.testing.helpers import box_points, Check, check as _check, G, make_setup as _setup
+from gasp_core.testing.helpers import box_points, Check, check, GRAVITY, make_setup
 from gasp_core.testing.kit import Requires, Scene, Trace
 
 N_GRID = 16
@@ -51,7 +51,7 @@ BODY = Material("jelly", E=1e5, nu=0.3, rho=1000.0)
 def _gravity(tilt_deg: float) -> np.ndarray:
     """Gravity turned by ``tilt_deg`` about +y: its in-plane part points along +x."""
     th = math.radians(tilt_deg)
-    return G * np.array([math.sin(th), 0.0, -math.cos(th)])
+    return GRAVITY * np.array([math.sin(th), 0.0, -math.cos(th)])
 
 
 def _build(tilt_deg: float):
@@ -59,7 +59,7 @@ def _build(tilt_deg: float):
         lx, ly, lz = SLAB
         lo = np.array([-lx / 2 + 0.3 * DX, -ly / 2 + 0.2 * DX, GROUND_H])
         x, p_vol = box_points(lo, lo + np.array(SLAB), DX / 2)
-        return _setup(x, p_vol, BODY, lo=LO, hi=LO + SIDE, n_grid=N_GRID, frame_dt=FRAME_DT, gravity=_gravity(tilt_deg),
+        return make_setup(x, p_vol, BODY, lo=LO, hi=LO + SIDE, n_grid=N_GRID, frame_dt=FRAME_DT, gravity=_gravity(tilt_deg),
                       boundaries=[Boundary("ground", height=GROUND_H, friction=MU)])
     return build
 
@@ -74,7 +74,7 @@ def _evaluate(tilt_deg: float):
         what = (f"largest in-plane centroid travel over {tr.t[-1]:.1f} s on a ground with friction {MU}"
                 + (f" under gravity tilted {tilt_deg:g} deg (tan = {math.tan(th):.3f} < mu)" if tilt_deg else "")
                 + f", in dx (at {tr.t[f]:.2f} s: x {d[f, 0] / DX:+.4f}, y {d[f, 1] / DX:+.4f} dx)")
-        return [_check("rest_drift", float(travel[f]) / DX, REST_TOL, what,
+        return [check("rest_drift", float(travel[f]) / DX, REST_TOL, what,
                        drift_x=float(d[-1, 0]), drift_y=float(d[-1, 1]), t_max=float(tr.t[f]))]
     return evaluate
 

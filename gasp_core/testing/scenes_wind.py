@@ -23,7 +23,7 @@ import numpy as np
 from gasp_core.colliders.model import ForceField
 from gasp_core.seam.engine import EngineInfo
 from gasp_core.seam.setup import Material, SimSetup
-from gasp_core.testing.helpers import box_points, Check, check as _check, G, make_setup as _setup
+from gasp_core.testing.helpers import box_points, Check, check, GRAVITY, make_setup
 from gasp_core.testing.kit import Requires, Scene, Trace
 
 N_GRID = 32
@@ -32,7 +32,7 @@ WIND_L = 0.25                  # m, cube side (8 dx)
 RHO_AIR = 1.2                  # kg/m^3
 CD = 1.0
 WIND_VT = 1.0                  # m/s: the terminal velocity the cube's density is chosen for
-WIND_RHO = WIND_VT ** 2 * RHO_AIR * CD / (2.0 * G * WIND_L)      # 0.245 kg/m^3
+WIND_RHO = WIND_VT ** 2 * RHO_AIR * CD / (2.0 * GRAVITY * WIND_L)      # 0.245 kg/m^3
 WIND_T = 0.5                   # s simulated: 4.9 v_t / g (tanh 4.9 = 0.9999)
 WIND_FRAME = 0.02
 WIND_AVG = 5                   # frames averaged at the end
@@ -45,8 +45,8 @@ def _build_wind(info: EngineInfo) -> SimSetup:
     # stiff enough that the cube barely jiggles: a soft one (E 50 Pa) wobbles sideways, and the side
     # faces then catch the relative wind too (v_rel 0.941 at E 50, 0.982 at 500, 0.991 at 2000 on warp_mpm)
     mat = Material("jelly", E=2000.0, nu=0.3, rho=WIND_RHO)
-    setup = _setup(x, p_vol, mat, n_grid=N_GRID, v=np.tile([0.0, 0.0, WIND_VT], (len(x), 1)),
-                   gravity=(0.0, 0.0, -G), frame_dt=WIND_FRAME)
+    setup = make_setup(x, p_vol, mat, n_grid=N_GRID, v=np.tile([0.0, 0.0, WIND_VT], (len(x), 1)),
+                   gravity=(0.0, 0.0, -GRAVITY), frame_dt=WIND_FRAME)
     setup.forces = [ForceField("wind", direction=(0.0, 0.0, 1.0), speed=WIND_VT, air_density=RHO_AIR,
                                drag_coefficient=CD)]
     return setup
@@ -56,12 +56,12 @@ def _eval_wind(info: EngineInfo, tr: Trace) -> list[Check]:
     vz = np.einsum("i,fi->f", tr.p_mass, tr.v[:, :, 2]) / tr.p_mass.sum()     # body velocity, m/s
     v_rel = WIND_VT - vz                                                      # falling speed relative to the air
     end = float(v_rel[-WIND_AVG:].mean())
-    k = int(np.argmin(np.abs(tr.t - WIND_VT / G)))
-    want_mid = WIND_VT * math.tanh(G * tr.t[k] / WIND_VT)
-    return [_check("terminal_velocity", abs(end / WIND_VT - 1.0), WIND_TOL,
+    k = int(np.argmin(np.abs(tr.t - WIND_VT / GRAVITY)))
+    want_mid = WIND_VT * math.tanh(GRAVITY * tr.t[k] / WIND_VT)
+    return [check("terminal_velocity", abs(end / WIND_VT - 1.0), WIND_TOL,
                    f"|v_rel / v_t - 1| over the last {WIND_AVG} frames ({end:.4f} m/s vs v_t {WIND_VT:g} m/s)",
                    v_rel=end, v_t=WIND_VT),
-            _check("approach", abs(v_rel[k] - want_mid) / WIND_VT, WIND_TOL,
+            check("approach", abs(v_rel[k] - want_mid) / WIND_VT, WIND_TOL,
                    f"|v_rel - v_t tanh(g t / v_t)| / v_t at t = {tr.t[k]:.2f} s ({v_rel[k]:.4f} vs {want_mid:.4f} m/s)",
                    v_rel=float(v_rel[k]), expected=want_mid)]
 

@@ -1,47 +1,21 @@
-"""Opt-in helpers for grid (MPM) engines, from one place: ``from gasp_core.toolkit import ...``.
+"""The optional grid (MPM) toolkit: what every grid engine of GASP shares, and nothing the seam needs.
 
-Nothing in the core needs them (:mod:`gasp_core.seam` and :mod:`gasp_core.run` never import this
-package); a grid engine takes what fits, so that engines on the same scene agree on the substep,
-the material table and the sweeps. The plugin contract itself is :mod:`gasp_core.seam`.
+Engines opt in by importing it; :mod:`gasp_core.seam` and :mod:`gasp_core.run` never do. So that with
+the same scene every MPM engine starts from the same numbers, it holds:
 
-- :mod:`gasp_core.toolkit.mpm`: the substep rule (:func:`mpm_stable_dt`, :func:`mpm_substeps`,
-  :func:`substeps_for`, :func:`substeps_from_options`), the common MPM options (:func:`mpm_options`,
-  :func:`check_mpm_options`, :data:`PASSIVE_EVERY`, :func:`passive_schedule`), the per-body material
-  table (:func:`material_table`, codes ``JELLY`` ... ``LIQUID``, columns ``P_MU`` ... ``P_K``),
-  :func:`initial_Jp`, :func:`fixed_mask`, point ordering (:func:`cell_order`,
-  :func:`material_first_order`), memory checks (:func:`estimate_bytes`, :func:`check_memory`),
-  ``stats()`` helpers (:func:`engine_mass_stats`, :func:`stranded_passive`), blow-up causes
-  (:data:`CAUSE_DT`, :data:`CAUSE_DOMAIN`) and the grid engines' :data:`KNOWN_FAILURES`;
-- :mod:`gasp_core.toolkit.sweep`: ``gasp bench`` sweeps (:func:`mpm_sweep`, :func:`grid_sweep`,
-  :func:`dedupe_settings`);
-- :mod:`gasp_core.toolkit.grid_tables`: collider, force and impulse tables for grid kernels
-  (:class:`GridTables`, :func:`grid_tables`, :func:`frame_table`). Note that the name ``grid_tables``
-  here is the function; the module is ``sys.modules["gasp_core.toolkit.grid_tables"]``.
-
-``from gasp_core.toolkit import mpm`` (the module, for ``mpm.material_table`` style calls) works too.
-This package only re-exports; the core never imports it.
+- :mod:`~gasp_core.toolkit.options`: the declared options of a grid engine (``mpm_options``,
+  ``MPM_OPTIONS``) and their one extra rule (``check_mpm_options``: ``dt`` or ``n_substeps``, not both);
+- :mod:`~gasp_core.toolkit.substeps`: the stable time step and substeps (``mpm_stable_dt``,
+  ``mpm_substeps``, ``substeps_from_options``; ``docs/mpm.md``, "Time step") and the passive points'
+  schedule (``passive_schedule``);
+- :mod:`~gasp_core.toolkit.materials`: the material codes and the per-body parameter table the
+  kernels read (``MATERIAL_CODES``, ``P_*`` columns, ``material_table``) and the initial ``Jp``;
+- :mod:`~gasp_core.toolkit.points`: the points held by ``fixed_region`` boundaries (``fixed_mask``),
+  the order of points by grid cell (``cell_order``, ``material_first_order``), mass statistics and
+  stranded passive points;
+- :mod:`~gasp_core.toolkit.memory`: the memory estimate and the refusal before allocating;
+- :mod:`~gasp_core.toolkit.failures`: the likely causes of a blow-up, in words (``CAUSE_DT``,
+  ``CAUSE_DOMAIN``), and the known conformance failures of the shared algorithm;
+- :mod:`~gasp_core.toolkit.grid_tables`: colliders, forces and impulses packed for the kernels;
+- :mod:`~gasp_core.toolkit.sweep`: the ``gasp bench`` sweep of a grid engine (``mpm_sweep``, ``grid_sweep``).
 """
-from gasp_core.toolkit import mpm, sweep
-from gasp_core.toolkit.grid_tables import GridTables, frame_table, grid_tables
-from gasp_core.toolkit.mpm import (CAUSE_DOMAIN, CAUSE_DT, JELLY, KNOWN_FAILURES, LIQUID, MATERIAL_CODES,
-                                   MAX_SUBSTEPS, METAL, MPM_OPTIONS, N_PARAMS, NEO_HOOKEAN, P_ALPHA,
-                                   P_HARDENING, P_K, P_LAM, P_MU, P_SOFTENING, P_THETA_C, P_THETA_S,
-                                   P_YIELD, PASSIVE_EVERY, PLASTICINE, SAND, SNOW, VON_MISES_RADIUS, cell_order,
-                                   check_memory, check_mpm_options, engine_mass_stats, estimate_bytes,
-                                   fixed_mask, ground_top_node, initial_Jp, material_first_order, material_table,
-                                   mpm_options, mpm_stable_dt, mpm_substeps, p_wave_speed,
-                                   passive_schedule, stranded_passive, substeps_for, substeps_from_options)
-from gasp_core.toolkit.sweep import MPM_SWEEP, MPM_SWEEP_QUICK, dedupe_settings, grid_sweep, mpm_sweep
-
-__all__ = [
-    "mpm", "sweep",
-    "GridTables", "frame_table", "grid_tables",
-    "CAUSE_DOMAIN", "CAUSE_DT", "KNOWN_FAILURES", "MAX_SUBSTEPS", "MPM_OPTIONS", "PASSIVE_EVERY",
-    "VON_MISES_RADIUS", "ground_top_node", "JELLY", "NEO_HOOKEAN", "METAL", "SAND", "SNOW", "PLASTICINE", "LIQUID", "MATERIAL_CODES",
-    "N_PARAMS", "P_MU", "P_LAM", "P_YIELD", "P_SOFTENING", "P_HARDENING", "P_THETA_C", "P_THETA_S",
-    "P_ALPHA", "P_K",
-    "cell_order", "check_memory", "check_mpm_options", "engine_mass_stats", "estimate_bytes", "fixed_mask",
-    "initial_Jp", "material_first_order", "material_table", "mpm_options", "mpm_stable_dt", "mpm_substeps",
-    "p_wave_speed", "passive_schedule", "stranded_passive", "substeps_for", "substeps_from_options",
-    "MPM_SWEEP", "MPM_SWEEP_QUICK", "dedupe_settings", "grid_sweep", "mpm_sweep",
-]

@@ -7,9 +7,7 @@ physics. Importing this module is cheap (no NumPy work, no engine import): the f
 """
 from __future__ import annotations
 
-from gasp_core.seam.engine import Capabilities, EngineInfo, Option
-from gasp_core.seam.plugins import hookimpl
-from gasp_core.seam.setup import SimSetup
+from gasp_core.seam import Capabilities, EngineInfo, hookimpl, Option, SimSetup
 
 __all__ = ["CAPABILITIES", "OPTIONS", "gasp_engines", "make_engine"]
 

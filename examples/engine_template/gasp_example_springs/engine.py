@@ -20,9 +20,7 @@ import numpy as np
 from scipy import sparse
 from scipy.spatial import cKDTree
 
-from gasp_core.errors import EngineDivergence, SceneError
-from gasp_core.seam.engine import EngineStats
-from gasp_core.seam.setup import SimSetup
+from gasp_core.seam import EngineDivergence, EngineStats, SceneError, SimSetup
 
 ENGINE = "example_springs"
 

@@ -14,10 +14,7 @@ from __future__ import annotations
 import importlib.util
 import math
 
-from gasp_core.seam.engine import Capabilities, EngineInfo
-from gasp_core.seam.limits import Limit
-from gasp_core.seam.plugins import hookimpl, SoupWriterInfo
-from gasp_core.seam.setup import SimSetup
+from gasp_core.seam import Capabilities, EngineInfo, hookimpl, Limit, SimSetup, SoupWriterInfo
 
 __all__ = ["CAPABILITIES", "INSTALL_HINT", "LIMITS", "bpy_available", "gasp_engines", "gasp_soup_writers",
            "make_engine"]

@@ -20,9 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from gasp_core.errors import EngineDivergence, EngineError, SceneError
-from gasp_core.seam.engine import Option
-from gasp_core.seam.setup import SimSetup
+from gasp_core.seam import EngineDivergence, EngineError, Option, SceneError, SimSetup
 from gasp_core.seam.engine import check_options
 
 from . import SPEED_PER_FRAME_DT

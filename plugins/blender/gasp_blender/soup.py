@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gasp_core.errors import EngineError
+from gasp_core.seam import EngineError
 
 from . import bpy_available
 

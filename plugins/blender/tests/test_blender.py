@@ -7,8 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from gasp_core.errors import SceneError
-from gasp_core.seam.setup import Boundary, Material, SimSetup
+from gasp_core.seam import Boundary, Material, SceneError, SimSetup
 from gasp_blender import CAPABILITIES, INSTALL_HINT, bpy_available, make_engine
 from gasp_blender.cage import build_cage, embed, interpolate
 

@@ -44,10 +44,10 @@ from typing import Any
 
 import numpy as np
 
-from gasp_core.errors import EngineDivergence, EngineError, SceneError
-from gasp_core.seam.setup import Material, SimSetup
-from gasp_core.toolkit import mpm
-from gasp_core.toolkit.mpm import CAUSE_DOMAIN, CAUSE_DT
+from gasp_core.toolkit.options import check_mpm_options
+from gasp_core.toolkit.substeps import substeps_from_options
+from gasp_core.seam import EngineDivergence, EngineError, Material, SceneError, SimSetup
+from gasp_core.toolkit.failures import CAUSE_DOMAIN, CAUSE_DT
 
 from . import ENGINE, INSTALL_HINT, OPTIONS, PADDING_CELLS
 
@@ -85,8 +85,8 @@ def mass_classes(p_mass: np.ndarray, k: int = MASS_CLASSES) -> list[np.ndarray]:
 
 
 def time_step(setup: SimSetup, opt: dict[str, Any]) -> tuple[int, float]:
-    """Substeps per frame and substep length (``gasp_core.toolkit.mpm.mpm_substeps``, docs/mpm.md)."""
-    return mpm.substeps_from_options(setup, opt, ENGINE)
+    """Substeps per frame and substep length (``gasp_core.toolkit.substeps.mpm_substeps``, docs/mpm.md)."""
+    return substeps_from_options(setup, opt, ENGINE)
 
 
 # ---------------------------------------------------------------------- Genesis
@@ -199,7 +199,7 @@ class GenesisMPMEngine:
     """
 
     def __init__(self, setup: SimSetup):
-        opt = mpm.check_mpm_options(setup.options, OPTIONS, ENGINE)
+        opt = check_mpm_options(setup.options, OPTIONS, ENGINE)
         self.setup = setup
         self.options = opt
         self.n_substeps, self.dt = time_step(setup, opt)

@@ -8,8 +8,7 @@ import pytest
 
 pytest.importorskip("genesis", reason="genesis-world is not installed: pip install 'gasp-genesis[engine]'")
 
-from gasp_core.errors import EngineDivergence, EngineError, SceneError
-from gasp_core.seam.setup import Boundary, Material, SimSetup
+from gasp_core.seam import Boundary, EngineDivergence, EngineError, Material, SceneError, SimSetup
 from gasp_genesis import CAPABILITIES, genesis_available, make_engine  # noqa: E402
 from gasp_genesis.engine import init_genesis  # noqa: E402
 

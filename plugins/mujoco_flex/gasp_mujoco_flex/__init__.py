@@ -12,9 +12,7 @@ from __future__ import annotations
 import importlib.util
 import itertools
 
-from gasp_core.seam.engine import Capabilities, EngineInfo, Option
-from gasp_core.seam.limits import Limit
-from gasp_core.seam.plugins import hookimpl
+from gasp_core.seam import Capabilities, EngineInfo, hookimpl, Limit, Option
 from gasp_core.toolkit.sweep import dedupe_settings
 
 __all__ = ["CAPABILITIES", "ENGINE", "LIMITS", "OPTIONS", "gasp_engines", "make_engine", "sweep"]

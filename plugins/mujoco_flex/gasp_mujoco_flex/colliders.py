@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from gasp_core.errors import SceneError
+from gasp_core.seam import SceneError
 
 
 def _fmt(a) -> str:

@@ -31,10 +31,10 @@ import numpy as np
 
 import mujoco
 
-from gasp_core.errors import EngineDivergence, EngineError, SceneError
-from gasp_core.seam.setup import SimSetup
+from gasp_core.seam import EngineDivergence, EngineError, SceneError, SimSetup
 from gasp_core.seam.engine import check_options
-from gasp_core.toolkit.mpm import fixed_mask, p_wave_speed, substeps_for
+from gasp_core.toolkit.points import fixed_mask
+from gasp_core.toolkit.substeps import p_wave_speed, substeps_for
 
 from . import ENGINE, OPTIONS
 from .lattice import Lattice, build_lattice, embed_points, interpolate, matched_masses

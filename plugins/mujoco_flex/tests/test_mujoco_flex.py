@@ -9,8 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gasp_core.errors import EngineDivergence, SceneError
-from gasp_core.seam.setup import Boundary, Material, SimSetup
+from gasp_core.seam import Boundary, EngineDivergence, Material, SceneError, SimSetup
 
 mujoco = pytest.importorskip("mujoco")
 

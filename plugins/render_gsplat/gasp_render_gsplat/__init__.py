@@ -9,7 +9,7 @@ import importlib.util
 
 import numpy as np
 
-from gasp_core.seam.plugins import hookimpl, RendererInfo
+from gasp_core.seam import hookimpl, RendererInfo
 
 
 def available() -> str | None:

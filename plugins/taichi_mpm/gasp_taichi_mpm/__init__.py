@@ -15,12 +15,11 @@ import os
 # clean, so the banner is off unless the user asked for it.
 os.environ.setdefault("ENABLE_TAICHI_HEADER_PRINT", "False")
 
-from gasp_core.seam.engine import Capabilities, EngineInfo, Option
-from gasp_core.seam.plugins import hookimpl
-from gasp_core.seam.setup import SimSetup
-from gasp_core.toolkit import mpm
-from gasp_core.toolkit.mpm import mpm_options
+from gasp_core.seam import Capabilities, EngineInfo, hookimpl, Option, SimSetup
+from gasp_core.toolkit.options import mpm_options
 from gasp_core.toolkit.sweep import mpm_sweep
+from gasp_core.toolkit.failures import MPM_KNOWN_FAILURES
+from gasp_core.toolkit.substeps import PASSIVE_EVERY
 
 __all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "gasp_engines", "make_engine", "sweep", "taichi_available"]
 
@@ -36,16 +35,16 @@ CAPABILITIES = Capabilities(
                         "attractors", "passive_points"}),
 )
 
-#: The grid-engine options of ``gasp_core.toolkit.mpm`` (``device``: Taichi runs on the default CUDA device
+#: The grid-engine options of ``gasp_core.toolkit.options`` (``device``: Taichi runs on the default CUDA device
 #: only, so "cpu" or "cuda"), ``threads`` and ``passive_every``.
 OPTIONS = mpm_options(
     Option("threads", None, "CPU threads (Taichi's cpu_max_num_threads; default: all cores); a run "
                             "repeats bit for bit for a fixed count", kind="int", lo=1),
-    mpm.PASSIVE_EVERY)
+    PASSIVE_EVERY)
 
 
 def sweep(quick: bool) -> tuple[list[dict], dict]:
-    """``gasp bench`` settings and reference: the grid-engine sweep of ``gasp_core.toolkit.mpm.mpm_sweep``."""
+    """``gasp bench`` settings and reference: the grid-engine sweep of ``gasp_core.toolkit.sweep.mpm_sweep``."""
     return mpm_sweep(quick, CAPABILITIES.precisions)
 
 
@@ -73,7 +72,7 @@ def make_engine(setup: SimSetup):
 
 
 #: Known failures of the shared MLS-MPM algorithm (docs/mpm.md), measured figures in the reasons.
-KNOWN_FAILURES = dict(mpm.KNOWN_FAILURES)
+KNOWN_FAILURES = dict(MPM_KNOWN_FAILURES)
 
 
 @hookimpl

@@ -11,10 +11,13 @@ from typing import Any
 
 import numpy as np
 
-from gasp_core.errors import EngineDivergence, EngineError
-from gasp_core.seam.setup import SimSetup
-from gasp_core.toolkit import mpm
-from gasp_core.toolkit.mpm import CAUSE_DOMAIN, CAUSE_DT
+from gasp_core.toolkit.materials import initial_Jp, material_table
+from gasp_core.toolkit.memory import check_memory, estimate_bytes
+from gasp_core.toolkit.options import check_mpm_options
+from gasp_core.toolkit.points import engine_mass_stats, fixed_mask, material_first_order, stranded_passive
+from gasp_core.toolkit.substeps import substeps_from_options
+from gasp_core.seam import EngineDivergence, EngineError, SimSetup
+from gasp_core.toolkit.failures import CAUSE_DOMAIN, CAUSE_DT
 
 from . import ENGINE, OPTIONS
 
@@ -39,8 +42,8 @@ def _quiet_init(ti, **kw) -> None:
 
 
 def time_step(setup: SimSetup, opt: dict[str, Any]) -> tuple[int, float]:
-    """Substeps per frame and substep length (``gasp_core.toolkit.mpm.mpm_substeps``, docs/mpm.md)."""
-    return mpm.substeps_from_options(setup, opt, ENGINE)
+    """Substeps per frame and substep length (``gasp_core.toolkit.substeps.mpm_substeps``, docs/mpm.md)."""
+    return substeps_from_options(setup, opt, ENGINE)
 
 
 class TaichiMPMEngine:
@@ -72,10 +75,10 @@ class TaichiMPMEngine:
 
     def __init__(self, setup: SimSetup):
         global _generation
-        opt = mpm.check_mpm_options(setup.options, OPTIONS, ENGINE)
+        opt = check_mpm_options(setup.options, OPTIONS, ENGINE)
         self.n_substeps, self.dt = time_step(setup, opt)
-        mpm.check_memory(mpm.estimate_bytes(len(setup.x), setup.n_grid, opt["precision"]) + MAX_PRIVATE_GRID_BYTES,
-                         ENGINE, f"{len(setup.x)} points, n_grid {setup.n_grid}, {opt['precision']}")
+        check_memory(estimate_bytes(len(setup.x), setup.n_grid, opt["precision"]) + MAX_PRIVATE_GRID_BYTES,
+                     ENGINE, f"{len(setup.x)} points, n_grid {setup.n_grid}, {opt['precision']}")
         import taichi as ti
 
         self.setup = setup
@@ -104,15 +107,15 @@ class TaichiMPMEngine:
         n = len(setup.x)
         # Points sorted by grid cell for memory locality (material points first, then the passive
         # ones: G2P only); outputs go back to the setup order.
-        self._order, self.n_material = mpm.material_first_order(setup, dx)
+        self._order, self.n_material = material_first_order(setup, dx)
         self._inverse = np.empty(n, np.int64)
         self._inverse[self._order] = np.arange(n)
         o = self._order
 
         walls, grounds, regions = node_ranges(setup, dx)
-        fixed = mpm.fixed_mask(setup.x, setup.boundaries)
-        kinds, params = mpm.material_table(setup.materials)
-        jp0 = mpm.initial_Jp(setup.materials, setup.body_id)
+        fixed = fixed_mask(setup.x, setup.boundaries)
+        kinds, params = material_table(setup.materials)
+        jp0 = initial_Jp(setup.materials, setup.body_id)
         bytes_per = 4 if real == ti.f32 else 8
         grid_bytes = 4 * bytes_per * setup.n_grid ** 3
         atomic = opt["device"] == "cuda" or threads * grid_bytes > MAX_PRIVATE_GRID_BYTES
@@ -234,7 +237,7 @@ class TaichiMPMEngine:
     def stats(self) -> dict[str, Any]:
         """``device, precision, n_points, dt, n_substeps, n_grid, threads`` and ``dx``, ``p2g``, ``frame``,
         ``n_passive``, ``mass`` (kg), ``centre_of_mass`` (m), ``inertia`` (kg m^2) and, with passive points
-        after a frame, ``passive_stranded`` (:func:`gasp_core.toolkit.mpm.stranded_passive`)."""
+        after a frame, ``passive_stranded`` (:func:`gasp_core.toolkit.points.stranded_passive`)."""
         n = len(self.setup.x)
         live = not self._closed and self._gen == _generation
         return {
@@ -250,11 +253,11 @@ class TaichiMPMEngine:
             "frame": self.frame,
             "n_passive": int(n - self.n_material),
             # mass as the solver holds it (its p_mass field, solver order)
-            **(mpm.engine_mass_stats(self.solver.get(self.solver.x), self.solver.get(self.solver.p_mass))
+            **(engine_mass_stats(self.solver.get(self.solver.x), self.solver.get(self.solver.p_mass))
                if live else {}),
-            **({"passive_stranded": mpm.stranded_passive(self.solver.get(self.solver.x)[self.n_material:],
-                                                         self.solver.grid_m.to_numpy(), self.setup.domain_lo,
-                                                         self.setup.dx)}
+            **({"passive_stranded": stranded_passive(self.solver.get(self.solver.x)[self.n_material:],
+                                                     self.solver.grid_m.to_numpy(), self.setup.domain_lo,
+                                                     self.setup.dx)}
                if live and self.n_material < n and self.frame > 0 else {}),
         }
 

@@ -27,10 +27,13 @@ import math
 import numpy as np
 import taichi as ti
 
-# Material codes and the per-body parameter columns (``MPMSolver.mat``) are gasp_core.toolkit.mpm's.
-from gasp_core.errors import SceneError
-from gasp_core.toolkit import mpm
-from gasp_core.toolkit.mpm import JELLY, LIQUID, METAL, N_PARAMS, NEO_HOOKEAN, P_ALPHA, P_HARDENING, P_K, P_LAM, P_MU, P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND, SNOW, VON_MISES_RADIUS
+# Material codes and the per-body parameter columns (``MPMSolver.mat``) are gasp_core.toolkit.materials'.
+from gasp_core.toolkit.points import ground_top_node
+from gasp_core.toolkit.substeps import passive_schedule
+from gasp_core.seam import SceneError
+from gasp_core.toolkit.materials import (JELLY, LIQUID, METAL, N_PARAMS, NEO_HOOKEAN, P_ALPHA, P_HARDENING, P_K, P_LAM,
+                                         P_MU, P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND, SNOW,
+                                         VON_MISES_RADIUS)
 
 _TIE = 1e-9  # cells: tolerance for ties when boundary tests become node-index ranges
 
@@ -58,7 +61,7 @@ def node_ranges(setup, dx: float):
             hi_first = tuple(int(math.floor(r[d] + _TIE)) + 1 for d in range(3))
             walls.append((float(b.friction), (3, 3, 3), hi_first))
         elif b.kind == "ground":
-            grounds.append((float(b.friction), mpm.ground_top_node(b.height, lo[2], dx)))
+            grounds.append((float(b.friction), ground_top_node(b.height, lo[2], dx)))
         elif b.kind == "fixed_region":
             a = (np.asarray(b.lo, float) - lo) / dx
             c = (np.asarray(b.hi, float) - lo) / dx
@@ -84,11 +87,11 @@ class MPMSolver:
     fixed : ndarray, shape (n,), bool
         Points held still (started inside a fixed region).
     jp0 : ndarray, shape (n,)
-        Initial Jp (``gasp_core.toolkit.mpm.initial_Jp``: 0 for plasticine, 1 otherwise).
+        Initial Jp (``gasp_core.toolkit.materials.initial_Jp``: 0 for plasticine, 1 otherwise).
     params : ndarray, shape (n_bodies, N_PARAMS)
-        ``gasp_core.toolkit.mpm.material_table``.
+        ``gasp_core.toolkit.materials.material_table``.
     kinds : sequence of int
-        Material code per body (``gasp_core.toolkit.mpm.MATERIAL_CODES`` values).
+        Material code per body (``gasp_core.toolkit.materials.MATERIAL_CODES`` values).
     n_grid : int
     lo : ndarray, shape (3,)
         Grid origin (domain_lo), metres.
@@ -157,7 +160,7 @@ class MPMSolver:
         self.pbox = ti.Vector.field(3, ti.i32, shape=(self.n_chunks, 2))  # passive points' node box
         # scalars: dt, dx, inv_dx; vectors: lo, gravity
         self.sc = ti.field(real, shape=3)
-        # passive points' intervals (gasp_core.toolkit.mpm.passive_schedule): [m, 0] of a full interval, of the last
+        # passive points' intervals (gasp_core.toolkit.substeps.passive_schedule): [m, 0] of a full interval, of the last
         self.pab = ti.field(real, shape=4)
         self.lo = ti.Vector.field(3, real, shape=())
         self.gravity = ti.Vector.field(3, real, shape=())
@@ -235,11 +238,11 @@ class MPMSolver:
     # ------------------------------------------------------------------ driver
     def _passive_at(self, n_substeps: int) -> list:
         """Per substep of a frame: None, or which interval (0 full, 1 last) moves the passive
-        points after its grid update (:func:`gasp_core.toolkit.mpm.passive_schedule`)."""
+        points after its grid update (:func:`gasp_core.toolkit.substeps.passive_schedule`)."""
         if not self.has_passive:
             return [None] * n_substeps
         if self._passive_plan[0] != n_substeps:
-            plan = mpm.passive_schedule(n_substeps, self._passive_every, float(self.sc[0]))
+            plan = passive_schedule(n_substeps, self._passive_every, float(self.sc[0]))
             dt = float(self.sc[0])
             ms = list(dict.fromkeys(int(round((a + b) / dt)) for _s, a, b in plan))   # substeps per interval
             ms += ms[-1:] * (2 - len(ms))
@@ -254,7 +257,7 @@ class MPMSolver:
         """Advance ``n_substeps`` substeps (P2G, grid update, G2P each), no host sync in between.
 
         Passive points (``n_material < n``) are moved after a grid update (every one, or every
-        ``passive_every``-th and the frame's last: :func:`gasp_core.toolkit.mpm.passive_schedule`), by the
+        ``passive_every``-th and the frame's last: :func:`gasp_core.toolkit.substeps.passive_schedule`), by the
         grid velocity that already holds the forces, colliders and boundaries, so they follow the
         material and respect what it respects; they add nothing to the grid. With colliders, forces
         or impulses the frame's time table is loaded first and the substep index set before each P2G."""
@@ -732,7 +735,7 @@ class MPMSolver:
         velocities (APIC's ``C`` on a full stencil). The point then advances over the ``m = pab[2 pair]``
         substeps since its last gather through the affine field
         ``v(y, k) = v_prev + (k/m)(v_new - v_prev) + (C_prev + (k/m)(C_new - C_prev)) y``,
-        ``y += dt v(y, k)`` for ``k = 1..m`` (:func:`gasp_core.toolkit.mpm.passive_schedule`), so it turns with
+        ``y += dt v(y, k)`` for ``k = 1..m`` (:func:`gasp_core.toolkit.substeps.passive_schedule`), so it turns with
         the material; ``m = 1`` is plain G2P."""
         base, fx, ok = self._base_fx(self.x[p])
         if not ok:

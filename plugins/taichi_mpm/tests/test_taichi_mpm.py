@@ -6,8 +6,7 @@ import sys
 import numpy as np
 import pytest
 
-from gasp_core.errors import EngineDivergence, EngineError, SceneError
-from gasp_core.seam.setup import Boundary, Material, SimSetup
+from gasp_core.seam import Boundary, EngineDivergence, EngineError, Material, SceneError, SimSetup
 
 pytest.importorskip("taichi")
 
@@ -260,7 +259,7 @@ def test_old_engine_is_invalidated_by_a_new_one():
 
 
 def test_stats_report_the_time_step_from_gasp_core_mpm():
-    from gasp_core.toolkit.mpm import mpm_stable_dt, substeps_for
+    from gasp_core.toolkit.substeps import mpm_stable_dt, substeps_for
     s = block_setup()
     st = TaichiMPMEngine(s).stats()
     n, dt = substeps_for(s.frame_dt, mpm_stable_dt(s.materials, s.dx, s.gravity, 1.0, 0.0, 0.4))

@@ -8,12 +8,11 @@ from __future__ import annotations
 
 import importlib.util
 
-from gasp_core.seam.engine import Capabilities, EngineInfo, Option
-from gasp_core.seam.plugins import hookimpl
-from gasp_core.seam.setup import SimSetup
-from gasp_core.toolkit import mpm
-from gasp_core.toolkit.mpm import mpm_options
+from gasp_core.seam import Capabilities, EngineInfo, hookimpl, Option, SimSetup
+from gasp_core.toolkit.options import mpm_options
 from gasp_core.toolkit.sweep import mpm_sweep
+from gasp_core.toolkit.failures import MPM_KNOWN_FAILURES
+from gasp_core.toolkit.substeps import PASSIVE_EVERY
 
 __all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "gasp_engines", "make_engine", "sweep"]
 
@@ -29,16 +28,16 @@ CAPABILITIES = Capabilities(
                         "attractors", "passive_points"}),
 )
 
-#: The grid-engine options of ``gasp_core.toolkit.mpm`` (``device``: "cpu", "cuda" or "cuda:N", Warp's device
+#: The grid-engine options of ``gasp_core.toolkit.options`` (``device``: "cpu", "cuda" or "cuda:N", Warp's device
 #: names) and ``threads``, accepted so that a scene written for another MPM engine runs unchanged.
 OPTIONS = mpm_options(
     Option("threads", None, "accepted and ignored: Warp runs CPU kernels on one thread (runs repeat bit "
                             "for bit)", kind="int", lo=1),
-    mpm.PASSIVE_EVERY, cuda_index=True)
+    PASSIVE_EVERY, cuda_index=True)
 
 
 def sweep(quick: bool) -> tuple[list[dict], dict]:
-    """``gasp bench`` settings and reference: the grid-engine sweep of ``gasp_core.toolkit.mpm.mpm_sweep``."""
+    """``gasp bench`` settings and reference: the grid-engine sweep of ``gasp_core.toolkit.sweep.mpm_sweep``."""
     return mpm_sweep(quick, CAPABILITIES.precisions)
 
 
@@ -59,7 +58,7 @@ def _available() -> str | None:
 
 
 #: Known failures of the shared MLS-MPM algorithm (docs/mpm.md), measured figures in the reasons.
-KNOWN_FAILURES = dict(mpm.KNOWN_FAILURES)
+KNOWN_FAILURES = dict(MPM_KNOWN_FAILURES)
 
 
 @hookimpl

@@ -21,8 +21,10 @@ import functools
 
 import warp as wp
 
-# Material codes and the columns of the per-body parameter table ``mat_par`` are gasp_core.toolkit.mpm's.
-from gasp_core.toolkit.mpm import JELLY, METAL, NEO_HOOKEAN, P_ALPHA, P_HARDENING, P_K, P_LAM, P_MU, P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND, SNOW, VON_MISES_RADIUS
+# Material codes and the columns of the per-body parameter table ``mat_par`` are gasp_core.toolkit.materials'.
+from gasp_core.toolkit.materials import (JELLY, METAL, NEO_HOOKEAN, P_ALPHA, P_HARDENING, P_K, P_LAM, P_MU, P_SOFTENING,
+                                         P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND, SNOW,
+                                         VON_MISES_RADIUS)
 
 # Warp compiles CPU code at -O2 by default; -O3 is several times faster on these kernels.
 _OPTS = {"optimization_level": 3}
@@ -503,7 +505,7 @@ def build_kernels(Ft):
         # the weighted least-squares fit of the node velocities (APIC's C on a full stencil). The
         # point then advances over the m substeps since its last gather through the affine field
         # v(y, k) = v_prev + (k/m)(v_new - v_prev) + (C_prev + (k/m)(C_new - C_prev)) y,
-        # y += dt v(y, k), k = 1..m (gasp_core.toolkit.mpm.passive_schedule), so it turns with the material.
+        # y += dt v(y, k), k = 1..m (gasp_core.toolkit.substeps.passive_schedule), so it turns with the material.
         p = first + wp.tid()
         if fixed[p] != 0:
             v[p] = vec3(Ft(0.0))

@@ -32,10 +32,13 @@ from typing import Any
 import numpy as np
 import warp as wp
 
-from gasp_core.errors import EngineDivergence, EngineError
-from gasp_core.seam.setup import SimSetup
-from gasp_core.toolkit import mpm
-from gasp_core.toolkit.mpm import CAUSE_DOMAIN, CAUSE_DT
+from gasp_core.toolkit.materials import initial_Jp, material_table
+from gasp_core.toolkit.memory import check_memory, estimate_bytes
+from gasp_core.toolkit.options import check_mpm_options
+from gasp_core.toolkit.points import cell_order, ground_top_node, engine_mass_stats, fixed_mask, material_first_order, stranded_passive
+from gasp_core.toolkit.substeps import passive_schedule, substeps_from_options
+from gasp_core.seam import EngineDivergence, EngineError, SimSetup
+from gasp_core.toolkit.failures import CAUSE_DOMAIN, CAUSE_DT
 
 from . import ENGINE, OPTIONS
 from . import kernels as K
@@ -67,8 +70,8 @@ def _init_warp(cpu_only: bool) -> None:
 
 
 def choose_dt(setup: SimSetup, opts: dict[str, Any]) -> tuple[int, float]:
-    """Substeps per frame and substep (``gasp_core.toolkit.mpm.mpm_substeps``, docs/mpm.md "Time step")."""
-    return mpm.substeps_from_options(setup, opts, ENGINE)
+    """Substeps per frame and substep (``gasp_core.toolkit.substeps.mpm_substeps``, docs/mpm.md "Time step")."""
+    return substeps_from_options(setup, opts, ENGINE)
 
 
 class WarpMPMEngine:
@@ -95,12 +98,12 @@ class WarpMPMEngine:
 
     def __init__(self, setup: SimSetup):
         self.setup = setup
-        opts = mpm.check_mpm_options(setup.options, OPTIONS, ENGINE)
+        opts = check_mpm_options(setup.options, OPTIONS, ENGINE)
         self.options = opts
-        kinds, par = mpm.material_table(setup.materials)
+        kinds, par = material_table(setup.materials)
         choose_dt(setup, opts)  # refuses a scene past max_substeps before any build work
-        mpm.check_memory(mpm.estimate_bytes(len(setup.x), setup.n_grid, opts["precision"]), ENGINE,
-                         f"{len(setup.x)} points, n_grid {setup.n_grid}, {opts['precision']}")
+        check_memory(estimate_bytes(len(setup.x), setup.n_grid, opts["precision"]), ENGINE,
+                     f"{len(setup.x)} points, n_grid {setup.n_grid}, {opts['precision']}")
 
         wp.config.log_level = wp.LOG_WARNING  # no start-up banner or module-load lines on stdout
         _init_warp(cpu_only=not opts["device"].startswith("cuda"))
@@ -127,24 +130,24 @@ class WarpMPMEngine:
         lo = setup.domain_lo
 
         # Points that start inside a fixed region are held (docs/mpm.md G2P).
-        fixed = mpm.fixed_mask(setup.x, setup.boundaries).astype(np.int32)
+        fixed = fixed_mask(setup.x, setup.boundaries).astype(np.int32)
         fixed_lo, fixed_hi, ground, wall_mu = [], [], [], []
         for bd in setup.boundaries:
             if bd.kind == "fixed_region":
                 fixed_lo.append(np.asarray(bd.lo, float))
                 fixed_hi.append(np.asarray(bd.hi, float))
             elif bd.kind == "ground":
-                # the ground's top node layer, decided in float64 (gasp_core.toolkit.mpm.ground_top_node)
-                ground.append((float(mpm.ground_top_node(bd.height, lo[2], self.dx)), bd.friction, 0.0))
+                # the ground's top node layer, decided in float64 (gasp_core.toolkit.points.ground_top_node)
+                ground.append((float(ground_top_node(bd.height, lo[2], self.dx)), bd.friction, 0.0))
             else:
                 wall_mu.append(bd.friction)
 
         # Sort points by grid cell (cache locality of scatter and gather); order[i] is the
         # setup index of internal point i.
         # Material points first, then the passive ones (SimSetup.passive: G2P only, no P2G).
-        order, self.n_material = mpm.material_first_order(setup, self.dx)
+        order, self.n_material = material_first_order(setup, self.dx)
         self._order = order
-        jp0 = mpm.initial_Jp(setup.materials, setup.body_id)
+        jp0 = initial_Jp(setup.materials, setup.body_id)
         d, dt_np = self.device, self._np_dtype
         k = self.k
 
@@ -197,11 +200,11 @@ class WarpMPMEngine:
                     self.x, self.v, self.C, self.fixed, self.grid_vel, lo_v, inv_dx, dt_f, ng]),
             ]
             # passive points after the grid update (the grid velocity holds forces, colliders, boundaries):
-            # one launch per distinct interval m of mpm.passive_schedule, at the substeps it names
+            # one launch per distinct interval m of passive_schedule, at the substeps it names
             self._passive_at = [None] * self.n_substeps
             if n_passive:
                 by_m: dict = {}
-                for s_, a_, b_ in mpm.passive_schedule(self.n_substeps, opts["passive_every"], self.dt):
+                for s_, a_, b_ in passive_schedule(self.n_substeps, opts["passive_every"], self.dt):
                     m_ = int(round((a_ + b_) / self.dt))      # substeps since the last gather
                     if m_ not in by_m:
                         by_m[m_] = wp.launch(
@@ -244,8 +247,8 @@ class WarpMPMEngine:
 
     # ------------------------------------------------------------------ helpers
     def _cell_order(self, x: np.ndarray) -> np.ndarray:
-        """Stable order of points by flat cell index (``gasp_core.toolkit.mpm.cell_order``)."""
-        return mpm.cell_order(x, self.setup.domain_lo, self.dx, self.n_grid)
+        """Stable order of points by flat cell index (``gasp_core.toolkit.points.cell_order``)."""
+        return cell_order(x, self.setup.domain_lo, self.dx, self.n_grid)
 
     def _resort(self) -> None:
         """Re-sort the points by cell (CPU only: the arrays are host memory, numpy views)."""
@@ -359,13 +362,13 @@ class WarpMPMEngine:
     def stats(self) -> dict[str, Any]:
         """``device, precision, n_points, dt`` (s), ``n_substeps`` (per frame), ``n_grid``, ``dx`` (m),
         ``frame``, ``sim_time`` (s), ``n_passive``, ``mass`` (kg), ``centre_of_mass`` (m), ``inertia`` (kg m^2) and,
-        with passive points after a frame, ``passive_stranded`` (:func:`gasp_core.toolkit.mpm.stranded_passive`)."""
+        with passive points after a frame, ``passive_stranded`` (:func:`gasp_core.toolkit.points.stranded_passive`)."""
         return {"device": str(self.device), "precision": self.precision, "n_points": self.n_points,
                 "dt": self.dt, "n_substeps": self.n_substeps, "n_grid": self.n_grid, "dx": self.dx,
                 "frame": self.frame, "sim_time": self.sim_time, "n_passive": self.n_points - self.n_material,
                 # as the engine's arrays hold it (not after close)
-                **({} if self._closed else mpm.engine_mass_stats(self.x.numpy(), self.p_mass.numpy())),
-                **({"passive_stranded": mpm.stranded_passive(
+                **({} if self._closed else engine_mass_stats(self.x.numpy(), self.p_mass.numpy())),
+                **({"passive_stranded": stranded_passive(
                     self.x.numpy()[self.n_material:], self.grid_m.numpy().reshape((self.n_grid,) * 3),
                     self.setup.domain_lo, self.dx)}
                    if not self._closed and self.n_material < self.n_points and self.frame > 0 else {})}

@@ -10,8 +10,7 @@ import sys
 import numpy as np
 import pytest
 
-from gasp_core.errors import EngineDivergence, EngineError, SceneError
-from gasp_core.seam.setup import Boundary, Material, SimSetup
+from gasp_core.seam import Boundary, EngineDivergence, EngineError, Material, SceneError, SimSetup
 
 pytest.importorskip("warp")
 from gasp_warp_mpm.solver import WarpMPMEngine  # noqa: E402

@@ -1,0 +1,197 @@
+"""Occupied space of Gaussians, from their own footprints: the shell they touch and the solid they enclose.
+
+What decides "interior" (used by the interior fill, :mod:`gasp_core.maps.fill`, and by colliders
+made from Gaussians):
+
+1. **Footprints, not means.** Every opaque Gaussian is splatted as its flat ellipse
+   ``v1 + a (v2 - v1) + b (v3 - v1)``, ``a^2 + b^2 <= SPLAT_SIGMA^2`` (GaMeS triangle, so ``v2 - v1
+   = s2 r2``), sampled at half a voxel, into an occupancy grid (the *shell*).
+2. **Voxel size from the splat density.** The occupancy voxel is the 90th percentile of the
+   distance from each opaque Gaussian to its nearest neighbour (the gap a one-voxel dilation
+   bridges), kept between ``extent / MAX_VOXELS`` and ``extent / MIN_VOXELS``.
+3. **Bounded closing, exterior flood fill.** For ``r = 1 .. max_dilation`` voxels the shell is
+   dilated ``r`` times by the 18-neighbourhood (a discrete ball, :func:`scipy.ndimage.binary_dilation`), the exterior is
+   the part of its complement connected to the grid border (:func:`scipy.ndimage.label`), and it is
+   grown back by ``r``. The smallest ``r`` whose enclosed volume no longer grows (within
+   ``STABLE_TOL`` from ``r`` to ``r + 1``) and holds an interior core is taken: a gap narrower than
+   about ``2 r`` voxels is sealed, real openings (a donut's hole) are not, because closing them
+   would keep growing the volume. If no ``r`` up to ``max_dilation`` gives a stable enclosed
+   volume the object is *open*: it is simulated as a shell, with a warning naming it (or a
+   :class:`~gasp_core.errors.SceneError` with ``if_open = "error"``).
+4. **Sub-voxel surface.** With ``d_ext``, ``d_core`` the taxicab distances (voxels,
+   :func:`scipy.ndimage.distance_transform_cdt`) to the exterior and to the interior core (enclosed,
+   not shell), ``phi = d_ext - min((d_ext + d_core) / 2, HALF_SHELL)``: zero mid-shell where the
+   shell is a sheet of splats on the surface, at most ``HALF_SHELL`` voxels under its outside where
+   the footprints fill the object (a trained splat's interior Gaussians). Fill-grid cell centres at
+   the simulation spacing ``h`` are inside where the trilinear interpolation of ``phi`` is
+   positive; the solid's volume is the count of inside cells times ``h^3``. The enclosure is
+   *closed* when, besides being stable, more than ``DEEP_SHARE`` of it lies deeper than ``DEEP``
+   voxels (an open sheet, such as a bowl, has nothing that deep).
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage
+from scipy.spatial import cKDTree
+
+#: Footprint radius of a splat, in standard deviations of its in-plane scales.
+SPLAT_SIGMA = 2.0
+#: Occupancy-grid resolution bounds, voxels along the object's longest side.
+MIN_VOXELS, MAX_VOXELS = 48, 160
+#: Relative growth of the enclosed volume from ``r`` to ``r + 1`` below which the closing is final.
+STABLE_TOL = 0.03
+#: A closed solid has more than DEEP_SHARE of its cells deeper than DEEP voxels (a sheet has none).
+DEEP, DEEP_SHARE = 3, 0.05
+#: Largest depth of the surface below the outside of the occupied shell, voxels.
+HALF_SHELL = 1.5
+
+
+def splat_samples(splats: np.ndarray, step: float, sigma: float = SPLAT_SIGMA, chunk: int = 200_000):
+    """Points covering each splat's footprint ellipse, at most ``step`` apart, yielded in chunks.
+
+    Parameters
+    ----------
+    splats : ndarray, shape (n, 3, 3)
+        GaMeS triangles ``v1 = m``, ``v2 = m + s2 r2``, ``v3 = m + s3 r3`` (metres).
+    step : float
+        Sample spacing, metres.
+    sigma : float
+        Footprint radius in standard deviations.
+
+    Yields
+    ------
+    ndarray, shape (k, 3), float64
+    """
+    v1 = splats[:, 0]
+    e2 = splats[:, 1] - v1
+    e3 = splats[:, 2] - v1
+    r = sigma * np.maximum(np.linalg.norm(e2, axis=1), np.linalg.norm(e3, axis=1))
+    m = np.clip(np.ceil(r / step), 0, 32).astype(np.int64)          # samples per half-axis
+    for mm in np.unique(m):
+        sel = np.flatnonzero(m == mm)
+        u = np.linspace(-sigma, sigma, 2 * mm + 1) if mm else np.zeros(1)
+        a, b = np.meshgrid(u, u, indexing="ij")
+        keep = a ** 2 + b ** 2 <= sigma ** 2 + 1e-12
+        a, b = a[keep], b[keep]
+        per = max(1, chunk // len(a))
+        for s in range(0, len(sel), per):
+            i = sel[s:s + per]
+            pts = v1[i, None] + a[None, :, None] * e2[i, None] + b[None, :, None] * e3[i, None]
+            yield pts.reshape(-1, 3)
+
+
+def density_voxel(splats: np.ndarray) -> float:
+    """Occupancy voxel from the splat density, metres (see the module notes, step 2)."""
+    means = splats[:, 0]
+    ext = float(np.ptp(np.concatenate([means, splats[:, 1], splats[:, 2]]), axis=0).max()) or 1.0
+    if len(means) > 1:
+        d, _ = cKDTree(means).query(means, k=2)
+        gap = float(np.quantile(d[:, 1], 0.9))
+    else:
+        gap = ext
+    return float(np.clip(gap, ext / MAX_VOXELS, ext / MIN_VOXELS))
+
+
+def padded_grid(lo_pts: np.ndarray, hi_pts: np.ndarray, h: float,
+                pad: int) -> tuple[np.ndarray, tuple[int, int, int]]:
+    """Corner (metres) and shape (cells) of a grid of spacing ``h`` holding ``[lo_pts, hi_pts]`` with ``pad`` cells
+    of margin below and about ``pad`` above."""
+    lo = lo_pts - pad * h
+    shape = tuple(int(s) for s in np.floor((hi_pts - lo) / h).astype(np.int64) + pad + 1)
+    return lo, shape
+
+
+def rasterize(splats: np.ndarray, lo: np.ndarray, shape, h: float) -> np.ndarray:
+    """Voxels the Gaussians' footprints touch.
+
+    Parameters
+    ----------
+    splats : ndarray, shape (n, 3, 3)
+        GaMeS triangles, metres.
+    lo : ndarray, shape (3,)
+        Corner of voxel ``(0, 0, 0)``, metres.
+    shape : tuple of 3 int
+        Voxels per axis.
+    h : float
+        Voxel size, metres; footprints are sampled every ``h / 2`` (:func:`splat_samples`), samples
+        outside the grid count in the nearest edge voxel.
+
+    Returns
+    -------
+    ndarray, shape ``shape``, bool
+    """
+    occ = np.zeros(shape, dtype=bool)
+    hi = np.array(shape) - 1
+    for pts in splat_samples(splats, 0.5 * h):
+        idx = np.clip(np.floor((pts - lo) / h).astype(np.int64), 0, hi)
+        occ[idx[:, 0], idx[:, 1], idx[:, 2]] = True
+    return occ
+
+
+_BALL = ndimage.generate_binary_structure(3, 2)      # 18-neighbourhood: one step of a discrete ball
+
+
+def _exterior(closed_shell: np.ndarray, r: int) -> np.ndarray:
+    """Exterior of a shell dilated ``r`` times: the free cells connected to the border, grown back by ``r``."""
+    lab, _ = ndimage.label(~closed_shell)
+    border = np.unique(np.concatenate([lab[0].ravel(), lab[-1].ravel(), lab[:, 0].ravel(), lab[:, -1].ravel(),
+                                       lab[:, :, 0].ravel(), lab[:, :, -1].ravel()]))
+    outside = np.isin(lab, border[border > 0])
+    return ndimage.binary_dilation(outside, _BALL, iterations=r)
+
+
+def solid_field(splats: np.ndarray, max_dilation: int = 4, voxel: float | None = None):
+    """The signed inside field of the splats' footprints (module notes, steps 2-4).
+
+    Parameters
+    ----------
+    splats : ndarray, shape (n, 3, 3)
+        GaMeS triangles of the opaque Gaussians, metres.
+    max_dilation : int
+        Largest closing radius tried, occupancy voxels.
+    voxel : float, optional
+        Occupancy voxel size, metres; default :func:`density_voxel`.
+
+    Returns
+    -------
+    phi : ndarray, 3-D float32 or None
+        Signed depth in voxels, positive inside (module notes, step 4); None if the footprints enclose nothing.
+    lo : ndarray, shape (3,)
+        Corner of the grid (cell ``i`` has centre ``lo + (i + 0.5) voxel``).
+    voxel : float
+    r : int
+        Closing radius chosen (0 when open).
+    enclosed : list of float
+        Enclosed volume (m^3) at each radius tried.
+    """
+    splats = np.asarray(splats, dtype=np.float64)
+    voxel = density_voxel(splats) if voxel is None else float(voxel)
+    pts = splats.reshape(-1, 3)
+    reach = SPLAT_SIGMA * np.linalg.norm(splats[:, 1:] - splats[:, :1], axis=2).max()
+    lo, shape = padded_grid(pts.min(axis=0) - reach, pts.max(axis=0) + reach, voxel, max_dilation + 3)
+    shell = rasterize(splats, lo, shape, voxel)
+    closed_shell = shell
+    enclosed, solids = [], []
+    chosen = 0
+    for r in range(1, max_dilation + 2):
+        closed_shell = ndimage.binary_dilation(closed_shell, _BALL)
+        ext = _exterior(closed_shell, r)
+        solids.append(ext)
+        enclosed.append(float((~ext).sum()) * voxel ** 3)
+        if r >= 2 and enclosed[-1] <= enclosed[-2] * (1.0 + STABLE_TOL):
+            # stable; and a solid, not a sheet: some of it lies deeper than DEEP voxels
+            solid = ~solids[-2]
+            deep = int((ndimage.distance_transform_cdt(solid, metric="taxicab") > DEEP).sum())
+            if deep > DEEP_SHARE * solid.sum():
+                chosen = r - 1
+                break
+    if not chosen:
+        return None, lo, voxel, 0, enclosed
+    ext = solids[chosen - 1]
+    core = ~ext & ~shell
+    d_ext = ndimage.distance_transform_cdt(~ext, metric="taxicab").astype(np.float32)
+    d_core = (ndimage.distance_transform_cdt(~core, metric="taxicab").astype(np.float32) if core.any()
+              else np.full(shape, np.inf, np.float32))
+    # surface mid-shell where the shell is a sheet, at most HALF_SHELL voxels inside a thick one
+    phi = d_ext - np.minimum(0.5 * (d_ext + d_core), HALF_SHELL)
+    return phi, lo, voxel, chosen, enclosed

@@ -1,0 +1,125 @@
+"""The scene-wide tables of a scene file, ``[engine]``, ``[domain]`` and ``[[boundary]]``, and an object's
+``material``: their data (:class:`EngineSpec`, :class:`DomainSpec`; ``Material`` and ``Boundary`` are
+the seam's, :mod:`gasp_core.seam.setup`) and their checked readers. Every key is checked as
+:mod:`gasp_core.scene.spec` says.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+from gasp_core.errors import SceneError
+from gasp_core.scene.values import (MAX_COORD, MAX_PADDING, N_GRID_RANGE, PPC_RANGE, as_integer, as_number, as_string,
+                                    as_table, as_vec3, bad_value, check_keys)
+from gasp_core.seam.setup import BOUNDARIES, Boundary, Material, MATERIALS
+
+
+@dataclass
+class EngineSpec:
+    """``[engine]``: ``name`` (a registered engine; ``gasp engines`` lists them) and its ``options``.
+
+    ``name`` may be left out when the command line names the engine (``--engine``).
+    """
+
+    name: str | None = None
+    options: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class DomainSpec:
+    """``[domain]``: the simulation box (metres) and grid resolution.
+
+    ``lo``/``hi`` default to the objects' bounds padded by ``padding`` times their largest
+    extent (the ground, if any, at the bottom). ``particles_per_cell`` sets the interior fill
+    spacing ``dx / ppc^(1/3)``.
+    """
+
+    lo: tuple[float, float, float] | None = None
+    hi: tuple[float, float, float] | None = None
+    n_grid: int = 64
+    padding: float = 0.5
+    particles_per_cell: int = 8
+
+
+_MATERIAL_KEYS = {f.name for f in fields(Material)}
+_BOUNDARY_KEYS = {f.name for f in fields(Boundary)}
+_BOUNDARY_KIND_KEYS = {"ground": {"kind", "height", "friction"}, "walls": {"kind", "friction"},
+                       "fixed_region": {"kind", "lo", "hi"}}
+_DOMAIN_KEYS = {f.name for f in fields(DomainSpec)}
+_ENGINE_KEYS = {"name", "options"}
+
+
+#: Material parameter ranges: (lo, hi, lo_open, hi_open); hi None = unbounded.
+_MATERIAL_RANGES = {
+    "E": (0.0, None, True, False), "nu": (0.0, 0.5, False, True), "rho": (0.0, None, True, False),
+    "yield_stress": (0.0, None, True, False), "friction_angle": (0.0, 90.0, False, True),
+    "softening": (0.0, None, False, False), "hardening": (0.0, None, True, False),
+    "theta_c": (0.0, None, True, False), "theta_s": (0.0, None, True, False),
+}
+
+
+def read_material(value, where: str, src: Path) -> Material:
+    """An object's ``material`` table: ``name`` (default ``jelly``) and parameters within ``_MATERIAL_RANGES``."""
+    table = as_table(value, where, src)
+    check_keys(table, _MATERIAL_KEYS, where, src)
+    kw: dict[str, Any] = {"name": as_string(table.get("name", "jelly"), f"{where}.name", src, MATERIALS)}
+    for k in sorted(_MATERIAL_KEYS - {"name"}):
+        if k in table:
+            lo, hi, lo_open, hi_open = _MATERIAL_RANGES[k]
+            kw[k] = as_number(table[k], f"{where}.{k}", src, lo, hi, lo_open, hi_open)
+    return Material(**kw)
+
+
+def read_engine(value, src: Path) -> EngineSpec:
+    """``[engine] name = ..., options = {...}``, or the shorthand ``engine = "name"``."""
+    if isinstance(value, str):
+        value = {"name": value}
+    elif not isinstance(value, dict):
+        bad_value(src, "engine", value, 'an engine name (engine = "NAME") or an [engine] table with name and options')
+    check_keys(value, _ENGINE_KEYS, "[engine]", src)
+    name = value.get("name")
+    name = None if name is None else as_string(name, "engine.name", src)
+    options = as_table(value.get("options", {}), "engine.options", src)
+    return EngineSpec(name=name, options=dict(options))
+
+
+def read_domain(value, src: Path) -> DomainSpec:
+    """``[domain]``: ``lo`` and ``hi`` both or neither (``hi > lo`` on every axis), ``n_grid``, ``padding``,
+    ``particles_per_cell``."""
+    dom_t = as_table(value, "domain", src)
+    check_keys(dom_t, _DOMAIN_KEYS, "[domain]", src)
+    domain = DomainSpec(
+        lo=as_vec3(dom_t["lo"], "domain.lo", src, max_abs=MAX_COORD, unit=" m") if "lo" in dom_t else None,
+        hi=as_vec3(dom_t["hi"], "domain.hi", src, max_abs=MAX_COORD, unit=" m") if "hi" in dom_t else None,
+        n_grid=as_integer(dom_t.get("n_grid", DomainSpec.n_grid), "domain.n_grid", src, *N_GRID_RANGE),
+        padding=as_number(dom_t.get("padding", DomainSpec.padding), "domain.padding", src, 0.0, MAX_PADDING),
+        particles_per_cell=as_integer(dom_t.get("particles_per_cell", DomainSpec.particles_per_cell),
+                                      "domain.particles_per_cell", src, *PPC_RANGE))
+    if (domain.lo is None) != (domain.hi is None):
+        raise SceneError(f"{src}: [domain] needs both 'lo' and 'hi', or neither")
+    if domain.lo is not None and not all(h > l for l, h in zip(domain.lo, domain.hi)):
+        raise SceneError(f"{src}: [domain] 'hi' must exceed 'lo' on every axis, got lo={list(domain.lo)} "
+                         f"hi={list(domain.hi)}")
+    return domain
+
+
+def read_boundary(b: dict, where: str, src: Path) -> Boundary:
+    """One ``[[boundary]]``: the keys its ``kind`` takes; a ``fixed_region`` needs ``lo`` and ``hi`` with
+    ``hi > lo``."""
+    kind = as_string(b.get("kind"), f"{where}.kind", src, BOUNDARIES)
+    check_keys(b, _BOUNDARY_KIND_KEYS.get(kind, _BOUNDARY_KEYS), f"{where} (kind = {kind!r})", src)
+    kw: dict[str, Any] = {"kind": kind}
+    if "height" in b:
+        kw["height"] = as_number(b["height"], f"{where}.height", src, -MAX_COORD, MAX_COORD)
+    if "friction" in b:
+        kw["friction"] = as_number(b["friction"], f"{where}.friction", src, 0.0)
+    if kind == "fixed_region":
+        if "lo" not in b or "hi" not in b:
+            raise SceneError(f"{src}: {where} (fixed_region) needs 'lo' and 'hi'")
+        kw["lo"] = as_vec3(b["lo"], f"{where}.lo", src, max_abs=MAX_COORD, unit=" m")
+        kw["hi"] = as_vec3(b["hi"], f"{where}.hi", src, max_abs=MAX_COORD, unit=" m")
+        if not all(h > l for l, h in zip(kw["lo"], kw["hi"])):
+            raise SceneError(f"{src}: {where} (fixed_region) 'hi' must exceed 'lo' on every axis, got "
+                             f"lo={list(kw['lo'])} hi={list(kw['hi'])}; the box holds nothing")
+    return Boundary(**kw)

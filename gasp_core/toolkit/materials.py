@@ -1,0 +1,86 @@
+"""Material codes and the per-body parameter table the kernels of a grid (MPM) engine read, and the initial ``Jp``.
+
+Material parameters are checked once, by :class:`gasp_core.seam.setup.SimSetup` (``E > 0``,
+``rho > 0``, ``-1 < nu < 0.5``): every model of ``docs/mpm.md`` is well posed on that whole range
+(``lam + 2 mu``, ``3 lam + 2 mu`` and the bulk modulus ``K`` stay positive), so an MPM engine adds
+no rule of its own on ``nu``.
+"""
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import numpy as np
+
+from gasp_core.errors import SceneError
+from gasp_core.seam.setup import Material
+
+
+#: Material codes of the kernels (index of the branch in the constitutive update).
+JELLY, NEO_HOOKEAN, METAL, SAND, SNOW, PLASTICINE, LIQUID = range(7)
+MATERIAL_CODES = {"jelly": JELLY, "neo_hookean": NEO_HOOKEAN, "metal": METAL, "sand": SAND, "snow": SNOW,
+                  "plasticine": PLASTICINE, "liquid": LIQUID}
+#: Columns of the per-body parameter table (:func:`material_table`).
+P_MU, P_LAM, P_YIELD, P_SOFTENING, P_HARDENING, P_THETA_C, P_THETA_S, P_ALPHA, P_K = range(9)
+N_PARAMS = 9
+#: von Mises yield surface radius per unit yield stress: metal and plasticine return-map the Hencky
+#: strain's deviator ``e`` onto ``2 mu ||e|| <= sqrt(2/3) Y``, i.e. ``||dev tau|| <= sqrt(2/3) Y``, so a
+#: bar in uniaxial stress yields at ``Y`` (von Mises: ``sigma_vm = sqrt(3/2) ||dev tau||``;
+#: de Souza Neto, Peric & Owen, Computational Methods for Plasticity, 2008, Ch. 6). taichi_elements
+#: and PhysGaussian use ``||e|| <= Y / (2 mu)``, which yields at ``sqrt(3/2) Y = 1.22 Y``.
+VON_MISES_RADIUS = math.sqrt(2.0 / 3.0)
+
+
+def material_table(materials: Sequence[Material]) -> tuple[np.ndarray, np.ndarray]:
+    """Material code and parameter row of each body, as the kernels read them.
+
+    Parameters
+    ----------
+    materials : sequence of Material
+        One per body; names in :data:`MATERIAL_CODES`.
+
+    Returns
+    -------
+    kinds : ndarray, shape (n_bodies,), int32
+        :data:`MATERIAL_CODES` value of each body.
+    params : ndarray, shape (n_bodies, N_PARAMS), float64
+        Columns ``P_MU`` (Lame mu, Pa), ``P_LAM`` (Lame lam, Pa), ``P_YIELD`` (von Mises yield
+        stress, Pa), ``P_SOFTENING``, ``P_HARDENING`` (snow xi), ``P_THETA_C``, ``P_THETA_S``,
+        ``P_ALPHA`` (Drucker-Prager ``alpha = sqrt(2/3) 2 sin(phi) / (3 - sin(phi))`` of the
+        friction angle phi, Klar et al. 2016 Eq. 27) and ``P_K`` (bulk modulus
+        ``E / (3 (1 - 2 nu))``, Pa, of the liquid's equation of state).
+
+    Raises
+    ------
+    SceneError
+        A material without an MPM model here (``rigid``); the engine's capabilities normally
+        refuse it before.
+    """
+    kinds = np.zeros(len(materials), dtype=np.int32)
+    params = np.zeros((len(materials), N_PARAMS), dtype=np.float64)
+    for b, m in enumerate(materials):
+        if m.name not in MATERIAL_CODES:
+            raise SceneError(f"material '{m.name}' (body {b}) has no MPM model; MPM materials: "
+                             f"{sorted(MATERIAL_CODES)}")
+        kinds[b] = MATERIAL_CODES[m.name]
+        s = math.sin(math.radians(m.friction_angle))
+        params[b, P_MU] = m.mu
+        params[b, P_LAM] = m.lam
+        params[b, P_YIELD] = m.yield_stress
+        params[b, P_SOFTENING] = m.softening
+        params[b, P_HARDENING] = m.hardening
+        params[b, P_THETA_C] = m.theta_c
+        params[b, P_THETA_S] = m.theta_s
+        params[b, P_ALPHA] = math.sqrt(2.0 / 3.0) * 2.0 * s / (3.0 - s)
+        params[b, P_K] = m.E / (3.0 * (1.0 - 2.0 * m.nu))
+    return kinds, params
+
+
+def initial_Jp(materials: Sequence[Material], body_id: np.ndarray) -> np.ndarray:
+    """Initial ``Jp`` of each point, shape (n,), float64.
+
+    ``Jp`` is the plastic volume ratio for ``snow`` (1 at rest; Stomakhin et al. 2013) and the
+    accumulated plastic strain for ``plasticine`` (0 at rest); no other model reads it (1).
+    """
+    start = np.array([0.0 if m.name == "plasticine" else 1.0 for m in materials])
+    return start[np.asarray(body_id)]

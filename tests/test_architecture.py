@@ -1,0 +1,334 @@
+"""The house rules of ``gasp_core`` (issue 16), checked on its source, and each check shown to catch a
+deliberately bad package built in a temporary folder.
+
+1. No import loop among the core's modules, counting imports inside functions (a lazy import that
+   closes a loop is still a loop); imports under ``if TYPE_CHECKING:`` aside.
+2. Each package imports only packages below it in :data:`LAYERS`; ``toolkit`` is never imported by
+   ``seam`` or ``run``.
+3. No core file over :data:`MAX_FILE_LINES` lines (:data:`LONG_FILES` lists exceptions with the reason).
+4. No private name (``_name``) imported from another module.
+5. No engine name (:data:`ENGINE_NAMES`) in the core's code; comments and docstrings may cite the
+   literature (e.g. taichi_elements).
+6. No function over :data:`MAX_FUNCTION_LINES` lines unless its docstring says why, in words
+   containing :data:`LONG_REASON`.
+"""
+from __future__ import annotations
+
+import ast
+import io
+import re
+import textwrap
+import tokenize
+from pathlib import Path
+
+import gasp_core
+
+CORE = Path(gasp_core.__file__).parent
+
+#: The core's packages (and top-level modules) from the bottom up: each may import only those
+#: before it. Modules directly in ``gasp_core/`` that are not listed (its ``__init__``) are above all.
+LAYERS = ("errors", "fsutil", "maps", "gs", "colliders", "seam", "toolkit", "scene", "prepare", "run", "render",
+          "testing", "cli")
+#: Packages that must never import a package even though it is below them.
+FORBIDDEN = {"seam": {"toolkit"}, "run": {"toolkit"}}
+MAX_FILE_LINES = 400
+#: Core files allowed over MAX_FILE_LINES, path relative to gasp_core -> the reason.
+LONG_FILES: dict[str, str] = {}
+MAX_FUNCTION_LINES = 80
+#: A longer function's docstring says why, in a sentence containing these words.
+LONG_REASON = "long because"
+ENGINE_NAMES = ("taichi", "warp", "mujoco", "genesis", "blender", "newton")
+
+
+# ----------------------------------------------------------------------------- reading the source
+def modules(root: Path) -> dict[str, Path]:
+    """Dotted module name -> file, for every ``.py`` under the package folder ``root``."""
+    out = {}
+    for path in sorted(root.rglob("*.py")):
+        parts = path.relative_to(root.parent).with_suffix("").parts
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        out[".".join(parts)] = path
+    return out
+
+
+def _type_checking_nodes(tree: ast.AST) -> set[int]:
+    """ids of every node inside an ``if TYPE_CHECKING:`` block."""
+    skip = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+            skip.update(id(n) for stmt in node.body for n in ast.walk(stmt))
+    return skip
+
+
+def imported_modules(name: str, path: Path, known: dict[str, Path]) -> set[str]:
+    """The modules of ``known`` that module ``name`` imports anywhere (functions included), TYPE_CHECKING aside.
+
+    ``from a.b import c`` imports ``a.b``, and ``a.b.c`` too where that is a module.
+    """
+    tree = ast.parse(path.read_text())
+    skip = _type_checking_nodes(tree)
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    out = set()
+    for node in ast.walk(tree):
+        if id(node) in skip:
+            continue
+        if isinstance(node, ast.Import):
+            targets = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                up = package.split(".")[:len(package.split(".")) - (node.level - 1)]
+                base = ".".join(up + ([node.module] if node.module else []))
+            targets = [base] + [f"{base}.{a.name}" for a in node.names]
+        else:
+            continue
+        out.update(t for t in targets if t in known and t != name)
+    return out
+
+
+def import_graph(root: Path) -> dict[str, set[str]]:
+    """Module -> the package's modules it imports (see :func:`imported_modules`)."""
+    known = modules(root)
+    return {name: imported_modules(name, path, known) for name, path in known.items()}
+
+
+# ----------------------------------------------------------------------------- the checks
+def import_loops(root: Path) -> list[list[str]]:
+    """Groups of modules that import each other in a loop (strongly connected components of two or more,
+    or a module importing itself), each sorted."""
+    graph = import_graph(root)
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    loops = []
+
+    def visit(v: str) -> None:  # Tarjan's algorithm
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in graph[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            group = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                group.append(w)
+                if w == v:
+                    break
+            if len(group) > 1:
+                loops.append(sorted(group))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return loops
+
+
+def _layer(module: str) -> str | None:
+    """The entry of :data:`LAYERS` a module belongs to (``gasp_core.seam.engine`` -> ``seam``), or None."""
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 and parts[1] in LAYERS else None
+
+
+def layer_violations(root: Path) -> list[str]:
+    """Imports of a package that is not below the importer in :data:`LAYERS`, or one in :data:`FORBIDDEN`."""
+    bad = []
+    for module, targets in sorted(import_graph(root).items()):
+        mine = _layer(module)
+        if mine is None:
+            continue
+        for target in sorted(targets):
+            theirs = _layer(target)
+            if theirs is None or theirs == mine:
+                continue
+            if LAYERS.index(theirs) > LAYERS.index(mine):
+                bad.append(f"{module} imports {target}: {mine} is below {theirs}")
+            elif theirs in FORBIDDEN.get(mine, ()):
+                bad.append(f"{module} imports {target}: {mine} must never import {theirs}")
+    return bad
+
+
+def long_files(root: Path, limit: int = MAX_FILE_LINES, allowed: dict[str, str] = LONG_FILES) -> list[str]:
+    """Files over ``limit`` lines that ``allowed`` does not list."""
+    out = []
+    for path in sorted(root.rglob("*.py")):
+        rel = path.relative_to(root).as_posix()
+        n = len(path.read_text().splitlines())
+        if n > limit and rel not in allowed:
+            out.append(f"{rel}: {n} lines")
+    return out
+
+
+def private_imports(root: Path) -> list[str]:
+    """``from x import _name`` anywhere in the package (a private helper used outside its module)."""
+    out = []
+    for name, path in modules(root).items():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and node.module != "__future__":
+                private = [a.name for a in node.names if a.name.startswith("_") and not a.name.startswith("__")]
+                if private:
+                    out.append(f"{name}:{node.lineno} imports {private} from {node.module}")
+    return out
+
+
+def _docstring_positions(tree: ast.AST) -> set[tuple[int, int]]:
+    """(line, column) where each module, class and function docstring starts."""
+    out = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)) and node.body:
+            first = node.body[0]
+            if isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant) \
+                    and isinstance(first.value.value, str):
+                out.add((first.lineno, first.col_offset))
+    return out
+
+
+def engine_names(root: Path) -> list[str]:
+    """Engine names in code: identifiers and strings other than docstrings (comments are skipped)."""
+    pattern = re.compile(rf"(?<![a-z])({'|'.join(ENGINE_NAMES)})", re.IGNORECASE)
+    out = []
+    for name, path in modules(root).items():
+        text = path.read_text()
+        docstrings = _docstring_positions(ast.parse(text))
+        for tok in tokenize.generate_tokens(io.StringIO(text).readline):
+            if tok.type not in (tokenize.NAME, tokenize.STRING) or tok.start in docstrings:
+                continue
+            found = pattern.search(tok.string)
+            if found:
+                out.append(f"{name}:{tok.start[0]}: {found.group(1)!r} in {tok.string[:60]!r}")
+    return out
+
+
+def long_functions(root: Path, limit: int = MAX_FUNCTION_LINES) -> list[str]:
+    """Functions (and methods) over ``limit`` lines, decorators aside, whose docstring does not say why."""
+    out = []
+    for name, path in modules(root).items():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                n = node.end_lineno - node.lineno + 1
+                doc = ast.get_docstring(node) or ""
+                if n > limit and LONG_REASON not in doc.lower():
+                    out.append(f"{name}.{node.name} (line {node.lineno}): {n} lines")
+    return out
+
+
+# ----------------------------------------------------------------------------- the core keeps them
+def test_no_import_loops():
+    loops = import_loops(CORE)
+    assert not loops, "modules importing each other in a loop: " + "; ".join(" <-> ".join(g) for g in loops)
+
+
+def test_packages_import_only_packages_below():
+    bad = layer_violations(CORE)
+    assert not bad, "imports against the layers " + " < ".join(LAYERS) + ":\n" + "\n".join(bad)
+
+
+def test_no_core_file_over_the_limit():
+    bad = long_files(CORE)
+    assert not bad, f"core files over {MAX_FILE_LINES} lines (split them by concern):\n" + "\n".join(bad)
+
+
+def test_no_private_name_imported_across_modules():
+    bad = private_imports(CORE)
+    assert not bad, ("private names imported from another module (make them public with a docstring, or move "
+                     "them where they are used):\n" + "\n".join(bad))
+
+
+def test_no_engine_name_in_core_code():
+    bad = engine_names(CORE)
+    assert not bad, "engine names in the core's code (the core knows engines only through the seam):\n" + \
+        "\n".join(bad)
+
+
+def test_no_function_over_the_limit_without_a_reason():
+    bad = long_functions(CORE)
+    assert not bad, (f"functions over {MAX_FUNCTION_LINES} lines whose docstring does not say why "
+                     f"('{LONG_REASON} ...'):\n" + "\n".join(bad))
+
+
+# ----------------------------------------------------------------------------- the checks catch bad code
+def _package(tmp_path: Path, files: dict[str, str]) -> Path:
+    """A package ``gasp_core`` under ``tmp_path`` with the given files (path relative to it -> source)."""
+    root = tmp_path / "gasp_core"
+    for rel, src in {"__init__.py": "", **files}.items():
+        path = root / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if path.name != "__init__.py" and not (path.parent / "__init__.py").exists():
+            (path.parent / "__init__.py").write_text("")
+        path.write_text(textwrap.dedent(src))
+    return root
+
+
+def test_loop_check_counts_lazy_imports_and_skips_type_checking(tmp_path):
+    root = _package(tmp_path, {
+        "maps/a.py": "from gasp_core.maps.b import f\n",
+        "maps/b.py": "def f():\n    from gasp_core.maps import a\n    return a\n",
+        "maps/c.py": "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from gasp_core.maps.d import g\n",
+        "maps/d.py": "from gasp_core.maps.c import TYPE_CHECKING\n",
+    })
+    assert import_loops(root) == [["gasp_core.maps.a", "gasp_core.maps.b"]]
+
+
+def test_layer_check_catches_an_upward_import_and_toolkit_in_run(tmp_path):
+    root = _package(tmp_path, {
+        "maps/games.py": "def f():\n    from gasp_core.scene.spec import Scene\n",
+        "run/pipeline.py": "from gasp_core.toolkit.options import mpm_options\nfrom gasp_core.seam import setup\n",
+        "scene/spec.py": "Scene = 1\nfrom gasp_core.errors import SceneError\n",
+        "toolkit/options.py": "mpm_options = 1\n",
+        "seam/setup.py": "",
+        "errors.py": "SceneError = Exception\n",
+    })
+    bad = layer_violations(root)
+    assert len(bad) == 2, bad
+    assert "gasp_core.maps.games imports gasp_core.scene.spec" in bad[0]
+    assert "gasp_core.run.pipeline imports gasp_core.toolkit.options: run must never import toolkit" in bad[1]
+
+
+def test_file_size_check_catches_a_long_file_unless_allowed(tmp_path):
+    root = _package(tmp_path, {"gs/big.py": "x = 1\n" * 401, "gs/ok.py": "x = 1\n" * 400})
+    assert long_files(root) == ["gs/big.py: 401 lines"]
+    assert long_files(root, allowed={"gs/big.py": "a table of constants"}) == []
+
+
+def test_private_import_check_catches_an_underscore_name(tmp_path):
+    root = _package(tmp_path, {"gs/io.py": "from __future__ import annotations\nfrom gasp_core.gs.ply import read_ply, _fail\n",
+                               "gs/ply.py": "def read_ply(): pass\ndef _fail(): pass\n"})
+    assert private_imports(root) == ["gasp_core.gs.io:2 imports ['_fail'] from gasp_core.gs.ply"]
+
+
+def test_engine_name_check_skips_docstrings_and_comments(tmp_path):
+    root = _package(tmp_path, {"seam/runner.py": '''\
+        """As taichi_elements does (literature)."""
+        # warp would do this too
+        def run(engine):
+            """Newton iterations, as in the paper."""
+            if engine == "mujoco_flex":
+                return 1
+            import genesis
+        '''})
+    bad = engine_names(root)
+    assert len(bad) == 2 and "'mujoco'" in bad[0] and "'genesis'" in bad[1], bad
+
+
+def test_function_length_check_wants_a_reason(tmp_path):
+    body = "    x = 1\n" * 80
+    root = _package(tmp_path, {"run/steps.py": (
+        "def long_one():\n    '''Does it all.'''\n" + body +
+        "def long_with_reason():\n    '''One table of cases: long because it reads as a table.'''\n" + body +
+        "def short():\n    '''Fine.'''\n    return 1\n")})
+    assert long_functions(root) == ["gasp_core.run.steps.long_one (line 1): 82 lines"]
+
+
+def test_the_graph_sees_this_core():
+    """The checks look at the real core: the seam imports the errors, the pipeline the prepared scene."""
+    graph = import_graph(CORE)
+    assert "gasp_core.errors" in graph["gasp_core.seam.engine"]
+    assert "gasp_core.prepare.scene" in graph["gasp_core.run.pipeline"]
+    assert len(graph) > 50
