@@ -214,23 +214,17 @@ def _dynamic_time(o: dict, f: Path, where: str, src: Path) -> float | None:
     return _number(t, f"{where}.dynamic_time", src)
 
 
-#: Material parameter ranges: (lo, hi, lo_open, hi_open); hi None = unbounded.
-_MATERIAL_RANGES = {
-    "E": (0.0, None, True, False), "nu": (0.0, 0.5, False, True), "rho": (0.0, None, True, False),
-    "yield_stress": (0.0, None, True, False), "friction_angle": (0.0, 90.0, False, True),
-    "softening": (0.0, None, False, False), "hardening": (0.0, None, True, False),
-    "theta_c": (0.0, None, True, False), "theta_s": (0.0, None, True, False),
-}
-
-
 def _material(value, where: str, src: Path) -> Material:
+    """A ``[object.material]`` table; each parameter checked by the Material's own rule (:meth:`Material.expected`)."""
     table = _table(value, where, src)
     _check_keys(table, _MATERIAL_KEYS, where, src)
     kw: dict[str, Any] = {"name": _string(table.get("name", "jelly"), f"{where}.name", src, MATERIALS)}
     for k in sorted(_MATERIAL_KEYS - {"name"}):
         if k in table:
-            lo, hi, lo_open, hi_open = _MATERIAL_RANGES[k]
-            kw[k] = _number(table[k], f"{where}.{k}", src, lo, hi, lo_open, hi_open)
+            expected = Material.expected(k, table[k])
+            if expected is not None:
+                _bad(src, f"{where}.{k}", table[k], expected)
+            kw[k] = float(table[k])
     return Material(**kw)
 
 

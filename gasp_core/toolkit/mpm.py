@@ -14,8 +14,8 @@ every MPM engine starts from the same numbers, it holds:
 - the likely causes of a blow-up, in words (:data:`CAUSE_DT`, :data:`CAUSE_DOMAIN`);
 - the ``gasp bench`` sweep of a grid engine (:func:`mpm_sweep`, :func:`grid_sweep`).
 
-Material parameters are checked once, by :class:`gasp_core.seam.setup.SimSetup` (``E > 0``,
-``rho > 0``, ``-1 < nu < 0.5``): every model of ``docs/mpm.md`` is well posed on that whole range
+Material parameters are checked once, by one rule (:data:`gasp_core.seam.setup.MATERIAL_RANGES`, applied by
+the scene reader and :class:`~gasp_core.seam.setup.SimSetup`; ``-1 < nu < 0.5``): every model of ``docs/mpm.md`` is well posed on that whole range
 (``lam + 2 mu``, ``3 lam + 2 mu`` and the bulk modulus ``K`` stay positive), so an MPM engine adds
 no rule of its own on ``nu``.
 """
@@ -36,11 +36,10 @@ def p_wave_speed(m: Material) -> float:
     """Dilatational (P-wave) speed ``sqrt((lam + 2 mu) / rho)``, m/s.
 
     For ``liquid`` the shear modulus is not used: ``sqrt(lam' / rho)`` with the bulk modulus
-    ``K = E / (3 (1 - 2 nu))``.
+    ``K`` (:attr:`Material.K`).
     """
     if m.name == "liquid":
-        K = m.E / (3.0 * (1.0 - 2.0 * m.nu))
-        return math.sqrt(K / m.rho)
+        return math.sqrt(m.K / m.rho)
     if m.name == "snow":  # hardening can stiffen the material up to exp(xi * theta_c) (Jp < 1)
         h = math.exp(m.hardening * m.theta_c)
         return math.sqrt(h * (m.lam + 2.0 * m.mu) / m.rho)
@@ -320,7 +319,7 @@ def material_table(materials: Sequence[Material]) -> tuple[np.ndarray, np.ndarra
         stress, Pa), ``P_SOFTENING``, ``P_HARDENING`` (snow xi), ``P_THETA_C``, ``P_THETA_S``,
         ``P_ALPHA`` (Drucker-Prager ``alpha = sqrt(2/3) 2 sin(phi) / (3 - sin(phi))`` of the
         friction angle phi, Klar et al. 2016 Eq. 27) and ``P_K`` (bulk modulus
-        ``E / (3 (1 - 2 nu))``, Pa, of the liquid's equation of state).
+        :attr:`Material.K`, Pa, of the liquid's equation of state).
 
     Raises
     ------
@@ -344,7 +343,7 @@ def material_table(materials: Sequence[Material]) -> tuple[np.ndarray, np.ndarra
         params[b, P_THETA_C] = m.theta_c
         params[b, P_THETA_S] = m.theta_s
         params[b, P_ALPHA] = math.sqrt(2.0 / 3.0) * 2.0 * s / (3.0 - s)
-        params[b, P_K] = m.E / (3.0 * (1.0 - 2.0 * m.nu))
+        params[b, P_K] = m.K
     return kinds, params
 
 

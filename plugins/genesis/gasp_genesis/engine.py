@@ -178,7 +178,7 @@ def genesis_material(gs, m: Material):
     Notes
     -----
     ``liquid``: Genesis's stress is ``lam J (J - 1) I`` with ``mu = 0``; ``lam`` is given the bulk
-    modulus ``K = E / (3 (1 - 2 nu))`` so that it is ``K J (J - 1) I`` as in ``docs/mpm.md``.
+    modulus ``K = E / (3 (1 - 2 nu))`` (``Material.K``) so that it is ``K J (J - 1) I`` as in ``docs/mpm.md``.
     """
     M = gs.materials.MPM
     kw = dict(E=float(m.E), nu=float(m.nu), rho=float(m.rho))
@@ -193,8 +193,7 @@ def genesis_material(gs, m: Material):
     if m.name == "snow":
         return M.Snow(yield_lower=float(m.theta_c), yield_higher=float(m.theta_s), **kw)
     if m.name == "liquid":
-        K = m.E / (3.0 * (1.0 - 2.0 * m.nu))
-        return M.Liquid(viscous=False, lam=float(K), **kw)
+        return M.Liquid(viscous=False, lam=float(m.K), **kw)
     raise SceneError(f"engine '{ENGINE}': material {m.name!r} is not supported")  # validated before
 
 

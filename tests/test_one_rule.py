@@ -1,0 +1,52 @@
+"""Each value of a scene is checked by one rule, in one place (issue 16, "One place per value")."""
+import re
+
+import numpy as np
+import pytest
+
+from gasp_core.errors import SceneError
+from gasp_core.scene.spec import load_scene
+from gasp_core.seam.setup import MATERIAL_RANGES, Material, SimSetup, grid_spacing
+from gasp_testing import scene_text
+
+
+def _setup(material: Material) -> SimSetup:
+    x = np.random.default_rng(0).uniform(0.4, 0.6, (20, 3))
+    return SimSetup(x=x, v=0.0, p_vol=1e-6, body_id=0, materials=[material], gravity=(0, 0, -9.81),
+                    domain_lo=(0, 0, 0), domain_hi=(1, 1, 1), n_grid=16)
+
+
+def _expected(message: str) -> str:
+    return re.search(r"expected .*", message).group(0)
+
+
+@pytest.mark.parametrize("key, value", [("nu", -1.0), ("nu", 0.5), ("E", 0.0), ("rho", -3.0),
+                                        ("yield_stress", 0.0), ("friction_angle", 90.0), ("theta_c", 0.0)])
+def test_a_material_value_is_refused_with_the_same_words_by_the_scene_and_by_simsetup(
+        donut_small, write_scene, key, value):
+    table = {"name": '"jelly"', "E": 2.0e4, "nu": 0.3, "rho": 300.0, key: value}
+    material = "\n".join(f"{k} = {v}" for k, v in table.items())
+    with pytest.raises(SceneError) as from_scene:
+        load_scene(write_scene(scene_text(donut_small, material=material)))
+    with pytest.raises(SceneError) as from_setup:
+        _setup(Material("jelly", **{key: value}))
+    assert f".{key} = " in str(from_scene.value) and f".{key} = " in str(from_setup.value)
+    assert _expected(str(from_scene.value)) == _expected(str(from_setup.value))
+
+
+def test_an_auxetic_material_is_accepted_by_the_scene_and_by_simsetup(donut_small, write_scene):
+    """-1 < nu < 0.5 everywhere (an engine with a narrower range declares its own limit)."""
+    material = 'name = "jelly"\nE = 2.0e4\nnu = -0.5\nrho = 300.0'
+    scene = load_scene(write_scene(scene_text(donut_small, material=material)))
+    assert scene.objects[0].material.nu == -0.5
+    _setup(Material("jelly", nu=-0.5))
+    assert set(MATERIAL_RANGES) == {"E", "nu", "rho", "yield_stress", "friction_angle", "softening",
+                                    "hardening", "theta_c", "theta_s"}
+
+
+def test_the_moduli_and_dx_have_one_formula():
+    m = Material("liquid", E=1e4, nu=0.45)
+    assert m.K == pytest.approx(1e4 / (3 * 0.1))
+    assert m.mu == pytest.approx(1e4 / 2.9) and m.lam == pytest.approx(1e4 * 0.45 / (1.45 * 0.1))
+    s = _setup(Material())
+    assert s.dx == grid_spacing(s.domain_lo, s.domain_hi, s.n_grid) == 1 / 16
