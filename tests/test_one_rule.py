@@ -50,3 +50,23 @@ def test_the_moduli_and_dx_have_one_formula():
     assert m.mu == pytest.approx(1e4 / 2.9) and m.lam == pytest.approx(1e4 * 0.45 / (1.45 * 0.1))
     s = _setup(Material())
     assert s.dx == grid_spacing(s.domain_lo, s.domain_hi, s.n_grid) == 1 / 16
+
+
+def test_what_a_scene_needs_is_one_rule_on_the_scene_and_on_its_setup(tmp_path, donut_small):
+    """A static object turned into a collider, a moving mesh-free scene: the early check and build_engine agree."""
+    from gasp_core.prepare.assembly import build_setup
+    from gasp_core.prepare.placement import prepare_object
+    from gasp_core.prepare.scene import scene_needs
+    from gasp_core.scene.spec import parse_scene
+    from gasp_core.seam.build import setup_needs
+    static = {"file": str(donut_small), "static": True, "recentre": False}
+    moving = {"file": str(donut_small), "position": [0.0, 0.0, 0.5], "fill": False}
+    data = {"object": [static, moving], "collider": [{"object": 1}], "domain": {"n_grid": 16},
+            "boundary": [{"kind": "ground", "height": -0.2}],
+            "force": [{"kind": "wind", "direction": [1.0, 0.0, 0.0], "strength": 1.0}],
+            "impulse": [{"shape": "sphere", "centre": [0.0, 0.0, 0.5], "radius": 0.1,
+                         "velocity_change": [0.0, 0.0, 1.0], "t0": 0.0, "t1": 0.1}]}
+    scene = parse_scene(data, tmp_path / "s.toml")
+    setup = build_setup(scene, [prepare_object(o) for o in scene.objects])
+    assert scene_needs(scene) == setup_needs(setup) == {
+        "materials": ["jelly"], "boundaries": ["ground"], "features": ["static_colliders", "wind", "impulse"]}
