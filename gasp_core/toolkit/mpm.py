@@ -11,7 +11,6 @@ every MPM engine starts from the same numbers, it holds:
   ``P_*`` columns, :func:`material_table`) and the initial ``Jp`` (:func:`initial_Jp`);
 - the points held by ``fixed_region`` boundaries (:func:`fixed_mask`) and the order of points by
   grid cell (:func:`cell_order`);
-- the likely causes of a blow-up, in words (:data:`CAUSE_DT`, :data:`CAUSE_DOMAIN`);
 - the ``gasp bench`` sweep of a grid engine (:func:`mpm_sweep`, :func:`grid_sweep`).
 
 Material parameters are checked once, by one rule (:data:`gasp_core.seam.setup.MATERIAL_RANGES`, applied by
@@ -478,13 +477,6 @@ def stranded_passive(x: np.ndarray, grid_m: np.ndarray, domain_lo: np.ndarray, d
         idx = np.clip(base + np.array(o), 0, ng - 1)
         seen |= has[idx[:, 0], idx[:, 1], idx[:, 2]]
     return int((~seen).sum())
-
-
-# --------------------------------------------------------------------------- blow-ups
-#: Likely cause of non-finite values, or of points jumping out of the grid within a substep.
-CAUSE_DT = "time step above the stability limit or material too stiff for dt"
-#: Likely cause of points drifting out of the grid.
-CAUSE_DOMAIN = "points left the domain: add walls/ground or enlarge the domain"
 
 
 

@@ -22,6 +22,7 @@ from scipy import sparse
 from scipy.spatial import cKDTree
 
 from gasp_core.errors import EngineDivergence, SceneError
+from gasp_core.seam.runner import CAUSE_UNSTABLE
 from gasp_core.seam.setup import SimSetup
 
 ENGINE = "example_springs"
@@ -116,9 +117,8 @@ class SpringEngine:
             for _ in range(self.n_substeps):
                 self._substep(self.dt)
         if not (np.isfinite(self.x).all() and np.isfinite(self.v).all()):
-            raise EngineDivergence("non-finite positions or velocities", self.frame,
-                                   f"substep dt = {self.dt:.3g} s too large for the springs' stiffness: "
-                                   "lower option cfl, raise n_substeps, or soften E")
+            raise EngineDivergence(f"non-finite positions or velocities (substep dt = {self.dt:.3g} s; lower "
+                                   "option cfl, raise n_substeps, or soften E)", self.frame, CAUSE_UNSTABLE)
 
     def positions(self) -> np.ndarray:
         return self.x.copy()

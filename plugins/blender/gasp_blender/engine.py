@@ -20,7 +20,8 @@ from typing import Any
 
 import numpy as np
 
-from gasp_core.errors import EngineDivergence, EngineError, SceneError
+from gasp_core.errors import EngineError, SceneError
+from gasp_core.seam.runner import check_state
 from gasp_core.seam.engine import check_options, Option
 from gasp_core.seam.setup import SimSetup
 
@@ -321,7 +322,8 @@ class BlenderSoftBodyEngine:
         Raises
         ------
         EngineDivergence
-            Non-finite positions or a point leaving the domain.
+            Non-finite positions or a point leaving the domain
+            (:func:`gasp_core.seam.runner.check_state`).
         """
         if _OWNER is not self:
             raise EngineError(f"engine '{ENGINE}': this simulation's Blender scene was replaced by another "
@@ -331,16 +333,8 @@ class BlenderSoftBodyEngine:
         scene.frame_set(self.frame + 1)
         self.depsgraph = self.bpy.context.evaluated_depsgraph_get()
         x = self._read_positions()
-        if not np.isfinite(x).all():
-            raise EngineDivergence("non-finite positions from Blender's soft body", self.frame,
-                                   cause="springs too stiff for the solver's steps (raise step_min)")
         s = self.setup
-        out = np.any((x < s.domain_lo) | (x > s.domain_hi), axis=1)
-        if out.any():
-            i = int(np.flatnonzero(out)[0])
-            raise EngineDivergence(f"{int(out.sum())} point(s) left the domain (first: point {i} at "
-                                   f"{x[i].round(4).tolist()})", self.frame,
-                                   cause="springs too stiff for the solver's steps, or missing ground")
+        check_state(x, s, self.frame)  # the core's blow-up check, before the velocity is derived
         self._v = (x - self._x) / s.frame_dt
         self._x = x
 

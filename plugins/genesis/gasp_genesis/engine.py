@@ -48,7 +48,7 @@ import numpy as np
 from gasp_core.toolkit import mpm
 from gasp_core.errors import EngineDivergence, EngineError, SceneError
 from gasp_core.seam.setup import Material, SimSetup
-from gasp_core.toolkit.mpm import CAUSE_DOMAIN, CAUSE_DT
+from gasp_core.seam.runner import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE
 
 from . import ENGINE, INSTALL_HINT, OPTIONS
 
@@ -343,7 +343,7 @@ class GenesisMPMEngine:
             self.scene.step(update_visualizer=False)
         except gs.GenesisException as e:
             self.frame += 1
-            raise EngineDivergence(f"Genesis stopped: {e}", self.frame, CAUSE_DT) from e
+            raise EngineDivergence(f"Genesis stopped: {e}", self.frame, CAUSE_UNSTABLE) from e
         self.frame += 1
         x_prev = self._x
         x = self._read("get_particles_pos")
@@ -353,7 +353,7 @@ class GenesisMPMEngine:
         if not finite.all():
             bad = np.flatnonzero(~finite)
             raise EngineDivergence(f"{len(bad)} point(s) with non-finite position or velocity "
-                                   f"(first index {bad[0]})", self.frame, CAUSE_DT)
+                                   f"(first index {bad[0]})", self.frame, CAUSE_UNSTABLE)
         if not self.walls:
             tol = 1e-3 * self.setup.dx
             at_lo = x <= self.box_lo + tol
@@ -369,7 +369,7 @@ class GenesisMPMEngine:
                 raise EngineDivergence(
                     f"{len(bad)} point(s) reached the domain box (first index {bad[0]} at "
                     f"{x[bad[0]].tolist()}); the scene has no walls", self.frame,
-                    CAUSE_DT if fast else CAUSE_DOMAIN)
+                    CAUSE_UNSTABLE if fast else CAUSE_LEFT_DOMAIN)
 
     def positions(self) -> np.ndarray:
         """Current positions, shape (n, 3), float32 (f32) or float64 (f64), metres, setup order."""

@@ -33,6 +33,7 @@ import mujoco
 
 from gasp_core.errors import EngineDivergence, EngineError, SceneError
 from gasp_core.seam.engine import check_options
+from gasp_core.seam.runner import CAUSE_UNSTABLE, check_state
 from gasp_core.seam.setup import SimSetup
 from gasp_core.toolkit.mpm import fixed_mask, p_wave_speed, substeps_for
 
@@ -344,17 +345,9 @@ class MujocoFlexEngine:
         finally:
             mujoco.set_mju_user_warning(previous)
         if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
-            raise EngineDivergence("non-finite MuJoCo state", self.frame,
-                                   cause=f"time step too large (dt = {self.dt:.3g} s)")
+            raise EngineDivergence(f"non-finite MuJoCo state (dt = {self.dt:.3g} s)", self.frame, CAUSE_UNSTABLE)
         self._check_lattice()
-        x = self.positions()
-        s = self.setup
-        out = np.any((x < s.domain_lo) | (x > s.domain_hi), axis=1)
-        if out.any():
-            i = int(np.flatnonzero(out)[0])
-            raise EngineDivergence(f"{int(out.sum())} point(s) left the domain (first: point {i} at "
-                                   f"{x[i].round(4).tolist()})", self.frame,
-                                   cause="time step too large or missing ground/walls")
+        check_state(self.positions(), self.setup, self.frame)  # the core's blow-up check
 
     def _check_lattice(self) -> None:
         d = self.data

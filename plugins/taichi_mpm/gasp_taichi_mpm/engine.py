@@ -14,7 +14,7 @@ import numpy as np
 from gasp_core.toolkit import mpm
 from gasp_core.errors import EngineDivergence, EngineError
 from gasp_core.seam.setup import SimSetup
-from gasp_core.toolkit.mpm import CAUSE_DOMAIN, CAUSE_DT
+from gasp_core.seam.runner import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE
 
 from . import ENGINE, OPTIONS
 
@@ -176,7 +176,7 @@ class TaichiMPMEngine:
         if not finite.all():
             bad = np.flatnonzero(~finite)
             raise EngineDivergence(f"{len(bad)} point(s) with non-finite position or velocity "
-                                   f"(first index {bad[0]})", self.frame, CAUSE_DT)
+                                   f"(first index {bad[0]})", self.frame, CAUSE_UNSTABLE)
         X = (x - self.setup.domain_lo) / self.setup.dx
         base = np.floor(X - 0.5)
         out = ((base < 0) | (base > self.setup.n_grid - 3)).any(axis=1)
@@ -186,7 +186,7 @@ class TaichiMPMEngine:
             fast = float(np.max(np.linalg.norm(v, axis=1))) * self.dt > self.setup.dx
             raise EngineDivergence(
                 f"{max(len(bad), 1)} point(s) left the grid{where}; {n_out} out-of-grid "
-                f"point-substeps in this frame", self.frame, CAUSE_DT if fast else CAUSE_DOMAIN)
+                f"point-substeps in this frame", self.frame, CAUSE_UNSTABLE if fast else CAUSE_LEFT_DOMAIN)
         self._x, self._v = x, v
 
     def positions(self) -> np.ndarray:

@@ -35,7 +35,7 @@ import warp as wp
 from gasp_core.toolkit import mpm
 from gasp_core.errors import EngineDivergence, EngineError
 from gasp_core.seam.setup import SimSetup
-from gasp_core.toolkit.mpm import CAUSE_DOMAIN, CAUSE_DT
+from gasp_core.seam.runner import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE
 
 from . import ENGINE, OPTIONS
 from . import kernels as K
@@ -295,11 +295,11 @@ class WarpMPMEngine:
         if n_bad:
             raise EngineDivergence(
                 f"{n_bad} of {self.n_points} points have non-finite position or velocity "
-                f"(dt = {self.dt:.3g} s, {self.n_substeps} substeps/frame)", self.frame, CAUSE_DT)
+                f"(dt = {self.dt:.3g} s, {self.n_substeps} substeps/frame)", self.frame, CAUSE_UNSTABLE)
         if n_out:
             raise EngineDivergence(
                 f"{n_out} point-substeps were out of the grid (domain {self.setup.domain_lo.tolist()} to "
-                f"{self.setup.domain_hi.tolist()}, n_grid {self.n_grid})", self.frame, CAUSE_DOMAIN)
+                f"{self.setup.domain_hi.tolist()}, n_grid {self.n_grid})", self.frame, CAUSE_LEFT_DOMAIN)
         if not self.device.is_cuda:
             self._resort()
 
