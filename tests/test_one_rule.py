@@ -70,3 +70,25 @@ def test_what_a_scene_needs_is_one_rule_on_the_scene_and_on_its_setup(tmp_path, 
     setup = build_setup(scene, [prepare_object(o) for o in scene.objects])
     assert scene_needs(scene) == setup_needs(setup) == {
         "materials": ["jelly"], "boundaries": ["ground"], "features": ["static_colliders", "wind", "impulse"]}
+
+
+def test_options_are_checked_by_the_core_alone_and_the_engine_reads_them_completed():
+    """build_engine checks the declared Options (excludes included) and hands the factory every option."""
+    from gasp_core.seam.build import build_engine
+    from gasp_core.seam.engine import Capabilities, EngineInfo
+    from gasp_core.toolkit.mpm import mpm_options
+    seen = {}
+
+    def factory(setup):
+        seen.update(setup.options)
+        return object()
+    info = EngineInfo("e", factory, Capabilities(frozenset({"jelly"}), frozenset()), options=mpm_options())
+    s = _setup(Material())
+    s.options = {"dt": 1e-4, "n_substeps": 3}
+    with pytest.raises(SceneError, match="engine 'e': give option dt or option n_substeps, not both"):
+        build_engine(info, s)
+    assert not seen  # refused before the factory
+    s.options = {"n_substeps": 3}
+    build_engine(info, s)
+    assert seen == {"device": "cpu", "precision": "f32", "dt": None, "n_substeps": 3, "cfl": 0.4,
+                    "max_substeps": 20000}

@@ -117,6 +117,9 @@ class Option:
     pattern : str, optional
         A regular expression a string value must match in full (e.g. ``cuda(:\\d+)?``); used
         instead of ``choices``.
+    excludes : tuple of str
+        Options that may not be given together with this one (both not None), e.g. ``dt`` excludes
+        ``n_substeps``: a rule across options, declared as data and checked by :func:`check_options`.
     """
 
     name: str
@@ -128,6 +131,7 @@ class Option:
     hi: float | None = None
     lo_open: bool = False
     pattern: str | None = None
+    excludes: tuple[str, ...] = ()
 
     def expected(self) -> str:
         """What a valid value is, in words."""
@@ -189,8 +193,15 @@ def check_options(options: Mapping[str, Any], declared: Iterable[Option], engine
     Raises
     ------
     SceneError
-        An unknown option (the message lists the declared ones), or a value of the wrong type or
-        out of range (the message names the option, the value and what is expected).
+        An unknown option (the message lists the declared ones), a value of the wrong type or
+        out of range (the message names the option, the value and what is expected), or two options
+        given together that one of them excludes (:attr:`Option.excludes`).
+
+    Notes
+    -----
+    The only check of engine options: :func:`gasp_core.seam.build.build_engine` calls it before the
+    factory, and an engine reads ``setup.options`` (every declared option present) without checking
+    them again. It is idempotent: completed options pass unchanged.
     """
     by_name = {o.name: o for o in declared}
     if not isinstance(options, Mapping):
@@ -204,6 +215,10 @@ def check_options(options: Mapping[str, Any], declared: Iterable[Option], engine
         if not by_name[name].valid(value):
             raise SceneError(f"engine '{engine}': option {name}={value!r}; expected {by_name[name].expected()}")
         merged[name] = value
+    for name, o in by_name.items():
+        for other in o.excludes:
+            if merged[name] is not None and merged.get(other) is not None:
+                raise SceneError(f"engine '{engine}': give option {name} or option {other}, not both")
     return merged
 
 

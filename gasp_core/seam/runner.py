@@ -54,8 +54,8 @@ class RunStats:
 #: text every engine and the runner give (:func:`check_state`).
 CAUSE_UNSTABLE = "time step above the stability limit, or material too stiff for the time step"
 #: The likely cause of points drifting out of the domain (:func:`check_state`).
-CAUSE_LEFT_DOMAIN = ("no ground or walls to stop them, a domain too small, or an unstable time step: "
-                     "add walls/ground or enlarge the domain")
+CAUSE_LEFT_DOMAIN = ("points left the domain: no ground or walls to stop them, a domain too small, or an "
+                     "unstable time step; add walls/ground or enlarge the domain")
 
 
 def check_state(x: np.ndarray, setup: SimSetup, frame: int, margin: float | None = None) -> None:

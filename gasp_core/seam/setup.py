@@ -203,7 +203,10 @@ class SimSetup:
         Number of leading points that carry Gaussians.
     options : dict
         Engine options from the scene's ``[engine]`` table (``device``, ``precision``,
-        ``dt``, ``n_substeps``, ``cfl``, ...). Each engine validates its own.
+        ``dt``, ``n_substeps``, ``cfl``, ...). The core is their only checker: before the factory runs,
+        :func:`gasp_core.seam.build.build_engine` checks them against the engine's declared
+        :class:`~gasp_core.seam.engine.Option` s (types, ranges, choices, ``excludes``) and completes
+        them with the defaults, so an engine reads every declared option here and checks none again.
     C : ndarray, shape (n, 3, 3), float64, or None
         Initial velocity gradient per point, 1/s (APIC's affine matrix ``C``; for a body spinning
         at angular velocity w it is the cross-product matrix of w). None means zero. Grid engines

@@ -22,7 +22,7 @@ import numpy as np
 
 from gasp_core.errors import EngineError, SceneError
 from gasp_core.seam.runner import check_state
-from gasp_core.seam.engine import check_options, Option
+from gasp_core.seam.engine import Option
 from gasp_core.seam.setup import SimSetup
 
 from .cage import Cage, build_cage, embed, interpolate, lump
@@ -84,12 +84,13 @@ class BlenderSoftBodyEngine:
     Parameters
     ----------
     setup : SimSetup
-        World frame, metres, z up. ``setup.options`` may hold the options of :data:`OPTIONS`.
+        World frame, metres, z up. ``setup.options`` holds every option of :data:`OPTIONS`,
+        checked and completed by the core (``gasp_core.seam.build.build_engine``).
 
     Raises
     ------
     SceneError
-        Unknown option or bad value, a material/boundary the engine lacks, non-zero initial
+        ``step_max`` below ``step_min`` (after ``dt``), non-zero initial
         velocities (Blender starts soft bodies at rest), ``frame_dt`` outside what Blender's
         ``speed`` accepts.
     EngineError
@@ -104,7 +105,7 @@ class BlenderSoftBodyEngine:
 
     def __init__(self, setup: SimSetup):
         self.setup = setup
-        o = check_options(setup.options, OPTIONS, ENGINE)  # types and ranges (idempotent after the core's check)
+        o = dict(setup.options)  # checked and completed by the core (build_engine); step_min may change below
         self.options = o
         if o["dt"] is not None:
             o["step_min"] = max(1, math.ceil(setup.frame_dt / o["dt"] - 1e-9))

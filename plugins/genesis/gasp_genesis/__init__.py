@@ -100,8 +100,8 @@ def make_engine(setup: SimSetup):
     Raises
     ------
     SceneError
-        Unknown or invalid engine option, unsupported material or boundary, points outside
-        Genesis's padded domain.
+        Points outside Genesis's padded domain (options, materials and boundaries are checked by
+        the core before, ``gasp_core.seam.build.build_engine``).
     EngineError
         Genesis cannot be imported, the device is not available, or Genesis was already
         initialised in this process with another device or precision.

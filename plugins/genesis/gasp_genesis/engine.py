@@ -50,7 +50,7 @@ from gasp_core.errors import EngineDivergence, EngineError, SceneError
 from gasp_core.seam.setup import Material, SimSetup
 from gasp_core.seam.runner import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE
 
-from . import ENGINE, INSTALL_HINT, OPTIONS
+from . import ENGINE, INSTALL_HINT
 
 
 #: Most Genesis entities per body: Genesis gives every particle of an entity the same mass.
@@ -212,14 +212,13 @@ class GenesisMPMEngine:
     Parameters
     ----------
     setup : SimSetup
-        World frame (z up), SI units. ``setup.options`` may hold ``device`` ("cpu" | "cuda"),
+        World frame (z up), SI units. ``setup.options`` (checked and completed by the core) hold ``device`` ("cpu" | "cuda"),
         ``precision`` ("f32" | "f64"), ``dt`` (s) or ``n_substeps`` (per frame) and ``cfl`` (0.4).
 
     Raises
     ------
     SceneError
-        Unknown or invalid option (the message names it), unsupported material or boundary, or a
-        point outside Genesis's padded box ``[domain_lo + 3 dx, domain_hi - 3 dx]``.
+        A point outside Genesis's padded box ``[domain_lo + 3 dx, domain_hi - 3 dx]``.
     EngineError
         Genesis missing, device unavailable, or Genesis initialised otherwise in this process.
 
@@ -230,7 +229,7 @@ class GenesisMPMEngine:
     """
 
     def __init__(self, setup: SimSetup):
-        opt = mpm.check_mpm_options(setup.options, OPTIONS, ENGINE)
+        opt = setup.options  # checked and completed by the core (build_engine)
         _validate_setup(setup)
         self.setup = setup
         self.options = opt

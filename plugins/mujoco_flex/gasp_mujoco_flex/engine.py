@@ -32,12 +32,11 @@ import numpy as np
 import mujoco
 
 from gasp_core.errors import EngineDivergence, EngineError, SceneError
-from gasp_core.seam.engine import check_options
 from gasp_core.seam.runner import CAUSE_UNSTABLE, check_state
 from gasp_core.seam.setup import SimSetup
 from gasp_core.toolkit.mpm import fixed_mask, p_wave_speed, substeps_for
 
-from . import ENGINE, OPTIONS
+from . import ENGINE
 from .lattice import Lattice, build_lattice, embed_points, interpolate, matched_masses
 
 _WARN_NAMES = {
@@ -90,14 +89,14 @@ class MujocoFlexEngine:
     Parameters
     ----------
     setup : SimSetup
-        World frame, metres, z up. ``setup.options`` may hold the options of
-        :data:`gasp_mujoco_flex.OPTIONS`. Materials and boundaries are checked against the
-        capabilities by the core (``gasp_core.seam.build.build_engine``).
+        World frame, metres, z up. ``setup.options`` holds every option of
+        :data:`gasp_mujoco_flex.OPTIONS`. Options, materials and boundaries are checked (options
+        completed) by the core (``gasp_core.seam.build.build_engine``).
 
     Raises
     ------
     SceneError
-        Unknown option or bad option value; ``nu < 0``; ``metal`` without a yield stress.
+        ``nu < 0``; ``metal`` without a yield stress.
     EngineError
         MuJoCo rejects the generated model (the message quotes MuJoCo's error).
 
@@ -111,7 +110,7 @@ class MujocoFlexEngine:
 
     def __init__(self, setup: SimSetup):
         self.setup = setup
-        o = check_options(setup.options, OPTIONS, ENGINE)
+        o = setup.options  # checked and completed by the core (build_engine)
         self.options = o
         for m in setup.materials:
             if m.name != "rigid" and m.nu < 0:

@@ -16,7 +16,7 @@ from gasp_core.errors import EngineDivergence, EngineError
 from gasp_core.seam.setup import SimSetup
 from gasp_core.seam.runner import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE
 
-from . import ENGINE, OPTIONS
+from . import ENGINE
 
 #: Private grid copies are used on CPU while they take at most this many bytes in all.
 MAX_PRIVATE_GRID_BYTES = 1 << 30
@@ -49,15 +49,15 @@ class TaichiMPMEngine:
     Parameters
     ----------
     setup : SimSetup
-        World frame, SI units. ``setup.options`` may hold ``device`` ("cpu" | "cuda"),
+        World frame, SI units. ``setup.options`` (checked and completed by the core) hold ``device`` ("cpu" | "cuda"),
         ``precision`` ("f32" | "f64"), ``dt`` (s) or ``n_substeps`` (per frame), ``cfl`` (0.4) and
         ``threads`` (CPU threads, Taichi's ``cpu_max_num_threads``; default all cores).
 
     Raises
     ------
     SceneError
-        Unknown or invalid option (the message names it). Materials and boundaries are checked
-        against the capabilities by the core (``gasp_core.seam.build.build_engine``) before.
+        More substeps per frame than ``max_substeps``. Options, materials and boundaries are
+        checked by the core (``gasp_core.seam.build.build_engine``) before.
     EngineError
         ``device="cuda"`` where Taichi has no CUDA.
 
@@ -72,7 +72,7 @@ class TaichiMPMEngine:
 
     def __init__(self, setup: SimSetup):
         global _generation
-        opt = mpm.check_mpm_options(setup.options, OPTIONS, ENGINE)
+        opt = setup.options  # checked and completed by the core (build_engine)
         self.n_substeps, self.dt = time_step(setup, opt)
         mpm.check_memory(mpm.estimate_bytes(len(setup.x), setup.n_grid, opt["precision"]) + MAX_PRIVATE_GRID_BYTES,
                          ENGINE, f"{len(setup.x)} points, n_grid {setup.n_grid}, {opt['precision']}")

@@ -37,7 +37,7 @@ from gasp_core.errors import EngineDivergence, EngineError
 from gasp_core.seam.setup import SimSetup
 from gasp_core.seam.runner import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE
 
-from . import ENGINE, OPTIONS
+from . import ENGINE
 from . import kernels as K
 
 
@@ -79,23 +79,23 @@ class WarpMPMEngine:
     setup : SimSetup
         Points, materials (``jelly, neo_hookean, metal, sand, snow, plasticine, liquid``),
         boundaries (``ground, walls, fixed_region``), domain and ``n_grid``. ``setup.options``
-        may hold ``device`` ("cpu" | "cuda" | "cuda:N"), ``precision`` ("f32" | "f64"), ``dt`` (s) or
+        (checked and completed by the core) hold ``device`` ("cpu" | "cuda" | "cuda:N"), ``precision`` ("f32" | "f64"), ``dt`` (s) or
         ``n_substeps``, ``cfl`` (0.4) and ``threads`` (accepted and ignored: Warp runs CPU
-        kernels on one thread, so CPU runs repeat bit for bit). Materials and boundaries are
-        checked against the capabilities by the core (``gasp_core.seam.build.build_engine``), the
+        kernels on one thread, so CPU runs repeat bit for bit). Options, materials and boundaries
+        are checked by the core (``gasp_core.seam.build.build_engine``), the
         material parameters and ``n_grid`` by :class:`SimSetup`.
 
     Raises
     ------
     SceneError
-        Unknown or malformed option (the message names it).
+        More substeps per frame than ``max_substeps``.
     EngineError
         ``device="cuda"`` (or ``"cuda:N"``) without that CUDA device.
     """
 
     def __init__(self, setup: SimSetup):
         self.setup = setup
-        opts = mpm.check_mpm_options(setup.options, OPTIONS, ENGINE)
+        opts = setup.options  # checked and completed by the core (build_engine)
         self.options = opts
         kinds, par = mpm.material_table(setup.materials)
         choose_dt(setup, opts)  # refuses a scene past max_substeps before any build work
