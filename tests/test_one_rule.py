@@ -92,3 +92,24 @@ def test_options_are_checked_by_the_core_alone_and_the_engine_reads_them_complet
     build_engine(info, s)
     assert seen == {"device": "cpu", "precision": "f32", "dt": None, "n_substeps": 3, "cfl": 0.4,
                     "max_substeps": 20000}
+
+
+def test_a_selected_object_is_flattened_once(tmp_path, donut_small, monkeypatch):
+    """prepare_object flattens the whole file once; the selection takes its rows, bit for bit those of
+    flattening the selected rows alone."""
+    from gasp_core.maps import games
+    from gasp_core.prepare import selection
+    from gasp_core.prepare.placement import prepare_object
+    from gasp_core.scene.spec import parse_scene
+    spec = parse_scene({"object": [{"file": str(donut_small), "rotation": [13.0, -7.0, 31.0],
+                                    "select": {"box": {"lo": [-1.0, -1.0, -1.0], "hi": [0.0, 1.0, 1.0]}}}]},
+                       tmp_path / "s.toml").objects[0]
+    calls = []
+    real = games.flatten
+    monkeypatch.setattr(selection, "flatten", lambda *a, **k: calls.append(len(a[0])) or real(*a, **k))
+    o = prepare_object(spec)
+    assert calls == [o.gaussians.n]  # one flatten, of the whole file
+    alone = selection.flat_world(o.gaussians.subset(o.moving), o.placement)
+    np.testing.assert_array_equal(o.tri_rest, alone[3])
+    np.testing.assert_array_equal(o.rot_rest, alone[1])
+    assert o.flatten_report == alone[4] and o.flatten_report.n == len(o.moving) < o.gaussians.n
