@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from gasp_core.errors import SceneError
-from gasp_core.seam.engine import Option
+from gasp_core.seam.options import Option
 from gasp_core.errors import EngineDivergence
 from gasp_core.seam.plugins import engines as installed_engines
 from gasp_core.testing import check_engine, evaluate_scene, record, scene_by_name

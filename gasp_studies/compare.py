@@ -95,8 +95,10 @@ def select_engines(scene: Scene, requested: Iterable[str] | None) -> tuple[list[
     runnable : list of str
     skipped : dict
         ``{engine: reason}``: not installed, not available here, or a material or boundary it
-        lacks (:func:`gasp_core.seam.build.check_supported`).
+        lacks (:func:`gasp_core.seam.build.check_supported` of
+        :func:`gasp_core.prepare.scene.scene_needs`).
     """
+    from gasp_core.prepare.scene import scene_needs
     from gasp_core.seam.build import check_supported
     from gasp_core.seam.plugins import engines as all_engines
     found = all_engines()
@@ -112,8 +114,7 @@ def select_engines(scene: Scene, requested: Iterable[str] | None) -> tuple[list[
             skipped[name] = f"not available: {reason}"
             continue
         try:
-            check_supported(info, materials=[o.material.name for o in scene.objects],
-                            boundaries=[b.kind for b in scene.boundaries], others=found)
+            check_supported(info, **scene_needs(scene), others=found)
         except GaspError as e:
             skipped[name] = str(e)
             continue

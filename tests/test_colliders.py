@@ -7,11 +7,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gasp_core.colliders.model import feature_needs, ForceField, Impulse, Motion
+from gasp_core.colliders.model import ForceField, Impulse, Motion
 from gasp_core.colliders.sdf import box_collider, collider_from_triangles
 from gasp_core.toolkit.grid_tables import frame_table, grid_tables
 from gasp_core.errors import SceneError
-from gasp_core.seam.build import check_supported
+from gasp_core.seam.build import check_supported, needs
 from gasp_core.seam.engine import Capabilities, EngineInfo
 from gasp_core.scene.spec import parse_scene
 
@@ -127,10 +127,10 @@ def test_missing_feature_names_engines_that_have_it():
     def info(name, feats):
         return EngineInfo(name, lambda s: None, Capabilities(frozenset({"jelly"}), frozenset(), features=frozenset(feats)))
     a, b = info("plain", ()), info("able", {"static_colliders"})
-    needs = feature_needs([box_collider((0.1, 0.1, 0.1), 0.02)])
-    assert needs == ["static_colliders"]
+    features = needs(colliders=[box_collider((0.1, 0.1, 0.1), 0.02)])["features"]
+    assert features == ["static_colliders"]
     with pytest.raises(SceneError, match=r"static_colliders.*engines that do: \['able'\]"):
-        check_supported(a, features=needs, others={"plain": a, "able": b})
+        check_supported(a, features=features, others={"plain": a, "able": b})
 
 
 def test_grid_tables_layout():

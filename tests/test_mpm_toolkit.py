@@ -5,12 +5,11 @@ import numpy as np
 import pytest
 
 from gasp_core.errors import SceneError
-from gasp_core.seam.engine import check_options
+from gasp_core.seam.options import check_options
 from gasp_core.seam.setup import Boundary, Material
-from gasp_core.toolkit.failures import CAUSE_DOMAIN, CAUSE_DT
 from gasp_core.toolkit.materials import (initial_Jp, MATERIAL_CODES, material_table, N_PARAMS, P_ALPHA, P_K, P_LAM,
                                          P_MU, P_THETA_C)
-from gasp_core.toolkit.options import check_mpm_options, mpm_options
+from gasp_core.toolkit.options import mpm_options
 from gasp_core.toolkit.points import cell_order, fixed_mask
 from gasp_core.toolkit.sweep import mpm_sweep
 
@@ -66,15 +65,16 @@ def test_device_rule_is_declared_per_engine():
             check_options({"device": "gpu"}, opts, "e")
 
 
-def test_check_mpm_options_fills_defaults_and_refuses_dt_with_n_substeps():
-    opts = check_mpm_options({}, mpm_options(), "e")
+def test_the_core_checks_mpm_options_from_their_declarations_alone():
+    """dt excludes n_substeps as declared data (Option.excludes): check_options is the one checker."""
+    opts = check_options({}, mpm_options(), "e")
     assert opts == {"device": "cpu", "precision": "f32", "dt": None, "n_substeps": None, "cfl": 0.4,
                     "max_substeps": 20000}
-    assert check_mpm_options(opts, mpm_options(), "e") == opts  # idempotent
-    with pytest.raises(SceneError, match="not both"):
-        check_mpm_options({"dt": 1e-4, "n_substeps": 3}, mpm_options(), "e")
+    assert check_options(opts, mpm_options(), "e") == opts  # idempotent
+    with pytest.raises(SceneError, match="engine 'e': give option dt or option n_substeps, not both"):
+        check_options({"dt": 1e-4, "n_substeps": 3}, mpm_options(), "e")
     with pytest.raises(SceneError, match="cfl=1.5"):
-        check_mpm_options({"cfl": 1.5}, mpm_options(), "e")
+        check_options({"cfl": 1.5}, mpm_options(), "e")
 
 
 def test_negative_poisson_ratio_is_accepted_once_and_gives_positive_wave_speeds():
@@ -100,4 +100,5 @@ def test_mpm_sweep_reference_is_the_finest_and_never_repeated():
 
 
 def test_causes_are_words():
-    assert "time step" in CAUSE_DT and "domain" in CAUSE_DOMAIN
+    from gasp_core.seam.runner import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE
+    assert "time step" in CAUSE_UNSTABLE and "domain" in CAUSE_LEFT_DOMAIN

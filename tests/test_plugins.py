@@ -99,6 +99,7 @@ def test_installed_engines_implement_the_protocol():
     """Every installed, available engine builds from a tiny real setup and follows PointEngine."""
     import numpy as np
     from gasp_core.seam.setup import Material, SimSetup
+    from gasp_core.seam.build import build_engine
     g = np.stack(np.meshgrid(*[np.linspace(0.4, 0.6, 4)] * 3, indexing="ij"), -1).reshape(-1, 3)
     for name, info in plugins.engines().items():
         if info.unavailable_reason():
@@ -106,7 +107,7 @@ def test_installed_engines_implement_the_protocol():
         setup = SimSetup(x=g, v=0.0, p_vol=(0.2 / 4) ** 3, body_id=0, materials=[Material()],
                          gravity=[0, 0, -9.81], domain_lo=[0, 0, 0], domain_hi=[1, 1, 1], n_grid=16,
                          frame_dt=1 / 60)
-        eng = info.factory(setup)
+        eng = build_engine(info, setup)  # options checked and completed by the core, as in a run
         try:
             assert isinstance(eng, PointEngine), name
             assert "state" not in info.capabilities.features or isinstance(eng, StatefulEngine), name

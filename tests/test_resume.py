@@ -20,6 +20,29 @@ def frames(out: Path) -> dict[str, bytes]:
     return {p.name: p.read_bytes() for p in sorted((out / "donut_small").glob("frame_*.ply"))}
 
 
+def kill_9_after(scene: Path, out: Path, kill_after: int) -> int:
+    """Run ``gasp simulate scene -o out`` in a process, kill -9 it once more than ``kill_after`` frames and a
+    checkpoint are on disk; the index of the last frame written."""
+    cwd = out.parent
+    proc = subprocess.Popen([sys.executable, "-m", "gasp_core.cli.main", "simulate", str(scene), "-o", str(out), "-q"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=cwd)
+    deadline = time.time() + 600
+    partial, written = None, 0
+    while time.time() < deadline and proc.poll() is None:
+        parts = list(cwd.glob(f".{out.name}.partial-*"))
+        if parts and len(list((parts[0] / "donut_small").glob("frame_*.ply"))) > kill_after \
+                and (parts[0] / ".gasp-checkpoint.npz").exists():
+            partial = parts[0]
+            os.kill(proc.pid, signal.SIGKILL)
+            written = len(list((partial / "donut_small").glob("frame_*.ply"))) - 1   # last frame on disk
+            break
+        time.sleep(0.05)
+    proc.wait()
+    assert partial is not None, "the run ended before it could be killed"
+    assert (out / CLAIM).exists() and not (out / "run.json").exists()
+    return written
+
+
 @pytest.mark.parametrize("engine", sorted(ENGINES))
 def test_kill_9_then_resume_is_bit_identical(engine, tmp_path, donut_small, capsys):
     pytest.importorskip(f"gasp_{engine}")
@@ -36,22 +59,7 @@ def test_kill_9_then_resume_is_bit_identical(engine, tmp_path, donut_small, caps
 
     out = tmp_path / "out"
     kill_after = random.Random(7).randint(2, n_frames - 2)       # frames written before the kill
-    proc = subprocess.Popen([sys.executable, "-m", "gasp_core.cli.main", "simulate", str(scene), "-o", str(out), "-q"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=tmp_path)
-    deadline = time.time() + 600
-    partial, written = None, 0
-    while time.time() < deadline and proc.poll() is None:
-        parts = list(tmp_path.glob(".out.partial-*"))
-        if parts and len(list((parts[0] / "donut_small").glob("frame_*.ply"))) > kill_after \
-                and (parts[0] / ".gasp-checkpoint.npz").exists():
-            partial = parts[0]
-            os.kill(proc.pid, signal.SIGKILL)
-            written = len(list((partial / "donut_small").glob("frame_*.ply"))) - 1   # last frame on disk
-            break
-        time.sleep(0.05)
-    proc.wait()
-    assert partial is not None, "the run ended before it could be killed"
-    assert (out / CLAIM).exists() and not (out / "run.json").exists()
+    written = kill_9_after(scene, out, kill_after)
 
     # without --resume the folder is refused, naming the killed run
     assert main(["simulate", str(scene), "-o", str(out), "-q"]) == 2
@@ -67,3 +75,22 @@ def test_kill_9_then_resume_is_bit_identical(engine, tmp_path, donut_small, caps
     assert run["resumed_after_frame"] >= written - 1 >= kill_after - 1
     assert frames(out) == frames(ref)
     assert not list(tmp_path.glob(".out.partial-*"))
+
+
+def test_a_collider_mesh_changed_after_the_kill_refuses_the_resume(tmp_path, donut_small, capsys):
+    """The fingerprint stands for every file the run reads (prepare.scene.input_files), collider meshes too."""
+    pytest.importorskip("gasp_warp_mpm")
+    trimesh = pytest.importorskip("trimesh")
+    mesh = tmp_path / "box.obj"
+    trimesh.creation.box(extents=(0.2, 0.2, 0.05)).export(mesh)
+    scene = tmp_path / "scene.toml"
+    collider = f'[[collider]]\nmesh = "{mesh.name}"\nposition = [1.0, 1.0, 0.0]\n'
+    scene.write_text(scene_text(donut_small, n_frames=8, n_grid=16, engine="warp_mpm", engine_options="{ }")
+                     + collider)
+    out = tmp_path / "out"
+    kill_9_after(scene, out, 2)
+    trimesh.creation.box(extents=(0.3, 0.2, 0.05)).export(mesh)   # the collider changed between kill and resume
+    assert main(["simulate", str(scene), "-o", str(out), "-q", "--resume"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "cannot resume" in err and "input file" in err and "\n" not in err, err
+    assert not (out / "run.json").exists()

@@ -24,7 +24,7 @@ relative to the collider's velocity there loses its normal component if approach
 tangential part is reduced by Coulomb friction.
 
 Engine features (``gasp_core.seam.engine.FEATURES``): ``static_colliders``, ``moving_colliders``,
-``impulse``, ``wind``, ``attractors`` (:func:`feature_needs`).
+``impulse``, ``wind``, ``attractors`` (:func:`gasp_core.seam.build.needs`).
 """
 from __future__ import annotations
 
@@ -340,18 +340,6 @@ class ForceField:
 
 
 # --------------------------------------------------------------------------- engine needs
-def feature_needs(colliders=(), forces=(), impulses=()) -> list[str]:
-    """Engine feature names (``gasp_core.seam.engine.FEATURES``) that these colliders, forces and impulses need."""
-    out = []
-    for c in colliders:
-        out.append("moving_colliders" if c.moving else "static_colliders")
-    for f in forces:
-        out.append("wind" if f.kind == "wind" else "attractors")
-    if impulses:
-        out.append("impulse")
-    return list(dict.fromkeys(out))
-
-
 def check_start(colliders, x: np.ndarray, name_of=None) -> None:
     """Refuse simulated points that start inside a collider (more than a quarter sample deep).
 

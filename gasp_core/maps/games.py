@@ -98,13 +98,25 @@ def flatten(scales: np.ndarray, rotmats: np.ndarray, eps: float = EPS,
     rot = np.take_along_axis(rotmats, perm[:, None, :], axis=2)
     flip = np.linalg.det(rot) < 0
     rot[flip, :, 0] *= -1.0
+    return scales_flat, rot, flatten_report(scales, flat_ratio, perm)
+
+
+def flatten_report(scales: np.ndarray, flat_ratio: float = 0.01, perm: np.ndarray | None = None) -> FlattenReport:
+    """The :class:`FlattenReport` of :func:`flatten` for Gaussians of these activated scales, shape (n, 3).
+
+    ``perm`` (n, 3) is :func:`flatten` 's column order (recomputed when None): a subset of flattened
+    rows gets its report without being flattened again.
+    """
+    scales = np.asarray(scales, dtype=np.float64)
+    n = len(scales)
+    if perm is None:
+        perm = np.argsort(scales, axis=1, kind="stable")[:, [0, 2, 1]]
     ratio = scales.min(axis=1) / np.maximum(scales.max(axis=1), np.finfo(float).tiny)
-    report = FlattenReport(
+    return FlattenReport(
         n=n, n_flat=int(np.sum(ratio < flat_ratio)), flat_ratio=flat_ratio,
         median_ratio=float(np.median(ratio)) if n else 0.0,
         max_ratio=float(ratio.max()) if n else 0.0,
         n_reordered=int(np.sum(np.any(perm != [0, 1, 2], axis=1))))
-    return scales_flat, rot, report
 
 
 def gaussians_to_triangles(means: np.ndarray, rotmats: np.ndarray, scales: np.ndarray) -> np.ndarray:

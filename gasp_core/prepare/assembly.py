@@ -7,7 +7,7 @@ import numpy as np
 from scipy.special import expit
 
 from gasp_core.errors import SceneError
-from gasp_core.seam.setup import SimSetup
+from gasp_core.seam.setup import SimSetup, grid_spacing
 from gasp_core.maps.fill import fill_interior, fill_spacing
 from gasp_core.prepare.placement import PreparedObject, simulated_triangles
 from gasp_core.scene.spec import Scene
@@ -53,7 +53,7 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
     vertices = [simulated_triangles(o).reshape(-1, 3) for o in objects]
     lo, hi = default_domain(scene, np.concatenate([o.tri_rest.reshape(-1, 3) for o in objects]))
     n_grid = scene.domain.n_grid
-    dx = float(np.max(hi - lo)) / n_grid
+    dx = grid_spacing(lo, hi, n_grid)
     xs, vols, bodies, vels, fills, passives = [], [], [], [], [], []
     start = 0
     for i, (o, verts) in enumerate(zip(objects, vertices)):

@@ -8,16 +8,6 @@ from gasp_core.colliders.sdf import collider_from_splats, collider_from_triangle
 
 
 # --------------------------------------------------------------------------- from a scene
-def scene_feature_needs(scene) -> list[str]:
-    """:func:`feature_needs` of a parsed scene, before any file is read."""
-    out = ["moving_colliders" if (c.path is not None or any(c.velocity) or any(c.angular_velocity))
-           else "static_colliders" for c in getattr(scene, "colliders", [])]
-    out += ["wind" if f.kind == "wind" else "attractors" for f in getattr(scene, "forces", [])]
-    if getattr(scene, "impulses", []):
-        out.append("impulse")
-    return list(dict.fromkeys(out))
-
-
 def _euler_deg(r) -> np.ndarray:
     """Rotation about x, then y, then z (degrees), as a matrix (the objects' own rule)."""
     from gasp_core.prepare.placement import euler_matrix

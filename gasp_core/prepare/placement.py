@@ -12,14 +12,14 @@ from pathlib import Path
 import numpy as np
 
 from gasp_core.maps.fill import FillReport
-from gasp_core.maps.games import FlattenReport, flatten, gaussians_to_triangles
+from gasp_core.maps.games import FlattenReport, flatten_report
 from gasp_core.gs.gaussians import Gaussians
 from gasp_core.maps.hierarchy import Hierarchy, build_hierarchy
 from gasp_core.gs.io import read_gaussians
 from gasp_core.gs.splatv import read_splatv, splatv_at
 from gasp_core.prepare.checks import check_object
 from gasp_core.scene.spec import ObjectSpec
-from gasp_core.prepare.selection import moving_rows
+from gasp_core.prepare.selection import flat_world, moving_rows
 
 #: Rotation taking each file up-axis to world +z (proper rotations; x_world = R @ x_file).
 UP_ROTATIONS = {
@@ -158,12 +158,14 @@ def prepare_object(spec: ObjectSpec, g: Gaussians | None = None) -> PreparedObje
     g = load_gaussians(spec) if g is None else g
     check_object(spec, g)
     pl = place(g, spec)  # from the whole file: a selection moves, the background stays put
-    moving, static_tri = moving_rows(spec, g, pl)
-    sim = g if moving is None else g.subset(moving)
-    R_world = pl.R @ sim.rotmats()
-    scales_flat, rot_flat, report = flatten(sim.scales * pl.scale, R_world)
-    means_w = pl.to_world(sim.means)
-    tri = gaussians_to_triangles(means_w, rot_flat, scales_flat)
+    # flattened and triangulated once, the whole file; a selection takes its rows of the result
+    scales_flat, rot_flat, means_w, tri, report = flat_world(g, pl)
+    moving, static_tri = moving_rows(spec, g, pl, tri)
+    sim = g
+    if moving is not None:
+        sim = g.subset(moving)
+        scales_flat, rot_flat, means_w, tri = scales_flat[moving], rot_flat[moving], means_w[moving], tri[moving]
+        report = flatten_report(sim.scales * pl.scale)
     hier = (build_hierarchy(means_w, tri, spec.core_fraction, name=f"{spec.file}: core_fraction")
             if spec.core_fraction < 1.0 and sim.n else None)
     return PreparedObject(spec=spec, gaussians=g, placement=pl, rot_rest=rot_flat,

@@ -11,10 +11,9 @@ from pathlib import Path
 
 from gasp_core.errors import SceneError
 from gasp_core.prepare.assembly import build_setup
-from gasp_core.prepare.colliders import scene_feature_needs
 from gasp_core.prepare.placement import prepare_object, PreparedObject
 from gasp_core.scene.spec import Scene
-from gasp_core.seam.build import check_supported
+from gasp_core.seam.build import check_supported, needs
 from gasp_core.seam.engine import EngineInfo
 from gasp_core.seam.plugins import engines as all_engines, get_engine
 from gasp_core.seam.setup import SimSetup
@@ -40,9 +39,11 @@ class PreparedScene:
 
 
 def scene_needs(scene: Scene) -> dict[str, list[str]]:
-    """What a scene asks of an engine, before any file is read (see :func:`gasp_core.seam.build.check_supported`)."""
-    return {"materials": [o.material.name for o in scene.objects if not o.static],
-            "boundaries": [b.kind for b in scene.boundaries], "features": scene_feature_needs(scene)}
+    """What a scene asks of an engine, before any file is read: :func:`gasp_core.seam.build.needs` of its
+    simulated objects' materials, boundaries, colliders, forces and impulses (the rule
+    :func:`~gasp_core.seam.build.setup_needs` applies to the setup built from it)."""
+    return needs([o.material.name for o in scene.objects if not o.static], scene.boundaries, scene.colliders,
+                 scene.forces, scene.impulses)
 
 
 def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None = None) -> PreparedScene:
@@ -64,6 +65,9 @@ def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None 
         A material, boundary or feature the engine lacks (before any file is read), an
         unreadable object file, an object outside an explicit domain.
     """
+    # The capability check runs here, on the scene, so that an engine that lacks something is refused
+    # before any file is read; build_engine applies the same rule (needs) again to the setup, because it
+    # is also called with setups built in code (conformance kit, studies). Both give the same names.
     t0 = time.perf_counter()
     name = engine or scene.engine.name
     if not name:
@@ -81,7 +85,11 @@ def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None 
 
 
 def input_files(scene: Scene) -> list[Path]:
-    """The files a run reads: the scene file and every object's file (never to be overwritten)."""
+    """The files a run reads: the scene, every object's file, selection masks, collider meshes and Gaussians.
+
+    The output claim protects them (never overwritten) and the resume fingerprint stands for exactly these
+    (:func:`gasp_core.run.resume.fingerprint`).
+    """
     return ([Path(scene.path)] + [Path(o.file) for o in scene.objects]
             + [Path(o.select.mask) for o in scene.objects if o.select is not None and o.select.mask is not None]
             + [Path(c.mesh or c.gaussians) for c in scene.colliders if (c.mesh or c.gaussians) is not None])

@@ -35,19 +35,35 @@ if TYPE_CHECKING:
     from gasp_core.scene.spec import ObjectSpec
 
 __all__ = ["GROW_SIGMAS", "grow_selection", "moving_rows", "region_rows", "scatter", "selection_record",
-           "selection_totals", "static_rows", "static_splats", "world_triangles"]
+           "selection_totals", "static_rows", "static_splats", "world_triangles", "flat_world"]
 
 #: Splat radius used by :func:`grow_selection`: this many times the Gaussian's largest scale (2 sigma).
 GROW_SIGMAS = 2.0
 
 
-def world_triangles(g: Gaussians, pl: Placement) -> np.ndarray:
-    """GaMeS triangles of Gaussians flattened in the world frame, shape (n, 3, 3), metres.
+def flat_world(g: Gaussians, pl: Placement):
+    """Gaussians placed, flattened and triangulated in the world frame: the one map (flatten, then ``T``).
 
-    The same map as :func:`gasp_core.prepare.placement.prepare_object` (flatten, then ``T``).
+    Returns
+    -------
+    scales : ndarray, shape (n, 3), float64
+        Flat scales ``[eps, s2, s3]``, metres.
+    rotmats : ndarray, shape (n, 3, 3), float64
+        World rotations, column 0 the normal.
+    means : ndarray, shape (n, 3), float64
+        World positions, metres.
+    tri : ndarray, shape (n, 3, 3), float64
+        GaMeS triangles, world frame, metres.
+    report : FlattenReport
     """
-    scales, rot, _ = flatten(g.scales * pl.scale, pl.R @ g.rotmats())
-    return gaussians_to_triangles(pl.to_world(g.means), rot, scales)
+    scales, rot, report = flatten(g.scales * pl.scale, pl.R @ g.rotmats())
+    means = pl.to_world(g.means)
+    return scales, rot, means, gaussians_to_triangles(means, rot, scales), report
+
+
+def world_triangles(g: Gaussians, pl: Placement) -> np.ndarray:
+    """GaMeS triangles of Gaussians flattened in the world frame, shape (n, 3, 3), metres (:func:`flat_world`)."""
+    return flat_world(g, pl)[3]
 
 
 def _load_mask(path: Path, n: int, where: str) -> np.ndarray:
@@ -183,8 +199,13 @@ def grow_selection(rows: np.ndarray, means: np.ndarray, radii: np.ndarray,
     return np.flatnonzero(keep)
 
 
-def moving_rows(spec: ObjectSpec, g: Gaussians, pl: Placement) -> tuple[np.ndarray | None, np.ndarray]:
+def moving_rows(spec: ObjectSpec, g: Gaussians, pl: Placement,
+                tri: np.ndarray | None = None) -> tuple[np.ndarray | None, np.ndarray]:
     """Which rows of an object's file move, and the static rest's world triangles.
+
+    ``tri`` : ndarray, shape (g.n, 3, 3), optional
+        The whole file's :func:`world_triangles`, when the caller has them (computed here otherwise):
+        an object is flattened once (:func:`gasp_core.prepare.placement.prepare_object`).
 
     Returns
     -------
@@ -199,11 +220,11 @@ def moving_rows(spec: ObjectSpec, g: Gaussians, pl: Placement) -> tuple[np.ndarr
     SceneError
         See :func:`region_rows`.
     """
-    if spec.static:
-        return np.zeros(0, np.int64), world_triangles(g, pl)
-    if spec.select is None:
+    if spec.select is None and not spec.static:
         return None, np.zeros((0, 3, 3))
-    tri = world_triangles(g, pl)
+    tri = world_triangles(g, pl) if tri is None else tri
+    if spec.static:
+        return np.zeros(0, np.int64), tri
     rows = region_rows(spec, g, pl)
     if spec.select.grow:
         alpha = 1.0 / (1.0 + np.exp(-g.opacities.astype(np.float64)))

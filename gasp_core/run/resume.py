@@ -22,6 +22,7 @@ import numpy as np
 
 from gasp_core.errors import GaspError
 from gasp_core.fsutil import atomic_write, leftover_partials
+from gasp_core.prepare.scene import input_files
 
 CHECKPOINT = ".gasp-checkpoint.npz"
 
@@ -48,14 +49,23 @@ class Checkpoint:
 
 
 def fingerprint(scene, engine: str, options: dict, n_frames: int) -> str:
-    """SHA-256 of what a resumed run must share with the killed one: scene text, inputs, engine, options."""
+    """SHA-256 of what a resumed run must share with the killed one: its inputs, engine, options, frames.
+
+    The inputs are exactly the files the run reads (:func:`gasp_core.prepare.scene.input_files`: the
+    scene, every object's file, selection masks, collider meshes and Gaussians), each stood for by
+    its path, size (bytes) and modification time (ns), as ``make`` and ``rsync`` take them: no file
+    is read a second time for this (the object files can be gigabytes), and any edit, copy or
+    ``touch`` of an input between the kill and ``--resume`` refuses the resume.
+
+    Raises
+    ------
+    OSError
+        An input file has gone (the run that follows would fail on it too).
+    """
     h = hashlib.sha256()
-    masks = [Path(o.select.mask) for o in scene.objects if o.select is not None and o.select.mask is not None]
-    for p in [Path(scene.path)] + [Path(o.file) for o in scene.objects] + masks:
-        h.update(str(p).encode())
-        with open(p, "rb") as f:
-            for chunk in iter(lambda: f.read(1 << 20), b""):
-                h.update(chunk)
+    for p in input_files(scene):
+        st = p.stat()
+        h.update(f"{p.resolve()}\0{st.st_size}\0{st.st_mtime_ns}\0".encode())
     h.update(json.dumps([engine, options, n_frames], sort_keys=True, default=str).encode())
     return h.hexdigest()
 

@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 
+from gasp_core.colliders.model import Motion
 from gasp_core.errors import SceneError
 from gasp_core.scene.values import (MAX_COORD, MAX_GRAVITY, MAX_SPEED, MAX_SPIN, SCALE_RANGE, UP_AXES, as_boolean,
                                     as_integer, as_number, as_string, as_tables, as_vec3, bad_value, check_keys,
@@ -42,6 +43,11 @@ class ColliderSpec:
     angular_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
     path: list | None = None
     min_opacity: float = 0.1
+
+    @property
+    def moving(self) -> bool:
+        """True with a prescribed motion (the rule of :attr:`gasp_core.colliders.model.Motion.moving`)."""
+        return Motion(velocity=self.velocity, angular_velocity=self.angular_velocity, path=self.path).moving
 
 
 _COLLIDER_KEYS = {f.name for f in fields(ColliderSpec)} - {"where"}

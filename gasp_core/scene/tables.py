@@ -50,24 +50,18 @@ _DOMAIN_KEYS = {f.name for f in fields(DomainSpec)}
 _ENGINE_KEYS = {"name", "options"}
 
 
-#: Material parameter ranges: (lo, hi, lo_open, hi_open); hi None = unbounded.
-_MATERIAL_RANGES = {
-    "E": (0.0, None, True, False), "nu": (0.0, 0.5, False, True), "rho": (0.0, None, True, False),
-    "yield_stress": (0.0, None, True, False), "friction_angle": (0.0, 90.0, False, True),
-    "softening": (0.0, None, False, False), "hardening": (0.0, None, True, False),
-    "theta_c": (0.0, None, True, False), "theta_s": (0.0, None, True, False),
-}
-
-
 def read_material(value, where: str, src: Path) -> Material:
-    """An object's ``material`` table: ``name`` (default ``jelly``) and parameters within ``_MATERIAL_RANGES``."""
+    """An object's ``material`` table: ``name`` (default ``jelly``); each parameter checked by the Material's
+    own rule (:meth:`Material.expected`, one range table :data:`gasp_core.seam.setup.MATERIAL_RANGES`)."""
     table = as_table(value, where, src)
     check_keys(table, _MATERIAL_KEYS, where, src)
     kw: dict[str, Any] = {"name": as_string(table.get("name", "jelly"), f"{where}.name", src, MATERIALS)}
     for k in sorted(_MATERIAL_KEYS - {"name"}):
         if k in table:
-            lo, hi, lo_open, hi_open = _MATERIAL_RANGES[k]
-            kw[k] = as_number(table[k], f"{where}.{k}", src, lo, hi, lo_open, hi_open)
+            expected = Material.expected(k, table[k])
+            if expected is not None:
+                bad_value(src, f"{where}.{k}", table[k], expected)
+            kw[k] = float(table[k])
     return Material(**kw)
 
 

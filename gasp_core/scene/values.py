@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import NoReturn
 
 from gasp_core.errors import SceneError
+from gasp_core.seam.setup import in_range, range_text
 
 _TOML_TYPES = ((bool, "boolean"), (int, "integer"), (float, "float"), (str, "string"),
                (list, "array"), (dict, "table"))
@@ -74,21 +75,8 @@ def as_boolean(value, key: str, src: Path) -> bool:
 def as_number(value, key: str, src: Path, lo: float | None = None, hi: float | None = None,
               lo_open: bool = False, hi_open: bool = False) -> float:
     """A finite float or integer (never a boolean) in the range given, as ``float``; else a :class:`SceneError`."""
-    ok = is_number(value) and math.isfinite(value)
-    if ok and lo is not None:
-        ok = value > lo if lo_open else value >= lo
-    if ok and hi is not None:
-        ok = value < hi if hi_open else value <= hi
-    if not ok:
-        if lo is None and hi is None:
-            rng = ""
-        elif hi is None:
-            rng = f" {'>' if lo_open else '>='} {lo:g}"
-        elif lo is None:
-            rng = f" {'<' if hi_open else '<='} {hi:g}"
-        else:
-            rng = f" in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
-        bad_value(src, key, value, f"a finite number{rng}")
+    if not in_range(value, lo, hi, lo_open, hi_open):
+        bad_value(src, key, value, range_text(lo, hi, lo_open, hi_open))
     return float(value)
 
 

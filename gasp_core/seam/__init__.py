@@ -22,19 +22,20 @@ What is here, by the module that defines it:
   anything else an engine raises becomes :class:`EngineBug`;
 - driving an engine from a plugin's own tests: :func:`get_engine`, :func:`engines`, :func:`build_engine`
   (the core's capability, option and limit checks, then the factory), :func:`call_engine` (the error
-  contract) and :func:`check_state` (the core's blow-up check on positions).
+  contract) and :func:`check_state` (the core's blow-up check on positions) with its two likely causes,
+  :data:`CAUSE_UNSTABLE` and :data:`CAUSE_LEFT_DOMAIN` (an engine raising :class:`EngineDivergence` itself uses them).
 
 This module only re-exports. The core's own modules never import it (they import each name from the
 module that defines it), so that importing the contract cannot close an import loop.
 """
 from gasp_core.errors import EngineBug, EngineDivergence, EngineError, GaspError, SceneError
 from gasp_core.seam.build import build_engine
-from gasp_core.seam.engine import (FEATURES, Capabilities, EngineInfo, EngineStats, Option, PointEngine,
-                                   StatefulEngine, call_engine)
+from gasp_core.seam.engine import call_engine, Capabilities, EngineInfo, EngineStats, FEATURES, PointEngine, StatefulEngine
+from gasp_core.seam.options import Option
 from gasp_core.seam.limits import Limit
 from gasp_core.seam.passive import mass_properties
 from gasp_core.seam.plugins import RendererInfo, SoupWriterInfo, engines, get_engine, hookimpl
-from gasp_core.seam.runner import check_state
+from gasp_core.seam.runner import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, check_state
 from gasp_core.seam.setup import BOUNDARIES, MATERIALS, Boundary, Material, SimSetup
 
 __all__ = [
@@ -49,5 +50,5 @@ __all__ = [
     # errors
     "GaspError", "SceneError", "EngineError", "EngineDivergence", "EngineBug",
     # driving an engine
-    "get_engine", "engines", "build_engine", "call_engine", "check_state",
+    "get_engine", "engines", "build_engine", "call_engine", "check_state", "CAUSE_UNSTABLE", "CAUSE_LEFT_DOMAIN",
 ]

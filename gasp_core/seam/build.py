@@ -9,9 +9,9 @@ from __future__ import annotations
 
 from typing import Iterable, Mapping
 
-from gasp_core.colliders.model import feature_needs
 from gasp_core.errors import GaspError, SceneError
-from gasp_core.seam.engine import EngineInfo, PointEngine, StatefulEngine, call_engine, check_options
+from gasp_core.seam.engine import call_engine, EngineInfo, PointEngine, StatefulEngine
+from gasp_core.seam.options import check_options
 from gasp_core.seam.limits import check_limits
 from gasp_core.seam.passive import build_with_fallback
 from gasp_core.seam.plugins import engines as installed_engines
@@ -51,11 +51,45 @@ def check_supported(info: EngineInfo, materials: Iterable[str] = (), boundaries:
                      f"engines that do: {able or 'none installed'}")
 
 
-def setup_needs(setup: SimSetup) -> dict[str, list[str]]:
-    """What a setup asks of an engine: ``materials``, ``boundaries`` and ``features`` names."""
-    return {"materials": [m.name for m in setup.materials], "boundaries": [b.kind for b in setup.boundaries],
-            "features": feature_needs(setup.colliders, setup.forces, setup.impulses)}
+def needs(materials: Iterable[str] = (), boundaries: Iterable = (), colliders: Iterable = (),
+          forces: Iterable = (), impulses: Iterable = ()) -> dict[str, list[str]]:
+    """The one rule of what a run asks of an engine: ``materials``, ``boundaries`` and ``features`` names.
 
+    Applied to a parsed scene before any file is read (:func:`gasp_core.prepare.scene.scene_needs`)
+    and to a :class:`SimSetup` (:func:`setup_needs`); both give the same names for the same scene.
+
+    Parameters
+    ----------
+    materials : iterable of str
+        Material names of the simulated bodies (static objects take no part).
+    boundaries : iterable
+        Anything with a ``kind`` (:class:`~gasp_core.seam.setup.Boundary`).
+    colliders : iterable
+        Anything with a ``moving`` flag (:class:`~gasp_core.colliders.model.Collider`,
+        :class:`~gasp_core.scene.extras.ColliderSpec`): ``moving_colliders`` or ``static_colliders``.
+    forces : iterable
+        Anything with a ``kind``: ``"wind"`` needs ``wind``, any other ``attractors``.
+    impulses : iterable
+        Any impulse needs ``impulse``.
+
+    Returns
+    -------
+    dict
+        ``{"materials": [...], "boundaries": [...], "features": [...]}``, each without repeats, in
+        first-use order (keys of :func:`check_supported`).
+    """
+    features = ["moving_colliders" if c.moving else "static_colliders" for c in colliders]
+    features += ["wind" if f.kind == "wind" else "attractors" for f in forces]
+    if list(impulses):
+        features.append("impulse")
+    return {"materials": list(dict.fromkeys(materials)), "boundaries": list(dict.fromkeys(b.kind for b in boundaries)),
+            "features": list(dict.fromkeys(features))}
+
+
+def setup_needs(setup: SimSetup) -> dict[str, list[str]]:
+    """:func:`needs` of a setup (its materials, boundaries, colliders, forces and impulses)."""
+    return needs([m.name for m in setup.materials], setup.boundaries, setup.colliders, setup.forces,
+                 setup.impulses)
 
 
 def _factory(info: EngineInfo, setup: SimSetup) -> PointEngine:

@@ -14,9 +14,7 @@ raises is wrapped as ``EngineBug``. The conformance kit (:mod:`gasp_core.testing
 """
 from __future__ import annotations
 
-import math
 import os
-import re
 import tempfile
 import traceback
 from dataclasses import dataclass, field
@@ -24,8 +22,9 @@ from typing import Any, Callable, Iterable, Mapping, NotRequired, Protocol, Requ
 
 import numpy as np
 
-from gasp_core.errors import EngineBug, GaspError, SceneError
+from gasp_core.errors import EngineBug, GaspError
 from gasp_core.seam.limits import Limit, split_key
+from gasp_core.seam.options import Option
 from gasp_core.seam.setup import SimSetup
 
 
@@ -93,121 +92,6 @@ class Capabilities:
                                   ("feature", features, self.features)):
             out += [(kind, n) for n in dict.fromkeys(names) if n not in have]
         return out
-
-
-_KINDS = {"int": "an integer", "number": "a number", "str": "a string", "bool": "true or false"}
-
-
-@dataclass(frozen=True)
-class Option:
-    """One engine option, declared as data (``gasp engines`` lists them; the core checks them).
-
-    Attributes
-    ----------
-    name : str
-        Key in the scene's ``[engine] options`` table.
-    default : Any
-        Value when the scene does not give one. ``None`` means "the engine decides" and is
-        always accepted.
-    doc : str
-        Meaning and unit, one line.
-    kind : str
-        ``"int"``, ``"number"`` (int or float, finite), ``"str"`` or ``"bool"``.
-    choices : tuple, optional
-        Allowed values (``kind="str"``).
-    lo, hi : float, optional
-        Inclusive bounds (``kind`` int or number); ``lo_open`` makes ``lo`` exclusive.
-    pattern : str, optional
-        A regular expression a string value must match in full (e.g. ``cuda(:\\d+)?``); used
-        instead of ``choices``.
-    """
-
-    name: str
-    default: Any
-    doc: str
-    kind: str = "number"
-    choices: tuple | None = None
-    lo: float | None = None
-    hi: float | None = None
-    lo_open: bool = False
-    pattern: str | None = None
-
-    def expected(self) -> str:
-        """What a valid value is, in words."""
-        if self.choices is not None:
-            return "one of " + ", ".join(repr(c) for c in self.choices)
-        text = _KINDS[self.kind]
-        if self.pattern is not None:
-            text += f" matching {self.pattern!r}"
-        if self.lo is not None and self.hi is not None:
-            text += f" in {'(' if self.lo_open else '['}{self.lo:g}, {self.hi:g}]"
-        elif self.lo is not None:
-            text += f" {'>' if self.lo_open else '>='} {self.lo:g}"
-        elif self.hi is not None:
-            text += f" <= {self.hi:g}"
-        return text
-
-    def valid(self, value: Any) -> bool:
-        """True when ``value`` is acceptable (``None`` always is)."""
-        if value is None:
-            return True
-        if self.kind == "bool":
-            return isinstance(value, bool)
-        if self.kind == "str":
-            if not isinstance(value, str):
-                return False
-            if self.pattern is not None:
-                return re.fullmatch(self.pattern, value) is not None
-            return self.choices is None or value in self.choices
-        if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-            return False
-        if self.kind == "int" and not isinstance(value, (int, np.integer)):
-            return False
-        if not math.isfinite(value):
-            return False
-        if self.choices is not None and value not in self.choices:
-            return False
-        if self.lo is not None and (value <= self.lo if self.lo_open else value < self.lo):
-            return False
-        return self.hi is None or value <= self.hi
-
-
-def check_options(options: Mapping[str, Any], declared: Iterable[Option], engine: str) -> dict[str, Any]:
-    """Every declared option's value: the scene's where given, else the default.
-
-    Parameters
-    ----------
-    options : mapping
-        The scene's ``[engine] options``.
-    declared : iterable of Option
-        :attr:`EngineInfo.options`.
-    engine : str
-        Engine name, for messages.
-
-    Returns
-    -------
-    dict
-        ``{name: value}`` for every declared option.
-
-    Raises
-    ------
-    SceneError
-        An unknown option (the message lists the declared ones), or a value of the wrong type or
-        out of range (the message names the option, the value and what is expected).
-    """
-    by_name = {o.name: o for o in declared}
-    if not isinstance(options, Mapping):
-        raise SceneError(f"engine '{engine}': options must be a table like {{ name = value }}, "
-                         f"got {options!r}")
-    unknown = sorted(set(options) - set(by_name))
-    if unknown:
-        raise SceneError(f"engine '{engine}': unknown option(s) {unknown}; allowed: {sorted(by_name)}")
-    merged = {name: o.default for name, o in by_name.items()}
-    for name, value in options.items():
-        if not by_name[name].valid(value):
-            raise SceneError(f"engine '{engine}': option {name}={value!r}; expected {by_name[name].expected()}")
-        merged[name] = value
-    return merged
 
 
 class EngineStats(TypedDict, total=False):

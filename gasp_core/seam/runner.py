@@ -51,8 +51,20 @@ class RunStats:
     engine: dict = field(default_factory=dict)
 
 
+#: The likely cause of non-finite values, or of points jumping out of the domain within a step: the one
+#: text every engine and the runner give (:func:`check_state`).
+CAUSE_UNSTABLE = "time step above the stability limit, or material too stiff for the time step"
+#: The likely cause of points drifting out of the domain (:func:`check_state`).
+CAUSE_LEFT_DOMAIN = ("points left the domain: no ground or walls to stop them, a domain too small, or an "
+                     "unstable time step; add walls/ground or enlarge the domain")
+
+
 def check_state(x: np.ndarray, setup: SimSetup, frame: int, margin: float | None = None) -> None:
-    """Raise :class:`EngineDivergence` if ``x`` is non-finite or outside the domain.
+    """Raise :class:`EngineDivergence` if ``x`` is non-finite or outside the domain: the one blow-up check.
+
+    :func:`run_engine` applies it to every frame; an engine that wants to stop inside its own step
+    calls this same function (or raises with :data:`CAUSE_UNSTABLE` / :data:`CAUSE_LEFT_DOMAIN`
+    from its own counters, e.g. points out of the grid during a substep).
 
     Parameters
     ----------
@@ -76,16 +88,14 @@ def check_state(x: np.ndarray, setup: SimSetup, frame: int, margin: float | None
     if not finite.all():
         bad = np.flatnonzero(~finite)
         raise EngineDivergence(
-            f"{len(bad)} point(s) non-finite (first index {bad[0]})", frame,
-            "time step above the stability limit, or material too stiff for the time step")
+            f"{len(bad)} point(s) non-finite (first index {bad[0]})", frame, CAUSE_UNSTABLE)
     m = setup.dx if margin is None else margin
     out = ((x < setup.domain_lo - m) | (x > setup.domain_hi + m)).any(axis=1)
     if out.any():
         bad = np.flatnonzero(out)
         raise EngineDivergence(
             f"{len(bad)} point(s) left the domain [{setup.domain_lo.tolist()}, {setup.domain_hi.tolist()}] "
-            f"(first index {bad[0]} at {x[bad[0]].tolist()})", frame,
-            "no ground or walls to stop them, a domain too small, or an unstable time step")
+            f"(first index {bad[0]} at {x[bad[0]].tolist()})", frame, CAUSE_LEFT_DOMAIN)
 
 
 def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int,

@@ -6,6 +6,7 @@ object into this frame before the engine sees it and converts the result back.
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -28,6 +29,46 @@ MATERIALS = frozenset({
 #: Boundary kinds an engine may offer (capability names).
 BOUNDARIES = frozenset({"ground", "walls", "fixed_region"})
 
+#: The one rule on material parameters (the scene reader and :class:`SimSetup` both apply it, through
+#: :meth:`Material.expected`): ``name: (lo, hi, lo_open, hi_open)``, ``hi`` None = unbounded. Every
+#: model of ``docs/mpm.md`` is well posed on all of ``-1 < nu < 0.5`` (``lam + 2 mu``, ``3 lam + 2 mu``
+#: and ``K`` stay positive); an engine with a narrower range declares its own limit.
+MATERIAL_RANGES: dict[str, tuple[float, float | None, bool, bool]] = {
+    "E": (0.0, None, True, False), "nu": (-1.0, 0.5, True, True), "rho": (0.0, None, True, False),
+    "yield_stress": (0.0, None, True, False), "friction_angle": (0.0, 90.0, False, True),
+    "softening": (0.0, None, False, False), "hardening": (0.0, None, True, False),
+    "theta_c": (0.0, None, True, False), "theta_s": (0.0, None, True, False),
+}
+
+
+def range_text(lo: float | None, hi: float | None, lo_open: bool = False, hi_open: bool = False) -> str:
+    """``"a finite number > 0"``, ``"a finite number in (-1, 0.5)"``, ...: a range in words."""
+    if lo is None and hi is None:
+        rng = ""
+    elif hi is None:
+        rng = f" {'>' if lo_open else '>='} {lo:g}"
+    elif lo is None:
+        rng = f" {'<' if hi_open else '<='} {hi:g}"
+    else:
+        rng = f" in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
+    return "a finite number" + rng
+
+
+def in_range(value, lo: float | None, hi: float | None, lo_open: bool = False, hi_open: bool = False) -> bool:
+    """True when ``value`` is a finite int or float (never a bool) within the range."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        return False
+    if not math.isfinite(value):
+        return False
+    if lo is not None and not (value > lo if lo_open else value >= lo):
+        return False
+    return hi is None or (value < hi if hi_open else value <= hi)
+
+
+def grid_spacing(domain_lo, domain_hi, n_grid: int) -> float:
+    """Grid spacing ``dx``, metres: the longest domain side divided by ``n_grid`` (the one formula)."""
+    return float(np.max(np.asarray(domain_hi, dtype=np.float64) - np.asarray(domain_lo, dtype=np.float64))) / n_grid
+
 
 @dataclass(frozen=True)
 class Material:
@@ -41,6 +82,8 @@ class Material:
         Young's modulus, Pa.
     nu : float
         Poisson's ratio, in (-1, 0.5).
+
+    Every parameter's range is in :data:`MATERIAL_RANGES` (checked by :meth:`check`).
     rho : float
         Density, kg/m^3.
     yield_stress : float
@@ -66,6 +109,31 @@ class Material:
     hardening: float = 10.0
     theta_c: float = 2.5e-2
     theta_s: float = 4.5e-3
+
+    @staticmethod
+    def expected(key: str, value) -> str | None:
+        """None when ``value`` is a valid ``key`` (:data:`MATERIAL_RANGES`), else what is expected, in words."""
+        rule = MATERIAL_RANGES[key]
+        return None if in_range(value, *rule) else range_text(*rule)
+
+    def check(self, where: str = "material") -> None:
+        """Refuse a parameter outside :data:`MATERIAL_RANGES`.
+
+        Raises
+        ------
+        SceneError
+            ``"{where}.nu = -1.5; expected a finite number in (-1, 0.5)"`` (the scene reader's words).
+        """
+        for key in MATERIAL_RANGES:
+            value = getattr(self, key)
+            expected = self.expected(key, value)
+            if expected is not None:
+                raise SceneError(f"{where}.{key} = {value!r}; expected {expected}")
+
+    @property
+    def K(self) -> float:
+        """Bulk modulus ``E / (3 (1 - 2 nu))``, Pa."""
+        return self.E / (3.0 * (1.0 - 2.0 * self.nu))
 
     @property
     def mu(self) -> float:
@@ -136,7 +204,10 @@ class SimSetup:
         Number of leading points that carry Gaussians.
     options : dict
         Engine options from the scene's ``[engine]`` table (``device``, ``precision``,
-        ``dt``, ``n_substeps``, ``cfl``, ...). Each engine validates its own.
+        ``dt``, ``n_substeps``, ``cfl``, ...). The core is their only checker: before the factory runs,
+        :func:`gasp_core.seam.build.build_engine` checks them against the engine's declared
+        :class:`~gasp_core.seam.engine.Option` s (types, ranges, choices, ``excludes``) and completes
+        them with the defaults, so an engine reads every declared option here and checks none again.
     C : ndarray, shape (n, 3, 3), float64, or None
         Initial velocity gradient per point, 1/s (APIC's affine matrix ``C``; for a body spinning
         at angular velocity w it is the cross-product matrix of w). None means zero. Grid engines
@@ -227,16 +298,13 @@ class SimSetup:
             raise SceneError(f"SimSetup.n_grid = {self.n_grid!r}; expected an integer >= 4")
         if not (self.frame_dt > 0 and np.isfinite(self.frame_dt)):
             raise SceneError(f"SimSetup.frame_dt = {self.frame_dt}; expected a positive number of seconds")
-        for m in self.materials:
-            if not (np.isfinite([m.E, m.rho, m.nu, m.yield_stress]).all()
-                    and m.E > 0 and m.rho > 0 and -1.0 < m.nu < 0.5 and m.yield_stress >= 0):
-                raise SceneError(f"material {m.name!r} needs finite E > 0, rho > 0, -1 < nu < 0.5, yield_stress >= 0; "
-                                 f"got E={m.E}, rho={m.rho}, nu={m.nu}, yield_stress={m.yield_stress}")
+        for i, m in enumerate(self.materials):
+            m.check(f"SimSetup.materials[{i}] ({m.name!r})")
 
     @property
     def dx(self) -> float:
-        """Grid spacing, metres: the longest domain side divided by ``n_grid``."""
-        return float(np.max(self.domain_hi - self.domain_lo)) / self.n_grid
+        """Grid spacing, metres: the longest domain side divided by ``n_grid`` (:func:`grid_spacing`)."""
+        return grid_spacing(self.domain_lo, self.domain_hi, self.n_grid)
 
     @property
     def n_passive(self) -> int:

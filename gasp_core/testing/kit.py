@@ -23,7 +23,7 @@ import numpy as np
 
 from gasp_core.seam.engine import Capabilities, EngineInfo, call_engine
 from gasp_core.errors import EngineBug, EngineDivergence, EngineError, GaspError
-from gasp_core.seam.runner import RunStats, run_engine
+from gasp_core.seam.runner import CAUSE_UNSTABLE, RunStats, run_engine
 from gasp_core.seam.setup import SimSetup
 from gasp_core.testing.helpers import Check
 
@@ -235,7 +235,7 @@ def run_trace(info: EngineInfo, setup: SimSetup, n_frames: int) -> Trace:
             raise EngineDivergence(f"engine returned velocities of shape {v.shape}, expected "
                                    f"{setup.x.shape}", rec.frame, "the engine dropped or added points")
         if not np.isfinite(v).all():
-            raise EngineDivergence("non-finite velocities", rec.frame, "unstable time step")
+            raise EngineDivergence("non-finite velocities", rec.frame, CAUSE_UNSTABLE)
         xs.append(rec.x)
         vs.append(v)
     t = np.arange(len(xs)) * setup.frame_dt

@@ -27,7 +27,8 @@ from typing import Callable
 import numpy as np
 
 from gasp_core.seam.build import build_engine
-from gasp_core.seam.engine import EngineInfo, FEATURES, Option
+from gasp_core.seam.engine import EngineInfo, FEATURES
+from gasp_core.seam.options import Option
 from gasp_core.errors import EngineBug, EngineDivergence, GaspError, SceneError
 from gasp_core.seam.setup import BOUNDARIES, MATERIALS, Boundary, Material, SimSetup
 from gasp_core.testing.helpers import GRAVITY, Check, box_points

@@ -4,7 +4,7 @@ Engines opt in by importing it; :mod:`gasp_core.seam` and :mod:`gasp_core.run` n
 the same scene every MPM engine starts from the same numbers, it holds:
 
 - :mod:`~gasp_core.toolkit.options`: the declared options of a grid engine (``mpm_options``,
-  ``MPM_OPTIONS``) and their one extra rule (``check_mpm_options``: ``dt`` or ``n_substeps``, not both);
+  ``MPM_OPTIONS``; ``dt`` excludes ``n_substeps`` as declared data, checked by the core);
 - :mod:`~gasp_core.toolkit.substeps`: the stable time step and substeps (``mpm_stable_dt``,
   ``mpm_substeps``, ``substeps_from_options``; ``docs/mpm.md``, "Time step") and the passive points'
   schedule (``passive_schedule``);
@@ -14,8 +14,7 @@ the same scene every MPM engine starts from the same numbers, it holds:
   the order of points by grid cell (``cell_order``, ``material_first_order``), mass statistics and
   stranded passive points;
 - :mod:`~gasp_core.toolkit.memory`: the memory estimate and the refusal before allocating;
-- :mod:`~gasp_core.toolkit.failures`: the likely causes of a blow-up, in words (``CAUSE_DT``,
-  ``CAUSE_DOMAIN``), and the known conformance failures of the shared algorithm;
+- :mod:`~gasp_core.toolkit.failures`: the known conformance failures of the shared algorithm;
 - :mod:`~gasp_core.toolkit.grid_tables`: colliders, forces and impulses packed for the kernels;
 - :mod:`~gasp_core.toolkit.sweep`: the ``gasp bench`` sweep of a grid engine (``mpm_sweep``, ``grid_sweep``).
 """

@@ -1,12 +1,7 @@
-"""What goes wrong in a grid (MPM) engine: the likely causes of a blow-up, in words, and the conformance
-scenes the shared algorithm is known to fail, with the measured figures."""
+"""The conformance scenes the shared grid (MPM) algorithm is known to fail, with the measured figures.
+
+(The likely causes of a blow-up are the runner's, one text for every engine: :mod:`gasp_core.seam.runner`.)"""
 from __future__ import annotations
-
-
-#: Likely cause of non-finite values, or of points jumping out of the grid within a substep.
-CAUSE_DT = "time step above the stability limit or material too stiff for dt"
-#: Likely cause of points drifting out of the grid.
-CAUSE_DOMAIN = "points left the domain: add walls/ground or enlarge the domain"
 
 
 #: Conformance scenes the grid engines built on this toolkit fail (they run the same algorithm,

@@ -48,7 +48,7 @@ def material_table(materials: Sequence[Material]) -> tuple[np.ndarray, np.ndarra
         stress, Pa), ``P_SOFTENING``, ``P_HARDENING`` (snow xi), ``P_THETA_C``, ``P_THETA_S``,
         ``P_ALPHA`` (Drucker-Prager ``alpha = sqrt(2/3) 2 sin(phi) / (3 - sin(phi))`` of the
         friction angle phi, Klar et al. 2016 Eq. 27) and ``P_K`` (bulk modulus
-        ``E / (3 (1 - 2 nu))``, Pa, of the liquid's equation of state).
+        :attr:`Material.K`, Pa, of the liquid's equation of state).
 
     Raises
     ------
@@ -72,7 +72,7 @@ def material_table(materials: Sequence[Material]) -> tuple[np.ndarray, np.ndarra
         params[b, P_THETA_C] = m.theta_c
         params[b, P_THETA_S] = m.theta_s
         params[b, P_ALPHA] = math.sqrt(2.0 / 3.0) * 2.0 * s / (3.0 - s)
-        params[b, P_K] = m.E / (3.0 * (1.0 - 2.0 * m.nu))
+        params[b, P_K] = m.K
     return kinds, params
 
 

@@ -1,10 +1,7 @@
-"""The declared options of a grid (MPM) engine and their one extra rule (``dt`` or ``n_substeps``, not both)."""
+"""The declared options of a grid (MPM) engine; ``dt`` excludes ``n_substeps`` as declared data (the core checks them)."""
 from __future__ import annotations
 
-from typing import Any, Iterable, Mapping
-
-from gasp_core.errors import SceneError
-from gasp_core.seam.engine import Option, check_options
+from gasp_core.seam.options import Option
 from gasp_core.toolkit.substeps import MAX_SUBSTEPS
 
 
@@ -34,7 +31,7 @@ def mpm_options(*extra: Option, cuda_index: bool = False) -> tuple[Option, ...]:
         device,
         Option("precision", "f32", "floating-point precision of the solver", kind="str", choices=("f32", "f64")),
         Option("dt", None, "substep length, s (default: from cfl); not with n_substeps", kind="number",
-               lo=0.0, lo_open=True),
+               lo=0.0, lo_open=True, excludes=("n_substeps",)),
         Option("n_substeps", None, "substeps per frame (default: from cfl); not with dt", kind="int", lo=1),
         Option("cfl", 0.4, "Courant number of the automatic substep: dt = cfl dx / max(c_p, v_max)",
                kind="number", lo=0.0, hi=1.0, lo_open=True),
@@ -45,33 +42,3 @@ def mpm_options(*extra: Option, cuda_index: bool = False) -> tuple[Option, ...]:
 
 #: The options every MPM engine of this project takes (``docs/mpm.md``), ``device`` "cpu" or "cuda".
 MPM_OPTIONS = mpm_options()
-
-
-def check_mpm_options(options: Mapping[str, Any], declared: Iterable[Option], engine: str) -> dict[str, Any]:
-    """:func:`gasp_core.seam.engine.check_options`, and ``dt`` and ``n_substeps`` not given together.
-
-    Parameters
-    ----------
-    options : mapping
-        The scene's ``[engine] options`` (or those already completed by the core: the check is
-        idempotent).
-    declared : iterable of Option
-        The engine's options (:func:`mpm_options`).
-    engine : str
-        Engine name, for messages.
-
-    Returns
-    -------
-    dict
-        Every declared option's value.
-
-    Raises
-    ------
-    SceneError
-        An unknown option, a value of the wrong type or out of range, or both ``dt`` and
-        ``n_substeps``; the message names the engine and the option.
-    """
-    opts = check_options(options, declared, engine)
-    if opts.get("dt") is not None and opts.get("n_substeps") is not None:
-        raise SceneError(f"engine '{engine}': give option dt or option n_substeps, not both")
-    return opts

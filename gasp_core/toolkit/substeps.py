@@ -12,7 +12,7 @@ from typing import Any, Iterable, Mapping
 import numpy as np
 
 from gasp_core.errors import SceneError
-from gasp_core.seam.engine import Option
+from gasp_core.seam.options import Option
 from gasp_core.seam.setup import Material
 
 
@@ -20,11 +20,10 @@ def p_wave_speed(m: Material) -> float:
     """Dilatational (P-wave) speed ``sqrt((lam + 2 mu) / rho)``, m/s.
 
     For ``liquid`` the shear modulus is not used: ``sqrt(lam' / rho)`` with the bulk modulus
-    ``K = E / (3 (1 - 2 nu))``.
+    ``K`` (:attr:`Material.K`).
     """
     if m.name == "liquid":
-        K = m.E / (3.0 * (1.0 - 2.0 * m.nu))
-        return math.sqrt(K / m.rho)
+        return math.sqrt(m.K / m.rho)
     if m.name == "snow":  # hardening can stiffen the material up to exp(xi * theta_c) (Jp < 1)
         h = math.exp(m.hardening * m.theta_c)
         return math.sqrt(h * (m.lam + 2.0 * m.mu) / m.rho)

@@ -20,7 +20,7 @@ import numpy as np
 from scipy import sparse
 from scipy.spatial import cKDTree
 
-from gasp_core.seam import EngineDivergence, EngineStats, SceneError, SimSetup
+from gasp_core.seam import CAUSE_UNSTABLE, EngineDivergence, EngineStats, SceneError, SimSetup
 
 ENGINE = "example_springs"
 
@@ -114,9 +114,8 @@ class SpringEngine:
             for _ in range(self.n_substeps):
                 self._substep(self.dt)
         if not (np.isfinite(self.x).all() and np.isfinite(self.v).all()):
-            raise EngineDivergence("non-finite positions or velocities", self.frame,
-                                   f"substep dt = {self.dt:.3g} s too large for the springs' stiffness: "
-                                   "lower option cfl, raise n_substeps, or soften E")
+            raise EngineDivergence(f"non-finite positions or velocities (substep dt = {self.dt:.3g} s; lower "
+                                   "option cfl, raise n_substeps, or soften E)", self.frame, CAUSE_UNSTABLE)
 
     def positions(self) -> np.ndarray:
         return self.x.copy()

@@ -63,7 +63,8 @@ def make_engine(setup: SimSetup):
     Raises
     ------
     SceneError
-        Unknown or invalid option, initial velocities.
+        Initial velocities (options, materials and boundaries are checked by the core before,
+        ``gasp_core.seam.build.build_engine``).
     EngineError
         bpy cannot be imported.
     """

@@ -20,8 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from gasp_core.seam import EngineDivergence, EngineError, Option, SceneError, SimSetup
-from gasp_core.seam.engine import check_options
+from gasp_core.seam import check_state, EngineError, Option, SceneError, SimSetup
 
 from . import SPEED_PER_FRAME_DT
 from .cage import Cage, build_cage, embed, interpolate, lump
@@ -83,14 +82,15 @@ class BlenderSoftBodyEngine:
     Parameters
     ----------
     setup : SimSetup
-        World frame, metres, z up. ``setup.options`` may hold the options of :data:`OPTIONS`.
+        World frame, metres, z up. ``setup.options`` holds every option of :data:`OPTIONS`,
+        checked and completed by the core (``gasp_core.seam.build.build_engine``).
 
     Raises
     ------
     SceneError
-        Unknown option or bad value, non-zero initial velocities (Blender starts soft bodies at
-        rest). (A material or boundary the engine lacks, and a ``frame_dt`` outside what Blender's
-        ``speed`` accepts, :data:`gasp_blender.LIMITS`, are refused by the core first.)
+        ``step_max`` below ``step_min`` (after ``dt``), non-zero initial velocities (Blender starts soft
+        bodies at rest). (Options, a material or boundary the engine lacks, and a ``frame_dt`` outside what
+        Blender's ``speed`` accepts, :data:`gasp_blender.LIMITS`, are refused by the core first.)
     EngineError
         bpy cannot be imported.
 
@@ -103,7 +103,7 @@ class BlenderSoftBodyEngine:
 
     def __init__(self, setup: SimSetup):
         self.setup = setup
-        o = check_options(setup.options, OPTIONS, ENGINE)  # types and ranges (idempotent after the core's check)
+        o = dict(setup.options)  # checked and completed by the core (build_engine); step_min may change below
         self.options = o
         if o["dt"] is not None:
             o["step_min"] = max(1, math.ceil(setup.frame_dt / o["dt"] - 1e-9))
@@ -318,7 +318,8 @@ class BlenderSoftBodyEngine:
         Raises
         ------
         EngineDivergence
-            Non-finite positions or a point leaving the domain.
+            Non-finite positions or a point leaving the domain
+            (:func:`gasp_core.seam.runner.check_state`).
         """
         if _OWNER is not self:
             raise EngineError(f"engine '{ENGINE}': this simulation's Blender scene was replaced by another "
@@ -328,16 +329,8 @@ class BlenderSoftBodyEngine:
         scene.frame_set(self.frame + 1)
         self.depsgraph = self.bpy.context.evaluated_depsgraph_get()
         x = self._read_positions()
-        if not np.isfinite(x).all():
-            raise EngineDivergence("non-finite positions from Blender's soft body", self.frame,
-                                   cause="springs too stiff for the solver's steps (raise step_min)")
         s = self.setup
-        out = np.any((x < s.domain_lo) | (x > s.domain_hi), axis=1)
-        if out.any():
-            i = int(np.flatnonzero(out)[0])
-            raise EngineDivergence(f"{int(out.sum())} point(s) left the domain (first: point {i} at "
-                                   f"{x[i].round(4).tolist()})", self.frame,
-                                   cause="springs too stiff for the solver's steps, or missing ground")
+        check_state(x, s, self.frame)  # the core's blow-up check, before the velocity is derived
         self._v = (x - self._x) / s.frame_dt
         self._x = x
 

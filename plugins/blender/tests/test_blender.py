@@ -7,9 +7,15 @@ import json
 import numpy as np
 import pytest
 
-from gasp_core.seam import Boundary, Material, SceneError, SimSetup
-from gasp_blender import CAPABILITIES, INSTALL_HINT, bpy_available, make_engine
+from gasp_core.seam import Boundary, build_engine, Material, SceneError, SimSetup
+from gasp_blender import CAPABILITIES, INSTALL_HINT, bpy_available
+from gasp_blender import gasp_engines  # noqa: E402
 from gasp_blender.cage import build_cage, embed, interpolate
+
+def build(setup):
+    """The engine as the core builds it: options checked and completed first (``build_engine``)."""
+    return build_engine(gasp_engines()[0], setup)
+
 
 G = 9.81
 needs_bpy = pytest.mark.skipif(bpy_available() is not None, reason=bpy_available() or "")
@@ -52,9 +58,9 @@ def test_cage_embedding_reproduces_points():
 def test_bad_options_and_inputs_are_scene_errors():
     x, vol = block((0.4, 0.4, 0.5), (0.6, 0.6, 0.7), 0.02)
     with pytest.raises(SceneError, match="unknown option"):
-        make_engine(setup_for(x, vol, options={"substeps": 3}))
+        build(setup_for(x, vol, options={"substeps": 3}))
     with pytest.raises(SceneError, match="mode"):
-        make_engine(setup_for(x, vol, options={"mode": "fluid"}))
+        build(setup_for(x, vol, options={"mode": "fluid"}))
     # capabilities are checked by the core, before the factory (gasp_core.seam.build.build_engine)
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import get_engine
@@ -64,14 +70,14 @@ def test_bad_options_and_inputs_are_scene_errors():
     with pytest.raises(SceneError, match="walls"):
         build_engine(info, setup_for(x, vol, boundaries=[Boundary("walls")]))
     with pytest.raises(SceneError, match="initial velocities"):
-        make_engine(setup_for(x, vol, v=np.array([0.0, 0.0, 1.0])))
+        build(setup_for(x, vol, v=np.array([0.0, 0.0, 1.0])))
 
 
 @needs_bpy
 def test_free_fall_matches_g_t2_over_2():
     """No ground: after 0.3 s every point has fallen g t^2 / 2 (within 1 %)."""
     x, vol = block((0.4, 0.4, 0.6), (0.6, 0.6, 0.8), 0.025)
-    eng = make_engine(setup_for(x, vol))
+    eng = build(setup_for(x, vol))
     try:
         for _ in range(9):
             eng.step_frame()
@@ -88,7 +94,7 @@ def test_free_fall_matches_g_t2_over_2():
 def test_rests_on_ground():
     """Dropped 2 cm onto the ground: comes to rest on it (no point 1 cm below, speed ~0)."""
     x, vol = block((0.4, 0.4, 0.12), (0.6, 0.6, 0.32), 0.025)
-    eng = make_engine(setup_for(x, vol, boundaries=[Boundary("ground", height=0.1)]))
+    eng = build(setup_for(x, vol, boundaries=[Boundary("ground", height=0.1)]))
     try:
         for _ in range(45):
             eng.step_frame()
@@ -105,7 +111,7 @@ def test_fixed_region_holds_points():
     """A bar clamped at one end: the clamped points stay exactly put, the free end sags."""
     x, vol = block((0.2, 0.45, 0.5), (0.7, 0.55, 0.6), 0.025)
     clamp = Boundary("fixed_region", lo=(0.0, 0.0, 0.0), hi=(0.26, 1.0, 1.0))
-    eng = make_engine(setup_for(x, vol, boundaries=[clamp], options={"cells_across": 10}))
+    eng = build(setup_for(x, vol, boundaries=[clamp], options={"cells_across": 10}))
     try:
         for _ in range(15):
             eng.step_frame()
@@ -149,7 +155,7 @@ def test_repeat_is_bit_identical():
     x, vol = block((0.4, 0.4, 0.12), (0.6, 0.6, 0.32), 0.025)
     runs = []
     for _ in range(2):
-        eng = make_engine(setup_for(x, vol, boundaries=[Boundary("ground", height=0.1)]))
+        eng = build(setup_for(x, vol, boundaries=[Boundary("ground", height=0.1)]))
         for _ in range(8):
             eng.step_frame()
         runs.append(eng.positions())
@@ -161,7 +167,7 @@ def test_repeat_is_bit_identical():
 def test_cloth_free_fall_and_pinned_edge():
     """Cloth mode: a 1 cm sheet falls g t^2/2 (1 %); pinned along one edge it stays put there and drapes."""
     x, vol = block((0.3, 0.4, 0.7), (0.7, 0.6, 0.71), 0.01)
-    eng = make_engine(setup_for(x, vol, options={"mode": "cloth", "cells_across": 8}))
+    eng = build(setup_for(x, vol, options={"mode": "cloth", "cells_across": 8}))
     try:
         assert np.abs(eng.positions() - x).max() < 1e-6      # the sheet carries the points exactly
         for _ in range(9):
@@ -171,7 +177,7 @@ def test_cloth_free_fall_and_pinned_edge():
     finally:
         eng.close()
     clamp = Boundary("fixed_region", lo=(0.0, 0.0, 0.0), hi=(0.31, 1.0, 1.0))
-    eng = make_engine(setup_for(x, vol, boundaries=[clamp], options={"mode": "cloth", "cells_across": 8}))
+    eng = build(setup_for(x, vol, boundaries=[clamp], options={"mode": "cloth", "cells_across": 8}))
     try:
         for _ in range(30):
             eng.step_frame()
@@ -188,8 +194,8 @@ def test_second_engine_takes_the_scene_over():
     """bpy has one scene per process: the first engine refuses to step once a second one is built."""
     from gasp_core.errors import EngineError
     x, vol = block((0.4, 0.4, 0.5), (0.6, 0.6, 0.7), 0.05)
-    first = make_engine(setup_for(x, vol))
-    second = make_engine(setup_for(x, vol))
+    first = build(setup_for(x, vol))
+    second = build(setup_for(x, vol))
     try:
         with pytest.raises(EngineError, match="replaced by another"):
             first.step_frame()

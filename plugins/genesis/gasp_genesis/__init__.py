@@ -62,12 +62,9 @@ GENESIS_SNOW_HARDENING = 10.0
 #: Genesis's own parameter ranges, narrower than the core's; the core checks them before the factory
 #: runs (``gasp_core.seam.limits``).
 LIMITS = {
-    "metal.yield_stress": Limit(lo=0.0, lo_open=True, why="Genesis von_mises_yield_stress, Pa"),
     "sand.friction_angle": Limit(lo=0.0, hi=90.0, lo_open=True, hi_open=True, why="Genesis MPM.Sand, degrees"),
     "snow.hardening": Limit(lo=GENESIS_SNOW_HARDENING, hi=GENESIS_SNOW_HARDENING,
                             why="Genesis fixes the snow hardening coefficient"),
-    "snow.theta_c": Limit(lo=0.0, why="Genesis MPM.Snow"),
-    "snow.theta_s": Limit(lo=0.0, why="Genesis MPM.Snow"),
     "friction": Limit(lo=0.0, why="Genesis coupling friction of the ground and wall planes"),
     "n_grid": Limit(lo=8, why=f"Genesis pads the domain by {PADDING_CELLS} cells on each side"),
 }
@@ -116,8 +113,8 @@ def make_engine(setup: SimSetup):
     Raises
     ------
     SceneError
-        Unknown or invalid engine option, points outside Genesis's padded domain. (Unsupported
-        materials and boundaries, and values outside :data:`LIMITS`, are refused by the core first.)
+        Points outside Genesis's padded domain. (Options, unsupported materials and boundaries, and values
+        outside :data:`LIMITS`, are refused by the core first: ``gasp_core.seam.build.build_engine``.)
     EngineError
         Genesis cannot be imported, the device is not available, or Genesis was already
         initialised in this process with another device or precision.

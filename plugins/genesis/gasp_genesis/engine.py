@@ -44,12 +44,12 @@ from typing import Any
 
 import numpy as np
 
-from gasp_core.toolkit.options import check_mpm_options
 from gasp_core.toolkit.substeps import substeps_from_options
-from gasp_core.seam import EngineDivergence, EngineError, Material, SceneError, SimSetup
-from gasp_core.toolkit.failures import CAUSE_DOMAIN, CAUSE_DT
+from gasp_core.seam import (CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, EngineError, Material,
+                           SceneError, SimSetup)
 
-from . import ENGINE, INSTALL_HINT, OPTIONS, PADDING_CELLS
+from . import ENGINE, INSTALL_HINT, PADDING_CELLS
+
 
 
 #: Most Genesis entities per body: Genesis gives every particle of an entity the same mass.
@@ -146,7 +146,7 @@ def genesis_material(gs, m: Material):
     Notes
     -----
     ``liquid``: Genesis's stress is ``lam J (J - 1) I`` with ``mu = 0``; ``lam`` is given the bulk
-    modulus ``K = E / (3 (1 - 2 nu))`` so that it is ``K J (J - 1) I`` as in ``docs/mpm.md``.
+    modulus ``K = E / (3 (1 - 2 nu))`` (``Material.K``) so that it is ``K J (J - 1) I`` as in ``docs/mpm.md``.
     """
     M = gs.materials.MPM
     kw = dict(E=float(m.E), nu=float(m.nu), rho=float(m.rho))
@@ -161,8 +161,7 @@ def genesis_material(gs, m: Material):
     if m.name == "snow":
         return M.Snow(yield_lower=float(m.theta_c), yield_higher=float(m.theta_s), **kw)
     if m.name == "liquid":
-        K = m.E / (3.0 * (1.0 - 2.0 * m.nu))
-        return M.Liquid(viscous=False, lam=float(K), **kw)
+        return M.Liquid(viscous=False, lam=float(m.K), **kw)
     raise SceneError(f"engine '{ENGINE}': material {m.name!r} is not supported")  # validated before
 
 
@@ -181,14 +180,13 @@ class GenesisMPMEngine:
     Parameters
     ----------
     setup : SimSetup
-        World frame (z up), SI units. ``setup.options`` may hold ``device`` ("cpu" | "cuda"),
+        World frame (z up), SI units. ``setup.options`` (checked and completed by the core) hold ``device`` ("cpu" | "cuda"),
         ``precision`` ("f32" | "f64"), ``dt`` (s) or ``n_substeps`` (per frame) and ``cfl`` (0.4).
 
     Raises
     ------
     SceneError
-        Unknown or invalid option (the message names it), unsupported material or boundary, or a
-        point outside Genesis's padded box ``[domain_lo + 3 dx, domain_hi - 3 dx]``.
+        A point outside Genesis's padded box ``[domain_lo + 3 dx, domain_hi - 3 dx]``.
     EngineError
         Genesis missing, device unavailable, or Genesis initialised otherwise in this process.
 
@@ -199,7 +197,7 @@ class GenesisMPMEngine:
     """
 
     def __init__(self, setup: SimSetup):
-        opt = check_mpm_options(setup.options, OPTIONS, ENGINE)
+        opt = setup.options  # checked and completed by the core (build_engine)
         self.setup = setup
         self.options = opt
         self.n_substeps, self.dt = time_step(setup, opt)
@@ -311,7 +309,7 @@ class GenesisMPMEngine:
             self.scene.step(update_visualizer=False)
         except gs.GenesisException as e:
             self.frame += 1
-            raise EngineDivergence(f"Genesis stopped: {e}", self.frame, CAUSE_DT) from e
+            raise EngineDivergence(f"Genesis stopped: {e}", self.frame, CAUSE_UNSTABLE) from e
         self.frame += 1
         x_prev = self._x
         x = self._read("get_particles_pos")
@@ -321,7 +319,7 @@ class GenesisMPMEngine:
         if not finite.all():
             bad = np.flatnonzero(~finite)
             raise EngineDivergence(f"{len(bad)} point(s) with non-finite position or velocity "
-                                   f"(first index {bad[0]})", self.frame, CAUSE_DT)
+                                   f"(first index {bad[0]})", self.frame, CAUSE_UNSTABLE)
         if not self.walls:
             tol = 1e-3 * self.setup.dx
             at_lo = x <= self.box_lo + tol
@@ -337,7 +335,7 @@ class GenesisMPMEngine:
                 raise EngineDivergence(
                     f"{len(bad)} point(s) reached the domain box (first index {bad[0]} at "
                     f"{x[bad[0]].tolist()}); the scene has no walls", self.frame,
-                    CAUSE_DT if fast else CAUSE_DOMAIN)
+                    CAUSE_UNSTABLE if fast else CAUSE_LEFT_DOMAIN)
 
     def positions(self) -> np.ndarray:
         """Current positions, shape (n, 3), float32 (f32) or float64 (f64), metres, setup order."""

@@ -8,9 +8,16 @@ import pytest
 
 pytest.importorskip("genesis", reason="genesis-world is not installed: pip install 'gasp-genesis[engine]'")
 
-from gasp_core.seam import Boundary, EngineDivergence, EngineError, Material, SceneError, SimSetup
-from gasp_genesis import CAPABILITIES, genesis_available, make_engine  # noqa: E402
+from gasp_core.seam import (Boundary, build_engine, EngineDivergence, EngineError, Material, SceneError,
+                           SimSetup)
+from gasp_genesis import CAPABILITIES, genesis_available  # noqa: E402
+from gasp_genesis import gasp_engines  # noqa: E402
 from gasp_genesis.engine import init_genesis  # noqa: E402
+
+def build(setup):
+    """The engine as the core builds it: options checked and completed first (``build_engine``)."""
+    return build_engine(gasp_engines()[0], setup)
+
 
 G = 9.81
 
@@ -40,9 +47,9 @@ def test_available_and_capabilities():
 def test_unknown_option_is_scene_error():
     x, vol = block((0.4, 0.4, 0.6), (0.6, 0.6, 0.8), 1 / 32)
     with pytest.raises(SceneError, match="unknown option.*'substeps'"):
-        make_engine(setup_for(x, vol, options={"substeps": 10}))
+        build(setup_for(x, vol, options={"substeps": 10}))
     with pytest.raises(SceneError, match="precision"):
-        make_engine(setup_for(x, vol, options={"precision": "f16"}))
+        build(setup_for(x, vol, options={"precision": "f16"}))
 
 
 def test_unsupported_material_and_boundary_are_scene_errors():
@@ -55,21 +62,21 @@ def test_unsupported_material_and_boundary_are_scene_errors():
     with pytest.raises(SceneError, match="fixed_region"):
         build_engine(info, setup_for(x, vol, boundaries=[Boundary("fixed_region")]))
     with pytest.raises(SceneError, match="outside Genesis's MPM box"):  # within 3 dx of the floor
-        make_engine(setup_for(x - [0, 0, 0.55], vol))
+        build(setup_for(x - [0, 0, 0.55], vol))
 
 
 def test_second_precision_in_process_is_engine_error():
     init_genesis("cpu", "f32")  # no-op if an earlier test initialised Genesis the same way
     x, vol = block((0.4, 0.4, 0.6), (0.6, 0.6, 0.8), 1 / 32)
     with pytest.raises(EngineError, match="already initialised"):
-        make_engine(setup_for(x, vol, options={"precision": "f64"}))
+        build(setup_for(x, vol, options={"precision": "f64"}))
 
 
 def test_free_fall_matches_g_t2_over_2():
     """No ground: after 0.2 s a block has fallen g t^2 / 2 and moves at g t (within 1%)."""
     x, vol = block((0.42, 0.42, 0.70), (0.58, 0.58, 0.80), 1 / 32)
     n_frames, frame_dt, n_substeps = 6, 1 / 30, 40  # 240 substeps: integrator bias 1/240
-    eng = make_engine(setup_for(x, vol, options={"n_substeps": n_substeps}, frame_dt=frame_dt))
+    eng = build(setup_for(x, vol, options={"n_substeps": n_substeps}, frame_dt=frame_dt))
     try:
         st = eng.stats()
         assert st["n_substeps"] == n_substeps and st["n_points"] == len(x)
@@ -93,7 +100,7 @@ def test_block_comes_to_rest_on_ground():
     """A block dropped 0.1 m onto a ground plane stays above it and stops (falls 0.5 s)."""
     height = 0.3
     x, vol = block((0.42, 0.42, 0.40), (0.58, 0.58, 0.50), 1 / 32)
-    eng = make_engine(setup_for(x, vol, boundaries=[Boundary("ground", height=height, friction=0.5)],
+    eng = build(setup_for(x, vol, boundaries=[Boundary("ground", height=height, friction=0.5)],
                                 options={"n_substeps": 20}))
     try:
         assert eng.stats()["n_planes"] == 1
@@ -114,7 +121,7 @@ def test_block_comes_to_rest_on_ground():
 def test_blow_up_is_engine_divergence():
     """A stiff block with one substep per frame (dt 30x the elastic limit) blows up."""
     x, vol = block((0.42, 0.42, 0.40), (0.58, 0.58, 0.50), 1 / 32)
-    eng = make_engine(setup_for(x, vol, material=Material("jelly", E=1e9), options={"n_substeps": 1}))
+    eng = build(setup_for(x, vol, material=Material("jelly", E=1e9), options={"n_substeps": 1}))
     try:
         with pytest.raises(EngineDivergence, match="time step") as info:
             for _ in range(30):
@@ -133,7 +140,7 @@ def test_wall_friction_slows_a_sliding_block():
     speeds = {}
     for friction in (0.0, 0.5):
         s = setup_for(x, vol, boundaries=[Boundary("walls", friction=friction)], options={"n_substeps": 20})
-        eng = make_engine(s.replace(v=v))
+        eng = build(s.replace(v=v))
         try:
             for _ in range(3):
                 eng.step_frame()

@@ -60,7 +60,6 @@ OPTIONS = (
 #: elasticity, so their nu is not read.
 LIMITS = {
     **{f"{m}.nu": Limit(lo=0.0, why="MuJoCo's flex elasticity") for m in sorted(CAPABILITIES.materials - {"rigid"})},
-    "metal.yield_stress": Limit(lo=0.0, lo_open=True, why="MuJoCo's flex plasticity needs a yield stress, Pa"),
 }
 
 #: ``gasp bench`` sweep: lattice ``cells_across`` x ``cfl``, then the hierarchy share ``core_fraction``.

@@ -31,12 +31,11 @@ import numpy as np
 
 import mujoco
 
-from gasp_core.seam import EngineDivergence, EngineError, SceneError, SimSetup
-from gasp_core.seam.engine import check_options
+from gasp_core.seam import CAUSE_UNSTABLE, check_state, EngineDivergence, EngineError, SceneError, SimSetup
 from gasp_core.toolkit.points import fixed_mask
 from gasp_core.toolkit.substeps import p_wave_speed, substeps_for
 
-from . import ENGINE, OPTIONS
+from . import ENGINE
 from .lattice import Lattice, build_lattice, embed_points, interpolate, matched_masses
 
 _WARN_NAMES = {
@@ -89,9 +88,9 @@ class MujocoFlexEngine:
     Parameters
     ----------
     setup : SimSetup
-        World frame, metres, z up. ``setup.options`` may hold the options of
-        :data:`gasp_mujoco_flex.OPTIONS`. Materials and boundaries are checked against the
-        capabilities by the core (``gasp_core.seam.build.build_engine``).
+        World frame, metres, z up. ``setup.options`` holds every option of
+        :data:`gasp_mujoco_flex.OPTIONS`. Options, materials and boundaries are checked (options
+        completed) by the core (``gasp_core.seam.build.build_engine``).
 
     Raises
     ------
@@ -111,7 +110,7 @@ class MujocoFlexEngine:
 
     def __init__(self, setup: SimSetup):
         self.setup = setup
-        o = check_options(setup.options, OPTIONS, ENGINE)
+        o = setup.options  # checked and completed by the core (build_engine)
         self.options = o
         # nu >= 0 and the metal's yield stress > 0 are declared as data (gasp_mujoco_flex.LIMITS)
         # and checked by the core before the factory runs.
@@ -340,21 +339,13 @@ class MujocoFlexEngine:
         finally:
             mujoco.set_mju_user_warning(previous)
         if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
-            raise EngineDivergence("non-finite MuJoCo state", self.frame,
-                                   cause=f"time step too large (dt = {self.dt:.3g} s)")
+            raise EngineDivergence(f"non-finite MuJoCo state (dt = {self.dt:.3g} s)", self.frame, CAUSE_UNSTABLE)
         # mj_step computes xpos / xmat / flexvert_xpos from qpos *before* it integrates, so after
         # the loop they are one substep old while qvel is current; recompute them from the new qpos
         # (kinematics, comPos, flex, tendon; no collision or dynamics, so the next mj_step is unchanged)
         mujoco.mj_fwdKinematics(m, d)
         self._check_lattice()
-        x = self.positions()
-        s = self.setup
-        out = np.any((x < s.domain_lo) | (x > s.domain_hi), axis=1)
-        if out.any():
-            i = int(np.flatnonzero(out)[0])
-            raise EngineDivergence(f"{int(out.sum())} point(s) left the domain (first: point {i} at "
-                                   f"{x[i].round(4).tolist()})", self.frame,
-                                   cause="time step too large or missing ground/walls")
+        check_state(self.positions(), self.setup, self.frame)  # the core's blow-up check
 
     def _check_lattice(self) -> None:
         d = self.data

@@ -63,7 +63,8 @@ def make_engine(setup: SimSetup):
     Raises
     ------
     SceneError
-        Unknown or invalid engine option, or unsupported material/boundary.
+        Too many substeps per frame (options, materials and boundaries are checked by the core
+        before, ``gasp_core.seam.build.build_engine``).
     EngineError
         Device not available (``device="cuda"`` without CUDA).
     """

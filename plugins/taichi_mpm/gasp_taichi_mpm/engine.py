@@ -13,13 +13,11 @@ import numpy as np
 
 from gasp_core.toolkit.materials import initial_Jp, material_table
 from gasp_core.toolkit.memory import check_memory, estimate_bytes
-from gasp_core.toolkit.options import check_mpm_options
 from gasp_core.toolkit.points import engine_mass_stats, fixed_mask, material_first_order, stranded_passive
 from gasp_core.toolkit.substeps import substeps_from_options
-from gasp_core.seam import EngineDivergence, EngineError, SimSetup
-from gasp_core.toolkit.failures import CAUSE_DOMAIN, CAUSE_DT
+from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
 
-from . import ENGINE, OPTIONS
+from . import ENGINE
 
 #: Private grid copies are used on CPU while they take at most this many bytes in all.
 MAX_PRIVATE_GRID_BYTES = 1 << 30
@@ -52,15 +50,15 @@ class TaichiMPMEngine:
     Parameters
     ----------
     setup : SimSetup
-        World frame, SI units. ``setup.options`` may hold ``device`` ("cpu" | "cuda"),
+        World frame, SI units. ``setup.options`` (checked and completed by the core) hold ``device`` ("cpu" | "cuda"),
         ``precision`` ("f32" | "f64"), ``dt`` (s) or ``n_substeps`` (per frame), ``cfl`` (0.4) and
         ``threads`` (CPU threads, Taichi's ``cpu_max_num_threads``; default all cores).
 
     Raises
     ------
     SceneError
-        Unknown or invalid option (the message names it). Materials and boundaries are checked
-        against the capabilities by the core (``gasp_core.seam.build.build_engine``) before.
+        More substeps per frame than ``max_substeps``. Options, materials and boundaries are
+        checked by the core (``gasp_core.seam.build.build_engine``) before.
     EngineError
         ``device="cuda"`` where Taichi has no CUDA.
 
@@ -75,7 +73,7 @@ class TaichiMPMEngine:
 
     def __init__(self, setup: SimSetup):
         global _generation
-        opt = check_mpm_options(setup.options, OPTIONS, ENGINE)
+        opt = setup.options  # checked and completed by the core (build_engine)
         self.n_substeps, self.dt = time_step(setup, opt)
         check_memory(estimate_bytes(len(setup.x), setup.n_grid, opt["precision"]) + MAX_PRIVATE_GRID_BYTES,
                      ENGINE, f"{len(setup.x)} points, n_grid {setup.n_grid}, {opt['precision']}")
@@ -179,7 +177,7 @@ class TaichiMPMEngine:
         if not finite.all():
             bad = np.flatnonzero(~finite)
             raise EngineDivergence(f"{len(bad)} point(s) with non-finite position or velocity "
-                                   f"(first index {bad[0]})", self.frame, CAUSE_DT)
+                                   f"(first index {bad[0]})", self.frame, CAUSE_UNSTABLE)
         X = (x - self.setup.domain_lo) / self.setup.dx
         base = np.floor(X - 0.5)
         out = ((base < 0) | (base > self.setup.n_grid - 3)).any(axis=1)
@@ -189,7 +187,7 @@ class TaichiMPMEngine:
             fast = float(np.max(np.linalg.norm(v, axis=1))) * self.dt > self.setup.dx
             raise EngineDivergence(
                 f"{max(len(bad), 1)} point(s) left the grid{where}; {n_out} out-of-grid "
-                f"point-substeps in this frame", self.frame, CAUSE_DT if fast else CAUSE_DOMAIN)
+                f"point-substeps in this frame", self.frame, CAUSE_UNSTABLE if fast else CAUSE_LEFT_DOMAIN)
         self._x, self._v = x, v
 
     def positions(self) -> np.ndarray:

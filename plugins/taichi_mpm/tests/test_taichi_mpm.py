@@ -6,13 +6,19 @@ import sys
 import numpy as np
 import pytest
 
-from gasp_core.seam import Boundary, EngineDivergence, EngineError, Material, SceneError, SimSetup
+from gasp_core.seam import (Boundary, build_engine, EngineDivergence, EngineError, Material, SceneError,
+                           SimSetup)
 
 pytest.importorskip("taichi")
 
-from gasp_taichi_mpm.engine import TaichiMPMEngine  # noqa: E402
+from gasp_taichi_mpm import gasp_engines  # noqa: E402
 
 G = 9.81
+
+
+def build(setup):
+    """The engine as the core builds it: options checked and completed first (``build_engine``)."""
+    return build_engine(gasp_engines()[0], setup)
 
 
 def block_setup(lo=(0.4, 0.4, 0.4), size=(0.2, 0.2, 0.2), n_grid=16, ppc_axis=2, material=None,
@@ -31,7 +37,7 @@ def block_setup(lo=(0.4, 0.4, 0.4), size=(0.2, 0.2, 0.2), n_grid=16, ppc_axis=2,
 
 
 def run(setup, n_frames):
-    e = TaichiMPMEngine(setup)
+    e = build(setup)
     for _ in range(n_frames):
         e.step_frame()
     return e
@@ -66,7 +72,7 @@ def test_block_dropped_on_ground_comes_to_rest_above_it():
     height = 0.2
     s = block_setup(lo=(0.4, 0.4, 0.3), size=(0.2, 0.2, 0.15), n_grid=16,
                     boundaries=[Boundary("ground", height=height, friction=0.5)])
-    e = TaichiMPMEngine(s)
+    e = build(s)
     z_min, speeds, z_mean = [], [], []
     for _ in range(90):  # 3 s
         e.step_frame()
@@ -159,7 +165,7 @@ def test_fixed_region_holds_points_while_the_rest_sags():
     fixed = Boundary("fixed_region", lo=(0.0, 0.0, 0.0), hi=(0.3, 1.0, 1.0))
     s = block_setup(lo=(0.2, 0.45, 0.5), size=(0.3, 0.1, 0.1), n_grid=32,
                     material=Material("jelly", E=1e6), boundaries=[fixed])
-    e = TaichiMPMEngine(s)
+    e = build(s)
     inside = s.x[:, 0] <= 0.3
     tip = s.x[:, 0] > 0.45
     sags = []
@@ -180,7 +186,7 @@ def test_point_leaving_the_domain_raises_divergence_naming_the_frame():
     v = np.zeros_like(x)
     v[-1] = [1.0, 0.0, 0.0]  # reaches the grid limit x = (n_grid - 1.5) dx = 0.906 at t = 0.056 s
     s = s.replace(x=x, v=v, p_vol=np.full(len(x), s.p_vol[0]), body_id=np.zeros(len(x), np.int32))
-    e = TaichiMPMEngine(s)
+    e = build(s)
     e.step_frame()
     with pytest.raises(EngineDivergence, match="frame 2") as info:
         e.step_frame()
@@ -191,7 +197,7 @@ def test_point_leaving_the_domain_raises_divergence_naming_the_frame():
 def test_huge_time_step_raises_divergence_not_nan_positions():
     s = block_setup(lo=(0.4, 0.4, 0.1), material=Material("jelly", E=1e7),
                     boundaries=[Boundary("ground", height=0.1)], n_substeps=1)
-    e = TaichiMPMEngine(s)
+    e = build(s)
     with pytest.raises(EngineDivergence) as info:
         for _ in range(30):
             e.step_frame()
@@ -210,19 +216,19 @@ def test_threads_1_is_bit_for_bit_deterministic():
 
 def test_unknown_option_is_a_scene_error_naming_it():
     with pytest.raises(SceneError, match="substep"):
-        TaichiMPMEngine(block_setup(substep=10))
+        build(block_setup(substep=10))
     with pytest.raises(SceneError, match="precision"):
-        TaichiMPMEngine(block_setup(precision="f16"))
+        build(block_setup(precision="f16"))
 
 
 def test_options_are_checked_as_declared():
     with pytest.raises(SceneError, match="not both"):
-        TaichiMPMEngine(block_setup(dt=1e-4, n_substeps=10))
+        build(block_setup(dt=1e-4, n_substeps=10))
     with pytest.raises(SceneError, match="threads=0"):
-        TaichiMPMEngine(block_setup(threads=0))
+        build(block_setup(threads=0))
     # Taichi runs on the default CUDA device only: an indexed device is refused by name
     with pytest.raises(SceneError, match="device='cuda:1'"):
-        TaichiMPMEngine(block_setup(device="cuda:1"))
+        build(block_setup(device="cuda:1"))
 
 
 def test_material_it_lacks_is_refused_by_the_core_before_taichi_starts():
@@ -238,7 +244,7 @@ def test_cuda_without_gpu_is_an_engine_error():
     if ti.lang.misc.is_arch_supported(ti.cuda):
         pytest.skip("this machine has CUDA")
     with pytest.raises(EngineError, match="cuda"):
-        TaichiMPMEngine(block_setup(device="cuda"))
+        build(block_setup(device="cuda"))
 
 
 def test_f64_works_and_agrees_with_f32():
@@ -252,8 +258,8 @@ def test_f64_works_and_agrees_with_f32():
 
 def test_old_engine_is_invalidated_by_a_new_one():
     s = block_setup()
-    a = TaichiMPMEngine(s)
-    TaichiMPMEngine(s)
+    a = build(s)
+    build(s)
     with pytest.raises(EngineError, match="invalidated"):
         a.step_frame()
 
@@ -261,7 +267,7 @@ def test_old_engine_is_invalidated_by_a_new_one():
 def test_stats_report_the_time_step_from_gasp_core_mpm():
     from gasp_core.toolkit.substeps import mpm_stable_dt, substeps_for
     s = block_setup()
-    st = TaichiMPMEngine(s).stats()
+    st = build(s).stats()
     n, dt = substeps_for(s.frame_dt, mpm_stable_dt(s.materials, s.dx, s.gravity, 1.0, 0.0, 0.4))
     assert (st["n_substeps"], st["dt"]) == (n, pytest.approx(dt))
     assert st["n_points"] == len(s.x) and st["n_grid"] == 16 and st["device"] == "cpu"
@@ -384,7 +390,7 @@ def test_one_substep_matches_numpy_transcription_of_the_spec(name):
                  gravity=np.array([0.0, 0.0, -G]), domain_lo=np.zeros(3), domain_hi=np.ones(3),
                  n_grid=16, frame_dt=2e-4, options={"n_substeps": 1},
                  boundaries=[Boundary("ground", height=0.0)])  # no node reached; same kernels as above
-    e = TaichiMPMEngine(s)
+    e = build(s)
     o = e._order
     e.solver.set(e.solver.C, C[o])
     e.solver.set(e.solver.F, F[o])

@@ -34,13 +34,11 @@ import warp as wp
 
 from gasp_core.toolkit.materials import initial_Jp, material_table
 from gasp_core.toolkit.memory import check_memory, estimate_bytes
-from gasp_core.toolkit.options import check_mpm_options
 from gasp_core.toolkit.points import cell_order, ground_top_node, engine_mass_stats, fixed_mask, material_first_order, stranded_passive
 from gasp_core.toolkit.substeps import passive_schedule, substeps_from_options
-from gasp_core.seam import EngineDivergence, EngineError, SimSetup
-from gasp_core.toolkit.failures import CAUSE_DOMAIN, CAUSE_DT
+from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
 
-from . import ENGINE, OPTIONS
+from . import ENGINE
 from . import kernels as K
 
 
@@ -82,23 +80,23 @@ class WarpMPMEngine:
     setup : SimSetup
         Points, materials (``jelly, neo_hookean, metal, sand, snow, plasticine, liquid``),
         boundaries (``ground, walls, fixed_region``), domain and ``n_grid``. ``setup.options``
-        may hold ``device`` ("cpu" | "cuda" | "cuda:N"), ``precision`` ("f32" | "f64"), ``dt`` (s) or
+        (checked and completed by the core) hold ``device`` ("cpu" | "cuda" | "cuda:N"), ``precision`` ("f32" | "f64"), ``dt`` (s) or
         ``n_substeps``, ``cfl`` (0.4) and ``threads`` (accepted and ignored: Warp runs CPU
-        kernels on one thread, so CPU runs repeat bit for bit). Materials and boundaries are
-        checked against the capabilities by the core (``gasp_core.seam.build.build_engine``), the
+        kernels on one thread, so CPU runs repeat bit for bit). Options, materials and boundaries
+        are checked by the core (``gasp_core.seam.build.build_engine``), the
         material parameters and ``n_grid`` by :class:`SimSetup`.
 
     Raises
     ------
     SceneError
-        Unknown or malformed option (the message names it).
+        More substeps per frame than ``max_substeps``.
     EngineError
         ``device="cuda"`` (or ``"cuda:N"``) without that CUDA device.
     """
 
     def __init__(self, setup: SimSetup):
         self.setup = setup
-        opts = check_mpm_options(setup.options, OPTIONS, ENGINE)
+        opts = setup.options  # checked and completed by the core (build_engine)
         self.options = opts
         kinds, par = material_table(setup.materials)
         choose_dt(setup, opts)  # refuses a scene past max_substeps before any build work
@@ -304,11 +302,11 @@ class WarpMPMEngine:
         if n_bad:
             raise EngineDivergence(
                 f"{n_bad} of {self.n_points} points have non-finite position or velocity "
-                f"(dt = {self.dt:.3g} s, {self.n_substeps} substeps/frame)", self.frame, CAUSE_DT)
+                f"(dt = {self.dt:.3g} s, {self.n_substeps} substeps/frame)", self.frame, CAUSE_UNSTABLE)
         if n_out:
             raise EngineDivergence(
                 f"{n_out} point-substeps were out of the grid (domain {self.setup.domain_lo.tolist()} to "
-                f"{self.setup.domain_hi.tolist()}, n_grid {self.n_grid})", self.frame, CAUSE_DOMAIN)
+                f"{self.setup.domain_hi.tolist()}, n_grid {self.n_grid})", self.frame, CAUSE_LEFT_DOMAIN)
         if not self.device.is_cuda:
             self._resort()
 

@@ -10,13 +10,19 @@ import sys
 import numpy as np
 import pytest
 
-from gasp_core.seam import Boundary, EngineDivergence, EngineError, Material, SceneError, SimSetup
+from gasp_core.seam import (Boundary, build_engine, EngineDivergence, EngineError, Material, SceneError,
+                           SimSetup)
 
 pytest.importorskip("warp")
-from gasp_warp_mpm.solver import WarpMPMEngine  # noqa: E402
+from gasp_warp_mpm import gasp_engines  # noqa: E402
 
 G = 9.81
 FRAME_DT = 1.0 / 30.0
+
+
+def build(setup):
+    """The engine as the core builds it: options checked and completed first (``build_engine``)."""
+    return build_engine(gasp_engines()[0], setup)
 
 
 def block(n_side, lo, size):
@@ -37,7 +43,7 @@ def make_setup(material="jelly", n_side=12, lo=(0.35, 0.35, 0.3), size=0.3, n_gr
 
 
 def run(setup, n_frames):
-    e = WarpMPMEngine(setup)
+    e = build(setup)
     for _ in range(n_frames):
         e.step_frame()
     return e
@@ -77,7 +83,7 @@ def test_free_fall_com(nu):
 
     An auxetic material (nu < 0, within SimSetup's -1 < nu < 0.5) is accepted and falls alike."""
     s = make_setup(lo=(0.35, 0.35, 0.6), options={"n_substeps": 40}, nu=nu)
-    e = WarpMPMEngine(s)
+    e = build(s)
     c0 = e.positions().mean(axis=0)
     for _ in range(6):
         e.step_frame()
@@ -96,7 +102,7 @@ def test_block_rests_on_ground():
     h, size = 0.1, 0.3
     s = make_setup(lo=(0.35, 0.35, 0.2), size=size, E=2e5,
                    boundaries=[Boundary("ground", height=h, friction=0.5)])
-    e = WarpMPMEngine(s)
+    e = build(s)
     lowest = np.inf
     for _ in range(90):
         e.step_frame()
@@ -168,7 +174,7 @@ def test_fixed_region_holds():
 def test_point_leaving_grid_raises_with_frame():
     """A block flying sideways with no walls leaves the grid; the frame it does so is reported."""
     s = make_setup(lo=(0.6, 0.35, 0.35), v=(3.0, 0.0, 0.0), gravity=(0.0, 0.0, 0.0))
-    e = WarpMPMEngine(s)
+    e = build(s)
     with pytest.raises(EngineDivergence) as info:
         for _ in range(30):
             e.step_frame()
@@ -182,7 +188,7 @@ def test_point_leaving_grid_raises_with_frame():
 
 def test_huge_dt_diverges():
     s = make_setup(E=1e7, boundaries=[Boundary("ground", height=0.1)], options={"dt": FRAME_DT})
-    e = WarpMPMEngine(s)
+    e = build(s)
     with pytest.raises(EngineDivergence) as info:
         for _ in range(30):
             e.step_frame()
@@ -201,16 +207,16 @@ def test_bit_identical_runs_on_cpu():
 
 def test_bad_options():
     with pytest.raises(SceneError, match="bogus"):
-        WarpMPMEngine(make_setup(options={"bogus": 1}))
+        build(make_setup(options={"bogus": 1}))
     with pytest.raises(SceneError, match="precision"):
-        WarpMPMEngine(make_setup(options={"precision": "f16"}))
+        build(make_setup(options={"precision": "f16"}))
     with pytest.raises(SceneError, match="option dt=-1.0"):
-        WarpMPMEngine(make_setup(options={"dt": -1.0}))
+        build(make_setup(options={"dt": -1.0}))
     with pytest.raises(SceneError, match="device='gpu'"):
-        WarpMPMEngine(make_setup(options={"device": "gpu"}))
+        build(make_setup(options={"device": "gpu"}))
     with pytest.raises(SceneError, match="not both"):
-        WarpMPMEngine(make_setup(options={"dt": 1e-4, "n_substeps": 10}))
-    WarpMPMEngine(make_setup(options={"threads": 2, "cfl": 0.3}))  # accepted
+        build(make_setup(options={"dt": 1e-4, "n_substeps": 10}))
+    build(make_setup(options={"threads": 2, "cfl": 0.3}))  # accepted
 
 
 def test_material_it_lacks_is_refused_by_the_core():
@@ -226,9 +232,9 @@ def test_cuda_without_device():
     if wp.is_cuda_available():
         pytest.skip("a CUDA device is present")
     with pytest.raises(EngineError, match="cuda"):
-        WarpMPMEngine(make_setup(options={"device": "cuda"}))
+        build(make_setup(options={"device": "cuda"}))
     with pytest.raises(EngineError, match="cuda:1"):
-        WarpMPMEngine(make_setup(options={"device": "cuda:1"}))
+        build(make_setup(options={"device": "cuda:1"}))
 
 
 def test_f64_matches_f32():
@@ -245,12 +251,12 @@ def test_agrees_with_taichi_mpm():
     """Same jelly scene on both MPM plugins (ground, n_grid 32, 1 s): positions agree to 1e-3 of
     the block size (docs/mpm.md, conformance requirement)."""
     pytest.importorskip("taichi")
-    from gasp_taichi_mpm import make_engine as make_taichi
+    from gasp_taichi_mpm import gasp_engines as taichi_engines
     size = 0.3
     s = make_setup(n_side=10, lo=(0.35, 0.35, 0.25), size=size, n_grid=32,
                    boundaries=[Boundary("ground", height=0.1, friction=0.5)],
                    options={"threads": 1})
-    ew, et = WarpMPMEngine(s), make_taichi(s)
+    ew, et = build(s.replace(options=dict(s.options))), build_engine(taichi_engines()[0], s)
     for _ in range(30):
         ew.step_frame()
         et.step_frame()
