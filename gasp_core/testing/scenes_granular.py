@@ -27,10 +27,26 @@ a^(1/3) above a ~ 0.7 for the 2D collapse in Lajeunesse et al. At a = 2 the two 
 
 The scene uses a = 2 (the linear runout regime, below the 2.3 crossover; the power-law height
 regime): runout ``(L_inf - L_i) / L_i = 2.40`` and ``H_inf / L_i = 1.32``, each checked within
-``COLUMN_TOL = 25 %`` (issue 17). Lube et al. state that the fits hold for all their grains
-(internal friction angles roughly 30-40 deg); the sand here has ``friction_angle = 32`` deg
-(COLUMN_PHI), a typical quartz-sand value. Each engine's measured figures are in the checks'
-messages and in ``conformance_tests/RESULTS.md``.
+``COLUMN_TOL = 25 %`` (issue 17), and the pile must have stopped (max speed below 0.05 m/s).
+Lube et al. state that the fits hold for all their grains; the sand here is Mohr-Coulomb at
+``COLUMN_PHI = 32`` deg (a typical quartz-sand value, within the 30-35 deg the brief of issue 17
+names; Lube et al.'s own angles were not read here), without cohesion, on a base with Coulomb
+friction ``tan(32 deg)``. The engines' ``friction_angle`` is a Drucker-Prager cone through
+Mohr-Coulomb's triaxial-compression corners; the channel holds the sand in plane strain, where
+that cone is much stronger than Mohr-Coulomb, so the scene passes the plane-strain equivalent,
+:func:`plane_strain_dp_angle` (23.45 deg for 32 deg). Passing 32 deg itself gives a runout of
+1.40 instead of 2.40 at n_grid 32 (-42 %): the pile stops at the static slope.
+
+Resolution and cost: n_grid 48 on a 1 m domain (dx 2.08 cm; the column is 7.2 cells long and
+14.4 high, 2 points per cell, 2436 points in a 3-cell-wide channel), 35 frames of 0.02 s (the pile
+stops by t = 0.6 s, ~2.4 sqrt(2 H_i / g), as in Staron & Hinch 2005). Measured on taichi_mpm and
+warp_mpm (identical to 3 digits): runout 2.125 (-11.5 %), H_inf / L_i 1.023 (-22.4 %); at n_grid 32
+the runout is 1.81 (-24.6 %) and the height 1.06 (-20 %), so the runout is still converging
+upward with resolution while the height is not. The height's -22 % is the engines' honest error
+(a continuum without dilatancy: the deposit keeps its volume where the experiments' piles
+loosen by ~10 %, and the frictionless grid wall holds the points beside it about a cell low), so
+the 25 % tolerance of issue 17 fails a further 5 % low bias of the height only barely (-27 %)
+and a 5 % high bias not at all; the runout check fails a 15 % bias either way.
 """
 from __future__ import annotations
 
