@@ -6,21 +6,24 @@ released at ``t = 0``. Once the pile has stopped, its runout ``L_inf`` (the depo
 final height ``H_inf`` (at the wall) are compared with the experimental fits of
 
     Lube, Huppert, Sparks & Freundt, "Collapses of two-dimensional granular columns",
-    Phys. Rev. E 72, 041301 (2005): a rectangular channel, release on one side by lifting a gate,
-    a column against the channel's end wall (so the wall is the symmetry plane of a symmetric
-    collapse); quartz sand, couscous, sugar, rice; a from about 0.5 to 20:
+    Phys. Rev. E 72, 041301 (2005): a rectangular channel, the column released on one side and
+    standing against the channel's end wall (the symmetry plane of a symmetric collapse); sand,
+    rice, sugar (as the secondary sources below describe it):
 
         (L_inf - L_i) / L_i = 1.2 a           for a < 2.3,   1.9 a^(2/3)  for a > 2.3
         H_inf / L_i          = a               for a < 1.15,  a^(2/5)      for a > 1.15
 
-Where the fits were found (the original is paywalled and could not be read here): the runout fit,
-with the quasi-2D channel and the 2.3 crossover, is quoted in K. Kumar's PhD thesis (University of
-Cambridge, 2015; github.com/kks32/phd-thesis, Chapter2/chapter2.tex, Sec. on granular column
-collapse) and, as lambda_1 = 1.2 / lambda_2 = 1.9 with exponent 2/3 for Lube et al. beside
-Lajeunesse, Monnier & Homsy, Phys. Fluids 17, 103302 (2005) (glass beads: lambda_1 = 1.8,
-lambda_2 = 2.3, crossover a ~ 3), in the table Lagree, Staron & Popinet (2011), J. Fluid Mech.
-686:378, Eqs. (3.1)-(3.2) compile (as reproduced in an SPH code's validation notes). The height fit
-a^(2/5) above a ~ 1.15 is confirmed less well: the same compilation gives Lube et al.'s height
+Where the fits were found (the original is paywalled and was not read here): the runout fit
+with its 2.3 crossover is quoted for the quasi-2D collapse in a rectangular channel in K. Kumar's
+PhD thesis (University of Cambridge, 2015; github.com/kks32/phd-thesis, Chapter2/chapter2.tex), in
+a paragraph that cites Lajeunesse et al. 2005 beside Lube et al. 2005, so the attribution there is
+ambiguous; the compilation of Lagree, Staron & Popinet (2011), J. Fluid Mech. 686:378,
+Eqs. (3.1)-(3.2) (as reproduced in an SPH code's validation notes found with the search tool)
+attributes lambda_1 = 1.2, lambda_2 = 1.9, exponent 2/3, crossover 1.8-2.8 to Lube et al. (sand,
+rice, sugar), against lambda_1 = 1.8, lambda_2 = 2.3, crossover ~3 for the glass beads of
+Lajeunesse, Monnier & Homsy, Phys. Fluids 17, 103302 (2005): at a = 2 that is 3.6, 50 % above
+Lube et al., so the two experiments do not agree within the tolerance; Lube et al. is the one
+used. The height fit a^(2/5) above a ~ 1.15 is confirmed less well: the same compilation gives Lube et al.'s height
 branch as lambda_4 ~ 1, exponent ~ 0.4, without the crossover value; Kumar's thesis quotes
 a^(1/3) above a ~ 0.7 for the 2D collapse in Lajeunesse et al. At a = 2 the two height fits give
 1.32 (Lube) and 1.26 (a^(1/3)): 5 % apart, well inside the tolerance.
@@ -28,7 +31,7 @@ a^(1/3) above a ~ 0.7 for the 2D collapse in Lajeunesse et al. At a = 2 the two 
 The scene uses a = 2 (the linear runout regime, below the 2.3 crossover; the power-law height
 regime): runout ``(L_inf - L_i) / L_i = 2.40`` and ``H_inf / L_i = 1.32``, each checked within
 ``COLUMN_TOL = 25 %`` (issue 17), and the pile must have stopped (max speed below 0.05 m/s).
-Lube et al. state that the fits hold for all their grains; the sand here is Mohr-Coulomb at
+Lube et al. found the scaling independent of the grains (as Kumar's thesis reports it); the sand here is Mohr-Coulomb at
 ``COLUMN_PHI = 32`` deg (a typical quartz-sand value, within the 30-35 deg the brief of issue 17
 names; Lube et al.'s own angles were not read here), without cohesion, on a base with Coulomb
 friction ``tan(32 deg)``. The engines' ``friction_angle`` is a Drucker-Prager cone through
