@@ -44,6 +44,7 @@ ANALYTIC_SCREEN = {
     "inelastic_bounce": ("bounce_hertz",),
     "friction_high": ("incline_slide",),
     "softer_E": ("cantilever", "self_weight_sag", "bar_wave"),
+    "sand_friction_high": ("sand_column_collapse",),
 }
 
 
@@ -160,6 +161,10 @@ def broken_engine(info, kind: str):
         if kind == "softer_E":  # Young's modulus 10 % low: wave speed -5 %, sag and deflection +11 %
             mats = [dataclasses.replace(m, E=0.9 * m.E) for m in setup.materials]
             return info.factory(setup.replace(materials=mats))
+        if kind == "sand_friction_high":  # sand 10 deg more frictional (runout -30 % at a = 2)
+            mats = [dataclasses.replace(m, friction_angle=m.friction_angle + 10.0) if m.name == "sand" else m
+                    for m in setup.materials]
+            return info.factory(setup.replace(materials=mats))
         if kind == "wind_as_acceleration" and any(f.kind == "wind" for f in setup.forces):
             # the wind before issue 17: the drag on the body at rest, 1/2 rho_air C_d A |u| u / M, given to
             # every node as an acceleration (A: the area the points cover seen along u, at dx/2)
@@ -251,7 +256,7 @@ def test_check_engine_classifies(reference):
     info, passed_by_real = reference
     no_sand = dataclasses.replace(info, capabilities=dataclasses.replace(
         info.capabilities, materials=frozenset({"jelly"})))
-    rep = check_engine(no_sand, scenes=["sand_collapse"])
+    rep = check_engine(no_sand, scenes=["sand_column_collapse"])
     assert rep.results[0].status == "skip" and "material 'sand'" in rep.results[0].message
     assert rep.ok
     if "free_fall" not in passed_by_real:

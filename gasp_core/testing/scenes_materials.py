@@ -1,5 +1,6 @@
 """Conformance scenes of materials against published answers: cantilever vs Euler-Bernoulli (clamp on
-and off a grid node), sand column collapse vs the friction angle, dam break vs Martin & Moyce (1952).
+and off a grid node), dam break vs Martin & Moyce (1952). (The sand column collapse against
+Lube et al. 2005 is in :mod:`gasp_core.testing.scenes_granular`.)
 
 Each scene is a :class:`~gasp_core.testing.kit.Scene` in :data:`SCENES_MATERIALS`.
 """
@@ -89,51 +90,6 @@ def _eval_cantilever(info: EngineInfo, tr: Trace) -> list[Check]:
                    measured=mean_defl, expected=expected, signed=rel)]
 
 
-# --- sand column collapse -------------------------------------------------------------------
-SAND_PHI = 30.0
-SAND_TOL_DEG = 10.0
-SAND_DX = 1.0 / 32
-
-
-def _build_sand(info: EngineInfo) -> SimSetup:
-    dx = SAND_DX
-    m = wall_margin(info, dx)
-    half_w, height, depth = 0.15, 0.15, 0.1
-    z0 = 3 * dx
-    x, p_vol = box_points((0.5 - half_w, m, z0), (0.5 + half_w, m + depth, z0 + height), dx / 2)
-    hi = (1.0, 2 * m + depth, 0.5)
-    return make_setup(x, p_vol, Material("sand", E=3.5e5, nu=0.3, rho=1600.0, friction_angle=SAND_PHI),
-                      hi=hi, n_grid=32, frame_dt=0.02,
-                      boundaries=[Boundary("ground", height=z0, friction=1.0),
-                                  Boundary("walls", friction=0.0)])
-
-
-def _surface_slope_deg(x: np.ndarray, z0: float, bin_w: float) -> tuple[float, float]:
-    """Flank angle of a symmetric pile (deg) and its height, from the top-surface profile."""
-    r = np.abs(x[:, 0] - 0.5)
-    edges = np.arange(0.0, r.max() + bin_w, bin_w)
-    idx = np.digitize(r, edges) - 1
-    top = np.array([np.percentile(x[idx == k, 2], 95) - z0 if np.any(idx == k) else 0.0
-                    for k in range(len(edges) - 1)])
-    centres = 0.5 * (edges[:-1] + edges[1:])
-    hmax = top.max()
-    flank = (top > 0.2 * hmax) & (top < 0.8 * hmax)
-    if flank.sum() < 2:
-        return float("nan"), float(hmax)
-    slope = np.polyfit(centres[flank], top[flank], 1)[0]
-    return float(math.degrees(math.atan(-slope))), float(hmax)
-
-
-def _eval_sand(info: EngineInfo, tr: Trace) -> list[Check]:
-    z0 = 3 * SAND_DX
-    angle, hmax = _surface_slope_deg(tr.x[-1], z0, SAND_DX)
-    speed = float(np.sqrt((tr.v[-1] ** 2).sum(axis=1)).max())
-    return [check("slope_vs_friction_angle", abs(angle - SAND_PHI), SAND_TOL_DEG,
-                  f"|final flank angle - friction angle| (flank {angle:.1f} deg, phi {SAND_PHI:.0f} "
-                  f"deg, pile height {hmax * 100:.1f} cm)", " deg", angle=angle),
-            check("collapsed_and_stopped", speed, 0.05, "max point speed at the end", " m/s")]
-
-
 # --- dam break (Martin & Moyce 1952) --------------------------------------------------------
 #: Martin & Moyce (1952), Phil. Trans. R. Soc. A 244:312-324, square column (n^2 = 1,
 #: a = 2.25 in), front Z = x/a vs T = t sqrt(2 g / a), as tabulated by Koshizuka & Oka (1996),
@@ -141,7 +97,11 @@ def _eval_sand(info: EngineInfo, tr: Trace) -> list[Check]:
 MARTIN_MOYCE_T = np.array([0.84, 1.19, 1.63, 1.98, 2.32])
 MARTIN_MOYCE_Z = np.array([1.22, 1.44, 1.89, 2.33, 2.78])
 DAM_A = 0.15
-DAM_TOL = 0.25
+#: max |Z_sim - Z_MM| / Z_MM over the five points: measured 0.105 on taichi_mpm and warp_mpm (0.096 on
+#: an earlier warp_mpm), 0.100 on genesis, at n_grid 32; the largest error is at the last points (the
+#: front lags as the layer thins to a cell or two). 0.15 passes that honest error and fails it with a
+#: 5 % bias on top (0.105 + 0.05), where 0.25 (before issue 17) let a 14 % bias through.
+DAM_TOL = 0.15
 
 
 def _build_dam(info: EngineInfo) -> SimSetup:
@@ -186,9 +146,6 @@ SCENES_MATERIALS: list[Scene] = [
           f"Timoshenko tolerances ({CANT_FREQ_TOL:.0%} frequency, {CANT_TOL:.0%} deflection)",
           Requires(frozenset({"jelly"}), frozenset({"fixed_region"})),
           _cantilever_builder(CANT_X0_OFFGRID), 50, _eval_cantilever),
-    Scene("sand_collapse", f"sand column (aspect 1) collapse: final flank angle within "
-          f"{SAND_TOL_DEG:.0f} deg of the friction angle",
-          Requires(frozenset({"sand"}), frozenset({"ground", "walls"})), _build_sand, 40, _eval_sand),
     Scene("dam_break", f"liquid square column collapse: front Z(T) vs Martin & Moyce 1952 within "
           f"{DAM_TOL:.0%}", Requires(frozenset({"liquid"}), frozenset({"ground", "walls"})),
           _build_dam, 25, _eval_dam),
