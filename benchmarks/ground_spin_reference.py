@@ -1,8 +1,9 @@
 """numpy MLS-MPM (docs/mpm.md) of the issue-17 ball drop, bit-close to warp_mpm/taichi_mpm (drift to 1e-3 mm), with experiment switches (--variant pic2 | cunproj | gafter | v1 | v4 | bilat | partc) and per-substep contact logs (see tests/test_ground_spin.py)."""
-import math, argparse, sys
+import math, argparse
 import numpy as np
 from gasp_core.testing.helpers import sphere_points
-from gasp_core.toolkit.mpm import mpm_stable_dt, substeps_for, ground_top_node
+from gasp_core.toolkit.points import ground_top_node
+from gasp_core.toolkit.substeps import mpm_stable_dt, substeps_for
 from gasp_core.seam.setup import Material
 
 def run(mu_b=0.5, frames=40, ng=16, drop=0.05, off=(0.3, 0.2), cfl=0.4, ppc=2.0, E=2e4, variant="base",

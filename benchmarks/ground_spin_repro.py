@@ -1,5 +1,5 @@
 """Repro of issue 17 item 1: a jelly ball dropped on a frictional ground drifts / spins."""
-import sys, math, json, argparse, time
+import sys, math, argparse, time
 import numpy as np
 from gasp_core.seam.build import build_engine
 from gasp_core.seam.plugins import engines
