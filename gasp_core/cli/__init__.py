@@ -1,0 +1,1 @@
+"""The ``gasp`` command: :mod:`.main` (sub-commands, one-line errors, exit codes) and :mod:`.args` (argument checks)."""
