@@ -220,6 +220,99 @@ def triangles_to_gaussians(triangles: np.ndarray, fallback: np.ndarray | None = 
     return v1.copy(), rot, scales, degenerate
 
 
+
+#: Rebuild rules of ``T^-1`` (``[[object]] rebuild``): the paper's GaMeS Gram-Schmidt, or the moved
+#: triangle's covariance ``F Sigma F^T`` (PhysGaussian Eq. 6, with ``F`` the triangle's own map).
+REBUILDS = ("games", "covariance")
+
+
+def triangles_to_gaussians_covariance(triangles: np.ndarray, fallback: np.ndarray | None = None,
+                                      eps: float = EPS) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``T^-1`` by covariance: the flat Gaussian whose covariance is ``e2 e2^T + e3 e3^T``.
+
+    With ``e2 = v2 - v1`` and ``e3 = v3 - v1`` the moved edges, and the rest edges ``s2 r2``, ``s3 r3``
+    (map ``T``), the affine map ``F`` that carries the rest triangle onto the moved one gives
+    ``F Sigma F^T = F (s2^2 r2 r2^T + s3^2 r3 r3^T) F^T = e2 e2^T + e3 e3^T`` (plus ``eps^2`` along the
+    normal): PhysGaussian's covariance update (Xie et al. 2024, Eq. 6) with the deformation gradient
+    the triangle itself defines in its plane. The in-plane axes and standard deviations are the left
+    singular vectors and singular values of ``[e2, e3]``. Same mean, normal and in-plane area as
+    :func:`triangles_to_gaussians`; identical for rotation, uniform stretch and any map that keeps the
+    edges orthogonal; under shear it keeps the ellipse's shear where Gram-Schmidt drops it
+    (``docs/rebuild.md``).
+
+    Parameters
+    ----------
+    triangles : ndarray, shape (n, 3, 3)
+        Vertices v1, v2, v3 of each face, metres.
+    fallback : ndarray, shape (n, 3, 3), optional
+        Rotation for degenerate faces (as :func:`triangles_to_gaussians`).
+    eps : float
+        Thin-axis scale, and the floor of the in-plane scales.
+
+    Returns
+    -------
+    means, rotmats, scales, degenerate
+        As :func:`triangles_to_gaussians`: ``rotmats[:, :, 0]`` is the unit normal (the sign of
+        ``e2 x e3``), columns 1 and 2 the major and minor in-plane axes; ``scales = [eps, s_major,
+        s_minor]``.
+
+    Raises
+    ------
+    ValueError
+        If ``triangles`` is not (n, 3, 3) or holds non-finite values.
+    """
+    v1, rot_g, scales_g, degenerate = triangles_to_gaussians(triangles, fallback, eps)
+    tri = np.asarray(triangles, dtype=np.float64)
+    edges = np.stack([tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]], axis=2)         # (n, 3, 2)
+    u, sv, _ = np.linalg.svd(edges, full_matrices=False)                             # (n,3,2), (n,2)
+    normal = rot_g[:, :, 0]
+    a1, a2 = u[:, :, 0], u[:, :, 1]
+    a2 = np.where(np.sum(np.cross(a1, a2) * normal, axis=1, keepdims=True) < 0, -a2, a2)   # right-handed
+    rot = np.stack([normal, a1, a2], axis=2)
+    scales = np.stack([np.full(len(tri), eps), np.maximum(sv[:, 0], eps), np.maximum(sv[:, 1], eps)], axis=1)
+    rot[degenerate] = rot_g[degenerate]
+    scales[degenerate] = scales_g[degenerate]
+    return v1, rot, scales, degenerate
+
+
+def limit_edges(tri_rest: np.ndarray, tri_t: np.ndarray, alpha: float) -> tuple[np.ndarray, np.ndarray]:
+    """The alpha rule on the edges themselves, for the covariance rebuild: an edge ``v_i - v1`` stretched
+    past ``alpha`` times its rest length is shortened to ``alpha`` times it, along its own direction.
+
+    For :func:`triangles_to_gaussians` this is :func:`alpha_rule` on ``s2`` (``s2 = |v2 - v1|``);
+    for :func:`triangles_to_gaussians_covariance` it bounds the covariance the same way, and it only
+    ever shrinks (paper Eq. alpha_rule; issue 17).
+
+    Parameters
+    ----------
+    tri_rest, tri_t : ndarray, shape (n, 3, 3)
+        Rest and moved triangles, metres.
+    alpha : float
+        Allowed stretch factor, > 0.
+
+    Returns
+    -------
+    triangles : ndarray, shape (n, 3, 3), float64
+        ``tri_t`` with the over-stretched edges shortened (``v1`` unchanged).
+    clamped : ndarray, shape (n, 2), bool
+        Which of the edges ``v2 - v1``, ``v3 - v1`` were shortened.
+
+    Raises
+    ------
+    ValueError
+        If ``alpha <= 0``.
+    """
+    if not alpha > 0:
+        raise ValueError(f"limit_edges: alpha must be > 0, got {alpha}")
+    out = np.array(tri_t, dtype=np.float64, copy=True)
+    e_t = out[:, 1:] - out[:, :1]
+    d_t = np.linalg.norm(e_t, axis=2)
+    d_0 = np.linalg.norm(np.asarray(tri_rest, np.float64)[:, 1:] - np.asarray(tri_rest, np.float64)[:, :1], axis=2)
+    clamped = d_t > alpha * d_0
+    factor = np.where(clamped, alpha * d_0 / np.where(d_t > 0, d_t, 1.0), 1.0)
+    out[:, 1:] = out[:, :1] + e_t * factor[:, :, None]
+    return out, clamped
+
 def alpha_rule(tri_rest: np.ndarray, tri_t: np.ndarray, scales_t: np.ndarray,
                scales_rest: np.ndarray, alpha: float) -> tuple[np.ndarray, np.ndarray]:
     """The paper's control rule on Gaussian size.

@@ -6,7 +6,8 @@ from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
-from gasp_core.maps.games import EPS, alpha_rule, triangles_to_gaussians
+from gasp_core.maps.games import (alpha_rule, EPS, limit_edges, triangles_to_gaussians,
+                                  triangles_to_gaussians_covariance)
 from gasp_core.gs.gaussians import Gaussians, rotmat_to_quat
 from gasp_core.maps.hierarchy import sub_triangles
 from gasp_core.prepare.placement import PreparedObject
@@ -27,7 +28,7 @@ class FrameState:
 
 
 def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray) -> tuple[Gaussians, np.ndarray, dict]:
-    """``T^-1`` and the alpha rule for one object at one frame, back in the file frame.
+    """``T^-1`` (the object's ``rebuild`` rule) and the alpha rule for one object at one frame, back in the file frame.
 
     Parameters
     ----------
@@ -52,10 +53,15 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray) -> tuple[Gau
         return o.gaussians, prev_rot, {"degenerate": 0, "clamped": 0}
     tri = x[o.vertex_slice]
     tri = tri.reshape(-1, 3, 3) if o.hierarchy is None else sub_triangles(o.hierarchy, tri)
-    means_w, rot, scales_w, degenerate = triangles_to_gaussians(tri, fallback=prev_rot)
     clamped = np.zeros((len(tri), 2), bool)
-    if o.spec.alpha is not None:
-        scales_w, clamped = alpha_rule(o.tri_rest, tri, scales_w, o.scales_rest, o.spec.alpha)
+    if o.spec.rebuild == "covariance":
+        if o.spec.alpha is not None:
+            tri, clamped = limit_edges(o.tri_rest, tri, o.spec.alpha)
+        means_w, rot, scales_w, degenerate = triangles_to_gaussians_covariance(tri, fallback=prev_rot)
+    else:
+        means_w, rot, scales_w, degenerate = triangles_to_gaussians(tri, fallback=prev_rot)
+        if o.spec.alpha is not None:
+            scales_w, clamped = alpha_rule(o.tri_rest, tri, scales_w, o.scales_rest, o.spec.alpha)
     pl = o.placement
     scales = scales_w / pl.scale
     scales[:, 0] = o.thin_scale if o.spec.thickness == "keep" else EPS

@@ -47,6 +47,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 from gasp_core.errors import SceneError
+from gasp_core.maps.games import REBUILDS
 from gasp_core.scene.extras import read_extras
 from gasp_core.scene.select import SelectSpec, read_select, read_static
 from gasp_core.scene.tables import DomainSpec, EngineSpec, read_boundary, read_domain, read_engine, read_material
@@ -92,6 +93,11 @@ class ObjectSpec:
         paper's vertices-only mode.
     alpha : float or None
         Control rule factor (paper Eq. alpha_rule); None disables it.
+    rebuild : str
+        How ``T^-1`` rebuilds each Gaussian from its moved triangle (:data:`gasp_core.maps.games.REBUILDS`):
+        ``"games"`` (the paper: Gram-Schmidt, ``s2 = |v2 - v1|``, ``s3`` the triangle's height) or
+        ``"covariance"`` (PhysGaussian's ``F Sigma F^T`` with the triangle's own ``F``; keeps in-plane
+        shear). The alpha rule applies to either (``docs/rebuild.md``).
     thickness : str
         Output thin-axis scale: ``"keep"`` the input's own thinnest scale (frame 0 renders as the
         input), or ``"eps"`` the GaMeS ``1e-8``.
@@ -133,6 +139,7 @@ class ObjectSpec:
     rotation: tuple[float, float, float] = (0.0, 0.0, 0.0)
     fill: bool = True
     alpha: float | None = 1.5
+    rebuild: str = "games"
     thickness: str = "keep"
     min_opacity: float = 0.1
     core_fraction: float = 1.0
@@ -209,6 +216,7 @@ def _object(o: dict, where: str, src: Path) -> ObjectSpec:
                                  max_norm=MAX_SPIN, unit=" rad/s"),
         material=read_material(o.get("material", {}), f"{where}.material", src),
         fill=as_boolean(o.get("fill", True), f"{where}.fill", src), alpha=alpha,
+        rebuild=as_string(o.get("rebuild", ObjectSpec.rebuild), f"{where}.rebuild", src, REBUILDS),
         thickness=as_string(o.get("thickness", "keep"), f"{where}.thickness", src, ("keep", "eps")),
         min_opacity=as_number(o.get("min_opacity", 0.1), f"{where}.min_opacity", src, 0.0, 1.0),
         core_fraction=as_number(o.get("core_fraction", 1.0), f"{where}.core_fraction", src, 0.0, 1.0,
