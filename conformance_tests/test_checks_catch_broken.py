@@ -132,6 +132,12 @@ class _Broken:
             v = np.zeros_like(v)
         return v
 
+    def get_state(self):  # the wrapped engine's (an engine with the feature 'state' must have both)
+        return self.inner.get_state()
+
+    def set_state(self, state):
+        self.inner.set_state(state)
+
     def stats(self):
         return self.inner.stats()
 
