@@ -45,7 +45,17 @@ _CANT = ("tip deflection 2.71 mm vs Euler-Bernoulli 19.99 mm (-86%), largest 5.2
 #: Conformance scenes this engine fails, with the measured figures (run as strict expected failures).
 KNOWN_FAILURES = {"momentum": _V0, "spinning": _V0, "determinism": _V0, "invariance": _V0,
                   "contract_blowup": "the kit drives the blow-up with random initial velocities: " + _V0,
-                  "cantilever": _CANT, "cantilever_offgrid": "same cage as 'cantilever': 2.71 mm vs 19.99 mm (-86%)"}
+                  "cantilever": _CANT, "cantilever_offgrid": "same cage as 'cantilever': 2.71 mm vs 19.99 mm (-86%)",
+                  "bar_wave": "the scene starts part of the bar moving: " + _V0,
+                  "rest_on_tilted_ground": ("Blender soft bodies have no contact friction with the ground plane "
+                                            "(README known limits): a slab on ground tilted 15 deg slides 6.2 dx "
+                                            "in 2 s where friction 0.5 must hold it (measured, bpy 5.0.1)"),
+                  "bounce_hertz": ("Blender's soft-body collision is a penalty contact, not the elastic body's own "
+                                   "stiffness: restitution 0.85 passes, but the contact lasts 39.5 ms where Hertz "
+                                   "gives 60.2 ms (-34 %, peak force 13.0 M g vs 11.4; measured, bpy 5.0.1)"),
+                  "self_weight_sag": ("the voxel cage's springs are set for the uniaxial modulus at small strain; "
+                                      "the column shortens 2.26 mm under its own weight vs 2.40 mm expected "
+                                      "(-5.7 %, limit 5 %; measured, bpy 5.0.1)")}
 
 
 def bpy_available() -> str | None:
