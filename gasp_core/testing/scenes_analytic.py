@@ -325,7 +325,11 @@ def _build_wave(info: EngineInfo) -> SimSetup:
     x, p_vol = box_points((WAVE_X[0], 0.5 - h, 0.5 - h), (WAVE_X[1], 0.5 + h, 0.5 + h), dx / 2)
     v = np.zeros_like(x)
     v[x[:, 0] < WAVE_SPLIT, 0] = WAVE_V0
-    return make_setup(x, p_vol, WAVE_MAT, v=v, gravity=(0.0, 0.0, 0.0), n_grid=WAVE_NGRID, frame_dt=WAVE_FRAME_DT)
+    # a domain 4 dx wider than the unit cube on each x face (same dx, same node alignment): the bar's ends
+    # then lie 5.6 dx inside, clear of the 3 dx wall band of grid engines (Genesis refuses points there)
+    pad = 4 * dx
+    return make_setup(x, p_vol, WAVE_MAT, v=v, gravity=(0.0, 0.0, 0.0), lo=(-pad, 0.0, 0.0), hi=(1.0 + pad, 1.0, 1.0),
+                      n_grid=WAVE_NGRID + 8, frame_dt=WAVE_FRAME_DT)
 
 
 def _front_speed(tr: Trace) -> float:
