@@ -134,7 +134,7 @@ class MPMSolver:
         np_real = np.float32 if real == ti.f32 else np.float64
         self._upload_points(np_real, x=x, v=v, C0=C0, p_mass=p_mass, p_vol=p_vol, body=body, fixed=fixed,
                             jp0=jp0, params=params, kinds=kinds)
-        # dt and inv_dx go through np_real as one array, as before (1 / dx rounded once, in float64)
+        # dt, dx and 1 / dx (computed in float64), each rounded once to the working precision
         self.dt[None], self.dx[None], self.inv_dx[None] = np.array([dt, dx, 1.0 / dx], np_real)
         self._passive_every = int(passive_every)
         self._np_real = np_real
@@ -273,12 +273,13 @@ class MPMSolver:
         if self._passive_plan[0] != n_substeps:
             plan = passive_schedule(n_substeps, self._passive_every, float(self.dt[None]))
             dt = float(self.dt[None])
-            ms = list(dict.fromkeys(int(round((a + b) / dt)) for _s, a, b in plan))   # substeps per interval
+            ms = list(dict.fromkeys(int(round((weight_prev + weight_now) / dt))   # substeps per interval
+                                    for _substep, weight_prev, weight_now in plan))
             ms += ms[-1:] * (2 - len(ms))
             self.passive_substeps.from_numpy(np.array(ms, np.int32))
             at = [None] * n_substeps
-            for s, a, b in plan:
-                at[s] = ms.index(int(round((a + b) / dt)))
+            for substep, weight_prev, weight_now in plan:
+                at[substep] = ms.index(int(round((weight_prev + weight_now) / dt)))
             self._passive_plan = (n_substeps, at)
         return self._passive_plan[1]
 
