@@ -120,7 +120,9 @@ class MujocoFlexEngine:
 
     # ------------------------------------------------------------------ model construction
     def _build(self) -> None:
-        s, o = self.setup, self.options
+        """Build the MuJoCo model and data: one XML part per body, the time step, the compiled model with
+        its ids bound to the bodies, then the initial state."""
+        s = self.setup
         self.flex: list[_FlexBody] = []
         self.rigid: list[_RigidBody] = []
         parts = []
@@ -131,73 +133,110 @@ class MujocoFlexEngine:
             idx = np.flatnonzero(s.body_id == b)
             if len(idx) == 0:
                 continue
-            xb = s.x[idx]
-            ext = float(np.max(xb.max(0) - xb.min(0)))
-            # the body's size is at least the side of the volume one point stands for (a single point
-            # had 1e-6 m / cells_across cells, with its real mass: millions of substeps a frame)
-            size = max(ext, float(np.mean(s.p_vol[idx])) ** (1.0 / 3.0), 1e-6)
-            h = float(o["cell_size"]) if o["cell_size"] is not None else size / float(o["cells_across"])
-            pm = s.p_mass[idx]
-            lat = build_lattice(xb, h)
-            name = f"b{b}"
+            h = self._cell_size(idx)
+            lat = build_lattice(s.x[idx], h)
             if mat.name == "rigid":
-                centres = lat.origin + (lat.cells + 0.5) * h
-                com = centres.mean(axis=0)
-                # the points' mass and centre of mass, spread on the cells (lattice.matched_masses)
-                m_box = matched_masses(np.full(len(centres), h ** 3), centres, float(pm.sum()), pm @ xb / pm.sum())
-                rb = _RigidBody(name, idx, com, xb - com, bool(fixed_pt[idx].any()))
-                geoms = "\n".join(
-                    f'<geom type="box" size="{h / 2:.17g} {h / 2:.17g} {h / 2:.17g}" pos="{_fmt(c - com)}" '
-                    f'density="{mb / h ** 3:.17g}"/>' for c, mb in zip(centres, m_box))
-                joint = "" if rb.fixed else "<freejoint/>"
-                parts.append(f'<body name="{name}" pos="{_fmt(com)}">{joint}\n{geoms}\n</body>')
-                self.rigid.append(rb)
+                parts.append(self._rigid_xml(f"b{b}", idx, lat, h, fixed_pt))
             else:
                 h_min = min(h_min, h)
-                tet, w = embed_points(lat, xb)
-                pinned = np.zeros(len(lat.vertices), dtype=bool)
-                fp = fixed_pt[idx]
-                if fp.any():
-                    pinned[np.unique(lat.tets[tet[fp]])] = True
-                    for bd in s.boundaries:
-                        if bd.kind == "fixed_region":
-                            pinned |= np.all((lat.vertices >= np.asarray(bd.lo)) &
-                                             (lat.vertices <= np.asarray(bd.hi)), axis=1)
-                fb = _FlexBody(name, idx, lat, tet, w, pinned, mat.rho)
-                # Vertex masses carry the points' total mass and centre of mass (Lattice.matched_masses).
-                # The lattice covers more (or less) than the solid: the points' mass is r = M / (rho V_lat)
-                # of the lattice's. Spread on the lattice at density r rho, the solid keeps its wave speed
-                # and its sag under its own weight (rho g L^2 / E) with E' = r E (yield strain kept), and
-                # M + dt^2 K is r times that of the unscaled lattice: lighter vertices with the full E
-                # left MuJoCo's M+K solve ill-conditioned. Where the centre-of-mass reweighting makes a
-                # vertex lighter than r times its lumped mass, waves speed up by sqrt(ratio).
-                M = float(pm.sum())
-                r = M / (mat.rho * lat.volume)
-                fb.vertex_mass = lat.matched_masses(mat.rho, M, pm @ xb / M)
-                fb.stiffness_scale = r
-                wave = max(wave, math.sqrt(float(np.max(r * lat.vertex_masses(mat.rho) / fb.vertex_mass))))
-                radius = float(o["radius"]) if o["radius"] is not None else 0.05 * h
-                elastic = (f'young="{r * mat.E:.17g}" poisson="{mat.nu:.17g}" '
-                           f'damping="{float(o["damping"]):.17g}"')
-                if mat.name == "metal":
-                    elastic += f' yield="{mat.yield_stress / mat.E:.17g}"'
-                pin = f'<pin id="{_ifmt(np.flatnonzero(pinned))}"/>' if pinned.any() else ""
-                mass = M
-                parts.append(
-                    f'<flexcomp name="{name}" type="direct" dim="3" radius="{radius:.17g}" mass="{mass:.17g}" '
-                    f'point="{_fmt(lat.vertices)}" element="{_ifmt(lat.tets)}">\n'
-                    f'<elasticity {elastic}/>\n'
-                    f'<contact selfcollide="none" friction="{self._ground_friction():.17g}"/>\n'
-                    f'{pin}</flexcomp>')
-                self.flex.append(fb)
+                xml, wave_factor = self._flex_xml(f"b{b}", idx, lat, h, mat, fixed_pt)
+                wave = max(wave, wave_factor)
+                parts.append(xml)
+        self.n_substeps, self.dt = self._time_step(h_min, wave)
+        self.xml = self._model_xml(parts)
+        try:
+            self.model = mujoco.MjModel.from_xml_string(self.xml)
+        except ValueError as e:
+            raise EngineError(f"engine '{ENGINE}': MuJoCo rejected the generated model: {e}") from e
+        self._bind_flex_bodies()
+        for rb in self.rigid:
+            rb.body_id = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, rb.name)
+            rb.dof = -1 if rb.fixed else int(self.model.body_dofadr[rb.body_id])
+        self._initial_state()
 
-        ground = ""
-        for bd in s.boundaries:
-            if bd.kind == "ground":
-                ground += (f'<geom name="ground" type="plane" size="0 0 1" pos="0 0 {bd.height:.17g}" '
-                           f'friction="{bd.friction:.17g} 0.005 0.0001"/>\n')
+    def _cell_size(self, idx: np.ndarray) -> float:
+        """Lattice cell side (m) of the body made of points ``idx``: option ``cell_size``, else the body's
+        size over ``cells_across``."""
+        s, o = self.setup, self.options
+        xb = s.x[idx]
+        ext = float(np.max(xb.max(0) - xb.min(0)))
+        # the body's size is at least the side of the volume one point stands for (a single point
+        # had 1e-6 m / cells_across cells, with its real mass: millions of substeps a frame)
+        size = max(ext, float(np.mean(s.p_vol[idx])) ** (1.0 / 3.0), 1e-6)
+        return float(o["cell_size"]) if o["cell_size"] is not None else size / float(o["cells_across"])
 
-        # time step: elastic-wave estimate over the deformable bodies, bounded by dt_max
+    def _rigid_xml(self, name: str, idx: np.ndarray, lat: Lattice, h: float, fixed_pt: np.ndarray) -> str:
+        """``<body>`` of a rigid body: one box geom per occupied cell; appends its :class:`_RigidBody`."""
+        s = self.setup
+        xb, pm = s.x[idx], s.p_mass[idx]
+        centres = lat.origin + (lat.cells + 0.5) * h
+        com = centres.mean(axis=0)
+        # the points' mass and centre of mass, spread on the cells (lattice.matched_masses)
+        m_box = matched_masses(np.full(len(centres), h ** 3), centres, float(pm.sum()), pm @ xb / pm.sum())
+        rb = _RigidBody(name, idx, com, xb - com, bool(fixed_pt[idx].any()))
+        geoms = "\n".join(
+            f'<geom type="box" size="{h / 2:.17g} {h / 2:.17g} {h / 2:.17g}" pos="{_fmt(c - com)}" '
+            f'density="{mb / h ** 3:.17g}"/>' for c, mb in zip(centres, m_box))
+        joint = "" if rb.fixed else "<freejoint/>"
+        self.rigid.append(rb)
+        return f'<body name="{name}" pos="{_fmt(com)}">{joint}\n{geoms}\n</body>'
+
+    def _pinned_vertices(self, lat: Lattice, tet: np.ndarray, fixed_in_body: np.ndarray) -> np.ndarray:
+        """(n_vertices,) bool: the lattice vertices of a tet holding a fixed point, and those inside a
+        ``fixed_region`` box."""
+        pinned = np.zeros(len(lat.vertices), dtype=bool)
+        if fixed_in_body.any():
+            pinned[np.unique(lat.tets[tet[fixed_in_body]])] = True
+            for bd in self.setup.boundaries:
+                if bd.kind == "fixed_region":
+                    pinned |= np.all((lat.vertices >= np.asarray(bd.lo)) &
+                                     (lat.vertices <= np.asarray(bd.hi)), axis=1)
+        return pinned
+
+    def _flex_xml(self, name: str, idx: np.ndarray, lat: Lattice, h: float, mat,
+                  fixed_pt: np.ndarray) -> tuple[str, float]:
+        """``(<flexcomp> xml, wave-speed factor)`` of a deformable body; appends its :class:`_FlexBody`.
+
+        The factor (>= 1 where vertices are lighter than their lumped share) multiplies the body's
+        P-wave speed in the time-step estimate.
+        """
+        s, o = self.setup, self.options
+        xb, pm = s.x[idx], s.p_mass[idx]
+        tet, w = embed_points(lat, xb)
+        pinned = self._pinned_vertices(lat, tet, fixed_pt[idx])
+        fb = _FlexBody(name, idx, lat, tet, w, pinned, mat.rho)
+        # Vertex masses carry the points' total mass and centre of mass (Lattice.matched_masses).
+        # The lattice covers more (or less) than the solid: the points' mass is r = M / (rho V_lat)
+        # of the lattice's. Spread on the lattice at density r rho, the solid keeps its wave speed
+        # and its sag under its own weight (rho g L^2 / E) with E' = r E (yield strain kept), and
+        # M + dt^2 K is r times that of the unscaled lattice: lighter vertices with the full E
+        # left MuJoCo's M+K solve ill-conditioned. Where the centre-of-mass reweighting makes a
+        # vertex lighter than r times its lumped mass, waves speed up by sqrt(ratio).
+        M = float(pm.sum())
+        r = M / (mat.rho * lat.volume)
+        fb.vertex_mass = lat.matched_masses(mat.rho, M, pm @ xb / M)
+        fb.stiffness_scale = r
+        wave_factor = math.sqrt(float(np.max(r * lat.vertex_masses(mat.rho) / fb.vertex_mass)))
+        radius = float(o["radius"]) if o["radius"] is not None else 0.05 * h
+        elastic = (f'young="{r * mat.E:.17g}" poisson="{mat.nu:.17g}" '
+                   f'damping="{float(o["damping"]):.17g}"')
+        if mat.name == "metal":
+            elastic += f' yield="{mat.yield_stress / mat.E:.17g}"'
+        pin = f'<pin id="{_ifmt(np.flatnonzero(pinned))}"/>' if pinned.any() else ""
+        self.flex.append(fb)
+        return (f'<flexcomp name="{name}" type="direct" dim="3" radius="{radius:.17g}" mass="{M:.17g}" '
+                f'point="{_fmt(lat.vertices)}" element="{_ifmt(lat.tets)}">\n'
+                f'<elasticity {elastic}/>\n'
+                f'<contact selfcollide="none" friction="{self._ground_friction():.17g}"/>\n'
+                f'{pin}</flexcomp>'), wave_factor
+
+    def _time_step(self, h_min: float, wave: float) -> tuple[int, float]:
+        """``(n_substeps, dt)``: an elastic-wave (CFL) estimate over the deformable bodies (smallest cell
+        ``h_min``, wave-speed factor ``wave``), bounded by option ``dt_max``; option ``dt`` overrides it.
+
+        Raises SceneError when option ``dt`` exceeds ``frame_dt``.
+        """
+        s, o = self.setup, self.options
         v0 = float(np.max(np.linalg.norm(s.v, axis=1))) if len(s.v) else 0.0
         height = float(s.domain_hi[2] - s.domain_lo[2])
         v_fall = v0 + math.sqrt(2.0 * float(np.linalg.norm(s.gravity)) * max(height, 0.0))
@@ -210,21 +249,28 @@ class MujocoFlexEngine:
         if o["dt"] is not None and float(o["dt"]) > s.frame_dt * (1 + 1e-9):
             raise SceneError(f"engine '{ENGINE}': option dt={o['dt']!r} s is longer than frame_dt="
                              f"{s.frame_dt!r} s; expected 0 < dt <= frame_dt")
-        self.n_substeps, self.dt = substeps_for(s.frame_dt, dt_max)
+        return substeps_for(s.frame_dt, dt_max)
 
+    def _model_xml(self, parts: list[str]) -> str:
+        """The whole MJCF: options (``self.dt``), ground planes, static colliders and the bodies' ``parts``."""
+        s, o = self.setup, self.options
+        ground = ""
+        for bd in s.boundaries:
+            if bd.kind == "ground":
+                ground += (f'<geom name="ground" type="plane" size="0 0 1" pos="0 0 {bd.height:.17g}" '
+                           f'friction="{bd.friction:.17g} 0.005 0.0001"/>\n')
         g = _fmt(s.gravity)
         from .colliders import collider_xml
         col_asset, col_bodies = collider_xml(s.colliders, ENGINE)
-        xml = (f'<mujoco model="gasp_mujoco_flex">\n'
-               f'<compiler angle="radian"/>\n{col_asset}'
-               f'<option timestep="{self.dt:.17g}" gravity="{g}" integrator="{o["integrator"]}" '
-               f'solver="{o["solver"]}" iterations="{int(o["iterations"])}" cone="pyramidal"/>\n'
-               f'<worldbody>\n{ground}{col_bodies}\n' + "\n".join(parts) + '\n</worldbody>\n</mujoco>')
-        self.xml = xml
-        try:
-            self.model = mujoco.MjModel.from_xml_string(xml)
-        except ValueError as e:
-            raise EngineError(f"engine '{ENGINE}': MuJoCo rejected the generated model: {e}") from e
+        return (f'<mujoco model="gasp_mujoco_flex">\n'
+                f'<compiler angle="radian"/>\n{col_asset}'
+                f'<option timestep="{self.dt:.17g}" gravity="{g}" integrator="{o["integrator"]}" '
+                f'solver="{o["solver"]}" iterations="{int(o["iterations"])}" cone="pyramidal"/>\n'
+                f'<worldbody>\n{ground}{col_bodies}\n' + "\n".join(parts) + '\n</worldbody>\n</mujoco>')
+
+    def _bind_flex_bodies(self) -> None:
+        """Each flex body's MuJoCo ids (flex, vertex bodies, dofs); the lattice's lumped vertex masses and
+        inertias replace flexcomp's equal split."""
         m = self.model
         for fb in self.flex:
             fb.flex_id = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_FLEX, fb.name)
@@ -242,9 +288,11 @@ class MujocoFlexEngine:
             m.body_mass[fb.vert_body[free]] = vm[free]
             edge = fb.lat.h
             m.body_inertia[fb.vert_body[free]] = (vm[free] * edge ** 2 / 6.0)[:, None] * np.ones(3)
-        for rb in self.rigid:
-            rb.body_id = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, rb.name)
-            rb.dof = -1 if rb.fixed else int(m.body_dofadr[rb.body_id])
+
+    def _initial_state(self) -> None:
+        """``self.data`` with the constants, initial velocities and forward pass; MuJoCo warnings raised
+        meanwhile are kept for frame 1; the warning counters and rest edge lengths are recorded."""
+        m = self.model
         self.data = mujoco.MjData(m)
         self._pending: list[str] = []      # MuJoCo warnings raised while building, reported by frame 1
         previous = mujoco.get_mju_user_warning()

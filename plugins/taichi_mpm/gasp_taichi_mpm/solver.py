@@ -119,9 +119,6 @@ class MPMSolver:
         self.n = n
         self.n_material = n if n_material is None else int(n_material)
         self.has_passive = self.n_material < n
-        # Field sizes are rounded up so that Taichi's offline cache (keyed on the kernel IR and
-        # the field layout) is hit by scenes of similar size; the live count is a field.
-        cap = max(1024, 1 << (n - 1).bit_length())
         self.real = real
         self.n_grid = int(n_grid)
         self.atomic = bool(atomic)
@@ -130,7 +127,36 @@ class MPMSolver:
         self.multi_kind = len(self.kinds) > 1
         self.any_fixed = bool(np.any(fixed))
         self.n_walls, self.n_grounds, self.n_regions = len(walls), len(grounds), len(regions)
+        self._allocate_points(len(kinds))
+        self._allocate_grid()
+        self._allocate_boundaries()
 
+        np_real = np.float32 if real == ti.f32 else np.float64
+        self._upload_points(np_real, x=x, v=v, C0=C0, p_mass=p_mass, p_vol=p_vol, body=body, fixed=fixed,
+                            jp0=jp0, params=params, kinds=kinds)
+        # dt, dx and 1 / dx (computed in float64), each rounded once to the working precision
+        self.dt[None], self.dx[None], self.inv_dx[None] = np.array([dt, dx, 1.0 / dx], np_real)
+        self._passive_every = int(passive_every)
+        self._np_real = np_real
+        self._passive_plan: tuple[int, list] = (0, [])   # (n_substeps, per-substep weight pair or None)
+        self.lo[None] = [float(a) for a in lo]
+        self.gravity[None] = [float(a) for a in gravity]
+        self._upload_boundaries(walls, grounds, regions)
+        self.grid_acc.fill(0)
+        self.grid_v.fill(0)
+        self._split_chunks()
+        self._init_box()
+        self._setup_extras(extras, time_table, np_real, n_substeps)
+        if self.has_passive:
+            self.passive_box()
+
+    def _allocate_points(self, n_bodies: int) -> None:
+        """Per-point fields (x, v, C, F, Jp, p_mass, p_vol, body, fixed) and per-body fields (kind, mat).
+
+        Field sizes are rounded up so that Taichi's offline cache (keyed on the kernel IR and the field
+        layout) is hit by scenes of similar size; the live count is a field."""
+        real = self.real
+        cap = max(1024, 1 << (self.n - 1).bit_length())
         self.x = ti.Vector.field(3, real, shape=cap)
         self.v = ti.Vector.field(3, real, shape=cap)
         self.C = ti.Matrix.field(3, 3, real, shape=cap)
@@ -140,11 +166,13 @@ class MPMSolver:
         self.p_vol = ti.field(real, shape=cap)
         self.body = ti.field(ti.i32, shape=cap)
         self.fixed = ti.field(ti.i8, shape=cap)
-        n_bodies = len(kinds)
         bcap = max(4, 1 << (n_bodies - 1).bit_length())
         self.kind = ti.field(ti.i32, shape=bcap)
         self.mat = ti.Vector.field(N_PARAMS, real, shape=bcap)
-        ng = self.n_grid
+
+    def _allocate_grid(self) -> None:
+        """Grid copies, grid velocity and mass, touched-node boxes, point chunks and the step scalars."""
+        real, ng = self.real, self.n_grid
         self.grid_acc = ti.Vector.field(4, real, shape=(self.n_chunks, ng, ng, ng))
         self.grid_v = ti.Vector.field(3, real, shape=(ng, ng, ng))
         # node mass of the last grid update, read by the passive points' G2P (only with passive points)
@@ -158,13 +186,20 @@ class MPMSolver:
         self.pchunk_lo = ti.field(ti.i32, shape=self.n_chunks)   # passive points of each chunk
         self.pchunk_hi = ti.field(ti.i32, shape=self.n_chunks)
         self.pbox = ti.Vector.field(3, ti.i32, shape=(self.n_chunks, 2))  # passive points' node box
-        # scalars: dt, dx, inv_dx; vectors: lo, gravity
-        self.sc = ti.field(real, shape=3)
-        # passive points' intervals (gasp_core.toolkit.substeps.passive_schedule): [m, 0] of a full interval, of the last
-        self.pab = ti.field(real, shape=4)
+        self.dt = ti.field(real, shape=())       # substep, s
+        self.dx = ti.field(real, shape=())       # node spacing, m
+        self.inv_dx = ti.field(real, shape=())   # 1 / dx, 1/m
+        # substeps of the passive points' full interval [0] and last interval [1]
+        # (gasp_core.toolkit.substeps.passive_schedule)
+        self.passive_substeps = ti.field(ti.i32, shape=2)
         self.lo = ti.Vector.field(3, real, shape=())
         self.gravity = ti.Vector.field(3, real, shape=())
-        nb = 4
+
+    def _allocate_boundaries(self) -> None:
+        """Friction and node ranges of at most 4 boundaries of each kind (walls, ground, fixed_region).
+
+        Raises SceneError with more."""
+        real, nb = self.real, 4
         self.wall_fric = ti.field(real, shape=nb)
         self.wall_hi_first = ti.Vector.field(3, ti.i32, shape=nb)
         self.ground_fric = ti.field(real, shape=nb)
@@ -175,8 +210,8 @@ class MPMSolver:
             raise SceneError(f"engine 'taichi_mpm': at most {nb} boundaries of each kind (walls, ground, "
                              f"fixed_region); got {self.n_walls}, {self.n_grounds}, {self.n_regions}")
 
-        np_real = np.float32 if real == ti.f32 else np.float64
-
+    def _upload_points(self, np_real, *, x, v, C0, p_mass, p_vol, body, fixed, jp0, params, kinds) -> None:
+        """The points' and bodies' arrays into their fields (padding rows zero; F the identity)."""
         def put(field, arr, dtype, fill=0):
             a = np.asarray(arr, dtype)
             shape = tuple(field.shape) + a.shape[1:]
@@ -186,7 +221,7 @@ class MPMSolver:
 
         put(self.x, x, np_real)
         put(self.v, v, np_real)
-        put(self.F, np.broadcast_to(np.eye(3), (n, 3, 3)), np_real)
+        put(self.F, np.broadcast_to(np.eye(3), (self.n, 3, 3)), np_real)
         put(self.C, C0, np_real)
         put(self.Jp, jp0, np_real)
         put(self.p_mass, p_mass, np_real)
@@ -196,13 +231,10 @@ class MPMSolver:
         put(self.kind, kinds, np.int32)
         put(self.mat, params, np_real)
         self.n_points[None] = self.n_material
-        self.n_total[None] = n
-        self.sc.from_numpy(np.array([dt, dx, 1.0 / dx], np_real))
-        self._passive_every = int(passive_every)
-        self._np_real = np_real
-        self._passive_plan: tuple[int, list] = (0, [])   # (n_substeps, per-substep weight pair or None)
-        self.lo[None] = [float(a) for a in lo]
-        self.gravity[None] = [float(a) for a in gravity]
+        self.n_total[None] = self.n
+
+    def _upload_boundaries(self, walls, grounds, regions) -> None:
+        """:func:`node_ranges`' walls, grounds and regions into their fields."""
         for i, (fr, _, hi_first) in enumerate(walls):
             self.wall_fric[i] = fr
             self.wall_hi_first[i] = hi_first
@@ -212,18 +244,15 @@ class MPMSolver:
         for i, (rlo, rhi) in enumerate(regions):
             self.reg_lo[i] = rlo
             self.reg_hi[i] = rhi
-        self.grid_acc.fill(0)
-        self.grid_v.fill(0)
+
+    def _split_chunks(self) -> None:
+        """Material points and passive points each split into ``n_chunks`` contiguous chunks."""
         bounds = np.linspace(0, self.n_material, self.n_chunks + 1).round().astype(np.int32)
         self.chunk_lo.from_numpy(bounds[:-1].copy())
         self.chunk_hi.from_numpy(bounds[1:].copy())
-        pb = np.linspace(self.n_material, n, self.n_chunks + 1).round().astype(np.int32)
+        pb = np.linspace(self.n_material, self.n, self.n_chunks + 1).round().astype(np.int32)
         self.pchunk_lo.from_numpy(pb[:-1].copy())
         self.pchunk_hi.from_numpy(pb[1:].copy())
-        self._init_box()
-        self._setup_extras(extras, time_table, np_real, n_substeps)
-        if self.has_passive:
-            self.passive_box()
 
     def get(self, field) -> np.ndarray:
         """A particle field as NumPy, first ``n`` rows (solver order)."""
@@ -242,14 +271,15 @@ class MPMSolver:
         if not self.has_passive:
             return [None] * n_substeps
         if self._passive_plan[0] != n_substeps:
-            plan = passive_schedule(n_substeps, self._passive_every, float(self.sc[0]))
-            dt = float(self.sc[0])
-            ms = list(dict.fromkeys(int(round((a + b) / dt)) for _s, a, b in plan))   # substeps per interval
+            plan = passive_schedule(n_substeps, self._passive_every, float(self.dt[None]))
+            dt = float(self.dt[None])
+            ms = list(dict.fromkeys(int(round((weight_prev + weight_now) / dt))   # substeps per interval
+                                    for _substep, weight_prev, weight_now in plan))
             ms += ms[-1:] * (2 - len(ms))
-            self.pab.from_numpy(np.array([c for m in ms for c in (m, 0.0)], self._np_real))
+            self.passive_substeps.from_numpy(np.array(ms, np.int32))
             at = [None] * n_substeps
-            for s, a, b in plan:
-                at[s] = ms.index(int(round((a + b) / dt)))
+            for substep, weight_prev, weight_now in plan:
+                at[substep] = ms.index(int(round((weight_prev + weight_now) / dt)))
             self._passive_plan = (n_substeps, at)
         return self._passive_plan[1]
 
@@ -315,16 +345,25 @@ class MPMSolver:
 
     @ti.func
     def _extras(self, I, v, m, gsurf):
-        """Forces, impulses, then colliders at node ``I`` (docs/colliders.md; the same order as warp_mpm).
+        """Forces, impulses, then colliders at node ``I`` (docs/colliders.md; the same order as warp_mpm):
+        :meth:`_forces`, :meth:`_impulses`, :meth:`_colliders` at the node's position and the substep's row
+        of the time table."""
+        dt = self.dt[None]
+        X = self.lo[None] + self.dx[None] * ti.Vector([ti.cast(I[0], self.real), ti.cast(I[1], self.real),
+                                                       ti.cast(I[2], self.real)])
+        base = self.ex_step[None] * self.ex_width
+        t = self.ex_tab[base]
+        v = self._forces(X, v, m, gsurf, t, dt)
+        v = self._impulses(X, v, base)
+        return self._colliders(X, v, base)
+
+    @ti.func
+    def _forces(self, X, v, m, gsurf, t, dt):
+        """Wind and point forces on velocity ``v`` of the node at ``X`` (time ``t``, substep ``dt``).
 
         Wind is quadratic drag on the windward surface, ``F = 1/2 rho_air C_d A |w| w``, ``w = u - v``,
         ``A = max(0, gsurf . w / |w|)`` (``gsurf = sum_p p_vol grad N_ip``, m^2; node mass ``m``, kg),
         applied implicitly in the drag rate ``k = F / (m |w|)``: ``v += w dt k / (1 + dt k)``."""
-        dt = self.sc[0]
-        X = self.lo[None] + self.sc[1] * ti.Vector([ti.cast(I[0], self.real), ti.cast(I[1], self.real),
-                                                    ti.cast(I[2], self.real)])
-        base = self.ex_step[None] * self.ex_width
-        t = self.ex_tab[base]
         for f in range(self.n_force):
             r = f * 12
             a = ti.Vector.zero(self.real, 3)
@@ -355,6 +394,11 @@ class MPMSolver:
                 if rr > 0.0:
                     a = d * (mag / rr)
             v += dt * a
+        return v
+
+    @ti.func
+    def _impulses(self, X, v, base):
+        """Impulses (box or sphere regions, weight from the time table row at ``base``) on ``v`` at ``X``."""
         for q in range(self.n_imp):
             r = q * 11
             inside = False
@@ -371,6 +415,13 @@ class MPMSolver:
                     v += w * dv
                 else:
                     v = dv
+        return v
+
+    @ti.func
+    def _colliders(self, X, v, base):
+        """Colliders on ``v`` at ``X``: trilinear signed distance in the collider's frame (pose and velocity
+        from the time table row at ``base``); inside (``phi <= 0``), :meth:`_collide_n` relative to the
+        collider's velocity with the outward normal."""
         for c in range(self.n_col):
             r = c * 9
             p0 = base + 1 + 18 * c
@@ -417,7 +468,7 @@ class MPMSolver:
 
     @ti.func
     def _base_fx(self, xp):
-        X = (xp - self.lo[None]) * self.sc[2]
+        X = (xp - self.lo[None]) * self.inv_dx[None]
         base = ti.cast(ti.floor(X - 0.5), ti.i32)
         ok = base.min() >= 0 and base.max() <= self.n_grid - 3
         fx = X - ti.cast(base, self.real)
@@ -624,13 +675,13 @@ class MPMSolver:
         if not ok:
             ti.atomic_add(self.n_out[None], 1)
         else:
-            dt = self.sc[0]
-            inv_dx = self.sc[2]
+            dt = self.dt[None]
+            inv_dx = self.inv_dx[None]
             C = self.C[p]
             F = (ti.Matrix.identity(self.real, 3) + dt * C) @ self.F[p]
             tau = self._constitutive(p, F)
             m = self.p_mass[p]
-            dx = self.sc[1]
+            dx = self.dx[None]
             affine = (-dt * self.p_vol[p] * 4.0 * inv_dx * inv_dx) * tau + m * C
             A = affine * dx
             mv0 = m * self.v[p] - A @ fx
@@ -686,14 +737,14 @@ class MPMSolver:
                     B[0, 2] += ti.static(float(k)) * gv[0]
                     B[1, 2] += ti.static(float(k)) * gv[1]
                     B[2, 2] += ti.static(float(k)) * gv[2]
-            new_C = (4.0 * self.sc[2]) * (B - new_v.outer_product(fx))
+            new_C = (4.0 * self.inv_dx[None]) * (B - new_v.outer_product(fx))
             if ti.static(self.any_fixed):
                 if self.fixed[p] != 0:
                     new_v = ti.Vector.zero(self.real, 3)
                     new_C = ti.Matrix.zero(self.real, 3, 3)
             self.v[p] = new_v
             self.C[p] = new_C
-            self.x[p] += self.sc[0] * new_v
+            self.x[p] += self.dt[None] * new_v
 
     # ------------------------------------------------------------------ kernels
     @ti.kernel
@@ -732,7 +783,7 @@ class MPMSolver:
         Only nodes that received mass count, with the weights renormalised over them: a surface point
         half a spacing outside the material sees empty nodes (velocity 0, not the material's) in its
         stencil, which would hold it back. ``C`` is the weighted least-squares fit of those nodes'
-        velocities (APIC's ``C`` on a full stencil). The point then advances over the ``m = pab[2 pair]``
+        velocities (APIC's ``C`` on a full stencil). The point then advances over the ``m = passive_substeps[pair]``
         substeps since its last gather through the affine field
         ``v(y, k) = v_prev + (k/m)(v_new - v_prev) + (C_prev + (k/m)(C_new - C_prev)) y``,
         ``y += dt v(y, k)`` for ``k = 1..m`` (:func:`gasp_core.toolkit.substeps.passive_schedule`), so it turns with
@@ -765,7 +816,7 @@ class MPMSolver:
                 # centred moments; a tiny ridge (1e-4 of a full stencil's wsum / 4) where the nodes with mass are planar
                 Svr -= wsum * new_v.outer_product(rbar)
                 Srr += ti.Matrix.identity(self.real, 3) * (2.5e-5 * wsum) - wsum * rbar.outer_product(rbar)
-                new_C = self.sc[2] * (Svr @ Srr.inverse())
+                new_C = self.inv_dx[None] * (Svr @ Srr.inverse())
             v_prev = self.v[p]
             C_prev = self.C[p]
             if ti.static(self.any_fixed):
@@ -774,8 +825,8 @@ class MPMSolver:
                     new_C = ti.Matrix.zero(self.real, 3, 3)
                     v_prev = new_v
                     C_prev = new_C
-            m = ti.cast(self.pab[2 * pair] + 0.5, ti.i32)
-            dt = self.sc[0]
+            m = self.passive_substeps[pair]
+            dt = self.dt[None]
             y = ti.Vector.zero(self.real, 3)
             for kk in range(m):
                 t = ti.cast(kk + 1, self.real) / ti.cast(m, self.real)
@@ -853,7 +904,7 @@ class MPMSolver:
                     self.grid_g[t, I] = ti.Vector.zero(self.real, 3)
             v = ti.Vector.zero(self.real, 3)
             if acc[3] > 0.0:
-                v = ti.Vector([acc[0], acc[1], acc[2]]) / acc[3] + self.sc[0] * self.gravity[None]
+                v = ti.Vector([acc[0], acc[1], acc[2]]) / acc[3] + self.dt[None] * self.gravity[None]
                 if ti.static(self.has_extras):
                     v = self._extras(I, v, acc[3], gsurf)
                 for b in ti.static(range(self.n_walls)):

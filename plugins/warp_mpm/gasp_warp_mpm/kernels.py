@@ -2,7 +2,12 @@
 
 One set of kernels is built per scalar type (``wp.float32`` or ``wp.float64``) by
 :func:`build_kernels`: the kernels are closures over the scalar, vector and matrix types, so the
-same source serves both precisions (Warp compiles one instantiation per type).
+same source serves both precisions (Warp compiles one instantiation per type). It assembles one
+builder per concern, each cached per scalar type so that the functions they share are built once:
+:func:`build_grid_funcs` (grid indexing, weights, collide), :func:`build_elastic_funcs`,
+:func:`build_plastic_funcs` and :func:`build_stress_funcs` (stresses and return mappings),
+:func:`build_extras` (colliders, forces, impulses), :func:`build_p2g`, :func:`build_grid_update`,
+:func:`build_g2p`, :func:`build_g2p_passive` and :func:`build_checks`.
 
 Grid layout: a flat array of ``n_grid**3`` nodes, node ``(i, j, k)`` at flat index
 ``(i * n_grid + j) * n_grid + k``. ``grid_mv`` holds ``(momentum, mass)`` per node as a 4-vector
@@ -18,6 +23,7 @@ This module must not use ``from __future__ import annotations``: Warp reads the 
 the closures below as type objects.
 """
 import functools
+import types
 
 import warp as wp
 
@@ -31,21 +37,16 @@ _OPTS = {"optimization_level": 3}
 
 
 @functools.cache
-def build_kernels(Ft):
-    """The solver's kernels for the scalar type ``Ft`` (``wp.float32`` or ``wp.float64``).
+def build_types(Ft):
+    """``(vec3, vec4, mat33)``: Warp vector and matrix types of the scalar type ``Ft``."""
+    return wp.types.vector(3, Ft), wp.types.vector(4, Ft), wp.types.matrix((3, 3), Ft)
 
-    Returns
-    -------
-    types.SimpleNamespace
-        ``vec3, vec4, mat33`` (types) and the kernels ``p2g, grid_update, g2p, g2p_passive, check``.
-    """
-    import types
 
-    vec3 = wp.types.vector(3, Ft)
-    vec4 = wp.types.vector(4, Ft)
-    mat33 = wp.types.matrix((3, 3), Ft)
-    # Newton polar iteration stops when the l1 change of X is below this (about 30 ulp of 1).
-    POLAR_TOL = Ft(4e-6) if Ft == wp.float32 else Ft(1e-13)
+@functools.cache
+def build_grid_funcs(Ft):
+    """``(in_grid, weights, collide)``: grid-stencil test, quadratic B-spline weights and the Coulomb
+    collider, shared by the kernels of scalar type ``Ft``."""
+    vec3, vec4, mat33 = build_types(Ft)
 
     @wp.func
     def in_grid(X: vec3, n_grid: int):
@@ -68,6 +69,31 @@ def build_kernels(Ft):
         w1 = vec3(Ft(0.75)) - wp.cw_mul(t1, t1)
         w2 = Ft(0.5) * wp.cw_mul(t2, t2)
         return wp.matrix_from_rows(w0, w1, w2)
+
+    @wp.func
+    def collide(v: vec3, n: vec3, mu_b: Ft):
+        # taichi_elements' "separate" collider with Coulomb friction mu_b (docs/mpm.md step 3).
+        vn = wp.dot(v, n)
+        out = v
+        if vn < Ft(0.0):
+            vt = v - vn * n
+            lt = wp.length(vt)
+            if lt > Ft(1e-30):
+                out = vt * wp.max(Ft(0.0), Ft(1.0) + mu_b * vn / lt)
+            else:
+                out = vec3(Ft(0.0))
+        return out
+
+    return in_grid, weights, collide
+
+
+@functools.cache
+def build_elastic_funcs(Ft):
+    """``(hencky_tau, corotated_tau, jelly_tau)``: Kirchhoff stresses of scalar type ``Ft`` (Hencky strain,
+    fixed corotated from an SVD, fixed corotated with the polar rotation)."""
+    vec3, vec4, mat33 = build_types(Ft)
+    # Newton polar iteration stops when the l1 change of X is below this (about 30 ulp of 1).
+    POLAR_TOL = Ft(4e-6) if Ft == wp.float32 else Ft(1e-13)
 
     @wp.func
     def hencky_tau(U: mat33, eps: vec3, mu: Ft, lam: Ft):
@@ -113,18 +139,126 @@ def build_kernels(Ft):
         return Ft(2.0) * mu * (Fp - R) * wp.transpose(Fp) + wp.identity(3, dtype=Ft) * (lam * J * (J - Ft(1.0)))
 
     @wp.func
-    def collide(v: vec3, n: vec3, mu_b: Ft):
-        # taichi_elements' "separate" collider with Coulomb friction mu_b (docs/mpm.md step 3).
-        vn = wp.dot(v, n)
-        out = v
-        if vn < Ft(0.0):
-            vt = v - vn * n
-            lt = wp.length(vt)
-            if lt > Ft(1e-30):
-                out = vt * wp.max(Ft(0.0), Ft(1.0) + mu_b * vn / lt)
+    def jelly_tau(Fp: mat33, mu: Ft, lam: Ft):
+        # fixed corotated with R from the polar iteration; the SVD's U V^T where det F <= 0 or no convergence
+        R, ok = polar_rotation(Fp, POLAR_TOL)
+        if ok == 0:  # det F <= 0 (inverted) or no convergence: R = U V^T from the SVD
+            U = mat33()
+            sig = vec3()
+            V = mat33()
+            wp.svd3(Fp, U, sig, V)
+            R = U * wp.transpose(V)
+        J = wp.determinant(Fp)
+        return Ft(2.0) * mu * (Fp - R) * wp.transpose(Fp) + wp.identity(3, dtype=Ft) * (lam * J * (J - Ft(1.0)))
+
+    return hencky_tau, corotated_tau, jelly_tau
+
+
+@functools.cache
+def build_plastic_funcs(Ft):
+    """``(hencky_return, snow_return)``: return mappings and stresses of the plastic materials (metal,
+    plasticine, sand; snow) for the scalar type ``Ft``."""
+    vec3, vec4, mat33 = build_types(Ft)
+    hencky_tau, corotated_tau, _ = build_elastic_funcs(Ft)
+
+    @wp.func
+    def hencky_return(F_trial: mat33, mu: Ft, lam: Ft, kind: int, b: int, p: int,
+                      mat_par: wp.array2d(dtype=Ft), Jp: wp.array(dtype=Ft)):
+        # metal, plasticine (von Mises, Jp += plastic strain) and sand (Drucker-Prager) in Hencky strain:
+        # returns (F after the return mapping, tau)
+        Fp = F_trial
+        U = mat33()
+        sig = vec3()
+        V = mat33()
+        wp.svd3(Fp, U, sig, V)
+        eps = vec3(wp.log(wp.max(sig[0], Ft(1e-4))), wp.log(wp.max(sig[1], Ft(1e-4))),
+                   wp.log(wp.max(sig[2], Ft(1e-4))))
+        tr = eps[0] + eps[1] + eps[2]
+        e = eps - vec3(tr / Ft(3.0))
+        e_norm = wp.length(e)
+        if kind == SAND:
+            if tr >= Ft(0.0):
+                eps = vec3(Ft(0.0))
             else:
-                out = vec3(Ft(0.0))
-        return out
+                dg = e_norm + (Ft(3.0) * lam + Ft(2.0) * mu) / (Ft(2.0) * mu) * tr * mat_par[b, P_ALPHA]
+                if dg > Ft(0.0):
+                    eps = eps - (dg / e_norm) * e
+            Fp = U * wp.diag(vec3(wp.exp(eps[0]), wp.exp(eps[1]), wp.exp(eps[2]))) * wp.transpose(V)
+        else:
+            ys = mat_par[b, P_YIELD]
+            jp = Jp[p]
+            if kind == PLASTICINE:
+                ys = ys * wp.max(Ft(0.0), Ft(1.0) - mat_par[b, P_SOFTENING] * jp)
+            dg = e_norm - Ft(VON_MISES_RADIUS) * ys / (Ft(2.0) * mu)   # ||dev tau|| <= sqrt(2/3) Y
+            if dg > Ft(0.0):
+                eps = eps - (dg / e_norm) * e
+                Fp = U * wp.diag(vec3(wp.exp(eps[0]), wp.exp(eps[1]), wp.exp(eps[2]))) * wp.transpose(V)
+            if kind == PLASTICINE:
+                Jp[p] = jp + wp.max(dg, Ft(0.0))
+        return Fp, hencky_tau(U, eps, mu, lam)
+
+    @wp.func
+    def snow_return(F_trial: mat33, mu: Ft, lam: Ft, b: int, p: int, mat_par: wp.array2d(dtype=Ft),
+                    Jp: wp.array(dtype=Ft)):
+        # singular values clamped to [1 - theta_c, 1 + theta_s], hardening exp(xi (1 - Jp)):
+        # returns (F after the return mapping, tau)
+        U = mat33()
+        sig = vec3()
+        V = mat33()
+        wp.svd3(F_trial, U, sig, V)
+        jp = Jp[p]
+        h = wp.exp(mat_par[b, P_HARDENING] * (Ft(1.0) - jp))
+        s_lo = Ft(1.0) - mat_par[b, P_THETA_C]
+        s_hi = Ft(1.0) + mat_par[b, P_THETA_S]
+        sc = vec3(wp.clamp(sig[0], s_lo, s_hi), wp.clamp(sig[1], s_lo, s_hi), wp.clamp(sig[2], s_lo, s_hi))
+        Jp[p] = jp * (sig[0] * sig[1] * sig[2]) / (sc[0] * sc[1] * sc[2])
+        Fp = U * wp.diag(sc) * wp.transpose(V)
+        return Fp, corotated_tau(Fp, U, V, mu * h, lam * h)
+
+    return hencky_return, snow_return
+
+
+@functools.cache
+def build_stress_funcs(Ft):
+    """``return_mapping``: the per-material return mapping and Kirchhoff stress (docs/mpm.md) for the
+    scalar type ``Ft``."""
+    vec3, vec4, mat33 = build_types(Ft)
+    jelly_tau = build_elastic_funcs(Ft)[2]
+    hencky_return, snow_return = build_plastic_funcs(Ft)
+
+    @wp.func
+    def return_mapping(F_trial: mat33, p: int, body: wp.array(dtype=wp.int32), mat_kind: wp.array(dtype=wp.int32),
+                       mat_par: wp.array2d(dtype=Ft), Jp: wp.array(dtype=Ft)):
+        # return mapping and Kirchhoff stress of point p (docs/mpm.md table): (F, tau); writes Jp[p]
+        Fp = F_trial
+        b = body[p]
+        kind = mat_kind[b]
+        mu = mat_par[b, P_MU]
+        lam = mat_par[b, P_LAM]
+        tau = mat33()
+        if kind == JELLY:
+            tau = jelly_tau(Fp, mu, lam)
+        elif kind == NEO_HOOKEAN:
+            J = wp.determinant(Fp)
+            tau = mu * (Fp * wp.transpose(Fp) - wp.identity(3, dtype=Ft)) + wp.identity(3, dtype=Ft) * (
+                lam * wp.log(wp.max(J, Ft(1e-6))))
+        elif kind == METAL or kind == PLASTICINE or kind == SAND:
+            Fp, tau = hencky_return(Fp, mu, lam, kind, b, p, mat_par, Jp)
+        elif kind == SNOW:
+            Fp, tau = snow_return(Fp, mu, lam, b, p, mat_par, Jp)
+        else:  # LIQUID
+            J = wp.determinant(Fp)
+            Fp = wp.identity(3, dtype=Ft) * wp.pow(J, Ft(1.0) / Ft(3.0))
+            tau = wp.identity(3, dtype=Ft) * (mat_par[b, P_K] * J * (J - Ft(1.0)))
+        return Fp, tau
+
+    return return_mapping
+
+
+@functools.cache
+def build_extras_struct(Ft):
+    """``Extras``: the struct of colliders, forces and impulses (:func:`gasp_core.toolkit.grid_tables.grid_tables`,
+    ``frame_table``) of scalar type ``Ft``."""
 
     @wp.struct
     class Extras:
@@ -141,17 +275,24 @@ def build_kernels(Ft):
         n_force: int
         n_imp: int
         width: int
+    return Extras
+
+
+@functools.cache
+def build_force_funcs(Ft):
+    """``(apply_forces, apply_impulses)``: forces and impulses on a grid node's velocity, scalar type ``Ft``."""
+    vec3, vec4, mat33 = build_types(Ft)
+    Extras = build_extras_struct(Ft)
 
     @wp.func
-    def extras(v_in: vec3, X: vec3, dt: Ft, m: Ft, gsurf: vec3, ex: Extras):
-        # Forces, impulses, then colliders at a node (the same order as taichi_mpm's _extras).
+    def apply_forces(v_in: vec3, X: vec3, dt: Ft, m: Ft, gsurf: vec3, t: Ft, ex: Extras):
         # Wind (docs/colliders.md): quadratic drag on the windward surface, F = 1/2 rho_air C_d A |w| w,
         # w = u - v, A = max(0, gsurf . w / |w|) (gsurf = sum_p p_vol grad N_ip, m^2: the node's share
         # of the area the body shows the relative wind); applied implicitly in the drag rate
         # k = 1/2 rho_air C_d A |w| / m: v += w dt k / (1 + dt k), so it never overshoots the wind.
+        # Point forces: acceleration "strength" along centre - X, linear in r inside the radius, constant
+        # (or falling as 1/r^2) outside.
         v = v_in
-        base = ex.step[0] * ex.width
-        t = ex.tab[base]
         for f in range(ex.n_force):
             r = f * 12
             a = vec3(Ft(0.0))
@@ -182,6 +323,12 @@ def build_kernels(Ft):
                 if rr > Ft(0.0):
                     a = d * (mag / rr)
             v = v + dt * a
+        return v
+
+    @wp.func
+    def apply_impulses(v_in: vec3, X: vec3, base: int, ex: Extras):
+        # impulses over a box or a sphere, weighted by the substep's time-table entry: add dv, or set v = dv
+        v = v_in
         for q in range(ex.n_imp):
             r = q * 11
             c = vec3(ex.imps[r + 1], ex.imps[r + 2], ex.imps[r + 3])
@@ -199,6 +346,23 @@ def build_kernels(Ft):
                     v = v + w * dv
                 else:
                     v = dv
+        return v
+
+    return apply_forces, apply_impulses
+
+
+@functools.cache
+def build_collider_func(Ft):
+    """``apply_colliders``: the colliders' signed distances on a grid node's velocity, scalar type ``Ft``."""
+    vec3, vec4, mat33 = build_types(Ft)
+    collide = build_grid_funcs(Ft)[2]
+    Extras = build_extras_struct(Ft)
+
+    @wp.func
+    def apply_colliders(v_in: vec3, X: vec3, base: int, ex: Extras):
+        # each collider: trilinear signed distance and gradient in its frame (pose and velocity from the
+        # substep's time-table row); inside (phi <= 0) collide relative to the collider's velocity
+        v = v_in
         for cc in range(ex.n_col):
             r = cc * 9
             p0 = base + 1 + 18 * cc
@@ -246,112 +410,49 @@ def build_kernels(Ft):
                     v = vc + collide(v - vc, n, ex.meta[r + 8])
         return v
 
+    return apply_colliders
+
+
+@functools.cache
+def build_extras(Ft):
+    """``(Extras, extras, tick)``: the struct of colliders, forces and impulses, the function applying them
+    at a grid node and the kernel advancing the time table's substep, for the scalar type ``Ft``."""
+    vec3, vec4, mat33 = build_types(Ft)
+    Extras = build_extras_struct(Ft)
+    apply_forces, apply_impulses = build_force_funcs(Ft)
+    apply_colliders = build_collider_func(Ft)
+
+    @wp.func
+    def extras(v_in: vec3, X: vec3, dt: Ft, m: Ft, gsurf: vec3, ex: Extras):
+        # Forces, impulses, then colliders at a node (the same order as taichi_mpm's _extras).
+        base = ex.step[0] * ex.width
+        t = ex.tab[base]
+        v = apply_forces(v_in, X, dt, m, gsurf, t, ex)
+        v = apply_impulses(v, X, base, ex)
+        return apply_colliders(v, X, base, ex)
+
     @wp.kernel(enable_backward=False, module="unique", module_options=_OPTS)
     def tick(step: wp.array(dtype=wp.int32)):
         step[0] = step[0] + 1
 
-    @wp.kernel(enable_backward=False, module="unique", module_options=_OPTS)
-    def p2g(
-        x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), F: wp.array(dtype=mat33),
-        C: wp.array(dtype=mat33), Jp: wp.array(dtype=Ft), p_mass: wp.array(dtype=Ft),
-        p_vol: wp.array(dtype=Ft), body: wp.array(dtype=wp.int32),
-        mat_kind: wp.array(dtype=wp.int32), mat_par: wp.array2d(dtype=Ft),
-        grid_mv: wp.array(dtype=vec4), n_out: wp.array(dtype=wp.int32),
-        lo: vec3, inv_dx: Ft, dx: Ft, dt: Ft, n_grid: int, grid_g: wp.array(dtype=vec3), has_wind: int,
-    ):
-        # with wind, grid_g += p_vol grad N_ip (m^2; the gradient of the volume fraction times dx^3)
-        p = wp.tid()
-        X = (x[p] - lo) * inv_dx
-        if not in_grid(X, n_grid):
-            wp.atomic_add(n_out, 0, 1)
-            return
-        b0 = wp.floor(X[0] - Ft(0.5))
-        b1 = wp.floor(X[1] - Ft(0.5))
-        b2 = wp.floor(X[2] - Ft(0.5))
-        fx = X - vec3(b0, b1, b2)
-        W = weights(fx)
+    return Extras, extras, tick
 
-        # --- deformation gradient, return mapping and Kirchhoff stress (docs/mpm.md) ---
-        Cp = C[p]
-        Fp = (wp.identity(3, dtype=Ft) + dt * Cp) * F[p]
-        b = body[p]
-        kind = mat_kind[b]
-        mu = mat_par[b, P_MU]
-        lam = mat_par[b, P_LAM]
-        tau = mat33()
-        if kind == JELLY:
-            R, ok = polar_rotation(Fp, POLAR_TOL)
-            if ok == 0:  # det F <= 0 (inverted) or no convergence: R = U V^T from the SVD
-                U = mat33()
-                sig = vec3()
-                V = mat33()
-                wp.svd3(Fp, U, sig, V)
-                R = U * wp.transpose(V)
-            J = wp.determinant(Fp)
-            tau = Ft(2.0) * mu * (Fp - R) * wp.transpose(Fp) + wp.identity(3, dtype=Ft) * (lam * J * (J - Ft(1.0)))
-        elif kind == NEO_HOOKEAN:
-            J = wp.determinant(Fp)
-            tau = mu * (Fp * wp.transpose(Fp) - wp.identity(3, dtype=Ft)) + wp.identity(3, dtype=Ft) * (
-                lam * wp.log(wp.max(J, Ft(1e-6))))
-        elif kind == METAL or kind == PLASTICINE or kind == SAND:
-            U = mat33()
-            sig = vec3()
-            V = mat33()
-            wp.svd3(Fp, U, sig, V)
-            eps = vec3(wp.log(wp.max(sig[0], Ft(1e-4))), wp.log(wp.max(sig[1], Ft(1e-4))),
-                       wp.log(wp.max(sig[2], Ft(1e-4))))
-            tr = eps[0] + eps[1] + eps[2]
-            e = eps - vec3(tr / Ft(3.0))
-            e_norm = wp.length(e)
-            if kind == SAND:
-                if tr >= Ft(0.0):
-                    eps = vec3(Ft(0.0))
-                else:
-                    dg = e_norm + (Ft(3.0) * lam + Ft(2.0) * mu) / (Ft(2.0) * mu) * tr * mat_par[b, P_ALPHA]
-                    if dg > Ft(0.0):
-                        eps = eps - (dg / e_norm) * e
-                Fp = U * wp.diag(vec3(wp.exp(eps[0]), wp.exp(eps[1]), wp.exp(eps[2]))) * wp.transpose(V)
-            else:
-                ys = mat_par[b, P_YIELD]
-                jp = Jp[p]
-                if kind == PLASTICINE:
-                    ys = ys * wp.max(Ft(0.0), Ft(1.0) - mat_par[b, P_SOFTENING] * jp)
-                dg = e_norm - Ft(VON_MISES_RADIUS) * ys / (Ft(2.0) * mu)   # ||dev tau|| <= sqrt(2/3) Y
-                if dg > Ft(0.0):
-                    eps = eps - (dg / e_norm) * e
-                    Fp = U * wp.diag(vec3(wp.exp(eps[0]), wp.exp(eps[1]), wp.exp(eps[2]))) * wp.transpose(V)
-                if kind == PLASTICINE:
-                    Jp[p] = jp + wp.max(dg, Ft(0.0))
-            tau = hencky_tau(U, eps, mu, lam)
-        elif kind == SNOW:
-            U = mat33()
-            sig = vec3()
-            V = mat33()
-            wp.svd3(Fp, U, sig, V)
-            jp = Jp[p]
-            h = wp.exp(mat_par[b, P_HARDENING] * (Ft(1.0) - jp))
-            s_lo = Ft(1.0) - mat_par[b, P_THETA_C]
-            s_hi = Ft(1.0) + mat_par[b, P_THETA_S]
-            sc = vec3(wp.clamp(sig[0], s_lo, s_hi), wp.clamp(sig[1], s_lo, s_hi), wp.clamp(sig[2], s_lo, s_hi))
-            Jp[p] = jp * (sig[0] * sig[1] * sig[2]) / (sc[0] * sc[1] * sc[2])
-            Fp = U * wp.diag(sc) * wp.transpose(V)
-            tau = corotated_tau(Fp, U, V, mu * h, lam * h)
-        else:  # LIQUID
-            J = wp.determinant(Fp)
-            Fp = wp.identity(3, dtype=Ft) * wp.pow(J, Ft(1.0) / Ft(3.0))
-            tau = wp.identity(3, dtype=Ft) * (mat_par[b, P_K] * J * (J - Ft(1.0)))
-        F[p] = Fp
 
-        # --- scatter: grid_v += w (p_mass v + affine dpos), grid_m += w p_mass ---
-        pm = p_mass[p]
-        affine = (-dt * p_vol[p] * Ft(4.0) * inv_dx * inv_dx) * tau + pm * Cp
-        A = dx * affine  # affine dpos = A ((i, j, k) - fx)
+@functools.cache
+def build_p2g(Ft):
+    """The P2G kernel ``p2g`` of scalar type ``Ft``: return mapping, stress, scatter."""
+    vec3, vec4, mat33 = build_types(Ft)
+    in_grid, weights, _ = build_grid_funcs(Ft)
+    return_mapping = build_stress_funcs(Ft)
+
+    @wp.func
+    def scatter(grid_mv: wp.array(dtype=vec4), idx0: int, n_grid: int, W: mat33, mom0: vec3, A: mat33, pm: Ft):
+        # grid_v += w (p_mass v + affine dpos), grid_m += w p_mass over the 27 nodes from flat index idx0;
+        # affine dpos = A ((i, j, k) - fx) is added a column of A per node step
         a0 = vec3(A[0, 0], A[1, 0], A[2, 0])
         a1 = vec3(A[0, 1], A[1, 1], A[2, 1])
         a2 = vec3(A[0, 2], A[1, 2], A[2, 2])
-        mom0 = pm * v[p] - A * fx
         nn = n_grid * n_grid
-        idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
         mi = mom0
         for i in range(3):
             mj = mi
@@ -366,16 +467,62 @@ def build_kernels(Ft):
                     mk = mk + a2
                 mj = mj + a1
             mi = mi + a0
+
+    @wp.func
+    def scatter_wind(grid_g: wp.array(dtype=vec3), idx0: int, n_grid: int, W: mat33, fx: vec3, sv: Ft):
+        # grid_g += p_vol grad N_ip (m^2; the gradient of the volume fraction times dx^3), sv = p_vol inv_dx
+        # d N / d x_node per axis (cells): rows of node offsets 0, 1, 2
+        dW = wp.matrix_from_rows(vec3(Ft(1.5)) - fx, Ft(2.0) * (fx - vec3(Ft(1.0))), vec3(Ft(0.5)) - fx)
+        nn = n_grid * n_grid
+        for i in range(3):
+            for j in range(3):
+                row = idx0 + i * nn + j * n_grid
+                for k in range(3):
+                    grid_g[row + k] += sv * vec3(dW[i, 0] * W[j, 1] * W[k, 2], W[i, 0] * dW[j, 1] * W[k, 2],
+                                                 W[i, 0] * W[j, 1] * dW[k, 2])
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=_OPTS)
+    def p2g(
+        x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), F: wp.array(dtype=mat33),
+        C: wp.array(dtype=mat33), Jp: wp.array(dtype=Ft), p_mass: wp.array(dtype=Ft),
+        p_vol: wp.array(dtype=Ft), body: wp.array(dtype=wp.int32),
+        mat_kind: wp.array(dtype=wp.int32), mat_par: wp.array2d(dtype=Ft),
+        grid_mv: wp.array(dtype=vec4), n_out: wp.array(dtype=wp.int32),
+        lo: vec3, inv_dx: Ft, dx: Ft, dt: Ft, n_grid: int, grid_g: wp.array(dtype=vec3), has_wind: int,
+    ):
+        # F advanced by C, return mapping and stress (docs/mpm.md), then the scatter (and, with wind, grid_g)
+        p = wp.tid()
+        X = (x[p] - lo) * inv_dx
+        if not in_grid(X, n_grid):
+            wp.atomic_add(n_out, 0, 1)
+            return
+        b0 = wp.floor(X[0] - Ft(0.5))
+        b1 = wp.floor(X[1] - Ft(0.5))
+        b2 = wp.floor(X[2] - Ft(0.5))
+        fx = X - vec3(b0, b1, b2)
+        W = weights(fx)
+        Cp = C[p]
+        F_new, tau = return_mapping((wp.identity(3, dtype=Ft) + dt * Cp) * F[p], p, body, mat_kind, mat_par, Jp)
+        F[p] = F_new
+        pm = p_mass[p]
+        affine = (-dt * p_vol[p] * Ft(4.0) * inv_dx * inv_dx) * tau + pm * Cp
+        A = dx * affine  # affine dpos = A ((i, j, k) - fx)
+        mom0 = pm * v[p] - A * fx
+        idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
+        scatter(grid_mv, idx0, n_grid, W, mom0, A, pm)
         if has_wind != 0:
-            # d N / d x_node per axis (cells): rows of node offsets 0, 1, 2
-            dW = wp.matrix_from_rows(vec3(Ft(1.5)) - fx, Ft(2.0) * (fx - vec3(Ft(1.0))), vec3(Ft(0.5)) - fx)
-            sv = p_vol[p] * inv_dx
-            for i in range(3):
-                for j in range(3):
-                    row = idx0 + i * nn + j * n_grid
-                    for k in range(3):
-                        grid_g[row + k] += sv * vec3(dW[i, 0] * W[j, 1] * W[k, 2], W[i, 0] * dW[j, 1] * W[k, 2],
-                                                     W[i, 0] * W[j, 1] * dW[k, 2])
+            scatter_wind(grid_g, idx0, n_grid, W, fx, p_vol[p] * inv_dx)
+
+    return p2g
+
+
+@functools.cache
+def build_grid_update(Ft):
+    """The grid-update kernel ``grid_update`` of scalar type ``Ft``: node velocity, gravity, extras,
+    boundaries."""
+    vec3, vec4, mat33 = build_types(Ft)
+    collide = build_grid_funcs(Ft)[2]
+    Extras, extras, _ = build_extras(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=_OPTS)
     def grid_update(
@@ -430,6 +577,15 @@ def build_kernels(Ft):
         grid_mv[node] = vec4(Ft(0.0))
         if has_wind != 0:
             grid_g[node] = vec3(Ft(0.0))
+
+    return grid_update
+
+
+@functools.cache
+def build_g2p(Ft):
+    """``g2p``: the G2P kernel of scalar type ``Ft`` for material points (with the position update)."""
+    vec3, vec4, mat33 = build_types(Ft)
+    in_grid, weights, _ = build_grid_funcs(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=_OPTS)
     def g2p(
@@ -492,6 +648,15 @@ def build_kernels(Ft):
         C[p] = (Ft(4.0) * inv_dx) * (B - wp.outer(new_v, fx))
         v[p] = new_v
         x[p] = xp + dt * new_v
+
+    return g2p
+
+
+@functools.cache
+def build_g2p_passive(Ft):
+    """``g2p_passive``: the G2P kernel of scalar type ``Ft`` for passive points."""
+    vec3, vec4, mat33 = build_types(Ft)
+    in_grid, weights, _ = build_grid_funcs(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=_OPTS)
     def g2p_passive(
@@ -559,6 +724,15 @@ def build_kernels(Ft):
         v[p] = new_v + Cn * y
         C[p] = Cn
 
+    return g2p_passive
+
+
+
+@functools.cache
+def build_checks(Ft):
+    """``(check, svd)``: the finite-state kernel and ``wp.svd3`` on the CPU (for the tests), scalar type ``Ft``."""
+    vec3, vec4, mat33 = build_types(Ft)
+
     @wp.kernel(enable_backward=False, module="unique", module_options=_OPTS)
     def check(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), flags: wp.array(dtype=wp.int32)):
         # flags[1] counts points whose x or v is not finite.
@@ -593,5 +767,24 @@ def build_kernels(Ft):
         wp.launch(svd_kernel, dim=n, inputs=[a, U, sig, V], device="cpu")
         return U.numpy(), sig.numpy(), V.numpy()
 
-    return types.SimpleNamespace(vec3=vec3, vec4=vec4, mat33=mat33, p2g=p2g, Extras=Extras, tick=tick,
-                                 grid_update=grid_update, g2p=g2p, g2p_passive=g2p_passive, check=check, svd=svd)
+    return check, svd
+
+
+@functools.cache
+def build_kernels(Ft):
+    """The solver's kernels for the scalar type ``Ft`` (``wp.float32`` or ``wp.float64``).
+
+    Returns
+    -------
+    types.SimpleNamespace
+        ``vec3, vec4, mat33`` (types), ``Extras`` (struct) and the kernels ``p2g, grid_update, g2p,
+        g2p_passive, check, tick``, and ``svd`` (a function).
+    """
+    vec3, vec4, mat33 = build_types(Ft)
+    Extras, _, tick = build_extras(Ft)
+    g2p, g2p_passive = build_g2p(Ft), build_g2p_passive(Ft)
+    check, svd = build_checks(Ft)
+    return types.SimpleNamespace(vec3=vec3, vec4=vec4, mat33=mat33, p2g=build_p2g(Ft), Extras=Extras, tick=tick,
+                                 grid_update=build_grid_update(Ft), g2p=g2p, g2p_passive=g2p_passive, check=check,
+                                 svd=svd)
+

@@ -102,60 +102,63 @@ class WarpMPMEngine:
         choose_dt(setup, opts)  # refuses a scene past max_substeps before any build work
         check_memory(estimate_bytes(len(setup.x), setup.n_grid, opts["precision"]), ENGINE,
                      f"{len(setup.x)} points, n_grid {setup.n_grid}, {opts['precision']}")
-
-        wp.config.log_level = wp.LOG_WARNING  # no start-up banner or module-load lines on stdout
-        _init_warp(cpu_only=not opts["device"].startswith("cuda"))
-        dev = opts["device"]
-        if dev.startswith("cuda") and not wp.is_cuda_available():
-            raise EngineError(f"engine '{ENGINE}': device '{dev}' requested but Warp finds no CUDA "
-                              f"device here (driver missing or no GPU); use device = \"cpu\"")
-        try:
-            self.device = wp.get_device(dev)
-        except Exception as e:  # e.g. "cuda:3" on a one-GPU machine
-            raise EngineError(f"engine '{ENGINE}': device '{dev}' is not available: {e}") from e
+        self.device = self._start_warp(opts["device"])
         self.precision = opts["precision"]
         Ft = wp.float32 if self.precision == "f32" else wp.float64
         self._np_dtype = np.float32 if self.precision == "f32" else np.float64
         self.k = K.build_kernels(Ft)
 
-        self.n_points = n = len(setup.x)
+        self.n_points = len(setup.x)
         self.n_grid = int(setup.n_grid)
         self.dx = setup.dx
         self.inv_dx = 1.0 / self.dx
         self.n_substeps, self.dt = choose_dt(setup, opts)
         self.frame = 0
         self.sim_time = 0.0
-        lo = setup.domain_lo
-
-        # Points that start inside a fixed region are held (docs/mpm.md G2P).
-        fixed = fixed_mask(setup.x, setup.boundaries).astype(np.int32)
-        fixed_lo, fixed_hi, ground, wall_mu = [], [], [], []
-        for bd in setup.boundaries:
-            if bd.kind == "fixed_region":
-                fixed_lo.append(np.asarray(bd.lo, float))
-                fixed_hi.append(np.asarray(bd.hi, float))
-            elif bd.kind == "ground":
-                # the ground's top node layer, decided in float64 (gasp_core.toolkit.points.ground_top_node)
-                ground.append((float(ground_top_node(bd.height, lo[2], self.dx)), bd.friction, 0.0))
-            else:
-                wall_mu.append(bd.friction)
-
         # Sort points by grid cell (cache locality of scatter and gather); order[i] is the
         # setup index of internal point i.
         # Material points first, then the passive ones (SimSetup.passive: G2P only, no P2G).
-        order, self.n_material = material_first_order(setup, self.dx)
-        self._order = order
+        self._order, self.n_material = material_first_order(setup, self.dx)
+        self._upload_points(kinds, par, Ft)
+        self._allocate_grid(Ft)
+        self._upload_boundaries(Ft)
+        has_extras, ex = self._extras(setup, self._array, Ft)
+        self._launches = []
+        self._passive_at, self._tick = [None] * self.n_substeps, None
+        if self.n_points:
+            self._record_launches(Ft, has_extras, ex)
+        self._graph = None
+        self._closed = False
+
+    def _start_warp(self, dev: str):
+        """``wp.init()`` quietly; the Warp device named by option ``device``.
+
+        Raises EngineError where that device is missing."""
+        wp.config.log_level = wp.LOG_WARNING  # no start-up banner or module-load lines on stdout
+        _init_warp(cpu_only=not dev.startswith("cuda"))
+        if dev.startswith("cuda") and not wp.is_cuda_available():
+            raise EngineError(f"engine '{ENGINE}': device '{dev}' requested but Warp finds no CUDA "
+                              f"device here (driver missing or no GPU); use device = \"cpu\"")
+        try:
+            return wp.get_device(dev)
+        except Exception as e:  # e.g. "cuda:3" on a one-GPU machine
+            raise EngineError(f"engine '{ENGINE}': device '{dev}' is not available: {e}") from e
+
+    def _array(self, a, dtype) -> wp.array:
+        """``a`` (contiguous) as a Warp array of ``dtype`` on the engine's device."""
+        return wp.array(np.ascontiguousarray(a), dtype=dtype, device=self.device)
+
+    def _upload_points(self, kinds, par, Ft) -> None:
+        """The points' arrays in internal order (``self._order``) and the per-body material table.
+
+        Points that start inside a fixed region are held (docs/mpm.md G2P)."""
+        setup, order, dt_np, k, arr = self.setup, self._order, self._np_dtype, self.k, self._array
+        fixed = fixed_mask(setup.x, setup.boundaries).astype(np.int32)
         jp0 = initial_Jp(setup.materials, setup.body_id)
-        d, dt_np = self.device, self._np_dtype
-        k = self.k
-
-        def arr(a, dtype):
-            return wp.array(np.ascontiguousarray(a), dtype=dtype, device=d)
-
         self.x = arr(setup.x[order].astype(dt_np), k.vec3)
         self.v = arr(setup.v[order].astype(dt_np), k.vec3)
-        self.F = arr(np.broadcast_to(np.eye(3, dtype=dt_np), (n, 3, 3)), k.mat33)
-        self.C = (wp.zeros(n, dtype=k.mat33, device=d) if setup.C is None
+        self.F = arr(np.broadcast_to(np.eye(3, dtype=dt_np), (self.n_points, 3, 3)), k.mat33)
+        self.C = (wp.zeros(self.n_points, dtype=k.mat33, device=self.device) if setup.C is None
                   else arr(setup.C[order].astype(dt_np), k.mat33))
         self.Jp = arr(jp0[order].astype(dt_np), Ft)
         self.p_mass = arr(setup.p_mass[order].astype(dt_np), Ft)
@@ -164,58 +167,76 @@ class WarpMPMEngine:
         self.fixed = arr(fixed[order], wp.int32)
         self.mat_kind = arr(kinds, wp.int32)
         self.mat_par = arr(par.astype(dt_np), Ft)
+
+    def _allocate_grid(self, Ft) -> None:
+        """Grid arrays (momentum and mass, velocity, node mass for passive points, wind surface) and flags."""
+        d, k = self.device, self.k
         n_nodes = self.n_grid ** 3
         self.grid_mv = wp.zeros(n_nodes, dtype=k.vec4, device=d)
         self.grid_vel = wp.zeros(n_nodes, dtype=k.vec3, device=d)
-        n_passive = n - self.n_material
+        n_passive = self.n_points - self.n_material
         self.grid_m = wp.zeros(n_nodes if n_passive else 1, dtype=Ft, device=d)   # node mass (passive G2P)
         # with wind: sum_p p_vol grad N_ip per node (m^2), the windward area the drag acts on
-        has_wind = int(any(f.kind == "wind" for f in (getattr(setup, "forces", None) or [])))
-        self.grid_g = wp.zeros(n_nodes if has_wind else 1, dtype=k.vec3, device=d)
+        self.has_wind = int(any(f.kind == "wind" for f in (getattr(self.setup, "forces", None) or [])))
+        self.grid_g = wp.zeros(n_nodes if self.has_wind else 1, dtype=k.vec3, device=d)
         self.flags = wp.zeros(2, dtype=wp.int32, device=d)  # [out-of-grid count, non-finite count]
+
+    def _upload_boundaries(self, Ft) -> None:
+        """Walls' friction, grounds' (top node layer, friction, 0) and fixed regions' boxes as arrays."""
+        fixed_lo, fixed_hi, ground, wall_mu = [], [], [], []
+        for bd in self.setup.boundaries:
+            if bd.kind == "fixed_region":
+                fixed_lo.append(np.asarray(bd.lo, float))
+                fixed_hi.append(np.asarray(bd.hi, float))
+            elif bd.kind == "ground":
+                # the ground's top node layer, decided in float64 (gasp_core.toolkit.points.ground_top_node)
+                ground.append((float(ground_top_node(bd.height, self.setup.domain_lo[2], self.dx)), bd.friction, 0.0))
+            else:
+                wall_mu.append(bd.friction)
+        dt_np, k, arr = self._np_dtype, self.k, self._array
         self.wall_mu = arr(np.array(wall_mu, dtype=dt_np), Ft)
         self.ground = arr(np.array(ground, dtype=dt_np).reshape(-1, 3), k.vec3)
         self.fixed_lo = arr(np.array(fixed_lo, dtype=dt_np).reshape(-1, 3), k.vec3)
         self.fixed_hi = arr(np.array(fixed_hi, dtype=dt_np).reshape(-1, 3), k.vec3)
 
-        lo_v = k.vec3(*[float(c) for c in lo])
+    def _record_launches(self, Ft, has_extras: int, ex) -> None:
+        """Pre-recorded launches of a substep (P2G, grid update, G2P), of the passive points' G2P, of the
+        time-table tick and of the frame's finite check."""
+        setup, d, k = self.setup, self.device, self.k
+        lo_v = k.vec3(*[float(c) for c in setup.domain_lo])
         hi_v = k.vec3(*[float(c) for c in setup.domain_hi])
         g_v = k.vec3(*[float(c) for c in setup.gravity])
         inv_dx, dx, dt_f, ng = Ft(self.inv_dx), Ft(self.dx), Ft(self.dt), self.n_grid
-        has_extras, ex = self._extras(setup, arr, Ft)
-        self._launches = []
-        self._passive_at, self._tick = [None] * self.n_substeps, None
-        if n:
-            self._launches = [
-                wp.launch(k.p2g, dim=self.n_material, device=d, record_cmd=True, inputs=[
-                    self.x, self.v, self.F, self.C, self.Jp, self.p_mass, self.p_vol, self.body,
-                    self.mat_kind, self.mat_par, self.grid_mv, self.flags, lo_v, inv_dx, dx, dt_f, ng,
-                    self.grid_g, has_wind]),
-                wp.launch(k.grid_update, dim=n_nodes, device=d, record_cmd=True, inputs=[
-                    self.grid_mv, self.grid_vel, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, self.wall_mu,
-                    self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex, self.grid_g, has_wind]),
-                wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
-                    self.x, self.v, self.C, self.fixed, self.grid_vel, lo_v, inv_dx, dt_f, ng]),
-            ]
-            # passive points after the grid update (the grid velocity holds forces, colliders, boundaries):
-            # one launch per distinct interval m of passive_schedule, at the substeps it names
-            self._passive_at = [None] * self.n_substeps
-            if n_passive:
-                by_m: dict = {}
-                for s_, a_, b_ in passive_schedule(self.n_substeps, opts["passive_every"], self.dt):
-                    m_ = int(round((a_ + b_) / self.dt))      # substeps since the last gather
-                    if m_ not in by_m:
-                        by_m[m_] = wp.launch(
-                            k.g2p_passive, dim=n_passive, device=d, record_cmd=True, inputs=[
-                                self.x, self.v, self.C, self.fixed, self.grid_vel, self.grid_m, self.flags, lo_v,
-                                inv_dx, dt_f, m_, ng, self.n_material])
-                    self._passive_at[s_] = by_m[m_]
-            self._tick = (wp.launch(k.tick, dim=1, device=d, record_cmd=True, inputs=[ex.step])
-                          if has_extras else None)
-            self._check_launch = wp.launch(k.check, dim=n, device=d, record_cmd=True,
-                                           inputs=[self.x, self.v, self.flags])
-        self._graph = None
-        self._closed = False
+        self._launches = [
+            wp.launch(k.p2g, dim=self.n_material, device=d, record_cmd=True, inputs=[
+                self.x, self.v, self.F, self.C, self.Jp, self.p_mass, self.p_vol, self.body,
+                self.mat_kind, self.mat_par, self.grid_mv, self.flags, lo_v, inv_dx, dx, dt_f, ng,
+                self.grid_g, self.has_wind]),
+            wp.launch(k.grid_update, dim=ng ** 3, device=d, record_cmd=True, inputs=[
+                self.grid_mv, self.grid_vel, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, self.wall_mu,
+                self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex, self.grid_g, self.has_wind]),
+            wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
+                self.x, self.v, self.C, self.fixed, self.grid_vel, lo_v, inv_dx, dt_f, ng]),
+        ]
+        # passive points after the grid update (the grid velocity holds forces, colliders, boundaries):
+        # one launch per distinct interval of passive_schedule, at the substeps it names
+        self._passive_at = [None] * self.n_substeps
+        n_passive = self.n_points - self.n_material
+        if n_passive:
+            by_interval: dict = {}
+            schedule = passive_schedule(self.n_substeps, self.options["passive_every"], self.dt)
+            for substep, weight_prev, weight_now in schedule:
+                m = int(round((weight_prev + weight_now) / self.dt))   # substeps since the last gather
+                if m not in by_interval:
+                    by_interval[m] = wp.launch(
+                        k.g2p_passive, dim=n_passive, device=d, record_cmd=True, inputs=[
+                            self.x, self.v, self.C, self.fixed, self.grid_vel, self.grid_m, self.flags, lo_v,
+                            inv_dx, dt_f, m, ng, self.n_material])
+                self._passive_at[substep] = by_interval[m]
+        self._tick = (wp.launch(k.tick, dim=1, device=d, record_cmd=True, inputs=[ex.step])
+                      if has_extras else None)
+        self._check_launch = wp.launch(k.check, dim=self.n_points, device=d, record_cmd=True,
+                                       inputs=[self.x, self.v, self.flags])
 
     # ------------------------------------------------------------------ colliders, forces, impulses
     def _extras(self, setup: SimSetup, arr, Ft):
