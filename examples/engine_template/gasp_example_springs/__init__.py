@@ -40,6 +40,20 @@ def make_engine(setup: SimSetup):
     return SpringEngine(setup)
 
 
+#: The analytic continuum scenes a mass-spring network does not meet (its springs are a lattice, not
+#: an elastic continuum; a real engine would fix these rather than declare them). Measured with
+#: ``gasp conform example_springs`` on the template as shipped.
+KNOWN_FAILURES = {
+    "self_weight_sag": ("springs between neighbours are not calibrated to E: the column shortens 1.07 mm "
+                        "under its own weight vs 2.40 mm (-55 %)"),
+    "bar_wave": "a spring lattice carries the front at 12.5 m/s vs sqrt(E/rho) = 10 m/s (+25 %)",
+    "bounce_hertz": ("ground contact is a position clamp, not elastic: restitution 0.90 passes but the contact "
+                     "lasts 43.2 ms vs Hertz 60.1 ms (-28 %)"),
+    "rest_on_tilted_ground": ("the ground clamp has no static friction: a slab under gravity tilted 15 deg "
+                              "creeps 0.14 dx in 0.13 s where friction 0.5 must hold it"),
+}
+
+
 @hookimpl
 def gasp_engines():
     """The engine records of this plugin (the ``gasp_engines`` hook)."""
@@ -50,6 +64,6 @@ def gasp_engines():
         options=OPTIONS,
         limits={},                  # ranges narrower than the core's, as gasp_core.seam.Limit: none here
         deterministic_options={},   # nothing to ask for: every run on cpu is deterministic
-        known_failures={},          # conformance scenes it fails, with measured figures: none
+        known_failures=KNOWN_FAILURES,   # conformance scenes it fails, each with the measured figure
         description="template: NumPy mass-spring network (semi-implicit Euler) with ground contact",
     )]
