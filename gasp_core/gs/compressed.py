@@ -65,21 +65,17 @@ def decode_compressed(path: Path, ply: PlyData) -> Gaussians:
     def cget(name):
         return np.asarray(chunk[name], dtype=np.float64)[ci]
 
-    pos = vertex["packed_position"].astype(np.uint32)
-    means = np.stack([
-        _lerp(cget("min_x"), cget("max_x"), _unorm(pos, 21, 11)),
-        _lerp(cget("min_y"), cget("max_y"), _unorm(pos, 11, 10)),
-        _lerp(cget("min_z"), cget("max_z"), _unorm(pos, 0, 11)),
-    ], axis=1)
+    def unpack_11_10_11(packed_name: str, lo_prefix: str, hi_prefix: str) -> np.ndarray:
+        """x, y, z packed 11/10/11 bits in one uint32, each lerped in its chunk's [min, max]."""
+        packed = vertex[packed_name].astype(np.uint32)
+        return np.stack([_lerp(cget(f"{lo_prefix}{a}"), cget(f"{hi_prefix}{a}"), _unorm(packed, shift, bits))
+                         for a, shift, bits in (("x", 21, 11), ("y", 11, 10), ("z", 0, 11))], axis=1)
+
+    means = unpack_11_10_11("packed_position", "min_", "max_")
 
     q = _unpack_rotations(vertex["packed_rotation"].astype(np.uint32))
 
-    packed_scale = vertex["packed_scale"].astype(np.uint32)
-    log_s = np.stack([
-        _lerp(cget("min_scale_x"), cget("max_scale_x"), _unorm(packed_scale, 21, 11)),
-        _lerp(cget("min_scale_y"), cget("max_scale_y"), _unorm(packed_scale, 11, 10)),
-        _lerp(cget("min_scale_z"), cget("max_scale_z"), _unorm(packed_scale, 0, 11)),
-    ], axis=1)
+    log_s = unpack_11_10_11("packed_scale", "min_scale_", "max_scale_")
 
     col = vertex["packed_color"].astype(np.uint32)
     rgb = np.stack([_unorm(col, s, 8) for s in (24, 16, 8)], axis=1)

@@ -38,6 +38,11 @@ class GridTables:
         return bool(self.n_colliders or self.n_forces or self.n_impulses)
 
     @property
+    def has_wind(self) -> bool:
+        """Whether any force row is a wind (kind 0): the engines then gather the windward area per node."""
+        return any(self.forces[r * FORCE_ROW] == 0.0 for r in range(self.n_forces))
+
+    @property
     def width(self) -> int:
         """Floats per substep in :func:`frame_table`: time, then a pose per collider, a weight per impulse."""
         return 1 + COL_POSE * self.n_colliders + self.n_impulses

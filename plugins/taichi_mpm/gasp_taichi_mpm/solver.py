@@ -313,7 +313,7 @@ class MPMSolver:
         """Fields of :func:`gasp_core.toolkit.grid_tables.grid_tables` (``ex``); none when ``ex`` is None or empty."""
         self.has_extras = ex is not None and ex.any
         # wind: per node sum_p p_vol grad N_ip (m^2), the windward area its drag acts on (private copies as grid_acc)
-        self.has_wind = bool(self.has_extras and any(ex.forces[r * 12] == 0.0 for r in range(ex.n_forces)))
+        self.has_wind = bool(self.has_extras and ex.has_wind)
         ng = self.n_grid
         self.grid_g = ti.Vector.field(3, self.real, shape=(self.n_chunks, ng, ng, ng) if self.has_wind else (1, 1, 1, 1))
         if not self.has_extras:
