@@ -2,8 +2,8 @@
 
 Every check here is two-sided: it fails an engine that is too stiff as well as one too soft, too
 dissipative as well as one that gains energy. Each tolerance is stated beside its scene with the
-errors measured on the installed engines (taichi_mpm, warp_mpm: the same MLS-MPM, identical to
-4 digits; mujoco_flex), so that ``conformance_tests/RESULTS.md`` reads measured error against
+errors measured on the installed engines (the two MLS-MPM engines, identical to
+4 digits; the flex (tetrahedral) engine), so that ``conformance_tests/RESULTS.md`` reads measured error against
 tolerance.
 
 - ``bounce_hertz``: an elastic ball dropped on a frictionless ground; restitution in a band from
@@ -95,7 +95,7 @@ BOUNCE_FPS = 240.0                    # ~16 frames per contact: the force profil
 HERTZ_FORCE_FRAC = 0.05
 #: Restitution band. An elastic ball rebounds with e = 1 (Hertz + gravity is conservative); an
 #: explicit MPM loses some energy in the grid transfers, and more the smaller its substep: measured
-#: on taichi_mpm / warp_mpm at n_grid 32, e = 0.853 (cfl 0.1), 0.909 (0.2), 0.939 (0.4, the default),
+#: on the two MLS-MPM engines at n_grid 32, e = 0.853 (cfl 0.1), 0.909 (0.2), 0.939 (0.4, the default),
 #: 0.958 (0.8 and 1.0); 0.885 at n_grid 16. The band admits that numerical dissipation, and no energy
 #: gain beyond 2 %; a perfectly inelastic engine (e = 0) or one at half the energy (e = 0.71) fails.
 RESTITUTION_BAND = (0.80, 1.02)
@@ -237,8 +237,8 @@ SAG_SIDE, SAG_H = 0.125, 0.25          # square column 4 x 4 x 8 dx, m
 SAG_MAT = Material("jelly", E=1.2e5, nu=0.3, rho=1000.0)   # rho g H / E = 2 % strain at the base
 SAG_FRAME_DT = 0.01
 SAG_T = 0.6                            # ~6.6 periods of the first axial mode (quarter wave, ~11 Hz)
-#: Relative error on the shortening (two-sided). Measured +1.7 % on taichi_mpm / warp_mpm (n_grid 32),
-#: +8.1 % on mujoco_flex (declared known failure). 5 % as the issue asks (3x the MPM error); E 10 %
+#: Relative error on the shortening (two-sided). Measured +1.7 % on the two MLS-MPM engines (n_grid 32),
+#: +8.1 % on the flex (tetrahedral) engine (declared known failure). 5 % as the issue asks (3x the MPM error); E 10 %
 #: off moves the sag by 11 %.
 SAG_TOL = 0.05
 
@@ -313,8 +313,8 @@ WAVE_STATIONS = (0.45, 0.75)            # where the front's arrival is timed, m
 WAVE_SIDE = 2.0 / WAVE_NGRID            # section 2 x 2 dx: width / path = 0.2, long-wave limit
 WAVE_FRAME_DT = 1e-3
 WAVE_T = 0.055
-#: Relative error on c (two-sided). Measured +0.43 % on taichi_mpm / warp_mpm (+0.78 % at cfl 0.1,
-#: +0.12 % at nu = 0), -6.2 % on mujoco_flex (declared known failure). 1.5 %, about 3x the MPM error (the issue
+#: Relative error on c (two-sided). Measured +0.43 % on the two MLS-MPM engines (+0.78 % at cfl 0.1,
+#: +0.12 % at nu = 0), -6.2 % on the flex (tetrahedral) engine (declared known failure). 1.5 %, about 3x the MPM error (the issue
 #: asks for 3 %): E 10 % off moves c by 5 %.
 WAVE_TOL = 0.015
 
@@ -326,7 +326,7 @@ def _build_wave(info: EngineInfo) -> SimSetup:
     v = np.zeros_like(x)
     v[x[:, 0] < WAVE_SPLIT, 0] = WAVE_V0
     # a domain 4 dx wider than the unit cube on each x face (same dx, same node alignment): the bar's ends
-    # then lie 5.6 dx inside, clear of the 3 dx wall band of grid engines (Genesis refuses points there)
+    # then lie 5.6 dx inside, clear of the 3 dx wall band of grid engines (an engine may refuse points there)
     pad = 4 * dx
     return make_setup(x, p_vol, WAVE_MAT, v=v, gravity=(0.0, 0.0, 0.0), lo=(-pad, 0.0, 0.0), hi=(1.0 + pad, 1.0, 1.0),
                       n_grid=WAVE_NGRID + 8, frame_dt=WAVE_FRAME_DT)
@@ -358,7 +358,7 @@ def _eval_wave(info: EngineInfo, tr: Trace) -> list[Check]:
 
     The front's own arrival (half its height, or a pulse's peak) travels at the group velocity of the
     discretisation, which the grid's dispersion lowers: measured -6.1 % on MPM at n_grid 32 (-5.6 % at
-    nu = 0, -3.0 % at n_grid 64 with a smooth pulse), -6.4 % on mujoco_flex. It is reported, not checked.
+    nu = 0, -3.0 % at n_grid 64 with a smooth pulse), -6.4 % on the flex (tetrahedral) engine. It is reported, not checked.
     """
     x0 = tr.x[0, :, 0]
     right = x0 > WAVE_SPLIT

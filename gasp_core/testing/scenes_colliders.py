@@ -34,8 +34,8 @@ BLOCK = Material("jelly", E=1e5, nu=0.3, rho=1000.0)
 INCLINE_DEG = 25.0
 MU_SLIDE, MU_STICK = 0.2, 0.8          # tan(25 deg) = 0.466
 INCLINE_T = 0.4                        # s simulated
-#: Relative error allowed on the sliding acceleration (two-sided). Measured: 0.24 % on taichi_mpm /
-#: warp_mpm, 0.13 % on mujoco_flex (quadratic fit of the centroid over 0.1-0.4 s). 1 % is about 4x
+#: Relative error allowed on the sliding acceleration (two-sided). Measured: 0.24 % on the two MLS-MPM
+#: engines, 0.13 % on the flex (tetrahedral) engine (quadratic fit of the centroid over 0.1-0.4 s). 1 % is about 4x
 #: the worst of them (the issue asks for 3 %): the grid resolves the contact layer over about one
 #: cell and the block rocks a little while it settles; friction 10 % off moves a by 7.5 %.
 INCLINE_TOL = 0.01

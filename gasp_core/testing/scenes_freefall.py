@@ -12,14 +12,13 @@ so after ``n`` substeps the drop is ``S(n) = g dt^2 (1 + 2 + ... + n) = g dt^2 n
 An elastic body at rest has no stress, and a uniform velocity field stays uniform through the MPM
 transfers (the B-spline weights are a partition of unity and APIC ``C`` stays 0) and in an unstrained
 FEM lattice, so every point follows these formulas to rounding (f32: measured <= 3e-5 relative per
-frame). Positions reported one substep late (issue 17: mujoco_flex read ``flexvert_xpos`` before it
-was updated) give ``D_1 = g T^2 / 2 (1 - 1 / N)``, ``-2 / N`` relative: caught by the ``1e-3`` tolerance
+frame). Positions reported one substep late (issue 17: an engine that read its positions before the
+last substep's update) give ``D_1 = g T^2 / 2 (1 - 1 / N)``, ``-2 / N`` relative: caught by the ``1e-3`` tolerance
 for any ``N < 2000``; so is a 5 % bias in gravity or time.
 
-``N`` is the engine's ``stats()["n_substeps"]`` (fixed for the run; the taichi_mpm, warp_mpm, genesis
-and mujoco_flex engines report it, and all four integrate positions with the updated velocity:
-MuJoCo's ``Euler`` and ``discrete`` integrators both do). An engine that reports no ``n_substeps``
-(blender: Blender picks its own adaptive soft-body steps and reports backward-difference velocities)
+``N`` is the engine's ``stats()["n_substeps"]`` (fixed for the run; the engines that report it integrate
+positions with the updated velocity, semi-implicit Euler). An engine that reports no ``n_substeps``
+(e.g. one with adaptive steps and backward-difference velocities)
 cannot be given an exact answer: it is checked against the continuous ``g t^2 / 2`` after the last
 frame within :data:`FREE_FALL_TOL_UNDECLARED` (1 %, catches a 5 % bias, not a one-step lag), and the
 check message says so.

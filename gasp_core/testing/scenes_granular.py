@@ -42,8 +42,8 @@ that cone is much stronger than Mohr-Coulomb, so the scene passes the plane-stra
 
 Resolution and cost: n_grid 48 on a 1 m domain (dx 2.08 cm; the column is 7.2 cells long and
 14.4 high, 2 points per cell, 2436 points in a 3-cell-wide channel), 35 frames of 0.02 s (the pile
-stops by t = 0.6 s, ~2.4 sqrt(2 H_i / g), as in Staron & Hinch 2005). Measured on taichi_mpm and
-warp_mpm (identical to 3 digits): runout 2.125 (-11.5 %), H_inf / L_i 1.023 (-22.4 %); at n_grid 32
+stops by t = 0.6 s, ~2.4 sqrt(2 H_i / g), as in Staron & Hinch 2005). Measured on the two MLS-MPM
+engines (identical to 3 digits): runout 2.125 (-11.5 %), H_inf / L_i 1.023 (-22.4 %); at n_grid 32
 the runout is 1.81 (-24.6 %) and the height 1.06 (-20 %), so the runout is still converging
 upward with resolution while the height is not. The height's -22 % is the engines' honest error
 (a continuum without dilatancy: the deposit keeps its volume where the experiments' piles

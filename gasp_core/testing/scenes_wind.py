@@ -43,7 +43,7 @@ WIND_TOL = 0.03
 def _build_wind(info: EngineInfo) -> SimSetup:
     x, p_vol = box_points((0.375, 0.375, 0.2), (0.375 + WIND_L, 0.375 + WIND_L, 0.2 + WIND_L), DX / 2)
     # stiff enough that the cube barely jiggles: a soft one (E 50 Pa) wobbles sideways, and the side
-    # faces then catch the relative wind too (v_rel 0.941 at E 50, 0.982 at 500, 0.991 at 2000 on warp_mpm)
+    # faces then catch the relative wind too (v_rel 0.941 at E 50, 0.982 at 500, 0.991 at 2000 on an MLS-MPM engine)
     mat = Material("jelly", E=2000.0, nu=0.3, rho=WIND_RHO)
     setup = make_setup(x, p_vol, mat, n_grid=N_GRID, v=np.tile([0.0, 0.0, WIND_VT], (len(x), 1)),
                    gravity=(0.0, 0.0, -GRAVITY), frame_dt=WIND_FRAME)
