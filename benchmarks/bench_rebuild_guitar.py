@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from gasp_core.gs.gaussians import quat_to_rotmat
 from gasp_core.prepare.scene import prepare_scene
 from gasp_core.run.frames import rebuild
 from gasp_core.scene.spec import load_scene
@@ -31,7 +32,6 @@ OUT = ROOT / "benchmarks" / "results" / "rebuild_guitar.md"
 
 def covariances(g) -> np.ndarray:
     """``R diag(s^2) R^T`` per Gaussian of a :class:`~gasp_core.gs.gaussians.Gaussians`, file frame."""
-    from gasp_core.gs.gaussians import quat_to_rotmat
     R = quat_to_rotmat(g.rotations)
     return np.einsum("nij,nj,nkj->nik", R, g.scales ** 2, R)
 

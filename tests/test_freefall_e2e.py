@@ -22,8 +22,9 @@ from gasp_core.gs.io import read_gaussians, write_gaussians
 from gasp_core.maps.games import EPS
 from gasp_core.run.pipeline import simulate_scene
 from gasp_core.scene.spec import load_scene
+from gasp_core.testing.helpers import GRAVITY as G
+from gasp_core.testing.scenes_passive import fibonacci_sphere
 
-G = 9.81
 R = 0.05            # sphere radius, m
 N_GAUSSIANS = 600
 T = 1.0 / 30.0      # frame_dt, s
@@ -38,10 +39,7 @@ ENGINES = [(e, m, opts) for e, m, opts in (
 def sphere_of_flat_gaussians(n: int = N_GAUSSIANS, radius: float = R) -> Gaussians:
     """``n`` flat Gaussians tangent to a sphere (Fibonacci points, thin axis along the outward normal),
     each covering its share ``4 pi R^2 / n`` of the surface."""
-    i = np.arange(n) + 0.5
-    phi = np.arccos(1.0 - 2.0 * i / n)
-    th = math.pi * (1.0 + 5.0 ** 0.5) * i
-    normal = np.stack([np.cos(th) * np.sin(phi), np.sin(th) * np.sin(phi), np.cos(phi)], axis=1)
+    normal = fibonacci_sphere(n)
     helper = np.where(np.abs(normal[:, 2:3]) < 0.9, [[0.0, 0.0, 1.0]], [[1.0, 0.0, 0.0]])
     t1 = np.cross(normal, helper)
     t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
