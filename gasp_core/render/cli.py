@@ -32,8 +32,12 @@ def add_parsers(sub) -> None:
     r.set_defaults(func=cmd_render)
     v = sub.add_parser("view", help="play a run in the browser (viser)")
     v.add_argument("run", help="run folder written by 'gasp simulate'")
-    v.add_argument("--host", default="127.0.0.1")
-    v.add_argument("--port", type=int, default=8080)
+    v.add_argument("--host", default="127.0.0.1", help="interface to listen on (default 127.0.0.1: this machine only)")
+    v.add_argument("--port", type=int, default=8080, help="TCP port (default 8080)")
+    v.add_argument("--export", default=None, metavar="PAGE",
+                   help="write a self-contained player instead of serving: PAGE.html, or a folder that gets "
+                        "index.html; it opens from disk in a browser, no server needed (default: serve)")
+    v.add_argument("--overwrite", action="store_true", help="replace an existing --export page (default: refuse)")
     v.set_defaults(func=cmd_view)
 
 
@@ -55,6 +59,11 @@ def cmd_render(args) -> int:
 
 
 def cmd_view(args) -> int:
+    if args.export:
+        from gasp_core.render.export import export_page
+        out = export_page(args.run, args.export, overwrite=args.overwrite)
+        print(f"wrote {out} ({out.stat().st_size / 1e6:.1f} MB; open it in a browser, no server needed)")
+        return 0
     from gasp_core.render.viewer import serve
     serve(args.run, host=args.host, port=args.port)
     return 0

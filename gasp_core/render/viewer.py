@@ -60,6 +60,7 @@ class RunViewer:
                                     initial_value=int(round(min(60.0, 1.0 / self.run.frame_dt))))
         self.frame = s.gui.add_slider("Frame", min=0, max=max(self.run.n_frames - 1, 1), step=1, initial_value=0)
         self.frame.on_update(lambda _: self._show(int(self.frame.value)))
+        self._splats = None
         self._show(0)
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._loop, daemon=True)
@@ -70,10 +71,15 @@ class RunViewer:
         return self.server.get_port()
 
     def _show(self, i: int) -> None:
+        """Show frame ``i``: the splats are added once, then updated in place (viser's
+        ``GaussianSplatHandle.set_gaussians``, one buffer message per frame)."""
         sp = self.frames[min(max(i, 0), len(self.frames) - 1)]
-        self.server.scene.add_gaussian_splats("/run", centers=sp.means.astype(np.float32),
-                                              covariances=sp.covs.astype(np.float32), rgbs=sp.rgb,
-                                              opacities=sp.opacities[:, None])
+        arrays = (sp.means.astype(np.float32), sp.covs.astype(np.float32), sp.rgb, sp.opacities[:, None])
+        if self._splats is None:
+            self._splats = self.server.scene.add_gaussian_splats(
+                "/run", centers=arrays[0], covariances=arrays[1], rgbs=arrays[2], opacities=arrays[3])
+        else:
+            self._splats.set_gaussians(*arrays)
 
     def _loop(self) -> None:
         while not self._stop.is_set():
