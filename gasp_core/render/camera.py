@@ -24,6 +24,9 @@ class Camera:
         Image size, pixels.
     near : float
         Points closer than this depth (metres) are not drawn.
+    rotation : ndarray, shape (3, 3), optional
+        World -> camera rotation, rows right, down, forward (OpenCV); when given it sets the
+        orientation (a capture's camera may roll), and ``look_at`` only fixes the forward row.
 
     Raises
     ------
@@ -38,6 +41,7 @@ class Camera:
     width: int = 640
     height: int = 480
     near: float = 1e-3
+    rotation: np.ndarray | None = None
 
     def __post_init__(self):
         self.position = np.asarray(self.position, dtype=np.float64).reshape(3)
@@ -49,6 +53,20 @@ class Camera:
         self.width, self.height = int(self.width), int(self.height)
         if np.linalg.norm(self.look_at - self.position) < 1e-12:
             raise ValueError("camera position and look_at are the same point")
+        if self.rotation is not None:
+            self.rotation = np.asarray(self.rotation, dtype=np.float64).reshape(3, 3)
+            if not np.allclose(self.rotation @ self.rotation.T, np.eye(3), atol=1e-4) \
+                    or np.linalg.det(self.rotation) < 0:
+                raise ValueError("camera rotation: expected a proper rotation matrix (orthonormal, det +1)")
+
+    @classmethod
+    def from_pose(cls, position, rotation, focal_px: float, width: int, height: int, near: float = 1e-3) -> "Camera":
+        """A camera at ``position`` with world -> camera ``rotation`` (rows right, down, forward) and a
+        vertical focal length ``focal_px`` in pixels for an image ``width`` x ``height``."""
+        rotation = np.asarray(rotation, dtype=np.float64).reshape(3, 3)
+        fov = float(np.degrees(2.0 * np.arctan(0.5 * height / focal_px)))
+        position = np.asarray(position, dtype=np.float64).reshape(3)
+        return cls(position, position + rotation[2], fov, width, height, near, rotation)
 
     @property
     def focal_px(self) -> float:
@@ -65,6 +83,8 @@ class Camera:
 
     def world_to_camera(self) -> tuple[np.ndarray, np.ndarray]:
         """``(W, t)`` with ``p_cam = W p_world + t``; rows of ``W`` are right, down, forward."""
+        if self.rotation is not None:
+            return self.rotation, -self.rotation @ self.position
         fwd = self.look_at - self.position
         fwd /= np.linalg.norm(fwd)
         up = np.array([0.0, 0.0, 1.0])

@@ -19,16 +19,30 @@ def _vec3(text: str, what: str):
 def add_parsers(sub) -> None:
     """Add the ``render`` and ``view`` subcommands to an argparse subparsers object."""
     r = sub.add_parser("render", help="render a run (or runs side by side) to .mp4, .gif or a PNG folder")
-    r.add_argument("runs", nargs="+", help="run folder(s) written by 'gasp simulate'")
-    r.add_argument("-o", "--output", required=True, help="out.mp4, out.gif, or a folder for PNG frames")
-    r.add_argument("--overwrite", action="store_true")
-    r.add_argument("--renderer", default=None, help="renderer plugin (default: cpu, else numpy)")
-    r.add_argument("--resolution", default="640x480", help="WIDTHxHEIGHT per run, pixels (default 640x480)")
-    r.add_argument("--fov", type=float, default=40.0, help="vertical field of view, degrees")
-    r.add_argument("--camera", default=None, help="camera position x,y,z (world metres, z up)")
-    r.add_argument("--look-at", default=None, help="point the camera looks at, x,y,z")
-    r.add_argument("--fps", type=float, default=None, help="default: 1 / frame_dt of the run")
-    r.add_argument("-q", "--quiet", action="store_true")
+    r.add_argument("runs", nargs="+", help="run folder(s) written by 'gasp simulate'; several render side by side")
+    r.add_argument("-o", "--output", default=None,
+                   help="out.mp4, out.gif, or a folder for PNG frames (default: RUN/render.mp4; for several "
+                        "runs RUN1_vs_RUN2.mp4 beside the first)")
+    r.add_argument("--overwrite", action="store_true", help="replace an existing output (default: refuse)")
+    r.add_argument("--renderer", default=None, help="renderer plugin (default: cpu, else numpy; see 'gasp plugins')")
+    r.add_argument("--resolution", default=None,
+                   help="WIDTHxHEIGHT per run, pixels (default 640x480; with --camera-index the camera's own)")
+    r.add_argument("--fov", type=float, default=40.0, help="vertical field of view, degrees (default 40)")
+    r.add_argument("--camera", default=None,
+                   help="camera position x,y,z, world metres, z up (default: framing the whole sequence)")
+    r.add_argument("--look-at", default=None, help="point the camera looks at, x,y,z metres (default: the centre)")
+    r.add_argument("--camera-index", type=int, default=None, metavar="N",
+                   help="render from camera N (0 = first) of the capture's graphdeco cameras.json (default: off)")
+    r.add_argument("--cameras", default=None, metavar="JSON",
+                   help="the cameras.json for --camera-index (default: found beside the first object's PLY "
+                        "or up to three folders above it)")
+    r.add_argument("--orbit", type=float, default=None, metavar="DEGREES",
+                   help="circle the scene about the vertical by DEGREES over the video (default: still camera)")
+    r.add_argument("--camera-path", default=None, metavar="JSON",
+                   help='keyframed camera: {"keyframes": [{"frame": 0, "position": [x,y,z], "look_at": [x,y,z]}, '
+                        '...]}, world metres, frame = video frame; linear in between (default: off)')
+    r.add_argument("--fps", type=float, default=None, help="video frames per second (default: 1 / frame_dt of the run)")
+    r.add_argument("-q", "--quiet", action="store_true", help="no progress bar (default: show one)")
     r.set_defaults(func=cmd_render)
     v = sub.add_parser("view", help="play a run in the browser (viser)")
     v.add_argument("run", help="run folder written by 'gasp simulate'")
@@ -41,20 +55,56 @@ def add_parsers(sub) -> None:
     v.set_defaults(func=cmd_view)
 
 
+def _camera_path(args, run_dirs, size):
+    """The ``--camera-index`` / ``--orbit`` / ``--camera-path`` choice as a camera path (or ``None``)."""
+    from gasp_core.render import paths
+    chosen = [o for o, v in (("--camera-index", args.camera_index), ("--orbit", args.orbit),
+                             ("--camera-path", args.camera_path), ("--camera", args.camera)) if v is not None]
+    if len(chosen) > 1:
+        raise SceneError(f"{' and '.join(chosen)}: choose one way to place the camera")
+    if args.orbit is not None:
+        return paths.orbit_path(args.orbit)
+    if args.camera_path is not None:
+        return paths.keyframe_path(args.camera_path)
+    if args.camera_index is None:
+        return None
+    from gasp_core.render.run import load_run
+    obj = load_run(run_dirs[0]).objects[0]
+    found = args.cameras or paths.find_cameras_json(obj.get("file", ""))
+    if found is None:
+        raise SceneError(f"--camera-index: no cameras.json beside {obj.get('file')!r} or above it; name one "
+                         "with --cameras")
+    cam = paths.graphdeco_camera(found, args.camera_index, obj["placement"], *(size or (None, None)))
+    return lambda lo, hi, n, *_: [cam] * n
+
+
 def cmd_render(args) -> int:
     from gasp_core.render.registry import get_renderer
-    from gasp_core.render.run import render_run
-    try:
-        w, h = (int(x) for x in args.resolution.lower().split("x"))
-    except ValueError:
-        raise SceneError(f"--resolution: expected WIDTHxHEIGHT, got {args.resolution!r}") from None
+    from gasp_core.render.run import default_output, load_run, render_run
+    size = None
+    if args.resolution:
+        try:
+            size = tuple(int(x) for x in args.resolution.lower().split("x"))
+            assert len(size) == 2 and min(size) >= 2
+        except (ValueError, AssertionError):
+            raise SceneError(f"--resolution: expected WIDTHxHEIGHT in pixels, got {args.resolution!r}") from None
     pos = _vec3(args.camera, "--camera") if args.camera else None
     look = _vec3(args.look_at, "--look-at") if args.look_at else None
+    path = _camera_path(args, args.runs, size)
+    w, h = size or (640, 480)
+    if args.camera_index is not None:               # the capture camera's own size unless --resolution
+        w, h = path(None, None, 1)[0].width, path(None, None, 1)[0].height
+    output = args.output or default_output(args.runs)
+    runs = [load_run(p) for p in args.runs]
+    n = min(r.n_frames for r in runs)
+    fps = args.fps or 1.0 / runs[0].frame_dt
     t0 = time.perf_counter()
-    out = render_run(args.runs, args.output, overwrite=args.overwrite, fps=args.fps,
-                     renderer=get_renderer(args.renderer), width=w, height=h, fov_deg=args.fov,
-                     position=pos, look_at=look, progress=not args.quiet)
-    print(f"wrote {out} ({time.perf_counter() - t0:.1f} s)")
+    out = render_run(args.runs, output, overwrite=args.overwrite, fps=fps, renderer=get_renderer(args.renderer),
+                     width=w, height=h, fov_deg=args.fov, position=pos, look_at=look, progress=not args.quiet,
+                     camera_path=path)
+    took = time.perf_counter() - t0
+    print(f"wrote {out}: {n} frames of {w * len(runs)}x{h} px, plays {n / fps:.2f} s at {fps:g} fps "
+          f"(rendering took {took:.1f} s, {took / max(n, 1):.2f} s per frame)")
     return 0
 
 

@@ -29,17 +29,31 @@ class Run:
     frame_dt: float
     label: str
 
+    def __post_init__(self):
+        self._rest_rotmats: dict[int, np.ndarray] = {}
+
     @property
     def n_frames(self) -> int:
         return len(self.frame_files)
 
-    def splats(self, frame: int) -> Splats:
-        """World-frame splats of every object at ``frame``."""
+    def read(self, frame: int, k: int):
+        """Object ``k``'s Gaussians at ``frame`` (file frame): the one place frame files are read."""
         from gasp_core.gs.io import read_gaussians
+        return read_gaussians(self.frame_files[frame][k])
+
+    def splats(self, frame: int) -> Splats:
+        """World-frame splats of every object at ``frame``; with SH degree >= 1 each Gaussian's SH frame
+        turns with it (its rotation at ``frame`` against frame 0, :mod:`gasp_core.render.sh`)."""
         parts = []
-        for f, o in zip(self.frame_files[frame], self.objects):
+        for k, o in enumerate(self.objects):
+            g = self.read(frame, k)
+            rest = None
+            if g.sh_rest.shape[1]:
+                if k not in self._rest_rotmats:
+                    self._rest_rotmats[k] = g.rotmats() if frame == 0 else self.read(0, k).rotmats()
+                rest = self._rest_rotmats[k]
             pl = o["placement"]
-            parts.append(splats_from_gaussians(read_gaussians(f), pl["R"], float(pl["scale"]), pl["t"]))
+            parts.append(splats_from_gaussians(g, pl["R"], float(pl["scale"]), pl["t"], rest_rotmats=rest))
         return Splats.concat(parts)
 
 
@@ -109,28 +123,34 @@ def make_view(lo, hi, ground_z: float | None, width: int = 640, height: int = 48
         target = 0.5 * (lo + hi) if look_at is None else look_at
         cam = Camera(position, target, fov_deg, width, height,
                      near=1e-3 * float(np.linalg.norm(np.asarray(position) - target)))
-    size = float(np.max(hi[:2] - lo[:2]))
-    bg = ground_background(cam, gz, nice_step(max(size, 1e-3) / 4.0), 3.0 * max(size, 1e-3),
-                           centre=0.5 * (lo + hi)[:2])
-    return View(cam, bg, gz)
+    return View(cam, _background(cam, lo, hi, gz), gz)
 
 
 def to_uint8(img: np.ndarray) -> np.ndarray:
     return (np.clip(img, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
 
 
-def _label(img: np.ndarray, text: str) -> np.ndarray:
-    from PIL import Image, ImageDraw
+def label_image(img: np.ndarray, text: str, height_frac: float = 0.06) -> np.ndarray:
+    """``text`` in black on a white box at the top left, about ``height_frac`` of the image tall
+    (at least 14 px), so an engine's name reads at a video's size (Pillow's scalable default font)."""
+    from PIL import Image, ImageDraw, ImageFont
+    size = max(14, int(round(height_frac * img.shape[0])))
+    try:
+        font = ImageFont.load_default(size=size)
+    except TypeError:                       # Pillow < 10.1: the fixed bitmap font only
+        font = ImageFont.load_default()
     im = Image.fromarray(img)
     d = ImageDraw.Draw(im)
-    d.rectangle([0, 0, 8 + 7 * len(text), 18], fill=(255, 255, 255))
-    d.text((4, 3), text, fill=(0, 0, 0))
+    pad = max(3, size // 4)
+    x0, y0, x1, y1 = d.textbbox((pad, pad), text, font=font)
+    d.rectangle([0, 0, x1 + pad, y1 + pad], fill=(255, 255, 255))
+    d.text((pad, pad), text, fill=(0, 0, 0), font=font)
     return np.asarray(im)
 
 
 def render_runs(run_dirs: Sequence, renderer=None, frames: Sequence[int] | None = None, width: int = 640,
                 height: int = 480, fov_deg: float = 40.0, position=None, look_at=None, labels: bool | None = None,
-                progress: bool = False):
+                progress: bool = False, camera_path=None):
     """Yield ``(frame, image)`` for the runs in ``run_dirs``, side by side (one camera for all).
 
     Parameters
@@ -149,6 +169,9 @@ def render_runs(run_dirs: Sequence, renderer=None, frames: Sequence[int] | None 
         Camera placement, world metres; by default the camera frames the whole sequence.
     labels : bool, optional
         Write the engine name in the corner (default: when there are several runs).
+    camera_path : callable, optional
+        ``camera_path(lo, hi, n, width, height, fov_deg) -> list[Camera]``, one camera per rendered
+        frame (:mod:`gasp_core.render.paths`); overrides ``position`` / ``look_at``.
 
     Yields
     ------
@@ -172,22 +195,40 @@ def render_runs(run_dirs: Sequence, renderer=None, frames: Sequence[int] | None 
     lo, hi = sequence_bounds(cache.values())
     grounds = [r.ground_z for r in runs if r.ground_z is not None]
     view = make_view(lo, hi, min(grounds) if grounds else None, width, height, fov_deg, position, look_at)
+    cams = camera_path(lo, hi, len(frames), width, height, fov_deg) if camera_path else [view.camera] * len(frames)
     labels = len(runs) > 1 if labels is None else labels
     bar = None
     if progress:
         from tqdm import tqdm
         bar = tqdm(total=len(frames), unit="frame", desc="render")
-    for f in frames:
+    backgrounds = {id(view.camera): view.background}
+    for f, cam in zip(frames, cams):
+        if id(cam) not in backgrounds:
+            backgrounds = {id(cam): _background(cam, lo, hi, view.ground_z)}
         tiles = []
         for i, r in enumerate(runs):
-            img, _ = renderer(cache.pop((i, f)), view.camera, view.background)
+            img, _ = renderer(cache.pop((i, f)).seen_from(cam.position), cam, backgrounds[id(cam)])
             tile = to_uint8(img)
-            tiles.append(_label(tile, r.label) if labels else tile)
+            tiles.append(label_image(tile, r.label) if labels else tile)
         if bar is not None:
             bar.update(1)
         yield f, np.concatenate(tiles, axis=1)
     if bar is not None:
         bar.close()
+
+
+def _background(cam: Camera, lo, hi, ground_z: float) -> np.ndarray:
+    size = max(float(np.max(hi[:2] - lo[:2])), 1e-3)
+    return ground_background(cam, ground_z, nice_step(size / 4.0), 3.0 * size, centre=0.5 * (lo + hi)[:2])
+
+
+def default_output(run_dirs: Sequence) -> Path:
+    """Where ``gasp render`` writes without ``-o``: ``RUN/render.mp4`` for one run, else
+    ``<first run's folder>/<run1>_vs_<run2>....mp4`` beside the runs."""
+    paths = [Path(p) for p in run_dirs]
+    if len(paths) == 1:
+        return paths[0] / "render.mp4"
+    return paths[0].resolve().parent / ("_vs_".join(p.resolve().name for p in paths) + ".mp4")
 
 
 def render_run(run_dirs, output, *, overwrite: bool = False, fps: float | None = None, **kw) -> Path:
@@ -222,6 +263,7 @@ def render_run(run_dirs, output, *, overwrite: bool = False, fps: float | None =
     return write_frames((img for _, img in render_runs(run_dirs, **kw)), output, fps=fps, overwrite=overwrite)
 
 
+
 def render_strip(run_dirs: dict, out_png, frames: Sequence[int] | int = 5, width: int = 320, height: int = 240,
                  renderer=None) -> Path:
     """A PNG with one row per run (e.g. per engine) and one column per chosen frame, one camera for all.
@@ -252,6 +294,6 @@ def render_strip(run_dirs: dict, out_png, frames: Sequence[int] | int = 5, width
     for f, img in all_frames:
         for i, k in enumerate(labels):
             tile = img[:, i * width:(i + 1) * width]
-            rows[k].append(_label(tile, f"{k}  frame {f}"))
+            rows[k].append(label_image(tile, f"{k}  frame {f}"))
     grid = np.concatenate([np.concatenate(rows[k], axis=1) for k in labels], axis=0)
     return write_png(grid, out_png)

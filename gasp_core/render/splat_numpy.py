@@ -39,15 +39,22 @@ class Splats:
     covs : ndarray, shape (n, 3, 3), float64
         3D covariances, m^2.
     rgb : ndarray, shape (n, 3), float32
-        Colours in [0, 1].
+        Colours in [0, 1]: SH degree 0, or the view-dependent colour once :meth:`seen_from` has run.
     opacities : ndarray, shape (n,), float32
         Activated opacities in [0, 1].
+    sh : ndarray, shape (n, (degree + 1) ** 2, 3), float32, optional
+        SH coefficients (DC first) when the file has degree 1 to 3; ``None`` for degree 0.
+    sh_frames : ndarray, shape (n, 3, 3), optional
+        Rotation of a world direction into the frame the SH were fitted in (placement and each
+        Gaussian's turn since frame 0, :mod:`gasp_core.render.sh`); identity when ``None``.
     """
 
     means: np.ndarray
     covs: np.ndarray
     rgb: np.ndarray
     opacities: np.ndarray
+    sh: np.ndarray | None = None
+    sh_frames: np.ndarray | None = None
 
     @property
     def n(self) -> int:
@@ -55,39 +62,73 @@ class Splats:
 
     @staticmethod
     def concat(parts: list["Splats"]) -> "Splats":
-        """All Gaussians of ``parts`` in one record."""
-        return Splats(*(np.concatenate([getattr(p, k) for p in parts])
-                        for k in ("means", "covs", "rgb", "opacities")))
+        """All Gaussians of ``parts`` in one record (SH padded with zeros to the highest degree)."""
+        out = Splats(*(np.concatenate([getattr(p, k) for p in parts]) for k in ("means", "covs", "rgb", "opacities")))
+        if any(p.sh is not None for p in parts):
+            k = max(p.sh.shape[1] for p in parts if p.sh is not None)
+            sh, frames = [], []
+            for p in parts:
+                block = np.zeros((p.n, k, 3), np.float32)
+                if p.sh is None:
+                    block[:, 0] = (p.rgb - 0.5) / SH_C0
+                else:
+                    block[:, :p.sh.shape[1]] = p.sh
+                sh.append(block)
+                frames.append(np.broadcast_to(np.eye(3), (p.n, 3, 3)) if p.sh_frames is None else p.sh_frames)
+            out.sh, out.sh_frames = np.concatenate(sh), np.concatenate(frames)
+        return out
+
+    def seen_from(self, eye) -> "Splats":
+        """These splats with ``rgb`` the colour seen from camera centre ``eye`` (world metres).
+
+        Degree 0 (``sh is None``): ``self`` unchanged. Otherwise the 3DGS SH colour along each
+        Gaussian's view direction in its SH frame, clipped to [0, 1].
+        """
+        if self.sh is None:
+            return self
+        from gasp_core.render.sh import sh_colours, view_dirs
+        rgb = np.clip(sh_colours(self.sh, view_dirs(self.means, eye, self.sh_frames)), 0.0, 1.0)
+        return Splats(self.means, self.covs, rgb, self.opacities)
 
 
-def splats_from_gaussians(g, R=None, scale: float = 1.0, t=None) -> Splats:
+def splats_from_gaussians(g, R=None, scale: float = 1.0, t=None, rest_rotmats=None) -> Splats:
     """World-frame splats from :class:`~gasp_core.gs.gaussians.Gaussians` placed by ``x = scale R x_file + t``.
 
     Parameters
     ----------
     g : Gaussians
-        File frame; ``scales`` activated, ``opacities`` logits, ``sh_dc`` degree-0 SH.
+        File frame; ``scales`` activated, ``opacities`` logits, ``sh_dc`` / ``sh_rest`` SH.
     R : ndarray, shape (3, 3), optional
         Rotation file -> world (identity by default).
     scale : float
         Metres per file unit.
     t : ndarray, shape (3,), optional
         Translation, metres.
+    rest_rotmats : ndarray, shape (n, 3, 3), optional
+        The Gaussians' rotations (file frame) when the SH were fitted, i.e. at frame 0 of a run;
+        with SH degree >= 1 the view direction is turned by ``rest_rotmats @ g.rotmats()^T``
+        (default: no turn).
 
     Returns
     -------
     Splats
-        Colour ``clip(0.5 + 0.28209479 * sh_dc, 0, 1)`` (SH degree 0 only, as the 3DGS convention),
-        opacity ``sigmoid(opacities)``.
+        Colour ``clip(0.5 + 0.28209479 * sh_dc, 0, 1)`` (3DGS's degree-0 colour), opacity
+        ``sigmoid(opacities)``; ``sh`` and ``sh_frames`` when the file has SH degree 1 to 3.
     """
     R = np.eye(3) if R is None else np.asarray(R, dtype=np.float64)
     t = np.zeros(3) if t is None else np.asarray(t, dtype=np.float64)
-    M = np.einsum("ij,njk->nik", R, g.rotmats()) * (scale * g.scales)[:, None, :]
+    rot = g.rotmats()
+    M = np.einsum("ij,njk->nik", R, rot) * (scale * g.scales)[:, None, :]
     covs = M @ M.transpose(0, 2, 1)
     means = scale * g.means @ R.T + t
     rgb = np.clip(0.5 + SH_C0 * g.sh_dc.astype(np.float32), 0.0, 1.0)
     opac = (1.0 / (1.0 + np.exp(-g.opacities.astype(np.float64)))).astype(np.float32)
-    return Splats(means, covs, rgb, opac)
+    out = Splats(means, covs, rgb, opac)
+    if g.sh_rest.shape[1]:
+        out.sh = np.concatenate([g.sh_dc[:, None, :], g.sh_rest], axis=1).astype(np.float32)
+        turn = R.T if rest_rotmats is None else np.einsum("nij,nkj->nik", rest_rotmats, rot) @ R.T
+        out.sh_frames = np.broadcast_to(turn, (g.n, 3, 3)) if turn.ndim == 2 else turn
+    return out
 
 
 def project(splats: Splats, cam: Camera, dilation: float = 0.3):

@@ -1,0 +1,121 @@
+"""Camera paths for ``gasp render``: a capture's own camera (graphdeco ``cameras.json``), an orbit, keyframes.
+
+A path is a callable ``path(lo, hi, n, width, height, fov_deg) -> list[Camera]`` giving one camera per
+rendered frame, from the sequence's box ``[lo, hi]`` (world metres).
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from gasp_core.errors import SceneError
+from gasp_core.render.camera import auto_camera, Camera
+
+
+def find_cameras_json(ply) -> Path | None:
+    """``cameras.json`` beside a trained PLY or up to three folders above it (graphdeco writes
+    ``MODEL/cameras.json`` and ``MODEL/point_cloud/iteration_N/point_cloud.ply``); ``None`` if absent."""
+    for d in list(Path(ply).resolve().parents)[:4]:
+        if (d / "cameras.json").is_file():
+            return d / "cameras.json"
+    return None
+
+
+def graphdeco_camera(path, index: int, placement: dict | None = None, width: int | None = None,
+                     height: int | None = None) -> Camera:
+    """Camera ``index`` of a graphdeco ``cameras.json``, moved into the world by an object's placement.
+
+    graphdeco-inria/gaussian-splatting ``utils/camera_utils.py: camera_to_JSON`` writes, per camera,
+    ``position`` (centre) and ``rotation`` (camera -> world, columns right, down, forward: COLMAP /
+    OpenCV axes) in the capture's frame, ``width``, ``height`` and ``fx``, ``fy`` in pixels.
+
+    Parameters
+    ----------
+    path : path
+        The ``cameras.json``.
+    index : int
+        Position in the file's list (0 = first).
+    placement : dict, optional
+        ``{R, scale, t}`` of the object whose file frame the capture shares (``run.json``); identity if absent.
+    width, height : int, optional
+        Image size, pixels (default: the camera's own); the focal length scales with the height.
+
+    Returns
+    -------
+    Camera
+
+    Raises
+    ------
+    SceneError
+        Missing or unreadable file, an index outside the list (the message gives its length), or a
+        camera entry without ``position`` / ``rotation`` / ``fy`` / ``height``.
+    """
+    path = Path(path)
+    try:
+        cams = json.loads(path.read_text())
+    except (OSError, ValueError) as e:
+        raise SceneError(f"{path}: cannot read a graphdeco cameras.json ({e})") from None
+    if not isinstance(cams, list) or not cams:
+        raise SceneError(f"{path}: expected a non-empty JSON list of cameras (graphdeco cameras.json)")
+    if not 0 <= index < len(cams):
+        raise SceneError(f"--camera-index {index}: {path} has {len(cams)} cameras (0 to {len(cams) - 1})")
+    c = cams[index]
+    try:
+        pos = np.asarray(c["position"], float).reshape(3)
+        c2w = np.asarray(c["rotation"], float).reshape(3, 3)
+        fy, h0, w0 = float(c["fy"]), int(c["height"]), int(c["width"])
+    except (KeyError, TypeError, ValueError) as e:
+        raise SceneError(f"{path}: camera {index} lacks position, rotation (3x3), fy, width or height ({e!r})") from None
+    pl = placement or {"R": np.eye(3), "scale": 1.0, "t": np.zeros(3)}
+    R, scale, t = np.asarray(pl["R"], float), float(pl["scale"]), np.asarray(pl["t"], float)
+    width, height = width or w0, height or h0
+    return Camera.from_pose(scale * R @ pos + t, (R @ c2w).T, fy * height / h0, width, height,
+                            near=1e-3 * scale)
+
+
+def orbit_path(degrees: float, elevation_deg: float = 25.0, azimuth_deg: float = -60.0):
+    """A camera circling the sequence's centre about the vertical by ``degrees`` over the video, at the
+    distance that frames the whole box (:func:`gasp_core.render.camera.auto_camera`)."""
+    def path(lo, hi, n, width, height, fov_deg):
+        turn = np.arange(n) * (degrees / max(n, 1))
+        return [auto_camera(lo, hi, width, height, fov_deg, azimuth_deg + a, elevation_deg) for a in turn]
+    return path
+
+
+def keyframe_path(file):
+    """Cameras interpolated linearly between keyframes read from a JSON file.
+
+    The file: ``{"keyframes": [{"frame": 0, "position": [x, y, z], "look_at": [x, y, z]}, ...]}``,
+    world metres, z up, ``frame`` the index in the rendered video; before the first and after the last
+    keyframe the camera holds still.
+
+    Raises
+    ------
+    SceneError
+        Unreadable file, no keyframes, or a keyframe without ``frame``, ``position`` or ``look_at``.
+    """
+    file = Path(file)
+    try:
+        keys = json.loads(file.read_text())["keyframes"]
+        frames = np.array([float(k["frame"]) for k in keys])
+        pos = np.array([np.asarray(k["position"], float).reshape(3) for k in keys])
+        look = np.array([np.asarray(k["look_at"], float).reshape(3) for k in keys])
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        raise SceneError(f"{file}: expected {{\"keyframes\": [{{\"frame\", \"position\", \"look_at\"}}, ...]}} "
+                         f"({e!r})") from None
+    if not len(keys):
+        raise SceneError(f"{file}: no keyframes")
+    order = np.argsort(frames, kind="stable")
+    frames, pos, look = frames[order], pos[order], look[order]
+
+    def path(lo, hi, n, width, height, fov_deg):
+        out = []
+        for i in range(n):
+            p = [np.interp(i, frames, pos[:, k]) for k in range(3)]
+            q = [np.interp(i, frames, look[:, k]) for k in range(3)]
+            dist = float(np.linalg.norm(np.subtract(p, q)))
+            out.append(Camera(p, q, fov_deg, width, height, near=1e-3 * max(dist, 1e-6)))
+        return out
+    return path
