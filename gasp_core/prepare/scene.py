@@ -92,4 +92,5 @@ def input_files(scene: Scene) -> list[Path]:
     """
     return ([Path(scene.path)] + [Path(o.file) for o in scene.objects]
             + [Path(o.select.mask) for o in scene.objects if o.select is not None and o.select.mask is not None]
+            + [Path(o.select.file) for o in scene.objects if o.select is not None and o.select.file is not None]
             + [Path(c.mesh or c.gaussians) for c in scene.colliders if (c.mesh or c.gaussians) is not None])

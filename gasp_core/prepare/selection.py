@@ -29,6 +29,7 @@ import numpy as np
 from gasp_core.errors import SceneError
 from gasp_core.maps.games import flatten, gaussians_to_triangles
 from gasp_core.gs.gaussians import Gaussians
+from gasp_core.prepare.editor_cut import cut_rows
 
 if TYPE_CHECKING:
     from gasp_core.prepare.placement import Placement, PreparedObject
@@ -125,6 +126,8 @@ def region_rows(spec: ObjectSpec, g: Gaussians, pl: Placement) -> np.ndarray:
         return _check_indices(sel.indices, n, where)
     if sel.kind == "mask":
         rows = _load_mask(sel.mask, n, where)
+    elif sel.kind == "file":
+        rows = cut_rows(sel, g.means, where)
     else:
         x = g.means if sel.frame == "file" else pl.to_world(g.means)
         if sel.kind == "box":

@@ -16,7 +16,9 @@ _SIMULATION_KEYS = ("material", "select", "velocity", "angular_velocity", "fill"
                     "core_fraction", "if_open")
 
 #: Kinds of ``select`` region, one per ``select`` table.
-SELECT_KINDS = ("box", "sphere", "indices", "mask")
+SELECT_KINDS = ("box", "sphere", "indices", "mask", "file")
+#: What an editor's PLY (``select = { file = ... }``) stands for: the splats it kept, or those deleted from it.
+SELECT_TAKE = ("kept", "deleted")
 #: Frames a ``select`` box or sphere may be given in.
 SELECT_FRAMES = ("file", "world")
 
@@ -35,6 +37,12 @@ class SelectSpec:
     from the whole file). Optional ``grow = true`` grows the selection to the whole connected
     pieces it touches (:func:`gasp_core.prepare.selection.grow_selection`).
 
+    ``file = "cut.ply"``: a copy of the object's file edited in a splat editor (SuperSplat: delete
+    splats, export PLY or compressed PLY), matched to the file by position
+    (:func:`gasp_core.prepare.editor_cut.match_cut`). ``take = "kept"`` (default) simulates the splats
+    the edit kept, ``"deleted"`` those it removed; ``tolerance`` is the largest distance of a match,
+    file units (default 1e-3 of the file's bounding-box diagonal).
+
     Attributes
     ----------
     kind : str
@@ -51,6 +59,12 @@ class SelectSpec:
     frame : str
         ``"file"`` or ``"world"`` (box and sphere only).
     grow : bool
+    file : Path or None
+        ``kind == "file"``: the edited PLY, resolved against the scene file's folder.
+    take : str
+        ``"kept"`` or ``"deleted"`` (``kind == "file"``).
+    tolerance : float or None
+        Match distance, file units (``None``: 1e-3 of the bounding-box diagonal).
     """
 
     kind: str
@@ -62,6 +76,9 @@ class SelectSpec:
     mask: Path | None = None
     frame: str = "file"
     grow: bool = False
+    file: Path | None = None
+    take: str = "kept"
+    tolerance: float | None = None
 
     def describe(self) -> dict:
         """A JSON-ready summary (``run.json``)."""
@@ -72,8 +89,10 @@ class SelectSpec:
             out.update(centre=list(self.centre), radius=self.radius)
         elif self.kind == "indices":
             out.update(n_indices=len(self.indices))
-        else:
+        elif self.kind == "mask":
             out.update(mask=str(self.mask))
+        else:
+            out.update(file=str(self.file), take=self.take, tolerance=self.tolerance)
         return out
 
 
@@ -92,14 +111,17 @@ def read_static(o: dict, where: str, src: Path) -> bool:
 def read_select(value, where: str, src: Path) -> SelectSpec:
     """An object's ``select = { box | sphere | indices | mask, frame, grow }``, checked (see :class:`SelectSpec`)."""
     t = as_table(value, where, src)
-    check_keys(t, set(SELECT_KINDS) | {"frame", "grow"}, where, src)
+    check_keys(t, set(SELECT_KINDS) | {"frame", "grow", "take", "tolerance"}, where, src)
     kinds = [k for k in SELECT_KINDS if k in t]
     if len(kinds) != 1:
         raise SceneError(f"{src}: {where} needs exactly one of {list(SELECT_KINDS)}, got {kinds or 'none'}")
     kind = kinds[0]
     frame = as_string(t.get("frame", "file"), f"{where}.frame", src, SELECT_FRAMES)
-    if "frame" in t and kind in ("indices", "mask"):
+    if "frame" in t and kind in ("indices", "mask", "file"):
         raise SceneError(f"{src}: {where}.frame applies to a box or sphere, not to {kind}")
+    extra = [k for k in ("take", "tolerance") if k in t]
+    if extra and kind != "file":
+        raise SceneError(f"{src}: {where}.{extra[0]} applies to select = {{ file = ... }}, not to {kind}")
     kw: dict[str, Any] = {"kind": kind, "frame": frame,
                           "grow": as_boolean(t.get("grow", False), f"{where}.grow", src)}
     key = f"{where}.{kind}"
@@ -126,12 +148,22 @@ def read_select(value, where: str, src: Path) -> SelectSpec:
                 not all(isinstance(i, int) and not isinstance(i, bool) and i >= 0 for i in idx):
             bad_value(src, key, idx, "a non-empty list of row indices (integers >= 0)")
         kw["indices"] = tuple(idx)
-    else:
+    elif kind == "mask":
         name = as_string(t["mask"], key, src)
         m = (src.parent / name).resolve()
         if not m.is_file():
             raise SceneError(f"{src}: {key} '{name}' is not a file (looked for {m}); expected a .npy array")
         kw["mask"] = m
+    else:
+        name = as_string(t["file"], key, src)
+        m = (src.parent / name).resolve()
+        if not m.is_file():
+            raise SceneError(f"{src}: {key} '{name}' is not a file (looked for {m}); expected a PLY edited "
+                             f"in a splat editor")
+        kw["file"] = m
+        kw["take"] = as_string(t.get("take", "kept"), f"{where}.take", src, SELECT_TAKE)
+        if "tolerance" in t:
+            kw["tolerance"] = as_number(t["tolerance"], f"{where}.tolerance", src, 0.0, MAX_COORD, lo_open=True)
     return SelectSpec(**kw)
 
 
