@@ -240,7 +240,7 @@ BAD = [
     ("select = { indices = [] }", r"expected a non-empty list"),
     ('select = { cube = { lo = [0, 0, 0] } }', r"unknown key\(s\) \['cube'\] in \[\[object\]\] #1.select"),
     ('select = { indices = [1], box = { lo = [0.0, 0.0, 0.0], hi = [1.0, 1.0, 1.0] } }',
-     r"select needs exactly one of \['box', 'sphere', 'indices', 'mask'\], got \['box', 'indices'\]"),
+     r"select needs exactly one of \['box', 'sphere', 'indices', 'mask', 'file'\], got \['box', 'indices'\]"),
     ("select = { grow = true }", r"needs exactly one of .* got none"),
     ('select = { indices = [1], frame = "world" }', r"select.frame applies to a box or sphere, not to indices"),
     ('select = { box = { lo = [0.0, 0.0, 0.0], hi = [0.0, 1.0, 1.0] } }', r"select.box 'hi' must exceed 'lo'"),
