@@ -152,7 +152,8 @@ def _add_study_args(p: argparse.ArgumentParser) -> None:
                    help="run on an existing Dask cluster (default: a local one, a fresh process per run)")
     p.add_argument("--workers", type=int, default=1,
                    help="local worker processes running at once (default 1: comparable timings)")
-    p.add_argument("--timeout", type=float, help="wall-clock limit of one run, seconds")
+    p.add_argument("--timeout", type=float,
+                   help="wall-clock limit of one run, seconds (default 3600 for compare, 1800 for bench)")
     p.add_argument("--strip-frames", type=int, default=6, metavar="N",
                    help="frames per rendered strip in the report (default 6; 0 = none; needs the render extra)")
 
@@ -180,50 +181,51 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True)
 
     s = sub.add_parser("simulate", help="run a scene file and write one PLY per frame")
-    s.add_argument("scene", type=Path)
-    s.add_argument("-o", "--output", type=Path, help="output folder (must not exist unless --overwrite)")
+    s.add_argument("scene", type=Path, help="scene file (.toml), see the README's scene format")
+    s.add_argument("-o", "--output", type=Path, help="output folder, must not exist unless --overwrite (default: the scene's top-level output key)")
     s.add_argument("--overwrite", action="store_true",
-                   help="replace an existing output folder written by gasp (never one holding the inputs)")
+                   help="replace an existing output folder written by gasp, never one holding the inputs (default: refuse)")
     s.add_argument("--resume", action="store_true",
-                   help="continue a killed run to the same folder from its last complete frame")
-    s.add_argument("--frames", type=positive_int, help="override n_frames")
-    s.add_argument("--engine", help="override the scene's engine name")
-    s.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+                   help="continue a killed run to the same folder from its last complete frame (default: off)")
+    s.add_argument("--frames", type=positive_int, help="simulated frames, >= 1 (default: the scene's n_frames)")
+    s.add_argument("--engine", help="engine name (default: the scene's [engine] name; see 'gasp engines')")
+    s.add_argument("-q", "--quiet", action="store_true", help="no progress bar (default: show one)")
     s.set_defaults(func=_cmd_simulate)
 
     e = sub.add_parser("engines", help="list installed engines and their capabilities")
-    e.add_argument("--json", action="store_true")
+    e.add_argument("--json", action="store_true", help="print JSON instead of a table")
     e.set_defaults(func=_cmd_engines)
 
     pl = sub.add_parser("plugins", help="list every installed plugin record by kind: engines, renderers, "
                                         "soup writers")
-    pl.add_argument("--json", action="store_true")
+    pl.add_argument("--json", action="store_true", help="print JSON instead of a table")
     pl.set_defaults(func=_cmd_plugins)
 
     i = sub.add_parser("info", help="describe a Gaussian Splatting file")
-    i.add_argument("file", type=Path)
-    i.add_argument("--json", action="store_true")
+    i.add_argument("file", type=Path, help="a Gaussian Splatting file (graphdeco PLY, compressed PLY, .splatv)")
+    i.add_argument("--json", action="store_true", help="print JSON instead of text")
     i.set_defaults(func=_cmd_info)
 
     c = sub.add_parser("compare", help="run one scene on several engines and write a comparison report")
-    c.add_argument("scene", type=Path)
+    c.add_argument("scene", type=Path, help="scene file (.toml)")
     c.add_argument("--engines", help="comma-separated engine names (default: all installed that can run it)")
-    c.add_argument("-o", "--output", type=Path, required=True)
-    c.add_argument("--overwrite", action="store_true")
-    c.add_argument("--frames", type=positive_int)
-    c.add_argument("--max-gaussians", type=int, help="keep every k-th Gaussian so each object has at most this many")
+    c.add_argument("-o", "--output", type=Path, required=True, help="report folder (required)")
+    c.add_argument("--overwrite", action="store_true", help="replace an existing report folder (default: refuse)")
+    c.add_argument("--frames", type=positive_int, help="simulated frames, >= 1 (default: the scene's n_frames)")
+    c.add_argument("--max-gaussians", type=int,
+                   help="keep every k-th Gaussian so each object has at most this many (default: all)")
     _add_study_args(c)
     c.set_defaults(func=_cmd_compare)
 
     b = sub.add_parser("bench", help="sweep speed/accuracy settings against a converged reference")
-    b.add_argument("scene", type=Path)
+    b.add_argument("scene", type=Path, help="scene file (.toml)")
     b.add_argument("--engines", help="comma-separated engine names (default: all installed that can run it and offer a sweep)")
-    b.add_argument("-o", "--output", type=Path, required=True)
-    b.add_argument("--overwrite", action="store_true")
-    b.add_argument("--frames", type=positive_int)
+    b.add_argument("-o", "--output", type=Path, required=True, help="report folder (required)")
+    b.add_argument("--overwrite", action="store_true", help="replace an existing report folder (default: refuse)")
+    b.add_argument("--frames", type=positive_int, help="simulated frames, >= 1 (default: the scene's n_frames)")
     b.add_argument("--max-gaussians", type=int,
                    help="keep every k-th Gaussian so each object has at most this many (default 6000; 0 = all)")
-    b.add_argument("--quick", action="store_true", help="each engine's quick sweep (a few settings)")
+    b.add_argument("--quick", action="store_true", help="each engine's quick sweep, a few settings (default: the full sweep)")
     b.add_argument("--reference-n-grid", type=int, default=0,
                    help="a finer n_grid for the reference runs alone (default 0: each engine's own reference)")
     _add_study_args(b)
@@ -235,16 +237,16 @@ def build_parser() -> argparse.ArgumentParser:
     add_render_parsers(sub)
 
     x = sub.add_parser("export-soup", help="write the rest triangle soup per object (OBJ, PLY, ...) for a mesh tool")
-    x.add_argument("scene", type=Path)
-    x.add_argument("-o", "--output", type=Path, required=True)
-    x.add_argument("--overwrite", action="store_true")
+    x.add_argument("scene", type=Path, help="scene file (.toml)")
+    x.add_argument("-o", "--output", type=Path, required=True, help="folder for the soup files (required)")
+    x.add_argument("--overwrite", action="store_true", help="replace an existing folder (default: refuse)")
     x.set_defaults(func=_cmd_export_soup)
 
     m = sub.add_parser("import-motion", help="rebuild Gaussian frames from an animated triangle soup")
-    m.add_argument("scene", type=Path)
-    m.add_argument("motion_dir", type=Path)
-    m.add_argument("-o", "--output", type=Path, required=True)
-    m.add_argument("--overwrite", action="store_true")
+    m.add_argument("scene", type=Path, help="the scene file the soup was exported from (.toml)")
+    m.add_argument("motion_dir", type=Path, help="folder of the animated soup: MOTION_DIR/<object>/*.obj|*.ply, one file per frame")
+    m.add_argument("-o", "--output", type=Path, required=True, help="output folder for the Gaussian frames (required)")
+    m.add_argument("--overwrite", action="store_true", help="replace an existing output folder (default: refuse)")
     m.set_defaults(func=_cmd_import_motion)
     return p
 

@@ -5,6 +5,8 @@ import dataclasses
 import platform
 from importlib import metadata
 
+import numpy as np
+
 from gasp_core import __version__
 from gasp_core.seam.engine import EngineInfo
 from gasp_core.run.contact import collider_records
@@ -46,13 +48,32 @@ def run_summary(prep, stats, n_frames: int, per_frame: list[dict], wall_s: float
                    "n_grid": setup.n_grid, "dx": setup.dx},
         "boundaries": [dataclasses.asdict(b) for b in setup.boundaries],
         "n_points": len(setup.x), "n_render_points": setup.n_render, **selection_totals(prep),
-        "objects": [_object_record(o, name) for o, name in zip(prep.objects, prep.names)],
+        "objects": [_object_record(o, name, setup.boundaries) for o, name in zip(prep.objects, prep.names)],
         "colliders": collider_records(setup, per_frame),
         "frames": per_frame,
     }
 
 
-def _object_record(o, name: str) -> dict:
+def ground_in_file_frame(placement, height: float) -> dict:
+    """A ground plane at world height ``height`` (metres, z up) in an object's file frame, where its frames are.
+
+    Returns
+    -------
+    dict
+        ``normal`` (unit, file frame, pointing up) and ``offset`` (file units): the ground is the points
+        ``x`` with ``normal . x = offset``. When the normal is a file axis, also ``axis`` (``"x"``, ``"y"``,
+        ``"z"``) and ``at``, that coordinate of the ground (file units): e.g. ``{"axis": "z", "at": -0.059}``.
+    """
+    n = np.asarray(placement.R, float)[2]                       # R^T e_z: world up in file coordinates
+    d = (float(height) - float(placement.t[2])) / float(placement.scale)
+    out = {"normal": n.round(12).tolist(), "offset": d}
+    k = int(np.argmax(np.abs(n)))
+    if abs(abs(n[k]) - 1.0) < 1e-9:
+        out.update(axis="xyz"[k], at=d * float(np.sign(n[k])))
+    return out
+
+
+def _object_record(o, name: str, boundaries=()) -> dict:
     from gasp_core.prepare.placement import simulated_triangles
     s = o.spec
     return {
@@ -70,4 +91,6 @@ def _object_record(o, name: str) -> dict:
         "alpha": s.alpha, "thickness": s.thickness,
         "flatten": o.flatten_report.as_dict(),
         "placement": {"R": o.placement.R.tolist(), "scale": o.placement.scale, "t": o.placement.t.tolist()},
+        "ground_in_file_frame": [ground_in_file_frame(o.placement, b.height) for b in boundaries
+                                 if b.kind == "ground"],
     }

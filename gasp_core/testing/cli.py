@@ -14,7 +14,7 @@ def add_parser(sub) -> None:
     c = sub.add_parser("conform", help="run the engine conformance scenes (error contract included) on one engine")
     c.add_argument("engine", help="an installed engine's name (see 'gasp engines')")
     c.add_argument("--scenes", help="comma-separated scene names (default: all but the slow ones)")
-    c.add_argument("--slow", action="store_true", help="include the slow scenes")
+    c.add_argument("--slow", action="store_true", help="include the slow scenes (default: skip them)")
     c.add_argument("--json", action="store_true", help="print the results as JSON")
     c.set_defaults(func=conform_command)
 
