@@ -182,9 +182,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("simulate", help="run a scene file and write one PLY per frame")
     s.add_argument("scene", type=Path, help="scene file (.toml), see the README's scene format")
-    s.add_argument("-o", "--output", type=Path, help="output folder, must not exist unless --overwrite (default: the scene's top-level output key)")
+    s.add_argument("-o", "--output", type=Path,
+                   help="output folder, must not exist unless --overwrite (default: the scene's 'output' key)")
     s.add_argument("--overwrite", action="store_true",
-                   help="replace an existing output folder written by gasp, never one holding the inputs (default: refuse)")
+                   help="replace an existing output folder written by gasp, never one holding the inputs "
+                        "(default: refuse)")
     s.add_argument("--resume", action="store_true",
                    help="continue a killed run to the same folder from its last complete frame (default: off)")
     s.add_argument("--frames", type=positive_int, help="simulated frames, >= 1 (default: the scene's n_frames)")
@@ -225,7 +227,8 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--frames", type=positive_int, help="simulated frames, >= 1 (default: the scene's n_frames)")
     b.add_argument("--max-gaussians", type=int,
                    help="keep every k-th Gaussian so each object has at most this many (default 6000; 0 = all)")
-    b.add_argument("--quick", action="store_true", help="each engine's quick sweep, a few settings (default: the full sweep)")
+    b.add_argument("--quick", action="store_true",
+                   help="each engine's quick sweep, a few settings (default: the full sweep)")
     b.add_argument("--reference-n-grid", type=int, default=0,
                    help="a finer n_grid for the reference runs alone (default 0: each engine's own reference)")
     _add_study_args(b)
@@ -244,7 +247,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     m = sub.add_parser("import-motion", help="rebuild Gaussian frames from an animated triangle soup")
     m.add_argument("scene", type=Path, help="the scene file the soup was exported from (.toml)")
-    m.add_argument("motion_dir", type=Path, help="folder of the animated soup: MOTION_DIR/<object>/*.obj|*.ply, one file per frame")
+    m.add_argument("motion_dir", type=Path,
+                   help="folder of the animated soup: MOTION_DIR/<object>/*.obj|*.ply, one file per frame")
     m.add_argument("-o", "--output", type=Path, required=True, help="output folder for the Gaussian frames (required)")
     m.add_argument("--overwrite", action="store_true", help="replace an existing output folder (default: refuse)")
     m.set_defaults(func=_cmd_import_motion)

@@ -1,4 +1,4 @@
-"""``select = { file = "cut.ply" }``: the part of an object chosen in a splat editor (SuperSplat, PhysGaussian #14, #45).
+"""``select = { file = "cut.ply" }``: the part of an object chosen in a splat editor (PhysGaussian #14, #45).
 
 A user opens the object's file in SuperSplat, deletes splats, and exports what is left (PLY or compressed
 PLY). Editors may reorder splats and a compressed export quantises positions, so rows are matched by

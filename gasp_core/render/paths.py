@@ -67,7 +67,8 @@ def graphdeco_camera(path, index: int, placement: dict | None = None, width: int
         c2w = np.asarray(c["rotation"], float).reshape(3, 3)
         fy, h0, w0 = float(c["fy"]), int(c["height"]), int(c["width"])
     except (KeyError, TypeError, ValueError) as e:
-        raise SceneError(f"{path}: camera {index} lacks position, rotation (3x3), fy, width or height ({e!r})") from None
+        raise SceneError(f"{path}: camera {index} lacks position, rotation (3x3), fy, width or height "
+                         f"({e!r})") from None
     pl = placement or {"R": np.eye(3), "scale": 1.0, "t": np.zeros(3)}
     R, scale, t = np.asarray(pl["R"], float), float(pl["scale"]), np.asarray(pl["t"], float)
     width, height = width or w0, height or h0
