@@ -68,3 +68,30 @@ def test_exported_page_shows_donut_moving_from_file(donut_run, tmp_path):
     assert np.abs(shots[0] - shots[n - 1]).mean() > 0.5      # the two frames differ
     # it fell: the donut's pixels are lower on the screen in the last frame
     assert np.nonzero(b)[0].mean() > np.nonzero(a)[0].mean() + 3
+
+
+def test_rows_that_never_move_are_stored_once(tmp_path):
+    """Frame 1 moves 10 of 100 real Gaussians: the page stores frame 0 whole and 10 rows of frame 1."""
+    import gzip
+    import json
+    from pathlib import Path
+
+    from gasp_core.gs.io import read_gaussians, write_gaussians
+    from gasp_core.render.export import pack_run
+    g = read_gaussians(Path(__file__).parent / "data" / "pc_short.ply")
+    h = g.copy()
+    h.means[20:30] += [0.0, 0.0, 0.05]
+    (tmp_path / "obj").mkdir()
+    write_gaussians(tmp_path / "obj" / "frame_0000.ply", g)
+    write_gaussians(tmp_path / "obj" / "frame_0001.ply", h)
+    (tmp_path / "run.json").write_text(json.dumps({"frame_dt": 0.1, "objects": [
+        {"name": "obj", "placement": {"R": np.eye(3).tolist(), "scale": 1.0, "t": [0.0, 0.0, 0.0]}}]}))
+    meta, data = pack_run(tmp_path)
+    assert meta["n_moving"] == 10
+    assert len(data) == 4 * 100 + 4 * 10 + 18 * 100 + 18 * 10
+    rows = np.frombuffer(data, "<u4", 10, meta["moving_offset"])
+    assert rows.tolist() == list(range(20, 30))
+    c1 = np.frombuffer(data, "<u2", 30, meta["frames_offset"] + 18 * 100).reshape(10, 3)
+    lo, hi = np.array(meta["lo"]), np.array(meta["hi"])
+    np.testing.assert_allclose(lo + (hi - lo) * c1 / 65535.0, h.means[20:30], atol=1e-4 * meta["size"])
+    assert gzip.decompress(gzip.compress(data)) == data
