@@ -25,9 +25,10 @@ import numpy as np
 
 from gasp_core.errors import SceneError
 from gasp_core.render.camera import nice_step
-from gasp_core.render.run import load_run, sequence_bounds
+from gasp_core.render.run import load_run, make_view, sequence_bounds
 
 PLAYER = Path(__file__).with_name("player.html")
+FOV_DEG = 40.0
 
 
 def sqrt_covariances(covs: np.ndarray) -> np.ndarray:
@@ -61,8 +62,9 @@ def pack_run(run_dir, frames=None) -> tuple[dict, bytes]:
     Returns
     -------
     meta : dict
-        ``n``, ``n_frames``, ``frame_dt`` (s between included frames), ``lo``, ``hi``, ``size`` (m),
-        ``ground_z`` (m), camera start (``azimuth_deg``, ``elevation_deg``, ``distance``, ``fov_deg``).
+        ``n``, ``n_frames``, ``frame_dt`` (s between included frames), ``lo``, ``hi``, ``size`` (m, the
+        quantisation box), ``n_moving``, byte offsets, ``ground_z`` and the grid (m), and the start
+        camera of ``gasp render`` (``target``, ``azimuth_deg``, ``elevation_deg``, ``distance``, ``fov_deg``).
     data : bytes
         Colours, then per frame centres and square-root covariances (see the module docstring).
 
@@ -91,15 +93,20 @@ def pack_run(run_dir, frames=None) -> tuple[dict, bytes]:
     for c, q in enc[1:]:
         parts += [c[rows].tobytes(), q[rows].tobytes()]
     step = frames[1] - frames[0] if len(frames) > 1 else 1
-    fov = 40.0
-    radius = 0.5 * float(np.linalg.norm(hi - lo))
+    # the start view is gasp render's: framing the 0.1-99.9 percentile box, strays left out
+    vlo, vhi = sequence_bounds(splats)
+    view = make_view(vlo, vhi, run.ground_z, 800, 600, FOV_DEG)
+    d = view.camera.position - view.camera.look_at
+    dist = float(np.linalg.norm(d))
     meta = {"n": s0.n, "n_frames": len(frames), "frame_dt": run.frame_dt * step, "speed": 1.0,
             "lo": lo.tolist(), "hi": hi.tolist(), "size": size, "n_moving": len(rows),
             "moving_offset": len(parts[0]), "frames_offset": len(parts[0]) + len(parts[1]),
-            "ground_z": float(lo[2] if run.ground_z is None else run.ground_z),
-            "grid_step": nice_step(size / 4.0), "azimuth_deg": -60.0, "elevation_deg": 25.0,
-            "distance": 1.1 * max(radius, 1e-3) / np.sin(np.radians(fov) / 2.0), "fov_deg": fov,
-            "autoplay": True, "label": run.label}
+            "ground_z": view.ground_z, "grid_centre": (0.5 * (vlo + vhi))[:2].tolist(),
+            "grid_size": float(max(np.max(vhi[:2] - vlo[:2]), 1e-3)),
+            "grid_step": nice_step(float(max(np.max(vhi[:2] - vlo[:2]), 1e-3)) / 4.0),
+            "target": view.camera.look_at.tolist(), "distance": dist, "fov_deg": FOV_DEG,
+            "azimuth_deg": float(np.degrees(np.arctan2(d[1], d[0]))),
+            "elevation_deg": float(np.degrees(np.arcsin(d[2] / dist))), "autoplay": True, "label": run.label}
     return meta, b"".join(parts)
 
 

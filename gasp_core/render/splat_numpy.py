@@ -122,7 +122,8 @@ def splats_from_gaussians(g, R=None, scale: float = 1.0, t=None, rest_rotmats=No
     covs = M @ M.transpose(0, 2, 1)
     means = scale * g.means @ R.T + t
     rgb = np.clip(0.5 + SH_C0 * g.sh_dc.astype(np.float32), 0.0, 1.0)
-    opac = (1.0 / (1.0 + np.exp(-g.opacities.astype(np.float64)))).astype(np.float32)
+    with np.errstate(over="ignore"):        # a logit below -709 is opacity 0, not a warning
+        opac = (1.0 / (1.0 + np.exp(-g.opacities.astype(np.float64)))).astype(np.float32)
     out = Splats(means, covs, rgb, opac)
     if g.sh_rest.shape[1]:
         out.sh = np.concatenate([g.sh_dc[:, None, :], g.sh_rest], axis=1).astype(np.float32)
