@@ -11,7 +11,7 @@ Which code reads what:
 =================  ===================================  ========================================
 format             read by                              written by
 =================  ===================================  ========================================
-``.spz``           gsply ``read_spz`` (optional extra)  gsply ``write_spz`` (v3, gzip)
+``.spz``           gsply ``read_spz`` (optional extra)  gsply ``write_spz`` (v3, gzip); RUB axes
 ``.sog``           gsply ``sogread`` (+ imagecodecs)    :mod:`gasp_core.gs.sog` (own, Pillow WebP)
 compressed PLY     :mod:`gasp_core.gs.compressed`       gsply ``compress_to_bytes``
 ``.splat``         :mod:`gasp_core.gs.splat` (own)      --
@@ -117,7 +117,29 @@ def read_splat_file(path, fmt: str | None = None) -> Gaussians:
         raise GaspError(f"{path}: reading a .sog file needs imagecodecs ({INSTALL}): {e}") from None
     except (ValueError, OSError, EOFError, KeyError) as e:
         reject_file(path, f"not a readable .{fmt} file (truncated or corrupt?): {e}")
-    return from_gsdata(d, path, fmt)
+    g = from_gsdata(d, path, fmt)
+    return flip_yz(g) if fmt == "spz" else g
+
+
+#: Sign of each SH rest coefficient (degree 1, 2, 3 order of graphdeco) under ``y -> -y, z -> -z``
+#: (Niantic spz ``coordinateConverter``: ``flipSh = {y, z, x, xy, yz, 1, xz, 1, y, xyz, y, z, x, z, x}``).
+_SH_FLIP = np.array([-1, -1, 1, -1, 1, 1, -1, 1, -1, 1, -1, -1, 1, -1, 1], np.float32)
+
+
+def flip_yz(g: Gaussians) -> Gaussians:
+    """``g`` turned 180 degrees about x (``y -> -y``, ``z -> -z``): between PLY's RDF axes and SPZ's RUB.
+
+    The SPZ specification stores right-up-back axes; its reference library (nianticlabs/spz, used by
+    splat-transform and SuperSplat) converts from and to the PLY's right-down-front axes on save and
+    load. gsply 0.4.6 stores the values as given, so GASP converts around it: means and the
+    quaternion's y, z change sign, and the SH rest coefficients by :data:`_SH_FLIP`. It is its own
+    inverse.
+    """
+    k = g.sh_rest.shape[1]
+    return Gaussians(means=g.means * [1.0, -1.0, -1.0], scales=g.scales,
+                     rotations=g.rotations * [1.0, 1.0, -1.0, -1.0], opacities=g.opacities, sh_dc=g.sh_dc,
+                     sh_rest=g.sh_rest * _SH_FLIP[:k, None], extra=g.extra, source=g.source, layout=g.layout,
+                     meta=g.meta)
 
 
 def from_gsdata(d, path, layout: str) -> Gaussians:
@@ -158,7 +180,7 @@ def write_splat_file(path, g: Gaussians, fmt: str, *, overwrite: bool = False) -
         (``ply`` is :func:`gasp_core.gs.io.write_gaussians`.) ``compressed_ply``:
         PlayCanvas compressed PLY by gsply (positions 11/10/11 bits per 256-splat chunk). ``spz``:
         Niantic SPZ v3 by gsply (positions 24-bit fixed point, 12 fractional bits: 2.4e-4 file
-        units; scales, colours, opacity 8 bit). ``sog``: :func:`gasp_core.gs.sog.write_sog`.
+        units; scales, colours, opacity 8 bit), in the specification's RUB axes (:func:`flip_yz`). ``sog``: :func:`gasp_core.gs.sog.write_sog`.
     overwrite : bool
         Replace an existing file.
 
@@ -178,6 +200,8 @@ def write_splat_file(path, g: Gaussians, fmt: str, *, overwrite: bool = False) -
     if fmt not in ("compressed_ply", "spz"):
         raise ValueError(f"unknown format {fmt!r}; expected compressed_ply, spz or sog")
     gsply = gsply_module(path, f"writing {fmt}")
+    if fmt == "spz":
+        g = flip_yz(g)
     means, log_s, q, opac, sh0, shn = gsply_arrays(g)
     # gsply's encoders keep the (n, 0, 3) SH shape apart from None; zero scales clip to the smallest code
     log_s = np.maximum(log_s, np.float32(-30.0))
