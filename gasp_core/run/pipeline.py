@@ -70,12 +70,9 @@ def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
     resume : bool
         Continue a killed run to ``outdir`` from its last checkpoint (:mod:`gasp_core.run.resume`;
         engines with the feature ``state``).
-    fmt : {"ply", "compressed_ply", "spz", "sog"}
-        Output format (:data:`gasp_core.gs.formats.SUFFIXES`); all but ``ply`` need gsply or
-        Pillow (``pip install 'gasp[formats]'``).
-    layout : {"frames", "split"}, optional
-        Every frame complete, or what does not move written once (default: ``frames`` for
-        ``ply``, ``split`` otherwise; :mod:`gasp_core.run.layout`).
+    fmt, layout : str
+        Output format (``ply``, ``compressed_ply``, ``spz``, ``sog``) and layout (``frames``, ``split``;
+        default ``frames`` for ``ply``, else ``split``): :mod:`gasp_core.run.layout`.
 
     Returns
     -------
