@@ -18,15 +18,16 @@ layout, and a folder of an older run without a manifest (``<object>/frame_*.ply`
 """
 from __future__ import annotations
 
+import importlib
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from gasp_core.errors import SceneError
+from gasp_core.errors import GaspError, SceneError
 from gasp_core.fsutil import atomic_json, atomic_write
-from gasp_core.gs.formats import SUFFIXES, gsply_module, write_splat_file
+from gasp_core.gs.formats import INSTALL, SUFFIXES, gsply_module, write_splat_file
 from gasp_core.gs.gaussians import Gaussians
 from gasp_core.gs.io import read_gaussians, write_gaussians
 
@@ -84,6 +85,11 @@ class FrameWriter:
             raise ValueError(f"unknown layout {self.layout!r}; expected one of {', '.join(LAYOUTS)}")
         if self.fmt in ("compressed_ply", "spz"):
             gsply_module(self.folder, f"--format {self.fmt}")  # refuse before the first frame
+        if self.fmt == "sog":
+            try:
+                importlib.import_module("PIL.WebPImagePlugin")
+            except ImportError:
+                raise GaspError(f"{self.folder}: --format sog needs Pillow with WebP ({INSTALL})") from None
         self.suffix = SUFFIXES[self.fmt]
         self.frames = [[] for _ in self.names]
         self.once = [{} for _ in self.names]
