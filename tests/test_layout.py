@@ -104,7 +104,7 @@ def test_spz_run_frames_read_in_gsply(tmp_path, donut_small):
 
 
 def test_kill_9_then_resume_a_split_run(tmp_path, donut_small):
-    """--resume reads the split layout's partial folder: the rest file is kept, the frames equal an uninterrupted run."""
+    """--resume continues a split run: the rest file is kept, the frames equal an uninterrupted run."""
     import os
     import signal
     import subprocess

@@ -180,7 +180,8 @@ def write_splat_file(path, g: Gaussians, fmt: str, *, overwrite: bool = False) -
         (``ply`` is :func:`gasp_core.gs.io.write_gaussians`.) ``compressed_ply``:
         PlayCanvas compressed PLY by gsply (positions 11/10/11 bits per 256-splat chunk). ``spz``:
         Niantic SPZ v3 by gsply (positions 24-bit fixed point, 12 fractional bits: 2.4e-4 file
-        units; scales, colours, opacity 8 bit), in the specification's RUB axes (:func:`flip_yz`). ``sog``: :func:`gasp_core.gs.sog.write_sog`.
+        units; scales, colours, opacity 8 bit), in the specification's RUB axes (:func:`flip_yz`).
+        ``sog``: :func:`gasp_core.gs.sog.write_sog`.
     overwrite : bool
         Replace an existing file.
 
