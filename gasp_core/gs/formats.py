@@ -160,12 +160,11 @@ def from_gsdata(d, path, layout: str) -> Gaussians:
 
 
 def gsply_arrays(g: Gaussians) -> tuple[np.ndarray, ...]:
-    """``means, log_scales, quats (wxyz), opacities, sh0, shN`` as float32 arrays, gsply's PLY convention."""
+    """``means, log_scales, quats (wxyz), opacities, sh0, shN (n, K, 3)`` as float32 arrays, gsply's PLY convention."""
     with np.errstate(divide="ignore"):
         log_s = np.log(g.scales)
-    shn = g.sh_rest if g.sh_rest.shape[1] else None
     return (g.means.astype(np.float32), log_s.astype(np.float32), g.rotations.astype(np.float32),
-            g.opacities.astype(np.float32), g.sh_dc.astype(np.float32), shn)
+            g.opacities.astype(np.float32), g.sh_dc.astype(np.float32), g.sh_rest.astype(np.float32))
 
 
 def write_splat_file(path, g: Gaussians, fmt: str, *, overwrite: bool = False) -> Path:
@@ -204,14 +203,12 @@ def write_splat_file(path, g: Gaussians, fmt: str, *, overwrite: bool = False) -
     if fmt == "spz":
         g = flip_yz(g)
     means, log_s, q, opac, sh0, shn = gsply_arrays(g)
-    # gsply's encoders keep the (n, 0, 3) SH shape apart from None; zero scales clip to the smallest code
-    log_s = np.maximum(log_s, np.float32(-30.0))
+    # the encoders need finite values: a zero scale (log = -inf) is stored as exp(-30)
+    data = gsply.GSData(means=means, scales=np.maximum(log_s, np.float32(-30.0)), quats=q, opacities=opac, sh0=sh0,
+                        shN=shn)
     if fmt == "compressed_ply":
-        data = gsply.compress_to_bytes(gsply.GSData(means=means, scales=log_s, quats=q, opacities=opac, sh0=sh0,
-                                                    shN=shn if shn is not None else np.zeros((g.n, 0, 3),
-                                                                                             np.float32)))
-        return atomic_write(path, lambda f: f.write(data), overwrite=overwrite)
+        raw = gsply.compress_to_bytes(data)
+        return atomic_write(path, lambda f: f.write(raw), overwrite=overwrite)
     with atomic_path(path, overwrite=overwrite) as tmp:
-        gsply.write_spz(tmp, gsply.GSData(means=means, scales=log_s, quats=q, opacities=opac, sh0=sh0,
-                                          shN=shn if shn is not None else np.zeros((g.n, 0, 3), np.float32)))
+        gsply.write_spz(tmp, data)
     return path

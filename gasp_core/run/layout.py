@@ -75,7 +75,7 @@ class FrameWriter:
     fmt: str = "ply"
     layout: str = "frames"
     overwrite: bool = False
-    frames: list[list[str]] = field(default_factory=list)
+    #: Per object, the files written once (``static``, ``rest``, ``moving_rows``), relative to ``folder``.
     once: list[dict] = field(default_factory=list)
 
     def __post_init__(self):
@@ -91,7 +91,6 @@ class FrameWriter:
             except ImportError:
                 raise GaspError(f"{self.folder}: --format sog needs Pillow with WebP ({INSTALL})") from None
         self.suffix = SUFFIXES[self.fmt]
-        self.frames = [[] for _ in self.names]
         self.once = [{} for _ in self.names]
 
     def write(self, frame: int, gs: list[Gaussians]) -> None:
@@ -112,7 +111,6 @@ class FrameWriter:
                     self.once[k]["moving_rows"] = f"{name}/moving_rows.npy"
                 g = g.subset(rows)
             write_file(self.folder / rel, g, self.fmt, overwrite=self.overwrite)
-            self.frames[k].append(rel)
 
     def _once(self, k: int, what: str, g: Gaussians) -> None:
         """Write ``<object>/<what><suffix>`` the first time (a resumed run finds it there)."""
@@ -127,8 +125,8 @@ class FrameWriter:
         """Write the manifest ``frames.json`` (frames ``0..n_frames``; ``counts``: Gaussians per object)."""
         objects = []
         for k, name in enumerate(self.names):
-            frames = [f"{name}/frame_{f:04d}{self.suffix}" for f in range(n_frames + 1)] \
-                if self.frames[k] or not self.once[k].get("static") else []
+            frames = [] if "static" in self.once[k] else \
+                [f"{name}/frame_{f:04d}{self.suffix}" for f in range(n_frames + 1)]
             objects.append({"name": name, "n_gaussians": counts[k], **self.once[k], "frames": frames})
         return atomic_json(self.folder / MANIFEST, {"format": self.fmt, "layout": self.layout,
                                                     "n_frames": n_frames + 1, "objects": objects})
