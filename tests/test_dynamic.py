@@ -9,8 +9,7 @@ from gasp_core.gs.splatv import read_splatv, splatv_at
 from gasp_core.prepare.placement import prepare_object
 from gasp_core.scene.spec import parse_scene
 
-SPLATV = Path(__file__).resolve().parents[2] / "shared" / "data" / "dynamic" / "spinach_4.splatv"
-pytestmark = pytest.mark.skipif(not SPLATV.exists(), reason=f"{SPLATV} not present")
+SPLATV = Path(__file__).resolve().parents[1] / "examples" / "data" / "spinach_4.splatv"
 
 
 def scene(extra: str, file=SPLATV):

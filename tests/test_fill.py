@@ -1,6 +1,4 @@
 """Interior fill from Gaussian footprints: known volumes of real closed meshes, the real donut, open shapes."""
-import os
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,9 +9,7 @@ from gasp_core.maps.fill import fill_interior, fill_spacing
 from gasp_core.maps.games import flatten, gaussians_to_triangles
 
 trimesh = pytest.importorskip("trimesh")
-SPOT = Path(os.environ.get("GASP_SHARED_DATA", ROOT.parent / "shared" / "data")) / "mesh" / "spot_triangulated.obj"
-if not SPOT.exists():
-    SPOT = Path("/work/shared/data/mesh/spot_triangulated.obj")
+SPOT = ROOT / "examples" / "data" / "spot_triangulated.obj"   # Keenan Crane's cow, public domain (spot_README.txt)
 
 
 def mesh_gaussians(mesh, n, seed=0, sigma_factor=0.5):
@@ -40,8 +36,6 @@ def mesh_gaussians(mesh, n, seed=0, sigma_factor=0.5):
 
 
 def spot_mesh():
-    if not SPOT.exists():
-        pytest.skip(f"{SPOT} not found")
     mesh = trimesh.load(SPOT, process=False)
     mesh.merge_vertices(merge_tex=True, merge_norm=True)     # the OBJ splits vertices at UV seams
     assert mesh.is_watertight

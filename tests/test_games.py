@@ -9,8 +9,7 @@ from gasp_core.gs.gaussians import quat_to_rotmat, rotmat_to_quat
 from gasp_core.gs.io import read_gaussians
 
 DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
-SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "gs"
-GS_FILES = sorted(SHARED.glob("*.ply")) if SHARED.exists() else sorted(DATA.glob("*.ply"))
+GS_FILES = sorted(DATA.glob("*.ply"))
 
 
 @pytest.fixture(scope="module", params=[p.name for p in GS_FILES])
@@ -20,12 +19,8 @@ def real(request):
 
 
 def test_real_files_found():
-    """The workspace's shared data holds four real scenes; a clone on its own has the three bundled
-    in examples/data (the donut, the compressed guitar and the guitar slab)."""
-    if SHARED.exists():
-        assert len(GS_FILES) >= 4, f"expected the four real files in {SHARED}"
-    else:
-        assert len(GS_FILES) >= 3, f"expected the three bundled real files in {DATA}"
+    """examples/data ships five real scenes: the donut, the compressed guitar, its slab, train-1000 and pc_short."""
+    assert len(GS_FILES) >= 5, f"expected the five bundled real files in {DATA}"
 
 
 def test_round_trip_real_file(real):

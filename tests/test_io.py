@@ -1,4 +1,4 @@
-"""Gaussian Splatting file I/O on the real files in the shared data folder beside the checkout (``../shared/data``: gs/ and dynamic/)."""
+"""Gaussian Splatting file I/O on the real files shipped in ``examples/data`` (licences beside them)."""
 import math
 import os
 from pathlib import Path
@@ -17,14 +17,10 @@ from gasp_core.gs.io import read_gaussians, write_gaussians
 from gasp_core.gs.ply import SH_C0
 from gasp_core.gs.splatv import read_splatv, splatv_at
 
-SHARED = Path(os.environ.get("GASP_DATA", Path(__file__).resolve().parents[2] / "shared" / "data"))
-GS = SHARED / "gs"
-DONUT, GUITAR = GS / "donut_v3dg.ply", GS / "guitar.compressed.ply"
-TRAIN, PC_SHORT = GS / "train-1000.ply", GS / "pc_short.ply"
-SPLATV = SHARED / "dynamic" / "spinach_4.splatv"
-
-if not GS.is_dir():
-    pytest.skip(f"real data not found in {SHARED} (set GASP_DATA)", allow_module_level=True)
+DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
+DONUT, GUITAR = DATA / "donut_v3dg.ply", DATA / "guitar.compressed.ply"
+TRAIN, PC_SHORT = DATA / "train-1000.ply", DATA / "pc_short.ply"
+SPLATV = DATA / "spinach_4.splatv"
 
 # file -> (count, SH degree, layout, has normals) as documented in data/README.md
 EXPECTED = {
@@ -307,9 +303,11 @@ def test_missing_scales_and_positions(tmp_path):
     write_ply(tmp_path / "rest.ply", drop_fields(v, {"f_rest_44"}))
     with pytest.raises(SceneError, match=r"rest\.ply: unknown layout: 44 f_rest_"):
         read_gaussians(tmp_path / "rest.ply")
-    # a PLY that is no Gaussian file at all (a mesh)
-    with pytest.raises(SceneError, match=r"bun_zipper\.ply.*unknown layout"):
-        read_gaussians(SHARED / "mesh" / "bun_zipper.ply")
+    # a PLY that is no Gaussian file at all (a triangle mesh, as trimesh writes one)
+    import trimesh
+    trimesh.creation.box().export(tmp_path / "mesh.ply")
+    with pytest.raises(SceneError, match=r"mesh\.ply.*unknown layout"):
+        read_gaussians(tmp_path / "mesh.ply")
     with pytest.raises(FileNotFoundError, match="nope.ply"):
         read_gaussians(tmp_path / "nope.ply")
 

@@ -5,11 +5,13 @@ import time
 import numpy as np
 import pytest
 
-pytest.importorskip("viser", reason="the view extra (viser) is not installed")
-sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed")
-CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
-if not shutil.which("chromium"):
-    pytest.skip("Debian chromium is not installed (apt-get install -y chromium)", allow_module_level=True)
+pytest.importorskip("viser", reason="the view extra is not installed: pip install -e '.[view]'")
+sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed: pip install playwright")
+# Debian's full browser or its headless build, whichever is there
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-headless-shell")
+if CHROMIUM is None:
+    pytest.skip("no Chromium found: apt-get install -y chromium (or chromium-headless-shell)",
+                allow_module_level=True)
 
 ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-quic",
         "--no-first-run", "--disable-component-update", "--disable-sync", "--use-gl=swiftshader",

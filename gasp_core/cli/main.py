@@ -29,6 +29,7 @@ def _cmd_simulate(args) -> int:
         raise GaspError("no output folder: pass -o OUTDIR or set 'output' in the scene")
     res = simulate_scene(scene, out, overwrite=args.overwrite, progress=not args.quiet,
                          n_frames=args.frames, engine=args.engine, resume=args.resume,
+                         fmt=args.format, layout=args.layout,
                          warn=lambda msg: print(f"gasp: warning: {msg}", file=sys.stderr))
     s = res.summary
     fps = len(s["frames"]) - 1
@@ -190,6 +191,12 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--resume", action="store_true",
                    help="continue a killed run to the same folder from its last complete frame (default: off)")
     s.add_argument("--frames", type=positive_int, help="simulated frames, >= 1 (default: the scene's n_frames)")
+    s.add_argument("--format", choices=["ply", "compressed_ply", "spz", "sog"], default="ply",
+                   help="frame file format (default: ply; the others need pip install 'gasp[formats]'; "
+                        "sizes and precision: docs/formats.md)")
+    s.add_argument("--layout", choices=["frames", "split"],
+                   help="'frames': every frame file complete; 'split': static objects and unselected rows "
+                        "written once, frames.json lists the files (default: frames for ply, else split)")
     s.add_argument("--engine", help="engine name (default: the scene's [engine] name; see 'gasp engines')")
     s.add_argument("-q", "--quiet", action="store_true", help="no progress bar (default: show one)")
     s.set_defaults(func=_cmd_simulate)

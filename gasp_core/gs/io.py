@@ -1,6 +1,6 @@
 """Reading and writing Gaussian Splatting files.
 
-Layouts read by :func:`read_gaussians` (detected from the PLY header, never from the file name):
+Layouts read by :func:`read_gaussians` (a PLY's from its header, never from the file name):
 
 ``"3dgs"``
     graphdeco-inria/gaussian-splatting ``scene/gaussian_model.py: save_ply``: vertex properties
@@ -17,6 +17,9 @@ Layouts read by :func:`read_gaussians` (detected from the PLY header, never from
     The PlayCanvas / SuperSplat compressed PLY (element ``chunk`` + 4 packed uint32 per splat).
 ``"splatv"``
     antimatter15's splaTV dynamic format, read by :func:`read_splatv`.
+``"spz"``, ``"sog"``, ``"splat"``, ``"ksplat"``
+    Files that are not PLY (detected from their first bytes, or the suffix where a format has no
+    signature): :mod:`gasp_core.gs.formats`.
 
 Every reader returns a :class:`~gasp_core.gs.gaussians.Gaussians`; rotations are normalised on read
 (the stored quaternion norms are not kept, so a write-back stores unit quaternions). Opacities,
@@ -37,6 +40,7 @@ from gasp_core.gs.gaussians import Gaussians, MAX_MAGNITUDE, quat_to_rotmat, rot
 from gasp_core.maps.games import EPS as FLAT_EPS
 
 from gasp_core.gs.compressed import decode_compressed
+from gasp_core.gs.formats import read_splat_file, sniff
 from gasp_core.gs.ply import (check_columns, column, numbered_names, read_ply, reject_file, require_columns,
                               stack_columns)
 
@@ -49,7 +53,8 @@ __all__ = ["read_gaussians", "write_gaussians"]
 
 
 def read_gaussians(path) -> Gaussians:
-    """Read a Gaussian Splatting PLY: graphdeco 3DGS, GaMeS, 2DGS or PlayCanvas compressed.
+    """Read a Gaussian Splatting PLY (graphdeco 3DGS, GaMeS, 2DGS or PlayCanvas compressed), or a ``.spz``,
+    ``.sog``, ``.splat`` or ``.ksplat`` file (:func:`gasp_core.gs.formats.read_splat_file`).
 
     Parameters
     ----------
@@ -88,6 +93,9 @@ def read_gaussians(path) -> Gaussians:
     * Compressed PLY: see :func:`gasp_core.gs.compressed.decode_compressed`.
     """
     path = Path(path)
+    fmt = sniff(path)
+    if fmt != "ply":
+        return read_splat_file(path, fmt)
     ply = read_ply(path)
     names_el = [e.name for e in ply.elements]
     if "vertex" not in names_el:

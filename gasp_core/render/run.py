@@ -1,6 +1,7 @@
 """Render the frames of a ``gasp simulate`` run (or several side by side) in the world frame, z up.
 
-A run folder holds ``run.json`` and ``<object>/frame_0000.ply ...``; ``run.json``'s
+A run folder holds ``run.json`` and its frames in any format and layout, read through
+:func:`gasp_core.run.layout.open_frames` (``frames.json``, or ``<object>/frame_0000.ply ...``); ``run.json``'s
 ``objects[].placement`` ``{R, scale, t}`` maps each object's file frame to the world:
 ``x_world = scale * R @ x_file + t``.
 """
@@ -16,6 +17,7 @@ import numpy as np
 from gasp_core.errors import SceneError
 from gasp_core.render.camera import Camera, auto_camera, ground_background, nice_step
 from gasp_core.render.splat_numpy import Splats, splats_from_gaussians
+from gasp_core.run.layout import RunFrames, open_frames
 
 
 @dataclass
@@ -24,7 +26,7 @@ class Run:
 
     path: Path
     objects: list[dict]
-    frame_files: list[list[Path]]      # [frame][object]
+    frames: RunFrames                  # any layout and format (gasp_core.run.layout)
     ground_z: float | None
     frame_dt: float
     label: str
@@ -34,12 +36,11 @@ class Run:
 
     @property
     def n_frames(self) -> int:
-        return len(self.frame_files)
+        return self.frames.n_frames
 
     def read(self, frame: int, k: int):
         """Object ``k``'s Gaussians at ``frame`` (file frame): the one place frame files are read."""
-        from gasp_core.gs.io import read_gaussians
-        return read_gaussians(self.frame_files[frame][k])
+        return self.frames.gaussians(frame, k)
 
     def splats(self, frame: int) -> Splats:
         """World-frame splats of every object at ``frame``; with SH degree >= 1 each Gaussian's SH frame
@@ -77,15 +78,9 @@ def load_run(path) -> Run:
             o["placement"]["R"], o["placement"]["scale"], o["placement"]["t"]  # noqa: B018 (presence)
     except (ValueError, KeyError, TypeError) as e:
         raise SceneError(f"{meta_path}: no usable objects[].placement {{R, scale, t}} ({e!r})") from None
-    per_obj = []
-    for o in objects:
-        files = sorted((path / o["name"]).glob("frame_*.ply"))
-        if not files:
-            raise SceneError(f"{path / o['name']}: no frame_*.ply files for object '{o['name']}'")
-        per_obj.append(files)
-    n = min(len(f) for f in per_obj)
+    frames = open_frames(path)
     grounds = [b.get("height", 0.0) for b in meta.get("boundaries", []) if b.get("kind") == "ground"]
-    return Run(path, objects, [[f[i] for f in per_obj] for i in range(n)],
+    return Run(path, objects, frames,
                min(grounds) if grounds else None, float(meta.get("frame_dt", 1 / 30)),
                f"{meta.get('engine', '')}" or path.name)
 

@@ -21,7 +21,7 @@ from gasp_core.errors import GaspError
 from gasp_core.run.frames import FrameState, iter_frames
 from gasp_core.fsutil import OutputClaim, atomic_json, leftover_partials
 from gasp_core.gs.gaussians import Gaussians
-from gasp_core.gs.io import write_gaussians
+from gasp_core.run.layout import FrameWriter, default_layout
 from gasp_core.prepare.scene import PreparedScene, input_files, prepare_scene
 from gasp_core.run.record import run_summary
 from gasp_core.seam.runner import RunStats
@@ -42,13 +42,14 @@ def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
                    progress: bool = True, n_frames: int | None = None,
                    engine: str | None = None,
                    on_frame: Callable[[int, list[Gaussians]], None] | None = None,
-                   warn: Callable[[str], None] | None = None, resume: bool = False) -> RunResult:
-    """Run a scene and write one graphdeco PLY per object per frame.
+                   warn: Callable[[str], None] | None = None, resume: bool = False,
+                   fmt: str = "ply", layout: str | None = None) -> RunResult:
+    """Run a scene and write its frames, by default one graphdeco PLY per object per frame.
 
     Layout: ``OUTDIR/<object>/frame_0000.ply`` (frame 0 = the input state) to
-    ``frame_<n_frames>.ply``, that is ``n_frames + 1`` files per object, and ``OUTDIR/run.json``
-    (engine, versions, parameters, per-frame timings, flatten reports, alpha-rule and
-    degenerate counts).
+    ``frame_<n_frames>.ply``, that is ``n_frames + 1`` files per object, ``OUTDIR/frames.json``
+    (the manifest, :mod:`gasp_core.run.layout`) and ``OUTDIR/run.json`` (engine, versions,
+    parameters, per-frame timings, flatten reports, alpha-rule and degenerate counts).
 
     Parameters
     ----------
@@ -69,6 +70,9 @@ def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
     resume : bool
         Continue a killed run to ``outdir`` from its last checkpoint (:mod:`gasp_core.run.resume`;
         engines with the feature ``state``).
+    fmt, layout : str
+        Output format (``ply``, ``compressed_ply``, ``spz``, ``sog``) and layout (``frames``, ``split``;
+        default ``frames`` for ``ply``, else ``split``): :mod:`gasp_core.run.layout`.
 
     Returns
     -------
@@ -92,10 +96,11 @@ def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
     outdir = Path(outdir)
     n_frames = scene.n_frames if n_frames is None else n_frames
     claim = OutputClaim(outdir, overwrite=overwrite, protected=input_files(scene), resume=resume)
-    run = _Run()
+    run = _Run(fmt=fmt, layout=layout or default_layout(fmt))
     try:
         run.prep = prepare_scene(scene, engine)
-        run.fingerprint = resume_mod.fingerprint(scene, run.prep.info.name, run.prep.setup.options, n_frames)
+        run.fingerprint = resume_mod.fingerprint(scene, run.prep.info.name, run.prep.setup.options, n_frames,
+                                                 output=(run.fmt, run.layout))
         if resume:
             _continue_partial(run, outdir)
         else:
@@ -126,6 +131,9 @@ class _Run:
     stats: RunStats = field(default_factory=RunStats)
     #: One row of timings per frame written (``run.json`` ``per_frame``).
     per_frame: list[dict] = field(default_factory=list)
+    #: Output format and layout (:mod:`gasp_core.run.layout`).
+    fmt: str = "ply"
+    layout: str = "frames"
 
 
 def _continue_partial(run: _Run, outdir: Path) -> None:
@@ -164,10 +172,11 @@ def _write_frames(run: _Run, n_frames: int, progress: bool,
                    desc=f"{prep.info.name}", leave=True)
     t_run = time.perf_counter()
     frame_state = FrameState()
+    writer = FrameWriter(tmp, list(prep.names), [o.spec.static for o in prep.objects],
+                         [o.moving for o in prep.objects], run.fmt, run.layout, overwrite=checkpoint is not None)
     for frame, gs, row in iter_frames(prep, n_frames, run.stats, resume=checkpoint, state=frame_state):
         t0 = time.perf_counter()
-        for g, name in zip(gs, prep.names):
-            write_gaussians(tmp / name / f"frame_{frame:04d}.ply", g, overwrite=checkpoint is not None)
+        writer.write(frame, gs)
         row["write_s"] = time.perf_counter() - t0
         run.per_frame.append(row)
         if frame_state.get_state is not None and frame < n_frames:
@@ -182,6 +191,7 @@ def _write_frames(run: _Run, n_frames: int, progress: bool,
             on_frame(frame, gs)
     if bar is not None:
         bar.close()
+    writer.finish(n_frames, [o.gaussians.n for o in prep.objects])
     (tmp / resume_mod.CHECKPOINT).unlink(missing_ok=True)
     return time.perf_counter() - t_run
 

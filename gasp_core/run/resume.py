@@ -48,8 +48,9 @@ class Checkpoint:
     meta: dict[str, Any] = field(default_factory=dict)
 
 
-def fingerprint(scene, engine: str, options: dict, n_frames: int) -> str:
-    """SHA-256 of what a resumed run must share with the killed one: its inputs, engine, options, frames.
+def fingerprint(scene, engine: str, options: dict, n_frames: int, output: tuple = ("ply", "frames")) -> str:
+    """SHA-256 of what a resumed run must share with the killed one: its inputs, engine, options, frames
+    and output (format, layout).
 
     The inputs are exactly the files the run reads (:func:`gasp_core.prepare.scene.input_files`: the
     scene, every object's file, selection masks, collider meshes and Gaussians), each stood for by
@@ -66,7 +67,8 @@ def fingerprint(scene, engine: str, options: dict, n_frames: int) -> str:
     for p in input_files(scene):
         st = p.stat()
         h.update(f"{p.resolve()}\0{st.st_size}\0{st.st_mtime_ns}\0".encode())
-    h.update(json.dumps([engine, options, n_frames], sort_keys=True, default=str).encode())
+    h.update(json.dumps([engine, options, n_frames, *([] if tuple(output) == ("ply", "frames") else output)],
+                        sort_keys=True, default=str).encode())
     return h.hexdigest()
 
 

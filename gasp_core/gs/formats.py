@@ -1,0 +1,214 @@
+"""Splat files other than PLY: Niantic ``.spz``, PlayCanvas ``.sog``, antimatter15 ``.splat`` and
+mkkellogg ``.ksplat`` in; ``.spz``, compressed PLY and ``.sog`` out.
+
+:func:`read_splat_file` reads any of them (:func:`gasp_core.gs.io.read_gaussians` hands it every
+file that is not a PLY). The format comes from the file's first bytes where it has a signature
+(gzip or ``NGSP`` = SPZ, ``PK`` zip = SOG bundle, a ``meta.json`` = SOG folder); ``.splat`` and
+``.ksplat`` have none, so their suffix decides.
+
+Which code reads what:
+
+=================  ===================================  ========================================
+format             read by                              written by
+=================  ===================================  ========================================
+``.spz``           gsply ``read_spz`` (optional extra)  gsply ``write_spz`` (v3, gzip); RUB axes
+``.sog``           gsply ``sogread`` (+ imagecodecs)    :mod:`gasp_core.gs.sog` (own, Pillow WebP)
+compressed PLY     :mod:`gasp_core.gs.compressed`       gsply ``compress_to_bytes``
+``.splat``         :mod:`gasp_core.gs.splat` (own)      --
+``.ksplat``        :mod:`gasp_core.gs.splat` (own)      --
+=================  ===================================  ========================================
+
+gsply (PyPI, MIT) is optional: ``pip install 'gasp[formats]'``. Without it, reading or writing a
+format that needs it raises one line naming the file and that command.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from gasp_core.errors import GaspError
+from gasp_core.fsutil import atomic_path, atomic_write
+from gasp_core.gs.gaussians import Gaussians
+from gasp_core.gs.ply import check_is_file, reject_file
+
+#: Output formats of ``gasp simulate --format`` and the file suffix of each.
+SUFFIXES = {"ply": ".ply", "compressed_ply": ".compressed.ply", "spz": ".spz", "sog": ".sog"}
+
+INSTALL = "pip install 'gasp[formats]'"
+
+
+def gsply_module(path, doing: str):
+    """The ``gsply`` module, or :class:`GaspError` naming ``path``, what needed it and the install command."""
+    try:
+        import gsply
+    except ImportError:
+        raise GaspError(f"{path}: {doing} needs gsply, which is not installed ({INSTALL})") from None
+    return gsply
+
+
+def sniff(path: Path) -> str:
+    """The format of a splat file: ``"ply"``, ``"spz"``, ``"sog"``, ``"splat"`` or ``"ksplat"``.
+
+    Raises
+    ------
+    FileNotFoundError
+        ``path`` does not exist.
+    SceneError
+        No known signature and no ``.splat`` / ``.ksplat`` suffix.
+    """
+    if path.is_dir() and (path / "meta.json").is_file():
+        return "sog"
+    check_is_file(path, "Gaussian Splatting file")
+    with open(path, "rb") as f:
+        head = f.read(4)
+    if head[:3] == b"ply":
+        return "ply"
+    if head[:2] == b"\x1f\x8b" or head == b"NGSP":
+        return "spz"
+    if head == b"PK\x03\x04" or path.name == "meta.json":
+        return "sog"
+    suffix = path.suffix.lower()
+    if suffix in (".splat", ".ksplat"):
+        return suffix[1:]
+    reject_file(path, f"unknown file format (first bytes {head!r}); expected a PLY, .spz, .sog, .splat "
+                "or .ksplat file")
+
+
+def read_splat_file(path, fmt: str | None = None) -> Gaussians:
+    """Read a ``.spz``, ``.sog`` (bundle, folder or ``meta.json``), ``.splat`` or ``.ksplat`` file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    fmt : str, optional
+        The format, if already known (:func:`sniff`).
+
+    Returns
+    -------
+    Gaussians
+        ``layout`` = the format name; means float64 in file units, activated scales, unit wxyz
+        rotations, opacity logits and SH as decoded (float32). ``source = str(path)``.
+
+    Raises
+    ------
+    FileNotFoundError
+        ``path`` does not exist.
+    SceneError
+        A corrupt or truncated file (one line naming it), or an unknown format.
+    GaspError
+        ``.spz`` / ``.sog`` without gsply (the message gives the install command).
+    """
+    path = Path(path)
+    fmt = fmt or sniff(path)
+    if fmt in ("splat", "ksplat"):
+        from gasp_core.gs.splat import read_ksplat, read_splat
+        return read_splat(path) if fmt == "splat" else read_ksplat(path)
+    gsply = gsply_module(path, f"reading a .{fmt} file")
+    try:
+        if fmt == "spz":
+            d = gsply.read_spz(path)
+        elif fmt == "sog":
+            from gsply.sog_reader import sogread
+            d = sogread(path)
+        else:
+            raise ValueError(f"not a format read here: {fmt}")
+    except ImportError as e:  # sogread without imagecodecs
+        raise GaspError(f"{path}: reading a .sog file needs imagecodecs ({INSTALL}): {e}") from None
+    except (ValueError, OSError, EOFError, KeyError) as e:
+        reject_file(path, f"not a readable .{fmt} file (truncated or corrupt?): {e}")
+    g = from_gsdata(d, path, fmt)
+    return flip_yz(g) if fmt == "spz" else g
+
+
+#: Sign of each SH rest coefficient (degree 1, 2, 3 order of graphdeco) under ``y -> -y, z -> -z``
+#: (Niantic spz ``coordinateConverter``: ``flipSh = {y, z, x, xy, yz, 1, xz, 1, y, xyz, y, z, x, z, x}``).
+_SH_FLIP = np.array([-1, -1, 1, -1, 1, 1, -1, 1, -1, 1, -1, -1, 1, -1, 1], np.float32)
+
+
+def flip_yz(g: Gaussians) -> Gaussians:
+    """``g`` turned 180 degrees about x (``y -> -y``, ``z -> -z``): between PLY's RDF axes and SPZ's RUB.
+
+    The SPZ specification stores right-up-back axes; its reference library (nianticlabs/spz, used by
+    splat-transform and SuperSplat) converts from and to the PLY's right-down-front axes on save and
+    load. gsply 0.4.6 stores the values as given, so GASP converts around it: means and the
+    quaternion's y, z change sign, and the SH rest coefficients by :data:`_SH_FLIP`. It is its own
+    inverse.
+    """
+    k = g.sh_rest.shape[1]
+    return Gaussians(means=g.means * [1.0, -1.0, -1.0], scales=g.scales,
+                     rotations=g.rotations * [1.0, 1.0, -1.0, -1.0], opacities=g.opacities, sh_dc=g.sh_dc,
+                     sh_rest=g.sh_rest * _SH_FLIP[:k, None], extra=g.extra, source=g.source, layout=g.layout,
+                     meta=g.meta)
+
+
+def from_gsdata(d, path, layout: str) -> Gaussians:
+    """A :class:`Gaussians` from a gsply ``GSData`` in its PLY convention (log-scales, logit opacities, wxyz)."""
+    n = len(d.means)
+    sh_rest = np.zeros((n, 0, 3), np.float32) if d.shN is None or np.asarray(d.shN).size == 0 \
+        else np.asarray(d.shN, np.float32).reshape(n, -1, 3)
+    q = np.asarray(d.quats, np.float64)
+    norm = np.linalg.norm(q, axis=1)
+    bad = ~(np.isfinite(norm) & (norm > 1e-12))
+    if bad.any():
+        reject_file(path, f"zero or non-finite quaternion at splat {int(np.flatnonzero(bad)[0])}")
+    with np.errstate(over="ignore"):
+        scales = np.exp(np.asarray(d.scales, np.float64))
+    return Gaussians(means=np.asarray(d.means, np.float64), scales=scales, rotations=q / norm[:, None],
+                     opacities=np.asarray(d.opacities, np.float32).reshape(n),
+                     sh_dc=np.asarray(d.sh0, np.float32), sh_rest=sh_rest, source=str(path), layout=layout)
+
+
+def gsply_arrays(g: Gaussians) -> tuple[np.ndarray, ...]:
+    """``means, log_scales, quats (wxyz), opacities, sh0, shN (n, K, 3)`` as float32 arrays, gsply's PLY convention."""
+    with np.errstate(divide="ignore"):
+        log_s = np.log(g.scales)
+    return (g.means.astype(np.float32), log_s.astype(np.float32), g.rotations.astype(np.float32),
+            g.opacities.astype(np.float32), g.sh_dc.astype(np.float32), g.sh_rest.astype(np.float32))
+
+
+def write_splat_file(path, g: Gaussians, fmt: str, *, overwrite: bool = False) -> Path:
+    """Write ``g`` as one file of format ``fmt`` (a key of :data:`SUFFIXES`), atomically.
+
+    Parameters
+    ----------
+    path : path-like
+        Destination; its folder must exist.
+    g : Gaussians
+    fmt : {"compressed_ply", "spz", "sog"}
+        (``ply`` is :func:`gasp_core.gs.io.write_gaussians`.) ``compressed_ply``:
+        PlayCanvas compressed PLY by gsply (positions 11/10/11 bits per 256-splat chunk). ``spz``:
+        Niantic SPZ v3 by gsply (positions 24-bit fixed point, 12 fractional bits: 2.4e-4 file
+        units; scales, colours, opacity 8 bit), in the specification's RUB axes (:func:`flip_yz`).
+        ``sog``: :func:`gasp_core.gs.sog.write_sog`.
+    overwrite : bool
+        Replace an existing file.
+
+    Raises
+    ------
+    FileExistsError
+        ``path`` exists and ``overwrite`` is false.
+    ValueError
+        Unknown ``fmt``.
+    GaspError
+        ``compressed_ply`` / ``spz`` without gsply.
+    """
+    path = Path(path)
+    if fmt == "sog":
+        from gasp_core.gs.sog import write_sog
+        return write_sog(path, g, overwrite=overwrite)
+    if fmt not in ("compressed_ply", "spz"):
+        raise ValueError(f"unknown format {fmt!r}; expected compressed_ply, spz or sog")
+    gsply = gsply_module(path, f"writing {fmt}")
+    if fmt == "spz":
+        g = flip_yz(g)
+    means, log_s, q, opac, sh0, shn = gsply_arrays(g)
+    # the encoders need finite values: a zero scale (log = -inf) is stored as exp(-30)
+    data = gsply.GSData(means=means, scales=np.maximum(log_s, np.float32(-30.0)), quats=q, opacities=opac, sh0=sh0,
+                        shN=shn)
+    if fmt == "compressed_ply":
+        raw = gsply.compress_to_bytes(data)
+        return atomic_write(path, lambda f: f.write(raw), overwrite=overwrite)
+    with atomic_path(path, overwrite=overwrite) as tmp:
+        gsply.write_spz(tmp, data)
+    return path

@@ -1,0 +1,225 @@
+"""The frames of a run on disk: how ``gasp simulate`` writes them and the one reader of every layout.
+
+Two layouts, in any output format (``--format ply|compressed_ply|spz|sog``):
+
+``frames``
+    ``<object>/frame_0000<suffix> ...``: every frame of every object complete, as frame-sequence
+    players load them. The default for ``ply`` (the layout of every earlier run).
+``split``
+    What does not move is written once: a ``static = true`` object as ``<object>/static<suffix>``,
+    the unselected rows of an object with ``select`` as ``<object>/rest<suffix>`` with their row
+    numbers in ``<object>/moving_rows.npy`` (int64, the rows that move, input order); the frames hold
+    only the rows that move. The default for the compressed formats.
+
+Both write ``frames.json``, the manifest: format, layout, and per object its Gaussian count and the
+files (relative to the run folder) of each frame. :func:`open_frames` reads a run folder of any
+layout, and a folder of an older run without a manifest (``<object>/frame_*.ply``);
+``gasp render``, ``gasp view`` and ``--resume`` read frames through it.
+"""
+from __future__ import annotations
+
+import importlib
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from gasp_core.errors import GaspError, SceneError
+from gasp_core.fsutil import atomic_json, atomic_write
+from gasp_core.gs.formats import INSTALL, SUFFIXES, gsply_module, write_splat_file
+from gasp_core.gs.gaussians import Gaussians
+from gasp_core.gs.io import read_gaussians, write_gaussians
+
+MANIFEST = "frames.json"
+LAYOUTS = ("frames", "split")
+
+
+def default_layout(fmt: str) -> str:
+    """``frames`` for ``ply`` (unchanged runs), ``split`` for the compressed formats."""
+    return "frames" if fmt == "ply" else "split"
+
+
+def write_file(path: Path, g: Gaussians, fmt: str, overwrite: bool = False) -> Path:
+    """One splat file of format ``fmt`` (:data:`gasp_core.gs.formats.SUFFIXES`), atomically."""
+    if fmt == "ply":
+        return write_gaussians(path, g, overwrite=overwrite)
+    return write_splat_file(path, g, fmt, overwrite=overwrite)
+
+
+@dataclass
+class FrameWriter:
+    """Writes each frame of a run into ``folder`` in one format and layout, then the manifest.
+
+    Parameters
+    ----------
+    folder : Path
+        The (partial) run folder; one subfolder per object exists.
+    names : list of str
+        Object folder names, scene order.
+    static : list of bool
+        Per object: never moves (``static = true``).
+    moving : list of (ndarray or None)
+        Per object: the rows that move (``PreparedObject.moving``; None = all).
+    fmt : str
+        A key of :data:`gasp_core.gs.formats.SUFFIXES`.
+    layout : {"frames", "split"}
+    overwrite : bool
+        Replace files already there (a resumed run rewrites the frame it was killed in).
+    """
+
+    folder: Path
+    names: list[str]
+    static: list[bool]
+    moving: list[np.ndarray | None]
+    fmt: str = "ply"
+    layout: str = "frames"
+    overwrite: bool = False
+    #: Per object, the files written once (``static``, ``rest``, ``moving_rows``), relative to ``folder``.
+    once: list[dict] = field(default_factory=list)
+
+    def __post_init__(self):
+        if self.fmt not in SUFFIXES:
+            raise ValueError(f"unknown format {self.fmt!r}; expected one of {', '.join(SUFFIXES)}")
+        if self.layout not in LAYOUTS:
+            raise ValueError(f"unknown layout {self.layout!r}; expected one of {', '.join(LAYOUTS)}")
+        if self.fmt in ("compressed_ply", "spz"):
+            gsply_module(self.folder, f"--format {self.fmt}")  # refuse before the first frame
+        if self.fmt == "sog":
+            try:
+                importlib.import_module("PIL.WebPImagePlugin")
+            except ImportError:
+                raise GaspError(f"{self.folder}: --format sog needs Pillow with WebP ({INSTALL})") from None
+        self.suffix = SUFFIXES[self.fmt]
+        self.once = [{} for _ in self.names]
+
+    def write(self, frame: int, gs: list[Gaussians]) -> None:
+        """Write frame ``frame`` of every object (``gs``: whole objects, input order)."""
+        for k, (g, name) in enumerate(zip(gs, self.names)):
+            rel = f"{name}/frame_{frame:04d}{self.suffix}"
+            if self.layout == "split" and self.static[k]:
+                self._once(k, "static", g)
+                continue
+            if self.layout == "split" and self.moving[k] is not None:
+                rows = self.moving[k]
+                if "rest" not in self.once[k]:
+                    rest = np.ones(g.n, bool)
+                    rest[rows] = False
+                    self._once(k, "rest", g.subset(rest))
+                    atomic_write(self.folder / name / "moving_rows.npy",
+                                 lambda f: np.save(f, np.asarray(rows, np.int64)))
+                    self.once[k]["moving_rows"] = f"{name}/moving_rows.npy"
+                g = g.subset(rows)
+            write_file(self.folder / rel, g, self.fmt, overwrite=self.overwrite)
+
+    def _once(self, k: int, what: str, g: Gaussians) -> None:
+        """Write ``<object>/<what><suffix>`` the first time (a resumed run finds it there)."""
+        if what in self.once[k]:
+            return
+        rel = f"{self.names[k]}/{what}{self.suffix}"
+        if not (self.folder / rel).exists():
+            write_file(self.folder / rel, g, self.fmt)
+        self.once[k][what] = rel
+
+    def finish(self, n_frames: int, counts: list[int]) -> Path:
+        """Write the manifest ``frames.json`` (frames ``0..n_frames``; ``counts``: Gaussians per object)."""
+        objects = []
+        for k, name in enumerate(self.names):
+            frames = [] if "static" in self.once[k] else \
+                [f"{name}/frame_{f:04d}{self.suffix}" for f in range(n_frames + 1)]
+            objects.append({"name": name, "n_gaussians": counts[k], **self.once[k], "frames": frames})
+        return atomic_json(self.folder / MANIFEST, {"format": self.fmt, "layout": self.layout,
+                                                    "n_frames": n_frames + 1, "objects": objects})
+
+
+@dataclass
+class RunFrames:
+    """The frames of a run folder, read object by object through :meth:`gaussians`.
+
+    Attributes
+    ----------
+    folder : Path
+    manifest : dict
+        ``frames.json`` (or the one an older run's ``frame_*.ply`` files imply).
+    n_frames : int
+        Frames every object has (frame 0 = the input).
+    """
+
+    folder: Path
+    manifest: dict
+    n_frames: int
+    _cache: dict = field(default_factory=dict, repr=False)
+
+    def gaussians(self, frame: int, k: int) -> Gaussians:
+        """Object ``k`` (manifest order) at ``frame``, whole, input row order, file frame."""
+        o = self.manifest["objects"][k]
+        if o.get("static"):
+            return self._once(o["static"])
+        g = read_gaussians(self.folder / o["frames"][frame])
+        if not o.get("rest"):
+            return g
+        rows = self._once(o["moving_rows"])
+        rest = self._once(o["rest"])
+        if len(rows) != g.n or len(rows) + rest.n != o["n_gaussians"]:
+            raise SceneError(f"{self.folder / o['frames'][frame]}: {g.n} moving rows + {rest.n} rest rows; "
+                             f"expected {len(rows)} + {o['n_gaussians'] - len(rows)} "
+                             f"({o['moving_rows']}, {MANIFEST})")
+        return _merge(rest, rows, g, o["n_gaussians"])
+
+    def _once(self, rel: str):
+        if rel not in self._cache:
+            p = self.folder / rel
+            self._cache[rel] = np.load(p) if p.suffix == ".npy" else read_gaussians(p)
+        return self._cache[rel]
+
+
+def _merge(rest: Gaussians, rows: np.ndarray, moving: Gaussians, n: int) -> Gaussians:
+    """The whole object: ``moving`` at ``rows``, ``rest`` (in order) at every other row; extras both have."""
+    keep = np.ones(n, bool)
+    keep[rows] = False
+
+    def put(a, b):
+        out = np.empty((n, *a.shape[1:]), a.dtype)
+        out[keep], out[rows] = a, b
+        return out
+
+    return Gaussians(means=put(rest.means, moving.means), scales=put(rest.scales, moving.scales),
+                     rotations=put(rest.rotations, moving.rotations),
+                     opacities=put(rest.opacities, moving.opacities), sh_dc=put(rest.sh_dc, moving.sh_dc),
+                     sh_rest=put(rest.sh_rest, moving.sh_rest),
+                     extra={k: put(v, moving.extra[k]) for k, v in rest.extra.items() if k in moving.extra},
+                     source=moving.source, layout=moving.layout)
+
+
+def open_frames(folder) -> RunFrames:
+    """The frames of the run folder ``folder``, any layout and format.
+
+    Raises
+    ------
+    SceneError
+        No ``frames.json`` and no ``<object>/frame_*.ply`` for an object of ``run.json``, or a
+        manifest that is not JSON; the message names the path.
+    """
+    folder = Path(folder)
+    path = folder / MANIFEST
+    if path.is_file():
+        try:
+            manifest = json.loads(path.read_text())
+            objects = manifest["objects"]
+        except (ValueError, KeyError, TypeError) as e:
+            raise SceneError(f"{path}: not a frame manifest ({e!r})") from None
+    else:  # a run written before the manifest: full PLY frames per object
+        try:
+            names = [o["name"] for o in json.loads((folder / "run.json").read_text())["objects"]]
+        except (OSError, ValueError, KeyError, TypeError) as e:
+            raise SceneError(f"{folder}: neither {MANIFEST} nor a run.json listing objects ({e!r})") from None
+        objects = []
+        for name in names:
+            files = sorted((folder / name).glob("frame_*.ply"))
+            if not files:
+                raise SceneError(f"{folder / name}: no frame_*.ply files for object '{name}'")
+            objects.append({"name": name, "frames": [f"{name}/{f.name}" for f in files]})
+        manifest = {"format": "ply", "layout": "frames", "objects": objects}
+    counts = [len(o["frames"]) for o in objects if o["frames"]]
+    n = min(counts) if counts else int(manifest.get("n_frames", 1))
+    return RunFrames(folder, manifest, n)
