@@ -180,7 +180,46 @@ def _cmd_import_motion(args) -> int:
 def build_parser() -> argparse.ArgumentParser:
     p = GaspArgumentParser(prog="gasp", description="GASP: physics for Gaussian Splatting scenes.")
     sub = p.add_subparsers(dest="command", required=True)
+    _add_simulate_parser(sub)
 
+    e = sub.add_parser("engines", help="list installed engines and their capabilities")
+    e.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    e.set_defaults(func=_cmd_engines)
+
+    pl = sub.add_parser("plugins", help="list every installed plugin record by kind: engines, renderers, "
+                                        "soup writers")
+    pl.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    pl.set_defaults(func=_cmd_plugins)
+
+    i = sub.add_parser("info", help="describe a Gaussian Splatting file")
+    i.add_argument("file", type=Path, help="a Gaussian Splatting file (graphdeco PLY, compressed PLY, .splatv)")
+    i.add_argument("--json", action="store_true", help="print JSON instead of text")
+    i.set_defaults(func=_cmd_info)
+
+    _add_study_parsers(sub)
+
+    from gasp_core.testing.cli import add_parser as add_conform_parser
+    add_conform_parser(sub)
+    from gasp_core.render.cli import add_parsers as add_render_parsers
+    add_render_parsers(sub)
+
+    x = sub.add_parser("export-soup", help="write the rest triangle soup per object (OBJ, PLY, ...) for a mesh tool")
+    x.add_argument("scene", type=Path, help="scene file (.toml)")
+    x.add_argument("-o", "--output", type=Path, required=True, help="folder for the soup files (required)")
+    x.add_argument("--overwrite", action="store_true", help="replace an existing folder (default: refuse)")
+    x.set_defaults(func=_cmd_export_soup)
+
+    m = sub.add_parser("import-motion", help="rebuild Gaussian frames from an animated triangle soup")
+    m.add_argument("scene", type=Path, help="the scene file the soup was exported from (.toml)")
+    m.add_argument("motion_dir", type=Path,
+                   help="folder of the animated soup: MOTION_DIR/<object>/*.obj|*.ply, one file per frame")
+    m.add_argument("-o", "--output", type=Path, required=True, help="output folder for the Gaussian frames (required)")
+    m.add_argument("--overwrite", action="store_true", help="replace an existing output folder (default: refuse)")
+    m.set_defaults(func=_cmd_import_motion)
+    return p
+
+
+def _add_simulate_parser(sub) -> None:
     s = sub.add_parser("simulate", help="run a scene file and write one PLY per frame")
     s.add_argument("scene", type=Path, help="scene file (.toml), see the README's scene format")
     s.add_argument("-o", "--output", type=Path,
@@ -201,20 +240,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("-q", "--quiet", action="store_true", help="no progress bar (default: show one)")
     s.set_defaults(func=_cmd_simulate)
 
-    e = sub.add_parser("engines", help="list installed engines and their capabilities")
-    e.add_argument("--json", action="store_true", help="print JSON instead of a table")
-    e.set_defaults(func=_cmd_engines)
 
-    pl = sub.add_parser("plugins", help="list every installed plugin record by kind: engines, renderers, "
-                                        "soup writers")
-    pl.add_argument("--json", action="store_true", help="print JSON instead of a table")
-    pl.set_defaults(func=_cmd_plugins)
-
-    i = sub.add_parser("info", help="describe a Gaussian Splatting file")
-    i.add_argument("file", type=Path, help="a Gaussian Splatting file (graphdeco PLY, compressed PLY, .splatv)")
-    i.add_argument("--json", action="store_true", help="print JSON instead of text")
-    i.set_defaults(func=_cmd_info)
-
+def _add_study_parsers(sub) -> None:
     c = sub.add_parser("compare", help="run one scene on several engines and write a comparison report")
     c.add_argument("scene", type=Path, help="scene file (.toml)")
     c.add_argument("--engines", help="comma-separated engine names (default: all installed that can run it)")
@@ -240,26 +267,6 @@ def build_parser() -> argparse.ArgumentParser:
                    help="a finer n_grid for the reference runs alone (default 0: each engine's own reference)")
     _add_study_args(b)
     b.set_defaults(func=_cmd_bench)
-
-    from gasp_core.testing.cli import add_parser as add_conform_parser
-    add_conform_parser(sub)
-    from gasp_core.render.cli import add_parsers as add_render_parsers
-    add_render_parsers(sub)
-
-    x = sub.add_parser("export-soup", help="write the rest triangle soup per object (OBJ, PLY, ...) for a mesh tool")
-    x.add_argument("scene", type=Path, help="scene file (.toml)")
-    x.add_argument("-o", "--output", type=Path, required=True, help="folder for the soup files (required)")
-    x.add_argument("--overwrite", action="store_true", help="replace an existing folder (default: refuse)")
-    x.set_defaults(func=_cmd_export_soup)
-
-    m = sub.add_parser("import-motion", help="rebuild Gaussian frames from an animated triangle soup")
-    m.add_argument("scene", type=Path, help="the scene file the soup was exported from (.toml)")
-    m.add_argument("motion_dir", type=Path,
-                   help="folder of the animated soup: MOTION_DIR/<object>/*.obj|*.ply, one file per frame")
-    m.add_argument("-o", "--output", type=Path, required=True, help="output folder for the Gaussian frames (required)")
-    m.add_argument("--overwrite", action="store_true", help="replace an existing output folder (default: refuse)")
-    m.set_defaults(func=_cmd_import_motion)
-    return p
 
 
 def _interrupt(signum, _frame):
