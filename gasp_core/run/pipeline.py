@@ -185,6 +185,7 @@ def _write_frames(run: _Run, n_frames: int, progress: bool,
     stop.frame_started(None)
     t_frame = time.perf_counter()
     for frame, gs, row in iter_frames(prep, n_frames, run.stats, resume=checkpoint, state=frame_state):
+        stop.frame_started(row.get("sim_s"))   # its writes and checkpoint take about as long as it did
         t0 = time.perf_counter()
         for g, name in zip(gs, prep.names):
             write_gaussians(tmp / name / f"frame_{frame:04d}.ply", g, overwrite=checkpoint is not None)
