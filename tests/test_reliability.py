@@ -1,7 +1,6 @@
 """Issue 11 cases that need an engine or a process: bounded work, the default domain, signals, quiet output."""
 import json
 import os
-import signal
 import subprocess
 import sys
 import time
