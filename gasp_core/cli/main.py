@@ -263,7 +263,7 @@ _HELD: dict[str, int] = {}
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None):
-    if issubclass(category, RuntimeWarning) and "numpy" in str(filename):
+    if issubclass(category, RuntimeWarning) and " encountered in " in str(message):   # numpy's floating point
         _HELD[str(message)] = _HELD.get(str(message), 0) + 1
         return
     print(f"gasp: warning: {message}", file=sys.stderr)
