@@ -68,13 +68,11 @@ def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
     warn : callable, optional
         Receives warnings in words (leftover partial folders of killed runs; passive surface points
         the material left behind, the engine's ``passive_stranded``).
-    resume : bool
+    resume, discard : bool
         Continue a stopped or killed run to ``outdir`` from its last checkpoint (:mod:`gasp_core.run.resume`;
-        engines with the feature ``state``).
-    discard : bool
-        Throw away the partial output of a stopped or killed run to ``outdir`` and start again.
+        engines with the feature ``state``), or throw its partial output away and start again.
     yes : bool
-        Run even when it would take longer than :data:`gasp_core.run.budget.MAX_S` (:mod:`gasp_core.run.budget`).
+        Run even when it would take longer than :data:`gasp_core.run.budget.MAX_S`.
 
     Returns
     -------
@@ -95,13 +93,11 @@ def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
     EngineBug
         The engine raised an exception outside the error contract.
     Stopped
-        SIGTERM, SIGINT or SIGHUP (:mod:`gasp_core.run.stop`), or Ctrl-C: the finished frames, their
-        checkpoint and a ``run.json`` are kept in the partial folder it names, for ``--resume``.
+        SIGTERM, SIGINT, SIGHUP (:mod:`gasp_core.run.stop`): the finished frames kept for ``--resume``.
     """
     outdir = Path(outdir)
     n_frames = scene.n_frames if n_frames is None else n_frames
-    claim = OutputClaim(outdir, overwrite=overwrite, protected=input_files(scene), resume=resume,
-                        discard=discard)
+    claim = OutputClaim(outdir, overwrite, input_files(scene), resume=resume, discard=discard)
     run = _Run(yes=yes, warn=warn)
     try:
         run.prep = prepare_scene(scene, engine)
