@@ -299,3 +299,18 @@ test_scene_value_at_each_limit_slow = pytest.mark.slow(
 def test_every_listed_limit_value(limit_scene, where, value):
     """Every value of :data:`LIMITS` once (the generator above draws them with the generic extremes)."""
     _scene_limit_case(limit_scene, where, value)
+
+
+# ------------------------------------------------------------------ the slow tier: 10x the examples
+def _slow_twin(test, **strategies):
+    """``test`` (a hypothesis test of this module) again with 10x the examples, marked ``slow``."""
+    return pytest.mark.slow(settings(FUZZ, max_examples=10 * FUZZ.max_examples)(given(**strategies)(test.hypothesis.inner_test)))
+
+
+test_mutated_ply_slow = _slow_twin(test_mutated_ply_reads_or_raises_scene_error, raw=mutated_ply())
+test_special_float_slow = _slow_twin(
+    test_special_float_in_any_field, seed=st.sampled_from(sorted(SEEDS)), field=st.integers(0, 10_000),
+    value=st.sampled_from([math.nan, math.inf, -math.inf, 1e38, -1e38, 1e20, 100.0, -100.0]))
+test_random_bytes_slow = _slow_twin(test_random_bytes_read_or_raise_scene_error, raw=st.binary(max_size=600))
+test_scene_documents_slow = _slow_twin(test_scene_documents_parse_or_raise_scene_error, doc=scene_doc())
+test_scene_text_slow = _slow_twin(test_scene_text_parses_or_raises_scene_error, text=st.text(max_size=300))
