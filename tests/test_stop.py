@@ -33,10 +33,13 @@ def frames(out: Path) -> dict[str, bytes]:
     return {p.name: p.read_bytes() for p in sorted((out / "donut_small").glob("frame_*.ply"))}
 
 
-def write_scene(tmp_path: Path, donut_small: Path, n_frames: int = N_FRAMES) -> Path:
+ENGINES = {"warp_mpm": "{ }", "taichi_mpm": "{ threads = 1 }"}   # deterministic settings
+
+
+def write_scene(tmp_path: Path, donut_small: Path, n_frames: int = N_FRAMES, engine: str = "warp_mpm") -> Path:
     # frame_dt 0.1 s: ~95 substeps, about a tenth of a second per frame at n_grid 16, so that a signal sent
     # when frame 2 appears on disk lands well before the last frame
-    text = scene_text(donut_small, n_frames=n_frames, n_grid=16, engine="warp_mpm", engine_options="{ }")
+    text = scene_text(donut_small, n_frames=n_frames, n_grid=16, engine=engine, engine_options=ENGINES[engine])
     scene = tmp_path / "scene.toml"
     scene.write_text(text.replace("frame_dt = 0.0333333", "frame_dt = 0.1"))
     return scene
@@ -57,8 +60,10 @@ def stop_after(scene: Path, out: Path, sig: int, after: int) -> subprocess.Compl
     return subprocess.CompletedProcess(proc.args, proc.returncode, out_text, err)
 
 
-def test_sigterm_after_2_of_6_frames_resumes_bit_identical(tmp_path, donut_small):
-    scene = write_scene(tmp_path, donut_small)
+@pytest.mark.parametrize("engine", ["warp_mpm", pytest.param("taichi_mpm", marks=pytest.mark.slow)])
+def test_sigterm_after_2_of_6_frames_resumes_bit_identical(tmp_path, donut_small, engine):
+    pytest.importorskip(f"gasp_{engine}")
+    scene = write_scene(tmp_path, donut_small, engine=engine)
     ref = tmp_path / "ref"
     r = gasp("simulate", scene, "-o", ref, "-q", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
