@@ -144,3 +144,15 @@ def test_numpy_warnings_are_held_back(monkeypatch, capsys):
             assert code == 2 and err == "gasp: error: something the user can fix\n"
         else:
             assert code == 0 and err == "gasp: warning: numpy: overflow encountered in cast (2 times)\n"
+
+
+def test_the_work_estimate_notes_large_runs_and_refuses_beyond_the_bound_without_yes():
+    from gasp_core.run import budget
+    stats = {"n_substeps": 32}
+    assert budget.check(stats, 2000, 100, 99, 0.05, yes=False) == ""                      # 5 s: nothing said
+    note = budget.check(stats, 2000, 100_000, 99_999, 0.05, yes=False)                     # 83 min: said
+    assert "6.4e+09 point-substeps (32 substeps/frame x 2,000 points x 100,000 frames)" in note
+    assert "about 83.3 min at the measured 0.05 s/frame" in note
+    with pytest.raises(GaspError, match="beyond the bound of 24 h; pass --yes"):
+        budget.check(stats, 2000, 10**9, 10**9 - 2, 0.05, yes=False)
+    assert "about 579 days" in budget.check(stats, 2000, 10**9, 10**9 - 2, 0.05, yes=True)

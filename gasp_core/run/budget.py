@@ -1,6 +1,6 @@
 """The work a run asks for, said before it is spent: ``substeps x points x frames`` and the time it takes.
 
-After the first simulated frame the pipeline knows the engine's substeps per frame (``n_substeps``
+After the second simulated frame (the first includes kernel compilation) the pipeline knows the engine's substeps per frame (``n_substeps``
 in its ``stats()``; 1 for an engine without substeps), the number of points and the wall time of
 one frame on this machine. A run expected to take longer than :data:`NOTE_S` says so in one line;
 one expected to take longer than :data:`MAX_S` is refused unless the user passes ``--yes``
@@ -17,9 +17,9 @@ MAX_S = 24 * 3600.0
 
 
 def duration_text(seconds: float) -> str:
-    """``"42 s"``, ``"3.5 min"``, ``"2.1 h"``, ``"185 days"``, ``"3.2e+04 years"``."""
+    """``"42 s"``, ``"3.5 min"``, ``"24 h"``, ``"185 days"``, ``"3.2e+04 years"``."""
     for unit, size in (("years", 365.25 * 86400), ("days", 86400.0), ("h", 3600.0), ("min", 60.0)):
-        if seconds >= size:
+        if seconds >= 2 * size or (unit == "min" and seconds >= size):
             v = seconds / size
             return f"{v:.3g} {unit}" if v < 1e4 else f"{v:.2g} {unit}"
     return f"{seconds:.2g} s"

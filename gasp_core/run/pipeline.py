@@ -207,7 +207,7 @@ def _write_frames(run: _Run, n_frames: int, progress: bool,
 
 
 def _after_frame(run: _Run, frame: int, n_frames: int, frame_wall_s: float) -> None:
-    """At a frame boundary: the work estimate after the first simulated frame, then a stop asked for by a signal.
+    """At a frame boundary: the work estimate after the second simulated frame, then a stop asked for by a signal.
 
     Raises
     ------
@@ -218,7 +218,7 @@ def _after_frame(run: _Run, frame: int, n_frames: int, frame_wall_s: float) -> N
     """
     if frame == 0:
         return
-    if frame == (1 if run.checkpoint is None else run.checkpoint.frame + 1):
+    if frame == (2 if run.checkpoint is None else run.checkpoint.frame + 2):   # frame 1 includes JIT warm-up
         note = budget.check(run.stats.engine, len(run.prep.setup.x), n_frames, n_frames - frame, frame_wall_s, run.yes)
         if note and run.warn is not None:
             run.warn(note)
