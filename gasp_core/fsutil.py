@@ -232,6 +232,8 @@ class OutputClaim:
             raise GaspError(f"cannot write to output folder '{self.outdir}': permission denied ({e.strerror})") from None
         with os.fdopen(fd, "w") as f:
             f.write(f"{self.token} {os.getpid()}\n")
+        if overwrite or discard:   # also partials whose folder was removed by hand
+            discard_partials(self.outdir)
 
     def _existing(self, overwrite: bool, discard: bool) -> None:
         """``outdir`` exists: refuse it, or (``overwrite``, ``discard``) make it ready to be claimed."""

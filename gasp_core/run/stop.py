@@ -20,7 +20,6 @@ from pathlib import Path
 from typing import Callable, Iterator, NoReturn
 
 from gasp_core.fsutil import OutputClaim, atomic_json
-from gasp_core.run.resume import CHECKPOINT
 
 #: A frame expected to take longer than this (seconds, the last frame's wall time) is not waited for.
 LONG_FRAME_S = 10.0
@@ -125,6 +124,7 @@ def keep_or_abandon(claim: OutputClaim, tmp: Path | None, error: KeyboardInterru
     Stopped
         Always; ``kept`` names the partial folder (None when nothing was kept).
     """
+    from gasp_core.run.resume import CHECKPOINT   # here: the CLI imports this module at start-up
     saving()
     name = error.signal_name if isinstance(error, Stopped) else "SIGINT"
     if tmp is None or saved_frame is None or not (tmp / CHECKPOINT).exists():
