@@ -32,6 +32,8 @@ CLAIM = ".gasp-claim"
 #: only a folder holding this marker and nothing beyond what it lists).
 MARKER = ".gasp-output"
 PARTIAL_INFIX = ".partial-"
+#: The claim file's third word once its run stopped on a signal and kept its partial output.
+STOPPED = "stopped"
 
 
 class OutputConflict(GaspError):
@@ -114,6 +116,23 @@ def leftover_partials(outdir: Path) -> list[Path]:
     return out
 
 
+def discard_partials(outdir: Path) -> None:
+    """Remove the partial folders of stopped or killed runs to ``outdir`` (not finished results kept after
+    an :class:`OutputConflict`, which hold :data:`MARKER`)."""
+    for p in leftover_partials(outdir):
+        if not (p / MARKER).exists():
+            shutil.rmtree(p, ignore_errors=True)
+
+
+def _check_parent(outdir: Path) -> None:
+    """Refuse (:class:`GaspError`) an output path below something that is not a folder (``/dev/full/x``)."""
+    for parent in outdir.absolute().parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise GaspError(f"cannot create output folder '{outdir}': '{parent}' is not a folder")
+            return
+
+
 def _alive(pid: int) -> bool:
     try:
         os.kill(pid, 0)
@@ -164,6 +183,10 @@ class OutputClaim:
     protected : iterable of path-like
         Input files and the scene file: ``outdir`` must not be, contain or lie above any of them,
         nor the working directory.
+    resume : bool
+        Take over the claim of a stopped or killed run (``--resume``).
+    discard : bool
+        Throw away a stopped or killed run's partial output and claim (``--discard``; ``overwrite`` too).
 
     Raises
     ------
@@ -174,7 +197,7 @@ class OutputClaim:
     """
 
     def __init__(self, outdir: str | os.PathLike, overwrite: bool = False, protected: Iterable = (),
-                 resume: bool = False):
+                 resume: bool = False, discard: bool = False):
         self.outdir = Path(outdir)
         self.overwrite = overwrite
         self.token = secrets.token_hex(8)
@@ -188,6 +211,7 @@ class OutputClaim:
                                 f"choose a new folder for the results")
         if self.outdir.exists() and not self.outdir.is_dir():
             raise GaspError(f"output '{self.outdir}' exists and is not a folder; choose a folder name")
+        _check_parent(self.outdir)
         try:
             self.outdir.parent.mkdir(parents=True, exist_ok=True)
             os.mkdir(self.outdir)
@@ -195,15 +219,7 @@ class OutputClaim:
         except FileExistsError:
             if resume and self._take_over_stale_claim():
                 return
-            if not overwrite:
-                stale = self._stale_claim_pid()
-                if stale:
-                    raise FileExistsError(
-                        f"output folder '{self.outdir}' belongs to a run that was killed (pid {stale}); pass "
-                        f"--resume to continue it, or remove '{self.outdir}' and its partial folder") from None
-                raise FileExistsError(f"output folder '{self.outdir}' exists; pass --overwrite to replace it "
-                                      f"(only a folder written by gasp is replaced)") from None
-            self._check_replaceable()
+            self._existing(overwrite, discard)
         except PermissionError as e:
             raise GaspError(f"cannot create output folder '{self.outdir}': permission denied ({e.strerror})") from None
         try:
@@ -216,14 +232,38 @@ class OutputClaim:
             raise GaspError(f"cannot write to output folder '{self.outdir}': permission denied ({e.strerror})") from None
         with os.fdopen(fd, "w") as f:
             f.write(f"{self.token} {os.getpid()}\n")
+        if overwrite or discard:   # also partials whose folder was removed by hand
+            discard_partials(self.outdir)
+
+    def _existing(self, overwrite: bool, discard: bool) -> None:
+        """``outdir`` exists: refuse it, or (``overwrite``, ``discard``) make it ready to be claimed."""
+        stale = self._stale_claim_pid()
+        only_claim = stale and all(p.name == CLAIM for p in self.outdir.iterdir())
+        if stale and (overwrite or (discard and only_claim)):
+            # a stopped or killed run's: --discard or --overwrite throws its partial output away
+            discard_partials(self.outdir)
+            (self.outdir / CLAIM).unlink(missing_ok=True)
+            self.created = only_claim
+            if not only_claim:
+                self._check_replaceable()
+            return
+        if stale:
+            raise FileExistsError(
+                f"output folder '{self.outdir}' belongs to a run that was stopped or killed (pid {stale}); pass "
+                f"--resume to continue it, or --discard to start again") from None
+        if not overwrite:
+            raise FileExistsError(f"output folder '{self.outdir}' exists; pass --overwrite to replace it "
+                                  f"(only a folder written by gasp is replaced)") from None
+        self._check_replaceable()
 
     def _stale_claim_pid(self) -> int:
-        """The pid of a dead run that still holds the claim file, else 0."""
+        """The pid of a stopped or dead run that still holds the claim file, else 0."""
         try:
-            pid = int((self.outdir / CLAIM).read_text().split()[1])
+            words = (self.outdir / CLAIM).read_text().split()
+            pid = int(words[1])
         except (OSError, IndexError, ValueError):
             return 0
-        return 0 if _alive(pid) else pid
+        return pid if STOPPED in words[2:] or not _alive(pid) else 0
 
     def _take_over_stale_claim(self) -> bool:
         """For ``--resume``: take the claim of a killed run (True), or leave a live one alone (False)."""
@@ -254,6 +294,12 @@ class OutputClaim:
             return (self.outdir / CLAIM).read_text().split()[0] == self.token
         except (OSError, IndexError):
             return False
+
+    def keep_for_resume(self, tmp: Path) -> None:
+        """A stopped run: mark the claim and the partial folder ``tmp`` as no longer running, for ``--resume``."""
+        (tmp / ".gasp-pid").unlink(missing_ok=True)
+        if self.still_ours():
+            (self.outdir / CLAIM).write_text(f"{self.token} {os.getpid()} {STOPPED}\n")
 
     def partial_dir(self) -> Path:
         """A fresh partial folder to write the results into."""

@@ -30,7 +30,7 @@ from gasp_core.errors import EngineError, SceneError
 from gasp_core.scene.spec import Scene, load_scene
 
 from . import report
-from .compare import engine_options, ground_height, progress_line, save_run, select_engines, subsample_scene
+from .compare import check_engine_names, engine_options, ground_height, progress_line, save_run, select_engines, subsample_scene
 from .measure import cheapest_within, pareto_front, run_errors, steady_s_per_frame
 from .report import SCENE_KEYS
 from .run import RunOutput, Runner, RunSpec
@@ -252,6 +252,7 @@ def bench_scene(scene_path: str | Path, output: str | Path, engines: list[str] |
     from gasp_core.seam.plugins import engines as all_engines
     found = all_engines()
     requested = None if engines is None else list(dict.fromkeys(e.strip() for e in engines if e.strip()))
+    check_engine_names(requested)
     runnable, skipped = select_engines(scene, requested)
     plan, no_sweep = plan_sweeps(found, runnable, quick, settings, reference_n_grid)
     skipped.update(no_sweep)

@@ -80,6 +80,20 @@ def engine_options(scene: Scene, engine: str, options: Mapping[str, Mapping] | N
     return out
 
 
+def check_engine_names(requested: Iterable[str] | None) -> None:
+    """Refuse (:class:`SceneError`) a requested engine name that is not installed: a typo must not run the
+    others and bury the name under "Not run" in the report."""
+    from gasp_core.seam.plugins import engines as all_engines
+    if requested is None:
+        return
+    found = all_engines()
+    unknown = [n for n in dict.fromkeys(requested) if n not in found]
+    if unknown:
+        raise SceneError(f"--engines: {', '.join(repr(n) for n in unknown)} "
+                         f"{'is not an installed engine' if len(unknown) == 1 else 'are not installed engines'} "
+                         f"(installed: {', '.join(sorted(found)) or 'none'}; see 'gasp engines')")
+
+
 def select_engines(scene: Scene, requested: Iterable[str] | None) -> tuple[list[str], dict[str, str]]:
     """Engines that can run ``scene``, and the reason for each that cannot.
 
@@ -211,7 +225,7 @@ def compare_scene(scene_path: str | Path, engines: list[str] | None, output: str
     FileExistsError
         ``output`` exists and ``overwrite`` is false (before any work).
     SceneError
-        Bad scene file or argument.
+        Bad scene file or argument; an engine name that is not installed.
     EngineError
         No engine could run the scene at all (the reasons are in the message).
     """
@@ -219,6 +233,7 @@ def compare_scene(scene_path: str | Path, engines: list[str] | None, output: str
     if output.exists() and not overwrite:  # early, before any work; output_folder claims it for good
         raise FileExistsError(f"output folder '{output}' exists; pass --overwrite to replace it")
     scene = load_scene(scene_path)
+    check_engine_names(engines)
     if n_frames is not None and (isinstance(n_frames, bool) or not isinstance(n_frames, int) or n_frames < 1):
         raise SceneError(f"n_frames: expected a positive integer, got {n_frames!r}")
     n_frames = scene.n_frames if n_frames is None else n_frames

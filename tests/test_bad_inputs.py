@@ -12,6 +12,7 @@ A few cases also run as a subprocess (the console entry point, real stderr).
 """
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 import warnings
@@ -329,6 +330,65 @@ def _(d, ply, v):
     return simulate(d, scene_text(ply)) + ["--frames", "ten"]
 
 
+# --- issue 21: tracebacks, misleading messages and silent runs before
+
+
+@case("scale-1e-6", "object 'bad'", "less than 2 grid cells", "scale")
+def _(d, ply, v):
+    return with_ply(d, v, extra_object="scale = 1e-6")            # was IndexError in the fill
+
+
+@case("domain-1e6-n-grid-16", "less than 2 grid cells", "dx = 1.25e+05 m", "n_grid")
+def _(d, ply, v):
+    box = "n_grid = 16\nlo = [-1e6, -1e6, -1e6]\nhi = [1e6, 1e6, 1e6]"
+    return simulate(d, edit(scene_text(ply), "n_grid = 24", box))
+
+
+@case("rho-1e300-in-f32", "rho = 1e+300", "precision 'f32'", "1.8e+19", "f64")
+def _(d, ply, v):
+    return simulate(d, scene_text(ply, material='name = "jelly"\nE = 2.0e4\nnu = 0.3\nrho = 1e300'))
+
+
+@case("output-below-a-device", "/dev/full", "is not a folder")
+def _(d, ply, v):
+    return simulate(d, scene_text(ply))[:3] + ["/dev/full/x", "-q"]
+
+
+@case("output-below-a-file", "in.ply", "is not a folder")
+def _(d, ply, v):
+    inp = write_vertex(d / "in.ply", v)
+    return simulate(d, scene_text(inp))[:3] + [str(inp / "out"), "-q"]
+
+
+@case("object-is-a-fifo", "fifo.ply", "not a regular file")
+def _(d, ply, v):
+    os.mkfifo(d / "fifo.ply")
+    return simulate(d, scene_text(d / "fifo.ply"))                 # was "no such file"
+
+
+@case("object-is-dev-zero", "/dev/zero", "not a regular file")
+def _(d, ply, v):
+    return simulate(d, scene_text(Path("/dev/zero")))
+
+
+@case("scene-is-a-fifo", "scene.toml", "not a regular file")
+def _(d, ply, v):
+    os.mkfifo(d / "scene.toml")                                    # reading it hung
+    return ["simulate", str(d / "scene.toml"), "-o", str(d / "out"), "-q"]
+
+
+@case("n-frames-1e9", "1,000,000,000 frames", "at the measured", "beyond the bound of 24 h", "--yes")
+def _(d, ply, v):
+    pytest.importorskip("gasp_warp_mpm")
+    return simulate(d, scene_text(ply, n_frames=1_000_000_000, n_grid=16, engine="warp_mpm", engine_options="{ }"))
+
+
+@case("compare-unknown-engine", "'nope'", "not an installed engine", "warp_mpm")
+def _(d, ply, v):
+    pytest.importorskip("distributed")
+    return ["compare", simulate(d, scene_text(ply))[1], "--engines", "warp_mpm,nope", "-o", str(d / "cmp")]
+
+
 def run_case(tmp_path: Path, argv: list[str], capsys) -> tuple[int, str, list]:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -358,7 +418,7 @@ def test_bad_input_is_one_clean_error(name, tmp_path, capsys, donut_small, donut
 
 def test_corpus_size():
     """The README's reliability section quotes this count."""
-    assert len(CASES) >= 40
+    assert len(CASES) >= 52
 
 
 # ------------------------------------------------------------------- through the real entry point

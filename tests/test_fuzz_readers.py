@@ -3,6 +3,9 @@
 Whatever bytes or TOML document they get, the readers either return a valid object or raise
 :class:`~gasp_core.seam.engine.SceneError` (one line naming the file), never another exception type
 and never a numpy RuntimeWarning. Bounded (``max_examples``) so the module runs in well under 60 s.
+The last part (issue 21) sets one scene key at a time to a value at, or just beyond, each of its
+limits and takes the scene through preparation and the build-time checks; its ``_slow`` twin
+(``-m slow``) draws 10x as many examples.
 """
 from __future__ import annotations
 
@@ -191,3 +194,123 @@ def test_scene_text_parses_or_raises_scene_error(tmp_path, text):
         load_scene(p)
     except SceneError as e:
         assert "\n" not in str(e).strip() or "not valid TOML" in str(e)
+
+
+# ------------------------------------------------------------- scene values at each limit (issue 21)
+# One key of a valid scene set to a value at, or just beyond, one of its limits (or a generic extreme:
+# 0, negative, nan, inf, the largest TOML integer). Through load_scene, prepare_scene and the build-time
+# checks (options, engine limits, precision): a prepared scene with finite points, or one SceneError line.
+_EXTREMES = ["0", "-1", "nan", "inf", "-inf", "1e308", "9223372036854775807"]
+LIMITS = {
+    ("top", "frame_dt"): ["1e-300", "1e300", "1e-9"],
+    ("top", "n_frames"): ["1", "1000000000"],
+    ("top", "gravity"): ["[0.0, 0.0, -1e4]", "[0.0, 0.0, -1.0001e4]", "[nan, 0.0, 0.0]", "[0.0, 0.0]"],
+    ("domain", "n_grid"): ["7", "8", "9", "1025", "16.5"],
+    ("domain", "padding"): ["10.0", "10.001", "1e-9"],
+    ("domain", "particles_per_cell"): ["1", "64", "65"],
+    ("object", "scale"): ["1e-6", "9.9e-7", "1e6", "1.01e6", "1e-3"],
+    ("object", "position"): ["[1e6, 0.0, 0.0]", "[1.0001e6, 0.0, 0.0]", "[-1e6, -1e6, -1e6]"],
+    ("object", "velocity"): ["[1e4, 0.0, 0.0]", "[1.0001e4, 0.0, 0.0]"],
+    ("object", "min_opacity"): ["1.0", "1.1", "-0.1"],
+    ("object", "core_fraction"): ["1e-9", "1.0", "1.0001"],
+    ("material", "E"): ["1e-300", "1.8e19", "1.9e19", "1e300"],
+    ("material", "nu"): ["-1.0", "-0.999", "0.4999999", "0.5"],
+    ("material", "rho"): ["1e-300", "1.8e19", "1e300"],
+    ("boundary", "friction"): ["1e6", "-0.1"],
+    ("boundary", "height"): ["1e6", "-1.0001e6", "0.2"],
+}
+_TABLE_LINE = {"top": "frame_dt = 0.0333333", "domain": "n_grid = 24", "object": 'up_axis = "+z"',
+               "material": 'name = "jelly"', "boundary": 'kind = "ground"'}
+
+
+@pytest.fixture(scope="module")
+def limit_scene(tmp_path_factory):
+    """A valid scene's text: every 64th Gaussian of the donut on warp_mpm, n_grid 16, a ground."""
+    pytest.importorskip("gasp_warp_mpm")
+    from gasp_core.gs.io import write_gaussians
+    from gasp_testing import scene_text
+    d = tmp_path_factory.mktemp("limits")
+    g = read_gaussians(DONUT)
+    ply = write_gaussians(d / "donut.ply", g.subset(np.arange(0, g.n, 64)))
+    text = scene_text(ply, n_frames=2, n_grid=24, engine="warp_mpm", engine_options="{ }")
+    return d, text
+
+
+def _with_value(text: str, table: str, key: str, value: str) -> str:
+    """``text`` with ``key = value`` in ``table`` (replacing the key's line when present)."""
+    lines = text.splitlines()
+    hit = [i for i, ln in enumerate(lines) if ln.split("=")[0].strip() == key]
+    anchor = next(i for i, ln in enumerate(lines) if ln.strip() == _TABLE_LINE[table]) if not hit else None
+    if table == "top" and not hit:
+        return f"{key} = {value}\n{text}"
+    if hit:
+        lines[hit[0]] = f"{key} = {value}"
+    else:
+        lines.insert(anchor + 1, f"{key} = {value}")
+    return "\n".join(lines) + "\n"
+
+
+def _prepare_or_refuse(folder: Path, text: str) -> None:
+    from gasp_core.errors import GaspError
+    from gasp_core.prepare.scene import prepare_scene
+    from gasp_core.scene.spec import load_scene
+    from gasp_core.seam.limits import check_limits, check_precision, precision_of
+    from gasp_core.seam.options import check_options
+    (folder / "scene.toml").write_text(text)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        warnings.filterwarnings("ignore", message=".*enclose no volume")   # the fill's own warning, in words
+        try:
+            prep = prepare_scene(load_scene(folder / "scene.toml"))
+            setup, info = prep.setup, prep.info
+            setup.options = check_options(setup.options, info.options, info.name)
+            check_limits(info.name, info.limits, setup)
+            check_precision(info.name, precision_of(info.capabilities.precisions, setup.options), setup)
+        except GaspError as e:
+            assert "\n" not in str(e).strip() and str(e).strip(), str(e)
+            return
+    assert np.isfinite(setup.x).all() and np.isfinite(setup.v).all() and np.isfinite(setup.p_vol).all()
+    assert (setup.p_vol >= 0).all() and setup.p_vol.sum() > 0
+    inside = (setup.x >= setup.domain_lo) & (setup.x <= setup.domain_hi)
+    assert inside.all(), "a prepared point starts outside the domain"
+
+
+def _scene_limit_case(limit_scene, where, value):
+    folder, text = limit_scene
+    table, key = where
+    _prepare_or_refuse(folder, _with_value(text, table, key, value))
+
+
+_LIMIT_ARGS = dict(where=st.sampled_from(sorted(LIMITS)), value=st.data())
+
+
+def _draw_limit(limit_scene, where, value):
+    v = value.draw(st.sampled_from(LIMITS[where] + _EXTREMES))
+    _scene_limit_case(limit_scene, where, v)
+
+
+test_scene_value_at_each_limit = settings(FUZZ, max_examples=60)(given(**_LIMIT_ARGS)(_draw_limit))
+test_scene_value_at_each_limit_slow = pytest.mark.slow(
+    settings(FUZZ, max_examples=600)(given(**_LIMIT_ARGS)(_draw_limit)))
+
+
+@pytest.mark.parametrize("where, value", [(w, v) for w, vs in sorted(LIMITS.items()) for v in vs],
+                         ids=[f"{w[1]}={v}" for w, vs in sorted(LIMITS.items()) for v in vs])
+def test_every_listed_limit_value(limit_scene, where, value):
+    """Every value of :data:`LIMITS` once (the generator above draws them with the generic extremes)."""
+    _scene_limit_case(limit_scene, where, value)
+
+
+# ------------------------------------------------------------------ the slow tier: 10x the examples
+def _slow_twin(test, **strategies):
+    """``test`` (a hypothesis test of this module) again with 10x the examples, marked ``slow``."""
+    return pytest.mark.slow(settings(FUZZ, max_examples=10 * FUZZ.max_examples)(given(**strategies)(test.hypothesis.inner_test)))
+
+
+test_mutated_ply_slow = _slow_twin(test_mutated_ply_reads_or_raises_scene_error, raw=mutated_ply())
+test_special_float_slow = _slow_twin(
+    test_special_float_in_any_field, seed=st.sampled_from(sorted(SEEDS)), field=st.integers(0, 10_000),
+    value=st.sampled_from([math.nan, math.inf, -math.inf, 1e38, -1e38, 1e20, 100.0, -100.0]))
+test_random_bytes_slow = _slow_twin(test_random_bytes_read_or_raise_scene_error, raw=st.binary(max_size=600))
+test_scene_documents_slow = _slow_twin(test_scene_documents_parse_or_raise_scene_error, doc=scene_doc())
+test_scene_text_slow = _slow_twin(test_scene_text_parses_or_raises_scene_error, text=st.text(max_size=300))

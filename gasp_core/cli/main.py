@@ -3,8 +3,10 @@
 Every error is one line on stderr, ``gasp: error: ...``, with an exit status from the error
 contract (:mod:`gasp_core.errors`): 2 for what the user can fix (bad input, unknown engine,
 missing capability, existing output, a folder that cannot be written), 3 when the engine blew up,
-4 for a bug in an engine (its traceback saved to a file the line names), 130 when interrupted
-(Ctrl-C, SIGTERM, SIGHUP; nothing partial is kept).
+4 for a bug in an engine (its traceback saved to a file the line names), 130 when stopped
+(Ctrl-C, SIGTERM, SIGHUP: ``gasp simulate`` finishes the frame in flight and keeps the finished frames
+for ``--resume``, :mod:`gasp_core.run.stop`). NumPy's floating-point warnings are held back and
+printed only after a run that succeeded: before an error line they would be noise.
 """
 from __future__ import annotations
 
@@ -13,11 +15,11 @@ import json
 import sys
 from pathlib import Path
 
-import signal
 import warnings
 
 from gasp_core.cli.args import GaspArgumentParser, positive_int
 from gasp_core.errors import EngineBug, EngineDivergence, GaspError
+from gasp_core.run import stop
 
 
 def _cmd_simulate(args) -> int:
@@ -27,10 +29,13 @@ def _cmd_simulate(args) -> int:
     out = args.output or scene.output
     if out is None:
         raise GaspError("no output folder: pass -o OUTDIR or set 'output' in the scene")
+    if args.resume and args.discard:
+        raise GaspError("--resume and --discard exclude each other: continue the stopped run, or throw it away")
     res = simulate_scene(scene, out, overwrite=args.overwrite, progress=not args.quiet,
                          n_frames=args.frames, engine=args.engine, resume=args.resume,
                          fmt=args.format, layout=args.layout,
-                         warn=lambda msg: print(f"gasp: warning: {msg}", file=sys.stderr))
+                         warn=lambda msg: print(f"gasp: warning: {msg}", file=sys.stderr),
+                         discard=args.discard, yes=args.yes)
     s = res.summary
     fps = len(s["frames"]) - 1
     per_frame = sum(f.get("sim_s", 0.0) for f in s["frames"]) / max(fps, 1)
@@ -228,7 +233,13 @@ def _add_simulate_parser(sub) -> None:
                    help="replace an existing output folder written by gasp, never one holding the inputs "
                         "(default: refuse)")
     s.add_argument("--resume", action="store_true",
-                   help="continue a killed run to the same folder from its last complete frame (default: off)")
+                   help="continue a stopped or killed run to the same folder from its last complete frame "
+                        "(default: off)")
+    s.add_argument("--discard", action="store_true",
+                   help="throw away a stopped or killed run's partial output and start again (default: off)")
+    s.add_argument("--yes", action="store_true",
+                   help="run even when the work estimate is beyond the bound (24 h at the measured rate; "
+                        "default: refuse)")
     s.add_argument("--frames", type=positive_int, help="simulated frames, >= 1 (default: the scene's n_frames)")
     s.add_argument("--format", choices=["ply", "compressed_ply", "spz", "sog"], default="ply",
                    help="frame file format (default: ply; the others need pip install 'gasp[formats]'; "
@@ -269,48 +280,67 @@ def _add_study_parsers(sub) -> None:
     b.set_defaults(func=_cmd_bench)
 
 
-def _interrupt(signum, _frame):
-    raise KeyboardInterrupt(signal.Signals(signum).name)
+#: NumPy's floating-point warnings of this command, held back (see the module docstring).
+_HELD: dict[str, int] = {}
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None):
+    if issubclass(category, RuntimeWarning) and " encountered in " in str(message):   # numpy's floating point
+        _HELD[str(message)] = _HELD.get(str(message), 0) + 1
+        return
     print(f"gasp: warning: {message}", file=sys.stderr)
+
+
+def _end_progress_bars() -> None:
+    """Close the progress bars an error left open, so that the error line starts a line of its own."""
+    tqdm = sys.modules.get("tqdm")
+    for bar in list(getattr(getattr(tqdm, "tqdm", None), "_instances", ())):
+        bar.close()
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     warnings.showwarning = _show_warning  # a warning is one line, not a source location and code
     warnings.filterwarnings("ignore", category=ResourceWarning)  # libraries' unclosed files: not the user's concern
-    previous = {}
-    for sig in (signal.SIGTERM, signal.SIGHUP):
-        try:
-            previous[sig] = signal.signal(sig, _interrupt)
-        except ValueError:  # not the main thread (tests calling main in a thread)
-            pass
+    _HELD.clear()
+    with stop.handlers():
+        code = _run(args)
+    if code == 0:
+        for message, count in _HELD.items():
+            print(f"gasp: warning: numpy: {message}" + (f" ({count} times)" if count > 1 else ""), file=sys.stderr)
+    return code
+
+
+def _run(args) -> int:
+    """``args.func(args)`` under the error contract: its exit status, and an error as one line."""
     try:
         return args.func(args)
-    except EngineDivergence as e:
-        print(f"gasp: error: simulation diverged at {e}", file=sys.stderr)
+    except (GaspError, OSError, KeyboardInterrupt) as e:
+        _end_progress_bars()
+        print(f"gasp: {_error_line(e)}", file=sys.stderr)
+        return _exit_status(e)
+
+
+def _exit_status(e: BaseException) -> int:
+    """The error contract's exit status (:mod:`gasp_core.errors`): 3 diverged, 4 engine bug, 130 stopped, else 2."""
+    if isinstance(e, EngineDivergence):
         return 3
-    except EngineBug as e:
-        print(f"gasp: error: {e}", file=sys.stderr)
+    if isinstance(e, EngineBug):
         return 4
-    except (GaspError, FileExistsError, FileNotFoundError, IsADirectoryError, NotADirectoryError) as e:
-        print(f"gasp: error: {e}", file=sys.stderr)
-        return 2
-    except PermissionError as e:
-        print(f"gasp: error: permission denied: {e.filename or e}", file=sys.stderr)
-        return 2
-    except OSError as e:
-        print(f"gasp: error: {e.strerror or e}{f': {e.filename}' if e.filename else ''}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt as e:
-        why = f" by {e.args[0]}" if e.args else ""
-        print(f"gasp: interrupted{why}; no partial output was kept", file=sys.stderr)
-        return 130
-    finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
+    return 130 if isinstance(e, KeyboardInterrupt) else 2
+
+
+def _error_line(e: BaseException) -> str:
+    """``e`` in one line, after ``gasp: ``."""
+    if isinstance(e, KeyboardInterrupt):
+        return str(e) if isinstance(e, stop.Stopped) else "interrupted; no partial output was kept"
+    if isinstance(e, EngineDivergence):
+        return f"error: simulation diverged at {e}"
+    if isinstance(e, (GaspError, FileExistsError, FileNotFoundError, IsADirectoryError, NotADirectoryError)):
+        return f"error: {e}"
+    if isinstance(e, PermissionError):
+        return f"error: permission denied: {e.filename or e}"
+    return f"error: {e.strerror or e}{f': {e.filename}' if e.filename else ''}"
 
 
 if __name__ == "__main__":

@@ -50,10 +50,12 @@ def read_ply(path) -> PlyData:
 
 
 def check_is_file(path: Path, what: str) -> None:
-    """Refuse a directory (:class:`SceneError`) or a missing path (:class:`FileNotFoundError`); ``what`` names
-    the file expected."""
+    """Refuse a directory or a path that is not a regular file (:class:`SceneError`) or a missing path
+    (:class:`FileNotFoundError`); ``what`` names the file expected."""
     if path.is_dir():
         reject_file(path, f"is a directory; expected a {what}")
+    if path.exists() and not path.is_file():   # a FIFO, a device (/dev/zero), a socket: reading could hang
+        reject_file(path, f"is not a regular file (a pipe, device or socket); expected a {what}")
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such {what}")
 

@@ -14,6 +14,27 @@ from gasp_core.scene.spec import Scene
 
 #: Smallest default domain side, metres (a single Gaussian, or all Gaussians at one point).
 MIN_DOMAIN_SIDE = 1e-3
+#: Grid cells kept free below a ground plane and above the points in the default domain: the quadratic
+#: stencil's reach (base node ``floor(x/dx - 0.5)`` in ``[0, n_grid - 3]``) plus room to move.
+STENCIL_CELLS = 3.0
+#: An object must span at least this many grid cells: below it no fill cell lies inside it and
+#: the grid cannot resolve its shape.
+MIN_OBJECT_CELLS = 2.0
+
+
+def check_resolved(name: str, points: np.ndarray, dx: float, n_grid: int) -> None:
+    """Refuse an object smaller than :data:`MIN_OBJECT_CELLS` grid cells (its largest side, metres).
+
+    Raises
+    ------
+    SceneError
+        Naming the object, its size, ``dx`` and the ways out.
+    """
+    size = float(np.max(points.max(axis=0) - points.min(axis=0)))
+    if not size >= MIN_OBJECT_CELLS * dx:
+        raise SceneError(f"object '{name}' is {size:.3g} m across, less than {MIN_OBJECT_CELLS:g} grid cells "
+                         f"(dx = {dx:.3g} m at n_grid {n_grid}): the grid cannot resolve it; scale the object "
+                         f"up ('scale'), shrink the domain ([domain] lo/hi) or raise n_grid")
 
 
 def default_domain(scene: Scene, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -21,7 +42,10 @@ def default_domain(scene: Scene, points: np.ndarray) -> tuple[np.ndarray, np.nda
 
     With a ground plane the extent reaches down to the ground (an object dropped from a height
     stays inside), and the box starts three cells below it, so points resting on the ground stay
-    inside the grid's interpolation stencil. The side is at least :data:`MIN_DOMAIN_SIDE`.
+    inside the grid's interpolation stencil; the side is then large enough to leave three cells
+    above the points too (at a coarse ``n_grid`` the shift down would otherwise put the top of the
+    object in the grid's last cells, outside every MPM stencil). The side is at least
+    :data:`MIN_DOMAIN_SIDE`.
     """
     if scene.domain.lo is not None:
         return np.array(scene.domain.lo, float), np.array(scene.domain.hi, float)
@@ -31,10 +55,13 @@ def default_domain(scene: Scene, points: np.ndarray) -> tuple[np.ndarray, np.nda
         lo[2] = min(lo[2], min(grounds))
     ext = max(float(np.max(hi - lo)), MIN_DOMAIN_SIDE)
     side = ext * (1.0 + 2.0 * scene.domain.padding)
+    n_grid = scene.domain.n_grid
+    if grounds:   # three cells below the ground and three above the points (n_grid >= 8)
+        side = max(side, (hi[2] - lo[2]) / (1.0 - 2.0 * STENCIL_CELLS / n_grid))
     centre = (lo + hi) / 2
     dlo = centre - side / 2
     if grounds:
-        dlo[2] = min(grounds) - 3.0 * side / scene.domain.n_grid
+        dlo[2] = min(grounds) - STENCIL_CELLS * side / n_grid
     return dlo, dlo + side
 
 
@@ -59,6 +86,7 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
     for i, (o, verts) in enumerate(zip(objects, vertices)):
         opacities = o.simulated_rows(o.gaussians.opacities).astype(np.float64)
         opaque = expit(opacities) >= o.spec.min_opacity
+        check_resolved(o.name, o.tri_rest.reshape(-1, 3), dx, n_grid)
         h = fill_spacing(dx, scene.domain.particles_per_cell, o.spec.core_fraction)
         passive = o.spec.surface == "passive"
         fr = fill_interior(verts, h, splats=o.tri_rest[opaque], fill=o.spec.fill, name=o.name,

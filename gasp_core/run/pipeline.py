@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Callable
 
 from gasp_core.run import resume as resume_mod
+from gasp_core.run import budget, stop
 from gasp_core.errors import GaspError
 from gasp_core.run.frames import FrameState, iter_frames
 from gasp_core.fsutil import OutputClaim, atomic_json, leftover_partials
@@ -43,7 +44,8 @@ def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
                    engine: str | None = None,
                    on_frame: Callable[[int, list[Gaussians]], None] | None = None,
                    warn: Callable[[str], None] | None = None, resume: bool = False,
-                   fmt: str = "ply", layout: str | None = None) -> RunResult:
+                   fmt: str = "ply", layout: str | None = None,
+                   discard: bool = False, yes: bool = False) -> RunResult:
     """Run a scene and write its frames, by default one graphdeco PLY per object per frame.
 
     Layout: ``OUTDIR/<object>/frame_0000.ply`` (frame 0 = the input state) to
@@ -67,9 +69,11 @@ def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
     warn : callable, optional
         Receives warnings in words (leftover partial folders of killed runs; passive surface points
         the material left behind, the engine's ``passive_stranded``).
-    resume : bool
-        Continue a killed run to ``outdir`` from its last checkpoint (:mod:`gasp_core.run.resume`;
-        engines with the feature ``state``).
+    resume, discard : bool
+        Continue a stopped or killed run to ``outdir`` from its last checkpoint (:mod:`gasp_core.run.resume`;
+        engines with the feature ``state``), or throw its partial output away and start again.
+    yes : bool
+        Run even when it would take longer than :data:`gasp_core.run.budget.MAX_S`.
     fmt, layout : str
         Output format (``ply``, ``compressed_ply``, ``spz``, ``sog``) and layout (``frames``, ``split``;
         default ``frames`` for ``ply``, else ``split``): :mod:`gasp_core.run.layout`.
@@ -92,11 +96,13 @@ def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
         in ``outdir`` (the partial run is removed).
     EngineBug
         The engine raised an exception outside the error contract.
+    Stopped
+        SIGTERM, SIGINT, SIGHUP (:mod:`gasp_core.run.stop`): the finished frames kept for ``--resume``.
     """
     outdir = Path(outdir)
     n_frames = scene.n_frames if n_frames is None else n_frames
-    claim = OutputClaim(outdir, overwrite=overwrite, protected=input_files(scene), resume=resume)
-    run = _Run(fmt=fmt, layout=layout or default_layout(fmt))
+    claim = OutputClaim(outdir, overwrite, input_files(scene), resume=resume, discard=discard)
+    run = _Run(fmt=fmt, layout=layout or default_layout(fmt), yes=yes, warn=warn)
     try:
         run.prep = prepare_scene(scene, engine)
         run.fingerprint = resume_mod.fingerprint(scene, run.prep.info.name, run.prep.setup.options, n_frames,
@@ -112,6 +118,8 @@ def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
         atomic_json(run.tmp / "run.json", summary)
         claim.commit(run.tmp)
         _warn_stranded(run, warn)
+    except KeyboardInterrupt as e:
+        stop.keep_or_abandon(claim, run.tmp, e, lambda: _stopped_record(run, n_frames), run.saved_frame, n_frames)
     except BaseException as e:
         claim.abandon(run.tmp, e)
         raise
@@ -134,6 +142,11 @@ class _Run:
     #: Output format and layout (:mod:`gasp_core.run.layout`).
     fmt: str = "ply"
     layout: str = "frames"
+    #: The last frame whose checkpoint is saved (what a stopped run keeps); None before the first.
+    saved_frame: int | None = None
+    #: Run beyond the work bound (``--yes``).
+    yes: bool = False
+    warn: Callable[[str], None] | None = None
 
 
 def _continue_partial(run: _Run, outdir: Path) -> None:
@@ -144,6 +157,7 @@ def _continue_partial(run: _Run, outdir: Path) -> None:
     run.tmp, run.checkpoint = resume_mod.find_resumable(outdir, run.fingerprint)
     (run.tmp / ".gasp-pid").write_text(str(os.getpid()))
     run.per_frame = list(run.checkpoint.meta["per_frame"])
+    run.saved_frame = run.checkpoint.frame
     run.stats.frame_s = list(run.checkpoint.meta.get("frame_s", []))
 
 
@@ -174,7 +188,10 @@ def _write_frames(run: _Run, n_frames: int, progress: bool,
     frame_state = FrameState()
     writer = FrameWriter(tmp, list(prep.names), [o.spec.static for o in prep.objects],
                          [o.moving for o in prep.objects], run.fmt, run.layout, overwrite=checkpoint is not None)
+    stop.frame_started(None)
+    t_frame = time.perf_counter()
     for frame, gs, row in iter_frames(prep, n_frames, run.stats, resume=checkpoint, state=frame_state):
+        stop.frame_started(row.get("sim_s"))   # its writes and checkpoint take about as long as it did
         t0 = time.perf_counter()
         writer.write(frame, gs)
         row["write_s"] = time.perf_counter() - t0
@@ -185,15 +202,45 @@ def _write_frames(run: _Run, n_frames: int, progress: bool,
                 frame, frame_state.get_state(), frame_state.prev_rot,
                 {"fingerprint": run.fingerprint, "per_frame": run.per_frame, "frame_s": run.stats.frame_s}))
             row["checkpoint_s"] = time.perf_counter() - t0
+            run.saved_frame = frame
         if bar is not None and frame > 0:
             bar.update(1)
         if on_frame is not None:
             on_frame(frame, gs)
+        _after_frame(run, frame, n_frames, time.perf_counter() - t_frame)
+        t_frame = time.perf_counter()
     if bar is not None:
         bar.close()
     writer.finish(n_frames, [o.gaussians.n for o in prep.objects])
     (tmp / resume_mod.CHECKPOINT).unlink(missing_ok=True)
     return time.perf_counter() - t_run
+
+
+def _after_frame(run: _Run, frame: int, n_frames: int, frame_wall_s: float) -> None:
+    """At a frame boundary: the work estimate after the second simulated frame, then a stop asked for by a signal.
+
+    Raises
+    ------
+    GaspError
+        The run would take longer than :data:`gasp_core.run.budget.MAX_S` (without ``yes``).
+    Stopped
+        A signal asked the run to stop (:mod:`gasp_core.run.stop`); the frame's checkpoint is saved.
+    """
+    if frame == 0:
+        return
+    if frame == (2 if run.checkpoint is None else run.checkpoint.frame + 2):   # frame 1 includes JIT warm-up
+        note = budget.check(run.stats.engine, len(run.prep.setup.x), n_frames, n_frames - frame, frame_wall_s, run.yes)
+        if note and run.warn is not None:
+            run.warn(note)
+    if frame < n_frames and stop.requested():
+        raise stop.Stopped(stop.requested())
+    stop.frame_started(frame_wall_s)
+
+
+def _stopped_record(run: _Run, n_frames: int) -> dict:
+    """The ``run.json`` of a stopped run: the record of the frames its checkpoint covers."""
+    rows = [r for r in run.per_frame if run.saved_frame is not None and r["frame"] <= run.saved_frame]
+    return run_summary(run.prep, run.stats, n_frames, rows, sum(run.stats.frame_s))
 
 
 def _warn_stranded(run: _Run, warn: Callable[[str], None] | None) -> None:

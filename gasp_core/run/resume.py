@@ -14,6 +14,7 @@ from __future__ import annotations
 import hashlib
 import io
 import json
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -97,9 +98,18 @@ def load(folder: Path) -> Checkpoint:
             meta = json.loads(bytes(z["meta"]).decode())
             engine_state = {k[len("engine/"):]: z[k] for k in z.files if k.startswith("engine/")}
             prev_rot = [z[f"rot/{i}"] for i in range(meta["n_rot"])]
-    except (OSError, ValueError, KeyError) as e:
-        raise GaspError(f"cannot resume from '{path}': {e}") from None
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as e:
+        raise GaspError(f"cannot resume from '{path}': the checkpoint is truncated or damaged ({e}); "
+                        f"start again with --discard") from None
     return Checkpoint(int(meta["frame"]), engine_state, prev_rot, meta)
+
+
+def remove_temporaries(folder: Path) -> None:
+    """Remove the temporary files a killed run's atomic writes left in ``folder`` and its object folders
+    (``..gasp-checkpoint.npz.*.tmp``, ``.frame_0003.ply.*.tmp``): :func:`gasp_core.fsutil.atomic_write`
+    removes its own on any exception, but ``kill -9`` gives it no chance."""
+    for p in [*folder.glob(".*.tmp"), *folder.glob("*/.*.tmp")]:
+        p.unlink(missing_ok=True)
 
 
 def find_resumable(outdir: Path, run_fingerprint: str) -> tuple[Path, Checkpoint]:
@@ -118,6 +128,7 @@ def find_resumable(outdir: Path, run_fingerprint: str) -> tuple[Path, Checkpoint
     for p in sorted(candidates, key=lambda p: (p / CHECKPOINT).stat().st_mtime, reverse=True):
         checkpoint = load(p)
         if checkpoint.meta.get("fingerprint") == run_fingerprint:
+            remove_temporaries(p)
             return p, checkpoint
         others.append(p.name)
     raise GaspError(f"cannot resume '{outdir}': the partial run(s) {others} were made from another scene, input "

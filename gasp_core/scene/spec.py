@@ -245,7 +245,7 @@ def load_scene(path: str | Path) -> Scene:
     ------
     SceneError
         One line naming the file, the key, the value and what was expected: the file is missing,
-        a directory, unreadable, not UTF-8 or not TOML; a key is unknown (the message lists the
+        a directory or not a regular file, unreadable, not UTF-8 or not TOML; a key is unknown (the message lists the
         allowed keys); a value has the wrong type (every key is type-checked: an integer where a
         table is expected, ``24.9`` for an integer, a string for a boolean) or is out of range
         (see the module constants :data:`MAX_COORD`, :data:`MAX_SPEED`, :data:`MAX_GRAVITY`,
@@ -255,6 +255,8 @@ def load_scene(path: str | Path) -> Scene:
     src = Path(path)
     if src.is_dir():
         raise SceneError(f"{src}: is a directory; expected a scene file (TOML)")
+    if src.exists() and not src.is_file():   # a FIFO or a device (/dev/zero): reading could hang or never end
+        raise SceneError(f"{src}: is not a regular file (a pipe, device or socket); expected a scene file (TOML)")
     try:
         data = tomllib.loads(src.read_bytes().decode("utf-8"))
     except FileNotFoundError:

@@ -12,7 +12,7 @@ from typing import Iterable, Mapping
 from gasp_core.errors import GaspError, SceneError
 from gasp_core.seam.engine import call_engine, EngineInfo, PointEngine, StatefulEngine
 from gasp_core.seam.options import check_options
-from gasp_core.seam.limits import check_limits
+from gasp_core.seam.limits import check_limits, check_precision, precision_of
 from gasp_core.seam.passive import build_with_fallback
 from gasp_core.seam.plugins import engines as installed_engines
 from gasp_core.seam.setup import SimSetup
@@ -126,7 +126,8 @@ def build_engine(info: EngineInfo, setup: SimSetup) -> PointEngine:
     ------
     SceneError
         A material, boundary or feature the engine lacks; an unknown or invalid option; a value
-        outside the engine's declared limits (:attr:`EngineInfo.limits`).
+        outside the engine's declared limits (:attr:`EngineInfo.limits`); a material value beyond
+        the run's precision (:func:`gasp_core.seam.limits.check_precision`).
     EngineError
         The engine cannot run here.
     EngineBug
@@ -136,6 +137,7 @@ def build_engine(info: EngineInfo, setup: SimSetup) -> PointEngine:
     check_supported(info, **setup_needs(setup))
     setup.options = check_options(setup.options, info.options, info.name)
     check_limits(info.name, info.limits, setup)
+    check_precision(info.name, precision_of(info.capabilities.precisions, setup.options), setup)
     if setup.passive is not None and "passive_points" not in info.capabilities.features:
         # the core moves the passive rows
         return build_with_fallback(info, setup, lambda i, s: call_engine(i, "build", _factory, i, s))

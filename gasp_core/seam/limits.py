@@ -141,3 +141,42 @@ def check_limits(engine: str, limits: Mapping[str, Limit], setup: SimSetup) -> N
         for where, value in _values(setup, qual, name):
             if not limit.admits(value):
                 raise SceneError(f"engine '{engine}': {where}{name}={value!r}; this engine takes {limit.describe(key)}")
+
+
+#: Largest finite value of each precision an engine may run at (``precision`` option / capability).
+PRECISION_MAX = {"f32": 3.4028234663852886e38, "f64": 1.7976931348623157e308}
+
+
+def precision_of(precisions: frozenset[str], options: Mapping[str, Any]) -> str:
+    """The precision a run uses: the ``precision`` option, else the engine's only one, else the lower one."""
+    p = options.get("precision")
+    if isinstance(p, str) and p in PRECISION_MAX:
+        return p
+    return "f32" if "f32" in precisions or not precisions else sorted(precisions)[0]
+
+
+def check_precision(engine: str, precision: str, setup: SimSetup) -> None:
+    """Refuse material values whose products overflow the run's precision, before the engine casts them.
+
+    A solver multiplies material values by each other and by state (mass x velocity, stress x volume),
+    so each must stay below the square root of the precision's largest value: ``1.8e19`` in float32,
+    ``1.3e154`` in float64. ``rho = 1e300`` is a float64 number but ``inf`` in float32, after which the
+    run would fail and blame its time step. Checked: every numeric :class:`Material` field and the derived
+    moduli ``mu``, ``lam``, ``K``.
+
+    Raises
+    ------
+    SceneError
+        ``engine 'NAME': material 'jelly': rho = 1e+300 is beyond precision 'f32': ...``, naming the limit.
+    """
+    top = math.sqrt(PRECISION_MAX.get(precision, PRECISION_MAX["f32"]))
+    for m in setup.materials:
+        values = {f: getattr(m, f) for f in sorted(MATERIAL_FIELDS)}
+        values.update(mu=m.mu, lam=m.lam, K=m.K)
+        for name, v in values.items():
+            if isinstance(v, (int, float)) and not abs(v) <= top:
+                raise SceneError(
+                    f"engine '{engine}': material '{m.name}': {name} = {v:.3g} is beyond precision '{precision}': "
+                    f"material values must stay below {top:.2g} (the square root of its largest number, "
+                    f"{PRECISION_MAX.get(precision, PRECISION_MAX['f32']):.2g}, so that their products stay "
+                    f"finite); use a realistic value" + (" or precision = \"f64\"" if precision == "f32" else ""))

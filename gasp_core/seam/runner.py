@@ -151,6 +151,7 @@ def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int,
         return np.asarray(engine.positions(), dtype=np.float64)
 
     try:
+        stats.engine = dict(call_engine(info, "stats", engine.stats))   # n_substeps, for the work estimate
         for frame in range(start_frame + 1, n_frames + 1):
             t0 = time.perf_counter()
             x = call_engine(info, f"frame {frame}", advance)

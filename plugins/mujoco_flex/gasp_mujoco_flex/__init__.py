@@ -51,6 +51,9 @@ OPTIONS = (
            kind="str", choices=("Newton", "CG")),
     Option("iterations", 50, "constraint solver iterations", kind="int", lo=1),
     Option("radius", None, "flex collision radius, m (default: 0.05 h)", lo=0.0, lo_open=True),
+    Option("memory", None, "MuJoCo's arena size (its <size memory=...>: bytes, or with a K, M or G suffix, "
+           "e.g. '1G'); raise it when MuJoCo reports a full contact or constraint buffer (default: MuJoCo's own)",
+           kind="str", pattern=r"[0-9]+[KMGT]?"),
     Option("max_strain", 5.0, "a tet edge stretched beyond (1 + max_strain) x its rest length is a divergence",
            lo=0.0, lo_open=True),
 )

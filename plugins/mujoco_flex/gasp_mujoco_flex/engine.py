@@ -262,8 +262,9 @@ class MujocoFlexEngine:
         g = _fmt(s.gravity)
         from .colliders import collider_xml
         col_asset, col_bodies = collider_xml(s.colliders, ENGINE)
+        size = f'<size memory="{o["memory"]}"/>\n' if o.get("memory") else ""
         return (f'<mujoco model="gasp_mujoco_flex">\n'
-                f'<compiler angle="radian"/>\n{col_asset}'
+                f'<compiler angle="radian"/>\n{size}{col_asset}'
                 f'<option timestep="{self.dt:.17g}" gravity="{g}" integrator="{o["integrator"]}" '
                 f'solver="{o["solver"]}" iterations="{int(o["iterations"])}" cone="pyramidal"/>\n'
                 f'<worldbody>\n{ground}{col_bodies}\n' + "\n".join(parts) + '\n</worldbody>\n</mujoco>')
@@ -378,12 +379,7 @@ class MujocoFlexEngine:
                                                  "or stiffness too high") from e
                 counts = np.array([w.number for w in d.warning])
                 if np.any(counts > self._warn0) or messages:
-                    bad = np.flatnonzero(counts > self._warn0)
-                    what = _WARN_NAMES.get(int(bad[0]), str(bad[0])) if len(bad) else "warning"
-                    text = " ".join(m_.strip() for m_ in messages)
-                    raise EngineDivergence(
-                        f"MuJoCo {what} at t = {d.time:.6g} s" + (f": {text}" if text else ""), self.frame,
-                        cause=f"time step too large for the stiffness (dt = {self.dt:.3g} s) or stiffness too high")
+                    self._raise_warning(counts, messages)
         finally:
             mujoco.set_mju_user_warning(previous)
         if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
@@ -394,6 +390,27 @@ class MujocoFlexEngine:
         mujoco.mj_fwdKinematics(m, d)
         self._check_lattice()
         check_state(self.positions(), self.setup, self.frame)  # the core's blow-up check
+
+    def _raise_warning(self, counts: np.ndarray, messages: list[str]) -> None:
+        """Raise :class:`EngineDivergence` for a MuJoCo warning, naming its likely cause: a full contact or
+        constraint buffer means too many contacts (bodies overlapping, at the start when it is the first
+        substep), anything else a step too large for the stiffness."""
+        d = self.data
+        bad = np.flatnonzero(counts > self._warn0)
+        code = int(bad[0]) if len(bad) else -1
+        what = _WARN_NAMES.get(code, str(code) if code >= 0 else "warning")
+        text = " ".join(m_.strip().split(". Increase arena memory")[0].rstrip(".") for m_ in messages)
+        cause = f"time step too large for the stiffness (dt = {self.dt:.3g} s) or stiffness too high"
+        full = {int(mujoco.mjtWarning.mjWARN_CONTACTFULL), int(mujoco.mjtWarning.mjWARN_CNSTRFULL)}
+        if code in full or "arena memory" in text:
+            first = self.frame == 1 and d.time <= 1.5 * self.dt
+            cause = ((("bodies that overlap at the start (two objects, or an object and a collider, in the "
+                       "same place)" if first else "more contacts than MuJoCo's arena holds (bodies pressed "
+                       "into each other)"))
+                     + "; move the objects apart, or raise the engine option memory (MuJoCo's <size memory>, "
+                       f"now {self.options.get('memory') or 'its default'}), e.g. memory = \"1G\"")
+        raise EngineDivergence(f"MuJoCo {what} at t = {d.time:.6g} s" + (f": {text}" if text else ""),
+                               self.frame, cause=cause)
 
     def _check_lattice(self) -> None:
         d = self.data

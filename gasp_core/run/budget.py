@@ -1,0 +1,64 @@
+"""The work a run asks for, said before it is spent: ``substeps x points x frames`` and the time it takes.
+
+After the second simulated frame (the first includes kernel compilation) the pipeline knows the engine's substeps per frame (``n_substeps``
+in its ``stats()``; 1 for an engine without substeps), the number of points and the wall time of
+one frame on this machine. A run expected to take longer than :data:`NOTE_S` says so in one line;
+one expected to take longer than :data:`MAX_S` is refused unless the user passes ``--yes``
+(``n_frames = 1000000000`` is a typo far more often than a plan).
+"""
+from __future__ import annotations
+
+from gasp_core.errors import GaspError
+
+#: Runs expected to take longer than this (seconds, at the measured rate) print their estimate.
+NOTE_S = 600.0
+#: Runs expected to take longer than this (seconds) are refused without ``--yes``: 24 hours.
+MAX_S = 24 * 3600.0
+
+
+def duration_text(seconds: float) -> str:
+    """``"42 s"``, ``"3.5 min"``, ``"24 h"``, ``"185 days"``, ``"3.2e+04 years"``."""
+    for unit, size in (("years", 365.25 * 86400), ("days", 86400.0), ("h", 3600.0), ("min", 60.0)):
+        if seconds >= 2 * size or (unit == "min" and seconds >= size):
+            v = seconds / size
+            return f"{v:.3g} {unit}" if v < 1e4 else f"{v:.2g} {unit}"
+    return f"{seconds:.2g} s"
+
+
+def estimate(engine_stats: dict, n_points: int, n_frames: int, frames_left: int, frame_s: float) -> tuple[float, str]:
+    """Seconds the ``frames_left`` frames still take, and the estimate in words.
+
+    Parameters
+    ----------
+    engine_stats : dict
+        The engine's ``stats()`` (``n_substeps`` per frame, else 1).
+    n_points : int
+        Simulated points.
+    n_frames : int
+        Frames the run asks for.
+    frames_left : int
+        Frames still to simulate.
+    frame_s : float
+        Measured wall time of one frame (simulation, writing and checkpoint), seconds.
+    """
+    substeps = int(engine_stats.get("n_substeps") or 1)
+    work = float(substeps) * n_points * n_frames
+    seconds = frame_s * frames_left
+    text = (f"{work:.3g} point-substeps ({substeps:,} substeps/frame x {n_points:,} points x {n_frames:,} frames), "
+            f"about {duration_text(seconds)} at the measured {frame_s:.3g} s/frame")
+    return seconds, text
+
+
+def check(engine_stats: dict, n_points: int, n_frames: int, frames_left: int, frame_s: float, yes: bool) -> str:
+    """The estimate in words when the rest of the run takes longer than :data:`NOTE_S`, else ``""``.
+
+    Raises
+    ------
+    GaspError
+        It takes longer than :data:`MAX_S` and ``yes`` is false; the message gives the estimate.
+    """
+    seconds, text = estimate(engine_stats, n_points, n_frames, frames_left, frame_s)
+    if seconds > MAX_S and not yes:
+        raise GaspError(f"n_frames = {n_frames:,} asks for {text}, beyond the bound of {duration_text(MAX_S)}; "
+                        f"pass --yes to run it anyway, or ask for fewer frames (--frames)")
+    return f"this run asks for {text}" if seconds > NOTE_S else ""
