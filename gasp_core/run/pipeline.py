@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Callable
 
 from gasp_core.run import resume as resume_mod
+from gasp_core.run.background import Background
 from gasp_core.errors import GaspError
 from gasp_core.run.frames import FrameState, iter_frames
 from gasp_core.fsutil import OutputClaim, atomic_json, leftover_partials
@@ -62,7 +63,8 @@ def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
     n_frames, engine : optional
         Override the scene's ``n_frames`` and ``engine.name``.
     on_frame : callable, optional
-        ``on_frame(frame, gaussians_per_object)`` after each frame is written.
+        ``on_frame(frame, gaussians_per_object)`` after each frame is handed to the writer (its files are
+        written in the background while the next frame runs, :mod:`gasp_core.run.background`).
     warn : callable, optional
         Receives warnings in words (leftover partial folders of killed runs; passive surface points
         the material left behind, the engine's ``passive_stranded``).
@@ -164,26 +166,35 @@ def _write_frames(run: _Run, n_frames: int, progress: bool,
                    desc=f"{prep.info.name}", leave=True)
     t_run = time.perf_counter()
     frame_state = FrameState()
-    for frame, gs, row in iter_frames(prep, n_frames, run.stats, resume=checkpoint, state=frame_state):
-        t0 = time.perf_counter()
-        for g, name in zip(gs, prep.names):
-            write_gaussians(tmp / name / f"frame_{frame:04d}.ply", g, overwrite=checkpoint is not None)
-        row["write_s"] = time.perf_counter() - t0
-        run.per_frame.append(row)
-        if frame_state.get_state is not None and frame < n_frames:
-            t0 = time.perf_counter()
-            resume_mod.save(tmp, resume_mod.Checkpoint(
-                frame, frame_state.get_state(), frame_state.prev_rot,
-                {"fingerprint": run.fingerprint, "per_frame": run.per_frame, "frame_s": run.stats.frame_s}))
-            row["checkpoint_s"] = time.perf_counter() - t0
-        if bar is not None and frame > 0:
-            bar.update(1)
-        if on_frame is not None:
-            on_frame(frame, gs)
+    with Background() as writes:   # a frame's files are written while the engine runs the next one
+        for frame, gs, row in iter_frames(prep, n_frames, run.stats, resume=checkpoint, state=frame_state):
+            state = frame_state.get_state() if frame_state.get_state is not None and frame < n_frames else None
+            writes.submit(_save_frame, run, frame, gs, row, state, list(frame_state.prev_rot),
+                          list(run.stats.frame_s))
+            if bar is not None and frame > 0:
+                bar.update(1)
+            if on_frame is not None:
+                on_frame(frame, gs)
     if bar is not None:
         bar.close()
     (tmp / resume_mod.CHECKPOINT).unlink(missing_ok=True)
     return time.perf_counter() - t_run
+
+
+def _save_frame(run: _Run, frame: int, gs: list[Gaussians], row: dict, engine_state: dict | None,
+                prev_rot: list, frame_s: list) -> None:
+    """Write one frame's files, then (``engine_state`` not None) its checkpoint (on :class:`Background`'s worker)."""
+    t0 = time.perf_counter()
+    for g, name in zip(gs, run.prep.names):
+        write_gaussians(run.tmp / name / f"frame_{frame:04d}.ply", g, overwrite=run.checkpoint is not None)
+    row["write_s"] = time.perf_counter() - t0
+    run.per_frame.append(row)
+    if engine_state is not None:
+        t0 = time.perf_counter()
+        resume_mod.save(run.tmp, resume_mod.Checkpoint(
+            frame, engine_state, prev_rot, {"fingerprint": run.fingerprint, "per_frame": run.per_frame,
+                                            "frame_s": frame_s}))
+        row["checkpoint_s"] = time.perf_counter() - t0
 
 
 def _warn_stranded(run: _Run, warn: Callable[[str], None] | None) -> None:

@@ -6,14 +6,17 @@ been called (by :class:`gasp_taichi_mpm.engine.TaichiMPMEngine`) before it is bu
 
 Implementation notes (all algebraically identical to the spec; they change rounding only):
 
-* **P2G without atomics on CPU.** The points are split into ``n_chunks`` contiguous chunks (one
-  per CPU thread); chunk ``t`` scatters into its own grid copy ``grid_acc[t]`` with plain loads
-  and stores. The grid update sums the copies in a fixed order, so a run repeats bit for bit for
-  a fixed thread count. On CUDA (or when the copies would not fit in memory) one copy is used and
-  the scatter is atomic.
+* **P2G without atomics on CPU.** The points (sorted by cell) are split into ``n_chunks`` contiguous
+  chunks, a fixed number independent of the thread count and larger than it (the engine's
+  ``n_point_chunks``): the threads take chunks as they finish the last, so the load balances itself.
+  Chunk ``t`` scatters into its own grid copy ``grid_acc[t]`` with plain loads and stores. The grid
+  update sums the copies in a fixed order, so a run repeats bit for bit for a fixed ``n_chunks``,
+  whatever the thread count. On CUDA (or when the copies would not fit in memory) one copy is used
+  and the scatter is atomic.
 * **Active region.** Each chunk records the bounding box of the nodes it touched; the grid update
-  visits only the union of those boxes and clears the copies there, so the copies are zero again
-  for the next substep.
+  visits only the union of those boxes and, at each node, reads and clears only the copies whose
+  box holds it (a chunk of sorted points covers a few cells), so the copies are zero again for the
+  next substep.
 * **Fused transfers.** Within a frame, the G2P of substep ``s`` and the P2G of substep ``s + 1``
   run in one pass over the points (the grid velocity ``grid_v`` is a separate field from the
   accumulation copies, so no double buffering is needed).
@@ -102,7 +105,7 @@ class MPMSolver:
     real : taichi dtype
         ``ti.f32`` or ``ti.f64``.
     n_chunks : int
-        Number of private grid copies / point chunks (CPU threads); ignored with ``atomic``.
+        Number of point chunks / private grid copies (taken by the CPU threads in turn); ignored with ``atomic``.
     atomic : bool
         Scatter with atomics into one grid copy and visit the whole grid (CUDA).
     n_material : int, optional
@@ -892,16 +895,19 @@ class MPMSolver:
         count = ext[0] * ext[1] * ext[2]
         for idx in range(count):
             I = lo + ti.Vector([idx // (ext[1] * ext[2]), (idx // ext[2]) % ext[1], idx % ext[2]])
-            acc = self.grid_acc[0, I]
-            for t in ti.static(range(1, self.n_chunks)):
-                acc += self.grid_acc[t, I]
-            for t in ti.static(range(self.n_chunks)):
-                self.grid_acc[t, I] = ti.Vector.zero(self.real, 4)
+            acc = ti.Vector.zero(self.real, 4)
             gsurf = ti.Vector.zero(self.real, 3)
-            if ti.static(self.has_wind):
-                for t in ti.static(range(self.n_chunks)):
-                    gsurf += self.grid_g[t, I]
-                    self.grid_g[t, I] = ti.Vector.zero(self.real, 3)
+            for t in ti.static(range(self.n_chunks)):
+                # copy t is zero outside its chunk's box: read and clear only the copies that hold I
+                holds = True
+                if ti.static(not self.atomic):
+                    holds = (I >= self.box[t, 0]).all() and (I <= self.box[t, 1]).all()
+                if holds:
+                    acc += self.grid_acc[t, I]
+                    self.grid_acc[t, I] = ti.Vector.zero(self.real, 4)
+                    if ti.static(self.has_wind):
+                        gsurf += self.grid_g[t, I]
+                        self.grid_g[t, I] = ti.Vector.zero(self.real, 3)
             v = ti.Vector.zero(self.real, 3)
             if acc[3] > 0.0:
                 v = ti.Vector([acc[0], acc[1], acc[2]]) / acc[3] + self.dt[None] * self.gravity[None]
