@@ -194,28 +194,33 @@ def donut(srcs: dict[str, Path], frames: int, rounds: int) -> list[dict]:
     return rows
 
 
-def _figure(profiles: list[dict], path: Path) -> bool:
-    """Stacked bars: milliseconds per substep of each part, per (checkout, size, threads)."""
+def _figure(profiles: list[dict], path: Path, load: list) -> bool:
+    """Stacked bars per (checkout, size, threads): wall ms per substep of each part (fastest launch of each
+    kernel), and the CPU ms of all threads (the work, which the machine's load hardly changes)."""
     try:
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
         return False
-    parts = [("g2p_p2g_min_ms", "G2P + P2G (fused)"), ("grid_update_min_ms", "grid update (+ copy reduction)"),
-             ("g2p_min_ms", "last G2P"), ("python_launch_ms", "Python + launches (mean)")]
     ok = [p for p in profiles if "error" not in p]
     labels = [f"{p['checkout']}\n{p['n_points'] // 1000}k, {p['threads']} thr" for p in ok]
-    fig, ax = plt.subplots(figsize=(max(6.0, 1.1 * len(ok)), 4.2))
-    bottom = np.zeros(len(ok))
-    for key, name in parts:
-        vals = np.array([p.get(key, 0.0) for p in ok])
-        ax.bar(range(len(ok)), vals, bottom=bottom, label=name)
-        bottom += vals
-    ax.set_xticks(range(len(ok)), labels, fontsize=7)
-    ax.set_ylabel("ms per substep (wall, fastest launch of each kernel)")
-    ax.set_title("taichi_mpm: where a substep's time goes (each kernel timed with ti.sync())", fontsize=9)
-    ax.legend(fontsize=7)
+    fig, axes = plt.subplots(1, 2, figsize=(max(8.0, 2.0 * len(ok)), 4.2))
+    for ax, kind in zip(axes, ("min", "cpu")):
+        parts = [(f"g2p_p2g_{kind}_ms", "G2P + P2G (fused)"), (f"grid_update_{kind}_ms", "grid update + copy sum"),
+                 (f"g2p_{kind}_ms", "last G2P")] + ([("python_launch_ms", "Python + launches (mean)")]
+                                                   if kind == "min" else [])
+        bottom = np.zeros(len(ok))
+        for key, name in parts:
+            vals = np.array([p.get(key, 0.0) for p in ok])
+            ax.bar(range(len(ok)), vals, bottom=bottom, label=name)
+            bottom += vals
+        ax.set_xticks(range(len(ok)), labels, fontsize=7)
+        ax.set_ylabel("wall ms per substep (fastest launch)" if kind == "min" else "CPU ms per substep, all threads")
+        ax.legend(fontsize=7)
+    axes[0].set_title(f"wall (load average {load[0]} on {os.cpu_count()} cores)", fontsize=9)
+    axes[1].set_title("CPU time: the work", fontsize=9)
+    fig.suptitle("taichi_mpm substep, each kernel timed with ti.sync() (benchmarks/bench_threads.py)", fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -294,7 +299,7 @@ def main(argv=None) -> int:
     (a.out / "bench_threads.json").write_text(json.dumps(doc, indent=2) + "\n")
     (a.out / "bench_threads.md").write_text(_markdown(doc))
     if doc["profile"]:
-        _figure(doc["profile"], a.out / "bench_threads_profile.png")
+        _figure(doc["profile"], a.out / "bench_threads_profile.png", doc["load_start"])
     print(_markdown(doc))
     return 0
 
