@@ -181,6 +181,7 @@ class MPMSolver:
         # node mass of the last grid update, read by the passive points' G2P (only with passive points)
         self.grid_m = ti.field(real, shape=(ng, ng, ng) if self.has_passive else (1, 1, 1))
         self.box = ti.Vector.field(3, ti.i32, shape=(self.n_chunks, 2))  # touched node box per chunk
+        self.plane_chunks = ti.Vector.field(2, ti.i32, shape=ng)  # first and last chunk whose box reaches I_x
         self.n_out = ti.field(ti.i32, shape=())  # out-of-grid point-substeps since last reset
         self.n_points = ti.field(ti.i32, shape=())
         self.chunk_lo = ti.field(ti.i32, shape=self.n_chunks)
@@ -892,22 +893,35 @@ class MPMSolver:
                 lo = ti.min(lo, self.box[t, 0])
                 hi = ti.max(hi, self.box[t, 1])
         ext = ti.max(hi - lo + 1, 0)
+        if ti.static(not self.atomic):
+            for i in range(ng):   # the chunks whose box reaches node plane I_x = i: first and last
+                first, last = self.n_chunks, -1
+                for t in ti.static(range(self.n_chunks)):
+                    if self.box[t, 0][0] <= i and i <= self.box[t, 1][0]:
+                        first = ti.min(first, t)
+                        last = t
+                self.plane_chunks[i] = ti.Vector([first, last])
         count = ext[0] * ext[1] * ext[2]
         for idx in range(count):
             I = lo + ti.Vector([idx // (ext[1] * ext[2]), (idx // ext[2]) % ext[1], idx % ext[2]])
             acc = ti.Vector.zero(self.real, 4)
             gsurf = ti.Vector.zero(self.real, 3)
-            for t in ti.static(range(self.n_chunks)):
-                # copy t is zero outside its chunk's box: read and clear only the copies that hold I
-                holds = True
-                if ti.static(not self.atomic):
-                    holds = (I >= self.box[t, 0]).all() and (I <= self.box[t, 1]).all()
-                if holds:
-                    acc += self.grid_acc[t, I]
-                    self.grid_acc[t, I] = ti.Vector.zero(self.real, 4)
-                    if ti.static(self.has_wind):
-                        gsurf += self.grid_g[t, I]
-                        self.grid_g[t, I] = ti.Vector.zero(self.real, 3)
+            if ti.static(self.atomic):
+                acc = self.grid_acc[0, I]
+                self.grid_acc[0, I] = ti.Vector.zero(self.real, 4)
+                if ti.static(self.has_wind):
+                    gsurf = self.grid_g[0, I]
+                    self.grid_g[0, I] = ti.Vector.zero(self.real, 3)
+            else:
+                # copy t is zero outside its chunk's box: read and clear, in chunk order, only the copies that hold I
+                span = self.plane_chunks[I[0]]
+                for t in range(span[0], span[1] + 1):
+                    if (I >= self.box[t, 0]).all() and (I <= self.box[t, 1]).all():
+                        acc += self.grid_acc[t, I]
+                        self.grid_acc[t, I] = ti.Vector.zero(self.real, 4)
+                        if ti.static(self.has_wind):
+                            gsurf += self.grid_g[t, I]
+                            self.grid_g[t, I] = ti.Vector.zero(self.real, 3)
             v = ti.Vector.zero(self.real, 3)
             if acc[3] > 0.0:
                 v = ti.Vector([acc[0], acc[1], acc[2]]) / acc[3] + self.dt[None] * self.gravity[None]
