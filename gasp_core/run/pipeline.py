@@ -18,6 +18,7 @@ from typing import Callable
 
 from gasp_core.run import resume as resume_mod
 from gasp_core.run import budget, stop
+from gasp_core.run.background import Background
 from gasp_core.errors import GaspError
 from gasp_core.run.frames import FrameState, iter_frames
 from gasp_core.fsutil import OutputClaim, atomic_json, leftover_partials
@@ -66,7 +67,8 @@ def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
     n_frames, engine : optional
         Override the scene's ``n_frames`` and ``engine.name``.
     on_frame : callable, optional
-        ``on_frame(frame, gaussians_per_object)`` after each frame is written.
+        ``on_frame(frame, gaussians_per_object)`` after each frame is handed to the writer (its files are
+        written in the background while the next frame runs, :mod:`gasp_core.run.background`).
     warn : callable, optional
         Receives warnings in words (leftover partial folders of killed runs; passive surface points
         the material left behind, the engine's ``passive_stranded``).
@@ -191,25 +193,18 @@ def _write_frames(run: _Run, n_frames: int, progress: bool,
                          [o.moving for o in prep.objects], run.fmt, run.layout, overwrite=checkpoint is not None)
     stop.frame_started(None)
     t_frame = time.perf_counter()
-    for frame, gs, row in iter_frames(prep, n_frames, run.stats, resume=checkpoint, state=frame_state):
-        stop.frame_started(row.get("sim_s"))   # its writes and checkpoint take about as long as it did
-        t0 = time.perf_counter()
-        writer.write(frame, gs)
-        row["write_s"] = time.perf_counter() - t0
-        run.per_frame.append(row)
-        if frame_state.get_state is not None and frame < n_frames:
-            t0 = time.perf_counter()
-            resume_mod.save(tmp, resume_mod.Checkpoint(
-                frame, frame_state.get_state(), frame_state.prev_rot,
-                {"fingerprint": run.fingerprint, "per_frame": run.per_frame, "frame_s": run.stats.frame_s}))
-            row["checkpoint_s"] = time.perf_counter() - t0
-            run.saved_frame = frame
-        if bar is not None and frame > 0:
-            bar.update(1)
-        if on_frame is not None:
-            on_frame(frame, gs)
-        _after_frame(run, frame, n_frames, time.perf_counter() - t_frame)
-        t_frame = time.perf_counter()
+    with Background() as writes:   # a frame's files are written while the engine runs the next one
+        for frame, gs, row in iter_frames(prep, n_frames, run.stats, resume=checkpoint, state=frame_state):
+            stop.frame_started(row.get("sim_s"))   # its writes and checkpoint take about as long as it did
+            state = frame_state.get_state() if frame_state.get_state is not None and frame < n_frames else None
+            writes.submit(_save_frame, run, writer, frame, gs, row, state, list(frame_state.prev_rot),
+                          list(run.stats.frame_s))
+            if bar is not None and frame > 0:
+                bar.update(1)
+            if on_frame is not None:
+                on_frame(frame, gs)
+            _after_frame(run, writes, frame, n_frames, time.perf_counter() - t_frame)
+            t_frame = time.perf_counter()
     if bar is not None:
         bar.close()
     writer.finish(n_frames, [o.gaussians.n for o in prep.objects])
@@ -217,7 +212,7 @@ def _write_frames(run: _Run, n_frames: int, progress: bool,
     return time.perf_counter() - t_run
 
 
-def _after_frame(run: _Run, frame: int, n_frames: int, frame_wall_s: float) -> None:
+def _after_frame(run: _Run, writes: Background, frame: int, n_frames: int, frame_wall_s: float) -> None:
     """At a frame boundary: the work estimate after the second simulated frame, then a stop asked for by a signal.
 
     Raises
@@ -234,6 +229,7 @@ def _after_frame(run: _Run, frame: int, n_frames: int, frame_wall_s: float) -> N
         if note and run.warn is not None:
             run.warn(note)
     if frame < n_frames and stop.requested():
+        writes.flush()   # the frame's files and checkpoint are on disk before the stop is reported
         raise stop.Stopped(stop.requested())
     stop.frame_started(frame_wall_s)
 
@@ -242,6 +238,22 @@ def _stopped_record(run: _Run, n_frames: int) -> dict:
     """The ``run.json`` of a stopped run: the record of the frames its checkpoint covers."""
     rows = [r for r in run.per_frame if run.saved_frame is not None and r["frame"] <= run.saved_frame]
     return run_summary(run.prep, run.stats, n_frames, rows, sum(run.stats.frame_s))
+
+
+def _save_frame(run: _Run, writer: FrameWriter, frame: int, gs: list[Gaussians], row: dict,
+                engine_state: dict | None, prev_rot: list, frame_s: list) -> None:
+    """Write one frame's files, then (``engine_state`` not None) its checkpoint (on :class:`Background`'s worker)."""
+    t0 = time.perf_counter()
+    writer.write(frame, gs)
+    row["write_s"] = time.perf_counter() - t0
+    run.per_frame.append(row)
+    if engine_state is not None:
+        t0 = time.perf_counter()
+        resume_mod.save(run.tmp, resume_mod.Checkpoint(
+            frame, engine_state, prev_rot, {"fingerprint": run.fingerprint, "per_frame": run.per_frame,
+                                            "frame_s": frame_s}))
+        row["checkpoint_s"] = time.perf_counter() - t0
+        run.saved_frame = frame
 
 
 def _warn_stranded(run: _Run, warn: Callable[[str], None] | None) -> None:

@@ -19,8 +19,20 @@ from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, 
 
 from . import ENGINE
 
-#: Private grid copies are used on CPU while they take at most this many bytes in all.
+#: Private grid copies are used on CPU while one per thread takes at most this many bytes in all.
 MAX_PRIVATE_GRID_BYTES = 1 << 30
+#: On CPU the points are split into this many chunks, each with its own grid copy, whatever the thread
+#: count (so a run gives the same numbers on 1 or 16 threads) and many more than the threads (an idle
+#: thread takes the next chunk: the load balances itself) ...
+N_CHUNKS = 16
+#: ... unless that many copies would take more than this; then as many as fit, at least one per thread.
+CHUNK_GRID_BYTES = 1 << 28
+
+
+def n_point_chunks(threads: int, grid_bytes: int) -> int:
+    """Point chunks (grid copies) on CPU: ``N_CHUNKS``, fewer where they would exceed ``CHUNK_GRID_BYTES``,
+    never fewer than ``threads`` (``grid_bytes``: one copy, bytes)."""
+    return max(int(threads), min(N_CHUNKS, CHUNK_GRID_BYTES // max(int(grid_bytes), 1)))
 
 _generation = 0  # bumped by every engine built; an engine is live while its generation is current
 
@@ -66,9 +78,10 @@ class TaichiMPMEngine:
     -----
     Calls ``ti.init`` (``offline_cache=True``, ``fast_math=False``: IEEE semantics, closer to the
     Warp engine, and measured ~10 % faster here than Taichi's fast math): this resets Taichi, so any earlier engine of this
-    plugin in the process stops working. On CPU a run repeats bit for bit for a fixed ``threads``
-    (each thread scatters into its own grid copy, summed in a fixed order); the capability
-    ``deterministic={"cpu"}`` is promised for ``threads=1``.
+    plugin in the process stops working. On CPU a run repeats bit for bit, and gives the same numbers on
+    any ``threads`` up to :data:`N_CHUNKS` (each chunk of points scatters into its own grid copy, summed in
+    a fixed order; :func:`n_point_chunks`); the capability ``deterministic={"cpu"}`` is promised for
+    ``threads=1``.
     """
 
     def __init__(self, setup: SimSetup):
@@ -123,7 +136,7 @@ class TaichiMPMEngine:
             body=setup.body_id[o], fixed=fixed[o], jp0=jp0[o], params=params, kinds=kinds,
             n_grid=setup.n_grid, lo=setup.domain_lo, dx=dx, dt=self.dt, gravity=setup.gravity,
             walls=walls, grounds=grounds, regions=regions, real=real,
-            n_chunks=threads or 1, atomic=atomic, n_material=self.n_material,
+            n_chunks=1 if atomic else n_point_chunks(threads, grid_bytes), atomic=atomic, n_material=self.n_material,
             passive_every=opt["passive_every"], **self._extras(setup))
         self._p2g_mode = "atomic" if atomic else f"private grids x{self.solver.n_chunks}"
         self.frame = 0

@@ -6,14 +6,17 @@ been called (by :class:`gasp_taichi_mpm.engine.TaichiMPMEngine`) before it is bu
 
 Implementation notes (all algebraically identical to the spec; they change rounding only):
 
-* **P2G without atomics on CPU.** The points are split into ``n_chunks`` contiguous chunks (one
-  per CPU thread); chunk ``t`` scatters into its own grid copy ``grid_acc[t]`` with plain loads
-  and stores. The grid update sums the copies in a fixed order, so a run repeats bit for bit for
-  a fixed thread count. On CUDA (or when the copies would not fit in memory) one copy is used and
-  the scatter is atomic.
+* **P2G without atomics on CPU.** The points (sorted by cell) are split into ``n_chunks`` contiguous
+  chunks, a fixed number independent of the thread count and larger than it (the engine's
+  ``n_point_chunks``): the threads take chunks as they finish the last, so the load balances itself.
+  Chunk ``t`` scatters into its own grid copy ``grid_acc[t]`` with plain loads and stores. The grid
+  update sums the copies in a fixed order, so a run repeats bit for bit for a fixed ``n_chunks``,
+  whatever the thread count. On CUDA (or when the copies would not fit in memory) one copy is used
+  and the scatter is atomic.
 * **Active region.** Each chunk records the bounding box of the nodes it touched; the grid update
-  visits only the union of those boxes and clears the copies there, so the copies are zero again
-  for the next substep.
+  visits only the union of those boxes and, at each node, reads and clears only the copies whose
+  box holds it (a chunk of sorted points covers a few cells), so the copies are zero again for the
+  next substep.
 * **Fused transfers.** Within a frame, the G2P of substep ``s`` and the P2G of substep ``s + 1``
   run in one pass over the points (the grid velocity ``grid_v`` is a separate field from the
   accumulation copies, so no double buffering is needed).
@@ -102,7 +105,7 @@ class MPMSolver:
     real : taichi dtype
         ``ti.f32`` or ``ti.f64``.
     n_chunks : int
-        Number of private grid copies / point chunks (CPU threads); ignored with ``atomic``.
+        Number of point chunks / private grid copies (taken by the CPU threads in turn); ignored with ``atomic``.
     atomic : bool
         Scatter with atomics into one grid copy and visit the whole grid (CUDA).
     n_material : int, optional
@@ -178,6 +181,7 @@ class MPMSolver:
         # node mass of the last grid update, read by the passive points' G2P (only with passive points)
         self.grid_m = ti.field(real, shape=(ng, ng, ng) if self.has_passive else (1, 1, 1))
         self.box = ti.Vector.field(3, ti.i32, shape=(self.n_chunks, 2))  # touched node box per chunk
+        self.plane_chunks = ti.Vector.field(2, ti.i32, shape=ng)  # first and last chunk whose box reaches I_x
         self.n_out = ti.field(ti.i32, shape=())  # out-of-grid point-substeps since last reset
         self.n_points = ti.field(ti.i32, shape=())
         self.chunk_lo = ti.field(ti.i32, shape=self.n_chunks)
@@ -889,19 +893,35 @@ class MPMSolver:
                 lo = ti.min(lo, self.box[t, 0])
                 hi = ti.max(hi, self.box[t, 1])
         ext = ti.max(hi - lo + 1, 0)
+        if ti.static(not self.atomic):
+            for i in range(ng):   # the chunks whose box reaches node plane I_x = i: first and last
+                first, last = self.n_chunks, -1
+                for t in ti.static(range(self.n_chunks)):
+                    if self.box[t, 0][0] <= i and i <= self.box[t, 1][0]:
+                        first = ti.min(first, t)
+                        last = t
+                self.plane_chunks[i] = ti.Vector([first, last])
         count = ext[0] * ext[1] * ext[2]
         for idx in range(count):
             I = lo + ti.Vector([idx // (ext[1] * ext[2]), (idx // ext[2]) % ext[1], idx % ext[2]])
-            acc = self.grid_acc[0, I]
-            for t in ti.static(range(1, self.n_chunks)):
-                acc += self.grid_acc[t, I]
-            for t in ti.static(range(self.n_chunks)):
-                self.grid_acc[t, I] = ti.Vector.zero(self.real, 4)
+            acc = ti.Vector.zero(self.real, 4)
             gsurf = ti.Vector.zero(self.real, 3)
-            if ti.static(self.has_wind):
-                for t in ti.static(range(self.n_chunks)):
-                    gsurf += self.grid_g[t, I]
-                    self.grid_g[t, I] = ti.Vector.zero(self.real, 3)
+            if ti.static(self.atomic):
+                acc = self.grid_acc[0, I]
+                self.grid_acc[0, I] = ti.Vector.zero(self.real, 4)
+                if ti.static(self.has_wind):
+                    gsurf = self.grid_g[0, I]
+                    self.grid_g[0, I] = ti.Vector.zero(self.real, 3)
+            else:
+                # copy t is zero outside its chunk's box: read and clear, in chunk order, only the copies that hold I
+                span = self.plane_chunks[I[0]]
+                for t in range(span[0], span[1] + 1):
+                    if (I >= self.box[t, 0]).all() and (I <= self.box[t, 1]).all():
+                        acc += self.grid_acc[t, I]
+                        self.grid_acc[t, I] = ti.Vector.zero(self.real, 4)
+                        if ti.static(self.has_wind):
+                            gsurf += self.grid_g[t, I]
+                            self.grid_g[t, I] = ti.Vector.zero(self.real, 3)
             v = ti.Vector.zero(self.real, 3)
             if acc[3] > 0.0:
                 v = ti.Vector([acc[0], acc[1], acc[2]]) / acc[3] + self.dt[None] * self.gravity[None]

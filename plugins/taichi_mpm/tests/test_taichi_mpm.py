@@ -214,6 +214,19 @@ def test_threads_1_is_bit_for_bit_deterministic():
     assert np.array_equal(a, b)
 
 
+def test_any_thread_count_gives_the_same_numbers_as_one_thread():
+    """The points are cut into a fixed number of chunks (not one per thread), summed in a fixed order."""
+    from gasp_taichi_mpm.engine import N_CHUNKS
+    s1 = block_setup(lo=(0.4, 0.4, 0.2), boundaries=[Boundary("ground", height=0.1)], threads=1)
+    s3 = block_setup(lo=(0.4, 0.4, 0.2), boundaries=[Boundary("ground", height=0.1)], threads=3)
+    e1 = run(s1, 3)
+    assert e1.stats()["p2g"] == f"private grids x{N_CHUNKS}"
+    a, v = e1.positions(), e1.velocities()
+    e3 = run(s3, 3)
+    assert np.array_equal(e3.positions(), a) and np.array_equal(e3.velocities(), v)
+    assert np.abs(a - s1.x).max() > 0.01   # it moved
+
+
 def test_unknown_option_is_a_scene_error_naming_it():
     with pytest.raises(SceneError, match="substep"):
         build(block_setup(substep=10))

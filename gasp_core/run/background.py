@@ -1,0 +1,58 @@
+"""One background worker for the frame loop: a frame's files are written while the engine runs the next frame.
+
+The loop hands each frame's writes (its PLY files, then its checkpoint) to :class:`Background` and goes on
+simulating. One job is in flight at a time and jobs run in the order given, so a checkpoint is written
+only after the frame files it covers, and a killed run never has a checkpoint ahead of its frames
+(``--resume`` continues exactly as before). Files are written atomically (:mod:`gasp_core.fsutil`), so an
+interrupted job leaves no half-written file.
+
+What it buys depends on the engine holding Python's GIL while it computes: a Warp CPU launch releases it
+(measured: the main thread kept running Python during a launch), so the writes run on a second core; a
+Taichi kernel holds it, so only the parts of a write that release the GIL themselves (file writes,
+NumPy copies) overlap (docs/performance.md).
+"""
+from __future__ import annotations
+
+from concurrent.futures import Future, ThreadPoolExecutor
+from typing import Callable
+
+
+class Background:
+    """Run jobs one at a time, in order, on one worker thread; errors come back to the caller.
+
+    Use as a context manager: leaving it normally waits for the last job and raises its error; leaving
+    it by an exception waits for the job in flight (so its files are complete or absent) and lets the
+    exception through.
+    """
+
+    def __init__(self) -> None:
+        self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="gasp-writer")
+        self._pending: Future | None = None
+
+    def submit(self, fn: Callable, *args) -> None:
+        """Run ``fn(*args)`` in the background once the previous job is done.
+
+        Raises
+        ------
+        Exception
+            Whatever the previous job raised (it is waited for first).
+        """
+        self.flush()
+        self._pending = self._pool.submit(fn, *args)
+
+    def flush(self) -> None:
+        """Wait for the job in flight, if any, and raise its exception."""
+        pending, self._pending = self._pending, None
+        if pending is not None:
+            pending.result()
+
+    def __enter__(self) -> Background:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        try:
+            if exc_type is None:
+                self.flush()
+        finally:
+            self._pool.shutdown(wait=True)   # on an error: the job in flight finishes, its own error is dropped
+        return False
