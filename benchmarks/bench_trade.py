@@ -74,6 +74,10 @@ VARIANTS: dict[str, tuple[dict, dict, dict]] = {
     "full_g96": ({"surface": "material", "core_fraction": 1.0}, {"n_grid": 96}, {}),
     "passive_every4_g96": ({"surface": "passive"}, {"n_grid": 96}, {"passive_every": 4}),
     "passive_every4_g128": ({"surface": "passive"}, {"n_grid": 128}, {"passive_every": 4}),
+    "full_g48": ({"surface": "material", "core_fraction": 1.0}, {"n_grid": 48}, {}),
+    # fill density: the passive model's material is the fill alone, so its points per cell set its cost
+    "passive_every8_ppc4": ({"surface": "passive"}, {"particles_per_cell": 4}, {"passive_every": 8}),
+    "passive_every8_ppc2": ({"surface": "passive"}, {"particles_per_cell": 2}, {"passive_every": 8}),
 }
 #: what a call runs unless ``--variants`` says otherwise
 SETS = {

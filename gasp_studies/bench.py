@@ -99,7 +99,9 @@ def apply_setting(scene: Scene, setting: dict, base_options: dict) -> tuple[Scen
             obj_changes["surface"] = str(setting["surface"])
     except (TypeError, ValueError) as e:
         raise SceneError(f"bench setting {setting!r}: {e}") from None
-    objects = [dataclasses.replace(o, **obj_changes) for o in scene.objects] if obj_changes else scene.objects
+    if "surface" not in setting:   # a sweep measures against the full model unless it sweeps the surface
+        obj_changes["surface"] = "material"
+    objects = [dataclasses.replace(o, **obj_changes) for o in scene.objects]
     options = {**base_options, **{k: v for k, v in setting.items() if k not in SCENE_KEYS}}
     return dataclasses.replace(scene, domain=domain, objects=objects), options
 

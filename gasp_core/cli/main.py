@@ -23,7 +23,7 @@ from gasp_core.errors import EngineBug, EngineDivergence, GaspError
 def _cmd_simulate(args) -> int:
     from gasp_core.run.pipeline import simulate_scene
     from gasp_core.scene.spec import load_scene
-    scene = load_scene(args.scene)
+    scene = load_scene(args.scene, quality=args.quality)
     out = args.output or scene.output
     if out is None:
         raise GaspError("no output folder: pass -o OUTDIR or set 'output' in the scene")
@@ -188,6 +188,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="continue a killed run to the same folder from its last complete frame")
     s.add_argument("--frames", type=positive_int, help="override n_frames")
     s.add_argument("--engine", help="override the scene's engine name")
+    s.add_argument("--quality", choices=("draft", "default", "reference"),
+                   help="override the scene's 'quality' level (docs/speed_accuracy.md, 'Quality levels')")
     s.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     s.set_defaults(func=_cmd_simulate)
 
