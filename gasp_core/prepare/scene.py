@@ -43,7 +43,7 @@ def scene_needs(scene: Scene) -> dict[str, list[str]]:
     """What a scene asks of an engine, before any file is read: :func:`gasp_core.seam.build.needs` of its
     simulated objects' materials, boundaries, colliders, forces and impulses (the rule
     :func:`~gasp_core.seam.build.setup_needs` applies to the setup built from it)."""
-    return needs([o.material.name for o in scene.objects if not o.static], scene.boundaries, scene.colliders,
+    return needs([o.material for o in scene.objects if not o.static], scene.boundaries, scene.colliders,
                  scene.forces, scene.impulses)
 
 

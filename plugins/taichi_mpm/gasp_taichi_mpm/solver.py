@@ -31,8 +31,8 @@ import taichi as ti
 from gasp_core.toolkit.points import ground_top_node
 from gasp_core.toolkit.substeps import passive_schedule
 from gasp_core.seam import SceneError
-from gasp_core.toolkit.materials import (JELLY, LIQUID, METAL, N_PARAMS, NEO_HOOKEAN, P_ALPHA, P_HARDENING, P_K, P_LAM,
-                                         P_MU, P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND, SNOW,
+from gasp_core.toolkit.materials import (JELLY, LIQUID, METAL, N_PARAMS, NEO_HOOKEAN, P_ALPHA, P_ETA, P_HARDENING, P_K,
+                                         P_LAM, P_MU, P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND, SNOW,
                                          VON_MISES_RADIUS)
 
 _TIE = 1e-9  # cells: tolerance for ties when boundary tests become node-index ranges
@@ -126,6 +126,7 @@ class MPMSolver:
         self.kinds = frozenset(int(k) for k in kinds)
         self.multi_kind = len(self.kinds) > 1
         self.any_fixed = bool(np.any(fixed))
+        self.viscous = bool(np.any(np.asarray(params)[:, P_ETA] > 0))
         self.n_walls, self.n_grounds, self.n_regions = len(walls), len(grounds), len(regions)
         self._allocate_points(len(kinds))
         self._allocate_grid()
@@ -680,6 +681,8 @@ class MPMSolver:
             C = self.C[p]
             F = (ti.Matrix.identity(self.real, 3) + dt * C) @ self.F[p]
             tau = self._constitutive(p, F)
+            if ti.static(self.viscous):   # Kelvin-Voigt: J 2 eta sym(grad v), C = grad v (docs/dissipation.md)
+                tau += (self.mat[self.body[p]][P_ETA] * F.determinant()) * (C + C.transpose())
             m = self.p_mass[p]
             dx = self.dx[None]
             affine = (-dt * self.p_vol[p] * 4.0 * inv_dx * inv_dx) * tau + m * C

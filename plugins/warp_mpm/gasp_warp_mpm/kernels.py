@@ -28,7 +28,7 @@ import types
 import warp as wp
 
 # Material codes and the columns of the per-body parameter table ``mat_par`` are gasp_core.toolkit.materials'.
-from gasp_core.toolkit.materials import (JELLY, METAL, NEO_HOOKEAN, P_ALPHA, P_HARDENING, P_K, P_LAM, P_MU, P_SOFTENING,
+from gasp_core.toolkit.materials import (JELLY, METAL, NEO_HOOKEAN, P_ALPHA, P_ETA, P_HARDENING, P_K, P_LAM, P_MU, P_SOFTENING,
                                          P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND, SNOW,
                                          VON_MISES_RADIUS)
 
@@ -504,6 +504,9 @@ def build_p2g(Ft):
         Cp = C[p]
         F_new, tau = return_mapping((wp.identity(3, dtype=Ft) + dt * Cp) * F[p], p, body, mat_kind, mat_par, Jp)
         F[p] = F_new
+        eta = mat_par[body[p], P_ETA]
+        if eta > Ft(0.0):  # Kelvin-Voigt: J 2 eta sym(grad v), C = grad v (docs/dissipation.md)
+            tau = tau + (eta * wp.determinant(F_new)) * (Cp + wp.transpose(Cp))
         pm = p_mass[p]
         affine = (-dt * p_vol[p] * Ft(4.0) * inv_dx * inv_dx) * tau + pm * Cp
         A = dx * affine  # affine dpos = A ((i, j, k) - fx)
