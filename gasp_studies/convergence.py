@@ -214,3 +214,37 @@ def verdict(errors: np.ndarray, ref: Reference, tolerance: float, own: np.ndarra
         allowed = np.maximum(allowed, np.asarray(own, np.float64)[:n] + margin)
     out["within"] = bool(np.all(e <= allowed))
     return out
+
+
+def sweep_reference(reference_setting: dict, runs: list[tuple[dict, np.ndarray | None]], size: float,
+                    ignore: tuple[str, ...] = ("n_grid", "precision")) -> Reference | None:
+    """The converged reference of a ``gasp bench`` sweep: the reference setting's model on every grid swept.
+
+    Parameters
+    ----------
+    reference_setting : dict
+        The engine's reference (its finest setting).
+    runs : list of (setting, means)
+        Every run of the engine, the reference first; ``means`` shape (n_frames, n, 3) in metres, or
+        None for a failed run.
+    size : float
+        Object size, metres.
+    ignore : tuple of str
+        Keys in which a run may differ from the reference and still count as the same model on
+        another grid (``precision``: f32 and f64 agree to 1e-6 of the size, ``docs/speed_accuracy.md``).
+
+    Returns
+    -------
+    Reference or None
+        None when the reference setting has no ``n_grid`` or its run failed. Of runs on the same
+        grid, the one whose setting is the reference (or the first) is used.
+    """
+    if "n_grid" not in reference_setting or not runs or runs[0][1] is None:
+        return None
+    model = {k: v for k, v in reference_setting.items() if k not in ignore}
+    seq: dict[int, np.ndarray] = {}
+    for s, m in runs:
+        if m is not None and {k: v for k, v in s.items() if k not in ignore} == model:
+            if s == reference_setting or s["n_grid"] not in seq:
+                seq[int(s["n_grid"])] = m
+    return reference(seq, size)

@@ -162,7 +162,32 @@ def pareto_front(cost: Sequence[float], err: Sequence[float]) -> np.ndarray:
     return front
 
 
-def cheapest_within(rows: list[dict], budget: float, key: str = "err_max") -> dict | None:
-    """The ``ok`` row with the least ``wall_s`` whose ``key`` error is at most ``budget`` (a fraction)."""
-    ok = [r for r in rows if r["status"] == "ok" and np.isfinite(r.get(key, np.nan)) and r[key] <= budget]
-    return min(ok, key=lambda r: r["wall_s"]) if ok else None
+def cheapest_within(rows: list[dict], budget: float, key: str = "err_max", cost: str = "wall_s") -> dict | None:
+    """The ``ok`` row with the least ``cost`` whose ``key`` error is at most ``budget`` (a fraction)."""
+    ok = [r for r in rows if r["status"] == "ok" and np.isfinite(r.get(key, np.nan)) and r[key] <= budget
+          and np.isfinite(r.get(cost, np.nan))]
+    return min(ok, key=lambda r: r[cost]) if ok else None
+
+
+def cheapest_ranked(rows: list[dict], budget: float, cost: str = "end_to_end_s") -> tuple[dict | None, str]:
+    """The cheapest row within ``budget`` of the engine's converged reference, or why none is ranked.
+
+    ``rows``: one engine's rows, the reference first, with ``err_conv_max`` (worst frame's mean
+    distance to the converged reference, :func:`gasp_studies.convergence.sweep_reference`) and
+    ``ref_bound`` (that reference's own uncertainty). Without them (no grid sequence) the errors
+    against the reference run (``err_max``) are used, the reference itself left out.
+
+    Returns
+    -------
+    row, why
+        ``row`` None with ``why`` "not ranked: ..." when the reference is not known to better than
+        ``budget``, or "none" when no run is within it.
+    """
+    bound = rows[0].get("ref_bound", float("nan")) if rows else float("nan")
+    if not np.isfinite(bound):
+        c = cheapest_within(rows[1:], budget, "err_max", cost)
+        return c, "" if c else "none"
+    if bound >= budget:
+        return None, f"not ranked: the converged reference is itself uncertain by {100 * bound:.2g} % of the size"
+    c = cheapest_within(rows, budget, "err_conv_max", cost)
+    return c, "" if c else "none"
