@@ -26,6 +26,13 @@ the same keys)::
 
 Usage::
 
+    sh benchmarks/bench_levels.sh                           # the quality levels on the README scenes against each
+                                                            # scene's converged reference (issue 18), one command
+    python benchmarks/bench_trade.py --variants verdict --frames 12 --threads 1
+                                                            # the same on the donut's first 12 frames only
+    python benchmarks/bench_trade.py --variants default,full_g32,full_g48 --keep K --tag a &
+    python benchmarks/bench_trade.py --variants full --keep K --tag b &    # two at once on a shared machine, then:
+    python benchmarks/bench_trade.py --variants verdict --keep K --reuse benchmarks/results/bench_trade_donut_{a,b}.json
     python benchmarks/bench_trade.py --threads 1 --window 18 --compare out/full_g96 out/passive_every4_g96
                                                             # donut: the 'trade' set, 36 frames, and the
                                                             # n_grid 96 runs of --variants full_g96,passive_every4_g96 --keep out
@@ -83,6 +90,7 @@ VARIANTS: dict[str, tuple[dict, dict, dict]] = {
     "passive_every4_g96": ({"surface": "passive"}, {"n_grid": 96}, {"passive_every": 4}),
     "passive_every4_g128": ({"surface": "passive"}, {"n_grid": 128}, {"passive_every": 4}),
     "full_g48": ({"surface": "material", "core_fraction": 1.0}, {"n_grid": 48}, {}),
+    "full_g32": ({"surface": "material", "core_fraction": 1.0}, {"n_grid": 32}, {}),
     # the full model with the fill at 8 points per cell (the 'reference' level's model) on three grids:
     # the Richardson reference of every other run (gasp_studies.convergence)
     "full_ppc8_g32": ({"surface": "material", "core_fraction": 1.0}, {"n_grid": 32, "particles_per_cell": 8}, {}),
@@ -96,6 +104,8 @@ VARIANTS: dict[str, tuple[dict, dict, dict]] = {
     # fill density: the passive model's material is the fill alone, so its points per cell set its cost
     "passive_every8_ppc4": ({"surface": "passive"}, {"particles_per_cell": 4}, {"passive_every": 8}),
     "passive_every8_ppc2": ({"surface": "passive"}, {"particles_per_cell": 2}, {"passive_every": 8}),
+    "passive_every16_ppc2": ({"surface": "passive"}, {"particles_per_cell": 2}, {"passive_every": 16}),
+    "passive_every16_ppc4": ({"surface": "passive"}, {"particles_per_cell": 4}, {"passive_every": 16}),
 }
 #: variants that set the scene's top-level ``quality`` key
 QUALITY = {"draft": "draft", "default": "default", "reference": "reference"}
@@ -104,7 +114,11 @@ SETS = {
     "trade": ["full", "full_shift", "passive", "passive_every4", "passive_every8", "passive_every4_core0.5",
               "core0.2"],
     "levels": ["full", "default", "draft"],
-    "grids": ["full_ppc8_g32", "full_ppc8_g48", "full_ppc8"],
+    "grids": ["full_g32", "full_g48"],
+    # one call: the levels, timed, against the full model's Richardson reference (n_grid 32, 48, 64) ...
+    "verdict": ["full", "default", "draft", "full_g32", "full_g48"],
+    # ... or (n_grid 48, 64, 96) on a machine with the time for the n_grid 96 run
+    "verdict96": ["full", "default", "draft", "full_g48", "full_g96"],
     "convergence": ["passive_core0.2_g48", "passive_core0.2", "passive_core0.2_g96", "passive_core0.2_g128",
                     "full", "passive", "core0.2"],
 }
@@ -210,9 +224,9 @@ def main(argv=None) -> int:
     ap.add_argument("--reuse", type=Path, nargs="*", default=[], metavar="RESULTS_JSON",
                     help="results files of earlier calls: a variant recorded there (and kept in --keep/<variant>) is "
                     "not run again; its record (timings) and frames are taken from there")
-    ap.add_argument("--reference-model", default="full_ppc8", metavar="VARIANT",
+    ap.add_argument("--reference-model", default="full", metavar="VARIANT",
                     help="the model whose runs on several grids (variants with the same keys but n_grid) give the "
-                    "converged reference (default full_ppc8: every vertex simulated, fill at 8 per cell)")
+                    "converged reference (default full: every vertex simulated, the scene's fill)")
     ap.add_argument("--tolerance", type=float, default=0.01,
                     help="error asked for, fraction of the object size (default 0.01)")
     ap.add_argument("--replot", action="store_true",
