@@ -189,7 +189,8 @@ def verdict(errors: np.ndarray, ref: Reference, tolerance: float, own: np.ndarra
         Fraction of the size (0.01 for "1 % of the object size").
     own : ndarray, optional
         The full model's own per-frame distance to the reference; the run then also passes when
-        it stays within ``own + margin`` on every frame (the issue's second criterion).
+        it stays within ``own + margin`` on every frame (the issue's second criterion), and is
+        ranked where the reference's uncertainty is below that allowance on every frame.
     margin : float
 
     Returns
@@ -202,16 +203,19 @@ def verdict(errors: np.ndarray, ref: Reference, tolerance: float, own: np.ndarra
     e = np.asarray(errors, np.float64)
     n = min(len(e), len(ref.uncertainty))
     e = e[:n]
+    allowed = np.full(n, tolerance)
+    if own is not None:
+        allowed = np.maximum(allowed, np.asarray(own, np.float64)[:n] + margin)
+    # ranked where the reference is known better than what is asked on every frame
+    ranked = bool(np.all(ref.uncertainty[:n] < allowed)) if n else False
     out = {"worst": float(e.max()) if n else float("nan"), "worst_frame": int(e.argmax()) if n else -1,
-           "reference_bound": ref.bound, "tolerance": tolerance, "ranked": ref.converged(tolerance)}
-    if not out["ranked"]:
+           "reference_bound": ref.bound, "tolerance": tolerance, "ranked": ranked,
+           "worst_allowed": float(allowed.max()) if n else float("nan")}
+    if not ranked:
         out["within"] = None
         out["why"] = (f"the reference ({ref.method}, n_grid {ref.grids}) is itself uncertain by "
                       f"{100 * ref.bound:.2f} % of the size, not better than the {100 * tolerance:g} % asked for")
         return out
-    allowed = np.full(n, tolerance)
-    if own is not None:
-        allowed = np.maximum(allowed, np.asarray(own, np.float64)[:n] + margin)
     out["within"] = bool(np.all(e <= allowed))
     return out
 

@@ -93,6 +93,10 @@ def test_verdict_does_not_rank_against_an_unconverged_reference(oscillators):
     assert ref.bound > 0.01
     v = verdict(np.zeros(len(TIMES)), ref, 0.01)
     assert v["ranked"] is False and v["within"] is None and "uncertain" in v["why"]
+    # against "the full model's own distance + 0.5 %" (own = the finest run's distance: the uncertainty) it is
+    v = verdict(ref.uncertainty + 0.004, ref, 0.01, own=ref.uncertainty)
+    assert v["ranked"] is True and v["within"] is True
+    assert verdict(ref.uncertainty + 0.006, ref, 0.01, own=ref.uncertainty)["within"] is False
     # against a reference known well enough, the 1 % rule is two-sided
     fine = reference({n: integrate(x0, v0, n, "midpoint") for n in (200, 300, 400)}, size)
     assert fine.converged(0.01)

@@ -15,7 +15,7 @@ from gasp_testing import scene_text
 def test_levels_fill_in_only_what_the_file_leaves_out(donut_small, write_scene):
     path = write_scene(scene_text(donut_small, n_grid=24))
     d, dr, r = (load_scene(path, quality=q) for q in QUALITY_LEVELS)
-    assert (d.quality, d.domain.n_grid, d.domain.particles_per_cell, d.objects[0].surface) == ("draft", 18, 2, "auto")
+    assert (d.quality, d.domain.n_grid, d.domain.particles_per_cell, d.objects[0].surface) == ("draft", 24, 2, "passive")
     assert (dr.domain.n_grid, dr.domain.particles_per_cell, dr.objects[0].surface) == (24, 4, "auto")
     assert (r.domain.n_grid, r.domain.particles_per_cell, r.objects[0].surface, r.objects[0].core_fraction) == \
         (36, 8, "material", 1.0)
@@ -40,6 +40,7 @@ def test_a_bad_level_names_the_key_and_the_levels(donut_small, write_scene):
 
 def test_engine_options_of_a_level_reach_only_engines_that_declare_them():
     assert engine_options("default", {}, {"passive_every", "threads"}) == {"passive_every": 8}
+    assert engine_options("draft", {}, {"passive_every"}) == {"passive_every": 16}
     assert engine_options("default", {}, {"threads"}) == {}                       # an engine without the option
     assert engine_options("default", {"passive_every": 2}, {"passive_every"}) == {"passive_every": 2}
     assert engine_options("reference", {"threads": 1}, {"cfl", "threads"}) == {"threads": 1, "cfl": 0.2}
@@ -57,8 +58,9 @@ def test_surface_rule_passive_on_a_resolved_solid_material_otherwise():
     dx = 0.01
     pts = _ball(0.05)              # volume 5.2e-4 m^3 = 524 cells: passive
     fr = fill_interior(pts, dx / 2, fill=True, surface_mass=False)
-    passive, rec = surface_rule(True, len(pts), fr, dx)
+    passive, rec = surface_rule(True, len(pts), fr, dx, "sand")
     assert passive and rec["surface"] == "passive" and rec["fill_method"] == "flood"
+    assert surface_rule(True, len(pts), fr, dx, "jelly")[0] is False        # an elastic body keeps the full model
     assert rec["solid_cells"] == pytest.approx(4 / 3 * np.pi * 0.05 ** 3 / dx ** 3, rel=0.3)
     assert rec["n_surface_points"] == 2000 and rec["n_fill_points"] == len(fr.fill_x)
     # the same ball with fill = false (a footprint shell, like the kitchen's leaves): material
@@ -74,7 +76,10 @@ def test_surface_rule_passive_on_a_resolved_solid_material_otherwise():
 def test_the_pipeline_resolves_auto_and_records_the_rule(donut_small, write_scene):
     pytest.importorskip("gasp_taichi_mpm", reason="taichi_mpm plugin not installed")
     from gasp_core.prepare.scene import prepare_scene
-    path = write_scene(scene_text(donut_small, n_grid=24))
+    jelly = prepare_scene(load_scene(write_scene(scene_text(donut_small, n_grid=24), "jelly.toml")))
+    assert jelly.objects[0].surface_rule["surface"] == "material" and jelly.setup.passive is None
+    sand = 'name = "sand"\nE = 3.0e5\nnu = 0.3\nrho = 1600.0\nfriction_angle = 35.0'
+    path = write_scene(scene_text(donut_small, n_grid=24, material=sand))
     prep = prepare_scene(load_scene(path))
     rule = prep.objects[0].surface_rule
     assert rule["surface"] == "passive" and prep.setup.passive is not None

@@ -65,7 +65,7 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
         fr = fill_interior(verts, h, splats=o.tri_rest[opaque], fill=o.spec.fill, name=o.name,
                            if_open=o.spec.if_open, surface_mass=not passive)
         if o.spec.surface == "auto":
-            passive, o.surface_rule = surface_rule(o.spec.fill, len(verts), fr, dx)
+            passive, o.surface_rule = surface_rule(o.spec.fill, len(verts), fr, dx, o.spec.material.name)
             if not passive:
                 fr = fill_interior(verts, h, splats=o.tri_rest[opaque], fill=o.spec.fill, name=o.name,
                                    if_open=o.spec.if_open, surface_mass=True)

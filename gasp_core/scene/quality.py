@@ -5,12 +5,12 @@ Each level is a set of scene keys and engine options, measured on the README sce
 a key the file sets (``[domain] n_grid``, an object's ``surface``, an engine option) always wins,
 except ``n_grid``, which a level scales (``grid_factor``) from the file's value.
 
-* ``draft``: the cheapest model that keeps the motion's shape: passive surface points where the
-  object has a fill (``surface = "auto"``), 2 fill points per cell, the grid at 3/4 of the scene's.
-* ``default``: the cheapest model measured within 1 % of the object size of the converged reference
-  on the README scenes: ``surface = "auto"`` (passive where filled, see
-  :mod:`gasp_core.prepare.surface`), 4 fill points per cell, the grid velocity gathered at the
-  passive points every 8th substep (engine option ``passive_every`` where the engine has it).
+* ``draft``: the cheapest model measured (3.5x the full model's CPU time on the donut's first 12
+  frames, 3.2 % of its size from it): passive surface points (``surface = "passive"``), 2 fill points
+  per cell, the grid velocity gathered at them every 16th substep.
+* ``default``: ``surface = "auto"`` (:mod:`gasp_core.prepare.surface`: passive on filled, dissipative
+  bodies, the full model on elastic ones and shells), 4 fill points per cell, the grid velocity
+  gathered at passive points every 8th substep (engine option ``passive_every`` where the engine has it).
 * ``reference``: the full model (every triangle vertex simulated as material, no hierarchy, 8 fill
   points per cell) on a grid 1.5 times finer, ``cfl`` 0.2: the run the others are measured against.
 """
@@ -50,7 +50,7 @@ class QualityPreset:
 
 
 PRESETS: dict[str, QualityPreset] = {
-    "draft": QualityPreset({"surface": "auto"}, {"particles_per_cell": 2}, 0.75, {"passive_every": 8}),
+    "draft": QualityPreset({"surface": "passive"}, {"particles_per_cell": 2}, 1.0, {"passive_every": 16}),
     "default": QualityPreset({"surface": "auto"}, {"particles_per_cell": 4}, 1.0, {"passive_every": 8}),
     "reference": QualityPreset({"surface": "material", "core_fraction": 1.0}, {"particles_per_cell": 8}, 1.5,
                                {"cfl": 0.2}),
