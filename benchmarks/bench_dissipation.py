@@ -15,9 +15,10 @@ Scenes (``gasp_core/testing``), all elastic, so every joule lost is lost by the 
   20 m/s drop) with each transfer: ``ok`` (no NaN, no energy gain over 5 %, no point deeper than 0.5 dx) or
   the clear error, as that test asks.
 
-Engines: ``taichi_mpm`` (threads 1) and ``warp_mpm`` run everything; ``mujoco_flex`` runs the bar (its
-lattice diverges at the ball's impact, a declared known failure) with its own ``cfl`` and its Rayleigh
-``damping`` option at its default and at 0; other engines are listed as not run, with the reason.
+Engines: ``taichi_mpm`` (threads 1) and ``warp_mpm`` run everything; other engines with a ``cfl`` option
+(``mujoco_flex``, ``genesis``) run the ball and the bar with their defaults (``mujoco_flex`` also with its
+Rayleigh ``damping`` option at 0; its lattice diverges at the ball's impact, a declared known failure, which
+the table shows); engines that cannot run are listed with the reason.
 
 Usage::
 
@@ -134,6 +135,9 @@ def bench_engine(info, stiff: bool) -> dict:
             res["extremes"][str(flip)] = run_extremes(info, flip)
             print(name, flip, res["extremes"][str(flip)], flush=True)
     else:
+        for cfl in CFLS:
+            res["other_bounce"] = res.get("other_bounce", []) + [{"cfl": cfl, **run_bounce(info, 32, {**opts0, "cfl": cfl})}]
+            print(name, res["other_bounce"][-1], flush=True)
         damping = next((o.default for o in info.options if o.name == "damping"), None)
         for d in ([damping, 0.0] if damping is not None else [None]):
             for cfl in CFLS:
@@ -172,12 +176,19 @@ def markdown(results: dict, meta: dict) -> str:
                 lines.append(f"| {ng} | {sa.BOUNCE_R * ng:.1f} | {a.get('n_points', '-')} | {_f(a.get('restitution'))} | "
                              f"{_f(b.get('restitution'))} |")
             lines.append("")
+        if r.get("other_bounce"):
+            lines += ["Restitution of the elastic ball (`bounce_hertz`, n_grid 32; elastic: 1), the engine's defaults:", "",
+                      "| cfl | e | contact time vs Hertz | status |", "|---|---|---|---|"]
+            for x in r["other_bounce"]:
+                lines.append(f"| {x['cfl']} | {_f(x.get('restitution'))} | {_f(x.get('hertz_rel'), '+.3f')} | "
+                             f"{x['status'][:90]} |")
+            lines.append("")
         if r["bar_cfl"]:
             key = "flip" if name in MPM else "damping"
             vals = sorted({x[key] for x in r["bar_cfl"]}, key=lambda v: -1 if v is None else v)
             lines += ["Free-free bar, first longitudinal mode (10 Hz, L 0.5 m, nu 0, viscosity 0), n_grid 32: log "
                       "decrement per period (elastic: 0) / kinetic energy kept after 4 periods, against cfl:", "",
-                      "| cfl | " + " | ".join(f"{key} {v}" for v in vals) + " |", "|---|" + "---|" * len(vals)]
+                      "| cfl | " + " | ".join(f"{key} {'default' if v is None else v}" for v in vals) + " |", "|---|" + "---|" * len(vals)]
             for cfl in CFLS:
                 cells = []
                 for v in vals:
