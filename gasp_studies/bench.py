@@ -34,7 +34,7 @@ from gasp_core.scene.spec import Scene, load_scene
 from . import report
 from .compare import engine_options, ground_height, progress_line, save_run, select_engines, subsample_scene
 from .convergence import frame_distance, sweep_reference
-from .measure import cheapest_ranked, pareto_front, run_errors, steady_s_per_frame
+from .measure import cheapest_ranked, energy_figures, pareto_front, run_errors, steady_s_per_frame
 from .report import SCENE_KEYS
 from .run import RunOutput, Runner, RunSpec
 from .strips import DEFAULT_STRIP_FRAMES, StripRow, render_strips, strip_frames, strips_markdown
@@ -339,7 +339,7 @@ def bench_scene(scene_path: str | Path, output: str | Path, engines: list[str] |
                         "cpu_s_per_frame": steady_s_per_frame(rec.get("frame_cpu_s") or []) if ok else float("nan"),
                         "wall_s": sp * n_frames,
                         "end_to_end_s": rec.get("end_to_end_s", float("nan")) if ok else float("nan"),
-                        **run_errors(ref, outputs[k]), "message": msg})
+                        **run_errors(ref, outputs[k]), **energy_figures(ref, outputs[k]), "message": msg})
                 conv_errors(eng_rows, [(where[k][2], outputs[k]) for k in ks])
                 front = pareto_front([r["end_to_end_s"] for r in eng_rows], [r["err_max"] for r in eng_rows])
                 for r, p in zip(eng_rows, front):

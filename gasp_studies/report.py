@@ -30,8 +30,7 @@ SCENE_KEYS = ("n_grid", "particles_per_cell", "fill", "core_fraction", "surface"
 BENCH_HEAD = ["engine", "setting"]
 BENCH_TAIL = ["is_reference", "status", "simulated_points", "substeps_per_frame", "prepare_s", "build_s",
               "first_frame_s", "s_per_frame", "cpu_s_per_frame", "wall_s", "end_to_end_s", "err_mean", "err_max", "err_final", "err_point_max",
-              "err_conv_max", "ref_bound", "ref_method",
-              "pareto", "message"]
+              "err_conv_max", "ref_bound", "ref_method", "ke_left", "ke_vs_ref", "pareto", "message"]
 
 
 def bench_columns(option_keys: list[str]) -> list[str]:
@@ -275,7 +274,10 @@ def bench_summary(path: Path, *, scene_name: str, scene_path: Any, n_frames: int
              "on every frame); `err_mean` = mean over frames. Wall time: simulation only, mean of frames 2..n "
              "times n (frame 1 holds any JIT compile); `end to end` adds what a user waits for besides: reading, "
              "fill and hierarchy (`prepare_s`), the engine build, every frame as it ran (JIT compile included) "
-             "and its T^-1 rebuild (not the worker's start-up or PLY writes: `gasp bench` writes none).", ""]
+             "and its T^-1 rebuild (not the worker's start-up or PLY writes: `gasp bench` writes none). "
+             "Energy (docs/dissipation.md): `KE left` = the Gaussians' mean kinetic energy over the last quarter "
+             "of the frames over its peak, `KE vs ref` = their kinetic energy over the run over the reference's "
+             "(< 1: the setting damps more than the reference; the numerics damp every run, the reference too).", ""]
     if skipped:
         lines += ["Not benched:", ""] + [f"- `{k}`: {v}" for k, v in skipped.items()] + [""]
     lines += ["## Cheapest setting within 1 % and 5 % of the object size", "",
@@ -312,10 +314,10 @@ def bench_summary(path: Path, *, scene_name: str, scene_path: Any, n_frames: int
              "err_final_pct": 100 * r["err_final"], "front": "yes" if r.get("pareto") else ""} for r in rows]
     lines += [md_table(view, ["engine", "setting", "status", "simulated_points", "substeps_per_frame",
                               "s_per_frame", "cpu_s_per_frame", "wall_s", "end_to_end_s", "err_mean_pct", "err_max_pct",
-                              "err_final_pct", "err_conv_pct", "front"],
+                              "err_final_pct", "err_conv_pct", "ke_left", "ke_vs_ref", "front"],
                        ["engine", "setting", "status", "points", "substeps/frame", "s/frame", "CPU s/frame",
                         "wall, s", "end to end, s", "err_mean, %", "err_max, %", "err_final, %", "err vs converged, %",
-                        "Pareto"])]
+                        "KE left", "KE vs ref", "Pareto"])]
     failed = [r for r in rows if r["status"] != "ok"]
     if failed:
         lines += ["## Failed runs", ""] + [f"- {r['engine']} `{r['setting']}`: {r['status']}: {r['message']}"

@@ -260,6 +260,7 @@ def test_bench_rows_reference_zero_and_error_grows_as_grid_coarsens(donut_tiny, 
     for name in ("summary.md", "pareto_warp_mpm.png", "pareto.png"):
         assert (out / name).stat().st_size > 0
     assert rows[0]["pareto"] == "True"                               # error 0: nothing beats it
+    assert float(rows[0]["ke_vs_ref"]) == 1.0 and all(0.0 <= float(r["ke_left"]) <= 1.0 for r in rows)  # energy
     assert "warp_mpm" in res.summary and "within 1 %" in (out / "summary.md").read_text()
     assert len(list((out / "runs").glob("*.json"))) == 4
     # the converged reference: the reference's model on the three grids (f64 at 24, f32 at 14 and 18)

@@ -114,7 +114,7 @@ class MPMSolver:
 
     def __init__(self, *, x, v, C0, p_mass, p_vol, body, fixed, jp0, params, kinds, n_grid, lo, dx, dt,
                  gravity, walls, grounds, regions, real, n_chunks, atomic, extras=None, time_table=None, n_substeps=1,
-                 n_material=None, passive_every=1):
+                 n_material=None, passive_every=1, flip=0.0):
         n = len(x)
         self.n = n
         self.n_material = n if n_material is None else int(n_material)
@@ -127,6 +127,8 @@ class MPMSolver:
         self.multi_kind = len(self.kinds) > 1
         self.any_fixed = bool(np.any(fixed))
         self.viscous = bool(np.any(np.asarray(params)[:, P_ETA] > 0))
+        self.flip = float(flip)   # AFLIP blend (gasp_core.toolkit.transfer); > 0: grid_acc also sums the APIC momentum
+        self.acc_width = 7 if self.flip > 0 else 4
         self.n_walls, self.n_grounds, self.n_regions = len(walls), len(grounds), len(regions)
         self._allocate_points(len(kinds))
         self._allocate_grid()
@@ -174,7 +176,8 @@ class MPMSolver:
     def _allocate_grid(self) -> None:
         """Grid copies, grid velocity and mass, touched-node boxes, point chunks and the step scalars."""
         real, ng = self.real, self.n_grid
-        self.grid_acc = ti.Vector.field(4, real, shape=(self.n_chunks, ng, ng, ng))
+        self.grid_acc = ti.Vector.field(self.acc_width, real, shape=(self.n_chunks, ng, ng, ng))
+        self.grid_v0 = ti.Vector.field(3, real, shape=(ng, ng, ng) if self.flip > 0 else (1, 1, 1))  # AFLIP's v_i^n
         self.grid_v = ti.Vector.field(3, real, shape=(ng, ng, ng))
         # node mass of the last grid update, read by the passive points' G2P (only with passive points)
         self.grid_m = ti.field(real, shape=(ng, ng, ng) if self.has_passive else (1, 1, 1))
@@ -670,6 +673,14 @@ class MPMSolver:
         return tau
 
     @ti.func
+    def _acc_val(self, mv, m, mv_apic):
+        """What a point adds to a node of grid_acc per unit weight: momentum, mass (and the APIC momentum with flip)."""
+        if ti.static(self.flip > 0):
+            return ti.Vector([mv[0], mv[1], mv[2], m, mv_apic[0], mv_apic[1], mv_apic[2]])
+        else:
+            return ti.Vector([mv[0], mv[1], mv[2], m])
+
+    @ti.func
     def _p2g_point(self, p, t, bmin, bmax):
         """Scatter point p into grid copy t; returns the updated touched-node box."""
         base, fx, ok = self._base_fx(self.x[p])
@@ -687,6 +698,7 @@ class MPMSolver:
             dx = self.dx[None]
             affine = (-dt * self.p_vol[p] * 4.0 * inv_dx * inv_dx) * tau + m * C
             A = affine * dx
+            S = (affine - m * C) * dx   # the stress part of A (AFLIP sums the momentum without it)
             mv0 = m * self.v[p] - A @ fx
             w = self._weights(fx)
             for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
@@ -698,7 +710,7 @@ class MPMSolver:
                     mv += ti.static(float(j)) * ti.Vector([A[0, 1], A[1, 1], A[2, 1]])
                 if ti.static(k > 0):
                     mv += ti.static(float(k)) * ti.Vector([A[0, 2], A[1, 2], A[2, 2]])
-                val = weight * ti.Vector([mv[0], mv[1], mv[2], m])
+                val = weight * self._acc_val(mv, m, mv - S @ (ti.Vector([float(i), float(j), float(k)]) - fx))
                 node = base + ti.Vector([i, j, k])
                 if ti.static(self.atomic):
                     self.grid_acc[0, node] += val
@@ -741,11 +753,18 @@ class MPMSolver:
                     B[1, 2] += ti.static(float(k)) * gv[1]
                     B[2, 2] += ti.static(float(k)) * gv[2]
             new_C = (4.0 * self.inv_dx[None]) * (B - new_v.outer_product(fx))
+            v_p = new_v
+            if ti.static(self.flip > 0):   # AFLIP: v_PIC(new) + alpha (v_p - v_PIC(old))
+                old_v = ti.Vector.zero(self.real, 3)
+                for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
+                    old_v += w[i][0] * w[j][1] * w[k][2] * self.grid_v0[base + ti.Vector([i, j, k])]
+                v_p = new_v + self.flip * (self.v[p] - old_v)
             if ti.static(self.any_fixed):
                 if self.fixed[p] != 0:
                     new_v = ti.Vector.zero(self.real, 3)
+                    v_p = new_v
                     new_C = ti.Matrix.zero(self.real, 3, 3)
-            self.v[p] = new_v
+            self.v[p] = v_p
             self.C[p] = new_C
             self.x[p] += self.dt[None] * new_v
 
@@ -899,7 +918,7 @@ class MPMSolver:
             for t in ti.static(range(1, self.n_chunks)):
                 acc += self.grid_acc[t, I]
             for t in ti.static(range(self.n_chunks)):
-                self.grid_acc[t, I] = ti.Vector.zero(self.real, 4)
+                self.grid_acc[t, I] = ti.Vector.zero(self.real, self.acc_width)
             gsurf = ti.Vector.zero(self.real, 3)
             if ti.static(self.has_wind):
                 for t in ti.static(range(self.n_chunks)):
@@ -925,6 +944,11 @@ class MPMSolver:
                     if (I >= self.reg_lo[b]).all() and (I <= self.reg_hi[b]).all():
                         v = ti.Vector.zero(self.real, 3)
             self.grid_v[I] = v
+            if ti.static(self.flip > 0):
+                v0 = ti.Vector.zero(self.real, 3)
+                if acc[3] > 0.0:
+                    v0 = ti.Vector([acc[4], acc[5], acc[6]]) / acc[3]
+                self.grid_v0[I] = v0
             if ti.static(self.has_passive):
                 self.grid_m[I] = acc[3]
 
