@@ -65,11 +65,11 @@ def test_surface_rule_passive_on_a_resolved_solid_material_otherwise():
     assert rec["n_surface_points"] == 2000 and rec["n_fill_points"] == len(fr.fill_x)
     # the same ball with fill = false (a footprint shell, like the kitchen's leaves): material
     shell = fill_interior(pts, dx / 2, fill=False, surface_mass=False)
-    assert surface_rule(False, len(pts), shell, dx)[0] is False
+    assert surface_rule(False, len(pts), shell, dx, "sand")[0] is False
     # a ball a few cells across (about 34 cells of solid): too little for the vertices to ride on
     small = _ball(0.02, 800)
     fr = fill_interior(small, dx / 2, fill=True, surface_mass=False)
-    passive, rec = surface_rule(True, len(small), fr, dx)
+    passive, rec = surface_rule(True, len(small), fr, dx, "sand")
     assert rec["solid_cells"] < MIN_SOLID_CELLS and passive is False and rec["surface"] == "material"
 
 

@@ -26,7 +26,7 @@ ELASTIC = ("jelly", "neo_hookean")
 
 
 def surface_rule(fill_on: bool, n_vertices: int, fr: FillResult, dx: float,
-                 material: str = "sand") -> tuple[bool, dict]:
+                 material: str) -> tuple[bool, dict]:
     """Whether an ``auto`` object's surface is passive, and the rule's inputs for ``run.json``.
 
     Parameters
