@@ -442,7 +442,8 @@ def verdict_lines(doc: dict) -> list[str]:
         return []
     tol = doc.get("tolerance", 0.01)
     how = (f"Richardson estimate from n_grid {conv['grids']} (observed order {conv['order']:.2f})"
-           if conv["method"] == "richardson" else f"the finest run, n_grid {conv['grids'][-1]}, with its distance to "
+           if conv["method"] == "richardson" else f"the single run on n_grid {conv['grids'][0]} (its uncertainty is "
+           "unknown without another grid)" if len(conv["grids"]) == 1 else f"the finest run, n_grid {conv['grids'][-1]}, with its distance to "
            f"n_grid {conv['grids'][0]} as its uncertainty" + (f" ({conv['note']})" if conv.get("note") else ""))
     out = ["", f"Converged reference: {how}; its own uncertainty is {100 * conv['bound']:.2f} % of the size on its worst "
            f"frame. Tolerance asked for: {100 * tol:g} % of the size on every frame, or the `full` run's own distance to "
