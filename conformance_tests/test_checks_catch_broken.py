@@ -45,6 +45,8 @@ ANALYTIC_SCREEN = {
     "friction_high": ("incline_slide",),
     "softer_E": ("cantilever", "self_weight_sag", "bar_wave"),
     "sand_friction_high": ("sand_column_collapse",),
+    "viscosity_low": ("bar_viscous_decay",),
+    "viscosity_high": ("bar_viscous_decay",),
 }
 
 
@@ -164,6 +166,10 @@ def broken_engine(info, kind: str):
         if kind == "friction_high":  # collider friction 10 % too high (incline: a 7.5 % low)
             cols = [dataclasses.replace(c, friction=1.1 * c.friction) for c in (setup.colliders or [])]
             return info.factory(setup.replace(colliders=cols))
+        if kind in ("viscosity_low", "viscosity_high"):  # Kelvin-Voigt viscosity 5 % low / high: decrement -+5.2 %
+            f = 0.95 if kind == "viscosity_low" else 1.05
+            mats = [dataclasses.replace(m, viscosity=f * m.viscosity) for m in setup.materials]
+            return info.factory(setup.replace(materials=mats))
         if kind == "softer_E":  # Young's modulus 10 % low: wave speed -5 %, sag and deflection +11 %
             mats = [dataclasses.replace(m, E=0.9 * m.E) for m in setup.materials]
             return info.factory(setup.replace(materials=mats))

@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import dataclasses
 import shutil
+
+import numpy as np
 import sys
 import tempfile
 import time
@@ -31,7 +33,8 @@ from gasp_core.scene.spec import Scene, load_scene
 
 from . import report
 from .compare import check_engine_names, engine_options, ground_height, progress_line, save_run, select_engines, subsample_scene
-from .measure import cheapest_within, pareto_front, run_errors, steady_s_per_frame
+from .convergence import frame_distance, sweep_reference
+from .measure import cheapest_ranked, energy_figures, pareto_front, run_errors, steady_s_per_frame
 from .report import SCENE_KEYS
 from .run import RunOutput, Runner, RunSpec
 from .strips import DEFAULT_STRIP_FRAMES, StripRow, render_strips, strip_frames, strips_markdown
@@ -99,7 +102,9 @@ def apply_setting(scene: Scene, setting: dict, base_options: dict) -> tuple[Scen
             obj_changes["surface"] = str(setting["surface"])
     except (TypeError, ValueError) as e:
         raise SceneError(f"bench setting {setting!r}: {e}") from None
-    objects = [dataclasses.replace(o, **obj_changes) for o in scene.objects] if obj_changes else scene.objects
+    if "surface" not in setting:   # a sweep measures against the full model unless it sweeps the surface
+        obj_changes["surface"] = "material"
+    objects = [dataclasses.replace(o, **obj_changes) for o in scene.objects]
     options = {**base_options, **{k: v for k, v in setting.items() if k not in SCENE_KEYS}}
     return dataclasses.replace(scene, domain=domain, objects=objects), options
 
@@ -147,8 +152,8 @@ def bench_strips(outdir: Path, scene: Scene, keep: tuple[int, ...], rows: list[d
         idx = [i for i, r in enumerate(rows) if r["engine"] == eng]
         ref = rows[idx[0]]
         shown = {idx[0]: ["reference"]}
-        for level, c in ((1, cheapest_within([rows[i] for i in idx[1:]], 0.01)),
-                         (5, cheapest_within([rows[i] for i in idx[1:]], 0.05))):
+        for level, (c, _) in ((1, cheapest_ranked([rows[i] for i in idx], 0.01)),
+                              (5, cheapest_ranked([rows[i] for i in idx], 0.05))):
             if c is not None:
                 shown.setdefault(next(i for i in idx if rows[i] is c), []).append(f"within {level} %")
         groups[eng], parts = [], []
@@ -166,6 +171,23 @@ def bench_strips(outdir: Path, scene: Scene, keep: tuple[int, ...], rows: list[d
         print("gasp bench: strips: " + (f"skipped ({strips.skipped})" if strips.skipped else
               f"{len(strips.files)} rendered in {strips.render_s:.1f} s"), file=sys.stderr, flush=True)
     return strips_markdown(strips, scene.frame_dt, captions)
+
+
+def conv_errors(rows: list[dict], runs: list[tuple[dict, RunOutput]]) -> None:
+    """Add ``err_conv_max`` (worst frame's mean distance to the converged reference, fraction of the size) and
+    ``ref_bound`` / ``ref_method`` (that reference's uncertainty and how it was made) to one engine's rows,
+    reference first (:func:`gasp_studies.convergence.sweep_reference`); NaN / "" where there is none."""
+    def metres(out: RunOutput):
+        ok = out.means is not None and out.record.get("status") == "ok"
+        return out.means.astype(np.float64) * out.m_per_unit[None, :, None] if ok else None
+    world = [(s, metres(o)) for s, o in runs]
+    size = float(runs[0][1].record.get("size_m") or np.nan) if runs else np.nan
+    conv = sweep_reference(runs[0][0], world, size) if runs and np.isfinite(size) else None
+    for r, (_, m) in zip(rows, world):
+        ok = conv is not None and m is not None and m.shape[1:] == conv.means.shape[1:]
+        r["err_conv_max"] = float(frame_distance(m, conv.means, size).max()) if ok else float("nan")
+        r["ref_bound"] = conv.bound if conv is not None else float("nan")
+        r["ref_method"] = f"{conv.method} {conv.grids}" if conv is not None else ""
 
 
 @dataclass
@@ -318,8 +340,9 @@ def bench_scene(scene_path: str | Path, output: str | Path, engines: list[str] |
                         "cpu_s_per_frame": steady_s_per_frame(rec.get("frame_cpu_s") or []) if ok else float("nan"),
                         "wall_s": sp * n_frames,
                         "end_to_end_s": rec.get("end_to_end_s", float("nan")) if ok else float("nan"),
-                        **run_errors(ref, outputs[k]), "message": msg})
-                front = pareto_front([r["wall_s"] for r in eng_rows], [r["err_max"] for r in eng_rows])
+                        **run_errors(ref, outputs[k]), **energy_figures(ref, outputs[k]), "message": msg})
+                conv_errors(eng_rows, [(where[k][2], outputs[k]) for k in ks])
+                front = pareto_front([r["end_to_end_s"] for r in eng_rows], [r["err_max"] for r in eng_rows])
                 for r, p in zip(eng_rows, front):
                     r["pareto"] = bool(p)
                 rows += eng_rows

@@ -130,6 +130,36 @@ def run_errors(ref: RunOutput | None, run: RunOutput) -> dict[str, float]:
             "err_final": float(per_frame[-1]), "err_point_max": float(d.max() / size)}
 
 
+def surface_kinetic(run: RunOutput) -> np.ndarray | None:
+    """Kinetic energy per unit mass of the Gaussian means, per frame interval, J/kg times ``frame_dt^2``.
+
+    ``1/2 mean_i |x_i(f) - x_i(f - 1)|^2`` in metres (world frame: the placement is a similarity, so the
+    file-frame distance times ``m_per_unit``); shape (n_frames,). None when the run has no means."""
+    if run.means is None or len(run.means) < 2:
+        return None
+    d = np.diff(run.means.astype(np.float64), axis=0) * run.m_per_unit[None, :, None]
+    return 0.5 * (d ** 2).sum(axis=2).mean(axis=1)
+
+
+def energy_figures(ref: RunOutput | None, run: RunOutput) -> dict[str, float]:
+    """What a setting costs in energy (``docs/dissipation.md``), from the Gaussians' frame-to-frame motion.
+
+    ``ke_left``: the surface's mean kinetic energy over the last quarter of the frames over its peak (an
+    elastic scene that keeps moving stays near its share; a damped one falls towards 0); ``ke_vs_ref``: the
+    run's kinetic energy summed over the frames over the reference run's (< 1: the setting damps more than the
+    reference). NaN where a run failed or the Gaussian counts differ.
+    """
+    nan = {"ke_left": float("nan"), "ke_vs_ref": float("nan")}
+    ke = surface_kinetic(run) if run.record.get("status") == "ok" else None
+    if ke is None or not ke.max() > 0:
+        return nan
+    out = {"ke_left": float(ke[-max(1, len(ke) // 4):].mean() / ke.max()), "ke_vs_ref": float("nan")}
+    k_ref = surface_kinetic(ref) if ref is not None else None
+    if k_ref is not None and k_ref.shape == ke.shape and k_ref.sum() > 0:
+        out["ke_vs_ref"] = float(ke.sum() / k_ref.sum())
+    return out
+
+
 def pareto_front(cost: Sequence[float], err: Sequence[float]) -> np.ndarray:
     """Mask of the points no other point beats on both axes (minimising both).
 
@@ -162,7 +192,32 @@ def pareto_front(cost: Sequence[float], err: Sequence[float]) -> np.ndarray:
     return front
 
 
-def cheapest_within(rows: list[dict], budget: float, key: str = "err_max") -> dict | None:
-    """The ``ok`` row with the least ``wall_s`` whose ``key`` error is at most ``budget`` (a fraction)."""
-    ok = [r for r in rows if r["status"] == "ok" and np.isfinite(r.get(key, np.nan)) and r[key] <= budget]
-    return min(ok, key=lambda r: r["wall_s"]) if ok else None
+def cheapest_within(rows: list[dict], budget: float, key: str = "err_max", cost: str = "wall_s") -> dict | None:
+    """The ``ok`` row with the least ``cost`` whose ``key`` error is at most ``budget`` (a fraction)."""
+    ok = [r for r in rows if r["status"] == "ok" and np.isfinite(r.get(key, np.nan)) and r[key] <= budget
+          and np.isfinite(r.get(cost, np.nan))]
+    return min(ok, key=lambda r: r[cost]) if ok else None
+
+
+def cheapest_ranked(rows: list[dict], budget: float, cost: str = "end_to_end_s") -> tuple[dict | None, str]:
+    """The cheapest row within ``budget`` of the engine's converged reference, or why none is ranked.
+
+    ``rows``: one engine's rows, the reference first, with ``err_conv_max`` (worst frame's mean
+    distance to the converged reference, :func:`gasp_studies.convergence.sweep_reference`) and
+    ``ref_bound`` (that reference's own uncertainty). Without them (no grid sequence) the errors
+    against the reference run (``err_max``) are used, the reference itself left out.
+
+    Returns
+    -------
+    row, why
+        ``row`` None with ``why`` "not ranked: ..." when the reference is not known to better than
+        ``budget``, or "none" when no run is within it.
+    """
+    bound = rows[0].get("ref_bound", float("nan")) if rows else float("nan")
+    if not np.isfinite(bound):
+        c = cheapest_within(rows[1:], budget, "err_max", cost)
+        return c, "" if c else "none"
+    if bound >= budget:
+        return None, f"not ranked: the converged reference is itself uncertain by {100 * bound:.2g} % of the size"
+    c = cheapest_within(rows, budget, "err_conv_max", cost)
+    return c, "" if c else "none"

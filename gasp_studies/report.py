@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from .measure import cheapest_within, steady_s_per_frame
+from .measure import cheapest_ranked, steady_s_per_frame
 
 TABLE_COLUMNS = ["engine", "version", "status", "device", "precision", "threads", "simulated_points",
                  "gaussians", "n_frames", "substeps_per_frame", "dt_s", "build_s", "first_frame_s",
@@ -30,7 +30,7 @@ SCENE_KEYS = ("n_grid", "particles_per_cell", "fill", "core_fraction", "surface"
 BENCH_HEAD = ["engine", "setting"]
 BENCH_TAIL = ["is_reference", "status", "simulated_points", "substeps_per_frame", "prepare_s", "build_s",
               "first_frame_s", "s_per_frame", "cpu_s_per_frame", "wall_s", "end_to_end_s", "err_mean", "err_max", "err_final", "err_point_max",
-              "pareto", "message"]
+              "err_conv_max", "ref_bound", "ref_method", "ke_left", "ke_vs_ref", "pareto", "message"]
 
 
 def bench_columns(option_keys: list[str]) -> list[str]:
@@ -274,34 +274,50 @@ def bench_summary(path: Path, *, scene_name: str, scene_path: Any, n_frames: int
              "on every frame); `err_mean` = mean over frames. Wall time: simulation only, mean of frames 2..n "
              "times n (frame 1 holds any JIT compile); `end to end` adds what a user waits for besides: reading, "
              "fill and hierarchy (`prepare_s`), the engine build, every frame as it ran (JIT compile included) "
-             "and its T^-1 rebuild (not the worker's start-up or PLY writes: `gasp bench` writes none).", ""]
+             "and its T^-1 rebuild (not the worker's start-up or PLY writes: `gasp bench` writes none). "
+             "Energy (docs/dissipation.md): `KE left` = the Gaussians' mean kinetic energy over the last quarter "
+             "of the frames over its peak, `KE vs ref` = their kinetic energy over the run over the reference's "
+             "(< 1: the setting damps more than the reference; the numerics damp every run, the reference too).", ""]
     if skipped:
         lines += ["Not benched:", ""] + [f"- `{k}`: {v}" for k, v in skipped.items()] + [""]
     lines += ["## Cheapest setting within 1 % and 5 % of the object size", "",
-              "| engine | reference setting | reference wall, s | within 1 %: setting | wall, s | err_max | "
-              "speed-up | within 5 %: setting | wall, s | err_max | speed-up |", "|" + "---|" * 11]
+              "Errors are against the converged reference (`gasp_studies.convergence`: a Richardson estimate from the "
+              "reference's model on the three finest grids swept, or the finest with its distance to the next coarser); "
+              "a tolerance finer than that reference's own uncertainty is not ranked. Times are end to end "
+              "(build and JIT included).", "",
+              "| engine | reference setting | reference end to end, s | within 1 %: setting | end to end, s | err | "
+              "speed-up | within 5 %: setting | end to end, s | err | speed-up |", "|" + "---|" * 11]
     for eng in engines:
         rs = [r for r in rows if r["engine"] == eng]
         ref = rs[0]
-        c1, c5 = cheapest_within(rs[1:], 0.01), cheapest_within(rs[1:], 0.05)
+        (c1, why1), (c5, why5) = cheapest_ranked(rs, 0.01), cheapest_ranked(rs, 0.05)
         out[eng] = {"reference": ref, "within_1pct": c1, "within_5pct": c5}
+        conv = np.isfinite(ref.get("ref_bound", np.nan))
+        key = "err_conv_max" if conv else "err_max"
 
-        def cell(c):
+        def cell(c, why):
             if ref["status"] != "ok":
                 return "no reference | - | - | -"
             if c is None:
-                return "none but the reference | - | - | -"
-            return (f"{c['setting']} | {c['wall_s']:.3g} | {100 * c['err_max']:.2g} % | "
-                    f"{ref['wall_s'] / c['wall_s']:.1f}x")
-        lines.append(f"| {eng} | {ref['setting']} ({ref['status']}) | {ref['wall_s']:.3g} | {cell(c1)} | {cell(c5)} |")
+                return f"{why} | - | - | -"
+            return (f"{c['setting']} | {c['end_to_end_s']:.3g} | {100 * c[key]:.2g} % | "
+                    f"{ref_s / c['end_to_end_s']:.1f}x")
+        ref_s = ref.get("end_to_end_s", float("nan"))
+        lines.append(f"| {eng} | {ref['setting']} ({ref['status']}) | {ref_s:.3g} | "
+                     f"{cell(c1, why1)} | {cell(c5, why5)} |")
+        if conv:
+            lines.append(f"|  | converged reference: {ref['ref_method']}, uncertain by "
+                         f"{100 * ref['ref_bound']:.2g} % of the size | | | | | | | | | |")
     lines += ["", "![pareto](pareto.png)" if plots else NO_PLOTS, ""] + (strips_md or []) + ["## All runs", ""]
     view = [{**r, "err_mean_pct": 100 * r["err_mean"], "err_max_pct": 100 * r["err_max"],
+             "err_conv_pct": 100 * r.get("err_conv_max", float("nan")),
              "err_final_pct": 100 * r["err_final"], "front": "yes" if r.get("pareto") else ""} for r in rows]
     lines += [md_table(view, ["engine", "setting", "status", "simulated_points", "substeps_per_frame",
                               "s_per_frame", "cpu_s_per_frame", "wall_s", "end_to_end_s", "err_mean_pct", "err_max_pct",
-                              "err_final_pct", "front"],
+                              "err_final_pct", "err_conv_pct", "ke_left", "ke_vs_ref", "front"],
                        ["engine", "setting", "status", "points", "substeps/frame", "s/frame", "CPU s/frame",
-                        "wall, s", "end to end, s", "err_mean, %", "err_max, %", "err_final, %", "Pareto"])]
+                        "wall, s", "end to end, s", "err_mean, %", "err_max, %", "err_final, %", "err vs converged, %",
+                        "KE left", "KE vs ref", "Pareto"])]
     failed = [r for r in rows if r["status"] != "ok"]
     if failed:
         lines += ["## Failed runs", ""] + [f"- {r['engine']} `{r['setting']}`: {r['status']}: {r['message']}"

@@ -41,7 +41,7 @@ def test_an_auxetic_material_is_accepted_by_the_scene_and_by_simsetup(donut_smal
     assert scene.objects[0].material.nu == -0.5
     _setup(Material("jelly", nu=-0.5))
     assert set(MATERIAL_RANGES) == {"E", "nu", "rho", "yield_stress", "friction_angle", "softening",
-                                    "hardening", "theta_c", "theta_s"}
+                                    "hardening", "theta_c", "theta_s", "viscosity"}
 
 
 def test_the_moduli_and_dx_have_one_formula():
@@ -60,7 +60,7 @@ def test_what_a_scene_needs_is_one_rule_on_the_scene_and_on_its_setup(tmp_path, 
     from gasp_core.scene.spec import parse_scene
     from gasp_core.seam.build import setup_needs
     static = {"file": str(donut_small), "static": True, "recentre": False}
-    moving = {"file": str(donut_small), "position": [0.0, 0.0, 0.5], "fill": False}
+    moving = {"file": str(donut_small), "position": [0.0, 0.0, 0.5], "fill": False, "material": {"viscosity": 2.0}}
     data = {"object": [static, moving], "collider": [{"object": 1}], "domain": {"n_grid": 16},
             "boundary": [{"kind": "ground", "height": -0.2}],
             "force": [{"kind": "wind", "direction": [1.0, 0.0, 0.0], "speed": 1.0}],
@@ -69,7 +69,7 @@ def test_what_a_scene_needs_is_one_rule_on_the_scene_and_on_its_setup(tmp_path, 
     scene = parse_scene(data, tmp_path / "s.toml")
     setup = build_setup(scene, [prepare_object(o) for o in scene.objects])
     assert scene_needs(scene) == setup_needs(setup) == {
-        "materials": ["jelly"], "boundaries": ["ground"], "features": ["static_colliders", "wind", "impulse"]}
+        "materials": ["jelly"], "boundaries": ["ground"], "features": ["viscosity", "static_colliders", "wind", "impulse"]}
 
 
 def test_options_are_checked_by_the_core_alone_and_the_engine_reads_them_completed():

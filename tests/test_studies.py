@@ -260,8 +260,15 @@ def test_bench_rows_reference_zero_and_error_grows_as_grid_coarsens(donut_tiny, 
     for name in ("summary.md", "pareto_warp_mpm.png", "pareto.png"):
         assert (out / name).stat().st_size > 0
     assert rows[0]["pareto"] == "True"                               # error 0: nothing beats it
+    assert float(rows[0]["ke_vs_ref"]) == 1.0 and all(0.0 <= float(r["ke_left"]) <= 1.0 for r in rows)  # energy
     assert "warp_mpm" in res.summary and "within 1 %" in (out / "summary.md").read_text()
     assert len(list((out / "runs").glob("*.json"))) == 4
+    # the converged reference: the reference's model on the three grids (f64 at 24, f32 at 14 and 18)
+    assert {r["ref_method"] for r in rows} in ({"richardson [14, 18, 24]"}, {"finest [18, 24]"})
+    bound = float(rows[0]["ref_bound"])
+    assert bound > 0 and float(rows[0]["err_conv_max"]) == pytest.approx(bound)   # the reference's own distance
+    if bound >= 0.01:   # a coarse sequence: the 1 % tolerance is finer than the reference knows
+        assert "not ranked" in (out / "summary.md").read_text()
 
 
 def test_reports_without_matplotlib_say_so(tmp_path, monkeypatch):

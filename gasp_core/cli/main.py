@@ -25,7 +25,7 @@ from gasp_core.run import stop
 def _cmd_simulate(args) -> int:
     from gasp_core.run.pipeline import simulate_scene
     from gasp_core.scene.spec import load_scene
-    scene = load_scene(args.scene)
+    scene = load_scene(args.scene, quality=args.quality)
     out = args.output or scene.output
     if out is None:
         raise GaspError("no output folder: pass -o OUTDIR or set 'output' in the scene")
@@ -248,6 +248,9 @@ def _add_simulate_parser(sub) -> None:
                    help="'frames': every frame file complete; 'split': static objects and unselected rows "
                         "written once, frames.json lists the files (default: frames for ply, else split)")
     s.add_argument("--engine", help="engine name (default: the scene's [engine] name; see 'gasp engines')")
+    s.add_argument("--quality", choices=("draft", "default", "reference"),
+                   help="override the scene's 'quality' level (default: the scene's, else 'default'; "
+                        "docs/speed_accuracy.md, 'Quality levels')")
     s.add_argument("-q", "--quiet", action="store_true", help="no progress bar (default: show one)")
     s.set_defaults(func=_cmd_simulate)
 

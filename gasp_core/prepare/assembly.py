@@ -10,6 +10,7 @@ from gasp_core.errors import SceneError
 from gasp_core.seam.setup import SimSetup, grid_spacing
 from gasp_core.maps.fill import fill_interior, fill_spacing
 from gasp_core.prepare.placement import PreparedObject, simulated_triangles
+from gasp_core.prepare.surface import surface_rule
 from gasp_core.scene.spec import Scene
 
 #: Smallest default domain side, metres (a single Gaussian, or all Gaussians at one point).
@@ -88,9 +89,14 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
         opaque = expit(opacities) >= o.spec.min_opacity
         check_resolved(o.name, o.tri_rest.reshape(-1, 3), dx, n_grid)
         h = fill_spacing(dx, scene.domain.particles_per_cell, o.spec.core_fraction)
-        passive = o.spec.surface == "passive"
+        passive = o.spec.surface in ("passive", "auto")
         fr = fill_interior(verts, h, splats=o.tri_rest[opaque], fill=o.spec.fill, name=o.name,
                            if_open=o.spec.if_open, surface_mass=not passive)
+        if o.spec.surface == "auto":
+            passive, o.surface_rule = surface_rule(o.spec.fill, len(verts), fr, dx, o.spec.material.name)
+            if not passive:
+                fr = fill_interior(verts, h, splats=o.tri_rest[opaque], fill=o.spec.fill, name=o.name,
+                                   if_open=o.spec.if_open, surface_mass=True)
         o.fill_report = fr.report
         if fr.report.warning:
             warnings.warn(fr.report.warning, stacklevel=2)

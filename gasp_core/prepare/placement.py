@@ -106,6 +106,7 @@ class PreparedObject:
     name: str = ""
     moving: np.ndarray | None = None
     static_tri: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3)))
+    surface_rule: dict | None = None
 
     def simulated_rows(self, a: np.ndarray) -> np.ndarray:
         """The rows of a per-Gaussian array ``a`` (shape (n, ...)) that are simulated."""

@@ -12,6 +12,7 @@ from pathlib import Path
 from gasp_core.errors import SceneError
 from gasp_core.prepare.assembly import build_setup
 from gasp_core.prepare.placement import prepare_object, PreparedObject
+from gasp_core.scene.quality import engine_options as quality_options
 from gasp_core.scene.spec import Scene
 from gasp_core.seam.build import check_supported, needs
 from gasp_core.seam.engine import EngineInfo
@@ -42,7 +43,7 @@ def scene_needs(scene: Scene) -> dict[str, list[str]]:
     """What a scene asks of an engine, before any file is read: :func:`gasp_core.seam.build.needs` of its
     simulated objects' materials, boundaries, colliders, forces and impulses (the rule
     :func:`~gasp_core.seam.build.setup_needs` applies to the setup built from it)."""
-    return needs([o.material.name for o in scene.objects if not o.static], scene.boundaries, scene.colliders,
+    return needs([o.material for o in scene.objects if not o.static], scene.boundaries, scene.colliders,
                  scene.forces, scene.impulses)
 
 
@@ -81,6 +82,7 @@ def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None 
     setup = build_setup(scene, objects)
     if options is not None:
         setup.options = dict(options)
+    setup.options = quality_options(scene.quality, setup.options, {o.name for o in info.options})
     return PreparedScene(scene, info, objects, names, setup, prepare_s=time.perf_counter() - t0)
 
 

@@ -41,7 +41,7 @@ def run_summary(prep, stats, n_frames: int, per_frame: list[dict], wall_s: float
     return {
         "scene": str(scene.path), "engine": info.name, "engine_distribution": info.distribution,
         "versions": _versions(info), "engine_stats": stats.engine,
-        "engine_options": setup.options, "build_s": stats.build_s, "prepare_s": prep.prepare_s,
+        "quality": scene.quality, "engine_options": setup.options, "build_s": stats.build_s, "prepare_s": prep.prepare_s,
         "wall_s": wall_s, "n_frames": n_frames, "frame_dt": scene.frame_dt,
         "gravity": list(scene.gravity),
         "domain": {"lo": setup.domain_lo.tolist(), "hi": setup.domain_hi.tolist(),
@@ -86,6 +86,7 @@ def _object_record(o, name: str, boundaries=()) -> dict:
         "volume": o.fill_report.volume if o.fill_report else None,
         "mass": s.material.rho * o.fill_report.volume if o.fill_report else None,
         "core_fraction": s.core_fraction,
+        "surface": (o.surface_rule or {}).get("surface", s.surface), "surface_rule": o.surface_rule,
         "n_simulated_gaussians": len(simulated_triangles(o)),
         **selection_record(o),
         "alpha": s.alpha, "thickness": s.thickness,

@@ -49,6 +49,7 @@ from pathlib import Path
 from gasp_core.errors import SceneError
 from gasp_core.maps.games import REBUILDS
 from gasp_core.scene.extras import read_extras
+from gasp_core.scene.quality import apply_quality, read_quality
 from gasp_core.scene.select import SelectSpec, read_select, read_static
 from gasp_core.scene.tables import DomainSpec, EngineSpec, read_boundary, read_domain, read_engine, read_material
 from gasp_core.scene.values import (MAX_COORD, MAX_GRAVITY, MAX_SPEED, MAX_SPIN, SCALE_RANGE, UP_AXES, as_boolean,
@@ -56,8 +57,9 @@ from gasp_core.scene.values import (MAX_COORD, MAX_GRAVITY, MAX_SPEED, MAX_SPIN,
                                     check_keys, is_number)
 from gasp_core.seam.setup import Boundary, Material
 
-#: ``[[object]] surface``: the triangle vertices are material points, or passive (massless, carried).
-SURFACES = ("material", "passive")
+#: ``[[object]] surface``: the triangle vertices are material points, or passive (massless, carried), or
+#: chosen by the rule of :mod:`gasp_core.prepare.surface` ("auto", what the quality levels set).
+SURFACES = ("material", "passive", "auto")
 
 
 @dataclass
@@ -167,10 +169,11 @@ class Scene:
     colliders: list = field(default_factory=list)
     forces: list = field(default_factory=list)
     impulses: list = field(default_factory=list)
+    quality: str = "default"
 
 
 _TOP_KEYS = {"name", "frame_dt", "n_frames", "gravity", "output", "engine", "domain", "boundary", "object",
-             "collider", "force", "impulse"}
+             "collider", "force", "impulse", "quality"}
 _OBJECT_KEYS = {f.name for f in fields(ObjectSpec)}
 
 
@@ -229,13 +232,15 @@ def _object(o: dict, where: str, src: Path) -> ObjectSpec:
         rotation=as_vec3(o.get("rotation", [0.0, 0.0, 0.0]), f"{where}.rotation", src, max_abs=360.0, unit=" degrees"))
 
 
-def load_scene(path: str | Path) -> Scene:
+def load_scene(path: str | Path, quality: str | None = None) -> Scene:
     """Read and validate a scene file.
 
     Parameters
     ----------
     path : str or Path
         TOML file (UTF-8). Relative object paths are resolved against its folder.
+    quality : str, optional
+        A level of :mod:`gasp_core.scene.quality` replacing the file's ``quality`` key.
 
     Returns
     -------
@@ -268,10 +273,10 @@ def load_scene(path: str | Path) -> Scene:
         raise SceneError(f"{src}: cannot read the scene file: {e.strerror or e}") from None
     except tomllib.TOMLDecodeError as e:
         raise SceneError(f"{src}: not valid TOML: {e}") from None
-    return parse_scene(data, src)
+    return parse_scene(data, src, quality)
 
 
-def parse_scene(data: dict, src: Path) -> Scene:
+def parse_scene(data: dict, src: Path, quality: str | None = None) -> Scene:
     """Validate an already-parsed TOML document (see :func:`load_scene`).
 
     Raises
@@ -282,6 +287,8 @@ def parse_scene(data: dict, src: Path) -> Scene:
     src = Path(src)
     data = as_table(data, "the scene", src)
     check_keys(data, _TOP_KEYS, "the top level", src)
+    level = read_quality(data, src, quality)
+    data = apply_quality(data, level)
     base = src.parent
     engine = read_engine(data.get("engine", {}), src)
     domain = read_domain(data.get("domain", {}), src)
@@ -303,4 +310,4 @@ def parse_scene(data: dict, src: Path) -> Scene:
         gravity=as_vec3(data.get("gravity", [0.0, 0.0, -9.81]), "gravity", src, max_norm=MAX_GRAVITY,
                         unit=" m/s^2"),
         frame_dt=as_number(data.get("frame_dt", 1.0 / 30.0), "frame_dt", src, 0.0, lo_open=True),
-        n_frames=n_frames, output=output, name=as_string(data.get("name", src.stem), "name", src))
+        n_frames=n_frames, output=output, name=as_string(data.get("name", src.stem), "name", src), quality=level)

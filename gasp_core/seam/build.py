@@ -60,8 +60,9 @@ def needs(materials: Iterable[str] = (), boundaries: Iterable = (), colliders: I
 
     Parameters
     ----------
-    materials : iterable of str
-        Material names of the simulated bodies (static objects take no part).
+    materials : iterable of str or Material
+        Material names of the simulated bodies (static objects take no part), or the
+        :class:`~gasp_core.seam.setup.Material` s: one with ``viscosity > 0`` needs ``viscosity``.
     boundaries : iterable
         Anything with a ``kind`` (:class:`~gasp_core.seam.setup.Boundary`).
     colliders : iterable
@@ -78,17 +79,20 @@ def needs(materials: Iterable[str] = (), boundaries: Iterable = (), colliders: I
         ``{"materials": [...], "boundaries": [...], "features": [...]}``, each without repeats, in
         first-use order (keys of :func:`check_supported`).
     """
-    features = ["moving_colliders" if c.moving else "static_colliders" for c in colliders]
+    materials = list(materials)
+    features = ["viscosity" for m in materials if getattr(m, "viscosity", 0.0) > 0]
+    features += ["moving_colliders" if c.moving else "static_colliders" for c in colliders]
     features += ["wind" if f.kind == "wind" else "attractors" for f in forces]
     if list(impulses):
         features.append("impulse")
-    return {"materials": list(dict.fromkeys(materials)), "boundaries": list(dict.fromkeys(b.kind for b in boundaries)),
+    names = [m if isinstance(m, str) else m.name for m in materials]
+    return {"materials": list(dict.fromkeys(names)), "boundaries": list(dict.fromkeys(b.kind for b in boundaries)),
             "features": list(dict.fromkeys(features))}
 
 
 def setup_needs(setup: SimSetup) -> dict[str, list[str]]:
     """:func:`needs` of a setup (its materials, boundaries, colliders, forces and impulses)."""
-    return needs([m.name for m in setup.materials], setup.boundaries, setup.colliders, setup.forces,
+    return needs(setup.materials, setup.boundaries, setup.colliders, setup.forces,
                  setup.impulses)
 
 

@@ -50,6 +50,8 @@ FEATURES = {
     "wind": "SimSetup.forces of kind 'wind': quadratic drag 1/2 rho_air C_d A |u - v| (u - v) on the windward "
             "surface, towards a uniform wind plus divergence-free turbulence",
     "attractors": "SimSetup.forces of kind 'attractor': acceleration towards a point with a falloff",
+    "viscosity": "Material.viscosity > 0: the Kelvin-Voigt viscous stress sigma_v = 2 eta sym(grad v) added to "
+                 "the elastic stress (docs/dissipation.md)",
 }
 
 

@@ -38,6 +38,7 @@ MATERIAL_RANGES: dict[str, tuple[float, float | None, bool, bool]] = {
     "yield_stress": (0.0, None, True, False), "friction_angle": (0.0, 90.0, False, True),
     "softening": (0.0, None, False, False), "hardening": (0.0, None, True, False),
     "theta_c": (0.0, None, True, False), "theta_s": (0.0, None, True, False),
+    "viscosity": (0.0, None, False, False),
 }
 
 
@@ -97,6 +98,12 @@ class Material:
         Snow hardening coefficient xi (Stomakhin et al. 2013), default 10.
     theta_c, theta_s : float
         Snow critical compression and stretch (Stomakhin et al. 2013).
+    viscosity : float
+        Kelvin-Voigt shear viscosity ``eta``, Pa s (default 0: no physical damping). The engine adds the
+        viscous Cauchy stress ``sigma_v = 2 eta D``, ``D = sym(grad v)``, to the elastic one (a dashpot in
+        parallel; bulk viscosity ``2 eta / 3``, ``docs/dissipation.md``). From a loss factor ``tan(delta)``
+        measured at the angular frequency ``omega``: ``eta = tan(delta) mu / omega``. Needs an engine with
+        the feature ``viscosity``.
     """
 
     name: str = "jelly"
@@ -109,6 +116,7 @@ class Material:
     hardening: float = 10.0
     theta_c: float = 2.5e-2
     theta_s: float = 4.5e-3
+    viscosity: float = 0.0
 
     @staticmethod
     def expected(key: str, value) -> str | None:

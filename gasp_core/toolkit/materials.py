@@ -21,8 +21,8 @@ JELLY, NEO_HOOKEAN, METAL, SAND, SNOW, PLASTICINE, LIQUID = range(7)
 MATERIAL_CODES = {"jelly": JELLY, "neo_hookean": NEO_HOOKEAN, "metal": METAL, "sand": SAND, "snow": SNOW,
                   "plasticine": PLASTICINE, "liquid": LIQUID}
 #: Columns of the per-body parameter table (:func:`material_table`).
-P_MU, P_LAM, P_YIELD, P_SOFTENING, P_HARDENING, P_THETA_C, P_THETA_S, P_ALPHA, P_K = range(9)
-N_PARAMS = 9
+P_MU, P_LAM, P_YIELD, P_SOFTENING, P_HARDENING, P_THETA_C, P_THETA_S, P_ALPHA, P_K, P_ETA = range(10)
+N_PARAMS = 10
 #: von Mises yield surface radius per unit yield stress: metal and plasticine return-map the Hencky
 #: strain's deviator ``e`` onto ``2 mu ||e|| <= sqrt(2/3) Y``, i.e. ``||dev tau|| <= sqrt(2/3) Y``, so a
 #: bar in uniaxial stress yields at ``Y`` (von Mises: ``sigma_vm = sqrt(3/2) ||dev tau||``;
@@ -47,8 +47,10 @@ def material_table(materials: Sequence[Material]) -> tuple[np.ndarray, np.ndarra
         Columns ``P_MU`` (Lame mu, Pa), ``P_LAM`` (Lame lam, Pa), ``P_YIELD`` (von Mises yield
         stress, Pa), ``P_SOFTENING``, ``P_HARDENING`` (snow xi), ``P_THETA_C``, ``P_THETA_S``,
         ``P_ALPHA`` (Drucker-Prager ``alpha = sqrt(2/3) 2 sin(phi) / (3 - sin(phi))`` of the
-        friction angle phi, Klar et al. 2016 Eq. 27) and ``P_K`` (bulk modulus
-        :attr:`Material.K`, Pa, of the liquid's equation of state).
+        friction angle phi, Klar et al. 2016 Eq. 27), ``P_K`` (bulk modulus
+        :attr:`Material.K`, Pa, of the liquid's equation of state) and ``P_ETA`` (Kelvin-Voigt
+        viscosity :attr:`Material.viscosity`, Pa s: the kernels add the Kirchhoff stress
+        ``J eta (C + C^T)``, APIC's ``C`` standing for ``grad v``; ``docs/dissipation.md``).
 
     Raises
     ------
@@ -73,6 +75,7 @@ def material_table(materials: Sequence[Material]) -> tuple[np.ndarray, np.ndarra
         params[b, P_THETA_S] = m.theta_s
         params[b, P_ALPHA] = math.sqrt(2.0 / 3.0) * 2.0 * s / (3.0 - s)
         params[b, P_K] = m.K
+        params[b, P_ETA] = m.viscosity
     return kinds, params
 
 

@@ -1,6 +1,7 @@
 """Time step of a grid (MPM) engine: the stable substep, whole substeps per frame and the passive points' schedule.
 
-``docs/mpm.md``, "Time step": ``dt = cfl dx / max(c_p, v_max)`` (:func:`mpm_stable_dt`), rounded to
+``docs/mpm.md``, "Time step": ``dt = cfl dx / max(c_p, v_max)`` (:func:`mpm_stable_dt`; a viscous
+material lowers it, :func:`viscous_dt`), rounded to
 whole substeps per frame (:func:`substeps_for`), bounded by :data:`MAX_SUBSTEPS`
 (:func:`substeps_from_options`); :func:`passive_schedule` says at which substeps passive points move.
 """
@@ -32,11 +33,12 @@ def p_wave_speed(m: Material) -> float:
 
 def mpm_stable_dt(materials: Iterable[Material], dx: float, gravity, height: float,
                   v0_max: float = 0.0, cfl: float = 0.4) -> float:
-    """Largest substep that satisfies the elastic-wave and particle CFL limits.
+    """Largest substep that satisfies the elastic-wave, particle CFL and viscous limits.
 
     ``dt = cfl * dx / max(c_p, v_max)`` where ``c_p`` is the fastest P-wave speed over the
     materials and ``v_max = v0_max + sqrt(2 |g| height)`` bounds the speed a falling body reaches
-    in the domain.
+    in the domain; a material with viscosity caps it at ``cfl * viscous_dt`` (:func:`viscous_dt`,
+    about ``cfl rho dx^2 / (4 eta)`` when the viscosity dominates).
 
     Parameters
     ----------
@@ -62,10 +64,26 @@ def mpm_stable_dt(materials: Iterable[Material], dx: float, gravity, height: flo
     Fang et al. 2018 / taichi_elements use ``dt <= C dx / c_p`` with ``C`` about 0.3-0.5 for
     explicit MLS-MPM with quadratic B-splines.
     """
+    materials = list(materials)
     c = max(p_wave_speed(m) for m in materials)
     g = float(np.linalg.norm(gravity))
     v_max = v0_max + math.sqrt(2.0 * g * max(height, 0.0))
-    return cfl * dx / max(c, v_max, 1e-12)
+    return cfl * min([dx / max(c, v_max, 1e-12)] + [viscous_dt(m, dx) for m in materials if m.viscosity > 0])
+
+
+def viscous_dt(m: Material, dx: float) -> float:
+    """Stable explicit step of a Kelvin-Voigt material (:attr:`Material.viscosity` ``eta`` > 0), seconds, before ``cfl``.
+
+    The grid's fastest mode, ``omega = 2 c / dx`` (``c`` the P-wave speed), is a damped oscillator with the
+    damping ratio ``xi = omega tau / 2``, ``tau = 2 eta / (rho c^2)`` (longitudinal viscous over elastic
+    modulus, bulk viscosity ``2 eta / 3``). Symplectic Euler on it is stable for
+    ``dt <= (2 / omega) (sqrt(1 + xi^2) - xi)`` (Belytschko, Liu & Moran, *Nonlinear Finite Elements*, 2000,
+    Sec. 6.3): ``dx / c`` without viscosity, tending to ``rho dx^2 / (4 eta)`` (the diffusion limit) when
+    the viscosity dominates.
+    """
+    c = max(p_wave_speed(m), 1e-12)
+    xi = 2.0 * m.viscosity / (m.rho * c * dx)
+    return dx / c * (math.sqrt(1.0 + xi * xi) - xi)
 
 
 def mpm_substeps(setup, dt: float | None = None, n_substeps: int | None = None,
@@ -127,7 +145,7 @@ def substeps_from_options(setup, options: Mapping[str, Any], engine: str = "") -
         c = max(p_wave_speed(m) for m in setup.materials)
         raise SceneError(
             f"engine '{engine}': {n:.3g} substeps per frame (dt = {dt:.3g} s for frame_dt = {setup.frame_dt:g} s; "
-            f"fastest wave {c:.3g} m/s, dx = {setup.dx:.3g} m) exceeds max_substeps = {bound}: lower E, frame_dt, "
+            f"fastest wave {c:.3g} m/s, dx = {setup.dx:.3g} m) exceeds max_substeps = {bound}: lower E, the viscosity, frame_dt, "
             f"the speeds or n_grid, or raise the engine option max_substeps")
     return n, dt
 

@@ -137,7 +137,7 @@ class TaichiMPMEngine:
             n_grid=setup.n_grid, lo=setup.domain_lo, dx=dx, dt=self.dt, gravity=setup.gravity,
             walls=walls, grounds=grounds, regions=regions, real=real,
             n_chunks=1 if atomic else n_point_chunks(threads, grid_bytes), atomic=atomic, n_material=self.n_material,
-            passive_every=opt["passive_every"], **self._extras(setup))
+            passive_every=opt["passive_every"], flip=opt.get("flip") or 0.0, **self._extras(setup))
         self._p2g_mode = "atomic" if atomic else f"private grids x{self.solver.n_chunks}"
         self.frame = 0
         self._x = setup.x.astype(np.float32 if real == ti.f32 else np.float64)

@@ -34,8 +34,8 @@ import taichi as ti
 from gasp_core.toolkit.points import ground_top_node
 from gasp_core.toolkit.substeps import passive_schedule
 from gasp_core.seam import SceneError
-from gasp_core.toolkit.materials import (JELLY, LIQUID, METAL, N_PARAMS, NEO_HOOKEAN, P_ALPHA, P_HARDENING, P_K, P_LAM,
-                                         P_MU, P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND, SNOW,
+from gasp_core.toolkit.materials import (JELLY, LIQUID, METAL, N_PARAMS, NEO_HOOKEAN, P_ALPHA, P_ETA, P_HARDENING, P_K,
+                                         P_LAM, P_MU, P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND, SNOW,
                                          VON_MISES_RADIUS)
 
 _TIE = 1e-9  # cells: tolerance for ties when boundary tests become node-index ranges
@@ -117,7 +117,7 @@ class MPMSolver:
 
     def __init__(self, *, x, v, C0, p_mass, p_vol, body, fixed, jp0, params, kinds, n_grid, lo, dx, dt,
                  gravity, walls, grounds, regions, real, n_chunks, atomic, extras=None, time_table=None, n_substeps=1,
-                 n_material=None, passive_every=1):
+                 n_material=None, passive_every=1, flip=0.0):
         n = len(x)
         self.n = n
         self.n_material = n if n_material is None else int(n_material)
@@ -129,6 +129,9 @@ class MPMSolver:
         self.kinds = frozenset(int(k) for k in kinds)
         self.multi_kind = len(self.kinds) > 1
         self.any_fixed = bool(np.any(fixed))
+        self.viscous = bool(np.any(np.asarray(params)[:, P_ETA] > 0))
+        self.flip = float(flip)   # AFLIP blend (gasp_core.toolkit.transfer); > 0: grid_acc also sums the APIC momentum
+        self.acc_width = 7 if self.flip > 0 else 4
         self.n_walls, self.n_grounds, self.n_regions = len(walls), len(grounds), len(regions)
         self._allocate_points(len(kinds))
         self._allocate_grid()
@@ -176,7 +179,8 @@ class MPMSolver:
     def _allocate_grid(self) -> None:
         """Grid copies, grid velocity and mass, touched-node boxes, point chunks and the step scalars."""
         real, ng = self.real, self.n_grid
-        self.grid_acc = ti.Vector.field(4, real, shape=(self.n_chunks, ng, ng, ng))
+        self.grid_acc = ti.Vector.field(self.acc_width, real, shape=(self.n_chunks, ng, ng, ng))
+        self.grid_v0 = ti.Vector.field(3, real, shape=(ng, ng, ng) if self.flip > 0 else (1, 1, 1))  # AFLIP's v_i^n
         self.grid_v = ti.Vector.field(3, real, shape=(ng, ng, ng))
         # node mass of the last grid update, read by the passive points' G2P (only with passive points)
         self.grid_m = ti.field(real, shape=(ng, ng, ng) if self.has_passive else (1, 1, 1))
@@ -673,6 +677,14 @@ class MPMSolver:
         return tau
 
     @ti.func
+    def _acc_val(self, mv, m, mv_apic):
+        """What a point adds to a node of grid_acc per unit weight: momentum, mass (and the APIC momentum with flip)."""
+        if ti.static(self.flip > 0):
+            return ti.Vector([mv[0], mv[1], mv[2], m, mv_apic[0], mv_apic[1], mv_apic[2]])
+        else:
+            return ti.Vector([mv[0], mv[1], mv[2], m])
+
+    @ti.func
     def _p2g_point(self, p, t, bmin, bmax):
         """Scatter point p into grid copy t; returns the updated touched-node box."""
         base, fx, ok = self._base_fx(self.x[p])
@@ -684,10 +696,13 @@ class MPMSolver:
             C = self.C[p]
             F = (ti.Matrix.identity(self.real, 3) + dt * C) @ self.F[p]
             tau = self._constitutive(p, F)
+            if ti.static(self.viscous):   # Kelvin-Voigt: J 2 eta sym(grad v), C = grad v (docs/dissipation.md)
+                tau += (self.mat[self.body[p]][P_ETA] * F.determinant()) * (C + C.transpose())
             m = self.p_mass[p]
             dx = self.dx[None]
             affine = (-dt * self.p_vol[p] * 4.0 * inv_dx * inv_dx) * tau + m * C
             A = affine * dx
+            S = (affine - m * C) * dx   # the stress part of A (AFLIP sums the momentum without it)
             mv0 = m * self.v[p] - A @ fx
             w = self._weights(fx)
             for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
@@ -699,7 +714,7 @@ class MPMSolver:
                     mv += ti.static(float(j)) * ti.Vector([A[0, 1], A[1, 1], A[2, 1]])
                 if ti.static(k > 0):
                     mv += ti.static(float(k)) * ti.Vector([A[0, 2], A[1, 2], A[2, 2]])
-                val = weight * ti.Vector([mv[0], mv[1], mv[2], m])
+                val = weight * self._acc_val(mv, m, mv - S @ (ti.Vector([float(i), float(j), float(k)]) - fx))
                 node = base + ti.Vector([i, j, k])
                 if ti.static(self.atomic):
                     self.grid_acc[0, node] += val
@@ -742,11 +757,18 @@ class MPMSolver:
                     B[1, 2] += ti.static(float(k)) * gv[1]
                     B[2, 2] += ti.static(float(k)) * gv[2]
             new_C = (4.0 * self.inv_dx[None]) * (B - new_v.outer_product(fx))
+            v_p = new_v
+            if ti.static(self.flip > 0):   # AFLIP: v_PIC(new) + alpha (v_p - v_PIC(old))
+                old_v = ti.Vector.zero(self.real, 3)
+                for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
+                    old_v += w[i][0] * w[j][1] * w[k][2] * self.grid_v0[base + ti.Vector([i, j, k])]
+                v_p = new_v + self.flip * (self.v[p] - old_v)
             if ti.static(self.any_fixed):
                 if self.fixed[p] != 0:
                     new_v = ti.Vector.zero(self.real, 3)
+                    v_p = new_v
                     new_C = ti.Matrix.zero(self.real, 3, 3)
-            self.v[p] = new_v
+            self.v[p] = v_p
             self.C[p] = new_C
             self.x[p] += self.dt[None] * new_v
 
@@ -904,11 +926,11 @@ class MPMSolver:
         count = ext[0] * ext[1] * ext[2]
         for idx in range(count):
             I = lo + ti.Vector([idx // (ext[1] * ext[2]), (idx // ext[2]) % ext[1], idx % ext[2]])
-            acc = ti.Vector.zero(self.real, 4)
+            acc = ti.Vector.zero(self.real, self.acc_width)
             gsurf = ti.Vector.zero(self.real, 3)
             if ti.static(self.atomic):
                 acc = self.grid_acc[0, I]
-                self.grid_acc[0, I] = ti.Vector.zero(self.real, 4)
+                self.grid_acc[0, I] = ti.Vector.zero(self.real, self.acc_width)
                 if ti.static(self.has_wind):
                     gsurf = self.grid_g[0, I]
                     self.grid_g[0, I] = ti.Vector.zero(self.real, 3)
@@ -918,7 +940,7 @@ class MPMSolver:
                 for t in range(span[0], span[1] + 1):
                     if (I >= self.box[t, 0]).all() and (I <= self.box[t, 1]).all():
                         acc += self.grid_acc[t, I]
-                        self.grid_acc[t, I] = ti.Vector.zero(self.real, 4)
+                        self.grid_acc[t, I] = ti.Vector.zero(self.real, self.acc_width)
                         if ti.static(self.has_wind):
                             gsurf += self.grid_g[t, I]
                             self.grid_g[t, I] = ti.Vector.zero(self.real, 3)
@@ -942,6 +964,11 @@ class MPMSolver:
                     if (I >= self.reg_lo[b]).all() and (I <= self.reg_hi[b]).all():
                         v = ti.Vector.zero(self.real, 3)
             self.grid_v[I] = v
+            if ti.static(self.flip > 0):
+                v0 = ti.Vector.zero(self.real, 3)
+                if acc[3] > 0.0:
+                    v0 = ti.Vector([acc[4], acc[5], acc[6]]) / acc[3]
+                self.grid_v0[I] = v0
             if ti.static(self.has_passive):
                 self.grid_m[I] = acc[3]
 

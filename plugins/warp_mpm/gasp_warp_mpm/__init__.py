@@ -13,6 +13,7 @@ from gasp_core.toolkit.options import mpm_options
 from gasp_core.toolkit.sweep import mpm_sweep
 from gasp_core.toolkit.failures import MPM_KNOWN_FAILURES
 from gasp_core.toolkit.substeps import PASSIVE_EVERY
+from gasp_core.toolkit.transfer import FLIP
 
 __all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "gasp_engines", "make_engine", "sweep"]
 
@@ -25,7 +26,7 @@ CAPABILITIES = Capabilities(
     precisions=frozenset({"f32", "f64"}),
     deterministic=frozenset({"cpu"}),
     features=frozenset({"grid", "initial_C", "state", "static_colliders", "moving_colliders", "impulse", "wind",
-                        "attractors", "passive_points"}),
+                        "attractors", "passive_points", "viscosity"}),
 )
 
 #: The grid-engine options of ``gasp_core.toolkit.options`` (``device``: "cpu", "cuda" or "cuda:N", Warp's device
@@ -33,7 +34,7 @@ CAPABILITIES = Capabilities(
 OPTIONS = mpm_options(
     Option("threads", None, "accepted and ignored: Warp runs CPU kernels on one thread (runs repeat bit "
                             "for bit)", kind="int", lo=1),
-    PASSIVE_EVERY, cuda_index=True)
+    PASSIVE_EVERY, FLIP, cuda_index=True)
 
 
 def sweep(quick: bool) -> tuple[list[dict], dict]:

@@ -28,7 +28,7 @@ import types
 import warp as wp
 
 # Material codes and the columns of the per-body parameter table ``mat_par`` are gasp_core.toolkit.materials'.
-from gasp_core.toolkit.materials import (JELLY, METAL, NEO_HOOKEAN, P_ALPHA, P_HARDENING, P_K, P_LAM, P_MU, P_SOFTENING,
+from gasp_core.toolkit.materials import (JELLY, METAL, NEO_HOOKEAN, P_ALPHA, P_ETA, P_HARDENING, P_K, P_LAM, P_MU, P_SOFTENING,
                                          P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND, SNOW,
                                          VON_MISES_RADIUS)
 
@@ -489,8 +489,10 @@ def build_p2g(Ft):
         mat_kind: wp.array(dtype=wp.int32), mat_par: wp.array2d(dtype=Ft),
         grid_mv: wp.array(dtype=vec4), n_out: wp.array(dtype=wp.int32),
         lo: vec3, inv_dx: Ft, dx: Ft, dt: Ft, n_grid: int, grid_g: wp.array(dtype=vec3), has_wind: int,
+        grid_mv0: wp.array(dtype=vec4), flip: int,
     ):
-        # F advanced by C, return mapping and stress (docs/mpm.md), then the scatter (and, with wind, grid_g)
+        # F advanced by C, return mapping and stress (docs/mpm.md), then the scatter (and, with wind, grid_g;
+        # with flip, the APIC momentum alone into grid_mv0: gasp_core.toolkit.transfer)
         p = wp.tid()
         X = (x[p] - lo) * inv_dx
         if not in_grid(X, n_grid):
@@ -504,12 +506,18 @@ def build_p2g(Ft):
         Cp = C[p]
         F_new, tau = return_mapping((wp.identity(3, dtype=Ft) + dt * Cp) * F[p], p, body, mat_kind, mat_par, Jp)
         F[p] = F_new
+        eta = mat_par[body[p], P_ETA]
+        if eta > Ft(0.0):  # Kelvin-Voigt: J 2 eta sym(grad v), C = grad v (docs/dissipation.md)
+            tau = tau + (eta * wp.determinant(F_new)) * (Cp + wp.transpose(Cp))
         pm = p_mass[p]
         affine = (-dt * p_vol[p] * Ft(4.0) * inv_dx * inv_dx) * tau + pm * Cp
         A = dx * affine  # affine dpos = A ((i, j, k) - fx)
         mom0 = pm * v[p] - A * fx
         idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
         scatter(grid_mv, idx0, n_grid, W, mom0, A, pm)
+        if flip != 0:
+            A0 = (dx * pm) * Cp
+            scatter(grid_mv0, idx0, n_grid, W, pm * v[p] - A0 * fx, A0, pm)
         if has_wind != 0:
             scatter_wind(grid_g, idx0, n_grid, W, fx, p_vol[p] * inv_dx)
 
@@ -531,6 +539,7 @@ def build_grid_update(Ft):
         wall_mu: wp.array(dtype=Ft), ground: wp.array(dtype=vec3),
         fixed_lo: wp.array(dtype=vec3), fixed_hi: wp.array(dtype=vec3),
         has_extras: int, ex: Extras, grid_g: wp.array(dtype=vec3), has_wind: int,
+        grid_mv0: wp.array(dtype=vec4), grid_v0: wp.array(dtype=vec3), flip: int,
     ):
         # ground[g] = (top node layer k_max as a float, friction, unused); grid_m (node mass, for
         # passive points) has one entry per node when the setup has passive points, else one unused entry
@@ -575,6 +584,12 @@ def build_grid_update(Ft):
             out = vel
         grid_vel[node] = out
         grid_mv[node] = vec4(Ft(0.0))
+        if flip != 0:  # the APIC velocity before forces (gasp_core.toolkit.transfer)
+            g0 = grid_mv0[node]
+            grid_v0[node] = vec3(Ft(0.0))
+            if m > Ft(0.0):
+                grid_v0[node] = vec3(g0[0], g0[1], g0[2]) / m
+            grid_mv0[node] = vec4(Ft(0.0))
         if has_wind != 0:
             grid_g[node] = vec3(Ft(0.0))
 
@@ -591,7 +606,7 @@ def build_g2p(Ft):
     def g2p(
         x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33),
         fixed: wp.array(dtype=wp.int32), grid_vel: wp.array(dtype=vec3),
-        lo: vec3, inv_dx: Ft, dt: Ft, n_grid: int,
+        lo: vec3, inv_dx: Ft, dt: Ft, n_grid: int, grid_v0: wp.array(dtype=vec3), alpha: Ft,
     ):
         p = wp.tid()
         if fixed[p] != 0:
@@ -646,7 +661,15 @@ def build_g2p(Ft):
         B = wp.matrix_from_cols(c0, c1, c2)
         # C = 4 inv_dx^2 sum w g ((i, j, k) - fx)^T dx = 4 inv_dx (B - new_v fx^T)
         C[p] = (Ft(4.0) * inv_dx) * (B - wp.outer(new_v, fx))
-        v[p] = new_v
+        if alpha > Ft(0.0):  # AFLIP: v_PIC(new) + alpha (v_p - v_PIC(old)) (gasp_core.toolkit.transfer)
+            old_v = vec3(Ft(0.0))
+            for i in range(3):
+                for j in range(3):
+                    for k in range(3):
+                        old_v = old_v + (W[i, 0] * W[j, 1] * W[k, 2]) * grid_v0[idx0 + i * nn + j * n_grid + k]
+            v[p] = new_v + alpha * (v[p] - old_v)
+        else:
+            v[p] = new_v
         x[p] = xp + dt * new_v
 
     return g2p

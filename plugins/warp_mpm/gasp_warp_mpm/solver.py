@@ -180,6 +180,10 @@ class WarpMPMEngine:
         self.has_wind = int(any(f.kind == "wind" for f in (getattr(self.setup, "forces", None) or [])))
         self.grid_g = wp.zeros(n_nodes if self.has_wind else 1, dtype=k.vec3, device=d)
         self.flags = wp.zeros(2, dtype=wp.int32, device=d)  # [out-of-grid count, non-finite count]
+        # with the option flip (AFLIP): the APIC momentum alone and its velocity per node
+        self.flip = float(self.options.get("flip") or 0.0)
+        self.grid_mv0 = wp.zeros(n_nodes if self.flip else 1, dtype=k.vec4, device=d)
+        self.grid_v0 = wp.zeros(n_nodes if self.flip else 1, dtype=k.vec3, device=d)
 
     def _upload_boundaries(self, Ft) -> None:
         """Walls' friction, grounds' (top node layer, friction, 0) and fixed regions' boxes as arrays."""
@@ -211,12 +215,13 @@ class WarpMPMEngine:
             wp.launch(k.p2g, dim=self.n_material, device=d, record_cmd=True, inputs=[
                 self.x, self.v, self.F, self.C, self.Jp, self.p_mass, self.p_vol, self.body,
                 self.mat_kind, self.mat_par, self.grid_mv, self.flags, lo_v, inv_dx, dx, dt_f, ng,
-                self.grid_g, self.has_wind]),
+                self.grid_g, self.has_wind, self.grid_mv0, int(self.flip > 0)]),
             wp.launch(k.grid_update, dim=ng ** 3, device=d, record_cmd=True, inputs=[
                 self.grid_mv, self.grid_vel, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, self.wall_mu,
-                self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex, self.grid_g, self.has_wind]),
+                self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex, self.grid_g, self.has_wind,
+                self.grid_mv0, self.grid_v0, int(self.flip > 0)]),
             wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
-                self.x, self.v, self.C, self.fixed, self.grid_vel, lo_v, inv_dx, dt_f, ng]),
+                self.x, self.v, self.C, self.fixed, self.grid_vel, lo_v, inv_dx, dt_f, ng, self.grid_v0, Ft(self.flip)]),
         ]
         # passive points after the grid update (the grid velocity holds forces, colliders, boundaries):
         # one launch per distinct interval of passive_schedule, at the substeps it names

@@ -1,0 +1,61 @@
+"""``surface = "auto"``: passive surface points where the model difference dies out, else material.
+
+The rule (measured, ``docs/speed_accuracy.md``, "Quality levels"): passive surface points (massless,
+advected by the grid, :mod:`gasp_core.seam.passive`) cost 0.32 % of the object size on the sand guitar,
+whose motion dies out, but 2.6 % by frame 12 on the bouncing (viscous) jelly donut, more than the full
+model's own grid error there (1.8 %): an elastic body keeps the two models' different mass
+distributions ringing. They also need a fill to ride on. So an object's surface is passive when
+
+* its material is not an elastic solid (``jelly``, ``neo_hookean``: :data:`ELASTIC`), and
+* its fill is on and the footprints enclose a volume (``FillReport.method == "flood"``), and
+* the filled solid spans at least :data:`MIN_SOLID_CELLS` grid cells (``volume / dx^3``), so the
+  grid resolves the body the vertices follow;
+
+otherwise every triangle vertex is simulated as material (the full model: elastic bodies, open
+shells, footprint shells with ``fill = false`` such as the kitchen's leaves, bodies a few cells
+across). The rule's inputs and its choice are recorded per object in ``run.json`` (``surface_rule``).
+"""
+from __future__ import annotations
+
+from gasp_core.maps.fill import FillResult
+
+#: the least solid, in grid cells, that passive surface points may ride on
+MIN_SOLID_CELLS = 64
+#: elastic solids: a bounce keeps the surface model's difference alive, so they keep the full model
+ELASTIC = ("jelly", "neo_hookean")
+
+
+def surface_rule(fill_on: bool, n_vertices: int, fr: FillResult, dx: float,
+                 material: str) -> tuple[bool, dict]:
+    """Whether an ``auto`` object's surface is passive, and the rule's inputs for ``run.json``.
+
+    Parameters
+    ----------
+    fill_on : bool
+        The object's ``fill`` key.
+    n_vertices : int
+        Triangle vertices (the surface points).
+    fr : FillResult
+        The object's fill made for a passive surface (``surface_mass = False``).
+    dx : float
+        Grid spacing, metres.
+    material : str
+        The object's material name.
+
+    Returns
+    -------
+    passive : bool
+    record : dict
+        ``surface`` (the choice), ``n_surface_points``, ``n_fill_points``, ``surface_per_fill``,
+        ``solid_cells``, ``fill_method``, ``min_solid_cells``, ``material``, ``rule`` (the rule in words).
+    """
+    n_fill = len(fr.fill_x)
+    cells = float(fr.volume) / dx ** 3 if n_fill else 0.0
+    passive = bool(material not in ELASTIC and fill_on and fr.report.method == "flood" and cells >= MIN_SOLID_CELLS)
+    return passive, {
+        "surface": "passive" if passive else "material", "n_surface_points": int(n_vertices),
+        "n_fill_points": int(n_fill), "surface_per_fill": (n_vertices / n_fill) if n_fill else None,
+        "solid_cells": round(cells, 1), "fill_method": fr.report.method, "min_solid_cells": MIN_SOLID_CELLS,
+        "material": material,
+        "rule": f"passive when the material is not elastic ({', '.join(ELASTIC)}), the fill is on, the footprints "
+                f"enclose a volume and the solid spans at least {MIN_SOLID_CELLS} grid cells; else material"}

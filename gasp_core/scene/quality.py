@@ -1,0 +1,102 @@
+"""``quality = "draft" | "default" | "reference"``: one scene key (and ``gasp simulate --quality``) for the trade.
+
+Each level is a set of scene keys and engine options, measured on the README scenes
+(``docs/speed_accuracy.md``, "Quality levels"). A level only fills in what the scene file leaves out:
+a key the file sets (``[domain] n_grid``, an object's ``surface``, an engine option) always wins,
+except ``n_grid``, which a level scales (``grid_factor``) from the file's value.
+
+* ``draft``: the cheapest model measured (3.5x the full model's CPU time on the donut's first 12
+  frames, 3.2 % of its size from it): passive surface points (``surface = "passive"``), 2 fill points
+  per cell, the grid velocity gathered at them every 16th substep.
+* ``default``: ``surface = "auto"`` (:mod:`gasp_core.prepare.surface`: passive on filled, dissipative
+  bodies, the full model on elastic ones and shells), 4 fill points per cell, the grid velocity
+  gathered at passive points every 8th substep (engine option ``passive_every`` where the engine has it).
+* ``reference``: the full model (every triangle vertex simulated as material, no hierarchy, 8 fill
+  points per cell) on a grid 1.5 times finer, ``cfl`` 0.2: the run the others are measured against.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from gasp_core.scene.values import as_string
+
+#: the levels, cheapest first
+QUALITY_LEVELS = ("draft", "default", "reference")
+
+
+@dataclass(frozen=True)
+class QualityPreset:
+    """What a level sets where the scene file is silent.
+
+    Attributes
+    ----------
+    objects : dict
+        ``[[object]]`` keys (``surface``, ``core_fraction``).
+    domain : dict
+        ``[domain]`` keys (``particles_per_cell``).
+    grid_factor : float
+        The scene's ``n_grid`` is multiplied by this (rounded, at least 8).
+    options : dict
+        Engine options, given to the engine only where it declares the option.
+    """
+
+    objects: dict[str, Any] = field(default_factory=dict)
+    domain: dict[str, Any] = field(default_factory=dict)
+    grid_factor: float = 1.0
+    options: dict[str, Any] = field(default_factory=dict)
+
+
+PRESETS: dict[str, QualityPreset] = {
+    "draft": QualityPreset({"surface": "passive"}, {"particles_per_cell": 2}, 1.0, {"passive_every": 16}),
+    "default": QualityPreset({"surface": "auto"}, {"particles_per_cell": 4}, 1.0, {"passive_every": 8}),
+    "reference": QualityPreset({"surface": "material", "core_fraction": 1.0}, {"particles_per_cell": 8}, 1.5,
+                               {"cfl": 0.2}),
+}
+
+
+def read_quality(data: dict, src: Path, override: str | None = None) -> str:
+    """The scene's level: ``override`` (``--quality``) if given, else the top-level ``quality``, else ``"default"``.
+
+    Raises
+    ------
+    SceneError
+        Not one of :data:`QUALITY_LEVELS` (the message names the key and the levels).
+    """
+    if override is not None:
+        return as_string(override, "--quality", src, QUALITY_LEVELS)
+    return as_string(data.get("quality", "default"), "quality", src, QUALITY_LEVELS)
+
+
+def apply_quality(data: dict, level: str) -> dict:
+    """``data`` (a parsed scene TOML document) with ``level``'s keys filled in where it has none.
+
+    Returns a new document; ``data`` is not changed. Engine options are not added here (they
+    depend on the engine: :func:`engine_options`). A malformed table is left as it is, for the
+    reader to report.
+    """
+    preset = PRESETS[level]
+    out = dict(data)
+    dom = out.get("domain", {})
+    if isinstance(dom, dict):
+        dom = {**{k: v for k, v in preset.domain.items() if k not in dom}, **dom}
+        n = dom.get("n_grid", 64)
+        if preset.grid_factor != 1.0 and isinstance(n, int) and not isinstance(n, bool):
+            dom["n_grid"] = max(8, int(math.floor(n * preset.grid_factor + 0.5)))
+        out["domain"] = dom
+    objs = out.get("object")
+    if isinstance(objs, list):
+        out["object"] = [{**preset.objects, **o} if isinstance(o, dict) else o for o in objs]
+    return out
+
+
+def engine_options(level: str, given: dict[str, Any], declared: set[str]) -> dict[str, Any]:
+    """Engine options of ``level`` for an engine declaring ``declared``, under the ``given`` ones.
+
+    Returns ``given`` with the level's options added where the engine declares them and the scene
+    does not set them.
+    """
+    extra = {k: v for k, v in PRESETS[level].options.items() if k in declared and k not in given}
+    return {**given, **extra}

@@ -1,0 +1,89 @@
+"""The quality levels (gasp_core.scene.quality) and the surface rule (gasp_core.prepare.surface)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from gasp_core.errors import SceneError
+from gasp_core.maps.fill import fill_interior
+from gasp_core.prepare.surface import MIN_SOLID_CELLS, surface_rule
+from gasp_core.scene.quality import PRESETS, QUALITY_LEVELS, engine_options
+from gasp_core.scene.spec import load_scene
+from gasp_testing import scene_text
+
+
+def test_levels_fill_in_only_what_the_file_leaves_out(donut_small, write_scene):
+    path = write_scene(scene_text(donut_small, n_grid=24))
+    d, dr, r = (load_scene(path, quality=q) for q in QUALITY_LEVELS)
+    assert (d.quality, d.domain.n_grid, d.domain.particles_per_cell, d.objects[0].surface) == ("draft", 24, 2, "passive")
+    assert (dr.domain.n_grid, dr.domain.particles_per_cell, dr.objects[0].surface) == (24, 4, "auto")
+    assert (r.domain.n_grid, r.domain.particles_per_cell, r.objects[0].surface, r.objects[0].core_fraction) == \
+        (36, 8, "material", 1.0)
+    assert load_scene(path).quality == "default"
+    # a key the file sets wins over the level; the file's own `quality` is read, --quality replaces it
+    text = scene_text(donut_small, n_grid=24, extra_top='quality = "reference"',
+                      extra_object='surface = "passive"\ncore_fraction = 0.5')
+    text = text.replace("n_grid = 24", "n_grid = 24\nparticles_per_cell = 1")
+    s = load_scene(write_scene(text, "explicit.toml"))
+    assert (s.quality, s.domain.particles_per_cell, s.objects[0].surface, s.objects[0].core_fraction) == \
+        ("reference", 1, "passive", 0.5)
+    assert load_scene(write_scene(text, "explicit.toml"), quality="draft").quality == "draft"
+
+
+def test_a_bad_level_names_the_key_and_the_levels(donut_small, write_scene):
+    path = write_scene(scene_text(donut_small, extra_top='quality = "best"'))
+    with pytest.raises(SceneError, match=r"quality.*'best'.*draft"):
+        load_scene(path)
+    with pytest.raises(SceneError, match=r"--quality"):
+        load_scene(write_scene(scene_text(donut_small), "ok.toml"), quality="fast")
+
+
+def test_engine_options_of_a_level_reach_only_engines_that_declare_them():
+    assert engine_options("default", {}, {"passive_every", "threads"}) == {"passive_every": 8}
+    assert engine_options("draft", {}, {"passive_every"}) == {"passive_every": 16}
+    assert engine_options("default", {}, {"threads"}) == {}                       # an engine without the option
+    assert engine_options("default", {"passive_every": 2}, {"passive_every"}) == {"passive_every": 2}
+    assert engine_options("reference", {"threads": 1}, {"cfl", "threads"}) == {"threads": 1, "cfl": 0.2}
+    assert set(PRESETS) == set(QUALITY_LEVELS)
+
+
+def _ball(radius: float, n: int = 2000) -> np.ndarray:
+    """Points on a sphere (Fibonacci lattice), metres."""
+    i = np.arange(n) + 0.5
+    phi, theta = np.arccos(1 - 2 * i / n), np.pi * (1 + 5 ** 0.5) * i
+    return radius * np.stack([np.cos(theta) * np.sin(phi), np.sin(theta) * np.sin(phi), np.cos(phi)], axis=1)
+
+
+def test_surface_rule_passive_on_a_resolved_solid_material_otherwise():
+    dx = 0.01
+    pts = _ball(0.05)              # volume 5.2e-4 m^3 = 524 cells: passive
+    fr = fill_interior(pts, dx / 2, fill=True, surface_mass=False)
+    passive, rec = surface_rule(True, len(pts), fr, dx, "sand")
+    assert passive and rec["surface"] == "passive" and rec["fill_method"] == "flood"
+    assert surface_rule(True, len(pts), fr, dx, "jelly")[0] is False        # an elastic body keeps the full model
+    assert rec["solid_cells"] == pytest.approx(4 / 3 * np.pi * 0.05 ** 3 / dx ** 3, rel=0.3)
+    assert rec["n_surface_points"] == 2000 and rec["n_fill_points"] == len(fr.fill_x)
+    # the same ball with fill = false (a footprint shell, like the kitchen's leaves): material
+    shell = fill_interior(pts, dx / 2, fill=False, surface_mass=False)
+    assert surface_rule(False, len(pts), shell, dx, "sand")[0] is False
+    # a ball a few cells across (about 34 cells of solid): too little for the vertices to ride on
+    small = _ball(0.02, 800)
+    fr = fill_interior(small, dx / 2, fill=True, surface_mass=False)
+    passive, rec = surface_rule(True, len(small), fr, dx, "sand")
+    assert rec["solid_cells"] < MIN_SOLID_CELLS and passive is False and rec["surface"] == "material"
+
+
+def test_the_pipeline_resolves_auto_and_records_the_rule(donut_small, write_scene):
+    pytest.importorskip("gasp_taichi_mpm", reason="taichi_mpm plugin not installed")
+    from gasp_core.prepare.scene import prepare_scene
+    jelly = prepare_scene(load_scene(write_scene(scene_text(donut_small, n_grid=24), "jelly.toml")))
+    assert jelly.objects[0].surface_rule["surface"] == "material" and jelly.setup.passive is None
+    sand = 'name = "sand"\nE = 3.0e5\nnu = 0.3\nrho = 1600.0\nfriction_angle = 35.0'
+    path = write_scene(scene_text(donut_small, n_grid=24, material=sand))
+    prep = prepare_scene(load_scene(path))
+    rule = prep.objects[0].surface_rule
+    assert rule["surface"] == "passive" and prep.setup.passive is not None
+    assert int(prep.setup.passive.sum()) == rule["n_surface_points"]
+    assert prep.setup.options["passive_every"] == 8                     # the level's option, declared by the engine
+    ref = prepare_scene(load_scene(path, quality="reference"))
+    assert ref.objects[0].surface_rule is None and ref.setup.passive is None and ref.setup.options["cfl"] == 0.2
