@@ -12,6 +12,7 @@ with ``v_PIC^{n+1} = sum_i w_ip v_i^{n+1}`` (the grid velocity after forces and 
 ``v_PIC^n = sum_i w_ip v_i^n``, ``v_i^n`` the grid velocity of the APIC momentum alone,
 ``sum_p w_ip m_p (v_p + C_p (x_i - x_p)) / m_i`` (no stress, no gravity). ``alpha = 0`` is APIC exactly;
 positions move with the grid velocity (AFLIP's position update; ASFLIP's separation term is not used).
+Not the default: it keeps more energy but gives up APIC's exact angular momentum (``docs/dissipation.md``).
 """
 from __future__ import annotations
 

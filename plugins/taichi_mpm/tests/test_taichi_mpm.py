@@ -47,11 +47,11 @@ def run(setup, n_frames):
 def test_plugin_is_registered_and_import_is_cheap():
     from gasp_core.seam.plugins import engines
     info = engines()["taichi_mpm"]
-    assert {"grid", "initial_C"} <= info.capabilities.features
+    assert {"grid", "initial_C", "viscosity"} <= info.capabilities.features
     assert info.unavailable_reason() is None
     assert info.deterministic_options == {"threads": 1}
     assert {o.name for o in info.options} == {"device", "precision", "dt", "n_substeps", "cfl", "max_substeps", "threads",
-                                             "passive_every"}
+                                             "passive_every", "flip"}
     code = "import sys, gasp_taichi_mpm; assert 'taichi' not in sys.modules, 'taichi imported'"
     subprocess.run([sys.executable, "-c", code], check=True)
 
