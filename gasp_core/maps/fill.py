@@ -55,6 +55,16 @@ class FillReport:
         Enclosed volume (m^3, occupancy grid) at each tried closing radius ``1, 2, ...``.
     warning : str
         Empty, or a sentence naming the object when it is open.
+    confidence : float
+        Inside test's confidence, 0..1: the share of the enclosed voxels sealed on all six sides
+        (:func:`gasp_core.maps.occupancy.solid_field`); 0 when open.
+    bbox_share : float
+        ``volume`` over the volume of the opaque footprints' bounding box.
+    thin_share : float
+        Share of the occupancy solid lying in parts no fill cell of spacing ``h`` covers (thinner than
+        about two cells): they stay shells, their surface points carry their mass.
+    thin_h : float
+        Fill spacing (metres) that would fill those parts (half their largest thickness); 0 when none.
     """
 
     name: str
@@ -67,6 +77,10 @@ class FillReport:
     dilation: int
     enclosed: list = field(default_factory=list)
     warning: str = ""
+    confidence: float = 0.0
+    bbox_share: float = 0.0
+    thin_share: float = 0.0
+    thin_h: float = 0.0
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -157,11 +171,13 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
     if len(splats) == 0:
         splats = np.repeat(points[:, None], 3, axis=1)
     lo, shape = _fill_grid(points, splats, h, name)
-    phi, vlo, voxel_used, r, enclosed = (None, lo, 0.0, 0, [])
+    phi, vlo, voxel_used, r, enclosed, confidence = (None, lo, 0.0, 0, [], 0.0)
+    thin = (0.0, 0.0)
     if fill:
-        phi, vlo, voxel_used, r, enclosed = solid_field(splats, max_dilation, voxel)
+        phi, vlo, voxel_used, r, enclosed, confidence = solid_field(splats, max_dilation, voxel)
     if phi is not None:
         inside = _inside_cells(phi, vlo, voxel_used, lo, shape, h)
+        thin = thin_parts(phi, vlo, voxel_used, inside, lo, h)
         method, closed, warning = "flood", True, ""
     else:
         inside = rasterize(splats, lo, shape, h)
@@ -182,8 +198,11 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
         fill_x = _cell_centres(_cells_or_own(points, cells, lo, shape, h), lo, h)
         p_vol_surface, p_vol_fill = np.zeros(len(points)), np.full(len(fill_x), h ** 3)
         volume = float(p_vol_fill.sum())
+    box = float(np.prod(np.ptp(splats.reshape(-1, 3), axis=0)))
     report = FillReport(name=name, volume=volume, n_fill=len(fill_x), h=float(h), voxel=float(voxel_used),
-                        method=method, closed=closed, dilation=int(r), enclosed=enclosed, warning=warning)
+                        method=method, closed=closed, dilation=int(r), enclosed=enclosed, warning=warning,
+                        confidence=round(confidence, 4), bbox_share=volume / box if box > 0 else 0.0,
+                        thin_share=thin[0], thin_h=thin[1])
     return FillResult(fill_x, p_vol_surface, p_vol_fill, float(h), volume, report)
 
 
@@ -228,6 +247,33 @@ def _inside_cells(phi: np.ndarray, vlo: np.ndarray, voxel: float, lo: np.ndarray
         cx = np.full(cy.shape, (lo[0] + (i + 0.5) * h - vlo[0]) / voxel - 0.5)
         inside[i] = ndimage.map_coordinates(phi, [cx, cy, cz], order=1, mode="constant", cval=-1.0) > 0
     return inside
+
+
+def thin_parts(phi: np.ndarray, vlo: np.ndarray, voxel: float, inside: np.ndarray, lo: np.ndarray,
+               h: float) -> tuple[float, float]:
+    """The parts of the occupancy solid (``phi > 0``) that no inside fill cell of spacing ``h`` covers.
+
+    Returns
+    -------
+    share : float
+        Their share of the solid's voxels (0 when none).
+    h_fill : float
+        Half the thickness of the thickest of them, metres (a spacing that puts two cells across it);
+        0 when none.
+    """
+    solid = phi > 0
+    n = int(solid.sum())
+    if n == 0:
+        return 0.0, 0.0
+    idx = np.argwhere(solid)
+    cell = np.floor((vlo + (idx + 0.5) * voxel - lo) / h).astype(np.int64)
+    ok = ((cell >= 0) & (cell < np.array(inside.shape))).all(axis=1)
+    covered = np.zeros(len(idx), bool)
+    covered[ok] = inside[tuple(cell[ok].T)]
+    if covered.all():
+        return 0.0, 0.0
+    depth = ndimage.distance_transform_edt(solid)[tuple(idx[~covered].T)]
+    return float((~covered).sum() / n), float(depth.max() * voxel)
 
 
 def _cells_or_own(points: np.ndarray, cells: np.ndarray, lo: np.ndarray, shape, h: float) -> np.ndarray:
