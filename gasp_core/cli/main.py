@@ -16,7 +16,7 @@ from pathlib import Path
 import signal
 import warnings
 
-from gasp_core.cli.args import GaspArgumentParser, positive_int
+from gasp_core.cli.args import GaspArgumentParser, length, positive_float, positive_int
 from gasp_core.errors import EngineBug, EngineDivergence, GaspError
 
 
@@ -105,13 +105,15 @@ def _cmd_plugins(args) -> int:
 
 
 def _cmd_info(args) -> int:
-    from gasp_core.gs.describe import describe
-    d = describe(args.file)
+    from gasp_core.cli.info import info
+    with warnings.catch_warnings():          # the fill's and the floaters' warnings are reported as fields
+        warnings.simplefilter("ignore")
+        d = info(args.file, size=args.size, rho=args.rho, n_grid=args.n_grid)
     if args.json:
         print(json.dumps(d, indent=2, default=str))
         return 0
     for k, v in d.items():
-        print(f"{k:>14}: {v}")
+        print(f"{k:>18}: {v}")
     return 0
 
 
@@ -203,6 +205,10 @@ def build_parser() -> argparse.ArgumentParser:
     i = sub.add_parser("info", help="describe a Gaussian Splatting file")
     i.add_argument("file", type=Path)
     i.add_argument("--json", action="store_true")
+    i.add_argument("--size", type=length, help="the object's real height along its up axis (1.7m, 170cm): "
+                                               "prints the scale that gives it")
+    i.add_argument("--rho", type=positive_float, help="density, kg/m^3: prints the filled solid's mass")
+    i.add_argument("--n-grid", type=positive_int, default=64, help="grid of the fill reported (default 64)")
     i.set_defaults(func=_cmd_info)
 
     c = sub.add_parser("compare", help="run one scene on several engines and write a comparison report")

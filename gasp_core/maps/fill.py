@@ -56,10 +56,13 @@ class FillReport:
     warning : str
         Empty, or a sentence naming the object when it is open.
     confidence : float
-        Inside test's confidence, 0..1: the share of the enclosed voxels sealed on all six sides
+        Inside test's confidence, 0..1: how little the enclosed volume depends on the closing radius
         (:func:`gasp_core.maps.occupancy.solid_field`); 0 when open.
+    sealed : float
+        Share of the enclosure sealed on all six sides; low (under
+        :data:`gasp_core.maps.occupancy.OPEN_BASE`) where an unseen base was forgiven.
     bbox_share : float
-        ``volume`` over the volume of the opaque footprints' bounding box.
+        Inside cells over the cells of their bounding box (the solid's share of its bounding volume).
     thin_share : float
         Share of the occupancy solid lying in parts no fill cell of spacing ``h`` covers (thinner than
         about two cells): they stay shells, their surface points carry their mass.
@@ -78,6 +81,7 @@ class FillReport:
     enclosed: list = field(default_factory=list)
     warning: str = ""
     confidence: float = 0.0
+    sealed: float = 0.0
     bbox_share: float = 0.0
     thin_share: float = 0.0
     thin_h: float = 0.0
@@ -171,10 +175,10 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
     if len(splats) == 0:
         splats = np.repeat(points[:, None], 3, axis=1)
     lo, shape = _fill_grid(points, splats, h, name)
-    phi, vlo, voxel_used, r, enclosed, confidence = (None, lo, 0.0, 0, [], 0.0)
+    phi, vlo, voxel_used, r, enclosed, confidence, sealed = (None, lo, 0.0, 0, [], 0.0, 0.0)
     thin = (0.0, 0.0)
     if fill:
-        phi, vlo, voxel_used, r, enclosed, confidence = solid_field(splats, max_dilation, voxel)
+        phi, vlo, voxel_used, r, enclosed, confidence, sealed = solid_field(splats, max_dilation, voxel)
     if phi is not None:
         inside = _inside_cells(phi, vlo, voxel_used, lo, shape, h)
         thin = thin_parts(phi, vlo, voxel_used, inside, lo, h)
@@ -198,10 +202,10 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
         fill_x = _cell_centres(_cells_or_own(points, cells, lo, shape, h), lo, h)
         p_vol_surface, p_vol_fill = np.zeros(len(points)), np.full(len(fill_x), h ** 3)
         volume = float(p_vol_fill.sum())
-    box = float(np.prod(np.ptp(splats.reshape(-1, 3), axis=0)))
+    box = float(np.prod(np.ptp(cells, axis=0) + 1)) * h ** 3 if len(cells) else 0.0
     report = FillReport(name=name, volume=volume, n_fill=len(fill_x), h=float(h), voxel=float(voxel_used),
                         method=method, closed=closed, dilation=int(r), enclosed=enclosed, warning=warning,
-                        confidence=round(confidence, 4), bbox_share=volume / box if box > 0 else 0.0,
+                        confidence=round(confidence, 4), sealed=round(sealed, 4), bbox_share=len(cells) * h ** 3 / box if box > 0 else 0.0,
                         thin_share=thin[0], thin_h=thin[1])
     return FillResult(fill_x, p_vol_surface, p_vol_fill, float(h), volume, report)
 
