@@ -7,6 +7,9 @@ default scene gives (n_grid 64, padding 0.5, 8 particles per cell):
   region (examples/kitchen_spinach.toml's selection); the independent estimate is a **visual hull**: voxels
   whose orthographic projection lies inside the opaque footprints' silhouette in each of ``N_VIEWS``
   directions over a hemisphere, an upper bound of the solid (it cannot see concavities);
+* the two trained scene slices in /work/shared/data/gs (train-1000: visgl/loaders.gl test data, MIT / data
+  Apache-2.0, COLMAP frame, -y up; pc_short: cvlab-epfl/gaussian-splatting-web, Apache-2.0), floaters
+  left out as a scene would, against the same visual hull;
 * meshes as GaMeS mesh-mode splats (``gasp_core.testing.meshes.mesh_splats``): spot (closed), spot with
   its hoof soles removed (an open capture: the base the cameras never saw), and the Stanford bunny as
   scanned (5 holes in its base); the estimate is the mesh volume (the bunny's holes capped by fans).
@@ -117,6 +120,9 @@ def cases(tmp: Path):
     yield "guitar", prepare_object(ObjectSpec(file=DATA / "guitar.compressed.ply", up_axis="-y")), None
     spinach = load_scene(ROOT / "examples" / "kitchen_spinach.toml").objects[0]
     yield "kitchen spinach region", prepare_object(spinach), None
+    gs = MESH.parent / "gs"
+    yield "train-1000 (scene slice)", prepare_object(ObjectSpec(file=gs / "train-1000.ply", up_axis="-y")), None
+    yield "pc_short (scene slice)", prepare_object(ObjectSpec(file=gs / "pc_short.ply")), None
     spot = trimesh.load(MESH / "spot_triangulated.obj", process=False)
     spot.merge_vertices(merge_tex=True, merge_norm=True)
     v_spot = mesh_volume(spot)
