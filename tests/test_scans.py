@@ -176,7 +176,7 @@ def test_degenerate_inputs_end(tmp_path, kind):
 SPOT = Path("/work/shared/data/mesh/spot_triangulated.obj")
 
 
-def standing_spot(tmp_path, n_grid=40, n_frames=10):
+def standing_spot(tmp_path, n_grid=40, n_frames=10, extra=""):
     """Spot the cow (Keenan Crane, public domain) as 3000 GaMeS mesh-mode splats standing on its hooves,
     0.30 m tall, dropped 1 cm onto a ground with friction 0.5 as jelly: E = 1 MPa, rho = 1000 kg/m^3, so
     rho g h / E = 0.29 %. Returns the z extent (0.5 to 99.5 % quantiles of the means) per frame."""
@@ -207,6 +207,7 @@ file = "{ply}"
 up_axis = "+y"
 scale = {scale!r}
 position = [0.0, 0.0, 0.01]
+{extra}
 [object.material]
 name = "jelly"
 E = 1.0e6

@@ -187,10 +187,7 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
         inside = rasterize(splats, lo, shape, h)
         closed = False
         method = "shell" if not fill else "shell-open"
-        warning = "" if not fill else (
-            f"object '{name}': its Gaussians enclose no volume (open, or gaps wider than the largest "
-            f"closing, {max_dilation} voxels of {voxel_used * 1e3:.3g} mm); simulated as a hollow shell "
-            f"of {float(inside.sum()) * h ** 3:.4g} m^3. Set fill = false to accept a shell, or close the model")
+        warning = "" if not fill else _open_warning(name, max_dilation, voxel_used, float(inside.sum()) * h ** 3)
         if fill and if_open == "error":
             raise SceneError(warning.replace("; simulated as a hollow shell", "; refusing to simulate a hollow shell"))
     cells = np.argwhere(inside)
@@ -208,6 +205,13 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
                         confidence=round(confidence, 4), sealed=round(sealed, 4), bbox_share=len(cells) * h ** 3 / box if box > 0 else 0.0,
                         thin_share=thin[0], thin_h=thin[1])
     return FillResult(fill_x, p_vol_surface, p_vol_fill, float(h), volume, report)
+
+
+def _open_warning(name: str, max_dilation: int, voxel: float, volume: float) -> str:
+    """The warning for an object whose footprints enclose no volume (simulated as a shell of ``volume`` m^3)."""
+    return (f"object '{name}': its Gaussians enclose no volume (open, or gaps wider than the largest closing, "
+            f"{max_dilation} voxels of {voxel * 1e3:.3g} mm); simulated as a hollow shell of {volume:.4g} m^3. "
+            f"Set fill = false to accept a shell, or close the model")
 
 
 def _check_fill_arguments(points: np.ndarray, h: float, name: str, if_open: str) -> None:
