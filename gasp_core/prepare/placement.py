@@ -164,14 +164,16 @@ def prepare_object(spec: ObjectSpec, g: Gaussians | None = None) -> PreparedObje
     g = load_gaussians(spec) if g is None else g
     check_object(spec, g)
     # floaters of a whole object are found in the file frame (the rule is scale and rotation free), so that
-    # recentring ignores them; a selection's among its rows, after placing the whole file
+    # recentring ignores them; a selection is the user's choice of what moves and is kept as it is
     floating = None if spec.select is not None or spec.keep_floaters or spec.static else \
         find_floaters(g.means, g.scales.max(axis=1))
     pl = place(g, spec, floating)  # from the whole file: a selection moves, the background stays put
     # flattened and triangulated once, the whole file; a selection takes its rows of the result
     scales_flat, rot_flat, means_w, tri, report = flat_world(g, pl)
     moving, static_tri = moving_rows(spec, g, pl, tri)
-    moving, static_tri, n_floaters = drop_floaters(spec, g, pl, tri, moving, static_tri, floating)
+    n_floaters = 0
+    if floating is not None:            # a whole object: moving_rows gave (None, empty)
+        moving, static_tri, n_floaters = drop_floaters(spec, g, tri, floating)
     sim = g
     if moving is not None:
         sim = g.subset(moving)
@@ -185,25 +187,17 @@ def prepare_object(spec: ObjectSpec, g: Gaussians | None = None) -> PreparedObje
                           moving=moving, static_tri=static_tri, n_floaters=n_floaters)
 
 
-def drop_floaters(spec: ObjectSpec, g: Gaussians, pl: Placement, tri: np.ndarray, moving, static_tri,
-                  floating: np.ndarray | None = None):
-    """``moving`` and ``static_tri`` without the floaters (:func:`gasp_core.maps.floaters.find_floaters`)
-    among the moving rows (``floating``: already found, one per moving row), and their count; warns once
-    naming the count (unless ``keep_floaters``)."""
-    rows = np.arange(g.n) if moving is None else moving
-    if spec.keep_floaters or spec.static or len(rows) == 0:
-        return moving, static_tri, 0
-    if floating is None:
-        floating = find_floaters(tri[rows, 0], pl.scale * g.scales[rows].max(axis=1))
-    if not floating.any():
-        return moving, static_tri, 0
+def drop_floaters(spec: ObjectSpec, g: Gaussians, tri: np.ndarray, floating: np.ndarray | None):
+    """Moving rows and the static rows' triangles when the floaters ``floating`` (bool, one per row of the
+    file, :func:`gasp_core.maps.floaters.find_floaters`) stay static, and their count; warns once naming
+    the count. ``(None, empty, 0)`` when there are none."""
+    if floating is None or not floating.any():
+        return None, np.zeros((0, 3, 3)), 0
     k = int(floating.sum())
     warnings.warn(f"object '{Path(spec.file).stem}': {k} floater(s) (Gaussians detached from the object) left "
                   f"out of the domain and the physics, written unchanged in every frame; keep_floaters = true "
                   f"simulates them", stacklevel=3)
-    still = np.ones(g.n, bool)
-    still[rows[~floating]] = False
-    return rows[~floating], tri[still], k
+    return np.flatnonzero(~floating), tri[floating], k
 
 
 def simulated_triangles(o: PreparedObject) -> np.ndarray:

@@ -122,9 +122,9 @@ class ObjectSpec:
         The part of the file that moves (``select = { box = {...} }``, see :class:`SelectSpec`);
         the rest is static background, written unchanged in every frame. None: all of it moves.
     keep_floaters : bool
-        False (default): Gaussians detached from the object (:mod:`gasp_core.maps.floaters`) are left out
-        of the domain and the physics and written unchanged in every frame, with a warning giving their
-        count. True: they are simulated with the rest.
+        False (default): Gaussians detached from a whole object (:mod:`gasp_core.maps.floaters`; not in a
+        ``select``ion) are left out of the domain and the physics and written unchanged in every frame,
+        with a warning giving their count. True: they are simulated with the rest.
     static : bool
         The whole object is static: never simulated, written unchanged in every frame (scenery,
         and a collider where a ``[[collider]]`` names it). A static object takes no ``material``,
