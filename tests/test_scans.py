@@ -264,9 +264,10 @@ def test_coarse_grid_warns_with_the_n_grid_that_gives_8_cells():
     assert check_resolution("ball", np.array([0.1, 0.1, 0.1]), 0.0125, 32, solid) == []
     sheet = FillReport("flag", 1e-5, 0, 0.01, 0.001, "shell-open", False, 0)
     assert check_resolution("flag", np.array([0.3, 0.2, 1e-4]), 0.01, 64, sheet) == []   # a sheet: its width
-    thin = dataclasses.replace(solid, thin_share=0.2, thin_h=0.002, h=0.005)
+    thin = dataclasses.replace(solid, thin_share=0.2, thin_h=0.002, h=0.005, thin_box=[[0.0, 0.0, 0.0], [0.1, 0.0, 0.01]])
     msgs = check_resolution("cow", np.array([0.3, 0.3, 0.3]), 0.01, 64, thin)
     assert len(msgs) == 1 and "thin parts (20% of its solid" in msgs[0] and "n_grid = 160 fills them" in msgs[0]
+    assert "within [0.0, 0.0, 0.0] to [0.1, 0.0, 0.01] m" in msgs[0]
 
 
 def orbit_cameras(up, n=24):

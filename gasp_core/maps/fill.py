@@ -64,10 +64,12 @@ class FillReport:
     bbox_share : float
         Inside cells over the cells of their bounding box (the solid's share of its bounding volume).
     thin_share : float
-        Share of the occupancy solid lying in parts no fill cell of spacing ``h`` covers (thinner than
+        Share of the occupancy solid farther than ``h`` from every inside fill cell (parts thinner than
         about two cells): they stay shells, their surface points carry their mass.
     thin_h : float
         Fill spacing (metres) that would fill those parts (half their largest thickness); 0 when none.
+    thin_box : list
+        Their bounding box ``[lo, hi]``, metres (world frame); empty when none.
     """
 
     name: str
@@ -85,6 +87,7 @@ class FillReport:
     bbox_share: float = 0.0
     thin_share: float = 0.0
     thin_h: float = 0.0
+    thin_box: list = field(default_factory=list)
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -176,7 +179,7 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
         splats = np.repeat(points[:, None], 3, axis=1)
     lo, shape = _fill_grid(points, splats, h, name)
     phi, vlo, voxel_used, r, enclosed, confidence, sealed = (None, lo, 0.0, 0, [], 0.0, 0.0)
-    thin = (0.0, 0.0)
+    thin = (0.0, 0.0, [])
     if fill:
         phi, vlo, voxel_used, r, enclosed, confidence, sealed = solid_field(splats, max_dilation, voxel)
     if phi is not None:
@@ -203,7 +206,7 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
     report = FillReport(name=name, volume=volume, n_fill=len(fill_x), h=float(h), voxel=float(voxel_used),
                         method=method, closed=closed, dilation=int(r), enclosed=enclosed, warning=warning,
                         confidence=round(confidence, 4), sealed=round(sealed, 4), bbox_share=len(cells) * h ** 3 / box if box > 0 else 0.0,
-                        thin_share=thin[0], thin_h=thin[1])
+                        thin_share=thin[0], thin_h=thin[1], thin_box=thin[2])
     return FillResult(fill_x, p_vol_surface, p_vol_fill, float(h), volume, report)
 
 
@@ -258,8 +261,10 @@ def _inside_cells(phi: np.ndarray, vlo: np.ndarray, voxel: float, lo: np.ndarray
 
 
 def thin_parts(phi: np.ndarray, vlo: np.ndarray, voxel: float, inside: np.ndarray, lo: np.ndarray,
-               h: float) -> tuple[float, float]:
-    """The parts of the occupancy solid (``phi > 0``) that no inside fill cell of spacing ``h`` covers.
+               h: float) -> tuple[float, float, list]:
+    """The parts of the occupancy solid (``phi > 0``) farther than ``h`` from every inside fill cell (spacing
+    ``h``): thinner than about two cells, so no cell centre falls in them (the band under the surface that
+    any cell grid leaves is within ``h`` and does not count).
 
     Returns
     -------
@@ -268,20 +273,27 @@ def thin_parts(phi: np.ndarray, vlo: np.ndarray, voxel: float, inside: np.ndarra
     h_fill : float
         Half the thickness of the thickest of them, metres (a spacing that puts two cells across it);
         0 when none.
+    box : list
+        Their bounding box ``[lo, hi]`` (two lists of 3 floats, metres); empty when none.
     """
     solid = phi > 0
     n = int(solid.sum())
     if n == 0:
-        return 0.0, 0.0
+        return 0.0, 0.0, []
     idx = np.argwhere(solid)
     cell = np.floor((vlo + (idx + 0.5) * voxel - lo) / h).astype(np.int64)
     ok = ((cell >= 0) & (cell < np.array(inside.shape))).all(axis=1)
-    covered = np.zeros(len(idx), bool)
-    covered[ok] = inside[tuple(cell[ok].T)]
-    if covered.all():
-        return 0.0, 0.0
-    depth = ndimage.distance_transform_edt(solid)[tuple(idx[~covered].T)]
-    return float((~covered).sum() / n), float(depth.max() * voxel)
+    covered = np.zeros(solid.shape, bool)
+    covered[tuple(idx[ok][inside[tuple(cell[ok].T)]].T)] = True
+    if covered.any():
+        far = solid & (ndimage.distance_transform_edt(~covered) * voxel > h)
+    else:
+        far = solid
+    if not far.any():
+        return 0.0, 0.0, []
+    depth = ndimage.distance_transform_edt(solid)[far]
+    at = vlo + (np.argwhere(far) + 0.5) * voxel
+    return float(far.sum() / n), float(depth.max() * voxel), [at.min(axis=0).tolist(), at.max(axis=0).tolist()]
 
 
 def _cells_or_own(points: np.ndarray, cells: np.ndarray, lo: np.ndarray, shape, h: float) -> np.ndarray:

@@ -96,7 +96,9 @@ def check_resolution(name: str, extent: np.ndarray, dx: float, n_grid: int, repo
                    f"({span:.3g} m, dx = {dx:.3g} m); n_grid = {math.ceil(n_grid * MIN_CELLS * dx / span)} "
                    f"gives {MIN_CELLS}")
     if solid and report.thin_share > THIN_WARN_SHARE and report.thin_h > 0:
+        lo, hi = (np.round(b, 3).tolist() for b in report.thin_box)
         out.append(f"object '{name}': thin parts ({report.thin_share:.0%} of its solid, up to "
-                   f"{2 * report.thin_h:.3g} m thick) span under two fill cells of {report.h:.3g} m and stay "
-                   f"shells; n_grid = {math.ceil(n_grid * report.h / report.thin_h)} fills them")
+                   f"{2 * report.thin_h:.3g} m thick, within {lo} to {hi} m) span under two fill cells of "
+                   f"{report.h:.3g} m and stay shells; n_grid = {math.ceil(n_grid * report.h / report.thin_h)} "
+                   f"fills them")
     return out
