@@ -26,7 +26,7 @@ from test_freefall_e2e import sphere_of_flat_gaussians
 T = 1.0 / 30.0
 
 
-def scene(tmp_path, ply, n_grid=16, z=0.5, extra="", domain=""):
+def scene(tmp_path, ply, n_grid=16, z=0.5, extra="", domain="", up="+z"):
     p = tmp_path / "scene.toml"
     p.write_text(f"""
 frame_dt = {T!r}
@@ -43,7 +43,7 @@ height = 0.0
 friction = 0.5
 [[object]]
 file = "{ply}"
-up_axis = "+z"
+up_axis = "{up}"
 position = [0.0, 0.0, {z}]
 {extra}
 [object.material]
@@ -124,10 +124,8 @@ def test_guitar_with_inf_opacities_reads_and_keeps_them(tmp_path):
 def test_guitar_with_inf_opacities_simulates_and_frames_keep_them(tmp_path):
     """Every 8th splat of the real guitar plus its 667 +inf ones, -y up, scaled to 1 m; frames keep +inf."""
     ply, _ = guitar_with_inf_opacities(tmp_path, every=8)
-    sc = scene(tmp_path, ply, extra='scale = 0.23\nup_axis = "-y"'.replace('up_axis = "+z"\n', ''), z=0.02)
-    sc = dataclasses.replace(sc, objects=[dataclasses.replace(sc.objects[0], up_axis="-y", scale=0.23)])
     out = tmp_path / "out"
-    simulate_scene(sc, out)
+    simulate_scene(scene(tmp_path, ply, extra="scale = 0.23", z=0.02, up="-y"), out)
     src = read_gaussians(ply)
     f1 = read_gaussians(out / "guitar_inf" / "frame_0001.ply")
     assert np.array_equal(np.isposinf(f1.opacities), np.isposinf(src.opacities))

@@ -225,16 +225,22 @@ def solid_field(splats: np.ndarray, max_dilation: int = 4, voxel: float | None =
     lo, shape = padded_grid(pts.min(axis=0) - reach, pts.max(axis=0) + reach, voxel, max_dilation + 3)
     shell = rasterize(splats, lo, shape, voxel)
     closed_shell = shell
-    enclosed, solids, sealed = [], [], []
+    enclosed, solids, sealed, solid_at = [], [], [], {}
+
+    def is_solid(i: int) -> bool:       # computed once per radius
+        if i not in solid_at:
+            solid_at[i] = _is_solid(~solids[i])
+        return solid_at[i]
+
     for r in range(1, max_dilation + 2):
         closed_shell = ndimage.binary_dilation(closed_shell, _BALL)
         ext, share = _exterior(closed_shell, r)
         solids.append(ext)
         sealed.append(share)
         enclosed.append(float((~ext).sum()) * voxel ** 3)
-        if r >= 2 and enclosed[-1] <= enclosed[-2] * (1.0 + STABLE_TOL) and _is_solid(~solids[-2]):
+        if r >= 2 and enclosed[-1] <= enclosed[-2] * (1.0 + STABLE_TOL) and is_solid(r - 2):
             break
-    chosen, growth = _choose_radius(enclosed, solids)
+    chosen, growth = _choose_radius(enclosed, is_solid)
     if not chosen:
         return None, lo, voxel, 0, enclosed, 0.0, 0.0
     ext = solids[chosen - 1]
@@ -253,8 +259,9 @@ def _is_solid(solid: np.ndarray) -> bool:
     return deep > DEEP_SHARE * solid.sum()
 
 
-def _choose_radius(enclosed: list, solids: list) -> tuple[int, float]:
-    """Closing radius (1-based; 0: open) and the enclosed volume's relative growth from it to the next.
+def _choose_radius(enclosed: list, is_solid) -> tuple[int, float]:
+    """Closing radius (1-based; 0: open) and the enclosed volume's relative growth from it to the next;
+    ``is_solid(i)`` tells whether the enclosure at radius ``i + 1`` is a solid (:func:`_is_solid`).
 
     The first radius whose growth is under ``STABLE_TOL`` and whose enclosure is a solid; failing that the
     solid one of least growth, if under ``LOOSE_TOL`` (a capture whose closing keeps sealing small
@@ -262,10 +269,10 @@ def _choose_radius(enclosed: list, solids: list) -> tuple[int, float]:
     """
     growth = [b / a - 1.0 if a > 0 else np.inf for a, b in zip(enclosed[:-1], enclosed[1:])]
     for i, g in enumerate(growth):
-        if g <= STABLE_TOL and _is_solid(~solids[i]):
+        if g <= STABLE_TOL and is_solid(i):
             return i + 1, g
     for i in np.argsort(growth):
-        if growth[i] < LOOSE_TOL and _is_solid(~solids[i]):
+        if growth[i] < LOOSE_TOL and is_solid(int(i)):
             return int(i) + 1, float(growth[i])
     return 0, np.inf
 
