@@ -58,7 +58,8 @@ def _read(tmp_path: Path, raw: bytes):
             assert str(e).startswith(str(path)) and "\n" not in str(e)
             return None
     assert isinstance(g, Gaussians)
-    assert np.isfinite(g.means).all() and np.isfinite(g.scales).all() and np.isfinite(g.opacities).all()
+    # an opacity logit of +-inf is alpha 1 or 0 (issue 19: splat-transform writes +inf); NaN is refused
+    assert np.isfinite(g.means).all() and np.isfinite(g.scales).all() and not np.isnan(g.opacities).any()
     assert np.isfinite(g.sh_dc).all() and np.isfinite(g.sh_rest).all()
     return g
 

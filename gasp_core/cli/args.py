@@ -7,6 +7,7 @@ makes a bad argument read like every other bad input.
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 from typing import NoReturn
 
@@ -26,6 +27,40 @@ def positive_int(text: str) -> int:
     if value < 1:
         raise argparse.ArgumentTypeError(f"expected a positive integer (>= 1), got {text!r}")
     return value
+
+
+def positive_float(text: str) -> float:
+    """argparse type: a finite number > 0 (``--rho``).
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        For 0, a negative or non-finite number, or text that is not a number; the message quotes it.
+    """
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}") from None
+    if not 0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"expected a positive finite number, got {text!r}")
+    return value
+
+
+_UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
+
+
+def length(text: str) -> float:
+    """argparse type: a length in metres from ``"1.7m"``, ``"170cm"``, ``"1700mm"`` or ``"1.7"`` (metres).
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        Text that is not a positive number with an optional unit m, cm or mm; the message quotes it.
+    """
+    m = re.fullmatch(r"\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*(m|cm|mm)?\s*", text)
+    if not m or not float(m.group(1)) > 0:
+        raise argparse.ArgumentTypeError(f"expected a positive length such as 1.7m, 170cm or 1700mm, got {text!r}")
+    return float(m.group(1)) * _UNITS[m.group(2) or "m"]
 
 
 class GaspArgumentParser(argparse.ArgumentParser):

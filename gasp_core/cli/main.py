@@ -17,7 +17,7 @@ from pathlib import Path
 
 import warnings
 
-from gasp_core.cli.args import GaspArgumentParser, positive_int
+from gasp_core.cli.args import GaspArgumentParser, length, positive_float, positive_int
 from gasp_core.errors import EngineBug, EngineDivergence, GaspError
 from gasp_core.run import stop
 
@@ -111,13 +111,15 @@ def _cmd_plugins(args) -> int:
 
 
 def _cmd_info(args) -> int:
-    from gasp_core.gs.describe import describe
-    d = describe(args.file)
+    from gasp_core.cli.info import info
+    with warnings.catch_warnings():          # the fill's and the floaters' warnings are reported as fields
+        warnings.simplefilter("ignore")
+        d = info(args.file, size=args.size, rho=args.rho, n_grid=args.n_grid)
     if args.json:
         print(json.dumps(d, indent=2, default=str))
         return 0
     for k, v in d.items():
-        print(f"{k:>14}: {v}")
+        print(f"{k:>18}: {v}")
     return 0
 
 
@@ -197,8 +199,12 @@ def build_parser() -> argparse.ArgumentParser:
     pl.set_defaults(func=_cmd_plugins)
 
     i = sub.add_parser("info", help="describe a Gaussian Splatting file")
-    i.add_argument("file", type=Path, help="a Gaussian Splatting file (graphdeco PLY, compressed PLY, .splatv)")
+    i.add_argument("file", type=Path, help="a Gaussian Splatting file (graphdeco PLY, compressed PLY, .splatv, .spz, .sog, .splat, .ksplat)")
     i.add_argument("--json", action="store_true", help="print JSON instead of text")
+    i.add_argument("--size", type=length, help="the object's real height along its up axis (1.7m, 170cm): "
+                                               "prints the scale that gives it")
+    i.add_argument("--rho", type=positive_float, help="density, kg/m^3: prints the filled solid's mass")
+    i.add_argument("--n-grid", type=positive_int, default=64, help="grid of the fill reported (default 64)")
     i.set_defaults(func=_cmd_info)
 
     _add_study_parsers(sub)

@@ -114,7 +114,7 @@ def collider_from_splats(splats: np.ndarray, h: float, name: str = "collider", *
         raise SceneError(f"collider '{name}': no opaque Gaussians to collide with")
     pts = splats.reshape(-1, 3)
     origin, shape = _grid_around(pts.min(axis=0), pts.max(axis=0), h, name)
-    inside_field, field_lo, voxel, _, _ = solid_field(splats)
+    inside_field, field_lo, voxel = solid_field(splats)[:3]
     ii = np.stack(np.meshgrid(*[np.arange(s) for s in shape], indexing="ij"), axis=-1).reshape(-1, 3)
     samples = origin + ii * h
     if inside_field is not None:

@@ -198,7 +198,8 @@ class Gaussians:
     SceneError
         From the constructor, if a shape is wrong, a mean or rotation is not finite, a quaternion
         has zero norm, a scale is negative or not finite, a mean or scale exceeds
-        :data:`MAX_MAGNITUDE`, or an opacity or SH coefficient is not finite; the message names
+        :data:`MAX_MAGNITUDE`, an opacity is NaN (+-inf logits are alpha 1 and 0) or an SH
+        coefficient is not finite; the message names
         ``source``, the field and the first bad index.
     """
 
@@ -265,8 +266,8 @@ class Gaussians:
                 i = _first_bad_row(bad)
                 fail(f"field '{name}': {getattr(self, name)[i].tolist()} at index {i}; expected magnitudes "
                      f"<= {limit:g} (float32 headroom)")
-        for name in ("opacities", "sh_dc", "sh_rest"):
-            bad = ~np.isfinite(getattr(self, name))
+        for name in ("opacities", "sh_dc", "sh_rest"):  # an opacity logit of +-inf is alpha 1 or 0
+            bad = np.isnan(self.opacities) if name == "opacities" else ~np.isfinite(getattr(self, name))
             if bad.any():
                 fail(f"field '{name}': non-finite value at index {_first_bad_row(bad)}")
         off = np.abs(norm - 1.0) > 1e-12  # leave unit rows untouched so copies stay equal

@@ -162,7 +162,7 @@ def _checked_values(path: Path, vertex: np.ndarray, scale_names: list[str],
                     rest_names: list[str]) -> tuple[np.ndarray, np.ndarray]:
     """Means (n, 3) float64 and unit quaternions (n, 4) wxyz of a vertex element, after refusing
     (:class:`SceneError`) a non-finite or too distant position, a log-scale above ``log(MAX_MAGNITUDE)``,
-    a non-finite colour or opacity, and a zero or non-finite quaternion."""
+    a non-finite colour, a NaN opacity (+-inf are alpha 1 and 0), and a zero or non-finite quaternion."""
     means = stack_columns(vertex, ("x", "y", "z"))
     bad = ~np.isfinite(means).all(axis=1)
     if bad.any():
@@ -171,7 +171,10 @@ def _checked_values(path: Path, vertex: np.ndarray, scale_names: list[str],
     # log scales: exp must stay <= MAX_MAGNITUDE; -inf is a zero scale (write_gaussians writes those)
     check_columns(path, vertex, scale_names, hi=math.log(MAX_MAGNITUDE), allow_neg_inf=True,
                   expected=f"a log-scale <= {math.log(MAX_MAGNITUDE):.2f} (scale <= {MAX_MAGNITUDE:g})")
-    check_columns(path, vertex, ["opacity", "f_dc_0", "f_dc_1", "f_dc_2", *rest_names])
+    # opacity logits +-inf are the limits alpha = 1 and 0 (PlayCanvas splat-transform writes +inf for alpha 255)
+    check_columns(path, vertex, ["opacity"], allow_neg_inf=True, allow_pos_inf=True,
+                  expected="a finite opacity logit or +-inf (alpha 1 or 0)")
+    check_columns(path, vertex, ["f_dc_0", "f_dc_1", "f_dc_2", *rest_names])
     q = stack_columns(vertex, ("rot_0", "rot_1", "rot_2", "rot_3"))
     norm = np.linalg.norm(q, axis=1)
     bad = ~(np.isfinite(norm) & (norm > 1e-12))

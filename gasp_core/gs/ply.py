@@ -61,8 +61,9 @@ def check_is_file(path: Path, what: str) -> None:
 
 
 def check_columns(path, data: np.ndarray, names, element: str = "vertex", lo: float = -np.inf,
-                  hi: float = np.inf, allow_neg_inf: bool = False, expected: str | None = None) -> None:
-    """Every value of the named columns finite (or -inf if allowed) and in ``[lo, hi]``.
+                  hi: float = np.inf, allow_neg_inf: bool = False, expected: str | None = None,
+                  allow_pos_inf: bool = False) -> None:
+    """Every value of the named columns finite (or -inf / +inf if allowed) and in ``[lo, hi]``; NaN never.
 
     Raises SceneError naming the file, the property, the value and the first bad row.
     """
@@ -75,6 +76,8 @@ def check_columns(path, data: np.ndarray, names, element: str = "vertex", lo: fl
         ok = np.isfinite(col) & (col >= lo) & (col <= hi)
         if allow_neg_inf:
             ok |= np.isneginf(col)
+        if allow_pos_inf:
+            ok |= np.isposinf(col)
         if not ok.all():
             i = int(np.flatnonzero(~ok)[0])
             rng = "a finite number" if (lo, hi) == (-np.inf, np.inf) else f"a finite number in [{lo:g}, {hi:g}]"

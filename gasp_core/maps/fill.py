@@ -55,6 +55,21 @@ class FillReport:
         Enclosed volume (m^3, occupancy grid) at each tried closing radius ``1, 2, ...``.
     warning : str
         Empty, or a sentence naming the object when it is open.
+    confidence : float
+        Inside test's confidence, 0..1: how little the enclosed volume depends on the closing radius
+        (:func:`gasp_core.maps.occupancy.solid_field`); 0 when open.
+    sealed : float
+        Share of the enclosure sealed on all six sides; low (under
+        :data:`gasp_core.maps.occupancy.OPEN_BASE`) where an unseen base was forgiven.
+    bbox_share : float
+        Inside cells over the cells of their bounding box (the solid's share of its bounding volume).
+    thin_share : float
+        Share of the occupancy solid farther than ``h`` from every inside fill cell (parts thinner than
+        about two cells): they stay shells, their surface points carry their mass.
+    thin_h : float
+        Fill spacing (metres) that would fill those parts (half their largest thickness); 0 when none.
+    thin_box : list
+        Their bounding box ``[lo, hi]``, metres (world frame); empty when none.
     """
 
     name: str
@@ -67,6 +82,12 @@ class FillReport:
     dilation: int
     enclosed: list = field(default_factory=list)
     warning: str = ""
+    confidence: float = 0.0
+    sealed: float = 0.0
+    bbox_share: float = 0.0
+    thin_share: float = 0.0
+    thin_h: float = 0.0
+    thin_box: list = field(default_factory=list)
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -157,20 +178,19 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
     if len(splats) == 0:
         splats = np.repeat(points[:, None], 3, axis=1)
     lo, shape = _fill_grid(points, splats, h, name)
-    phi, vlo, voxel_used, r, enclosed = (None, lo, 0.0, 0, [])
+    phi, vlo, voxel_used, r, enclosed, confidence, sealed = (None, lo, 0.0, 0, [], 0.0, 0.0)
+    thin = (0.0, 0.0, [])
     if fill:
-        phi, vlo, voxel_used, r, enclosed = solid_field(splats, max_dilation, voxel)
+        phi, vlo, voxel_used, r, enclosed, confidence, sealed = solid_field(splats, max_dilation, voxel)
     if phi is not None:
         inside = _inside_cells(phi, vlo, voxel_used, lo, shape, h)
+        thin = thin_parts(phi, vlo, voxel_used, inside, lo, h)
         method, closed, warning = "flood", True, ""
     else:
         inside = rasterize(splats, lo, shape, h)
         closed = False
         method = "shell" if not fill else "shell-open"
-        warning = "" if not fill else (
-            f"object '{name}': its Gaussians enclose no volume (open, or gaps wider than the largest "
-            f"closing, {max_dilation} voxels of {voxel_used * 1e3:.3g} mm); simulated as a hollow shell "
-            f"of {float(inside.sum()) * h ** 3:.4g} m^3. Set fill = false to accept a shell, or close the model")
+        warning = "" if not fill else _open_warning(name, max_dilation, voxel_used, float(inside.sum()) * h ** 3)
         if fill and if_open == "error":
             raise SceneError(warning.replace("; simulated as a hollow shell", "; refusing to simulate a hollow shell"))
     cells = np.argwhere(inside)
@@ -182,9 +202,19 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
         fill_x = _cell_centres(_cells_or_own(points, cells, lo, shape, h), lo, h)
         p_vol_surface, p_vol_fill = np.zeros(len(points)), np.full(len(fill_x), h ** 3)
         volume = float(p_vol_fill.sum())
+    box = float(np.prod(np.ptp(cells, axis=0) + 1)) * h ** 3 if len(cells) else 0.0
     report = FillReport(name=name, volume=volume, n_fill=len(fill_x), h=float(h), voxel=float(voxel_used),
-                        method=method, closed=closed, dilation=int(r), enclosed=enclosed, warning=warning)
+                        method=method, closed=closed, dilation=int(r), enclosed=enclosed, warning=warning,
+                        confidence=round(confidence, 4), sealed=round(sealed, 4), bbox_share=len(cells) * h ** 3 / box if box > 0 else 0.0,
+                        thin_share=thin[0], thin_h=thin[1], thin_box=thin[2])
     return FillResult(fill_x, p_vol_surface, p_vol_fill, float(h), volume, report)
+
+
+def _open_warning(name: str, max_dilation: int, voxel: float, volume: float) -> str:
+    """The warning for an object whose footprints enclose no volume (simulated as a shell of ``volume`` m^3)."""
+    return (f"object '{name}': its Gaussians enclose no volume (open, or gaps wider than the largest closing, "
+            f"{max_dilation} voxels of {voxel * 1e3:.3g} mm); simulated as a hollow shell of {volume:.4g} m^3. "
+            f"Set fill = false to accept a shell, or close the model")
 
 
 def _check_fill_arguments(points: np.ndarray, h: float, name: str, if_open: str) -> None:
@@ -228,6 +258,42 @@ def _inside_cells(phi: np.ndarray, vlo: np.ndarray, voxel: float, lo: np.ndarray
         cx = np.full(cy.shape, (lo[0] + (i + 0.5) * h - vlo[0]) / voxel - 0.5)
         inside[i] = ndimage.map_coordinates(phi, [cx, cy, cz], order=1, mode="constant", cval=-1.0) > 0
     return inside
+
+
+def thin_parts(phi: np.ndarray, vlo: np.ndarray, voxel: float, inside: np.ndarray, lo: np.ndarray,
+               h: float) -> tuple[float, float, list]:
+    """The parts of the occupancy solid (``phi > 0``) farther than ``h`` from every inside fill cell (spacing
+    ``h``): thinner than about two cells, so no cell centre falls in them (the band under the surface that
+    any cell grid leaves is within ``h`` and does not count).
+
+    Returns
+    -------
+    share : float
+        Their share of the solid's voxels (0 when none).
+    h_fill : float
+        Half the thickness of the thickest of them, metres (a spacing that puts two cells across it);
+        0 when none.
+    box : list
+        Their bounding box ``[lo, hi]`` (two lists of 3 floats, metres); empty when none.
+    """
+    solid = phi > 0
+    n = int(solid.sum())
+    if n == 0:
+        return 0.0, 0.0, []
+    idx = np.argwhere(solid)
+    cell = np.floor((vlo + (idx + 0.5) * voxel - lo) / h).astype(np.int64)
+    ok = ((cell >= 0) & (cell < np.array(inside.shape))).all(axis=1)
+    covered = np.zeros(solid.shape, bool)
+    covered[tuple(idx[ok][inside[tuple(cell[ok].T)]].T)] = True
+    if covered.any():
+        far = solid & (ndimage.distance_transform_edt(~covered) * voxel > h)
+    else:
+        far = solid
+    if not far.any():
+        return 0.0, 0.0, []
+    depth = ndimage.distance_transform_edt(solid)[far]
+    at = vlo + (np.argwhere(far) + 0.5) * voxel
+    return float(far.sum() / n), float(depth.max() * voxel), [at.min(axis=0).tolist(), at.max(axis=0).tolist()]
 
 
 def _cells_or_own(points: np.ndarray, cells: np.ndarray, lo: np.ndarray, shape, h: float) -> np.ndarray:

@@ -9,6 +9,8 @@ from scipy.special import expit
 from gasp_core.errors import SceneError
 from gasp_core.seam.setup import SimSetup, grid_spacing
 from gasp_core.maps.fill import fill_interior, fill_spacing
+from gasp_core.maps.occupancy import SPLAT_SIGMA
+from gasp_core.prepare.checks import check_resolution
 from gasp_core.prepare.placement import PreparedObject, simulated_triangles
 from gasp_core.prepare.surface import surface_rule
 from gasp_core.scene.spec import Scene
@@ -66,6 +68,16 @@ def default_domain(scene: Scene, points: np.ndarray) -> tuple[np.ndarray, np.nda
     return dlo, dlo + side
 
 
+def footprints(o: PreparedObject) -> np.ndarray:
+    """Points the object's simulated points can reach: its triangle vertices and the ends of its opaque
+    splats' footprint axes (``SPLAT_SIGMA`` standard deviations, where a shell's fill points may lie), metres,
+    shape (k, 3)."""
+    tri = o.tri_rest[expit(o.simulated_rows(o.gaussians.opacities).astype(np.float64)) >= o.spec.min_opacity]
+    axes = SPLAT_SIGMA * (tri[:, 1:] - tri[:, :1])
+    return np.concatenate([o.tri_rest.reshape(-1, 3), (tri[:, :1] + axes).reshape(-1, 3),
+                           (tri[:, :1] - axes).reshape(-1, 3)])
+
+
 def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
     """Assemble the engine's point set: all objects' triangle vertices, then their fill points.
 
@@ -79,7 +91,7 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
     """
     scenery, objects = objects, [o for o in objects if not o.spec.static]
     vertices = [simulated_triangles(o).reshape(-1, 3) for o in objects]
-    lo, hi = default_domain(scene, np.concatenate([o.tri_rest.reshape(-1, 3) for o in objects]))
+    lo, hi = default_domain(scene, np.concatenate([footprints(o) for o in objects]))
     n_grid = scene.domain.n_grid
     dx = grid_spacing(lo, hi, n_grid)
     xs, vols, bodies, vels, fills, passives = [], [], [], [], [], []
@@ -98,8 +110,10 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
                 fr = fill_interior(verts, h, splats=o.tri_rest[opaque], fill=o.spec.fill, name=o.name,
                                    if_open=o.spec.if_open, surface_mass=True)
         o.fill_report = fr.report
-        if fr.report.warning:
-            warnings.warn(fr.report.warning, stacklevel=2)
+        reach = footprints(o)
+        for msg in [fr.report.warning] + check_resolution(o.name, np.ptp(reach, axis=0), dx, n_grid, fr.report):
+            if msg:
+                warnings.warn(msg, stacklevel=2)
         o.vertex_slice = slice(start, start + len(verts))
         start += len(verts)
         xs.append(verts)

@@ -1,6 +1,8 @@
-"""Checks of an object's Gaussians against its placement, before any work (the values in the scene file
-itself are checked by :mod:`gasp_core.scene`)."""
+"""Checks of an object's Gaussians against its placement, before any work, and of the grid against the
+object (the values in the scene file itself are checked by :mod:`gasp_core.scene`)."""
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -45,3 +47,58 @@ def check_object(spec: ObjectSpec, g) -> None:
         k = int(np.argmax(g.scales.max(axis=1)))
         raise SceneError(f"{f}: Gaussian {k} has a scale of {s_max:.3g} m after scale = {spec.scale:g}; "
                          f"expected at most {MAX_COORD:g} m")
+
+
+#: Fewest grid cells across an object's smallest axis before a warning (below it contact and bending are
+#: resolved by a handful of cells).
+MIN_CELLS = 8
+#: Share of an object's occupancy solid left unfilled (thinner than two fill cells) before a warning.
+THIN_WARN_SHARE = 0.05
+
+
+def check_resolution(name: str, extent: np.ndarray, dx: float, n_grid: int, report) -> list[str]:
+    """Warnings about how well the grid resolves one simulated object; an error when it cannot.
+
+    Parameters
+    ----------
+    name : str
+        Object name.
+    extent : ndarray, shape (3,)
+        The object's simulated footprint extent, metres.
+    dx : float
+        Grid spacing, metres.
+    n_grid : int
+        Cells along the domain's longest side.
+    report : FillReport or None
+        Its fill (a solid is measured on its smallest axis, a shell on its second largest: a sheet's width).
+
+    Returns
+    -------
+    list of str
+        Warnings (empty when fine): fewer than :data:`MIN_CELLS` cells across, naming the ``n_grid`` that
+        gives that many; thin parts that stay shells, naming the ``n_grid`` that fills them.
+
+    Raises
+    ------
+    SceneError
+        A grid cell larger than the object's largest extent.
+    """
+    ext = np.sort(np.asarray(extent, dtype=np.float64))
+    if not dx < ext[2]:
+        raise SceneError(f"object '{name}': grid cells of {dx:.3g} m are larger than the object ({ext[2]:.3g} m "
+                         f"across); raise [domain] n_grid to at least {math.ceil(n_grid * MIN_CELLS * dx / ext[2])} "
+                         f"or lower padding")
+    out = []
+    solid = report is not None and report.closed
+    span = ext[0] if solid else ext[1]
+    if span < MIN_CELLS * dx:
+        out.append(f"object '{name}': {span / dx:.1f} grid cells across its {'smallest' if solid else 'width'} "
+                   f"({span:.3g} m, dx = {dx:.3g} m); n_grid = {math.ceil(n_grid * MIN_CELLS * dx / span)} "
+                   f"gives {MIN_CELLS}")
+    if solid and report.thin_share > THIN_WARN_SHARE and report.thin_h > 0:
+        lo, hi = (np.round(b, 3).tolist() for b in report.thin_box)
+        out.append(f"object '{name}': thin parts ({report.thin_share:.0%} of its solid, up to "
+                   f"{2 * report.thin_h:.3g} m thick, within {lo} to {hi} m) span under two fill cells of "
+                   f"{report.h:.3g} m and stay shells; n_grid = {math.ceil(n_grid * report.h / report.thin_h)} "
+                   f"fills them")
+    return out

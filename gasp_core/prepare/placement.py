@@ -6,12 +6,14 @@ object's ``rotation`` after its up axis; the GaMeS map
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from gasp_core.maps.fill import FillReport
+from gasp_core.maps.floaters import find_floaters
 from gasp_core.maps.games import FlattenReport, flatten_report
 from gasp_core.gs.gaussians import Gaussians
 from gasp_core.maps.hierarchy import Hierarchy, build_hierarchy
@@ -89,6 +91,8 @@ class PreparedObject:
     static_tri : ndarray, shape (m, 3, 3)
         World-frame triangles of the rows that never move, metres (colliders:
         :func:`gasp_core.prepare.selection.static_splats`).
+    n_floaters : int
+        Floaters left out of the physics (static rows, :func:`drop_floaters`).
     """
 
     spec: ObjectSpec
@@ -107,23 +111,25 @@ class PreparedObject:
     moving: np.ndarray | None = None
     static_tri: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3)))
     surface_rule: dict | None = None
+    n_floaters: int = 0
 
     def simulated_rows(self, a: np.ndarray) -> np.ndarray:
         """The rows of a per-Gaussian array ``a`` (shape (n, ...)) that are simulated."""
         return a if self.moving is None else a[self.moving]
 
 
-def place(g: Gaussians, spec: ObjectSpec) -> Placement:
+def place(g: Gaussians, spec: ObjectSpec, floating: np.ndarray | None = None) -> Placement:
     """The file -> world transform of an object (up-axis, rotation, metres, position).
 
     ``R = euler_matrix(spec.rotation) @ UP_ROTATIONS[spec.up_axis]``. With ``recentre``, the bottom centre of the means' bounding box (world orientation) lands on
-    ``spec.position``; otherwise ``spec.position`` is a plain offset.
+    ``spec.position``; otherwise ``spec.position`` is a plain offset. ``floating`` (bool, shape (n,)) marks
+    floaters, which the bounding box leaves out.
     """
     R = UP_ROTATIONS[spec.up_axis]
     if any(getattr(spec, "rotation", (0.0, 0.0, 0.0))):
         R = euler_matrix(spec.rotation) @ R
     s = float(spec.scale)
-    x = s * g.means @ R.T
+    x = s * (g.means if floating is None else g.means[~floating]) @ R.T
     if spec.recentre:
         lo, hi = x.min(axis=0), x.max(axis=0)
         anchor = np.array([(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, lo[2]])
@@ -158,10 +164,17 @@ def prepare_object(spec: ObjectSpec, g: Gaussians | None = None) -> PreparedObje
     """
     g = load_gaussians(spec) if g is None else g
     check_object(spec, g)
-    pl = place(g, spec)  # from the whole file: a selection moves, the background stays put
+    # floaters of a whole object are found in the file frame (the rule is scale and rotation free), so that
+    # recentring ignores them; a selection is the user's choice of what moves and is kept as it is
+    floating = None if spec.select is not None or spec.keep_floaters or spec.static else \
+        find_floaters(g.means, g.scales.max(axis=1))
+    pl = place(g, spec, floating)  # from the whole file: a selection moves, the background stays put
     # flattened and triangulated once, the whole file; a selection takes its rows of the result
     scales_flat, rot_flat, means_w, tri, report = flat_world(g, pl)
     moving, static_tri = moving_rows(spec, g, pl, tri)
+    n_floaters = 0
+    if floating is not None:            # a whole object: moving_rows gave (None, empty)
+        moving, static_tri, n_floaters = drop_floaters(spec, g, tri, floating)
     sim = g
     if moving is not None:
         sim = g.subset(moving)
@@ -172,7 +185,20 @@ def prepare_object(spec: ObjectSpec, g: Gaussians | None = None) -> PreparedObje
     return PreparedObject(spec=spec, gaussians=g, placement=pl, rot_rest=rot_flat,
                           scales_rest=scales_flat, tri_rest=tri, thin_scale=sim.scales.min(axis=1),
                           flatten_report=report, hierarchy=hier, name=Path(spec.file).stem,
-                          moving=moving, static_tri=static_tri)
+                          moving=moving, static_tri=static_tri, n_floaters=n_floaters)
+
+
+def drop_floaters(spec: ObjectSpec, g: Gaussians, tri: np.ndarray, floating: np.ndarray | None):
+    """Moving rows and the static rows' triangles when the floaters ``floating`` (bool, one per row of the
+    file, :func:`gasp_core.maps.floaters.find_floaters`) stay static, and their count; warns once naming
+    the count. ``(None, empty, 0)`` when there are none."""
+    if floating is None or not floating.any():
+        return None, np.zeros((0, 3, 3)), 0
+    k = int(floating.sum())
+    warnings.warn(f"object '{Path(spec.file).stem}': {k} floater(s) (Gaussians detached from the object) left "
+                  f"out of the domain and the physics, written unchanged in every frame; keep_floaters = true "
+                  f"simulates them", stacklevel=3)
+    return np.flatnonzero(~floating), tri[floating], k
 
 
 def simulated_triangles(o: PreparedObject) -> np.ndarray:

@@ -297,10 +297,11 @@ def static_splats(prep) -> list[tuple[str, np.ndarray, np.ndarray]]:
 
 
 def selection_record(o: PreparedObject) -> dict:
-    """``run.json`` fields of one object: ``static``, ``select``, ``n_selected``, ``n_static``."""
+    """``run.json`` fields of one object: ``static``, ``select``, ``n_selected``, ``n_static`` (floaters included)
+    and ``n_floaters``."""
     n_sel = o.gaussians.n if o.moving is None else len(o.moving)
     return {"static": o.spec.static, "select": None if o.spec.select is None else o.spec.select.describe(),
-            "n_selected": n_sel, "n_static": o.gaussians.n - n_sel}
+            "n_selected": n_sel, "n_static": o.gaussians.n - n_sel, "n_floaters": o.n_floaters}
 
 
 def selection_totals(prep) -> dict:

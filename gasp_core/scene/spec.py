@@ -123,6 +123,10 @@ class ObjectSpec:
     select : SelectSpec or None
         The part of the file that moves (``select = { box = {...} }``, see :class:`SelectSpec`);
         the rest is static background, written unchanged in every frame. None: all of it moves.
+    keep_floaters : bool
+        False (default): Gaussians detached from a whole object (:mod:`gasp_core.maps.floaters`; not in a
+        ``select``ion) are left out of the domain and the physics and written unchanged in every frame,
+        with a warning giving their count. True: they are simulated with the rest.
     static : bool
         The whole object is static: never simulated, written unchanged in every frame (scenery,
         and a collider where a ``[[collider]]`` names it). A static object takes no ``material``,
@@ -150,6 +154,7 @@ class ObjectSpec:
     surface: str = "material"
     select: SelectSpec | None = None
     static: bool = False
+    keep_floaters: bool = False
 
 
 @dataclass
@@ -229,6 +234,7 @@ def _object(o: dict, where: str, src: Path) -> ObjectSpec:
         dynamic_time=_dynamic_time(o, f, where, src),
         select=read_select(o["select"], f"{where}.select", src) if "select" in o else None,
         static=read_static(o, where, src),
+        keep_floaters=as_boolean(o.get("keep_floaters", False), f"{where}.keep_floaters", src),
         rotation=as_vec3(o.get("rotation", [0.0, 0.0, 0.0]), f"{where}.rotation", src, max_abs=360.0, unit=" degrees"))
 
 
