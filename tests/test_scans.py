@@ -249,7 +249,8 @@ def test_cells_larger_than_the_object_are_an_error(tmp_path):
     from gasp_core.errors import SceneError
     ply = tmp_path / "ball.ply"
     write_gaussians(ply, sphere_of_flat_gaussians())
-    with pytest.raises(SceneError, match=r"object 'ball': grid cells of 0\.\d+ m are larger than the object.*n_grid"):
+    # refused by the first size check that sees it (prepare/assembly: fewer than 2 cells across)
+    with pytest.raises(SceneError, match=r"object 'ball' is 0\.1 m across, less than 2 grid cells \(dx = 0\.\d+ m.*n_grid"):
         simulate_scene(scene(tmp_path, ply, domain="padding = 10.0", z=0.06), tmp_path / "out")
 
 

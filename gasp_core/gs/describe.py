@@ -27,6 +27,9 @@ UP_MIN_RATIO = 2.0
 #: Support-plane test: thickness of the slab at each side's extreme, times the largest extent; the extreme
 #: itself is the 0.1 % quantile (floaters ignored).
 SUPPORT_SLAB = 0.02
+#: Smallest weighted share of the Gaussians a base must hold to be claimed: a real base holds 0.6-2 % (the
+#: guitar, the donut); a scene slice's extremes hold 0-0.02 % (train-1000, pc_short, spinach_4), noise.
+SUPPORT_MIN_SHARE = 1e-3
 
 
 def describe(path) -> dict[str, Any]:
@@ -167,7 +170,7 @@ def support_plane(g: Gaussians) -> tuple[str, float, dict]:
     Returns
     -------
     up : str
-        ``"+x"`` ... ``"-z"``, or ``"unknown"`` when no side holds any.
+        ``"+x"`` ... ``"-z"``, or ``"unknown"`` when no side holds :data:`SUPPORT_MIN_SHARE`.
     confidence : float
     score : dict
         Share per bottom side.
@@ -185,7 +188,7 @@ def support_plane(g: Gaussians) -> tuple[str, float, dict]:
             m = flat & (np.abs(h - base) <= SUPPORT_SLAB * ext)
             score[side + "xyz"[a]] = float(np.abs(normal[m, a]).sum() / g.n) * _stance(x, m, a)
     order = sorted(score, key=score.get, reverse=True)
-    if score[order[0]] <= 0:
+    if score[order[0]] < SUPPORT_MIN_SHARE:
         return "unknown", 0.0, score
     bottom = order[0]
     up = ("+" if bottom[0] == "-" else "-") + bottom[1]

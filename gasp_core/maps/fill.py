@@ -320,7 +320,8 @@ def _share_cells(points: np.ndarray, cells: np.ndarray, lo: np.ndarray, shape,
     idx = np.clip(np.floor((points - lo) / h).astype(np.int64), 0, np.array(shape) - 1)
     flat_pts = np.ravel_multi_index(idx.T, shape)
     pos = np.searchsorted(flat_inside, flat_pts)        # argwhere order == ravel order (sorted)
-    hit = (pos < len(flat_inside)) & (flat_inside[np.minimum(pos, len(flat_inside) - 1)] == flat_pts)
+    hit = (pos < len(flat_inside)) & (flat_inside[np.minimum(pos, max(len(flat_inside) - 1, 0))] == flat_pts) \
+        if len(flat_inside) else np.zeros(len(flat_pts), bool)
     owner = np.where(hit, pos, -1)
     if (~hit).any() and len(cells):
         _, near = cKDTree(_cell_centres(cells, lo, h)).query(points[~hit])
