@@ -170,10 +170,11 @@ def ratios(rows: list[dict], ncpu: int) -> list[dict]:
     return out
 
 
-def donut(srcs: dict[str, Path], frames: int, rounds: int) -> list[dict]:
-    """``gasp simulate`` of the README donut, alternating the checkouts: wall, CPU and cores used."""
+def donut(srcs: dict[str, Path], frames: int, rounds: int, scene: Path | None = None) -> list[dict]:
+    """``gasp simulate`` of the README donut (or ``scene``: one file both checkouts read, all else equal),
+    alternating the checkouts: wall, CPU and cores used."""
     rows = []
-    scene = ROOT / "examples" / "donut_jelly.toml"
+    scene = scene or ROOT / "examples" / "donut_jelly.toml"
     for r in range(rounds):
         for name, src in srcs.items():
             with tempfile.TemporaryDirectory() as tmp:
@@ -268,6 +269,10 @@ def main(argv=None) -> int:
     ap.add_argument("--no-scaling", action="store_true")
     ap.add_argument("--no-profile", action="store_true")
     ap.add_argument("--donut-frames", type=int, default=0, help="also time the README donut end to end")
+    ap.add_argument("--donut-scene", type=Path,
+                    help="scene file for the donut timing (default: this checkout's examples/donut_jelly.toml; "
+                         "give the base's when the base cannot read this one's keys)")
+    ap.add_argument("--donut-rounds", type=int, help="interleaved donut rounds (default: --rounds)")
     ap.add_argument("--out", type=Path, default=RESULTS)
     ap.add_argument("--worker", help=argparse.SUPPRESS)
     ap.add_argument("--threads", type=int, default=1, help=argparse.SUPPRESS)
@@ -293,7 +298,8 @@ def main(argv=None) -> int:
                     doc["profile"].append(rec)
                     print(json.dumps(rec), file=sys.stderr, flush=True)
     if a.donut_frames:
-        doc["donut"] = donut(srcs, a.donut_frames, a.rounds)
+        doc["donut"] = donut(srcs, a.donut_frames, a.donut_rounds or a.rounds, a.donut_scene)
+        doc["donut_scene"] = str(a.donut_scene or "examples/donut_jelly.toml")
     doc["load_end"] = [round(x, 2) for x in os.getloadavg()]
     a.out.mkdir(parents=True, exist_ok=True)
     (a.out / "bench_threads.json").write_text(json.dumps(doc, indent=2) + "\n")
