@@ -333,12 +333,12 @@ def _(d, ply, v):
 # --- issue 21: tracebacks, misleading messages and silent runs before
 
 
-@case("scale-1e-6", "object 'bad'", "less than 2 grid cells", "scale")
+@case("scale-1e-6", "object 'bad'", "less than 1 grid cell(s)", "scale")
 def _(d, ply, v):
     return with_ply(d, v, extra_object="scale = 1e-6")            # was IndexError in the fill
 
 
-@case("domain-1e6-n-grid-16", "less than 2 grid cells", "dx = 1.25e+05 m", "n_grid")
+@case("domain-1e6-n-grid-16", "less than 1 grid cell(s)", "dx = 1.25e+05 m", "n_grid")
 def _(d, ply, v):
     box = "n_grid = 16\nlo = [-1e6, -1e6, -1e6]\nhi = [1e6, 1e6, 1e6]"
     return simulate(d, edit(scene_text(ply), "n_grid = 24", box))

@@ -79,7 +79,7 @@ def test_overlapping_objects_on_mujoco_flex_name_the_cause(tmp_path, capsys):
     overlap and the engine option that raises the arena (it blamed the time step and an option that did not exist)."""
     pytest.importorskip("gasp_mujoco_flex")
     ply = ball(tmp_path / "ball.ply")
-    text = scene_text(ply, n_frames=1, n_grid=16, engine="mujoco_flex", engine_options="{ }")
+    text = scene_text(ply, n_frames=1, n_grid=40, engine="mujoco_flex", engine_options="{ }")   # 8 cells: no warning
     obj = text[text.index("[[object]]"):]
     (tmp_path / "s.toml").write_text(text + "\n" + obj)
     code = main(["simulate", str(tmp_path / "s.toml"), "-o", str(tmp_path / "o"), "-q"])

@@ -250,7 +250,7 @@ def test_cells_larger_than_the_object_are_an_error(tmp_path):
     ply = tmp_path / "ball.ply"
     write_gaussians(ply, sphere_of_flat_gaussians())
     # refused by the first size check that sees it (prepare/assembly: fewer than 2 cells across)
-    with pytest.raises(SceneError, match=r"object 'ball' is 0\.1 m across, less than 2 grid cells \(dx = 0\.\d+ m.*n_grid"):
+    with pytest.raises(SceneError, match=r"object 'ball' is 0\.1 m across, less than 1 grid cell\(s\) \(dx = 0\.\d+ m.*n_grid"):
         simulate_scene(scene(tmp_path, ply, domain="padding = 10.0", z=0.06), tmp_path / "out")
 
 

@@ -57,10 +57,13 @@ def _read_csv(path: Path) -> tuple[list[str], list[dict]]:
 
 @needs_warp
 @needs_flex
-def test_compare_writes_report_self_divergence_zero_and_lists_missing(donut_tiny, write_scene, tmp_path):
+def test_compare_writes_report_self_divergence_zero_and_refuses_an_unknown_engine(donut_tiny, write_scene, tmp_path):
     scene = write_scene(scene_text(donut_tiny, n_frames=3, n_grid=16, engine="warp_mpm", engine_options="{}"))
     out = tmp_path / "cmp"
-    res = compare_scene(scene, ["warp_mpm", "warp_mpm", "mujoco_flex", "no_such_engine"], out, progress=False,
+    with pytest.raises(SceneError, match="'no_such_engine' is not an installed engine"):   # issue 21: refused
+        compare_scene(scene, ["warp_mpm", "no_such_engine"], out, progress=False)
+    assert not out.exists()
+    res = compare_scene(scene, ["warp_mpm", "warp_mpm", "mujoco_flex"], out, progress=False,
                         options={"warp_mpm": deterministic("warp_mpm")})
     for name in ("table.csv", "table.md", "divergence.csv", "divergence.png", "timing.png", "report.md"):
         assert (out / name).stat().st_size > 0, name
@@ -84,9 +87,8 @@ def test_compare_writes_report_self_divergence_zero_and_lists_missing(donut_tiny
     assert float(flex[0]["max_dist_m"]) == 0.0                       # frame 0 is the input for both
     assert float(flex[-1]["mean_dist_m"]) > 0.0                      # different solvers differ later
     assert float(flex[-1]["chamfer_m"]) <= float(flex[-1]["mean_dist_m"]) + 1e-12  # NN <= same-index
-    assert "no_such_engine" in res.skipped and "not installed" in res.skipped["no_such_engine"]
     text = (out / "report.md").read_text()
-    assert "no_such_engine" in text and "not installed" in text and "fresh worker process" in text
+    assert "fresh worker process" in text
     assert {p.name for p in (out / "runs").glob("*.npz")} == {"warp_mpm.npz", "warp_mpm_2.npz", "mujoco_flex.npz"}
     assert not list(tmp_path.glob(".cmp.partial-*"))                 # temp folder moved into place
 

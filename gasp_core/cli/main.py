@@ -202,8 +202,8 @@ def build_parser() -> argparse.ArgumentParser:
     i.add_argument("file", type=Path, help="a Gaussian Splatting file (graphdeco PLY, compressed PLY, .splatv, .spz, .sog, .splat, .ksplat)")
     i.add_argument("--json", action="store_true", help="print JSON instead of text")
     i.add_argument("--size", type=length, help="the object's real height along its up axis (1.7m, 170cm): "
-                                               "prints the scale that gives it")
-    i.add_argument("--rho", type=positive_float, help="density, kg/m^3: prints the filled solid's mass")
+                                               "prints the scale that gives it (default: none)")
+    i.add_argument("--rho", type=positive_float, help="density, kg/m^3: prints the filled solid's mass (default: none)")
     i.add_argument("--n-grid", type=positive_int, default=64, help="grid of the fill reported (default 64)")
     i.set_defaults(func=_cmd_info)
 

@@ -20,9 +20,10 @@ MIN_DOMAIN_SIDE = 1e-3
 #: Grid cells kept free below a ground plane and above the points in the default domain: the quadratic
 #: stencil's reach (base node ``floor(x/dx - 0.5)`` in ``[0, n_grid - 3]``) plus room to move.
 STENCIL_CELLS = 3.0
-#: An object must span at least this many grid cells: below it no fill cell lies inside it and
-#: the grid cannot resolve its shape.
-MIN_OBJECT_CELLS = 2.0
+#: An object must span at least this many grid cells: below it the grid cannot resolve its shape at all
+#: (one cell, as :func:`gasp_core.prepare.checks.check_resolution` says after the fill; checked here before
+#: the fill so that a tiny object costs nothing; under 8 cells is a warning there).
+MIN_OBJECT_CELLS = 1.0
 
 
 def check_resolved(name: str, points: np.ndarray, dx: float, n_grid: int) -> None:
@@ -35,7 +36,7 @@ def check_resolved(name: str, points: np.ndarray, dx: float, n_grid: int) -> Non
     """
     size = float(np.max(points.max(axis=0) - points.min(axis=0)))
     if not size >= MIN_OBJECT_CELLS * dx:
-        raise SceneError(f"object '{name}' is {size:.3g} m across, less than {MIN_OBJECT_CELLS:g} grid cells "
+        raise SceneError(f"object '{name}' is {size:.3g} m across, less than {MIN_OBJECT_CELLS:g} grid cell(s) "
                          f"(dx = {dx:.3g} m at n_grid {n_grid}): the grid cannot resolve it; scale the object "
                          f"up ('scale'), shrink the domain ([domain] lo/hi) or raise n_grid")
 
