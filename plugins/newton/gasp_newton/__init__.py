@@ -1,0 +1,105 @@
+"""GASP engine plugin ``newton``: NVIDIA Newton's implicit MPM (``newton.solvers.SolverImplicitMPM``).
+
+An implicit engine: its step is not capped by the elastic wave speed, so stiff and granular bodies run at
+one step per frame, at a measured cost in dissipation (docs/newton.md). Importing this module imports
+neither Warp nor Newton: the factory imports :mod:`gasp_newton.engine` when a simulation is built, and
+``available()`` only looks for the package.
+"""
+from __future__ import annotations
+
+import importlib.util
+
+from gasp_core.seam import Capabilities, EngineInfo, hookimpl, Option, SimSetup
+from gasp_core.toolkit.sweep import dedupe_settings
+
+from .materials import MATERIALS
+
+__all__ = ["CAPABILITIES", "ENGINE", "KNOWN_FAILURES", "OPTIONS", "gasp_engines", "make_engine", "sweep"]
+
+ENGINE = "newton"
+
+CAPABILITIES = Capabilities(
+    materials=MATERIALS,
+    boundaries=frozenset({"ground", "walls", "fixed_region"}),
+    devices=frozenset({"cpu", "cuda"}),
+    precisions=frozenset({"f32"}),
+    deterministic=frozenset({"cpu"}),
+    features=frozenset({"grid", "initial_C", "state"}),
+)
+
+#: Newton's ``SolverImplicitMPM.Config`` fields GASP exposes, with Newton's defaults (Newton 1.8.0), and the
+#: step count. ``threads`` is accepted so that a scene written for another MPM engine runs unchanged.
+OPTIONS = (
+    Option("device", "cpu", "where to run: 'cpu', 'cuda' (the default GPU) or 'cuda:N' (GPU N)", kind="str",
+           pattern=r"cpu|cuda(:\d+)?"),
+    Option("precision", "f32", "floating-point precision (Newton's implicit MPM is f32 only)", kind="str",
+           choices=("f32",)),
+    Option("n_substeps", 1, "implicit steps per frame (dt = frame_dt / n_substeps)", kind="int", lo=1),
+    Option("voxel_size", None, "grid voxel size, m (default: the scene's dx = domain / n_grid)", kind="number",
+           lo=0.0, lo_open=True),
+    Option("strain_basis", "P0", "Newton's strain (stress) basis", kind="str",
+           choices=("P0", "P1d", "Q1", "Q1d", "pic8", "pic27")),
+    Option("velocity_basis", "Q1", "Newton's velocity basis (Q1 trilinear, B2/B3 B-splines)", kind="str",
+           choices=("Q1", "B2", "B3")),
+    Option("solver", "auto", "rheology solver ('auto': Gauss-Seidel for Q1, batched GS otherwise)", kind="str",
+           choices=("auto", "gs", "gs-soa", "gs-batched", "jacobi", "cg", "cr", "gmres")),
+    Option("max_iterations", 50, "rheology solver iterations per step, at most (Newton's own default is 250; "
+                               "docs/newton.md: 50 keeps the sand pile within 10 % at a fifth of the cost)", kind="int", lo=1),
+    Option("tolerance", 1.0e-4, "rheology solver residual tolerance", kind="number", lo=0.0, lo_open=True),
+    Option("transfer_scheme", "apic", "particle-grid transfer", kind="str", choices=("apic", "pic")),
+    Option("integration_scheme", "pic", "shape-function support: point samples or GIMP", kind="str",
+           choices=("pic", "gimp")),
+    Option("grid_type", "sparse", "Newton's grid storage", kind="str", choices=("sparse", "dense", "fixed")),
+    Option("damping", 0.0, "elastic damping relaxation time of every material, s (Newton's mpm:damping)",
+           kind="number", lo=0.0),
+    Option("threads", None, "accepted and ignored: Warp runs CPU kernels on one thread", kind="int", lo=1),
+)
+
+#: The ``gasp bench`` sweep: grid, steps per frame, bases, solver and tolerance, one at a time around the
+#: defaults at n_grid 64, against a reference of 8 steps per frame and tolerance 1e-5 at n_grid 64.
+SWEEP = {"n_grid": (32, 48, 64), "n_substeps": (1, 2, 4), "strain_basis": ("P0", "Q1"),
+         "velocity_basis": ("Q1", "B2"), "solver": ("auto", "cr"), "max_iterations": (50, 250),
+         "tolerance": (1.0e-3, 1.0e-4), "transfer_scheme": ("apic", "pic")}
+SWEEP_QUICK = {"n_grid": (32, 48), "n_substeps": (1, 2), "tolerance": (1.0e-3, 1.0e-4)}
+
+
+def sweep(quick: bool) -> tuple[list[dict], dict]:
+    """``gasp bench`` settings and reference: each option of :data:`SWEEP` varied alone around the defaults."""
+    table = SWEEP_QUICK if quick else SWEEP
+    ref = {"n_grid": 64, "n_substeps": 8, "tolerance": 1.0e-5}
+    base = {"n_grid": max(table["n_grid"])}
+    out = [{**base, key: v} for key, values in table.items() for v in values]
+    return dedupe_settings(out, ref), ref
+
+
+def make_engine(setup: SimSetup):
+    """Build a :class:`gasp_newton.engine.NewtonEngine` for ``setup`` (imports Warp and Newton here)."""
+    from .engine import NewtonEngine
+    return NewtonEngine(setup)
+
+
+def _available() -> str | None:
+    if importlib.util.find_spec("newton") is None:
+        return "the 'newton' package is not installed (pip install newton==1.8.0)"
+    return None
+
+
+#: Conformance scenes Newton's implicit MPM fails, with the measured figures (filled in from `gasp conform`).
+KNOWN_FAILURES: dict[str, str] = {}
+
+
+@hookimpl
+def gasp_engines():
+    """The ``newton`` engine record (GASP ``gasp_engines`` hook)."""
+    return [EngineInfo(
+        name=ENGINE,
+        factory=make_engine,
+        capabilities=CAPABILITIES,
+        options=OPTIONS,
+        deterministic_options={},
+        known_failures=KNOWN_FAILURES,
+        sweep=sweep,
+        available=_available,
+        description="NVIDIA Newton's implicit MPM (SolverImplicitMPM): large steps for stiff and granular "
+                    "bodies, more numerical dissipation; CPU or CUDA, f32 (docs/newton.md)",
+    )]
