@@ -61,6 +61,33 @@ def run(engine: str, n_grid: int, frames: int, work: Path) -> dict:
             **pile(out)}
 
 
+def bounce(out: Path) -> dict:
+    """The dropped body's bounce from a ``gasp simulate`` output folder (e.g. ``examples/donut_jelly.toml``).
+
+    ``z_k``: centroid height of the Gaussian means in frame ``k``; ``z_rest``: mean of the last 5 frames.
+    Restitution ``e = sqrt((z_peak - z_rest) / (z_0 - z_rest))``, ``z_peak`` the highest centroid after its
+    first minimum (energy ratio of the first bounce, read at frame resolution). Penetration: the lowest
+    Gaussian mean below the ground over all frames, in grid cells (``run.json`` dx and ground height).
+    """
+    from gasp_core.gs.io import read_gaussians
+    rec = json.loads((out / "run.json").read_text())
+    ground = next(b["height"] for b in rec["boundaries"] if b["kind"] == "ground")
+    zs, lows = [], []
+    for f in sorted(out.glob("*/frame_*.ply")):
+        x = read_gaussians(f).means.astype(np.float64)
+        zs.append(float(x[:, 2].mean()))
+        lows.append(float(x[:, 2].min()))
+    z = np.array(zs)
+    rest = float(z[-5:].mean())
+    k_min = int(np.argmax(np.diff(z) > 0)) if np.any(np.diff(z) > 0) else len(z) - 1
+    peak = float(z[k_min:].max())
+    e = float(np.sqrt(max(peak - rest, 0.0) / (z[0] - rest))) if z[0] > rest else float("nan")
+    return {"engine": rec["engine"], "frames": len(z) - 1, "restitution": e, "z0": float(z[0]), "z_min": float(z.min()),
+            "z_peak_after_impact": peak, "z_rest": rest, "first_min_frame": k_min,
+            "max_penetration_dx": max(0.0, (ground - min(lows)) / rec["domain"]["dx"]),
+            "centroid_z": zs}
+
+
 def summary(rows: list[dict]) -> list[dict]:
     out = []
     for g in sorted({r["n_grid"] for r in rows if "wall_s" in r}):
@@ -80,7 +107,13 @@ def main() -> None:
     ap.add_argument("--frames", type=int, default=40)
     ap.add_argument("--repeats", type=int, default=1)
     ap.add_argument("--out", default=str(RESULTS / "bench_newton.json"))
+    ap.add_argument("--bounce", nargs="+", metavar="DIR", help="only print the bounce figures of these gasp simulate "
+                    "output folders (e.g. examples/donut_jelly.toml on each engine)")
     a = ap.parse_args()
+    if a.bounce:
+        for d in a.bounce:
+            print(json.dumps(bounce(Path(d))))
+        return
     rows: list[dict] = []
     with tempfile.TemporaryDirectory() as tmp:
         for g in [int(v) for v in a.n_grid.split(",")]:

@@ -34,7 +34,11 @@ OPTIONS = (
            pattern=r"cpu|cuda(:\d+)?"),
     Option("precision", "f32", "floating-point precision (Newton's implicit MPM is f32 only)", kind="str",
            choices=("f32",)),
-    Option("n_substeps", 1, "implicit steps per frame (dt = frame_dt / n_substeps)", kind="int", lo=1),
+    Option("n_substeps", None, "implicit steps per frame (default: per frame from cfl)", kind="int", lo=1),
+    Option("cfl", 1.0, "automatic steps: a point moves at most cfl voxels per step ((v_max + |g| frame_dt) "
+                       "dt <= cfl voxel_size; Newton's contact sees the ground only within about a voxel)",
+           kind="number", lo=0.0, hi=4.0, lo_open=True),
+    Option("max_substeps", 64, "automatic steps: at most this many per frame", kind="int", lo=1),
     Option("voxel_size", None, "grid voxel size, m (default: the scene's dx = domain / n_grid)", kind="number",
            lo=0.0, lo_open=True),
     Option("strain_basis", "P0", "Newton's strain (stress) basis", kind="str",
@@ -55,18 +59,18 @@ OPTIONS = (
     Option("threads", None, "accepted and ignored: Warp runs CPU kernels on one thread", kind="int", lo=1),
 )
 
-#: The ``gasp bench`` sweep: grid, steps per frame, bases, solver and tolerance, one at a time around the
-#: defaults at n_grid 64, against a reference of 8 steps per frame and tolerance 1e-5 at n_grid 64.
-SWEEP = {"n_grid": (32, 48, 64), "n_substeps": (1, 2, 4), "strain_basis": ("P0", "Q1"),
+#: The ``gasp bench`` sweep: grid, step size, bases, solver and tolerance, one at a time around the
+#: defaults at the largest grid, against a reference of cfl 0.25 and tolerance 1e-5 at n_grid 64.
+SWEEP = {"n_grid": (32, 48, 64), "cfl": (0.5, 1.0, 2.0), "n_substeps": (1, 4), "strain_basis": ("P0", "Q1"),
          "velocity_basis": ("Q1", "B2"), "solver": ("auto", "cr"), "max_iterations": (50, 250),
          "tolerance": (1.0e-3, 1.0e-4), "transfer_scheme": ("apic", "pic")}
-SWEEP_QUICK = {"n_grid": (32, 48), "n_substeps": (1, 2), "tolerance": (1.0e-3, 1.0e-4)}
+SWEEP_QUICK = {"n_grid": (32, 48), "cfl": (1.0, 2.0), "tolerance": (1.0e-3, 1.0e-4)}
 
 
 def sweep(quick: bool) -> tuple[list[dict], dict]:
     """``gasp bench`` settings and reference: each option of :data:`SWEEP` varied alone around the defaults."""
     table = SWEEP_QUICK if quick else SWEEP
-    ref = {"n_grid": 64, "n_substeps": 8, "tolerance": 1.0e-5}
+    ref = {"n_grid": 64, "cfl": 0.25, "tolerance": 1.0e-5}
     base = {"n_grid": max(table["n_grid"])}
     out = [{**base, key: v} for key, values in table.items() for v in values]
     return dedupe_settings(out, ref), ref
