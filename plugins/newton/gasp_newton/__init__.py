@@ -51,6 +51,10 @@ OPTIONS = (
                                  "converge either on the 273k-point guitar, residual 3.9e-3, at 5x the cost; "
                                  "docs/newton.md)", kind="int", lo=1),
     Option("tolerance", 1.0e-4, "rheology solver residual tolerance", kind="number", lo=0.0, lo_open=True),
+    Option("carry_residual_strain", "none", "strain an unconverged solve leaves: 'none' drops it (soft "
+           "bodies then relax, e.g. flatten), 'unconverged' keeps the flow-rule residual, 'sampled' keeps dt grad v "
+           "minus the plastic increment (Newton's Config.carry_residual_strain)", kind="str",
+           choices=("none", "unconverged", "sampled")),
     Option("transfer_scheme", "apic", "particle-grid transfer", kind="str", choices=("apic", "pic")),
     Option("integration_scheme", "pic", "shape-function support: point samples or GIMP", kind="str",
            choices=("pic", "gimp")),

@@ -209,6 +209,7 @@ class NewtonEngine:
         c.strain_basis, c.velocity_basis = o["strain_basis"], o["velocity_basis"]
         c.solver, c.transfer_scheme = o["solver"], o["transfer_scheme"]
         c.integration_scheme, c.grid_type = o["integration_scheme"], o["grid_type"]
+        c.carry_residual_strain = o["carry_residual_strain"]
         c.warmstart_mode = "particles"      # the warm start lives in the state: resume is exact
         return c
 
