@@ -133,3 +133,15 @@ def test_point_outside_domain_is_a_scene_error():
     x[0, 0] = 1.2
     with pytest.raises(SceneError, match="outside the domain"):
         build(s.replace(x=x))
+
+
+@needs_newton
+def test_compile_time_is_read_from_warp_and_kept_off_stdout(capsys):
+    """Warp's module-load lines are parsed into compile / cached-load seconds, and never printed on stdout."""
+    from gasp_newton.engine import _Capture
+    cap = _Capture()
+    with cap.watching():
+        print("Module map_add d06aa71 load on device 'cpu' took 160.03 ms  (compiled)")
+        print("Module warp.fem.space.partition 550650f load on device 'cpu' took 2.50 ms  (cached)")
+    assert cap.compile_s == pytest.approx(0.16003) and cap.n_compiled == 1 and cap.load_s == pytest.approx(0.0025)
+    assert capsys.readouterr().out == ""
