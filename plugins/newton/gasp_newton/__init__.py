@@ -47,9 +47,10 @@ OPTIONS = (
            choices=("Q1", "B2", "B3")),
     Option("solver", "auto", "rheology solver ('auto': Gauss-Seidel for Q1, batched GS otherwise)", kind="str",
            choices=("auto", "gs", "gs-soa", "gs-batched", "jacobi", "cg", "cr", "gmres")),
-    Option("max_iterations", 50, "rheology solver iterations per step, at most (Newton's default 250 did not "
-                                 "converge either on the 273k-point guitar, residual 3.9e-3, at 5x the cost; "
-                                 "docs/newton.md)", kind="int", lo=1),
+    Option("max_iterations", 250, "rheology solver iterations per step, at most (Newton's default; a solve stopped "
+                                  "early loses the strain it did not reach: an elastic body creeps flat at 50, e.g. "
+                                  "the self-weight sag 3.6x too large at 1 step per 1/30 s; docs/newton.md)",
+           kind="int", lo=1),
     Option("tolerance", 1.0e-4, "rheology solver residual tolerance", kind="number", lo=0.0, lo_open=True),
     Option("carry_residual_strain", "none", "strain an unconverged solve leaves: 'none' drops it (soft "
            "bodies then relax, e.g. flatten), 'unconverged' keeps the flow-rule residual, 'sampled' keeps dt grad v "
