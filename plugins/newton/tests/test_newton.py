@@ -147,7 +147,7 @@ def test_compile_time_is_read_from_warp_and_kept_off_stdout(capsys):
     assert capsys.readouterr().out == ""
 
 
-# ------------------------------------------------------------------ creep of an elastic body (the cause of the flattening)
+# ------------------------------------------------------------------ creep of an elastic body (the flattening)
 def _sag_at_frame_rate(options):
     """The conformance kit's self_weight_sag column at one implicit step per 1/30 s frame (0.6 s): its
     bottom-to-top shortening level against ``rho g (...) / (2E)`` (signed relative error)."""
