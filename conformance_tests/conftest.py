@@ -29,8 +29,9 @@ def pytest_configure(config):
 #: Engines whose full conformance run is too long for the default test run, with the scenes (and
 #: test_extremes cases) they run by default, one per kind of check; the rest are marked ``slow``
 #: (``python -m pytest conformance_tests -m slow``, or ``GASP_FULL_CONFORMANCE=1`` to run all by default).
-#: newton: Newton's implicit MPM runs Warp kernels on one CPU thread: its 28 scenes took ~1,000 s on this
-#: loaded 2-core machine (10-190 s each).
+#: newton: Newton's implicit MPM runs Warp kernels on one CPU thread and compiles them per configuration
+#: (~90 s each with a cold cache): its scenes took ~1,000 s on this 2-core machine under load, 67 s lightly
+#: loaded with the kernel cache warm.
 DEFAULT_SCENES = {
     "newton": frozenset({"free_fall", "bounce", "self_weight_sag", "mass_agreement", "contract_declarations",
                          "contract_refusals", "contract_declared_accepted", "contract_outside_domain",

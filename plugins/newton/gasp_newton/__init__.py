@@ -102,9 +102,9 @@ _CLAMP = ("the clamped bar hangs as if hinged: time-averaged tip deflection {d} 
 KNOWN_FAILURES: dict[str, str] = {
     "cantilever": _CLAMP.format(d="234.08", p="10.3"),
     "cantilever_offgrid": _CLAMP.format(d="280.63", p="12.6"),
-    "bounce_hertz": ("the ball rebounds too little to leave the ground before the run ends: restitution 0.54 "
-                     "(v_in 1.594, v_out 0.854 m/s; band 0.80-1.02) at one implicit step per 1/240 s frame, 0.77 at "
-                     "four (contact time then within 4 % of Hertz); the backward-Euler step damps the rebound "
+    "bounce_hertz": ("the ball rebounds too little: it lands again before the run ends (restitution 0.54, v_in "
+                     "1.594, v_out 0.854 m/s, band 0.80-1.02, at one implicit step per 1/240 s frame; 0.75 at four "
+                     "steps, with the contact time within 5 % of Hertz); the backward-Euler step damps the rebound "
                      "(docs/newton.md)"),
     "dam_break": ("the front runs slow: worst |Z - Z_Martin-Moyce| / Z_MM = 0.231 (limit 0.15), Z = 1.84 vs 2.33 "
                   "at T = 1.98, 2.14 vs 2.78 at T = 2.32; the liquid is Newton's compressible E-nu fluid with no "
