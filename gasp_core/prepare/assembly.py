@@ -12,7 +12,7 @@ from gasp_core.maps.fill import fill_interior, fill_spacing
 from gasp_core.maps.occupancy import SPLAT_SIGMA
 from gasp_core.prepare.checks import check_resolution
 from gasp_core.prepare.placement import PreparedObject, simulated_triangles
-from gasp_core.prepare.surface import surface_rule
+from gasp_core.prepare.surface import ELASTIC, surface_rule
 from gasp_core.scene.spec import Scene
 
 #: Smallest default domain side, metres (a single Gaussian, or all Gaussians at one point).
@@ -102,12 +102,15 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
         opaque = expit(opacities) >= o.spec.min_opacity
         check_resolved(o.name, o.tri_rest.reshape(-1, 3), dx, n_grid)
         h = fill_spacing(dx, scene.domain.particles_per_cell, o.spec.core_fraction)
-        passive = o.spec.surface in ("passive", "auto")
+        # "auto" starts passive unless the material alone already decides for the full model (one fill, not two)
+        passive = o.spec.surface == "passive" or (o.spec.surface == "auto"
+                                                  and o.spec.material.name not in ELASTIC)
         fr = fill_interior(verts, h, splats=o.tri_rest[opaque], fill=o.spec.fill, name=o.name,
                            if_open=o.spec.if_open, surface_mass=not passive)
         if o.spec.surface == "auto":
+            was_passive = passive
             passive, o.surface_rule = surface_rule(o.spec.fill, len(verts), fr, dx, o.spec.material.name)
-            if not passive:
+            if was_passive and not passive:
                 fr = fill_interior(verts, h, splats=o.tri_rest[opaque], fill=o.spec.fill, name=o.name,
                                    if_open=o.spec.if_open, surface_mass=True)
         o.fill_report = fr.report
