@@ -6,10 +6,9 @@ only after the frame files it covers, and a killed run never has a checkpoint ah
 (``--resume`` continues exactly as before). Files are written atomically (:mod:`gasp_core.fsutil`), so an
 interrupted job leaves no half-written file.
 
-What it buys depends on the engine holding Python's GIL while it computes: a Warp CPU launch releases it
-(measured: the main thread kept running Python during a launch), so the writes run on a second core; a
-Taichi kernel holds it, so only the parts of a write that release the GIL themselves (file writes,
-NumPy copies) overlap (docs/performance.md).
+What it buys depends on whether the engine releases Python's GIL while it computes: if it does, the writes
+run on a second core; if its kernels hold the GIL, only the parts of a write that release it themselves (file
+writes, NumPy copies) overlap. Which engine does which is measured in docs/performance.md.
 """
 from __future__ import annotations
 
