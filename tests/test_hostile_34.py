@@ -1,0 +1,99 @@
+"""Issue 34: the hostile corpus's cases that main got wrong, each as the user met it.
+
+Data loss first (``--overwrite`` deletes only what a run wrote), then work bounded before it is
+spent, then the silently wrong cases, then tracebacks that must be one ``gasp: error:`` line.
+Every case takes seconds.
+"""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gasp_core.cli.main import main
+from gasp_core.errors import GaspError
+from gasp_core.fsutil import CLAIM, OutputClaim, atomic_json
+
+
+def finished_run(claim: OutputClaim, objects=("small",)) -> None:
+    """What a finished run writes into its partial folder, committed."""
+    tmp = claim.partial_dir()
+    for name in objects:
+        (tmp / name).mkdir()
+        (tmp / name / "frame_0000.ply").write_bytes(b"ply")
+    atomic_json(tmp / "frames.json", {"objects": [{"name": n} for n in objects]})
+    atomic_json(tmp / "run.json", {"objects": [{"name": n} for n in objects]})
+    claim.commit(tmp)
+
+
+def one_error(err: str, code: int, expected: int = 2) -> str:
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert code == expected and len(lines) == 1 and lines[0].startswith("gasp: error:"), (code, err)
+    assert "Traceback" not in err
+    return lines[0]
+
+
+# ------------------------------------------------------------------------------ 1. data loss
+
+
+@pytest.mark.parametrize("added", ["small/notes.txt", "small/edits/notes.txt", ".gasp-notes", "notes.txt"])
+def test_a_file_added_inside_a_run_folder_survives_overwrite(tmp_path, added):
+    out = tmp_path / "out"
+    finished_run(OutputClaim(out))
+    (out / added).parent.mkdir(parents=True, exist_ok=True)
+    (out / added).write_text("x")
+    with pytest.raises(GaspError, match="did not write") as e:
+        OutputClaim(out, overwrite=True)
+    assert added.split("/")[-1] in str(e.value) or added.split("/")[0] in str(e.value)
+    assert (out / added).read_text() == "x" and not (out / CLAIM).exists()
+
+
+def test_an_edited_frame_survives_overwrite(tmp_path):
+    out = tmp_path / "out"
+    finished_run(OutputClaim(out))
+    (out / "run.json").write_text('{"my": "notes, same file, edited"}')
+    with pytest.raises(GaspError, match=r"run.json \(changed\)"):
+        OutputClaim(out, overwrite=True)
+    assert "my" in (out / "run.json").read_text()
+
+
+@pytest.mark.parametrize("beside", [False, True])
+def test_a_users_folder_holding_a_run_json_is_not_a_run(tmp_path, beside):
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "run.json").write_text('{"objects": [{"name": "small"}]}')
+    if beside:
+        (mine / "small").mkdir()
+        (mine / "small" / "thesis.tex").write_text("x")
+    with pytest.raises(GaspError, match="not a gasp output"):
+        OutputClaim(mine, overwrite=True)
+    assert (mine / "run.json").exists() and (not beside or (mine / "small" / "thesis.tex").exists())
+
+
+def test_overwrite_still_replaces_an_untouched_run(tmp_path):
+    out = tmp_path / "out"
+    finished_run(OutputClaim(out), objects=("old",))
+    finished_run(OutputClaim(out, overwrite=True), objects=("new",))
+    assert sorted(p.name for p in out.iterdir()) == [".gasp-output", "frames.json", "new", "run.json"]
+    assert not [p for p in tmp_path.iterdir() if p.name != "out"]
+
+
+def test_simulate_overwrite_keeps_a_note_in_the_object_folder(tmp_path, donut_small, capsys):
+    """The issue's repro through the command: simulate, add a note, simulate --overwrite."""
+    pytest.importorskip("gasp_warp_mpm")
+    from gasp_testing import scene_text
+    scene = tmp_path / "s.toml"
+    scene.write_text(scene_text(donut_small, n_frames=1, n_grid=16, engine="warp_mpm", engine_options="{ }"))
+    out = tmp_path / "out"
+    assert main(["simulate", str(scene), "-o", str(out), "-q"]) == 0
+    capsys.readouterr()
+    (out / "donut_small" / "notes.txt").write_text("x")
+    code = main(["simulate", str(scene), "-o", str(out), "-q", "--overwrite"])
+    line = one_error(capsys.readouterr().err, code)
+    assert "donut_small/notes.txt" in line
+    assert (out / "donut_small" / "notes.txt").read_text() == "x"
+    assert (out / "donut_small" / "frame_0001.ply").exists()
