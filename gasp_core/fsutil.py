@@ -260,9 +260,10 @@ class OutputClaim:
             raise GaspError(f"--overwrite refuses '{self.outdir}': it is not a gasp output folder ({NO_LIST}); "
                             f"nothing was deleted; choose another folder")
         if extra:
-            raise GaspError(f"--overwrite refuses '{self.outdir}': it holds what gasp did not write there "
-                            f"({', '.join(extra[:5])}{', ...' if len(extra) > 5 else ''}); nothing was deleted; "
-                            f"move those away or choose another folder")
+            named = ", ".join(extra[:5]) + (", ..." if len(extra) > 5 else "")
+            raise GaspError(f"--overwrite refuses '{self.outdir}': not a gasp output as gasp left it, it holds "
+                            f"what gasp did not write there ({named}); nothing was deleted; move those away or "
+                            f"choose another folder")
 
     def _undo_mkdir(self) -> None:
         if self.created:

@@ -97,3 +97,74 @@ def test_simulate_overwrite_keeps_a_note_in_the_object_folder(tmp_path, donut_sm
     assert "donut_small/notes.txt" in line
     assert (out / "donut_small" / "notes.txt").read_text() == "x"
     assert (out / "donut_small" / "frame_0001.ply").exists()
+
+
+# ------------------------------------------------------------------ render and view: values checked first
+
+
+@pytest.fixture
+def mini_run(tmp_path, donut_small):
+    """A run folder as gasp simulate writes it (PLY frames, frames.json, run.json), from the real donut."""
+    from gasp_core.gs.io import read_gaussians, write_gaussians
+    run = tmp_path / "run"
+    (run / "obj").mkdir(parents=True)
+    g = read_gaussians(donut_small)
+    for f in range(2):
+        write_gaussians(run / "obj" / f"frame_{f:04d}.ply", g)
+    atomic_json(run / "frames.json", {"format": "ply", "layout": "frames", "n_frames": 2, "objects": [
+        {"name": "obj", "n_gaussians": g.n, "frames": ["obj/frame_0000.ply", "obj/frame_0001.ply"]}]})
+    atomic_json(run / "run.json", {"engine": "test", "frame_dt": 0.04, "objects": [
+        {"name": "obj", "placement": {"R": np.eye(3).tolist(), "scale": 1.0, "t": [0.0, 0.0, 0.0]}}]})
+    return run
+
+
+RENDER_CASES = {
+    "fov-0": (["--fov", "0"], "--fov"),
+    "fov-180": (["--fov", "180"], "--fov"),
+    "fov-nan": (["--fov", "nan"], "--fov"),
+    "camera-nan": (["--camera", "nan,nan,nan"], "--camera"),
+    "camera-at-look-at": (["--camera", "0,0,1", "--look-at", "0,0,1"], "same point"),
+    "orbit-nan": (["--orbit", "nan"], "--orbit"),
+    "fps-negative": (["--fps=-1"], "--fps"),
+    "fps-zero": (["--fps", "0"], "--fps"),
+    "resolution-1e5": (["--resolution", "100000x100000"], "--resolution"),
+}
+
+
+@pytest.mark.parametrize("name", list(RENDER_CASES))
+def test_render_refuses_a_value_it_cannot_render(name, mini_run, tmp_path, capsys):
+    argv, needle = RENDER_CASES[name]
+    out = tmp_path / "r.gif"
+    code = main(["render", str(mini_run), "-o", str(out), "-q", *argv])
+    assert needle in one_error(capsys.readouterr().err, code)
+    assert not out.exists() and not list(tmp_path.glob(".r*"))
+
+
+def test_render_refuses_a_nan_keyframe(mini_run, tmp_path, capsys):
+    path = tmp_path / "path.json"
+    path.write_text('{"keyframes": [{"frame": 0, "position": [1, 1, 1], "look_at": [0, 0, 0]},'
+                    ' {"frame": 1, "position": [NaN, 1, 1], "look_at": [0, 0, 0]}]}')
+    code = main(["render", str(mini_run), "-o", str(tmp_path / "r.gif"), "-q", "--camera-path", str(path)])
+    assert "keyframe 1" in one_error(capsys.readouterr().err, code)
+
+
+def test_render_refuses_a_manifest_whose_objects_is_a_number(mini_run, tmp_path, capsys):
+    (mini_run / "frames.json").write_text('{"format": "ply", "layout": "frames", "objects": 5}')
+    code = main(["render", str(mini_run), "-o", str(tmp_path / "r.gif"), "-q"])
+    assert "frames.json: objects" in one_error(capsys.readouterr().err, code)
+
+
+def test_render_still_renders_an_orbit(mini_run, tmp_path, capsys):
+    """The checks refuse only what cannot be rendered: a small orbit GIF of the same run is written."""
+    pytest.importorskip("imageio")
+    out = tmp_path / "r.gif"
+    assert main(["render", str(mini_run), "-o", str(out), "-q", "--orbit", "90", "--resolution", "32x24"]) == 0, \
+        capsys.readouterr().err
+    assert out.stat().st_size > 0
+
+
+def test_view_refuses_a_port_beyond_65535(mini_run):
+    """It used to print an OverflowError traceback and never exit: run as a process, with a time limit."""
+    p = subprocess.run([sys.executable, "-m", "gasp_core.cli.main", "view", str(mini_run), "--port", "99999"],
+                       capture_output=True, text=True, timeout=60)
+    assert "--port 99999" in one_error(p.stderr, p.returncode)

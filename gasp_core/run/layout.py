@@ -220,6 +220,29 @@ def open_frames(folder) -> RunFrames:
                 raise SceneError(f"{folder / name}: no frame_*.ply files for object '{name}'")
             objects.append({"name": name, "frames": [f"{name}/{f.name}" for f in files]})
         manifest = {"format": "ply", "layout": "frames", "objects": objects}
+    _check_manifest(path, manifest)
     counts = [len(o["frames"]) for o in objects if o["frames"]]
     n = min(counts) if counts else int(manifest.get("n_frames", 1))
     return RunFrames(folder, manifest, n)
+
+
+def _check_manifest(path: Path, manifest) -> None:
+    """Refuse (:class:`SceneError` naming ``path`` and the field) a manifest that is not what
+    :class:`FrameWriter` writes: ``objects`` a list of tables with a ``frames`` list of relative file names
+    inside the run folder, ``n_gaussians`` an integer, and ``n_frames`` an integer."""
+    def bad(field, why):
+        raise SceneError(f"{path}: {field}: {why}; not a frame manifest written by gasp simulate")
+    if not isinstance(manifest, dict) or not isinstance(manifest.get("objects"), list):
+        bad("objects", "expected a list of objects")
+    if not isinstance(manifest.get("n_frames", 1), int) or isinstance(manifest.get("n_frames", 1), bool):
+        bad("n_frames", f"expected an integer, got {manifest.get('n_frames')!r}")
+    for k, o in enumerate(manifest["objects"]):
+        if not isinstance(o, dict) or not isinstance(o.get("frames"), list):
+            bad(f"objects[{k}]", "expected a table with a list 'frames'")
+        files = [*o["frames"], *(o[key] for key in ("static", "rest", "moving_rows") if key in o)]
+        for f in files:
+            if not isinstance(f, str) or Path(f).is_absolute() or ".." in Path(f).parts:
+                bad(f"objects[{k}]", f"expected file names inside the run folder, got {f!r}")
+        n = o.get("n_gaussians", 0)
+        if not isinstance(n, int) or isinstance(n, bool) or n < 0:
+            bad(f"objects[{k}].n_gaussians", f"expected a count, got {n!r}")
