@@ -378,7 +378,7 @@ def _(d, ply, v):
     return ["simulate", str(d / "scene.toml"), "-o", str(d / "out"), "-q"]
 
 
-@case("n-frames-1e9", "1,000,000,000 frames", "at the measured", "beyond the bound of 24 h", "--yes")
+@case("n-frames-1e9", "1,000,000,000 frames", "beyond the bound of 24 h", "--yes")
 def _(d, ply, v):
     pytest.importorskip("gasp_warp_mpm")
     return simulate(d, scene_text(ply, n_frames=1_000_000_000, n_grid=40, engine="warp_mpm", engine_options="{ }"))

@@ -168,3 +168,67 @@ def test_view_refuses_a_port_beyond_65535(mini_run):
     p = subprocess.run([sys.executable, "-m", "gasp_core.cli.main", "view", str(mini_run), "--port", "99999"],
                        capture_output=True, text=True, timeout=60)
     assert "--port 99999" in one_error(p.stderr, p.returncode)
+
+
+# ------------------------------------------------------------------------------- resume checks its frames
+
+
+def stopped_run(tmp_path: Path, donut_small: Path, stop_at: int = 3) -> tuple[Path, Path, Path]:
+    """A warp_mpm run of the donut stopped (as by Ctrl-C) at frame ``stop_at``: scene, output, partial folder."""
+    pytest.importorskip("gasp_warp_mpm")
+    from gasp_testing import scene_text
+    from gasp_core.run.pipeline import simulate_scene
+    from gasp_core.run.stop import Stopped
+    from gasp_core.scene.spec import load_scene
+    scene = tmp_path / "s.toml"
+    scene.write_text(scene_text(donut_small, n_frames=5, n_grid=16, engine="warp_mpm", engine_options="{ }"))
+    out = tmp_path / "out"
+
+    def interrupt(frame, gs):
+        if frame == stop_at:
+            raise KeyboardInterrupt
+
+    with pytest.raises(Stopped):
+        simulate_scene(load_scene(scene), out, progress=False, on_frame=interrupt)
+    partial, = tmp_path.glob(".out.partial-*")
+    return scene, out, partial
+
+
+def not_warning(err: str) -> str:
+    return "\n".join(ln for ln in err.splitlines() if not ln.startswith("gasp: warning:"))
+
+
+@pytest.mark.parametrize("damage", ["deleted", "truncated"])
+def test_resume_refuses_when_a_finished_frame_is_gone(tmp_path, donut_small, capsys, damage):
+    scene, out, partial = stopped_run(tmp_path, donut_small)
+    frame = partial / "donut_small" / "frame_0001.ply"
+    if damage == "deleted":
+        frame.unlink()
+    else:
+        frame.write_bytes(frame.read_bytes()[:-100])
+    capsys.readouterr()
+    code = main(["simulate", str(scene), "-o", str(out), "-q", "--resume"])
+    line = one_error(not_warning(capsys.readouterr().err), code)
+    assert "donut_small/frame_0001.ply" in line and ("missing" if damage == "deleted" else "changed") in line
+    assert not (out / "run.json").exists() and (partial / ".gasp-checkpoint.npz").exists()   # left as it was
+
+
+def test_resume_of_an_untouched_stop_lists_only_files_that_exist(tmp_path, donut_small, capsys):
+    scene, out, partial = stopped_run(tmp_path, donut_small)
+    assert main(["simulate", str(scene), "-o", str(out), "-q", "--resume"]) == 0, capsys.readouterr().err
+    listed = json.loads((out / "frames.json").read_text())["objects"][0]["frames"]
+    assert len(listed) == 6 and all((out / f).is_file() for f in listed)
+
+
+def test_a_checkpoint_whose_frame_is_a_word_is_one_line(tmp_path, donut_small, capsys):
+    from gasp_core.run import resume
+    scene, out, partial = stopped_run(tmp_path, donut_small)
+    ck = resume.load(partial)
+    ck.meta["frame"] = "three"
+    arrays = {f"engine/{k}": v for k, v in ck.engine_state.items()}
+    arrays.update({f"rot/{i}": r for i, r in enumerate(ck.prev_rot)})
+    arrays["meta"] = np.frombuffer(json.dumps(dict(ck.meta, n_rot=len(ck.prev_rot))).encode(), np.uint8)
+    np.savez(partial / resume.CHECKPOINT, **arrays)
+    capsys.readouterr()
+    code = main(["simulate", str(scene), "-o", str(out), "-q", "--resume"])
+    assert "'three'" in one_error(not_warning(capsys.readouterr().err), code)

@@ -93,12 +93,17 @@ class FrameWriter:
         self.suffix = SUFFIXES[self.fmt]
         self.once = [{} for _ in self.names]
 
-    def write(self, frame: int, gs: list[Gaussians]) -> None:
-        """Write frame ``frame`` of every object (``gs``: whole objects, input order)."""
+    def write(self, frame: int, gs: list[Gaussians]) -> list[str]:
+        """Write frame ``frame`` of every object (``gs``: whole objects, input order).
+
+        Returns the files it needs, relative to ``folder`` (those written once included), for ``--resume``'s check.
+        """
+        files = []
         for k, (g, name) in enumerate(zip(gs, self.names)):
             rel = f"{name}/frame_{frame:04d}{self.suffix}"
             if self.layout == "split" and self.static[k]:
                 self._once(k, "static", g)
+                files.append(self.once[k]["static"])
                 continue
             if self.layout == "split" and self.moving[k] is not None:
                 rows = self.moving[k]
@@ -110,7 +115,10 @@ class FrameWriter:
                                  lambda f: np.save(f, np.asarray(rows, np.int64)))
                     self.once[k]["moving_rows"] = f"{name}/moving_rows.npy"
                 g = g.subset(rows)
+                files += [self.once[k]["rest"], self.once[k]["moving_rows"]]
             write_file(self.folder / rel, g, self.fmt, overwrite=self.overwrite)
+            files.append(rel)
+        return files
 
     def _once(self, k: int, what: str, g: Gaussians) -> None:
         """Write ``<object>/<what><suffix>`` the first time (a resumed run finds it there)."""
