@@ -31,6 +31,8 @@ from gasp_core.errors import GaspError
 from gasp_core.fsutil import atomic_path, atomic_write
 from gasp_core.gs.gaussians import Gaussians
 from gasp_core.gs.ply import check_is_file, reject_file
+from gasp_core.gs.sog_check import sog_bytes
+from gasp_core.gs.spz_check import check_spz
 
 #: Output formats of ``gasp simulate --format`` and the file suffix of each.
 SUFFIXES = {"ply": ".ply", "compressed_ply": ".compressed.ply", "spz": ".spz", "sog": ".sog"}
@@ -105,18 +107,22 @@ def read_splat_file(path, fmt: str | None = None) -> Gaussians:
         from gasp_core.gs.splat import read_ksplat, read_splat
         return read_splat(path) if fmt == "splat" else read_ksplat(path)
     gsply = gsply_module(path, f"reading a .{fmt} file")
+    if fmt not in ("spz", "sog"):
+        raise ValueError(f"not a format read here: {fmt}")
+    if fmt == "spz":
+        check_spz(path)          # in bounded memory, before gsply decompresses it whole
+    else:
+        data = sog_bytes(path)   # checked, and only the entries meta.json names
     try:
         if fmt == "spz":
             d = gsply.read_spz(path)
-        elif fmt == "sog":
-            from gsply.sog_reader import sogread
-            d = sogread(path)
         else:
-            raise ValueError(f"not a format read here: {fmt}")
+            from gsply.sog_reader import sogread
+            d = sogread(data)
     except ImportError as e:  # sogread without imagecodecs
         raise GaspError(f"{path}: reading a .sog file needs imagecodecs ({INSTALL}): {e}") from None
-    except (ValueError, OSError, EOFError, KeyError) as e:
-        reject_file(path, f"not a readable .{fmt} file (truncated or corrupt?): {e}")
+    except Exception as e:   # gsply and its decoders raise many kinds (zip, JSON, WebP, numba) for a corrupt file
+        reject_file(path, f"not a readable .{fmt} file (truncated or corrupt?): {type(e).__name__}: {e}")
     g = from_gsdata(d, path, fmt)
     return flip_yz(g) if fmt == "spz" else g
 
