@@ -232,3 +232,179 @@ def test_a_checkpoint_whose_frame_is_a_word_is_one_line(tmp_path, donut_small, c
     capsys.readouterr()
     code = main(["simulate", str(scene), "-o", str(out), "-q", "--resume"])
     assert "'three'" in one_error(not_warning(capsys.readouterr().err), code)
+
+
+# ------------------------------------------------------------------- readers: hostile files, bounded memory
+
+DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
+SOG, SPZ, PC_SHORT = DATA / "train-1000.sog", DATA / "train-1000.spz", DATA / "pc_short.ply"
+
+
+def sog_entries(path: Path = SOG) -> dict[str, bytes]:
+    import zipfile
+    with zipfile.ZipFile(path) as z:
+        return {n: z.read(n) for n in z.namelist()}
+
+
+def write_zip(path: Path, entries: dict, compress: bool = False) -> Path:
+    import zipfile
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED if compress else zipfile.ZIP_STORED) as z:
+        for name, data in entries.items():
+            z.writestr(name, data if isinstance(data, bytes) else json.dumps(data))
+    return path
+
+
+def sog_with(tmp_path: Path, edit) -> Path:
+    """The real train-1000.sog (splat-transform 2.7.1) with ``edit(meta, entries)`` applied."""
+    entries = sog_entries()
+    meta = json.loads(entries.pop("meta.json"))
+    meta = edit(meta, entries) or meta
+    return write_zip(tmp_path / "bad.sog", {"meta.json": meta, **entries}, compress=True)
+
+
+def refused(path: Path, *needles: str) -> str:
+    from gasp_core.errors import SceneError
+    from gasp_core.gs.io import read_gaussians
+    with pytest.raises(SceneError) as e:
+        read_gaussians(path)
+    msg = str(e.value)
+    assert msg.startswith(str(path)) and "\n" not in msg, msg
+    for n in needles:
+        assert n in msg, (n, msg)
+    return msg
+
+
+def needs_sog():
+    pytest.importorskip("gsply")
+    pytest.importorskip("imagecodecs")
+
+
+def test_sog_codebook_shorter_than_its_labels_is_refused(tmp_path):
+    needs_sog()
+    refused(sog_with(tmp_path, lambda m, e: m["scales"].update(codebook=m["scales"]["codebook"][:10])),
+            "scales.codebook", "256")
+
+
+@pytest.mark.parametrize("case, needles", [
+    ("truncated-zip", ("zip",)), ("pk-garbage", ("zip",)), ("count-string", ("count", "'1000'")),
+    ("corrupt-webp", ("quats.webp", "WebP")), ("meta-list", ("top level", "list")),
+    ("missing-entry", ("sh0.webp", "missing")), ("codebook-nan", ("sh0.codebook",)),
+])
+def test_sog_malformed_is_one_line(tmp_path, case, needles):
+    needs_sog()
+    if case == "truncated-zip":
+        path = tmp_path / "bad.sog"
+        path.write_bytes(SOG.read_bytes()[:30000])
+    elif case == "pk-garbage":
+        path = tmp_path / "bad.sog"
+        path.write_bytes(b"PK\x03\x04" + np.random.default_rng(0).bytes(5000))
+    elif case == "count-string":
+        path = sog_with(tmp_path, lambda m, e: m.update(count="1000"))
+    elif case == "corrupt-webp":
+        path = sog_with(tmp_path, lambda m, e: e.update({"quats.webp": e["quats.webp"][:20] + b"\0" * 500}))
+    elif case == "meta-list":
+        path = sog_with(tmp_path, lambda m, e: [1, 2, 3])
+    elif case == "missing-entry":
+        path = sog_with(tmp_path, lambda m, e: e.pop("sh0.webp") and None)
+    else:
+        path = sog_with(tmp_path, lambda m, e: m["sh0"]["codebook"].__setitem__(3, float("nan")))
+    refused(path, *needles)
+
+
+def test_sog_with_a_huge_extra_entry_is_read_without_reading_it(tmp_path):
+    """An entry meta.json does not name is never decompressed (a 3 GiB one took 110 s and 6.3 GB): 1 GiB here."""
+    needs_sog()
+    import resource
+    import zipfile
+    from gasp_core.gs.io import read_gaussians
+    path = write_zip(tmp_path / "extra.sog", sog_entries(), compress=True)
+    with zipfile.ZipFile(path, "a", zipfile.ZIP_DEFLATED) as z, z.open("zeros.bin", "w", force_zip64=True) as f:
+        block = b"\0" * 2**24
+        for _ in range(64):
+            f.write(block)
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    assert read_gaussians(path).n == 1000
+    assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 200 * 1024   # KiB: not the 1 GiB
+
+
+def test_sog_named_entry_that_is_a_zip_bomb_is_refused(tmp_path):
+    needs_sog()
+    path = sog_with(tmp_path, lambda m, e: e.update({"quats.webp": b"\0" * 2**27}))
+    refused(path, "quats.webp", "larger than")
+
+
+def spz_payload() -> bytes:
+    """The decompressed stream of train-1000 as gsply writes .spz (gzip, version 3; the bundled file is NGSP v4)."""
+    import gzip
+    import tempfile
+    from gasp_core.gs.formats import write_splat_file
+    from gasp_core.gs.io import read_gaussians
+    with tempfile.TemporaryDirectory() as d:
+        write_splat_file(Path(d) / "t.spz", read_gaussians(DATA / "train-1000.ply"), "spz")
+        return gzip.decompress((Path(d) / "t.spz").read_bytes())
+
+
+def write_spz(path: Path, payload: bytes) -> Path:
+    import gzip
+    path.write_bytes(gzip.compress(payload, 1))
+    return path
+
+
+def test_spz_gzip_bomb_is_refused_in_bounded_memory(tmp_path):
+    pytest.importorskip("gsply")
+    import resource
+    path = write_spz(tmp_path / "bomb.spz", spz_payload() + b"\0" * 2**30)    # ~1 MB file, 1 GiB stream
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    refused(path, "gzip bomb")
+    assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 200 * 1024
+
+
+def test_spz_header_count_beyond_its_data_is_refused(tmp_path):
+    pytest.importorskip("gsply")
+    import struct
+    raw = bytearray(spz_payload())
+    struct.pack_into("<I", raw, 8, 2**31)
+    refused(write_spz(tmp_path / "big.spz", bytes(raw)), "truncated")
+    whole = write_spz(tmp_path / "whole.spz", spz_payload()).read_bytes()
+    (tmp_path / "cut.spz").write_bytes(whole[:len(whole) // 2])
+    refused(tmp_path / "cut.spz")
+    (tmp_path / "v4cut.spz").write_bytes(SPZ.read_bytes()[:5000])     # the bundled NGSP v4 file, cut
+    refused(tmp_path / "v4cut.spz")
+
+
+def ksplat_bytes(level: int = 1) -> bytearray:
+    from formats_testing import write_ksplat
+    from gasp_core.gs.io import read_gaussians
+    import tempfile
+    with tempfile.TemporaryDirectory() as d:
+        write_ksplat(Path(d) / "t.ksplat", read_gaussians(DATA / "train-1000.ply"), level=level)
+        return bytearray((Path(d) / "t.ksplat").read_bytes())
+
+
+@pytest.mark.parametrize("case, offset, fmt, value, needle", [
+    ("sh-degree-4", 4096 + 40, "<H", 4, "SH degree 4"),
+    ("full-buckets-beyond-buckets", 4096 + 32, "<I", 100, "full"),
+    ("partial-bucket-2^32-1", None, "<I", 2**32 - 1, "partial buckets"),
+    ("capacity-2^32-1", 4096 + 4, "<I", 2**32 - 1, "capacity"),
+])
+def test_ksplat_counts_checked_against_the_file(tmp_path, case, offset, fmt, value, needle):
+    import struct
+    raw = ksplat_bytes()
+    if offset is None:                      # the size of the (only) partial bucket, right after the headers
+        offset = 4096 + 1024
+    struct.pack_into(fmt, raw, offset, value)
+    (tmp_path / "bad.ksplat").write_bytes(bytes(raw))
+    refused(tmp_path / "bad.ksplat", needle)
+
+
+def test_nan_in_a_normal_is_refused_not_copied_into_every_frame(tmp_path, capsys):
+    from plyfile import PlyData, PlyElement
+    from gasp_core.gs.io import read_gaussians, write_gaussians
+    g = read_gaussians(PC_SHORT)
+    g.extra.update(nx=np.zeros(g.n, np.float32), ny=np.zeros(g.n, np.float32), nz=np.zeros(g.n, np.float32))
+    g.extra["nx"][4] = np.nan
+    write_gaussians(tmp_path / "n.ply", g)
+    assert "nx" in PlyData.read(str(tmp_path / "n.ply"))["vertex"].data.dtype.names
+    code = main(["info", str(tmp_path / "n.ply")])
+    assert "'nx'" in one_error(capsys.readouterr().err, code) and "vertex 4" in capsys.readouterr().err + "vertex 4"
+    del PlyElement

@@ -117,8 +117,8 @@ def read_ksplat(path) -> Gaussians:
             hdr = raw[_KSPLAT_HEADER + s * _KSPLAT_SECTION_HEADER:][:_KSPLAT_SECTION_HEADER]
             part, offset = _ksplat_section(hdr, raw, offset, level, (sh_lo, sh_hi))
             parts.append(part)
-    except ValueError as e:  # np.frombuffer past the end of the file
-        reject_file(path, f"shorter than its section headers say (truncated?): {e}")
+    except ValueError as e:  # a count beyond the file, or np.frombuffer past its end
+        reject_file(path, f"shorter than its section headers say, or they do not fit it (truncated or corrupt?): {e}")
     got = sum(len(p[0]) for p in parts)
     if got != n_total:
         reject_file(path, f"header says {n_total} splats, sections hold {got}")
@@ -139,12 +139,23 @@ def _ksplat_section(hdr: bytes, raw: bytes, offset: int, level: int, sh_range: t
     full, partial = int(u4[8]), int(u4[9])
     qrange = int(u4[6]) or (1 if level == 0 else 32767)
     sh_degree = int(np.frombuffer(hdr, "<u2", 1, 40)[0])
+    if sh_degree >= len(_KSPLAT_SH):
+        raise ValueError(f"SH degree {sh_degree} in a section header; expected 0 to 3")
     k3 = _KSPLAT_SH[sh_degree]
     cb, sb, rb, colb, shb = _KSPLAT_BYTES[level]
     record = cb + sb + rb + colb + k3 * shb
-    partial_sizes = np.frombuffer(raw, "<u4", partial, offset).astype(np.int64)
-    centres = np.frombuffer(raw, "<f4", n_buckets * 3, offset + partial * 4).reshape(n_buckets, 3)
     data_at = offset + bucket_bytes * n_buckets + partial * 4
+    if n > capacity or data_at + capacity * record > len(raw):
+        raise ValueError(f"a section of {n} splats, capacity {capacity}, needs {data_at + capacity * record:,} "
+                         f"bytes; the file has {len(raw):,}")
+    if level and (full + partial > n_buckets or full * bucket_size > capacity):
+        raise ValueError(f"{full} full and {partial} partial buckets of {bucket_size} splats; the section has "
+                         f"{n_buckets} buckets and room for {capacity} splats")
+    partial_sizes = np.frombuffer(raw, "<u4", partial, offset).astype(np.int64)
+    if level and partial_sizes.sum() > capacity:
+        raise ValueError(f"partial buckets of {int(partial_sizes.sum()):,} splats in all; the section has room "
+                         f"for {capacity}")
+    centres = np.frombuffer(raw, "<f4", n_buckets * 3, offset + partial * 4).reshape(n_buckets, 3)
     rec = np.frombuffer(raw, "u1", capacity * record, data_at).reshape(capacity, record)[:n]
     fl, hf = ("<f4", "<f4") if level == 0 else ("<u2", "<f2")
     if level == 0:
