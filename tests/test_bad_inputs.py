@@ -390,6 +390,21 @@ def _(d, ply, v):
     return ["compare", simulate(d, scene_text(ply))[1], "--engines", "warp_mpm,nope", "-o", str(d / "cmp")]
 
 
+# --- issue 34: tracebacks before
+
+
+@case("object-is-a-symlink-loop", "loop.ply", "symlink loop")
+def _(d, ply, v):
+    (d / "loop.ply").symlink_to("loop.ply")                        # was RuntimeError from Path.resolve
+    return simulate(d, scene_text(d / "loop.ply"))
+
+
+@case("inline-table-500-deep", "scene.toml", "nested too deep")
+def _(d, ply, v):
+    deep = "x = " + "{a = " * 500 + "1" + "}" * 500 + "\n"       # was RecursionError in tomllib
+    return simulate(d, deep + scene_text(ply))
+
+
 def run_case(tmp_path: Path, argv: list[str], capsys) -> tuple[int, str, list]:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

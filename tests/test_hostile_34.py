@@ -408,3 +408,44 @@ def test_nan_in_a_normal_is_refused_not_copied_into_every_frame(tmp_path, capsys
     code = main(["info", str(tmp_path / "n.ply")])
     assert "'nx'" in one_error(capsys.readouterr().err, code) and "vertex 4" in capsys.readouterr().err + "vertex 4"
     del PlyElement
+
+
+# ------------------------------------------------------------------------------ work bounded before it starts
+
+
+def test_threads_beyond_the_cores_are_capped_with_a_warning():
+    import os
+    import warnings as w
+    from gasp_core.seam.options import Option, check_options
+    declared = [Option("threads", None, "CPU threads", kind="int", lo=1)]
+    with w.catch_warnings(record=True) as caught:
+        w.simplefilter("always")
+        got = check_options({"threads": 100000}, declared, "taichi_mpm")
+    assert got == {"threads": os.cpu_count()} and "100000" in str(caught[0].message)
+    assert check_options({"threads": 1}, declared, "taichi_mpm") == {"threads": 1}
+
+
+@pytest.mark.slow   # a taichi run in a process (~20 s); the cap itself: the test above
+def test_taichi_with_100000_threads_runs_on_the_cores(tmp_path, donut_small):
+    """The issue's repro through the command, in a process with a time limit (it forked 100,000 threads)."""
+    pytest.importorskip("gasp_taichi_mpm")
+    import os
+    from gasp_testing import scene_text
+    scene = tmp_path / "s.toml"
+    scene.write_text(scene_text(donut_small, n_frames=1, n_grid=16, engine_options="{ threads = 100000 }"))
+    p = subprocess.run([sys.executable, "-m", "gasp_core.cli.main", "simulate", str(scene), "-o", str(tmp_path / "o"),
+                        "-q"], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    assert f"using threads = {os.cpu_count()}" in p.stderr
+    assert json.loads((tmp_path / "o" / "run.json").read_text())["engine_options"]["threads"] == os.cpu_count()
+
+
+def test_work_is_said_before_the_first_frame():
+    from gasp_core.run import budget
+    # the guitar at n_grid 200 and particles_per_cell 64: 1.36e6 points, ~134 substeps, 40 frames
+    note = budget.check_before({"n_substeps": 134}, 1_360_000, 40, 40, yes=False)
+    assert "7.29e+09 point-substeps" in note and "particles_per_cell" in note
+    assert budget.check_before({"n_substeps": 122}, 150_000, 36, 36, yes=False) == ""     # the README donut
+    with pytest.raises(GaspError, match="beyond the bound of 24 h"):
+        budget.check_before({"n_substeps": 122}, 150_000, 10**9, 10**9, yes=False)
+    assert budget.check_before({"n_substeps": 122}, 150_000, 10**9, 10**9, yes=True)
