@@ -449,3 +449,32 @@ def test_work_is_said_before_the_first_frame():
     with pytest.raises(GaspError, match="beyond the bound of 24 h"):
         budget.check_before({"n_substeps": 122}, 150_000, 10**9, 10**9, yes=False)
     assert budget.check_before({"n_substeps": 122}, 150_000, 10**9, 10**9, yes=True)
+
+
+def test_gif_to_a_full_disk_is_one_line(mini_run, tmp_path, capsys, monkeypatch):
+    """The GIF is encoded in memory and then written, so ENOSPC is one OSError line (the image writer's
+    ``__del__`` printed a 22-line traceback after it). The full disk: a write that fails as a 64 kB tmpfs did."""
+    pytest.importorskip("imageio")
+    import builtins
+    import errno
+    import gasp_core.render.video as video
+
+    class Full:
+        def __init__(self, *a, **k):
+            self.f = builtins.open(*a, **k)
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            self.f.close()
+
+        def write(self, data):
+            raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(video, "open", Full, raising=False)
+    out = tmp_path / "r.gif"
+    code = main(["render", str(mini_run), "-o", str(out), "-q", "--resolution", "32x24"])
+    err = capsys.readouterr().err
+    assert "No space left on device" in one_error(err, code) and "Exception ignored" not in err
+    assert not out.exists() and not list(tmp_path.glob(".r.*"))
