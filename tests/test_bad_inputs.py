@@ -405,6 +405,16 @@ def _(d, ply, v):
     return simulate(d, deep + scene_text(ply))
 
 
+@case("object-below-the-ground", "object 'bad'", "below the ground at height 0", "raise the object's position")
+def _(d, ply, v):
+    return with_ply(d, v, position_z=-0.5, n_grid=40)              # was "enlarge [domain]" (n_grid 40: no resolution warning)
+
+
+@case("ground-above-the-object", "object 'bad'", "below the ground at height 0.5", "lower the ground's height")
+def _(d, ply, v):
+    return simulate(d, edit(scene_text(write_vertex(d / "bad.ply", v), n_grid=40), "height = 0.0", "height = 0.5"))
+
+
 def run_case(tmp_path: Path, argv: list[str], capsys) -> tuple[int, str, list]:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
