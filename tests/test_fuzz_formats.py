@@ -83,20 +83,20 @@ def _read(tmp_path: Path, raw: bytes, suffix: str):
 def _mutate_bytes(draw, raw: bytearray, fields: list[tuple[int, str]], body: int) -> bytearray:
     """1-4 edits: a header field (offset, struct format) set to a count, a special float32 in the body
     (4-byte aligned from ``body``), a random byte, or truncation."""
-    for _ in range(draw(st.integers(1, 4))):
-        op = draw(st.sampled_from(["field", "float", "field", "byte", "truncate"]))
+    for _ in range(draw(st.integers(1, 4))):   # sampled_from draws evenly; st.integers favours small values
+        op = draw(st.sampled_from(["float", "field", "float", "byte", "truncate"]))
         if op == "field" and fields:
             off, fmt = draw(st.sampled_from(fields))
             if off + struct.calcsize(fmt) <= len(raw):
                 big = (1 << (8 * struct.calcsize(fmt))) - 1
                 struct.pack_into(fmt, raw, off, min(draw(st.sampled_from(COUNTS)), big))
         elif op == "float" and len(raw) >= body + 4:
-            i = body + 4 * draw(st.integers(0, (len(raw) - body) // 4 - 1))
+            i = body + 4 * draw(st.sampled_from(range((len(raw) - body) // 4)))
             raw[i:i + 4] = np.float32(draw(st.sampled_from(SPECIAL))).tobytes()
         elif op == "byte" and raw:
-            raw[draw(st.integers(0, len(raw) - 1))] = draw(st.integers(0, 255))
+            raw[draw(st.sampled_from(range(len(raw))))] = draw(st.integers(0, 255))
         elif op == "truncate":
-            raw = raw[:draw(st.integers(0, len(raw)))]
+            raw = raw[:draw(st.sampled_from(range(len(raw) + 1)))]
     return raw
 
 

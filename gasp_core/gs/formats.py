@@ -132,6 +132,8 @@ def check_decoded(path, g: Gaussians) -> Gaussians:
     file, the field and the splat) what the PLY reader refuses too: a position or scale that is not finite or
     beyond :data:`~gasp_core.gs.gaussians.MAX_MAGNITUDE`, a negative scale, a colour or SH coefficient that
     is not finite, a NaN opacity."""
+    if g.n == 0:
+        reject_file(path, "0 splats; expected at least one Gaussian")
     fields = (("position", g.means, True), ("scale", g.scales, True), ("colour", g.sh_dc, False),
               ("SH coefficient", g.sh_rest.reshape(g.n, -1), False))
     with np.errstate(invalid="ignore"):
