@@ -478,3 +478,17 @@ def test_gif_to_a_full_disk_is_one_line(mini_run, tmp_path, capsys, monkeypatch)
     err = capsys.readouterr().err
     assert "No space left on device" in one_error(err, code) and "Exception ignored" not in err
     assert not out.exists() and not list(tmp_path.glob(".r.*"))
+
+
+@pytest.mark.parametrize("stem", ["run.json", ".gasp-checkpoint.npz"])
+def test_an_object_named_like_a_run_file_gets_its_own_folder(tmp_path, donut_small, capsys, stem):
+    """``run.json.ply`` made an object folder ``run.json``, and the run failed with "[Errno 21] Is a directory"."""
+    pytest.importorskip("gasp_warp_mpm")
+    import shutil
+    from gasp_testing import scene_text
+    ply = shutil.copy(donut_small, tmp_path / f"{stem}.ply")
+    scene = tmp_path / "s.toml"
+    scene.write_text(scene_text(Path(ply), n_frames=1, n_grid=16, engine="warp_mpm", engine_options="{ }"))
+    assert main(["simulate", str(scene), "-o", str(tmp_path / "o"), "-q"]) == 0, capsys.readouterr().err
+    assert (tmp_path / "o" / f"_{stem}" / "frame_0001.ply").is_file()
+    assert json.loads((tmp_path / "o" / "run.json").read_text())["n_frames"] == 1
