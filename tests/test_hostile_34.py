@@ -492,3 +492,12 @@ def test_an_object_named_like_a_run_file_gets_its_own_folder(tmp_path, donut_sma
     assert main(["simulate", str(scene), "-o", str(tmp_path / "o"), "-q"]) == 0, capsys.readouterr().err
     assert (tmp_path / "o" / f"_{stem}" / "frame_0001.ply").is_file()
     assert json.loads((tmp_path / "o" / "run.json").read_text())["n_frames"] == 1
+
+
+def test_a_deleted_working_directory_is_named(tmp_path, donut_small):
+    """It was "[Errno 2] No such file or directory", naming nothing."""
+    gone = tmp_path / "gone"
+    gone.mkdir()
+    p = subprocess.run(["sh", "-c", f'cd "{gone}" && rmdir "{gone}" && exec "{sys.executable}" -m gasp_core.cli.main '
+                                    f'info "{donut_small}"'], capture_output=True, text=True, timeout=120)
+    assert "working directory no longer exists" in one_error(p.stderr, p.returncode)
