@@ -87,7 +87,7 @@ def _check_meta(path: Path, meta) -> tuple[int, dict[str, int]]:
         sh = meta["shN"]
         names = _files(path, meta, "shN", 2)
         if version == 2:
-            if sh.get("bands") not in _SH_COEFFS:
+            if not _is_int(sh.get("bands")) or sh["bands"] not in _SH_COEFFS:
                 _bad(path, "shN.bands", f"expected 1, 2 or 3, got {sh.get('bands')!r}")
             if not _is_int(sh.get("count")) or not 1 <= sh["count"] <= 65536:
                 _bad(path, "shN.count", f"expected a palette size from 1 to 65536, got {sh.get('count')!r}")

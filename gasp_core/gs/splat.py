@@ -24,7 +24,8 @@ def _logit(alpha: np.ndarray) -> np.ndarray:
 
 def _unit_quats(path: Path, q: np.ndarray) -> np.ndarray:
     """``q`` (n, 4) normalised; a zero or non-finite one is refused (:class:`SceneError`)."""
-    norm = np.linalg.norm(q, axis=1)
+    with np.errstate(invalid="ignore", over="ignore"):   # inf or NaN components: refused just below
+        norm = np.linalg.norm(q, axis=1)
     bad = ~(np.isfinite(norm) & (norm > 1e-12))
     if bad.any():
         reject_file(path, f"zero or non-finite quaternion at splat {int(np.flatnonzero(bad)[0])}")
@@ -111,12 +112,16 @@ def read_ksplat(path) -> Gaussians:
                     "level 0, 1 or 2 (a GaussianSplats3D .ksplat file)")
     sh_lo, sh_hi = sh_lo or -1.5, sh_hi or 1.5
     offset = _KSPLAT_HEADER + n_sections * _KSPLAT_SECTION_HEADER
+    if offset > len(raw):
+        reject_file(path, f"{n_sections:,} section headers of {_KSPLAT_SECTION_HEADER} bytes; the file has "
+                    f"{len(raw):,} bytes (truncated or corrupt?)")
     parts = []
     try:
-        for s in range(n_sections):
-            hdr = raw[_KSPLAT_HEADER + s * _KSPLAT_SECTION_HEADER:][:_KSPLAT_SECTION_HEADER]
-            part, offset = _ksplat_section(hdr, raw, offset, level, (sh_lo, sh_hi))
-            parts.append(part)
+        with np.errstate(invalid="ignore", over="ignore"):   # the values are checked once decoded (check_decoded)
+            for s in range(n_sections):
+                hdr = raw[_KSPLAT_HEADER + s * _KSPLAT_SECTION_HEADER:][:_KSPLAT_SECTION_HEADER]
+                part, offset = _ksplat_section(hdr, raw, offset, level, (sh_lo, sh_hi))
+                parts.append(part)
     except ValueError as e:  # a count beyond the file, or np.frombuffer past its end
         reject_file(path, f"shorter than its section headers say, or they do not fit it (truncated or corrupt?): {e}")
     got = sum(len(p[0]) for p in parts)
