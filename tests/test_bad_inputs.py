@@ -415,6 +415,19 @@ def _(d, ply, v):
     return simulate(d, edit(scene_text(write_vertex(d / "bad.ply", v), n_grid=40), "height = 0.0", "height = 0.5"))
 
 
+@case("info-size-1e400m", "--size", "1e400m", "1e6 m")
+def _(d, ply, v):
+    return ["info", str(write_vertex(d / "in.ply", v)), "--size", "1e400m"]   # blamed "scale = inf"
+
+
+@case("info-one-zero-size-splat", "one.ply", "1 Gaussian(s) span 0 units")
+def _(d, ply, v):
+    w = v[:1].copy()
+    for n in ("scale_0", "scale_1", "scale_2"):
+        w[n] = -np.inf                                              # was "fill spacing h must be > 0"
+    return ["info", str(write_vertex(d / "one.ply", w))]
+
+
 def run_case(tmp_path: Path, argv: list[str], capsys) -> tuple[int, str, list]:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
