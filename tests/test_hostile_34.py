@@ -501,3 +501,24 @@ def test_a_deleted_working_directory_is_named(tmp_path, donut_small):
     p = subprocess.run(["sh", "-c", f'cd "{gone}" && rmdir "{gone}" && exec "{sys.executable}" -m gasp_core.cli.main '
                                     f'info "{donut_small}"'], capture_output=True, text=True, timeout=120)
     assert "working directory no longer exists" in one_error(p.stderr, p.returncode)
+
+
+@pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="reads the handler mask from /proc (Linux)")
+def test_sigterm_during_start_up_is_one_line_and_130(tmp_path, donut_small):
+    """SIGTERM while the command was still importing ended it with status 143 and no line. Sent as soon as
+    the process has a handler for it (its /proc status), which is the first thing the ``gasp`` package does."""
+    import os
+    import signal
+    import time
+    p = subprocess.Popen([sys.executable, "-m", "gasp_core.cli.main", "info", str(donut_small)], cwd=tmp_path,
+                         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 60
+    while time.time() < deadline:
+        caught = [ln for ln in open(f"/proc/{p.pid}/status").read().splitlines() if ln.startswith("SigCgt")]
+        if caught and int(caught[0].split()[1], 16) & (1 << (signal.SIGTERM - 1)):
+            break
+        time.sleep(0.005)
+    os.kill(p.pid, signal.SIGTERM)
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == 130 and err.strip().splitlines() == [
+        "gasp: interrupted by SIGTERM; no partial output was kept"], (p.returncode, err)
