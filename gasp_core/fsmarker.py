@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import stat
 from pathlib import Path
 
@@ -59,16 +60,18 @@ def write_marker(folder: Path) -> None:
 def unexpected_entries(folder: Path) -> list[str]:
     """What ``folder`` holds that gasp did not write there, or changed since (empty list: a gasp output).
 
-    Returns ``[NO_LIST]`` for a folder without a marker listing its files (not a gasp output, or one
-    written before gasp listed them); an entry that changed is named ``"<path> (changed)"``, one that
-    cannot be listed ``"<path> (unreadable)"``.
+    Returns ``[NO_LIST]`` for a folder without a marker (not a gasp output); an entry that changed is
+    named ``"<path> (changed)"``, one that cannot be listed ``"<path> (unreadable)"``. A marker of an older
+    gasp (its top-level entries only) covers frame files in the object folders and nothing else.
     """
     try:
         marker = json.loads((folder / MARKER).read_text())
+        if "files" not in marker and isinstance(marker.get("entries"), list):
+            return _legacy_unexpected(folder, set(marker["entries"]))
         files, dirs = marker["files"], set(marker["dirs"])
         if not isinstance(files, dict):
             raise TypeError("files")
-    except (OSError, ValueError, KeyError, TypeError):
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return [NO_LIST]
     extra = []
     try:
@@ -80,6 +83,26 @@ def unexpected_entries(folder: Path) -> list[str]:
                 extra.append(rel)
             elif files[rel] != [st.st_size, st.st_mtime_ns]:
                 extra.append(f"{rel} (changed)")
+    except OSError as e:
+        extra.append(f"{e.filename} (unreadable)")
+    return extra
+
+
+#: What a gasp run writes inside an object folder (the only files a marker of before the file list may cover).
+_RUN_FILE = re.compile(r"(frame_\d{4,}|static|rest)(\.ply|\.compressed\.ply|\.spz|\.sog)|moving_rows\.npy")
+
+
+def _legacy_unexpected(folder: Path, entries: set) -> list[str]:
+    """:func:`unexpected_entries` for a marker of an older gasp (top-level entries only, no file list): a
+    top-level entry it does not list, or anything in an object folder that is not a frame file, is named."""
+    extra = []
+    try:
+        for rel, st in _walk(folder):
+            top, _, rest = rel.partition("/")
+            if top not in entries:
+                extra.append(rel)
+            elif rest and ("/" in rest or not stat.S_ISREG(st.st_mode) or not _RUN_FILE.fullmatch(rest)):
+                extra.append(rel)
     except OSError as e:
         extra.append(f"{e.filename} (unreadable)")
     return extra

@@ -522,3 +522,17 @@ def test_sigterm_during_start_up_is_one_line_and_130(tmp_path, donut_small):
     _, err = p.communicate(timeout=60)
     assert p.returncode == 130 and err.strip().splitlines() == [
         "gasp: interrupted by SIGTERM; no partial output was kept"], (p.returncode, err)
+
+
+def test_a_run_of_an_older_gasp_is_replaced_only_if_it_holds_frames_alone(tmp_path):
+    """A marker written before the file list (top-level entries only): frame files in object folders are
+    gasp's, anything else (a note, a subfolder) refuses the overwrite."""
+    out = tmp_path / "out"
+    finished_run(OutputClaim(out))
+    (out / ".gasp-output").write_text(json.dumps({"entries": ["frames.json", "run.json", "small"]}))
+    (out / "small" / "notes.txt").write_text("x")
+    with pytest.raises(GaspError, match="small/notes.txt"):
+        OutputClaim(out, overwrite=True)
+    (out / "small" / "notes.txt").unlink()
+    finished_run(OutputClaim(out, overwrite=True), objects=("new",))
+    assert (out / "new" / "frame_0000.ply").exists() and not (out / "small").exists()
