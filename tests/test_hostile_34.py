@@ -536,3 +536,14 @@ def test_a_run_of_an_older_gasp_is_replaced_only_if_it_holds_frames_alone(tmp_pa
     (out / "small" / "notes.txt").unlink()
     finished_run(OutputClaim(out, overwrite=True), objects=("new",))
     assert (out / "new" / "frame_0000.ply").exists() and not (out / "small").exists()
+
+
+def test_spz_v4_declaring_more_points_than_it_can_hold_is_refused(tmp_path):
+    """The bundled NGSP v4 file with its count raised to 2^31: sections of 2^31 points cannot come from
+    19 kB (gsply would decompress into what the table declares)."""
+    pytest.importorskip("gsply")
+    import struct
+    raw = bytearray(SPZ.read_bytes())
+    struct.pack_into("<I", raw, 8, 2**31)
+    (tmp_path / "big.spz").write_bytes(bytes(raw))
+    refused(tmp_path / "big.spz", "zstd bomb")

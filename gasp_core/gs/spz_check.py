@@ -5,7 +5,9 @@ gsply's ``read_spz`` decompresses the whole gzip stream into memory before it re
 pieces, holding none of them: it reads the 16-byte header (magic ``NGSP``, version, point count, SH
 degree), refuses a stream longer than the header's count needs (plus :data:`SLACK` for extensions) or
 one that expands more than :data:`MAX_RATIO` times beyond :data:`FREE_BYTES` (real SPZ data compresses
-about 1.5 to 3 times), and a truncated stream. Only then does gsply read the file.
+about 1.5 to 3 times), and a truncated stream. An NGSP v4 file (zstd sections whose sizes gsply checks
+against the header's count) is refused when that count needs more than the same ratio allows. Only then
+does gsply read the file.
 """
 from __future__ import annotations
 
@@ -26,17 +28,25 @@ _SH_DIM = (0, 3, 8, 15)
 
 def check_spz(path: Path) -> None:
     """Refuse (:class:`SceneError`, one line naming the file) a gzip ``.spz`` whose stream is corrupt,
-    truncated, or longer than its header's point count needs; NGSP v4 (zstd) files are left to gsply,
-    whose section sizes come from the file's table."""
+    truncated, or longer than its header's point count needs, and an NGSP v4 (zstd) file whose count
+    needs more than :data:`MAX_RATIO` times its size beyond :data:`FREE_BYTES`."""
     path = Path(path)
     size = path.stat().st_size
+    limit = FREE_BYTES + MAX_RATIO * size
     with open(path, "rb") as f:
-        if f.read(2) != b"\x1f\x8b":
+        head = f.read(16)
+        if head[:4] == b"NGSP" and len(head) == 16:   # v4: zstd sections of the sizes its count implies
+            n, sh_degree = struct.unpack_from("<IB", head, 8)
+            need = (9 + 1 + 3 + 3 + 4 + 3 * _SH_DIM[min(sh_degree, 3)]) * n
+            if need > limit:
+                reject_file(path, f"the header declares {n:,} points, {need:,} bytes of sections: more than "
+                            f"{MAX_RATIO} times the file's {size:,} bytes can hold (a zstd bomb?)")
+            return
+        if head[:2] != b"\x1f\x8b":
             return
         f.seek(0)
         d = zlib.decompressobj(wbits=31)
         head, total, expected = b"", 0, None
-        limit = FREE_BYTES + MAX_RATIO * size
         try:
             while chunk := f.read(2**20):
                 out = d.decompress(chunk, 2**20)
