@@ -173,25 +173,36 @@ def test_view_refuses_a_port_beyond_65535(mini_run):
 # ------------------------------------------------------------------------------- resume checks its frames
 
 
-def stopped_run(tmp_path: Path, donut_small: Path, stop_at: int = 3) -> tuple[Path, Path, Path]:
-    """A warp_mpm run of the donut stopped (as by Ctrl-C) at frame ``stop_at``: scene, output, partial folder."""
+@pytest.fixture(scope="module")
+def stopped_once(tmp_path_factory, donut_small):
+    """A warp_mpm run of the donut stopped (as by Ctrl-C) at frame 3, made once: its folder and scene."""
     pytest.importorskip("gasp_warp_mpm")
     from gasp_testing import scene_text
     from gasp_core.run.pipeline import simulate_scene
     from gasp_core.run.stop import Stopped
     from gasp_core.scene.spec import load_scene
-    scene = tmp_path / "s.toml"
+    d = tmp_path_factory.mktemp("stopped")
+    scene = d / "s.toml"
     scene.write_text(scene_text(donut_small, n_frames=5, n_grid=16, engine="warp_mpm", engine_options="{ }"))
-    out = tmp_path / "out"
 
     def interrupt(frame, gs):
-        if frame == stop_at:
+        if frame == 3:
             raise KeyboardInterrupt
 
     with pytest.raises(Stopped):
-        simulate_scene(load_scene(scene), out, progress=False, on_frame=interrupt)
-    partial, = tmp_path.glob(".out.partial-*")
-    return scene, out, partial
+        simulate_scene(load_scene(scene), d / "out", progress=False, on_frame=interrupt)
+    return d, scene
+
+
+def stopped_run(tmp_path: Path, stopped_once) -> tuple[Path, Path, Path]:
+    """A copy of the stopped run (output folder with its claim, partial folder) in ``tmp_path``, same scene
+    and input files (the fingerprint holds their paths): scene, output, partial folder."""
+    import shutil
+    d, scene = stopped_once
+    partial, = d.glob(".out.partial-*")
+    shutil.copytree(d / "out", tmp_path / "out")
+    shutil.copytree(partial, tmp_path / partial.name)
+    return scene, tmp_path / "out", tmp_path / partial.name
 
 
 def not_warning(err: str) -> str:
@@ -199,8 +210,8 @@ def not_warning(err: str) -> str:
 
 
 @pytest.mark.parametrize("damage", ["deleted", "truncated"])
-def test_resume_refuses_when_a_finished_frame_is_gone(tmp_path, donut_small, capsys, damage):
-    scene, out, partial = stopped_run(tmp_path, donut_small)
+def test_resume_refuses_when_a_finished_frame_is_gone(tmp_path, stopped_once, capsys, damage):
+    scene, out, partial = stopped_run(tmp_path, stopped_once)
     frame = partial / "donut_small" / "frame_0001.ply"
     if damage == "deleted":
         frame.unlink()
@@ -213,16 +224,16 @@ def test_resume_refuses_when_a_finished_frame_is_gone(tmp_path, donut_small, cap
     assert not (out / "run.json").exists() and (partial / ".gasp-checkpoint.npz").exists()   # left as it was
 
 
-def test_resume_of_an_untouched_stop_lists_only_files_that_exist(tmp_path, donut_small, capsys):
-    scene, out, partial = stopped_run(tmp_path, donut_small)
+def test_resume_of_an_untouched_stop_lists_only_files_that_exist(tmp_path, stopped_once, capsys):
+    scene, out, partial = stopped_run(tmp_path, stopped_once)
     assert main(["simulate", str(scene), "-o", str(out), "-q", "--resume"]) == 0, capsys.readouterr().err
     listed = json.loads((out / "frames.json").read_text())["objects"][0]["frames"]
     assert len(listed) == 6 and all((out / f).is_file() for f in listed)
 
 
-def test_a_checkpoint_whose_frame_is_a_word_is_one_line(tmp_path, donut_small, capsys):
+def test_a_checkpoint_whose_frame_is_a_word_is_one_line(tmp_path, stopped_once, capsys):
     from gasp_core.run import resume
-    scene, out, partial = stopped_run(tmp_path, donut_small)
+    scene, out, partial = stopped_run(tmp_path, stopped_once)
     ck = resume.load(partial)
     ck.meta["frame"] = "three"
     arrays = {f"engine/{k}": v for k, v in ck.engine_state.items()}
