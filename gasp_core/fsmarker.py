@@ -20,8 +20,9 @@ from pathlib import Path
 MARKER = ".gasp-output"
 #: The claim file (:class:`gasp_core.fsutil.OutputClaim`); not part of a run's results.
 CLAIM = ".gasp-claim"
-#: Files at a run folder's top level that are the machinery's, not results.
-_SKIP_TOP = (MARKER, CLAIM, ".gasp-pid")
+#: Files at a run folder's top level that are the machinery's, not results (a committed folder holds no
+#: ``.gasp-pid``: one there is not gasp's).
+_SKIP_TOP = (MARKER, CLAIM)
 #: What :func:`unexpected_entries` returns for a folder without a marker listing its files.
 NO_LIST = f"no {MARKER} list of the files gasp wrote"
 
