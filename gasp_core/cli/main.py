@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -323,6 +324,11 @@ def main(argv: list[str] | None = None) -> int:
 def _run(args) -> int:
     """``args.func(args)`` under the error contract: its exit status, and an error as one line."""
     try:
+        try:
+            os.getcwd()
+        except FileNotFoundError:
+            raise GaspError("the working directory no longer exists (deleted or moved away); cd to an existing "
+                            "folder and run again") from None
         return args.func(args)
     except (GaspError, OSError, KeyboardInterrupt) as e:
         _end_progress_bars()

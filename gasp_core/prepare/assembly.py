@@ -140,9 +140,7 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
     C = spin(objects, x, v, p_vol, body_id)
     outside = ((x < lo) | (x > hi)).any(axis=1)
     if outside.any():
-        k = int(np.flatnonzero(outside)[0])
-        raise SceneError(f"{scene.path}: {int(outside.sum())} point(s) start outside the domain "
-                         f"[{lo.tolist()}, {hi.tolist()}] (first at {x[k].tolist()}); enlarge [domain]")
+        raise SceneError(_outside_message(scene, objects, x, np.concatenate(bodies), outside, lo, hi))
     extras = scene_extras(scene, scenery, x, dx)  # colliders may name static objects
     return SimSetup(
         **extras, x=x, v=v, p_vol=p_vol, body_id=body_id, C=C, passive=passive if passive.any() else None,
@@ -196,3 +194,21 @@ def spin(objects: list[PreparedObject], x: np.ndarray, v: np.ndarray, p_vol: np.
         v[rows] += np.cross(w, x[rows] - c)
         C[rows] = skew(w)
     return C
+
+
+def _outside_message(scene: Scene, objects: list[PreparedObject], x: np.ndarray, body: np.ndarray,
+                     outside: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> str:
+    """Why points start outside the domain, naming the object and the key that fixes it: below a ground
+    plane (the object placed under it, or the ground set above it), else outside ``[domain] lo/hi``."""
+    k = int(np.flatnonzero(outside)[0])
+    name = objects[int(body[k])].name
+    grounds = [b.height for b in scene.boundaries if b.kind == "ground"]
+    below = outside & (x[:, 2] < lo[2]) if grounds else np.zeros(len(x), bool)
+    if below.any():
+        k = int(np.flatnonzero(below)[0])
+        return (f"{scene.path}: {int(below.sum())} point(s) of object '{objects[int(body[k])].name}' start below "
+                f"the ground at height {min(grounds):g} m (lowest at z = {float(x[below, 2].min()):.4g} m): raise "
+                f"the object's position or lower the ground's height ([[boundary]] kind = \"ground\")")
+    where = "[domain] lo/hi" if scene.domain.lo is not None else "the default domain around the objects"
+    return (f"{scene.path}: {int(outside.sum())} point(s) of object '{name}' start outside {where} "
+            f"[{lo.tolist()}, {hi.tolist()}] (first at {x[k].tolist()}); enlarge [domain] lo/hi or move the object")

@@ -70,7 +70,7 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray) -> tuple[Gau
 
 
 def iter_frames(prep: PreparedScene, n_frames: int, stats: RunStats | None = None,
-                resume: Checkpoint | None = None, state: FrameState | None = None):
+                resume: Checkpoint | None = None, state: FrameState | None = None, before_frames=None):
     """Yield ``(frame, gaussians_per_object, counts)`` for frame 0 (the input) to ``n_frames``.
 
     ``counts`` holds ``frame``, ``degenerate`` faces and ``clamped`` scales, and ``sim_s`` (engine
@@ -85,6 +85,8 @@ def iter_frames(prep: PreparedScene, n_frames: int, stats: RunStats | None = Non
         Continue after ``resume.frame`` (frames up to it are not yielded again).
     state : FrameState, optional
         Updated before each yield with the frame's rotations and the engine's ``get_state``.
+    before_frames : callable, optional
+        Passed to :func:`gasp_core.seam.runner.run_engine` (called once the engine is built).
 
     Raises
     ------
@@ -112,7 +114,7 @@ def iter_frames(prep: PreparedScene, n_frames: int, stats: RunStats | None = Non
         gs, row = rebuild_all(0, prep.setup.x)
         yield 0, gs, row
     for rec in run_engine(prep.info, prep.setup, n_frames, stats, start_frame=start,
-                          state=None if resume is None else resume.engine_state):
+                          state=None if resume is None else resume.engine_state, before_frames=before_frames):
         gs, row = rebuild_all(rec.frame, rec.x)
         row["sim_s"] = rec.wall_s
         state.get_state = rec.get_state

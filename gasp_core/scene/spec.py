@@ -54,7 +54,7 @@ from gasp_core.scene.select import SelectSpec, read_select, read_static
 from gasp_core.scene.tables import DomainSpec, EngineSpec, read_boundary, read_domain, read_engine, read_material
 from gasp_core.scene.values import (MAX_COORD, MAX_GRAVITY, MAX_SPEED, MAX_SPIN, SCALE_RANGE, UP_AXES, as_boolean,
                                     as_integer, as_number, as_string, as_table, as_tables, as_vec3, bad_value,
-                                    check_keys, is_number)
+                                    check_keys, is_number, resolve_path)
 from gasp_core.seam.setup import Boundary, Material
 
 #: ``[[object]] surface``: the triangle vertices are material points, or passive (massless, carried), or
@@ -198,7 +198,7 @@ def _object(o: dict, where: str, src: Path) -> ObjectSpec:
     if "file" not in o:
         raise SceneError(f"{src}: {where} needs 'file'")
     name = as_string(o["file"], f"{where}.file", src)
-    f = (src.parent / name).resolve()
+    f = resolve_path(src, name, f"{where}.file")
     if f.is_dir():
         raise SceneError(f"{src}: {where}.file '{name}' is a directory (looked at {f}); expected a Gaussian "
                          "Splatting file")
@@ -279,6 +279,9 @@ def load_scene(path: str | Path, quality: str | None = None) -> Scene:
         raise SceneError(f"{src}: cannot read the scene file: {e.strerror or e}") from None
     except tomllib.TOMLDecodeError as e:
         raise SceneError(f"{src}: not valid TOML: {e}") from None
+    except RecursionError:
+        raise SceneError(f"{src}: tables or arrays nested too deep to read (hundreds of levels); "
+                         "expected a scene file (TOML)") from None
     return parse_scene(data, src, quality)
 
 
