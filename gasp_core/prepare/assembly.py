@@ -75,8 +75,9 @@ def footprints(o: PreparedObject) -> np.ndarray:
     shape (k, 3)."""
     tri = o.tri_rest[expit(o.simulated_rows(o.gaussians.opacities).astype(np.float64)) >= o.spec.min_opacity]
     axes = SPLAT_SIGMA * (tri[:, 1:] - tri[:, :1])
+    mesh = [] if o.binding is None else [o.binding.vertices]     # mesh mode: the simulated vertices too
     return np.concatenate([o.tri_rest.reshape(-1, 3), (tri[:, :1] + axes).reshape(-1, 3),
-                           (tri[:, :1] - axes).reshape(-1, 3)])
+                           (tri[:, :1] - axes).reshape(-1, 3), *mesh])
 
 
 def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:

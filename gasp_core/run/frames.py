@@ -10,6 +10,7 @@ from gasp_core.maps.games import (alpha_rule, EPS, limit_edges, triangles_to_gau
                                   triangles_to_gaussians_covariance)
 from gasp_core.gs.gaussians import Gaussians, rotmat_to_quat
 from gasp_core.maps.hierarchy import sub_triangles
+from gasp_core.maps.mesh_bind import bound_triangles
 from gasp_core.prepare.placement import PreparedObject
 from gasp_core.seam.runner import RunStats, run_engine
 from gasp_core.prepare.selection import scatter
@@ -52,7 +53,10 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray) -> tuple[Gau
     if o.spec.static:
         return o.gaussians, prev_rot, {"degenerate": 0, "clamped": 0}
     tri = x[o.vertex_slice]
-    tri = tri.reshape(-1, 3, 3) if o.hierarchy is None else sub_triangles(o.hierarchy, tri)
+    if o.binding is not None:           # mesh mode: the Gaussians follow their moved faces
+        tri = bound_triangles(o.binding, tri)
+    else:
+        tri = tri.reshape(-1, 3, 3) if o.hierarchy is None else sub_triangles(o.hierarchy, tri)
     clamped = np.zeros((len(tri), 2), bool)
     if o.spec.rebuild == "covariance":
         if o.spec.alpha is not None:

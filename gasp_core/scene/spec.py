@@ -49,6 +49,7 @@ from pathlib import Path
 from gasp_core.errors import SceneError
 from gasp_core.maps.games import REBUILDS
 from gasp_core.scene.extras import read_extras
+from gasp_core.scene.mesh import MESH_KEYS, MeshSpec, read_mesh
 from gasp_core.scene.quality import apply_quality, read_quality
 from gasp_core.scene.select import SelectSpec, read_select, read_static
 from gasp_core.scene.tables import DomainSpec, EngineSpec, read_boundary, read_domain, read_engine, read_material
@@ -127,6 +128,10 @@ class ObjectSpec:
         False (default): Gaussians detached from a whole object (:mod:`gasp_core.maps.floaters`; not in a
         ``select``ion) are left out of the domain and the physics and written unchanged in every frame,
         with a warning giving their count. True: they are simulated with the rest.
+    mesh : MeshSpec or None
+        Mesh mode (``mesh = "shape.obj"``, :mod:`gasp_core.scene.mesh`): the engine moves the mesh's
+        vertices and the Gaussians follow their faces. Without ``file`` the Gaussians are laid on the
+        faces and ``file`` is the mesh.
     static : bool
         The whole object is static: never simulated, written unchanged in every frame (scenery,
         and a collider where a ``[[collider]]`` names it). A static object takes no ``material``,
@@ -155,6 +160,7 @@ class ObjectSpec:
     select: SelectSpec | None = None
     static: bool = False
     keep_floaters: bool = False
+    mesh: MeshSpec | None = None
 
 
 @dataclass
@@ -179,7 +185,7 @@ class Scene:
 
 _TOP_KEYS = {"name", "frame_dt", "n_frames", "gravity", "output", "engine", "domain", "boundary", "object",
              "collider", "force", "impulse", "quality"}
-_OBJECT_KEYS = {f.name for f in fields(ObjectSpec)}
+_OBJECT_KEYS = {f.name for f in fields(ObjectSpec)} | set(MESH_KEYS)
 
 
 def _dynamic_time(o: dict, f: Path, where: str, src: Path) -> float | None:
@@ -195,9 +201,10 @@ def _dynamic_time(o: dict, f: Path, where: str, src: Path) -> float | None:
 
 def _object(o: dict, where: str, src: Path) -> ObjectSpec:
     check_keys(o, _OBJECT_KEYS, where, src)
-    if "file" not in o:
-        raise SceneError(f"{src}: {where} needs 'file'")
-    name = as_string(o["file"], f"{where}.file", src)
+    mesh = read_mesh(o, where, src)
+    if "file" not in o and mesh is None:
+        raise SceneError(f"{src}: {where} needs 'file' (a Gaussian Splatting file) or 'mesh'")
+    name = as_string(o["file"], f"{where}.file", src) if mesh is None or not mesh.laid else o["mesh"]
     f = (src.parent / name).resolve()
     if f.is_dir():
         raise SceneError(f"{src}: {where}.file '{name}' is a directory (looked at {f}); expected a Gaussian "
@@ -234,7 +241,7 @@ def _object(o: dict, where: str, src: Path) -> ObjectSpec:
         dynamic_time=_dynamic_time(o, f, where, src),
         select=read_select(o["select"], f"{where}.select", src) if "select" in o else None,
         static=read_static(o, where, src),
-        keep_floaters=as_boolean(o.get("keep_floaters", False), f"{where}.keep_floaters", src),
+        keep_floaters=as_boolean(o.get("keep_floaters", False), f"{where}.keep_floaters", src), mesh=mesh,
         rotation=as_vec3(o.get("rotation", [0.0, 0.0, 0.0]), f"{where}.rotation", src, max_abs=360.0, unit=" degrees"))
 
 
