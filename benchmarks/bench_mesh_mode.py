@@ -13,11 +13,12 @@ Usage::
     python benchmarks/bench_mesh_mode.py                       # taichi_mpm, 12 frames
     python benchmarks/bench_mesh_mode.py --engine warp_mpm --frames 12
 
-Writes ``benchmarks/results/bench_mesh_mode.json`` and ``.md``.
+Writes ``benchmarks/results/bench_mesh_mode.json`` and ``.md`` (``bench_mesh_mode_passive.*`` with ``--surface passive``).
 """
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import platform
@@ -35,9 +36,11 @@ ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
 
 
-def run(path: Path, engine: str, n_frames: int) -> dict:
-    """Means of every frame (file frame), points, CPU and wall time of one run."""
+def run(path: Path, engine: str, n_frames: int, surface: str | None = None) -> dict:
+    """Means of every frame (file frame), points, CPU and wall time of one run (``surface`` replacing the objects')."""
     scene = load_scene(path)
+    if surface is not None:
+        scene.objects = [dataclasses.replace(o, surface=surface) for o in scene.objects]
     c0, w0 = time.process_time(), time.perf_counter()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -49,16 +52,21 @@ def run(path: Path, engine: str, n_frames: int) -> dict:
             "n_fill": int(o.fill_slice.stop - o.fill_slice.start),
             "bound": None if o.moving is None else o.moving, "mesh": None if o.binding is None else
             {k: v for k, v in o.binding.report.items() if k != "far_rows"},
-            "warnings": [str(w.message) for w in caught]}
+            "warnings": [str(w.message) for w in caught],
+            "domain": [prep.setup.domain_lo.tolist(), prep.setup.domain_hi.tolist()]}
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--engine", default="taichi_mpm")
     ap.add_argument("--frames", type=int, default=12)
+    ap.add_argument("--surface", choices=("material", "passive"), default=None,
+                    help="replace the objects' surface (default: the scenes' own, 'auto' -> material for jelly); "
+                         "'passive': the same fill is the solid in both runs, only the surface differs")
     args = ap.parse_args()
-    mesh = run(ROOT / "examples" / "donut_mesh.toml", args.engine, args.frames)
-    full = run(ROOT / "examples" / "donut_jelly.toml", args.engine, args.frames)
+    mesh = run(ROOT / "examples" / "donut_mesh.toml", args.engine, args.frames, args.surface)
+    full = run(ROOT / "examples" / "donut_jelly.toml", args.engine, args.frames, args.surface)
+    stem = "bench_mesh_mode" + (f"_{args.surface}" if args.surface else "")
     size = float(np.ptp(full["means"][0], axis=0).max())
     d = np.linalg.norm(mesh["means"] - full["means"], axis=2) / size          # (frames + 1, n)
     bound = np.arange(d.shape[1]) if mesh["bound"] is None else mesh["bound"]
@@ -69,14 +77,15 @@ def main() -> None:
                      "bound_max": float(d[k, bound].max()),
                      "centroid": float(np.linalg.norm(mesh["means"][k].mean(0) - full["means"][k].mean(0)) / size),
                      "fall_full": float(full["means"][0][:, 2].mean() - full["means"][k][:, 2].mean()) / size})
-    out = {"engine": args.engine, "frames": args.frames, "size_m": size, "host": platform.node(),
+    out = {"engine": args.engine, "frames": args.frames, "surface": args.surface or "scene's own (auto)", "size_m": size, "host": platform.node(),
            "cpus": os.cpu_count(), "note": "CPU = process user+sys (all threads); the machine was shared (loaded)",
            **{f"{name}_{key}": r[key] for name, r in (("mesh", mesh), ("full", full))
               for key in ("cpu_s", "wall_s", "n_points", "n_surface_points", "n_fill", "warnings")},
-           "mesh": mesh["mesh"], "cpu_ratio_full_over_mesh": full["cpu_s"] / mesh["cpu_s"], "per_frame": rows}
+           "mesh": mesh["mesh"], **{f"{name}_domain": r["domain"] for name, r in (("mesh", mesh), ("full", full))}, "cpu_ratio_full_over_mesh": full["cpu_s"] / mesh["cpu_s"], "per_frame": rows}
     RESULTS.mkdir(exist_ok=True)
-    (RESULTS / "bench_mesh_mode.json").write_text(json.dumps(out, indent=1))
-    lines = [f"# Mesh mode vs full-vertex run: real donut, {args.engine}, {args.frames} frames", "",
+    (RESULTS / f"{stem}.json").write_text(json.dumps(out, indent=1))
+    lines = [f"# Mesh mode vs full-vertex run: real donut, {args.engine}, {args.frames} frames, surface "
+             f"{out['surface']}", "",
              f"Object size {size:.4f} m. Points simulated: mesh {mesh['n_points']} ({mesh['n_surface_points']} mesh "
              f"vertices + {mesh['n_fill']} fill), full {full['n_points']} ({full['n_surface_points']} triangle vertices "
              f"+ {full['n_fill']} fill).", "",
@@ -88,7 +97,7 @@ def main() -> None:
              "|---|---|---|---|---|---|---|---|"]
     lines += [f"| {r['frame']} | {r['median']:.4f} | {r['p99']:.4f} | {r['max']:.4f} | {r['bound_p99']:.4f} | "
               f"{r['bound_max']:.4f} | {r['centroid']:.4f} | {r['fall_full']:.4f} |" for r in rows]
-    (RESULTS / "bench_mesh_mode.md").write_text("\n".join(lines) + "\n")
+    (RESULTS / f"{stem}.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
 
 
