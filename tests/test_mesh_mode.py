@@ -6,7 +6,6 @@ Real data: the trained donut (city-super/V3DG, MIT) with a mesh of it extracted 
 from __future__ import annotations
 
 import json
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -179,3 +178,22 @@ def test_spot_example_falls_freely(tmp_path):
     drop = -(g2.means - g0.means)[:, 1].mean() * scene.objects[0].scale   # file +y is world up
     assert drop == pytest.approx(0.5 * 9.81 * t * t, rel=0.05)
     assert res.summary["objects"][0]["n_simulated_gaussians"] == o["n_gaussians"]
+
+
+def test_laid_gaussians_take_the_vertex_colours(tmp_path):
+    """A bare mesh with vertex colours: each laid Gaussian's colour is its barycentric mix of its face's corners
+    (a red, a green and a blue corner give back the barycentric coordinates); without colours, grey."""
+    import trimesh
+    from gasp_core.prepare.mesh import GREY, SH_C0, laid_gaussians
+    v = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.2]])
+    f = np.array([[0, 1, 2], [1, 3, 2]])
+    rgb = np.array([[255, 0, 0, 255], [0, 255, 0, 255], [0, 0, 255, 255], [0, 0, 255, 255]], np.uint8)
+    trimesh.Trimesh(v, f, vertex_colors=rgb, process=False).export(tmp_path / "c.ply")
+    g = laid_gaussians(tmp_path / "c.ply", 8)
+    colour = 0.5 + SH_C0 * g.sh_dc.astype(np.float64)
+    first = np.flatnonzero(np.abs(g.means[:, 2]) < 1e-12)          # on face 0: corners red, green, blue
+    bary = np.stack([1 - g.means[first, 0] - g.means[first, 1], g.means[first, 0], g.means[first, 1]], axis=1)
+    assert len(first) >= 4 and np.abs(colour[first] - bary).max() < 1e-5
+    trimesh.Trimesh(v, f, process=False).export(tmp_path / "plain.ply")
+    plain = laid_gaussians(tmp_path / "plain.ply", 8)
+    assert np.allclose(0.5 + SH_C0 * plain.sh_dc.astype(np.float64), GREY, atol=1e-6)

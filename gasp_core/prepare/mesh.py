@@ -79,8 +79,7 @@ def laid_gaussians(path: Path, per_face: float) -> Gaussians:
 
     Each lies in its face's plane (thin axis = the face normal, scale :data:`gasp_core.maps.games.EPS`),
     opacity :data:`LAID_OPACITY`, colour from the texture at its point, else the vertex colours
-    interpolated, else grey; ``meta["mesh_face"]`` is not kept (faces are found again by projection at zero
-    distance).
+    interpolated, else grey. The binding finds each one's face again by projection (at zero distance).
 
     Raises
     ------
