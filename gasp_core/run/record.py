@@ -81,6 +81,7 @@ def _object_record(o, name: str, boundaries=()) -> dict:
         "layout": o.gaussians.layout, "material": dataclasses.asdict(s.material),
         "up_axis": s.up_axis, "dynamic_time": s.dynamic_time, "scale": s.scale, "fill": s.fill,
         "velocity": list(s.velocity), "angular_velocity": list(s.angular_velocity),
+        "velocity_from_model": s.velocity_from_model,
         "n_fill_points": o.fill_slice.stop - o.fill_slice.start,
         "fill_report": o.fill_report.as_dict() if o.fill_report else None,
         "volume": o.fill_report.volume if o.fill_report else None,

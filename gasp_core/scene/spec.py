@@ -121,6 +121,10 @@ class ObjectSpec:
     dynamic_time : float or None
         For a dynamic model (``.splatv``): the model time ``s`` at which physics takes over,
         ``G_t = T^-1(phi(psi(V, s), t))`` (paper Sec. 3, dynamic scenes); default 0.
+    velocity_from_model : bool
+        A dynamic model whose scene sets neither ``velocity`` nor ``angular_velocity``: the simulated
+        part starts with the velocity the model gives it at ``s`` (finite difference of ``psi`` over one
+        frame, :mod:`gasp_core.prepare.dynamic`).
     select : SelectSpec or None
         The part of the file that moves (``select = { box = {...} }``, see :class:`SelectSpec`);
         the rest is static background, written unchanged in every frame. None: all of it moves.
@@ -161,6 +165,7 @@ class ObjectSpec:
     static: bool = False
     keep_floaters: bool = False
     mesh: MeshSpec | None = None
+    velocity_from_model: bool = False
 
 
 @dataclass
@@ -185,7 +190,7 @@ class Scene:
 
 _TOP_KEYS = {"name", "frame_dt", "n_frames", "gravity", "output", "engine", "domain", "boundary", "object",
              "collider", "force", "impulse", "quality"}
-_OBJECT_KEYS = {f.name for f in fields(ObjectSpec)} | set(MESH_KEYS)
+_OBJECT_KEYS = ({f.name for f in fields(ObjectSpec)} | set(MESH_KEYS)) - {"velocity_from_model"}
 
 
 def _dynamic_time(o: dict, f: Path, where: str, src: Path) -> float | None:
@@ -242,6 +247,7 @@ def _object(o: dict, where: str, src: Path) -> ObjectSpec:
         select=read_select(o["select"], f"{where}.select", src) if "select" in o else None,
         static=read_static(o, where, src),
         keep_floaters=as_boolean(o.get("keep_floaters", False), f"{where}.keep_floaters", src), mesh=mesh,
+        velocity_from_model=f.suffix.lower() == ".splatv" and not {"velocity", "angular_velocity"} & set(o),
         rotation=as_vec3(o.get("rotation", [0.0, 0.0, 0.0]), f"{where}.rotation", src, max_abs=360.0, unit=" degrees"))
 
 
