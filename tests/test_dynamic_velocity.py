@@ -52,3 +52,19 @@ def test_a_velocity_in_the_scene_replaces_the_models(tmp_path):
 def test_a_static_file_has_no_model_velocity():
     scene = load_scene(EXAMPLES / "donut_jelly.toml")
     assert not scene.objects[0].velocity_from_model
+
+
+def test_background_key(tmp_path):
+    """``background`` (dynamic models only): "model" (default) plays the unselected rows on, "frozen" keeps them."""
+    from gasp_core.errors import SceneError
+    from gasp_core.prepare.dynamic import follows_model
+    from gasp_core.prepare.placement import prepare_object
+    frozen = _kitchen('background = "frozen"', tmp_path)
+    o = prepare_object(frozen.objects[0])
+    assert o.moving is not None and not follows_model(o)
+    assert follows_model(prepare_object(_kitchen().objects[0]))
+    text = (EXAMPLES / "donut_jelly.toml").read_text().replace('up_axis = "+z"', 'up_axis = "+z"\nbackground = "model"')
+    text = text.replace('"data/donut_v3dg.ply"', f'"{EXAMPLES / "data" / "donut_v3dg.ply"}"')
+    (tmp_path / "d.toml").write_text(text)
+    with pytest.raises(SceneError, match="background is only for dynamic models"):
+        load_scene(tmp_path / "d.toml")

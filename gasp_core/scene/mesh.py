@@ -80,6 +80,9 @@ def read_mesh(o: dict, where: str, src: Path) -> MeshSpec | None:
     if not path.is_file():
         raise SceneError(f"{src}: {where}.mesh '{name}' is not a file (looked for {path}); expected a triangle "
                          "mesh (.obj, .ply, .stl)")
+    if str(o.get("file", "")).lower().endswith(".splatv"):
+        raise SceneError(f"{src}: {where} sets both 'mesh' and a dynamic model (.splatv); a dynamic model has no "
+                         "mesh binding: remove 'mesh'")
     for key, why in EXCLUDED.items():
         if key in o:
             raise SceneError(f"{src}: {where} sets both 'mesh' and '{key}'; {why}: remove '{key}'")

@@ -125,6 +125,10 @@ class ObjectSpec:
         A dynamic model whose scene sets neither ``velocity`` nor ``angular_velocity``: the simulated
         part starts with the velocity the model gives it at ``s`` (finite difference of ``psi`` over one
         frame, :mod:`gasp_core.prepare.dynamic`).
+    background : str
+        A dynamic model's rows that are not simulated (unselected, floaters, a static object): ``"model"``
+        (default) they keep playing, frame ``k`` writes ``psi(V, s + k frame_dt)``; ``"frozen"`` they stay at
+        ``psi(V, s)``, written once by the split layout.
     select : SelectSpec or None
         The part of the file that moves (``select = { box = {...} }``, see :class:`SelectSpec`);
         the rest is static background, written unchanged in every frame. None: all of it moves.
@@ -166,6 +170,7 @@ class ObjectSpec:
     keep_floaters: bool = False
     mesh: MeshSpec | None = None
     velocity_from_model: bool = False
+    background: str = "model"
 
 
 @dataclass
@@ -202,6 +207,12 @@ def _dynamic_time(o: dict, f: Path, where: str, src: Path) -> float | None:
     if t is None:
         return 0.0
     return as_number(t, f"{where}.dynamic_time", src)
+
+
+def _background(o: dict, f: Path, where: str, src: Path) -> str:
+    if "background" in o and f.suffix.lower() != ".splatv":
+        raise SceneError(f"{src}: {where}.background is only for dynamic models (.splatv), not {f.name}")
+    return as_string(o.get("background", "model"), f"{where}.background", src, ("model", "frozen"))
 
 
 def _object(o: dict, where: str, src: Path) -> ObjectSpec:
@@ -248,6 +259,7 @@ def _object(o: dict, where: str, src: Path) -> ObjectSpec:
         static=read_static(o, where, src),
         keep_floaters=as_boolean(o.get("keep_floaters", False), f"{where}.keep_floaters", src), mesh=mesh,
         velocity_from_model=f.suffix.lower() == ".splatv" and not {"velocity", "angular_velocity"} & set(o),
+        background=_background(o, f, where, src),
         rotation=as_vec3(o.get("rotation", [0.0, 0.0, 0.0]), f"{where}.rotation", src, max_abs=360.0, unit=" degrees"))
 
 
