@@ -11,6 +11,7 @@ from gasp_core.seam.setup import SimSetup, grid_spacing
 from gasp_core.maps.fill import fill_interior, fill_spacing
 from gasp_core.maps.occupancy import SPLAT_SIGMA
 from gasp_core.prepare.checks import check_resolution
+from gasp_core.prepare.dynamic import fill_velocities, vertex_velocities
 from gasp_core.prepare.placement import PreparedObject, simulated_triangles
 from gasp_core.prepare.surface import ELASTIC, surface_rule
 from gasp_core.scene.spec import Scene
@@ -75,15 +76,17 @@ def footprints(o: PreparedObject) -> np.ndarray:
     shape (k, 3)."""
     tri = o.tri_rest[expit(o.simulated_rows(o.gaussians.opacities).astype(np.float64)) >= o.spec.min_opacity]
     axes = SPLAT_SIGMA * (tri[:, 1:] - tri[:, :1])
+    mesh = [] if o.binding is None else [o.binding.vertices]     # mesh mode: the simulated vertices too
     return np.concatenate([o.tri_rest.reshape(-1, 3), (tri[:, :1] + axes).reshape(-1, 3),
-                           (tri[:, :1] - axes).reshape(-1, 3)])
+                           (tri[:, :1] - axes).reshape(-1, 3), *mesh])
 
 
 def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
     """Assemble the engine's point set: all objects' triangle vertices, then their fill points.
 
     Static objects (``static = true``) take no part; a selected object brings its selected rows
-    only (:mod:`gasp_core.prepare.selection`), and the default domain is around what moves.
+    only (:mod:`gasp_core.prepare.selection`), and the default domain is around what moves. A dynamic
+    model's points start with the model's velocity unless the scene sets one (:mod:`gasp_core.prepare.dynamic`).
 
     Raises
     ------
@@ -123,7 +126,8 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
         xs.append(verts)
         vols.append(fr.p_vol_surface)
         bodies.append(np.full(len(verts), i))
-        vels.append(np.broadcast_to(o.spec.velocity, verts.shape))
+        vels.append(vertex_velocities(o, scene.frame_dt) if o.spec.velocity_from_model
+                    else np.broadcast_to(o.spec.velocity, verts.shape))
         passives.append(np.full(len(verts), passive))
         fills.append((i, fr))
     for i, fr in fills:
@@ -132,7 +136,8 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
         xs.append(fr.fill_x)
         vols.append(fr.p_vol_fill)
         bodies.append(np.full(len(fr.fill_x), i))
-        vels.append(np.broadcast_to(objects[i].spec.velocity, fr.fill_x.shape))
+        vels.append(fill_velocities(xs[i], vels[i], fr.fill_x) if objects[i].spec.velocity_from_model
+                    else np.broadcast_to(objects[i].spec.velocity, fr.fill_x.shape))
         passives.append(np.zeros(len(fr.fill_x), bool))
     x = np.concatenate(xs)
     passive = np.concatenate(passives)

@@ -92,7 +92,7 @@ def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None 
 
 
 def input_files(scene: Scene) -> list[Path]:
-    """The files a run reads: the scene, every object's file, selection masks, collider meshes and Gaussians.
+    """The files a run reads: the scene, every object's file and mesh, selection masks, collider meshes and Gaussians.
 
     The output claim protects them (never overwritten) and the resume fingerprint stands for exactly these
     (:func:`gasp_core.run.resume.fingerprint`).
@@ -100,4 +100,5 @@ def input_files(scene: Scene) -> list[Path]:
     return ([Path(scene.path)] + [Path(o.file) for o in scene.objects]
             + [Path(o.select.mask) for o in scene.objects if o.select is not None and o.select.mask is not None]
             + [Path(o.select.file) for o in scene.objects if o.select is not None and o.select.file is not None]
-            + [Path(c.mesh or c.gaussians) for c in scene.colliders if (c.mesh or c.gaussians) is not None])
+            + [Path(c.mesh or c.gaussians) for c in scene.colliders if (c.mesh or c.gaussians) is not None]
+            + [o.mesh.path for o in scene.objects if o.mesh is not None and not o.mesh.laid])

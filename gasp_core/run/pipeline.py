@@ -24,6 +24,7 @@ from gasp_core.run.frames import FrameState, iter_frames
 from gasp_core.fsutil import OutputClaim, atomic_json, leftover_partials
 from gasp_core.gs.gaussians import Gaussians
 from gasp_core.run.layout import FrameWriter, default_layout
+from gasp_core.prepare.dynamic import follows_model
 from gasp_core.prepare.scene import PreparedScene, input_files, prepare_scene
 from gasp_core.run.record import run_summary
 from gasp_core.seam.runner import RunStats
@@ -196,8 +197,10 @@ def _write_frames(run: _Run, n_frames: int, progress: bool,
                    desc=f"{prep.info.name}", leave=True)
     t_run = time.perf_counter()
     frame_state = FrameState()
-    writer = FrameWriter(tmp, list(prep.names), [o.spec.static for o in prep.objects],
-                         [o.moving for o in prep.objects], run.fmt, run.layout, overwrite=checkpoint is not None)
+    moves = [follows_model(o) for o in prep.objects]   # a dynamic model's background moves: every row, every frame
+    writer = FrameWriter(tmp, list(prep.names), [o.spec.static and not m for o, m in zip(prep.objects, moves)],
+                         [None if m else o.moving for o, m in zip(prep.objects, moves)], run.fmt, run.layout,
+                         overwrite=checkpoint is not None)
     stop.frame_started(None)
     t_frame = time.perf_counter()
     with Background() as writes:   # a frame's files are written while the engine runs the next one
