@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from gasp_core.errors import SceneError
-from gasp_core.scene.values import as_number, as_string
+from gasp_core.scene.values import as_number, as_string, resolve_path
 
 #: What a Gaussian farther than the limit from every face does.
 MESH_FAR = ("static", "error")
@@ -76,7 +76,7 @@ def read_mesh(o: dict, where: str, src: Path) -> MeshSpec | None:
             raise SceneError(f"{src}: {where}.{extra[0]} needs 'mesh' (a triangle mesh file)")
         return None
     name = as_string(o["mesh"], f"{where}.mesh", src)
-    path = (src.parent / name).resolve()
+    path = resolve_path(src, name, f"{where}.mesh")
     if not path.is_file():
         raise SceneError(f"{src}: {where}.mesh '{name}' is not a file (looked for {path}); expected a triangle "
                          "mesh (.obj, .ply, .stl)")
