@@ -415,6 +415,14 @@ def _(d, ply, v):
     return simulate(d, edit(scene_text(write_vertex(d / "bad.ply", v), n_grid=40), "height = 0.0", "height = 0.5"))
 
 
+@case("splats-10m-on-a-20cm-object", "every Gaussian's centre is above it", "on an object 0.208 m across",
+      "file's scales")
+def _(d, ply, v):
+    w = v.copy()
+    w["scale_1"], w["scale_2"] = np.log(10.0), np.log(10.0)        # was "enlarge [domain]"
+    return with_ply(d, w)
+
+
 @case("info-size-1e400m", "--size", "1e400m", "1e6 m")
 def _(d, ply, v):
     return ["info", str(write_vertex(d / "in.ply", v)), "--size", "1e400m"]   # blamed "scale = inf"

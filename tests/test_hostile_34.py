@@ -558,3 +558,28 @@ def test_spz_v4_declaring_more_points_than_it_can_hold_is_refused(tmp_path):
     struct.pack_into("<I", raw, 8, 2**31)
     (tmp_path / "big.spz").write_bytes(bytes(raw))
     refused(tmp_path / "big.spz", "zstd bomb")
+
+
+@pytest.mark.parametrize("gap_s", [0.05, 0.5])
+def test_a_second_sigterm_soon_after_the_first_is_still_130(tmp_path, donut_small, gap_s):
+    """Two SIGTERMs 50 ms apart once frames are being written: one line, status 130 (a signal that arrived
+    while Python shut down gave 143)."""
+    pytest.importorskip("gasp_warp_mpm")
+    import os
+    import signal
+    import time
+    from gasp_testing import scene_text
+    scene = tmp_path / "s.toml"
+    scene.write_text(scene_text(donut_small, n_frames=40, n_grid=16, engine="warp_mpm", engine_options="{ }"))
+    p = subprocess.Popen([sys.executable, "-m", "gasp_core.cli.main", "simulate", str(scene), "-o", "out", "-q"],
+                         cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 300
+    while time.time() < deadline and p.poll() is None and not list(tmp_path.glob(".out.partial-*/*/frame_0001.ply")):
+        time.sleep(0.02)
+    os.kill(p.pid, signal.SIGTERM)
+    time.sleep(gap_s)
+    if p.poll() is None:
+        os.kill(p.pid, signal.SIGTERM)
+    _, err = p.communicate(timeout=300)
+    lines = [ln for ln in err.splitlines() if "grid cells across" not in ln]   # n_grid 16: the resolution warning
+    assert p.returncode == 130 and len(lines) == 1 and "SIGTERM" in lines[0], (p.returncode, err)

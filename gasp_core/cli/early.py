@@ -27,9 +27,20 @@ def is_command_line() -> bool:
     return os.path.basename(first) == "gasp" or first == "-m"
 
 
+_SIGNALS = tuple(s for s in (getattr(signal, n, None) for n in ("SIGTERM", "SIGINT", "SIGHUP")) if s is not None)
+_INSTALLED = []
+
+
 def install() -> None:
     """Exit 130 with one line on SIGTERM, SIGINT or SIGHUP (main thread of the ``gasp`` command only)."""
-    for name in ("SIGTERM", "SIGINT", "SIGHUP"):
-        sig = getattr(signal, name, None)
-        if sig is not None and signal.getsignal(sig) is not signal.SIG_IGN:
+    for sig in _SIGNALS:
+        if signal.getsignal(sig) is not signal.SIG_IGN:
             signal.signal(sig, _exit)
+            _INSTALLED.append(sig)
+
+
+def finished() -> None:
+    """The command has said its last line: from now on these signals are ignored, so that one arriving while
+    Python shuts down (when it puts the default handlers back) does not turn the exit status into 143."""
+    for sig in _INSTALLED:
+        signal.signal(sig, signal.SIG_IGN)

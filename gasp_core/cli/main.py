@@ -18,6 +18,7 @@ from pathlib import Path
 
 import warnings
 
+from gasp_core.cli import early
 from gasp_core.cli.args import GaspArgumentParser, length, positive_float, positive_int
 from gasp_core.errors import EngineBug, EngineDivergence, GaspError
 from gasp_core.run import stop
@@ -318,6 +319,7 @@ def main(argv: list[str] | None = None) -> int:
     if code == 0:
         for message, count in _HELD.items():
             print(f"gasp: warning: numpy: {message}" + (f" ({count} times)" if count > 1 else ""), file=sys.stderr)
+    early.finished()   # the gasp command only (gasp_core.cli.early): a later signal cannot change the status
     return code
 
 

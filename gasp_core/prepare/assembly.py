@@ -211,9 +211,17 @@ def _outside_message(scene: Scene, objects: list[PreparedObject], x: np.ndarray,
     below = outside & (x[:, 2] < lo[2]) if grounds else np.zeros(len(x), bool)
     if below.any():
         k = int(np.flatnonzero(below)[0])
-        return (f"{scene.path}: {int(below.sum())} point(s) of object '{objects[int(body[k])].name}' start below "
-                f"the ground at height {min(grounds):g} m (lowest at z = {float(x[below, 2].min()):.4g} m): raise "
-                f"the object's position or lower the ground's height ([[boundary]] kind = \"ground\")")
+        o = objects[int(body[k])]
+        head = (f"{scene.path}: {int(below.sum())} point(s) of object '{o.name}' start below the ground at height "
+                f"{min(grounds):g} m (lowest at z = {float(x[below, 2].min()):.4g} m)")
+        centres = o.tri_rest[:, 0]
+        if centres[:, 2].min() >= min(grounds):   # the Gaussians' centres are above: their footprints reach down
+            reach = 2 * SPLAT_SIGMA * float(np.linalg.norm(o.tri_rest[:, 1:] - o.tri_rest[:, :1], axis=2).max())
+            return (f"{head}, though every Gaussian's centre is above it: its splats are up to {reach:.3g} m across "
+                    f"on an object {float(np.ptp(centres, axis=0).max()):.3g} m across; check the file's scales "
+                    f"(or raise min_opacity to leave the largest out), or lower the ground's height")
+        return (f"{head}: raise the object's position or lower the ground's height ([[boundary]] kind = "
+                f"\"ground\")")
     where = "[domain] lo/hi" if scene.domain.lo is not None else "the default domain around the objects"
     return (f"{scene.path}: {int(outside.sum())} point(s) of object '{name}' start outside {where} "
             f"[{lo.tolist()}, {hi.tolist()}] (first at {x[k].tolist()}); enlarge [domain] lo/hi or move the object")
