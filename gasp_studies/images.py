@@ -68,12 +68,12 @@ def render_frames(track, frames: Sequence[int], cameras: Sequence) -> list[np.nd
     RuntimeError
         The track has no splats (nothing to render) or numba is missing (``pip install 'gasp[render]'``).
     """
-    from gasp_core.render.builtin import CpuRenderer, _numba_missing
+    import importlib.util
+    from gasp_core.render.builtin import CpuRenderer
     if track.splats is None:
         raise RuntimeError(f"{track.label}: no rendered Gaussians kept for the image comparison")
-    why = _numba_missing()
-    if why:
-        raise RuntimeError(why)
+    if importlib.util.find_spec("numba") is None:
+        raise RuntimeError("the image comparison needs numba: pip install 'gasp[render]'")
     render = CpuRenderer(jit=True)
     out = []
     for f in frames:
