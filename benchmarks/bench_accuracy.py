@@ -77,8 +77,8 @@ def markdown(doc: dict) -> str:
            f"Runs: `{doc['runs']}`; {doc['n_frames']} frames; images: {doc['views']}, frames {doc['image_frames']}, "
            f"{doc['image_size']} px; U: {doc['u_method']}. Costs are the whole `gasp simulate` process's CPU "
            "seconds (user + system), from the bench_trade records. Errors are worst frames, / object size.", "",
-           "| run | CPU s | speed-up | position | centroid | rotation, deg | shape | shape, U | impact, ms | "
-           "restitution (ref) | contact, % | rest height, dx | drift, mm | final rotation, deg | PSNR, dB | SSIM |",
+           "| run | CPU s | speed-up | position | centroid | rotation, deg | shape | shape, U | impact, ms (ref) | "
+           "restitution (ref) | contact, % (ref ms) | rest height, dx | drift, mm | final rotation, deg | PSNR, dB | SSIM |",
            "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for name, r in doc["reports"].items():
         for obj, f in r["objects"].items():
@@ -86,9 +86,11 @@ def markdown(doc: dict) -> str:
             im = (r.get("images") or {}).get("run") or {}
             out.append(f"| {name} | {_f(doc['cost'].get(name), '.1f')} | {_f(doc['speedup'].get(name), '.2f')} | "
                        f"{100 * w['position']:.2f} % | {100 * w['centroid']:.2f} % | {w['rotation_deg']:.2f} | "
-                       f"{100 * w['shape']:.2f} % | {_f(u.get('shape'), '.2f')} | {1e3 * d['impact_s']:.1f} | "
+                       f"{100 * w['shape']:.2f} % | {_f(u.get('shape'), '.2f')} | {1e3 * d['impact_s']:.1f} "
+                       f"({_f(1e3 * f['events_ref']['impact_s'], '.1f')}) | "
                        f"{_f(f['events_run']['restitution'], '.3f')} ({_f(f['events_ref']['restitution'], '.3f')}) | "
-                       f"{_f(100 * d['contact_rel'], '.1f')} | {d['rest_height_m'] / r['dx_ref_m']:.2f} | "
+                       f"{_f(100 * d['contact_rel'], '.1f')} ({_f(1e3 * f['events_ref']['contact_s'], '.0f')}) | "
+                       f"{d['rest_height_m'] / r['dx_ref_m']:.2f} | "
                        f"{1e3 * d['drift_m']:.2f} | {d['rotation_deg']:.2f} | {_f(im.get('psnr_db'), '.2f')} | "
                        f"{_f(im.get('ssim'), '.4f')} |")
     out += ["", "U per figure (the twin against the reference; the unit of the 'in U' figures): "

@@ -25,7 +25,8 @@ import numpy as np
 
 #: Share of an object's Gaussians below its "bottom" height (a few stray Gaussians do not make contact).
 BOTTOM_QUANTILE = 0.5
-#: Contact when the bottom is within this many grid cells (the reference's dx) of the ground.
+#: Contact when the bottom is within this many grid cells (the reference's dx) of the lowest it gets in the run
+#: (a grid engine's ground is a grid-node condition: a body stops a run-dependent fraction of a cell above it).
 CONTACT_GAP_DX = 0.5
 
 
@@ -183,7 +184,9 @@ def events(track: Track, k: int, gap_m: float) -> dict[str, float]:
     """Event observables of object ``k``: what a user reads off a drop.
 
     ``impact_s``: the first time the object's bottom (its :data:`BOTTOM_QUANTILE` % lowest Gaussian
-    height) comes within ``gap_m`` of the ground (linear between frames); ``restitution``: the centroid's
+    height) comes within ``gap_m`` of the lowest it gets in the run (linear between frames: the contact
+    level, ``contact_level_m`` over the ground, is the run's own, since a grid engine stops a body a
+    grid-dependent distance above its ground); ``restitution``: the centroid's
     largest upward speed after it over its largest downward speed before (frame differences);
     ``contact_s``: from impact to the bottom's first rise above the gap again (NaN when it never lifts off
     within the run); ``rest_height_m``: the centroid's height over the ground on the last frame;
@@ -195,20 +198,23 @@ def events(track: Track, k: int, gap_m: float) -> dict[str, float]:
     c = m.mean(axis=1)
     R, _, _ = kabsch(m[0], m[-1])
     out = {"impact_s": float("nan"), "restitution": float("nan"), "contact_s": float("nan"),
+           "contact_level_m": float("nan"),
            "rest_height_m": float("nan"), "drift_m": float(np.linalg.norm(c[-1, :2] - c[0, :2])),
            "final_rotation_deg": rotation_angle_deg(R), "final_xy": c[-1, :2].tolist()}
     if track.ground_z is None:
         return out
     out["rest_height_m"] = float(c[-1, 2] - track.ground_z)
     bottom = np.percentile(m[:, :, 2], BOTTOM_QUANTILE, axis=1) - track.ground_z
-    impact = _crossing(t, bottom, gap_m, 1, down=True)
+    level = float(bottom.min()) + gap_m
+    out["contact_level_m"] = level
+    impact = _crossing(t, bottom, level, 1, down=True)
     if not np.isfinite(impact):
         return out
     out["impact_s"] = impact
     f_hit = int(np.ceil(impact / track.frame_dt - 1e-9))
     vz = np.diff(c[:, 2]) / track.frame_dt   # interval f-1..f is vz[f-1]
     v_in = -float(vz[:f_hit].min()) if f_hit > 0 else float("nan")
-    lift = _crossing(t, bottom, gap_m, f_hit + 1, down=False)
+    lift = _crossing(t, bottom, level, f_hit + 1, down=False)
     out["contact_s"] = float(lift - impact) if np.isfinite(lift) else float("nan")
     stop = int(np.ceil(lift / track.frame_dt)) if np.isfinite(lift) else len(vz)
     after = vz[f_hit:max(stop, f_hit + 1)]
