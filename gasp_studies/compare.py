@@ -262,36 +262,45 @@ def compare_scene(scene_path: str | Path, engines: list[str] | None, output: str
         with Runner(scheduler=scheduler, workers=workers, timeout_s=timeout_s) as runner:
             outputs = runner.run(specs, done)
             how = report.runner_line(runner)
-        records = [o.record for o in outputs]
-        failed = {r["label"]: (f"diverged at frame {r['frame']}: {r.get('message', '')}" if r["status"] == "diverged"
-                               else f"{r['status']}: {r.get('message', '')}") for r in records if r["status"] != "ok"}
-        ref = next((o for o in outputs if o.record["status"] == "ok"), None)
-        table = [report.table_row(r) for r in records]
-        div: list[dict] = []
-        if ref is not None:
-            for o in outputs:
-                if o is not ref:
-                    div += divergence_rows(ref, o, scene.frame_dt)
-        report.write_csv(tmp / "table.csv", table, report.TABLE_COLUMNS)
-        table_md = report.md_table(table, report.TABLE_COLUMNS, report.TABLE_HEADERS)
-        (tmp / "table.md").write_text(table_md)
-        report.write_csv(tmp / "divergence.csv", div, report.DIVERGENCE_COLUMNS)
-        plots = report.compare_plots(tmp, table, div, ref.record["label"] if ref else None)
-        strips_md = []
-        if keep:
-            strips = render_strips(tmp, {o.record["label"]: [StripRow(o.record["label"], o.keyframes)]
-                                         for o in outputs if o.keyframes}, keep, scene.frame_dt, ground_height(scene))
-            for o in outputs:
-                o.keyframes = {}
-            strips_md = strips_markdown(strips, scene.frame_dt)
-            if progress:
-                print("gasp compare: strips: " + (f"skipped ({strips.skipped})" if strips.skipped else
-                      f"{len(strips.files)} rendered in {strips.render_s:.1f} s"), file=sys.stderr, flush=True)
-        report.compare_report(tmp / "report.md", scene_name=scene.name, scene_path=scene_path, n_frames=n_frames,
-                              frame_dt=scene.frame_dt, table_md=table_md, div=div, records=records,
-                              reference=ref.record if ref else None, skipped=skipped, failed=failed,
-                              strides=strides, runner_line=how, plots=plots, strips_md=strips_md)
+        ref, table, div, failed = compare_outputs(tmp, scene, scene_path, outputs, keep, n_frames, skipped, strides,
+                                                  how, progress)
     if progress:
         print(f"gasp compare: wrote {output}/report.md", file=sys.stderr)
     return CompareResult(output, ref.record["label"] if ref else None, table, div, skipped, failed, outputs,
                          runner.startup_s)
+
+
+def compare_outputs(tmp: Path, scene: Scene, scene_path, outputs: list[RunOutput], keep, n_frames: int, skipped: dict,
+                    strides: list[int], how: str, progress: bool):
+    """Write ``gasp compare``'s tables, plots, strips and report in ``tmp`` from the runs' ``outputs`` (the first
+    run that finished is the reference); return (reference output or None, table rows, divergence rows, failed)."""
+    records = [o.record for o in outputs]
+    failed = {r["label"]: (f"diverged at frame {r['frame']}: {r.get('message', '')}" if r["status"] == "diverged"
+                           else f"{r['status']}: {r.get('message', '')}") for r in records if r["status"] != "ok"}
+    ref = next((o for o in outputs if o.record["status"] == "ok"), None)
+    table = [report.table_row(r) for r in records]
+    div: list[dict] = []
+    if ref is not None:
+        for o in outputs:
+            if o is not ref:
+                div += divergence_rows(ref, o, scene.frame_dt)
+    report.write_csv(tmp / "table.csv", table, report.TABLE_COLUMNS)
+    table_md = report.md_table(table, report.TABLE_COLUMNS, report.TABLE_HEADERS)
+    (tmp / "table.md").write_text(table_md)
+    report.write_csv(tmp / "divergence.csv", div, report.DIVERGENCE_COLUMNS)
+    plots = report.compare_plots(tmp, table, div, ref.record["label"] if ref else None)
+    strips_md = []
+    if keep:
+        strips = render_strips(tmp, {o.record["label"]: [StripRow(o.record["label"], o.keyframes)]
+                                     for o in outputs if o.keyframes}, keep, scene.frame_dt, ground_height(scene))
+        for o in outputs:
+            o.keyframes = {}
+        strips_md = strips_markdown(strips, scene.frame_dt)
+        if progress:
+            print("gasp compare: strips: " + (f"skipped ({strips.skipped})" if strips.skipped else
+                  f"{len(strips.files)} rendered in {strips.render_s:.1f} s"), file=sys.stderr, flush=True)
+    report.compare_report(tmp / "report.md", scene_name=scene.name, scene_path=scene_path, n_frames=n_frames,
+                          frame_dt=scene.frame_dt, table_md=table_md, div=div, records=records,
+                          reference=ref.record if ref else None, skipped=skipped, failed=failed,
+                          strides=strides, runner_line=how, plots=plots, strips_md=strips_md)
+    return ref, table, div, failed
