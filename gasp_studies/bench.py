@@ -29,14 +29,14 @@ from typing import Any
 
 from gasp_core.fsutil import output_folder
 from gasp_core.errors import EngineError, SceneError
-from gasp_core.scene.spec import Scene, load_scene
+from gasp_core.scene.spec import Scene
 
 from . import report
-from .compare import check_engine_names, engine_options, ground_height, progress_line, save_run, select_engines, subsample_scene
+from .compare import open_study, check_engine_names, engine_options, ground_height, progress_line, save_run, select_engines, subsample_scene
 from .convergence import conv_errors
 from .measure import cheapest_ranked, energy_figures, pareto_front, run_errors, steady_s_per_frame
 from .report import SCENE_KEYS
-from .bench_rank import output_track, plot_u, rank_engine, ranking_lines
+from .bench_rank import bench_strips, output_track, plot_u, rank_engine, ranking_lines
 from .run import RunOutput, Runner, RunSpec
 from .strips import DEFAULT_STRIP_FRAMES, StripRow, render_strips, strip_frames, strips_markdown
 
@@ -143,37 +143,6 @@ def plan_sweeps(found: dict, names: list[str], quick: bool, settings: dict[str, 
     return plan, skipped
 
 
-def bench_strips(outdir: Path, scene: Scene, keep: tuple[int, ...], rows: list[dict], row_k: list[int],
-                 outputs: list[RunOutput], progress: bool) -> list[str]:
-    """Render ``strip_<engine>.png`` (rows: the reference, the cheapest setting within 1 % and within 5 %
-    of the object size, as in the summary table) and return the summary's ``## Frames`` lines."""
-    groups: dict[str, list[StripRow]] = {}
-    captions: dict[str, str] = {}
-    for eng in dict.fromkeys(r["engine"] for r in rows):
-        idx = [i for i, r in enumerate(rows) if r["engine"] == eng]
-        ref = rows[idx[0]]
-        shown = {idx[0]: ["reference"]}
-        for level, (c, _) in ((1, cheapest_ranked([rows[i] for i in idx], 0.01)),
-                              (5, cheapest_ranked([rows[i] for i in idx], 0.05))):
-            if c is not None:
-                shown.setdefault(next(i for i in idx if rows[i] is c), []).append(f"within {level} %")
-        groups[eng], parts = [], []
-        for i, what in shown.items():
-            r, name = rows[i], " and ".join(what)
-            groups[eng].append(StripRow(f"{name}:\n{r['setting']}", outputs[row_k[i]].keyframes))
-            cost = f"{r['wall_s']:.3g} s" if r["status"] == "ok" else r["status"]
-            err = "" if i == idx[0] else f", err_max {100 * r['err_max']:.2g} %"
-            parts.append(f"{name} `{r['setting']}` ({cost}{err})")
-        captions[eng] = f"`{eng}`, rows top to bottom: " + "; ".join(parts)
-        if ref["status"] != "ok":
-            captions[eng] += " (no reference: no errors to choose by)"
-    strips = render_strips(outdir, groups, keep, scene.frame_dt, ground_height(scene))
-    if progress:
-        print("gasp bench: strips: " + (f"skipped ({strips.skipped})" if strips.skipped else
-              f"{len(strips.files)} rendered in {strips.render_s:.1f} s"), file=sys.stderr, flush=True)
-    return strips_markdown(strips, scene.frame_dt, captions)
-
-
 @dataclass
 class BenchResult:
     """What :func:`bench_scene` did."""
@@ -247,41 +216,48 @@ def bench_scene(scene_path: str | Path, output: str | Path, engines: list[str] |
     EngineError
         No engine can run the scene, or none offers a sweep.
     """
-    output = Path(output)
-    if output.exists() and not overwrite:  # early, before any work; output_folder claims it for good
-        raise FileExistsError(f"output folder '{output}' exists; pass --overwrite to replace it")
-    scene = load_scene(scene_path)
-    if n_frames is not None and (isinstance(n_frames, bool) or not isinstance(n_frames, int) or n_frames < 2):
-        raise SceneError(f"n_frames: expected an integer >= 2 (frame 1 is left out of the timing), got {n_frames!r}")
-    n_frames = min(scene.n_frames, DEFAULT_FRAMES) if n_frames is None else n_frames
+    output, scene, n_frames = open_study(output, overwrite, scene_path, n_frames, 2, DEFAULT_FRAMES)
     keep = strip_frames(n_frames, n_strip_frames)
     plan, skipped = plan_engines(scene, scene_path, engines, quick, settings, reference_n_grid)
     option_keys = sorted({k for sw in plan.values() for s in sw for k in s if k not in SCENE_KEYS})
     columns = report.bench_columns(option_keys)
     work = Path(tempfile.mkdtemp(prefix="gasp-bench-"))
-    t_all = time.perf_counter()
     try:
         with output_folder(output, overwrite=overwrite, protected=[scene_path]) as tmp:
-            (tmp / "runs").mkdir()
-            scene_run, strides = subsample_scene(scene, max_gaussians, work)
-            specs, where = bench_specs(scene, scene_run, plan, options, n_frames)
-            outputs, how = run_specs(specs, where, tmp / "runs", scheduler, workers, timeout_s, progress, t_all)
-            rows, row_k, rank_md = bench_rows(plan, where, outputs, n_frames, scene, keep, tmp, progress, columns)
-            strips_md = bench_strips(tmp, scene, keep, rows, row_k, outputs, progress) if keep else []
-            outputs.clear()
-            report.write_csv(tmp / "bench.csv", rows, columns)
-            names = list(plan)
-            plots = report.bench_plots(tmp, rows, names)
-            summary = report.bench_summary(tmp / "summary.md", scene_name=scene.name, scene_path=scene_path,
-                                           n_frames=n_frames, frame_dt=scene.frame_dt, rows=rows, engines=names,
-                                           skipped=skipped, strides=strides, total_s=time.perf_counter() - t_all,
-                                           runner_line=how, plots=plots, strips_md=strips_md, ranking_md=rank_md)
+            rows, summary, rank_md = bench_into(tmp, scene, scene_path, plan, skipped, columns, options, n_frames,
+                                                keep, subsample_scene(scene, max_gaussians, work),
+                                                (scheduler, workers, timeout_s), progress)
     finally:
         shutil.rmtree(work, ignore_errors=True)
     if progress:
         print(f"gasp bench: wrote {output}/summary.md", file=sys.stderr)
         print("\n".join(["", "Ranking (docs/speed_accuracy.md, 'Choosing the default'):", ""] + rank_md))
     return BenchResult(output, rows, skipped, summary, columns)
+
+
+def bench_into(tmp: Path, scene: Scene, scene_path, plan: dict, skipped: dict, columns: list[str], options,
+               n_frames: int, keep: tuple[int, ...], cut: tuple[Scene, list[int]], runner_args: tuple,
+               progress: bool) -> tuple[list[dict], dict, list[str]]:
+    """Run the sweeps and write the report into ``tmp``; the rows, the summary and the ranking's lines.
+
+    ``cut``: the scene with every k-th Gaussian and the strides k (:func:`subsample_scene`); ``runner_args``:
+    (scheduler, workers, timeout_s)."""
+    t_all = time.perf_counter()
+    (tmp / "runs").mkdir()
+    scene_run, strides = cut
+    specs, where = bench_specs(scene, scene_run, plan, options, n_frames)
+    outputs, how = run_specs(specs, where, tmp / "runs", *runner_args, progress, t_all)
+    rows, row_k, rank_md = bench_rows(plan, where, outputs, n_frames, scene, keep, tmp, progress, columns)
+    strips_md = bench_strips(tmp, scene, keep, rows, row_k, outputs, progress) if keep else []
+    outputs.clear()
+    report.write_csv(tmp / "bench.csv", rows, columns)
+    names = list(plan)
+    plots = report.bench_plots(tmp, rows, names)
+    summary = report.bench_summary(tmp / "summary.md", scene_name=scene.name, scene_path=scene_path,
+                                   n_frames=n_frames, frame_dt=scene.frame_dt, rows=rows, engines=names,
+                                   skipped=skipped, strides=strides, total_s=time.perf_counter() - t_all,
+                                   runner_line=how, plots=plots, strips_md=strips_md, ranking_md=rank_md)
+    return rows, summary, rank_md
 
 
 def plan_engines(scene: Scene, scene_path, engines: list[str] | None, quick: bool, settings, reference_n_grid):

@@ -15,6 +15,9 @@ from pathlib import Path
 import numpy as np
 
 from .accuracy import Track
+from .compare import ground_height
+from .measure import cheapest_ranked
+from .strips import StripRow, render_strips, strips_markdown
 from .images import cameras_for, image_scores, render_frames
 from .run import RunOutput
 from .trade import accuracy_report, rule_checks
@@ -146,3 +149,34 @@ def plot_u(outdir: Path, engine: str, rows: list[dict]) -> str | None:
     fig.savefig(outdir / name, dpi=110)
     plt.close(fig)
     return name
+
+
+def bench_strips(outdir: Path, scene: Scene, keep: tuple[int, ...], rows: list[dict], row_k: list[int],
+                 outputs: list[RunOutput], progress: bool) -> list[str]:
+    """Render ``strip_<engine>.png`` (rows: the reference, the cheapest setting within 1 % and within 5 %
+    of the object size, as in the summary table) and return the summary's ``## Frames`` lines."""
+    groups: dict[str, list[StripRow]] = {}
+    captions: dict[str, str] = {}
+    for eng in dict.fromkeys(r["engine"] for r in rows):
+        idx = [i for i, r in enumerate(rows) if r["engine"] == eng]
+        ref = rows[idx[0]]
+        shown = {idx[0]: ["reference"]}
+        for level, (c, _) in ((1, cheapest_ranked([rows[i] for i in idx], 0.01)),
+                              (5, cheapest_ranked([rows[i] for i in idx], 0.05))):
+            if c is not None:
+                shown.setdefault(next(i for i in idx if rows[i] is c), []).append(f"within {level} %")
+        groups[eng], parts = [], []
+        for i, what in shown.items():
+            r, name = rows[i], " and ".join(what)
+            groups[eng].append(StripRow(f"{name}:\n{r['setting']}", outputs[row_k[i]].keyframes))
+            cost = f"{r['wall_s']:.3g} s" if r["status"] == "ok" else r["status"]
+            err = "" if i == idx[0] else f", err_max {100 * r['err_max']:.2g} %"
+            parts.append(f"{name} `{r['setting']}` ({cost}{err})")
+        captions[eng] = f"`{eng}`, rows top to bottom: " + "; ".join(parts)
+        if ref["status"] != "ok":
+            captions[eng] += " (no reference: no errors to choose by)"
+    strips = render_strips(outdir, groups, keep, scene.frame_dt, ground_height(scene))
+    if progress:
+        print("gasp bench: strips: " + (f"skipped ({strips.skipped})" if strips.skipped else
+              f"{len(strips.files)} rendered in {strips.render_s:.1f} s"), file=sys.stderr, flush=True)
+    return strips_markdown(strips, scene.frame_dt, captions)
