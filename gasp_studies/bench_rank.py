@@ -111,7 +111,7 @@ def ranking_lines(engine: str, rows: list[dict], rank: dict) -> list[str]:
     ref_s = rows[0].get("end_to_end_s", np.nan)
     for i, s in enumerate(rank["ranked"], 1):
         r = by[s]
-        lines.append(f"- {i}. `{s}`: {ref_s / r['end_to_end_s']:.2f}x faster, shape {r['shape_u']:.2f} U, "
+        lines.append(f"- {i}. `{s}`: speed-up {ref_s / r['end_to_end_s']:.2f}x (end to end), shape {r['shape_u']:.2f} U, "
                      f"PSNR {r['psnr_db']:.1f} dB, SSIM {r['ssim']:.3f}")
     for s, why in rank["rest"]:
         r = by[s]
