@@ -139,6 +139,7 @@ def plot_u(outdir: Path, engine: str, rows: list[dict]) -> str | None:
                     textcoords="offset points")
     ax.axhline(1.5, color="tab:red", ls="--", lw=1, label="1.5 U (the default rule)")
     ax.axvline(rows[0].get("end_to_end_s", np.nan), color="black", ls=":", lw=1, label="reference run")
+    ax.set_ylim(0, max([1.8] + [1.1 * r["shape_u"] for r in pts]))
     ax.set_xlabel("end to end, s")
     ax.set_ylabel("shape residual after the best rigid fit, U")
     ax.set_title(f"{engine}: green = meets every check of the rule", fontsize=9)
