@@ -93,7 +93,8 @@ def rank_engine(rows: list[dict], tracks: list[Track | None], settings: list[dic
         out["not_ranked"] = (f"U (shape {100 * out['u']['shape']:.2g} % of the size) is larger than the differences "
                              f"between the runs (their shape residuals span {np.ptp([r['shape_u'] for r in cand]):.2f} U)")
     ok = sorted([r for r in rows[1:] if r.get("rule_ok")], key=lambda r: r.get("end_to_end_s", np.inf))
-    out["ranked"] = [r["setting"] for r in ok]
+    out["ranked"] = [] if out["not_ranked"] else [r["setting"] for r in ok]
+    out["unranked"] = [r["setting"] for r in ok] if out["not_ranked"] else []
     out["rest"] = [(r["setting"], r.get("rule_misses", "")) for r in rows[1:] if not r.get("rule_ok")]
     return out
 
@@ -113,6 +114,10 @@ def ranking_lines(engine: str, rows: list[dict], rank: dict) -> list[str]:
         r = by[s]
         lines.append(f"- {i}. `{s}`: speed-up {ref_s / r['end_to_end_s']:.2f}x (end to end), shape {r['shape_u']:.2f} U, "
                      f"PSNR {r['psnr_db']:.1f} dB, SSIM {r['ssim']:.3f}")
+    for s in rank.get("unranked", []):
+        r = by[s]
+        lines.append(f"- meets the rule, not ranked: `{s}` ({ref_s / r['end_to_end_s']:.2f}x, shape "
+                     f"{r['shape_u']:.2f} U, PSNR {r['psnr_db']:.1f} dB, SSIM {r['ssim']:.3f})")
     for s, why in rank["rest"]:
         r = by[s]
         lines.append(f"- misses the rule: `{s}` ({ref_s / r.get('end_to_end_s', np.nan):.2f}x, shape "

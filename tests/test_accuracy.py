@@ -209,3 +209,45 @@ def test_rendered_copies():
     moved = image_scores(render_frames(ref, [1], cams), render_frames(track(0.03), [1], cams))
     assert same["psnr_db"] == float("inf") and same["ssim"] == pytest.approx(1.0)
     assert moved["psnr_db"] < 40 and moved["ssim"] < 0.99
+
+
+def test_bench_twin_is_the_reference_model_one_grid_coarser():
+    from gasp_studies.bench_rank import twin_index
+    s = [{"n_grid": 48, "cfl": 0.4, "precision": "f64"}, {"n_grid": 32, "cfl": 0.4, "precision": "f32"},
+         {"n_grid": 40, "cfl": 0.8, "precision": "f32"}, {"n_grid": 40, "cfl": 0.4, "precision": "f32"},
+         {"n_grid": 48, "cfl": 0.4, "precision": "f32"}]
+    assert twin_index(s) == 3
+    assert twin_index([{"cells": 8}, {"cells": 4}]) is None
+
+
+def test_bench_ranking_orders_passing_runs_and_says_not_ranked_only_within_u():
+    """Runs scaled by 0.5 % (passes: 0.5 U) and 3 % (3 U: misses the shape) against a twin scaled by 1 %."""
+    pytest.importorskip("skimage")
+    pytest.importorskip("numba")
+    from gasp_core.render.splat_numpy import Splats
+    from gasp_studies.bench_rank import rank_engine, ranking_lines
+    a = _cloud(300)
+    n = len(a)
+
+    def track(s, label):
+        b = a.mean(0) + s * (a - a.mean(0))
+        frames = [a, b]
+        t = Track(np.stack(frames), np.array([0, n]), ["obj"], 1 / 30, None, 0.01, label)
+        t.splats = lambda f: Splats(frames[f].astype(np.float32), np.tile(np.eye(3, dtype=np.float32) * 1e-4, (n, 1, 1)),
+                                    np.full((n, 3), 0.9, np.float32), np.full(n, 0.8, np.float32))
+        return t
+    settings = [{"n_grid": 48}, {"n_grid": 32}, {"n_grid": 48, "x": 1}, {"n_grid": 48, "x": 2}]
+    scales = [1.0, 1.01, 1.005, 1.03]
+    rows = [{"setting": f"s{i}", "end_to_end_s": 10.0 - i} for i in range(4)]
+    tracks = [track(s, f"s{i}") for i, s in enumerate(scales)]
+    rank = rank_engine(rows, tracks, settings, [1])
+    assert rank["twin"] == "s1" and rank["not_ranked"] == ""
+    assert rank["ranked"] == ["s2", "s1"]            # both within 1.5 U, the cheaper first
+    assert rows[2]["shape_u"] == pytest.approx(0.5, rel=1e-6) and rows[3]["shape_u"] == pytest.approx(3.0, rel=1e-6)
+    assert "shape_u 3" in dict(rank["rest"])["s3"]
+    assert any("U = shape" in line for line in ranking_lines("e", rows, rank))
+    # every run within 1 U of the others: U is larger than the differences, nothing is ranked
+    rows2 = [dict(r) for r in rows[:3]]
+    rank2 = rank_engine(rows2, tracks[:3], settings[:3], [1])
+    assert rank2["not_ranked"].startswith("U (shape") and rank2["ranked"] == [] and rank2["unranked"] == ["s2", "s1"]
+    assert any(line.startswith("- not ranked: U") for line in ranking_lines("e", rows2, rank2))
