@@ -52,8 +52,9 @@ TABLE2 = {"full vertices": {"surface": "material", "core_fraction": 1.0},
 ALPHAS = (1.0, 1.5, 2.0, 3.0, 5.0, None)
 
 
-def table2(frames: int, scenes: list[str], work: Path) -> dict:
-    """Each row of :data:`TABLE2` on each scene, one process after another (ratios from one call)."""
+def table2(frames: int, scenes: list[str], work: Path, save=None) -> dict:
+    """Each row of :data:`TABLE2` on each scene, one process after another (ratios from one call); ``save(out)``
+    after every row."""
     out: dict = {}
     for sc in scenes:
         out[sc] = {}
@@ -66,6 +67,8 @@ def table2(frames: int, scenes: list[str], work: Path) -> dict:
             out[sc][name]["load_avg_1min"] = os.getloadavg()[0]
             import shutil
             shutil.rmtree(work / "run", ignore_errors=True)
+            if save is not None:
+                save(out)
     return out
 
 
@@ -197,21 +200,25 @@ def main(argv=None) -> int:
     ap.add_argument("--frames", type=int, default=8)
     ap.add_argument("--coarse", type=int, default=48, help="the coarser grid of tables 1 and 4")
     ap.add_argument("--scenes", default="donut,guitar", help="table 2's scenes")
+    ap.add_argument("--tag", default="", help="results file suffix (paper_table<N><_tag>)")
     args = ap.parse_args(argv)
-    import platform
     t0 = time.perf_counter()
-    with tempfile.TemporaryDirectory(prefix="gasp_paper_") as tmp:
-        res = (table2(args.frames, args.scenes.split(","), Path(tmp)) if args.table == 2
-               else table14(args.table, args.frames, args.coarse, Path(tmp)))
-    doc = {"table": args.table, "frames": args.frames, "result": res,
-           "machine": f"{platform.platform()}, {os.cpu_count()} CPUs; 1-min load average at the end "
-                      f"{os.getloadavg()[0]:.1f}; {time.perf_counter() - t0:.0f} s in all"}
     cmd = "python benchmarks/bench_paper_tables.py " + " ".join(argv if argv is not None else sys.argv[1:])
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    stem = RESULTS / f"paper_table{args.table}"
-    stem.with_suffix(".json").write_text(json.dumps(doc, indent=1, default=float))
-    stem.with_suffix(".md").write_text(markdown(args.table, doc, cmd))
-    print(markdown(args.table, doc, cmd))
+    stem = RESULTS / (f"paper_table{args.table}" + (f"_{args.tag}" if args.tag else ""))
+
+    def save(res):
+        import platform
+        doc = {"table": args.table, "frames": args.frames, "result": res,
+               "machine": f"{platform.platform()}, {os.cpu_count()} CPUs; 1-min load average at the end "
+                          f"{os.getloadavg()[0]:.1f}; {time.perf_counter() - t0:.0f} s in all"}
+        RESULTS.mkdir(parents=True, exist_ok=True)
+        stem.with_suffix(".json").write_text(json.dumps(doc, indent=1, default=float))
+        stem.with_suffix(".md").write_text(markdown(args.table, doc, cmd))
+        return doc
+    with tempfile.TemporaryDirectory(prefix="gasp_paper_") as tmp:
+        res = (table2(args.frames, args.scenes.split(","), Path(tmp), save) if args.table == 2
+               else table14(args.table, args.frames, args.coarse, Path(tmp)))
+    print(markdown(args.table, save(res), cmd))
     return 0
 
 
