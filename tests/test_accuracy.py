@@ -251,3 +251,25 @@ def test_bench_ranking_orders_passing_runs_and_says_not_ranked_only_within_u():
     rank2 = rank_engine(rows2, tracks[:3], settings[:3], [1])
     assert rank2["not_ranked"].startswith("U (shape") and rank2["ranked"] == [] and rank2["unranked"] == ["s2", "s1"]
     assert any(line.startswith("- not ranked: U") for line in ranking_lines("e", rows2, rank2))
+
+
+def test_cameras_come_from_the_captures_cameras_json(tmp_path):
+    """With a graphdeco cameras.json the views are 4 of its cameras, evenly through the list."""
+    import json
+    from gasp_studies.images import cameras_for
+    cams = []
+    for i in range(10):
+        a = np.radians(36 * i)
+        pos = [2 * np.cos(a), 2 * np.sin(a), 0.0]
+        fwd = -np.asarray(pos) / 2.0
+        right = np.cross(fwd, [0, 0, 1.0])
+        down = np.cross(fwd, right)
+        cams.append({"id": i, "position": pos, "rotation": np.stack([right, down, fwd], 1).tolist(),
+                     "width": 64, "height": 48, "fx": 50.0, "fy": 50.0})
+    path = tmp_path / "cameras.json"
+    path.write_text(json.dumps(cams))
+    t = _track([_cloud()])
+    t.cameras_json, t.placement = path, {"R": np.eye(3), "scale": 1.0, "t": np.zeros(3)}
+    got, how = cameras_for(t, [0])
+    assert "capture's cameras [0, 3, 6, 9]" in how and len(got) == 4
+    assert np.allclose(got[1].position, cams[3]["position"])
