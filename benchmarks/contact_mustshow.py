@@ -1,8 +1,8 @@
 """Issue 28's must-show through `gasp simulate`: a ball of 600 flat Gaussians with its fill (jelly E 2e4,
 nu 0.3, rho 300), dropped 5 cm onto ground with friction 0.5, n_grid 16, 40 frames: the Gaussians' centroid
 travel (horizontal, mm) per engine and contact model, on the Fibonacci ball and with its Gaussians' centres
-jittered (uniform, +-``JITTER`` m per axis, seeded). Also the bottom of the settled ball: the lowest 1 % of the
-Gaussians' centres above the ground at the last frame, in dx.
+jittered (uniform, +-``JITTER`` m per axis, seeded). taichi_mpm runs on all cores (its default ``threads``), so its
+sums differ from warp_mpm's in the last bits and the rolling (chaotic) motions part.
 
 Run: ``python benchmarks/contact_mustshow.py [--engines warp_mpm taichi_mpm] [--contacts particle grid]``;
 the table goes to stdout and ``benchmarks/results/contact_mustshow.md``. Times are wall seconds of the
@@ -11,7 +11,6 @@ whole `gasp simulate` (loaded machine).
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import subprocess
 import sys
@@ -79,11 +78,8 @@ def run(tmp: Path, engine: str, contact: str, jitter: float) -> dict:
         return {"error": r.stderr.strip()[-300:]}
     frames = sorted((out / ply.stem).glob("frame_*.ply"))
     c = np.array([read_gaussians(f).means.mean(axis=0) for f in frames])
-    dx = json.loads((out / "run.json").read_text())["domain"]["dx"]
-    z = np.sort(read_gaussians(frames[-1]).means[:, 2])
     drift = np.linalg.norm(c[:, :2] - c[0, :2], axis=1)
-    return {"drift_mm": 1e3 * float(drift.max()), "end_mm": 1e3 * float(drift[-1]),
-            "low_dx": float(z[:max(1, N // 100)].mean() / dx), "wall_s": wall}
+    return {"drift_mm": 1e3 * float(drift.max()), "end_mm": 1e3 * float(drift[-1]), "wall_s": wall}
 
 
 def main():
@@ -91,8 +87,8 @@ def main():
     ap.add_argument("--engines", nargs="+", default=["warp_mpm", "taichi_mpm"])
     ap.add_argument("--contacts", nargs="+", default=["particle", "grid"])
     a = ap.parse_args()
-    rows = ["| engine | contact | ball | largest drift (mm) | drift at frame 40 (mm) | lowest 1 % above ground (dx) | wall s |",
-            "|---|---|---|---|---|---|---|"]
+    rows = ["| engine | contact | ball | largest drift (mm) | drift at frame 40 (mm) | wall s |",
+            "|---|---|---|---|---|---|"]
     with tempfile.TemporaryDirectory() as d:
         for engine in a.engines:
             for contact in a.contacts:
@@ -100,10 +96,10 @@ def main():
                     f = run(Path(d), engine, contact, jitter)
                     name = "jittered" if jitter else "Fibonacci"
                     if "error" in f:
-                        rows.append(f"| {engine} | {contact} | {name} | {f['error']} | | | |")
+                        rows.append(f"| {engine} | {contact} | {name} | {f['error']} | | |")
                     else:
                         rows.append(f"| {engine} | {contact} | {name} | {f['drift_mm']:.2f} | {f['end_mm']:.2f} | "
-                                    f"{f['low_dx']:+.2f} | {f['wall_s']:.0f} |")
+                                    f"{f['wall_s']:.0f} |")
                     print(rows[-1], flush=True)
     text = "\n".join(rows)
     res = Path(__file__).parent / "results"
