@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 from scipy.special import expit
 
+from gasp_core.errors import SceneError
 from gasp_core.gs.describe import describe
 from gasp_core.maps.fill import fill_interior, fill_spacing
 from gasp_core.prepare.placement import UP_ROTATIONS, prepare_object
@@ -59,6 +60,9 @@ def info(path: Path, size: float | None = None, rho: float | None = None, n_grid
     o = prepare_object(spec)
     opaque = expit(o.simulated_rows(o.gaussians.opacities).astype(np.float64)) >= spec.min_opacity
     ext = float(np.ptp(o.tri_rest.reshape(-1, 3), axis=0).max())
+    if not ext > 0:
+        raise SceneError(f"{path}: its {o.gaussians.n} Gaussian(s) span 0 units (all at one point, of zero size): "
+                         "no solid to fill or simulate")
     dom = DomainSpec()
     h = fill_spacing(ext * (1 + 2 * dom.padding) / n_grid, dom.particles_per_cell)
     fr = fill_interior(o.tri_rest.reshape(-1, 3), h, splats=o.tri_rest[opaque], name=o.name,

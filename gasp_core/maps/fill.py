@@ -157,8 +157,7 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
     voxel : float, optional
         Occupancy voxel, metres; default from the splat density.
     unit : str
-        The length unit of the coordinates, as the warning names it: ``"m"`` (a scene), or ``"file units"``
-        (``gasp info`` without ``--size``).
+        Length unit of the coordinates as the warning names it: ``"m"``, or ``"file units"`` (``gasp info``).
     surface_mass : bool
         True: the surface points share their cells' volume and only cells without one get a
         fill point. False (passive surface, ``surface = "passive"``): the surface points get
@@ -176,13 +175,11 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
     """
     points = np.asarray(points, dtype=np.float64)
     _check_fill_arguments(points, h, name, if_open)
-    splats = (np.repeat(points[:, None], 3, axis=1) if splats is None
-              else np.asarray(splats, dtype=np.float64).reshape(-1, 3, 3))
-    if len(splats) == 0:
+    splats = None if splats is None else np.asarray(splats, dtype=np.float64).reshape(-1, 3, 3)
+    if splats is None or len(splats) == 0:
         splats = np.repeat(points[:, None], 3, axis=1)
     lo, shape = _fill_grid(points, splats, h, name)
-    phi, vlo, voxel_used, r, enclosed, confidence, sealed = (None, lo, 0.0, 0, [], 0.0, 0.0)
-    thin = (0.0, 0.0, [])
+    phi, vlo, voxel_used, r, enclosed, confidence, sealed, thin = (None, lo, 0.0, 0, [], 0.0, 0.0, (0.0, 0.0, []))
     if fill:
         phi, vlo, voxel_used, r, enclosed, confidence, sealed = solid_field(splats, max_dilation, voxel)
     if phi is not None:
@@ -193,8 +190,8 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
         inside = rasterize(splats, lo, shape, h)
         closed = False
         method = "shell" if not fill else "shell-open"
-        warning = "" if not fill else _open_warning(name, max_dilation, voxel_used, float(inside.sum()) * h ** 3,
-                                                          unit)
+        shell = float(inside.sum()) * h ** 3
+        warning = "" if not fill else _open_warning(name, max_dilation, voxel_used, shell, unit)
         if fill and if_open == "error":
             raise SceneError(warning.replace("; simulated as a hollow shell", "; refusing to simulate a hollow shell"))
     cells = np.argwhere(inside)
