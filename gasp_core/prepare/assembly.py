@@ -145,7 +145,7 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
     v, p_vol, body_id = np.concatenate(vels), np.concatenate(vols), np.concatenate(bodies)
     C = spin(objects, x, v, p_vol, body_id)
     for msg in stand_warnings([o.spec.material for o in objects], scene.boundaries, scene.gravity, x, p_vol,
-                              body_id, [o.name for o in objects]):
+                              body_id, [o.name for o in objects], dx):
         warnings.warn(msg, stacklevel=2)
     outside = ((x < lo) | (x > hi)).any(axis=1)
     if outside.any():

@@ -10,9 +10,12 @@ lean they give back is ``theta / E * integral W(z) (z_c(z) - z) / I(z) dz``. The
 
     E_crit = integral_0^H W(z) (z_c(z) - z) / I(z) dz
 
-(for a uniform column of height ``L`` this is ``W L^2 / (6 I)``; Greenhill's exact self-weight buckling load
-gives ``W L^2 / (7.84 I)``, so the estimate errs on the safe side by 30 %). A body whose centre of mass lies
-outside its footprint (the convex hull of its lowest section) tips over at any ``E``.
+from the top of its footprint (the lowest ``FOOT_SHARE`` of its height: the base it stands on; a rounded bottom's
+tiny sections there would otherwise dominate) to its top. For a uniform column of height ``L`` this is
+``0.97^3 W L^2 / (6 I)``; Greenhill's exact self-weight buckling load gives ``W L^2 / (7.84 I)``, so the estimate
+errs on the safe side by about 20 %. A body whose centre of mass lies outside its footprint (the convex hull of
+its lowest points) tips over at any ``E``. Only bodies that start standing on a ground are judged
+(:func:`stand_warnings`).
 """
 from __future__ import annotations
 
@@ -25,6 +28,8 @@ from scipy.spatial import ConvexHull, Delaunay
 N_SECTIONS = 48
 #: The footprint: the points within this share of the height above the lowest point.
 FOOT_SHARE = 0.03
+#: A body stands on a ground when its lowest point starts within this many cells above it.
+STAND_GAP = 2.0
 
 
 @dataclass
@@ -109,6 +114,7 @@ def stand_estimate(x: np.ndarray, p_vol: np.ndarray, rho: float, g: float = 9.81
         I_min = float(np.linalg.eigvalsh(I)[0])
         inv_I[s] = 1.0 / max(I_min, 1e-30)
     f = M1 * inv_I
+    f[edges[:-1] < FOOT_SHARE * H] = 0.0   # the footprint's own sections: the base it stands on, not a column
     E_crit = float(np.sum(f) * dz)
     com = np.average(p, axis=0, weights=w)
     foot = p[z <= FOOT_SHARE * H + 1e-12]
@@ -141,18 +147,22 @@ def stand_warning(name: str, est: StandEstimate, E: float) -> str | None:
 
 
 def stand_warnings(materials, boundaries, gravity, x: np.ndarray, p_vol: np.ndarray, body_id: np.ndarray,
-                   names) -> list[str]:
-    """:func:`stand_warning` for every elastic body (``jelly``, ``neo_hookean``) of a scene with a ground and
-    gravity (a body in free flight carries nothing); one line per body that cannot carry itself."""
+                   names, dx: float) -> list[str]:
+    """:func:`stand_warning` for every elastic body (``jelly``, ``neo_hookean``) that starts standing on a ground
+    (its lowest point within ``STAND_GAP`` cells of ``dx`` of it) under gravity; a body dropped from higher, or
+    in free flight, carries nothing yet. One line per body that cannot carry itself."""
     from gasp_core.prepare.surface import ELASTIC
     g = np.asarray(gravity, dtype=np.float64)
     gn = float(np.linalg.norm(g))
-    if gn == 0.0 or not any(b.kind == "ground" for b in boundaries):
+    heights = [b.height for b in boundaries if b.kind == "ground"]
+    if gn == 0.0 or not heights:
         return []
     out = []
     for i, m in enumerate(materials):
         sel = body_id == i
         if m.name not in ELASTIC or sel.sum() < 4 or not p_vol[sel].sum() > 0:
+            continue
+        if not any(abs(float(x[sel, 2].min()) - h) <= STAND_GAP * dx for h in heights):
             continue
         msg = stand_warning(names[i], stand_estimate(x[sel], p_vol[sel], m.rho, gn, -g / gn), m.E)
         if msg:
