@@ -33,8 +33,19 @@ def test_ground_nodes_are_out_of_reach_with_the_particle_contact():
 
 
 def test_the_option_is_declared_with_its_values():
-    assert CONTACT.default == "particle"
+    assert CONTACT.default == "auto"
     opts = (*mpm_options(), CONTACT)
     assert check_options({"contact": "grid"}, opts, "e")["contact"] == "grid"
     with pytest.raises(SceneError, match="contact"):
         check_options({"contact": "nodes"}, opts, "e")
+
+
+def test_auto_keeps_the_grid_contact_for_flowing_materials():
+    from types import SimpleNamespace
+    from gasp_core.seam.setup import Material
+    from gasp_core.toolkit.contact import contact_model
+    jelly, sand = Material("jelly"), Material("sand")
+    assert contact_model(SimpleNamespace(options={}, materials=[jelly])) == "particle"
+    assert contact_model(SimpleNamespace(options={"contact": "auto"}, materials=[jelly, sand])) == "grid"
+    assert contact_model(SimpleNamespace(options={"contact": "particle"}, materials=[sand])) == "particle"
+

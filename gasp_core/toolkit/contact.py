@@ -38,11 +38,23 @@ SKIN = 0.5
 #: With the particle contact, a ground's grid node layers start this many cells below its top layer.
 GRID_LAYERS_BELOW = 2
 #: The engine option's values.
-CONTACT_MODELS = ("particle", "grid")
+CONTACT_MODELS = ("auto", "particle", "grid")
+#: Materials that flow (granular, fluid): ``contact = "auto"`` keeps the grid contact for a scene with one.
+FLOWING = ("sand", "snow", "liquid")
 #: Engine option ``contact`` of the MPM engines.
-CONTACT = Option("contact", "particle", "ground contact: 'particle' (a penalty and Coulomb friction per point; "
-                 "docs/contact.md) or 'grid' (the ground's node layers projected; spins bouncing soft bodies up)",
-                 kind="str", choices=CONTACT_MODELS)
+CONTACT = Option("contact", "auto", "ground contact: 'particle' (a penalty and Coulomb friction per point; "
+                 "docs/contact.md), 'grid' (the ground's node layers projected; spins bouncing soft bodies up) or "
+                 "'auto' (particle, unless a body is sand, snow or liquid)", kind="str", choices=CONTACT_MODELS)
+
+
+def contact_model(setup) -> str:
+    """The ground contact a setup runs with: its option ``contact``; ``"auto"`` (the default) is ``"particle"``
+    unless a body's material flows (:data:`FLOWING`: the grid contact's spreading of a sand column matches
+    Lube et al. 2005 within 12 %, the particle contact's within 29 %, ``docs/contact.md``), then ``"grid"``."""
+    c = setup.options.get("contact") or "auto"
+    if c == "auto":
+        return "grid" if any(m.name in FLOWING for m in setup.materials) else "particle"
+    return c
 
 
 def contact_coefficients(setup) -> np.ndarray:

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from gasp_core.toolkit.contact import contact_coefficients
+from gasp_core.toolkit.contact import contact_coefficients, contact_model
 from gasp_core.toolkit.materials import initial_Jp, material_table
 from gasp_core.toolkit.memory import check_memory, estimate_bytes
 from gasp_core.toolkit.points import engine_mass_stats, fixed_mask, material_first_order, stranded_passive
@@ -125,7 +125,7 @@ class TaichiMPMEngine:
         self._inverse[self._order] = np.arange(n)
         o = self._order
 
-        contact = opt.get("contact") or "particle"
+        contact = contact_model(setup)
         walls, grounds, regions = node_ranges(setup, dx, contact)
         fixed = fixed_mask(setup.x, setup.boundaries)
         kinds, params = material_table(setup.materials)

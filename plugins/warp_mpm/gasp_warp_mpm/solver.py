@@ -34,7 +34,7 @@ import warp as wp
 
 from gasp_core.toolkit.materials import initial_Jp, material_table
 from gasp_core.toolkit.memory import check_memory, estimate_bytes
-from gasp_core.toolkit.contact import contact_coefficients, ground_node_layer
+from gasp_core.toolkit.contact import contact_coefficients, contact_model, ground_node_layer
 from gasp_core.toolkit.points import cell_order, engine_mass_stats, fixed_mask, material_first_order, stranded_passive
 from gasp_core.toolkit.substeps import passive_schedule, substeps_from_options
 from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
@@ -189,7 +189,7 @@ class WarpMPMEngine:
     def _upload_boundaries(self, Ft) -> None:
         """Walls' friction, grounds' (top node layer, friction, 0) and fixed regions' boxes as arrays."""
         fixed_lo, fixed_hi, ground, wall_mu, planes = [], [], [], [], []
-        contact = self.options.get("contact") or "particle"
+        contact = contact_model(self.setup)
         for bd in self.setup.boundaries:
             if bd.kind == "fixed_region":
                 fixed_lo.append(np.asarray(bd.lo, float))
