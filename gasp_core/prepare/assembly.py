@@ -13,6 +13,7 @@ from gasp_core.maps.occupancy import SPLAT_SIGMA
 from gasp_core.prepare.checks import check_resolution
 from gasp_core.prepare.dynamic import fill_velocities, vertex_velocities
 from gasp_core.prepare.placement import PreparedObject, simulated_triangles
+from gasp_core.prepare.stand import stand_warnings
 from gasp_core.prepare.surface import ELASTIC, surface_rule
 from gasp_core.scene.spec import Scene
 
@@ -143,6 +144,9 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
     passive = np.concatenate(passives)
     v, p_vol, body_id = np.concatenate(vels), np.concatenate(vols), np.concatenate(bodies)
     C = spin(objects, x, v, p_vol, body_id)
+    for msg in stand_warnings([o.spec.material for o in objects], scene.boundaries, scene.gravity, x, p_vol,
+                              body_id, [o.name for o in objects], dx):
+        warnings.warn(msg, stacklevel=2)
     outside = ((x < lo) | (x > hi)).any(axis=1)
     if outside.any():
         raise SceneError(_outside_message(scene, objects, x, np.concatenate(bodies), outside, lo, hi))
