@@ -29,6 +29,8 @@ Usage::
     sh benchmarks/bench_levels.sh                           # the quality levels on the README scenes against each
                                                             # scene's converged reference (issue 18), one command
     python benchmarks/bench_trade.py --variants verdict --frames 12 --threads 1
+    python benchmarks/bench_trade.py --variants full,full_g48,default,draft --frames 12 --threads 1 --keep K \
+        --accuracy-twin full_g48            # and the split accuracy report (benchmarks/bench_accuracy.py)
                                                             # the same on the donut's first 12 frames only
     python benchmarks/bench_trade.py --variants default,full_g32,full_g48 --keep K --tag a &
     python benchmarks/bench_trade.py --variants full --keep K --tag b &    # two at once on a shared machine, then:
@@ -229,6 +231,9 @@ def main(argv=None) -> int:
                     "converged reference (default full: every vertex simulated, the scene's fill)")
     ap.add_argument("--tolerance", type=float, default=0.01,
                     help="error asked for, fraction of the object size (default 0.01)")
+    ap.add_argument("--accuracy-twin", default=None, metavar="VARIANT",
+                    help="with --keep: also write the split accuracy report (benchmarks/bench_accuracy.py) of every "
+                    "variant against --reference-model's run, U from this variant (its model on a coarser grid)")
     ap.add_argument("--replot", action="store_true",
                     help="only redraw the figure of an existing results file (--tag); centroid heights are "
                     "(re)read from the run folders in --keep, where there, and from --compare")
@@ -314,6 +319,13 @@ def main(argv=None) -> int:
     os.replace(tmp, stem.with_suffix(".md"))
     plot(doc, stem.with_suffix(".png"))
     print(report(doc))
+    if args.accuracy_twin and args.keep is not None:
+        import bench_accuracy
+        others = [n for n in names if n not in (args.reference_model, args.accuracy_twin) and n in means]
+        bench_accuracy.main(["--runs", str(args.keep), "--reference", args.reference_model, "--twin",
+                             args.accuracy_twin, "--candidates", ",".join(others + [args.accuracy_twin]),
+                             "--timings", str(stem.with_suffix(".json")), *[str(f) for f in args.reuse],
+                             "--tag", f"{args.scene}_{tag}"])
     return 0
 
 

@@ -308,3 +308,32 @@ def test_free_fall_without_n_substeps_falls_back_to_one_percent(reference):
     assert {c.name for c in ok.checks} == {"drop_so_far", "horizontal_drift", "per_point_drop"}
     biased = check_engine(wrap(1.05), scenes=["free_fall"], known_failures={}).results[0]
     assert biased.status == "fail", biased.message
+
+
+#: The contact scenes (issue 28) and the engine option that turns the old grid contact back on.
+CONTACT_SCENES = ("spun_ball_bounce", "jittered_ball_rest", "rest_gap")
+
+
+def test_contact_scenes_fail_on_the_grid_contact(reference, request):
+    """The old grid contact (engine option contact = "grid") is a broken engine for the contact scenes: each of
+    them fails on it, and where the default contact fails too (a declared known failure) the grid's figure is
+    worse."""
+    info, _ = reference
+    if "contact" not in {o.name for o in info.options}:
+        pytest.skip(f"{info.name} has no option 'contact'")
+
+    def grid(setup):
+        return info.factory(setup.replace(options={**setup.options, "contact": "grid"}))
+
+    broken = dataclasses.replace(info, name="broken_grid_contact", factory=grid)
+    real = check_engine(info, scenes=CONTACT_SCENES, known_failures={}).by_scene()
+    bad = check_engine(broken, scenes=CONTACT_SCENES, known_failures={}).by_scene()
+    record(request.node, "; ".join(f"{n}: real {real[n].status}, grid {bad[n].status} "
+                                    f"({(bad[n].checks[0].message if bad[n].checks else bad[n].message)[-90:]})"
+                                    for n in CONTACT_SCENES))
+    for n in CONTACT_SCENES:
+        assert bad[n].status in ("fail", "error"), (n, bad[n].message)
+        if real[n].status != "pass" and bad[n].checks and real[n].checks:   # both fail: the grid is worse
+            assert bad[n].checks[0].figures["value"] > real[n].checks[0].figures["value"], (n, real[n].message,
+                                                                                           bad[n].message)
+

@@ -10,9 +10,9 @@ Rules (README, "Reliability"):
   runs to one folder: exactly one gets it; the other fails at once, naming the folder.
 - Results are written into a hidden sibling ``.<name>.partial-<token>/`` and committed only at the
   end, and only if the claim is still ours and the folder holds nothing the run did not expect.
-  With ``overwrite`` the old folder is replaced only if it is a GASP output (``run.json`` and
-  object folders); ``overwrite`` refuses a folder that is, contains or lies above an input file,
-  the scene file or the working directory.
+  With ``overwrite`` the old folder is replaced only if it is a GASP output holding nothing but
+  what its run wrote, unchanged, at every depth (:mod:`gasp_core.fsmarker`); ``overwrite`` refuses
+  a folder that is, contains or lies above an input file, the scene file or the working directory.
 """
 from __future__ import annotations
 
@@ -26,11 +26,8 @@ from contextlib import contextmanager
 from typing import Callable, Iterable, Iterator
 
 from gasp_core.errors import GaspError
+from gasp_core.fsmarker import CLAIM, MARKER, NO_LIST, unexpected_entries, write_marker
 
-CLAIM = ".gasp-claim"
-#: Written into every folder gasp commits: the entries that run made (``--overwrite`` replaces
-#: only a folder holding this marker and nothing beyond what it lists).
-MARKER = ".gasp-output"
 PARTIAL_INFIX = ".partial-"
 #: The claim file's third word once its run stopped on a signal and kept its partial output.
 STOPPED = "stopped"
@@ -152,25 +149,6 @@ def _is_within(a: Path, b: Path) -> bool:
         return False
 
 
-def looks_like_output(folder: Path) -> list[str]:
-    """Entries of ``folder`` that a gasp output would not hold (empty list: it is one).
-
-    A gasp output holds :data:`MARKER` listing what the run made; folders from before the marker
-    are recognised by their ``run.json`` and object folders.
-    """
-    names = [p.name for p in folder.iterdir() if p.name not in (CLAIM, MARKER)]
-    try:
-        made = set(json.loads((folder / MARKER).read_text())["entries"])
-    except (OSError, ValueError, KeyError, TypeError):
-        if "run.json" not in names:
-            return names
-        try:
-            made = {"run.json"} | {o["name"] for o in json.loads((folder / "run.json").read_text()).get("objects", [])}
-        except (OSError, ValueError, KeyError, TypeError):
-            made = {"run.json"}
-    return [n for n in names if n not in made and not n.startswith(".gasp-")]
-
-
 class OutputClaim:
     """An output folder claimed for one run (see the module docstring).
 
@@ -277,10 +255,15 @@ class OutputClaim:
         if (self.outdir / CLAIM).exists():
             raise FileExistsError(f"output folder '{self.outdir}' is being written by another gasp run "
                                   f"(claim file {self.outdir / CLAIM}); wait for it or choose another folder")
-        extra = looks_like_output(self.outdir)
+        extra = unexpected_entries(self.outdir)
+        if extra == [NO_LIST]:
+            raise GaspError(f"--overwrite refuses '{self.outdir}': it is not a gasp output folder ({NO_LIST}); "
+                            f"nothing was deleted; choose another folder")
         if extra:
-            raise GaspError(f"--overwrite refuses '{self.outdir}': it is not a gasp output folder "
-                            f"(unexpected entries: {sorted(extra)[:5]}); choose another folder")
+            named = ", ".join(extra[:5]) + (", ..." if len(extra) > 5 else "")
+            raise GaspError(f"--overwrite refuses '{self.outdir}': not a gasp output as gasp left it, it holds "
+                            f"what gasp did not write there ({named}); nothing was deleted; move those away or "
+                            f"choose another folder")
 
     def _undo_mkdir(self) -> None:
         if self.created:
@@ -315,15 +298,14 @@ class OutputClaim:
             and named in the message.
         """
         (tmp / ".gasp-pid").unlink(missing_ok=True)
-        entries = sorted(p.name for p in tmp.iterdir() if p.name != MARKER)
-        (tmp / MARKER).write_text(json.dumps({"entries": entries}) + "\n")
+        write_marker(tmp)
         if not self.still_ours():
             raise OutputConflict(f"output folder '{self.outdir}' was changed by someone else during the run; "
                             f"the results are kept in '{tmp}'")
         if self.created:
             extra = [p.name for p in self.outdir.iterdir() if p.name != CLAIM]
         else:
-            extra = looks_like_output(self.outdir)
+            extra = unexpected_entries(self.outdir)
         if extra:
             raise OutputConflict(f"output folder '{self.outdir}' gained entries during the run ({sorted(extra)[:5]}); "
                             f"nothing was replaced; the results are kept in '{tmp}'")

@@ -29,13 +29,14 @@ from typing import Any
 
 from gasp_core.fsutil import output_folder
 from gasp_core.errors import EngineError, SceneError
-from gasp_core.scene.spec import Scene, load_scene
+from gasp_core.scene.spec import Scene
 
 from . import report
-from .compare import check_engine_names, engine_options, ground_height, progress_line, save_run, select_engines, subsample_scene
-from .convergence import frame_distance, sweep_reference
+from .compare import open_study, check_engine_names, engine_options, ground_height, progress_line, save_run, select_engines, subsample_scene
+from .convergence import conv_errors
 from .measure import cheapest_ranked, energy_figures, pareto_front, run_errors, steady_s_per_frame
 from .report import SCENE_KEYS
+from .bench_rank import bench_strips, output_track, plot_u, rank_engine, ranking_lines
 from .run import RunOutput, Runner, RunSpec
 from .strips import DEFAULT_STRIP_FRAMES, StripRow, render_strips, strip_frames, strips_markdown
 
@@ -142,54 +143,6 @@ def plan_sweeps(found: dict, names: list[str], quick: bool, settings: dict[str, 
     return plan, skipped
 
 
-def bench_strips(outdir: Path, scene: Scene, keep: tuple[int, ...], rows: list[dict], row_k: list[int],
-                 outputs: list[RunOutput], progress: bool) -> list[str]:
-    """Render ``strip_<engine>.png`` (rows: the reference, the cheapest setting within 1 % and within 5 %
-    of the object size, as in the summary table) and return the summary's ``## Frames`` lines."""
-    groups: dict[str, list[StripRow]] = {}
-    captions: dict[str, str] = {}
-    for eng in dict.fromkeys(r["engine"] for r in rows):
-        idx = [i for i, r in enumerate(rows) if r["engine"] == eng]
-        ref = rows[idx[0]]
-        shown = {idx[0]: ["reference"]}
-        for level, (c, _) in ((1, cheapest_ranked([rows[i] for i in idx], 0.01)),
-                              (5, cheapest_ranked([rows[i] for i in idx], 0.05))):
-            if c is not None:
-                shown.setdefault(next(i for i in idx if rows[i] is c), []).append(f"within {level} %")
-        groups[eng], parts = [], []
-        for i, what in shown.items():
-            r, name = rows[i], " and ".join(what)
-            groups[eng].append(StripRow(f"{name}:\n{r['setting']}", outputs[row_k[i]].keyframes))
-            cost = f"{r['wall_s']:.3g} s" if r["status"] == "ok" else r["status"]
-            err = "" if i == idx[0] else f", err_max {100 * r['err_max']:.2g} %"
-            parts.append(f"{name} `{r['setting']}` ({cost}{err})")
-        captions[eng] = f"`{eng}`, rows top to bottom: " + "; ".join(parts)
-        if ref["status"] != "ok":
-            captions[eng] += " (no reference: no errors to choose by)"
-    strips = render_strips(outdir, groups, keep, scene.frame_dt, ground_height(scene))
-    if progress:
-        print("gasp bench: strips: " + (f"skipped ({strips.skipped})" if strips.skipped else
-              f"{len(strips.files)} rendered in {strips.render_s:.1f} s"), file=sys.stderr, flush=True)
-    return strips_markdown(strips, scene.frame_dt, captions)
-
-
-def conv_errors(rows: list[dict], runs: list[tuple[dict, RunOutput]]) -> None:
-    """Add ``err_conv_max`` (worst frame's mean distance to the converged reference, fraction of the size) and
-    ``ref_bound`` / ``ref_method`` (that reference's uncertainty and how it was made) to one engine's rows,
-    reference first (:func:`gasp_studies.convergence.sweep_reference`); NaN / "" where there is none."""
-    def metres(out: RunOutput):
-        ok = out.means is not None and out.record.get("status") == "ok"
-        return out.means.astype(np.float64) * out.m_per_unit[None, :, None] if ok else None
-    world = [(s, metres(o)) for s, o in runs]
-    size = float(runs[0][1].record.get("size_m") or np.nan) if runs else np.nan
-    conv = sweep_reference(runs[0][0], world, size) if runs and np.isfinite(size) else None
-    for r, (_, m) in zip(rows, world):
-        ok = conv is not None and m is not None and m.shape[1:] == conv.means.shape[1:]
-        r["err_conv_max"] = float(frame_distance(m, conv.means, size).max()) if ok else float("nan")
-        r["ref_bound"] = conv.bound if conv is not None else float("nan")
-        r["ref_method"] = f"{conv.method} {conv.grids}" if conv is not None else ""
-
-
 @dataclass
 class BenchResult:
     """What :func:`bench_scene` did."""
@@ -263,14 +216,58 @@ def bench_scene(scene_path: str | Path, output: str | Path, engines: list[str] |
     EngineError
         No engine can run the scene, or none offers a sweep.
     """
-    output = Path(output)
-    if output.exists() and not overwrite:  # early, before any work; output_folder claims it for good
-        raise FileExistsError(f"output folder '{output}' exists; pass --overwrite to replace it")
-    scene = load_scene(scene_path)
-    if n_frames is not None and (isinstance(n_frames, bool) or not isinstance(n_frames, int) or n_frames < 2):
-        raise SceneError(f"n_frames: expected an integer >= 2 (frame 1 is left out of the timing), got {n_frames!r}")
-    n_frames = min(scene.n_frames, DEFAULT_FRAMES) if n_frames is None else n_frames
+    output, scene, n_frames = open_study(output, overwrite, scene_path, n_frames, 2, DEFAULT_FRAMES)
     keep = strip_frames(n_frames, n_strip_frames)
+    plan, skipped = plan_engines(scene, scene_path, engines, quick, settings, reference_n_grid)
+    option_keys = sorted({k for sw in plan.values() for s in sw for k in s if k not in SCENE_KEYS})
+    columns = report.bench_columns(option_keys)
+    work = Path(tempfile.mkdtemp(prefix="gasp-bench-"))
+    try:
+        with output_folder(output, overwrite=overwrite, protected=[scene_path]) as tmp:
+            rows, summary, rank_md = bench_into(tmp, scene, scene_path, plan, skipped, columns, options, n_frames,
+                                                keep, subsample_scene(scene, max_gaussians, work),
+                                                (scheduler, workers, timeout_s), progress)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    if progress:
+        print(f"gasp bench: wrote {output}/summary.md", file=sys.stderr)
+        print("\n".join(["", "Ranking (docs/speed_accuracy.md, 'Choosing the default'):", ""] + rank_md))
+    return BenchResult(output, rows, skipped, summary, columns)
+
+
+def bench_into(tmp: Path, scene: Scene, scene_path, plan: dict, skipped: dict, columns: list[str], options,
+               n_frames: int, keep: tuple[int, ...], cut: tuple[Scene, list[int]], runner_args: tuple,
+               progress: bool) -> tuple[list[dict], dict, list[str]]:
+    """Run the sweeps and write the report into ``tmp``; the rows, the summary and the ranking's lines.
+
+    ``cut``: the scene with every k-th Gaussian and the strides k (:func:`subsample_scene`); ``runner_args``:
+    (scheduler, workers, timeout_s)."""
+    t_all = time.perf_counter()
+    (tmp / "runs").mkdir()
+    scene_run, strides = cut
+    specs, where = bench_specs(scene, scene_run, plan, options, n_frames)
+    outputs, how = run_specs(specs, where, tmp / "runs", *runner_args, progress, t_all)
+    rows, row_k, rank_md = bench_rows(plan, where, outputs, n_frames, scene, keep, tmp, progress, columns)
+    strips_md = bench_strips(tmp, scene, keep, rows, row_k, outputs, progress) if keep else []
+    outputs.clear()
+    report.write_csv(tmp / "bench.csv", rows, columns)
+    names = list(plan)
+    plots = report.bench_plots(tmp, rows, names)
+    summary = report.bench_summary(tmp / "summary.md", scene_name=scene.name, scene_path=scene_path,
+                                   n_frames=n_frames, frame_dt=scene.frame_dt, rows=rows, engines=names,
+                                   skipped=skipped, strides=strides, total_s=time.perf_counter() - t_all,
+                                   runner_line=how, plots=plots, strips_md=strips_md, ranking_md=rank_md)
+    return rows, summary, rank_md
+
+
+def plan_engines(scene: Scene, scene_path, engines: list[str] | None, quick: bool, settings, reference_n_grid):
+    """The engines to bench and their sweeps (:func:`plan_sweeps`), and why others are not benched.
+
+    Raises
+    ------
+    EngineError
+        No engine can be benched (the message gives each one's reason).
+    """
     from gasp_core.seam.plugins import engines as all_engines
     found = all_engines()
     requested = None if engines is None else list(dict.fromkeys(e.strip() for e in engines if e.strip()))
@@ -281,83 +278,94 @@ def bench_scene(scene_path: str | Path, output: str | Path, engines: list[str] |
     if not plan:
         raise EngineError(f"no engine can be benched on {scene_path}: "
                           + "; ".join(f"{k}: {v}" for k, v in skipped.items()))
-    option_keys = sorted({k for sw in plan.values() for s in sw for k in s if k not in SCENE_KEYS})
-    columns = report.bench_columns(option_keys)
+    return plan, skipped
 
-    work = Path(tempfile.mkdtemp(prefix="gasp-bench-"))
-    t_all = time.perf_counter()
+
+def bench_specs(scene: Scene, scene_run: Scene, plan: dict, options, n_frames: int):
+    """One :class:`RunSpec` per engine and setting (every frame's splats kept for the accuracy report), and
+    ``(engine, index, setting)`` of each."""
+    specs, where = [], []
+    for name, sweep in plan.items():
+        base = engine_options(scene, name, options)
+        for i, s in enumerate(sweep):
+            sc, opts = apply_setting(scene_run, s, base)
+            specs.append(RunSpec(sc, name, opts, n_frames, f"{name}_{i:02d}", tuple(range(n_frames + 1))))
+            where.append((name, i, s))
+    return specs, where
+
+
+def run_specs(specs, where, runs: Path, scheduler, workers, timeout_s, progress, t_all):
+    """Run every spec (fresh worker process each), saving records under ``runs``; the outputs and the
+    runner's one-line description."""
+    outputs: list[RunOutput | None] = [None] * len(specs)
+    n_done = [0]
+
+    def done(k: int, out: RunOutput) -> None:
+        outputs[k] = out
+        save_run(out, runs, specs[k].label, keep_means=False)
+        n_done[0] += 1
+        if progress:
+            name, _, s = where[k]
+            print(f"[{n_done[0]}/{len(specs)}, {time.perf_counter() - t_all:.0f} s] "
+                  + progress_line("bench", f"{name} {setting_label(s)}", out.record), file=sys.stderr, flush=True)
+
+    with Runner(scheduler=scheduler, workers=workers, timeout_s=timeout_s) as runner:
+        runner.run(specs, done)
+        how = report.runner_line(runner)
+    return outputs, how
+
+
+def row_of(name: str, i: int, s: dict, out: RunOutput, ref: RunOutput | None, columns_of: dict, n_frames: int) -> dict:
+    """The bench row of one run: setting, status, sizes, timings, errors against the reference run."""
+    rec = out.record
+    frame_s = rec.get("frame_s") or []
+    ok = rec["status"] == "ok"
+    sp = steady_s_per_frame(frame_s) if ok else float("nan")
+    msg = "" if ok else rec.get("message", "")
+    if i == 0 and ref is None:
+        msg = "reference run failed, no errors can be measured: " + msg
+    st = rec.get("engine_stats") or {}
+    return {"engine": name, "setting": setting_label(s), **columns_of, "is_reference": i == 0,
+            "status": rec["status"] if rec["status"] != "diverged" else f"diverged@{rec.get('frame')}",
+            "simulated_points": rec.get("simulated_points"), "substeps_per_frame": st.get("n_substeps"),
+            "prepare_s": rec.get("prepare_s"), "build_s": rec.get("build_s"),
+            "first_frame_s": frame_s[0] if frame_s else None, "s_per_frame": sp,
+            "cpu_s_per_frame": steady_s_per_frame(rec.get("frame_cpu_s") or []) if ok else float("nan"),
+            "wall_s": sp * n_frames,
+            "end_to_end_s": rec.get("end_to_end_s", float("nan")) if ok else float("nan"),
+            **run_errors(ref, out), **energy_figures(ref, out), "message": msg}
+
+
+def bench_rows(plan, where, outputs, n_frames, scene, keep, outdir, progress, columns):
+    """Rows of every engine (errors, converged reference, Pareto front, the accuracy report's figures) and the
+    ranking's Markdown lines (:mod:`gasp_studies.bench_rank`)."""
+    rows: list[dict] = []
+    row_k: list[int] = []  # the output behind each row
+    rank_md: list[str] = []
+    for name in plan:
+        ks = [k for k, w in enumerate(where) if w[0] == name]
+        ref = outputs[ks[0]] if outputs[ks[0]].record["status"] == "ok" else None
+        eng_rows = [row_of(name, where[k][1], where[k][2], outputs[k], ref,
+                           {c: where[k][2].get(c) for c in columns if c in where[k][2]}, n_frames) for k in ks]
+        conv_errors(eng_rows, [(where[k][2], outputs[k]) for k in ks])
+        front = pareto_front([r["end_to_end_s"] for r in eng_rows], [r["err_max"] for r in eng_rows])
+        for r, p in zip(eng_rows, front):
+            r["pareto"] = bool(p)
+        rank_md += rank_rows(name, eng_rows, [outputs[k] for k in ks], [where[k][2] for k in ks], scene, keep,
+                             outdir, progress)
+        rows += eng_rows
+        row_k += ks
+    return rows, row_k, rank_md
+
+
+def rank_rows(name, eng_rows, outs, settings, scene, keep, outdir, progress) -> list[str]:
+    """The accuracy report's figures on one engine's rows and its ranking lines (a failure is reported, not raised)."""
     try:
-        with output_folder(output, overwrite=overwrite, protected=[scene_path]) as tmp:
-            runs = tmp / "runs"
-            runs.mkdir()
-            scene_run, strides = subsample_scene(scene, max_gaussians, work)
-            specs, where = [], []
-            for name, sweep in plan.items():
-                base = engine_options(scene, name, options)
-                for i, s in enumerate(sweep):
-                    sc, opts = apply_setting(scene_run, s, base)
-                    specs.append(RunSpec(sc, name, opts, n_frames, f"{name}_{i:02d}", keep))
-                    where.append((name, i, s))
-            outputs: list[RunOutput | None] = [None] * len(specs)
-            n_done = [0]
-
-            def done(k: int, out: RunOutput) -> None:
-                outputs[k] = out
-                save_run(out, runs, specs[k].label, keep_means=False)
-                n_done[0] += 1
-                if progress:
-                    name, _, s = where[k]
-                    print(f"[{n_done[0]}/{len(specs)}, {time.perf_counter() - t_all:.0f} s] "
-                          + progress_line("bench", f"{name} {setting_label(s)}", out.record), file=sys.stderr, flush=True)
-
-            with Runner(scheduler=scheduler, workers=workers, timeout_s=timeout_s) as runner:
-                runner.run(specs, done)
-                how = report.runner_line(runner)
-            rows: list[dict] = []
-            row_k: list[int] = []  # the output behind each row
-            for name in plan:
-                ks = [k for k, w in enumerate(where) if w[0] == name]
-                ref = outputs[ks[0]] if outputs[ks[0]].record["status"] == "ok" else None
-                eng_rows = []
-                for k in ks:
-                    _, i, s = where[k]
-                    rec = outputs[k].record
-                    frame_s = rec.get("frame_s") or []
-                    ok = rec["status"] == "ok"
-                    sp = steady_s_per_frame(frame_s) if ok else float("nan")
-                    msg = "" if ok else rec.get("message", "")
-                    if i == 0 and ref is None:
-                        msg = "reference run failed, no errors can be measured: " + msg
-                    st = rec.get("engine_stats") or {}
-                    eng_rows.append({
-                        "engine": name, "setting": setting_label(s), **{c: s.get(c) for c in columns if c in s},
-                        "is_reference": i == 0,
-                        "status": rec["status"] if rec["status"] != "diverged" else f"diverged@{rec.get('frame')}",
-                        "simulated_points": rec.get("simulated_points"), "substeps_per_frame": st.get("n_substeps"),
-                        "prepare_s": rec.get("prepare_s"), "build_s": rec.get("build_s"),
-                        "first_frame_s": frame_s[0] if frame_s else None,
-                        "s_per_frame": sp,
-                        "cpu_s_per_frame": steady_s_per_frame(rec.get("frame_cpu_s") or []) if ok else float("nan"),
-                        "wall_s": sp * n_frames,
-                        "end_to_end_s": rec.get("end_to_end_s", float("nan")) if ok else float("nan"),
-                        **run_errors(ref, outputs[k]), **energy_figures(ref, outputs[k]), "message": msg})
-                conv_errors(eng_rows, [(where[k][2], outputs[k]) for k in ks])
-                front = pareto_front([r["end_to_end_s"] for r in eng_rows], [r["err_max"] for r in eng_rows])
-                for r, p in zip(eng_rows, front):
-                    r["pareto"] = bool(p)
-                rows += eng_rows
-                row_k += ks
-            strips_md = bench_strips(tmp, scene, keep, rows, row_k, outputs, progress) if keep else []
-            outputs.clear()
-            report.write_csv(tmp / "bench.csv", rows, columns)
-            names = list(plan)
-            plots = report.bench_plots(tmp, rows, names)
-            summary = report.bench_summary(tmp / "summary.md", scene_name=scene.name, scene_path=scene_path,
-                                           n_frames=n_frames, frame_dt=scene.frame_dt, rows=rows, engines=names,
-                                           skipped=skipped, strides=strides, total_s=time.perf_counter() - t_all,
-                                           runner_line=how, plots=plots, strips_md=strips_md)
-    finally:
-        shutil.rmtree(work, ignore_errors=True)
-    if progress:
-        print(f"gasp bench: wrote {output}/summary.md", file=sys.stderr)
-    return BenchResult(output, rows, skipped, summary, columns)
+        tracks = [output_track(o, scene.frame_dt, ground_height(scene), r["setting"]) for o, r in zip(outs, eng_rows)]
+        rank = rank_engine(eng_rows, tracks, settings, keep)
+        plot = plot_u(outdir, name, eng_rows)
+    except (RuntimeError, ImportError, ValueError) as e:
+        if progress:
+            print(f"gasp bench: {name}: no accuracy report ({e})", file=sys.stderr)
+        return [f"**{name}**: no accuracy report ({e})", ""]
+    return ranking_lines(name, eng_rows, rank) + ([f"![{name}: time against shape in U]({plot})", ""] if plot else [])

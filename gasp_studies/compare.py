@@ -170,6 +170,27 @@ class CompareResult:
     startup_s: float = 0.0
 
 
+def open_study(output, overwrite: bool, scene_path, n_frames: int | None, minimum: int, cap: int | None):
+    """The output folder (refused if it exists and not ``overwrite``: before any work), the scene, and the frames
+    to run (``n_frames``, else the scene's, at most ``cap``).
+
+    Raises
+    ------
+    FileExistsError, SceneError
+        The folder exists; a bad scene, or ``n_frames`` not an integer >= ``minimum``.
+    """
+    output = Path(output)
+    if output.exists() and not overwrite:  # early, before any work; output_folder claims it for good
+        raise FileExistsError(f"output folder '{output}' exists; pass --overwrite to replace it")
+    scene = load_scene(scene_path)
+    if n_frames is not None and (isinstance(n_frames, bool) or not isinstance(n_frames, int) or n_frames < minimum):
+        raise SceneError(f"n_frames: expected an integer >= {minimum}"
+                         + (" (frame 1 is left out of the timing)" if minimum > 1 else "") + f", got {n_frames!r}")
+    if n_frames is None:
+        n_frames = scene.n_frames if cap is None else min(scene.n_frames, cap)
+    return output, scene, n_frames
+
+
 def compare_scene(scene_path: str | Path, engines: list[str] | None, output: str | Path, *,
                   overwrite: bool = False, n_frames: int | None = None,
                   options: Mapping[str, Mapping] | None = None, max_gaussians: int | None = None,
@@ -229,14 +250,8 @@ def compare_scene(scene_path: str | Path, engines: list[str] | None, output: str
     EngineError
         No engine could run the scene at all (the reasons are in the message).
     """
-    output = Path(output)
-    if output.exists() and not overwrite:  # early, before any work; output_folder claims it for good
-        raise FileExistsError(f"output folder '{output}' exists; pass --overwrite to replace it")
-    scene = load_scene(scene_path)
+    output, scene, n_frames = open_study(output, overwrite, scene_path, n_frames, 1, None)
     check_engine_names(engines)
-    if n_frames is not None and (isinstance(n_frames, bool) or not isinstance(n_frames, int) or n_frames < 1):
-        raise SceneError(f"n_frames: expected a positive integer, got {n_frames!r}")
-    n_frames = scene.n_frames if n_frames is None else n_frames
     keep = strip_frames(n_frames, n_strip_frames)
     runnable, skipped = select_engines(scene, engines)
     if not runnable:
@@ -245,53 +260,72 @@ def compare_scene(scene_path: str | Path, engines: list[str] | None, output: str
         runs = tmp / "runs"
         runs.mkdir()
         scene_run, strides = subsample_scene(scene, max_gaussians, runs)
-        specs, seen = [], {}
-        for name in runnable:
-            seen[name] = seen.get(name, 0) + 1
-            label = name if seen[name] == 1 else f"{name}#{seen[name]}"
-            specs.append(RunSpec(scene_run, name, engine_options(scene, name, options), n_frames, label, keep))
-
-        def done(i: int, out: RunOutput) -> None:
-            save_run(out, runs, specs[i].label.replace("#", "_"), keep_runs)
-            if progress:
-                print(progress_line("compare", specs[i].label, out.record), file=sys.stderr, flush=True)
-
-        if progress:
-            print(f"gasp compare: {len(specs)} run(s) of {n_frames} frames: {', '.join(s.label for s in specs)}",
-                  file=sys.stderr, flush=True)
-        with Runner(scheduler=scheduler, workers=workers, timeout_s=timeout_s) as runner:
-            outputs = runner.run(specs, done)
-            how = report.runner_line(runner)
-        records = [o.record for o in outputs]
-        failed = {r["label"]: (f"diverged at frame {r['frame']}: {r.get('message', '')}" if r["status"] == "diverged"
-                               else f"{r['status']}: {r.get('message', '')}") for r in records if r["status"] != "ok"}
-        ref = next((o for o in outputs if o.record["status"] == "ok"), None)
-        table = [report.table_row(r) for r in records]
-        div: list[dict] = []
-        if ref is not None:
-            for o in outputs:
-                if o is not ref:
-                    div += divergence_rows(ref, o, scene.frame_dt)
-        report.write_csv(tmp / "table.csv", table, report.TABLE_COLUMNS)
-        table_md = report.md_table(table, report.TABLE_COLUMNS, report.TABLE_HEADERS)
-        (tmp / "table.md").write_text(table_md)
-        report.write_csv(tmp / "divergence.csv", div, report.DIVERGENCE_COLUMNS)
-        plots = report.compare_plots(tmp, table, div, ref.record["label"] if ref else None)
-        strips_md = []
-        if keep:
-            strips = render_strips(tmp, {o.record["label"]: [StripRow(o.record["label"], o.keyframes)]
-                                         for o in outputs if o.keyframes}, keep, scene.frame_dt, ground_height(scene))
-            for o in outputs:
-                o.keyframes = {}
-            strips_md = strips_markdown(strips, scene.frame_dt)
-            if progress:
-                print("gasp compare: strips: " + (f"skipped ({strips.skipped})" if strips.skipped else
-                      f"{len(strips.files)} rendered in {strips.render_s:.1f} s"), file=sys.stderr, flush=True)
-        report.compare_report(tmp / "report.md", scene_name=scene.name, scene_path=scene_path, n_frames=n_frames,
-                              frame_dt=scene.frame_dt, table_md=table_md, div=div, records=records,
-                              reference=ref.record if ref else None, skipped=skipped, failed=failed,
-                              strides=strides, runner_line=how, plots=plots, strips_md=strips_md)
+        outputs, how, startup_s = compare_runs(scene, scene_run, runnable, options, n_frames, keep, runs,
+                                               (scheduler, workers, timeout_s), keep_runs, progress)
+        ref, table, div, failed = compare_outputs(tmp, scene, scene_path, outputs, keep, n_frames, skipped, strides,
+                                                  how, progress)
     if progress:
         print(f"gasp compare: wrote {output}/report.md", file=sys.stderr)
     return CompareResult(output, ref.record["label"] if ref else None, table, div, skipped, failed, outputs,
-                         runner.startup_s)
+                         startup_s)
+
+
+def compare_outputs(tmp: Path, scene: Scene, scene_path, outputs: list[RunOutput], keep, n_frames: int, skipped: dict,
+                    strides: list[int], how: str, progress: bool):
+    """Write ``gasp compare``'s tables, plots, strips and report in ``tmp`` from the runs' ``outputs`` (the first
+    run that finished is the reference); return (reference output or None, table rows, divergence rows, failed)."""
+    records = [o.record for o in outputs]
+    failed = {r["label"]: (f"diverged at frame {r['frame']}: {r.get('message', '')}" if r["status"] == "diverged"
+                           else f"{r['status']}: {r.get('message', '')}") for r in records if r["status"] != "ok"}
+    ref = next((o for o in outputs if o.record["status"] == "ok"), None)
+    table = [report.table_row(r) for r in records]
+    div: list[dict] = []
+    if ref is not None:
+        for o in outputs:
+            if o is not ref:
+                div += divergence_rows(ref, o, scene.frame_dt)
+    report.write_csv(tmp / "table.csv", table, report.TABLE_COLUMNS)
+    table_md = report.md_table(table, report.TABLE_COLUMNS, report.TABLE_HEADERS)
+    (tmp / "table.md").write_text(table_md)
+    report.write_csv(tmp / "divergence.csv", div, report.DIVERGENCE_COLUMNS)
+    plots = report.compare_plots(tmp, table, div, ref.record["label"] if ref else None)
+    strips_md = []
+    if keep:
+        strips = render_strips(tmp, {o.record["label"]: [StripRow(o.record["label"], o.keyframes)]
+                                     for o in outputs if o.keyframes}, keep, scene.frame_dt, ground_height(scene))
+        for o in outputs:
+            o.keyframes = {}
+        strips_md = strips_markdown(strips, scene.frame_dt)
+        if progress:
+            print("gasp compare: strips: " + (f"skipped ({strips.skipped})" if strips.skipped else
+                  f"{len(strips.files)} rendered in {strips.render_s:.1f} s"), file=sys.stderr, flush=True)
+    report.compare_report(tmp / "report.md", scene_name=scene.name, scene_path=scene_path, n_frames=n_frames,
+                          frame_dt=scene.frame_dt, table_md=table_md, div=div, records=records,
+                          reference=ref.record if ref else None, skipped=skipped, failed=failed,
+                          strides=strides, runner_line=how, plots=plots, strips_md=strips_md)
+    return ref, table, div, failed
+
+
+def compare_runs(scene: Scene, scene_run: Scene, runnable: list[str], options, n_frames: int, keep, runs: Path,
+                 runner_args: tuple, keep_runs: bool, progress: bool) -> tuple[list[RunOutput], str, float]:
+    """One run per engine in ``runnable`` (a fresh worker process each), saved under ``runs``; the outputs, the
+    runner's one-line description and its start-up time, s. ``runner_args``: (scheduler, workers, timeout_s)."""
+    scheduler, workers, timeout_s = runner_args
+    specs, seen = [], {}
+    for name in runnable:
+        seen[name] = seen.get(name, 0) + 1
+        label = name if seen[name] == 1 else f"{name}#{seen[name]}"
+        specs.append(RunSpec(scene_run, name, engine_options(scene, name, options), n_frames, label, keep))
+
+    def done(i: int, out: RunOutput) -> None:
+        save_run(out, runs, specs[i].label.replace("#", "_"), keep_runs)
+        if progress:
+            print(progress_line("compare", specs[i].label, out.record), file=sys.stderr, flush=True)
+
+    if progress:
+        print(f"gasp compare: {len(specs)} run(s) of {n_frames} frames: {', '.join(s.label for s in specs)}",
+              file=sys.stderr, flush=True)
+    with Runner(scheduler=scheduler, workers=workers, timeout_s=timeout_s) as runner:
+        outputs = runner.run(specs, done)
+        how = report.runner_line(runner)
+    return outputs, how, runner.startup_s

@@ -252,3 +252,21 @@ def sweep_reference(reference_setting: dict, runs: list[tuple[dict, np.ndarray |
             if s == reference_setting or s["n_grid"] not in seq:
                 seq[int(s["n_grid"])] = m
     return reference(seq, size)
+
+
+def conv_errors(rows: list[dict], runs: list[tuple[dict, object]]) -> None:
+    """Add ``err_conv_max`` (worst frame's mean distance to the converged reference, fraction of the size) and
+    ``ref_bound`` / ``ref_method`` (that reference's uncertainty and how it was made) to one engine's rows,
+    reference first (:func:`sweep_reference`; ``runs``: (setting, :class:`gasp_studies.run.RunOutput`)); NaN / "" where
+    there is none."""
+    def metres(out):
+        ok = out.means is not None and out.record.get("status") == "ok"
+        return out.means.astype(np.float64) * out.m_per_unit[None, :, None] if ok else None
+    world = [(s, metres(o)) for s, o in runs]
+    size = float(runs[0][1].record.get("size_m") or np.nan) if runs else np.nan
+    conv = sweep_reference(runs[0][0], world, size) if runs and np.isfinite(size) else None
+    for r, (_, m) in zip(rows, world):
+        ok = conv is not None and m is not None and m.shape[1:] == conv.means.shape[1:]
+        r["err_conv_max"] = float(frame_distance(m, conv.means, size).max()) if ok else float("nan")
+        r["ref_bound"] = conv.bound if conv is not None else float("nan")
+        r["ref_method"] = f"{conv.method} {conv.grids}" if conv is not None else ""

@@ -30,7 +30,9 @@ SCENE_KEYS = ("n_grid", "particles_per_cell", "fill", "core_fraction", "surface"
 BENCH_HEAD = ["engine", "setting"]
 BENCH_TAIL = ["is_reference", "status", "simulated_points", "substeps_per_frame", "prepare_s", "build_s",
               "first_frame_s", "s_per_frame", "cpu_s_per_frame", "wall_s", "end_to_end_s", "err_mean", "err_max", "err_final", "err_point_max",
-              "err_conv_max", "ref_bound", "ref_method", "ke_left", "ke_vs_ref", "pareto", "message"]
+              "err_conv_max", "ref_bound", "ref_method", "ke_left", "ke_vs_ref", "pareto",
+              # the accuracy report (gasp_studies.bench_rank): shape residual, in U, rotation, renders, the rule
+              "shape_max", "shape_u", "rotation_max_deg", "psnr_db", "ssim", "rule_ok", "rule_misses", "message"]
 
 
 def bench_columns(option_keys: list[str]) -> list[str]:
@@ -257,7 +259,8 @@ def bench_plots(outdir: Path, rows: list[dict], engines: list[str]) -> bool:
 
 def bench_summary(path: Path, *, scene_name: str, scene_path: Any, n_frames: int, frame_dt: float,
                   rows: list[dict], engines: list[str], skipped: dict, strides: list[int], total_s: float,
-                  runner_line: str, plots: bool, strips_md: list[str] | None = None) -> dict[str, dict]:
+                  runner_line: str, plots: bool, strips_md: list[str] | None = None,
+                  ranking_md: list[str] | None = None) -> dict[str, dict]:
     """Write ``summary.md`` of ``gasp bench``; return ``{engine: {reference, within_1pct, within_5pct}}``.
 
     ``strips_md``: its ``## Frames`` section (:func:`gasp_studies.strips.strips_markdown`), after the
@@ -308,7 +311,15 @@ def bench_summary(path: Path, *, scene_name: str, scene_path: Any, n_frames: int
         if conv:
             lines.append(f"|  | converged reference: {ref['ref_method']}, uncertain by "
                          f"{100 * ref['ref_bound']:.2g} % of the size | | | | | | | | | |")
-    lines += ["", "![pareto](pareto.png)" if plots else NO_PLOTS, ""] + (strips_md or []) + ["## All runs", ""]
+    lines += ["", "![pareto](pareto.png)" if plots else NO_PLOTS, ""] + (strips_md or [])
+    if ranking_md:
+        lines += ["## Ranking: shape, events and renders in units of the reference's uncertainty U", "",
+                  "U: the reference's twin (its model on the next coarser grid swept) against the reference. A run is "
+                  "ranked when its shape residual after the best rigid fit is within 1.5 U, its events are in their "
+                  "bands and its renders (PSNR) are at least as close to the reference's as the twin's "
+                  "(docs/speed_accuracy.md, 'Choosing the default'); ranked runs are ordered by end-to-end time.",
+                  ""] + ranking_md
+    lines += ["## All runs", ""]
     view = [{**r, "err_mean_pct": 100 * r["err_mean"], "err_max_pct": 100 * r["err_max"],
              "err_conv_pct": 100 * r.get("err_conv_max", float("nan")),
              "err_final_pct": 100 * r["err_final"], "front": "yes" if r.get("pareto") else ""} for r in rows]

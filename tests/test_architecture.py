@@ -53,10 +53,8 @@ LONG_OUTER_FILES: dict[str, str] = {
 #: Plugin and studies functions over MAX_FUNCTION_LINES without a reason in their docstring, ``module.function``
 #: -> why they are allowed for now.
 LONG_OUTER_FUNCTIONS: dict[str, str] = {
-    "gasp_studies.bench.bench_scene": "issue 30 helper splits this",
-    "gasp_studies.compare.compare_scene": "issue 30 helper splits this",
-    "gasp_studies.run.run": "issue 30 helper splits this",
-    "gasp_studies.strips.render_strips": "issue 30 helper splits this",
+    "gasp_studies.run.run": "issue 30 helper splits this (the same entry as STUDIES_LONG below)",
+    "gasp_studies.strips.render_strips": "issue 30 helper splits this (the same entry as STUDIES_LONG below)",
 }
 
 
@@ -271,6 +269,20 @@ def test_no_function_over_the_limit_without_a_reason():
     bad = long_functions(CORE)
     assert not bad, (f"functions over {MAX_FUNCTION_LINES} lines whose docstring does not say why "
                      f"('{LONG_REASON} ...'):\n" + "\n".join(bad))
+
+
+# ----------------------------------------------------------------------------- gasp_studies keeps the size rules
+#: gasp_studies functions over MAX_FUNCTION_LINES not split yet -> why (a list that should only shrink)
+STUDIES_LONG = {"gasp_studies.run.run": "Runner.run's Dask dispatch loop (86 lines), not yet split",
+                "gasp_studies.strips.render_strips": "81 lines, not yet split"}
+
+
+def test_gasp_studies_files_and_functions_within_the_limits():
+    import gasp_studies
+    root = Path(gasp_studies.__file__).parent
+    assert not long_files(root), f"gasp_studies files over {MAX_FILE_LINES} lines:\n" + "\n".join(long_files(root))
+    bad = [b for b in long_functions(root) if b.split(" (")[0] not in STUDIES_LONG]
+    assert not bad, f"gasp_studies functions over {MAX_FUNCTION_LINES} lines:\n" + "\n".join(bad)
 
 
 # ----------------------------------------------------------------------------- the checks catch bad code

@@ -378,7 +378,7 @@ def _(d, ply, v):
     return ["simulate", str(d / "scene.toml"), "-o", str(d / "out"), "-q"]
 
 
-@case("n-frames-1e9", "1,000,000,000 frames", "at the measured", "beyond the bound of 24 h", "--yes")
+@case("n-frames-1e9", "1,000,000,000 frames", "beyond the bound of 24 h", "--yes")
 def _(d, ply, v):
     pytest.importorskip("gasp_warp_mpm")
     return simulate(d, scene_text(ply, n_frames=1_000_000_000, n_grid=40, engine="warp_mpm", engine_options="{ }"))
@@ -388,6 +388,52 @@ def _(d, ply, v):
 def _(d, ply, v):
     pytest.importorskip("distributed")
     return ["compare", simulate(d, scene_text(ply))[1], "--engines", "warp_mpm,nope", "-o", str(d / "cmp")]
+
+
+# --- issue 34: tracebacks before
+
+
+@case("object-is-a-symlink-loop", "loop.ply", "symlink loop")
+def _(d, ply, v):
+    (d / "loop.ply").symlink_to("loop.ply")                        # was RuntimeError from Path.resolve
+    return simulate(d, scene_text(d / "loop.ply"))
+
+
+@case("inline-table-500-deep", "scene.toml", "nested too deep")
+def _(d, ply, v):
+    deep = "x = " + "{a = " * 500 + "1" + "}" * 500 + "\n"       # was RecursionError in tomllib
+    return simulate(d, deep + scene_text(ply))
+
+
+@case("object-below-the-ground", "object 'bad'", "below the ground at height 0", "raise the object's position")
+def _(d, ply, v):
+    return with_ply(d, v, position_z=-0.5, n_grid=40)              # was "enlarge [domain]" (n_grid 40: no resolution warning)
+
+
+@case("ground-above-the-object", "object 'bad'", "below the ground at height 0.5", "lower the ground's height")
+def _(d, ply, v):
+    return simulate(d, edit(scene_text(write_vertex(d / "bad.ply", v), n_grid=40), "height = 0.0", "height = 0.5"))
+
+
+@case("splats-10m-on-a-20cm-object", "every Gaussian's centre is above it", "on an object 0.208 m across",
+      "file's scales")
+def _(d, ply, v):
+    w = v.copy()
+    w["scale_1"], w["scale_2"] = np.log(10.0), np.log(10.0)        # was "enlarge [domain]"
+    return with_ply(d, w)
+
+
+@case("info-size-1e400m", "--size", "1e400m", "1e6 m")
+def _(d, ply, v):
+    return ["info", str(write_vertex(d / "in.ply", v)), "--size", "1e400m"]   # blamed "scale = inf"
+
+
+@case("info-one-zero-size-splat", "one.ply", "1 Gaussian(s) span 0 units")
+def _(d, ply, v):
+    w = v[:1].copy()
+    for n in ("scale_0", "scale_1", "scale_2"):
+        w[n] = -np.inf                                              # was "fill spacing h must be > 0"
+    return ["info", str(write_vertex(d / "one.ply", w))]
 
 
 def run_case(tmp_path: Path, argv: list[str], capsys) -> tuple[int, str, list]:

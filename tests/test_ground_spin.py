@@ -1,18 +1,17 @@
-"""A bouncing ball must not spin up or roll away on a grid engine's ground (issue 17, finding 1).
+"""A bouncing ball must not spin up or roll away on a grid engine's ground (issues 17 and 28).
 
 Known answer: an elastic ball dropped without spin onto a flat ground carries no angular momentum
 and no external torque about its centre has a preferred sense, so it neither turns nor drifts
-sideways (with friction ``mu`` 0.5 or 0). Today both MPM engines (same rule, docs/mpm.md) spin it
-up: the ground's normal impulse is centred off the centre of mass in the direction the bottom
-surface slides, so every bounce multiplies the spin (about x3.7 in angular momentum per bounce);
-friction then turns the spin into rolling. Measured (ball R = 5 cm, 739 points, dropped 5 cm, jelly
-E 2e4 Pa, nu 0.3, rho 300, n_grid 16 over 0.3 m, centre 0.3 / 0.2 dx off a node column), identical on
-taichi_mpm and warp_mpm:
+sideways (with friction ``mu`` 0.5 or 0). The old grid contact (engine option ``contact = "grid"``, the
+ground's node layers projected) spun it up: the normal stress at the projected nodes carried a torque
+that grew the spin about 3.5x per bounce, and friction turned the spin into rolling. Measured (ball
+R = 5 cm, 739 points, dropped 5 cm, jelly E 2e4 Pa, nu 0.3, rho 300, n_grid 16 over 0.3 m, centre 0.3 /
+0.2 dx off a node column), identical on taichi_mpm and warp_mpm:
 
-- mu 0: turned 0.30 deg at frame 10, 3.5 at 20, 32.9 at 30, 77.8 at 40;
-- mu 0.5: horizontal drift 0.18 / 1.04 / 3.77 / 12.1 mm at frames 10 / 20 / 30 / 40.
-
-The tests are expected failures until the contact rule is fixed (strict: they report when it is).
+- grid contact: mu 0: turned 0.30 deg at frame 10, 3.5 at 20, 32.9 at 30, 77.8 at 40; mu 0.5: horizontal
+  drift 0.18 / 1.04 / 3.77 / 12.1 mm at frames 10 / 20 / 30 / 40;
+- the particle contact (the default, ``docs/contact.md``): mu 0: 0.245 deg at frame 30 (no drift); mu 0.5:
+  0.76 mm at frame 40.
 """
 from __future__ import annotations
 
@@ -36,7 +35,6 @@ R, DROP = 0.05, 0.05
 #: Allowed rotation (deg) and horizontal centroid travel (m): the issue's 1 mm.
 SPIN_TOL_DEG = 1.0
 DRIFT_TOL = 1e-3
-_FIX = "issue 17: the ground contact of the MPM engines spins a bouncing ball up (not fixed yet)"
 
 
 def _drop(engine: str, options: dict, mu: float, n_frames: int):
@@ -62,18 +60,16 @@ def _drop(engine: str, options: dict, mu: float, n_frames: int):
     return (m @ xp - m @ x)[:2], angle
 
 
-@pytest.mark.xfail(strict=True, reason=_FIX)
 @pytest.mark.parametrize("engine,options", ENGINES, ids=[e for e, _ in ENGINES])
 def test_ball_bouncing_on_frictionless_ground_does_not_spin(engine, options):
-    """mu = 0, 30 frames (4 bounces): it turns less than 1 deg (today 32.9 deg)."""
+    """mu = 0, 30 frames (4 bounces): it turns less than 1 deg (0.245 deg; the grid contact 32.9 deg)."""
     d, angle = _drop(engine, options, 0.0, 30)
     assert np.abs(d).max() < 1e-6, d          # frictionless: no horizontal force at all
     assert angle < SPIN_TOL_DEG, angle
 
 
-@pytest.mark.xfail(strict=True, reason=_FIX)
 @pytest.mark.parametrize("engine,options", ENGINES, ids=[e for e, _ in ENGINES])
 def test_ball_bouncing_on_frictional_ground_stays_put(engine, options):
-    """mu = 0.5, 40 frames: the centroid stays within 1 mm horizontally (today 12.1 mm)."""
+    """mu = 0.5, 40 frames: the centroid stays within 1 mm horizontally (0.76 mm; the grid contact 12.1 mm)."""
     d, angle = _drop(engine, options, 0.5, 40)
     assert np.hypot(*d) < DRIFT_TOL, (d, angle)

@@ -271,6 +271,14 @@ def test_bench_rows_reference_zero_and_error_grows_as_grid_coarsens(donut_tiny, 
     assert bound > 0 and float(rows[0]["err_conv_max"]) == pytest.approx(bound)   # the reference's own distance
     if bound >= 0.01:   # a coarse sequence: the 1 % tolerance is finer than the reference knows
         assert "not ranked" in (out / "summary.md").read_text()
+    # the accuracy report's ranking: U from the twin (g18 f32, the reference's model one grid coarser)
+    text = (out / "summary.md").read_text()
+    assert "## Ranking" in text and "twin `g18" in text
+    assert "U = shape" in text and "PSNR" in text
+    by = {int(r["n_grid"]): r for r in rows if r["precision"] == "f32"}
+    assert float(by[18]["shape_u"]) == pytest.approx(1.0)          # the twin is 1 U by definition
+    assert float(by[24]["shape_u"]) < 0.1 < float(by[14]["shape_u"])  # rounding only; a coarser grid
+    assert float(by[24]["psnr_db"]) > float(by[18]["psnr_db"]) > float(by[14]["psnr_db"])
 
 
 def test_reports_without_matplotlib_say_so(tmp_path, monkeypatch):

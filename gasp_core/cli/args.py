@@ -60,7 +60,10 @@ def length(text: str) -> float:
     m = re.fullmatch(r"\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*(m|cm|mm)?\s*", text)
     if not m or not float(m.group(1)) > 0:
         raise argparse.ArgumentTypeError(f"expected a positive length such as 1.7m, 170cm or 1700mm, got {text!r}")
-    return float(m.group(1)) * _UNITS[m.group(2) or "m"]
+    metres = float(m.group(1)) * _UNITS[m.group(2) or "m"]
+    if not 1e-6 <= metres <= 1e6:       # the scene's own limits on positions and sizes (1e400 was inf)
+        raise argparse.ArgumentTypeError(f"expected a length from 1e-6 m to 1e6 m, got {text!r}")
+    return metres
 
 
 class GaspArgumentParser(argparse.ArgumentParser):

@@ -7,9 +7,11 @@ from pathlib import Path
 import numpy as np
 from scipy.special import expit
 
+from gasp_core.errors import SceneError
 from gasp_core.gs.describe import describe
 from gasp_core.maps.fill import fill_interior, fill_spacing
 from gasp_core.prepare.placement import UP_ROTATIONS, prepare_object
+from gasp_core.prepare.stand import stand_estimate
 from gasp_core.scene.spec import ObjectSpec
 from gasp_core.scene.tables import DomainSpec
 
@@ -33,7 +35,9 @@ def info(path: Path, size: float | None = None, rho: float | None = None, n_grid
         ``describe``'s keys, then ``height`` (file units, along the up axis; ``+z`` when unknown),
         ``suggested_scale`` (with ``size``), ``filled_volume`` (m^3 at ``suggested_scale``, else in file
         units cubed), ``volume_unit``, ``fill_method``, ``fill_confidence``, ``fill_sealed``,
-        ``fill_bbox_share``, ``n_floaters``, ``fill_warning`` and ``mass_kg`` (with ``rho``).
+        ``fill_bbox_share``, ``n_floaters``, ``fill_warning`` and ``mass_kg`` (with ``rho``), with it also
+        ``stand_E_crit_Pa`` (the Young's modulus the filled solid needs to stand on its base without buckling,
+        :mod:`gasp_core.prepare.stand`; in file units unless ``size`` is given) and ``stand_com_inside``.
 
     Raises
     ------
@@ -56,9 +60,13 @@ def info(path: Path, size: float | None = None, rho: float | None = None, n_grid
     o = prepare_object(spec)
     opaque = expit(o.simulated_rows(o.gaussians.opacities).astype(np.float64)) >= spec.min_opacity
     ext = float(np.ptp(o.tri_rest.reshape(-1, 3), axis=0).max())
+    if not ext > 0:
+        raise SceneError(f"{path}: its {o.gaussians.n} Gaussian(s) span 0 units (all at one point, of zero size): "
+                         "no solid to fill or simulate")
     dom = DomainSpec()
     h = fill_spacing(ext * (1 + 2 * dom.padding) / n_grid, dom.particles_per_cell)
-    fr = fill_interior(o.tri_rest.reshape(-1, 3), h, splats=o.tri_rest[opaque], name=o.name)
+    fr = fill_interior(o.tri_rest.reshape(-1, 3), h, splats=o.tri_rest[opaque], name=o.name,
+                       unit="m" if size is not None else "file units")
     r = fr.report
     d.update({"filled_volume": fr.volume, "volume_unit": "m^3" if size is not None else "file units^3",
               "fill_method": r.method, "fill_confidence": r.confidence, "fill_sealed": r.sealed,
@@ -66,6 +74,13 @@ def info(path: Path, size: float | None = None, rho: float | None = None, n_grid
               "fill_warning": r.warning or "none"})
     if rho is not None:
         d["mass_kg"] = rho * fr.volume
+        pts = np.concatenate([o.tri_rest.reshape(-1, 3), fr.fill_x])   # the solid: surface and fill points
+        vols = np.concatenate([np.broadcast_to(fr.p_vol_surface, (len(pts) - len(fr.fill_x),)),
+                               np.broadcast_to(fr.p_vol_fill, (len(fr.fill_x),))])
+        if vols.sum() > 0 and len(pts) >= 4:   # the E it needs to stand on its base (gasp_core.prepare.stand)
+            est = stand_estimate(pts, vols, rho)
+            d["stand_E_crit_Pa"] = est.E_crit
+            d["stand_com_inside"] = est.com_over_footprint
         if size is None:
             d["mass_note"] = "mass with 1 file unit = 1 m; pass --size for the real scale"
     return d

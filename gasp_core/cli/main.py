@@ -12,11 +12,13 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 
 import warnings
 
+from gasp_core.cli import early
 from gasp_core.cli.args import GaspArgumentParser, length, positive_float, positive_int
 from gasp_core.errors import EngineBug, EngineDivergence, GaspError
 from gasp_core.run import stop
@@ -317,12 +319,18 @@ def main(argv: list[str] | None = None) -> int:
     if code == 0:
         for message, count in _HELD.items():
             print(f"gasp: warning: numpy: {message}" + (f" ({count} times)" if count > 1 else ""), file=sys.stderr)
+    early.finished()   # the gasp command only (gasp_core.cli.early): a later signal cannot change the status
     return code
 
 
 def _run(args) -> int:
     """``args.func(args)`` under the error contract: its exit status, and an error as one line."""
     try:
+        try:
+            os.getcwd()
+        except FileNotFoundError:
+            raise GaspError("the working directory no longer exists (deleted or moved away); cd to an existing "
+                            "folder and run again") from None
         return args.func(args)
     except (GaspError, OSError, KeyboardInterrupt) as e:
         _end_progress_bars()

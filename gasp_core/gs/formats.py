@@ -29,8 +29,10 @@ import numpy as np
 
 from gasp_core.errors import GaspError
 from gasp_core.fsutil import atomic_path, atomic_write
-from gasp_core.gs.gaussians import Gaussians
+from gasp_core.gs.gaussians import MAX_MAGNITUDE, Gaussians
 from gasp_core.gs.ply import check_is_file, reject_file
+from gasp_core.gs.sog_check import sog_bytes
+from gasp_core.gs.spz_check import check_spz
 
 #: Output formats of ``gasp simulate --format`` and the file suffix of each.
 SUFFIXES = {"ply": ".ply", "compressed_ply": ".compressed.ply", "spz": ".spz", "sog": ".sog"}
@@ -103,22 +105,52 @@ def read_splat_file(path, fmt: str | None = None) -> Gaussians:
     fmt = fmt or sniff(path)
     if fmt in ("splat", "ksplat"):
         from gasp_core.gs.splat import read_ksplat, read_splat
-        return read_splat(path) if fmt == "splat" else read_ksplat(path)
+        return check_decoded(path, read_splat(path) if fmt == "splat" else read_ksplat(path))
     gsply = gsply_module(path, f"reading a .{fmt} file")
+    if fmt not in ("spz", "sog"):
+        raise ValueError(f"not a format read here: {fmt}")
+    if fmt == "spz":
+        check_spz(path)          # in bounded memory, before gsply decompresses it whole
+    else:
+        data = sog_bytes(path)   # checked, and only the entries meta.json names
     try:
         if fmt == "spz":
             d = gsply.read_spz(path)
-        elif fmt == "sog":
-            from gsply.sog_reader import sogread
-            d = sogread(path)
         else:
-            raise ValueError(f"not a format read here: {fmt}")
+            from gsply.sog_reader import sogread
+            d = sogread(data)
     except ImportError as e:  # sogread without imagecodecs
         raise GaspError(f"{path}: reading a .sog file needs imagecodecs ({INSTALL}): {e}") from None
-    except (ValueError, OSError, EOFError, KeyError) as e:
-        reject_file(path, f"not a readable .{fmt} file (truncated or corrupt?): {e}")
-    g = from_gsdata(d, path, fmt)
+    except Exception as e:   # gsply and its decoders raise many kinds (zip, JSON, WebP, numba) for a corrupt file
+        reject_file(path, f"not a readable .{fmt} file (truncated or corrupt?): {type(e).__name__}: {e}")
+    g = check_decoded(path, from_gsdata(d, path, fmt))
     return flip_yz(g) if fmt == "spz" else g
+
+
+def check_decoded(path, g: Gaussians) -> Gaussians:
+    """``g`` as decoded from a file that is not a PLY, after refusing (one :class:`SceneError` line naming the
+    file, the field and the splat) what the PLY reader refuses too: a position or scale that is not finite or
+    beyond :data:`~gasp_core.gs.gaussians.MAX_MAGNITUDE`, a negative scale, a colour or SH coefficient that
+    is not finite, a NaN opacity."""
+    if g.n == 0:
+        reject_file(path, "0 splats; expected at least one Gaussian")
+    fields = (("position", g.means, True), ("scale", g.scales, True), ("colour", g.sh_dc, False),
+              ("SH coefficient", g.sh_rest.reshape(g.n, -1), False))
+    with np.errstate(invalid="ignore"):
+        for what, a, bounded in fields:
+            bad = ~np.isfinite(a).all(axis=1)
+            if bounded:
+                bad |= (np.abs(a) > MAX_MAGNITUDE).any(axis=1)
+            if what == "scale":
+                bad |= (a < 0).any(axis=1)
+            if bad.any():
+                i = int(np.flatnonzero(bad)[0])
+                reject_file(path, f"{what} {a[i].tolist()} at splat {i}: expected finite values"
+                            + (f" within {MAX_MAGNITUDE:g}" if bounded else "") + (", not negative" if what == "scale"
+                                                                                  else ""))
+    if np.isnan(g.opacities).any():
+        reject_file(path, f"NaN opacity at splat {int(np.flatnonzero(np.isnan(g.opacities))[0])}")
+    return g
 
 
 #: Sign of each SH rest coefficient (degree 1, 2, 3 order of graphdeco) under ``y -> -y, z -> -z``

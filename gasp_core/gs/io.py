@@ -162,7 +162,8 @@ def _checked_values(path: Path, vertex: np.ndarray, scale_names: list[str],
                     rest_names: list[str]) -> tuple[np.ndarray, np.ndarray]:
     """Means (n, 3) float64 and unit quaternions (n, 4) wxyz of a vertex element, after refusing
     (:class:`SceneError`) a non-finite or too distant position, a log-scale above ``log(MAX_MAGNITUDE)``,
-    a non-finite colour, a NaN opacity (+-inf are alpha 1 and 0), and a zero or non-finite quaternion."""
+    a non-finite colour or normal (``nx ny nz``), a NaN opacity (+-inf are alpha 1 and 0), and a zero or
+    non-finite quaternion."""
     means = stack_columns(vertex, ("x", "y", "z"))
     bad = ~np.isfinite(means).all(axis=1)
     if bad.any():
@@ -175,6 +176,8 @@ def _checked_values(path: Path, vertex: np.ndarray, scale_names: list[str],
     check_columns(path, vertex, ["opacity"], allow_neg_inf=True, allow_pos_inf=True,
                   expected="a finite opacity logit or +-inf (alpha 1 or 0)")
     check_columns(path, vertex, ["f_dc_0", "f_dc_1", "f_dc_2", *rest_names])
+    # normals: carried into every frame as they are, so a NaN would be in every frame (3DGS writes zeros)
+    check_columns(path, vertex, [nm for nm in ("nx", "ny", "nz") if nm in vertex.dtype.names])
     q = stack_columns(vertex, ("rot_0", "rot_1", "rot_2", "rot_3"))
     norm = np.linalg.norm(q, axis=1)
     bad = ~(np.isfinite(norm) & (norm > 1e-12))

@@ -24,7 +24,8 @@ def _logit(alpha: np.ndarray) -> np.ndarray:
 
 def _unit_quats(path: Path, q: np.ndarray) -> np.ndarray:
     """``q`` (n, 4) normalised; a zero or non-finite one is refused (:class:`SceneError`)."""
-    norm = np.linalg.norm(q, axis=1)
+    with np.errstate(invalid="ignore", over="ignore"):   # inf or NaN components: refused just below
+        norm = np.linalg.norm(q, axis=1)
     bad = ~(np.isfinite(norm) & (norm > 1e-12))
     if bad.any():
         reject_file(path, f"zero or non-finite quaternion at splat {int(np.flatnonzero(bad)[0])}")
@@ -111,14 +112,18 @@ def read_ksplat(path) -> Gaussians:
                     "level 0, 1 or 2 (a GaussianSplats3D .ksplat file)")
     sh_lo, sh_hi = sh_lo or -1.5, sh_hi or 1.5
     offset = _KSPLAT_HEADER + n_sections * _KSPLAT_SECTION_HEADER
+    if offset > len(raw):
+        reject_file(path, f"{n_sections:,} section headers of {_KSPLAT_SECTION_HEADER} bytes; the file has "
+                    f"{len(raw):,} bytes (truncated or corrupt?)")
     parts = []
     try:
-        for s in range(n_sections):
-            hdr = raw[_KSPLAT_HEADER + s * _KSPLAT_SECTION_HEADER:][:_KSPLAT_SECTION_HEADER]
-            part, offset = _ksplat_section(hdr, raw, offset, level, (sh_lo, sh_hi))
-            parts.append(part)
-    except ValueError as e:  # np.frombuffer past the end of the file
-        reject_file(path, f"shorter than its section headers say (truncated?): {e}")
+        with np.errstate(invalid="ignore", over="ignore"):   # the values are checked once decoded (check_decoded)
+            for s in range(n_sections):
+                hdr = raw[_KSPLAT_HEADER + s * _KSPLAT_SECTION_HEADER:][:_KSPLAT_SECTION_HEADER]
+                part, offset = _ksplat_section(hdr, raw, offset, level, (sh_lo, sh_hi))
+                parts.append(part)
+    except ValueError as e:  # a count beyond the file, or np.frombuffer past its end
+        reject_file(path, f"shorter than its section headers say, or they do not fit it (truncated or corrupt?): {e}")
     got = sum(len(p[0]) for p in parts)
     if got != n_total:
         reject_file(path, f"header says {n_total} splats, sections hold {got}")
@@ -139,12 +144,23 @@ def _ksplat_section(hdr: bytes, raw: bytes, offset: int, level: int, sh_range: t
     full, partial = int(u4[8]), int(u4[9])
     qrange = int(u4[6]) or (1 if level == 0 else 32767)
     sh_degree = int(np.frombuffer(hdr, "<u2", 1, 40)[0])
+    if sh_degree >= len(_KSPLAT_SH):
+        raise ValueError(f"SH degree {sh_degree} in a section header; expected 0 to 3")
     k3 = _KSPLAT_SH[sh_degree]
     cb, sb, rb, colb, shb = _KSPLAT_BYTES[level]
     record = cb + sb + rb + colb + k3 * shb
-    partial_sizes = np.frombuffer(raw, "<u4", partial, offset).astype(np.int64)
-    centres = np.frombuffer(raw, "<f4", n_buckets * 3, offset + partial * 4).reshape(n_buckets, 3)
     data_at = offset + bucket_bytes * n_buckets + partial * 4
+    if n > capacity or data_at + capacity * record > len(raw):
+        raise ValueError(f"a section of {n} splats, capacity {capacity}, needs {data_at + capacity * record:,} "
+                         f"bytes; the file has {len(raw):,}")
+    if level and (full + partial > n_buckets or full * bucket_size > capacity):
+        raise ValueError(f"{full} full and {partial} partial buckets of {bucket_size} splats; the section has "
+                         f"{n_buckets} buckets and room for {capacity} splats")
+    partial_sizes = np.frombuffer(raw, "<u4", partial, offset).astype(np.int64)
+    if level and partial_sizes.sum() > capacity:
+        raise ValueError(f"partial buckets of {int(partial_sizes.sum()):,} splats in all; the section has room "
+                         f"for {capacity}")
+    centres = np.frombuffer(raw, "<f4", n_buckets * 3, offset + partial * 4).reshape(n_buckets, 3)
     rec = np.frombuffer(raw, "u1", capacity * record, data_at).reshape(capacity, record)[:n]
     fl, hf = ("<f4", "<f4") if level == 0 else ("<u2", "<f2")
     if level == 0:

@@ -11,7 +11,9 @@ from gasp_core.seam.setup import SimSetup, grid_spacing
 from gasp_core.maps.fill import fill_interior, fill_spacing
 from gasp_core.maps.occupancy import SPLAT_SIGMA
 from gasp_core.prepare.checks import check_resolution
+from gasp_core.prepare.dynamic import fill_velocities, vertex_velocities
 from gasp_core.prepare.placement import PreparedObject, simulated_triangles
+from gasp_core.prepare.stand import stand_warnings
 from gasp_core.prepare.surface import ELASTIC, surface_rule
 from gasp_core.scene.spec import Scene
 
@@ -75,15 +77,17 @@ def footprints(o: PreparedObject) -> np.ndarray:
     shape (k, 3)."""
     tri = o.tri_rest[expit(o.simulated_rows(o.gaussians.opacities).astype(np.float64)) >= o.spec.min_opacity]
     axes = SPLAT_SIGMA * (tri[:, 1:] - tri[:, :1])
+    mesh = [] if o.binding is None else [o.binding.vertices]     # mesh mode: the simulated vertices too
     return np.concatenate([o.tri_rest.reshape(-1, 3), (tri[:, :1] + axes).reshape(-1, 3),
-                           (tri[:, :1] - axes).reshape(-1, 3)])
+                           (tri[:, :1] - axes).reshape(-1, 3), *mesh])
 
 
 def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
     """Assemble the engine's point set: all objects' triangle vertices, then their fill points.
 
     Static objects (``static = true``) take no part; a selected object brings its selected rows
-    only (:mod:`gasp_core.prepare.selection`), and the default domain is around what moves.
+    only (:mod:`gasp_core.prepare.selection`), and the default domain is around what moves. A dynamic
+    model's points start with the model's velocity unless the scene sets one (:mod:`gasp_core.prepare.dynamic`).
 
     Raises
     ------
@@ -123,7 +127,8 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
         xs.append(verts)
         vols.append(fr.p_vol_surface)
         bodies.append(np.full(len(verts), i))
-        vels.append(np.broadcast_to(o.spec.velocity, verts.shape))
+        vels.append(vertex_velocities(o, scene.frame_dt) if o.spec.velocity_from_model
+                    else np.broadcast_to(o.spec.velocity, verts.shape))
         passives.append(np.full(len(verts), passive))
         fills.append((i, fr))
     for i, fr in fills:
@@ -132,17 +137,19 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
         xs.append(fr.fill_x)
         vols.append(fr.p_vol_fill)
         bodies.append(np.full(len(fr.fill_x), i))
-        vels.append(np.broadcast_to(objects[i].spec.velocity, fr.fill_x.shape))
+        vels.append(fill_velocities(xs[i], vels[i], fr.fill_x) if objects[i].spec.velocity_from_model
+                    else np.broadcast_to(objects[i].spec.velocity, fr.fill_x.shape))
         passives.append(np.zeros(len(fr.fill_x), bool))
     x = np.concatenate(xs)
     passive = np.concatenate(passives)
     v, p_vol, body_id = np.concatenate(vels), np.concatenate(vols), np.concatenate(bodies)
     C = spin(objects, x, v, p_vol, body_id)
+    for msg in stand_warnings([o.spec.material for o in objects], scene.boundaries, scene.gravity, x, p_vol,
+                              body_id, [o.name for o in objects], dx):
+        warnings.warn(msg, stacklevel=2)
     outside = ((x < lo) | (x > hi)).any(axis=1)
     if outside.any():
-        k = int(np.flatnonzero(outside)[0])
-        raise SceneError(f"{scene.path}: {int(outside.sum())} point(s) start outside the domain "
-                         f"[{lo.tolist()}, {hi.tolist()}] (first at {x[k].tolist()}); enlarge [domain]")
+        raise SceneError(_outside_message(scene, objects, x, np.concatenate(bodies), outside, lo, hi))
     extras = scene_extras(scene, scenery, x, dx)  # colliders may name static objects
     return SimSetup(
         **extras, x=x, v=v, p_vol=p_vol, body_id=body_id, C=C, passive=passive if passive.any() else None,
@@ -196,3 +203,29 @@ def spin(objects: list[PreparedObject], x: np.ndarray, v: np.ndarray, p_vol: np.
         v[rows] += np.cross(w, x[rows] - c)
         C[rows] = skew(w)
     return C
+
+
+def _outside_message(scene: Scene, objects: list[PreparedObject], x: np.ndarray, body: np.ndarray,
+                     outside: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> str:
+    """Why points start outside the domain, naming the object and the key that fixes it: below a ground
+    plane (the object placed under it, or the ground set above it), else outside ``[domain] lo/hi``."""
+    k = int(np.flatnonzero(outside)[0])
+    name = objects[int(body[k])].name
+    grounds = [b.height for b in scene.boundaries if b.kind == "ground"]
+    below = outside & (x[:, 2] < lo[2]) if grounds else np.zeros(len(x), bool)
+    if below.any():
+        k = int(np.flatnonzero(below)[0])
+        o = objects[int(body[k])]
+        head = (f"{scene.path}: {int(below.sum())} point(s) of object '{o.name}' start below the ground at height "
+                f"{min(grounds):g} m (lowest at z = {float(x[below, 2].min()):.4g} m)")
+        centres = o.tri_rest[:, 0]
+        if centres[:, 2].min() >= min(grounds):   # the Gaussians' centres are above: their footprints reach down
+            reach = 2 * SPLAT_SIGMA * float(np.linalg.norm(o.tri_rest[:, 1:] - o.tri_rest[:, :1], axis=2).max())
+            return (f"{head}, though every Gaussian's centre is above it: its splats are up to {reach:.3g} m across "
+                    f"on an object {float(np.ptp(centres, axis=0).max()):.3g} m across; check the file's scales "
+                    f"(or raise min_opacity to leave the largest out), or lower the ground's height")
+        return (f"{head}: raise the object's position or lower the ground's height ([[boundary]] kind = "
+                f"\"ground\")")
+    where = "[domain] lo/hi" if scene.domain.lo is not None else "the default domain around the objects"
+    return (f"{scene.path}: {int(outside.sum())} point(s) of object '{name}' start outside {where} "
+            f"[{lo.tolist()}, {hi.tolist()}] (first at {x[k].tolist()}); enlarge [domain] lo/hi or move the object")

@@ -20,6 +20,8 @@ from gasp_core.maps.hierarchy import Hierarchy, build_hierarchy
 from gasp_core.gs.io import read_gaussians
 from gasp_core.gs.splatv import read_splatv, splatv_at
 from gasp_core.prepare.checks import check_object
+from gasp_core.prepare.mesh import bind_object, laid_gaussians
+from gasp_core.maps.mesh_bind import MeshBinding
 from gasp_core.scene.spec import ObjectSpec
 from gasp_core.prepare.selection import flat_world, moving_rows
 
@@ -93,6 +95,9 @@ class PreparedObject:
         :func:`gasp_core.prepare.selection.static_splats`).
     n_floaters : int
         Floaters left out of the physics (static rows, :func:`drop_floaters`).
+    binding : MeshBinding or None
+        Mesh mode (``spec.mesh``): the simulated rows bound to the faces of the mesh, whose vertices
+        the engine moves (:mod:`gasp_core.prepare.mesh`).
     """
 
     spec: ObjectSpec
@@ -112,6 +117,7 @@ class PreparedObject:
     static_tri: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3)))
     surface_rule: dict | None = None
     n_floaters: int = 0
+    binding: MeshBinding | None = None
 
     def simulated_rows(self, a: np.ndarray) -> np.ndarray:
         """The rows of a per-Gaussian array ``a`` (shape (n, ...)) that are simulated."""
@@ -147,6 +153,8 @@ def load_gaussians(spec: ObjectSpec) -> Gaussians:
     SceneError
         From :func:`gasp_core.gs.io.read_gaussians` / :func:`gasp_core.gs.io.read_splatv`.
     """
+    if spec.mesh is not None and spec.mesh.laid:
+        return laid_gaussians(spec.mesh.path, spec.mesh.per_face)
     if spec.dynamic_time is not None:
         base, motion = read_splatv(spec.file)
         return splatv_at(base, motion, spec.dynamic_time)
@@ -166,13 +174,15 @@ def prepare_object(spec: ObjectSpec, g: Gaussians | None = None) -> PreparedObje
     check_object(spec, g)
     # floaters of a whole object are found in the file frame (the rule is scale and rotation free), so that
     # recentring ignores them; a selection is the user's choice of what moves and is kept as it is
-    floating = None if spec.select is not None or spec.keep_floaters or spec.static else \
+    floating = None if spec.select is not None or spec.keep_floaters or spec.static or spec.mesh else \
         find_floaters(g.means, g.scales.max(axis=1))
     pl = place(g, spec, floating)  # from the whole file: a selection moves, the background stays put
     # flattened and triangulated once, the whole file; a selection takes its rows of the result
     scales_flat, rot_flat, means_w, tri, report = flat_world(g, pl)
     moving, static_tri = moving_rows(spec, g, pl, tri)
-    n_floaters = 0
+    n_floaters, binding = 0, None
+    if spec.mesh is not None:           # far Gaussians stay static, like floaters
+        binding, moving, static_tri = bind_object(spec, pl, means_w, rot_flat, scales_flat, tri)
     if floating is not None:            # a whole object: moving_rows gave (None, empty)
         moving, static_tri, n_floaters = drop_floaters(spec, g, tri, floating)
     sim = g
@@ -185,7 +195,7 @@ def prepare_object(spec: ObjectSpec, g: Gaussians | None = None) -> PreparedObje
     return PreparedObject(spec=spec, gaussians=g, placement=pl, rot_rest=rot_flat,
                           scales_rest=scales_flat, tri_rest=tri, thin_scale=sim.scales.min(axis=1),
                           flatten_report=report, hierarchy=hier, name=Path(spec.file).stem,
-                          moving=moving, static_tri=static_tri, n_floaters=n_floaters)
+                          moving=moving, static_tri=static_tri, n_floaters=n_floaters, binding=binding)
 
 
 def drop_floaters(spec: ObjectSpec, g: Gaussians, tri: np.ndarray, floating: np.ndarray | None):
@@ -202,5 +212,8 @@ def drop_floaters(spec: ObjectSpec, g: Gaussians, tri: np.ndarray, floating: np.
 
 
 def simulated_triangles(o: PreparedObject) -> np.ndarray:
-    """The triangles (or, with a hierarchy, the cores' 4-point frames) whose vertices the engine moves."""
+    """The triangles (or, with a hierarchy, the cores' 4-point frames; in mesh mode, the mesh's vertices, shape
+    (nv, 3)) whose vertices the engine moves."""
+    if o.binding is not None:
+        return o.binding.vertices
     return o.tri_rest if o.hierarchy is None else o.hierarchy.core_points

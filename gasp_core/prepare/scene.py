@@ -38,6 +38,9 @@ class PreparedScene:
     prepare_s: float = 0.0
 
 
+#: Files a run folder holds beside its object folders (``gasp render``'s default output too).
+RUN_FILES = frozenset({"run.json", "frames.json", "render.mp4"})
+
 
 def scene_needs(scene: Scene) -> dict[str, list[str]]:
     """What a scene asks of an engine, before any file is read: :func:`gasp_core.seam.build.needs` of its
@@ -77,7 +80,9 @@ def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None 
     info = get_engine(name)
     check_supported(info, **scene_needs(scene), others=all_engines())
     objects = [prepare_object(spec) for spec in scene.objects]
-    stems = [o.name for o in objects]
+    # object folder names: a stem that is one of a run folder's own files (run.json.ply) or hidden
+    # (.gasp-output.ply) gets a leading "_"; equal ones their index
+    stems = [f"_{o.name}" if o.name in RUN_FILES or o.name.startswith(".") else o.name for o in objects]
     names = [n if stems.count(n) == 1 else f"{i}_{n}" for i, n in enumerate(stems)]
     setup = build_setup(scene, objects)
     if options is not None:
@@ -87,7 +92,7 @@ def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None 
 
 
 def input_files(scene: Scene) -> list[Path]:
-    """The files a run reads: the scene, every object's file, selection masks, collider meshes and Gaussians.
+    """The files a run reads: the scene, every object's file and mesh, selection masks, collider meshes and Gaussians.
 
     The output claim protects them (never overwritten) and the resume fingerprint stands for exactly these
     (:func:`gasp_core.run.resume.fingerprint`).
@@ -95,4 +100,5 @@ def input_files(scene: Scene) -> list[Path]:
     return ([Path(scene.path)] + [Path(o.file) for o in scene.objects]
             + [Path(o.select.mask) for o in scene.objects if o.select is not None and o.select.mask is not None]
             + [Path(o.select.file) for o in scene.objects if o.select is not None and o.select.file is not None]
-            + [Path(c.mesh or c.gaussians) for c in scene.colliders if (c.mesh or c.gaussians) is not None])
+            + [Path(c.mesh or c.gaussians) for c in scene.colliders if (c.mesh or c.gaussians) is not None]
+            + [o.mesh.path for o in scene.objects if o.mesh is not None and not o.mesh.laid])

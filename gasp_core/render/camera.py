@@ -9,6 +9,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gasp_core.errors import SceneError
+
 
 @dataclass
 class Camera:
@@ -30,9 +32,9 @@ class Camera:
 
     Raises
     ------
-    ValueError
-        If the field of view or size is out of range or ``position == look_at``; the message
-        names the parameter.
+    SceneError
+        (a ``ValueError``) If the field of view or size is out of range, a position is not finite
+        or ``position == look_at``; the message names the parameter.
     """
 
     position: np.ndarray
@@ -47,17 +49,20 @@ class Camera:
         self.position = np.asarray(self.position, dtype=np.float64).reshape(3)
         self.look_at = np.asarray(self.look_at, dtype=np.float64).reshape(3)
         if not 0.0 < float(self.fov_deg) < 180.0:
-            raise ValueError(f"camera fov_deg: expected 0 < fov < 180 degrees, got {self.fov_deg}")
+            raise SceneError(f"camera fov_deg: expected 0 < fov < 180 degrees, got {self.fov_deg}")
         if int(self.width) < 2 or int(self.height) < 2:
-            raise ValueError(f"camera resolution: expected at least 2x2 pixels, got {self.width}x{self.height}")
+            raise SceneError(f"camera resolution: expected at least 2x2 pixels, got {self.width}x{self.height}")
         self.width, self.height = int(self.width), int(self.height)
+        for what, v in (("position", self.position), ("look_at", self.look_at)):
+            if not np.isfinite(v).all():
+                raise SceneError(f"camera {what}: expected finite x, y, z (metres), got {v.tolist()}")
         if np.linalg.norm(self.look_at - self.position) < 1e-12:
-            raise ValueError("camera position and look_at are the same point")
+            raise SceneError(f"camera position and look_at are the same point {self.position.tolist()}")
         if self.rotation is not None:
             self.rotation = np.asarray(self.rotation, dtype=np.float64).reshape(3, 3)
             if not np.allclose(self.rotation @ self.rotation.T, np.eye(3), atol=1e-4) \
                     or np.linalg.det(self.rotation) < 0:
-                raise ValueError("camera rotation: expected a proper rotation matrix (orthonormal, det +1)")
+                raise SceneError("camera rotation: expected a proper rotation matrix (orthonormal, det +1)")
 
     @classmethod
     def from_pose(cls, position, rotation, focal_px: float, width: int, height: int, near: float = 1e-3) -> "Camera":

@@ -1,9 +1,18 @@
 """``gasp render`` and ``gasp view`` command-line handlers (argparse wiring for :mod:`gasp_core.cli.main`)."""
 from __future__ import annotations
 
+import math
+import sys
 import time
 
 from gasp_core.errors import SceneError
+
+#: Largest picture ``gasp render`` makes, pixels (width x height of all runs side by side): 8K UHD.
+MAX_PIXELS = 7680 * 4320
+#: Largest GIF, bytes of its frames held in memory (a GIF is written from all its frames at once).
+MAX_GIF_BYTES = 2 * 2**30
+#: Largest frames per second of a video.
+MAX_FPS = 1000.0
 
 
 def _vec3(text: str, what: str):
@@ -11,9 +20,26 @@ def _vec3(text: str, what: str):
         v = [float(x) for x in text.split(",")]
     except ValueError:
         v = []
-    if len(v) != 3:
-        raise SceneError(f"{what}: expected three comma-separated numbers (metres), got {text!r}")
+    if len(v) != 3 or not all(math.isfinite(x) and abs(x) <= 1e6 for x in v):
+        raise SceneError(f"{what}: expected three comma-separated finite numbers within +-1e6 (metres), got {text!r}")
     return v
+
+
+def _check_render_args(args, size) -> None:
+    """Refuse (one :class:`SceneError` line) a field of view, fps, orbit or picture size that cannot be rendered,
+    before any run is read."""
+    if not (math.isfinite(args.fov) and 0.0 < args.fov < 180.0):
+        raise SceneError(f"--fov: expected a field of view between 0 and 180 degrees (exclusive), got {args.fov:g}")
+    if args.fps is not None and not (math.isfinite(args.fps) and 0.0 < args.fps <= MAX_FPS):
+        raise SceneError(f"--fps: expected frames per second in (0, {MAX_FPS:g}], got {args.fps:g}")
+    if args.orbit is not None and not (math.isfinite(args.orbit) and abs(args.orbit) <= 36000.0):
+        raise SceneError(f"--orbit: expected finite degrees within +-36000 (100 turns), got {args.orbit:g}")
+    if size is not None and size[0] * size[1] * len(args.runs) > MAX_PIXELS:
+        raise SceneError(f"--resolution {args.resolution}: {size[0] * size[1] * len(args.runs):,} pixels per picture "
+                         f"({len(args.runs)} run(s) side by side); at most {MAX_PIXELS:,} (7680x4320)")
+    if args.camera and args.look_at and _vec3(args.camera, "--camera") == _vec3(args.look_at, "--look-at"):
+        raise SceneError(f"--camera {args.camera} and --look-at {args.look_at} are the same point; the camera "
+                         "must look at a point away from it")
 
 
 def add_parsers(sub) -> None:
@@ -88,6 +114,7 @@ def cmd_render(args) -> int:
             assert len(size) == 2 and min(size) >= 2
         except (ValueError, AssertionError):
             raise SceneError(f"--resolution: expected WIDTHxHEIGHT in pixels, got {args.resolution!r}") from None
+    _check_render_args(args, size)
     pos = _vec3(args.camera, "--camera") if args.camera else None
     look = _vec3(args.look_at, "--look-at") if args.look_at else None
     path = _camera_path(args, args.runs, size)
@@ -95,9 +122,20 @@ def cmd_render(args) -> int:
     if args.camera_index is not None:               # the capture camera's own size unless --resolution
         w, h = path(None, None, 1)[0].width, path(None, None, 1)[0].height
     output = args.output or default_output(args.runs)
+    if w * h * len(args.runs) > MAX_PIXELS:
+        raise SceneError(f"--camera-index {args.camera_index}: the camera's {w}x{h} px exceed {MAX_PIXELS:,} pixels "
+                         "per picture; pass a smaller --resolution")
     runs = [load_run(p) for p in args.runs]
     n = min(r.n_frames for r in runs)
-    fps = args.fps or 1.0 / runs[0].frame_dt
+    dt = runs[0].frame_dt
+    fps = args.fps if args.fps is not None else (1.0 / dt if math.isfinite(dt) and dt > 0 else math.nan)
+    if not (math.isfinite(fps) and 0.0 < fps <= MAX_FPS):
+        raise SceneError(f"{args.runs[0]}/run.json: frame_dt = {runs[0].frame_dt!r} gives {fps:g} frames per "
+                         f"second; pass --fps")
+    if str(output).lower().endswith(".gif") and n * w * h * len(runs) * 3 > MAX_GIF_BYTES:
+        raise SceneError(f"{output}: a GIF of {n} frames of {w * len(runs)}x{h} px needs "
+                         f"{n * w * h * len(runs) * 3 / 2**30:.1f} GiB in memory (at most "
+                         f"{MAX_GIF_BYTES / 2**30:g}); write .mp4 or a PNG folder, or lower --resolution")
     t0 = time.perf_counter()
     out = render_run(args.runs, output, overwrite=args.overwrite, fps=fps, renderer=get_renderer(args.renderer),
                      width=w, height=h, fov_deg=args.fov, position=pos, look_at=look, progress=not args.quiet,
@@ -109,11 +147,17 @@ def cmd_render(args) -> int:
 
 
 def cmd_view(args) -> int:
+    if not 0 <= args.port <= 65535:
+        raise SceneError(f"--port {args.port}: expected a TCP port from 0 to 65535 (0: the next free one)")
     if args.export:
         from gasp_core.render.export import export_page
         out = export_page(args.run, args.export, overwrite=args.overwrite)
         print(f"wrote {out} ({out.stat().st_size / 1e6:.1f} MB; open it in a browser, no server needed)")
         return 0
     from gasp_core.render.viewer import serve
-    serve(args.run, host=args.host, port=args.port)
+    try:
+        serve(args.run, host=args.host, port=args.port)
+    except KeyboardInterrupt as e:  # a viewer writes nothing: "no partial output was kept" would not fit
+        print(f"gasp: viewer stopped by {getattr(e, 'signal_name', 'Ctrl-C')}", file=sys.stderr)
+        return 130
     return 0

@@ -95,7 +95,8 @@ def keyframe_path(file):
     Raises
     ------
     SceneError
-        Unreadable file, no keyframes, or a keyframe without ``frame``, ``position`` or ``look_at``.
+        Unreadable file, no keyframes, or a keyframe without ``frame``, ``position`` or ``look_at``, with a
+        value that is not finite, or with ``position == look_at``.
     """
     file = Path(file)
     try:
@@ -108,6 +109,12 @@ def keyframe_path(file):
                          f"({e!r})") from None
     if not len(keys):
         raise SceneError(f"{file}: no keyframes")
+    for k, (f, p, q) in enumerate(zip(frames, pos, look)):
+        if not (np.isfinite(f) and np.isfinite(p).all() and np.isfinite(q).all()):
+            raise SceneError(f"{file}: keyframe {k}: frame, position and look_at must be finite numbers, got "
+                             f"frame {f!r}, position {p.tolist()}, look_at {q.tolist()}")
+        if np.array_equal(p, q):
+            raise SceneError(f"{file}: keyframe {k}: position and look_at are the same point {p.tolist()}")
     order = np.argsort(frames, kind="stable")
     frames, pos, look = frames[order], pos[order], look[order]
 

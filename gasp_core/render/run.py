@@ -78,10 +78,13 @@ def load_run(path) -> Run:
             o["placement"]["R"], o["placement"]["scale"], o["placement"]["t"]  # noqa: B018 (presence)
     except (ValueError, KeyError, TypeError) as e:
         raise SceneError(f"{meta_path}: no usable objects[].placement {{R, scale, t}} ({e!r})") from None
+    try:
+        grounds = [float(b.get("height", 0.0)) for b in meta.get("boundaries", []) if b.get("kind") == "ground"]
+        frame_dt = float(meta.get("frame_dt", 1 / 30))
+    except (ValueError, TypeError, AttributeError) as e:
+        raise SceneError(f"{meta_path}: unusable boundaries[].height or frame_dt ({e!r})") from None
     frames = open_frames(path)
-    grounds = [b.get("height", 0.0) for b in meta.get("boundaries", []) if b.get("kind") == "ground"]
-    return Run(path, objects, frames,
-               min(grounds) if grounds else None, float(meta.get("frame_dt", 1 / 30)),
+    return Run(path, objects, frames, min(grounds) if grounds else None, frame_dt,
                f"{meta.get('engine', '')}" or path.name)
 
 

@@ -47,11 +47,13 @@ def write_frames(frames: Iterable[np.ndarray], output, fps: float = 30.0, overwr
                     for img in frames:
                         w.append_data(img)
                         count += 1
-            else:
+            else:   # encoded in memory, then written: a full disk is one OSError, not a writer's __del__ traceback
                 stack = [img for img in frames]
                 count = len(stack)
                 if count:
-                    iio.imwrite(tmp, np.stack(stack), extension=".gif", duration=1000.0 / fps, loop=0)
+                    data = iio.imwrite("<bytes>", np.stack(stack), extension=".gif", duration=1000.0 / fps, loop=0)
+                    with open(tmp, "wb") as f:
+                        f.write(data)
             if count == 0:
                 raise SceneError(f"output '{out}': no frames to write")
         return out

@@ -5,6 +5,12 @@ in its ``stats()``; 1 for an engine without substeps), the number of points and 
 one frame on this machine. A run expected to take longer than :data:`NOTE_S` says so in one line;
 one expected to take longer than :data:`MAX_S` is refused unless the user passes ``--yes``
 (``n_frames = 1000000000`` is a typo far more often than a plan).
+
+Before the first frame, once the engine is built (:func:`check_before`), the work is known but not the
+rate: a run whose work exceeds :data:`MAX_S` even at :data:`FAST_RATE` (faster than any engine measured on
+a GPU) is refused at once without ``--yes``, and one asking for more than :data:`NOTE_WORK` point-substeps
+says so in one line before it starts (``n_grid = 200`` with ``particles_per_cell = 64`` gave no output for
+minutes before).
 """
 from __future__ import annotations
 
@@ -14,6 +20,12 @@ from gasp_core.errors import GaspError
 NOTE_S = 600.0
 #: Runs expected to take longer than this (seconds) are refused without ``--yes``: 24 hours.
 MAX_S = 24 * 3600.0
+#: Point-substeps per second taken as the fastest any engine runs (for the refusal before the first frame).
+FAST_RATE = 1e9
+#: Runs asking for more point-substeps than this say so before their first frame: minutes to hours on a CPU
+#: engine (about 1e6 to 1e8 point-substeps/s; the README donut asks for about 1e9, the guitar at
+#: ``n_grid = 200``, ``particles_per_cell = 64`` for 7e9).
+NOTE_WORK = 3e9
 
 
 def duration_text(seconds: float) -> str:
@@ -62,3 +74,24 @@ def check(engine_stats: dict, n_points: int, n_frames: int, frames_left: int, fr
         raise GaspError(f"n_frames = {n_frames:,} asks for {text}, beyond the bound of {duration_text(MAX_S)}; "
                         f"pass --yes to run it anyway, or ask for fewer frames (--frames)")
     return f"this run asks for {text}" if seconds > NOTE_S else ""
+
+
+def check_before(engine_stats: dict, n_points: int, n_frames: int, frames_left: int, yes: bool) -> str:
+    """The work in words when it exceeds :data:`NOTE_WORK`, else ``""``: called once the engine is built.
+
+    Raises
+    ------
+    GaspError
+        The work takes longer than :data:`MAX_S` even at :data:`FAST_RATE`, and ``yes`` is false.
+    """
+    substeps = int(engine_stats.get("n_substeps") or 1)
+    work = float(substeps) * n_points * frames_left
+    text = f"{work:.3g} point-substeps ({substeps:,} substeps/frame x {n_points:,} points x {frames_left:,} frames)"
+    if work / FAST_RATE > MAX_S and not yes:
+        raise GaspError(f"this run asks for {text}, beyond the bound of {duration_text(MAX_S)} even at "
+                        f"{FAST_RATE:.0e} point-substeps/s; pass --yes to run it anyway, or lower n_grid, particles_per_cell or "
+                        f"the frames")
+    if work > NOTE_WORK:
+        return (f"this run asks for {text}: minutes to hours on a CPU (about 1e6 to 1e8 point-substeps/s); its "
+                f"time is estimated after frame 2; n_grid and particles_per_cell set the points and the substeps")
+    return ""

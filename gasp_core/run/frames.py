@@ -10,6 +10,8 @@ from gasp_core.maps.games import (alpha_rule, EPS, limit_edges, triangles_to_gau
                                   triangles_to_gaussians_covariance)
 from gasp_core.gs.gaussians import Gaussians, rotmat_to_quat
 from gasp_core.maps.hierarchy import sub_triangles
+from gasp_core.maps.mesh_bind import bound_triangles
+from gasp_core.prepare.dynamic import background_at
 from gasp_core.prepare.placement import PreparedObject
 from gasp_core.seam.runner import RunStats, run_engine
 from gasp_core.prepare.selection import scatter
@@ -27,7 +29,8 @@ class FrameState:
     get_state: Callable[[], dict] | None = None
 
 
-def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray) -> tuple[Gaussians, np.ndarray, dict]:
+def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray,
+            t: float | None = None) -> tuple[Gaussians, np.ndarray, dict]:
     """``T^-1`` (the object's ``rebuild`` rule) and the alpha rule for one object at one frame, back in the file frame.
 
     Parameters
@@ -37,6 +40,9 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray) -> tuple[Gau
         All simulated positions of the frame, world frame.
     prev_rot : ndarray, shape (n, 3, 3)
         Previous frame's world rotations (fallback for degenerate triangles).
+    t : float, optional
+        Seconds since the start: rows of a dynamic model that are not simulated follow it,
+        ``psi(V, dynamic_time + t)`` (:func:`gasp_core.prepare.dynamic.background_at`); None keeps them as read.
 
     Returns
     -------
@@ -50,9 +56,13 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray) -> tuple[Gau
         ``degenerate`` faces and ``clamped`` scales (alpha rule) this frame.
     """
     if o.spec.static:
-        return o.gaussians, prev_rot, {"degenerate": 0, "clamped": 0}
+        g = o.gaussians if t is None else background_at(o, o.gaussians, t)
+        return g, prev_rot, {"degenerate": 0, "clamped": 0}
     tri = x[o.vertex_slice]
-    tri = tri.reshape(-1, 3, 3) if o.hierarchy is None else sub_triangles(o.hierarchy, tri)
+    if o.binding is not None:           # mesh mode: the Gaussians follow their moved faces
+        tri = bound_triangles(o.binding, tri)
+    else:
+        tri = tri.reshape(-1, 3, 3) if o.hierarchy is None else sub_triangles(o.hierarchy, tri)
     clamped = np.zeros((len(tri), 2), bool)
     if o.spec.rebuild == "covariance":
         if o.spec.alpha is not None:
@@ -66,11 +76,13 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray) -> tuple[Gau
     scales = scales_w / pl.scale
     scales[:, 0] = o.thin_scale if o.spec.thickness == "keep" else EPS
     out = scatter(o, pl.to_file(means_w), scales, rotmat_to_quat(pl.R.T @ rot))
+    if t is not None:
+        out = background_at(o, out, t)
     return out, rot, {"degenerate": int(degenerate.sum()), "clamped": int(clamped.sum())}
 
 
 def iter_frames(prep: PreparedScene, n_frames: int, stats: RunStats | None = None,
-                resume: Checkpoint | None = None, state: FrameState | None = None):
+                resume: Checkpoint | None = None, state: FrameState | None = None, before_frames=None):
     """Yield ``(frame, gaussians_per_object, counts)`` for frame 0 (the input) to ``n_frames``.
 
     ``counts`` holds ``frame``, ``degenerate`` faces and ``clamped`` scales, and ``sim_s`` (engine
@@ -85,6 +97,8 @@ def iter_frames(prep: PreparedScene, n_frames: int, stats: RunStats | None = Non
         Continue after ``resume.frame`` (frames up to it are not yielded again).
     state : FrameState, optional
         Updated before each yield with the frame's rotations and the engine's ``get_state``.
+    before_frames : callable, optional
+        Passed to :func:`gasp_core.seam.runner.run_engine` (called once the engine is built).
 
     Raises
     ------
@@ -98,7 +112,7 @@ def iter_frames(prep: PreparedScene, n_frames: int, stats: RunStats | None = Non
     def rebuild_all(frame: int, x: np.ndarray):
         gs, row = [], {"frame": frame, "degenerate": 0, "clamped": 0}
         for k, o in enumerate(prep.objects):
-            g, prev[k], counts = rebuild(o, x, prev[k])
+            g, prev[k], counts = rebuild(o, x, prev[k], frame * prep.setup.frame_dt)
             row["degenerate"] += counts["degenerate"]
             row["clamped"] += counts["clamped"]
             gs.append(g)
@@ -112,7 +126,7 @@ def iter_frames(prep: PreparedScene, n_frames: int, stats: RunStats | None = Non
         gs, row = rebuild_all(0, prep.setup.x)
         yield 0, gs, row
     for rec in run_engine(prep.info, prep.setup, n_frames, stats, start_frame=start,
-                          state=None if resume is None else resume.engine_state):
+                          state=None if resume is None else resume.engine_state, before_frames=before_frames):
         gs, row = rebuild_all(rec.frame, rec.x)
         row["sim_s"] = rec.wall_s
         state.get_state = rec.get_state

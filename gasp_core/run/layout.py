@@ -93,12 +93,17 @@ class FrameWriter:
         self.suffix = SUFFIXES[self.fmt]
         self.once = [{} for _ in self.names]
 
-    def write(self, frame: int, gs: list[Gaussians]) -> None:
-        """Write frame ``frame`` of every object (``gs``: whole objects, input order)."""
+    def write(self, frame: int, gs: list[Gaussians]) -> list[str]:
+        """Write frame ``frame`` of every object (``gs``: whole objects, input order).
+
+        Returns the files it needs, relative to ``folder`` (those written once included), for ``--resume``'s check.
+        """
+        files = []
         for k, (g, name) in enumerate(zip(gs, self.names)):
             rel = f"{name}/frame_{frame:04d}{self.suffix}"
             if self.layout == "split" and self.static[k]:
                 self._once(k, "static", g)
+                files.append(self.once[k]["static"])
                 continue
             if self.layout == "split" and self.moving[k] is not None:
                 rows = self.moving[k]
@@ -110,7 +115,10 @@ class FrameWriter:
                                  lambda f: np.save(f, np.asarray(rows, np.int64)))
                     self.once[k]["moving_rows"] = f"{name}/moving_rows.npy"
                 g = g.subset(rows)
+                files += [self.once[k]["rest"], self.once[k]["moving_rows"]]
             write_file(self.folder / rel, g, self.fmt, overwrite=self.overwrite)
+            files.append(rel)
+        return files
 
     def _once(self, k: int, what: str, g: Gaussians) -> None:
         """Write ``<object>/<what><suffix>`` the first time (a resumed run finds it there)."""
@@ -220,6 +228,29 @@ def open_frames(folder) -> RunFrames:
                 raise SceneError(f"{folder / name}: no frame_*.ply files for object '{name}'")
             objects.append({"name": name, "frames": [f"{name}/{f.name}" for f in files]})
         manifest = {"format": "ply", "layout": "frames", "objects": objects}
+    _check_manifest(path, manifest)
     counts = [len(o["frames"]) for o in objects if o["frames"]]
     n = min(counts) if counts else int(manifest.get("n_frames", 1))
     return RunFrames(folder, manifest, n)
+
+
+def _check_manifest(path: Path, manifest) -> None:
+    """Refuse (:class:`SceneError` naming ``path`` and the field) a manifest that is not what
+    :class:`FrameWriter` writes: ``objects`` a list of tables with a ``frames`` list of relative file names
+    inside the run folder, ``n_gaussians`` an integer, and ``n_frames`` an integer."""
+    def bad(field, why):
+        raise SceneError(f"{path}: {field}: {why}; not a frame manifest written by gasp simulate")
+    if not isinstance(manifest, dict) or not isinstance(manifest.get("objects"), list):
+        bad("objects", "expected a list of objects")
+    if not isinstance(manifest.get("n_frames", 1), int) or isinstance(manifest.get("n_frames", 1), bool):
+        bad("n_frames", f"expected an integer, got {manifest.get('n_frames')!r}")
+    for k, o in enumerate(manifest["objects"]):
+        if not isinstance(o, dict) or not isinstance(o.get("frames"), list):
+            bad(f"objects[{k}]", "expected a table with a list 'frames'")
+        files = [*o["frames"], *(o[key] for key in ("static", "rest", "moving_rows") if key in o)]
+        for f in files:
+            if not isinstance(f, str) or Path(f).is_absolute() or ".." in Path(f).parts:
+                bad(f"objects[{k}]", f"expected file names inside the run folder, got {f!r}")
+        n = o.get("n_gaussians", 0)
+        if not isinstance(n, int) or isinstance(n, bool) or n < 0:
+            bad(f"objects[{k}].n_gaussians", f"expected a count, got {n!r}")

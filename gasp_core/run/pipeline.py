@@ -24,6 +24,7 @@ from gasp_core.run.frames import FrameState, iter_frames
 from gasp_core.fsutil import OutputClaim, atomic_json, leftover_partials
 from gasp_core.gs.gaussians import Gaussians
 from gasp_core.run.layout import FrameWriter, default_layout
+from gasp_core.prepare.dynamic import follows_model
 from gasp_core.prepare.scene import PreparedScene, input_files, prepare_scene
 from gasp_core.run.record import run_summary
 from gasp_core.seam.runner import RunStats
@@ -150,6 +151,10 @@ class _Run:
     #: Run beyond the work bound (``--yes``).
     yes: bool = False
     warn: Callable[[str], None] | None = None
+    #: ``{file: [size, crc32]}`` of every finished frame's files, kept in the checkpoint (``--resume`` checks them).
+    files: dict = field(default_factory=dict)
+    #: Files written since the last checkpoint (frame 0's are written before the engine can save its state).
+    unrecorded: list = field(default_factory=list)
 
 
 def _continue_partial(run: _Run, outdir: Path) -> None:
@@ -157,8 +162,11 @@ def _continue_partial(run: _Run, outdir: Path) -> None:
     if "state" not in run.prep.info.capabilities.features:
         raise GaspError(f"engine '{run.prep.info.name}' cannot save its state (feature 'state'), so a "
                         f"killed run cannot be resumed; run again without --resume")
-    run.tmp, run.checkpoint = resume_mod.find_resumable(outdir, run.fingerprint)
+    tmp, checkpoint = resume_mod.find_resumable(outdir, run.fingerprint)
+    resume_mod.check_files(tmp, checkpoint)       # before it is ours: a refused resume leaves it as it was
+    run.tmp, run.checkpoint = tmp, checkpoint
     (run.tmp / ".gasp-pid").write_text(str(os.getpid()))
+    run.files = dict(run.checkpoint.meta.get("files", {}))
     run.per_frame = list(run.checkpoint.meta["per_frame"])
     run.saved_frame = run.checkpoint.frame
     run.stats.frame_s = list(run.checkpoint.meta.get("frame_s", []))
@@ -189,12 +197,15 @@ def _write_frames(run: _Run, n_frames: int, progress: bool,
                    desc=f"{prep.info.name}", leave=True)
     t_run = time.perf_counter()
     frame_state = FrameState()
-    writer = FrameWriter(tmp, list(prep.names), [o.spec.static for o in prep.objects],
-                         [o.moving for o in prep.objects], run.fmt, run.layout, overwrite=checkpoint is not None)
+    moves = [follows_model(o) for o in prep.objects]   # a dynamic model's background moves: every row, every frame
+    writer = FrameWriter(tmp, list(prep.names), [o.spec.static and not m for o, m in zip(prep.objects, moves)],
+                         [None if m else o.moving for o, m in zip(prep.objects, moves)], run.fmt, run.layout,
+                         overwrite=checkpoint is not None)
     stop.frame_started(None)
     t_frame = time.perf_counter()
     with Background() as writes:   # a frame's files are written while the engine runs the next one
-        for frame, gs, row in iter_frames(prep, n_frames, run.stats, resume=checkpoint, state=frame_state):
+        for frame, gs, row in iter_frames(prep, n_frames, run.stats, resume=checkpoint, state=frame_state,
+                                          before_frames=lambda stats: _before_frames(run, stats, n_frames)):
             stop.frame_started(row.get("sim_s"))   # its writes and checkpoint take about as long as it did
             state = frame_state.get_state() if frame_state.get_state is not None and frame < n_frames else None
             writes.submit(_save_frame, run, writer, frame, gs, row, state, list(frame_state.prev_rot),
@@ -210,6 +221,14 @@ def _write_frames(run: _Run, n_frames: int, progress: bool,
     writer.finish(n_frames, [o.gaussians.n for o in prep.objects])
     (tmp / resume_mod.CHECKPOINT).unlink(missing_ok=True)
     return time.perf_counter() - t_run
+
+
+def _before_frames(run: _Run, engine_stats: dict, n_frames: int) -> None:
+    """Once the engine is built: the work the frames ask for, refused or said before it is spent (:mod:`budget`)."""
+    done = 0 if run.checkpoint is None else run.checkpoint.frame
+    note = budget.check_before(engine_stats, len(run.prep.setup.x), n_frames, n_frames - done, run.yes)
+    if note and run.warn is not None:
+        run.warn(note)
 
 
 def _after_frame(run: _Run, writes: Background, frame: int, n_frames: int, frame_wall_s: float) -> None:
@@ -244,14 +263,16 @@ def _save_frame(run: _Run, writer: FrameWriter, frame: int, gs: list[Gaussians],
                 engine_state: dict | None, prev_rot: list, frame_s: list) -> None:
     """Write one frame's files, then (``engine_state`` not None) its checkpoint (on :class:`Background`'s worker)."""
     t0 = time.perf_counter()
-    writer.write(frame, gs)
+    run.unrecorded += writer.write(frame, gs)
     row["write_s"] = time.perf_counter() - t0
     run.per_frame.append(row)
     if engine_state is not None:
         t0 = time.perf_counter()
+        run.files.update(resume_mod.file_record(run.tmp, run.unrecorded, run.files))
+        run.unrecorded = []
         resume_mod.save(run.tmp, resume_mod.Checkpoint(
             frame, engine_state, prev_rot, {"fingerprint": run.fingerprint, "per_frame": run.per_frame,
-                                            "frame_s": frame_s}))
+                                            "frame_s": frame_s, "files": run.files}))
         row["checkpoint_s"] = time.perf_counter() - t0
         run.saved_frame = frame
 

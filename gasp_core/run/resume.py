@@ -15,6 +15,7 @@ import hashlib
 import io
 import json
 import zipfile
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -96,12 +97,53 @@ def load(folder: Path) -> Checkpoint:
     try:
         with np.load(path) as z:
             meta = json.loads(bytes(z["meta"]).decode())
+            if not isinstance(meta, dict):
+                raise ValueError(f"meta is {type(meta).__name__}, not a table")
+            for key in ("frame", "n_rot"):
+                if not isinstance(meta.get(key), int) or isinstance(meta[key], bool) or meta[key] < 0:
+                    raise ValueError(f"meta {key} = {meta.get(key)!r}, not a count")
+            if not isinstance(meta.get("per_frame", []), list) or not isinstance(meta.get("files", {}), dict):
+                raise ValueError("meta per_frame or files of the wrong type")
             engine_state = {k[len("engine/"):]: z[k] for k in z.files if k.startswith("engine/")}
             prev_rot = [z[f"rot/{i}"] for i in range(meta["n_rot"])]
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as e:
         raise GaspError(f"cannot resume from '{path}': the checkpoint is truncated or damaged ({e}); "
                         f"start again with --discard") from None
-    return Checkpoint(int(meta["frame"]), engine_state, prev_rot, meta)
+    return Checkpoint(meta["frame"], engine_state, prev_rot, meta)
+
+
+def file_record(folder: Path, rels, known: dict | None = None) -> dict[str, list[int]]:
+    """``{rel: [size, crc32]}`` of the files ``rels`` (relative to ``folder``) not in ``known`` yet.
+
+    A checkpoint keeps this record of every finished frame's files; :func:`check_files` compares.
+    """
+    out = {}
+    for rel in rels:
+        if known is not None and rel in known or rel in out:
+            continue
+        crc = 0
+        with open(folder / rel, "rb") as f:
+            while chunk := f.read(1 << 20):
+                crc = zlib.crc32(chunk, crc)
+        out[rel] = [(folder / rel).stat().st_size, crc]
+    return out
+
+
+def check_files(folder: Path, checkpoint: Checkpoint) -> None:
+    """Refuse (:class:`GaspError`) to resume when a finished frame's file is missing or differs from its record.
+
+    Checked against the checkpoint's ``files`` (:func:`file_record`: size and CRC-32); a checkpoint of an
+    older gasp without it is taken as it is.
+    """
+    for rel, (size, crc) in checkpoint.meta.get("files", {}).items():
+        try:
+            now = file_record(folder, [rel])[rel]
+        except OSError:
+            raise GaspError(f"cannot resume '{folder}': '{rel}', a file of the finished frames, is missing; start "
+                            f"again with --discard") from None
+        if now != [size, crc]:
+            raise GaspError(f"cannot resume '{folder}': '{rel}', a file of the finished frames, changed since it was "
+                            f"written ({now[0]} bytes, was {size}); start again with --discard")
 
 
 def remove_temporaries(folder: Path) -> None:

@@ -257,8 +257,8 @@ def import_motion(scene: Scene, motion_dir: str | Path, outdir: str | Path,
     outdir = Path(outdir)
     objects = [prepare_object(spec) for spec in scene.objects]
     names = object_names(objects)
-    # every face of the object (Core Gaussians or not): the soup carries one face per Gaussian
-    flat_objects = [dataclasses.replace(o, hierarchy=None, vertex_slice=slice(0, 3 * len(o.tri_rest)))
+    # every face of the object (Core Gaussians, mesh mode or not): the soup carries one face per Gaussian
+    flat_objects = [dataclasses.replace(o, hierarchy=None, binding=None, vertex_slice=slice(0, 3 * len(o.tri_rest)))
                     for o in objects]
     files = motion_files(motion_dir, names)
     n_faces = [len(o.tri_rest) for o in objects]

@@ -12,7 +12,7 @@ from gasp_core.colliders.model import Motion
 from gasp_core.errors import SceneError
 from gasp_core.scene.values import (MAX_COORD, MAX_GRAVITY, MAX_SPEED, MAX_SPIN, SCALE_RANGE, UP_AXES, as_boolean,
                                     as_integer, as_number, as_string, as_tables, as_vec3, bad_value, check_keys,
-                                    is_number)
+                                    is_number, resolve_path)
 
 # --------------------------------------------------------------------------- colliders, forces, impulses
 @dataclass
@@ -62,7 +62,7 @@ MAX_ACCEL = MAX_GRAVITY
 
 def _input_file(value, key: str, src: Path, suffixes=None) -> Path:
     name = as_string(value, key, src)
-    f = (src.parent / name).resolve()
+    f = resolve_path(src, name, key)
     if not f.is_file():
         raise SceneError(f"{src}: {key} '{name}' does not exist or is not a file (looked for {f})")
     if suffixes and f.suffix.lower() not in suffixes:

@@ -5,11 +5,15 @@ Each level is a set of scene keys and engine options, measured on the README sce
 a key the file sets (``[domain] n_grid``, an object's ``surface``, an engine option) always wins,
 except ``n_grid``, which a level scales (``grid_factor``) from the file's value.
 
-* ``draft``: the cheapest model measured (3.5x the full model's CPU time on the donut's first 12
-  frames, 3.2 % of its size from it): passive surface points (``surface = "passive"``), 2 fill points
-  per cell, the grid velocity gathered at them every 16th substep.
-* ``default``: ``surface = "auto"`` (:mod:`gasp_core.prepare.surface`: passive on filled, dissipative
-  bodies, the full model on elastic ones and shells), 4 fill points per cell, the grid velocity
+* ``draft``: the cheapest model measured (on the README donut's first 12 frames 2.1-3.6x cheaper than the
+  full model in CPU time, its shape after the best rigid fit 5.2 U from it, U = the full model's distance to
+  its ``n_grid`` 48 twin): passive surface points (``surface = "passive"``), 2 fill points per cell, the grid
+  velocity gathered at them every 16th substep.
+* ``default``: chosen by the rule of ``docs/speed_accuracy.md`` ("Choosing the default": the cheapest setting
+  whose shape residual is within 1.5 U, whose events are in their bands and whose renders are as close to the
+  reference's as its twin's). No cheaper model meets it on the elastic donut (passive points: 2.7x at 2.4 U,
+  3.6 degrees of rotation), so: ``surface = "auto"`` (:mod:`gasp_core.prepare.surface`: passive on filled,
+  dissipative bodies, the full model on elastic ones and shells), 4 fill points per cell, the grid velocity
   gathered at passive points every 8th substep (engine option ``passive_every`` where the engine has it).
 * ``reference``: the full model (every triangle vertex simulated as material, no hierarchy, 8 fill
   points per cell) on a grid 1.5 times finer, ``cfl`` 0.2: the run the others are measured against.

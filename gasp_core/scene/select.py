@@ -8,7 +8,7 @@ from typing import Any
 
 from gasp_core.errors import SceneError
 from gasp_core.scene.values import (MAX_COORD, as_boolean, as_number, as_string, as_table, as_vec3, bad_value,
-                                    check_keys)
+                                    check_keys, resolve_path)
 
 
 #: Object keys that only matter when the object is simulated: refused beside ``static = true``.
@@ -150,13 +150,13 @@ def read_select(value, where: str, src: Path) -> SelectSpec:
         kw["indices"] = tuple(idx)
     elif kind == "mask":
         name = as_string(t["mask"], key, src)
-        m = (src.parent / name).resolve()
+        m = resolve_path(src, name, key)
         if not m.is_file():
             raise SceneError(f"{src}: {key} '{name}' is not a file (looked for {m}); expected a .npy array")
         kw["mask"] = m
     else:
         name = as_string(t["file"], key, src)
-        m = (src.parent / name).resolve()
+        m = resolve_path(src, name, key)
         if not m.is_file():
             raise SceneError(f"{src}: {key} '{name}' is not a file (looked for {m}); expected a PLY edited "
                              f"in a splat editor")

@@ -49,12 +49,13 @@ from pathlib import Path
 from gasp_core.errors import SceneError
 from gasp_core.maps.games import REBUILDS
 from gasp_core.scene.extras import read_extras
+from gasp_core.scene.mesh import MESH_KEYS, MeshSpec, read_mesh
 from gasp_core.scene.quality import apply_quality, read_quality
 from gasp_core.scene.select import SelectSpec, read_select, read_static
 from gasp_core.scene.tables import DomainSpec, EngineSpec, read_boundary, read_domain, read_engine, read_material
 from gasp_core.scene.values import (MAX_COORD, MAX_GRAVITY, MAX_SPEED, MAX_SPIN, SCALE_RANGE, UP_AXES, as_boolean,
                                     as_integer, as_number, as_string, as_table, as_tables, as_vec3, bad_value,
-                                    check_keys, is_number)
+                                    check_keys, is_number, resolve_path)
 from gasp_core.seam.setup import Boundary, Material
 
 #: ``[[object]] surface``: the triangle vertices are material points, or passive (massless, carried), or
@@ -120,6 +121,14 @@ class ObjectSpec:
     dynamic_time : float or None
         For a dynamic model (``.splatv``): the model time ``s`` at which physics takes over,
         ``G_t = T^-1(phi(psi(V, s), t))`` (paper Sec. 3, dynamic scenes); default 0.
+    velocity_from_model : bool
+        A dynamic model whose scene sets neither ``velocity`` nor ``angular_velocity``: the simulated
+        part starts with the velocity the model gives it at ``s`` (finite difference of ``psi`` over one
+        frame, :mod:`gasp_core.prepare.dynamic`).
+    background : str
+        A dynamic model's rows that are not simulated (unselected, floaters, a static object): ``"model"``
+        (default) they keep playing, frame ``k`` writes ``psi(V, s + k frame_dt)``; ``"frozen"`` they stay at
+        ``psi(V, s)``, written once by the split layout.
     select : SelectSpec or None
         The part of the file that moves (``select = { box = {...} }``, see :class:`SelectSpec`);
         the rest is static background, written unchanged in every frame. None: all of it moves.
@@ -127,6 +136,10 @@ class ObjectSpec:
         False (default): Gaussians detached from a whole object (:mod:`gasp_core.maps.floaters`; not in a
         ``select``ion) are left out of the domain and the physics and written unchanged in every frame,
         with a warning giving their count. True: they are simulated with the rest.
+    mesh : MeshSpec or None
+        Mesh mode (``mesh = "shape.obj"``, :mod:`gasp_core.scene.mesh`): the engine moves the mesh's
+        vertices and the Gaussians follow their faces. Without ``file`` the Gaussians are laid on the
+        faces and ``file`` is the mesh.
     static : bool
         The whole object is static: never simulated, written unchanged in every frame (scenery,
         and a collider where a ``[[collider]]`` names it). A static object takes no ``material``,
@@ -155,6 +168,9 @@ class ObjectSpec:
     select: SelectSpec | None = None
     static: bool = False
     keep_floaters: bool = False
+    mesh: MeshSpec | None = None
+    velocity_from_model: bool = False
+    background: str = "model"
 
 
 @dataclass
@@ -179,7 +195,7 @@ class Scene:
 
 _TOP_KEYS = {"name", "frame_dt", "n_frames", "gravity", "output", "engine", "domain", "boundary", "object",
              "collider", "force", "impulse", "quality"}
-_OBJECT_KEYS = {f.name for f in fields(ObjectSpec)}
+_OBJECT_KEYS = ({f.name for f in fields(ObjectSpec)} | set(MESH_KEYS)) - {"velocity_from_model"}
 
 
 def _dynamic_time(o: dict, f: Path, where: str, src: Path) -> float | None:
@@ -193,12 +209,19 @@ def _dynamic_time(o: dict, f: Path, where: str, src: Path) -> float | None:
     return as_number(t, f"{where}.dynamic_time", src)
 
 
+def _background(o: dict, f: Path, where: str, src: Path) -> str:
+    if "background" in o and f.suffix.lower() != ".splatv":
+        raise SceneError(f"{src}: {where}.background is only for dynamic models (.splatv), not {f.name}")
+    return as_string(o.get("background", "model"), f"{where}.background", src, ("model", "frozen"))
+
+
 def _object(o: dict, where: str, src: Path) -> ObjectSpec:
     check_keys(o, _OBJECT_KEYS, where, src)
-    if "file" not in o:
-        raise SceneError(f"{src}: {where} needs 'file'")
-    name = as_string(o["file"], f"{where}.file", src)
-    f = (src.parent / name).resolve()
+    mesh = read_mesh(o, where, src)
+    if "file" not in o and mesh is None:
+        raise SceneError(f"{src}: {where} needs 'file' (a Gaussian Splatting file) or 'mesh'")
+    name = as_string(o["file"], f"{where}.file", src) if mesh is None or not mesh.laid else o["mesh"]
+    f = resolve_path(src, name, f"{where}.file")
     if f.is_dir():
         raise SceneError(f"{src}: {where}.file '{name}' is a directory (looked at {f}); expected a Gaussian "
                          "Splatting file")
@@ -234,7 +257,9 @@ def _object(o: dict, where: str, src: Path) -> ObjectSpec:
         dynamic_time=_dynamic_time(o, f, where, src),
         select=read_select(o["select"], f"{where}.select", src) if "select" in o else None,
         static=read_static(o, where, src),
-        keep_floaters=as_boolean(o.get("keep_floaters", False), f"{where}.keep_floaters", src),
+        keep_floaters=as_boolean(o.get("keep_floaters", False), f"{where}.keep_floaters", src), mesh=mesh,
+        velocity_from_model=f.suffix.lower() == ".splatv" and not {"velocity", "angular_velocity"} & set(o),
+        background=_background(o, f, where, src),
         rotation=as_vec3(o.get("rotation", [0.0, 0.0, 0.0]), f"{where}.rotation", src, max_abs=360.0, unit=" degrees"))
 
 
@@ -279,6 +304,9 @@ def load_scene(path: str | Path, quality: str | None = None) -> Scene:
         raise SceneError(f"{src}: cannot read the scene file: {e.strerror or e}") from None
     except tomllib.TOMLDecodeError as e:
         raise SceneError(f"{src}: not valid TOML: {e}") from None
+    except RecursionError:
+        raise SceneError(f"{src}: tables or arrays nested too deep to read (hundreds of levels); "
+                         "expected a scene file (TOML)") from None
     return parse_scene(data, src, quality)
 
 

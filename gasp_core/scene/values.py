@@ -122,3 +122,14 @@ MAX_PADDING = 10.0
 #: ``[domain] n_grid`` and ``particles_per_cell`` ranges (integers).
 N_GRID_RANGE = (8, 1024)
 PPC_RANGE = (1, 64)
+
+
+def resolve_path(src: Path, name: str, key: str) -> Path:
+    """``name`` (a scene value) resolved against the scene file's folder; a symlink loop or a name the system
+    cannot take is one :class:`SceneError` line naming ``key`` (``Path.resolve`` raises ``RuntimeError``
+    for a loop)."""
+    try:
+        return (src.parent / name).resolve()
+    except (RuntimeError, OSError, ValueError) as e:
+        raise SceneError(f"{src}: {key} '{name}' cannot be followed ({e}); expected a file, not a symlink loop") \
+            from None

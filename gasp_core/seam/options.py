@@ -6,13 +6,20 @@ Engines only read ``setup.options``, completed with the declared defaults; they 
 from __future__ import annotations
 
 import math
+import os
 import re
+import warnings
 from dataclasses import dataclass
 from typing import Any, Iterable, Mapping
 
 import numpy as np
 
 from gasp_core.errors import SceneError
+
+#: Options that count CPU threads, by their conventional name: a value above this machine's cores is
+#: capped at them with a warning (``threads = 100000`` made an engine start 100,000 threads, and other
+#: processes could not fork meanwhile).
+CPU_THREAD_OPTIONS = ("threads",)
 
 
 _KINDS = {"int": "an integer", "number": "a number", "str": "a string", "bool": "true or false"}
@@ -137,9 +144,20 @@ def check_options(options: Mapping[str, Any], declared: Iterable[Option], engine
     for name, value in options.items():
         if not by_name[name].valid(value):
             raise SceneError(f"engine '{engine}': option {name}={value!r}; expected {by_name[name].expected()}")
-        merged[name] = value
+        merged[name] = _capped_threads(engine, name, value)
     for name, o in by_name.items():
         for other in o.excludes:
             if merged[name] is not None and merged.get(other) is not None:
                 raise SceneError(f"engine '{engine}': give option {name} or option {other}, not both")
     return merged
+
+
+def _capped_threads(engine: str, name: str, value: Any) -> Any:
+    """``value``, or this machine's core count with a warning where ``name`` counts CPU threads beyond it."""
+    cores = os.cpu_count() or 1
+    if name in CPU_THREAD_OPTIONS and isinstance(value, (int, np.integer)) and not isinstance(value, bool) \
+            and value > cores:
+        warnings.warn(f"engine '{engine}': option {name} = {value} is more than this machine's {cores} CPU "
+                      f"cores; using {name} = {cores}", stacklevel=3)
+        return cores
+    return value

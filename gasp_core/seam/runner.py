@@ -100,7 +100,8 @@ def check_state(x: np.ndarray, setup: SimSetup, frame: int, margin: float | None
 
 def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int,
                stats: RunStats | None = None, start_frame: int = 0,
-               state: dict | None = None) -> Iterator[FrameRecord]:
+               state: dict | None = None,
+               before_frames: Callable[[dict], None] | None = None) -> Iterator[FrameRecord]:
     """Build the engine and yield ``n_frames`` checked frames.
 
     Parameters
@@ -118,6 +119,9 @@ def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int,
         :class:`~gasp_core.seam.engine.StatefulEngine`) and frames ``start_frame + 1 .. n_frames``
         are simulated.
     state : dict, optional
+    before_frames : callable, optional
+        ``before_frames(engine_stats)`` once the engine is built, before its first frame (the work estimate
+        of :mod:`gasp_core.run.budget`); what it raises ends the run.
 
     Yields
     ------
@@ -152,6 +156,8 @@ def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int,
 
     try:
         stats.engine = dict(call_engine(info, "stats", engine.stats))   # n_substeps, for the work estimate
+        if before_frames is not None:
+            before_frames(stats.engine)
         for frame in range(start_frame + 1, n_frames + 1):
             t0 = time.perf_counter()
             x = call_engine(info, f"frame {frame}", advance)

@@ -37,10 +37,10 @@ BAR_E, BAR_RHO = 1e5, 1000.0             # c = 10 m/s, first mode 10 Hz
 BAR_ETA = 0.2 * math.sqrt(BAR_E / BAR_RHO) * BAR_RHO * BAR_L / math.pi
 BAR_FRAME_DT = 0.005
 BAR_T = 0.3
-#: Relative error on the log decrement (two-sided). The issue asks for 10 %; the project's rule (a check fails
-#: a 5 % bias) asks for less: 4 %. Measured +0.5 % on the MLS-MPM engines at n_grid 32, cfl 0.4 (their own,
-#: numerical, decrement of this mode is 0.0025 per period, 0.2 % of the physical one; docs/dissipation.md).
-DECAY_TOL = 0.04
+#: Relative error on the log decrement (two-sided): 3x the honest error (issue 28). Measured +0.53 % on the
+#: MLS-MPM engines at n_grid 32, cfl 0.4 (their own, numerical, decrement of this mode is 0.0025 per period,
+#: 0.2 % of the physical one; docs/dissipation.md); a viscosity 5 % off moves it 5.2 %.
+DECAY_TOL = 0.016
 
 
 def kelvin_voigt_decrement(E: float, rho: float, eta: float, L: float) -> tuple[float, float, float]:

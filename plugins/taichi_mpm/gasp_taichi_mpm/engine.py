@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from gasp_core.toolkit.contact import contact_coefficients, contact_model
 from gasp_core.toolkit.grid_engine import choose_dt, GridEngineBase
 from gasp_core.toolkit.materials import initial_Jp, material_table
 from gasp_core.toolkit.memory import check_memory, estimate_bytes
@@ -119,7 +120,8 @@ class TaichiMPMEngine(GridEngineBase):
         self.order_points(setup, dx)
         o = self._order
 
-        walls, grounds, regions = node_ranges(setup, dx)
+        contact = contact_model(setup)
+        walls, grounds, regions = node_ranges(setup, dx, contact)
         fixed = fixed_mask(setup.x, setup.boundaries)
         kinds, params = material_table(setup.materials)
         jp0 = initial_Jp(setup.materials, setup.body_id)
@@ -133,7 +135,8 @@ class TaichiMPMEngine(GridEngineBase):
             n_grid=setup.n_grid, lo=setup.domain_lo, dx=dx, dt=self.dt, gravity=setup.gravity,
             walls=walls, grounds=grounds, regions=regions, real=real,
             n_chunks=1 if atomic else n_point_chunks(threads, grid_bytes), atomic=atomic, n_material=self.n_material,
-            passive_every=opt["passive_every"], flip=opt.get("flip") or 0.0, **self._extras(setup))
+            passive_every=opt["passive_every"], flip=opt.get("flip") or 0.0,
+            p_contact=contact_coefficients(setup)[o] if contact == "particle" and grounds else None, **self._extras(setup))
         self._p2g_mode = "atomic" if atomic else f"private grids x{self.solver.n_chunks}"
         self.frame = 0
         self._x = setup.x.astype(np.float32 if real == ti.f32 else np.float64)

@@ -10,12 +10,12 @@ import numpy as np
 import taichi as ti
 
 from gasp_core.toolkit.grid_tables import FT_TIME
-from gasp_core.toolkit.points import ground_top_node
+from gasp_core.toolkit.contact import ground_node_layer
 
 _TIE = 1e-9  # cells: tolerance for ties when boundary tests become node-index ranges
 
 
-def node_ranges(setup, dx: float):
+def node_ranges(setup, dx: float, contact: str = "particle"):
     """Boundaries as node-index tests (float64, ties within 1e-9 cells are exact ties).
 
     Returns
@@ -23,8 +23,9 @@ def node_ranges(setup, dx: float):
     walls : list of (friction, lo_first (3 ints), hi_first (3 ints))
         Wall nodes along axis d are ``I_d < lo_first[d]`` (normal +e_d) and
         ``I_d >= hi_first[d]`` (normal -e_d).
-    grounds : list of (friction, k_max)
-        Ground nodes are ``I_z <= k_max``.
+    grounds : list of (friction, k_max, height)
+        Ground nodes are ``I_z <= k_max`` (``gasp_core.toolkit.contact.ground_node_layer`` of ``contact``: the top
+        layer with ``"grid"``, two cells lower with ``"particle"``, whose points meet the plane at ``height``, m).
     regions : list of (ilo (3 ints), ihi (3 ints))
         Fixed nodes are ``ilo <= I <= ihi`` on every axis.
     """
@@ -38,7 +39,7 @@ def node_ranges(setup, dx: float):
             hi_first = tuple(int(math.floor(r[d] + _TIE)) + 1 for d in range(3))
             walls.append((float(b.friction), (3, 3, 3), hi_first))
         elif b.kind == "ground":
-            grounds.append((float(b.friction), ground_top_node(b.height, lo[2], dx)))
+            grounds.append((float(b.friction), ground_node_layer(contact, b.height, lo[2], dx), float(b.height)))
         elif b.kind == "fixed_region":
             a = (np.asarray(b.lo, float) - lo) / dx
             c = (np.asarray(b.hi, float) - lo) / dx
@@ -129,6 +130,8 @@ class GridUpdate:
                 for b in ti.static(range(self.n_grounds)):
                     if I[2] <= self.ground_kmax[b]:
                         v = self.axis_friction(v, 2, 1.0, self.ground_fric[b])
+                if ti.static(self.n_planes > 0):   # the particle contact's Coulomb friction (its budget: the last channel)
+                    v = self.node_friction(v, acc[3], acc[self.acc_width - 1])
                 for b in ti.static(range(self.n_regions)):
                     if (I >= self.reg_lo[b]).all() and (I <= self.reg_hi[b]).all():
                         v = ti.Vector.zero(self.real, 3)

@@ -40,13 +40,14 @@ from gasp_core.toolkit.materials import N_PARAMS, P_ETA
 
 from .colliders import Colliders
 from .constitutive import Constitutive
+from .contact import Contact
 from .forces import Forces
 from .grid import GridUpdate
 from .transfers import Transfers
 
 
 @ti.data_oriented
-class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces):
+class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact):
     """Fields and kernels of one simulation.
 
     Parameters
@@ -89,7 +90,7 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces):
 
     def __init__(self, *, x, v, C0, p_mass, p_vol, body, fixed, jp0, params, kinds, n_grid, lo, dx, dt,
                  gravity, walls, grounds, regions, real, n_chunks, atomic, extras=None, time_table=None, n_substeps=1,
-                 n_material=None, passive_every=1, flip=0.0):
+                 n_material=None, passive_every=1, flip=0.0, p_contact=None):
         n = len(x)
         self.n = n
         self.n_material = n if n_material is None else int(n_material)
@@ -103,15 +104,18 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces):
         self.any_fixed = bool(np.any(fixed))
         self.viscous = bool(np.any(np.asarray(params)[:, P_ETA] > 0))
         self.flip = float(flip)   # AFLIP blend (gasp_core.toolkit.transfer); > 0: grid_mv also sums the APIC momentum
-        self.acc_width = 7 if self.flip > 0 else 4
         self.n_walls, self.n_grounds, self.n_regions = len(walls), len(grounds), len(regions)
+        # the particle contact (p_contact: (n, 3) per point, :mod:`gasp_taichi_mpm.contact`) with the grounds' planes;
+        # grid_mv's last channel then sums the nodes' friction budgets
+        self.n_planes = self.n_grounds if p_contact is not None else 0
+        self.acc_width = (7 if self.flip > 0 else 4) + (1 if self.n_planes else 0)
         self._allocate_points(len(kinds))
         self._allocate_grid()
         self._allocate_boundaries()
 
         np_real = np.float32 if real == ti.f32 else np.float64
         self._upload_points(np_real, x=x, v=v, C0=C0, p_mass=p_mass, p_vol=p_vol, body=body, fixed=fixed,
-                            jp0=jp0, params=params, kinds=kinds)
+                            jp0=jp0, params=params, kinds=kinds, p_contact=p_contact)
         # dt, dx and 1 / dx (computed in float64), each rounded once to the working precision
         self.dt[None], self.dx[None], self.inv_dx[None] = np.array([dt, dx, 1.0 / dx], np_real)
         self._passive_every = int(passive_every)
@@ -144,6 +148,7 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces):
         self.p_vol = ti.field(real, shape=cap)
         self.body = ti.field(ti.i32, shape=cap)
         self.fixed = ti.field(ti.i8, shape=cap)
+        self.p_contact = ti.Vector.field(3, real, shape=cap if self.n_planes else 1)   # (k, c, skin) per point
         bcap = max(4, 1 << (n_bodies - 1).bit_length())
         self.kind = ti.field(ti.i32, shape=bcap)
         self.mat = ti.Vector.field(N_PARAMS, real, shape=bcap)
@@ -184,13 +189,14 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces):
         self.wall_hi_first = ti.Vector.field(3, ti.i32, shape=nb)
         self.ground_fric = ti.field(real, shape=nb)
         self.ground_kmax = ti.field(ti.i32, shape=nb)
+        self.ground_h = ti.field(real, shape=nb)
         self.reg_lo = ti.Vector.field(3, ti.i32, shape=nb)
         self.reg_hi = ti.Vector.field(3, ti.i32, shape=nb)
         if max(self.n_walls, self.n_grounds, self.n_regions) > nb:
             raise SceneError(f"engine 'taichi_mpm': at most {nb} boundaries of each kind (walls, ground, "
                              f"fixed_region); got {self.n_walls}, {self.n_grounds}, {self.n_regions}")
 
-    def _upload_points(self, np_real, *, x, v, C0, p_mass, p_vol, body, fixed, jp0, params, kinds) -> None:
+    def _upload_points(self, np_real, *, x, v, C0, p_mass, p_vol, body, fixed, jp0, params, kinds, p_contact) -> None:
         """The points' and bodies' arrays into their fields (padding rows zero; F the identity)."""
         def put(field, arr, dtype, fill=0):
             a = np.asarray(arr, dtype)
@@ -210,6 +216,8 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces):
         put(self.fixed, fixed, np.int8)
         put(self.kind, kinds, np.int32)
         put(self.mat, params, np_real)
+        if self.n_planes:
+            put(self.p_contact, p_contact, np_real)
         self.n_points[None] = self.n_material
         self.n_total[None] = self.n
 
@@ -218,9 +226,10 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces):
         for i, (fr, _, hi_first) in enumerate(walls):
             self.wall_fric[i] = fr
             self.wall_hi_first[i] = hi_first
-        for i, (fr, kmax) in enumerate(grounds):
+        for i, (fr, kmax, h) in enumerate(grounds):
             self.ground_fric[i] = fr
             self.ground_kmax[i] = kmax
+            self.ground_h[i] = h
         for i, (rlo, rhi) in enumerate(regions):
             self.reg_lo[i] = rlo
             self.reg_hi[i] = rhi

@@ -25,10 +25,15 @@ class Transfers:
         return [0.5 * (1.5 - fx) ** 2, 0.75 - (fx - 1.0) ** 2, 0.5 * (fx - 0.5) ** 2]
 
     @ti.func
-    def mv_value(self, mv, m, mv_apic):
-        """What a point adds to a node of grid_mv per unit weight: momentum, mass (and the APIC momentum with flip)."""
-        if ti.static(self.flip > 0):
+    def mv_value(self, mv, m, mv_apic, budget):
+        """What a point adds to a node of grid_mv per unit weight: momentum, mass (and the APIC momentum with flip;
+        and the particle contact's friction budget with its planes, :mod:`gasp_taichi_mpm.contact`)."""
+        if ti.static(self.flip > 0 and self.n_planes > 0):
+            return ti.Vector([mv[0], mv[1], mv[2], m, mv_apic[0], mv_apic[1], mv_apic[2], budget])
+        elif ti.static(self.flip > 0):
             return ti.Vector([mv[0], mv[1], mv[2], m, mv_apic[0], mv_apic[1], mv_apic[2]])
+        elif ti.static(self.n_planes > 0):
+            return ti.Vector([mv[0], mv[1], mv[2], m, budget])
         else:
             return ti.Vector([mv[0], mv[1], mv[2], m])
 
@@ -52,6 +57,9 @@ class Transfers:
             A = affine * dx
             S = (affine - m * C) * dx   # the stress part of A (AFLIP sums the momentum without it)
             mv0 = m * self.v[p] - A @ fx
+            jn, budget = self.plane_contact(p)   # the particle contact (zeros without it)
+            jvec = ti.Vector([0.0, 0.0, jn], self.real)   # not in AFLIP's APIC momentum (a boundary, as in warp_mpm)
+            mv0 += jvec
             w = self.weights(fx)
             for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                 weight = w[i][0] * w[j][1] * w[k][2]
@@ -62,7 +70,8 @@ class Transfers:
                     mv += ti.static(float(j)) * ti.Vector([A[0, 1], A[1, 1], A[2, 1]])
                 if ti.static(k > 0):
                     mv += ti.static(float(k)) * ti.Vector([A[0, 2], A[1, 2], A[2, 2]])
-                val = weight * self.mv_value(mv, m, mv - S @ (ti.Vector([float(i), float(j), float(k)]) - fx))
+                val = weight * self.mv_value(mv, m, mv - S @ (ti.Vector([float(i), float(j), float(k)]) - fx) - jvec,
+                                             budget)
                 node = base + ti.Vector([i, j, k])
                 if ti.static(self.atomic):
                     self.grid_mv[0, node] += val

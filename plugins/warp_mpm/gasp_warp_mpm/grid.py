@@ -14,6 +14,7 @@ import warp as wp
 from gasp_core.toolkit.grid_tables import FT_TIME
 
 from .colliders import build_collide, build_collider_func
+from .contact import build_contact
 from .forces import build_extras_struct, build_force_funcs
 from .precision import MODULE_OPTIONS, build_types
 
@@ -46,6 +47,7 @@ def build_grid_update(Ft):
     vec3, vec4, mat33 = build_types(Ft)
     collide = build_collide(Ft)
     Extras, extras = build_extras(Ft)
+    node_friction = build_contact(Ft)[2]
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def grid_update(
@@ -54,10 +56,11 @@ def build_grid_update(Ft):
         wall_mu: wp.array(dtype=Ft), ground: wp.array(dtype=vec3),
         fixed_lo: wp.array(dtype=vec3), fixed_hi: wp.array(dtype=vec3),
         has_extras: int, ex: Extras, grid_g: wp.array(dtype=vec3), has_wind: int,
-        grid_mv0: wp.array(dtype=vec4), grid_v0: wp.array(dtype=vec3), flip: int,
+        grid_mv0: wp.array(dtype=vec4), grid_v0: wp.array(dtype=vec3), flip: int, grid_fb: wp.array(dtype=Ft),
     ):
         # ground[g] = (top node layer k_max as a float, friction, unused); grid_m (node mass, for
-        # passive points) has one entry per node when the setup has passive points, else one unused entry
+        # passive points) has one entry per node when the setup has passive points, else one unused entry;
+        # grid_fb: the particle contact's friction budget per node (kg m/s; one unused entry without it)
         node = wp.tid()
         g = grid_mv[node]
         m = g[3]
@@ -90,6 +93,8 @@ def build_grid_update(Ft):
                 gr = ground[q]
                 if Ft(k) <= gr[0]:  # node layer k at or below the ground's top layer (exact small integers)
                     vel = collide(vel, vec3(Ft(0.0), Ft(0.0), Ft(1.0)), gr[1])
+            if grid_fb.shape[0] > 1:
+                vel = node_friction(vel, m, grid_fb[node])
             for r in range(fixed_lo.shape[0]):
                 flo = fixed_lo[r]
                 fhi = fixed_hi[r]
@@ -99,6 +104,8 @@ def build_grid_update(Ft):
             out = vel
         grid_v[node] = out
         grid_mv[node] = vec4(Ft(0.0))
+        if grid_fb.shape[0] > 1:
+            grid_fb[node] = Ft(0.0)
         if flip != 0:  # the APIC velocity before forces (gasp_core.toolkit.transfer)
             g0 = grid_mv0[node]
             grid_v0[node] = vec3(Ft(0.0))

@@ -36,7 +36,8 @@ import warp as wp
 from gasp_core.toolkit.grid_engine import choose_dt, GridEngineBase
 from gasp_core.toolkit.materials import initial_Jp, material_table
 from gasp_core.toolkit.memory import check_memory, estimate_bytes
-from gasp_core.toolkit.points import cell_order, ground_top_node, fixed_mask
+from gasp_core.toolkit.contact import contact_coefficients, contact_model, ground_node_layer
+from gasp_core.toolkit.points import cell_order, fixed_mask
 from gasp_core.toolkit.substeps import passive_schedule
 from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
 
@@ -186,20 +187,30 @@ class WarpMPMEngine(GridEngineBase):
 
     def _upload_boundaries(self, Ft) -> None:
         """Walls' friction, grounds' (top node layer, friction, 0) and fixed regions' boxes as arrays."""
-        fixed_lo, fixed_hi, ground, wall_mu = [], [], [], []
+        fixed_lo, fixed_hi, ground, wall_mu, planes = [], [], [], [], []
+        contact = contact_model(self.setup)
         for bd in self.setup.boundaries:
             if bd.kind == "fixed_region":
                 fixed_lo.append(np.asarray(bd.lo, float))
                 fixed_hi.append(np.asarray(bd.hi, float))
             elif bd.kind == "ground":
-                # the ground's top node layer, decided in float64 (gasp_core.toolkit.points.ground_top_node)
-                ground.append((float(ground_top_node(bd.height, self.setup.domain_lo[2], self.dx)), bd.friction, 0.0))
+                # the ground's node layer, decided in float64 (gasp_core.toolkit.contact.ground_node_layer: its top
+                # layer with contact = "grid", two cells lower with the particle contact, which meets the plane)
+                ground.append((float(ground_node_layer(contact, bd.height, self.setup.domain_lo[2], self.dx)),
+                               bd.friction, 0.0))
+                if contact == "particle":
+                    planes.append((bd.height, bd.friction, 0.0))
             else:
                 wall_mu.append(bd.friction)
         dt_np, k, arr = self._np_dtype, self.k, self._array
         self.wall_mu = arr(np.array(wall_mu, dtype=dt_np), Ft)
         self.ground = arr(np.array(ground, dtype=dt_np).reshape(-1, 3), k.vec3)
         self.fixed_lo = arr(np.array(fixed_lo, dtype=dt_np).reshape(-1, 3), k.vec3)
+        # the particle contact: the planes, each point's (k, c, skin) and the nodes' friction budgets
+        self.planes = arr(np.array(planes, dtype=dt_np).reshape(-1, 3), k.vec3)
+        kcs = contact_coefficients(self.setup)[self._order] if planes else np.zeros((1, 3))
+        self.p_contact = arr(kcs.astype(dt_np), k.vec3)
+        self.grid_fb = wp.zeros(self.n_grid ** 3 if planes else 1, dtype=Ft, device=self.device)
         self.fixed_hi = arr(np.array(fixed_hi, dtype=dt_np).reshape(-1, 3), k.vec3)
 
     def _record_launches(self, Ft, has_extras: int, ex) -> None:
@@ -214,11 +225,12 @@ class WarpMPMEngine(GridEngineBase):
             wp.launch(k.p2g, dim=self.n_material, device=d, record_cmd=True, inputs=[
                 self.x, self.v, self.F, self.C, self.Jp, self.p_mass, self.p_vol, self.body,
                 self.mat_kind, self.mat_par, self.grid_mv, self.flags, lo_v, inv_dx, dx, dt_f, ng,
-                self.grid_g, self.has_wind, self.grid_mv0, int(self.flip > 0)]),
+                self.grid_g, self.has_wind, self.grid_mv0, int(self.flip > 0), self.p_contact, self.planes,
+                self.grid_fb]),
             wp.launch(k.grid_update, dim=ng ** 3, device=d, record_cmd=True, inputs=[
                 self.grid_mv, self.grid_v, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, self.wall_mu,
                 self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex, self.grid_g, self.has_wind,
-                self.grid_mv0, self.grid_v0, int(self.flip > 0)]),
+                self.grid_mv0, self.grid_v0, int(self.flip > 0), self.grid_fb]),
             wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
                 self.x, self.v, self.C, self.fixed, self.grid_v, lo_v, inv_dx, dt_f, ng, self.grid_v0, Ft(self.flip)]),
         ]

@@ -18,6 +18,7 @@ import warp as wp
 from gasp_core.toolkit.materials import P_ETA
 
 from .constitutive import build_return_mapping
+from .contact import build_contact
 from .precision import MODULE_OPTIONS, build_types
 
 
@@ -57,6 +58,8 @@ def build_scatter(Ft):
     """``(scatter, scatter_wind)``: a point's momentum and mass, and its windward area, added to its 27 nodes
     (P2G), scalar type ``Ft``."""
     vec3, vec4, mat33 = build_types(Ft)
+
+    plane_contact, scatter_budget, _ = build_contact(Ft)
 
     @wp.func
     def scatter(grid_mv: wp.array(dtype=vec4), idx0: int, n_grid: int, W: mat33, mom0: vec3, A: mat33, pm: Ft):
@@ -114,9 +117,12 @@ def build_p2g(Ft):
         grid_mv: wp.array(dtype=vec4), n_out: wp.array(dtype=wp.int32),
         lo: vec3, inv_dx: Ft, dx: Ft, dt: Ft, n_grid: int, grid_g: wp.array(dtype=vec3), has_wind: int,
         grid_mv0: wp.array(dtype=vec4), flip: int,
+        p_contact: wp.array(dtype=vec3), planes: wp.array(dtype=vec3), grid_fb: wp.array(dtype=Ft),
     ):
         # F advanced by C, return mapping and stress (docs/mpm.md), then the scatter (and, with wind, grid_g;
-        # with flip, the APIC momentum alone into grid_mv0: gasp_core.toolkit.transfer)
+        # with flip, the APIC momentum alone into grid_mv0: gasp_core.toolkit.transfer); with the particle
+        # contact (planes not empty), the planes' normal impulse joins the momentum and their friction budget
+        # goes to grid_fb (:mod:`gasp_warp_mpm.contact`)
         p = wp.tid()
         X = (x[p] - lo) * inv_dx
         if not in_grid(X, n_grid):
@@ -138,6 +144,11 @@ def build_p2g(Ft):
         A = dx * affine  # affine dpos = A ((i, j, k) - fx)
         mom0 = pm * v[p] - A * fx
         idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
+        if planes.shape[0] > 0:
+            jb = plane_contact(planes, p_contact[p], x[p][2], v[p][2], dt)
+            mom0 = mom0 + vec3(Ft(0.0), Ft(0.0), jb[0])
+            if jb[1] > Ft(0.0):
+                scatter_budget(grid_fb, idx0, n_grid, W, jb[1])
         scatter(grid_mv, idx0, n_grid, W, mom0, A, pm)
         if flip != 0:
             A0 = (dx * pm) * Cp

@@ -1,0 +1,122 @@
+"""The particle contact of the grid (MPM) engines (engine option ``contact``, ``docs/contact.md``).
+
+``contact = "particle"`` (the default). Each point carries a contact skin ``s_p = SKIN h_p`` (``h_p =
+p_vol^(1/3)``, its spacing: the body's surface lies about half a spacing beyond its outer points). A ground
+plane at height ``H`` with its normal ``+z`` is in contact with the point when ``depth = H + s_p - z > 0``; in
+P2G the point's momentum then gains the normal impulse
+
+    j_n = max(0, dt (k_p depth - c_p v_z)),   k_p = KAPPA E h_p,   c_p = 2 DAMPING sqrt(k_p m_p)
+
+(a damped penalty: ``E`` the body's Young's modulus, ``m_p`` the point's mass), so the grid and the stress
+see the contact where the point is. Friction is Coulomb's, at the nodes: P2G also scatters ``mu j_n`` with the
+point's weights into a per-node budget ``b_i`` (kg m/s), and the grid update takes ``min(b_i / m_i, |v_t|)``
+off the node's tangential velocity ``v_t`` (it can stop the node, never turn it back). The ground's grid nodes
+are kept out of the body's reach (the node layers more than ``GRID_LAYERS_BELOW`` cells below the plane: a
+safety net for a point driven more than half a cell deep).
+
+``contact = "grid"``: the ground's node layers are projected (taichi_elements' "separate" collider,
+``docs/mpm.md`` step 3), the rule before issue 28; it spins bouncing soft bodies up and floats resting ones
+(``docs/contact.md``).
+
+The kernels of taichi_mpm and warp_mpm implement :func:`plane_impulse` step for step.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from gasp_core.seam.options import Option
+from gasp_core.toolkit.points import ground_top_node
+
+#: Contact stiffness per unit Young's modulus and point spacing (dimensionless): ``k_p = KAPPA E p_vol^(1/3)``.
+#: Chosen with ``DAMPING`` and ``SKIN`` from the candidates of ``docs/contact.md``
+#: (``benchmarks/contact_candidates.py``).
+KAPPA = 4.0
+#: Damping ratio of a point's contact oscillator (``c_p = 2 DAMPING sqrt(k_p m_p)``).
+DAMPING = 0.5
+#: Contact skin per point spacing (``s_p = SKIN p_vol^(1/3)``).
+SKIN = 0.5
+#: With the particle contact, a ground's grid node layers start this many cells below its top layer.
+GRID_LAYERS_BELOW = 2
+#: The engine option's values.
+CONTACT_MODELS = ("auto", "particle", "grid")
+#: Materials that flow (granular, fluid): ``contact = "auto"`` keeps the grid contact for a scene with one.
+FLOWING = ("sand", "snow", "liquid")
+#: Engine option ``contact`` of the MPM engines.
+CONTACT = Option("contact", "auto", "ground contact: 'particle' (a penalty and Coulomb friction per point; "
+                 "docs/contact.md), 'grid' (the ground's node layers projected; spins bouncing soft bodies up) or "
+                 "'auto' (particle, unless a body is sand, snow or liquid)", kind="str", choices=CONTACT_MODELS)
+
+
+def contact_model(setup) -> str:
+    """The ground contact a setup runs with: its option ``contact``; ``"auto"`` (the default) is ``"particle"``
+    unless a body's material flows (:data:`FLOWING`: the grid contact's spreading of a sand column matches
+    Lube et al. 2005 within 12 %, the particle contact's within 29 %, ``docs/contact.md``), then ``"grid"``."""
+    c = setup.options.get("contact") or "auto"
+    if c == "auto":
+        return "grid" if any(m.name in FLOWING for m in setup.materials) else "particle"
+    return c
+
+
+def contact_coefficients(setup) -> np.ndarray:
+    """Per point ``(k_p, c_p, s_p)``: stiffness (N/m), damping (N s/m) and skin (m) of the particle contact.
+
+    Parameters
+    ----------
+    setup : SimSetup
+        ``materials`` (``E``, Pa), ``body_id``, ``p_vol`` (m^3), ``p_mass`` (kg).
+
+    Returns
+    -------
+    ndarray, shape (n, 3), float64
+        ``k_p = KAPPA E h_p``, ``c_p = 2 DAMPING sqrt(k_p m_p)``, ``s_p = SKIN h_p``, ``h_p = p_vol^(1/3)``
+        (zeros for passive points, which have no volume).
+    """
+    E = np.array([m.E for m in setup.materials], dtype=np.float64)
+    h = np.cbrt(np.asarray(setup.p_vol, dtype=np.float64))
+    k = KAPPA * E[np.asarray(setup.body_id, dtype=np.int64)] * h
+    return np.column_stack([k, 2.0 * DAMPING * np.sqrt(k * np.asarray(setup.p_mass, dtype=np.float64)), SKIN * h])
+
+
+def ground_node_layer(contact: str, height: float, domain_lo_z: float, dx: float) -> int:
+    """The highest node layer the ground projects: :func:`ground_top_node` for ``"grid"``, ``GRID_LAYERS_BELOW``
+    lower for ``"particle"``."""
+    top = ground_top_node(height, domain_lo_z, dx)
+    return top if contact == "grid" else top - GRID_LAYERS_BELOW
+
+
+def plane_impulse(z: np.ndarray, v_z: np.ndarray, coeffs: np.ndarray, height: float, mu: float,
+                  dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Normal impulse and friction budget of each point from one ground plane over a substep (the kernels' reference).
+
+    Parameters
+    ----------
+    z, v_z : ndarray, shape (n,)
+        Point heights (m) and vertical velocities (m/s).
+    coeffs : ndarray, shape (n, 3)
+        :func:`contact_coefficients`.
+    height, mu : float
+        The plane's height (m) and Coulomb friction coefficient.
+    dt : float
+        Substep, s.
+
+    Returns
+    -------
+    j_n : ndarray, shape (n,)
+        ``max(0, dt (k_p depth - c_p v_z))`` where ``depth = height + s_p - z > 0``, else 0 (kg m/s, along +z).
+    budget : ndarray, shape (n,)
+        ``mu j_n``: what the point gives its nodes' friction budgets (scattered with its weights).
+    """
+    k, c, s = coeffs[:, 0], coeffs[:, 1], coeffs[:, 2]
+    depth = height + s - z
+    jn = np.where(depth > 0.0, np.maximum(0.0, dt * (k * depth - c * v_z)), 0.0)
+    return jn, mu * jn
+
+
+def node_friction(v: np.ndarray, m: np.ndarray, budget: np.ndarray) -> np.ndarray:
+    """Node velocities (m/s, shape (n, 3)) after the particle contact's Coulomb friction: the tangential
+    (x, y) part loses ``min(budget / m, |v_t|)`` (``m`` node mass, kg; ``budget`` kg m/s, shape (n,))."""
+    vt = np.array(v, dtype=np.float64)
+    vt[:, 2] = 0.0
+    lt = np.linalg.norm(vt, axis=1)
+    cut = np.where((budget > 0.0) & (lt > 0.0), np.minimum(budget / np.maximum(m, 1e-300), lt) / np.maximum(lt, 1e-300), 0.0)
+    return v - cut[:, None] * vt

@@ -1,0 +1,42 @@
+"""The particle contact with the grounds (engine option ``contact = "particle"``, ``gasp_core.toolkit.contact``,
+``docs/contact.md``), as Taichi functions; warp_mpm's ``contact.py`` spells the same steps.
+
+- :meth:`Contact.plane_contact` in P2G: a point's normal impulse ``j_n = max(0, dt (k depth - c v_z))`` summed
+  over the planes less than its skin below its centre (``depth = height + skin - z``), and its friction budget
+  ``sum mu j_n``, which P2G adds to its nodes with its weights (``grid_mv``'s last channel);
+- :meth:`Contact.node_friction` in the grid update: the node's tangential (x, y) velocity loses
+  ``min(budget / m, |v_t|)``.
+
+Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields and flags (``real``, ``n_planes``, ...) it reads.
+"""
+import taichi as ti
+
+
+class Contact:
+    """The particle contact's impulse per point (:meth:`plane_contact`) and friction per node (:meth:`node_friction`)."""
+
+    @ti.func
+    def plane_contact(self, p):
+        """``(j_n, budget)`` of point p (kg m/s) over the grounds' planes (``ground_h``, ``ground_fric``),
+        ``p_contact[p] = (k, c, skin)``; zeros without the particle contact."""
+        jn = ti.cast(0.0, self.real)
+        budget = ti.cast(0.0, self.real)
+        if ti.static(self.n_planes > 0):
+            kcs = self.p_contact[p]
+            for b in ti.static(range(self.n_planes)):
+                depth = self.ground_h[b] + kcs[2] - self.x[p][2]
+                if depth > 0.0:
+                    jq = ti.max(self.dt[None] * (kcs[0] * depth - kcs[1] * self.v[p][2]), 0.0)
+                    jn += jq
+                    budget += self.ground_fric[b] * jq
+        return jn, budget
+
+    @ti.func
+    def node_friction(self, v, m, fb):
+        """Coulomb friction of the budget ``fb`` (kg m/s) on a node of mass ``m``: stops, never reverses, ``v_t``."""
+        vt = ti.Vector([v[0], v[1], 0.0], self.real)
+        lt = vt.norm()
+        out = v
+        if fb > 0.0 and lt > 0.0:
+            out = v - (ti.min(fb / m, lt) / lt) * vt
+        return out

@@ -1,0 +1,51 @@
+"""The particle contact's reference (gasp_core.toolkit.contact, docs/contact.md) and its engine option."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from gasp_core.errors import SceneError
+from gasp_core.seam.options import check_options
+from gasp_core.toolkit.contact import CONTACT, ground_node_layer, node_friction, plane_impulse
+from gasp_core.toolkit.options import mpm_options
+
+
+def test_plane_impulse_is_a_damped_penalty_that_never_pulls():
+    coeffs = np.array([[100.0, 2.0, 0.01]] * 4)          # k N/m, c N s/m, skin m
+    z = np.array([0.02, 0.005, 0.005, -0.01])            # above the skin, 5 mm in, 5 mm in leaving fast, 2 cm in
+    vz = np.array([-1.0, 0.0, 10.0, -1.0])
+    jn, budget = plane_impulse(z, vz, coeffs, 0.0, 0.5, 1e-3)
+    assert np.allclose(jn, [0.0, 1e-3 * 100 * 0.005, 0.0, 1e-3 * (100 * 0.02 + 2.0)])
+    assert np.allclose(budget, 0.5 * jn)
+
+
+def test_node_friction_stops_a_node_but_never_turns_it_back():
+    v = np.array([[0.3, 0.4, -1.0], [0.3, 0.4, 0.0], [0.3, 0.4, 0.0]])
+    out = node_friction(v, np.array([2.0, 2.0, 2.0]), np.array([0.5, 10.0, 0.0]))
+    assert np.allclose(out[0], [0.3 * 0.5, 0.4 * 0.5, -1.0])        # |v_t| 0.5 loses 0.5 / 2 = 0.25
+    assert np.allclose(out[1], [0.0, 0.0, 0.0])                      # a large budget stops it, no more
+    assert np.allclose(out[2], v[2])
+
+
+def test_ground_nodes_are_out_of_reach_with_the_particle_contact():
+    assert ground_node_layer("grid", 0.0, -0.03, 0.01) == 3
+    assert ground_node_layer("particle", 0.0, -0.03, 0.01) == 1
+
+
+def test_the_option_is_declared_with_its_values():
+    assert CONTACT.default == "auto"
+    opts = (*mpm_options(), CONTACT)
+    assert check_options({"contact": "grid"}, opts, "e")["contact"] == "grid"
+    with pytest.raises(SceneError, match="contact"):
+        check_options({"contact": "nodes"}, opts, "e")
+
+
+def test_auto_keeps_the_grid_contact_for_flowing_materials():
+    from types import SimpleNamespace
+    from gasp_core.seam.setup import Material
+    from gasp_core.toolkit.contact import contact_model
+    jelly, sand = Material("jelly"), Material("sand")
+    assert contact_model(SimpleNamespace(options={}, materials=[jelly])) == "particle"
+    assert contact_model(SimpleNamespace(options={"contact": "auto"}, materials=[jelly, sand])) == "grid"
+    assert contact_model(SimpleNamespace(options={"contact": "particle"}, materials=[sand])) == "particle"
+
