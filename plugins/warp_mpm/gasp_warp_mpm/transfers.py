@@ -59,8 +59,6 @@ def build_scatter(Ft):
     (P2G), scalar type ``Ft``."""
     vec3, vec4, mat33 = build_types(Ft)
 
-    plane_contact, scatter_budget, _ = build_contact(Ft)
-
     @wp.func
     def scatter(grid_mv: wp.array(dtype=vec4), idx0: int, n_grid: int, W: mat33, mom0: vec3, A: mat33, pm: Ft):
         # grid_v += w (p_mass v + affine dpos), grid_m += w p_mass over the 27 nodes from flat index idx0;
@@ -107,6 +105,7 @@ def build_p2g(Ft):
     in_grid, weights = build_stencil(Ft)
     return_mapping = build_return_mapping(Ft)
     scatter, scatter_wind = build_scatter(Ft)
+    plane_contact, scatter_budget, _ = build_contact(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def p2g(
