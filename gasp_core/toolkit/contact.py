@@ -5,10 +5,9 @@ p_vol^(1/3)``, its spacing: the body's surface lies about half a spacing beyond 
 plane at height ``H`` with its normal ``+z`` is in contact with the point when ``depth = H + s_p - z > 0``; in
 P2G the point's momentum then gains the normal impulse
 
-    m_p v' = m_p v_z + dt (k_p (depth - dt v') - c_p v'),   j_n = max(0, m_p (v' - v_z)),
-    k_p = KAPPA E h_p,   c_p = 2 DAMPING sqrt(k_p m_p)
+    j_n = max(0, dt (k_p depth - c_p v_z)),   k_p = KAPPA E h_p,   c_p = 2 DAMPING sqrt(k_p m_p)
 
-(a damped penalty, integrated by backward Euler so that it is stable at any step: ``E`` the body's Young's modulus, ``m_p`` the point's mass), so the grid and the stress
+(a damped penalty: ``E`` the body's Young's modulus, ``m_p`` the point's mass), so the grid and the stress
 see the contact where the point is. Friction is Coulomb's, at the nodes: P2G also scatters ``mu j_n`` with the
 point's weights into a per-node budget ``b_i`` (kg m/s), and the grid update takes ``min(b_i / m_i, |v_t|)``
 off the node's tangential velocity ``v_t`` (it can stop the node, never turn it back). The ground's grid nodes
@@ -86,7 +85,7 @@ def ground_node_layer(contact: str, height: float, domain_lo_z: float, dx: float
 
 
 def plane_impulse(z: np.ndarray, v_z: np.ndarray, coeffs: np.ndarray, height: float, mu: float,
-                  dt: float, p_mass: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                  dt: float) -> tuple[np.ndarray, np.ndarray]:
     """Normal impulse and friction budget of each point from one ground plane over a substep (the kernels' reference).
 
     Parameters
@@ -99,26 +98,17 @@ def plane_impulse(z: np.ndarray, v_z: np.ndarray, coeffs: np.ndarray, height: fl
         The plane's height (m) and Coulomb friction coefficient.
     dt : float
         Substep, s.
-    p_mass : ndarray, shape (n,)
-        Point masses, kg.
 
     Returns
     -------
     j_n : ndarray, shape (n,)
-        Where ``depth = height + s_p - z > 0``, the backward-Euler impulse of the point's spring-damper
-        ``m v' = m v_z + dt (k_p (depth - dt v') - c_p v')``, that is
-        ``max(0, dt m (k_p depth - (c_p + dt k_p) v_z) / (m + dt c_p + dt^2 k_p))``, else 0 (kg m/s, along +z).
-        It is the explicit ``dt (k_p depth - c_p v_z)`` when ``dt^2 k_p << m`` and stays stable at any ``dt``
-        (the explicit one grows once ``dt sqrt(k_p / m)`` passes about 1.2 at damping ratio 0.5: stiff bodies at
-        the elastic step diverged with it).
+        ``max(0, dt (k_p depth - c_p v_z))`` where ``depth = height + s_p - z > 0``, else 0 (kg m/s, along +z).
     budget : ndarray, shape (n,)
         ``mu j_n``: what the point gives its nodes' friction budgets (scattered with its weights).
     """
     k, c, s = coeffs[:, 0], coeffs[:, 1], coeffs[:, 2]
     depth = height + s - z
-    m = np.asarray(p_mass, dtype=np.float64)
-    implicit = dt * m * (k * depth - (c + dt * k) * v_z) / np.maximum(m + dt * c + dt * dt * k, 1e-300)
-    jn = np.where(depth > 0.0, np.maximum(0.0, implicit), 0.0)
+    jn = np.where(depth > 0.0, np.maximum(0.0, dt * (k * depth - c * v_z)), 0.0)
     return jn, mu * jn
 
 

@@ -1,8 +1,7 @@
 """The particle contact with the grounds (engine option ``contact = "particle"``, ``gasp_core.toolkit.contact``,
 ``docs/contact.md``), as Taichi functions; warp_mpm's ``contact.py`` spells the same steps.
 
-- :meth:`Contact.plane_contact` in P2G: a point's normal impulse ``j_n``, backward Euler of its spring-damper
-  (``max(0, dt m (k depth - (c + dt k) v_z) / (m + dt c + dt^2 k))``) summed
+- :meth:`Contact.plane_contact` in P2G: a point's normal impulse ``j_n = max(0, dt (k depth - c v_z))`` summed
   over the planes less than its skin below its centre (``depth = height + skin - z``), and its friction budget
   ``sum mu j_n``, which P2G adds to its nodes with its weights (``grid_mv``'s last channel);
 - :meth:`Contact.node_friction` in the grid update: the node's tangential (x, y) velocity loses
@@ -27,12 +26,7 @@ class Contact:
             for b in ti.static(range(self.n_planes)):
                 depth = self.ground_h[b] + kcs[2] - self.x[p][2]
                 if depth > 0.0:
-                    # backward Euler of the point's spring-damper (gasp_core.toolkit.contact.plane_impulse): stable
-                    # at any dt, the explicit impulse when dt^2 k << m
-                    dt = self.dt[None]
-                    m = self.p_mass[p]
-                    jq = ti.max(dt * m * (kcs[0] * depth - (kcs[1] + dt * kcs[0]) * self.v[p][2])
-                                / (m + dt * kcs[1] + dt * dt * kcs[0]), 0.0)
+                    jq = ti.max(self.dt[None] * (kcs[0] * depth - kcs[1] * self.v[p][2]), 0.0)
                     jn += jq
                     budget += self.ground_fric[b] * jq
         return jn, budget

@@ -2,8 +2,7 @@
 ``docs/contact.md``), as Warp functions per scalar type (:mod:`gasp_warp_mpm.precision`); taichi_mpm's
 ``contact.py`` spells the same steps.
 
-- :func:`build_contact` ``plane_contact``: in P2G, a point's normal impulse ``j_n`` (backward Euler
-  of its spring-damper, :func:`gasp_core.toolkit.contact.plane_impulse`)
+- :func:`build_contact` ``plane_contact``: in P2G, a point's normal impulse ``j_n = max(0, dt (k depth - c v_z))``
   summed over the planes less than its skin below its centre (``depth = height + skin - z``), and its friction
   budget ``sum mu j_n``; ``scatter_budget`` adds the budget to its nodes with its weights;
 - ``node_friction``: in the grid update, the node's tangential (x, y) velocity loses ``min(budget / m, |v_t|)``.
@@ -25,16 +24,14 @@ def build_contact(Ft):
     vec2 = wp.types.vector(2, Ft)
 
     @wp.func
-    def plane_contact(planes: wp.array(dtype=vec3), kcs: vec3, z: Ft, vz: Ft, m: Ft, dt: Ft):
-        # planes[q] = (height, friction, unused); kcs = (k, c, skin) of the point, m its mass: returns (j_n, budget);
-        # backward Euler of the point's spring-damper (gasp_core.toolkit.contact.plane_impulse)
+    def plane_contact(planes: wp.array(dtype=vec3), kcs: vec3, z: Ft, vz: Ft, dt: Ft):
+        # planes[q] = (height, friction, unused); kcs = (k, c, skin) of the point: returns (j_n, budget)
         jn = Ft(0.0)
         budget = Ft(0.0)
         for q in range(planes.shape[0]):
             depth = planes[q][0] + kcs[2] - z
             if depth > Ft(0.0):
-                jq = wp.max(dt * m * (kcs[0] * depth - (kcs[1] + dt * kcs[0]) * vz)
-                            / (m + dt * kcs[1] + dt * dt * kcs[0]), Ft(0.0))
+                jq = wp.max(dt * (kcs[0] * depth - kcs[1] * vz), Ft(0.0))
                 jn = jn + jq
                 budget = budget + planes[q][1] * jq
         return vec2(jn, budget)

@@ -135,7 +135,7 @@ def build_p2g(Ft):
         mom0 = pm * v[p] - A * fx
         idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
         if planes.shape[0] > 0:
-            jb = plane_contact(planes, p_contact[p], x[p][2], v[p][2], pm, dt)
+            jb = plane_contact(planes, p_contact[p], x[p][2], v[p][2], dt)
             mom0 = mom0 + vec3(Ft(0.0), Ft(0.0), jb[0])
             if jb[1] > Ft(0.0):
                 scatter_budget(grid_fb, idx0, n_grid, W, jb[1])
