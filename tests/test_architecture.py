@@ -11,6 +11,10 @@ deliberately bad package built in a temporary folder.
    literature (e.g. taichi_elements).
 6. No function over :data:`MAX_FUNCTION_LINES` lines unless its docstring says why, in words
    containing :data:`LONG_REASON`.
+
+Rules 3 and 6 also reach the plugins (``plugins/*/gasp_*``) and ``gasp_studies`` (issue 27): Taichi and Warp
+kernels are functions like any other (a Warp kernel nested in its builder counts on its own and inside the
+builder). :data:`LONG_OUTER_FILES` and :data:`LONG_OUTER_FUNCTIONS` list the exceptions with their reasons.
 """
 from __future__ import annotations
 
@@ -38,6 +42,20 @@ MAX_FUNCTION_LINES = 80
 #: A longer function's docstring says why, in a sentence containing these words.
 LONG_REASON = "long because"
 ENGINE_NAMES = ("taichi", "warp", "mujoco", "genesis", "blender", "newton")
+ROOT = CORE.parent
+#: Plugin and studies files allowed over MAX_FILE_LINES, path relative to the repository root -> the reason.
+LONG_OUTER_FILES: dict[str, str] = {
+    "plugins/mujoco_flex/gasp_mujoco_flex/engine.py": "the flex engine class with its MJCF model builder; "
+    "not split by issue 27 (the two MLS-MPM plugins), left to its owner",
+    "plugins/genesis/gasp_genesis/engine.py": "one line over; not split by issue 27 (the two MLS-MPM plugins), "
+    "left to its owner",
+}
+#: Plugin and studies functions over MAX_FUNCTION_LINES without a reason in their docstring, ``module.function``
+#: -> why they are allowed for now.
+LONG_OUTER_FUNCTIONS: dict[str, str] = {
+    "gasp_studies.run.run": "issue 30 helper splits this (the same entry as STUDIES_LONG below)",
+    "gasp_studies.strips.render_strips": "issue 30 helper splits this (the same entry as STUDIES_LONG below)",
+}
 
 
 # ----------------------------------------------------------------------------- reading the source
@@ -338,6 +356,58 @@ def test_function_length_check_wants_a_reason(tmp_path):
         "def long_with_reason():\n    '''One table of cases: long because it reads as a table.'''\n" + body +
         "def short():\n    '''Fine.'''\n    return 1\n")})
     assert long_functions(root) == ["gasp_core.run.steps.long_one (line 1): 82 lines"]
+
+
+def outer_packages(root: Path = ROOT) -> list[Path]:
+    """The plugin packages (``plugins/*/gasp_*``) and ``gasp_studies`` of the repository at ``root``."""
+    found = sorted(p for p in (root / "plugins").glob("*/gasp_*") if p.is_dir())
+    return found + [p for p in [root / "gasp_studies"] if p.is_dir()]
+
+
+def outer_long_files(root: Path = ROOT, allowed: dict[str, str] = LONG_OUTER_FILES) -> list[str]:
+    """Plugin and studies files over MAX_FILE_LINES that ``allowed`` (paths relative to ``root``) does not list."""
+    out = []
+    for package in outer_packages(root):
+        prefix = package.relative_to(root).as_posix()
+        for entry in long_files(package, allowed={}):
+            if f"{prefix}/{entry.split(':')[0]}" not in allowed:
+                out.append(f"{prefix}/{entry}")
+    return out
+
+
+def outer_long_functions(root: Path = ROOT, allowed: dict[str, str] = LONG_OUTER_FUNCTIONS) -> list[str]:
+    """Plugin and studies functions over MAX_FUNCTION_LINES without a reason that ``allowed`` does not list."""
+    return [entry for package in outer_packages(root) for entry in long_functions(package)
+            if entry.split(" (line")[0] not in allowed]
+
+
+def test_plugins_and_studies_keep_the_size_rules():
+    assert outer_packages(), "no plugin package found under plugins/"
+    bad = outer_long_files() + outer_long_functions()
+    assert not bad, (f"plugin or studies files over {MAX_FILE_LINES} lines, or functions over "
+                     f"{MAX_FUNCTION_LINES} lines without '{LONG_REASON} ...' in their docstring:\n" + "\n".join(bad))
+
+
+def test_the_exception_lists_name_real_offenders():
+    """An entry of LONG_OUTER_FILES / LONG_OUTER_FUNCTIONS that is no longer over the limit is dropped."""
+    files = {e.split(":")[0] for e in outer_long_files(allowed={})}
+    functions = {e.split(" (line")[0] for e in outer_long_functions(allowed={})}
+    stale = sorted(set(LONG_OUTER_FILES) - files) + sorted(set(LONG_OUTER_FUNCTIONS) - functions)
+    assert not stale, f"exceptions that are no longer needed (remove them): {stale}"
+
+
+def test_the_outer_checks_catch_a_long_plugin_file_and_kernel(tmp_path):
+    body = "        x = 1\n" * 80
+    kernel = "def build(Ft):\n    '''Builder.'''\n    @wp.kernel\n    def k(a: int):\n" + body + "    return k\n"
+    pkg = tmp_path / "plugins" / "demo" / "gasp_demo"
+    pkg.mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    (pkg / "big.py").write_text("x = 1\n" * 401)
+    (pkg / "kernels.py").write_text(kernel)
+    assert outer_long_files(tmp_path, allowed={}) == ["plugins/demo/gasp_demo/big.py: 401 lines"]
+    assert outer_long_files(tmp_path, allowed={"plugins/demo/gasp_demo/big.py": "a table"}) == []
+    assert outer_long_functions(tmp_path, allowed={}) == ["gasp_demo.kernels.build (line 1): 85 lines",
+                                                          "gasp_demo.kernels.k (line 4): 81 lines"]
 
 
 def test_the_graph_sees_this_core():

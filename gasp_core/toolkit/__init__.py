@@ -9,12 +9,16 @@ the same scene every MPM engine starts from the same numbers, it holds:
   ``mpm_substeps``, ``substeps_from_options``; ``docs/mpm.md``, "Time step") and the passive points'
   schedule (``passive_schedule``);
 - :mod:`~gasp_core.toolkit.materials`: the material codes and the per-body parameter table the
-  kernels read (``MATERIAL_CODES``, ``P_*`` columns, ``material_table``) and the initial ``Jp``;
+  kernels read (``MaterialKind``, ``Param``, ``MATERIAL_CODES``, ``P_*`` columns, ``material_table``) and
+  the initial ``Jp``;
 - :mod:`~gasp_core.toolkit.points`: the points held by ``fixed_region`` boundaries (``fixed_mask``),
   the order of points by grid cell (``cell_order``, ``material_first_order``), mass statistics and
   stranded passive points;
 - :mod:`~gasp_core.toolkit.memory`: the memory estimate and the refusal before allocating;
 - :mod:`~gasp_core.toolkit.failures`: the known conformance failures of the shared algorithm;
-- :mod:`~gasp_core.toolkit.grid_tables`: colliders, forces and impulses packed for the kernels;
+- :mod:`~gasp_core.toolkit.grid_tables`: colliders, forces and impulses packed for the kernels, with the named
+  columns both MPM plugins index them by (``CM_*``, ``FR_*``, ``MD_*``, ``IM_*``, ``FT_*``, ``PO_*``);
 - :mod:`~gasp_core.toolkit.sweep`: the ``gasp bench`` sweep of a grid engine (``mpm_sweep``, ``grid_sweep``).
+- :mod:`~gasp_core.toolkit.grid_engine`: what a grid engine does outside its kernels (``GridEngineBase``:
+  point order, ``get_state`` / ``set_state``, statistics; ``choose_dt``; ``MPM_CAPABILITIES``).
 """

@@ -8,6 +8,7 @@ no rule of its own on ``nu``.
 from __future__ import annotations
 
 import math
+from enum import IntEnum
 from typing import Sequence
 
 import numpy as np
@@ -16,13 +17,39 @@ from gasp_core.errors import SceneError
 from gasp_core.seam.setup import Material
 
 
-#: Material codes of the kernels (index of the branch in the constitutive update).
-JELLY, NEO_HOOKEAN, METAL, SAND, SNOW, PLASTICINE, LIQUID = range(7)
-MATERIAL_CODES = {"jelly": JELLY, "neo_hookean": NEO_HOOKEAN, "metal": METAL, "sand": SAND, "snow": SNOW,
-                  "plasticine": PLASTICINE, "liquid": LIQUID}
-#: Columns of the per-body parameter table (:func:`material_table`).
-P_MU, P_LAM, P_YIELD, P_SOFTENING, P_HARDENING, P_THETA_C, P_THETA_S, P_ALPHA, P_K, P_ETA = range(10)
-N_PARAMS = 10
+class MaterialKind(IntEnum):
+    """Material codes of the kernels (index of the branch in the constitutive update, docs/mpm.md table); the
+    lower-case name is the scene's material name."""
+
+    JELLY = 0
+    NEO_HOOKEAN = 1
+    METAL = 2
+    SAND = 3
+    SNOW = 4
+    PLASTICINE = 5
+    LIQUID = 6
+
+
+class Param(IntEnum):
+    """Columns of the per-body parameter table (:func:`material_table`)."""
+
+    MU = 0
+    LAM = 1
+    YIELD = 2
+    SOFTENING = 3
+    HARDENING = 4
+    THETA_C = 5
+    THETA_S = 6
+    ALPHA = 7
+    K = 8
+    ETA = 9
+
+
+#: The codes and columns as plain ints, the constants the Taichi and Warp kernels compile in.
+JELLY, NEO_HOOKEAN, METAL, SAND, SNOW, PLASTICINE, LIQUID = (int(k) for k in MaterialKind)
+MATERIAL_CODES = {k.name.lower(): int(k) for k in MaterialKind}
+P_MU, P_LAM, P_YIELD, P_SOFTENING, P_HARDENING, P_THETA_C, P_THETA_S, P_ALPHA, P_K, P_ETA = (int(c) for c in Param)
+N_PARAMS = len(Param)
 #: von Mises yield surface radius per unit yield stress: metal and plasticine return-map the Hencky
 #: strain's deviator ``e`` onto ``2 mu ||e|| <= sqrt(2/3) Y``, i.e. ``||dev tau|| <= sqrt(2/3) Y``, so a
 #: bar in uniaxial stress yields at ``Y`` (von Mises: ``sigma_vm = sqrt(3/2) ||dev tau||``;

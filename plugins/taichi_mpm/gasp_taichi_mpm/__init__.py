@@ -15,7 +15,8 @@ import os
 # clean, so the banner is off unless the user asked for it.
 os.environ.setdefault("ENABLE_TAICHI_HEADER_PRINT", "False")
 
-from gasp_core.seam import Capabilities, EngineInfo, hookimpl, Option, SimSetup
+from gasp_core.seam import EngineInfo, hookimpl, Option, SimSetup
+from gasp_core.toolkit.grid_engine import MPM_CAPABILITIES
 from gasp_core.toolkit.options import mpm_options
 from gasp_core.toolkit.sweep import mpm_sweep
 from gasp_core.toolkit.failures import MPM_KNOWN_FAILURES
@@ -27,15 +28,8 @@ __all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "gasp_engines", "make_engine", "
 
 ENGINE = "taichi_mpm"
 
-CAPABILITIES = Capabilities(
-    materials=frozenset({"jelly", "neo_hookean", "metal", "sand", "snow", "plasticine", "liquid"}),
-    boundaries=frozenset({"ground", "walls", "fixed_region"}),
-    devices=frozenset({"cpu", "cuda"}),
-    precisions=frozenset({"f32", "f64"}),
-    deterministic=frozenset({"cpu"}),
-    features=frozenset({"grid", "initial_C", "state", "static_colliders", "moving_colliders", "impulse", "wind",
-                        "attractors", "passive_points", "viscosity"}),
-)
+#: The MLS-MPM record of the grid-engine base (``gasp_core.toolkit.grid_engine``).
+CAPABILITIES = MPM_CAPABILITIES
 
 #: The grid-engine options of ``gasp_core.toolkit.options`` (``device``: Taichi runs on the default CUDA device
 #: only, so "cpu" or "cuda"), ``threads`` and ``passive_every``.

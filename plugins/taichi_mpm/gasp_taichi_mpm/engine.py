@@ -12,10 +12,10 @@ from typing import Any
 import numpy as np
 
 from gasp_core.toolkit.contact import contact_coefficients, contact_model
+from gasp_core.toolkit.grid_engine import choose_dt, GridEngineBase
 from gasp_core.toolkit.materials import initial_Jp, material_table
 from gasp_core.toolkit.memory import check_memory, estimate_bytes
-from gasp_core.toolkit.points import engine_mass_stats, fixed_mask, material_first_order, stranded_passive
-from gasp_core.toolkit.substeps import substeps_from_options
+from gasp_core.toolkit.points import fixed_mask
 from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
 
 from . import ENGINE
@@ -52,12 +52,7 @@ def _quiet_init(ti, **kw) -> None:
             print(line, file=sys.stderr)
 
 
-def choose_dt(setup: SimSetup, opt: dict[str, Any]) -> tuple[int, float]:
-    """Substeps per frame and substep length (``gasp_core.toolkit.substeps.mpm_substeps``, docs/mpm.md)."""
-    return substeps_from_options(setup, opt, ENGINE)
-
-
-class TaichiMPMEngine:
+class TaichiMPMEngine(GridEngineBase):
     """MLS-MPM engine on Taichi (``docs/mpm.md``).
 
     Parameters
@@ -85,10 +80,12 @@ class TaichiMPMEngine:
     ``threads=1``.
     """
 
+    ENGINE = ENGINE
+
     def __init__(self, setup: SimSetup):
         global _generation
         opt = setup.options  # checked and completed by the core (build_engine)
-        self.n_substeps, self.dt = choose_dt(setup, opt)
+        self.n_substeps, self.dt = choose_dt(setup, opt, ENGINE)
         check_memory(estimate_bytes(len(setup.x), setup.n_grid, opt["precision"]) + MAX_PRIVATE_GRID_BYTES,
                      ENGINE, f"{len(setup.x)} points, n_grid {setup.n_grid}, {opt['precision']}")
         import taichi as ti
@@ -120,9 +117,7 @@ class TaichiMPMEngine:
         n = len(setup.x)
         # Points sorted by grid cell for memory locality (material points first, then the passive
         # ones: G2P only); outputs go back to the setup order.
-        self._order, self.n_material = material_first_order(setup, dx)
-        self._inverse = np.empty(n, np.int64)
-        self._inverse[self._order] = np.arange(n)
+        self.order_points(setup, dx)
         o = self._order
 
         contact = contact_model(setup)
@@ -187,8 +182,8 @@ class TaichiMPMEngine:
         s.reset_out()
         s.substeps(self.n_substeps)
         self.frame += 1
-        x = s.get(s.x)[self._inverse]
-        v = s.get(s.v)[self._inverse]
+        x = self.to_setup_order(s.get(s.x))
+        v = self.to_setup_order(s.get(s.v))
         n_out = int(s.n_out[None])
         finite = np.isfinite(x).all(axis=1) & np.isfinite(v).all(axis=1)
         if not finite.all():
@@ -215,66 +210,32 @@ class TaichiMPMEngine:
         """Current velocities, shape (n, 3), m/s, setup order."""
         return self._v.copy()
 
-    _STATE = ("x", "v", "C", "F", "Jp")
+    # get_state / set_state (GridEngineBase): these fields in solver order, and frame
+    STATE = ("x", "v", "C", "F", "Jp")
 
-    def get_state(self) -> dict[str, np.ndarray]:
-        """The particle state after the current frame (solver order): ``x, v, C, F, Jp`` and ``frame``.
-
-        With :meth:`set_state` on a fresh engine of the same setup, the run continues bit for bit
-        (feature ``state``; ``gasp simulate --resume``).
-        """
+    def check_open(self) -> None:
         self._check_live()
-        s = self.solver
-        out = {k: s.get(getattr(s, k)) for k in self._STATE}
-        out["frame"] = np.array(self.frame)
-        return out
 
-    def set_state(self, state: dict[str, np.ndarray]) -> None:
-        """Restore :meth:`get_state` into this engine (built from the same setup).
+    def read_array(self, name: str) -> np.ndarray:
+        return self.solver.get(getattr(self.solver, name))
 
-        Raises
-        ------
-        EngineError
-            A key is missing or an array has the wrong shape.
-        """
-        self._check_live()
-        s = self.solver
-        for k in self._STATE:
-            a = np.asarray(state.get(k))
-            if a.shape != s.get(getattr(s, k)).shape:
-                raise EngineError(f"engine '{ENGINE}': saved state '{k}' has shape {a.shape}; this setup needs "
-                                  f"{s.get(getattr(s, k)).shape}")
-            s.set(getattr(s, k), a)
+    def write_array(self, name: str, value: np.ndarray) -> None:
+        self.solver.set(getattr(self.solver, name), value)
+
+    def restore_extras(self, state: dict[str, np.ndarray]) -> None:
         self.frame = int(state["frame"])
-        self._x = s.get(s.x)[self._inverse]
-        self._v = s.get(s.v)[self._inverse]
+        self._x = self.to_setup_order(self.solver.get(self.solver.x))
+        self._v = self.to_setup_order(self.solver.get(self.solver.v))
 
     def stats(self) -> dict[str, Any]:
-        """``device, precision, n_points, dt, n_substeps, n_grid, threads`` and ``dx``, ``p2g``, ``frame``,
-        ``n_passive``, ``mass`` (kg), ``centre_of_mass`` (m), ``inertia`` (kg m^2) and, with passive points
-        after a frame, ``passive_stranded`` (:func:`gasp_core.toolkit.points.stranded_passive`)."""
-        n = len(self.setup.x)
+        """:meth:`GridEngineBase.grid_stats` (mass and passive statistics from the solver's fields while the
+        engine is live), ``threads`` and ``p2g`` (private grids or atomic)."""
         live = not self._closed and self._gen == _generation
-        return {
-            "device": self.options["device"],
-            "precision": self.options["precision"],
-            "n_points": int(len(self.setup.x)),
-            "dt": float(self.dt),
-            "n_substeps": int(self.n_substeps),
-            "n_grid": int(self.setup.n_grid),
-            "dx": float(self.setup.dx),
-            "threads": self.threads,
-            "p2g": self._p2g_mode,
-            "frame": self.frame,
-            "n_passive": int(n - self.n_material),
-            # mass as the solver holds it (its p_mass field, solver order)
-            **(engine_mass_stats(self.solver.get(self.solver.x), self.solver.get(self.solver.p_mass))
-               if live else {}),
-            **({"passive_stranded": stranded_passive(self.solver.get(self.solver.x)[self.n_material:],
-                                                     self.solver.grid_m.to_numpy(), self.setup.domain_lo,
-                                                     self.setup.dx)}
-               if live and self.n_material < n and self.frame > 0 else {}),
-        }
+        s = self.solver
+        out = self.grid_stats(self.options["device"], self.options["precision"], s.get(s.x) if live else None,
+                              s.get(s.p_mass) if live else None, s.grid_m.to_numpy() if live else None)
+        out.update(threads=self.threads, p2g=self._p2g_mode)
+        return out
 
     def close(self) -> None:
         """Drop the fields (Taichi memory is reclaimed at the next ``ti.init``/``ti.reset``)."""

@@ -19,20 +19,15 @@ from gasp_core.toolkit.materials import (JELLY, METAL, NEO_HOOKEAN, P_ALPHA, P_H
 from .precision import build_types
 
 
-@functools.cache
-def build_elastic_funcs(Ft):
-    """``(hencky_tau, corotated_tau, jelly_tau)``: Kirchhoff stresses of scalar type ``Ft`` (Hencky strain,
-    fixed corotated from an SVD, fixed corotated with the polar rotation)."""
-    vec3, vec4, mat33 = build_types(Ft)
-    # Newton polar iteration stops when the l1 change of X is below this (about 30 ulp of 1).
-    POLAR_TOL = Ft(4e-6) if Ft == wp.float32 else Ft(1e-13)
+def polar_tol(Ft):
+    """The Newton polar iteration stops when the l1 change of X is below this (about 30 ulp of 1)."""
+    return Ft(4e-6) if Ft == wp.float32 else Ft(1e-13)
 
-    @wp.func
-    def hencky_tau(U: mat33, eps: vec3, mu: Ft, lam: Ft):
-        # tau = U diag(2 mu eps + lam tr(eps)) U^T
-        tr = eps[0] + eps[1] + eps[2]
-        d = Ft(2.0) * mu * eps + vec3(lam * tr)
-        return U * wp.diag(d) * wp.transpose(U)
+
+@functools.cache
+def build_polar(Ft):
+    """``polar_rotation(F, tol) -> (R, converged)``: the rotation of the polar decomposition, scalar type ``Ft``."""
+    vec3, vec4, mat33 = build_types(Ft)
 
     @wp.func
     def polar_rotation(Fp: mat33, tol: Ft):
@@ -63,6 +58,118 @@ def build_elastic_funcs(Ft):
                 break
         return X, ok
 
+    return polar_rotation
+
+
+@functools.cache
+def build_sym_eig(Ft):
+    """``sym_eig(A) -> (V, lam)``: ``A = V diag(lam) V^T`` of a symmetric 3x3 matrix by cyclic Jacobi, scalar
+    type ``Ft``."""
+    vec3, vec4, mat33 = build_types(Ft)
+    # Jacobi stops when the squared off-diagonal norm is below this times the squared diagonal norm.
+    EIG_TOL = Ft(1e-14) if Ft == wp.float32 else Ft(1e-30)
+
+    def jacobi_rotation(p, q, r):
+        # one Jacobi rotation annihilating A[p, q] of the symmetric A, accumulated into V (Golub & Van Loan,
+        # "Matrix Computations", Sec. 8.5); (p, q, r) a permutation of the axes, fixed per function
+        @wp.func
+        def rotate(A_in: mat33, V_in: mat33):
+            A = A_in
+            V = V_in
+            apq = A[p, q]
+            if apq != Ft(0.0):
+                theta = (A[q, q] - A[p, p]) / (Ft(2.0) * apq)
+                t = Ft(1.0) / (wp.abs(theta) + wp.sqrt(theta * theta + Ft(1.0)))
+                if theta < Ft(0.0):
+                    t = -t
+                c = Ft(1.0) / wp.sqrt(t * t + Ft(1.0))
+                s = t * c
+                A[p, p] = A[p, p] - t * apq
+                A[q, q] = A[q, q] + t * apq
+                A[p, q] = Ft(0.0)
+                A[q, p] = Ft(0.0)
+                arp = A[r, p]
+                arq = A[r, q]
+                A[r, p] = c * arp - s * arq
+                A[p, r] = A[r, p]
+                A[r, q] = s * arp + c * arq
+                A[q, r] = A[r, q]
+                for k in range(3):
+                    vkp = V[k, p]
+                    vkq = V[k, q]
+                    V[k, p] = c * vkp - s * vkq
+                    V[k, q] = s * vkp + c * vkq
+            return A, V
+        return rotate
+
+    rot01, rot02, rot12 = jacobi_rotation(0, 1, 2), jacobi_rotation(0, 2, 1), jacobi_rotation(1, 2, 0)
+
+    @wp.func
+    def sym_eig(A_in: mat33):
+        # A = V diag(lam) V^T of a symmetric A, V a rotation: cyclic Jacobi sweeps until the off-diagonal part
+        # is below the working precision relative to the diagonal (at most 12 sweeps)
+        A = A_in
+        V = wp.identity(3, dtype=Ft)
+        for sweep in range(12):
+            off = A[0, 1] * A[0, 1] + A[0, 2] * A[0, 2] + A[1, 2] * A[1, 2]
+            if off <= EIG_TOL * (A[0, 0] * A[0, 0] + A[1, 1] * A[1, 1] + A[2, 2] * A[2, 2]):
+                break
+            A, V = rot01(A, V)
+            A, V = rot02(A, V)
+            A, V = rot12(A, V)
+        return V, vec3(A[0, 0], A[1, 1], A[2, 2])
+
+    return sym_eig
+
+
+@functools.cache
+def build_decompositions(Ft):
+    """``(polar_rotation, sym_eig, svd)`` of scalar type ``Ft``: the polar rotation, the symmetric eigenproblem
+    and the SVD built on them (docs/mpm.md "Constitutive models"), written the same way in the Taichi plugin.
+
+    ``svd(F)``: for ``det F > 0`` the polar ``F = R S`` (``polar_rotation``), ``S = V diag(sig) V^T`` by cyclic
+    Jacobi (``sym_eig``), ``U = R V``; otherwise, or where the iteration does not converge, ``wp.svd3`` (Taichi:
+    ``ti.svd``; both give U, V proper rotations with a reflection carried by the sign of a singular value).
+    The singular values are not sorted: every use is an isotropic function of them."""
+    vec3, vec4, mat33 = build_types(Ft)
+    POLAR_TOL = polar_tol(Ft)
+    polar_rotation = build_polar(Ft)
+    sym_eig = build_sym_eig(Ft)
+
+    @wp.func
+    def svd(Fp: mat33):
+        # F = U diag(sig) V^T, U and V rotations (see build_decompositions)
+        R, ok = polar_rotation(Fp, POLAR_TOL)
+        U = mat33()
+        sig = vec3()
+        V = mat33()
+        if ok == 0:  # det F <= 0 (inverted) or no convergence
+            wp.svd3(Fp, U, sig, V)
+        else:
+            S = wp.transpose(R) * Fp
+            S = Ft(0.5) * (S + wp.transpose(S))
+            V, sig = sym_eig(S)
+            U = R * V
+        return U, sig, V
+
+    return polar_rotation, sym_eig, svd
+
+
+@functools.cache
+def build_elastic_funcs(Ft):
+    """``(hencky_tau, corotated_tau, jelly_tau)``: Kirchhoff stresses of scalar type ``Ft`` (Hencky strain,
+    fixed corotated from an SVD, fixed corotated with the polar rotation)."""
+    vec3, vec4, mat33 = build_types(Ft)
+    polar_rotation = build_polar(Ft)
+    POLAR_TOL = polar_tol(Ft)
+
+    @wp.func
+    def hencky_tau(U: mat33, eps: vec3, mu: Ft, lam: Ft):
+        # tau = U diag(2 mu eps + lam tr(eps)) U^T
+        tr = eps[0] + eps[1] + eps[2]
+        d = Ft(2.0) * mu * eps + vec3(lam * tr)
+        return U * wp.diag(d) * wp.transpose(U)
+
     @wp.func
     def corotated_tau(Fp: mat33, U: mat33, V: mat33, mu: Ft, lam: Ft):
         # tau = 2 mu (F - U V^T) F^T + lam J (J - 1) I, J = det F
@@ -92,6 +199,7 @@ def build_plastic_funcs(Ft):
     plasticine, sand; snow) for the scalar type ``Ft``."""
     vec3, vec4, mat33 = build_types(Ft)
     hencky_tau, corotated_tau, _ = build_elastic_funcs(Ft)
+    svd = build_decompositions(Ft)[2]
 
     @wp.func
     def hencky_return(F_trial: mat33, mu: Ft, lam: Ft, kind: int, b: int, p: int,
@@ -99,10 +207,7 @@ def build_plastic_funcs(Ft):
         # metal, plasticine (von Mises, Jp += plastic strain) and sand (Drucker-Prager) in Hencky strain:
         # returns (F after the return mapping, tau)
         Fp = F_trial
-        U = mat33()
-        sig = vec3()
-        V = mat33()
-        wp.svd3(Fp, U, sig, V)
+        U, sig, V = svd(Fp)
         eps = vec3(wp.log(wp.max(sig[0], Ft(1e-4))), wp.log(wp.max(sig[1], Ft(1e-4))),
                    wp.log(wp.max(sig[2], Ft(1e-4))))
         tr = eps[0] + eps[1] + eps[2]
@@ -134,10 +239,7 @@ def build_plastic_funcs(Ft):
                     Jp: wp.array(dtype=Ft)):
         # singular values clamped to [1 - theta_c, 1 + theta_s], hardening exp(xi (1 - Jp)):
         # returns (F after the return mapping, tau)
-        U = mat33()
-        sig = vec3()
-        V = mat33()
-        wp.svd3(F_trial, U, sig, V)
+        U, sig, V = svd(F_trial)
         jp = Jp[p]
         h = wp.exp(mat_par[b, P_HARDENING] * (Ft(1.0) - jp))
         s_lo = Ft(1.0) - mat_par[b, P_THETA_C]

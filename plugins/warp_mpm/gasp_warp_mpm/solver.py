@@ -12,9 +12,10 @@ Notes
 Choices where docs/mpm.md leaves room (the Taichi plugin agrees to ~1e-5 m on all seven materials):
 
 - ``jelly`` takes ``R = U V^T`` from a Newton polar iteration (Higham 1986) when ``det F > 0``,
-  which is the same matrix as the SVD's ``U V^T``; ``wp.svd3`` (U, V proper rotations, the sign of
-  a reflection on ``sig[2]``, checked in the tests) is used when ``det F <= 0`` and for every
-  plastic material. On the CPU ``wp.svd3`` costs about 0.8 us per call, the iteration ~0.1 us.
+  which is the same matrix as the SVD's ``U V^T``; the plastic materials take the SVD from that
+  rotation and a Jacobi eigen-decomposition of ``R^T F`` (the same algorithm as the Taichi plugin,
+  docs/mpm.md "Constitutive models"); ``wp.svd3`` (U, V proper rotations, the sign of a reflection
+  on ``sig[2]``, checked in the tests) is used when ``det F <= 0`` or the iteration does not converge.
 - ``metal`` / ``plasticine`` rebuild ``F = U diag(exp(eps)) V^T`` only when ``dg > 0``;
   ``sand`` always rebuilds it (the spec's punctuation).
 - Wall friction is applied axis by axis, x then y then z, the low face before the high face.
@@ -32,11 +33,12 @@ from typing import Any
 import numpy as np
 import warp as wp
 
+from gasp_core.toolkit.grid_engine import choose_dt, GridEngineBase
 from gasp_core.toolkit.materials import initial_Jp, material_table
 from gasp_core.toolkit.memory import check_memory, estimate_bytes
 from gasp_core.toolkit.contact import contact_coefficients, contact_model, ground_node_layer
-from gasp_core.toolkit.points import cell_order, engine_mass_stats, fixed_mask, material_first_order, stranded_passive
-from gasp_core.toolkit.substeps import passive_schedule, substeps_from_options
+from gasp_core.toolkit.points import cell_order, fixed_mask
+from gasp_core.toolkit.substeps import passive_schedule
 from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
 
 from . import ENGINE
@@ -68,13 +70,8 @@ def _init_warp(cpu_only: bool) -> None:
                 print(line, file=sys.stderr)
 
 
-def choose_dt(setup: SimSetup, opts: dict[str, Any]) -> tuple[int, float]:
-    """Substeps per frame and substep (``gasp_core.toolkit.substeps.mpm_substeps``, docs/mpm.md "Time step")."""
-    return substeps_from_options(setup, opts, ENGINE)
-
-
-class WarpMPMEngine:
-    """MLS-MPM in Warp (docs/mpm.md), one instance per simulation.
+class WarpMPMEngine(GridEngineBase):
+    """MLS-MPM in Warp (docs/mpm.md), one instance per simulation (the non-kernel part: GridEngineBase).
 
     Parameters
     ----------
@@ -95,12 +92,14 @@ class WarpMPMEngine:
         ``device="cuda"`` (or ``"cuda:N"``) without that CUDA device.
     """
 
+    ENGINE = ENGINE
+
     def __init__(self, setup: SimSetup):
         self.setup = setup
         opts = setup.options  # checked and completed by the core (build_engine)
         self.options = opts
         kinds, par = material_table(setup.materials)
-        choose_dt(setup, opts)  # refuses a scene past max_substeps before any build work
+        choose_dt(setup, opts, ENGINE)  # refuses a scene past max_substeps before any build work
         check_memory(estimate_bytes(len(setup.x), setup.n_grid, opts["precision"]), ENGINE,
                      f"{len(setup.x)} points, n_grid {setup.n_grid}, {opts['precision']}")
         self.device = self._start_warp(opts["device"])
@@ -113,13 +112,13 @@ class WarpMPMEngine:
         self.n_grid = int(setup.n_grid)
         self.dx = setup.dx
         self.inv_dx = 1.0 / self.dx
-        self.n_substeps, self.dt = choose_dt(setup, opts)
+        self.n_substeps, self.dt = choose_dt(setup, opts, ENGINE)
         self.frame = 0
         self.sim_time = 0.0
         # Sort points by grid cell (cache locality of scatter and gather); order[i] is the
         # setup index of internal point i.
         # Material points first, then the passive ones (SimSetup.passive: G2P only, no P2G).
-        self._order, self.n_material = material_first_order(setup, self.dx)
+        self.order_points(setup, self.dx)
         self._upload_points(kinds, par, Ft)
         self._allocate_grid(Ft)
         self._upload_boundaries(Ft)
@@ -348,66 +347,47 @@ class WarpMPMEngine:
         if not self.device.is_cuda:
             self._resort()
 
-    def _to_setup_order(self, a: wp.array) -> np.ndarray:
+    def check_open(self) -> None:
         if self._closed:
             raise EngineError(f"engine '{ENGINE}': engine was closed")
-        internal = a.numpy()
-        out = np.empty_like(internal)
-        out[self._order] = internal
-        return out
 
     def positions(self) -> np.ndarray:
         """Current positions, shape (n, 3), float32 (f32) or float64 (f64), metres, setup order."""
-        return self._to_setup_order(self.x)
+        self.check_open()
+        return self.to_setup_order(self.x.numpy())
 
     def velocities(self) -> np.ndarray:
         """Current velocities, shape (n, 3), float32 or float64, m/s, setup order."""
-        return self._to_setup_order(self.v)
+        self.check_open()
+        return self.to_setup_order(self.v.numpy())
 
-    _STATE = ("x", "v", "F", "C", "Jp", "p_mass", "p_vol", "body", "fixed")
+    # get_state / set_state (GridEngineBase): these arrays in internal (cell-sorted) order, that order, frame, sim_time
+    STATE = ("x", "v", "F", "C", "Jp", "p_mass", "p_vol", "body", "fixed")
 
-    def get_state(self) -> dict[str, np.ndarray]:
-        """The state after the current frame: the particle arrays in internal (cell-sorted) order,
-        that order, ``frame`` and ``sim_time``. With :meth:`set_state` on a fresh engine of the same
-        setup the run continues bit for bit (feature ``state``; ``gasp simulate --resume``)."""
-        if self._closed:
-            raise EngineError(f"engine '{ENGINE}': engine was closed")
-        out = {k: getattr(self, k).numpy().copy() for k in self._STATE}
-        out.update(order=self._order.copy(), frame=np.array(self.frame), sim_time=np.array(self.sim_time))
-        return out
+    def read_array(self, name: str) -> np.ndarray:
+        return getattr(self, name).numpy().copy()
 
-    def set_state(self, state: dict[str, np.ndarray]) -> None:
-        """Restore :meth:`get_state` into this engine (built from the same setup).
+    def write_array(self, name: str, value: np.ndarray) -> None:
+        getattr(self, name).assign(value)
 
-        Raises
-        ------
-        EngineError
-            A key is missing or an array has the wrong shape.
-        """
-        for k in self._STATE:
-            a = getattr(self, k)
-            v = np.asarray(state.get(k))
-            if v.shape != a.numpy().shape:
-                raise EngineError(f"engine '{ENGINE}': saved state '{k}' has shape {v.shape}; this setup needs "
-                                  f"{a.numpy().shape}")
-            a.assign(v)
+    def state_extras(self) -> dict[str, np.ndarray]:
+        return {"order": self._order.copy(), "frame": np.array(self.frame), "sim_time": np.array(self.sim_time)}
+
+    def restore_extras(self, state: dict[str, np.ndarray]) -> None:
         self._order = np.asarray(state["order"]).astype(np.int64)
         self.frame = int(state["frame"])
         self.sim_time = float(state["sim_time"])
 
     def stats(self) -> dict[str, Any]:
-        """``device, precision, n_points, dt`` (s), ``n_substeps`` (per frame), ``n_grid``, ``dx`` (m),
-        ``frame``, ``sim_time`` (s), ``n_passive``, ``mass`` (kg), ``centre_of_mass`` (m), ``inertia`` (kg m^2) and,
-        with passive points after a frame, ``passive_stranded`` (:func:`gasp_core.toolkit.points.stranded_passive`)."""
-        return {"device": str(self.device), "precision": self.precision, "n_points": self.n_points,
-                "dt": self.dt, "n_substeps": self.n_substeps, "n_grid": self.n_grid, "dx": self.dx,
-                "frame": self.frame, "sim_time": self.sim_time, "n_passive": self.n_points - self.n_material,
-                # as the engine's arrays hold it (not after close)
-                **({} if self._closed else engine_mass_stats(self.x.numpy(), self.p_mass.numpy())),
-                **({"passive_stranded": stranded_passive(
-                    self.x.numpy()[self.n_material:], self.grid_m.numpy().reshape((self.n_grid,) * 3),
-                    self.setup.domain_lo, self.dx)}
-                   if not self._closed and self.n_material < self.n_points and self.frame > 0 else {})}
+        """:meth:`GridEngineBase.grid_stats` (mass and passive statistics from the engine's arrays, not after
+        close) and ``sim_time`` (s)."""
+        live = not self._closed
+        out = self.grid_stats(str(self.device), self.precision, self.x.numpy() if live else None,
+                              self.p_mass.numpy() if live else None,
+                              self.grid_m.numpy().reshape((self.n_grid,) * 3) if live and self.n_material < self.n_points
+                              else None)
+        out["sim_time"] = self.sim_time
+        return out
 
     def close(self) -> None:
         """Release the Warp arrays and the CUDA graph."""

@@ -54,13 +54,10 @@ def build_stencil(Ft):
 
 
 @functools.cache
-def build_p2g(Ft):
-    """The P2G kernel ``p2g`` of scalar type ``Ft``: return mapping, stress, scatter."""
+def build_scatter(Ft):
+    """``(scatter, scatter_wind)``: a point's momentum and mass, and its windward area, added to its 27 nodes
+    (P2G), scalar type ``Ft``."""
     vec3, vec4, mat33 = build_types(Ft)
-    in_grid, weights = build_stencil(Ft)
-    return_mapping = build_return_mapping(Ft)
-
-    plane_contact, scatter_budget, _ = build_contact(Ft)
 
     @wp.func
     def scatter(grid_mv: wp.array(dtype=vec4), idx0: int, n_grid: int, W: mat33, mom0: vec3, A: mat33, pm: Ft):
@@ -97,6 +94,18 @@ def build_p2g(Ft):
                 for k in range(3):
                     grid_g[row + k] += sv * vec3(dW[i, 0] * W[j, 1] * W[k, 2], W[i, 0] * dW[j, 1] * W[k, 2],
                                                  W[i, 0] * W[j, 1] * dW[k, 2])
+
+    return scatter, scatter_wind
+
+
+@functools.cache
+def build_p2g(Ft):
+    """The P2G kernel ``p2g`` of scalar type ``Ft``: return mapping, stress, scatter."""
+    vec3, vec4, mat33 = build_types(Ft)
+    in_grid, weights = build_stencil(Ft)
+    return_mapping = build_return_mapping(Ft)
+    scatter, scatter_wind = build_scatter(Ft)
+    plane_contact, scatter_budget, _ = build_contact(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def p2g(

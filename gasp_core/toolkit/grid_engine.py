@@ -1,0 +1,139 @@
+"""What a grid (MPM) engine does outside its kernels, written once for the grid engines of GASP.
+
+Model: Newton's ``SolverBase`` (what every solver does around its kernels) and its solver ``Config`` (the
+options and capabilities as a record). A grid engine subclasses :class:`GridEngineBase`, sets :attr:`ENGINE`
+and :attr:`STATE` and supplies how its arrays are read and written (:meth:`GridEngineBase.read_array`,
+:meth:`GridEngineBase.write_array`); the base gives it the point order, the substeps, ``get_state`` /
+``set_state`` with one error text, and the statistics every grid engine reports. :data:`MPM_CAPABILITIES` is
+the capability record of the MLS-MPM algorithm of ``docs/mpm.md``.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from gasp_core.errors import EngineError
+from gasp_core.seam.engine import Capabilities
+from gasp_core.toolkit.points import engine_mass_stats, material_first_order, stranded_passive
+from gasp_core.toolkit.substeps import substeps_from_options
+
+#: What an engine implementing ``docs/mpm.md`` on CPU and CUDA offers (its plugin may narrow it).
+MPM_CAPABILITIES = Capabilities(
+    materials=frozenset({"jelly", "neo_hookean", "metal", "sand", "snow", "plasticine", "liquid"}),
+    boundaries=frozenset({"ground", "walls", "fixed_region"}),
+    devices=frozenset({"cpu", "cuda"}),
+    precisions=frozenset({"f32", "f64"}),
+    deterministic=frozenset({"cpu"}),
+    features=frozenset({"grid", "initial_C", "state", "static_colliders", "moving_colliders", "impulse", "wind",
+                        "attractors", "passive_points", "viscosity"}),
+)
+
+
+def choose_dt(setup, opts: dict[str, Any], engine: str) -> tuple[int, float]:
+    """Substeps per frame and substep length, s (``gasp_core.toolkit.substeps.substeps_from_options``,
+    docs/mpm.md "Time step").
+
+    Raises
+    ------
+    SceneError
+        More substeps per frame than the option ``max_substeps``.
+    """
+    return substeps_from_options(setup, opts, engine)
+
+
+class GridEngineBase:
+    """The part of a grid engine that is not a kernel.
+
+    Subclasses set :attr:`ENGINE` (the engine's name, for messages) and :attr:`STATE` (the names of the particle
+    arrays :meth:`get_state` saves, in the engine's internal point order) and implement :meth:`read_array` and
+    :meth:`write_array`; :meth:`state_extras` / :meth:`restore_extras` add what else a state holds.
+    """
+
+    ENGINE = "grid engine"
+    STATE: tuple[str, ...] = ()
+
+    # ------------------------------------------------------------------ point order
+    def order_points(self, setup, dx: float) -> None:
+        """Set ``_order`` (internal point i is setup point ``_order[i]``: material points by grid cell, then
+        passive points by cell; ``gasp_core.toolkit.points.material_first_order``) and ``n_material``."""
+        self._order, self.n_material = material_first_order(setup, dx)
+
+    @property
+    def _inverse(self) -> np.ndarray:
+        """Setup point i is internal point ``_inverse[i]`` (from the current ``_order``)."""
+        inverse = np.empty(len(self._order), np.int64)
+        inverse[self._order] = np.arange(len(self._order))
+        return inverse
+
+    def to_setup_order(self, internal: np.ndarray) -> np.ndarray:
+        """Rows of an internal-order array put back in the order of ``setup.x``."""
+        out = np.empty_like(internal)
+        out[self._order] = internal
+        return out
+
+    # ------------------------------------------------------------------ state
+    def read_array(self, name: str) -> np.ndarray:
+        """The particle array ``name`` of :attr:`STATE` as NumPy, internal order (a copy)."""
+        raise NotImplementedError
+
+    def write_array(self, name: str, value: np.ndarray) -> None:
+        """Overwrite the particle array ``name`` of :attr:`STATE` (internal order)."""
+        raise NotImplementedError
+
+    def check_open(self) -> None:
+        """Raise :class:`EngineError` where the engine can no longer be used (closed); subclasses add theirs."""
+
+    def state_extras(self) -> dict[str, np.ndarray]:
+        """What a state holds besides the :attr:`STATE` arrays (``frame``; subclasses add theirs)."""
+        return {"frame": np.array(self.frame)}
+
+    def restore_extras(self, state: dict[str, np.ndarray]) -> None:
+        """Restore :meth:`state_extras` (``frame``)."""
+        self.frame = int(state["frame"])
+
+    def get_state(self) -> dict[str, np.ndarray]:
+        """The state after the current frame: the :attr:`STATE` arrays (internal order) and
+        :meth:`state_extras`. With :meth:`set_state` on a fresh engine of the same setup the run continues
+        bit for bit (feature ``state``; ``gasp simulate --resume``)."""
+        self.check_open()
+        out = {k: self.read_array(k) for k in self.STATE}
+        out.update(self.state_extras())
+        return out
+
+    def set_state(self, state: dict[str, np.ndarray]) -> None:
+        """Restore :meth:`get_state` into this engine (built from the same setup).
+
+        Raises
+        ------
+        EngineError
+            A key is missing or an array has the wrong shape (naming the key and both shapes).
+        """
+        self.check_open()
+        for k in self.STATE:
+            a = np.asarray(state.get(k))
+            want = self.read_array(k).shape
+            if a.shape != want:
+                raise EngineError(f"engine '{self.ENGINE}': saved state '{k}' has shape {a.shape}; this setup needs "
+                                  f"{want}")
+            self.write_array(k, a)
+        self.restore_extras(state)
+
+    # ------------------------------------------------------------------ statistics
+    def grid_stats(self, device: str, precision: str, x: np.ndarray | None, p_mass: np.ndarray | None,
+                   grid_m: np.ndarray | None) -> dict[str, Any]:
+        """The statistics every grid engine reports: ``device, precision, n_points, dt`` (s), ``n_substeps``,
+        ``n_grid``, ``dx`` (m), ``frame``, ``n_passive``; with ``x`` and ``p_mass`` (internal order, the engine's
+        own arrays) ``mass`` (kg), ``centre_of_mass`` (m), ``inertia`` (kg m^2); with passive points after a frame
+        and ``grid_m`` (node masses of the last grid update, shape (n_grid,)*3), ``passive_stranded``
+        (:func:`gasp_core.toolkit.points.stranded_passive`)."""
+        setup = self.setup
+        n = len(setup.x)
+        out = {"device": device, "precision": precision, "n_points": int(n), "dt": float(self.dt),
+               "n_substeps": int(self.n_substeps), "n_grid": int(setup.n_grid), "dx": float(setup.dx),
+               "frame": self.frame, "n_passive": int(n - self.n_material)}
+        if x is not None:
+            out.update(engine_mass_stats(x, p_mass))
+            if grid_m is not None and self.n_material < n and self.frame > 0:
+                out["passive_stranded"] = stranded_passive(x[self.n_material:], grid_m, setup.domain_lo, setup.dx)
+        return out
