@@ -292,7 +292,8 @@ class WarpMPMEngine(GridEngineBase):
         perm = np.concatenate([self._cell_order(x[:m]), m + self._cell_order(x[m:])])
         if np.array_equal(perm, np.arange(self.n_points)):
             return
-        for a in (self.x, self.v, self.F, self.C, self.Jp, self.p_mass, self.p_vol, self.body, self.fixed):
+        per_point = [self.p_contact] if self.p_contact.shape[0] == self.n_points else []  # (1, 3) without planes
+        for a in (self.x, self.v, self.F, self.C, self.Jp, self.p_mass, self.p_vol, self.body, self.fixed, *per_point):
             view = a.numpy()
             view[...] = view[perm]
         self._order = self._order[perm]
@@ -375,6 +376,8 @@ class WarpMPMEngine(GridEngineBase):
 
     def restore_extras(self, state: dict[str, np.ndarray]) -> None:
         self._order = np.asarray(state["order"]).astype(np.int64)
+        if self.p_contact.shape[0] == self.n_points:   # the contact coefficients follow the restored order
+            self.p_contact.assign(contact_coefficients(self.setup)[self._order].astype(self._np_dtype))
         self.frame = int(state["frame"])
         self.sim_time = float(state["sim_time"])
 

@@ -263,3 +263,30 @@ def test_agrees_with_taichi_mpm():
     diff = np.abs(ew.positions().astype(np.float64) - et.positions().astype(np.float64)).max()
     print(f"warp_mpm vs taichi_mpm after 1 s: max |dx| = {diff:.3g} m = {diff / size:.3g} x size")
     assert diff < 1e-3 * size
+
+
+def test_contact_coefficients_follow_the_points_when_they_are_resorted():
+    """Each point keeps its own particle-contact coefficients (stiffness, damping, skin) after the CPU re-sort by
+    cell and after a state restore (they differ between points of different volumes; before this, the re-sort
+    permuted x, v, F, ... but not them)."""
+    from gasp_core.testing.helpers import make_setup, sphere_points
+    from gasp_core.toolkit.contact import contact_coefficients
+    rng = np.random.default_rng(3)
+    x, p_vol = sphere_points((0.5, 0.5, 0.2), 0.08, 0.02)
+    p_vol = p_vol * rng.uniform(0.3, 1.0, len(x))          # coefficients differ point to point
+    setup = make_setup(x, p_vol, Material("jelly", E=2e4, nu=0.3, rho=300.0), n_grid=16,
+                       boundaries=[Boundary("ground", height=0.1, friction=0.5)], v=(0.3, 0.1, -1.0),
+                       options={"contact": "particle"})
+    eng = build_engine(gasp_engines()[0], setup)
+    try:
+        for _ in range(4):
+            eng.step_frame()
+        assert not np.array_equal(eng._order, np.arange(len(x)))   # the points were re-sorted
+        want = contact_coefficients(setup)[eng._order]
+        assert np.allclose(eng.p_contact.numpy(), want, rtol=1e-6)
+        state = eng.get_state()
+        eng._order = eng._order[::-1].copy()
+        eng.set_state(state)
+        assert np.allclose(eng.p_contact.numpy(), contact_coefficients(setup)[eng._order], rtol=1e-6)
+    finally:
+        eng.close()
