@@ -29,8 +29,9 @@ def test_run_json_ground_meets_the_landed_donut(donut_run):
     (gr,) = o["ground_in_file_frame"]
     assert gr["axis"] == "z"
     lowest = min(read_gaussians(f).means[:, 2].min() for f in sorted((donut_run / o["name"]).glob("frame_*.ply")))
-    # in the file frame of the written frames the falling donut reaches the ground, and never goes below it;
-    # the grid ground stops it within about one cell (dx, metres; the placement's scale is 1 here)
+    # in the file frame of the written frames the falling donut reaches the ground and does not sink into it by
+    # more than the contact band of issue 28 (0.25 dx: the particle contact is a penalty, its impact dips the lowest
+    # Gaussians about 0.1 dx below the plane; the grid contact held them above it), nor float a cell above it
     dx = meta["domain"]["dx"]
     assert o["placement"]["scale"] == 1.0
-    assert gr["at"] - 1e-4 <= lowest <= gr["at"] + 1.5 * dx
+    assert gr["at"] - 0.25 * dx <= lowest <= gr["at"] + 1.5 * dx
