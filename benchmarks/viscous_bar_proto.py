@@ -27,7 +27,21 @@ if sub == "elastic":
 elif sub != "auto":
     setup.options["n_substeps"] = int(sub)
 info = get_engine("taichi_mpm")
+import gasp_taichi_mpm.engine as E
+import functools
+E.substeps_from_options = functools.partial(E.substeps_from_options, implicit_viscosity=True)
+built = []
+import gasp_taichi_mpm.solver as SM
+_orig = SM.MPMSolver
+def _make(*a, **k):
+    s = _orig(*a, **k)
+    built.append(s)
+    return s
+SM.MPMSolver = _make
 tr = run_trace(info, setup, round(BAR_T / BAR_FRAME_DT))
+vis = getattr(built[-1], "visc", None)
+if vis is not None:
+    print("cg iterations per solve", vis.iters / max(vis.solves, 1))
 mat = setup.materials[0]
 beta, wd, delta = kelvin_voigt_decrement(mat.E, mat.rho, mat.viscosity, BAR_L)
 fit = bar_mode_decay(tr)
