@@ -59,7 +59,7 @@ def test_closed_mesh_volume_within_3_percent(shape, n):
     T = mesh_gaussians(mesh, n)
     h = np.ptp(mesh.vertices, axis=0).max() / 64
     fr = fill_interior(T.reshape(-1, 3), h, splats=T, name=shape)
-    assert fr.report.closed and fr.report.method == "flood" and not fr.report.warning
+    assert fr.report.closed and fr.report.method == "six-ray" and not fr.report.warning
     assert fr.volume == pytest.approx(v_true, rel=0.03)
     # volumes are shared, never double counted: they sum to the solid's cell count
     assert fr.p_vol_surface.sum() + fr.p_vol_fill.sum() == pytest.approx(fr.volume)
@@ -95,7 +95,10 @@ def test_open_shape_warns_or_refuses():
     h = 0.4 / 48
     fr = fill_interior(T.reshape(-1, 3), h, splats=T, name="bowl")
     assert not fr.report.closed and fr.report.method == "shell-open"
-    assert "bowl" in fr.report.warning
+    assert "bowl" in fr.report.warning and " mm)" in fr.report.warning and " m^3." in fr.report.warning
+    # gasp info without --size: the coordinates are file units, and the warning says so (issue 33)
+    w = fill_interior(T.reshape(-1, 3), h, splats=T, name="bowl", unit="file units").report.warning
+    assert "file units^3." in w and " m^3" not in w and " mm" not in w
     # a shell: much less than the half ball
     assert fr.volume < 0.3 * (2 / 3 * np.pi * 0.2 ** 3)
     with pytest.raises(SceneError, match="object 'bowl'.*refusing"):

@@ -1,4 +1,5 @@
 """Engine discovery: entry points, duplicates, typos in hook names, GASP_LOAD_PLUGINS, capability checks."""
+import os
 import textwrap
 
 import pluggy
@@ -86,6 +87,24 @@ def test_unknown_and_unavailable_engines(fresh_pm):
         plugins.get_engine("nope", pm)
     with pytest.raises(EngineError, match="foo is not installed"):
         plugins.get_engine("absent", pm)
+
+
+def test_a_clone_plugin_not_installed_names_its_install_line(fresh_pm):
+    """An engine of this clone's plugins/ folder that is not registered: the error gives its pip line."""
+    from pathlib import Path
+    pm = pluggy.PluginManager("gasp")
+    pm.add_hookspecs(plugins.HookSpec)
+    folder = Path(plugins.__file__).resolve().parents[2] / "plugins" / "warp_mpm"
+    if not (folder / "pyproject.toml").is_file():
+        pytest.skip("not a clone with plugins/warp_mpm")
+    with pytest.raises(EngineError) as e:
+        plugins.get_engine("warp_mpm", pm)
+    line = str(e.value)
+    assert "\n" not in line and "unknown engine 'warp_mpm'" in line
+    assert line.endswith("python -m pip install -e " + os.path.relpath(folder))
+    with pytest.raises(EngineError) as e:   # a name with no folder: no install line
+        plugins.get_engine("bullet_sph", pm)
+    assert "pip install" not in str(e.value)
 
 
 def test_every_hook_is_documented():

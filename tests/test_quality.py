@@ -59,7 +59,7 @@ def test_surface_rule_passive_on_a_resolved_solid_material_otherwise():
     pts = _ball(0.05)              # volume 5.2e-4 m^3 = 524 cells: passive
     fr = fill_interior(pts, dx / 2, fill=True, surface_mass=False)
     passive, rec = surface_rule(True, len(pts), fr, dx, "sand")
-    assert passive and rec["surface"] == "passive" and rec["fill_method"] == "flood"
+    assert passive and rec["surface"] == "passive" and rec["fill_method"] == "six-ray"
     assert surface_rule(True, len(pts), fr, dx, "jelly")[0] is False        # an elastic body keeps the full model
     assert rec["solid_cells"] == pytest.approx(4 / 3 * np.pi * 0.05 ** 3 / dx ** 3, rel=0.3)
     assert rec["n_surface_points"] == 2000 and rec["n_fill_points"] == len(fr.fill_x)

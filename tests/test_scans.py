@@ -257,7 +257,7 @@ def test_cells_larger_than_the_object_are_an_error(tmp_path):
 def test_coarse_grid_warns_with_the_n_grid_that_gives_8_cells():
     from gasp_core.maps.fill import FillReport
     from gasp_core.prepare.checks import check_resolution
-    solid = FillReport("ball", 1e-3, 10, 0.01, 0.001, "flood", True, 1)
+    solid = FillReport("ball", 1e-3, 10, 0.01, 0.001, "six-ray", True, 1)
     msgs = check_resolution("ball", np.array([0.1, 0.1, 0.1]), 0.025, 16, solid)
     assert len(msgs) == 1 and "4.0 grid cells" in msgs[0] and "n_grid = 32 gives 8" in msgs[0]
     assert check_resolution("ball", np.array([0.1, 0.1, 0.1]), 0.0125, 32, solid) == []
@@ -317,4 +317,4 @@ def test_info_scale_volume_and_mass_of_the_real_donut(capsys):
     hull = trimesh.convex.convex_hull(2.0 * g.means[1 / (1 + np.exp(-g.opacities)) >= 0.1]).volume
     assert d["volume_unit"] == "m^3" and 0.6 * hull < d["filled_volume"] < hull
     assert d["mass_kg"] == pytest.approx(300 * d["filled_volume"])
-    assert d["fill_method"] == "flood" and 0 < d["fill_confidence"] <= 1
+    assert d["fill_method"] == "six-ray" and 0 < d["fill_confidence"] <= 1

@@ -160,3 +160,27 @@ def test_a_stop_before_any_checkpoint_keeps_nothing(tmp_path, donut_small, capsy
     assert main(["simulate", str(scene), "-o", str(tmp_path / "out"), "-q"]) == 130
     assert not_resolution(capsys.readouterr().err) == "gasp: interrupted by SIGINT; no partial output was kept\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["scene.toml"]
+
+
+def test_viewer_stopped_by_sigterm_says_so(donut_run, tmp_path):
+    """Issue 33: ``gasp view`` is stopped by SIGTERM with one line that fits a viewer (it writes nothing, so
+    "no partial output was kept" would not fit), exit 130."""
+    pytest.importorskip("viser", reason="the view extra is not installed: pip install -e '.[view]'")
+    import socket
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    p = subprocess.Popen([sys.executable, "-m", "gasp_core.cli.main", "view", str(donut_run), "--port", str(port)],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path)
+    deadline = time.time() + 120
+    while time.time() < deadline:   # serving once the port accepts a connection
+        try:
+            socket.create_connection(("127.0.0.1", port), timeout=1).close()
+            break
+        except OSError:
+            time.sleep(0.5)
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=60)
+    lines = [ln for ln in err.splitlines() if ln.startswith("gasp:")]
+    assert p.returncode == 130, err
+    assert lines == ["gasp: viewer stopped by SIGTERM"], err

@@ -58,7 +58,8 @@ def info(path: Path, size: float | None = None, rho: float | None = None, n_grid
     ext = float(np.ptp(o.tri_rest.reshape(-1, 3), axis=0).max())
     dom = DomainSpec()
     h = fill_spacing(ext * (1 + 2 * dom.padding) / n_grid, dom.particles_per_cell)
-    fr = fill_interior(o.tri_rest.reshape(-1, 3), h, splats=o.tri_rest[opaque], name=o.name)
+    fr = fill_interior(o.tri_rest.reshape(-1, 3), h, splats=o.tri_rest[opaque], name=o.name,
+                       unit="m" if size is not None else "file units")
     r = fr.report
     d.update({"filled_volume": fr.volume, "volume_unit": "m^3" if size is not None else "file units^3",
               "fill_method": r.method, "fill_confidence": r.confidence, "fill_sealed": r.sealed,

@@ -45,7 +45,7 @@ class FillReport:
     voxel : float
         Occupancy-grid voxel size chosen from the splat density, metres (0 for a plain shell).
     method : str
-        ``"flood"`` (closed, filled), ``"shell-open"`` (open or leaking: a shell), ``"shell"``
+        ``"six-ray"`` (closed, filled by the six-ray inside vote of :mod:`gasp_core.maps.occupancy`), ``"shell-open"`` (open or leaking: a shell), ``"shell"``
         (``fill = false``).
     closed : bool
         The footprints enclose a volume.
@@ -131,7 +131,7 @@ def fill_spacing(dx: float, particles_per_cell: float, core_fraction: float = 1.
 
 def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None, fill: bool = True,
                   name: str = "object", if_open: str = "warn", max_dilation: int = 4,
-                  voxel: float | None = None, surface_mass: bool = True) -> FillResult:
+                  voxel: float | None = None, surface_mass: bool = True, unit: str = "m") -> FillResult:
     """Fill an object's enclosed interior at spacing ``h`` and give every point its volume.
 
     Parameters
@@ -156,6 +156,9 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
         Largest closing radius, occupancy voxels.
     voxel : float, optional
         Occupancy voxel, metres; default from the splat density.
+    unit : str
+        The length unit of the coordinates, as the warning names it: ``"m"`` (a scene), or ``"file units"``
+        (``gasp info`` without ``--size``).
     surface_mass : bool
         True: the surface points share their cells' volume and only cells without one get a
         fill point. False (passive surface, ``surface = "passive"``): the surface points get
@@ -185,12 +188,13 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
     if phi is not None:
         inside = _inside_cells(phi, vlo, voxel_used, lo, shape, h)
         thin = thin_parts(phi, vlo, voxel_used, inside, lo, h)
-        method, closed, warning = "flood", True, ""
+        method, closed, warning = "six-ray", True, ""
     else:
         inside = rasterize(splats, lo, shape, h)
         closed = False
         method = "shell" if not fill else "shell-open"
-        warning = "" if not fill else _open_warning(name, max_dilation, voxel_used, float(inside.sum()) * h ** 3)
+        warning = "" if not fill else _open_warning(name, max_dilation, voxel_used, float(inside.sum()) * h ** 3,
+                                                          unit)
         if fill and if_open == "error":
             raise SceneError(warning.replace("; simulated as a hollow shell", "; refusing to simulate a hollow shell"))
     cells = np.argwhere(inside)
@@ -210,10 +214,12 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
     return FillResult(fill_x, p_vol_surface, p_vol_fill, float(h), volume, report)
 
 
-def _open_warning(name: str, max_dilation: int, voxel: float, volume: float) -> str:
-    """The warning for an object whose footprints enclose no volume (simulated as a shell of ``volume`` m^3)."""
+def _open_warning(name: str, max_dilation: int, voxel: float, volume: float, unit: str = "m") -> str:
+    """The warning for an object whose footprints enclose no volume (simulated as a shell of ``volume``
+    ``unit``^3)."""
+    size = f"{voxel * 1e3:.3g} mm" if unit == "m" else f"{voxel:.3g} {unit}"
     return (f"object '{name}': its Gaussians enclose no volume (open, or gaps wider than the largest closing, "
-            f"{max_dilation} voxels of {voxel * 1e3:.3g} mm); simulated as a hollow shell of {volume:.4g} m^3. "
+            f"{max_dilation} voxels of {size}); simulated as a hollow shell of {volume:.4g} {unit}^3. "
             f"Set fill = false to accept a shell, or close the model")
 
 

@@ -7,7 +7,7 @@ model's own grid error there (1.8 %): an elastic body keeps the two models' diff
 distributions ringing. They also need a fill to ride on. So an object's surface is passive when
 
 * its material is not an elastic solid (``jelly``, ``neo_hookean``: :data:`ELASTIC`), and
-* its fill is on and the footprints enclose a volume (``FillReport.method == "flood"``), and
+* its fill is on and the footprints enclose a volume (``FillReport.method == "six-ray"``), and
 * the filled solid spans at least :data:`MIN_SOLID_CELLS` grid cells (``volume / dx^3``), so the
   grid resolves the body the vertices follow;
 
@@ -51,7 +51,7 @@ def surface_rule(fill_on: bool, n_vertices: int, fr: FillResult, dx: float,
     """
     n_fill = len(fr.fill_x)
     cells = float(fr.volume) / dx ** 3 if n_fill else 0.0
-    passive = bool(material not in ELASTIC and fill_on and fr.report.method == "flood" and cells >= MIN_SOLID_CELLS)
+    passive = bool(material not in ELASTIC and fill_on and fr.report.method == "six-ray" and cells >= MIN_SOLID_CELLS)
     return passive, {
         "surface": "passive" if passive else "material", "n_surface_points": int(n_vertices),
         "n_fill_points": int(n_fill), "surface_per_fill": (n_vertices / n_fill) if n_fill else None,

@@ -1,6 +1,7 @@
 """``gasp render`` and ``gasp view`` command-line handlers (argparse wiring for :mod:`gasp_core.cli.main`)."""
 from __future__ import annotations
 
+import sys
 import time
 
 from gasp_core.errors import SceneError
@@ -115,5 +116,9 @@ def cmd_view(args) -> int:
         print(f"wrote {out} ({out.stat().st_size / 1e6:.1f} MB; open it in a browser, no server needed)")
         return 0
     from gasp_core.render.viewer import serve
-    serve(args.run, host=args.host, port=args.port)
+    try:
+        serve(args.run, host=args.host, port=args.port)
+    except KeyboardInterrupt as e:  # a viewer writes nothing: "no partial output was kept" would not fit
+        print(f"gasp: viewer stopped by {getattr(e, 'signal_name', 'Ctrl-C')}", file=sys.stderr)
+        return 130
     return 0

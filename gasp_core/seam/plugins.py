@@ -15,6 +15,7 @@ import dataclasses
 import functools
 import importlib.metadata as md
 import os
+from pathlib import Path
 from typing import Any, Callable
 
 import pluggy
@@ -214,6 +215,30 @@ def soup_writers(pm: pluggy.PluginManager | None = None) -> dict[str, SoupWriter
     return registered("gasp_soup_writers", "soup writer", pm)
 
 
+def install_hint(name: str) -> str:
+    """How to install the plugin called ``name`` from this clone, or ``""`` when the clone has none.
+
+    A plugin of the repository lives in ``plugins/<name>/pyproject.toml`` beside the core package (the
+    editable install of a clone); the hint is its ``pip install -e`` line, with the path as seen from the
+    working directory.
+    """
+    folder = Path(__file__).resolve().parents[2] / "plugins" / name
+    if not (folder / "pyproject.toml").is_file():
+        return ""
+    try:
+        shown = os.path.relpath(folder)
+    except ValueError:  # another drive (Windows)
+        shown = str(folder)
+    return f"python -m pip install -e {shown}"
+
+
+def unknown_engine_message(name: str, found) -> str:
+    """The one-line error for an engine that is not installed: the installed ones, and how to get ``name``."""
+    msg = f"unknown engine '{name}'; installed engines: {sorted(found) or 'none'}"
+    hint = install_hint(name)
+    return f"{msg}; to install it: {hint}" if hint else msg
+
+
 def get_engine(name: str, pm: pluggy.PluginManager | None = None) -> EngineInfo:
     """The engine called ``name``.
 
@@ -228,7 +253,7 @@ def get_engine(name: str, pm: pluggy.PluginManager | None = None) -> EngineInfo:
         dist, err = BROKEN[name]
         raise EngineError(f"engine plugin '{name}' ({dist}) is installed but fails to import: {err}")
     if name not in found:
-        raise EngineError(f"unknown engine '{name}'; installed engines: {sorted(found) or 'none'}")
+        raise EngineError(unknown_engine_message(name, found))
     info = found[name]
     reason = info.unavailable_reason()
     if reason:

@@ -202,10 +202,10 @@ def resolve_engine(engine: str | EngineInfo) -> EngineInfo:
     """
     if isinstance(engine, EngineInfo):
         return engine
-    from gasp_core.seam.plugins import engines
+    from gasp_core.seam.plugins import engines, unknown_engine_message
     found = engines()
     if engine not in found:
-        raise EngineError(f"unknown engine '{engine}'; installed engines: {sorted(found) or 'none'}")
+        raise EngineError(unknown_engine_message(engine, found))
     return found[engine]
 
 

@@ -8,6 +8,33 @@ import numpy as np
 
 from gasp_core.colliders.model import COL_META, COL_POSE, FALLOFFS, FORCE_ROW, IMPULSE_ROW, MODE_ROW
 
+# --------------------------------------------------------------------------- named columns the kernels read
+# Both grid engines index the flat tables below with these names (row sizes: gasp_core.colliders.model).
+#: ``col_meta`` row (:data:`COL_META` floats): SDF origin (3, m), spacing h (m), samples nx, ny, nz, offset of the
+#: collider's first sample in ``sdf`` (``3 *`` that in ``sdf_grad``), Coulomb friction.
+CM_ORIGIN, CM_H, CM_NX, CM_NY, CM_NZ, CM_OFFSET, CM_FRICTION = 0, 3, 4, 5, 6, 7, 8
+#: ``forces`` row (:data:`FORCE_ROW` floats): kind (0 wind, 1 attractor), c (3: wind velocity, m/s, or attractor
+#: point, m), drag factor 1/2 rho_air C_d (kg/m^3), strength (m/s^2), radius (m), falloff (index of FALLOFFS),
+#: first mode row and mode count in ``modes``.
+FR_KIND, FR_C, FR_DRAG, FR_STRENGTH, FR_RADIUS, FR_FALLOFF, FR_MODE_START, FR_MODE_COUNT = 0, 1, 4, 7, 8, 9, 10, 11
+#: ``forces`` kinds, and the falloff code of an attractor falling as 1/r^2 outside its radius.
+FORCE_WIND, FORCE_ATTRACTOR = 0, 1
+FALLOFF_INVERSE_SQUARE = FALLOFFS.index("inverse_square")
+#: ``modes`` row (:data:`MODE_ROW` floats, ``ForceField.modes``): wave vector k (3, 1/m), amplitude A (3, m/s),
+#: phase (rad), omega (rad/s).
+MD_K, MD_A, MD_PHASE, MD_OMEGA = 0, 3, 6, 7
+#: ``impulses`` row (:data:`IMPULSE_ROW` floats): shape (0 box, 1 sphere), a (3: lo or centre, m), b (3: hi or
+#: (radius, 0, 0), m), mode (0 add, 1 set), dv (3, m/s).
+IM_SHAPE, IM_A, IM_B, IM_MODE, IM_DV = 0, 1, 4, 7, 8
+#: ``impulses`` shapes and modes.
+IMPULSE_BOX, IMPULSE_SPHERE = 0, 1
+IMPULSE_ADD, IMPULSE_SET = 0, 1
+#: A row of :func:`frame_table` (``GridTables.width`` floats): time (s), then :data:`COL_POSE` floats per collider
+#: from ``FT_POSES``, then one weight per impulse.
+FT_TIME, FT_POSES = 0, 1
+#: A collider's pose block (:data:`COL_POSE` floats): R (9, row-major), T (3, m), v (3, m/s), omega (3, rad/s).
+PO_R, PO_T, PO_V, PO_W = 0, 9, 12, 15
+
 
 # --------------------------------------------------------------------------- grid-engine tables
 @dataclass
@@ -40,12 +67,12 @@ class GridTables:
     @property
     def has_wind(self) -> bool:
         """Whether any force row is a wind (kind 0): the engines then gather the windward area per node."""
-        return any(self.forces[r * FORCE_ROW] == 0.0 for r in range(self.n_forces))
+        return any(self.forces[r * FORCE_ROW + FR_KIND] == FORCE_WIND for r in range(self.n_forces))
 
     @property
     def width(self) -> int:
         """Floats per substep in :func:`frame_table`: time, then a pose per collider, a weight per impulse."""
-        return 1 + COL_POSE * self.n_colliders + self.n_impulses
+        return FT_POSES + COL_POSE * self.n_colliders + self.n_impulses
 
 
 def grid_tables(setup) -> GridTables:
@@ -65,16 +92,17 @@ def grid_tables(setup) -> GridTables:
     for f in forces:
         md = f.modes()
         if f.kind == "wind":
-            frows.append([0, *(f.speed * np.asarray(f.direction, float)), f.drag_factor, 0, 0, 0.0, 0.0, 0, m0, len(md)])
+            frows.append([FORCE_WIND, *(f.speed * np.asarray(f.direction, float)), f.drag_factor, 0, 0, 0.0, 0.0, 0, m0, len(md)])
         else:
-            frows.append([1, *f.point, 0, 0, 0, f.strength, f.radius, FALLOFFS.index(f.falloff), m0, 0])
+            frows.append([FORCE_ATTRACTOR, *f.point, 0, 0, 0, f.strength, f.radius, FALLOFFS.index(f.falloff), m0, 0])
         modes.append(md)
         m0 += len(md)
     irows = []
     for i in imps:
         a = i.lo if i.shape == "box" else i.centre
         b = i.hi if i.shape == "box" else (i.radius, 0.0, 0.0)
-        irows.append([0 if i.shape == "box" else 1, *a, *b, 0 if i.mode == "add" else 1, *i.velocity_change])
+        irows.append([IMPULSE_BOX if i.shape == "box" else IMPULSE_SPHERE, *a, *b,
+                      IMPULSE_ADD if i.mode == "add" else IMPULSE_SET, *i.velocity_change])
     return GridTables(
         n_colliders=len(cols), n_forces=len(forces), n_impulses=len(imps),
         sdf=np.concatenate(sdf) if sdf else np.zeros(1), sdf_grad=np.concatenate(grad) if grad else np.zeros(3),

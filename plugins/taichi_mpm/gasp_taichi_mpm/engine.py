@@ -51,7 +51,7 @@ def _quiet_init(ti, **kw) -> None:
             print(line, file=sys.stderr)
 
 
-def time_step(setup: SimSetup, opt: dict[str, Any]) -> tuple[int, float]:
+def choose_dt(setup: SimSetup, opt: dict[str, Any]) -> tuple[int, float]:
     """Substeps per frame and substep length (``gasp_core.toolkit.substeps.mpm_substeps``, docs/mpm.md)."""
     return substeps_from_options(setup, opt, ENGINE)
 
@@ -87,7 +87,7 @@ class TaichiMPMEngine:
     def __init__(self, setup: SimSetup):
         global _generation
         opt = setup.options  # checked and completed by the core (build_engine)
-        self.n_substeps, self.dt = time_step(setup, opt)
+        self.n_substeps, self.dt = choose_dt(setup, opt)
         check_memory(estimate_bytes(len(setup.x), setup.n_grid, opt["precision"]) + MAX_PRIVATE_GRID_BYTES,
                      ENGINE, f"{len(setup.x)} points, n_grid {setup.n_grid}, {opt['precision']}")
         import taichi as ti
@@ -112,7 +112,8 @@ class TaichiMPMEngine:
         self._gen = _generation
         self._ti = ti
         self.threads = threads
-        from .solver import MPMSolver, node_ranges
+        from .grid import node_ranges
+        from .solver import MPMSolver
 
         dx = setup.dx
         n = len(setup.x)

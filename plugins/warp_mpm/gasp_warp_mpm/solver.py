@@ -173,7 +173,7 @@ class WarpMPMEngine:
         d, k = self.device, self.k
         n_nodes = self.n_grid ** 3
         self.grid_mv = wp.zeros(n_nodes, dtype=k.vec4, device=d)
-        self.grid_vel = wp.zeros(n_nodes, dtype=k.vec3, device=d)
+        self.grid_v = wp.zeros(n_nodes, dtype=k.vec3, device=d)
         n_passive = self.n_points - self.n_material
         self.grid_m = wp.zeros(n_nodes if n_passive else 1, dtype=Ft, device=d)   # node mass (passive G2P)
         # with wind: sum_p p_vol grad N_ip per node (m^2), the windward area the drag acts on
@@ -217,11 +217,11 @@ class WarpMPMEngine:
                 self.mat_kind, self.mat_par, self.grid_mv, self.flags, lo_v, inv_dx, dx, dt_f, ng,
                 self.grid_g, self.has_wind, self.grid_mv0, int(self.flip > 0)]),
             wp.launch(k.grid_update, dim=ng ** 3, device=d, record_cmd=True, inputs=[
-                self.grid_mv, self.grid_vel, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, self.wall_mu,
+                self.grid_mv, self.grid_v, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, self.wall_mu,
                 self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex, self.grid_g, self.has_wind,
                 self.grid_mv0, self.grid_v0, int(self.flip > 0)]),
             wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
-                self.x, self.v, self.C, self.fixed, self.grid_vel, lo_v, inv_dx, dt_f, ng, self.grid_v0, Ft(self.flip)]),
+                self.x, self.v, self.C, self.fixed, self.grid_v, lo_v, inv_dx, dt_f, ng, self.grid_v0, Ft(self.flip)]),
         ]
         # passive points after the grid update (the grid velocity holds forces, colliders, boundaries):
         # one launch per distinct interval of passive_schedule, at the substeps it names
@@ -235,7 +235,7 @@ class WarpMPMEngine:
                 if m not in by_interval:
                     by_interval[m] = wp.launch(
                         k.g2p_passive, dim=n_passive, device=d, record_cmd=True, inputs=[
-                            self.x, self.v, self.C, self.fixed, self.grid_vel, self.grid_m, self.flags, lo_v,
+                            self.x, self.v, self.C, self.fixed, self.grid_v, self.grid_m, self.flags, lo_v,
                             inv_dx, dt_f, m, ng, self.n_material])
                 self._passive_at[substep] = by_interval[m]
         self._tick = (wp.launch(k.tick, dim=1, device=d, record_cmd=True, inputs=[ex.step])
@@ -402,7 +402,7 @@ class WarpMPMEngine:
         self._graph = None
         self._launches, self._passive_at, self._tick = [], [], None
         self._check_launch = None
-        for name in ("x", "v", "F", "C", "Jp", "p_mass", "p_vol", "body", "fixed", "grid_mv", "grid_vel", "grid_m"):
+        for name in ("x", "v", "F", "C", "Jp", "p_mass", "p_vol", "body", "fixed", "grid_mv", "grid_v", "grid_m"):
             if hasattr(self, name):
                 setattr(self, name, None)
         self._closed = True

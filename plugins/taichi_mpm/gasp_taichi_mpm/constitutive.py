@@ -1,0 +1,207 @@
+"""Constitutive models (docs/mpm.md "Constitutive models"): the Kirchhoff stresses, the polar rotation, the SVD
+and the per-material return mapping, as Taichi functions.
+
+Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields and flags (``real``, ``atomic``, ...) it reads.
+Sources: taichi_elements (materials), Klar et al. 2016 (Drucker-Prager sand), Stomakhin et al. 2013 (snow),
+Higham 1986 (polar decomposition), Golub & Van Loan (Jacobi eigenvalues).
+"""
+import taichi as ti
+
+# Material codes and the per-body parameter columns (``MPMSolver.mat``) are gasp_core.toolkit.materials'.
+from gasp_core.toolkit.materials import (JELLY, LIQUID, METAL, NEO_HOOKEAN, P_ALPHA, P_HARDENING, P_K, P_LAM, P_MU,
+                                         P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND, SNOW,
+                                         VON_MISES_RADIUS)
+
+
+class Constitutive:
+    """Return mapping and stress of a point (:meth:`return_mapping`) and the decompositions it uses."""
+
+    @ti.func
+    def udvt(self, U, d, V):
+        D = ti.Matrix.zero(self.real, 3, 3)
+        D[0, 0] = d[0]
+        D[1, 1] = d[1]
+        D[2, 2] = d[2]
+        return U @ D @ V.transpose()
+
+    @ti.func
+    def corotated_tau(self, F, U, V, mu, lam):
+        R = U @ V.transpose()
+        J = F.determinant()
+        return 2.0 * mu * (F - R) @ F.transpose() + ti.Matrix.identity(self.real, 3) * (lam * J * (J - 1.0))
+
+    @ti.func
+    def polar_rotation(self, F):
+        """``U V^T`` of the SVD with proper rotations: the rotation closest to F.
+
+        For ``det F > 0`` this is the polar factor, found by Higham's scaled Newton iteration
+        ``X <- (g X + X^-T / g) / 2`` (Higham 1986, "Computing the polar decomposition"), which is
+        several times cheaper than Taichi's ``ti.svd`` on CPU; it stops when the step is below
+        ``sqrt`` of the target accuracy (quadratic convergence). Otherwise ``ti.svd``.
+        """
+        R = ti.Matrix.zero(self.real, 3, 3)
+        if F.determinant() > 0.0:
+            X = F
+            tol = ti.static(3e-4 if self.real == ti.f32 else 1e-8)
+            scale = True
+            for it in range(24):
+                det = X.determinant()
+                cof = ti.Matrix([
+                    [X[1, 1] * X[2, 2] - X[1, 2] * X[2, 1], X[1, 2] * X[2, 0] - X[1, 0] * X[2, 2],
+                     X[1, 0] * X[2, 1] - X[1, 1] * X[2, 0]],
+                    [X[0, 2] * X[2, 1] - X[0, 1] * X[2, 2], X[0, 0] * X[2, 2] - X[0, 2] * X[2, 0],
+                     X[0, 1] * X[2, 0] - X[0, 0] * X[2, 1]],
+                    [X[0, 1] * X[1, 2] - X[0, 2] * X[1, 1], X[0, 2] * X[1, 0] - X[0, 0] * X[1, 2],
+                     X[0, 0] * X[1, 1] - X[0, 1] * X[1, 0]]])
+                inv_t = cof / det  # X^-T
+                g = 1.0
+                if scale:
+                    g = ti.sqrt(ti.sqrt(inv_t.norm_sqr() / X.norm_sqr()))
+                X_new = 0.5 * (g * X + inv_t / g)
+                delta = (X_new - X).norm()
+                X = X_new
+                if delta < 1e-2:
+                    scale = False
+                if delta < tol:
+                    break
+            R = X
+        else:
+            U, S, V = ti.svd(F, self.real)
+            R = U @ V.transpose()
+        return R
+
+    @ti.func
+    def sym_eig(self, A):
+        """Eigen-decomposition ``A = V diag(lam) V^T`` of a symmetric 3x3 matrix, V a rotation.
+
+        Cyclic Jacobi rotations (Golub & Van Loan, "Matrix Computations", Sec. 8.5), stopped when
+        the off-diagonal part is below the working precision relative to the diagonal.
+        """
+        V = ti.Matrix.identity(self.real, 3)
+        tol = ti.static(1e-14 if self.real == ti.f32 else 1e-30)  # squared, relative
+        for sweep in range(12):
+            off = A[0, 1] ** 2 + A[0, 2] ** 2 + A[1, 2] ** 2
+            if off <= tol * (A[0, 0] ** 2 + A[1, 1] ** 2 + A[2, 2] ** 2):
+                break
+            for pqr in ti.static([(0, 1, 2), (0, 2, 1), (1, 2, 0)]):
+                p, q, r = ti.static(pqr[0], pqr[1], pqr[2])
+                apq = A[p, q]
+                if apq != 0.0:
+                    theta = (A[q, q] - A[p, p]) / (2.0 * apq)
+                    t = 1.0 / (ti.abs(theta) + ti.sqrt(theta * theta + 1.0))
+                    if theta < 0.0:
+                        t = -t
+                    c = 1.0 / ti.sqrt(t * t + 1.0)
+                    s = t * c
+                    A[p, p] -= t * apq
+                    A[q, q] += t * apq
+                    A[p, q] = 0.0
+                    A[q, p] = 0.0
+                    arp = A[r, p]
+                    arq = A[r, q]
+                    A[r, p] = c * arp - s * arq
+                    A[p, r] = A[r, p]
+                    A[r, q] = s * arp + c * arq
+                    A[q, r] = A[r, q]
+                    for k in ti.static(range(3)):
+                        vkp = V[k, p]
+                        vkq = V[k, q]
+                        V[k, p] = c * vkp - s * vkq
+                        V[k, q] = s * vkp + c * vkq
+        return V, ti.Vector([A[0, 0], A[1, 1], A[2, 2]])
+
+    @ti.func
+    def svd(self, F):
+        """``F = U diag(sig) V^T`` with U, V rotations (docs/mpm.md: a reflection is carried by
+        the sign of a singular value).
+
+        For ``det F > 0``: polar ``F = R S`` (:meth:`polar_rotation`), ``S = V diag(sig) V^T`` by Jacobi,
+        ``U = R V`` - several times cheaper than ``ti.svd`` on CPU. Otherwise ``ti.svd``. The
+        singular values are not sorted; every use here is an isotropic function of them.
+        """
+        U = ti.Matrix.identity(self.real, 3)
+        V = ti.Matrix.identity(self.real, 3)
+        sig = ti.Vector.zero(self.real, 3)
+        if F.determinant() > 0.0:
+            R = self.polar_rotation(F)
+            S = R.transpose() @ F
+            S = 0.5 * (S + S.transpose())
+            V, sig = self.sym_eig(S)
+            U = R @ V
+        else:
+            U0, S0, V0 = ti.svd(F, self.real)
+            U = U0
+            V = V0
+            sig = ti.Vector([S0[0, 0], S0[1, 1], S0[2, 2]])
+        return U, sig, V
+
+    @ti.func
+    def hencky_tau(self, U, eps, mu, lam):
+        tr = eps.sum()
+        d = 2.0 * mu * eps + lam * tr
+        return self.udvt(U, d, U)
+
+    @ti.func
+    def return_mapping(self, p, F):
+        """Return mapping and Kirchhoff stress (docs/mpm.md table). Writes F[p], Jp[p]; returns tau."""
+        b = self.body[p]
+        prm = self.mat[b]
+        mu = prm[P_MU]
+        lam = prm[P_LAM]
+        kind = self.kind[b]
+        if ti.static(not self.multi_kind):
+            kind = ti.static(next(iter(self.kinds)))
+        tau = ti.Matrix.zero(self.real, 3, 3)
+        Jp = self.Jp[p]
+        eye = ti.Matrix.identity(self.real, 3)
+        if ti.static(JELLY in self.kinds):
+            if kind == JELLY:
+                R = self.polar_rotation(F)
+                J = F.determinant()
+                tau = 2.0 * mu * (F - R) @ F.transpose() + eye * (lam * J * (J - 1.0))
+        if ti.static(NEO_HOOKEAN in self.kinds):
+            if kind == NEO_HOOKEAN:
+                J = F.determinant()
+                tau = mu * (F @ F.transpose() - eye) + eye * (lam * ti.log(ti.max(J, 1e-6)))
+        if ti.static(SNOW in self.kinds):
+            if kind == SNOW:
+                h = ti.exp(prm[P_HARDENING] * (1.0 - Jp))
+                U, sig, V = self.svd(F)
+                sig_c = ti.min(ti.max(sig, 1.0 - prm[P_THETA_C]), 1.0 + prm[P_THETA_S])
+                Jp *= (sig[0] * sig[1] * sig[2]) / (sig_c[0] * sig_c[1] * sig_c[2])
+                F = self.udvt(U, sig_c, V)
+                tau = self.corotated_tau(F, U, V, mu * h, lam * h)
+        if ti.static(METAL in self.kinds or PLASTICINE in self.kinds or SAND in self.kinds):
+            if kind == METAL or kind == PLASTICINE or kind == SAND:
+                U, sig, V = self.svd(F)
+                eps = ti.log(ti.max(sig, 1e-4))
+                tr = eps.sum()
+                e = eps - tr / 3.0
+                ne = e.norm()
+                if kind == SAND:
+                    if tr >= 0.0:
+                        eps = ti.Vector.zero(self.real, 3)
+                    else:
+                        dg = ne + (3.0 * lam + 2.0 * mu) / (2.0 * mu) * tr * prm[P_ALPHA]
+                        if dg > 0.0:
+                            eps -= dg * e / ne
+                    F = self.udvt(U, ti.exp(eps), V)
+                else:
+                    yield_stress = prm[P_YIELD]
+                    if kind == PLASTICINE:
+                        yield_stress = prm[P_YIELD] * ti.max(0.0, 1.0 - prm[P_SOFTENING] * Jp)
+                    dg = ne - VON_MISES_RADIUS * yield_stress / (2.0 * mu)   # ||dev tau|| <= sqrt(2/3) Y
+                    if dg > 0.0:
+                        eps -= dg * e / ne
+                        F = self.udvt(U, ti.exp(eps), V)
+                    if kind == PLASTICINE:
+                        Jp += ti.max(dg, 0.0)
+                tau = self.hencky_tau(U, eps, mu, lam)
+        if ti.static(LIQUID in self.kinds):
+            if kind == LIQUID:
+                J = F.determinant()
+                F = eye * ti.pow(J, 1.0 / 3.0)
+                tau = eye * (prm[P_K] * J * (J - 1.0))
+        self.F[p] = F
+        self.Jp[p] = Jp
+        return tau

@@ -1,0 +1,96 @@
+"""Forces and impulses (docs/colliders.md) on a grid node's velocity, and the fields of the colliders', forces'
+and impulses' tables (:func:`gasp_core.toolkit.grid_tables.grid_tables`), as Taichi code.
+
+Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields and flags (``real``, ``atomic``, ...) it reads.
+"""
+import numpy as np
+import taichi as ti
+
+from gasp_core.toolkit.grid_tables import (COL_POSE, FALLOFF_INVERSE_SQUARE, FORCE_ROW, FORCE_WIND, FR_C, FR_DRAG,
+                                           FR_FALLOFF, FR_KIND, FR_MODE_COUNT, FR_MODE_START, FR_RADIUS, FR_STRENGTH,
+                                           FT_POSES, IM_A, IM_B, IM_DV, IM_MODE, IM_SHAPE, IMPULSE_ADD, IMPULSE_BOX,
+                                           IMPULSE_ROW, MD_A, MD_K, MD_OMEGA, MD_PHASE, MODE_ROW)
+
+
+class Forces:
+    """The tables' fields (:meth:`_setup_extras`), forces (:meth:`apply_forces`) and impulses (:meth:`apply_impulses`)."""
+
+    def _setup_extras(self, ex, time_table, np_real, n_substeps) -> None:
+        """Fields of :func:`gasp_core.toolkit.grid_tables.grid_tables` (``ex``); none when ``ex`` is None or empty."""
+        self.has_extras = ex is not None and ex.any
+        # wind: per node sum_p p_vol grad N_ip (m^2), the windward area its drag acts on (private copies as grid_mv)
+        self.has_wind = bool(self.has_extras and ex.has_wind)
+        ng = self.n_grid
+        self.grid_g = ti.Vector.field(3, self.real, shape=(self.n_chunks, ng, ng, ng) if self.has_wind else (1, 1, 1, 1))
+        if not self.has_extras:
+            return
+        self._ex_np = np_real
+        self._time_table = time_table
+        self.n_col, self.n_force, self.n_imp, self.ex_width = ex.n_colliders, ex.n_forces, ex.n_impulses, ex.width
+        for name, arr in (("ex_sdf", ex.sdf), ("ex_grad", ex.sdf_grad), ("ex_meta", ex.col_meta),
+                          ("ex_forces", ex.forces), ("ex_modes", ex.modes), ("ex_imps", ex.impulses)):
+            f = ti.field(self.real, shape=len(arr))
+            f.from_numpy(np.asarray(arr, np_real))
+            setattr(self, name, f)
+        self.ex_tab = ti.field(self.real, shape=n_substeps * self.ex_width)
+        self.ex_step = ti.field(ti.i32, shape=())
+
+    @ti.func
+    def apply_forces(self, X, v, m, gsurf, t, dt):
+        """Wind and point forces on velocity ``v`` of the node at ``X`` (time ``t``, substep ``dt``).
+
+        Wind is quadratic drag on the windward surface, ``F = 1/2 rho_air C_d A |w| w``, ``w = u - v``,
+        ``A = max(0, gsurf . w / |w|)`` (``gsurf = sum_p p_vol grad N_ip``, m^2; node mass ``m``, kg),
+        applied implicitly in the drag rate ``k = F / (m |w|)``: ``v += w dt k / (1 + dt k)``."""
+        for f in range(self.n_force):
+            r = f * FORCE_ROW
+            a = ti.Vector.zero(self.real, 3)
+            if self.ex_forces[r + FR_KIND] == FORCE_WIND:
+                u = ti.Vector([self.ex_forces[r + FR_C], self.ex_forces[r + FR_C + 1], self.ex_forces[r + FR_C + 2]])
+                m0 = ti.cast(self.ex_forces[r + FR_MODE_START], ti.i32)
+                for mm in range(m0, m0 + ti.cast(self.ex_forces[r + FR_MODE_COUNT], ti.i32)):
+                    q = mm * MODE_ROW
+                    k = ti.Vector([self.ex_modes[q + MD_K], self.ex_modes[q + MD_K + 1], self.ex_modes[q + MD_K + 2]])
+                    A = ti.Vector([self.ex_modes[q + MD_A], self.ex_modes[q + MD_A + 1], self.ex_modes[q + MD_A + 2]])
+                    u += A * ti.sin(k.dot(X) + self.ex_modes[q + MD_OMEGA] * t + self.ex_modes[q + MD_PHASE])
+                wrel = u - v
+                wn = wrel.norm()
+                if wn > 0.0:
+                    area = ti.max(0.0, gsurf.dot(wrel) / wn)
+                    kdt = dt * self.ex_forces[r + FR_DRAG] * area * wn / m
+                    v += (kdt / (1.0 + kdt)) * wrel
+            else:
+                d = ti.Vector([self.ex_forces[r + FR_C], self.ex_forces[r + FR_C + 1], self.ex_forces[r + FR_C + 2]]) - X
+                rr = d.norm()
+                strength = self.ex_forces[r + FR_STRENGTH]
+                radius = self.ex_forces[r + FR_RADIUS]
+                mag = strength * rr / radius
+                if rr >= radius:
+                    mag = strength
+                    if self.ex_forces[r + FR_FALLOFF] == FALLOFF_INVERSE_SQUARE:
+                        mag = strength * (radius / rr) * (radius / rr)
+                if rr > 0.0:
+                    a = d * (mag / rr)
+            v += dt * a
+        return v
+
+    @ti.func
+    def apply_impulses(self, X, v, base):
+        """Impulses (box or sphere regions, weight from the time table row at ``base``) on ``v`` at ``X``."""
+        for q in range(self.n_imp):
+            r = q * IMPULSE_ROW
+            inside = False
+            c = ti.Vector([self.ex_imps[r + IM_A], self.ex_imps[r + IM_A + 1], self.ex_imps[r + IM_A + 2]])
+            b = ti.Vector([self.ex_imps[r + IM_B], self.ex_imps[r + IM_B + 1], self.ex_imps[r + IM_B + 2]])
+            if self.ex_imps[r + IM_SHAPE] == IMPULSE_BOX:
+                inside = (X >= c).all() and (X <= b).all()
+            else:
+                inside = (X - c).norm() <= b[0]
+            w = self.ex_tab[base + FT_POSES + COL_POSE * self.n_col + q]
+            if inside and w > 0.0:
+                dv = ti.Vector([self.ex_imps[r + IM_DV], self.ex_imps[r + IM_DV + 1], self.ex_imps[r + IM_DV + 2]])
+                if self.ex_imps[r + IM_MODE] == IMPULSE_ADD:
+                    v += w * dv
+                else:
+                    v = dv
+        return v

@@ -1,0 +1,142 @@
+"""The grid update (docs/mpm.md step 3): summing the private grid copies, node velocity, gravity, forces,
+impulses and colliders, then the walls, grounds and fixed regions, as a Taichi kernel; and the boundaries as
+node-index ranges.
+
+Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields and flags (``real``, ``atomic``, ...) it reads.
+"""
+import math
+
+import numpy as np
+import taichi as ti
+
+from gasp_core.toolkit.grid_tables import FT_TIME
+from gasp_core.toolkit.points import ground_top_node
+
+_TIE = 1e-9  # cells: tolerance for ties when boundary tests become node-index ranges
+
+
+def node_ranges(setup, dx: float):
+    """Boundaries as node-index tests (float64, ties within 1e-9 cells are exact ties).
+
+    Returns
+    -------
+    walls : list of (friction, lo_first (3 ints), hi_first (3 ints))
+        Wall nodes along axis d are ``I_d < lo_first[d]`` (normal +e_d) and
+        ``I_d >= hi_first[d]`` (normal -e_d).
+    grounds : list of (friction, k_max)
+        Ground nodes are ``I_z <= k_max``.
+    regions : list of (ilo (3 ints), ihi (3 ints))
+        Fixed nodes are ``ilo <= I <= ihi`` on every axis.
+    """
+    lo = setup.domain_lo
+    hi = setup.domain_hi
+    walls, grounds, regions = [], [], []
+    for b in setup.boundaries:
+        if b.kind == "walls":
+            # X_d < lo_d + 3 dx  <=>  I_d < 3 ;  X_d > hi_d - 3 dx  <=>  I_d > (hi_d - lo_d)/dx - 3
+            r = (hi - lo) / dx - 3.0
+            hi_first = tuple(int(math.floor(r[d] + _TIE)) + 1 for d in range(3))
+            walls.append((float(b.friction), (3, 3, 3), hi_first))
+        elif b.kind == "ground":
+            grounds.append((float(b.friction), ground_top_node(b.height, lo[2], dx)))
+        elif b.kind == "fixed_region":
+            a = (np.asarray(b.lo, float) - lo) / dx
+            c = (np.asarray(b.hi, float) - lo) / dx
+            regions.append((tuple(int(math.ceil(a[d] - _TIE)) for d in range(3)),
+                            tuple(int(math.floor(c[d] + _TIE)) for d in range(3))))
+    return walls, grounds, regions
+
+
+class GridUpdate:
+    """The grid update (:meth:`grid_update`) and the node extras it applies (:meth:`extras`)."""
+
+    @ti.func
+    def extras(self, I, v, m, gsurf):
+        """Forces, impulses, then colliders at node ``I`` (docs/colliders.md; the same order as warp_mpm):
+        :meth:`apply_forces`, :meth:`apply_impulses`, :meth:`apply_colliders` at the node's position and the substep's row
+        of the time table."""
+        dt = self.dt[None]
+        X = self.lo[None] + self.dx[None] * ti.Vector([ti.cast(I[0], self.real), ti.cast(I[1], self.real),
+                                                       ti.cast(I[2], self.real)])
+        base = self.ex_step[None] * self.ex_width
+        t = self.ex_tab[base + FT_TIME]
+        v = self.apply_forces(X, v, m, gsurf, t, dt)
+        v = self.apply_impulses(X, v, base)
+        return self.apply_colliders(X, v, base)
+
+    @ti.func
+    def axis_friction(self, v, d: ti.template(), sign: ti.template(), mu_b):
+        """:meth:`collide` with the axis normal ``sign * e_d`` (walls and grounds)."""
+        n = ti.Vector.zero(self.real, 3)
+        n[d] = sign
+        return self.collide(v, n, mu_b)
+
+    @ti.kernel
+    def grid_update(self):
+        """Sum the copies over the touched box, clear them, velocity + gravity + boundaries -> grid_v."""
+        ng = self.n_grid
+        lo = ti.Vector([0, 0, 0])
+        hi = ti.Vector([ng - 1, ng - 1, ng - 1])
+        if ti.static(not self.atomic):
+            lo = ti.Vector([ng, ng, ng])
+            hi = ti.Vector([-1, -1, -1])
+            for t in ti.static(range(self.n_chunks)):
+                lo = ti.min(lo, self.box[t, 0])
+                hi = ti.max(hi, self.box[t, 1])
+        ext = ti.max(hi - lo + 1, 0)
+        if ti.static(not self.atomic):
+            for i in range(ng):   # the chunks whose box reaches node plane I_x = i: first and last
+                first, last = self.n_chunks, -1
+                for t in ti.static(range(self.n_chunks)):
+                    if self.box[t, 0][0] <= i and i <= self.box[t, 1][0]:
+                        first = ti.min(first, t)
+                        last = t
+                self.plane_chunks[i] = ti.Vector([first, last])
+        count = ext[0] * ext[1] * ext[2]
+        for idx in range(count):
+            I = lo + ti.Vector([idx // (ext[1] * ext[2]), (idx // ext[2]) % ext[1], idx % ext[2]])
+            acc = ti.Vector.zero(self.real, self.acc_width)
+            gsurf = ti.Vector.zero(self.real, 3)
+            if ti.static(self.atomic):
+                acc = self.grid_mv[0, I]
+                self.grid_mv[0, I] = ti.Vector.zero(self.real, self.acc_width)
+                if ti.static(self.has_wind):
+                    gsurf = self.grid_g[0, I]
+                    self.grid_g[0, I] = ti.Vector.zero(self.real, 3)
+            else:
+                # copy t is zero outside its chunk's box: read and clear, in chunk order, only the copies that hold I
+                span = self.plane_chunks[I[0]]
+                for t in range(span[0], span[1] + 1):
+                    if (I >= self.box[t, 0]).all() and (I <= self.box[t, 1]).all():
+                        acc += self.grid_mv[t, I]
+                        self.grid_mv[t, I] = ti.Vector.zero(self.real, self.acc_width)
+                        if ti.static(self.has_wind):
+                            gsurf += self.grid_g[t, I]
+                            self.grid_g[t, I] = ti.Vector.zero(self.real, 3)
+            v = ti.Vector.zero(self.real, 3)
+            if acc[3] > 0.0:
+                v = ti.Vector([acc[0], acc[1], acc[2]]) / acc[3] + self.dt[None] * self.gravity[None]
+                if ti.static(self.has_extras):
+                    v = self.extras(I, v, acc[3], gsurf)
+                for b in ti.static(range(self.n_walls)):
+                    mu_b = self.wall_fric[b]
+                    hi_first = self.wall_hi_first[b]
+                    for d in ti.static(range(3)):
+                        if I[d] < 3:
+                            v = self.axis_friction(v, d, 1.0, mu_b)
+                        if I[d] >= hi_first[d]:
+                            v = self.axis_friction(v, d, -1.0, mu_b)
+                for b in ti.static(range(self.n_grounds)):
+                    if I[2] <= self.ground_kmax[b]:
+                        v = self.axis_friction(v, 2, 1.0, self.ground_fric[b])
+                for b in ti.static(range(self.n_regions)):
+                    if (I >= self.reg_lo[b]).all() and (I <= self.reg_hi[b]).all():
+                        v = ti.Vector.zero(self.real, 3)
+            self.grid_v[I] = v
+            if ti.static(self.flip > 0):
+                v0 = ti.Vector.zero(self.real, 3)
+                if acc[3] > 0.0:
+                    v0 = ti.Vector([acc[4], acc[5], acc[6]]) / acc[3]
+                self.grid_v0[I] = v0
+            if ti.static(self.has_passive):
+                self.grid_m[I] = acc[3]

@@ -1,0 +1,244 @@
+"""Transfers between points and grid (docs/mpm.md steps 2, 4 and 5): the stencil, P2G (fused with G2P within
+a frame), G2P and the passive points' G2P, as Taichi functions and kernels.
+
+Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields and flags (``real``, ``atomic``, ...) it reads.
+Sources: Hu et al. 2018 (MLS-MPM, APIC, quadratic B-splines), taichi's mpm128 (``F`` advanced in P2G).
+"""
+import taichi as ti
+
+from gasp_core.toolkit.materials import P_ETA
+
+
+class Transfers:
+    """The stencil of a point, P2G, G2P and the passive points' G2P (private grid copies per chunk on CPU)."""
+
+    @ti.func
+    def base_fx(self, xp):
+        X = (xp - self.lo[None]) * self.inv_dx[None]
+        base = ti.cast(ti.floor(X - 0.5), ti.i32)
+        ok = base.min() >= 0 and base.max() <= self.n_grid - 3
+        fx = X - ti.cast(base, self.real)
+        return base, fx, ok
+
+    @ti.func
+    def weights(self, fx):
+        return [0.5 * (1.5 - fx) ** 2, 0.75 - (fx - 1.0) ** 2, 0.5 * (fx - 0.5) ** 2]
+
+    @ti.func
+    def mv_value(self, mv, m, mv_apic):
+        """What a point adds to a node of grid_mv per unit weight: momentum, mass (and the APIC momentum with flip)."""
+        if ti.static(self.flip > 0):
+            return ti.Vector([mv[0], mv[1], mv[2], m, mv_apic[0], mv_apic[1], mv_apic[2]])
+        else:
+            return ti.Vector([mv[0], mv[1], mv[2], m])
+
+    @ti.func
+    def p2g_point(self, p, t, bmin, bmax):
+        """Scatter point p into grid copy t; returns the updated touched-node box."""
+        base, fx, ok = self.base_fx(self.x[p])
+        if not ok:
+            ti.atomic_add(self.n_out[None], 1)
+        else:
+            dt = self.dt[None]
+            inv_dx = self.inv_dx[None]
+            C = self.C[p]
+            F = (ti.Matrix.identity(self.real, 3) + dt * C) @ self.F[p]
+            tau = self.return_mapping(p, F)
+            if ti.static(self.viscous):   # Kelvin-Voigt: J 2 eta sym(grad v), C = grad v (docs/dissipation.md)
+                tau += (self.mat[self.body[p]][P_ETA] * F.determinant()) * (C + C.transpose())
+            m = self.p_mass[p]
+            dx = self.dx[None]
+            affine = (-dt * self.p_vol[p] * 4.0 * inv_dx * inv_dx) * tau + m * C
+            A = affine * dx
+            S = (affine - m * C) * dx   # the stress part of A (AFLIP sums the momentum without it)
+            mv0 = m * self.v[p] - A @ fx
+            w = self.weights(fx)
+            for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
+                weight = w[i][0] * w[j][1] * w[k][2]
+                mv = mv0
+                if ti.static(i > 0):
+                    mv += ti.static(float(i)) * ti.Vector([A[0, 0], A[1, 0], A[2, 0]])
+                if ti.static(j > 0):
+                    mv += ti.static(float(j)) * ti.Vector([A[0, 1], A[1, 1], A[2, 1]])
+                if ti.static(k > 0):
+                    mv += ti.static(float(k)) * ti.Vector([A[0, 2], A[1, 2], A[2, 2]])
+                val = weight * self.mv_value(mv, m, mv - S @ (ti.Vector([float(i), float(j), float(k)]) - fx))
+                node = base + ti.Vector([i, j, k])
+                if ti.static(self.atomic):
+                    self.grid_mv[0, node] += val
+                else:
+                    self.grid_mv[t, node] = self.grid_mv[t, node] + val
+                if ti.static(self.has_wind):
+                    # p_vol grad N_ip: d N / d x_node per axis is (1.5 - fx, 2 (fx - 1), 0.5 - fx) inv_dx
+                    dw = [1.5 - fx, 2.0 * (fx - 1.0), 0.5 - fx]
+                    gv = (self.p_vol[p] * inv_dx) * ti.Vector([dw[i][0] * w[j][1] * w[k][2], w[i][0] * dw[j][1] * w[k][2],
+                                                               w[i][0] * w[j][1] * dw[k][2]])
+                    if ti.static(self.atomic):
+                        self.grid_g[0, node] += gv
+                    else:
+                        self.grid_g[t, node] = self.grid_g[t, node] + gv
+            bmin = ti.min(bmin, base)
+            bmax = ti.max(bmax, base + 2)
+        return bmin, bmax
+
+    @ti.func
+    def g2p_point(self, p):
+        base, fx, ok = self.base_fx(self.x[p])
+        if ok:
+            w = self.weights(fx)
+            new_v = ti.Vector.zero(self.real, 3)
+            B = ti.Matrix.zero(self.real, 3, 3)
+            for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
+                weight = w[i][0] * w[j][1] * w[k][2]
+                gv = weight * self.grid_v[base + ti.Vector([i, j, k])]
+                new_v += gv
+                if ti.static(i > 0):
+                    B[0, 0] += ti.static(float(i)) * gv[0]
+                    B[1, 0] += ti.static(float(i)) * gv[1]
+                    B[2, 0] += ti.static(float(i)) * gv[2]
+                if ti.static(j > 0):
+                    B[0, 1] += ti.static(float(j)) * gv[0]
+                    B[1, 1] += ti.static(float(j)) * gv[1]
+                    B[2, 1] += ti.static(float(j)) * gv[2]
+                if ti.static(k > 0):
+                    B[0, 2] += ti.static(float(k)) * gv[0]
+                    B[1, 2] += ti.static(float(k)) * gv[1]
+                    B[2, 2] += ti.static(float(k)) * gv[2]
+            new_C = (4.0 * self.inv_dx[None]) * (B - new_v.outer_product(fx))
+            v_p = new_v
+            if ti.static(self.flip > 0):   # AFLIP: v_PIC(new) + alpha (v_p - v_PIC(old))
+                old_v = ti.Vector.zero(self.real, 3)
+                for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
+                    old_v += w[i][0] * w[j][1] * w[k][2] * self.grid_v0[base + ti.Vector([i, j, k])]
+                v_p = new_v + self.flip * (self.v[p] - old_v)
+            if ti.static(self.any_fixed):
+                if self.fixed[p] != 0:
+                    new_v = ti.Vector.zero(self.real, 3)
+                    v_p = new_v
+                    new_C = ti.Matrix.zero(self.real, 3, 3)
+            self.v[p] = v_p
+            self.C[p] = new_C
+            self.x[p] += self.dt[None] * new_v
+
+    # ------------------------------------------------------------------ kernels
+    @ti.kernel
+    def g2p(self):
+        """G2P alone (last substep of a frame)."""
+        for p in range(self.n_points[None]):
+            self.g2p_point(p)
+
+    @ti.kernel
+    def g2p_p2g(self, with_g2p: ti.i32):
+        """G2P of one substep (if ``with_g2p``) fused with the P2G of the next."""
+        if ti.static(self.atomic):
+            for p in range(self.n_points[None]):
+                if with_g2p:
+                    self.g2p_point(p)
+                self.p2g_point(p, 0, ti.Vector([0, 0, 0]), ti.Vector([0, 0, 0]))
+        else:
+            ti.loop_config(block_dim=1)
+            for t in range(self.n_chunks):
+                bmin = ti.Vector([self.n_grid, self.n_grid, self.n_grid])
+                bmax = ti.Vector([-1, -1, -1])
+                if ti.static(self.has_passive):   # nodes the passive points will read
+                    bmin = self.pbox[t, 0]
+                    bmax = self.pbox[t, 1]
+                for p in range(self.chunk_lo[t], self.chunk_hi[t]):
+                    if with_g2p:
+                        self.g2p_point(p)
+                    bmin, bmax = self.p2g_point(p, t, bmin, bmax)
+                self.box[t, 0] = bmin
+                self.box[t, 1] = bmax
+
+    @ti.func
+    def g2p_passive_point(self, p, pair):
+        """A passive point: velocity ``v`` and affine velocity gradient ``C`` from the grid (no F, no P2G).
+
+        Only nodes that received mass count, with the weights renormalised over them: a surface point
+        half a spacing outside the material sees empty nodes (velocity 0, not the material's) in its
+        stencil, which would hold it back. ``C`` is the weighted least-squares fit of those nodes'
+        velocities (APIC's ``C`` on a full stencil). The point then advances over the ``m = passive_substeps[pair]``
+        substeps since its last gather through the affine field
+        ``v(y, k) = v_prev + (k/m)(v_new - v_prev) + (C_prev + (k/m)(C_new - C_prev)) y``,
+        ``y += dt v(y, k)`` for ``k = 1..m`` (:func:`gasp_core.toolkit.substeps.passive_schedule`), so it turns with
+        the material; ``m = 1`` is plain G2P."""
+        base, fx, ok = self.base_fx(self.x[p])
+        if not ok:
+            ti.atomic_add(self.n_out[None], 1)
+        else:
+            w = self.weights(fx)
+            new_v = ti.Vector.zero(self.real, 3)
+            wsum = ti.cast(0.0, self.real)
+            rbar = ti.Vector.zero(self.real, 3)
+            Svr = ti.Matrix.zero(self.real, 3, 3)
+            Srr = ti.Matrix.zero(self.real, 3, 3)
+            for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
+                node = base + ti.Vector([i, j, k])
+                if self.grid_m[node] > 0.0:
+                    wn = w[i][0] * w[j][1] * w[k][2]
+                    r = ti.Vector([ti.static(float(i)), ti.static(float(j)), ti.static(float(k))], self.real) - fx
+                    gv = self.grid_v[node]
+                    new_v += wn * gv
+                    wsum += wn
+                    rbar += wn * r
+                    Svr += wn * gv.outer_product(r)
+                    Srr += wn * r.outer_product(r)
+            new_C = ti.Matrix.zero(self.real, 3, 3)
+            if wsum > 0.0:
+                new_v /= wsum
+                rbar /= wsum
+                # centred moments; a tiny ridge (1e-4 of a full stencil's wsum / 4) where the nodes with mass are planar
+                Svr -= wsum * new_v.outer_product(rbar)
+                Srr += ti.Matrix.identity(self.real, 3) * (2.5e-5 * wsum) - wsum * rbar.outer_product(rbar)
+                new_C = self.inv_dx[None] * (Svr @ Srr.inverse())
+            v_prev = self.v[p]
+            C_prev = self.C[p]
+            if ti.static(self.any_fixed):
+                if self.fixed[p] != 0:
+                    new_v = ti.Vector.zero(self.real, 3)
+                    new_C = ti.Matrix.zero(self.real, 3, 3)
+                    v_prev = new_v
+                    C_prev = new_C
+            m = self.passive_substeps[pair]
+            dt = self.dt[None]
+            y = ti.Vector.zero(self.real, 3)
+            for kk in range(m):
+                t = ti.cast(kk + 1, self.real) / ti.cast(m, self.real)
+                y += dt * (v_prev + t * (new_v - v_prev) + (C_prev + t * (new_C - C_prev)) @ y)
+            self.x[p] += y
+            self.v[p] = new_v + new_C @ y
+            self.C[p] = new_C
+
+    @ti.func
+    def _passive_chunk(self, t, move: ti.template(), pair):
+        """(G2P and) the node box of chunk t's passive points, for the next grid update."""
+        bmin = ti.Vector([self.n_grid, self.n_grid, self.n_grid])
+        bmax = ti.Vector([-1, -1, -1])
+        for p in range(self.pchunk_lo[t], self.pchunk_hi[t]):
+            if ti.static(move):
+                self.g2p_passive_point(p, pair)
+            base, _fx, ok = self.base_fx(self.x[p])
+            if ok:
+                bmin = ti.min(bmin, base)
+                bmax = ti.max(bmax, base + 2)
+        self.pbox[t, 0] = bmin
+        self.pbox[t, 1] = bmax
+
+    @ti.kernel
+    def g2p_passive(self, pair: ti.i32):
+        """G2P of the passive points with weight pair ``pair`` (and, on private grids, their node box
+        for the next grid update)."""
+        if ti.static(self.atomic):
+            for p in range(self.n_points[None], self.n_total[None]):
+                self.g2p_passive_point(p, pair)
+        else:
+            ti.loop_config(block_dim=1)
+            for t in range(self.n_chunks):
+                self._passive_chunk(t, True, pair)
+
+    @ti.kernel
+    def passive_box(self):
+        """The passive points' node box per chunk, at the start."""
+        ti.loop_config(block_dim=1)
+        for t in range(self.n_chunks):
+            self._passive_chunk(t, False, 0)

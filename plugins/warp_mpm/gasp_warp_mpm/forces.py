@@ -1,0 +1,124 @@
+"""Forces and impulses (docs/colliders.md) on a grid node's velocity, and the struct of the colliders', forces'
+and impulses' tables (:func:`gasp_core.toolkit.grid_tables.grid_tables`), as Warp code per scalar type
+(:mod:`gasp_warp_mpm.precision`).
+
+This module must not use ``from __future__ import annotations``: Warp reads the annotations of
+the closures below as type objects.
+"""
+import functools
+
+import warp as wp
+
+from gasp_core.toolkit.grid_tables import (COL_POSE, FALLOFF_INVERSE_SQUARE, FORCE_ROW, FORCE_WIND, FR_C, FR_DRAG,
+                                           FR_FALLOFF, FR_KIND, FR_MODE_COUNT, FR_MODE_START, FR_RADIUS, FR_STRENGTH,
+                                           FT_POSES, IM_A, IM_B, IM_DV, IM_MODE, IM_SHAPE, IMPULSE_ADD, IMPULSE_BOX,
+                                           IMPULSE_ROW, MD_A, MD_K, MD_OMEGA, MD_PHASE, MODE_ROW)
+
+from .precision import MODULE_OPTIONS, build_types
+
+
+@functools.cache
+def build_extras_struct(Ft):
+    """``Extras``: the struct of colliders, forces and impulses (:func:`gasp_core.toolkit.grid_tables.grid_tables`,
+    ``frame_table``) of scalar type ``Ft``."""
+
+    @wp.struct
+    class Extras:
+        # gasp_core.toolkit.grid_tables.grid_tables / frame_table (docs/colliders.md)
+        sdf: wp.array(dtype=Ft)
+        grad: wp.array(dtype=Ft)
+        meta: wp.array(dtype=Ft)
+        forces: wp.array(dtype=Ft)
+        modes: wp.array(dtype=Ft)
+        imps: wp.array(dtype=Ft)
+        tab: wp.array(dtype=Ft)
+        step: wp.array(dtype=wp.int32)
+        n_col: int
+        n_force: int
+        n_imp: int
+        width: int
+    return Extras
+
+
+@functools.cache
+def build_force_funcs(Ft):
+    """``(apply_forces, apply_impulses)``: forces and impulses on a grid node's velocity, scalar type ``Ft``."""
+    vec3, vec4, mat33 = build_types(Ft)
+    Extras = build_extras_struct(Ft)
+
+    @wp.func
+    def apply_forces(v_in: vec3, X: vec3, dt: Ft, m: Ft, gsurf: vec3, t: Ft, ex: Extras):
+        # Wind (docs/colliders.md): quadratic drag on the windward surface, F = 1/2 rho_air C_d A |w| w,
+        # w = u - v, A = max(0, gsurf . w / |w|) (gsurf = sum_p p_vol grad N_ip, m^2: the node's share
+        # of the area the body shows the relative wind); applied implicitly in the drag rate
+        # k = 1/2 rho_air C_d A |w| / m: v += w dt k / (1 + dt k), so it never overshoots the wind.
+        # Point forces: acceleration "strength" along centre - X, linear in r inside the radius, constant
+        # (or falling as 1/r^2) outside.
+        v = v_in
+        for f in range(ex.n_force):
+            r = f * FORCE_ROW
+            a = vec3(Ft(0.0))
+            if ex.forces[r + FR_KIND] == Ft(FORCE_WIND):
+                u = vec3(ex.forces[r + FR_C], ex.forces[r + FR_C + 1], ex.forces[r + FR_C + 2])
+                m0 = int(ex.forces[r + FR_MODE_START])
+                for mm in range(m0, m0 + int(ex.forces[r + FR_MODE_COUNT])):
+                    q = mm * MODE_ROW
+                    kv = vec3(ex.modes[q + MD_K], ex.modes[q + MD_K + 1], ex.modes[q + MD_K + 2])
+                    A = vec3(ex.modes[q + MD_A], ex.modes[q + MD_A + 1], ex.modes[q + MD_A + 2])
+                    u = u + A * wp.sin(wp.dot(kv, X) + ex.modes[q + MD_OMEGA] * t + ex.modes[q + MD_PHASE])
+                wrel = u - v
+                wn = wp.length(wrel)
+                if wn > Ft(0.0):
+                    area = wp.max(Ft(0.0), wp.dot(gsurf, wrel) / wn)
+                    kdt = dt * ex.forces[r + FR_DRAG] * area * wn / m
+                    v = v + (kdt / (Ft(1.0) + kdt)) * wrel
+            else:
+                d = vec3(ex.forces[r + FR_C], ex.forces[r + FR_C + 1], ex.forces[r + FR_C + 2]) - X
+                rr = wp.length(d)
+                strength = ex.forces[r + FR_STRENGTH]
+                radius = ex.forces[r + FR_RADIUS]
+                mag = strength * rr / radius
+                if rr >= radius:
+                    mag = strength
+                    if ex.forces[r + FR_FALLOFF] == Ft(FALLOFF_INVERSE_SQUARE):
+                        mag = strength * (radius / rr) * (radius / rr)
+                if rr > Ft(0.0):
+                    a = d * (mag / rr)
+            v = v + dt * a
+        return v
+
+    @wp.func
+    def apply_impulses(v_in: vec3, X: vec3, base: int, ex: Extras):
+        # impulses over a box or a sphere, weighted by the substep's time-table entry: add dv, or set v = dv
+        v = v_in
+        for q in range(ex.n_imp):
+            r = q * IMPULSE_ROW
+            c = vec3(ex.imps[r + IM_A], ex.imps[r + IM_A + 1], ex.imps[r + IM_A + 2])
+            b = vec3(ex.imps[r + IM_B], ex.imps[r + IM_B + 1], ex.imps[r + IM_B + 2])
+            inside = False
+            if ex.imps[r + IM_SHAPE] == Ft(IMPULSE_BOX):
+                inside = (X[0] >= c[0] and X[1] >= c[1] and X[2] >= c[2] and X[0] <= b[0] and X[1] <= b[1]
+                          and X[2] <= b[2])
+            else:
+                inside = wp.length(X - c) <= b[0]
+            w = ex.tab[base + FT_POSES + COL_POSE * ex.n_col + q]
+            if inside and w > Ft(0.0):
+                dv = vec3(ex.imps[r + IM_DV], ex.imps[r + IM_DV + 1], ex.imps[r + IM_DV + 2])
+                if ex.imps[r + IM_MODE] == Ft(IMPULSE_ADD):
+                    v = v + w * dv
+                else:
+                    v = dv
+        return v
+
+    return apply_forces, apply_impulses
+
+
+@functools.cache
+def build_tick(Ft):
+    """``tick``: the kernel advancing the time table's substep (``Extras.step``)."""
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def tick(step: wp.array(dtype=wp.int32)):
+        step[0] = step[0] + 1
+
+    return tick

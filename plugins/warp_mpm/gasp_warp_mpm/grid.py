@@ -1,0 +1,111 @@
+"""The grid update (docs/mpm.md step 3): node velocity, gravity, forces, impulses and colliders, then the
+walls, grounds and fixed regions, as a Warp kernel per scalar type (:mod:`gasp_warp_mpm.precision`).
+
+The grid update clears ``grid_mv`` after reading it, so no separate clear pass is needed (the spec's step 1
+is folded into the previous substep's step 3).
+
+This module must not use ``from __future__ import annotations``: Warp reads the annotations of
+the closures below as type objects.
+"""
+import functools
+
+import warp as wp
+
+from gasp_core.toolkit.grid_tables import FT_TIME
+
+from .colliders import build_collide, build_collider_func
+from .forces import build_extras_struct, build_force_funcs
+from .precision import MODULE_OPTIONS, build_types
+
+
+@functools.cache
+def build_extras(Ft):
+    """``(Extras, extras)``: the struct of colliders, forces and impulses and the function applying them
+    at a grid node, for the scalar type ``Ft``."""
+    vec3, vec4, mat33 = build_types(Ft)
+    Extras = build_extras_struct(Ft)
+    apply_forces, apply_impulses = build_force_funcs(Ft)
+    apply_colliders = build_collider_func(Ft)
+
+    @wp.func
+    def extras(v_in: vec3, X: vec3, dt: Ft, m: Ft, gsurf: vec3, ex: Extras):
+        # Forces, impulses, then colliders at a node (the same order as taichi_mpm's extras).
+        base = ex.step[0] * ex.width
+        t = ex.tab[base + FT_TIME]
+        v = apply_forces(v_in, X, dt, m, gsurf, t, ex)
+        v = apply_impulses(v, X, base, ex)
+        return apply_colliders(v, X, base, ex)
+
+    return Extras, extras
+
+
+@functools.cache
+def build_grid_update(Ft):
+    """The grid-update kernel ``grid_update`` of scalar type ``Ft``: node velocity, gravity, extras,
+    boundaries."""
+    vec3, vec4, mat33 = build_types(Ft)
+    collide = build_collide(Ft)
+    Extras, extras = build_extras(Ft)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def grid_update(
+        grid_mv: wp.array(dtype=vec4), grid_v: wp.array(dtype=vec3), grid_m: wp.array(dtype=Ft),
+        gravity: vec3, lo: vec3, hi: vec3, dx: Ft, dt: Ft, n_grid: int,
+        wall_mu: wp.array(dtype=Ft), ground: wp.array(dtype=vec3),
+        fixed_lo: wp.array(dtype=vec3), fixed_hi: wp.array(dtype=vec3),
+        has_extras: int, ex: Extras, grid_g: wp.array(dtype=vec3), has_wind: int,
+        grid_mv0: wp.array(dtype=vec4), grid_v0: wp.array(dtype=vec3), flip: int,
+    ):
+        # ground[g] = (top node layer k_max as a float, friction, unused); grid_m (node mass, for
+        # passive points) has one entry per node when the setup has passive points, else one unused entry
+        node = wp.tid()
+        g = grid_mv[node]
+        m = g[3]
+        if grid_m.shape[0] > 1:
+            grid_m[node] = m
+        out = vec3(Ft(0.0))
+        if m > Ft(0.0):
+            vel = vec3(g[0], g[1], g[2]) / m + dt * gravity
+            i = node / (n_grid * n_grid)
+            j = (node / n_grid) % n_grid
+            k = node % n_grid
+            X = lo + dx * vec3(Ft(i), Ft(j), Ft(k))
+            if has_extras != 0:
+                gsurf = vec3(Ft(0.0))
+                if has_wind != 0:
+                    gsurf = grid_g[node]
+                vel = extras(vel, X, dt, m, gsurf, ex)
+            for w in range(wall_mu.shape[0]):
+                mu_b = wall_mu[w]
+                for d in range(3):
+                    if X[d] < lo[d] + Ft(3.0) * dx:
+                        n = vec3(Ft(0.0))
+                        n[d] = Ft(1.0)
+                        vel = collide(vel, n, mu_b)
+                    if X[d] > hi[d] - Ft(3.0) * dx:
+                        n = vec3(Ft(0.0))
+                        n[d] = Ft(-1.0)
+                        vel = collide(vel, n, mu_b)
+            for q in range(ground.shape[0]):
+                gr = ground[q]
+                if Ft(k) <= gr[0]:  # node layer k at or below the ground's top layer (exact small integers)
+                    vel = collide(vel, vec3(Ft(0.0), Ft(0.0), Ft(1.0)), gr[1])
+            for r in range(fixed_lo.shape[0]):
+                flo = fixed_lo[r]
+                fhi = fixed_hi[r]
+                if (X[0] >= flo[0] and X[0] <= fhi[0] and X[1] >= flo[1] and X[1] <= fhi[1]
+                        and X[2] >= flo[2] and X[2] <= fhi[2]):
+                    vel = vec3(Ft(0.0))
+            out = vel
+        grid_v[node] = out
+        grid_mv[node] = vec4(Ft(0.0))
+        if flip != 0:  # the APIC velocity before forces (gasp_core.toolkit.transfer)
+            g0 = grid_mv0[node]
+            grid_v0[node] = vec3(Ft(0.0))
+            if m > Ft(0.0):
+                grid_v0[node] = vec3(g0[0], g0[1], g0[2]) / m
+            grid_mv0[node] = vec4(Ft(0.0))
+        if has_wind != 0:
+            grid_g[node] = vec3(Ft(0.0))
+
+    return grid_update

@@ -1,0 +1,292 @@
+"""Transfers between points and grid (docs/mpm.md steps 2, 4 and 5): the stencil, P2G, G2P and the passive
+points' G2P, as Warp kernels per scalar type (:mod:`gasp_warp_mpm.precision`).
+
+Grid layout: a flat array of ``n_grid**3`` nodes, node ``(i, j, k)`` at flat index
+``(i * n_grid + j) * n_grid + k``. ``grid_mv`` holds ``(momentum, mass)`` per node as a 4-vector
+(one accumulation per node and point in P2G); ``grid_v`` holds the updated node velocity
+read by G2P.
+
+Sources: Hu et al. 2018 (MLS-MPM, APIC, quadratic B-splines), taichi's mpm128 (``F`` advanced in P2G).
+
+This module must not use ``from __future__ import annotations``: Warp reads the annotations of
+the closures below as type objects.
+"""
+import functools
+
+import warp as wp
+
+from gasp_core.toolkit.materials import P_ETA
+
+from .constitutive import build_return_mapping
+from .precision import MODULE_OPTIONS, build_types
+
+
+@functools.cache
+def build_stencil(Ft):
+    """``(in_grid, weights)``: the grid-stencil test and the quadratic B-spline weights of a point (docs/mpm.md
+    "Grid"), shared by the transfers of scalar type ``Ft``."""
+    vec3, vec4, mat33 = build_types(Ft)
+
+    @wp.func
+    def in_grid(X: vec3, n_grid: int):
+        # base = floor(X - 0.5) must lie in [0, n_grid - 3] on every axis; compared as floats so
+        # that NaN and inf positions are out of the grid (never converted to an index).
+        lim = Ft(n_grid - 3)
+        b0 = wp.floor(X[0] - Ft(0.5))
+        b1 = wp.floor(X[1] - Ft(0.5))
+        b2 = wp.floor(X[2] - Ft(0.5))
+        ok = b0 >= Ft(0.0) and b0 <= lim and b1 >= Ft(0.0) and b1 <= lim
+        return ok and b2 >= Ft(0.0) and b2 <= lim
+
+    @wp.func
+    def weights(fx: vec3):
+        # Quadratic B-spline weights, row r = weights of node offset r on each axis.
+        t0 = vec3(Ft(1.5)) - fx
+        t1 = fx - vec3(Ft(1.0))
+        t2 = fx - vec3(Ft(0.5))
+        w0 = Ft(0.5) * wp.cw_mul(t0, t0)
+        w1 = vec3(Ft(0.75)) - wp.cw_mul(t1, t1)
+        w2 = Ft(0.5) * wp.cw_mul(t2, t2)
+        return wp.matrix_from_rows(w0, w1, w2)
+
+    return in_grid, weights
+
+
+@functools.cache
+def build_p2g(Ft):
+    """The P2G kernel ``p2g`` of scalar type ``Ft``: return mapping, stress, scatter."""
+    vec3, vec4, mat33 = build_types(Ft)
+    in_grid, weights = build_stencil(Ft)
+    return_mapping = build_return_mapping(Ft)
+
+    @wp.func
+    def scatter(grid_mv: wp.array(dtype=vec4), idx0: int, n_grid: int, W: mat33, mom0: vec3, A: mat33, pm: Ft):
+        # grid_v += w (p_mass v + affine dpos), grid_m += w p_mass over the 27 nodes from flat index idx0;
+        # affine dpos = A ((i, j, k) - fx) is added a column of A per node step
+        a0 = vec3(A[0, 0], A[1, 0], A[2, 0])
+        a1 = vec3(A[0, 1], A[1, 1], A[2, 1])
+        a2 = vec3(A[0, 2], A[1, 2], A[2, 2])
+        nn = n_grid * n_grid
+        mi = mom0
+        for i in range(3):
+            mj = mi
+            for j in range(3):
+                wij = W[i, 0] * W[j, 1]
+                mk = mj
+                row = idx0 + i * nn + j * n_grid
+                for k in range(3):
+                    w = wij * W[k, 2]
+                    wm = w * mk
+                    grid_mv[row + k] += vec4(wm[0], wm[1], wm[2], w * pm)
+                    mk = mk + a2
+                mj = mj + a1
+            mi = mi + a0
+
+    @wp.func
+    def scatter_wind(grid_g: wp.array(dtype=vec3), idx0: int, n_grid: int, W: mat33, fx: vec3, sv: Ft):
+        # grid_g += p_vol grad N_ip (m^2; the gradient of the volume fraction times dx^3), sv = p_vol inv_dx
+        # d N / d x_node per axis (cells): rows of node offsets 0, 1, 2
+        dW = wp.matrix_from_rows(vec3(Ft(1.5)) - fx, Ft(2.0) * (fx - vec3(Ft(1.0))), vec3(Ft(0.5)) - fx)
+        nn = n_grid * n_grid
+        for i in range(3):
+            for j in range(3):
+                row = idx0 + i * nn + j * n_grid
+                for k in range(3):
+                    grid_g[row + k] += sv * vec3(dW[i, 0] * W[j, 1] * W[k, 2], W[i, 0] * dW[j, 1] * W[k, 2],
+                                                 W[i, 0] * W[j, 1] * dW[k, 2])
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def p2g(
+        x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), F: wp.array(dtype=mat33),
+        C: wp.array(dtype=mat33), Jp: wp.array(dtype=Ft), p_mass: wp.array(dtype=Ft),
+        p_vol: wp.array(dtype=Ft), body: wp.array(dtype=wp.int32),
+        mat_kind: wp.array(dtype=wp.int32), mat_par: wp.array2d(dtype=Ft),
+        grid_mv: wp.array(dtype=vec4), n_out: wp.array(dtype=wp.int32),
+        lo: vec3, inv_dx: Ft, dx: Ft, dt: Ft, n_grid: int, grid_g: wp.array(dtype=vec3), has_wind: int,
+        grid_mv0: wp.array(dtype=vec4), flip: int,
+    ):
+        # F advanced by C, return mapping and stress (docs/mpm.md), then the scatter (and, with wind, grid_g;
+        # with flip, the APIC momentum alone into grid_mv0: gasp_core.toolkit.transfer)
+        p = wp.tid()
+        X = (x[p] - lo) * inv_dx
+        if not in_grid(X, n_grid):
+            wp.atomic_add(n_out, 0, 1)
+            return
+        b0 = wp.floor(X[0] - Ft(0.5))
+        b1 = wp.floor(X[1] - Ft(0.5))
+        b2 = wp.floor(X[2] - Ft(0.5))
+        fx = X - vec3(b0, b1, b2)
+        W = weights(fx)
+        Cp = C[p]
+        F_new, tau = return_mapping((wp.identity(3, dtype=Ft) + dt * Cp) * F[p], p, body, mat_kind, mat_par, Jp)
+        F[p] = F_new
+        eta = mat_par[body[p], P_ETA]
+        if eta > Ft(0.0):  # Kelvin-Voigt: J 2 eta sym(grad v), C = grad v (docs/dissipation.md)
+            tau = tau + (eta * wp.determinant(F_new)) * (Cp + wp.transpose(Cp))
+        pm = p_mass[p]
+        affine = (-dt * p_vol[p] * Ft(4.0) * inv_dx * inv_dx) * tau + pm * Cp
+        A = dx * affine  # affine dpos = A ((i, j, k) - fx)
+        mom0 = pm * v[p] - A * fx
+        idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
+        scatter(grid_mv, idx0, n_grid, W, mom0, A, pm)
+        if flip != 0:
+            A0 = (dx * pm) * Cp
+            scatter(grid_mv0, idx0, n_grid, W, pm * v[p] - A0 * fx, A0, pm)
+        if has_wind != 0:
+            scatter_wind(grid_g, idx0, n_grid, W, fx, p_vol[p] * inv_dx)
+
+    return p2g
+
+
+@functools.cache
+def build_g2p(Ft):
+    """``g2p``: the G2P kernel of scalar type ``Ft`` for material points (with the position update)."""
+    vec3, vec4, mat33 = build_types(Ft)
+    in_grid, weights = build_stencil(Ft)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def g2p(
+        x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33),
+        fixed: wp.array(dtype=wp.int32), grid_v: wp.array(dtype=vec3),
+        lo: vec3, inv_dx: Ft, dt: Ft, n_grid: int, grid_v0: wp.array(dtype=vec3), alpha: Ft,
+    ):
+        p = wp.tid()
+        if fixed[p] != 0:
+            v[p] = vec3(Ft(0.0))
+            C[p] = mat33()
+            return
+        xp = x[p]
+        X = (xp - lo) * inv_dx
+        if not in_grid(X, n_grid):
+            return  # counted in P2G; the frame raises EngineDivergence
+        b0 = wp.floor(X[0] - Ft(0.5))
+        b1 = wp.floor(X[1] - Ft(0.5))
+        b2 = wp.floor(X[2] - Ft(0.5))
+        fx = X - vec3(b0, b1, b2)
+        W = weights(fx)
+        nn = n_grid * n_grid
+        idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
+        # new_v = sum w g;  B = sum w g (i, j, k)^T  accumulated as sums over node planes.
+        new_v = vec3(Ft(0.0))
+        si1 = vec3(Ft(0.0))
+        si2 = vec3(Ft(0.0))
+        sj1 = vec3(Ft(0.0))
+        sj2 = vec3(Ft(0.0))
+        sk1 = vec3(Ft(0.0))
+        sk2 = vec3(Ft(0.0))
+        for i in range(3):
+            vi = vec3(Ft(0.0))
+            for j in range(3):
+                wij = W[i, 0] * W[j, 1]
+                row = idx0 + i * nn + j * n_grid
+                vj = vec3(Ft(0.0))
+                for k in range(3):
+                    wg = (wij * W[k, 2]) * grid_v[row + k]
+                    vj = vj + wg
+                    if k == 1:
+                        sk1 = sk1 + wg
+                    if k == 2:
+                        sk2 = sk2 + wg
+                vi = vi + vj
+                if j == 1:
+                    sj1 = sj1 + vj
+                if j == 2:
+                    sj2 = sj2 + vj
+            new_v = new_v + vi
+            if i == 1:
+                si1 = si1 + vi
+            if i == 2:
+                si2 = si2 + vi
+        c0 = si1 + Ft(2.0) * si2
+        c1 = sj1 + Ft(2.0) * sj2
+        c2 = sk1 + Ft(2.0) * sk2
+        B = wp.matrix_from_cols(c0, c1, c2)
+        # C = 4 inv_dx^2 sum w g ((i, j, k) - fx)^T dx = 4 inv_dx (B - new_v fx^T)
+        C[p] = (Ft(4.0) * inv_dx) * (B - wp.outer(new_v, fx))
+        if alpha > Ft(0.0):  # AFLIP: v_PIC(new) + alpha (v_p - v_PIC(old)) (gasp_core.toolkit.transfer)
+            old_v = vec3(Ft(0.0))
+            for i in range(3):
+                for j in range(3):
+                    for k in range(3):
+                        old_v = old_v + (W[i, 0] * W[j, 1] * W[k, 2]) * grid_v0[idx0 + i * nn + j * n_grid + k]
+            v[p] = new_v + alpha * (v[p] - old_v)
+        else:
+            v[p] = new_v
+        x[p] = xp + dt * new_v
+
+    return g2p
+
+
+@functools.cache
+def build_g2p_passive(Ft):
+    """``g2p_passive``: the G2P kernel of scalar type ``Ft`` for passive points."""
+    vec3, vec4, mat33 = build_types(Ft)
+    in_grid, weights = build_stencil(Ft)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def g2p_passive(
+        x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33), fixed: wp.array(dtype=wp.int32),
+        grid_v: wp.array(dtype=vec3), grid_m: wp.array(dtype=Ft), flags: wp.array(dtype=wp.int32),
+        lo: vec3, inv_dx: Ft, dt: Ft, m: int, n_grid: int, first: int,
+    ):
+        # Passive points (rows first..): velocity v and affine velocity gradient C from the grid
+        # (no F, no P2G). Only nodes with mass count, weights renormalised over them: a surface point
+        # outside the material would otherwise be held back by the empty nodes' zero velocity; C is
+        # the weighted least-squares fit of the node velocities (APIC's C on a full stencil). The
+        # point then advances over the m substeps since its last gather through the affine field
+        # v(y, k) = v_prev + (k/m)(v_new - v_prev) + (C_prev + (k/m)(C_new - C_prev)) y,
+        # y += dt v(y, k), k = 1..m (gasp_core.toolkit.substeps.passive_schedule), so it turns with the material.
+        p = first + wp.tid()
+        if fixed[p] != 0:
+            v[p] = vec3(Ft(0.0))
+            C[p] = mat33()
+            return
+        xp = x[p]
+        X = (xp - lo) * inv_dx
+        if not in_grid(X, n_grid):
+            wp.atomic_add(flags, 0, 1)
+            return
+        b0 = wp.floor(X[0] - Ft(0.5))
+        b1 = wp.floor(X[1] - Ft(0.5))
+        b2 = wp.floor(X[2] - Ft(0.5))
+        fx = X - vec3(b0, b1, b2)
+        W = weights(fx)
+        nn = n_grid * n_grid
+        idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
+        new_v = vec3(Ft(0.0))
+        wsum = Ft(0.0)
+        rbar = vec3(Ft(0.0))
+        Svr = mat33()
+        Srr = mat33()
+        for i in range(3):
+            for j in range(3):
+                row = idx0 + i * nn + j * n_grid
+                for k in range(3):
+                    if grid_m[row + k] > Ft(0.0):
+                        w = W[i, 0] * W[j, 1] * W[k, 2]
+                        r = vec3(Ft(i), Ft(j), Ft(k)) - fx          # node - point, cells
+                        gv = grid_v[row + k]
+                        new_v = new_v + w * gv
+                        wsum = wsum + w
+                        rbar = rbar + w * r
+                        Svr = Svr + w * wp.outer(gv, r)
+                        Srr = Srr + w * wp.outer(r, r)
+        Cn = mat33()
+        if wsum > Ft(0.0):
+            new_v = new_v / wsum
+            rbar = rbar / wsum
+            # centred moments; a tiny ridge (1e-4 of a full stencil's wsum / 4) where the nodes with mass are planar
+            Svr = Svr - wsum * wp.outer(new_v, rbar)
+            Srr = Srr - wsum * wp.outer(rbar, rbar) + wp.identity(3, dtype=Ft) * (Ft(2.5e-5) * wsum)
+            Cn = inv_dx * (Svr * wp.inverse(Srr))
+        vp = v[p]
+        Cp = C[p]
+        y = vec3(Ft(0.0))
+        for kk in range(m):
+            t = Ft(kk + 1) / Ft(m)
+            y = y + dt * (vp + t * (new_v - vp) + (Cp + t * (Cn - Cp)) * y)
+        x[p] = xp + y
+        v[p] = new_v + Cn * y
+        C[p] = Cn
+
+    return g2p_passive
