@@ -30,12 +30,12 @@ CHUNK = 256
 
 @ti.data_oriented
 class ImplicitViscosity:
-    """The viscous solve of one :class:`gasp_taichi_mpm.solver.MPMSolver` (its ``grid_acc[0]``, ``box[0]``).
+    """The viscous solve of one :class:`gasp_taichi_mpm.solver.MPMSolver` (its ``grid_mv[0]``, ``box[0]``).
 
     Parameters
     ----------
     solver : MPMSolver
-        Its ``grid_acc`` copy 0 holds momentum (channels 0-2), mass (3) and the viscous volume
+        Its ``grid_mv`` copy 0 holds momentum (channels 0-2), mass (3) and the viscous volume
         (channel ``eta_channel``); ``box[0]`` the nodes touched by P2G.
     eta_channel : int
     """
@@ -81,7 +81,7 @@ class ImplicitViscosity:
     def _active(self, I, lo, hi):
         ok = False
         if (I >= lo).all() and (I <= hi).all():
-            ok = self.s.grid_acc[0, I][3] > 0.0
+            ok = self.s.grid_mv[0, I][3] > 0.0
         return ok
 
     @ti.func
@@ -130,7 +130,7 @@ class ImplicitViscosity:
         count = ext[0] * ext[1] * ext[2]
         for idx in range(count):   # v*, and which cells are valid (all 8 corners with mass)
             I = self._node(lo, ext, idx)
-            acc = self.s.grid_acc[0, I]
+            acc = self.s.grid_mv[0, I]
             u = ti.Vector.zero(self.s.real, 3)
             if acc[3] > 0.0:
                 u = ti.Vector([acc[0], acc[1], acc[2]]) / acc[3]
@@ -145,7 +145,7 @@ class ImplicitViscosity:
         ti.loop_config(serialize=True)
         for idx in range(count):   # the lists, in node order
             I = self._node(lo, ext, idx)
-            if self.s.grid_acc[0, I][3] > 0.0:
+            if self.s.grid_mv[0, I][3] > 0.0:
                 self.nodes[nn] = I
                 nn += 1
             if self.wc[I] > 0.0:
@@ -167,7 +167,7 @@ class ImplicitViscosity:
             w = ti.cast(0.0, self.s.real)
             for a, b, e in ti.static(ti.ndrange(2, 2, 2)):
                 J = c + ti.Vector([a, b, e])
-                w += self.s.grid_acc[0, J][self.ch] / ti.cast(self.n_valid[J], self.s.real)
+                w += self.s.grid_mv[0, J][self.ch] / ti.cast(self.n_valid[J], self.s.real)
             self.wc[c] = w
         for k in range(nc):
             c = self.cells[k]
@@ -184,7 +184,7 @@ class ImplicitViscosity:
                         c = I - ti.Vector([a, b, e])
                         if self._in(c, lo, hi):
                             wsum += self.wc[c]
-                    d = self.s.grid_acc[0, I][3] + kd * wsum
+                    d = self.s.grid_mv[0, I][3] + kd * wsum
                     r = -dt * self._node_force(I, lo, hi)
                     self.diag[I] = d
                     self.r[I] = r
@@ -215,7 +215,7 @@ class ImplicitViscosity:
                 acc = ti.cast(0.0, self.s.real)
                 for k in range(k0, ti.min(k0 + CHUNK, nn)):
                     I = self.nodes[k]
-                    ap = self.s.grid_acc[0, I][3] * self.p[I] + dt * self._node_force(I, lo, hi)
+                    ap = self.s.grid_mv[0, I][3] * self.p[I] + dt * self._node_force(I, lo, hi)
                     self.Ap[I] = ap
                     acc += self.p[I].dot(ap)
                 self.part[k0 // CHUNK] = acc
@@ -252,14 +252,14 @@ class ImplicitViscosity:
 
     @ti.kernel
     def _finish(self):
-        """Momentum m u back into grid_acc (the grid update divides by m again)."""
+        """Momentum m u back into grid_mv (the grid update divides by m again)."""
         for k in range(self.n_nodes[None]):
             I = self.nodes[k]
-            m = self.s.grid_acc[0, I][3]
+            m = self.s.grid_mv[0, I][3]
             mu = m * self.u[I]
-            self.s.grid_acc[0, I][0] = mu[0]
-            self.s.grid_acc[0, I][1] = mu[1]
-            self.s.grid_acc[0, I][2] = mu[2]
+            self.s.grid_mv[0, I][0] = mu[0]
+            self.s.grid_mv[0, I][1] = mu[1]
+            self.s.grid_mv[0, I][2] = mu[2]
 
     def solve(self) -> None:
         """One backward-Euler viscous step on the grid momentum (between P2G and the grid update)."""

@@ -215,12 +215,11 @@ def test_threads_1_is_bit_for_bit_deterministic():
 
 
 def test_any_thread_count_gives_the_same_numbers_as_one_thread():
-    """The points are cut into a fixed number of chunks (not one per thread), summed in a fixed order."""
-    from gasp_taichi_mpm.engine import N_CHUNKS
+    """The coloured block P2G sums every node in a fixed order (colour, block, sorted point), whatever the threads."""
     s1 = block_setup(lo=(0.4, 0.4, 0.2), boundaries=[Boundary("ground", height=0.1)], threads=1)
     s3 = block_setup(lo=(0.4, 0.4, 0.2), boundaries=[Boundary("ground", height=0.1)], threads=3)
     e1 = run(s1, 3)
-    assert e1.stats()["p2g"] == f"private grids x{N_CHUNKS}"
+    assert e1.stats()["p2g"] == "coloured blocks"
     a, v = e1.positions(), e1.velocities()
     e3 = run(s3, 3)
     assert np.array_equal(e3.positions(), a) and np.array_equal(e3.velocities(), v)
@@ -421,7 +420,7 @@ def test_one_substep_matches_numpy_transcription_of_the_spec(name):
         assert not np.allclose(Fr, (np.eye(3) + 2e-4 * C) @ F)  # the return mapping was active
 
 
-def test_atomic_scatter_path_agrees_with_private_grids(monkeypatch):
+def test_atomic_scatter_path_agrees_with_coloured_blocks(monkeypatch):
     """The atomic P2G (used on CUDA, or for huge grids) forced on CPU gives the same motion."""
     import gasp_taichi_mpm.engine as engine_mod
     s = block_setup(lo=(0.4, 0.4, 0.1), boundaries=[Boundary("ground", height=0.1)])
