@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 import warp as wp
 
-from gasp_core.toolkit.materials import initial_Jp, material_table
+from gasp_core.toolkit.materials import P_ETA, initial_Jp, material_table
 from gasp_core.toolkit.memory import check_memory, estimate_bytes
 from gasp_core.toolkit.points import cell_order, ground_top_node, engine_mass_stats, fixed_mask, material_first_order, stranded_passive
 from gasp_core.toolkit.substeps import passive_schedule, substeps_from_options
@@ -69,7 +69,7 @@ def _init_warp(cpu_only: bool) -> None:
 
 def choose_dt(setup: SimSetup, opts: dict[str, Any]) -> tuple[int, float]:
     """Substeps per frame and substep (``gasp_core.toolkit.substeps.mpm_substeps``, docs/mpm.md "Time step")."""
-    return substeps_from_options(setup, opts, ENGINE)
+    return substeps_from_options(setup, opts, ENGINE, implicit_viscosity=True)   # viscosity: backward Euler
 
 
 class WarpMPMEngine:
@@ -184,6 +184,13 @@ class WarpMPMEngine:
         self.flip = float(self.options.get("flip") or 0.0)
         self.grid_mv0 = wp.zeros(n_nodes if self.flip else 1, dtype=k.vec4, device=d)
         self.grid_v0 = wp.zeros(n_nodes if self.flip else 1, dtype=k.vec3, device=d)
+        # with a viscous material: the viscous volume sum_p w J V eta per node and the implicit step (viscosity.py)
+        viscous = bool(np.any(self.mat_par.numpy()[:, P_ETA] > 0))
+        self.grid_eta = wp.zeros(n_nodes if viscous else 1, dtype=Ft, device=d)
+        self.visc = None
+        if viscous:
+            from .viscosity import ImplicitViscosity
+            self.visc = ImplicitViscosity(self, Ft)
 
     def _upload_boundaries(self, Ft) -> None:
         """Walls' friction, grounds' (top node layer, friction, 0) and fixed regions' boxes as arrays."""
@@ -215,7 +222,7 @@ class WarpMPMEngine:
             wp.launch(k.p2g, dim=self.n_material, device=d, record_cmd=True, inputs=[
                 self.x, self.v, self.F, self.C, self.Jp, self.p_mass, self.p_vol, self.body,
                 self.mat_kind, self.mat_par, self.grid_mv, self.flags, lo_v, inv_dx, dx, dt_f, ng,
-                self.grid_g, self.has_wind, self.grid_mv0, int(self.flip > 0)]),
+                self.grid_g, self.has_wind, self.grid_mv0, int(self.flip > 0), self.grid_eta]),
             wp.launch(k.grid_update, dim=ng ** 3, device=d, record_cmd=True, inputs=[
                 self.grid_mv, self.grid_v, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, self.wall_mu,
                 self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex, self.grid_g, self.has_wind,
@@ -286,10 +293,12 @@ class WarpMPMEngine:
             view[...] = view[perm]
         self._order = self._order[perm]
 
-    def _substeps(self) -> None:
+    def _substeps(self, capturing: bool = False) -> None:
         for s in range(self.n_substeps):
-            for cmd in self._launches:
+            for i, cmd in enumerate(self._launches):
                 cmd.launch()
+                if i == 0 and self.visc is not None:   # after P2G: the implicit viscous step
+                    self.visc.solve(capturing)
             if self._passive_at[s] is not None:
                 self._passive_at[s].launch()
             if self._tick is not None:
@@ -317,7 +326,7 @@ class WarpMPMEngine:
         if self.device.is_cuda:
             if self._graph is None:
                 with wp.ScopedCapture(device=self.device) as capture:
-                    self._substeps()
+                    self._substeps(capturing=True)
                 self._graph = capture.graph
             wp.capture_launch(self._graph)
         else:
