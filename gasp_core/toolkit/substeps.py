@@ -129,7 +129,7 @@ def substeps_for(frame_dt: float, dt_max: float) -> tuple[int, float]:
 
 
 
-#: Default bound on substeps per frame (engine option ``max_substeps``): the README donut needs 122.
+#: Default bound on substeps per frame (engine option ``max_substeps``): the README donut needs 121.
 MAX_SUBSTEPS = 20_000
 
 
