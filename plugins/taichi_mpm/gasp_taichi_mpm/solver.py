@@ -302,20 +302,20 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces):
         if self.has_extras:
             self.ex_tab.from_numpy(self._time_table().astype(self._ex_np))
             self.ex_step[None] = 0
-        self._p2g(0, 0)
+        self.p2g_substep(0, 0)
         for s in range(n_substeps - 1):
             self.grid_update()
             if at[s] is not None:
                 self.g2p_passive(at[s])
             if self.has_extras:
                 self.ex_step[None] = s + 1
-            self._p2g(1, s + 1)
+            self.p2g_substep(1, s + 1)
         self.grid_update()
         self.g2p()
         if at[-1] is not None:
             self.g2p_passive(at[-1])
 
-    def _p2g(self, with_g2p: int, substep: int) -> None:
+    def p2g_substep(self, with_g2p: int, substep: int) -> None:
         """(G2P and) P2G of one substep, then the implicit viscous step. Coloured: the block sort at the frame's
         first substep and every :data:`SORT_EVERY`, the 8 colour passes, the late points."""
         if self.coloured:
