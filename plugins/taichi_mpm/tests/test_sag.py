@@ -62,7 +62,10 @@ def mean_drop(E: float) -> tuple[float, float]:
     scene = dataclasses.replace(scene, objects=objs, domain=dataclasses.replace(scene.domain, n_grid=32))
     prep = prepare_scene(scene)
     setup = prep.setup
-    setup.options = {**setup.options, "threads": 1}
+    # the grid contact, for which this test was written (its offset off the ground does not depend on E); the
+    # default particle contact lets a point of the E 1500 Pa donut sink through the ground and leave the grid at
+    # frame 10 (EngineDivergence, measured; docs/contact.md "Not done")
+    setup.options = {**setup.options, "threads": 1, "contact": "grid"}
     xs, _ = simulate(prep.info, setup, N_FRAMES)
     m = setup.p_mass
     zc = xs[:, :, 2] @ m / m.sum()

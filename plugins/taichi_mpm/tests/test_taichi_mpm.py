@@ -51,7 +51,7 @@ def test_plugin_is_registered_and_import_is_cheap():
     assert info.unavailable_reason() is None
     assert info.deterministic_options == {"threads": 1}
     assert {o.name for o in info.options} == {"device", "precision", "dt", "n_substeps", "cfl", "max_substeps", "threads",
-                                             "passive_every", "flip"}
+                                             "passive_every", "flip", "contact"}
     code = "import sys, gasp_taichi_mpm; assert 'taichi' not in sys.modules, 'taichi imported'"
     subprocess.run([sys.executable, "-c", code], check=True)
 
@@ -128,10 +128,12 @@ def test_two_bodies_of_different_materials_move_as_each_alone():
                     body_id=np.r_[np.zeros(len(a.x)), np.ones(len(b.x))].astype(np.int32),
                     materials=[jelly, sand], gravity=a.gravity, domain_lo=a.domain_lo,
                     domain_hi=a.domain_hi, n_grid=a.n_grid, boundaries=ground,
-                    options={"n_substeps": 20})
+                    options={"n_substeps": 20, "contact": "grid"})
     x = run(both, 4).positions()
-    xa = run(a.replace(options={"n_substeps": 20}), 4).positions()
-    xb = run(b.replace(options={"n_substeps": 20}), 4).positions()
+    # one contact model for all three runs: contact = "auto" picks it per scene (the sand makes the pair's "grid",
+    # the jelly alone would get "particle"), docs/contact.md
+    xa = run(a.replace(options={"n_substeps": 20, "contact": "grid"}), 4).positions()
+    xb = run(b.replace(options={"n_substeps": 20, "contact": "grid"}), 4).positions()
     assert np.abs(x[:len(a.x)] - xa).max() < 1e-5
     assert np.abs(x[len(a.x):] - xb).max() < 1e-5
     assert np.abs(xa - xb - (a.x - b.x)).max() > 1e-3  # and the two materials do differ

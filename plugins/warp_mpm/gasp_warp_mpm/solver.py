@@ -1,10 +1,10 @@
 """The Warp MLS-MPM engine: :class:`WarpMPMEngine`, built from a :class:`~gasp_core.seam.engine.SimSetup`.
 
 Implements ``docs/mpm.md`` (3D MLS-MPM, quadratic B-splines, APIC; Hu et al. 2018) with the
-kernels of :mod:`gasp_warp_mpm.kernels`. Per substep three launches: P2G (return mapping, stress
-once per point, scatter), grid update over nodes (which also clears the accumulation grid), and
-G2P fused with the position update; with a viscous material the implicit viscous step
-(:mod:`gasp_warp_mpm.viscosity`) runs between P2G and the grid update. On CUDA the substeps of a frame are captured once in a CUDA
+kernels of :mod:`gasp_warp_mpm.kernels`. Per substep three launches: P2G (return mapping, stress once per point,
+scatter), grid update over nodes (which also clears the accumulation grid), and G2P fused with the position update;
+with a viscous material the implicit viscous step (:mod:`gasp_warp_mpm.viscosity`) runs between P2G and the grid
+update. On CUDA the substeps of a frame are captured once in a CUDA
 graph; on CPU the launches are pre-recorded ``wp.Launch`` objects. The host synchronises once per
 frame, for the blow-up check.
 
@@ -17,15 +17,13 @@ Choices where docs/mpm.md leaves room (the Taichi plugin agrees to ~1e-5 m on al
   rotation and a Jacobi eigen-decomposition of ``R^T F`` (the same algorithm as the Taichi plugin,
   docs/mpm.md "Constitutive models"); ``wp.svd3`` (U, V proper rotations, the sign of a reflection
   on ``sig[2]``, checked in the tests) is used when ``det F <= 0`` or the iteration does not converge.
-- ``metal`` / ``plasticine`` rebuild ``F = U diag(exp(eps)) V^T`` only when ``dg > 0``;
-  ``sand`` always rebuilds it (the spec's punctuation).
-- Wall friction is applied axis by axis, x then y then z, the low face before the high face.
-- A point out of the grid neither scatters nor gathers and keeps its ``x, v, C`` for the rest of
-  the frame; the frame then raises :class:`EngineDivergence`.
-- The momentum sum ``p_mass v + affine dpos`` and the APIC ``C`` are evaluated in an equivalent
-  factored form (``affine dpos = A (i, j, k) - A fx``), which changes rounding only.
-- On CPU the points are kept sorted by grid cell (re-sorted after every frame, stable, so runs
-  repeat bit for bit); outputs are returned in the order of ``setup.x``.
+- ``metal`` / ``plasticine`` rebuild ``F = U diag(exp(eps)) V^T`` only when ``dg > 0``; ``sand`` always rebuilds it.
+- Wall friction axis by axis, x then y then z, the low face before the high face.
+- A point out of the grid neither scatters nor gathers and keeps its ``x, v, C`` for the rest of the frame; the
+  frame then raises :class:`EngineDivergence`.
+- ``p_mass v + affine dpos`` and APIC's ``C`` in a factored form (``A (i, j, k) - A fx``): rounding only.
+- On CPU the points are kept sorted by grid cell (re-sorted after every frame, stable, so runs repeat bit for
+  bit; every per-point array moves with them, the contact coefficients included); outputs are in ``setup.x``'s order.
 """
 from __future__ import annotations
 
