@@ -80,6 +80,7 @@ def worker_scaling(n: int, threads: int, frames: int) -> dict:
 def worker_profile(n: int, threads: int, frames: int) -> dict:
     """Milliseconds per substep of each kernel, of Python + launches between them, and of host work per frame."""
     import taichi as ti
+    from gasp_taichi_mpm.solver import SORT_EVERY
     eng, n_points = _engine(n, threads)
     s, n_sub = eng.solver, eng.n_substeps
     kern, kmin, kcpu = {}, {}, {}
@@ -95,11 +96,25 @@ def worker_profile(n: int, threads: int, frames: int) -> dict:
         kcpu[name] = kcpu.get(name, 0.0) + time.process_time() - c0
 
     t_sub = t_frame = 0.0
+
+    def p2g(with_g2p, substep):   # the solver's p2g_substep, kernel by kernel
+        if not s.coloured:
+            timed("g2p_p2g", s.g2p_p2g, with_g2p)
+        else:
+            if substep % SORT_EVERY == 0:
+                timed("sort_blocks", s.sort_blocks)
+            s.p2g_begin()
+            for c in range(8):
+                timed("g2p_p2g", s.g2p_p2g_colour, c, with_g2p)
+            timed("p2g_late", s.p2g_late)
+        if s.visc is not None:
+            timed("viscosity", s.visc.solve)
+
     for _ in range(frames):
-        timed("g2p_p2g", s.g2p_p2g, 0)           # the solver's substeps(), kernel by kernel
+        p2g(0, 0)           # the solver's substeps(), kernel by kernel
         for _k in range(n_sub - 1):
             timed("grid_update", s.grid_update)
-            timed("g2p_p2g", s.g2p_p2g, 1)
+            p2g(1, _k + 1)
         timed("grid_update", s.grid_update)
         timed("g2p", s.g2p)
         ti.sync()

@@ -30,16 +30,17 @@ MPM_CAPABILITIES = Capabilities(
 )
 
 
-def choose_dt(setup, opts: dict[str, Any], engine: str) -> tuple[int, float]:
+def choose_dt(setup, opts: dict[str, Any], engine: str, implicit_viscosity: bool = False) -> tuple[int, float]:
     """Substeps per frame and substep length, s (``gasp_core.toolkit.substeps.substeps_from_options``,
-    docs/mpm.md "Time step").
+    docs/mpm.md "Time step"); ``implicit_viscosity``: the engine integrates viscosity by backward Euler, so it
+    sets no step cap.
 
     Raises
     ------
     SceneError
         More substeps per frame than the option ``max_substeps``.
     """
-    return substeps_from_options(setup, opts, engine)
+    return substeps_from_options(setup, opts, engine, implicit_viscosity)
 
 
 class GridEngineBase:

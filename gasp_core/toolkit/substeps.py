@@ -32,13 +32,14 @@ def p_wave_speed(m: Material) -> float:
 
 
 def mpm_stable_dt(materials: Iterable[Material], dx: float, gravity, height: float,
-                  v0_max: float = 0.0, cfl: float = 0.4) -> float:
+                  v0_max: float = 0.0, cfl: float = 0.4, implicit_viscosity: bool = False) -> float:
     """Largest substep that satisfies the elastic-wave, particle CFL and viscous limits.
 
     ``dt = cfl * dx / max(c_p, v_max)`` where ``c_p`` is the fastest P-wave speed over the
     materials and ``v_max = v0_max + sqrt(2 |g| height)`` bounds the speed a falling body reaches
     in the domain; a material with viscosity caps it at ``cfl * viscous_dt`` (:func:`viscous_dt`,
-    about ``cfl rho dx^2 / (4 eta)`` when the viscosity dominates).
+    about ``cfl rho dx^2 / (4 eta)`` when the viscosity dominates) unless the engine integrates the
+    viscosity implicitly (``implicit_viscosity``: backward Euler, stable at any step; ``docs/dissipation.md``).
 
     Parameters
     ----------
@@ -68,7 +69,8 @@ def mpm_stable_dt(materials: Iterable[Material], dx: float, gravity, height: flo
     c = max(p_wave_speed(m) for m in materials)
     g = float(np.linalg.norm(gravity))
     v_max = v0_max + math.sqrt(2.0 * g * max(height, 0.0))
-    return cfl * min([dx / max(c, v_max, 1e-12)] + [viscous_dt(m, dx) for m in materials if m.viscosity > 0])
+    caps = [] if implicit_viscosity else [viscous_dt(m, dx) for m in materials if m.viscosity > 0]
+    return cfl * min([dx / max(c, v_max, 1e-12)] + caps)
 
 
 def viscous_dt(m: Material, dx: float) -> float:
@@ -87,7 +89,7 @@ def viscous_dt(m: Material, dx: float) -> float:
 
 
 def mpm_substeps(setup, dt: float | None = None, n_substeps: int | None = None,
-                 cfl: float = 0.4) -> tuple[int, float]:
+                 cfl: float = 0.4, implicit_viscosity: bool = False) -> tuple[int, float]:
     """Substeps per frame and substep length for a grid engine (``docs/mpm.md``, "Time step").
 
     Parameters
@@ -99,6 +101,8 @@ def mpm_substeps(setup, dt: float | None = None, n_substeps: int | None = None,
         Requested substeps per frame (engine option ``n_substeps``).
     cfl : float
         Courant number for :func:`mpm_stable_dt` when neither is given.
+    implicit_viscosity : bool
+        The engine integrates viscosity implicitly: no viscous cap (:func:`mpm_stable_dt`).
 
     Returns
     -------
@@ -114,7 +118,7 @@ def mpm_substeps(setup, dt: float | None = None, n_substeps: int | None = None,
         v0 = float(np.max(np.linalg.norm(setup.v, axis=1))) if len(setup.v) else 0.0
         dt_max = mpm_stable_dt(setup.materials, setup.dx, setup.gravity,
                                height=float(setup.domain_hi[2] - setup.domain_lo[2]), v0_max=v0,
-                               cfl=float(cfl))
+                               cfl=float(cfl), implicit_viscosity=implicit_viscosity)
     return substeps_for(setup.frame_dt, dt_max)
 
 
@@ -125,12 +129,14 @@ def substeps_for(frame_dt: float, dt_max: float) -> tuple[int, float]:
 
 
 
-#: Default bound on substeps per frame (engine option ``max_substeps``): the README donut needs 122.
+#: Default bound on substeps per frame (engine option ``max_substeps``): the README donut needs 121.
 MAX_SUBSTEPS = 20_000
 
 
-def substeps_from_options(setup, options: Mapping[str, Any], engine: str = "") -> tuple[int, float]:
-    """:func:`mpm_substeps` with the engine options ``dt``, ``n_substeps``, ``cfl`` and ``max_substeps``.
+def substeps_from_options(setup, options: Mapping[str, Any], engine: str = "",
+                          implicit_viscosity: bool = False) -> tuple[int, float]:
+    """:func:`mpm_substeps` with the engine options ``dt``, ``n_substeps``, ``cfl`` and ``max_substeps``
+    (``implicit_viscosity``: the engine's viscosity needs no step cap).
 
     Raises
     ------
@@ -139,7 +145,8 @@ def substeps_from_options(setup, options: Mapping[str, Any], engine: str = "") -
         gives the count, what drives it (the stiffest material's wave speed, the fall speed or
         ``frame_dt``) and how to raise the bound, instead of a run that never finishes a frame.
     """
-    n, dt = mpm_substeps(setup, options.get("dt"), options.get("n_substeps"), options.get("cfl", 0.4))
+    n, dt = mpm_substeps(setup, options.get("dt"), options.get("n_substeps"), options.get("cfl", 0.4),
+                         implicit_viscosity)
     bound = options.get("max_substeps") or MAX_SUBSTEPS
     if n > bound:
         c = max(p_wave_speed(m) for m in setup.materials)

@@ -34,8 +34,8 @@ CAPABILITIES = MPM_CAPABILITIES
 #: The grid-engine options of ``gasp_core.toolkit.options`` (``device``: Taichi runs on the default CUDA device
 #: only, so "cpu" or "cuda"), ``threads`` and ``passive_every``.
 OPTIONS = mpm_options(
-    Option("threads", None, "CPU threads (Taichi's cpu_max_num_threads; default: all cores); a run "
-                            "repeats bit for bit for a fixed count", kind="int", lo=1),
+    Option("threads", None, "CPU threads (Taichi's cpu_max_num_threads; default: all cores); the coloured "
+                            "block P2G gives the same numbers on any count", kind="int", lo=1),
     PASSIVE_EVERY, FLIP, CONTACT)
 
 
@@ -84,6 +84,7 @@ def gasp_engines():
         sweep=sweep,
         available=taichi_available,
         description=("MLS-MPM with APIC transfers and quadratic B-splines (Hu et al. 2018), "
-                     "docs/mpm.md, on Taichi (CPU or CUDA, f32 or f64). Deterministic on CPU only "
-                     "with threads=1. One engine per process at a time (ti.init is global)."),
+                     "docs/mpm.md, on Taichi (CPU or CUDA, f32 or f64). The CPU default: its coloured block "
+                     "P2G uses every core and gives the same numbers on any thread count (docs/performance.md); "
+                     "viscosity implicit (no step limit). One engine per process at a time (ti.init is global)."),
     )]

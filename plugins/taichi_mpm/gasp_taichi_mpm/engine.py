@@ -20,20 +20,8 @@ from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, 
 
 from . import ENGINE
 
-#: Private grid copies are used on CPU while one per thread takes at most this many bytes in all.
+#: On CPU the coloured block P2G is used while the grid takes at most this many bytes (beyond, the atomic one).
 MAX_PRIVATE_GRID_BYTES = 1 << 30
-#: On CPU the points are split into this many chunks, each with its own grid copy, whatever the thread
-#: count (so a run gives the same numbers on 1 or 16 threads) and many more than the threads (an idle
-#: thread takes the next chunk: the load balances itself) ...
-N_CHUNKS = 16
-#: ... unless that many copies would take more than this; then as many as fit, at least one per thread.
-CHUNK_GRID_BYTES = 1 << 28
-
-
-def n_point_chunks(threads: int, grid_bytes: int) -> int:
-    """Point chunks (grid copies) on CPU: ``N_CHUNKS``, fewer where they would exceed ``CHUNK_GRID_BYTES``,
-    never fewer than ``threads`` (``grid_bytes``: one copy, bytes)."""
-    return max(int(threads), min(N_CHUNKS, CHUNK_GRID_BYTES // max(int(grid_bytes), 1)))
 
 _generation = 0  # bumped by every engine built; an engine is live while its generation is current
 
@@ -75,9 +63,9 @@ class TaichiMPMEngine(GridEngineBase):
     Calls ``ti.init`` (``offline_cache=True``, ``fast_math=False``: IEEE semantics, closer to the
     Warp engine, and measured ~10 % faster here than Taichi's fast math): this resets Taichi, so any earlier engine of this
     plugin in the process stops working. On CPU a run repeats bit for bit, and gives the same numbers on
-    any ``threads`` up to :data:`N_CHUNKS` (each chunk of points scatters into its own grid copy, summed in
-    a fixed order; :func:`n_point_chunks`); the capability ``deterministic={"cpu"}`` is promised for
-    ``threads=1``.
+    any ``threads`` (the coloured block P2G sums every node in a fixed order, ``gasp_taichi_mpm.solver``); the
+    capability ``deterministic={"cpu"}`` is promised for ``threads=1``, and holds for any. Viscosity is
+    integrated implicitly (:mod:`gasp_taichi_mpm.viscosity`), so it does not lower the substep.
     """
 
     ENGINE = ENGINE
@@ -85,8 +73,9 @@ class TaichiMPMEngine(GridEngineBase):
     def __init__(self, setup: SimSetup):
         global _generation
         opt = setup.options  # checked and completed by the core (build_engine)
-        self.n_substeps, self.dt = choose_dt(setup, opt, ENGINE)
-        check_memory(estimate_bytes(len(setup.x), setup.n_grid, opt["precision"]) + MAX_PRIVATE_GRID_BYTES,
+        # viscosity is integrated implicitly (backward Euler): no viscous step cap
+        self.n_substeps, self.dt = choose_dt(setup, opt, ENGINE, implicit_viscosity=True)
+        check_memory(estimate_bytes(len(setup.x), setup.n_grid, opt["precision"]),
                      ENGINE, f"{len(setup.x)} points, n_grid {setup.n_grid}, {opt['precision']}")
         import taichi as ti
 
@@ -127,17 +116,17 @@ class TaichiMPMEngine(GridEngineBase):
         jp0 = initial_Jp(setup.materials, setup.body_id)
         bytes_per = 4 if real == ti.f32 else 8
         grid_bytes = 4 * bytes_per * setup.n_grid ** 3
-        atomic = opt["device"] == "cuda" or threads * grid_bytes > MAX_PRIVATE_GRID_BYTES
+        atomic = opt["device"] == "cuda" or grid_bytes > MAX_PRIVATE_GRID_BYTES
         C0 = np.zeros((n, 3, 3)) if setup.C is None else setup.C[o]
         self.solver = MPMSolver(
             x=setup.x[o], v=setup.v[o], C0=C0, p_mass=setup.p_mass[o], p_vol=setup.p_vol[o],
             body=setup.body_id[o], fixed=fixed[o], jp0=jp0[o], params=params, kinds=kinds,
             n_grid=setup.n_grid, lo=setup.domain_lo, dx=dx, dt=self.dt, gravity=setup.gravity,
             walls=walls, grounds=grounds, regions=regions, real=real,
-            n_chunks=1 if atomic else n_point_chunks(threads, grid_bytes), atomic=atomic, n_material=self.n_material,
+            n_chunks=1, atomic=atomic, coloured=not atomic, n_material=self.n_material,
             passive_every=opt["passive_every"], flip=opt.get("flip") or 0.0,
             p_contact=contact_coefficients(setup)[o] if contact == "particle" and grounds else None, **self._extras(setup))
-        self._p2g_mode = "atomic" if atomic else f"private grids x{self.solver.n_chunks}"
+        self._p2g_mode = "atomic" if atomic else "coloured blocks"
         self.frame = 0
         self._x = setup.x.astype(np.float32 if real == ti.f32 else np.float64)
         self._v = setup.v.astype(self._x.dtype)
@@ -229,12 +218,18 @@ class TaichiMPMEngine(GridEngineBase):
 
     def stats(self) -> dict[str, Any]:
         """:meth:`GridEngineBase.grid_stats` (mass and passive statistics from the solver's fields while the
-        engine is live), ``threads`` and ``p2g`` (private grids or atomic)."""
+        engine is live), ``threads``, ``p2g`` (coloured blocks or atomic) and, while live, ``late_points`` (coloured
+        P2G: points scattered serially after the colour passes, since the build) and ``viscous_cg_iterations``
+        (with a viscous material: mean CG iterations per viscous solve)."""
         live = not self._closed and self._gen == _generation
         s = self.solver
         out = self.grid_stats(self.options["device"], self.options["precision"], s.get(s.x) if live else None,
                               s.get(s.p_mass) if live else None, s.grid_m.to_numpy() if live else None)
         out.update(threads=self.threads, p2g=self._p2g_mode)
+        if live and s.coloured:
+            out["late_points"] = int(s.late_points)
+        if live and s.visc is not None:
+            out["viscous_cg_iterations"] = s.visc.iters / max(s.visc.solves, 1)
         return out
 
     def close(self) -> None:

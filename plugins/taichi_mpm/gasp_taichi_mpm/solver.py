@@ -11,17 +11,20 @@ been called (by :class:`gasp_taichi_mpm.engine.TaichiMPMEngine`) before it is bu
 
 Implementation notes (all algebraically identical to the spec; they change rounding only):
 
-* **P2G without atomics on CPU.** The points (sorted by cell) are split into ``n_chunks`` contiguous
-  chunks, a fixed number independent of the thread count and larger than it (the engine's
-  ``n_point_chunks``): the threads take chunks as they finish the last, so the load balances itself.
-  Chunk ``t`` scatters into its own grid copy ``grid_mv[t]`` with plain loads and stores. The grid
-  update sums the copies in a fixed order, so a run repeats bit for bit for a fixed ``n_chunks``,
-  whatever the thread count. On CUDA (or when the copies would not fit in memory) one copy is used
-  and the scatter is atomic.
-* **Active region.** Each chunk records the bounding box of the nodes it touched; the grid update
-  visits only the union of those boxes and, at each node, reads and clears only the copies whose
-  box holds it (a chunk of sorted points covers a few cells), so the copies are zero again for the
-  next substep.
+* **Coloured block P2G on CPU** (``coloured``; :mod:`~gasp_taichi_mpm.transfers`). The material points are
+  sorted by grid block (4 nodes a side) at the start of every frame and every :data:`SORT_EVERY` substeps
+  (a stable counting sort in Taichi), then G2P + P2G run in 8 passes, one per colour (the parity of the
+  block index on each axis), each a flat parallel loop in which one thread scatters a whole block with
+  plain adds into the single grid ``grid_mv[0]``. Same-colour blocks are a block apart, so their stencils
+  never share a node; a point that drifted more than a cell out of its block since the sort is scattered
+  after the 8 passes, serially. Every node's sum is then in a fixed order (colour, block, sorted point),
+  so a run gives the same numbers on any thread count and repeats bit for bit; the sort at a frame's start
+  depends only on the positions, so ``--resume`` does too. On CUDA the scatter is atomic. (The older
+  private grid copies per point chunk, ``n_chunks > 1``, are still supported by the grid update.)
+* **Active region.** The P2G records the bounding box of the nodes it touched; the grid update
+  visits only that box and clears it, so the grid is zero again for the next substep.
+* **Implicit viscosity.** With a viscous material, a backward-Euler viscous step on the grid runs between
+  P2G and the grid update (:mod:`~gasp_taichi_mpm.viscosity`): no viscous step limit.
 * **Fused transfers.** Within a frame, the G2P of substep ``s`` and the P2G of substep ``s + 1``
   run in one pass over the points (the grid velocity ``grid_v`` is a separate field from the
   accumulation copies, so no double buffering is needed).
@@ -44,6 +47,9 @@ from .contact import Contact
 from .forces import Forces
 from .grid import GridUpdate
 from .transfers import Transfers
+
+#: The coloured P2G re-sorts the points by block every this many substeps (and at every frame's start).
+SORT_EVERY = 10
 
 
 @ti.data_oriented
@@ -81,6 +87,8 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact)
         Number of point chunks / private grid copies (taken by the CPU threads in turn); ignored with ``atomic``.
     atomic : bool
         Scatter with atomics into one grid copy and visit the whole grid (CUDA).
+    coloured : bool
+        Coloured block P2G (CPU; ``n_chunks`` must be 1 and ``atomic`` False).
     n_material : int, optional
         Points ``[:n_material]`` are material points; the rest (``SimSetup.passive``) are passive:
         G2P only (velocity and position from the grid), no P2G, stress, ``F`` or ``C``. Default all
@@ -90,7 +98,7 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact)
 
     def __init__(self, *, x, v, C0, p_mass, p_vol, body, fixed, jp0, params, kinds, n_grid, lo, dx, dt,
                  gravity, walls, grounds, regions, real, n_chunks, atomic, extras=None, time_table=None, n_substeps=1,
-                 n_material=None, passive_every=1, flip=0.0, p_contact=None):
+                 n_material=None, passive_every=1, flip=0.0, coloured=False, p_contact=None):
         n = len(x)
         self.n = n
         self.n_material = n if n_material is None else int(n_material)
@@ -104,11 +112,15 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact)
         self.any_fixed = bool(np.any(fixed))
         self.viscous = bool(np.any(np.asarray(params)[:, P_ETA] > 0))
         self.flip = float(flip)   # AFLIP blend (gasp_core.toolkit.transfer); > 0: grid_mv also sums the APIC momentum
+        self.coloured = bool(coloured) and not self.atomic and self.n_chunks == 1
         self.n_walls, self.n_grounds, self.n_regions = len(walls), len(grounds), len(regions)
         # the particle contact (p_contact: (n, 3) per point, :mod:`gasp_taichi_mpm.contact`) with the grounds' planes;
         # grid_mv's last channel then sums the nodes' friction budgets
         self.n_planes = self.n_grounds if p_contact is not None else 0
-        self.acc_width = (7 if self.flip > 0 else 4) + (1 if self.n_planes else 0)
+        # channels of grid_mv: momentum, mass (, APIC momentum with flip) (, viscous volume J V eta when viscous)
+        # (, friction budget with the particle contact: always the last)
+        self.eta_channel = 7 if self.flip > 0 else 4
+        self.acc_width = self.eta_channel + (1 if self.viscous else 0) + (1 if self.n_planes else 0)
         self._allocate_points(len(kinds))
         self._allocate_grid()
         self._allocate_boundaries()
@@ -131,6 +143,10 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact)
         self._setup_extras(extras, time_table, np_real, n_substeps)
         if self.has_passive:
             self.passive_box()
+        self.visc = None
+        if self.viscous:
+            from .viscosity import ImplicitViscosity
+            self.visc = ImplicitViscosity(self, self.eta_channel)
 
     def _allocate_points(self, n_bodies: int) -> None:
         """Per-point fields (x, v, C, F, Jp, p_mass, p_vol, body, fixed) and per-body fields (kind, mat).
@@ -179,6 +195,19 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact)
         self.passive_substeps = ti.field(ti.i32, shape=2)
         self.lo = ti.Vector.field(3, real, shape=())
         self.gravity = ti.Vector.field(3, real, shape=())
+        if self.coloured:   # the block sort (transfers.sort_blocks): keys, sorted order, counts per (chunk, key)
+            from .transfers import BLOCK, SORT_CHUNKS
+            cap = self.x.shape[0]
+            self.nbh = ((ng + BLOCK - 1) // BLOCK + 1) // 2   # blocks per axis, halved (rounded up): colour-major keys
+            self.n_keys = 8 * self.nbh ** 3
+            self.key = ti.field(ti.i32, shape=cap)
+            self.order = ti.field(ti.i32, shape=cap)
+            self.skey = ti.field(ti.i32, shape=cap)
+            self.late = ti.field(ti.i8, shape=cap)
+            self.hist = ti.field(ti.i32, shape=(SORT_CHUNKS, self.n_keys))
+            self.colour_lo = ti.field(ti.i32, shape=9)
+            self.n_late = ti.field(ti.i32, shape=())
+        self.late_points = 0   # late points since the engine was built (statistics)
 
     def _allocate_boundaries(self) -> None:
         """Friction and node ranges of at most 4 boundaries of each kind (walls, ground, fixed_region).
@@ -284,18 +313,36 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact)
         if self.has_extras:
             self.ex_tab.from_numpy(self._time_table().astype(self._ex_np))
             self.ex_step[None] = 0
-        self.g2p_p2g(0)
+        self.p2g_substep(0, 0)
         for s in range(n_substeps - 1):
             self.grid_update()
             if at[s] is not None:
                 self.g2p_passive(at[s])
             if self.has_extras:
                 self.ex_step[None] = s + 1
-            self.g2p_p2g(1)
+            self.p2g_substep(1, s + 1)
         self.grid_update()
         self.g2p()
         if at[-1] is not None:
             self.g2p_passive(at[-1])
+
+    def p2g_substep(self, with_g2p: int, substep: int) -> None:
+        """(G2P and) P2G of one substep, then the implicit viscous step. Coloured: the block sort at the frame's
+        first substep and every :data:`SORT_EVERY`, the 8 colour passes, the late points."""
+        if self.coloured:
+            if substep % SORT_EVERY == 0:
+                self.sort_blocks()
+            self.p2g_begin()
+            for c in range(8):
+                self.g2p_p2g_colour(c, with_g2p)
+            self.p2g_late()
+            self.late_points += int(self.n_late[None])
+        else:
+            self.g2p_p2g(with_g2p)
+            if self.visc is not None and self.atomic:
+                self.full_box()
+        if self.visc is not None:
+            self.visc.solve()
 
     # ------------------------------------------------------------------ helpers
     @ti.kernel

@@ -217,16 +217,18 @@ def test_threads_1_is_bit_for_bit_deterministic():
 
 
 def test_any_thread_count_gives_the_same_numbers_as_one_thread():
-    """The points are cut into a fixed number of chunks (not one per thread), summed in a fixed order."""
-    from gasp_taichi_mpm.engine import N_CHUNKS
-    s1 = block_setup(lo=(0.4, 0.4, 0.2), boundaries=[Boundary("ground", height=0.1)], threads=1)
-    s3 = block_setup(lo=(0.4, 0.4, 0.2), boundaries=[Boundary("ground", height=0.1)], threads=3)
-    e1 = run(s1, 3)
-    assert e1.stats()["p2g"] == f"private grids x{N_CHUNKS}"
+    """The coloured block P2G sums every node in a fixed order (colour, block, sorted point), and the implicit
+    viscous step sums its dot products in fixed chunks, whatever the threads. 32,768 points: each colour pass has
+    about 4,000, so Taichi (at least 512 iterations per thread) splits it over all 3 threads."""
+    mat = Material("jelly", E=1e4, nu=0.3, rho=1000.0, viscosity=5.0)
+    kw = dict(lo=(0.25, 0.25, 0.2), size=(0.5, 0.5, 0.5), ppc_axis=4, material=mat,
+              boundaries=[Boundary("ground", height=0.1)])
+    e1 = run(block_setup(threads=1, **kw), 3)
+    assert e1.stats()["p2g"] == "coloured blocks" and e1.stats()["viscous_cg_iterations"] > 0
     a, v = e1.positions(), e1.velocities()
-    e3 = run(s3, 3)
+    e3 = run(block_setup(threads=3, **kw), 3)
     assert np.array_equal(e3.positions(), a) and np.array_equal(e3.velocities(), v)
-    assert np.abs(a - s1.x).max() > 0.01   # it moved
+    assert np.abs(a - block_setup(**kw).x).max() > 0.01   # it moved
 
 
 def test_unknown_option_is_a_scene_error_naming_it():
@@ -423,7 +425,7 @@ def test_one_substep_matches_numpy_transcription_of_the_spec(name):
         assert not np.allclose(Fr, (np.eye(3) + 2e-4 * C) @ F)  # the return mapping was active
 
 
-def test_atomic_scatter_path_agrees_with_private_grids(monkeypatch):
+def test_atomic_scatter_path_agrees_with_coloured_blocks(monkeypatch):
     """The atomic P2G (used on CUDA, or for huge grids) forced on CPU gives the same motion."""
     import gasp_taichi_mpm.engine as engine_mod
     s = block_setup(lo=(0.4, 0.4, 0.1), boundaries=[Boundary("ground", height=0.1)])
@@ -432,3 +434,34 @@ def test_atomic_scatter_path_agrees_with_private_grids(monkeypatch):
     e = run(s, 4)
     assert e.stats()["p2g"] == "atomic"
     assert np.abs(e.positions() - x_private).max() < 1e-5
+
+
+def test_contact_coefficients_follow_the_points_through_the_block_sort():
+    """Each point keeps its own particle-contact coefficients (stiffness, damping, skin) while the coloured P2G
+    re-sorts the points by block (every 10 substeps and each frame's start). The block sort is an index
+    (``solver.order``) over fields that stay in the engine's cell order, so ``p_contact`` must stay aligned with
+    ``x``: row i is setup point ``_order[i]``'s (the same check as warp_mpm's, whose CPU re-sort moves the points)."""
+    from gasp_core.testing.helpers import make_setup, sphere_points
+    from gasp_core.toolkit.contact import contact_coefficients
+    rng = np.random.default_rng(3)
+    x, p_vol = sphere_points((0.5, 0.5, 0.2), 0.08, 0.02)
+    p_vol = p_vol * rng.uniform(0.3, 1.0, len(x))          # coefficients differ point to point
+    setup = make_setup(x, p_vol, Material("jelly", E=2e4, nu=0.3, rho=300.0), n_grid=16,
+                       boundaries=[Boundary("ground", height=0.1, friction=0.5)], v=(0.3, 0.1, -1.0),
+                       options={"contact": "particle", "device": "cpu"})
+    eng = build_engine(gasp_engines()[0], setup)
+    try:
+        s = eng.solver
+        assert s.coloured and s.n_planes == 1
+        for _ in range(4):
+            eng.step_frame()
+        assert not np.array_equal(eng._order, np.arange(len(x)))   # the engine's order is not the setup's
+        assert not np.array_equal(s.order.to_numpy()[:len(x)], np.arange(len(x)))   # the block sort ran
+        want = contact_coefficients(setup)[eng._order]
+        assert np.allclose(s.get(s.p_contact), want, rtol=1e-6)
+        assert np.allclose(eng.positions(), s.get(s.x)[eng._inverse], atol=0)   # x in the same order
+        state = eng.get_state()
+        eng.set_state(state)
+        assert np.allclose(s.get(s.p_contact), contact_coefficients(setup)[eng._order], rtol=1e-6)
+    finally:
+        eng.close()

@@ -69,5 +69,7 @@ def gasp_engines():
         known_failures=KNOWN_FAILURES,
         sweep=sweep,
         available=_available,
-        description="MLS-MPM (docs/mpm.md) in NVIDIA Warp; CPU (single thread, deterministic) or CUDA",
+        description=("MLS-MPM (docs/mpm.md) in NVIDIA Warp; CUDA, or CPU on one core (Warp runs CPU kernels "
+                     "serially, deterministic): on CPU use taichi_mpm, which uses every core (docs/performance.md); "
+                     "viscosity implicit (no step limit)"),
     )]

@@ -2,7 +2,9 @@
 
 Implements ``docs/mpm.md`` (3D MLS-MPM, quadratic B-splines, APIC; Hu et al. 2018) with the
 kernels of :mod:`gasp_warp_mpm.kernels`. Per substep three launches: P2G (return mapping, stress once per point,
-scatter), grid update over nodes (which also clears the accumulation grid), and G2P fused with the position update. On CUDA the substeps of a frame are captured once in a CUDA
+scatter), grid update over nodes (which also clears the accumulation grid), and G2P fused with the position update;
+with a viscous material the implicit viscous step (:mod:`gasp_warp_mpm.viscosity`) runs between P2G and the grid
+update. On CUDA the substeps of a frame are captured once in a CUDA
 graph; on CPU the launches are pre-recorded ``wp.Launch`` objects. The host synchronises once per
 frame, for the blow-up check.
 
@@ -31,7 +33,7 @@ import numpy as np
 import warp as wp
 
 from gasp_core.toolkit.grid_engine import choose_dt, GridEngineBase
-from gasp_core.toolkit.materials import initial_Jp, material_table
+from gasp_core.toolkit.materials import P_ETA, initial_Jp, material_table
 from gasp_core.toolkit.memory import check_memory, estimate_bytes
 from gasp_core.toolkit.contact import contact_coefficients, contact_model, ground_node_layer
 from gasp_core.toolkit.points import cell_order, fixed_mask
@@ -40,31 +42,7 @@ from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, 
 
 from . import ENGINE
 from . import kernels as K
-
-
-def _init_warp(cpu_only: bool) -> None:
-    """``wp.init()``; on a CPU run, drop the native "no CUDA driver" warning it prints on machines
-    without a GPU (it is written by Warp's C++ core to the process's stderr, past Python's
-    ``sys.stderr``). Every other line it prints is passed on."""
-    import os
-    import sys
-    import tempfile
-    if not cpu_only:
-        wp.init()
-        return
-    with tempfile.TemporaryFile(mode="w+b") as cap:
-        sys.stderr.flush()
-        saved = os.dup(2)
-        os.dup2(cap.fileno(), 2)
-        try:
-            wp.init()
-        finally:
-            os.dup2(saved, 2)
-            os.close(saved)
-        cap.seek(0)
-        for line in cap.read().decode(errors="replace").splitlines():
-            if "CUDA driver" not in line:
-                print(line, file=sys.stderr)
+from .startup import init_warp
 
 
 class WarpMPMEngine(GridEngineBase):
@@ -96,7 +74,7 @@ class WarpMPMEngine(GridEngineBase):
         opts = setup.options  # checked and completed by the core (build_engine)
         self.options = opts
         kinds, par = material_table(setup.materials)
-        choose_dt(setup, opts, ENGINE)  # refuses a scene past max_substeps before any build work
+        choose_dt(setup, opts, ENGINE, implicit_viscosity=True)  # refuses a scene past max_substeps before any build work
         check_memory(estimate_bytes(len(setup.x), setup.n_grid, opts["precision"]), ENGINE,
                      f"{len(setup.x)} points, n_grid {setup.n_grid}, {opts['precision']}")
         self.device = self._start_warp(opts["device"])
@@ -109,7 +87,7 @@ class WarpMPMEngine(GridEngineBase):
         self.n_grid = int(setup.n_grid)
         self.dx = setup.dx
         self.inv_dx = 1.0 / self.dx
-        self.n_substeps, self.dt = choose_dt(setup, opts, ENGINE)
+        self.n_substeps, self.dt = choose_dt(setup, opts, ENGINE, implicit_viscosity=True)
         self.frame = 0
         self.sim_time = 0.0
         # Sort points by grid cell (cache locality of scatter and gather); order[i] is the
@@ -132,7 +110,7 @@ class WarpMPMEngine(GridEngineBase):
 
         Raises EngineError where that device is missing."""
         wp.config.log_level = wp.LOG_WARNING  # no start-up banner or module-load lines on stdout
-        _init_warp(cpu_only=not dev.startswith("cuda"))
+        init_warp(cpu_only=not dev.startswith("cuda"))
         if dev.startswith("cuda") and not wp.is_cuda_available():
             raise EngineError(f"engine '{ENGINE}': device '{dev}' requested but Warp finds no CUDA "
                               f"device here (driver missing or no GPU); use device = \"cpu\"")
@@ -181,6 +159,13 @@ class WarpMPMEngine(GridEngineBase):
         self.flip = float(self.options.get("flip") or 0.0)
         self.grid_mv0 = wp.zeros(n_nodes if self.flip else 1, dtype=k.vec4, device=d)
         self.grid_v0 = wp.zeros(n_nodes if self.flip else 1, dtype=k.vec3, device=d)
+        # with a viscous material: the viscous volume sum_p w J V eta per node and the implicit step (viscosity.py)
+        viscous = bool(np.any(self.mat_par.numpy()[:, P_ETA] > 0))
+        self.grid_eta = wp.zeros(n_nodes if viscous else 1, dtype=Ft, device=d)
+        self.visc = None
+        if viscous:
+            from .viscosity import ImplicitViscosity
+            self.visc = ImplicitViscosity(self, Ft)
 
     def _upload_boundaries(self, Ft) -> None:
         """Walls' friction, grounds' (top node layer, friction, 0) and fixed regions' boxes as arrays."""
@@ -223,7 +208,7 @@ class WarpMPMEngine(GridEngineBase):
                 self.x, self.v, self.F, self.C, self.Jp, self.p_mass, self.p_vol, self.body,
                 self.mat_kind, self.mat_par, self.grid_mv, self.flags, lo_v, inv_dx, dx, dt_f, ng,
                 self.grid_g, self.has_wind, self.grid_mv0, int(self.flip > 0), self.p_contact, self.planes,
-                self.grid_fb]),
+                self.grid_fb, self.grid_eta]),
             wp.launch(k.grid_update, dim=ng ** 3, device=d, record_cmd=True, inputs=[
                 self.grid_mv, self.grid_v, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, self.wall_mu,
                 self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex, self.grid_g, self.has_wind,
@@ -295,10 +280,12 @@ class WarpMPMEngine(GridEngineBase):
             view[...] = view[perm]
         self._order = self._order[perm]
 
-    def _substeps(self) -> None:
+    def _substeps(self, capturing: bool = False) -> None:
         for s in range(self.n_substeps):
-            for cmd in self._launches:
+            for i, cmd in enumerate(self._launches):
                 cmd.launch()
+                if i == 0 and self.visc is not None:   # after P2G: the implicit viscous step
+                    self.visc.solve(capturing)
             if self._passive_at[s] is not None:
                 self._passive_at[s].launch()
             if self._tick is not None:
@@ -326,7 +313,7 @@ class WarpMPMEngine(GridEngineBase):
         if self.device.is_cuda:
             if self._graph is None:
                 with wp.ScopedCapture(device=self.device) as capture:
-                    self._substeps()
+                    self._substeps(capturing=True)
                 self._graph = capture.graph
             wp.capture_launch(self._graph)
         else:

@@ -55,8 +55,8 @@ def build_stencil(Ft):
 
 @functools.cache
 def build_scatter(Ft):
-    """``(scatter, scatter_wind)``: a point's momentum and mass, and its windward area, added to its 27 nodes
-    (P2G), scalar type ``Ft``."""
+    """``(scatter, scatter_wind, scatter_scalar)``: a point's momentum and mass, its windward area, and a scalar
+    (the viscous volume), added to its 27 nodes (P2G), scalar type ``Ft``."""
     vec3, vec4, mat33 = build_types(Ft)
 
     @wp.func
@@ -95,7 +95,17 @@ def build_scatter(Ft):
                     grid_g[row + k] += sv * vec3(dW[i, 0] * W[j, 1] * W[k, 2], W[i, 0] * dW[j, 1] * W[k, 2],
                                                  W[i, 0] * W[j, 1] * dW[k, 2])
 
-    return scatter, scatter_wind
+    @wp.func
+    def scatter_scalar(grid_s: wp.array(dtype=Ft), idx0: int, n_grid: int, W: mat33, value: Ft):
+        # grid_s += w value over the 27 nodes from flat index idx0
+        nn = n_grid * n_grid
+        for i in range(3):
+            for j in range(3):
+                row = idx0 + i * nn + j * n_grid
+                for k in range(3):
+                    grid_s[row + k] += W[i, 0] * W[j, 1] * W[k, 2] * value
+
+    return scatter, scatter_wind, scatter_scalar
 
 
 @functools.cache
@@ -104,7 +114,7 @@ def build_p2g(Ft):
     vec3, vec4, mat33 = build_types(Ft)
     in_grid, weights = build_stencil(Ft)
     return_mapping = build_return_mapping(Ft)
-    scatter, scatter_wind = build_scatter(Ft)
+    scatter, scatter_wind, scatter_scalar = build_scatter(Ft)
     plane_contact, scatter_budget, _ = build_contact(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
@@ -117,6 +127,7 @@ def build_p2g(Ft):
         lo: vec3, inv_dx: Ft, dx: Ft, dt: Ft, n_grid: int, grid_g: wp.array(dtype=vec3), has_wind: int,
         grid_mv0: wp.array(dtype=vec4), flip: int,
         p_contact: wp.array(dtype=vec3), planes: wp.array(dtype=vec3), grid_fb: wp.array(dtype=Ft),
+        grid_eta: wp.array(dtype=Ft),
     ):
         # F advanced by C, return mapping and stress (docs/mpm.md), then the scatter (and, with wind, grid_g;
         # with flip, the APIC momentum alone into grid_mv0: gasp_core.toolkit.transfer); with the particle
@@ -136,8 +147,6 @@ def build_p2g(Ft):
         F_new, tau = return_mapping((wp.identity(3, dtype=Ft) + dt * Cp) * F[p], p, body, mat_kind, mat_par, Jp)
         F[p] = F_new
         eta = mat_par[body[p], P_ETA]
-        if eta > Ft(0.0):  # Kelvin-Voigt: J 2 eta sym(grad v), C = grad v (docs/dissipation.md)
-            tau = tau + (eta * wp.determinant(F_new)) * (Cp + wp.transpose(Cp))
         pm = p_mass[p]
         affine = (-dt * p_vol[p] * Ft(4.0) * inv_dx * inv_dx) * tau + pm * Cp
         A = dx * affine  # affine dpos = A ((i, j, k) - fx)
@@ -154,6 +163,8 @@ def build_p2g(Ft):
             scatter(grid_mv0, idx0, n_grid, W, pm * v[p] - A0 * fx, A0, pm)
         if has_wind != 0:
             scatter_wind(grid_g, idx0, n_grid, W, fx, p_vol[p] * inv_dx)
+        if eta > Ft(0.0):  # Kelvin-Voigt, implicit on the grid: the point's J V eta (gasp_warp_mpm.viscosity)
+            scatter_scalar(grid_eta, idx0, n_grid, W, eta * wp.determinant(F_new) * p_vol[p])
 
     return p2g
 

@@ -1,0 +1,273 @@
+"""Implicit Kelvin-Voigt viscosity on the grid (``docs/dissipation.md``, "Time step"; ``docs/mpm.md`` step 3a).
+
+After P2G the grid holds each node's momentum ``m v*`` (elastic stress included), mass ``m`` and viscous
+volume ``(eta V)_i = sum_p w_ip J_p V_p eta_p`` (Pa s m^3). The viscous stress ``2 eta D`` is linear in the
+velocity, so one backward-Euler step of it is the linear system
+
+    (M + dt K) v = M v*,      (K v)_i = sum_c (eta V)_c (G_c + G_c^T) g_ic,
+
+over the nodes with mass, where ``c`` runs over the grid cells whose 8 corner nodes all have mass,
+``G_c = sum_i v_i g_ic^T`` is the cell's velocity gradient (trilinear shape functions at the cell centre,
+``g_ic = (+-1, +-1, +-1) / (4 dx)``) and ``(eta V)_c = sum_corners (eta V)_i / n_i`` shares each node's viscous
+volume among its ``n_i`` valid cells (their sum is the body's ``sum_p J_p V_p eta_p``). ``K`` is the Hessian of
+the Rayleigh dissipation ``sum_c (eta V)_c D_c : D_c``: symmetric, positive semi-definite, zero on rigid
+motions, so the step conserves linear and angular momentum and is stable at any ``dt``. It is solved by
+conjugate gradients with the diagonal as preconditioner, starting from ``v*``, until the preconditioned
+residual falls below :data:`TOL` of its start (at most :data:`MAX_ITERS` iterations). The nodes with mass and the
+valid cells are listed in node order; the dot products are summed in fixed chunks of :data:`CHUNK` nodes and the
+chunks' sums in order, so the result does not depend on the thread count.
+"""
+import taichi as ti
+
+#: CG stops when sqrt(r.z) has fallen to this fraction of its value at v* (the viscous correction's accuracy).
+import os
+TOL = float(os.environ.get("GASP_VISC_TOL", "1e-2"))
+#: At most this many CG iterations per substep.
+MAX_ITERS = 200
+#: Nodes per partial sum of a dot product (fixed: the sums do not depend on the threads).
+CHUNK = 256
+
+
+@ti.data_oriented
+class ImplicitViscosity:
+    """The viscous solve of one :class:`gasp_taichi_mpm.solver.MPMSolver` (its ``grid_mv[0]``, ``box[0]``).
+
+    Parameters
+    ----------
+    solver : MPMSolver
+        Its ``grid_mv`` copy 0 holds momentum (channels 0-2), mass (3) and the viscous volume
+        (channel ``eta_channel``); ``box[0]`` the nodes touched by P2G.
+    eta_channel : int
+    """
+
+    def __init__(self, solver, eta_channel: int):
+        self.s = solver
+        self.ch = int(eta_channel)
+        real, ng = solver.real, solver.n_grid
+        shape = (ng, ng, ng)
+        self.u = ti.Vector.field(3, real, shape=shape)     # the solution (m/s)
+        self.r = ti.Vector.field(3, real, shape=shape)
+        self.z = ti.Vector.field(3, real, shape=shape)
+        self.p = ti.Vector.field(3, real, shape=shape)
+        self.Ap = ti.Vector.field(3, real, shape=shape)
+        self.diag = ti.field(real, shape=shape)           # m_i + dt sum_c (eta V)_c / (4 dx^2)
+        self.wc = ti.field(real, shape=shape)             # (eta V)_c of the cell with lower corner I; 0: not valid
+        self.S = ti.Matrix.field(3, 3, real, shape=shape)  # (eta V)_c (G_c + G_c^T) of the current direction
+        self.n_valid = ti.field(ti.i32, shape=shape)
+        self.nodes = ti.Vector.field(3, ti.i32, shape=ng ** 3)   # nodes with mass, in node order
+        self.cells = ti.Vector.field(3, ti.i32, shape=ng ** 3)   # valid cells (lower corner), in node order
+        self.n_nodes = ti.field(ti.i32, shape=())
+        self.n_cells = ti.field(ti.i32, shape=())
+        self.part = ti.field(real, shape=ng ** 3 // CHUNK + 1)   # partial sums of a dot product
+        self.rz = ti.field(real, shape=())
+        self.rz0 = ti.field(real, shape=())
+        self.alpha = ti.field(real, shape=())
+        self.beta = ti.field(real, shape=())
+        self.done = ti.field(ti.i32, shape=())
+        self.iters = 0        # CG iterations done in all (statistics)
+        self.solves = 0
+
+    @ti.func
+    def _box(self):
+        lo = self.s.box[0, 0]
+        hi = self.s.box[0, 1]
+        return lo, ti.max(hi - lo + 1, 0)
+
+    @ti.func
+    def _node(self, lo, ext, idx):
+        return lo + ti.Vector([idx // (ext[1] * ext[2]), (idx // ext[2]) % ext[1], idx % ext[2]])
+
+    @ti.func
+    def _active(self, I, lo, hi):
+        ok = False
+        if (I >= lo).all() and (I <= hi).all():
+            ok = self.s.grid_mv[0, I][3] > 0.0
+        return ok
+
+    @ti.func
+    def _in(self, c, lo, hi):
+        return (c >= lo).all() and (c <= hi).all()
+
+    @ti.func
+    def _g(self, a: ti.template(), b: ti.template(), e: ti.template()):
+        """Gradient of the trilinear shape function of corner (a, b, e) at the cell centre."""
+        q = 0.25 * self.s.inv_dx[None]
+        return ti.Vector([ti.static(2.0 * a - 1.0), ti.static(2.0 * b - 1.0), ti.static(2.0 * e - 1.0)]) * q
+
+    @ti.func
+    def _cell_stress(self, c, field: ti.template()):
+        """(eta V)_c (G + G^T) of ``field`` over valid cell ``c``."""
+        G = ti.Matrix.zero(self.s.real, 3, 3)
+        for a, b, e in ti.static(ti.ndrange(2, 2, 2)):
+            G += field[c + ti.Vector([a, b, e])].outer_product(self._g(a, b, e))
+        return self.wc[c] * (G + G.transpose())
+
+    @ti.func
+    def _node_force(self, I, lo, hi):
+        """sum_c S_c g_ic over the valid cells holding node I: (K x)_i."""
+        f = ti.Vector.zero(self.s.real, 3)
+        for a, b, e in ti.static(ti.ndrange(2, 2, 2)):
+            c = I - ti.Vector([a, b, e])
+            if self._in(c, lo, hi):
+                if self.wc[c] > 0.0:
+                    f += self.S[c] @ self._g(a, b, e)
+        return f
+
+    @ti.func
+    def _sum_parts(self, n):
+        """Sum of the partial sums of ``n`` list entries, in chunk order."""
+        total = ti.cast(0.0, self.s.real)
+        ti.loop_config(serialize=True)
+        for q in range((n + CHUNK - 1) // CHUNK):
+            total += self.part[q]
+        return total
+
+    @ti.kernel
+    def _start(self):
+        """Lists, cell weights, diagonal; u = v*, r = M v* - A u, z = r / diag, p = z, rz."""
+        lo, ext = self._box()
+        hi = lo + ext - 1
+        count = ext[0] * ext[1] * ext[2]
+        for idx in range(count):   # v*, and which cells are valid (all 8 corners with mass)
+            I = self._node(lo, ext, idx)
+            acc = self.s.grid_mv[0, I]
+            u = ti.Vector.zero(self.s.real, 3)
+            if acc[3] > 0.0:
+                u = ti.Vector([acc[0], acc[1], acc[2]]) / acc[3]
+            self.u[I] = u
+            valid = True
+            for a, b, e in ti.static(ti.ndrange(2, 2, 2)):
+                if not self._active(I + ti.Vector([a, b, e]), lo, hi):
+                    valid = False
+            self.wc[I] = 1.0 if valid else 0.0
+        nn = 0
+        nc = 0
+        ti.loop_config(serialize=True)
+        for idx in range(count):   # the lists, in node order
+            I = self._node(lo, ext, idx)
+            if self.s.grid_mv[0, I][3] > 0.0:
+                self.nodes[nn] = I
+                nn += 1
+            if self.wc[I] > 0.0:
+                self.cells[nc] = I
+                nc += 1
+        self.n_nodes[None] = nn
+        self.n_cells[None] = nc
+        for k in range(nn):   # valid cells per node
+            I = self.nodes[k]
+            n = 0
+            for a, b, e in ti.static(ti.ndrange(2, 2, 2)):
+                c = I - ti.Vector([a, b, e])
+                if self._in(c, lo, hi):
+                    if self.wc[c] > 0.0:
+                        n += 1
+            self.n_valid[I] = n
+        for k in range(nc):   # each node's viscous volume shared among its valid cells
+            c = self.cells[k]
+            w = ti.cast(0.0, self.s.real)
+            for a, b, e in ti.static(ti.ndrange(2, 2, 2)):
+                J = c + ti.Vector([a, b, e])
+                w += self.s.grid_mv[0, J][self.ch] / ti.cast(self.n_valid[J], self.s.real)
+            self.wc[c] = w
+        for k in range(nc):
+            c = self.cells[k]
+            self.S[c] = self._cell_stress(c, self.u)
+        dt = self.s.dt[None]
+        kd = 0.25 * dt * self.s.inv_dx[None] * self.s.inv_dx[None]
+        for k0 in range(nn):
+            if k0 % CHUNK == 0:
+                acc = ti.cast(0.0, self.s.real)
+                for k in range(k0, ti.min(k0 + CHUNK, nn)):
+                    I = self.nodes[k]
+                    wsum = ti.cast(0.0, self.s.real)
+                    for a, b, e in ti.static(ti.ndrange(2, 2, 2)):
+                        c = I - ti.Vector([a, b, e])
+                        if self._in(c, lo, hi):
+                            wsum += self.wc[c]
+                    d = self.s.grid_mv[0, I][3] + kd * wsum
+                    r = -dt * self._node_force(I, lo, hi)
+                    self.diag[I] = d
+                    self.r[I] = r
+                    z = r / d
+                    self.z[I] = z
+                    self.p[I] = z
+                    acc += r.dot(z)
+                self.part[k0 // CHUNK] = acc
+        rz = self._sum_parts(nn)
+        self.rz[None] = rz
+        self.rz0[None] = rz
+        self.done[None] = 0
+        if rz <= 0.0:
+            self.done[None] = 1
+
+    @ti.kernel
+    def _iterate(self):
+        """One preconditioned CG iteration (a no-op once converged)."""
+        lo, ext = self._box()
+        hi = lo + ext - 1
+        nn = self.n_nodes[None]
+        for k in range(self.n_cells[None]):
+            c = self.cells[k]
+            self.S[c] = self._cell_stress(c, self.p)
+        dt = self.s.dt[None]
+        for k0 in range(nn):
+            if k0 % CHUNK == 0:
+                acc = ti.cast(0.0, self.s.real)
+                for k in range(k0, ti.min(k0 + CHUNK, nn)):
+                    I = self.nodes[k]
+                    ap = self.s.grid_mv[0, I][3] * self.p[I] + dt * self._node_force(I, lo, hi)
+                    self.Ap[I] = ap
+                    acc += self.p[I].dot(ap)
+                self.part[k0 // CHUNK] = acc
+        pap = self._sum_parts(nn)
+        self.alpha[None] = 0.0
+        if pap > 0.0 and self.done[None] == 0:
+            self.alpha[None] = self.rz[None] / pap
+        else:
+            self.done[None] = 1
+        for k0 in range(nn):
+            if k0 % CHUNK == 0:
+                alpha = self.alpha[None]
+                acc = ti.cast(0.0, self.s.real)
+                for k in range(k0, ti.min(k0 + CHUNK, nn)):
+                    I = self.nodes[k]
+                    self.u[I] += alpha * self.p[I]
+                    r = self.r[I] - alpha * self.Ap[I]
+                    self.r[I] = r
+                    z = r / self.diag[I]
+                    self.z[I] = z
+                    acc += r.dot(z)
+                self.part[k0 // CHUNK] = acc
+        rz = self._sum_parts(nn)
+        self.beta[None] = 0.0
+        if self.done[None] == 0:
+            if self.rz[None] > 0.0:
+                self.beta[None] = rz / self.rz[None]
+            self.rz[None] = rz
+            if rz <= TOL * TOL * self.rz0[None]:
+                self.done[None] = 1
+        for k in range(nn):
+            I = self.nodes[k]
+            self.p[I] = self.z[I] + self.beta[None] * self.p[I]
+
+    @ti.kernel
+    def _finish(self):
+        """Momentum m u back into grid_mv (the grid update divides by m again)."""
+        for k in range(self.n_nodes[None]):
+            I = self.nodes[k]
+            m = self.s.grid_mv[0, I][3]
+            mu = m * self.u[I]
+            self.s.grid_mv[0, I][0] = mu[0]
+            self.s.grid_mv[0, I][1] = mu[1]
+            self.s.grid_mv[0, I][2] = mu[2]
+
+    def solve(self) -> None:
+        """One backward-Euler viscous step on the grid momentum (between P2G and the grid update)."""
+        self._start()
+        k = 0
+        while k < MAX_ITERS and not self.done[None]:
+            self._iterate()
+            k += 1
+        self._finish()
+        self.iters += k
+        self.solves += 1

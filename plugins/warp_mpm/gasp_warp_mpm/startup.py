@@ -1,0 +1,27 @@
+"""Warp start-up for :class:`gasp_warp_mpm.solver.WarpMPMEngine`: ``wp.init()`` without the CPU-only noise."""
+import warp as wp
+
+
+def init_warp(cpu_only: bool) -> None:
+    """``wp.init()``; on a CPU run, drop the native "no CUDA driver" warning it prints on machines
+    without a GPU (it is written by Warp's C++ core to the process's stderr, past Python's
+    ``sys.stderr``). Every other line it prints is passed on."""
+    import os
+    import sys
+    import tempfile
+    if not cpu_only:
+        wp.init()
+        return
+    with tempfile.TemporaryFile(mode="w+b") as cap:
+        sys.stderr.flush()
+        saved = os.dup(2)
+        os.dup2(cap.fileno(), 2)
+        try:
+            wp.init()
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+        cap.seek(0)
+        for line in cap.read().decode(errors="replace").splitlines():
+            if "CUDA driver" not in line:
+                print(line, file=sys.stderr)

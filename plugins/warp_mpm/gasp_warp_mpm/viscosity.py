@@ -1,0 +1,307 @@
+"""Implicit Kelvin-Voigt viscosity on the grid, Warp kernels: the algorithm of ``gasp_taichi_mpm.viscosity``
+(``docs/dissipation.md``, "Time step").
+
+After P2G the grid holds each node's momentum ``m v*`` and mass (``grid_mv``) and viscous volume
+``(eta V)_i = sum_p w_ip J_p V_p eta_p`` (``grid_eta``, Pa s m^3). One backward-Euler step of the viscous stress,
+
+    (M + dt K) v = M v*,      (K v)_i = sum_c (eta V)_c (G_c + G_c^T) g_ic,
+
+over the nodes with mass; ``c`` runs over the cells whose 8 corners all have mass, ``G_c = sum_i v_i g_ic^T``
+(trilinear shape functions at the cell centre, ``g_ic = (+-1, +-1, +-1) / (4 dx)``), ``(eta V)_c = sum_corners
+(eta V)_i / n_i`` (``n_i`` valid cells at node ``i``). Solved by conjugate gradients with the diagonal
+``m_i + dt sum_c (eta V)_c / (4 dx^2)`` as preconditioner from ``v*``, until ``r.z`` falls below ``TOL^2`` of its
+start (at most ``MAX_ITERS``). The lists of nodes and cells are built, and the dot products summed, in node
+order by one thread, so the result is the same on every run.
+
+This module must not use ``from __future__ import annotations``: Warp reads the annotations of
+the closures below as type objects.
+"""
+import functools
+
+import warp as wp
+
+from .precision import MODULE_OPTIONS, build_types
+
+#: CG stops when sqrt(r.z) has fallen to this fraction of its value at v* (as gasp_taichi_mpm.viscosity.TOL).
+TOL = 1e-2
+#: At most this many CG iterations per substep (on CUDA, inside a captured graph, always this many; the
+#: iterations after convergence change nothing).
+MAX_ITERS = 200
+MAX_ITERS_GRAPH = 30
+
+
+@functools.cache
+def build_viscosity(Ft):
+    """The kernels of the implicit viscous step for scalar type ``Ft`` (a namespace).
+
+    long because the Warp kernels and functions are closures over ``Ft`` and its vector types, built together."""
+    import types
+    vec3, vec4, mat33 = build_types(Ft)
+
+    @wp.func
+    def corner(c: int, a: int, b: int, e: int, ng: int):
+        return c + (a * ng + b) * ng + e
+
+    @wp.func
+    def grad(a: int, b: int, e: int, q: Ft):
+        return vec3(Ft(2 * a - 1), Ft(2 * b - 1), Ft(2 * e - 1)) * q
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def lists(grid_mv: wp.array(dtype=vec4), u: wp.array(dtype=vec3), valid: wp.array(dtype=wp.int32),
+              nodes: wp.array(dtype=wp.int32), cells: wp.array(dtype=wp.int32), counts: wp.array(dtype=wp.int32),
+              ng: int):
+        # one thread: v*, valid cells (lower corner index, all 8 corners with mass; never on the last plane),
+        # and the lists in node order
+        nn = int(0)
+        nc = int(0)
+        for i in range(ng):
+            for j in range(ng):
+                for k in range(ng):
+                    I = (i * ng + j) * ng + k
+                    g = grid_mv[I]
+                    if g[3] > Ft(0.0):
+                        u[I] = vec3(g[0], g[1], g[2]) / g[3]
+                        nodes[nn] = I
+                        nn = nn + 1
+                    ok = int(0)
+                    if i < ng - 1 and j < ng - 1 and k < ng - 1:
+                        ok = 1
+                        for a in range(2):
+                            for b in range(2):
+                                for e in range(2):
+                                    if grid_mv[corner(I, a, b, e, ng)][3] <= Ft(0.0):
+                                        ok = 0
+                    valid[I] = ok
+                    if ok != 0:
+                        cells[nc] = I
+                        nc = nc + 1
+        counts[0] = nn
+        counts[1] = nc
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def cell_weights(grid_eta: wp.array(dtype=Ft), valid: wp.array(dtype=wp.int32), cells: wp.array(dtype=wp.int32),
+                     counts: wp.array(dtype=wp.int32), wc: wp.array(dtype=Ft), ng: int):
+        t = wp.tid()
+        if t >= counts[1]:
+            return
+        c = cells[t]
+        w = Ft(0.0)
+        for a in range(2):
+            for b in range(2):
+                for e in range(2):
+                    J = corner(c, a, b, e, ng)
+                    n = int(0)
+                    for a2 in range(2):
+                        for b2 in range(2):
+                            for e2 in range(2):
+                                n = n + valid[J - (a2 * ng + b2) * ng - e2]
+                    w = w + grid_eta[J] / Ft(n)
+        wc[c] = w
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def cell_stress(field: wp.array(dtype=vec3), wc: wp.array(dtype=Ft), cells: wp.array(dtype=wp.int32),
+                    counts: wp.array(dtype=wp.int32), S: wp.array(dtype=mat33), ng: int, inv_dx: Ft):
+        t = wp.tid()
+        if t >= counts[1]:
+            return
+        c = cells[t]
+        q = Ft(0.25) * inv_dx
+        G = mat33()
+        for a in range(2):
+            for b in range(2):
+                for e in range(2):
+                    G = G + wp.outer(field[corner(c, a, b, e, ng)], grad(a, b, e, q))
+        S[c] = wc[c] * (G + wp.transpose(G))
+
+    @wp.func
+    def node_force(I: int, S: wp.array(dtype=mat33), valid: wp.array(dtype=wp.int32), ng: int, q: Ft):
+        f = vec3()
+        for a in range(2):
+            for b in range(2):
+                for e in range(2):
+                    c = I - (a * ng + b) * ng - e
+                    if c >= 0:
+                        if valid[c] != 0:
+                            f = f + S[c] * grad(a, b, e, q)
+        return f
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def start(grid_mv: wp.array(dtype=vec4), wc: wp.array(dtype=Ft), valid: wp.array(dtype=wp.int32),
+              S: wp.array(dtype=mat33), nodes: wp.array(dtype=wp.int32), counts: wp.array(dtype=wp.int32),
+              diag: wp.array(dtype=Ft), r: wp.array(dtype=vec3), z: wp.array(dtype=vec3), p: wp.array(dtype=vec3),
+              ng: int, dt: Ft, inv_dx: Ft):
+        t = wp.tid()
+        if t >= counts[0]:
+            return
+        I = nodes[t]
+        q = Ft(0.25) * inv_dx
+        wsum = Ft(0.0)
+        for a in range(2):
+            for b in range(2):
+                for e in range(2):
+                    c = I - (a * ng + b) * ng - e
+                    if c >= 0:
+                        if valid[c] != 0:
+                            wsum = wsum + wc[c]
+        d = grid_mv[I][3] + Ft(0.25) * dt * inv_dx * inv_dx * wsum
+        ri = -dt * node_force(I, S, valid, ng, q)
+        diag[I] = d
+        r[I] = ri
+        z[I] = ri / d
+        p[I] = ri / d
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def apply(grid_mv: wp.array(dtype=vec4), S: wp.array(dtype=mat33), valid: wp.array(dtype=wp.int32),
+              nodes: wp.array(dtype=wp.int32), counts: wp.array(dtype=wp.int32), p: wp.array(dtype=vec3),
+              Ap: wp.array(dtype=vec3), ng: int, dt: Ft, inv_dx: Ft):
+        t = wp.tid()
+        if t >= counts[0]:
+            return
+        I = nodes[t]
+        Ap[I] = grid_mv[I][3] * p[I] + dt * node_force(I, S, valid, ng, Ft(0.25) * inv_dx)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def dot(a: wp.array(dtype=vec3), b: wp.array(dtype=vec3), nodes: wp.array(dtype=wp.int32),
+            counts: wp.array(dtype=wp.int32), out: wp.array(dtype=Ft), slot: int):
+        # one thread, in node order (the same sum on every run)
+        s = Ft(0.0)
+        for t in range(counts[0]):
+            I = nodes[t]
+            s = s + wp.dot(a[I], b[I])
+        out[slot] = s
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def step_alpha(scal: wp.array(dtype=Ft), done: wp.array(dtype=wp.int32)):
+        # scal: [rz, rz0, pAp, alpha, rz_new, beta]
+        scal[3] = Ft(0.0)
+        if done[0] == 0:
+            if scal[2] > Ft(0.0):
+                scal[3] = scal[0] / scal[2]
+            else:
+                done[0] = 1
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def update(u: wp.array(dtype=vec3), r: wp.array(dtype=vec3), z: wp.array(dtype=vec3), p: wp.array(dtype=vec3),
+               Ap: wp.array(dtype=vec3), diag: wp.array(dtype=Ft), nodes: wp.array(dtype=wp.int32),
+               counts: wp.array(dtype=wp.int32), scal: wp.array(dtype=Ft)):
+        t = wp.tid()
+        if t >= counts[0]:
+            return
+        I = nodes[t]
+        alpha = scal[3]
+        u[I] = u[I] + alpha * p[I]
+        ri = r[I] - alpha * Ap[I]
+        r[I] = ri
+        z[I] = ri / diag[I]
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def step_beta(scal: wp.array(dtype=Ft), done: wp.array(dtype=wp.int32), tol2: Ft):
+        scal[5] = Ft(0.0)
+        if done[0] == 0:
+            if scal[0] > Ft(0.0):
+                scal[5] = scal[4] / scal[0]
+            scal[0] = scal[4]
+            if scal[4] <= tol2 * scal[1]:
+                done[0] = 1
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def direction(z: wp.array(dtype=vec3), p: wp.array(dtype=vec3), nodes: wp.array(dtype=wp.int32),
+                  counts: wp.array(dtype=wp.int32), scal: wp.array(dtype=Ft)):
+        t = wp.tid()
+        if t >= counts[0]:
+            return
+        I = nodes[t]
+        p[I] = z[I] + scal[5] * p[I]
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def begin(scal: wp.array(dtype=Ft), done: wp.array(dtype=wp.int32)):
+        # after the first r.z (in scal[0]): remember it, converged already when it is zero
+        scal[1] = scal[0]
+        done[0] = 0
+        if scal[0] <= Ft(0.0):
+            done[0] = 1
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def finish(grid_mv: wp.array(dtype=vec4), grid_eta: wp.array(dtype=Ft), u: wp.array(dtype=vec3),
+               nodes: wp.array(dtype=wp.int32), counts: wp.array(dtype=wp.int32)):
+        # momentum m u back (the grid update divides by m again); the viscous volume cleared for the next P2G
+        t = wp.tid()
+        if t >= counts[0]:
+            return
+        I = nodes[t]
+        g = grid_mv[I]
+        m = g[3]
+        grid_mv[I] = vec4(m * u[I][0], m * u[I][1], m * u[I][2], m)
+        grid_eta[I] = Ft(0.0)
+
+    return types.SimpleNamespace(lists=lists, cell_weights=cell_weights, cell_stress=cell_stress, start=start,
+                                 apply=apply, dot=dot, step_alpha=step_alpha, update=update, step_beta=step_beta,
+                                 direction=direction, begin=begin, finish=finish)
+
+
+class ImplicitViscosity:
+    """The viscous step of one :class:`gasp_warp_mpm.solver.WarpMPMEngine`: arrays and launches.
+
+    Parameters
+    ----------
+    eng : WarpMPMEngine
+        Its ``grid_mv`` (momentum, mass), ``grid_eta`` (viscous volume), ``n_grid``, ``dt``, ``inv_dx``, ``device``.
+    Ft : warp scalar type
+    """
+
+    def __init__(self, eng, Ft):
+        self.e, self.Ft = eng, Ft
+        self.k = build_viscosity(Ft)
+        vec3, vec4, mat33 = build_types(Ft)
+        d, n = eng.device, eng.n_grid ** 3
+        self.u, self.r, self.z, self.p, self.Ap = (wp.zeros(n, dtype=vec3, device=d) for _ in range(5))
+        self.diag = wp.zeros(n, dtype=Ft, device=d)
+        self.wc = wp.zeros(n, dtype=Ft, device=d)
+        self.S = wp.zeros(n, dtype=mat33, device=d)
+        self.valid = wp.zeros(n, dtype=wp.int32, device=d)
+        self.nodes = wp.zeros(n, dtype=wp.int32, device=d)
+        self.cells = wp.zeros(n, dtype=wp.int32, device=d)
+        self.counts = wp.zeros(2, dtype=wp.int32, device=d)
+        self.scal = wp.zeros(6, dtype=Ft, device=d)
+        self.done = wp.zeros(1, dtype=wp.int32, device=d)
+        self.iters = 0
+        self.solves = 0
+
+    def solve(self, capturing: bool) -> None:
+        """Launch one viscous step (between P2G and the grid update). On CPU the list lengths and the convergence
+        flag are read back (the launches are synchronous there); inside a CUDA graph capture every launch covers
+        the whole grid and :data:`MAX_ITERS_GRAPH` iterations run."""
+        e, k, d, ng = self.e, self.k, self.e.device, self.e.n_grid
+        dt, inv_dx = self.Ft(e.dt), self.Ft(e.inv_dx)
+        wp.launch(k.lists, dim=1, device=d, inputs=[e.grid_mv, self.u, self.valid, self.nodes, self.cells,
+                                                    self.counts, ng])
+        if capturing:
+            n_nodes = n_cells = ng ** 3
+        else:
+            n_nodes, n_cells = (int(c) for c in self.counts.numpy())
+        cnt = self.counts
+        wp.launch(k.cell_weights, dim=n_cells, device=d, inputs=[e.grid_eta, self.valid, self.cells, cnt, self.wc, ng])
+        wp.launch(k.cell_stress, dim=n_cells, device=d, inputs=[self.u, self.wc, self.cells, cnt, self.S, ng, inv_dx])
+        wp.launch(k.start, dim=n_nodes, device=d, inputs=[e.grid_mv, self.wc, self.valid, self.S, self.nodes, cnt,
+                                                          self.diag, self.r, self.z, self.p, ng, dt, inv_dx])
+        wp.launch(k.dot, dim=1, device=d, inputs=[self.r, self.z, self.nodes, cnt, self.scal, 0])
+        wp.launch(k.begin, dim=1, device=d, inputs=[self.scal, self.done])
+        it = 0
+        while it < (MAX_ITERS_GRAPH if capturing else MAX_ITERS):
+            if not capturing and int(self.done.numpy()[0]):
+                break
+            wp.launch(k.cell_stress, dim=n_cells, device=d, inputs=[self.p, self.wc, self.cells, cnt, self.S, ng,
+                                                                    inv_dx])
+            wp.launch(k.apply, dim=n_nodes, device=d, inputs=[e.grid_mv, self.S, self.valid, self.nodes, cnt, self.p,
+                                                              self.Ap, ng, dt, inv_dx])
+            wp.launch(k.dot, dim=1, device=d, inputs=[self.p, self.Ap, self.nodes, cnt, self.scal, 2])
+            wp.launch(k.step_alpha, dim=1, device=d, inputs=[self.scal, self.done])
+            wp.launch(k.update, dim=n_nodes, device=d, inputs=[self.u, self.r, self.z, self.p, self.Ap, self.diag,
+                                                               self.nodes, cnt, self.scal])
+            wp.launch(k.dot, dim=1, device=d, inputs=[self.r, self.z, self.nodes, cnt, self.scal, 4])
+            wp.launch(k.step_beta, dim=1, device=d, inputs=[self.scal, self.done, self.Ft(TOL * TOL)])
+            wp.launch(k.direction, dim=n_nodes, device=d, inputs=[self.z, self.p, self.nodes, cnt, self.scal])
+            it += 1
+        wp.launch(k.finish, dim=n_nodes, device=d, inputs=[e.grid_mv, e.grid_eta, self.u, self.nodes, cnt])
+        self.iters += it
+        self.solves += 1
