@@ -18,7 +18,7 @@ safety net for a point driven more than half a cell deep).
 ``docs/mpm.md`` step 3), the rule before issue 28; it spins bouncing soft bodies up and floats resting ones
 (``docs/contact.md``).
 
-The kernels of taichi_mpm and warp_mpm implement :func:`plane_impulse` step for step.
+The grid engine plugins' kernels implement :func:`plane_impulse` step for step.
 """
 from __future__ import annotations
 

@@ -45,7 +45,7 @@ class Param(IntEnum):
     ETA = 9
 
 
-#: The codes and columns as plain ints, the constants the Taichi and Warp kernels compile in.
+#: The codes and columns as plain ints, the constants the plugins' kernels compile in.
 JELLY, NEO_HOOKEAN, METAL, SAND, SNOW, PLASTICINE, LIQUID = (int(k) for k in MaterialKind)
 MATERIAL_CODES = {k.name.lower(): int(k) for k in MaterialKind}
 P_MU, P_LAM, P_YIELD, P_SOFTENING, P_HARDENING, P_THETA_C, P_THETA_S, P_ALPHA, P_K, P_ETA = (int(c) for c in Param)
