@@ -114,8 +114,11 @@ def test_kill_9_then_resume_a_split_run(tmp_path, donut_small):
     scene.write_text(scene_text(donut_small, n_frames=6, n_grid=16, extra_object=SELECT))
     cmd = [sys.executable, "-m", "gasp_core.cli.main", "simulate", str(scene), "-q", "--layout", "split", "-o"]
     subprocess.run([*cmd, str(tmp_path / "ref")], check=True, capture_output=True, cwd=tmp_path)
+    # the run killed here may hold Taichi's kernel cache lock: a cache of its own keeps a stale lock file
+    # from making every later Taichi process in the session warn "Lock ... ticache.lock failed"
+    env = {**os.environ, "TI_OFFLINE_CACHE_FILE_PATH": str(tmp_path / "ticache")}
     proc = subprocess.Popen([*cmd, str(tmp_path / "out")], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                            cwd=tmp_path)
+                            cwd=tmp_path, env=env)
     deadline, killed = time.time() + 600, False
     while time.time() < deadline and proc.poll() is None:
         parts = list(tmp_path.glob(".out.partial-*"))
@@ -127,7 +130,8 @@ def test_kill_9_then_resume_a_split_run(tmp_path, donut_small):
         time.sleep(0.05)
     proc.wait()
     assert killed, "the run ended before it could be killed"
-    r = subprocess.run([*cmd, str(tmp_path / "out"), "--resume"], capture_output=True, text=True, cwd=tmp_path)
+    r = subprocess.run([*cmd, str(tmp_path / "out"), "--resume"], capture_output=True, text=True, cwd=tmp_path,
+                       env=env)
     assert r.returncode == 0, r.stderr
     assert json.loads((tmp_path / "out" / "run.json").read_text())["resumed_after_frame"] >= 2
     a, b = open_frames(tmp_path / "ref"), open_frames(tmp_path / "out")

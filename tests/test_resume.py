@@ -24,8 +24,11 @@ def kill_9_after(scene: Path, out: Path, kill_after: int) -> int:
     """Run ``gasp simulate scene -o out`` in a process, kill -9 it once more than ``kill_after`` frames and a
     checkpoint are on disk; the index of the last frame written."""
     cwd = out.parent
+    # its own Taichi kernel cache: killed while holding the cache's lock, it would leave a stale lock file
+    # that makes every later Taichi process of the session warn "Lock ... ticache.lock failed"
+    env = {**os.environ, "TI_OFFLINE_CACHE_FILE_PATH": str(out.parent / f"ticache-{out.name}")}
     proc = subprocess.Popen([sys.executable, "-m", "gasp_core.cli.main", "simulate", str(scene), "-o", str(out), "-q"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=cwd)
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=cwd, env=env)
     deadline = time.time() + 600
     partial, written = None, 0
     while time.time() < deadline and proc.poll() is None:

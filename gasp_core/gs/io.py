@@ -104,6 +104,9 @@ def read_gaussians(path) -> Gaussians:
     names = list(vertex.dtype.names or ())
     if "chunk" in names_el or any(n.startswith("packed_") for n in names):
         return decode_compressed(path, ply)
+    if "face" in names_el and not numbered_names(names, "scale_"):
+        reject_file(path, f"a triangle mesh ({len(vertex)} vertices, {len(ply['face'].data)} faces), not Gaussians: "
+                    "give it as an object's 'mesh' (GaMeS mesh mode, docs/mesh_mode.md)")
     layout, scale_names, rest_names = _vertex_layout(path, names)
     k = len(rest_names) // 3
     n = len(vertex)

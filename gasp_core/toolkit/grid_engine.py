@@ -15,6 +15,7 @@ import numpy as np
 
 from gasp_core.errors import EngineError
 from gasp_core.seam.engine import Capabilities
+from gasp_core.toolkit.contact import contact_dt
 from gasp_core.toolkit.points import engine_mass_stats, material_first_order, stranded_passive
 from gasp_core.toolkit.substeps import substeps_from_options
 
@@ -35,12 +36,20 @@ def choose_dt(setup, opts: dict[str, Any], engine: str, implicit_viscosity: bool
     docs/mpm.md "Time step"); ``implicit_viscosity``: the engine integrates viscosity by backward Euler, so it
     sets no step cap.
 
+    With the particle contact and neither ``dt`` nor ``n_substeps`` given, the step is also kept within the
+    contact's stable step (``gasp_core.toolkit.contact.contact_dt``).
+
     Raises
     ------
     SceneError
         More substeps per frame than the option ``max_substeps``.
     """
-    return substeps_from_options(setup, opts, engine, implicit_viscosity)
+    n, dt = substeps_from_options(setup, opts, engine, implicit_viscosity)
+    if opts.get("dt") is None and opts.get("n_substeps") is None:
+        dt_c = contact_dt(setup)
+        if dt > dt_c:
+            n, dt = substeps_from_options(setup, {**opts, "dt": dt_c}, engine, implicit_viscosity)
+    return n, dt
 
 
 class GridEngineBase:
