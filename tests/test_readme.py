@@ -175,3 +175,13 @@ def test_engine_table_matches_what_each_engine_declares():
         checked += 1
     assert checked >= 1
     assert re.search(r"six\s+ship here", readme()), "the README's count of engines"
+
+
+def test_scene_reference_example_loads(tmp_path):
+    """The full example of docs/scene_reference.md ("Scene files") is a valid scene for the real loader."""
+    text = (ROOT / "docs" / "scene_reference.md").read_text(encoding="utf-8")
+    example = re.search(r"## Scene files\n.*?^```toml\n(.*?)^```", text, re.S | re.M).group(1)
+    (tmp_path / "data").symlink_to(ROOT / "examples" / "data")
+    (tmp_path / "full.toml").write_text(example, encoding="utf-8")
+    scene = load_scene(tmp_path / "full.toml")
+    assert scene.engine.name == "taichi_mpm" and scene.objects[0].material.name == "jelly"
