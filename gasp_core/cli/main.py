@@ -234,7 +234,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _add_simulate_parser(sub) -> None:
     s = sub.add_parser("simulate", help="run a scene file and write one PLY per frame")
-    s.add_argument("scene", type=Path, help="scene file (.toml), see the README's scene format")
+    s.add_argument("scene", type=Path, help="scene file (.toml); every key: docs/scene_reference.md")
     s.add_argument("-o", "--output", type=Path,
                    help="output folder, must not exist unless --overwrite (default: the scene's 'output' key)")
     s.add_argument("--overwrite", action="store_true",
