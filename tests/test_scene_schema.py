@@ -86,3 +86,24 @@ def test_the_docs_check_catches_a_changed_schema(monkeypatch):
     kind = MATERIAL_KINDS["metal"]
     monkeypatch.setitem(MATERIAL_KINDS, "metal", dataclasses.replace(kind, keys=kind.keys[:-1]))
     assert keys_doc.scene_keys_markdown() != doc
+
+
+def test_engine_limits_follow_the_schema():
+    """A limit on a field its material does not use is the plugin's mistake; an unqualified limit skips the
+    materials that do not use the field (a rigid body's nu is read by no engine)."""
+    import numpy as np
+
+    from gasp_core.seam.limits import Limit, check_limits, split_key
+    from gasp_core.seam.setup import SimSetup
+    with pytest.raises(ValueError, match="material 'jelly' does not use 'yield_stress'"):
+        split_key("jelly.yield_stress")
+    assert split_key("metal.yield_stress") == ("metal", "yield_stress")
+
+    def setup(*materials):
+        x = np.random.default_rng(0).uniform(0.4, 0.6, (2 * len(materials), 3))
+        return SimSetup(x=x, v=0.0, p_vol=1e-6, body_id=np.arange(len(x)) % len(materials), materials=list(materials),
+                        gravity=(0, 0, -9.81), domain_lo=(0, 0, 0), domain_hi=(1, 1, 1), n_grid=16)
+    limits = {"nu": Limit(lo=0.0, why="no auxetics")}
+    check_limits("e", limits, setup(Material("rigid", nu=-0.3), Material("jelly", nu=0.2)))
+    with pytest.raises(SceneError, match="material 'jelly': nu=-0.3"):
+        check_limits("e", limits, setup(Material("rigid"), Material("jelly", nu=-0.3)))
