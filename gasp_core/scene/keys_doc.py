@@ -32,7 +32,8 @@ def scene_keys_markdown() -> str:
              "limits).", "", "## Materials", "", "| `name` | model | keys (besides `name`) |", "|---|---|---|"]
     lines += [f"| `{name}` | {kind.doc} | {', '.join(f'`{k}`' for k in kind.keys)} |"
               for name, kind in MATERIAL_KINDS.items()]
-    lines += ["", "## Parameters", "", "| key | default | range | unit | meaning | used by |", "|---|---|---|---|---|---|"]
+    lines += ["", "## Parameters", "", "| key | default | range | unit | meaning | used by |",
+              "|---|---|---|---|---|---|"]
     for key, p in MATERIAL_PARAMS.items():
         users = [name for name, kind in MATERIAL_KINDS.items() if key in kind.keys]
         lines.append(f"| `{key}` | {p.default:g} | {_range(key)} | {p.unit or '-'} | {p.doc} | {', '.join(users)} |")
