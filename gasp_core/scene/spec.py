@@ -40,7 +40,8 @@ that names it and the allowed ones. A ``material`` takes only the keys its ``nam
 (:class:`ObjectSpec`, :class:`Scene`, :class:`~gasp_core.seam.setup.Material`) declares. Every value is
 type-checked before use (a wrong type is a :class:`SceneError` naming the key, the value, its TOML type
 and what was expected: integers are integers, ``n_grid = 24.9`` is not 24) and range-checked
-(:data:`MAX_COORD`, :data:`MAX_SPEED`, :data:`MAX_GRAVITY`, :data:`SCALE_RANGE`). Units are SI: metres, seconds, Pa, kg/m^3, degrees.
+(:data:`MAX_COORD`, :data:`MAX_SPEED`, :data:`MAX_GRAVITY`, :data:`SCALE_RANGE`). Units are SI: metres, seconds,
+Pa, kg/m^3, degrees.
 """
 from __future__ import annotations
 
