@@ -54,7 +54,7 @@ from gasp_core.errors import SceneError
 from gasp_core.maps.games import REBUILDS
 from gasp_core.scene.extras import read_extras
 from gasp_core.scene.mesh import MESH_KEYS, MeshSpec, read_mesh
-from gasp_core.scene.quality import apply_quality, read_quality
+from gasp_core.scene.quality import DEFAULT_QUALITY, apply_quality, read_quality
 from gasp_core.scene.select import SelectSpec, read_select, read_static
 from gasp_core.scene.tables import DomainSpec, EngineSpec, read_boundary, read_domain, read_engine, read_material
 from gasp_core.scene.values import (MAX_COORD, MAX_GRAVITY, MAX_SPEED, MAX_SPIN, SCALE_RANGE, UP_AXES, as_boolean,
@@ -194,7 +194,7 @@ class Scene:
     colliders: list = field(default_factory=list)
     forces: list = field(default_factory=list)
     impulses: list = field(default_factory=list)
-    quality: str = "default"
+    quality: str = DEFAULT_QUALITY
 
 
 _TOP_KEYS = {"name", "frame_dt", "n_frames", "gravity", "output", "engine", "domain", "boundary", "object",
