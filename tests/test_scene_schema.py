@@ -107,3 +107,18 @@ def test_engine_limits_follow_the_schema():
     check_limits("e", limits, setup(Material("rigid", nu=-0.3), Material("jelly", nu=0.2)))
     with pytest.raises(SceneError, match="material 'jelly': nu=-0.3"):
         check_limits("e", limits, setup(Material("rigid"), Material("jelly", nu=-0.3)))
+
+
+@pytest.mark.parametrize("collider, key", [({"object": 1, "scale": 2.0}, "scale"),
+                                           ({"object": 1, "up_axis": "+y"}, "up_axis"),
+                                           ({"mesh": "box.obj", "min_opacity": 0.5}, "min_opacity")])
+def test_a_collider_key_its_source_does_not_use_is_refused(tmp_path, donut_small, collider, key):
+    """An ``object`` collider sits where its object is (no scale, up axis); a mesh has no opacity."""
+    (tmp_path / "box.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    data = {"object": [{"file": str(donut_small), "static": True}, {"file": str(donut_small)}], "collider": [collider]}
+    source = next(iter(collider))
+    with pytest.raises(SceneError, match=rf"unknown key\(s\) \['{key}'\] in \[\[collider\]\] #1 \(a '{source}' "
+                                         rf"collider\); allowed: \[.*'{source}'"):
+        parse_scene(data, tmp_path / "s.toml")
+    del collider[key]
+    parse_scene(data, tmp_path / "s.toml")

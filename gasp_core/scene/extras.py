@@ -51,6 +51,12 @@ class ColliderSpec:
 
 
 _COLLIDER_KEYS = {f.name for f in fields(ColliderSpec)} - {"where"}
+_PLACED = {"up_axis", "scale", "recentre", "position", "rotation"}
+_MOVING = {"velocity", "angular_velocity", "path"}   # refused below, with its own words, on all but a mesh
+#: The keys each collider source uses (an ``object`` collider sits where its object is; only Gaussians have opacity).
+_COLLIDER_SOURCE_KEYS = {"mesh": {"mesh", "friction"} | _PLACED | _MOVING,
+                         "gaussians": {"gaussians", "friction", "min_opacity"} | _PLACED | _MOVING,
+                         "object": {"object", "friction", "min_opacity", "position", "rotation"} | _MOVING}
 _FORCE_KIND_KEYS = {"wind": {"kind", "direction", "speed", "air_density", "drag_coefficient", "turbulence",
                              "turbulence_scale", "turbulence_time", "seed"},
                     "attractor": {"kind", "point", "strength", "radius", "falloff"}}
@@ -75,6 +81,7 @@ def _collider(c: dict, where: str, src: Path, n_objects: int) -> ColliderSpec:
     sources = [k for k in ("mesh", "gaussians", "object") if k in c]
     if len(sources) != 1:
         raise SceneError(f"{src}: {where} needs exactly one of 'mesh', 'gaussians' or 'object', got {sources or 'none'}")
+    check_keys(c, _COLLIDER_SOURCE_KEYS[sources[0]], f"{where} (a {sources[0]!r} collider)", src)
     kw: dict[str, Any] = {"where": where}
     if "mesh" in c:
         kw["mesh"] = _input_file(c["mesh"], f"{where}.mesh", src, (".obj", ".ply", ".stl", ".off", ".glb", ".gltf"))
