@@ -93,6 +93,12 @@ def _(d, ply, v):
     return simulate(d, scene_text(ply, material='name = ["jelly"]'))
 
 
+@case("material-key-unused", "material 'jelly' does not use ['yield_stress']", "metal",
+      "['E', 'name', 'nu', 'rho', 'viscosity']")
+def _(d, ply, v):   # issue 33: a key the chosen material ignores was accepted silently
+    return simulate(d, scene_text(ply, material='name = "jelly"\nyield_stress = 5e3'))
+
+
 @case("boundary-kind-is-list", "kind", "['ground']", "one of")
 def _(d, ply, v):
     return simulate(d, edit(scene_text(ply), 'kind = "ground"', 'kind = ["ground"]'))
@@ -471,7 +477,7 @@ def test_corpus_size():
 # ------------------------------------------------------------------- through the real entry point
 
 
-@pytest.mark.parametrize("name", ["scene-not-utf8", "frames-zero", "nan-opacity"])
+@pytest.mark.parametrize("name", ["scene-not-utf8", "frames-zero", "nan-opacity", "material-key-unused"])
 def test_bad_input_as_subprocess(name, tmp_path, donut_small, donut_vertex):
     build, needles = CASES[name]
     argv = build(tmp_path, donut_small, donut_vertex)
