@@ -67,10 +67,9 @@ def simulate_scene(scene: Scene, outdir: str | Path, request: SimulateRequest | 
         The run's options (overwrite, resume, discard, yes, n_frames, engine, fmt, layout, quiet:
         :class:`gasp_core.run.request.SimulateRequest`); default: all defaults.
     reporter : Reporter, optional
-        Receives the progress (one ``frame`` event per frame written) and the warnings in words (leftover
-        partial folders of killed runs, the work estimate, passive surface points the material left
-        behind): :mod:`gasp_core.run.report`. Default: a :class:`~gasp_core.run.report.ConsoleReporter`
-        (a tqdm bar unless ``quiet``, warnings on stderr).
+        Receives the progress (a ``frame`` event per frame) and the warnings (killed runs' leftovers, the work
+        estimate, passive points left behind): :mod:`gasp_core.run.report`. Default: a
+        :class:`~gasp_core.run.report.ConsoleReporter` (a tqdm bar unless ``quiet``, warnings on stderr).
     on_frame : callable, optional
         ``on_frame(frame, gaussians_per_object)`` after each frame is handed to the writer (its files are
         written in the background while the next frame runs, :mod:`gasp_core.run.background`).
