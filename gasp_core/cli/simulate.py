@@ -23,7 +23,7 @@ from gasp_core.run.request import SimulateRequest, option_fields
 def add_simulate_parser(sub) -> None:
     """The ``simulate`` subcommand on ``sub`` (argparse subparsers)."""
     s = sub.add_parser("simulate", help="run a scene file and write one PLY per frame")
-    s.add_argument("scene", type=Path, help="scene file (.toml), see the README's scene format")
+    s.add_argument("scene", type=Path, help="scene file (.toml); every key: docs/scene_reference.md")
     s.add_argument("-o", "--output", type=Path,
                    help="output folder, must not exist unless --overwrite (default: the scene's 'output' key)")
     for f in option_fields():
