@@ -54,6 +54,7 @@ def test_simulate_json_is_one_event_per_line(tmp_path, donut_small):
     events = check_stream(r.stdout, N_FRAMES)
     assert Path(events[-1]["output"]) == (tmp_path / "out").resolve()
     assert [e["event"] for e in events if e["event"] not in ("frame", "warning")] == ["start", "result"]
+    assert events[[e["event"] for e in events].index("start")]["engine"] == ENGINE
     # the warnings are events, and also the console's lines on stderr (n_grid 16: the resolution advice)
     said = [e["message"] for e in events if e["event"] == "warning"]
     assert said and [f"gasp: warning: {m}" for m in said] == r.stderr.splitlines(), r.stderr
@@ -96,6 +97,19 @@ def test_divergence_under_json_is_exit_3_with_its_event(tmp_path, donut_small, c
     assert [e for e in events if e["event"] == "frame"], "the frames before the blow-up are reported"
     errors = [line for line in err.splitlines() if line.startswith("gasp: error:")]
     assert errors == [f"gasp: error: {events[-1]['message']}"]
+
+
+def test_what_else_is_written_to_stdout_under_json_goes_to_stderr():
+    """Python's print and C-level writes on fd 1 (an engine's banner) while the command runs land on stderr."""
+    code = ("import os, types\n"
+            "from gasp_core.cli.simulate import reporter_for\n"
+            "with reporter_for(types.SimpleNamespace(command='simulate', json=True)) as r:\n"
+            "    print('python chatter'); os.write(1, b'C chatter\\n'); r.warning('w')\n"
+            "print('after')\n")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.splitlines() == ['{"event": "warning", "message": "w"}', "after"]
+    assert p.stderr.splitlines() == ["python chatter", "C chatter", "gasp: warning: w"]
 
 
 def test_console_backend_says_what_the_command_always_said(capsys):

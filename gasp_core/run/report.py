@@ -3,7 +3,7 @@
 A run says five kinds of thing, each an event (a dict with ``"event"`` naming its kind):
 
 ``start``
-    ``what`` (the engine's name), ``n_frames`` (the last frame), ``first_frame`` (0, or the checkpoint a
+    ``engine`` (its name), ``n_frames`` (the last frame), ``first_frame`` (0, or the checkpoint a
     resumed run continues from).
 ``frame``
     ``frame`` (its index; 0 is the input), ``wall_s`` (wall seconds since the previous frame was handed
@@ -43,9 +43,9 @@ class Reporter:
         """Every event ends here; this one keeps it."""
         self.events.append(event)
 
-    def start(self, what: str, n_frames: int, first_frame: int = 0) -> None:
+    def start(self, engine: str, n_frames: int, first_frame: int = 0) -> None:
         """The frames begin: ``first_frame`` is done already (a resumed run), ``n_frames`` is the last."""
-        self.emit({"event": "start", "what": what, "n_frames": n_frames, "first_frame": first_frame})
+        self.emit({"event": "start", "engine": engine, "n_frames": n_frames, "first_frame": first_frame})
 
     def frame(self, frame: int, wall_s: float, sim_s: float | None = None, n_substeps: int | None = None) -> None:
         """Frame ``frame`` is done (see the module docstring for the fields); None fields are left out."""
@@ -82,11 +82,11 @@ class ConsoleReporter(Reporter):
     def emit(self, event: dict) -> None:
         """Nothing is kept: the console has shown it."""
 
-    def start(self, what: str, n_frames: int, first_frame: int = 0) -> None:
-        """Open the progress bar (with ``progress``)."""
+    def start(self, engine: str, n_frames: int, first_frame: int = 0) -> None:
+        """Open the progress bar (with ``progress``), named after the engine."""
         if self.progress:
             from tqdm import tqdm
-            self._bar = tqdm(total=n_frames, initial=first_frame, unit="frame", desc=what, leave=True)
+            self._bar = tqdm(total=n_frames, initial=first_frame, unit="frame", desc=engine, leave=True)
 
     def frame(self, frame: int, wall_s: float, sim_s: float | None = None, n_substeps: int | None = None) -> None:
         """One step of the bar for each simulated frame (frame 0, the input, is not counted)."""
