@@ -28,7 +28,7 @@ from gasp_core.cli.args import GaspArgumentParser, length, positive_float, posit
 from gasp_core.cli.simulate import add_simulate_parser, reporter_for
 from gasp_core.errors import EngineBug, EngineDivergence, GaspError
 from gasp_core.run import stop
-from gasp_core.run.report import Reporter
+from gasp_core.run.report import ConsoleReporter, Reporter
 
 
 def _cmd_engines(args) -> int:
@@ -268,6 +268,8 @@ def main(argv: list[str] | None = None) -> int:
         if code == 0:
             for message, count in _HELD.items():
                 reporter.warning(f"numpy: {message}" + (f" ({count} times)" if count > 1 else ""))
+    # later warnings (the reporter's stream may be closed now) are still one line, on stderr
+    warnings.showwarning = functools.partial(_show_warning, ConsoleReporter(progress=False))
     early.finished()   # the gasp command only (gasp_core.cli.early): a later signal cannot change the status
     return code
 
