@@ -43,5 +43,5 @@ def donut_run(tmp_path_factory):
     toml = d / "scene.toml"
     toml.write_text(scene_text(DONUT, n_frames=14, n_grid=24, engine_options="{ threads = 2 }",
                                extra_object="fill = false"))
-    simulate_scene(load_scene(toml), d / "run", progress=False)
+    simulate_scene(load_scene(toml), d / "run", quiet=True)
     return d / "run"

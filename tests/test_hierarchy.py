@@ -93,7 +93,7 @@ def test_pipeline_with_cores_tracks_full_run(tmp_path, donut_small):
     for frac in (1.0, 0.25):
         p = tmp_path / f"s{frac}.toml"
         p.write_text(scene_text(donut_small, n_frames=6, extra_object=f"core_fraction = {frac}"))
-        res = simulate_scene(load_scene(p), tmp_path / f"o{frac}", progress=False)
+        res = simulate_scene(load_scene(p), tmp_path / f"o{frac}", quiet=True)
         runs[frac] = (read_gaussians(tmp_path / f"o{frac}" / "donut_small" / "frame_0006.ply").means, res)
     full, part = runs[1.0][0], runs[0.25][0]
     size = np.ptp(full, axis=0).max()

@@ -190,7 +190,7 @@ def stopped_once(tmp_path_factory, donut_small):
             raise KeyboardInterrupt
 
     with pytest.raises(Stopped):
-        simulate_scene(load_scene(scene), d / "out", progress=False, on_frame=interrupt)
+        simulate_scene(load_scene(scene), d / "out", quiet=True, on_frame=interrupt)
     return d, scene
 
 

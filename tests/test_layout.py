@@ -30,7 +30,7 @@ def two_runs(tmp_path_factory, donut_small):
     scene.write_text(text + static_object(donut_small))
     runs = {}
     for layout in ("frames", "split"):
-        simulate_scene(load_scene(scene), tmp / layout, progress=False, layout=layout)
+        simulate_scene(load_scene(scene), tmp / layout, quiet=True, layout=layout)
         runs[layout] = tmp / layout
     return runs
 

@@ -162,7 +162,7 @@ def test_spot_example_falls_freely(tmp_path):
     from gasp_core.run.pipeline import simulate_scene
     scene = load_scene(EXAMPLES / "spot_mesh.toml")
     try:
-        res = simulate_scene(scene, tmp_path / "out", n_frames=2, progress=False)
+        res = simulate_scene(scene, tmp_path / "out", n_frames=2, quiet=True)
     except Exception as e:  # the example's engine may be absent on this machine
         if "unknown engine" in str(e) or "cannot run" in str(e):
             pytest.skip(str(e))
