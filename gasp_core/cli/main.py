@@ -20,7 +20,7 @@ import warnings
 
 from gasp_core.cli import early
 from gasp_core.cli.args import GaspArgumentParser, length, positive_float, positive_int
-from gasp_core.errors import EngineBug, EngineDivergence, GaspError
+from gasp_core.errors import EngineBug, EngineDivergence, GaspError, extra_hint, missing_module_message
 from gasp_core.scene.values import UP_AXES
 from gasp_core.run import stop
 
@@ -137,7 +137,7 @@ def _studies(module: str):
     missing = [m for m in ("gasp_studies", "distributed") if importlib.util.find_spec(m) is None]
     if missing:
         raise GaspError(f"'gasp {module}' needs the studies extra ({', '.join(missing)} not installed): "
-                        f'pip install -e ".[studies]"')
+                        f"{extra_hint('studies')}")
     return importlib.import_module(f"gasp_studies.{module}")
 
 
@@ -258,7 +258,7 @@ def _add_simulate_parser(sub) -> None:
                         "default: refuse)")
     s.add_argument("--frames", type=positive_int, help="simulated frames, >= 1 (default: the scene's n_frames)")
     s.add_argument("--format", choices=["ply", "compressed_ply", "spz", "sog"], default="ply",
-                   help="frame file format (default: ply; the others need pip install 'gasp[formats]'; "
+                   help="frame file format (default: ply; the others need the formats extra, pip install -e '.[formats]'; "
                         "sizes and precision: docs/formats.md)")
     s.add_argument("--layout", choices=["frames", "split"],
                    help="'frames': every frame file complete; 'split': static objects and unselected rows "
@@ -344,6 +344,13 @@ def _run(args) -> int:
         _end_progress_bars()
         print(f"gasp: {_error_line(e)}", file=sys.stderr)
         return _exit_status(e)
+    except ImportError as e:             # an optional extra that is not installed: its install line
+        message = missing_module_message(e, f"'gasp {args.command}'")
+        if message is None:
+            raise
+        _end_progress_bars()
+        print(f"gasp: error: {message}", file=sys.stderr)
+        return 2
 
 
 def _exit_status(e: BaseException) -> int:
