@@ -55,7 +55,7 @@ def install_line(module: str) -> str:
     return (install_hint(plugin) if plugin else "") or f"python -m pip install {top}"
 
 
-def needs(module: str):
+def needs_package(module: str):
     """``pytest.importorskip(module)``, the skip's reason naming the ``pip install`` line that brings it."""
     import pytest
     return pytest.importorskip(module, reason=f"{module} is not installed: {install_line(module)}")

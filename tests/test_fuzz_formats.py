@@ -23,10 +23,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from gasp_testing import needs
+from gasp_testing import needs_package
 from formats_testing import write_ksplat, write_splat
 
-hypothesis = needs("hypothesis")
+hypothesis = needs_package("hypothesis")
 from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 

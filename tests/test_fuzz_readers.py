@@ -16,9 +16,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from gasp_testing import DONUT, GUITAR, needs
+from gasp_testing import DONUT, GUITAR, needs_package
 
-hypothesis = needs("hypothesis")
+hypothesis = needs_package("hypothesis")
 from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
@@ -232,7 +232,7 @@ _TABLE_LINE = {"top": "frame_dt = 0.0333333", "domain": "n_grid = 24", "object":
 @pytest.fixture(scope="module")
 def limit_scene(tmp_path_factory):
     """A valid scene's text: every 64th Gaussian of the donut on warp_mpm, n_grid 16, a ground."""
-    needs("gasp_warp_mpm")
+    needs_package("gasp_warp_mpm")
     from gasp_core.gs.io import write_gaussians
     from gasp_testing import scene_text
     d = tmp_path_factory.mktemp("limits")

@@ -3,7 +3,7 @@ import json
 
 import numpy as np
 import pytest
-from gasp_testing import scene_text, needs
+from gasp_testing import scene_text, needs_package
 from plyfile import PlyData
 
 from gasp_core.errors import GaspError
@@ -13,7 +13,7 @@ from gasp_core.prepare.placement import UP_ROTATIONS
 from gasp_core.run.pipeline import simulate_scene
 from gasp_core.scene.spec import load_scene
 
-needs("gasp_taichi_mpm")
+needs_package("gasp_taichi_mpm")
 
 
 def covariances(g):

@@ -8,9 +8,9 @@ from gasp_core.gs.io import read_gaussians
 from gasp_core.render.registry import get_renderer, renderers
 from gasp_core.render.camera import Camera
 from gasp_core.render.splat_numpy import Splats, splats_from_gaussians
-from gasp_testing import DONUT, needs
+from gasp_testing import DONUT, needs_package
 
-numba = needs("numba")
+numba = needs_package("numba")
 RENDERERS = ["cpu", "numpy"]
 RENDER_EXTRA = 'the render extra (imageio) is not installed: python -m pip install -e ".[render]"'
 
@@ -162,7 +162,7 @@ def test_readme_donut_falls_lands_and_bounces_lower_each_time(tmp_path):
     it falls, lands, and bounces ever lower. The filled jelly is a solid undamped elastic body, so it
     does not come to rest within 1.2 s (README "Known limits"); measured image rows of the bounce
     apexes: 84.7, 87.1, 89.6, 91.9, 95.7, 97.6 (the image row grows downwards)."""
-    needs("gasp_taichi_mpm")
+    needs_package("gasp_taichi_mpm")
     from gasp_core.cli.main import main
     from gasp_testing import ROOT
     run = tmp_path / "donut"
