@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from gasp_testing import GUITAR, scene_text
+from gasp_testing import GUITAR, scene_text, needs_package
 from plyfile import PlyData, PlyElement
 
 from gasp_core.cli.main import main
@@ -386,13 +386,13 @@ def _(d, ply, v):
 
 @case("n-frames-1e9", "1,000,000,000 frames", "beyond the bound of 24 h", "--yes")
 def _(d, ply, v):
-    pytest.importorskip("gasp_warp_mpm")
+    needs_package("gasp_warp_mpm")
     return simulate(d, scene_text(ply, n_frames=1_000_000_000, n_grid=40, engine="warp_mpm", engine_options="{ }"))
 
 
 @case("compare-unknown-engine", "'nope'", "not an installed engine", "warp_mpm")
 def _(d, ply, v):
-    pytest.importorskip("distributed")
+    needs_package("distributed")
     return ["compare", simulate(d, scene_text(ply))[1], "--engines", "warp_mpm,nope", "-o", str(d / "cmp")]
 
 

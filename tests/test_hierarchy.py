@@ -1,7 +1,7 @@
 """Core Gaussians (BIRCH) and sub-Gaussian binding, on the real donut."""
 import numpy as np
 import pytest
-from gasp_testing import scene_text
+from gasp_testing import scene_text, needs_package
 
 from gasp_core.maps.games import flatten, gaussians_to_triangles, triangles_to_gaussians
 from gasp_core.maps.hierarchy import build_hierarchy, sub_triangles
@@ -85,7 +85,7 @@ def test_tiny_fraction_on_full_donut(donut):
 
 def test_pipeline_with_cores_tracks_full_run(tmp_path, donut_small):
     """Simulating 25 % of the donut's Gaussians as cores stays close to simulating all of them."""
-    pytest.importorskip("gasp_taichi_mpm")
+    needs_package("gasp_taichi_mpm")
     from gasp_core.gs.io import read_gaussians
     from gasp_core.run.pipeline import simulate_scene
     from gasp_core.scene.spec import load_scene

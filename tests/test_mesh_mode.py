@@ -10,13 +10,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from gasp_testing import needs_package
 
-from gasp_core.errors import SceneError
-from gasp_core.gs.io import read_gaussians
-from gasp_core.maps import mesh_bind
-from gasp_core.prepare.placement import load_gaussians, prepare_object
-from gasp_core.run.frames import rebuild
-from gasp_core.scene.spec import load_scene, parse_scene
+needs_package("rtree")   # mesh mode binds the Gaussians through trimesh's distance queries
+
+from gasp_core.errors import SceneError  # noqa: E402
+from gasp_core.gs.io import read_gaussians  # noqa: E402
+from gasp_core.maps import mesh_bind  # noqa: E402
+from gasp_core.prepare.placement import load_gaussians, prepare_object  # noqa: E402
+from gasp_core.run.frames import rebuild  # noqa: E402
+from gasp_core.scene.spec import load_scene, parse_scene  # noqa: E402
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 DATA = EXAMPLES / "data"

@@ -7,6 +7,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from gasp_testing import needs_package
 
 from gasp_core.errors import SceneError
 from gasp_core.seam.build import build_engine
@@ -174,7 +175,7 @@ def test_stranded_passive_points_are_counted(name):
 def test_simulate_warns_about_stranded_passive_points(donut, write_scene, tmp_path, monkeypatch):
     """``gasp simulate`` passes the engine's ``passive_stranded`` on as a warning naming the count
     (the count itself is tested on the engines above; here the engine is made to report 5)."""
-    pytest.importorskip("warp")
+    needs_package("warp")
     from gasp_testing import scene_text
     from gasp_core.gs.io import write_gaussians
     from gasp_core.run.pipeline import simulate_scene

@@ -3,7 +3,7 @@ import json
 
 import numpy as np
 import pytest
-from gasp_testing import scene_text
+from gasp_testing import scene_text, needs_package
 from plyfile import PlyData
 
 from gasp_core.errors import GaspError
@@ -13,7 +13,7 @@ from gasp_core.prepare.placement import UP_ROTATIONS
 from gasp_core.run.pipeline import simulate_scene
 from gasp_core.scene.spec import load_scene
 
-pytest.importorskip("gasp_taichi_mpm", reason="the taichi_mpm plugin is not installed")
+needs_package("gasp_taichi_mpm")
 
 
 def covariances(g):

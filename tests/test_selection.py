@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 from scipy.special import expit
 import pytest
-from gasp_testing import DONUT, ROOT
+from gasp_testing import DONUT, ROOT, needs_package
 from plyfile import PlyData
 
 from gasp_core.errors import SceneError
@@ -75,7 +75,7 @@ static = true
 
 @pytest.fixture(scope="module")
 def half_donut(tmp_path_factory):
-    pytest.importorskip("gasp_taichi_mpm", reason="the taichi_mpm plugin is not installed")
+    needs_package("gasp_taichi_mpm")
     tmp = tmp_path_factory.mktemp("half")
     scene = tmp / "half.toml"
     scene.write_text(donut_scene(static_object=STATIC_DONUT))
@@ -305,7 +305,7 @@ def test_select_after_psi():
 
 
 def test_kitchen_two_frames(tmp_path):
-    pytest.importorskip("gasp_taichi_mpm", reason="the taichi_mpm plugin is not installed")
+    needs_package("gasp_taichi_mpm")
     data = tomllib.loads(KITCHEN.read_text())
     data["domain"]["n_grid"] = 16
     data["domain"]["lo"][2], data["domain"]["hi"][2] = -0.75, -0.20  # 3 coarse cells below the lowest point

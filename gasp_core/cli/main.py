@@ -26,7 +26,8 @@ import warnings
 from gasp_core.cli import early
 from gasp_core.cli.args import GaspArgumentParser, length, positive_float, positive_int
 from gasp_core.cli.simulate import add_simulate_parser, reporter_for
-from gasp_core.errors import EngineBug, EngineDivergence, GaspError
+from gasp_core.errors import EngineBug, EngineDivergence, GaspError, extra_hint, missing_module_message
+from gasp_core.scene.values import UP_AXES
 from gasp_core.run import stop
 from gasp_core.run.report import ConsoleReporter, Reporter
 
@@ -100,11 +101,15 @@ def _cmd_info(args) -> int:
     from gasp_core.cli.info import info
     with warnings.catch_warnings():          # the fill's and the floaters' warnings are reported as fields
         warnings.simplefilter("ignore")
-        d = info(args.file, size=args.size, rho=args.rho, n_grid=args.n_grid)
+        d = info(args.file, size=args.size, rho=args.rho, n_grid=args.n_grid, up=args.up)
     if args.json:
         print(json.dumps(d, indent=2, default=str))
         return 0
     for k, v in d.items():
+        if isinstance(v, dict):          # up_axis_candidates: one line per axis
+            v = [f"{a}: " + ", ".join(f"{n} {x:.4g}" for n, x in c.items()) for a, c in v.items()]
+        if isinstance(v, list) and v and isinstance(v[0], str):   # the cues: one line each
+            v = ("\n" + " " * 20).join(v)
         print(f"{k:>18}: {v}")
     return 0
 
@@ -116,7 +121,7 @@ def _studies(module: str):
     missing = [m for m in ("gasp_studies", "distributed") if importlib.util.find_spec(m) is None]
     if missing:
         raise GaspError(f"'gasp {module}' needs the studies extra ({', '.join(missing)} not installed): "
-                        f'pip install -e ".[studies]"')
+                        f"{extra_hint('studies')}")
     return importlib.import_module(f"gasp_studies.{module}")
 
 
@@ -191,6 +196,9 @@ def build_parser() -> argparse.ArgumentParser:
                                                "prints the scale that gives it (default: none)")
     i.add_argument("--rho", type=positive_float, help="density, kg/m^3: prints the filled solid's mass (default: none)")
     i.add_argument("--n-grid", type=positive_int, default=64, help="grid of the fill reported (default 64)")
+    i.add_argument("--up", choices=UP_AXES, help="the up axis, stated (write --up=-y for a minus): the height, "
+                                                 "scale and stand figures along it (default: guessed; when unsure, "
+                                                 "every axis listed)")
     i.set_defaults(func=_cmd_info)
 
     _add_study_parsers(sub)
@@ -287,6 +295,12 @@ def _run(args, reporter: Reporter) -> int:
         code = _exit_status(e)
         reporter.error(_error_line(e), code)
         return code
+    except ImportError as e:             # an optional extra that is not installed: its install line
+        message = missing_module_message(e, f"'gasp {args.command}'")
+        if message is None:
+            raise
+        reporter.error(f"error: {message}", 2)
+        return 2
 
 
 def _exit_status(e: BaseException) -> int:

@@ -31,7 +31,7 @@ def write_frames(frames: Iterable[np.ndarray], output, fps: float = 30.0, overwr
     SceneError
         ``output`` exists and ``overwrite`` is false, its folder is missing, or no frame was given.
     ImportError
-        For ``.mp4`` without imageio-ffmpeg (``pip install 'gasp[render]'``).
+        For ``.mp4`` without imageio-ffmpeg (``pip install -e ".[render]"``).
     """
     import imageio.v3 as iio
     out = Path(output)

@@ -52,7 +52,7 @@ class SimulateRequest:
                                    count=True)
     #: Frame file format, one of :data:`FORMATS`.
     fmt: str = _option("ply", ("--format",),
-                       "frame file format (default: ply; the others need pip install 'gasp[formats]'; "
+                       "frame file format (default: ply; the others need the formats extra, pip install -e '.[formats]'; "
                        "sizes and precision: docs/formats.md)", choices=FORMATS)
     #: Output layout, one of :data:`LAYOUTS`; None: ``frames`` for ``ply``, else ``split``.
     layout: str | None = _option(None, ("--layout",),
