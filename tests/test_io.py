@@ -306,7 +306,7 @@ def test_missing_scales_and_positions(tmp_path):
     # a PLY that is no Gaussian file at all (a triangle mesh, as trimesh writes one)
     import trimesh
     trimesh.creation.box().export(tmp_path / "mesh.ply")
-    with pytest.raises(SceneError, match=r"mesh\.ply.*unknown layout"):
+    with pytest.raises(SceneError, match=r"mesh\.ply: a triangle mesh \(8 vertices, 12 faces\), not Gaussians.*'mesh'"):
         read_gaussians(tmp_path / "mesh.ply")
     with pytest.raises(FileNotFoundError, match="nope.ply"):
         read_gaussians(tmp_path / "nope.ply")
