@@ -140,7 +140,7 @@ class NewtonEngine:
         self.frame, self.sim_time = 0, 0.0
         self.unconverged_steps, self.max_residual, self.max_iterations_used = 0, 0.0, 0
         self._check_inside(setup.x)
-        init_warp(cpu_only=self.device == "cpu")
+        init_warp()
         import warp as wp
         try:
             import newton
