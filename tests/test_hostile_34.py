@@ -513,7 +513,8 @@ def test_gif_to_a_full_disk_is_one_line(mini_run, tmp_path, capsys, monkeypatch)
     out = tmp_path / "r.gif"
     code = main(["render", str(mini_run), "-o", str(out), "-q", "--resolution", "32x24"])
     err = capsys.readouterr().err
-    assert "No space left on device" in one_error(err, code) and "Exception ignored" not in err
+    line = one_error(err, code)
+    assert "No space left on device" in line and str(out) in line and "Exception ignored" not in err
     assert not out.exists() and not list(tmp_path.glob(".r.*"))
 
 
