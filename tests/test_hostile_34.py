@@ -280,6 +280,7 @@ def refused(path: Path, *needles: str) -> str:
         read_gaussians(path)
     msg = str(e.value)
     assert msg.startswith(str(path)) and "\n" not in msg, msg
+    assert msg.count(str(path)) == 1 and "SceneError" not in msg, msg     # not wrapped in a second message
     for n in needles:
         assert n in msg, (n, msg)
     return msg
