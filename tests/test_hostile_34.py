@@ -519,7 +519,7 @@ def test_gif_to_a_full_disk_is_one_line(mini_run, tmp_path, capsys, monkeypatch)
     assert not out.exists() and not list(tmp_path.glob(".r.*"))
 
 
-@pytest.mark.parametrize("stem", ["run.json", ".gasp-checkpoint.npz"])
+@pytest.mark.parametrize("stem", ["run.json", "frames.json", ".gasp-output", ".gasp-checkpoint.npz"])
 def test_an_object_named_like_a_run_file_gets_its_own_folder(tmp_path, donut_small, capsys, stem):
     """``run.json.ply`` made an object folder ``run.json``, and the run failed with "[Errno 21] Is a directory"."""
     pytest.importorskip("gasp_warp_mpm")
