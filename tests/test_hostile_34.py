@@ -613,21 +613,25 @@ def test_a_second_sigterm_soon_after_the_first_is_still_130(tmp_path, donut_smal
     assert p.returncode == 130 and len(lines) == 1 and "SIGTERM" in lines[0], (p.returncode, err)
 
 
-def test_warp_on_cuda_without_a_gpu_is_gasps_line_alone(tmp_path, donut_small):
+@pytest.mark.parametrize("engine", ["warp_mpm", pytest.param("newton", marks=pytest.mark.slow)])  # newton: ~7 s import
+def test_warp_on_cuda_without_a_gpu_is_gasps_line_alone(tmp_path, donut_small, engine):
     """``device = "cuda"`` on a machine without a GPU: Warp's own "CUDA warning" line (written by its C++ core
-    to the process's stderr) was printed beside GASP's. In a process: Warp prints it once, at ``wp.init()``."""
+    to the process's stderr) was printed beside GASP's (Newton: two "Warp CUDA error" lines). In a process:
+    Warp prints it once, at ``wp.init()``."""
     wp = pytest.importorskip("warp")
-    pytest.importorskip("gasp_warp_mpm")
+    pytest.importorskip(f"gasp_{engine}")
+    if engine == "newton":
+        pytest.importorskip("newton")
     if wp.is_cuda_available():
         pytest.skip("this machine has a CUDA device")
     from gasp_testing import scene_text
     scene = tmp_path / "s.toml"
-    scene.write_text(scene_text(donut_small, n_frames=1, n_grid=16, engine="warp_mpm",
+    scene.write_text(scene_text(donut_small, n_frames=1, n_grid=16, engine=engine,
                                 engine_options='{ device = "cuda" }'))
     p = subprocess.run([sys.executable, "-m", "gasp_core.cli.main", "simulate", str(scene), "-o", "o", "-q"],
                        cwd=tmp_path, capture_output=True, text=True, timeout=300)
     err = "\n".join(ln for ln in p.stderr.splitlines() if "grid cells across" not in ln)  # n_grid 16's warning
-    assert "device 'cuda'" in one_error(err, p.returncode) and "CUDA warning" not in p.stderr
+    assert "device 'cuda'" in one_error(err, p.returncode) and "Warp CUDA" not in p.stderr
 
 
 # ------------------------------------------------------------------ the domain error says what is wrong

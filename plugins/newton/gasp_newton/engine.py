@@ -148,6 +148,9 @@ class NewtonEngine:
             from newton.solvers import SolverImplicitMPM
         except ImportError as e:
             raise EngineError(f"engine 'newton': cannot import newton ({e}); pip install newton") from e
+        if str(self.device).startswith("cuda") and not wp.is_cuda_available():   # before Warp prints its errors
+            raise EngineError(f"engine 'newton': device {self.device!r} requested but Warp finds no CUDA device here "
+                              f"(driver missing or no GPU); use device = \"cpu\"")
         try:
             self._wp_device = wp.get_device(self.device)
         except (ValueError, RuntimeError) as e:
