@@ -659,7 +659,6 @@ def test_a_floater_kept_100_m_away_is_named_with_its_key(tmp_path, donut_small, 
             assert code == 0, err
 
 
-@pytest.mark.slow   # 62,442 Gaussians linked by the floater rule: ~5 s of CPU, 1.1 GB
 def test_the_bundled_spinach_with_keep_floaters_names_them(tmp_path, capsys):
     """The documented ``keep_floaters = true`` on the whole bundled ``spinach_4.splatv``: it said "start below
     the ground ... raise the object's position" (or, without a ground, diverged in a 2 km domain)."""
