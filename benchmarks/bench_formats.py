@@ -62,7 +62,7 @@ def measure(name: str, path: Path, frames: int, n_grid: int, engine: str, tmp: P
     folders = {}
     for fmt, layout in RUNS:
         out = tmp / f"{name}_{fmt}_{layout}"
-        simulate_scene(sc, out, progress=False, n_frames=frames, fmt=fmt, layout=layout)
+        simulate_scene(sc, out, quiet=True, n_frames=frames, fmt=fmt, layout=layout)
         folders[fmt, layout] = out
     ref = open_frames(folders["ply", "frames"])
     base = folder_bytes(folders["ply", "frames"])

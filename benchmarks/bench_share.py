@@ -39,7 +39,7 @@ def donut_run(tmp: Path) -> Path:
     toml = tmp / "scene.toml"
     toml.write_text(scene_text(DONUT, n_frames=14, n_grid=24, engine_options="{ threads = 1 }",
                                extra_object="fill = false"))
-    simulate_scene(load_scene(toml), tmp / "run", progress=False)
+    simulate_scene(load_scene(toml), tmp / "run", quiet=True)
     return tmp / "run"
 
 

@@ -35,4 +35,4 @@ def on_frame(k, gs):
           f"height ratio {np.ptp(m[:, 2]) / np.ptp(x0[:, 2]):.4f}", flush=True)
 
 
-simulate_scene(load_scene(toml), tmp / f"run_{contact}_{E:.0f}", progress=False, on_frame=on_frame)
+simulate_scene(load_scene(toml), tmp / f"run_{contact}_{E:.0f}", quiet=True, on_frame=on_frame)

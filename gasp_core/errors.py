@@ -15,6 +15,10 @@ raised                    meaning                                          CLI e
 """
 from __future__ import annotations
 
+import os
+import re
+from pathlib import Path
+
 
 class GaspError(Exception):
     """Base class of every error GASP raises on purpose."""
@@ -65,3 +69,48 @@ class EngineBug(GaspError):
             f"engine '{engine}' ({distribution or 'unknown distribution'}) failed at {where} with an unexpected "
             f"{type(error).__name__}: {error}. This is a bug in the engine, not in the scene: please report it "
             f"to its authors{saved}")
+
+
+#: The optional packages the core (and gasp_studies) import, by top-level module, and the extra of
+#: ``pyproject.toml`` that installs each (Pillow comes with imageio, the render extra).
+EXTRA_OF = {"imageio": "render", "imageio_ffmpeg": "render", "numba": "render", "PIL": "render",
+            "viser": "view", "gsply": "formats", "imagecodecs": "formats", "zstandard": "formats",
+            "skimage": "studies", "matplotlib": "studies", "dask": "studies", "distributed": "studies",
+            "tomli_w": "studies", "gasp_studies": "studies", "trimesh": "mesh", "rtree": "mesh",
+            "pytest": "test", "hypothesis": "test"}
+#: The distribution's name where it differs from the module's.
+DISTRIBUTION = {"PIL": "Pillow", "skimage": "scikit-image", "imageio_ffmpeg": "imageio-ffmpeg", "tomli_w": "tomli-w"}
+
+
+def shown_path(folder: Path) -> str:
+    """``folder`` as seen from the working directory (``"."`` for it)."""
+    try:
+        return os.path.relpath(folder)
+    except ValueError:  # another drive (Windows)
+        return str(folder)
+
+
+def extra_hint(extra: str) -> str:
+    """The ``pip install`` line of the core's optional ``extra`` (``render``, ``view``, ``formats``, ``studies``,
+    ``mesh``, ``test``): ``python -m pip install -e ".[render]"`` from a clone (its path as seen from the working
+    directory), else ``python -m pip install "gasp[render]"``."""
+    root = Path(__file__).resolve().parents[1]
+    if (root / "pyproject.toml").is_file():
+        return f'python -m pip install -e "{shown_path(root)}[{extra}]"'
+    return f'python -m pip install "gasp[{extra}]"'
+
+
+def missing_module_message(e: ImportError, doing: str, extra: str | None = None) -> str | None:
+    """The one-line error for ``e``, an import of an optional package (:data:`EXTRA_OF`) that failed while
+    ``doing`` (e.g. ``"'gasp render'"``): the package, and the line that installs ``extra`` (default: the
+    package's own, :data:`EXTRA_OF`); None for any other import error (a bug, not a missing extra)."""
+    name = getattr(e, "name", None)
+    if not name:   # re-raised without it (trimesh's ExceptionWrapper): from the text
+        m = re.search(r"No module named '([\w.]+)'|import of ([\w.]+) halted", str(e))
+        name = next((g for g in m.groups() if g), "") if m else ""
+    top = name.split(".")[0]
+    if top not in EXTRA_OF:
+        return None
+    extra = extra or EXTRA_OF[top]
+    return (f"{doing} needs {DISTRIBUTION.get(top, top)}, which is not installed; it comes with the {extra} "
+            f"extra: {extra_hint(extra)}")

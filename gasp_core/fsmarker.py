@@ -1,7 +1,7 @@
 """The list of every file a run wrote (``.gasp-output``), and what a folder holds beyond it.
 
 ``--overwrite`` replaces a folder only if everything in it, at every depth, is a file or folder
-gasp wrote there and left as it was (README, "Reliability"). At commit the run writes the marker
+gasp wrote there and left as it was (docs/reliability.md, "Reliability"). At commit the run writes the marker
 :data:`MARKER` into its folder: per file its path relative to the folder, its size (bytes) and
 modification time (ns), and the folders. :func:`unexpected_entries` walks a folder (not following
 links) and names what the marker does not list: a file a user added (also a dot file, also one

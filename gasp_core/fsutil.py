@@ -1,6 +1,6 @@
 """Filesystem safety: every atomic write and every output folder goes through here.
 
-Rules (README, "Reliability"):
+Rules (docs/reliability.md, "Reliability"):
 
 - A file is written to a temporary file beside it, flushed, fsynced and ``os.replace``-d onto its
   name (:func:`atomic_write`); on any error the temporary file is removed and the target is

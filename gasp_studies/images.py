@@ -66,14 +66,14 @@ def render_frames(track, frames: Sequence[int], cameras: Sequence) -> list[np.nd
     Raises
     ------
     RuntimeError
-        The track has no splats (nothing to render) or numba is missing (``pip install 'gasp[render]'``).
+        The track has no splats (nothing to render) or numba is missing (``pip install -e ".[render]"``).
     """
     import importlib.util
     from gasp_core.render.builtin import CpuRenderer
     if track.splats is None:
         raise RuntimeError(f"{track.label}: no rendered Gaussians kept for the image comparison")
     if importlib.util.find_spec("numba") is None:
-        raise RuntimeError("the image comparison needs numba: pip install 'gasp[render]'")
+        raise RuntimeError('the image comparison needs numba: python -m pip install -e ".[render]"')
     render = CpuRenderer(jit=True)
     out = []
     for f in frames:

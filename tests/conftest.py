@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from gasp_core.gs.io import read_gaussians, write_gaussians
-from gasp_testing import DONUT
+from gasp_testing import DONUT, needs_package
 
 
 @pytest.fixture(scope="session")
@@ -35,7 +35,7 @@ def donut_run(tmp_path_factory):
     """A short real run for the renderer tests: the donut dropped 5 cm onto the ground, taichi_mpm,
     n_grid 24, 14 frames, no interior fill, jelly (falls for 4 frames, lands, and at this coarse grid
     keeps bouncing: the resting check runs on the README example, ``-m slow``)."""
-    pytest.importorskip("gasp_taichi_mpm", reason="taichi_mpm plugin not installed")
+    needs_package("gasp_taichi_mpm")
     from gasp_core.run.pipeline import simulate_scene
     from gasp_core.scene.spec import load_scene
     from gasp_testing import scene_text
@@ -43,5 +43,5 @@ def donut_run(tmp_path_factory):
     toml = d / "scene.toml"
     toml.write_text(scene_text(DONUT, n_frames=14, n_grid=24, engine_options="{ threads = 2 }",
                                extra_object="fill = false"))
-    simulate_scene(load_scene(toml), d / "run", progress=False)
+    simulate_scene(load_scene(toml), d / "run", quiet=True)
     return d / "run"

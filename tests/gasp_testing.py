@@ -36,3 +36,26 @@ position = [0.0, 0.0, {position_z}]
 [object.material]
 {material}
 """
+
+
+#: Packages a plugin brings, by module: the plugin folder whose install line names them.
+PLUGIN_OF = {"taichi": "taichi_mpm", "warp": "warp_mpm", "mujoco": "mujoco_flex", "newton": "newton",
+             "genesis": "genesis", "bpy": "blender", "torch": "render_gsplat", "gsplat": "render_gsplat"}
+
+
+def install_line(module: str) -> str:
+    """The ``pip install`` line that brings ``module``: a core extra's (``gasp_core.errors.EXTRA_OF``), a plugin's
+    (``gasp_warp_mpm``, or a package a plugin brings: ``warp``), else ``pip install <module>``."""
+    from gasp_core.errors import EXTRA_OF, extra_hint
+    from gasp_core.seam.plugins import install_hint
+    top = module.split(".")[0]
+    if top in EXTRA_OF:
+        return extra_hint(EXTRA_OF[top])
+    plugin = top[len("gasp_"):] if top.startswith("gasp_") else PLUGIN_OF.get(top)
+    return (install_hint(plugin) if plugin else "") or f"python -m pip install {top}"
+
+
+def needs_package(module: str):
+    """``pytest.importorskip(module)``, the skip's reason naming the ``pip install`` line that brings it."""
+    import pytest
+    return pytest.importorskip(module, reason=f"{module} is not installed: {install_line(module)}")

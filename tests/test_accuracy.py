@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from gasp_testing import needs_package
 
 from gasp_studies import accuracy
 from gasp_studies.accuracy import Track, events, kabsch, split_errors, split_frame
@@ -176,7 +177,7 @@ def test_choose_default_picks_the_cheapest_passing():
 
 
 def test_psnr_and_ssim_known_values():
-    pytest.importorskip("skimage")
+    needs_package("skimage")
     from gasp_studies.images import image_scores
     rng = np.random.default_rng(0)
     ref = rng.uniform(0.2, 0.8, (48, 64, 3)).astype(np.float32)
@@ -189,8 +190,8 @@ def test_psnr_and_ssim_known_values():
 
 def test_rendered_copies():
     """A track rendered against itself is identical; moved by a tenth of its size it is not."""
-    pytest.importorskip("skimage")
-    pytest.importorskip("numba")
+    needs_package("skimage")
+    needs_package("numba")
     from gasp_core.render.splat_numpy import Splats
     from gasp_studies.images import cameras_for, image_scores, render_frames
     a = _cloud(300)
@@ -222,8 +223,8 @@ def test_bench_twin_is_the_reference_model_one_grid_coarser():
 
 def test_bench_ranking_orders_passing_runs_and_says_not_ranked_only_within_u():
     """Runs scaled by 0.5 % (passes: 0.5 U) and 3 % (3 U: misses the shape) against a twin scaled by 1 %."""
-    pytest.importorskip("skimage")
-    pytest.importorskip("numba")
+    needs_package("skimage")
+    needs_package("numba")
     from gasp_core.render.splat_numpy import Splats
     from gasp_studies.bench_rank import rank_engine, ranking_lines
     a = _cloud(300)

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from gasp_testing import GUITAR, scene_text
+from gasp_testing import GUITAR, scene_text, needs_package
 from plyfile import PlyData, PlyElement
 
 from gasp_core.cli.main import main
@@ -91,6 +91,12 @@ def _(d, ply, v):
 @case("material-name-is-list", "material.name", "['jelly']", "one of")
 def _(d, ply, v):
     return simulate(d, scene_text(ply, material='name = ["jelly"]'))
+
+
+@case("material-key-unused", "material 'jelly' does not use ['yield_stress']", "metal",
+      "['E', 'name', 'nu', 'rho', 'viscosity']")
+def _(d, ply, v):   # issue 33: a key the chosen material ignores was accepted silently
+    return simulate(d, scene_text(ply, material='name = "jelly"\nyield_stress = 5e3'))
 
 
 @case("boundary-kind-is-list", "kind", "['ground']", "one of")
@@ -380,13 +386,13 @@ def _(d, ply, v):
 
 @case("n-frames-1e9", "1,000,000,000 frames", "beyond the bound of 24 h", "--yes")
 def _(d, ply, v):
-    pytest.importorskip("gasp_warp_mpm")
+    needs_package("gasp_warp_mpm")
     return simulate(d, scene_text(ply, n_frames=1_000_000_000, n_grid=40, engine="warp_mpm", engine_options="{ }"))
 
 
 @case("compare-unknown-engine", "'nope'", "not an installed engine", "warp_mpm")
 def _(d, ply, v):
-    pytest.importorskip("distributed")
+    needs_package("distributed")
     return ["compare", simulate(d, scene_text(ply))[1], "--engines", "warp_mpm,nope", "-o", str(d / "cmp")]
 
 
@@ -471,7 +477,7 @@ def test_corpus_size():
 # ------------------------------------------------------------------- through the real entry point
 
 
-@pytest.mark.parametrize("name", ["scene-not-utf8", "frames-zero", "nan-opacity"])
+@pytest.mark.parametrize("name", ["scene-not-utf8", "frames-zero", "nan-opacity", "material-key-unused"])
 def test_bad_input_as_subprocess(name, tmp_path, donut_small, donut_vertex):
     build, needles = CASES[name]
     argv = build(tmp_path, donut_small, donut_vertex)

@@ -4,7 +4,7 @@ import subprocess
 
 import numpy as np
 import pytest
-from gasp_testing import DONUT, scene_text
+from gasp_testing import DONUT, scene_text, needs_package
 from plyfile import PlyData, PlyElement
 
 from gasp_core.cli.main import main
@@ -94,7 +94,7 @@ def test_existing_output_without_overwrite(tmp_path, capsys, write_scene):
 
 
 def test_unsupported_material_names_capable_engines(tmp_path, capsys, write_scene):
-    pytest.importorskip("gasp_mujoco_flex")
+    needs_package("gasp_mujoco_flex")
     text = scene_text(DONUT, engine="mujoco_flex", material='name = "sand"')
     code, _, err = run(capsys, "simulate", write_scene(text), "-o", tmp_path / "out", "-q")
     assert_clean_failure(code, err, tmp_path / "out", "mujoco_flex", "sand", "taichi_mpm")
@@ -102,7 +102,7 @@ def test_unsupported_material_names_capable_engines(tmp_path, capsys, write_scen
 
 def test_divergence_is_reported_with_frame_and_leaves_nothing(tmp_path, capsys, write_scene, donut_small):
     """No ground and a tight domain: the donut falls out of the box; the run stops and says so."""
-    pytest.importorskip("gasp_taichi_mpm")
+    needs_package("gasp_taichi_mpm")
     text = scene_text(donut_small, ground=False, n_frames=20, n_grid=16)
     code, _, err = run(capsys, "simulate", write_scene(text), "-o", tmp_path / "out", "-q")
     assert code == 3
@@ -112,7 +112,7 @@ def test_divergence_is_reported_with_frame_and_leaves_nothing(tmp_path, capsys, 
 def test_engines_lists_installed(capsys):
     code, out, _ = run(capsys, "engines")
     assert code == 0
-    pytest.importorskip("gasp_taichi_mpm")
+    needs_package("gasp_taichi_mpm")
     assert "taichi_mpm  (gasp-taichi-mpm" in out and "jelly" in out
 
 

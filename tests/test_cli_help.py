@@ -2,6 +2,7 @@
 import argparse
 
 import pytest
+from gasp_testing import needs_package
 
 from gasp_core.cli.main import build_parser
 
@@ -24,7 +25,7 @@ def test_every_argument_has_help_with_its_default(command, action):
 
 
 def test_gasp_studies_timeouts_match_the_help():
-    studies = pytest.importorskip("gasp_studies.bench", reason="the studies extra is not installed")
+    studies = needs_package("gasp_studies.bench")
     from gasp_studies.run import RUN_TIMEOUT_S
     text = next(a.help for c, a in _arguments() if c == "bench" and "--timeout" in a.option_strings)
     assert f"default {RUN_TIMEOUT_S:g} for compare, {studies.BENCH_TIMEOUT_S:g} for bench" in text

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from gasp_testing import needs_package
 
 from gasp_core.colliders.model import ForceField, Impulse, Motion
 from gasp_core.colliders.sdf import box_collider, collider_from_triangles
@@ -30,8 +31,8 @@ def test_box_sdf_is_exact():
 
 
 def test_mesh_sdf_matches_box():
-    trimesh = pytest.importorskip("trimesh")
-    pytest.importorskip("rtree")
+    trimesh = needs_package("trimesh")
+    needs_package("rtree")
     m = trimesh.creation.box(extents=(0.2, 0.4, 0.6))
     c = collider_from_triangles(m.triangles, 0.01)
     pts = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.32], [0.12, 0.0, 0.0], [0.05, 0.1, 0.2]])
@@ -39,7 +40,7 @@ def test_mesh_sdf_matches_box():
 
 
 def test_open_mesh_refused():
-    trimesh = pytest.importorskip("trimesh")
+    trimesh = needs_package("trimesh")
     m = trimesh.creation.box(extents=(0.2, 0.4, 0.6))
     with pytest.raises(SceneError, match="not closed"):
         collider_from_triangles(m.triangles[:-2], 0.01)

@@ -9,8 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from gasp_testing import needs_package
 
-pytest.importorskip("gasp_studies")
+needs_package("gasp_studies")
 from gasp_studies.convergence import observed_order, reference, verdict  # noqa: E402
 
 W = 2 * np.pi          # 1 Hz

@@ -21,7 +21,7 @@ from gasp_core.seam.setup import Boundary, Material
 from gasp_core.testing.helpers import box_points, make_setup
 from gasp_core.toolkit.materials import material_table, P_ETA
 from gasp_core.toolkit.substeps import mpm_stable_dt, p_wave_speed, viscous_dt
-from gasp_testing import DONUT, scene_text
+from gasp_testing import DONUT, scene_text, needs_package
 
 GRID_ENGINES = [e for e, mod in (("taichi_mpm", "gasp_taichi_mpm"), ("warp_mpm", "gasp_warp_mpm"))
                 if importlib.util.find_spec(mod) is not None]
@@ -128,7 +128,7 @@ def test_warp_and_taichi_agree_with_flip_and_viscosity():
 def test_bench_energy_figures():
     """``gasp bench``'s energy columns from the Gaussians' motion: a damped oscillation keeps less than an
     undamped one and less than its reference."""
-    pytest.importorskip("distributed")
+    needs_package("distributed")
     from gasp_studies.measure import energy_figures
     from gasp_studies.run import RunOutput
     t = np.arange(41) * 0.05

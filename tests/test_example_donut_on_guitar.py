@@ -113,7 +113,7 @@ def _run(engine: str, tmp_path: Path, reduced: bool):
                    for o in scene.objects]
         scene = dataclasses.replace(scene, objects=objects,
                                     domain=dataclasses.replace(scene.domain, n_grid=REDUCED_N_GRID))
-    simulate_scene(scene, tmp_path / "out", progress=False, engine=engine)
+    simulate_scene(scene, tmp_path / "out", quiet=True, engine=engine)
     return scene
 
 

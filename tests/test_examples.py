@@ -25,7 +25,7 @@ def test_example_scene_parses(path):
 def test_example_runs_two_frames(path, tmp_path):
     scene = load_scene(path)
     try:
-        res = simulate_scene(scene, tmp_path / "out", n_frames=2, progress=False)
+        res = simulate_scene(scene, tmp_path / "out", n_frames=2, quiet=True)
     except Exception as e:  # an engine the example names may be absent on this machine
         if "unknown engine" in str(e) or "cannot run" in str(e):
             pytest.skip(str(e))
@@ -73,7 +73,7 @@ def test_readme_donut_run(tmp_path, engine):
     >= 30 frames of 45,624 Gaussians; falls, lands, bounces without gaining energy; appearance bit for bit."""
     scene = load_scene(EXAMPLES / "donut_jelly.toml")
     out = tmp_path / "donut"
-    simulate_scene(scene, out, progress=False, engine=engine)
+    simulate_scene(scene, out, quiet=True, engine=engine)
     run = json.loads((out / "run.json").read_text())
     dx = run["domain"]["dx"]
     frames = sorted((out / "donut_v3dg").glob("frame_*.ply"))

@@ -41,7 +41,8 @@ def test_sqrt_covariances_square_back(donut_run):
 
 @pytest.mark.skipif(CHROMIUM is None, reason="no Chromium found (apt-get install -y chromium)")
 def test_exported_page_shows_donut_moving_from_file(donut_run, tmp_path):
-    import imageio.v3 as iio
+    iio = pytest.importorskip("imageio.v3", reason='the render extra (imageio) is not installed: '
+                              'python -m pip install -e ".[render]"')
     from gasp_core.cli.main import main
     page_path = tmp_path / "donut.html"
     assert main(["view", str(donut_run), "--export", str(page_path)]) == 0

@@ -2,13 +2,13 @@
 
 import numpy as np
 import pytest
-from gasp_testing import ROOT
+from gasp_testing import ROOT, needs_package
 
 from gasp_core.errors import SceneError
 from gasp_core.maps.fill import fill_interior, fill_spacing
 from gasp_core.maps.games import flatten, gaussians_to_triangles
 
-trimesh = pytest.importorskip("trimesh")
+trimesh = needs_package("trimesh")
 SPOT = ROOT / "examples" / "data" / "spot_triangulated.obj"   # Keenan Crane's cow, public domain (spot_README.txt)
 
 

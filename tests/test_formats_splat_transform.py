@@ -8,7 +8,7 @@ import subprocess
 import numpy as np
 import pytest
 from formats_testing import write_ksplat, write_splat
-from gasp_testing import scene_text
+from gasp_testing import scene_text, needs_package
 
 from gasp_core.cli.main import main
 from gasp_core.gs.gaussians import Gaussians
@@ -85,7 +85,7 @@ def test_ksplat_reads_as_in_splat_transform(tmp_path, train, level):
 @pytest.mark.parametrize("fmt", ["spz", "sog", "compressed_ply"])
 def test_every_file_of_a_run_opens_in_splat_transform(tmp_path, donut_small, fmt):
     """A split-layout run (half of the donut moving): the rest file and every frame open, as GASP reads them."""
-    pytest.importorskip("gasp_taichi_mpm", reason="the taichi_mpm plugin is not installed")
+    needs_package("gasp_taichi_mpm")
     scene = tmp_path / "scene.toml"
     scene.write_text(scene_text(donut_small, n_frames=1, n_grid=16, extra_object=SELECT))
     assert main(["simulate", str(scene), "-o", str(tmp_path / "o"), "--format", fmt, "-q"]) == 0

@@ -1,7 +1,7 @@
 """Core Gaussians (BIRCH) and sub-Gaussian binding, on the real donut."""
 import numpy as np
 import pytest
-from gasp_testing import scene_text
+from gasp_testing import scene_text, needs_package
 
 from gasp_core.maps.games import flatten, gaussians_to_triangles, triangles_to_gaussians
 from gasp_core.maps.hierarchy import build_hierarchy, sub_triangles
@@ -85,7 +85,7 @@ def test_tiny_fraction_on_full_donut(donut):
 
 def test_pipeline_with_cores_tracks_full_run(tmp_path, donut_small):
     """Simulating 25 % of the donut's Gaussians as cores stays close to simulating all of them."""
-    pytest.importorskip("gasp_taichi_mpm")
+    needs_package("gasp_taichi_mpm")
     from gasp_core.gs.io import read_gaussians
     from gasp_core.run.pipeline import simulate_scene
     from gasp_core.scene.spec import load_scene
@@ -93,7 +93,7 @@ def test_pipeline_with_cores_tracks_full_run(tmp_path, donut_small):
     for frac in (1.0, 0.25):
         p = tmp_path / f"s{frac}.toml"
         p.write_text(scene_text(donut_small, n_frames=6, extra_object=f"core_fraction = {frac}"))
-        res = simulate_scene(load_scene(p), tmp_path / f"o{frac}", progress=False)
+        res = simulate_scene(load_scene(p), tmp_path / f"o{frac}", quiet=True)
         runs[frac] = (read_gaussians(tmp_path / f"o{frac}" / "donut_small" / "frame_0006.ply").means, res)
     full, part = runs[1.0][0], runs[0.25][0]
     size = np.ptp(full, axis=0).max()

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from gasp_testing import needs_package
 
 from gasp_core.cli.main import main
 from gasp_core.errors import GaspError
@@ -84,7 +85,7 @@ def test_overwrite_still_replaces_an_untouched_run(tmp_path):
 
 def test_simulate_overwrite_keeps_a_note_in_the_object_folder(tmp_path, donut_small, capsys):
     """The issue's repro through the command: simulate, add a note, simulate --overwrite."""
-    pytest.importorskip("gasp_warp_mpm")
+    needs_package("gasp_warp_mpm")
     from gasp_testing import scene_text
     scene = tmp_path / "s.toml"
     scene.write_text(scene_text(donut_small, n_frames=1, n_grid=16, engine="warp_mpm", engine_options="{ }"))
@@ -156,7 +157,7 @@ def test_render_refuses_a_manifest_whose_objects_is_a_number(mini_run, tmp_path,
 
 def test_render_still_renders_an_orbit(mini_run, tmp_path, capsys):
     """The checks refuse only what cannot be rendered: a small orbit GIF of the same run is written."""
-    pytest.importorskip("imageio")
+    needs_package("imageio")
     out = tmp_path / "r.gif"
     assert main(["render", str(mini_run), "-o", str(out), "-q", "--orbit", "90", "--resolution", "32x24"]) == 0, \
         capsys.readouterr().err
@@ -176,7 +177,7 @@ def test_view_refuses_a_port_beyond_65535(mini_run):
 @pytest.fixture(scope="module")
 def stopped_once(tmp_path_factory, donut_small):
     """A warp_mpm run of the donut stopped (as by Ctrl-C) at frame 3, made once: its folder and scene."""
-    pytest.importorskip("gasp_warp_mpm")
+    needs_package("gasp_warp_mpm")
     from gasp_testing import scene_text
     from gasp_core.run.pipeline import simulate_scene
     from gasp_core.run.stop import Stopped
@@ -190,7 +191,7 @@ def stopped_once(tmp_path_factory, donut_small):
             raise KeyboardInterrupt
 
     with pytest.raises(Stopped):
-        simulate_scene(load_scene(scene), d / "out", progress=False, on_frame=interrupt)
+        simulate_scene(load_scene(scene), d / "out", quiet=True, on_frame=interrupt)
     return d, scene
 
 
@@ -287,8 +288,8 @@ def refused(path: Path, *needles: str) -> str:
 
 
 def needs_sog():
-    pytest.importorskip("gsply")
-    pytest.importorskip("imagecodecs")
+    needs_package("gsply")
+    needs_package("imagecodecs")
 
 
 def test_sog_codebook_shorter_than_its_labels_is_refused(tmp_path):
@@ -363,7 +364,7 @@ def write_spz(path: Path, payload: bytes) -> Path:
 
 
 def test_spz_gzip_bomb_is_refused_in_bounded_memory(tmp_path):
-    pytest.importorskip("gsply")
+    needs_package("gsply")
     import resource
     path = write_spz(tmp_path / "bomb.spz", spz_payload() + b"\0" * 2**30)    # ~1 MB file, 1 GiB stream
     before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
@@ -372,7 +373,7 @@ def test_spz_gzip_bomb_is_refused_in_bounded_memory(tmp_path):
 
 
 def test_spz_header_count_beyond_its_data_is_refused(tmp_path):
-    pytest.importorskip("gsply")
+    needs_package("gsply")
     import struct
     raw = bytearray(spz_payload())
     struct.pack_into("<I", raw, 8, 2**31)
@@ -440,7 +441,7 @@ def test_threads_beyond_the_cores_are_capped_with_a_warning():
 @pytest.mark.slow   # a taichi run in a process (~20 s); the cap itself: the test above
 def test_taichi_with_100000_threads_runs_on_the_cores(tmp_path, donut_small):
     """The issue's repro through the command, in a process with a time limit (it forked 100,000 threads)."""
-    pytest.importorskip("gasp_taichi_mpm")
+    needs_package("gasp_taichi_mpm")
     import os
     from gasp_testing import scene_text
     scene = tmp_path / "s.toml"
@@ -492,7 +493,7 @@ def test_a_fill_beyond_the_machines_memory_is_refused_before_it_allocates(tmp_pa
 def test_gif_to_a_full_disk_is_one_line(mini_run, tmp_path, capsys, monkeypatch):
     """The GIF is encoded in memory and then written, so ENOSPC is one OSError line (the image writer's
     ``__del__`` printed a 22-line traceback after it). The full disk: a write that fails as a 64 kB tmpfs did."""
-    pytest.importorskip("imageio")
+    needs_package("imageio")
     import builtins
     import errno
     import gasp_core.render.video as video
@@ -522,7 +523,7 @@ def test_gif_to_a_full_disk_is_one_line(mini_run, tmp_path, capsys, monkeypatch)
 @pytest.mark.parametrize("stem", ["run.json", "frames.json", ".gasp-output", ".gasp-checkpoint.npz"])
 def test_an_object_named_like_a_run_file_gets_its_own_folder(tmp_path, donut_small, capsys, stem):
     """``run.json.ply`` made an object folder ``run.json``, and the run failed with "[Errno 21] Is a directory"."""
-    pytest.importorskip("gasp_warp_mpm")
+    needs_package("gasp_warp_mpm")
     import shutil
     from gasp_testing import scene_text
     ply = shutil.copy(donut_small, tmp_path / f"{stem}.ply")
@@ -580,7 +581,7 @@ def test_a_run_of_an_older_gasp_is_replaced_only_if_it_holds_frames_alone(tmp_pa
 def test_spz_v4_declaring_more_points_than_it_can_hold_is_refused(tmp_path):
     """The bundled NGSP v4 file with its count raised to 2^31: sections of 2^31 points cannot come from
     19 kB (gsply would decompress into what the table declares)."""
-    pytest.importorskip("gsply")
+    needs_package("gsply")
     import struct
     raw = bytearray(SPZ.read_bytes())
     struct.pack_into("<I", raw, 8, 2**31)
@@ -592,7 +593,7 @@ def test_spz_v4_declaring_more_points_than_it_can_hold_is_refused(tmp_path):
 def test_a_second_sigterm_soon_after_the_first_is_still_130(tmp_path, donut_small, gap_s):
     """Two SIGTERMs 50 ms apart once frames are being written: one line, status 130 (a signal that arrived
     while Python shut down gave 143)."""
-    pytest.importorskip("gasp_warp_mpm")
+    needs_package("gasp_warp_mpm")
     import os
     import signal
     import time

@@ -516,4 +516,5 @@ def test_describe_says_unknown_for_scenes(path):
     """Slices of scenes have no bottom: two axes show similar asymmetry, so no up axis is claimed."""
     d = describe(path)
     assert d["up_axis_guess"] == "unknown" and d["up_axis_confidence"] < 0.5
-    assert "x " in d["up_axis_evidence"] and "guess" in d["up_axis_evidence"]
+    assert any(c.startswith("flat-area asymmetry: ") and "x " in c for c in d["up_axis_cues"])
+    assert "state up_axis" in d["up_axis_note"]

@@ -4,7 +4,7 @@ import json
 
 import numpy as np
 import pytest
-from gasp_testing import scene_text
+from gasp_testing import scene_text, needs_package
 
 from gasp_core.cli.main import main
 from gasp_core.errors import SceneError
@@ -12,7 +12,7 @@ from gasp_core.run.layout import open_frames
 from gasp_core.run.pipeline import simulate_scene
 from gasp_core.scene.spec import load_scene
 
-pytest.importorskip("gasp_taichi_mpm", reason="the taichi_mpm plugin is not installed")
+needs_package("gasp_taichi_mpm")
 
 SELECT = "select = { box = { lo = [-1.0, -1.0, -1.0], hi = [0.0, 1.0, 1.0] } }"   # file x <= 0 moves
 
@@ -30,7 +30,7 @@ def two_runs(tmp_path_factory, donut_small):
     scene.write_text(text + static_object(donut_small))
     runs = {}
     for layout in ("frames", "split"):
-        simulate_scene(load_scene(scene), tmp / layout, progress=False, layout=layout)
+        simulate_scene(load_scene(scene), tmp / layout, quiet=True, layout=layout)
         runs[layout] = tmp / layout
     return runs
 

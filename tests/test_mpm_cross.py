@@ -11,9 +11,10 @@ This module must not use ``from __future__ import annotations``: Warp reads the 
 """
 import numpy as np
 import pytest
+from gasp_testing import needs_package
 
-pytest.importorskip("taichi")
-wp = pytest.importorskip("warp")
+needs_package("taichi")
+wp = needs_package("warp")
 
 from gasp_core.seam import build_engine, Material, SimSetup  # noqa: E402
 from gasp_core.seam.plugins import engines  # noqa: E402

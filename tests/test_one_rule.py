@@ -6,7 +6,8 @@ import pytest
 
 from gasp_core.errors import SceneError
 from gasp_core.scene.spec import load_scene
-from gasp_core.seam.setup import MATERIAL_RANGES, Material, SimSetup, grid_spacing
+from gasp_core.seam.schema import MATERIAL_KINDS, MATERIAL_PARAMS
+from gasp_core.seam.setup import Material, SimSetup, grid_spacing
 from gasp_testing import scene_text
 
 
@@ -24,12 +25,13 @@ def _expected(message: str) -> str:
                                         ("yield_stress", 0.0), ("friction_angle", 90.0), ("theta_c", 0.0)])
 def test_a_material_value_is_refused_with_the_same_words_by_the_scene_and_by_simsetup(
         donut_small, write_scene, key, value):
-    table = {"name": '"jelly"', "E": 2.0e4, "nu": 0.3, "rho": 300.0, key: value}
+    name = next(m for m, kind in MATERIAL_KINDS.items() if key in kind.keys)   # a material that uses the key
+    table = {"name": f'"{name}"', "E": 2.0e4, "nu": 0.3, "rho": 300.0, key: value}
     material = "\n".join(f"{k} = {v}" for k, v in table.items())
     with pytest.raises(SceneError) as from_scene:
         load_scene(write_scene(scene_text(donut_small, material=material)))
     with pytest.raises(SceneError) as from_setup:
-        _setup(Material("jelly", **{key: value}))
+        _setup(Material(name, **{key: value}))
     assert f".{key} = " in str(from_scene.value) and f".{key} = " in str(from_setup.value)
     assert _expected(str(from_scene.value)) == _expected(str(from_setup.value))
 
@@ -40,7 +42,7 @@ def test_an_auxetic_material_is_accepted_by_the_scene_and_by_simsetup(donut_smal
     scene = load_scene(write_scene(scene_text(donut_small, material=material)))
     assert scene.objects[0].material.nu == -0.5
     _setup(Material("jelly", nu=-0.5))
-    assert set(MATERIAL_RANGES) == {"E", "nu", "rho", "yield_stress", "friction_angle", "softening",
+    assert set(MATERIAL_PARAMS) == {"E", "nu", "rho", "yield_stress", "friction_angle", "softening",
                                     "hardening", "theta_c", "theta_s", "viscosity"}
 
 

@@ -7,6 +7,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from gasp_testing import needs_package
 
 from gasp_core.errors import SceneError
 from gasp_core.seam.build import build_engine
@@ -174,10 +175,11 @@ def test_stranded_passive_points_are_counted(name):
 def test_simulate_warns_about_stranded_passive_points(donut, write_scene, tmp_path, monkeypatch):
     """``gasp simulate`` passes the engine's ``passive_stranded`` on as a warning naming the count
     (the count itself is tested on the engines above; here the engine is made to report 5)."""
-    pytest.importorskip("warp")
+    needs_package("warp")
     from gasp_testing import scene_text
     from gasp_core.gs.io import write_gaussians
     from gasp_core.run.pipeline import simulate_scene
+    from gasp_core.run.report import Reporter
     from gasp_core.scene.spec import load_scene
     from gasp_warp_mpm.solver import WarpMPMEngine
     ply = tmp_path / "donut_tiny.ply"
@@ -186,8 +188,9 @@ def test_simulate_warns_about_stranded_passive_points(donut, write_scene, tmp_pa
                                               extra_object='surface = "passive"')))
     real = WarpMPMEngine.stats
     monkeypatch.setattr(WarpMPMEngine, "stats", lambda self: {**real(self), "passive_stranded": 5})
-    said = []
-    res = simulate_scene(scene, tmp_path / "out", progress=False, warn=said.append)
+    reporter = Reporter()                     # keeps the run's events
+    res = simulate_scene(scene, tmp_path / "out", reporter=reporter)
+    said = [e["message"] for e in reporter.events if e["event"] == "warning"]
     assert res.summary["engine_stats"]["passive_stranded"] == 5
     n_passive = res.summary["n_render_points"]
     assert [m for m in said if m.startswith(f"5 of {n_passive} passive surface points")], said

@@ -3,7 +3,7 @@ import json
 
 import numpy as np
 import pytest
-from gasp_testing import scene_text
+from gasp_testing import scene_text, needs_package
 from plyfile import PlyData
 
 from gasp_core.errors import GaspError
@@ -13,7 +13,7 @@ from gasp_core.prepare.placement import UP_ROTATIONS
 from gasp_core.run.pipeline import simulate_scene
 from gasp_core.scene.spec import load_scene
 
-pytest.importorskip("gasp_taichi_mpm", reason="the taichi_mpm plugin is not installed")
+needs_package("gasp_taichi_mpm")
 
 
 def covariances(g):
@@ -27,7 +27,7 @@ def donut_run(tmp_path_factory, donut_small):
     scene = tmp / "scene.toml"
     scene.write_text(scene_text(donut_small, n_frames=36))
     out = tmp / "out"
-    res = simulate_scene(load_scene(scene), out, progress=False)
+    res = simulate_scene(load_scene(scene), out, quiet=True)
     return donut_small, out, res
 
 
@@ -92,17 +92,17 @@ def test_overwrite_replaces_only_after_success(tmp_path, donut_small):
     scene = tmp_path / "scene.toml"
     scene.write_text(scene_text(donut_small, n_frames=1))
     out = tmp_path / "o"
-    simulate_scene(load_scene(scene), out, progress=False)
+    simulate_scene(load_scene(scene), out, quiet=True)
     with pytest.raises(FileExistsError, match="exists"):
-        simulate_scene(load_scene(scene), out, progress=False)
+        simulate_scene(load_scene(scene), out, quiet=True)
     marker = out / "keep.txt"
     marker.write_text("not made by gasp")
     with pytest.raises(GaspError, match="not a gasp output"):   # never replaces what a run did not make
-        simulate_scene(load_scene(scene), out, overwrite=True, progress=False)
+        simulate_scene(load_scene(scene), out, overwrite=True, quiet=True)
     assert marker.read_text() == "not made by gasp"
     marker.unlink()
     old = (out / "run.json").read_text()
-    simulate_scene(load_scene(scene), out, overwrite=True, progress=False)
+    simulate_scene(load_scene(scene), out, overwrite=True, quiet=True)
     assert (out / "run.json").read_text() != old
 
 
@@ -122,8 +122,8 @@ def test_up_axis_and_scale_round_trip(tmp_path, donut_small):
     s1.write_text(scene_text(donut_small, n_frames=2))
     s2 = tmp_path / "b.toml"
     s2.write_text(scene_text(cm, n_frames=2).replace('up_axis = "+z"', 'up_axis = "-y"\nscale = 0.01'))
-    simulate_scene(load_scene(s1), tmp_path / "o1", progress=False)
-    simulate_scene(load_scene(s2), tmp_path / "o2", progress=False)
+    simulate_scene(load_scene(s1), tmp_path / "o1", quiet=True)
+    simulate_scene(load_scene(s2), tmp_path / "o2", quiet=True)
     a = read_gaussians(tmp_path / "o1" / "donut_small" / "frame_0002.ply")
     b = read_gaussians(tmp_path / "o2" / "donut_cm_minus_y" / "frame_0002.ply")
     back = (b.means / 100.0) @ R       # file (cm, -Y up) -> metres, Z up

@@ -9,7 +9,7 @@ from gasp_core.maps.fill import fill_interior
 from gasp_core.prepare.surface import MIN_SOLID_CELLS, surface_rule
 from gasp_core.scene.quality import PRESETS, QUALITY_LEVELS, engine_options
 from gasp_core.scene.spec import load_scene
-from gasp_testing import scene_text
+from gasp_testing import scene_text, needs_package
 
 
 def test_levels_fill_in_only_what_the_file_leaves_out(donut_small, write_scene):
@@ -74,7 +74,7 @@ def test_surface_rule_passive_on_a_resolved_solid_material_otherwise():
 
 
 def test_the_pipeline_resolves_auto_and_records_the_rule(donut_small, write_scene):
-    pytest.importorskip("gasp_taichi_mpm", reason="taichi_mpm plugin not installed")
+    needs_package("gasp_taichi_mpm")
     from gasp_core.prepare.scene import prepare_scene
     jelly = prepare_scene(load_scene(write_scene(scene_text(donut_small, n_grid=24), "jelly.toml")))
     assert jelly.objects[0].surface_rule["surface"] == "material" and jelly.setup.passive is None

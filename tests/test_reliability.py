@@ -6,12 +6,12 @@ import sys
 import time
 
 import pytest
-from gasp_testing import scene_text
+from gasp_testing import scene_text, needs_package
 
 from gasp_core.cli.main import main
 
 ENGINE = "warp_mpm"
-pytest.importorskip("gasp_warp_mpm", reason="the warp_mpm plugin is not installed")
+needs_package("gasp_warp_mpm")
 
 
 def gasp(*argv, cwd=None, timeout=600):
@@ -64,7 +64,7 @@ def test_an_object_dropped_from_a_height_fits_the_default_domain(tmp_path, donut
 
 @pytest.mark.parametrize("engine", ["warp_mpm", "taichi_mpm"])
 def test_no_library_chatter_and_engines_json_parses(tmp_path, donut_small, engine):
-    pytest.importorskip(f"gasp_{engine}")
+    needs_package(f"gasp_{engine}")
     scene = tmp_path / "s.toml"
     scene.write_text(scene_text(donut_small, n_frames=1, n_grid=16, engine=engine, engine_options="{ }"))
     r = gasp("simulate", scene, "-o", tmp_path / "o", "-q")

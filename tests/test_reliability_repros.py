@@ -10,7 +10,7 @@ import warnings
 
 import numpy as np
 import pytest
-from gasp_testing import scene_text
+from gasp_testing import scene_text, needs_package
 
 from gasp_core.cli import main as cli
 from gasp_core.cli.main import main
@@ -44,7 +44,7 @@ def ball(path, n: int = 600, radius: float = 0.05):
 def test_n_grid_8_starts_every_point_inside_the_stencil(tmp_path, donut_small, capsys):
     """n_grid 8 with a ground: the default domain used to start three cells below the ground and end one
     cell above the object, so the top points were outside the grid's stencil at frame 0 ("left the domain")."""
-    pytest.importorskip("gasp_warp_mpm")
+    needs_package("gasp_warp_mpm")
     scene = tmp_path / "s.toml"
     scene.write_text(scene_text(donut_small, n_frames=1, n_grid=8, engine="warp_mpm", engine_options="{ }"))
     assert main(["simulate", str(scene), "-o", str(tmp_path / "o"), "-q"]) == 0, capsys.readouterr().err
@@ -58,7 +58,7 @@ def test_n_grid_8_starts_every_point_inside_the_stencil(tmp_path, donut_small, c
 def test_stale_claim_with_overwrite_is_a_killed_runs(tmp_path, donut_small, capsys):
     """After kill -9 the claim names a dead pid: --overwrite throws the partial away (it used to say
     "being written by another gasp run"); without it the folder is named as a killed run's."""
-    pytest.importorskip("gasp_warp_mpm")
+    needs_package("gasp_warp_mpm")
     scene = tmp_path / "s.toml"
     scene.write_text(scene_text(donut_small, n_frames=1, n_grid=16, engine="warp_mpm", engine_options="{ }"))
     out, pid = tmp_path / "o", dead_pid()
@@ -77,7 +77,7 @@ def test_stale_claim_with_overwrite_is_a_killed_runs(tmp_path, donut_small, caps
 def test_overlapping_objects_on_mujoco_flex_name_the_cause(tmp_path, capsys):
     """Two identical objects in one place: MuJoCo's arena fills at the first substep. The line names the
     overlap and the engine option that raises the arena (it blamed the time step and an option that did not exist)."""
-    pytest.importorskip("gasp_mujoco_flex")
+    needs_package("gasp_mujoco_flex")
     ply = ball(tmp_path / "ball.ply")
     text = scene_text(ply, n_frames=1, n_grid=40, engine="mujoco_flex", engine_options="{ }")   # 8 cells: no warning
     obj = text[text.index("[[object]]"):]
@@ -92,7 +92,7 @@ def test_overlapping_objects_on_mujoco_flex_name_the_cause(tmp_path, capsys):
 @pytest.fixture(scope="module")
 def small_run(tmp_path_factory, donut_small):
     """Three frames of the donut on warp_mpm at n_grid 16 (a run folder to render)."""
-    pytest.importorskip("gasp_warp_mpm")
+    needs_package("gasp_warp_mpm")
     d = tmp_path_factory.mktemp("small_run")
     (d / "s.toml").write_text(scene_text(donut_small, n_frames=3, n_grid=16, engine="warp_mpm", engine_options="{ }"))
     assert main(["simulate", str(d / "s.toml"), "-o", str(d / "run"), "-q"]) == 0
@@ -101,6 +101,7 @@ def small_run(tmp_path_factory, donut_small):
 
 def test_a_render_error_starts_its_own_line(tmp_path, small_run, capsys, monkeypatch):
     """A render that fails on a full disk (ENOSPC) mid-way: the progress bar's line ends first."""
+    pytest.importorskip("imageio", reason='the render extra (imageio) is not installed: python -m pip install -e ".[render]"')
     import gasp_core.render.video as video
     real = video.write_frames
 

@@ -8,10 +8,11 @@ from gasp_core.gs.io import read_gaussians
 from gasp_core.render.registry import get_renderer, renderers
 from gasp_core.render.camera import Camera
 from gasp_core.render.splat_numpy import Splats, splats_from_gaussians
-from gasp_testing import DONUT
+from gasp_testing import DONUT, needs_package
 
-numba = pytest.importorskip("numba", reason="the render extra (numba) is not installed")
+numba = needs_package("numba")
 RENDERERS = ["cpu", "numpy"]
+RENDER_EXTRA = 'the render extra (imageio) is not installed: python -m pip install -e ".[render]"'
 
 
 def _iso(mean, s, opacity, rgb):
@@ -126,6 +127,7 @@ def _falls_and_lands(rows):
 
 def test_rendered_donut_falls_and_lands(donut_run, tmp_path):
     _falls_and_lands(_centroid_rows(donut_run))
+    pytest.importorskip("imageio", reason=RENDER_EXTRA)
     out = tmp_path / "donut.mp4"
     from gasp_core.cli.main import main
     assert main(["render", str(donut_run), "-o", str(out), "--resolution", "160x120", "-q"]) == 0
@@ -136,6 +138,7 @@ def test_rendered_donut_falls_and_lands(donut_run, tmp_path):
 
 
 def test_side_by_side_and_strip(donut_run, tmp_path):
+    pytest.importorskip("imageio", reason=RENDER_EXTRA)
     from gasp_core.cli.main import main
     from gasp_core.render.run import render_strip
     import imageio.v3 as iio
@@ -159,7 +162,7 @@ def test_readme_donut_falls_lands_and_bounces_lower_each_time(tmp_path):
     it falls, lands, and bounces ever lower. The filled jelly is a solid undamped elastic body, so it
     does not come to rest within 1.2 s (README "Known limits"); measured image rows of the bounce
     apexes: 84.7, 87.1, 89.6, 91.9, 95.7, 97.6 (the image row grows downwards)."""
-    pytest.importorskip("gasp_taichi_mpm", reason="taichi_mpm plugin not installed")
+    needs_package("gasp_taichi_mpm")
     from gasp_core.cli.main import main
     from gasp_testing import ROOT
     run = tmp_path / "donut"

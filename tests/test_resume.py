@@ -8,7 +8,7 @@ import time
 from pathlib import Path
 
 import pytest
-from gasp_testing import scene_text
+from gasp_testing import scene_text, needs_package
 
 from gasp_core.cli.main import main
 from gasp_core.fsutil import CLAIM
@@ -48,7 +48,7 @@ def kill_9_after(scene: Path, out: Path, kill_after: int) -> int:
 
 @pytest.mark.parametrize("engine", sorted(ENGINES))
 def test_kill_9_then_resume_is_bit_identical(engine, tmp_path, donut_small, capsys):
-    pytest.importorskip(f"gasp_{engine}")
+    needs_package(f"gasp_{engine}")
     n_frames = 8
     scene = tmp_path / "scene.toml"
     scene.write_text(scene_text(donut_small, n_frames=n_frames, n_grid=16, engine=engine,
@@ -82,8 +82,8 @@ def test_kill_9_then_resume_is_bit_identical(engine, tmp_path, donut_small, caps
 
 def test_a_collider_mesh_changed_after_the_kill_refuses_the_resume(tmp_path, donut_small, capsys):
     """The fingerprint stands for every file the run reads (prepare.scene.input_files), collider meshes too."""
-    pytest.importorskip("gasp_warp_mpm")
-    trimesh = pytest.importorskip("trimesh")
+    needs_package("gasp_warp_mpm")
+    trimesh = needs_package("trimesh")
     mesh = tmp_path / "box.obj"
     trimesh.creation.box(extents=(0.2, 0.2, 0.05)).export(mesh)
     scene = tmp_path / "scene.toml"

@@ -14,7 +14,7 @@ import warnings
 
 import numpy as np
 import pytest
-from gasp_testing import GUITAR
+from gasp_testing import GUITAR, needs_package
 
 from gasp_core.gs.io import read_gaussians, write_gaussians
 from gasp_core.gs.gaussians import Gaussians
@@ -183,7 +183,7 @@ def standing_spot(tmp_path, n_grid=40, n_frames=10, extra=""):
     """Spot the cow (Keenan Crane, public domain) as 3000 GaMeS mesh-mode splats standing on its hooves,
     0.30 m tall, dropped 1 cm onto a ground with friction 0.5 as jelly: E = 1 MPa, rho = 1000 kg/m^3, so
     rho g h / E = 0.29 %. Returns the z extent (0.5 to 99.5 % quantiles of the means) per frame."""
-    trimesh = pytest.importorskip("trimesh")
+    trimesh = needs_package("trimesh")
     if not SPOT.exists():
         pytest.skip(f"{SPOT} not found")
     mesh = trimesh.load(SPOT, process=False)
@@ -314,7 +314,7 @@ def test_info_scale_volume_and_mass_of_the_real_donut(capsys):
     lies between 60 % and 100 % of the convex hull (test_fill's bound for a donut); mass = rho x volume."""
     from gasp_testing import DONUT
     from gasp_core.cli.main import main
-    trimesh = pytest.importorskip("trimesh")
+    trimesh = needs_package("trimesh")
     assert main(["info", str(DONUT), "--json", "--size", "19.05cm", "--rho", "300", "--n-grid", "32"]) == 0
     d = json.loads(capsys.readouterr().out)
     assert d["up_axis_guess"] == "+z" and d["suggested_scale"] == pytest.approx(2.0, rel=2e-3)

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 from scipy.special import expit
 import pytest
-from gasp_testing import DONUT, ROOT
+from gasp_testing import DONUT, ROOT, needs_package
 from plyfile import PlyData
 
 from gasp_core.errors import SceneError
@@ -75,11 +75,11 @@ static = true
 
 @pytest.fixture(scope="module")
 def half_donut(tmp_path_factory):
-    pytest.importorskip("gasp_taichi_mpm", reason="the taichi_mpm plugin is not installed")
+    needs_package("gasp_taichi_mpm")
     tmp = tmp_path_factory.mktemp("half")
     scene = tmp / "half.toml"
     scene.write_text(donut_scene(static_object=STATIC_DONUT))
-    res = simulate_scene(load_scene(scene), tmp / "out", progress=False)
+    res = simulate_scene(load_scene(scene), tmp / "out", quiet=True)
     return tmp / "out", res
 
 
@@ -305,13 +305,13 @@ def test_select_after_psi():
 
 
 def test_kitchen_two_frames(tmp_path):
-    pytest.importorskip("gasp_taichi_mpm", reason="the taichi_mpm plugin is not installed")
+    needs_package("gasp_taichi_mpm")
     data = tomllib.loads(KITCHEN.read_text())
     data["domain"]["n_grid"] = 16
     data["domain"]["lo"][2], data["domain"]["hi"][2] = -0.75, -0.20  # 3 coarse cells below the lowest point
     data["engine"]["options"] = {"threads": 1}
     scene = parse_scene(data, KITCHEN)
-    res = simulate_scene(scene, tmp_path / "out", n_frames=2, progress=False)
+    res = simulate_scene(scene, tmp_path / "out", n_frames=2, quiet=True)
     run = res.summary
     assert (run["n_gaussians"], run["n_selected"], run["n_static"]) == (62442, 351, 62091)
     assert run["n_render_points"] == 3 * 351 and run["n_points"] < 0.1 * 3 * 62442

@@ -10,8 +10,9 @@ import sys
 
 import numpy as np
 import pytest
+from gasp_testing import needs_package
 
-trimesh = pytest.importorskip("trimesh")
+trimesh = needs_package("trimesh")
 
 from gasp_core.cli.main import main  # noqa: E402
 from gasp_core.errors import SceneError  # noqa: E402

@@ -107,8 +107,8 @@ def _warnings(ply, E: float, tmp_path) -> list[str]:
 
 
 def test_slender_figure_is_warned_below_its_E_crit(tmp_path):
-    """The warning names the E it needs; at 5x that E there is none. `gasp info --rho` reports an E_crit too (along
-    its guessed up axis: this figure's Gaussians make it guess +x, so its number is for the figure on its side)."""
+    """The warning names the E it needs; at 5x that E there is none. `gasp info --rho` reports an E_crit too (its up
+    axis is unsure, no cue gives the sign of its longest axis z, so it is judged standing along +z, the default)."""
     from gasp_core.cli.info import info
     ply = _figure(tmp_path / "figure.ply")
     lines = _warnings(ply, 1e4, tmp_path)
@@ -119,6 +119,7 @@ def test_slender_figure_is_warned_below_its_E_crit(tmp_path):
     assert not _warnings(ply, 5 * E_crit, tmp_path)
     d = info(ply, rho=1000.0, n_grid=32)
     assert d["stand_E_crit_Pa"] > 0 and d["stand_com_inside"] is True, d
+    assert d["up_axis_guess"] == "unknown" and "+z" in d["stand_note"]
 
 
 def test_a_dropped_donut_gets_no_stand_warning(tmp_path):

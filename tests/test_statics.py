@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from gasp_testing import needs_package
 
 from gasp_core.colliders.model import Motion, rotvec_matrix
 from gasp_core.colliders.sdf import box_collider
@@ -62,7 +63,7 @@ def _two_objects(tmp_path, collider: dict, guitar: dict | None = None):
 def test_collider_from_a_static_object_sits_where_the_object_is(tmp_path):
     """The collider named by ``object`` uses the object's placement: the same field as a ``gaussians``
     collider given that placement by hand (same occupancy; only rounding differs)."""
-    pytest.importorskip("scipy")
+    needs_package("scipy")
     dx = 0.01
     scene, objects = _two_objects(tmp_path, {"object": 1, "friction": 0.3})
     (col,) = build_colliders(scene, objects, dx)

@@ -13,13 +13,13 @@ import time
 from pathlib import Path
 
 import pytest
-from gasp_testing import scene_text
+from gasp_testing import scene_text, needs_package
 
 from gasp_core.cli.main import main
 from gasp_core.fsutil import CLAIM
 from gasp_core.run import stop
 
-pytest.importorskip("gasp_warp_mpm", reason="the warp_mpm plugin is not installed")
+needs_package("gasp_warp_mpm")
 
 N_FRAMES = 6
 
@@ -69,7 +69,7 @@ def stop_after(scene: Path, out: Path, sig: int, after: int) -> subprocess.Compl
 
 @pytest.mark.parametrize("engine", ["warp_mpm", pytest.param("taichi_mpm", marks=pytest.mark.slow)])
 def test_sigterm_after_2_of_6_frames_resumes_bit_identical(tmp_path, donut_small, engine):
-    pytest.importorskip(f"gasp_{engine}")
+    needs_package(f"gasp_{engine}")
     scene = write_scene(tmp_path, donut_small, engine=engine)
     ref = tmp_path / "ref"
     r = gasp("simulate", scene, "-o", ref, "-q", cwd=tmp_path)

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 pytest.importorskip("viser", reason="the view extra is not installed: pip install -e '.[view]'")
+pytest.importorskip("imageio", reason='the render extra (imageio) is not installed: python -m pip install -e ".[render]"')
 sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed: pip install playwright")
 # Debian's full browser or its headless build, whichever is there
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-headless-shell")

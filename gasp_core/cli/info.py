@@ -15,8 +15,9 @@ from gasp_core.prepare.stand import stand_estimate
 from gasp_core.scene.spec import ObjectSpec
 from gasp_core.scene.tables import DomainSpec
 
-def info(path: Path, size: float | None = None, rho: float | None = None, n_grid: int = DomainSpec.n_grid) -> dict:
-    """:func:`describe`'s summary plus the extent along the guessed up axis, a ``scale`` and the filled solid.
+def info(path: Path, size: float | None = None, rho: float | None = None, n_grid: int = DomainSpec.n_grid,
+         up: str | None = None) -> dict:
+    """:func:`describe`'s summary plus the extent along the up axis, a ``scale`` and the filled solid.
 
     Parameters
     ----------
@@ -28,16 +29,20 @@ def info(path: Path, size: float | None = None, rho: float | None = None, n_grid
         Density, kg/m^3; gives ``mass_kg``.
     n_grid : int
         Grid of the default scene whose fill is reported (padding and particles per cell: the defaults).
+    up : str, optional
+        The up axis, stated (``"+x"`` ... ``"-z"``): replaces the guess.
 
     Returns
     -------
     dict
-        ``describe``'s keys, then ``height`` (file units, along the up axis; ``+z`` when unknown),
-        ``suggested_scale`` (with ``size``), ``filled_volume`` (m^3 at ``suggested_scale``, else in file
-        units cubed), ``volume_unit``, ``fill_method``, ``fill_confidence``, ``fill_sealed``,
-        ``fill_bbox_share``, ``n_floaters``, ``fill_warning`` and ``mass_kg`` (with ``rho``), with it also
-        ``stand_E_crit_Pa`` (the Young's modulus the filled solid needs to stand on its base without buckling,
-        :mod:`gasp_core.prepare.stand`; in file units unless ``size`` is given) and ``stand_com_inside``.
+        ``describe``'s keys, then ``height`` (file units, along the up axis), ``suggested_scale`` (with
+        ``size``); when the up axis is unknown (unsure guess, none stated), no ``height`` but
+        ``up_axis_candidates``: per axis ``"x" "y" "z"`` its ``height`` and (with ``size``) ``scale``, and the
+        fill below is in the file's frame (``+z`` up, the scene default). Then ``filled_volume`` (m^3 at
+        ``suggested_scale``, else in file units cubed), ``volume_unit``, ``fill_method``, ``fill_confidence``,
+        ``fill_sealed``, ``fill_bbox_share``, ``n_floaters``, ``fill_warning`` and ``mass_kg`` (with ``rho``),
+        with it also ``stand_E_crit_Pa`` (the Young's modulus the filled solid needs to stand on its base without
+        buckling, :mod:`gasp_core.prepare.stand`; in file units unless a scale is known) and ``stand_com_inside``.
 
     Raises
     ------
@@ -47,14 +52,10 @@ def info(path: Path, size: float | None = None, rho: float | None = None, n_grid
     d = describe(path)
     if d["count"] == 0:
         return d
-    up = d["up_axis_guess"] if d["up_axis_guess"] != "unknown" else "+z"
-    height = float((np.asarray(d["bbox_max"]) - np.asarray(d["bbox_min"])) @ np.abs(UP_ROTATIONS[up][2]))
-    d["height"] = height
-    scale = 1.0
-    if size is not None:
-        scale = size / height if height > 0 else 1.0
-        d["suggested_scale"] = scale
-        d["scale_note"] = f"scale = {scale:.6g} makes the {height:.4g}-unit height along {up} {size:g} m"
+    if up is not None:
+        d.update(up_axis_guess=up, up_axis_confidence=1.0, up_axis_method="stated (--up)",
+                 up_axis_note="stated: the figures below are along it")
+    up, scale, known = _height_and_scale(d, size)
     spec = ObjectSpec(file=Path(path), up_axis=up, scale=scale,
                       dynamic_time=0.5 if Path(path).suffix.lower() == ".splatv" else None)
     o = prepare_object(spec)
@@ -66,9 +67,9 @@ def info(path: Path, size: float | None = None, rho: float | None = None, n_grid
     dom = DomainSpec()
     h = fill_spacing(ext * (1 + 2 * dom.padding) / n_grid, dom.particles_per_cell)
     fr = fill_interior(o.tri_rest.reshape(-1, 3), h, splats=o.tri_rest[opaque], name=o.name,
-                       unit="m" if size is not None else "file units")
+                       unit="m" if known and size is not None else "file units")
     r = fr.report
-    d.update({"filled_volume": fr.volume, "volume_unit": "m^3" if size is not None else "file units^3",
+    d.update({"filled_volume": fr.volume, "volume_unit": "m^3" if known and size is not None else "file units^3",
               "fill_method": r.method, "fill_confidence": r.confidence, "fill_sealed": r.sealed,
               "fill_bbox_share": round(r.bbox_share, 4), "fill_n_grid": n_grid, "n_floaters": o.n_floaters,
               "fill_warning": r.warning or "none"})
@@ -81,6 +82,36 @@ def info(path: Path, size: float | None = None, rho: float | None = None, n_grid
             est = stand_estimate(pts, vols, rho)
             d["stand_E_crit_Pa"] = est.E_crit
             d["stand_com_inside"] = est.com_over_footprint
-        if size is None:
-            d["mass_note"] = "mass with 1 file unit = 1 m; pass --size for the real scale"
+            if not known:
+                d["stand_note"] = "standing along +z, the scene default (no up axis chosen: pass --up=AXIS)"
+        for c in d.get("up_axis_candidates", {}).values():
+            if "scale" in c:
+                c["mass_kg"] = rho * fr.volume * c["scale"] ** 3
+        if not known or size is None:
+            d["mass_note"] = ("mass with 1 file unit = 1 m; pass --size for the real scale" if known else
+                              "mass with 1 file unit = 1 m, standing along +z (the scene default): pass --up=AXIS "
+                              "and --size for the real scale")
     return d
+
+
+def _height_and_scale(d: dict, size: float | None) -> tuple[str, float, bool]:
+    """Adds ``height`` and ``suggested_scale`` along ``d``'s up axis, or ``up_axis_candidates`` when it is unknown
+    (:func:`info`); returns the up axis the fill uses (``+z`` when unknown), the scale and whether it is known."""
+    extent = np.asarray(d["bbox_max"]) - np.asarray(d["bbox_min"])
+    scale, known = 1.0, d["up_axis_guess"] != "unknown"
+    if known:
+        up = d["up_axis_guess"]
+        height = float(extent @ np.abs(UP_ROTATIONS[up][2]))
+        d["height"] = height
+        if size is not None:
+            scale = size / height if height > 0 else 1.0
+            d["suggested_scale"] = scale
+            d["scale_note"] = f"scale = {scale:.6g} makes the {height:.4g}-unit height along {up} {size:g} m"
+    else:
+        up = "+z"
+        d["up_axis_candidates"] = {a: {"height": float(h)} | ({"scale": size / float(h)} if size and h > 0 else {})
+                                   for a, h in zip("xyz", extent)}
+        if size is not None:
+            d["scale_note"] = (f"no up axis chosen: the scale that makes the height {size:g} m along each axis is "
+                               "under up_axis_candidates; pass --up=AXIS for the figures along one")
+    return up, scale, known

@@ -7,10 +7,15 @@ missing capability, existing output, a folder that cannot be written), 3 when th
 (Ctrl-C, SIGTERM, SIGHUP: ``gasp simulate`` finishes the frame in flight and keeps the finished frames
 for ``--resume``, :mod:`gasp_core.run.stop`). NumPy's floating-point warnings are held back and
 printed only after a run that succeeded: before an error line they would be noise.
+
+Warnings (gasp's own and Python's), the result and the error line go through one reporter
+(:mod:`gasp_core.run.report`): the console's, or JSON lines on stdout for ``gasp simulate --json``
+(:mod:`gasp_core.cli.simulate`).
 """
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import os
 import sys
@@ -20,38 +25,18 @@ import warnings
 
 from gasp_core.cli import early
 from gasp_core.cli.args import GaspArgumentParser, length, positive_float, positive_int
-from gasp_core.errors import EngineBug, EngineDivergence, GaspError
+from gasp_core.cli.simulate import add_simulate_parser, reporter_for
+from gasp_core.errors import EngineBug, EngineDivergence, GaspError, extra_hint, missing_module_message
+from gasp_core.scene.values import UP_AXES
 from gasp_core.run import stop
-
-
-def _cmd_simulate(args) -> int:
-    from gasp_core.run.pipeline import simulate_scene
-    from gasp_core.scene.spec import load_scene
-    scene = load_scene(args.scene, quality=args.quality)
-    out = args.output or scene.output
-    if out is None:
-        raise GaspError("no output folder: pass -o OUTDIR or set 'output' in the scene")
-    if args.resume and args.discard:
-        raise GaspError("--resume and --discard exclude each other: continue the stopped run, or throw it away")
-    res = simulate_scene(scene, out, overwrite=args.overwrite, progress=not args.quiet,
-                         n_frames=args.frames, engine=args.engine, resume=args.resume,
-                         fmt=args.format, layout=args.layout,
-                         warn=lambda msg: print(f"gasp: warning: {msg}", file=sys.stderr),
-                         discard=args.discard, yes=args.yes)
-    s = res.summary
-    fps = len(s["frames"]) - 1
-    per_frame = sum(f.get("sim_s", 0.0) for f in s["frames"]) / max(fps, 1)
-    print(f"wrote {fps + 1} frames (frame 0 = the input) x {len(s['objects'])} object(s) to {res.outdir} "
-          f"({s['n_points']} simulated points, {s['engine_stats'].get('n_substeps', '-')} substeps/frame, "
-          f"{per_frame:.3f} s/frame)")
-    return 0
+from gasp_core.run.report import ConsoleReporter, Reporter
 
 
 def _cmd_engines(args) -> int:
     from gasp_core.seam.plugins import BROKEN, engines
     found = engines()
     for name, (dist, err) in BROKEN.items():
-        print(f"gasp: warning: plugin '{name}' ({dist}) fails to import: {err}", file=sys.stderr)
+        args.reporter.warning(f"plugin '{name}' ({dist}) fails to import: {err}")
     if args.json:
         print(json.dumps({n: {"distribution": e.distribution, "version": e.version,
                               "available": e.unavailable_reason() or "yes",
@@ -93,7 +78,7 @@ def _cmd_plugins(args) -> int:
     from gasp_core.seam.plugins import BROKEN, engines, soup_writers
     kinds = {"engines": engines(), "renderers": renderers(), "soup_writers": soup_writers()}
     for name, (dist, err) in BROKEN.items():
-        print(f"gasp: warning: plugin '{name}' ({dist}) fails to import: {err}", file=sys.stderr)
+        args.reporter.warning(f"plugin '{name}' ({dist}) fails to import: {err}")
     if args.json:
         print(json.dumps({kind: {n: {"distribution": r.distribution, "version": r.version,
                                      "available": (r.unavailable_reason() if hasattr(r, "unavailable_reason")
@@ -116,11 +101,15 @@ def _cmd_info(args) -> int:
     from gasp_core.cli.info import info
     with warnings.catch_warnings():          # the fill's and the floaters' warnings are reported as fields
         warnings.simplefilter("ignore")
-        d = info(args.file, size=args.size, rho=args.rho, n_grid=args.n_grid)
+        d = info(args.file, size=args.size, rho=args.rho, n_grid=args.n_grid, up=args.up)
     if args.json:
         print(json.dumps(d, indent=2, default=str))
         return 0
     for k, v in d.items():
+        if isinstance(v, dict):          # up_axis_candidates: one line per axis
+            v = [f"{a}: " + ", ".join(f"{n} {x:.4g}" for n, x in c.items()) for a, c in v.items()]
+        if isinstance(v, list) and v and isinstance(v[0], str):   # the cues: one line each
+            v = ("\n" + " " * 20).join(v)
         print(f"{k:>18}: {v}")
     return 0
 
@@ -132,7 +121,7 @@ def _studies(module: str):
     missing = [m for m in ("gasp_studies", "distributed") if importlib.util.find_spec(m) is None]
     if missing:
         raise GaspError(f"'gasp {module}' needs the studies extra ({', '.join(missing)} not installed): "
-                        f'pip install -e ".[studies]"')
+                        f"{extra_hint('studies')}")
     return importlib.import_module(f"gasp_studies.{module}")
 
 
@@ -189,7 +178,7 @@ def _cmd_import_motion(args) -> int:
 def build_parser() -> argparse.ArgumentParser:
     p = GaspArgumentParser(prog="gasp", description="GASP: physics for Gaussian Splatting scenes.")
     sub = p.add_subparsers(dest="command", required=True)
-    _add_simulate_parser(sub)
+    add_simulate_parser(sub)
 
     e = sub.add_parser("engines", help="list installed engines and their capabilities")
     e.add_argument("--json", action="store_true", help="print JSON instead of a table")
@@ -207,6 +196,9 @@ def build_parser() -> argparse.ArgumentParser:
                                                "prints the scale that gives it (default: none)")
     i.add_argument("--rho", type=positive_float, help="density, kg/m^3: prints the filled solid's mass (default: none)")
     i.add_argument("--n-grid", type=positive_int, default=64, help="grid of the fill reported (default 64)")
+    i.add_argument("--up", choices=UP_AXES, help="the up axis, stated (write --up=-y for a minus): the height, "
+                                                 "scale and stand figures along it (default: guessed; when unsure, "
+                                                 "every axis listed)")
     i.set_defaults(func=_cmd_info)
 
     _add_study_parsers(sub)
@@ -230,37 +222,6 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("--overwrite", action="store_true", help="replace an existing output folder (default: refuse)")
     m.set_defaults(func=_cmd_import_motion)
     return p
-
-
-def _add_simulate_parser(sub) -> None:
-    s = sub.add_parser("simulate", help="run a scene file and write one PLY per frame")
-    s.add_argument("scene", type=Path, help="scene file (.toml), see the README's scene format")
-    s.add_argument("-o", "--output", type=Path,
-                   help="output folder, must not exist unless --overwrite (default: the scene's 'output' key)")
-    s.add_argument("--overwrite", action="store_true",
-                   help="replace an existing output folder written by gasp, never one holding the inputs "
-                        "(default: refuse)")
-    s.add_argument("--resume", action="store_true",
-                   help="continue a stopped or killed run to the same folder from its last complete frame "
-                        "(default: off)")
-    s.add_argument("--discard", action="store_true",
-                   help="throw away a stopped or killed run's partial output and start again (default: off)")
-    s.add_argument("--yes", action="store_true",
-                   help="run even when the work estimate is beyond the bound (24 h at the measured rate; "
-                        "default: refuse)")
-    s.add_argument("--frames", type=positive_int, help="simulated frames, >= 1 (default: the scene's n_frames)")
-    s.add_argument("--format", choices=["ply", "compressed_ply", "spz", "sog"], default="ply",
-                   help="frame file format (default: ply; the others need pip install 'gasp[formats]'; "
-                        "sizes and precision: docs/formats.md)")
-    s.add_argument("--layout", choices=["frames", "split"],
-                   help="'frames': every frame file complete; 'split': static objects and unselected rows "
-                        "written once, frames.json lists the files (default: frames for ply, else split)")
-    s.add_argument("--engine", help="engine name (default: the scene's [engine] name; see 'gasp engines')")
-    s.add_argument("--quality", choices=("draft", "default", "reference"),
-                   help="override the scene's 'quality' level (default: the scene's, else 'default'; "
-                        "docs/speed_accuracy.md, 'Quality levels')")
-    s.add_argument("-q", "--quiet", action="store_true", help="no progress bar (default: show one)")
-    s.set_defaults(func=_cmd_simulate)
 
 
 def _add_study_parsers(sub) -> None:
@@ -295,36 +256,34 @@ def _add_study_parsers(sub) -> None:
 _HELD: dict[str, int] = {}
 
 
-def _show_warning(message, category, filename, lineno, file=None, line=None):
+def _show_warning(reporter: Reporter, message, category, filename, lineno, file=None, line=None):
+    """``warnings.showwarning`` of the command: one line through the reporter (NumPy's floating-point ones held)."""
     if issubclass(category, RuntimeWarning) and " encountered in " in str(message):   # numpy's floating point
         _HELD[str(message)] = _HELD.get(str(message), 0) + 1
         return
-    print(f"gasp: warning: {message}", file=sys.stderr)
-
-
-def _end_progress_bars() -> None:
-    """Close the progress bars an error left open, so that the error line starts a line of its own."""
-    tqdm = sys.modules.get("tqdm")
-    for bar in list(getattr(getattr(tqdm, "tqdm", None), "_instances", ())):
-        bar.close()
+    reporter.warning(str(message))
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    warnings.showwarning = _show_warning  # a warning is one line, not a source location and code
-    warnings.filterwarnings("ignore", category=ResourceWarning)  # libraries' unclosed files: not the user's concern
-    _HELD.clear()
-    with stop.handlers():
-        code = _run(args)
-    if code == 0:
-        for message, count in _HELD.items():
-            print(f"gasp: warning: numpy: {message}" + (f" ({count} times)" if count > 1 else ""), file=sys.stderr)
+    with reporter_for(args) as reporter:   # gasp simulate --json: JSON lines, and nothing else, on stdout
+        args.reporter = reporter
+        warnings.showwarning = functools.partial(_show_warning, reporter)  # one line, not a source location
+        warnings.filterwarnings("ignore", category=ResourceWarning)  # libraries' unclosed files: not the user's concern
+        _HELD.clear()
+        with stop.handlers():
+            code = _run(args, reporter)
+        if code == 0:
+            for message, count in _HELD.items():
+                reporter.warning(f"numpy: {message}" + (f" ({count} times)" if count > 1 else ""))
+    # later warnings (the reporter's stream may be closed now) are still one line, on stderr
+    warnings.showwarning = functools.partial(_show_warning, ConsoleReporter(progress=False))
     early.finished()   # the gasp command only (gasp_core.cli.early): a later signal cannot change the status
     return code
 
 
-def _run(args) -> int:
-    """``args.func(args)`` under the error contract: its exit status, and an error as one line."""
+def _run(args, reporter: Reporter) -> int:
+    """``args.func(args)`` under the error contract: its exit status, and an error as one line (``reporter.error``)."""
     try:
         try:
             os.getcwd()
@@ -333,9 +292,15 @@ def _run(args) -> int:
                             "folder and run again") from None
         return args.func(args)
     except (GaspError, OSError, KeyboardInterrupt) as e:
-        _end_progress_bars()
-        print(f"gasp: {_error_line(e)}", file=sys.stderr)
-        return _exit_status(e)
+        code = _exit_status(e)
+        reporter.error(_error_line(e), code)
+        return code
+    except ImportError as e:             # an optional extra that is not installed: its install line
+        message = missing_module_message(e, f"'gasp {args.command}'")
+        if message is None:
+            raise
+        reporter.error(f"error: {message}", 2)
+        return 2
 
 
 def _exit_status(e: BaseException) -> int:

@@ -13,7 +13,7 @@ import numpy as np
 from scipy import ndimage
 
 from gasp_core.colliders.model import Collider
-from gasp_core.errors import SceneError
+from gasp_core.errors import SceneError, extra_hint
 from gasp_core.maps.occupancy import rasterize, solid_field
 
 #: SDF sample spacing as a fraction of the simulation grid spacing ``dx``.
@@ -67,7 +67,7 @@ def collider_from_triangles(triangles: np.ndarray, h: float, name: str = "collid
         import trimesh
     except ImportError:
         raise SceneError(f"collider '{name}': mesh colliders need trimesh and rtree "
-                         "(pip install 'gasp[mesh]')") from None
+                         f"({extra_hint('mesh')})") from None
     tris = np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
     if len(tris) == 0:
         raise SceneError(f"collider '{name}': the mesh has no triangles")
@@ -83,7 +83,7 @@ def collider_from_triangles(triangles: np.ndarray, h: float, name: str = "collid
         sd = trimesh.proximity.signed_distance(mesh, pts)
     except (ImportError, ModuleNotFoundError, ValueError) as e:
         raise SceneError(f"collider '{name}': trimesh could not compute distances ({e}); "
-                         "pip install rtree") from None
+                         f"{extra_hint('mesh')}") from None
     phi = (-np.asarray(sd, dtype=np.float64)).reshape(shape)
     return _finish(name, phi, origin, h, triangles=tris, **kw)
 

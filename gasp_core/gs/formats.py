@@ -18,7 +18,7 @@ compressed PLY     :mod:`gasp_core.gs.compressed`       gsply ``compress_to_byte
 ``.ksplat``        :mod:`gasp_core.gs.splat` (own)      --
 =================  ===================================  ========================================
 
-gsply (PyPI, MIT) is optional: ``pip install 'gasp[formats]'``. Without it, reading or writing a
+gsply (PyPI, MIT) is optional: ``pip install -e ".[formats]"``. Without it, reading or writing a
 format that needs it raises one line naming the file and that command.
 """
 from __future__ import annotations
@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gasp_core.errors import GaspError
+from gasp_core.errors import GaspError, extra_hint
 from gasp_core.fsutil import atomic_path, atomic_write
 from gasp_core.gs.gaussians import MAX_MAGNITUDE, Gaussians
 from gasp_core.gs.ply import check_is_file, reject_file
@@ -37,7 +37,9 @@ from gasp_core.gs.spz_check import check_spz
 #: Output formats of ``gasp simulate --format`` and the file suffix of each.
 SUFFIXES = {"ply": ".ply", "compressed_ply": ".compressed.ply", "spz": ".spz", "sog": ".sog"}
 
-INSTALL = "pip install 'gasp[formats]'"
+def install_line() -> str:
+    """The formats extra's ``pip install`` line (:func:`gasp_core.errors.extra_hint`)."""
+    return extra_hint("formats")
 
 
 def gsply_module(path, doing: str):
@@ -45,7 +47,7 @@ def gsply_module(path, doing: str):
     try:
         import gsply
     except ImportError:
-        raise GaspError(f"{path}: {doing} needs gsply, which is not installed ({INSTALL})") from None
+        raise GaspError(f"{path}: {doing} needs gsply, which is not installed ({install_line()})") from None
     return gsply
 
 
@@ -120,7 +122,7 @@ def read_splat_file(path, fmt: str | None = None) -> Gaussians:
             from gsply.sog_reader import sogread
             d = sogread(data)
     except ImportError as e:  # sogread without imagecodecs
-        raise GaspError(f"{path}: reading a .sog file needs imagecodecs ({INSTALL}): {e}") from None
+        raise GaspError(f"{path}: reading a .sog file needs imagecodecs ({install_line()}): {e}") from None
     except Exception as e:   # gsply and its decoders raise many kinds (zip, JSON, WebP, numba) for a corrupt file
         why = str(e).replace(f": {path}", "").replace(str(path), "the file")     # the path is said once, first
         reject_file(path, f"not a readable .{fmt} file (truncated or corrupt?): {type(e).__name__}: {why}")

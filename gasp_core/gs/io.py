@@ -104,10 +104,7 @@ def read_gaussians(path) -> Gaussians:
     names = list(vertex.dtype.names or ())
     if "chunk" in names_el or any(n.startswith("packed_") for n in names):
         return decode_compressed(path, ply)
-    if "face" in names_el and not numbered_names(names, "scale_"):
-        reject_file(path, f"a triangle mesh ({len(vertex)} vertices, {len(ply['face'].data)} faces), not Gaussians: "
-                    "give it as an object's 'mesh' (GaMeS mesh mode, docs/mesh_mode.md)")
-    layout, scale_names, rest_names = _vertex_layout(path, names)
+    layout, scale_names, rest_names = _vertex_layout(path, names, ply)
     k = len(rest_names) // 3
     n = len(vertex)
     means, q = _checked_values(path, vertex, scale_names, rest_names)
@@ -137,12 +134,16 @@ def read_gaussians(path) -> Gaussians:
                      sh_rest=sh_rest, extra=extra, source=str(path), layout=layout, meta=meta)
 
 
-def _vertex_layout(path: Path, names: list[str]) -> tuple[str, list[str], list[str]]:
+def _vertex_layout(path: Path, names: list[str], ply) -> tuple[str, list[str], list[str]]:
     """The layout of an uncompressed vertex element from its property names: ``"3dgs"`` (three scales) or
-    ``"2dgs"`` (two), its ``scale_*`` and ``f_rest_*`` names. Refuses (:class:`SceneError`) a missing
-    position, rotation, colour or opacity, or an ``f_rest_*`` count other than 0, 9, 24 or 45."""
+    ``"2dgs"`` (two), its ``scale_*`` and ``f_rest_*`` names. Refuses (:class:`SceneError`) a triangle mesh
+    (faces, no scales), a missing position, rotation, colour or opacity, or an ``f_rest_*`` count other than
+    0, 9, 24 or 45."""
     require_columns(path, names, ("x", "y", "z"), "positions x, y, z")
     scale_names = numbered_names(names, "scale_")
+    if not scale_names and "face" in [e.name for e in ply.elements]:
+        reject_file(path, f"a triangle mesh ({ply['vertex'].count} vertices, {ply['face'].count} faces), not "
+                    "Gaussians: give it as an object's 'mesh' (GaMeS mesh mode, docs/mesh_mode.md)")
     if scale_names == ["scale_0", "scale_1", "scale_2"]:
         layout = "3dgs"
     elif scale_names == ["scale_0", "scale_1"]:

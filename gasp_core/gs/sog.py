@@ -159,7 +159,7 @@ def write_sog(path, g: Gaussians, *, overwrite: bool = False) -> Path:
     FileExistsError
         ``path`` exists and ``overwrite`` is false.
     ImportError
-        Without Pillow (``pip install 'gasp[formats]'``).
+        Without Pillow (``pip install -e ".[formats]"``).
 
     Notes
     -----

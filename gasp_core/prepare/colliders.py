@@ -1,7 +1,7 @@
 """Colliders from a scene: ``[[collider]]`` entries and static objects turned into :class:`~gasp_core.colliders.model.Collider` s."""
 from __future__ import annotations
 import numpy as np
-from gasp_core.errors import SceneError
+from gasp_core.errors import SceneError, missing_module_message
 
 from gasp_core.colliders.model import Collider, Motion
 from gasp_core.colliders.sdf import collider_from_splats, collider_from_triangles, SDF_SPACING
@@ -50,8 +50,9 @@ def build_colliders(scene, objects, dx: float) -> list[Collider]:
             try:
                 import trimesh
                 mesh = trimesh.load(spec.mesh, force="mesh")
-            except ImportError:
-                raise SceneError(f"{spec.where}: mesh colliders need trimesh (pip install 'gasp[mesh]')") from None
+            except ImportError as e:   # trimesh itself, or Pillow for a mesh with texture coordinates
+                raise SceneError(missing_module_message(e, f"{spec.where}.mesh '{spec.mesh}'", "mesh")
+                                 or f"{spec.where}.mesh '{spec.mesh}': {e}") from None
             except Exception as e:  # trimesh raises many kinds on a bad file
                 raise SceneError(f"{spec.where}.mesh '{spec.mesh}': cannot read it as a mesh ({e})") from None
             if len(getattr(mesh, "faces", [])) == 0:

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from gasp_core.errors import SceneError
+from gasp_core.errors import SceneError, extra_hint, missing_module_message
 from gasp_core.gs.gaussians import Gaussians, rotmat_to_quat
 from gasp_core.maps.games import EPS
 from gasp_core.maps.mesh_bind import MeshBinding, bind, binding_report, lay_on_faces, project_to_mesh
@@ -46,9 +46,11 @@ def read_mesh(path: Path):
     try:
         import trimesh
     except ImportError:
-        raise SceneError(f"{path}: mesh mode needs trimesh (pip install 'gasp[mesh]')") from None
+        raise SceneError(f"{path}: mesh mode needs trimesh ({extra_hint('mesh')})") from None
     try:
         mesh = trimesh.load(path, force="mesh", process=False)
+    except ImportError as e:   # trimesh needs Pillow for a mesh with texture coordinates
+        raise SceneError(missing_module_message(e, f"{path}: reading the mesh", "mesh") or f"{path}: {e}") from None
     except Exception as e:  # trimesh raises many kinds on a bad file
         raise SceneError(f"{path}: cannot read the mesh ({type(e).__name__}: {e}); expected OBJ, PLY or STL") from None
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import importlib.util
 
+from gasp_core.errors import extra_hint
 from gasp_core.seam.plugins import hookimpl, RendererInfo
 
 
@@ -34,7 +35,7 @@ class CpuRenderer:
 
 def _numba_missing() -> str | None:
     if importlib.util.find_spec("numba") is None:
-        return "numba is not installed (pip install 'gasp[render]')"
+        return f"numba is not installed ({extra_hint('render')})"
     return None
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 from gasp_core import __version__
 from gasp_core.errors import GaspError
 from gasp_core.render import builtin
-from gasp_core.seam.plugins import get_plugin_manager, registered, RendererInfo
+from gasp_core.seam.plugins import get_plugin_manager, install_hint, registered, RendererInfo
 
 #: Plugin name the built-in renderers are registered under.
 BUILTIN = "gasp_render_builtin"
@@ -38,7 +38,9 @@ def get_renderer(name: str | None = None, **options):
     if name is None:
         name = next((n for n in ("cpu", "numpy") if n in found and not found[n].unavailable_reason()), "numpy")
     if name not in found:
-        raise GaspError(f"unknown renderer '{name}'; installed renderers: {sorted(found)}")
+        hint = install_hint(name)
+        raise GaspError(f"unknown renderer '{name}'; installed renderers: {sorted(found)}"
+                        + (f"; to install it: {hint}" if hint else ""))
     reason = found[name].unavailable_reason()
     if reason:
         raise GaspError(f"renderer '{name}' is installed but cannot run: {reason}")

@@ -7,6 +7,7 @@ A run folder holds ``run.json`` and its frames in any format and layout, read th
 """
 from __future__ import annotations
 
+import contextlib
 import json
 from dataclasses import dataclass
 from pathlib import Path
@@ -200,19 +201,21 @@ def render_runs(run_dirs: Sequence, renderer=None, frames: Sequence[int] | None 
         from tqdm import tqdm
         bar = tqdm(total=len(frames), unit="frame", desc="render")
     backgrounds = {id(view.camera): view.background}
-    for f, cam in zip(frames, cams):
-        if id(cam) not in backgrounds:
-            backgrounds = {id(cam): _background(cam, lo, hi, view.ground_z)}
-        tiles = []
-        for i, r in enumerate(runs):
-            img, _ = renderer(cache.pop((i, f)).seen_from(cam.position), cam, backgrounds[id(cam)])
-            tile = to_uint8(img)
-            tiles.append(label_image(tile, r.label) if labels else tile)
+    try:
+        for f, cam in zip(frames, cams):
+            if id(cam) not in backgrounds:
+                backgrounds = {id(cam): _background(cam, lo, hi, view.ground_z)}
+            tiles = []
+            for i, r in enumerate(runs):
+                img, _ = renderer(cache.pop((i, f)).seen_from(cam.position), cam, backgrounds[id(cam)])
+                tile = to_uint8(img)
+                tiles.append(label_image(tile, r.label) if labels else tile)
+            if bar is not None:
+                bar.update(1)
+            yield f, np.concatenate(tiles, axis=1)
+    finally:   # also on an error or an early close: a line printed next starts a line of its own
         if bar is not None:
-            bar.update(1)
-        yield f, np.concatenate(tiles, axis=1)
-    if bar is not None:
-        bar.close()
+            bar.close()
 
 
 def _background(cam: Camera, lo, hi, ground_z: float) -> np.ndarray:
@@ -258,7 +261,8 @@ def render_run(run_dirs, output, *, overwrite: bool = False, fps: float | None =
     if isinstance(run_dirs, (str, Path)):
         run_dirs = [run_dirs]
     fps = fps or 1.0 / load_run(run_dirs[0]).frame_dt
-    return write_frames((img for _, img in render_runs(run_dirs, **kw)), output, fps=fps, overwrite=overwrite)
+    with contextlib.closing(render_runs(run_dirs, **kw)) as frames:   # its progress bar closed before an error line
+        return write_frames((img for _, img in frames), output, fps=fps, overwrite=overwrite)
 
 
 

@@ -298,7 +298,7 @@ def composite_ordered(p, width: int, height: int, t_min: float = 1e-4):
     Raises
     ------
     ImportError
-        If numba is not installed (``pip install gasp[render]``).
+        If numba is not installed (``pip install -e ".[render]"``).
     """
     from gasp_core.render._splat_numba import composite
     colour = np.zeros((height * width, 3))

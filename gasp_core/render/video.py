@@ -32,7 +32,7 @@ def write_frames(frames: Iterable[np.ndarray], output, fps: float = 30.0, overwr
         ``output`` exists and ``overwrite`` is false, its folder is missing, no frame was given, or an
         error without a file name (a full disk) while writing it.
     ImportError
-        For ``.mp4`` without imageio-ffmpeg (``pip install 'gasp[render]'``).
+        For ``.mp4`` without imageio-ffmpeg (``pip install -e ".[render]"``).
     """
     out = Path(output)
     _check_target(out, overwrite)

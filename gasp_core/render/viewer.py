@@ -36,7 +36,7 @@ class RunViewer:
     SceneError
         If the run folder is unusable.
     ImportError
-        Without viser (``pip install 'gasp[view]'``).
+        Without viser (``pip install -e ".[view]"``).
     """
 
     def __init__(self, run_dir, host: str = "127.0.0.1", port: int = 8080):

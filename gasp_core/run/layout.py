@@ -27,7 +27,7 @@ import numpy as np
 
 from gasp_core.errors import GaspError, SceneError
 from gasp_core.fsutil import atomic_json, atomic_write
-from gasp_core.gs.formats import INSTALL, SUFFIXES, gsply_module, write_splat_file
+from gasp_core.gs.formats import SUFFIXES, install_line, gsply_module, write_splat_file
 from gasp_core.gs.gaussians import Gaussians
 from gasp_core.gs.io import read_gaussians, write_gaussians
 
@@ -89,7 +89,7 @@ class FrameWriter:
             try:
                 importlib.import_module("PIL.WebPImagePlugin")
             except ImportError:
-                raise GaspError(f"{self.folder}: --format sog needs Pillow with WebP ({INSTALL})") from None
+                raise GaspError(f"{self.folder}: --format sog needs Pillow with WebP ({install_line()})") from None
         self.suffix = SUFFIXES[self.fmt]
         self.once = [{} for _ in self.names]
 

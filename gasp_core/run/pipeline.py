@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import os
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable
 
@@ -27,6 +27,8 @@ from gasp_core.run.layout import FrameWriter, default_layout
 from gasp_core.prepare.dynamic import follows_model
 from gasp_core.prepare.scene import PreparedScene, input_files, prepare_scene
 from gasp_core.run.record import run_summary
+from gasp_core.run.report import ConsoleReporter, Reporter
+from gasp_core.run.request import SimulateRequest
 from gasp_core.seam.runner import RunStats
 from gasp_core.scene.spec import Scene
 
@@ -40,47 +42,39 @@ class RunResult:
     stats: RunStats
     summary: dict = field(default_factory=dict)
 
+    @property
+    def run_json(self) -> Path:
+        """The run record, ``outdir/run.json``."""
+        return self.outdir / "run.json"
 
-def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
-                   progress: bool = True, n_frames: int | None = None,
-                   engine: str | None = None,
-                   on_frame: Callable[[int, list[Gaussians]], None] | None = None,
-                   warn: Callable[[str], None] | None = None, resume: bool = False,
-                   fmt: str = "ply", layout: str | None = None,
-                   discard: bool = False, yes: bool = False) -> RunResult:
+
+def simulate_scene(scene: Scene, outdir: str | Path, request: SimulateRequest | None = None, *,
+                   reporter: Reporter | None = None,
+                   on_frame: Callable[[int, list[Gaussians]], None] | None = None, **options) -> RunResult:
     """Run a scene and write its frames, by default one graphdeco PLY per object per frame.
 
     Layout: ``OUTDIR/<object>/frame_0000.ply`` (frame 0 = the input state) to
     ``frame_<n_frames>.ply``, that is ``n_frames + 1`` files per object, ``OUTDIR/frames.json``
     (the manifest, :mod:`gasp_core.run.layout`) and ``OUTDIR/run.json`` (engine, versions,
     parameters, per-frame timings, flatten reports, alpha-rule and degenerate counts).
-    (Long because this docstring documents the command's eleven parameters; the body is 25 lines.)
 
     Parameters
     ----------
     scene : Scene
     outdir : str or Path
         Output folder. It is claimed before any work (see :class:`gasp_core.fsutil.OutputClaim`).
-    overwrite : bool
-        Replace an existing gasp output folder (only after the new run succeeded).
-    progress : bool
-        Show a tqdm progress bar.
-    n_frames, engine : optional
-        Override the scene's ``n_frames`` and ``engine.name``.
+    request : SimulateRequest, optional
+        The run's options (overwrite, resume, discard, yes, n_frames, engine, fmt, layout, quiet:
+        :class:`gasp_core.run.request.SimulateRequest`); default: all defaults.
+    reporter : Reporter, optional
+        Receives the progress (a ``frame`` event per frame) and the warnings (killed runs' leftovers, the work
+        estimate, passive points left behind): :mod:`gasp_core.run.report`. Default: a
+        :class:`~gasp_core.run.report.ConsoleReporter` (a tqdm bar unless ``quiet``, warnings on stderr).
     on_frame : callable, optional
         ``on_frame(frame, gaussians_per_object)`` after each frame is handed to the writer (its files are
         written in the background while the next frame runs, :mod:`gasp_core.run.background`).
-    warn : callable, optional
-        Receives warnings in words (leftover partial folders of killed runs; passive surface points
-        the material left behind, the engine's ``passive_stranded``).
-    resume, discard : bool
-        Continue a stopped or killed run to ``outdir`` from its last checkpoint (:mod:`gasp_core.run.resume`;
-        engines with the feature ``state``), or throw its partial output away and start again.
-    yes : bool
-        Run even when it would take longer than :data:`gasp_core.run.budget.MAX_S`.
-    fmt, layout : str
-        Output format (``ply``, ``compressed_ply``, ``spz``, ``sog``) and layout (``frames``, ``split``;
-        default ``frames`` for ``ply``, else ``split``): :mod:`gasp_core.run.layout`.
+    **options
+        :class:`SimulateRequest` fields, replacing those of ``request`` (``simulate_scene(s, out, n_frames=2)``).
 
     Returns
     -------
@@ -88,11 +82,13 @@ def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
 
     Raises
     ------
+    TypeError
+        An ``options`` key that is not a :class:`SimulateRequest` field.
     FileExistsError
         ``outdir`` exists and ``overwrite`` is false, or another run holds it (before any work).
     GaspError
         ``outdir`` unsafe to replace (it holds an input, the scene or the working directory) or
-        not a gasp output; the claim lost during the run.
+        not a gasp output; the claim lost during the run; ``resume`` with ``discard``.
     SceneError, EngineError
         Bad input or an engine that cannot run the scene, before any simulation.
     EngineDivergence
@@ -103,28 +99,32 @@ def simulate_scene(scene: Scene, outdir: str | Path, overwrite: bool = False,
     Stopped
         SIGTERM, SIGINT, SIGHUP (:mod:`gasp_core.run.stop`): the finished frames kept for ``--resume``.
     """
+    req = replace(request or SimulateRequest(), **options)
+    reporter = reporter if reporter is not None else ConsoleReporter(progress=not req.quiet)
     outdir = Path(outdir)
-    n_frames = scene.n_frames if n_frames is None else n_frames
-    claim = OutputClaim(outdir, overwrite, input_files(scene), resume=resume, discard=discard)
-    run = _Run(fmt=fmt, layout=layout or default_layout(fmt), yes=yes, warn=warn)
+    n_frames = scene.n_frames if req.n_frames is None else req.n_frames
+    claim = OutputClaim(outdir, req.overwrite, input_files(scene), resume=req.resume, discard=req.discard)
+    run = _Run(fmt=req.fmt, layout=req.layout or default_layout(req.fmt), yes=req.yes, reporter=reporter)
     try:
-        run.prep = prepare_scene(scene, engine)
+        run.prep = prepare_scene(scene, req.engine)
         run.fingerprint = resume_mod.fingerprint(scene, run.prep.info.name, run.prep.setup.options, n_frames,
                                                  output=(run.fmt, run.layout))
-        if resume:
+        if req.resume:
             _continue_partial(run, outdir)
         else:
-            _start_partial(run, claim, outdir, warn)
-        run_s = _write_frames(run, n_frames, progress, on_frame)
+            _start_partial(run, claim, outdir)
+        run_s = _write_frames(run, n_frames, on_frame)
         summary = run_summary(run.prep, run.stats, n_frames, run.per_frame, run_s)
         if run.checkpoint is not None:
             summary["resumed_after_frame"] = run.checkpoint.frame
         atomic_json(run.tmp / "run.json", summary)
         claim.commit(run.tmp)
-        _warn_stranded(run, warn)
+        _warn_stranded(run)
     except KeyboardInterrupt as e:
+        reporter.end_progress()
         stop.keep_or_abandon(claim, run.tmp, e, lambda: _stopped_record(run, n_frames), run.saved_frame, n_frames)
     except BaseException as e:
+        reporter.end_progress()
         claim.abandon(run.tmp, e)
         raise
     return RunResult(outdir=outdir, n_frames=n_frames, stats=run.stats, summary=summary)
@@ -150,7 +150,7 @@ class _Run:
     saved_frame: int | None = None
     #: Run beyond the work bound (``--yes``).
     yes: bool = False
-    warn: Callable[[str], None] | None = None
+    reporter: Reporter = field(default_factory=Reporter)
     #: ``{file: [size, crc32]}`` of every finished frame's files, kept in the checkpoint (``--resume`` checks them).
     files: dict = field(default_factory=dict)
     #: Files written since the last checkpoint (frame 0's are written before the engine can save its state).
@@ -172,29 +172,23 @@ def _continue_partial(run: _Run, outdir: Path) -> None:
     run.stats.frame_s = list(run.checkpoint.meta.get("frame_s", []))
 
 
-def _start_partial(run: _Run, claim: OutputClaim, outdir: Path, warn: Callable[[str], None] | None) -> None:
+def _start_partial(run: _Run, claim: OutputClaim, outdir: Path) -> None:
     """Claim a fresh partial folder with one subfolder per object (warning of killed runs' leftovers)."""
-    if warn is not None:
-        for p in leftover_partials(outdir):
-            warn(f"a killed run left partial output in '{p}' (continue it with --resume, "
-                 f"or remove it when no longer needed)")
+    for p in leftover_partials(outdir):
+        run.reporter.warning(f"a killed run left partial output in '{p}' (continue it with --resume, "
+                             f"or remove it when no longer needed)")
     run.tmp = claim.partial_dir()
     for name in run.prep.names:
         (run.tmp / name).mkdir()
 
 
-def _write_frames(run: _Run, n_frames: int, progress: bool,
-                  on_frame: Callable[[int, list[Gaussians]], None] | None) -> float:
+def _write_frames(run: _Run, n_frames: int, on_frame: Callable[[int, list[Gaussians]], None] | None) -> float:
     """Run the engine and write every frame (and a checkpoint after each, for engines with ``state``).
 
     Returns the wall time of the frames, seconds.
     """
     prep, tmp, checkpoint = run.prep, run.tmp, run.checkpoint
-    bar = None
-    if progress:
-        from tqdm import tqdm
-        bar = tqdm(total=n_frames, initial=0 if checkpoint is None else checkpoint.frame, unit="frame",
-                   desc=f"{prep.info.name}", leave=True)
+    run.reporter.start(prep.info.name, n_frames, 0 if checkpoint is None else checkpoint.frame)
     t_run = time.perf_counter()
     frame_state = FrameState()
     moves = [follows_model(o) for o in prep.objects]   # a dynamic model's background moves: every row, every frame
@@ -210,14 +204,13 @@ def _write_frames(run: _Run, n_frames: int, progress: bool,
             state = frame_state.get_state() if frame_state.get_state is not None and frame < n_frames else None
             writes.submit(_save_frame, run, writer, frame, gs, row, state, list(frame_state.prev_rot),
                           list(run.stats.frame_s))
-            if bar is not None and frame > 0:
-                bar.update(1)
+            wall_s = time.perf_counter() - t_frame
+            run.reporter.frame(frame, wall_s, row.get("sim_s"), run.stats.engine.get("n_substeps"))
             if on_frame is not None:
                 on_frame(frame, gs)
-            _after_frame(run, writes, frame, n_frames, time.perf_counter() - t_frame)
+            _after_frame(run, writes, frame, n_frames, wall_s)
             t_frame = time.perf_counter()
-    if bar is not None:
-        bar.close()
+    run.reporter.end_progress()
     writer.finish(n_frames, [o.gaussians.n for o in prep.objects])
     (tmp / resume_mod.CHECKPOINT).unlink(missing_ok=True)
     return time.perf_counter() - t_run
@@ -227,8 +220,8 @@ def _before_frames(run: _Run, engine_stats: dict, n_frames: int) -> None:
     """Once the engine is built: the work the frames ask for, refused or said before it is spent (:mod:`budget`)."""
     done = 0 if run.checkpoint is None else run.checkpoint.frame
     note = budget.check_before(engine_stats, len(run.prep.setup.x), n_frames, n_frames - done, run.yes)
-    if note and run.warn is not None:
-        run.warn(note)
+    if note:
+        run.reporter.warning(note)
 
 
 def _after_frame(run: _Run, writes: Background, frame: int, n_frames: int, frame_wall_s: float) -> None:
@@ -245,8 +238,8 @@ def _after_frame(run: _Run, writes: Background, frame: int, n_frames: int, frame
         return
     if frame == (2 if run.checkpoint is None else run.checkpoint.frame + 2):   # frame 1 includes JIT warm-up
         note = budget.check(run.stats.engine, len(run.prep.setup.x), n_frames, n_frames - frame, frame_wall_s, run.yes)
-        if note and run.warn is not None:
-            run.warn(note)
+        if note:
+            run.reporter.warning(note)
     if frame < n_frames and stop.requested():
         writes.flush()   # the frame's files and checkpoint are on disk before the stop is reported
         raise stop.Stopped(stop.requested())
@@ -277,11 +270,11 @@ def _save_frame(run: _Run, writer: FrameWriter, frame: int, gs: list[Gaussians],
         run.saved_frame = frame
 
 
-def _warn_stranded(run: _Run, warn: Callable[[str], None] | None) -> None:
+def _warn_stranded(run: _Run) -> None:
     """Pass on the engine's ``passive_stranded`` count (surface points the material left behind) as a warning."""
     stranded = (run.stats.engine or {}).get("passive_stranded")
-    if stranded and warn is not None:
-        warn(f"{stranded} of {int(run.prep.setup.n_passive)} passive surface points had no material within "
+    if stranded:
+        run.reporter.warning(f"{stranded} of {int(run.prep.setup.n_passive)} passive surface points had no material within "
              "their interpolation stencil at the last frame: they stayed where the material left them "
              "(pieces of surface left hanging, typical of sand or liquid flowing away); surface = "
              "\"material\" simulates the surface points as material")

@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from gasp_core import __version__
-from gasp_core.errors import EngineError, SceneError
+from gasp_core.errors import EngineError, SceneError, missing_module_message
 from gasp_core.gs.io import write_gaussians
 from gasp_core.fsutil import atomic_json, output_folder
 from gasp_core.prepare.placement import prepare_object, PreparedObject
@@ -168,6 +168,8 @@ def read_soup(path: str | Path, n_faces: int) -> np.ndarray:
     path = Path(path)
     try:
         mesh = trimesh.load(path, process=False, force="mesh", maintain_order=True)
+    except ImportError as e:   # trimesh needs Pillow for a mesh with texture coordinates
+        raise SceneError(missing_module_message(e, f"{path}: reading the mesh", "mesh") or f"{path}: {e}") from None
     except Exception as e:  # trimesh raises many types for a bad file
         raise SceneError(f"{path}: cannot read as a triangle mesh: {e}") from None
     faces = np.asarray(mesh.faces)

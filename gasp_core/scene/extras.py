@@ -12,7 +12,7 @@ from gasp_core.colliders.model import Motion
 from gasp_core.errors import SceneError
 from gasp_core.scene.values import (MAX_COORD, MAX_GRAVITY, MAX_SPEED, MAX_SPIN, SCALE_RANGE, UP_AXES, as_boolean,
                                     as_integer, as_number, as_string, as_tables, as_vec3, bad_value, check_keys,
-                                    is_number, resolve_path)
+                                    is_number, read_key, resolve_path)
 
 # --------------------------------------------------------------------------- colliders, forces, impulses
 @dataclass
@@ -51,6 +51,12 @@ class ColliderSpec:
 
 
 _COLLIDER_KEYS = {f.name for f in fields(ColliderSpec)} - {"where"}
+_PLACED = {"up_axis", "scale", "recentre", "position", "rotation"}
+_MOVING = {"velocity", "angular_velocity", "path"}   # refused below, with its own words, on all but a mesh
+#: The keys each collider source uses (an ``object`` collider sits where its object is; only Gaussians have opacity).
+_COLLIDER_SOURCE_KEYS = {"mesh": {"mesh", "friction"} | _PLACED | _MOVING,
+                         "gaussians": {"gaussians", "friction", "min_opacity"} | _PLACED | _MOVING,
+                         "object": {"object", "friction", "min_opacity", "position", "rotation"} | _MOVING}
 _FORCE_KIND_KEYS = {"wind": {"kind", "direction", "speed", "air_density", "drag_coefficient", "turbulence",
                              "turbulence_scale", "turbulence_time", "seed"},
                     "attractor": {"kind", "point", "strength", "radius", "falloff"}}
@@ -75,6 +81,7 @@ def _collider(c: dict, where: str, src: Path, n_objects: int) -> ColliderSpec:
     sources = [k for k in ("mesh", "gaussians", "object") if k in c]
     if len(sources) != 1:
         raise SceneError(f"{src}: {where} needs exactly one of 'mesh', 'gaussians' or 'object', got {sources or 'none'}")
+    check_keys(c, _COLLIDER_SOURCE_KEYS[sources[0]], f"{where} (a {sources[0]!r} collider)", src)
     kw: dict[str, Any] = {"where": where}
     if "mesh" in c:
         kw["mesh"] = _input_file(c["mesh"], f"{where}.mesh", src, (".obj", ".ply", ".stl", ".off", ".glb", ".gltf"))
@@ -86,18 +93,15 @@ def _collider(c: dict, where: str, src: Path, n_objects: int) -> ColliderSpec:
             kw["object"] = as_integer(o, f"{where}.object", src, 1, max(n_objects, 1))
         else:
             kw["object"] = as_string(o, f"{where}.object", src)
-    kw["up_axis"] = as_string(c.get("up_axis", "+z"), f"{where}.up_axis", src, UP_AXES)
-    kw["scale"] = as_number(c.get("scale", 1.0), f"{where}.scale", src, *SCALE_RANGE)
-    kw["recentre"] = as_boolean(c.get("recentre", True), f"{where}.recentre", src)
-    kw["position"] = as_vec3(c.get("position", [0.0, 0.0, 0.0]), f"{where}.position", src, max_abs=MAX_COORD, unit=" m")
-    kw["rotation"] = as_vec3(c.get("rotation", [0.0, 0.0, 0.0]), f"{where}.rotation", src, max_abs=360.0,
-                             unit=" degrees")
-    kw["friction"] = as_number(c.get("friction", 0.5), f"{where}.friction", src, 0.0)
-    kw["min_opacity"] = as_number(c.get("min_opacity", 0.1), f"{where}.min_opacity", src, 0.0, 1.0)
-    kw["velocity"] = as_vec3(c.get("velocity", [0.0, 0.0, 0.0]), f"{where}.velocity", src, max_norm=MAX_SPEED,
-                             unit=" m/s")
-    kw["angular_velocity"] = as_vec3(c.get("angular_velocity", [0.0, 0.0, 0.0]), f"{where}.angular_velocity", src,
-                                     max_norm=MAX_SPIN, unit=" rad/s")
+
+    def get(key, read, *args, **kw):   # c[key] checked by read, or ColliderSpec's default
+        return read_key(c, key, read, *args, default_from=ColliderSpec, where=where, src=src, **kw)
+    kw.update(up_axis=get("up_axis", as_string, UP_AXES), scale=get("scale", as_number, *SCALE_RANGE),
+              recentre=get("recentre", as_boolean), position=get("position", as_vec3, max_abs=MAX_COORD, unit=" m"),
+              rotation=get("rotation", as_vec3, max_abs=360.0, unit=" degrees"),
+              friction=get("friction", as_number, 0.0), min_opacity=get("min_opacity", as_number, 0.0, 1.0),
+              velocity=get("velocity", as_vec3, max_norm=MAX_SPEED, unit=" m/s"),
+              angular_velocity=get("angular_velocity", as_vec3, max_norm=MAX_SPIN, unit=" rad/s"))
     if "path" in c:
         if "velocity" in c:
             raise SceneError(f"{src}: {where}: give 'velocity' or 'path', not both")
@@ -121,6 +125,9 @@ def _collider(c: dict, where: str, src: Path, n_objects: int) -> ColliderSpec:
 def _force(f: dict, where: str, src: Path):
     from gasp_core.colliders.model import FALLOFFS, ForceField
     kind = as_string(f.get("kind"), f"{where}.kind", src, tuple(_FORCE_KIND_KEYS))
+
+    def get(key, read, *args, **kw):   # f[key] checked by read, or ForceField's default
+        return read_key(f, key, read, *args, default_from=ForceField, where=where, src=src, **kw)
     if kind == "wind":
         from gasp_core.colliders.model import WIND_ACCELERATION_REMOVED
         if "strength" in f:                  # the wind of before issue 17: an acceleration
@@ -128,21 +135,18 @@ def _force(f: dict, where: str, src: Path):
         check_keys(f, _FORCE_KIND_KEYS[kind], f"{where} (kind = {kind!r})", src)
         if "speed" not in f:
             raise SceneError(f"{src}: {where} (kind = 'wind') needs 'speed' (m/s)")
-        d = as_vec3(f.get("direction", [1.0, 0.0, 0.0]), f"{where}.direction", src)
+        d = get("direction", as_vec3)
         n = math.sqrt(sum(a * a for a in d))
         if n == 0.0:
             bad_value(src, f"{where}.direction", f["direction"], "a non-zero vector")
         return ForceField("wind", direction=tuple(a / n for a in d),
                           speed=as_number(f["speed"], f"{where}.speed", src, 0.0, MAX_SPEED),
-                          air_density=as_number(f.get("air_density", 1.2), f"{where}.air_density", src, 0.0, 1e5),
-                          drag_coefficient=as_number(f.get("drag_coefficient", 1.0), f"{where}.drag_coefficient", src,
-                                                   0.0, 100.0),
-                          turbulence=as_number(f.get("turbulence", 0.0), f"{where}.turbulence", src, 0.0, MAX_SPEED),
-                          turbulence_scale=as_number(f.get("turbulence_scale", 0.5), f"{where}.turbulence_scale", src,
-                                                   0.0, MAX_COORD, lo_open=True),
-                          turbulence_time=(as_number(f["turbulence_time"], f"{where}.turbulence_time", src, 0.0,
-                                                   lo_open=True) if "turbulence_time" in f else math.inf),
-                          seed=as_integer(f.get("seed", 0), f"{where}.seed", src, 0, 2 ** 32 - 1))
+                          air_density=get("air_density", as_number, 0.0, 1e5),
+                          drag_coefficient=get("drag_coefficient", as_number, 0.0, 100.0),
+                          turbulence=get("turbulence", as_number, 0.0, MAX_SPEED),
+                          turbulence_scale=get("turbulence_scale", as_number, 0.0, MAX_COORD, lo_open=True),
+                          turbulence_time=get("turbulence_time", as_number, 0.0, lo_open=True),
+                          seed=get("seed", as_integer, 0, 2 ** 32 - 1))
     check_keys(f, _FORCE_KIND_KEYS[kind], f"{where} (kind = {kind!r})", src)
     if "strength" not in f:
         raise SceneError(f"{src}: {where} (kind = {kind!r}) needs 'strength' (m/s^2)")
@@ -151,8 +155,8 @@ def _force(f: dict, where: str, src: Path):
         raise SceneError(f"{src}: {where} (kind = 'attractor') needs 'point'")
     return ForceField("attractor", strength=strength,
                       point=as_vec3(f["point"], f"{where}.point", src, max_abs=MAX_COORD, unit=" m"),
-                      radius=as_number(f.get("radius", 0.05), f"{where}.radius", src, 0.0, MAX_COORD, lo_open=True),
-                      falloff=as_string(f.get("falloff", "none"), f"{where}.falloff", src, FALLOFFS))
+                      radius=get("radius", as_number, 0.0, MAX_COORD, lo_open=True),
+                      falloff=get("falloff", as_string, FALLOFFS))
 
 
 def _impulse(i: dict, where: str, src: Path):
@@ -174,8 +178,8 @@ def _impulse(i: dict, where: str, src: Path):
         kw["radius"] = as_number(i["radius"], f"{where}.radius", src, 0.0, MAX_COORD, lo_open=True)
     kw["velocity_change"] = as_vec3(i["velocity_change"], f"{where}.velocity_change", src, max_norm=MAX_SPEED,
                                     unit=" m/s")
-    kw["mode"] = as_string(i.get("mode", "add"), f"{where}.mode", src, ("add", "set"))
-    kw["t0"] = as_number(i.get("t0", 0.0), f"{where}.t0", src, 0.0)
+    kw["mode"] = read_key(i, "mode", as_string, ("add", "set"), default_from=Impulse, where=where, src=src)
+    kw["t0"] = read_key(i, "t0", as_number, 0.0, default_from=Impulse, where=where, src=src)
     kw["t1"] = as_number(i.get("t1", kw["t0"]), f"{where}.t1", src, 0.0)
     if kw["t1"] < kw["t0"]:
         raise SceneError(f"{src}: {where}: t1 = {kw['t1']:g} s is before t0 = {kw['t0']:g} s")

@@ -25,10 +25,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from gasp_core.scene.values import as_string
+from gasp_core.scene.tables import DomainSpec
+from gasp_core.scene.values import N_GRID_RANGE, as_string
 
 #: the levels, cheapest first
 QUALITY_LEVELS = ("draft", "default", "reference")
+#: The level of a scene that sets none (``Scene.quality``'s default).
+DEFAULT_QUALITY = "default"
 
 
 @dataclass(frozen=True)
@@ -71,7 +74,7 @@ def read_quality(data: dict, src: Path, override: str | None = None) -> str:
     """
     if override is not None:
         return as_string(override, "--quality", src, QUALITY_LEVELS)
-    return as_string(data.get("quality", "default"), "quality", src, QUALITY_LEVELS)
+    return as_string(data.get("quality", DEFAULT_QUALITY), "quality", src, QUALITY_LEVELS)
 
 
 def apply_quality(data: dict, level: str) -> dict:
@@ -86,9 +89,9 @@ def apply_quality(data: dict, level: str) -> dict:
     dom = out.get("domain", {})
     if isinstance(dom, dict):
         dom = {**{k: v for k, v in preset.domain.items() if k not in dom}, **dom}
-        n = dom.get("n_grid", 64)
+        n = dom.get("n_grid", DomainSpec.n_grid)
         if preset.grid_factor != 1.0 and isinstance(n, int) and not isinstance(n, bool):
-            dom["n_grid"] = max(8, int(math.floor(n * preset.grid_factor + 0.5)))
+            dom["n_grid"] = max(N_GRID_RANGE[0], int(math.floor(n * preset.grid_factor + 0.5)))
         out["domain"] = dom
     objs = out.get("object")
     if isinstance(objs, list):

@@ -8,7 +8,7 @@ from typing import Any
 
 from gasp_core.errors import SceneError
 from gasp_core.scene.values import (MAX_COORD, as_boolean, as_number, as_string, as_table, as_vec3, bad_value,
-                                    check_keys, resolve_path)
+                                    check_keys, read_key, resolve_path)
 
 
 #: Object keys that only matter when the object is simulated: refused beside ``static = true``.
@@ -116,14 +116,14 @@ def read_select(value, where: str, src: Path) -> SelectSpec:
     if len(kinds) != 1:
         raise SceneError(f"{src}: {where} needs exactly one of {list(SELECT_KINDS)}, got {kinds or 'none'}")
     kind = kinds[0]
-    frame = as_string(t.get("frame", "file"), f"{where}.frame", src, SELECT_FRAMES)
+    frame = read_key(t, "frame", as_string, SELECT_FRAMES, default_from=SelectSpec, where=where, src=src)
     if "frame" in t and kind in ("indices", "mask", "file"):
         raise SceneError(f"{src}: {where}.frame applies to a box or sphere, not to {kind}")
     extra = [k for k in ("take", "tolerance") if k in t]
     if extra and kind != "file":
         raise SceneError(f"{src}: {where}.{extra[0]} applies to select = {{ file = ... }}, not to {kind}")
     kw: dict[str, Any] = {"kind": kind, "frame": frame,
-                          "grow": as_boolean(t.get("grow", False), f"{where}.grow", src)}
+                          "grow": read_key(t, "grow", as_boolean, default_from=SelectSpec, where=where, src=src)}
     key = f"{where}.{kind}"
     if kind == "box":
         b = as_table(t["box"], key, src)
@@ -161,7 +161,7 @@ def read_select(value, where: str, src: Path) -> SelectSpec:
             raise SceneError(f"{src}: {key} '{name}' is not a file (looked for {m}); expected a PLY edited "
                              f"in a splat editor")
         kw["file"] = m
-        kw["take"] = as_string(t.get("take", "kept"), f"{where}.take", src, SELECT_TAKE)
+        kw["take"] = read_key(t, "take", as_string, SELECT_TAKE, default_from=SelectSpec, where=where, src=src)
         if "tolerance" in t:
             kw["tolerance"] = as_number(t["tolerance"], f"{where}.tolerance", src, 0.0, MAX_COORD, lo_open=True)
     return SelectSpec(**kw)

@@ -34,10 +34,14 @@ Example::
 
 Every table accepts only the keys listed in this module and :mod:`gasp_core.scene.tables` (``[engine]``,
 ``[domain]``, ``[[boundary]]``, ``material``); a mistyped key is a :class:`SceneError`
-that names it and the allowed ones. Every value is type-checked before use (a wrong type is a
-:class:`SceneError` naming the key, the value, its TOML type and what was expected: integers are
-integers, ``n_grid = 24.9`` is not 24) and range-checked (:data:`MAX_COORD`, :data:`MAX_SPEED`,
-:data:`MAX_GRAVITY`, :data:`SCALE_RANGE`). Units are SI: metres, seconds, Pa, kg/m^3, degrees.
+that names it and the allowed ones. A ``material`` takes only the keys its ``name`` uses
+(:data:`gasp_core.seam.schema.MATERIAL_KINDS`, listed in ``docs/scene_keys.md``): ``name = "jelly"`` with
+``yield_stress`` is an error naming the keys jelly takes. A key left out takes the default its dataclass
+(:class:`ObjectSpec`, :class:`Scene`, :class:`~gasp_core.seam.setup.Material`) declares. Every value is
+type-checked before use (a wrong type is a :class:`SceneError` naming the key, the value, its TOML type
+and what was expected: integers are integers, ``n_grid = 24.9`` is not 24) and range-checked
+(:data:`MAX_COORD`, :data:`MAX_SPEED`, :data:`MAX_GRAVITY`, :data:`SCALE_RANGE`). Units are SI: metres, seconds,
+Pa, kg/m^3, degrees.
 """
 from __future__ import annotations
 
@@ -50,12 +54,12 @@ from gasp_core.errors import SceneError
 from gasp_core.maps.games import REBUILDS
 from gasp_core.scene.extras import read_extras
 from gasp_core.scene.mesh import MESH_KEYS, MeshSpec, read_mesh
-from gasp_core.scene.quality import apply_quality, read_quality
+from gasp_core.scene.quality import DEFAULT_QUALITY, apply_quality, read_quality
 from gasp_core.scene.select import SelectSpec, read_select, read_static
 from gasp_core.scene.tables import DomainSpec, EngineSpec, read_boundary, read_domain, read_engine, read_material
 from gasp_core.scene.values import (MAX_COORD, MAX_GRAVITY, MAX_SPEED, MAX_SPIN, SCALE_RANGE, UP_AXES, as_boolean,
                                     as_integer, as_number, as_string, as_table, as_tables, as_vec3, bad_value,
-                                    check_keys, is_number, resolve_path)
+                                    check_keys, is_number, read_key, resolve_path)
 from gasp_core.seam.setup import Boundary, Material
 
 #: ``[[object]] surface``: the triangle vertices are material points, or passive (massless, carried), or
@@ -190,7 +194,7 @@ class Scene:
     colliders: list = field(default_factory=list)
     forces: list = field(default_factory=list)
     impulses: list = field(default_factory=list)
-    quality: str = "default"
+    quality: str = DEFAULT_QUALITY
 
 
 _TOP_KEYS = {"name", "frame_dt", "n_frames", "gravity", "output", "engine", "domain", "boundary", "object",
@@ -212,7 +216,7 @@ def _dynamic_time(o: dict, f: Path, where: str, src: Path) -> float | None:
 def _background(o: dict, f: Path, where: str, src: Path) -> str:
     if "background" in o and f.suffix.lower() != ".splatv":
         raise SceneError(f"{src}: {where}.background is only for dynamic models (.splatv), not {f.name}")
-    return as_string(o.get("background", "model"), f"{where}.background", src, ("model", "frozen"))
+    return read_key(o, "background", as_string, ("model", "frozen"), default_from=ObjectSpec, where=where, src=src)
 
 
 def _object(o: dict, where: str, src: Path) -> ObjectSpec:
@@ -227,40 +231,39 @@ def _object(o: dict, where: str, src: Path) -> ObjectSpec:
                          "Splatting file")
     if not f.exists():
         raise SceneError(f"{src}: {where}.file '{name}' does not exist (looked for {f})")
-    alpha = o.get("alpha", 1.5)
+    alpha = o.get("alpha", ObjectSpec.alpha)
     if alpha is False or alpha is None:
         alpha = None
     elif not is_number(alpha) or not math.isfinite(alpha) or alpha <= 0:
         bad_value(src, f"{where}.alpha", alpha, "a positive number, or false to disable the control rule")
     else:
         alpha = float(alpha)
+
+    def get(key, read, *args, **kw):   # o[key] checked by read, or ObjectSpec's default
+        return read_key(o, key, read, *args, default_from=ObjectSpec, where=where, src=src, **kw)
     return ObjectSpec(
-        file=f,
-        up_axis=as_string(o.get("up_axis", "+z"), f"{where}.up_axis", src, UP_AXES),
-        scale=as_number(o.get("scale", 1.0), f"{where}.scale", src, *SCALE_RANGE),
-        recentre=as_boolean(o.get("recentre", True), f"{where}.recentre", src),
-        position=as_vec3(o.get("position", [0.0, 0.0, 0.0]), f"{where}.position", src, max_abs=MAX_COORD,
-                         unit=" m"),
-        velocity=as_vec3(o.get("velocity", [0.0, 0.0, 0.0]), f"{where}.velocity", src, max_norm=MAX_SPEED,
-                         unit=" m/s"),
-        angular_velocity=as_vec3(o.get("angular_velocity", [0.0, 0.0, 0.0]), f"{where}.angular_velocity", src,
-                                 max_norm=MAX_SPIN, unit=" rad/s"),
+        file=f, alpha=alpha, mesh=mesh,
+        up_axis=get("up_axis", as_string, UP_AXES),
+        scale=get("scale", as_number, *SCALE_RANGE),
+        recentre=get("recentre", as_boolean),
+        position=get("position", as_vec3, max_abs=MAX_COORD, unit=" m"),
+        velocity=get("velocity", as_vec3, max_norm=MAX_SPEED, unit=" m/s"),
+        angular_velocity=get("angular_velocity", as_vec3, max_norm=MAX_SPIN, unit=" rad/s"),
+        rotation=get("rotation", as_vec3, max_abs=360.0, unit=" degrees"),
         material=read_material(o.get("material", {}), f"{where}.material", src),
-        fill=as_boolean(o.get("fill", True), f"{where}.fill", src), alpha=alpha,
-        rebuild=as_string(o.get("rebuild", ObjectSpec.rebuild), f"{where}.rebuild", src, REBUILDS),
-        thickness=as_string(o.get("thickness", "keep"), f"{where}.thickness", src, ("keep", "eps")),
-        min_opacity=as_number(o.get("min_opacity", 0.1), f"{where}.min_opacity", src, 0.0, 1.0),
-        core_fraction=as_number(o.get("core_fraction", 1.0), f"{where}.core_fraction", src, 0.0, 1.0,
-                                lo_open=True),
-        if_open=as_string(o.get("if_open", "warn"), f"{where}.if_open", src, ("warn", "error")),
-        surface=as_string(o.get("surface", ObjectSpec.surface), f"{where}.surface", src, SURFACES),
+        fill=get("fill", as_boolean),
+        rebuild=get("rebuild", as_string, REBUILDS),
+        thickness=get("thickness", as_string, ("keep", "eps")),
+        min_opacity=get("min_opacity", as_number, 0.0, 1.0),
+        core_fraction=get("core_fraction", as_number, 0.0, 1.0, lo_open=True),
+        if_open=get("if_open", as_string, ("warn", "error")),
+        surface=get("surface", as_string, SURFACES),
         dynamic_time=_dynamic_time(o, f, where, src),
         select=read_select(o["select"], f"{where}.select", src) if "select" in o else None,
         static=read_static(o, where, src),
-        keep_floaters=as_boolean(o.get("keep_floaters", False), f"{where}.keep_floaters", src), mesh=mesh,
+        keep_floaters=get("keep_floaters", as_boolean),
         velocity_from_model=f.suffix.lower() == ".splatv" and not {"velocity", "angular_velocity"} & set(o),
-        background=_background(o, f, where, src),
-        rotation=as_vec3(o.get("rotation", [0.0, 0.0, 0.0]), f"{where}.rotation", src, max_abs=360.0, unit=" degrees"))
+        background=_background(o, f, where, src))
 
 
 def load_scene(path: str | Path, quality: str | None = None) -> Scene:
@@ -334,14 +337,14 @@ def parse_scene(data: dict, src: Path, quality: str | None = None) -> Scene:
     objects = [_object(o, f"[[object]] #{i + 1}", src) for i, o in enumerate(obj_list)]
     if all(o.static for o in objects):
         raise SceneError(f"{src}: every [[object]] is static = true; nothing to simulate")
-    n_frames = as_integer(data.get("n_frames", 30), "n_frames", src, 1)
+    n_frames = read_key(data, "n_frames", as_integer, 1, default_from=Scene, where="", src=src)
     output = data.get("output")
     if output is not None:
         output = base / as_string(output, "output", src)
     extras = read_extras(data, src, objects)
     return Scene(
         **extras, path=src, objects=objects, engine=engine, domain=domain, boundaries=boundaries,
-        gravity=as_vec3(data.get("gravity", [0.0, 0.0, -9.81]), "gravity", src, max_norm=MAX_GRAVITY,
-                        unit=" m/s^2"),
-        frame_dt=as_number(data.get("frame_dt", 1.0 / 30.0), "frame_dt", src, 0.0, lo_open=True),
+        gravity=read_key(data, "gravity", as_vec3, default_from=Scene, where="", src=src, max_norm=MAX_GRAVITY,
+                         unit=" m/s^2"),
+        frame_dt=read_key(data, "frame_dt", as_number, 0.0, default_from=Scene, where="", src=src, lo_open=True),
         n_frames=n_frames, output=output, name=as_string(data.get("name", src.stem), "name", src), quality=level)

@@ -12,6 +12,7 @@ from typing import Any
 from gasp_core.errors import SceneError
 from gasp_core.scene.values import (MAX_COORD, MAX_PADDING, N_GRID_RANGE, PPC_RANGE, as_integer, as_number, as_string,
                                     as_table, as_vec3, bad_value, check_keys)
+from gasp_core.seam.schema import DEFAULT_MATERIAL, MATERIAL_KINDS
 from gasp_core.seam.setup import BOUNDARIES, Boundary, Material, MATERIALS
 
 
@@ -51,17 +52,32 @@ _ENGINE_KEYS = {"name", "options"}
 
 
 def read_material(value, where: str, src: Path) -> Material:
-    """An object's ``material`` table: ``name`` (default ``jelly``); each parameter checked by the Material's
-    own rule (:meth:`Material.expected`, one range table :data:`gasp_core.seam.setup.MATERIAL_RANGES`)."""
+    """An object's ``material`` table: ``name`` (default :data:`~gasp_core.seam.schema.DEFAULT_MATERIAL`) picks
+    the model, whose keys (:data:`~gasp_core.seam.schema.MATERIAL_KINDS`) are the only others it takes; each
+    value is checked against its :data:`~gasp_core.seam.schema.MATERIAL_PARAMS` record.
+
+    Raises
+    ------
+    SceneError
+        One line: a bad ``name``; a key that no material has (``unknown key(s)``, as every table), or one
+        that the chosen material does not use, naming the material, the materials that use it and the keys
+        the chosen one takes; a value out of range (:meth:`Material.expected`'s words).
+    """
     table = as_table(value, where, src)
+    name = as_string(table.get("name", DEFAULT_MATERIAL), f"{where}.name", src, MATERIALS)
     check_keys(table, _MATERIAL_KEYS, where, src)
-    kw: dict[str, Any] = {"name": as_string(table.get("name", "jelly"), f"{where}.name", src, MATERIALS)}
-    for k in sorted(_MATERIAL_KEYS - {"name"}):
-        if k in table:
-            expected = Material.expected(k, table[k])
-            if expected is not None:
-                bad_value(src, f"{where}.{k}", table[k], expected)
-            kw[k] = float(table[k])
+    uses = ("name",) + MATERIAL_KINDS[name].keys
+    unused = sorted(set(table) - set(uses))
+    if unused:
+        others = sorted({m for k in unused for m, kind in MATERIAL_KINDS.items() if k in kind.keys})
+        raise SceneError(f"{src}: {where}: material {name!r} does not use {unused} (a key of "
+                         f"{', '.join(others)}); {name!r} takes {sorted(uses)}")
+    kw: dict[str, Any] = {"name": name}
+    for k in sorted(set(table) - {"name"}):
+        expected = Material.expected(k, table[k])
+        if expected is not None:
+            bad_value(src, f"{where}.{k}", table[k], expected)
+        kw[k] = float(table[k])
     return Material(**kw)
 
 

@@ -4,11 +4,12 @@ expected (never another exception, never a silent conversion)."""
 from __future__ import annotations
 
 import math
+from dataclasses import MISSING, fields
 from pathlib import Path
 from typing import NoReturn
 
 from gasp_core.errors import SceneError
-from gasp_core.seam.setup import in_range, range_text
+from gasp_core.seam.schema import in_range, range_text
 
 _TOML_TYPES = ((bool, "boolean"), (int, "integer"), (float, "float"), (str, "string"),
                (list, "array"), (dict, "table"))
@@ -133,3 +134,18 @@ def resolve_path(src: Path, name: str, key: str) -> Path:
     except (RuntimeError, OSError, ValueError) as e:
         raise SceneError(f"{src}: {key} '{name}' cannot be followed ({e}); expected a file, not a symlink loop") \
             from None
+
+
+def default_of(cls, key: str):
+    """The default that dataclass ``cls`` declares for its field ``key`` (the one place it is written)."""
+    f = next(f for f in fields(cls) if f.name == key)
+    return f.default_factory() if f.default is MISSING else f.default
+
+
+def read_key(table: dict, key: str, read, *args, default_from, where: str, src: Path, **kw):
+    """``read(table[key], "<where>.<key>", src, *args, **kw)`` (one of the ``as_*`` readers above), or, when the
+    table leaves ``key`` out, the default that the dataclass ``default_from`` declares for it (:func:`default_of`).
+    ``where`` ``""`` names the key alone (the top level)."""
+    if key not in table:
+        return default_of(default_from, key)
+    return read(table[key], f"{where}.{key}" if where else key, src, *args, **kw)

@@ -10,7 +10,8 @@ one error text, and ``gasp engines`` lists them.
 Keys
 ----
 ``"<field>"`` or ``"<material>.<field>"`` for a :class:`~gasp_core.seam.setup.Material` field
-(``"nu"``: every material; ``"metal.yield_stress"``: metal only); ``"<field>"`` or
+(``"nu"``: every material that uses it, :data:`~gasp_core.seam.schema.MATERIAL_KINDS`; ``"metal.yield_stress"``:
+metal only; naming a material that does not use the field is the plugin's mistake); ``"<field>"`` or
 ``"<kind>.<field>"`` for a :class:`~gasp_core.seam.setup.Boundary` field (``"friction"``,
 ``"ground.height"``); ``"n_grid"`` or ``"frame_dt"`` for the :class:`~gasp_core.seam.setup.SimSetup`
 values of those names. The field names of the three do not overlap.
@@ -23,6 +24,7 @@ from dataclasses import dataclass
 from typing import Any, Iterator, Mapping
 
 from gasp_core.errors import SceneError
+from gasp_core.seam.schema import MATERIAL_KINDS
 from gasp_core.seam.setup import BOUNDARIES, MATERIALS, Boundary, Material, SimSetup
 
 #: Numeric fields a limit may name, by where they live.
@@ -104,6 +106,9 @@ def split_key(key: str) -> tuple[str | None, str]:
     if qual is not None and qual not in allowed:
         raise ValueError(f"limit {key!r}: {qual!r} is not a {what}"
                          + (f" (one of {sorted(allowed)})" if allowed else f"; write {name!r} alone"))
+    if what == "material" and qual is not None and name not in MATERIAL_KINDS[qual].keys:
+        raise ValueError(f"limit {key!r}: material {qual!r} does not use {name!r}; it uses "
+                         f"{list(MATERIAL_KINDS[qual].keys)}")
     return qual, name
 
 
@@ -115,6 +120,8 @@ def _values(setup: SimSetup, qual: str | None, name: str) -> Iterator[tuple[str,
     items: list[Material | Boundary] = setup.materials if name in MATERIAL_FIELDS else setup.boundaries
     for item in items:
         label = item.name if isinstance(item, Material) else item.kind
+        if isinstance(item, Material) and name not in MATERIAL_KINDS[label].keys:
+            continue   # a field this material does not use (a rigid body's nu): no engine reads it
         if qual is None or qual == label:
             yield f"{'material' if isinstance(item, Material) else 'boundary'} '{label}': ", getattr(item, name)
 

@@ -6,64 +6,20 @@ object into this frame before the engine sees it and converts the result back.
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from gasp_core.errors import SceneError
+from gasp_core.seam.schema import DEFAULT_MATERIAL, MATERIAL_KINDS, MATERIAL_PARAMS
 
-#: Material models an engine may offer (capability names).
-MATERIALS = frozenset({
-    "jelly",        # elastic, fixed corotated (Stomakhin et al. 2012)
-    "neo_hookean",  # elastic, compressible neo-Hookean
-    "metal",        # von Mises plasticity on Hencky strain (StVK Hencky elasticity)
-    "sand",         # Drucker-Prager plasticity on Hencky strain (Klar et al. 2016)
-    "snow",         # Stomakhin et al. 2013 hardening plasticity
-    "plasticine",   # von Mises with softening
-    "liquid",       # weakly compressible fluid (equation of state from lam)
-    "rigid",        # rigid body (engines with rigid bodies)
-})
+#: Material models an engine may offer (capability names; :data:`gasp_core.seam.schema.MATERIAL_KINDS` says what
+#: each is and which keys it uses).
+MATERIALS = frozenset(MATERIAL_KINDS)
 
 #: Boundary kinds an engine may offer (capability names).
 BOUNDARIES = frozenset({"ground", "walls", "fixed_region"})
-
-#: The one rule on material parameters (the scene reader and :class:`SimSetup` both apply it, through
-#: :meth:`Material.expected`): ``name: (lo, hi, lo_open, hi_open)``, ``hi`` None = unbounded. Every
-#: model of ``docs/mpm.md`` is well posed on all of ``-1 < nu < 0.5`` (``lam + 2 mu``, ``3 lam + 2 mu``
-#: and ``K`` stay positive); an engine with a narrower range declares its own limit.
-MATERIAL_RANGES: dict[str, tuple[float, float | None, bool, bool]] = {
-    "E": (0.0, None, True, False), "nu": (-1.0, 0.5, True, True), "rho": (0.0, None, True, False),
-    "yield_stress": (0.0, None, True, False), "friction_angle": (0.0, 90.0, False, True),
-    "softening": (0.0, None, False, False), "hardening": (0.0, None, True, False),
-    "theta_c": (0.0, None, True, False), "theta_s": (0.0, None, True, False),
-    "viscosity": (0.0, None, False, False),
-}
-
-
-def range_text(lo: float | None, hi: float | None, lo_open: bool = False, hi_open: bool = False) -> str:
-    """``"a finite number > 0"``, ``"a finite number in (-1, 0.5)"``, ...: a range in words."""
-    if lo is None and hi is None:
-        rng = ""
-    elif hi is None:
-        rng = f" {'>' if lo_open else '>='} {lo:g}"
-    elif lo is None:
-        rng = f" {'<' if hi_open else '<='} {hi:g}"
-    else:
-        rng = f" in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
-    return "a finite number" + rng
-
-
-def in_range(value, lo: float | None, hi: float | None, lo_open: bool = False, hi_open: bool = False) -> bool:
-    """True when ``value`` is a finite int or float (never a bool) within the range."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
-        return False
-    if not math.isfinite(value):
-        return False
-    if lo is not None and not (value > lo if lo_open else value >= lo):
-        return False
-    return hi is None or (value < hi if hi_open else value <= hi)
 
 
 def grid_spacing(domain_lo, domain_hi, n_grid: int) -> float:
@@ -75,6 +31,10 @@ def grid_spacing(domain_lo, domain_hi, n_grid: int) -> float:
 class Material:
     """Constitutive parameters of one body, SI units.
 
+    Every parameter's default, range, unit and meaning is declared once, in
+    :data:`gasp_core.seam.schema.MATERIAL_PARAMS` (checked by :meth:`check`); which of them each material
+    uses is :data:`gasp_core.seam.schema.MATERIAL_KINDS` (the scene reader refuses the others).
+
     Attributes
     ----------
     name : str
@@ -83,8 +43,6 @@ class Material:
         Young's modulus, Pa.
     nu : float
         Poisson's ratio, in (-1, 0.5).
-
-    Every parameter's range is in :data:`MATERIAL_RANGES` (checked by :meth:`check`).
     rho : float
         Density, kg/m^3.
     yield_stress : float
@@ -95,7 +53,7 @@ class Material:
     softening : float
         Plasticine softening: yield stress drop per unit plastic strain, dimensionless factor.
     hardening : float
-        Snow hardening coefficient xi (Stomakhin et al. 2013), default 10.
+        Snow hardening coefficient xi (Stomakhin et al. 2013).
     theta_c, theta_s : float
         Snow critical compression and stretch (Stomakhin et al. 2013).
     viscosity : float
@@ -106,35 +64,35 @@ class Material:
         the feature ``viscosity``.
     """
 
-    name: str = "jelly"
-    E: float = 1e5
-    nu: float = 0.3
-    rho: float = 1000.0
-    yield_stress: float = 1e4
-    friction_angle: float = 30.0
-    softening: float = 0.1
-    hardening: float = 10.0
-    theta_c: float = 2.5e-2
-    theta_s: float = 4.5e-3
-    viscosity: float = 0.0
+    name: str = DEFAULT_MATERIAL
+    E: float = MATERIAL_PARAMS["E"].default
+    nu: float = MATERIAL_PARAMS["nu"].default
+    rho: float = MATERIAL_PARAMS["rho"].default
+    yield_stress: float = MATERIAL_PARAMS["yield_stress"].default
+    friction_angle: float = MATERIAL_PARAMS["friction_angle"].default
+    softening: float = MATERIAL_PARAMS["softening"].default
+    hardening: float = MATERIAL_PARAMS["hardening"].default
+    theta_c: float = MATERIAL_PARAMS["theta_c"].default
+    theta_s: float = MATERIAL_PARAMS["theta_s"].default
+    viscosity: float = MATERIAL_PARAMS["viscosity"].default
 
     @staticmethod
     def expected(key: str, value) -> str | None:
-        """None when ``value`` is a valid ``key`` (:data:`MATERIAL_RANGES`), else what is expected, in words."""
-        rule = MATERIAL_RANGES[key]
-        return None if in_range(value, *rule) else range_text(*rule)
+        """None when ``value`` is a valid ``key`` (:data:`~gasp_core.seam.schema.MATERIAL_PARAMS`), else what
+        is expected, in words."""
+        return MATERIAL_PARAMS[key].expected(value)
 
     def check(self, where: str = "material") -> None:
-        """Refuse a parameter outside :data:`MATERIAL_RANGES`.
+        """Refuse a parameter outside its range (:data:`~gasp_core.seam.schema.MATERIAL_PARAMS`).
 
         Raises
         ------
         SceneError
             ``"{where}.nu = -1.5; expected a finite number in (-1, 0.5)"`` (the scene reader's words).
         """
-        for key in MATERIAL_RANGES:
+        for key, param in MATERIAL_PARAMS.items():
             value = getattr(self, key)
-            expected = self.expected(key, value)
+            expected = param.expected(value)
             if expected is not None:
                 raise SceneError(f"{where}.{key} = {value!r}; expected {expected}")
 

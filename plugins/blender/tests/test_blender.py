@@ -134,7 +134,7 @@ def test_readme_donut_on_blender(tmp_path):
     from gasp_core.gs.io import read_gaussians
     root = Path(__file__).resolve().parents[3]
     scene = load_scene(root / "examples" / "donut_blender.toml")
-    res = simulate_scene(scene, tmp_path / "out", progress=False)
+    res = simulate_scene(scene, tmp_path / "out", quiet=True)
     obj = res.summary["objects"][0]
     tz = obj["placement"]["t"][2]          # file -> world: the file is z up, metres, shifted by t
     frames = [read_gaussians(tmp_path / "out" / obj["name"] / f"frame_{f:04d}.ply").means

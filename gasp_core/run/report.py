@@ -1,0 +1,136 @@
+"""One reporter: the progress, warnings, result and error of a run go through one object.
+
+A run says five kinds of thing, each an event (a dict with ``"event"`` naming its kind):
+
+``start``
+    ``engine`` (its name), ``n_frames`` (the last frame), ``first_frame`` (0, or the checkpoint a
+    resumed run continues from).
+``frame``
+    ``frame`` (its index; 0 is the input), ``wall_s`` (wall seconds since the previous frame was handed
+    on: engine, rebuild and, for frame 1, the engine's build and JIT warm-up), ``sim_s`` (the engine's own
+    seconds, from frame 1 on), ``n_substeps`` (the engine's substeps per frame, when it says).
+``warning``
+    ``message``: one line in words.
+``result``
+    ``message`` (the line the console prints) and the record's fields (``gasp simulate``: ``run_json``,
+    ``output``, ...).
+``error``
+    ``message`` (the line after ``gasp: ``) and ``status`` (the exit status, :mod:`gasp_core.errors`).
+
+Backends: :class:`Reporter` keeps the events in a list (a notebook or a test reads them);
+:class:`ConsoleReporter` is what the ``gasp`` command shows (a tqdm bar, ``gasp: warning: ...`` lines on
+stderr, the result line on stdout); :class:`JsonLinesReporter` writes each event as one JSON object on a
+line (``gasp simulate --json``).
+"""
+from __future__ import annotations
+
+import json
+import math
+import sys
+from typing import TextIO
+
+
+class Reporter:
+    """Receives a run's events and keeps them in :attr:`events` (nothing is printed).
+
+    Subclasses override :meth:`emit` (every event) or the methods of the kinds they show differently.
+    """
+
+    def __init__(self) -> None:
+        self.events: list[dict] = []
+
+    def emit(self, event: dict) -> None:
+        """Every event ends here; this one keeps it."""
+        self.events.append(event)
+
+    def start(self, engine: str, n_frames: int, first_frame: int = 0) -> None:
+        """The frames begin: ``first_frame`` is done already (a resumed run), ``n_frames`` is the last."""
+        self.emit({"event": "start", "engine": engine, "n_frames": n_frames, "first_frame": first_frame})
+
+    def frame(self, frame: int, wall_s: float, sim_s: float | None = None, n_substeps: int | None = None) -> None:
+        """Frame ``frame`` is done (see the module docstring for the fields); None fields are left out."""
+        event = {"event": "frame", "frame": frame, "wall_s": wall_s, "sim_s": sim_s, "n_substeps": n_substeps}
+        self.emit({k: v for k, v in event.items() if v is not None})
+
+    def end_progress(self) -> None:
+        """The frames are done (or stopped): a progress display ends here."""
+
+    def warning(self, message: str) -> None:
+        """Something the user should know, in one line of words."""
+        self.emit({"event": "warning", "message": message})
+
+    def result(self, message: str, **record) -> None:
+        """The command's result: ``message`` in words and its record (JSON-serialisable values)."""
+        self.emit({"event": "result", "message": message, **record})
+
+    def error(self, message: str, status: int) -> None:
+        """The command failed: ``message`` is the line after ``gasp: ``, ``status`` the exit status."""
+        self.end_progress()
+        self.emit({"event": "error", "message": message, "status": status})
+
+
+class ConsoleReporter(Reporter):
+    """What the ``gasp`` command shows: a tqdm bar on stderr (``progress``), ``gasp: warning: ...`` and
+    ``gasp: <error>`` lines on stderr, the result line on stdout. The streams are looked up when written
+    (``sys.stdout`` / ``sys.stderr`` at that moment)."""
+
+    def __init__(self, progress: bool = True) -> None:
+        super().__init__()
+        self.progress = progress
+        self._bar = None
+
+    def emit(self, event: dict) -> None:
+        """Nothing is kept: the console has shown it."""
+
+    def start(self, engine: str, n_frames: int, first_frame: int = 0) -> None:
+        """Open the progress bar (with ``progress``), named after the engine."""
+        if self.progress:
+            from tqdm import tqdm
+            self._bar = tqdm(total=n_frames, initial=first_frame, unit="frame", desc=engine, leave=True)
+
+    def frame(self, frame: int, wall_s: float, sim_s: float | None = None, n_substeps: int | None = None) -> None:
+        """One step of the bar for each simulated frame (frame 0, the input, is not counted)."""
+        if self._bar is not None and frame > 0:
+            self._bar.update(1)
+
+    def end_progress(self) -> None:
+        """Close the bar, so that a line printed next starts a line of its own."""
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+
+    def warning(self, message: str) -> None:
+        print(f"gasp: warning: {message}", file=sys.stderr)
+
+    def result(self, message: str, **record) -> None:
+        print(message)
+
+    def error(self, message: str, status: int) -> None:
+        self.end_progress()
+        print(f"gasp: {message}", file=sys.stderr)
+
+
+class JsonLinesReporter(Reporter):
+    """Each event as one JSON object on a line of ``stream`` (flushed at once); warnings and the error are
+    also said on stderr as the console says them (``gasp: warning: ...``, ``gasp: error: ...``).
+
+    Floats that are not finite are written as null (JSON has no NaN).
+    """
+
+    def __init__(self, stream: TextIO) -> None:
+        super().__init__()
+        self.stream = stream
+
+    def emit(self, event: dict) -> None:
+        clean = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in event.items()}
+        self.stream.write(json.dumps(clean, default=str, allow_nan=False) + "\n")
+        self.stream.flush()
+
+    def warning(self, message: str) -> None:
+        super().warning(message)
+        print(f"gasp: warning: {message}", file=sys.stderr)
+
+    def error(self, message: str, status: int) -> None:
+        """The event's ``message`` without the line's ``error: `` prefix; the line itself on stderr."""
+        super().error(message.removeprefix("error: "), status)
+        print(f"gasp: {message}", file=sys.stderr)

@@ -1,0 +1,53 @@
+"""``docs/scene_keys.md``, the key tables of a scene's ``material``, generated from the schema
+(:mod:`gasp_core.seam.schema`) so that the documentation cannot drift from what the reader takes.
+
+Write it with ``python -m gasp_core.scene.keys_doc [PATH]`` (default ``docs/scene_keys.md``, from the repository
+root); ``tests/test_scene_schema.py`` checks that the file in the repository is what this module writes.
+"""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from gasp_core.seam.schema import DEFAULT_MATERIAL, MATERIAL_KINDS, MATERIAL_PARAMS
+
+HEADER = ("<!-- Generated from gasp_core/seam/schema.py by `python -m gasp_core.scene.keys_doc`; do not edit by hand "
+          "(tests/test_scene_schema.py checks it). -->")
+
+
+def _range(key: str) -> str:
+    """The range of a material parameter in the table's words, e.g. ``"in (-1, 0.5)"``, ``"> 0"``."""
+    return MATERIAL_PARAMS[key].range.removeprefix("a finite number").strip() or "any finite number"
+
+
+def scene_keys_markdown() -> str:
+    """The Markdown of ``docs/scene_keys.md``: which keys each material takes, and each key's default, range,
+    unit and meaning, from :data:`~gasp_core.seam.schema.MATERIAL_KINDS` and
+    :data:`~gasp_core.seam.schema.MATERIAL_PARAMS`."""
+    lines = [HEADER, "", "# Scene keys: `[object.material]`", "",
+             f"`name` picks the material model (default `{DEFAULT_MATERIAL}`). A material takes only its own keys, "
+             "besides `name`; any other key is an error naming the material and the keys it takes, e.g. "
+             "`name = \"jelly\"` with `yield_stress` (a key of metal and plasticine). A key left out takes "
+             "its default. Units are SI. An engine may accept a narrower range (`gasp engines` lists its "
+             "limits).", "", "## Materials", "", "| `name` | model | keys (besides `name`) |", "|---|---|---|"]
+    lines += [f"| `{name}` | {kind.doc} | {', '.join(f'`{k}`' for k in kind.keys)} |"
+              for name, kind in MATERIAL_KINDS.items()]
+    lines += ["", "## Parameters", "", "| key | default | range | unit | meaning | used by |",
+              "|---|---|---|---|---|---|"]
+    for key, p in MATERIAL_PARAMS.items():
+        users = [name for name, kind in MATERIAL_KINDS.items() if key in kind.keys]
+        lines.append(f"| `{key}` | {p.default:g} | {_range(key)} | {p.unit or '-'} | {p.doc} | {', '.join(users)} |")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Write :func:`scene_keys_markdown` to ``argv[0]`` (default ``docs/scene_keys.md``)."""
+    argv = sys.argv[1:] if argv is None else argv
+    path = Path(argv[0] if argv else "docs/scene_keys.md")
+    path.write_text(scene_keys_markdown(), encoding="utf-8")
+    print(f"wrote {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
