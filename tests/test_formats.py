@@ -77,7 +77,7 @@ def test_ksplat_refuses_a_wrong_version_and_a_short_file(tmp_path):
     write_ksplat(tmp_path / "t.ksplat", g)
     raw = bytearray((tmp_path / "t.ksplat").read_bytes())
     (tmp_path / "short.ksplat").write_bytes(bytes(raw[:-40]))
-    with pytest.raises(SceneError, match=r"short\.ksplat: shorter than its section headers say"):
+    with pytest.raises(SceneError, match=r"short\.ksplat: section 1 of 1: .* the file has 16,496 \(truncated"):
         read_gaussians(tmp_path / "short.ksplat")
     raw[1] = 0
     (tmp_path / "v00.ksplat").write_bytes(bytes(raw))

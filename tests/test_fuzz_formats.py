@@ -1,9 +1,9 @@
 """Property-based fuzzing of the readers of every splat format beside PLY (issue 34): ``.sog``, ``.spz``,
-``.splat``, ``.ksplat`` (compressed PLY: ``tests/test_fuzz_readers.py``, its guitar seed).
+``.splat``, ``.ksplat``, ``.splatv`` (compressed PLY: ``tests/test_fuzz_readers.py``, its guitar seed).
 
 Each strategy starts from a real file of the format (``examples/data``: train-1000 as splat-transform wrote
 the ``.sog``, as gsply writes ``.spz``, as antimatter15's convert.py and GaussianSplats3D's SplatBuffer
-write ``.splat`` and ``.ksplat``) and changes what the format's reader trusts: header counts and sizes,
+write ``.splat`` and ``.ksplat``, the first 300 records of the bundled ``spinach_4.splatv``) and changes what the format's reader trusts: header counts and sizes,
 ``meta.json`` fields, codebooks, special floats in the records, the compressed stream itself, truncation.
 Whatever it gets, the reader returns finite Gaussians or raises one :class:`SceneError` line naming the
 file, never another exception and never a numpy RuntimeWarning. 25 examples per format by default (about
@@ -63,6 +63,9 @@ def _seed(fmt: str) -> bytes:
         with tempfile.TemporaryDirectory() as d:
             write_splat_file(Path(d) / "t.spz", g, "spz")
             return gzip.decompress((Path(d) / "t.spz").read_bytes())
+    if fmt == "splatv":   # the bundled model's header and first 300 records of 64 bytes
+        raw = (DATA / "spinach_4.splatv").read_bytes()
+        return raw[:8 + struct.unpack_from("<I", raw, 4)[0] + 300 * 64]
     return (DATA / "train-1000.sog").read_bytes()
 
 
@@ -72,7 +75,11 @@ def _read(tmp_path: Path, raw: bytes, suffix: str):
     with warnings.catch_warnings():
         warnings.simplefilter("error", RuntimeWarning)   # numpy chatter is a failure too
         try:
-            g = read_gaussians(path)
+            if suffix == ".splatv":   # a dynamic model: read, then evaluated as a scene does (psi(V, s))
+                from gasp_core.gs.splatv import read_splatv, splatv_at
+                g = splatv_at(*read_splatv(path), 0.5)
+            else:
+                g = read_gaussians(path)
         except SceneError as e:
             assert str(e).startswith(str(path)) and "\n" not in str(e), str(e)
             return None
@@ -104,7 +111,7 @@ def _mutate_bytes(draw, raw: bytearray, fields: list[tuple[int, str]], body: int
 
 FORMATS_EXTRA = 'the formats extra is not installed: python -m pip install -e ".[formats]"'
 #: The .spz seed is written by gsply: without the formats extra there is none (and the spz cases skip).
-SEEDS = {fmt: _seed(fmt) for fmt in ("splat", "ksplat0", "ksplat1", "spz", "sog")
+SEEDS = {fmt: _seed(fmt) for fmt in ("splat", "ksplat0", "ksplat1", "spz", "sog", "splatv")
          if fmt != "spz" or importlib.util.find_spec("gsply") is not None}
 _KSPLAT_FIELDS = [(4, "<I"), (16, "<I"), (20, "<H"), (36, "<f"), (40, "<f"),
                   *[(4096 + o, f) for o, f in ((0, "<I"), (4, "<I"), (8, "<I"), (12, "<I"), (16, "<f"), (20, "<H"),
@@ -115,6 +122,13 @@ _SPZ_FIELDS = [(4, "<I"), (8, "<I"), (12, "B"), (13, "B"), (14, "B")]
 @st.composite
 def splat_file(draw):
     return bytes(_mutate_bytes(draw, bytearray(SEEDS["splat"]), [], 0))
+
+
+@st.composite
+def splatv_file(draw):
+    """Edits to the magic, the header length and the records (float16 pairs included), or truncation."""
+    raw = bytearray(SEEDS["splatv"])
+    return bytes(_mutate_bytes(draw, raw, [(0, "<I"), (4, "<I")], 8 + struct.unpack_from("<I", raw, 4)[0]))
 
 
 @st.composite
@@ -176,7 +190,7 @@ def sog_file(draw):
 
 
 CASES = {"splat": (splat_file, ".splat"), "ksplat": (ksplat_file, ".ksplat"), "spz": (spz_file, ".spz"),
-         "sog": (sog_file, ".sog")}
+         "sog": (sog_file, ".sog"), "splatv": (splatv_file, ".splatv")}
 
 
 def _needs(fmt: str):

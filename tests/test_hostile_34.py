@@ -281,6 +281,7 @@ def refused(path: Path, *needles: str) -> str:
         read_gaussians(path)
     msg = str(e.value)
     assert msg.startswith(str(path)) and "\n" not in msg, msg
+    assert msg.count(str(path)) == 1 and "SceneError" not in msg, msg     # not wrapped in a second message
     for n in needles:
         assert n in msg, (n, msg)
     return msg
@@ -463,6 +464,32 @@ def test_work_is_said_before_the_first_frame():
     assert budget.check_before({"n_substeps": 122}, 150_000, 10**9, 10**9, yes=True)
 
 
+def test_a_fill_beyond_the_machines_memory_is_refused_before_it_allocates(tmp_path, donut_small, monkeypatch):
+    """``n_grid`` and ``particles_per_cell`` together set the fill: its points are counted (inside cells) and
+    refused before they are allocated, on a machine said to have 512 MiB. The donut at n_grid 100 and 64
+    particles per cell has 1.7 million (about 0.6 GiB); at n_grid 32 it prepares on that machine."""
+    import resource
+    from gasp_testing import scene_text
+    from gasp_core.prepare.scene import prepare_scene
+    from gasp_core.scene.spec import load_scene
+    from gasp_core.toolkit import memory
+    monkeypatch.setattr(memory, "machine_bytes", lambda: 2**29)
+    scene = tmp_path / "s.toml"
+    scene.write_text(scene_text(donut_small, n_frames=1, n_grid=100, engine="warp_mpm", engine_options="{ }")
+                     .replace("n_grid = 100", "n_grid = 100\nparticles_per_cell = 64"))
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    with pytest.raises(GaspError) as e:
+        prepare_scene(load_scene(scene))
+    line = str(e.value)
+    assert "object 'donut_small'" in line and "n_grid = 100 with particles_per_cell = 64" in line, line
+    assert "this machine has 0.5 GiB" in line and "\n" not in line
+    n = int(line.split("makes about ")[1].split(" points")[0].replace(",", ""))
+    assert 1_710_293 <= n < 1_800_000, n   # its inside cells and surface points: 1,710,293 points when filled
+    assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 200 * 1024   # KiB
+    scene.write_text(scene_text(donut_small, n_frames=1, n_grid=32, engine="warp_mpm", engine_options="{ }"))
+    assert len(prepare_scene(load_scene(scene)).setup.x) > 10_000
+
+
 def test_gif_to_a_full_disk_is_one_line(mini_run, tmp_path, capsys, monkeypatch):
     """The GIF is encoded in memory and then written, so ENOSPC is one OSError line (the image writer's
     ``__del__`` printed a 22-line traceback after it). The full disk: a write that fails as a 64 kB tmpfs did."""
@@ -488,11 +515,12 @@ def test_gif_to_a_full_disk_is_one_line(mini_run, tmp_path, capsys, monkeypatch)
     out = tmp_path / "r.gif"
     code = main(["render", str(mini_run), "-o", str(out), "-q", "--resolution", "32x24"])
     err = capsys.readouterr().err
-    assert "No space left on device" in one_error(err, code) and "Exception ignored" not in err
+    line = one_error(err, code)
+    assert "No space left on device" in line and str(out) in line and "Exception ignored" not in err
     assert not out.exists() and not list(tmp_path.glob(".r.*"))
 
 
-@pytest.mark.parametrize("stem", ["run.json", ".gasp-checkpoint.npz"])
+@pytest.mark.parametrize("stem", ["run.json", "frames.json", ".gasp-output", ".gasp-checkpoint.npz"])
 def test_an_object_named_like_a_run_file_gets_its_own_folder(tmp_path, donut_small, capsys, stem):
     """``run.json.ply`` made an object folder ``run.json``, and the run failed with "[Errno 21] Is a directory"."""
     needs_package("gasp_warp_mpm")
@@ -584,3 +612,85 @@ def test_a_second_sigterm_soon_after_the_first_is_still_130(tmp_path, donut_smal
     _, err = p.communicate(timeout=300)
     lines = [ln for ln in err.splitlines() if "grid cells across" not in ln]   # n_grid 16: the resolution warning
     assert p.returncode == 130 and len(lines) == 1 and "SIGTERM" in lines[0], (p.returncode, err)
+
+
+@pytest.mark.parametrize("engine", ["warp_mpm", pytest.param("newton", marks=pytest.mark.slow)])  # newton: ~7 s import
+def test_warp_on_cuda_without_a_gpu_is_gasps_line_alone(tmp_path, donut_small, engine):
+    """``device = "cuda"`` on a machine without a GPU: Warp's own "CUDA warning" line (written by its C++ core
+    to the process's stderr) was printed beside GASP's (Newton: two "Warp CUDA error" lines). In a process:
+    Warp prints it once, at ``wp.init()``."""
+    wp = pytest.importorskip("warp")
+    pytest.importorskip(f"gasp_{engine}")
+    if engine == "newton":
+        pytest.importorskip("newton")
+    if wp.is_cuda_available():
+        pytest.skip("this machine has a CUDA device")
+    from gasp_testing import scene_text
+    scene = tmp_path / "s.toml"
+    scene.write_text(scene_text(donut_small, n_frames=1, n_grid=16, engine=engine,
+                                engine_options='{ device = "cuda" }'))
+    p = subprocess.run([sys.executable, "-m", "gasp_core.cli.main", "simulate", str(scene), "-o", "o", "-q"],
+                       cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    err = "\n".join(ln for ln in p.stderr.splitlines() if "grid cells across" not in ln)  # n_grid 16's warning
+    assert "device 'cuda'" in one_error(err, p.returncode) and "Warp CUDA" not in p.stderr
+
+
+# ------------------------------------------------------------------ the domain error says what is wrong
+
+
+def test_a_floater_kept_100_m_away_is_named_with_its_key(tmp_path, donut_small, capsys):
+    """``keep_floaters = true`` with one Gaussian 100 m from the 20 cm donut: the default domain spanned it, its
+    cells were 12.5 m and the donut ran as a 980 m^3 hollow shell (exit 0). Kept 0.1 m away it runs."""
+    pytest.importorskip("gasp_warp_mpm")
+    from gasp_testing import scene_text
+    from gasp_core.gs.io import read_gaussians, write_gaussians
+    g = read_gaussians(donut_small)
+    for where, far in (([100.0, 0.0, 0.0], True), ([0.2, 0.0, 0.05], False)):
+        g.means[0], g.scales[0] = where, 0.003
+        write_gaussians(tmp_path / "d.ply", g, overwrite=True)
+        scene = tmp_path / "s.toml"
+        scene.write_text(scene_text(tmp_path / "d.ply", n_frames=1, n_grid=24, engine="warp_mpm",
+                                    engine_options="{ }", extra_object="keep_floaters = true"))
+        code = main(["simulate", str(scene), "-o", str(tmp_path / f"o{far}"), "-q"])
+        err = capsys.readouterr().err
+        if far:
+            line = one_error(err, code)
+            assert "keeps 1 floater(s)" in line and "up to 99.9 m" in line and "keep_floaters = false" in line
+        else:
+            assert code == 0, err
+
+
+def test_the_bundled_spinach_with_keep_floaters_names_them(tmp_path, capsys):
+    """The documented ``keep_floaters = true`` on the whole bundled ``spinach_4.splatv``: it said "start below
+    the ground ... raise the object's position" (or, without a ground, diverged in a 2 km domain)."""
+    from gasp_testing import scene_text
+    scene = tmp_path / "s.toml"
+    scene.write_text(scene_text(DATA / "spinach_4.splatv", n_frames=1, n_grid=32, engine="warp_mpm",
+                                engine_options="{ }", extra_object="keep_floaters = true\nscale = 0.08\nrecentre = false")
+                     .replace('up_axis = "+z"', 'up_axis = "-y"').replace("height = 0.0", "height = -0.565"))
+    code = main(["simulate", str(scene), "-o", str(tmp_path / "o"), "-q"])
+    line = one_error(capsys.readouterr().err, code)
+    assert "object 'spinach_4'" in line and "floater(s)" in line and "keep_floaters = false" in line
+
+
+def test_floater_pieces_are_found_chunk_by_chunk_as_from_all_pairs(monkeypatch):
+    """The floater rule's connected pieces, merged chunk by chunk (bounded memory: all pairs at once took 935 MB
+    on the bundled kitchen), are exactly the pieces of the whole link graph: a real capture (train-1000, 33
+    floaters) in chunks of 7 Gaussians, compared as partitions."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+    from gasp_core.gs.io import read_gaussians
+    from gasp_core.maps import floaters
+    means = read_gaussians(DATA / "train-1000.ply").means
+    tree = cKDTree(means)
+    for link in (0.05, 0.2, 1.0):
+        pairs = tree.query_pairs(link, output_type="ndarray")
+        whole = connected_components(coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])),
+                                                shape=(len(means),) * 2), directed=False)[1]
+        monkeypatch.setattr(floaters, "CHUNK", 7)
+        got = floaters.linked_pieces(tree, means, link)
+        n_pieces = len(np.unique(whole))
+        assert 1 < n_pieces < len(means) and len(np.unique(got)) == n_pieces
+        assert len(np.unique(whole * len(means) + got)) == n_pieces          # the same partition
+    assert floaters.find_floaters(means, read_gaussians(DATA / "train-1000.ply").scales.max(axis=1)).sum() == 33

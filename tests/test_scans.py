@@ -89,8 +89,13 @@ def test_one_floater_1000_m_away_neither_sizes_the_grid_nor_moves(tmp_path):
 
 
 def test_keep_floaters_simulates_them(tmp_path):
+    """A floater 0.2 m above the 5 cm ball is kept (one 2 m away would size the default domain, 20x the
+    ball: refused, tests/test_hostile_34.py)."""
+    from gasp_core.maps.floaters import find_floaters
     ply = tmp_path / "ball.ply"
-    write_gaussians(ply, with_floater(sphere_of_flat_gaussians(), (0.0, 0.0, 2.0)))
+    g = with_floater(sphere_of_flat_gaussians(), (0.0, 0.0, 0.2))
+    assert find_floaters(g.means, g.scales.max(axis=1)).sum() == 1
+    write_gaussians(ply, g)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         from gasp_core.prepare.scene import prepare_scene

@@ -124,7 +124,8 @@ def read_splat_file(path, fmt: str | None = None) -> Gaussians:
     except ImportError as e:  # sogread without imagecodecs
         raise GaspError(f"{path}: reading a .sog file needs imagecodecs ({install_line()}): {e}") from None
     except Exception as e:   # gsply and its decoders raise many kinds (zip, JSON, WebP, numba) for a corrupt file
-        reject_file(path, f"not a readable .{fmt} file (truncated or corrupt?): {type(e).__name__}: {e}")
+        why = str(e).replace(f": {path}", "").replace(str(path), "the file")     # the path is said once, first
+        reject_file(path, f"not a readable .{fmt} file (truncated or corrupt?): {type(e).__name__}: {why}")
     g = check_decoded(path, from_gsdata(d, path, fmt))
     return flip_yz(g) if fmt == "spz" else g
 

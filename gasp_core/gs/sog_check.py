@@ -17,6 +17,7 @@ import math
 import zipfile
 from pathlib import Path
 
+from gasp_core.errors import SceneError
 from gasp_core.gs.ply import reject_file
 
 #: Largest splat count a ``.sog`` may declare (its images would be 46k x 46k pixels).
@@ -141,6 +142,8 @@ def sog_bytes(path: Path) -> bytes:
                 with z.open(entries[name]) as f:
                     return f.read(limit + 1)
             return _collect(path, read)
+    except SceneError:
+        raise               # already one line naming the file and the field
     except (zipfile.BadZipFile, zipfile.LargeZipFile, EOFError, NotImplementedError, ValueError, OSError) as e:
         reject_file(path, f"not a readable .sog zip bundle (truncated or corrupt?): {type(e).__name__}: {e}")
 

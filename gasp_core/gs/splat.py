@@ -122,8 +122,8 @@ def read_ksplat(path) -> Gaussians:
                 hdr = raw[_KSPLAT_HEADER + s * _KSPLAT_SECTION_HEADER:][:_KSPLAT_SECTION_HEADER]
                 part, offset = _ksplat_section(hdr, raw, offset, level, (sh_lo, sh_hi))
                 parts.append(part)
-    except ValueError as e:  # a count beyond the file, or np.frombuffer past its end
-        reject_file(path, f"shorter than its section headers say, or they do not fit it (truncated or corrupt?): {e}")
+    except ValueError as e:  # a header value out of range or beyond the file, or np.frombuffer past its end
+        reject_file(path, f"section {s + 1} of {n_sections}: {e} (truncated or corrupt?)")
     got = sum(len(p[0]) for p in parts)
     if got != n_total:
         reject_file(path, f"header says {n_total} splats, sections hold {got}")

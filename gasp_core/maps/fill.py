@@ -15,6 +15,7 @@ over the particles in the cell). Morphology and distances come from :mod:`scipy.
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
+from typing import Callable
 
 import numpy as np
 from scipy import ndimage
@@ -131,7 +132,8 @@ def fill_spacing(dx: float, particles_per_cell: float, core_fraction: float = 1.
 
 def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None, fill: bool = True,
                   name: str = "object", if_open: str = "warn", max_dilation: int = 4,
-                  voxel: float | None = None, surface_mass: bool = True, unit: str = "m") -> FillResult:
+                  voxel: float | None = None, surface_mass: bool = True, unit: str = "m",
+                  check_points: Callable[[int], None] | None = None) -> FillResult:
     """Fill an object's enclosed interior at spacing ``h`` and give every point its volume.
 
     Parameters
@@ -162,6 +164,9 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
         True: the surface points share their cells' volume and only cells without one get a
         fill point. False (passive surface, ``surface = "passive"``): the surface points get
         volume 0 and every inside cell gets a fill point, so the fill alone is the whole solid.
+    check_points : callable, optional
+        Called with the point count (surface points plus inside cells, an upper bound) before the fill
+        points are allocated; it raises to refuse them (:func:`gasp_core.toolkit.memory.check_fill`).
 
     Returns
     -------
@@ -171,7 +176,7 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
     ------
     SceneError
         Bad shapes, ``h <= 0``, a fill grid above 512^3 cells, or an open object with
-        ``if_open = "error"`` (the message names the object).
+        ``if_open = "error"`` (the message names the object); from ``check_points``.
     """
     points = np.asarray(points, dtype=np.float64)
     _check_fill_arguments(points, h, name, if_open)
@@ -194,21 +199,29 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
         warning = "" if not fill else _open_warning(name, max_dilation, voxel_used, shell, unit)
         if fill and if_open == "error":
             raise SceneError(warning.replace("; simulated as a hollow shell", "; refusing to simulate a hollow shell"))
+    if check_points is not None:
+        check_points(len(points) + int(np.count_nonzero(inside)))
     cells = np.argwhere(inside)
-    if surface_mass:
-        p_vol_surface, fill_x = _share_cells(points, cells, lo, shape, h)
-        p_vol_fill = np.full(len(fill_x), h ** 3)
-        volume = float(p_vol_surface.sum() + p_vol_fill.sum())
-    else:
-        fill_x = _cell_centres(_cells_or_own(points, cells, lo, shape, h), lo, h)
-        p_vol_surface, p_vol_fill = np.zeros(len(points)), np.full(len(fill_x), h ** 3)
-        volume = float(p_vol_fill.sum())
+    fill_x, p_vol_surface, p_vol_fill = _points_and_volumes(points, cells, lo, shape, h, surface_mass)
+    volume = float(p_vol_surface.sum() + p_vol_fill.sum())
     box = float(np.prod(np.ptp(cells, axis=0) + 1)) * h ** 3 if len(cells) else 0.0
     report = FillReport(name=name, volume=volume, n_fill=len(fill_x), h=float(h), voxel=float(voxel_used),
                         method=method, closed=closed, dilation=int(r), enclosed=enclosed, warning=warning,
                         confidence=round(confidence, 4), sealed=round(sealed, 4), bbox_share=len(cells) * h ** 3 / box if box > 0 else 0.0,
                         thin_share=thin[0], thin_h=thin[1], thin_box=thin[2])
     return FillResult(fill_x, p_vol_surface, p_vol_fill, float(h), volume, report)
+
+
+def _points_and_volumes(points: np.ndarray, cells: np.ndarray, lo: np.ndarray, shape, h: float,
+                        surface_mass: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Fill points (m, 3) and the volumes (m^3) of the surface points (n,) and of the fill points (m,) for the
+    inside ``cells`` (k, 3) of the grid of corner ``lo`` and spacing ``h`` (``surface_mass``: see
+    :func:`fill_interior`)."""
+    if surface_mass:
+        p_vol_surface, fill_x = _share_cells(points, cells, lo, shape, h)
+        return fill_x, p_vol_surface, np.full(len(fill_x), h ** 3)
+    fill_x = _cell_centres(_cells_or_own(points, cells, lo, shape, h), lo, h)
+    return fill_x, np.zeros(len(points)), np.full(len(fill_x), h ** 3)
 
 
 def _open_warning(name: str, max_dilation: int, voxel: float, volume: float, unit: str = "m") -> str:

@@ -65,9 +65,7 @@ def find_floaters(means: np.ndarray, max_scales: np.ndarray) -> np.ndarray:
     d, _ = tree.query(means, k=2)
     link = LINK * float(np.quantile(d[:, 1], 0.9))
     if link > 0:
-        pairs = tree.query_pairs(link, output_type="ndarray")
-        graph = coo_matrix((np.ones(len(pairs), np.int8), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
-        _, label = connected_components(graph, directed=False)
+        label = linked_pieces(tree, means, link)
         counts = np.bincount(label)
         small = counts[label] < MAX_SHARE * n
         if small.all():
@@ -82,3 +80,26 @@ def find_floaters(means: np.ndarray, max_scales: np.ndarray) -> np.ndarray:
     if extent > 0 and big.sum() < 0.5 * (~out).sum():
         out |= big
     return out
+
+
+#: Gaussians whose links are gathered at once by :func:`linked_pieces` (its memory: their links, not all).
+CHUNK = 2048
+
+
+def linked_pieces(tree: cKDTree, means: np.ndarray, link: float) -> np.ndarray:
+    """Connected pieces of the graph linking centres closer than ``link``: one label per Gaussian, equal within
+    a piece (int, shape (n,)).
+
+    The links of :data:`CHUNK` Gaussians at a time are merged into the labels found so far, so memory follows
+    a chunk's links: all pairs at once took 935 MB for the 62,442 Gaussians of the bundled kitchen (about 900
+    links each in its dense parts), and would grow with the capture."""
+    n = len(means)
+    label = np.arange(n)
+    for s in range(0, n, CHUNK):
+        pairs = cKDTree(means[s:s + CHUNK]).sparse_distance_matrix(tree, link, output_type="ndarray")
+        a, b = label[pairs["i"] + s], label[pairs["j"]]
+        a, b = a[a != b], b[a != b]
+        if len(a):
+            graph = coo_matrix((np.ones(len(a), np.int8), (a, b)), shape=(n, n))
+            label = connected_components(graph, directed=False)[1][label]
+    return label

@@ -10,11 +10,12 @@ from gasp_core.errors import SceneError
 from gasp_core.seam.setup import SimSetup, grid_spacing
 from gasp_core.maps.fill import fill_interior, fill_spacing
 from gasp_core.maps.occupancy import SPLAT_SIGMA
-from gasp_core.prepare.checks import check_resolution
+from gasp_core.prepare.checks import check_kept_floaters, check_resolution
 from gasp_core.prepare.dynamic import fill_velocities, vertex_velocities
 from gasp_core.prepare.placement import PreparedObject, simulated_triangles
 from gasp_core.prepare.stand import stand_warnings
 from gasp_core.prepare.surface import ELASTIC, surface_rule
+from gasp_core.toolkit.memory import check_fill
 from gasp_core.scene.spec import Scene
 
 #: Smallest default domain side, metres (a single Gaussian, or all Gaussians at one point).
@@ -92,31 +93,25 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
     Raises
     ------
     SceneError
-        If an object lies outside an explicit domain.
+        If an object lies outside the domain (named: below the ground, splats far larger than the object,
+        outside ``[domain] lo/hi``), or floaters it keeps would size the default domain
+        (:func:`gasp_core.prepare.checks.check_kept_floaters`).
     """
     scenery, objects = objects, [o for o in objects if not o.spec.static]
     vertices = [simulated_triangles(o).reshape(-1, 3) for o in objects]
+    if scene.domain.lo is None:
+        check_kept_floaters(scene.path, objects)
     lo, hi = default_domain(scene, np.concatenate([footprints(o) for o in objects]))
     n_grid = scene.domain.n_grid
     dx = grid_spacing(lo, hi, n_grid)
+    check_fill(str(scene.path), sum(map(len, vertices)), n_grid, scene.domain.particles_per_cell,
+               str(scene.engine.options.get("precision", "f32")))     # the grid alone, before any fill
     xs, vols, bodies, vels, fills, passives = [], [], [], [], [], []
     start = 0
     for i, (o, verts) in enumerate(zip(objects, vertices)):
-        opacities = o.simulated_rows(o.gaussians.opacities).astype(np.float64)
-        opaque = expit(opacities) >= o.spec.min_opacity
         check_resolved(o.name, o.tri_rest.reshape(-1, 3), dx, n_grid)
-        h = fill_spacing(dx, scene.domain.particles_per_cell, o.spec.core_fraction)
-        # "auto" starts passive unless the material alone already decides for the full model (one fill, not two)
-        passive = o.spec.surface == "passive" or (o.spec.surface == "auto"
-                                                  and o.spec.material.name not in ELASTIC)
-        fr = fill_interior(verts, h, splats=o.tri_rest[opaque], fill=o.spec.fill, name=o.name,
-                           if_open=o.spec.if_open, surface_mass=not passive)
-        if o.spec.surface == "auto":
-            was_passive = passive
-            passive, o.surface_rule = surface_rule(o.spec.fill, len(verts), fr, dx, o.spec.material.name)
-            if was_passive and not passive:
-                fr = fill_interior(verts, h, splats=o.tri_rest[opaque], fill=o.spec.fill, name=o.name,
-                                   if_open=o.spec.if_open, surface_mass=True)
+        others = sum(map(len, vertices)) - len(verts) + sum(len(f.fill_x) for _, f in fills)
+        fr, passive = fill_object(scene, o, verts, dx, others)
         o.fill_report = fr.report
         reach = footprints(o)
         for msg in [fr.report.warning] + check_resolution(o.name, np.ptp(reach, axis=0), dx, n_grid, fr.report):
@@ -157,6 +152,38 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
         domain_lo=lo, domain_hi=hi, n_grid=n_grid, boundaries=list(scene.boundaries),
         frame_dt=scene.frame_dt, n_render=sum(len(v) for v in vertices),
         options=dict(scene.engine.options))
+
+
+def fill_object(scene: Scene, o: PreparedObject, verts: np.ndarray, dx: float, others: int):
+    """One object's interior fill (:func:`gasp_core.maps.fill.fill_interior`) and whether its surface is passive.
+
+    ``surface = "auto"`` starts passive unless the material alone already decides for the full model (one
+    fill, not two). Before the fill points are allocated, the scene's point count (``others`` points of the
+    other objects plus this object's) is checked against this machine's memory
+    (:func:`gasp_core.toolkit.memory.check_fill`).
+
+    Returns
+    -------
+    (FillResult, bool)
+    """
+    n_grid, ppc = scene.domain.n_grid, scene.domain.particles_per_cell
+    precision = str(scene.engine.options.get("precision", "f32"))
+
+    def check_points(n: int) -> None:
+        check_fill(f"{scene.path}: object '{o.name}'", others + n, n_grid, ppc, precision)
+
+    h = fill_spacing(dx, ppc, o.spec.core_fraction)
+    opaque = expit(o.simulated_rows(o.gaussians.opacities).astype(np.float64)) >= o.spec.min_opacity
+    passive = o.spec.surface == "passive" or (o.spec.surface == "auto" and o.spec.material.name not in ELASTIC)
+    fr = fill_interior(verts, h, splats=o.tri_rest[opaque], fill=o.spec.fill, name=o.name,
+                       if_open=o.spec.if_open, surface_mass=not passive, check_points=check_points)
+    if o.spec.surface == "auto":
+        was_passive = passive
+        passive, o.surface_rule = surface_rule(o.spec.fill, len(verts), fr, dx, o.spec.material.name)
+        if was_passive and not passive:
+            fr = fill_interior(verts, h, splats=o.tri_rest[opaque], fill=o.spec.fill, name=o.name,
+                               if_open=o.spec.if_open, surface_mass=True, check_points=check_points)
+    return fr, passive
 
 
 def scene_extras(scene: Scene, objects: list[PreparedObject], x: np.ndarray, dx: float) -> dict:
@@ -224,8 +251,9 @@ def _outside_message(scene: Scene, objects: list[PreparedObject], x: np.ndarray,
             return (f"{head}, though every Gaussian's centre is above it: its splats are up to {reach:.3g} m across "
                     f"on an object {float(np.ptp(centres, axis=0).max()):.3g} m across; check the file's scales "
                     f"(or raise min_opacity to leave the largest out), or lower the ground's height")
-        return (f"{head}: raise the object's position or lower the ground's height ([[boundary]] kind = "
-                f"\"ground\")")
+        rise = min(grounds) - float(x[below, 2].min())
+        return (f"{head}: raise the object's position by at least {rise:.3g} m or lower the ground's height "
+                f"([[boundary]] kind = \"ground\")")
     where = "[domain] lo/hi" if scene.domain.lo is not None else "the default domain around the objects"
     return (f"{scene.path}: {int(outside.sum())} point(s) of object '{name}' start outside {where} "
             f"[{lo.tolist()}, {hi.tolist()}] (first at {x[k].tolist()}); enlarge [domain] lo/hi or move the object")

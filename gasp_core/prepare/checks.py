@@ -102,3 +102,48 @@ def check_resolution(name: str, extent: np.ndarray, dx: float, n_grid: int, repo
                    f"{report.h:.3g} m and stay shells; n_grid = {math.ceil(n_grid * report.h / report.thin_h)} "
                    f"fills them")
     return out
+
+
+#: Kept floaters (``keep_floaters = true``) may widen an object up to this many times before the default
+#: domain is refused: beyond it they size the grid, whose cells on the object are that many times coarser.
+FAR_FLOATERS = 4.0
+
+
+def check_kept_floaters(path, objects) -> None:
+    """Refuse floaters kept by ``keep_floaters = true`` that would size the default domain (no ``[domain]``
+    ``lo``/``hi``): a Gaussian 100 m from a 20 cm donut made cells of 12.5 m and the donut a 980 m^3 shell;
+    the bundled ``spinach_4.splatv`` whole reached 2 km.
+
+    Parameters
+    ----------
+    path : str or Path
+        The scene file, for the message.
+    objects : list of PreparedObject
+        The simulated objects; whole objects (no ``select``, ``mesh`` or floaters dropped) with
+        ``keep_floaters`` are judged by :func:`gasp_core.maps.floaters.find_floaters` in the world frame.
+
+    Raises
+    ------
+    SceneError
+        Their floaters widen the object more than :data:`FAR_FLOATERS` times: names the count, the distance,
+        both extents and the keys that fix it.
+    """
+    from gasp_core.maps.floaters import find_floaters
+    for o in objects:
+        if not o.spec.keep_floaters or o.spec.select is not None or o.spec.mesh is not None or o.moving is not None:
+            continue
+        floating = find_floaters(o.tri_rest[:, 0], o.scales_rest.max(axis=1))
+        if not floating.any():
+            continue
+        body = o.tri_rest[~floating].reshape(-1, 3)
+        lo, hi = body.min(axis=0), body.max(axis=0)
+        whole = float(np.ptp(o.tri_rest.reshape(-1, 3), axis=0).max())
+        size = float(np.ptp(body, axis=0).max())
+        if whole > FAR_FLOATERS * size:
+            c = o.tri_rest[floating].reshape(-1, 3)     # their splats' footprints too
+            far = float(np.linalg.norm(np.maximum(lo - c, 0.0) + np.maximum(c - hi, 0.0), axis=1).max())
+            raise SceneError(f"{path}: object '{o.name}': keep_floaters = true keeps {int(floating.sum())} floater(s) "
+                             f"(Gaussians detached from the object) up to {far:.3g} m from it, so the default domain "
+                             f"spans {whole:.3g} m for an object {size:.3g} m across (its grid cells "
+                             f"{whole / size:.0f}x coarser); set keep_floaters = false to leave them static, select "
+                             f"the part that moves (select), or give [domain] lo/hi")

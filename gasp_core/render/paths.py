@@ -112,7 +112,7 @@ def keyframe_path(file):
     for k, (f, p, q) in enumerate(zip(frames, pos, look)):
         if not (np.isfinite(f) and np.isfinite(p).all() and np.isfinite(q).all()):
             raise SceneError(f"{file}: keyframe {k}: frame, position and look_at must be finite numbers, got "
-                             f"frame {f!r}, position {p.tolist()}, look_at {q.tolist()}")
+                             f"frame {float(f)}, position {p.tolist()}, look_at {q.tolist()}")
         if np.array_equal(p, q):
             raise SceneError(f"{file}: keyframe {k}: position and look_at are the same point {p.tolist()}")
     order = np.argsort(frames, kind="stable")

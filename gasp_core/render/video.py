@@ -29,34 +29,52 @@ def write_frames(frames: Iterable[np.ndarray], output, fps: float = 30.0, overwr
     Raises
     ------
     SceneError
-        ``output`` exists and ``overwrite`` is false, its folder is missing, or no frame was given.
+        ``output`` exists and ``overwrite`` is false, its folder is missing, no frame was given, or an
+        error without a file name (a full disk) while writing it.
     ImportError
         For ``.mp4`` without imageio-ffmpeg (``pip install -e ".[render]"``).
     """
-    import imageio.v3 as iio
     out = Path(output)
     _check_target(out, overwrite)
-    suffix = out.suffix.lower()
-    if suffix in VIDEO_SUFFIXES:
-        with atomic_path(out, overwrite=True) as tmp:
+    try:
+        if out.suffix.lower() in VIDEO_SUFFIXES:
+            _write_video(out, frames, fps)
+        else:
+            _write_folder(out, frames, overwrite)
+    except OSError as e:    # an error without a file name (a full disk while writing) names the output
+        if e.filename:
+            raise
+        raise SceneError(f"output '{out}': {e.strerror or e}") from e
+    return out
+
+
+def _write_video(out: Path, frames: Iterable[np.ndarray], fps: float) -> int:
+    """``out`` (``.mp4`` or ``.gif``) written atomically from ``frames``; their count (nothing written at 0)."""
+    import imageio.v3 as iio
+    with atomic_path(out, overwrite=True) as tmp:
+        if out.suffix.lower() == ".mp4":
+            import imageio.v2 as iio2
             count = 0
-            if suffix == ".mp4":
-                import imageio.v2 as iio2
-                with iio2.get_writer(tmp, format="FFMPEG", fps=fps, codec="libx264", quality=8,
-                                     pixelformat="yuv420p", macro_block_size=8) as w:
-                    for img in frames:
-                        w.append_data(img)
-                        count += 1
-            else:   # encoded in memory, then written: a full disk is one OSError, not a writer's __del__ traceback
-                stack = [img for img in frames]
-                count = len(stack)
-                if count:
-                    data = iio.imwrite("<bytes>", np.stack(stack), extension=".gif", duration=1000.0 / fps, loop=0)
-                    with open(tmp, "wb") as f:
-                        f.write(data)
-            if count == 0:
-                raise SceneError(f"output '{out}': no frames to write")
-        return out
+            with iio2.get_writer(tmp, format="FFMPEG", fps=fps, codec="libx264", quality=8,
+                                 pixelformat="yuv420p", macro_block_size=8) as w:
+                for img in frames:
+                    w.append_data(img)
+                    count += 1
+        else:   # encoded in memory, then written: a full disk is one OSError, not a writer's __del__ traceback
+            stack = [img for img in frames]
+            count = len(stack)
+            if count:
+                data = iio.imwrite("<bytes>", np.stack(stack), extension=".gif", duration=1000.0 / fps, loop=0)
+                with open(tmp, "wb") as f:
+                    f.write(data)
+        if count == 0:
+            raise SceneError(f"output '{out}': no frames to write")   # leaves nothing behind
+    return count
+
+
+def _write_folder(out: Path, frames: Iterable[np.ndarray], overwrite: bool) -> int:
+    """A folder ``out`` of ``frame_0000.png ...`` written atomically from ``frames``; their count."""
+    import imageio.v3 as iio
     with output_folder(out, overwrite=overwrite) as tmpdir:
         count = 0
         for i, img in enumerate(frames):
@@ -64,7 +82,7 @@ def write_frames(frames: Iterable[np.ndarray], output, fps: float = 30.0, overwr
             count += 1
         if count == 0:
             raise SceneError(f"output '{out}': no frames to write")
-    return out
+    return count
 
 
 def write_png(img: np.ndarray, output) -> Path:

@@ -43,8 +43,9 @@ STATE_KEYS = ("x", "v", "C", "F_e", "Jp", "stress")
 
 
 def init_warp(cpu_only: bool) -> None:
-    """``wp.init()`` with its output kept off stdout: on a CPU run the native "CUDA driver" warning of a
-    machine without GPU is dropped; every other line goes to stderr."""
+    """``wp.init()`` with its output kept off stdout: the native "CUDA driver" warning of a machine without GPU
+    is dropped (on a CUDA run the engine refuses in its own one line), on a CPU run any other CUDA line too;
+    every other line goes to stderr."""
     import warp as wp
     with tempfile.TemporaryFile(mode="w+b") as cap:
         sys.stdout.flush()
@@ -65,7 +66,7 @@ def init_warp(cpu_only: bool) -> None:
             os.close(saved[1])
         cap.seek(0)
         for line in cap.read().decode(errors="replace").splitlines():
-            if not (cpu_only and "CUDA" in line):
+            if not ("CUDA driver" in line or (cpu_only and "CUDA" in line)):
                 print(line, file=sys.stderr)
 
 
@@ -147,6 +148,9 @@ class NewtonEngine:
             from newton.solvers import SolverImplicitMPM
         except ImportError as e:
             raise EngineError(f"engine 'newton': cannot import newton ({e}); pip install newton") from e
+        if str(self.device).startswith("cuda") and not wp.is_cuda_available():   # before Warp prints its errors
+            raise EngineError(f"engine 'newton': device {self.device!r} requested but Warp finds no CUDA device here "
+                              f"(driver missing or no GPU); use device = \"cpu\"")
         try:
             self._wp_device = wp.get_device(self.device)
         except (ValueError, RuntimeError) as e:

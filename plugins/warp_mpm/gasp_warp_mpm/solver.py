@@ -110,7 +110,7 @@ class WarpMPMEngine(GridEngineBase):
 
         Raises EngineError where that device is missing."""
         wp.config.log_level = wp.LOG_WARNING  # no start-up banner or module-load lines on stdout
-        init_warp(cpu_only=not dev.startswith("cuda"))
+        init_warp()
         if dev.startswith("cuda") and not wp.is_cuda_available():
             raise EngineError(f"engine '{ENGINE}': device '{dev}' requested but Warp finds no CUDA "
                               f"device here (driver missing or no GPU); use device = \"cpu\"")

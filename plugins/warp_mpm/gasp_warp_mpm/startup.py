@@ -2,16 +2,16 @@
 import warp as wp
 
 
-def init_warp(cpu_only: bool) -> None:
-    """``wp.init()``; on a CPU run, drop the native "no CUDA driver" warning it prints on machines
-    without a GPU (it is written by Warp's C++ core to the process's stderr, past Python's
-    ``sys.stderr``). Every other line it prints is passed on."""
+def init_warp() -> None:
+    """``wp.init()`` without the native "no CUDA driver" warning it prints on machines without a GPU
+    (written by Warp's C++ core to the process's stderr, past Python's ``sys.stderr``). Every other line
+    it prints is passed on.
+
+    On a CPU run the warning is noise; on a CUDA run the engine refuses in its own one line
+    (:meth:`gasp_warp_mpm.solver.WarpMPMEngine._start_warp`), so Warp's line beside it is dropped too."""
     import os
     import sys
     import tempfile
-    if not cpu_only:
-        wp.init()
-        return
     with tempfile.TemporaryFile(mode="w+b") as cap:
         sys.stderr.flush()
         saved = os.dup(2)
