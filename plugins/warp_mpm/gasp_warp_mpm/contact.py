@@ -4,7 +4,7 @@
 
 - :func:`build_contact` ``plane_contact``: in P2G, a point's normal impulse ``j_n = max(0, dt (k depth - c v_z))``
   summed over the planes less than its skin below its centre (``depth = height + skin - z``), and its friction
-  budget ``sum mu j_n``; ``scatter_budget`` adds the budget to its nodes with its weights;
+  budget ``sum mu j_n``, which P2G adds to its nodes with its weights (``transfers.scatter_scalar``);
 - ``node_friction``: in the grid update, the node's tangential (x, y) velocity loses ``min(budget / m, |v_t|)``.
 
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of
@@ -19,7 +19,7 @@ from .precision import build_types
 
 @functools.cache
 def build_contact(Ft):
-    """``(plane_contact, scatter_budget, node_friction)`` Warp functions of the scalar type ``Ft``."""
+    """``(plane_contact, node_friction)`` Warp functions of the scalar type ``Ft``."""
     vec3, vec4, mat33 = build_types(Ft)
     vec2 = wp.types.vector(2, Ft)
 
@@ -37,16 +37,6 @@ def build_contact(Ft):
         return vec2(jn, budget)
 
     @wp.func
-    def scatter_budget(grid_fb: wp.array(dtype=Ft), idx0: int, n_grid: int, W: mat33, budget: Ft):
-        # grid_fb += w budget over the 27 nodes from flat index idx0
-        nn = n_grid * n_grid
-        for i in range(3):
-            for j in range(3):
-                row = idx0 + i * nn + j * n_grid
-                for k in range(3):
-                    grid_fb[row + k] += (W[i, 0] * W[j, 1] * W[k, 2]) * budget
-
-    @wp.func
     def node_friction(vel: vec3, m: Ft, fb: Ft):
         # Coulomb friction of the budget fb (kg m/s) on a node of mass m: stops, never reverses, v_t
         vt = vec3(vel[0], vel[1], Ft(0.0))
@@ -56,4 +46,4 @@ def build_contact(Ft):
             out = vel - (wp.min(fb / m, lt) / lt) * vt
         return out
 
-    return plane_contact, scatter_budget, node_friction
+    return plane_contact, node_friction

@@ -47,7 +47,7 @@ def build_grid_update(Ft):
     vec3, vec4, mat33 = build_types(Ft)
     collide = build_collide(Ft)
     Extras, extras = build_extras(Ft)
-    node_friction = build_contact(Ft)[2]
+    node_friction = build_contact(Ft)[1]
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def grid_update(

@@ -115,7 +115,7 @@ def build_p2g(Ft):
     in_grid, weights = build_stencil(Ft)
     return_mapping = build_return_mapping(Ft)
     scatter, scatter_wind, scatter_scalar = build_scatter(Ft)
-    plane_contact, scatter_budget, _ = build_contact(Ft)
+    plane_contact, _ = build_contact(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def p2g(
@@ -156,7 +156,7 @@ def build_p2g(Ft):
             jb = plane_contact(planes, p_contact[p], x[p][2], v[p][2], dt)
             mom0 = mom0 + vec3(Ft(0.0), Ft(0.0), jb[0])
             if jb[1] > Ft(0.0):
-                scatter_budget(grid_fb, idx0, n_grid, W, jb[1])
+                scatter_scalar(grid_fb, idx0, n_grid, W, jb[1])   # the friction budget
         scatter(grid_mv, idx0, n_grid, W, mom0, A, pm)
         if flip != 0:
             A0 = (dx * pm) * Cp
