@@ -207,6 +207,8 @@ def build_parser() -> argparse.ArgumentParser:
     add_conform_parser(sub)
     from gasp_core.render.cli import add_parsers as add_render_parsers
     add_render_parsers(sub)
+    from gasp_core.studio.cli import add_parser as add_studio_parser
+    add_studio_parser(sub)
 
     x = sub.add_parser("export-soup", help="write the rest triangle soup per object (OBJ, PLY, ...) for a mesh tool")
     x.add_argument("scene", type=Path, help="scene file (.toml)")

@@ -35,7 +35,7 @@ if TYPE_CHECKING:
     from gasp_core.prepare.placement import Placement, PreparedObject
     from gasp_core.scene.spec import ObjectSpec
 
-__all__ = ["GROW_SIGMAS", "grow_selection", "moving_rows", "region_rows", "scatter", "selection_record",
+__all__ = ["GROW_SIGMAS", "component_labels", "grow_selection", "moving_rows", "region_rows", "scatter", "selection_record",
            "selection_totals", "static_rows", "static_splats", "world_triangles", "flat_world"]
 
 #: Splat radius used by :func:`grow_selection`: this many times the Gaussian's largest scale (2 sigma).
@@ -179,6 +179,19 @@ def grow_selection(rows: np.ndarray, means: np.ndarray, radii: np.ndarray,
     everything its radius covers: in a scene with big background splats, growing can take in
     much of the scene (``run.json`` records ``n_selected``).
     """
+    label = component_labels(means, radii, linking)
+    keep = np.isin(label, np.unique(label[rows]))
+    keep[rows] = True
+    return np.flatnonzero(keep)
+
+
+def component_labels(means: np.ndarray, radii: np.ndarray, linking: np.ndarray | None = None) -> np.ndarray:
+    """The connected piece of every Gaussian under :func:`grow_selection`'s rule (its label), shape (n,), int.
+
+    Two Gaussians are linked when the centre of one lies within the other's splat,
+    ``|m_i - m_j| <= max(r_i, r_j)``; only Gaussians marked in ``linking`` (default all) link, the others are
+    pieces of their own. Labels from :func:`scipy.sparse.csgraph.connected_components`.
+    """
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
@@ -196,10 +209,7 @@ def grow_selection(rows: np.ndarray, means: np.ndarray, radii: np.ndarray,
                                      count=int(counts.sum()))])
     src, dst = np.concatenate(src), np.concatenate(dst)
     graph = coo_matrix((np.ones(len(src), np.int8), (src, dst)), shape=(n, n))
-    _, label = connected_components(graph, directed=False)
-    keep = np.isin(label, np.unique(label[rows]))
-    keep[rows] = True
-    return np.flatnonzero(keep)
+    return connected_components(graph, directed=False)[1]
 
 
 def moving_rows(spec: ObjectSpec, g: Gaussians, pl: Placement,

@@ -1,0 +1,295 @@
+"""``gasp studio``: a splat file or scene in the browser (viser); click to select, pick a material, run, watch.
+
+* **select:** a click casts the browser camera's ray and takes the splat a renderer shows there
+  (:func:`gasp_core.studio.pick.ray_pick`), then its whole connected piece (the ``grow`` rule of
+  :mod:`gasp_core.prepare.selection`); shift-click adds a piece, a click on a selected piece removes it, a
+  click on the background selects nothing and says so; ctrl-drag draws a box that selects the centres inside
+  it (ctrl-shift-drag adds), for what clicks cannot separate. The selection is drawn tinted, with its count
+  and size.
+* **set up:** material (the installed engines' models, with their keys; typical values from ``docs/``), up
+  axis (guessed as ``gasp info`` guesses), drop height, ground, engine, quality level, frames.
+* **run:** :class:`gasp_core.studio.job.Job` runs ``gasp simulate`` on the studio's scene file in another
+  process; its frames appear as their files are written, its warnings and its one-line errors in the page.
+  Stop keeps the finished frames; resume continues them.
+* **keep:** save the scene (TOML with ``select = { mask = ... }``), which ``gasp simulate`` reproduces bit for
+  bit, and export the run as a self-contained page (``gasp view --export``).
+"""
+from __future__ import annotations
+
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+
+from gasp_core.errors import GaspError
+from gasp_core.studio import form as form_mod
+from gasp_core.studio.pick import box_rows, ray_pick
+from gasp_core.studio.scene import StudioScene
+from gasp_core.studio.stream import RunStream
+
+#: Tint of selected splats (orange), and how much of it.
+HIGHLIGHT, HIGHLIGHT_MIX = np.array([1.0, 0.45, 0.0], np.float32), 0.6
+
+
+def piece_labels(means: np.ndarray, radii: np.ndarray, linking: np.ndarray) -> np.ndarray:
+    """Which piece each Gaussian belongs to, shape (n,), int: the connected pieces of the opaque Gaussians
+    (:func:`gasp_core.prepare.selection.component_labels`), and each faint one (``linking`` false) joins the piece
+    of its nearest opaque Gaussian when either splat holds the other's centre (the same link rule), so that a
+    selected object takes its faint halo with it instead of leaving it hanging where it was."""
+    from scipy.spatial import cKDTree
+    from gasp_core.prepare.selection import component_labels
+    label = component_labels(means, radii, linking)
+    faint, opaque = np.flatnonzero(~linking), np.flatnonzero(linking)
+    if len(faint) and len(opaque):
+        dist, j = cKDTree(means[opaque]).query(means[faint])
+        near = opaque[j]
+        joins = dist <= np.maximum(radii[faint], radii[near])
+        label[faint[joins]] = label[near[joins]]
+    return label
+
+
+class Studio:
+    """The studio's server: one :class:`StudioScene`, its page, and at most one run at a time.
+
+    Parameters
+    ----------
+    path : path-like
+        Splat file or scene TOML.
+    workdir : path-like
+        The studio's folder (working scene, masks, runs ``run1``, ``run2``, ...).
+    host, port : str, int
+        Where viser listens (port 0: the next free one from 8080).
+
+    Raises
+    ------
+    SceneError
+        The file or scene cannot be opened (one line).
+    ImportError
+        Without viser (``pip install -e ".[view]"``).
+    """
+
+    def __init__(self, path, workdir, host: str = "127.0.0.1", port: int = 8080):
+        import viser
+        self.scene = StudioScene(path, workdir)
+        self._lock = threading.RLock()
+        self.labels: list[np.ndarray | None] = [None] * len(self.scene.pieces)
+        self.stream: RunStream | None = None
+        self.message_log: list[str] = []
+        self.server = viser.ViserServer(host=host, port=port, verbose=False)
+        self._handles: list = []
+        self._frame_handle = None
+        self._frame_shown = -1
+        self._camera()
+        self.form = form_mod.Form(self)
+        self._draw()
+        self.server.scene.on_click()(lambda e: self.click(e.ray_origin, e.ray_direction, add=False))
+        self.server.scene.on_click(modifier="shift")(lambda e: self.click(e.ray_origin, e.ray_direction, add=True))
+        self.server.scene.on_rect_select(modifier="cmd/ctrl")(lambda e: self.box(e, add=False))
+        self.server.scene.on_rect_select(modifier="cmd/ctrl+shift")(lambda e: self.box(e, add=True))
+        self._stop = threading.Event()
+        threading.Thread(target=self._find_pieces, daemon=True).start()
+        self._poller = threading.Thread(target=self._poll, daemon=True)
+        self._poller.start()
+
+    @property
+    def port(self) -> int:
+        return self.server.get_port()
+
+    # -- drawing ----------------------------------------------------------------------------------------
+    def _camera(self) -> None:
+        s = self.server
+        means = np.concatenate([p.means for p in self.scene.pieces])
+        lo, hi = np.percentile(means, 1, axis=0), np.percentile(means, 99, axis=0)
+        size, centre = float(np.max(hi - lo)), 0.5 * (lo + hi)
+        s.scene.set_up_direction("+z")
+        s.scene.add_grid("/ground", width=4 * size, height=4 * size, cell_size=size / 8, section_size=size / 2,
+                         position=(float(centre[0]), float(centre[1]), 0.0))
+        s.initial_camera.look_at = tuple(float(x) for x in centre)
+        s.initial_camera.position = tuple(float(x) for x in centre + size * np.array([0.0, -1.8, 1.2]))
+        s.initial_camera.up = (0.0, 0.0, 1.0)
+
+    def _draw(self) -> None:
+        """Show every piece at rest with its selection tinted (the page before a run, or after "Clear run")."""
+        with self._lock:
+            self._drop_frames()
+            for h in self._handles:
+                h.remove()
+            self._handles = []
+            for p in self.scene.pieces:
+                self._handles.append(self.server.scene.add_gaussian_splats(
+                    f"/scene/object{p.index}", centers=p.means.astype(np.float32), covariances=p.covs,
+                    rgbs=self._tinted(p), opacities=p.opacities[:, None]))
+
+    def _tinted(self, p) -> np.ndarray:
+        rgb = p.rgb.copy()
+        rgb[p.selected] = (1 - HIGHLIGHT_MIX) * rgb[p.selected] + HIGHLIGHT_MIX * HIGHLIGHT
+        return rgb
+
+    def _retint(self) -> None:
+        with self._lock:
+            for p, h in zip(self.scene.pieces, self._handles):
+                h.rgbs = self._tinted(p)
+
+    def say(self, text: str) -> None:
+        """Show ``text`` (one line) in the page's message box, newest first."""
+        self.message_log = [text, *self.message_log][:6]
+        self.form.set_messages(self.message_log)
+
+    # -- selection --------------------------------------------------------------------------------------
+    def _find_pieces(self) -> None:
+        """The connected pieces of every object (``grow``'s graph, seconds on a large file), once, in the background."""
+        for p in self.scene.pieces:
+            self.labels[p.index] = piece_labels(p.means, p.radii, p.linking)
+
+    def click(self, origin, direction, add: bool = False) -> str:
+        """A click's ray: select the piece it hits (module notes). Returns the line said in the page."""
+        hits = [(h, p) for p in self.scene.pieces
+                if (h := ray_pick(p.means, p.rotmats, p.scales, p.opacities, origin, direction)) is not None]
+        if not hits:
+            if not add:
+                for p in self.scene.pieces:
+                    p.selected[:] = False
+                self._retint()
+            return self._said("Nothing selected: the click hit no splat (the ray reached the background)")
+        hit, p = min(hits, key=lambda hp: hp[0].depth)
+        if p.static:
+            return self._said(f"object #{p.index + 1} is static = true (never simulated): it cannot be selected")
+        while self.labels[p.index] is None:
+            time.sleep(0.05)
+        piece = self.labels[p.index] == self.labels[p.index][hit.row]
+        if p.selected[hit.row]:
+            p.selected[piece] = False
+            verb = "removed"
+        else:
+            if not add:
+                for q in self.scene.pieces:
+                    q.selected[:] = False
+            p.selected |= piece
+            verb = "selected"
+        self._retint()
+        return self._said(f"{verb} {int(piece.sum()):,} Gaussians ({self._extent(p.means[piece])}) of object "
+                          f"#{p.index + 1}; now {self.selection_text()}")
+
+    def box(self, event, add: bool = False) -> str:
+        """A ctrl-drag box: the Gaussians whose centres project inside it (the event's camera)."""
+        cam = event.client.camera
+        if not add:
+            for p in self.scene.pieces:
+                p.selected[:] = False
+        n = 0
+        for p in self.scene.pieces:
+            if p.static:
+                continue
+            rows = box_rows(p.means, cam.position, cam.wxyz, cam.fov, cam.aspect, event.screen_min, event.screen_max)
+            p.selected[rows] = True
+            n += len(rows)
+        self._retint()
+        if not n:
+            return self._said("Nothing selected: no splat centre lies inside the box")
+        return self._said(f"box: {n:,} Gaussians; now {self.selection_text()}")
+
+    def selection_text(self) -> str:
+        parts = [f"{int(p.selected.sum()):,} of {p.n:,} Gaussians of object #{p.index + 1} "
+                 f"({self._extent(p.means[p.selected])})" for p in self.scene.pieces if p.selected.any()]
+        return "; ".join(parts) if parts else "nothing selected"
+
+    @staticmethod
+    def _extent(x: np.ndarray) -> str:
+        if not len(x):
+            return "-"
+        size = np.percentile(x, 99, axis=0) - np.percentile(x, 1, axis=0)
+        return " x ".join(f"{v:.3g}" for v in size) + " m"
+
+    def _said(self, text: str) -> str:
+        self.say(text)
+        self.form.set_selection(self.selection_text())
+        return text
+
+    # -- runs -------------------------------------------------------------------------------------------
+    def run(self, resume: bool = False) -> str:
+        """Write the studio's scene and start ``gasp simulate`` on it (or ``--resume`` the stopped run)."""
+        with self._lock:
+            if self.stream is not None and self.stream.job.running:
+                return self._said("a run is in progress: stop it first")
+            try:
+                self.form.apply()
+                if resume and self.stream is not None:
+                    self.stream = self.stream.resumed()
+                else:
+                    self.scene.write(self.scene.scene_file, overwrite=True)
+                    self.stream = RunStream.start(self.scene, self.form.run_options())
+            except (GaspError, OSError) as e:
+                return self._said(str(e))
+            self._drop_frames()
+            self.form.reset_timeline()
+            return self._said(f"running {self.stream.outdir.name}: {' '.join(self.form.run_options())}")
+
+    def stop_run(self) -> str:
+        if self.stream is None or not self.stream.job.running:
+            return self._said("no run in progress")
+        return self._said(f"{self.stream.outdir.name}: {self.stream.job.stop()}")
+
+    def _drop_frames(self) -> None:
+        if self._frame_handle is not None:
+            self._frame_handle.remove()
+            self._frame_handle = None
+            self._frame_shown = -1
+            for h in self._handles:
+                h.visible = True
+
+    def show_frame(self, k: int) -> None:
+        """Show frame ``k`` of the current run (the rest scene is hidden while a run's frame is shown)."""
+        with self._lock:
+            if self.stream is None or not 0 <= k < self.stream.n_ready or k == self._frame_shown:
+                return
+            sp = self.stream.splats(k)
+            arrays = (sp.means.astype(np.float32), sp.covs.astype(np.float32), sp.rgb, sp.opacities[:, None])
+            if self._frame_handle is None:
+                self._frame_handle = self.server.scene.add_gaussian_splats(
+                    "/run", centers=arrays[0], covariances=arrays[1], rgbs=arrays[2], opacities=arrays[3])
+                for h in self._handles:
+                    h.visible = False
+            else:
+                self._frame_handle.set_gaussians(*arrays)
+            self._frame_shown = k
+
+    def _poll(self) -> None:
+        """Follow the run: new frames onto the timeline (the newest shown while the slider is at the end),
+        its warnings and its end into the page."""
+        seen_events = 0
+        while not self._stop.wait(0.25):
+            stream = self.stream
+            if stream is None:
+                continue
+            try:
+                grew = stream.refresh()
+            except GaspError as e:
+                self.say(str(e))
+                continue
+            events = stream.job.snapshot()
+            for e in events[seen_events:]:
+                if e.get("event") in ("warning", "error", "result"):
+                    self.say(f"{e['event']}: {e.get('message', '')}")
+            seen_events = len(events)
+            self.form.set_run_status(stream.status())
+            if grew:
+                self.form.timeline_grew(stream.n_ready)
+
+    def stop(self) -> None:
+        """Stop following, stop a run in progress (its frames kept for resume), close the server."""
+        self._stop.set()
+        if self.stream is not None and self.stream.job.running:
+            self.stream.job.stop()
+        self.server.stop()
+
+
+def serve(path, workdir, host: str = "127.0.0.1", port: int = 8080) -> None:
+    """Serve the studio until interrupted (Ctrl-C)."""
+    st = Studio(path, workdir, host, port)
+    print(f"gasp studio: http://{host}:{st.port}  ({Path(path).name}; files in {workdir}; Ctrl-C to stop)", flush=True)
+    try:
+        while True:
+            time.sleep(1.0)
+    finally:
+        st.stop()
