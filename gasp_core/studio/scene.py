@@ -162,6 +162,7 @@ class StudioScene:
             self.up_guess = None
             self.doc = absolute_paths(tomllib.loads(self.path.read_text(encoding="utf-8")), self.path.parent)
             del scene
+        self.workdir.mkdir(parents=True, exist_ok=True)
         self.scene_file = self.workdir / "scene.toml"
         self.pieces: list[Piece] = []
         self.replace(self.doc, keep_selection=False)
