@@ -112,12 +112,7 @@ def simulate_scene(scene: Scene, outdir: str | Path, request: SimulateRequest | 
         run.prep = prepare_scene(scene, req.engine)
         run.fingerprint = resume_mod.fingerprint(scene, run.prep.info.name, run.prep.setup.options, n_frames,
                                                  output=(run.fmt, run.layout))
-        if req.resume:
-            _continue_partial(run, outdir)
-        else:
-            _start_partial(run, claim, outdir)
-        atomic_json(run.tmp / "run.json", running_record(run.prep, run.stats, n_frames, list(run.per_frame),
-                                                         run.fmt, run.layout))   # for a viewer of the run in progress
+        _open_partial(run, claim, outdir, req.resume, n_frames)
         run_s = _write_frames(run, n_frames, on_frame)
         summary = run_summary(run.prep, run.stats, n_frames, run.per_frame, run_s)
         if run.checkpoint is not None:
@@ -160,6 +155,17 @@ class _Run:
     files: dict = field(default_factory=dict)
     #: Files written since the last checkpoint (frame 0's are written before the engine can save its state).
     unrecorded: list = field(default_factory=list)
+
+
+def _open_partial(run: _Run, claim: OutputClaim, outdir: Path, resume: bool, n_frames: int) -> None:
+    """Take over a killed run's partial folder (``resume``) or claim a fresh one, and write into it the
+    preliminary ``run.json`` a reader of the run in progress needs (:func:`running_record`)."""
+    if resume:
+        _continue_partial(run, outdir)
+    else:
+        _start_partial(run, claim, outdir)
+    atomic_json(run.tmp / "run.json", running_record(run.prep, run.stats, n_frames, list(run.per_frame),
+                                                     run.fmt, run.layout))
 
 
 def _continue_partial(run: _Run, outdir: Path) -> None:
