@@ -150,6 +150,7 @@ class RunViewer:
 
 def serve(run_dir, host: str = "127.0.0.1", port: int = 8080) -> None:
     """Serve ``run_dir`` until interrupted (Ctrl-C); a run in progress is followed (one line says so)."""
+    import viser  # noqa: F401  (without the view extra: that error first, whatever the folder)
     live = LiveRun(run_dir)
     if live.status in LIVE and live.n_frames == 0:
         print(f"gasp view: {run_dir} is a run in progress; waiting for its first frame", flush=True)
