@@ -71,7 +71,8 @@ def add_parsers(sub) -> None:
     r.add_argument("-q", "--quiet", action="store_true", help="no progress bar (default: show one)")
     r.set_defaults(func=cmd_render)
     v = sub.add_parser("view", help="play a run in the browser (viser)")
-    v.add_argument("run", help="run folder written by 'gasp simulate'")
+    v.add_argument("run", help="run folder written by 'gasp simulate'; a run still in progress shows its frames so far "
+                               "and follows the new ones")
     v.add_argument("--host", default="127.0.0.1", help="interface to listen on (default 127.0.0.1: this machine only)")
     v.add_argument("--port", type=int, default=8080, help="TCP port (default 8080)")
     v.add_argument("--export", default=None, metavar="PAGE",

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterable, Sequence
 
@@ -31,6 +31,8 @@ class Run:
     ground_z: float | None
     frame_dt: float
     label: str
+    #: The whole ``run.json`` (a run in progress: ``status``, ``n_frames`` to come, :mod:`gasp_core.render.live`).
+    meta: dict = field(default_factory=dict, repr=False)
 
     def __post_init__(self):
         self._rest_rotmats: dict[int, np.ndarray] = {}
@@ -86,7 +88,7 @@ def load_run(path) -> Run:
         raise SceneError(f"{meta_path}: unusable boundaries[].height or frame_dt ({e!r})") from None
     frames = open_frames(path)
     return Run(path, objects, frames, min(grounds) if grounds else None, frame_dt,
-               f"{meta.get('engine', '')}" or path.name)
+               f"{meta.get('engine', '')}" or path.name, meta)
 
 
 def sequence_bounds(frames: Iterable[Splats], q: float = 0.1) -> tuple[np.ndarray, np.ndarray]:

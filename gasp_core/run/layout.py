@@ -12,7 +12,8 @@ Two layouts, in any output format (``--format ply|compressed_ply|spz|sog``):
     only the rows that move. The default for the compressed formats.
 
 Both write ``frames.json``, the manifest: format, layout, and per object its Gaussian count and the
-files (relative to the run folder) of each frame. :func:`open_frames` reads a run folder of any
+files (relative to the run folder) of each frame. It is rewritten (atomically) after every frame, listing the
+frames whose files are complete, so a reader can follow a run in progress (:mod:`gasp_core.render.live`). :func:`open_frames` reads a run folder of any
 layout, and a folder of an older run without a manifest (``<object>/frame_*.ply``);
 ``gasp render``, ``gasp view`` and ``--resume`` read frames through it.
 """
@@ -94,7 +95,8 @@ class FrameWriter:
         self.once = [{} for _ in self.names]
 
     def write(self, frame: int, gs: list[Gaussians]) -> list[str]:
-        """Write frame ``frame`` of every object (``gs``: whole objects, input order).
+        """Write frame ``frame`` of every object (``gs``: whole objects, input order), then the manifest
+        listing frames ``0..frame`` (the frames before it are on disk: written in order, or kept by ``--resume``).
 
         Returns the files it needs, relative to ``folder`` (those written once included), for ``--resume``'s check.
         """
@@ -118,6 +120,7 @@ class FrameWriter:
                 files += [self.once[k]["rest"], self.once[k]["moving_rows"]]
             write_file(self.folder / rel, g, self.fmt, overwrite=self.overwrite)
             files.append(rel)
+        self.finish(frame, [g.n for g in gs])   # frames 0..frame complete: what a reader of the live run sees
         return files
 
     def _once(self, k: int, what: str, g: Gaussians) -> None:
@@ -130,7 +133,7 @@ class FrameWriter:
         self.once[k][what] = rel
 
     def finish(self, n_frames: int, counts: list[int]) -> Path:
-        """Write the manifest ``frames.json`` (frames ``0..n_frames``; ``counts``: Gaussians per object)."""
+        """Write the manifest ``frames.json`` (frames ``0..n_frames``; ``counts``: Gaussians per object), atomically."""
         objects = []
         for k, name in enumerate(self.names):
             frames = [] if "static" in self.once[k] else \

@@ -26,7 +26,7 @@ from gasp_core.gs.gaussians import Gaussians
 from gasp_core.run.layout import FrameWriter, default_layout
 from gasp_core.prepare.dynamic import follows_model
 from gasp_core.prepare.scene import PreparedScene, input_files, prepare_scene
-from gasp_core.run.record import run_summary
+from gasp_core.run.record import run_summary, running_record
 from gasp_core.run.report import ConsoleReporter, Reporter
 from gasp_core.run.request import SimulateRequest
 from gasp_core.seam.runner import RunStats
@@ -56,7 +56,10 @@ def simulate_scene(scene: Scene, outdir: str | Path, request: SimulateRequest | 
     Layout: ``OUTDIR/<object>/frame_0000.ply`` (frame 0 = the input state) to
     ``frame_<n_frames>.ply``, that is ``n_frames + 1`` files per object, ``OUTDIR/frames.json``
     (the manifest, :mod:`gasp_core.run.layout`) and ``OUTDIR/run.json`` (engine, versions,
-    parameters, per-frame timings, flatten reports, alpha-rule and degenerate counts).
+    parameters, per-frame timings, flatten reports, alpha-rule and degenerate counts). While the run is in
+    progress its partial folder holds a preliminary ``run.json`` (``status: "running"``,
+    :func:`gasp_core.run.record.running_record`) and a ``frames.json`` of the frames written so far, which
+    :mod:`gasp_core.render.live` reads.
 
     Parameters
     ----------
@@ -109,10 +112,7 @@ def simulate_scene(scene: Scene, outdir: str | Path, request: SimulateRequest | 
         run.prep = prepare_scene(scene, req.engine)
         run.fingerprint = resume_mod.fingerprint(scene, run.prep.info.name, run.prep.setup.options, n_frames,
                                                  output=(run.fmt, run.layout))
-        if req.resume:
-            _continue_partial(run, outdir)
-        else:
-            _start_partial(run, claim, outdir)
+        _open_partial(run, claim, outdir, req.resume, n_frames)
         run_s = _write_frames(run, n_frames, on_frame)
         summary = run_summary(run.prep, run.stats, n_frames, run.per_frame, run_s)
         if run.checkpoint is not None:
@@ -155,6 +155,17 @@ class _Run:
     files: dict = field(default_factory=dict)
     #: Files written since the last checkpoint (frame 0's are written before the engine can save its state).
     unrecorded: list = field(default_factory=list)
+
+
+def _open_partial(run: _Run, claim: OutputClaim, outdir: Path, resume: bool, n_frames: int) -> None:
+    """Take over a killed run's partial folder (``resume``) or claim a fresh one, and write into it the
+    preliminary ``run.json`` a reader of the run in progress needs (:func:`running_record`)."""
+    if resume:
+        _continue_partial(run, outdir)
+    else:
+        _start_partial(run, claim, outdir)
+    atomic_json(run.tmp / "run.json", running_record(run.prep, run.stats, n_frames, list(run.per_frame),
+                                                     run.fmt, run.layout))
 
 
 def _continue_partial(run: _Run, outdir: Path) -> None:

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import dataclasses
+import os
 import platform
 from importlib import metadata
 
@@ -52,6 +53,15 @@ def run_summary(prep, stats, n_frames: int, per_frame: list[dict], wall_s: float
         "colliders": collider_records(setup, per_frame),
         "frames": per_frame,
     }
+
+
+def running_record(prep, stats, n_frames: int, per_frame: list[dict], fmt: str, layout: str) -> dict:
+    """The ``run.json`` a run writes into its partial folder before its first frame, for a reader of the run in
+    progress (:mod:`gasp_core.render.live`): :func:`run_summary` of the frames so far (none for a fresh run, the
+    checkpoint's for a resumed one) with ``status: "running"``, the output ``format`` and ``layout``, and the
+    writer's ``pid``. The finished (or stopped) run's record replaces it."""
+    return {**run_summary(prep, stats, n_frames, per_frame, 0.0), "status": "running", "format": fmt,
+            "layout": layout, "pid": os.getpid()}
 
 
 def ground_in_file_frame(placement, height: float) -> dict:
