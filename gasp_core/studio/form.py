@@ -35,19 +35,22 @@ def typical(material: str) -> dict:
     return {k: given.get(k, MATERIAL_PARAMS[k].default) for k in MATERIAL_KINDS[material].keys}
 
 
-#: Engines the studio offers first, in this order (the MLS-MPM pair, which answer first: docs/studio.md); the
-#: others installed follow by name.
-PREFERRED_ENGINES = ("warp_mpm", "taichi_mpm")
+def _engine_rank(info) -> tuple:
+    """Engines the studio offers first: those taking every engine option of the studio's quality level (the
+    engines the levels were measured on, docs/speed_accuracy.md), then those whose CPU runs repeat bit for bit
+    without a special option (so a saved scene reproduces the studio's run exactly), then by name."""
+    from gasp_core.scene.quality import PRESETS
+    caps, declared = info.capabilities, {o.name for o in info.options}
+    return (not set(PRESETS[STUDIO_LEVEL].options) <= declared,
+            "cpu" not in caps.deterministic or bool(info.deterministic_options), info.name)
 
 
 def installed_engines(material: str | None = None) -> list[str]:
-    """Engines installed and able to run here (and, given ``material``, offering it): :data:`PREFERRED_ENGINES`
-    first, then the others by name."""
+    """Engines installed and able to run here (and, given ``material``, offering it), best first (:func:`_engine_rank`)."""
     from gasp_core.seam.plugins import engines
-    found = engines()
-    names = [n for n in PREFERRED_ENGINES if n in found] + sorted(n for n in found if n not in PREFERRED_ENGINES)
-    return [n for n in names if found[n].unavailable_reason() is None and
-            (material is None or material in found[n].capabilities.materials)]
+    ok = [info for info in engines().values() if info.unavailable_reason() is None and
+          (material is None or material in info.capabilities.materials)]
+    return [info.name for info in sorted(ok, key=_engine_rank)]
 
 
 class Form:
