@@ -240,3 +240,53 @@ def test_a_zombie_is_not_running():
         assert not live_mod._running(p.pid) and live_mod._running(os.getpid())
     finally:
         p.wait()
+
+
+@pytest.mark.slow
+def test_the_page_of_a_run_in_progress_says_so_and_shows_the_new_frames(tmp_path, donut_small):
+    """Headless Chromium (as tests/test_view.py): the page of a run held at a few frames says ``running``, then
+    ``finished`` once it completes, and the picture changes as the viewer follows the newest frame."""
+    pytest.importorskip("viser", reason="the view extra is not installed: pip install -e '.[view]'")
+    iio = pytest.importorskip("imageio.v3", reason='the render extra is not installed: pip install -e ".[render]"')
+    sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed: pip install playwright")
+    import shutil
+    chromium = shutil.which("chromium") or shutil.which("chromium-headless-shell")
+    if chromium is None:
+        pytest.skip("no Chromium found: apt-get install -y chromium (or chromium-headless-shell)")
+    from gasp_core.render.viewer import RunViewer
+    args = ["--headless", "--no-sandbox", "--disable-gpu", "--use-gl=swiftshader", "--enable-unsafe-swiftshader"]
+    scene, out = write_scene(tmp_path, donut_small), tmp_path / "out"
+    middle = (slice(200, 500), slice(150, 650))            # the donut, away from the panels and the axes
+
+    def drawn(page, path):
+        """A screenshot once the donut's saturated pixels are on it and the picture stops changing."""
+        prev = None
+        for _ in range(45):
+            time.sleep(2.0)
+            page.screenshot(path=str(path))
+            img = iio.imread(path)[..., :3].astype(int)[middle]
+            if ((img.max(axis=2) - img.min(axis=2)) > 60).sum() > 500 and prev is not None \
+                    and np.abs(img - prev).mean() < 0.05:
+                return img
+            prev = img
+        pytest.fail(f"the page did not settle ({path})")
+
+    with Frozen(scene, out, 2) as run:
+        v = RunViewer(out, port=0, poll_s=0.1)
+        try:
+            with sync_api.sync_playwright() as p:
+                browser = p.chromium.launch(executable_path=chromium, args=args)
+                page = browser.new_page(viewport={"width": 800, "height": 600})
+                page.goto(f"http://127.0.0.1:{v.port}")
+                page.get_by_text(f"running: {len(v.frames)} of {N_FRAMES + 1} frames").wait_for(timeout=120_000)
+                v.frame.value = len(v.frames) - 1
+                a = drawn(page, tmp_path / "running.png")
+                run.go_on()
+                page.get_by_text(f"finished: {N_FRAMES + 1} frames").wait_for(timeout=300_000)
+                b = drawn(page, tmp_path / "finished.png")
+                browser.close()
+        finally:
+            v.stop()
+    # the newest frame is on screen: the donut changed (a repeated screenshot of one frame differs by < 0.05)
+    assert np.abs(a - b).mean() > 1.0, np.abs(a - b).mean()
+    assert v.frame.value == N_FRAMES
