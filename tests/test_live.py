@@ -120,41 +120,30 @@ def test_a_run_in_progress_is_read_then_followed_to_its_final_folder(tmp_path, d
 
 
 def test_the_viewer_of_a_run_in_progress_grows_and_follows_the_newest_frame(tmp_path, donut_small):
+    """Two viewers of one run: one at the newest frame follows the new ones, one left at frame 0 stays there."""
     pytest.importorskip("viser", reason="the view extra is not installed: pip install -e '.[view]'")
     from gasp_core.render.viewer import RunViewer
     scene, out = write_scene(tmp_path, donut_small), tmp_path / "out"
     with Frozen(scene, out, 2) as run:
-        v = RunViewer(out, port=0, poll_s=0.05)
+        v, w = RunViewer(out, port=0, poll_s=0.05), RunViewer(out, port=0, poll_s=0.05)
         try:
             n0 = len(v.frames)
             assert 2 <= n0 < N_FRAMES + 1 and v.frame.max == n0 - 1 and v.run.path.name.startswith(".out.partial-")
             assert v.status.content == f"**running**: {n0} of {N_FRAMES + 1} frames"
-            v.frame.value = n0 - 1                                  # at the newest frame: it follows
+            v.frame.value, w.frame.value = n0 - 1, 0                # v at the newest frame: it follows
             run.go_on()
-            wait_for(lambda: "finished" in v.status.content, "the viewer to say finished", poll_s=0.1)
-            wait_for(lambda: v.run.path == out, "the viewer to switch to the final folder", poll_s=0.1)
-            assert len(v.frames) == N_FRAMES + 1 and v.frame.max == N_FRAMES and v.frame.value == N_FRAMES
-            assert v.status.content == f"**finished**: {N_FRAMES + 1} frames"
+            for x in (v, w):
+                wait_for(lambda: "finished" in x.status.content, "the viewer to say finished", poll_s=0.1)
+                wait_for(lambda: x.run.path == out, "the viewer to switch to the final folder", poll_s=0.1)
+                assert len(x.frames) == N_FRAMES + 1 and x.frame.max == N_FRAMES
+                assert x.status.content == f"**finished**: {N_FRAMES + 1} frames"
+            assert v.frame.value == N_FRAMES and w.frame.value == 0
             final = load_run(out)
             for f in range(N_FRAMES + 1):
                 assert np.array_equal(v.frames[f].means, final.splats(f).means), f
         finally:
             v.stop()
-
-
-def test_a_viewer_left_at_an_earlier_frame_stays_there(tmp_path, donut_small):
-    pytest.importorskip("viser", reason="the view extra is not installed: pip install -e '.[view]'")
-    from gasp_core.render.viewer import RunViewer
-    scene, out = write_scene(tmp_path, donut_small, n_frames=4), tmp_path / "out"
-    with Frozen(scene, out, 2) as run:
-        v = RunViewer(out, port=0, poll_s=0.05)
-        try:
-            v.frame.value = 0
-            run.go_on()
-            wait_for(lambda: len(v.frames) == 5 and v.frame.max == 4, "all frames in the viewer", poll_s=0.1)
-            assert v.frame.value == 0
-        finally:
-            v.stop()
+            w.stop()
 
 
 def test_the_manifest_lists_a_frame_only_once_its_files_are_complete(tmp_path, donut_small, monkeypatch):
