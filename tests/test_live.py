@@ -8,6 +8,7 @@ lists a frame before its files are complete, and lists each frame by the time th
 """
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -214,6 +215,22 @@ def test_a_stopped_run_shows_its_kept_frames_and_a_killed_one_what_it_wrote(tmp_
     (partial / "run.json").write_text(json.dumps({**record, "status": "running"}))
     live = LiveRun(out)
     assert live.status == FAILED and live.run.path == partial and live.n_frames >= kept + 1
+
+    # its partial folder followed: renamed onto the output folder, it is that run's; removed, the output
+    # folder holding another run's results (as --overwrite leaves it after a failed run) is not
+    finished = {k: v for k, v in record.items() if k != "stopped"}
+    (partial / "run.json").write_text(json.dumps(finished))            # as a finished run's record
+    (out / CLAIM).unlink()
+    other = tmp_path / "other"
+    shutil.copytree(partial, other)
+    live = LiveRun(partial)
+    out.rmdir()
+    os.rename(partial, out)
+    assert live.refresh() and (live.status, live.run.path) == (FINISHED, out)
+    os.rename(other, partial)
+    live = LiveRun(partial)
+    shutil.rmtree(partial)
+    assert live.refresh() and (live.status, live.run.path) == (FAILED, partial)
 
 
 def test_a_zombie_is_not_running():
