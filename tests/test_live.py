@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 from gasp_testing import scene_text, needs_package
 
+from gasp_core.cli.main import main
 from gasp_core.fsutil import CLAIM
 from gasp_core.render import live as live_mod
 from gasp_core.render.live import FAILED, FINISHED, RUNNING, STOPPED_STATUS, LiveRun, find_live, follow, locate
@@ -95,7 +96,7 @@ def same(a, b) -> bool:
     return a.n == b.n and all(np.array_equal(getattr(a, f), getattr(b, f)) for f in FIELDS)
 
 
-def test_a_run_in_progress_is_read_then_followed_to_its_final_folder(tmp_path, donut_small):
+def test_a_run_in_progress_is_read_then_followed_to_its_final_folder(tmp_path, donut_small, capsys):
     scene, out = write_scene(tmp_path, donut_small), tmp_path / "out"
     with Frozen(scene, out, 2) as run:
         partial = find_live(out)
@@ -107,6 +108,8 @@ def test_a_run_in_progress_is_read_then_followed_to_its_final_folder(tmp_path, d
         assert live.n_total == N_FRAMES + 1 and live.run.meta["status"] == "running"
         assert LiveRun(partial).n_frames == k                       # the partial folder itself is accepted
         early = {f: live.read(f, 0) for f in range(k)}
+        assert main(["view", str(out), "--export", str(tmp_path / "page.html")]) == 2   # not a finished run yet
+        assert "a run still in progress" in capsys.readouterr().err and not (tmp_path / "page.html").exists()
         run.go_on()
         seen = [f for _, f in follow(live, poll_s=0.05, start=k)]   # the new frames, as they come, then the end
         assert run.proc.wait(timeout=600) == 0, run.proc.stderr.read()
