@@ -8,6 +8,7 @@ lists a frame before its files are complete, and lists each frame by the time th
 """
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -18,6 +19,7 @@ import numpy as np
 import pytest
 from gasp_testing import scene_text, needs_package
 
+from gasp_core.cli.main import main
 from gasp_core.fsutil import CLAIM
 from gasp_core.render import live as live_mod
 from gasp_core.render.live import FAILED, FINISHED, RUNNING, STOPPED_STATUS, LiveRun, find_live, follow, locate
@@ -94,7 +96,7 @@ def same(a, b) -> bool:
     return a.n == b.n and all(np.array_equal(getattr(a, f), getattr(b, f)) for f in FIELDS)
 
 
-def test_a_run_in_progress_is_read_then_followed_to_its_final_folder(tmp_path, donut_small):
+def test_a_run_in_progress_is_read_then_followed_to_its_final_folder(tmp_path, donut_small, capsys):
     scene, out = write_scene(tmp_path, donut_small), tmp_path / "out"
     with Frozen(scene, out, 2) as run:
         partial = find_live(out)
@@ -106,6 +108,8 @@ def test_a_run_in_progress_is_read_then_followed_to_its_final_folder(tmp_path, d
         assert live.n_total == N_FRAMES + 1 and live.run.meta["status"] == "running"
         assert LiveRun(partial).n_frames == k                       # the partial folder itself is accepted
         early = {f: live.read(f, 0) for f in range(k)}
+        assert main(["view", str(out), "--export", str(tmp_path / "page.html")]) == 2   # not a finished run yet
+        assert "a run still in progress" in capsys.readouterr().err and not (tmp_path / "page.html").exists()
         run.go_on()
         seen = [f for _, f in follow(live, poll_s=0.05, start=k)]   # the new frames, as they come, then the end
         assert run.proc.wait(timeout=600) == 0, run.proc.stderr.read()
@@ -120,41 +124,30 @@ def test_a_run_in_progress_is_read_then_followed_to_its_final_folder(tmp_path, d
 
 
 def test_the_viewer_of_a_run_in_progress_grows_and_follows_the_newest_frame(tmp_path, donut_small):
+    """Two viewers of one run: one at the newest frame follows the new ones, one left at frame 0 stays there."""
     pytest.importorskip("viser", reason="the view extra is not installed: pip install -e '.[view]'")
     from gasp_core.render.viewer import RunViewer
     scene, out = write_scene(tmp_path, donut_small), tmp_path / "out"
     with Frozen(scene, out, 2) as run:
-        v = RunViewer(out, port=0, poll_s=0.05)
+        v, w = RunViewer(out, port=0, poll_s=0.05), RunViewer(out, port=0, poll_s=0.05)
         try:
             n0 = len(v.frames)
             assert 2 <= n0 < N_FRAMES + 1 and v.frame.max == n0 - 1 and v.run.path.name.startswith(".out.partial-")
             assert v.status.content == f"**running**: {n0} of {N_FRAMES + 1} frames"
-            v.frame.value = n0 - 1                                  # at the newest frame: it follows
+            v.frame.value, w.frame.value = n0 - 1, 0                # v at the newest frame: it follows
             run.go_on()
-            wait_for(lambda: "finished" in v.status.content, "the viewer to say finished", poll_s=0.1)
-            wait_for(lambda: v.run.path == out, "the viewer to switch to the final folder", poll_s=0.1)
-            assert len(v.frames) == N_FRAMES + 1 and v.frame.max == N_FRAMES and v.frame.value == N_FRAMES
-            assert v.status.content == f"**finished**: {N_FRAMES + 1} frames"
+            for x in (v, w):
+                wait_for(lambda: "finished" in x.status.content, "the viewer to say finished", poll_s=0.1)
+                wait_for(lambda: x.run.path == out, "the viewer to switch to the final folder", poll_s=0.1)
+                assert len(x.frames) == N_FRAMES + 1 and x.frame.max == N_FRAMES
+                assert x.status.content == f"**finished**: {N_FRAMES + 1} frames"
+            assert v.frame.value == N_FRAMES and w.frame.value == 0
             final = load_run(out)
             for f in range(N_FRAMES + 1):
                 assert np.array_equal(v.frames[f].means, final.splats(f).means), f
         finally:
             v.stop()
-
-
-def test_a_viewer_left_at_an_earlier_frame_stays_there(tmp_path, donut_small):
-    pytest.importorskip("viser", reason="the view extra is not installed: pip install -e '.[view]'")
-    from gasp_core.render.viewer import RunViewer
-    scene, out = write_scene(tmp_path, donut_small, n_frames=4), tmp_path / "out"
-    with Frozen(scene, out, 2) as run:
-        v = RunViewer(out, port=0, poll_s=0.05)
-        try:
-            v.frame.value = 0
-            run.go_on()
-            wait_for(lambda: len(v.frames) == 5 and v.frame.max == 4, "all frames in the viewer", poll_s=0.1)
-            assert v.frame.value == 0
-        finally:
-            v.stop()
+            w.stop()
 
 
 def test_the_manifest_lists_a_frame_only_once_its_files_are_complete(tmp_path, donut_small, monkeypatch):
@@ -226,6 +219,22 @@ def test_a_stopped_run_shows_its_kept_frames_and_a_killed_one_what_it_wrote(tmp_
     live = LiveRun(out)
     assert live.status == FAILED and live.run.path == partial and live.n_frames >= kept + 1
 
+    # its partial folder followed: renamed onto the output folder, it is that run's; removed, the output
+    # folder holding another run's results (as --overwrite leaves it after a failed run) is not
+    finished = {k: v for k, v in record.items() if k != "stopped"}
+    (partial / "run.json").write_text(json.dumps(finished))            # as a finished run's record
+    (out / CLAIM).unlink()
+    other = tmp_path / "other"
+    shutil.copytree(partial, other)
+    live = LiveRun(partial)
+    out.rmdir()
+    os.rename(partial, out)
+    assert live.refresh() and (live.status, live.run.path) == (FINISHED, out)
+    os.rename(other, partial)
+    live = LiveRun(partial)
+    shutil.rmtree(partial)
+    assert live.refresh() and (live.status, live.run.path) == (FAILED, partial)
+
 
 def test_a_zombie_is_not_running():
     """A child that exited but was not waited for still answers ``kill(pid, 0)``; it is not a run in progress."""
@@ -240,3 +249,53 @@ def test_a_zombie_is_not_running():
         assert not live_mod._running(p.pid) and live_mod._running(os.getpid())
     finally:
         p.wait()
+
+
+@pytest.mark.slow
+def test_the_page_of_a_run_in_progress_says_so_and_shows_the_new_frames(tmp_path, donut_small):
+    """Headless Chromium (as tests/test_view.py): the page of a run held at a few frames says ``running``, then
+    ``finished`` once it completes, and the picture changes as the viewer follows the newest frame."""
+    pytest.importorskip("viser", reason="the view extra is not installed: pip install -e '.[view]'")
+    iio = pytest.importorskip("imageio.v3", reason='the render extra is not installed: pip install -e ".[render]"')
+    sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed: pip install playwright")
+    import shutil
+    chromium = shutil.which("chromium") or shutil.which("chromium-headless-shell")
+    if chromium is None:
+        pytest.skip("no Chromium found: apt-get install -y chromium (or chromium-headless-shell)")
+    from gasp_core.render.viewer import RunViewer
+    args = ["--headless", "--no-sandbox", "--disable-gpu", "--use-gl=swiftshader", "--enable-unsafe-swiftshader"]
+    scene, out = write_scene(tmp_path, donut_small), tmp_path / "out"
+    middle = (slice(200, 500), slice(150, 650))            # the donut, away from the panels and the axes
+
+    def drawn(page, path):
+        """A screenshot once the donut's saturated pixels are on it and the picture stops changing."""
+        prev = None
+        for _ in range(45):
+            time.sleep(2.0)
+            page.screenshot(path=str(path))
+            img = iio.imread(path)[..., :3].astype(int)[middle]
+            if ((img.max(axis=2) - img.min(axis=2)) > 60).sum() > 500 and prev is not None \
+                    and np.abs(img - prev).mean() < 0.05:
+                return img
+            prev = img
+        pytest.fail(f"the page did not settle ({path})")
+
+    with Frozen(scene, out, 2) as run:
+        v = RunViewer(out, port=0, poll_s=0.1)
+        try:
+            with sync_api.sync_playwright() as p:
+                browser = p.chromium.launch(executable_path=chromium, args=args)
+                page = browser.new_page(viewport={"width": 800, "height": 600})
+                page.goto(f"http://127.0.0.1:{v.port}")
+                page.get_by_text(f"running: {len(v.frames)} of {N_FRAMES + 1} frames").wait_for(timeout=120_000)
+                v.frame.value = len(v.frames) - 1
+                a = drawn(page, tmp_path / "running.png")
+                run.go_on()
+                page.get_by_text(f"finished: {N_FRAMES + 1} frames").wait_for(timeout=300_000)
+                b = drawn(page, tmp_path / "finished.png")
+                browser.close()
+        finally:
+            v.stop()
+    # the newest frame is on screen: the donut changed (a repeated screenshot of one frame differs by < 0.05)
+    assert np.abs(a - b).mean() > 1.0, np.abs(a - b).mean()
+    assert v.frame.value == N_FRAMES

@@ -152,6 +152,10 @@ def cmd_view(args) -> int:
         raise SceneError(f"--port {args.port}: expected a TCP port from 0 to 65535 (0: the next free one)")
     if args.export:
         from gasp_core.render.export import export_page
+        from gasp_core.render.live import LIVE, locate
+        if locate(args.run)[1] in LIVE:
+            raise SceneError(f"{args.run}: a run still in progress; --export it once it has finished, or watch it "
+                             f"with 'gasp view {args.run}'")
         out = export_page(args.run, args.export, overwrite=args.overwrite)
         print(f"wrote {out} ({out.stat().st_size / 1e6:.1f} MB; open it in a browser, no server needed)")
         return 0

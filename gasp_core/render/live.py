@@ -113,6 +113,15 @@ def _partial_status(partial: Path) -> str:
     return FAILED
 
 
+def _inode(folder: Path) -> tuple | None:
+    """``(device, inode)`` of ``folder`` (a rename keeps it); None when it is gone."""
+    try:
+        st = folder.stat()
+    except OSError:
+        return None
+    return st.st_dev, st.st_ino
+
+
 def _newest(partials: list[Path], want: str | None = None) -> Path | None:
     """The partial folder among ``partials`` whose ``run.json`` is newest (with key ``want``, if given)."""
     found = [p for p in partials if (p / "run.json").is_file() and (want is None or want in _record(p))]
@@ -196,6 +205,7 @@ class LiveRun:
         self.status = STARTING
         self.run: Run | None = None
         self._where = self.path           # where to look next: the partial folder once it is found
+        self._inode: tuple | None = None  # that partial folder's (device, inode): the output folder's once renamed
         folder, status = locate(self.path)
         if status == "missing":
             raise SceneError(f"{self.path}: no such run folder (make one with 'gasp simulate')")
@@ -226,6 +236,9 @@ class LiveRun:
             A run that is not in progress and whose folder :func:`~gasp_core.render.run.load_run` refuses.
         """
         folder, status = locate(self._where)
+        if folder is not None and self._inode is not None and folder == outdir_of(folder) and \
+                _inode(folder) != self._inode:           # the partial folder was removed, not renamed: the output
+            folder, status = None, FAILED                # folder holds another run's results (kept by --overwrite)
         if folder is None:
             if status == "missing" or status not in LIVE and self.run is not None:
                 status = FAILED                           # its partial folder removed after an error
@@ -243,7 +256,10 @@ class LiveRun:
         if self.run is not None:                          # keep what was read once (rest, static)
             run.frames._cache.update(self.run.frames._cache)
         self.run, self.status = run, status
-        self._where = folder if folder != outdir_of(folder) else self.path   # a partial: follow its rename
+        if folder != outdir_of(folder):                   # a partial folder: follow its rename
+            self._where, self._inode = folder, _inode(folder)
+        else:
+            self._where = self.path
         return self.n_frames
 
     def wait(self, n: int = 1, poll_s: float = 0.5, timeout_s: float | None = None) -> int:
