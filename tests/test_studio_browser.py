@@ -70,6 +70,8 @@ def test_studio_click_pick_run_watch(tmp_path):
             t0 = time.time()
             while _pink(_shot(page, tmp_path / "rest.png")).sum() < 2000 and time.time() - t0 < 90:
                 time.sleep(1.0)                              # software WebGL draws the splats in a few seconds
+            for close in page.locator(".mantine-Notification-closeButton").all():   # "software WebGL" notice
+                close.click()
             rest = _shot(page, tmp_path / "rest.png")
             # a click on empty sky selects nothing and says so
             page.mouse.click(150, 200)

@@ -105,8 +105,9 @@ class Studio:
         s.scene.set_up_direction("+z")
         s.scene.add_grid("/ground", width=4 * size, height=4 * size, cell_size=size / 8, section_size=size / 2,
                          position=(float(centre[0]), float(centre[1]), 0.0))
-        s.initial_camera.look_at = tuple(float(x) for x in centre)
-        s.initial_camera.position = tuple(float(x) for x in centre + size * np.array([0.0, -1.8, 1.2]))
+        aim = centre + np.array([0.3 * size, 0.0, 0.0])   # the object left of the page's panel, on the right
+        s.initial_camera.look_at = tuple(float(x) for x in aim)
+        s.initial_camera.position = tuple(float(x) for x in aim + size * np.array([0.0, -1.8, 1.2]))
         s.initial_camera.up = (0.0, 0.0, 1.0)
 
     def _draw(self) -> None:
