@@ -105,3 +105,43 @@ def test_saved_scene_reproduces_the_run_bit_for_bit_and_an_open_selection_warns(
         assert (a / f).read_bytes() == (b / f).read_bytes(), f
     # and the saved file is refused nothing: it names its mask relative to itself
     assert 'mask = "icing.select0.npy"' in saved.read_text()
+
+
+def test_stop_resume_run_again_and_export(studio, tmp_path):
+    """Stop keeps the finished frames, Resume continues them to the end, Run again starts run2, Export writes the
+    page; a failed run's one line reaches the page."""
+    studio.click(*_down_onto(studio))
+    studio.form.frames.value = 4
+    studio.form.engine.value = "warp_mpm"
+    studio.run()
+    stream = studio.stream
+    t0 = time.time()
+    while stream.n_ready < 3 and time.time() - t0 < 300:   # frames 0, 1, 2 readable
+        time.sleep(0.2)
+        stream.refresh()
+    assert stream.job.running
+    assert studio.stop_run() == "run1: stopped"
+    assert studio.run().startswith("a run is in progress") is False
+    assert studio.stream.outdir.name == "run2"                # Run while stopped: a new run, run1 kept
+    studio.stop_run()
+    studio.stream = stream                                    # back to run1, as the page's Resume after its Stop
+    said = studio.run(resume=True)
+    assert said.startswith("running run1"), said
+    assert _wait(studio.stream) == "finished", studio.stream.job.stderr[-3:]
+    assert studio.stream.n_ready == 5 and studio.stream.live.status == "finished"
+    studio.form.export_path.value = str(tmp_path / "run1.html")
+    assert studio.form.export().startswith(f"wrote {tmp_path / 'run1.html'}")
+    assert (tmp_path / "run1.html").stat().st_size > 1e5
+    assert "exists" in studio.form.export()                   # an existing page is not replaced
+
+
+def test_gasp_studio_refuses_bad_input_in_one_line(tmp_path):
+    for argv, expected in ((["studio", str(tmp_path / "nothing.ply")], "nothing.ply: no such file"),
+                           (["studio", str(DONUT), "--port", "70000"], "--port 70000: expected a TCP port")):
+        r = subprocess.run([sys.executable, "-m", "gasp_core", *argv], capture_output=True, text=True)
+        assert r.returncode == 2 and r.stderr.startswith("gasp: error: ") and expected in r.stderr
+        assert len(r.stderr.strip().splitlines()) == 1
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[[object]]\nfile = "missing.ply"\n')
+    r = subprocess.run([sys.executable, "-m", "gasp_core", "studio", str(bad)], capture_output=True, text=True)
+    assert r.returncode == 2 and "missing.ply" in r.stderr and len(r.stderr.strip().splitlines()) == 1

@@ -218,7 +218,6 @@ class Studio:
                 if resume and self.stream is not None:
                     self.stream = self.stream.resumed()
                 else:
-                    self.scene.write(self.scene.scene_file, overwrite=True)
                     self.stream = RunStream.start(self.scene, self.form.run_options())
             except (GaspError, OSError) as e:
                 return self._said(str(e))
@@ -229,7 +228,10 @@ class Studio:
     def stop_run(self) -> str:
         if self.stream is None or not self.stream.job.running:
             return self._said("no run in progress")
-        return self._said(f"{self.stream.outdir.name}: {self.stream.job.stop()}")
+        outcome = self.stream.job.stop()
+        self._said(f"{self.stream.outdir.name}: {outcome}" + (f" ({self.stream.job.last_error()})"
+                                                             if outcome == "stopped" else ""))
+        return f"{self.stream.outdir.name}: {outcome}"
 
     def _drop_frames(self) -> None:
         if self._frame_handle is not None:

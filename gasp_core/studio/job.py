@@ -85,7 +85,8 @@ class Job:
         return max((e["frame"] for e in self.snapshot() if e.get("event") == "frame"), default=0)
 
     def outcome(self) -> str:
-        """``running``, ``finished``, ``stopped`` (exit 130 or 143: kept for resume) or ``failed: <one line>``."""
+        """``running``, ``finished``, ``stopped`` (exit 130 or 143: its frames kept for ``--resume``) or
+        ``failed: <the run's one line>``."""
         code = self.proc.poll()
         if code is None:
             return "running"
@@ -93,10 +94,14 @@ class Job:
             t.join(timeout=2.0)
         if code == 0:
             return "finished"
-        errors = [e["message"] for e in self.snapshot() if e.get("event") == "error"]
-        if code in (130, 143) and not errors:
+        if code in (130, 143):        # a signal: the finished frames are kept for --resume (gasp_core.run.stop)
             return "stopped"
-        return "failed: " + (errors[-1] if errors else (self.stderr[-1] if self.stderr else f"exit status {code}"))
+        return "failed: " + (self.last_error() or (self.stderr[-1] if self.stderr else f"exit status {code}"))
+
+    def last_error(self) -> str:
+        """The run's one-line error (its ``error`` event; for a stopped run, what it kept), or ``""``."""
+        errors = [e["message"] for e in self.snapshot() if e.get("event") == "error"]
+        return errors[-1] if errors else ""
 
     def stop(self, timeout: float = 60.0) -> str:
         """SIGTERM the run and wait for it to keep its frames (at most ``timeout`` s, then SIGKILL)."""

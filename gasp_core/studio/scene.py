@@ -180,27 +180,22 @@ class StudioScene:
         self.doc, self.pieces = doc, pieces
         return scene
 
-    def document(self) -> dict:
-        """The document with each selection as ``select = { mask = ... }`` (the masks are written by :meth:`write`)."""
-        doc = copy.deepcopy(self.doc)
-        for p in self.pieces:
-            if p.selected.any():
-                doc["object"][p.index]["select"] = {"mask": str(self.mask_path(p.index).resolve())}
-        return doc
-
-    def mask_path(self, index: int, folder: Path | None = None, stem: str | None = None) -> Path:
-        """Where object ``index``'s selection mask is written (``.npy``, bool, one entry per Gaussian)."""
-        return (folder or self.workdir) / f"{stem or 'scene'}.select{index}.npy"
+    @staticmethod
+    def mask_path(index: int, folder: Path, stem: str) -> Path:
+        """Where object ``index``'s selection mask is written beside the scene ``folder/stem.toml`` (``.npy``, bool,
+        one entry per Gaussian)."""
+        return folder / f"{stem}.select{index}.npy"
 
     def check(self, doc: dict | None = None, with_selection: bool = True) -> Scene:
-        """``doc`` (default: :meth:`document`) through the scene checker, as if read from the working scene file.
+        """``doc`` (default: the studio's document) through the scene checker with the page's selection (as
+        ``select = { indices }``), as if read from ``WORKDIR/scene.toml``.
 
         Raises
         ------
         SceneError
             The checker's one line; also when a file opened alone has nothing selected to simulate.
         """
-        doc = self.document() if doc is None else doc
+        doc = self.doc if doc is None else doc
         if with_selection and self.is_file and not self.pieces[0].selected.any():
             raise SceneError(f"{self.path}: nothing is selected to simulate; click an object first")
         if with_selection:   # the masks are checked by the reader: give it the ones on the page

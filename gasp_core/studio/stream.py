@@ -23,7 +23,7 @@ def next_run_dir(workdir: Path) -> Path:
     """
     for i in range(1, MAX_RUNS + 1):
         p = workdir / f"run{i}"
-        if not p.exists() and not any(workdir.glob(f".run{i}.partial-*")):
+        if not p.exists() and not p.with_suffix(".toml").exists() and not any(workdir.glob(f".run{i}.partial-*")):
             return p
     raise SceneError(f"{workdir}: run1 ... run{MAX_RUNS} all exist; remove old runs or choose another --workdir")
 
@@ -49,9 +49,18 @@ class RunStream:
 
     @classmethod
     def start(cls, scene, options: list[str]) -> RunStream:
-        """Run ``gasp simulate`` on ``scene.scene_file`` into the next free ``runN`` of the studio's folder."""
+        """Write the scene as ``runN.toml`` (with its masks) and run ``gasp simulate`` on it into ``runN``, the next
+        free N in the studio's folder. Each run keeps its own scene file: ``--resume`` refuses a run whose inputs
+        changed since (:func:`gasp_core.run.resume.fingerprint`), and the file says what the run was.
+
+        Raises
+        ------
+        SceneError
+            The scene is refused (nothing is written or started).
+        """
         outdir = next_run_dir(scene.workdir)
-        return cls(Job(scene.scene_file, outdir, options), outdir, options)
+        path = scene.write(outdir.with_suffix(".toml"))
+        return cls(Job(path, outdir, options), outdir, options)
 
     def resumed(self) -> RunStream:
         """The same run continued with ``--resume`` (a stopped run's frames are kept).
