@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import threading
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -145,15 +146,18 @@ class Studio:
 
     def click(self, origin, direction, add: bool = False) -> str:
         """A click's ray: select the piece it hits (module notes). Returns the line said in the page."""
-        hits = [(h, p) for p in self.scene.pieces
-                if (h := ray_pick(p.means, p.rotmats, p.scales, p.opacities, origin, direction)) is not None]
-        if not hits:
+        pieces = self.scene.pieces
+        hit = ray_pick(*(np.concatenate([getattr(p, k) for p in pieces]) for k in ("means", "rotmats", "scales",
+                                                                                   "opacities")), origin, direction)
+        if hit is None:
             if not add:
                 for p in self.scene.pieces:
                     p.selected[:] = False
                 self._retint()
             return self._said("Nothing selected: the click hit no splat (the ray reached the background)")
-        hit, p = min(hits, key=lambda hp: hp[0].depth)
+        starts = np.cumsum([0] + [q.n for q in pieces])      # every object composited together, front to back
+        p = pieces[int(np.searchsorted(starts, hit.row, side="right")) - 1]
+        hit = replace(hit, row=hit.row - int(starts[p.index]))
         if p.static:
             return self._said(f"object #{p.index + 1} is static = true (never simulated): it cannot be selected")
         while self.labels[p.index] is None:
