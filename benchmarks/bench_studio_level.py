@@ -166,9 +166,9 @@ def summarise(rec: dict) -> dict:
     return out
 
 
-COLUMNS = ("checkout", "round", "engine", "setting", "cache", "load", "start_s", "import_s", "prepare_s", "build_s", "frame1_extra_s",
-           "frame1_s", "frame1_file_s", "frame1_cpu_s", "frame3_s", "per_frame_wall_s", "per_frame_sim_s",
-           "n_substeps", "n_points", "same_frames", "exit")
+COLUMNS = ("checkout", "round", "engine", "setting", "cache", "load", "start_s", "import_s", "prepare_s", "build_s",
+           "frame1_extra_s", "frame1_s", "frame1_file_s", "frame1_cpu_s", "frame3_s", "per_frame_wall_s",
+           "per_frame_sim_s", "n_substeps", "n_points", "same_frames", "exit")
 
 
 def _markdown(doc: dict) -> str:
@@ -192,8 +192,9 @@ def _markdown(doc: dict) -> str:
                  (t["frame1_s"] - t["start_s"]) / (b["frame1_s"] - b["start_s"])))
     if pairs:
         lines += ["", "This checkout against the base, run after run (median over rounds): time to frame 1, wall "
-                  "and CPU, and from the start event to frame 1 (the engine's build and frame 1: the compiles), wall, this / base.",
-                  "", "| engine | setting | cache | rounds | wall | CPU | start to frame 1, wall |", "|---|---|---|---:|---:|---:|---:|"]
+                  "and CPU, and from the start event to frame 1 (the engine's build and frame 1: the compiles), wall, "
+                  "this / base.", "", "| engine | setting | cache | rounds | wall | CPU | start to frame 1, wall |",
+                  "|---|---|---|---:|---:|---:|---:|"]
         for (e, st, c), v in pairs.items():
             lines.append(f"| {e} | {st} | {c} | {len(v)} | {statistics.median(x[0] for x in v):.2f} | "
                          f"{statistics.median(x[1] for x in v):.2f} | {statistics.median(x[2] for x in v):.2f} |")
@@ -227,7 +228,8 @@ def main(argv=None) -> int:
                     out = tmp / f"out_{label}_{engine}_{name}_{kind}_{r}"
                     rec = run_once(src, scene, out, level, a.frames, cache)
                     row = {"checkout": label, "round": r, "engine": engine, "setting": name, "cache": kind,
-                           "load": load, **summarise(rec), **{k: v for k, v in rec.items() if k not in ("events", "files")}}
+                           "load": load, **summarise(rec),
+                           **{k: v for k, v in rec.items() if k not in ("events", "files")}}
                     if label == "base":   # the change leaves the frames as they were
                         row["same_frames"] = doc["rows"][-1]["same_frames"] = same_frames(
                             out, tmp / f"out_this_{engine}_{name}_{kind}_{r}")

@@ -54,7 +54,8 @@ def test_engine_options_of_a_level_reach_only_engines_that_declare_them():
 
 def test_the_studio_engine_is_the_first_that_repeats_without_an_option():
     def info(name, deterministic=(), options=None):
-        caps = Capabilities(materials=frozenset({"jelly"}), boundaries=frozenset(), deterministic=frozenset(deterministic))
+        caps = Capabilities(materials=frozenset({"jelly"}), boundaries=frozenset(),
+                            deterministic=frozenset(deterministic))
         return EngineInfo(name, factory=lambda setup: None, capabilities=caps, deterministic_options=options or {})
     threads, free, none = info("a_threads", {"cpu"}, {"threads": 1}), info("z_free", {"cpu"}), info("b_none")
     assert studio_engine([threads, none, free]) == "z_free"

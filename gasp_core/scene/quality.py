@@ -37,12 +37,12 @@ DEFAULT_QUALITY = "default"
 #: run, on a 2-core CPU, for an object of the donut's size); measured by ``benchmarks/bench_studio_level.py``
 #: (docs/speed_accuracy.md, "The studio's level") on the studio's donut scene (all 136,872 Gaussians of
 #: ``examples/data/donut_v3dg.ply``, jelly with viscosity 4 Pa s, n_grid 64, dropped 5 cm), from the launch of
-#: ``gasp simulate --json`` to the frame-1 event on the quiet 2-core machine: ``warp_mpm`` 18.2 s from a cold
-#: kernel cache (18.3 CPU s, 13 of them compiling), 5.2 s warm, then 2.2-2.4 s a frame; ``taichi_mpm`` 33.7 s
-#: cold, 10.2 s warm (75 s cold with the machine loaded). ``draft`` answers with margin and the compiles
-#: dominate a cold start (n_grid 32 takes it from 18.5 to 13.0 CPU s only), so no cheaper level is added.
-#: What ``draft`` costs, on the README donut's first 12 frames: its shape after the best rigid fit 5.2 U from
-#: the full model's (1.75 % of the size), restitution 0.644 against 0.730.
+#: ``gasp simulate --json`` to the frame-1 event on the quiet 2-core machine: ``warp_mpm`` 14.2-18.2 s from a
+#: cold kernel cache (3 runs; 13.8-18.3 CPU s, most of it compiling), 5.0-5.2 s warm, then 2.1-2.4 s a frame;
+#: ``taichi_mpm`` 30.0-39.5 s cold, 9.2-10.2 s warm (75 s cold with the machine loaded). ``draft`` answers
+#: with margin and the compiles dominate a cold start (n_grid 32 takes it from 18.5 to 13.0 CPU s only), so no
+#: cheaper level is added. What ``draft`` costs, on the README donut's first 12 frames: its shape after the
+#: best rigid fit 5.2 U from the full model's (1.75 % of the size), restitution 0.644 against 0.730.
 STUDIO_LEVEL = "draft"
 
 
@@ -53,8 +53,8 @@ def studio_engine(infos) -> str | None:
     (``"cpu"`` in ``capabilities.deterministic`` and no ``deterministic_options``), so that the studio's saved
     scene reproduces its run without an extra key; else the first by name (the name is only a tie-break, not
     a measurement). On the studio's donut (viscous jelly: ``taichi_mpm`` and ``warp_mpm`` run it) this is
-    ``warp_mpm``, which also answers first (18.2 s to frame 1 from a cold cache against ``taichi_mpm``'s
-    33.7 s; :data:`STUDIO_LEVEL`).
+    ``warp_mpm``, which also answers first (14-18 s to frame 1 from a cold cache against ``taichi_mpm``'s
+    30-40 s; :data:`STUDIO_LEVEL`).
 
     Parameters
     ----------
