@@ -1,13 +1,18 @@
 """The quality levels (gasp_core.scene.quality) and the surface rule (gasp_core.prepare.surface)."""
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
 from gasp_core.errors import SceneError
 from gasp_core.maps.fill import fill_interior
 from gasp_core.prepare.surface import MIN_SOLID_CELLS, surface_rule
-from gasp_core.scene.quality import PRESETS, QUALITY_LEVELS, engine_options
+from gasp_core.cli.main import main
+from gasp_core.scene.quality import PRESETS, QUALITY_LEVELS, STUDIO_LEVEL, engine_options, studio_engine
+from gasp_core.seam import Capabilities, EngineInfo
+from gasp_core.seam.plugins import engines
 from gasp_core.scene.spec import load_scene
 from gasp_testing import scene_text, needs_package
 
@@ -45,6 +50,41 @@ def test_engine_options_of_a_level_reach_only_engines_that_declare_them():
     assert engine_options("default", {"passive_every": 2}, {"passive_every"}) == {"passive_every": 2}
     assert engine_options("reference", {"threads": 1}, {"cfl", "threads"}) == {"threads": 1, "cfl": 0.2}
     assert set(PRESETS) == set(QUALITY_LEVELS)
+
+
+def test_the_studio_engine_is_the_first_that_repeats_without_an_option():
+    def info(name, deterministic=(), options=None):
+        caps = Capabilities(materials=frozenset({"jelly"}), boundaries=frozenset(),
+                            deterministic=frozenset(deterministic))
+        return EngineInfo(name, factory=lambda setup: None, capabilities=caps, deterministic_options=options or {})
+    threads, free, none = info("a_threads", {"cpu"}, {"threads": 1}), info("z_free", {"cpu"}), info("b_none")
+    assert studio_engine([threads, none, free]) == "z_free"
+    assert studio_engine([none, threads]) == "a_threads" and studio_engine([]) is None
+    assert studio_engine([info("z_gpu", {"cuda"}), none]) == "b_none"      # repeats on CUDA only: no preference
+
+
+def test_the_studio_level_runs_the_studios_donut_on_its_engine(tmp_path, donut_small, write_scene, capsys):
+    """What ``gasp studio`` launches: ``gasp simulate SCENE --json --quality STUDIO_LEVEL`` on the studio's engine
+    among those that run viscous jelly, the donut over a ground (a 16th of its Gaussians, n_grid 16, one frame)."""
+    assert STUDIO_LEVEL in QUALITY_LEVELS
+    can = [i for i in engines().values() if i.unavailable_reason() is None
+           and not i.capabilities.missing(["jelly"], ["ground"], ["viscosity"])]
+    engine = studio_engine(can)
+    if engine is None:
+        pytest.skip("no installed engine runs viscous jelly")
+    jelly = 'name = "jelly"\nE = 2.0e4\nnu = 0.3\nrho = 300.0\nviscosity = 4.0'
+    scene = write_scene(scene_text(donut_small, n_frames=1, n_grid=16, engine=engine, engine_options="{ }",
+                                   material=jelly))
+    out = tmp_path / "run"
+    assert main(["simulate", str(scene), "-o", str(out), "--json", "--quality", STUDIO_LEVEL]) == 0
+    events = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert [e["frame"] for e in events if e["event"] == "frame"] == [0, 1]
+    assert (out / "donut_small" / "frame_0001.ply").is_file()
+    run = json.loads((out / "run.json").read_text())
+    preset = PRESETS[STUDIO_LEVEL]
+    assert (run["quality"], run["engine"]) == (STUDIO_LEVEL, engine)
+    assert run["objects"][0]["surface"] == preset.objects["surface"]
+    assert all(run["engine_options"][k] == v for k, v in preset.options.items() if k in run["engine_options"])
 
 
 def _ball(radius: float, n: int = 2000) -> np.ndarray:

@@ -18,6 +18,7 @@ from gasp_core.cli.args import positive_int
 from gasp_core.errors import GaspError
 from gasp_core.run.report import ConsoleReporter, JsonLinesReporter
 from gasp_core.run.request import SimulateRequest, option_fields
+from gasp_core.scene.quality import QUALITY_LEVELS
 
 
 def add_simulate_parser(sub) -> None:
@@ -34,7 +35,7 @@ def add_simulate_parser(sub) -> None:
             s.add_argument(*m["flags"], dest=f.name, default=f.default, help=m["help"], choices=m.get("choices"),
                            type=positive_int if m.get("count") else None,
                            metavar=None if "choices" in m else m["flags"][-1].lstrip("-").upper())
-    s.add_argument("--quality", choices=("draft", "default", "reference"),
+    s.add_argument("--quality", choices=QUALITY_LEVELS,
                    help="override the scene's 'quality' level (default: the scene's, else 'default'; "
                         "docs/speed_accuracy.md, 'Quality levels')")
     s.add_argument("--json", action="store_true",

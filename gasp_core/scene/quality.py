@@ -33,6 +33,44 @@ QUALITY_LEVELS = ("draft", "default", "reference")
 #: The level of a scene that sets none (``Scene.quality``'s default).
 DEFAULT_QUALITY = "default"
 
+#: The level ``gasp studio`` runs (issue 32: the first simulated frame on screen within a minute of the click on
+#: run, on a 2-core CPU, for an object of the donut's size); measured by ``benchmarks/bench_studio_level.py``
+#: (docs/speed_accuracy.md, "The studio's level") on the studio's donut scene (all 136,872 Gaussians of
+#: ``examples/data/donut_v3dg.ply``, jelly with viscosity 4 Pa s, n_grid 64, dropped 5 cm), from the launch of
+#: ``gasp simulate --json`` to the frame-1 event on the quiet 2-core machine: ``warp_mpm`` 14.2-18.2 s from a
+#: cold kernel cache (3 runs; 13.8-18.3 CPU s, most of it compiling), 5.0-5.2 s warm, then 2.1-2.4 s a frame;
+#: ``taichi_mpm`` 30.0-39.5 s cold, 9.2-10.2 s warm (75 s cold with the machine loaded). ``draft`` answers
+#: with margin and the compiles dominate a cold start (n_grid 32 takes it from 18.5 to 13.0 CPU s only), so no
+#: cheaper level is added. What ``draft`` costs, on the README donut's first 12 frames: its shape after the
+#: best rigid fit 5.2 U from the full model's (1.75 % of the size), restitution 0.644 against 0.730.
+STUDIO_LEVEL = "draft"
+
+
+def studio_engine(infos) -> str | None:
+    """The engine ``gasp studio`` runs by default, of ``infos`` (the installed engines that can run the scene).
+
+    The first, by name, of those whose CPU runs repeat bit for bit with their default options
+    (``"cpu"`` in ``capabilities.deterministic`` and no ``deterministic_options``), so that the studio's saved
+    scene reproduces its run without an extra key; else the first by name (the name is only a tie-break, not
+    a measurement). On the studio's donut (viscous jelly: ``taichi_mpm`` and ``warp_mpm`` run it) this is
+    ``warp_mpm``, which also answers first (14-18 s to frame 1 from a cold cache against ``taichi_mpm``'s
+    30-40 s; :data:`STUDIO_LEVEL`).
+
+    Parameters
+    ----------
+    infos : iterable of EngineInfo
+
+    Returns
+    -------
+    str or None
+        Its name; None when ``infos`` is empty.
+    """
+    def rank(info) -> tuple[int, str]:
+        repeats = "cpu" in info.capabilities.deterministic and not info.deterministic_options
+        return (0 if repeats else 1, info.name)
+    ranked = sorted(infos, key=rank)
+    return ranked[0].name if ranked else None
+
 
 @dataclass(frozen=True)
 class QualityPreset:
