@@ -1,6 +1,7 @@
 """The quality levels (gasp_core.scene.quality) and the surface rule (gasp_core.prepare.surface)."""
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -12,6 +13,7 @@ from gasp_core.prepare.surface import MIN_SOLID_CELLS, surface_rule
 from gasp_core.cli.main import main
 from gasp_core.scene.quality import PRESETS, QUALITY_LEVELS, STUDIO_LEVEL, engine_options, studio_engine
 from gasp_core.seam import Capabilities, EngineInfo
+from gasp_core.seam.options import Option
 from gasp_core.seam.plugins import engines
 from gasp_core.scene.spec import load_scene
 from gasp_testing import scene_text, needs_package
@@ -52,7 +54,7 @@ def test_engine_options_of_a_level_reach_only_engines_that_declare_them():
     assert set(PRESETS) == set(QUALITY_LEVELS)
 
 
-def test_the_studio_engine_is_the_first_that_repeats_without_an_option():
+def test_the_studio_engine_takes_the_levels_options_then_repeats_without_an_option():
     def info(name, deterministic=(), options=None):
         caps = Capabilities(materials=frozenset({"jelly"}), boundaries=frozenset(),
                             deterministic=frozenset(deterministic))
@@ -61,6 +63,10 @@ def test_the_studio_engine_is_the_first_that_repeats_without_an_option():
     assert studio_engine([threads, none, free]) == "z_free"
     assert studio_engine([none, threads]) == "a_threads" and studio_engine([]) is None
     assert studio_engine([info("z_gpu", {"cuda"}), none]) == "b_none"      # repeats on CUDA only: no preference
+    # an engine taking the studio level's options comes first (the levels were measured on such engines)
+    level = dataclasses.replace(info("c_level", {"cpu"}, {"threads": 1}), options=tuple(
+        Option(k, v, "", kind="int") for k, v in PRESETS[STUDIO_LEVEL].options.items()))
+    assert studio_engine([free, level]) == "c_level"
 
 
 def test_the_studio_level_runs_the_studios_donut_on_its_engine(tmp_path, donut_small, write_scene, capsys):

@@ -46,29 +46,22 @@ DEFAULT_QUALITY = "default"
 STUDIO_LEVEL = "draft"
 
 
+def studio_engine_rank(info) -> tuple:
+    """Sort key of the engines ``gasp studio`` offers, best first: those taking every engine option of
+    :data:`STUDIO_LEVEL` (the engines the levels were measured on, ``docs/speed_accuracy.md``), then those whose CPU
+    runs repeat bit for bit with their default options (``"cpu"`` in ``capabilities.deterministic`` and no
+    ``deterministic_options``: the studio's saved scene then reproduces its run without an extra key), then by
+    name (a tie-break, not a measurement). On the studio's donut (viscous jelly) the first is ``warp_mpm``, which
+    also answers first (14-18 s to frame 1 from a cold kernel cache against ``taichi_mpm``'s 30-40 s)."""
+    declared = {o.name for o in info.options}
+    repeats = "cpu" in info.capabilities.deterministic and not info.deterministic_options
+    return (not set(PRESETS[STUDIO_LEVEL].options) <= declared, not repeats, info.name)
+
+
 def studio_engine(infos) -> str | None:
-    """The engine ``gasp studio`` runs by default, of ``infos`` (the installed engines that can run the scene).
-
-    The first, by name, of those whose CPU runs repeat bit for bit with their default options
-    (``"cpu"`` in ``capabilities.deterministic`` and no ``deterministic_options``), so that the studio's saved
-    scene reproduces its run without an extra key; else the first by name (the name is only a tie-break, not
-    a measurement). On the studio's donut (viscous jelly: ``taichi_mpm`` and ``warp_mpm`` run it) this is
-    ``warp_mpm``, which also answers first (14-18 s to frame 1 from a cold cache against ``taichi_mpm``'s
-    30-40 s; :data:`STUDIO_LEVEL`).
-
-    Parameters
-    ----------
-    infos : iterable of EngineInfo
-
-    Returns
-    -------
-    str or None
-        Its name; None when ``infos`` is empty.
-    """
-    def rank(info) -> tuple[int, str]:
-        repeats = "cpu" in info.capabilities.deterministic and not info.deterministic_options
-        return (0 if repeats else 1, info.name)
-    ranked = sorted(infos, key=rank)
+    """The engine ``gasp studio`` runs by default of ``infos`` (EngineInfo records of the installed engines that can
+    run the scene): the first by :func:`studio_engine_rank`; None when ``infos`` is empty."""
+    ranked = sorted(infos, key=studio_engine_rank)
     return ranked[0].name if ranked else None
 
 

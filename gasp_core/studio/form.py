@@ -11,7 +11,7 @@ from pathlib import Path
 
 from gasp_core.errors import GaspError
 from gasp_core.scene.values import UP_AXES
-from gasp_core.scene.quality import QUALITY_LEVELS
+from gasp_core.scene.quality import QUALITY_LEVELS, STUDIO_LEVEL, studio_engine_rank
 from gasp_core.seam.schema import DEFAULT_MATERIAL, MATERIAL_KINDS, MATERIAL_PARAMS
 
 #: Typical values a material starts with, and where they come from (the rest: the schema's defaults).
@@ -21,12 +21,6 @@ TYPICAL = {
     "neo_hookean": ({"E": 2.0e4, "nu": 0.3, "rho": 300.0, "viscosity": 4.0}, "as jelly"),
     "sand": ({"E": 3.0e5, "nu": 0.3, "rho": 1600.0, "friction_angle": 35.0}, "examples/guitar_sand.toml"),
 }
-#: The level the studio starts with: the cheapest, so that the first frame answers within a minute
-#: (docs/studio.md, "Time to the first frame").
-try:
-    from gasp_core.scene.quality import STUDIO_LEVEL
-except ImportError:                 # pragma: no cover - older quality module
-    STUDIO_LEVEL = QUALITY_LEVELS[0]
 
 
 def typical(material: str) -> dict:
@@ -35,22 +29,13 @@ def typical(material: str) -> dict:
     return {k: given.get(k, MATERIAL_PARAMS[k].default) for k in MATERIAL_KINDS[material].keys}
 
 
-def _engine_rank(info) -> tuple:
-    """Engines the studio offers first: those taking every engine option of the studio's quality level (the
-    engines the levels were measured on, docs/speed_accuracy.md), then those whose CPU runs repeat bit for bit
-    without a special option (so a saved scene reproduces the studio's run exactly), then by name."""
-    from gasp_core.scene.quality import PRESETS
-    caps, declared = info.capabilities, {o.name for o in info.options}
-    return (not set(PRESETS[STUDIO_LEVEL].options) <= declared,
-            "cpu" not in caps.deterministic or bool(info.deterministic_options), info.name)
-
-
 def installed_engines(material: str | None = None) -> list[str]:
-    """Engines installed and able to run here (and, given ``material``, offering it), best first (:func:`_engine_rank`)."""
+    """Engines installed and able to run here (and, given ``material``, offering it), best first
+    (:func:`gasp_core.scene.quality.studio_engine_rank`)."""
     from gasp_core.seam.plugins import engines
     ok = [info for info in engines().values() if info.unavailable_reason() is None and
           (material is None or material in info.capabilities.materials)]
-    return [info.name for info in sorted(ok, key=_engine_rank)]
+    return [info.name for info in sorted(ok, key=studio_engine_rank)]
 
 
 class Form:
