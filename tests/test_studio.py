@@ -145,3 +145,24 @@ def test_gasp_studio_refuses_bad_input_in_one_line(tmp_path):
     bad.write_text('[[object]]\nfile = "missing.ply"\n')
     r = subprocess.run([sys.executable, "-m", "gasp_core", "studio", str(bad)], capture_output=True, text=True)
     assert r.returncode == 2 and "missing.ply" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
+def test_box_selects_the_centres_inside_it_seen_from_above(studio):
+    """ctrl-drag: a camera straight above the donut's centre, looking down (image x along world +x): the left half of
+    the screen holds exactly the Gaussians west of the centre, at any depth."""
+    from types import SimpleNamespace
+
+    from gasp_core.gs.gaussians import rotmat_to_quat
+    p = studio.scene.pieces[0]
+    c = np.median(p.means, axis=0)
+    R = np.array([[1.0, 0, 0], [0, -1, 0], [0, 0, -1]])        # OpenCV camera axes in the world: x, -y, -z
+    cam = SimpleNamespace(position=(c[0], c[1], 2.0), wxyz=rotmat_to_quat(R), fov=np.radians(30.0), aspect=1.5)
+    event = SimpleNamespace(client=SimpleNamespace(camera=cam), screen_min=(0.0, 0.0), screen_max=(0.5, 1.0))
+    said = studio.box(event)
+    west = p.means[:, 0] < c[0]
+    assert np.array_equal(p.selected, west) and said.startswith(f"box: {int(west.sum()):,} Gaussians")
+    # ctrl-shift adds the east half: everything; a box off the donut selects nothing and says so
+    studio.box(SimpleNamespace(client=event.client, screen_min=(0.5, 0.0), screen_max=(1.0, 1.0)), add=True)
+    assert p.selected.all()
+    said = studio.box(SimpleNamespace(client=event.client, screen_min=(0.0, 0.0), screen_max=(0.01, 0.01)))
+    assert said.startswith("Nothing selected") and not p.selected.any()
