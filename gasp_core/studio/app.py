@@ -103,9 +103,10 @@ class Studio:
         means = np.concatenate([p.means for p in self.scene.pieces])
         lo, hi = np.percentile(means, 1, axis=0), np.percentile(means, 99, axis=0)
         size, centre = float(np.max(hi - lo)), 0.5 * (lo + hi)
+        grounds = [float(b.get("height", 0.0)) for b in self.scene.doc.get("boundary", []) if b.get("kind") == "ground"]
         s.scene.set_up_direction("+z")
         s.scene.add_grid("/ground", width=4 * size, height=4 * size, cell_size=size / 8, section_size=size / 2,
-                         position=(float(centre[0]), float(centre[1]), 0.0))
+                         position=(float(centre[0]), float(centre[1]), min(grounds) if grounds else float(lo[2])))
         aim = centre + np.array([0.3 * size, 0.0, 0.0])   # the object left of the page's panel, on the right
         s.initial_camera.look_at = tuple(float(x) for x in aim)
         s.initial_camera.position = tuple(float(x) for x in aim + size * np.array([0.0, -1.8, 1.2]))
