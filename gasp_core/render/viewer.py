@@ -161,8 +161,13 @@ def serve(run_dir, host: str = "127.0.0.1", port: int = 8080) -> None:
     else:
         what = "" if v.live.status == FINISHED else f", a run that {v.live.status}"
         print(f"gasp view: http://{host}:{v.port}  ({len(v.frames)} frames{what}; Ctrl-C to stop)", flush=True)
+    until_interrupted(v)
+
+
+def until_interrupted(app) -> None:
+    """Wait until the process is interrupted (Ctrl-C, a stop signal: ``KeyboardInterrupt``), then ``app.stop()``."""
     try:
         while True:
             time.sleep(1.0)
     finally:
-        v.stop()
+        app.stop()

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from gasp_core.errors import GaspError
+from gasp_core.render.viewer import until_interrupted
 from gasp_core.studio import form as form_mod
 from gasp_core.studio.pick import box_rows, ray_pick
 from gasp_core.studio.scene import StudioScene
@@ -296,8 +297,4 @@ def serve(path, workdir, host: str = "127.0.0.1", port: int = 8080) -> None:
     """Serve the studio until interrupted (Ctrl-C)."""
     st = Studio(path, workdir, host, port)
     print(f"gasp studio: http://{host}:{st.port}  ({Path(path).name}; files in {workdir}; Ctrl-C to stop)", flush=True)
-    try:
-        while True:
-            time.sleep(1.0)
-    finally:
-        st.stop()
+    until_interrupted(st)
