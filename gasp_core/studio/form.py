@@ -67,7 +67,9 @@ class Form:
         self._value_inputs(mat if name == self.material.value else {})
         with gui.add_folder("Scene"):
             guess = sc.up_guess
-            label = "Up axis" + (f" (guessed {guess.up}, {guess.confidence:.2f})" if guess else "")
+            label = "Up axis" + ("" if guess is None else f" (guessed {guess.up}, {guess.confidence:.2f})"
+                                 if guess.up != "unknown" else f" (unknown{', leans ' + guess.lean if guess.lean else ''}: "
+                                                               "check it)")
             self.up = gui.add_dropdown(label, list(UP_AXES), initial_value=obj.get("up_axis", "+z"),
                                        disabled=not sc.is_file)
             self.scale = gui.add_number("Scale (m per file unit)", float(obj.get("scale", 1.0)), disabled=not sc.is_file)

@@ -150,21 +150,22 @@ class StudioScene:
         self.path = Path(path)
         self.workdir = Path(workdir)
         self.is_file = self.path.suffix.lower() != ".toml"
-        if self.is_file:
-            from gasp_core.gs.io import read_gaussians
-            g = read_gaussians(self.path)
+        self.workdir.mkdir(parents=True, exist_ok=True)
+        self.scene_file = self.workdir / "scene.toml"
+        self.pieces: list[Piece] = []
+        if self.is_file:                  # read as the scene reads it (a .splatv: its model at s = 0)
+            self.doc = file_document(self.path, "+z")
+            g = load_gaussians(parse_scene(self.doc, self.scene_file).objects[0])
             self.up_guess = guess_up(g, self.path.parent / "cameras.json")
-            up = self.up_guess.up if self.up_guess.up != "unknown" else "+z"
-            self.doc = file_document(self.path, up)
+            self.doc["object"][0]["up_axis"] = self.up_guess.up if self.up_guess.up != "unknown" else "+z"
+            self._read = [g]
         else:
             from gasp_core.scene.spec import load_scene
             scene = load_scene(self.path)             # the checker's one line for a bad scene, before anything
             self.up_guess = None
             self.doc = absolute_paths(tomllib.loads(self.path.read_text(encoding="utf-8")), self.path.parent)
             del scene
-        self.workdir.mkdir(parents=True, exist_ok=True)
-        self.scene_file = self.workdir / "scene.toml"
-        self.pieces: list[Piece] = []
+            self._read = []
         self.replace(self.doc, keep_selection=False)
 
     # -- the document -----------------------------------------------------------------------------------
@@ -175,7 +176,8 @@ class StudioScene:
         old = {p.index: p.selected for p in self.pieces} if keep_selection else {}
         pieces = []
         for i, spec in enumerate(scene.objects):
-            g = self.pieces[i].gaussians if i < len(self.pieces) else load_gaussians(spec)
+            g = self.pieces[i].gaussians if i < len(self.pieces) else \
+                self._read[i] if i < len(self._read) else load_gaussians(spec)
             pieces.append(place_piece(i, spec, g, old.get(i)))
         self.doc, self.pieces = doc, pieces
         return scene
