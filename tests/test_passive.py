@@ -194,3 +194,109 @@ def test_simulate_warns_about_stranded_passive_points(donut, write_scene, tmp_pa
     assert res.summary["engine_stats"]["passive_stranded"] == 5
     n_passive = res.summary["n_render_points"]
     assert [m for m in said if m.startswith(f"5 of {n_passive} passive surface points")], said
+
+
+#: Cells the marker skin of :func:`block_with_markers` lies outside the block's outer points: the draft README
+#: donut's lowest surface vertex is 1.21 dx below its lowest fill point (its fill stops short of the surface).
+MARKER_OFFSET = 1.2
+#: Tolerance of a held marker on its face, in cells: far above the float32 rounding of the face's height
+#: (2e-7 dx here), far below the 0.95 dx a marker of :func:`block_with_markers` would lie below the plane with the block
+#: resting on its skin (measured without the rule: 1.1 dx below the ground, 0.12 dx beyond the wall).
+HOLD_TOL = 1e-3
+
+
+def block_with_markers(n_grid: int = 16) -> SimSetup:
+    """A jelly block (material points at dx/2) thrown towards the +x wall above a ground (z = 0.2 m, frictionless),
+    with passive markers ``MARKER_OFFSET`` dx outside its bottom and +x faces; walls on the domain's faces.
+    ``passive_every`` 64 (cut to the frame's substeps: one gather a frame)."""
+    from gasp_core.seam.setup import Boundary
+    dx = 1.0 / n_grid
+    x, p_vol = box_points([0.45, 0.4, 0.3], [0.65, 0.6, 0.45], dx / 2)
+    g = np.linspace(0.42, 0.58, 5)
+    off = MARKER_OFFSET * dx
+    bottom = np.stack(np.meshgrid(np.linspace(0.47, 0.63, 5), g, [x[:, 2].min() - off], indexing="ij"), -1)
+    side = np.stack(np.meshgrid([x[:, 0].max() + off], g, np.linspace(0.32, 0.43, 4), indexing="ij"), -1)
+    mk = np.concatenate([bottom.reshape(-1, 3), side.reshape(-1, 3)])
+    xs = np.concatenate([mk, x])
+    return SimSetup(x=xs, v=np.tile([1.5, 0.0, 0.0], (len(xs), 1)), p_vol=np.r_[np.zeros(len(mk)), np.full(len(x), p_vol)],
+                    body_id=0, materials=[JELLY], gravity=[0, 0, -G], domain_lo=np.zeros(3), domain_hi=np.ones(3),
+                    n_grid=n_grid, frame_dt=1 / 30, n_render=len(mk), passive=np.r_[np.ones(len(mk), bool), np.zeros(len(x), bool)],
+                    boundaries=[Boundary("ground", height=0.2, friction=0.0), Boundary("walls", friction=0.0)],
+                    options={"threads": 1, "passive_every": 64})
+
+
+def _markers_run(name: str, n_frames: int = 8) -> tuple[np.ndarray, str]:
+    """The markers' positions per frame (frames, m, 3) and the divergence message ('' when the run finished)."""
+    from gasp_core.errors import EngineDivergence
+    s = block_with_markers()
+    e = build_engine(engines()[name], s)
+    traj, err = [], ""
+    try:
+        for _ in range(n_frames):
+            e.step_frame()
+            traj.append(e.positions()[s.passive].astype(np.float64))
+    except EngineDivergence as ex:
+        err = str(ex)
+    finally:
+        e.close()
+    return np.array(traj), err
+
+
+def _markers_held(traj: np.ndarray, err: str, dx: float) -> list[str]:
+    """What is wrong with a run of :func:`block_with_markers` (empty: nothing): the run must finish, and over the
+    frames the lowest marker must be on the ground (0.2 m) and the farthest on the +x wall's face (14 dx,
+    ``gasp_core.toolkit.points.passive_bounds``), each within ``HOLD_TOL`` dx: none past the face, and held on it,
+    not short of it (a rule holding them at the material's skin or at a wrong height fails too)."""
+    if err:
+        return [f"diverged: {err[:120]}"]
+    z_lo, x_hi = float(traj[:, :, 2].min()), float(traj[:, :, 0].max())
+    bad = []
+    if abs(z_lo - 0.2) > HOLD_TOL * dx:
+        bad.append(f"lowest marker {(z_lo - 0.2) / dx:+.4f} dx from the ground")
+    if abs(x_hi - 14 * dx) > HOLD_TOL * dx:
+        bad.append(f"farthest marker {(x_hi - 14 * dx) / dx:+.4f} dx from the wall's face")
+    return bad
+
+
+@pytest.mark.parametrize("name", [n for n in _engine_names() if n != "mujoco_flex"])
+def test_passive_points_are_held_by_the_ground_and_walls(name):
+    """Passive markers 1.2 dx outside a block's fill (as on the draft README donut, whose markers sank through the
+    ground and left the grid at frame 8): the block, thrown at 1.5 m/s, hits the +x wall and lands on the ground;
+    one gather a frame. No marker goes below the ground or beyond the wall's face (``passive_bounds``), the
+    markers that reach them lie on them, and the run finishes."""
+    traj, err = _markers_run(name)
+    assert _markers_held(traj, err, 1 / 16) == []
+
+
+@pytest.mark.parametrize("name", [n for n in _engine_names() if n != "mujoco_flex"])
+def test_the_hold_check_catches_an_engine_without_the_rule(name, monkeypatch):
+    """The same run with the rule taken out of the engine (its box made unbounded): the markers sink 1.1 dx into the
+    ground and cross the wall's face by 0.12 dx (measured on both engines), and the check says so."""
+    unbounded = lambda setup: (np.full(3, -np.inf), np.full(3, np.inf))      # noqa: E731
+    module = {"warp_mpm": "gasp_warp_mpm.solver", "taichi_mpm": "gasp_taichi_mpm.engine"}[name]
+    monkeypatch.setattr(f"{module}.passive_bounds", unbounded)
+    traj, err = _markers_run(name)
+    bad = _markers_held(traj, err, 1 / 16)
+    assert any("from the ground" in b for b in bad) and any("wall's face" in b for b in bad), bad
+
+
+def test_passive_bounds_and_hold_passive():
+    """The box of ``passive_bounds`` (ground: its height; walls: the wall node layers nearest the inside, 2 dx in
+    from each face of a domain of whole cells) and ``hold_passive``'s projection (velocity into a face removed)."""
+    from gasp_core.seam.setup import Boundary
+    from gasp_core.toolkit.points import hold_passive, passive_bounds
+    s = block_with_skin()                                          # n_grid 24 on [0, 1]^3, no boundary
+    lo, hi = passive_bounds(s)
+    assert np.all(np.isinf(lo)) and np.all(np.isinf(hi)) and np.all(lo < 0) and np.all(hi > 0)
+    s = dataclasses.replace(s, boundaries=[Boundary("ground", height=0.3), Boundary("ground", height=0.25),
+                                           Boundary("walls"), Boundary("fixed_region", lo=(0, 0, 0), hi=(0.1, 0.1, 0.1))])
+    lo, hi = passive_bounds(s)
+    np.testing.assert_allclose(lo, [2 / 24, 2 / 24, 0.3], rtol=1e-12)
+    np.testing.assert_allclose(hi, [22 / 24] * 3, rtol=1e-12)
+    x = np.array([[0.5, 0.5, 0.2], [0.95, 0.5, 0.5], [0.5, 0.5, 0.5]])
+    v = np.array([[1.0, 0.0, -2.0], [3.0, 1.0, 0.0], [0.0, 0.0, -1.0]])
+    xh, vh = hold_passive(x, v, lo, hi)
+    np.testing.assert_array_equal(xh, [[0.5, 0.5, 0.3], [22 / 24, 0.5, 0.5], [0.5, 0.5, 0.5]])
+    np.testing.assert_array_equal(vh, [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -1.0]])
+    xh, vh = hold_passive(x[:1], [[0.0, 0.0, 2.0]], lo, hi)         # leaving the ground: kept
+    np.testing.assert_array_equal(vh, [[0.0, 0.0, 2.0]])

@@ -1,5 +1,6 @@
 """The points of a grid (MPM) engine: those held by ``fixed_region`` boundaries, their order by grid cell,
-their mass statistics and the passive points no material carries any more."""
+their mass statistics, the passive points no material carries any more and the box the boundaries keep
+passive points in (:func:`passive_bounds`, :func:`hold_passive`)."""
 from __future__ import annotations
 
 import itertools
@@ -14,6 +15,9 @@ from gasp_core.seam.setup import Boundary
 
 #: Cells: a boundary plane within this of a node layer passes through it (ties are exact ties).
 NODE_TIE = 1e-9
+#: ``walls``: the node layers ``I_d < WALL_NODES`` and ``I_d > (hi_d - lo_d) / dx - WALL_NODES`` are wall nodes
+#: (docs/mpm.md step 3).
+WALL_NODES = 3
 
 
 def ground_top_node(height: float, domain_lo_z: float, dx: float) -> int:
@@ -158,3 +162,64 @@ def stranded_passive(x: np.ndarray, grid_m: np.ndarray, domain_lo: np.ndarray, d
         idx = np.clip(base + np.array(o), 0, ng - 1)
         seen |= has[idx[:, 0], idx[:, 1], idx[:, 2]]
     return int((~seen).sum())
+
+
+def passive_bounds(setup) -> tuple[np.ndarray, np.ndarray]:
+    """The box ``[lo, hi]`` (metres, float64, shape (3,) each) the boundaries keep passive points in.
+
+    A passive point (``SimSetup.passive``) is a massless marker of the body's surface: it has no P2G, so the
+    ground's particle contact, which acts on material points, never holds it, and below the material it
+    reads an extrapolation of the grid velocity. The draft README donut's surface vertices lie 1.2 dx below
+    its lowest fill point, so once it rests on the ground they are inside the ground, and its impact
+    (``dv_z/dz > 0``: a compression extrapolated downwards sends them faster down) drove them 1.9 dx deep;
+    there they were left behind when the donut bounced and, when it landed again, carried out of the grid
+    (``docs/contact.md``, "Passive points"). The marker of a body's surface cannot be where the body cannot
+    be, so the engines put a passive point that ends an update outside this box back on its face (the
+    closest admissible point) and remove the velocity it stores into that face (:func:`hold_passive`). It
+    has no mass: no momentum or energy of the simulated body changes.
+
+    - ``ground``: ``z >= height`` (the plane itself, with either contact model; the highest of several);
+    - ``walls``: ``lo_d + 2 dx <= x_d <= lo_d + hi_first dx`` on each axis, the wall node layers nearest the
+      inside (:data:`WALL_NODES`; ``hi_first = floor((hi_d - lo_d) / dx - 3) + 1``, ``hi_d - 2 dx`` on a domain
+      of whole cells), where the walls stop the material's nodes;
+    - ``fixed_region``: nothing (its passive points are held where they start, like its material points);
+    - no boundary on a side: ``-inf`` / ``+inf`` (a point that leaves the grid there is still reported).
+    """
+    lo = np.full(3, -np.inf)
+    hi = np.full(3, np.inf)
+    d_lo = np.asarray(setup.domain_lo, dtype=np.float64)
+    d_hi = np.asarray(setup.domain_hi, dtype=np.float64)
+    dx = float(setup.dx)
+    for b in setup.boundaries:
+        if b.kind == "walls":
+            hi_first = np.floor((d_hi - d_lo) / dx - WALL_NODES + NODE_TIE) + 1.0
+            lo = np.maximum(lo, d_lo + (WALL_NODES - 1) * dx)
+            hi = np.minimum(hi, d_lo + hi_first * dx)
+        elif b.kind == "ground":
+            lo[2] = max(lo[2], float(b.height))
+    return lo, hi
+
+
+def hold_passive(x: np.ndarray, v: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Passive points after an update, held in the box of :func:`passive_bounds` (the kernels' reference).
+
+    Parameters
+    ----------
+    x, v : ndarray, shape (m, 3)
+        Positions (m) and stored velocities (m/s) after the update.
+    lo, hi : ndarray, shape (3,)
+        :func:`passive_bounds`.
+
+    Returns
+    -------
+    x, v : ndarray, shape (m, 3)
+        On each axis, a point below ``lo_d`` is put at ``lo_d`` and its velocity's component ``v_d`` made
+        ``max(v_d, 0)`` (it may leave the face, never go into it); above ``hi_d`` likewise with ``min``.
+        The tangential velocity is the grid's (with the ground's friction in it); nothing else changes.
+    """
+    x = np.array(x, dtype=np.float64)
+    v = np.array(v, dtype=np.float64)
+    below, above = x < lo, x > hi
+    x = np.clip(x, lo, hi)
+    v = np.where(below, np.maximum(v, 0.0), np.where(above, np.minimum(v, 0.0), v))
+    return x, v

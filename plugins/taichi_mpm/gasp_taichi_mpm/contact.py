@@ -5,7 +5,9 @@
   over the planes less than its skin below its centre (``depth = height + skin - z``), and its friction budget
   ``sum mu j_n``, which P2G adds to its nodes with its weights (``grid_mv``'s last channel);
 - :meth:`Contact.node_friction` in the grid update: the node's tangential (x, y) velocity loses
-  ``min(budget / m, |v_t|)``.
+  ``min(budget / m, |v_t|)``;
+- :meth:`Contact.hold_passive` after a passive point's update: the point put back in the box the boundaries keep
+  it in (``gasp_core.toolkit.points.passive_bounds``, ``hold_passive``).
 
 Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields and flags (``real``, ``n_planes``, ...) it reads.
 """
@@ -13,7 +15,8 @@ import taichi as ti
 
 
 class Contact:
-    """The particle contact's impulse per point (:meth:`plane_contact`) and friction per node (:meth:`node_friction`)."""
+    """The particle contact's impulse per point (:meth:`plane_contact`) and friction per node (:meth:`node_friction`);
+    the passive points' box (:meth:`hold_passive`)."""
 
     @ti.func
     def plane_contact(self, p):
@@ -40,3 +43,19 @@ class Contact:
         if fb > 0.0 and lt > 0.0:
             out = v - (ti.min(fb / m, lt) / lt) * vt
         return out
+
+    @ti.func
+    def hold_passive(self, x, v):
+        """``(x, v)`` of a passive point after its update, held in ``[hold_lo, hold_hi]``: on each axis a point below
+        ``hold_lo[d]`` is put there with ``v[d] = max(v[d], 0)``, above ``hold_hi[d]`` likewise with ``min``
+        (``gasp_core.toolkit.points.hold_passive``: a massless surface marker cannot be inside the ground or the walls)."""
+        xo = x
+        vo = v
+        for d in ti.static(range(3)):
+            if xo[d] < self.hold_lo[None][d]:
+                xo[d] = self.hold_lo[None][d]
+                vo[d] = ti.max(vo[d], 0.0)
+            if xo[d] > self.hold_hi[None][d]:
+                xo[d] = self.hold_hi[None][d]
+                vo[d] = ti.min(vo[d], 0.0)
+        return xo, vo

@@ -94,11 +94,14 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact)
         G2P only (velocity and position from the grid), no P2G, stress, ``F`` or ``C``. Default all
         are material. Their touched-node box is added to their chunk's box, so the grid update
         visits every node they read.
+    passive_bounds : (ndarray, ndarray), optional
+        The box (m, shape (3,) each) the passive points are held in after each update
+        (``gasp_core.toolkit.points.passive_bounds``); default unbounded.
     """
 
     def __init__(self, *, x, v, C0, p_mass, p_vol, body, fixed, jp0, params, kinds, n_grid, lo, dx, dt,
                  gravity, walls, grounds, regions, real, n_chunks, atomic, extras=None, time_table=None, n_substeps=1,
-                 n_material=None, passive_every=1, flip=0.0, coloured=False, p_contact=None):
+                 n_material=None, passive_every=1, flip=0.0, coloured=False, p_contact=None, passive_bounds=None):
         n = len(x)
         self.n = n
         self.n_material = n if n_material is None else int(n_material)
@@ -135,6 +138,8 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact)
         self._passive_plan: tuple[int, list] = (0, [])   # (n_substeps, per-substep weight pair or None)
         self.lo[None] = [float(a) for a in lo]
         self.gravity[None] = [float(a) for a in gravity]
+        hold = passive_bounds if passive_bounds is not None else (np.full(3, -np.inf), np.full(3, np.inf))
+        self.hold_lo[None], self.hold_hi[None] = ([float(a) for a in b] for b in hold)
         self._upload_boundaries(walls, grounds, regions)
         self.grid_mv.fill(0)
         self.grid_v.fill(0)
@@ -195,6 +200,9 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact)
         self.passive_substeps = ti.field(ti.i32, shape=2)
         self.lo = ti.Vector.field(3, real, shape=())
         self.gravity = ti.Vector.field(3, real, shape=())
+        # the box the boundaries keep passive points in (m; gasp_core.toolkit.points.passive_bounds)
+        self.hold_lo = ti.Vector.field(3, real, shape=())
+        self.hold_hi = ti.Vector.field(3, real, shape=())
         if self.coloured:   # the block sort (transfers.sort_blocks): keys, sorted order, counts per (chunk, key)
             from .transfers import BLOCK, SORT_CHUNKS
             cap = self.x.shape[0]

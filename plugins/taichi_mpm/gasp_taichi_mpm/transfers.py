@@ -348,8 +348,8 @@ class Transfers:
             for kk in range(m):
                 t = ti.cast(kk + 1, self.real) / ti.cast(m, self.real)
                 y += dt * (v_prev + t * (new_v - v_prev) + (C_prev + t * (new_C - C_prev)) @ y)
-            self.x[p] += y
-            self.v[p] = new_v + new_C @ y
+            # then held in the box the boundaries leave it (gasp_core.toolkit.points.passive_bounds)
+            self.x[p], self.v[p] = self.hold_passive(self.x[p] + y, new_v + new_C @ y)
             self.C[p] = new_C
 
     @ti.func

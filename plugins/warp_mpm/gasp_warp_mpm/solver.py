@@ -36,7 +36,7 @@ from gasp_core.toolkit.grid_engine import choose_dt, GridEngineBase
 from gasp_core.toolkit.materials import P_ETA, initial_Jp, material_table
 from gasp_core.toolkit.memory import check_memory, estimate_bytes
 from gasp_core.toolkit.contact import contact_coefficients, contact_model, ground_node_layer
-from gasp_core.toolkit.points import cell_order, fixed_mask
+from gasp_core.toolkit.points import cell_order, fixed_mask, passive_bounds
 from gasp_core.toolkit.substeps import passive_schedule
 from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
 
@@ -217,19 +217,21 @@ class WarpMPMEngine(GridEngineBase):
                 self.x, self.v, self.C, self.fixed, self.grid_v, lo_v, inv_dx, dt_f, ng, self.grid_v0, Ft(self.flip)]),
         ]
         # passive points after the grid update (the grid velocity holds forces, colliders, boundaries):
-        # one launch per distinct interval of passive_schedule, at the substeps it names
+        # one launch per distinct interval of passive_schedule, at the substeps it names; each then held in
+        # the box the ground and walls leave them (gasp_core.toolkit.points.passive_bounds)
         self._passive_at = [None] * self.n_substeps
         n_passive = self.n_points - self.n_material
         if n_passive:
             by_interval: dict = {}
             schedule = passive_schedule(self.n_substeps, self.options["passive_every"], self.dt)
+            hold_lo, hold_hi = (k.vec3(*[float(c) for c in b]) for b in passive_bounds(setup))
             for substep, weight_prev, weight_now in schedule:
                 m = int(round((weight_prev + weight_now) / self.dt))   # substeps since the last gather
                 if m not in by_interval:
                     by_interval[m] = wp.launch(
                         k.g2p_passive, dim=n_passive, device=d, record_cmd=True, inputs=[
                             self.x, self.v, self.C, self.fixed, self.grid_v, self.grid_m, self.flags, lo_v,
-                            inv_dx, dt_f, m, ng, self.n_material])
+                            inv_dx, dt_f, m, ng, self.n_material, hold_lo, hold_hi])
                 self._passive_at[substep] = by_interval[m]
         self._tick = (wp.launch(k.tick, dim=1, device=d, record_cmd=True, inputs=[ex.step])
                       if has_extras else None)

@@ -18,7 +18,7 @@ import warp as wp
 from gasp_core.toolkit.materials import P_ETA
 
 from .constitutive import build_return_mapping
-from .contact import build_contact
+from .contact import build_contact, build_passive_hold
 from .precision import MODULE_OPTIONS, build_types
 
 
@@ -253,12 +253,13 @@ def build_g2p_passive(Ft):
     """``g2p_passive``: the G2P kernel of scalar type ``Ft`` for passive points."""
     vec3, vec4, mat33 = build_types(Ft)
     in_grid, weights = build_stencil(Ft)
+    hold_passive = build_passive_hold(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def g2p_passive(
         x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33), fixed: wp.array(dtype=wp.int32),
         grid_v: wp.array(dtype=vec3), grid_m: wp.array(dtype=Ft), flags: wp.array(dtype=wp.int32),
-        lo: vec3, inv_dx: Ft, dt: Ft, m: int, n_grid: int, first: int,
+        lo: vec3, inv_dx: Ft, dt: Ft, m: int, n_grid: int, first: int, hold_lo: vec3, hold_hi: vec3,
     ):
         # Passive points (rows first..): velocity v and affine velocity gradient C from the grid
         # (no F, no P2G). Only nodes with mass count, weights renormalised over them: a surface point
@@ -316,8 +317,10 @@ def build_g2p_passive(Ft):
         for kk in range(m):
             t = Ft(kk + 1) / Ft(m)
             y = y + dt * (vp + t * (new_v - vp) + (Cp + t * (Cn - Cp)) * y)
-        x[p] = xp + y
-        v[p] = new_v + Cn * y
+        # then held in the box the boundaries leave it, [hold_lo, hold_hi] (gasp_core.toolkit.points.passive_bounds)
+        xn, vn = hold_passive(xp + y, new_v + Cn * y, hold_lo, hold_hi)
+        x[p] = xn
+        v[p] = vn
         C[p] = Cn
 
     return g2p_passive
