@@ -15,6 +15,9 @@ _CHUNK_REQUIRED = ("min_x", "min_y", "min_z", "max_x", "max_y", "max_z",
                    "min_scale_x", "min_scale_y", "min_scale_z",
                    "max_scale_x", "max_scale_y", "max_scale_z")
 _CHUNK_COLOUR = ("min_r", "min_g", "min_b", "max_r", "max_g", "max_b")
+#: Largest |colour bound| of a chunk: colours are nominally in [0, 1]; a bound far beyond would overflow the
+#: float32 SH coefficient ``(c - 0.5) / SH_C0`` (a 1e38 bound did, found by tests/test_fuzz_readers.py).
+MAX_COLOUR = 1e6
 _PACKED = ("packed_position", "packed_rotation", "packed_scale", "packed_color")
 
 
@@ -123,7 +126,7 @@ def _checked_elements(path: Path, ply: PlyData) -> tuple[np.ndarray, np.ndarray]
     check_columns(path, chunk, _CHUNK_REQUIRED[:6], "chunk", -MAX_MAGNITUDE, MAX_MAGNITUDE)
     check_columns(path, chunk, _CHUNK_REQUIRED[6:], "chunk", hi=math.log(MAX_MAGNITUDE),
                   expected=f"a finite log-scale <= {math.log(MAX_MAGNITUDE):.2f} (scale <= {MAX_MAGNITUDE:g})")
-    check_columns(path, chunk, [c for c in _CHUNK_COLOUR if c in cnames], "chunk")
+    check_columns(path, chunk, [c for c in _CHUNK_COLOUR if c in cnames], "chunk", -MAX_COLOUR, MAX_COLOUR)
     n = len(vertex)
     n_chunks = len(chunk)
     if n_chunks != -(-n // 256):
