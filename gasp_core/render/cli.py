@@ -147,9 +147,14 @@ def cmd_render(args) -> int:
     return 0
 
 
+def check_port(port: int) -> None:
+    """Refuse (one :class:`SceneError` line) a ``--port`` that is not a TCP port (``gasp view``, ``gasp studio``)."""
+    if not 0 <= port <= 65535:
+        raise SceneError(f"--port {port}: expected a TCP port from 0 to 65535 (0: the next free one)")
+
+
 def cmd_view(args) -> int:
-    if not 0 <= args.port <= 65535:
-        raise SceneError(f"--port {args.port}: expected a TCP port from 0 to 65535 (0: the next free one)")
+    check_port(args.port)
     if args.export:
         from gasp_core.render.export import export_page
         from gasp_core.render.live import LIVE, locate

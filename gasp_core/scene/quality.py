@@ -7,7 +7,7 @@ except ``n_grid``, which a level scales (``grid_factor``) from the file's value.
 
 * ``draft``: the cheapest model measured (on the README donut's first 12 frames 2.53x cheaper than the full
   model in CPU time, its shape after the best rigid fit 2.33 U from it, U = the full model's distance to its
-  ``n_grid`` 48 twin; taichi_mpm, particle contact, passive points held by the ground: docs/contact.md): passive surface points (``surface = "passive"``), 2 fill points per cell, the grid
+  ``n_grid`` 48 twin; particle contact, passive points held by the ground: docs/contact.md): passive surface points (``surface = "passive"``), 2 fill points per cell, the grid
   velocity gathered at them every 16th substep.
 * ``default``: chosen by the rule of ``docs/speed_accuracy.md`` ("Choosing the default": the cheapest setting
   whose shape residual is within 1.5 U, whose events are in their bands and whose renders are as close to the
@@ -34,15 +34,9 @@ QUALITY_LEVELS = ("draft", "default", "reference")
 DEFAULT_QUALITY = "default"
 
 #: The level ``gasp studio`` runs (issue 32: the first simulated frame on screen within a minute of the click on
-#: run, on a 2-core CPU, for an object of the donut's size); measured by ``benchmarks/bench_studio_level.py``
-#: (docs/speed_accuracy.md, "The studio's level") on the studio's donut scene (all 45,624 Gaussians of
-#: ``examples/data/donut_v3dg.ply``, 136,872 triangle vertices, jelly with viscosity 4 Pa s, n_grid 64, dropped 5 cm), from the launch of
-#: ``gasp simulate --json`` to the frame-1 event on the quiet 2-core machine: ``warp_mpm`` 14.2-18.2 s from a
-#: cold kernel cache (3 runs; 13.8-18.3 CPU s, most of it compiling), 5.0-5.2 s warm, then 2.1-2.4 s a frame;
-#: ``taichi_mpm`` 30.0-39.5 s cold, 9.2-10.2 s warm (75 s cold with the machine loaded). ``draft`` answers
-#: with margin and the compiles dominate a cold start (n_grid 32 takes it from 18.5 to 13.0 CPU s only), so no
-#: cheaper level is added. What ``draft`` costs, on the README donut's first 12 frames: its shape after the
-#: best rigid fit 2.33 U from the full model's (1.46 % of the size), restitution 0.550 against 0.621.
+#: run, on a 2-core CPU, for an object of the donut's size), chosen by ``benchmarks/bench_studio_level.py``: the
+#: cheapest level answers with margin, and kernel compiles dominate a cold start, so no cheaper level is added.
+#: The figures per engine, and what ``draft`` costs in accuracy: docs/speed_accuracy.md, "The studio's level".
 STUDIO_LEVEL = "draft"
 
 
@@ -51,8 +45,8 @@ def studio_engine_rank(info) -> tuple:
     :data:`STUDIO_LEVEL` (the engines the levels were measured on, ``docs/speed_accuracy.md``), then those whose CPU
     runs repeat bit for bit with their default options (``"cpu"`` in ``capabilities.deterministic`` and no
     ``deterministic_options``: the studio's saved scene then reproduces its run without an extra key), then by
-    name (a tie-break, not a measurement). On the studio's donut (viscous jelly) the first is ``warp_mpm``, which
-    also answers first (14-18 s to frame 1 from a cold kernel cache against ``taichi_mpm``'s 30-40 s)."""
+    name (a tie-break, not a measurement). Which engine that is on the studio's donut, and how fast it answers:
+    docs/studio.md, "Time to the first frame"."""
     declared = {o.name for o in info.options}
     repeats = "cpu" in info.capabilities.deterministic and not info.deterministic_options
     return (not set(PRESETS[STUDIO_LEVEL].options) <= declared, not repeats, info.name)

@@ -224,12 +224,12 @@ class Studio:
                 if resume and self.stream is not None:
                     self.stream = self.stream.resumed()
                 else:
-                    self.stream = RunStream.start(self.scene, self.form.run_options())
+                    self.stream = RunStream.start(self.scene)
             except (GaspError, OSError) as e:
                 return self._said(str(e))
             self._drop_frames()
             self.form.reset_timeline()
-            return self._said(f"running {self.stream.outdir.name}: {' '.join(self.form.run_options())}")
+            return self._said(f"running {self.stream.outdir.name} ({self.stream.job.scene.name})")
 
     def stop_run(self) -> str:
         if self.stream is None or not self.stream.job.running:

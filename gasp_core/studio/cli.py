@@ -21,8 +21,8 @@ def add_parser(sub) -> None:
 
 
 def cmd_studio(args) -> int:
-    if not 0 <= args.port <= 65535:
-        raise SceneError(f"--port {args.port}: expected a TCP port from 0 to 65535 (0: the next free one)")
+    from gasp_core.render.cli import check_port
+    check_port(args.port)
     if not args.input.exists():
         raise SceneError(f"{args.input}: no such file; expected a Gaussian Splatting file or a scene .toml")
     workdir = args.workdir or Path("studio") / args.input.stem

@@ -190,10 +190,6 @@ class Form:
         """
         self.studio.scene.replace(self.document())
 
-    def run_options(self) -> list[str]:
-        """Options of the studio's ``gasp simulate`` besides the scene (all choices are in the scene file)."""
-        return []
-
     def save(self) -> str:
         try:
             self.apply()

@@ -29,8 +29,6 @@ class Job:
         The scene TOML.
     outdir : Path
         The run folder (must not exist, unless ``resume``).
-    extra : list of str
-        More command-line options (``--quality``, ``--frames``).
     resume : bool
         Continue a stopped run in ``outdir`` (``--resume``).
 
@@ -42,10 +40,10 @@ class Job:
         ``time.monotonic()`` at launch.
     """
 
-    def __init__(self, scene: Path, outdir: Path, extra: list[str] = (), resume: bool = False):
+    def __init__(self, scene: Path, outdir: Path, resume: bool = False):
         self.scene, self.outdir = Path(scene), Path(outdir)
         cmd = [sys.executable, "-m", "gasp_core", "simulate", str(self.scene), "-o", str(self.outdir), "--json",
-               *RUN_FORMAT, *extra] + (["--resume"] if resume else [])
+               *RUN_FORMAT] + (["--resume"] if resume else [])
         self.events: list[dict] = []
         self.stderr: list[str] = []
         self.started = time.monotonic()
@@ -78,11 +76,6 @@ class Job:
     @property
     def running(self) -> bool:
         return self.proc.poll() is None
-
-    @property
-    def frames_done(self) -> int:
-        """The highest frame the run reported (0 before its first simulated frame)."""
-        return max((e["frame"] for e in self.snapshot() if e.get("event") == "frame"), default=0)
 
     def outcome(self) -> str:
         """``running``, ``finished``, ``stopped`` (exit 130 or 143: its frames kept for ``--resume``) or

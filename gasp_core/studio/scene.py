@@ -161,10 +161,9 @@ class StudioScene:
             self._read = [g]
         else:
             from gasp_core.scene.spec import load_scene
-            scene = load_scene(self.path)             # the checker's one line for a bad scene, before anything
+            load_scene(self.path)                     # the checker's one line for a bad scene, before anything
             self.up_guess = None
             self.doc = absolute_paths(tomllib.loads(self.path.read_text(encoding="utf-8")), self.path.parent)
-            del scene
             self._read = []
         self.replace(self.doc, keep_selection=False)
 
@@ -201,7 +200,7 @@ class StudioScene:
         if with_selection and self.is_file and not self.pieces[0].selected.any():
             raise SceneError(f"{self.path}: nothing is selected to simulate; click an object first")
         if with_selection:   # the masks are checked by the reader: give it the ones on the page
-            doc = _map_paths(doc, lambda v: v)
+            doc = copy.deepcopy(doc)
             for p in self.pieces:
                 if p.selected.any():
                     doc["object"][p.index]["select"] = {"indices": np.flatnonzero(p.selected).tolist()}

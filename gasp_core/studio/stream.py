@@ -36,19 +36,17 @@ class RunStream:
     job : Job
     outdir : Path
         The run folder (``gasp simulate -o``).
-    options : list of str
-        The command-line options it was started with.
     first_frame_s : float or None
         Seconds from the launch to frame 1's files being readable (None before).
     """
 
-    def __init__(self, job: Job, outdir: Path, options: list[str]):
-        self.job, self.outdir, self.options = job, outdir, list(options)
+    def __init__(self, job: Job, outdir: Path):
+        self.job, self.outdir = job, outdir
         self.live: LiveRun | None = None
         self.first_frame_s: float | None = None
 
     @classmethod
-    def start(cls, scene, options: list[str]) -> RunStream:
+    def start(cls, scene) -> RunStream:
         """Write the scene as ``runN.toml`` (with its masks) and run ``gasp simulate`` on it into ``runN``, the next
         free N in the studio's folder. Each run keeps its own scene file: ``--resume`` refuses a run whose inputs
         changed since (:func:`gasp_core.run.resume.fingerprint`), and the file says what the run was.
@@ -60,7 +58,7 @@ class RunStream:
         """
         outdir = next_run_dir(scene.workdir)
         path = scene.write(outdir.with_suffix(".toml"))
-        return cls(Job(path, outdir, options), outdir, options)
+        return cls(Job(path, outdir), outdir)
 
     def resumed(self) -> RunStream:
         """The same run continued with ``--resume`` (a stopped run's frames are kept).
@@ -72,7 +70,7 @@ class RunStream:
         """
         if self.job.outcome() != "stopped":
             raise SceneError(f"{self.outdir.name} was not stopped ({self.job.outcome()}); nothing to resume")
-        return RunStream(Job(self.job.scene, self.outdir, self.options, resume=True), self.outdir, self.options)
+        return RunStream(Job(self.job.scene, self.outdir, resume=True), self.outdir)
 
     @property
     def n_ready(self) -> int:
@@ -112,7 +110,3 @@ class RunStream:
         if state == "running" and self.live is not None and self.live.status not in LIVE:
             text += f" [{self.live.status}]"
         return text
-
-    @property
-    def path(self) -> Path:
-        return Path(self.outdir)
