@@ -100,24 +100,11 @@ def contact_table(setup) -> np.ndarray:
         mat = rows[p_vol[rows] > 0.0]
         if len(tri_rows) < 6 or not len(fill):
             continue   # no triangles or no fill: the particle contact's skin per point
-        import os
+        o, w = surface_carriers(x[tri_rows].reshape(-1, 3, 3), x[fill], p_vol[fill], x[mat], p_vol[mat])
         table[rows, :3] = 0.0
-        if os.environ.get("GASP_CARRIER", "fill") == "fill":
-            o, w = surface_carriers(x[tri_rows].reshape(-1, 3, 3), x[fill], p_vol[fill], x[mat], p_vol[mat])
-            table[fill, 0] = float(os.environ.get('GASP_KS', '1')) * KAPPA * float(m.E) * np.cbrt(p_vol[fill]) * w
-            offset[fill] = o
-        elif os.environ.get("GASP_CARRIER") == "hybrid":
-            from gasp_core.toolkit.level_set import vertex_carriers
-            old = contact_coefficients(setup)
-            table[rows, :3] = old[rows]
-            o, a = vertex_carriers(x[tri_rows].reshape(-1, 3, 3), x[mat], p_vol[mat])
-            table[tri_rows, 2] = float(os.environ.get("GASP_VSKIN", "0")) * np.cbrt(p_vol[tri_rows])
-            offset[tri_rows] = o
-        else:
-            from gasp_core.toolkit.level_set import vertex_carriers, body_spacing
-            o, a = vertex_carriers(x[tri_rows].reshape(-1, 3, 3), x[mat], p_vol[mat])
-            table[tri_rows, 0] = float(os.environ.get('GASP_KS', '1')) * KAPPA * float(m.E) * a / body_spacing(p_vol[mat])
-            offset[tri_rows] = o
+        import os
+        table[fill, 0] = float(os.environ.get('GASP_KS', '1')) * KAPPA * float(m.E) * np.cbrt(p_vol[fill]) * w
+        offset[fill] = o
     for bd in setup.boundaries:
         if bd.kind == "ground":
             low = x[:, 2] + offset[:, 2] < float(bd.height)
@@ -144,10 +131,6 @@ def contact_coefficients(setup) -> np.ndarray:
     """
     E = np.array([m.E for m in setup.materials], dtype=np.float64)
     h = np.cbrt(np.asarray(setup.p_vol, dtype=np.float64))
-    import os
-    if os.environ.get("GASP_UNIF"):
-        nr = int(setup.n_render); hs = h[:nr]
-        if nr and hs.max() > 0: h = h.copy(); h[:nr] = np.where(hs > 0, np.median(hs[hs > 0]), 0.0)
     k = KAPPA * E[np.asarray(setup.body_id, dtype=np.int64)] * h
     skin = SKIN * h
     z = np.asarray(setup.x, dtype=np.float64)[:, 2]

@@ -74,7 +74,7 @@ def _gradient_at(grid: np.ndarray, lo: np.ndarray, h: float, y: np.ndarray) -> n
     return np.column_stack([ndimage.map_coordinates(gr, c, order=1, mode="nearest") for gr in np.gradient(grid, h)])
 
 
-def triangle_surface(tri: np.ndarray, inward: np.ndarray, width: float | None = None):
+def triangle_surface(tri: np.ndarray, inward: np.ndarray, width: float = WIDTH):
     """The IMLS surface of a body's triangles.
 
     Parameters
@@ -97,7 +97,6 @@ def triangle_surface(tri: np.ndarray, inward: np.ndarray, width: float | None = 
     n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
     n *= -np.where((n * inward).sum(axis=1) >= 0.0, 1.0, -1.0)[:, None]
     tree = cKDTree(c)
-    width = WIDTH if width is None else width
     eps = width * max(float(np.median(tree.query(c, k=2)[0][:, 1])), 1e-12)
 
     def f(y):
@@ -153,25 +152,3 @@ def surface_carriers(tri: np.ndarray, fill_x: np.ndarray, fill_vol: np.ndarray, 
     offset[rows] = np.where((w > 0.0)[:, None], y - y0, 0.0)
     weight[rows] = w
     return offset, weight
-
-
-def shepard_areas(s: np.ndarray, weight: np.ndarray, width: float = 1.5) -> np.ndarray:
-    """Areas (m^2) of points ``s`` lying on a surface, from their weighted density (Shepard): ``a_p = w_p / n(s_p)``,
-    ``n(y) = sum_q w_q exp(-|y - s_q|^2 / (2 eps^2)) / (2 pi eps^2)``, ``eps`` = ``width`` median neighbour spacings."""
-    tree = cKDTree(s)
-    eps = width * max(float(np.median(tree.query(s, k=2)[0][:, 1])), 1e-12)
-    pairs = tree.sparse_distance_matrix(tree, 3.0 * eps, output_type="coo_matrix")
-    dens = np.bincount(pairs.row, np.exp(-0.5 * (pairs.data / eps) ** 2) * weight[pairs.col], len(s)) + weight
-    return weight / (dens / (2.0 * np.pi * eps ** 2))
-
-
-def vertex_carriers(tri: np.ndarray, all_x: np.ndarray, all_vol: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Surface vertices as carriers: offsets to the IMLS surface and Shepard areas (m^2) of the projected points."""
-    phi, lo, h = volume_grid(all_x, all_vol, body_spacing(all_vol))
-    f = triangle_surface(tri, _gradient_at(phi, lo, h, tri.mean(axis=1)))
-    y0 = tri.reshape(-1, 3)
-    y = y0.copy()
-    for _ in range(3):
-        val, nrm, _ = f(y)
-        y = y - val[:, None] * nrm
-    return y - y0, shepard_areas(y, np.ones(len(y)))
