@@ -41,17 +41,13 @@ GRID_LAYERS_BELOW = 2
 #: stability limit (``omega dt < 2``, central differences).
 MAX_OMEGA_DT = 2.0
 #: The engine option's values.
-CONTACT_MODELS = ("auto", "surface", "particle", "grid")
-#: The contacts that act on the points in P2G (a penalty per point, friction per node); the grid's ground node
-#: layers then start ``GRID_LAYERS_BELOW`` cells lower.
-POINT_CONTACTS = ("surface", "particle")
+CONTACT_MODELS = ("auto", "particle", "grid")
 #: Materials that flow (granular, fluid): ``contact = "auto"`` keeps the grid contact for a scene with one.
 FLOWING = ("sand", "snow", "liquid")
 #: Engine option ``contact`` of the MPM engines.
-CONTACT = Option("contact", "auto", "ground contact: 'surface' (a penalty on each body's smooth surface, carried by "
-                 "the deformation, and Coulomb friction per node; docs/contact.md), 'particle' (a penalty per point "
-                 "with a skin), 'grid' (the ground's node layers projected; spins bouncing soft bodies up) or "
-                 "'auto' (surface, unless a body is sand, snow or liquid)", kind="str", choices=CONTACT_MODELS)
+CONTACT = Option("contact", "auto", "ground contact: 'particle' (a penalty and Coulomb friction per point; "
+                 "docs/contact.md), 'grid' (the ground's node layers projected; spins bouncing soft bodies up) or "
+                 "'auto' (particle, unless a body is sand, snow or liquid or has E >= 2e5 Pa)", kind="str", choices=CONTACT_MODELS)
 
 
 #: ``contact = "auto"`` keeps the grid contact for a scene with a body at least this stiff (Pa). The grid
@@ -68,49 +64,9 @@ def contact_model(setup) -> str:
     (``E >= STIFF_E``), then ``"grid"``."""
     c = setup.options.get("contact") or "auto"
     if c == "auto":
-        return "grid" if any(m.name in FLOWING for m in setup.materials) else "surface"
+        grid = any(m.name in FLOWING or float(m.E) >= STIFF_E for m in setup.materials)
+        return "grid" if grid else "particle"
     return c
-
-
-def contact_table(setup) -> np.ndarray:
-    """Per point ``(k_p, c_p, s_p, o_x, o_y, o_z)`` of the setup's point contact (:func:`contact_model`):
-    :func:`contact_coefficients` and, with ``"surface"``, the rest offset ``o_p`` (m) from the point to its body's
-    smooth surface (:func:`gasp_core.toolkit.level_set.surface_offsets`; zeros with ``"particle"``).
-
-    With ``"surface"`` a point touches a ground at height ``H`` when ``depth = H - (z_p + (F_p o_p)_z) > 0``
-    (``F_p`` its deformation gradient), its stiffness is ``k_p = KAPPA E a_p / h_b`` (``a_p`` its share of the
-    surface's area, ``h_b`` the body's spacing: the same pressure per depth, ``KAPPA E / h``, as the particle
-    contact's) and its skin is 0. A point whose surface point starts below a ground (a body placed on it) gets the
-    offset that puts it on the plane, so the scene's placement is not pushed up in the first substep.
-    """
-    if contact_model(setup) != "surface":
-        return np.column_stack([contact_coefficients(setup), np.zeros((len(setup.x), 3))])
-    from gasp_core.toolkit.level_set import surface_carriers
-    x = np.asarray(setup.x, dtype=np.float64)
-    p_vol = np.asarray(setup.p_vol, dtype=np.float64)
-    body = np.asarray(setup.body_id, dtype=np.int64)
-    table = np.column_stack([contact_coefficients(setup), np.zeros((len(x), 3))])
-    offset = table[:, 3:]
-    n_render = int(setup.n_render)
-    for b, m in enumerate(setup.materials):
-        rows = np.flatnonzero(body == b)
-        tri_rows = rows[rows < n_render]
-        tri_rows = tri_rows[: len(tri_rows) // 3 * 3]
-        fill = rows[(rows >= n_render) & (p_vol[rows] > 0.0)]
-        mat = rows[p_vol[rows] > 0.0]
-        if len(tri_rows) < 6 or not len(fill):
-            continue   # no triangles or no fill: the particle contact's skin per point
-        o, w = surface_carriers(x[tri_rows].reshape(-1, 3, 3), x[fill], p_vol[fill], x[mat], p_vol[mat])
-        table[rows, :3] = 0.0
-        import os
-        table[fill, 0] = float(os.environ.get('GASP_KS', '1')) * KAPPA * float(m.E) * np.cbrt(p_vol[fill]) * w
-        offset[fill] = o
-    for bd in setup.boundaries:
-        if bd.kind == "ground":
-            low = x[:, 2] + offset[:, 2] < float(bd.height)
-            offset[low, 2] = np.minimum(float(bd.height) - x[low, 2], 0.0)
-    table[:, 1] = 2.0 * DAMPING * np.sqrt(table[:, 0] * np.asarray(setup.p_mass, dtype=np.float64))
-    return table
 
 
 def contact_coefficients(setup) -> np.ndarray:
@@ -151,7 +107,7 @@ def contact_dt(setup) -> float:
     2 m/s): at ``cfl = 1.0`` (``omega dt = 2.4``) the contact gained 239 % of the body's energy; at 0.9 (2.2)
     none. The README donut (median ``omega dt`` 1.5 at the default ``cfl = 0.4``) is not affected.
     """
-    if contact_model(setup) not in POINT_CONTACTS or not any(b.kind == "ground" for b in setup.boundaries):
+    if contact_model(setup) != "particle" or not any(b.kind == "ground" for b in setup.boundaries):
         return float("inf")
     h = np.cbrt(np.asarray(setup.p_vol, dtype=np.float64))
     body = np.asarray(setup.body_id, dtype=np.int64)
@@ -167,7 +123,7 @@ def ground_node_layer(contact: str, height: float, domain_lo_z: float, dx: float
     """The highest node layer the ground projects: :func:`ground_top_node` for ``"grid"``, ``GRID_LAYERS_BELOW``
     lower for ``"particle"``."""
     top = ground_top_node(height, domain_lo_z, dx)
-    return top - GRID_LAYERS_BELOW if contact in POINT_CONTACTS else top
+    return top if contact == "grid" else top - GRID_LAYERS_BELOW
 
 
 def plane_impulse(z: np.ndarray, v_z: np.ndarray, coeffs: np.ndarray, height: float, mu: float,
@@ -206,4 +162,3 @@ def node_friction(v: np.ndarray, m: np.ndarray, budget: np.ndarray) -> np.ndarra
     lt = np.linalg.norm(vt, axis=1)
     cut = np.where((budget > 0.0) & (lt > 0.0), np.minimum(budget / np.maximum(m, 1e-300), lt) / np.maximum(lt, 1e-300), 0.0)
     return v - cut[:, None] * vt
-

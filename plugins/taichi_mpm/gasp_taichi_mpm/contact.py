@@ -19,17 +19,15 @@ class Contact:
     the passive points' box (:meth:`hold_passive`)."""
 
     @ti.func
-    def plane_contact(self, p, F):
+    def plane_contact(self, p):
         """``(j_n, budget)`` of point p (kg m/s) over the grounds' planes (``ground_h``, ``ground_fric``),
-        ``p_contact[p] = (k, c, skin, o_x, o_y, o_z)``: the point meets them at its surface point ``x + F o``
-        (``F`` its deformation gradient; ``o`` is 0 with the particle contact); zeros without a point contact."""
+        ``p_contact[p] = (k, c, skin)``; zeros without the particle contact."""
         jn = ti.cast(0.0, self.real)
         budget = ti.cast(0.0, self.real)
         if ti.static(self.n_planes > 0):
             kcs = self.p_contact[p]
             for b in ti.static(range(self.n_planes)):
-                zs = self.x[p][2] + F[2, 0] * kcs[3] + F[2, 1] * kcs[4] + F[2, 2] * kcs[5]
-                depth = self.ground_h[b] + kcs[2] - zs
+                depth = self.ground_h[b] + kcs[2] - self.x[p][2]
                 if depth > 0.0:
                     jq = ti.max(self.dt[None] * (kcs[0] * depth - kcs[1] * self.v[p][2]), 0.0)
                     jn += jq

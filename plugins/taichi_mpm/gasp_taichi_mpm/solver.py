@@ -117,7 +117,7 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact)
         self.flip = float(flip)   # AFLIP blend (gasp_core.toolkit.transfer); > 0: grid_mv also sums the APIC momentum
         self.coloured = bool(coloured) and not self.atomic and self.n_chunks == 1
         self.n_walls, self.n_grounds, self.n_regions = len(walls), len(grounds), len(regions)
-        # a point contact (p_contact: (n, 6) per point, :mod:`gasp_taichi_mpm.contact`) with the grounds' planes;
+        # the particle contact (p_contact: (n, 3) per point, :mod:`gasp_taichi_mpm.contact`) with the grounds' planes;
         # grid_mv's last channel then sums the nodes' friction budgets
         self.n_planes = self.n_grounds if p_contact is not None else 0
         # channels of grid_mv: momentum, mass (, APIC momentum with flip) (, viscous volume J V eta when viscous)
@@ -169,7 +169,7 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact)
         self.p_vol = ti.field(real, shape=cap)
         self.body = ti.field(ti.i32, shape=cap)
         self.fixed = ti.field(ti.i8, shape=cap)
-        self.p_contact = ti.Vector.field(6, real, shape=cap if self.n_planes else 1)   # (k, c, skin, offset) per point
+        self.p_contact = ti.Vector.field(3, real, shape=cap if self.n_planes else 1)   # (k, c, skin) per point
         bcap = max(4, 1 << (n_bodies - 1).bit_length())
         self.kind = ti.field(ti.i32, shape=bcap)
         self.mat = ti.Vector.field(N_PARAMS, real, shape=bcap)

@@ -76,7 +76,7 @@ class Transfers:
             A = affine * dx
             S = (affine - m * C) * dx   # the stress part of A (AFLIP sums the momentum without it)
             mv0 = m * self.v[p] - A @ fx
-            jn, budget = self.plane_contact(p, F)   # a point contact (zeros without one)
+            jn, budget = self.plane_contact(p)   # the particle contact (zeros without it)
             jvec = ti.Vector([0.0, 0.0, jn], self.real)   # not in AFLIP's APIC momentum (a boundary, as in warp_mpm)
             mv0 += jvec
             w = self.weights(fx)

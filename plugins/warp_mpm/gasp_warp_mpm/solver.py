@@ -35,7 +35,7 @@ import warp as wp
 from gasp_core.toolkit.grid_engine import choose_dt, GridEngineBase
 from gasp_core.toolkit.materials import P_ETA, initial_Jp, material_table
 from gasp_core.toolkit.memory import check_memory, estimate_bytes
-from gasp_core.toolkit.contact import POINT_CONTACTS, contact_model, contact_table, ground_node_layer
+from gasp_core.toolkit.contact import contact_coefficients, contact_model, ground_node_layer
 from gasp_core.toolkit.points import cell_order, fixed_mask, passive_bounds
 from gasp_core.toolkit.substeps import passive_schedule
 from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
@@ -180,7 +180,7 @@ class WarpMPMEngine(GridEngineBase):
                 # layer with contact = "grid", two cells lower with the particle contact, which meets the plane)
                 ground.append((float(ground_node_layer(contact, bd.height, self.setup.domain_lo[2], self.dx)),
                                bd.friction, 0.0))
-                if contact in POINT_CONTACTS:
+                if contact == "particle":
                     planes.append((bd.height, bd.friction, 0.0))
             else:
                 wall_mu.append(bd.friction)
@@ -190,9 +190,8 @@ class WarpMPMEngine(GridEngineBase):
         self.fixed_lo = arr(np.array(fixed_lo, dtype=dt_np).reshape(-1, 3), k.vec3)
         # the particle contact: the planes, each point's (k, c, skin) and the nodes' friction budgets
         self.planes = arr(np.array(planes, dtype=dt_np).reshape(-1, 3), k.vec3)
-        table = contact_table(self.setup)[self._order] if planes else np.zeros((1, 6))
-        self.p_contact = arr(np.ascontiguousarray(table[:, :3]).astype(dt_np), k.vec3)
-        self.p_offset = arr(np.ascontiguousarray(table[:, 3:]).astype(dt_np), k.vec3)
+        kcs = contact_coefficients(self.setup)[self._order] if planes else np.zeros((1, 3))
+        self.p_contact = arr(kcs.astype(dt_np), k.vec3)
         self.grid_fb = wp.zeros(self.n_grid ** 3 if planes else 1, dtype=Ft, device=self.device)
         self.fixed_hi = arr(np.array(fixed_hi, dtype=dt_np).reshape(-1, 3), k.vec3)
 
@@ -209,7 +208,7 @@ class WarpMPMEngine(GridEngineBase):
                 self.x, self.v, self.F, self.C, self.Jp, self.p_mass, self.p_vol, self.body,
                 self.mat_kind, self.mat_par, self.grid_mv, self.flags, lo_v, inv_dx, dx, dt_f, ng,
                 self.grid_g, self.has_wind, self.grid_mv0, int(self.flip > 0), self.p_contact, self.planes,
-                self.grid_fb, self.grid_eta, self.p_offset]),
+                self.grid_fb, self.grid_eta]),
             wp.launch(k.grid_update, dim=ng ** 3, device=d, record_cmd=True, inputs=[
                 self.grid_mv, self.grid_v, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, self.wall_mu,
                 self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex, self.grid_g, self.has_wind,
@@ -277,7 +276,7 @@ class WarpMPMEngine(GridEngineBase):
         perm = np.concatenate([self._cell_order(x[:m]), m + self._cell_order(x[m:])])
         if np.array_equal(perm, np.arange(self.n_points)):
             return
-        per_point = [self.p_contact, self.p_offset] if self.p_contact.shape[0] == self.n_points else []  # (1, 3) without planes
+        per_point = [self.p_contact] if self.p_contact.shape[0] == self.n_points else []  # (1, 3) without planes
         for a in (self.x, self.v, self.F, self.C, self.Jp, self.p_mass, self.p_vol, self.body, self.fixed, *per_point):
             view = a.numpy()
             view[...] = view[perm]
@@ -364,9 +363,7 @@ class WarpMPMEngine(GridEngineBase):
     def restore_extras(self, state: dict[str, np.ndarray]) -> None:
         self._order = np.asarray(state["order"]).astype(np.int64)
         if self.p_contact.shape[0] == self.n_points:   # the contact coefficients follow the restored order
-            table = contact_table(self.setup)[self._order]
-            self.p_contact.assign(np.ascontiguousarray(table[:, :3]).astype(self._np_dtype))
-            self.p_offset.assign(np.ascontiguousarray(table[:, 3:]).astype(self._np_dtype))
+            self.p_contact.assign(contact_coefficients(self.setup)[self._order].astype(self._np_dtype))
         self.frame = int(state["frame"])
         self.sim_time = float(state["sim_time"])
 

@@ -127,7 +127,7 @@ def build_p2g(Ft):
         lo: vec3, inv_dx: Ft, dx: Ft, dt: Ft, n_grid: int, grid_g: wp.array(dtype=vec3), has_wind: int,
         grid_mv0: wp.array(dtype=vec4), flip: int,
         p_contact: wp.array(dtype=vec3), planes: wp.array(dtype=vec3), grid_fb: wp.array(dtype=Ft),
-        grid_eta: wp.array(dtype=Ft), p_offset: wp.array(dtype=vec3),
+        grid_eta: wp.array(dtype=Ft),
     ):
         # F advanced by C, return mapping and stress (docs/mpm.md), then the scatter (and, with wind, grid_g;
         # with flip, the APIC momentum alone into grid_mv0: gasp_core.toolkit.transfer); with the particle
@@ -153,9 +153,7 @@ def build_p2g(Ft):
         mom0 = pm * v[p] - A * fx
         idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
         if planes.shape[0] > 0:
-            o = p_offset[p]
-            zs = x[p][2] + F_new[2, 0] * o[0] + F_new[2, 1] * o[1] + F_new[2, 2] * o[2]
-            jb = plane_contact(planes, p_contact[p], zs, v[p][2], dt)
+            jb = plane_contact(planes, p_contact[p], x[p][2], v[p][2], dt)
             mom0 = mom0 + vec3(Ft(0.0), Ft(0.0), jb[0])
             if jb[1] > Ft(0.0):
                 scatter_scalar(grid_fb, idx0, n_grid, W, jb[1])   # the friction budget
