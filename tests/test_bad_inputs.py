@@ -421,6 +421,15 @@ def _(d, ply, v):
     return simulate(d, edit(scene_text(write_vertex(d / "bad.ply", v), n_grid=40), "height = 0.0", "height = 0.5"))
 
 
+@case("object-below-an-explicit-domain-above-the-ground", "object 'bad'", "outside [domain] lo/hi",
+      "enlarge [domain] lo/hi")
+def _(d, ply, v):
+    # issue 41: was "start below the ground at height 0 m (lowest at z = ...)", though every point is above the ground
+    text = edit(scene_text(write_vertex(d / "bad.ply", v), n_grid=40), "n_grid = 40",
+                "n_grid = 40\nlo = [-0.15, -0.15, 0.1]\nhi = [0.15, 0.15, 0.4]")
+    return simulate(d, text)
+
+
 @case("splats-10m-on-a-20cm-object", "every Gaussian's centre is above it", "on an object 0.208 m across",
       "file's scales")
 def _(d, ply, v):

@@ -235,11 +235,12 @@ def spin(objects: list[PreparedObject], x: np.ndarray, v: np.ndarray, p_vol: np.
 def _outside_message(scene: Scene, objects: list[PreparedObject], x: np.ndarray, body: np.ndarray,
                      outside: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> str:
     """Why points start outside the domain, naming the object and the key that fixes it: below a ground
-    plane (the object placed under it, or the ground set above it), else outside ``[domain] lo/hi``."""
+    plane (the object placed under it, or the ground set above it), else outside ``[domain] lo/hi`` (a point
+    above every ground but below an explicit ``lo`` is outside the domain, not below the ground)."""
     k = int(np.flatnonzero(outside)[0])
     name = objects[int(body[k])].name
     grounds = [b.height for b in scene.boundaries if b.kind == "ground"]
-    below = outside & (x[:, 2] < lo[2]) if grounds else np.zeros(len(x), bool)
+    below = outside & (x[:, 2] < lo[2]) & (x[:, 2] < min(grounds)) if grounds else np.zeros(len(x), bool)
     if below.any():
         k = int(np.flatnonzero(below)[0])
         o = objects[int(body[k])]
