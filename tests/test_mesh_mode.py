@@ -200,3 +200,40 @@ def test_laid_gaussians_take_the_vertex_colours(tmp_path):
     trimesh.Trimesh(v, f, process=False).export(tmp_path / "plain.ply")
     plain = laid_gaussians(tmp_path / "plain.ply", 8)
     assert np.allclose(0.5 + SH_C0 * plain.sh_dc.astype(np.float64), GREY, atol=1e-6)
+
+
+def _sphere_obj(path, mutate=None):
+    """A 320-face icosphere written as OBJ (trimesh), optionally mutated (vertices, faces) first."""
+    import trimesh
+    m = trimesh.creation.icosphere(subdivisions=2, radius=0.1)
+    v, f = np.array(m.vertices), np.array(m.faces)
+    if mutate is not None:
+        v, f = mutate(v, f)
+    lines = [f"v {a:.17g} {b:.17g} {c:.17g}" for a, b, c in v.tolist()] + [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in f.tolist()]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def _far_vertex(v, f):
+    v[0] = [1e30, 0.0, 0.0]
+    return v, f
+
+
+def _collinear(v, f):
+    t = np.linspace(0.0, 1.0, len(v))
+    return np.stack([t, 2 * t, 3 * t], axis=1), f
+
+
+@pytest.mark.parametrize("mutate, words", [
+    (_far_vertex, ["beyond 1e+06 from the origin", "vertex 0 at [1e+30"]),
+    (_collinear, ["all 320 faces are degenerate", "collinear"]),
+])
+def test_a_mesh_with_a_far_vertex_or_only_degenerate_faces_names_it(tmp_path, mutate, words):
+    # issue 41: both gave "the file has 0 Gaussians; nothing to simulate"
+    from gasp_core.prepare.mesh import laid_gaussians
+    obj = _sphere_obj(tmp_path / "bad.obj", mutate)
+    with pytest.raises(SceneError) as e:
+        laid_gaussians(obj, 4.0)
+    msg = str(e.value)
+    assert "\n" not in msg and "bad.obj" in msg and all(w in msg for w in words), msg
+    laid_gaussians(_sphere_obj(tmp_path / "good.obj"), 4.0)   # the same mesh unmutated lays its Gaussians

@@ -17,7 +17,7 @@ import numpy as np
 from gasp_core.errors import SceneError, extra_hint, missing_module_message
 from gasp_core.gs.gaussians import Gaussians, rotmat_to_quat
 from gasp_core.maps.games import EPS
-from gasp_core.maps.mesh_bind import MeshBinding, bind, binding_report, lay_on_faces, project_to_mesh
+from gasp_core.maps.mesh_bind import MeshBinding, bind, binding_report, degenerate_faces, lay_on_faces, project_to_mesh
 from gasp_core.maps.occupancy import SPLAT_SIGMA
 
 if TYPE_CHECKING:
@@ -41,8 +41,10 @@ def read_mesh(path: Path):
     Raises
     ------
     SceneError
-        trimesh missing, a file it cannot read, or one with no faces or non-finite vertices.
+        trimesh missing, a file it cannot read, or one with no faces, non-finite vertices, a vertex beyond
+        :data:`gasp_core.scene.values.MAX_COORD` from the origin, or only degenerate faces (zero area).
     """
+    from gasp_core.scene.values import MAX_COORD
     try:
         import trimesh
     except ImportError:
@@ -57,6 +59,15 @@ def read_mesh(path: Path):
         raise SceneError(f"{path}: no triangle faces in the mesh")
     if not np.isfinite(mesh.vertices).all():
         raise SceneError(f"{path}: non-finite vertex coordinates in the mesh")
+    far = np.abs(np.asarray(mesh.vertices)).max(axis=1) > MAX_COORD
+    if far.any():
+        k = int(np.flatnonzero(far)[0])
+        raise SceneError(f"{path}: {int(far.sum())} vertex(es) beyond {MAX_COORD:g} from the origin (vertex {k} at "
+                         f"{np.asarray(mesh.vertices)[k].tolist()}): a corrupt or mis-scaled vertex?")
+    bad = degenerate_faces(np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int64))
+    if bad.all():
+        raise SceneError(f"{path}: all {len(bad)} faces are degenerate (zero area: coincident or collinear corners); "
+                         "nothing to lay Gaussians on")
     uv, rgb = _corner_colours(mesh)
     mesh.merge_vertices(merge_tex=True, merge_norm=True)
     return mesh, uv, rgb
