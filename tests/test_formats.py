@@ -164,6 +164,20 @@ def test_without_gsply_the_error_names_the_install(tmp_path, monkeypatch):
         write_splat_file(tmp_path / "y.spz", read_gaussians(PC_SHORT), "spz")
 
 
+def test_a_sog_without_imagecodecs_is_one_line(tmp_path, monkeypatch):
+    # issue 41: gsply's own install lines ("Install with: pip install gsply[sogs]" ...) came with GASP's: three lines
+    needs_gsply()
+    pytest.importorskip("imagecodecs", reason="imagecodecs is not installed: pip install -e '.[formats]'")
+    write_splat_file(tmp_path / "x.sog", read_gaussians(PC_SHORT), "sog")
+    import gsply.sog_reader
+    monkeypatch.setattr(gsply.sog_reader, "imagecodecs", None)   # as gsply leaves it when the import fails
+    with pytest.raises(GaspError) as e:
+        read_gaussians(tmp_path / "x.sog")
+    msg = str(e.value)
+    assert "\n" not in msg and "x.sog" in msg and "needs imagecodecs" in msg and "[formats]" in msg, msg
+    assert "gsply[sogs]" not in msg
+
+
 @pytest.mark.parametrize("name", ["train-1000.spz", "train-1000.sog"])
 def test_files_written_by_splat_transform(name):
     """Files of the formats' reference writer (splat-transform 2.7.1; its SPZ through Niantic's own library,

@@ -121,8 +121,8 @@ def read_splat_file(path, fmt: str | None = None) -> Gaussians:
         else:
             from gsply.sog_reader import sogread
             d = sogread(data)
-    except ImportError as e:  # sogread without imagecodecs
-        raise GaspError(f"{path}: reading a .sog file needs imagecodecs ({install_line()}): {e}") from None
+    except ImportError:  # sogread without imagecodecs: gsply's own install lines are left out (one line, ours)
+        raise GaspError(f"{path}: reading a .sog file needs imagecodecs, which is not installed ({install_line()})") from None
     except Exception as e:   # gsply and its decoders raise many kinds (zip, JSON, WebP, numba) for a corrupt file
         why = str(e).replace(f": {path}", "").replace(str(path), "the file")     # the path is said once, first
         reject_file(path, f"not a readable .{fmt} file (truncated or corrupt?): {type(e).__name__}: {why}")
