@@ -322,10 +322,10 @@ def compare_runs(scene: Scene, scene_run: Scene, runnable: list[str], options, n
         if progress:
             print(progress_line("compare", specs[i].label, out.record), file=sys.stderr, flush=True)
 
-    if progress:
-        print(f"gasp compare: {len(specs)} run(s) of {n_frames} frames: {', '.join(s.label for s in specs)}",
-              file=sys.stderr, flush=True)
     with Runner(scheduler=scheduler, workers=workers, timeout_s=timeout_s) as runner:
+        if progress:   # the plan once the runner stands (a scheduler that cannot be reached is the only line)
+            print(f"gasp compare: {len(specs)} run(s) of {n_frames} frames: {', '.join(s.label for s in specs)}",
+                  file=sys.stderr, flush=True)
         outputs = runner.run(specs, done)
         how = report.runner_line(runner)
     return outputs, how, runner.startup_s

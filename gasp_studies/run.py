@@ -34,6 +34,10 @@ from gasp_core.scene.spec import Scene
 RUN_TIMEOUT_S = 3600.0
 
 
+#: How long ``--scheduler ADDRESS`` is tried before the run gives up (Dask's ``Client(timeout=...)``).
+CONNECT_TIMEOUT = "30s"
+
+
 @dataclass
 class RunSpec:
     """One run: ``scene`` on ``engine`` with ``options`` (replacing the scene's) for ``n_frames``.
@@ -245,7 +249,7 @@ class Runner:
         t0 = time.perf_counter()
         if self.scheduler:
             try:
-                self._client = Client(self.scheduler, timeout="30s")
+                self._client = Client(self.scheduler, timeout=CONNECT_TIMEOUT)
             except OSError as e:
                 raise GaspError(f"--scheduler {self.scheduler}: cannot connect ({e})") from None
             self._client.wait_for_workers(1, timeout=60)

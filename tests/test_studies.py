@@ -299,3 +299,16 @@ def test_no_engine_is_named_in_gasp_studies():
     for path in Path(gasp_studies.__file__).parent.glob("*.py"):
         hits = [line for line in path.read_text().splitlines() if pattern.search(line)]
         assert not hits, (path.name, hits)
+
+
+def test_compare_with_an_unreachable_scheduler_is_one_line(tmp_path, monkeypatch, capsys, donut_small):
+    # issue 41: the plan line ("gasp compare: 1 run(s) of 1 frames: ...") came before the one-line error
+    import gasp_studies.run
+    monkeypatch.setattr(gasp_studies.run, "CONNECT_TIMEOUT", "1s")
+    scene = tmp_path / "s.toml"
+    scene.write_text(scene_text(donut_small, n_frames=1))
+    code = main(["compare", str(scene), "--engines", "taichi_mpm", "--scheduler", "tcp://127.0.0.1:1",
+                 "-o", str(tmp_path / "cmp"), "--strip-frames", "0"])
+    err = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert code == 2 and len(err) == 1 and err[0].startswith("gasp: error: --scheduler tcp://127.0.0.1:1"), err
+    assert not (tmp_path / "cmp").exists()
