@@ -164,6 +164,30 @@ def test_without_gsply_the_error_names_the_install(tmp_path, monkeypatch):
         write_splat_file(tmp_path / "y.spz", read_gaussians(PC_SHORT), "spz")
 
 
+def test_format_spz_without_gsply_is_refused_before_the_run(tmp_path, monkeypatch, capsys, donut_small):
+    # issue 41: refused only after the engine was built, naming a hidden partial folder instead of the option
+    import builtins
+    from gasp_testing import scene_text
+    from gasp_core.cli.main import main
+    real = builtins.__import__
+
+    def no_gsply(name, *a, **kw):
+        if name == "gsply" or name.startswith("gsply."):
+            raise ImportError("no gsply")
+        return real(name, *a, **kw)
+
+    import gasp_core.run.pipeline as prep
+    built = []
+    monkeypatch.setattr(prep, "prepare_scene", lambda *a, **k: built.append(1))
+    monkeypatch.setattr(builtins, "__import__", no_gsply)
+    scene = tmp_path / "s.toml"
+    scene.write_text(scene_text(donut_small, n_frames=1))
+    code = main(["simulate", str(scene), "-o", str(tmp_path / "out"), "--format", "spz", "-q"])
+    err = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert code != 0 and len(err) == 1 and "--format spz" in err[0] and "needs gsply" in err[0], err
+    assert "partial" not in err[0] and not built and not list(tmp_path.glob(".out*")) and not (tmp_path / "out").exists()
+
+
 def test_a_sog_without_imagecodecs_is_one_line(tmp_path, monkeypatch):
     # issue 41: gsply's own install lines ("Install with: pip install gsply[sogs]" ...) came with GASP's: three lines
     needs_gsply()

@@ -48,6 +48,23 @@ def write_file(path: Path, g: Gaussians, fmt: str, overwrite: bool = False) -> P
     return write_splat_file(path, g, fmt, overwrite=overwrite)
 
 
+def check_format(fmt: str) -> None:
+    """Refuse an output format whose writer is not installed, naming the option and the install line.
+
+    Raises
+    ------
+    GaspError
+        ``--format compressed_ply`` / ``spz`` without gsply, ``--format sog`` without Pillow's WebP.
+    """
+    if fmt in ("compressed_ply", "spz"):
+        gsply_module(f"--format {fmt}", "writing its frames")
+    if fmt == "sog":
+        try:
+            importlib.import_module("PIL.WebPImagePlugin")
+        except ImportError:
+            raise GaspError(f"--format sog needs Pillow with WebP, which is not installed ({install_line()})") from None
+
+
 @dataclass
 class FrameWriter:
     """Writes each frame of a run into ``folder`` in one format and layout, then the manifest.
@@ -84,13 +101,7 @@ class FrameWriter:
             raise ValueError(f"unknown format {self.fmt!r}; expected one of {', '.join(SUFFIXES)}")
         if self.layout not in LAYOUTS:
             raise ValueError(f"unknown layout {self.layout!r}; expected one of {', '.join(LAYOUTS)}")
-        if self.fmt in ("compressed_ply", "spz"):
-            gsply_module(self.folder, f"--format {self.fmt}")  # refuse before the first frame
-        if self.fmt == "sog":
-            try:
-                importlib.import_module("PIL.WebPImagePlugin")
-            except ImportError:
-                raise GaspError(f"{self.folder}: --format sog needs Pillow with WebP ({install_line()})") from None
+        check_format(self.fmt)   # refuse before the first frame
         self.suffix = SUFFIXES[self.fmt]
         self.once = [{} for _ in self.names]
 

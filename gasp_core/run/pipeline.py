@@ -23,7 +23,7 @@ from gasp_core.errors import GaspError
 from gasp_core.run.frames import FrameState, iter_frames
 from gasp_core.fsutil import OutputClaim, atomic_json, leftover_partials
 from gasp_core.gs.gaussians import Gaussians
-from gasp_core.run.layout import FrameWriter, default_layout
+from gasp_core.run.layout import FrameWriter, check_format, default_layout
 from gasp_core.prepare.dynamic import follows_model
 from gasp_core.prepare.scene import PreparedScene, input_files, prepare_scene
 from gasp_core.run.record import run_summary, running_record
@@ -106,6 +106,7 @@ def simulate_scene(scene: Scene, outdir: str | Path, request: SimulateRequest | 
     reporter = reporter if reporter is not None else ConsoleReporter(progress=not req.quiet)
     outdir = Path(outdir)
     n_frames = scene.n_frames if req.n_frames is None else req.n_frames
+    check_format(req.fmt)   # before the output is claimed or an engine built (issue 41: it came after, naming a hidden folder)
     claim = OutputClaim(outdir, req.overwrite, input_files(scene), resume=req.resume, discard=req.discard)
     run = _Run(fmt=req.fmt, layout=req.layout or default_layout(req.fmt), yes=req.yes, reporter=reporter)
     try:
