@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import secrets
 import shutil
 import tempfile
@@ -113,12 +114,48 @@ def leftover_partials(outdir: Path) -> list[Path]:
     return out
 
 
-def discard_partials(outdir: Path) -> None:
+#: What a run writes at the top of its partial folder (besides one folder per object): its pid, its checkpoint,
+#: ``run.json`` / ``frames.json`` / ``render.mp4``, and :func:`atomic_write`'s temporary files.
+_PARTIAL_TOP = re.compile(r"\.gasp-pid|\.gasp-checkpoint\.npz|run\.json|frames\.json|render\.mp4|\..+\.tmp")
+#: What a run writes inside an object folder of its partial folder: frames, the files written once, temporaries.
+_PARTIAL_OBJECT = re.compile(r"(frame_\d{4,}|static|rest)(\.ply|\.compressed\.ply|\.spz|\.sog)|moving_rows\.npy|\..+\.tmp")
+
+
+def foreign_entries(partial: Path) -> list[str]:
+    """What a partial folder holds that no gasp run writes there (relative paths; ``[]``: only gasp's), so that
+    ``--discard`` and ``--overwrite`` never delete a file the user put in it."""
+    extra = []
+    try:
+        for top in sorted(partial.iterdir()):
+            if top.is_dir() and not top.is_symlink():
+                extra += [f"{top.name}/{f.name}" for f in sorted(top.iterdir())
+                          if f.is_dir() or f.is_symlink() or not _PARTIAL_OBJECT.fullmatch(f.name)]
+            elif top.is_symlink() or not _PARTIAL_TOP.fullmatch(top.name):
+                extra.append(top.name)
+    except OSError as e:
+        extra.append(f"{e.filename} (unreadable)")
+    return extra
+
+
+def discard_partials(outdir: Path, option: str = "--discard", dry_run: bool = False) -> None:
     """Remove the partial folders of stopped or killed runs to ``outdir`` (not finished results kept after
-    an :class:`OutputConflict`, which hold :data:`MARKER`)."""
-    for p in leftover_partials(outdir):
-        if not (p / MARKER).exists():
-            shutil.rmtree(p, ignore_errors=True)
+    an :class:`OutputConflict`, which hold :data:`MARKER`).
+
+    Raises
+    ------
+    GaspError
+        A partial folder holds a file gasp did not write (:func:`foreign_entries`): nothing is removed, and the
+        line names the folder, the files and ``option``. ``dry_run``: the check alone, nothing removed.
+    """
+    doomed = [p for p in leftover_partials(outdir) if not (p / MARKER).exists()]
+    for p in doomed:
+        extra = foreign_entries(p)
+        if extra:
+            shown = ", ".join(extra[:3]) + (f" and {len(extra) - 3} more" if len(extra) > 3 else "")
+            raise GaspError(f"{option} refuses to delete the stopped run's folder '{p}': it holds files gasp did not "
+                            f"write ({shown}); move them out, then run again")
+    for p in doomed:
+        shutil.rmtree(p, ignore_errors=True)
 
 
 def _check_parent(outdir: Path) -> None:
@@ -187,6 +224,8 @@ class OutputClaim:
                 what = "the working directory" if p == Path.cwd().resolve() else f"'{p}'"
                 raise GaspError(f"output folder '{self.outdir}' is, contains or lies above {what}; "
                                 f"choose a new folder for the results")
+        if overwrite or discard:   # before anything is claimed: a user's file in a stopped run's folder is refused
+            discard_partials(self.outdir, "--overwrite" if overwrite else "--discard", dry_run=True)
         if self.outdir.exists() and not self.outdir.is_dir():
             raise GaspError(f"output '{self.outdir}' exists and is not a folder; choose a folder name")
         _check_parent(self.outdir)
@@ -211,7 +250,7 @@ class OutputClaim:
         with os.fdopen(fd, "w") as f:
             f.write(f"{self.token} {os.getpid()}\n")
         if overwrite or discard:   # also partials whose folder was removed by hand
-            discard_partials(self.outdir)
+            discard_partials(self.outdir, "--overwrite" if overwrite else "--discard")
 
     def _existing(self, overwrite: bool, discard: bool) -> None:
         """``outdir`` exists: refuse it, or (``overwrite``, ``discard``) make it ready to be claimed."""
@@ -219,7 +258,7 @@ class OutputClaim:
         only_claim = stale and all(p.name == CLAIM for p in self.outdir.iterdir())
         if stale and (overwrite or (discard and only_claim)):
             # a stopped or killed run's: --discard or --overwrite throws its partial output away
-            discard_partials(self.outdir)
+            discard_partials(self.outdir, "--overwrite" if overwrite else "--discard")
             (self.outdir / CLAIM).unlink(missing_ok=True)
             self.created = only_claim
             if not only_claim:

@@ -113,6 +113,24 @@ def test_discard_or_overwrite_throws_the_partial_away(tmp_path, donut_small, fla
     assert json.loads((out / "run.json").read_text())["n_frames"] == 1
 
 
+@pytest.mark.parametrize("flag", ["--discard", "--overwrite"])
+def test_a_users_file_in_the_stopped_runs_folder_survives(tmp_path, donut_small, flag):
+    # issue 41: a file the user put in the hidden partial folder was deleted by --discard and --overwrite, exit 0
+    scene = write_scene(tmp_path, donut_small, n_frames=3)
+    out = tmp_path / "out"
+    r = stop_after(scene, out, signal.SIGHUP, 1)
+    assert r.returncode == 130, r.stderr
+    (partial,) = tmp_path.glob(".out.partial-*")
+    (partial / "notes.txt").write_text("mine")
+    r = gasp("simulate", scene, "-o", out, "-q", flag, "--frames", "1", cwd=tmp_path)
+    err = not_resolution(r.stderr).strip()
+    assert r.returncode == 2 and "\n" not in err and flag in err and "notes.txt" in err and partial.name in err, err
+    assert (partial / "notes.txt").read_text() == "mine" and (partial / "donut_small" / "frame_0001.ply").exists()
+    (partial / "notes.txt").unlink()                       # moved out: the same command then throws the run away
+    r = gasp("simulate", scene, "-o", out, "-q", flag, "--frames", "1", cwd=tmp_path)
+    assert r.returncode == 0 and not partial.exists(), r.stderr
+
+
 def test_a_truncated_checkpoint_is_one_line(tmp_path, donut_small, capsys):
     scene = write_scene(tmp_path, donut_small, n_frames=3)
     out = tmp_path / "out"
