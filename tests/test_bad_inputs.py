@@ -430,6 +430,13 @@ def _(d, ply, v):
     return simulate(d, text)
 
 
+@case("passive-every-past-the-surface", "passive_every=128", "[1, 16]")
+def _(d, ply, v):
+    # issue 41: accepted up to the substep limit, and the Gaussians drifted 940 mm from a body that moved 52 mm
+    return simulate(d, scene_text(write_vertex(d / "bad.ply", v), n_grid=40,
+                                  engine_options="{ threads = 1, passive_every = 128 }"))
+
+
 @case("splats-10m-on-a-20cm-object", "every Gaussian's centre is above it", "on an object 0.208 m across",
       "file's scales")
 def _(d, ply, v):

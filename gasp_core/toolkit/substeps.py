@@ -158,10 +158,18 @@ def substeps_from_options(setup, options: Mapping[str, Any], engine: str = "",
 
 
 #: Option of the grid engines with the feature ``passive_points`` (:func:`passive_schedule`).
+#: Largest ``passive_every``: measured on the README donut at ``draft`` (``benchmarks/passive_every_drift.py``,
+#: ``benchmarks/results/passive_every_drift.md``, warp_mpm, 12 frames, 121 substeps a frame), the passive points stay
+#: within 0.23 dx of where a gather every substep puts them up to 16 (0.14 dx at 16), leave the body by 4.1 dx at 32
+#: and go non-finite at 64 (frame 3): the affine field extrapolated over many substeps detaches them (issue 41: 128
+#: let the Gaussians drift 940 mm from a body that moved 52 mm).
+MAX_PASSIVE_EVERY = 16
+
 PASSIVE_EVERY = Option(
     "passive_every", 1, "move passive points every this many substeps, through the grid's affine velocity field "
-    "(velocity and gradient gathered at the point, linear in time between updates; 1: every substep, plain G2P)",
-    kind="int", lo=1, hi=MAX_SUBSTEPS)
+    "(velocity and gradient gathered at the point, linear in time between updates; 1: every substep, plain G2P; "
+    f"at most {MAX_PASSIVE_EVERY}: beyond it the surface leaves the body, benchmarks/passive_every_drift.py)",
+    kind="int", lo=1, hi=MAX_PASSIVE_EVERY)
 
 
 def passive_schedule(n_substeps: int, every: int, dt: float) -> list[tuple[int, float, float]]:
