@@ -264,6 +264,12 @@ class OutputClaim:
             if not only_claim:
                 self._check_replaceable()
             return
+        if stale and discard:   # --discard given, but the folder holds more than the stopped run's claim
+            others = sorted(p.name for p in self.outdir.iterdir() if p.name != CLAIM)
+            shown = ", ".join(others[:3]) + (f" and {len(others) - 3} more" if len(others) > 3 else "")
+            raise FileExistsError(
+                f"--discard refuses '{self.outdir}': besides the stopped run's claim it holds {shown}, which gasp "
+                f"did not write there; move them out, or pass --overwrite to replace a gasp output") from None
         if stale:
             raise FileExistsError(
                 f"output folder '{self.outdir}' belongs to a run that was stopped or killed (pid {stale}); pass "

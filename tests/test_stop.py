@@ -131,6 +131,19 @@ def test_a_users_file_in_the_stopped_runs_folder_survives(tmp_path, donut_small,
     assert r.returncode == 0 and not partial.exists(), r.stderr
 
 
+def test_discard_refused_for_a_users_file_says_why(tmp_path, donut_small):
+    # issue 41: the refusal said "pass --discard", though it was passed
+    scene = write_scene(tmp_path, donut_small, n_frames=3)
+    out = tmp_path / "out"
+    r = stop_after(scene, out, signal.SIGHUP, 1)
+    assert r.returncode == 130, r.stderr
+    (out / "mine.txt").write_text("mine")
+    r = gasp("simulate", scene, "-o", out, "-q", "--discard", "--frames", "1", cwd=tmp_path)
+    err = not_resolution(r.stderr).strip()
+    assert r.returncode == 2 and "\n" not in err and "--discard refuses" in err and "mine.txt" in err, err
+    assert "pass --resume" not in err and (out / "mine.txt").read_text() == "mine"
+
+
 def test_a_truncated_checkpoint_is_one_line(tmp_path, donut_small, capsys):
     scene = write_scene(tmp_path, donut_small, n_frames=3)
     out = tmp_path / "out"
