@@ -123,6 +123,21 @@ def test_a_run_in_progress_is_read_then_followed_to_its_final_folder(tmp_path, d
     assert not same(final.read(0, 0), final.read(N_FRAMES, 0))     # and it moved
 
 
+def test_a_link_to_a_run_in_progress_is_followed(tmp_path, donut_small):
+    # issue 41: through a symlink the viewer showed the first frames and did not follow the run
+    scene, out = write_scene(tmp_path, donut_small), tmp_path / "out"
+    link = tmp_path / "link"
+    link.symlink_to(out, target_is_directory=True)
+    with Frozen(scene, out, 2) as run:
+        assert find_live(link) == find_live(out) is not None
+        live = LiveRun(link)
+        assert live.status == RUNNING
+        run.go_on()
+        assert run.proc.wait(timeout=600) == 0, run.proc.stderr.read()
+    live.refresh()
+    assert live.status == FINISHED and live.n_frames == N_FRAMES + 1 and locate(link) == (out.resolve(), FINISHED)
+
+
 def test_the_viewer_of_a_run_in_progress_grows_and_follows_the_newest_frame(tmp_path, donut_small):
     """Two viewers of one run: one at the newest frame follows the new ones, one left at frame 0 stays there."""
     pytest.importorskip("viser", reason="the view extra is not installed: pip install -e '.[view]'")

@@ -144,7 +144,7 @@ def locate(path) -> tuple[Path | None, str]:
     status : str
         One of :data:`STATUSES`, or ``"missing"`` when neither ``path`` nor its output folder exists.
     """
-    path = Path(path)
+    path = Path(path).resolve()                      # a link to the output folder: its partial folder lies beside the target
     outdir = outdir_of(path)
     if path != outdir:                               # a partial folder
         if path.is_dir():
