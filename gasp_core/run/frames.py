@@ -126,7 +126,8 @@ def iter_frames(prep: PreparedScene, n_frames: int, stats: RunStats | None = Non
         gs, row = rebuild_all(0, prep.setup.x)
         yield 0, gs, row
     for rec in run_engine(prep.info, prep.setup, n_frames, stats, start_frame=start,
-                          state=None if resume is None else resume.engine_state, before_frames=before_frames):
+                          state=None if resume is None else resume.engine_state, before_frames=before_frames,
+                          sleep=getattr(prep.scene, "sleep", False)):
         gs, row = rebuild_all(rec.frame, rec.x)
         row["sim_s"] = rec.wall_s
         state.get_state = rec.get_state

@@ -44,6 +44,8 @@ def run_summary(prep, stats, n_frames: int, per_frame: list[dict], wall_s: float
         "versions": _versions(info), "engine_stats": stats.engine,
         "quality": scene.quality, "engine_options": setup.options, "build_s": stats.build_s, "prepare_s": prep.prepare_s,
         "wall_s": wall_s, "n_frames": n_frames, "frame_dt": scene.frame_dt,
+        # sleep (gasp_core.seam.sleep): the last simulated frame when the scene fell asleep, later frames repeat it
+        "sleep": {"enabled": bool(getattr(scene, "sleep", False)), "asleep_after_frame": stats.asleep_after},
         "gravity": list(scene.gravity),
         "domain": {"lo": setup.domain_lo.tolist(), "hi": setup.domain_hi.tolist(),
                    "n_grid": setup.n_grid, "dx": setup.dx},

@@ -195,10 +195,11 @@ class Scene:
     forces: list = field(default_factory=list)
     impulses: list = field(default_factory=list)
     quality: str = DEFAULT_QUALITY
+    sleep: bool = True
 
 
 _TOP_KEYS = {"name", "frame_dt", "n_frames", "gravity", "output", "engine", "domain", "boundary", "object",
-             "collider", "force", "impulse", "quality"}
+             "collider", "force", "impulse", "quality", "sleep"}
 _OBJECT_KEYS = ({f.name for f in fields(ObjectSpec)} | set(MESH_KEYS)) - {"velocity_from_model"}
 
 
@@ -347,4 +348,5 @@ def parse_scene(data: dict, src: Path, quality: str | None = None) -> Scene:
         gravity=read_key(data, "gravity", as_vec3, default_from=Scene, where="", src=src, max_norm=MAX_GRAVITY,
                          unit=" m/s^2"),
         frame_dt=read_key(data, "frame_dt", as_number, 0.0, default_from=Scene, where="", src=src, lo_open=True),
-        n_frames=n_frames, output=output, name=as_string(data.get("name", src.stem), "name", src), quality=level)
+        n_frames=n_frames, output=output, name=as_string(data.get("name", src.stem), "name", src), quality=level,
+        sleep=read_key(data, "sleep", as_boolean, default_from=Scene, where="", src=src))

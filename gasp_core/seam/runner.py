@@ -17,6 +17,10 @@ from gasp_core.errors import EngineDivergence, EngineError
 from gasp_core.seam.build import build_engine
 from gasp_core.seam.engine import call_engine, EngineInfo, PointEngine, StatefulEngine
 from gasp_core.seam.setup import SimSetup
+from gasp_core.seam.sleep import SleepWatch
+
+#: The entry of an engine state (``get_state``) that carries the sleep's count (:class:`SleepWatch.state`).
+SLEEP_KEY = "gasp_sleep"
 
 
 @dataclass
@@ -49,6 +53,8 @@ class RunStats:
     build_s: float = 0.0
     frame_s: list[float] = field(default_factory=list)
     engine: dict = field(default_factory=dict)
+    #: The last simulated frame of a scene that fell asleep (:mod:`gasp_core.seam.sleep`); None: awake to the end.
+    asleep_after: int | None = None
 
 
 #: The likely cause of non-finite values, or of points jumping out of the domain within a step: the one
@@ -101,7 +107,7 @@ def check_state(x: np.ndarray, setup: SimSetup, frame: int, margin: float | None
 def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int,
                stats: RunStats | None = None, start_frame: int = 0,
                state: dict | None = None,
-               before_frames: Callable[[dict], None] | None = None) -> Iterator[FrameRecord]:
+               before_frames: Callable[[dict], None] | None = None, sleep: bool = False) -> Iterator[FrameRecord]:
     """Build the engine and yield ``n_frames`` checked frames.
 
     Parameters
@@ -122,6 +128,11 @@ def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int,
     before_frames : callable, optional
         ``before_frames(engine_stats)`` once the engine is built, before its first frame (the work estimate
         of :mod:`gasp_core.run.budget`); what it raises ends the run.
+    sleep : bool
+        Let the scene fall asleep once at rest (:mod:`gasp_core.seam.sleep`): the engine is then no longer
+        stepped and later frames repeat the last one (``wall_s`` 0, ``stats.asleep_after`` the last simulated
+        frame). A state from ``get_state`` then carries the sleep's own count, so a resumed run sleeps as the
+        uninterrupted one does.
 
     Yields
     ------
@@ -145,7 +156,11 @@ def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int,
     t0 = time.perf_counter()
     engine: PointEngine = build_engine(info, setup)
     stateful: StatefulEngine | None = engine if "state" in info.capabilities.features else None
+    watch = SleepWatch(setup, sleep)
     if start_frame:
+        state = dict(state)
+        if SLEEP_KEY in state:
+            watch.restore(state.pop(SLEEP_KEY))
         call_engine(info, "set_state", stateful.set_state, state)
     stats.build_s = time.perf_counter() - t0
     get_state = None if stateful is None else stateful.get_state
@@ -154,18 +169,31 @@ def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int,
         engine.step_frame()
         return np.asarray(engine.positions(), dtype=np.float64)
 
+    def saved_state() -> dict:
+        out = dict(call_engine(info, "get_state", get_state))
+        if watch.enabled:
+            out[SLEEP_KEY] = watch.state()
+        return out
+
     try:
         stats.engine = dict(call_engine(info, "stats", engine.stats))   # n_substeps, for the work estimate
         if before_frames is not None:
             before_frames(stats.engine)
+        x = np.asarray(call_engine(info, "positions", engine.positions), dtype=np.float64) if watch.enabled else None
         for frame in range(start_frame + 1, n_frames + 1):
+            if watch.asleep_after is not None:   # asleep: the frame repeats the last one (gasp_core.seam.sleep)
+                stats.asleep_after = watch.asleep_after
+                stats.frame_s.append(0.0)
+                yield FrameRecord(frame, x + 0.0, 0.0, None if get_state is None else saved_state)
+                continue
             t0 = time.perf_counter()
-            x = call_engine(info, f"frame {frame}", advance)
+            x_prev, x = x, call_engine(info, f"frame {frame}", advance)
             dt_wall = time.perf_counter() - t0
             check_state(x, setup, frame)
             stats.frame_s.append(dt_wall)
-            yield FrameRecord(frame, x, dt_wall,
-                              None if get_state is None else (lambda: call_engine(info, "get_state", get_state)))
+            if watch.enabled:
+                watch.update(frame, x_prev, x)
+            yield FrameRecord(frame, x, dt_wall, None if get_state is None else saved_state)
         stats.engine = dict(call_engine(info, "stats", engine.stats))
     finally:
         call_engine(info, "close", engine.close)

@@ -1,0 +1,91 @@
+"""Sleep: a scene at rest is not simulated (scene key ``sleep``, ``docs/performance.md`` "Sleep").
+
+Rigid-body engines (Bullet, PhysX) put a resting body to sleep and wake it when something touches it. Here the
+unit is the scene: once, for :data:`SLEEP_FRAMES` frames in a row, no simulated point of it has moved more than
+:data:`SLEEP_TOL` cells in a frame (what is left of its vibration) and its points' centroid no more than
+:data:`SLEEP_DRIFT` cells (a steady slide or creep is not rest), and nothing that varies in time can reach it any more (no moving
+collider, no wind or attractor, no impulse still to come), the engine is no longer stepped and each later frame
+repeats the last one. Nothing can wake such a scene: a scene with anything still moving or still to come (a second
+body in flight, a collider on its path, an impulse window ahead) never sleeps, because its points move or because
+:func:`sleep_blockers` names what is still to come.
+
+What sleep costs in accuracy is the motion the scene would still have made. Measured on the README donut (36
+frames awake, taichi_mpm; ``docs/performance.md`` "Sleep"): with these thresholds it falls asleep after frame 30, and
+no Gaussian's centre of the awake run moves farther than 0.21 mm (0.068 % of the donut's size, about 0.1 U of
+``docs/speed_accuracy.md``'s shape unit, 0.62 %) from where the sleeping run leaves it.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+#: Largest displacement of any simulated point in one frame (in cells ``dx``) that counts as rest.
+SLEEP_TOL = 0.2
+#: Largest displacement of the simulated points' centroid in one frame (in cells ``dx``) that counts as rest.
+SLEEP_DRIFT = 0.02
+#: Frames in a row at rest before the scene sleeps.
+SLEEP_FRAMES = 5
+
+
+def sleep_blockers(setup, t: float) -> list[str]:
+    """What in ``setup`` can still move a resting scene after time ``t`` (s); empty: it may sleep.
+
+    Parameters
+    ----------
+    setup : SimSetup
+        ``colliders`` (their ``motion``), ``forces``, ``impulses`` (their ``t1``), ``passive``.
+    t : float
+        Seconds since the start.
+    """
+    out = [f"collider '{c.name}' moves" for c in (setup.colliders or []) if c.motion.moving]
+    out += [f"a {f.kind} force acts" for f in (setup.forces or [])]
+    out += [f"an impulse ends at t = {i.t1:g} s" for i in (setup.impulses or []) if float(i.t1) >= t]
+    return out
+
+
+class SleepWatch:
+    """Counts the frames a scene has been at rest and says when it falls asleep.
+
+    Parameters
+    ----------
+    setup : SimSetup
+    enabled : bool
+        The scene's ``sleep`` key.
+    """
+
+    def __init__(self, setup, enabled: bool = True):
+        self.setup = setup
+        self.enabled = bool(enabled)
+        self.quiet = 0
+        #: The frame after which the engine was no longer stepped (None: awake).
+        self.asleep_after: int | None = None
+        self._material = None if setup.passive is None else ~np.asarray(setup.passive, dtype=bool)
+        self._tol = SLEEP_TOL * float(setup.dx)
+        self._drift = SLEEP_DRIFT * float(setup.dx)
+
+    def moved(self, x_prev: np.ndarray, x: np.ndarray) -> tuple[float, float]:
+        """Largest displacement of a simulated (non-passive) point between two frames and that of their centroid
+        (m, per axis for the first)."""
+        d = np.asarray(x, dtype=np.float64) - np.asarray(x_prev, dtype=np.float64)
+        if self._material is not None:
+            d = d[self._material]
+        if not d.size:
+            return 0.0, 0.0
+        return float(np.abs(d).max()), float(np.linalg.norm(d.mean(axis=0)))
+
+    def update(self, frame: int, x_prev: np.ndarray, x: np.ndarray) -> bool:
+        """After simulated frame ``frame``: whether the scene is asleep from the next frame on."""
+        if not self.enabled or self.asleep_after is not None:
+            return self.asleep_after is not None
+        most, centroid = self.moved(x_prev, x)
+        self.quiet = self.quiet + 1 if most <= self._tol and centroid <= self._drift else 0
+        if self.quiet >= SLEEP_FRAMES and not sleep_blockers(self.setup, frame * float(self.setup.frame_dt)):
+            self.asleep_after = frame
+        return self.asleep_after is not None
+
+    def state(self) -> np.ndarray:
+        """``[quiet, asleep_after or -1]`` for a checkpoint."""
+        return np.array([self.quiet, -1 if self.asleep_after is None else self.asleep_after], dtype=np.int64)
+
+    def restore(self, state) -> None:
+        quiet, after = (int(v) for v in np.asarray(state).ravel()[:2])
+        self.quiet, self.asleep_after = quiet, (None if after < 0 else after)
