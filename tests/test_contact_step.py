@@ -127,3 +127,63 @@ def test_the_bounce_is_the_same_at_a_hand_set_step(monkeypatch):
     assert 0.5 < e_auto < 1.02, e_auto
     assert abs(e_two - e_auto) <= RESTITUTION_TOL, (e_auto, e_two)
     assert abs(e_old - e_auto) > RESTITUTION_TOL, (e_auto, e_old)     # the check catches the old rule
+
+
+# --------------------------------------------------------------------------------------------
+# A domain floored at the ground (issue 38): refused in one line saying what to change
+# --------------------------------------------------------------------------------------------
+def _floored_scene(tmp_path, lo_z: float, contact: str = "auto"):
+    from gasp_testing import DONUT
+    from gasp_core.scene.spec import load_scene
+    text = f"""
+frame_dt = 0.0333333
+n_frames = 4
+[engine]
+name = "warp_mpm"
+options = {{ precision = "f32", contact = "{contact}" }}
+
+[domain]
+n_grid = 16
+lo = [-0.15, -0.15, {lo_z}]
+hi = [0.15, 0.15, 0.3]
+
+[[boundary]]
+kind = "ground"
+height = 0.0
+
+[[object]]
+file = "{DONUT}"
+up_axis = "+z"
+position = [0.0, 0.0, 0.05]
+[object.material]
+name = "jelly"
+E = 2.0e4
+rho = 300.0
+"""
+    path = tmp_path / f"floored_{contact}_{lo_z:g}.toml"
+    path.write_text(text)
+    return load_scene(path)
+
+
+@pytest.mark.skipif(importlib.util.find_spec("gasp_warp_mpm") is None, reason="warp_mpm not installed")
+def test_a_domain_floored_at_the_ground_is_refused_in_one_line(tmp_path):
+    """``[domain] lo`` z = the ground's height: the particle contact's ground node layers (2 cells below the
+    plane) would be outside the grid (the run diverged at frame 3); refused before any file is read, naming the
+    file, lo z, the ground's height and the lo z that works; that lo z, and the grid contact, pass the check."""
+    import re
+    from gasp_core.prepare.checks import check_ground_in_grid
+    from gasp_core.prepare.scene import prepare_scene
+    scene = _floored_scene(tmp_path, 0.0)
+    with pytest.raises(SceneError) as e:
+        prepare_scene(scene)
+    msg = str(e.value)
+    assert "\n" not in msg and str(scene.path) in msg
+    assert "ground at height 0 m" in msg and "[domain] lo z = 0 m" in msg and 'contact = "grid"' in msg, msg
+    want = float(re.search(r"lo z to at most (-?[0-9.e-]+) m", msg).group(1))
+    assert want == pytest.approx(-0.0693)     # 3 cells of the dx that lo then gives (z becomes the longest side)
+    dx = (0.3 - want) / 16
+    assert -want >= 3 * dx
+    check_ground_in_grid(_floored_scene(tmp_path, want), {"contact": "auto"})           # the suggestion passes
+    with pytest.raises(SceneError):
+        check_ground_in_grid(_floored_scene(tmp_path, -0.03), {"contact": "auto"})   # 1.45 cells under: refused
+    check_ground_in_grid(_floored_scene(tmp_path, 0.0, "grid"), {"contact": "grid"})   # the grid contact's layer is in
