@@ -11,6 +11,7 @@ from pathlib import Path
 
 from gasp_core.errors import SceneError
 from gasp_core.prepare.assembly import build_setup
+from gasp_core.prepare.checks import check_ground_in_grid
 from gasp_core.prepare.placement import prepare_object, PreparedObject
 from gasp_core.scene.quality import engine_options as quality_options
 from gasp_core.scene.spec import Scene
@@ -67,7 +68,8 @@ def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None 
         Unknown engine, or an engine that cannot run here.
     SceneError
         A material, boundary or feature the engine lacks (before any file is read), an
-        unreadable object file, an object outside an explicit domain.
+        unreadable object file, an object outside an explicit domain, an explicit domain floored too close
+        under a ground for the particle contact (:func:`gasp_core.prepare.checks.check_ground_in_grid`).
     """
     # The capability check runs here, on the scene, so that an engine that lacks something is refused
     # before any file is read; build_engine applies the same rule (needs) again to the setup, because it
@@ -79,6 +81,10 @@ def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None 
                          f"(installed: {sorted(all_engines()) or 'none'})")
     info = get_engine(name)
     check_supported(info, **scene_needs(scene), others=all_engines())
+    declared = {o.name for o in info.options}
+    if "contact" in declared:      # the grid engines' particle contact: its ground layers inside the grid
+        given = scene.engine.options if options is None else options
+        check_ground_in_grid(scene, quality_options(scene.quality, dict(given), declared))
     objects = [prepare_object(spec) for spec in scene.objects]
     # object folder names: a stem that is one of a run folder's own files (run.json.ply) or hidden
     # (.gasp-output.ply) gets a leading "_"; equal ones their index

@@ -74,7 +74,7 @@ class WarpMPMEngine(GridEngineBase):
         opts = setup.options  # checked and completed by the core (build_engine)
         self.options = opts
         kinds, par = material_table(setup.materials)
-        choose_dt(setup, opts, ENGINE, implicit_viscosity=True)  # refuses a scene past max_substeps before any build work
+        steps = choose_dt(setup, opts, ENGINE, implicit_viscosity=True)  # refuses a scene past max_substeps before any build work
         check_memory(estimate_bytes(len(setup.x), setup.n_grid, opts["precision"]), ENGINE,
                      f"{len(setup.x)} points, n_grid {setup.n_grid}, {opts['precision']}")
         self.device = self._start_warp(opts["device"])
@@ -87,7 +87,7 @@ class WarpMPMEngine(GridEngineBase):
         self.n_grid = int(setup.n_grid)
         self.dx = setup.dx
         self.inv_dx = 1.0 / self.dx
-        self.n_substeps, self.dt = choose_dt(setup, opts, ENGINE, implicit_viscosity=True)
+        self.n_substeps, self.dt = steps   # chosen once: a step shortened for the contact warns once
         self.frame = 0
         self.sim_time = 0.0
         # Sort points by grid cell (cache locality of scatter and gather); order[i] is the
