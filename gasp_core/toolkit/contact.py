@@ -103,8 +103,8 @@ def contact_dt(setup) -> float:
     ``omega = sqrt(KAPPA E / (rho dx h))`` (rad/s) is a contact patch's frequency: the stiffness
     ``KAPPA E h`` of the ``(dx / h)^2`` points of median spacing ``h`` (m) that press on one node, over the node's
     mass ``rho dx^3``. The grid engines take the shorter of this and the CFL step; a hand-set ``dt`` or
-    ``n_substeps`` longer than this is shortened to it with a warning (``gasp_core.toolkit.grid_engine.choose_dt``). Measured (``conformance_tests/test_extremes.py``, a 0.2 m jelly cube, E 1e5 Pa, dropped at
-    2 m/s): at ``cfl = 1.0`` (``omega dt = 2.4``) the contact gained 239 % of the body's energy; at 0.9 (2.2)
+    ``n_substeps`` longer than this is shortened to it with a warning (``gasp_core.toolkit.grid_engine.choose_dt``).
+    Measured (``conformance_tests/test_extremes.py``, a 0.2 m jelly cube, E 1e5 Pa, dropped at 2 m/s): at ``cfl = 1.0`` (``omega dt = 2.4``) the contact gained 239 % of the body's energy; at 0.9 (2.2)
     none. The README donut (median ``omega dt`` 1.5 at the default ``cfl = 0.4``) is not affected.
     """
     if contact_model(setup) != "particle" or not any(b.kind == "ground" for b in setup.boundaries):
