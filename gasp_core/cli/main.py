@@ -295,7 +295,10 @@ def _run(args, reporter: Reporter) -> int:
         return args.func(args)
     except (GaspError, OSError, KeyboardInterrupt) as e:
         code = _exit_status(e)
-        reporter.error(_error_line(e), code)
+        kept = getattr(e, "kept", None) if isinstance(e, EngineDivergence) else None   # its good frames
+        reporter.error(_error_line(e), code, **({} if kept is None else
+                                                {"output": str(kept.resolve()),
+                                                 "run_json": str((kept / "run.json").resolve())}))
         return code
     except ImportError as e:             # an optional extra that is not installed: its install line
         message = missing_module_message(e, f"'gasp {args.command}'")
@@ -319,7 +322,10 @@ def _error_line(e: BaseException) -> str:
     if isinstance(e, KeyboardInterrupt):
         return str(e) if isinstance(e, stop.Stopped) else "interrupted; no partial output was kept"
     if isinstance(e, EngineDivergence):
-        return f"error: simulation diverged at {e}"
+        if e.kept is None:
+            return f"error: simulation diverged at {e}"
+        return (f"error: simulation diverged at {e}; frames 0-{e.last_kept} before it are kept in '{e.kept}' "
+                f"(run.json status 'diverged')")
     if isinstance(e, (GaspError, FileExistsError, FileNotFoundError, IsADirectoryError, NotADirectoryError)):
         return f"error: {e}"
     if isinstance(e, PermissionError):

@@ -15,7 +15,8 @@ A run says five kinds of thing, each an event (a dict with ``"event"`` naming it
     ``message`` (the line the console prints) and the record's fields (``gasp simulate``: ``run_json``,
     ``output``, ...).
 ``error``
-    ``message`` (the line after ``gasp: ``) and ``status`` (the exit status, :mod:`gasp_core.errors`).
+    ``message`` (the line after ``gasp: ``) and ``status`` (the exit status, :mod:`gasp_core.errors`); a
+    diverged ``gasp simulate`` that kept its frames before the blow-up adds ``output`` and ``run_json``.
 
 Backends: :class:`Reporter` keeps the events in a list (a notebook or a test reads them);
 :class:`ConsoleReporter` is what the ``gasp`` command shows (a tqdm bar, ``gasp: warning: ...`` lines on
@@ -63,10 +64,11 @@ class Reporter:
         """The command's result: ``message`` in words and its record (JSON-serialisable values)."""
         self.emit({"event": "result", "message": message, **record})
 
-    def error(self, message: str, status: int) -> None:
-        """The command failed: ``message`` is the line after ``gasp: ``, ``status`` the exit status."""
+    def error(self, message: str, status: int, **record) -> None:
+        """The command failed: ``message`` is the line after ``gasp: ``, ``status`` the exit status, ``record``
+        what it kept (``output``, ``run_json``: JSON-serialisable values)."""
         self.end_progress()
-        self.emit({"event": "error", "message": message, "status": status})
+        self.emit({"event": "error", "message": message, "status": status, **record})
 
 
 class ConsoleReporter(Reporter):
@@ -105,7 +107,7 @@ class ConsoleReporter(Reporter):
     def result(self, message: str, **record) -> None:
         print(message)
 
-    def error(self, message: str, status: int) -> None:
+    def error(self, message: str, status: int, **record) -> None:
         self.end_progress()
         print(f"gasp: {message}", file=sys.stderr)
 
@@ -130,7 +132,7 @@ class JsonLinesReporter(Reporter):
         super().warning(message)
         print(f"gasp: warning: {message}", file=sys.stderr)
 
-    def error(self, message: str, status: int) -> None:
+    def error(self, message: str, status: int, **record) -> None:
         """The event's ``message`` without the line's ``error: `` prefix; the line itself on stderr."""
-        super().error(message.removeprefix("error: "), status)
+        super().error(message.removeprefix("error: "), status, **record)
         print(f"gasp: {message}", file=sys.stderr)
