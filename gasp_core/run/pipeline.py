@@ -95,12 +95,7 @@ def simulate_scene(scene: Scene, outdir: str | Path, request: SimulateRequest | 
     SceneError, EngineError
         Bad input or an engine that cannot run the scene, before any simulation.
     EngineDivergence
-        The engine blew up; the message names the frame and the likely cause. The frames written before
-        the blow-up are the user's result: when at least one simulated frame was written, ``outdir`` is
-        finalised with them (frames ``0..k-1``, ``frames.json`` listing them, ``run.json`` with ``status:
-        "diverged"`` and ``diverged``: the frame, the cause and the message) and the error's ``kept`` and
-        ``last_kept`` say so; with frame 0 alone nothing is left (the partial run is removed). An
-        existing ``outdir`` is replaced only under ``overwrite``, as for a finished run.
+        The engine blew up (the frame, the likely cause); the frames before it are kept (:func:`_keep_diverged`).
     EngineBug
         The engine raised an exception outside the error contract.
     Stopped
@@ -110,9 +105,7 @@ def simulate_scene(scene: Scene, outdir: str | Path, request: SimulateRequest | 
     reporter = reporter if reporter is not None else ConsoleReporter(progress=not req.quiet)
     outdir = Path(outdir)
     n_frames = scene.n_frames if req.n_frames is None else req.n_frames
-    check_format(req.fmt)   # before the output is claimed or an engine built (issue 41: it came after, naming a hidden folder)
-    if req.resume:
-        resume_mod.refuse_diverged(outdir)
+    _refuse_early(req, outdir)
     claim = OutputClaim(outdir, req.overwrite, input_files(scene), resume=req.resume, discard=req.discard)
     run = _Run(fmt=req.fmt, layout=req.layout or default_layout(req.fmt), yes=req.yes, reporter=reporter)
     try:
@@ -130,13 +123,9 @@ def simulate_scene(scene: Scene, outdir: str | Path, request: SimulateRequest | 
     except KeyboardInterrupt as e:
         reporter.end_progress()
         stop.keep_or_abandon(claim, run.tmp, e, lambda: _stopped_record(run, n_frames), run.saved_frame, n_frames)
-    except EngineDivergence as e:
-        reporter.end_progress()
-        _keep_diverged(run, claim, n_frames, e)
-        raise
     except BaseException as e:
         reporter.end_progress()
-        claim.abandon(run.tmp, e)
+        _give_up(run, claim, n_frames, e)
         raise
     return RunResult(outdir=outdir, n_frames=n_frames, stats=run.stats, summary=summary)
 
@@ -272,6 +261,29 @@ def _stopped_record(run: _Run, n_frames: int) -> dict:
     """The ``run.json`` of a stopped run: the record of the frames its checkpoint covers."""
     rows = [r for r in run.per_frame if run.saved_frame is not None and r["frame"] <= run.saved_frame]
     return run_summary(run.prep, run.stats, n_frames, rows, sum(run.stats.frame_s))
+
+
+def _refuse_early(req: SimulateRequest, outdir: Path) -> None:
+    """What is refused before the output is claimed or an engine built: an output format whose writer is missing
+    (issue 41: it came after, naming a hidden folder), ``--resume`` of a run that diverged (it would blow up again).
+
+    Raises
+    ------
+    GaspError
+        See :func:`gasp_core.run.layout.check_format` and :func:`gasp_core.run.resume.refuse_diverged`.
+    """
+    check_format(req.fmt)
+    if req.resume:
+        resume_mod.refuse_diverged(outdir)
+
+
+def _give_up(run: _Run, claim: OutputClaim, n_frames: int, error: BaseException) -> None:
+    """A run that failed (``error``): a divergence keeps the frames before it (:func:`_keep_diverged`), anything
+    else gives the partial folder up (:meth:`OutputClaim.abandon`)."""
+    if isinstance(error, EngineDivergence):
+        _keep_diverged(run, claim, n_frames, error)
+    else:
+        claim.abandon(run.tmp, error)
 
 
 def _keep_diverged(run: _Run, claim: OutputClaim, n_frames: int, error: EngineDivergence) -> None:
