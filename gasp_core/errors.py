@@ -41,12 +41,19 @@ class EngineDivergence(GaspError, RuntimeError):
         The frame (1-based, the first frame after the initial state) at which it was detected.
     cause : str
         The likely cause, in words (time step too large, stiffness too high, ...).
+    kept : Path or None
+        Where ``gasp simulate`` kept the frames written before the blow-up (the output folder, finalised with
+        ``run.json`` ``status: "diverged"``; :func:`gasp_core.run.pipeline.simulate_scene`); None: nothing kept.
+    last_kept : int or None
+        The last frame kept there (frames ``0..last_kept``).
     """
 
     def __init__(self, message: str, frame: int, cause: str = ""):
         super().__init__(f"frame {frame}: {message}" + (f" (likely cause: {cause})" if cause else ""))
         self.frame = frame
         self.cause = cause
+        self.kept: Path | None = None
+        self.last_kept: int | None = None
 
 
 class EngineBug(GaspError):

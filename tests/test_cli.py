@@ -1,4 +1,5 @@
 """The command line: one-line errors, non-zero exits and no partial output for bad input."""
+import json
 import shutil
 import subprocess
 
@@ -100,13 +101,19 @@ def test_unsupported_material_names_capable_engines(tmp_path, capsys, write_scen
     assert_clean_failure(code, err, tmp_path / "out", "mujoco_flex", "sand", "taichi_mpm")
 
 
-def test_divergence_is_reported_with_frame_and_leaves_nothing(tmp_path, capsys, write_scene, donut_small):
-    """No ground and a tight domain: the donut falls out of the box; the run stops and says so."""
+def test_divergence_is_reported_with_frame_and_keeps_the_frames_before_it(tmp_path, capsys, write_scene, donut_small):
+    """No ground and a tight domain: the donut falls out of the box; the run stops and says so, and the frames
+    before the blow-up stay in the output folder (issue 41: they were deleted; tests/test_hostile_41.py)."""
     needs_package("gasp_taichi_mpm")
     text = scene_text(donut_small, ground=False, n_frames=20, n_grid=16)
-    code, _, err = run(capsys, "simulate", write_scene(text), "-o", tmp_path / "out", "-q")
+    out = tmp_path / "out"
+    code, _, err = run(capsys, "simulate", write_scene(text), "-o", out, "-q")
     assert code == 3
-    assert_clean_failure(code, err, tmp_path / "out", "frame", "domain")
+    lines = [l for l in err.strip().splitlines() if l.startswith("gasp: error:")]
+    assert len(lines) == 1 and "frame" in lines[0] and "domain" in lines[0] and str(out) in lines[0], err
+    record = json.loads((out / "run.json").read_text())
+    assert record["status"] == "diverged" and record["diverged"]["frame"] == len(record["frames"])
+    assert not list(tmp_path.glob(".out.partial-*"))
 
 
 def test_engines_lists_installed(capsys):

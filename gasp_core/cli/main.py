@@ -8,6 +8,9 @@ missing capability, existing output, a folder that cannot be written), 3 when th
 for ``--resume``, :mod:`gasp_core.run.stop`). NumPy's floating-point warnings are held back and
 printed only after a run that succeeded: before an error line they would be noise.
 
+Stdout is the command's report, never its result: a reader that stops reading (exit 141, quietly), a closed
+stdout or a full device (one line, exit 2) never stops or loses a run (:mod:`gasp_core.cli.streams`).
+
 Warnings (gasp's own and Python's), the result and the error line go through one reporter
 (:mod:`gasp_core.run.report`): the console's, or JSON lines on stdout for ``gasp simulate --json``
 (:mod:`gasp_core.cli.simulate`).
@@ -23,7 +26,7 @@ from pathlib import Path
 
 import warnings
 
-from gasp_core.cli import early
+from gasp_core.cli import early, streams
 from gasp_core.cli.args import GaspArgumentParser, length, positive_float, positive_int
 from gasp_core.cli.simulate import add_simulate_parser, reporter_for
 from gasp_core.errors import EngineBug, EngineDivergence, GaspError, extra_hint, missing_module_message
@@ -267,6 +270,7 @@ def _show_warning(reporter: Reporter, message, category, filename, lineno, file=
 
 
 def main(argv: list[str] | None = None) -> int:
+    streams.guard_closed()   # started with stdout closed (>&-): no file the run opens may take fd 1
     args = build_parser().parse_args(argv)
     with reporter_for(args) as reporter:   # gasp simulate --json: JSON lines, and nothing else, on stdout
         args.reporter = reporter
@@ -278,6 +282,7 @@ def main(argv: list[str] | None = None) -> int:
         if code == 0:
             for message, count in _HELD.items():
                 reporter.warning(f"numpy: {message}" + (f" ({count} times)" if count > 1 else ""))
+    code = streams.finish(reporter, code)   # stdout cut short: said once here, the run itself kept (streams)
     # later warnings (the reporter's stream may be closed now) are still one line, on stderr
     warnings.showwarning = functools.partial(_show_warning, ConsoleReporter(progress=False))
     early.finished()   # the gasp command only (gasp_core.cli.early): a later signal cannot change the status
@@ -295,7 +300,10 @@ def _run(args, reporter: Reporter) -> int:
         return args.func(args)
     except (GaspError, OSError, KeyboardInterrupt) as e:
         code = _exit_status(e)
-        reporter.error(_error_line(e), code)
+        kept = getattr(e, "kept", None) if isinstance(e, EngineDivergence) else None   # its good frames
+        reporter.error(_error_line(e), code, **({} if kept is None else
+                                                {"output": str(kept.resolve()),
+                                                 "run_json": str((kept / "run.json").resolve())}))
         return code
     except ImportError as e:             # an optional extra that is not installed: its install line
         message = missing_module_message(e, f"'gasp {args.command}'")
@@ -319,7 +327,10 @@ def _error_line(e: BaseException) -> str:
     if isinstance(e, KeyboardInterrupt):
         return str(e) if isinstance(e, stop.Stopped) else "interrupted; no partial output was kept"
     if isinstance(e, EngineDivergence):
-        return f"error: simulation diverged at {e}"
+        if e.kept is None:
+            return f"error: simulation diverged at {e}"
+        return (f"error: simulation diverged at {e}; frames 0-{e.last_kept} before it are kept in '{e.kept}' "
+                f"(run.json status 'diverged')")
     if isinstance(e, (GaspError, FileExistsError, FileNotFoundError, IsADirectoryError, NotADirectoryError)):
         return f"error: {e}"
     if isinstance(e, PermissionError):

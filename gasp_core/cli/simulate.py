@@ -109,7 +109,13 @@ def _stdout_to_stderr():
             yield real
     finally:
         sys.stderr.flush()
-        real.flush()
+        try:
+            real.flush()
+        except OSError:         # the reporter has it (stdout_error): gasp_core.cli.streams says it
+            pass
         os.dup2(saved, fd)
-        real.close()
+        try:
+            real.close()        # closes ``saved`` even when its last flush fails
+        except OSError:
+            pass
 

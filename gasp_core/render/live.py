@@ -38,7 +38,8 @@ RUNNING = "running"
 FINISHED = "finished"
 #: Stopped by a signal; the frames it kept stay in its partial folder for ``gasp simulate --resume``.
 STOPPED_STATUS = STOPPED
-#: The process is gone without finishing (killed, crashed, an engine error): what is on disk is all there is.
+#: The process is gone without finishing (killed, crashed, an engine error; or the run diverged and its output
+#: folder holds the frames before the blow-up, ``run.json`` ``status: "diverged"``): what is on disk is all there is.
 FAILED = "failed"
 STATUSES = (STARTING, RUNNING, FINISHED, STOPPED_STATUS, FAILED)
 #: Statuses under which more frames may still come.
@@ -154,7 +155,10 @@ def locate(path) -> tuple[Path | None, str]:
         return None, "missing"
     claim = _read_claim(path)
     if claim is None:
-        return path, (STOPPED_STATUS if "stopped" in _record(path) else FINISHED)
+        record = _record(path)
+        if record.get("status") == "diverged":
+            return path, FAILED
+        return path, (STOPPED_STATUS if "stopped" in record else FINISHED)
     pid, stopped = claim
     if stopped:
         return _newest(leftover_partials(path), "stopped"), STOPPED_STATUS

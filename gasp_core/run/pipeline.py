@@ -19,9 +19,9 @@ from typing import Callable
 from gasp_core.run import resume as resume_mod
 from gasp_core.run import budget, stop
 from gasp_core.run.background import Background
-from gasp_core.errors import GaspError
+from gasp_core.errors import EngineDivergence, GaspError
 from gasp_core.run.frames import FrameState, iter_frames
-from gasp_core.fsutil import OutputClaim, atomic_json, leftover_partials
+from gasp_core.fsutil import OutputClaim, OutputConflict, atomic_json, leftover_partials
 from gasp_core.gs.gaussians import Gaussians
 from gasp_core.run.layout import FrameWriter, check_format, default_layout
 from gasp_core.prepare.dynamic import follows_model
@@ -95,8 +95,7 @@ def simulate_scene(scene: Scene, outdir: str | Path, request: SimulateRequest | 
     SceneError, EngineError
         Bad input or an engine that cannot run the scene, before any simulation.
     EngineDivergence
-        The engine blew up; the message names the frame and the likely cause. Nothing is left
-        in ``outdir`` (the partial run is removed).
+        The engine blew up (the frame, the likely cause); the frames before it are kept (:func:`_keep_diverged`).
     EngineBug
         The engine raised an exception outside the error contract.
     Stopped
@@ -106,7 +105,7 @@ def simulate_scene(scene: Scene, outdir: str | Path, request: SimulateRequest | 
     reporter = reporter if reporter is not None else ConsoleReporter(progress=not req.quiet)
     outdir = Path(outdir)
     n_frames = scene.n_frames if req.n_frames is None else req.n_frames
-    check_format(req.fmt)   # before the output is claimed or an engine built (issue 41: it came after, naming a hidden folder)
+    _refuse_early(req, outdir)
     claim = OutputClaim(outdir, req.overwrite, input_files(scene), resume=req.resume, discard=req.discard)
     run = _Run(fmt=req.fmt, layout=req.layout or default_layout(req.fmt), yes=req.yes, reporter=reporter)
     try:
@@ -126,7 +125,7 @@ def simulate_scene(scene: Scene, outdir: str | Path, request: SimulateRequest | 
         stop.keep_or_abandon(claim, run.tmp, e, lambda: _stopped_record(run, n_frames), run.saved_frame, n_frames)
     except BaseException as e:
         reporter.end_progress()
-        claim.abandon(run.tmp, e)
+        _give_up(run, claim, n_frames, e)
         raise
     return RunResult(outdir=outdir, n_frames=n_frames, stats=run.stats, summary=summary)
 
@@ -262,6 +261,64 @@ def _stopped_record(run: _Run, n_frames: int) -> dict:
     """The ``run.json`` of a stopped run: the record of the frames its checkpoint covers."""
     rows = [r for r in run.per_frame if run.saved_frame is not None and r["frame"] <= run.saved_frame]
     return run_summary(run.prep, run.stats, n_frames, rows, sum(run.stats.frame_s))
+
+
+def _refuse_early(req: SimulateRequest, outdir: Path) -> None:
+    """What is refused before the output is claimed or an engine built: an output format whose writer is missing
+    (issue 41: it came after, naming a hidden folder), ``--resume`` of a run that diverged (it would blow up again).
+
+    Raises
+    ------
+    GaspError
+        See :func:`gasp_core.run.layout.check_format` and :func:`gasp_core.run.resume.refuse_diverged`.
+    """
+    check_format(req.fmt)
+    if req.resume:
+        resume_mod.refuse_diverged(outdir)
+
+
+def _give_up(run: _Run, claim: OutputClaim, n_frames: int, error: BaseException) -> None:
+    """A run that failed (``error``): a divergence keeps the frames before it (:func:`_keep_diverged`), anything
+    else gives the partial folder up (:meth:`OutputClaim.abandon`)."""
+    if isinstance(error, EngineDivergence):
+        _keep_diverged(run, claim, n_frames, error)
+    else:
+        claim.abandon(run.tmp, error)
+
+
+def _keep_diverged(run: _Run, claim: OutputClaim, n_frames: int, error: EngineDivergence) -> None:
+    """After a blow-up: finalise the partial folder as the output folder with the frames written before it.
+
+    The frames are those whose files are complete (a ``per_frame`` row is added once a frame's files are
+    written, in order; ``frames.json`` lists the same); the checkpoint is removed (a blow-up is not resumed:
+    it would come again) and ``run.json`` is the record of those frames with ``status: "diverged"`` and
+    ``diverged`` (``frame``, ``cause``, ``message``). The folder is committed as a finished run's is
+    (:meth:`OutputClaim.commit`: an existing output is replaced only under ``--overwrite``). Sets
+    ``error.kept`` and ``error.last_kept``. With no simulated frame written (frame 0, the input, alone), or when
+    the folder cannot be finalised, the partial run is given up as before (:meth:`OutputClaim.abandon`).
+    """
+    from gasp_core.run.resume import CHECKPOINT
+    last = max((r["frame"] for r in run.per_frame), default=0)
+    if run.tmp is None or last < 1:
+        claim.abandon(run.tmp, error)
+        return
+    rows = sorted(run.per_frame, key=lambda r: r["frame"])
+    record = {**run_summary(run.prep, run.stats, n_frames, rows, sum(run.stats.frame_s)), "status": "diverged",
+              "diverged": {"frame": error.frame, "cause": error.cause, "message": str(error)}}
+    if run.checkpoint is not None:
+        record["resumed_after_frame"] = run.checkpoint.frame
+    try:
+        (run.tmp / CHECKPOINT).unlink(missing_ok=True)
+        atomic_json(run.tmp / "run.json", record)
+        claim.commit(run.tmp)
+    except OutputConflict:            # the output folder was changed meanwhile: the frames stay in the partial folder
+        claim.release()
+        error.kept, error.last_kept = run.tmp, last
+        return
+    except Exception as e:            # cannot be finalised (a full disk): given up, the divergence is what is said
+        claim.abandon(run.tmp, e)
+        return
+    error.kept, error.last_kept = claim.outdir, last
 
 
 def _save_frame(run: _Run, writer: FrameWriter, frame: int, gs: list[Gaussians], row: dict,

@@ -15,7 +15,8 @@ A run says five kinds of thing, each an event (a dict with ``"event"`` naming it
     ``message`` (the line the console prints) and the record's fields (``gasp simulate``: ``run_json``,
     ``output``, ...).
 ``error``
-    ``message`` (the line after ``gasp: ``) and ``status`` (the exit status, :mod:`gasp_core.errors`).
+    ``message`` (the line after ``gasp: ``) and ``status`` (the exit status, :mod:`gasp_core.errors`); a
+    diverged ``gasp simulate`` that kept its frames before the blow-up adds ``output`` and ``run_json``.
 
 Backends: :class:`Reporter` keeps the events in a list (a notebook or a test reads them);
 :class:`ConsoleReporter` is what the ``gasp`` command shows (a tqdm bar, ``gasp: warning: ...`` lines on
@@ -38,6 +39,11 @@ class Reporter:
 
     def __init__(self) -> None:
         self.events: list[dict] = []
+        #: The first write to stdout that failed (a broken pipe, a closed stdout, a full device); the backends
+        #: writing stdout stop there and the run goes on (:mod:`gasp_core.cli.streams` says it at the end).
+        self.stdout_error: OSError | None = None
+        #: The result's output folder (its ``output`` field), once the command has a result.
+        self.output: str | None = None
 
     def emit(self, event: dict) -> None:
         """Every event ends here; this one keeps it."""
@@ -61,12 +67,14 @@ class Reporter:
 
     def result(self, message: str, **record) -> None:
         """The command's result: ``message`` in words and its record (JSON-serialisable values)."""
+        self.output = record.get("output")
         self.emit({"event": "result", "message": message, **record})
 
-    def error(self, message: str, status: int) -> None:
-        """The command failed: ``message`` is the line after ``gasp: ``, ``status`` the exit status."""
+    def error(self, message: str, status: int, **record) -> None:
+        """The command failed: ``message`` is the line after ``gasp: ``, ``status`` the exit status, ``record``
+        what it kept (``output``, ``run_json``: JSON-serialisable values)."""
         self.end_progress()
-        self.emit({"event": "error", "message": message, "status": status})
+        self.emit({"event": "error", "message": message, "status": status, **record})
 
 
 class ConsoleReporter(Reporter):
@@ -103,16 +111,24 @@ class ConsoleReporter(Reporter):
         print(f"gasp: warning: {message}", file=sys.stderr)
 
     def result(self, message: str, **record) -> None:
-        print(message)
+        """The line on stdout, flushed at once; a failed write is kept (:attr:`stdout_error`), not raised."""
+        self.output = record.get("output")
+        try:
+            print(message)
+            if sys.stdout is not None:
+                sys.stdout.flush()
+        except OSError as e:
+            self.stdout_error = self.stdout_error or e
 
-    def error(self, message: str, status: int) -> None:
+    def error(self, message: str, status: int, **record) -> None:
         self.end_progress()
         print(f"gasp: {message}", file=sys.stderr)
 
 
 class JsonLinesReporter(Reporter):
     """Each event as one JSON object on a line of ``stream`` (flushed at once); warnings and the error are
-    also said on stderr as the console says them (``gasp: warning: ...``, ``gasp: error: ...``).
+    also said on stderr as the console says them (``gasp: warning: ...``, ``gasp: error: ...``). A write that
+    fails (the reader went away, a full device) is kept in :attr:`stdout_error` and ends the lines, not the run.
 
     Floats that are not finite are written as null (JSON has no NaN).
     """
@@ -122,15 +138,21 @@ class JsonLinesReporter(Reporter):
         self.stream = stream
 
     def emit(self, event: dict) -> None:
+        """One line on the stream, flushed; after a failed write (kept in :attr:`stdout_error`) nothing more."""
+        if self.stdout_error is not None:
+            return
         clean = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in event.items()}
-        self.stream.write(json.dumps(clean, default=str, allow_nan=False) + "\n")
-        self.stream.flush()
+        try:
+            self.stream.write(json.dumps(clean, default=str, allow_nan=False) + "\n")
+            self.stream.flush()
+        except OSError as e:
+            self.stdout_error = e
 
     def warning(self, message: str) -> None:
         super().warning(message)
         print(f"gasp: warning: {message}", file=sys.stderr)
 
-    def error(self, message: str, status: int) -> None:
+    def error(self, message: str, status: int, **record) -> None:
         """The event's ``message`` without the line's ``error: `` prefix; the line itself on stderr."""
-        super().error(message.removeprefix("error: "), status)
+        super().error(message.removeprefix("error: "), status, **record)
         print(f"gasp: {message}", file=sys.stderr)

@@ -154,6 +154,27 @@ def remove_temporaries(folder: Path) -> None:
         p.unlink(missing_ok=True)
 
 
+def refuse_diverged(outdir: Path) -> None:
+    """Refuse ``--resume`` of an output folder that holds a run which diverged (``run.json`` ``status:
+    "diverged"``, kept by :func:`gasp_core.run.pipeline.simulate_scene`): it has no checkpoint, and going on from
+    its last frame would blow up again.
+
+    Raises
+    ------
+    GaspError
+        ``outdir/run.json`` says the run diverged; the message names the frame and what to do.
+    """
+    try:
+        record = json.loads((Path(outdir) / "run.json").read_text())
+        diverged = record["diverged"] if record.get("status") == "diverged" else None
+    except (OSError, ValueError, TypeError, KeyError, AttributeError):
+        return
+    frame = diverged.get("frame") if isinstance(diverged, dict) else None
+    raise GaspError(f"cannot resume '{outdir}': its run diverged at frame {frame} and a blow-up is not resumed (it "
+                    f"would come again); its frames before it are kept there; change the scene (a smaller time step, "
+                    f"a softer material, walls) and run again with --overwrite, or with another -o")
+
+
 def find_resumable(outdir: Path, run_fingerprint: str) -> tuple[Path, Checkpoint]:
     """The partial folder of a killed run to ``outdir`` with a checkpoint of fingerprint ``run_fingerprint``.
 
