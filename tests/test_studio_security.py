@@ -153,7 +153,8 @@ def test_values_the_page_never_sends_get_one_line_and_change_nothing(studio, tmp
            (_update(studio, "Material", {"value": "bogus"}), r"^Material: expected one of .*jelly.*, got 'bogus'"),
            (_update(studio, "Frames", {"bogus": 1}), r"^Frames: the page may set only its value, not \['bogus'\]"),
            (_update(studio, "Frames", {"value": 2.5}), r"^Frames: expected a whole number, got 2\.5"),
-           (_update(studio, "Scale (m per file unit)", {"value": 1e400}), r"^Scale .*: expected a finite number")]
+           (_update(studio, "Scale (m per file unit)", {"value": 1e400}), r"^Scale .*: expected a finite number"),
+           (_update(studio, "Frame", {"value": 0}), r"^Frame: this field is fixed here \(disabled")]
     for message, expected in bad:
         said = _send(studio, [message], said=1)
         assert len(said) == 1 and re.match(expected, said[0]) and "\n" not in said[0], (expected, said)

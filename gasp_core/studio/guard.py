@@ -33,8 +33,6 @@ from urllib.parse import parse_qs, urlsplit
 
 from gasp_core.errors import SceneError
 
-#: Names of this machine on a loopback address (what a ``Host`` header may say there).
-LOOPBACK_NAMES = ("127.0.0.1", "localhost", "::1")
 #: Longest text a text field of the page may send (a path, a page name).
 MAX_TEXT = 1024
 _SERVE_LOCK = threading.Lock()
@@ -117,7 +115,7 @@ class Gate:
                 name, asked_port = parts.hostname, parts.port
             except ValueError:
                 name, asked_port = None, None
-            if name not in LOOPBACK_NAMES or asked_port not in (None, port):
+            if name is None or not is_loopback(name) or asked_port not in (None, port):
                 return (f"gasp studio: refused: Host {host_header!r} is not this machine (the studio listens on "
                         f"{self.host} port {port})")
         origin = h.get("Origin")
