@@ -129,9 +129,10 @@ def test_stop_resume_run_again_and_export(studio, tmp_path):
     assert said.startswith("running run1"), said
     assert _wait(studio.stream) == "finished", studio.stream.job.stderr[-3:]
     assert studio.stream.n_ready == 5 and studio.stream.live.status == "finished"
-    studio.form.export_path.value = str(tmp_path / "run1.html")
-    assert studio.form.export().startswith(f"wrote {tmp_path / 'run1.html'}")
-    assert (tmp_path / "run1.html").stat().st_size > 1e5
+    studio.form.export_path.value = "run1.html"                # a name inside the studio's folder
+    page = studio.save_dir / "run1.html"
+    assert studio.form.export().startswith(f"wrote {page}")
+    assert page.stat().st_size > 1e5
     assert "exists" in studio.form.export()                   # an existing page is not replaced
 
 

@@ -65,7 +65,7 @@ def test_studio_click_pick_run_watch(tmp_path):
         with sync_api.sync_playwright() as pw:
             browser = pw.chromium.launch(executable_path=CHROMIUM, args=ARGS)
             page = browser.new_page(viewport={"width": W, "height": H})
-            page.goto(f"http://127.0.0.1:{st.port}")
+            page.goto(st.url)                                # the token in the URL (issue 41)
             page.get_by_text("nothing selected").first.wait_for(timeout=60000)
             t0 = time.time()
             while _pink(_shot(page, tmp_path / "rest.png")).sum() < 2000 and time.time() - t0 < 90:

@@ -16,6 +16,8 @@
 """
 from __future__ import annotations
 
+import contextlib
+import io
 import threading
 import time
 from dataclasses import replace
@@ -23,9 +25,10 @@ from pathlib import Path
 
 import numpy as np
 
-from gasp_core.errors import GaspError
+from gasp_core.errors import GaspError, SceneError
 from gasp_core.render.viewer import until_interrupted
 from gasp_core.studio import form as form_mod
+from gasp_core.studio.guard import Gate, QuietLogs, check_update, exposure_line, gated_serve
 from gasp_core.studio.pick import box_rows, ray_pick
 from gasp_core.studio.scene import StudioScene
 from gasp_core.studio.stream import RunStream
@@ -62,33 +65,63 @@ class Studio:
         The studio's folder (working scene, masks, runs ``run1``, ``run2``, ...).
     host, port : str, int
         Where viser listens (port 0: the next free one from 8080).
+    save_dir : path-like, optional
+        The folder "Save scene" and "Export page" write into (``--save-dir``; default ``workdir``): the page
+        names a file inside it, nothing outside (:func:`gasp_core.studio.guard.inside`).
+    token : str, optional
+        The token the page and its websocket must hold (default: a new random one; :class:`Gate`).
+
+    Attributes
+    ----------
+    url : str
+        The address to open, with its token.
+    written : set of Path
+        Files the studio wrote this session (saved scenes, their masks, exported pages): the only ones
+        "Overwrite" may replace.
 
     Raises
     ------
     SceneError
-        The file or scene cannot be opened (one line).
+        The file or scene cannot be opened, or viser cannot be made to check the token (one line).
     ImportError
         Without viser (``pip install -e ".[view]"``).
     """
 
-    def __init__(self, path, workdir, host: str = "127.0.0.1", port: int = 8080):
+    def __init__(self, path, workdir, host: str = "127.0.0.1", port: int = 8080, save_dir=None,
+                 token: str | None = None):
         import viser
         self.scene = StudioScene(path, workdir)
+        self.save_dir = Path(save_dir if save_dir is not None else workdir).resolve()
+        self.written: set[Path] = set()
         self._lock = threading.RLock()
         self.labels: list[np.ndarray | None] = [None] * len(self.scene.pieces)
         self.stream: RunStream | None = None
         self.message_log: list[str] = []
-        self.server = viser.ViserServer(host=host, port=port, verbose=False)
+        self.n_said = 0                     # lines said so far (the page shows the newest six)
+        self.form = None
+        self.gate = Gate(host, token)
+        self._quiet = QuietLogs().__enter__()
+        with gated_serve(self.gate), contextlib.redirect_stdout(io.StringIO()):   # viser's banner: no token
+            self.server = viser.ViserServer(host=host, port=port, verbose=False)
+        if not self.gate.installed:
+            self.server.stop()
+            self._quiet.__exit__()
+            raise SceneError(f"viser {viser.__version__} no longer starts its server through "
+                             "websockets.asyncio.server.serve, so the studio cannot check its token; install "
+                             "viser 1.1 (pip install 'viser==1.1.*')")
+        self._guard_messages()
         self._handles: list = []
         self._frame_handle = None
         self._frame_shown = -1
         self._camera()
         self.form = form_mod.Form(self)
         self._draw()
-        self.server.scene.on_click()(lambda e: self.click(e.ray_origin, e.ray_direction, add=False))
-        self.server.scene.on_click(modifier="shift")(lambda e: self.click(e.ray_origin, e.ray_direction, add=True))
-        self.server.scene.on_rect_select(modifier="cmd/ctrl")(lambda e: self.box(e, add=False))
-        self.server.scene.on_rect_select(modifier="cmd/ctrl+shift")(lambda e: self.box(e, add=True))
+        on_click, on_rect = self.server.scene.on_click, self.server.scene.on_rect_select
+        on_click()(self.guarded("click", lambda e: self.click(e.ray_origin, e.ray_direction, add=False)))
+        on_click(modifier="shift")(self.guarded("click", lambda e: self.click(e.ray_origin, e.ray_direction,
+                                                                             add=True)))
+        on_rect(modifier="cmd/ctrl")(self.guarded("box", lambda e: self.box(e, add=False)))
+        on_rect(modifier="cmd/ctrl+shift")(self.guarded("box", lambda e: self.box(e, add=True)))
         self._stop = threading.Event()
         threading.Thread(target=self._find_pieces, daemon=True).start()
         self._poller = threading.Thread(target=self._poll, daemon=True)
@@ -97,6 +130,63 @@ class Studio:
     @property
     def port(self) -> int:
         return self.server.get_port()
+
+    @property
+    def url(self) -> str:
+        return self.gate.url(self.port)
+
+    # -- what the page sends ----------------------------------------------------------------------------
+    def guarded(self, what: str, fn):
+        """``fn`` as a callback of the page: whatever it raises becomes one line in the page, never a traceback
+        in the server's output (the server never raises on client input)."""
+        def call(*args):
+            try:
+                return fn(*args)
+            except (GaspError, OSError) as e:
+                return self._said(one_line(str(e)))
+            except Exception as e:  # noqa: BLE001 (client input must not reach the server's output)
+                return self._said(one_line(f"{what}: the page's input could not be used ({type(e).__name__}: {e})"))
+        return call
+
+    def _guard_messages(self) -> None:
+        """Every GUI value from the page through :func:`~gasp_core.studio.guard.check_update` before viser casts
+        it (a refusal: one line in the page, nothing changed); any other message a handler cannot use: one line,
+        no traceback."""
+        from viser import _messages
+        ws, gui = self.server._websock_server, self.server.gui
+        apply = gui._handle_gui_updates
+
+        async def checked(client_id, message) -> None:
+            handle = gui._gui_input_handle_from_uuid.get(message.uuid) if isinstance(message.uuid, str) else None
+            if handle is None or handle._impl.removed:
+                return
+            try:
+                message.updates = check_update(handle, message.updates)
+            except SceneError as e:
+                self.say(str(e))
+                return
+            await apply(client_id, message)
+
+        ws.unregister_handler(_messages.GuiUpdateMessage, apply)
+        ws.register_handler(_messages.GuiUpdateMessage, checked)
+        for share in (_messages.ShareUrlRequest, _messages.ShareUrlDisconnect):   # no public tunnel from the page
+            if share in ws._incoming_handlers:
+                ws.unregister_handler(share)
+
+        def guard(handler) -> None:
+            """``handler``'s dispatch of each message (the server's, and each connection's own) made quiet."""
+            handle_all = handler._handle_incoming_message
+
+            async def handled(client_id, message) -> None:
+                try:
+                    await handle_all(client_id, message)
+                except Exception as e:  # noqa: BLE001
+                    self.say(one_line(f"the page sent a {type(message).__name__} the studio cannot use "
+                                      f"({type(e).__name__}); ignored"))
+            handler._handle_incoming_message = handled
+
+        guard(ws)
+        ws.on_client_connect(guard)
 
     # -- drawing ----------------------------------------------------------------------------------------
     def _camera(self) -> None:
@@ -138,7 +228,9 @@ class Studio:
     def say(self, text: str) -> None:
         """Show ``text`` (one line) in the page's message box, newest first."""
         self.message_log = [text, *self.message_log][:6]
-        self.form.set_messages(self.message_log)
+        self.n_said += 1
+        if self.form is not None:
+            self.form.set_messages(self.message_log)
 
     # -- selection --------------------------------------------------------------------------------------
     def _find_pieces(self) -> None:
@@ -291,10 +383,20 @@ class Studio:
         if self.stream is not None and self.stream.job.running:
             self.stream.job.stop()
         self.server.stop()
+        self._quiet.__exit__()
 
 
-def serve(path, workdir, host: str = "127.0.0.1", port: int = 8080) -> None:
-    """Serve the studio until interrupted (Ctrl-C)."""
-    st = Studio(path, workdir, host, port)
-    print(f"gasp studio: http://{host}:{st.port}  ({Path(path).name}; files in {workdir}; Ctrl-C to stop)", flush=True)
+def one_line(text: str) -> str:
+    """``text`` on one line (a message from a library may span several)."""
+    return " ".join(text.split())
+
+
+def serve(path, workdir, host: str = "127.0.0.1", port: int = 8080, save_dir=None) -> None:
+    """Serve the studio until interrupted (Ctrl-C); print its URL with the token (and, off loopback, what is
+    exposed)."""
+    st = Studio(path, workdir, host, port, save_dir=save_dir)
+    exposed = exposure_line(host, ", ".join(sorted({str(Path(workdir).resolve()), str(st.save_dir)})))
+    if exposed:
+        print(exposed, flush=True)
+    print(f"gasp studio: {st.url}  ({Path(path).name}; files in {workdir}; Ctrl-C to stop)", flush=True)
     until_interrupted(st)

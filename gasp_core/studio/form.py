@@ -9,7 +9,8 @@ from __future__ import annotations
 import copy
 from pathlib import Path
 
-from gasp_core.errors import GaspError
+from gasp_core.errors import GaspError, SceneError
+from gasp_core.studio.guard import inside
 from gasp_core.scene.values import UP_AXES
 from gasp_core.scene.quality import QUALITY_LEVELS, STUDIO_LEVEL, studio_engine_rank
 from gasp_core.seam.schema import DEFAULT_MATERIAL, MATERIAL_KINDS, MATERIAL_PARAMS
@@ -94,10 +95,12 @@ class Form:
             self.timeline = gui.add_slider("Frame", min=0, max=1, step=1, initial_value=0, disabled=True)
             self._n_ready = 0
         with gui.add_folder("Keep"):
-            self.save_path = gui.add_text("Scene file", str(Path.cwd() / f"{sc.path.stem}_studio.toml"))
-            self.overwrite = gui.add_checkbox("Overwrite", initial_value=False)
+            gui.add_markdown(f"files are written in {studio.save_dir} (--save-dir)")
+            self.save_path = gui.add_text("Scene file", f"{sc.path.stem}_studio.toml")
+            self.overwrite = gui.add_checkbox("Overwrite", initial_value=False,
+                                              hint="replace a file this studio wrote earlier in this session")
             self.save_button = gui.add_button("Save scene")
-            self.export_path = gui.add_text("Page", "")
+            self.export_path = gui.add_text("Page", "", hint="default: the run's name, .html")
             self.export_button = gui.add_button("Export page")
         self._wire()
 
@@ -126,18 +129,20 @@ class Form:
                 hint=MATERIAL_PARAMS[k].doc) for k, v in start.items()}
 
     def _wire(self) -> None:
+        """Each control's callback, behind :meth:`Studio.guarded` (anything it raises: one line in the page)."""
         st = self.studio
-        self.clear.on_click(lambda _: self._clear())
-        self.material.on_update(lambda _: self._material_changed())
-        self.typical_button.on_click(lambda _: self._value_inputs({}))
-        self.run_button.on_click(lambda _: st.run())
-        self.stop_button.on_click(lambda _: st.stop_run())
-        self.resume_button.on_click(lambda _: st.run(resume=True))
-        self.timeline.on_update(lambda _: st.show_frame(int(self.timeline.value)))
-        self.save_button.on_click(lambda _: self.save())
-        self.export_button.on_click(lambda _: self.export())
+        g = st.guarded
+        self.clear.on_click(g("Clear selection", lambda _: self._clear()))
+        self.material.on_update(g("Material", lambda _: self._material_changed()))
+        self.typical_button.on_click(g("Typical values", lambda _: self._value_inputs({})))
+        self.run_button.on_click(g("Run", lambda _: st.run()))
+        self.stop_button.on_click(g("Stop", lambda _: st.stop_run()))
+        self.resume_button.on_click(g("Resume", lambda _: st.run(resume=True)))
+        self.timeline.on_update(g("Frame", lambda _: st.show_frame(int(self.timeline.value))))
+        self.save_button.on_click(g("Save scene", lambda _: self.save()))
+        self.export_button.on_click(g("Export page", lambda _: self.export()))
         for h in (self.up, self.scale, self.drop, self.ground):
-            h.on_update(lambda _: self._placement_changed())
+            h.on_update(g(h.label, lambda _: self._placement_changed()))
 
     def _clear(self) -> None:
         for p in self.studio.scene.pieces:
@@ -190,24 +195,52 @@ class Form:
         """
         self.studio.scene.replace(self.document())
 
+    def may_replace(self, files: list[Path]) -> bool:
+        """Whether writing ``files`` may replace those that exist: none exists, or **Overwrite** is ticked and
+        each existing one is a file the studio wrote this session (:attr:`Studio.written`).
+
+        Raises
+        ------
+        SceneError
+            An existing file the studio did not write, or Overwrite not ticked (one line; nothing written).
+        """
+        existing = [f for f in files if f.exists() or f.is_symlink()]
+        if not existing:
+            return False
+        if not self.overwrite.value:
+            raise SceneError(f"{existing[0]} exists; choose another name (or tick Overwrite)")
+        foreign = [f for f in existing if f.resolve() not in self.studio.written or f.is_symlink()]
+        if foreign:
+            raise SceneError(f"{foreign[0]} exists and was not written by this studio session; Overwrite replaces "
+                             "only the studio's own files: choose another name")
+        return True
+
     def save(self) -> str:
+        """Save the scene as the file the page names inside the studio's folder (with its masks beside it)."""
+        st = self.studio
         try:
+            path = inside(st.save_dir, self.save_path.value, "Scene file", ".toml")
             self.apply()
-            out = self.studio.scene.write(Path(self.save_path.value), overwrite=bool(self.overwrite.value))
+            sc = st.scene
+            masks = [sc.mask_path(p.index, path.parent, path.stem) for p in sc.pieces if p.selected.any()]
+            out = sc.write(path, overwrite=self.may_replace([path, *masks]))
         except (GaspError, OSError) as e:
-            return self.studio._said(str(e))
-        return self.studio._said(f"saved {out}: 'gasp simulate {out} -o OUT' reproduces the studio's run")
+            return st._said(str(e))
+        st.written.update(f.resolve() for f in [out, *masks])
+        return st._said(f"saved {out}: 'gasp simulate {out} -o OUT' reproduces the studio's run")
 
     def export(self) -> str:
+        """Export the finished run as one page, the file the page names inside the studio's folder."""
         from gasp_core.render.export import export_page
         st = self.studio
         if st.stream is None or st.stream.job.outcome() != "finished":
             return st._said("export needs a finished run: run the scene to its end first")
-        page = Path(self.export_path.value or st.stream.outdir.with_suffix(".html"))
         try:
-            out = export_page(st.stream.outdir, page, overwrite=bool(self.overwrite.value))
+            page = inside(st.save_dir, self.export_path.value or st.stream.outdir.name + ".html", "Page", ".html")
+            out = export_page(st.stream.outdir, page, overwrite=self.may_replace([page]))
         except (GaspError, OSError) as e:
             return st._said(str(e))
+        st.written.add(Path(out).resolve())
         return st._said(f"wrote {out} ({out.stat().st_size / 1e6:.1f} MB; opens from disk in a browser)")
 
     # -- showing ----------------------------------------------------------------------------------------
