@@ -27,7 +27,7 @@ from contextlib import contextmanager
 from typing import Callable, Iterable, Iterator
 
 from gasp_core.errors import GaspError
-from gasp_core.fsmarker import CLAIM, MARKER, NO_LIST, unexpected_entries, write_marker
+from gasp_core.fsmarker import CLAIM, MARKER, NO_LIST, foreign_entries, unexpected_entries, write_marker
 
 PARTIAL_INFIX = ".partial-"
 #: The claim file's third word once its run stopped on a signal and kept its partial output.
@@ -112,29 +112,6 @@ def leftover_partials(outdir: Path) -> list[Path]:
             continue
         out.append(p)
     return out
-
-
-#: What a run writes at the top of its partial folder (besides one folder per object): its pid, its checkpoint,
-#: ``run.json`` / ``frames.json`` / ``render.mp4``, and :func:`atomic_write`'s temporary files.
-_PARTIAL_TOP = re.compile(r"\.gasp-pid|\.gasp-checkpoint\.npz|run\.json|frames\.json|render\.mp4|\..+\.tmp")
-#: What a run writes inside an object folder of its partial folder: frames, the files written once, temporaries.
-_PARTIAL_OBJECT = re.compile(r"(frame_\d{4,}|static|rest)(\.ply|\.compressed\.ply|\.spz|\.sog)|moving_rows\.npy|\..+\.tmp")
-
-
-def foreign_entries(partial: Path) -> list[str]:
-    """What a partial folder holds that no gasp run writes there (relative paths; ``[]``: only gasp's), so that
-    ``--discard`` and ``--overwrite`` never delete a file the user put in it."""
-    extra = []
-    try:
-        for top in sorted(partial.iterdir()):
-            if top.is_dir() and not top.is_symlink():
-                extra += [f"{top.name}/{f.name}" for f in sorted(top.iterdir())
-                          if f.is_dir() or f.is_symlink() or not _PARTIAL_OBJECT.fullmatch(f.name)]
-            elif top.is_symlink() or not _PARTIAL_TOP.fullmatch(top.name):
-                extra.append(top.name)
-    except OSError as e:
-        extra.append(f"{e.filename} (unreadable)")
-    return extra
 
 
 def discard_partials(outdir: Path, option: str = "--discard", dry_run: bool = False) -> None:

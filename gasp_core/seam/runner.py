@@ -19,9 +19,6 @@ from gasp_core.seam.engine import call_engine, EngineInfo, PointEngine, Stateful
 from gasp_core.seam.setup import SimSetup
 from gasp_core.seam.sleep import SleepWatch
 
-#: The entry of an engine state (``get_state``) that carries the sleep's count (:class:`SleepWatch.state`).
-SLEEP_KEY = "gasp_sleep"
-
 
 @dataclass
 class FrameRecord:
@@ -129,10 +126,8 @@ def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int,
         ``before_frames(engine_stats)`` once the engine is built, before its first frame (the work estimate
         of :mod:`gasp_core.run.budget`); what it raises ends the run.
     sleep : bool
-        Let the scene fall asleep once at rest (:mod:`gasp_core.seam.sleep`): the engine is then no longer
-        stepped and later frames repeat the last one (``wall_s`` 0, ``stats.asleep_after`` the last simulated
-        frame). A state from ``get_state`` then carries the sleep's own count, so a resumed run sleeps as the
-        uninterrupted one does.
+        Let a scene at rest fall asleep (:mod:`gasp_core.seam.sleep`): later frames repeat the last one (``wall_s``
+        0, ``stats.asleep_after``); ``get_state`` then carries the sleep's count, so a resumed run sleeps alike.
 
     Yields
     ------
@@ -154,26 +149,13 @@ def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int,
         raise EngineError(f"engine '{info.name}' cannot resume after frame {start_frame}: "
                           f"it does not have the feature 'state'")
     t0 = time.perf_counter()
-    engine: PointEngine = build_engine(info, setup)
-    stateful: StatefulEngine | None = engine if "state" in info.capabilities.features else None
     watch = SleepWatch(setup, sleep)
-    if start_frame:
-        state = dict(state)
-        if SLEEP_KEY in state:
-            watch.restore(state.pop(SLEEP_KEY))
-        call_engine(info, "set_state", stateful.set_state, state)
+    engine, saved_state = _built(info, setup, start_frame, state, watch)
     stats.build_s = time.perf_counter() - t0
-    get_state = None if stateful is None else stateful.get_state
 
     def advance():
         engine.step_frame()
         return np.asarray(engine.positions(), dtype=np.float64)
-
-    def saved_state() -> dict:
-        out = dict(call_engine(info, "get_state", get_state))
-        if watch.enabled:
-            out[SLEEP_KEY] = watch.state()
-        return out
 
     try:
         stats.engine = dict(call_engine(info, "stats", engine.stats))   # n_substeps, for the work estimate
@@ -184,19 +166,28 @@ def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int,
             if watch.asleep_after is not None:   # asleep: the frame repeats the last one (gasp_core.seam.sleep)
                 stats.asleep_after = watch.asleep_after
                 stats.frame_s.append(0.0)
-                yield FrameRecord(frame, x + 0.0, 0.0, None if get_state is None else saved_state)
+                yield FrameRecord(frame, x + 0.0, 0.0, saved_state)
                 continue
             t0 = time.perf_counter()
             x_prev, x = x, call_engine(info, f"frame {frame}", advance)
             dt_wall = time.perf_counter() - t0
             check_state(x, setup, frame)
             stats.frame_s.append(dt_wall)
-            if watch.enabled:
-                watch.update(frame, x_prev, x)
-            yield FrameRecord(frame, x, dt_wall, None if get_state is None else saved_state)
+            watch.update(frame, x_prev, x)
+            yield FrameRecord(frame, x, dt_wall, saved_state)
         stats.engine = dict(call_engine(info, "stats", engine.stats))
     finally:
         call_engine(info, "close", engine.close)
+
+
+def _built(info: EngineInfo, setup: SimSetup, start_frame: int, state: dict | None, watch: SleepWatch):
+    """The engine built (and, after ``start_frame``, restored from ``state``) and its checkpoint reader (None
+    without the feature ``state``), the sleep's count in and out through ``watch``."""
+    engine: PointEngine = build_engine(info, setup)
+    stateful: StatefulEngine | None = engine if "state" in info.capabilities.features else None
+    if start_frame:
+        call_engine(info, "set_state", stateful.set_state, watch.take_from(state))
+    return engine, (None if stateful is None else watch.saving(lambda: call_engine(info, "get_state", stateful.get_state)))
 
 
 def simulate(info: EngineInfo, setup: SimSetup, n_frames: int,

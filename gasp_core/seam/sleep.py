@@ -22,6 +22,8 @@ import numpy as np
 SLEEP_TOL = 0.2
 #: Largest displacement of the simulated points' centroid in one frame (in cells ``dx``) that counts as rest.
 SLEEP_DRIFT = 0.02
+#: The entry of an engine state (``get_state``) that carries the sleep's count (:meth:`SleepWatch.state`).
+SLEEP_KEY = "gasp_sleep"
 #: Frames in a row at rest before the scene sleeps.
 SLEEP_FRAMES = 5
 
@@ -89,3 +91,19 @@ class SleepWatch:
     def restore(self, state) -> None:
         quiet, after = (int(v) for v in np.asarray(state).ravel()[:2])
         self.quiet, self.asleep_after = quiet, (None if after < 0 else after)
+
+    def take_from(self, state: dict) -> dict:
+        """An engine state (``get_state``) without the sleep's entry, which restores this watch when present."""
+        state = dict(state)
+        if SLEEP_KEY in state:
+            self.restore(state.pop(SLEEP_KEY))
+        return state
+
+    def saving(self, get_state):
+        """``get_state`` wrapped to add the sleep's entry (when sleep is on), for a checkpoint."""
+        def saved() -> dict:
+            out = dict(get_state())
+            if self.enabled:
+                out[SLEEP_KEY] = self.state()
+            return out
+        return saved

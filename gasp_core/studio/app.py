@@ -28,7 +28,7 @@ import numpy as np
 from gasp_core.errors import GaspError, SceneError
 from gasp_core.render.viewer import until_interrupted
 from gasp_core.studio import form as form_mod
-from gasp_core.studio.guard import Gate, QuietLogs, check_update, exposure_line, gated_serve
+from gasp_core.studio.guard import Gate, QuietLogs, exposure_line, gated_serve, guard_messages, one_line
 from gasp_core.studio.pick import box_rows, ray_pick
 from gasp_core.studio.scene import StudioScene
 from gasp_core.studio.stream import RunStream
@@ -109,7 +109,7 @@ class Studio:
             raise SceneError(f"viser {viser.__version__} no longer starts its server through "
                              "websockets.asyncio.server.serve, so the studio cannot check its token; install "
                              "viser 1.1 (pip install 'viser==1.1.*')")
-        self._guard_messages()
+        guard_messages(self.server, self.say)
         self._handles: list = []
         self._frame_handle = None
         self._frame_shown = -1
@@ -147,46 +147,6 @@ class Studio:
             except Exception as e:  # noqa: BLE001 (client input must not reach the server's output)
                 return self._said(one_line(f"{what}: the page's input could not be used ({type(e).__name__}: {e})"))
         return call
-
-    def _guard_messages(self) -> None:
-        """Every GUI value from the page through :func:`~gasp_core.studio.guard.check_update` before viser casts
-        it (a refusal: one line in the page, nothing changed); any other message a handler cannot use: one line,
-        no traceback."""
-        from viser import _messages
-        ws, gui = self.server._websock_server, self.server.gui
-        apply = gui._handle_gui_updates
-
-        async def checked(client_id, message) -> None:
-            handle = gui._gui_input_handle_from_uuid.get(message.uuid) if isinstance(message.uuid, str) else None
-            if handle is None or handle._impl.removed:
-                return
-            try:
-                message.updates = check_update(handle, message.updates)
-            except SceneError as e:
-                self.say(str(e))
-                return
-            await apply(client_id, message)
-
-        ws.unregister_handler(_messages.GuiUpdateMessage, apply)
-        ws.register_handler(_messages.GuiUpdateMessage, checked)
-        for share in (_messages.ShareUrlRequest, _messages.ShareUrlDisconnect):   # no public tunnel from the page
-            if share in ws._incoming_handlers:
-                ws.unregister_handler(share)
-
-        def guard(handler) -> None:
-            """``handler``'s dispatch of each message (the server's, and each connection's own) made quiet."""
-            handle_all = handler._handle_incoming_message
-
-            async def handled(client_id, message) -> None:
-                try:
-                    await handle_all(client_id, message)
-                except Exception as e:  # noqa: BLE001
-                    self.say(one_line(f"the page sent a {type(message).__name__} the studio cannot use "
-                                      f"({type(e).__name__}); ignored"))
-            handler._handle_incoming_message = handled
-
-        guard(ws)
-        ws.on_client_connect(guard)
 
     # -- drawing ----------------------------------------------------------------------------------------
     def _camera(self) -> None:
@@ -384,11 +344,6 @@ class Studio:
             self.stream.job.stop()
         self.server.stop()
         self._quiet.__exit__()
-
-
-def one_line(text: str) -> str:
-    """``text`` on one line (a message from a library may span several)."""
-    return " ".join(text.split())
 
 
 def serve(path, workdir, host: str = "127.0.0.1", port: int = 8080, save_dir=None) -> None:

@@ -33,6 +33,11 @@ from urllib.parse import parse_qs, urlsplit
 
 from gasp_core.errors import SceneError
 
+def one_line(text: str) -> str:
+    """``text`` on one line (a message from a library may span several)."""
+    return " ".join(text.split())
+
+
 #: Longest text a text field of the page may send (a path, a page name).
 MAX_TEXT = 1024
 _SERVE_LOCK = threading.Lock()
@@ -287,3 +292,47 @@ class QuietLogs(logging.Filter):
 
     def __exit__(self, *exc):
         logging.getLogger(self.LOGGER).removeFilter(self)
+
+
+def guard_messages(server, say) -> None:
+    """Every GUI value from the page through :func:`check_update` before viser casts it (a refusal: one line in the
+    page through ``say``, nothing changed); any other message a handler cannot use: one line, no traceback.
+
+    It reaches into viser 1.1's internals (its message classes in ``viser._messages``, its websocket server's
+    handler table, its GUI-update handler): a viser upgrade that moves them is caught by
+    ``tests/test_studio_security.py``."""
+    import viser._messages as viser_messages
+    ws, gui = server._websock_server, server.gui
+    apply = gui._handle_gui_updates
+
+    async def checked(client_id, message) -> None:
+        handle = gui._gui_input_handle_from_uuid.get(message.uuid) if isinstance(message.uuid, str) else None
+        if handle is None or handle._impl.removed:
+            return
+        try:
+            message.updates = check_update(handle, message.updates)
+        except SceneError as e:
+            say(str(e))
+            return
+        await apply(client_id, message)
+
+    ws.unregister_handler(viser_messages.GuiUpdateMessage, apply)
+    ws.register_handler(viser_messages.GuiUpdateMessage, checked)
+    for share in (viser_messages.ShareUrlRequest, viser_messages.ShareUrlDisconnect):   # no public tunnel from the page
+        if share in ws._incoming_handlers:
+            ws.unregister_handler(share)
+
+    def guard(handler) -> None:
+        """``handler``'s dispatch of each message (the server's, and each connection's own) made quiet."""
+        handle_all = handler._handle_incoming_message
+
+        async def handled(client_id, message) -> None:
+            try:
+                await handle_all(client_id, message)
+            except Exception as e:  # noqa: BLE001
+                say(one_line(f"the page sent a {type(message).__name__} the studio cannot use "
+                                  f"({type(e).__name__}); ignored"))
+        handler._handle_incoming_message = handled
+
+    guard(ws)
+    ws.on_client_connect(guard)
