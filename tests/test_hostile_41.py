@@ -54,13 +54,14 @@ def errors_of(stderr: str) -> list[str]:
 # --- stdout cut short -------------------------------------------------------------------------------------
 
 
-def test_json_into_a_reader_that_stops_after_one_line_ends_quietly_and_the_run_finishes(tmp_path, donut_small):
+def test_json_into_a_reader_that_stops_after_one_line_stops_quietly_and_resumes(tmp_path, donut_small):
     """``gasp simulate --json | head -n 1``: the reader closes the pipe after the first line. No traceback, exit
-    141 as a Unix tool killed by SIGPIPE, and the run goes on to write every frame (the output is the result)."""
+    141 as a Unix tool killed by SIGPIPE, the run stopped at a frame boundary (not run to its end for nobody) with
+    its frames kept, and ``--resume`` finishes it."""
     pytest.importorskip(f"gasp_{ENGINE}")
     out = tmp_path / "out"
-    p = subprocess.Popen(command("simulate", small_scene(tmp_path, donut_small), "-o", out, "--json"),
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    scene = small_scene(tmp_path, donut_small)
+    p = subprocess.Popen(command("simulate", scene, "-o", out, "--json"), stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     first = p.stdout.readline()
     p.stdout.close()                      # head -n 1 exits: the next write gets EPIPE
     err = p.stderr.read().decode()
@@ -69,6 +70,11 @@ def test_json_into_a_reader_that_stops_after_one_line_ends_quietly_and_the_run_f
     assert "Traceback" not in err and "Exception ignored" not in err, err
     assert code == 141, err
     assert not errors_of(err), err
+    (partial,) = tmp_path.glob(".out.partial-*")              # stopped: its frames kept for --resume
+    kept = sorted(partial.glob("*/frame_*.ply"))
+    assert 1 <= len(kept) < N_FRAMES + 1 and not (out / "run.json").exists()
+    r = gasp("simulate", scene, "-o", out, "--resume", "-q")
+    assert r.returncode == 0, r.stderr
     check_complete_run(out, N_FRAMES)
 
 

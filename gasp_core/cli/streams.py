@@ -1,17 +1,18 @@
 """Stdout cut short: a reader that stops reading, a closed stdout, a full device (issue 41).
 
 Stdout carries the command's report (``gasp simulate --json``'s events, the ``wrote N frames`` line), never its
-result: a run's result is its output folder. So a failure to write stdout never stops or loses a run. The
-reporter stops writing to stdout at the first failure and keeps it (:attr:`gasp_core.run.report.Reporter.stdout_error`),
-the run goes on to its end (every frame written, the folder committed), and then :func:`finish` says it:
+result: a run's result is its output folder. So a failure to write stdout never loses a run. The reporter stops
+writing to stdout at the first failure and keeps it (:attr:`gasp_core.run.report.Reporter.stdout_error`), and
+then :func:`finish` says it:
 
-- a broken pipe (the reader went away: ``gasp simulate --json | head -n 1``): nothing is said and the exit
-  status is 141 (128 + SIGPIPE), what a shell reports for a Unix tool killed by SIGPIPE. Python ignores
-  SIGPIPE and raises ``BrokenPipeError`` instead; setting SIGPIPE back to its default would kill the process
-  in the middle of a frame's files, so it is not done (Python docs, 'Note on SIGPIPE').
-- anything else (stdout closed, ``>&-``; a full device, ``> /dev/full``): one line
-  ``gasp: error: cannot write to stdout: <cause>`` (naming the output folder when the run finished) and exit
-  status 2.
+- a broken pipe (the reader went away: ``gasp simulate --json | head -n 1``): the run stops at the end of the
+  frame in flight as a stopped run does (``gasp_core.run.pipeline``: its frames and checkpoint kept in its partial
+  folder for ``--resume``), nothing is said, and the exit status is 141 (128 + SIGPIPE), what a shell reports for
+  a Unix tool killed by SIGPIPE. Python ignores SIGPIPE and raises ``BrokenPipeError`` instead; setting SIGPIPE
+  back to its default would kill the process in the middle of a frame's files, so it is not done (Python docs,
+  'Note on SIGPIPE').
+- anything else (stdout closed, ``>&-``; a full device, ``> /dev/full``): the run goes on to its end, then one
+  line ``gasp: error: cannot write to stdout: <cause>`` (naming the output folder) and exit status 2.
 
 A command that failed on its own keeps its line and its exit status. Either way ``/dev/null`` is then put on
 file descriptor 1, so that the interpreter's last flush of ``sys.stdout`` at exit does not raise again
@@ -108,17 +109,17 @@ def finish(reporter, code: int) -> int:
     Returns
     -------
     int
-        ``code`` when the command failed on its own or stdout took everything; else 141 after a broken pipe
-        and 2 after any other failure (its one ``gasp: error:`` line written to stderr).
+        141 after a broken pipe (the run finished, or stopped by it: 130); else ``code`` when the command failed on
+        its own or stdout took everything, and 2 after any other failure (its one ``gasp: error:`` line on stderr).
     """
     error = getattr(reporter, "stdout_error", None) or _flush_stdout()
     if error is None:
         return code
     _quiet_stdout()
+    if isinstance(error, BrokenPipeError) and code in (0, 130):   # finished, or stopped by the broken pipe itself
+        return BROKEN_PIPE_STATUS
     if code != 0:
         return code
-    if isinstance(error, BrokenPipeError):
-        return BROKEN_PIPE_STATUS
     output = getattr(reporter, "output", None)
     kept = f"; the command itself finished: its output is in '{output}'" if output else ""
     print(f"gasp: error: {describe(error)}{kept}", file=sys.stderr)

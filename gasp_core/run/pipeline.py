@@ -251,9 +251,12 @@ def _after_frame(run: _Run, writes: Background, frame: int, n_frames: int, frame
         note = budget.check(run.stats.engine, len(run.prep.setup.x), n_frames, n_frames - frame, frame_wall_s, run.yes)
         if note:
             run.reporter.warning(note)
-    if frame < n_frames and stop.requested():
+    # a reader that went away (gasp simulate --json | head -n 1) stops the run as SIGPIPE stops a Unix tool, but
+    # at a frame boundary, its frames kept for --resume (gasp_core.cli.streams)
+    gone = "SIGPIPE" if isinstance(getattr(run.reporter, "stdout_error", None), BrokenPipeError) else None
+    if frame < n_frames and (stop.requested() or gone):
         writes.flush()   # the frame's files and checkpoint are on disk before the stop is reported
-        raise stop.Stopped(stop.requested())
+        raise stop.Stopped(stop.requested() or gone)
     stop.frame_started(frame_wall_s)
 
 
