@@ -96,7 +96,9 @@ class SleepWatch:
         """An engine state (``get_state``) without the sleep's entry, which restores this watch when present."""
         state = dict(state)
         if SLEEP_KEY in state:
-            self.restore(state.pop(SLEEP_KEY))
+            saved = state.pop(SLEEP_KEY)
+            if self.enabled:   # a run resumed with sleep = false stays awake
+                self.restore(saved)
         return state
 
     def saving(self, get_state):
