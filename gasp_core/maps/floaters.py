@@ -33,7 +33,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from gasp_core.maps.occupancy import SPLAT_SIGMA, distinct_points
+from gasp_core.maps.occupancy import SPLAT_SIGMA, distinct_points, nearest_other
 
 #: Link distance, times the 90th percentile of the nearest-neighbour distance.
 LINK = 3.0
@@ -68,7 +68,7 @@ def find_floaters(means: np.ndarray, max_scales: np.ndarray) -> np.ndarray:
     points, inverse, mult = distinct_points(means)
     if len(points) > 1:
         tree = cKDTree(points)
-        nearest = np.where(mult > 1, 0.0, tree.query(points, k=2)[0][:, 1])   # a twin is at distance 0
+        nearest = nearest_other(points, mult, tree)        # a twin is at distance 0
         link = LINK * float(np.quantile(nearest[inverse], 0.9))
     else:
         link = 0.0                                                            # all at one point: one piece

@@ -106,13 +106,28 @@ def distinct_points(means: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarr
     return s[first], inverse, np.bincount(group)
 
 
+#: Points a k-d tree query takes at once in :func:`nearest_other`: between two queries Python runs, so a signal's
+#: handler (SIGTERM, Ctrl-C) runs within a fraction of a second, not after one native call over all points.
+QUERY_CHUNK = 2**16
+
+
+def nearest_other(points: np.ndarray, mult: np.ndarray, tree: cKDTree | None = None) -> np.ndarray:
+    """Distance from each of the distinct ``points`` (:func:`distinct_points`) to the nearest other input row: 0
+    for a point that stands for several rows (``mult > 1``), else to the nearest other point; queried
+    :data:`QUERY_CHUNK` points at a time. Shape (m,), float64, the units of ``points``; needs m >= 2."""
+    tree = cKDTree(points) if tree is None else tree
+    d = np.concatenate([tree.query(points[s:s + QUERY_CHUNK], k=2)[0][:, 1]
+                        for s in range(0, len(points), QUERY_CHUNK)])
+    return np.where(mult > 1, 0.0, d)
+
+
 def density_voxel(splats: np.ndarray) -> float:
     """Occupancy voxel from the splat density, metres (see the module notes, step 2)."""
     means = splats[:, 0]
     ext = float(np.ptp(np.concatenate([means, splats[:, 1], splats[:, 2]]), axis=0).max()) or 1.0
     points, inverse, mult = distinct_points(means)    # coincident splats: a k-d tree compares every pair
     if len(points) > 1:
-        nearest = np.where(mult > 1, 0.0, cKDTree(points).query(points, k=2)[0][:, 1])
+        nearest = nearest_other(points, mult)
         gap = float(np.quantile(nearest[inverse], 0.9))
     else:
         gap = ext
