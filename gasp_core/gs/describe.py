@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from gasp_core.gs.io import read_gaussians
+from gasp_core.gs.io import read_gaussians, refuse_one_point
 from gasp_core.gs.splatv import read_splatv, splatv_at
 from gasp_core.gs.up_axis import guess_up
 
@@ -37,7 +37,8 @@ def describe(path) -> dict[str, Any]:
     Raises
     ------
     FileNotFoundError, SceneError
-        As :func:`read_gaussians`.
+        As :func:`read_gaussians`; SceneError also for a degenerate file of Gaussians all at one point
+        (:func:`gasp_core.gs.io.refuse_one_point`).
 
     Notes
     -----
@@ -52,6 +53,7 @@ def describe(path) -> dict[str, Any]:
         g = splatv_at(base, mot, 0.5)
     else:
         g = read_gaussians(path)
+    refuse_one_point(path, g)        # before the up-axis guess and the floater search
     x = g.means
     if g.n == 0:
         return {"count": 0, "sh_degree": g.sh_degree, "layout": g.layout}

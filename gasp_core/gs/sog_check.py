@@ -8,6 +8,11 @@ only the entries ``meta.json`` names, each with a byte limit derived from the de
 the meta's types and ranges, each codebook's length and values, and each image's size from its WebP
 header (before decoding), and hands gsply a small zip of exactly those entries. Anything wrong is one
 :class:`~gasp_core.errors.SceneError` line naming the file and the field.
+
+The declared count is bounded by the bytes that hold it too: the images' pixels, :data:`PIXEL_BYTES` per
+splat, may be at most :data:`MAX_RATIO` times the images' compressed bytes beyond :data:`FREE_BYTES` (a real
+capture's WebP images compress about 1.5 to 3 times). A 2 KB ``.sog`` of 16.8 M splats, every image one
+colour, reached 3.2 GB and a memory error in gsply's decoding; it is refused before any image is decoded.
 """
 from __future__ import annotations
 
@@ -22,6 +27,11 @@ from gasp_core.gs.ply import reject_file
 
 #: Largest splat count a ``.sog`` may declare (its images would be 46k x 46k pixels).
 MAX_COUNT = 2**31 - 1
+#: Bytes of RGBA pixels per splat in the images every ``.sog`` holds (means low and high, quats, scales, sh0).
+PIXEL_BYTES = 20
+#: Pixel bytes allowed per compressed image byte beyond :data:`FREE_BYTES`.
+MAX_RATIO = 64
+FREE_BYTES = 64 * 2**20
 #: Entries of a SOG bundle (codebook length) that an 8-bit label indexes.
 CODEBOOK = 256
 #: SH coefficients per channel of ``shN.bands`` 1, 2, 3.
@@ -119,7 +129,8 @@ def sog_bytes(path: Path) -> bytes:
     ------
     SceneError
         Not a zip, no or a malformed ``meta.json``, a field of the wrong type or range, a codebook
-        shorter than 256, a named image missing, larger than its count allows, or not a WebP image.
+        shorter than 256, a named image missing, larger than its count allows, or not a WebP image; a count
+        whose pixels are more than :data:`MAX_RATIO` times the images' bytes beyond :data:`FREE_BYTES`.
     """
     path = Path(path)
     if path.is_dir() or path.name == "meta.json":
@@ -159,6 +170,7 @@ def _collect(path: Path, read) -> bytes:
         _bad(path, "(text)", f"not JSON ({e})")
     count, images = _check_meta(path, meta)
     out = io.BytesIO()
+    held = 0
     with zipfile.ZipFile(out, "w", zipfile.ZIP_STORED) as z:
         z.writestr("meta.json", raw)
         for name, max_pixels in images.items():
@@ -170,4 +182,8 @@ def _collect(path: Path, read) -> bytes:
             if w * h > max_pixels:
                 reject_file(path, f"image '{name}' is {w}x{h} pixels; {count:,} splats need at most {max_pixels:,}")
             z.writestr(name, data)
+            held += len(data)
+    if PIXEL_BYTES * count > FREE_BYTES + MAX_RATIO * held:
+        _bad(path, "count", f"{count:,} splats need {PIXEL_BYTES * count:,} bytes of pixels, more than {MAX_RATIO} "
+             f"times the {held:,} bytes of its images can hold (a degenerate or bomb file?)")
     return out.getvalue()

@@ -8,6 +8,13 @@ one that expands more than :data:`MAX_RATIO` times beyond :data:`FREE_BYTES` (re
 about 1.5 to 3 times), and a truncated stream. An NGSP v4 file (zstd sections whose sizes gsply checks
 against the header's count) is refused when that count needs more than the same ratio allows. Only then
 does gsply read the file.
+
+A gzip file may hold several members one after the other, and gsply (``gzip.decompress``) reads them all
+as one stream: the check walks every member, the limits on their total. (It read only the first: a 1 MB
+file of a valid member followed by a thousand members of 1 MiB of zeros each passed, and reached 2.2 GB.)
+:data:`FREE_BYTES` is what a file may hold beyond :data:`MAX_RATIO` times its size whatever its ratio, so
+also a bound on the Gaussians a small file can declare (about 3 M at SH degree 0; a 39 KB file of 2 M
+points at one point passes, and is refused after reading by :func:`gasp_core.gs.io.refuse_one_point`).
 """
 from __future__ import annotations
 
@@ -22,13 +29,13 @@ NGSP = 0x5053474E
 SLACK = 2**20
 #: Decompressed bytes per compressed byte allowed beyond :data:`FREE_BYTES`.
 MAX_RATIO = 64
-FREE_BYTES = 256 * 2**20
+FREE_BYTES = 64 * 2**20
 _SH_DIM = (0, 3, 8, 15)
 
 
 def check_spz(path: Path) -> None:
-    """Refuse (:class:`SceneError`, one line naming the file) a gzip ``.spz`` whose stream is corrupt,
-    truncated, or longer than its header's point count needs, and an NGSP v4 (zstd) file whose count
+    """Refuse (:class:`SceneError`, one line naming the file) a gzip ``.spz`` whose stream (all its gzip members
+    together) is corrupt, truncated, or longer than its header's point count needs, and an NGSP v4 (zstd) file whose count
     needs more than :data:`MAX_RATIO` times its size beyond :data:`FREE_BYTES`."""
     path = Path(path)
     size = path.stat().st_size
@@ -51,6 +58,10 @@ def check_spz(path: Path) -> None:
             while chunk := f.read(2**20):
                 out = d.decompress(chunk, 2**20)
                 while True:
+                    if d.eof and d.unused_data:      # the next gzip member: gsply reads it as more of the stream
+                        rest = d.unused_data
+                        d = zlib.decompressobj(wbits=31)
+                        out += d.decompress(rest, 2**20)
                     total += len(out)
                     if expected is None and len(head) < 16:
                         head += out[:16 - len(head)]
@@ -62,11 +73,12 @@ def check_spz(path: Path) -> None:
                     if total > limit:
                         reject_file(path, f"the gzip stream expands beyond {limit:,} bytes, {MAX_RATIO} times "
                                     "its size (a gzip bomb?)")
+                    if d.eof and d.unused_data:
+                        out = b""
+                        continue
                     if not d.unconsumed_tail:
                         break
                     out = d.decompress(d.unconsumed_tail, 2**20)
-                if d.eof:
-                    break
         except zlib.error as e:
             reject_file(path, f"not a readable .spz file (corrupt gzip stream: {e})")
     if expected is None or total < expected:

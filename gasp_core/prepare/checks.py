@@ -23,7 +23,8 @@ def check_object(spec: ObjectSpec, g) -> None:
     Raises
     ------
     SceneError
-        If there are no Gaussians, or if placed with ``spec.scale`` and ``spec.position`` a
+        If there are no Gaussians, more than :data:`gasp_core.gs.io.MAX_AT_ONE_POINT` all at one point
+        (:func:`gasp_core.gs.io.refuse_one_point`), or if placed with ``spec.scale`` and ``spec.position`` a
         Gaussian's centre would lie beyond :data:`MAX_COORD` metres from the origin on some axis,
         or a Gaussian's largest scale would exceed :data:`MAX_COORD` metres; the message names the
         file, the value and the limit.
@@ -31,6 +32,8 @@ def check_object(spec: ObjectSpec, g) -> None:
     f = spec.file
     if g.n == 0:
         raise SceneError(f"{f}: the file has 0 Gaussians; nothing to simulate")
+    from gasp_core.gs.io import refuse_one_point
+    refuse_one_point(f, g)
     x = g.means
     lo, hi = x.min(axis=0), x.max(axis=0)
     pos = max(abs(p) for p in spec.position)
