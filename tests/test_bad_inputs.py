@@ -437,6 +437,13 @@ def _(d, ply, v):
                                   engine_options="{ threads = 1, passive_every = 128 }"))
 
 
+@case("info-on-a-mesh-points-to-mesh-mode", "box.obj", "a triangle mesh (.obj)", "mesh = \"box.obj\"")
+def _(d, ply, v):
+    # issue 42: "unknown file format (first bytes b'# ht')", with no word of mesh mode
+    (d / "box.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    return ["info", str(d / "box.obj")]
+
+
 @case("splats-10m-on-a-20cm-object", "every Gaussian's centre is above it", "on an object 0.208 m across",
       "file's scales")
 def _(d, ply, v):

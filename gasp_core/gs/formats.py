@@ -51,6 +51,10 @@ def gsply_module(path, doing: str):
     return gsply
 
 
+#: Triangle-mesh suffixes: a mesh given where a splat file is expected is pointed to mesh mode.
+MESH_SUFFIXES = (".obj", ".stl", ".off", ".glb", ".gltf", ".dae", ".3mf")
+
+
 def sniff(path: Path) -> str:
     """The format of a splat file: ``"ply"``, ``"spz"``, ``"sog"``, ``"splat"`` or ``"ksplat"``.
 
@@ -59,7 +63,7 @@ def sniff(path: Path) -> str:
     FileNotFoundError
         ``path`` does not exist.
     SceneError
-        No known signature and no ``.splat`` / ``.ksplat`` suffix.
+        No known signature and no ``.splat`` / ``.ksplat`` suffix (a mesh's suffix: the line points to mesh mode).
     """
     if path.is_dir() and (path / "meta.json").is_file():
         return "sog"
@@ -75,8 +79,11 @@ def sniff(path: Path) -> str:
     suffix = path.suffix.lower()
     if suffix in (".splat", ".ksplat"):
         return suffix[1:]
-    reject_file(path, f"unknown file format (first bytes {head!r}); expected a PLY, .spz, .sog, .splat "
-                "or .ksplat file")
+    if suffix in MESH_SUFFIXES:
+        reject_file(path, f"a triangle mesh ({suffix}), not a Gaussian Splatting file: simulate it in mesh mode, "
+                    f"mesh = \"{path.name}\" in an [[object]] (docs/mesh_mode.md)")
+    reject_file(path, f"unknown file format (first bytes {head!r}); expected a PLY, .spz, .sog, .splat, .ksplat "
+                "or .splatv file")
 
 
 def read_splat_file(path, fmt: str | None = None) -> Gaussians:
