@@ -132,3 +132,18 @@ def test_a_dropped_donut_gets_no_stand_warning(tmp_path):
         prepare_scene(load_scene(Path(__file__).parents[1] / "examples" / "donut_jelly.toml"))
     assert not [str(w.message) for w in got if "own weight" in str(w.message) or "tips over" in str(w.message)]
 
+
+
+def test_a_donut_lying_on_the_ground_does_not_tip_over():
+    """examples/donut_wind.toml: the donut rests on its rounded underside, which touches the ground all round
+    within a cell; its lowest 3 % alone (one side of the ring) said "tips over whatever its stiffness" (issue 38)."""
+    from pathlib import Path
+    from gasp_core.prepare.scene import prepare_scene
+    from gasp_core.scene.spec import load_scene
+    with warnings.catch_warnings(record=True) as got:
+        warnings.simplefilter("always")
+        ps = prepare_scene(load_scene(Path(__file__).parents[1] / "examples" / "donut_wind.toml"))
+    assert not [str(w.message) for w in got if "tips over" in str(w.message)]
+    s = ps.setup
+    assert not stand_estimate(s.x, s.p_vol, 300.0).com_over_footprint     # the lowest 3 % alone: one side
+    assert stand_estimate(s.x, s.p_vol, 300.0, foot_depth=s.dx).com_over_footprint

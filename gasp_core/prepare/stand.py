@@ -58,7 +58,7 @@ class StandEstimate:
 
 
 def stand_estimate(x: np.ndarray, p_vol: np.ndarray, rho: float, g: float = 9.81,
-                   up=(0.0, 0.0, 1.0)) -> StandEstimate:
+                   up=(0.0, 0.0, 1.0), foot_depth: float = 0.0) -> StandEstimate:
     """The Young's modulus a body standing on its base needs (the module's model).
 
     Parameters
@@ -73,6 +73,10 @@ def stand_estimate(x: np.ndarray, p_vol: np.ndarray, rho: float, g: float = 9.81
         Gravity, m/s^2.
     up : array-like, shape (3,)
         Unit vector against gravity.
+    foot_depth : float
+        The support the centre of mass is tested against: the points within ``max(FOOT_SHARE H, foot_depth)``
+        (m) of the lowest (``gasp simulate`` passes the grid's ``dx``: a rounded base, such as a lying donut's,
+        touches within a cell of its lowest point all round).
 
     Returns
     -------
@@ -117,7 +121,7 @@ def stand_estimate(x: np.ndarray, p_vol: np.ndarray, rho: float, g: float = 9.81
     f[edges[:-1] < FOOT_SHARE * H] = 0.0   # the footprint's own sections: the base it stands on, not a column
     E_crit = float(np.sum(f) * dz)
     com = np.average(p, axis=0, weights=w)
-    foot = p[z <= FOOT_SHARE * H + 1e-12]
+    foot = p[z <= max(FOOT_SHARE * H, float(foot_depth)) + 1e-12]
     over = _inside_hull(foot, com)
     return StandEstimate(E_crit=E_crit, height=H, com_height=float(np.average(z, weights=w)),
                          com_over_footprint=over, weakest_height=float(edges[int(np.argmax(f))]))
@@ -164,7 +168,7 @@ def stand_warnings(materials, boundaries, gravity, x: np.ndarray, p_vol: np.ndar
             continue
         if not any(abs(float(x[sel, 2].min()) - h) <= STAND_GAP * dx for h in heights):
             continue
-        msg = stand_warning(names[i], stand_estimate(x[sel], p_vol[sel], m.rho, gn, -g / gn), m.E)
+        msg = stand_warning(names[i], stand_estimate(x[sel], p_vol[sel], m.rho, gn, -g / gn, foot_depth=dx), m.E)
         if msg:
             out.append(msg)
     return out
