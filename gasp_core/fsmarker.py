@@ -110,10 +110,14 @@ def _legacy_unexpected(folder: Path, entries: set) -> list[str]:
 
 
 #: What a run writes at the top of its partial folder (besides one folder per object): its pid, its checkpoint,
-#: ``run.json`` / ``frames.json`` / ``render.mp4``, and :func:`atomic_write`'s temporary files.
-_PARTIAL_TOP = re.compile(r"\.gasp-pid|\.gasp-checkpoint\.npz|run\.json|frames\.json|render\.mp4|\..+\.tmp")
-#: What a run writes inside an object folder of its partial folder: frames, the files written once, temporaries.
-_PARTIAL_OBJECT = re.compile(r"(frame_\d{4,}|static|rest)(\.ply|\.compressed\.ply|\.spz|\.sog)|moving_rows\.npy|\..+\.tmp")
+#: ``run.json`` / ``frames.json`` / ``render.mp4``.
+_PARTIAL_TOP = re.compile(r"\.gasp-pid|\.gasp-checkpoint\.npz|run\.json|frames\.json|render\.mp4")
+#: :func:`gasp_core.fsutil.atomic_write`'s temporary files, anywhere in a partial folder.
+_TEMPORARY = re.compile(r"\..+\.tmp")
+
+
+def _gasp_file(pattern: re.Pattern, name: str) -> bool:
+    return bool(pattern.fullmatch(name) or _TEMPORARY.fullmatch(name))
 
 
 def foreign_entries(partial: Path) -> list[str]:
@@ -124,8 +128,8 @@ def foreign_entries(partial: Path) -> list[str]:
         for top in sorted(partial.iterdir()):
             if top.is_dir() and not top.is_symlink():
                 extra += [f"{top.name}/{f.name}" for f in sorted(top.iterdir())
-                          if f.is_dir() or f.is_symlink() or not _PARTIAL_OBJECT.fullmatch(f.name)]
-            elif top.is_symlink() or not _PARTIAL_TOP.fullmatch(top.name):
+                          if f.is_dir() or f.is_symlink() or not _gasp_file(_RUN_FILE, f.name)]
+            elif top.is_symlink() or not _gasp_file(_PARTIAL_TOP, top.name):
                 extra.append(top.name)
     except OSError as e:
         extra.append(f"{e.filename} (unreadable)")

@@ -133,33 +133,11 @@ def test_the_bounce_is_the_same_at_a_hand_set_step(monkeypatch):
 # A domain floored at the ground (issue 38): refused in one line saying what to change
 # --------------------------------------------------------------------------------------------
 def _floored_scene(tmp_path, lo_z: float, contact: str = "auto"):
-    from gasp_testing import DONUT
+    from gasp_testing import DONUT, scene_text
     from gasp_core.scene.spec import load_scene
-    text = f"""
-frame_dt = 0.0333333
-n_frames = 4
-[engine]
-name = "warp_mpm"
-options = {{ precision = "f32", contact = "{contact}" }}
-
-[domain]
-n_grid = 16
-lo = [-0.15, -0.15, {lo_z}]
-hi = [0.15, 0.15, 0.3]
-
-[[boundary]]
-kind = "ground"
-height = 0.0
-
-[[object]]
-file = "{DONUT}"
-up_axis = "+z"
-position = [0.0, 0.0, 0.05]
-[object.material]
-name = "jelly"
-E = 2.0e4
-rho = 300.0
-"""
+    text = scene_text(DONUT, n_frames=4, n_grid=16, engine="warp_mpm",
+                      engine_options=f'{{ precision = "f32", contact = "{contact}" }}')
+    text = text.replace("n_grid = 16", f"n_grid = 16\nlo = [-0.15, -0.15, {lo_z}]\nhi = [0.15, 0.15, 0.3]", 1)
     path = tmp_path / f"floored_{contact}_{lo_z:g}.toml"
     path.write_text(text)
     return load_scene(path)

@@ -67,6 +67,15 @@ def stop_after(scene: Path, out: Path, sig: int, after: int) -> subprocess.Compl
     return subprocess.CompletedProcess(proc.args, proc.returncode, out_text, err)
 
 
+def stopped_run(tmp_path: Path, donut_small: Path, sig: int = signal.SIGHUP) -> tuple[Path, Path]:
+    """``(scene, out)`` of a 3-frame run stopped by ``sig`` once frame 1 is on disk (exit 130)."""
+    scene = write_scene(tmp_path, donut_small, n_frames=3)
+    out = tmp_path / "out"
+    r = stop_after(scene, out, sig, 1)
+    assert r.returncode == 130, r.stderr
+    return scene, out
+
+
 @pytest.mark.parametrize("engine", ["warp_mpm", pytest.param("taichi_mpm", marks=pytest.mark.slow)])
 def test_sigterm_after_2_of_6_frames_resumes_bit_identical(tmp_path, donut_small, engine):
     needs_package(f"gasp_{engine}")
@@ -116,10 +125,7 @@ def test_discard_or_overwrite_throws_the_partial_away(tmp_path, donut_small, fla
 @pytest.mark.parametrize("flag", ["--discard", "--overwrite"])
 def test_a_users_file_in_the_stopped_runs_folder_survives(tmp_path, donut_small, flag):
     # issue 41: a file the user put in the hidden partial folder was deleted by --discard and --overwrite, exit 0
-    scene = write_scene(tmp_path, donut_small, n_frames=3)
-    out = tmp_path / "out"
-    r = stop_after(scene, out, signal.SIGHUP, 1)
-    assert r.returncode == 130, r.stderr
+    scene, out = stopped_run(tmp_path, donut_small)
     (partial,) = tmp_path.glob(".out.partial-*")
     (partial / "notes.txt").write_text("mine")
     r = gasp("simulate", scene, "-o", out, "-q", flag, "--frames", "1", cwd=tmp_path)
@@ -133,10 +139,7 @@ def test_a_users_file_in_the_stopped_runs_folder_survives(tmp_path, donut_small,
 
 def test_discard_refused_for_a_users_file_says_why(tmp_path, donut_small):
     # issue 41: the refusal said "pass --discard", though it was passed
-    scene = write_scene(tmp_path, donut_small, n_frames=3)
-    out = tmp_path / "out"
-    r = stop_after(scene, out, signal.SIGHUP, 1)
-    assert r.returncode == 130, r.stderr
+    scene, out = stopped_run(tmp_path, donut_small)
     (out / "mine.txt").write_text("mine")
     r = gasp("simulate", scene, "-o", out, "-q", "--discard", "--frames", "1", cwd=tmp_path)
     err = not_resolution(r.stderr).strip()
@@ -145,10 +148,7 @@ def test_discard_refused_for_a_users_file_says_why(tmp_path, donut_small):
 
 
 def test_a_truncated_checkpoint_is_one_line(tmp_path, donut_small, capsys):
-    scene = write_scene(tmp_path, donut_small, n_frames=3)
-    out = tmp_path / "out"
-    r = stop_after(scene, out, signal.SIGINT, 1)
-    assert r.returncode == 130, r.stderr
+    scene, out = stopped_run(tmp_path, donut_small, signal.SIGINT)
     (partial,) = tmp_path.glob(".out.partial-*")
     ck = partial / ".gasp-checkpoint.npz"
     ck.write_bytes(ck.read_bytes()[: ck.stat().st_size // 2])      # as a kill -9 on a full disk can leave it
