@@ -28,8 +28,9 @@ ROOT = Path(__file__).resolve().parents[1]
 SCENE = ROOT / "examples" / "donut_jelly.toml"
 
 
-def simulate(scene: Path, out: Path, frames: int, engine: str | None) -> tuple[float, float]:
-    """Wall and CPU seconds of one ``gasp simulate`` in a fresh process."""
+def simulate(scene: Path, out: Path, frames: int, engine: str | None) -> tuple[float, float, float]:
+    """Wall and CPU seconds of one ``gasp simulate`` in a fresh process, and the 1-minute load average before it."""
+    load = os.getloadavg()[0]
     cmd = [sys.executable, "-m", "gasp_core.cli.main", "simulate", str(scene), "-o", str(out), "-q",
            "--frames", str(frames), *(["--engine", engine] if engine else [])]
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -37,7 +38,7 @@ def simulate(scene: Path, out: Path, frames: int, engine: str | None) -> tuple[f
     subprocess.run(cmd, check=True, cwd=ROOT)
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), load
 
 
 def means(out: Path) -> list[np.ndarray]:
@@ -69,9 +70,9 @@ def main():
         f"`python benchmarks/bench_sleep.py --frames {a.frames}` ({rec['engine']}, {os.cpu_count()} cores, "
         f"{rec['engine_stats'].get('n_substeps')} substeps a frame)",
         "",
-        "| run | wall (s) | CPU (s) |", "|---|---|---|",
-        f"| sleep (default; asleep after frame {after}) | {t_on[0]:.1f} | {t_on[1]:.1f} |",
-        f"| sleep = false | {t_off[0]:.1f} | {t_off[1]:.1f} |",
+        "| run | wall (s) | CPU (s) | load average before it (1 min) |", "|---|---|---|---|",
+        f"| sleep (default; asleep after frame {after}) | {t_on[0]:.1f} | {t_on[1]:.1f} | {t_on[2]:.2f} |",
+        f"| sleep = false | {t_off[0]:.1f} | {t_off[1]:.1f} | {t_off[2]:.2f} |",
         "",
         f"Wall time ratio, awake / asleep: **{t_off[0] / t_on[0]:.2f}x**.",
         f"Largest distance of a Gaussian's centre between the two runs: {1e3 * dist[worst].max():.3f} mm at frame "
