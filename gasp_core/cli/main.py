@@ -8,8 +8,9 @@ missing capability, existing output, a folder that cannot be written), 3 when th
 for ``--resume``, :mod:`gasp_core.run.stop`). NumPy's floating-point warnings are held back and
 printed only after a run that succeeded: before an error line they would be noise.
 
-Stdout is the command's report, never its result: a reader that stops reading (exit 141, quietly), a closed
-stdout or a full device (one line, exit 2) never stops or loses a run (:mod:`gasp_core.cli.streams`).
+Stdout is the command's report, never its result: a reader that stops reading stops the run with its frames
+kept for ``--resume`` (exit 141), a closed stdout or a full device (one line, exit 2) lets it finish
+(:mod:`gasp_core.cli.streams`).
 
 Warnings (gasp's own and Python's), the result and the error line go through one reporter
 (:mod:`gasp_core.run.report`): the console's, or JSON lines on stdout for ``gasp simulate --json``

@@ -7,7 +7,8 @@ then :func:`finish` says it:
 
 - a broken pipe (the reader went away: ``gasp simulate --json | head -n 1``): the run stops at the end of the
   frame in flight as a stopped run does (``gasp_core.run.pipeline``: its frames and checkpoint kept in its partial
-  folder for ``--resume``), nothing is said, and the exit status is 141 (128 + SIGPIPE), what a shell reports for
+  folder for ``--resume``; its one line on stderr says where), no error is said, and the exit status is 141
+  (128 + SIGPIPE), what a shell reports for
   a Unix tool killed by SIGPIPE. Python ignores SIGPIPE and raises ``BrokenPipeError`` instead; setting SIGPIPE
   back to its default would kill the process in the middle of a frame's files, so it is not done (Python docs,
   'Note on SIGPIPE').
