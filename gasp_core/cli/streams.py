@@ -8,10 +8,9 @@ then :func:`finish` says it:
 - a broken pipe (the reader went away: ``gasp simulate --json | head -n 1``): the run stops at the end of the
   frame in flight as a stopped run does (``gasp_core.run.pipeline``: its frames and checkpoint kept in its partial
   folder for ``--resume``; its one line on stderr says where), no error is said, and the exit status is 141
-  (128 + SIGPIPE), what a shell reports for
-  a Unix tool killed by SIGPIPE. Python ignores SIGPIPE and raises ``BrokenPipeError`` instead; setting SIGPIPE
-  back to its default would kill the process in the middle of a frame's files, so it is not done (Python docs,
-  'Note on SIGPIPE').
+  (128 + SIGPIPE), what a shell reports for a Unix tool killed by SIGPIPE. Python ignores SIGPIPE and raises
+  ``BrokenPipeError`` instead; setting SIGPIPE back to its default would kill the process in the middle of a
+  frame's files, so it is not done (Python docs, 'Note on SIGPIPE').
 - anything else (stdout closed, ``>&-``; a full device, ``> /dev/full``): the run goes on to its end, then one
   line ``gasp: error: cannot write to stdout: <cause>`` (naming the output folder) and exit status 2.
 
