@@ -40,6 +40,13 @@ GRID_LAYERS_BELOW = 2
 #: Largest ``omega dt`` of the particle contact (``omega`` in :func:`contact_dt`): an explicit oscillator's
 #: stability limit (``omega dt < 2``, central differences).
 MAX_OMEGA_DT = 2.0
+#: The torque regularisation's reach per point spacing: the contact takes back the torque of a centre of pressure within
+#: ``REACH`` times the body's median point spacing of the point below its mass centre (:func:`counter_spin`).
+import os
+REACH = float(os.environ.get("GASP_REACH", "1.0"))
+#: Columns of the per-body sums of :func:`counter_spin`'s kernels: mass, its first and second moments, the
+#: normal impulse J and its first moments in x and y.
+SUMS = ("m", "mx", "my", "mz", "mxx", "mxy", "mxz", "myy", "myz", "mzz", "j", "jx", "jy")
 #: The engine option's values.
 CONTACT_MODELS = ("auto", "particle", "grid")
 #: Materials that flow (granular, fluid): ``contact = "auto"`` keeps the grid contact for a scene with one.
@@ -162,3 +169,60 @@ def node_friction(v: np.ndarray, m: np.ndarray, budget: np.ndarray) -> np.ndarra
     lt = np.linalg.norm(vt, axis=1)
     cut = np.where((budget > 0.0) & (lt > 0.0), np.minimum(budget / np.maximum(m, 1e-300), lt) / np.maximum(lt, 1e-300), 0.0)
     return v - cut[:, None] * vt
+
+
+def contact_reach(setup) -> np.ndarray:
+    """Per body, how far (m) from the point below its mass centre :func:`counter_spin` takes its contact's torque back: ``REACH`` times the
+    median spacing ``p_vol^(1/3)`` of its points (0 for a body without volume). Shape (n_materials,), float64."""
+    h = np.cbrt(np.asarray(setup.p_vol, dtype=np.float64))
+    body = np.asarray(setup.body_id, dtype=np.int64)
+    out = np.zeros(len(setup.materials))
+    for b in range(len(out)):
+        hb = h[(body == b) & (h > 0.0)]
+        out[b] = REACH * float(np.median(hb)) if len(hb) else 0.0
+    return out
+
+
+def counter_spin(x: np.ndarray, m: np.ndarray, jn: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:
+    """The torque regularisation of one body's contact over a substep (the kernels' reference).
+
+    A handful of irregular points resolves a contact's centre of pressure only to about their spacing: the
+    impulses of a body dropped on a smooth plane would pass through the point below its mass centre, while those of
+    its points miss it by a fraction of a spacing, and that lever spins a bouncing body up and rolls it away
+    (``docs/contact.md``, issue 38). The contact's normal impulses stay as they are; the part of their torque
+    about the body's mass centre ``c`` that comes from a centre of pressure ``x_bar`` within ``reach`` of the point
+    below ``c`` is taken back through the body's rigid rotation: ``d_omega = I^-1 J (e_y, -e_x, 0)``, ``e`` the
+    offset ``c - x_bar`` shortened to at most ``reach``, ``I`` the body's inertia about ``c``. A centre of pressure
+    further off keeps the torque of its excess, so a body whose mass centre lies beyond its support tips over.
+    Taking it back through the contact's own impulses instead (a linear reweighting) moved the penalty's depths
+    until the reweighting ran out of reach (``docs/contact.md``).
+
+    Parameters
+    ----------
+    x : ndarray, shape (n, 3)
+        The body's points' positions (m).
+    m, jn : ndarray, shape (n,)
+        Their masses (kg) and normal impulses (:func:`plane_impulse`, kg m/s, along +z).
+    reach : float
+        :func:`contact_reach` of the body (m).
+
+    Returns
+    -------
+    d_omega : ndarray, shape (3,)
+        The body's angular velocity change (rad/s); each point's momentum gains ``m_p d_omega x (x_p - c)``.
+    c : ndarray, shape (3,)
+        The mass centre (m).
+    """
+    x = np.asarray(x, dtype=np.float64)
+    m = np.asarray(m, dtype=np.float64)
+    jn = np.asarray(jn, dtype=np.float64)
+    M, J = float(m.sum()), float(jn.sum())
+    c = m @ x / M if M > 0.0 else np.zeros(3)
+    if M <= 0.0 or J <= 0.0:
+        return np.zeros(3), c
+    e = c[:2] - jn @ x[:, :2] / J
+    if np.linalg.norm(e) > reach:
+        e *= reach / np.linalg.norm(e)
+    r = x - c
+    inertia = (m * (r * r).sum(axis=1)).sum() * np.eye(3) - (m[:, None] * r).T @ r
+    return np.linalg.solve(inertia, J * np.array([e[1], -e[0], 0.0])), c

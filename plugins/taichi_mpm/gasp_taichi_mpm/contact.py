@@ -6,12 +6,20 @@
   ``sum mu j_n``, which P2G adds to its nodes with its weights (``grid_mv``'s last channel);
 - :meth:`Contact.node_friction` in the grid update: the node's tangential (x, y) velocity loses
   ``min(budget / m, |v_t|)``;
+- :meth:`Contact.contact_moments` and :meth:`Contact.contact_shift` before P2G: the counter-spin of each body
+  (``gasp_core.toolkit.contact.counter_spin``), from the impulses of the previous P2G (the moments are taken
+  before the fused G2P and P2G kernel, on the positions the previous P2G used: one substep behind warp_mpm,
+  which takes them on the same positions; over a contact the two take back the same torque);
 - :meth:`Contact.hold_passive` after a passive point's update: the point put back in the box the boundaries keep
   it in (``gasp_core.toolkit.points.passive_bounds``, ``hold_passive``).
 
 Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields and flags (``real``, ``n_planes``, ...) it reads.
 """
+import numpy as np
 import taichi as ti
+
+#: Slices of the points the counter-spin's sums run over (each slice summed serially on one thread, then added).
+N_PARTS = 64
 
 
 class Contact:
@@ -59,3 +67,88 @@ class Contact:
                 xo[d] = self.hold_hi[None][d]
                 vo[d] = ti.min(vo[d], 0.0)
         return xo, vo
+
+    # ------------------------------------------------------------------ the counter-spin
+    def allocate_counter_spin(self, reach) -> None:
+        """Per body, the sums, the reach (m) and the shift ``(d_omega, c)`` of the counter-spin (float64);
+        ``reach`` None or empty: no counter-spin."""
+        nb = 0 if reach is None else len(reach)
+        self.n_spin = nb
+        self.c_sums = ti.field(ti.f64, shape=(max(nb, 1), 16))
+        self.c_shift = ti.field(ti.f64, shape=(max(nb, 1), 6))
+        self.c_reach = ti.field(ti.f64, shape=max(nb, 1))
+        if nb:
+            self.c_reach.from_numpy(np.asarray(reach, np.float64))
+
+    @ti.kernel
+    def contact_moments(self):
+        """Each body's mass, first and second mass moments, and its points' normal impulses and their first
+        moments in x, y into ``c_sums`` (columns ``gasp_core.toolkit.contact.SUMS``), then its momentum."""
+        n = self.n_points[None]
+        ti.loop_config(block_dim=1)
+        for t in range(N_PARTS):
+            acc = ti.Vector.zero(ti.f64, 16)
+            cur = -1
+            for p in range(t * n // N_PARTS, (t + 1) * n // N_PARTS):
+                b = self.body[p]
+                if b != cur:
+                    if cur >= 0:
+                        for q in ti.static(range(16)):
+                            ti.atomic_add(self.c_sums[cur, q], acc[q])
+                    acc = ti.Vector.zero(ti.f64, 16)
+                    cur = b
+                x = ti.cast(self.x[p], ti.f64)
+                mv = ti.cast(self.p_mass[p] * self.v[p], ti.f64)
+                m = ti.cast(self.p_mass[p], ti.f64)
+                jn, _budget = self.plane_contact(p)
+                j = ti.cast(jn, ti.f64)
+                acc += ti.Vector([m, m * x[0], m * x[1], m * x[2], m * x[0] * x[0], m * x[0] * x[1], m * x[0] * x[2],
+                                  m * x[1] * x[1], m * x[1] * x[2], m * x[2] * x[2], j, j * x[0], j * x[1],
+                                  mv[0], mv[1], mv[2]], ti.f64)
+            if cur >= 0:
+                for q in ti.static(range(16)):
+                    ti.atomic_add(self.c_sums[cur, q], acc[q])
+
+    @ti.kernel
+    def contact_shift(self):
+        """Each body's counter-spin ``d_omega`` (rad/s) and mass centre ``c`` (m) into ``c_shift``; ``c_sums`` cleared."""
+        for b in range(self.n_spin):
+            M = self.c_sums[b, 0]
+            J = self.c_sums[b, 10]
+            w = ti.Vector.zero(ti.f64, 3)
+            c = ti.Vector.zero(ti.f64, 3)
+            if M > 0.0:
+                c = ti.Vector([self.c_sums[b, 1], self.c_sums[b, 2], self.c_sums[b, 3]], ti.f64) / M
+            if M > 0.0 and J > 0.0:
+                dX = c[0] - self.c_sums[b, 11] / J
+                dY = c[1] - self.c_sums[b, 12] / J
+                d = ti.sqrt(dX * dX + dY * dY)
+                if d > self.c_reach[b]:
+                    dX *= self.c_reach[b] / d
+                    dY *= self.c_reach[b] / d
+                S = ti.Matrix([[self.c_sums[b, 4], self.c_sums[b, 5], self.c_sums[b, 6]],
+                               [self.c_sums[b, 5], self.c_sums[b, 7], self.c_sums[b, 8]],
+                               [self.c_sums[b, 6], self.c_sums[b, 8], self.c_sums[b, 9]]], ti.f64) / M \
+                    - c.outer_product(c)
+                inertia = M * (S.trace() * ti.Matrix.identity(ti.f64, 3) - S)
+                if inertia.determinant() > 0.0:
+                    w = inertia.inverse() @ (J * ti.Vector([dY, -dX, 0.0], ti.f64))
+            if M > 0.0:   # the mass centre when P2G uses it, a substep on
+                c += ti.cast(self.dt[None], ti.f64) / M * ti.Vector([self.c_sums[b, 13], self.c_sums[b, 14],
+                                                                      self.c_sums[b, 15]], ti.f64)
+            for q in ti.static(range(3)):
+                self.c_shift[b, q] = w[q]
+                self.c_shift[b, 3 + q] = c[q]
+            for q in ti.static(range(16)):
+                self.c_sums[b, q] = 0.0
+
+    @ti.func
+    def counter_spin_momentum(self, p):
+        """``m_p d_omega x (x_p - c)`` of point p's body (kg m/s; zero without the counter-spin)."""
+        out = ti.Vector.zero(self.real, 3)
+        if ti.static(self.n_planes > 0):
+            b = self.body[p]
+            dw = ti.Vector([self.c_shift[b, 0], self.c_shift[b, 1], self.c_shift[b, 2]])
+            c = ti.Vector([self.c_shift[b, 3], self.c_shift[b, 4], self.c_shift[b, 5]])
+            out = ti.cast(ti.cast(self.p_mass[p], ti.f64) * dw.cross(ti.cast(self.x[p], ti.f64) - c), self.real)
+        return out

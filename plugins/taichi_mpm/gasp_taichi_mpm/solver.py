@@ -101,7 +101,8 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact)
 
     def __init__(self, *, x, v, C0, p_mass, p_vol, body, fixed, jp0, params, kinds, n_grid, lo, dx, dt,
                  gravity, walls, grounds, regions, real, n_chunks, atomic, extras=None, time_table=None, n_substeps=1,
-                 n_material=None, passive_every=1, flip=0.0, coloured=False, p_contact=None, passive_bounds=None):
+                 n_material=None, passive_every=1, flip=0.0, coloured=False, p_contact=None, passive_bounds=None,
+                 contact_reach=None):
         n = len(x)
         self.n = n
         self.n_material = n if n_material is None else int(n_material)
@@ -127,6 +128,7 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact)
         self._allocate_points(len(kinds))
         self._allocate_grid()
         self._allocate_boundaries()
+        self.allocate_counter_spin(contact_reach if self.n_planes else None)
 
         np_real = np.float32 if real == ti.f32 else np.float64
         self._upload_points(np_real, x=x, v=v, C0=C0, p_mass=p_mass, p_vol=p_vol, body=body, fixed=fixed,
@@ -336,7 +338,11 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact)
 
     def p2g_substep(self, with_g2p: int, substep: int) -> None:
         """(G2P and) P2G of one substep, then the implicit viscous step. Coloured: the block sort at the frame's
-        first substep and every :data:`SORT_EVERY`, the 8 colour passes, the late points."""
+        first substep and every :data:`SORT_EVERY`, the 8 colour passes, the late points. First, with the particle
+        contact, the bodies' counter-spin (:mod:`gasp_taichi_mpm.contact`)."""
+        if self.n_spin:
+            self.contact_moments()
+            self.contact_shift()
         if self.coloured:
             if substep % SORT_EVERY == 0:
                 self.sort_blocks()

@@ -16,7 +16,7 @@ import functools
 
 import warp as wp
 
-from .precision import build_types
+from .precision import MODULE_OPTIONS, build_types
 
 
 @functools.cache
@@ -73,3 +73,79 @@ def build_passive_hold(Ft):
         return xo, vo
 
     return hold_passive
+
+
+@functools.cache
+def build_moments(Ft):
+    """``(contact_moments, contact_shift)``, the Warp kernels of the contact's torque regularisation
+    (``gasp_core.toolkit.contact.counter_spin``, the reference), scalar type ``Ft``.
+
+    - ``contact_moments`` (one thread a point): adds to its body's row of ``sums`` (float64, shape
+      (n_bodies, 13), columns :data:`gasp_core.toolkit.contact.SUMS`) its mass, first and second mass moments and,
+      where its planes push it, its normal impulse and the impulse's first moments in x and y;
+    - ``contact_shift`` (one thread a body): the body's counter-spin ``d_omega`` (rad/s) and mass centre ``c``
+      (m) into ``shift`` (shape (n_bodies, 6)), then ``sums`` cleared for the next substep. P2G adds
+      ``m_p d_omega x (x_p - c)`` to each point's momentum.
+    """
+    vec3, vec4, mat33 = build_types(Ft)
+    plane_contact, _ = build_contact(Ft)
+    f64 = wp.float64
+    v64 = wp.types.vector(3, f64)
+    m64 = wp.types.matrix((3, 3), f64)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def contact_moments(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), p_mass: wp.array(dtype=Ft),
+                        body: wp.array(dtype=wp.int32), p_contact: wp.array(dtype=vec3),
+                        planes: wp.array(dtype=vec3), dt: Ft, sums: wp.array2d(dtype=f64)):
+        p = wp.tid()
+        b = body[p]
+        xp = x[p]
+        m = f64(p_mass[p])
+        px = f64(xp[0])
+        py = f64(xp[1])
+        pz = f64(xp[2])
+        wp.atomic_add(sums, b, 0, m)
+        wp.atomic_add(sums, b, 1, m * px)
+        wp.atomic_add(sums, b, 2, m * py)
+        wp.atomic_add(sums, b, 3, m * pz)
+        wp.atomic_add(sums, b, 4, m * px * px)
+        wp.atomic_add(sums, b, 5, m * px * py)
+        wp.atomic_add(sums, b, 6, m * px * pz)
+        wp.atomic_add(sums, b, 7, m * py * py)
+        wp.atomic_add(sums, b, 8, m * py * pz)
+        wp.atomic_add(sums, b, 9, m * pz * pz)
+        jb = plane_contact(planes, p_contact[p], xp[2], v[p][2], dt)
+        if jb[0] > Ft(0.0):
+            j = f64(jb[0])
+            wp.atomic_add(sums, b, 10, j)
+            wp.atomic_add(sums, b, 11, j * px)
+            wp.atomic_add(sums, b, 12, j * py)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def contact_shift(sums: wp.array2d(dtype=f64), reach: wp.array(dtype=f64), shift: wp.array2d(dtype=f64)):
+        b = wp.tid()
+        M = sums[b, 0]
+        J = sums[b, 10]
+        w = v64(f64(0.0))
+        c = v64(f64(0.0))
+        if M > f64(0.0):
+            c = v64(sums[b, 1], sums[b, 2], sums[b, 3]) / M
+        if M > f64(0.0) and J > f64(0.0):
+            dX = c[0] - sums[b, 11] / J
+            dY = c[1] - sums[b, 12] / J
+            d = wp.sqrt(dX * dX + dY * dY)
+            if d > reach[b]:
+                dX = dX * reach[b] / d
+                dY = dY * reach[b] / d
+            S = m64(sums[b, 4], sums[b, 5], sums[b, 6], sums[b, 5], sums[b, 7], sums[b, 8],
+                    sums[b, 6], sums[b, 8], sums[b, 9]) / M - wp.outer(c, c)   # covariance of mass, m^2
+            inertia = M * (wp.trace(S) * wp.identity(3, dtype=f64) - S)
+            if wp.determinant(inertia) > f64(0.0):
+                w = wp.inverse(inertia) * (J * v64(dY, -dX, f64(0.0)))
+        for q in range(3):
+            shift[b, q] = w[q]
+            shift[b, 3 + q] = c[q]
+        for q in range(13):
+            sums[b, q] = f64(0.0)
+
+    return contact_moments, contact_shift

@@ -35,7 +35,7 @@ import warp as wp
 from gasp_core.toolkit.grid_engine import choose_dt, GridEngineBase
 from gasp_core.toolkit.materials import P_ETA, initial_Jp, material_table
 from gasp_core.toolkit.memory import check_memory, estimate_bytes
-from gasp_core.toolkit.contact import contact_coefficients, contact_model, ground_node_layer
+from gasp_core.toolkit.contact import contact_coefficients, contact_model, contact_reach, ground_node_layer, SUMS
 from gasp_core.toolkit.points import cell_order, fixed_mask, passive_bounds
 from gasp_core.toolkit.substeps import passive_schedule
 from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
@@ -193,6 +193,11 @@ class WarpMPMEngine(GridEngineBase):
         kcs = contact_coefficients(self.setup)[self._order] if planes else np.zeros((1, 3))
         self.p_contact = arr(kcs.astype(dt_np), k.vec3)
         self.grid_fb = wp.zeros(self.n_grid ** 3 if planes else 1, dtype=Ft, device=self.device)
+        # the torque regularisation: per body its sums, its reach (m) and its shift (contact.build_moments)
+        reach = contact_reach(self.setup) if planes else np.zeros(0)
+        self.c_sums = wp.zeros((len(reach), len(SUMS)), dtype=wp.float64, device=self.device)
+        self.c_reach = wp.array(reach, dtype=wp.float64, device=self.device)
+        self.c_shift = wp.zeros((len(reach), 6), dtype=wp.float64, device=self.device)
         self.fixed_hi = arr(np.array(fixed_hi, dtype=dt_np).reshape(-1, 3), k.vec3)
 
     def _record_launches(self, Ft, has_extras: int, ex) -> None:
@@ -208,7 +213,7 @@ class WarpMPMEngine(GridEngineBase):
                 self.x, self.v, self.F, self.C, self.Jp, self.p_mass, self.p_vol, self.body,
                 self.mat_kind, self.mat_par, self.grid_mv, self.flags, lo_v, inv_dx, dx, dt_f, ng,
                 self.grid_g, self.has_wind, self.grid_mv0, int(self.flip > 0), self.p_contact, self.planes,
-                self.grid_fb, self.grid_eta]),
+                self.grid_fb, self.grid_eta, self.c_shift]),
             wp.launch(k.grid_update, dim=ng ** 3, device=d, record_cmd=True, inputs=[
                 self.grid_mv, self.grid_v, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, self.wall_mu,
                 self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex, self.grid_g, self.has_wind,
@@ -216,6 +221,12 @@ class WarpMPMEngine(GridEngineBase):
             wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
                 self.x, self.v, self.C, self.fixed, self.grid_v, lo_v, inv_dx, dt_f, ng, self.grid_v0, Ft(self.flip)]),
         ]
+        # the contact's torque regularisation before P2G (gasp_core.toolkit.contact.moment_shift)
+        self._pre = [] if self.c_shift.shape[0] == 0 else [
+            wp.launch(k.contact_moments, dim=self.n_material, device=d, record_cmd=True, inputs=[
+                self.x, self.v, self.p_mass, self.body, self.p_contact, self.planes, dt_f, self.c_sums]),
+            wp.launch(k.contact_shift, dim=self.c_shift.shape[0], device=d, record_cmd=True, inputs=[
+                self.c_sums, self.c_reach, self.c_shift])]
         # passive points after the grid update (the grid velocity holds forces, colliders, boundaries):
         # one launch per distinct interval of passive_schedule, at the substeps it names; each then held in
         # the box the ground and walls leave them (gasp_core.toolkit.points.passive_bounds)
@@ -284,6 +295,8 @@ class WarpMPMEngine(GridEngineBase):
 
     def _substeps(self, capturing: bool = False) -> None:
         for s in range(self.n_substeps):
+            for cmd in self._pre:
+                cmd.launch()
             for i, cmd in enumerate(self._launches):
                 cmd.launch()
                 if i == 0 and self.visc is not None:   # after P2G: the implicit viscous step

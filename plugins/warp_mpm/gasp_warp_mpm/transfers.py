@@ -127,7 +127,7 @@ def build_p2g(Ft):
         lo: vec3, inv_dx: Ft, dx: Ft, dt: Ft, n_grid: int, grid_g: wp.array(dtype=vec3), has_wind: int,
         grid_mv0: wp.array(dtype=vec4), flip: int,
         p_contact: wp.array(dtype=vec3), planes: wp.array(dtype=vec3), grid_fb: wp.array(dtype=Ft),
-        grid_eta: wp.array(dtype=Ft),
+        grid_eta: wp.array(dtype=Ft), shift: wp.array2d(dtype=wp.float64),
     ):
         # F advanced by C, return mapping and stress (docs/mpm.md), then the scatter (and, with wind, grid_g;
         # with flip, the APIC momentum alone into grid_mv0: gasp_core.toolkit.transfer); with the particle
@@ -155,6 +155,11 @@ def build_p2g(Ft):
         if planes.shape[0] > 0:
             jb = plane_contact(planes, p_contact[p], x[p][2], v[p][2], dt)
             mom0 = mom0 + vec3(Ft(0.0), Ft(0.0), jb[0])
+            if shift.shape[0] > 0:   # the body's counter-spin (gasp_core.toolkit.contact.counter_spin)
+                bp = body[p]
+                dw = vec3(Ft(shift[bp, 0]), Ft(shift[bp, 1]), Ft(shift[bp, 2]))
+                rc = x[p] - vec3(Ft(shift[bp, 3]), Ft(shift[bp, 4]), Ft(shift[bp, 5]))
+                mom0 = mom0 + pm * wp.cross(dw, rc)
             if jb[1] > Ft(0.0):
                 scatter_scalar(grid_fb, idx0, n_grid, W, jb[1])   # the friction budget
         scatter(grid_mv, idx0, n_grid, W, mom0, A, pm)
