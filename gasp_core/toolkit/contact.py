@@ -46,7 +46,8 @@ import os
 REACH = float(os.environ.get("GASP_REACH", "1.0"))
 #: Columns of the per-body sums of :func:`counter_spin`'s kernels: mass, its first and second moments, the
 #: normal impulse J and its first moments in x and y.
-SUMS = ("m", "mx", "my", "mz", "mxx", "mxy", "mxz", "myy", "myz", "mzz", "j", "jx", "jy")
+SUMS = ("m", "mx", "my", "mz", "mxx", "mxy", "mxz", "myy", "myz", "mzz", "j", "jx", "jy", "px", "py", "pz",
+        "lx", "ly", "lz")
 #: The engine option's values.
 CONTACT_MODELS = ("auto", "particle", "grid")
 #: Materials that flow (granular, fluid): ``contact = "auto"`` keeps the grid contact for a scene with one.

@@ -197,7 +197,12 @@ class WarpMPMEngine(GridEngineBase):
         reach = contact_reach(self.setup) if planes else np.zeros(0)
         self.c_sums = wp.zeros((len(reach), len(SUMS)), dtype=wp.float64, device=self.device)
         self.c_reach = wp.array(reach, dtype=wp.float64, device=self.device)
-        self.c_shift = wp.zeros((len(reach), 6), dtype=wp.float64, device=self.device)
+        self.c_shift = wp.zeros((len(reach), 12), dtype=wp.float64, device=self.device)
+        n_nodes = self.n_grid ** 3 if len(reach) else 1
+        self.grid_fbody = wp.array(np.full(n_nodes, -1, np.int32), dtype=wp.int32, device=self.device)
+        self.fr_sums = wp.zeros((len(reach), 25), dtype=wp.float64, device=self.device)
+        self.fr_nodes = wp.zeros(1 + min(n_nodes, 8 * self.n_grid ** 2 * max(1, len(planes))), dtype=wp.int32,
+                                 device=self.device)
         self.fixed_hi = arr(np.array(fixed_hi, dtype=dt_np).reshape(-1, 3), k.vec3)
 
     def _record_launches(self, Ft, has_extras: int, ex) -> None:
@@ -213,15 +218,19 @@ class WarpMPMEngine(GridEngineBase):
                 self.x, self.v, self.F, self.C, self.Jp, self.p_mass, self.p_vol, self.body,
                 self.mat_kind, self.mat_par, self.grid_mv, self.flags, lo_v, inv_dx, dx, dt_f, ng,
                 self.grid_g, self.has_wind, self.grid_mv0, int(self.flip > 0), self.p_contact, self.planes,
-                self.grid_fb, self.grid_eta, self.c_shift]),
+                self.grid_fb, self.grid_eta, self.c_shift, self.grid_fbody]),
             wp.launch(k.grid_update, dim=ng ** 3, device=d, record_cmd=True, inputs=[
                 self.grid_mv, self.grid_v, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, self.wall_mu,
                 self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex, self.grid_g, self.has_wind,
-                self.grid_mv0, self.grid_v0, int(self.flip > 0), self.grid_fb]),
+                self.grid_mv0, self.grid_v0, int(self.flip > 0), self.grid_fb, self.c_shift, self.grid_fbody,
+                self.fr_sums, self.fr_nodes]),
             wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
                 self.x, self.v, self.C, self.fixed, self.grid_v, lo_v, inv_dx, dt_f, ng, self.grid_v0, Ft(self.flip)]),
         ]
-        # the contact's torque regularisation before P2G (gasp_core.toolkit.contact.moment_shift)
+        if self.c_shift.shape[0]:   # after the grid update: the friction's balance (gasp_warp_mpm.contact)
+            self._launches.insert(2, wp.launch(k.friction_fix, dim=1, device=d, record_cmd=True, inputs=[
+                self.grid_v, self.grid_fbody, self.fr_sums, self.fr_nodes, lo_v, dx, ng]))
+        # the contact's torque regularisation before P2G (gasp_core.toolkit.contact.counter_spin)
         self._pre = [] if self.c_shift.shape[0] == 0 else [
             wp.launch(k.contact_moments, dim=self.n_material, device=d, record_cmd=True, inputs=[
                 self.x, self.v, self.p_mass, self.body, self.p_contact, self.planes, dt_f, self.c_sums]),

@@ -127,7 +127,7 @@ def build_p2g(Ft):
         lo: vec3, inv_dx: Ft, dx: Ft, dt: Ft, n_grid: int, grid_g: wp.array(dtype=vec3), has_wind: int,
         grid_mv0: wp.array(dtype=vec4), flip: int,
         p_contact: wp.array(dtype=vec3), planes: wp.array(dtype=vec3), grid_fb: wp.array(dtype=Ft),
-        grid_eta: wp.array(dtype=Ft), shift: wp.array2d(dtype=wp.float64),
+        grid_eta: wp.array(dtype=Ft), shift: wp.array2d(dtype=wp.float64), grid_fbody: wp.array(dtype=wp.int32),
     ):
         # F advanced by C, return mapping and stress (docs/mpm.md), then the scatter (and, with wind, grid_g;
         # with flip, the APIC momentum alone into grid_mv0: gasp_core.toolkit.transfer); with the particle
@@ -162,6 +162,9 @@ def build_p2g(Ft):
                 mom0 = mom0 + pm * wp.cross(dw, rc)
             if jb[1] > Ft(0.0):
                 scatter_scalar(grid_fb, idx0, n_grid, W, jb[1])   # the friction budget
+                if shift.shape[0] > 0:   # the node's body, for the friction's balance (contact.build_moments)
+                    for q in range(27):
+                        grid_fbody[idx0 + (q / 9) * n_grid * n_grid + ((q / 3) % 3) * n_grid + q % 3] = body[p]
         scatter(grid_mv, idx0, n_grid, W, mom0, A, pm)
         if flip != 0:
             A0 = (dx * pm) * Cp
