@@ -326,12 +326,16 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact)
         self.p2g_substep(0, 0)
         for s in range(n_substeps - 1):
             self.grid_update()
+            if self.n_spin:
+                self.friction_fix()
             if at[s] is not None:
                 self.g2p_passive(at[s])
             if self.has_extras:
                 self.ex_step[None] = s + 1
             self.p2g_substep(1, s + 1)
         self.grid_update()
+        if self.n_spin:
+            self.friction_fix()
         self.g2p()
         if at[-1] is not None:
             self.g2p_passive(at[-1])

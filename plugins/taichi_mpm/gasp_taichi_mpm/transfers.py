@@ -79,6 +79,7 @@ class Transfers:
             jn, budget = self.plane_contact(p)   # the particle contact (zeros without it)
             jvec = ti.Vector([0.0, 0.0, jn], self.real)   # not in AFLIP's APIC momentum (a boundary, as in warp_mpm)
             mv0 += jvec + self.counter_spin_momentum(p)   # the body's counter-spin (contact.py)
+            self.mark_contact_nodes(p, base, budget)
             w = self.weights(fx)
             for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                 weight = w[i][0] * w[j][1] * w[k][2]
