@@ -14,7 +14,8 @@ import warp as wp
 from gasp_core.toolkit.grid_tables import FT_TIME
 
 from .colliders import build_collide, build_collider_func
-from .contact import build_contact, build_friction_balance
+from .balance import build_balance
+from .contact import build_contact
 from .forces import build_extras_struct, build_force_funcs
 from .precision import MODULE_OPTIONS, build_types
 
@@ -48,7 +49,7 @@ def build_grid_update(Ft):
     collide = build_collide(Ft)
     Extras, extras = build_extras(Ft)
     node_friction = build_contact(Ft)[1]
-    balance_friction = build_friction_balance(Ft)
+    balance_node = build_balance(Ft)[2]
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def grid_update(
@@ -58,8 +59,7 @@ def build_grid_update(Ft):
         fixed_lo: wp.array(dtype=vec3), fixed_hi: wp.array(dtype=vec3),
         has_extras: int, ex: Extras, grid_g: wp.array(dtype=vec3), has_wind: int,
         grid_mv0: wp.array(dtype=vec4), grid_v0: wp.array(dtype=vec3), flip: int, grid_fb: wp.array(dtype=Ft),
-        shift: wp.array2d(dtype=wp.float64), grid_fbody: wp.array(dtype=wp.int32), fr_sums: wp.array2d(dtype=wp.float64),
-        fr_nodes: wp.array(dtype=wp.int32),
+        grid_fbody: wp.array(dtype=wp.int32), fr_sums: wp.array2d(dtype=wp.float64), fr_nodes: wp.array(dtype=wp.int32),
     ):
         # ground[g] = (top node layer k_max as a float, friction, unused); grid_m (node mass, for
         # passive points) has one entry per node when the setup has passive points, else one unused entry;
@@ -100,8 +100,8 @@ def build_grid_update(Ft):
                 fb = grid_fb[node]
                 v_in = vel
                 vel = node_friction(vel, m, fb)
-                if fb > Ft(0.0) and shift.shape[0] > 0:   # the friction's balance (contact.build_moments)
-                    balance_friction(node, v_in, vel, m, fb, X, dt * gravity, shift, grid_fbody, fr_sums, fr_nodes)
+                if fr_sums.shape[0] > 0:   # the contact's balance (balance.py)
+                    balance_node(node, v_in, vel, m, fb, X, grid_fbody, fr_sums, fr_nodes)
             for r in range(fixed_lo.shape[0]):
                 flo = fixed_lo[r]
                 fhi = fixed_hi[r]
@@ -112,8 +112,8 @@ def build_grid_update(Ft):
         grid_v[node] = out
         grid_mv[node] = vec4(Ft(0.0))
         if grid_fb.shape[0] > 1:
-            if shift.shape[0] > 0 and (m <= Ft(0.0) or grid_fb[node] <= Ft(0.0)):
-                grid_fbody[node] = -1   # (a listed node's is cleared by friction_fix)
+            if fr_sums.shape[0] > 0 and m <= Ft(0.0):
+                grid_fbody[node] = -1   # (a listed node's is cleared by contact_fix)
             grid_fb[node] = Ft(0.0)
         if flip != 0:  # the APIC velocity before forces (gasp_core.toolkit.transfer)
             g0 = grid_mv0[node]

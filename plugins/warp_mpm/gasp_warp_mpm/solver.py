@@ -42,6 +42,7 @@ from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, 
 
 from . import ENGINE
 from . import kernels as K
+from .balance import FR_COLUMNS
 from .startup import init_warp
 
 
@@ -193,14 +194,17 @@ class WarpMPMEngine(GridEngineBase):
         kcs = contact_coefficients(self.setup)[self._order] if planes else np.zeros((1, 3))
         self.p_contact = arr(kcs.astype(dt_np), k.vec3)
         self.grid_fb = wp.zeros(self.n_grid ** 3 if planes else 1, dtype=Ft, device=self.device)
-        # the torque regularisation: per body its sums, its reach (m) and its shift (contact.build_moments)
+        # the contact's balance (balance.py): per body its sums, shift, reach (m) and mass (kg); the contact nodes
         reach = contact_reach(self.setup) if planes else np.zeros(0)
-        self.c_sums = wp.zeros((len(reach), len(SUMS)), dtype=wp.float64, device=self.device)
+        nb = len(reach)
+        self.c_sums = wp.zeros((nb, len(SUMS)), dtype=wp.float64, device=self.device)
+        self.c_shift = wp.zeros((nb, 12), dtype=wp.float64, device=self.device)
         self.c_reach = wp.array(reach, dtype=wp.float64, device=self.device)
-        self.c_shift = wp.zeros((len(reach), 12), dtype=wp.float64, device=self.device)
-        n_nodes = self.n_grid ** 3 if len(reach) else 1
+        self.c_mass = wp.array(np.bincount(np.asarray(self.setup.body_id), weights=np.asarray(self.setup.p_mass),
+                                           minlength=nb)[:nb].astype(np.float64), dtype=wp.float64, device=self.device)
+        n_nodes = self.n_grid ** 3 if nb else 1
         self.grid_fbody = wp.array(np.full(n_nodes, -1, np.int32), dtype=wp.int32, device=self.device)
-        self.fr_sums = wp.zeros((len(reach), 25), dtype=wp.float64, device=self.device)
+        self.fr_sums = wp.zeros((nb, FR_COLUMNS), dtype=wp.float64, device=self.device)
         self.fr_nodes = wp.zeros(1 + min(n_nodes, 8 * self.n_grid ** 2 * max(1, len(planes))), dtype=wp.int32,
                                  device=self.device)
         self.fixed_hi = arr(np.array(fixed_hi, dtype=dt_np).reshape(-1, 3), k.vec3)
@@ -222,20 +226,23 @@ class WarpMPMEngine(GridEngineBase):
             wp.launch(k.grid_update, dim=ng ** 3, device=d, record_cmd=True, inputs=[
                 self.grid_mv, self.grid_v, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, self.wall_mu,
                 self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex, self.grid_g, self.has_wind,
-                self.grid_mv0, self.grid_v0, int(self.flip > 0), self.grid_fb, self.c_shift, self.grid_fbody,
+                self.grid_mv0, self.grid_v0, int(self.flip > 0), self.grid_fb, self.grid_fbody,
                 self.fr_sums, self.fr_nodes]),
             wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
                 self.x, self.v, self.C, self.fixed, self.grid_v, lo_v, inv_dx, dt_f, ng, self.grid_v0, Ft(self.flip)]),
         ]
-        if self.c_shift.shape[0]:   # after the grid update: the friction's balance (gasp_warp_mpm.contact)
-            self._launches.insert(2, wp.launch(k.friction_fix, dim=1, device=d, record_cmd=True, inputs=[
-                self.grid_v, self.grid_fbody, self.fr_sums, self.fr_nodes, lo_v, dx, ng]))
-        # the contact's torque regularisation before P2G (gasp_core.toolkit.contact.counter_spin)
-        self._pre = [] if self.c_shift.shape[0] == 0 else [
-            wp.launch(k.contact_moments, dim=self.n_material, device=d, record_cmd=True, inputs=[
-                self.x, self.v, self.p_mass, self.body, self.p_contact, self.planes, dt_f, self.c_sums]),
-            wp.launch(k.contact_shift, dim=self.c_shift.shape[0], device=d, record_cmd=True, inputs=[
-                self.c_sums, self.c_reach, self.c_shift])]
+        # the contact's balance (gasp_warp_mpm.balance): its moments before P2G, its fix after the grid update
+        self._pre = []
+        if self.c_shift.shape[0]:
+            g_dt = k.vec3(*[float(c) * self.dt for c in setup.gravity])
+            self._launches.insert(2, wp.launch(k.contact_fix, dim=1, device=d, record_cmd=True, inputs=[
+                self.grid_v, self.grid_fbody, self.c_shift, self.fr_sums, self.fr_nodes, self.c_mass, self.c_reach,
+                g_dt, lo_v, dx, ng]))
+            self._pre = [
+                wp.launch(k.contact_moments, dim=self.n_material, device=d, record_cmd=True, inputs=[
+                    self.x, self.v, self.C, self.p_mass, self.body, self.p_contact, self.planes, dt_f, dx, self.c_sums]),
+                wp.launch(k.contact_shift, dim=self.c_shift.shape[0], device=d, record_cmd=True, inputs=[
+                    self.c_sums, self.c_shift])]
         # passive points after the grid update (the grid velocity holds forces, colliders, boundaries):
         # one launch per distinct interval of passive_schedule, at the substeps it names; each then held in
         # the box the ground and walls leave them (gasp_core.toolkit.points.passive_bounds)

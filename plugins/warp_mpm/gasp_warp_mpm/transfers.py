@@ -155,16 +155,11 @@ def build_p2g(Ft):
         if planes.shape[0] > 0:
             jb = plane_contact(planes, p_contact[p], x[p][2], v[p][2], dt)
             mom0 = mom0 + vec3(Ft(0.0), Ft(0.0), jb[0])
-            if shift.shape[0] > 0:   # the body's counter-spin (gasp_core.toolkit.contact.counter_spin)
-                bp = body[p]
-                dw = vec3(Ft(shift[bp, 0]), Ft(shift[bp, 1]), Ft(shift[bp, 2]))
-                rc = x[p] - vec3(Ft(shift[bp, 3]), Ft(shift[bp, 4]), Ft(shift[bp, 5]))
-                mom0 = mom0 + pm * wp.cross(dw, rc)
+            if jb[0] > Ft(0.0) and shift.shape[0] > 0:   # the node's body, for the contact's balance (balance.py)
+                for q in range(27):
+                    grid_fbody[idx0 + (q / 9) * n_grid * n_grid + ((q / 3) % 3) * n_grid + q % 3] = body[p]
             if jb[1] > Ft(0.0):
                 scatter_scalar(grid_fb, idx0, n_grid, W, jb[1])   # the friction budget
-                if shift.shape[0] > 0:   # the node's body, for the friction's balance (contact.build_moments)
-                    for q in range(27):
-                        grid_fbody[idx0 + (q / 9) * n_grid * n_grid + ((q / 3) % 3) * n_grid + q % 3] = body[p]
         scatter(grid_mv, idx0, n_grid, W, mom0, A, pm)
         if flip != 0:
             A0 = (dx * pm) * Cp

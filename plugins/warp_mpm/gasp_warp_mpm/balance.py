@@ -1,0 +1,208 @@
+"""The contact's balance (``gasp_core.toolkit.contact.contact_balance``, ``docs/contact.md``, issue 38), as Warp
+kernels per scalar type: each body's net contact force and torque made those of a smooth contact.
+
+Per substep, with the particle contact:
+
+- ``contact_moments`` (before P2G, one thread a point): its body's mass, first and second mass moments, momentum
+  and angular momentum, and the normal impulse of its planes and that impulse's first moments, into ``sums``
+  (float64, shape (n_bodies, 19), columns :data:`gasp_core.toolkit.contact.SUMS`);
+- ``contact_shift`` (one thread a body): the body's mass centre ``c``, rigid velocity ``V``, spin ``omega``, normal
+  impulse ``J`` and its centre ``x_bar``, into ``shift`` (shape (n_bodies, 12)); ``sums`` cleared;
+- in P2G, a point with a normal impulse marks its 27 nodes with its body (``grid_fbody``);
+- ``balance_node`` (a function of the grid update, at each marked node after its friction): the node's friction
+  impulse, its moment, the node's mass and moments and its friction budget, into ``fr_sums`` (shape
+  (n_bodies, 26)); the node listed in ``fr_nodes`` (``fr_nodes[0]`` counts them);
+- ``contact_fix`` (one thread): per body, the change ``dv + alpha x (X - x_m)`` of its listed nodes' velocities
+  that makes the friction's net force Coulomb's on the body's rigid motion at its centre of pressure, and takes
+  back the contact's torque (normal and friction) about ``c`` up to ``J reach``; the lists cleared.
+
+This module must not use ``from __future__ import annotations``: Warp reads the annotations of the closures below
+as type objects.
+"""
+import functools
+
+import warp as wp
+
+from .contact import build_contact
+from .precision import MODULE_OPTIONS, build_types
+
+#: Columns of ``fr_sums``: friction force (3), contact nodes' mass (1), mass moments (3 + 6), friction's moment
+#: about the origin (3), friction budget (1), then the per-body results dv (3), alpha (3), x_m (3).
+FR_COLUMNS = 26
+
+
+@functools.cache
+def build_balance(Ft):
+    """``(contact_moments, contact_shift, balance_node, contact_fix)`` of scalar type ``Ft`` (module docstring)."""
+    vec3, vec4, mat33 = build_types(Ft)
+    plane_contact, _ = build_contact(Ft)
+    f64 = wp.float64
+    v64 = wp.types.vector(3, f64)
+    m64 = wp.types.matrix((3, 3), f64)
+
+    @wp.func
+    def inertia_of(m: f64, first: v64, xx: f64, xy: f64, xz: f64, yy: f64, yz: f64, zz: f64):
+        # the inertia tensor about the mass centre from the mass, first and second moments
+        c = first / m
+        S = m64(xx, xy, xz, xy, yy, yz, xz, yz, zz) / m - wp.outer(c, c)
+        return m * (wp.trace(S) * wp.identity(3, dtype=f64) - S)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def contact_moments(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33),
+                        p_mass: wp.array(dtype=Ft), body: wp.array(dtype=wp.int32), p_contact: wp.array(dtype=vec3),
+                        planes: wp.array(dtype=vec3), dt: Ft, dx: Ft, sums: wp.array2d(dtype=f64)):
+        p = wp.tid()
+        b = body[p]
+        xp = x[p]
+        vp = v[p]
+        m = f64(p_mass[p])
+        r = v64(f64(xp[0]), f64(xp[1]), f64(xp[2]))
+        mv = m * v64(f64(vp[0]), f64(vp[1]), f64(vp[2]))
+        # angular momentum: m x x v and APIC's spin m D (C_zy - C_yz, C_xz - C_zx, C_yx - C_xy), D = dx^2 / 4
+        Cp = C[p]
+        spin = (f64(0.25) * f64(dx) * f64(dx)) * v64(f64(Cp[2, 1] - Cp[1, 2]), f64(Cp[0, 2] - Cp[2, 0]),
+                                                     f64(Cp[1, 0] - Cp[0, 1]))
+        lr = wp.cross(r, mv) + m * spin
+        wp.atomic_add(sums, b, 0, m)
+        for q in range(3):
+            wp.atomic_add(sums, b, 1 + q, m * r[q])
+            wp.atomic_add(sums, b, 13 + q, mv[q])
+            wp.atomic_add(sums, b, 16 + q, lr[q])
+        wp.atomic_add(sums, b, 4, m * r[0] * r[0])
+        wp.atomic_add(sums, b, 5, m * r[0] * r[1])
+        wp.atomic_add(sums, b, 6, m * r[0] * r[2])
+        wp.atomic_add(sums, b, 7, m * r[1] * r[1])
+        wp.atomic_add(sums, b, 8, m * r[1] * r[2])
+        wp.atomic_add(sums, b, 9, m * r[2] * r[2])
+        jb = plane_contact(planes, p_contact[p], xp[2], vp[2], dt)
+        if jb[0] > Ft(0.0):
+            j = f64(jb[0])
+            wp.atomic_add(sums, b, 10, j)
+            wp.atomic_add(sums, b, 11, j * r[0])
+            wp.atomic_add(sums, b, 12, j * r[1])
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def contact_shift(sums: wp.array2d(dtype=f64), shift: wp.array2d(dtype=f64)):
+        b = wp.tid()
+        M = sums[b, 0]
+        J = sums[b, 10]
+        c = v64(f64(0.0))
+        V = v64(f64(0.0))
+        omega = v64(f64(0.0))
+        xb = f64(0.0)
+        yb = f64(0.0)
+        if M > f64(0.0):
+            c = v64(sums[b, 1], sums[b, 2], sums[b, 3]) / M
+            V = v64(sums[b, 13], sums[b, 14], sums[b, 15]) / M
+            inertia = inertia_of(M, v64(sums[b, 1], sums[b, 2], sums[b, 3]), sums[b, 4], sums[b, 5], sums[b, 6],
+                                 sums[b, 7], sums[b, 8], sums[b, 9])
+            if wp.determinant(inertia) > f64(0.0):
+                omega = wp.inverse(inertia) * (v64(sums[b, 16], sums[b, 17], sums[b, 18]) - M * wp.cross(c, V))
+        if J > f64(0.0):
+            xb = sums[b, 11] / J
+            yb = sums[b, 12] / J
+        for q in range(3):
+            shift[b, q] = c[q]
+            shift[b, 3 + q] = V[q]
+            shift[b, 6 + q] = omega[q]
+        shift[b, 9] = J
+        shift[b, 10] = xb
+        shift[b, 11] = yb
+        for q in range(19):
+            sums[b, q] = f64(0.0)
+
+    @wp.func
+    def balance_node(node: int, v_in: vec3, v_out: vec3, m: Ft, fb: Ft, X: vec3,
+                     grid_fbody: wp.array(dtype=wp.int32), fr_sums: wp.array2d(dtype=f64),
+                     fr_nodes: wp.array(dtype=wp.int32)):
+        b = grid_fbody[node]
+        if b >= 0:
+            r = v64(f64(X[0]), f64(X[1]), f64(X[2]))
+            dvf = v_out - v_in
+            f = f64(m) * v64(f64(dvf[0]), f64(dvf[1]), f64(dvf[2]))
+            tq = wp.cross(r, f)
+            mm = f64(m)
+            for q in range(3):
+                wp.atomic_add(fr_sums, b, q, f[q])
+                wp.atomic_add(fr_sums, b, 4 + q, mm * r[q])
+                wp.atomic_add(fr_sums, b, 13 + q, tq[q])
+            wp.atomic_add(fr_sums, b, 3, mm)
+            wp.atomic_add(fr_sums, b, 7, mm * r[0] * r[0])
+            wp.atomic_add(fr_sums, b, 8, mm * r[0] * r[1])
+            wp.atomic_add(fr_sums, b, 9, mm * r[0] * r[2])
+            wp.atomic_add(fr_sums, b, 10, mm * r[1] * r[1])
+            wp.atomic_add(fr_sums, b, 11, mm * r[1] * r[2])
+            wp.atomic_add(fr_sums, b, 12, mm * r[2] * r[2])
+            wp.atomic_add(fr_sums, b, 16, f64(fb))
+            slot = wp.atomic_add(fr_nodes, 0, 1) + 1
+            if slot < fr_nodes.shape[0]:
+                fr_nodes[slot] = node
+            else:
+                grid_fbody[node] = -1
+
+    @wp.func
+    def body_fix(b: int, shift: wp.array2d(dtype=f64), fr_sums: wp.array2d(dtype=f64), mass: f64, reach: f64,
+                 g_dt: v64):
+        # the body's dv, alpha and x_m into fr_sums[b, 17:26]
+        Mc = fr_sums[b, 3]
+        if Mc > f64(0.0) and mass > f64(0.0):
+            xm = v64(fr_sums[b, 4], fr_sums[b, 5], fr_sums[b, 6]) / Mc
+            c = v64(shift[b, 0], shift[b, 1], shift[b, 2])
+            J = shift[b, 9]
+            F = v64(fr_sums[b, 0], fr_sums[b, 1], fr_sums[b, 2])
+            # Coulomb on the rigid motion at the centre of pressure: stop its sliding, at most the budget
+            xcp = v64(shift[b, 10], shift[b, 11], xm[2])
+            u = v64(shift[b, 3], shift[b, 4], shift[b, 5]) + g_dt \
+                + wp.cross(v64(shift[b, 6], shift[b, 7], shift[b, 8]), xcp - c)
+            ut = v64(u[0], u[1], f64(0.0))
+            lt = wp.length(ut)
+            Fexp = v64(f64(0.0))
+            if lt > f64(0.0):
+                Fexp = -(wp.min(fr_sums[b, 16], mass * lt) / lt) * ut
+            dF = Fexp - v64(F[0], F[1], f64(0.0))
+            # the contact's torque about c: normal (J at x_bar), friction, the force change at x_m
+            tn = J * v64(shift[b, 11] - c[1], -(shift[b, 10] - c[0]), f64(0.0))
+            tf = v64(fr_sums[b, 13], fr_sums[b, 14], fr_sums[b, 15]) - wp.cross(c, F)
+            tq = tn + tf + wp.cross(xm - c, dF)
+            th = v64(tq[0], tq[1], f64(0.0))
+            lh = wp.length(th)
+            if lh > J * reach:
+                th = th * (J * reach / lh)
+            inertia = inertia_of(Mc, v64(fr_sums[b, 4], fr_sums[b, 5], fr_sums[b, 6]), fr_sums[b, 7], fr_sums[b, 8],
+                                 fr_sums[b, 9], fr_sums[b, 10], fr_sums[b, 11], fr_sums[b, 12])
+            alpha = v64(f64(0.0))
+            tr = wp.trace(inertia)
+            if wp.determinant(inertia) > f64(1.0e-12) * tr * tr * tr:
+                alpha = -(wp.inverse(inertia) * th)
+            for q in range(3):
+                fr_sums[b, 17 + q] = dF[q] / Mc
+                fr_sums[b, 20 + q] = alpha[q]
+                fr_sums[b, 23 + q] = xm[q]
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def contact_fix(grid_v: wp.array(dtype=vec3), grid_fbody: wp.array(dtype=wp.int32),
+                    shift: wp.array2d(dtype=f64), fr_sums: wp.array2d(dtype=f64), fr_nodes: wp.array(dtype=wp.int32),
+                    mass: wp.array(dtype=f64), reach: wp.array(dtype=f64), g_dt: vec3, lo: vec3, dx: Ft,
+                    n_grid: int):
+        for b in range(fr_sums.shape[0]):
+            body_fix(b, shift, fr_sums, mass[b], reach[b], v64(f64(g_dt[0]), f64(g_dt[1]), f64(g_dt[2])))
+        n = wp.min(fr_nodes[0], fr_nodes.shape[0] - 1)
+        for s in range(n):
+            node = fr_nodes[s + 1]
+            b = grid_fbody[node]
+            if fr_sums[b, 3] > f64(0.0):
+                i = node / (n_grid * n_grid)
+                j = (node / n_grid) % n_grid
+                k = node % n_grid
+                X = v64(f64(lo[0] + dx * Ft(i)), f64(lo[1] + dx * Ft(j)), f64(lo[2] + dx * Ft(k)))
+                dv = v64(fr_sums[b, 17], fr_sums[b, 18], fr_sums[b, 19]) + wp.cross(
+                    v64(fr_sums[b, 20], fr_sums[b, 21], fr_sums[b, 22]),
+                    X - v64(fr_sums[b, 23], fr_sums[b, 24], fr_sums[b, 25]))
+                grid_v[node] = grid_v[node] + vec3(Ft(dv[0]), Ft(dv[1]), Ft(dv[2]))
+            grid_fbody[node] = -1
+        for s in range(fr_sums.shape[0]):
+            for q in range(26):
+                fr_sums[s, q] = f64(0.0)
+        fr_nodes[0] = 0
+
+    return contact_moments, contact_shift, balance_node, contact_fix
