@@ -126,7 +126,9 @@ class TaichiMPMEngine(GridEngineBase):
             n_chunks=1, atomic=atomic, coloured=not atomic, n_material=self.n_material,
             passive_every=opt["passive_every"], flip=opt.get("flip") or 0.0,
             p_contact=contact_coefficients(setup)[o] if contact == "particle" and grounds else None,
-            passive_bounds=passive_bounds(setup), contact_reach=contact_reach(setup), **self._extras(setup))
+            passive_bounds=passive_bounds(setup), contact_reach=contact_reach(setup),
+            body_mass=np.bincount(setup.body_id, weights=setup.p_mass, minlength=len(setup.materials)),
+            **self._extras(setup))
         self._p2g_mode = "atomic" if atomic else "coloured blocks"
         self.frame = 0
         self._x = setup.x.astype(np.float32 if real == ti.f32 else np.float64)

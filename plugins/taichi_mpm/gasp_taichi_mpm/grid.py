@@ -133,8 +133,8 @@ class GridUpdate:
                 if ti.static(self.n_planes > 0):   # the particle contact's Coulomb friction (its budget: the last channel)
                     v_in = v
                     v = self.node_friction(v, acc[3], acc[self.acc_width - 1])
-                    if self.n_spin > 0:   # and its balance (contact.py)
-                        self.balance_friction(I, v_in, v, acc[3], acc[self.acc_width - 1])
+                    if self.n_spin > 0:   # and the contact's balance (balance.py)
+                        self.balance_node(I, v_in, v, acc[3], acc[self.acc_width - 1])
                 for b in ti.static(range(self.n_regions)):
                     if (I >= self.reg_lo[b]).all() and (I <= self.reg_hi[b]).all():
                         v = ti.Vector.zero(self.real, 3)

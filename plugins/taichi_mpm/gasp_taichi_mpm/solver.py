@@ -43,6 +43,7 @@ from gasp_core.toolkit.materials import N_PARAMS, P_ETA
 
 from .colliders import Colliders
 from .constitutive import Constitutive
+from .balance import Balance
 from .contact import Contact
 from .forces import Forces
 from .grid import GridUpdate
@@ -53,7 +54,7 @@ SORT_EVERY = 10
 
 
 @ti.data_oriented
-class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact):
+class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact, Balance):
     """Fields and kernels of one simulation.
 
     Parameters
@@ -102,7 +103,7 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact)
     def __init__(self, *, x, v, C0, p_mass, p_vol, body, fixed, jp0, params, kinds, n_grid, lo, dx, dt,
                  gravity, walls, grounds, regions, real, n_chunks, atomic, extras=None, time_table=None, n_substeps=1,
                  n_material=None, passive_every=1, flip=0.0, coloured=False, p_contact=None, passive_bounds=None,
-                 contact_reach=None):
+                 contact_reach=None, body_mass=None):
         n = len(x)
         self.n = n
         self.n_material = n if n_material is None else int(n_material)
@@ -128,7 +129,7 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact)
         self._allocate_points(len(kinds))
         self._allocate_grid()
         self._allocate_boundaries()
-        self.allocate_counter_spin(contact_reach if self.n_planes else None)
+        self.allocate_balance(contact_reach if self.n_planes else None, body_mass)
 
         np_real = np.float32 if real == ti.f32 else np.float64
         self._upload_points(np_real, x=x, v=v, C0=C0, p_mass=p_mass, p_vol=p_vol, body=body, fixed=fixed,
@@ -323,11 +324,13 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact)
         if self.has_extras:
             self.ex_tab.from_numpy(self._time_table().astype(self._ex_np))
             self.ex_step[None] = 0
+        if self.n_spin:   # the frame's first moments follow a whole substep (balance.py's c_last)
+            self.c_last.fill(0.0)
         self.p2g_substep(0, 0)
         for s in range(n_substeps - 1):
             self.grid_update()
             if self.n_spin:
-                self.friction_fix()
+                self.contact_fix()
             if at[s] is not None:
                 self.g2p_passive(at[s])
             if self.has_extras:
@@ -335,7 +338,7 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact)
             self.p2g_substep(1, s + 1)
         self.grid_update()
         if self.n_spin:
-            self.friction_fix()
+            self.contact_fix()
         self.g2p()
         if at[-1] is not None:
             self.g2p_passive(at[-1])
@@ -343,7 +346,7 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact)
     def p2g_substep(self, with_g2p: int, substep: int) -> None:
         """(G2P and) P2G of one substep, then the implicit viscous step. Coloured: the block sort at the frame's
         first substep and every :data:`SORT_EVERY`, the 8 colour passes, the late points. First, with the particle
-        contact, the bodies' counter-spin (:mod:`gasp_taichi_mpm.contact`)."""
+        contact, the bodies' moments for the contact's balance (:mod:`gasp_taichi_mpm.balance`)."""
         if self.n_spin:
             self.contact_moments()
             self.contact_shift()

@@ -78,8 +78,8 @@ class Transfers:
             mv0 = m * self.v[p] - A @ fx
             jn, budget = self.plane_contact(p)   # the particle contact (zeros without it)
             jvec = ti.Vector([0.0, 0.0, jn], self.real)   # not in AFLIP's APIC momentum (a boundary, as in warp_mpm)
-            mv0 += jvec + self.counter_spin_momentum(p)   # the body's counter-spin (contact.py)
-            self.mark_contact_nodes(p, base, budget)
+            mv0 += jvec
+            self.mark_contact_nodes(p, base, jn)   # the contact's balance (balance.py)
             w = self.weights(fx)
             for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                 weight = w[i][0] * w[j][1] * w[k][2]
