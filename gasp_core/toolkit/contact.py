@@ -40,12 +40,12 @@ GRID_LAYERS_BELOW = 2
 #: Largest ``omega dt`` of the particle contact (``omega`` in :func:`contact_dt`): an explicit oscillator's
 #: stability limit (``omega dt < 2``, central differences).
 MAX_OMEGA_DT = 2.0
-#: The torque regularisation's reach per point spacing: the contact takes back the torque of a centre of pressure within
-#: ``REACH`` times the body's median point spacing of the point below its mass centre (:func:`counter_spin`).
-import os
-REACH = float(os.environ.get("GASP_REACH", "1.0"))
-#: Columns of the per-body sums of :func:`counter_spin`'s kernels: mass, its first and second moments, the
-#: normal impulse J and its first moments in x and y.
+#: The contact's balance takes back a body's contact torque up to ``J REACH h`` (``J`` the substep's normal
+#: impulse, ``h`` the body's median point spacing): the torque of a centre of pressure within a point spacing of
+#: the point below the mass centre, which a handful of irregular points cannot resolve (``docs/contact.md``).
+REACH = 1.0
+#: Columns of the per-body sums of the contact's balance (the engines' ``balance.py``): mass, its first and second
+#: moments, the normal impulse J and its first moments in x and y, momentum, angular momentum.
 SUMS = ("m", "mx", "my", "mz", "mxx", "mxy", "mxz", "myy", "myz", "mzz", "j", "jx", "jy", "px", "py", "pz",
         "lx", "ly", "lz")
 #: The engine option's values.
@@ -55,25 +55,18 @@ FLOWING = ("sand", "snow", "liquid")
 #: Engine option ``contact`` of the MPM engines.
 CONTACT = Option("contact", "auto", "ground contact: 'particle' (a penalty and Coulomb friction per point; "
                  "docs/contact.md), 'grid' (the ground's node layers projected; spins bouncing soft bodies up) or "
-                 "'auto' (particle, unless a body is sand, snow or liquid or has E >= 2e5 Pa)", kind="str", choices=CONTACT_MODELS)
-
-
-#: ``contact = "auto"`` keeps the grid contact for a scene with a body at least this stiff (Pa). The grid
-#: contact's spin-up needs an indentation past about 0.4 dx: a bouncing jelly ball turned 2.1 degrees at
-#: E 1e5 and 0.15 at E 2e5 (issue 28's measurements), while a stiff figure on two legs (E 1.4e6) hops on the
-#: particle contact until it falls (``docs/contact.md``) and stands on the grid contact.
-STIFF_E = 2.0e5
+                 "'auto' (particle, unless a body is sand, snow or liquid)", kind="str", choices=CONTACT_MODELS)
 
 
 def contact_model(setup) -> str:
     """The ground contact a setup runs with: its option ``contact``; ``"auto"`` (the default) is ``"particle"``
     unless a body's material flows (:data:`FLOWING`: the grid contact's spreading of a sand column matches
-    Lube et al. 2005 within 12 %, the particle contact's within 29 %, ``docs/contact.md``) or a body is stiff
-    (``E >= STIFF_E``), then ``"grid"``."""
+    Lube et al. 2005 within 12 %, the particle contact's within 29 %, ``docs/contact.md``), then ``"grid"``. Stiff
+    bodies take the particle contact since its balance (issue 38: an E 1e6 ball rests within 0.14 mm, a figure on
+    two legs at 1.4e6 Pa stands; before it, ``auto`` gave them the grid contact, which rolled the ball 74 mm)."""
     c = setup.options.get("contact") or "auto"
     if c == "auto":
-        grid = any(m.name in FLOWING or float(m.E) >= STIFF_E for m in setup.materials)
-        return "grid" if grid else "particle"
+        return "grid" if any(m.name in FLOWING for m in setup.materials) else "particle"
     return c
 
 
@@ -173,7 +166,7 @@ def node_friction(v: np.ndarray, m: np.ndarray, budget: np.ndarray) -> np.ndarra
 
 
 def contact_reach(setup) -> np.ndarray:
-    """Per body, how far (m) from the point below its mass centre :func:`counter_spin` takes its contact's torque back: ``REACH`` times the
+    """Per body, the lever (m) up to which the contact's balance takes its contact torque back: ``REACH`` times the
     median spacing ``p_vol^(1/3)`` of its points (0 for a body without volume). Shape (n_materials,), float64."""
     h = np.cbrt(np.asarray(setup.p_vol, dtype=np.float64))
     body = np.asarray(setup.body_id, dtype=np.int64)
@@ -182,48 +175,3 @@ def contact_reach(setup) -> np.ndarray:
         hb = h[(body == b) & (h > 0.0)]
         out[b] = REACH * float(np.median(hb)) if len(hb) else 0.0
     return out
-
-
-def counter_spin(x: np.ndarray, m: np.ndarray, jn: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:
-    """The torque regularisation of one body's contact over a substep (the kernels' reference).
-
-    A handful of irregular points resolves a contact's centre of pressure only to about their spacing: the
-    impulses of a body dropped on a smooth plane would pass through the point below its mass centre, while those of
-    its points miss it by a fraction of a spacing, and that lever spins a bouncing body up and rolls it away
-    (``docs/contact.md``, issue 38). The contact's normal impulses stay as they are; the part of their torque
-    about the body's mass centre ``c`` that comes from a centre of pressure ``x_bar`` within ``reach`` of the point
-    below ``c`` is taken back through the body's rigid rotation: ``d_omega = I^-1 J (e_y, -e_x, 0)``, ``e`` the
-    offset ``c - x_bar`` shortened to at most ``reach``, ``I`` the body's inertia about ``c``. A centre of pressure
-    further off keeps the torque of its excess, so a body whose mass centre lies beyond its support tips over.
-    Taking it back through the contact's own impulses instead (a linear reweighting) moved the penalty's depths
-    until the reweighting ran out of reach (``docs/contact.md``).
-
-    Parameters
-    ----------
-    x : ndarray, shape (n, 3)
-        The body's points' positions (m).
-    m, jn : ndarray, shape (n,)
-        Their masses (kg) and normal impulses (:func:`plane_impulse`, kg m/s, along +z).
-    reach : float
-        :func:`contact_reach` of the body (m).
-
-    Returns
-    -------
-    d_omega : ndarray, shape (3,)
-        The body's angular velocity change (rad/s); each point's momentum gains ``m_p d_omega x (x_p - c)``.
-    c : ndarray, shape (3,)
-        The mass centre (m).
-    """
-    x = np.asarray(x, dtype=np.float64)
-    m = np.asarray(m, dtype=np.float64)
-    jn = np.asarray(jn, dtype=np.float64)
-    M, J = float(m.sum()), float(jn.sum())
-    c = m @ x / M if M > 0.0 else np.zeros(3)
-    if M <= 0.0 or J <= 0.0:
-        return np.zeros(3), c
-    e = c[:2] - jn @ x[:, :2] / J
-    if np.linalg.norm(e) > reach:
-        e *= reach / np.linalg.norm(e)
-    r = x - c
-    inertia = (m * (r * r).sum(axis=1)).sum() * np.eye(3) - (m[:, None] * r).T @ r
-    return np.linalg.solve(inertia, J * np.array([e[1], -e[0], 0.0])), c

@@ -14,17 +14,6 @@ _CLAMP_OFF_GRID = ("clamp face 0.6 dx past a grid node: time-averaged tip deflec
                    "n_grid 40 (on a node) 21.45 mm. fixed_region acts on whole nodes (docs/mpm.md), so the clamp is "
                    "soft when its face falls between nodes")
 MPM_KNOWN_FAILURES = {"cantilever_offgrid": _CLAMP_OFF_GRID,
-                  "spun_ball_bounce": (
-                      "with the default particle contact the angular momentum at the 4th apex is 1.40x the seed's per "
-                      "bounce (3.3e-6 -> 1.2e-5 kg m^2/s): bounded kicks of the ball's lattice facets, not growth (it "
-                      "stays within 1e-6..1.2e-5 over 14 bounces, 0.08 rad/s at most); the grid contact (contact = "
-                      "'grid') grows it 2.19x per bounce to 5.6e-4 (3.6 rad/s) by frame 30 (docs/contact.md)"),
-                  "jittered_ball_rest": (
-                      "the ball of jittered points (+-half a spacing) drifts 79.9 mm in 40 frames with the default "
-                      "particle contact: its first impact turns it (3 rad/s at mu = 0: the normal force's centre "
-                      "lies ~1.6 mm off the centroid among the irregular lowest points) and friction rolls it; the "
-                      "lattice ball drifts 0.76 mm (tests/test_ground_spin.py). The grid contact (contact = 'grid') "
-                      "rolls it out of the grid by frame 40 (docs/contact.md)"),
                   "incline_stick_cube": (
                       "the 4 dx cube on the 25 deg slope with mu = 0.8 topples instead of standing (a rigid cube tips "
                       "only beyond 45 deg): it turns 35.5 deg about its downhill bottom edge in 0.4 s, the uphill "
