@@ -45,9 +45,10 @@ MAX_OMEGA_DT = 2.0
 #: the point below the mass centre, which a handful of irregular points cannot resolve (``docs/contact.md``).
 REACH = 1.0
 #: Columns of the per-body sums of the contact's balance (the engines' ``balance.py``): mass, its first and second
-#: moments, the normal impulse J and its first moments in x and y, momentum, angular momentum.
+#: moments, the normal impulse J and its first moments in x and y, momentum, angular momentum, the pushed points'
+#: box (x min, x max, y min, y max).
 SUMS = ("m", "mx", "my", "mz", "mxx", "mxy", "mxz", "myy", "myz", "mzz", "j", "jx", "jy", "px", "py", "pz",
-        "lx", "ly", "lz")
+        "lx", "ly", "lz", "x_min", "x_max", "y_min", "y_max")
 #: The engine option's values.
 CONTACT_MODELS = ("auto", "particle", "grid")
 #: Materials that flow (granular, fluid): ``contact = "auto"`` keeps the grid contact for a scene with one.

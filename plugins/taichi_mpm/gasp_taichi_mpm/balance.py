@@ -12,7 +12,8 @@ force and torque made those of a smooth contact.
   moment, its mass and moments and its budget into ``fr_sums``; the node listed in ``fr_nodes``;
 - :meth:`Balance.contact_fix` after the grid update: per body, the velocity change ``dv + alpha x (X - x_m)`` of its
   listed nodes that makes the friction's net force Coulomb's on the body's rigid motion at its centre of pressure
-  and takes back the contact's torque about ``c`` up to ``J reach``.
+  and takes back the contact's torque about ``c`` up to ``J reach``, unless ``c`` lies more than ``reach`` beyond the pushed
+  points' box.
 """
 import numpy as np
 import taichi as ti
@@ -38,7 +39,7 @@ class Balance:
         nb = 0 if reach is None else len(reach)
         self.n_spin = nb
         self.c_sums = ti.field(ti.f64, shape=(max(nb, 1), 19))
-        self.c_jsums = ti.field(ti.f64, shape=(max(nb, 1), 3))   # this P2G's J and its moments in x, y
+        self.c_jsums = ti.field(ti.f64, shape=(max(nb, 1), 7))   # this P2G's J, its moments in x, y, its box
         self.c_shift = ti.field(ti.f64, shape=(max(nb, 1), 21))   # c, V, omega, J, x_bar, y_bar, I^-1
         self.c_last = ti.field(ti.f64, shape=(max(nb, 1), 6))   # the last fix's change of V and omega
         self.c_reach = ti.field(ti.f64, shape=max(nb, 1))
@@ -52,6 +53,8 @@ class Balance:
             self.c_reach.from_numpy(np.asarray(reach, np.float64))
             self.c_mass.from_numpy(np.asarray(mass, np.float64))
         self.grid_fbody.fill(-1)
+        if nb:
+            self.clear_boxes()
 
     @ti.kernel
     def contact_moments(self):
@@ -127,6 +130,19 @@ class Balance:
                 self.c_sums[b, q] = 0.0
 
     @ti.func
+    def clear_box(self, b):
+        """Body b's box of pushed points, inverted."""
+        self.c_jsums[b, 3] = 1.0e30
+        self.c_jsums[b, 4] = -1.0e30
+        self.c_jsums[b, 5] = 1.0e30
+        self.c_jsums[b, 6] = -1.0e30
+
+    @ti.kernel
+    def clear_boxes(self):
+        for b in range(self.n_spin):
+            self.clear_box(b)
+
+    @ti.func
     def mark_contact_nodes(self, p, base, jn):
         """A point the planes push marks its 27 nodes with its body (``grid_fbody``) and adds its impulse and the
         impulse's moments to ``c_jsums``."""
@@ -137,6 +153,10 @@ class Balance:
                 ti.atomic_add(self.c_jsums[self.body[p], 0], j)
                 ti.atomic_add(self.c_jsums[self.body[p], 1], j * x[0])
                 ti.atomic_add(self.c_jsums[self.body[p], 2], j * x[1])
+                ti.atomic_min(self.c_jsums[self.body[p], 3], x[0])
+                ti.atomic_max(self.c_jsums[self.body[p], 4], x[0])
+                ti.atomic_min(self.c_jsums[self.body[p], 5], x[1])
+                ti.atomic_max(self.c_jsums[self.body[p], 6], x[1])
                 for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                     self.grid_fbody[base + ti.Vector([i, j, k])] = self.body[p]
 
@@ -203,6 +223,10 @@ class Balance:
             lh = th.norm()
             if lh > J * self.c_reach[b]:
                 th *= J * self.c_reach[b] / lh
+            r = self.c_reach[b]
+            if c[0] < self.c_jsums[b, 3] - r or c[0] > self.c_jsums[b, 4] + r or c[1] < self.c_jsums[b, 5] - r \
+                    or c[1] > self.c_jsums[b, 6] + r:
+                th = ti.Vector.zero(ti.f64, 3)   # the mass centre beyond the pushed points' box: it tips, keep it all
             inertia = inertia_of(Mc, first, self.fr_sums[b, 7], self.fr_sums[b, 8], self.fr_sums[b, 9],
                                  self.fr_sums[b, 10], self.fr_sums[b, 11], self.fr_sums[b, 12])
             alpha = ti.Vector.zero(ti.f64, 3)
@@ -242,4 +266,5 @@ class Balance:
                 self.fr_sums[b, q] = 0.0
             for q in ti.static(range(3)):
                 self.c_jsums[b, q] = 0.0
+            self.clear_box(b)
         self.fr_nodes[0][0] = 0

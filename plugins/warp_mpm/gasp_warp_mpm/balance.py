@@ -5,16 +5,19 @@ Per substep, with the particle contact:
 
 - ``contact_moments`` (before P2G, one thread a point): its body's mass, first and second mass moments, momentum
   and angular momentum, and the normal impulse of its planes and that impulse's first moments, into ``sums``
-  (float64, shape (n_bodies, 19), columns :data:`gasp_core.toolkit.contact.SUMS`);
+  (float64, shape (n_bodies, 23), columns :data:`gasp_core.toolkit.contact.SUMS`), and the box of the pushed
+  points;
 - ``contact_shift`` (one thread a body): the body's mass centre ``c``, rigid velocity ``V``, spin ``omega``, normal
-  impulse ``J`` and its centre ``x_bar``, into ``shift`` (shape (n_bodies, 12)); ``sums`` cleared;
+  impulse ``J``, its centre ``x_bar`` and the pushed points' box, into ``shift`` (shape (n_bodies, 16)); ``sums``
+  cleared;
 - in P2G, a point with a normal impulse marks its 27 nodes with its body (``grid_fbody``);
 - ``balance_node`` (a function of the grid update, at each marked node after its friction): the node's friction
   impulse, its moment, the node's mass and moments and its friction budget, into ``fr_sums`` (shape
   (n_bodies, 26)); the node listed in ``fr_nodes`` (``fr_nodes[0]`` counts them);
 - ``contact_fix`` (one thread): per body, the change ``dv + alpha x (X - x_m)`` of its listed nodes' velocities
   that makes the friction's net force Coulomb's on the body's rigid motion at its centre of pressure, and takes
-  back the contact's torque (normal and friction) about ``c`` up to ``J reach``; the lists cleared.
+  back the contact's torque (normal and friction) about ``c`` up to ``J reach``, unless ``c`` lies more than ``reach``
+  beyond the pushed points' box (a body over its edge tips over); the lists cleared.
 
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of the closures below
 as type objects.
@@ -80,6 +83,10 @@ def build_balance(Ft):
             wp.atomic_add(sums, b, 10, j)
             wp.atomic_add(sums, b, 11, j * r[0])
             wp.atomic_add(sums, b, 12, j * r[1])
+            wp.atomic_min(sums, b, 19, r[0])
+            wp.atomic_max(sums, b, 20, r[0])
+            wp.atomic_min(sums, b, 21, r[1])
+            wp.atomic_max(sums, b, 22, r[1])
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def contact_shift(sums: wp.array2d(dtype=f64), shift: wp.array2d(dtype=f64)):
@@ -108,8 +115,14 @@ def build_balance(Ft):
         shift[b, 9] = J
         shift[b, 10] = xb
         shift[b, 11] = yb
+        for q in range(4):   # the box of the pushed points
+            shift[b, 12 + q] = sums[b, 19 + q]
         for q in range(19):
             sums[b, q] = f64(0.0)
+        sums[b, 19] = f64(1.0e30)
+        sums[b, 20] = f64(-1.0e30)
+        sums[b, 21] = f64(1.0e30)
+        sums[b, 22] = f64(-1.0e30)
 
     @wp.func
     def balance_node(node: int, v_in: vec3, v_out: vec3, m: Ft, fb: Ft, X: vec3,
@@ -168,6 +181,9 @@ def build_balance(Ft):
             lh = wp.length(th)
             if lh > J * reach:
                 th = th * (J * reach / lh)
+            if (c[0] < shift[b, 12] - reach or c[0] > shift[b, 13] + reach or c[1] < shift[b, 14] - reach
+                    or c[1] > shift[b, 15] + reach):
+                th = v64(f64(0.0))   # the mass centre beyond the pushed points' box: the body tips, keep it all
             inertia = inertia_of(Mc, v64(fr_sums[b, 4], fr_sums[b, 5], fr_sums[b, 6]), fr_sums[b, 7], fr_sums[b, 8],
                                  fr_sums[b, 9], fr_sums[b, 10], fr_sums[b, 11], fr_sums[b, 12])
             alpha = v64(f64(0.0))

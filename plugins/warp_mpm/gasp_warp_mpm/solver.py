@@ -197,8 +197,11 @@ class WarpMPMEngine(GridEngineBase):
         # the contact's balance (balance.py): per body its sums, shift, reach (m) and mass (kg); the contact nodes
         reach = contact_reach(self.setup) if planes else np.zeros(0)
         nb = len(reach)
-        self.c_sums = wp.zeros((nb, len(SUMS)), dtype=wp.float64, device=self.device)
-        self.c_shift = wp.zeros((nb, 12), dtype=wp.float64, device=self.device)
+        sums = np.zeros((nb, len(SUMS)))
+        sums[:, SUMS.index("x_min")::2] = 1.0e30   # the box of the pushed points starts inverted
+        sums[:, SUMS.index("x_max")::2] = -1.0e30
+        self.c_sums = wp.array(sums, dtype=wp.float64, device=self.device)
+        self.c_shift = wp.zeros((nb, 16), dtype=wp.float64, device=self.device)
         self.c_reach = wp.array(reach, dtype=wp.float64, device=self.device)
         self.c_mass = wp.array(np.bincount(np.asarray(self.setup.body_id), weights=np.asarray(self.setup.p_mass),
                                            minlength=nb)[:nb].astype(np.float64), dtype=wp.float64, device=self.device)
