@@ -47,6 +47,8 @@ ANALYTIC_SCREEN = {
     "sand_friction_high": ("sand_column_collapse",),
     "viscosity_low": ("bar_viscous_decay",),
     "viscosity_high": ("bar_viscous_decay",),
+    "ground_friction_low": ("slide_to_rest",),
+    "holds_every_tilt": ("tip_over", "settle_back"),
 }
 
 
@@ -111,6 +113,9 @@ class _Broken:
             x[self._contact(x), 0] += 0.01 * self.setup.dx * self.frame
         elif self.kind == "passive_straight_lines" and hasattr(self, "xp"):
             x[self.setup.passive] = self.xp
+        elif self.kind == "holds_every_tilt":   # a contact that takes back every torque: bodies only translate
+            x0 = np.asarray(self.setup.x, dtype=np.float64)
+            x = x0 + (x.mean(axis=0) - x0.mean(axis=0))
         return x
 
     def _contact(self, x):
@@ -170,6 +175,10 @@ def broken_engine(info, kind: str):
             f = 0.95 if kind == "viscosity_low" else 1.05
             mats = [dataclasses.replace(m, viscosity=f * m.viscosity) for m in setup.materials]
             return info.factory(setup.replace(materials=mats))
+        if kind == "ground_friction_low":  # ground friction 5 % low: a slide 5.3 % long
+            bounds = [dataclasses.replace(b, friction=0.95 * b.friction) if b.kind == "ground" else b
+                      for b in setup.boundaries]
+            return info.factory(setup.replace(boundaries=bounds))
         if kind == "softer_E":  # Young's modulus 10 % low: wave speed -5 %, sag and deflection +11 %
             mats = [dataclasses.replace(m, E=0.9 * m.E) for m in setup.materials]
             return info.factory(setup.replace(materials=mats))
@@ -337,3 +346,25 @@ def test_contact_scenes_fail_on_the_grid_contact(reference, request):
             assert bad[n].checks[0].figures["value"] > real[n].checks[0].figures["value"], (n, real[n].message,
                                                                                            bad[n].message)
 
+
+
+def test_contact_scenes_fail_without_the_balance(reference, request):
+    """The particle contact without its balance (engine option contact_balance = false: the contact before issue 38)
+    is a broken engine for the ball scenes: the jittered ball rolls away and the seeded spin grows, where the
+    default passes both."""
+    info, _ = reference
+    if "contact_balance" not in {o.name for o in info.options}:
+        pytest.skip(f"{info.name} has no option 'contact_balance'")
+
+    def raw(setup):
+        return info.factory(setup.replace(options={**setup.options, "contact_balance": False}))
+
+    scenes = ("spun_ball_bounce", "jittered_ball_rest")
+    broken = dataclasses.replace(info, name="broken_no_balance", factory=raw)
+    real = check_engine(info, scenes=scenes, known_failures={}).by_scene()
+    bad = check_engine(broken, scenes=scenes, known_failures={}).by_scene()
+    record(request.node, "; ".join(f"{n}: balance {real[n].checks[0].figures['value']:.4g}, without "
+                                    f"{bad[n].checks[0].figures['value']:.4g}" for n in scenes))
+    for n in scenes:
+        assert real[n].status == "pass", (n, real[n].message)
+        assert bad[n].status == "fail", (n, bad[n].message)

@@ -57,6 +57,11 @@ FLOWING = ("sand", "snow", "liquid")
 CONTACT = Option("contact", "auto", "ground contact: 'particle' (a penalty and Coulomb friction per point; "
                  "docs/contact.md), 'grid' (the ground's node layers projected; spins bouncing soft bodies up) or "
                  "'auto' (particle, unless a body is sand, snow or liquid)", kind="str", choices=CONTACT_MODELS)
+#: Engine option ``contact_balance`` of the MPM engines.
+BALANCE = Option("contact_balance", True, "the particle contact's balance (docs/contact.md, issue 38): each body's "
+                 "net friction is Coulomb's on its rigid motion and the contact torque of a centre of pressure "
+                 "within a point spacing of its mass centre is taken back; false: the raw per-point contact, on "
+                 "which bodies of irregular points turn and roll (10-80 mm)", kind="bool")
 
 
 def contact_model(setup) -> str:
@@ -168,7 +173,10 @@ def node_friction(v: np.ndarray, m: np.ndarray, budget: np.ndarray) -> np.ndarra
 
 def contact_reach(setup) -> np.ndarray:
     """Per body, the lever (m) up to which the contact's balance takes its contact torque back: ``REACH`` times the
-    median spacing ``p_vol^(1/3)`` of its points (0 for a body without volume). Shape (n_materials,), float64."""
+    median spacing ``p_vol^(1/3)`` of its points (0 for a body without volume). Shape (n_materials,), float64;
+    empty (no balance) with the option ``contact_balance = false``."""
+    if not setup.options.get("contact_balance", True):
+        return np.zeros(0)
     h = np.cbrt(np.asarray(setup.p_vol, dtype=np.float64))
     body = np.asarray(setup.body_id, dtype=np.int64)
     out = np.zeros(len(setup.materials))

@@ -21,7 +21,7 @@ from gasp_core.toolkit.options import mpm_options
 from gasp_core.toolkit.sweep import mpm_sweep
 from gasp_core.toolkit.failures import MPM_KNOWN_FAILURES
 from gasp_core.toolkit.substeps import PASSIVE_EVERY
-from gasp_core.toolkit.contact import CONTACT
+from gasp_core.toolkit.contact import BALANCE, CONTACT
 from gasp_core.toolkit.transfer import FLIP
 
 __all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "gasp_engines", "make_engine", "sweep", "taichi_available"]
@@ -36,7 +36,7 @@ CAPABILITIES = MPM_CAPABILITIES
 OPTIONS = mpm_options(
     Option("threads", None, "CPU threads (Taichi's cpu_max_num_threads; default: all cores); the coloured "
                             "block P2G gives the same numbers on any count", kind="int", lo=1),
-    PASSIVE_EVERY, FLIP, CONTACT)
+    PASSIVE_EVERY, FLIP, CONTACT, BALANCE)
 
 
 def sweep(quick: bool) -> tuple[list[dict], dict]:

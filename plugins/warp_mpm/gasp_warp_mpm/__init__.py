@@ -14,7 +14,7 @@ from gasp_core.toolkit.options import mpm_options
 from gasp_core.toolkit.sweep import mpm_sweep
 from gasp_core.toolkit.failures import MPM_KNOWN_FAILURES
 from gasp_core.toolkit.substeps import PASSIVE_EVERY
-from gasp_core.toolkit.contact import CONTACT
+from gasp_core.toolkit.contact import BALANCE, CONTACT
 from gasp_core.toolkit.transfer import FLIP
 
 __all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "gasp_engines", "make_engine", "sweep"]
@@ -29,7 +29,7 @@ CAPABILITIES = MPM_CAPABILITIES
 OPTIONS = mpm_options(
     Option("threads", None, "accepted and ignored: Warp runs CPU kernels on one thread (runs repeat bit "
                             "for bit)", kind="int", lo=1),
-    PASSIVE_EVERY, FLIP, CONTACT, cuda_index=True)
+    PASSIVE_EVERY, FLIP, CONTACT, BALANCE, cuda_index=True)
 
 
 def sweep(quick: bool) -> tuple[list[dict], dict]:
