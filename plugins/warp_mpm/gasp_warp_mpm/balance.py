@@ -34,21 +34,32 @@ from .precision import MODULE_OPTIONS, build_types
 FR_COLUMNS = 26
 
 
+f64 = wp.float64
+v64 = wp.types.vector(3, f64)
+m64 = wp.types.matrix((3, 3), f64)
+
+
+@wp.func
+def inertia_of(m: f64, first: v64, xx: f64, xy: f64, xz: f64, yy: f64, yz: f64, zz: f64):
+    # the inertia tensor about the mass centre from the mass, first and second moments
+    c = first / m
+    S = m64(xx, xy, xz, xy, yy, yz, xz, yz, zz) / m - wp.outer(c, c)
+    return m * (wp.trace(S) * wp.identity(3, dtype=f64) - S)
+
+
 @functools.cache
 def build_balance(Ft):
     """``(contact_moments, contact_shift, balance_node, contact_fix)`` of scalar type ``Ft`` (module docstring)."""
+    contact_moments, contact_shift = build_moments(Ft)
+    balance_node = build_balance_node(Ft)
+    return contact_moments, contact_shift, balance_node, build_contact_fix(Ft)
+
+
+@functools.cache
+def build_moments(Ft):
+    """``(contact_moments, contact_shift)`` of scalar type ``Ft``."""
     vec3, vec4, mat33 = build_types(Ft)
     plane_contact, _ = build_contact(Ft)
-    f64 = wp.float64
-    v64 = wp.types.vector(3, f64)
-    m64 = wp.types.matrix((3, 3), f64)
-
-    @wp.func
-    def inertia_of(m: f64, first: v64, xx: f64, xy: f64, xz: f64, yy: f64, yz: f64, zz: f64):
-        # the inertia tensor about the mass centre from the mass, first and second moments
-        c = first / m
-        S = m64(xx, xy, xz, xy, yy, yz, xz, yz, zz) / m - wp.outer(c, c)
-        return m * (wp.trace(S) * wp.identity(3, dtype=f64) - S)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def contact_moments(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33),
@@ -124,6 +135,14 @@ def build_balance(Ft):
         sums[b, 21] = f64(1.0e30)
         sums[b, 22] = f64(-1.0e30)
 
+    return contact_moments, contact_shift
+
+
+@functools.cache
+def build_balance_node(Ft):
+    """``balance_node``, the grid update's function of scalar type ``Ft``."""
+    vec3, vec4, mat33 = build_types(Ft)
+
     @wp.func
     def balance_node(node: int, v_in: vec3, v_out: vec3, m: Ft, fb: Ft, X: vec3,
                      grid_fbody: wp.array(dtype=wp.int32), fr_sums: wp.array2d(dtype=f64),
@@ -152,6 +171,14 @@ def build_balance(Ft):
                 fr_nodes[slot] = node
             else:
                 grid_fbody[node] = -1
+
+    return balance_node
+
+
+@functools.cache
+def build_contact_fix(Ft):
+    """``contact_fix``, the kernel of scalar type ``Ft`` after the grid update."""
+    vec3, vec4, mat33 = build_types(Ft)
 
     @wp.func
     def body_fix(b: int, shift: wp.array2d(dtype=f64), fr_sums: wp.array2d(dtype=f64), mass: f64, reach: f64,
@@ -221,4 +248,47 @@ def build_balance(Ft):
                 fr_sums[s, q] = f64(0.0)
         fr_nodes[0] = 0
 
-    return contact_moments, contact_shift, balance_node, contact_fix
+    return contact_fix
+
+
+def allocate_balance(engine, planes: list, Ft) -> None:
+    """The contact's balance arrays on ``engine`` (a :class:`~gasp_warp_mpm.solver.WarpMPMEngine` with ``setup``,
+    ``device``, ``n_grid``): per body its sums, shift, reach (m) and mass (kg); the contact nodes' bodies and list.
+    No planes, or ``contact_balance = false``: zero bodies, no balance."""
+    import numpy as np
+    from gasp_core.toolkit.contact import contact_reach, SUMS
+    setup, d = engine.setup, engine.device
+    reach = contact_reach(setup) if planes else np.zeros(0)
+    nb = len(reach)
+    sums = np.zeros((nb, len(SUMS)))
+    sums[:, SUMS.index("x_min")::2] = 1.0e30   # the box of the pushed points starts inverted
+    sums[:, SUMS.index("x_max")::2] = -1.0e30
+    engine.c_sums = wp.array(sums, dtype=f64, device=d)
+    engine.c_shift = wp.zeros((nb, 16), dtype=f64, device=d)
+    engine.c_reach = wp.array(reach, dtype=f64, device=d)
+    mass = np.bincount(np.asarray(setup.body_id), weights=np.asarray(setup.p_mass), minlength=nb)[:nb]
+    engine.c_mass = wp.array(mass.astype(np.float64), dtype=f64, device=d)
+    n_nodes = engine.n_grid ** 3 if nb else 1
+    engine.grid_fbody = wp.array(np.full(n_nodes, -1, np.int32), dtype=wp.int32, device=d)
+    engine.fr_sums = wp.zeros((nb, FR_COLUMNS), dtype=f64, device=d)
+    engine.fr_nodes = wp.zeros(1 + min(n_nodes, 8 * engine.n_grid ** 2 * max(1, len(planes))), dtype=wp.int32,
+                               device=d)
+
+
+
+def balance_launches(engine, k, lo_v, dx, dt_f) -> tuple[list, object]:
+    """Pre-recorded launches of the balance on ``engine``: ``[contact_moments, contact_shift]`` (before P2G) and
+    ``contact_fix`` (after the grid update); ``([], None)`` without a balance. ``k``: the engine's kernels."""
+    if engine.c_shift.shape[0] == 0:
+        return [], None
+    d, ng = engine.device, engine.n_grid
+    g_dt = k.vec3(*[float(c) * engine.dt for c in engine.setup.gravity])
+    fix = wp.launch(k.contact_fix, dim=1, device=d, record_cmd=True, inputs=[
+        engine.grid_v, engine.grid_fbody, engine.c_shift, engine.fr_sums, engine.fr_nodes, engine.c_mass,
+        engine.c_reach, g_dt, lo_v, dx, ng])
+    pre = [wp.launch(k.contact_moments, dim=engine.n_material, device=d, record_cmd=True, inputs=[
+               engine.x, engine.v, engine.C, engine.p_mass, engine.body, engine.p_contact, engine.planes, dt_f, dx,
+               engine.c_sums]),
+           wp.launch(k.contact_shift, dim=engine.c_shift.shape[0], device=d, record_cmd=True, inputs=[
+               engine.c_sums, engine.c_shift])]
+    return pre, fix

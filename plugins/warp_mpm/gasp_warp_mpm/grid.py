@@ -96,12 +96,11 @@ def build_grid_update(Ft):
                 gr = ground[q]
                 if Ft(k) <= gr[0]:  # node layer k at or below the ground's top layer (exact small integers)
                     vel = collide(vel, vec3(Ft(0.0), Ft(0.0), Ft(1.0)), gr[1])
-            if grid_fb.shape[0] > 1:
-                fb = grid_fb[node]
+            if grid_fb.shape[0] > 1:   # friction, then the contact's balance (balance.py)
                 v_in = vel
-                vel = node_friction(vel, m, fb)
-                if fr_sums.shape[0] > 0:   # the contact's balance (balance.py)
-                    balance_node(node, v_in, vel, m, fb, X, grid_fbody, fr_sums, fr_nodes)
+                vel = node_friction(vel, m, grid_fb[node])
+                if fr_sums.shape[0] > 0:
+                    balance_node(node, v_in, vel, m, grid_fb[node], X, grid_fbody, fr_sums, fr_nodes)
             for r in range(fixed_lo.shape[0]):
                 flo = fixed_lo[r]
                 fhi = fixed_hi[r]
@@ -112,8 +111,6 @@ def build_grid_update(Ft):
         grid_v[node] = out
         grid_mv[node] = vec4(Ft(0.0))
         if grid_fb.shape[0] > 1:
-            if fr_sums.shape[0] > 0 and m <= Ft(0.0):
-                grid_fbody[node] = -1   # (a listed node's is cleared by contact_fix)
             grid_fb[node] = Ft(0.0)
         if flip != 0:  # the APIC velocity before forces (gasp_core.toolkit.transfer)
             g0 = grid_mv0[node]

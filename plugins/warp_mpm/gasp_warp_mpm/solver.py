@@ -35,14 +35,14 @@ import warp as wp
 from gasp_core.toolkit.grid_engine import choose_dt, GridEngineBase
 from gasp_core.toolkit.materials import P_ETA, initial_Jp, material_table
 from gasp_core.toolkit.memory import check_memory, estimate_bytes
-from gasp_core.toolkit.contact import contact_coefficients, contact_model, contact_reach, ground_node_layer, SUMS
+from gasp_core.toolkit.contact import contact_coefficients, contact_model, ground_node_layer
 from gasp_core.toolkit.points import cell_order, fixed_mask, passive_bounds
 from gasp_core.toolkit.substeps import passive_schedule
 from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
 
 from . import ENGINE
 from . import kernels as K
-from .balance import FR_COLUMNS
+from .balance import allocate_balance, balance_launches
 from .startup import init_warp
 
 
@@ -194,22 +194,7 @@ class WarpMPMEngine(GridEngineBase):
         kcs = contact_coefficients(self.setup)[self._order] if planes else np.zeros((1, 3))
         self.p_contact = arr(kcs.astype(dt_np), k.vec3)
         self.grid_fb = wp.zeros(self.n_grid ** 3 if planes else 1, dtype=Ft, device=self.device)
-        # the contact's balance (balance.py): per body its sums, shift, reach (m) and mass (kg); the contact nodes
-        reach = contact_reach(self.setup) if planes else np.zeros(0)
-        nb = len(reach)
-        sums = np.zeros((nb, len(SUMS)))
-        sums[:, SUMS.index("x_min")::2] = 1.0e30   # the box of the pushed points starts inverted
-        sums[:, SUMS.index("x_max")::2] = -1.0e30
-        self.c_sums = wp.array(sums, dtype=wp.float64, device=self.device)
-        self.c_shift = wp.zeros((nb, 16), dtype=wp.float64, device=self.device)
-        self.c_reach = wp.array(reach, dtype=wp.float64, device=self.device)
-        self.c_mass = wp.array(np.bincount(np.asarray(self.setup.body_id), weights=np.asarray(self.setup.p_mass),
-                                           minlength=nb)[:nb].astype(np.float64), dtype=wp.float64, device=self.device)
-        n_nodes = self.n_grid ** 3 if nb else 1
-        self.grid_fbody = wp.array(np.full(n_nodes, -1, np.int32), dtype=wp.int32, device=self.device)
-        self.fr_sums = wp.zeros((nb, FR_COLUMNS), dtype=wp.float64, device=self.device)
-        self.fr_nodes = wp.zeros(1 + min(n_nodes, 8 * self.n_grid ** 2 * max(1, len(planes))), dtype=wp.int32,
-                                 device=self.device)
+        allocate_balance(self, planes, Ft)   # the contact's balance (gasp_warp_mpm.balance)
         self.fixed_hi = arr(np.array(fixed_hi, dtype=dt_np).reshape(-1, 3), k.vec3)
 
     def _record_launches(self, Ft, has_extras: int, ex) -> None:
@@ -235,17 +220,9 @@ class WarpMPMEngine(GridEngineBase):
                 self.x, self.v, self.C, self.fixed, self.grid_v, lo_v, inv_dx, dt_f, ng, self.grid_v0, Ft(self.flip)]),
         ]
         # the contact's balance (gasp_warp_mpm.balance): its moments before P2G, its fix after the grid update
-        self._pre = []
-        if self.c_shift.shape[0]:
-            g_dt = k.vec3(*[float(c) * self.dt for c in setup.gravity])
-            self._launches.insert(2, wp.launch(k.contact_fix, dim=1, device=d, record_cmd=True, inputs=[
-                self.grid_v, self.grid_fbody, self.c_shift, self.fr_sums, self.fr_nodes, self.c_mass, self.c_reach,
-                g_dt, lo_v, dx, ng]))
-            self._pre = [
-                wp.launch(k.contact_moments, dim=self.n_material, device=d, record_cmd=True, inputs=[
-                    self.x, self.v, self.C, self.p_mass, self.body, self.p_contact, self.planes, dt_f, dx, self.c_sums]),
-                wp.launch(k.contact_shift, dim=self.c_shift.shape[0], device=d, record_cmd=True, inputs=[
-                    self.c_sums, self.c_shift])]
+        self._pre, fix = balance_launches(self, k, lo_v, dx, dt_f)
+        if fix is not None:
+            self._launches.insert(2, fix)
         # passive points after the grid update (the grid velocity holds forces, colliders, boundaries):
         # one launch per distinct interval of passive_schedule, at the substeps it names; each then held in
         # the box the ground and walls leave them (gasp_core.toolkit.points.passive_bounds)
