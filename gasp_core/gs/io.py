@@ -40,7 +40,6 @@ from gasp_core.gs.gaussians import Gaussians, MAX_MAGNITUDE, quat_to_rotmat, rot
 from gasp_core.maps.games import EPS as FLAT_EPS
 
 from gasp_core.gs.compressed import decode_compressed
-from gasp_core.gs.formats import read_splat_file, sniff
 from gasp_core.gs.ply import (check_columns, column, numbered_names, read_ply, reject_file, require_columns,
                               stack_columns)
 
@@ -49,7 +48,7 @@ from gasp_core.gs.ply import (check_columns, column, numbered_names, read_ply, r
 #: cyclic permutation, so ``det`` stays +1.
 _2DGS_PERM = (2, 0, 1)
 
-__all__ = ["read_gaussians", "write_gaussians"]
+__all__ = ["read_gaussians", "read_ply_gaussians", "write_gaussians"]
 
 
 #: More Gaussians than this all at one point (equal centres) are a degenerate file, refused by
@@ -74,8 +73,21 @@ def refuse_one_point(path, g: Gaussians) -> None:
 
 
 def read_gaussians(path) -> Gaussians:
-    """Read a Gaussian Splatting PLY (graphdeco 3DGS, GaMeS, 2DGS or PlayCanvas compressed), or a ``.spz``,
-    ``.sog``, ``.splat`` or ``.ksplat`` file (:func:`gasp_core.gs.formats.read_splat_file`).
+    """Read any splat file the format registry reads (:func:`gasp_core.gs.registry.read`): a PLY (below), ``.spz``,
+    ``.sog``, ``.splat``, ``.ksplat``, ``.glb`` (``KHR_gaussian_splatting``) or ``.splatv`` (at model time 0.5).
+
+    Raises
+    ------
+    FileNotFoundError, SceneError, GaspError
+        As :func:`gasp_core.gs.registry.read`.
+    """
+    from gasp_core.gs.registry import read
+    return read(path)
+
+
+def read_ply_gaussians(path, fmt: str | None = None) -> Gaussians:
+    """Read a Gaussian Splatting PLY (graphdeco 3DGS, GaMeS, 2DGS or PlayCanvas compressed); the registry's reader
+    of ``ply`` and ``compressed_ply`` (``fmt`` is not used: the header decides).
 
     Parameters
     ----------
@@ -114,9 +126,6 @@ def read_gaussians(path) -> Gaussians:
     * Compressed PLY: see :func:`gasp_core.gs.compressed.decode_compressed`.
     """
     path = Path(path)
-    fmt = sniff(path)
-    if fmt != "ply":
-        return read_splat_file(path, fmt)
     ply = read_ply(path)
     names_el = [e.name for e in ply.elements]
     if "vertex" not in names_el:
