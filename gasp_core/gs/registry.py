@@ -18,7 +18,6 @@ format that uses it. Readers are called ``reader(path, name)`` and return a
 from __future__ import annotations
 
 import importlib
-import importlib.util
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -85,10 +84,8 @@ class SplatFormat:
         out = []
         for m in self.needs:
             try:
-                found = importlib.util.find_spec(m) is not None
-            except (ImportError, ValueError):   # a parent package missing
-                found = False
-            if not found:
+                __import__(m)   # imported, not only found: a package that fails to import is missing too
+            except ImportError:
                 out.append(m)
         return out
 
@@ -284,16 +281,25 @@ def write(path, g, name: str, *, overwrite: bool = False, **options) -> Path:
     return _load(fmt.writer)(Path(path), g, overwrite=overwrite, **kw)
 
 
+def _needs(f: SplatFormat) -> str:
+    return f"the `{f.extra}` extra" if f.needs else "--"
+
+
 def markdown_tables() -> str:
     """The reading and writing tables of ``docs/formats.md``, generated from :data:`FORMATS` (Markdown)."""
-    rows = ["| format | suffixes | how it is recognised | read by | keeps | limits |", "|---|---|---|---|---|---|"]
+    rows = ["| format | suffixes | how it is recognised | read by | keeps | limits | needs |",
+            "|---|---|---|---|---|---|---|"]
     for f in FORMATS.values():
         if f.reader:
             rows.append(f"| `{f.name}`: {f.title} | {', '.join(f.suffixes)} | {f.recognised} | {f.read_by} | "
-                        f"{f.keeps} | {f.limits or '--'} |")
-    rows += ["", "| `--format` | file | written by | loses | needs |", "|---|---|---|---|---|"]
+                        f"{f.keeps} | {f.limits or '--'} | {_needs(f)} |")
+    rows += ["", "| `--format` | file | written by | loses | limits | needs |", "|---|---|---|---|---|---|"]
     for n in output_formats():
         f = FORMATS[n]
         rows.append(f"| `{n}` | {f.suffix}{' (one per run)' if f.sequence else ''} | {f.written_by} | {f.loses} | "
-                    f"{'the `' + f.extra + '` extra' if f.needs else '--'} |")
+                    f"{f.limits or '--'} | {_needs(f)} |")
     return "\n".join(rows) + "\n"
+
+
+if __name__ == "__main__":   # python -m gasp_core.gs.registry: the tables to paste into docs/formats.md
+    print(markdown_tables(), end="")

@@ -118,8 +118,7 @@ def simulate_scene(scene: Scene, outdir: str | Path, request: SimulateRequest | 
         summary = run_summary(run.prep, run.stats, n_frames, run.per_frame, run_s)
         if run.checkpoint is not None:
             summary["resumed_after_frame"] = run.checkpoint.frame
-        atomic_json(run.tmp / "run.json", summary)
-        _write_sequence(run, scene)
+        _write_record(run, scene, summary)
         claim.commit(run.tmp)
         _warn_stranded(run)
     except KeyboardInterrupt as e:
@@ -132,9 +131,10 @@ def simulate_scene(scene: Scene, outdir: str | Path, request: SimulateRequest | 
     return RunResult(outdir=outdir, n_frames=n_frames, stats=run.stats, summary=summary)
 
 
-def _write_sequence(run: "_Run", scene) -> None:
-    """A whole-run format (``--format usd``): its one file, ``<scene name>.usdc``, from the frames just written
-    (:mod:`gasp_core.run.export`)."""
+def _write_record(run: "_Run", scene, summary: dict) -> None:
+    """``run.json``, then for a whole-run format (``--format usd``) its one file, ``<scene name>.usdc``, from the
+    frames just written (:mod:`gasp_core.run.export`)."""
+    atomic_json(run.tmp / "run.json", summary)
     if registry.get(run.fmt).sequence:
         from gasp_core.run.export import export_run
         name = getattr(scene, "name", None) or "run"
