@@ -69,6 +69,22 @@ def test_simulate_format_glb_frames_equal_the_ply_run(ply_run, tmp_path, donut_s
     assert np.abs(a.gaussians(3, 0).means - a.gaussians(0, 0).means).max() > 1e-3   # it did move
 
 
+def test_glb_frames_of_a_turned_object_read_back_in_its_file_frame(donut, tmp_path):
+    """A -y-up object's GLB frames are +Y up in the file and come back in the file frame through open_frames
+    (gasp view, gasp render, --resume), as a PLY run's do."""
+    from gasp_core.run.layout import FrameWriter
+    g = donut.subset(np.arange(0, donut.n, 40))
+    (tmp_path / "a").mkdir()
+    w = FrameWriter(tmp_path, ["a"], [False], [None], "glb", "frames", up_axes=["-y"])
+    w.write(0, [g])
+    raw = read_glb(tmp_path / "a" / "frame_0000.glb")          # +Z up: the file's -y turned up
+    np.testing.assert_allclose(raw.means, g.means @ UP_TO_Z["-y"].T, atol=1e-6 * _extent(g))
+    back = open_frames(tmp_path).gaussians(0, 0)
+    np.testing.assert_allclose(back.means, g.means, atol=1e-6 * _extent(g))
+    np.testing.assert_allclose(np.abs((back.rotations * g.rotations).sum(1)), 1.0, atol=1e-6)
+    assert np.abs(raw.means - g.means).max() > 0.1 * _extent(g)   # the turn is not the identity
+
+
 def test_gasp_export_glb_refuses_an_existing_output(ply_run, tmp_path, capsys):
     out = tmp_path / "glb"
     assert main(["export", str(ply_run), "--format", "glb", "-o", str(out)]) == 0

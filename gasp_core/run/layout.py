@@ -157,7 +157,8 @@ class FrameWriter:
         for k, name in enumerate(self.names):
             frames = [] if "static" in self.once[k] else \
                 [f"{name}/frame_{f:04d}{self.suffix}" for f in range(n_frames + 1)]
-            objects.append({"name": name, "n_gaussians": counts[k], **self.once[k], "frames": frames})
+            turn = {"up_axis": self.up_axes[k]} if self.up_axes and "up_axis" in registry.get(self.fmt).options else {}
+            objects.append({"name": name, "n_gaussians": counts[k], **self.once[k], **turn, "frames": frames})
         return atomic_json(self.folder / MANIFEST, {"format": self.fmt, "layout": self.layout,
                                                     "n_frames": n_frames + 1, "objects": objects})
 
@@ -184,23 +185,33 @@ class RunFrames:
         """Object ``k`` (manifest order) at ``frame``, whole, input row order, file frame."""
         o = self.manifest["objects"][k]
         if o.get("static"):
-            return self._once(o["static"])
-        g = read_gaussians(self.folder / o["frames"][frame])
+            return self._once(o["static"], k)
+        g = self._read(self.folder / o["frames"][frame], k)
         if not o.get("rest"):
             return g
-        rows = self._once(o["moving_rows"])
-        rest = self._once(o["rest"])
+        rows = self._once(o["moving_rows"], k)
+        rest = self._once(o["rest"], k)
         if len(rows) != g.n or len(rows) + rest.n != o["n_gaussians"]:
             raise SceneError(f"{self.folder / o['frames'][frame]}: {g.n} moving rows + {rest.n} rest rows; "
                              f"expected {len(rows)} + {o['n_gaussians'] - len(rows)} "
                              f"({o['moving_rows']}, {MANIFEST})")
         return _merge(rest, rows, g, o["n_gaussians"])
 
-    def _once(self, rel: str):
+    def _once(self, rel: str, k: int):
         if rel not in self._cache:
             p = self.folder / rel
-            self._cache[rel] = np.load(p) if p.suffix == ".npy" else read_gaussians(p)
+            self._cache[rel] = np.load(p) if p.suffix == ".npy" else self._read(p, k)
         return self._cache[rel]
+
+    def _read(self, path: Path, k: int) -> Gaussians:
+        """A frame file of object ``k`` in its file frame: a format with an up axis of its own (glTF's +Y, read back
+        +Z up) is turned back from the object's ``up_axis`` (the manifest's, written by :class:`FrameWriter`)."""
+        g = read_gaussians(path)
+        up = self.manifest["objects"][k].get("up_axis", "+z")
+        if up == "+z":
+            return g
+        from gasp_core.gs.gltf import UP_TO_Z, turned
+        return turned(g, UP_TO_Z[up].T)
 
 
 def _merge(rest: Gaussians, rows: np.ndarray, moving: Gaussians, n: int) -> Gaussians:
@@ -273,6 +284,8 @@ def _check_manifest(path: Path, manifest) -> None:
         for f in files:
             if not isinstance(f, str) or Path(f).is_absolute() or ".." in Path(f).parts:
                 bad(f"objects[{k}]", f"expected file names inside the run folder, got {f!r}")
+        if o.get("up_axis", "+z") not in ("+x", "-x", "+y", "-y", "+z", "-z"):
+            bad(f"objects[{k}].up_axis", f"expected one of +x -x +y -y +z -z, got {o.get('up_axis')!r}")
         n = o.get("n_gaussians", 0)
         if not isinstance(n, int) or isinstance(n, bool) or n < 0:
             bad(f"objects[{k}].n_gaussians", f"expected a count, got {n!r}")
