@@ -102,3 +102,41 @@ def test_writers_refuse_reading_only_formats_and_missing_libraries(monkeypatch):
                         if name == "pygltflib" else real(name, *a, **k))
     with pytest.raises(GaspError, match=r"--format glb needs pygltflib, which is not installed .*\[export\]"):
         registry.check_writer("glb")
+
+
+def _glb_bytes(doc: dict, blob: bytes) -> bytes:
+    import json
+    import struct
+    j = json.dumps(doc).encode()
+    j += b" " * ((4 - len(j) % 4) % 4)
+    blob += b"\0" * ((4 - len(blob) % 4) % 4)
+    return (b"glTF" + struct.pack("<II", 2, 28 + len(j) + len(blob)) + struct.pack("<II", len(j), 0x4E4F534A) + j
+            + struct.pack("<II", len(blob), 0x004E4942) + blob)
+
+
+@pytest.mark.parametrize("damage", ["view", "count", "type", "missing", "truncated"])
+def test_a_damaged_glb_is_refused_in_one_line(damage, tmp_path):
+    import json
+    import struct
+    pytest.importorskip("pygltflib", reason="the export extra is not installed")
+    from gasp_core.gs.gltf import write_glb
+    g = read_gaussians(DATA / "train-1000.ply").subset(np.arange(10))
+    raw = write_glb(tmp_path / "ok.glb", g).read_bytes()
+    n = struct.unpack_from("<I", raw, 12)[0]
+    doc, blob = json.loads(raw[20:20 + n]), raw[28 + n:]
+    attrs = doc["meshes"][0]["primitives"][0]["attributes"]
+    if damage == "view":
+        doc["accessors"][0]["bufferView"] = 99
+    elif damage == "count":
+        doc["accessors"][0]["count"] = 10 ** 9
+    elif damage == "type":
+        doc["accessors"][attrs["KHR_gaussian_splatting:ROTATION"]]["componentType"] = 5121
+    elif damage == "missing":
+        del attrs["KHR_gaussian_splatting:SCALE"]
+    else:
+        blob = blob[:100]
+    (tmp_path / "bad.glb").write_bytes(_glb_bytes(doc, blob))
+    with pytest.raises(SceneError) as e:
+        read_gaussians(tmp_path / "bad.glb")
+    line = str(e.value)
+    assert line.startswith(f"{tmp_path / 'bad.glb'}: ") and "\n" not in line and line.count("bad.glb") == 1, line

@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from gasp_core.errors import SceneError
 from gasp_core.fsutil import atomic_write
 from gasp_core.gs.gaussians import Gaussians, quat_to_rotmat, rotmat_to_quat
 from gasp_core.gs.ply import SH_C0, reject_file
@@ -219,21 +220,28 @@ def read_glb(path, fmt: str = "glb") -> Gaussians:
             reject_file(path, f"attribute {name}: {acc.count} rows do not fit the binary chunk (truncated?)")
         return np.ndarray((acc.count, width), np.float32, buffer=blob, offset=off, strides=(stride, 4)).astype(np.float64)
 
-    means = column("POSITION", 3)
-    rot = column(f"{EXT}:ROTATION", 4)[:, [3, 0, 1, 2]]
-    scales = column(f"{EXT}:SCALE", 3)
-    alpha = np.clip(column(f"{EXT}:OPACITY", 1)[:, 0], 1e-12, 1 - 1e-7)
-    sh_dc = column(f"{EXT}:SH_DEGREE_0_COEF_0", 3)
-    rest = [c for l in (1, 2, 3) for n in range(2 * l + 1)
-            if (c := column(f"{EXT}:SH_DEGREE_{l}_COEF_{n}", 3, required=False)) is not None]
+    try:
+        means = column("POSITION", 3)
+        rot = column(f"{EXT}:ROTATION", 4)[:, [3, 0, 1, 2]]
+        scales = column(f"{EXT}:SCALE", 3)
+        alpha = np.clip(column(f"{EXT}:OPACITY", 1)[:, 0], 1e-12, 1 - 1e-7)
+        sh_dc = column(f"{EXT}:SH_DEGREE_0_COEF_0", 3)
+        rest = [c for l in (1, 2, 3) for n in range(2 * l + 1)
+                if (c := column(f"{EXT}:SH_DEGREE_{l}_COEF_{n}", 3, required=False)) is not None]
+    except SceneError:
+        raise
+    except (IndexError, TypeError, KeyError, ValueError, AttributeError) as e:   # accessors or views that do not exist
+        reject_file(path, f"{EXT} accessors that do not resolve (corrupt?): {type(e).__name__}: {e}")
     if len({len(means), len(rot), len(scales), len(alpha), len(sh_dc)}) != 1 or len(rest) not in (0, 3, 8, 15):
         reject_file(path, f"{EXT} attributes of different lengths, or {len(rest)} SH rest coefficients; expected "
                     "one row per splat and 0, 3, 8 or 15 coefficients")
     norm = np.linalg.norm(rot, axis=1, keepdims=True)
-    if not (np.isfinite(norm) & (norm > 1e-12)).all():
+    if not (np.isfinite(norm) & (norm > 1e-12)).all():   # before dividing by it
         reject_file(path, "zero or non-finite rotation quaternion")
     n = len(means)
     sh_rest = np.stack(rest, 1).astype(np.float32) if rest else np.zeros((n, 0, 3), np.float32)
-    g = Gaussians(means=means, scales=scales, rotations=rot / norm, opacities=np.log(alpha / (1 - alpha)).astype(np.float32),
-                  sh_dc=sh_dc.astype(np.float32), sh_rest=sh_rest, source=str(path), layout="glb")
-    return turned(g, Z_TO_Y.T)
+    g = Gaussians(means=means, scales=scales, rotations=rot / norm,
+                  opacities=np.log(alpha / (1 - alpha)).astype(np.float32), sh_dc=sh_dc.astype(np.float32),
+                  sh_rest=sh_rest, source=str(path), layout="glb")
+    from gasp_core.gs.formats import check_decoded   # the checks every reader that is not PLY's makes
+    return turned(check_decoded(path, g), Z_TO_Y.T)
