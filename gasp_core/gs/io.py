@@ -16,10 +16,13 @@ Layouts read by :func:`read_gaussians` (a PLY's from its header, never from the 
 ``"compressed"``
     The PlayCanvas / SuperSplat compressed PLY (element ``chunk`` + 4 packed uint32 per splat).
 ``"splatv"``
-    antimatter15's splaTV dynamic format, read by :func:`read_splatv`.
-``"spz"``, ``"sog"``, ``"splat"``, ``"ksplat"``
-    Files that are not PLY (detected from their first bytes, or the suffix where a format has no
-    signature): :mod:`gasp_core.gs.formats`.
+    antimatter15's splaTV dynamic format (:mod:`gasp_core.gs.splatv`).
+``"spz"``, ``"sog"``, ``"splat"``, ``"ksplat"``, ``"glb"``
+    Files that are not PLY: :mod:`gasp_core.gs.formats`, :mod:`gasp_core.gs.gltf`.
+
+:func:`read_gaussians` reads any of them through the format registry (:mod:`gasp_core.gs.registry`, which tells
+the format from the file's first bytes, or its suffix where the format has no signature);
+:func:`read_ply_gaussians` is the registry's PLY reader.
 
 Every reader returns a :class:`~gasp_core.gs.gaussians.Gaussians`; rotations are normalised on read
 (the stored quaternion norms are not kept, so a write-back stores unit quaternions). Opacities,
