@@ -158,24 +158,6 @@ def write_glb(path, g: Gaussians, *, overwrite: bool = False, up_axis: str = "+z
     return atomic_write(Path(path), lambda f: f.write(data), overwrite=overwrite)
 
 
-def has_splats(path) -> bool:
-    """Whether the GLB at ``path`` has a primitive with ``KHR_gaussian_splatting`` (reads only its JSON chunk)."""
-    import json
-    import struct
-    with open(path, "rb") as f:
-        head = f.read(20)
-        if len(head) < 20:
-            return False
-        length, kind = struct.unpack_from("<II", head, 12)
-        if kind != 0x4E4F534A:   # "JSON"
-            return False
-        try:
-            doc = json.loads(f.read(min(length, 1 << 26)))
-        except ValueError:
-            return False
-    return isinstance(doc, dict) and EXT in (doc.get("extensionsUsed") or [])
-
-
 def read_glb(path, fmt: str = "glb") -> Gaussians:
     """Read the first ``KHR_gaussian_splatting`` primitive of a GLB (float32 attributes, as :func:`write_glb` and
     splat-transform write them), turned back from +Y up to +Z up (module notes); the node transform is ignored.

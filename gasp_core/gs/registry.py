@@ -18,6 +18,8 @@ format that uses it. Readers are called ``reader(path, name)`` and return a
 from __future__ import annotations
 
 import importlib
+import json
+import struct
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -173,6 +175,23 @@ def _ply_kind(path: Path) -> str:
     return "compressed_ply" if b"element chunk" in header or b"property uint packed_" in header else "ply"
 
 
+def glb_has_splats(path) -> bool:
+    """Whether the GLB at ``path`` lists ``KHR_gaussian_splatting`` in ``extensionsUsed`` (reads its JSON chunk only,
+    at most 64 MiB; a glTF without it is a mesh)."""
+    with open(path, "rb") as f:
+        head = f.read(20)
+        if len(head) < 20:
+            return False
+        length, kind = struct.unpack_from("<II", head, 12)
+        if kind != 0x4E4F534A:   # "JSON"
+            return False
+        try:
+            doc = json.loads(f.read(min(length, 1 << 26)))
+        except ValueError:
+            return False
+    return isinstance(doc, dict) and "KHR_gaussian_splatting" in (doc.get("extensionsUsed") or [])
+
+
 def sniff(path) -> SplatFormat:
     """The format of a splat file, from its first bytes where the format has a signature, else its suffix.
 
@@ -197,10 +216,8 @@ def sniff(path) -> SplatFormat:
         return FORMATS["spz"]
     if head[:4] == b"PK\x03\x04" or path.name == "meta.json":
         return FORMATS["sog"]
-    if head[:4] == b"glTF":
-        from gasp_core.gs.gltf import has_splats
-        if has_splats(path):
-            return FORMATS["glb"]
+    if head[:4] == b"glTF" and glb_has_splats(path):
+        return FORMATS["glb"]
     if head == b"PXR-USDC" or head[:5] == b"#usda":
         reject_file(path, "an OpenUSD file: GASP writes USD (gasp export --format usd) but reads splats from PLY, "
                     ".spz, .sog, .splat, .ksplat, .splatv or .glb")
