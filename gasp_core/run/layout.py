@@ -134,7 +134,7 @@ class FrameWriter:
                     self.once[k]["moving_rows"] = f"{name}/moving_rows.npy"
                 g = g.subset(rows)
                 files += [self.once[k]["rest"], self.once[k]["moving_rows"]]
-            write_file(self.folder / rel, g, self.fmt, overwrite=self.overwrite, up_axis=self._up(k))
+            write_file(self.folder / rel, g, self.fmt, overwrite=self.overwrite, **self._turn(k))
             files.append(rel)
         self.finish(frame, [g.n for g in gs])   # frames 0..frame complete: what a reader of the live run sees
         return files
@@ -145,11 +145,14 @@ class FrameWriter:
             return
         rel = f"{self.names[k]}/{what}{self.suffix}"
         if not (self.folder / rel).exists():
-            write_file(self.folder / rel, g, self.fmt, up_axis=self._up(k))
+            write_file(self.folder / rel, g, self.fmt, **self._turn(k))
         self.once[k][what] = rel
 
-    def _up(self, k: int) -> str | None:
-        return None if self.up_axes is None else self.up_axes[k]
+    def _turn(self, k: int) -> dict:
+        """``{"up_axis": ...}`` of object ``k`` for a format with an up axis of its own (glTF), else ``{}``."""
+        if self.up_axes is None or "up_axis" not in registry.get(self.fmt).options:
+            return {}
+        return {"up_axis": self.up_axes[k]}
 
     def finish(self, n_frames: int, counts: list[int]) -> Path:
         """Write the manifest ``frames.json`` (frames ``0..n_frames``; ``counts``: Gaussians per object), atomically."""
@@ -157,8 +160,7 @@ class FrameWriter:
         for k, name in enumerate(self.names):
             frames = [] if "static" in self.once[k] else \
                 [f"{name}/frame_{f:04d}{self.suffix}" for f in range(n_frames + 1)]
-            turn = {"up_axis": self.up_axes[k]} if self.up_axes and "up_axis" in registry.get(self.fmt).options else {}
-            objects.append({"name": name, "n_gaussians": counts[k], **self.once[k], **turn, "frames": frames})
+            objects.append({"name": name, "n_gaussians": counts[k], **self.once[k], **self._turn(k), "frames": frames})
         return atomic_json(self.folder / MANIFEST, {"format": self.fmt, "layout": self.layout,
                                                     "n_frames": n_frames + 1, "objects": objects})
 
