@@ -44,8 +44,16 @@ window.result = null;
     scene.createDefaultCamera(true, true, true);
     scene.activeCamera.alpha = -Math.PI / 2; scene.activeCamera.beta = 1.1;
     engine.runRenderLoop(() => scene.render());
-    window.result = {classes: r.meshes.map(m => m.getClassName()),
-                     splats: splats.map(m => m.getTotalVertices()), version: BABYLON.Engine.Version};
+    const groups = r.animationGroups || [];
+    groups.forEach(g => g.pause());
+    window.seek = (fraction) => {            // an animation group at a fraction of its length: visible splat meshes
+      groups.forEach(g => g.goToFrame(g.from + fraction * (g.to - g.from)));
+      scene.render();
+      return splats.filter(m => m.isVisible && m.isEnabled()).map(m => m.name);
+    };
+    window.result = {classes: r.meshes.map(m => m.getClassName()), names: splats.map(m => m.name),
+                     splats: splats.map(m => m.getTotalVertices()), animation_groups: groups.length,
+                     version: BABYLON.Engine.Version};
   } catch (e) { window.result = {error: String(e)}; }
 })();
 </script></body></html>"""
@@ -70,11 +78,12 @@ def babylon_dir() -> Path | None:
     return None
 
 
-def open_in_babylon(glb: Path, png: Path, modules: Path, wait_s: float = 8.0) -> dict:
+def open_in_babylon(glb: Path, png: Path, modules: Path, wait_s: float = 8.0, seek: tuple[float, ...] = ()) -> dict:
     """Load ``glb`` in Babylon.js in headless Chromium, wait ``wait_s`` seconds of rendering, save ``png``.
 
-    Returns the page's report: ``classes`` (the meshes built), ``splats`` (``getTotalVertices()`` of each
-    ``GaussianSplattingMesh``), ``version``; or ``error``.
+    Returns the page's report: ``classes`` (the meshes built), ``names`` and ``splats`` (``getTotalVertices()``)
+    of each ``GaussianSplattingMesh``, ``animation_groups``, ``version``; or ``error``. With ``seek``: ``visible``,
+    per fraction of the animation, the names of the splat meshes visible there (``png`` is taken at the last).
     """
     from playwright.sync_api import sync_playwright
     with tempfile.TemporaryDirectory() as d:
@@ -96,6 +105,8 @@ def open_in_babylon(glb: Path, png: Path, modules: Path, wait_s: float = 8.0) ->
                 while result is None and time.time() - t0 < 120:
                     time.sleep(0.5)
                     result = page.evaluate("window.result")
+                if seek and result and "error" not in result:
+                    result["visible"] = [page.evaluate(f"window.seek({x})") for x in seek]
                 time.sleep(wait_s)
                 page.screenshot(path=str(png))
                 browser.close()

@@ -123,6 +123,38 @@ def test_gasp_export_usd_time_samples_every_frame(ply_run, tmp_path):
     assert main(["export", str(ply_run), "--format", "usd", "-o", str(out)]) == 2   # exists: refused
 
 
+def test_gasp_export_glb_sequence_holds_every_frame_switched_by_visibility(ply_run, tmp_path):
+    import pygltflib
+    out = tmp_path / "seq.glb"
+    assert main(["export", str(ply_run), "--format", "glb_sequence", "-o", str(out)]) == 0
+    doc = pygltflib.GLTF2().load_binary(str(out))
+    blob = doc.binary_blob()
+    assert doc.extensionsRequired == ["KHR_node_visibility"]
+    frames = open_frames(ply_run)
+    names = [n.name for n in doc.nodes]
+    moving, static = (o["name"] for o in frames.manifest["objects"])
+    assert names == [f"{moving}_frame_{f:04d}" for f in range(4)] + [f"{static}_static"]
+    assert [n.extensions["KHR_node_visibility"]["visible"] for n in doc.nodes[:4]] == [True, False, False, False]
+    (anim,) = doc.animations
+    assert len(anim.channels) == 4 and {s.interpolation for s in anim.samplers} == {"STEP"}
+
+    def column(i):
+        acc = doc.accessors[i]
+        view = doc.bufferViews[acc.bufferView]
+        n = {"SCALAR": 1, "VEC3": 3}[acc.type]
+        return np.frombuffer(blob, np.float32, acc.count * n, view.byteOffset).reshape(acc.count, n)
+
+    times = column(anim.samplers[0].input)[:, 0]
+    np.testing.assert_allclose(times, np.arange(4) * 0.0333333, rtol=1e-6)
+    for c in anim.channels:   # 1.0 at its own frame only
+        node = int(c.target.extensions["KHR_animation_pointer"]["pointer"].split("/")[2])
+        np.testing.assert_array_equal(column(anim.samplers[c.sampler].output)[:, 0], np.arange(4) == node)
+    for f in range(4):
+        g = frames.gaussians(f, 0)
+        pos = column(doc.meshes[doc.nodes[f].mesh].primitives[0].attributes.POSITION)
+        np.testing.assert_allclose(pos, g.means @ Z_TO_Y.T, atol=1e-6 * _extent(g))
+
+
 def test_simulate_format_usd_writes_one_file_beside_ply_frames(ply_run, tmp_path):
     pytest.importorskip("pxr", reason="usd-core (the export extra) is not installed")
     from pxr import Usd

@@ -233,10 +233,12 @@ def build_parser() -> argparse.ArgumentParser:
     ex = sub.add_parser("export", help="write an existing run's frames in another format (glTF, OpenUSD, ...)")
     ex.add_argument("run", type=Path, help="a run folder written by gasp simulate")
     ex.add_argument("--format", required=True, choices=output_formats(),
-                    help="glb: a folder of KHR_gaussian_splatting GLB files, one per object and frame; usd: one "
-                         ".usdc with every frame time-sampled; the others as gasp simulate --format (docs/formats.md)")
+                    help="glb: a folder of KHR_gaussian_splatting GLB files, one per object and frame; glb_sequence: "
+                         "one .glb that plays the run; usd: one .usdc with every frame time-sampled; the others as "
+                         "gasp simulate --format (docs/formats.md)")
     ex.add_argument("-o", "--output", type=Path, required=True,
-                    help="the folder (per-frame formats) or the .usdc/.usd/.usda file (usd) to write (required)")
+                    help="the folder (per-frame formats) or the one file (glb_sequence: .glb; usd: .usdc, .usd, .usda) to "
+                         "write (required)")
     ex.add_argument("--overwrite", action="store_true", help="replace an existing output (default: refuse)")
     ex.set_defaults(func=_cmd_export)
 

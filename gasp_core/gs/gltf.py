@@ -123,39 +123,72 @@ def write_glb(path, g: Gaussians, *, overwrite: bool = False, up_axis: str = "+z
     GaspError
         pygltflib not installed.
     """
-    gl = gltf_module(path)
-    t = turned(g, Z_TO_Y @ UP_TO_Z[up_axis])
-    alpha = 1.0 / (1.0 + np.exp(-t.opacities.astype(np.float64)))
-    colour = np.clip(0.5 + SH_C0 * t.sh_dc.astype(np.float64), 0.0, 1.0)
-    linear = np.where(colour <= 0.04045, colour / 12.92, ((colour + 0.055) / 1.055) ** 2.4)   # COLOR_0 is linear
-    cols = {"POSITION": t.means, f"{EXT}:ROTATION": t.rotations[:, [1, 2, 3, 0]], f"{EXT}:SCALE": t.scales,
-            f"{EXT}:OPACITY": alpha, f"{EXT}:SH_DEGREE_0_COEF_0": t.sh_dc,
-            "COLOR_0": np.concatenate([linear, alpha[:, None]], 1)}
-    for l in (1, 2, 3):
-        for n in range(2 * l + 1):
-            if l * l - 1 + n < t.sh_rest.shape[1]:
-                cols[f"{EXT}:SH_DEGREE_{l}_COEF_{n}"] = t.sh_rest[:, l * l - 1 + n]
-    blob, views, accessors, attributes = bytearray(), [], [], {}
-    for name, a in cols.items():
-        a = np.ascontiguousarray(a, np.float32)
-        views.append(gl.BufferView(buffer=0, byteOffset=len(blob), byteLength=a.nbytes, target=_ARRAY_BUFFER))
-        acc = gl.Accessor(bufferView=len(views) - 1, componentType=_FLOAT, count=g.n,
-                          type={1: "SCALAR", 3: "VEC3", 4: "VEC4"}[1 if a.ndim == 1 else a.shape[1]])
-        if name == "POSITION":
-            acc.min, acc.max = a.min(0).tolist(), a.max(0).tolist()
-        accessors.append(acc)
-        attributes[name] = len(accessors) - 1
-        blob += a.tobytes()
-    prim = gl.Primitive(attributes=gl.Attributes(**{"POSITION": 0}), mode=_POINTS,
-                        extensions={EXT: {"kernel": "ellipse", "colorSpace": "srgb_rec709_display"}})
-    prim.attributes = attributes   # the extension's semantics are not Python names: a plain dict serialises them
-    doc = gl.GLTF2(asset=gl.Asset(generator="GASP", version="2.0"), scene=0, scenes=[gl.Scene(nodes=[0])],
-                   nodes=[gl.Node(mesh=0, name=Path(g.source or "splats").stem)], meshes=[gl.Mesh(primitives=[prim])],
-                   accessors=accessors, bufferViews=views, buffers=[gl.Buffer(byteLength=len(blob))],
-                   extensionsUsed=[EXT])
-    doc.set_binary_blob(bytes(blob))
-    data = b"".join(doc.save_to_bytes())
+    b = GlbBuilder(gltf_module(path))
+    mesh = b.splat_mesh(turned(g, Z_TO_Y @ UP_TO_Z[up_axis]))
+    data = b.to_bytes(nodes=[{"mesh": mesh, "name": Path(g.source or "splats").stem}])
     return atomic_write(Path(path), lambda f: f.write(data), overwrite=overwrite)
+
+
+class GlbBuilder:
+    """Accumulates float32 accessors, splat meshes and nodes into one GLB (one buffer, the binary chunk).
+
+    Parameters
+    ----------
+    gl : module
+        pygltflib (:func:`gltf_module`).
+    """
+
+    def __init__(self, gl):
+        self.gl, self.blob, self.views, self.accessors, self.meshes = gl, bytearray(), [], [], []
+
+    def array(self, a, bounds: bool = False, vertex: bool = True) -> int:
+        """Add ``a`` (n,) or (n, k) as a float32 accessor (``bounds``: with min/max, as ``POSITION`` needs);
+        its index."""
+        gl, a = self.gl, np.ascontiguousarray(a, np.float32)
+        self.views.append(gl.BufferView(buffer=0, byteOffset=len(self.blob), byteLength=a.nbytes,
+                                        target=_ARRAY_BUFFER if vertex else None))
+        acc = gl.Accessor(bufferView=len(self.views) - 1, componentType=_FLOAT, count=len(a),
+                          type={1: "SCALAR", 3: "VEC3", 4: "VEC4"}[1 if a.ndim == 1 else a.shape[1]])
+        if bounds:
+            acc.min, acc.max = np.atleast_1d(a.min(0)).tolist(), np.atleast_1d(a.max(0)).tolist()
+        self.accessors.append(acc)
+        self.blob += a.tobytes()
+        return len(self.accessors) - 1
+
+    def splat_mesh(self, t: Gaussians) -> int:
+        """Add a mesh of one ``KHR_gaussian_splatting`` POINTS primitive holding ``t`` (already in glTF axes);
+        its index (module notes: the attributes)."""
+        alpha = 1.0 / (1.0 + np.exp(-t.opacities.astype(np.float64)))
+        colour = np.clip(0.5 + SH_C0 * t.sh_dc.astype(np.float64), 0.0, 1.0)
+        linear = np.where(colour <= 0.04045, colour / 12.92, ((colour + 0.055) / 1.055) ** 2.4)   # COLOR_0 is linear
+        cols = {"POSITION": t.means, f"{EXT}:ROTATION": t.rotations[:, [1, 2, 3, 0]], f"{EXT}:SCALE": t.scales,
+                f"{EXT}:OPACITY": alpha, f"{EXT}:SH_DEGREE_0_COEF_0": t.sh_dc,
+                "COLOR_0": np.concatenate([linear, alpha[:, None]], 1)}
+        for l in (1, 2, 3):
+            for n in range(2 * l + 1):
+                if l * l - 1 + n < t.sh_rest.shape[1]:
+                    cols[f"{EXT}:SH_DEGREE_{l}_COEF_{n}"] = t.sh_rest[:, l * l - 1 + n]
+        attributes = {name: self.array(a, bounds=name == "POSITION") for name, a in cols.items()}
+        prim = self.gl.Primitive(attributes=self.gl.Attributes(POSITION=0), mode=_POINTS,
+                                 extensions={EXT: {"kernel": "ellipse", "colorSpace": "srgb_rec709_display"}})
+        prim.attributes = attributes   # the extension's semantics are not Python names: a plain dict serialises them
+        self.meshes.append(self.gl.Mesh(primitives=[prim]))
+        return len(self.meshes) - 1
+
+    def to_bytes(self, nodes: list[dict], animations: list | None = None, used: tuple[str, ...] = (),
+                 required: tuple[str, ...] = ()) -> bytes:
+        """The GLB: ``nodes`` (dicts of glTF node properties: ``mesh``, ``name``, ``extensions``) all in the scene,
+        ``animations`` (pygltflib ``Animation``), the extensions ``used`` and ``required`` besides this one."""
+        gl = self.gl
+        doc = gl.GLTF2(asset=gl.Asset(generator="GASP", version="2.0"), scene=0,
+                       scenes=[gl.Scene(nodes=list(range(len(nodes))))], nodes=[gl.Node(**n) for n in nodes],
+                       meshes=self.meshes, accessors=self.accessors, bufferViews=self.views,
+                       buffers=[gl.Buffer(byteLength=len(self.blob))], extensionsUsed=[EXT, *used],
+                       animations=animations or [])
+        if required:
+            doc.extensionsRequired = list(required)
+        doc.set_binary_blob(bytes(self.blob))
+        return b"".join(doc.save_to_bytes())
 
 
 def read_glb(path, fmt: str = "glb") -> Gaussians:

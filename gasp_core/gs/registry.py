@@ -92,7 +92,8 @@ class SplatFormat:
         return out
 
 
-def _load(ref: str):
+def load(ref: str):
+    """The function a record names as ``"module:function"`` (imported now)."""
     module, _, name = ref.partition(":")
     return getattr(importlib.import_module(module), name)
 
@@ -134,6 +135,12 @@ FORMATS: dict[str, SplatFormat] = {f.name: f for f in (
                 "extra properties; opacity passes through a sigmoid (float32); axes turned to glTF's +Y up",
                 "one POINTS primitive per file, float32 attributes", needs=("pygltflib",), extra="export",
                 options=("up_axis",)),
+    SplatFormat("glb_sequence", "one GLB that plays the run (`KHR_node_visibility` switched per frame)", (".glb",),
+                "as `glb` (read: its first primitive)", None, None, "--", "GASP (`run/glb_sequence.py`, pygltflib)",
+                "as `glb`, one mesh per frame; static objects and unselected rows once",
+                "as `glb`; readers without `KHR_node_visibility` refuse it (required)",
+                "whole run in one file: every frame's moving rows in memory at once", needs=("pygltflib",),
+                extra="export", sequence="gasp_core.run.glb_sequence:write_glb_sequence"),
     SplatFormat("usd", "OpenUSD `ParticleField3DGaussianSplat`, one file for the run", (".usdc", ".usd"),
                 "`PXR-USDC` magic", None, None, "--", "usd-core (`run/usd_export.py`)",
                 "positions, orientations and scales time-sampled per frame; opacity, SH once per object",
@@ -253,7 +260,7 @@ def read(path):
     """
     fmt = sniff(path)
     _require(fmt, f"{path}: reading a {fmt.suffix} file")
-    return _load(fmt.reader)(Path(path), fmt.name)
+    return load(fmt.reader)(Path(path), fmt.name)
 
 
 def _require(fmt: SplatFormat, doing: str) -> None:
@@ -295,7 +302,7 @@ def write(path, g, name: str, *, overwrite: bool = False, **options) -> Path:
     if not fmt.writer:
         raise GaspError(f"--format {name} writes a whole run into one file, not one file per frame")
     kw = {k: v for k, v in options.items() if k in fmt.options and v is not None}
-    return _load(fmt.writer)(Path(path), g, overwrite=overwrite, **kw)
+    return load(fmt.writer)(Path(path), g, overwrite=overwrite, **kw)
 
 
 def _needs(f: SplatFormat) -> str:

@@ -5,8 +5,9 @@
   every frame whole (the ``frames`` layout), written into a partial folder and moved into place at the end
   (:func:`gasp_core.fsutil.output_folder`; an existing ``OUT`` is refused unless ``overwrite``, and then only
   one written by gasp is replaced);
-* a whole-run format (``usd``): ``OUT`` is one file (``.usdc``, ``.usd`` or ``.usda``), written beside itself
-  and renamed (:mod:`gasp_core.run.usd_export`).
+* a whole-run format: ``OUT`` is one file, written beside itself and renamed: ``usd`` a ``.usdc``, ``.usd`` or
+  ``.usda`` (:mod:`gasp_core.run.usd_export`), ``glb_sequence`` a ``.glb`` that plays the run
+  (:mod:`gasp_core.run.glb_sequence`).
 
 The up axis of each object's file frame comes from the run's ``run.json`` (``objects[k].up_axis``), the frame
 rate from its ``frame_dt``.
@@ -74,12 +75,13 @@ def export_run(run, fmt: str, out, *, overwrite: bool = False, into_run: bool = 
     names = [o["name"] for o in frames.manifest["objects"]]
     ups = [up.get(n, "+z") for n in names]
     if spec.sequence:
-        if out.suffix.lower() not in (".usd", ".usdc", ".usda"):
-            raise GaspError(f"-o {out}: --format {fmt} writes one file; expected a name ending in .usdc, .usd or .usda")
+        suffixes = (".usda",) + spec.suffixes if fmt == "usd" else spec.suffixes
+        if out.suffix.lower() not in suffixes:
+            raise GaspError(f"-o {out}: --format {fmt} writes one file; expected a name ending in "
+                            f"{' or '.join(suffixes)}")
         moving = [not bool(frames.manifest["objects"][k].get("static")) and n not in static
                   for k, n in enumerate(names)]
-        from gasp_core.run.usd_export import write_usd
-        write_usd(out, frames, names, ups, frame_dt, moving, overwrite=overwrite)
+        registry.load(spec.sequence)(out, frames, names, ups, frame_dt, moving, overwrite=overwrite)
         return {"format": fmt, "output": str(out), "n_frames": frames.n_frames, "objects": names, "files": 1}
     count = 0
     with output_folder(out, overwrite=overwrite, protected=[run]) as tmp:

@@ -53,8 +53,9 @@ class SimulateRequest:
                                    count=True)
     #: Frame file format, one of :data:`FORMATS`.
     fmt: str = _option("ply", ("--format",),
-                       "frame file format (default: ply; compressed_ply, spz, sog need the formats extra, glb and usd "
-                       "(one .usdc per run) the export extra; sizes and precision: docs/formats.md)", choices=FORMATS)
+                       "frame file format (default: ply; compressed_ply, spz, sog need the formats extra, glb, "
+                       "glb_sequence and usd (one file per run beside PLY frames) the export extra; sizes and precision: "
+                       "docs/formats.md)", choices=FORMATS)
     #: Output layout, one of :data:`LAYOUTS`; None: ``frames`` for ``ply``, else ``split``.
     layout: str | None = _option(None, ("--layout",),
                                  "'frames': every frame file complete; 'split': static objects and unselected rows "
