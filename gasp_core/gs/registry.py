@@ -169,6 +169,13 @@ def output_formats() -> tuple[str, ...]:
     return tuple(n for n, f in FORMATS.items() if f.writer or f.sequence)
 
 
+def is_dynamic(path) -> bool:
+    """Whether ``path`` names a dynamic model (a format with ``dynamic``, told by its suffix: a scene decides
+    ``dynamic_time`` and ``background`` before the file is read)."""
+    name = str(path).lower()
+    return any(name.endswith(sfx) for f in FORMATS.values() if f.dynamic for sfx in f.suffixes)
+
+
 def readable() -> tuple[str, ...]:
     """The names of the formats :func:`read` reads."""
     return tuple(n for n, f in FORMATS.items() if f.reader)
