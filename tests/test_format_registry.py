@@ -140,3 +140,14 @@ def test_a_damaged_glb_is_refused_in_one_line(damage, tmp_path):
         read_gaussians(tmp_path / "bad.glb")
     line = str(e.value)
     assert line.startswith(f"{tmp_path / 'bad.glb'}: ") and "\n" not in line and line.count("bad.glb") == 1, line
+
+
+def test_reading_needs_only_the_readers_libraries(monkeypatch):
+    """A compressed PLY reads without gsply (GASP decodes it), though writing one needs gsply."""
+    import builtins
+    real = builtins.__import__
+    monkeypatch.setattr(builtins, "__import__", lambda name, *a, **k: (_ for _ in ()).throw(ImportError(name))
+                        if name.split(".")[0] == "gsply" else real(name, *a, **k))
+    assert read_gaussians(DATA / "guitar.compressed.ply").n == 90854
+    with pytest.raises(GaspError, match="--format compressed_ply needs gsply"):
+        registry.check_writer("compressed_ply")

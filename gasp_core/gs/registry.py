@@ -51,7 +51,8 @@ class SplatFormat:
     keeps, loses, limits : str
         What survives a write and a read, what does not, and the format's own limits (docs).
     needs : tuple of str
-        Modules the writer (and reader) import; a missing one is named with :attr:`extra`'s install line.
+        Modules the writer imports; a missing one is named with :attr:`extra`'s install line before a run starts
+        (readers name their own: reading a compressed PLY needs none of gsply, writing one does).
     extra : str
         The pyproject extra that installs :attr:`needs`.
     dynamic : bool
@@ -266,8 +267,7 @@ def read(path):
         The reader's library is not installed (the message gives the install line).
     """
     fmt = sniff(path)
-    _require(fmt, f"{path}: reading a {fmt.suffix} file")
-    return load(fmt.reader)(Path(path), fmt.name)
+    return load(fmt.reader)(Path(path), fmt.name)   # a reader names its own missing library (one line)
 
 
 def _require(fmt: SplatFormat, doing: str) -> None:
