@@ -187,7 +187,7 @@ def _ply_kind(path: Path) -> str:
     with open(path, "rb") as f:
         head = f.read(65536)
     header = head.split(b"end_header", 1)[0]
-    return "compressed_ply" if b"element chunk" in header or b"property uint packed_" in header else "ply"
+    return "compressed_ply" if b"element chunk" in header or b" packed_" in header else "ply"
 
 
 def glb_has_splats(path) -> bool:
