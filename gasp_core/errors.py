@@ -84,9 +84,9 @@ EXTRA_OF = {"imageio": "render", "imageio_ffmpeg": "render", "numba": "render", 
             "viser": "view", "gsply": "formats", "imagecodecs": "formats", "zstandard": "formats",
             "skimage": "studies", "matplotlib": "studies", "dask": "studies", "distributed": "studies",
             "tomli_w": "studies", "gasp_studies": "studies", "trimesh": "mesh", "rtree": "mesh",
-            "pytest": "test", "hypothesis": "test"}
+            "pytest": "test", "hypothesis": "test", "pygltflib": "export", "pxr": "export"}
 #: The distribution's name where it differs from the module's.
-DISTRIBUTION = {"PIL": "Pillow", "skimage": "scikit-image", "imageio_ffmpeg": "imageio-ffmpeg", "tomli_w": "tomli-w"}
+DISTRIBUTION = {"PIL": "Pillow", "skimage": "scikit-image", "imageio_ffmpeg": "imageio-ffmpeg", "tomli_w": "tomli-w", "pxr": "usd-core"}
 
 
 def shown_path(folder: Path) -> str:

@@ -9,6 +9,8 @@ from scipy.special import expit
 
 from gasp_core.errors import SceneError
 from gasp_core.gs.describe import describe
+from gasp_core.gs.registry import is_dynamic
+from gasp_core.gs.splatv import MIDDLE_TIME
 from gasp_core.maps.fill import fill_interior, fill_spacing
 from gasp_core.prepare.placement import UP_ROTATIONS, prepare_object
 from gasp_core.prepare.stand import stand_estimate
@@ -57,7 +59,7 @@ def info(path: Path, size: float | None = None, rho: float | None = None, n_grid
                  up_axis_note="stated: the figures below are along it")
     up, scale, known = _height_and_scale(d, size)
     spec = ObjectSpec(file=Path(path), up_axis=up, scale=scale,
-                      dynamic_time=0.5 if Path(path).suffix.lower() == ".splatv" else None)
+                      dynamic_time=MIDDLE_TIME if is_dynamic(path) else None)
     o = prepare_object(spec)
     opaque = expit(o.simulated_rows(o.gaussians.opacities).astype(np.float64)) >= spec.min_opacity
     ext = float(np.ptp(o.tri_rest.reshape(-1, 3), axis=0).max())

@@ -171,6 +171,14 @@ def _cmd_export_soup(args) -> int:
     return 0
 
 
+def _cmd_export(args) -> int:
+    from gasp_core.run.export import export_run
+    r = export_run(args.run, args.format, args.output, overwrite=args.overwrite)
+    print(f"wrote {r['n_frames']} frames x {len(r['objects'])} object(s) of {args.run} as {r['format']} to "
+          f"{r['output']} ({r['files']} file(s))")
+    return 0
+
+
 def _cmd_import_motion(args) -> int:
     from gasp_core.scene.spec import load_scene
     from gasp_core.run.soup import import_motion
@@ -194,7 +202,9 @@ def build_parser() -> argparse.ArgumentParser:
     pl.set_defaults(func=_cmd_plugins)
 
     i = sub.add_parser("info", help="describe a Gaussian Splatting file")
-    i.add_argument("file", type=Path, help="a Gaussian Splatting file (graphdeco PLY, compressed PLY, .splatv, .spz, .sog, .splat, .ksplat)")
+    from gasp_core.gs.registry import FORMATS, output_formats, readable
+    i.add_argument("file", type=Path, help="a Gaussian Splatting file (" + ", ".join(
+        f"{FORMATS[n].title.split(':')[0]}" for n in readable()) + "; docs/formats.md)")
     i.add_argument("--json", action="store_true", help="print JSON instead of text")
     i.add_argument("--size", type=length, help="the object's real height along its up axis (1.7m, 170cm): "
                                                "prints the scale that gives it (default: none)")
@@ -219,6 +229,18 @@ def build_parser() -> argparse.ArgumentParser:
     x.add_argument("-o", "--output", type=Path, required=True, help="folder for the soup files (required)")
     x.add_argument("--overwrite", action="store_true", help="replace an existing folder (default: refuse)")
     x.set_defaults(func=_cmd_export_soup)
+
+    ex = sub.add_parser("export", help="write an existing run's frames in another format (glTF, OpenUSD, ...)")
+    ex.add_argument("run", type=Path, help="a run folder written by gasp simulate")
+    ex.add_argument("--format", required=True, choices=output_formats(),
+                    help="glb: a folder of KHR_gaussian_splatting GLB files, one per object and frame; glb_sequence: "
+                         "one .glb that plays the run; usd: one .usdc with every frame time-sampled; the others as "
+                         "gasp simulate --format (docs/formats.md)")
+    ex.add_argument("-o", "--output", type=Path, required=True,
+                    help="the folder (per-frame formats) or the one file (glb_sequence: .glb; usd: .usdc, .usd, .usda) to "
+                         "write (required)")
+    ex.add_argument("--overwrite", action="store_true", help="replace an existing output (default: refuse)")
+    ex.set_defaults(func=_cmd_export)
 
     m = sub.add_parser("import-motion", help="rebuild Gaussian frames from an animated triangle soup")
     m.add_argument("scene", type=Path, help="the scene file the soup was exported from (.toml)")

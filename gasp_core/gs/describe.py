@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from gasp_core.gs.io import read_gaussians, refuse_one_point
-from gasp_core.gs.splatv import read_splatv, splatv_at
+from gasp_core.gs.registry import sniff
 from gasp_core.gs.up_axis import guess_up
 
 
@@ -19,7 +19,7 @@ def describe(path) -> dict[str, Any]:
     Parameters
     ----------
     path : str or os.PathLike
-        Anything :func:`read_gaussians` reads, or a ``.splatv`` file (described at t = 0.5).
+        Anything :func:`read_gaussians` reads (:mod:`gasp_core.gs.registry`; a ``.splatv`` at t = 0.5).
 
     Returns
     -------
@@ -48,11 +48,7 @@ def describe(path) -> dict[str, Any]:
     own ``up_axis``.
     """
     path = Path(path)
-    if path.suffix.lower() == ".splatv":
-        base, mot = read_splatv(path)
-        g = splatv_at(base, mot, 0.5)
-    else:
-        g = read_gaussians(path)
+    g = read_gaussians(path)         # any format of the registry; a .splatv at model time 0.5
     refuse_one_point(path, g)        # before the up-axis guess and the floater search
     x = g.means
     if g.n == 0:
@@ -62,6 +58,7 @@ def describe(path) -> dict[str, Any]:
     ratio = g.scales.min(axis=1) / np.maximum(g.scales.max(axis=1), 1e-300)
     return {
         "count": g.n,
+        "format": sniff(path).name,
         "sh_degree": g.sh_degree,
         "layout": g.layout,
         "bbox_min": lo.tolist(),

@@ -2,9 +2,8 @@
 mkkellogg ``.ksplat`` in; ``.spz``, compressed PLY and ``.sog`` out.
 
 :func:`read_splat_file` reads any of them (:func:`gasp_core.gs.io.read_gaussians` hands it every
-file that is not a PLY). The format comes from the file's first bytes where it has a signature
-(gzip or ``NGSP`` = SPZ, ``PK`` zip = SOG bundle, a ``meta.json`` = SOG folder); ``.splat`` and
-``.ksplat`` have none, so their suffix decides.
+file that is not a PLY, through :mod:`gasp_core.gs.registry`, which tells the format from the file's first
+bytes where it has a signature, else its suffix).
 
 Which code reads what:
 
@@ -30,12 +29,9 @@ import numpy as np
 from gasp_core.errors import GaspError, extra_hint
 from gasp_core.fsutil import atomic_path, atomic_write
 from gasp_core.gs.gaussians import MAX_MAGNITUDE, Gaussians
-from gasp_core.gs.ply import check_is_file, reject_file
+from gasp_core.gs.ply import reject_file
 from gasp_core.gs.sog_check import sog_bytes
 from gasp_core.gs.spz_check import check_spz
-
-#: Output formats of ``gasp simulate --format`` and the file suffix of each.
-SUFFIXES = {"ply": ".ply", "compressed_ply": ".compressed.ply", "spz": ".spz", "sog": ".sog"}
 
 def install_line() -> str:
     """The formats extra's ``pip install`` line (:func:`gasp_core.errors.extra_hint`)."""
@@ -51,49 +47,15 @@ def gsply_module(path, doing: str):
     return gsply
 
 
-#: Triangle-mesh suffixes: a mesh given where a splat file is expected is pointed to mesh mode.
-MESH_SUFFIXES = (".obj", ".stl", ".off", ".glb", ".gltf", ".dae", ".3mf")
-
-
-def sniff(path: Path) -> str:
-    """The format of a splat file: ``"ply"``, ``"spz"``, ``"sog"``, ``"splat"`` or ``"ksplat"``.
-
-    Raises
-    ------
-    FileNotFoundError
-        ``path`` does not exist.
-    SceneError
-        No known signature and no ``.splat`` / ``.ksplat`` suffix (a mesh's suffix: the line points to mesh mode).
-    """
-    if path.is_dir() and (path / "meta.json").is_file():
-        return "sog"
-    check_is_file(path, "Gaussian Splatting file")
-    with open(path, "rb") as f:
-        head = f.read(4)
-    if head[:3] == b"ply":
-        return "ply"
-    if head[:2] == b"\x1f\x8b" or head == b"NGSP":
-        return "spz"
-    if head == b"PK\x03\x04" or path.name == "meta.json":
-        return "sog"
-    suffix = path.suffix.lower()
-    if suffix in (".splat", ".ksplat"):
-        return suffix[1:]
-    if suffix in MESH_SUFFIXES:
-        reject_file(path, f"a triangle mesh ({suffix}), not a Gaussian Splatting file: simulate it in mesh mode, "
-                    f"mesh = \"{path.name}\" in an [[object]] (docs/mesh_mode.md)")
-    reject_file(path, f"unknown file format (first bytes {head!r}); expected a PLY, .spz, .sog, .splat, .ksplat "
-                "or .splatv file")
-
-
 def read_splat_file(path, fmt: str | None = None) -> Gaussians:
-    """Read a ``.spz``, ``.sog`` (bundle, folder or ``meta.json``), ``.splat`` or ``.ksplat`` file.
+    """Read a ``.spz``, ``.sog`` (bundle, folder or ``meta.json``), ``.splat`` or ``.ksplat`` file
+    (the readers of those records of :mod:`gasp_core.gs.registry`).
 
     Parameters
     ----------
     path : str or os.PathLike
     fmt : str, optional
-        The format, if already known (:func:`sniff`).
+        The format's name, if already known (:func:`gasp_core.gs.registry.sniff`).
 
     Returns
     -------
@@ -111,7 +73,9 @@ def read_splat_file(path, fmt: str | None = None) -> Gaussians:
         ``.spz`` / ``.sog`` without gsply (the message gives the install command).
     """
     path = Path(path)
-    fmt = fmt or sniff(path)
+    if fmt is None:
+        from gasp_core.gs.registry import sniff
+        fmt = sniff(path).name
     if fmt in ("splat", "ksplat"):
         from gasp_core.gs.splat import read_ksplat, read_splat
         return check_decoded(path, read_splat(path) if fmt == "splat" else read_ksplat(path))
@@ -209,8 +173,18 @@ def gsply_arrays(g: Gaussians) -> tuple[np.ndarray, ...]:
             g.opacities.astype(np.float32), g.sh_dc.astype(np.float32), g.sh_rest.astype(np.float32))
 
 
+def write_compressed_ply(path, g: Gaussians, *, overwrite: bool = False) -> Path:
+    """:func:`write_splat_file` with ``fmt = "compressed_ply"`` (the registry's writer)."""
+    return write_splat_file(path, g, "compressed_ply", overwrite=overwrite)
+
+
+def write_spz(path, g: Gaussians, *, overwrite: bool = False) -> Path:
+    """:func:`write_splat_file` with ``fmt = "spz"`` (the registry's writer)."""
+    return write_splat_file(path, g, "spz", overwrite=overwrite)
+
+
 def write_splat_file(path, g: Gaussians, fmt: str, *, overwrite: bool = False) -> Path:
-    """Write ``g`` as one file of format ``fmt`` (a key of :data:`SUFFIXES`), atomically.
+    """Write ``g`` as one file of format ``fmt`` (``compressed_ply``, ``spz`` or ``sog``), atomically.
 
     Parameters
     ----------

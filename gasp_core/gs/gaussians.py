@@ -30,7 +30,7 @@ from gasp_core.errors import SceneError
 SH_REST_COUNT = {0: 0, 1: 3, 2: 8, 3: 15}
 
 #: Layout names a :class:`Gaussians` may carry (the file layout it was read from).
-LAYOUTS = frozenset({"3dgs", "games", "2dgs", "compressed", "splatv", "spz", "sog", "splat", "ksplat"})
+LAYOUTS = frozenset({"3dgs", "games", "2dgs", "compressed", "splatv", "spz", "glb", "sog", "splat", "ksplat"})
 
 #: Largest ``|mean|`` component and largest scale accepted, file units: their squares (distances,
 #: covariances) stay finite in float32 (largest 3.4e38) with a factor 300 to spare.

@@ -16,10 +16,13 @@ Layouts read by :func:`read_gaussians` (a PLY's from its header, never from the 
 ``"compressed"``
     The PlayCanvas / SuperSplat compressed PLY (element ``chunk`` + 4 packed uint32 per splat).
 ``"splatv"``
-    antimatter15's splaTV dynamic format, read by :func:`read_splatv`.
-``"spz"``, ``"sog"``, ``"splat"``, ``"ksplat"``
-    Files that are not PLY (detected from their first bytes, or the suffix where a format has no
-    signature): :mod:`gasp_core.gs.formats`.
+    antimatter15's splaTV dynamic format (:mod:`gasp_core.gs.splatv`).
+``"spz"``, ``"sog"``, ``"splat"``, ``"ksplat"``, ``"glb"``
+    Files that are not PLY: :mod:`gasp_core.gs.formats`, :mod:`gasp_core.gs.gltf`.
+
+:func:`read_gaussians` reads any of them through the format registry (:mod:`gasp_core.gs.registry`, which tells
+the format from the file's first bytes, or its suffix where the format has no signature);
+:func:`read_ply_gaussians` is the registry's PLY reader.
 
 Every reader returns a :class:`~gasp_core.gs.gaussians.Gaussians`; rotations are normalised on read
 (the stored quaternion norms are not kept, so a write-back stores unit quaternions). Opacities,
@@ -40,7 +43,6 @@ from gasp_core.gs.gaussians import Gaussians, MAX_MAGNITUDE, quat_to_rotmat, rot
 from gasp_core.maps.games import EPS as FLAT_EPS
 
 from gasp_core.gs.compressed import decode_compressed
-from gasp_core.gs.formats import read_splat_file, sniff
 from gasp_core.gs.ply import (check_columns, column, numbered_names, read_ply, reject_file, require_columns,
                               stack_columns)
 
@@ -49,7 +51,7 @@ from gasp_core.gs.ply import (check_columns, column, numbered_names, read_ply, r
 #: cyclic permutation, so ``det`` stays +1.
 _2DGS_PERM = (2, 0, 1)
 
-__all__ = ["read_gaussians", "write_gaussians"]
+__all__ = ["read_gaussians", "read_ply_gaussians", "write_gaussians"]
 
 
 #: More Gaussians than this all at one point (equal centres) are a degenerate file, refused by
@@ -74,8 +76,21 @@ def refuse_one_point(path, g: Gaussians) -> None:
 
 
 def read_gaussians(path) -> Gaussians:
-    """Read a Gaussian Splatting PLY (graphdeco 3DGS, GaMeS, 2DGS or PlayCanvas compressed), or a ``.spz``,
-    ``.sog``, ``.splat`` or ``.ksplat`` file (:func:`gasp_core.gs.formats.read_splat_file`).
+    """Read any splat file the format registry reads (:func:`gasp_core.gs.registry.read`): a PLY (below), ``.spz``,
+    ``.sog``, ``.splat``, ``.ksplat``, ``.glb`` (``KHR_gaussian_splatting``) or ``.splatv`` (at model time 0.5).
+
+    Raises
+    ------
+    FileNotFoundError, SceneError, GaspError
+        As :func:`gasp_core.gs.registry.read`.
+    """
+    from gasp_core.gs.registry import read
+    return read(path)
+
+
+def read_ply_gaussians(path, fmt: str | None = None) -> Gaussians:
+    """Read a Gaussian Splatting PLY (graphdeco 3DGS, GaMeS, 2DGS or PlayCanvas compressed); the registry's reader
+    of ``ply`` and ``compressed_ply`` (``fmt`` is not used: the header decides).
 
     Parameters
     ----------
@@ -114,9 +129,6 @@ def read_gaussians(path) -> Gaussians:
     * Compressed PLY: see :func:`gasp_core.gs.compressed.decode_compressed`.
     """
     path = Path(path)
-    fmt = sniff(path)
-    if fmt != "ply":
-        return read_splat_file(path, fmt)
     ply = read_ply(path)
     names_el = [e.name for e in ply.elements]
     if "vertex" not in names_el:

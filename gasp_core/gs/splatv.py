@@ -168,3 +168,20 @@ def splatv_at(base: Gaussians, motion: dict[str, np.ndarray], t: float) -> Gauss
                      layout="splatv", meta=g.meta)
 
 
+
+
+#: Model time at which a dynamic model is read as one frame (``gasp info``, :func:`read_splatv_middle`).
+MIDDLE_TIME = 0.5
+
+
+def read_splatv_middle(path, fmt: str = "splatv") -> Gaussians:
+    """A splaTV file as one frame: :func:`splatv_at` at model time :data:`MIDDLE_TIME` (the registry's reader;
+    ``gasp info`` describes it so). A scene simulates the model from its ``dynamic_time`` instead.
+
+    Raises
+    ------
+    FileNotFoundError, SceneError
+        As :func:`read_splatv`.
+    """
+    base, motion = read_splatv(path)
+    return splatv_at(base, motion, MIDDLE_TIME)

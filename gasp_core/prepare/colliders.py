@@ -10,13 +10,13 @@ from gasp_core.colliders.sdf import collider_from_splats, collider_from_triangle
 # --------------------------------------------------------------------------- from a scene
 def _euler_deg(r) -> np.ndarray:
     """Rotation about x, then y, then z (degrees), as a matrix (the objects' own rule)."""
-    from gasp_core.prepare.placement import euler_matrix
+    from gasp_core.prepare.placed import euler_matrix
     return euler_matrix(r)
 
 
 def _placed_frame(points: np.ndarray, spec) -> np.ndarray:
     """File points -> collider frame: up axis to +z, scaled, bottom centre at the origin (``recentre``)."""
-    from gasp_core.prepare.placement import UP_ROTATIONS
+    from gasp_core.prepare.placed import UP_ROTATIONS
     p = float(spec.scale) * np.asarray(points, float) @ UP_ROTATIONS[spec.up_axis].T
     if spec.recentre:
         lo, hi = p.min(axis=0), p.max(axis=0)

@@ -15,17 +15,15 @@ from __future__ import annotations
 import dataclasses
 import functools
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.spatial import cKDTree
 
 from gasp_core.gs.gaussians import Gaussians
 from gasp_core.gs.splatv import read_splatv, splatv_at
+from gasp_core.prepare.placed import PreparedObject
 from gasp_core.prepare.selection import flat_world
 
-if TYPE_CHECKING:
-    from gasp_core.prepare.placement import PreparedObject
 
 
 def vertex_velocities(o: PreparedObject, frame_dt: float) -> np.ndarray:

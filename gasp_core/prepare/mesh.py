@@ -19,9 +19,9 @@ from gasp_core.gs.gaussians import Gaussians, rotmat_to_quat
 from gasp_core.maps.games import EPS
 from gasp_core.maps.mesh_bind import MeshBinding, bind, binding_report, degenerate_faces, lay_on_faces, project_to_mesh
 from gasp_core.maps.occupancy import SPLAT_SIGMA
+from gasp_core.prepare.placed import Placement
 
 if TYPE_CHECKING:
-    from gasp_core.prepare.placement import Placement
     from gasp_core.scene.spec import ObjectSpec
 
 #: Over this share of far Gaussians the mesh is refused as not the object's (whatever ``mesh_far`` says).

@@ -30,9 +30,9 @@ from gasp_core.errors import SceneError
 from gasp_core.maps.games import flatten, gaussians_to_triangles
 from gasp_core.gs.gaussians import Gaussians
 from gasp_core.prepare.editor_cut import cut_rows
+from gasp_core.prepare.placed import Placement, PreparedObject
 
 if TYPE_CHECKING:
-    from gasp_core.prepare.placement import Placement, PreparedObject
     from gasp_core.scene.spec import ObjectSpec
 
 __all__ = ["GROW_SIGMAS", "component_labels", "grow_selection", "moving_rows", "region_rows", "scatter", "selection_record",

@@ -1,6 +1,7 @@
 """The frames of a run on disk: how ``gasp simulate`` writes them and the one reader of every layout.
 
-Two layouts, in any output format (``--format ply|compressed_ply|spz|sog``):
+Two layouts, in any per-frame output format of :mod:`gasp_core.gs.registry` (``--format ply|compressed_ply|spz|sog|glb``;
+``usd`` writes its frames as ``ply`` and one ``.usdc`` at the end):
 
 ``frames``
     ``<object>/frame_0000<suffix> ...``: every frame of every object complete, as frame-sequence
@@ -19,50 +20,50 @@ layout, and a folder of an older run without a manifest (``<object>/frame_*.ply`
 """
 from __future__ import annotations
 
-import importlib
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from gasp_core.errors import GaspError, SceneError
+from gasp_core.errors import SceneError
 from gasp_core.fsutil import atomic_json, atomic_write
-from gasp_core.gs.formats import SUFFIXES, install_line, gsply_module, write_splat_file
+from gasp_core.gs import registry
 from gasp_core.gs.gaussians import Gaussians
-from gasp_core.gs.io import read_gaussians, write_gaussians
+from gasp_core.gs.io import read_gaussians
 
 MANIFEST = "frames.json"
 LAYOUTS = ("frames", "split")
 
 
 def default_layout(fmt: str) -> str:
-    """``frames`` for ``ply`` (unchanged runs), ``split`` for the compressed formats."""
-    return "frames" if fmt == "ply" else "split"
+    """``frames`` for ``ply`` (unchanged runs) and ``glb`` (players load whole files), ``split`` for the others."""
+    return "frames" if fmt in ("ply", "glb") else "split"
 
 
-def write_file(path: Path, g: Gaussians, fmt: str, overwrite: bool = False) -> Path:
-    """One splat file of format ``fmt`` (:data:`gasp_core.gs.formats.SUFFIXES`), atomically."""
-    if fmt == "ply":
-        return write_gaussians(path, g, overwrite=overwrite)
-    return write_splat_file(path, g, fmt, overwrite=overwrite)
+def frame_format(fmt: str) -> str:
+    """The format of the frame files of a run asked for ``fmt``: ``fmt`` itself, or ``ply`` for a format written
+    once per run (``usd``: :mod:`gasp_core.run.usd_export` reads the PLY frames at the end)."""
+    return "ply" if registry.get(fmt).sequence else fmt
+
+
+def write_file(path: Path, g: Gaussians, fmt: str, overwrite: bool = False, up_axis: str | None = None) -> Path:
+    """One splat file of the per-frame format ``fmt`` (:func:`gasp_core.gs.registry.write`), atomically;
+    ``up_axis``: the file frame's up axis, for a format with its own (glTF: +Y)."""
+    return registry.write(path, g, fmt, overwrite=overwrite, up_axis=up_axis)
 
 
 def check_format(fmt: str) -> None:
-    """Refuse an output format whose writer is not installed, naming the option and the install line.
+    """Refuse an output format whose writer is not installed, naming the option and the install line
+    (:func:`gasp_core.gs.registry.check_writer`).
 
     Raises
     ------
     GaspError
-        ``--format compressed_ply`` / ``spz`` without gsply, ``--format sog`` without Pillow's WebP.
+        e.g. ``--format spz`` without gsply, ``--format sog`` without Pillow's WebP, ``--format glb`` without
+        pygltflib.
     """
-    if fmt in ("compressed_ply", "spz"):
-        gsply_module(f"--format {fmt}", "writing its frames")
-    if fmt == "sog":
-        try:
-            importlib.import_module("PIL.WebPImagePlugin")
-        except ImportError:
-            raise GaspError(f"--format sog needs Pillow with WebP, which is not installed ({install_line()})") from None
+    registry.check_writer(fmt)
 
 
 @dataclass
@@ -80,10 +81,12 @@ class FrameWriter:
     moving : list of (ndarray or None)
         Per object: the rows that move (``PreparedObject.moving``; None = all).
     fmt : str
-        A key of :data:`gasp_core.gs.formats.SUFFIXES`.
+        An output format of :mod:`gasp_core.gs.registry` (a whole-run one writes its frames as ``ply``).
     layout : {"frames", "split"}
     overwrite : bool
         Replace files already there (a resumed run rewrites the frame it was killed in).
+    up_axes : list of str, optional
+        Per object, the file frame's up axis (its ``up_axis``), for a format with an up axis of its own (``glb``).
     """
 
     folder: Path
@@ -93,16 +96,18 @@ class FrameWriter:
     fmt: str = "ply"
     layout: str = "frames"
     overwrite: bool = False
+    up_axes: list[str] | None = None
     #: Per object, the files written once (``static``, ``rest``, ``moving_rows``), relative to ``folder``.
     once: list[dict] = field(default_factory=list)
 
     def __post_init__(self):
-        if self.fmt not in SUFFIXES:
-            raise ValueError(f"unknown format {self.fmt!r}; expected one of {', '.join(SUFFIXES)}")
+        if self.fmt not in registry.output_formats():
+            raise ValueError(f"unknown format {self.fmt!r}; expected one of {', '.join(registry.output_formats())}")
         if self.layout not in LAYOUTS:
             raise ValueError(f"unknown layout {self.layout!r}; expected one of {', '.join(LAYOUTS)}")
         check_format(self.fmt)   # refuse before the first frame
-        self.suffix = SUFFIXES[self.fmt]
+        self.fmt = frame_format(self.fmt)
+        self.suffix = registry.get(self.fmt).suffix
         self.once = [{} for _ in self.names]
 
     def write(self, frame: int, gs: list[Gaussians]) -> list[str]:
@@ -129,7 +134,7 @@ class FrameWriter:
                     self.once[k]["moving_rows"] = f"{name}/moving_rows.npy"
                 g = g.subset(rows)
                 files += [self.once[k]["rest"], self.once[k]["moving_rows"]]
-            write_file(self.folder / rel, g, self.fmt, overwrite=self.overwrite)
+            write_file(self.folder / rel, g, self.fmt, overwrite=self.overwrite, **self._turn(k))
             files.append(rel)
         self.finish(frame, [g.n for g in gs])   # frames 0..frame complete: what a reader of the live run sees
         return files
@@ -140,8 +145,14 @@ class FrameWriter:
             return
         rel = f"{self.names[k]}/{what}{self.suffix}"
         if not (self.folder / rel).exists():
-            write_file(self.folder / rel, g, self.fmt)
+            write_file(self.folder / rel, g, self.fmt, **self._turn(k))
         self.once[k][what] = rel
+
+    def _turn(self, k: int) -> dict:
+        """``{"up_axis": ...}`` of object ``k`` for a format with an up axis of its own (glTF), else ``{}``."""
+        if self.up_axes is None or "up_axis" not in registry.get(self.fmt).options:
+            return {}
+        return {"up_axis": self.up_axes[k]}
 
     def finish(self, n_frames: int, counts: list[int]) -> Path:
         """Write the manifest ``frames.json`` (frames ``0..n_frames``; ``counts``: Gaussians per object), atomically."""
@@ -149,7 +160,7 @@ class FrameWriter:
         for k, name in enumerate(self.names):
             frames = [] if "static" in self.once[k] else \
                 [f"{name}/frame_{f:04d}{self.suffix}" for f in range(n_frames + 1)]
-            objects.append({"name": name, "n_gaussians": counts[k], **self.once[k], "frames": frames})
+            objects.append({"name": name, "n_gaussians": counts[k], **self.once[k], **self._turn(k), "frames": frames})
         return atomic_json(self.folder / MANIFEST, {"format": self.fmt, "layout": self.layout,
                                                     "n_frames": n_frames + 1, "objects": objects})
 
@@ -176,23 +187,33 @@ class RunFrames:
         """Object ``k`` (manifest order) at ``frame``, whole, input row order, file frame."""
         o = self.manifest["objects"][k]
         if o.get("static"):
-            return self._once(o["static"])
-        g = read_gaussians(self.folder / o["frames"][frame])
+            return self._once(o["static"], k)
+        g = self._read(self.folder / o["frames"][frame], k)
         if not o.get("rest"):
             return g
-        rows = self._once(o["moving_rows"])
-        rest = self._once(o["rest"])
+        rows = self._once(o["moving_rows"], k)
+        rest = self._once(o["rest"], k)
         if len(rows) != g.n or len(rows) + rest.n != o["n_gaussians"]:
             raise SceneError(f"{self.folder / o['frames'][frame]}: {g.n} moving rows + {rest.n} rest rows; "
                              f"expected {len(rows)} + {o['n_gaussians'] - len(rows)} "
                              f"({o['moving_rows']}, {MANIFEST})")
         return _merge(rest, rows, g, o["n_gaussians"])
 
-    def _once(self, rel: str):
+    def _once(self, rel: str, k: int):
         if rel not in self._cache:
             p = self.folder / rel
-            self._cache[rel] = np.load(p) if p.suffix == ".npy" else read_gaussians(p)
+            self._cache[rel] = np.load(p) if p.suffix == ".npy" else self._read(p, k)
         return self._cache[rel]
+
+    def _read(self, path: Path, k: int) -> Gaussians:
+        """A frame file of object ``k`` in its file frame: a format with an up axis of its own (glTF's +Y, read back
+        +Z up) is turned back from the object's ``up_axis`` (the manifest's, written by :class:`FrameWriter`)."""
+        g = read_gaussians(path)
+        up = self.manifest["objects"][k].get("up_axis", "+z")
+        if up == "+z":
+            return g
+        from gasp_core.gs.gltf import UP_TO_Z, turned
+        return turned(g, UP_TO_Z[up].T)
 
 
 def _merge(rest: Gaussians, rows: np.ndarray, moving: Gaussians, n: int) -> Gaussians:
@@ -265,6 +286,8 @@ def _check_manifest(path: Path, manifest) -> None:
         for f in files:
             if not isinstance(f, str) or Path(f).is_absolute() or ".." in Path(f).parts:
                 bad(f"objects[{k}]", f"expected file names inside the run folder, got {f!r}")
+        if o.get("up_axis", "+z") not in ("+x", "-x", "+y", "-y", "+z", "-z"):
+            bad(f"objects[{k}].up_axis", f"expected one of +x -x +y -y +z -z, got {o.get('up_axis')!r}")
         n = o.get("n_gaussians", 0)
         if not isinstance(n, int) or isinstance(n, bool) or n < 0:
             bad(f"objects[{k}].n_gaussians", f"expected a count, got {n!r}")

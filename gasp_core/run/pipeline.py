@@ -23,6 +23,7 @@ from gasp_core.errors import EngineDivergence, GaspError
 from gasp_core.run.frames import FrameState, iter_frames
 from gasp_core.fsutil import OutputClaim, OutputConflict, atomic_json, leftover_partials
 from gasp_core.gs.gaussians import Gaussians
+from gasp_core.gs import registry
 from gasp_core.run.layout import FrameWriter, check_format, default_layout
 from gasp_core.prepare.dynamic import follows_model
 from gasp_core.prepare.scene import PreparedScene, input_files, prepare_scene
@@ -117,7 +118,7 @@ def simulate_scene(scene: Scene, outdir: str | Path, request: SimulateRequest | 
         summary = run_summary(run.prep, run.stats, n_frames, run.per_frame, run_s)
         if run.checkpoint is not None:
             summary["resumed_after_frame"] = run.checkpoint.frame
-        atomic_json(run.tmp / "run.json", summary)
+        _write_record(run, scene, summary)
         claim.commit(run.tmp)
         _warn_stranded(run)
     except KeyboardInterrupt as e:
@@ -128,6 +129,16 @@ def simulate_scene(scene: Scene, outdir: str | Path, request: SimulateRequest | 
         _give_up(run, claim, n_frames, e)
         raise
     return RunResult(outdir=outdir, n_frames=n_frames, stats=run.stats, summary=summary)
+
+
+def _write_record(run: "_Run", scene, summary: dict) -> None:
+    """``run.json``, then for a whole-run format (``--format usd``) its one file, ``<scene name>.usdc``, from the
+    frames just written (:mod:`gasp_core.run.export`)."""
+    atomic_json(run.tmp / "run.json", summary)
+    if registry.get(run.fmt).sequence:
+        from gasp_core.run.export import export_run
+        name = getattr(scene, "name", None) or "run"
+        export_run(run.tmp, run.fmt, run.tmp / f"{name}{registry.get(run.fmt).suffix}", into_run=True)
 
 
 @dataclass
@@ -205,7 +216,7 @@ def _write_frames(run: _Run, n_frames: int, on_frame: Callable[[int, list[Gaussi
     moves = [follows_model(o) for o in prep.objects]   # a dynamic model's background moves: every row, every frame
     writer = FrameWriter(tmp, list(prep.names), [o.spec.static and not m for o, m in zip(prep.objects, moves)],
                          [None if m else o.moving for o, m in zip(prep.objects, moves)], run.fmt, run.layout,
-                         overwrite=checkpoint is not None)
+                         overwrite=checkpoint is not None, up_axes=[o.spec.up_axis for o in prep.objects])
     stop.frame_started(None)
     t_frame = time.perf_counter()
     with Background() as writes:   # a frame's files are written while the engine runs the next one

@@ -9,9 +9,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field, fields
 
 from gasp_core.errors import GaspError
+from gasp_core.gs.registry import output_formats
 
-#: Frame file formats (:mod:`gasp_core.run.layout`).
-FORMATS = ("ply", "compressed_ply", "spz", "sog")
+#: Output formats (:mod:`gasp_core.gs.registry`, written by :mod:`gasp_core.run.layout`).
+FORMATS = output_formats()
 #: Output layouts (:mod:`gasp_core.run.layout`).
 LAYOUTS = ("frames", "split")
 
@@ -52,8 +53,9 @@ class SimulateRequest:
                                    count=True)
     #: Frame file format, one of :data:`FORMATS`.
     fmt: str = _option("ply", ("--format",),
-                       "frame file format (default: ply; the others need the formats extra, pip install -e '.[formats]'; "
-                       "sizes and precision: docs/formats.md)", choices=FORMATS)
+                       "frame file format (default: ply; compressed_ply, spz, sog need the formats extra, glb, "
+                       "glb_sequence and usd (one file per run beside PLY frames) the export extra; sizes and precision: "
+                       "docs/formats.md)", choices=FORMATS)
     #: Output layout, one of :data:`LAYOUTS`; None: ``frames`` for ``ply``, else ``split``.
     layout: str | None = _option(None, ("--layout",),
                                  "'frames': every frame file complete; 'split': static objects and unselected rows "

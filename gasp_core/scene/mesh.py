@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from gasp_core.errors import SceneError
+from gasp_core.gs.registry import is_dynamic
 from gasp_core.scene.values import as_number, as_string, resolve_path
 
 #: What a Gaussian farther than the limit from every face does.
@@ -80,7 +81,7 @@ def read_mesh(o: dict, where: str, src: Path) -> MeshSpec | None:
     if not path.is_file():
         raise SceneError(f"{src}: {where}.mesh '{name}' is not a file (looked for {path}); expected a triangle "
                          "mesh (.obj, .ply, .stl)")
-    if str(o.get("file", "")).lower().endswith(".splatv"):
+    if is_dynamic(o.get("file", "")):
         raise SceneError(f"{src}: {where} sets both 'mesh' and a dynamic model (.splatv); a dynamic model has no "
                          "mesh binding: remove 'mesh'")
     for key, why in EXCLUDED.items():

@@ -52,6 +52,7 @@ from pathlib import Path
 
 from gasp_core.errors import SceneError
 from gasp_core.maps.games import REBUILDS
+from gasp_core.gs.registry import is_dynamic
 from gasp_core.scene.extras import read_extras
 from gasp_core.scene.mesh import MESH_KEYS, MeshSpec, read_mesh
 from gasp_core.scene.quality import DEFAULT_QUALITY, apply_quality, read_quality
@@ -205,7 +206,7 @@ _OBJECT_KEYS = ({f.name for f in fields(ObjectSpec)} | set(MESH_KEYS)) - {"veloc
 
 def _dynamic_time(o: dict, f: Path, where: str, src: Path) -> float | None:
     t = o.get("dynamic_time")
-    if f.suffix.lower() != ".splatv":
+    if not is_dynamic(f):
         if t is not None:
             raise SceneError(f"{src}: {where}.dynamic_time is only for dynamic models (.splatv), not {f.name}")
         return None
@@ -215,7 +216,7 @@ def _dynamic_time(o: dict, f: Path, where: str, src: Path) -> float | None:
 
 
 def _background(o: dict, f: Path, where: str, src: Path) -> str:
-    if "background" in o and f.suffix.lower() != ".splatv":
+    if "background" in o and not is_dynamic(f):
         raise SceneError(f"{src}: {where}.background is only for dynamic models (.splatv), not {f.name}")
     return read_key(o, "background", as_string, ("model", "frozen"), default_from=ObjectSpec, where=where, src=src)
 
@@ -263,7 +264,7 @@ def _object(o: dict, where: str, src: Path) -> ObjectSpec:
         select=read_select(o["select"], f"{where}.select", src) if "select" in o else None,
         static=read_static(o, where, src),
         keep_floaters=get("keep_floaters", as_boolean),
-        velocity_from_model=f.suffix.lower() == ".splatv" and not {"velocity", "angular_velocity"} & set(o),
+        velocity_from_model=is_dynamic(f) and not {"velocity", "angular_velocity"} & set(o),
         background=_background(o, f, where, src))
 
 

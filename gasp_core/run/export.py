@@ -1,0 +1,95 @@
+"""``gasp export RUN --format glb|usd|... -o OUT``: an existing run's frames in another format of the registry
+(:mod:`gasp_core.gs.registry`).
+
+* a per-frame format (``glb``, ``ply``, ``spz``, ...): ``OUT`` is a folder, ``OUT/<object>/frame_NNNN<suffix>``,
+  every frame whole (the ``frames`` layout), written into a partial folder and moved into place at the end
+  (:func:`gasp_core.fsutil.output_folder`; an existing ``OUT`` is refused unless ``overwrite``, and then only
+  one written by gasp is replaced);
+* a whole-run format: ``OUT`` is one file, written beside itself and renamed: ``usd`` a ``.usdc``, ``.usd`` or
+  ``.usda`` (:mod:`gasp_core.run.usd_export`), ``glb_sequence`` a ``.glb`` that plays the run
+  (:mod:`gasp_core.run.glb_sequence`).
+
+The up axis of each object's file frame comes from the run's ``run.json`` (``objects[k].up_axis``), the frame
+rate from its ``frame_dt``.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from gasp_core.errors import GaspError, SceneError
+from gasp_core.fsutil import atomic_json, output_folder
+from gasp_core.gs import registry
+from gasp_core.run.layout import open_frames
+
+#: What :func:`export_run` writes beside the frames of a per-frame export.
+EXPORT_RECORD = "export.json"
+
+
+def run_facts(folder: Path) -> tuple[float, dict[str, str], set[str]]:
+    """``frame_dt`` (s), each object's up axis (name -> ``+z`` ...) and the names of static objects, from the
+    run's ``run.json``.
+
+    Raises
+    ------
+    SceneError
+        No readable ``run.json`` with ``frame_dt`` (one line naming it).
+    """
+    p = folder / "run.json"
+    try:
+        run = json.loads(p.read_text())
+        frame_dt = float(run["frame_dt"])
+        objects = run.get("objects") or []
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        raise SceneError(f"{p}: expected the run.json of a gasp simulate run with frame_dt ({e!r})") from None
+    up = {o.get("name"): o.get("up_axis", "+z") for o in objects if isinstance(o, dict)}
+    static = {o.get("name") for o in objects if isinstance(o, dict) and o.get("static")}
+    return frame_dt, up, static
+
+
+def export_run(run, fmt: str, out, *, overwrite: bool = False, into_run: bool = False) -> dict:
+    """Write the frames of the run folder ``run`` in format ``fmt`` to ``out`` (module notes). ``into_run``: the
+    run's own partial folder takes a whole-run file (``gasp simulate --format usd``); otherwise ``out`` must lie
+    outside the run folder.
+
+    Returns
+    -------
+    dict
+        ``format``, ``output``, ``n_frames``, ``objects`` (names) and ``files`` (count written).
+
+    Raises
+    ------
+    GaspError
+        ``fmt`` not an output format, or its library missing (the install line); ``out`` inside the run folder.
+    FileExistsError, OutputConflict
+        ``out`` exists and ``overwrite`` is false (or it is not gasp's to replace).
+    SceneError
+        Not a run folder (no ``frames.json`` or ``run.json``), or a frame that cannot be read.
+    """
+    run, out = Path(run), Path(out)
+    spec = registry.check_writer(fmt)
+    if not into_run and (out.resolve() == run.resolve() or run.resolve() in out.resolve().parents):
+        raise GaspError(f"-o {out}: inside the run folder {run}; write the export somewhere else")
+    frames = open_frames(run)
+    frame_dt, up, static = run_facts(run)
+    names = [o["name"] for o in frames.manifest["objects"]]
+    ups = [up.get(n, "+z") for n in names]
+    if spec.sequence:
+        suffixes = (".usda",) + spec.suffixes if fmt == "usd" else spec.suffixes
+        if out.suffix.lower() not in suffixes:
+            raise GaspError(f"-o {out}: --format {fmt} writes one file; expected a name ending in "
+                            f"{' or '.join(suffixes)}")
+        moving = [not bool(frames.manifest["objects"][k].get("static")) and n not in static
+                  for k, n in enumerate(names)]
+        registry.load(spec.sequence)(out, frames, names, ups, frame_dt, moving, overwrite=overwrite)
+        return {"format": fmt, "output": str(out), "n_frames": frames.n_frames, "objects": names, "files": 1}
+    count = 0
+    with output_folder(out, overwrite=overwrite, protected=[run]) as tmp:
+        for k, name in enumerate(names):
+            (tmp / name).mkdir()
+            for f in range(frames.n_frames):
+                registry.write(tmp / name / f"frame_{f:04d}{spec.suffix}", frames.gaussians(f, k), fmt, up_axis=ups[k])
+                count += 1
+        atomic_json(tmp / EXPORT_RECORD, {"format": fmt, "from_run": str(run.resolve()), "n_frames": frames.n_frames,
+                                          "frame_dt": frame_dt, "objects": names, "up_axes": ups})
+    return {"format": fmt, "output": str(out), "n_frames": frames.n_frames, "objects": names, "files": count}

@@ -1,0 +1,113 @@
+"""A run as one OpenUSD file: a ``ParticleField3DGaussianSplat`` prim per object, time-sampled per frame
+(``gasp export RUN --format usd``, ``gasp simulate --format usd``), written with usd-core (the ``export`` extra).
+
+Schema: ``UsdVol.ParticleField3DGaussianSplat`` of OpenUSD 26.03+ (usd-core 26.11's
+``pxr/pluginfo/usdVol/resources/generatedSchema.usda``): ``positions`` (point3f[], local space),
+``orientations`` (quatf[]), ``scales`` (float3[], linear), ``opacities`` (float[]), and
+``radiance:sphericalHarmonicsCoefficients`` (float3[]) with ``radiance:sphericalHarmonicsDegree``.
+
+What GASP writes:
+
+* one prim per object, ``/Run/<object>``; the stage's up axis is +Z (``UsdGeom.SetStageUpAxis``), each object's
+  file frame turned so that its ``up_axis`` is +Z (the file's units kept, ``metersPerUnit`` 1);
+* ``positions``, ``orientations`` and ``scales`` time-sampled at every frame, time code = frame index,
+  ``timeCodesPerSecond = framesPerSecond = 1 / frame_dt`` (the run's frame rate), start 0, end the last frame;
+  an object that does not move (``static``) is written once, without time samples;
+* ``opacities`` (``sigmoid`` of the logit, in [0, 1]) and the SH coefficients once: GASP never changes them
+  over a run. The coefficients are written per particle, ``(degree + 1)^2`` of them each, DC first, then the
+  graphdeco order of the higher degrees (m = -l .. l), rotated with the object when its up axis is not +Z.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from gasp_core.fsutil import atomic_path
+from gasp_core.gs.gaussians import Gaussians
+from gasp_core.gs.gltf import UP_TO_Z, turned
+
+
+def pxr_modules(path):
+    """``(Usd, UsdGeom, UsdVol, Vt, Gf)``, or :class:`~gasp_core.errors.GaspError` with the install line."""
+    try:
+        from pxr import Gf, Usd, UsdGeom, UsdVol, Vt
+    except ImportError:
+        from gasp_core.errors import GaspError, extra_hint
+        raise GaspError(f"{path}: OpenUSD needs usd-core, which is not installed ({extra_hint('export')})") from None
+    if not hasattr(UsdVol, "ParticleField3DGaussianSplat"):
+        from gasp_core.errors import GaspError
+        raise GaspError(f"{path}: the installed usd-core has no UsdVol.ParticleField3DGaussianSplat (OpenUSD 26.03+ "
+                        "has it): pip install -U usd-core")
+    return Usd, UsdGeom, UsdVol, Vt, Gf
+
+
+def _sh_coefficients(g: Gaussians) -> np.ndarray:
+    """(n * (degree+1)^2, 3) float32: per particle its DC then its rest coefficients."""
+    return np.concatenate([g.sh_dc[:, None, :], g.sh_rest], 1).reshape(-1, 3).astype(np.float32)
+
+
+def write_usd(path, frames, names: list[str], up_axes: list[str], frame_dt: float, moving: list[bool], *,
+              overwrite: bool = False) -> Path:
+    """Write a run's frames as one ``.usdc`` / ``.usd`` / ``.usda`` (module notes), atomically.
+
+    Parameters
+    ----------
+    path : path-like
+        The file; its suffix picks USD's encoding (``.usd`` and ``.usdc``: crate binary, ``.usda``: text).
+    frames : gasp_core.run.layout.RunFrames
+        The run's frames (:func:`gasp_core.run.layout.open_frames`); ``frames.gaussians(f, k)`` is object ``k``
+        at frame ``f`` in its file frame.
+    names, up_axes : list of str
+        Per object (manifest order): the prim name and the file frame's up axis.
+    frame_dt : float
+        Seconds between frames (the run's ``frame_dt``).
+    moving : list of bool
+        Per object: false for an object that never moves (written once, no time samples).
+    overwrite : bool
+        Replace an existing file.
+
+    Raises
+    ------
+    FileExistsError
+        ``path`` exists and ``overwrite`` is false.
+    GaspError
+        usd-core missing, or without the schema.
+    """
+    Usd, UsdGeom, UsdVol, Vt, Gf = pxr_modules(path)
+    path = Path(path)
+    with atomic_path(path, overwrite=overwrite) as tmp:
+        stage = Usd.Stage.CreateNew(str(tmp))
+        UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+        UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+        fps = 1.0 / float(frame_dt)
+        stage.SetTimeCodesPerSecond(fps)
+        stage.SetFramesPerSecond(fps)
+        stage.SetStartTimeCode(0)
+        stage.SetEndTimeCode(frames.n_frames - 1)
+        stage.SetDefaultPrim(UsdGeom.Xform.Define(stage, "/Run").GetPrim())
+        for k, name in enumerate(names):
+            M = UP_TO_Z[up_axes[k]]
+            prim = UsdVol.ParticleField3DGaussianSplat.Define(stage, f"/Run/{prim_name(name)}")
+            g0 = turned(frames.gaussians(0, k), M)
+            prim.CreateOpacitiesAttr(Vt.FloatArray.FromNumpy(
+                (1.0 / (1.0 + np.exp(-g0.opacities.astype(np.float64)))).astype(np.float32)))
+            prim.CreateRadianceSphericalHarmonicsDegreeAttr(g0.sh_degree)
+            prim.CreateRadianceSphericalHarmonicsCoefficientsAttr(Vt.Vec3fArray.FromNumpy(_sh_coefficients(g0)))
+            attrs = (prim.CreatePositionsAttr(), prim.CreateOrientationsAttr(), prim.CreateScalesAttr())
+            for f in (range(frames.n_frames) if moving[k] else [None]):
+                g = g0 if f in (0, None) else turned(frames.gaussians(f, k), M)
+                time = Usd.TimeCode.Default() if f is None else Usd.TimeCode(f)
+                q = g.rotations.astype(np.float32)   # wxyz; Gf.Quatf's numpy layout is (i, j, k, real)
+                attrs[0].Set(Vt.Vec3fArray.FromNumpy(g.means.astype(np.float32)), time)
+                attrs[1].Set(Vt.QuatfArray.FromNumpy(np.ascontiguousarray(q[:, [1, 2, 3, 0]])), time)
+                attrs[2].Set(Vt.Vec3fArray.FromNumpy(g.scales.astype(np.float32)), time)
+        stage.GetRootLayer().Save()
+        del stage
+    return path
+
+
+def prim_name(name: str) -> str:
+    """A valid USD prim name from an object name (letters, digits, ``_``; not starting with a digit)."""
+    s = "".join(c if c.isalnum() or c == "_" else "_" for c in name) or "object"
+    return s if not s[0].isdigit() else f"_{s}"
