@@ -119,13 +119,14 @@ def main() -> None:
     ap.add_argument("--run", type=Path, default=None, help="run folder to export (default: make a 14-frame donut run)")
     ap.add_argument("--repeats", type=int, default=5, help="timed repeats per figure (default 5)")
     ap.add_argument("--no-sh", action="store_true", help="leave out the SH-colour figure")
+    ap.add_argument("--label", default=None, help="how the results name the run (default: its path)")
     ap.add_argument("--out", default="bench_share", help="results' name in benchmarks/results (default bench_share)")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as d:
         tmp = Path(d)
         run = args.run or donut_run(tmp)
         res = {"export": bench_export(run, tmp), "sh": None if args.no_sh else bench_sh(args.repeats),
-               "run": str(args.run or "a 14-frame donut run (tests' donut_run)"),
+               "run": args.label or str(args.run or "a 14-frame donut run (tests' donut_run)"),
                "machine": {"cpus": os.cpu_count(), "platform": platform.platform(), "load_avg": os.getloadavg()}}
     OUT.mkdir(exist_ok=True)
     (OUT / f"{args.out}.json").write_text(json.dumps(res, indent=1))
