@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, fields
 
-from gasp_core.errors import GaspError
+from gasp_core.errors import extra_hint, GaspError
 
 #: Frame file formats (:mod:`gasp_core.run.layout`).
 FORMATS = ("ply", "compressed_ply", "spz", "sog")
@@ -52,7 +52,7 @@ class SimulateRequest:
                                    count=True)
     #: Frame file format, one of :data:`FORMATS`.
     fmt: str = _option("ply", ("--format",),
-                       "frame file format (default: ply; the others need the formats extra, pip install -e '.[formats]'; "
+                       f"frame file format (default: ply; the others need the formats extra, {extra_hint('formats')}; "
                        "sizes and precision: docs/formats.md)", choices=FORMATS)
     #: Output layout, one of :data:`LAYOUTS`; None: ``frames`` for ``ply``, else ``split``.
     layout: str | None = _option(None, ("--layout",),
