@@ -50,13 +50,19 @@ def test_export_refuses_existing_page_and_names_it(donut_run, tmp_path):
     export_page(donut_run, tmp_path / "site", frames=[0], overwrite=True)
 
 
-def test_sqrt_covariances_square_back(donut_run):
-    from gasp_core.render.export import sqrt_covariances
-    from gasp_core.render.run import load_run
-    covs = load_run(donut_run).splats(0).covs[:500]
-    s = sqrt_covariances(covs)
+def test_sqrt_covariances_square_back():
+    """The page's shape ``S = R diag(s) R^T`` squares to the renderer's covariance of the same real Gaussians."""
+    from pathlib import Path
+
+    from gasp_core.gs.io import read_gaussians
+    from gasp_core.render.page_codec import sqrt_cov
+    from gasp_core.render.splat_numpy import splats_from_gaussians
+    g = read_gaussians(Path(__file__).parent / "data" / "pc_short.ply")
+    covs = splats_from_gaussians(g).covs
+    s = sqrt_cov(g.rotations / np.linalg.norm(g.rotations, axis=1, keepdims=True), g.scales)
     S = s[:, [0, 1, 2, 1, 3, 4, 2, 4, 5]].reshape(-1, 3, 3)
     assert np.allclose(S @ S, covs, rtol=0, atol=1e-6 * np.abs(covs).max())
+    assert not np.allclose(S, np.eye(3) * S[:, [0], [0]][:, :, None], atol=1e-3 * np.abs(S).max())   # turned
 
 
 @pytest.mark.skipif(CHROMIUM is None, reason="no Chromium found (apt-get install -y chromium)")

@@ -26,24 +26,6 @@ PLAYER = Path(__file__).with_name("player.html")
 FOV_DEG = 40.0
 
 
-def sqrt_covariances(covs: np.ndarray) -> np.ndarray:
-    """Symmetric square roots ``S`` with ``S @ S = covs`` (eigenvalues below 0 taken as 0).
-
-    Parameters
-    ----------
-    covs : ndarray, shape (n, 3, 3)
-        Symmetric positive semi-definite matrices.
-
-    Returns
-    -------
-    ndarray, shape (n, 6), float64
-        ``S00, S01, S02, S11, S12, S22``.
-    """
-    w, V = np.linalg.eigh(covs)
-    S = (V * np.sqrt(np.maximum(w, 0.0))[:, None, :]) @ V.transpose(0, 2, 1)
-    return S[:, [0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]]
-
-
 def run_frames(run, frames) -> Frames:
     """World-frame centres, rotations, scales and frame-0 colours of ``run`` (:class:`~gasp_core.render.run.Run`)
     at ``frames``, every object's Gaussians one after the other (``x = scale R x_file + t``)."""

@@ -15,7 +15,6 @@ import dataclasses
 import functools
 import importlib.metadata as md
 import os
-from pathlib import Path
 from typing import Any, Callable
 
 import pluggy
