@@ -30,7 +30,7 @@ def test_every_extra_named_exists_in_pyproject():
 def test_plugin_hints_carry_the_extra_they_need():
     if not (ROOT / "plugins" / "blender" / "pyproject.toml").is_file():
         pytest.skip("not a clone with plugins/")
-    assert install_hint("blender").endswith('plugins/blender[engine]"')        # bpy comes with [engine]
+    assert '-e "plugins/blender[engine]"' in install_hint("blender")             # bpy comes with [engine]
     assert install_hint("gsplat").endswith('plugins/render_gsplat[gpu]"')      # a renderer's folder
     assert install_hint("warp_mpm").endswith("plugins/warp_mpm")               # its dependencies are plain
     assert install_hint("no_such_engine") == ""
@@ -56,3 +56,58 @@ def test_view_without_viser_is_one_line_with_the_view_extra(tmp_path, capsys, mo
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [f"gasp: error: 'gasp view' needs viser, which is not installed; it comes with the view extra: "
                    f"{extra_hint('view')}"]
+
+
+HIDDEN = {"taichi", "warp", "mujoco", "newton", "bpy", "genesis", "torch", "gsplat"}
+
+
+def test_install_lines_printed_agree_with_gasp_engines(monkeypatch, capsys):
+    """Issue 42, item 5: with every engine's packages hidden, each engine's line in ``gasp engines``, the error
+    when it is asked for, and the unknown-engine error once it is uninstalled all end with the one line
+    :func:`install_hint` gives; ``gasp engines`` with no plugin loaded prints that line for each plugin of
+    the clone."""
+    import importlib.util
+
+    from gasp_core.cli.main import main
+    from gasp_core.errors import EngineError
+    from gasp_core.seam.install import clone_engine_plugins
+    from gasp_core.seam.plugins import engines, get_engine, unknown_engine_message
+    if not clone_engine_plugins():
+        pytest.skip("not a clone with plugins/")
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a, **k: None if name.split(".")[0] in HIDDEN
+                        else real(name, *a, **k))
+    found = engines()
+    assert found, "no engine plugin installed"
+    assert main(["engines"]) == 0
+    heads = {ln.split()[0]: ln for ln in capsys.readouterr().out.splitlines() if ln and not ln.startswith(" ")}
+    for name in found:
+        line = install_hint(name)
+        assert line.count("pip install") >= 1
+        assert "NOT AVAILABLE: " in heads[name] and heads[name].endswith(line), heads[name]
+        with pytest.raises(EngineError) as e:
+            get_engine(name)
+        assert str(e.value).endswith(line), str(e.value)
+        assert unknown_engine_message(name, []).endswith(f"to install it: {line}")
+    monkeypatch.setenv("GASP_LOAD_PLUGINS", "")
+    from gasp_core.seam import plugins
+    plugins.get_plugin_manager.cache_clear()
+    try:
+        assert main(["engines"]) == 0
+        out = capsys.readouterr().out.splitlines()
+    finally:
+        plugins.get_plugin_manager.cache_clear()
+    assert sorted(out[1:]) == sorted(f"{n}  NOT INSTALLED: {install_hint(n)}" for n in clone_engine_plugins())
+
+
+def test_an_engine_that_pins_older_packages_says_so_before_it_installs():
+    """bpy requires numpy<2: the blender line names that first and installs into a venv of its own, never into
+    the environment it would downgrade (as .ci/blender_tier.sh does)."""
+    if not (ROOT / "plugins" / "blender" / "pyproject.toml").is_file():
+        pytest.skip("not a clone with plugins/")
+    line = install_hint("blender")
+    assert line.index("numpy<2") < line.index("pip install") and "downgrade" in line
+    assert line.count("pip install") == line.count(".venv-blender/bin/python -m pip install") == 1
+    assert line.endswith('-e "plugins/blender[engine]" (then run .venv-blender/bin/gasp)')
+    assert "venv" not in install_hint("warp_mpm") and install_hint("genesis").startswith(
+        "python -m pip install torch==")

@@ -37,8 +37,10 @@ from gasp_core.run.report import ConsoleReporter, Reporter
 
 
 def _cmd_engines(args) -> int:
-    from gasp_core.seam.plugins import BROKEN, engines
+    from gasp_core.seam.install import clone_engine_plugins
+    from gasp_core.seam.plugins import BROKEN, engines, install_hint
     found = engines()
+    missing = {n: install_hint(n) for n in clone_engine_plugins() if n not in found and n not in BROKEN}
     for name, (dist, err) in BROKEN.items():
         args.reporter.warning(f"plugin '{name}' ({dist}) fails to import: {err}")
     if args.json:
@@ -50,11 +52,11 @@ def _cmd_engines(args) -> int:
                               "limits": {k: lim.describe(k) for k, lim in e.limits.items()},
                               "deterministic_options": dict(e.deterministic_options),
                               "known_failures": dict(e.known_failures),
-                              "description": e.description} for n, e in found.items()}, indent=2))
+                              "description": e.description, "install": install_hint(n)}
+                          for n, e in found.items()}, indent=2))
         return 0
     if not found:
         print("no engines installed (each engine is a plugin distribution: see README, 'Engines')")
-        return 0
     for name, e in found.items():
         c = e.capabilities
         reason = e.unavailable_reason()
@@ -72,6 +74,8 @@ def _cmd_engines(args) -> int:
             print(f"    known failures: {', '.join(sorted(e.known_failures))}")
         if e.description:
             print(f"    {e.description}")
+    for name, line in missing.items():         # this clone's engines not installed: the same line as errors give
+        print(f"{name}  NOT INSTALLED: {line}")
     return 0
 
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, fields
 
-from gasp_core.errors import GaspError
+from gasp_core.errors import extra_hint, GaspError
 from gasp_core.gs.registry import output_formats
 
 #: Output formats (:mod:`gasp_core.gs.registry`, written by :mod:`gasp_core.run.layout`).
@@ -53,9 +53,10 @@ class SimulateRequest:
                                    count=True)
     #: Frame file format, one of :data:`FORMATS`.
     fmt: str = _option("ply", ("--format",),
-                       "frame file format (default: ply; compressed_ply, spz, sog need the formats extra, glb, "
-                       "glb_sequence and usd (one file per run beside PLY frames) the export extra; sizes and precision: "
-                       "docs/formats.md)", choices=FORMATS)
+                       "frame file format (default: ply; compressed_ply, spz, sog need the formats extra "
+                       f"({extra_hint('formats')}), glb, glb_sequence and usd (one file per run beside PLY frames) "
+                       f"the export extra ({extra_hint('export')}); sizes and precision: docs/formats.md)",
+                       choices=FORMATS)
     #: Output layout, one of :data:`LAYOUTS`; None: ``frames`` for ``ply``, else ``split``.
     layout: str | None = _option(None, ("--layout",),
                                  "'frames': every frame file complete; 'split': static objects and unselected rows "

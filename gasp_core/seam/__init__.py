@@ -23,13 +23,16 @@ What is here, by the module that defines it:
 - driving an engine from a plugin's own tests: :func:`get_engine`, :func:`engines`, :func:`build_engine`
   (the core's capability, option and limit checks, then the factory), :func:`call_engine` (the error
   contract) and :func:`check_state` (the core's blow-up check on positions) with its two likely causes,
-  :data:`CAUSE_UNSTABLE` and :data:`CAUSE_LEFT_DOMAIN` (an engine raising :class:`EngineDivergence` itself uses them).
+  :data:`CAUSE_UNSTABLE` and :data:`CAUSE_LEFT_DOMAIN` (an engine raising :class:`EngineDivergence` itself uses them);
+- :func:`install_hint` (:mod:`gasp_core.seam.install`): the one line that installs a plugin, which its
+  "cannot run here" reason prints, as ``gasp engines`` and an unknown-engine error do.
 
 This module only re-exports. The core's own modules never import it (they import each name from the
 module that defines it), so that importing the contract cannot close an import loop.
 """
 from gasp_core.errors import EngineBug, EngineDivergence, EngineError, GaspError, SceneError
 from gasp_core.seam.build import build_engine
+from gasp_core.seam.install import install_hint
 from gasp_core.seam.engine import call_engine, Capabilities, EngineInfo, EngineStats, FEATURES, PointEngine, StatefulEngine
 from gasp_core.seam.options import Option
 from gasp_core.seam.limits import Limit
@@ -50,5 +53,5 @@ __all__ = [
     # errors
     "GaspError", "SceneError", "EngineError", "EngineDivergence", "EngineBug",
     # driving an engine
-    "get_engine", "engines", "build_engine", "call_engine", "check_state", "CAUSE_UNSTABLE", "CAUSE_LEFT_DOMAIN",
+    "get_engine", "engines", "install_hint", "build_engine", "call_engine", "check_state", "CAUSE_UNSTABLE", "CAUSE_LEFT_DOMAIN",
 ]

@@ -15,13 +15,13 @@ import dataclasses
 import functools
 import importlib.metadata as md
 import os
-from pathlib import Path
 from typing import Any, Callable
 
 import pluggy
 
-from gasp_core.errors import EngineError, GaspError, shown_path
+from gasp_core.errors import EngineError, GaspError
 from gasp_core.seam.engine import EngineInfo
+from gasp_core.seam.install import install_hint  # noqa: F401 (re-exported: the one install line)
 
 PROJECT = "gasp"
 hookspec = pluggy.HookspecMarker(PROJECT)
@@ -213,32 +213,6 @@ def engines(pm: pluggy.PluginManager | None = None) -> dict[str, EngineInfo]:
 def soup_writers(pm: pluggy.PluginManager | None = None) -> dict[str, SoupWriterInfo]:
     """All registered extra soup writers by name (:func:`registered` of ``gasp_soup_writers``)."""
     return registered("gasp_soup_writers", "soup writer", pm)
-
-
-def install_hint(name: str, extra: str | None = None) -> str:
-    """How to install the plugin called ``name`` from this clone, or ``""`` when the clone has none.
-
-    A plugin of the repository lives in ``plugins/<name>/pyproject.toml`` beside the core package (the
-    editable install of a clone); the hint is its ``pip install -e`` line, with the path as seen from the
-    working directory. A renderer's folder may carry ``render_`` before its name (``gsplat``:
-    ``plugins/render_gsplat``). The line names ``extra``, or else the plugin's one optional extra other than
-    ``test`` (``plugins/blender[engine]``: the plugin without it cannot run).
-    """
-    import tomllib
-    root = Path(__file__).resolve().parents[2]
-    for folder in (root / "plugins" / name, root / "plugins" / f"render_{name}"):
-        if (folder / "pyproject.toml").is_file():
-            if extra is None:
-                try:
-                    extras = tomllib.loads((folder / "pyproject.toml").read_text())["project"].get(
-                        "optional-dependencies", {})
-                except (OSError, ValueError, KeyError):
-                    extras = {}
-                needed = [e for e in extras if e != "test"]
-                extra = needed[0] if len(needed) == 1 else None
-            shown = shown_path(folder)
-            return f'python -m pip install -e "{shown}[{extra}]"' if extra else f"python -m pip install -e {shown}"
-    return ""
 
 
 def unknown_engine_message(name: str, found) -> str:

@@ -7,20 +7,22 @@ the point count. See ``README.md`` for how the SI material maps onto Blender's s
 
 Importing this module is cheap and works without Blender: it does not import ``bpy``;
 ``available()`` only looks the package up and the factory imports :mod:`gasp_blender.engine`.
-Blender is an optional extra: ``pip install 'gasp-blender[engine]'``.
+Blender is an optional extra, ``[engine]``; bpy pins numpy<2, so the line ``gasp engines`` prints installs it in a
+venv of its own (``[tool.gasp] own-venv`` in ``pyproject.toml``).
 """
 from __future__ import annotations
 
 import importlib.util
 import math
 
-from gasp_core.seam import Capabilities, EngineInfo, hookimpl, Limit, SimSetup, SoupWriterInfo
+from gasp_core.seam import Capabilities, EngineInfo, hookimpl, install_hint, Limit, SimSetup, SoupWriterInfo
 
 __all__ = ["CAPABILITIES", "INSTALL_HINT", "LIMITS", "bpy_available", "gasp_engines", "gasp_soup_writers",
            "make_engine"]
 
 #: Reason given when bpy is missing.
-INSTALL_HINT = "bpy (Blender as a Python module) is not installed: pip install 'gasp-blender[engine]'"
+INSTALL_HINT = ("bpy (Blender as a Python module) is not installed; "
+                f"{install_hint('blender', distribution='gasp-blender[engine]')}")
 
 CAPABILITIES = Capabilities(
     materials=frozenset({"jelly"}),

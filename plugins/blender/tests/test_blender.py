@@ -1,6 +1,6 @@
 """Tests of the ``blender`` engine plugin against physics with known answers.
 
-Engine tests skip with the reason when bpy is not installed (``pip install 'gasp-blender[engine]'``).
+Engine tests skip with the reason when bpy is not installed (the line ``gasp engines`` prints: a venv of its own).
 """
 import json
 

@@ -4,7 +4,7 @@ Importing this module is cheap and works without Genesis installed: it neither i
 (whose import alone takes tens of seconds) nor torch. ``available()`` only looks the package up;
 the factory imports :mod:`gasp_genesis.engine`, and with it Genesis, when a simulation is built.
 
-Genesis is an optional extra: ``pip install 'gasp-genesis[engine]'`` (see ``README.md``).
+Genesis is an optional extra, ``[engine]``, after torch (see ``README.md``; the line is ``gasp engines``'s).
 
 Capabilities are the Genesis MPM materials (``genesis/engine/materials/MPM``, genesis-world 1.4)
 whose update matches a GASP material of ``docs/mpm.md``:
@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import importlib.util
 
-from gasp_core.seam import Capabilities, EngineInfo, hookimpl, Limit, SimSetup
+from gasp_core.seam import Capabilities, EngineInfo, hookimpl, install_hint, Limit, SimSetup
 from gasp_core.toolkit.options import mpm_options
 from gasp_core.toolkit.sweep import mpm_sweep
 
@@ -42,7 +42,8 @@ __all__ = ["BENCH_EXCLUDED", "CAPABILITIES", "ENGINE", "INSTALL_HINT", "OPTIONS"
 ENGINE = "genesis"
 
 #: Reason given when Genesis is missing.
-INSTALL_HINT = "genesis-world is not installed: pip install 'gasp-genesis[engine]' (see README)"
+INSTALL_HINT = ("genesis-world is not installed: "
+                f"{install_hint('genesis', distribution='gasp-genesis[engine]')}")
 
 CAPABILITIES = Capabilities(
     materials=frozenset({"jelly", "neo_hookean", "metal", "sand", "snow", "liquid"}),

@@ -6,7 +6,7 @@ warm ``~/.cache/quadrants``), so the scenes here are tiny: a few hundred points,
 import numpy as np
 import pytest
 
-pytest.importorskip("genesis", reason="genesis-world is not installed: pip install 'gasp-genesis[engine]'")
+pytest.importorskip("genesis", reason="genesis-world is not installed (gasp engines prints the line)")
 
 from gasp_core.seam import (Boundary, build_engine, EngineDivergence, EngineError, Material, SceneError,
                            SimSetup)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import importlib.util
 import itertools
 
-from gasp_core.seam import Capabilities, EngineInfo, hookimpl, Limit, Option
+from gasp_core.seam import Capabilities, EngineInfo, hookimpl, install_hint, Limit, Option
 from gasp_core.toolkit.sweep import dedupe_settings
 
 __all__ = ["CAPABILITIES", "ENGINE", "LIMITS", "OPTIONS", "gasp_engines", "make_engine", "sweep"]
@@ -95,7 +95,7 @@ def sweep(quick: bool) -> tuple[list[dict], dict]:
 
 def _available() -> str | None:
     if importlib.util.find_spec("mujoco") is None:
-        return "the 'mujoco' package is not installed (pip install 'mujoco>=4')"
+        return f"the 'mujoco' package is not installed: {install_hint('mujoco_flex', distribution='gasp-mujoco-flex')}"
     return None
 
 

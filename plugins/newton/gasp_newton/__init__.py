@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import importlib.util
 
-from gasp_core.seam import Capabilities, EngineInfo, hookimpl, Option, SimSetup
+from gasp_core.seam import Capabilities, EngineInfo, hookimpl, install_hint, Option, SimSetup
 from gasp_core.toolkit.sweep import dedupe_settings
 
 from .materials import MATERIALS
@@ -90,7 +90,7 @@ def make_engine(setup: SimSetup):
 
 def _available() -> str | None:
     if importlib.util.find_spec("newton") is None:
-        return "the 'newton' package is not installed (pip install newton==1.8.0)"
+        return f"the 'newton' package is not installed: {install_hint('newton', distribution='gasp-newton')}"
     return None
 
 

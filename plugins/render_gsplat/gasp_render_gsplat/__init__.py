@@ -9,14 +9,14 @@ import importlib.util
 
 import numpy as np
 
-from gasp_core.seam import hookimpl, RendererInfo
+from gasp_core.seam import hookimpl, install_hint, RendererInfo
 
 
 def available() -> str | None:
     """None when torch, gsplat and a CUDA device are present, else the reason."""
     for mod in ("torch", "gsplat"):
         if importlib.util.find_spec(mod) is None:
-            return f"{mod} is not installed (pip install 'gasp-render-gsplat[gpu]')"
+            return f"{mod} is not installed: {install_hint('gsplat', distribution='gasp-render-gsplat[gpu]')}"
     import torch
     if not torch.cuda.is_available():
         return "no CUDA device (torch.cuda.is_available() is False)"

@@ -15,7 +15,7 @@ import os
 # clean, so the banner is off unless the user asked for it.
 os.environ.setdefault("ENABLE_TAICHI_HEADER_PRINT", "False")
 
-from gasp_core.seam import EngineInfo, hookimpl, Option, SimSetup
+from gasp_core.seam import EngineInfo, hookimpl, install_hint, Option, SimSetup
 from gasp_core.toolkit.grid_engine import MPM_CAPABILITIES
 from gasp_core.toolkit.options import mpm_options
 from gasp_core.toolkit.sweep import mpm_sweep
@@ -49,7 +49,7 @@ def taichi_available() -> str | None:
     listing engines stays quick and prints nothing)."""
     import importlib.util
     if importlib.util.find_spec("taichi") is None:
-        return "taichi is not installed (pip install taichi)"
+        return f"taichi is not installed: {install_hint('taichi_mpm', distribution='gasp-taichi-mpm')}"
     return None
 
 

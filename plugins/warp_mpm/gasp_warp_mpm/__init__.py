@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import importlib.util
 
-from gasp_core.seam import EngineInfo, hookimpl, Option, SimSetup
+from gasp_core.seam import EngineInfo, hookimpl, install_hint, Option, SimSetup
 from gasp_core.toolkit.grid_engine import MPM_CAPABILITIES
 from gasp_core.toolkit.options import mpm_options
 from gasp_core.toolkit.sweep import mpm_sweep
@@ -45,7 +45,7 @@ def make_engine(setup: SimSetup):
 
 def _available() -> str | None:
     if importlib.util.find_spec("warp") is None:
-        return "the 'warp-lang' package is not installed (pip install warp-lang)"
+        return f"the 'warp-lang' package is not installed: {install_hint('warp_mpm', distribution='gasp-warp-mpm')}"
     try:
         import warp  # noqa: F401  (imported only when availability is asked for)
     except Exception as e:  # broken install, missing native library
