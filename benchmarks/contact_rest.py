@@ -41,7 +41,6 @@ def scene(ply: Path, engine: str, balance: bool, drop: float, n_grid: int, stiff
         text = text.replace("position = [0.0, 0.0,", "position = [-0.07, 0.0,") + f"""
 [[object]]
 file = "{ply}"
-name = "stiff"
 up_axis = "+z"
 position = [0.07, 0.0, {cm.RADIUS + drop}]
 [object.material]

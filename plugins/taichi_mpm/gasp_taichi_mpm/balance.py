@@ -18,6 +18,8 @@ force and torque made those of a smooth contact.
 import numpy as np
 import taichi as ti
 
+from gasp_core.toolkit.contact import TORQUE_REACH
+
 #: Slices of the points the moments run over (each summed serially on one thread, then added).
 N_PARTS = 64
 
@@ -221,8 +223,8 @@ class Balance:
             tq = tn + tf + (xm - c).cross(dF)
             th = ti.Vector([tq[0], tq[1], 0.0], ti.f64)
             lh = th.norm()
-            if lh > J * self.c_reach[b]:
-                th *= J * self.c_reach[b] / lh
+            if lh > J * self.c_reach[b] * TORQUE_REACH:
+                th *= J * self.c_reach[b] * TORQUE_REACH / lh
             r = self.c_reach[b]
             if c[0] < self.c_jsums[b, 3] - r or c[0] > self.c_jsums[b, 4] + r or c[1] < self.c_jsums[b, 5] - r \
                     or c[1] > self.c_jsums[b, 6] + r:

@@ -26,12 +26,16 @@ import functools
 
 import warp as wp
 
+from gasp_core.toolkit.contact import TORQUE_REACH
+
 from .contact import build_contact
 from .precision import MODULE_OPTIONS, build_types
 
 #: Columns of ``fr_sums``: friction force (3), contact nodes' mass (1), mass moments (3 + 6), friction's moment
 #: about the origin (3), friction budget (1), then the per-body results dv (3), alpha (3), x_m (3).
 FR_COLUMNS = 26
+#: ``gasp_core.toolkit.contact.TORQUE_REACH`` for the kernels.
+TORQUE_CLIP = wp.constant(TORQUE_REACH)
 
 
 f64 = wp.float64
@@ -206,8 +210,9 @@ def build_contact_fix(Ft):
             tq = tn + tf + wp.cross(xm - c, dF)
             th = v64(tq[0], tq[1], f64(0.0))
             lh = wp.length(th)
-            if lh > J * reach:
-                th = th * (J * reach / lh)
+            clip = J * reach * f64(TORQUE_CLIP)
+            if lh > clip:
+                th = th * (clip / lh)
             if (c[0] < shift[b, 12] - reach or c[0] > shift[b, 13] + reach or c[1] < shift[b, 14] - reach
                     or c[1] > shift[b, 15] + reach):
                 th = v64(f64(0.0))   # the mass centre beyond the pushed points' box: the body tips, keep it all
