@@ -44,10 +44,12 @@ N_BALL, RADIUS, DROP = 600, 0.05, 0.05
 STEEL = {"name": "jelly", "E": 2.0e11, "nu": 0.3, "rho": 7850.0}
 
 
-def with_model(path: Path, model: str, out: Path) -> Path:
-    """The scene at ``path`` with its object's ``material.model``, written to ``out``."""
+def with_model(path: Path, model: str, out: Path, contact: str | None = None) -> Path:
+    """The scene at ``path`` with its object's ``material.model`` (and the engine option ``contact``), to ``out``."""
     doc = tomllib.loads(path.read_text())
     doc["object"][0]["material"]["model"] = model
+    if contact:
+        doc["engine"]["options"]["contact"] = contact
     out.write_text(tomli_w.dumps(doc))
     return out
 
@@ -73,19 +75,25 @@ def figures(report: dict, k: int = 0) -> dict:
 
 
 def part_stiff(work: Path, args) -> dict:
+    """The explicit model with the scene's contact (``auto``: grid, E >= 2e5) and with the particle contact (the
+    rigid body's law), each with its twin, and the rigid limit; the rigid run against each."""
     twin = int(round(0.75 * args.n_grid))
-    runs = {"explicit": ("elastic", args.n_grid), "explicit_twin": ("elastic", twin), "rigid": ("rigid", args.n_grid)}
+    runs = {"explicit": ("elastic", args.n_grid, None), "explicit_twin": ("elastic", twin, None),
+            "explicit_particle": ("elastic", args.n_grid, "particle"),
+            "explicit_particle_twin": ("elastic", twin, "particle"), "rigid": ("rigid", args.n_grid, None)}
     rec, tracks = {}, {}
-    for name, (model, n) in runs.items():
-        scene = with_model(stiff_scene(work, 4, args.E, n, args.frames, "taichi_mpm"), model, work / f"stiff_{name}.toml")
+    for name, (model, n, contact) in runs.items():
+        scene = with_model(stiff_scene(work, 4, args.E, n, args.frames, "taichi_mpm"), model, work / f"stiff_{name}.toml",
+                           contact)
         rec[name] = timed(f"stiff {name} (n_grid {n})", scene, work / name)
         if rec[name]["returncode"] == 0:
             tracks[name] = track_from_run_dir(work / name, name)
     out = {"runs": rec, "n_grid": args.n_grid, "twin_grid": twin}
-    if {"explicit", "rigid", "explicit_twin"} <= set(tracks):
-        out["rigid_vs_explicit"] = figures(accuracy_report(tracks["rigid"], tracks["explicit"], tracks["explicit_twin"]))
-        out["twin_vs_explicit"] = figures(accuracy_report(tracks["explicit_twin"], tracks["explicit"]))
-        out["cpu_ratio"] = rec["explicit"]["process_cpu_s"] / rec["rigid"]["process_cpu_s"]
+    for ref in ("explicit", "explicit_particle"):
+        if {ref, "rigid", f"{ref}_twin"} <= set(tracks):
+            out[f"rigid_vs_{ref}"] = figures(accuracy_report(tracks["rigid"], tracks[ref], tracks[f"{ref}_twin"]))
+            out[f"twin_vs_{ref}"] = figures(accuracy_report(tracks[f"{ref}_twin"], tracks[ref]))
+            out[f"cpu_ratio_{ref}"] = rec[ref]["process_cpu_s"] / rec["rigid"]["process_cpu_s"]
     return out
 
 
@@ -116,6 +124,13 @@ def steel_scene(work: Path, frames: int, n_grid: int) -> Path:
     return path
 
 
+def apex_rise(cz) -> float:
+    """The highest apex (a frame higher than both neighbours) of a centroid height series over its start, m."""
+    c = np.asarray(cz)
+    i = np.flatnonzero((c[1:-1] >= c[:-2]) & (c[1:-1] >= c[2:])) + 1
+    return float(c[i].max() - c[0]) if len(i) else float("nan")
+
+
 def part_steel(work: Path, args) -> dict:
     """The steel drop in this process: CPU, the model, restitution and energy per frame (material points)."""
     from gasp_core.prepare.scene import prepare_scene
@@ -129,14 +144,17 @@ def part_steel(work: Path, args) -> dict:
     m, g = s.p_mass, -float(s.gravity[2])
     mat = s.material_mask
 
-    def energy(x, v):
-        return float((m[mat] * (g * x[mat, 2] + 0.5 * (v[mat] ** 2).sum(axis=1))).sum())
+    def energy(x, v, lag=0.0):
+        """sum m (g z + |v|^2 / 2), z taken ``lag`` s before (symplectic Euler's v is the last substep's)."""
+        return float((m[mat] * (g * (x[mat, 2] - lag * v[mat, 2]) + 0.5 * (v[mat] ** 2).sum(axis=1))).sum())
     e = [energy(s.x, s.v)]
+    e_half = [energy(s.x, s.v)]
     cz = [float(s.x[:s.n_render, 2].mean())]
     for _ in range(args.steel_frames):
         eng.step_frame()
         x, v = eng.positions().astype(np.float64), eng.velocities().astype(np.float64)
         e.append(energy(x, v))
+        e_half.append(energy(x, v, 0.5 * eng.dt))
         cz.append(float(x[:s.n_render, 2].mean()))
     cpu = time.process_time() - cpu0
     vz = np.diff(cz) * 30.0
@@ -146,6 +164,8 @@ def part_steel(work: Path, args) -> dict:
     return {"cpu_s": cpu, "load_avg_1min": os.getloadavg()[0], "model": prep.objects[0].body_model,
             "n_substeps": stats["n_substeps"], "n_points": stats["n_points"], "energy_J": e,
             "energy_max_rise_J": max(e) - e[0], "energy_start_J": e[0], "centroid_z": cz,
+            "energy_half_step_J": e_half, "energy_half_step_max_rise_J": max(e_half) - e_half[0],
+            "apex_max_rise_m": apex_rise(cz),
             "restitution": rise / -float(vz[hit]), "mass_kg": float(m[mat].sum())}
 
 
@@ -190,19 +210,20 @@ def markdown(doc: dict, args) -> list[str]:
                          f"{r.get('process_cpu_s', float('nan')):.1f} | {r.get('process_wall_s', float('nan')):.1f} | "
                          f"{r.get('load_avg_1min', float('nan')):.1f} |" if r["returncode"] == 0 else
                          f"| {name} | failed: {r.get('stderr', '')[-200:]!r} | | | | | | |")
-        key = "rigid_vs_explicit" if part == "stiff" else "soft_with_stiff_vs_alone"
-        if key in doc[part]:
+        keys = ["rigid_vs_explicit", "rigid_vs_explicit_particle"] if part == "stiff" else ["soft_with_stiff_vs_alone"]
+        for key in (k for k in keys if k in doc[part]):
             f = doc[part][key]
             lines += ["", f"{key} (worst frames, / size): centroid {100 * f['centroid']:.3f} % ({f['in_u']['centroid']:.2f} U), "
                       f"rotation {f['rotation_deg']:.3f} deg ({f['in_u']['rotation_deg']:.2f} U), shape "
                       f"{100 * f['shape']:.3f} % ({f['in_u']['shape']:.2f} U); restitution {f['restitution_run']:.3f} vs "
                       f"{f['restitution_ref']:.3f}; first impact {1e3 * f['impact_run_s']:.0f} vs "
                       f"{1e3 * f['impact_ref_s']:.0f} ms."]
-        if "cpu_ratio" in doc[part]:
-            t = doc[part]["twin_vs_explicit"]
-            lines += ["", f"CPU, explicit over rigid: {doc[part]['cpu_ratio']:.1f}x. The twin against the explicit run "
-                      f"(= 1 U): centroid {100 * t['centroid']:.3f} %, rotation {t['rotation_deg']:.3f} deg, restitution "
-                      f"{t['restitution_run']:.3f}."]
+            ref = key.replace("rigid_vs_", "")
+            if f"cpu_ratio_{ref}" in doc[part]:
+                t = doc[part][f"twin_vs_{ref}"]
+                lines += [f"CPU, {ref} over rigid: {doc[part][f'cpu_ratio_{ref}']:.1f}x. Its twin against it (= 1 U): "
+                          f"centroid {100 * t['centroid']:.3f} %, rotation {t['rotation_deg']:.3f} deg, restitution "
+                          f"{t['restitution_run']:.3f} vs {t['restitution_ref']:.3f}."]
         lines.append("")
     if "steel" in doc:
         s = doc["steel"]
@@ -211,7 +232,10 @@ def markdown(doc: dict, args) -> list[str]:
                   f"{args.steel_grid}, {args.steel_frames} frames, {s['n_points']} points, {s['n_substeps']} "
                   f"substeps/frame: **{s['cpu_s']:.1f} s CPU** (prepare, build and frames; load {s['load_avg_1min']:.1f}), "
                   f"restitution {s['restitution']:.3f}, energy at the start {s['energy_start_J']:.4f} J, its largest "
-                  f"rise above it {s['energy_max_rise_J']:+.2e} J, at the end {s['energy_J'][-1] - s['energy_start_J']:+.2e} J.", ""]
+                  f"rise above it {s['energy_max_rise_J']:+.2e} J, at the end {s['energy_J'][-1] - s['energy_start_J']:+.2e} J; "
+                  f"with the height half a substep back (the time symplectic Euler's velocity belongs to) its largest "
+                  f"rise {s['energy_half_step_max_rise_J']:+.2e} J; the centroid's highest apex after a bounce "
+                  f"{1e3 * s['apex_max_rise_m']:+.2f} mm from the start.", ""]
     return lines
 
 
@@ -235,7 +259,7 @@ def main(argv=None) -> int:
             doc[name] = parts[name](work, args)
     RESULTS.mkdir(parents=True, exist_ok=True)
     stem = f"rigid{'_' + args.tag if args.tag else ''}"
-    (RESULTS / f"{stem}.json").write_text(json.dumps(doc, indent=1, default=float))
+    (RESULTS / f"{stem}.json").write_text(json.dumps(doc, indent=1, default=lambda o: str(o) if isinstance(o, Path) else float(o)))
     lines = markdown(doc, args)
     (RESULTS / f"{stem}.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))

@@ -20,6 +20,7 @@ import dataclasses
 
 import numpy as np
 
+from gasp_core.toolkit.contact import DAMPING
 from gasp_core.toolkit.materials import P_LAM, P_MU
 
 #: Elastic modulus (Pa) a rigid body shows the step and contact rules of the grid engines
@@ -29,8 +30,9 @@ NOMINAL_E = 1.0
 #: frequency on the ``N`` points of its largest flat face (:func:`rigid_contact`). Symplectic Euler on an
 #: oscillator is stable below 2; 1 keeps the impact resolved over about 3 substeps.
 RIGID_OMEGA_DT = 1.0
-#: Damping ratio of a rigid body's contact, body level (``c_p = 2 RIGID_DAMPING sqrt(k M / N)``).
-RIGID_DAMPING = 0.0
+#: Damping ratio of a rigid body's contact per point, as the particle contact's (``c_p = 2 RIGID_DAMPING sqrt(k_p m_p)``,
+#: ``gasp_core.toolkit.contact.DAMPING``): the same contact law as the elastic bodies, with its own stiffness.
+RIGID_DAMPING = DAMPING
 
 
 def rigid_mask(materials) -> np.ndarray:
@@ -77,7 +79,7 @@ def rigid_contact(setup, dt: float, coeffs: np.ndarray) -> np.ndarray:
     """The particle contact's ``(k_p, c_p, s_p)`` (``gasp_core.toolkit.contact.contact_coefficients``) with each
     rigid body's rows replaced: its stiffness follows the step, not its ``E``.
 
-    ``k_p = (RIGID_OMEGA_DT / dt)^2 M / N`` (N/m), ``c_p = 2 RIGID_DAMPING sqrt(k_p M / N)`` (N s/m), the skin
+    ``k_p = (RIGID_OMEGA_DT / dt)^2 M / N`` (N/m), ``c_p = 2 RIGID_DAMPING sqrt(k_p m_p)`` (N s/m), the skin
     unchanged: ``M`` the body's mass (kg) and ``N`` the points of its largest flat face (:func:`face_points`,
     within one point spacing), so the body on that face oscillates at ``Omega = RIGID_OMEGA_DT / dt``, stable
     and resolved at the step ``dt`` (s) the engine takes. A rigid body's points move together, so the step is
@@ -108,7 +110,7 @@ def rigid_contact(setup, dt: float, coeffs: np.ndarray) -> np.ndarray:
         k = (RIGID_OMEGA_DT / dt) ** 2 * M / n_face
         rows = body == b
         out[rows, 0] = np.where(vol[rows] > 0.0, k, 0.0)
-        out[rows, 1] = np.where(vol[rows] > 0.0, 2.0 * RIGID_DAMPING * np.sqrt(k * M / n_face), 0.0)
+        out[rows, 1] = np.where(vol[rows] > 0.0, 2.0 * RIGID_DAMPING * np.sqrt(k * m[rows]), 0.0)
     return out
 
 
