@@ -201,6 +201,34 @@ def part_mixed(work: Path, args) -> dict:
     return out
 
 
+TABLE_E = (1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 2e11)
+
+
+def part_table(work: Path, args) -> dict:
+    """Per E (the stiff block's scene, no simulation): auto's choice and why, the explicit model's substeps per frame
+    and the rigid limit's (the engine's own step rules: ``choose_dt`` on the setup and on ``step_view``)."""
+    import warnings
+    from gasp_core.prepare.scene import prepare_scene
+    from gasp_core.scene.spec import load_scene
+    from gasp_core.toolkit.grid_engine import choose_dt
+    from gasp_core.toolkit.rigid import step_view
+    rows = []
+    for E in TABLE_E:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            prep = prepare_scene(load_scene(with_model(stiff_scene(work, 4, E, args.n_grid, args.frames, "taichi_mpm"),
+                                                       "auto", work / f"table_{E:g}.toml")))
+        s = prep.setup
+        elastic = dataclasses.replace(s, materials=[dataclasses.replace(m, model="elastic") for m in s.materials])
+        opts = {**s.options, "max_substeps": 10 ** 9}
+        rows.append({"E": E, "auto": prep.objects[0].body_model["model"], "why": prep.objects[0].body_model["why"],
+                     "explicit_substeps": choose_dt(elastic, opts, "taichi_mpm", True)[0],
+                     "rigid_substeps": choose_dt(step_view(dataclasses.replace(
+                         s, materials=[dataclasses.replace(m, model="rigid") for m in s.materials])), opts,
+                         "taichi_mpm", True)[0]})
+    return {"rows": rows}
+
+
 def markdown(doc: dict, args) -> list[str]:
     lines = ["# The rigid limit of a stiff body (benchmarks/bench_rigid.py, issue 40)", "",
              f"`python benchmarks/bench_rigid.py --parts {','.join(args.parts)}` (taichi_mpm, one thread; CPU: the "
@@ -231,6 +259,11 @@ def markdown(doc: dict, args) -> list[str]:
                           f"centroid {100 * t['centroid']:.3f} %, rotation {t['rotation_deg']:.3f} deg, restitution "
                           f"{t['restitution_run']:.3f} vs {t['restitution_ref']:.3f}."]
         lines.append("")
+    if "table" in doc:
+        lines += ["## table", "", "| E (Pa) | auto | explicit substeps/frame | rigid substeps/frame | why |", "|---:|---|---:|---:|---|"]
+        lines += [f"| {r['E']:g} | {r['auto']} | {r['explicit_substeps']} | {r['rigid_substeps']} | {r['why']} |"
+                  for r in doc["table"]["rows"]]
+        lines.append("")
     if "steel" in doc:
         s = doc["steel"]
         lines += ["## steel", "", f"10 cm steel ball of {N_BALL} flat Gaussians (E 2e11, nu 0.3, rho 7850, model "
@@ -247,7 +280,7 @@ def markdown(doc: dict, args) -> list[str]:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--parts", type=lambda s: s.split(","), default=["stiff", "steel", "mixed"])
+    ap.add_argument("--parts", type=lambda s: s.split(","), default=["stiff", "steel", "mixed", "table"])
     ap.add_argument("--frames", type=int, default=8)
     ap.add_argument("--E", type=float, default=1e7)
     ap.add_argument("--n-grid", type=int, default=32)
@@ -257,7 +290,7 @@ def main(argv=None) -> int:
     ap.add_argument("--keep", type=Path, default=None, help="run in this (new) folder and keep it")
     args = ap.parse_args(argv)
     doc = {"args": vars(args)}
-    parts = {"stiff": part_stiff, "steel": part_steel, "mixed": part_mixed}
+    parts = {"stiff": part_stiff, "steel": part_steel, "mixed": part_mixed, "table": part_table}
     with tempfile.TemporaryDirectory(prefix="gasp_rigid_") as tmp:
         work = Path(tmp) if args.keep is None else args.keep
         work.mkdir(parents=True, exist_ok=True)

@@ -91,13 +91,13 @@ def test_route_soft_body_stays_elastic():
 def test_route_boundary_of_the_rule():
     """The choice flips where the deformation crosses RIGID_SHARE of a cell."""
     s = ball()
-    est = estimate(s.materials[0], s.x, s.p_vol, s.v, s.gravity, [0.0], s.dx, s.frame_dt, 3.0)
+    est = estimate(s.materials[0], s.x, s.p_vol, s.v, s.gravity, 0.0, s.dx, s.frame_dt, 3.0)
     # E for which the impact deformation is exactly the share: eps = v / sqrt(E / rho) = RIGID_SHARE dx / L
     size = float(np.ptp(s.x, axis=0).max())
     E_edge = 7850.0 * (est["impact_speed"] * size / (RIGID_SHARE * s.dx)) ** 2
     for E, want in ((1.2 * E_edge, "rigid"), (0.8 * E_edge, "elastic")):
         m = Material("jelly", E=E, nu=0.3, rho=7850.0)
-        assert choose(m, estimate(m, s.x, s.p_vol, s.v, s.gravity, [0.0], s.dx, s.frame_dt, 3.0), True)[0] == want
+        assert choose(m, estimate(m, s.x, s.p_vol, s.v, s.gravity, 0.0, s.dx, s.frame_dt, 3.0), True)[0] == want
 
 
 def test_route_keys_and_engines():
@@ -110,7 +110,7 @@ def test_route_keys_and_engines():
     # metal whose impact stress passes its yield stress stays elastic
     m = Material("metal", E=2e11, nu=0.3, rho=7850.0, yield_stress=1e5)
     s = ball()
-    assert choose(m, estimate(m, s.x, s.p_vol, s.v, s.gravity, [0.0], s.dx, s.frame_dt, 3.0), True)[0] == "elastic"
+    assert choose(m, estimate(m, s.x, s.p_vol, s.v, s.gravity, 0.0, s.dx, s.frame_dt, 3.0), True)[0] == "elastic"
     # sand has no rigid limit: its model stays the material's own
     assert routes(ball(E=1e6, rho=1500.0, name="sand"))[0]["model"] == "auto"
 
@@ -147,3 +147,11 @@ def test_rigid_contact_follows_the_step_not_E():
     assert np.allclose(a[:, 0], 4.0 * b[:, 0])       # k ~ 1 / dt^2
     s2 = ball(model="rigid", E=2e9)
     assert np.allclose(rigid_contact(s2, 1e-3, coeffs)[:, 0], a[:, 0])   # E does not enter
+
+
+def test_route_without_a_ground_assumes_a_fall_to_the_domain_floor():
+    """No ground: a soft body is not taken rigid for want of an impact (a collider or the floor may stop it)."""
+    s = ball(E=2e4, rho=300.0)
+    s.boundaries = []
+    r, _ = routes(s)
+    assert r["model"] == "elastic" and r["impact_speed"] == pytest.approx(np.sqrt(2 * 9.81 * s.x[:, 2].min()), rel=1e-6)

@@ -5,8 +5,9 @@ A body's ``material.model`` (:data:`gasp_core.seam.schema.BODY_MODELS`) is ``"el
 
 * under its weight, standing on a ground: ``eps_w = rho g H / E`` (the base of a column of height ``H``);
 * at the impact of its drop: ``eps_i = v / c``, ``c = sqrt(E / rho)``, ``v = sqrt(v_n^2 + 2 g gap)`` (``v_n`` its
-  starting speed towards the ground, ``gap`` its lowest point's height over it): the strain of a bar hitting a
-  rigid wall at ``v`` (the stress ``rho c v`` of a plane wave), an upper bound for a rounded body;
+  starting speed downwards, ``gap`` its lowest point's height over the ground under it, or over the domain's floor
+  where the scene has colliders or no ground under it): the strain of a bar hitting a rigid wall at ``v`` (the
+  stress ``rho c v`` of a plane wave), an upper bound for a rounded body;
 * from its own spin and spread of speeds: ``eps_s = rho max|v - v_mean|^2 / E``,
 
 and the deformation ``max(eps) L`` (``L`` its largest extent). Below :data:`RIGID_SHARE` of a grid cell the grid
@@ -31,7 +32,7 @@ RIGID_SHARE = 0.25
 CFL = 0.4
 
 
-def estimate(m, x: np.ndarray, p_vol: np.ndarray, v: np.ndarray, gravity, grounds, dx: float,
+def estimate(m, x: np.ndarray, p_vol: np.ndarray, v: np.ndarray, gravity, floor: float | None, dx: float,
              frame_dt: float, v_max: float) -> dict:
     """The strain estimates of one body (the module's model).
 
@@ -44,8 +45,9 @@ def estimate(m, x: np.ndarray, p_vol: np.ndarray, v: np.ndarray, gravity, ground
         m^3 (passive rows 0).
     gravity : array-like, shape (3,)
         m/s^2.
-    grounds : list of float
-        Heights of the ground planes, m (z up).
+    floor : float or None
+        The height the body may fall to, m (z up): the ground under it, or the domain's floor where colliders may
+        stop it first or no ground is under it; None: it never hits anything (no weight, no impact).
     dx : float
         Grid spacing, m.
     frame_dt : float
@@ -66,8 +68,7 @@ def estimate(m, x: np.ndarray, p_vol: np.ndarray, v: np.ndarray, gravity, ground
     size = float(np.ptp(x, axis=0).max()) if len(x) else 0.0
     v_mean = (w[:, None] * v).sum(axis=0) / W
     low = float(x[:, 2].min()) if len(x) else 0.0
-    below = [h for h in grounds if h <= low + 1e-9]
-    gap = low - max(below) if below else None
+    gap = max(low - floor, 0.0) if floor is not None else None
     E, rho = float(m.E), float(m.rho)
     c = math.sqrt(E / rho)
     eps_w = rho * g * float(np.ptp(x[:, 2])) / E if gap is not None and g > 0.0 else 0.0
@@ -133,6 +134,7 @@ def resolve_models(setup, names, features) -> list[dict]:
         rigid limit, which keeps its own model), ``why`` and :func:`estimate`'s figures. One ``UserWarning`` line per body whose choice matters (:func:`message`).
     """
     grounds = [float(b.height) for b in setup.boundaries if b.kind == "ground"]
+    colliders = bool(getattr(setup, "colliders", None))
     g = float(np.linalg.norm(setup.gravity))
     v0 = float(np.max(np.linalg.norm(setup.v, axis=1))) if len(setup.v) else 0.0
     v_max = v0 + math.sqrt(2.0 * g * float(setup.domain_hi[2] - setup.domain_lo[2]))
@@ -142,7 +144,9 @@ def resolve_models(setup, names, features) -> list[dict]:
             out.append({"model": "auto", "why": f"{m.name!r} has no rigid limit: its own model"})
             continue
         sel = setup.body_id == b
-        est = estimate(m, setup.x[sel], setup.p_vol[sel], setup.v[sel], setup.gravity, grounds, setup.dx,
+        below = [h for h in grounds if h <= float(setup.x[sel, 2].min()) + 1e-9]
+        floor = max(below) if below and not colliders else float(setup.domain_lo[2])
+        est = estimate(m, setup.x[sel], setup.p_vol[sel], setup.v[sel], setup.gravity, floor, setup.dx,
                        setup.frame_dt, v_max)
         model, why = choose(m, est, "rigid_limit" in features)
         mats[b] = dataclasses.replace(m, model=model) if m.model == "auto" or model != m.model else m
