@@ -87,7 +87,6 @@ def steel_ball(n_grid=16, r=0.05, drop=0.05):
                     boundaries=[Boundary("ground", height=0.1, friction=0.5)], options={"threads": 1})
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("engine", ENGINES)
 def test_steel_drop_bounces_and_never_gains_energy(engine):
     """Issue 40's steel ball (E 2e11: 2.6e4 explicit substeps a frame) at the motion's step: it bounces (its centre
