@@ -154,7 +154,8 @@ def test_missing_capability_is_listed_with_reason(donut_tiny, write_scene):
 @needs_flex
 def test_compare_reports_a_diverging_engine_and_runs_the_others(donut_tiny, write_scene, tmp_path):
     scene = write_scene(scene_text(donut_tiny, n_frames=3, n_grid=16, engine="mujoco_flex",
-                                   engine_options="{}", material='name = "jelly"\nE = 2.0e6\nnu = 0.3\nrho = 300.0'))
+                                   engine_options="{}",
+                                   material='name = "jelly"\nE = 2.0e6\nnu = 0.3\nrho = 300.0\nmodel = "elastic"'))
     # one substep per frame: ~300x above the elastic-wave limit at n_grid 16
     res = compare_scene(scene, ["warp_mpm", "mujoco_flex"], tmp_path / "cmp", progress=False,
                         options={"warp_mpm": {"n_substeps": 1}})

@@ -158,7 +158,7 @@ def check_kept_floaters(path, objects) -> None:
 GROUND_CELLS_BELOW = 3
 
 
-def check_ground_in_grid(scene, options: dict) -> None:
+def check_ground_in_grid(scene, options: dict, materials=None) -> None:
     """Refuse an explicit ``[domain]`` whose floor lies so close under a ground (or at it) that the particle
     contact's ground node layers (:func:`gasp_core.toolkit.contact.ground_node_layer`, two cells below the
     plane) fall outside the grid: a body then rests with its points' stencil below the grid and the run
@@ -170,6 +170,9 @@ def check_ground_in_grid(scene, options: dict) -> None:
     scene : Scene
     options : dict
         The engine options the run takes (``contact``; :func:`gasp_core.toolkit.contact.contact_model`).
+    materials : list of Material, optional
+        The bodies' materials as the contact rule sees them once their models are chosen (issue 40: a rigid body
+        shows ``E = 1 Pa``, ``gasp_core.toolkit.rigid.step_view``); default the scene's.
 
     Raises
     ------
@@ -184,7 +187,7 @@ def check_ground_in_grid(scene, options: dict) -> None:
     grounds = [float(b.height) for b in scene.boundaries if b.kind == "ground"]
     if dom.lo is None or not grounds:
         return
-    materials = [o.material for o in scene.objects if not o.static]
+    materials = [o.material for o in scene.objects if not o.static] if materials is None else list(materials)
     if not materials or contact_model(SimpleNamespace(options=options, materials=materials)) != "particle":
         return
     lo, hi, n = np.asarray(dom.lo, float), np.asarray(dom.hi, float), int(dom.n_grid)

@@ -90,6 +90,8 @@ class PreparedObject:
         :func:`gasp_core.prepare.selection.static_splats`).
     n_floaters : int
         Floaters left out of the physics (static rows, :func:`drop_floaters`).
+    body_model : dict or None
+        The model the body takes and why (``gasp_core.prepare.route.resolve_models``; ``run.json``'s ``model``).
     binding : MeshBinding or None
         Mesh mode (``spec.mesh``): the simulated rows bound to the faces of the mesh, whose vertices
         the engine moves (:mod:`gasp_core.prepare.mesh`).
@@ -111,6 +113,7 @@ class PreparedObject:
     moving: np.ndarray | None = None
     static_tri: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3)))
     surface_rule: dict | None = None
+    body_model: dict | None = None
     n_floaters: int = 0
     binding: MeshBinding | None = None
 

@@ -13,6 +13,8 @@ from gasp_core.errors import SceneError
 from gasp_core.prepare.assembly import build_setup
 from gasp_core.prepare.checks import check_ground_in_grid
 from gasp_core.prepare.placement import prepare_object, PreparedObject
+from gasp_core.prepare.route import resolve_models
+from gasp_core.toolkit.rigid import step_view
 from gasp_core.scene.quality import engine_options as quality_options
 from gasp_core.scene.spec import Scene
 from gasp_core.seam.build import check_supported, needs
@@ -91,6 +93,13 @@ def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None 
     stems = [f"_{o.name}" if o.name in RUN_FILES or o.name.startswith(".") else o.name for o in objects]
     names = [n if stems.count(n) == 1 else f"{i}_{n}" for i, n in enumerate(stems)]
     setup = build_setup(scene, objects)
+    bodies = [o for o in objects if not o.spec.static]    # body i of the setup (build_setup's order)
+    for o, route in zip(bodies, resolve_models(setup, [names[objects.index(o)] for o in bodies],
+                                               info.capabilities.features)):
+        o.body_model = route
+    if "contact" in declared and any(m.model == "rigid" for m in setup.materials):   # a rigid body shows E = 1 Pa
+        given = scene.engine.options if options is None else options
+        check_ground_in_grid(scene, quality_options(scene.quality, dict(given), declared), step_view(setup).materials)
     if options is not None:
         setup.options = dict(options)
     setup.options = quality_options(scene.quality, setup.options, {o.name for o in info.options})

@@ -12,7 +12,7 @@ from typing import Any
 from gasp_core.errors import SceneError
 from gasp_core.scene.values import (MAX_COORD, MAX_PADDING, N_GRID_RANGE, PPC_RANGE, as_integer, as_number, as_string,
                                     as_table, as_vec3, bad_value, check_keys)
-from gasp_core.seam.schema import DEFAULT_MATERIAL, MATERIAL_KINDS
+from gasp_core.seam.schema import BODY_MODELS, DEFAULT_MATERIAL, MATERIAL_KINDS, RIGID_KINDS
 from gasp_core.seam.setup import BOUNDARIES, Boundary, Material, MATERIALS
 
 
@@ -66,14 +66,16 @@ def read_material(value, where: str, src: Path) -> Material:
     table = as_table(value, where, src)
     name = as_string(table.get("name", DEFAULT_MATERIAL), f"{where}.name", src, MATERIALS)
     check_keys(table, _MATERIAL_KEYS, where, src)
-    uses = ("name",) + MATERIAL_KINDS[name].keys
+    uses = ("name",) + MATERIAL_KINDS[name].keys + (("model",) if name in RIGID_KINDS else ())
     unused = sorted(set(table) - set(uses))
     if unused:
         others = sorted({m for k in unused for m, kind in MATERIAL_KINDS.items() if k in kind.keys})
         raise SceneError(f"{src}: {where}: material {name!r} does not use {unused} (a key of "
                          f"{', '.join(others)}); {name!r} takes {sorted(uses)}")
     kw: dict[str, Any] = {"name": name}
-    for k in sorted(set(table) - {"name"}):
+    if "model" in table:
+        kw["model"] = as_string(table["model"], f"{where}.model", src, BODY_MODELS)
+    for k in sorted(set(table) - {"name", "model"}):
         expected = Material.expected(k, table[k])
         if expected is not None:
             bad_value(src, f"{where}.{k}", table[k], expected)

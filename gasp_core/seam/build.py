@@ -81,6 +81,7 @@ def needs(materials: Iterable[str] = (), boundaries: Iterable = (), colliders: I
     """
     materials = list(materials)
     features = ["viscosity" for m in materials if getattr(m, "viscosity", 0.0) > 0]
+    features += ["rigid_limit" for m in materials if getattr(m, "model", "auto") == "rigid"]
     features += ["moving_colliders" if c.moving else "static_colliders" for c in colliders]
     features += ["wind" if f.kind == "wind" else "attractors" for f in forces]
     if list(impulses):

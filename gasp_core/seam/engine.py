@@ -52,6 +52,8 @@ FEATURES = {
     "attractors": "SimSetup.forces of kind 'attractor': acceleration towards a point with a falloff",
     "viscosity": "Material.viscosity > 0: the Kelvin-Voigt viscous stress sigma_v = 2 eta sym(grad v) added to "
                  "the elastic stress (docs/dissipation.md)",
+    "rigid_limit": "Material.model = 'rigid': the body moves as one rigid body (momentum and angular momentum of "
+                   "its points kept), its stress is zero and its stiffness sets no step (docs/rigid.md)",
 }
 
 

@@ -28,7 +28,7 @@ from gasp_core.seam.schema import MATERIAL_KINDS
 from gasp_core.seam.setup import BOUNDARIES, MATERIALS, Boundary, Material, SimSetup
 
 #: Numeric fields a limit may name, by where they live.
-MATERIAL_FIELDS = frozenset(f.name for f in dataclasses.fields(Material) if f.name != "name")
+MATERIAL_FIELDS = frozenset(f.name for f in dataclasses.fields(Material) if f.name not in ("name", "model"))
 BOUNDARY_FIELDS = frozenset({"height", "friction"})
 SETUP_FIELDS = frozenset({"n_grid", "frame_dt"})
 

@@ -131,5 +131,12 @@ MATERIAL_KINDS: dict[str, MaterialKind] = {
     "rigid": MaterialKind("rigid body (engines with rigid bodies)", ("rho",)),
 }
 
+#: Values of a material's ``model`` key (issue 40): the full elastic model, the rigid limit, or chosen from the
+#: body's estimated strain (``gasp_core.prepare.route``).
+BODY_MODELS = ("auto", "elastic", "rigid")
+#: Materials that take the ``model`` key: elastic up to a yield (a rigid body never yields, so ``metal`` is
+#: rigid only while its estimated stress stays below its yield stress).
+RIGID_KINDS = ("jelly", "neo_hookean", "metal")
+
 #: The material of a scene object whose ``material`` table gives no ``name``.
 DEFAULT_MATERIAL = "jelly"

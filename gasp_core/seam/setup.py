@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from gasp_core.errors import SceneError
-from gasp_core.seam.schema import DEFAULT_MATERIAL, MATERIAL_KINDS, MATERIAL_PARAMS
+from gasp_core.seam.schema import BODY_MODELS, DEFAULT_MATERIAL, MATERIAL_KINDS, MATERIAL_PARAMS, RIGID_KINDS
 
 #: Material models an engine may offer (capability names; :data:`gasp_core.seam.schema.MATERIAL_KINDS` says what
 #: each is and which keys it uses).
@@ -62,6 +62,12 @@ class Material:
         parallel; bulk viscosity ``2 eta / 3``, ``docs/dissipation.md``). From a loss factor ``tan(delta)``
         measured at the angular frequency ``omega``: ``eta = tan(delta) mu / omega``. Needs an engine with
         the feature ``viscosity``.
+    model : str
+        How the engine simulates the body (issue 40; :data:`gasp_core.seam.schema.BODY_MODELS`): ``"elastic"``
+        (the full model), ``"rigid"`` (the rigid limit: the body moves as one rigid body, its stress is zero, its
+        stiffness sets no step; engines with the feature ``rigid_limit``) or ``"auto"`` (the default: chosen from
+        the body's estimated strain, ``gasp_core.prepare.route``; a setup built in code with ``"auto"`` runs
+        elastic).
     """
 
     name: str = DEFAULT_MATERIAL
@@ -75,6 +81,7 @@ class Material:
     theta_c: float = MATERIAL_PARAMS["theta_c"].default
     theta_s: float = MATERIAL_PARAMS["theta_s"].default
     viscosity: float = MATERIAL_PARAMS["viscosity"].default
+    model: str = "auto"
 
     @staticmethod
     def expected(key: str, value) -> str | None:
@@ -95,6 +102,11 @@ class Material:
             expected = param.expected(value)
             if expected is not None:
                 raise SceneError(f"{where}.{key} = {value!r}; expected {expected}")
+        if self.model not in BODY_MODELS:
+            raise SceneError(f"{where}.model = {self.model!r}; expected one of {', '.join(map(repr, BODY_MODELS))}")
+        if self.model == "rigid" and self.name not in RIGID_KINDS:
+            raise SceneError(f"{where}.model = 'rigid' needs an elastic material ({', '.join(RIGID_KINDS)}); "
+                             f"{self.name!r} flows or yields")
 
     @property
     def K(self) -> float:

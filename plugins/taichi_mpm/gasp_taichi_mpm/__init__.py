@@ -15,6 +15,8 @@ import os
 # clean, so the banner is off unless the user asked for it.
 os.environ.setdefault("ENABLE_TAICHI_HEADER_PRINT", "False")
 
+import dataclasses
+
 from gasp_core.seam import EngineInfo, hookimpl, install_hint, Option, SimSetup
 from gasp_core.toolkit.grid_engine import MPM_CAPABILITIES
 from gasp_core.toolkit.options import mpm_options
@@ -28,8 +30,8 @@ __all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "gasp_engines", "make_engine", "
 
 ENGINE = "taichi_mpm"
 
-#: The MLS-MPM record of the grid-engine base (``gasp_core.toolkit.grid_engine``).
-CAPABILITIES = MPM_CAPABILITIES
+#: The MLS-MPM record of the grid-engine base (``gasp_core.toolkit.grid_engine``), with the rigid limit (issue 40).
+CAPABILITIES = dataclasses.replace(MPM_CAPABILITIES, features=MPM_CAPABILITIES.features | {"rigid_limit"})
 
 #: The grid-engine options of ``gasp_core.toolkit.options`` (``device``: Taichi runs on the default CUDA device
 #: only, so "cpu" or "cuda"), ``threads`` and ``passive_every``.

@@ -13,7 +13,8 @@ import numpy as np
 
 from gasp_core.toolkit.contact import contact_coefficients, contact_model, contact_reach
 from gasp_core.toolkit.grid_engine import choose_dt, GridEngineBase
-from gasp_core.toolkit.materials import initial_Jp, material_table
+from gasp_core.toolkit.materials import JELLY, initial_Jp, material_table
+from gasp_core.toolkit.rigid import body_frames, rigid_contact, rigid_mask, step_view, zero_stress
 from gasp_core.toolkit.memory import check_memory, estimate_bytes
 from gasp_core.toolkit.points import fixed_mask, passive_bounds
 from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
@@ -74,7 +75,9 @@ class TaichiMPMEngine(GridEngineBase):
         global _generation
         opt = setup.options  # checked and completed by the core (build_engine)
         # viscosity is integrated implicitly (backward Euler): no viscous step cap
-        self.n_substeps, self.dt = choose_dt(setup, opt, ENGINE, implicit_viscosity=True)
+        # a rigid body (material.model = "rigid") sets no elastic or contact step (gasp_core.toolkit.rigid.step_view)
+        view = step_view(setup)
+        self.n_substeps, self.dt = choose_dt(view, opt, ENGINE, implicit_viscosity=True)
         check_memory(estimate_bytes(len(setup.x), setup.n_grid, opt["precision"]),
                      ENGINE, f"{len(setup.x)} points, n_grid {setup.n_grid}, {opt['precision']}")
         import taichi as ti
@@ -109,10 +112,12 @@ class TaichiMPMEngine(GridEngineBase):
         self.order_points(setup, dx)
         o = self._order
 
-        contact = contact_model(setup)
+        contact = contact_model(view)
         walls, grounds, regions = node_ranges(setup, dx, contact)
         fixed = fixed_mask(setup.x, setup.boundaries)
-        kinds, params = material_table(setup.materials)
+        kinds, params = zero_stress(*material_table(setup.materials), setup.materials, JELLY)
+        rigid = rigid_mask(setup.materials)
+        frames = body_frames(setup.x[o], setup.p_mass[o], setup.body_id[o], rigid) if rigid.any() else None
         jp0 = initial_Jp(setup.materials, setup.body_id)
         bytes_per = 4 if real == ti.f32 else 8
         grid_bytes = 4 * bytes_per * setup.n_grid ** 3
@@ -125,8 +130,10 @@ class TaichiMPMEngine(GridEngineBase):
             walls=walls, grounds=grounds, regions=regions, real=real,
             n_chunks=1, atomic=atomic, coloured=not atomic, n_material=self.n_material,
             passive_every=opt["passive_every"], flip=opt.get("flip") or 0.0,
-            p_contact=contact_coefficients(setup)[o] if contact == "particle" and grounds else None,
-            passive_bounds=passive_bounds(setup), contact_reach=contact_reach(setup),
+            p_contact=(rigid_contact(setup, self.dt, contact_coefficients(view))[o]
+                       if contact == "particle" and grounds else None),
+            passive_bounds=passive_bounds(setup), rigid_frames=None if frames is None else (rigid, *frames),
+            contact_reach=contact_reach(setup),
             body_mass=np.bincount(setup.body_id, weights=setup.p_mass, minlength=len(setup.materials)),
             **self._extras(setup))
         self._p2g_mode = "atomic" if atomic else "coloured blocks"
@@ -214,8 +221,17 @@ class TaichiMPMEngine(GridEngineBase):
     def write_array(self, name: str, value: np.ndarray) -> None:
         self.solver.set(getattr(self.solver, name), value)
 
+    def state_extras(self) -> dict[str, np.ndarray]:
+        """``frame`` and, with rigid bodies, their centres and rotations (:mod:`gasp_taichi_mpm.rigid`)."""
+        out = super().state_extras()
+        if self.solver.any_rigid:
+            out.update(self.solver.rigid_state())
+        return out
+
     def restore_extras(self, state: dict[str, np.ndarray]) -> None:
         self.frame = int(state["frame"])
+        if self.solver.any_rigid:
+            self.solver.set_rigid_state(state)
         self._x = self.to_setup_order(self.solver.get(self.solver.x))
         self._v = self.to_setup_order(self.solver.get(self.solver.v))
 

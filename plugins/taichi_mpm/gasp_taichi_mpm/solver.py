@@ -47,6 +47,7 @@ from .balance import Balance
 from .contact import Contact
 from .forces import Forces
 from .grid import GridUpdate
+from .rigid import Rigid
 from .transfers import Transfers
 
 #: The coloured P2G re-sorts the points by block every this many substeps (and at every frame's start).
@@ -54,7 +55,7 @@ SORT_EVERY = 10
 
 
 @ti.data_oriented
-class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact, Balance):
+class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact, Balance, Rigid):
     """Fields and kernels of one simulation.
 
     Parameters
@@ -98,12 +99,16 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
     passive_bounds : (ndarray, ndarray), optional
         The box (m, shape (3,) each) the passive points are held in after each update
         (``gasp_core.toolkit.points.passive_bounds``); default unbounded.
+    rigid_frames : tuple, optional
+        ``(rigid, centre, X0, inertia0, mass)``: which bodies are rigid and their rest frames
+        (``gasp_core.toolkit.rigid.body_frames``, ``X0`` in solver order); the rigid bodies' points are projected
+        onto a rigid motion after every G2P (:mod:`gasp_taichi_mpm.rigid`). Default none.
     """
 
     def __init__(self, *, x, v, C0, p_mass, p_vol, body, fixed, jp0, params, kinds, n_grid, lo, dx, dt,
                  gravity, walls, grounds, regions, real, n_chunks, atomic, extras=None, time_table=None, n_substeps=1,
                  n_material=None, passive_every=1, flip=0.0, coloured=False, p_contact=None, passive_bounds=None,
-                 contact_reach=None, body_mass=None):
+                 rigid_frames=None, contact_reach=None, body_mass=None):
         n = len(x)
         self.n = n
         self.n_material = n if n_material is None else int(n_material)
@@ -129,6 +134,7 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         self._allocate_points(len(kinds))
         self._allocate_grid()
         self._allocate_boundaries()
+        self._allocate_rigid(*(rigid_frames or ([False] * len(kinds), None, None, None, None)))
         self.allocate_balance(contact_reach if self.n_planes else None, body_mass)
 
         np_real = np.float32 if real == ti.f32 else np.float64
@@ -335,13 +341,18 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
                 self.g2p_passive(at[s])
             if self.has_extras:
                 self.ex_step[None] = s + 1
-            self.p2g_substep(1, s + 1)
+            if self.any_rigid:   # G2P, the rigid projection, then P2G (not fused: the projection needs every point)
+                self.g2p()
+                self.rigid_step()
+            self.p2g_substep(0 if self.any_rigid else 1, s + 1)
         self.grid_update()
         if self.n_spin:
             self.contact_fix()
         self.g2p()
         if at[-1] is not None:
             self.g2p_passive(at[-1])
+        if self.any_rigid:
+            self.rigid_step()
 
     def p2g_substep(self, with_g2p: int, substep: int) -> None:
         """(G2P and) P2G of one substep, then the implicit viscous step. Coloured: the block sort at the frame's

@@ -6,6 +6,7 @@ Warp: the factory imports :mod:`gasp_warp_mpm.solver` when a simulation is built
 """
 from __future__ import annotations
 
+import dataclasses
 import importlib.util
 
 from gasp_core.seam import EngineInfo, hookimpl, install_hint, Option, SimSetup
@@ -21,8 +22,8 @@ __all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "gasp_engines", "make_engine", "
 
 ENGINE = "warp_mpm"
 
-#: The MLS-MPM record of the grid-engine base (``gasp_core.toolkit.grid_engine``).
-CAPABILITIES = MPM_CAPABILITIES
+#: The MLS-MPM record of the grid-engine base (``gasp_core.toolkit.grid_engine``), with the rigid limit (issue 40).
+CAPABILITIES = dataclasses.replace(MPM_CAPABILITIES, features=MPM_CAPABILITIES.features | {"rigid_limit"})
 
 #: The grid-engine options of ``gasp_core.toolkit.options`` (``device``: "cpu", "cuda" or "cuda:N", Warp's device
 #: names) and ``threads``, accepted so that a scene written for another MPM engine runs unchanged.

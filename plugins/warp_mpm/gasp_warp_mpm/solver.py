@@ -33,7 +33,8 @@ import numpy as np
 import warp as wp
 
 from gasp_core.toolkit.grid_engine import choose_dt, GridEngineBase
-from gasp_core.toolkit.materials import P_ETA, initial_Jp, material_table
+from gasp_core.toolkit.materials import JELLY, P_ETA, initial_Jp, material_table
+from gasp_core.toolkit.rigid import rigid_contact, step_view, zero_stress
 from gasp_core.toolkit.memory import check_memory, estimate_bytes
 from gasp_core.toolkit.contact import contact_coefficients, contact_model, ground_node_layer
 from gasp_core.toolkit.points import cell_order, fixed_mask, passive_bounds
@@ -43,10 +44,12 @@ from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, 
 from . import ENGINE
 from . import kernels as K
 from .balance import allocate_balance, balance_launches
+from .rigid import RigidBodies
+from .tables import ExtraTables
 from .startup import init_warp
 
 
-class WarpMPMEngine(GridEngineBase):
+class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables):
     """MLS-MPM in Warp (docs/mpm.md), one instance per simulation (the non-kernel part: GridEngineBase).
 
     Parameters
@@ -74,8 +77,8 @@ class WarpMPMEngine(GridEngineBase):
         self.setup = setup
         opts = setup.options  # checked and completed by the core (build_engine)
         self.options = opts
-        kinds, par = material_table(setup.materials)
-        steps = choose_dt(setup, opts, ENGINE, implicit_viscosity=True)  # refuses a scene past max_substeps before any build work
+        kinds, par = zero_stress(*material_table(setup.materials), setup.materials, JELLY)   # rigid bodies: no stress
+        steps = choose_dt(step_view(setup), opts, ENGINE, implicit_viscosity=True)  # refuses a scene past max_substeps before any build work
         check_memory(estimate_bytes(len(setup.x), setup.n_grid, opts["precision"]), ENGINE,
                      f"{len(setup.x)} points, n_grid {setup.n_grid}, {opts['precision']}")
         self.device = self._start_warp(opts["device"])
@@ -96,6 +99,7 @@ class WarpMPMEngine(GridEngineBase):
         # Material points first, then the passive ones (SimSetup.passive: G2P only, no P2G).
         self.order_points(setup, self.dx)
         self._upload_points(kinds, par, Ft)
+        self._upload_rigid()
         self._allocate_grid(Ft)
         self._upload_boundaries(Ft)
         has_extras, ex = self._extras(setup, self._array, Ft)
@@ -171,7 +175,7 @@ class WarpMPMEngine(GridEngineBase):
     def _upload_boundaries(self, Ft) -> None:
         """Walls' friction, grounds' (top node layer, friction, 0) and fixed regions' boxes as arrays."""
         fixed_lo, fixed_hi, ground, wall_mu, planes = [], [], [], [], []
-        contact = contact_model(self.setup)
+        contact = contact_model(step_view(self.setup))
         for bd in self.setup.boundaries:
             if bd.kind == "fixed_region":
                 fixed_lo.append(np.asarray(bd.lo, float))
@@ -191,11 +195,15 @@ class WarpMPMEngine(GridEngineBase):
         self.fixed_lo = arr(np.array(fixed_lo, dtype=dt_np).reshape(-1, 3), k.vec3)
         # the particle contact: the planes, each point's (k, c, skin) and the nodes' friction budgets
         self.planes = arr(np.array(planes, dtype=dt_np).reshape(-1, 3), k.vec3)
-        kcs = contact_coefficients(self.setup)[self._order] if planes else np.zeros((1, 3))
+        kcs = self._contact_coefficients()[self._order] if planes else np.zeros((1, 3))
         self.p_contact = arr(kcs.astype(dt_np), k.vec3)
         self.grid_fb = wp.zeros(self.n_grid ** 3 if planes else 1, dtype=Ft, device=self.device)
         allocate_balance(self, planes, Ft)   # the contact's balance (gasp_warp_mpm.balance)
         self.fixed_hi = arr(np.array(fixed_hi, dtype=dt_np).reshape(-1, 3), k.vec3)
+
+    def _contact_coefficients(self) -> np.ndarray:
+        """The particle contact's coefficients, setup order; a rigid body's follow the step (``rigid_contact``)."""
+        return rigid_contact(self.setup, self.dt, contact_coefficients(step_view(self.setup)))
 
     def _record_launches(self, Ft, has_extras: int, ex) -> None:
         """Pre-recorded launches of a substep (P2G, grid update, G2P), of the passive points' G2P, of the
@@ -218,7 +226,7 @@ class WarpMPMEngine(GridEngineBase):
                 self.fr_sums, self.fr_nodes]),
             wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
                 self.x, self.v, self.C, self.fixed, self.grid_v, lo_v, inv_dx, dt_f, ng, self.grid_v0, Ft(self.flip)]),
-        ]
+        ] + self._rigid_launches(Ft)
         # the contact's balance (gasp_warp_mpm.balance): its moments before P2G, its fix after the grid update
         self._pre, fix = balance_launches(self, k, lo_v, dx, dt_f)
         if fix is not None:
@@ -246,31 +254,6 @@ class WarpMPMEngine(GridEngineBase):
                                        inputs=[self.x, self.v, self.flags])
 
     # ------------------------------------------------------------------ colliders, forces, impulses
-    def _extras(self, setup: SimSetup, arr, Ft):
-        """``(has_extras, Extras struct)`` from ``gasp_core.toolkit.grid_tables.grid_tables`` (empty arrays when none)."""
-        from gasp_core.toolkit.grid_tables import grid_tables
-        tables = grid_tables(setup)
-        ex = self.k.Extras()
-        self._ex_tables = tables if tables.any else None
-        np_t = self._np_dtype
-        ex.sdf, ex.grad, ex.meta = arr(tables.sdf.astype(np_t), Ft), arr(tables.sdf_grad.astype(np_t), Ft), \
-            arr(tables.col_meta.astype(np_t), Ft)
-        ex.forces, ex.modes, ex.imps = arr(tables.forces.astype(np_t), Ft), arr(tables.modes.astype(np_t), Ft), \
-            arr(tables.impulses.astype(np_t), Ft)
-        ex.tab = wp.zeros(max(1, self.n_substeps * tables.width), dtype=Ft, device=self.device)
-        ex.step = wp.zeros(1, dtype=wp.int32, device=self.device)
-        ex.n_col, ex.n_force, ex.n_imp, ex.width = (tables.n_colliders, tables.n_forces, tables.n_impulses,
-                                                     tables.width)
-        self._ex = ex
-        return int(tables.any), ex
-
-    def _load_frame_table(self) -> None:
-        """The time-dependent inputs of this frame's substeps (collider poses, impulse weights)."""
-        from gasp_core.toolkit.grid_tables import frame_table
-        tab = frame_table(self.setup, (self.frame - 1) * self.setup.frame_dt, self.n_substeps, self.dt).astype(self._np_dtype)
-        self._ex.tab.assign(tab)
-        self._ex.step.zero_()
-
     # ------------------------------------------------------------------ helpers
     def _cell_order(self, x: np.ndarray) -> np.ndarray:
         """Stable order of points by flat cell index (``gasp_core.toolkit.points.cell_order``)."""
@@ -284,6 +267,7 @@ class WarpMPMEngine(GridEngineBase):
         if np.array_equal(perm, np.arange(self.n_points)):
             return
         per_point = [self.p_contact] if self.p_contact.shape[0] == self.n_points else []  # (1, 3) without planes
+        per_point += [self.X0] if self.any_rigid else []
         for a in (self.x, self.v, self.F, self.C, self.Jp, self.p_mass, self.p_vol, self.body, self.fixed, *per_point):
             view = a.numpy()
             view[...] = view[perm]
@@ -367,12 +351,14 @@ class WarpMPMEngine(GridEngineBase):
         getattr(self, name).assign(value)
 
     def state_extras(self) -> dict[str, np.ndarray]:
-        return {"order": self._order.copy(), "frame": np.array(self.frame), "sim_time": np.array(self.sim_time)}
+        return {"order": self._order.copy(), "frame": np.array(self.frame), "sim_time": np.array(self.sim_time),
+                **self.rigid_state()}
 
     def restore_extras(self, state: dict[str, np.ndarray]) -> None:
         self._order = np.asarray(state["order"]).astype(np.int64)
         if self.p_contact.shape[0] == self.n_points:   # the contact coefficients follow the restored order
-            self.p_contact.assign(contact_coefficients(self.setup)[self._order].astype(self._np_dtype))
+            self.p_contact.assign(self._contact_coefficients()[self._order].astype(self._np_dtype))
+        self.set_rigid_state(state)
         self.frame = int(state["frame"])
         self.sim_time = float(state["sim_time"])
 

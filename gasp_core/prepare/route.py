@@ -1,0 +1,158 @@
+"""Which model a body takes, the full elastic one or the rigid limit, chosen from its physics (issue 40, item 2).
+
+A body's ``material.model`` (:data:`gasp_core.seam.schema.BODY_MODELS`) is ``"elastic"``, ``"rigid"`` or ``"auto"``
+(the default). For ``"auto"`` the core estimates the strain the body will show (:func:`estimate`):
+
+* under its weight, standing on a ground: ``eps_w = rho g H / E`` (the base of a column of height ``H``);
+* at the impact of its drop: ``eps_i = v / c``, ``c = sqrt(E / rho)``, ``v = sqrt(v_n^2 + 2 g gap)`` (``v_n`` its
+  starting speed downwards, ``gap`` its lowest point's height over the ground under it, or over the domain's floor
+  where the scene has colliders or no ground under it): the strain of a bar hitting a rigid wall at ``v`` (the
+  stress ``rho c v`` of a plane wave), an upper bound for a rounded body;
+* from its own spin and spread of speeds: ``eps_s = rho max|v - v_mean|^2 / E``,
+
+and the deformation ``max(eps) L`` (``L`` its largest extent). Below :data:`RIGID_SHARE` of a grid cell the grid
+cannot show it, and the body takes the rigid limit (on an engine with the feature ``rigid_limit``); ``metal`` also
+needs its stress ``E eps`` below its yield stress. The choice, its figures and the substeps per frame each model
+would need are one line on stderr and, per object, ``model`` in ``run.json``.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import warnings
+
+import numpy as np
+
+from gasp_core.seam.schema import RIGID_KINDS
+from gasp_core.toolkit.substeps import p_wave_speed
+
+#: ``auto`` takes the rigid limit when the estimated deformation is below this share of a grid cell.
+RIGID_SHARE = 0.25
+#: The Courant number the substep estimates of the messages assume (the grid engines' default ``cfl``).
+CFL = 0.4
+
+
+def estimate(m, x: np.ndarray, p_vol: np.ndarray, v: np.ndarray, gravity, floor: float | None, dx: float,
+             frame_dt: float, v_max: float) -> dict:
+    """The strain estimates of one body (the module's model).
+
+    Parameters
+    ----------
+    m : Material
+    x, v : ndarray, shape (n, 3)
+        The body's points (m) and velocities (m/s).
+    p_vol : ndarray, shape (n,)
+        m^3 (passive rows 0).
+    gravity : array-like, shape (3,)
+        m/s^2.
+    floor : float or None
+        The height the body may fall to, m (z up): the ground under it, or the domain's floor where colliders may
+        stop it first or no ground is under it; None: it never hits anything (no weight, no impact).
+    dx : float
+        Grid spacing, m.
+    frame_dt : float
+        s.
+    v_max : float
+        The fastest speed the scene may reach, m/s (the step's velocity bound).
+
+    Returns
+    -------
+    dict
+        ``strain_weight, strain_impact, strain_spin, strain`` (dimensionless), ``impact_speed`` (m/s),
+        ``deformation`` (m), ``deformation_cells`` (in ``dx``), ``substeps_elastic`` and ``substeps_rigid`` (about
+        how many substeps per frame the body's wave speed and the motion alone need at ``cfl = 0.4``).
+    """
+    g = float(np.linalg.norm(gravity))
+    w = np.where(p_vol > 0.0, p_vol, 0.0)
+    W = float(w.sum()) or 1.0
+    size = float(np.ptp(x, axis=0).max()) if len(x) else 0.0
+    v_mean = (w[:, None] * v).sum(axis=0) / W
+    low = float(x[:, 2].min()) if len(x) else 0.0
+    gap = max(low - floor, 0.0) if floor is not None else None
+    E, rho = float(m.E), float(m.rho)
+    c = math.sqrt(E / rho)
+    eps_w = rho * g * float(np.ptp(x[:, 2])) / E if gap is not None and g > 0.0 else 0.0
+    v_imp = math.sqrt(max(0.0, -float(v_mean[2])) ** 2 + 2.0 * g * gap) if gap is not None else 0.0
+    eps_i = v_imp / c
+    spread = float(np.max(np.linalg.norm(v - v_mean, axis=1))) if len(v) else 0.0
+    eps_s = rho * spread * spread / E
+    eps = max(eps_w, eps_i, eps_s)
+    n_el = math.ceil(frame_dt / (CFL * dx / max(p_wave_speed(m), v_max, 1e-12)))
+    n_rg = math.ceil(frame_dt / (CFL * dx / max(v_max, 1e-12)))
+    return {"strain_weight": eps_w, "strain_impact": eps_i, "strain_spin": eps_s, "strain": eps,
+            "impact_speed": v_imp, "deformation": eps * size, "deformation_cells": eps * size / dx,
+            "substeps_elastic": n_el, "substeps_rigid": n_rg}
+
+
+def choose(m, est: dict, rigid_ok: bool) -> tuple[str, str]:
+    """``(model, why)`` of one body from its ``material.model`` and :func:`estimate`; ``rigid_ok``: the engine has
+    the feature ``rigid_limit``."""
+    if m.model != "auto":
+        return m.model, f"material.model = {m.model!r}"
+    small = est["deformation_cells"] <= RIGID_SHARE
+    if m.name == "metal" and float(m.E) * est["strain"] >= float(m.yield_stress):
+        return "elastic", (f"auto: its estimated stress {float(m.E) * est['strain']:.3g} Pa reaches its yield "
+                           f"stress {float(m.yield_stress):.3g} Pa")
+    if not small:
+        return "elastic", (f"auto: its estimated deformation {1e3 * est['deformation']:.3g} mm is "
+                           f"{est['deformation_cells']:.2g} of a cell (the rigid limit below {RIGID_SHARE:g})")
+    why = (f"auto: its estimated deformation {1e3 * est['deformation']:.3g} mm (strain {est['strain']:.2g}) is "
+           f"{est['deformation_cells']:.2g} of a cell (below {RIGID_SHARE:g})")
+    return ("rigid", why) if rigid_ok else ("elastic", why + ", but the engine has no rigid limit")
+
+
+def message(name: str, model: str, why: str, est: dict) -> str | None:
+    """The one line ``gasp simulate`` prints for a body, or None when its elastic model costs little."""
+    n_el, n_rg = est["substeps_elastic"], est["substeps_rigid"]
+    if model == "rigid":
+        return (f"object '{name}': rigid limit ({why}): about {n_rg} substeps a frame instead of {n_el}; "
+                f"set material.model = \"elastic\" to simulate its deformation")
+    if n_el < 4 * n_rg:
+        return None
+    if "no rigid limit" in why:
+        return (f"object '{name}': elastic ({why}): an engine with the feature 'rigid_limit' would take about "
+                f"{n_rg} substeps a frame instead of {n_el}")
+    return (f"object '{name}': elastic ({why}): material.model = \"rigid\" would take about {n_rg} substeps a "
+            f"frame instead of {n_el}, without its deformation")
+
+
+def resolve_models(setup, names, features) -> list[dict]:
+    """Resolve every body's ``material.model`` in ``setup.materials`` (in place) and say each choice.
+
+    Parameters
+    ----------
+    setup : SimSetup
+    names : list of str
+        Object names, one per body.
+    features : frozenset of str
+        The engine's features (``rigid_limit``).
+
+    Returns
+    -------
+    list of dict
+        Per body, for ``run.json``: ``model`` (``"elastic"`` or ``"rigid"``; ``"auto"`` for a material that has no
+        rigid limit, which keeps its own model), ``why`` and :func:`estimate`'s figures. One ``UserWarning`` line per body whose choice matters (:func:`message`).
+    """
+    grounds = [float(b.height) for b in setup.boundaries if b.kind == "ground"]
+    colliders = bool(getattr(setup, "colliders", None))
+    g = float(np.linalg.norm(setup.gravity))
+    v0 = float(np.max(np.linalg.norm(setup.v, axis=1))) if len(setup.v) else 0.0
+    v_max = v0 + math.sqrt(2.0 * g * float(setup.domain_hi[2] - setup.domain_lo[2]))
+    out, mats = [], list(setup.materials)
+    for b, m in enumerate(mats):
+        if m.name not in RIGID_KINDS:
+            out.append({"model": "auto", "why": f"{m.name!r} has no rigid limit: its own model"})
+            continue
+        sel = setup.body_id == b
+        below = [h for h in grounds if h <= float(setup.x[sel, 2].min()) + 1e-9]
+        floor = max(below) if below and not colliders else float(setup.domain_lo[2])
+        est = estimate(m, setup.x[sel], setup.p_vol[sel], setup.v[sel], setup.gravity, floor, setup.dx,
+                       setup.frame_dt, v_max)
+        model, why = choose(m, est, "rigid_limit" in features)
+        mats[b] = dataclasses.replace(m, model=model) if m.model == "auto" or model != m.model else m
+        out.append({"model": model, "why": why, **est})
+        line = message(names[b], model, why, est)
+        if line:
+            warnings.warn(line, stacklevel=2)
+    setup.materials = mats
+    return out

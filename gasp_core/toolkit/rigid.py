@@ -1,0 +1,207 @@
+"""The rigid limit of a stiff elastic body in a grid (MPM) engine (issue 40, ``docs/rigid.md``).
+
+A body whose material has ``model = "rigid"`` (:class:`gasp_core.seam.setup.Material`) keeps its P2G, grid update
+and G2P like every body, so it couples with the others through the shared grid; after each G2P its points'
+velocities are projected onto one rigid motion that keeps the body's linear momentum and its angular momentum,
+APIC's affine part included (:func:`rigid_project`), its points are put back on the rigid pose, its ``C`` is set
+to the spin's skew matrix and its ``F`` to the rotation. Its stress is zero (its Lame parameters are set to zero,
+:func:`zero_stress`), so its wave speed sets no step: the step follows the velocity CFL and the contact's own
+stable step (:func:`step_view`, :func:`rigid_contact`).
+
+Sources: the rigid projection of a particle velocity field is the rigid-body limit used in MPM rigid coupling
+(Hu et al. 2018, "A moving least squares material point method with displacement discontinuity and two-way rigid
+body coupling", Sec. 5, where rigid bodies are advanced from the momentum the grid gives them); APIC's angular
+momentum of a particle, ``m_p x_p x v_p + m_p eps : (B_p^T)`` with ``B_p = C_p D_p`` and ``D_p = dx^2 / 4 I`` for
+quadratic B-splines (Jiang et al. 2015, "The affine particle-in-cell method", Sec. 5.3).
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from gasp_core.toolkit.contact import DAMPING
+from gasp_core.toolkit.materials import P_LAM, P_MU
+
+#: Elastic modulus (Pa) a rigid body shows the step and contact rules of the grid engines
+#: (:func:`step_view`): small enough that neither its wave speed nor its contact frequency sets a step.
+NOMINAL_E = 1.0
+#: ``Omega dt`` of a rigid body's contact at the step the engine takes: ``Omega = sqrt(k N / M)``, the body's
+#: frequency on the ``N`` points of its largest flat face (:func:`rigid_contact`). Symplectic Euler on an
+#: oscillator is stable below 2; 1 keeps the impact resolved over about 3 substeps.
+RIGID_OMEGA_DT = 1.0
+#: Damping ratio of a rigid body's contact per point, as the particle contact's (``c_p = 2 RIGID_DAMPING sqrt(k_p m_p)``,
+#: ``gasp_core.toolkit.contact.DAMPING``): the same contact law as the elastic bodies, with its own stiffness.
+RIGID_DAMPING = DAMPING
+
+
+def rigid_mask(materials) -> np.ndarray:
+    """Per body, True where ``material.model == "rigid"`` (shape (n_bodies,), bool)."""
+    return np.array([getattr(m, "model", "auto") == "rigid" for m in materials], dtype=bool)
+
+
+def step_view(setup):
+    """The setup as the step and contact rules see it: each rigid body's ``E`` is :data:`NOMINAL_E`.
+
+    A rigid body has no stress, so its stiffness sets no wave speed, and its contact is :func:`rigid_contact`'s,
+    not the one of its ``E``; the rules (``choose_dt``, ``contact_model``, ``contact_coefficients``) then take
+    the step, the contact model and the other bodies' coefficients from the other bodies. Returns ``setup``
+    itself when no body is rigid, else a shallow copy (``dataclasses.replace``).
+    """
+    rigid = rigid_mask(setup.materials)
+    if not rigid.any():
+        return setup
+    mats = [dataclasses.replace(m, E=NOMINAL_E) if r else m for m, r in zip(setup.materials, rigid)]
+    return dataclasses.replace(setup, materials=mats)
+
+
+def zero_stress(kinds: np.ndarray, params: np.ndarray, materials, elastic_code: int) -> tuple[np.ndarray, np.ndarray]:
+    """``material_table``'s rows with each rigid body's Lame parameters zero and its model the plain elastic one
+    (``elastic_code``: no return mapping), so its stress is zero whatever its ``F``."""
+    kinds, params = np.array(kinds), np.array(params, dtype=np.float64)
+    rigid = rigid_mask(materials)
+    params[rigid, P_MU] = 0.0
+    params[rigid, P_LAM] = 0.0
+    kinds[rigid] = elastic_code
+    return kinds, params
+
+
+def face_points(x: np.ndarray, h: float) -> int:
+    """The most points within ``h`` (m) of one of the six extremes of ``x`` (shape (n, 3), m): the points of
+    the body's largest axis-aligned flat face, which may meet a plane at once."""
+    if len(x) == 0:
+        return 0
+    return int(max(max(np.sum(x[:, d] <= x[:, d].min() + h), np.sum(x[:, d] >= x[:, d].max() - h))
+                   for d in range(3)))
+
+
+def rigid_contact(setup, dt: float, coeffs: np.ndarray) -> np.ndarray:
+    """The particle contact's ``(k_p, c_p, s_p)`` (``gasp_core.toolkit.contact.contact_coefficients``) with each
+    rigid body's rows replaced: its stiffness follows the step, not its ``E``.
+
+    ``k_p = (RIGID_OMEGA_DT / dt)^2 M / N`` (N/m), ``c_p = 2 RIGID_DAMPING sqrt(k_p m_p)`` (N s/m), the skin
+    unchanged: ``M`` the body's mass (kg) and ``N`` the points of its largest flat face (:func:`face_points`,
+    within one point spacing), so the body on that face oscillates at ``Omega = RIGID_OMEGA_DT / dt``, stable
+    and resolved at the step ``dt`` (s) the engine takes. A rigid body's points move together, so the step is
+    bounded by the body's frequency, not by one node's (the elastic contact's ``contact_dt``).
+
+    Parameters
+    ----------
+    setup : SimSetup
+    dt : float
+        The substep, s.
+    coeffs : ndarray, shape (n, 3)
+        The coefficients of the other bodies (any rows for the rigid ones).
+
+    Returns
+    -------
+    ndarray, shape (n, 3), float64
+    """
+    out = np.array(coeffs, dtype=np.float64)
+    body = np.asarray(setup.body_id)
+    m, vol = np.asarray(setup.p_mass, np.float64), np.asarray(setup.p_vol, np.float64)
+    for b in np.flatnonzero(rigid_mask(setup.materials)):
+        sel = (body == b) & (vol > 0.0)
+        if not sel.any():
+            continue
+        h = float(np.median(np.cbrt(vol[sel])))
+        M = float(m[sel].sum())
+        n_face = max(face_points(np.asarray(setup.x)[sel], h), 1)
+        k = (RIGID_OMEGA_DT / dt) ** 2 * M / n_face
+        rows = body == b
+        out[rows, 0] = np.where(vol[rows] > 0.0, k, 0.0)
+        out[rows, 1] = np.where(vol[rows] > 0.0, 2.0 * RIGID_DAMPING * np.sqrt(k * m[rows]), 0.0)
+    return out
+
+
+def affine_spin(C: np.ndarray) -> np.ndarray:
+    """``eps : C^T`` per point: ``(C_zy - C_yz, C_xz - C_zx, C_yx - C_xy)`` (shape (n, 3)); APIC's angular momentum
+    of a point is ``m x x v + m dx^2 / 4 (eps : C^T)`` (Jiang et al. 2015, ``D = dx^2 / 4 I``)."""
+    C = np.asarray(C, dtype=np.float64)
+    return np.stack([C[:, 2, 1] - C[:, 1, 2], C[:, 0, 2] - C[:, 2, 0], C[:, 1, 0] - C[:, 0, 1]], axis=1)
+
+
+def skew(w) -> np.ndarray:
+    """The cross-product matrix of ``w`` (shape (3,)): ``skew(w) @ r == cross(w, r)``."""
+    return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
+
+
+def rigid_project(x: np.ndarray, v: np.ndarray, C: np.ndarray, m: np.ndarray, dx: float):
+    """Project one body's point velocities onto the rigid motion with the same momentum and angular momentum.
+
+    Parameters
+    ----------
+    x, v : ndarray, shape (n, 3)
+        Positions (m) and velocities (m/s).
+    C : ndarray, shape (n, 3, 3)
+        APIC affine velocity matrices, 1/s.
+    m : ndarray, shape (n,)
+        Masses, kg (at least one positive).
+    dx : float
+        Grid spacing, m (APIC's ``D = dx^2 / 4 I``).
+
+    Returns
+    -------
+    v_new : ndarray, shape (n, 3)
+        ``V + w x (x - c)``: ``V = P / M``, ``c`` the centre of mass, ``w = I^-1 L`` with ``L`` the angular
+        momentum about ``c`` (points and affine parts) and ``I = sum m (|r|^2 1 - r r^T) + M dx^2 / 2 1``
+        (the affine parts' inertia: each point's ``D`` adds ``m dx^2 / 2``).
+    C_new : ndarray, shape (n, 3, 3)
+        ``skew(w)`` on every point.
+    w : ndarray, shape (3,)
+        Angular velocity, rad/s.
+
+    Notes
+    -----
+    ``sum m v_new = P`` and ``sum m (x - c) x v_new + m dx^2 / 4 eps : C_new^T = L`` (to rounding).
+    """
+    x, v, m = (np.asarray(a, dtype=np.float64) for a in (x, v, m))
+    M = float(m.sum())
+    c = (m[:, None] * x).sum(axis=0) / M
+    P = (m[:, None] * v).sum(axis=0)
+    r = x - c
+    L = (m[:, None] * np.cross(r, v)).sum(axis=0) + 0.25 * dx * dx * (m[:, None] * affine_spin(C)).sum(axis=0)
+    inertia = (np.eye(3) * (m * (r * r).sum(axis=1)).sum() - np.einsum("n,ni,nj->ij", m, r, r)
+               + np.eye(3) * 0.5 * dx * dx * M)
+    w = np.linalg.solve(inertia, L)
+    v_new = P / M + np.cross(w, r)
+    return v_new, np.broadcast_to(skew(w), (len(x), 3, 3)).copy(), w
+
+
+def body_frames(x: np.ndarray, m: np.ndarray, body: np.ndarray, rigid: np.ndarray):
+    """Each rigid body's rest frame: its centre of mass and its points relative to it.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n, 3)
+        Positions, m.
+    m : ndarray, shape (n,)
+        Masses, kg (passive points 0: they ride along).
+    body : ndarray, shape (n,), int
+    rigid : ndarray, shape (n_bodies,), bool
+
+    Returns
+    -------
+    centre : ndarray, shape (n_bodies, 3)
+        Centre of mass of each rigid body (zeros for the others), m.
+    X0 : ndarray, shape (n, 3)
+        ``x - centre[body]`` for the points of rigid bodies (zeros for the others), m.
+    inertia0 : ndarray, shape (n_bodies, 3, 3)
+        ``sum m (|X0|^2 1 - X0 X0^T)`` per rigid body, kg m^2 (without APIC's ``M dx^2 / 2 1``).
+    mass : ndarray, shape (n_bodies,)
+        kg.
+    """
+    x, m = np.asarray(x, np.float64), np.asarray(m, np.float64)
+    nb = len(rigid)
+    centre, inertia0, mass = np.zeros((nb, 3)), np.zeros((nb, 3, 3)), np.zeros(nb)
+    X0 = np.zeros_like(x)
+    for b in np.flatnonzero(rigid):
+        sel = body == b
+        mass[b] = m[sel].sum()
+        if mass[b] <= 0.0:
+            continue
+        centre[b] = (m[sel, None] * x[sel]).sum(axis=0) / mass[b]
+        r = x[sel] - centre[b]
+        X0[sel] = r
+        inertia0[b] = np.eye(3) * (m[sel] * (r * r).sum(axis=1)).sum() - np.einsum("n,ni,nj->ij", m[sel], r, r)
+    return centre, X0, inertia0, mass

@@ -1,0 +1,124 @@
+"""The rigid limit (``material.model = "rigid"``, ``gasp_core.toolkit.rigid``, ``docs/rigid.md``) as Taichi kernels;
+warp_mpm's ``rigid.py`` would spell the same steps.
+
+After each G2P (:meth:`Rigid.rigid_step`): :meth:`Rigid.rigid_reduce` sums each rigid body's momentum and angular
+momentum about the origin (APIC's affine part included) over its points, serially in the point order (a fixed
+order: the same numbers on any thread count); :meth:`Rigid.rigid_update` turns them into the body's velocity and
+spin and advances its centre and rotation; :meth:`Rigid.rigid_apply` puts every point of the body (its passive
+points too) on the rigid pose ``c + R X0`` with the rigid velocity, ``C`` the spin's skew matrix and ``F = R``.
+The body's state is kept in float64 whatever the working precision.
+
+Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields (``x``, ``v``, ``C``, ``F``, ``body``, ...) it reads.
+"""
+import numpy as np
+import taichi as ti
+
+
+class Rigid:
+    """Per-body rigid state and the three kernels of :meth:`rigid_step`."""
+
+    def _allocate_rigid(self, rigid, centre, X0, inertia0, mass) -> None:
+        """Fields of the rigid bodies (``gasp_core.toolkit.rigid.body_frames``' arrays, solver order)."""
+        nb = len(rigid)
+        self.any_rigid = bool(np.any(rigid))
+        cap = self.x.shape[0] if self.any_rigid else 1
+        self.rb_rigid = ti.field(ti.i32, shape=max(nb, 1))
+        self.rb_M = ti.field(ti.f64, shape=max(nb, 1))
+        self.rb_c = ti.Vector.field(3, ti.f64, shape=max(nb, 1))
+        self.rb_V = ti.Vector.field(3, ti.f64, shape=max(nb, 1))
+        self.rb_w = ti.Vector.field(3, ti.f64, shape=max(nb, 1))
+        self.rb_acc = ti.Vector.field(6, ti.f64, shape=max(nb, 1))
+        self.rb_R = ti.Matrix.field(3, 3, ti.f64, shape=max(nb, 1))
+        self.rb_I0 = ti.Matrix.field(3, 3, ti.f64, shape=max(nb, 1))
+        self.X0 = ti.Vector.field(3, ti.f64, shape=cap)
+        self.n_bodies = nb
+        if not self.any_rigid:
+            return
+        self.rb_rigid.from_numpy(np.asarray(rigid, np.int32))
+        self.rb_M.from_numpy(np.asarray(mass, np.float64))
+        self.rb_c.from_numpy(np.asarray(centre, np.float64))
+        self.rb_R.from_numpy(np.broadcast_to(np.eye(3), (nb, 3, 3)).copy())
+        self.rb_I0.from_numpy(np.asarray(inertia0, np.float64))
+        buf = np.zeros((cap, 3))
+        buf[:len(X0)] = X0
+        self.X0.from_numpy(buf)
+
+    def rigid_state(self) -> dict:
+        """``rigid_c`` (n_bodies, 3) and ``rigid_R`` (n_bodies, 3, 3): what a saved state adds for the rigid bodies."""
+        return {"rigid_c": self.rb_c.to_numpy(), "rigid_R": self.rb_R.to_numpy()}
+
+    def set_rigid_state(self, state: dict) -> None:
+        """Restore :meth:`rigid_state`."""
+        self.rb_c.from_numpy(np.asarray(state["rigid_c"], np.float64))
+        self.rb_R.from_numpy(np.asarray(state["rigid_R"], np.float64))
+
+    def rigid_step(self) -> None:
+        """Project the rigid bodies' points after a G2P (:mod:`gasp_taichi_mpm.rigid`)."""
+        self.rigid_reduce()
+        self.rigid_update()
+        self.rigid_apply()
+
+    @ti.kernel
+    def rigid_reduce(self):
+        for b in range(self.n_bodies):
+            self.rb_acc[b] = ti.Vector.zero(ti.f64, 6)
+        quarter = 0.25 * ti.cast(self.dx[None], ti.f64) ** 2
+        ti.loop_config(serialize=True)
+        for p in range(self.n_points[None]):
+            b = self.body[p]
+            if self.rb_rigid[b] != 0:
+                m = ti.cast(self.p_mass[p], ti.f64)
+                x = ti.cast(self.x[p], ti.f64)
+                v = ti.cast(self.v[p], ti.f64)
+                C = ti.cast(self.C[p], ti.f64)
+                aff = ti.Vector([C[2, 1] - C[1, 2], C[0, 2] - C[2, 0], C[1, 0] - C[0, 1]])
+                L = m * x.cross(v) + (m * quarter) * aff
+                self.rb_acc[b] += ti.Vector([m * v[0], m * v[1], m * v[2], L[0], L[1], L[2]])
+
+    @ti.func
+    def rotation_of(self, a):
+        """``exp(skew(a))`` (Rodrigues), ``a`` a rotation vector, rad."""
+        th = a.norm()
+        K = ti.Matrix([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]], dt=ti.f64)
+        s = 1.0 - th * th / 6.0
+        c = 0.5 - th * th / 24.0
+        if th > 1e-4:
+            s = ti.sin(th) / th
+            c = (1.0 - ti.cos(th)) / (th * th)
+        return ti.Matrix.identity(ti.f64, 3) + s * K + c * (K @ K)
+
+    @ti.kernel
+    def rigid_update(self):
+        dt = ti.cast(self.dt[None], ti.f64)
+        half = 0.5 * ti.cast(self.dx[None], ti.f64) ** 2
+        ti.loop_config(serialize=True)
+        for b in range(self.n_bodies):
+            if self.rb_rigid[b] != 0 and self.rb_M[b] > 0.0:
+                M = self.rb_M[b]
+                acc = self.rb_acc[b]
+                P = ti.Vector([acc[0], acc[1], acc[2]])
+                c = self.rb_c[b]
+                Lc = ti.Vector([acc[3], acc[4], acc[5]]) - c.cross(P)
+                R = self.rb_R[b]
+                Id = ti.Matrix.identity(ti.f64, 3)
+                w_pred = (R @ self.rb_I0[b] @ R.transpose() + half * M * Id).inverse() @ Lc
+                R_new = self.rotation_of(dt * w_pred) @ R
+                w = (R_new @ self.rb_I0[b] @ R_new.transpose() + half * M * Id).inverse() @ Lc
+                self.rb_V[b] = P / M
+                self.rb_w[b] = w
+                self.rb_c[b] = c + dt * (P / M)
+                self.rb_R[b] = R_new
+
+    @ti.kernel
+    def rigid_apply(self):
+        for p in range(self.n_total[None]):
+            b = self.body[p]
+            if self.rb_rigid[b] != 0:
+                R = self.rb_R[b]
+                w = self.rb_w[b]
+                r = R @ self.X0[p]
+                self.x[p] = ti.cast(self.rb_c[b] + r, self.real)
+                self.v[p] = ti.cast(self.rb_V[b] + w.cross(r), self.real)
+                self.C[p] = ti.cast(ti.Matrix([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]], dt=ti.f64),
+                                    self.real)
+                self.F[p] = ti.cast(R, self.real)

@@ -1,0 +1,148 @@
+"""The rigid limit (``material.model = "rigid"``, ``gasp_core.toolkit.rigid``, ``docs/rigid.md``) as Warp kernels per
+scalar type; taichi_mpm's ``rigid.py`` spells the same steps.
+
+After each G2P: ``rigid_reduce`` sums each rigid body's momentum and angular momentum about the origin (APIC's
+affine part included) over its points into float64 accumulators (atomic adds: on the CPU Warp runs a launch
+serially, so the order is the point order); ``rigid_update`` (one thread) turns them into the body's velocity and
+spin and advances its centre and rotation; ``rigid_apply`` puts every point of the body (its passive points too) on
+the rigid pose ``c + R X0`` with the rigid velocity, ``C`` the spin's skew matrix and ``F = R``.
+
+This module must not use ``from __future__ import annotations``: Warp reads the annotations of
+the closures below as type objects.
+"""
+import functools
+
+import warp as wp
+
+from .precision import MODULE_OPTIONS, build_types
+
+vec3d = wp.types.vector(3, wp.float64)
+mat33d = wp.types.matrix((3, 3), wp.float64)
+
+
+@functools.cache
+def build_rigid(Ft):
+    """``(rigid_reduce, rigid_update, rigid_apply)`` for the scalar type ``Ft``."""
+    vec3, vec4, mat33 = build_types(Ft)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def rigid_reduce(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33),
+                     p_mass: wp.array(dtype=Ft), body: wp.array(dtype=wp.int32), rigid: wp.array(dtype=wp.int32),
+                     dx: wp.float64, acc_p: wp.array(dtype=vec3d), acc_l: wp.array(dtype=vec3d)):
+        p = wp.tid()
+        b = body[p]
+        if rigid[b] == 0:
+            return
+        m = wp.float64(p_mass[p])
+        xp = vec3d(wp.float64(x[p][0]), wp.float64(x[p][1]), wp.float64(x[p][2]))
+        vp = vec3d(wp.float64(v[p][0]), wp.float64(v[p][1]), wp.float64(v[p][2]))
+        c = C[p]
+        aff = vec3d(wp.float64(c[2, 1] - c[1, 2]), wp.float64(c[0, 2] - c[2, 0]), wp.float64(c[1, 0] - c[0, 1]))
+        wp.atomic_add(acc_p, b, m * vp)
+        wp.atomic_add(acc_l, b, m * wp.cross(xp, vp) + (m * wp.float64(0.25) * dx * dx) * aff)
+
+    @wp.func
+    def rotation_of(a: vec3d):
+        th = wp.length(a)
+        K = mat33d(wp.float64(0.0), -a[2], a[1], a[2], wp.float64(0.0), -a[0], -a[1], a[0], wp.float64(0.0))
+        s = wp.float64(1.0) - th * th / wp.float64(6.0)
+        c = wp.float64(0.5) - th * th / wp.float64(24.0)
+        if th > wp.float64(1e-4):
+            s = wp.sin(th) / th
+            c = (wp.float64(1.0) - wp.cos(th)) / (th * th)
+        return wp.identity(3, wp.float64) + s * K + c * (K * K)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def rigid_update(rigid: wp.array(dtype=wp.int32), mass: wp.array(dtype=wp.float64),
+                     inertia0: wp.array(dtype=mat33d), acc_p: wp.array(dtype=vec3d), acc_l: wp.array(dtype=vec3d),
+                     centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d), vel: wp.array(dtype=vec3d),
+                     spin: wp.array(dtype=vec3d), dt: wp.float64, dx: wp.float64, n_bodies: int):
+        for b in range(n_bodies):
+            M = mass[b]
+            if rigid[b] != 0 and M > wp.float64(0.0):
+                P = acc_p[b]
+                c = centre[b]
+                Lc = acc_l[b] - wp.cross(c, P)
+                R = rot[b]
+                extra = wp.float64(0.5) * dx * dx * M * wp.identity(3, wp.float64)
+                w_pred = wp.inverse(R * inertia0[b] * wp.transpose(R) + extra) * Lc
+                R_new = rotation_of(dt * w_pred) * R
+                w = wp.inverse(R_new * inertia0[b] * wp.transpose(R_new) + extra) * Lc
+                vel[b] = P / M
+                spin[b] = w
+                centre[b] = c + dt * (P / M)
+                rot[b] = R_new
+            acc_p[b] = vec3d()
+            acc_l[b] = vec3d()
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def rigid_apply(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33),
+                    F: wp.array(dtype=mat33), body: wp.array(dtype=wp.int32), rigid: wp.array(dtype=wp.int32),
+                    X0: wp.array(dtype=vec3d), centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d),
+                    vel: wp.array(dtype=vec3d), spin: wp.array(dtype=vec3d)):
+        p = wp.tid()
+        b = body[p]
+        if rigid[b] == 0:
+            return
+        R = rot[b]
+        w = spin[b]
+        r = R * X0[p]
+        xn = centre[b] + r
+        vn = vel[b] + wp.cross(w, r)
+        x[p] = vec3(Ft(xn[0]), Ft(xn[1]), Ft(xn[2]))
+        v[p] = vec3(Ft(vn[0]), Ft(vn[1]), Ft(vn[2]))
+        C[p] = mat33(Ft(0.0), Ft(-w[2]), Ft(w[1]), Ft(w[2]), Ft(0.0), Ft(-w[0]), Ft(-w[1]), Ft(w[0]), Ft(0.0))
+        F[p] = mat33(Ft(R[0, 0]), Ft(R[0, 1]), Ft(R[0, 2]), Ft(R[1, 0]), Ft(R[1, 1]), Ft(R[1, 2]),
+                     Ft(R[2, 0]), Ft(R[2, 1]), Ft(R[2, 2]))
+
+    return rigid_reduce, rigid_update, rigid_apply
+
+
+class RigidBodies:
+    """The host side of the rigid limit, mixed into :class:`gasp_warp_mpm.solver.WarpMPMEngine`: the bodies' arrays
+    (:meth:`_upload_rigid`), their launches after G2P (:meth:`_rigid_launches`), their share of a saved state."""
+
+    def _upload_rigid(self) -> None:
+        """Which bodies are rigid and their rest frames (``gasp_core.toolkit.rigid.body_frames``, setup order)."""
+        import numpy as np
+        from gasp_core.toolkit.rigid import body_frames, rigid_mask
+        setup, d = self.setup, self.device
+        rigid = rigid_mask(setup.materials)
+        self.any_rigid = bool(rigid.any())
+        if not self.any_rigid:
+            return
+        centre, self._X0_setup, inertia0, mass = body_frames(setup.x, setup.p_mass, setup.body_id, rigid)
+        nb = len(rigid)
+        self.rb_rigid = wp.array(rigid.astype(np.int32), dtype=wp.int32, device=d)
+        self.rb_M = wp.array(mass, dtype=wp.float64, device=d)
+        self.rb_I0 = wp.array(inertia0, dtype=mat33d, device=d)
+        self.rb_c = wp.array(centre, dtype=vec3d, device=d)
+        self.rb_R = wp.array(np.broadcast_to(np.eye(3), (nb, 3, 3)).copy(), dtype=mat33d, device=d)
+        self.rb_V, self.rb_w, self.acc_p, self.acc_l = (wp.zeros(nb, dtype=t, device=d) for t in (vec3d,) * 4)
+        self.X0 = wp.array(self._X0_setup[self._order], dtype=vec3d, device=d)
+
+    def _rigid_launches(self, Ft) -> list:
+        """The three launches of the rigid projection after G2P (none without a rigid body)."""
+        if not self.any_rigid:
+            return []
+        reduce_k, update_k, apply_k = build_rigid(Ft)
+        d, dx, dt = self.device, float(self.dx), float(self.dt)
+        return [wp.launch(reduce_k, dim=self.n_material, device=d, record_cmd=True, inputs=[
+                    self.x, self.v, self.C, self.p_mass, self.body, self.rb_rigid, dx, self.acc_p, self.acc_l]),
+                wp.launch(update_k, dim=1, device=d, record_cmd=True, inputs=[
+                    self.rb_rigid, self.rb_M, self.rb_I0, self.acc_p, self.acc_l, self.rb_c, self.rb_R, self.rb_V,
+                    self.rb_w, dt, dx, len(self.setup.materials)]),
+                wp.launch(apply_k, dim=self.n_points, device=d, record_cmd=True, inputs=[
+                    self.x, self.v, self.C, self.F, self.body, self.rb_rigid, self.X0, self.rb_c, self.rb_R,
+                    self.rb_V, self.rb_w])]
+
+    def rigid_state(self) -> dict:
+        """``rigid_c`` and ``rigid_R`` of the bodies (empty without a rigid body)."""
+        return {"rigid_c": self.rb_c.numpy().copy(), "rigid_R": self.rb_R.numpy().copy()} if self.any_rigid else {}
+
+    def set_rigid_state(self, state: dict) -> None:
+        """Restore :meth:`rigid_state`; ``X0`` follows the restored point order."""
+        if self.any_rigid:
+            self.rb_c.assign(state["rigid_c"])
+            self.rb_R.assign(state["rigid_R"])
+            self.X0.assign(self._X0_setup[self._order])

@@ -1,0 +1,37 @@
+"""The colliders', forces' and impulses' tables of a :class:`~gasp_warp_mpm.solver.WarpMPMEngine`
+(``gasp_core.toolkit.grid_tables``): built once, and their time-dependent rows loaded each frame."""
+from __future__ import annotations
+
+import warp as wp
+
+from gasp_core.seam import SimSetup
+
+
+class ExtraTables:
+    """Mixed into the engine, whose ``k``, ``device``, ``n_substeps``, ``dt``, ``frame``, ``setup`` and
+    ``_np_dtype`` it reads."""
+
+    def _extras(self, setup: SimSetup, arr, Ft):
+        """``(has_extras, Extras struct)`` from ``gasp_core.toolkit.grid_tables.grid_tables`` (empty arrays when none)."""
+        from gasp_core.toolkit.grid_tables import grid_tables
+        tables = grid_tables(setup)
+        ex = self.k.Extras()
+        self._ex_tables = tables if tables.any else None
+        np_t = self._np_dtype
+        ex.sdf, ex.grad, ex.meta = arr(tables.sdf.astype(np_t), Ft), arr(tables.sdf_grad.astype(np_t), Ft), \
+            arr(tables.col_meta.astype(np_t), Ft)
+        ex.forces, ex.modes, ex.imps = arr(tables.forces.astype(np_t), Ft), arr(tables.modes.astype(np_t), Ft), \
+            arr(tables.impulses.astype(np_t), Ft)
+        ex.tab = wp.zeros(max(1, self.n_substeps * tables.width), dtype=Ft, device=self.device)
+        ex.step = wp.zeros(1, dtype=wp.int32, device=self.device)
+        ex.n_col, ex.n_force, ex.n_imp, ex.width = (tables.n_colliders, tables.n_forces, tables.n_impulses,
+                                                     tables.width)
+        self._ex = ex
+        return int(tables.any), ex
+
+    def _load_frame_table(self) -> None:
+        """The time-dependent inputs of this frame's substeps (collider poses, impulse weights)."""
+        from gasp_core.toolkit.grid_tables import frame_table
+        tab = frame_table(self.setup, (self.frame - 1) * self.setup.frame_dt, self.n_substeps, self.dt).astype(self._np_dtype)
+        self._ex.tab.assign(tab)
+        self._ex.step.zero_()
