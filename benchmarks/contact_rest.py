@@ -4,7 +4,9 @@ Gaussians' centroid (mm) per engine and case, with the contact's balance (the de
 (``contact_balance = false``, the contact before issue 38).
 
 Cases: the Fibonacci ball dropped 5 and 7 cm (n_grid 16); its Gaussians' centres jittered +-3 mm (seeded) at
-n_grid 16 and 32; an E 1e6 Pa ball beside the soft one on the same ground (each ball's travel).
+n_grid 16 and 32; an E 1e6 Pa ball (``model = "elastic"``) 30 cm beside the soft one on the same ground (each
+ball's travel; 14 cm apart, 1.3 cells at n_grid 16, the grid couples the two balls and they pushed each other 18 and
+27 mm, with or without the balance).
 
 Run: ``python benchmarks/contact_rest.py [--engines warp_mpm taichi_mpm]``; the table goes to stdout and
 ``benchmarks/results/contact_rest.md``. Wall seconds are of the whole `gasp simulate` (the machine's load average
@@ -38,14 +40,15 @@ def scene(ply: Path, engine: str, balance: bool, drop: float, n_grid: int, stiff
                                                  f"options = {{ contact_balance = {str(balance).lower()} }}")
     text = text.replace("n_grid = 16", f"n_grid = {n_grid}").replace(f"{cm.RADIUS + cm.DROP}", f"{cm.RADIUS + drop}")
     if stiff:
-        text = text.replace("position = [0.0, 0.0,", "position = [-0.07, 0.0,") + f"""
+        text = text.replace("position = [0.0, 0.0,", "position = [-0.15, 0.0,") + f"""
 [[object]]
 file = "{ply}"
 up_axis = "+z"
-position = [0.07, 0.0, {cm.RADIUS + drop}]
+position = [0.15, 0.0, {cm.RADIUS + drop}]
 [object.material]
 name = "jelly"
 E = 1.0e6
+model = "elastic"
 nu = 0.3
 rho = 300.0
 """
