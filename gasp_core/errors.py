@@ -93,7 +93,7 @@ def shown_path(folder: Path) -> str:
     """``folder`` as seen from the working directory (``"."`` for it)."""
     try:
         return os.path.relpath(folder)
-    except ValueError:  # another drive (Windows)
+    except (ValueError, OSError):  # another drive (Windows); a working directory that no longer exists
         return str(folder)
 
 

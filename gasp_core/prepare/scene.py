@@ -93,8 +93,9 @@ def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None 
     stems = [f"_{o.name}" if o.name in RUN_FILES or o.name.startswith(".") else o.name for o in objects]
     names = [n if stems.count(n) == 1 else f"{i}_{n}" for i, n in enumerate(stems)]
     setup = build_setup(scene, objects)
-    bodies = [o for o in objects if not o.spec.static]    # body i of the setup (build_setup's order)
-    for o, route in zip(bodies, resolve_models(setup, [names[objects.index(o)] for o in bodies],
+    moving = [i for i, o in enumerate(objects) if not o.spec.static]   # body k of the setup (build_setup's order)
+    bodies = [objects[i] for i in moving]
+    for o, route in zip(bodies, resolve_models(setup, [names[i] for i in moving],
                                                info.capabilities.features)):
         o.body_model = route
     if "contact" in declared and any(m.model == "rigid" for m in setup.materials):   # a rigid body shows E = 1 Pa

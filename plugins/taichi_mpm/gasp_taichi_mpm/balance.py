@@ -116,8 +116,8 @@ class Balance:
                     + ti.Vector([self.c_last[b, 0], self.c_last[b, 1], self.c_last[b, 2]], ti.f64)
                 omega += ti.Vector([self.c_last[b, 3], self.c_last[b, 4], self.c_last[b, 5]], ti.f64)
                 c += ti.cast(self.dt[None], ti.f64) * V
-            xb = 0.0
-            yb = 0.0
+            xb = ti.cast(0.0, ti.f64)
+            yb = ti.cast(0.0, ti.f64)
             if J > 0.0:
                 xb = self.c_sums[b, 11] / J
                 yb = self.c_sums[b, 12] / J
@@ -202,8 +202,8 @@ class Balance:
             xm = first / Mc
             c = ti.Vector([self.c_shift[b, 0], self.c_shift[b, 1], self.c_shift[b, 2]], ti.f64)
             J = self.c_jsums[b, 0]
-            xb = 0.0
-            yb = 0.0
+            xb = ti.cast(0.0, ti.f64)
+            yb = ti.cast(0.0, ti.f64)
             if J > 0.0:
                 xb = self.c_jsums[b, 1] / J
                 yb = self.c_jsums[b, 2] / J
