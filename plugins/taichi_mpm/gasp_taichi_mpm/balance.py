@@ -48,6 +48,7 @@ class Balance:
         self.c_mass = ti.field(ti.f64, shape=max(nb, 1))
         ng = self.n_grid if nb else 1
         self.grid_fbody = ti.field(ti.i32, shape=(ng, ng, ng))
+        self.grid_ff = ti.Vector.field(5, self.real, shape=(ng, ng, ng))   # a contact node's friction, mass, budget
         self.fr_sums = ti.field(ti.f64, shape=(max(nb, 1), 26))
         self.fr_nodes = ti.Vector.field(3, ti.i32, shape=1 + (min(ng ** 3, 8 * ng * ng * max(1, self.n_planes))
                                                               if nb else 0))
@@ -60,8 +61,8 @@ class Balance:
 
     @ti.kernel
     def contact_moments(self):
-        """Per body into ``c_sums``: mass, first and second mass moments, normal impulse and its moments in x and y,
-        momentum, angular momentum (columns ``gasp_core.toolkit.contact.SUMS``)."""
+        """Per body into ``c_sums``: mass, first and second mass moments, momentum, angular momentum (columns
+        ``gasp_core.toolkit.contact.SUMS``; the normal impulse's columns stay 0: P2G sums them into ``c_jsums``)."""
         n = self.n_points[None]
         D = ti.cast(0.25 * self.dx[None] * self.dx[None], ti.f64)
         ti.loop_config(block_dim=1)
@@ -81,10 +82,8 @@ class Balance:
                 mv = m * ti.cast(self.v[p], ti.f64)
                 C = ti.cast(self.C[p], ti.f64)
                 L = x.cross(mv) + m * D * ti.Vector([C[2, 1] - C[1, 2], C[0, 2] - C[2, 0], C[1, 0] - C[0, 1]])
-                jn, _budget = self.plane_contact(p)
-                j = ti.cast(jn, ti.f64)
                 acc += ti.Vector([m, m * x[0], m * x[1], m * x[2], m * x[0] * x[0], m * x[0] * x[1], m * x[0] * x[2],
-                                  m * x[1] * x[1], m * x[1] * x[2], m * x[2] * x[2], j, j * x[0], j * x[1],
+                                  m * x[1] * x[1], m * x[1] * x[2], m * x[2] * x[2], 0.0, 0.0, 0.0,
                                   mv[0], mv[1], mv[2], L[0], L[1], L[2]], ti.f64)
             if cur >= 0:
                 for q in ti.static(range(19)):
@@ -164,31 +163,40 @@ class Balance:
 
     @ti.func
     def balance_node(self, I, v_in, v_out, m, fb):
-        """At a marked node after its friction: its friction impulse and moment, mass and moments and budget into
-        ``fr_sums``; the node listed in ``fr_nodes``."""
+        """At a marked node after its friction: its friction impulse, mass and budget into ``grid_ff``; the node
+        listed in ``fr_nodes`` (one atomic a node: :meth:`contact_fix` sums them serially, as contention on a body's
+        sums from every thread cost about 5 ms a substep on the README donut)."""
         b = self.grid_fbody[I]
         if b >= 0:
-            X = ti.cast(self.lo[None] + self.dx[None] * ti.cast(I, self.real), ti.f64)
-            f = ti.cast(m * (v_out - v_in), ti.f64)
-            tq = X.cross(f)
-            mm = ti.cast(m, ti.f64)
-            for q in ti.static(range(3)):
-                ti.atomic_add(self.fr_sums[b, q], f[q])
-                ti.atomic_add(self.fr_sums[b, 4 + q], mm * X[q])
-                ti.atomic_add(self.fr_sums[b, 13 + q], tq[q])
-            ti.atomic_add(self.fr_sums[b, 3], mm)
-            ti.atomic_add(self.fr_sums[b, 7], mm * X[0] * X[0])
-            ti.atomic_add(self.fr_sums[b, 8], mm * X[0] * X[1])
-            ti.atomic_add(self.fr_sums[b, 9], mm * X[0] * X[2])
-            ti.atomic_add(self.fr_sums[b, 10], mm * X[1] * X[1])
-            ti.atomic_add(self.fr_sums[b, 11], mm * X[1] * X[2])
-            ti.atomic_add(self.fr_sums[b, 12], mm * X[2] * X[2])
-            ti.atomic_add(self.fr_sums[b, 16], ti.cast(fb, ti.f64))
+            f = m * (v_out - v_in)
+            self.grid_ff[I] = ti.Vector([f[0], f[1], f[2], m, fb], self.real)
             slot = ti.atomic_add(self.fr_nodes[0][0], 1) + 1
             if slot < self.fr_nodes.shape[0]:
                 self.fr_nodes[slot] = I
             else:
                 self.grid_fbody[I] = -1
+
+    @ti.func
+    def sum_node(self, I):
+        """A listed node's friction impulse and moment, mass and moments and budget into its body's ``fr_sums``."""
+        b = self.grid_fbody[I]
+        g = ti.cast(self.grid_ff[I], ti.f64)
+        X = ti.cast(self.lo[None] + self.dx[None] * ti.cast(I, self.real), ti.f64)
+        f = ti.Vector([g[0], g[1], g[2]], ti.f64)
+        tq = X.cross(f)
+        mm = g[3]
+        for q in ti.static(range(3)):
+            self.fr_sums[b, q] += f[q]
+            self.fr_sums[b, 4 + q] += mm * X[q]
+            self.fr_sums[b, 13 + q] += tq[q]
+        self.fr_sums[b, 3] += mm
+        self.fr_sums[b, 7] += mm * X[0] * X[0]
+        self.fr_sums[b, 8] += mm * X[0] * X[1]
+        self.fr_sums[b, 9] += mm * X[0] * X[2]
+        self.fr_sums[b, 10] += mm * X[1] * X[1]
+        self.fr_sums[b, 11] += mm * X[1] * X[2]
+        self.fr_sums[b, 12] += mm * X[2] * X[2]
+        self.fr_sums[b, 16] += g[4]
 
     @ti.func
     def body_fix(self, b):
@@ -247,7 +255,10 @@ class Balance:
 
     @ti.kernel
     def contact_fix(self):
-        """Each body's listed nodes moved by ``dv + alpha x (X - x_m)``; the sums and the list cleared."""
+        """Each body's listed nodes summed, then moved by ``dv + alpha x (X - x_m)``; the sums and the list cleared."""
+        ti.loop_config(serialize=True)
+        for s in range(ti.min(self.fr_nodes[0][0], self.fr_nodes.shape[0] - 1)):
+            self.sum_node(self.fr_nodes[s + 1])
         ti.loop_config(serialize=True)
         for b in range(self.n_spin):
             self.body_fix(b)
