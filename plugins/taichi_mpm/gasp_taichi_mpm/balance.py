@@ -83,7 +83,7 @@ class Balance:
                 C = ti.cast(self.C[p], ti.f64)
                 L = x.cross(mv) + m * D * ti.Vector([C[2, 1] - C[1, 2], C[0, 2] - C[2, 0], C[1, 0] - C[0, 1]])
                 acc += ti.Vector([m, m * x[0], m * x[1], m * x[2], m * x[0] * x[0], m * x[0] * x[1], m * x[0] * x[2],
-                                  m * x[1] * x[1], m * x[1] * x[2], m * x[2] * x[2], 0.0, 0.0, 0.0,
+                                  m * x[1] * x[1], m * x[1] * x[2], m * x[2] * x[2], 0.0, 0.0, 0.0,   # J: c_jsums
                                   mv[0], mv[1], mv[2], L[0], L[1], L[2]], ti.f64)
             if cur >= 0:
                 for q in ti.static(range(19)):
@@ -91,10 +91,9 @@ class Balance:
 
     @ti.kernel
     def contact_shift(self):
-        """Per body into ``c_shift``: ``c`` (a substep on), ``V``, ``omega``, ``J``, ``x_bar``; ``c_sums`` cleared."""
+        """Per body into ``c_shift``: ``c`` (a substep on), ``V``, ``omega``, ``I^-1``; ``c_sums`` cleared."""
         for b in range(self.n_spin):
             M = self.c_sums[b, 0]
-            J = self.c_sums[b, 10]
             c = ti.Vector.zero(ti.f64, 3)
             V = ti.Vector.zero(ti.f64, 3)
             omega = ti.Vector.zero(ti.f64, 3)
@@ -115,18 +114,10 @@ class Balance:
                     + ti.Vector([self.c_last[b, 0], self.c_last[b, 1], self.c_last[b, 2]], ti.f64)
                 omega += ti.Vector([self.c_last[b, 3], self.c_last[b, 4], self.c_last[b, 5]], ti.f64)
                 c += ti.cast(self.dt[None], ti.f64) * V
-            xb = ti.cast(0.0, ti.f64)
-            yb = ti.cast(0.0, ti.f64)
-            if J > 0.0:
-                xb = self.c_sums[b, 11] / J
-                yb = self.c_sums[b, 12] / J
             for q in ti.static(range(3)):
                 self.c_shift[b, q] = c[q]
                 self.c_shift[b, 3 + q] = V[q]
                 self.c_shift[b, 6 + q] = omega[q]
-            self.c_shift[b, 9] = J
-            self.c_shift[b, 10] = xb
-            self.c_shift[b, 11] = yb
             for q in ti.static(range(19)):
                 self.c_sums[b, q] = 0.0
 

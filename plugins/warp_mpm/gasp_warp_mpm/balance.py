@@ -51,6 +51,17 @@ def inertia_of(m: f64, first: v64, xx: f64, xy: f64, xz: f64, yy: f64, yz: f64, 
     return m * (wp.trace(S) * wp.identity(3, dtype=f64) - S)
 
 
+@wp.func
+def add_second_moments(sums: wp.array2d(dtype=f64), b: int, col: int, m: f64, r: v64):
+    # m r r^T's six entries (xx, xy, xz, yy, yz, zz) into sums[b, col:col + 6]
+    wp.atomic_add(sums, b, col, m * r[0] * r[0])
+    wp.atomic_add(sums, b, col + 1, m * r[0] * r[1])
+    wp.atomic_add(sums, b, col + 2, m * r[0] * r[2])
+    wp.atomic_add(sums, b, col + 3, m * r[1] * r[1])
+    wp.atomic_add(sums, b, col + 4, m * r[1] * r[2])
+    wp.atomic_add(sums, b, col + 5, m * r[2] * r[2])
+
+
 @functools.cache
 def build_balance(Ft):
     """``(contact_moments, contact_shift, balance_node, contact_fix)`` of scalar type ``Ft`` (module docstring)."""
@@ -86,12 +97,7 @@ def build_moments(Ft):
             wp.atomic_add(sums, b, 1 + q, m * r[q])
             wp.atomic_add(sums, b, 13 + q, mv[q])
             wp.atomic_add(sums, b, 16 + q, lr[q])
-        wp.atomic_add(sums, b, 4, m * r[0] * r[0])
-        wp.atomic_add(sums, b, 5, m * r[0] * r[1])
-        wp.atomic_add(sums, b, 6, m * r[0] * r[2])
-        wp.atomic_add(sums, b, 7, m * r[1] * r[1])
-        wp.atomic_add(sums, b, 8, m * r[1] * r[2])
-        wp.atomic_add(sums, b, 9, m * r[2] * r[2])
+        add_second_moments(sums, b, 4, m, r)
         jb = plane_contact(planes, p_contact[p], xp[2], vp[2], dt)
         if jb[0] > Ft(0.0):
             j = f64(jb[0])
@@ -163,12 +169,7 @@ def build_balance_node(Ft):
                 wp.atomic_add(fr_sums, b, 4 + q, mm * r[q])
                 wp.atomic_add(fr_sums, b, 13 + q, tq[q])
             wp.atomic_add(fr_sums, b, 3, mm)
-            wp.atomic_add(fr_sums, b, 7, mm * r[0] * r[0])
-            wp.atomic_add(fr_sums, b, 8, mm * r[0] * r[1])
-            wp.atomic_add(fr_sums, b, 9, mm * r[0] * r[2])
-            wp.atomic_add(fr_sums, b, 10, mm * r[1] * r[1])
-            wp.atomic_add(fr_sums, b, 11, mm * r[1] * r[2])
-            wp.atomic_add(fr_sums, b, 12, mm * r[2] * r[2])
+            add_second_moments(fr_sums, b, 7, mm, r)
             wp.atomic_add(fr_sums, b, 16, f64(fb))
             slot = wp.atomic_add(fr_nodes, 0, 1) + 1
             if slot < fr_nodes.shape[0]:
