@@ -59,6 +59,11 @@ KNOWN_FAILURES = {"momentum": _V0, "spinning": _V0, "determinism": _V0, "invaria
                   "jittered_ball_rest": ("the ball of jittered points dropped 5 cm: EngineDivergence at frame 4, 739 "
                                          "points left the domain (the voxel cage built around jittered points "
                                          "explodes; measured, bpy 5.0.1)"),
+                  "tip_over": ("the block tips toward its side, but the voxel cage explodes as it lands: EngineDivergence "
+                               "at frame 13, 768 points left the domain (measured, bpy 5.0.1)"),
+                  "settle_back": ("Blender's soft-body ground collision holds the block on its edge: its tilt stays at "
+                                  "22.8 deg over 1 s (start 21.7, limit 10), its centroid moves 4 mm (measured, bpy 5.0.1)"),
+                  "slide_to_rest": "the slab starts moving: " + _V0,
                   "self_weight_sag": ("the voxel cage's springs are set for the uniaxial modulus at small strain; "
                                       "the column shortens 2.26 mm under its own weight vs 2.40 mm expected "
                                       "(-5.7 %, limit 5 %; measured, bpy 5.0.1)")}
