@@ -44,9 +44,9 @@ SLIDE_T = 0.5
 SLIDE_TOL = 0.04
 
 
-def _tilted_block(offset: float):
-    """The block on its edge at x = 0, tilted so its mass centre lies ``offset`` point spacings beyond the edge
-    (negative: inside); returns points, volume and the tilt (rad)."""
+def _tilted_block(offset: float, edge_x: float):
+    """The block on its edge at x = ``edge_x`` (m), tilted so its mass centre lies ``offset`` point spacings beyond
+    the edge (negative: inside); returns points, volume and the tilt (rad)."""
     x, p_vol = box_points((-W, -W / 2, 0.0), (0.0, W / 2, H), SPACING)   # the edge: x = 0, z = 0
     # the mass centre's horizontal distance beyond the edge: (H / 2) sin t - (W / 2) cos t = offset * SPACING
     r, phi = math.hypot(H / 2, W / 2), math.atan2(W / 2, H / 2)
@@ -54,12 +54,12 @@ def _tilted_block(offset: float):
     c, s = math.cos(tilt), math.sin(tilt)
     rot = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])   # about y: the block leans toward +x
     x = x @ rot.T
-    x[:, 0] -= 2.5 * DX   # room to fall onto its side in the domain
+    x[:, 0] += edge_x
     x[:, 2] += GROUND_H + SPACING / 4 - x[:, 2].min()
     return x, p_vol, tilt
 
 
-def _tilt_deg(tr: Trace, f: int) -> float:
+def tilt_deg(tr: Trace, f: int) -> float:
     """The block's tilt (degrees from upright) at frame f: the angle of its long axis from z."""
     x = tr.x[f]
     c = tr.centroid()[f]
@@ -75,29 +75,30 @@ def _setup(x, p_vol, mu: float, v=0.0):
 
 
 def _build_tip(info: EngineInfo):
-    x, p_vol, _ = _tilted_block(TIP_BEYOND)
+    x, p_vol, _ = _tilted_block(TIP_BEYOND, -2.5 * DX)   # room to fall onto its side (toward +x)
     return _setup(x, p_vol, MU)
 
 
 def _build_settle(info: EngineInfo):
-    x, p_vol, _ = _tilted_block(-SETTLE_INSIDE)
+    # the base, once back on it, spans [-2 DX, 2 DX]: inside every engine's box (Genesis keeps 3 cells clear)
+    x, p_vol, _ = _tilted_block(-SETTLE_INSIDE, W / 2)
     return _setup(x, p_vol, MU)
 
 
 def _eval_tip(info: EngineInfo, tr: Trace) -> list[Check]:
-    tilt = _tilt_deg(tr, len(tr.t) - 1)
+    tilt = tilt_deg(tr, len(tr.t) - 1)
     return [Check("tipped", tilt >= TIP_MIN_DEG,
                   f"tilt after {tr.t[-1]:.2f} s of a block whose mass centre starts {TIP_BEYOND:g} point spacings "
-                  f"beyond its edge = {tilt:.1f} deg (at least {TIP_MIN_DEG:g}; start {_tilt_deg(tr, 0):.1f})",
+                  f"beyond its edge = {tilt:.1f} deg (at least {TIP_MIN_DEG:g}; start {tilt_deg(tr, 0):.1f})",
                   {"value": tilt, "limit": TIP_MIN_DEG})]
 
 
 def _eval_settle(info: EngineInfo, tr: Trace) -> list[Check]:
     n = len(tr.t) - 1
-    tilt = max(_tilt_deg(tr, f) for f in range(n - n // 3, n + 1))
+    tilt = max(tilt_deg(tr, f) for f in range(n - n // 3, n + 1))
     return [check("settled", tilt, SETTLE_MAX_DEG,
                   f"largest tilt over the last third of {tr.t[-1]:.2f} s of a block whose mass centre starts "
-                  f"{SETTLE_INSIDE:g} point spacings inside its edge (start {_tilt_deg(tr, 0):.1f} deg)", unit=" deg")]
+                  f"{SETTLE_INSIDE:g} point spacings inside its edge (start {tilt_deg(tr, 0):.1f} deg)", unit=" deg")]
 
 
 def _build_slide(info: EngineInfo):

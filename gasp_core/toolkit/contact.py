@@ -50,6 +50,9 @@ REACH = 1.0
 #: 5.1 mm) had its centre of pressure up to 6.1 mm off: at 1 spacing, 2.8 % of its impulse kept a lever and it spun
 #: up 0.04 rad/s a bounce (travel 5.8 mm); ``tip_over`` (2 spacings beyond its edge) bounds the gate.
 TORQUE_REACH = 2.0
+# Of the torque it would take back, the balance keeps the part that brakes the body's horizontal spin, up to stopping
+# it (the engines' ``keep_braking``): it takes back what would start a spin, never what stops one, so a rocking body
+# still loses its rocking (``docs/contact.md``).
 #: Columns of the per-body sums of the contact's balance (the engines' ``balance.py``): mass, its first and second
 #: moments, the normal impulse J and its first moments in x and y, momentum, angular momentum, the pushed points'
 #: box (x min, x max, y min, y max).

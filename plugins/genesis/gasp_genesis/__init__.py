@@ -136,6 +136,8 @@ KNOWN_FAILURES = {"spinning": (
                          "4 bounces on frictionless ground (limit 1x): the grid-node ground contact spins it up"),
     "jittered_ball_rest": ("the ball of jittered points drifts up to 30 mm horizontally (frame 25) in 1.33 s on "
                            "ground with friction 0.5 (limit 1 mm): the grid-node ground contact rolls it"),
+    "settle_back": ("the block whose mass centre lies 1.5 point spacings inside its edge stays on that edge: its tilt "
+                    "over the last third of 1 s is 23.3 deg (start 21.7, limit 10): the grid-node ground holds it"),
     "rest_gap": ("a slab set on the ground floats: its lowest points rest +0.49 dx above the plane after 0.5 s "
                  "(limit 0.25 dx), the grid-node ground holding the body about half a cell up")}
 

@@ -190,6 +190,21 @@ class Balance:
         self.fr_sums[b, 16] += g[4]
 
     @ti.func
+    def keep_braking(self, th, inv, omega):
+        """The torque ``th`` to take back, less its part that brakes the body's horizontal spin ``omega``, up to
+        stopping it (``inv``: the body's inverse inertia; warp_mpm's ``keep_braking``)."""
+        out = th
+        wh = ti.Vector([omega[0], omega[1], 0.0], ti.f64)
+        lw = wh.norm()
+        if lw > 0.0 and inv.determinant() > 0.0:
+            w = wh / lw
+            s = th.dot(w)
+            Lw = (inv.inverse() @ omega).dot(w)
+            if s < 0.0 and Lw > 0.0:
+                out = th - ti.max(s, -Lw) * w
+        return out
+
+    @ti.func
     def body_fix(self, b):
         """Body b's ``dv``, ``alpha`` and ``x_m`` into ``fr_sums[b, 17:26]`` (warp_mpm's ``body_fix``)."""
         Mc = self.fr_sums[b, 3]
@@ -228,13 +243,15 @@ class Balance:
             if c[0] < self.c_jsums[b, 3] - r or c[0] > self.c_jsums[b, 4] + r or c[1] < self.c_jsums[b, 5] - r \
                     or c[1] > self.c_jsums[b, 6] + r:
                 th = ti.Vector.zero(ti.f64, 3)   # the mass centre beyond the pushed points' box: it tips, keep it all
+            inv = ti.Matrix([[self.c_shift[b, 12 + 3 * i + j] for j in ti.static(range(3))]
+                             for i in ti.static(range(3))], ti.f64)
+            th = self.keep_braking(th, inv, ti.Vector([self.c_shift[b, 6], self.c_shift[b, 7],
+                                                       self.c_shift[b, 8]], ti.f64))
             inertia = inertia_of(Mc, first, self.fr_sums[b, 7], self.fr_sums[b, 8], self.fr_sums[b, 9],
                                  self.fr_sums[b, 10], self.fr_sums[b, 11], self.fr_sums[b, 12])
             alpha = ti.Vector.zero(ti.f64, 3)
             if inertia.determinant() > 1.0e-12 * inertia.trace() ** 3:
                 alpha = -(inertia.inverse() @ th)
-            inv = ti.Matrix([[self.c_shift[b, 12 + 3 * i + j] for j in ti.static(range(3))]
-                             for i in ti.static(range(3))], ti.f64)
             dw = inv @ (tq - th)   # what this substep's contact does to the body's rigid motion, for the next
             for q in ti.static(range(3)):
                 self.c_last[b, q] = Fexp[q] / mass

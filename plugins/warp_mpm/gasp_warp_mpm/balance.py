@@ -8,7 +8,7 @@ Per substep, with the particle contact:
   (float64, shape (n_bodies, 23), columns :data:`gasp_core.toolkit.contact.SUMS`), and the box of the pushed
   points;
 - ``contact_shift`` (one thread a body): the body's mass centre ``c``, rigid velocity ``V``, spin ``omega``, normal
-  impulse ``J``, its centre ``x_bar`` and the pushed points' box, into ``shift`` (shape (n_bodies, 16)); ``sums``
+  impulse ``J``, its centre ``x_bar`` and the pushed points' box, its angular momentum about ``c``, into ``shift`` (shape (n_bodies, 19)); ``sums``
   cleared;
 - in P2G, a point with a normal impulse marks its 27 nodes with its body (``grid_fbody``);
 - ``balance_node`` (a function of the grid update, at each marked node after its friction): the node's friction
@@ -60,6 +60,22 @@ def add_second_moments(sums: wp.array2d(dtype=f64), b: int, col: int, m: f64, r:
     wp.atomic_add(sums, b, col + 3, m * r[1] * r[1])
     wp.atomic_add(sums, b, col + 4, m * r[1] * r[2])
     wp.atomic_add(sums, b, col + 5, m * r[2] * r[2])
+
+
+@wp.func
+def keep_braking(th: v64, omega: v64, L: v64):
+    # the torque to take back, less its part that brakes the body's horizontal spin, up to stopping it
+    # (gasp_core.toolkit.contact: the balance takes back what would start a spin, never what stops one)
+    wh = v64(omega[0], omega[1], f64(0.0))
+    lw = wp.length(wh)
+    out = th
+    if lw > f64(0.0):
+        w = wh / lw
+        s = wp.dot(th, w)
+        Lw = wp.dot(L, w)
+        if s < f64(0.0) and Lw > f64(0.0):
+            out = th - wp.max(s, -Lw) * w
+    return out
 
 
 @functools.cache
@@ -117,6 +133,7 @@ def build_moments(Ft):
         c = v64(f64(0.0))
         V = v64(f64(0.0))
         omega = v64(f64(0.0))
+        Lc = v64(f64(0.0))
         xb = f64(0.0)
         yb = f64(0.0)
         if M > f64(0.0):
@@ -124,8 +141,9 @@ def build_moments(Ft):
             V = v64(sums[b, 13], sums[b, 14], sums[b, 15]) / M
             inertia = inertia_of(M, v64(sums[b, 1], sums[b, 2], sums[b, 3]), sums[b, 4], sums[b, 5], sums[b, 6],
                                  sums[b, 7], sums[b, 8], sums[b, 9])
+            Lc = v64(sums[b, 16], sums[b, 17], sums[b, 18]) - M * wp.cross(c, V)
             if wp.determinant(inertia) > f64(0.0):
-                omega = wp.inverse(inertia) * (v64(sums[b, 16], sums[b, 17], sums[b, 18]) - M * wp.cross(c, V))
+                omega = wp.inverse(inertia) * Lc
         if J > f64(0.0):
             xb = sums[b, 11] / J
             yb = sums[b, 12] / J
@@ -133,6 +151,7 @@ def build_moments(Ft):
             shift[b, q] = c[q]
             shift[b, 3 + q] = V[q]
             shift[b, 6 + q] = omega[q]
+            shift[b, 16 + q] = Lc[q]
         shift[b, 9] = J
         shift[b, 10] = xb
         shift[b, 11] = yb
@@ -214,6 +233,8 @@ def build_contact_fix(Ft):
             clip = J * reach * f64(TORQUE_CLIP)
             if lh > clip:
                 th = th * (clip / lh)
+            th = keep_braking(th, v64(shift[b, 6], shift[b, 7], shift[b, 8]),
+                              v64(shift[b, 16], shift[b, 17], shift[b, 18]))
             if (c[0] < shift[b, 12] - reach or c[0] > shift[b, 13] + reach or c[1] < shift[b, 14] - reach
                     or c[1] > shift[b, 15] + reach):
                 th = v64(f64(0.0))   # the mass centre beyond the pushed points' box: the body tips, keep it all
@@ -270,7 +291,7 @@ def allocate_balance(engine, planes: list, Ft) -> None:
     sums[:, SUMS.index("x_min")::2] = 1.0e30   # the box of the pushed points starts inverted
     sums[:, SUMS.index("x_max")::2] = -1.0e30
     engine.c_sums = wp.array(sums, dtype=f64, device=d)
-    engine.c_shift = wp.zeros((nb, 16), dtype=f64, device=d)
+    engine.c_shift = wp.zeros((nb, 19), dtype=f64, device=d)
     engine.c_reach = wp.array(reach, dtype=f64, device=d)
     mass = np.bincount(np.asarray(setup.body_id), weights=np.asarray(setup.p_mass), minlength=nb)[:nb]
     engine.c_mass = wp.array(mass.astype(np.float64), dtype=f64, device=d)
