@@ -29,7 +29,7 @@ from gasp_core.toolkit.points import ground_top_node
 
 #: Contact stiffness per unit Young's modulus and point spacing (dimensionless): ``k_p = KAPPA E p_vol^(1/3)``.
 #: Chosen with ``DAMPING`` and ``SKIN`` from the candidates of ``docs/contact.md``
-#: (``benchmarks/contact_candidates.py``).
+#: (``benchmarks/studies/contact_candidates.py``).
 KAPPA = 4.0
 #: Damping ratio of a point's contact oscillator (``c_p = 2 DAMPING sqrt(k_p m_p)``).
 DAMPING = 0.5

@@ -1,6 +1,6 @@
 """Candidate ground contacts for the MPM engines (issue 28), compared in a NumPy MLS-MPM (docs/mpm.md).
 
-The solver is the one of ``benchmarks/ground_spin_reference.py`` (quadratic B-splines, APIC, fixed
+The solver is the one of ``benchmarks/studies/ground_spin_reference.py`` (quadratic B-splines, APIC, fixed
 corotated jelly), trimmed to what the comparison needs; the contact models (``--model``):
 
 - ``grid``: the old rule, the ground's node layers projected (taichi_elements' "separate" collider).
@@ -22,7 +22,7 @@ Scenes (ball R = 5 cm, E 2e4 Pa, nu 0.3, rho 300, dropped 5 cm, n_grid 16 over 0
 at 40 frames), ``bounce`` (mu 0: restitution from the centroid's vertical velocity, contact duration
 against Hertz), ``rest`` (mu 0.5, 60 frames: lowest 1 % of points above the plane, in dx).
 
-Run: ``python benchmarks/contact_models.py [--models grid penalty particle] [--quick]``; the table
+Run: ``python benchmarks/studies/contact_models.py [--models grid penalty particle] [--quick]``; the table
 goes to stdout and to ``benchmarks/results/contact_models.md``.
 """
 from __future__ import annotations
@@ -237,9 +237,9 @@ def main():
         print(rows[-1], flush=True)
     text = "\n".join(rows)
     print(text)
-    os.makedirs(os.path.join(os.path.dirname(__file__), "results"), exist_ok=True)
-    with open(os.path.join(os.path.dirname(__file__), "results", "contact_models.md"), "w") as fh:
-        fh.write(f"`python benchmarks/contact_models.py{' --quick' if a.quick else ''}` ({frames} frames)\n\n{text}\n")
+    os.makedirs(os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "results"), exist_ok=True)
+    with open(os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "results", "contact_models.md"), "w") as fh:
+        fh.write(f"`python benchmarks/studies/contact_models.py{' --quick' if a.quick else ''}` ({frames} frames)\n\n{text}\n")
 
 
 if __name__ == "__main__":

@@ -5,7 +5,7 @@ jelly E 2e4, nu 0.3, rho 300, with one value changed per repro. Each case runs i
 the table (case, expected and measured exit status, number of stderr lines, seconds, the line)
 goes to ``benchmarks/results/repros_21.md``.
 
-    python benchmarks/repros_21.py            # all cases (a few minutes; mujoco_flex ~10 s)
+    python benchmarks/studies/repros_21.py            # all cases (a few minutes; mujoco_flex ~10 s)
 """
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 OUT = ROOT / "benchmarks" / "results" / "repros_21.md"
 
 BASE = """frame_dt = 0.0333333

@@ -3,12 +3,12 @@
 This is the shape of taichi_mpm's private-grid P2G (``MPMSolver.g2p_p2g``: ``for t in range(n_chunks)``, each chunk
 a serial loop over its points). Measured on the 2-core CI-like machine, taichi 1.7.4, 2026-11-22:
 
-    python benchmarks/taichi_chunk_loop.py chunks 1   -> cores 1.0
-    python benchmarks/taichi_chunk_loop.py chunks 2   -> cores 1.0  (16 or 64 chunks, with or without
+    python benchmarks/studies/taichi_chunk_loop.py chunks 1   -> cores 1.0
+    python benchmarks/studies/taichi_chunk_loop.py chunks 2   -> cores 1.0  (16 or 64 chunks, with or without
                                                          ti.loop_config(block_dim=1) or parallelize=2)
-    python benchmarks/taichi_chunk_loop.py flat 2     -> cores 1.98 (one flat range-for of 32M iterations)
+    python benchmarks/studies/taichi_chunk_loop.py flat 2     -> cores 1.98 (one flat range-for of 32M iterations)
 
-Usage: python benchmarks/taichi_chunk_loop.py {chunks|flat} THREADS
+Usage: python benchmarks/studies/taichi_chunk_loop.py {chunks|flat} THREADS
 """
 import resource
 import sys

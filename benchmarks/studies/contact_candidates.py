@@ -6,7 +6,7 @@ then); ``grid`` is the engine option ``contact = "grid"``. Scenes: ``spun_ball_b
 growth per bounce), ``jittered_ball_rest`` (drift, mm), ``rest_gap`` (dx), ``rest_on_tilted_ground`` (dx),
 ``bounce_hertz`` (restitution and contact duration against Hertz, the scene's own figures).
 
-Run: ``python benchmarks/contact_candidates.py [--engine warp_mpm]``; the table goes to stdout and to
+Run: ``python benchmarks/studies/contact_candidates.py [--engine warp_mpm]``; the table goes to stdout and to
 ``benchmarks/results/contact_candidates.md``.
 """
 from __future__ import annotations
@@ -61,9 +61,9 @@ def main():
         rows.append(f"| {label} | " + " | ".join(cells) + f" | {time.process_time() - c0:.0f} |")
         print(rows[-1], flush=True)
     text = "\n".join(rows)
-    res = Path(__file__).parent / "results"
+    res = Path(__file__).resolve().parents[1] / "results"
     res.mkdir(exist_ok=True)
-    (res / "contact_candidates.md").write_text(f"`python benchmarks/contact_candidates.py --engine {a.engine}` "
+    (res / "contact_candidates.md").write_text(f"`python benchmarks/studies/contact_candidates.py --engine {a.engine}` "
                                                f"(bold: the scene's check fails)\n\n{text}\n")
     print(text)
 

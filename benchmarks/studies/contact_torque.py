@@ -14,7 +14,7 @@ call (``frame_dt`` = the contact's substep) over its first bounce (0.19 s). Figu
   before each substep), as a lever (mm), and the share of ``dL`` it explains: the rest is the stress and the
   transfers (MLS-MPM's internal forces and APIC transfers conserve angular momentum, so it should be small).
 
-Run: ``python benchmarks/contact_torque.py [--contacts particle grid]``; the table goes to stdout and
+Run: ``python benchmarks/studies/contact_torque.py [--contacts particle grid]``; the table goes to stdout and
 ``benchmarks/results/contact_torque.md``.
 """
 from __future__ import annotations
@@ -110,10 +110,10 @@ def main():
                         f"{r.get('explained', float('nan')):.2f} |")
             print(rows[-1], flush=True)
     text = "\n".join(rows)
-    res = Path(__file__).parent / "results"
+    res = Path(__file__).resolve().parents[1] / "results"
     res.mkdir(exist_ok=True)
     (res / "contact_torque.md").write_text(
-        f"`python benchmarks/contact_torque.py --contacts {' '.join(a.contacts)}` (warp_mpm, n_grid 16, friction 0, "
+        f"`python benchmarks/studies/contact_torque.py --contacts {' '.join(a.contacts)}` (warp_mpm, n_grid 16, friction 0, "
         f"{STEPS} substeps from the release, {time.perf_counter() - t0:.0f} s wall)\n\n{text}\n")
     print(text)
 
