@@ -40,14 +40,14 @@ def test_uniform_column_is_greenhill_times_the_dynamic_factor():
     assert est.com_over_footprint
 
 
-def test_a_column_two_points_across_is_softer_by_the_measured_factor():
-    """2 points across: 2.79x softer (benchmarks/results/thin_softness_warp_mpm.md), so 2.79x the E."""
-    a, L, rho = 0.02, 0.2, 300.0
+def test_a_column_three_points_across_is_softer_by_the_measured_factor():
+    """3 points across: 1.28x softer (benchmarks/results/thin_softness_warp_mpm.md), so 1.28x the E."""
+    a, L, rho = 0.03, 0.3, 300.0
     x, pv = box_points((0, 0, 0), (a, a, L), 0.01)
     est = stand_estimate(x, np.full(len(x), pv), rho, dx=0.01)
     g = _greenhill(a, L, rho, est.base_height)
-    assert abs(est.E_static / (2.79 * g) - 1) < 0.1, (est, g)
-    assert abs(est.softness - 2.79) < 0.05
+    assert abs(est.softness - 1.28) < 0.05, est
+    assert abs(est.E_static / (1.28 * g) - 1) < 0.05, (est, g)
 
 
 def test_a_leaning_column_tips_over():
@@ -58,8 +58,9 @@ def test_a_leaning_column_tips_over():
     assert "tips over" in stand_warning("col", est, 1e9)
 
 
-def figure(path):
-    """Flat Gaussians (5 mm apart, thin axis along the face normal) on the faces of a box on two legs."""
+def figure(path, shear: float = 0.0):
+    """Flat Gaussians (5 mm apart, thin axis along the face normal) on the faces of a box on two legs, sheared by
+    ``y += shear z`` (an imperfection: a lean of ``atan(shear)`` along the legs' weak axis, the base kept flat)."""
     from scipy.spatial.transform import Rotation
     from gasp_core.gs.gaussians import Gaussians
     from gasp_core.gs.io import write_gaussians
@@ -83,6 +84,7 @@ def figure(path):
                 means.append(p)
                 normals.append(np.tile(n, (len(p), 1)))
     means, normals = np.concatenate(means), np.concatenate(normals)
+    means[:, 1] += shear * means[:, 2]
     quats = np.array([Rotation.align_vectors([n], [[1.0, 0.0, 0.0]])[0].as_quat() for n in normals])
     g = Gaussians(means=means, scales=np.tile([1e-8, step / 2, step / 2], (len(means), 1)),
                   rotations=quats[:, [3, 0, 1, 2]], opacities=np.full(len(means), 3.0, np.float32),
@@ -91,12 +93,12 @@ def figure(path):
 
 
 def scene_file(ply, E: float, tmp_path, name: str, surface: str = "auto", obj: str | None = None,
-               rho: float = 1000.0) -> Path:
+               rho: float = 1000.0, sleep: bool = True, n_frames: int = 30) -> Path:
     """A scene: ``ply`` (or the ``obj`` lines) standing on a ground, warp_mpm, n_grid 32, jelly of ``E`` Pa."""
     obj = obj or f'file = "{ply}"'
-    text = f"""
+    text = f"""sleep = {str(sleep).lower()}
 frame_dt = 0.0333333
-n_frames = 30
+n_frames = {n_frames}
 [engine]
 name = "warp_mpm"
 [domain]
@@ -145,9 +147,10 @@ def figure_ply(tmp_path_factory):
 
 
 def test_slender_figure_is_warned_below_its_E_crit_and_info_names_the_same_E(figure_ply, tmp_path):
-    """The warning names the E it needs; just above it there is none; `gasp info --rho` (up axis unsure: judged
-    standing along +z, the default) names the same E: the same points and dx (before: 2.3e5 from info's own fill
-    against 2.8e5 from the scene's)."""
+    """The warning names the E it needs; just above it there is none; with a passive surface (the fill alone
+    carries the mass) it names the same E within 5 %; `gasp info --rho` (up axis unsure: judged standing along +z,
+    the default) names the same E: the same points and dx (before: 2.3e5 from info's own fill against 2.8e5 from the
+    scene's)."""
     from gasp_core.cli.info import info
     lines = _warnings(figure_ply, 1e3, tmp_path)
     assert len(lines) == 1 and "needs E of about" in lines[0], lines
@@ -155,6 +158,8 @@ def test_slender_figure_is_warned_below_its_E_crit_and_info_names_the_same_E(fig
     assert 2e5 < E_crit < 1e6, lines
     assert _warnings(figure_ply, 0.95 * E_crit, tmp_path)
     assert not _warnings(figure_ply, 1.05 * E_crit, tmp_path)
+    passive = _warnings(figure_ply, 1e3, tmp_path, surface="passive")    # the fill alone carries the mass
+    assert abs(_named(passive[0]) / E_crit - 1) < 0.05, (passive, lines)  # measured 4 % apart (53 % before)
     d = info(figure_ply, rho=1000.0, n_grid=32)
     assert abs(d["stand_E_crit_Pa"] / E_crit - 1) < 0.005, (d["stand_E_crit_Pa"], E_crit)   # 3 digits in the line
     assert d["stand_com_inside"] is True and d["stand_E_static_Pa"] == d["stand_E_crit_Pa"] / DYNAMIC_FACTOR
@@ -221,3 +226,46 @@ def test_a_donut_lying_on_the_ground_stands():
     keep = s.p_vol > 0
     est = stand_estimate(s.x[keep], s.p_vol[keep], 300.0, dx=s.dx)
     assert est.com_over_footprint and est.E_crit < 0.1 * 2e4, est
+
+
+def lean_and_height(m: np.ndarray, x0: np.ndarray) -> tuple[float, float]:
+    """Lean (degrees: the top tenth's centroid against the bottom tenth's, from the vertical) and height (the top
+    tenth's centroid over its start) of the points ``m`` (n, 3) that started at ``x0``."""
+    top = x0[:, 2] > np.percentile(x0[:, 2], 90)
+    bot = x0[:, 2] < np.percentile(x0[:, 2], 10)
+    d = m[top].mean(0) - m[bot].mean(0)
+    return float(np.degrees(np.arctan2(np.hypot(d[0], d[1]), d[2]))), float(m[top, 2].mean() / x0[top, 2].mean())
+
+
+def _run_figure(ply, E: float, tmp_path) -> list[tuple[float, float]]:
+    from gasp_core.run.pipeline import simulate_scene
+    from gasp_core.scene.spec import load_scene
+    rows, x0 = [], []
+
+    def on_frame(k, gs):
+        m = gs[0].means.astype(np.float64)
+        x0.append(m.copy()) if not x0 else None
+        rows.append(lean_and_height(m, x0[0]))
+    toml = scene_file(ply, E, tmp_path, f"run{E:.0f}", sleep=False)
+    try:
+        simulate_scene(load_scene(toml), tmp_path / f"out{E:.0f}", quiet=True, on_frame=on_frame)
+    except Exception:      # fell out of the domain: the frames so far
+        pass
+    return rows
+
+
+@pytest.mark.slow
+def test_the_figure_stands_at_the_E_named_and_falls_at_a_fifth(tmp_path):
+    """The must-show (issue 38, item 6), warp_mpm, 30 frames, sleep off, the figure leaning 0.57 deg (shear 0.01)
+    along its legs' weak axis: at the E the warning names its lean grows by under 0.1 deg and its height stays within
+    3 %; at a fifth of it the lean passes 5 deg (measured: +0.0000 deg and 0.9993 at E_crit 2.39e5 Pa; 9.95 deg by
+    frame 10 and out of the domain by frame 18 at a fifth; benchmarks/results/stand_figure.md)."""
+    ply = figure(tmp_path / "figure.ply", shear=0.01)
+    lines = _warnings(ply, 1.0, tmp_path)
+    E_crit = _named(lines[0])
+    at = _run_figure(ply, E_crit, tmp_path)
+    assert len(at) >= 30, len(at)
+    leans, heights = np.array(at).T
+    assert leans.max() - leans[0] < 0.1 and abs(heights - 1).max() < 0.03, at
+    low = _run_figure(ply, E_crit / 5, tmp_path)
+    assert max(lean for lean, _ in low) > leans[0] + 5.0, low

@@ -111,11 +111,10 @@ def _stand(spec: ObjectSpec, rho: float, n_grid: int):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")     # the fill's own warnings are reported above, once
         s = build_setup(scene, [prepare_object(o) for o in scene.objects])
-    keep = s.p_vol > 0
-    if keep.sum() < 4:
+    if (s.p_vol > 0).sum() < 4:
         return None
     g = np.asarray(s.gravity, dtype=np.float64)
-    return stand_estimate(s.x[keep], s.p_vol[keep], rho, float(np.linalg.norm(g)), -g / np.linalg.norm(g), dx=s.dx)
+    return stand_estimate(s.x, s.p_vol, rho, float(np.linalg.norm(g)), -g / np.linalg.norm(g), dx=s.dx)
 
 
 def _height_and_scale(d: dict, size: float | None) -> tuple[str, float, bool]:

@@ -50,6 +50,8 @@ FOOT_SHARE = 0.03
 CONTACT_CELLS = 1.0
 #: A body stands on a ground when its lowest point starts within this many cells above it.
 STAND_GAP = 2.0
+#: The section's shape is rasterised on at most this many cells across the body.
+MAX_CELLS = 400
 #: Gravity switched on at once: the peak of a step response over its static value.
 DYNAMIC_FACTOR = 2.0
 #: Bending softness of a part (deflection over Timoshenko's) by its material points across its weak axis: the
@@ -105,8 +107,9 @@ def stand_estimate(x: np.ndarray, p_vol: np.ndarray, rho: float, g: float = 9.81
     Parameters
     ----------
     x : ndarray, shape (n, 3)
-        Material points, metres. Points with ``p_vol == 0`` (a passive surface) are left out.
-    p_vol : ndarray, shape (n,)
+        The body's points, metres. Points with ``p_vol == 0`` (a passive surface) carry no weight; they mark the
+        skin of its sections and its footprint.
+    p_vol : ndarray, shape (n,) or float
         Their volumes, m^3.
     rho : float
         Density, kg/m^3.
@@ -126,50 +129,79 @@ def stand_estimate(x: np.ndarray, p_vol: np.ndarray, rho: float, g: float = 9.81
     ValueError
         Fewer than 4 points with volume.
     """
-    vol = np.asarray(p_vol, dtype=np.float64)
-    keep = vol > 0
-    x, vol = np.asarray(x, dtype=np.float64)[keep], vol[keep]
-    if len(x) < 4:
-        raise ValueError(f"stand_estimate: expected at least 4 points with volume, got {len(x)}")
+    x = np.asarray(x, dtype=np.float64)
+    vol = np.broadcast_to(np.asarray(p_vol, dtype=np.float64), (len(x),))
+    mass = vol > 0
+    if mass.sum() < 4:
+        raise ValueError(f"stand_estimate: expected at least 4 points with volume, got {int(mass.sum())}")
     u = np.asarray(up, dtype=np.float64)
     u = u / np.linalg.norm(u)
     a = np.cross(u, [1.0, 0.0, 0.0] if abs(u[0]) < 0.9 else [0.0, 1.0, 0.0])
     a /= np.linalg.norm(a)
     p = np.column_stack([x @ a, x @ np.cross(u, a)])
-    z = x @ u - float((x @ u).min())
-    H = float(z.max())
+    half = np.cbrt(vol) / 2                                # each point a cube of side p_vol^(1/3)
+    z = x @ u - float((x @ u - half).min())                 # height above the body's lowest extent, m
+    H = float((z + half).max())
     w = rho * g * vol
     h_b = min(max(FOOT_SHARE * H, CONTACT_CELLS * float(dx)), 0.5 * H)
-    com = np.average(p, axis=0, weights=w)
+    com = np.average(p[mass], axis=0, weights=w[mass])
     over = _inside_hull(p[z <= h_b + 1e-12], com)
-    com_h = float(np.average(z, weights=w))
+    com_h = float(np.average(z[mass], weights=w[mass]))
     E_static, k, s_k = _buckling(z, p, vol, w, h_b, H)
     dz = (H - h_b) / N_SECTIONS
     return StandEstimate(E_crit=DYNAMIC_FACTOR * E_static, E_static=E_static, height=H, com_height=com_h,
                          com_over_footprint=over, weakest_height=h_b + (k + 0.5) * dz, softness=s_k, base_height=h_b)
 
 
+def _shape_moment(q: np.ndarray, side: np.ndarray, cell: float) -> float:
+    """Smaller principal second moment of area per area (m^2) of the solid section that the 2D points ``q`` (k, 2),
+    each a square of ``side`` (m; at least ``cell``), cover: rasterised on cells of ``cell``, closed over one-cell
+    gaps and with their holes filled, so that a skin of surface points over a sparse core (a full model) and a full
+    fill under a passive skin give the same shape."""
+    from scipy.ndimage import binary_closing, binary_fill_holes
+    half = np.maximum(side, cell) / 2
+    lo = (q - half[:, None]).min(axis=0) - 3 * cell
+    # the cells whose centres lie inside each square: [i0, i1] x [j0, j1], stamped with a 2D difference array
+    i0 = np.ceil((q - half[:, None] - lo) / cell - 0.5).astype(int)
+    i1 = np.floor((q + half[:, None] - lo) / cell - 0.5).astype(int)
+    i1 = np.maximum(i1, i0)                                 # a square smaller than a cell: its own cell
+    occ = np.zeros(tuple(i1.max(axis=0) + 5), np.int64)
+    np.add.at(occ, (i0[:, 0], i0[:, 1]), 1)
+    np.add.at(occ, (i1[:, 0] + 1, i0[:, 1]), -1)
+    np.add.at(occ, (i0[:, 0], i1[:, 1] + 1), -1)
+    np.add.at(occ, (i1[:, 0] + 1, i1[:, 1] + 1), 1)
+    occ = occ.cumsum(axis=0).cumsum(axis=1) > 0
+    occ = binary_fill_holes(binary_closing(occ, np.ones((3, 3), bool)))
+    ctr = np.argwhere(occ) * cell
+    ctr = ctr - ctr.mean(axis=0)
+    return float(np.linalg.eigvalsh(ctr.T @ ctr / len(ctr))[0]) + cell * cell / 12.0
+
+
 def _buckling(z, p, vol, w, h_b: float, H: float) -> tuple[float, int, float]:
-    """``E_static`` (Pa) of the column above ``h_b``, the index of its most bent section and that section's ``s``."""
+    """``E_static`` (Pa) of the column above ``h_b``, the index of its most bent section and that section's ``s``.
+    A section's area and the weight above come from the points' volumes (each a cube of side ``p_vol^(1/3)``,
+    spread over the slices it spans); its shape from all its points, a passive skin's included."""
     n = N_SECTIONS
     dz = (H - h_b) / n
-    side = np.cbrt(vol)                                   # each point a cube of this side, m
+    side = np.cbrt(vol)                                   # each point a cube of this side, m (0: no volume)
     lo, hi = z - side / 2, z + side / 2
     nodes = h_b + dz * np.arange(n + 1)
-    W = np.array([np.sum(w * np.clip((hi - zk) / side, 0.0, 1.0)) for zk in nodes])   # weight above each node, N
+    mass = vol > 0
+    W = np.array([np.sum(w[mass] * np.clip((hi[mass] - zk) / side[mass], 0.0, 1.0)) for zk in nodes])   # N
+    extent = float(np.ptp(p, axis=0).max())
+    # incommensurate with a lattice (its edges fall anywhere in a cell), at most MAX_CELLS across the body
+    cell = max(float(np.median(side[mass])) / (2 * np.pi), extent / MAX_CELLS)
     I_eff, s_all = np.zeros(n), np.ones(n)
     for s in range(n):
-        share = np.clip(np.minimum(hi, nodes[s + 1]) - np.maximum(lo, nodes[s]), 0.0, None) / side
-        v = vol * share
+        inside = (hi >= nodes[s]) & (lo < nodes[s + 1])
+        v = np.zeros_like(vol)
+        v[mass] = vol[mass] * np.clip(np.minimum(hi, nodes[s + 1]) - np.maximum(lo, nodes[s]), 0.0, None)[mass] / side[mass]
         if not v.sum() > 0:
             continue
-        q = p - np.average(p, axis=0, weights=v)
-        I = (q.T * (v / dz)) @ q + np.eye(2) * float(np.sum(v / dz * side ** 2 / 12.0))
-        I_min = float(np.linalg.eigvalsh(I)[0])
+        shape = _shape_moment(p[inside], side[inside], cell)
         A = v.sum() / dz
-        across = np.sqrt(12.0 * I_min / A) / float(np.average(side, weights=v))
-        s_all[s] = float(thin_softness(across))
-        I_eff[s] = I_min / s_all[s]
+        s_all[s] = float(thin_softness(np.sqrt(12.0 * shape) / float(np.average(side, weights=v))))
+        I_eff[s] = A * shape / s_all[s]
     full = I_eff > 0
     if not full.any():
         raise ValueError("stand_estimate: no section of the body above its base holds any volume")
@@ -231,8 +263,8 @@ def stand_warnings(materials, boundaries, gravity, x: np.ndarray, p_vol: np.ndar
         return []
     out = []
     for i, m in enumerate(materials):
-        sel = (body_id == i) & (p_vol > 0)
-        if m.name not in ELASTIC or sel.sum() < 4:
+        sel = body_id == i
+        if m.name not in ELASTIC or (p_vol[sel] > 0).sum() < 4:
             continue
         if not any(abs(float(x[sel, 2].min()) - h) <= STAND_GAP * dx for h in heights):
             continue
