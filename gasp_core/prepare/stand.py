@@ -200,7 +200,9 @@ def _buckling(z, p, vol, w, h_b: float, H: float) -> tuple[float, int, float]:
             continue
         shape = _shape_moment(p[inside], side[inside], cell)
         A = v.sum() / dz
-        s_all[s] = float(thin_softness(np.sqrt(12.0 * shape) / float(np.average(side, weights=v))))
+        order = np.argsort(side)                          # the fill's spacing: the side that 90 % of the volume
+        spacing = float(side[order][np.searchsorted(np.cumsum(v[order]), 0.9 * v.sum())])   # is under (not a skin's)
+        s_all[s] = float(thin_softness(np.sqrt(12.0 * shape) / spacing))
         I_eff[s] = A * shape / s_all[s]
     full = I_eff > 0
     if not full.any():
