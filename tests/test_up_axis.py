@@ -83,6 +83,6 @@ def test_stated_up_gives_the_figures_along_it(capsys):
 def test_upright_figure_without_a_signed_cue_is_unsure(tmp_path):
     """test_stand's figure (a box on two legs, z up): its longest axis says z, but its flat faces are symmetric
     and its two ends tie as bases, so no cue gives the sign: unknown, leaning to z (it used to guess +x)."""
-    from test_stand import _figure
-    u = guess_up(read_gaussians(_figure(tmp_path / "figure.ply")))
+    from test_stand import figure
+    u = guess_up(read_gaussians(figure(tmp_path / "figure.ply")))
     assert (u.up, u.lean) == ("unknown", "z"), u

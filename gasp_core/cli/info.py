@@ -2,6 +2,7 @@
 stated real size, and the solid a default scene would simulate: filled volume, and mass at a density."""
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -12,9 +13,10 @@ from gasp_core.gs.describe import describe
 from gasp_core.gs.registry import is_dynamic
 from gasp_core.gs.splatv import MIDDLE_TIME
 from gasp_core.maps.fill import fill_interior, fill_spacing
+from gasp_core.prepare.assembly import build_setup
 from gasp_core.prepare.placement import UP_ROTATIONS, prepare_object
 from gasp_core.prepare.stand import stand_estimate
-from gasp_core.scene.spec import ObjectSpec
+from gasp_core.scene.spec import ObjectSpec, parse_scene
 from gasp_core.scene.tables import DomainSpec
 
 def info(path: Path, size: float | None = None, rho: float | None = None, n_grid: int = DomainSpec.n_grid,
@@ -43,8 +45,11 @@ def info(path: Path, size: float | None = None, rho: float | None = None, n_grid
         fill below is in the file's frame (``+z`` up, the scene default). Then ``filled_volume`` (m^3 at
         ``suggested_scale``, else in file units cubed), ``volume_unit``, ``fill_method``, ``fill_confidence``,
         ``fill_sealed``, ``fill_bbox_share``, ``n_floaters``, ``fill_warning`` and ``mass_kg`` (with ``rho``),
-        with it also ``stand_E_crit_Pa`` (the Young's modulus the filled solid needs to stand on its base without
-        buckling, :mod:`gasp_core.prepare.stand`; in file units unless a scale is known) and ``stand_com_inside``.
+        with it also ``stand_E_crit_Pa`` (Pa: the Young's modulus the object needs to stand on a ground in
+        ``gasp simulate``, :mod:`gasp_core.prepare.stand`, from the points and ``dx`` of a default scene at
+        ``n_grid`` with it lying on a ground, the same as ``gasp simulate`` warns with; in file units unless a
+        scale is known), ``stand_E_static_Pa`` (its buckling part, before the factor for gravity switched on at
+        once) and ``stand_com_inside``.
 
     Raises
     ------
@@ -77,12 +82,10 @@ def info(path: Path, size: float | None = None, rho: float | None = None, n_grid
               "fill_warning": r.warning or "none"})
     if rho is not None:
         d["mass_kg"] = rho * fr.volume
-        pts = np.concatenate([o.tri_rest.reshape(-1, 3), fr.fill_x])   # the solid: surface and fill points
-        vols = np.concatenate([np.broadcast_to(fr.p_vol_surface, (len(pts) - len(fr.fill_x),)),
-                               np.broadcast_to(fr.p_vol_fill, (len(fr.fill_x),))])
-        if vols.sum() > 0 and len(pts) >= 4:   # the E it needs to stand on its base (gasp_core.prepare.stand)
-            est = stand_estimate(pts, vols, rho)
+        est = _stand(spec, rho, n_grid)
+        if est is not None:   # the E it needs to stand on a ground (gasp_core.prepare.stand), as gasp simulate
             d["stand_E_crit_Pa"] = est.E_crit
+            d["stand_E_static_Pa"] = est.E_static
             d["stand_com_inside"] = est.com_over_footprint
             if not known:
                 d["stand_note"] = "standing along +z, the scene default (no up axis chosen: pass --up=AXIS)"
@@ -94,6 +97,24 @@ def info(path: Path, size: float | None = None, rho: float | None = None, n_grid
                               "mass with 1 file unit = 1 m, standing along +z (the scene default): pass --up=AXIS "
                               "and --size for the real scale")
     return d
+
+
+def _stand(spec: ObjectSpec, rho: float, n_grid: int):
+    """The :class:`~gasp_core.prepare.stand.StandEstimate` ``gasp simulate`` judges the object by, standing on a
+    ground at its lowest point in a default scene (quality ``default``, jelly of density ``rho``, the grid
+    ``n_grid``): the same points and ``dx`` as :func:`gasp_core.prepare.assembly.build_setup` builds, so the same
+    ``E``. None when the solid has fewer than 4 points with volume."""
+    data = {"domain": {"n_grid": n_grid}, "boundary": [{"kind": "ground", "height": 0.0}],
+            "object": [{"file": str(spec.file), "up_axis": spec.up_axis, "scale": spec.scale,
+                        "material": {"name": "jelly", "E": 1e5, "nu": 0.3, "rho": rho}}]}
+    scene = parse_scene(data, Path(spec.file).parent / "gasp-info.toml")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")     # the fill's own warnings are reported above, once
+        s = build_setup(scene, [prepare_object(o) for o in scene.objects])
+    if (s.p_vol > 0).sum() < 4:
+        return None
+    g = np.asarray(s.gravity, dtype=np.float64)
+    return stand_estimate(s.x, s.p_vol, rho, float(np.linalg.norm(g)), -g / np.linalg.norm(g), dx=s.dx)
 
 
 def _height_and_scale(d: dict, size: float | None) -> tuple[str, float, bool]:
