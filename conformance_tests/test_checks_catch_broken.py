@@ -48,6 +48,7 @@ ANALYTIC_SCREEN = {
     "viscosity_low": ("bar_viscous_decay",),
     "viscosity_high": ("bar_viscous_decay",),
     "ground_friction_low": ("slide_to_rest",),
+    "ground_raised": ("rest_gap",),
     "holds_every_tilt": ("tip_over", "settle_back"),
 }
 
@@ -177,6 +178,10 @@ def broken_engine(info, kind: str):
             return info.factory(setup.replace(materials=mats))
         if kind == "ground_friction_low":  # ground friction 5 % low: a slide 5.3 % long
             bounds = [dataclasses.replace(b, friction=0.95 * b.friction) if b.kind == "ground" else b
+                      for b in setup.boundaries]
+            return info.factory(setup.replace(boundaries=bounds))
+        if kind == "ground_raised":  # the ground 5 % of the half point spacing (dx / 4) above where it is declared
+            bounds = [dataclasses.replace(b, height=b.height + 0.05 * setup.dx / 4) if b.kind == "ground" else b
                       for b in setup.boundaries]
             return info.factory(setup.replace(boundaries=bounds))
         if kind == "softer_E":  # Young's modulus 10 % low: wave speed -5 %, sag and deflection +11 %

@@ -16,7 +16,7 @@ points. At rest it lies on the plane: its lowest points at the plane, not floati
 - ``rest_gap``: a slab of the ball's material (4 x 4 x 2 dx, points at dx / 2) let go with its lowest points
   ``GAP_START`` = 0.5 dx above the ground; after
   ``GAP_T`` = 0.5 s the bottom of its lowest 1 % of points (their centres less half their spacing
-  ``p_vol^(1/3)``: the body's surface) lies within ``GAP_TOL`` = 0.25 dx of the plane, above or below
+  ``p_vol^(1/3)``: the body's surface) lies within ``GAP_TOL`` = 0.01 dx of the plane, above or below
   (two-sided: a body that floats or sinks fails).
 
 The ball: ``R`` = 5 cm, jelly ``E`` 2e4 Pa, nu 0.3, rho 300, points at dx / 2; the domain is the default one
@@ -42,7 +42,9 @@ SPIN_FRAMES = 30
 DRIFT_TOL = 1e-3
 DRIFT_FRAMES = 40
 MU = 0.5
-GAP_TOL = 0.25
+#: Measured -0.001 dx on warp_mpm and taichi_mpm (newton -0.087, blender -0.205, genesis +0.49: declared); a ground
+#: 5 % of the half point spacing (0.0125 dx) off fails (``conformance_tests/test_checks_catch_broken.py``).
+GAP_TOL = 0.01
 GAP_T = 0.5
 #: The slab's lowest points start this far above the ground, dx (it falls onto it and settles).
 GAP_START = 0.5

@@ -3,7 +3,7 @@
 Known answer: a body set down at rest on a ground with Coulomb friction ``mu`` stays where it is,
 on flat ground and on ground tilted by ``theta < atan(mu)`` (static friction holds it: the
 tangential load ``m g sin theta`` is below ``mu m g cos theta``). Its horizontal (on the tilted
-ground: in-plane) centroid travel must stay within ``REST_TOL`` = 0.05 dx over ``REST_T`` = 2 s.
+ground: in-plane) centroid travel must stay within ``REST_TOL`` = 0.025 dx over ``REST_T`` = 2 s.
 
 - ``rest_on_ground``: an elastic slab (4 x 4 x 2 dx, ``SLAB``) set on a ``ground`` with
   friction ``MU`` = 0.5 under plain gravity.
@@ -42,7 +42,8 @@ TILT_DEG = 15.0
 REST_T = 2.0
 FRAME_DT = 1.0 / 30.0
 #: Allowed in-plane centroid travel, in dx (issue 17).
-REST_TOL = 0.05
+#: Within 3x of the largest error measured on an engine that passes (newton 0.0089 dx on the tilted ground).
+REST_TOL = 0.025
 #: Slab sides (x, y, z), metres: wide and low, so that neither slope nor settling can tip it.
 SLAB = (4 * DX, 4 * DX, 2 * DX)
 BODY = Material("jelly", E=1e5, nu=0.3, rho=1000.0)

@@ -64,6 +64,8 @@ KNOWN_FAILURES = {"momentum": _V0, "spinning": _V0, "determinism": _V0, "invaria
                   "settle_back": ("Blender's soft-body ground collision holds the block on its edge: its tilt stays at "
                                   "22.8 deg over 1 s (start 21.7, limit 10), its centroid moves 4 mm (measured, bpy 5.0.1)"),
                   "slide_to_rest": "the slab starts moving: " + _V0,
+                  "rest_gap": ("a slab set on the ground rests with its lowest points 0.205 dx too low after 0.5 s "
+                               "(limit 0.01 dx; warp_mpm and taichi_mpm -0.001; measured, bpy 5.0.1)"),
                   "self_weight_sag": ("the voxel cage's springs are set for the uniaxial modulus at small strain; "
                                       "the column shortens 2.26 mm under its own weight vs 2.40 mm expected "
                                       "(-5.7 %, limit 5 %; measured, bpy 5.0.1)")}
