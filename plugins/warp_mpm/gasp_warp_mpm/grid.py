@@ -15,7 +15,7 @@ from gasp_core.toolkit.grid_tables import FT_TIME
 
 from .colliders import build_collide, build_collider_func
 from .balance import build_balance
-from .contact import build_contact
+from .contact import build_collider_contact, build_contact
 from .forces import build_extras_struct, build_force_funcs
 from .precision import MODULE_OPTIONS, build_types
 
@@ -49,6 +49,7 @@ def build_grid_update(Ft):
     collide = build_collide(Ft)
     Extras, extras = build_extras(Ft)
     node_friction = build_contact(Ft)[1]
+    surface_friction = build_collider_contact(Ft)[2]
     balance_node = build_balance(Ft)[2]
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
@@ -60,10 +61,12 @@ def build_grid_update(Ft):
         has_extras: int, ex: Extras, grid_g: wp.array(dtype=vec3), has_wind: int,
         grid_mv0: wp.array(dtype=vec4), grid_v0: wp.array(dtype=vec3), flip: int, grid_fb: wp.array(dtype=Ft),
         grid_fbody: wp.array(dtype=wp.int32), fr_sums: wp.array2d(dtype=wp.float64), fr_nodes: wp.array(dtype=wp.int32),
+        colc: int, grid_fn: wp.array(dtype=vec3), grid_fv: wp.array(dtype=vec3),
     ):
         # ground[g] = (top node layer k_max as a float, friction, unused); grid_m (node mass, for
         # passive points) has one entry per node when the setup has passive points, else one unused entry;
-        # grid_fb: the particle contact's friction budget per node (kg m/s; one unused entry without it)
+        # grid_fb: the particle contact's friction budget per node (kg m/s; one unused entry without it); with the
+        # colliders' particle contact (colc) grid_fn, grid_fv: its budget-weighted normal and supports' velocity
         node = wp.tid()
         g = grid_mv[node]
         m = g[3]
@@ -98,7 +101,10 @@ def build_grid_update(Ft):
                     vel = collide(vel, vec3(Ft(0.0), Ft(0.0), Ft(1.0)), gr[1])
             if grid_fb.shape[0] > 1:   # friction, then the contact's balance (balance.py)
                 v_in = vel
-                vel = node_friction(vel, m, grid_fb[node])
+                if colc != 0:   # with the colliders' particle contact: relative to the supports, normal to theirs
+                    vel = surface_friction(vel, m, grid_fb[node], grid_fn[node], grid_fv[node])
+                else:
+                    vel = node_friction(vel, m, grid_fb[node])
                 if fr_sums.shape[0] > 0:
                     balance_node(node, v_in, vel, m, grid_fb[node], X, grid_fbody, fr_sums, fr_nodes)
             for r in range(fixed_lo.shape[0]):
@@ -112,6 +118,9 @@ def build_grid_update(Ft):
         grid_mv[node] = vec4(Ft(0.0))
         if grid_fb.shape[0] > 1:
             grid_fb[node] = Ft(0.0)
+            if colc != 0:
+                grid_fn[node] = vec3(Ft(0.0))
+                grid_fv[node] = vec3(Ft(0.0))
         if flip != 0:  # the APIC velocity before forces (gasp_core.toolkit.transfer)
             g0 = grid_mv0[node]
             grid_v0[node] = vec3(Ft(0.0))
