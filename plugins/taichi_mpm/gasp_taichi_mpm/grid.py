@@ -130,9 +130,15 @@ class GridUpdate:
                 for b in ti.static(range(self.n_grounds)):
                     if I[2] <= self.ground_kmax[b]:
                         v = self.axis_friction(v, 2, 1.0, self.ground_fric[b])
-                if ti.static(self.n_planes > 0):   # the particle contact's Coulomb friction (its budget: the last channel)
-                    v_in = v
-                    v = self.node_friction(v, acc[3], acc[self.acc_width - 1])
+                if ti.static(self.n_planes > 0 or self.n_colc > 0):   # the particle contact's Coulomb friction
+                    v_in = v   # (its budget: the last channel; with colliders, relative to the supports, normal to them)
+                    if ti.static(self.n_colc > 0):
+                        f0 = self.fn_channel
+                        v = self.surface_friction(v, acc[3], acc[self.acc_width - 1],
+                                                  ti.Vector([acc[f0], acc[f0 + 1], acc[f0 + 2]]),
+                                                  ti.Vector([acc[f0 + 3], acc[f0 + 4], acc[f0 + 5]]))
+                    else:
+                        v = self.node_friction(v, acc[3], acc[self.acc_width - 1])
                     if self.n_spin > 0:   # and the contact's balance (balance.py)
                         self.balance_node(I, v_in, v, acc[3], acc[self.acc_width - 1])
                 for b in ti.static(range(self.n_regions)):
