@@ -224,54 +224,55 @@ def beyond_box(jsums: wp.array2d(dtype=f64), s: int, c: v64, nb: v64, reach: f64
     return out or tmin > tmax
 
 
+@wp.func
+def body_fix(s: int, b: int, shift: wp.array2d(dtype=f64), jsums: wp.array2d(dtype=f64),
+             fr_sums: wp.array2d(dtype=f64), mass: f64, reach: f64, g_dt: v64):
+    # support s (of body b): its dv, alpha and x_m into fr_sums[s, 17:26]
+    Mc = fr_sums[s, 3]
+    if Mc > f64(0.0) and mass > f64(0.0):
+        xm = v64(fr_sums[s, 4], fr_sums[s, 5], fr_sums[s, 6]) / Mc
+        c = v64(shift[b, 0], shift[b, 1], shift[b, 2])
+        J = jsums[s, 0]
+        nb, xb, vb = support_frame(jsums, s)
+        F = v64(fr_sums[s, 0], fr_sums[s, 1], fr_sums[s, 2])
+        # Coulomb on the rigid motion relative to the support at the centre of pressure (the impulses' centre
+        # in the contact plane, the contact nodes' along the normal): stop its sliding, at most the budget
+        xcp = xb + wp.dot(xm - xb, nb) * nb
+        u = v64(shift[b, 3], shift[b, 4], shift[b, 5]) + g_dt \
+            + wp.cross(v64(shift[b, 6], shift[b, 7], shift[b, 8]), xcp - c) - vb
+        ut = u - wp.dot(u, nb) * nb
+        lt = wp.length(ut)
+        Fexp = v64(f64(0.0))
+        if lt > f64(0.0):
+            Fexp = -(wp.min(fr_sums[s, 16], mass * lt) / lt) * ut
+        dF = Fexp - (F - wp.dot(F, nb) * nb)
+        # the contact's torque about c: normal (sum x x j n - c x sum j n), friction, the force change at x_m
+        tn = v64(jsums[s, 7], jsums[s, 8], jsums[s, 9]) - wp.cross(c, v64(jsums[s, 4], jsums[s, 5], jsums[s, 6]))
+        tf = v64(fr_sums[s, 13], fr_sums[s, 14], fr_sums[s, 15]) - wp.cross(c, F)
+        tq = tn + tf + wp.cross(xm - c, dF)
+        th = tq - wp.dot(tq, nb) * nb   # the twist about the normal is kept
+        lh = wp.length(th)
+        clip = J * reach * f64(TORQUE_CLIP)
+        if lh > clip:
+            th = th * (clip / lh)
+        if beyond_box(jsums, s, c, nb, reach):
+            th = v64(f64(0.0))   # the mass centre beyond the pushed points' box: the body tips, keep it all
+        inertia = inertia_of(Mc, v64(fr_sums[s, 4], fr_sums[s, 5], fr_sums[s, 6]), fr_sums[s, 7], fr_sums[s, 8],
+                             fr_sums[s, 9], fr_sums[s, 10], fr_sums[s, 11], fr_sums[s, 12])
+        alpha = v64(f64(0.0))
+        tr = wp.trace(inertia)
+        if wp.determinant(inertia) > f64(1.0e-12) * tr * tr * tr:
+            alpha = -(wp.inverse(inertia) * th)
+        for q in range(3):
+            fr_sums[s, 17 + q] = dF[q] / Mc
+            fr_sums[s, 20 + q] = alpha[q]
+            fr_sums[s, 23 + q] = xm[q]
+
+
 @functools.cache
 def build_contact_fix(Ft):
     """``contact_fix``, the kernel of scalar type ``Ft`` after the grid update."""
     vec3, vec4, mat33 = build_types(Ft)
-
-    @wp.func
-    def body_fix(s: int, b: int, shift: wp.array2d(dtype=f64), jsums: wp.array2d(dtype=f64),
-                 fr_sums: wp.array2d(dtype=f64), mass: f64, reach: f64, g_dt: v64):
-        # support s (of body b): its dv, alpha and x_m into fr_sums[s, 17:26]
-        Mc = fr_sums[s, 3]
-        if Mc > f64(0.0) and mass > f64(0.0):
-            xm = v64(fr_sums[s, 4], fr_sums[s, 5], fr_sums[s, 6]) / Mc
-            c = v64(shift[b, 0], shift[b, 1], shift[b, 2])
-            J = jsums[s, 0]
-            nb, xb, vb = support_frame(jsums, s)
-            F = v64(fr_sums[s, 0], fr_sums[s, 1], fr_sums[s, 2])
-            # Coulomb on the rigid motion relative to the support at the centre of pressure (the impulses' centre
-            # in the contact plane, the contact nodes' along the normal): stop its sliding, at most the budget
-            xcp = xb + wp.dot(xm - xb, nb) * nb
-            u = v64(shift[b, 3], shift[b, 4], shift[b, 5]) + g_dt \
-                + wp.cross(v64(shift[b, 6], shift[b, 7], shift[b, 8]), xcp - c) - vb
-            ut = u - wp.dot(u, nb) * nb
-            lt = wp.length(ut)
-            Fexp = v64(f64(0.0))
-            if lt > f64(0.0):
-                Fexp = -(wp.min(fr_sums[s, 16], mass * lt) / lt) * ut
-            dF = Fexp - (F - wp.dot(F, nb) * nb)
-            # the contact's torque about c: normal (sum x x j n - c x sum j n), friction, the force change at x_m
-            tn = v64(jsums[s, 7], jsums[s, 8], jsums[s, 9]) - wp.cross(c, v64(jsums[s, 4], jsums[s, 5], jsums[s, 6]))
-            tf = v64(fr_sums[s, 13], fr_sums[s, 14], fr_sums[s, 15]) - wp.cross(c, F)
-            tq = tn + tf + wp.cross(xm - c, dF)
-            th = tq - wp.dot(tq, nb) * nb   # the twist about the normal is kept
-            lh = wp.length(th)
-            clip = J * reach * f64(TORQUE_CLIP)
-            if lh > clip:
-                th = th * (clip / lh)
-            if beyond_box(jsums, s, c, nb, reach):
-                th = v64(f64(0.0))   # the mass centre beyond the pushed points' box: the body tips, keep it all
-            inertia = inertia_of(Mc, v64(fr_sums[s, 4], fr_sums[s, 5], fr_sums[s, 6]), fr_sums[s, 7], fr_sums[s, 8],
-                                 fr_sums[s, 9], fr_sums[s, 10], fr_sums[s, 11], fr_sums[s, 12])
-            alpha = v64(f64(0.0))
-            tr = wp.trace(inertia)
-            if wp.determinant(inertia) > f64(1.0e-12) * tr * tr * tr:
-                alpha = -(wp.inverse(inertia) * th)
-            for q in range(3):
-                fr_sums[s, 17 + q] = dF[q] / Mc
-                fr_sums[s, 20 + q] = alpha[q]
-                fr_sums[s, 23 + q] = xm[q]
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def contact_fix(grid_v: wp.array(dtype=vec3), grid_fbody: wp.array(dtype=wp.int32),
