@@ -24,6 +24,23 @@ class Contact:
     """The particle contact's impulse per point (:meth:`plane_contact`) and friction per node (:meth:`node_friction`);
     the passive points' box (:meth:`hold_passive`)."""
 
+    def allocate_contact(self) -> None:
+        """With the colliders' particle contact (``n_colc``): per node the budget-weighted normal and supports'
+        velocity (``grid_fnv``, 6 channels, scattered by the pushed points only, read and cleared by the grid
+        update)."""
+        ng = self.n_grid if self.n_colc else 1
+        self.grid_fnv = ti.Vector.field(6, self.real, shape=(ng, ng, ng))
+
+    @ti.func
+    def scatter_contact(self, base, w, budget, fn, fv):
+        """A pushed point's budget-weighted normal ``fn`` and supports' velocity ``fv`` into its 27 nodes'
+        ``grid_fnv`` with its weights ``w`` (with the colliders' particle contact)."""
+        if ti.static(self.n_colc > 0):
+            if budget > 0.0:
+                val = ti.Vector([fn[0], fn[1], fn[2], fv[0], fv[1], fv[2]], self.real)
+                for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
+                    ti.atomic_add(self.grid_fnv[base + ti.Vector([i, j, k])], (w[i][0] * w[j][1] * w[k][2]) * val)
+
     @ti.func
     def plane_contact(self, p):
         """``(j_n, budget)`` of point p (kg m/s) over the grounds' planes (``ground_h``, ``ground_fric``),
@@ -62,7 +79,7 @@ class Contact:
             base = self.ex_step[None] * self.ex_width
             kcs = self.p_contact[p]
             for c in range(self.n_colc):
-                phi, n, vc = self.collider_at(self.x[p], c, base)
+                phi, n, vc = self.collider_at(self.x[p], c, base, kcs[2])
                 depth = kcs[2] - phi
                 if depth > 0.0:
                     jq = ti.max(self.dt[None] * (kcs[0] * depth - kcs[1] * (self.v[p] - vc).dot(n)), 0.0)

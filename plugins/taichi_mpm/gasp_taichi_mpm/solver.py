@@ -130,13 +130,14 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         self.n_planes = self.n_grounds if p_contact is not None else 0
         self.n_colc = int(n_colc) if p_contact is not None else 0   # colliders in the particle contact
         self.n_sup = 1 + self.n_colc   # the balance's supports a body: the grounds, each collider
+        self.pc = bool(self.n_planes or self.n_colc)   # the particle contact
         # channels of grid_mv: momentum, mass (, APIC momentum with flip) (, viscous volume J V eta when viscous)
-        # (, the colliders' budget-weighted normal and velocity) (, friction budget with the particle contact: last)
+        # (, friction budget with the particle contact: always the last)
         self.eta_channel = 7 if self.flip > 0 else 4
-        self.fn_channel = self.eta_channel + (1 if self.viscous else 0)
-        self.acc_width = self.fn_channel + (6 if self.n_colc else 0) + (1 if self.n_planes or self.n_colc else 0)
+        self.acc_width = self.eta_channel + (1 if self.viscous else 0) + (1 if self.pc else 0)
         self._allocate_points(len(kinds))
         self._allocate_grid()
+        self.allocate_contact()
         self._allocate_boundaries()
         self._allocate_rigid(*(rigid_frames or ([False] * len(kinds), None, None, None, None)))
         self.allocate_balance(contact_reach if self.n_planes or self.n_colc else None, body_mass)

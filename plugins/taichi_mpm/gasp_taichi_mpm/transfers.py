@@ -34,27 +34,26 @@ class Transfers:
         return [0.5 * (1.5 - fx) ** 2, 0.75 - (fx - 1.0) ** 2, 0.5 * (fx - 0.5) ** 2]
 
     @ti.func
-    def mv_value(self, mv, m, mv_apic, eta_v, budget, fn, fv):
+    def mv_value(self, mv, m, mv_apic, eta_v, budget):
         """What a point adds to a node of grid_mv per unit weight: momentum, mass (then the APIC momentum with flip;
-        the viscous volume ``J V eta`` with a viscous material, :mod:`gasp_taichi_mpm.viscosity`; with the colliders'
-        particle contact the budget-weighted normal and supports' velocity, 6 channels from ``fn_channel``; last,
-        the particle contact's friction budget, :mod:`gasp_taichi_mpm.contact`)."""
-        out = ti.Vector.zero(self.real, self.acc_width)
-        for q in ti.static(range(3)):
-            out[q] = mv[q]
-        out[3] = m
-        if ti.static(self.flip > 0):
-            for q in ti.static(range(3)):
-                out[4 + q] = mv_apic[q]
-        if ti.static(self.viscous):
-            out[self.eta_channel] = eta_v
-        if ti.static(self.n_colc > 0):
-            for q in ti.static(range(3)):
-                out[self.fn_channel + q] = fn[q]
-                out[self.fn_channel + 3 + q] = fv[q]
-        if ti.static(self.n_planes > 0 or self.n_colc > 0):
-            out[self.acc_width - 1] = budget
-        return out
+        the viscous volume ``J V eta`` with a viscous material, :mod:`gasp_taichi_mpm.viscosity`; last, the particle
+        contact's friction budget with its planes or colliders, ``pc``, :mod:`gasp_taichi_mpm.contact`)."""
+        if ti.static(self.flip > 0 and self.viscous and self.pc):
+            return ti.Vector([mv[0], mv[1], mv[2], m, mv_apic[0], mv_apic[1], mv_apic[2], eta_v, budget])
+        elif ti.static(self.flip > 0 and self.viscous):
+            return ti.Vector([mv[0], mv[1], mv[2], m, mv_apic[0], mv_apic[1], mv_apic[2], eta_v])
+        elif ti.static(self.flip > 0 and self.pc):
+            return ti.Vector([mv[0], mv[1], mv[2], m, mv_apic[0], mv_apic[1], mv_apic[2], budget])
+        elif ti.static(self.flip > 0):
+            return ti.Vector([mv[0], mv[1], mv[2], m, mv_apic[0], mv_apic[1], mv_apic[2]])
+        elif ti.static(self.viscous and self.pc):
+            return ti.Vector([mv[0], mv[1], mv[2], m, eta_v, budget])
+        elif ti.static(self.viscous):
+            return ti.Vector([mv[0], mv[1], mv[2], m, eta_v])
+        elif ti.static(self.pc):
+            return ti.Vector([mv[0], mv[1], mv[2], m, budget])
+        else:
+            return ti.Vector([mv[0], mv[1], mv[2], m])
 
     @ti.func
     def p2g_point(self, p, t, bmin, bmax):
@@ -82,6 +81,7 @@ class Transfers:
             mv0 += jvec
             self.mark_contact_nodes(base, sup)   # the contact's balance (balance.py)
             w = self.weights(fx)
+            self.scatter_contact(base, w, budget, fn, fv)   # with colliders: the budget's normal, supports' velocity
             for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                 weight = w[i][0] * w[j][1] * w[k][2]
                 mv = mv0
@@ -92,7 +92,7 @@ class Transfers:
                 if ti.static(k > 0):
                     mv += ti.static(float(k)) * ti.Vector([A[0, 2], A[1, 2], A[2, 2]])
                 val = weight * self.mv_value(mv, m, mv - S @ (ti.Vector([float(i), float(j), float(k)]) - fx) - jvec,
-                                             eta_v, budget, fn, fv)
+                                             eta_v, budget)
                 node = base + ti.Vector([i, j, k])
                 if ti.static(self.atomic):
                     self.grid_mv[0, node] += val

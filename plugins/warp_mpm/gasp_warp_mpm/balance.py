@@ -1,23 +1,28 @@
 """The contact's balance (``gasp_core.toolkit.contact.contact_balance``, ``docs/contact.md``, issue 38), as Warp
 kernels per scalar type: each body's net contact force and torque made those of a smooth contact.
 
-Per substep, with the particle contact:
+Per substep, with the particle contact. A *support* is one body against the grounds (support 0) or against one
+``[[collider]]`` (support ``1 + c``); its row is ``body n_sup + support`` (``n_sup`` = 1, or 1 + the colliders with
+the particle contact):
 
 - ``contact_moments`` (before P2G, one thread a point): its body's mass, first and second mass moments, momentum
-  and angular momentum, and the normal impulse of its planes and that impulse's first moments, into ``sums``
-  (float64, shape (n_bodies, 23), columns :data:`gasp_core.toolkit.contact.SUMS`), and the box of the pushed
-  points;
-- ``contact_shift`` (one thread a body): the body's mass centre ``c``, rigid velocity ``V``, spin ``omega``, normal
-  impulse ``J``, its centre ``x_bar`` and the pushed points' box, into ``shift`` (shape (n_bodies, 16)); ``sums``
-  cleared;
-- in P2G, a point with a normal impulse marks its 27 nodes with its body (``grid_fbody``);
+  and angular momentum into ``sums`` (float64, shape (n_bodies, 16), columns
+  :data:`gasp_core.toolkit.contact.SUMS`); each support's normal impulse on it (along the support's normal),
+  the impulse's moments and the support's velocity there, and the box of the pushed points, into ``jsums`` (shape
+  (n_bodies n_sup, 19), :data:`gasp_core.toolkit.contact.JSUMS`);
+- ``contact_shift`` (one thread a body): the body's mass centre ``c``, rigid velocity ``V`` and spin ``omega`` into
+  ``shift`` (shape (n_bodies, 9)); ``sums`` cleared;
+- in P2G, a point with a normal impulse marks its 27 nodes with the row of the support that pushes it most
+  (``grid_fbody``);
 - ``balance_node`` (a function of the grid update, at each marked node after its friction): the node's friction
   impulse, its moment, the node's mass and moments and its friction budget, into ``fr_sums`` (shape
-  (n_bodies, 26)); the node listed in ``fr_nodes`` (``fr_nodes[0]`` counts them);
-- ``contact_fix`` (one thread): per body, the change ``dv + alpha x (X - x_m)`` of its listed nodes' velocities
-  that makes the friction's net force Coulomb's on the body's rigid motion at its centre of pressure, and takes
-  back the contact's torque (normal and friction) about ``c`` up to ``J reach``, unless ``c`` lies more than ``reach``
-  beyond the pushed points' box (a body over its edge tips over); the lists cleared.
+  (n_bodies n_sup, 26)); the node listed in ``fr_nodes`` (``fr_nodes[0]`` counts them);
+- ``contact_fix`` (one thread): per support, with its mean normal ``n`` (``sum j n`` normalised), the change
+  ``dv + alpha x (X - x_m)`` of its listed nodes' velocities that makes the friction's net force (in the plane
+  normal to ``n``) Coulomb's on the body's rigid motion relative to the support at its centre of pressure, and takes
+  back the contact's torque (normal and friction, less its twist about ``n``) about ``c`` up to ``J reach``, unless
+  the line through ``c`` along ``n`` passes more than ``reach`` beyond the pushed points' box (a body over its edge
+  tips over); the sums and lists cleared. On the ground (``n = +z``) these are the steps before issue 38 item 2.
 
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of the closures below
 as type objects.

@@ -78,7 +78,7 @@ def build_collider_contact(Ft):
 
     @wp.func
     def collider_contact(ex: Extras, base: int, cc: int, x: vec3, v: vec3, kcs: vec3, dt: Ft):
-        phi, n, vc = collider_at(x, cc, base, ex)
+        phi, n, vc = collider_at(x, cc, base, ex, kcs[2])
         jq = Ft(0.0)
         depth = kcs[2] - phi
         if depth > Ft(0.0):
