@@ -282,9 +282,9 @@ class Balance:
                 alpha = -(inertia.inverse() @ th)
             inv = ti.Matrix([[self.c_shift[b, 12 + 3 * i + j] for j in ti.static(range(3))]
                              for i in ti.static(range(3))], ti.f64)
-            dw = inv @ (tq - th)   # what this substep's contact does to the body's rigid motion, for the next
-            for q in ti.static(range(3)):
-                self.c_last[b, q] += Fexp[q] / mass
+            dw = inv @ (tq - th)   # what this substep's contact does to the body's rigid motion, for the next:
+            for q in ti.static(range(3)):   # the friction's net force and the normal impulses (a pusher's push)
+                self.c_last[b, q] += (Fexp[q] + self.c_jsums[s, 4 + q]) / mass
                 self.c_last[b, 3 + q] += dw[q]
             for q in ti.static(range(3)):
                 self.fr_sums[s, 17 + q] = dF[q] / Mc
