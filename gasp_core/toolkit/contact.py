@@ -69,8 +69,8 @@ CONTACT_MODELS = ("auto", "particle", "grid")
 #: Materials that flow (granular, fluid): ``contact = "auto"`` keeps the grid contact for a scene with one.
 FLOWING = ("sand", "snow", "liquid")
 #: Engine option ``contact`` of the MPM engines.
-CONTACT = Option("contact", "auto", "ground contact: 'particle' (a penalty and Coulomb friction per point; "
-                 "docs/contact.md), 'grid' (the ground's node layers projected; spins bouncing soft bodies up) or "
+CONTACT = Option("contact", "auto", "ground and collider contact: 'particle' (a penalty and Coulomb friction per "
+                 "point; docs/contact.md), 'grid' (their node layers projected; spins bouncing soft bodies up) or "
                  "'auto' (particle, unless a body is sand, snow or liquid)", kind="str", choices=CONTACT_MODELS)
 #: Engine option ``contact_balance`` of the MPM engines.
 BALANCE = Option("contact_balance", True, "the particle contact's balance (docs/contact.md, issue 38): each body's "
