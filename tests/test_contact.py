@@ -6,7 +6,8 @@ import pytest
 
 from gasp_core.errors import SceneError
 from gasp_core.seam.options import check_options
-from gasp_core.toolkit.contact import CONTACT, ground_node_layer, node_friction, plane_impulse
+from gasp_core.toolkit.contact import (CONTACT, collider_grid_depth, ground_node_layer, node_friction, plane_impulse,
+                                      surface_impulse)
 from gasp_core.toolkit.options import mpm_options
 
 
@@ -17,6 +18,27 @@ def test_plane_impulse_is_a_damped_penalty_that_never_pulls():
     jn, budget = plane_impulse(z, vz, coeffs, 0.0, 0.5, 1e-3)
     assert np.allclose(jn, [0.0, 1e-3 * 100 * 0.005, 0.0, 1e-3 * (100 * 0.02 + 2.0)])
     assert np.allclose(budget, 0.5 * jn)
+
+
+def test_a_collider_pushes_along_its_normal_relative_to_its_velocity():
+    coeffs = np.array([[100.0, 2.0, 0.01]] * 4)
+    z = np.array([0.02, 0.005, 0.005, -0.01])
+    vz = np.array([-1.0, 0.0, 10.0, -1.0])
+    up = np.tile([0.0, 0.0, 1.0], (4, 1))
+    v = np.column_stack([np.full(4, 0.3), np.full(4, -0.2), vz])
+    # a plane as a collider: the ground's impulses, whatever the tangential velocity
+    jn, budget = surface_impulse(z, up, v, np.zeros((4, 3)), coeffs, 0.5, 1e-3)
+    assert np.array_equal(jn, plane_impulse(z, vz, coeffs, 0.0, 0.5, 1e-3)[0])
+    assert np.allclose(budget, 0.5 * jn)
+    # a collider tilted and moving into the point at 1 m/s along its normal: the damping sees the relative speed
+    n = np.array([[0.6, 0.0, 0.8]])
+    j1, _ = surface_impulse(np.array([0.005]), n, np.zeros((1, 3)), n, coeffs[:1], 0.5, 1e-3)
+    assert np.allclose(j1, 1e-3 * (100 * 0.005 + 2.0 * 1.0))
+
+
+def test_collider_grid_rule_moves_inside_with_the_particle_contact():
+    assert collider_grid_depth("grid", 0.01) == 0.0
+    assert collider_grid_depth("particle", 0.01) == pytest.approx(0.02)
 
 
 def test_node_friction_stops_a_node_but_never_turns_it_back():

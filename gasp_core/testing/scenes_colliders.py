@@ -34,11 +34,12 @@ BLOCK = Material("jelly", E=1e5, nu=0.3, rho=1000.0)
 INCLINE_DEG = 25.0
 MU_SLIDE, MU_STICK = 0.2, 0.8          # tan(25 deg) = 0.466
 INCLINE_T = 0.4                        # s simulated
-#: Relative error allowed on the sliding acceleration (two-sided). Measured: 0.24 % on the two MLS-MPM
-#: engines, 0.10 % on the flex (tetrahedral) engine (quadratic fit of the centroid over 0.1-0.4 s). 0.75 % is
-#: 3x the worst of them (issue 28): the grid resolves the contact layer over about one cell and the block
-#: rocks a little while it settles; friction 10 % off moves a by 7.5 %.
-INCLINE_TOL = 0.0075
+#: Relative error allowed on the sliding acceleration (two-sided). Measured: 0.10 % on the flex (tetrahedral) engine
+#: (quadratic fit of the centroid over 0.1-0.4 s); on the two MLS-MPM engines 0.24 % with the grid rule on the
+#: collider, -0.82 % since it takes the particle contact (issue 38 item 2; -0.94 % without the balance; frictionless
+#: exact, 0.00 %; with the contact 4x stiffer, KAPPA 16, -0.08 %: the soft penalty's, as on the ground, where
+#: `slide_to_rest` runs 0.45 % short). 1.25 % is 1.5x the worst: friction 1.7 % off moves a by 1.25 %.
+INCLINE_TOL = 0.0125
 
 
 def _incline_frame():

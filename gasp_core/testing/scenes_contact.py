@@ -18,6 +18,11 @@ points. At rest it lies on the plane: its lowest points at the plane, not floati
   ``GAP_T`` = 0.5 s the bottom of its lowest 1 % of points (their centres less half their spacing
   ``p_vol^(1/3)``: the body's surface) lies within ``GAP_TOL`` = 0.01 dx of the plane, above or below
   (two-sided: a body that floats or sinks fails).
+- ``ball_on_collider``: the jittered ball dropped 5 cm onto a box ``[[collider]]`` (its top ``COLLIDER_TOP`` = 2 dx
+  above the ground, friction 0.5) rests as on the ground (issue 38 item 2): after ``DRIFT_FRAMES`` frames the bottom
+  of its lowest 1 % of points' volumes lies within ``GAP_TOL`` dx of the box's top (two-sided), and its centroid
+  stays within ``DRIFT_TOL`` of its start horizontally. The grid rule on the collider's nodes floated it and rolled
+  it away.
 
 The ball: ``R`` = 5 cm, jelly ``E`` 2e4 Pa, nu 0.3, rho 300, points at dx / 2; the domain is the default one
 of a 10 cm object (``scenes_rest``: 0.3 m, ``n_grid`` 16, ground 3 cells above the grid's bottom).
@@ -128,6 +133,35 @@ def _eval_gap(info: EngineInfo, tr: Trace) -> list[Check]:
                   f"after {tr.t[-1]:.2f} s, in dx (signed {low / DX:+.3f} dx)", signed=low / DX)]
 
 
+#: The box collider's top above the ground (m) in ``ball_on_collider``.
+COLLIDER_TOP = 2 * DX
+
+
+def _build_on_collider(info: EngineInfo):
+    from gasp_core.colliders.sdf import box_collider, SDF_SPACING
+    x, p_vol = _ball((0.3, 0.2), 0.5)
+    x[:, 2] += COLLIDER_TOP
+    setup = _setup(x, p_vol, MU)
+    half = np.array([0.1, 0.1, COLLIDER_TOP])   # from a box-height below the ground to COLLIDER_TOP
+    setup.colliders = [box_collider(half, SDF_SPACING * DX, name="box", friction=MU,
+                                    position=np.array([0.0, 0.0, GROUND_H]))]
+    return setup
+
+
+def _eval_on_collider(info: EngineInfo, tr: Trace) -> list[Check]:
+    z = np.sort(tr.x[-1][:, 2] - 0.5 * np.cbrt(tr.setup.p_vol))
+    low = float(z[:max(1, round(GAP_FRACTION * len(z)))].mean() - (GROUND_H + COLLIDER_TOP))
+    c = tr.centroid()
+    d = np.linalg.norm(c[:, :2] - c[0, :2], axis=1)
+    f = int(np.argmax(d))
+    return [check("collider_gap", abs(low) / DX, GAP_TOL,
+                  f"|mean height above the box collider's top of the lowest {GAP_FRACTION:.0%} of points, less half "
+                  f"their spacing| after {tr.t[-1]:.2f} s, in dx (signed {low / DX:+.3f} dx)", signed=low / DX),
+            check("collider_drift", float(d[f]) * 1e3, DRIFT_TOL * 1e3,
+                  f"largest horizontal centroid travel of the jittered ball on the box collider over {tr.t[-1]:.2f} s "
+                  f"(at frame {f}), friction {MU}", unit=" mm", frame=f)]
+
+
 _REQ = Requires(frozenset({"jelly"}), frozenset({"ground"}))
 
 SCENES_CONTACT: list[Scene] = [
@@ -139,4 +173,8 @@ SCENES_CONTACT: list[Scene] = [
           _REQ, _build_jittered, DRIFT_FRAMES, _eval_drift),
     Scene("rest_gap", f"a slab set on the ground rests with its lowest points within {GAP_TOL} dx of the plane "
           f"after {GAP_T:g} s", _REQ, _build_slab, round(GAP_T * 30), _eval_gap),
+    Scene("ball_on_collider", f"the jittered ball dropped {DROP * 100:g} cm onto a box collider rests on its top "
+          f"within {GAP_TOL} dx and stays within {DRIFT_TOL * 1e3:g} mm horizontally over {DRIFT_FRAMES} frames",
+          Requires(frozenset({"jelly"}), frozenset({"ground"}), features=frozenset({"static_colliders"})),
+          _build_on_collider, DRIFT_FRAMES, _eval_on_collider),
 ]

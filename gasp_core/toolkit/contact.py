@@ -14,7 +14,13 @@ off the node's tangential velocity ``v_t`` (it can stop the node, never turn it 
 are kept out of the body's reach (the node layers more than ``GRID_LAYERS_BELOW`` cells below the plane: a
 safety net for a point driven more than half a cell deep).
 
-``contact = "grid"``: the ground's node layers are projected (taichi_elements' "separate" collider,
+``[[collider]]``s (signed distance fields, static or moving) meet the points the same way
+(:func:`surface_impulse`): ``depth = s_p - phi`` with ``phi`` the collider's signed distance at the point, the
+impulse along its outward normal ``n`` against the velocity relative to the collider's (``v_col``), and the budget
+spent on the node's velocity relative to the collider's in the plane normal to ``n``; their grid rule acts only
+``GRID_LAYERS_BELOW`` cells inside them (:func:`collider_grid_depth`). Walls keep the grid rule.
+
+``contact = "grid"``: the ground's and the colliders' node layers are projected (taichi_elements' "separate" collider,
 ``docs/mpm.md`` step 3), the rule before issue 28; it spins bouncing soft bodies up and floats resting ones
 (``docs/contact.md``).
 
@@ -54,17 +60,20 @@ TORQUE_REACH = 2.0
 # it (the engines' ``keep_braking``): it takes back what would start a spin, never what stops one, so a rocking body
 # still loses its rocking (``docs/contact.md``).
 #: Columns of the per-body sums of the contact's balance (the engines' ``balance.py``): mass, its first and second
-#: moments, the normal impulse J and its first moments in x and y, momentum, angular momentum, the pushed points'
-#: box (x min, x max, y min, y max).
-SUMS = ("m", "mx", "my", "mz", "mxx", "mxy", "mxz", "myy", "myz", "mzz", "j", "jx", "jy", "px", "py", "pz",
-        "lx", "ly", "lz", "x_min", "x_max", "y_min", "y_max")
+#: moments, momentum, angular momentum.
+SUMS = ("m", "mx", "my", "mz", "mxx", "mxy", "mxz", "myy", "myz", "mzz", "px", "py", "pz", "lx", "ly", "lz")
+#: Columns of the per-support sums of the contact's balance (a support: one body against the grounds, or against
+#: one collider): the normal impulses' magnitude J, its first moments, the impulse vector ``sum j n``, its moment
+#: about the origin ``sum x x j n``, ``sum j v_col`` (the support's velocity at the points), the pushed points' box.
+JSUMS = ("j", "jx", "jy", "jz", "jnx", "jny", "jnz", "mnx", "mny", "mnz", "jvx", "jvy", "jvz",
+         "x_min", "x_max", "y_min", "y_max", "z_min", "z_max")
 #: The engine option's values.
 CONTACT_MODELS = ("auto", "particle", "grid")
 #: Materials that flow (granular, fluid): ``contact = "auto"`` keeps the grid contact for a scene with one.
 FLOWING = ("sand", "snow", "liquid")
 #: Engine option ``contact`` of the MPM engines.
-CONTACT = Option("contact", "auto", "ground contact: 'particle' (a penalty and Coulomb friction per point; "
-                 "docs/contact.md), 'grid' (the ground's node layers projected; spins bouncing soft bodies up) or "
+CONTACT = Option("contact", "auto", "ground and collider contact: 'particle' (a penalty and Coulomb friction per "
+                 "point; docs/contact.md), 'grid' (their node layers projected; spins bouncing soft bodies up) or "
                  "'auto' (particle, unless a body is sand, snow or liquid)", kind="str", choices=CONTACT_MODELS)
 #: Engine option ``contact_balance`` of the MPM engines.
 BALANCE = Option("contact_balance", True, "the particle contact's balance (docs/contact.md, issue 38): each body's "
@@ -97,9 +106,10 @@ def contact_coefficients(setup) -> np.ndarray:
     -------
     ndarray, shape (n, 3), float64
         ``k_p = KAPPA E h_p``, ``c_p = 2 DAMPING sqrt(k_p m_p)``, ``s_p = SKIN h_p``, ``h_p = p_vol^(1/3)``
-        (zeros for passive points, which have no volume). A point that starts closer to a ground than its skin
-        (a body placed standing on the ground, its splats on the plane) gets its starting clearance as its skin,
-        so a body the scene places on the ground is not pushed up by half a spacing in its first substep.
+        (zeros for passive points, which have no volume). A point that starts closer to a ground or a
+        ``[[collider]]`` (its signed distance at t = 0) than its skin (a body placed standing on it, its splats on
+        the surface) gets its starting clearance as its skin, so a body the scene places on a support is not
+        pushed up by half a spacing in its first substep.
     """
     E = np.array([m.E for m in setup.materials], dtype=np.float64)
     h = np.cbrt(np.asarray(setup.p_vol, dtype=np.float64))
@@ -109,12 +119,14 @@ def contact_coefficients(setup) -> np.ndarray:
     for b in setup.boundaries:
         if b.kind == "ground":
             skin = np.minimum(skin, np.maximum(z - float(b.height), 0.0))
+    for col in getattr(setup, "colliders", None) or []:
+        skin = np.minimum(skin, np.maximum(col.distance(np.asarray(setup.x, dtype=np.float64), 0.0), 0.0))
     return np.column_stack([k, 2.0 * DAMPING * np.sqrt(k * np.asarray(setup.p_mass, dtype=np.float64)), skin])
 
 
 def contact_dt(setup) -> float:
     """The longest substep (s) the particle contact of a setup keeps stable: ``MAX_OMEGA_DT / max omega`` over
-    its bodies, ``inf`` without a ground or without the particle contact.
+    its bodies, ``inf`` without a ground or a ``[[collider]]``, or without the particle contact.
 
     ``omega = sqrt(KAPPA E / (rho dx h))`` (rad/s) is a contact patch's frequency: the stiffness
     ``KAPPA E h`` of the ``(dx / h)^2`` points of median spacing ``h`` (m) that press on one node, over the node's
@@ -123,7 +135,8 @@ def contact_dt(setup) -> float:
     Measured (``conformance_tests/test_extremes.py``, a 0.2 m jelly cube, E 1e5 Pa, dropped at 2 m/s): at ``cfl = 1.0`` (``omega dt = 2.4``) the contact gained 239 % of the body's energy; at 0.9 (2.2)
     none. The README donut (median ``omega dt`` 1.5 at the default ``cfl = 0.4``) is not affected.
     """
-    if contact_model(setup) != "particle" or not any(b.kind == "ground" for b in setup.boundaries):
+    if contact_model(setup) != "particle" or not (any(b.kind == "ground" for b in setup.boundaries)
+                                                    or getattr(setup, "colliders", None)):
         return float("inf")
     h = np.cbrt(np.asarray(setup.p_vol, dtype=np.float64))
     body = np.asarray(setup.body_id, dtype=np.int64)
@@ -133,6 +146,13 @@ def contact_dt(setup) -> float:
         if len(hb) and float(m.E) > 0.0 and float(m.rho) > 0.0:
             omega = max(omega, float(np.sqrt(KAPPA * float(m.E) / (float(m.rho) * float(setup.dx) * np.median(hb)))))
     return MAX_OMEGA_DT / omega if omega > 0.0 else float("inf")
+
+
+def collider_grid_depth(contact: str, dx: float) -> float:
+    """How deep (m) inside a ``[[collider]]`` the grid rule starts: at its surface (``phi <= 0``) with ``"grid"``;
+    ``GRID_LAYERS_BELOW`` cells inside with ``"particle"``, whose points meet the collider at its surface (the
+    ground's :func:`ground_node_layer`, as a safety net; a collider thinner than twice that has none)."""
+    return 0.0 if contact == "grid" else GRID_LAYERS_BELOW * float(dx)
 
 
 def ground_node_layer(contact: str, height: float, domain_lo_z: float, dx: float) -> int:
@@ -167,6 +187,40 @@ def plane_impulse(z: np.ndarray, v_z: np.ndarray, coeffs: np.ndarray, height: fl
     k, c, s = coeffs[:, 0], coeffs[:, 1], coeffs[:, 2]
     depth = height + s - z
     jn = np.where(depth > 0.0, np.maximum(0.0, dt * (k * depth - c * v_z)), 0.0)
+    return jn, mu * jn
+
+
+def surface_impulse(phi: np.ndarray, n: np.ndarray, v: np.ndarray, v_col: np.ndarray, coeffs: np.ndarray,
+                    mu: float, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Normal impulse and friction budget of each point from one ``[[collider]]`` over a substep (the kernels'
+    reference; :func:`plane_impulse` is its case ``phi = z - height``, ``n = +z``, ``v_col = 0``).
+
+    Parameters
+    ----------
+    phi : ndarray, shape (n,)
+        The collider's signed distance at the points (m, negative inside; the trilinear lookup of its field in its
+        pose of the substep, as the grid rule's).
+    n : ndarray, shape (n, 3)
+        Its unit outward normal there (the field's gradient, normalised, turned by the pose).
+    v, v_col : ndarray, shape (n, 3)
+        The points' velocities and the collider's at the points (``v + w x (x - T)``), m/s.
+    coeffs : ndarray, shape (n, 3)
+        :func:`contact_coefficients`.
+    mu, dt : float
+        The collider's friction and the substep (s).
+
+    Returns
+    -------
+    j_n : ndarray, shape (n,)
+        ``max(0, dt (k_p depth - c_p (v - v_col) . n))`` where ``depth = s_p - phi > 0``, else 0 (kg m/s, along
+        ``n``).
+    budget : ndarray, shape (n,)
+        ``mu j_n``.
+    """
+    k, c, s = coeffs[:, 0], coeffs[:, 1], coeffs[:, 2]
+    depth = s - phi
+    vn = np.einsum("ij,ij->i", np.asarray(v, float) - np.asarray(v_col, float), n)
+    jn = np.where(depth > 0.0, np.maximum(0.0, dt * (k * depth - c * vn)), 0.0)
     return jn, mu * jn
 
 

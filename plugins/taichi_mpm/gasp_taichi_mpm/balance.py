@@ -18,7 +18,7 @@ force and torque made those of a smooth contact.
 import numpy as np
 import taichi as ti
 
-from gasp_core.toolkit.contact import TORQUE_REACH
+from gasp_core.toolkit.contact import JSUMS, TORQUE_REACH
 
 #: Slices of the points the moments run over (each summed serially on one thread, then added).
 N_PARTS = 64
@@ -36,21 +36,25 @@ class Balance:
     """The contact's balance (module docstring); reads the solver's fields and flags."""
 
     def allocate_balance(self, reach, mass) -> None:
-        """Per body the sums, shift, reach (m) and mass (kg); the contact nodes' bodies and list.
-        ``reach`` None or empty: no balance."""
+        """Per body the sums, shift, reach (m) and mass (kg); per support (``n_sup`` a body: the grounds, each
+        collider with the particle contact) the contact's and the friction's sums; the contact nodes' supports and
+        list. ``reach`` None or empty: no balance."""
         nb = 0 if reach is None else len(reach)
+        ns = nb * self.n_sup
         self.n_spin = nb
+        self.n_slots = ns
         self.c_sums = ti.field(ti.f64, shape=(max(nb, 1), 19))
-        self.c_jsums = ti.field(ti.f64, shape=(max(nb, 1), 7))   # this P2G's J, its moments in x, y, its box
-        self.c_shift = ti.field(ti.f64, shape=(max(nb, 1), 21))   # c, V, omega, J, x_bar, y_bar, I^-1
+        self.c_jsums = ti.field(ti.f64, shape=(max(ns, 1), len(JSUMS)))   # this P2G's contact sums per support
+        self.c_shift = ti.field(ti.f64, shape=(max(nb, 1), 21))   # c, V, omega, (unused), I^-1
         self.c_last = ti.field(ti.f64, shape=(max(nb, 1), 6))   # the last fix's change of V and omega
         self.c_reach = ti.field(ti.f64, shape=max(nb, 1))
         self.c_mass = ti.field(ti.f64, shape=max(nb, 1))
         ng = self.n_grid if nb else 1
         self.grid_fbody = ti.field(ti.i32, shape=(ng, ng, ng))
         self.grid_ff = ti.Vector.field(5, self.real, shape=(ng, ng, ng))   # a contact node's friction, mass, budget
-        self.fr_sums = ti.field(ti.f64, shape=(max(nb, 1), 26))
-        self.fr_nodes = ti.Vector.field(3, ti.i32, shape=1 + (min(ng ** 3, 8 * ng * ng * max(1, self.n_planes))
+        self.fr_sums = ti.field(ti.f64, shape=(max(ns, 1), 26))
+        self.fr_nodes = ti.Vector.field(3, ti.i32, shape=1 + (min(ng ** 3, 8 * ng * ng * max(1, self.n_planes
+                                                                                               + self.n_colc))
                                                               if nb else 0))
         if nb:
             self.c_reach.from_numpy(np.asarray(reach, np.float64))
@@ -122,35 +126,46 @@ class Balance:
                 self.c_sums[b, q] = 0.0
 
     @ti.func
-    def clear_box(self, b):
-        """Body b's box of pushed points, inverted."""
-        self.c_jsums[b, 3] = 1.0e30
-        self.c_jsums[b, 4] = -1.0e30
-        self.c_jsums[b, 5] = 1.0e30
-        self.c_jsums[b, 6] = -1.0e30
+    def clear_box(self, s):
+        """Support s's contact sums cleared, its box of pushed points inverted."""
+        for q in ti.static(range(13)):
+            self.c_jsums[s, q] = 0.0
+        for d in ti.static(range(3)):
+            self.c_jsums[s, 13 + 2 * d] = 1.0e30
+            self.c_jsums[s, 14 + 2 * d] = -1.0e30
 
     @ti.kernel
     def clear_boxes(self):
-        for b in range(self.n_spin):
-            self.clear_box(b)
+        for s in range(self.n_slots):
+            self.clear_box(s)
 
     @ti.func
-    def mark_contact_nodes(self, p, base, jn):
-        """A point the planes push marks its 27 nodes with its body (``grid_fbody``) and adds its impulse and the
-        impulse's moments to ``c_jsums``."""
-        if ti.static(self.n_planes > 0):
-            if self.n_spin > 0 and jn > 0.0:
-                j = ti.cast(jn, ti.f64)
-                x = ti.cast(self.x[p], ti.f64)
-                ti.atomic_add(self.c_jsums[self.body[p], 0], j)
-                ti.atomic_add(self.c_jsums[self.body[p], 1], j * x[0])
-                ti.atomic_add(self.c_jsums[self.body[p], 2], j * x[1])
-                ti.atomic_min(self.c_jsums[self.body[p], 3], x[0])
-                ti.atomic_max(self.c_jsums[self.body[p], 4], x[0])
-                ti.atomic_min(self.c_jsums[self.body[p], 5], x[1])
-                ti.atomic_max(self.c_jsums[self.body[p], 6], x[1])
+    def add_contact(self, p, sup, jn, n, vc):
+        """Point p's normal impulse ``jn`` along ``n`` from support ``sup`` (its velocity ``vc`` there) into the
+        support's row of ``c_jsums`` (``gasp_core.toolkit.contact.JSUMS``), with the balance."""
+        if ti.static(self.n_spin > 0):
+            s = self.body[p] * self.n_sup + sup
+            j = ti.cast(jn, ti.f64)
+            x = ti.cast(self.x[p], ti.f64)
+            jv = j * ti.cast(n, ti.f64)
+            mn = x.cross(jv)
+            v = j * ti.cast(vc, ti.f64)
+            ti.atomic_add(self.c_jsums[s, 0], j)
+            for q in ti.static(range(3)):
+                ti.atomic_add(self.c_jsums[s, 1 + q], j * x[q])
+                ti.atomic_add(self.c_jsums[s, 4 + q], jv[q])
+                ti.atomic_add(self.c_jsums[s, 7 + q], mn[q])
+                ti.atomic_add(self.c_jsums[s, 10 + q], v[q])
+                ti.atomic_min(self.c_jsums[s, 13 + 2 * q], x[q])
+                ti.atomic_max(self.c_jsums[s, 14 + 2 * q], x[q])
+
+    @ti.func
+    def mark_contact_nodes(self, base, sup):
+        """A point a support pushes marks its 27 nodes with that support's row (``grid_fbody``)."""
+        if ti.static(self.n_planes > 0 or self.n_colc > 0):
+            if self.n_spin > 0 and sup >= 0:
                 for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
-                    self.grid_fbody[base + ti.Vector([i, j, k])] = self.body[p]
+                    self.grid_fbody[base + ti.Vector([i, j, k])] = sup
 
     @ti.func
     def balance_node(self, I, v_in, v_out, m, fb):
@@ -190,11 +205,49 @@ class Balance:
         self.fr_sums[b, 16] += g[4]
 
     @ti.func
-    def keep_braking(self, th, inv, omega):
-        """The torque ``th`` to take back, less its part that brakes the body's horizontal spin ``omega``, up to
-        stopping it (``inv``: the body's inverse inertia; warp_mpm's ``keep_braking``)."""
+    def support_frame(self, s):
+        """Support s's mean contact normal (``sum j n`` normalised; +z without one), the impulses' centre and the
+        support's mean velocity there (warp_mpm's ``support_frame``)."""
+        J = self.c_jsums[s, 0]
+        jn = ti.Vector([self.c_jsums[s, 4], self.c_jsums[s, 5], self.c_jsums[s, 6]], ti.f64)
+        ln = jn.norm()
+        nb = ti.Vector([0.0, 0.0, 1.0], ti.f64)
+        if ln > 0.0:
+            nb = jn / ln
+        xb = ti.Vector.zero(ti.f64, 3)
+        vb = ti.Vector.zero(ti.f64, 3)
+        if J > 0.0:
+            xb = ti.Vector([self.c_jsums[s, 1], self.c_jsums[s, 2], self.c_jsums[s, 3]], ti.f64) / J
+            vb = ti.Vector([self.c_jsums[s, 10], self.c_jsums[s, 11], self.c_jsums[s, 12]], ti.f64) / J
+        return nb, xb, vb
+
+    @ti.func
+    def beyond_box(self, s, c, nb, reach):
+        """Whether the line through ``c`` along ``nb`` misses support s's box of pushed points grown by ``reach``
+        (a slab test; warp_mpm's ``beyond_box``)."""
+        tmin = ti.cast(-1.0e30, ti.f64)
+        tmax = ti.cast(1.0e30, ti.f64)
+        out = False
+        for d in ti.static(range(3)):
+            lo = self.c_jsums[s, 13 + 2 * d] - reach
+            hi = self.c_jsums[s, 14 + 2 * d] + reach
+            if ti.abs(nb[d]) < 1.0e-9:
+                if c[d] < lo or c[d] > hi:
+                    out = True
+            else:
+                t1 = (lo - c[d]) / nb[d]
+                t2 = (hi - c[d]) / nb[d]
+                tmin = ti.max(tmin, ti.min(t1, t2))
+                tmax = ti.min(tmax, ti.max(t1, t2))
+        return out or tmin > tmax
+
+    @ti.func
+    def keep_braking(self, th, inv, omega, nb):
+        """The torque ``th`` to take back, less its part that brakes the body's spin ``omega`` about an axis in the
+        contact plane (normal ``nb``), up to stopping it (``inv``: the body's inverse inertia; warp_mpm's
+        ``keep_braking``)."""
         out = th
-        wh = ti.Vector([omega[0], omega[1], 0.0], ti.f64)
+        wh = omega - omega.dot(nb) * nb
         lw = wh.norm()
         if lw > 0.0 and inv.determinant() > 0.0:
             w = wh / lw
@@ -205,71 +258,71 @@ class Balance:
         return out
 
     @ti.func
-    def body_fix(self, b):
-        """Body b's ``dv``, ``alpha`` and ``x_m`` into ``fr_sums[b, 17:26]`` (warp_mpm's ``body_fix``)."""
-        Mc = self.fr_sums[b, 3]
+    def body_fix(self, s):
+        """Support s's ``dv``, ``alpha`` and ``x_m`` into ``fr_sums[s, 17:26]``, its change of its body's rigid motion
+        added to ``c_last`` (warp_mpm's ``body_fix``)."""
+        b = s // self.n_sup
+        Mc = self.fr_sums[s, 3]
         mass = self.c_mass[b]
-        for q in ti.static(range(6)):
-            self.c_last[b, q] = 0.0
         if Mc > 0.0 and mass > 0.0:
-            first = ti.Vector([self.fr_sums[b, 4], self.fr_sums[b, 5], self.fr_sums[b, 6]], ti.f64)
+            first = ti.Vector([self.fr_sums[s, 4], self.fr_sums[s, 5], self.fr_sums[s, 6]], ti.f64)
             xm = first / Mc
             c = ti.Vector([self.c_shift[b, 0], self.c_shift[b, 1], self.c_shift[b, 2]], ti.f64)
-            J = self.c_jsums[b, 0]
-            xb = ti.cast(0.0, ti.f64)
-            yb = ti.cast(0.0, ti.f64)
-            if J > 0.0:
-                xb = self.c_jsums[b, 1] / J
-                yb = self.c_jsums[b, 2] / J
-            F = ti.Vector([self.fr_sums[b, 0], self.fr_sums[b, 1], self.fr_sums[b, 2]], ti.f64)
-            xcp = ti.Vector([xb, yb, xm[2]], ti.f64)
+            J = self.c_jsums[s, 0]
+            nb, xb, vb = self.support_frame(s)
+            F = ti.Vector([self.fr_sums[s, 0], self.fr_sums[s, 1], self.fr_sums[s, 2]], ti.f64)
+            xcp = xb + (xm - xb).dot(nb) * nb
             u = ti.Vector([self.c_shift[b, 3], self.c_shift[b, 4], self.c_shift[b, 5]], ti.f64) \
                 + ti.cast(self.dt[None] * self.gravity[None], ti.f64) \
-                + ti.Vector([self.c_shift[b, 6], self.c_shift[b, 7], self.c_shift[b, 8]], ti.f64).cross(xcp - c)
-            ut = ti.Vector([u[0], u[1], 0.0], ti.f64)
+                + ti.Vector([self.c_shift[b, 6], self.c_shift[b, 7], self.c_shift[b, 8]], ti.f64).cross(xcp - c) - vb
+            ut = u - u.dot(nb) * nb
             lt = ut.norm()
             Fexp = ti.Vector.zero(ti.f64, 3)
             if lt > 0.0:
-                Fexp = -(ti.min(self.fr_sums[b, 16], mass * lt) / lt) * ut
-            dF = Fexp - ti.Vector([F[0], F[1], 0.0], ti.f64)
-            tn = J * ti.Vector([yb - c[1], -(xb - c[0]), 0.0], ti.f64)
-            tf = ti.Vector([self.fr_sums[b, 13], self.fr_sums[b, 14], self.fr_sums[b, 15]], ti.f64) - c.cross(F)
+                Fexp = -(ti.min(self.fr_sums[s, 16], mass * lt) / lt) * ut
+            dF = Fexp - (F - F.dot(nb) * nb)
+            tn = ti.Vector([self.c_jsums[s, 7], self.c_jsums[s, 8], self.c_jsums[s, 9]], ti.f64) \
+                - c.cross(ti.Vector([self.c_jsums[s, 4], self.c_jsums[s, 5], self.c_jsums[s, 6]], ti.f64))
+            tf = ti.Vector([self.fr_sums[s, 13], self.fr_sums[s, 14], self.fr_sums[s, 15]], ti.f64) - c.cross(F)
             tq = tn + tf + (xm - c).cross(dF)
-            th = ti.Vector([tq[0], tq[1], 0.0], ti.f64)
+            th = tq - tq.dot(nb) * nb   # the twist about the normal is kept
             lh = th.norm()
             if lh > J * self.c_reach[b] * TORQUE_REACH:
                 th *= J * self.c_reach[b] * TORQUE_REACH / lh
-            r = self.c_reach[b]
-            if c[0] < self.c_jsums[b, 3] - r or c[0] > self.c_jsums[b, 4] + r or c[1] < self.c_jsums[b, 5] - r \
-                    or c[1] > self.c_jsums[b, 6] + r:
-                th = ti.Vector.zero(ti.f64, 3)   # the mass centre beyond the pushed points' box: it tips, keep it all
             inv = ti.Matrix([[self.c_shift[b, 12 + 3 * i + j] for j in ti.static(range(3))]
                              for i in ti.static(range(3))], ti.f64)
             th = self.keep_braking(th, inv, ti.Vector([self.c_shift[b, 6], self.c_shift[b, 7],
-                                                       self.c_shift[b, 8]], ti.f64))
-            inertia = inertia_of(Mc, first, self.fr_sums[b, 7], self.fr_sums[b, 8], self.fr_sums[b, 9],
-                                 self.fr_sums[b, 10], self.fr_sums[b, 11], self.fr_sums[b, 12])
+                                                       self.c_shift[b, 8]], ti.f64), nb)
+            if self.beyond_box(s, c, nb, self.c_reach[b]):
+                th = ti.Vector.zero(ti.f64, 3)   # the mass centre beyond the pushed points' box: it tips, keep it all
+            inertia = inertia_of(Mc, first, self.fr_sums[s, 7], self.fr_sums[s, 8], self.fr_sums[s, 9],
+                                 self.fr_sums[s, 10], self.fr_sums[s, 11], self.fr_sums[s, 12])
             alpha = ti.Vector.zero(ti.f64, 3)
             if inertia.determinant() > 1.0e-12 * inertia.trace() ** 3:
                 alpha = -(inertia.inverse() @ th)
-            dw = inv @ (tq - th)   # what this substep's contact does to the body's rigid motion, for the next
+            dw = inv @ (tq - th)   # what this substep's contact does to the body's rigid motion, for the next:
+            for q in ti.static(range(3)):   # the friction's net force and the normal impulses (a pusher's push)
+                self.c_last[b, q] += (Fexp[q] + self.c_jsums[s, 4 + q]) / mass
+                self.c_last[b, 3 + q] += dw[q]
             for q in ti.static(range(3)):
-                self.c_last[b, q] = Fexp[q] / mass
-                self.c_last[b, 3 + q] = dw[q]
-            for q in ti.static(range(3)):
-                self.fr_sums[b, 17 + q] = dF[q] / Mc
-                self.fr_sums[b, 20 + q] = alpha[q]
-                self.fr_sums[b, 23 + q] = xm[q]
+                self.fr_sums[s, 17 + q] = dF[q] / Mc
+                self.fr_sums[s, 20 + q] = alpha[q]
+                self.fr_sums[s, 23 + q] = xm[q]
 
     @ti.kernel
     def contact_fix(self):
-        """Each body's listed nodes summed, then moved by ``dv + alpha x (X - x_m)``; the sums and the list cleared."""
+        """Each support's listed nodes summed, then moved by ``dv + alpha x (X - x_m)``; the sums and the list
+        cleared."""
         ti.loop_config(serialize=True)
         for s in range(ti.min(self.fr_nodes[0][0], self.fr_nodes.shape[0] - 1)):
             self.sum_node(self.fr_nodes[s + 1])
         ti.loop_config(serialize=True)
         for b in range(self.n_spin):
-            self.body_fix(b)
+            for q in ti.static(range(6)):
+                self.c_last[b, q] = 0.0
+        ti.loop_config(serialize=True)
+        for s in range(self.n_slots):
+            self.body_fix(s)
         ti.loop_config(serialize=True)
         for s in range(ti.min(self.fr_nodes[0][0], self.fr_nodes.shape[0] - 1)):
             I = self.fr_nodes[s + 1]
@@ -282,10 +335,8 @@ class Balance:
                 self.grid_v[I] += ti.cast(dv, self.real)
             self.grid_fbody[I] = -1
         ti.loop_config(serialize=True)
-        for b in range(self.n_spin):
+        for s in range(self.n_slots):
             for q in ti.static(range(26)):
-                self.fr_sums[b, q] = 0.0
-            for q in ti.static(range(3)):
-                self.c_jsums[b, q] = 0.0
-            self.clear_box(b)
+                self.fr_sums[s, q] = 0.0
+            self.clear_box(s)
         self.fr_nodes[0][0] = 0

@@ -27,44 +27,66 @@ class Colliders:
         return out
 
     @ti.func
-    def apply_colliders(self, X, v, base):
-        """Colliders on ``v`` at ``X``: trilinear signed distance in the collider's frame (pose and velocity
-        from the time table row at ``base``); inside (``phi <= 0``), :meth:`collide` relative to the
-        collider's velocity with the outward normal."""
-        for c in range(self.n_col):
-            r = c * COL_META
-            p0 = base + FT_POSES + COL_POSE * c
-            pr = p0 + PO_R
-            R = ti.Matrix([[self.ex_tab[pr + 0], self.ex_tab[pr + 1], self.ex_tab[pr + 2]],
-                           [self.ex_tab[pr + 3], self.ex_tab[pr + 4], self.ex_tab[pr + 5]],
-                           [self.ex_tab[pr + 6], self.ex_tab[pr + 7], self.ex_tab[pr + 8]]])
-            T = ti.Vector([self.ex_tab[p0 + PO_T], self.ex_tab[p0 + PO_T + 1], self.ex_tab[p0 + PO_T + 2]])
-            h = self.ex_meta[r + CM_H]
-            org = ti.Vector([self.ex_meta[r + CM_ORIGIN], self.ex_meta[r + CM_ORIGIN + 1], self.ex_meta[r + CM_ORIGIN + 2]])
-            nx = ti.cast(self.ex_meta[r + CM_NX], ti.i32)
-            ny = ti.cast(self.ex_meta[r + CM_NY], ti.i32)
-            nz = ti.cast(self.ex_meta[r + CM_NZ], ti.i32)
-            off = ti.cast(self.ex_meta[r + CM_OFFSET], ti.i32)
-            u = (R.transpose() @ (X - T) - org) / h
-            if (u[0] >= 0.0 and u[1] >= 0.0 and u[2] >= 0.0 and u[0] <= nx - 1.0 and u[1] <= ny - 1.0
-                    and u[2] <= nz - 1.0):
-                i0 = ti.min(ti.cast(ti.floor(u[0]), ti.i32), nx - 2)
-                j0 = ti.min(ti.cast(ti.floor(u[1]), ti.i32), ny - 2)
-                k0 = ti.min(ti.cast(ti.floor(u[2]), ti.i32), nz - 2)
-                fx = u - ti.Vector([ti.cast(i0, self.real), ti.cast(j0, self.real), ti.cast(k0, self.real)])
-                phi = ti.cast(0.0, self.real)
-                g = ti.Vector.zero(self.real, 3)
+    def collider_at(self, X, c, base, thr):
+        """``(phi, n, v_c)``: collider ``c``'s signed distance (m; ``1e30`` off its field's grid or where its gradient
+        vanishes), unit outward normal and velocity at the world point ``X``, trilinear in its frame at the pose of
+        the time-table row at ``base``; the normal and velocity only where ``phi <= thr`` (zeros elsewhere: the
+        callers act only there). The grid rule and the particle contact both read it (warp_mpm's ``collider_at``)."""
+        r = c * COL_META
+        p0 = base + FT_POSES + COL_POSE * c
+        pr = p0 + PO_R
+        R = ti.Matrix([[self.ex_tab[pr + 0], self.ex_tab[pr + 1], self.ex_tab[pr + 2]],
+                       [self.ex_tab[pr + 3], self.ex_tab[pr + 4], self.ex_tab[pr + 5]],
+                       [self.ex_tab[pr + 6], self.ex_tab[pr + 7], self.ex_tab[pr + 8]]])
+        T = ti.Vector([self.ex_tab[p0 + PO_T], self.ex_tab[p0 + PO_T + 1], self.ex_tab[p0 + PO_T + 2]])
+        h = self.ex_meta[r + CM_H]
+        org = ti.Vector([self.ex_meta[r + CM_ORIGIN], self.ex_meta[r + CM_ORIGIN + 1], self.ex_meta[r + CM_ORIGIN + 2]])
+        nx = ti.cast(self.ex_meta[r + CM_NX], ti.i32)
+        ny = ti.cast(self.ex_meta[r + CM_NY], ti.i32)
+        nz = ti.cast(self.ex_meta[r + CM_NZ], ti.i32)
+        off = ti.cast(self.ex_meta[r + CM_OFFSET], ti.i32)
+        u = (R.transpose() @ (X - T) - org) / h
+        phi = ti.cast(1.0e30, self.real)
+        n = ti.Vector.zero(self.real, 3)
+        vc = ti.Vector.zero(self.real, 3)
+        if (u[0] >= 0.0 and u[1] >= 0.0 and u[2] >= 0.0 and u[0] <= nx - 1.0 and u[1] <= ny - 1.0
+                and u[2] <= nz - 1.0):
+            i0 = ti.min(ti.cast(ti.floor(u[0]), ti.i32), nx - 2)
+            j0 = ti.min(ti.cast(ti.floor(u[1]), ti.i32), ny - 2)
+            k0 = ti.min(ti.cast(ti.floor(u[2]), ti.i32), nz - 2)
+            fx = u - ti.Vector([ti.cast(i0, self.real), ti.cast(j0, self.real), ti.cast(k0, self.real)])
+            ph = ti.cast(0.0, self.real)
+            for di, dj, dk in ti.static(ti.ndrange(2, 2, 2)):
+                wgt = ((fx[0] if di else 1.0 - fx[0]) * (fx[1] if dj else 1.0 - fx[1])
+                       * (fx[2] if dk else 1.0 - fx[2]))
+                ph += wgt * self.ex_sdf[off + ((i0 + di) * ny + (j0 + dj)) * nz + (k0 + dk)]
+            phi = ph
+            g = ti.Vector.zero(self.real, 3)
+            if ph <= thr:   # the gradient only where the caller acts (the lookup's costly part)
                 for di, dj, dk in ti.static(ti.ndrange(2, 2, 2)):
                     wgt = ((fx[0] if di else 1.0 - fx[0]) * (fx[1] if dj else 1.0 - fx[1])
                            * (fx[2] if dk else 1.0 - fx[2]))
                     idx = off + ((i0 + di) * ny + (j0 + dj)) * nz + (k0 + dk)
-                    phi += wgt * self.ex_sdf[idx]
                     g += wgt * ti.Vector([self.ex_grad[3 * idx], self.ex_grad[3 * idx + 1], self.ex_grad[3 * idx + 2]])
-                gl = g.norm()
-                if phi <= 0.0 and gl > 0.0:
-                    n = R @ (g / gl)
-                    vl = ti.Vector([self.ex_tab[p0 + PO_V], self.ex_tab[p0 + PO_V + 1], self.ex_tab[p0 + PO_V + 2]])
-                    om = ti.Vector([self.ex_tab[p0 + PO_W], self.ex_tab[p0 + PO_W + 1], self.ex_tab[p0 + PO_W + 2]])
-                    vc = vl + om.cross(X - T)
-                    v = vc + self.collide(v - vc, n, self.ex_meta[r + CM_FRICTION])
+            gl = g.norm()
+            if ph > thr:
+                phi = ph
+            elif gl <= 0.0:
+                phi = ti.cast(1.0e30, self.real)
+            else:
+                n = R @ (g / gl)
+                vl = ti.Vector([self.ex_tab[p0 + PO_V], self.ex_tab[p0 + PO_V + 1], self.ex_tab[p0 + PO_V + 2]])
+                om = ti.Vector([self.ex_tab[p0 + PO_W], self.ex_tab[p0 + PO_W + 1], self.ex_tab[p0 + PO_W + 2]])
+                vc = vl + om.cross(X - T)
+        return phi, n, vc
+
+    @ti.func
+    def apply_colliders(self, X, v, base):
+        """Colliders on ``v`` at ``X`` (:meth:`collider_at`); inside (``phi <= -col_deep``: 0 with
+        ``contact = "grid"``, ``gasp_core.toolkit.contact.collider_grid_depth`` with the particle contact, which
+        meets the points at the surface), :meth:`collide` relative to the collider's velocity."""
+        for c in range(self.n_col):
+            phi, n, vc = self.collider_at(X, c, base, -self.col_deep)
+            if phi <= -self.col_deep:
+                v = vc + self.collide(v - vc, n, self.ex_meta[c * COL_META + CM_FRICTION])
         return v

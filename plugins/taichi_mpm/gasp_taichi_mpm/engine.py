@@ -131,7 +131,8 @@ class TaichiMPMEngine(GridEngineBase):
             n_chunks=1, atomic=atomic, coloured=not atomic, n_material=self.n_material,
             passive_every=opt["passive_every"], flip=opt.get("flip") or 0.0,
             p_contact=(rigid_contact(setup, self.dt, contact_coefficients(view))[o]
-                       if contact == "particle" and grounds else None),
+                       if contact == "particle" and (grounds or setup.colliders) else None),
+            n_colc=len(setup.colliders) if contact == "particle" else 0,
             passive_bounds=passive_bounds(setup), rigid_frames=None if frames is None else (rigid, *frames),
             contact_reach=contact_reach(setup),
             body_mass=np.bincount(setup.body_id, weights=setup.p_mass, minlength=len(setup.materials)),

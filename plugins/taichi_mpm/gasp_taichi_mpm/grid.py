@@ -130,9 +130,15 @@ class GridUpdate:
                 for b in ti.static(range(self.n_grounds)):
                     if I[2] <= self.ground_kmax[b]:
                         v = self.axis_friction(v, 2, 1.0, self.ground_fric[b])
-                if ti.static(self.n_planes > 0):   # the particle contact's Coulomb friction (its budget: the last channel)
-                    v_in = v
-                    v = self.node_friction(v, acc[3], acc[self.acc_width - 1])
+                if ti.static(self.pc):   # the particle contact's Coulomb friction (its budget: the last channel;
+                    v_in = v             # with colliders relative to the supports, normal to them: grid_fnv)
+                    if ti.static(self.n_colc > 0):
+                        g = self.grid_fnv[I]
+                        self.grid_fnv[I] = ti.Vector.zero(self.real, 6)
+                        v = self.surface_friction(v, acc[3], acc[self.acc_width - 1], ti.Vector([g[0], g[1], g[2]]),
+                                                  ti.Vector([g[3], g[4], g[5]]))
+                    else:
+                        v = self.node_friction(v, acc[3], acc[self.acc_width - 1])
                     if self.n_spin > 0:   # and the contact's balance (balance.py)
                         self.balance_node(I, v_in, v, acc[3], acc[self.acc_width - 1])
                 for b in ti.static(range(self.n_regions)):

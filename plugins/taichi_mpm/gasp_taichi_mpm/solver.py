@@ -39,6 +39,7 @@ import taichi as ti
 # Material codes and the per-body parameter columns (``MPMSolver.mat``) are gasp_core.toolkit.materials'.
 from gasp_core.toolkit.substeps import passive_schedule
 from gasp_core.seam import SceneError
+from gasp_core.toolkit.contact import collider_grid_depth
 from gasp_core.toolkit.materials import N_PARAMS, P_ETA
 
 from .colliders import Colliders
@@ -108,7 +109,7 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
     def __init__(self, *, x, v, C0, p_mass, p_vol, body, fixed, jp0, params, kinds, n_grid, lo, dx, dt,
                  gravity, walls, grounds, regions, real, n_chunks, atomic, extras=None, time_table=None, n_substeps=1,
                  n_material=None, passive_every=1, flip=0.0, coloured=False, p_contact=None, passive_bounds=None,
-                 rigid_frames=None, contact_reach=None, body_mass=None):
+                 rigid_frames=None, contact_reach=None, body_mass=None, n_colc=0):
         n = len(x)
         self.n = n
         self.n_material = n if n_material is None else int(n_material)
@@ -127,21 +128,26 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         # the particle contact (p_contact: (n, 3) per point, :mod:`gasp_taichi_mpm.contact`) with the grounds' planes;
         # grid_mv's last channel then sums the nodes' friction budgets
         self.n_planes = self.n_grounds if p_contact is not None else 0
+        self.n_colc = int(n_colc) if p_contact is not None else 0   # colliders in the particle contact
+        self.n_sup = 1 + self.n_colc   # the balance's supports a body: the grounds, each collider
+        self.pc = bool(self.n_planes or self.n_colc)   # the particle contact
         # channels of grid_mv: momentum, mass (, APIC momentum with flip) (, viscous volume J V eta when viscous)
         # (, friction budget with the particle contact: always the last)
         self.eta_channel = 7 if self.flip > 0 else 4
-        self.acc_width = self.eta_channel + (1 if self.viscous else 0) + (1 if self.n_planes else 0)
+        self.acc_width = self.eta_channel + (1 if self.viscous else 0) + (1 if self.pc else 0)
         self._allocate_points(len(kinds))
         self._allocate_grid()
+        self.allocate_contact()
         self._allocate_boundaries()
         self._allocate_rigid(*(rigid_frames or ([False] * len(kinds), None, None, None, None)))
-        self.allocate_balance(contact_reach if self.n_planes else None, body_mass)
+        self.allocate_balance(contact_reach if self.n_planes or self.n_colc else None, body_mass)
 
         np_real = np.float32 if real == ti.f32 else np.float64
         self._upload_points(np_real, x=x, v=v, C0=C0, p_mass=p_mass, p_vol=p_vol, body=body, fixed=fixed,
                             jp0=jp0, params=params, kinds=kinds, p_contact=p_contact)
         # dt, dx and 1 / dx (computed in float64), each rounded once to the working precision
         self.dt[None], self.dx[None], self.inv_dx[None] = np.array([dt, dx, 1.0 / dx], np_real)
+        self.col_deep = collider_grid_depth("particle" if self.n_colc else "grid", dx)   # colliders' grid rule
         self._passive_every = int(passive_every)
         self._np_real = np_real
         self._passive_plan: tuple[int, list] = (0, [])   # (n_substeps, per-substep weight pair or None)
@@ -178,7 +184,7 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         self.p_vol = ti.field(real, shape=cap)
         self.body = ti.field(ti.i32, shape=cap)
         self.fixed = ti.field(ti.i8, shape=cap)
-        self.p_contact = ti.Vector.field(3, real, shape=cap if self.n_planes else 1)   # (k, c, skin) per point
+        self.p_contact = ti.Vector.field(3, real, shape=cap if self.n_planes or self.n_colc else 1)   # (k, c, skin)
         bcap = max(4, 1 << (n_bodies - 1).bit_length())
         self.kind = ti.field(ti.i32, shape=bcap)
         self.mat = ti.Vector.field(N_PARAMS, real, shape=bcap)
@@ -262,7 +268,7 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         put(self.fixed, fixed, np.int8)
         put(self.kind, kinds, np.int32)
         put(self.mat, params, np_real)
-        if self.n_planes:
+        if self.n_planes or self.n_colc:
             put(self.p_contact, p_contact, np_real)
         self.n_points[None] = self.n_material
         self.n_total[None] = self.n

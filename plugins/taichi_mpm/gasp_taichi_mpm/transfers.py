@@ -37,20 +37,20 @@ class Transfers:
     def mv_value(self, mv, m, mv_apic, eta_v, budget):
         """What a point adds to a node of grid_mv per unit weight: momentum, mass (then the APIC momentum with flip;
         the viscous volume ``J V eta`` with a viscous material, :mod:`gasp_taichi_mpm.viscosity`; last, the particle
-        contact's friction budget with its planes, :mod:`gasp_taichi_mpm.contact`)."""
-        if ti.static(self.flip > 0 and self.viscous and self.n_planes > 0):
+        contact's friction budget with its planes or colliders, ``pc``, :mod:`gasp_taichi_mpm.contact`)."""
+        if ti.static(self.flip > 0 and self.viscous and self.pc):
             return ti.Vector([mv[0], mv[1], mv[2], m, mv_apic[0], mv_apic[1], mv_apic[2], eta_v, budget])
         elif ti.static(self.flip > 0 and self.viscous):
             return ti.Vector([mv[0], mv[1], mv[2], m, mv_apic[0], mv_apic[1], mv_apic[2], eta_v])
-        elif ti.static(self.flip > 0 and self.n_planes > 0):
+        elif ti.static(self.flip > 0 and self.pc):
             return ti.Vector([mv[0], mv[1], mv[2], m, mv_apic[0], mv_apic[1], mv_apic[2], budget])
         elif ti.static(self.flip > 0):
             return ti.Vector([mv[0], mv[1], mv[2], m, mv_apic[0], mv_apic[1], mv_apic[2]])
-        elif ti.static(self.viscous and self.n_planes > 0):
+        elif ti.static(self.viscous and self.pc):
             return ti.Vector([mv[0], mv[1], mv[2], m, eta_v, budget])
         elif ti.static(self.viscous):
             return ti.Vector([mv[0], mv[1], mv[2], m, eta_v])
-        elif ti.static(self.n_planes > 0):
+        elif ti.static(self.pc):
             return ti.Vector([mv[0], mv[1], mv[2], m, budget])
         else:
             return ti.Vector([mv[0], mv[1], mv[2], m])
@@ -76,11 +76,12 @@ class Transfers:
             A = affine * dx
             S = (affine - m * C) * dx   # the stress part of A (AFLIP sums the momentum without it)
             mv0 = m * self.v[p] - A @ fx
-            jn, budget = self.plane_contact(p)   # the particle contact (zeros without it)
-            jvec = ti.Vector([0.0, 0.0, jn], self.real)   # not in AFLIP's APIC momentum (a boundary, as in warp_mpm)
+            # the particle contact (zeros without it): not in AFLIP's APIC momentum (a boundary, as in warp_mpm)
+            jvec, budget, fn, fv, sup = self.point_contact(p)
             mv0 += jvec
-            self.mark_contact_nodes(p, base, jn)   # the contact's balance (balance.py)
+            self.mark_contact_nodes(base, sup)   # the contact's balance (balance.py)
             w = self.weights(fx)
+            self.scatter_contact(base, w, budget, fn, fv)   # with colliders: the budget's normal, supports' velocity
             for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                 weight = w[i][0] * w[j][1] * w[k][2]
                 mv = mv0

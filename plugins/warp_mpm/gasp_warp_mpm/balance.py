@@ -1,23 +1,28 @@
 """The contact's balance (``gasp_core.toolkit.contact.contact_balance``, ``docs/contact.md``, issue 38), as Warp
 kernels per scalar type: each body's net contact force and torque made those of a smooth contact.
 
-Per substep, with the particle contact:
+Per substep, with the particle contact. A *support* is one body against the grounds (support 0) or against one
+``[[collider]]`` (support ``1 + c``); its row is ``body n_sup + support`` (``n_sup`` = 1, or 1 + the colliders with
+the particle contact):
 
 - ``contact_moments`` (before P2G, one thread a point): its body's mass, first and second mass moments, momentum
-  and angular momentum, and the normal impulse of its planes and that impulse's first moments, into ``sums``
-  (float64, shape (n_bodies, 23), columns :data:`gasp_core.toolkit.contact.SUMS`), and the box of the pushed
-  points;
-- ``contact_shift`` (one thread a body): the body's mass centre ``c``, rigid velocity ``V``, spin ``omega``, normal
-  impulse ``J``, its centre ``x_bar`` and the pushed points' box, its angular momentum about ``c``, into ``shift`` (shape (n_bodies, 19)); ``sums``
-  cleared;
-- in P2G, a point with a normal impulse marks its 27 nodes with its body (``grid_fbody``);
+  and angular momentum into ``sums`` (float64, shape (n_bodies, 16), columns
+  :data:`gasp_core.toolkit.contact.SUMS`); each support's normal impulse on it (along the support's normal),
+  the impulse's moments and the support's velocity there, and the box of the pushed points, into ``jsums`` (shape
+  (n_bodies n_sup, 19), :data:`gasp_core.toolkit.contact.JSUMS`);
+- ``contact_shift`` (one thread a body): the body's mass centre ``c``, rigid velocity ``V`` and spin ``omega`` into
+  ``shift`` (shape (n_bodies, 12): with its angular momentum about ``c``); ``sums`` cleared;
+- in P2G, a point with a normal impulse marks its 27 nodes with the row of the support that pushes it most
+  (``grid_fbody``);
 - ``balance_node`` (a function of the grid update, at each marked node after its friction): the node's friction
   impulse, its moment, the node's mass and moments and its friction budget, into ``fr_sums`` (shape
-  (n_bodies, 26)); the node listed in ``fr_nodes`` (``fr_nodes[0]`` counts them);
-- ``contact_fix`` (one thread): per body, the change ``dv + alpha x (X - x_m)`` of its listed nodes' velocities
-  that makes the friction's net force Coulomb's on the body's rigid motion at its centre of pressure, and takes
-  back the contact's torque (normal and friction) about ``c`` up to ``J reach``, unless ``c`` lies more than ``reach``
-  beyond the pushed points' box (a body over its edge tips over); the lists cleared.
+  (n_bodies n_sup, 26)); the node listed in ``fr_nodes`` (``fr_nodes[0]`` counts them);
+- ``contact_fix`` (one thread): per support, with its mean normal ``n`` (``sum j n`` normalised), the change
+  ``dv + alpha x (X - x_m)`` of its listed nodes' velocities that makes the friction's net force (in the plane
+  normal to ``n``) Coulomb's on the body's rigid motion relative to the support at its centre of pressure, and takes
+  back the contact's torque (normal and friction, less its twist about ``n``) about ``c`` up to ``J reach``, unless
+  the line through ``c`` along ``n`` passes more than ``reach`` beyond the pushed points' box (a body over its edge
+  tips over); the sums and lists cleared. On the ground (``n = +z``) these are the steps before issue 38 item 2.
 
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of the closures below
 as type objects.
@@ -28,7 +33,8 @@ import warp as wp
 
 from gasp_core.toolkit.contact import TORQUE_REACH
 
-from .contact import build_contact
+from .contact import build_collider_contact, build_contact
+from .forces import build_extras_struct
 from .precision import MODULE_OPTIONS, build_types
 
 #: Columns of ``fr_sums``: friction force (3), contact nodes' mass (1), mass moments (3 + 6), friction's moment
@@ -62,22 +68,6 @@ def add_second_moments(sums: wp.array2d(dtype=f64), b: int, col: int, m: f64, r:
     wp.atomic_add(sums, b, col + 5, m * r[2] * r[2])
 
 
-@wp.func
-def keep_braking(th: v64, omega: v64, L: v64):
-    # the torque to take back, less its part that brakes the body's horizontal spin, up to stopping it
-    # (gasp_core.toolkit.contact: the balance takes back what would start a spin, never what stops one)
-    wh = v64(omega[0], omega[1], f64(0.0))
-    lw = wp.length(wh)
-    out = th
-    if lw > f64(0.0):
-        w = wh / lw
-        s = wp.dot(th, w)
-        Lw = wp.dot(L, w)
-        if s < f64(0.0) and Lw > f64(0.0):
-            out = th - wp.max(s, -Lw) * w
-    return out
-
-
 @functools.cache
 def build_balance(Ft):
     """``(contact_moments, contact_shift, balance_node, contact_fix)`` of scalar type ``Ft`` (module docstring)."""
@@ -86,16 +76,34 @@ def build_balance(Ft):
     return contact_moments, contact_shift, balance_node, build_contact_fix(Ft)
 
 
+@wp.func
+def add_contact(jsums: wp.array2d(dtype=f64), s: int, j: f64, r: v64, n: v64, vc: v64):
+    # a point's normal impulse j along n (its support's velocity vc there) into support s's row (JSUMS)
+    jn = j * n
+    mn = wp.cross(r, jn)
+    wp.atomic_add(jsums, s, 0, j)
+    for q in range(3):
+        wp.atomic_add(jsums, s, 1 + q, j * r[q])
+        wp.atomic_add(jsums, s, 4 + q, jn[q])
+        wp.atomic_add(jsums, s, 7 + q, mn[q])
+        wp.atomic_add(jsums, s, 10 + q, j * vc[q])
+        wp.atomic_min(jsums, s, 13 + 2 * q, r[q])
+        wp.atomic_max(jsums, s, 14 + 2 * q, r[q])
+
+
 @functools.cache
 def build_moments(Ft):
     """``(contact_moments, contact_shift)`` of scalar type ``Ft``."""
     vec3, vec4, mat33 = build_types(Ft)
     plane_contact, _ = build_contact(Ft)
+    collider_contact = build_collider_contact(Ft)[0]
+    Extras = build_extras_struct(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def contact_moments(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33),
                         p_mass: wp.array(dtype=Ft), body: wp.array(dtype=wp.int32), p_contact: wp.array(dtype=vec3),
-                        planes: wp.array(dtype=vec3), dt: Ft, dx: Ft, sums: wp.array2d(dtype=f64)):
+                        planes: wp.array(dtype=vec3), dt: Ft, dx: Ft, sums: wp.array2d(dtype=f64),
+                        jsums: wp.array2d(dtype=f64), ex: Extras, colc: int, n_sup: int):
         p = wp.tid()
         b = body[p]
         xp = x[p]
@@ -111,58 +119,44 @@ def build_moments(Ft):
         wp.atomic_add(sums, b, 0, m)
         for q in range(3):
             wp.atomic_add(sums, b, 1 + q, m * r[q])
-            wp.atomic_add(sums, b, 13 + q, mv[q])
-            wp.atomic_add(sums, b, 16 + q, lr[q])
+            wp.atomic_add(sums, b, 10 + q, mv[q])
+            wp.atomic_add(sums, b, 13 + q, lr[q])
         add_second_moments(sums, b, 4, m, r)
-        jb = plane_contact(planes, p_contact[p], xp[2], vp[2], dt)
-        if jb[0] > Ft(0.0):
-            j = f64(jb[0])
-            wp.atomic_add(sums, b, 10, j)
-            wp.atomic_add(sums, b, 11, j * r[0])
-            wp.atomic_add(sums, b, 12, j * r[1])
-            wp.atomic_min(sums, b, 19, r[0])
-            wp.atomic_max(sums, b, 20, r[0])
-            wp.atomic_min(sums, b, 21, r[1])
-            wp.atomic_max(sums, b, 22, r[1])
+        kcs = p_contact[p]
+        jb = plane_contact(planes, kcs, xp[2], vp[2], dt)
+        if jb[0] > Ft(0.0):   # support 0: the grounds
+            add_contact(jsums, b * n_sup, f64(jb[0]), r, v64(f64(0.0), f64(0.0), f64(1.0)), v64(f64(0.0)))
+        if colc != 0:   # support 1 + cc: collider cc
+            base = ex.step[0] * ex.width
+            for cc in range(ex.n_col):
+                jq, n, vc = collider_contact(ex, base, cc, xp, vp, kcs, dt)
+                if jq > Ft(0.0):
+                    add_contact(jsums, b * n_sup + 1 + cc, f64(jq), r, v64(f64(n[0]), f64(n[1]), f64(n[2])),
+                                v64(f64(vc[0]), f64(vc[1]), f64(vc[2])))
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def contact_shift(sums: wp.array2d(dtype=f64), shift: wp.array2d(dtype=f64)):
         b = wp.tid()
         M = sums[b, 0]
-        J = sums[b, 10]
         c = v64(f64(0.0))
         V = v64(f64(0.0))
         omega = v64(f64(0.0))
         Lc = v64(f64(0.0))
-        xb = f64(0.0)
-        yb = f64(0.0)
         if M > f64(0.0):
             c = v64(sums[b, 1], sums[b, 2], sums[b, 3]) / M
-            V = v64(sums[b, 13], sums[b, 14], sums[b, 15]) / M
+            V = v64(sums[b, 10], sums[b, 11], sums[b, 12]) / M
             inertia = inertia_of(M, v64(sums[b, 1], sums[b, 2], sums[b, 3]), sums[b, 4], sums[b, 5], sums[b, 6],
                                  sums[b, 7], sums[b, 8], sums[b, 9])
-            Lc = v64(sums[b, 16], sums[b, 17], sums[b, 18]) - M * wp.cross(c, V)
+            Lc = v64(sums[b, 13], sums[b, 14], sums[b, 15]) - M * wp.cross(c, V)
             if wp.determinant(inertia) > f64(0.0):
                 omega = wp.inverse(inertia) * Lc
-        if J > f64(0.0):
-            xb = sums[b, 11] / J
-            yb = sums[b, 12] / J
         for q in range(3):
             shift[b, q] = c[q]
             shift[b, 3 + q] = V[q]
             shift[b, 6 + q] = omega[q]
-            shift[b, 16 + q] = Lc[q]
-        shift[b, 9] = J
-        shift[b, 10] = xb
-        shift[b, 11] = yb
-        for q in range(4):   # the box of the pushed points
-            shift[b, 12 + q] = sums[b, 19 + q]
-        for q in range(19):
+            shift[b, 9 + q] = Lc[q]
+        for q in range(16):
             sums[b, q] = f64(0.0)
-        sums[b, 19] = f64(1.0e30)
-        sums[b, 20] = f64(-1.0e30)
-        sums[b, 21] = f64(1.0e30)
-        sums[b, 22] = f64(-1.0e30)
 
     return contact_moments, contact_shift
 
@@ -199,123 +193,190 @@ def build_balance_node(Ft):
     return balance_node
 
 
+@wp.func
+def support_frame(jsums: wp.array2d(dtype=f64), s: int):
+    # support s's mean contact normal (sum j n normalised; +z without one), the impulses' centre and the support's
+    # mean velocity there
+    J = jsums[s, 0]
+    jn = v64(jsums[s, 4], jsums[s, 5], jsums[s, 6])
+    ln = wp.length(jn)
+    nb = v64(f64(0.0), f64(0.0), f64(1.0))
+    if ln > f64(0.0):
+        nb = jn / ln
+    xb = v64(f64(0.0))
+    vb = v64(f64(0.0))
+    if J > f64(0.0):
+        xb = v64(jsums[s, 1], jsums[s, 2], jsums[s, 3]) / J
+        vb = v64(jsums[s, 10], jsums[s, 11], jsums[s, 12]) / J
+    return nb, xb, vb
+
+
+@wp.func
+def beyond_box(jsums: wp.array2d(dtype=f64), s: int, c: v64, nb: v64, reach: f64):
+    # whether the line through c along nb misses the pushed points' box grown by reach (slab test): the mass
+    # centre beyond its support, which then tips (on the ground, nb = +z: c's x or y beyond the box's)
+    tmin = f64(-1.0e30)
+    tmax = f64(1.0e30)
+    out = False
+    for d in range(3):
+        lo = jsums[s, 13 + 2 * d] - reach
+        hi = jsums[s, 14 + 2 * d] + reach
+        if wp.abs(nb[d]) < f64(1.0e-9):
+            if c[d] < lo or c[d] > hi:
+                out = True
+        else:
+            t1 = (lo - c[d]) / nb[d]
+            t2 = (hi - c[d]) / nb[d]
+            tmin = wp.max(tmin, wp.min(t1, t2))
+            tmax = wp.min(tmax, wp.max(t1, t2))
+    return out or tmin > tmax
+
+
+@wp.func
+def keep_braking(th: v64, omega: v64, L: v64, nb: v64):
+    # the torque to take back, less its part that brakes the body's spin about an axis in the contact plane (normal
+    # nb), up to stopping it: the balance takes back what would start a spin, never what stops one (docs/contact.md)
+    wh = omega - wp.dot(omega, nb) * nb
+    lw = wp.length(wh)
+    out = th
+    if lw > f64(0.0):
+        w = wh / lw
+        s = wp.dot(th, w)
+        Lw = wp.dot(L, w)
+        if s < f64(0.0) and Lw > f64(0.0):
+            out = th - wp.max(s, -Lw) * w
+    return out
+
+
+@wp.func
+def body_fix(s: int, b: int, shift: wp.array2d(dtype=f64), jsums: wp.array2d(dtype=f64),
+             fr_sums: wp.array2d(dtype=f64), mass: f64, reach: f64, g_dt: v64):
+    # support s (of body b): its dv, alpha and x_m into fr_sums[s, 17:26]
+    Mc = fr_sums[s, 3]
+    if Mc > f64(0.0) and mass > f64(0.0):
+        xm = v64(fr_sums[s, 4], fr_sums[s, 5], fr_sums[s, 6]) / Mc
+        c = v64(shift[b, 0], shift[b, 1], shift[b, 2])
+        J = jsums[s, 0]
+        nb, xb, vb = support_frame(jsums, s)
+        F = v64(fr_sums[s, 0], fr_sums[s, 1], fr_sums[s, 2])
+        # Coulomb on the rigid motion relative to the support at the centre of pressure (the impulses' centre
+        # in the contact plane, the contact nodes' along the normal): stop its sliding, at most the budget
+        xcp = xb + wp.dot(xm - xb, nb) * nb
+        u = v64(shift[b, 3], shift[b, 4], shift[b, 5]) + g_dt \
+            + wp.cross(v64(shift[b, 6], shift[b, 7], shift[b, 8]), xcp - c) - vb
+        ut = u - wp.dot(u, nb) * nb
+        lt = wp.length(ut)
+        Fexp = v64(f64(0.0))
+        if lt > f64(0.0):
+            Fexp = -(wp.min(fr_sums[s, 16], mass * lt) / lt) * ut
+        dF = Fexp - (F - wp.dot(F, nb) * nb)
+        # the contact's torque about c: normal (sum x x j n - c x sum j n), friction, the force change at x_m
+        tn = v64(jsums[s, 7], jsums[s, 8], jsums[s, 9]) - wp.cross(c, v64(jsums[s, 4], jsums[s, 5], jsums[s, 6]))
+        tf = v64(fr_sums[s, 13], fr_sums[s, 14], fr_sums[s, 15]) - wp.cross(c, F)
+        tq = tn + tf + wp.cross(xm - c, dF)
+        th = tq - wp.dot(tq, nb) * nb   # the twist about the normal is kept
+        lh = wp.length(th)
+        clip = J * reach * f64(TORQUE_CLIP)
+        if lh > clip:
+            th = th * (clip / lh)
+        th = keep_braking(th, v64(shift[b, 6], shift[b, 7], shift[b, 8]), v64(shift[b, 9], shift[b, 10], shift[b, 11]),
+                          nb)
+        if beyond_box(jsums, s, c, nb, reach):
+            th = v64(f64(0.0))   # the mass centre beyond the pushed points' box: the body tips, keep it all
+        inertia = inertia_of(Mc, v64(fr_sums[s, 4], fr_sums[s, 5], fr_sums[s, 6]), fr_sums[s, 7], fr_sums[s, 8],
+                             fr_sums[s, 9], fr_sums[s, 10], fr_sums[s, 11], fr_sums[s, 12])
+        alpha = v64(f64(0.0))
+        tr = wp.trace(inertia)
+        if wp.determinant(inertia) > f64(1.0e-12) * tr * tr * tr:
+            alpha = -(wp.inverse(inertia) * th)
+        for q in range(3):
+            fr_sums[s, 17 + q] = dF[q] / Mc
+            fr_sums[s, 20 + q] = alpha[q]
+            fr_sums[s, 23 + q] = xm[q]
+
+
 @functools.cache
 def build_contact_fix(Ft):
     """``contact_fix``, the kernel of scalar type ``Ft`` after the grid update."""
     vec3, vec4, mat33 = build_types(Ft)
 
-    @wp.func
-    def body_fix(b: int, shift: wp.array2d(dtype=f64), fr_sums: wp.array2d(dtype=f64), mass: f64, reach: f64,
-                 g_dt: v64):
-        # the body's dv, alpha and x_m into fr_sums[b, 17:26]
-        Mc = fr_sums[b, 3]
-        if Mc > f64(0.0) and mass > f64(0.0):
-            xm = v64(fr_sums[b, 4], fr_sums[b, 5], fr_sums[b, 6]) / Mc
-            c = v64(shift[b, 0], shift[b, 1], shift[b, 2])
-            J = shift[b, 9]
-            F = v64(fr_sums[b, 0], fr_sums[b, 1], fr_sums[b, 2])
-            # Coulomb on the rigid motion at the centre of pressure: stop its sliding, at most the budget
-            xcp = v64(shift[b, 10], shift[b, 11], xm[2])
-            u = v64(shift[b, 3], shift[b, 4], shift[b, 5]) + g_dt \
-                + wp.cross(v64(shift[b, 6], shift[b, 7], shift[b, 8]), xcp - c)
-            ut = v64(u[0], u[1], f64(0.0))
-            lt = wp.length(ut)
-            Fexp = v64(f64(0.0))
-            if lt > f64(0.0):
-                Fexp = -(wp.min(fr_sums[b, 16], mass * lt) / lt) * ut
-            dF = Fexp - v64(F[0], F[1], f64(0.0))
-            # the contact's torque about c: normal (J at x_bar), friction, the force change at x_m
-            tn = J * v64(shift[b, 11] - c[1], -(shift[b, 10] - c[0]), f64(0.0))
-            tf = v64(fr_sums[b, 13], fr_sums[b, 14], fr_sums[b, 15]) - wp.cross(c, F)
-            tq = tn + tf + wp.cross(xm - c, dF)
-            th = v64(tq[0], tq[1], f64(0.0))
-            lh = wp.length(th)
-            clip = J * reach * f64(TORQUE_CLIP)
-            if lh > clip:
-                th = th * (clip / lh)
-            th = keep_braking(th, v64(shift[b, 6], shift[b, 7], shift[b, 8]),
-                              v64(shift[b, 16], shift[b, 17], shift[b, 18]))
-            if (c[0] < shift[b, 12] - reach or c[0] > shift[b, 13] + reach or c[1] < shift[b, 14] - reach
-                    or c[1] > shift[b, 15] + reach):
-                th = v64(f64(0.0))   # the mass centre beyond the pushed points' box: the body tips, keep it all
-            inertia = inertia_of(Mc, v64(fr_sums[b, 4], fr_sums[b, 5], fr_sums[b, 6]), fr_sums[b, 7], fr_sums[b, 8],
-                                 fr_sums[b, 9], fr_sums[b, 10], fr_sums[b, 11], fr_sums[b, 12])
-            alpha = v64(f64(0.0))
-            tr = wp.trace(inertia)
-            if wp.determinant(inertia) > f64(1.0e-12) * tr * tr * tr:
-                alpha = -(wp.inverse(inertia) * th)
-            for q in range(3):
-                fr_sums[b, 17 + q] = dF[q] / Mc
-                fr_sums[b, 20 + q] = alpha[q]
-                fr_sums[b, 23 + q] = xm[q]
-
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def contact_fix(grid_v: wp.array(dtype=vec3), grid_fbody: wp.array(dtype=wp.int32),
-                    shift: wp.array2d(dtype=f64), fr_sums: wp.array2d(dtype=f64), fr_nodes: wp.array(dtype=wp.int32),
-                    mass: wp.array(dtype=f64), reach: wp.array(dtype=f64), g_dt: vec3, lo: vec3, dx: Ft,
-                    n_grid: int):
-        for b in range(fr_sums.shape[0]):
-            body_fix(b, shift, fr_sums, mass[b], reach[b], v64(f64(g_dt[0]), f64(g_dt[1]), f64(g_dt[2])))
+                    shift: wp.array2d(dtype=f64), jsums: wp.array2d(dtype=f64), fr_sums: wp.array2d(dtype=f64),
+                    fr_nodes: wp.array(dtype=wp.int32), mass: wp.array(dtype=f64), reach: wp.array(dtype=f64),
+                    g_dt: vec3, lo: vec3, dx: Ft, n_grid: int, n_sup: int):
+        for s in range(fr_sums.shape[0]):
+            b = s / n_sup
+            body_fix(s, b, shift, jsums, fr_sums, mass[b], reach[b], v64(f64(g_dt[0]), f64(g_dt[1]), f64(g_dt[2])))
         n = wp.min(fr_nodes[0], fr_nodes.shape[0] - 1)
-        for s in range(n):
-            node = fr_nodes[s + 1]
-            b = grid_fbody[node]
-            if fr_sums[b, 3] > f64(0.0):
+        for q in range(n):
+            node = fr_nodes[q + 1]
+            s = grid_fbody[node]
+            if fr_sums[s, 3] > f64(0.0):
                 i = node / (n_grid * n_grid)
                 j = (node / n_grid) % n_grid
                 k = node % n_grid
                 X = v64(f64(lo[0] + dx * Ft(i)), f64(lo[1] + dx * Ft(j)), f64(lo[2] + dx * Ft(k)))
-                dv = v64(fr_sums[b, 17], fr_sums[b, 18], fr_sums[b, 19]) + wp.cross(
-                    v64(fr_sums[b, 20], fr_sums[b, 21], fr_sums[b, 22]),
-                    X - v64(fr_sums[b, 23], fr_sums[b, 24], fr_sums[b, 25]))
+                dv = v64(fr_sums[s, 17], fr_sums[s, 18], fr_sums[s, 19]) + wp.cross(
+                    v64(fr_sums[s, 20], fr_sums[s, 21], fr_sums[s, 22]),
+                    X - v64(fr_sums[s, 23], fr_sums[s, 24], fr_sums[s, 25]))
                 grid_v[node] = grid_v[node] + vec3(Ft(dv[0]), Ft(dv[1]), Ft(dv[2]))
             grid_fbody[node] = -1
         for s in range(fr_sums.shape[0]):
             for q in range(26):
                 fr_sums[s, q] = f64(0.0)
+            for q in range(13):
+                jsums[s, q] = f64(0.0)
+            for d in range(3):   # the box of the pushed points, inverted
+                jsums[s, 13 + 2 * d] = f64(1.0e30)
+                jsums[s, 14 + 2 * d] = f64(-1.0e30)
         fr_nodes[0] = 0
 
     return contact_fix
 
 
-def allocate_balance(engine, planes: list, Ft) -> None:
+def allocate_balance(engine, planes: list, Ft, n_sup: int = 1) -> None:
     """The contact's balance arrays on ``engine`` (a :class:`~gasp_warp_mpm.solver.WarpMPMEngine` with ``setup``,
-    ``device``, ``n_grid``): per body its sums, shift, reach (m) and mass (kg); the contact nodes' bodies and list.
-    No planes, or ``contact_balance = false``: zero bodies, no balance."""
+    ``device``, ``n_grid``): per body its sums, shift, reach (m) and mass (kg); per support (``n_sup`` a body: the
+    grounds, then each collider with the particle contact) its contact sums and friction sums; the contact nodes'
+    supports and list. No particle contact (``planes`` empty and ``n_sup`` 1), or ``contact_balance = false``: zero
+    bodies, no balance."""
     import numpy as np
-    from gasp_core.toolkit.contact import contact_reach, SUMS
+    from gasp_core.toolkit.contact import contact_reach, JSUMS, SUMS
     setup, d = engine.setup, engine.device
-    reach = contact_reach(setup) if planes else np.zeros(0)
+    reach = contact_reach(setup) if planes or n_sup > 1 else np.zeros(0)
     nb = len(reach)
-    sums = np.zeros((nb, len(SUMS)))
-    sums[:, SUMS.index("x_min")::2] = 1.0e30   # the box of the pushed points starts inverted
-    sums[:, SUMS.index("x_max")::2] = -1.0e30
-    engine.c_sums = wp.array(sums, dtype=f64, device=d)
-    engine.c_shift = wp.zeros((nb, 19), dtype=f64, device=d)
+    engine.n_sup = n_sup
+    jsums = np.zeros((nb * n_sup, len(JSUMS)))
+    jsums[:, JSUMS.index("x_min")::2] = 1.0e30   # the box of the pushed points starts inverted
+    jsums[:, JSUMS.index("x_max")::2] = -1.0e30
+    engine.c_sums = wp.zeros((nb, len(SUMS)), dtype=f64, device=d)
+    engine.c_jsums = wp.array(jsums, dtype=f64, device=d)
+    engine.c_shift = wp.zeros((nb, 12), dtype=f64, device=d)
     engine.c_reach = wp.array(reach, dtype=f64, device=d)
     mass = np.bincount(np.asarray(setup.body_id), weights=np.asarray(setup.p_mass), minlength=nb)[:nb]
     engine.c_mass = wp.array(mass.astype(np.float64), dtype=f64, device=d)
     n_nodes = engine.n_grid ** 3 if nb else 1
     engine.grid_fbody = wp.array(np.full(n_nodes, -1, np.int32), dtype=wp.int32, device=d)
-    engine.fr_sums = wp.zeros((nb, FR_COLUMNS), dtype=f64, device=d)
-    engine.fr_nodes = wp.zeros(1 + min(n_nodes, 8 * engine.n_grid ** 2 * max(1, len(planes))), dtype=wp.int32,
-                               device=d)
+    engine.fr_sums = wp.zeros((nb * n_sup, FR_COLUMNS), dtype=f64, device=d)
+    engine.fr_nodes = wp.zeros(1 + min(n_nodes, 8 * engine.n_grid ** 2 * max(1, len(planes) + n_sup - 1)),
+                               dtype=wp.int32, device=d)
 
 
-
-def balance_launches(engine, k, lo_v, dx, dt_f) -> tuple[list, object]:
+def balance_launches(engine, k, lo_v, dx, dt_f, ex) -> tuple[list, object]:
     """Pre-recorded launches of the balance on ``engine``: ``[contact_moments, contact_shift]`` (before P2G) and
-    ``contact_fix`` (after the grid update); ``([], None)`` without a balance. ``k``: the engine's kernels."""
+    ``contact_fix`` (after the grid update); ``([], None)`` without a balance. ``k``: the engine's kernels; ``ex``
+    its colliders' struct."""
     if engine.c_shift.shape[0] == 0:
         return [], None
     d, ng = engine.device, engine.n_grid
     g_dt = k.vec3(*[float(c) * engine.dt for c in engine.setup.gravity])
     fix = wp.launch(k.contact_fix, dim=1, device=d, record_cmd=True, inputs=[
-        engine.grid_v, engine.grid_fbody, engine.c_shift, engine.fr_sums, engine.fr_nodes, engine.c_mass,
-        engine.c_reach, g_dt, lo_v, dx, ng])
+        engine.grid_v, engine.grid_fbody, engine.c_shift, engine.c_jsums, engine.fr_sums, engine.fr_nodes,
+        engine.c_mass, engine.c_reach, g_dt, lo_v, dx, ng, engine.n_sup])
     pre = [wp.launch(k.contact_moments, dim=engine.n_material, device=d, record_cmd=True, inputs=[
                engine.x, engine.v, engine.C, engine.p_mass, engine.body, engine.p_contact, engine.planes, dt_f, dx,
-               engine.c_sums]),
+               engine.c_sums, engine.c_jsums, ex, int(engine.n_sup > 1), engine.n_sup]),
            wp.launch(k.contact_shift, dim=engine.c_shift.shape[0], device=d, record_cmd=True, inputs=[
                engine.c_sums, engine.c_shift])]
     return pre, fix

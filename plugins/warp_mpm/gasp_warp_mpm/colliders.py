@@ -40,63 +40,105 @@ def build_collide(Ft):
 
 
 @functools.cache
+def build_collider_at(Ft):
+    """``collider_at(X, cc, base, ex, thr) -> (phi, n, v_c)``, scalar type ``Ft``: collider ``cc``'s signed distance
+    (m; ``1e30`` off its field's grid or where its gradient vanishes), unit outward normal and velocity at the world
+    point ``X``, trilinear in its frame at the pose of the time-table row at ``base``; the normal and velocity only
+    where ``phi <= thr`` (m; zeros elsewhere: the callers act only there). The grid rule
+    (:func:`build_collider_func`) and the particle contact (``contact.build_collider_contact``) both read it."""
+    vec3, vec4, mat33 = build_types(Ft)
+    Extras = build_extras_struct(Ft)
+
+    @wp.func
+    def corner_weight(fx: vec3, di: int, dj: int, dk: int):
+        # the trilinear weight of cell corner (di, dj, dk) at the fraction fx
+        wx = Ft(1.0) - fx[0]
+        if di == 1:
+            wx = fx[0]
+        wy = Ft(1.0) - fx[1]
+        if dj == 1:
+            wy = fx[1]
+        wz = Ft(1.0) - fx[2]
+        if dk == 1:
+            wz = fx[2]
+        return wx * wy * wz
+
+    @wp.func
+    def collider_at(X: vec3, cc: int, base: int, ex: Extras, thr: Ft):
+        r = cc * COL_META
+        p0 = base + FT_POSES + COL_POSE * cc
+        pr = p0 + PO_R
+        R = mat33(ex.tab[pr + 0], ex.tab[pr + 1], ex.tab[pr + 2],
+                  ex.tab[pr + 3], ex.tab[pr + 4], ex.tab[pr + 5],
+                  ex.tab[pr + 6], ex.tab[pr + 7], ex.tab[pr + 8])
+        T = vec3(ex.tab[p0 + PO_T], ex.tab[p0 + PO_T + 1], ex.tab[p0 + PO_T + 2])
+        h = ex.meta[r + CM_H]
+        org = vec3(ex.meta[r + CM_ORIGIN], ex.meta[r + CM_ORIGIN + 1], ex.meta[r + CM_ORIGIN + 2])
+        nx = int(ex.meta[r + CM_NX])
+        ny = int(ex.meta[r + CM_NY])
+        nz = int(ex.meta[r + CM_NZ])
+        off = int(ex.meta[r + CM_OFFSET])
+        u = (wp.transpose(R) * (X - T) - org) / h
+        phi = Ft(1.0e30)
+        n = vec3(Ft(0.0))
+        vc = vec3(Ft(0.0))
+        if (u[0] >= Ft(0.0) and u[1] >= Ft(0.0) and u[2] >= Ft(0.0) and u[0] <= Ft(nx - 1)
+                and u[1] <= Ft(ny - 1) and u[2] <= Ft(nz - 1)):
+            i0 = wp.min(int(wp.floor(u[0])), nx - 2)
+            j0 = wp.min(int(wp.floor(u[1])), ny - 2)
+            k0 = wp.min(int(wp.floor(u[2])), nz - 2)
+            fx = u - vec3(Ft(i0), Ft(j0), Ft(k0))
+            ph = Ft(0.0)
+            for q in range(8):
+                di = q / 4
+                dj = (q / 2) % 2
+                dk = q % 2
+                idx = off + ((i0 + di) * ny + (j0 + dj)) * nz + (k0 + dk)
+                ph = ph + corner_weight(fx, di, dj, dk) * ex.sdf[idx]
+            phi = ph
+            gr = vec3(Ft(0.0))
+            if ph <= thr:   # the gradient only where the caller acts (the lookup's costly part)
+                for q in range(8):
+                    di = q / 4
+                    dj = (q / 2) % 2
+                    dk = q % 2
+                    idx = off + ((i0 + di) * ny + (j0 + dj)) * nz + (k0 + dk)
+                    gr = gr + corner_weight(fx, di, dj, dk) * vec3(ex.grad[3 * idx], ex.grad[3 * idx + 1],
+                                                                  ex.grad[3 * idx + 2])
+            gl = wp.length(gr)
+            if ph > thr:
+                phi = ph
+            elif gl <= Ft(0.0):
+                phi = Ft(1.0e30)
+            else:
+                n = R * (gr / gl)
+                vl = vec3(ex.tab[p0 + PO_V], ex.tab[p0 + PO_V + 1], ex.tab[p0 + PO_V + 2])
+                om = vec3(ex.tab[p0 + PO_W], ex.tab[p0 + PO_W + 1], ex.tab[p0 + PO_W + 2])
+                vc = vl + wp.cross(om, X - T)
+        return phi, n, vc
+
+    return collider_at
+
+
+@functools.cache
 def build_collider_func(Ft):
-    """``apply_colliders``: the colliders' signed distances on a grid node's velocity, scalar type ``Ft``."""
+    """``apply_colliders``: the colliders' signed distances on a grid node's velocity, scalar type ``Ft``: the grid
+    rule where ``phi <= -ex.col_deep`` (0 with ``contact = "grid"``; ``gasp_core.toolkit.contact.collider_grid_depth``
+    with the particle contact, which meets the points at the surface)."""
     vec3, vec4, mat33 = build_types(Ft)
     collide = build_collide(Ft)
     Extras = build_extras_struct(Ft)
+    collider_at = build_collider_at(Ft)
 
     @wp.func
     def apply_colliders(v_in: vec3, X: vec3, base: int, ex: Extras):
         # each collider: trilinear signed distance and gradient in its frame (pose and velocity from the
-        # substep's time-table row); inside (phi <= 0) collide relative to the collider's velocity
+        # substep's time-table row); inside (phi <= -col_deep) collide relative to the collider's velocity
         v = v_in
         for cc in range(ex.n_col):
-            r = cc * COL_META
-            p0 = base + FT_POSES + COL_POSE * cc
-            pr = p0 + PO_R
-            R = mat33(ex.tab[pr + 0], ex.tab[pr + 1], ex.tab[pr + 2],
-                      ex.tab[pr + 3], ex.tab[pr + 4], ex.tab[pr + 5],
-                      ex.tab[pr + 6], ex.tab[pr + 7], ex.tab[pr + 8])
-            T = vec3(ex.tab[p0 + PO_T], ex.tab[p0 + PO_T + 1], ex.tab[p0 + PO_T + 2])
-            h = ex.meta[r + CM_H]
-            org = vec3(ex.meta[r + CM_ORIGIN], ex.meta[r + CM_ORIGIN + 1], ex.meta[r + CM_ORIGIN + 2])
-            nx = int(ex.meta[r + CM_NX])
-            ny = int(ex.meta[r + CM_NY])
-            nz = int(ex.meta[r + CM_NZ])
-            off = int(ex.meta[r + CM_OFFSET])
-            u = (wp.transpose(R) * (X - T) - org) / h
-            if (u[0] >= Ft(0.0) and u[1] >= Ft(0.0) and u[2] >= Ft(0.0) and u[0] <= Ft(nx - 1)
-                    and u[1] <= Ft(ny - 1) and u[2] <= Ft(nz - 1)):
-                i0 = wp.min(int(wp.floor(u[0])), nx - 2)
-                j0 = wp.min(int(wp.floor(u[1])), ny - 2)
-                k0 = wp.min(int(wp.floor(u[2])), nz - 2)
-                fx = u - vec3(Ft(i0), Ft(j0), Ft(k0))
-                phi = Ft(0.0)
-                gr = vec3(Ft(0.0))
-                for di in range(2):
-                    for dj in range(2):
-                        for dk in range(2):
-                            wx = Ft(1.0) - fx[0]
-                            if di == 1:
-                                wx = fx[0]
-                            wy = Ft(1.0) - fx[1]
-                            if dj == 1:
-                                wy = fx[1]
-                            wz = Ft(1.0) - fx[2]
-                            if dk == 1:
-                                wz = fx[2]
-                            wgt = wx * wy * wz
-                            idx = off + ((i0 + di) * ny + (j0 + dj)) * nz + (k0 + dk)
-                            phi = phi + wgt * ex.sdf[idx]
-                            gr = gr + wgt * vec3(ex.grad[3 * idx], ex.grad[3 * idx + 1], ex.grad[3 * idx + 2])
-                gl = wp.length(gr)
-                if phi <= Ft(0.0) and gl > Ft(0.0):
-                    n = R * (gr / gl)
-                    vl = vec3(ex.tab[p0 + PO_V], ex.tab[p0 + PO_V + 1], ex.tab[p0 + PO_V + 2])
-                    om = vec3(ex.tab[p0 + PO_W], ex.tab[p0 + PO_W + 1], ex.tab[p0 + PO_W + 2])
-                    vc = vl + wp.cross(om, X - T)
-                    v = vc + collide(v - vc, n, ex.meta[r + CM_FRICTION])
+            phi, n, vc = collider_at(X, cc, base, ex, -ex.col_deep)
+            if phi <= -ex.col_deep:
+                v = vc + collide(v - vc, n, ex.meta[cc * COL_META + CM_FRICTION])
         return v
 
     return apply_colliders

@@ -6,6 +6,9 @@
   summed over the planes less than its skin below its centre (``depth = height + skin - z``), and its friction
   budget ``sum mu j_n``, which P2G adds to its nodes with its weights (``transfers.scatter_scalar``);
 - ``node_friction``: in the grid update, the node's tangential (x, y) velocity loses ``min(budget / m, |v_t|)``;
+- :func:`build_collider_contact`: the same against the ``[[collider]]``s' signed distances (``depth = skin - phi``,
+  the impulse along the outward normal, friction relative to the collider in the plane normal to the nodes'
+  budget-weighted normal), with the particle contact and colliders;
 - :func:`build_passive_hold` ``hold_passive``: after a passive point's update, the point put back in the box the
   boundaries keep it in (``gasp_core.toolkit.points.passive_bounds``, ``hold_passive``).
 
@@ -16,6 +19,10 @@ import functools
 
 import warp as wp
 
+from gasp_core.toolkit.grid_tables import CM_FRICTION, COL_META
+
+from .colliders import build_collider_at
+from .forces import build_extras_struct
 from .precision import build_types
 
 
@@ -49,6 +56,76 @@ def build_contact(Ft):
         return out
 
     return plane_contact, node_friction
+
+
+@functools.cache
+def build_collider_contact(Ft):
+    """``(collider_contact, point_contact, surface_friction)`` Warp functions of the scalar type ``Ft``: the particle
+    contact against the ``[[collider]]``s' signed distances (``gasp_core.toolkit.contact.surface_impulse``).
+
+    - ``collider_contact(ex, base, cc, x, v, kcs, dt) -> (j_n, n, v_c)``: collider ``cc``'s normal impulse on a point
+      ``max(0, dt (k depth - c (v - v_c) . n))``, ``depth = skin - phi``, along its outward normal ``n``;
+    - ``point_contact(...) -> (impulse, budget, budget n, budget v_c, support)``: the planes' and the colliders'
+      impulses on a point summed, its friction budget, the budget-weighted normal and collider velocity (for the
+      nodes' friction) and the support that pushes it most (0: the grounds, 1 + cc: collider cc; -1: none);
+    - ``surface_friction(vel, m, fb, fn, fv)``: a node's Coulomb friction in the plane normal to its budget-weighted
+      normal ``fn``, on its velocity relative to the supports' ``fv / fb``.
+    """
+    vec3, vec4, mat33 = build_types(Ft)
+    Extras = build_extras_struct(Ft)
+    collider_at = build_collider_at(Ft)
+    plane_contact = build_contact(Ft)[0]
+
+    @wp.func
+    def collider_contact(ex: Extras, base: int, cc: int, x: vec3, v: vec3, kcs: vec3, dt: Ft):
+        phi, n, vc = collider_at(x, cc, base, ex, kcs[2])
+        jq = Ft(0.0)
+        depth = kcs[2] - phi
+        if depth > Ft(0.0):
+            jq = wp.max(dt * (kcs[0] * depth - kcs[1] * wp.dot(v - vc, n)), Ft(0.0))
+        return jq, n, vc
+
+    @wp.func
+    def point_contact(planes: wp.array(dtype=vec3), kcs: vec3, x: vec3, v: vec3, dt: Ft, colc: int, ex: Extras):
+        jb = plane_contact(planes, kcs, x[2], v[2], dt)
+        imp = vec3(Ft(0.0), Ft(0.0), jb[0])
+        bud = jb[1]
+        fn = vec3(Ft(0.0), Ft(0.0), jb[1])
+        fv = vec3(Ft(0.0))
+        sup = int(-1)
+        jbest = Ft(0.0)
+        if jb[0] > Ft(0.0):
+            sup = 0
+            jbest = jb[0]
+        if colc != 0:
+            base = ex.step[0] * ex.width
+            for cc in range(ex.n_col):
+                jq, n, vc = collider_contact(ex, base, cc, x, v, kcs, dt)
+                if jq > Ft(0.0):
+                    mu = ex.meta[cc * COL_META + CM_FRICTION]
+                    imp = imp + jq * n
+                    bud = bud + mu * jq
+                    fn = fn + (mu * jq) * n
+                    fv = fv + (mu * jq) * vc
+                    if jq > jbest:
+                        sup = 1 + cc
+                        jbest = jq
+        return imp, bud, fn, fv, sup
+
+    @wp.func
+    def surface_friction(vel: vec3, m: Ft, fb: Ft, fn: vec3, fv: vec3):
+        out = vel
+        ln = wp.length(fn)
+        if fb > Ft(0.0) and ln > Ft(0.0):
+            n = fn / ln
+            u = vel - fv / fb
+            ut = u - wp.dot(u, n) * n
+            lt = wp.length(ut)
+            if lt > Ft(0.0):
+                out = vel - (wp.min(fb / m, lt) / lt) * ut
+        return out
+
+    return collider_contact, point_contact, surface_friction
 
 
 @functools.cache

@@ -34,6 +34,7 @@ def build_extras_struct(Ft):
         tab: wp.array(dtype=Ft)
         step: wp.array(dtype=wp.int32)
         n_col: int
+        col_deep: Ft   # m: the colliders' grid rule acts where phi <= -col_deep (colliders.build_collider_func)
         n_force: int
         n_imp: int
         width: int

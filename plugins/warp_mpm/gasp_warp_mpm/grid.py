@@ -15,7 +15,7 @@ from gasp_core.toolkit.grid_tables import FT_TIME
 
 from .colliders import build_collide, build_collider_func
 from .balance import build_balance
-from .contact import build_contact
+from .contact import build_collider_contact, build_contact
 from .forces import build_extras_struct, build_force_funcs
 from .precision import MODULE_OPTIONS, build_types
 
@@ -42,14 +42,45 @@ def build_extras(Ft):
 
 
 @functools.cache
+def build_contact_friction(Ft):
+    """``(contact_friction, clear_contact)``: ``contact_friction(vel, m, node, grid_fb, colc, grid_fn, grid_fv)``, the
+    particle contact's Coulomb friction
+    at a node (:mod:`gasp_warp_mpm.contact`), scalar type ``Ft``: on the tangential (x, y) velocity, or with the
+    colliders' particle contact (``colc``) relative to the supports in the plane normal to their normal; and
+    ``clear_contact`` of a node's budget (and its normal and supports' velocity)."""
+    vec3, vec4, mat33 = build_types(Ft)
+    node_friction = build_contact(Ft)[1]
+    surface_friction = build_collider_contact(Ft)[2]
+
+    @wp.func
+    def contact_friction(vel: vec3, m: Ft, node: int, grid_fb: wp.array(dtype=Ft), colc: int,
+                         grid_fn: wp.array(dtype=vec3), grid_fv: wp.array(dtype=vec3)):
+        out = vel
+        if colc != 0:
+            out = surface_friction(vel, m, grid_fb[node], grid_fn[node], grid_fv[node])
+        else:
+            out = node_friction(vel, m, grid_fb[node])
+        return out
+
+    @wp.func
+    def clear_contact(node: int, grid_fb: wp.array(dtype=Ft), colc: int, grid_fn: wp.array(dtype=vec3),
+                      grid_fv: wp.array(dtype=vec3)):
+        grid_fb[node] = Ft(0.0)
+        if colc != 0:
+            grid_fn[node] = vec3(Ft(0.0))
+            grid_fv[node] = vec3(Ft(0.0))
+
+    return contact_friction, clear_contact
+
+
+@functools.cache
 def build_grid_update(Ft):
-    """The grid-update kernel ``grid_update`` of scalar type ``Ft``: node velocity, gravity, extras,
-    boundaries."""
+    """The grid-update kernel ``grid_update`` of scalar type ``Ft``: node velocity, gravity, extras, boundaries."""
     vec3, vec4, mat33 = build_types(Ft)
     collide = build_collide(Ft)
     Extras, extras = build_extras(Ft)
-    node_friction = build_contact(Ft)[1]
     balance_node = build_balance(Ft)[2]
+    contact_friction, clear_contact = build_contact_friction(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def grid_update(
@@ -60,10 +91,10 @@ def build_grid_update(Ft):
         has_extras: int, ex: Extras, grid_g: wp.array(dtype=vec3), has_wind: int,
         grid_mv0: wp.array(dtype=vec4), grid_v0: wp.array(dtype=vec3), flip: int, grid_fb: wp.array(dtype=Ft),
         grid_fbody: wp.array(dtype=wp.int32), fr_sums: wp.array2d(dtype=wp.float64), fr_nodes: wp.array(dtype=wp.int32),
-    ):
+        colc: int, grid_fn: wp.array(dtype=vec3), grid_fv: wp.array(dtype=vec3)):
         # ground[g] = (top node layer k_max as a float, friction, unused); grid_m (node mass, for
         # passive points) has one entry per node when the setup has passive points, else one unused entry;
-        # grid_fb: the particle contact's friction budget per node (kg m/s; one unused entry without it)
+        # grid_fb: the contact's friction budget per node (kg m/s; one unused entry without it; with colc grid_fn/fv)
         node = wp.tid()
         g = grid_mv[node]
         m = g[3]
@@ -98,7 +129,7 @@ def build_grid_update(Ft):
                     vel = collide(vel, vec3(Ft(0.0), Ft(0.0), Ft(1.0)), gr[1])
             if grid_fb.shape[0] > 1:   # friction, then the contact's balance (balance.py)
                 v_in = vel
-                vel = node_friction(vel, m, grid_fb[node])
+                vel = contact_friction(vel, m, node, grid_fb, colc, grid_fn, grid_fv)
                 if fr_sums.shape[0] > 0:
                     balance_node(node, v_in, vel, m, grid_fb[node], X, grid_fbody, fr_sums, fr_nodes)
             for r in range(fixed_lo.shape[0]):
@@ -111,7 +142,7 @@ def build_grid_update(Ft):
         grid_v[node] = out
         grid_mv[node] = vec4(Ft(0.0))
         if grid_fb.shape[0] > 1:
-            grid_fb[node] = Ft(0.0)
+            clear_contact(node, grid_fb, colc, grid_fn, grid_fv)
         if flip != 0:  # the APIC velocity before forces (gasp_core.toolkit.transfer)
             g0 = grid_mv0[node]
             grid_v0[node] = vec3(Ft(0.0))

@@ -195,10 +195,15 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables):
         self.fixed_lo = arr(np.array(fixed_lo, dtype=dt_np).reshape(-1, 3), k.vec3)
         # the particle contact: the planes, each point's (k, c, skin) and the nodes' friction budgets
         self.planes = arr(np.array(planes, dtype=dt_np).reshape(-1, 3), k.vec3)
-        kcs = self._contact_coefficients()[self._order] if planes else np.zeros((1, 3))
+        # and the colliders (colc): the supports' velocity and the budget's normal per node (gasp_warp_mpm.contact)
+        self.colc = int(contact == "particle" and bool(self.setup.colliders))
+        n = self.n_grid ** 3 if planes or self.colc else 1
+        kcs = self._contact_coefficients()[self._order] if n > 1 else np.zeros((1, 3))
         self.p_contact = arr(kcs.astype(dt_np), k.vec3)
-        self.grid_fb = wp.zeros(self.n_grid ** 3 if planes else 1, dtype=Ft, device=self.device)
-        allocate_balance(self, planes, Ft)   # the contact's balance (gasp_warp_mpm.balance)
+        self.grid_fb = wp.zeros(n, dtype=Ft, device=self.device)
+        self.grid_fn, self.grid_fv = (wp.zeros(n if self.colc else 1, dtype=k.vec3, device=self.device) for _ in "nv")
+        # the contact's balance (gasp_warp_mpm.balance), per body and support (the grounds, each collider)
+        allocate_balance(self, planes, Ft, 1 + len(self.setup.colliders) if self.colc else 1)
         self.fixed_hi = arr(np.array(fixed_hi, dtype=dt_np).reshape(-1, 3), k.vec3)
 
     def _contact_coefficients(self) -> np.ndarray:
@@ -218,17 +223,18 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables):
                 self.x, self.v, self.F, self.C, self.Jp, self.p_mass, self.p_vol, self.body,
                 self.mat_kind, self.mat_par, self.grid_mv, self.flags, lo_v, inv_dx, dx, dt_f, ng,
                 self.grid_g, self.has_wind, self.grid_mv0, int(self.flip > 0), self.p_contact, self.planes,
-                self.grid_fb, self.grid_eta, self.c_shift, self.grid_fbody]),
+                self.grid_fb, self.grid_eta, self.c_shift, self.grid_fbody, ex, self.colc, self.n_sup, self.grid_fn,
+                self.grid_fv]),
             wp.launch(k.grid_update, dim=ng ** 3, device=d, record_cmd=True, inputs=[
                 self.grid_mv, self.grid_v, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, self.wall_mu,
                 self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex, self.grid_g, self.has_wind,
                 self.grid_mv0, self.grid_v0, int(self.flip > 0), self.grid_fb, self.grid_fbody,
-                self.fr_sums, self.fr_nodes]),
+                self.fr_sums, self.fr_nodes, self.colc, self.grid_fn, self.grid_fv]),
             wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
                 self.x, self.v, self.C, self.fixed, self.grid_v, lo_v, inv_dx, dt_f, ng, self.grid_v0, Ft(self.flip)]),
         ] + self._rigid_launches(Ft)
         # the contact's balance (gasp_warp_mpm.balance): its moments before P2G, its fix after the grid update
-        self._pre, fix = balance_launches(self, k, lo_v, dx, dt_f)
+        self._pre, fix = balance_launches(self, k, lo_v, dx, dt_f, ex)
         if fix is not None:
             self._launches.insert(2, fix)
         # passive points after the grid update (the grid velocity holds forces, colliders, boundaries):

@@ -5,6 +5,8 @@ from __future__ import annotations
 import warp as wp
 
 from gasp_core.seam import SimSetup
+from gasp_core.toolkit.contact import collider_grid_depth, contact_model
+from gasp_core.toolkit.rigid import step_view
 
 
 class ExtraTables:
@@ -26,6 +28,8 @@ class ExtraTables:
         ex.step = wp.zeros(1, dtype=wp.int32, device=self.device)
         ex.n_col, ex.n_force, ex.n_imp, ex.width = (tables.n_colliders, tables.n_forces, tables.n_impulses,
                                                      tables.width)
+        # the colliders' grid rule two cells inside them with the particle contact (its points meet the surface)
+        ex.col_deep = Ft(collider_grid_depth(contact_model(step_view(setup)), self.dx))
         self._ex = ex
         return int(tables.any), ex
 

@@ -18,7 +18,8 @@ import warp as wp
 from gasp_core.toolkit.materials import P_ETA
 
 from .constitutive import build_return_mapping
-from .contact import build_contact, build_passive_hold
+from .contact import build_collider_contact, build_passive_hold
+from .forces import build_extras_struct
 from .precision import MODULE_OPTIONS, build_types
 
 
@@ -115,7 +116,18 @@ def build_p2g(Ft):
     in_grid, weights = build_stencil(Ft)
     return_mapping = build_return_mapping(Ft)
     scatter, scatter_wind, scatter_scalar = build_scatter(Ft)
-    plane_contact, _ = build_contact(Ft)
+    point_contact = build_collider_contact(Ft)[1]
+    Extras = build_extras_struct(Ft)
+
+    @wp.func
+    def scatter_vec(grid_s: wp.array(dtype=vec3), idx0: int, n_grid: int, W: mat33, value: vec3):
+        # grid_s += w value over the 27 nodes from flat index idx0
+        nn = n_grid * n_grid
+        for i in range(3):
+            for j in range(3):
+                row = idx0 + i * nn + j * n_grid
+                for k in range(3):
+                    grid_s[row + k] += (W[i, 0] * W[j, 1] * W[k, 2]) * value
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def p2g(
@@ -128,11 +140,13 @@ def build_p2g(Ft):
         grid_mv0: wp.array(dtype=vec4), flip: int,
         p_contact: wp.array(dtype=vec3), planes: wp.array(dtype=vec3), grid_fb: wp.array(dtype=Ft),
         grid_eta: wp.array(dtype=Ft), shift: wp.array2d(dtype=wp.float64), grid_fbody: wp.array(dtype=wp.int32),
+        ex: Extras, colc: int, n_sup: int, grid_fn: wp.array(dtype=vec3), grid_fv: wp.array(dtype=vec3),
     ):
         # F advanced by C, return mapping and stress (docs/mpm.md), then the scatter (and, with wind, grid_g;
         # with flip, the APIC momentum alone into grid_mv0: gasp_core.toolkit.transfer); with the particle
-        # contact (planes not empty), the planes' normal impulse joins the momentum and their friction budget
-        # goes to grid_fb (:mod:`gasp_warp_mpm.contact`)
+        # contact (planes not empty, or colc: the colliders too), the normal impulses join the momentum and their
+        # friction budget goes to grid_fb (with colliders its normal to grid_fn, the supports' velocity to grid_fv;
+        # :mod:`gasp_warp_mpm.contact`)
         p = wp.tid()
         X = (x[p] - lo) * inv_dx
         if not in_grid(X, n_grid):
@@ -152,14 +166,17 @@ def build_p2g(Ft):
         A = dx * affine  # affine dpos = A ((i, j, k) - fx)
         mom0 = pm * v[p] - A * fx
         idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
-        if planes.shape[0] > 0:
-            jb = plane_contact(planes, p_contact[p], x[p][2], v[p][2], dt)
-            mom0 = mom0 + vec3(Ft(0.0), Ft(0.0), jb[0])
-            if jb[0] > Ft(0.0) and shift.shape[0] > 0:   # the node's body, for the contact's balance (balance.py)
+        if planes.shape[0] > 0 or colc != 0:
+            imp, bud, fn, fv, sup = point_contact(planes, p_contact[p], x[p], v[p], dt, colc, ex)
+            mom0 = mom0 + imp
+            if sup >= 0 and shift.shape[0] > 0:   # the node's support, for the contact's balance (balance.py)
                 for q in range(27):
-                    grid_fbody[idx0 + (q / 9) * n_grid * n_grid + ((q / 3) % 3) * n_grid + q % 3] = body[p]
-            if jb[1] > Ft(0.0):
-                scatter_scalar(grid_fb, idx0, n_grid, W, jb[1])   # the friction budget
+                    grid_fbody[idx0 + (q / 9) * n_grid * n_grid + ((q / 3) % 3) * n_grid + q % 3] = body[p] * n_sup + sup
+            if bud > Ft(0.0):
+                scatter_scalar(grid_fb, idx0, n_grid, W, bud)   # the friction budget
+                if colc != 0:   # its normal and the supports' velocity, budget-weighted (colliders)
+                    scatter_vec(grid_fn, idx0, n_grid, W, fn)
+                    scatter_vec(grid_fv, idx0, n_grid, W, fv)
         scatter(grid_mv, idx0, n_grid, W, mom0, A, pm)
         if flip != 0:
             A0 = (dx * pm) * Cp
