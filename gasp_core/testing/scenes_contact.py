@@ -20,7 +20,7 @@ points. At rest it lies on the plane: its lowest points at the plane, not floati
   (two-sided: a body that floats or sinks fails).
 - ``ball_on_collider``: the jittered ball dropped 5 cm onto a box ``[[collider]]`` (its top ``COLLIDER_TOP`` = 2 dx
   above the ground, friction 0.5) rests as on the ground (issue 38 item 2): after ``DRIFT_FRAMES`` frames the bottom
-  of its lowest 1 % of points' volumes lies within ``GAP_TOL`` dx of the box's top (two-sided), and its centroid
+  of its lowest 1 % of points' volumes lies within ``COLLIDER_GAP_TOL`` dx of the box's top (two-sided), and its centroid
   stays within ``DRIFT_TOL`` of its start horizontally. The grid rule on the collider's nodes floated it and rolled
   it away.
 
@@ -50,6 +50,10 @@ MU = 0.5
 #: Measured -0.001 dx on warp_mpm and taichi_mpm (newton -0.087, blender -0.205, genesis +0.49: declared); a ground
 #: 5 % of the half point spacing (0.0125 dx) off fails (``conformance_tests/test_checks_catch_broken.py``).
 GAP_TOL = 0.01
+#: The jittered ball on the box collider: measured -0.025 dx on both engines (its jittered lowest 1 % sit low; the
+#: same ball rests at the same height on the ground and on the box within 0.001 dx, ``benchmarks/collider_rest.py``);
+#: the grid rule on the collider floated it +0.45 dx.
+COLLIDER_GAP_TOL = 0.05
 GAP_T = 0.5
 #: The slab's lowest points start this far above the ground, dx (it falls onto it and settles).
 GAP_START = 0.5
@@ -154,7 +158,7 @@ def _eval_on_collider(info: EngineInfo, tr: Trace) -> list[Check]:
     c = tr.centroid()
     d = np.linalg.norm(c[:, :2] - c[0, :2], axis=1)
     f = int(np.argmax(d))
-    return [check("collider_gap", abs(low) / DX, GAP_TOL,
+    return [check("collider_gap", abs(low) / DX, COLLIDER_GAP_TOL,
                   f"|mean height above the box collider's top of the lowest {GAP_FRACTION:.0%} of points, less half "
                   f"their spacing| after {tr.t[-1]:.2f} s, in dx (signed {low / DX:+.3f} dx)", signed=low / DX),
             check("collider_drift", float(d[f]) * 1e3, DRIFT_TOL * 1e3,
@@ -174,7 +178,7 @@ SCENES_CONTACT: list[Scene] = [
     Scene("rest_gap", f"a slab set on the ground rests with its lowest points within {GAP_TOL} dx of the plane "
           f"after {GAP_T:g} s", _REQ, _build_slab, round(GAP_T * 30), _eval_gap),
     Scene("ball_on_collider", f"the jittered ball dropped {DROP * 100:g} cm onto a box collider rests on its top "
-          f"within {GAP_TOL} dx and stays within {DRIFT_TOL * 1e3:g} mm horizontally over {DRIFT_FRAMES} frames",
+          f"within {COLLIDER_GAP_TOL} dx and stays within {DRIFT_TOL * 1e3:g} mm horizontally over {DRIFT_FRAMES} frames",
           Requires(frozenset({"jelly"}), frozenset({"ground"}), features=frozenset({"static_colliders"})),
           _build_on_collider, DRIFT_FRAMES, _eval_on_collider),
 ]
