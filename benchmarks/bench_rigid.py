@@ -13,6 +13,8 @@ Parts (``--parts``, each one ``gasp simulate`` process per run, one after anothe
   frame: CPU seconds (prepare, build and frames), the model chosen, restitution (frame differences of the
   Gaussians' centroid), and the mechanical energy ``sum m (g z + |v|^2 / 2)`` of the material points per frame
   against the start (its largest rise above it, J).
+* ``figure``: the scanned-figure case, ``tests/test_stand.py``'s figure on two legs at E 2e7 with ``model = "auto"``,
+  30 frames on warp_mpm: the model taken, CPU seconds, lean and height per frame (:func:`part_figure`).
 * ``mixed``: a soft donut (the cut donut, E 2e4) and the steel ball 0.45 m apart (0.24 m between them) in one domain (not touching): the
   donut alone, the donut with the ball (each takes its route), and the donut alone on the twin grid (U); the
   donut's centroid, rotation and shape with the ball against without, in U.
@@ -203,6 +205,40 @@ def part_mixed(work: Path, args) -> dict:
     return out
 
 
+def part_figure(work: Path, args) -> dict:
+    """The scanned-figure case: ``tests/test_stand.py``'s figure (a 0.25 m box on two 4 cm legs of flat Gaussians,
+    filled by the pipeline; warp_mpm, n_grid 32, friction 0.8) at ``E`` 2e7 Pa with ``model = "auto"``, standing on
+    the ground for ``--figure-frames`` frames through ``gasp simulate``'s pipeline in this process (sleep off, so a
+    slow lean shows). Figures: the model taken and the line said, CPU seconds, substeps, per frame the lean (deg)
+    and the height (the top tenth's centroid over its start)."""
+    import warnings
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    import test_stand as ts
+    from gasp_core.run.pipeline import simulate_scene
+    from gasp_core.scene.spec import load_scene
+    print("[rigid] figure ...", flush=True)
+    toml = ts.scene_file(ts.figure(work / "figure.ply"), args.figure_E, work, "figure", sleep=False,
+                         n_frames=args.figure_frames)
+    rows, x0 = [], []
+
+    def on_frame(k, gs):
+        m = gs[0].means.astype(np.float64)
+        x0.append(m.copy()) if not x0 else None
+        rows.append((k, *ts.lean_and_height(m, x0[0])))
+    cpu0 = time.process_time()
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        simulate_scene(load_scene(toml), work / "figure_run", quiet=True, on_frame=on_frame)
+    cpu = time.process_time() - cpu0
+    run = json.loads((work / "figure_run" / "run.json").read_text())
+    lean = [r[1] for r in rows]
+    return {"cpu_s": cpu, "load_avg_1min": os.getloadavg()[0], "E": args.figure_E, "model": run["objects"][0].get("model"),
+            "said": [str(w.message) for w in said if "rigid" in str(w.message)], "engine": run.get("engine"),
+            "n_substeps": (run.get("engine_stats") or {}).get("n_substeps"), "rows": rows,
+            "lean_growth_last_10_deg": lean[-1] - lean[-11] if len(lean) > 10 else float("nan"),
+            "height_min": min(r[2] for r in rows), "height_max": max(r[2] for r in rows)}
+
+
 TABLE_E = (1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 2e11)
 
 
@@ -269,6 +305,16 @@ def markdown(doc: dict, args) -> list[str]:
         lines += [f"| {r['E']:g} | {r['auto']} | {r['explicit_substeps']} | {r['rigid_substeps']} | {r['why']} |"
                   for r in doc["table"]["rows"]]
         lines.append("")
+    if "figure" in doc:
+        f = doc["figure"]
+        lines += ["## figure", "", f"`tests/test_stand.py`'s figure on two legs, E {f['E']:g} Pa, model 'auto' -> "
+                  f"{(f['model'] or {}).get('model')!r} ({(f['model'] or {}).get('why')}), warp_mpm, n_grid 32, "
+                  f"{len(f['rows'])} frames, {f['n_substeps']} substeps/frame: **{f['cpu_s']:.1f} s CPU** (prepare, "
+                  f"fill, frames, writing; load {f['load_avg_1min']:.1f}); lean growth over the last 10 frames "
+                  f"{f['lean_growth_last_10_deg']:+.4f} deg, height / start {f['height_min']:.4f} to {f['height_max']:.4f}.",
+                  "", "| frame | lean (deg) | height / start |", "|---|---:|---:|"]
+        lines += [f"| {k} | {lean:.4f} | {h:.4f} |" for k, lean, h in f["rows"] if k % 5 == 0 or k == f["rows"][-1][0]]
+        lines.append("")
     if "steel" in doc:
         s = doc["steel"]
         lines += ["## steel", "", f"10 cm steel ball of {N_BALL} flat Gaussians (E 2e11, nu 0.3, rho 7850, model "
@@ -291,11 +337,13 @@ def main(argv=None) -> int:
     ap.add_argument("--n-grid", type=int, default=32)
     ap.add_argument("--steel-frames", type=int, default=30)
     ap.add_argument("--steel-grid", type=int, default=32)
+    ap.add_argument("--figure-E", type=float, default=2e7)
+    ap.add_argument("--figure-frames", type=int, default=30)
     ap.add_argument("--tag", default="", help="results file suffix")
     ap.add_argument("--keep", type=Path, default=None, help="run in this (new) folder and keep it")
     args = ap.parse_args(argv)
     doc = {"args": vars(args)}
-    parts = {"stiff": part_stiff, "steel": part_steel, "mixed": part_mixed, "table": part_table}
+    parts = {"stiff": part_stiff, "steel": part_steel, "mixed": part_mixed, "table": part_table, "figure": part_figure}
     with tempfile.TemporaryDirectory(prefix="gasp_rigid_") as tmp:
         work = Path(tmp) if args.keep is None else args.keep
         work.mkdir(parents=True, exist_ok=True)
