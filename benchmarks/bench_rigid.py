@@ -269,7 +269,7 @@ def part_table(work: Path, args) -> dict:
 
 def markdown(doc: dict, args) -> list[str]:
     lines = ["# The rigid limit of a stiff body (benchmarks/bench_rigid.py, issue 40)", "",
-             f"`python benchmarks/bench_rigid.py --parts {','.join(args.parts)}` (taichi_mpm, one thread; CPU: the "
+             f"`python benchmarks/bench_rigid.py --parts {','.join(args.parts)}` (taichi_mpm unless said, one thread; CPU: the "
              "process's user + system seconds; load average after each run in the json)", ""]
     for part in ("stiff", "mixed"):
         if part not in doc:
@@ -309,7 +309,7 @@ def markdown(doc: dict, args) -> list[str]:
         f = doc["figure"]
         lines += ["## figure", "", f"`tests/test_stand.py`'s figure on two legs, E {f['E']:g} Pa, model 'auto' -> "
                   f"{(f['model'] or {}).get('model')!r} ({(f['model'] or {}).get('why')}), warp_mpm, n_grid 32, "
-                  f"{len(f['rows'])} frames, {f['n_substeps']} substeps/frame: **{f['cpu_s']:.1f} s CPU** (prepare, "
+                  f"{len(f['rows']) - 1} frames, {f['n_substeps']} substeps/frame: **{f['cpu_s']:.1f} s CPU** (prepare, "
                   f"fill, frames, writing; load {f['load_avg_1min']:.1f}); lean growth over the last 10 frames "
                   f"{f['lean_growth_last_10_deg']:+.4f} deg, height / start {f['height_min']:.4f} to {f['height_max']:.4f}.",
                   "", "| frame | lean (deg) | height / start |", "|---|---:|---:|"]

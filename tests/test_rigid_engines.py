@@ -168,3 +168,33 @@ def test_soft_body_unchanged_bit_for_bit_beside_a_rigid_one(engine):
     alone, beside = runs
     assert alone[-1, :, 2].mean() < 0.12 + 0.05 - 0.01      # it fell and met the ground within the 4 frames
     assert np.array_equal(alone, beside)
+
+
+@pytest.mark.skipif("warp_mpm" not in INSTALLED or INSTALLED["warp_mpm"].unavailable_reason() is not None,
+                    reason="warp_mpm not installed")
+def test_scanned_figure_at_E_2e7_takes_the_rigid_route_and_stands(tmp_path):
+    """Issue 40's scanned-figure case: ``tests/test_stand.py``'s figure (flat Gaussians on a box on two legs, filled by
+    the pipeline) at E 2e7 Pa with ``model = "auto"`` takes the rigid limit (858 explicit substeps a frame) and
+    stands 30 frames: its lean stops growing (under 0.01 deg over the last 10 frames; measured +0.0001) and its
+    height stays within 3 % (measured 0.9993). Shown to fail with the rigid body's contact stiffness zeroed (it
+    sinks through the ground)."""
+    import warnings
+    import test_stand as ts
+    from gasp_core.run.pipeline import simulate_scene
+    from gasp_core.scene.spec import load_scene
+    toml = ts.scene_file(ts.figure(tmp_path / "figure.ply"), 2e7, tmp_path, "figure", sleep=False, n_frames=30)
+    rows, x0 = [], []
+
+    def on_frame(k, gs):
+        m = gs[0].means.astype(np.float64)
+        x0.append(m.copy()) if not x0 else None
+        rows.append(ts.lean_and_height(m, x0[0]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        simulate_scene(load_scene(toml), tmp_path / "run", quiet=True, on_frame=on_frame)
+    import json
+    model = json.loads((tmp_path / "run" / "run.json").read_text())["objects"][0]["model"]
+    assert model["model"] == "rigid" and model["substeps_elastic"] > 20 * model["substeps_rigid"]
+    lean, height = np.array(rows).T
+    assert len(rows) == 31 and abs(lean[-1] - lean[-11]) < 0.01 and lean.max() < 0.1
+    assert np.all(np.abs(height - 1.0) < 0.03)
