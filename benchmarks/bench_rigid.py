@@ -48,12 +48,16 @@ N_BALL, RADIUS, DROP = 600, 0.05, 0.05
 STEEL = {"name": "jelly", "E": 2.0e11, "nu": 0.3, "rho": 7850.0}
 
 
-def with_model(path: Path, model: str, out: Path, contact: str | None = None) -> Path:
-    """The scene at ``path`` with its object's ``material.model`` (and the engine option ``contact``), to ``out``."""
+def with_model(path: Path, model: str, out: Path, contact: str | None = None, fps: float | None = None) -> Path:
+    """The scene at ``path`` with its object's ``material.model`` (and the engine option ``contact``; with ``fps``,
+    its frames at that rate over the same time), to ``out``."""
     doc = tomllib.loads(path.read_text())
     doc["object"][0]["material"]["model"] = model
     if contact:
         doc["engine"]["options"]["contact"] = contact
+    if fps:
+        doc["n_frames"] = int(round(doc["n_frames"] * doc.get("frame_dt", 1 / 30) * fps))
+        doc["frame_dt"] = 1.0 / fps
     out.write_text(tomli_w.dumps(doc))
     return out
 
@@ -89,7 +93,7 @@ def part_stiff(work: Path, args) -> dict:
     rec, tracks = {}, {}
     for name, (model, n, contact) in runs.items():
         scene = with_model(stiff_scene(work, 4, args.E, n, args.frames, "taichi_mpm"), model, work / f"stiff_{name}.toml",
-                           contact)
+                           contact, args.fps)
         rec[name] = timed(f"stiff {name} (n_grid {n})", scene, work / name)
         if rec[name]["returncode"] == 0:
             tracks[name] = track_from_run_dir(work / name, name)
@@ -269,7 +273,8 @@ def part_table(work: Path, args) -> dict:
 
 def markdown(doc: dict, args) -> list[str]:
     lines = ["# The rigid limit of a stiff body (benchmarks/bench_rigid.py, issue 40)", "",
-             f"`python benchmarks/bench_rigid.py --parts {','.join(args.parts)}` (taichi_mpm unless said, one thread; CPU: the "
+             f"`python benchmarks/bench_rigid.py --parts {','.join(args.parts)}"
+             f"{f' --fps {args.fps:g}' if getattr(args, 'fps', None) else ''}` (taichi_mpm unless said, one thread; CPU: the "
              "process's user + system seconds; load average after each run in the json)", ""]
     for part in ("stiff", "mixed"):
         if part not in doc:
@@ -337,6 +342,8 @@ def main(argv=None) -> int:
     ap.add_argument("--n-grid", type=int, default=32)
     ap.add_argument("--steel-frames", type=int, default=30)
     ap.add_argument("--steel-grid", type=int, default=32)
+    ap.add_argument("--fps", type=float, default=None, help="stiff: frames at this rate over the same time (the "
+                    "frame-difference restitution resolves a contact shorter than a 30 fps frame)")
     ap.add_argument("--figure-E", type=float, default=2e7)
     ap.add_argument("--figure-frames", type=int, default=30)
     ap.add_argument("--tag", default="", help="results file suffix")
