@@ -223,6 +223,8 @@ def part_figure(work: Path, args) -> dict:
     print("[rigid] figure ...", flush=True)
     toml = ts.scene_file(ts.figure(work / "figure.ply"), args.figure_E, work, "figure", sleep=False,
                          n_frames=args.figure_frames)
+    if args.figure_model != "auto":   # the material table is the file's last
+        toml.write_text(toml.read_text() + f'model = "{args.figure_model}"\n')
     rows, x0 = [], []
 
     def on_frame(k, gs):
@@ -312,7 +314,7 @@ def markdown(doc: dict, args) -> list[str]:
         lines.append("")
     if "figure" in doc:
         f = doc["figure"]
-        lines += ["## figure", "", f"`tests/test_stand.py`'s figure on two legs, E {f['E']:g} Pa, model 'auto' -> "
+        lines += ["## figure", "", f"`tests/test_stand.py`'s figure on two legs, E {f['E']:g} Pa, model {args.figure_model!r} -> "
                   f"{(f['model'] or {}).get('model')!r} ({(f['model'] or {}).get('why')}), warp_mpm, n_grid 32, "
                   f"{len(f['rows']) - 1} frames, {f['n_substeps']} substeps/frame: **{f['cpu_s']:.1f} s CPU** (prepare, "
                   f"fill, frames, writing; load {f['load_avg_1min']:.1f}); lean growth over the last 10 frames "
@@ -346,6 +348,7 @@ def main(argv=None) -> int:
                     "frame-difference restitution resolves a contact shorter than a 30 fps frame)")
     ap.add_argument("--figure-E", type=float, default=2e7)
     ap.add_argument("--figure-frames", type=int, default=30)
+    ap.add_argument("--figure-model", default="auto", choices=("auto", "elastic", "rigid"))
     ap.add_argument("--tag", default="", help="results file suffix")
     ap.add_argument("--keep", type=Path, default=None, help="run in this (new) folder and keep it")
     args = ap.parse_args(argv)
