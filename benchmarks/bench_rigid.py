@@ -6,12 +6,15 @@ Parts (``--parts``, each one ``gasp simulate`` process per run, one after anothe
   E 1e7, no viscosity, dropped 5 cm, ``n_grid`` 32, 8 frames): the explicit elastic model (``model =
   "elastic"``) on ``n_grid`` and on its twin ``3/4 n_grid`` (U), and the rigid limit on ``n_grid``. Figures: each
   process's CPU seconds, the rigid run's split error against the explicit one
-  (:func:`gasp_studies.trade.accuracy_report`: centroid, rotation, events; in U of the twin) and both restitutions.
+  (:func:`gasp_studies.trade.accuracy_report`: centroid, rotation, events; in U of the twin) and both restitutions,
+  by frame differences and from the free flights around the bounce (:func:`gasp_studies.accuracy.ballistic_restitution`).
 * ``steel``: a 10 cm ball of 600 flat Gaussians (steel: E 2e11, nu 0.3, rho 7850, ``model = "auto"``) dropped 5 cm
   onto the ground (friction 0.5), ``n_grid`` 32, 30 frames, run in this process to read the engine's points each
   frame: CPU seconds (prepare, build and frames), the model chosen, restitution (frame differences of the
   Gaussians' centroid), and the mechanical energy ``sum m (g z + |v|^2 / 2)`` of the material points per frame
   against the start (its largest rise above it, J).
+* ``figure``: the scanned-figure case, ``tests/test_stand.py``'s figure on two legs at E 2e7 with ``model = "auto"``,
+  30 frames on warp_mpm: the model taken, CPU seconds, lean and height per frame (:func:`part_figure`).
 * ``mixed``: a soft donut (the cut donut, E 2e4) and the steel ball 0.45 m apart (0.24 m between them) in one domain (not touching): the
   donut alone, the donut with the ball (each takes its route), and the donut alone on the twin grid (U); the
   donut's centroid, rotation and shape with the ball against without, in U.
@@ -45,12 +48,16 @@ N_BALL, RADIUS, DROP = 600, 0.05, 0.05
 STEEL = {"name": "jelly", "E": 2.0e11, "nu": 0.3, "rho": 7850.0}
 
 
-def with_model(path: Path, model: str, out: Path, contact: str | None = None) -> Path:
-    """The scene at ``path`` with its object's ``material.model`` (and the engine option ``contact``), to ``out``."""
+def with_model(path: Path, model: str, out: Path, contact: str | None = None, fps: float | None = None) -> Path:
+    """The scene at ``path`` with its object's ``material.model`` (and the engine option ``contact``; with ``fps``,
+    its frames at that rate over the same time), to ``out``."""
     doc = tomllib.loads(path.read_text())
     doc["object"][0]["material"]["model"] = model
     if contact:
         doc["engine"]["options"]["contact"] = contact
+    if fps:
+        doc["n_frames"] = int(round(doc["n_frames"] * doc.get("frame_dt", 1 / 30) * fps))
+        doc["frame_dt"] = 1.0 / fps
     out.write_text(tomli_w.dumps(doc))
     return out
 
@@ -72,25 +79,26 @@ def figures(report: dict, k: int = 0) -> dict:
             "shape": f["worst"]["shape"], "in_u": {k: f.get("in_u", {}).get(k) for k in
                                                    ("centroid", "rotation_deg", "shape")},
             "restitution_run": f["events_run"]["restitution"], "restitution_ref": f["events_ref"]["restitution"],
+            "restitution_ballistic_run": f["events_run"]["restitution_ballistic"],
+            "restitution_ballistic_ref": f["events_ref"]["restitution_ballistic"],
             "impact_run_s": f["events_run"]["impact_s"], "impact_ref_s": f["events_ref"]["impact_s"]}
 
 
 def part_stiff(work: Path, args) -> dict:
-    """The explicit model with the scene's contact (``auto``: grid, E >= 2e5) and with the particle contact (the
-    rigid body's law), each with its twin, and the rigid limit; the rigid run against each."""
+    """The explicit model with the scene's contact (``auto``: the particle contact since issue 38's balance, the
+    rigid body's law) and its twin, and the rigid limit; the rigid run against it."""
     twin = int(round(0.75 * args.n_grid))
     runs = {"explicit": ("elastic", args.n_grid, None), "explicit_twin": ("elastic", twin, None),
-            "explicit_particle": ("elastic", args.n_grid, "particle"),
-            "explicit_particle_twin": ("elastic", twin, "particle"), "rigid": ("rigid", args.n_grid, None)}
+            "rigid": ("rigid", args.n_grid, None)}
     rec, tracks = {}, {}
     for name, (model, n, contact) in runs.items():
         scene = with_model(stiff_scene(work, 4, args.E, n, args.frames, "taichi_mpm"), model, work / f"stiff_{name}.toml",
-                           contact)
+                           contact, args.fps)
         rec[name] = timed(f"stiff {name} (n_grid {n})", scene, work / name)
         if rec[name]["returncode"] == 0:
             tracks[name] = track_from_run_dir(work / name, name)
     out = {"runs": rec, "n_grid": args.n_grid, "twin_grid": twin}
-    for ref in ("explicit", "explicit_particle"):
+    for ref in ("explicit",):
         if {ref, "rigid", f"{ref}_twin"} <= set(tracks):
             out[f"rigid_vs_{ref}"] = figures(accuracy_report(tracks["rigid"], tracks[ref], tracks[f"{ref}_twin"]))
             out[f"twin_vs_{ref}"] = figures(accuracy_report(tracks[f"{ref}_twin"], tracks[ref]))
@@ -201,6 +209,42 @@ def part_mixed(work: Path, args) -> dict:
     return out
 
 
+def part_figure(work: Path, args) -> dict:
+    """The scanned-figure case: ``tests/test_stand.py``'s figure (a 0.25 m box on two 4 cm legs of flat Gaussians,
+    filled by the pipeline; warp_mpm, n_grid 32, friction 0.8) at ``E`` 2e7 Pa with ``model = "auto"``, standing on
+    the ground for ``--figure-frames`` frames through ``gasp simulate``'s pipeline in this process (sleep off, so a
+    slow lean shows). Figures: the model taken and the line said, CPU seconds, substeps, per frame the lean (deg)
+    and the height (the top tenth's centroid over its start)."""
+    import warnings
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    import test_stand as ts
+    from gasp_core.run.pipeline import simulate_scene
+    from gasp_core.scene.spec import load_scene
+    print("[rigid] figure ...", flush=True)
+    toml = ts.scene_file(ts.figure(work / "figure.ply"), args.figure_E, work, "figure", sleep=False,
+                         n_frames=args.figure_frames)
+    if args.figure_model != "auto":   # the material table is the file's last
+        toml.write_text(toml.read_text() + f'model = "{args.figure_model}"\n')
+    rows, x0 = [], []
+
+    def on_frame(k, gs):
+        m = gs[0].means.astype(np.float64)
+        x0.append(m.copy()) if not x0 else None
+        rows.append((k, *ts.lean_and_height(m, x0[0])))
+    cpu0 = time.process_time()
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        simulate_scene(load_scene(toml), work / "figure_run", quiet=True, on_frame=on_frame)
+    cpu = time.process_time() - cpu0
+    run = json.loads((work / "figure_run" / "run.json").read_text())
+    lean = [r[1] for r in rows]
+    return {"cpu_s": cpu, "load_avg_1min": os.getloadavg()[0], "E": args.figure_E, "model": run["objects"][0].get("model"),
+            "said": [str(w.message) for w in said if "rigid" in str(w.message)], "engine": run.get("engine"),
+            "n_substeps": (run.get("engine_stats") or {}).get("n_substeps"), "rows": rows,
+            "lean_growth_last_10_deg": lean[-1] - lean[-11] if len(lean) > 10 else float("nan"),
+            "height_min": min(r[2] for r in rows), "height_max": max(r[2] for r in rows)}
+
+
 TABLE_E = (1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 2e11)
 
 
@@ -231,7 +275,8 @@ def part_table(work: Path, args) -> dict:
 
 def markdown(doc: dict, args) -> list[str]:
     lines = ["# The rigid limit of a stiff body (benchmarks/bench_rigid.py, issue 40)", "",
-             f"`python benchmarks/bench_rigid.py --parts {','.join(args.parts)}` (taichi_mpm, one thread; CPU: the "
+             f"`python benchmarks/bench_rigid.py --parts {','.join(args.parts)}"
+             f"{f' --fps {args.fps:g}' if getattr(args, 'fps', None) else ''}` (taichi_mpm unless said, one thread; CPU: the "
              "process's user + system seconds; load average after each run in the json)", ""]
     for part in ("stiff", "mixed"):
         if part not in doc:
@@ -244,25 +289,38 @@ def markdown(doc: dict, args) -> list[str]:
                          f"{r.get('process_cpu_s', float('nan')):.1f} | {r.get('process_wall_s', float('nan')):.1f} | "
                          f"{r.get('load_avg_1min', float('nan')):.1f} |" if r["returncode"] == 0 else
                          f"| {name} | failed: {r.get('stderr', '')[-200:]!r} | | | | | | |")
-        keys = ["rigid_vs_explicit", "rigid_vs_explicit_particle"] if part == "stiff" else ["soft_with_stiff_vs_alone"]
+        keys = ["rigid_vs_explicit"] if part == "stiff" else ["soft_with_stiff_vs_alone"]
         for key in (k for k in keys if k in doc[part]):
             f = doc[part][key]
             lines += ["", f"{key} (worst frames, / size): centroid {100 * f['centroid']:.3f} % ({f['in_u']['centroid']:.2f} U), "
                       f"rotation {f['rotation_deg']:.3f} deg ({f['in_u']['rotation_deg']:.2f} U), shape "
-                      f"{100 * f['shape']:.3f} % ({f['in_u']['shape']:.2f} U); restitution {f['restitution_run']:.3f} vs "
-                      f"{f['restitution_ref']:.3f}; first impact {1e3 * f['impact_run_s']:.0f} vs "
+                      f"{100 * f['shape']:.3f} % ({f['in_u']['shape']:.2f} U); restitution by frame differences "
+                      f"{f['restitution_run']:.3f} vs {f['restitution_ref']:.3f}, from the free flights "
+                      f"{f['restitution_ballistic_run']:.3f} vs {f['restitution_ballistic_ref']:.3f}; first impact "
+                      f"{1e3 * f['impact_run_s']:.0f} vs "
                       f"{1e3 * f['impact_ref_s']:.0f} ms."]
             ref = key.replace("rigid_vs_", "")
             if f"cpu_ratio_{ref}" in doc[part]:
                 t = doc[part][f"twin_vs_{ref}"]
                 lines += [f"CPU, {ref} over rigid: {doc[part][f'cpu_ratio_{ref}']:.1f}x. Its twin against it (= 1 U): "
                           f"centroid {100 * t['centroid']:.3f} %, rotation {t['rotation_deg']:.3f} deg, restitution "
-                          f"{t['restitution_run']:.3f} vs {t['restitution_ref']:.3f}."]
+                          f"{t['restitution_run']:.3f} vs {t['restitution_ref']:.3f} (free flights "
+                          f"{t['restitution_ballistic_run']:.3f} vs {t['restitution_ballistic_ref']:.3f})."]
         lines.append("")
     if "table" in doc:
         lines += ["## table", "", "| E (Pa) | auto | explicit substeps/frame | rigid substeps/frame | why |", "|---:|---|---:|---:|---|"]
         lines += [f"| {r['E']:g} | {r['auto']} | {r['explicit_substeps']} | {r['rigid_substeps']} | {r['why']} |"
                   for r in doc["table"]["rows"]]
+        lines.append("")
+    if "figure" in doc:
+        f = doc["figure"]
+        lines += ["## figure", "", f"`tests/test_stand.py`'s figure on two legs, E {f['E']:g} Pa, model {args.figure_model!r} -> "
+                  f"{(f['model'] or {}).get('model')!r} ({(f['model'] or {}).get('why')}), warp_mpm, n_grid 32, "
+                  f"{len(f['rows']) - 1} frames, {f['n_substeps']} substeps/frame: **{f['cpu_s']:.1f} s CPU** (prepare, "
+                  f"fill, frames, writing; load {f['load_avg_1min']:.1f}); lean growth over the last 10 frames "
+                  f"{f['lean_growth_last_10_deg']:+.4f} deg, height / start {f['height_min']:.4f} to {f['height_max']:.4f}.",
+                  "", "| frame | lean (deg) | height / start |", "|---|---:|---:|"]
+        lines += [f"| {k} | {lean:.4f} | {h:.4f} |" for k, lean, h in f["rows"] if k % 5 == 0 or k == f["rows"][-1][0]]
         lines.append("")
     if "steel" in doc:
         s = doc["steel"]
@@ -286,11 +344,16 @@ def main(argv=None) -> int:
     ap.add_argument("--n-grid", type=int, default=32)
     ap.add_argument("--steel-frames", type=int, default=30)
     ap.add_argument("--steel-grid", type=int, default=32)
+    ap.add_argument("--fps", type=float, default=None, help="stiff: frames at this rate over the same time (the "
+                    "frame-difference restitution resolves a contact shorter than a 30 fps frame)")
+    ap.add_argument("--figure-E", type=float, default=2e7)
+    ap.add_argument("--figure-frames", type=int, default=30)
+    ap.add_argument("--figure-model", default="auto", choices=("auto", "elastic", "rigid"))
     ap.add_argument("--tag", default="", help="results file suffix")
     ap.add_argument("--keep", type=Path, default=None, help="run in this (new) folder and keep it")
     args = ap.parse_args(argv)
     doc = {"args": vars(args)}
-    parts = {"stiff": part_stiff, "steel": part_steel, "mixed": part_mixed, "table": part_table}
+    parts = {"stiff": part_stiff, "steel": part_steel, "mixed": part_mixed, "table": part_table, "figure": part_figure}
     with tempfile.TemporaryDirectory(prefix="gasp_rigid_") as tmp:
         work = Path(tmp) if args.keep is None else args.keep
         work.mkdir(parents=True, exist_ok=True)

@@ -123,3 +123,17 @@ def test_a_collider_key_its_source_does_not_use_is_refused(tmp_path, donut_small
         parse_scene(data, tmp_path / "s.toml")
     del collider[key]
     parse_scene(data, tmp_path / "s.toml")
+
+
+def test_docs_scene_keys_documents_the_model_key(monkeypatch):
+    """``material.model`` (issue 40) is in the generated file: each value, the materials that take it, and the check
+    above catches a value added to the schema and not to the file."""
+    from gasp_core.seam.schema import BODY_MODELS, RIGID_KINDS
+    doc = (ROOT / "docs" / "scene_keys.md").read_text(encoding="utf-8")
+    section = doc.split("## `model`", 1)[1]
+    for m in BODY_MODELS:
+        assert f"| `{m}` |" in section
+    assert all(f"`{k}`" in section.splitlines()[2] for k in RIGID_KINDS)
+    monkeypatch.setattr(keys_doc, "BODY_MODELS", BODY_MODELS + ("affine",))
+    monkeypatch.setitem(keys_doc.BODY_MODEL_DOCS, "affine", "an affine body")
+    assert keys_doc.scene_keys_markdown() != doc

@@ -9,7 +9,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from gasp_core.seam.schema import DEFAULT_MATERIAL, MATERIAL_KINDS, MATERIAL_PARAMS
+from gasp_core.seam.schema import (BODY_MODEL_DOCS, BODY_MODELS, DEFAULT_MATERIAL, MATERIAL_KINDS, MATERIAL_PARAMS,
+                                   RIGID_KINDS)
 
 HEADER = ("<!-- Generated from gasp_core/seam/schema.py by `python -m gasp_core.scene.keys_doc`; do not edit by hand "
           "(tests/test_scene_schema.py checks it). -->")
@@ -23,20 +24,26 @@ def _range(key: str) -> str:
 def scene_keys_markdown() -> str:
     """The Markdown of ``docs/scene_keys.md``: which keys each material takes, and each key's default, range,
     unit and meaning, from :data:`~gasp_core.seam.schema.MATERIAL_KINDS` and
-    :data:`~gasp_core.seam.schema.MATERIAL_PARAMS`."""
+    :data:`~gasp_core.seam.schema.MATERIAL_PARAMS`; the ``model`` key's values from
+    :data:`~gasp_core.seam.schema.BODY_MODELS` and :data:`~gasp_core.seam.schema.BODY_MODEL_DOCS`."""
     lines = [HEADER, "", "# Scene keys: `[object.material]`", "",
              f"`name` picks the material model (default `{DEFAULT_MATERIAL}`). A material takes only its own keys, "
              "besides `name`; any other key is an error naming the material and the keys it takes, e.g. "
              "`name = \"jelly\"` with `yield_stress` (a key of metal and plasticine). A key left out takes "
              "its default. Units are SI. An engine may accept a narrower range (`gasp engines` lists its "
              "limits).", "", "## Materials", "", "| `name` | model | keys (besides `name`) |", "|---|---|---|"]
-    lines += [f"| `{name}` | {kind.doc} | {', '.join(f'`{k}`' for k in kind.keys)} |"
-              for name, kind in MATERIAL_KINDS.items()]
+    for name, kind in MATERIAL_KINDS.items():
+        keys = kind.keys + (("model",) if name in RIGID_KINDS else ())
+        lines.append(f"| `{name}` | {kind.doc} | {', '.join(f'`{k}`' for k in keys)} |")
     lines += ["", "## Parameters", "", "| key | default | range | unit | meaning | used by |",
               "|---|---|---|---|---|---|"]
     for key, p in MATERIAL_PARAMS.items():
         users = [name for name, kind in MATERIAL_KINDS.items() if key in kind.keys]
         lines.append(f"| `{key}` | {p.default:g} | {_range(key)} | {p.unit or '-'} | {p.doc} | {', '.join(users)} |")
+    lines += ["", "## `model`: how the body is simulated", "",
+              f"Taken by {', '.join(f'`{k}`' for k in RIGID_KINDS)} (issue 40); default `{BODY_MODELS[0]}`.", "",
+              "| `model` | what the engine does |", "|---|---|"]
+    lines += [f"| `{m}` | {BODY_MODEL_DOCS[m]} |" for m in BODY_MODELS]
     return "\n".join(lines) + "\n"
 
 

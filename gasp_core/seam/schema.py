@@ -134,6 +134,16 @@ MATERIAL_KINDS: dict[str, MaterialKind] = {
 #: Values of a material's ``model`` key (issue 40): the full elastic model, the rigid limit, or chosen from the
 #: body's estimated strain (``gasp_core.prepare.route``).
 BODY_MODELS = ("auto", "elastic", "rigid")
+#: What each value of ``model`` does (``docs/scene_keys.md``, ``docs/rigid.md``).
+BODY_MODEL_DOCS = {
+    "auto": "the default: the core estimates the body's deformation under its weight, at its drop's impact and "
+            "from its spin, and takes `rigid` when it is below a quarter of a grid cell (metal: also below its "
+            "yield), else `elastic`; `gasp simulate` says the choice in one line and run.json records it "
+            "(docs/rigid.md)",
+    "elastic": "the material's full model, whatever its stiffness costs in substeps",
+    "rigid": "the rigid limit: one rigid motion, no stress, its step set by the motion (engine feature "
+             "'rigid_limit'; an engine without it refuses the scene)",
+}
 #: Materials that take the ``model`` key: elastic up to a yield (a rigid body never yields, so ``metal`` is
 #: rigid only while its estimated stress stays below its yield stress).
 RIGID_KINDS = ("jelly", "neo_hookean", "metal")

@@ -1,8 +1,9 @@
 """The rigid limit (``material.model = "rigid"``, ``gasp_core.toolkit.rigid``, ``docs/rigid.md``) as Taichi kernels;
 warp_mpm's ``rigid.py`` would spell the same steps.
 
-After each G2P (:meth:`Rigid.rigid_step`): :meth:`Rigid.rigid_reduce` sums each rigid body's momentum and angular
-momentum about the origin (APIC's affine part included) over its points, serially in the point order (a fixed
+After each G2P (:meth:`Rigid.rigid_step`; within a frame the rigid points' G2P runs alone, :meth:`Rigid.g2p_rigid`,
+and the fused G2P + P2G kernel skips it, :meth:`Rigid.fused_g2p`): :meth:`Rigid.rigid_reduce` sums each rigid
+body's momentum and angular momentum about the origin (APIC's affine part included) over its points, serially in the point order (a fixed
 order: the same numbers on any thread count); :meth:`Rigid.rigid_update` turns them into the body's velocity and
 spin and advances its centre and rotation; :meth:`Rigid.rigid_apply` puts every point of the body (its passive
 points too) on the rigid pose ``c + R X0`` with the rigid velocity, ``C`` the spin's skew matrix and ``F = R``.
@@ -51,6 +52,23 @@ class Rigid:
         """Restore :meth:`rigid_state`."""
         self.rb_c.from_numpy(np.asarray(state["rigid_c"], np.float64))
         self.rb_R.from_numpy(np.asarray(state["rigid_R"], np.float64))
+
+    @ti.func
+    def fused_g2p(self, p):
+        """G2P of point p in the fused G2P + P2G kernels (``transfers.py``), skipped for a rigid body's point: it had
+        its G2P and its projection before (:meth:`g2p_rigid`, :meth:`rigid_step`). The other bodies so run the same
+        kernel on the same numbers with or without a rigid body in the scene (bit for bit:
+        ``tests/test_rigid_engines.py``); a branch on the data, not a ``ti.static`` one, so the kernel compiled is
+        the same in both."""
+        if self.rb_rigid[self.body[p]] == 0:
+            self.g2p_point(p)
+
+    @ti.kernel
+    def g2p_rigid(self):
+        """G2P of the rigid bodies' points only (before their projection; the fused kernel skips them)."""
+        for p in range(self.n_points[None]):
+            if self.rb_rigid[self.body[p]] != 0:
+                self.g2p_point(p)
 
     def rigid_step(self) -> None:
         """Project the rigid bodies' points after a G2P (:mod:`gasp_taichi_mpm.rigid`)."""

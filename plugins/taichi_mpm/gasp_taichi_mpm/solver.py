@@ -347,10 +347,10 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
                 self.g2p_passive(at[s])
             if self.has_extras:
                 self.ex_step[None] = s + 1
-            if self.any_rigid:   # G2P, the rigid projection, then P2G (not fused: the projection needs every point)
-                self.g2p()
+            if self.any_rigid:   # the rigid bodies' G2P and projection; the fused kernel below skips their G2P
+                self.g2p_rigid()
                 self.rigid_step()
-            self.p2g_substep(0 if self.any_rigid else 1, s + 1)
+            self.p2g_substep(1, s + 1)
         self.grid_update()
         if self.n_spin:
             self.contact_fix()

@@ -163,7 +163,7 @@ class Transfers:
         if ti.static(self.atomic):
             for p in range(self.n_points[None]):
                 if with_g2p:
-                    self.g2p_point(p)
+                    self.fused_g2p(p)   # a rigid body's points: done before (rigid.py)
                 self.p2g_point(p, 0, ti.Vector([0, 0, 0]), ti.Vector([0, 0, 0]))
         else:
             ti.loop_config(block_dim=1)
@@ -175,7 +175,7 @@ class Transfers:
                     bmax = self.pbox[t, 1]
                 for p in range(self.chunk_lo[t], self.chunk_hi[t]):
                     if with_g2p:
-                        self.g2p_point(p)
+                        self.fused_g2p(p)   # a rigid body's points: done before (rigid.py)
                     bmin, bmax = self.p2g_point(p, t, bmin, bmax)
                 self.box[t, 0] = bmin
                 self.box[t, 1] = bmax
@@ -263,7 +263,7 @@ class Transfers:
                 while k < self.colour_lo[c + 1] and self.skey[k] == key:
                     p = self.order[k]
                     if with_g2p:
-                        self.g2p_point(p)
+                        self.fused_g2p(p)   # a rigid body's points: done before (rigid.py)
                     X = (self.x[p] - self.lo[None]) * self.inv_dx[None]
                     base = ti.cast(ti.floor(X - 0.5), ti.i32)
                     if (base >= o - MARGIN).all() and (base <= o + BLOCK - 1 + MARGIN).all():
