@@ -169,8 +169,8 @@ def broken_engine(info, kind: str):
             return info.factory(setup.replace(gravity=np.zeros(3)))
         if kind == "gravity_5pct":  # a 5 % bias (gravity, or equally time)
             return info.factory(setup.replace(gravity=1.05 * np.asarray(setup.gravity)))
-        if kind == "friction_high":  # collider friction 10 % too high (incline: a 7.5 % low)
-            cols = [dataclasses.replace(c, friction=1.1 * c.friction) for c in (setup.colliders or [])]
+        if kind == "friction_high":  # collider friction 5 % too high (incline: a 3.75 % low)
+            cols = [dataclasses.replace(c, friction=1.05 * c.friction) for c in (setup.colliders or [])]
             return info.factory(setup.replace(colliders=cols))
         if kind in ("viscosity_low", "viscosity_high"):  # Kelvin-Voigt viscosity 5 % low / high: decrement -+5.2 %
             f = 0.95 if kind == "viscosity_low" else 1.05

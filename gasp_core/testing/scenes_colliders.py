@@ -34,12 +34,20 @@ BLOCK = Material("jelly", E=1e5, nu=0.3, rho=1000.0)
 INCLINE_DEG = 25.0
 MU_SLIDE, MU_STICK = 0.2, 0.8          # tan(25 deg) = 0.466
 INCLINE_T = 0.4                        # s simulated
-#: Relative error allowed on the sliding acceleration (two-sided). Measured: 0.10 % on the flex (tetrahedral) engine
-#: (quadratic fit of the centroid over 0.1-0.4 s); on the two MLS-MPM engines 0.24 % with the grid rule on the
-#: collider, -0.82 % since it takes the particle contact (issue 38 item 2; -0.94 % without the balance; frictionless
-#: exact, 0.00 %; with the contact 4x stiffer, KAPPA 16, -0.08 %: the soft penalty's, as on the ground, where
-#: `slide_to_rest` runs 0.45 % short). 1.25 % is 1.5x the worst: friction 1.7 % off moves a by 1.25 %.
-INCLINE_TOL = 0.0125
+#: Relative error allowed on the sliding acceleration (two-sided). The block starts with its surface (half a point
+#: spacing beyond its outer points) on the slope. Measured (quadratic fit of the centroid over 0.1-0.4 s): warp_mpm
+#: and taichi_mpm -0.065 % on the particle contact, warp_mpm +0.19 % with the grid rule on the collider
+#: (``contact = "grid"``), mujoco_flex -0.41 %. Until issue 38's tightening the block started a quarter cell above the
+#: slope and fell onto it: the MPM engines ran 0.82 % slow (0.95 % with ``KAPPA`` 2), which was taken for the soft
+#: penalty's, and the tolerance was 1.25 %. 0.75 % is 1.85x the worst; friction 5 % off moves a by 3.75 %.
+INCLINE_TOL = 0.0075
+#: Largest travel down the slope (dx) of the stuck bodies, over 0.4 s. Measured (the body set on the slope): the slab
+#: 0.0006 dx on warp_mpm's particle contact, 0.00125 on taichi_mpm's (warp_mpm 0.0053 without the balance, 0.023 with
+#: the grid rule), the cube 0.021 / 0.019 dx, turning 0.8 deg (warp_mpm 0.057 without the balance; the grid rule
+#: 0.36 dx, turning 6.4 deg). Each limit is about 3x the worst particle contact's: the balance-less and grid contacts
+#: fail them. (0.5 dx until issue 38, when the bodies fell
+#: a quarter cell onto the slope and slid 0.29-0.34 dx on the particle contact while in the air.)
+STICK_TOL = {"slab": 0.004, "cube": 0.06}
 
 
 def _incline_frame():
@@ -62,7 +70,7 @@ def _build_incline(mu: float, size=CUBE) -> SimSetup:
     col = box_collider(half, SDF_SPACING * DX, name="incline", friction=mu, position=top - half[2] * n,
                        rotation=R)
     Ls, Ly, Ln = size
-    local, p_vol = box_points((-Ls / 2, -Ly / 2, 0.25 * DX), (Ls / 2, Ly / 2, 0.25 * DX + Ln), DX / 2)
+    local, p_vol = box_points((-Ls / 2, -Ly / 2, 0.0), (Ls / 2, Ly / 2, Ln), DX / 2)  # its surface on the slope
     start = top - 0.08 * s                                      # upslope of the face centre
     x = start + local[:, :1] * s + local[:, 1:2] * np.array([0.0, 1.0, 0.0]) + local[:, 2:] * n
     setup = make_setup(x, p_vol, BLOCK, n_grid=N_GRID, frame_dt=0.02)
@@ -80,7 +88,7 @@ def _tilt_deg(x0: np.ndarray, x1: np.ndarray) -> float:
     return math.degrees(math.acos(float(np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0))))
 
 
-def _eval_incline(mu: float):
+def _eval_incline(mu: float, stick_tol: float = 0.0):
     def evaluate(info: EngineInfo, tr: Trace) -> list[Check]:
         n, s, _ = _incline_frame()
         th = math.radians(INCLINE_DEG)
@@ -99,7 +107,7 @@ def _eval_incline(mu: float):
         else:
             free = 0.5 * GRAVITY * math.sin(th) * t[-1] ** 2
             tilt = _tilt_deg(tr.x[0], tr.x[-1])
-            checks.append(check("stick_displacement", float(abs(along[-1])) / DX, 0.5,
+            checks.append(check("stick_displacement", float(abs(along[-1])) / DX, stick_tol,
                                 f"|centroid travel down the slope| after {t[-1]:.2f} s, in dx (frictionless "
                                 f"it would be {free / DX:.0f} dx; mu = {mu} > tan th = {math.tan(th):.3f}; "
                                 f"block turned {tilt:.1f} deg)", tilt_deg=tilt))
@@ -114,8 +122,9 @@ def _eval_incline(mu: float):
 PUSH_SPEED = 0.5
 GROUND_H = 3 * DX
 PUSH_T = 0.6
-#: Relative error allowed on the block's mean speed over the last 0.3 s.
-PUSH_TOL = 0.08
+#: Relative error allowed on the block's mean speed over the last 0.3 s. Measured: warp_mpm -2.4 %, taichi_mpm -2.3 %
+#: (the block 0.488 m/s); 7 % is 3x the worst (8 % until issue 38's tightening).
+PUSH_TOL = 0.07
 
 
 def _build_pusher(info: EngineInfo) -> SimSetup:
@@ -152,13 +161,15 @@ SCENES_COLLIDERS: list[Scene] = [
           Requires(frozenset({"jelly"}), features=frozenset({"static_colliders"})),
           lambda info: _build_incline(MU_SLIDE), round(INCLINE_T / 0.02), _eval_incline(MU_SLIDE)),
     Scene("incline_stick", f"a flat slab (8 x 4 x 2 dx) on the same slope with friction {MU_STICK} > tan th: "
-          "moves less than dx/2",
+          f"moves less than {STICK_TOL['slab']:g} dx",
           Requires(frozenset({"jelly"}), features=frozenset({"static_colliders"})),
-          lambda info: _build_incline(MU_STICK, SLAB), round(INCLINE_T / 0.02), _eval_incline(MU_STICK)),
+          lambda info: _build_incline(MU_STICK, SLAB), round(INCLINE_T / 0.02),
+          _eval_incline(MU_STICK, STICK_TOL["slab"])),
     Scene("incline_stick_cube", f"the cube on the same slope with friction {MU_STICK} > tan th (a rigid cube "
-          "tips only beyond 45 deg): moves less than dx/2",
+          f"tips only beyond 45 deg): moves less than {STICK_TOL['cube']:g} dx",
           Requires(frozenset({"jelly"}), features=frozenset({"static_colliders"})),
-          lambda info: _build_incline(MU_STICK), round(INCLINE_T / 0.02), _eval_incline(MU_STICK)),
+          lambda info: _build_incline(MU_STICK), round(INCLINE_T / 0.02),
+          _eval_incline(MU_STICK, STICK_TOL["cube"])),
     Scene("pusher", f"box collider moving at {PUSH_SPEED} m/s pushes a block over a ground with friction: "
           f"block's mean speed = pusher's within {PUSH_TOL:.0%}",
           Requires(frozenset({"jelly"}), frozenset({"ground"}), features=frozenset({"moving_colliders"})),

@@ -3,7 +3,7 @@
 - ``passive_spin``: an elastic sphere of radius ``SPIN_R = 3.6 dx`` spins at ``OMEGA = pi`` rad/s
   about z (no gravity) for one full turn (2 s), with passive points on its surface. A massless point
   on a rigidly turning body keeps its distance to the axis, so the passive points' mean distance to
-  the centre stays ``SPIN_R``; within ``PASSIVE_SPIN_TOL`` (0.5 %). Engines with the option
+  the centre stays ``SPIN_R``; within ``PASSIVE_SPIN_TOL`` (0.06 %). Engines with the option
   ``passive_every`` run with ``PASSIVE_EVERY = 4`` (the README's setting): a passive point moved in
   a straight line between gathers drifts outward, by ``exp(pi omega (m - 1) dt) - 1`` a turn
   (measured 5.7 % at m = 4 and 14 % at m = 8 before the affine advance of
@@ -27,8 +27,9 @@ SPIN_R = 3.6 * DX
 OMEGA = math.pi                 # rad/s about z
 N_SURFACE = 300                 # passive points (Fibonacci sphere)
 PASSIVE_EVERY = 4
-#: Relative tolerance on the passive points' mean radius after one turn (issue 17: 0.5 %).
-PASSIVE_SPIN_TOL = 0.005
+#: Relative tolerance on the passive points' mean radius over one turn. Measured: taichi_mpm and warp_mpm 0.0146 %
+#: (``passive_every`` 4), mujoco_flex 0.0194 %; 0.06 % is 3x the worst (issue 38's tightening; issue 17 set 0.5 %).
+PASSIVE_SPIN_TOL = 6e-4
 SPIN_FRAMES = 60                # 2 s at 1/30 s: one turn
 
 
@@ -74,7 +75,7 @@ def _eval_spin(info: EngineInfo, tr: Trace) -> list[Check]:
 
 SCENES_PASSIVE: list[Scene] = [
     Scene("passive_spin", f"sphere (R = 3.6 dx) spinning at pi rad/s for one turn with passive surface points "
-          f"(passive_every = {PASSIVE_EVERY} where offered): their mean radius within {PASSIVE_SPIN_TOL:.1%}",
+          f"(passive_every = {PASSIVE_EVERY} where offered): their mean radius within {PASSIVE_SPIN_TOL:.2%}",
           Requires(frozenset({"jelly"}), features=frozenset({"passive_points"})), spin_setup, SPIN_FRAMES,
           _eval_spin),
 ]
