@@ -47,10 +47,11 @@ DIVERGES = {
     ("mujoco_flex", "E_1e7"): "frame 21: MuJoCo's M+K solve does not converge at the impact (singular inertia, "
                               "dt 8.93e-5 s)",
 }
-#: (engine, case) -> why it is slow (measured CPU seconds; load 1.1-1.7 on this 2-core machine).
+#: (engine, case) -> why it is slow (measured CPU seconds, benchmarks/results/ladder.md; load 1.1-3.1 on this
+#: 2-core machine).
 SLOW = {
-    ("mujoco_flex", "E_1e6"): "23 s CPU (36 substeps a frame of MuJoCo's flex)",
-    ("mujoco_flex", "E_1e7"): "diverges after ~60 s CPU (112 substeps a frame)",
+    ("mujoco_flex", "E_1e6"): "23-26 s CPU (36 substeps a frame of MuJoCo's flex)",
+    ("mujoco_flex", "E_1e7"): "diverges at frame 21 after 10.3 s CPU (112 substeps a frame)",
 }
 #: (engine, case) -> why it is not run at all (an estimate from the measured cost of the cheaper cases).
 TOO_COSTLY = {
