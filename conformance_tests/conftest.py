@@ -21,6 +21,7 @@ def pytest_configure(config):
     configure_results(config, committed=HERE / "RESULTS.md", titles={
         "test_conformance.py": "Conformance scenes",
         "test_extremes.py": "Stability at the extremes",
+        "test_stiffness_ladder.py": "E from 1e4 to 2e11 Pa: the same drop (issue 40)",
         "test_checks_catch_broken.py": "Checks against deliberately broken engines",
         "test_error_contract.py": "The error contract through the command line",
     })
