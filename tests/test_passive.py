@@ -273,7 +273,7 @@ def test_passive_points_are_held_by_the_ground_and_walls(name):
 def test_the_hold_check_catches_an_engine_without_the_rule(name, monkeypatch):
     """The same run with the rule taken out of the engine (its box made unbounded): the markers sink 1.1 dx into the
     ground and cross the wall's face by 0.12 dx (measured on both engines), and the check says so."""
-    unbounded = lambda setup: (np.full(3, -np.inf), np.full(3, np.inf))      # noqa: E731
+    unbounded = lambda setup, contact="grid": (np.full(3, -np.inf), np.full(3, np.inf))      # noqa: E731
     module = {"warp_mpm": "gasp_warp_mpm.solver", "taichi_mpm": "gasp_taichi_mpm.engine"}[name]
     monkeypatch.setattr(f"{module}.passive_bounds", unbounded)
     traj, err = _markers_run(name)
@@ -291,10 +291,10 @@ def test_passive_bounds_and_hold_passive():
     assert np.all(np.isinf(lo)) and np.all(np.isinf(hi)) and np.all(lo < 0) and np.all(hi > 0)
     s = dataclasses.replace(s, boundaries=[Boundary("ground", height=0.3), Boundary("ground", height=0.25),
                                            Boundary("walls"), Boundary("fixed_region", lo=(0, 0, 0), hi=(0.1, 0.1, 0.1))])
-    lo, hi = passive_bounds(dataclasses.replace(s, options={**s.options, "contact": "grid"}))
+    lo, hi = passive_bounds(s, "grid")
     np.testing.assert_allclose(lo, [2 / 24, 2 / 24, 0.3], rtol=1e-12)
     np.testing.assert_allclose(hi, [22 / 24] * 3, rtol=1e-12)
-    lo3, hi3 = passive_bounds(s)   # the particle contact: its walls' planes, 3 dx in
+    lo3, hi3 = passive_bounds(s, "particle")   # the particle contact: its walls' planes, 3 dx in
     np.testing.assert_allclose(lo3, [3 / 24, 3 / 24, 0.3], rtol=1e-12)
     np.testing.assert_allclose(hi3, [21 / 24] * 3, rtol=1e-12)
     x = np.array([[0.5, 0.5, 0.2], [0.95, 0.5, 0.5], [0.5, 0.5, 0.5]])

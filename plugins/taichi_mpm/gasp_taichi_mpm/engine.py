@@ -133,7 +133,7 @@ class TaichiMPMEngine(GridEngineBase):
             p_contact=(rigid_contact(setup, self.dt, contact_coefficients(view))[o]
                        if contact == "particle" and (grounds or walls or setup.colliders) else None),
             n_colc=len(setup.colliders) if contact == "particle" else 0, planes=contact_planes(view, contact),
-            passive_bounds=passive_bounds(setup), rigid_frames=None if frames is None else (rigid, *frames),
+            passive_bounds=passive_bounds(setup, contact), rigid_frames=None if frames is None else (rigid, *frames),
             contact_reach=contact_reach(setup),
             body_mass=np.bincount(setup.body_id, weights=setup.p_mass, minlength=len(setup.materials)),
             **self._extras(setup))

@@ -177,7 +177,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables):
         """Walls' friction, grounds' (top node layer, friction, 0) and fixed regions' boxes as arrays; with the particle
         contact its planes (grounds and walls, ``contact_planes``), coefficients and budgets."""
         fixed_lo, fixed_hi, ground, wall_mu = [], [], [], []
-        contact = contact_model(step_view(self.setup))
+        contact = self._contact = contact_model(step_view(self.setup))
         for bd in self.setup.boundaries:
             if bd.kind == "fixed_region":
                 fixed_lo.append(np.asarray(bd.lo, float))
@@ -249,7 +249,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables):
         if n_passive:
             by_interval: dict = {}
             schedule = passive_schedule(self.n_substeps, self.options["passive_every"], self.dt)
-            hold_lo, hold_hi = (k.vec3(*[float(c) for c in b]) for b in passive_bounds(setup))
+            hold_lo, hold_hi = (k.vec3(*[float(c) for c in b]) for b in passive_bounds(setup, self._contact))
             for substep, weight_prev, weight_now in schedule:
                 m = int(round((weight_prev + weight_now) / self.dt))   # substeps since the last gather
                 if m not in by_interval:
