@@ -6,8 +6,8 @@ import pytest
 
 from gasp_core.errors import SceneError
 from gasp_core.seam.options import check_options
-from gasp_core.toolkit.contact import (CONTACT, collider_grid_depth, ground_node_layer, node_friction, plane_impulse,
-                                      surface_impulse)
+from gasp_core.toolkit.contact import (CONTACT, collider_grid_depth, contact_coefficients, contact_planes,
+                                      ground_node_layer, node_friction, plane_impulse, surface_impulse, wall_grid_cells)
 from gasp_core.toolkit.options import mpm_options
 
 
@@ -75,3 +75,26 @@ def test_auto_keeps_the_grid_contact_for_flowing_materials():
     assert contact_model(SimpleNamespace(options={}, materials=[soft, stiff])) == "particle"
     assert contact_model(SimpleNamespace(options={"contact": "grid"}, materials=[stiff])) == "grid"
 
+
+
+def test_walls_are_six_plane_supports_three_cells_inside_the_faces():
+    """With the particle contact each face of the walls is a plane support ``n . x = offset`` 3 dx inside the face
+    (after the ground, support 0, and the colliders' rows), its grid rule 1.5 cells deep; none with ``"grid"``, whose
+    walls keep their 3 cells (issue 38 item 2, docs/contact.md)."""
+    from gasp_core.seam.setup import Boundary, Material
+    from gasp_core.testing.helpers import make_setup
+    x = np.array([[0.7, 0.5, 0.5], [0.53, 0.5, 0.5]])   # the second point 0.03 m (< its skin) off the -x plane
+    setup = make_setup(x, 1e-3, Material("jelly", E=1e4, nu=0.3, rho=300.0), lo=(0.2, 0, 0), hi=(1.2, 1, 1),
+                       n_grid=10, boundaries=[Boundary("walls", friction=0.3), Boundary("ground", height=0.1, friction=0.5)])
+    normals, rows = contact_planes(setup, "particle")
+    assert normals.tolist() == [[0, 0, 1], [1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]]
+    dx = setup.dx   # 0.1 m
+    expected = [0.1, 0.2 + 3 * dx, -(1.2 - 3 * dx), 3 * dx, -(1 - 3 * dx), 3 * dx, -(1 - 3 * dx)]
+    assert np.allclose(rows[:, 0], expected, rtol=0, atol=1e-12)
+    assert rows[:, 1].tolist() == [0.5] + [0.3] * 6 and rows[:, 2].tolist() == [0, 1, 2, 3, 4, 5, 6]
+    # on the wall's plane n . x = offset exactly: the depth is the skin
+    assert np.allclose(normals[1] @ np.array([0.5, 0.7, 0.7]) - rows[1, 0], 0.0, atol=1e-12)
+    skin = contact_coefficients(setup)[:, 2]
+    assert skin[0] == pytest.approx(0.05, abs=1e-12) and skin[1] == pytest.approx(0.03, abs=1e-12)   # h/2 = 0.05
+    assert contact_planes(setup, "grid")[0].shape == (0, 3)
+    assert wall_grid_cells("grid") == 3.0 and wall_grid_cells("particle") == 1.5

@@ -244,7 +244,8 @@ def _markers_run(name: str, n_frames: int = 8) -> tuple[np.ndarray, str]:
 
 def _markers_held(traj: np.ndarray, err: str, dx: float) -> list[str]:
     """What is wrong with a run of :func:`block_with_markers` (empty: nothing): the run must finish, and over the
-    frames the lowest marker must be on the ground (0.2 m) and the farthest on the +x wall's face (14 dx,
+    frames the lowest marker must be on the ground (0.2 m) and the farthest on the +x wall's face (13 dx: the
+    particle contact's plane, 3 dx inside the domain's face; 14 dx with the grid rule,
     ``gasp_core.toolkit.points.passive_bounds``), each within ``HOLD_TOL`` dx: none past the face, and held on it,
     not short of it (a rule holding them at the material's skin or at a wrong height fails too)."""
     if err:
@@ -253,8 +254,8 @@ def _markers_held(traj: np.ndarray, err: str, dx: float) -> list[str]:
     bad = []
     if abs(z_lo - 0.2) > HOLD_TOL * dx:
         bad.append(f"lowest marker {(z_lo - 0.2) / dx:+.4f} dx from the ground")
-    if abs(x_hi - 14 * dx) > HOLD_TOL * dx:
-        bad.append(f"farthest marker {(x_hi - 14 * dx) / dx:+.4f} dx from the wall's face")
+    if abs(x_hi - 13 * dx) > HOLD_TOL * dx:
+        bad.append(f"farthest marker {(x_hi - 13 * dx) / dx:+.4f} dx from the wall's face")
     return bad
 
 
@@ -272,7 +273,7 @@ def test_passive_points_are_held_by_the_ground_and_walls(name):
 def test_the_hold_check_catches_an_engine_without_the_rule(name, monkeypatch):
     """The same run with the rule taken out of the engine (its box made unbounded): the markers sink 1.1 dx into the
     ground and cross the wall's face by 0.12 dx (measured on both engines), and the check says so."""
-    unbounded = lambda setup: (np.full(3, -np.inf), np.full(3, np.inf))      # noqa: E731
+    unbounded = lambda setup, contact="grid": (np.full(3, -np.inf), np.full(3, np.inf))      # noqa: E731
     module = {"warp_mpm": "gasp_warp_mpm.solver", "taichi_mpm": "gasp_taichi_mpm.engine"}[name]
     monkeypatch.setattr(f"{module}.passive_bounds", unbounded)
     traj, err = _markers_run(name)
@@ -282,7 +283,7 @@ def test_the_hold_check_catches_an_engine_without_the_rule(name, monkeypatch):
 
 def test_passive_bounds_and_hold_passive():
     """The box of ``passive_bounds`` (ground: its height; walls: the wall node layers nearest the inside, 2 dx in
-    from each face of a domain of whole cells) and ``hold_passive``'s projection (velocity into a face removed)."""
+    from each face of a domain of whole cells, with the grid rule; the particle contact's planes, 3 dx in) and ``hold_passive``'s projection (velocity into a face removed)."""
     from gasp_core.seam.setup import Boundary
     from gasp_core.toolkit.points import hold_passive, passive_bounds
     s = block_with_skin()                                          # n_grid 24 on [0, 1]^3, no boundary
@@ -290,9 +291,12 @@ def test_passive_bounds_and_hold_passive():
     assert np.all(np.isinf(lo)) and np.all(np.isinf(hi)) and np.all(lo < 0) and np.all(hi > 0)
     s = dataclasses.replace(s, boundaries=[Boundary("ground", height=0.3), Boundary("ground", height=0.25),
                                            Boundary("walls"), Boundary("fixed_region", lo=(0, 0, 0), hi=(0.1, 0.1, 0.1))])
-    lo, hi = passive_bounds(s)
+    lo, hi = passive_bounds(s, "grid")
     np.testing.assert_allclose(lo, [2 / 24, 2 / 24, 0.3], rtol=1e-12)
     np.testing.assert_allclose(hi, [22 / 24] * 3, rtol=1e-12)
+    lo3, hi3 = passive_bounds(s, "particle")   # the particle contact: its walls' planes, 3 dx in
+    np.testing.assert_allclose(lo3, [3 / 24, 3 / 24, 0.3], rtol=1e-12)
+    np.testing.assert_allclose(hi3, [21 / 24] * 3, rtol=1e-12)
     x = np.array([[0.5, 0.5, 0.2], [0.95, 0.5, 0.5], [0.5, 0.5, 0.5]])
     v = np.array([[1.0, 0.0, -2.0], [3.0, 1.0, 0.0], [0.0, 0.0, -1.0]])
     xh, vh = hold_passive(x, v, lo, hi)

@@ -18,9 +18,13 @@ safety net for a point driven more than half a cell deep).
 (:func:`surface_impulse`): ``depth = s_p - phi`` with ``phi`` the collider's signed distance at the point, the
 impulse along its outward normal ``n`` against the velocity relative to the collider's (``v_col``), and the budget
 spent on the node's velocity relative to the collider's in the plane normal to ``n``; their grid rule acts only
-``GRID_LAYERS_BELOW`` cells inside them (:func:`collider_grid_depth`). Walls keep the grid rule.
+``GRID_LAYERS_BELOW`` cells inside them (:func:`collider_grid_depth`). ``walls`` too (issue 38 item 2): each face of
+the domain box is a plane ``WALL_NODES`` cells inside it (where the grid rule's wall nodes end, ``docs/mpm.md``),
+met like the ground's (:func:`contact_planes`: ``depth = offset + s_p - n . x``, friction in the plane normal to
+``n``), each its own support of the balance; their grid rule keeps only the nodes more than 1.5 cells behind the
+plane (:func:`wall_grid_cells`).
 
-``contact = "grid"``: the ground's and the colliders' node layers are projected (taichi_elements' "separate" collider,
+``contact = "grid"``: the ground's, the walls' and the colliders' node layers are projected (taichi_elements' "separate" collider,
 ``docs/mpm.md`` step 3), the rule before issue 28; it spins bouncing soft bodies up and floats resting ones
 (``docs/contact.md``).
 
@@ -31,7 +35,7 @@ from __future__ import annotations
 import numpy as np
 
 from gasp_core.seam.options import Option
-from gasp_core.toolkit.points import ground_top_node
+from gasp_core.toolkit.points import ground_top_node, WALL_NODES
 
 #: Contact stiffness per unit Young's modulus and point spacing (dimensionless): ``k_p = KAPPA E p_vol^(1/3)``.
 #: Chosen with ``DAMPING`` and ``SKIN`` from the candidates of ``docs/contact.md``
@@ -112,7 +116,7 @@ def contact_coefficients(setup) -> np.ndarray:
     -------
     ndarray, shape (n, 3), float64
         ``k_p = KAPPA E h_p``, ``c_p = 2 DAMPING sqrt(k_p m_p)``, ``s_p = SKIN h_p``, ``h_p = p_vol^(1/3)``
-        (zeros for passive points, which have no volume). A point that starts closer to a ground or a
+        (zeros for passive points, which have no volume). A point that starts closer to a ground, a wall's plane or a
         ``[[collider]]`` (its signed distance at t = 0) than its skin (a body placed standing on it, its splats on
         the surface) gets its starting clearance as its skin, so a body the scene places on a support is not
         pushed up by half a spacing in its first substep.
@@ -121,10 +125,9 @@ def contact_coefficients(setup) -> np.ndarray:
     h = np.cbrt(np.asarray(setup.p_vol, dtype=np.float64))
     k = KAPPA * E[np.asarray(setup.body_id, dtype=np.int64)] * h
     skin = SKIN * h
-    z = np.asarray(setup.x, dtype=np.float64)[:, 2]
-    for b in setup.boundaries:
-        if b.kind == "ground":
-            skin = np.minimum(skin, np.maximum(z - float(b.height), 0.0))
+    normals, rows = contact_planes(setup, "particle")
+    for n, row in zip(normals, rows):   # the grounds' and walls' planes
+        skin = np.minimum(skin, np.maximum(np.asarray(setup.x, dtype=np.float64) @ n - row[0], 0.0))
     for col in getattr(setup, "colliders", None) or []:
         skin = np.minimum(skin, np.maximum(col.distance(np.asarray(setup.x, dtype=np.float64), 0.0), 0.0))
     return np.column_stack([k, 2.0 * DAMPING * np.sqrt(k * np.asarray(setup.p_mass, dtype=np.float64)), skin])
@@ -132,7 +135,7 @@ def contact_coefficients(setup) -> np.ndarray:
 
 def contact_dt(setup) -> float:
     """The longest substep (s) the particle contact of a setup keeps stable: ``MAX_OMEGA_DT / max omega`` over
-    its bodies, ``inf`` without a ground or a ``[[collider]]``, or without the particle contact.
+    its bodies, ``inf`` without a ground, walls or a ``[[collider]]``, or without the particle contact.
 
     ``omega = sqrt(KAPPA E / (rho dx h))`` (rad/s) is a contact patch's frequency: the stiffness
     ``KAPPA E h`` of the ``(dx / h)^2`` points of median spacing ``h`` (m) that press on one node, over the node's
@@ -141,7 +144,7 @@ def contact_dt(setup) -> float:
     Measured (``conformance_tests/test_extremes.py``, a 0.2 m jelly cube, E 1e5 Pa, dropped at 2 m/s): at ``cfl = 1.0`` (5 ms steps) the contact gained 239 % of the body's energy with ``KAPPA`` 4 and 16.8 % with 2; at 3.3 ms
     none. The README donut (median ``omega dt`` 1.5 at the default ``cfl = 0.4``) is not affected.
     """
-    if contact_model(setup) != "particle" or not (any(b.kind == "ground" for b in setup.boundaries)
+    if contact_model(setup) != "particle" or not (any(b.kind in ("ground", "walls") for b in setup.boundaries)
                                                     or getattr(setup, "colliders", None)):
         return float("inf")
     h = np.cbrt(np.asarray(setup.p_vol, dtype=np.float64))
@@ -159,6 +162,56 @@ def collider_grid_depth(contact: str, dx: float) -> float:
     ``GRID_LAYERS_BELOW`` cells inside with ``"particle"``, whose points meet the collider at its surface (the
     ground's :func:`ground_node_layer`, as a safety net; a collider thinner than twice that has none)."""
     return 0.0 if contact == "grid" else GRID_LAYERS_BELOW * float(dx)
+
+
+def wall_grid_cells(contact: str) -> float:
+    """How far (cells) inside the domain's faces the walls' grid rule acts: nodes with ``X_d < lo_d + r dx`` or
+    ``X_d > hi_d - r dx`` are wall nodes. ``WALL_NODES`` (3, ``docs/mpm.md``) with ``"grid"``; 1.5 with
+    ``"particle"``, whose points meet the walls' planes ``WALL_NODES`` cells inside the faces (:func:`contact_planes`):
+    the nodes ``GRID_LAYERS_BELOW`` or more cells behind a plane on a domain of whole cells, decided half a cell
+    clear of rounding (a safety net, as the ground's :func:`ground_node_layer`)."""
+    return float(WALL_NODES) if contact == "grid" else WALL_NODES - GRID_LAYERS_BELOW + 0.5
+
+
+def contact_planes(setup, contact: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The plane supports of the particle contact: each ``ground``, then each face of each ``walls`` boundary.
+
+    Parameters
+    ----------
+    setup : SimSetup
+        ``boundaries``, ``domain_lo`` / ``domain_hi`` (m), ``dx`` (m), ``colliders``.
+    contact : str, optional
+        The contact model (default :func:`contact_model` of ``setup``); no planes unless ``"particle"``.
+
+    Returns
+    -------
+    normals : ndarray, shape (n, 3), float64
+        Unit normals into the domain: ``+z`` for a ground; ``+e_d`` / ``-e_d`` for the low / high face on axis ``d``
+        (x, y, z; low before high).
+    rows : ndarray, shape (n, 3), float64
+        ``(offset, friction, support)``: the plane is ``n . x = offset`` (m; a ground's height; a wall's plane lies
+        ``WALL_NODES`` cells inside its face, where the grid rule's wall nodes end: ``lo_d + 3 dx``,
+        ``-(hi_d - 3 dx)``), its Coulomb friction, and its row of the contact's balance: 0 for the grounds (one
+        support), ``1 + len(colliders) + w`` for the ``w``-th wall face (each its own support, after the colliders').
+    """
+    if (contact or contact_model(setup)) != "particle":
+        return np.zeros((0, 3)), np.zeros((0, 3))
+    normals, rows = [], []
+    n_col = len(getattr(setup, "colliders", None) or [])
+    lo, hi = np.asarray(setup.domain_lo, np.float64), np.asarray(setup.domain_hi, np.float64)
+    inset = WALL_NODES * float(setup.dx)
+    for b in setup.boundaries:
+        if b.kind == "ground":
+            normals.append((0.0, 0.0, 1.0))
+            rows.append((float(b.height), float(b.friction), 0.0))
+    n_ground = len(rows)
+    for b in setup.boundaries:
+        if b.kind == "walls":
+            for d in range(3):
+                for sign, offset in ((1.0, lo[d] + inset), (-1.0, -(hi[d] - inset))):
+                    normals.append(tuple(sign if q == d else 0.0 for q in range(3)))
+                    rows.append((float(offset), float(b.friction), float(1 + n_col + len(rows) - n_ground)))
+    return np.array(normals, np.float64).reshape(-1, 3), np.array(rows, np.float64).reshape(-1, 3)
 
 
 def ground_node_layer(contact: str, height: float, domain_lo_z: float, dx: float) -> int:

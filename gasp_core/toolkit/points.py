@@ -164,7 +164,7 @@ def stranded_passive(x: np.ndarray, grid_m: np.ndarray, domain_lo: np.ndarray, d
     return int((~seen).sum())
 
 
-def passive_bounds(setup) -> tuple[np.ndarray, np.ndarray]:
+def passive_bounds(setup, contact: str = "grid") -> tuple[np.ndarray, np.ndarray]:
     """The box ``[lo, hi]`` (metres, float64, shape (3,) each) the boundaries keep passive points in.
 
     A passive point (``SimSetup.passive``) is a massless marker of the body's surface: it has no P2G, so the
@@ -181,7 +181,9 @@ def passive_bounds(setup) -> tuple[np.ndarray, np.ndarray]:
     - ``ground``: ``z >= height`` (the plane itself, with either contact model; the highest of several);
     - ``walls``: ``lo_d + 2 dx <= x_d <= lo_d + hi_first dx`` on each axis, the wall node layers nearest the
       inside (:data:`WALL_NODES`; ``hi_first = floor((hi_d - lo_d) / dx - 3) + 1``, ``hi_d - 2 dx`` on a domain
-      of whole cells), where the walls stop the material's nodes;
+      of whole cells), where the walls' grid rule stops the material's nodes (``contact = "grid"``); with the
+      particle contact (``contact = "particle"``: ``gasp_core.toolkit.contact.contact_model`` of the setup) its walls'
+      planes, ``lo_d + 3 dx <= x_d <= hi_d - 3 dx`` (``contact.contact_planes``);
     - ``fixed_region``: nothing (its passive points are held where they start, like its material points);
     - no boundary on a side: ``-inf`` / ``+inf`` (a point that leaves the grid there is still reported).
     """
@@ -190,8 +192,12 @@ def passive_bounds(setup) -> tuple[np.ndarray, np.ndarray]:
     d_lo = np.asarray(setup.domain_lo, dtype=np.float64)
     d_hi = np.asarray(setup.domain_hi, dtype=np.float64)
     dx = float(setup.dx)
+    particle = contact == "particle"
     for b in setup.boundaries:
-        if b.kind == "walls":
+        if b.kind == "walls" and particle:   # the particle contact's planes (contact.contact_planes)
+            lo = np.maximum(lo, d_lo + WALL_NODES * dx)
+            hi = np.minimum(hi, d_hi - WALL_NODES * dx)
+        elif b.kind == "walls":
             hi_first = np.floor((d_hi - d_lo) / dx - WALL_NODES + NODE_TIE) + 1.0
             lo = np.maximum(lo, d_lo + (WALL_NODES - 1) * dx)
             hi = np.minimum(hi, d_lo + hi_first * dx)

@@ -1,11 +1,12 @@
-"""The particle contact with the grounds (engine option ``contact = "particle"``, ``gasp_core.toolkit.contact``,
+"""The particle contact with the grounds, walls and colliders (engine option ``contact = "particle"``, ``gasp_core.toolkit.contact``,
 ``docs/contact.md``), as Taichi functions; warp_mpm's ``contact.py`` spells the same steps.
 
-- :meth:`Contact.plane_contact` in P2G: a point's normal impulse ``j_n = max(0, dt (k depth - c v_z))`` summed
-  over the planes less than its skin below its centre (``depth = height + skin - z``), and its friction budget
-  ``sum mu j_n``, which P2G adds to its nodes with its weights (``grid_mv``'s last channel);
+- :meth:`Contact.plane_contact` in P2G: a point's normal impulse ``j_n = max(0, dt (k depth - c v . n))`` from each
+  plane (the grounds and the walls' faces, ``gasp_core.toolkit.contact.contact_planes``) less than its skin from its
+  centre (``depth = offset + skin - n . x``), and its friction budget ``sum mu j_n``, which P2G adds to its nodes
+  with its weights (``grid_mv``'s last channel);
 - :meth:`Contact.node_friction` in the grid update: the node's tangential (x, y) velocity loses
-  ``min(budget / m, |v_t|)``;
+  ``min(budget / m, |v_t|)`` (the grounds alone; with walls or colliders :meth:`Contact.surface_friction`);
 - :meth:`Contact.point_contact` and :meth:`Contact.surface_friction`: the same against the ``[[collider]]``s' signed
   distances (the impulse along the outward normal, friction relative to the collider in the plane normal to the
   nodes' budget-weighted normal);
@@ -25,56 +26,61 @@ class Contact:
     the passive points' box (:meth:`hold_passive`)."""
 
     def allocate_contact(self) -> None:
-        """With the colliders' particle contact (``n_colc``): per node the budget-weighted normal and supports'
+        """With the walls' or colliders' particle contact (``nfric``): per node the budget-weighted normal and supports'
         velocity (``grid_fnv``, 6 channels, scattered by the pushed points only, read and cleared by the grid
         update)."""
-        ng = self.n_grid if self.n_colc else 1
+        ng = self.n_grid if self.nfric else 1
         self.grid_fnv = ti.Vector.field(6, self.real, shape=(ng, ng, ng))
 
     @ti.func
     def scatter_contact(self, base, w, budget, fn, fv):
         """A pushed point's budget-weighted normal ``fn`` and supports' velocity ``fv`` into its 27 nodes'
-        ``grid_fnv`` with its weights ``w`` (with the colliders' particle contact)."""
-        if ti.static(self.n_colc > 0):
+        ``grid_fnv`` with its weights ``w`` (with the walls' or colliders' particle contact)."""
+        if ti.static(self.nfric):
             if budget > 0.0:
                 val = ti.Vector([fn[0], fn[1], fn[2], fv[0], fv[1], fv[2]], self.real)
                 for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                     ti.atomic_add(self.grid_fnv[base + ti.Vector([i, j, k])], (w[i][0] * w[j][1] * w[k][2]) * val)
 
     @ti.func
-    def plane_contact(self, p):
-        """``(j_n, budget)`` of point p (kg m/s) over the grounds' planes (``ground_h``, ``ground_fric``),
-        ``p_contact[p] = (k, c, skin)``; zeros without the particle contact."""
-        jn = ti.cast(0.0, self.real)
-        budget = ti.cast(0.0, self.real)
-        if ti.static(self.n_planes > 0):
-            kcs = self.p_contact[p]
-            for b in ti.static(range(self.n_planes)):
-                depth = self.ground_h[b] + kcs[2] - self.x[p][2]
-                if depth > 0.0:
-                    jq = ti.max(self.dt[None] * (kcs[0] * depth - kcs[1] * self.v[p][2]), 0.0)
-                    jn += jq
-                    budget += self.ground_fric[b] * jq
-        return jn, budget
+    def plane_contact(self, p, q: ti.template()):
+        """``j_n`` of point p (kg m/s, along the plane's normal ``plane_n[q]``) from plane q (``plane_n[q] . x =
+        plane_row[q][0]``, ``gasp_core.toolkit.contact.contact_planes``), ``p_contact[p] = (k, c, skin)``."""
+        kcs = self.p_contact[p]
+        n = self.plane_n[q]
+        jq = ti.cast(0.0, self.real)
+        depth = self.plane_row[q][0] + kcs[2] - n.dot(self.x[p])
+        if depth > 0.0:
+            jq = ti.max(self.dt[None] * (kcs[0] * depth - kcs[1] * n.dot(self.v[p])), 0.0)
+        return jq
 
     @ti.func
     def point_contact(self, p):
-        """``(impulse, budget, budget n, budget v_c, support)`` of point p: the planes' and (with ``n_colc``) the
-        colliders' normal impulses summed (collider c: ``max(0, dt (k depth - c (v - v_c) . n))``, ``depth = skin -
-        phi``, along its outward normal, :meth:`collider_at`), the friction budget, the budget-weighted normal and
-        supports' velocity, and the support (row of the balance: ``body n_sup + s``, s 0 the grounds, 1 + c a
-        collider; -1 none) that pushes it most; with the balance each support's impulse also goes to its sums
-        (:meth:`add_contact`)."""
-        jn, budget = self.plane_contact(p)
-        imp = ti.Vector([0.0, 0.0, jn], self.real)
-        fn = ti.Vector([0.0, 0.0, budget], self.real)
+        """``(impulse, budget, budget n, budget v_c, support)`` of point p: the planes' (grounds and walls' faces,
+        :meth:`plane_contact`) and (with ``n_colc``) the colliders' normal impulses summed (collider c: ``max(0, dt
+        (k depth - c (v - v_c) . n))``, ``depth = skin - phi``, along its outward normal, :meth:`collider_at`), the
+        friction budget, the budget-weighted normal and supports' velocity, and the support (row of the balance:
+        ``body n_sup + s``, s 0 the grounds, 1 + c a collider, then the walls' faces; -1 none) that pushes it most;
+        with the balance each support's impulse also goes to its sums (:meth:`add_contact`)."""
+        imp = ti.Vector.zero(self.real, 3)
+        budget = ti.cast(0.0, self.real)
+        fn = ti.Vector.zero(self.real, 3)
         fv = ti.Vector.zero(self.real, 3)
         sup = -1
         jbest = ti.cast(0.0, self.real)
-        if jn > 0.0:
-            sup = 0
-            jbest = jn
-            self.add_contact(p, 0, jn, ti.Vector([0.0, 0.0, 1.0], self.real), fv)
+        for q in ti.static(range(self.n_planes)):
+            jq = self.plane_contact(p, q)
+            if jq > 0.0:
+                mu = self.plane_row[q][1]
+                n = self.plane_n[q]
+                imp += jq * n
+                budget += mu * jq
+                fn += (mu * jq) * n
+                sq = ti.cast(self.plane_row[q][2], ti.i32)
+                self.add_contact(p, sq, jq, n, fv)
+                if jq > jbest:
+                    sup = sq
+                    jbest = jq
         if ti.static(self.n_colc > 0):
             base = self.ex_step[None] * self.ex_width
             kcs = self.p_contact[p]

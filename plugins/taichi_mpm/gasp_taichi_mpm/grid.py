@@ -10,7 +10,7 @@ import numpy as np
 import taichi as ti
 
 from gasp_core.toolkit.grid_tables import FT_TIME
-from gasp_core.toolkit.contact import ground_node_layer
+from gasp_core.toolkit.contact import ground_node_layer, wall_grid_cells
 
 _TIE = 1e-9  # cells: tolerance for ties when boundary tests become node-index ranges
 
@@ -22,7 +22,8 @@ def node_ranges(setup, dx: float, contact: str = "particle"):
     -------
     walls : list of (friction, lo_first (3 ints), hi_first (3 ints))
         Wall nodes along axis d are ``I_d < lo_first[d]`` (normal +e_d) and
-        ``I_d >= hi_first[d]`` (normal -e_d).
+        ``I_d >= hi_first[d]`` (normal -e_d): within 3 cells of the faces, 1.5 with ``"particle"``, whose points meet
+        the walls' planes (``gasp_core.toolkit.contact.wall_grid_cells``).
     grounds : list of (friction, k_max, height)
         Ground nodes are ``I_z <= k_max`` (``gasp_core.toolkit.contact.ground_node_layer`` of ``contact``: the top
         layer with ``"grid"``, two cells lower with ``"particle"``, whose points meet the plane at ``height``, m).
@@ -34,10 +35,12 @@ def node_ranges(setup, dx: float, contact: str = "particle"):
     walls, grounds, regions = [], [], []
     for b in setup.boundaries:
         if b.kind == "walls":
-            # X_d < lo_d + 3 dx  <=>  I_d < 3 ;  X_d > hi_d - 3 dx  <=>  I_d > (hi_d - lo_d)/dx - 3
-            r = (hi - lo) / dx - 3.0
+            # X_d < lo_d + w dx  <=>  I_d < w ;  X_d > hi_d - w dx  <=>  I_d > (hi_d - lo_d)/dx - w  (w = 3, 1.5 with
+            # the particle contact: gasp_core.toolkit.contact.wall_grid_cells)
+            w = wall_grid_cells(contact)
+            r = (hi - lo) / dx - w
             hi_first = tuple(int(math.floor(r[d] + _TIE)) + 1 for d in range(3))
-            walls.append((float(b.friction), (3, 3, 3), hi_first))
+            walls.append((float(b.friction), (int(math.ceil(w - _TIE)),) * 3, hi_first))
         elif b.kind == "ground":
             grounds.append((float(b.friction), ground_node_layer(contact, b.height, lo[2], dx), float(b.height)))
         elif b.kind == "fixed_region":
@@ -123,7 +126,7 @@ class GridUpdate:
                     mu_b = self.wall_fric[b]
                     hi_first = self.wall_hi_first[b]
                     for d in ti.static(range(3)):
-                        if I[d] < 3:
+                        if I[d] < self.wall_lo_first[b][d]:
                             v = self.axis_friction(v, d, 1.0, mu_b)
                         if I[d] >= hi_first[d]:
                             v = self.axis_friction(v, d, -1.0, mu_b)
@@ -131,8 +134,8 @@ class GridUpdate:
                     if I[2] <= self.ground_kmax[b]:
                         v = self.axis_friction(v, 2, 1.0, self.ground_fric[b])
                 if ti.static(self.pc):   # the particle contact's Coulomb friction (its budget: the last channel;
-                    v_in = v             # with colliders relative to the supports, normal to them: grid_fnv)
-                    if ti.static(self.n_colc > 0):
+                    v_in = v             # with walls or colliders relative to the supports, normal to them: grid_fnv)
+                    if ti.static(self.nfric):
                         g = self.grid_fnv[I]
                         self.grid_fnv[I] = ti.Vector.zero(self.real, 6)
                         v = self.surface_friction(v, acc[3], acc[self.acc_width - 1], ti.Vector([g[0], g[1], g[2]]),

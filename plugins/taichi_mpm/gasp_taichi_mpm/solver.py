@@ -78,12 +78,11 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
     kinds : sequence of int
         Material code per body (``gasp_core.toolkit.materials.MATERIAL_CODES`` values).
     n_grid : int
-    lo : ndarray, shape (3,)
-        Grid origin (domain_lo), metres.
+    lo, gravity : ndarray, shape (3,)
+        Grid origin (domain_lo), metres; m/s^2.
     dx, dt : float
-    gravity : ndarray, shape (3,)
     walls, grounds, regions
-        From :func:`node_ranges`.
+        From :func:`node_ranges`. ``planes``: ``gasp_core.toolkit.contact.contact_planes`` (with ``p_contact``).
     real : taichi dtype
         ``ti.f32`` or ``ti.f64``.
     n_chunks : int
@@ -109,7 +108,7 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
     def __init__(self, *, x, v, C0, p_mass, p_vol, body, fixed, jp0, params, kinds, n_grid, lo, dx, dt,
                  gravity, walls, grounds, regions, real, n_chunks, atomic, extras=None, time_table=None, n_substeps=1,
                  n_material=None, passive_every=1, flip=0.0, coloured=False, p_contact=None, passive_bounds=None,
-                 rigid_frames=None, contact_reach=None, body_mass=None, n_colc=0):
+                 rigid_frames=None, contact_reach=None, body_mass=None, n_colc=0, planes=None):
         n = len(x)
         self.n = n
         self.n_material = n if n_material is None else int(n_material)
@@ -125,11 +124,13 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         self.flip = float(flip)   # AFLIP blend (gasp_core.toolkit.transfer); > 0: grid_mv also sums the APIC momentum
         self.coloured = bool(coloured) and not self.atomic and self.n_chunks == 1
         self.n_walls, self.n_grounds, self.n_regions = len(walls), len(grounds), len(regions)
-        # the particle contact (p_contact: (n, 3) per point, :mod:`gasp_taichi_mpm.contact`) with the grounds' planes;
-        # grid_mv's last channel then sums the nodes' friction budgets
-        self.n_planes = self.n_grounds if p_contact is not None else 0
-        self.n_colc = int(n_colc) if p_contact is not None else 0   # colliders in the particle contact
-        self.n_sup = 1 + self.n_colc   # the balance's supports a body: the grounds, each collider
+        # the particle contact (p_contact: (n, 3) per point, :mod:`gasp_taichi_mpm.contact`) with the planes of the
+        # grounds and walls (planes: contact_planes' normals and rows); grid_mv's last channel sums the friction budgets
+        plane_n, plane_row = planes if planes is not None and p_contact is not None else (np.zeros((0, 3)),) * 2
+        self.n_planes = len(plane_n)
+        self.n_colc = int(n_colc) if p_contact is not None else 0   # colliders in the particle contact; its supports
+        n_faces = int(np.sum(plane_row[:, 2] > 0))   # a body: the grounds, each collider, each face of the walls
+        self.n_sup, self.nfric = 1 + self.n_colc + n_faces, bool(self.n_colc or n_faces)   # nfric: grid_fnv
         self.pc = bool(self.n_planes or self.n_colc)   # the particle contact
         # channels of grid_mv: momentum, mass (, APIC momentum with flip) (, viscous volume J V eta when viscous)
         # (, friction budget with the particle contact: always the last)
@@ -141,7 +142,6 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         self._allocate_boundaries()
         self._allocate_rigid(*(rigid_frames or ([False] * len(kinds), None, None, None, None)))
         self.allocate_balance(contact_reach if self.n_planes or self.n_colc else None, body_mass)
-
         np_real = np.float32 if real == ti.f32 else np.float64
         self._upload_points(np_real, x=x, v=v, C0=C0, p_mass=p_mass, p_vol=p_vol, body=body, fixed=fixed,
                             jp0=jp0, params=params, kinds=kinds, p_contact=p_contact)
@@ -155,7 +155,7 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         self.gravity[None] = [float(a) for a in gravity]
         hold = passive_bounds if passive_bounds is not None else (np.full(3, -np.inf), np.full(3, np.inf))
         self.hold_lo[None], self.hold_hi[None] = ([float(a) for a in b] for b in hold)
-        self._upload_boundaries(walls, grounds, regions)
+        self._upload_boundaries(walls, grounds, regions, plane_n, plane_row)
         self.grid_mv.fill(0)
         self.grid_v.fill(0)
         self._split_chunks()
@@ -239,6 +239,9 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         real, nb = self.real, 4
         self.wall_fric = ti.field(real, shape=nb)
         self.wall_hi_first = ti.Vector.field(3, ti.i32, shape=nb)
+        self.wall_lo_first = ti.Vector.field(3, ti.i32, shape=nb)
+        self.plane_n = ti.Vector.field(3, real, shape=max(self.n_planes, 1))     # the particle contact's planes:
+        self.plane_row = ti.Vector.field(3, real, shape=max(self.n_planes, 1))   # normal; offset, friction, support
         self.ground_fric = ti.field(real, shape=nb)
         self.ground_kmax = ti.field(ti.i32, shape=nb)
         self.ground_h = ti.field(real, shape=nb)
@@ -273,11 +276,14 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         self.n_points[None] = self.n_material
         self.n_total[None] = self.n
 
-    def _upload_boundaries(self, walls, grounds, regions) -> None:
-        """:func:`node_ranges`' walls, grounds and regions into their fields."""
-        for i, (fr, _, hi_first) in enumerate(walls):
+    def _upload_boundaries(self, walls, grounds, regions, plane_n, plane_row) -> None:
+        """:func:`node_ranges`' walls, grounds and regions, and the particle contact's planes, into their fields."""
+        for i, (fr, lo_first, hi_first) in enumerate(walls):
             self.wall_fric[i] = fr
+            self.wall_lo_first[i] = lo_first
             self.wall_hi_first[i] = hi_first
+        for q in range(self.n_planes):
+            self.plane_n[q], self.plane_row[q] = [float(a) for a in plane_n[q]], [float(a) for a in plane_row[q]]
         for i, (fr, kmax, h) in enumerate(grounds):
             self.ground_fric[i] = fr
             self.ground_kmax[i] = kmax

@@ -1,9 +1,10 @@
 """The contact's balance (``gasp_core.toolkit.contact.contact_balance``, ``docs/contact.md``, issue 38), as Warp
 kernels per scalar type: each body's net contact force and torque made those of a smooth contact.
 
-Per substep, with the particle contact. A *support* is one body against the grounds (support 0) or against one
-``[[collider]]`` (support ``1 + c``); its row is ``body n_sup + support`` (``n_sup`` = 1, or 1 + the colliders with
-the particle contact):
+Per substep, with the particle contact. A *support* is one body against the grounds (support 0), against one
+``[[collider]]`` (support ``1 + c``) or against one face of the walls (after the colliders,
+``gasp_core.toolkit.contact.contact_planes``); its row is ``body n_sup + support`` (``n_sup`` = 1 + the colliders
+with the particle contact + the walls' faces):
 
 - ``contact_moments`` (before P2G, one thread a point): its body's mass, first and second mass moments, momentum
   and angular momentum into ``sums`` (float64, shape (n_bodies, 16), columns
@@ -102,7 +103,8 @@ def build_moments(Ft):
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def contact_moments(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33),
                         p_mass: wp.array(dtype=Ft), body: wp.array(dtype=wp.int32), p_contact: wp.array(dtype=vec3),
-                        planes: wp.array(dtype=vec3), dt: Ft, dx: Ft, sums: wp.array2d(dtype=f64),
+                        planes: wp.array(dtype=vec3), plane_n: wp.array(dtype=vec3), dt: Ft, dx: Ft,
+                        sums: wp.array2d(dtype=f64),
                         jsums: wp.array2d(dtype=f64), ex: Extras, colc: int, n_sup: int):
         p = wp.tid()
         b = body[p]
@@ -123,9 +125,12 @@ def build_moments(Ft):
             wp.atomic_add(sums, b, 13 + q, lr[q])
         add_second_moments(sums, b, 4, m, r)
         kcs = p_contact[p]
-        jb = plane_contact(planes, kcs, xp[2], vp[2], dt)
-        if jb[0] > Ft(0.0):   # support 0: the grounds
-            add_contact(jsums, b * n_sup, f64(jb[0]), r, v64(f64(0.0), f64(0.0), f64(1.0)), v64(f64(0.0)))
+        for q in range(planes.shape[0]):   # support 0: the grounds; a wall's face: its own (planes[q][2])
+            jq = plane_contact(plane_n[q], planes[q], kcs, xp, vp, dt)
+            if jq > Ft(0.0):
+                nq = plane_n[q]
+                add_contact(jsums, b * n_sup + int(planes[q][2]), f64(jq), r, v64(f64(nq[0]), f64(nq[1]), f64(nq[2])),
+                            v64(f64(0.0)))
         if colc != 0:   # support 1 + cc: collider cc
             base = ex.step[0] * ex.width
             for cc in range(ex.n_col):
@@ -375,8 +380,8 @@ def balance_launches(engine, k, lo_v, dx, dt_f, ex) -> tuple[list, object]:
         engine.grid_v, engine.grid_fbody, engine.c_shift, engine.c_jsums, engine.fr_sums, engine.fr_nodes,
         engine.c_mass, engine.c_reach, g_dt, lo_v, dx, ng, engine.n_sup])
     pre = [wp.launch(k.contact_moments, dim=engine.n_material, device=d, record_cmd=True, inputs=[
-               engine.x, engine.v, engine.C, engine.p_mass, engine.body, engine.p_contact, engine.planes, dt_f, dx,
-               engine.c_sums, engine.c_jsums, ex, int(engine.n_sup > 1), engine.n_sup]),
+               engine.x, engine.v, engine.C, engine.p_mass, engine.body, engine.p_contact, engine.planes,
+               engine.plane_n, dt_f, dx, engine.c_sums, engine.c_jsums, ex, engine.colc, engine.n_sup]),
            wp.launch(k.contact_shift, dim=engine.c_shift.shape[0], device=d, record_cmd=True, inputs=[
                engine.c_sums, engine.c_shift])]
     return pre, fix

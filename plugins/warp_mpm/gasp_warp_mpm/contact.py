@@ -1,11 +1,13 @@
-"""The particle contact with the grounds (engine option ``contact = "particle"``, ``gasp_core.toolkit.contact``,
+"""The particle contact with the grounds, walls and colliders (engine option ``contact = "particle"``, ``gasp_core.toolkit.contact``,
 ``docs/contact.md``), as Warp functions per scalar type (:mod:`gasp_warp_mpm.precision`); taichi_mpm's
 ``contact.py`` spells the same steps.
 
-- :func:`build_contact` ``plane_contact``: in P2G, a point's normal impulse ``j_n = max(0, dt (k depth - c v_z))``
-  summed over the planes less than its skin below its centre (``depth = height + skin - z``), and its friction
-  budget ``sum mu j_n``, which P2G adds to its nodes with its weights (``transfers.scatter_scalar``);
-- ``node_friction``: in the grid update, the node's tangential (x, y) velocity loses ``min(budget / m, |v_t|)``;
+- :func:`build_contact` ``plane_contact``: in P2G, a point's normal impulse ``j_n = max(0, dt (k depth - c v . n))``
+  from each plane (the grounds and the walls' faces, ``gasp_core.toolkit.contact.contact_planes``) less than its skin
+  from its centre (``depth = offset + skin - n . x``), along its normal ``n``, and its friction budget
+  ``sum mu j_n``, which P2G adds to its nodes with its weights (``transfers.scatter_scalar``);
+- ``node_friction``: in the grid update, the node's tangential (x, y) velocity loses ``min(budget / m, |v_t|)``
+  (the grounds alone; with walls or colliders ``surface_friction``, in the plane normal to the nodes' normal);
 - :func:`build_collider_contact`: the same against the ``[[collider]]``s' signed distances (``depth = skin - phi``,
   the impulse along the outward normal, friction relative to the collider in the plane normal to the nodes'
   budget-weighted normal), with the particle contact and colliders;
@@ -30,20 +32,15 @@ from .precision import build_types
 def build_contact(Ft):
     """``(plane_contact, node_friction)`` Warp functions of the scalar type ``Ft``."""
     vec3, vec4, mat33 = build_types(Ft)
-    vec2 = wp.types.vector(2, Ft)
 
     @wp.func
-    def plane_contact(planes: wp.array(dtype=vec3), kcs: vec3, z: Ft, vz: Ft, dt: Ft):
-        # planes[q] = (height, friction, unused); kcs = (k, c, skin) of the point: returns (j_n, budget)
-        jn = Ft(0.0)
-        budget = Ft(0.0)
-        for q in range(planes.shape[0]):
-            depth = planes[q][0] + kcs[2] - z
-            if depth > Ft(0.0):
-                jq = wp.max(dt * (kcs[0] * depth - kcs[1] * vz), Ft(0.0))
-                jn = jn + jq
-                budget = budget + planes[q][1] * jq
-        return vec2(jn, budget)
+    def plane_contact(n: vec3, row: vec3, kcs: vec3, x: vec3, v: vec3, dt: Ft):
+        # plane n . x = row[0] (row = (offset, friction, support)); kcs = (k, c, skin) of the point: its j_n along n
+        jq = Ft(0.0)
+        depth = row[0] + kcs[2] - wp.dot(n, x)
+        if depth > Ft(0.0):
+            jq = wp.max(dt * (kcs[0] * depth - kcs[1] * wp.dot(n, v)), Ft(0.0))
+        return jq
 
     @wp.func
     def node_friction(vel: vec3, m: Ft, fb: Ft):
@@ -67,7 +64,8 @@ def build_collider_contact(Ft):
       ``max(0, dt (k depth - c (v - v_c) . n))``, ``depth = skin - phi``, along its outward normal ``n``;
     - ``point_contact(...) -> (impulse, budget, budget n, budget v_c, support)``: the planes' and the colliders'
       impulses on a point summed, its friction budget, the budget-weighted normal and collider velocity (for the
-      nodes' friction) and the support that pushes it most (0: the grounds, 1 + cc: collider cc; -1: none);
+      nodes' friction) and the support that pushes it most (0: the grounds, 1 + cc: collider cc, then the walls'
+      faces, ``planes[q][2]``; -1: none);
     - ``surface_friction(vel, m, fb, fn, fv)``: a node's Coulomb friction in the plane normal to its budget-weighted
       normal ``fn``, on its velocity relative to the supports' ``fv / fb``.
     """
@@ -86,17 +84,24 @@ def build_collider_contact(Ft):
         return jq, n, vc
 
     @wp.func
-    def point_contact(planes: wp.array(dtype=vec3), kcs: vec3, x: vec3, v: vec3, dt: Ft, colc: int, ex: Extras):
-        jb = plane_contact(planes, kcs, x[2], v[2], dt)
-        imp = vec3(Ft(0.0), Ft(0.0), jb[0])
-        bud = jb[1]
-        fn = vec3(Ft(0.0), Ft(0.0), jb[1])
+    def point_contact(planes: wp.array(dtype=vec3), plane_n: wp.array(dtype=vec3), kcs: vec3, x: vec3, v: vec3,
+                      dt: Ft, colc: int, ex: Extras):
+        imp = vec3(Ft(0.0))
+        bud = Ft(0.0)
+        fn = vec3(Ft(0.0))
         fv = vec3(Ft(0.0))
         sup = int(-1)
         jbest = Ft(0.0)
-        if jb[0] > Ft(0.0):
-            sup = 0
-            jbest = jb[0]
+        for q in range(planes.shape[0]):   # the grounds (support 0) and the walls' faces (each its own)
+            jq = plane_contact(plane_n[q], planes[q], kcs, x, v, dt)
+            if jq > Ft(0.0):
+                mu = planes[q][1]
+                imp = imp + jq * plane_n[q]
+                bud = bud + mu * jq
+                fn = fn + (mu * jq) * plane_n[q]
+                if jq > jbest:
+                    sup = int(planes[q][2])
+                    jbest = jq
         if colc != 0:
             base = ex.step[0] * ex.width
             for cc in range(ex.n_col):

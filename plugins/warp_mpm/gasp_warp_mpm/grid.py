@@ -46,7 +46,7 @@ def build_contact_friction(Ft):
     """``(contact_friction, clear_contact)``: ``contact_friction(vel, m, node, grid_fb, colc, grid_fn, grid_fv)``, the
     particle contact's Coulomb friction
     at a node (:mod:`gasp_warp_mpm.contact`), scalar type ``Ft``: on the tangential (x, y) velocity, or with the
-    colliders' particle contact (``colc``) relative to the supports in the plane normal to their normal; and
+    walls' or colliders' particle contact (``colc``) relative to the supports in the plane normal to their normal; and
     ``clear_contact`` of a node's budget (and its normal and supports' velocity)."""
     vec3, vec4, mat33 = build_types(Ft)
     node_friction = build_contact(Ft)[1]
@@ -85,13 +85,14 @@ def build_grid_update(Ft):
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def grid_update(
         grid_mv: wp.array(dtype=vec4), grid_v: wp.array(dtype=vec3), grid_m: wp.array(dtype=Ft),
-        gravity: vec3, lo: vec3, hi: vec3, dx: Ft, dt: Ft, n_grid: int,
+        gravity: vec3, lo: vec3, hi: vec3, dx: Ft, dt: Ft, n_grid: int, wall_in: Ft,
         wall_mu: wp.array(dtype=Ft), ground: wp.array(dtype=vec3),
         fixed_lo: wp.array(dtype=vec3), fixed_hi: wp.array(dtype=vec3),
         has_extras: int, ex: Extras, grid_g: wp.array(dtype=vec3), has_wind: int,
         grid_mv0: wp.array(dtype=vec4), grid_v0: wp.array(dtype=vec3), flip: int, grid_fb: wp.array(dtype=Ft),
         grid_fbody: wp.array(dtype=wp.int32), fr_sums: wp.array2d(dtype=wp.float64), fr_nodes: wp.array(dtype=wp.int32),
         colc: int, grid_fn: wp.array(dtype=vec3), grid_fv: wp.array(dtype=vec3)):
+        # wall_in: the walls' grid rule reaches this many cells in (gasp_core.toolkit.contact.wall_grid_cells);
         # ground[g] = (top node layer k_max as a float, friction, unused); grid_m (node mass, for
         # passive points) has one entry per node when the setup has passive points, else one unused entry;
         # grid_fb: the contact's friction budget per node (kg m/s; one unused entry without it; with colc grid_fn/fv)
@@ -115,11 +116,11 @@ def build_grid_update(Ft):
             for w in range(wall_mu.shape[0]):
                 mu_b = wall_mu[w]
                 for d in range(3):
-                    if X[d] < lo[d] + Ft(3.0) * dx:
+                    if X[d] < lo[d] + wall_in * dx:
                         n = vec3(Ft(0.0))
                         n[d] = Ft(1.0)
                         vel = collide(vel, n, mu_b)
-                    if X[d] > hi[d] - Ft(3.0) * dx:
+                    if X[d] > hi[d] - wall_in * dx:
                         n = vec3(Ft(0.0))
                         n[d] = Ft(-1.0)
                         vel = collide(vel, n, mu_b)

@@ -36,7 +36,8 @@ from gasp_core.toolkit.grid_engine import choose_dt, GridEngineBase
 from gasp_core.toolkit.materials import JELLY, P_ETA, initial_Jp, material_table
 from gasp_core.toolkit.rigid import rigid_contact, step_view, zero_stress
 from gasp_core.toolkit.memory import check_memory, estimate_bytes
-from gasp_core.toolkit.contact import contact_coefficients, contact_model, ground_node_layer
+from gasp_core.toolkit.contact import (contact_coefficients, contact_model, contact_planes, ground_node_layer,
+                                      wall_grid_cells)
 from gasp_core.toolkit.points import cell_order, fixed_mask, passive_bounds
 from gasp_core.toolkit.substeps import passive_schedule
 from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
@@ -173,9 +174,10 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables):
             self.visc = ImplicitViscosity(self, Ft)
 
     def _upload_boundaries(self, Ft) -> None:
-        """Walls' friction, grounds' (top node layer, friction, 0) and fixed regions' boxes as arrays."""
-        fixed_lo, fixed_hi, ground, wall_mu, planes = [], [], [], [], []
-        contact = contact_model(step_view(self.setup))
+        """Walls' friction, grounds' (top node layer, friction, 0) and fixed regions' boxes as arrays; with the particle
+        contact its planes (grounds and walls, ``contact_planes``), coefficients and budgets."""
+        fixed_lo, fixed_hi, ground, wall_mu = [], [], [], []
+        contact = self._contact = contact_model(step_view(self.setup))
         for bd in self.setup.boundaries:
             if bd.kind == "fixed_region":
                 fixed_lo.append(np.asarray(bd.lo, float))
@@ -185,25 +187,27 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables):
                 # layer with contact = "grid", two cells lower with the particle contact, which meets the plane)
                 ground.append((float(ground_node_layer(contact, bd.height, self.setup.domain_lo[2], self.dx)),
                                bd.friction, 0.0))
-                if contact == "particle":
-                    planes.append((bd.height, bd.friction, 0.0))
             else:
                 wall_mu.append(bd.friction)
         dt_np, k, arr = self._np_dtype, self.k, self._array
         self.wall_mu = arr(np.array(wall_mu, dtype=dt_np), Ft)
+        self.wall_in = wall_grid_cells(contact)   # the walls' grid rule: 3 cells in, 1.5 with the particle contact
         self.ground = arr(np.array(ground, dtype=dt_np).reshape(-1, 3), k.vec3)
         self.fixed_lo = arr(np.array(fixed_lo, dtype=dt_np).reshape(-1, 3), k.vec3)
-        # the particle contact: the planes, each point's (k, c, skin) and the nodes' friction budgets
-        self.planes = arr(np.array(planes, dtype=dt_np).reshape(-1, 3), k.vec3)
-        # and the colliders (colc): the supports' velocity and the budget's normal per node (gasp_warp_mpm.contact)
+        # the particle contact: the planes (offset, friction, support) and normals, each point's (k, c, skin) and the
+        # nodes' friction budgets; colc: the colliders too; nfric: normals other than +z (walls or colliders), whose
+        # nodes keep their budget's normal and the supports' velocity (gasp_warp_mpm.contact)
+        plane_n, planes = contact_planes(step_view(self.setup), contact)
+        self.planes, self.plane_n = arr(planes.astype(dt_np), k.vec3), arr(plane_n.astype(dt_np), k.vec3)
         self.colc = int(contact == "particle" and bool(self.setup.colliders))
-        n = self.n_grid ** 3 if planes or self.colc else 1
+        self.nfric = int(self.colc or bool(np.any(plane_n[:, 2] < 1.0)))
+        n = self.n_grid ** 3 if len(planes) or self.colc else 1
         kcs = self._contact_coefficients()[self._order] if n > 1 else np.zeros((1, 3))
         self.p_contact = arr(kcs.astype(dt_np), k.vec3)
         self.grid_fb = wp.zeros(n, dtype=Ft, device=self.device)
-        self.grid_fn, self.grid_fv = (wp.zeros(n if self.colc else 1, dtype=k.vec3, device=self.device) for _ in "nv")
-        # the contact's balance (gasp_warp_mpm.balance), per body and support (the grounds, each collider)
-        allocate_balance(self, planes, Ft, 1 + len(self.setup.colliders) if self.colc else 1)
+        self.grid_fn, self.grid_fv = (wp.zeros(n if self.nfric else 1, dtype=k.vec3, device=self.device) for _ in "nv")
+        # the contact's balance (gasp_warp_mpm.balance), per body and support (the grounds, each collider, each wall face)
+        allocate_balance(self, list(planes), Ft, 1 + len(self.setup.colliders) * self.colc + int(np.sum(planes[:, 2] > 0)))
         self.fixed_hi = arr(np.array(fixed_hi, dtype=dt_np).reshape(-1, 3), k.vec3)
 
     def _contact_coefficients(self) -> np.ndarray:
@@ -222,14 +226,14 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables):
             wp.launch(k.p2g, dim=self.n_material, device=d, record_cmd=True, inputs=[
                 self.x, self.v, self.F, self.C, self.Jp, self.p_mass, self.p_vol, self.body,
                 self.mat_kind, self.mat_par, self.grid_mv, self.flags, lo_v, inv_dx, dx, dt_f, ng,
-                self.grid_g, self.has_wind, self.grid_mv0, int(self.flip > 0), self.p_contact, self.planes,
+                self.grid_g, self.has_wind, self.grid_mv0, int(self.flip > 0), self.p_contact, self.planes, self.plane_n,
                 self.grid_fb, self.grid_eta, self.c_shift, self.grid_fbody, ex, self.colc, self.n_sup, self.grid_fn,
                 self.grid_fv]),
             wp.launch(k.grid_update, dim=ng ** 3, device=d, record_cmd=True, inputs=[
-                self.grid_mv, self.grid_v, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, self.wall_mu,
+                self.grid_mv, self.grid_v, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, Ft(self.wall_in), self.wall_mu,
                 self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex, self.grid_g, self.has_wind,
                 self.grid_mv0, self.grid_v0, int(self.flip > 0), self.grid_fb, self.grid_fbody,
-                self.fr_sums, self.fr_nodes, self.colc, self.grid_fn, self.grid_fv]),
+                self.fr_sums, self.fr_nodes, self.nfric, self.grid_fn, self.grid_fv]),
             wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
                 self.x, self.v, self.C, self.fixed, self.grid_v, lo_v, inv_dx, dt_f, ng, self.grid_v0, Ft(self.flip)]),
         ] + self._rigid_launches(Ft)
@@ -245,7 +249,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables):
         if n_passive:
             by_interval: dict = {}
             schedule = passive_schedule(self.n_substeps, self.options["passive_every"], self.dt)
-            hold_lo, hold_hi = (k.vec3(*[float(c) for c in b]) for b in passive_bounds(setup))
+            hold_lo, hold_hi = (k.vec3(*[float(c) for c in b]) for b in passive_bounds(setup, self._contact))
             for substep, weight_prev, weight_now in schedule:
                 m = int(round((weight_prev + weight_now) / self.dt))   # substeps since the last gather
                 if m not in by_interval:

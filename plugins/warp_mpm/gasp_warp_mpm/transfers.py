@@ -138,14 +138,15 @@ def build_p2g(Ft):
         grid_mv: wp.array(dtype=vec4), n_out: wp.array(dtype=wp.int32),
         lo: vec3, inv_dx: Ft, dx: Ft, dt: Ft, n_grid: int, grid_g: wp.array(dtype=vec3), has_wind: int,
         grid_mv0: wp.array(dtype=vec4), flip: int,
-        p_contact: wp.array(dtype=vec3), planes: wp.array(dtype=vec3), grid_fb: wp.array(dtype=Ft),
+        p_contact: wp.array(dtype=vec3), planes: wp.array(dtype=vec3), plane_n: wp.array(dtype=vec3),
+        grid_fb: wp.array(dtype=Ft),
         grid_eta: wp.array(dtype=Ft), shift: wp.array2d(dtype=wp.float64), grid_fbody: wp.array(dtype=wp.int32),
         ex: Extras, colc: int, n_sup: int, grid_fn: wp.array(dtype=vec3), grid_fv: wp.array(dtype=vec3),
     ):
         # F advanced by C, return mapping and stress (docs/mpm.md), then the scatter (and, with wind, grid_g;
         # with flip, the APIC momentum alone into grid_mv0: gasp_core.toolkit.transfer); with the particle
-        # contact (planes not empty, or colc: the colliders too), the normal impulses join the momentum and their
-        # friction budget goes to grid_fb (with colliders its normal to grid_fn, the supports' velocity to grid_fv;
+        # contact (planes: grounds and walls; colc: the colliders too), the normal impulses join the momentum and their
+        # friction budget goes to grid_fb (with walls or colliders its normal to grid_fn, supports' velocity to grid_fv;
         # :mod:`gasp_warp_mpm.contact`)
         p = wp.tid()
         X = (x[p] - lo) * inv_dx
@@ -167,14 +168,14 @@ def build_p2g(Ft):
         mom0 = pm * v[p] - A * fx
         idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
         if planes.shape[0] > 0 or colc != 0:
-            imp, bud, fn, fv, sup = point_contact(planes, p_contact[p], x[p], v[p], dt, colc, ex)
+            imp, bud, fn, fv, sup = point_contact(planes, plane_n, p_contact[p], x[p], v[p], dt, colc, ex)
             mom0 = mom0 + imp
             if sup >= 0 and shift.shape[0] > 0:   # the node's support, for the contact's balance (balance.py)
                 for q in range(27):
                     grid_fbody[idx0 + (q / 9) * n_grid * n_grid + ((q / 3) % 3) * n_grid + q % 3] = body[p] * n_sup + sup
             if bud > Ft(0.0):
                 scatter_scalar(grid_fb, idx0, n_grid, W, bud)   # the friction budget
-                if colc != 0:   # its normal and the supports' velocity, budget-weighted (colliders)
+                if grid_fn.shape[0] > 1:   # its normal and the supports' velocity, budget-weighted (walls, colliders)
                     scatter_vec(grid_fn, idx0, n_grid, W, fn)
                     scatter_vec(grid_fv, idx0, n_grid, W, fv)
         scatter(grid_mv, idx0, n_grid, W, mom0, A, pm)
