@@ -47,12 +47,17 @@ DIVERGES = {
     ("mujoco_flex", "E_1e5"): "frame 24: 46 lattice tetrahedra inverted at the impact (dt 0.833 ms), as 'bounce'",
     ("mujoco_flex", "E_1e7"): "frame 21: MuJoCo's M+K solve does not converge at the impact (singular inertia, "
                               "dt 8.93e-5 s)",
+    ("blender", "E_1e9"): "frame 1: 95 points non-finite (bpy 5.0.1's soft body, the goal and edge springs mapped "
+                          "from E; E 1e7 runs: restitution 0.429, 10 s CPU)",
+    ("blender", "E_2e11"): "frame 1: 95 points non-finite, as at E 1e9",
 }
 #: (engine, case) -> why it is slow (measured CPU seconds, benchmarks/results/ladder.md; load 1.1-3.1 on this
 #: 2-core machine).
 SLOW = {
     ("mujoco_flex", "E_1e6"): "23-26 s CPU (36 substeps a frame of MuJoCo's flex)",
     ("mujoco_flex", "E_1e7"): "diverges at frame 21 after 10.3 s CPU (112 substeps a frame)",
+    ("genesis", "E_1e9"): "27.6 s CPU (465 substeps a frame; Genesis has no stiff route)",
+    ("genesis", "E_2e11"): "96.2 s CPU (2,343 substeps a frame)",
 }
 #: (engine, case) -> why it is not run at all (an estimate from the measured cost of the cheaper cases).
 TOO_COSTLY = {
