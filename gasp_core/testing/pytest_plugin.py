@@ -9,7 +9,9 @@ It gives:
 - a result table of every test marked ``gasp_conformance`` (the parametrised ones are), printed at
   the end of the session and written to ``<rootdir>/build/conformance/RESULTS.md``;
 - ``--gasp-update-results`` (or ``GASP_UPDATE_RESULTS=1``): also replace the committed results
-  file named by :func:`configure_results` (only for a run without ``-k``).
+  file named by :func:`configure_results` (only for a run without ``-k``); the engines the run could not load
+  keep their rows from the committed file (:func:`gasp_core.testing.results.keep_other_environments`), so engines
+  that need an environment of their own are each run in theirs.
 
 An engine developed elsewhere needs only ``pip install gasp`` and a test file::
 
@@ -29,7 +31,7 @@ from typing import Iterable
 
 import pytest
 
-from gasp_core.testing.results import render_results, write_atomic
+from gasp_core.testing.results import keep_other_environments, render_results, write_atomic
 
 _STORE = pytest.StashKey[dict]()
 _SETTINGS = pytest.StashKey[dict]()
@@ -164,5 +166,6 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config):
     elif config.option.keyword:
         terminalreporter.write_line(f"{committed} not updated: -k '{config.option.keyword}' selects a subset")
     else:
-        write_atomic(Path(committed), text)
-        terminalreporter.write_line(f"updated {committed}")
+        old = Path(committed).read_text(encoding="utf-8") if Path(committed).is_file() else ""
+        write_atomic(Path(committed), keep_other_environments(text, old) if old else text)
+        terminalreporter.write_line(f"updated {committed} (engines this run could not load keep their rows)")
