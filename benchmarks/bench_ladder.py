@@ -12,6 +12,14 @@ Parts (``--parts``, one after another in this process):
   was measured with) run in this process: per frame the material points' ``K + P`` against the start, the rendered
   points' centroid height, and both restitutions (:func:`gasp_studies.accuracy.events`, the gap of the accuracy
   reports: half a cell).
+* ``units``: the error of ``model = "auto"`` in units of U, per E of the ladder, on one engine (``--units-engine``,
+  warp_mpm: its explicit runs take 0.1-24 s of CPU) at ``--units-grid`` (16, the ladder's). Per E three runs of the
+  same points: the explicit elastic model (the reference), the same on the twin grid ``round(3/4 n_grid)`` (U, as
+  ``bench_rigid.py --parts stiff`` takes it), and ``auto``; the ``auto`` run against the reference through
+  :func:`gasp_studies.trade.accuracy_report` with the twin (``bench_rigid.figures``: centroid, rotation, shape, each
+  in U, and both restitutions; gap half a cell), and the twin against the reference (= 1 U). Where ``auto`` takes
+  the elastic model it is the reference's own run: its error is 0 by construction, and ``identical`` says whether
+  the two runs agree to the last bit. Run as ``--parts units --name ladder_units``.
 
 Run: ``python benchmarks/bench_ladder.py`` (writes ``benchmarks/results/ladder.{json,md}``).
 """
@@ -61,6 +69,45 @@ def part_ladder(args) -> list[dict]:
     return rows
 
 
+def _timed_track(info, setup, label):
+    from gasp_core.testing import run_trace
+    from gasp_studies.ladder import N_FRAMES, track
+    cpu0 = time.process_time()
+    tr = run_trace(info, setup, N_FRAMES)
+    return track(tr, label), {"cpu_s": time.process_time() - cpu0, "n_substeps": tr.stats.engine.get("n_substeps"),
+                              "load_avg_1min": os.getloadavg()[0]}
+
+
+def part_units(args) -> list[dict]:
+    """Per E: ``auto`` against the explicit reference in U of the reference's twin (see the module)."""
+    import dataclasses
+    from bench_rigid import figures
+    from gasp_core.seam.plugins import engines
+    from gasp_studies.ladder import LADDER, ball_setup, resolve
+    from gasp_studies.trade import accuracy_report
+    info, n, twin = engines()[args.units_engine], args.units_grid, int(round(0.75 * args.units_grid))
+    rows = []
+    for E, rho, what in LADDER:
+        ref = ball_setup(E, rho, "elastic", n_grid=n)
+        auto = ball_setup(E, rho, "auto", n_grid=n)
+        choice = resolve(info, auto)
+        t_ref, r_ref = _timed_track(info, ref, "explicit")
+        t_twin, r_twin = _timed_track(info, dataclasses.replace(ref, n_grid=twin), "explicit_twin")
+        t_auto, r_auto = _timed_track(info, auto, "auto")
+        row = {"engine": info.name, "E": E, "rho": rho, "what": what, "n_grid": n, "twin_grid": twin,
+               "n_points": len(ref.x), "auto_model": choice["model"], "why": choice.get("why", ""),
+               "runs": {"explicit": r_ref, "explicit_twin": r_twin, "auto": r_auto},
+               "identical": bool(np.array_equal(t_auto.means, t_ref.means)),
+               "auto_vs_explicit": figures(accuracy_report(t_auto, t_ref, t_twin)),
+               "twin_vs_explicit": figures(accuracy_report(t_twin, t_ref))}
+        a = row["auto_vs_explicit"]
+        print(f"[units] E {E:.0e} auto {choice['model']}: centroid {a['in_u']['centroid']:.2f} U, rotation "
+              f"{a['rotation_deg']:.2e} deg ({a['in_u']['rotation_deg']:.2f} U), e {a['restitution_ballistic_run']:.3f} "
+              f"vs {a['restitution_ballistic_ref']:.3f}, identical {row['identical']}", flush=True)
+        rows.append(row)
+    return rows
+
+
 def part_block(args) -> dict:
     """The stiff block, explicit, grid contact, in this process (see the module)."""
     from bench_newton_stiff import stiff_scene
@@ -105,6 +152,10 @@ def _f(x, fmt):
 
 
 def markdown(out: dict) -> str:
+    if "ladder" not in out and "block" not in out:
+        return "\n".join(["# The ladder's error in units of U (benchmarks/bench_ladder.py --parts units, issue 40 "
+                          f"item 5)", "", f"Load average at the start {out['load_avg_start']:.2f}."]
+                         + markdown_units(out.get("units"))[1:]) + "\n"
     lines = ["# The same drop from E 1e4 to 2e11 Pa (benchmarks/bench_ladder.py, issue 40 item 4)", "",
              "`python benchmarks/bench_ladder.py`: gasp_studies/ladder.py's drop (a 0.1 m ball of 136 points, 0.2 m onto "
              "the ground, n_grid 16, 60 frames of 0.01 s); `auto`: the route `gasp simulate` takes; `elastic`: the "
@@ -134,17 +185,50 @@ def markdown(out: dict) -> str:
         for f, (z, e, rel) in enumerate(zip(b["centroid_z"], b["energy_J"], b["energy_rel_start"])):
             vz = b["vz"][f - 1] if f else float("nan")
             lines.append(f"| {f} | {z:.4f} | {_f(vz, '+.3f')} | {e - b['energy_J'][0]:+.4f} | {rel:+.3f} |")
+    lines += markdown_units(out.get("units"))
     return "\n".join(lines) + "\n"
+
+
+def markdown_units(rows: list[dict] | None) -> list[str]:
+    """The ``units`` part's table (empty without it)."""
+    if not rows:
+        return []
+    r0 = rows[0]
+    lines = ["", f"## The error of `auto` in units of U ({r0['engine']}, n_grid {r0['n_grid']}, {r0['n_points']} points)", "",
+             f"Per E: the explicit elastic model (the reference), the same points on n_grid {r0['twin_grid']} (its twin: "
+             "U), and `model = \"auto\"`; `auto` against the reference (worst frame, centroid / size, rotation in "
+             "degrees), each in U of the twin's own figure; restitution from the free flights (gap half a cell, as "
+             "bench_rigid's stiff part). Where `auto` is the elastic model it is the reference's run: 0 by "
+             "construction (`identical`: the same to the last bit). CPU: each run's build and frames.", "",
+             "| E Pa | auto | identical | centroid | centroid U | rotation deg | rotation U | shape U | restitution auto "
+             "/ explicit / twin | CPU explicit / twin / auto s | substeps explicit / twin / auto | load |",
+             "|---:|---|---|---:|---:|---:|---:|---:|---|---|---|---:|"]
+    for r in rows:
+        a, t, ru = r["auto_vs_explicit"], r["twin_vs_explicit"], r["runs"]
+        lines.append(f"| {r['E']:.0e} | {r['auto_model']} | {'yes' if r['identical'] else 'no'} | "
+                     f"{100 * a['centroid']:.2f} % | {_f(a['in_u']['centroid'], '.2f')} | {a['rotation_deg']:.1e} | "
+                     f"{_f(a['in_u']['rotation_deg'], '.2f')} | {_f(a['in_u']['shape'], '.2f')} | "
+                     f"{_f(a['restitution_ballistic_run'], '.3f')} / {_f(a['restitution_ballistic_ref'], '.3f')} / "
+                     f"{_f(t['restitution_ballistic_run'], '.3f')} | "
+                     + " / ".join(f"{ru[k]['cpu_s']:.2f}" for k in ("explicit", "explicit_twin", "auto")) + " | "
+                     + " / ".join(str(ru[k]['n_substeps']) for k in ("explicit", "explicit_twin", "auto")) +
+                     f" | {ru['auto']['load_avg_1min']:.1f} |")
+    lines += ["", "U per E (the twin against the reference: centroid / size, rotation degrees): " + "; ".join(
+        f"{r['E']:.0e}: {100 * r['twin_vs_explicit']['centroid']:.2f} %, {r['twin_vs_explicit']['rotation_deg']:.1e} deg"
+        for r in rows) + "."]
+    return lines
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--parts", default="ladder,block")
     ap.add_argument("--name", default="ladder")
+    ap.add_argument("--units-engine", default="warp_mpm")
+    ap.add_argument("--units-grid", type=int, default=16)
     args = ap.parse_args(argv)
     out = {"load_avg_start": os.getloadavg()[0]}
     for part in args.parts.split(","):
-        out[part] = {"ladder": part_ladder, "block": part_block}[part](args)
+        out[part] = {"ladder": part_ladder, "block": part_block, "units": part_units}[part](args)
     RESULTS.mkdir(exist_ok=True)
     (RESULTS / f"{args.name}.json").write_text(json.dumps(out, indent=1, default=float))
     (RESULTS / f"{args.name}.md").write_text(markdown(out))

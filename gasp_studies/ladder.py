@@ -57,14 +57,16 @@ def case_id(E: float) -> str:
     return f"E_{mant}e{int(exp)}"
 
 
-def ball_setup(E: float, rho: float, model: str = "auto", options: dict | None = None) -> SimSetup:
-    """The ladder's drop at ``E`` (Pa) and ``rho`` (kg/m^3), ``material.model`` as given (unresolved)."""
-    dx = 1.0 / N_GRID
+def ball_setup(E: float, rho: float, model: str = "auto", options: dict | None = None,
+               n_grid: int = N_GRID) -> SimSetup:
+    """The ladder's drop at ``E`` (Pa) and ``rho`` (kg/m^3), ``material.model`` as given (unresolved); points at
+    ``dx / 2`` of ``n_grid`` (:data:`N_GRID`: 136 points; 24: 552)."""
+    dx = 1.0 / n_grid
     x, p_vol = sphere_points((0.5, 0.5, GROUND_H + DROP + RADIUS), RADIUS, dx / 2)
     return SimSetup(x=x, v=0.0, p_vol=p_vol, body_id=0,
                     materials=[Material("jelly", E=E, nu=0.3, rho=rho, model=model)],
                     gravity=np.array([0.0, 0.0, -GRAVITY]), domain_lo=np.zeros(3), domain_hi=np.ones(3),
-                    n_grid=N_GRID, boundaries=[Boundary("ground", height=GROUND_H, friction=0.5)],
+                    n_grid=n_grid, boundaries=[Boundary("ground", height=GROUND_H, friction=0.5)],
                     frame_dt=FRAME_DT, options=dict(options or {}))
 
 
@@ -81,13 +83,17 @@ def energy(tr) -> np.ndarray:
     return tr.kinetic() + tr.p_mass.sum() * GRAVITY * (tr.centroid()[:, 2] - GROUND_H)
 
 
+def track(tr, label: str = "") -> Track:
+    """The :class:`gasp_studies.accuracy.Track` of a run of the ladder's drop (one object, ``"ball"``)."""
+    return Track(means=tr.x, obj_start=np.array([0, tr.x.shape[1]]), names=["ball"], frame_dt=tr.setup.frame_dt,
+                 ground_z=GROUND_H, dx=tr.setup.dx, label=label)
+
+
 def figures(tr) -> dict:
     """Restitution and energy figures of a run of the ladder's drop (see the module)."""
     e = energy(tr)
     fall = float(tr.p_mass.sum() * GRAVITY * DROP)
-    track = Track(means=tr.x, obj_start=np.array([0, tr.x.shape[1]]), names=["ball"], frame_dt=tr.setup.frame_dt,
-                  ground_z=GROUND_H, dx=tr.setup.dx)
-    ev = events(track, 0, GAP_DX * tr.setup.dx)
+    ev = events(track(tr), 0, GAP_DX * tr.setup.dx)
     after = int(np.ceil(ev["impact_s"] / tr.setup.frame_dt)) if np.isfinite(ev["impact_s"]) else len(e)
     return {"restitution": ev["restitution_ballistic"], "restitution_frames": ev["restitution"],
             "impact_s": ev["impact_s"], "energy_start_J": float(e[0]), "fall_energy_J": fall,
