@@ -136,3 +136,17 @@ def test_console_script_exit_status(tmp_path):
     p = subprocess.run([exe, "simulate", str(tmp_path / "missing.toml"), "-o", str(tmp_path / "o")],
                        capture_output=True, text=True)
     assert p.returncode == 2 and p.stderr.startswith("gasp: error:") and "missing.toml" in p.stderr
+
+
+def test_the_wait_for_the_first_frame_is_said(tmp_path, capsys, write_scene, donut_small):
+    """Issue 39: a first run sat at 0 % for a minute with no word. With the progress bar, gasp simulate says that the
+    engine builds (its kernels compile on a first run) before it does, and how long frame 1 took once it is done."""
+    needs_package("gasp_warp_mpm")
+    from gasp_core.run.report import BUILDING
+    text = scene_text(donut_small, n_frames=1, n_grid=16, engine="warp_mpm")
+    code, _, err = run(capsys, "simulate", write_scene(text), "-o", tmp_path / "out")
+    assert code == 0, err
+    lines = [line for line in err.replace("\r", "\n").splitlines() if line.strip() and "warning:" not in line]
+    assert lines[0] == BUILDING.format(engine="warp_mpm"), lines      # before the bar's 0 %
+    built = [line for line in lines if line.startswith("gasp: warp_mpm: frame 1 after ")]
+    assert len(built) == 1 and float(built[0].split(" after ")[1].split(" s")[0]) > 0, lines

@@ -19,7 +19,7 @@ DONUT = Path(__file__).resolve().parents[1] / "examples" / "data" / "donut_v3dg.
 @pytest.fixture
 def studio(tmp_path):
     from gasp_core.studio.app import Studio
-    st = Studio(DONUT, tmp_path / "studio", port=0)
+    st = Studio(DONUT, tmp_path / "studio", port=0, warm=False)   # the warm-up: tests/test_studio_warm.py
     t0 = time.time()
     while st.labels[0] is None and time.time() - t0 < 60:
         time.sleep(0.05)
@@ -42,7 +42,9 @@ def test_click_selects_the_piece_removes_it_and_background_selects_nothing(studi
     n = int(p.selected.sum())
     # the donut's opaque piece and the faint splats inside its splats: all but the 149 strays
     assert said.startswith(f"selected {n:,} Gaussians") and p.n - 200 < n < p.n
-    assert "m)" in said                                          # its size, metres
+    # the selection's text (count, size in metres) is shown once: in the Select panel, not again in the message
+    panel = studio.form.selection.content
+    assert panel == studio.selection_text() and panel.endswith("m)") and panel not in said and "m)" not in said
     said = studio.click(*_down_onto(studio))                     # the same piece again: removed
     assert said.startswith("removed") and not p.selected.any()
     studio.click(*_down_onto(studio))
@@ -56,6 +58,7 @@ def test_click_selects_the_piece_removes_it_and_background_selects_nothing(studi
 def test_a_bad_value_is_refused_with_the_scene_checkers_line(studio, tmp_path):
     import tomli_w
     studio.click(*_down_onto(studio))
+    studio.form.material.value = "jelly"
     studio.form.values["nu"].value = 0.7
     with pytest.raises(SceneError) as e:
         studio.form.apply()
@@ -86,6 +89,7 @@ def test_saved_scene_reproduces_the_run_bit_for_bit_and_an_open_selection_warns(
     p = studio.scene.pieces[0]
     p.selected[:] = p.means[:, 2] > np.percentile(p.means[:, 2], 85)
     studio.form.frames.value = 2
+    studio.form.material.value = "jelly"
     studio.form.engine.value = "warp_mpm"
     studio.run()
     assert _wait(studio.stream) == "finished", studio.stream.job.stderr[-3:]
@@ -112,6 +116,7 @@ def test_stop_resume_run_again_and_export(studio, tmp_path):
     page; a failed run's one line reaches the page."""
     studio.click(*_down_onto(studio))
     studio.form.frames.value = 4
+    studio.form.material.value = "jelly"
     studio.form.engine.value = "warp_mpm"
     studio.run()
     stream = studio.stream

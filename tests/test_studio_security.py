@@ -35,7 +35,8 @@ CAMERA = {"type": "ViewerCameraMessage", "wxyz": [1.0, 0.0, 0.0, 0.0], "position
 @pytest.fixture
 def studio(tmp_path):
     from gasp_core.studio.app import Studio
-    st = Studio(DONUT, tmp_path / "studio", port=0)
+    st = Studio(DONUT, tmp_path / "studio", port=0, warm=False)   # no warm-up files or lines beside the checks
+    st.form.material.value = "jelly"
     yield st
     st.stop()
 

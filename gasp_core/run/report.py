@@ -28,7 +28,14 @@ from __future__ import annotations
 import json
 import math
 import sys
+import time
 from typing import TextIO
+
+
+#: What ``gasp simulate`` says before it builds the engine (the console, with progress).
+BUILDING = "gasp: {engine}: building the engine (its kernels compile on a first run, cached afterwards)…"
+#: ... and once the first frame it computes is done.
+BUILT = "gasp: {engine}: frame {frame} after {seconds:.1f} s (the engine's build and its kernels included)"
 
 
 class Reporter:
@@ -80,25 +87,38 @@ class Reporter:
 class ConsoleReporter(Reporter):
     """What the ``gasp`` command shows: a tqdm bar on stderr (``progress``), ``gasp: warning: ...`` and
     ``gasp: <error>`` lines on stderr, the result line on stdout. The streams are looked up when written
-    (``sys.stdout`` / ``sys.stderr`` at that moment)."""
+    (``sys.stdout`` / ``sys.stderr`` at that moment).
+
+    With ``progress``, the wait for the first frame is said (issue 39: a first run sat at 0 % for a minute):
+    :data:`BUILDING` before the engine is built, and the seconds it took once its first frame is done
+    (:data:`BUILT`)."""
 
     def __init__(self, progress: bool = True) -> None:
         super().__init__()
         self.progress = progress
         self._bar = None
+        self._first: tuple | None = None          # (engine, frame, perf_counter at start) until that frame is done
 
     def emit(self, event: dict) -> None:
         """Nothing is kept: the console has shown it."""
 
     def start(self, engine: str, n_frames: int, first_frame: int = 0) -> None:
-        """Open the progress bar (with ``progress``), named after the engine."""
+        """Say that the engine builds (with ``progress``) and open the progress bar, named after the engine."""
         if self.progress:
             from tqdm import tqdm
+            print(BUILDING.format(engine=engine), file=sys.stderr, flush=True)
+            self._first = (engine, first_frame + 1, time.perf_counter())
             self._bar = tqdm(total=n_frames, initial=first_frame, unit="frame", desc=engine, leave=True)
 
     def frame(self, frame: int, wall_s: float, sim_s: float | None = None, n_substeps: int | None = None) -> None:
-        """One step of the bar for each simulated frame (frame 0, the input, is not counted)."""
+        """One step of the bar for each simulated frame (frame 0, the input, is not counted); after the first one
+        computed, the line :data:`BUILT`."""
         if self._bar is not None and frame > 0:
+            if self._first is not None and frame >= self._first[1]:
+                engine, _, t0 = self._first
+                self._first = None
+                self._bar.write(BUILT.format(engine=engine, frame=frame, seconds=time.perf_counter() - t0),
+                                file=sys.stderr)
             self._bar.update(1)
 
     def end_progress(self) -> None:

@@ -32,6 +32,7 @@ from gasp_core.studio.guard import Gate, QuietLogs, exposure_line, gated_serve, 
 from gasp_core.studio.pick import box_rows, ray_pick
 from gasp_core.studio.scene import StudioScene
 from gasp_core.studio.stream import RunStream
+from gasp_core.studio.warm import Warmer, choice_key, studio_request
 
 #: Tint of selected splats (orange), and how much of it.
 HIGHLIGHT, HIGHLIGHT_MIX = np.array([1.0, 0.45, 0.0], np.float32), 0.6
@@ -70,6 +71,8 @@ class Studio:
         names a file inside it, nothing outside (:func:`gasp_core.studio.guard.inside`).
     token : str, optional
         The token the page and its websocket must hold (default: a new random one; :class:`Gate`).
+    warm : bool
+        Build the chosen engine's kernels in the background from the start (:mod:`gasp_core.studio.warm`).
 
     Attributes
     ----------
@@ -88,7 +91,7 @@ class Studio:
     """
 
     def __init__(self, path, workdir, host: str = "127.0.0.1", port: int = 8080, save_dir=None,
-                 token: str | None = None):
+                 token: str | None = None, warm: bool = True):
         import viser
         self.scene = StudioScene(path, workdir)
         self.save_dir = Path(save_dir if save_dir is not None else workdir).resolve()
@@ -99,6 +102,8 @@ class Studio:
         self.message_log: list[str] = []
         self.n_said = 0                     # lines said so far (the page shows the newest six)
         self.form = None
+        self.warmer = Warmer(self.scene.workdir / ".warm") if warm else None
+        self.warm_wanted = warm             # the page's choice changed: ask the warmer (the poller does)
         self.gate = Gate(host, token)
         self._quiet = QuietLogs().__enter__()
         with gated_serve(self.gate), contextlib.redirect_stdout(io.StringIO()):   # viser's banner: no token
@@ -227,8 +232,8 @@ class Studio:
             p.selected |= piece
             verb = "selected"
         self._retint()
-        return self._said(f"{verb} {int(piece.sum()):,} Gaussians ({self._extent(p.means[piece])}) of object "
-                          f"#{p.index + 1}; now {self.selection_text()}")
+        return self._said(f"{verb} {int(piece.sum()):,} Gaussians of object #{p.index + 1} (the selection: "
+                          "Select, above)")
 
     def box(self, event, add: bool = False) -> str:
         """A ctrl-drag box: the Gaussians whose centres project inside it (the event's camera)."""
@@ -246,7 +251,7 @@ class Studio:
         self._retint()
         if not n:
             return self._said("Nothing selected: no splat centre lies inside the box")
-        return self._said(f"box: {n:,} Gaussians; now {self.selection_text()}")
+        return self._said(f"box: {n:,} Gaussians (the selection: Select, above)")
 
     def selection_text(self) -> str:
         parts = [f"{int(p.selected.sum()):,} of {p.n:,} Gaussians of object #{p.index + 1} "
@@ -273,6 +278,8 @@ class Studio:
                 return self._said("a run is in progress: stop it first")
             try:
                 self.form.apply()
+                if self.warmer is not None:
+                    self.warmer.for_run(choice_key(self.scene.doc))
                 if resume and self.stream is not None:
                     self.stream = self.stream.resumed()
                 else:
@@ -321,7 +328,9 @@ class Studio:
         seen_events = 0
         while not self._stop.wait(0.25):
             stream = self.stream
+            self._follow_warm(stream is not None and stream.job.running)
             if stream is None:
+                self.form.set_run_status((self.warmer.status() if self.warmer else "") or "no run yet")
                 continue
             try:
                 grew = stream.refresh()
@@ -333,13 +342,34 @@ class Studio:
                 if e.get("event") in ("warning", "error", "result"):
                     self.say(f"{e['event']}: {e.get('message', '')}")
             seen_events = len(events)
-            self.form.set_run_status(stream.status())
+            self.form.set_run_status(stream.status(self._before_frame1()))
             if grew:
                 self.form.timeline_grew(stream.n_ready)
 
+    def _follow_warm(self, busy: bool) -> None:
+        """Ask the warmer for the page's choice when it changed; say when a warm-up ends."""
+        if self.warmer is None:
+            return
+        if self.warm_wanted and studio_request(self):
+            self.warm_wanted = False
+        said = self.warmer.poll(busy=busy)
+        if said:
+            self.say(said)
+
+    def _before_frame1(self) -> str:
+        """What a run does before its frame 1, as the page says it."""
+        w, key = self.warmer, choice_key(self.scene.doc)
+        if w is not None and key in w.built:
+            return "preparing frame 1 (kernels built in the background)"
+        if w is not None and w.running and w.key == key:
+            return w.status().rsplit("…", 1)[0] + " (in the background)"
+        return f"compiling {key[0]} kernels (first run; cached afterwards)"
+
     def stop(self) -> None:
-        """Stop following, stop a run in progress (its frames kept for resume), close the server."""
+        """Stop following, stop a run in progress (its frames kept for resume) and any warm-up, close the server."""
         self._stop.set()
+        if self.warmer is not None:
+            self.warmer.stop()
         if self.stream is not None and self.stream.job.running:
             self.stream.job.stop()
         self.server.stop()

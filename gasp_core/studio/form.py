@@ -24,13 +24,20 @@ TYPICAL = {
 }
 
 
+#: The material menu's first entry while none is chosen (a file opened alone): nothing is preselected, so the
+#: user's pick is what runs, and Run asks for one.
+CHOOSE = "(choose a material)"
+
 #: What the quality menu says of the studio's level (measured: docs/studio.md, "Time to the first frame").
 STUDIO_HINT = (f"{STUDIO_LEVEL}: the studio's level, the cheapest; the donut's first frame about 15-20 s after Run "
                "on 2 CPU cores from a cold kernel cache, 5 s warm (docs/studio.md)")
 
 
 def typical(material: str) -> dict:
-    """Starting values of ``material``'s keys: :data:`TYPICAL`, else each key's schema default."""
+    """Starting values of ``material``'s keys: :data:`TYPICAL`, else each key's schema default (none for
+    :data:`CHOOSE`)."""
+    if material not in MATERIAL_KINDS:
+        return {}
     given = TYPICAL.get(material, ({}, ""))[0]
     return {k: given.get(k, MATERIAL_PARAMS[k].default) for k in MATERIAL_KINDS[material].keys}
 
@@ -39,13 +46,16 @@ def installed_engines(material: str | None = None) -> list[str]:
     """Engines installed and able to run here (and, given ``material``, offering it), best first
     (:func:`gasp_core.scene.quality.studio_engine_rank`)."""
     from gasp_core.seam.plugins import engines
+    material = None if material == CHOOSE else material
     ok = [info for info in engines().values() if info.unavailable_reason() is None and
           (material is None or material in info.capabilities.materials)]
     return [info.name for info in sorted(ok, key=studio_engine_rank)]
 
 
 class Form:
-    """The page's controls for one :class:`gasp_core.studio.app.Studio`."""
+    """The page's controls for one :class:`gasp_core.studio.app.Studio`, top to bottom in the order of the work
+    (the newest message, select, material, run, then the scene's placement, keep and the earlier messages), so
+    that Run sits within the first 800 px of a 1280 x 800 window (tests/test_studio_browser.py)."""
 
     def __init__(self, studio):
         self.studio = studio
@@ -61,11 +71,28 @@ class Form:
         mat = dict(obj.get("material", {}))
         name = mat.get("name", DEFAULT_MATERIAL)
         offered = sorted({m for e in installed_engines() for m in self._materials_of(e)}) or list(MATERIAL_KINDS)
+        chosen = "name" in mat and name in offered           # a scene that names its material; a file: none
         with gui.add_folder("Material") as self.material_folder:
-            self.material = gui.add_dropdown("Material", offered, initial_value=name if name in offered else offered[0])
+            self.material = gui.add_dropdown("Material", offered if chosen else [CHOOSE, *offered],
+                                             initial_value=name if chosen else CHOOSE)
             self.typical_button = gui.add_button("Typical values")
         self.values: dict = {}
         self._value_inputs(mat if name == self.material.value else {})
+        with gui.add_folder("Run"):
+            engines_now = installed_engines(self.material.value) or ["(none installed)"]
+            want = sc.doc.get("engine", {}).get("name")
+            self.engine = gui.add_dropdown("Engine", engines_now,
+                                           initial_value=want if want in engines_now else engines_now[0])
+            self.quality = gui.add_dropdown("Quality", list(QUALITY_LEVELS), hint=STUDIO_HINT,
+                                            initial_value=sc.doc.get("quality", STUDIO_LEVEL) if not sc.is_file
+                                            else STUDIO_LEVEL)
+            self.frames = gui.add_number("Frames", int(sc.doc.get("n_frames", 30)), step=1)
+            self.run_button = gui.add_button("Run")
+            self.stop_button = gui.add_button("Stop")
+            self.resume_button = gui.add_button("Resume")
+            self.run_status = gui.add_markdown("no run yet")
+            self.timeline = gui.add_slider("Frame", min=0, max=1, step=1, initial_value=0, disabled=True)
+            self._n_ready = 0
         with gui.add_folder("Scene"):
             guess = sc.up_guess
             label = "Up axis" + ("" if guess is None else f" (guessed {guess.up}, {guess.confidence:.2f})"
@@ -79,22 +106,7 @@ class Form:
             self.ground = gui.add_checkbox("Ground", initial_value=any(b.get("kind") == "ground" for b in
                                                                         sc.doc.get("boundary", [])),
                                            disabled=not sc.is_file)
-            engines_now = installed_engines(self.material.value) or ["(none installed)"]
-            want = sc.doc.get("engine", {}).get("name")
-            self.engine = gui.add_dropdown("Engine", engines_now,
-                                           initial_value=want if want in engines_now else engines_now[0])
-            self.quality = gui.add_dropdown("Quality", list(QUALITY_LEVELS), hint=STUDIO_HINT,
-                                            initial_value=sc.doc.get("quality", STUDIO_LEVEL) if not sc.is_file
-                                            else STUDIO_LEVEL)
-            self.frames = gui.add_number("Frames", int(sc.doc.get("n_frames", 30)), step=1)
-        with gui.add_folder("Run"):
-            self.run_button = gui.add_button("Run")
-            self.stop_button = gui.add_button("Stop")
-            self.resume_button = gui.add_button("Resume")
-            self.run_status = gui.add_markdown("no run yet")
-            self.timeline = gui.add_slider("Frame", min=0, max=1, step=1, initial_value=0, disabled=True)
-            self._n_ready = 0
-        with gui.add_folder("Keep"):
+        with gui.add_folder("Keep", expand_by_default=False):
             gui.add_markdown(f"files are written in {studio.save_dir} (--save-dir)")
             self.save_path = gui.add_text("Scene file", f"{sc.path.stem}_studio.toml")
             self.overwrite = gui.add_checkbox("Overwrite", initial_value=False,
@@ -102,6 +114,8 @@ class Form:
             self.save_button = gui.add_button("Save scene")
             self.export_path = gui.add_text("Page", "", hint="default: the run's name, .html")
             self.export_button = gui.add_button("Export page")
+        with gui.add_folder("Earlier messages", expand_by_default=False):
+            self.history = gui.add_markdown("-")
         self._wire()
 
     # -- building ---------------------------------------------------------------------------------------
@@ -143,6 +157,8 @@ class Form:
         self.export_button.on_click(g("Export page", lambda _: self.export()))
         for h in (self.up, self.scale, self.drop, self.ground):
             h.on_update(g(h.label, lambda _: self._placement_changed()))
+        for h in (self.material, self.engine, self.quality, self.ground):   # kernels to build (gasp_core.studio.warm)
+            h.on_update(lambda _: setattr(st, "warm_wanted", st.warmer is not None))
 
     def _clear(self) -> None:
         for p in self.studio.scene.pieces:
@@ -159,21 +175,25 @@ class Form:
 
     def _placement_changed(self) -> None:
         try:
-            self.apply()
+            self.studio.scene.replace(self.document())
         except GaspError as e:
             self.studio.say(str(e))
             return
         self.studio._draw()
 
     # -- reading ----------------------------------------------------------------------------------------
-    def document(self) -> dict:
-        """The studio's document with the form's values written in (not checked)."""
+    def document(self, warm: bool = False) -> dict:
+        """The studio's document with the form's values written in (not checked); no material chosen yet: the
+        document's own, or with ``warm`` the default model's typical values (what a warm-up builds)."""
         sc = self.studio.scene
         doc = copy.deepcopy(sc.doc)
         target = self._target_object()
         k = sc.doc["object"].index(target)
-        material = {"name": self.material.value, **{key: float(h.value) for key, h in self.values.items()}}
-        doc["object"][k]["material"] = material
+        if self.material.value != CHOOSE:
+            doc["object"][k]["material"] = {"name": self.material.value,
+                                            **{key: float(h.value) for key, h in self.values.items()}}
+        elif warm:
+            doc["object"][k]["material"] = {"name": DEFAULT_MATERIAL, **typical(DEFAULT_MATERIAL)}
         if sc.is_file:
             o = doc["object"][k]
             o["up_axis"], o["scale"] = self.up.value, float(self.scale.value)
@@ -191,8 +211,10 @@ class Form:
         Raises
         ------
         SceneError
-            The checker's one line; the document is left as it was.
+            The checker's one line, or no material chosen; the document is left as it was.
         """
+        if self.material.value == CHOOSE:
+            raise SceneError("choose a material first (the Material menu): nothing is preselected")
         self.studio.scene.replace(self.document())
 
     def may_replace(self, files: list[Path]) -> bool:
@@ -245,8 +267,9 @@ class Form:
 
     # -- showing ----------------------------------------------------------------------------------------
     def set_messages(self, lines: list[str]) -> None:
-        self.messages.content = "\n\n".join(f"{'**' if i == 0 else ''}{line}{'**' if i == 0 else ''}"
-                                           for i, line in enumerate(lines))
+        """The newest line at the top of the page, the five before it in "Earlier messages" (folded)."""
+        self.messages.content = f"**{lines[0]}**" if lines else ""
+        self.history.content = "\n\n".join(lines[1:]) or "-"
 
     def set_selection(self, text: str) -> None:
         self.selection.content = text

@@ -99,12 +99,15 @@ class RunStream:
         """World-frame splats of frame ``k`` (:meth:`gasp_core.render.live.LiveRun.splats`)."""
         return self.live.splats(k)
 
-    def status(self) -> str:
-        """One line: the run, its state, frames so far, time to frame 1."""
+    def status(self, before_frame1: str = "") -> str:
+        """One line: the run, its state, frames so far, time to frame 1; while frame 1 is not there,
+        ``before_frame1`` (what the run does meanwhile: compiling kernels) and the seconds since the launch."""
         state = self.job.outcome()
         total = self.live.n_total if self.live is not None else None
         done = max(self.n_ready - 1, 0)
         text = f"{self.outdir.name}: {state}, {done}" + (f" of {total - 1}" if total else "") + " frames"
+        if state == "running" and done == 0 and before_frame1:
+            text += f": {before_frame1}… {time.monotonic() - self.job.started:.0f} s"
         if self.first_frame_s is not None:
             text += f" (frame 1 after {self.first_frame_s:.1f} s)"
         if state == "running" and self.live is not None and self.live.status not in LIVE:
