@@ -50,3 +50,20 @@ def test_rows_the_run_has_are_never_replaced():
                 "2026-11-22T10:00:00")
     merged = keep_other_environments(run, old)
     assert "| bounce | FAIL |" in merged and "old" not in merged and "_Kept" not in merged
+
+
+def test_a_run_with_some_plugins_owns_only_their_rows():
+    """``GASP_LOAD_PLUGINS=blender``: the blender rows are replaced; the engine-independent rows (``all``) and the
+    others stay as the main run wrote them, even where the blender run has rows of its own for them."""
+    main_run = _file({"conformance_tests/test_conformance.py::test_conformance[warp_mpm-bounce]": _row("pass"),
+                      "conformance_tests/test_conformance.py::test_broken[x]": _row("pass", "all engines"),
+                      "conformance_tests/test_conformance.py::test_conformance[blender-bounce]": UNAVAILABLE},
+                     "2026-11-23T18:00:00")
+    blender_run = _file({"conformance_tests/test_conformance.py::test_conformance[blender-bounce]": _row("pass", "bpy"),
+                         "conformance_tests/test_conformance.py::test_broken[x]": _row("FAIL", "blender alone")},
+                        "2026-11-23T19:00:00")
+    merged = keep_other_environments(blender_run, main_run, owned={"blender"})
+    assert "all engines" in merged and "blender alone" not in merged
+    assert "| bounce | pass | " in merged.split("### blender")[1] and "bpy" in merged
+    assert "### warp_mpm" in merged
+    assert "blender alone" in keep_other_environments(blender_run, main_run)        # without owned: replaced

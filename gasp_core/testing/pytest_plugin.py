@@ -167,5 +167,9 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config):
         terminalreporter.write_line(f"{committed} not updated: -k '{config.option.keyword}' selects a subset")
     else:
         old = Path(committed).read_text(encoding="utf-8") if Path(committed).is_file() else ""
-        write_atomic(Path(committed), keep_other_environments(text, old) if old else text)
+        owned = None
+        if os.environ.get("GASP_LOAD_PLUGINS"):  # a partial environment: it owns only the engines it loaded
+            from gasp_core.seam.plugins import engines
+            owned = set(engines())
+        write_atomic(Path(committed), keep_other_environments(text, old, owned) if old else text)
         terminalreporter.write_line(f"updated {committed} (engines this run could not load keep their rows)")

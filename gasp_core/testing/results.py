@@ -98,7 +98,7 @@ def _unavailable(block: list[str]) -> bool:
     return bool(rows) and all(f"| skip |" in ln and _UNAVAILABLE in ln for ln in rows)
 
 
-def keep_other_environments(new: str, old: str) -> str:
+def keep_other_environments(new: str, old: str, owned: set[str] | None = None) -> str:
     """``new`` (a session's results file) with the blocks of the engines it could not run taken from ``old`` (the
     committed file): an ``### engine`` block of ``old`` replaces the same section's block of ``new`` where every row
     of that is an "engine unavailable" skip, or is added where ``new`` has none (a session that loaded other
@@ -110,6 +110,9 @@ def keep_other_environments(new: str, old: str) -> str:
     ----------
     new, old : str
         Results files as :func:`render_results` writes them.
+    owned : set of str, optional
+        The engines this run loaded when it loaded only some (``GASP_LOAD_PLUGINS``): the blocks of every other
+        name, ``all`` (the engine-independent rows) included, are taken from ``old`` where it has them.
 
     Returns
     -------
@@ -129,7 +132,8 @@ def keep_other_environments(new: str, old: str) -> str:
         for engine in engines:
             block = new_blocks.get((section, engine))
             kept = old_blocks.get((section, engine))
-            if kept is not None and not _unavailable(kept) and (block is None or _unavailable(block)):
+            foreign = owned is not None and engine not in owned
+            if kept is not None and (foreign or (not _unavailable(kept) and (block is None or _unavailable(block)))):
                 block = list(kept)
                 if not any(ln.startswith(_KEPT) for ln in block):
                     block[1:1] = ["", f"{_KEPT}{stamp} (this run could not load the engine)."]
