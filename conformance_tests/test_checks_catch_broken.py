@@ -113,6 +113,8 @@ class _Broken:
             x = x[self.perm]
         elif self.kind == "positions_one_substep_late":  # as mujoco_flex before issue 17: x of the previous substep
             st = self.inner.stats()
+            if not st.get("n_substeps"):    # blender: no substep to lag by; the free-fall check falls back to 1 %
+                pytest.skip("the engine reports no n_substeps: 'one substep late' has no meaning for it")
             x = x - np.asarray(self.inner.velocities(), dtype=np.float64) * (self.setup.frame_dt / st["n_substeps"])
         elif self.stuck is not None:
             x = self.stuck.copy()
@@ -251,8 +253,11 @@ def test_broken_engine_is_caught(kind, reference, request):
     info, passed_by_real = reference
     screen = ((CONTRACT_SCREEN[kind],) if kind in CONTRACT_SCREEN else
               (*ANALYTIC_SCREEN[kind], *ANALYTIC_ALSO.get(kind, ())) if kind in ANALYTIC_SCREEN else SCREEN)
-    if not set(screen) & passed_by_real:
-        pytest.skip(f"the real {info.name} does not pass {screen}")
+    needed = ANALYTIC_SCREEN.get(kind, screen)    # ANALYTIC_ALSO's older checks are shown missing it, not required
+    if not set(needed) & passed_by_real:
+        pytest.skip(f"the real {info.name} does not pass {needed}")
+    if kind == "refuses_declared" and len(info.capabilities.materials) < 2:
+        pytest.skip(f"{info.name} declares one material: the broken engine's refusal of a second is never asked for")
     report = check_engine(broken_engine(info, kind), scenes=sorted(set(screen) & passed_by_real), known_failures={})
     caught = [r for r in report.results if r.status in ("fail", "error")]
     record(request.node, f"wrapping {info.name}: " + "; ".join(

@@ -104,8 +104,9 @@ def collider_from_splats(splats: np.ndarray, h: float, name: str = "collider", *
     Returns
     -------
     Collider
-        Occupancy = inside of :func:`gasp_core.maps.occupancy.solid_field` (or, for an open object, the
-        voxels its footprints touch); ``phi`` = Euclidean distance to it outside minus the
+        Occupancy = inside of :func:`gasp_core.maps.occupancy.solid_field` deeper than one of its voxels, with the
+        samples its footprints touch within a voxel of its surface and what they enclose (for an open object, the
+        samples its footprints touch); ``phi`` = Euclidean distance to it outside minus the
         distance to its outside inside (:func:`scipy.ndimage.distance_transform_edt`), each with
         half a sample removed, so the surface lies between occupied and free samples.
     """
@@ -117,11 +118,16 @@ def collider_from_splats(splats: np.ndarray, h: float, name: str = "collider", *
     inside_field, field_lo, voxel = solid_field(splats)[:3]
     ii = np.stack(np.meshgrid(*[np.arange(s) for s in shape], indexing="ij"), axis=-1).reshape(-1, 3)
     samples = origin + ii * h
+    shell = rasterize(splats, origin - 0.5 * h, shape, h)
     if inside_field is not None:
         u = (samples - field_lo) / voxel - 0.5
-        occ = (ndimage.map_coordinates(inside_field, u.T, order=1, mode="constant", cval=-1.0) > 0).reshape(shape)
+        depth = ndimage.map_coordinates(inside_field, u.T, order=1, mode="constant", cval=-1.0).reshape(shape)
+        # the fill's voxel bounds its grid (MAX_VOXELS a side: 9 mm on the 1.1 m guitar), and its surface lies up to
+        # a voxel outside the footprints; within a voxel of that surface the footprints, at the SDF's spacing, say
+        # what is solid, and the space they enclose with the deeper inside is filled
+        occ = ndimage.binary_fill_holes((depth > 1.0) | (shell & (depth > -1.0)))
     else:
-        occ = rasterize(splats, origin - 0.5 * h, shape, h)
+        occ = shell
     if not occ.any():
         raise SceneError(f"collider '{name}': its Gaussians occupy no sample of the {h:.3g} m distance grid")
     out = ndimage.distance_transform_edt(~occ) * h
