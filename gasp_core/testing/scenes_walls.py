@@ -10,12 +10,14 @@ points (an ideal contact's normal forces on a ball act through its centre).
   ``WALL_FRAMES`` frames (it has bounced once, and not reached the -x wall):
 
   - ``wall_spin``: its spin (angular momentum about the centroid over its inertia there) times ``R`` at most
-    ``WALL_SPIN_TOL`` = 2.5 % of the throw's speed (0.25 rad/s). Measured 0.125 rad/s on warp_mpm and taichi_mpm
-    with the particle contact (the same ball thrown at a frictionless ground: the same figure), 0.919 rad/s with the
+    ``WALL_SPIN_TOL`` = 2.2 % of the throw's speed (0.22 rad/s), 3x the measured. Measured 0.074 rad/s on warp_mpm
+    and taichi_mpm with the particle contact (``KAPPA`` 2; 0.125 at ``KAPPA`` 4, as for the same ball thrown at a
+    frictionless ground), 0.919 rad/s with the
     walls' grid rule (``contact = "grid"``, and every contact before issue 38 item 2), 1.67 without the contact's
     balance;
   - ``wall_rebound``: its velocity along x at the end over the throw's within ``WALL_REBOUND`` (it came back along
-    the normal, with at most the energy it had: measured 0.809; the grid rule 0.907). Its centroid's travel across
+    the normal, with at most the energy it had: measured 0.834 (0.809 at ``KAPPA`` 4); the grid rule 0.907). Its
+    centroid's travel across
     the normal is reported (1e-6 mm on both contacts).
 """
 from __future__ import annotations
@@ -34,7 +36,7 @@ OFF = np.array([0.3, 0.2, 0.1])
 WALL_V = 0.5
 WALL_FRAMES = 9
 #: The largest spin's surface speed ``omega R`` over the throw's speed.
-WALL_SPIN_TOL = 0.025
+WALL_SPIN_TOL = 0.022
 #: The band of ``-v_x(end) / v_x(0)``.
 WALL_REBOUND = (0.5, 1.0)
 #: The box: the default domain of a 10 cm object, centred on the origin.
