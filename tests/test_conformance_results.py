@@ -67,3 +67,13 @@ def test_a_run_with_some_plugins_owns_only_their_rows():
     assert "| bounce | pass | " in merged.split("### blender")[1] and "bpy" in merged
     assert "### warp_mpm" in merged
     assert "blender alone" in keep_other_environments(blender_run, main_run)        # without owned: replaced
+
+
+def test_the_header_names_the_kept_engines_and_their_runs():
+    run = _file({"conformance_tests/test_conformance.py::test_conformance[genesis-bounce]": _row("pass")},
+                "2026-11-23T19:00:00").replace("(Python 3).\n", "(Python 3).\nEngines: genesis\n")
+    old = _file({"conformance_tests/test_conformance.py::test_conformance[warp_mpm-bounce]": _row("pass")},
+                "2026-11-23T18:00:00")
+    merged = keep_other_environments(run, old, owned={"genesis"})
+    assert "Engines: genesis\nRows kept from earlier runs in other environments: warp_mpm (2026-11-23T18:00:00)." \
+        in merged, merged[:400]

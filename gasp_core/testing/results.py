@@ -125,6 +125,7 @@ def keep_other_environments(new: str, old: str, owned: set[str] | None = None) -
     old_blocks = _blocks(old)[1]
     head = new.split("\n## ", 1)[0].rstrip("\n").splitlines()
     out = head + [""]
+    kept_from: dict[str, str] = {}
     for section in new_sections:
         out += [section, ""]
         engines = [e for (s, e) in new_blocks if s == section]
@@ -137,8 +138,13 @@ def keep_other_environments(new: str, old: str, owned: set[str] | None = None) -
                 block = list(kept)
                 if not any(ln.startswith(_KEPT) for ln in block):
                     block[1:1] = ["", f"{_KEPT}{stamp} (this run could not load the engine)."]
+                kept_from[engine] = next(ln for ln in block if ln.startswith(_KEPT))[len(_KEPT):].split(" ", 1)[0]
             block = block if block is not None else list(kept or [])
             while block and not block[-1].strip():
                 block = block[:-1]
             out += block + [""]
+    if kept_from:
+        at = next((i + 1 for i, ln in enumerate(out) if ln.startswith("Engines:")), len(head))
+        out.insert(at, "Rows kept from earlier runs in other environments: " + ", ".join(
+            f"{e} ({t})" for e, t in sorted(kept_from.items())) + ".")
     return "\n".join(out).rstrip("\n") + "\n"
