@@ -146,5 +146,5 @@ def keep_other_environments(new: str, old: str, owned: set[str] | None = None) -
     if kept_from:
         at = next((i + 1 for i, ln in enumerate(out) if ln.startswith("Engines:")), len(head))
         out.insert(at, "Rows kept from earlier runs in other environments: " + ", ".join(
-            f"{e} ({t})" for e, t in sorted(kept_from.items())) + ".")
+            f"{'the engine-independent rows' if e == 'all' else e} ({t})" for e, t in sorted(kept_from.items())) + ".")
     return "\n".join(out).rstrip("\n") + "\n"
