@@ -26,6 +26,7 @@ import pytest
 
 from gasp_core.seam.plugins import engines as installed_engines
 from gasp_core.testing import GRAVITY, box_points, record
+from gasp_core.testing.pytest_plugin import engine_case_params
 from gasp_core.testing.scenes_basic import GROUND_H
 from gasp_core.errors import EngineDivergence, EngineError, SceneError
 from gasp_core.seam.setup import Boundary, Material, SimSetup
@@ -208,23 +209,10 @@ _IMPACT_OPTION = {"cfl_0.8": "cfl", "cfl_1.0": "cfl", "dt_2x": "dt"}
 
 
 def _impact_cases():
-    found = installed_engines()
-    if not found:
-        yield pytest.param(None, None, id="no-engine", marks=pytest.mark.skip(reason="no engine plugin installed"))
-        return
-    for name, info in found.items():
-        reason = info.unavailable_reason()
-        needs = "jelly" in info.capabilities.materials and "ground" in info.capabilities.boundaries
-        for case in IMPACT_CASES:
-            marks = []
-            opt = _IMPACT_OPTION.get(case)
-            if reason:
-                marks.append(pytest.mark.skip(reason=f"engine unavailable: {reason}"))
-            elif not needs:
-                marks.append(pytest.mark.skip(reason="missing capability: material 'jelly' or boundary 'ground'"))
-            elif opt and opt not in {o.name for o in info.options}:
-                marks.append(pytest.mark.skip(reason=f"the engine declares no option '{opt}'"))
-            yield pytest.param(name, case, id=f"{name}-impact_{case}", marks=marks)
+    def no_option(name, info, case):
+        opt = _IMPACT_OPTION.get(case)
+        return f"the engine declares no option '{opt}'" if opt and opt not in {o.name for o in info.options} else None
+    return engine_case_params(IMPACT_CASES, "impact_", why_not=no_option)
 
 
 def impact_verdict(tr) -> str | None:

@@ -28,6 +28,7 @@ import pytest
 
 from gasp_core.seam.plugins import engines as installed_engines
 from gasp_core.testing import record
+from gasp_core.testing.pytest_plugin import engine_case_params
 from gasp_studies.ladder import LADDER, case_id, run_case
 
 #: Largest rise of ``K + P`` over the start in any frame after it, as a share of ``M g h``. Measured
@@ -67,23 +68,9 @@ TOO_COSTLY = {
 
 
 def _cases():
-    found = installed_engines()
-    if not found:
-        yield pytest.param(None, None, id="no-engine", marks=pytest.mark.skip(reason="no engine plugin installed"))
-        return
-    for name, info in found.items():
-        reason = info.unavailable_reason()
-        needs = "jelly" in info.capabilities.materials and "ground" in info.capabilities.boundaries
-        for E, _, _ in LADDER:
-            case = case_id(E)
-            marks = [pytest.mark.slow] if (name, case) in SLOW else []
-            if reason:
-                marks.append(pytest.mark.skip(reason=f"engine unavailable: {reason}"))
-            elif (name, case) in TOO_COSTLY:
-                marks.append(pytest.mark.skip(reason=f"not run, too costly: {TOO_COSTLY[name, case]}"))
-            elif not needs:
-                marks.append(pytest.mark.skip(reason="missing capability: material 'jelly' or boundary 'ground'"))
-            yield pytest.param(name, case, id=f"{name}-{case}", marks=marks)
+    return engine_case_params([case_id(E) for E, _, _ in LADDER], slow=lambda name, case: (name, case) in SLOW,
+                              why_not=lambda name, info, case: (f"not run, too costly: {TOO_COSTLY[name, case]}"
+                                                                if (name, case) in TOO_COSTLY else None))
 
 
 def verdict(r: dict) -> str | None:

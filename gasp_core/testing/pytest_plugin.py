@@ -96,6 +96,35 @@ def conformance_params(engines: Iterable | None = None, scenes: Iterable | None 
     return out
 
 
+def engine_case_params(cases: Iterable[str], id_prefix: str = "", why_not=None, slow=None) -> list:
+    """``pytest.param(engine, case)`` for every installed engine and case, ids ``engine-<id_prefix>case``, for the
+    tests that run their own cases on an elastic body on the ground (``test_extremes``, ``test_stiffness_ladder``).
+
+    An unavailable engine, one without the material ``jelly`` or the boundary ``ground``, and a case for which
+    ``why_not(name, info, case)`` gives a reason are skipped with the reason (in that order); ``slow(name, case)``
+    true marks the case ``slow``. Without an installed engine: one skipped param ``no-engine``.
+    """
+    from gasp_core.seam.plugins import engines
+    found = engines()
+    if not found:
+        return [pytest.param(None, None, id="no-engine", marks=pytest.mark.skip(reason="no engine plugin installed"))]
+    out = []
+    for name, info in found.items():
+        reason = info.unavailable_reason()
+        needs = "jelly" in info.capabilities.materials and "ground" in info.capabilities.boundaries
+        for case in cases:
+            marks = [pytest.mark.slow] if slow is not None and slow(name, case) else []
+            why = None if reason or not needs or why_not is None else why_not(name, info, case)
+            if reason:
+                marks.append(pytest.mark.skip(reason=f"engine unavailable: {reason}"))
+            elif not needs:
+                marks.append(pytest.mark.skip(reason="missing capability: material 'jelly' or boundary 'ground'"))
+            elif why:
+                marks.append(pytest.mark.skip(reason=why))
+            out.append(pytest.param(name, case, id=f"{name}-{id_prefix}{case}", marks=marks))
+    return out
+
+
 def parametrize_conformance(engines: Iterable | None = None, scenes: Iterable | None = None):
     """``pytest.mark.parametrize("gasp_engine,gasp_scene", conformance_params(engines, scenes))``."""
     return pytest.mark.parametrize("gasp_engine,gasp_scene", conformance_params(engines, scenes))

@@ -95,7 +95,7 @@ def _blocks(text: str) -> tuple[list[str], dict[tuple[str, str], list[str]]]:
 
 def _unavailable(block: list[str]) -> bool:
     rows = [ln for ln in block if ln.startswith("| ") and not ln.startswith("| case ")]
-    return bool(rows) and all(f"| skip |" in ln and _UNAVAILABLE in ln for ln in rows)
+    return bool(rows) and all("| skip |" in ln and _UNAVAILABLE in ln for ln in rows)
 
 
 def keep_other_environments(new: str, old: str, owned: set[str] | None = None) -> str:
