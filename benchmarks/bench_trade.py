@@ -93,6 +93,10 @@ VARIANTS: dict[str, tuple[dict, dict, dict]] = {
     "passive_every4_g128": ({"surface": "passive"}, {"n_grid": 128}, {"passive_every": 4}),
     "full_g48": ({"surface": "material", "core_fraction": 1.0}, {"n_grid": 48}, {}),
     "full_g32": ({"surface": "material", "core_fraction": 1.0}, {"n_grid": 32}, {}),
+    # the time step: the full model at cfl 0.8 (the engines' default is 0.4; the contact's own stable step may
+    # bind first, gasp_core.toolkit.contact.contact_dt)
+    "full_cfl0.8": ({"surface": "material", "core_fraction": 1.0}, {}, {"cfl": 0.8}),
+    "draft_cfl0.4": ({}, {}, {"cfl": 0.4}),
     # the full model with the fill at 8 points per cell (the 'reference' level's model) on three grids:
     # the Richardson reference of every other run (gasp_studies.convergence)
     "full_ppc8_g32": ({"surface": "material", "core_fraction": 1.0}, {"n_grid": 32, "particles_per_cell": 8}, {}),
@@ -110,7 +114,7 @@ VARIANTS: dict[str, tuple[dict, dict, dict]] = {
     "passive_every16_ppc4": ({"surface": "passive"}, {"particles_per_cell": 4}, {"passive_every": 16}),
 }
 #: variants that set the scene's top-level ``quality`` key
-QUALITY = {"draft": "draft", "default": "default", "reference": "reference"}
+QUALITY = {"draft": "draft", "default": "default", "reference": "reference", "draft_cfl0.4": "draft"}
 #: what a call runs unless ``--variants`` says otherwise
 SETS = {
     "trade": ["full", "full_shift", "passive", "passive_every4", "passive_every8", "passive_every4_core0.5",

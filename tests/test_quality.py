@@ -51,6 +51,10 @@ def test_engine_options_of_a_level_reach_only_engines_that_declare_them():
     assert engine_options("default", {}, {"threads"}) == {}                       # an engine without the option
     assert engine_options("default", {"passive_every": 2}, {"passive_every"}) == {"passive_every": 2}
     assert engine_options("reference", {"threads": 1}, {"cfl", "threads"}) == {"threads": 1, "cfl": 0.2}
+    # the step: cfl 0.8 at default and draft (docs/speed_accuracy.md, "The time step"), a scene's own cfl wins
+    assert engine_options("default", {}, {"cfl"}) == {"cfl": 0.8}
+    assert engine_options("draft", {}, {"cfl"}) == {"cfl": 0.8}
+    assert engine_options("default", {"cfl": 0.4}, {"cfl"}) == {"cfl": 0.4}
     assert set(PRESETS) == set(QUALITY_LEVELS)
 
 

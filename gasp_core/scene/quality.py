@@ -8,13 +8,16 @@ except ``n_grid``, which a level scales (``grid_factor``) from the file's value.
 * ``draft``: the cheapest model measured (on the README donut's first 12 frames 2.53x cheaper than the full
   model in CPU time, its shape after the best rigid fit 2.33 U from it, U = the full model's distance to its
   ``n_grid`` 48 twin; particle contact, passive points held by the ground: docs/contact.md): passive surface points (``surface = "passive"``), 2 fill points per cell, the grid
-  velocity gathered at them every 16th substep.
+  velocity gathered at them every 16th substep, ``cfl`` 0.8.
 * ``default``: chosen by the rule of ``docs/speed_accuracy.md`` ("Choosing the default": the cheapest setting
   whose shape residual is within 1.5 U, whose events are in their bands and whose renders are as close to the
   reference's as its twin's). No cheaper model meets it on the elastic donut (passive points: 2.7x at 2.4 U,
   3.6 degrees of rotation), so: ``surface = "auto"`` (:mod:`gasp_core.prepare.surface`: passive on filled,
   dissipative bodies, the full model on elastic ones and shells), 4 fill points per cell, the grid velocity
-  gathered at passive points every 8th substep (engine option ``passive_every`` where the engine has it).
+  gathered at passive points every 8th substep (engine option ``passive_every`` where the engine has it),
+  ``cfl`` 0.8 (the engines' own default is 0.4): on the README donut the longer step moves the full model by
+  0.05 U of shape and costs 0.66x the CPU time (94 substeps a frame instead of 121, the contact's stable step
+  binding first; docs/speed_accuracy.md, "The time step").
 * ``reference``: the full model (every triangle vertex simulated as material, no hierarchy, 8 fill
   points per cell) on a grid 1.5 times finer, ``cfl`` 0.2: the run the others are measured against.
 """
@@ -82,8 +85,8 @@ class QualityPreset:
 
 
 PRESETS: dict[str, QualityPreset] = {
-    "draft": QualityPreset({"surface": "passive"}, {"particles_per_cell": 2}, 1.0, {"passive_every": 16}),
-    "default": QualityPreset({"surface": "auto"}, {"particles_per_cell": 4}, 1.0, {"passive_every": 8}),
+    "draft": QualityPreset({"surface": "passive"}, {"particles_per_cell": 2}, 1.0, {"passive_every": 16, "cfl": 0.8}),
+    "default": QualityPreset({"surface": "auto"}, {"particles_per_cell": 4}, 1.0, {"passive_every": 8, "cfl": 0.8}),
     "reference": QualityPreset({"surface": "material", "core_fraction": 1.0}, {"particles_per_cell": 8}, 1.5,
                                {"cfl": 0.2}),
 }
