@@ -6,7 +6,9 @@ lowest 1 % of points by height (as ``tests/test_example_donut_on_guitar.py`` tak
 on the surface, positive when it floats), the mean of the smallest 1 % of distances, and the smallest.
 
 Run from a tree: ``python benchmarks/donut_guitar_contact.py --engine warp_mpm --tag after``; one line goes to stdout
-and is appended to ``benchmarks/results/donut_guitar_contact.md``.
+and is appended to ``benchmarks/results/donut_guitar_contact.md``. ``--motion FILE`` also writes, per frame, how far
+the donut moved since the last frame (largest point move, centroid, rotation of the best rigid fit) and the mean of
+its smallest 1 % of collider distances: when it comes to rest (``benchmarks/results/donut_guitar_rest.md``).
 """
 from __future__ import annotations
 
@@ -27,6 +29,7 @@ def main():
     ap.add_argument("--tag", default="")
     ap.add_argument("--frames", type=int, default=30)
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "donut_guitar_contact.md"))
+    ap.add_argument("--motion", default=None, help="also write the per-frame motion table here")
     a = ap.parse_args()
     from gasp_core.prepare.scene import prepare_scene
     from gasp_core.scene.spec import load_scene
@@ -38,7 +41,8 @@ def main():
         setup = prepare_scene(scene).setup
         e = build_engine(engines()[a.engine], setup)
     col, dx = setup.colliders[0], float(setup.dx)
-    gaps, t_sub, loads = [], 0.0, []
+    gaps, t_sub, loads, motion = [], 0.0, [], []
+    x_prev = np.asarray(e.positions(), float)
     for f in range(1, a.frames + 1):
         if 3 <= f <= 8:
             loads.append(os.getloadavg()[0])
@@ -46,6 +50,11 @@ def main():
         e.step_frame()
         if 3 <= f <= 8:
             t_sub += time.perf_counter() - t0
+        if a.motion:
+            x = np.asarray(e.positions(), float)
+            motion.append((f, *frame_motion(x_prev, x, dx), float(np.sort(col.distance(x, f * setup.frame_dt))[
+                :max(1, len(x) // 100)].mean()) / dx))
+            x_prev = x
         if f % 10 == 0:
             x = np.asarray(e.positions(), float)
             d = col.distance(x, f * setup.frame_dt)
@@ -69,6 +78,23 @@ def main():
     with out.open("a") as fh:
         fh.write(line + "\n")
     print(line)
+    if a.motion:
+        Path(a.motion).write_text(
+            f"`python benchmarks/donut_guitar_contact.py --engine {a.engine} --frames {a.frames} --motion ...` "
+            f"({n_sub} substeps a frame, dx = {dx * 1e3:.2f} mm): the donut's motion since the previous frame\n\n"
+            "| frame | largest point move, dx | centroid move, mm | rotation, deg | nearest 1 % to the guitar, dx |\n"
+            "|---:|---:|---:|---:|---:|\n"
+            + "".join(f"| {f} | {m:.3f} | {c * 1e3:.3f} | {r:.3f} | {g:+.3f} |\n" for f, m, c, r, g in motion))
+
+
+def frame_motion(x_prev: np.ndarray, x: np.ndarray, dx: float) -> tuple[float, float, float]:
+    """Largest point move (dx), centroid move (m) and the angle (degrees) of the best rigid rotation (Kabsch)
+    between two frames' points, shape (n, 3)."""
+    c_prev, c = x_prev.mean(axis=0), x.mean(axis=0)
+    u, _, vt = np.linalg.svd((x_prev - c_prev).T @ (x - c))
+    cos = (np.trace(vt.T @ u.T) - 1.0) / 2.0
+    return (float(np.abs(x - x_prev).max()) / dx, float(np.linalg.norm(c - c_prev)),
+            float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))))
 
 
 if __name__ == "__main__":
