@@ -8,6 +8,7 @@ from scipy.special import expit
 
 from gasp_core.errors import SceneError
 from gasp_core.seam.setup import SimSetup, grid_spacing
+from gasp_core.maps.centres import build_centre_frame
 from gasp_core.maps.fill import fill_interior, fill_spacing
 from gasp_core.maps.occupancy import SPLAT_SIGMA
 from gasp_core.prepare.checks import check_kept_floaters, check_resolution
@@ -146,6 +147,11 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
     if outside.any():
         raise SceneError(_outside_message(scene, objects, x, np.concatenate(bodies), outside, lo, hi))
     extras = scene_extras(scene, scenery, x, dx)  # colliders may name static objects
+    for o in objects:   # PhysGaussian's layout: each centre's rest neighbours among its object's carried points
+        if o.spec.surface_points == "centres":
+            rows = np.r_[np.arange(o.vertex_slice.start, o.vertex_slice.stop), np.arange(o.fill_slice.start,
+                                                                                           o.fill_slice.stop)]
+            o.centres = build_centre_frame(x, np.arange(o.vertex_slice.start, o.vertex_slice.stop), rows)
     return SimSetup(
         **extras, x=x, v=v, p_vol=p_vol, body_id=body_id, C=C, passive=passive if passive.any() else None,
         materials=[o.spec.material for o in objects], gravity=np.array(scene.gravity),
