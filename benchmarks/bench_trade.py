@@ -22,6 +22,7 @@ the same keys)::
     full        surface = "material", core_fraction = 1      (every vertex simulated)
     passive     surface = "passive"                          (the fill is the material, vertices advected)
     core0.2     core_fraction = 0.2                          (hierarchy: 20 % of the Gaussians as cores)
+    centres     surface_points = "centres", rebuild = "covariance"  (PhysGaussian's layout: one point per Gaussian)
     ...
 
 Usage::
@@ -108,6 +109,12 @@ VARIANTS: dict[str, tuple[dict, dict, dict]] = {
     "passive_every8_ppc2": ({"surface": "passive"}, {"particles_per_cell": 2}, {"passive_every": 8}),
     "passive_every16_ppc2": ({"surface": "passive"}, {"particles_per_cell": 2}, {"passive_every": 16}),
     "passive_every16_ppc4": ({"surface": "passive"}, {"particles_per_cell": 4}, {"passive_every": 16}),
+    # PhysGaussian's layout (issue 39 item 5): one point per Gaussian, its centre; F from its neighbours'
+    # motion, rebuilt as F Sigma F^T (gasp_core.maps.centres)
+    "centres": ({"surface": "material", "core_fraction": 1.0, "surface_points": "centres", "rebuild": "covariance"},
+                {}, {}),
+    "centres_passive_every8_ppc4": ({"surface": "passive", "surface_points": "centres", "rebuild": "covariance"},
+                                    {"particles_per_cell": 4}, {"passive_every": 8}),
 }
 #: variants that set the scene's top-level ``quality`` key
 QUALITY = {"draft": "draft", "default": "default", "reference": "reference"}
