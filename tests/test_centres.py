@@ -118,6 +118,9 @@ def test_free_fall_rebuilds_the_vertex_layouts_gaussians_from_a_third_of_the_poi
     n = gv.n
     assert rv["n_render_points"] == 3 * n and rc["n_render_points"] == n
     assert rc["objects"][0]["surface_points"] == "centres" and rc["objects"][0]["centres_degenerate"] == 0
+    if surface == "passive":    # massless surface points: the same fill (the same solid) as the vertex layout's
+        assert rc["n_points"] - n == rv["n_points"] - 3 * n
+        assert rc["engine_stats"]["mass"] == pytest.approx(rv["engine_stats"]["mass"], rel=1e-6)
     fall = np.abs(gc.means[:, 2] - read_gaussians(donut_small).means[:, 2]).mean()
     assert 0.015 < fall < 0.03                                  # it did fall: 1/2 g t^2 = 2.2 cm
     assert np.abs(gc.means - gv.means).max() < 1e-5 * 0.3      # same centres (float32 rounding)
