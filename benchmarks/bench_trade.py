@@ -154,6 +154,8 @@ def variant_scene(src: Path, obj_keys: dict, domain_keys: dict, n_frames: int, d
         d = np.asarray(shift, float) * full_domain["dx"]
         domain_keys.update(lo=(np.asarray(full_domain["lo"]) + d).tolist(), hi=(np.asarray(full_domain["hi"]) + d).tolist())
     doc.setdefault("domain", {}).update(domain_keys)
+    if "surface" in obj_keys and "surface_points" not in obj_keys:   # a named surface model: the vertex layout
+        obj_keys = {**obj_keys, "surface_points": "vertices"}        # (the levels carry a passive one by centres)
     for o in doc.get("object", []):
         o["file"] = str((src.parent / o["file"]).resolve())
         o.update(obj_keys)
