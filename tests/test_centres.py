@@ -92,14 +92,12 @@ def test_centre_triangle_rebuilds_F_sigma_F_transpose():
 
 
 def test_scene_key_is_checked(write_scene, donut_small):
-    with pytest.raises(SceneError, match=r"surface_points.*'vertices', 'centres', 'auto'"):
+    with pytest.raises(SceneError, match=r"surface_points.*'vertices', 'centres'"):
         load_scene(write_scene(scene_text(donut_small, extra_object='surface_points = "corners"')))
     with pytest.raises(SceneError, match=r"surface_points = \"centres\".*core_fraction"):
         load_scene(write_scene(scene_text(donut_small, extra_object='surface_points = "centres"\n'
                                                                     'core_fraction = 0.2')))
-    assert load_scene(write_scene(scene_text(donut_small))).objects[0].surface_points == "auto"    # the level's
-    assert load_scene(write_scene(scene_text(donut_small, extra_top='quality = "reference"'))).objects[0] \
-        .surface_points == "vertices"
+    assert load_scene(write_scene(scene_text(donut_small))).objects[0].surface_points == "vertices"
 
 
 @pytest.mark.skipif(__import__("importlib").util.find_spec("gasp_warp_mpm") is None, reason="warp_mpm not installed")
@@ -127,27 +125,3 @@ def test_free_fall_rebuilds_the_vertex_layouts_gaussians_from_a_third_of_the_poi
     assert 0.015 < fall < 0.03                                  # it did fall: 1/2 g t^2 = 2.2 cm
     assert np.abs(gc.means - gv.means).max() < 1e-5 * 0.3      # same centres (float32 rounding)
     assert np.abs(gc.scales - gv.scales).max() < 1e-3 * np.abs(gv.scales).max()
-
-
-@pytest.mark.skipif(__import__("importlib").util.find_spec("gasp_warp_mpm") is None, reason="warp_mpm not installed")
-@pytest.mark.parametrize("keys, level, n_per_gaussian", [
-    ('surface = "passive"', "default", 1), ('surface = "passive"', "draft", 1), ('surface = "material"', "default", 3),
-    ('surface = "passive"', "reference", 3), ('surface = "passive"\nsurface_points = "vertices"', "default", 3),
-    ('surface = "passive"\ncore_fraction = 0.5', "default", None)])
-def test_levels_carry_a_passive_surface_by_its_centres(write_scene, donut_small, keys, level, n_per_gaussian):
-    """``surface_points = "auto"`` (draft, default): centres where the surface is passive, the vertices where it is
-    material, the file's own key wins, and Core Gaussians keep their frames; the fill is the vertex layout's."""
-    from gasp_core.prepare.scene import prepare_scene
-    prep = prepare_scene(load_scene(write_scene(scene_text(donut_small, engine="warp_mpm", engine_options="{}",
-                                                           extra_top=f'quality = "{level}"', extra_object=keys))))
-    o, n = prep.objects[0], prep.objects[0].tri_rest.shape[0]
-    if n_per_gaussian is None:
-        assert o.hierarchy is not None and o.spec.surface_points == "vertices" and o.centres is None
-        return
-    assert prep.setup.n_render == n_per_gaussian * n
-    assert (o.centres is not None) == (n_per_gaussian == 1)
-    if n_per_gaussian == 1:
-        same = prepare_scene(load_scene(write_scene(scene_text(
-            donut_small, engine="warp_mpm", engine_options="{}", extra_top=f'quality = "{level}"',
-            extra_object=keys + '\nsurface_points = "vertices"'), name="v.toml")))
-        assert np.array_equal(prep.setup.x[n:], same.setup.x[3 * n:])      # the same fill, point for point

@@ -28,11 +28,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-#: ``[[object]] surface_points``: the GaMeS triangle's three vertices (the paper's), the Gaussian's centre alone
-#: (PhysGaussian's layout, this module), or ``"auto"`` (what the levels ``draft`` and ``default`` set): centres
-#: where the surface is passive (massless: the same fill and the same physics, a third of the points to carry),
-#: vertices where it is material (:func:`gasp_core.prepare.assembly.build_setup`; docs/paper_tables.md).
-SURFACE_POINTS = ("vertices", "centres", "auto")
+#: ``[[object]] surface_points``: the GaMeS triangle's three vertices (the paper's), or the Gaussian's centre
+#: alone (PhysGaussian's layout, this module).
+SURFACE_POINTS = ("vertices", "centres")
 #: Neighbours per centre in the least-squares fit of ``F``.
 K_NEIGHBOURS = 16
 #: An eigenvalue of ``sum w dX dX^T`` below this times its largest marks an unobserved direction.

@@ -1,7 +1,6 @@
 """Point assembly: every object's simulated triangle vertices and fill points become one :class:`SimSetup`."""
 from __future__ import annotations
 
-import dataclasses
 import warnings
 
 import numpy as np
@@ -114,9 +113,6 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
         check_resolved(o.name, o.tri_rest.reshape(-1, 3), dx, n_grid)
         others = sum(map(len, vertices)) - len(verts) + sum(len(f.fill_x) for _, f in fills)
         fr, passive = fill_object(scene, o, verts, dx, others)
-        if o.spec.surface_points == "auto":   # the levels' choice: centres on a passive surface (same fill, physics)
-            o.spec = dataclasses.replace(o.spec, surface_points="centres" if passive else "vertices")
-            verts = vertices[i] = simulated_triangles(o).reshape(-1, 3)
         o.fill_report = fr.report
         reach = footprints(o)
         for msg in [fr.report.warning] + check_resolution(o.name, np.ptp(reach, axis=0), dx, n_grid, fr.report):

@@ -15,10 +15,6 @@ except ``n_grid``, which a level scales (``grid_factor``) from the file's value.
   3.6 degrees of rotation), so: ``surface = "auto"`` (:mod:`gasp_core.prepare.surface`: passive on filled,
   dissipative bodies, the full model on elastic ones and shells), 4 fill points per cell, the grid velocity
   gathered at passive points every 8th substep (engine option ``passive_every`` where the engine has it).
-  Both levels carry a passive surface by the Gaussians' centres alone (``surface_points = "auto"``, issue 39
-  item 5: the same fill and physics as the triangle vertices, a third of the points to gather; on the sand
-  guitar the same means to the digit and renders 41.4 dB from the reference against 41.7, where the twin's are
-  34.4: docs/speed_accuracy.md, "PhysGaussian's layout").
 * ``reference``: the full model (every triangle vertex simulated as material, no hierarchy, 8 fill
   points per cell) on a grid 1.5 times finer, ``cfl`` 0.2: the run the others are measured against.
 """
@@ -86,10 +82,8 @@ class QualityPreset:
 
 
 PRESETS: dict[str, QualityPreset] = {
-    "draft": QualityPreset({"surface": "passive", "surface_points": "auto"}, {"particles_per_cell": 2}, 1.0,
-                           {"passive_every": 16}),
-    "default": QualityPreset({"surface": "auto", "surface_points": "auto"}, {"particles_per_cell": 4}, 1.0,
-                             {"passive_every": 8}),
+    "draft": QualityPreset({"surface": "passive"}, {"particles_per_cell": 2}, 1.0, {"passive_every": 16}),
+    "default": QualityPreset({"surface": "auto"}, {"particles_per_cell": 4}, 1.0, {"passive_every": 8}),
     "reference": QualityPreset({"surface": "material", "core_fraction": 1.0}, {"particles_per_cell": 8}, 1.5,
                                {"cfl": 0.2}),
 }

@@ -127,9 +127,8 @@ class ObjectSpec:
     surface_points : str
         Which points of a Gaussian the engine moves (:data:`gasp_core.maps.centres.SURFACE_POINTS`): the GaMeS
         triangle's three ``"vertices"`` (the paper's), or its ``"centres"`` alone (PhysGaussian's layout, a
-        third of the points; ``F`` from the neighbours' motion, :mod:`gasp_core.maps.centres`), or ``"auto"``
-        (the levels' choice: centres on a passive surface, else vertices). Centres not with ``core_fraction < 1``
-        or ``mesh`` (``"auto"`` is then vertices).
+        third of the points; ``F`` from the neighbours' motion, :mod:`gasp_core.maps.centres`). Not with
+        ``core_fraction < 1`` or ``mesh``.
     dynamic_time : float or None
         For a dynamic model (``.splatv``): the model time ``s`` at which physics takes over,
         ``G_t = T^-1(phi(psi(V, s), t))`` (paper Sec. 3, dynamic scenes); default 0.
@@ -231,9 +230,7 @@ def _background(o: dict, f: Path, where: str, src: Path) -> str:
 
 def _surface_points(o: dict, mesh, where: str, src: Path) -> str:
     v = read_key(o, "surface_points", as_string, SURFACE_POINTS, default_from=ObjectSpec, where=where, src=src)
-    if v != "vertices" and (mesh is not None or o.get("core_fraction", 1.0) != 1.0):
-        if v == "auto":
-            return "vertices"
+    if v == "centres" and (mesh is not None or o.get("core_fraction", 1.0) != 1.0):
         raise SceneError(f"{src}: {where}.surface_points = \"centres\" moves every Gaussian's own centre; it does "
                          "not combine with core_fraction < 1 (Core Gaussians) or mesh (the mesh's vertices)")
     return v
