@@ -5,7 +5,9 @@
   vertices (``surface = "material"``, ``core_fraction = 1``), Core Gaussians (``core_fraction = 0.2``), the
   passive surface (``surface = "passive"``) and PhysGaussian's covariance update (``rebuild = "covariance"``:
   ``F Sigma F^T`` with each triangle's own ``F``; the core simulates a Gaussian's three triangle vertices, not
-  its centre alone, so this row costs what the full row costs: see ``docs/paper_tables.md``).
+  its centre alone, so this row costs what the full row costs: see ``docs/paper_tables.md``); and PhysGaussian's
+  layout itself (``surface_points = "centres"``: one point per Gaussian, ``F`` from its neighbours' motion,
+  :mod:`gasp_core.maps.centres`), material and passive.
 * ``--table 1`` (image similarity of the rebuild rules): one engine run on the scene's grid and one on a
   coarser grid (``--coarse``), every kept frame rebuilt both ways (``rebuild = "games"``, GASP's, and
   ``"covariance"``); PSNR and SSIM (:mod:`gasp_studies.images`, a fixed orbit of 4 views or the capture's
@@ -48,17 +50,23 @@ TABLE2 = {"full vertices": {"surface": "material", "core_fraction": 1.0},
           "Core Gaussians (core_fraction 0.2)": {"surface": "material", "core_fraction": 0.2},
           "passive surface": {"surface": "passive", "core_fraction": 1.0},
           "PhysGaussian's covariance (rebuild = covariance)": {"surface": "material", "core_fraction": 1.0,
-                                                                 "rebuild": "covariance"}}
+                                                                 "rebuild": "covariance"},
+          "centres (PhysGaussian's layout)": {"surface": "material", "core_fraction": 1.0, "surface_points": "centres",
+                                              "rebuild": "covariance"},
+          "centres, passive": {"surface": "passive", "core_fraction": 1.0, "surface_points": "centres",
+                               "rebuild": "covariance"}}
 ALPHAS = (1.0, 1.5, 2.0, 3.0, 5.0, None)
 
 
-def table2(frames: int, scenes: list[str], work: Path, save=None) -> dict:
-    """Each row of :data:`TABLE2` on each scene, one process after another (ratios from one call); ``save(out)``
-    after every row."""
+def table2(frames: int, scenes: list[str], work: Path, save=None, rows: list[str] | None = None) -> dict:
+    """Each row of :data:`TABLE2` (or those named in ``rows``; "full vertices" always, first) on each scene, one
+    process after another (ratios from one call); ``save(out)`` after every row."""
     out: dict = {}
+    names = list(TABLE2) if not rows else ["full vertices"] + [r for r in rows if r != "full vertices"]
     for sc in scenes:
         out[sc] = {}
-        for name, keys in TABLE2.items():
+        for name in names:
+            keys = TABLE2[name]
             toml = variant_scene(SCENES[sc], keys, {}, frames, work / "s.toml", {"threads": 1})
             print(f"[paper_tables] table 2: {sc}: {name} ...", flush=True)
             rec = run_variant(toml, work / "run", 7200.0)
@@ -201,6 +209,8 @@ def main(argv=None) -> int:
     ap.add_argument("--coarse", type=int, default=48, help="the coarser grid of tables 1 and 4")
     ap.add_argument("--scenes", default="donut,guitar", help="table 2's scenes")
     ap.add_argument("--tag", default="", help="results file suffix (paper_table<N><_tag>)")
+    ap.add_argument("--rows", default="", help="table 2's rows, ';'-separated names of TABLE2 (default: all; "
+                    "'full vertices' always runs first, the speed-ups' base)")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     cmd = "python benchmarks/bench_paper_tables.py " + " ".join(argv if argv is not None else sys.argv[1:])
@@ -216,7 +226,11 @@ def main(argv=None) -> int:
         stem.with_suffix(".md").write_text(markdown(args.table, doc, cmd))
         return doc
     with tempfile.TemporaryDirectory(prefix="gasp_paper_") as tmp:
-        res = (table2(args.frames, args.scenes.split(","), Path(tmp), save) if args.table == 2
+        rows = [r.strip() for r in args.rows.split(";") if r.strip()]
+        bad = [r for r in rows if r not in TABLE2]
+        if bad:
+            ap.error(f"--rows: unknown {bad}; known: {list(TABLE2)}")
+        res = (table2(args.frames, args.scenes.split(","), Path(tmp), save, rows) if args.table == 2
                else table14(args.table, args.frames, args.coarse, Path(tmp)))
     print(markdown(args.table, save(res), cmd))
     return 0

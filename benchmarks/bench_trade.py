@@ -22,6 +22,7 @@ the same keys)::
     full        surface = "material", core_fraction = 1      (every vertex simulated)
     passive     surface = "passive"                          (the fill is the material, vertices advected)
     core0.2     core_fraction = 0.2                          (hierarchy: 20 % of the Gaussians as cores)
+    centres     surface_points = "centres", rebuild = "covariance"  (PhysGaussian's layout: one point per Gaussian)
     ...
 
 Usage::
@@ -112,6 +113,12 @@ VARIANTS: dict[str, tuple[dict, dict, dict]] = {
     "passive_every8_ppc2": ({"surface": "passive"}, {"particles_per_cell": 2}, {"passive_every": 8}),
     "passive_every16_ppc2": ({"surface": "passive"}, {"particles_per_cell": 2}, {"passive_every": 16}),
     "passive_every16_ppc4": ({"surface": "passive"}, {"particles_per_cell": 4}, {"passive_every": 16}),
+    # PhysGaussian's layout (issue 39 item 5): one point per Gaussian, its centre; F from its neighbours'
+    # motion, rebuilt as F Sigma F^T (gasp_core.maps.centres)
+    "centres": ({"surface": "material", "core_fraction": 1.0, "surface_points": "centres", "rebuild": "covariance"},
+                {}, {}),
+    "centres_passive_every8_ppc4": ({"surface": "passive", "surface_points": "centres", "rebuild": "covariance"},
+                                    {"particles_per_cell": 4}, {"passive_every": 8}),
 }
 #: variants that set the scene's top-level ``quality`` key
 QUALITY = {"draft": "draft", "default": "default", "reference": "reference", "draft_cfl0.4": "draft"}
@@ -151,6 +158,8 @@ def variant_scene(src: Path, obj_keys: dict, domain_keys: dict, n_frames: int, d
         d = np.asarray(shift, float) * full_domain["dx"]
         domain_keys.update(lo=(np.asarray(full_domain["lo"]) + d).tolist(), hi=(np.asarray(full_domain["hi"]) + d).tolist())
     doc.setdefault("domain", {}).update(domain_keys)
+    if "surface" in obj_keys and "surface_points" not in obj_keys:   # a named surface model: the vertex layout
+        obj_keys = {**obj_keys, "surface_points": "vertices"}        # (the levels carry a passive one by centres)
     for o in doc.get("object", []):
         o["file"] = str((src.parent / o["file"]).resolve())
         o.update(obj_keys)

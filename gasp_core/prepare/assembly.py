@@ -8,6 +8,7 @@ from scipy.special import expit
 
 from gasp_core.errors import SceneError
 from gasp_core.seam.setup import SimSetup, grid_spacing
+from gasp_core.maps.centres import build_centre_frame
 from gasp_core.maps.fill import fill_interior, fill_spacing
 from gasp_core.maps.occupancy import SPLAT_SIGMA
 from gasp_core.prepare.checks import check_kept_floaters, check_resolution
@@ -120,7 +121,7 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
         o.vertex_slice = slice(start, start + len(verts))
         start += len(verts)
         xs.append(verts)
-        vols.append(fr.p_vol_surface)
+        vols.append(np.zeros(len(verts)) if passive else fr.p_vol_surface)
         bodies.append(np.full(len(verts), i))
         vels.append(vertex_velocities(o, scene.frame_dt) if o.spec.velocity_from_model
                     else np.broadcast_to(o.spec.velocity, verts.shape))
@@ -146,6 +147,11 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
     if outside.any():
         raise SceneError(_outside_message(scene, objects, x, np.concatenate(bodies), outside, lo, hi))
     extras = scene_extras(scene, scenery, x, dx)  # colliders may name static objects
+    for o in objects:   # PhysGaussian's layout: each centre's rest neighbours among its object's carried points
+        if o.spec.surface_points == "centres":
+            rows = np.r_[np.arange(o.vertex_slice.start, o.vertex_slice.stop), np.arange(o.fill_slice.start,
+                                                                                           o.fill_slice.stop)]
+            o.centres = build_centre_frame(x, np.arange(o.vertex_slice.start, o.vertex_slice.stop), rows)
     return SimSetup(
         **extras, x=x, v=v, p_vol=p_vol, body_id=body_id, C=C, passive=passive if passive.any() else None,
         materials=[o.spec.material for o in objects], gravity=np.array(scene.gravity),
@@ -175,7 +181,9 @@ def fill_object(scene: Scene, o: PreparedObject, verts: np.ndarray, dx: float, o
     h = fill_spacing(dx, ppc, o.spec.core_fraction)
     opaque = expit(o.simulated_rows(o.gaussians.opacities).astype(np.float64)) >= o.spec.min_opacity
     passive = o.spec.surface == "passive" or (o.spec.surface == "auto" and o.spec.material.name not in ELASTIC)
-    fr = fill_interior(verts, h, splats=o.tri_rest[opaque], fill=o.spec.fill, name=o.name,
+    # a passive surface carries no mass: its fill is the vertex layout's whichever points it hands the engine
+    own = o.tri_rest.reshape(-1, 3) if passive and o.spec.surface_points == "centres" else verts
+    fr = fill_interior(own, h, splats=o.tri_rest[opaque], fill=o.spec.fill, name=o.name,
                        if_open=o.spec.if_open, surface_mass=not passive, check_points=check_points)
     if o.spec.surface == "auto":
         was_passive = passive

@@ -30,7 +30,8 @@ def vertex_velocities(o: PreparedObject, frame_dt: float) -> np.ndarray:
     """Velocities of the object's simulated surface points from its dynamic model, m/s, shape (k, 3).
 
     The rows match :func:`gasp_core.prepare.placement.simulated_triangles` reshaped to (k, 3): the
-    triangle vertices of the simulated Gaussians, or the Core Gaussians' four points.
+    triangle vertices of the simulated Gaussians, their centres alone (``surface_points = "centres"``), or the
+    Core Gaussians' four points.
 
     Raises
     ------
@@ -43,6 +44,8 @@ def vertex_velocities(o: PreparedObject, frame_dt: float) -> np.ndarray:
     if o.moving is not None:
         tri1 = tri1[o.moving]
     v = (tri1 - o.tri_rest) / frame_dt                                    # (n, 3, 3)
+    if o.spec.surface_points == "centres":
+        return v[:, 0]
     if o.hierarchy is None:
         return v.reshape(-1, 3)
     h = o.hierarchy

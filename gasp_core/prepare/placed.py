@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gasp_core.gs.gaussians import Gaussians
+from gasp_core.maps.centres import CentreFrame
 from gasp_core.maps.fill import FillReport
 from gasp_core.maps.games import FlattenReport
 from gasp_core.maps.hierarchy import Hierarchy
@@ -95,6 +96,10 @@ class PreparedObject:
     binding : MeshBinding or None
         Mesh mode (``spec.mesh``): the simulated rows bound to the faces of the mesh, whose vertices
         the engine moves (:mod:`gasp_core.prepare.mesh`).
+    centres : CentreFrame or None
+        ``surface_points = "centres"``: the centres' rest neighbourhoods, set once the setup is built
+        (:func:`gasp_core.maps.centres.build_centre_frame`); the rows of ``vertex_slice`` are then one centre
+        per Gaussian.
     """
 
     spec: ObjectSpec
@@ -116,6 +121,7 @@ class PreparedObject:
     body_model: dict | None = None
     n_floaters: int = 0
     binding: MeshBinding | None = None
+    centres: CentreFrame | None = None
 
     def simulated_rows(self, a: np.ndarray) -> np.ndarray:
         """The rows of a per-Gaussian array ``a`` (shape (n, ...)) that are simulated."""

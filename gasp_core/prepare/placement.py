@@ -116,7 +116,10 @@ def drop_floaters(spec: ObjectSpec, g: Gaussians, tri: np.ndarray, floating: np.
 
 def simulated_triangles(o: PreparedObject) -> np.ndarray:
     """The triangles (or, with a hierarchy, the cores' 4-point frames; in mesh mode, the mesh's vertices, shape
-    (nv, 3)) whose vertices the engine moves."""
+    (nv, 3); with ``surface_points = "centres"``, each Gaussian's centre alone, shape (n, 1, 3)) whose vertices the
+    engine moves."""
+    if o.spec.surface_points == "centres":
+        return o.tri_rest[:, :1]
     if o.binding is not None:
         return o.binding.vertices
     return o.tri_rest if o.hierarchy is None else o.hierarchy.core_points

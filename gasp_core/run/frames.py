@@ -6,6 +6,7 @@ from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
+from gasp_core.maps.centres import centre_triangles
 from gasp_core.maps.games import (alpha_rule, EPS, limit_edges, triangles_to_gaussians,
                                   triangles_to_gaussians_covariance)
 from gasp_core.gs.gaussians import Gaussians, rotmat_to_quat
@@ -59,7 +60,9 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray,
         g = o.gaussians if t is None else background_at(o, o.gaussians, t)
         return g, prev_rot, {"degenerate": 0, "clamped": 0}
     tri = x[o.vertex_slice]
-    if o.binding is not None:           # mesh mode: the Gaussians follow their moved faces
+    if o.centres is not None:           # PhysGaussian's layout: the centre and F from its neighbours
+        tri = centre_triangles(o.centres, x, o.tri_rest)
+    elif o.binding is not None:           # mesh mode: the Gaussians follow their moved faces
         tri = bound_triangles(o.binding, tri)
     else:
         tri = tri.reshape(-1, 3, 3) if o.hierarchy is None else sub_triangles(o.hierarchy, tri)

@@ -100,6 +100,8 @@ def _object_record(o, name: str, boundaries=()) -> dict:
         "mass": s.material.rho * o.fill_report.volume if o.fill_report else None,
         "core_fraction": s.core_fraction,
         "surface": (o.surface_rule or {}).get("surface", s.surface), "surface_rule": o.surface_rule,
+        "surface_points": s.surface_points,
+        "centres_degenerate": None if o.centres is None else o.centres.n_degenerate,
         "model": o.body_model,
         "n_simulated_gaussians": len(simulated_triangles(o)) if o.binding is None else len(o.binding.face_of),
         "mesh": None if o.binding is None else o.binding.report,

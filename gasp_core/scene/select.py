@@ -13,7 +13,7 @@ from gasp_core.scene.values import (MAX_COORD, as_boolean, as_number, as_string,
 
 #: Object keys that only matter when the object is simulated: refused beside ``static = true``.
 _SIMULATION_KEYS = ("material", "select", "velocity", "angular_velocity", "fill", "alpha", "rebuild", "thickness",
-                    "core_fraction", "if_open")
+                    "core_fraction", "if_open", "surface_points")
 
 #: Kinds of ``select`` region, one per ``select`` table.
 SELECT_KINDS = ("box", "sphere", "indices", "mask", "file")

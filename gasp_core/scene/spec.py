@@ -51,6 +51,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 from gasp_core.errors import SceneError
+from gasp_core.maps.centres import SURFACE_POINTS
 from gasp_core.maps.games import REBUILDS
 from gasp_core.gs.registry import is_dynamic
 from gasp_core.scene.extras import read_extras
@@ -123,6 +124,11 @@ class ObjectSpec:
         ``"material"``: the triangle vertices are material points sharing the solid's volume
         with the fill. ``"passive"``: they carry no mass and follow the material (the fill alone
         is the solid; :mod:`gasp_core.seam.passive`, ``SimSetup.passive``).
+    surface_points : str
+        Which points of a Gaussian the engine moves (:data:`gasp_core.maps.centres.SURFACE_POINTS`): the GaMeS
+        triangle's three ``"vertices"`` (the paper's), or its ``"centres"`` alone (PhysGaussian's layout, a
+        third of the points; ``F`` from the neighbours' motion, :mod:`gasp_core.maps.centres`). Not with
+        ``core_fraction < 1`` or ``mesh``.
     dynamic_time : float or None
         For a dynamic model (``.splatv``): the model time ``s`` at which physics takes over,
         ``G_t = T^-1(phi(psi(V, s), t))`` (paper Sec. 3, dynamic scenes); default 0.
@@ -170,6 +176,7 @@ class ObjectSpec:
     if_open: str = "warn"
     dynamic_time: float | None = None
     surface: str = "material"
+    surface_points: str = "vertices"
     select: SelectSpec | None = None
     static: bool = False
     keep_floaters: bool = False
@@ -221,6 +228,14 @@ def _background(o: dict, f: Path, where: str, src: Path) -> str:
     return read_key(o, "background", as_string, ("model", "frozen"), default_from=ObjectSpec, where=where, src=src)
 
 
+def _surface_points(o: dict, mesh, where: str, src: Path) -> str:
+    v = read_key(o, "surface_points", as_string, SURFACE_POINTS, default_from=ObjectSpec, where=where, src=src)
+    if v == "centres" and (mesh is not None or o.get("core_fraction", 1.0) != 1.0):
+        raise SceneError(f"{src}: {where}.surface_points = \"centres\" moves every Gaussian's own centre; it does "
+                         "not combine with core_fraction < 1 (Core Gaussians) or mesh (the mesh's vertices)")
+    return v
+
+
 def _object(o: dict, where: str, src: Path) -> ObjectSpec:
     check_keys(o, _OBJECT_KEYS, where, src)
     mesh = read_mesh(o, where, src)
@@ -260,6 +275,7 @@ def _object(o: dict, where: str, src: Path) -> ObjectSpec:
         core_fraction=get("core_fraction", as_number, 0.0, 1.0, lo_open=True),
         if_open=get("if_open", as_string, ("warn", "error")),
         surface=get("surface", as_string, SURFACES),
+        surface_points=_surface_points(o, mesh, where, src),
         dynamic_time=_dynamic_time(o, f, where, src),
         select=read_select(o["select"], f"{where}.select", src) if "select" in o else None,
         static=read_static(o, where, src),
