@@ -92,12 +92,31 @@ def test_centre_triangle_rebuilds_F_sigma_F_transpose():
 
 
 def test_scene_key_is_checked(write_scene, donut_small):
-    with pytest.raises(SceneError, match=r"surface_points.*'vertices', 'centres'"):
+    with pytest.raises(SceneError, match=r"surface_points.*'vertices', 'centres', 'auto'"):
         load_scene(write_scene(scene_text(donut_small, extra_object='surface_points = "corners"')))
     with pytest.raises(SceneError, match=r"surface_points = \"centres\".*core_fraction"):
         load_scene(write_scene(scene_text(donut_small, extra_object='surface_points = "centres"\n'
                                                                     'core_fraction = 0.2')))
-    assert load_scene(write_scene(scene_text(donut_small))).objects[0].surface_points == "vertices"
+    assert load_scene(write_scene(scene_text(donut_small)), quality="reference").objects[0].surface_points \
+        == "vertices"
+
+
+def test_auto_takes_centres_only_where_the_trade_picked_them(write_scene, donut_small):
+    """The levels' ``surface_points = "auto"``: centres on an elastic body with a material surface (the README
+    donut's trade, docs/speed_accuracy.md), vertices on a passive surface, with Core Gaussians, or another
+    material."""
+    import dataclasses
+    from gasp_core.prepare.surface import choose_surface_points
+    spec = load_scene(write_scene(scene_text(donut_small)), quality="default").objects[0]
+    assert spec.surface_points == "auto" and spec.material.name == "jelly"
+    assert choose_surface_points(spec).surface_points == "centres"
+    assert choose_surface_points(dataclasses.replace(spec, surface="material")).surface_points == "centres"
+    for changed in ({"surface": "passive"}, {"core_fraction": 0.5},
+                    {"material": dataclasses.replace(spec.material, name="sand")}):
+        assert choose_surface_points(dataclasses.replace(spec, **changed)).surface_points == "vertices", changed
+    draft = load_scene(write_scene(scene_text(donut_small)), quality="draft").objects[0]
+    assert choose_surface_points(draft).surface_points == "vertices"      # draft's surface is passive
+    assert choose_surface_points(dataclasses.replace(spec, surface_points="vertices")).surface_points == "vertices"
 
 
 @pytest.mark.skipif(__import__("importlib").util.find_spec("gasp_warp_mpm") is None, reason="warp_mpm not installed")
@@ -108,7 +127,9 @@ def test_free_fall_rebuilds_the_vertex_layouts_gaussians_from_a_third_of_the_poi
     from gasp_core.run.pipeline import simulate_scene
     out = {}
     for pts in ("vertices", "centres"):
-        scene = write_scene(scene_text(donut_small, n_frames=2, n_grid=16, engine="warp_mpm", engine_options="{}",
+        # one step for both layouts (the contact's stable step depends on the points' spacing)
+        scene = write_scene(scene_text(donut_small, n_frames=2, n_grid=16, engine="warp_mpm",
+                                       engine_options="{ n_substeps = 40 }",
                                        extra_object=f'surface_points = "{pts}"\nsurface = "{surface}"\n'
                                                     'rebuild = "covariance"'), name=f"{pts}.toml")
         simulate_scene(load_scene(scene), tmp_path / pts)

@@ -36,7 +36,7 @@ def test_a_scene_gets_the_declared_defaults(donut_small, tmp_path):
     o = scene.objects[0]
     assert o.material == Material()
     for f in dataclasses.fields(ObjectSpec):
-        if f.name not in {"file", "material", "dynamic_time", "surface"}:   # the quality level sets surface
+        if f.name not in {"file", "material", "dynamic_time", "surface", "surface_points"}:   # the level sets them
             assert getattr(o, f.name) == getattr(ObjectSpec, f.name, None), f.name
     assert (scene.gravity, scene.frame_dt, scene.n_frames) == (Scene.gravity, Scene.frame_dt, Scene.n_frames)
 

@@ -28,9 +28,11 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-#: ``[[object]] surface_points``: the GaMeS triangle's three vertices (the paper's), or the Gaussian's centre
-#: alone (PhysGaussian's layout, this module).
-SURFACE_POINTS = ("vertices", "centres")
+#: ``[[object]] surface_points``: the GaMeS triangle's three vertices (the paper's), the Gaussian's centre alone
+#: (PhysGaussian's layout, this module), or ``"auto"`` (the levels ``draft`` and ``default``): centres on an
+#: elastic body whose surface is simulated as material, where the trade's rule picks them, else vertices
+#: (:func:`gasp_core.prepare.surface.choose_surface_points`; docs/speed_accuracy.md, "PhysGaussian's layout").
+SURFACE_POINTS = ("vertices", "centres", "auto")
 #: Neighbours per centre in the least-squares fit of ``F``.
 K_NEIGHBOURS = 16
 #: An eigenvalue of ``sum w dX dX^T`` below this times its largest marks an unobserved direction.

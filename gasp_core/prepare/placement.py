@@ -22,6 +22,7 @@ from gasp_core.prepare.mesh import bind_object, laid_gaussians
 from gasp_core.prepare.placed import UP_ROTATIONS, Placement, PreparedObject, euler_matrix
 from gasp_core.scene.spec import ObjectSpec
 from gasp_core.prepare.selection import flat_world, moving_rows
+from gasp_core.prepare.surface import choose_surface_points
 
 #: Re-exported: the records live in :mod:`gasp_core.prepare.placed` (callers import them from either).
 __all__ = ["UP_ROTATIONS", "euler_matrix", "Placement", "PreparedObject", "place", "load_gaussians",
@@ -73,6 +74,7 @@ def prepare_object(spec: ObjectSpec, g: Gaussians | None = None) -> PreparedObje
         From reading the file (see :func:`load_gaussians`), or from
         :func:`gasp_core.prepare.checks.check_object` (no Gaussians, placed beyond the float32 limits).
     """
+    spec = choose_surface_points(spec)   # the levels' surface_points = "auto"
     g = load_gaussians(spec) if g is None else g
     check_object(spec, g)
     # floaters of a whole object are found in the file frame (the rule is scale and rotation free), so that

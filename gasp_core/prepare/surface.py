@@ -17,6 +17,8 @@ across). The rule's inputs and its choice are recorded per object in ``run.json`
 """
 from __future__ import annotations
 
+import dataclasses
+
 from gasp_core.maps.fill import FillResult
 
 #: the least solid, in grid cells, that passive surface points may ride on
@@ -59,3 +61,22 @@ def surface_rule(fill_on: bool, n_vertices: int, fr: FillResult, dx: float,
         "material": material,
         "rule": f"passive when the material is not elastic ({', '.join(ELASTIC)}), the fill is on, the footprints "
                 f"enclose a volume and the solid spans at least {MIN_SOLID_CELLS} grid cells; else material"}
+
+
+def choose_surface_points(spec):
+    """``spec`` (an :class:`gasp_core.scene.spec.ObjectSpec`) with ``surface_points = "auto"`` resolved.
+
+    ``"centres"`` (PhysGaussian's layout, :mod:`gasp_core.maps.centres`) where the trade's rule picks it: an
+    elastic body (:data:`ELASTIC`) whose surface is simulated as material (``surface`` ``"material"``, or
+    ``"auto"``, which keeps elastic bodies' surfaces material), all of its Gaussians simulated
+    (``core_fraction = 1``) and no ``mesh``. Measured on the README donut (12 frames, against the full vertex
+    model at ``cfl = 0.4``): 0.33 U of shape, every event in its band, renders 33.3 dB from the reference's
+    against the twin's 28.6, 1.5x less CPU. Elsewhere ``"vertices"``: on a passive surface the centres give the
+    same means and cost more (the sand guitar: 0.87x), and no other material was measured. Any other value is
+    returned unchanged.
+    """
+    if spec.surface_points != "auto":
+        return spec
+    centres = (spec.mesh is None and not spec.static and spec.core_fraction == 1.0
+               and spec.surface in ("auto", "material") and spec.material.name in ELASTIC)
+    return dataclasses.replace(spec, surface_points="centres" if centres else "vertices")

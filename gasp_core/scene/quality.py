@@ -15,7 +15,9 @@ except ``n_grid``, which a level scales (``grid_factor``) from the file's value.
   3.6 degrees of rotation), so: ``surface = "auto"`` (:mod:`gasp_core.prepare.surface`: passive on filled,
   dissipative bodies, the full model on elastic ones and shells), 4 fill points per cell, the grid velocity
   gathered at passive points every 8th substep (engine option ``passive_every`` where the engine has it),
-  ``cfl`` 0.8 (the engines' own default is 0.4): on the README donut the longer step moves the full model by
+  the Gaussians' centres alone on elastic bodies (``surface_points = "auto"``: PhysGaussian's layout where the
+  trade picks it; on the README donut's 36 frames 0.76 U of shape, every event in its band, 2.04x less CPU with the
+  step below, docs/speed_accuracy.md, "PhysGaussian's layout"), ``cfl`` 0.8 (the engines' own default is 0.4): on the README donut the longer step moves the full model by
   0.05 U of shape and costs 0.66x the CPU time (94 substeps a frame instead of 121, the contact's stable step
   binding first; docs/speed_accuracy.md, "The time step").
 * ``reference``: the full model (every triangle vertex simulated as material, no hierarchy, 8 fill
@@ -84,9 +86,14 @@ class QualityPreset:
     options: dict[str, Any] = field(default_factory=dict)
 
 
+#: A level's object keys that a static object does not take (the scene reader refuses them beside ``static``).
+STATIC_SKIPS = ("surface_points",)
+
 PRESETS: dict[str, QualityPreset] = {
-    "draft": QualityPreset({"surface": "passive"}, {"particles_per_cell": 2}, 1.0, {"passive_every": 16, "cfl": 0.8}),
-    "default": QualityPreset({"surface": "auto"}, {"particles_per_cell": 4}, 1.0, {"passive_every": 8, "cfl": 0.8}),
+    "draft": QualityPreset({"surface": "passive", "surface_points": "auto"}, {"particles_per_cell": 2}, 1.0,
+                           {"passive_every": 16, "cfl": 0.8}),
+    "default": QualityPreset({"surface": "auto", "surface_points": "auto"}, {"particles_per_cell": 4}, 1.0,
+                             {"passive_every": 8, "cfl": 0.8}),
     "reference": QualityPreset({"surface": "material", "core_fraction": 1.0}, {"particles_per_cell": 8}, 1.5,
                                {"cfl": 0.2}),
 }
@@ -123,7 +130,9 @@ def apply_quality(data: dict, level: str) -> dict:
         out["domain"] = dom
     objs = out.get("object")
     if isinstance(objs, list):
-        out["object"] = [{**preset.objects, **o} if isinstance(o, dict) else o for o in objs]
+        out["object"] = [{**{k: v for k, v in preset.objects.items() if not (o.get("static") is True and k in
+                                                                              STATIC_SKIPS)}, **o}
+                         if isinstance(o, dict) else o for o in objs]
     return out
 
 

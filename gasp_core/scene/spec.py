@@ -127,7 +127,9 @@ class ObjectSpec:
     surface_points : str
         Which points of a Gaussian the engine moves (:data:`gasp_core.maps.centres.SURFACE_POINTS`): the GaMeS
         triangle's three ``"vertices"`` (the paper's), or its ``"centres"`` alone (PhysGaussian's layout, a
-        third of the points; ``F`` from the neighbours' motion, :mod:`gasp_core.maps.centres`). Not with
+        third of the points; ``F`` from the neighbours' motion, :mod:`gasp_core.maps.centres`), or ``"auto"``
+        (what the levels ``draft`` and ``default`` set: centres on elastic bodies with a material surface,
+        else vertices; :func:`gasp_core.prepare.surface.choose_surface_points`). Centres not with
         ``core_fraction < 1`` or ``mesh``.
     dynamic_time : float or None
         For a dynamic model (``.splatv``): the model time ``s`` at which physics takes over,
@@ -230,7 +232,7 @@ def _background(o: dict, f: Path, where: str, src: Path) -> str:
 
 def _surface_points(o: dict, mesh, where: str, src: Path) -> str:
     v = read_key(o, "surface_points", as_string, SURFACE_POINTS, default_from=ObjectSpec, where=where, src=src)
-    if v == "centres" and (mesh is not None or o.get("core_fraction", 1.0) != 1.0):
+    if v == "centres" and (mesh is not None or o.get("core_fraction", 1.0) != 1.0):   # "auto": vertices there
         raise SceneError(f"{src}: {where}.surface_points = \"centres\" moves every Gaussian's own centre; it does "
                          "not combine with core_fraction < 1 (Core Gaussians) or mesh (the mesh's vertices)")
     return v
