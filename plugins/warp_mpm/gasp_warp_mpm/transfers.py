@@ -142,12 +142,13 @@ def build_p2g(Ft):
         grid_fb: wp.array(dtype=Ft),
         grid_eta: wp.array(dtype=Ft), shift: wp.array2d(dtype=wp.float64), grid_fbody: wp.array(dtype=wp.int32),
         ex: Extras, colc: int, n_sup: int, grid_fn: wp.array(dtype=vec3), grid_fv: wp.array(dtype=vec3),
+        grid_mf: wp.array(dtype=Ft), flows: wp.array(dtype=wp.int32),
     ):
         # F advanced by C, return mapping and stress (docs/mpm.md), then the scatter (and, with wind, grid_g;
         # with flip, the APIC momentum alone into grid_mv0: gasp_core.toolkit.transfer); with the particle
         # contact (planes: grounds and walls; colc: the colliders too), the normal impulses join the momentum and their
         # friction budget goes to grid_fb (with walls or colliders its normal to grid_fn, supports' velocity to grid_fv;
-        # :mod:`gasp_warp_mpm.contact`)
+        # :mod:`gasp_warp_mpm.contact`); with the contact chosen per body the flowing bodies' (flows[b]) mass to grid_mf
         p = wp.tid()
         X = (x[p] - lo) * inv_dx
         if not in_grid(X, n_grid):
@@ -179,6 +180,9 @@ def build_p2g(Ft):
                     scatter_vec(grid_fn, idx0, n_grid, W, fn)
                     scatter_vec(grid_fv, idx0, n_grid, W, fv)
         scatter(grid_mv, idx0, n_grid, W, mom0, A, pm)
+        if grid_mf.shape[0] > 1:
+            if flows[body[p]] != 0:
+                scatter_scalar(grid_mf, idx0, n_grid, W, pm)
         if flip != 0:
             A0 = (dx * pm) * Cp
             scatter(grid_mv0, idx0, n_grid, W, pm * v[p] - A0 * fx, A0, pm)
