@@ -27,7 +27,7 @@ from gasp_core.seam.plugins import get_engine
 from gasp_core.seam.setup import Boundary, Material, SimSetup
 from gasp_core.testing.helpers import box_points, sphere_points
 from gasp_core.testing.kit import run_trace
-from gasp_core.toolkit.contact import contact_model
+from gasp_core.toolkit.contact import contact_coefficients, contact_dt, contact_model
 
 N_GRID, SIDE = 32, 0.6
 DX = SIDE / N_GRID
@@ -99,6 +99,15 @@ def test_auto_chooses_the_contact_per_body():
     assert contact_model(mixed_setup(sand=False)) == "particle"
     assert contact_model(mixed_setup(ball=False)) == "grid"
     assert contact_model(mixed_setup(contact="grid")) == "grid"
+
+
+def test_the_flowing_bodies_get_no_penalty_and_set_no_contact_step():
+    setup = mixed_setup()
+    kcs, sand = contact_coefficients(setup), np.asarray(setup.body_id) == 1
+    assert np.all(kcs[sand, :2] == 0.0) and np.all(kcs[~sand, :2] > 0.0)
+    assert contact_dt(setup) == contact_dt(mixed_setup(sand=False))     # the ball's step alone
+    assert contact_dt(mixed_setup(contact="particle")) < contact_dt(setup)   # the sand's stiffer penalty, if it had one
+    assert np.array_equal(contact_coefficients(mixed_setup(contact="particle"))[~sand], kcs[~sand])
 
 
 @pytest.mark.slow

@@ -1,6 +1,7 @@
 """The particle contact of the grid (MPM) engines (engine option ``contact``, ``docs/contact.md``).
 
-``contact = "particle"`` (the default). Each point carries a contact skin ``s_p = SKIN h_p`` (``h_p =
+``contact = "particle"`` (under the default ``"auto"``: every body whose material does not flow, :func:`contact_model`;
+the flowing ones take the grid rule in the same scene, :func:`rule_models`). Each point carries a contact skin ``s_p = SKIN h_p`` (``h_p =
 p_vol^(1/3)``, its spacing: the body's surface lies about half a spacing beyond its outer points). A ground
 plane at height ``H`` with its normal ``+z`` is in contact with the point when ``depth = H + s_p - z > 0``; in
 P2G the point's momentum then gains the normal impulse
