@@ -75,6 +75,23 @@ class GridUpdate:
         n[d] = sign
         return self.collide(v, n, mu_b)
 
+    @ti.func
+    def boundary_rules(self, I, v, f):
+        """The walls' and grounds' grid rule at node ``I`` on ``v`` (:func:`node_ranges`; with the contact chosen per
+        body by the node's flowing-mass fraction ``f`` where only the grid contact's rule reaches, :meth:`Contact.rule`)."""
+        for b in ti.static(range(self.n_walls)):
+            mu_b = self.wall_fric[b]
+            hi_first = self.wall_hi_first[b]
+            for d in ti.static(range(3)):
+                if I[d] < self.wall_lo_first[b][d]:
+                    v = self.rule(v, self.axis_friction(v, d, 1.0, mu_b), I[d] >= self.wall_lo_full[b][d], f)
+                if I[d] >= hi_first[d]:
+                    v = self.rule(v, self.axis_friction(v, d, -1.0, mu_b), I[d] < self.wall_hi_full[b][d], f)
+        for b in ti.static(range(self.n_grounds)):
+            if I[2] <= self.ground_kmax[b]:
+                v = self.rule(v, self.axis_friction(v, 2, 1.0, self.ground_fric[b]), I[2] > self.ground_kfull[b], f)
+        return v
+
     @ti.kernel
     def grid_update(self):
         """Sum the copies over the touched box, clear them, velocity + gravity + boundaries -> grid_v."""
@@ -126,18 +143,7 @@ class GridUpdate:
                 v = ti.Vector([acc[0], acc[1], acc[2]]) / acc[3] + self.dt[None] * self.gravity[None]
                 if ti.static(self.has_extras):
                     v = self.extras(I, v, acc[3], gsurf, f)
-                for b in ti.static(range(self.n_walls)):
-                    mu_b = self.wall_fric[b]
-                    hi_first = self.wall_hi_first[b]
-                    for d in ti.static(range(3)):
-                        if I[d] < self.wall_lo_first[b][d]:
-                            v = self.rule(v, self.axis_friction(v, d, 1.0, mu_b), I[d] >= self.wall_lo_full[b][d], f)
-                        if I[d] >= hi_first[d]:
-                            v = self.rule(v, self.axis_friction(v, d, -1.0, mu_b), I[d] < self.wall_hi_full[b][d], f)
-                for b in ti.static(range(self.n_grounds)):
-                    if I[2] <= self.ground_kmax[b]:
-                        v = self.rule(v, self.axis_friction(v, 2, 1.0, self.ground_fric[b]), I[2] > self.ground_kfull[b],
-                                      f)
+                v = self.boundary_rules(I, v, f)
                 if ti.static(self.pc):   # the particle contact's Coulomb friction (its budget: the last channel;
                     v_in = v             # with walls or colliders relative to the supports, normal to them: grid_fnv)
                     if ti.static(self.nfric):

@@ -75,11 +75,53 @@ def build_contact_friction(Ft):
 
 
 @functools.cache
-def build_grid_update(Ft):
-    """The grid-update kernel ``grid_update`` of scalar type ``Ft``: node velocity, gravity, extras, boundaries."""
+def build_boundary_rules(Ft):
+    """``boundary_rules(vel, X, k, lo, hi, dx, wall_in, wall_full, wall_mu, ground, f)``, scalar type ``Ft``: the
+    walls' and grounds' grid rule on a node's velocity (nodes within ``wall_in`` cells of a face, layers ``k <=
+    ground[g][0]``; with the contact chosen per body by the node's flowing-mass fraction ``f`` beyond ``wall_full``
+    cells and above layer ``ground[g][2]``, ``colliders.build_blend``)."""
     vec3, vec4, mat33 = build_types(Ft)
     collide = build_collide(Ft)
     blend_rule = build_blend(Ft)
+
+    @wp.func
+    def boundary_rules(vel_in: vec3, X: vec3, k: int, lo: vec3, hi: vec3, dx: Ft, wall_in: Ft, wall_full: Ft,
+                       wall_mu: wp.array(dtype=Ft), ground: wp.array(dtype=vec3), f: Ft):
+        vel = vel_in
+        for w in range(wall_mu.shape[0]):
+            mu_b = wall_mu[w]
+            for d in range(3):
+                if X[d] < lo[d] + wall_in * dx:
+                    n = vec3(Ft(0.0))
+                    n[d] = Ft(1.0)
+                    wt = Ft(1.0)
+                    if X[d] >= lo[d] + wall_full * dx:
+                        wt = f
+                    vel = blend_rule(vel, collide(vel, n, mu_b), wt)
+                if X[d] > hi[d] - wall_in * dx:
+                    n = vec3(Ft(0.0))
+                    n[d] = Ft(-1.0)
+                    wt = Ft(1.0)
+                    if X[d] <= hi[d] - wall_full * dx:
+                        wt = f
+                    vel = blend_rule(vel, collide(vel, n, mu_b), wt)
+        for q in range(ground.shape[0]):
+            gr = ground[q]
+            if Ft(k) <= gr[0]:  # node layer k at or below the ground's top layer (exact small integers)
+                wt = Ft(1.0)
+                if Ft(k) > gr[2]:
+                    wt = f
+                vel = blend_rule(vel, collide(vel, vec3(Ft(0.0), Ft(0.0), Ft(1.0)), gr[1]), wt)
+        return vel
+
+    return boundary_rules
+
+
+@functools.cache
+def build_grid_update(Ft):
+    """The grid-update kernel ``grid_update`` of scalar type ``Ft``: node velocity, gravity, extras, boundaries."""
+    vec3, vec4, mat33 = build_types(Ft)
+    boundary_rules = build_boundary_rules(Ft)
     Extras, extras = build_extras(Ft)
     balance_node = build_balance(Ft)[2]
     contact_friction, clear_contact = build_contact_friction(Ft)
@@ -123,30 +165,7 @@ def build_grid_update(Ft):
                 if has_wind != 0:
                     gsurf = grid_g[node]
                 vel = extras(vel, X, dt, m, gsurf, ex, f)
-            for w in range(wall_mu.shape[0]):
-                mu_b = wall_mu[w]
-                for d in range(3):
-                    if X[d] < lo[d] + wall_in * dx:
-                        n = vec3(Ft(0.0))
-                        n[d] = Ft(1.0)
-                        wt = Ft(1.0)
-                        if X[d] >= lo[d] + wall_full * dx:
-                            wt = f
-                        vel = blend_rule(vel, collide(vel, n, mu_b), wt)
-                    if X[d] > hi[d] - wall_in * dx:
-                        n = vec3(Ft(0.0))
-                        n[d] = Ft(-1.0)
-                        wt = Ft(1.0)
-                        if X[d] <= hi[d] - wall_full * dx:
-                            wt = f
-                        vel = blend_rule(vel, collide(vel, n, mu_b), wt)
-            for q in range(ground.shape[0]):
-                gr = ground[q]
-                if Ft(k) <= gr[0]:  # node layer k at or below the ground's top layer (exact small integers)
-                    wt = Ft(1.0)
-                    if Ft(k) > gr[2]:
-                        wt = f
-                    vel = blend_rule(vel, collide(vel, vec3(Ft(0.0), Ft(0.0), Ft(1.0)), gr[1]), wt)
+            vel = boundary_rules(vel, X, k, lo, hi, dx, wall_in, wall_full, wall_mu, ground, f)
             if grid_fb.shape[0] > 1:   # friction, then the contact's balance (balance.py)
                 v_in = vel
                 vel = contact_friction(vel, m, node, grid_fb, colc, grid_fn, grid_fv)

@@ -110,14 +110,10 @@ def build_scatter(Ft):
 
 
 @functools.cache
-def build_p2g(Ft):
-    """The P2G kernel ``p2g`` of scalar type ``Ft``: return mapping, stress, scatter."""
+def build_scatter_vec(Ft):
+    """``scatter_vec(grid_s, idx0, n_grid, W, value)``: a vector added to a point's 27 nodes with its weights (P2G),
+    scalar type ``Ft``."""
     vec3, vec4, mat33 = build_types(Ft)
-    in_grid, weights = build_stencil(Ft)
-    return_mapping = build_return_mapping(Ft)
-    scatter, scatter_wind, scatter_scalar = build_scatter(Ft)
-    point_contact = build_collider_contact(Ft)[1]
-    Extras = build_extras_struct(Ft)
 
     @wp.func
     def scatter_vec(grid_s: wp.array(dtype=vec3), idx0: int, n_grid: int, W: mat33, value: vec3):
@@ -128,6 +124,20 @@ def build_p2g(Ft):
                 row = idx0 + i * nn + j * n_grid
                 for k in range(3):
                     grid_s[row + k] += (W[i, 0] * W[j, 1] * W[k, 2]) * value
+
+    return scatter_vec
+
+
+@functools.cache
+def build_p2g(Ft):
+    """The P2G kernel ``p2g`` of scalar type ``Ft``: return mapping, stress, scatter."""
+    vec3, vec4, mat33 = build_types(Ft)
+    in_grid, weights = build_stencil(Ft)
+    return_mapping = build_return_mapping(Ft)
+    scatter, scatter_wind, scatter_scalar = build_scatter(Ft)
+    point_contact = build_collider_contact(Ft)[1]
+    Extras = build_extras_struct(Ft)
+    scatter_vec = build_scatter_vec(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def p2g(
