@@ -71,7 +71,8 @@ def test_auto_keeps_the_grid_contact_for_flowing_materials():
     assert contact_model(SimpleNamespace(options={}, materials=[sand, Material("liquid")])) == "grid"
     mixed = SimpleNamespace(options={"contact": "auto"}, materials=[jelly, sand])   # chosen per body (issue 38 item 3)
     assert contact_model(mixed) == "mixed" and flowing_bodies(mixed).tolist() == [False, True]
-    assert flowing_bodies(SimpleNamespace(options={"contact": "grid"}, materials=[jelly, sand])).tolist() == [True, True]
+    both = SimpleNamespace(options={"contact": "grid"}, materials=[jelly, sand])
+    assert flowing_bodies(both).tolist() == [True, True]
     assert contact_model(SimpleNamespace(options={"contact": "grid"}, materials=[jelly, sand])) == "grid"
     assert contact_model(SimpleNamespace(options={"contact": "particle"}, materials=[sand])) == "particle"
     soft, stiff = Material("jelly", E=2e4), Material("jelly", E=1.4e6)   # stiff bodies too, since the balance

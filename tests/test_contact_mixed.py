@@ -15,7 +15,8 @@ grid node's stencil, so each body's figure is its own).
 - The sand's pile (its spread: the radius from the column's axis holding 90 % of its points; its height: the height
   below which 90 % of them lie, at the end) equals that of the same column alone (the grid contact, as before)
   within ``SPREAD_TOL`` = 2 %, two-sided: a 5 % bias fails. The whole scene on the particle contact (``contact =
-  "particle"``: the sand on the particle contact) fails it (``test_the_check_of_the_sand_fails_on_the_particle_contact``).
+  "particle"``: the sand on the particle contact) fails it
+  (``test_the_check_of_the_sand_fails_on_the_particle_contact``).
 """
 from __future__ import annotations
 

@@ -1,9 +1,9 @@
 """The particle contact of the grid (MPM) engines (engine option ``contact``, ``docs/contact.md``).
 
-``contact = "particle"`` (under the default ``"auto"``: every body whose material does not flow, :func:`contact_model`;
-the flowing ones take the grid rule in the same scene, :func:`rule_models`). Each point carries a contact skin ``s_p = SKIN h_p`` (``h_p =
-p_vol^(1/3)``, its spacing: the body's surface lies about half a spacing beyond its outer points). A ground
-plane at height ``H`` with its normal ``+z`` is in contact with the point when ``depth = H + s_p - z > 0``; in
+``contact = "particle"`` (under the default ``"auto"``: every body whose material does not flow,
+:func:`contact_model`; the flowing ones take the grid rule in the same scene, :func:`rule_models`). Each point
+carries a contact skin ``s_p = SKIN h_p`` (``h_p = p_vol^(1/3)``, its spacing: the body's surface lies about half a
+spacing beyond its outer points). A ground plane at height ``H`` with its normal ``+z`` is in contact with the point when ``depth = H + s_p - z > 0``; in
 P2G the point's momentum then gains the normal impulse
 
     j_n = max(0, dt (k_p depth - c_p v_z)),   k_p = KAPPA E h_p,   c_p = 2 DAMPING sqrt(k_p m_p)
@@ -84,9 +84,9 @@ CONTACT_MODELS = ("auto", "particle", "grid")
 FLOWING = ("sand", "snow", "liquid")
 #: Engine option ``contact`` of the MPM engines.
 CONTACT = Option("contact", "auto", "ground and collider contact: 'particle' (a penalty and Coulomb friction per "
-                 "point; docs/contact.md), 'grid' (their node layers projected; spins bouncing soft bodies up), each for "
-                 "the whole scene, or 'auto' (chosen per body: grid for sand, snow and liquid bodies, particle for the "
-                 "others, in the same scene)", kind="str", choices=CONTACT_MODELS)
+                 "point; docs/contact.md), 'grid' (their node layers projected; spins bouncing soft bodies up), each "
+                 "for the whole scene, or 'auto' (chosen per body: grid for sand, snow and liquid bodies, particle "
+                 "for the others, in the same scene)", kind="str", choices=CONTACT_MODELS)
 #: Engine option ``contact_balance`` of the MPM engines.
 BALANCE = Option("contact_balance", True, "the particle contact's balance (docs/contact.md, issue 38): each body's "
                  "net friction is Coulomb's on its rigid motion and the contact torque of a centre of pressure "

@@ -152,7 +152,8 @@ class GridEngineBase:
                    grid_m: np.ndarray | None) -> dict[str, Any]:
         """The statistics every grid engine reports: ``device, precision, n_points, dt`` (s), ``n_substeps``,
         ``n_grid``, ``dx`` (m), ``frame``, ``n_passive``, ``contact`` (``gasp_core.toolkit.contact.contact_model``:
-        ``"particle"``, ``"grid"`` or ``"mixed"``) and ``contact_per_body`` (per body, ``"grid"`` or ``"particle"``); with ``x`` and ``p_mass`` (internal order, the engine's
+        ``"particle"``, ``"grid"`` or ``"mixed"``) and ``contact_per_body`` (per body, ``"grid"`` or
+        ``"particle"``); with ``x`` and ``p_mass`` (internal order, the engine's
         own arrays) ``mass`` (kg), ``centre_of_mass`` (m), ``inertia`` (kg m^2); with passive points after a frame
         and ``grid_m`` (node masses of the last grid update, shape (n_grid,)*3), ``passive_stranded``
         (:func:`gasp_core.toolkit.points.stranded_passive`)."""

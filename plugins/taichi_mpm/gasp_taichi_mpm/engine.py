@@ -114,7 +114,7 @@ class TaichiMPMEngine(GridEngineBase):
         o = self._order
 
         contact = contact_model(view)
-        reach, full = rule_models(contact)   # with the contact chosen per body the rule reaches the grid contact's nodes
+        reach, full = rule_models(contact)   # chosen per body: the rule reaches the grid contact's nodes
         walls, grounds, regions = node_ranges(setup, dx, reach)
         mixed = ((flowing_bodies(view, contact),) + node_ranges(setup, dx, full)[:2]) if contact == "mixed" else None
         fixed = fixed_mask(setup.x, setup.boundaries)
@@ -135,7 +135,8 @@ class TaichiMPMEngine(GridEngineBase):
             passive_every=opt["passive_every"], flip=opt.get("flip") or 0.0,
             p_contact=(rigid_contact(setup, self.dt, contact_coefficients(view))[o]
                        if contact in ("particle", "mixed") and (grounds or walls or setup.colliders) else None),
-            n_colc=len(setup.colliders) if contact in ("particle", "mixed") else 0, planes=contact_planes(view, contact),
+            n_colc=len(setup.colliders) if contact in ("particle", "mixed") else 0,
+            planes=contact_planes(view, contact),
             mixed=mixed,
             passive_bounds=passive_bounds(setup, contact), rigid_frames=None if frames is None else (rigid, *frames),
             contact_reach=contact_reach(setup),

@@ -78,7 +78,8 @@ class GridUpdate:
     @ti.func
     def boundary_rules(self, I, v, f):
         """The walls' and grounds' grid rule at node ``I`` on ``v`` (:func:`node_ranges`; with the contact chosen per
-        body by the node's flowing-mass fraction ``f`` where only the grid contact's rule reaches, :meth:`Contact.rule`)."""
+        body by the node's flowing-mass fraction ``f`` where only the grid contact's rule reaches,
+        :meth:`Contact.rule`)."""
         for b in ti.static(range(self.n_walls)):
             mu_b = self.wall_fric[b]
             hi_first = self.wall_hi_first[b]

@@ -186,8 +186,9 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables):
             elif bd.kind == "ground":
                 # the ground's node layers, decided in float64 (gasp_core.toolkit.contact.ground_node_layer: its top
                 # layer with contact = "grid", two cells lower with the particle contact, which meets the plane)
-                ground.append((float(ground_node_layer(reach, bd.height, self.setup.domain_lo[2], self.dx)),
-                               bd.friction, float(ground_node_layer(full, bd.height, self.setup.domain_lo[2], self.dx))))
+                lo_z = self.setup.domain_lo[2]
+                ground.append((float(ground_node_layer(reach, bd.height, lo_z, self.dx)), bd.friction,
+                               float(ground_node_layer(full, bd.height, lo_z, self.dx))))
             else:
                 wall_mu.append(bd.friction)
         dt_np, k, arr = self._np_dtype, self.k, self._array
