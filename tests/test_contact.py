@@ -65,10 +65,15 @@ def test_the_option_is_declared_with_its_values():
 def test_auto_keeps_the_grid_contact_for_flowing_materials():
     from types import SimpleNamespace
     from gasp_core.seam.setup import Material
-    from gasp_core.toolkit.contact import contact_model
+    from gasp_core.toolkit.contact import contact_model, flowing_bodies
     jelly, sand = Material("jelly"), Material("sand")
     assert contact_model(SimpleNamespace(options={}, materials=[jelly])) == "particle"
-    assert contact_model(SimpleNamespace(options={"contact": "auto"}, materials=[jelly, sand])) == "grid"
+    assert contact_model(SimpleNamespace(options={}, materials=[sand, Material("liquid")])) == "grid"
+    mixed = SimpleNamespace(options={"contact": "auto"}, materials=[jelly, sand])   # chosen per body (issue 38 item 3)
+    assert contact_model(mixed) == "mixed" and flowing_bodies(mixed).tolist() == [False, True]
+    both = SimpleNamespace(options={"contact": "grid"}, materials=[jelly, sand])
+    assert flowing_bodies(both).tolist() == [True, True]
+    assert contact_model(SimpleNamespace(options={"contact": "grid"}, materials=[jelly, sand])) == "grid"
     assert contact_model(SimpleNamespace(options={"contact": "particle"}, materials=[sand])) == "particle"
     soft, stiff = Material("jelly", E=2e4), Material("jelly", E=1.4e6)   # stiff bodies too, since the balance
     assert contact_model(SimpleNamespace(options={}, materials=[soft])) == "particle"

@@ -64,9 +64,12 @@ def cmd_simulate(args) -> int:
     fps = len(s["frames"]) - 1
     per_frame = sum(f.get("sim_s", 0.0) for f in s["frames"]) / max(fps, 1)
     substeps = s["engine_stats"].get("n_substeps")
+    per_body = s["engine_stats"].get("contact_per_body") or []   # the grid engines' contact chosen per body
+    mixed = (f", contact per body: grid for {per_body.count('grid')} flowing, particle for "
+             f"{per_body.count('particle')}" if s["engine_stats"].get("contact") == "mixed" else "")
     reporter.result(f"wrote {fps + 1} frames (frame 0 = the input) x {len(s['objects'])} object(s) to {res.outdir} "
                     f"({s['n_points']} simulated points, {'-' if substeps is None else substeps} substeps/frame, "
-                    f"{per_frame:.3f} s/frame)",
+                    f"{per_frame:.3f} s/frame{mixed})",
                     output=str(res.outdir.resolve()), run_json=str(res.run_json.resolve()), n_frames=fps + 1, n_objects=len(s["objects"]),
                     n_points=s["n_points"], n_substeps=substeps, sim_s_per_frame=per_frame)
     return 0

@@ -188,7 +188,8 @@ def check_ground_in_grid(scene, options: dict, materials=None) -> None:
     if dom.lo is None or not grounds:
         return
     materials = [o.material for o in scene.objects if not o.static] if materials is None else list(materials)
-    if not materials or contact_model(SimpleNamespace(options=options, materials=materials)) != "particle":
+    if not materials or contact_model(SimpleNamespace(options=options, materials=materials)) not in ("particle",
+                                                                                                "mixed"):
         return
     lo, hi, n = np.asarray(dom.lo, float), np.asarray(dom.hi, float), int(dom.n_grid)
     dx = float(np.max(hi - lo)) / n

@@ -1,8 +1,9 @@
 """The particle contact of the grid (MPM) engines (engine option ``contact``, ``docs/contact.md``).
 
-``contact = "particle"`` (the default). Each point carries a contact skin ``s_p = SKIN h_p`` (``h_p =
-p_vol^(1/3)``, its spacing: the body's surface lies about half a spacing beyond its outer points). A ground
-plane at height ``H`` with its normal ``+z`` is in contact with the point when ``depth = H + s_p - z > 0``; in
+``contact = "particle"`` (under the default ``"auto"``: every body whose material does not flow,
+:func:`contact_model`; the flowing ones take the grid rule in the same scene, :func:`rule_models`). Each point
+carries a contact skin ``s_p = SKIN h_p`` (``h_p = p_vol^(1/3)``, its spacing: the body's surface lies about half a
+spacing beyond its outer points). A ground plane at height ``H`` with its normal ``+z`` is in contact with the point when ``depth = H + s_p - z > 0``; in
 P2G the point's momentum then gains the normal impulse
 
     j_n = max(0, dt (k_p depth - c_p v_z)),   k_p = KAPPA E h_p,   c_p = 2 DAMPING sqrt(k_p m_p)
@@ -79,12 +80,13 @@ JSUMS = ("j", "jx", "jy", "jz", "jnx", "jny", "jnz", "mnx", "mny", "mnz", "jvx",
          "x_min", "x_max", "y_min", "y_max", "z_min", "z_max")
 #: The engine option's values.
 CONTACT_MODELS = ("auto", "particle", "grid")
-#: Materials that flow (granular, fluid): ``contact = "auto"`` keeps the grid contact for a scene with one.
+#: Materials that flow (granular, fluid): under ``contact = "auto"`` their bodies take the grid contact.
 FLOWING = ("sand", "snow", "liquid")
 #: Engine option ``contact`` of the MPM engines.
 CONTACT = Option("contact", "auto", "ground and collider contact: 'particle' (a penalty and Coulomb friction per "
-                 "point; docs/contact.md), 'grid' (their node layers projected; spins bouncing soft bodies up) or "
-                 "'auto' (particle, unless a body is sand, snow or liquid)", kind="str", choices=CONTACT_MODELS)
+                 "point; docs/contact.md), 'grid' (their node layers projected; spins bouncing soft bodies up), each "
+                 "for the whole scene, or 'auto' (chosen per body: grid for sand, snow and liquid bodies, particle "
+                 "for the others, in the same scene)", kind="str", choices=CONTACT_MODELS)
 #: Engine option ``contact_balance`` of the MPM engines.
 BALANCE = Option("contact_balance", True, "the particle contact's balance (docs/contact.md, issue 38): each body's "
                  "net friction is Coulomb's on its rigid motion and the contact torque of a centre of pressure "
@@ -93,15 +95,38 @@ BALANCE = Option("contact_balance", True, "the particle contact's balance (docs/
 
 
 def contact_model(setup) -> str:
-    """The ground contact a setup runs with: its option ``contact``; ``"auto"`` (the default) is ``"particle"``
-    unless a body's material flows (:data:`FLOWING`: the grid contact's spreading of a sand column matches
-    Lube et al. 2005 within 12 %, the particle contact's within 29 %, ``docs/contact.md``), then ``"grid"``. Stiff
-    bodies take the particle contact since its balance (issue 38: an E 1e6 ball rests within 0.14 mm, a figure on
-    two legs at 1.4e6 Pa stands; before it, ``auto`` gave them the grid contact, which rolled the ball 74 mm)."""
+    """The contact a setup runs with: its option ``contact``. ``"particle"`` and ``"grid"`` mean the whole scene.
+    ``"auto"`` (the default) is chosen per body (issue 38 item 3, ``docs/contact.md`` "Chosen per body"): a body whose
+    material flows (:data:`FLOWING`: the grid contact's spreading of a sand column matches Lube et al. 2005 within
+    12 %, the particle contact's within 29 %) takes the grid contact, every other body the particle contact (since
+    its balance an E 1e6 ball rests within 0.14 mm, a figure on two legs at 1.4e6 Pa stands; on the grid contact the
+    ball rolled 74 mm). Returns ``"particle"`` when no body flows, ``"grid"`` when every body does, else ``"mixed"``
+    (:func:`flowing_bodies` says which bodies take which)."""
     c = setup.options.get("contact") or "auto"
     if c == "auto":
-        return "grid" if any(m.name in FLOWING for m in setup.materials) else "particle"
+        flows = [m.name in FLOWING for m in setup.materials]
+        return "grid" if flows and all(flows) else "mixed" if any(flows) else "particle"
     return c
+
+
+def flowing_bodies(setup, contact: str | None = None) -> np.ndarray:
+    """Which bodies take the grid contact: shape (n_materials,), bool; all with ``"grid"``, none with
+    ``"particle"``, those whose material is in :data:`FLOWING` with ``"mixed"`` (``contact``: default
+    :func:`contact_model` of ``setup``)."""
+    c = contact or contact_model(setup)
+    if c == "mixed":
+        return np.array([m.name in FLOWING for m in setup.materials], dtype=bool)
+    return np.full(len(setup.materials), c == "grid", dtype=bool)
+
+
+def rule_models(contact: str) -> tuple[str, str]:
+    """``(reach, full)``: the contacts whose grid-rule node sets (:func:`ground_node_layer`,
+    :func:`wall_grid_cells`, :func:`collider_grid_depth`) bound where the boundaries' grid rule acts at all and
+    where it acts fully. Equal for ``"particle"`` and ``"grid"``; ``("grid", "particle")`` for ``"mixed"``: there a
+    node in the grid contact's set but outside the particle contact's safety net (which the grid contact's set
+    holds) gets ``v <- v + f (v_rule - v)``, ``f = m_flow / m`` its mass fraction of flowing bodies (scattered in
+    P2G), so a node of sand alone takes the grid contact and one of jelly alone the particle contact."""
+    return ("grid", "particle") if contact == "mixed" else (contact, contact)
 
 
 def contact_coefficients(setup) -> np.ndarray:
@@ -119,9 +144,12 @@ def contact_coefficients(setup) -> np.ndarray:
         (zeros for passive points, which have no volume). A point that starts closer to a ground, a wall's plane or a
         ``[[collider]]`` (its signed distance at t = 0) than its skin (a body placed standing on it, its splats on
         the surface) gets its starting clearance as its skin, so a body the scene places on a support is not
-        pushed up by half a spacing in its first substep.
+        pushed up by half a spacing in its first substep. With the contact chosen per body (``"mixed"``) the points
+        of the bodies that take the grid contact (:func:`flowing_bodies`) get ``k_p = c_p = 0``: no impulse.
     """
     E = np.array([m.E for m in setup.materials], dtype=np.float64)
+    if contact_model(setup) == "mixed":
+        E = np.where(flowing_bodies(setup, "mixed"), 0.0, E)
     h = np.cbrt(np.asarray(setup.p_vol, dtype=np.float64))
     k = KAPPA * E[np.asarray(setup.body_id, dtype=np.int64)] * h
     skin = SKIN * h
@@ -135,7 +163,8 @@ def contact_coefficients(setup) -> np.ndarray:
 
 def contact_dt(setup) -> float:
     """The longest substep (s) the particle contact of a setup keeps stable: ``MAX_OMEGA_DT / max omega`` over
-    its bodies, ``inf`` without a ground, walls or a ``[[collider]]``, or without the particle contact.
+    its bodies that take the particle contact (all with ``"particle"``, those that do not flow with ``"mixed"``),
+    ``inf`` without a ground, walls or a ``[[collider]]``, or with ``"grid"``.
 
     ``omega = sqrt(KAPPA E / (rho dx h))`` (rad/s) is a contact patch's frequency: the stiffness
     ``KAPPA E h`` of the ``(dx / h)^2`` points of median spacing ``h`` (m) that press on one node, over the node's
@@ -144,15 +173,17 @@ def contact_dt(setup) -> float:
     Measured (``conformance_tests/test_extremes.py``, a 0.2 m jelly cube, E 1e5 Pa, dropped at 2 m/s): at ``cfl = 1.0`` (5 ms steps) the contact gained 239 % of the body's energy with ``KAPPA`` 4 and 16.8 % with 2; at 3.3 ms
     none. The README donut (median ``omega dt`` 1.5 at the default ``cfl = 0.4``) is not affected.
     """
-    if contact_model(setup) != "particle" or not (any(b.kind in ("ground", "walls") for b in setup.boundaries)
+    contact = contact_model(setup)
+    if contact not in ("particle", "mixed") or not (any(b.kind in ("ground", "walls") for b in setup.boundaries)
                                                     or getattr(setup, "colliders", None)):
         return float("inf")
     h = np.cbrt(np.asarray(setup.p_vol, dtype=np.float64))
     body = np.asarray(setup.body_id, dtype=np.int64)
     omega = 0.0
+    grid = flowing_bodies(setup, contact)
     for b, m in enumerate(setup.materials):
         hb = h[(body == b) & (h > 0.0)]
-        if len(hb) and float(m.E) > 0.0 and float(m.rho) > 0.0:
+        if len(hb) and not grid[b] and float(m.E) > 0.0 and float(m.rho) > 0.0:
             omega = max(omega, float(np.sqrt(KAPPA * float(m.E) / (float(m.rho) * float(setup.dx) * np.median(hb)))))
     return MAX_OMEGA_DT / omega if omega > 0.0 else float("inf")
 
@@ -181,7 +212,8 @@ def contact_planes(setup, contact: str | None = None) -> tuple[np.ndarray, np.nd
     setup : SimSetup
         ``boundaries``, ``domain_lo`` / ``domain_hi`` (m), ``dx`` (m), ``colliders``.
     contact : str, optional
-        The contact model (default :func:`contact_model` of ``setup``); no planes unless ``"particle"``.
+        The contact model (default :func:`contact_model` of ``setup``); no planes unless ``"particle"`` or
+        ``"mixed"``.
 
     Returns
     -------
@@ -194,7 +226,7 @@ def contact_planes(setup, contact: str | None = None) -> tuple[np.ndarray, np.nd
         ``-(hi_d - 3 dx)``), its Coulomb friction, and its row of the contact's balance: 0 for the grounds (one
         support), ``1 + len(colliders) + w`` for the ``w``-th wall face (each its own support, after the colliders').
     """
-    if (contact or contact_model(setup)) != "particle":
+    if (contact or contact_model(setup)) not in ("particle", "mixed"):
         return np.zeros((0, 3)), np.zeros((0, 3))
     normals, rows = [], []
     n_col = len(getattr(setup, "colliders", None) or [])

@@ -81,12 +81,14 @@ class Colliders:
         return phi, n, vc
 
     @ti.func
-    def apply_colliders(self, X, v, base):
+    def apply_colliders(self, X, v, base, f):
         """Colliders on ``v`` at ``X`` (:meth:`collider_at`); inside (``phi <= -col_deep``: 0 with
         ``contact = "grid"``, ``gasp_core.toolkit.contact.collider_grid_depth`` with the particle contact, which
-        meets the points at the surface), :meth:`collide` relative to the collider's velocity."""
+        meets the points at the surface), :meth:`collide` relative to the collider's velocity; with the contact
+        chosen per body, by the node's flowing-mass fraction ``f`` where ``phi > -col_full`` (:meth:`rule`)."""
         for c in range(self.n_col):
             phi, n, vc = self.collider_at(X, c, base, -self.col_deep)
             if phi <= -self.col_deep:
-                v = vc + self.collide(v - vc, n, self.ex_meta[c * COL_META + CM_FRICTION])
+                v = self.rule(v, vc + self.collide(v - vc, n, self.ex_meta[c * COL_META + CM_FRICTION]),
+                              phi > -self.col_full, f)
         return v

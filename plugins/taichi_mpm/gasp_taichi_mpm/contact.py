@@ -11,6 +11,10 @@
   distances (the impulse along the outward normal, friction relative to the collider in the plane normal to the
   nodes' budget-weighted normal);
 - the contact's balance (:mod:`gasp_taichi_mpm.balance`, warp_mpm's ``balance.py``);
+- the contact chosen per body (``contact = "auto"`` with flowing and other bodies: ``"mixed"``,
+  ``gasp_core.toolkit.contact.rule_models``): :meth:`Contact.allocate_mixed`, :meth:`Contact.scatter_flow` (the flowing
+  bodies' mass per node, in P2G) and :meth:`Contact.rule` (the boundaries' grid rule by the node's flowing-mass fraction
+  where only the grid contact's rule reaches);
 - :meth:`Contact.hold_passive` after a passive point's update: the point put back in the box the boundaries keep
   it in (``gasp_core.toolkit.points.passive_bounds``, ``hold_passive``).
 
@@ -24,6 +28,50 @@ from gasp_core.toolkit.grid_tables import CM_FRICTION, COL_META
 class Contact:
     """The particle contact's impulse per point (:meth:`plane_contact`) and friction per node (:meth:`node_friction`);
     the passive points' box (:meth:`hold_passive`)."""
+
+    def allocate_mixed(self, mixed, dx: float) -> None:
+        """The contact chosen per body: ``mixed`` is None (one contact for the scene: ``self.mixed`` False, the
+        grid rule as the solver's boundaries set it) or ``(flows, walls, grounds)``, which bodies flow (per body,
+        bool) and :func:`gasp_taichi_mpm.grid.node_ranges`' walls and grounds of the particle contact, where the rule
+        acts fully; the solver's own ranges and ``col_deep`` are then the grid contact's (its reach). Allocates
+        ``grid_mf`` (the flowing bodies' mass per node), ``flows``, ``wall_lo_full`` / ``wall_hi_full``,
+        ``ground_kfull``, and sets ``col_full`` (m)."""
+        from gasp_core.toolkit.contact import collider_grid_depth
+        self.mixed = mixed is not None
+        ng = self.n_grid if self.mixed else 1
+        self.grid_mf = ti.field(self.real, shape=(ng, ng, ng))
+        self.flows = ti.field(ti.i32, shape=max(4, len(mixed[0]) if self.mixed else 1))
+        self.wall_lo_full, self.wall_hi_full = (ti.Vector.field(3, ti.i32, shape=4) for _ in "lh")
+        self.ground_kfull = ti.field(ti.i32, shape=4)
+        self.col_full = self.col_deep
+        if self.mixed:
+            self.col_deep, self.col_full = collider_grid_depth("grid", dx), collider_grid_depth("particle", dx)
+            for b, fl in enumerate(mixed[0]):
+                self.flows[b] = int(fl)
+            for i, (_fr, lo_full, hi_full) in enumerate(mixed[1]):
+                self.wall_lo_full[i], self.wall_hi_full[i] = lo_full, hi_full
+            for i, (_fr, kfull, _h) in enumerate(mixed[2]):
+                self.ground_kfull[i] = kfull
+
+    @ti.func
+    def scatter_flow(self, p, base, w, m):
+        """With the contact chosen per body, a flowing body's point adds its mass ``m`` to its 27 nodes' ``grid_mf``
+        with its weights ``w``."""
+        if ti.static(self.mixed):
+            if self.flows[self.body[p]] != 0:
+                for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
+                    ti.atomic_add(self.grid_mf[base + ti.Vector([i, j, k])], (w[i][0] * w[j][1] * w[k][2]) * m)
+
+    @ti.func
+    def rule(self, v, v_rule, partial, f):
+        """A boundary's grid rule ``v_rule`` at a node: whole, or (with the contact chosen per body, at a node
+        ``partial``: in the grid contact's reach, outside the particle contact's) ``v + f (v_rule - v)``, ``f`` the
+        node's flowing-mass fraction."""
+        out = v_rule
+        if ti.static(self.mixed):
+            if partial:
+                out = v + f * (v_rule - v)
+        return out
 
     def allocate_contact(self) -> None:
         """With the walls' or colliders' particle contact (``nfric``): per node the budget-weighted normal and supports'

@@ -11,7 +11,8 @@ from typing import Any
 
 import numpy as np
 
-from gasp_core.toolkit.contact import contact_coefficients, contact_model, contact_planes, contact_reach
+from gasp_core.toolkit.contact import (contact_coefficients, contact_model, contact_planes, contact_reach,
+                                      flowing_bodies, rule_models)
 from gasp_core.toolkit.grid_engine import choose_dt, GridEngineBase
 from gasp_core.toolkit.materials import JELLY, initial_Jp, material_table
 from gasp_core.toolkit.rigid import body_frames, rigid_contact, rigid_mask, step_view, zero_stress
@@ -113,7 +114,9 @@ class TaichiMPMEngine(GridEngineBase):
         o = self._order
 
         contact = contact_model(view)
-        walls, grounds, regions = node_ranges(setup, dx, contact)
+        reach, full = rule_models(contact)   # chosen per body: the rule reaches the grid contact's nodes
+        walls, grounds, regions = node_ranges(setup, dx, reach)
+        mixed = ((flowing_bodies(view, contact),) + node_ranges(setup, dx, full)[:2]) if contact == "mixed" else None
         fixed = fixed_mask(setup.x, setup.boundaries)
         kinds, params = zero_stress(*material_table(setup.materials), setup.materials, JELLY)
         rigid = rigid_mask(setup.materials)
@@ -131,8 +134,10 @@ class TaichiMPMEngine(GridEngineBase):
             n_chunks=1, atomic=atomic, coloured=not atomic, n_material=self.n_material,
             passive_every=opt["passive_every"], flip=opt.get("flip") or 0.0,
             p_contact=(rigid_contact(setup, self.dt, contact_coefficients(view))[o]
-                       if contact == "particle" and (grounds or walls or setup.colliders) else None),
-            n_colc=len(setup.colliders) if contact == "particle" else 0, planes=contact_planes(view, contact),
+                       if contact in ("particle", "mixed") and (grounds or walls or setup.colliders) else None),
+            n_colc=len(setup.colliders) if contact in ("particle", "mixed") else 0,
+            planes=contact_planes(view, contact),
+            mixed=mixed,
             passive_bounds=passive_bounds(setup, contact), rigid_frames=None if frames is None else (rigid, *frames),
             contact_reach=contact_reach(setup),
             body_mass=np.bincount(setup.body_id, weights=setup.p_mass, minlength=len(setup.materials)),

@@ -55,10 +55,10 @@ class GridUpdate:
     """The grid update (:meth:`grid_update`) and the node extras it applies (:meth:`extras`)."""
 
     @ti.func
-    def extras(self, I, v, m, gsurf):
+    def extras(self, I, v, m, gsurf, f):
         """Forces, impulses, then colliders at node ``I`` (docs/colliders.md; the same order as warp_mpm):
         :meth:`apply_forces`, :meth:`apply_impulses`, :meth:`apply_colliders` at the node's position and the substep's row
-        of the time table."""
+        of the time table; ``f``: the node's flowing-mass fraction (:meth:`Contact.rule`)."""
         dt = self.dt[None]
         X = self.lo[None] + self.dx[None] * ti.Vector([ti.cast(I[0], self.real), ti.cast(I[1], self.real),
                                                        ti.cast(I[2], self.real)])
@@ -66,7 +66,7 @@ class GridUpdate:
         t = self.ex_tab[base + FT_TIME]
         v = self.apply_forces(X, v, m, gsurf, t, dt)
         v = self.apply_impulses(X, v, base)
-        return self.apply_colliders(X, v, base)
+        return self.apply_colliders(X, v, base, f)
 
     @ti.func
     def axis_friction(self, v, d: ti.template(), sign: ti.template(), mu_b):
@@ -74,6 +74,24 @@ class GridUpdate:
         n = ti.Vector.zero(self.real, 3)
         n[d] = sign
         return self.collide(v, n, mu_b)
+
+    @ti.func
+    def boundary_rules(self, I, v, f):
+        """The walls' and grounds' grid rule at node ``I`` on ``v`` (:func:`node_ranges`; with the contact chosen per
+        body by the node's flowing-mass fraction ``f`` where only the grid contact's rule reaches,
+        :meth:`Contact.rule`)."""
+        for b in ti.static(range(self.n_walls)):
+            mu_b = self.wall_fric[b]
+            hi_first = self.wall_hi_first[b]
+            for d in ti.static(range(3)):
+                if I[d] < self.wall_lo_first[b][d]:
+                    v = self.rule(v, self.axis_friction(v, d, 1.0, mu_b), I[d] >= self.wall_lo_full[b][d], f)
+                if I[d] >= hi_first[d]:
+                    v = self.rule(v, self.axis_friction(v, d, -1.0, mu_b), I[d] < self.wall_hi_full[b][d], f)
+        for b in ti.static(range(self.n_grounds)):
+            if I[2] <= self.ground_kmax[b]:
+                v = self.rule(v, self.axis_friction(v, 2, 1.0, self.ground_fric[b]), I[2] > self.ground_kfull[b], f)
+        return v
 
     @ti.kernel
     def grid_update(self):
@@ -118,21 +136,15 @@ class GridUpdate:
                             gsurf += self.grid_g[t, I]
                             self.grid_g[t, I] = ti.Vector.zero(self.real, 3)
             v = ti.Vector.zero(self.real, 3)
+            f = ti.cast(0.0, self.real)   # the flowing-mass fraction (the contact chosen per body; contact.py)
+            if ti.static(self.mixed):
+                f = self.grid_mf[I] / ti.max(acc[3], 1e-30)
+                self.grid_mf[I] = 0.0
             if acc[3] > 0.0:
                 v = ti.Vector([acc[0], acc[1], acc[2]]) / acc[3] + self.dt[None] * self.gravity[None]
                 if ti.static(self.has_extras):
-                    v = self.extras(I, v, acc[3], gsurf)
-                for b in ti.static(range(self.n_walls)):
-                    mu_b = self.wall_fric[b]
-                    hi_first = self.wall_hi_first[b]
-                    for d in ti.static(range(3)):
-                        if I[d] < self.wall_lo_first[b][d]:
-                            v = self.axis_friction(v, d, 1.0, mu_b)
-                        if I[d] >= hi_first[d]:
-                            v = self.axis_friction(v, d, -1.0, mu_b)
-                for b in ti.static(range(self.n_grounds)):
-                    if I[2] <= self.ground_kmax[b]:
-                        v = self.axis_friction(v, 2, 1.0, self.ground_fric[b])
+                    v = self.extras(I, v, acc[3], gsurf, f)
+                v = self.boundary_rules(I, v, f)
                 if ti.static(self.pc):   # the particle contact's Coulomb friction (its budget: the last channel;
                     v_in = v             # with walls or colliders relative to the supports, normal to them: grid_fnv)
                     if ti.static(self.nfric):

@@ -108,7 +108,7 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
     def __init__(self, *, x, v, C0, p_mass, p_vol, body, fixed, jp0, params, kinds, n_grid, lo, dx, dt,
                  gravity, walls, grounds, regions, real, n_chunks, atomic, extras=None, time_table=None, n_substeps=1,
                  n_material=None, passive_every=1, flip=0.0, coloured=False, p_contact=None, passive_bounds=None,
-                 rigid_frames=None, contact_reach=None, body_mass=None, n_colc=0, planes=None):
+                 rigid_frames=None, contact_reach=None, body_mass=None, n_colc=0, planes=None, mixed=None):
         n = len(x)
         self.n = n
         self.n_material = n if n_material is None else int(n_material)
@@ -148,8 +148,8 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         # dt, dx and 1 / dx (computed in float64), each rounded once to the working precision
         self.dt[None], self.dx[None], self.inv_dx[None] = np.array([dt, dx, 1.0 / dx], np_real)
         self.col_deep = collider_grid_depth("particle" if self.n_colc else "grid", dx)   # colliders' grid rule
-        self._passive_every = int(passive_every)
-        self._np_real = np_real
+        self.allocate_mixed(mixed, dx)   # the contact chosen per body (contact.py)
+        self._passive_every, self._np_real = int(passive_every), np_real
         self._passive_plan: tuple[int, list] = (0, [])   # (n_substeps, per-substep weight pair or None)
         self.lo[None] = [float(a) for a in lo]
         self.gravity[None] = [float(a) for a in gravity]

@@ -82,6 +82,7 @@ class Transfers:
             self.mark_contact_nodes(base, sup)   # the contact's balance (balance.py)
             w = self.weights(fx)
             self.scatter_contact(base, w, budget, fn, fv)   # with colliders: the budget's normal, supports' velocity
+            self.scatter_flow(p, base, w, m)   # with the contact chosen per body: the flowing bodies' mass
             for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                 weight = w[i][0] * w[j][1] * w[k][2]
                 mv = mv0

@@ -40,6 +40,26 @@ def build_collide(Ft):
 
 
 @functools.cache
+def build_blend(Ft):
+    """``blend_rule(v, v_rule, w)``, scalar type ``Ft``: a boundary's grid rule applied by the weight ``w``,
+    ``v + w (v_rule - v)``; exactly ``v_rule`` at ``w >= 1`` and ``v`` at ``w <= 0`` (the contact chosen per body,
+    ``gasp_core.toolkit.contact.rule_models``: ``w`` the node's flowing-mass fraction where only the grid contact's
+    rule reaches)."""
+    vec3, vec4, mat33 = build_types(Ft)
+
+    @wp.func
+    def blend_rule(v: vec3, v_rule: vec3, w: Ft):
+        out = v_rule
+        if w <= Ft(0.0):
+            out = v
+        elif w < Ft(1.0):
+            out = v + w * (v_rule - v)
+        return out
+
+    return blend_rule
+
+
+@functools.cache
 def build_collider_at(Ft):
     """``collider_at(X, cc, base, ex, thr) -> (phi, n, v_c)``, scalar type ``Ft``: collider ``cc``'s signed distance
     (m; ``1e30`` off its field's grid or where its gradient vanishes), unit outward normal and velocity at the world
@@ -127,18 +147,23 @@ def build_collider_func(Ft):
     with the particle contact, which meets the points at the surface)."""
     vec3, vec4, mat33 = build_types(Ft)
     collide = build_collide(Ft)
+    blend_rule = build_blend(Ft)
     Extras = build_extras_struct(Ft)
     collider_at = build_collider_at(Ft)
 
     @wp.func
-    def apply_colliders(v_in: vec3, X: vec3, base: int, ex: Extras):
+    def apply_colliders(v_in: vec3, X: vec3, base: int, ex: Extras, frac: Ft):
         # each collider: trilinear signed distance and gradient in its frame (pose and velocity from the
-        # substep's time-table row); inside (phi <= -col_deep) collide relative to the collider's velocity
+        # substep's time-table row); inside (phi <= -col_deep) collide relative to the collider's velocity, by the
+        # node's flowing-mass fraction frac where phi > -col_full (the contact chosen per body; blend_rule)
         v = v_in
         for cc in range(ex.n_col):
             phi, n, vc = collider_at(X, cc, base, ex, -ex.col_deep)
             if phi <= -ex.col_deep:
-                v = vc + collide(v - vc, n, ex.meta[cc * COL_META + CM_FRICTION])
+                w = Ft(1.0)
+                if phi > -ex.col_full:
+                    w = frac
+                v = blend_rule(v, vc + collide(v - vc, n, ex.meta[cc * COL_META + CM_FRICTION]), w)
         return v
 
     return apply_colliders

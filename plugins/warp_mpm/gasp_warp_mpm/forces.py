@@ -35,6 +35,7 @@ def build_extras_struct(Ft):
         step: wp.array(dtype=wp.int32)
         n_col: int
         col_deep: Ft   # m: the colliders' grid rule acts where phi <= -col_deep (colliders.build_collider_func)
+        col_full: Ft   # m: and fully where phi <= -col_full (deeper with the contact chosen per body, else col_deep)
         n_force: int
         n_imp: int
         width: int

@@ -13,7 +13,7 @@ import warp as wp
 
 from gasp_core.toolkit.grid_tables import FT_TIME
 
-from .colliders import build_collide, build_collider_func
+from .colliders import build_blend, build_collide, build_collider_func
 from .balance import build_balance
 from .contact import build_collider_contact, build_contact
 from .forces import build_extras_struct, build_force_funcs
@@ -30,13 +30,14 @@ def build_extras(Ft):
     apply_colliders = build_collider_func(Ft)
 
     @wp.func
-    def extras(v_in: vec3, X: vec3, dt: Ft, m: Ft, gsurf: vec3, ex: Extras):
-        # Forces, impulses, then colliders at a node (the same order as taichi_mpm's extras).
+    def extras(v_in: vec3, X: vec3, dt: Ft, m: Ft, gsurf: vec3, ex: Extras, frac: Ft):
+        # Forces, impulses, then colliders at a node (the same order as taichi_mpm's extras); frac: the node's
+        # flowing-mass fraction (colliders.build_blend)
         base = ex.step[0] * ex.width
         t = ex.tab[base + FT_TIME]
         v = apply_forces(v_in, X, dt, m, gsurf, t, ex)
         v = apply_impulses(v, X, base, ex)
-        return apply_colliders(v, X, base, ex)
+        return apply_colliders(v, X, base, ex, frac)
 
     return Extras, extras
 
@@ -74,10 +75,53 @@ def build_contact_friction(Ft):
 
 
 @functools.cache
+def build_boundary_rules(Ft):
+    """``boundary_rules(vel, X, k, lo, hi, dx, wall_in, wall_full, wall_mu, ground, f)``, scalar type ``Ft``: the
+    walls' and grounds' grid rule on a node's velocity (nodes within ``wall_in`` cells of a face, layers ``k <=
+    ground[g][0]``; with the contact chosen per body by the node's flowing-mass fraction ``f`` beyond ``wall_full``
+    cells and above layer ``ground[g][2]``, ``colliders.build_blend``)."""
+    vec3, vec4, mat33 = build_types(Ft)
+    collide = build_collide(Ft)
+    blend_rule = build_blend(Ft)
+
+    @wp.func
+    def boundary_rules(vel_in: vec3, X: vec3, k: int, lo: vec3, hi: vec3, dx: Ft, wall_in: Ft, wall_full: Ft,
+                       wall_mu: wp.array(dtype=Ft), ground: wp.array(dtype=vec3), f: Ft):
+        vel = vel_in
+        for w in range(wall_mu.shape[0]):
+            mu_b = wall_mu[w]
+            for d in range(3):
+                if X[d] < lo[d] + wall_in * dx:
+                    n = vec3(Ft(0.0))
+                    n[d] = Ft(1.0)
+                    wt = Ft(1.0)
+                    if X[d] >= lo[d] + wall_full * dx:
+                        wt = f
+                    vel = blend_rule(vel, collide(vel, n, mu_b), wt)
+                if X[d] > hi[d] - wall_in * dx:
+                    n = vec3(Ft(0.0))
+                    n[d] = Ft(-1.0)
+                    wt = Ft(1.0)
+                    if X[d] <= hi[d] - wall_full * dx:
+                        wt = f
+                    vel = blend_rule(vel, collide(vel, n, mu_b), wt)
+        for q in range(ground.shape[0]):
+            gr = ground[q]
+            if Ft(k) <= gr[0]:  # node layer k at or below the ground's top layer (exact small integers)
+                wt = Ft(1.0)
+                if Ft(k) > gr[2]:
+                    wt = f
+                vel = blend_rule(vel, collide(vel, vec3(Ft(0.0), Ft(0.0), Ft(1.0)), gr[1]), wt)
+        return vel
+
+    return boundary_rules
+
+
+@functools.cache
 def build_grid_update(Ft):
     """The grid-update kernel ``grid_update`` of scalar type ``Ft``: node velocity, gravity, extras, boundaries."""
     vec3, vec4, mat33 = build_types(Ft)
-    collide = build_collide(Ft)
+    boundary_rules = build_boundary_rules(Ft)
     Extras, extras = build_extras(Ft)
     balance_node = build_balance(Ft)[2]
     contact_friction, clear_contact = build_contact_friction(Ft)
@@ -91,11 +135,15 @@ def build_grid_update(Ft):
         has_extras: int, ex: Extras, grid_g: wp.array(dtype=vec3), has_wind: int,
         grid_mv0: wp.array(dtype=vec4), grid_v0: wp.array(dtype=vec3), flip: int, grid_fb: wp.array(dtype=Ft),
         grid_fbody: wp.array(dtype=wp.int32), fr_sums: wp.array2d(dtype=wp.float64), fr_nodes: wp.array(dtype=wp.int32),
-        colc: int, grid_fn: wp.array(dtype=vec3), grid_fv: wp.array(dtype=vec3)):
+        colc: int, grid_fn: wp.array(dtype=vec3), grid_fv: wp.array(dtype=vec3), wall_full: Ft,
+        grid_mf: wp.array(dtype=Ft)):
         # wall_in: the walls' grid rule reaches this many cells in (gasp_core.toolkit.contact.wall_grid_cells);
         # ground[g] = (top node layer k_max as a float, friction, unused); grid_m (node mass, for
         # passive points) has one entry per node when the setup has passive points, else one unused entry;
-        # grid_fb: the contact's friction budget per node (kg m/s; one unused entry without it; with colc grid_fn/fv)
+        # grid_fb: the contact's friction budget per node (kg m/s; one unused entry without it; with colc grid_fn/fv);
+        # the contact chosen per body (gasp_core.toolkit.contact.rule_models): grid_mf the flowing bodies' mass per node
+        # (one unused entry otherwise), the rule acting fully within wall_full cells / up to layer ground[g][2] and
+        # by the node's flowing-mass fraction f between there and wall_in / ground[g][0] (colliders.build_blend)
         node = wp.tid()
         g = grid_mv[node]
         m = g[3]
@@ -103,6 +151,10 @@ def build_grid_update(Ft):
             grid_m[node] = m
         out = vec3(Ft(0.0))
         if m > Ft(0.0):
+            f = Ft(0.0)
+            if grid_mf.shape[0] > 1:
+                f = grid_mf[node] / m
+                grid_mf[node] = Ft(0.0)
             vel = vec3(g[0], g[1], g[2]) / m + dt * gravity
             i = node / (n_grid * n_grid)
             j = (node / n_grid) % n_grid
@@ -112,22 +164,8 @@ def build_grid_update(Ft):
                 gsurf = vec3(Ft(0.0))
                 if has_wind != 0:
                     gsurf = grid_g[node]
-                vel = extras(vel, X, dt, m, gsurf, ex)
-            for w in range(wall_mu.shape[0]):
-                mu_b = wall_mu[w]
-                for d in range(3):
-                    if X[d] < lo[d] + wall_in * dx:
-                        n = vec3(Ft(0.0))
-                        n[d] = Ft(1.0)
-                        vel = collide(vel, n, mu_b)
-                    if X[d] > hi[d] - wall_in * dx:
-                        n = vec3(Ft(0.0))
-                        n[d] = Ft(-1.0)
-                        vel = collide(vel, n, mu_b)
-            for q in range(ground.shape[0]):
-                gr = ground[q]
-                if Ft(k) <= gr[0]:  # node layer k at or below the ground's top layer (exact small integers)
-                    vel = collide(vel, vec3(Ft(0.0), Ft(0.0), Ft(1.0)), gr[1])
+                vel = extras(vel, X, dt, m, gsurf, ex, f)
+            vel = boundary_rules(vel, X, k, lo, hi, dx, wall_in, wall_full, wall_mu, ground, f)
             if grid_fb.shape[0] > 1:   # friction, then the contact's balance (balance.py)
                 v_in = vel
                 vel = contact_friction(vel, m, node, grid_fb, colc, grid_fn, grid_fv)

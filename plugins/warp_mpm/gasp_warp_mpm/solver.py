@@ -36,8 +36,8 @@ from gasp_core.toolkit.grid_engine import choose_dt, GridEngineBase
 from gasp_core.toolkit.materials import JELLY, P_ETA, initial_Jp, material_table
 from gasp_core.toolkit.rigid import rigid_contact, step_view, zero_stress
 from gasp_core.toolkit.memory import check_memory, estimate_bytes
-from gasp_core.toolkit.contact import (contact_coefficients, contact_model, contact_planes, ground_node_layer,
-                                      wall_grid_cells)
+from gasp_core.toolkit.contact import (contact_coefficients, contact_model, contact_planes, flowing_bodies,
+                                      ground_node_layer, rule_models, wall_grid_cells)
 from gasp_core.toolkit.points import cell_order, fixed_mask, passive_bounds
 from gasp_core.toolkit.substeps import passive_schedule
 from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
@@ -178,20 +178,25 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables):
         contact its planes (grounds and walls, ``contact_planes``), coefficients and budgets."""
         fixed_lo, fixed_hi, ground, wall_mu = [], [], [], []
         contact = self._contact = contact_model(step_view(self.setup))
+        reach, full = rule_models(contact)   # the grid rule's reach, and where it acts fully (contact.rule_models)
         for bd in self.setup.boundaries:
             if bd.kind == "fixed_region":
                 fixed_lo.append(np.asarray(bd.lo, float))
                 fixed_hi.append(np.asarray(bd.hi, float))
             elif bd.kind == "ground":
-                # the ground's node layer, decided in float64 (gasp_core.toolkit.contact.ground_node_layer: its top
+                # the ground's node layers, decided in float64 (gasp_core.toolkit.contact.ground_node_layer: its top
                 # layer with contact = "grid", two cells lower with the particle contact, which meets the plane)
-                ground.append((float(ground_node_layer(contact, bd.height, self.setup.domain_lo[2], self.dx)),
-                               bd.friction, 0.0))
+                lo_z = self.setup.domain_lo[2]
+                ground.append((float(ground_node_layer(reach, bd.height, lo_z, self.dx)), bd.friction,
+                               float(ground_node_layer(full, bd.height, lo_z, self.dx))))
             else:
                 wall_mu.append(bd.friction)
         dt_np, k, arr = self._np_dtype, self.k, self._array
         self.wall_mu = arr(np.array(wall_mu, dtype=dt_np), Ft)
-        self.wall_in = wall_grid_cells(contact)   # the walls' grid rule: 3 cells in, 1.5 with the particle contact
+        self.wall_in, self.wall_full = wall_grid_cells(reach), wall_grid_cells(full)   # 3 cells in, 1.5 with particle
+        flows = flowing_bodies(step_view(self.setup), contact)   # the contact chosen per body: flowing mass per node
+        self.flows = arr(flows.astype(np.int32), wp.int32)
+        self.grid_mf = wp.zeros(self.n_grid ** 3 if contact == "mixed" else 1, dtype=Ft, device=self.device)
         self.ground = arr(np.array(ground, dtype=dt_np).reshape(-1, 3), k.vec3)
         self.fixed_lo = arr(np.array(fixed_lo, dtype=dt_np).reshape(-1, 3), k.vec3)
         # the particle contact: the planes (offset, friction, support) and normals, each point's (k, c, skin) and the
@@ -199,7 +204,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables):
         # nodes keep their budget's normal and the supports' velocity (gasp_warp_mpm.contact)
         plane_n, planes = contact_planes(step_view(self.setup), contact)
         self.planes, self.plane_n = arr(planes.astype(dt_np), k.vec3), arr(plane_n.astype(dt_np), k.vec3)
-        self.colc = int(contact == "particle" and bool(self.setup.colliders))
+        self.colc = int(contact in ("particle", "mixed") and bool(self.setup.colliders))
         self.nfric = int(self.colc or bool(np.any(plane_n[:, 2] < 1.0)))
         n = self.n_grid ** 3 if len(planes) or self.colc else 1
         kcs = self._contact_coefficients()[self._order] if n > 1 else np.zeros((1, 3))
@@ -228,12 +233,12 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables):
                 self.mat_kind, self.mat_par, self.grid_mv, self.flags, lo_v, inv_dx, dx, dt_f, ng,
                 self.grid_g, self.has_wind, self.grid_mv0, int(self.flip > 0), self.p_contact, self.planes, self.plane_n,
                 self.grid_fb, self.grid_eta, self.c_shift, self.grid_fbody, ex, self.colc, self.n_sup, self.grid_fn,
-                self.grid_fv]),
+                self.grid_fv, self.grid_mf, self.flows]),
             wp.launch(k.grid_update, dim=ng ** 3, device=d, record_cmd=True, inputs=[
                 self.grid_mv, self.grid_v, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, Ft(self.wall_in), self.wall_mu,
                 self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex, self.grid_g, self.has_wind,
                 self.grid_mv0, self.grid_v0, int(self.flip > 0), self.grid_fb, self.grid_fbody,
-                self.fr_sums, self.fr_nodes, self.nfric, self.grid_fn, self.grid_fv]),
+                self.fr_sums, self.fr_nodes, self.nfric, self.grid_fn, self.grid_fv, Ft(self.wall_full), self.grid_mf]),
             wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
                 self.x, self.v, self.C, self.fixed, self.grid_v, lo_v, inv_dx, dt_f, ng, self.grid_v0, Ft(self.flip)]),
         ] + self._rigid_launches(Ft)

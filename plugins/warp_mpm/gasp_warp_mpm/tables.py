@@ -5,7 +5,7 @@ from __future__ import annotations
 import warp as wp
 
 from gasp_core.seam import SimSetup
-from gasp_core.toolkit.contact import collider_grid_depth, contact_model
+from gasp_core.toolkit.contact import collider_grid_depth, contact_model, rule_models
 from gasp_core.toolkit.rigid import step_view
 
 
@@ -29,7 +29,9 @@ class ExtraTables:
         ex.n_col, ex.n_force, ex.n_imp, ex.width = (tables.n_colliders, tables.n_forces, tables.n_impulses,
                                                      tables.width)
         # the colliders' grid rule two cells inside them with the particle contact (its points meet the surface)
-        ex.col_deep = Ft(collider_grid_depth(contact_model(step_view(setup)), self.dx))
+        # (the contact chosen per body: from the surface, fully from there; gasp_core.toolkit.contact.rule_models)
+        reach, full = rule_models(contact_model(step_view(setup)))
+        ex.col_deep, ex.col_full = Ft(collider_grid_depth(reach, self.dx)), Ft(collider_grid_depth(full, self.dx))
         self._ex = ex
         return int(tables.any), ex
 

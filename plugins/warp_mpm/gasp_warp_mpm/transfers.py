@@ -110,14 +110,10 @@ def build_scatter(Ft):
 
 
 @functools.cache
-def build_p2g(Ft):
-    """The P2G kernel ``p2g`` of scalar type ``Ft``: return mapping, stress, scatter."""
+def build_scatter_vec(Ft):
+    """``scatter_vec(grid_s, idx0, n_grid, W, value)``: a vector added to a point's 27 nodes with its weights (P2G),
+    scalar type ``Ft``."""
     vec3, vec4, mat33 = build_types(Ft)
-    in_grid, weights = build_stencil(Ft)
-    return_mapping = build_return_mapping(Ft)
-    scatter, scatter_wind, scatter_scalar = build_scatter(Ft)
-    point_contact = build_collider_contact(Ft)[1]
-    Extras = build_extras_struct(Ft)
 
     @wp.func
     def scatter_vec(grid_s: wp.array(dtype=vec3), idx0: int, n_grid: int, W: mat33, value: vec3):
@@ -128,6 +124,20 @@ def build_p2g(Ft):
                 row = idx0 + i * nn + j * n_grid
                 for k in range(3):
                     grid_s[row + k] += (W[i, 0] * W[j, 1] * W[k, 2]) * value
+
+    return scatter_vec
+
+
+@functools.cache
+def build_p2g(Ft):
+    """The P2G kernel ``p2g`` of scalar type ``Ft``: return mapping, stress, scatter."""
+    vec3, vec4, mat33 = build_types(Ft)
+    in_grid, weights = build_stencil(Ft)
+    return_mapping = build_return_mapping(Ft)
+    scatter, scatter_wind, scatter_scalar = build_scatter(Ft)
+    point_contact = build_collider_contact(Ft)[1]
+    Extras = build_extras_struct(Ft)
+    scatter_vec = build_scatter_vec(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def p2g(
@@ -142,12 +152,13 @@ def build_p2g(Ft):
         grid_fb: wp.array(dtype=Ft),
         grid_eta: wp.array(dtype=Ft), shift: wp.array2d(dtype=wp.float64), grid_fbody: wp.array(dtype=wp.int32),
         ex: Extras, colc: int, n_sup: int, grid_fn: wp.array(dtype=vec3), grid_fv: wp.array(dtype=vec3),
+        grid_mf: wp.array(dtype=Ft), flows: wp.array(dtype=wp.int32),
     ):
         # F advanced by C, return mapping and stress (docs/mpm.md), then the scatter (and, with wind, grid_g;
         # with flip, the APIC momentum alone into grid_mv0: gasp_core.toolkit.transfer); with the particle
         # contact (planes: grounds and walls; colc: the colliders too), the normal impulses join the momentum and their
         # friction budget goes to grid_fb (with walls or colliders its normal to grid_fn, supports' velocity to grid_fv;
-        # :mod:`gasp_warp_mpm.contact`)
+        # :mod:`gasp_warp_mpm.contact`); with the contact chosen per body the flowing bodies' (flows[b]) mass to grid_mf
         p = wp.tid()
         X = (x[p] - lo) * inv_dx
         if not in_grid(X, n_grid):
@@ -179,6 +190,9 @@ def build_p2g(Ft):
                     scatter_vec(grid_fn, idx0, n_grid, W, fn)
                     scatter_vec(grid_fv, idx0, n_grid, W, fv)
         scatter(grid_mv, idx0, n_grid, W, mom0, A, pm)
+        if grid_mf.shape[0] > 1:
+            if flows[body[p]] != 0:
+                scatter_scalar(grid_mf, idx0, n_grid, W, pm)
         if flip != 0:
             A0 = (dx * pm) * Cp
             scatter(grid_mv0, idx0, n_grid, W, pm * v[p] - A0 * fx, A0, pm)
