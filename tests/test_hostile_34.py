@@ -475,7 +475,8 @@ def test_a_fill_beyond_the_machines_memory_is_refused_before_it_allocates(tmp_pa
     from gasp_core.toolkit import memory
     monkeypatch.setattr(memory, "machine_bytes", lambda: 2**29)
     scene = tmp_path / "s.toml"
-    scene.write_text(scene_text(donut_small, n_frames=1, n_grid=100, engine="warp_mpm", engine_options="{ }")
+    scene.write_text(scene_text(donut_small, n_frames=1, n_grid=100, engine="warp_mpm", engine_options="{ }",
+                                extra_object='surface_points = "vertices"')   # the count below: 3 per Gaussian
                      .replace("n_grid = 100", "n_grid = 100\nparticles_per_cell = 64"))
     before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     with pytest.raises(GaspError) as e:
@@ -486,7 +487,8 @@ def test_a_fill_beyond_the_machines_memory_is_refused_before_it_allocates(tmp_pa
     n = int(line.split("makes about ")[1].split(" points")[0].replace(",", ""))
     assert 1_710_293 <= n < 1_800_000, n   # its inside cells and surface points: 1,710,293 points when filled
     assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 200 * 1024   # KiB
-    scene.write_text(scene_text(donut_small, n_frames=1, n_grid=32, engine="warp_mpm", engine_options="{ }"))
+    scene.write_text(scene_text(donut_small, n_frames=1, n_grid=32, engine="warp_mpm", engine_options="{ }",
+                                extra_object='surface_points = "vertices"'))
     assert len(prepare_scene(load_scene(scene)).setup.x) > 10_000
 
 
