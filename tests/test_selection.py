@@ -134,9 +134,10 @@ def test_run_json_counts(half_donut):
     assert half["select"]["kind"] == "box" and half["select"]["frame"] == "file"
     assert (still["static"], still["n_selected"], still["n_static"], still["n_fill_points"]) == \
         (True, 0, N_DONUT, 0)
-    # only the selected half reaches the engine: its triangle vertices and its fill
-    assert run["n_render_points"] == 3 * n_sel
-    assert run["n_points"] == 3 * n_sel + half["n_fill_points"]
+    # only the selected half reaches the engine: its triangle vertices (or centres, the level's layout on jelly)
+    per = {"vertices": 3, "centres": 1}[half["surface_points"]]
+    assert run["n_render_points"] == per * n_sel
+    assert run["n_points"] == per * n_sel + half["n_fill_points"]
     assert run["engine_stats"]["n_points"] == run["n_points"]
 
 
@@ -216,7 +217,8 @@ def test_grow_selection_links_overlapping_splats_only():
 def test_static_object_reaches_no_engine_and_gives_its_splats(donut_box_rows):
     text = donut_scene("select = { indices = [0, 1, 2, 3] }", static_object=STATIC_DONUT)
     prep = prepare_scene(parse(text))
-    assert prep.setup.n_render == 3 * 4 and len(prep.setup.materials) == 1
+    per = {"vertices": 3, "centres": 1}[prep.objects[0].spec.surface_points]   # the level's layout
+    assert prep.setup.n_render == per * 4 and len(prep.setup.materials) == 1
     assert set(np.unique(prep.setup.body_id)) == {0}
     splats = static_splats(prep)
     assert [s[0] for s in splats] == ["0_donut_v3dg", "1_donut_v3dg"]
