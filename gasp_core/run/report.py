@@ -35,7 +35,7 @@ from typing import TextIO
 #: What ``gasp simulate`` says before it builds the engine (the console, with progress).
 BUILDING = "gasp: {engine}: building the engine (its kernels compile on a first run, cached afterwards)…"
 #: ... and once the first frame it computes is done.
-BUILT = "gasp: {engine}: frame {frame} after {seconds:.1f} s (the engine's build and its kernels included)"
+BUILT = "gasp: {engine}: frame {frame} after {seconds:.3g} s (the engine's build and its kernels included)"
 
 
 class Reporter:
