@@ -6,14 +6,33 @@ only after the frame files it covers, and a killed run never has a checkpoint ah
 (``--resume`` continues exactly as before). Files are written atomically (:mod:`gasp_core.fsutil`), so an
 interrupted job leaves no half-written file.
 
-What it buys depends on whether the engine releases Python's GIL while it computes: if it does, the writes
-run on a second core; if its kernels hold the GIL, only the parts of a write that release it themselves (file
-writes, NumPy copies) overlap. Which engine does which is measured in docs/performance.md.
+A job is the frame's rebuild (``T^-1`` and the alpha rule, :class:`gasp_core.run.frames.Rebuilder`), its files
+and its checkpoint. What it buys depends on whether the engine releases Python's GIL while it computes: if it
+does, the job runs on a second core; if its kernels hold the GIL, only the parts of a job that release it
+themselves (NumPy, file writes) overlap. Which engine does which is measured in docs/performance.md.
 """
 from __future__ import annotations
 
+import sys
 from concurrent.futures import Future, ThreadPoolExecutor
+from contextlib import contextmanager
 from typing import Callable
+
+#: Python's thread switch interval (s) while the engine and the writer share the GIL: the engine's thread takes the
+#: GIL back after each kernel launch (about 1,500 a frame on the README donut), and with Python's default 5 ms it
+#: could wait up to that long each time the writer holds it (``docs/performance.md``, "The rebuild on the writer").
+SWITCH_INTERVAL = 5e-3
+
+
+@contextmanager
+def gil_handover(interval: float = SWITCH_INTERVAL):
+    """Python's switch interval set to ``interval`` seconds inside the block, restored after it."""
+    old = sys.getswitchinterval()
+    sys.setswitchinterval(interval)
+    try:
+        yield
+    finally:
+        sys.setswitchinterval(old)
 
 
 class Background:

@@ -84,6 +84,52 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray,
     return out, rot, {"degenerate": int(degenerate.sum()), "clamped": int(clamped.sum())}
 
 
+class Rebuilder:
+    """``T^-1`` of every object of a prepared scene, frame after frame (its previous rotations kept).
+
+    Parameters
+    ----------
+    prep : PreparedScene
+    prev_rot : list of ndarray, optional
+        Each object's rotations of the frame before (a resumed run's checkpoint); default the rest rotations.
+    """
+
+    def __init__(self, prep: PreparedScene, prev_rot: list | None = None):
+        self.prep = prep
+        self.prev_rot = [o.rot_rest for o in prep.objects] if prev_rot is None else list(prev_rot)
+
+    def __call__(self, frame: int, x: np.ndarray) -> tuple[list[Gaussians], dict]:
+        """Every object's Gaussians at ``frame`` from the positions ``x`` (n_points, 3), world frame, and the
+        frame's row (``frame``, ``degenerate``, ``clamped`` and, with colliders, ``colliders``)."""
+        prep, prev = self.prep, self.prev_rot
+        gs, row = [], {"frame": frame, "degenerate": 0, "clamped": 0}
+        for k, o in enumerate(prep.objects):
+            g, prev[k], counts = rebuild(o, x, prev[k], frame * prep.setup.frame_dt)
+            row["degenerate"] += counts["degenerate"]
+            row["clamped"] += counts["clamped"]
+            gs.append(g)
+        if prep.setup.colliders:  # run.json collider figures (gasp_core.run.contact)
+            from gasp_core.run.contact import contact_row
+            row["colliders"] = contact_row(prep.setup, x, frame * prep.setup.frame_dt)
+        return gs, row
+
+
+def iter_positions(prep: PreparedScene, n_frames: int, stats: RunStats | None = None,
+                   resume: Checkpoint | None = None, before_frames=None):
+    """Yield ``(frame, x, sim_s, get_state)`` for frame 0 (the input, ``sim_s`` None) to ``n_frames``: the engine's
+    positions (n_points, 3) float64, world frame, before any rebuild (:class:`Rebuilder` makes the Gaussians).
+
+    ``get_state`` is the engine's checkpoint reader (None without the feature ``state``): call it before the
+    next frame is asked for. Parameters and errors as :func:`iter_frames`.
+    """
+    if resume is None:
+        yield 0, prep.setup.x, None, None
+    for rec in run_engine(prep.info, prep.setup, n_frames, stats, start_frame=0 if resume is None else resume.frame,
+                          state=None if resume is None else resume.engine_state, before_frames=before_frames,
+                          sleep=getattr(prep.scene, "sleep", False)):
+        yield rec.frame, rec.x, rec.wall_s, rec.get_state
+
+
 def iter_frames(prep: PreparedScene, n_frames: int, stats: RunStats | None = None,
                 resume: Checkpoint | None = None, state: FrameState | None = None, before_frames=None):
     """Yield ``(frame, gaussians_per_object, counts)`` for frame 0 (the input) to ``n_frames``.
@@ -109,29 +155,11 @@ def iter_frames(prep: PreparedScene, n_frames: int, stats: RunStats | None = Non
         See :func:`gasp_core.seam.runner.run_engine`.
     """
     state = state if state is not None else FrameState()
-    state.prev_rot = [o.rot_rest for o in prep.objects] if resume is None else list(resume.prev_rot)
-    prev = state.prev_rot
-
-    def rebuild_all(frame: int, x: np.ndarray):
-        gs, row = [], {"frame": frame, "degenerate": 0, "clamped": 0}
-        for k, o in enumerate(prep.objects):
-            g, prev[k], counts = rebuild(o, x, prev[k], frame * prep.setup.frame_dt)
-            row["degenerate"] += counts["degenerate"]
-            row["clamped"] += counts["clamped"]
-            gs.append(g)
-        if prep.setup.colliders:  # run.json collider figures (gasp_core.run.contact)
-            from gasp_core.run.contact import contact_row
-            row["colliders"] = contact_row(prep.setup, x, frame * prep.setup.frame_dt)
-        return gs, row
-
-    start = 0 if resume is None else resume.frame
-    if resume is None:
-        gs, row = rebuild_all(0, prep.setup.x)
-        yield 0, gs, row
-    for rec in run_engine(prep.info, prep.setup, n_frames, stats, start_frame=start,
-                          state=None if resume is None else resume.engine_state, before_frames=before_frames,
-                          sleep=getattr(prep.scene, "sleep", False)):
-        gs, row = rebuild_all(rec.frame, rec.x)
-        row["sim_s"] = rec.wall_s
-        state.get_state = rec.get_state
-        yield rec.frame, gs, row
+    rebuild_all = Rebuilder(prep, None if resume is None else resume.prev_rot)
+    state.prev_rot = rebuild_all.prev_rot
+    for frame, x, sim_s, get_state in iter_positions(prep, n_frames, stats, resume, before_frames):
+        gs, row = rebuild_all(frame, x)
+        if sim_s is not None:
+            row["sim_s"] = sim_s
+            state.get_state = get_state
+        yield frame, gs, row

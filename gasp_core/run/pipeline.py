@@ -16,11 +16,13 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable
 
+import numpy as np
+
 from gasp_core.run import resume as resume_mod
 from gasp_core.run import budget, stop
-from gasp_core.run.background import Background
+from gasp_core.run.background import Background, gil_handover
 from gasp_core.errors import EngineDivergence, GaspError
-from gasp_core.run.frames import FrameState, iter_frames
+from gasp_core.run.frames import Rebuilder, iter_positions
 from gasp_core.fsutil import OutputClaim, OutputConflict, atomic_json, leftover_partials
 from gasp_core.gs.gaussians import Gaussians
 from gasp_core.gs import registry
@@ -212,24 +214,28 @@ def _write_frames(run: _Run, n_frames: int, on_frame: Callable[[int, list[Gaussi
     prep, tmp, checkpoint = run.prep, run.tmp, run.checkpoint
     run.reporter.start(prep.info.name, n_frames, 0 if checkpoint is None else checkpoint.frame)
     t_run = time.perf_counter()
-    frame_state = FrameState()
     moves = [follows_model(o) for o in prep.objects]   # a dynamic model's background moves: every row, every frame
     writer = FrameWriter(tmp, list(prep.names), [o.spec.static and not m for o, m in zip(prep.objects, moves)],
                          [None if m else o.moving for o, m in zip(prep.objects, moves)], run.fmt, run.layout,
                          overwrite=checkpoint is not None, up_axes=[o.spec.up_axis for o in prep.objects])
     stop.frame_started(None)
     t_frame = time.perf_counter()
-    with Background() as writes:   # a frame's files are written while the engine runs the next one
-        for frame, gs, row in iter_frames(prep, n_frames, run.stats, resume=checkpoint, state=frame_state,
-                                          before_frames=lambda stats: _before_frames(run, stats, n_frames)):
-            stop.frame_started(row.get("sim_s"))   # its writes and checkpoint take about as long as it did
-            state = frame_state.get_state() if frame_state.get_state is not None and frame < n_frames else None
-            writes.submit(_save_frame, run, writer, frame, gs, row, state, list(frame_state.prev_rot),
-                          list(run.stats.frame_s))
+    rebuild_all = Rebuilder(prep, None if checkpoint is None else checkpoint.prev_rot)
+    # a frame's rebuild (T^-1) and files are made on the writer while the engine runs the next frame
+    with Background() as writes, gil_handover():
+        for frame, x, sim_s, get_state in iter_positions(
+                prep, n_frames, run.stats, resume=checkpoint,
+                before_frames=lambda stats: _before_frames(run, stats, n_frames)):
+            stop.frame_started(sim_s)   # its rebuild, writes and checkpoint take about as long as it did
+            state = get_state() if get_state is not None and frame < n_frames else None
+            made: list = []
+            writes.submit(_save_frame, run, writer, rebuild_all, frame, np.array(x), sim_s, state,
+                          list(run.stats.frame_s), made)
             wall_s = time.perf_counter() - t_frame
-            run.reporter.frame(frame, wall_s, row.get("sim_s"), run.stats.engine.get("n_substeps"))
+            run.reporter.frame(frame, wall_s, sim_s, run.stats.engine.get("n_substeps"))
             if on_frame is not None:
-                on_frame(frame, gs)
+                writes.flush()
+                on_frame(frame, made[0])
             _after_frame(run, writes, frame, n_frames, wall_s)
             t_frame = time.perf_counter()
     run.reporter.end_progress()
@@ -335,9 +341,16 @@ def _keep_diverged(run: _Run, claim: OutputClaim, n_frames: int, error: EngineDi
     error.kept, error.last_kept = claim.outdir, last
 
 
-def _save_frame(run: _Run, writer: FrameWriter, frame: int, gs: list[Gaussians], row: dict,
-                engine_state: dict | None, prev_rot: list, frame_s: list) -> None:
-    """Write one frame's files, then (``engine_state`` not None) its checkpoint (on :class:`Background`'s worker)."""
+def _save_frame(run: _Run, writer: FrameWriter, rebuild_all: Rebuilder, frame: int, x: np.ndarray,
+                sim_s: float | None, engine_state: dict | None, frame_s: list, made: list) -> None:
+    """Rebuild one frame's Gaussians from the positions ``x`` and write its files, then (``engine_state`` not None)
+    its checkpoint (on :class:`Background`'s worker); the Gaussians are appended to ``made``."""
+    t0 = time.perf_counter()
+    gs, row = rebuild_all(frame, x)
+    if sim_s is not None:
+        row["sim_s"] = sim_s
+    row["rebuild_s"] = time.perf_counter() - t0
+    made.append(gs)
     t0 = time.perf_counter()
     run.unrecorded += writer.write(frame, gs)
     row["write_s"] = time.perf_counter() - t0
@@ -347,7 +360,7 @@ def _save_frame(run: _Run, writer: FrameWriter, frame: int, gs: list[Gaussians],
         run.files.update(resume_mod.file_record(run.tmp, run.unrecorded, run.files))
         run.unrecorded = []
         resume_mod.save(run.tmp, resume_mod.Checkpoint(
-            frame, engine_state, prev_rot, {"fingerprint": run.fingerprint, "per_frame": run.per_frame,
+            frame, engine_state, list(rebuild_all.prev_rot), {"fingerprint": run.fingerprint, "per_frame": run.per_frame,
                                             "frame_s": frame_s, "files": run.files}))
         row["checkpoint_s"] = time.perf_counter() - t0
         run.saved_frame = frame

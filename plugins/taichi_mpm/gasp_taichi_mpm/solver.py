@@ -50,6 +50,7 @@ from .forces import Forces
 from .grid import GridUpdate
 from .rigid import Rigid
 from .transfers import Transfers
+from .viscosity import ImplicitViscosity
 
 #: The coloured P2G re-sorts the points by block every this many substeps (and at every frame's start).
 SORT_EVERY = 10
@@ -163,10 +164,7 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         self._setup_extras(extras, time_table, np_real, n_substeps)
         if self.has_passive:
             self.passive_box()
-        self.visc = None
-        if self.viscous:
-            from .viscosity import ImplicitViscosity
-            self.visc = ImplicitViscosity(self, self.eta_channel)
+        self.visc = ImplicitViscosity(self, self.eta_channel) if self.viscous else None
 
     def _allocate_points(self, n_bodies: int) -> None:
         """Per-point fields (x, v, C, F, Jp, p_mass, p_vol, body, fixed) and per-body fields (kind, mat).
@@ -379,8 +377,10 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
             self.p2g_begin()
             for c in range(8):
                 self.g2p_p2g_colour(c, with_g2p)
-            self.p2g_late()
-            self.late_points += int(self.n_late[None])
+            n_late = int(self.n_late[None])
+            if n_late:   # rare: launched (and compiled) only when a point was late
+                self.p2g_late()
+            self.late_points += n_late
         else:
             self.g2p_p2g(with_g2p)
             if self.visc is not None and self.atomic:

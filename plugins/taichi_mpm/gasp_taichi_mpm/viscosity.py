@@ -20,8 +20,7 @@ chunks' sums in order, so the result does not depend on the thread count.
 import taichi as ti
 
 #: CG stops when sqrt(r.z) has fallen to this fraction of its value at v* (the viscous correction's accuracy).
-import os
-TOL = float(os.environ.get("GASP_VISC_TOL", "1e-2"))
+TOL = 1e-2
 #: At most this many CG iterations per substep.
 MAX_ITERS = 200
 #: Nodes per partial sum of a dot product (fixed: the sums do not depend on the threads).
@@ -100,6 +99,15 @@ class ImplicitViscosity:
         G = ti.Matrix.zero(self.s.real, 3, 3)
         for a, b, e in ti.static(ti.ndrange(2, 2, 2)):
             G += field[c + ti.Vector([a, b, e])].outer_product(self._g(a, b, e))
+        return self.wc[c] * (G + G.transpose())
+
+    @ti.func
+    def _cell_stress_zp(self, c, beta):
+        """(eta V)_c (G + G^T) over valid cell ``c`` of the CG direction ``z + beta p``."""
+        G = ti.Matrix.zero(self.s.real, 3, 3)
+        for a, b, e in ti.static(ti.ndrange(2, 2, 2)):
+            J = c + ti.Vector([a, b, e])
+            G += (self.z[J] + beta * self.p[J]).outer_product(self._g(a, b, e))
         return self.wc[c] * (G + G.transpose())
 
     @ti.func
@@ -196,6 +204,7 @@ class ImplicitViscosity:
         rz = self._sum_parts(nn)
         self.rz[None] = rz
         self.rz0[None] = rz
+        self.beta[None] = 0.0   # the first direction is z
         self.done[None] = 0
         if rz <= 0.0:
             self.done[None] = 1
@@ -206,18 +215,21 @@ class ImplicitViscosity:
         lo, ext = self._box()
         hi = lo + ext - 1
         nn = self.n_nodes[None]
-        for k in range(self.n_cells[None]):
+        beta = self.beta[None]
+        for k in range(self.n_cells[None]):   # S of the new direction z + beta p (p itself is updated below)
             c = self.cells[k]
-            self.S[c] = self._cell_stress(c, self.p)
+            self.S[c] = self._cell_stress_zp(c, beta)
         dt = self.s.dt[None]
         for k0 in range(nn):
             if k0 % CHUNK == 0:
                 acc = ti.cast(0.0, self.s.real)
                 for k in range(k0, ti.min(k0 + CHUNK, nn)):
                     I = self.nodes[k]
-                    ap = self.s.grid_mv[0, I][3] * self.p[I] + dt * self._node_force(I, lo, hi)
+                    p = self.z[I] + beta * self.p[I]
+                    self.p[I] = p
+                    ap = self.s.grid_mv[0, I][3] * p + dt * self._node_force(I, lo, hi)
                     self.Ap[I] = ap
-                    acc += self.p[I].dot(ap)
+                    acc += p.dot(ap)
                 self.part[k0 // CHUNK] = acc
         pap = self._sum_parts(nn)
         self.alpha[None] = 0.0
@@ -246,9 +258,6 @@ class ImplicitViscosity:
             self.rz[None] = rz
             if rz <= TOL * TOL * self.rz0[None]:
                 self.done[None] = 1
-        for k in range(nn):
-            I = self.nodes[k]
-            self.p[I] = self.z[I] + self.beta[None] * self.p[I]
 
     @ti.kernel
     def _finish(self):
