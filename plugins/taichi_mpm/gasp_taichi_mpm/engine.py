@@ -25,15 +25,23 @@ from . import ENGINE
 #: On CPU the coloured block P2G is used while the grid takes at most this many bytes (beyond, the atomic one).
 MAX_PRIVATE_GRID_BYTES = 1 << 30
 
+#: Taichi's offline kernel cache may hold this many bytes (its default, 100 MiB, is less than the kernels of
+#: GASP's test run; over it Taichi drops a quarter of the cached kernels at each exit, which then compile again:
+#: 12 s for the README donut's P2G alone). ``TI_OFFLINE_CACHE_MAX_SIZE_OF_FILES`` in the environment wins.
+CACHE_MAX_BYTES = 1 << 30
+
 _generation = 0  # bumped by every engine built; an engine is live while its generation is current
 
 
 def _quiet_init(ti, **kw) -> None:
     """``ti.init(**kw)`` without its unconditional "[Taichi] Starting on arch=..." line on stdout
-    (GASP's stdout carries results, e.g. ``gasp engines --json``); anything else it prints goes to stderr."""
+    (GASP's stdout carries results, e.g. ``gasp engines --json``); anything else it prints goes to stderr. The
+    offline cache may grow to :data:`CACHE_MAX_BYTES`."""
     import contextlib
     import io
     import sys
+    if "TI_OFFLINE_CACHE_MAX_SIZE_OF_FILES" not in os.environ:
+        kw.setdefault("offline_cache_max_size_of_files", CACHE_MAX_BYTES)
     buf = io.StringIO()
     with contextlib.redirect_stdout(buf):
         ti.init(**kw)

@@ -282,6 +282,19 @@ def test_old_engine_is_invalidated_by_a_new_one():
         a.step_frame()
 
 
+def test_the_kernel_cache_is_not_cut_to_taichis_100_mib(monkeypatch):
+    """Over Taichi's default cap (100 MiB, less than GASP's test run compiles) a quarter of the cached kernels is
+    dropped at each exit and compiled again; the engine raises the cap, and a cap set in the environment wins."""
+    import taichi as ti
+    from gasp_taichi_mpm.engine import CACHE_MAX_BYTES
+    monkeypatch.delenv("TI_OFFLINE_CACHE_MAX_SIZE_OF_FILES", raising=False)
+    build(block_setup())
+    assert ti.lang.impl.current_cfg().offline_cache_max_size_of_files == CACHE_MAX_BYTES >= 1 << 30
+    monkeypatch.setenv("TI_OFFLINE_CACHE_MAX_SIZE_OF_FILES", "123456789")
+    build(block_setup())
+    assert ti.lang.impl.current_cfg().offline_cache_max_size_of_files == 123456789
+
+
 def test_stats_report_the_time_step_from_gasp_core_mpm():
     from gasp_core.toolkit.substeps import mpm_stable_dt, substeps_for
     s = block_setup()
