@@ -57,8 +57,10 @@ N_FRAMES = 18
 def mean_drop(E: float) -> tuple[float, float]:
     """Mean centre-of-mass drop over the frames (m) and the tube radius a = h / 2 of the fill (m)."""
     scene = load_scene(ROOT / "examples" / "donut_jelly.toml")
+    # undamped (viscosity 0), as the measurement above needs: the example's 4 Pa s (issue 29) damps the ringing
+    # within the run, the mean over frames no longer equals delta, and the ratio came out 1.46
     objs = [dataclasses.replace(o, position=(0.0, 0.0, 0.0), surface="passive", core_fraction=0.02,
-                                material=dataclasses.replace(o.material, E=E, rho=RHO)) for o in scene.objects]
+                                material=dataclasses.replace(o.material, E=E, rho=RHO, viscosity=0.0)) for o in scene.objects]
     scene = dataclasses.replace(scene, objects=objs, domain=dataclasses.replace(scene.domain, n_grid=32))
     prep = prepare_scene(scene)
     setup = prep.setup
