@@ -18,10 +18,12 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import contextmanager
 from typing import Callable
 
-#: Python's thread switch interval (s) while the engine and the writer share the GIL: the engine's thread takes the
-#: GIL back after each kernel launch (about 1,500 a frame on the README donut), and with Python's default 5 ms it
-#: could wait up to that long each time the writer holds it (``docs/performance.md``, "The rebuild on the writer").
-SWITCH_INTERVAL = 5e-3
+#: Python's thread switch interval (s) in the frame loop, where the engine and the writer share the GIL: the engine's
+#: thread takes the GIL back after each kernel launch (about 1,500 a frame on the README donut) and, with Python's
+#: default 5 ms, may wait that long each time the writer holds it. Measured per frame (the README donut, the rebuild
+#: on a second thread, ``docs/performance.md`` "The rebuild on the writer"): 5 ms 2.41 s, 1 ms 2.07 s, 0.2 ms 2.12 s
+#: with another job on one core; quiet, the three alike (1.30 s) and 1.37 s with the rebuild in the loop.
+SWITCH_INTERVAL = 1e-3
 
 
 @contextmanager
