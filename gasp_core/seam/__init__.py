@@ -33,7 +33,8 @@ module that defines it), so that importing the contract cannot close an import l
 from gasp_core.errors import EngineBug, EngineDivergence, EngineError, GaspError, SceneError
 from gasp_core.seam.build import build_engine
 from gasp_core.seam.install import install_hint
-from gasp_core.seam.engine import call_engine, Capabilities, EngineInfo, EngineStats, FEATURES, PointEngine, StatefulEngine
+from gasp_core.seam.engine import (call_engine, Capabilities, EngineInfo, EngineStats, FEATURES, PointEngine,
+                                   SleepingEngine, StatefulEngine)
 from gasp_core.seam.options import Option
 from gasp_core.seam.limits import Limit
 from gasp_core.seam.passive import mass_properties
@@ -47,7 +48,7 @@ __all__ = [
     # declaration
     "EngineInfo", "Capabilities", "Option", "Limit", "FEATURES",
     # protocol
-    "PointEngine", "StatefulEngine", "EngineStats", "mass_properties",
+    "PointEngine", "StatefulEngine", "SleepingEngine", "EngineStats", "mass_properties",
     # hooks
     "hookimpl", "RendererInfo", "SoupWriterInfo",
     # errors

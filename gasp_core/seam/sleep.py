@@ -26,6 +26,8 @@ SLEEP_DRIFT = 0.02
 SLEEP_KEY = "gasp_sleep"
 #: Frames in a row at rest before the scene sleeps.
 SLEEP_FRAMES = 5
+#: The entry of a checkpoint that carries the per-body watch (:meth:`gasp_core.seam.body_sleep.BodySleep.state`).
+BODY_SLEEP_KEY = "gasp_body_sleep"
 
 
 def sleep_blockers(setup, t: float) -> list[str]:
@@ -52,27 +54,39 @@ class SleepWatch:
     setup : SimSetup
     enabled : bool
         The scene's ``sleep`` key.
+    bodies : BodySleep, optional
+        The per-body watch (:mod:`gasp_core.seam.body_sleep`; engines with the feature ``sleep``): updated after each
+        frame, its wake test run by :meth:`before_frame`; the scene also sleeps once all its bodies sleep.
     """
 
-    def __init__(self, setup, enabled: bool = True):
+    def __init__(self, setup, enabled: bool = True, bodies=None):
         self.setup = setup
         self.enabled = bool(enabled)
+        self.bodies = bodies if self.enabled else None
         self.quiet = 0
         #: The frame after which the engine was no longer stepped (None: awake).
         self.asleep_after: int | None = None
         self._material = None if setup.passive is None else ~np.asarray(setup.passive, dtype=bool)
+        body = np.asarray(setup.body_id, dtype=np.int64)
+        self._body = body if self._material is None else body[self._material]
         self._tol = SLEEP_TOL * float(setup.dx)
         self._drift = SLEEP_DRIFT * float(setup.dx)
 
     def moved(self, x_prev: np.ndarray, x: np.ndarray) -> tuple[float, float]:
-        """Largest displacement of a simulated (non-passive) point between two frames and that of their centroid
-        (m, per axis for the first)."""
+        """Largest displacement of a simulated (non-passive) point between two frames and the largest of the bodies'
+        centroids (m, per axis for the first). Per body: two bodies moving opposite ways (one rising to its apex,
+        the other ringing after their impact) do not add up to a centroid at rest."""
         d = np.asarray(x, dtype=np.float64) - np.asarray(x_prev, dtype=np.float64)
         if self._material is not None:
             d = d[self._material]
         if not d.size:
             return 0.0, 0.0
-        return float(np.abs(d).max()), float(np.linalg.norm(d.mean(axis=0)))
+        if len(d) != len(self._body):   # positions not of this setup (a synthetic check): one centroid
+            return float(np.abs(d).max()), float(np.linalg.norm(d.mean(axis=0)))
+        count = np.bincount(self._body)
+        has = count > 0
+        mean = np.stack([np.bincount(self._body, weights=d[:, a])[has] for a in range(3)], axis=1) / count[has, None]
+        return float(np.abs(d).max()), float(np.linalg.norm(mean, axis=1).max())
 
     def update(self, frame: int, x_prev: np.ndarray, x: np.ndarray) -> bool:
         """After simulated frame ``frame``: whether the scene is asleep from the next frame on."""
@@ -80,9 +94,17 @@ class SleepWatch:
             return self.asleep_after is not None
         most, centroid = self.moved(x_prev, x)
         self.quiet = self.quiet + 1 if most <= self._tol and centroid <= self._drift else 0
-        if self.quiet >= SLEEP_FRAMES and not sleep_blockers(self.setup, frame * float(self.setup.frame_dt)):
+        if self.bodies is not None:
+            self.bodies.after_frame(frame, x_prev, x)
+        rest = self.quiet >= SLEEP_FRAMES or (self.bodies is not None and self.bodies.all_asleep())
+        if rest and not sleep_blockers(self.setup, frame * float(self.setup.frame_dt)):
             self.asleep_after = frame
         return self.asleep_after is not None
+
+    def before_frame(self, frame: int, x: np.ndarray) -> None:
+        """Before simulated frame ``frame``: the per-body wake test (:meth:`BodySleep.before_frame`), if any."""
+        if self.bodies is not None and self.asleep_after is None:
+            self.bodies.before_frame(frame, x)
 
     def state(self) -> np.ndarray:
         """``[quiet, asleep_after or -1]`` for a checkpoint."""
@@ -99,6 +121,10 @@ class SleepWatch:
             saved = state.pop(SLEEP_KEY)
             if self.enabled:   # a run resumed with sleep = false stays awake
                 self.restore(saved)
+        if BODY_SLEEP_KEY in state:
+            saved = state.pop(BODY_SLEEP_KEY)
+            if self.bodies is not None:
+                self.bodies.restore(saved)
         return state
 
     def saving(self, get_state):
@@ -107,5 +133,7 @@ class SleepWatch:
             out = dict(get_state())
             if self.enabled:
                 out[SLEEP_KEY] = self.state()
+            if self.bodies is not None:
+                out[BODY_SLEEP_KEY] = self.bodies.state()
             return out
         return saved
