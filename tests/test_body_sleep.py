@@ -181,3 +181,12 @@ def test_a_run_that_slept_and_woke_resumes_bit_for_bit(engine):
     for at in (30, 46):
         rest_ = [np.array(r.x) for r in run_engine(info, S.build(info), n, start_frame=at, state=states[at], sleep=True)]
         assert len(rest_) == n - at and all(np.array_equal(a, b) for a, b in zip(full[at:], rest_)), at
+
+
+def test_run_json_records_each_body_s_sleep(donut_run):
+    import json
+    meta = json.loads((donut_run / "run.json").read_text())
+    (body,) = meta["sleep"]["bodies"]           # taichi_mpm has the feature: one record per body, named
+    assert body["body"] == 0 and body["name"] == meta["objects"][0]["name"]
+    assert isinstance(body["slept_after_frames"], list) and isinstance(body["woke_before_frames"], list)
+    assert meta["sleep"]["enabled"] is True
