@@ -158,17 +158,7 @@ def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int,
     watch = SleepWatch(setup, sleep, BodySleep(setup) if "sleep" in info.capabilities.features else None)
     engine, saved_state = _built(info, setup, start_frame, state, watch)
     stats.build_s = time.perf_counter() - t0
-    told = [None]   # the asleep mask the engine was last given
-
-    def advance(frame):
-        if watch.bodies is not None:
-            watch.before_frame(frame, x)
-            if told[0] is None or not np.array_equal(told[0], watch.bodies.asleep):
-                told[0] = watch.bodies.asleep.copy()
-                engine.set_asleep(told[0].copy())
-        engine.step_frame()
-        return np.asarray(engine.positions(), dtype=np.float64)
-
+    advance = _advancer(engine, watch)
     try:
         stats.engine = dict(call_engine(info, "stats", engine.stats))   # n_substeps, for the work estimate
         if before_frames is not None:
@@ -181,17 +171,33 @@ def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int,
                 yield FrameRecord(frame, x + 0.0, 0.0, saved_state)
                 continue
             t0 = time.perf_counter()
-            x_prev, x = x, call_engine(info, f"frame {frame}", advance, frame)
+            x_prev, x = x, call_engine(info, f"frame {frame}", advance, frame, x)
             dt_wall = time.perf_counter() - t0
             check_state(x, setup, frame)
             stats.frame_s.append(dt_wall)
             watch.update(frame, x_prev, x)
-            if watch.bodies is not None:
-                stats.bodies = watch.bodies.record()
+            stats.bodies = [] if watch.bodies is None else watch.bodies.record()
             yield FrameRecord(frame, x, dt_wall, saved_state)
         stats.engine = dict(call_engine(info, "stats", engine.stats))
     finally:
         call_engine(info, "close", engine.close)
+
+
+def _advancer(engine: PointEngine, watch: SleepWatch) -> Callable[[int, np.ndarray], np.ndarray]:
+    """``advance(frame, x)``: the per-body wake test on the last positions ``x`` (engines with the feature
+    ``sleep``: ``set_asleep`` when the flags changed, and always before the first frame simulated here), one
+    ``step_frame``, the new positions (float64)."""
+    told: list = [None]   # the flags the engine was last given
+
+    def advance(frame: int, x: np.ndarray) -> np.ndarray:
+        if watch.bodies is not None:
+            watch.before_frame(frame, x)
+            if told[0] is None or not np.array_equal(told[0], watch.bodies.asleep):
+                told[0] = watch.bodies.asleep.copy()
+                engine.set_asleep(told[0].copy())
+        engine.step_frame()
+        return np.asarray(engine.positions(), dtype=np.float64)
+    return advance
 
 
 def _built(info: EngineInfo, setup: SimSetup, start_frame: int, state: dict | None, watch: SleepWatch):
