@@ -1,13 +1,16 @@
 """Sleep: a scene at rest is not simulated (scene key ``sleep``, ``docs/performance.md`` "Sleep").
 
-Rigid-body engines (Bullet, PhysX) put a resting body to sleep and wake it when something touches it. Here the
-unit is the scene: once, for :data:`SLEEP_FRAMES` frames in a row, no simulated point of it has moved more than
-:data:`SLEEP_TOL` cells in a frame (what is left of its vibration) and its points' centroid no more than
-:data:`SLEEP_DRIFT` cells (a steady slide or creep is not rest), and nothing that varies in time can reach it any more (no moving
-collider, no wind or attractor, no impulse still to come), the engine is no longer stepped and each later frame
-repeats the last one. Nothing can wake such a scene: a scene with anything still moving or still to come (a second
-body in flight, a collider on its path, an impulse window ahead) never sleeps, because its points move or because
-:func:`sleep_blockers` names what is still to come.
+Rigid-body engines (Bullet, PhysX) put a resting body to sleep and wake it when something touches it. Here there
+are two units. **The body** (engines with the feature ``sleep``; :mod:`gasp_core.seam.body_sleep`): a body at rest
+is frozen while the others go on, and woken before anything can reach it. **The scene** (every engine; this
+module): once, for :data:`SLEEP_FRAMES` frames in a row, no simulated point of it has moved more than
+:data:`SLEEP_TOL` cells in a frame (what is left of its vibration) and no body's centroid more than
+:data:`SLEEP_DRIFT` cells (a steady slide or creep is not rest; per body, so that two bodies moving opposite ways do
+not add up to rest), or every body sleeps on its own, and nothing that varies in time can reach it any more (no
+moving collider, no wind or attractor, no impulse still to come), the engine is no longer stepped and each later
+frame repeats the last one. Nothing can wake such a scene: a scene with anything still moving or still to come (a
+second body in flight, a collider on its path, an impulse window ahead) never sleeps as a whole, because its points
+move or because :func:`sleep_blockers` names what is still to come.
 
 What sleep costs in accuracy is the motion the scene would still have made. Measured on the README donut (36
 frames awake, taichi_mpm; ``docs/performance.md`` "Sleep"): with these thresholds it falls asleep after frame 30, and
@@ -20,11 +23,11 @@ import numpy as np
 
 #: Largest displacement of any simulated point in one frame (in cells ``dx``) that counts as rest.
 SLEEP_TOL = 0.2
-#: Largest displacement of the simulated points' centroid in one frame (in cells ``dx``) that counts as rest.
+#: Largest displacement of a body's centroid (its simulated points') in one frame (in cells ``dx``) that counts as rest.
 SLEEP_DRIFT = 0.02
 #: The entry of an engine state (``get_state``) that carries the sleep's count (:meth:`SleepWatch.state`).
 SLEEP_KEY = "gasp_sleep"
-#: Frames in a row at rest before the scene sleeps.
+#: Frames in a row at rest before the scene (or a body) sleeps.
 SLEEP_FRAMES = 5
 #: The entry of a checkpoint that carries the per-body watch (:meth:`gasp_core.seam.body_sleep.BodySleep.state`).
 BODY_SLEEP_KEY = "gasp_body_sleep"

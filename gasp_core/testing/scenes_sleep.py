@@ -49,10 +49,11 @@ DEPTH_BAND = (0.95, 1.05)
 SKIN = 0.5
 
 
-def build(info: EngineInfo | None = None) -> SimSetup:
-    """The two balls (body 0: A, body 1: B) on the ground, B thrown up (see the module docstring)."""
+def build(info: EngineInfo | None = None, spacing: float = DX / 2) -> SimSetup:
+    """The two balls (body 0: A, body 1: B) on the ground, B thrown up (see the module docstring); points
+    ``spacing`` m apart (a finer spacing: more points, for ``benchmarks/bench_body_sleep.py``)."""
     c = np.array([0.3 * DX, 0.2 * DX, 0.0])
-    xa, va = sphere_points(c, R, DX / 2)
+    xa, va = sphere_points(c, R, spacing)
     xa[:, 2] += GROUND_H + DX / 4 - xa[:, 2].min()
     xb = xa.copy()
     xb[:, 2] += xa[:, 2].max() + GAP_B - xb[:, 2].min()
