@@ -124,7 +124,8 @@ def warp_balls():
     needs_package("gasp_warp_mpm")
     info = get_engine("warp_mpm")
     setup = S.build(info)
-    awake, _ = S.frames(info, setup, sleep=False)
+    awake, st_awake = S.frames(info, setup, sleep=False)
+    assert st_awake.bodies == [] and st_awake.asleep_after is None   # sleep = false: no body is ever frozen
     asleep, stats = S.frames(info, setup, sleep=True)
     return info, setup, awake, asleep, stats
 
@@ -148,6 +149,15 @@ def test_the_ball_checks_fail_when_a_never_wakes(warp_balls, monkeypatch):
     asleep, stats = S.frames(info, setup, sleep=True)
     failed = {c.name for c in S.ball_checks(setup, awake, asleep, stats) if not c.passed}
     assert failed == {"slept_first", "woke_in_time", "impact_depth", "impact_path", "no_pass_through"}, failed
+
+
+def test_the_ball_checks_fail_when_a_never_sleeps(warp_balls, monkeypatch):
+    info, setup, awake, _, _ = warp_balls
+    monkeypatch.setattr(BodySleep, "after_frame", lambda self, frame, x_prev, x: False)   # a watch that never sleeps
+    asleep, stats = S.frames(info, setup, sleep=True)
+    assert all(np.array_equal(a, b) for a, b in zip(awake, asleep))
+    failed = {c.name for c in S.ball_checks(setup, awake, asleep, stats) if not c.passed}
+    assert failed == {"slept_first", "woke_in_time"}, failed
 
 
 def test_the_ball_checks_fail_on_an_engine_that_ignores_a_wake(warp_balls):

@@ -77,10 +77,10 @@ def ball_checks(setup: SimSetup, awake: np.ndarray, asleep: np.ndarray, stats: R
     a, b = setup.body_id == 0, setup.body_id == 1
     rec = stats.bodies[0] if stats.bodies else {"slept_after_frames": [], "woke_before_frames": []}
     slept, woke = rec["slept_after_frames"], rec["woke_before_frames"]
-    ks = slept[0] if slept else len(asleep) - 1
-    kw = next((f for f in woke if f > ks), None)
+    ks = slept[0] if slept else 0   # 0: never slept (the windows below then span the whole run)
+    kw = next((f for f in woke if f > ks), None) if slept else None
     apex = int(np.argmax(awake[:, b, 2].mean(axis=1)))
-    n_asleep = (len(asleep) - 1 if kw is None else kw - 1) - ks
+    n_asleep = ((len(asleep) - 1 if kw is None else kw - 1) - ks) if slept else 0
     out = [Check("slept_first", bool(n_asleep >= MIN_ASLEEP and kw is not None and kw > apex),
                  f"frames A slept = {n_asleep} (after frame {ks}, woke before frame {kw}; B's apex at frame {apex}; "
                  f"at least {MIN_ASLEEP}, and woken after the apex)",
