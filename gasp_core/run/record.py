@@ -45,7 +45,9 @@ def run_summary(prep, stats, n_frames: int, per_frame: list[dict], wall_s: float
         "quality": scene.quality, "engine_options": setup.options, "build_s": stats.build_s, "prepare_s": prep.prepare_s,
         "wall_s": wall_s, "n_frames": n_frames, "frame_dt": scene.frame_dt,
         # sleep (gasp_core.seam.sleep): the last simulated frame when the scene fell asleep, later frames repeat it
-        "sleep": {"enabled": bool(getattr(scene, "sleep", False)), "asleep_after_frame": stats.asleep_after},
+        # and per body (gasp_core.seam.body_sleep, engines with the feature sleep): when each slept and woke
+        "sleep": {"enabled": bool(getattr(scene, "sleep", False)), "asleep_after_frame": stats.asleep_after,
+                  "bodies": _named(stats.bodies, prep.names)},
         "gravity": list(scene.gravity),
         "domain": {"lo": setup.domain_lo.tolist(), "hi": setup.domain_hi.tolist(),
                    "n_grid": setup.n_grid, "dx": setup.dx},
@@ -83,6 +85,12 @@ def ground_in_file_frame(placement, height: float) -> dict:
     if abs(abs(n[k]) - 1.0) < 1e-9:
         out.update(axis="xyz"[k], at=d * float(np.sign(n[k])))
     return out
+
+
+def _named(bodies: list, names) -> list:
+    """Per body sleep records (``RunStats.bodies``) with the scene object's name where objects and bodies match."""
+    names = list(names or [])
+    return [{**b, "name": names[b["body"]] if len(names) == len(bodies) else b.get("name")} for b in bodies]
 
 
 def _object_record(o, name: str, boundaries=()) -> dict:

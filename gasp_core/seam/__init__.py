@@ -13,7 +13,8 @@ What is here, by the module that defines it:
   :class:`~gasp_core.seam.limits.Limit` (:mod:`gasp_core.seam.limits`) for ranges narrower than the core's;
 - the protocol an engine implements: :class:`PointEngine` (``step_frame``, ``positions``, ``velocities``,
   ``stats() -> EngineStats``, ``close``) and, with the feature ``state``, :class:`StatefulEngine`
-  (``get_state``, ``set_state``); :class:`EngineStats` names the ``stats()`` keys the core reads
+  (``get_state``, ``set_state``) and, with the feature ``sleep``, :class:`SleepingEngine` (``set_asleep``, per-body
+  sleep, :mod:`gasp_core.seam.body_sleep`); :class:`EngineStats` names the ``stats()`` keys the core reads
   (``mass`` in kg and ``centre_of_mass`` in metres among them); :func:`mass_properties` computes them;
 - the hooks, :mod:`gasp_core.seam.plugins`: :data:`hookimpl`, and the records :class:`RendererInfo`
   (``gasp_renderers``) and :class:`SoupWriterInfo` (``gasp_soup_writers``);
@@ -33,7 +34,8 @@ module that defines it), so that importing the contract cannot close an import l
 from gasp_core.errors import EngineBug, EngineDivergence, EngineError, GaspError, SceneError
 from gasp_core.seam.build import build_engine
 from gasp_core.seam.install import install_hint
-from gasp_core.seam.engine import call_engine, Capabilities, EngineInfo, EngineStats, FEATURES, PointEngine, StatefulEngine
+from gasp_core.seam.engine import (call_engine, Capabilities, EngineInfo, EngineStats, FEATURES, PointEngine,
+                                   SleepingEngine, StatefulEngine)
 from gasp_core.seam.options import Option
 from gasp_core.seam.limits import Limit
 from gasp_core.seam.passive import mass_properties
@@ -47,7 +49,7 @@ __all__ = [
     # declaration
     "EngineInfo", "Capabilities", "Option", "Limit", "FEATURES",
     # protocol
-    "PointEngine", "StatefulEngine", "EngineStats", "mass_properties",
+    "PointEngine", "StatefulEngine", "SleepingEngine", "EngineStats", "mass_properties",
     # hooks
     "hookimpl", "RendererInfo", "SoupWriterInfo",
     # errors

@@ -52,6 +52,11 @@ FEATURES = {
     "attractors": "SimSetup.forces of kind 'attractor': acceleration towards a point with a falloff",
     "viscosity": "Material.viscosity > 0: the Kelvin-Voigt viscous stress sigma_v = 2 eta sym(grad v) added to "
                  "the elastic stress (docs/dissipation.md)",
+    "sleep": "set_asleep(asleep): asleep is an ndarray (n_bodies,) bool, one flag per body (SimSetup.body_id); "
+             "from the next step_frame on, the points of a flagged body are left out of every transfer (no P2G, G2P, "
+             "stress, contact moments: their x, v, F, C, Jp stay as they are) and a cleared flag resumes them with "
+             "the v, F, C they had; called between frames only, by gasp_core.seam.body_sleep's watch, which also "
+             "saves the flags in a checkpoint and gives them again after set_state",
     "rigid_limit": "Material.model = 'rigid': the body moves as one rigid body (momentum and angular momentum of "
                    "its points kept), its stress is zero and its stiffness sets no step (docs/rigid.md)",
 }
@@ -192,6 +197,21 @@ class StatefulEngine(PointEngine, Protocol):
     def get_state(self) -> dict[str, np.ndarray]: ...
 
     def set_state(self, state: Mapping[str, np.ndarray]) -> None: ...
+
+
+class SleepingEngine(PointEngine, Protocol):
+    """A :class:`PointEngine` that freezes bodies at rest (the feature ``sleep``, :mod:`gasp_core.seam.body_sleep`).
+
+    Methods
+    -------
+    set_asleep(asleep)
+        ``asleep``: ndarray, shape (n_bodies,), bool, one flag per ``SimSetup.body_id`` value. From the next
+        ``step_frame`` the flagged bodies' points take no part in any transfer and keep ``x, v, F, C, Jp``; a
+        flag cleared resumes them. Called only between frames; every body starts awake. The flags are the
+        core's to save (a checkpoint's ``gasp_body_sleep``): ``set_state`` need not restore them.
+    """
+
+    def set_asleep(self, asleep: np.ndarray) -> None: ...
 
 
 @dataclass(frozen=True)

@@ -17,6 +17,7 @@ from gasp_core.errors import EngineDivergence, EngineError
 from gasp_core.seam.build import build_engine
 from gasp_core.seam.engine import call_engine, EngineInfo, PointEngine, StatefulEngine
 from gasp_core.seam.setup import SimSetup
+from gasp_core.seam.body_sleep import BodySleep
 from gasp_core.seam.sleep import SleepWatch
 
 
@@ -52,6 +53,9 @@ class RunStats:
     engine: dict = field(default_factory=dict)
     #: The last simulated frame of a scene that fell asleep (:mod:`gasp_core.seam.sleep`); None: awake to the end.
     asleep_after: int | None = None
+    #: Per body, when it slept and woke (:meth:`gasp_core.seam.body_sleep.BodySleep.record`; engines with the feature
+    #: ``sleep`` and sleep on); empty otherwise.
+    bodies: list = field(default_factory=list)
 
 
 #: The likely cause of non-finite values, or of points jumping out of the domain within a step: the one
@@ -127,7 +131,9 @@ def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int,
         of :mod:`gasp_core.run.budget`); what it raises ends the run.
     sleep : bool
         Let a scene at rest fall asleep (:mod:`gasp_core.seam.sleep`): later frames repeat the last one (``wall_s``
-        0, ``stats.asleep_after``); ``get_state`` then carries the sleep's count, so a resumed run sleeps alike.
+        0, ``stats.asleep_after``); ``get_state`` then carries the sleep's count, so a resumed run sleeps alike. With
+        an engine with the feature ``sleep``, each body at rest is frozen on its own and woken by what comes within
+        its reach (:mod:`gasp_core.seam.body_sleep`, the engine's ``set_asleep``; ``stats.bodies``).
 
     Yields
     ------
@@ -149,14 +155,10 @@ def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int,
         raise EngineError(f"engine '{info.name}' cannot resume after frame {start_frame}: "
                           f"it does not have the feature 'state'")
     t0 = time.perf_counter()
-    watch = SleepWatch(setup, sleep)
+    watch = SleepWatch(setup, sleep, BodySleep(setup) if "sleep" in info.capabilities.features else None)
     engine, saved_state = _built(info, setup, start_frame, state, watch)
     stats.build_s = time.perf_counter() - t0
-
-    def advance():
-        engine.step_frame()
-        return np.asarray(engine.positions(), dtype=np.float64)
-
+    advance = _advancer(engine, watch)
     try:
         stats.engine = dict(call_engine(info, "stats", engine.stats))   # n_substeps, for the work estimate
         if before_frames is not None:
@@ -169,15 +171,33 @@ def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int,
                 yield FrameRecord(frame, x + 0.0, 0.0, saved_state)
                 continue
             t0 = time.perf_counter()
-            x_prev, x = x, call_engine(info, f"frame {frame}", advance)
+            x_prev, x = x, call_engine(info, f"frame {frame}", advance, frame, x)
             dt_wall = time.perf_counter() - t0
             check_state(x, setup, frame)
             stats.frame_s.append(dt_wall)
             watch.update(frame, x_prev, x)
+            stats.bodies = [] if watch.bodies is None else watch.bodies.record()
             yield FrameRecord(frame, x, dt_wall, saved_state)
         stats.engine = dict(call_engine(info, "stats", engine.stats))
     finally:
         call_engine(info, "close", engine.close)
+
+
+def _advancer(engine: PointEngine, watch: SleepWatch) -> Callable[[int, np.ndarray], np.ndarray]:
+    """``advance(frame, x)``: the per-body wake test on the last positions ``x`` (engines with the feature
+    ``sleep``: ``set_asleep`` when the flags changed, and always before the first frame simulated here), one
+    ``step_frame``, the new positions (float64)."""
+    told: list = [None]   # the flags the engine was last given
+
+    def advance(frame: int, x: np.ndarray) -> np.ndarray:
+        if watch.bodies is not None:
+            watch.before_frame(frame, x)
+            if told[0] is None or not np.array_equal(told[0], watch.bodies.asleep):
+                told[0] = watch.bodies.asleep.copy()
+                engine.set_asleep(told[0].copy())
+        engine.step_frame()
+        return np.asarray(engine.positions(), dtype=np.float64)
+    return advance
 
 
 def _built(info: EngineInfo, setup: SimSetup, start_frame: int, state: dict | None, watch: SleepWatch):

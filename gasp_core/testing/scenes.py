@@ -15,6 +15,7 @@ from gasp_core.testing.scenes_passive import SCENES_PASSIVE
 from gasp_core.testing.scenes_analytic import SCENES_ANALYTIC
 from gasp_core.testing.scenes_damping import SCENES_DAMPING
 from gasp_core.testing.scenes_rest import SCENES_REST
+from gasp_core.testing.scenes_sleep import SCENES_SLEEP
 from gasp_core.testing.scenes_contact import SCENES_CONTACT
 from gasp_core.testing.scenes_support import SCENES_SUPPORT
 from gasp_core.testing.scenes_walls import SCENES_WALLS
@@ -24,7 +25,8 @@ from gasp_core.testing.scenes_materials import SCENES_MATERIALS
 from gasp_core.testing.scenes_granular import SCENES_GRANULAR
 
 #: All scenes: physics with known answers first, then the error contract.
-SCENES: list[Scene] = [*SCENES_FREEFALL, *SCENES_BASIC, *SCENES_MATERIALS, *SCENES_GRANULAR, *SCENES_COLLIDERS, *SCENES_REST, *SCENES_CONTACT, *SCENES_SUPPORT, *SCENES_WALLS, *SCENES_ANALYTIC, *SCENES_DAMPING, *SCENES_PASSIVE, *SCENES_WIND, *SCENES_MASS]
+SCENES: list[Scene] = [*SCENES_FREEFALL, *SCENES_BASIC, *SCENES_MATERIALS, *SCENES_GRANULAR, *SCENES_COLLIDERS, *SCENES_REST, *SCENES_CONTACT, *SCENES_SUPPORT, *SCENES_WALLS, *SCENES_ANALYTIC, *SCENES_DAMPING, *SCENES_PASSIVE, *SCENES_WIND, *SCENES_MASS,
+                     *SCENES_SLEEP]
 SCENES += contract_scenes(lambda: {s.name for s in SCENES})
 
 

@@ -31,7 +31,7 @@ __all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "gasp_engines", "make_engine", "
 ENGINE = "taichi_mpm"
 
 #: The MLS-MPM record of the grid-engine base (``gasp_core.toolkit.grid_engine``), with the rigid limit (issue 40).
-CAPABILITIES = dataclasses.replace(MPM_CAPABILITIES, features=MPM_CAPABILITIES.features | {"rigid_limit"})
+CAPABILITIES = dataclasses.replace(MPM_CAPABILITIES, features=MPM_CAPABILITIES.features | {"rigid_limit", "sleep"})
 
 #: The grid-engine options of ``gasp_core.toolkit.options`` (``device``: Taichi runs on the default CUDA device
 #: only, so "cpu" or "cuda"), ``threads`` and ``passive_every``.

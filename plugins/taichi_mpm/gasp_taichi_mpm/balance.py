@@ -81,14 +81,16 @@ class Balance:
                             ti.atomic_add(self.c_sums[cur, q], acc[q])
                     acc = ti.Vector.zero(ti.f64, 19)
                     cur = b
-                x = ti.cast(self.x[p], ti.f64)
-                m = ti.cast(self.p_mass[p], ti.f64)
-                mv = m * ti.cast(self.v[p], ti.f64)
-                C = ti.cast(self.C[p], ti.f64)
-                L = x.cross(mv) + m * D * ti.Vector([C[2, 1] - C[1, 2], C[0, 2] - C[2, 0], C[1, 0] - C[0, 1]])
-                acc += ti.Vector([m, m * x[0], m * x[1], m * x[2], m * x[0] * x[0], m * x[0] * x[1], m * x[0] * x[2],
-                                  m * x[1] * x[1], m * x[1] * x[2], m * x[2] * x[2], 0.0, 0.0, 0.0,   # J: c_jsums
-                                  mv[0], mv[1], mv[2], L[0], L[1], L[2]], ti.f64)
+                if self.asleep[b] == 0:   # a sleeping body has no moments (sleeping.py)
+                    x = ti.cast(self.x[p], ti.f64)
+                    m = ti.cast(self.p_mass[p], ti.f64)
+                    mv = m * ti.cast(self.v[p], ti.f64)
+                    C = ti.cast(self.C[p], ti.f64)
+                    L = x.cross(mv) + m * D * ti.Vector([C[2, 1] - C[1, 2], C[0, 2] - C[2, 0], C[1, 0] - C[0, 1]])
+                    acc += ti.Vector([m, m * x[0], m * x[1], m * x[2], m * x[0] * x[0], m * x[0] * x[1],
+                                      m * x[0] * x[2], m * x[1] * x[1], m * x[1] * x[2], m * x[2] * x[2],
+                                      0.0, 0.0, 0.0,   # J: c_jsums
+                                      mv[0], mv[1], mv[2], L[0], L[1], L[2]], ti.f64)
             if cur >= 0:
                 for q in ti.static(range(19)):
                     ti.atomic_add(self.c_sums[cur, q], acc[q])

@@ -215,6 +215,18 @@ class TaichiMPMEngine(GridEngineBase):
                 f"point-substeps in this frame", self.frame, CAUSE_UNSTABLE if fast else CAUSE_LEFT_DOMAIN)
         self._x, self._v = x, v
 
+    def set_asleep(self, asleep: np.ndarray) -> None:
+        """Freeze the flagged bodies from the next frame (feature ``sleep``, :mod:`gasp_core.seam.body_sleep`).
+
+        ``asleep``: ndarray, shape (n_bodies,), bool. Their points are left out of the block sort (so the colour
+        passes never see them), of the atomic and chunked transfers, of the last G2P and of the contact's moments;
+        their ``x, v, C, F, Jp`` stay. Rigid bodies and passive points are not frozen here (the core never asks)."""
+        self._check_live()
+        a = np.asarray(asleep, dtype=bool).ravel()
+        buf = np.zeros(self.solver.asleep.shape, np.int32)
+        buf[:len(a)] = a
+        self.solver.asleep.from_numpy(buf)
+
     def positions(self) -> np.ndarray:
         """Current positions, shape (n, 3), float32 (f32) or float64 (f64), metres, setup order."""
         return self._x.copy()

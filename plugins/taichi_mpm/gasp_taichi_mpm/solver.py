@@ -184,7 +184,7 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         self.fixed = ti.field(ti.i8, shape=cap)
         self.p_contact = ti.Vector.field(3, real, shape=cap if self.n_planes or self.n_colc else 1)   # (k, c, skin)
         bcap = max(4, 1 << (n_bodies - 1).bit_length())
-        self.kind = ti.field(ti.i32, shape=bcap)
+        self.kind, self.asleep = ti.field(ti.i32, shape=bcap), ti.field(ti.i32, shape=bcap)   # asleep: set_asleep
         self.mat = ti.Vector.field(N_PARAMS, real, shape=bcap)
 
     def _allocate_grid(self) -> None:

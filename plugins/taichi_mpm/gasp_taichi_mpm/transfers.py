@@ -156,16 +156,18 @@ class Transfers:
     def g2p(self):
         """G2P alone (last substep of a frame)."""
         for p in range(self.n_points[None]):
-            self.g2p_point(p)
+            if self.asleep[self.body[p]] == 0:   # a sleeping body's points keep x, v, C (sleeping.py)
+                self.g2p_point(p)
 
     @ti.kernel
     def g2p_p2g(self, with_g2p: ti.i32):
         """G2P of one substep (if ``with_g2p``) fused with the P2G of the next."""
         if ti.static(self.atomic):
             for p in range(self.n_points[None]):
-                if with_g2p:
-                    self.fused_g2p(p)   # a rigid body's points: done before (rigid.py)
-                self.p2g_point(p, 0, ti.Vector([0, 0, 0]), ti.Vector([0, 0, 0]))
+                if self.asleep[self.body[p]] == 0:   # a sleeping body's points: no transfer (sleeping.py)
+                    if with_g2p:
+                        self.fused_g2p(p)   # a rigid body's points: done before (rigid.py)
+                    self.p2g_point(p, 0, ti.Vector([0, 0, 0]), ti.Vector([0, 0, 0]))
         else:
             ti.loop_config(block_dim=1)
             for t in range(self.n_chunks):
@@ -175,9 +177,10 @@ class Transfers:
                     bmin = self.pbox[t, 0]
                     bmax = self.pbox[t, 1]
                 for p in range(self.chunk_lo[t], self.chunk_hi[t]):
-                    if with_g2p:
-                        self.fused_g2p(p)   # a rigid body's points: done before (rigid.py)
-                    bmin, bmax = self.p2g_point(p, t, bmin, bmax)
+                    if self.asleep[self.body[p]] == 0:
+                        if with_g2p:
+                            self.fused_g2p(p)   # a rigid body's points: done before (rigid.py)
+                        bmin, bmax = self.p2g_point(p, t, bmin, bmax)
                 self.box[t, 0] = bmin
                 self.box[t, 1] = bmax
 
@@ -215,7 +218,8 @@ class Transfers:
         for p0 in range(n):   # one iteration per chunk start does the chunk (Taichi splits the loop by points)
             if p0 % per == 0:
                 for p in range(p0, ti.min(p0 + per, n)):
-                    self.hist[p0 // per, self.key[p]] += 1
+                    if self.asleep[self.body[p]] == 0:   # a sleeping body's points are in no block (sleeping.py)
+                        self.hist[p0 // per, self.key[p]] += 1
         off = 0
         per_colour = self.nbh * self.nbh * self.nbh
         ti.loop_config(serialize=True)
@@ -230,11 +234,12 @@ class Transfers:
         for p0 in range(n):
             if p0 % per == 0:
                 for p in range(p0, ti.min(p0 + per, n)):
-                    k = self.key[p]
-                    slot = self.hist[p0 // per, k]
-                    self.hist[p0 // per, k] = slot + 1
-                    self.order[slot] = p
-                    self.skey[slot] = k
+                    if self.asleep[self.body[p]] == 0:
+                        k = self.key[p]
+                        slot = self.hist[p0 // per, k]
+                        self.hist[p0 // per, k] = slot + 1
+                        self.order[slot] = p
+                        self.skey[slot] = k
 
     @ti.kernel
     def p2g_begin(self):

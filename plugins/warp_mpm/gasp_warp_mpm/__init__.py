@@ -23,7 +23,7 @@ __all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "gasp_engines", "make_engine", "
 ENGINE = "warp_mpm"
 
 #: The MLS-MPM record of the grid-engine base (``gasp_core.toolkit.grid_engine``), with the rigid limit (issue 40).
-CAPABILITIES = dataclasses.replace(MPM_CAPABILITIES, features=MPM_CAPABILITIES.features | {"rigid_limit"})
+CAPABILITIES = dataclasses.replace(MPM_CAPABILITIES, features=MPM_CAPABILITIES.features | {"rigid_limit", "sleep"})
 
 #: The grid-engine options of ``gasp_core.toolkit.options`` (``device``: "cpu", "cuda" or "cuda:N", Warp's device
 #: names) and ``threads``, accepted so that a scene written for another MPM engine runs unchanged.

@@ -46,11 +46,12 @@ from . import ENGINE
 from . import kernels as K
 from .balance import allocate_balance, balance_launches
 from .rigid import RigidBodies
+from .sleeping import Sleeping
 from .tables import ExtraTables
 from .startup import init_warp
 
 
-class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables):
+class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
     """MLS-MPM in Warp (docs/mpm.md), one instance per simulation (the non-kernel part: GridEngineBase).
 
     Parameters
@@ -278,7 +279,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables):
         """Re-sort the points by cell (CPU only: the arrays are host memory, numpy views)."""
         x = self.x.numpy()
         m = self.n_material
-        perm = np.concatenate([self._cell_order(x[:m]), m + self._cell_order(x[m:])])
+        perm = np.concatenate([self.material_order(x[:m]), m + self._cell_order(x[m:])])   # sleeping.py
         if np.array_equal(perm, np.arange(self.n_points)):
             return
         per_point = [self.p_contact] if self.p_contact.shape[0] == self.n_points else []  # (1, 3) without planes
