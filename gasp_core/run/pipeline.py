@@ -19,7 +19,7 @@ from typing import Callable
 import numpy as np
 
 from gasp_core.run import resume as resume_mod
-from gasp_core.run import budget, stop
+from gasp_core.run import budget, hold, stop
 from gasp_core.run.background import Background, gil_handover
 from gasp_core.errors import EngineDivergence, GaspError
 from gasp_core.run.frames import Rebuilder, iter_positions
@@ -110,7 +110,7 @@ def simulate_scene(scene: Scene, outdir: str | Path, request: SimulateRequest | 
     n_frames = scene.n_frames if req.n_frames is None else req.n_frames
     _refuse_early(req, outdir)
     claim = OutputClaim(outdir, req.overwrite, input_files(scene), resume=req.resume, discard=req.discard)
-    run = _Run(fmt=req.fmt, layout=req.layout or default_layout(req.fmt), yes=req.yes, reporter=reporter)
+    run = _Run(fmt=req.fmt, layout=req.layout or default_layout(req.fmt), yes=req.yes, reporter=reporter, hold=req.hold)
     try:
         run.prep = prepare_scene(scene, req.engine)
         run.fingerprint = resume_mod.fingerprint(scene, run.prep.info.name, run.prep.setup.options, n_frames,
@@ -118,8 +118,6 @@ def simulate_scene(scene: Scene, outdir: str | Path, request: SimulateRequest | 
         _open_partial(run, claim, outdir, req.resume, n_frames)
         run_s = _write_frames(run, n_frames, on_frame)
         summary = run_summary(run.prep, run.stats, n_frames, run.per_frame, run_s)
-        if run.checkpoint is not None:
-            summary["resumed_after_frame"] = run.checkpoint.frame
         _write_record(run, scene, summary)
         claim.commit(run.tmp)
         _warn_stranded(run)
@@ -135,7 +133,11 @@ def simulate_scene(scene: Scene, outdir: str | Path, request: SimulateRequest | 
 
 def _write_record(run: "_Run", scene, summary: dict) -> None:
     """``run.json``, then for a whole-run format (``--format usd``) its one file, ``<scene name>.usdc``, from the
-    frames just written (:mod:`gasp_core.run.export`)."""
+    frames just written (:mod:`gasp_core.run.export`). ``summary`` gains where a resumed run resumed and how long a
+    held run waited (``--hold``)."""
+    if run.checkpoint is not None:
+        summary["resumed_after_frame"] = run.checkpoint.frame
+    summary.update({"held_s": run.held_s} if run.hold is not None else {})
     atomic_json(run.tmp / "run.json", summary)
     if registry.get(run.fmt).sequence:
         from gasp_core.run.export import export_run
@@ -166,6 +168,9 @@ class _Run:
     reporter: Reporter = field(default_factory=Reporter)
     #: ``{file: [size, crc32]}`` of every finished frame's files, kept in the checkpoint (``--resume`` checks them).
     files: dict = field(default_factory=dict)
+    #: The hold file (``--hold``): the run waits after its first frame while it exists; seconds it waited.
+    hold: str | None = None
+    held_s: float = 0.0
     #: Files written since the last checkpoint (frame 0's are written before the engine can save its state).
     unrecorded: list = field(default_factory=list)
 
@@ -264,6 +269,10 @@ def _after_frame(run: _Run, writes: Background, frame: int, n_frames: int, frame
     """
     if frame == 0:
         return
+    first = 1 if run.checkpoint is None else run.checkpoint.frame + 1
+    if run.hold is not None and frame == first and frame < n_frames:
+        writes.flush()   # frame 1's files and checkpoint on disk: what a front end shows the moment it releases
+        run.held_s = hold.wait(Path(run.hold))
     if frame == (2 if run.checkpoint is None else run.checkpoint.frame + 2):   # frame 1 includes JIT warm-up
         note = budget.check(run.stats.engine, len(run.prep.setup.x), n_frames, n_frames - frame, frame_wall_s, run.yes)
         if note:

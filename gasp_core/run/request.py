@@ -65,6 +65,11 @@ class SimulateRequest:
     #: Engine name, overriding the scene's ``[engine] name``.
     engine: str | None = _option(None, ("--engine",),
                                  "engine name (default: the scene's [engine] name; see 'gasp engines')")
+    #: Hold the run after its first frame while this file exists (:mod:`gasp_core.run.hold`); None: no hold.
+    hold: str | None = _option(None, ("--hold",),
+                               "after the first frame (its files written), wait while this file exists, at most "
+                               "30 min, then go on: a front end starts a run before its user asks for it "
+                               "(docs/studio.md; default: no wait)")
     #: No progress bar on the default console reporter (:class:`gasp_core.run.report.ConsoleReporter`).
     quiet: bool = _option(False, ("-q", "--quiet"), "no progress bar (default: show one)")
 

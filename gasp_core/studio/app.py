@@ -32,7 +32,7 @@ from gasp_core.studio.guard import Gate, QuietLogs, exposure_line, gated_serve, 
 from gasp_core.studio.pick import box_rows, ray_pick
 from gasp_core.studio.scene import StudioScene
 from gasp_core.studio.stream import RunStream
-from gasp_core.studio.warm import Warmer, choice_key, studio_request
+from gasp_core.studio.warm import Warmer, choice_key, run_identity, studio_request
 
 #: Tint of selected splats (orange), and how much of it.
 HIGHLIGHT, HIGHLIGHT_MIX = np.array([1.0, 0.45, 0.0], np.float32), 0.6
@@ -102,7 +102,7 @@ class Studio:
         self.message_log: list[str] = []
         self.n_said = 0                     # lines said so far (the page shows the newest six)
         self.form = None
-        self.warmer = Warmer(self.scene.workdir / ".warm") if warm else None
+        self.warmer = Warmer(self.scene.workdir) if warm else None
         self.warm_wanted = warm             # the page's choice changed: ask the warmer (the poller does)
         self.gate = Gate(host, token)
         self._quiet = QuietLogs().__enter__()
@@ -278,10 +278,14 @@ class Studio:
                 return self._said("a run is in progress: stop it first")
             try:
                 self.form.apply()
-                if self.warmer is not None:
-                    self.warmer.for_run(choice_key(self.scene.doc))
+                held = None
+                if self.warmer is not None and not resume:
+                    self.scene.check()
+                    held = self.warmer.take(run_identity(self.scene.doc, self.scene.selections()))
                 if resume and self.stream is not None:
                     self.stream = self.stream.resumed()
+                elif held is not None:       # the held run of this very choice: released, frame 1 already written
+                    self.stream = RunStream(held, held.outdir, started=time.monotonic())
                 else:
                     self.stream = RunStream.start(self.scene)
             except (GaspError, OSError) as e:

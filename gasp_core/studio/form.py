@@ -193,7 +193,9 @@ class Form:
             doc["object"][k]["material"] = {"name": self.material.value,
                                             **{key: float(h.value) for key, h in self.values.items()}}
         elif warm:
-            doc["object"][k]["material"] = {"name": DEFAULT_MATERIAL, **typical(DEFAULT_MATERIAL)}
+            # as the number inputs give them once the material is picked: the same run (gasp_core.studio.warm)
+            doc["object"][k]["material"] = {"name": DEFAULT_MATERIAL,
+                                            **{key: float(v) for key, v in typical(DEFAULT_MATERIAL).items()}}
         if sc.is_file:
             o = doc["object"][k]
             o["up_axis"], o["scale"] = self.up.value, float(self.scale.value)

@@ -31,6 +31,8 @@ class Job:
         The run folder (must not exist, unless ``resume``).
     resume : bool
         Continue a stopped run in ``outdir`` (``--resume``).
+    hold : Path, optional
+        Hold the run after its first frame while this file exists (``--hold``, :mod:`gasp_core.run.hold`).
 
     Attributes
     ----------
@@ -40,10 +42,10 @@ class Job:
         ``time.monotonic()`` at launch.
     """
 
-    def __init__(self, scene: Path, outdir: Path, resume: bool = False):
+    def __init__(self, scene: Path, outdir: Path, resume: bool = False, hold: Path | None = None):
         self.scene, self.outdir = Path(scene), Path(outdir)
         cmd = [sys.executable, "-m", "gasp_core", "simulate", str(self.scene), "-o", str(self.outdir), "--json",
-               *RUN_FORMAT] + (["--resume"] if resume else [])
+               *RUN_FORMAT] + (["--resume"] if resume else []) + (["--hold", str(hold)] if hold else [])
         self.events: list[dict] = []
         self.stderr: list[str] = []
         self.started = time.monotonic()
@@ -68,6 +70,10 @@ class Job:
     def _read_stderr(self) -> None:
         for line in self.proc.stderr:
             self.stderr.append(line.rstrip())
+
+    def frames_done(self) -> int:
+        """The last frame the run reported done (0 before frame 1)."""
+        return max((e["frame"] for e in self.snapshot() if e.get("event") == "frame"), default=0)
 
     def snapshot(self) -> list[dict]:
         with self._lock:

@@ -208,7 +208,7 @@ class StudioScene:
 
     def write(self, path: Path, overwrite: bool = False) -> Path:
         """Write the document (:meth:`check`\\ ed first) as a scene TOML at ``path`` with its selection masks beside
-        it (``<stem>.select<k>.npy``), paths relative to its folder; atomically.
+        it (:func:`write_document`).
 
         Raises
         ------
@@ -217,20 +217,36 @@ class StudioScene:
         FileExistsError
             ``path`` or a mask exists and ``overwrite`` is false (nothing is written).
         """
-        import tomli_w
-        path = Path(path)
         self.check()
-        masks = {p.index: (self.mask_path(p.index, path.parent, path.stem), p.selected)
-                 for p in self.pieces if p.selected.any()}
-        if not overwrite:
-            for f in [path, *(m for m, _ in masks.values())]:
-                if f.exists():
-                    raise FileExistsError(f"{f} exists; choose another name (or overwrite)")
-        path.parent.mkdir(parents=True, exist_ok=True)
-        doc = copy.deepcopy(self.doc)
-        for k, (m, sel) in masks.items():
-            atomic_write(m, lambda f, sel=sel: np.save(f, sel), overwrite=True)
-            doc["object"][k]["select"] = {"mask": str(m.resolve())}
-        text = tomli_w.dumps(relative_paths(doc, path.parent))
-        atomic_write(path, lambda f: f.write(text.encode("utf-8")), overwrite=True)
-        return path
+        return write_document(self.doc, self.selections(), path, overwrite)
+
+    def selections(self) -> dict[int, np.ndarray]:
+        """``{object index: selection mask}`` of the objects with something selected (copies; bool, one entry per
+        Gaussian)."""
+        return {p.index: p.selected.copy() for p in self.pieces if p.selected.any()}
+
+
+def write_document(doc: dict, selections: dict[int, np.ndarray], path: Path, overwrite: bool = False) -> Path:
+    """Write ``doc`` (absolute paths) as a scene TOML at ``path``, object ``k`` selecting ``selections[k]`` (saved
+    beside it as ``<stem>.select<k>.npy``, :meth:`StudioScene.mask_path`), paths relative to its folder; atomically.
+
+    Raises
+    ------
+    FileExistsError
+        ``path`` or a mask exists and ``overwrite`` is false (nothing is written).
+    """
+    import tomli_w
+    path = Path(path)
+    masks = {k: (StudioScene.mask_path(k, path.parent, path.stem), sel) for k, sel in selections.items()}
+    if not overwrite:
+        for f in [path, *(m for m, _ in masks.values())]:
+            if f.exists():
+                raise FileExistsError(f"{f} exists; choose another name (or overwrite)")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    doc = copy.deepcopy(doc)
+    for k, (m, sel) in masks.items():
+        atomic_write(m, lambda f, sel=sel: np.save(f, sel), overwrite=True)
+        doc["object"][k]["select"] = {"mask": str(m.resolve())}
+    text = tomli_w.dumps(relative_paths(doc, path.parent))
+    atomic_write(path, lambda f: f.write(text.encode("utf-8")), overwrite=True)
+    return path

@@ -36,12 +36,16 @@ class RunStream:
     job : Job
     outdir : Path
         The run folder (``gasp simulate -o``).
+    started : float
+        ``time.monotonic()`` of the click on Run (default: the job's launch; a held run launched earlier,
+        :mod:`gasp_core.studio.warm`, counts from its release).
     first_frame_s : float or None
-        Seconds from the launch to frame 1's files being readable (None before).
+        Seconds from :attr:`started` to frame 1's files being readable (None before).
     """
 
-    def __init__(self, job: Job, outdir: Path):
+    def __init__(self, job: Job, outdir: Path, started: float | None = None):
         self.job, self.outdir = job, outdir
+        self.started = job.started if started is None else started
         self.live: LiveRun | None = None
         self.first_frame_s: float | None = None
 
@@ -92,7 +96,7 @@ class RunStream:
         else:
             self.live.refresh()
         if self.first_frame_s is None and self.n_ready >= 2:
-            self.first_frame_s = time.monotonic() - self.job.started
+            self.first_frame_s = time.monotonic() - self.started
         return self.n_ready > before
 
     def splats(self, k: int):
@@ -107,7 +111,7 @@ class RunStream:
         done = max(self.n_ready - 1, 0)
         text = f"{self.outdir.name}: {state}, {done}" + (f" of {total - 1}" if total else "") + " frames"
         if state == "running" and done == 0 and before_frame1:
-            text += f": {before_frame1}… {time.monotonic() - self.job.started:.0f} s"
+            text += f": {before_frame1}… {time.monotonic() - self.started:.0f} s"
         if self.first_frame_s is not None:
             text += f" (frame 1 after {self.first_frame_s:.1f} s)"
         if state == "running" and self.live is not None and self.live.status not in LIVE:

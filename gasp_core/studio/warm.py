@@ -1,21 +1,25 @@
-"""The studio compiles while the user chooses (issue 39): the chosen engine's kernels built in the background.
+"""The studio runs what its user is about to ask for while they choose: a held run (issue 39).
 
 A first run of an engine spends most of its time before frame 1 compiling kernels (Warp's kernel cache,
-``WARP_CACHE_PATH``; Taichi's offline cache): docs/studio.md, "Time to the first frame". As soon as a file is open,
-and again when the engine, the material or the quality level changes, :class:`Warmer` runs ``gasp simulate`` for
-one frame (:data:`WARM_FRAMES`) on the studio's own scene with the selection a click would make (the largest
-connected piece of the object, or the selection already made): the same engine, options, material model, ground
-and point counts as the run the user is about to start, so the run finds every kernel in the engine's cache.
-The engine itself decides what it caches; nothing here names an engine.
+``WARP_CACHE_PATH``; Taichi's offline cache) and building the engine: docs/studio.md, "Time to the first frame".
+As soon as a file is open, and again when the engine, the material or the quality level changes, :class:`Warmer`
+starts the run a click on Run would start (the page's choice, the default model's typical values while no material
+is chosen, the largest connected piece of the object or the selection already made) as ``gasp simulate --hold``
+into the next ``runN`` (:mod:`gasp_core.run.hold`): it loads, prepares, builds the engine, compiles its kernels,
+simulates frame 1 and waits. Run on that same run (the same document and masks, :func:`run_identity`) releases it
+and the page shows frame 1 at once; Run on anything else stops it, removes what it wrote, and starts afresh with
+the kernels it compiled in the engine's cache. The engine itself decides what it caches; nothing here names one.
 
-At most one warm-up runs at a time and never beside a run that does not need it: a run of the same choice lets
-the warm-up finish (its kernels land in the cache the run reads), a run of another choice stops it; a request
-made while a run goes waits for it. A warm-up that takes longer than :data:`WARM_MAX_S` is stopped. While one
-runs, the page says ``compiling <engine> kernels (first run; cached afterwards)... N s``.
+At most one held run at a time. A change made while one prepares waits for its frame 1 (its kernels land in the
+cache the next one reads), then it is stopped and the new choice starts; one that prepares for longer than
+:data:`WARM_MAX_S` is stopped. While one prepares the page says ``compiling <engine> kernels (first run; cached
+afterwards)... N s``.
 """
 from __future__ import annotations
 
 import copy
+import hashlib
+import json
 import shutil
 import threading
 import time
@@ -24,12 +28,12 @@ from typing import Callable
 
 import numpy as np
 
-from gasp_core.scene.spec import parse_scene
 from gasp_core.studio.job import Job
+from gasp_core.studio.scene import write_document
+from gasp_core.studio.stream import next_run_dir
 
-#: Frames a warm-up simulates: frame 1 launches every kernel of a substep.
-WARM_FRAMES = 1
-#: Longest a warm-up may run, seconds (then it is stopped: a bound on two jobs sharing the cores).
+#: Longest a held run may take to reach its frame 1, seconds (then it is stopped: a bound on two jobs sharing
+#: the cores).
 WARM_MAX_S = 600.0
 
 
@@ -43,132 +47,146 @@ def predicted_selection(selected: np.ndarray, labels: np.ndarray, linking: np.nd
     return labels == int(np.argmax(counts))
 
 
-def write_warm_scene(doc: dict, selections: dict[int, np.ndarray], path: Path) -> Path:
-    """Write ``doc`` (absolute paths) for a warm-up at ``path``: :data:`WARM_FRAMES` frames, each object ``k`` of
-    ``selections`` selecting its mask (``<stem>.select<k>.npy`` beside it).
-
-    Raises
-    ------
-    SceneError
-        The scene checker refuses the document (nothing is run).
-    """
-    import tomli_w
-    doc = copy.deepcopy(doc)
-    doc["n_frames"] = WARM_FRAMES
-    path.parent.mkdir(parents=True, exist_ok=True)
-    for k, sel in selections.items():
-        mask = path.with_name(f"{path.stem}.select{k}.npy")
-        np.save(mask, sel)
-        doc["object"][k]["select"] = {"mask": str(mask.resolve())}
-    parse_scene(doc, path)
-    path.write_text(tomli_w.dumps(doc), encoding="utf-8")
-    return path
+def run_identity(doc: dict, selections: dict[int, np.ndarray]) -> str:
+    """What makes two studio runs the same run: a digest of the document (absolute paths) and the masks."""
+    h = hashlib.sha256(json.dumps(doc, sort_keys=True, default=str).encode("utf-8"))
+    for k in sorted(selections):
+        h.update(f"{k}:".encode() + np.packbits(np.asarray(selections[k], bool)).tobytes())
+    return h.hexdigest()
 
 
 class Warmer:
-    """At most one warm-up process at a time, and what the warm-ups built (module notes).
+    """At most one held run at a time, and what the held runs built (module notes).
 
     Parameters
     ----------
-    folder : Path
-        Where the warm-up scenes and their runs are written (each run removed when it ends).
+    workdir : Path
+        The studio's folder: a held run writes ``runN.toml`` and ``runN`` there, its hold file in ``.warm``.
     start_job : callable, optional
-        ``start_job(scene, outdir) -> Job`` (default :class:`~gasp_core.studio.job.Job`: ``gasp simulate``).
+        ``start_job(scene, outdir, hold) -> Job`` (default :class:`~gasp_core.studio.job.Job`: ``gasp simulate
+        --hold``).
 
     Attributes
     ----------
     built : dict
-        ``{key: seconds}`` of every choice whose warm-up finished.
+        ``{key: seconds}`` of every choice whose held run reached frame 1 (its kernels are in the cache).
     failed : dict
-        ``{key: one line}`` of the warm-ups that failed (not tried again).
+        ``{key: one line}`` of the choices whose held run failed (not tried again).
     """
 
-    def __init__(self, folder: Path, start_job: Callable[[Path, Path], Job] | None = None):
-        self.folder = Path(folder)
-        self._start_job = start_job or (lambda scene, outdir: Job(scene, outdir))
+    def __init__(self, workdir: Path, start_job: Callable[[Path, Path, Path], Job] | None = None):
+        self.workdir = Path(workdir)
+        self.folder = self.workdir / ".warm"
+        self._start_job = start_job or (lambda scene, outdir, hold: Job(scene, outdir, hold=hold))
         self._lock = threading.Lock()
         self.job: Job | None = None
-        self.key = self.engine = None
+        self.key = self.engine = self.identity = None
+        self.hold: Path | None = None
         self.pending: tuple | None = None
         self.built: dict = {}
         self.failed: dict = {}
-        self._n = 0
 
-    def request(self, key, engine: str, write: Callable[[Path], Path]) -> bool:
-        """Ask for the kernels of choice ``key`` (hashable) on ``engine``; ``write(path)`` writes its scene when it
-        starts. Returns False when that choice is built, failed or warming already."""
+    def request(self, key, engine: str, doc: dict, selections: dict[int, np.ndarray]) -> bool:
+        """Ask for the run of ``doc`` with ``selections`` on ``engine`` (``key``: what of it the kernels depend on,
+        :func:`choice_key`). Returns False when that run is held already or its choice failed before."""
+        identity = run_identity(doc, selections)
         with self._lock:
-            if key in self.built or key in self.failed or (self.job is not None and key == self.key):
-                self.pending = None if self.job is not None and key == self.key else self.pending
+            if key in self.failed or (self.job is not None and identity == self.identity):
+                self.pending = None if key not in self.failed else self.pending
                 return False
-            self.pending = (key, engine, write)
+            self.pending = (key, engine, identity, copy.deepcopy(doc), {k: v.copy() for k, v in selections.items()})
             return True
 
     def poll(self, busy: bool = False) -> str | None:
-        """Follow the warm-up: record its end, stop it past :data:`WARM_MAX_S`, start the pending one unless a run
-        is ``busy``. Returns a line for the page when a warm-up ended, else None."""
+        """Follow the held run: say when it reached frame 1, stop it past :data:`WARM_MAX_S`; once it is held (or
+        gone), replace it by the pending choice unless a run is ``busy``. Returns a line for the page, or None."""
         said = None
         with self._lock:
             if self.job is not None:
                 elapsed = time.monotonic() - self.job.started
-                if self.job.running and elapsed > WARM_MAX_S:
-                    self.job.stop(timeout=5.0)
+                ready = self.job.frames_done() >= 1
+                if ready and self.key not in self.built:
+                    self.built[self.key] = elapsed
+                    said = f"{self.engine} kernels ready, frame 1 simulated ({elapsed:.1f} s while you chose)"
+                if self.job.running and not ready and elapsed > WARM_MAX_S:
                     self.failed[self.key] = f"stopped after {WARM_MAX_S:.0f} s"
-                if self.job.running:
-                    return None
-                said = self._ended(elapsed)
+                    said = f"{self.engine}: kernels not built in the background ({self.failed[self.key]})"
+                    self._drop()
+                elif not self.job.running:
+                    outcome = self.job.outcome()
+                    self.failed.setdefault(self.key, outcome)
+                    said = f"{self.engine}: kernels not built in the background ({outcome})"
+                    self._drop()
+                elif not ready or self.pending is None or busy:
+                    return said
+                else:
+                    self._drop()
             if self.pending is not None and not busy:
-                key, engine, write = self.pending
+                key, engine, identity, doc, selections = self.pending
                 self.pending = None
-                self._n += 1
                 try:
-                    scene = write(self.folder / f"warm{self._n}.toml")
-                    self.job = self._start_job(scene, self.folder / f"warm{self._n}")
-                    self.key, self.engine = key, engine
-                except Exception as e:  # noqa: BLE001 (a warm-up is an optimisation: it never stops the studio)
+                    self._start(key, engine, identity, doc, selections)
+                except Exception as e:  # noqa: BLE001 (a held run is an optimisation: it never stops the studio)
                     self.failed[key] = f"{type(e).__name__}: {e}"
                     said = f"{engine}: kernels not built in the background ({self.failed[key]})"
         return said
 
-    def _ended(self, elapsed: float) -> str:
-        outcome = self.job.outcome()
-        if outcome == "finished":
-            self.built[self.key] = elapsed
-            said = f"{self.engine} kernels ready (built in {elapsed:.1f} s while you chose)"
-        elif outcome == "stopped" and self.key not in self.failed:   # for a run of another choice: asked again later
-            said = f"{self.engine}: background build stopped"
-        else:
-            self.failed.setdefault(self.key, outcome)
-            said = f"{self.engine}: kernels not built in the background ({self.failed[self.key]})"
-        shutil.rmtree(self.job.outdir, ignore_errors=True)
-        self.job = None
-        return said
+    def _start(self, key, engine: str, identity: str, doc: dict, selections: dict) -> None:
+        outdir = next_run_dir(self.workdir)
+        self.folder.mkdir(parents=True, exist_ok=True)
+        self.hold = self.folder / f"{outdir.name}.hold"
+        self.hold.touch()
+        scene = write_document(doc, selections, outdir.with_suffix(".toml"))
+        self.job = self._start_job(scene, outdir, self.hold)
+        self.key, self.engine, self.identity = key, engine, identity
+
+    def _drop(self) -> None:
+        """Stop the held run and remove what it wrote (its scene, masks, hold file and partial folder)."""
+        job, self.job = self.job, None
+        if job.running:
+            job.stop(timeout=10.0)
+        out = job.outdir
+        for f in [job.scene, *out.parent.glob(f"{out.name}.select*.npy"), self.hold]:
+            f.unlink(missing_ok=True)
+        for p in out.parent.glob(f".{out.name}.partial-*"):
+            shutil.rmtree(p, ignore_errors=True)
+        if out.is_dir() and not any(out.iterdir()):
+            out.rmdir()
+        self.key = self.engine = self.identity = None
 
     @property
     def running(self) -> bool:
-        return self.job is not None and self.job.running
+        return self.job is not None and self.job.running and self.job.frames_done() == 0
 
     def status(self) -> str:
-        """``compiling <engine> kernels (first run; cached afterwards)... N s`` while a warm-up runs, else ``""``."""
-        job = self.job
-        if job is None or not job.running:
+        """``compiling <engine> kernels (first run; cached afterwards)... N s`` while a held run prepares, else
+        ``""``."""
+        if not self.running:
             return ""
-        return f"compiling {self.engine} kernels (first run; cached afterwards)… {time.monotonic() - job.started:.0f} s"
+        return f"compiling {self.engine} kernels (first run; cached afterwards)… " \
+               f"{time.monotonic() - self.job.started:.0f} s"
 
-    def for_run(self, key) -> None:
-        """A run of choice ``key`` starts: a warm-up of another choice is stopped, the pending one dropped (a later
-        change asks again)."""
+    def take(self, identity: str) -> Job | None:
+        """Run was clicked on the run ``identity``: the held run released and handed over when it is that run,
+        else None (a held run of anything else stopped and removed; the pending choice dropped)."""
         with self._lock:
             self.pending = None
-            if self.job is not None and self.key != key and self.job.running:
-                self.job.stop(timeout=5.0)
+            if self.job is None:
+                return None
+            if self.identity == identity and self.job.running:
+                job, self.job = self.job, None
+                self.hold.unlink(missing_ok=True)
+                self.key = self.engine = self.identity = None
+                return job
+            self._drop()
+            return None
 
     def stop(self) -> None:
-        """Stop any warm-up (the studio closes)."""
+        """Stop and remove any held run (the studio closes)."""
         with self._lock:
             self.pending = None
-            if self.job is not None and self.job.running:
-                self.job.stop(timeout=5.0)
+            if self.job is not None:
+                self._drop()
 
 
 def choice_key(doc: dict) -> tuple:
@@ -180,7 +198,7 @@ def choice_key(doc: dict) -> tuple:
 
 
 def studio_request(studio) -> bool:
-    """Ask ``studio``'s :class:`Warmer` for the kernels of the page's choice (a material not chosen yet: the default
+    """Ask ``studio``'s :class:`Warmer` for the run of the page's choice (a material not chosen yet: the default
     model). Returns False while the pieces of a file are still being found (ask again later), else True."""
     sc, form = studio.scene, studio.form
     if any(label is None for label in studio.labels):
@@ -189,9 +207,9 @@ def studio_request(studio) -> bool:
     engine = doc["engine"]["name"]
     if engine not in form.engine.options or engine.startswith("("):
         return True
-    selections = {p.index: p.selected.copy() for p in sc.pieces if p.selected.any()}
+    selections = sc.selections()
     if sc.is_file and not selections:
         p = sc.pieces[0]
         selections[0] = predicted_selection(p.selected, studio.labels[0], p.linking)
-    studio.warmer.request(choice_key(doc), engine, lambda path: write_warm_scene(doc, selections, path))
+    studio.warmer.request(choice_key(doc), engine, doc, selections)
     return True
