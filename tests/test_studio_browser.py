@@ -33,7 +33,7 @@ ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-net
         "--no-first-run", "--disable-component-update", "--disable-sync", "--use-gl=swiftshader",
         "--enable-unsafe-swiftshader"]
 W, H = 1280, 800
-STATUS = re.compile(r"run1: (\w+), (\d+)")
+STATUS = re.compile(r"run\d+: (\w+), (\d+)")
 
 
 def _pink(img):

@@ -13,6 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from gasp_core.fsmarker import CLAIM
+
 pytest.importorskip("viser", reason='the view extra is not installed: python -m pip install -e ".[view]"')
 pytest.importorskip("tomli_w", reason='the view extra is not installed: python -m pip install -e ".[view]"')
 
@@ -27,6 +29,8 @@ class FakeJob:
     def __init__(self, scene, outdir, resume=False, hold=None):
         self.scene, self.outdir, self.hold = Path(scene), Path(outdir), hold
         self.started = time.monotonic()
+        self.outdir.mkdir(parents=True, exist_ok=True)
+        (self.outdir / CLAIM).write_text("token pid\n")     # what a real run leaves when stopped before frame 1
         self.frame = 0
         self.done = threading.Event()
         self.stopped = False

@@ -28,6 +28,7 @@ from typing import Callable
 
 import numpy as np
 
+from gasp_core.fsmarker import CLAIM
 from gasp_core.studio.job import Job
 from gasp_core.studio.scene import write_document
 from gasp_core.studio.stream import next_run_dir
@@ -150,8 +151,8 @@ class Warmer:
             f.unlink(missing_ok=True)
         for p in out.parent.glob(f".{out.name}.partial-*"):
             shutil.rmtree(p, ignore_errors=True)
-        if out.is_dir() and not any(out.iterdir()):
-            out.rmdir()
+        if out.is_dir() and {p.name for p in out.iterdir()} <= {CLAIM}:   # the stopped run's claim, nothing else
+            shutil.rmtree(out, ignore_errors=True)
         self.key = self.engine = self.identity = None
 
     @property
