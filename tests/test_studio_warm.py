@@ -100,16 +100,20 @@ def test_a_held_run_starts_when_the_file_opens_and_the_page_says_so_until_frame_
     assert _until(lambda: len(FakeJob.made) == 2)
     assert job.stopped and FakeJob.made[1].outdir == job.outdir
     assert tomllib.loads(FakeJob.made[1].scene.read_text())["object"][0]["material"]["name"] == "sand"
-    # a change while it still prepares waits for its frame 1 (its kernels land in the engine's cache)
+    # a change of model while it prepares stops it at once; a change that keeps its kernels (the frame count)
+    # waits for its frame 1 (they land in the engine's cache)
     form.material.value = "jelly"
-    time.sleep(1.0)
-    assert len(FakeJob.made) == 2 and FakeJob.made[1].running
-    FakeJob.made[1].frame = 1
     assert _until(lambda: len(FakeJob.made) == 3) and FakeJob.made[1].stopped
+    form.frames.value = 12
+    assert _until(lambda: studio.warmer.pending is not None)
+    time.sleep(1.0)
+    assert len(FakeJob.made) == 3 and FakeJob.made[2].running
+    FakeJob.made[2].frame = 1
+    assert _until(lambda: len(FakeJob.made) == 4) and FakeJob.made[2].stopped
     # the studio closes: the held run is stopped and what it wrote removed
     studio.warmer.stop()
     work = studio.scene.workdir
-    assert FakeJob.made[2].stopped and not list(work.glob("run1*")) and not list((work / ".warm").iterdir())
+    assert FakeJob.made[3].stopped and not list(work.glob("run1*")) and not list((work / ".warm").iterdir())
 
 
 def test_run_takes_over_the_held_run_of_its_choice_and_stops_any_other(studio):

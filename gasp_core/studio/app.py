@@ -186,6 +186,8 @@ class Studio:
         return rgb
 
     def _retint(self) -> None:
+        """Tint the selection; the run a click on Run would start has changed (the held run follows it)."""
+        self.warm_wanted = getattr(self, "warmer", None) is not None
         with self._lock:
             for p, h in zip(self.scene.pieces, self._handles):
                 h.rgbs = self._tinted(p)

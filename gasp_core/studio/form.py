@@ -157,7 +157,7 @@ class Form:
         self.export_button.on_click(g("Export page", lambda _: self.export()))
         for h in (self.up, self.scale, self.drop, self.ground):
             h.on_update(g(h.label, lambda _: self._placement_changed()))
-        for h in (self.material, self.engine, self.quality, self.ground):   # kernels to build (gasp_core.studio.warm)
+        for h in (self.material, self.engine, self.quality, self.ground, self.frames):   # the run to hold (studio.warm)
             h.on_update(lambda _: setattr(st, "warm_wanted", st.warmer is not None))
 
     def _clear(self) -> None:

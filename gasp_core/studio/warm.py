@@ -10,9 +10,9 @@ simulates frame 1 and waits. Run on that same run (the same document and masks, 
 and the page shows frame 1 at once; Run on anything else stops it, removes what it wrote, and starts afresh with
 the kernels it compiled in the engine's cache. The engine itself decides what it caches; nothing here names one.
 
-At most one held run at a time. A change made while one prepares waits for its frame 1 (its kernels land in the
-cache the next one reads), then it is stopped and the new choice starts; one that prepares for longer than
-:data:`WARM_MAX_S` is stopped. While one prepares the page says ``compiling <engine> kernels (first run; cached
+At most one held run at a time. A change of choice stops it and starts the new one, except that a change which
+keeps its kernels (:func:`choice_key`: the frame count, the selection) waits for its frame 1 (the kernels land in
+the cache the next one reads); one that prepares for longer than :data:`WARM_MAX_S` is stopped. While one prepares the page says ``compiling <engine> kernels (first run; cached
 afterwards)... N s``.
 """
 from __future__ import annotations
@@ -99,8 +99,9 @@ class Warmer:
             return True
 
     def poll(self, busy: bool = False) -> str | None:
-        """Follow the held run: say when it reached frame 1, stop it past :data:`WARM_MAX_S`; once it is held (or
-        gone), replace it by the pending choice unless a run is ``busy``. Returns a line for the page, or None."""
+        """Follow the held run: say when it reached frame 1, stop it past :data:`WARM_MAX_S`; replace it by the
+        pending choice unless a run is ``busy`` (once held, when the pending choice has the same kernels). Returns a
+        line for the page, or None."""
         said = None
         with self._lock:
             if self.job is not None:
@@ -118,8 +119,8 @@ class Warmer:
                     self.failed.setdefault(self.key, outcome)
                     said = f"{self.engine}: kernels not built in the background ({outcome})"
                     self._drop()
-                elif not ready or self.pending is None or busy:
-                    return said
+                elif self.pending is None or busy or (not ready and self.pending[0] == self.key):
+                    return said   # a choice with the same kernels waits for them: they land in the engine's cache
                 else:
                     self._drop()
             if self.pending is not None and not busy:
