@@ -4,10 +4,12 @@ frames arrive. Prints the time from the click on Run to the first simulated fram
 ``GASP_STUDIO_SHOTS=docs`` writes the two screenshots there (docs/studio_select.png, docs/studio_run.png).
 The page is a laptop's 1280 x 800: Run must be within it without scrolling (issue 39).
 
-The studio builds the engine's kernels in the background from the moment the file opens (gasp_core/studio/warm.py).
-``GASP_STUDIO_WARM=wait`` clicks Run only once that build is done (a user who took that long to choose);
-``GASP_STUDIO_WARM=off`` opens the studio without it (the time before issue 39). With a fresh ``WARP_CACHE_PATH``
-(and ``TI_OFFLINE_CACHE_FILE_PATH``) these give docs/studio.md's cold-cache figures.
+The studio starts the run a click on Run would start as soon as the file opens, held after its frame 1
+(gasp_core/studio/warm.py, ``gasp simulate --hold``); Run on that choice releases it. ``GASP_STUDIO_WARM=wait``
+clicks Run only once the held run is at frame 1 (a user who took that long to choose); ``GASP_STUDIO_WARM=off``
+opens the studio without it (the time before issue 39). With fresh ``WARP_CACHE_PATH`` and
+``TI_OFFLINE_CACHE_FILE_PATH`` folders these give docs/studio.md's cold-cache figures; ``GASP_LOAD_PLUGINS=taichi_mpm``
+gives the README quick start's install.
 """
 import os
 import re
