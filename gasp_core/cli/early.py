@@ -21,10 +21,13 @@ def _exit(signum, _frame) -> None:
 
 
 def is_command_line() -> bool:
-    """True when this process is the ``gasp`` command: the console script, or ``python -m gasp_core...``
-    (while ``-m`` imports the packages, ``sys.argv[0]`` is ``"-m"``)."""
+    """True when this process is the ``gasp`` command: the console script, or ``python -m gasp_core ...``
+    (while ``-m`` imports the package ``sys.argv[0]`` is ``"-m"``; once runpy runs ``gasp_core/__main__.py``,
+    which imports this module, it is that file's path)."""
     first = sys.argv[0] if sys.argv else ""
-    return os.path.basename(first) == "gasp" or first == "-m"
+    if os.path.basename(first) == "gasp" or first == "-m":
+        return True
+    return os.path.basename(first) == "__main__.py" and os.path.basename(os.path.dirname(first)) == "gasp_core"
 
 
 _SIGNALS = tuple(s for s in (getattr(signal, n, None) for n in ("SIGTERM", "SIGINT", "SIGHUP")) if s is not None)
