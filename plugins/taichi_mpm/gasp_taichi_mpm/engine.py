@@ -30,6 +30,12 @@ MAX_PRIVATE_GRID_BYTES = 1 << 30
 #: 12 s for the README donut's P2G alone). ``TI_OFFLINE_CACHE_MAX_SIZE_OF_FILES`` in the environment wins.
 CACHE_MAX_BYTES = 1 << 30
 
+#: On the CPU, Taichi's ``advanced_optimization`` passes are off: with them a cold README run spent 35.2 s on frame 1
+#: (kernels compiling), without them 16.7 s, and the 36 frames with the kernels cached took the same time (110.8 s
+#: against 110.0 s, one farm-bench pair, 1.007x; ``docs/performance.md`` "First run"). ``TI_ADVANCED_OPTIMIZATION``
+#: in the environment wins. CUDA keeps Taichi's default (not measured: no GPU here).
+CPU_ADVANCED_OPTIMIZATION = False
+
 _generation = 0  # bumped by every engine built; an engine is live while its generation is current
 
 
@@ -105,8 +111,9 @@ class TaichiMPMEngine(GridEngineBase):
             threads = None
         else:
             threads = int(opt["threads"]) if opt["threads"] is not None else (os.cpu_count() or 1)
+            cpu = {} if "TI_ADVANCED_OPTIMIZATION" in os.environ else {"advanced_optimization": CPU_ADVANCED_OPTIMIZATION}
             _quiet_init(ti, arch=ti.cpu, default_fp=real, offline_cache=True, cpu_max_num_threads=threads,
-                    fast_math=False, log_level=ti.WARN)
+                        fast_math=False, log_level=ti.WARN, **cpu)
         _generation += 1
         self._gen = _generation
         self._ti = ti

@@ -295,6 +295,21 @@ def test_the_kernel_cache_is_not_cut_to_taichis_100_mib(monkeypatch):
     assert ti.lang.impl.current_cfg().offline_cache_max_size_of_files == 123456789
 
 
+def test_cpu_kernels_compile_without_the_advanced_passes_unless_the_environment_asks(monkeypatch):
+    """The advanced passes doubled a cold first frame and bought no speed (``CPU_ADVANCED_OPTIMIZATION``); a value
+    in the environment wins, in both directions."""
+    import taichi as ti
+    monkeypatch.delenv("TI_ADVANCED_OPTIMIZATION", raising=False)
+    build(block_setup())
+    assert ti.lang.impl.current_cfg().advanced_optimization is False
+    monkeypatch.setenv("TI_ADVANCED_OPTIMIZATION", "1")
+    build(block_setup())
+    assert ti.lang.impl.current_cfg().advanced_optimization is True
+    monkeypatch.setenv("TI_ADVANCED_OPTIMIZATION", "0")
+    build(block_setup())
+    assert ti.lang.impl.current_cfg().advanced_optimization is False
+
+
 def test_stats_report_the_time_step_from_gasp_core_mpm():
     from gasp_core.toolkit.substeps import mpm_stable_dt, substeps_for
     s = block_setup()
