@@ -19,7 +19,7 @@ Everything here is data in the world frame (metres, seconds, z up) that every en
 Grid (MPM) engines apply all three on the grid nodes: :mod:`gasp_core.toolkit.grid_tables` packs
 them into the flat arrays their kernels read (``grid_tables``), and the time-dependent part of one
 frame (``frame_table``: collider poses and impulse weights per substep). Colliders follow
-taichi_elements / PhysGaussian: at a node inside the collider (``phi <= 0``), the velocity
+the MLS-MPM reference code (Hu et al. 2018) and PhysGaussian: at a node inside the collider (``phi <= 0``), the velocity
 relative to the collider's velocity there loses its normal component if approaching, and its
 tangential part is reduced by Coulomb friction.
 

@@ -27,7 +27,8 @@ generalised to a body whose section and load vary with height; the factors below
 3. **Thin parts** (``s(z)``): a part few material points across is softer in bending in MPM than its ``E`` says.
    ``s`` is interpolated in :data:`THIN_SOFTNESS` from the section's points across its weak axis
    (``sqrt(12 I / A)`` over the fill's spacing: the side that 90 % of the section's volume is under), measured on
-   the conformance cantilever (``benchmarks/thin_softness.py``, ``benchmarks/results/thin_softness_warp_mpm.md``).
+   the conformance cantilever (``benchmarks/thin_softness.py``; the engine and figures:
+   ``docs/tolerances.md``, "stand").
 4. **Gravity switched on at once** (:data:`DYNAMIC_FACTOR`): a load applied as a step drives an undamped elastic
    body to twice its static deflection (the step response of any linear mode, ``1 - cos(w t)``; the same
    cantilever measured 2.00-2.27x where it is 3 or more points thick), so the sections must hold twice the
@@ -35,7 +36,7 @@ generalised to a body whose section and load vary with height; the factors below
 
        E_crit = DYNAMIC_FACTOR * E_static
 
-On the figure of ``tests/test_stand.py`` (legs 2.5 cells thick, warp_mpm) the threshold measured lies at 0.45-0.5 of
+On the figure of ``tests/test_stand.py`` (legs 2.5 cells thick) the threshold measured lies at 0.45-0.5 of
 ``E_crit``, at ``E_static``: the factor 2 is the margin (``benchmarks/results/stand_figure*.md``). Only bodies that
 start standing on a ground are judged (:func:`stand_warnings`).
 """
@@ -60,7 +61,7 @@ MAX_CELLS = 400
 #: Gravity switched on at once: the peak of a step response over its static value.
 DYNAMIC_FACTOR = 2.0
 #: Bending softness of a part (deflection over Timoshenko's) by its material points across its weak axis: the
-#: largest over 1-2 points per cell per axis, warp_mpm, cantilever at n_grid 32 (benchmarks/thin_softness.py).
+#: largest over 1-2 points per cell per axis, cantilever at n_grid 32 (benchmarks/thin_softness.py; docs/tolerances.md).
 THIN_SOFTNESS = ((1.0, 18.7), (2.0, 2.79), (3.0, 1.28), (4.0, 1.08), (5.0, 1.02), (6.0, 1.02), (8.0, 1.0))
 
 

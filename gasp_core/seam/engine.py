@@ -247,7 +247,7 @@ class EngineInfo:
     description : str
     limits : dict of str -> Limit
         Ranges this engine accepts that are narrower than the core's, as data
-        (:mod:`gasp_core.seam.limits`): ``{"nu": Limit(lo=0.0, why="MuJoCo's flex elasticity")}``.
+        (:mod:`gasp_core.seam.limits`): ``{"nu": Limit(lo=0.0, why="the engine's elasticity model")}``.
         The core refuses a setup outside them before the factory runs, with one error text.
 
     Raises

@@ -4,11 +4,11 @@
 A plugin of the repository lives in ``plugins/<name>/pyproject.toml`` beside the core package (the editable
 install of a clone). Its ``[tool.gasp]`` table may add to the line:
 
-* ``install-first = "torch==2.13.0"``: a package installed before the plugin (Genesis picks up the
-  installed torch);
-* ``own-venv = "bpy requires numpy<2 and would downgrade numpy and plyfile in this environment"``: the
-  plugin pins packages older than the core's, so the line says so first and installs it, with the core,
-  into a venv of its own (as ``.ci/blender_tier.sh`` does).
+* ``install-first = "torch==2.13.0"``: a package installed before the plugin (an engine built on torch
+  picks up the installed one);
+* ``own-venv = "REASON"`` (e.g. "its engine requires numpy<2 and would downgrade numpy and plyfile in this
+  environment"): the plugin pins packages older than the core's, so the line says so first and installs it,
+  with the core, into a venv of its own (as the CI's tier for such a plugin does).
 """
 from __future__ import annotations
 
@@ -56,12 +56,12 @@ def install_hint(name: str, extra: str | None = None, distribution: str | None =
     Parameters
     ----------
     name : str
-        Entry-point name (``blender``, ``gsplat``, ...).
+        Entry-point name (the ``engine`` of a scene, or a renderer's name).
     extra : str, optional
         The plugin's extra to name; default its one optional extra other than ``test``
-        (``plugins/blender[engine]``: the plugin without it cannot run).
+        (``plugins/NAME[engine]``: the plugin without it cannot run).
     distribution : str, optional
-        ``gasp-blender[engine]``: what a plugin installed from a wheel names (no clone to point at).
+        ``gasp-NAME[engine]``: what a plugin installed from a wheel names (no clone to point at).
 
     Returns
     -------

@@ -1,8 +1,9 @@
 """Per-engine parameter limits, declared as data (:attr:`gasp_core.seam.engine.EngineInfo.limits`).
 
-Some engines accept a narrower range of a scene value than the core does: MuJoCo's flex elasticity
-takes ``nu >= 0`` where the core takes ``-1 < nu < 0.5``; Genesis fixes the snow hardening at 10 and
-pads its grid by 3 cells, so it needs ``n_grid >= 8``. A plugin declares such ranges as
+Some engines accept a narrower range of a scene value than the core does: an engine whose elasticity
+model takes only ``nu >= 0`` where the core takes ``-1 < nu < 0.5``, or one that pads its grid by 3 cells
+and so needs ``n_grid >= 8`` (the limits the bundled plugins declare: ``gasp engines``;
+``docs/tolerances.md``). A plugin declares such ranges as
 :class:`Limit` records keyed by the parameter; the core checks them in one place
 (:func:`check_limits`, called by :func:`gasp_core.seam.build.build_engine` before the factory) with
 one error text, and ``gasp engines`` lists them.
@@ -45,7 +46,7 @@ class Limit:
     lo_open, hi_open : bool
         Make the bound exclusive.
     why : str
-        The engine's reason, one line (quoted in the error), e.g. ``"MuJoCo's flex elasticity"``.
+        The engine's reason, one line (quoted in the error), e.g. ``"the engine's elasticity model"``.
     """
 
     lo: float | None = None
@@ -68,7 +69,7 @@ class Limit:
         return f"any {name}"
 
     def describe(self, key: str) -> str:
-        """The range and the reason for a limit key, e.g. ``"nu >= 0 (MuJoCo's flex elasticity)"``."""
+        """The range and the reason for a limit key, e.g. ``"nu >= 0 (the engine's elasticity model)"``."""
         return self.expected(key.rpartition(".")[2]) + (f" ({self.why})" if self.why else "")
 
     def admits(self, value: float) -> bool:
@@ -140,7 +141,7 @@ def check_limits(engine: str, limits: Mapping[str, Limit], setup: SimSetup) -> N
     Raises
     ------
     SceneError
-        ``engine 'NAME': material 'jelly': nu=-0.3; this engine takes nu >= 0 (MuJoCo's flex
+        ``engine 'NAME': material 'jelly': nu=-0.3; this engine takes nu >= 0 (the engine's
         elasticity)``: the first value outside its limit.
     """
     for key, limit in limits.items():

@@ -13,7 +13,7 @@ second body in flight, a collider on its path, an impulse window ahead) never sl
 move or because :func:`sleep_blockers` names what is still to come.
 
 What sleep costs in accuracy is the motion the scene would still have made. Measured on the README donut (36
-frames awake, taichi_mpm; ``docs/performance.md`` "Sleep"): with these thresholds it falls asleep after frame 30, and
+frames awake, its default engine; ``docs/performance.md`` "Sleep"): with these thresholds it falls asleep after frame 30, and
 no Gaussian's centre of the awake run moves farther than 0.21 mm (0.068 % of the donut's size, about 0.1 U of
 ``docs/speed_accuracy.md``'s shape unit, 0.62 %) from where the sleeping run leaves it.
 """

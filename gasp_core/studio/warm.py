@@ -1,7 +1,7 @@
 """The studio runs what its user is about to ask for while they choose: a held run (issue 39).
 
-A first run of an engine spends most of its time before frame 1 compiling kernels (Warp's kernel cache,
-``WARP_CACHE_PATH``; Taichi's offline cache) and building the engine: docs/studio.md, "Time to the first frame".
+A first run of an engine spends most of its time before frame 1 compiling kernels (into the
+engine's own kernel cache) and building the engine: docs/studio.md, "Time to the first frame".
 As soon as a file is open, and again when the engine, the material or the quality level changes, :class:`Warmer`
 starts the run a click on Run would start (the page's choice, the default model's typical values while no material
 is chosen, the largest connected piece of the object or the selection already made) as ``gasp simulate --hold``

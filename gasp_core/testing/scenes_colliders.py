@@ -35,16 +35,16 @@ INCLINE_DEG = 25.0
 MU_SLIDE, MU_STICK = 0.2, 0.8          # tan(25 deg) = 0.466
 INCLINE_T = 0.4                        # s simulated
 #: Relative error allowed on the sliding acceleration (two-sided). The block starts with its surface (half a point
-#: spacing beyond its outer points) on the slope. Measured (quadratic fit of the centroid over 0.1-0.4 s): warp_mpm
-#: and taichi_mpm -0.065 % on the particle contact, warp_mpm +0.19 % with the grid rule on the collider
-#: (``contact = "grid"``), mujoco_flex -0.41 %. Until issue 38's tightening the block started a quarter cell above the
+#: spacing beyond its outer points) on the slope. Measured (quadratic fit of the centroid over 0.1-0.4 s): -0.065 %
+#: on the particle contact, +0.19 % with the grid rule on the collider (``contact = "grid"``), -0.41 % on a
+#: non-MPM engine (per engine: docs/tolerances.md). Until issue 38's tightening the block started a quarter cell above the
 #: slope and fell onto it: the MPM engines ran 0.82 % slow (0.95 % with ``KAPPA`` 2), which was taken for the soft
 #: penalty's, and the tolerance was 1.25 %. 0.75 % is 1.85x the worst; friction 5 % off moves a by 3.75 %.
 INCLINE_TOL = 0.0075
 #: Largest travel down the slope (dx) of the stuck bodies, over 0.4 s. Measured (the body set on the slope): the slab
-#: 0.0006 dx on warp_mpm's particle contact, 0.00125 on taichi_mpm's (warp_mpm 0.0053 without the balance, 0.023 with
-#: the grid rule), the cube 0.021 / 0.019 dx, turning 0.8 deg (warp_mpm 0.057 without the balance; the grid rule
-#: 0.36 dx, turning 6.4 deg). Each limit is about 3x the worst particle contact's: the balance-less and grid contacts
+#: 0.0006-0.00125 dx on the particle contact (0.0053 without the balance, 0.023 with the grid rule), the cube
+#: 0.019-0.021 dx, turning 0.8 deg (0.057 without the balance; the grid rule 0.36 dx, turning 6.4 deg; per engine:
+#: docs/tolerances.md). Each limit is about 3x the worst particle contact's: the balance-less and grid contacts
 #: fail them. (0.5 dx until issue 38, when the bodies fell
 #: a quarter cell onto the slope and slid 0.29-0.34 dx on the particle contact while in the air.)
 STICK_TOL = {"slab": 0.004, "cube": 0.06}
@@ -122,8 +122,8 @@ def _eval_incline(mu: float, stick_tol: float = 0.0):
 PUSH_SPEED = 0.5
 GROUND_H = 3 * DX
 PUSH_T = 0.6
-#: Relative error allowed on the block's mean speed over the last 0.3 s. Measured: warp_mpm -2.4 %, taichi_mpm -2.3 %
-#: (the block 0.488 m/s); 7 % is 3x the worst (8 % until issue 38's tightening).
+#: Relative error allowed on the block's mean speed over the last 0.3 s. Measured: -2.3 to -2.4 % on the MPM
+#: engines (the block 0.488 m/s; docs/tolerances.md); 7 % is 3x the worst (8 % until issue 38's tightening).
 PUSH_TOL = 0.07
 
 

@@ -47,7 +47,8 @@ SPIN_FRAMES = 30
 DRIFT_TOL = 1e-3
 DRIFT_FRAMES = 40
 MU = 0.5
-#: Measured -0.001 dx on warp_mpm and taichi_mpm (newton -0.087, blender -0.205, genesis +0.49: declared); a ground
+#: Measured -0.001 dx on the MPM engines with the particle contact (others -0.087 to +0.49 dx, declared;
+#: docs/tolerances.md); a ground
 #: 5 % of the half point spacing (0.0125 dx) off fails (``conformance_tests/test_checks_catch_broken.py``).
 GAP_TOL = 0.01
 #: The jittered ball on the box collider: measured -0.025 dx on both engines (its jittered lowest 1 % sit low; the

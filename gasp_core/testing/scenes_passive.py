@@ -27,8 +27,9 @@ SPIN_R = 3.6 * DX
 OMEGA = math.pi                 # rad/s about z
 N_SURFACE = 300                 # passive points (Fibonacci sphere)
 PASSIVE_EVERY = 4
-#: Relative tolerance on the passive points' mean radius over one turn. Measured: taichi_mpm and warp_mpm 0.0146 %
-#: (``passive_every`` 4), mujoco_flex 0.0194 %; 0.06 % is 3x the worst (issue 38's tightening; issue 17 set 0.5 %).
+#: Relative tolerance on the passive points' mean radius over one turn. Measured: 0.0146 % on the MPM engines
+#: (``passive_every`` 4), 0.0194 % on a non-MPM one (docs/tolerances.md); 0.06 % is 3x the worst (issue 38's
+#: tightening; issue 17 set 0.5 %).
 PASSIVE_SPIN_TOL = 6e-4
 SPIN_FRAMES = 60                # 2 s at 1/30 s: one turn
 

@@ -42,7 +42,8 @@ TILT_DEG = 15.0
 REST_T = 2.0
 FRAME_DT = 1.0 / 30.0
 #: Allowed in-plane centroid travel, in dx (issue 17).
-#: Within 3x of the largest error measured on an engine that passes (newton 0.0089 dx on the tilted ground).
+#: Within 3x of the largest error measured on an engine that passes (0.0089 dx on the tilted ground;
+#: docs/tolerances.md).
 REST_TOL = 0.025
 #: Slab sides (x, y, z), metres: wide and low, so that neither slope nor settling can tip it.
 SLAB = (4 * DX, 4 * DX, 2 * DX)

@@ -80,7 +80,7 @@ def _build_tip(info: EngineInfo):
 
 
 def _build_settle(info: EngineInfo):
-    # the base, once back on it, spans [-2 DX, 2 DX]: inside every engine's box (Genesis keeps 3 cells clear)
+    # the base, once back on it, spans [-2 DX, 2 DX]: inside every engine's box (one keeps 3 cells clear)
     x, p_vol, _ = _tilted_block(-SETTLE_INSIDE, W / 2)
     return _setup(x, p_vol, MU)
 

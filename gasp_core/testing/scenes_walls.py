@@ -10,8 +10,8 @@ points (an ideal contact's normal forces on a ball act through its centre).
   ``WALL_FRAMES`` frames (it has bounced once, and not reached the -x wall):
 
   - ``wall_spin``: its spin (angular momentum about the centroid over its inertia there) times ``R`` at most
-    ``WALL_SPIN_TOL`` = 2.2 % of the throw's speed (0.22 rad/s), 3x the measured. Measured 0.074 rad/s on warp_mpm
-    and taichi_mpm with the particle contact (``KAPPA`` 2; 0.125 at ``KAPPA`` 4, as for the same ball thrown at a
+    ``WALL_SPIN_TOL`` = 2.2 % of the throw's speed (0.22 rad/s), 3x the measured. Measured 0.074 rad/s on the MPM engines
+    with the particle contact (docs/tolerances.md) (``KAPPA`` 2; 0.125 at ``KAPPA`` 4, as for the same ball thrown at a
     frictionless ground), 0.919 rad/s with the
     walls' grid rule (``contact = "grid"``, and every contact before issue 38 item 2), 1.67 without the contact's
     balance;

@@ -25,7 +25,7 @@ met like the ground's (:func:`contact_planes`: ``depth = offset + s_p - n . x``,
 ``n``), each its own support of the balance; their grid rule keeps only the nodes more than 1.5 cells behind the
 plane (:func:`wall_grid_cells`).
 
-``contact = "grid"``: the ground's, the walls' and the colliders' node layers are projected (taichi_elements' "separate" collider,
+``contact = "grid"``: the ground's, the walls' and the colliders' node layers are projected (the MLS-MPM reference code's "separate" collider,
 ``docs/mpm.md`` step 3), the rule before issue 28; it spins bouncing soft bodies up and floats resting ones
 (``docs/contact.md``).
 

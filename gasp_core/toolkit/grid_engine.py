@@ -1,7 +1,7 @@
 """What a grid (MPM) engine does outside its kernels, written once for the grid engines of GASP.
 
-Model: Newton's ``SolverBase`` (what every solver does around its kernels) and its solver ``Config`` (the
-options and capabilities as a record). A grid engine subclasses :class:`GridEngineBase`, sets :attr:`ENGINE`
+Model: a solver base class (what every solver does around its kernels) and a solver config (the options and
+capabilities as a record), as GPU physics libraries shape them. A grid engine subclasses :class:`GridEngineBase`, sets :attr:`ENGINE`
 and :attr:`STATE` and supplies how its arrays are read and written (:meth:`GridEngineBase.read_array`,
 :meth:`GridEngineBase.write_array`); the base gives it the point order, the substeps, ``get_state`` /
 ``set_state`` with one error text, and the statistics every grid engine reports. :data:`MPM_CAPABILITIES` is

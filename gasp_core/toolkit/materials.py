@@ -53,8 +53,8 @@ N_PARAMS = len(Param)
 #: von Mises yield surface radius per unit yield stress: metal and plasticine return-map the Hencky
 #: strain's deviator ``e`` onto ``2 mu ||e|| <= sqrt(2/3) Y``, i.e. ``||dev tau|| <= sqrt(2/3) Y``, so a
 #: bar in uniaxial stress yields at ``Y`` (von Mises: ``sigma_vm = sqrt(3/2) ||dev tau||``;
-#: de Souza Neto, Peric & Owen, Computational Methods for Plasticity, 2008, Ch. 6). taichi_elements
-#: and PhysGaussian use ``||e|| <= Y / (2 mu)``, which yields at ``sqrt(3/2) Y = 1.22 Y``.
+#: de Souza Neto, Peric & Owen, Computational Methods for Plasticity, 2008, Ch. 6). The MLS-MPM reference
+#: code (Hu et al. 2018) and PhysGaussian use ``||e|| <= Y / (2 mu)``, which yields at ``sqrt(3/2) Y = 1.22 Y``.
 VON_MISES_RADIUS = math.sqrt(2.0 / 3.0)
 
 

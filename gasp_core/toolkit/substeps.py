@@ -62,7 +62,7 @@ def mpm_stable_dt(materials: Iterable[Material], dx: float, gravity, height: flo
 
     Notes
     -----
-    Fang et al. 2018 / taichi_elements use ``dt <= C dx / c_p`` with ``C`` about 0.3-0.5 for
+    Fang et al. 2018 and the MLS-MPM reference code (Hu et al. 2018) use ``dt <= C dx / c_p`` with ``C`` about 0.3-0.5 for
     explicit MLS-MPM with quadratic B-splines.
     """
     materials = list(materials)
@@ -159,7 +159,7 @@ def substeps_from_options(setup, options: Mapping[str, Any], engine: str = "",
 
 #: Option of the grid engines with the feature ``passive_points`` (:func:`passive_schedule`).
 #: Largest ``passive_every``: measured on the README donut at ``draft`` (``benchmarks/passive_every_drift.py``,
-#: ``benchmarks/results/passive_every_drift.md``, warp_mpm, 12 frames, 121 substeps a frame), the passive points stay
+#: ``benchmarks/results/passive_every_drift.md``, 12 frames, 121 substeps a frame), the passive points stay
 #: within 0.23 dx of where a gather every substep puts them up to 16 (0.14 dx at 16), leave the body by 4.1 dx at 32
 #: and go non-finite at 64 (frame 3): the affine field extrapolated over many substeps detaches them (issue 41: 128
 #: let the Gaussians drift 940 mm from a body that moved 52 mm).
