@@ -38,6 +38,9 @@ CAPABILITIES = dataclasses.replace(MPM_CAPABILITIES, features=MPM_CAPABILITIES.f
 OPTIONS = mpm_options(
     Option("threads", None, "CPU threads (Taichi's cpu_max_num_threads; default: all cores); the coloured "
                             "block P2G gives the same numbers on any count", kind="int", lo=1),
+    Option("pin_threads", True, "pin each CPU worker thread to its own core (Linux; 2 threads or more, no more than "
+                                "the allowed cores): left to the scheduler, the workers often share one core "
+                                "(docs/performance.md); the numbers are the same either way", kind="bool"),
     PASSIVE_EVERY, FLIP, CONTACT, BALANCE)
 
 

@@ -21,6 +21,7 @@ from gasp_core.toolkit.points import fixed_mask, passive_bounds
 from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
 
 from . import ENGINE
+from .affinity import allowed_cores, pin_workers, spin_all_threads, thread_ids
 
 #: On CPU the coloured block P2G is used while the grid takes at most this many bytes (beyond, the atomic one).
 MAX_PRIVATE_GRID_BYTES = 1 << 30
@@ -56,6 +57,19 @@ def _quiet_init(ti, **kw) -> None:
             print(line, file=sys.stderr)
 
 
+def _init_cpu(ti, real, threads: int, pin: bool) -> tuple[list[int], str]:
+    """``ti.init`` on the CPU with ``threads`` workers (the advanced passes as :data:`CPU_ADVANCED_OPTIMIZATION`
+    unless ``TI_ADVANCED_OPTIMIZATION`` is set), then, if ``pin``, each worker pinned to its own core
+    (:func:`gasp_taichi_mpm.affinity.pin_workers`: the cores pinned, or why none)."""
+    cpu = {} if "TI_ADVANCED_OPTIMIZATION" in os.environ else {"advanced_optimization": CPU_ADVANCED_OPTIMIZATION}
+    before = thread_ids()
+    _quiet_init(ti, arch=ti.cpu, default_fp=real, offline_cache=True, cpu_max_num_threads=threads,
+                fast_math=False, log_level=ti.WARN, **cpu)
+    if not pin:
+        return [], "not asked (pin_threads = false)"
+    return pin_workers(thread_ids() - before, spin_all_threads, threads)
+
+
 class TaichiMPMEngine(GridEngineBase):
     """MLS-MPM engine on Taichi (``docs/mpm.md``).
 
@@ -64,7 +78,8 @@ class TaichiMPMEngine(GridEngineBase):
     setup : SimSetup
         World frame, SI units. ``setup.options`` (checked and completed by the core) hold ``device`` ("cpu" | "cuda"),
         ``precision`` ("f32" | "f64"), ``dt`` (s) or ``n_substeps`` (per frame), ``cfl`` (0.4) and
-        ``threads`` (CPU threads, Taichi's ``cpu_max_num_threads``; default all cores).
+        ``threads`` (CPU threads, Taichi's ``cpu_max_num_threads``; default the cores this process may use) and
+        ``pin_threads`` (each worker on its own core: :mod:`gasp_taichi_mpm.affinity`; ``stats()["pinned_cores"]``).
 
     Raises
     ------
@@ -109,11 +124,10 @@ class TaichiMPMEngine(GridEngineBase):
                 raise EngineError(f"engine '{ENGINE}': device 'cuda' requested but Taichi could not "
                                   "start CUDA (no GPU or driver); use device='cpu'")
             threads = None
+            self.pinned, self.unpinned_why = [], "device cuda"
         else:
-            threads = int(opt["threads"]) if opt["threads"] is not None else (os.cpu_count() or 1)
-            cpu = {} if "TI_ADVANCED_OPTIMIZATION" in os.environ else {"advanced_optimization": CPU_ADVANCED_OPTIMIZATION}
-            _quiet_init(ti, arch=ti.cpu, default_fp=real, offline_cache=True, cpu_max_num_threads=threads,
-                        fast_math=False, log_level=ti.WARN, **cpu)
+            threads = int(opt["threads"]) if opt["threads"] is not None else len(allowed_cores())
+            self.pinned, self.unpinned_why = _init_cpu(ti, real, threads, opt["pin_threads"])
         _generation += 1
         self._gen = _generation
         self._ti = ti
@@ -277,7 +291,7 @@ class TaichiMPMEngine(GridEngineBase):
         s = self.solver
         out = self.grid_stats(self.options["device"], self.options["precision"], s.get(s.x) if live else None,
                               s.get(s.p_mass) if live else None, s.grid_m.to_numpy() if live else None)
-        out.update(threads=self.threads, p2g=self._p2g_mode)
+        out.update(threads=self.threads, p2g=self._p2g_mode, pinned_cores=list(self.pinned))
         if live and s.coloured:
             out["late_points"] = int(s.late_points)
         if live and s.visc is not None:
