@@ -4,8 +4,9 @@ Three measurements, each written to ``benchmarks/results/`` (``bench_threads.jso
 with matplotlib, ``bench_threads_profile.png``):
 
 * **scaling** - ``bench_mpm``'s jelly block (``make_setup``: 8 points per cell, n_grid 64, f32, 10 substeps per
-  frame) at each ``--sizes``, with ``threads = 1``, ``threads = <all cores>`` and all cores' threads pinned to
-  one core (``taskset -c 0``: the cost of the threading itself). Each case is a fresh subprocess; the cases
+  frame) at each ``--sizes``, with ``threads = 1``, ``threads = <all cores>`` (each worker pinned to its own
+  core, the engine's default), the same left to the scheduler (``pin_threads = false``) and all cores' threads
+  on one core (``taskset -c 0``: the cost of the threading itself). Each case is a fresh subprocess; the cases
   are interleaved (``1, N, pinned, 1, N, pinned, ...``) so that each ratio N / 1 compares runs measured
   next to each other under the same machine load. Reported: M particle-substeps per wall second, cores
   used (process user + system CPU / wall) and the median of the per-round ratios.
@@ -52,21 +53,22 @@ def _env(src: Path) -> dict:
 
 
 # ---------------------------------------------------------------- inside the subprocess
-def _engine(n: int, threads: int):
+def _engine(n: int, threads: int, pin: bool = True):
     sys.path.insert(0, str(HERE))
     from bench_mpm import make_setup
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import get_engine
     setup = make_setup(n, "jelly")
     setup.options["threads"] = threads
+    setup.options["pin_threads"] = pin
     eng = build_engine(get_engine("taichi_mpm"), setup)
     eng.step_frame()                                   # compiles
     return eng, len(setup.x)
 
 
-def worker_scaling(n: int, threads: int, frames: int) -> dict:
-    """Throughput of ``frames`` frames after a warm-up frame."""
-    eng, n_points = _engine(n, threads)
+def worker_scaling(n: int, threads: int, frames: int, pin: bool = True) -> dict:
+    """Throughput of ``frames`` frames after a warm-up frame (``pin``: taichi_mpm's ``pin_threads``)."""
+    eng, n_points = _engine(n, threads, pin)
     st = eng.stats()
     w0, c0 = time.perf_counter(), time.process_time()
     for _ in range(frames):
@@ -74,7 +76,7 @@ def worker_scaling(n: int, threads: int, frames: int) -> dict:
     wall, cpu = time.perf_counter() - w0, time.process_time() - c0
     work = n_points * st["n_substeps"] * frames
     return {"n_points": n_points, "threads": threads, "p2g": st["p2g"], "wall_s": wall, "cpu_s": cpu,
-            "M_per_s": work / wall / 1e6, "cores": cpu / wall}
+            "M_per_s": work / wall / 1e6, "cores": cpu / wall, "pinned_cores": st.get("pinned_cores")}
 
 
 def worker_profile(n: int, threads: int, frames: int) -> dict:
@@ -138,10 +140,11 @@ def worker_profile(n: int, threads: int, frames: int) -> dict:
 
 
 # ---------------------------------------------------------------- driver
-def _run_worker(src: Path, what: str, n: int, threads: int, frames: int, pin: bool) -> dict:
-    cmd = ([] if not pin else ["taskset", "-c", "0"]) + [
+def _run_worker(src: Path, what: str, n: int, threads: int, frames: int, one_core: bool,
+                no_pin: bool = False) -> dict:
+    cmd = ([] if not one_core else ["taskset", "-c", "0"]) + [
         sys.executable, __file__, "--worker", what, "--sizes", str(n), "--threads", str(threads), "--frames",
-        str(frames)]
+        str(frames)] + (["--no-pin"] if no_pin else [])
     p = subprocess.run(cmd, capture_output=True, text=True, env=_env(src), timeout=1800)
     lines = [ln for ln in p.stdout.splitlines() if ln.startswith("{")]
     if p.returncode != 0 or not lines:
@@ -150,15 +153,17 @@ def _run_worker(src: Path, what: str, n: int, threads: int, frames: int, pin: bo
 
 
 def scaling(src: Path, sizes: list[int], frames: int, rounds: int, ncpu: int) -> list[dict]:
-    """Interleaved rounds of (1 thread, all threads, all threads on one core) per size."""
+    """Interleaved rounds of (1 thread, all threads each pinned to its core, all threads left to the scheduler,
+    all threads on one core) per size."""
     rows = []
     for n in sizes:
         for r in range(rounds):
-            cases = [("1 thread", 1, False), (f"{ncpu} threads", ncpu, False)]
+            cases = [("1 thread", 1, False, False), (f"{ncpu} threads", ncpu, False, False),
+                     (f"{ncpu} threads, unpinned", ncpu, False, True)]
             if shutil.which("taskset"):
-                cases.append((f"{ncpu} threads, 1 core", ncpu, True))
-            for label, threads, pin in cases:
-                rec = _run_worker(src, "scaling", n, threads, frames, pin)
+                cases.append((f"{ncpu} threads, 1 core", ncpu, True, False))
+            for label, threads, one_core, no_pin in cases:
+                rec = _run_worker(src, "scaling", n, threads, frames, one_core, no_pin)
                 rec.update(case=label, round=r, n_target=n)
                 rows.append(rec)
                 print(json.dumps(rec), file=sys.stderr, flush=True)
@@ -174,14 +179,18 @@ def ratios(rows: list[dict], ncpu: int) -> list[dict]:
             one = [x for x in rows if x["n_target"] == n and x["round"] == r and x["case"] == "1 thread"]
             many = [x for x in rows if x["n_target"] == n and x["round"] == r and x["case"] == f"{ncpu} threads"]
             pinned = [x for x in rows if x["n_target"] == n and x["round"] == r and x["case"].endswith("1 core")]
+            free = [x for x in rows if x["n_target"] == n and x["round"] == r and x["case"].endswith("unpinned")]
             if one and many and "error" not in one[0] and "error" not in many[0]:
                 per_round.append((many[0]["M_per_s"] / one[0]["M_per_s"], many[0]["cores"],
                                   pinned[0]["M_per_s"] / one[0]["M_per_s"] if pinned and "error" not in pinned[0]
+                                  else float("nan"),
+                                  free[0]["M_per_s"] / one[0]["M_per_s"] if free and "error" not in free[0]
                                   else float("nan")))
         if per_round:
             a = np.array(per_round)
             out.append({"n_target": n, "speedup": float(np.median(a[:, 0])), "speedups": a[:, 0].round(3).tolist(),
-                        "cores": float(np.median(a[:, 1])), "pinned_vs_1": float(np.nanmedian(a[:, 2]))})
+                        "cores": float(np.median(a[:, 1])), "pinned_vs_1": float(np.nanmedian(a[:, 2])),
+                        "unpinned_vs_1": float(np.nanmedian(a[:, 3])), "unpinned": a[:, 3].round(3).tolist()})
     return out
 
 
@@ -246,12 +255,15 @@ def _figure(profiles: list[dict], path: Path, load: list) -> bool:
 def _markdown(doc: dict) -> str:
     lines = ["# taichi_mpm on all CPU cores (bench_threads.py)", "",
              f"{doc['cpu_count']} CPU cores; load average at start {doc['load_start']}, at end {doc['load_end']}. "
-             "Scaling rows alternate 1 thread / all threads / all threads pinned to one core, so each ratio "
-             "compares neighbouring runs.", "",
-             "| points | speed-up all threads / 1 (median) | per round | cores used | pinned / 1 thread |",
-             "|---:|---:|---|---:|---:|"]
+             f"{doc['frames']} timed frames of 10 substeps a case. Scaling rows alternate 1 thread / all threads "
+             "(each worker pinned to its own core, taichi_mpm's default) / all threads left to the scheduler "
+             "(`pin_threads = false`) / all threads on one core (`taskset -c 0`), so each ratio compares "
+             "neighbouring runs.", "",
+             "| points | speed-up all threads / 1 (median) | per round | cores used | unpinned / 1 (median) | "
+             "per round | one core / 1 thread |", "|---:|---:|---|---:|---:|---|---:|"]
     for r in doc["ratios"]:
         lines.append(f"| {r['n_target']} | {r['speedup']:.2f} | {r['speedups']} | {r['cores']:.2f} | "
+                     f"{r.get('unpinned_vs_1', float('nan')):.2f} | {r.get('unpinned', [])} | "
                      f"{r['pinned_vs_1']:.2f} |")
     if doc["profile"]:
         lines += ["", "Profile, ms per substep (wall: mean / fastest launch; CPU: all threads):", "",
@@ -278,7 +290,7 @@ def _markdown(doc: dict) -> str:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--sizes", default="50000,200000", help="target point counts (46,656 and 195,112 points)")
-    ap.add_argument("--frames", type=int, default=3, help="timed frames (10 substeps each)")
+    ap.add_argument("--frames", type=int, default=10, help="timed frames (10 substeps each)")
     ap.add_argument("--rounds", type=int, default=3, help="interleaved rounds")
     ap.add_argument("--base", type=Path, help="another checkout to profile and time the donut against")
     ap.add_argument("--no-scaling", action="store_true")
@@ -291,11 +303,13 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path, default=RESULTS)
     ap.add_argument("--worker", help=argparse.SUPPRESS)
     ap.add_argument("--threads", type=int, default=1, help=argparse.SUPPRESS)
+    ap.add_argument("--no-pin", action="store_true", help=argparse.SUPPRESS)
     a = ap.parse_args(argv)
     sizes = [int(s) for s in a.sizes.split(",") if s]
     if a.worker:
-        fn = worker_scaling if a.worker == "scaling" else worker_profile
-        print(json.dumps(fn(sizes[0], a.threads, a.frames)))
+        rec = (worker_scaling(sizes[0], a.threads, a.frames, not a.no_pin) if a.worker == "scaling"
+               else worker_profile(sizes[0], a.threads, a.frames))
+        print(json.dumps(rec))
         return 0
     ncpu = os.cpu_count() or 1
     srcs = {"this": ROOT} | ({"base": a.base.resolve()} if a.base else {})

@@ -224,7 +224,7 @@ def _write_frames(run: _Run, n_frames: int, on_frame: Callable[[int, list[Gaussi
                          [None if m else o.moving for o, m in zip(prep.objects, moves)], run.fmt, run.layout,
                          overwrite=checkpoint is not None, up_axes=[o.spec.up_axis for o in prep.objects])
     stop.frame_started(None)
-    t_frame = time.perf_counter()
+    t_frame, c_frame = time.perf_counter(), time.process_time()
     rebuild_all = Rebuilder(prep, None if checkpoint is None else checkpoint.prev_rot)
     # a frame's rebuild (T^-1) and files are made on the writer while the engine runs the next frame
     with Background() as writes, gil_handover():
@@ -234,15 +234,16 @@ def _write_frames(run: _Run, n_frames: int, on_frame: Callable[[int, list[Gaussi
             stop.frame_started(sim_s)   # its rebuild, writes and checkpoint take about as long as it did
             state = get_state() if get_state is not None and frame < n_frames else None
             made: list = []
-            writes.submit(_save_frame, run, writer, rebuild_all, frame, np.array(x), sim_s, state,
+            wall_s, cpu_s = time.perf_counter() - t_frame, time.process_time() - c_frame
+            times = {"sim_s": sim_s, "wall_s": wall_s, "cpu_s": cpu_s} if sim_s is not None else {}
+            writes.submit(_save_frame, run, writer, rebuild_all, frame, np.array(x), times, state,
                           list(run.stats.frame_s), made)
-            wall_s = time.perf_counter() - t_frame
             run.reporter.frame(frame, wall_s, sim_s, run.stats.engine.get("n_substeps"))
             if on_frame is not None:
                 writes.flush()
                 on_frame(frame, made[0])
             _after_frame(run, writes, frame, n_frames, wall_s)
-            t_frame = time.perf_counter()
+            t_frame, c_frame = time.perf_counter(), time.process_time()
     run.reporter.end_progress()
     writer.finish(n_frames, [o.gaussians.n for o in prep.objects])
     (tmp / resume_mod.CHECKPOINT).unlink(missing_ok=True)
@@ -351,13 +352,15 @@ def _keep_diverged(run: _Run, claim: OutputClaim, n_frames: int, error: EngineDi
 
 
 def _save_frame(run: _Run, writer: FrameWriter, rebuild_all: Rebuilder, frame: int, x: np.ndarray,
-                sim_s: float | None, engine_state: dict | None, frame_s: list, made: list) -> None:
+                times: dict, engine_state: dict | None, frame_s: list, made: list) -> None:
     """Rebuild one frame's Gaussians from the positions ``x`` and write its files, then (``engine_state`` not None)
-    its checkpoint (on :class:`Background`'s worker); the Gaussians are appended to ``made``."""
+    its checkpoint (on :class:`Background`'s worker); the Gaussians are appended to ``made``. ``times`` (empty for
+    frame 0) go into the frame's row: ``sim_s`` (the engine), ``wall_s`` and ``cpu_s`` (the process's CPU time,
+    every thread, from the end of the previous frame's step to the end of this one's: ``cpu_s / wall_s`` is the
+    cores the frame used, the previous frame's rebuild and files on the writer included)."""
     t0 = time.perf_counter()
     gs, row = rebuild_all(frame, x)
-    if sim_s is not None:
-        row["sim_s"] = sim_s
+    row.update(times)
     row["rebuild_s"] = time.perf_counter() - t0
     made.append(gs)
     t0 = time.perf_counter()

@@ -33,7 +33,8 @@ def run_summary(prep, stats, n_frames: int, per_frame: list[dict], wall_s: float
     n_frames : int
     per_frame : list of dict
         One row per frame (frame 0 included): ``frame``, ``degenerate``, ``clamped``, ``sim_s``, ``write_s``,
-        and ``colliders`` when the scene has colliders (:mod:`gasp_core.run.contact`, which
+        from frame 1 ``wall_s`` and ``cpu_s`` (the process's CPU seconds, all threads, over the frame: their ratio
+        is the cores it used), and ``colliders`` when the scene has colliders (:mod:`gasp_core.run.contact`, which
         also gives ``run.json`` ``colliders``).
     wall_s : float
         Seconds from the engine build to the last frame written.
