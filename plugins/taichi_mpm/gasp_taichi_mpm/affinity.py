@@ -7,12 +7,13 @@ often wake on the same core, and a launch then runs its halves one after the oth
 85-115 ms in others, with the same CPU time (109 ms a frame) and one thread at 114 ms. With each worker pinned to
 its own core the frames took 59-66 ms throughout (median 1.87x one thread).
 
-The workers are found, not assumed: the threads that ``ti.init`` started and that gain CPU time while a parallel
-kernel runs (``/proc/self/task/<tid>/schedstat``, nanoseconds). Linux only; elsewhere, or when the count found is
+The workers are found, not assumed: the threads that ``ti.init`` started, other than Python's own, and that gain
+CPU time while a parallel kernel runs (``/proc/self/task/<tid>/schedstat``, nanoseconds). Linux only; elsewhere, or when the count found is
 not the pool's, nothing is pinned and :func:`pin_workers` says why.
 """
 
 import os
+import threading
 from collections.abc import Callable
 
 TASKS = "/proc/self/task"
@@ -77,7 +78,8 @@ def pin_workers(started: set[int], run_parallel: Callable[[], None], threads: in
     started : set of int
         Thread ids that ``ti.init`` started (those after it minus those before it).
     run_parallel : callable
-        Runs a parallel Taichi kernel long enough for every worker to take part (a few milliseconds).
+        Runs a parallel Taichi kernel long enough for every worker to take part (a few milliseconds); called once
+        before the measurement, since its first call compiles on other threads.
     threads : int
         The pool's size (``cpu_max_num_threads``).
 
@@ -95,8 +97,10 @@ def pin_workers(started: set[int], run_parallel: Callable[[], None], threads: in
     cores = allowed_cores()
     if threads > len(cores):
         return [], f"{threads} threads on {len(cores)} allowed cores"
-    candidates = started - {os.getpid()}
+    # Python's own threads are not Taichi's workers (ti.init starts one to look for a newer Taichi)
+    candidates = started - {os.getpid()} - {th.native_id for th in threading.enumerate()}
     workers: list[int] = []
+    run_parallel()   # its first call compiles (or loads) the kernel, on Taichi's compile threads
     for _attempt in range(3):   # every worker must take a share of the loop; a busy machine may need another go
         before = _run_ns(candidates)
         run_parallel()

@@ -292,6 +292,8 @@ class TaichiMPMEngine(GridEngineBase):
         out = self.grid_stats(self.options["device"], self.options["precision"], s.get(s.x) if live else None,
                               s.get(s.p_mass) if live else None, s.grid_m.to_numpy() if live else None)
         out.update(threads=self.threads, p2g=self._p2g_mode, pinned_cores=list(self.pinned))
+        if not self.pinned:
+            out["unpinned_why"] = self.unpinned_why
         if live and s.coloured:
             out["late_points"] = int(s.late_points)
         if live and s.visc is not None:
