@@ -20,7 +20,8 @@ import taichi as ti
 
 from gasp_core.toolkit.contact import JSUMS, TORQUE_REACH
 
-#: Slices of the points the moments run over (each summed serially on one thread, then added).
+#: Slices of the points the moments run over (each summed serially on one thread into its own row of ``c_part``;
+#: the rows are then added in slice order, so the sums do not depend on which thread finished first).
 N_PARTS = 64
 
 
@@ -44,6 +45,7 @@ class Balance:
         self.n_spin = nb
         self.n_slots = ns
         self.c_sums = ti.field(ti.f64, shape=(max(nb, 1), 19))
+        self.c_part = ti.field(ti.f64, shape=(N_PARTS, max(nb, 1), 19))   # each slice's sums (contact_moments)
         self.c_jsums = ti.field(ti.f64, shape=(max(ns, 1), len(JSUMS)))   # this P2G's contact sums per support
         self.c_shift = ti.field(ti.f64, shape=(max(nb, 1), 21))   # c, V, omega, (unused), I^-1
         self.c_last = ti.field(ti.f64, shape=(max(nb, 1), 6))   # the last fix's change of V and omega
@@ -65,8 +67,9 @@ class Balance:
 
     @ti.kernel
     def contact_moments(self):
-        """Per body into ``c_sums``: mass, first and second mass moments, momentum, angular momentum (columns
-        ``gasp_core.toolkit.contact.SUMS``; the normal impulse's columns stay 0: P2G sums them into ``c_jsums``)."""
+        """Per slice of the points and per body into ``c_part``: mass, first and second mass moments, momentum,
+        angular momentum (columns ``gasp_core.toolkit.contact.SUMS``; the normal impulse's columns stay 0: P2G sums
+        them into ``c_jsums``). No atomics: a slice is one thread's; :meth:`contact_shift` adds the slices in order."""
         n = self.n_points[None]
         D = ti.cast(0.25 * self.dx[None] * self.dx[None], ti.f64)
         ti.loop_config(block_dim=1)
@@ -78,7 +81,7 @@ class Balance:
                 if b != cur:
                     if cur >= 0:
                         for q in ti.static(range(19)):
-                            ti.atomic_add(self.c_sums[cur, q], acc[q])
+                            self.c_part[t, cur, q] += acc[q]
                     acc = ti.Vector.zero(ti.f64, 19)
                     cur = b
                 if self.asleep[b] == 0:   # a sleeping body has no moments (sleeping.py)
@@ -93,12 +96,19 @@ class Balance:
                                       mv[0], mv[1], mv[2], L[0], L[1], L[2]], ti.f64)
             if cur >= 0:
                 for q in ti.static(range(19)):
-                    ti.atomic_add(self.c_sums[cur, q], acc[q])
+                    self.c_part[t, cur, q] += acc[q]
 
     @ti.kernel
     def contact_shift(self):
-        """Per body into ``c_shift``: ``c`` (a substep on), ``V``, ``omega``, ``I^-1``; ``c_sums`` cleared."""
+        """Per body: the slices' sums added in slice order into ``c_sums`` (``c_part`` cleared), then into
+        ``c_shift``: ``c`` (a substep on), ``V``, ``omega``, ``I^-1``; ``c_sums`` cleared."""
         for b in range(self.n_spin):
+            for q in ti.static(range(19)):
+                total = ti.cast(0.0, ti.f64)
+                for t in range(N_PARTS):
+                    total += self.c_part[t, b, q]
+                    self.c_part[t, b, q] = 0.0
+                self.c_sums[b, q] = total
             M = self.c_sums[b, 0]
             c = ti.Vector.zero(ti.f64, 3)
             V = ti.Vector.zero(ti.f64, 3)
@@ -183,6 +193,29 @@ class Balance:
                 self.fr_nodes[slot] = I
             else:
                 self.grid_fbody[I] = -1
+
+    @ti.func
+    def sort_listed(self):
+        """The listed nodes in node order (a serial Shell sort; the list is filled by threads in any order, and
+        :meth:`sum_node`'s float64 sums must not depend on it)."""
+        n = ti.min(self.fr_nodes[0][0], self.fr_nodes.shape[0] - 1)
+        ng = self.n_grid
+        gap = 1
+        while gap * 3 + 1 < n:
+            gap = gap * 3 + 1
+        while gap > 0:
+            for i in range(gap, n):
+                I = self.fr_nodes[i + 1]
+                key = (I[0] * ng + I[1]) * ng + I[2]
+                j = i
+                while j >= gap:
+                    J = self.fr_nodes[j - gap + 1]
+                    if (J[0] * ng + J[1]) * ng + J[2] <= key:
+                        break
+                    self.fr_nodes[j + 1] = J
+                    j -= gap
+                self.fr_nodes[j + 1] = I
+            gap = gap // 3
 
     @ti.func
     def sum_node(self, I):
@@ -315,6 +348,7 @@ class Balance:
     def contact_fix(self):
         """Each support's listed nodes summed, then moved by ``dv + alpha x (X - x_m)``; the sums and the list
         cleared."""
+        self.sort_listed()
         ti.loop_config(serialize=True)
         for s in range(ti.min(self.fr_nodes[0][0], self.fr_nodes.shape[0] - 1)):
             self.sum_node(self.fr_nodes[s + 1])

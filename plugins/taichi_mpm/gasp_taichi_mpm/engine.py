@@ -94,9 +94,13 @@ class TaichiMPMEngine(GridEngineBase):
     -----
     Calls ``ti.init`` (``offline_cache=True``, ``fast_math=False``: IEEE semantics, closer to the
     Warp engine, and measured ~10 % faster here than Taichi's fast math): this resets Taichi, so any earlier engine of this
-    plugin in the process stops working. On CPU a run repeats bit for bit, and gives the same numbers on
-    any ``threads`` (the coloured block P2G sums every node in a fixed order, ``gasp_taichi_mpm.solver``); the
-    capability ``deterministic={"cpu"}`` is promised for ``threads=1``, and holds for any. Viscosity is
+    plugin in the process stops working. On CPU with ``threads=1`` a run repeats bit for bit (the capability
+    ``deterministic={"cpu"}`` is promised for ``threads=1``). On more threads the grid, the viscous step and the
+    contact's moments and friction sums are summed in a fixed order (the coloured block P2G,
+    ``gasp_taichi_mpm.solver``; :mod:`gasp_taichi_mpm.balance`), but the particle contact's balance adds each
+    support's normal impulses in P2G with float64 atomics, whose order follows the threads: with the balance on
+    and a body touching a support, runs may differ in the last bits (measured: 1 of 4 runs of the bench block on 2
+    threads, 15 frames; with ``contact_balance = false`` 4 of 4 alike). Viscosity is
     integrated implicitly (:mod:`gasp_taichi_mpm.viscosity`), so it does not lower the substep.
     """
 

@@ -18,8 +18,8 @@ Implementation notes (all algebraically identical to the spec; they change round
   plain adds into the single grid ``grid_mv[0]``. Same-colour blocks are a block apart, so their stencils
   never share a node; a point that drifted more than a cell out of its block since the sort is scattered
   after the 8 passes, serially. Every node's sum is then in a fixed order (colour, block, sorted point),
-  so a run gives the same numbers on any thread count and repeats bit for bit; the sort at a frame's start
-  depends only on the positions, so ``--resume`` does too. On CUDA the scatter is atomic. (The older
+  so the grid is the same on any thread count (the contact balance's impulse sums are not: engine.py); the
+  sort at a frame's start depends only on the positions, so ``--resume`` repeats bit for bit where the run does. On CUDA the scatter is atomic. (The older
   private grid copies per point chunk, ``n_chunks > 1``, are still supported by the grid update.)
 * **Active region.** The P2G records the bounding box of the nodes it touched; the grid update
   visits only that box and clears it, so the grid is zero again for the next substep.
