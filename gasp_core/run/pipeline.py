@@ -356,7 +356,7 @@ def _save_frame(run: _Run, writer: FrameWriter, rebuild_all: Rebuilder, frame: i
     """Rebuild one frame's Gaussians from the positions ``x`` and write its files, then (``engine_state`` not None)
     its checkpoint (on :class:`Background`'s worker); the Gaussians are appended to ``made``. ``times`` (empty for
     frame 0) go into the frame's row: ``sim_s`` (the engine), ``wall_s`` and ``cpu_s`` (the process's CPU time,
-    every thread, from the end of the previous frame's step to the end of this one's: ``cpu_s / wall_s`` is the
+    every thread, from the previous frame's hand-off to the writer to this frame's: ``cpu_s / wall_s`` is the
     cores the frame used, the previous frame's rebuild and files on the writer included)."""
     t0 = time.perf_counter()
     gs, row = rebuild_all(frame, x)

@@ -36,8 +36,9 @@ CAPABILITIES = dataclasses.replace(MPM_CAPABILITIES, features=MPM_CAPABILITIES.f
 #: The grid-engine options of ``gasp_core.toolkit.options`` (``device``: Taichi runs on the default CUDA device
 #: only, so "cpu" or "cuda"), ``threads`` and ``passive_every``.
 OPTIONS = mpm_options(
-    Option("threads", None, "CPU threads (Taichi's cpu_max_num_threads; default: all cores); the coloured "
-                            "block P2G gives the same numbers on any count", kind="int", lo=1),
+    Option("threads", None, "CPU threads (Taichi's cpu_max_num_threads; default: the cores this process may use); "
+                            "the coloured block P2G gives the same numbers on any count (the contact balance's "
+                            "impulse sums may differ in the last bits beyond 1)", kind="int", lo=1),
     Option("pin_threads", True, "pin each CPU worker thread to its own core (Linux; 2 threads or more, no more than "
                                 "the allowed cores): left to the scheduler, the workers often share one core "
                                 "(docs/performance.md); the numbers are the same either way", kind="bool"),

@@ -44,7 +44,6 @@ class Balance:
         ns = nb * self.n_sup
         self.n_spin = nb
         self.n_slots = ns
-        self.c_sums = ti.field(ti.f64, shape=(max(nb, 1), 19))
         self.c_part = ti.field(ti.f64, shape=(N_PARTS, max(nb, 1), 19))   # each slice's sums (contact_moments)
         self.c_jsums = ti.field(ti.f64, shape=(max(ns, 1), len(JSUMS)))   # this P2G's contact sums per support
         self.c_shift = ti.field(ti.f64, shape=(max(nb, 1), 21))   # c, V, omega, (unused), I^-1
@@ -100,27 +99,26 @@ class Balance:
 
     @ti.kernel
     def contact_shift(self):
-        """Per body: the slices' sums added in slice order into ``c_sums`` (``c_part`` cleared), then into
-        ``c_shift``: ``c`` (a substep on), ``V``, ``omega``, ``I^-1``; ``c_sums`` cleared."""
+        """Per body: the slices' sums added in slice order (``c_part`` cleared), then into ``c_shift``: ``c`` (a
+        substep on), ``V``, ``omega``, ``I^-1``."""
         for b in range(self.n_spin):
+            sums = ti.Vector.zero(ti.f64, 19)
             for q in ti.static(range(19)):
-                total = ti.cast(0.0, ti.f64)
                 for t in range(N_PARTS):
-                    total += self.c_part[t, b, q]
+                    sums[q] += self.c_part[t, b, q]
                     self.c_part[t, b, q] = 0.0
-                self.c_sums[b, q] = total
-            M = self.c_sums[b, 0]
+            M = sums[0]
             c = ti.Vector.zero(ti.f64, 3)
             V = ti.Vector.zero(ti.f64, 3)
             omega = ti.Vector.zero(ti.f64, 3)
             if M > 0.0:
-                first = ti.Vector([self.c_sums[b, 1], self.c_sums[b, 2], self.c_sums[b, 3]], ti.f64)
+                first = ti.Vector([sums[1], sums[2], sums[3]], ti.f64)
                 c = first / M
-                V = ti.Vector([self.c_sums[b, 13], self.c_sums[b, 14], self.c_sums[b, 15]], ti.f64) / M
-                inertia = inertia_of(M, first, self.c_sums[b, 4], self.c_sums[b, 5], self.c_sums[b, 6],
-                                     self.c_sums[b, 7], self.c_sums[b, 8], self.c_sums[b, 9])
+                V = ti.Vector([sums[13], sums[14], sums[15]], ti.f64) / M
+                inertia = inertia_of(M, first, sums[4], sums[5], sums[6],
+                                     sums[7], sums[8], sums[9])
                 if inertia.determinant() > 0.0:
-                    L = ti.Vector([self.c_sums[b, 16], self.c_sums[b, 17], self.c_sums[b, 18]], ti.f64)
+                    L = ti.Vector([sums[16], sums[17], sums[18]], ti.f64)
                     inv = inertia.inverse()
                     omega = inv @ (L - M * c.cross(V))
                     for q in ti.static(range(9)):
@@ -134,8 +132,6 @@ class Balance:
                 self.c_shift[b, q] = c[q]
                 self.c_shift[b, 3 + q] = V[q]
                 self.c_shift[b, 6 + q] = omega[q]
-            for q in ti.static(range(19)):
-                self.c_sums[b, q] = 0.0
 
     @ti.func
     def clear_box(self, s):
