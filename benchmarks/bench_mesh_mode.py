@@ -62,7 +62,7 @@ def same_solid(mesh, full) -> None:
     ms.body_id = np.concatenate([ms.body_id[:nv], fs.body_id[fill]])
     ms.passive = np.concatenate([np.ones(nv, bool), np.zeros(len(fs.x) - fs.n_render, bool)])
     ms.domain_lo, ms.domain_hi = fs.domain_lo.copy(), fs.domain_hi.copy()
-    mesh.objects[0].fill_slice = slice(nv, len(ms.x))
+    mesh.objects[0] = dataclasses.replace(mesh.objects[0], fill_slice=slice(nv, len(ms.x)))
 
 
 def run(prep, timing: dict, n_frames: int) -> dict:
@@ -75,8 +75,8 @@ def run(prep, timing: dict, n_frames: int) -> dict:
             "n_points": int(len(prep.setup.x)), "n_surface_points": int(prep.setup.n_render),
             "n_fill": int(o.fill_slice.stop - o.fill_slice.start),
             "bound": None if o.moving is None else o.moving,
-            "distance": None if o.binding is None else o.binding.distance, "mesh": None if o.binding is None else
-            {k: v for k, v in o.binding.report.items() if k != "far_rows"},
+            "distance": None if o.surface.form != "mesh" else o.surface.binding.distance, "mesh": None if o.surface.form != "mesh" else
+            {k: v for k, v in o.surface.binding.report.items() if k != "far_rows"},
             "domain": [prep.setup.domain_lo.tolist(), prep.setup.domain_hi.tolist()]}
 
 

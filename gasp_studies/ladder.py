@@ -32,7 +32,7 @@ import warnings
 import numpy as np
 
 from gasp_core.errors import EngineDivergence, EngineError, SceneError
-from gasp_core.prepare.route import resolve_models
+from gasp_core.prepare.route import declared_cfl, resolve_models
 from gasp_core.seam.setup import Boundary, Material, SimSetup
 from gasp_core.testing import GRAVITY, run_trace, sphere_points
 from gasp_core.testing.scenes_basic import GROUND_H
@@ -75,7 +75,7 @@ def resolve(info, setup: SimSetup) -> dict:
     ``substeps_elastic``, ``substeps_rigid`` estimates)."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return resolve_models(setup, ["ball"], frozenset(info.capabilities.features))[0]
+        return resolve_models(setup, ["ball"], frozenset(info.capabilities.features), declared_cfl(info))[0]
 
 
 def energy(tr) -> np.ndarray:

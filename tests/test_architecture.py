@@ -5,7 +5,7 @@ deliberately bad package built in a temporary folder.
    closes a loop is still a loop) and imports under ``if TYPE_CHECKING:`` (a loop hidden from the
    interpreter is still a loop in the design: issue 42 found one in ``prepare``).
 2. Each package imports only packages below it in :data:`LAYERS`; ``toolkit`` is never imported by
-   ``seam`` or ``run``.
+   ``seam``, ``prepare``, ``run`` or ``studio`` (:data:`FORBIDDEN`).
 3. No core file over :data:`MAX_FILE_LINES` lines (:data:`LONG_FILES` lists exceptions with the reason).
 4. No private name (``_name``) imported from another module.
 5. No engine name (:data:`ENGINE_NAMES`) in the core: not in its code, and (round 15) not in its comments,
@@ -13,6 +13,9 @@ deliberately bad package built in a temporary folder.
    core's text points there; the literature is cited by paper (Hu et al. 2018), not by an engine's repository.
 6. No function over :data:`MAX_FUNCTION_LINES` lines unless its docstring says why, in words
    containing :data:`LONG_REASON`.
+7. (issue 51) The grid engines' default Courant number is spelled once in code (core and plugins), and the surface
+   map's form is chosen in one module (:data:`FORM_HOME`): nothing else builds a form or compares
+   ``surface_points``.
 
 Rules 3 and 6 also reach the plugins (``plugins/*/gasp_*``) and ``gasp_studies`` (issue 27): Taichi and Warp
 kernels are functions like any other (a Warp kernel nested in its builder counts on its own and inside the
@@ -34,9 +37,10 @@ CORE = Path(gasp_core.__file__).parent
 #: The core's packages (and top-level modules) from the bottom up: each may import only those
 #: before it. Modules directly in ``gasp_core/`` that are not listed (its ``__init__``) are above all.
 LAYERS = ("errors", "fsutil", "maps", "gs", "colliders", "seam", "toolkit", "scene", "prepare", "run", "render",
-          "testing", "cli")
-#: Packages that must never import a package even though it is below them.
-FORBIDDEN = {"seam": {"toolkit"}, "run": {"toolkit"}}
+          "testing", "studio", "cli")
+#: Packages that must never import a package even though it is below them: the grid engines' helpers are
+#: theirs (issue 51: the core's ``prepare`` knows no engine internals either).
+FORBIDDEN = {"seam": {"toolkit"}, "prepare": {"toolkit"}, "run": {"toolkit"}, "studio": {"toolkit"}}
 MAX_FILE_LINES = 400
 #: Core files allowed over MAX_FILE_LINES, path relative to gasp_core -> the reason.
 LONG_FILES: dict[str, str] = {}
@@ -253,7 +257,96 @@ def long_functions(root: Path, limit: int = MAX_FUNCTION_LINES) -> list[str]:
     return out
 
 
+#: A default Courant number written in code: ``CFL = 0.4``, ``cfl: float = 0.4``, ``("cfl", 0.4``, ``.get("cfl", 0.4``.
+CFL_DEFAULT = re.compile(r"(?i)\bcfl\b\s*(:\s*float\s*)?=\s*0\.4\b|[\"']cfl[\"']\s*,\s*0\.4\b")
+#: The module that chooses a surface map's form (issue 51), and what only it may do.
+FORM_HOME = "gasp_core.maps.surface"
+FORM_BUILDERS = ("CentreMap", "CoreMap", "MeshMap", "build_hierarchy")
+
+
+def _code_lines(text: str) -> list[tuple[int, str]]:
+    """``(line number, code)`` of a Python source with its comments and docstrings blanked."""
+    docstrings = _docstring_positions(ast.parse(text))
+    lines = text.splitlines()
+    for tok in tokenize.generate_tokens(io.StringIO(text).readline):
+        if tok.type == tokenize.COMMENT or (tok.type == tokenize.STRING and tok.start in docstrings):
+            for row in range(tok.start[0], tok.end[0] + 1):
+                a = tok.start[1] if row == tok.start[0] else 0
+                b = tok.end[1] if row == tok.end[0] else len(lines[row - 1])
+                lines[row - 1] = lines[row - 1][:a] + " " * (b - a) + lines[row - 1][b:]
+    return list(enumerate(lines, 1))
+
+
+def cfl_defaults(roots: list[Path]) -> list[str]:
+    """Places in the code under ``roots`` that write a default Courant number (:data:`CFL_DEFAULT`)."""
+    out = []
+    for root in roots:
+        for name, path in modules(root).items():
+            out += [f"{name}:{i}: {line.strip()[:70]}" for i, line in _code_lines(path.read_text())
+                    if CFL_DEFAULT.search(line)]
+    return out
+
+
+def form_switches(root: Path) -> list[str]:
+    """Outside :data:`FORM_HOME`: calls of a form's builder (:data:`FORM_BUILDERS`) and comparisons of
+    ``surface_points`` with a form's name (``"auto"``, which is resolved before a map exists, aside)."""
+    out = []
+    for name, path in modules(root).items():
+        if name in (FORM_HOME, "gasp_core.maps.hierarchy"):
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Call):
+                f = node.func
+                called = f.id if isinstance(f, ast.Name) else f.attr if isinstance(f, ast.Attribute) else ""
+                if called in FORM_BUILDERS:
+                    out.append(f"{name}:{node.lineno}: builds a form ({called})")
+            elif isinstance(node, ast.Compare):
+                sides = [node.left, *node.comparators]
+                names = {n.attr if isinstance(n, ast.Attribute) else getattr(n, "id", "") for n in sides}
+                values = {n.value for n in sides if isinstance(n, ast.Constant)}
+                if "surface_points" in names and values - {"auto"}:
+                    out.append(f"{name}:{node.lineno}: compares surface_points with {sorted(values)}")
+    return out
+
+
 # ----------------------------------------------------------------------------- the core keeps them
+def test_the_default_cfl_is_spelled_once():
+    found = cfl_defaults([CORE, *outer_packages()])
+    assert len(found) == 1, f"the grid engines' default cfl must be written once, found {len(found)}: {found}"
+
+
+def test_the_surface_form_is_chosen_in_one_module():
+    bad = form_switches(CORE)
+    assert not bad, f"the surface map's form is chosen in {FORM_HOME} only:\n" + "\n".join(bad)
+
+
+def test_the_issue_51_checks_catch_todays_switches(tmp_path):
+    """The two checks above fail on the tree before issue 51 (its five spellings of cfl 0.4; the form switch in
+    placement, frames, dynamic and assembly), rebuilt here in the shapes it had."""
+    root = _package(tmp_path, {
+        "prepare/route.py": "CFL = 0.4\n",
+        "toolkit/options.py": "x = Option(\"cfl\", 0.4, \"Courant number\")\n",
+        "toolkit/substeps.py": "def f(cfl: float = 0.4):\n    '''cfl = 0.4 in a docstring is text'''\n"
+                               "    return options.get(\"cfl\", 0.4)  # cfl = 0.4 in a comment too\n",
+        "prepare/placement.py": "def f(o):\n    if o.spec.surface_points == \"centres\":\n        return 1\n"
+                                "    return build_hierarchy(o)\n",
+        "maps/surface.py": "def g(p):\n    return CentreMap() if p.surface_points == 'centres' else 0\n",
+        "prepare/surface.py": "def h(spec):\n    return spec.surface_points != \"auto\"\n",
+    })
+    assert len(cfl_defaults([root])) == 4
+    bad = form_switches(root)
+    assert len(bad) == 2 and all(b.startswith("gasp_core.prepare.placement") for b in bad), bad
+
+
+def test_prepare_and_studio_never_import_toolkit(tmp_path):
+    root = _package(tmp_path, {
+        "prepare/scene.py": "from gasp_core.toolkit.rigid import step_view\n",
+        "studio/app.py": "from gasp_core.toolkit.options import mpm_options\n",
+        "toolkit/rigid.py": "step_view = 1\n",
+        "toolkit/options.py": "mpm_options = 1\n",
+    })
+    bad = layer_violations(root)
+    assert len(bad) == 2 and all("must never import toolkit" in b for b in bad), bad
 def test_no_import_loops():
     loops = import_loops(CORE)
     assert not loops, "modules importing each other in a loop: " + "; ".join(" <-> ".join(g) for g in loops)

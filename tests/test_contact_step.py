@@ -155,7 +155,7 @@ def test_a_domain_floored_at_the_ground_is_refused_in_one_line(tmp_path):
     plane) would be outside the grid (the run diverged at frame 3); refused before any file is read, naming the
     file, lo z, the ground's height and the lo z that works; that lo z, and the grid contact, pass the check."""
     import re
-    from gasp_core.prepare.checks import check_ground_in_grid
+    from gasp_core.toolkit.ground_check import check_ground_in_grid
     from gasp_core.prepare.scene import prepare_scene
     scene = _floored_scene(tmp_path, 0.0)
     with pytest.raises(SceneError) as e:

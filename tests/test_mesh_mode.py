@@ -5,6 +5,8 @@ Real data: the trained donut (city-super/V3DG, MIT) with a mesh of it extracted 
 """
 from __future__ import annotations
 
+import dataclasses
+
 import json
 from pathlib import Path
 
@@ -53,11 +55,15 @@ def _world(o, g):
     return pl.to_world(g.means), pl.R @ g.rotmats(), g.scales * pl.scale
 
 
+def _alone(o):
+    """``o`` as the only object of a setup: its mesh vertices are the rows ``0 .. nv`` of ``x``."""
+    return dataclasses.replace(o, vertex_slice=slice(0, len(o.surface.binding.vertices)))
+
+
 def _rigid_error(o, Q, t, rebuild_fn=rebuild):
     """Largest gap (means and scales in metres, rotations as matrix entries) between the Gaussians rebuilt from the
     rigidly moved mesh and the rest Gaussians moved by the same motion."""
-    o.vertex_slice = slice(0, len(o.binding.vertices))
-    x0 = o.binding.vertices
+    x0 = o.surface.binding.vertices
     g0, _, _ = rebuild_fn(o, x0, o.rot_rest)
     g1, _, counts = rebuild_fn(o, x0 @ Q.T + t, o.rot_rest)
     rows = o.moving if o.moving is not None else np.arange(o.gaussians.n)
@@ -69,28 +75,28 @@ def _rigid_error(o, Q, t, rebuild_fn=rebuild):
 
 def test_rigid_motion_moves_every_bound_gaussian_rigidly():
     """Under a rigid motion of the mesh every bound Gaussian moves rigidly: means, rotations, scales to 1e-6."""
-    o = prepare_object(_donut_spec(), _donut_subset())
-    assert o.binding is not None and len(o.binding.face_of) == len(o.tri_rest)
+    o = _alone(prepare_object(_donut_spec(), _donut_subset()))
+    assert o.surface.form == "mesh" and len(o.surface.binding.face_of) == len(o.tri_rest)
     Q, t = _rotation([1.0, -2.0, 0.5], 73.0), np.array([0.3, -0.1, 0.25])
     dm, dR, ds, counts = _rigid_error(o, Q, t)
     assert dm < 1e-6 and dR < 1e-6 and ds < 1e-6, (dm, dR, ds)
     assert counts["clamped"] == 0 and counts["degenerate"] == 0
     # the rest frame is the input: frame 0 rebuilt from the rest mesh gives back the flattened Gaussians
-    g0, _, _ = rebuild(o, o.binding.vertices, o.rot_rest)
+    g0, _, _ = rebuild(o, o.surface.binding.vertices, o.rot_rest)
     rows = o.moving if o.moving is not None else np.arange(o.gaussians.n)
     assert np.abs(g0.means[rows] - o.gaussians.means[rows]).max() < 1e-9
 
 
 def test_rigid_check_catches_a_binding_that_ignores_rotation(monkeypatch):
     """The check above fails for a binding that only translates (offsets kept in world axes, not face frames)."""
-    o = prepare_object(_donut_spec(), _donut_subset(16))
-    rest_origin, rest_A = mesh_bind.face_frames(o.binding.vertices[o.binding.faces])
+    o = _alone(prepare_object(_donut_spec(), _donut_subset(16)))
+    rest_origin, rest_A = mesh_bind.face_frames(o.surface.binding.vertices[o.surface.binding.faces])
 
     def translate_only(b, x):
         origin, _ = mesh_bind.face_frames(np.asarray(x)[b.faces])
         return origin[b.face_of][:, None, :] + np.einsum("nij,nvj->nvi", rest_A[b.face_of], b.local)
 
-    monkeypatch.setattr("gasp_core.run.frames.bound_triangles", translate_only)
+    monkeypatch.setattr("gasp_core.maps.surface.bound_triangles", translate_only)
     dm, dR, _, _ = _rigid_error(o, _rotation([0, 0, 1], 30.0), np.zeros(3))
     assert dm > 1e-3 and dR > 0.1
 
@@ -100,7 +106,7 @@ def test_laid_gaussians_follow_an_affine_map_exactly():
     map's image (barycentric coordinates are affine invariants), and they lie on their faces at rest."""
     spec = load_scene(EXAMPLES / "spot_mesh.toml").objects[0]
     o = prepare_object(spec)
-    b = o.binding
+    b = o.surface.binding
     assert b.report["mode"] == "laid" and b.report["n_far"] == 0 and b.report["n_faces_used"] == len(b.faces)
     assert np.abs(b.offset).max() < 1e-9 * b.report["size"]
     assert np.all(b.barycentric > -1e-9) and np.allclose(b.barycentric.sum(1), 1.0)
@@ -129,8 +135,8 @@ def test_far_gaussians_named_and_left_static_or_refused():
     g.means[lifted] += [0.0, 0.0, 0.05]
     with pytest.warns(UserWarning, match="left static"):
         o = prepare_object(_donut_spec(), g)
-    assert set(lifted) <= set(o.binding.report["far_rows"])
-    assert not np.isin(lifted, o.moving).any() and len(o.static_tri) == o.binding.report["n_far"]
+    assert set(lifted) <= set(o.surface.binding.report["far_rows"])
+    assert not np.isin(lifted, o.moving).any() and len(o.static_tri) == o.surface.binding.report["n_far"]
     with pytest.raises(SceneError, match=r"first rows \[" + ", ".join(map(str, lifted))):
         prepare_object(_donut_spec('mesh_far = "error"'), g)
 

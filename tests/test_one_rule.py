@@ -69,7 +69,7 @@ def test_what_a_scene_needs_is_one_rule_on_the_scene_and_on_its_setup(tmp_path, 
             "impulse": [{"shape": "sphere", "centre": [0.0, 0.0, 0.5], "radius": 0.1,
                          "velocity_change": [0.0, 0.0, 1.0], "t0": 0.0, "t1": 0.1}]}
     scene = parse_scene(data, tmp_path / "s.toml")
-    setup = build_setup(scene, [prepare_object(o) for o in scene.objects])
+    setup, _ = build_setup(scene, [prepare_object(o) for o in scene.objects])
     assert scene_needs(scene) == setup_needs(setup) == {
         "materials": ["jelly"], "boundaries": ["ground"], "features": ["viscosity", "static_colliders", "wind", "impulse"]}
 

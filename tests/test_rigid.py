@@ -7,6 +7,7 @@ import pytest
 
 from gasp_core.errors import SceneError
 from gasp_core.prepare.route import RIGID_SHARE, choose, estimate, message, resolve_models
+from gasp_core.toolkit.substeps import CFL
 from gasp_core.scene.tables import read_material
 from gasp_core.seam import Boundary, Material, SimSetup
 from gasp_core.toolkit.rigid import affine_spin, rigid_contact, rigid_project, skew, step_view, zero_stress
@@ -67,7 +68,7 @@ def ball(E=2e11, rho=7850.0, model="auto", name="jelly", lift=0.05, r=0.05, n=20
 def routes(setup, features=frozenset({"rigid_limit"})):
     with warnings.catch_warnings(record=True) as w:
         warnings.simplefilter("always")
-        out = resolve_models(setup, ["ball"], features)
+        out = resolve_models(setup, ["ball"], features, CFL)     # a grid engine's declared default cfl
     return out[0], [str(x.message) for x in w]
 
 

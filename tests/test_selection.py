@@ -344,8 +344,8 @@ def test_selection_with_core_gaussians_rebuilds_the_whole_file():
     prep = prepare_scene(parse(donut_scene(extra="core_fraction = 0.25")))
     o = prep.objects[0]
     n_sel = len(o.moving)
-    assert o.hierarchy is not None and len(o.tri_rest) == n_sel
-    assert prep.setup.n_render == 4 * len(o.hierarchy.core_points)  # 4-point frames of the cores
+    assert o.surface.form == "cores" and len(o.tri_rest) == n_sel
+    assert prep.setup.n_render == 4 * len(o.surface.hierarchy.core_points)  # 4-point frames of the cores
     g, rot, _ = rebuild(o, prep.setup.x, o.rot_rest)
     assert g.n == N_DONUT and rot.shape == (n_sel, 3, 3)
     static = np.ones(N_DONUT, bool)

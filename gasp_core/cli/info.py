@@ -110,7 +110,7 @@ def _stand(spec: ObjectSpec, rho: float, n_grid: int):
     scene = parse_scene(data, Path(spec.file).parent / "gasp-info.toml")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")     # the fill's own warnings are reported above, once
-        s = build_setup(scene, [prepare_object(o) for o in scene.objects])
+        s, _ = build_setup(scene, [prepare_object(o) for o in scene.objects])
     if (s.p_vol > 0).sum() < 4:
         return None
     g = np.asarray(s.gravity, dtype=np.float64)

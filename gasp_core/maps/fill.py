@@ -166,7 +166,7 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
         volume 0 and every inside cell gets a fill point, so the fill alone is the whole solid.
     check_points : callable, optional
         Called with the point count (surface points plus inside cells, an upper bound) before the fill
-        points are allocated; it raises to refuse them (:func:`gasp_core.toolkit.memory.check_fill`).
+        points are allocated; it raises to refuse them (:func:`gasp_core.seam.memory.check_fill`).
 
     Returns
     -------

@@ -1,6 +1,7 @@
 """Point assembly: every object's simulated triangle vertices and fill points become one :class:`SimSetup`."""
 from __future__ import annotations
 
+import dataclasses
 import warnings
 
 import numpy as np
@@ -8,15 +9,14 @@ from scipy.special import expit
 
 from gasp_core.errors import SceneError
 from gasp_core.seam.setup import SimSetup, grid_spacing
-from gasp_core.maps.centres import build_centre_frame
 from gasp_core.maps.fill import fill_interior, fill_spacing
 from gasp_core.maps.occupancy import SPLAT_SIGMA
 from gasp_core.prepare.checks import check_kept_floaters, check_resolution
 from gasp_core.prepare.dynamic import fill_velocities, vertex_velocities
-from gasp_core.prepare.placement import PreparedObject, simulated_triangles
+from gasp_core.prepare.placed import PreparedObject
 from gasp_core.prepare.stand import stand_warnings
 from gasp_core.prepare.surface import ELASTIC, surface_rule
-from gasp_core.toolkit.memory import check_fill
+from gasp_core.seam.memory import check_fill
 from gasp_core.scene.spec import Scene
 
 #: Smallest default domain side, metres (a single Gaussian, or all Gaussians at one point).
@@ -79,13 +79,16 @@ def footprints(o: PreparedObject) -> np.ndarray:
     shape (k, 3)."""
     tri = o.tri_rest[expit(o.simulated_rows(o.gaussians.opacities).astype(np.float64)) >= o.spec.min_opacity]
     axes = SPLAT_SIGMA * (tri[:, 1:] - tri[:, :1])
-    mesh = [] if o.binding is None else [o.binding.vertices]     # mesh mode: the simulated vertices too
     return np.concatenate([o.tri_rest.reshape(-1, 3), (tri[:, :1] + axes).reshape(-1, 3),
-                           (tri[:, :1] - axes).reshape(-1, 3), *mesh])
+                           (tri[:, :1] - axes).reshape(-1, 3), o.surface.reach()])
 
 
-def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
-    """Assemble the engine's point set: all objects' triangle vertices, then their fill points.
+def build_setup(scene: Scene, objects: list[PreparedObject]) -> tuple[SimSetup, list[PreparedObject]]:
+    """Assemble the engine's point set: all objects' surface points (``T``), then their fill points.
+
+    Returns the setup and the objects as assembled (new records: their rows in ``SimSetup.x``, fill, surface
+    rule, and the surface map bound to its fill, :meth:`gasp_core.maps.surface.SurfaceMap.with_fill`), static ones
+    as given, in the given order.
 
     Static objects (``static = true``) take no part; a selected object brings its selected rows
     only (:mod:`gasp_core.prepare.selection`), and the default domain is around what moves. A dynamic
@@ -99,7 +102,7 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
         (:func:`gasp_core.prepare.checks.check_kept_floaters`).
     """
     scenery, objects = objects, [o for o in objects if not o.spec.static]
-    vertices = [simulated_triangles(o).reshape(-1, 3) for o in objects]
+    vertices = [o.surface.points() for o in objects]
     if scene.domain.lo is None:
         check_kept_floaters(scene.path, objects)
     lo, hi = default_domain(scene, np.concatenate([footprints(o) for o in objects]))
@@ -107,18 +110,18 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
     dx = grid_spacing(lo, hi, n_grid)
     check_fill(str(scene.path), sum(map(len, vertices)), n_grid, scene.domain.particles_per_cell,
                str(scene.engine.options.get("precision", "f32")))     # the grid alone, before any fill
-    xs, vols, bodies, vels, fills, passives = [], [], [], [], [], []
+    xs, vols, bodies, vels, fills, passives, assembled = [], [], [], [], [], [], []
     start = 0
     for i, (o, verts) in enumerate(zip(objects, vertices)):
         check_resolved(o.name, o.tri_rest.reshape(-1, 3), dx, n_grid)
-        others = sum(map(len, vertices)) - len(verts) + sum(len(f.fill_x) for _, f in fills)
-        fr, passive = fill_object(scene, o, verts, dx, others)
-        o.fill_report = fr.report
+        others = sum(map(len, vertices)) - len(verts) + sum(len(f.fill_x) for f in fills)
+        fr, passive, rule = fill_object(scene, o, verts, dx, others)
         reach = footprints(o)
         for msg in [fr.report.warning] + check_resolution(o.name, np.ptp(reach, axis=0), dx, n_grid, fr.report):
             if msg:
                 warnings.warn(msg, stacklevel=2)
-        o.vertex_slice = slice(start, start + len(verts))
+        assembled.append(dict(vertex_slice=slice(start, start + len(verts)), fill_report=fr.report,
+                              surface_rule=rule))
         start += len(verts)
         xs.append(verts)
         vols.append(np.zeros(len(verts)) if passive else fr.p_vol_surface)
@@ -126,9 +129,9 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
         vels.append(vertex_velocities(o, scene.frame_dt) if o.spec.velocity_from_model
                     else np.broadcast_to(o.spec.velocity, verts.shape))
         passives.append(np.full(len(verts), passive))
-        fills.append((i, fr))
-    for i, fr in fills:
-        objects[i].fill_slice = slice(start, start + len(fr.fill_x))
+        fills.append(fr)
+    for i, fr in enumerate(fills):
+        assembled[i]["fill_slice"] = slice(start, start + len(fr.fill_x))
         start += len(fr.fill_x)
         xs.append(fr.fill_x)
         vols.append(fr.p_vol_fill)
@@ -147,17 +150,15 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
     if outside.any():
         raise SceneError(_outside_message(scene, objects, x, np.concatenate(bodies), outside, lo, hi))
     extras = scene_extras(scene, scenery, x, dx)  # colliders may name static objects
-    for o in objects:   # PhysGaussian's layout: each centre's rest neighbours among its object's carried points
-        if o.spec.surface_points == "centres":
-            rows = np.r_[np.arange(o.vertex_slice.start, o.vertex_slice.stop), np.arange(o.fill_slice.start,
-                                                                                           o.fill_slice.stop)]
-            o.centres = build_centre_frame(x, np.arange(o.vertex_slice.start, o.vertex_slice.stop), rows)
-    return SimSetup(
+    made = iter([dataclasses.replace(o, surface=o.surface.with_fill(fr.fill_x), **a)   # the map bound to its fill
+                 for o, fr, a in zip(objects, fills, assembled)])
+    setup = SimSetup(
         **extras, x=x, v=v, p_vol=p_vol, body_id=body_id, C=C, passive=passive if passive.any() else None,
         materials=[o.spec.material for o in objects], gravity=np.array(scene.gravity),
         domain_lo=lo, domain_hi=hi, n_grid=n_grid, boundaries=list(scene.boundaries),
         frame_dt=scene.frame_dt, n_render=sum(len(v) for v in vertices),
         options=dict(scene.engine.options))
+    return setup, [o if o.spec.static else next(made) for o in scenery]
 
 
 def fill_object(scene: Scene, o: PreparedObject, verts: np.ndarray, dx: float, others: int):
@@ -166,11 +167,13 @@ def fill_object(scene: Scene, o: PreparedObject, verts: np.ndarray, dx: float, o
     ``surface = "auto"`` starts passive unless the material alone already decides for the full model (one
     fill, not two). Before the fill points are allocated, the scene's point count (``others`` points of the
     other objects plus this object's) is checked against this machine's memory
-    (:func:`gasp_core.toolkit.memory.check_fill`).
+    (:func:`gasp_core.seam.memory.check_fill`).
 
     Returns
     -------
-    (FillResult, bool)
+    (FillResult, bool, dict or None)
+        The fill, whether the surface is passive, and ``surface = "auto"``'s rule
+        (:func:`gasp_core.prepare.surface.surface_rule`; None for another ``surface``).
     """
     n_grid, ppc = scene.domain.n_grid, scene.domain.particles_per_cell
     precision = str(scene.engine.options.get("precision", "f32"))
@@ -182,16 +185,17 @@ def fill_object(scene: Scene, o: PreparedObject, verts: np.ndarray, dx: float, o
     opaque = expit(o.simulated_rows(o.gaussians.opacities).astype(np.float64)) >= o.spec.min_opacity
     passive = o.spec.surface == "passive" or (o.spec.surface == "auto" and o.spec.material.name not in ELASTIC)
     # a passive surface carries no mass: its fill is the vertex layout's whichever points it hands the engine
-    own = o.tri_rest.reshape(-1, 3) if passive and o.spec.surface_points == "centres" else verts
+    own = o.tri_rest.reshape(-1, 3) if passive and o.surface.per_gaussian else verts
     fr = fill_interior(own, h, splats=o.tri_rest[opaque], fill=o.spec.fill, name=o.name,
                        if_open=o.spec.if_open, surface_mass=not passive, check_points=check_points)
+    rule = None
     if o.spec.surface == "auto":
         was_passive = passive
-        passive, o.surface_rule = surface_rule(o.spec.fill, len(verts), fr, dx, o.spec.material.name)
+        passive, rule = surface_rule(o.spec.fill, len(verts), fr, dx, o.spec.material.name)
         if was_passive and not passive:
             fr = fill_interior(verts, h, splats=o.tri_rest[opaque], fill=o.spec.fill, name=o.name,
                                if_open=o.spec.if_open, surface_mass=True, check_points=check_points)
-    return fr, passive
+    return fr, passive, rule
 
 
 def scene_extras(scene: Scene, objects: list[PreparedObject], x: np.ndarray, dx: float) -> dict:

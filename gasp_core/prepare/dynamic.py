@@ -29,9 +29,8 @@ from gasp_core.prepare.selection import flat_world
 def vertex_velocities(o: PreparedObject, frame_dt: float) -> np.ndarray:
     """Velocities of the object's simulated surface points from its dynamic model, m/s, shape (k, 3).
 
-    The rows match :func:`gasp_core.prepare.placement.simulated_triangles` reshaped to (k, 3): the
-    triangle vertices of the simulated Gaussians, their centres alone (``surface_points = "centres"``), or the
-    Core Gaussians' four points.
+    The rows match the object's surface points (:meth:`gasp_core.maps.surface.SurfaceMap.points`): the
+    triangle vertices of the simulated Gaussians, their centres alone, or the Core Gaussians' four points.
 
     Raises
     ------
@@ -43,16 +42,7 @@ def vertex_velocities(o: PreparedObject, frame_dt: float) -> np.ndarray:
     tri1 = flat_world(later, o.placement)[3]
     if o.moving is not None:
         tri1 = tri1[o.moving]
-    v = (tri1 - o.tri_rest) / frame_dt                                    # (n, 3, 3)
-    if o.spec.surface_points == "centres":
-        return v[:, 0]
-    if o.hierarchy is None:
-        return v.reshape(-1, 3)
-    h = o.hierarchy
-    member = np.repeat(h.core_of, 3)
-    count = np.bincount(member, minlength=h.n_cores)[:, None]
-    mean = np.stack([np.bincount(member, v.reshape(-1, 3)[:, d], minlength=h.n_cores) for d in range(3)], 1) / count
-    return np.repeat(mean, 4, axis=0)
+    return o.surface.velocities((tri1 - o.tri_rest) / frame_dt)          # (n, 3, 3) -> the map's points
 
 
 def fill_velocities(surface_x: np.ndarray, surface_v: np.ndarray, fill_x: np.ndarray) -> np.ndarray:

@@ -3,7 +3,7 @@
 
 :func:`gasp_core.prepare.placement.prepare_object` calls :func:`laid_gaussians` for a bare mesh (before placing)
 and :func:`bind_object` after flattening; the engine then moves ``binding.vertices`` instead of the
-Gaussians' triangle vertices (:func:`gasp_core.prepare.placement.simulated_triangles`).
+Gaussians' triangle vertices (the surface map, :class:`gasp_core.maps.surface.MeshMap`).
 """
 from __future__ import annotations
 

@@ -12,11 +12,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gasp_core.gs.gaussians import Gaussians
-from gasp_core.maps.centres import CentreFrame
 from gasp_core.maps.fill import FillReport
 from gasp_core.maps.games import FlattenReport
-from gasp_core.maps.hierarchy import Hierarchy
-from gasp_core.maps.mesh_bind import MeshBinding
+from gasp_core.maps.surface import SurfaceMap
 from gasp_core.scene.spec import ObjectSpec
 
 __all__ = ["UP_ROTATIONS", "euler_matrix", "Placement", "PreparedObject"]
@@ -60,9 +58,9 @@ class Placement:
         return ((x - self.t) / self.scale) @ self.R
 
 
-@dataclass
+@dataclass(frozen=True)
 class PreparedObject:
-    """One object ready to simulate, and what is needed to rebuild its Gaussians.
+    """One object ready to simulate: its placement and its surface map, built once (immutable).
 
     Attributes
     ----------
@@ -70,47 +68,38 @@ class PreparedObject:
     gaussians : Gaussians
         As read (file frame).
     placement : Placement
-    rot_rest, scales_rest : ndarray, shapes (n, 3, 3), (n, 3)
-        Flattened rest rotations and scales, world frame (metres).
-    tri_rest : ndarray, shape (n, 3, 3)
-        Rest triangles, world frame.
-    hierarchy : Hierarchy or None
-        Core Gaussians and bindings when ``spec.core_fraction < 1``.
+    surface : SurfaceMap
+        ``T`` and ``T^-1`` of the simulated rows (:mod:`gasp_core.maps.surface`: triangles, centres, Core
+        Gaussians or mesh binding), world frame; bound to its fill by the assembly.
     thin_scale : ndarray, shape (n,)
         The input's own thinnest scale, file units (``thickness = "keep"``).
     flatten_report : FlattenReport
     vertex_slice, fill_slice : slice
-        Rows of this object's triangle vertices and fill points in ``SimSetup.x``.
+        Rows of this object's surface points and fill points in ``SimSetup.x`` (set by the assembly,
+        :func:`gasp_core.prepare.assembly.build_setup`, which returns a new object).
     moving : ndarray of int64, or None
         Rows of the file that are simulated (``select``; empty for a ``static`` object); None
-        when all are. ``rot_rest``, ``scales_rest``, ``tri_rest``, ``thin_scale`` and
-        ``hierarchy`` hold those rows only; ``gaussians`` is always the whole file
-        (:mod:`gasp_core.prepare.selection`).
+        when all are. ``surface`` and ``thin_scale`` hold those rows only; ``gaussians`` is always the
+        whole file (:mod:`gasp_core.prepare.selection`).
     static_tri : ndarray, shape (m, 3, 3)
         World-frame triangles of the rows that never move, metres (colliders:
         :func:`gasp_core.prepare.selection.static_splats`).
     n_floaters : int
         Floaters left out of the physics (static rows, :func:`drop_floaters`).
+    fill_report : FillReport or None
+        The interior fill (set by the assembly).
+    surface_rule : dict or None
+        ``surface = "auto"``'s choice and why (set by the assembly).
     body_model : dict or None
         The model the body takes and why (``gasp_core.prepare.route.resolve_models``; ``run.json``'s ``model``).
-    binding : MeshBinding or None
-        Mesh mode (``spec.mesh``): the simulated rows bound to the faces of the mesh, whose vertices
-        the engine moves (:mod:`gasp_core.prepare.mesh`).
-    centres : CentreFrame or None
-        ``surface_points = "centres"``: the centres' rest neighbourhoods, set once the setup is built
-        (:func:`gasp_core.maps.centres.build_centre_frame`); the rows of ``vertex_slice`` are then one centre
-        per Gaussian.
     """
 
     spec: ObjectSpec
     gaussians: Gaussians
     placement: Placement
-    rot_rest: np.ndarray
-    scales_rest: np.ndarray
-    tri_rest: np.ndarray
+    surface: SurfaceMap
     thin_scale: np.ndarray
     flatten_report: FlattenReport
-    hierarchy: Hierarchy | None = None
     fill_report: FillReport | None = None
     vertex_slice: slice = field(default_factory=lambda: slice(0, 0))
     fill_slice: slice = field(default_factory=lambda: slice(0, 0))
@@ -120,8 +109,21 @@ class PreparedObject:
     surface_rule: dict | None = None
     body_model: dict | None = None
     n_floaters: int = 0
-    binding: MeshBinding | None = None
-    centres: CentreFrame | None = None
+
+    @property
+    def tri_rest(self) -> np.ndarray:
+        """Rest triangles of the simulated rows, world frame, metres, shape (n, 3, 3) (the surface map's)."""
+        return self.surface.tri_rest
+
+    @property
+    def rot_rest(self) -> np.ndarray:
+        """Flattened rest rotations of the simulated rows, world frame, shape (n, 3, 3) (the surface map's)."""
+        return self.surface.rot_rest
+
+    @property
+    def scales_rest(self) -> np.ndarray:
+        """Flattened rest scales of the simulated rows, metres, shape (n, 3) (the surface map's)."""
+        return self.surface.scales_rest
 
     def simulated_rows(self, a: np.ndarray) -> np.ndarray:
         """The rows of a per-Gaussian array ``a`` (shape (n, ...)) that are simulated."""

@@ -14,9 +14,9 @@ import numpy as np
 from gasp_core.maps.floaters import find_floaters
 from gasp_core.maps.games import flatten_report
 from gasp_core.gs.gaussians import Gaussians
-from gasp_core.maps.hierarchy import build_hierarchy
 from gasp_core.gs.io import read_gaussians
 from gasp_core.gs.splatv import read_splatv, splatv_at
+from gasp_core.maps.surface import surface_map
 from gasp_core.prepare.checks import check_object
 from gasp_core.prepare.mesh import bind_object, laid_gaussians
 from gasp_core.prepare.placed import UP_ROTATIONS, Placement, PreparedObject, euler_matrix
@@ -26,7 +26,7 @@ from gasp_core.prepare.surface import choose_surface_points
 
 #: Re-exported: the records live in :mod:`gasp_core.prepare.placed` (callers import them from either).
 __all__ = ["UP_ROTATIONS", "euler_matrix", "Placement", "PreparedObject", "place", "load_gaussians",
-           "prepare_object", "drop_floaters", "simulated_triangles"]
+           "prepare_object", "drop_floaters"]
 
 def place(g: Gaussians, spec: ObjectSpec, floating: np.ndarray | None = None) -> Placement:
     """The file -> world transform of an object (up-axis, rotation, metres, position).
@@ -95,12 +95,12 @@ def prepare_object(spec: ObjectSpec, g: Gaussians | None = None) -> PreparedObje
         sim = g.subset(moving)
         scales_flat, rot_flat, means_w, tri = scales_flat[moving], rot_flat[moving], means_w[moving], tri[moving]
         report = flatten_report(sim.scales * pl.scale)
-    hier = (build_hierarchy(means_w, tri, spec.core_fraction, name=f"{spec.file}: core_fraction")
-            if spec.core_fraction < 1.0 and sim.n else None)
-    return PreparedObject(spec=spec, gaussians=g, placement=pl, rot_rest=rot_flat,
-                          scales_rest=scales_flat, tri_rest=tri, thin_scale=sim.scales.min(axis=1),
-                          flatten_report=report, hierarchy=hier, name=Path(spec.file).stem,
-                          moving=moving, static_tri=static_tri, n_floaters=n_floaters, binding=binding)
+    surface = surface_map(tri, rot_flat, scales_flat, surface_points=spec.surface_points, rebuild=spec.rebuild,
+                          alpha=spec.alpha, core_fraction=spec.core_fraction if sim.n else 1.0, means=means_w,
+                          binding=binding, name=f"{spec.file}: core_fraction")
+    return PreparedObject(spec=spec, gaussians=g, placement=pl, surface=surface, thin_scale=sim.scales.min(axis=1),
+                          flatten_report=report, name=Path(spec.file).stem, moving=moving, static_tri=static_tri,
+                          n_floaters=n_floaters)
 
 
 def drop_floaters(spec: ObjectSpec, g: Gaussians, tri: np.ndarray, floating: np.ndarray | None):
@@ -114,14 +114,3 @@ def drop_floaters(spec: ObjectSpec, g: Gaussians, tri: np.ndarray, floating: np.
                   f"out of the domain and the physics, written unchanged in every frame; keep_floaters = true "
                   f"simulates them", stacklevel=3)
     return np.flatnonzero(~floating), tri[floating], k
-
-
-def simulated_triangles(o: PreparedObject) -> np.ndarray:
-    """The triangles (or, with a hierarchy, the cores' 4-point frames; in mesh mode, the mesh's vertices, shape
-    (nv, 3); with ``surface_points = "centres"``, each Gaussian's centre alone, shape (n, 1, 3)) whose vertices the
-    engine moves."""
-    if o.spec.surface_points == "centres":
-        return o.tri_rest[:, :1]
-    if o.binding is not None:
-        return o.binding.vertices
-    return o.tri_rest if o.hierarchy is None else o.hierarchy.core_points

@@ -24,16 +24,13 @@ import warnings
 import numpy as np
 
 from gasp_core.seam.schema import RIGID_KINDS
-from gasp_core.toolkit.substeps import p_wave_speed
 
 #: ``auto`` takes the rigid limit when the estimated deformation is below this share of a grid cell.
 RIGID_SHARE = 0.25
-#: The Courant number the substep estimates of the messages assume (the grid engines' default ``cfl``).
-CFL = 0.4
 
 
 def estimate(m, x: np.ndarray, p_vol: np.ndarray, v: np.ndarray, gravity, floor: float | None, dx: float,
-             frame_dt: float, v_max: float) -> dict:
+             frame_dt: float, v_max: float, cfl: float | None = None) -> dict:
     """The strain estimates of one body (the module's model).
 
     Parameters
@@ -54,13 +51,16 @@ def estimate(m, x: np.ndarray, p_vol: np.ndarray, v: np.ndarray, gravity, floor:
         s.
     v_max : float
         The fastest speed the scene may reach, m/s (the step's velocity bound).
+    cfl : float, optional
+        The Courant number of the engine's automatic substep (its declared option ``cfl``); None: no substep
+        figures.
 
     Returns
     -------
     dict
         ``strain_weight, strain_impact, strain_spin, strain`` (dimensionless), ``impact_speed`` (m/s),
         ``deformation`` (m), ``deformation_cells`` (in ``dx``), ``substeps_elastic`` and ``substeps_rigid`` (about
-        how many substeps per frame the body's wave speed and the motion alone need at ``cfl = 0.4``).
+        how many substeps per frame the body's wave speed and the motion alone need at ``cfl``; None without).
     """
     g = float(np.linalg.norm(gravity))
     w = np.where(p_vol > 0.0, p_vol, 0.0)
@@ -77,8 +77,8 @@ def estimate(m, x: np.ndarray, p_vol: np.ndarray, v: np.ndarray, gravity, floor:
     spread = float(np.max(np.linalg.norm(v - v_mean, axis=1))) if len(v) else 0.0
     eps_s = rho * spread * spread / E
     eps = max(eps_w, eps_i, eps_s)
-    n_el = math.ceil(frame_dt / (CFL * dx / max(p_wave_speed(m), v_max, 1e-12)))
-    n_rg = math.ceil(frame_dt / (CFL * dx / max(v_max, 1e-12)))
+    n_el = None if cfl is None else math.ceil(frame_dt / (cfl * dx / max(m.p_wave_speed, v_max, 1e-12)))
+    n_rg = None if cfl is None else math.ceil(frame_dt / (cfl * dx / max(v_max, 1e-12)))
     return {"strain_weight": eps_w, "strain_impact": eps_i, "strain_spin": eps_s, "strain": eps,
             "impact_speed": v_imp, "deformation": eps * size, "deformation_cells": eps * size / dx,
             "substeps_elastic": n_el, "substeps_rigid": n_rg}
@@ -104,6 +104,9 @@ def choose(m, est: dict, rigid_ok: bool) -> tuple[str, str]:
 def message(name: str, model: str, why: str, est: dict) -> str | None:
     """The one line ``gasp simulate`` prints for a body, or None when its elastic model costs little."""
     n_el, n_rg = est["substeps_elastic"], est["substeps_rigid"]
+    if n_el is None:
+        return (f"object '{name}': rigid limit ({why}); set material.model = \"elastic\" to simulate its "
+                f"deformation") if model == "rigid" else None
     if model == "rigid":
         return (f"object '{name}': rigid limit ({why}): about {n_rg} substeps a frame instead of {n_el}; "
                 f"set material.model = \"elastic\" to simulate its deformation")
@@ -116,7 +119,7 @@ def message(name: str, model: str, why: str, est: dict) -> str | None:
             f"frame instead of {n_el}, without its deformation")
 
 
-def resolve_models(setup, names, features) -> list[dict]:
+def resolve_models(setup, names, features, cfl: float | None = None) -> list[dict]:
     """Resolve every body's ``material.model`` in ``setup.materials`` (in place) and say each choice.
 
     Parameters
@@ -126,6 +129,8 @@ def resolve_models(setup, names, features) -> list[dict]:
         Object names, one per body.
     features : frozenset of str
         The engine's features (``rigid_limit``).
+    cfl : float, optional
+        The engine's declared default ``cfl`` (:func:`declared_cfl`), for the substep figures; None: none.
 
     Returns
     -------
@@ -147,7 +152,7 @@ def resolve_models(setup, names, features) -> list[dict]:
         below = [h for h in grounds if h <= float(setup.x[sel, 2].min()) + 1e-9]
         floor = max(below) if below and not colliders else float(setup.domain_lo[2])
         est = estimate(m, setup.x[sel], setup.p_vol[sel], setup.v[sel], setup.gravity, floor, setup.dx,
-                       setup.frame_dt, v_max)
+                       setup.frame_dt, v_max, cfl)
         model, why = choose(m, est, "rigid_limit" in features)
         mats[b] = dataclasses.replace(m, model=model) if m.model == "auto" or model != m.model else m
         out.append({"model": model, "why": why, **est})
@@ -156,3 +161,8 @@ def resolve_models(setup, names, features) -> list[dict]:
             warnings.warn(line, stacklevel=2)
     setup.materials = mats
     return out
+
+
+def declared_cfl(info) -> float | None:
+    """The default Courant number an engine declares (its option ``cfl``), or None (``info``: EngineInfo)."""
+    return next((o.default for o in info.options if o.name == "cfl"), None)

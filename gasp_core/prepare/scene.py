@@ -5,16 +5,15 @@ nothing before the engine is known to support what the scene asks for (:func:`sc
 """
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
 from gasp_core.errors import SceneError
 from gasp_core.prepare.assembly import build_setup
-from gasp_core.prepare.checks import check_ground_in_grid
 from gasp_core.prepare.placement import prepare_object, PreparedObject
-from gasp_core.prepare.route import resolve_models
-from gasp_core.toolkit.rigid import step_view
+from gasp_core.prepare.route import declared_cfl, resolve_models
 from gasp_core.scene.quality import engine_options as quality_options
 from gasp_core.scene.spec import Scene
 from gasp_core.seam.build import check_supported, needs
@@ -71,7 +70,7 @@ def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None 
     SceneError
         A material, boundary or feature the engine lacks (before any file is read), an
         unreadable object file, an object outside an explicit domain, an explicit domain floored too close
-        under a ground for the particle contact (:func:`gasp_core.prepare.checks.check_ground_in_grid`).
+        under a ground for the engine's contact (the engine's own ``check_scene``, :class:`EngineInfo`).
     """
     # The capability check runs here, on the scene, so that an engine that lacks something is refused
     # before any file is read; build_engine applies the same rule (needs) again to the setup, because it
@@ -84,26 +83,23 @@ def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None 
     info = get_engine(name)
     check_supported(info, **scene_needs(scene), others=all_engines())
     declared = {o.name for o in info.options}
-    if "contact" in declared:      # the grid engines' particle contact: its ground layers inside the grid
-        given = scene.engine.options if options is None else options
-        check_ground_in_grid(scene, quality_options(scene.quality, dict(given), declared))
+    given = dict(scene.engine.options if options is None else options)
+    run_options = quality_options(scene.quality, given, declared)     # the options the run takes
+    if info.check_scene is not None:     # the engine's own check of the scene, before any file is read
+        info.check_scene(scene, run_options, None)
     objects = [prepare_object(spec) for spec in scene.objects]
     # object folder names: a stem that is one of a run folder's own files (run.json.ply) or hidden
     # (.gasp-output.ply) gets a leading "_"; equal ones their index
     stems = [f"_{o.name}" if o.name in RUN_FILES or o.name.startswith(".") else o.name for o in objects]
     names = [n if stems.count(n) == 1 else f"{i}_{n}" for i, n in enumerate(stems)]
-    setup = build_setup(scene, objects)
+    setup, objects = build_setup(scene, objects)
     moving = [i for i, o in enumerate(objects) if not o.spec.static]   # body k of the setup (build_setup's order)
-    bodies = [objects[i] for i in moving]
-    for o, route in zip(bodies, resolve_models(setup, [names[i] for i in moving],
-                                               info.capabilities.features)):
-        o.body_model = route
-    if "contact" in declared and any(m.model == "rigid" for m in setup.materials):   # a rigid body shows E = 1 Pa
-        given = scene.engine.options if options is None else options
-        check_ground_in_grid(scene, quality_options(scene.quality, dict(given), declared), step_view(setup).materials)
-    if options is not None:
-        setup.options = dict(options)
-    setup.options = quality_options(scene.quality, setup.options, {o.name for o in info.options})
+    routes = resolve_models(setup, [names[i] for i in moving], info.capabilities.features, declared_cfl(info))
+    for i, route in zip(moving, routes):
+        objects[i] = dataclasses.replace(objects[i], body_model=route)
+    if info.check_scene is not None:     # again with the bodies' models chosen
+        info.check_scene(scene, run_options, setup)
+    setup.options = run_options
     return PreparedScene(scene, info, objects, names, setup, prepare_s=time.perf_counter() - t0)
 
 

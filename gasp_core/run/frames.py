@@ -6,14 +6,10 @@ from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
-from gasp_core.maps.centres import centre_triangles
-from gasp_core.maps.games import (alpha_rule, EPS, limit_edges, triangles_to_gaussians,
-                                  triangles_to_gaussians_covariance)
+from gasp_core.maps.games import EPS
 from gasp_core.gs.gaussians import Gaussians, rotmat_to_quat
-from gasp_core.maps.hierarchy import sub_triangles
-from gasp_core.maps.mesh_bind import bound_triangles
 from gasp_core.prepare.dynamic import background_at
-from gasp_core.prepare.placement import PreparedObject
+from gasp_core.prepare.placed import PreparedObject
 from gasp_core.seam.runner import RunStats, run_engine
 from gasp_core.prepare.selection import scatter
 
@@ -32,7 +28,10 @@ class FrameState:
 
 def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray,
             t: float | None = None) -> tuple[Gaussians, np.ndarray, dict]:
-    """``T^-1`` (the object's ``rebuild`` rule) and the alpha rule for one object at one frame, back in the file frame.
+    """``G_t = T^-1(phi(T(G), t))`` with the alpha rule for one object at one frame, back in the file frame.
+
+    ``T^-1`` is the object's surface map (:meth:`gasp_core.maps.surface.SurfaceMap.gaussians`: its form and its
+    ``rebuild`` rule), ``phi(T(G), t)`` the engine's positions ``x``.
 
     Parameters
     ----------
@@ -59,29 +58,14 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray,
     if o.spec.static:
         g = o.gaussians if t is None else background_at(o, o.gaussians, t)
         return g, prev_rot, {"degenerate": 0, "clamped": 0}
-    tri = x[o.vertex_slice]
-    if o.centres is not None:           # PhysGaussian's layout: the centre and F from its neighbours
-        tri = centre_triangles(o.centres, x, o.tri_rest)
-    elif o.binding is not None:           # mesh mode: the Gaussians follow their moved faces
-        tri = bound_triangles(o.binding, tri)
-    else:
-        tri = tri.reshape(-1, 3, 3) if o.hierarchy is None else sub_triangles(o.hierarchy, tri)
-    clamped = np.zeros((len(tri), 2), bool)
-    if o.spec.rebuild == "covariance":
-        if o.spec.alpha is not None:
-            tri, clamped = limit_edges(o.tri_rest, tri, o.spec.alpha)
-        means_w, rot, scales_w, degenerate = triangles_to_gaussians_covariance(tri, fallback=prev_rot)
-    else:
-        means_w, rot, scales_w, degenerate = triangles_to_gaussians(tri, fallback=prev_rot)
-        if o.spec.alpha is not None:
-            scales_w, clamped = alpha_rule(o.tri_rest, tri, scales_w, o.scales_rest, o.spec.alpha)
+    means_w, rot, scales_w, counts = o.surface.gaussians(x[o.vertex_slice], x[o.fill_slice], prev_rot)
     pl = o.placement
     scales = scales_w / pl.scale
     scales[:, 0] = o.thin_scale if o.spec.thickness == "keep" else EPS
     out = scatter(o, pl.to_file(means_w), scales, rotmat_to_quat(pl.R.T @ rot))
     if t is not None:
         out = background_at(o, out, t)
-    return out, rot, {"degenerate": int(degenerate.sum()), "clamped": int(clamped.sum())}
+    return out, rot, counts
 
 
 class Rebuilder:

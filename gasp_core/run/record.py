@@ -95,7 +95,6 @@ def _named(bodies: list, names) -> list:
 
 
 def _object_record(o, name: str, boundaries=()) -> dict:
-    from gasp_core.prepare.placement import simulated_triangles
     s = o.spec
     return {
         "name": name, "file": str(s.file), "n_gaussians": o.gaussians.n,
@@ -110,10 +109,8 @@ def _object_record(o, name: str, boundaries=()) -> dict:
         "core_fraction": s.core_fraction,
         "surface": (o.surface_rule or {}).get("surface", s.surface), "surface_rule": o.surface_rule,
         "surface_points": s.surface_points,
-        "centres_degenerate": None if o.centres is None else o.centres.n_degenerate,
         "model": o.body_model,
-        "n_simulated_gaussians": len(simulated_triangles(o)) if o.binding is None else len(o.binding.face_of),
-        "mesh": None if o.binding is None else o.binding.report,
+        **o.surface.record(),
         **selection_record(o),
         "alpha": s.alpha, "thickness": s.thickness,
         "flatten": o.flatten_report.as_dict(),

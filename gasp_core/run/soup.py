@@ -260,7 +260,8 @@ def import_motion(scene: Scene, motion_dir: str | Path, outdir: str | Path,
     objects = [prepare_object(spec) for spec in scene.objects]
     names = object_names(objects)
     # every face of the object (Core Gaussians, mesh mode or not): the soup carries one face per Gaussian
-    flat_objects = [dataclasses.replace(o, hierarchy=None, binding=None, vertex_slice=slice(0, 3 * len(o.tri_rest)))
+    flat_objects = [dataclasses.replace(o, surface=o.surface.as_triangles(),
+                                        vertex_slice=slice(0, 3 * len(o.tri_rest)))
                     for o in objects]
     files = motion_files(motion_dir, names)
     n_faces = [len(o.tri_rest) for o in objects]

@@ -249,6 +249,11 @@ class EngineInfo:
         Ranges this engine accepts that are narrower than the core's, as data
         (:mod:`gasp_core.seam.limits`): ``{"nu": Limit(lo=0.0, why="the engine's elasticity model")}``.
         The core refuses a setup outside them before the factory runs, with one error text.
+    check_scene : callable or None
+        ``check_scene(scene, options, setup)``: a check of the scene that the engine owns (its domain against its
+        own contact's needs, say), run by the core with the run's options (quality level applied) before any
+        file is read (``setup`` None) and again once the setup is built and the bodies' models are chosen.
+        Raises ``SceneError`` naming the file, key and the value that works.
 
     Raises
     ------
@@ -268,6 +273,7 @@ class EngineInfo:
     available: Callable[[], str | None] | None = None
     description: str = ""
     limits: Mapping[str, Limit] = field(default_factory=dict)
+    check_scene: Callable[[Any, Mapping[str, Any], SimSetup | None], None] | None = None
 
     def __post_init__(self):
         for key in self.limits:

@@ -5,6 +5,8 @@ object into this frame before the engine sees it and converts the result back.
 """
 from __future__ import annotations
 
+import math
+
 import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
@@ -122,6 +124,19 @@ class Material:
     def lam(self) -> float:
         """Lame's first parameter, Pa."""
         return self.E * self.nu / ((1.0 + self.nu) * (1.0 - 2.0 * self.nu))
+
+    @property
+    def p_wave_speed(self) -> float:
+        """Dilatational (P-wave) speed ``sqrt((lam + 2 mu) / rho)``, m/s.
+
+        For ``liquid`` the shear modulus is not used: ``sqrt(K / rho)`` with the bulk modulus :attr:`K`; ``snow``
+        takes its hardening's largest stiffening ``exp(hardening theta_c)`` (``Jp < 1``; Stomakhin et al. 2013).
+        """
+        if self.name == "liquid":
+            return math.sqrt(self.K / self.rho)
+        if self.name == "snow":
+            return math.sqrt(math.exp(self.hardening * self.theta_c) * (self.lam + 2.0 * self.mu) / self.rho)
+        return math.sqrt((self.lam + 2.0 * self.mu) / self.rho)
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,8 @@ the same scene every MPM engine starts from the same numbers, it holds:
 - :mod:`~gasp_core.toolkit.points`: the points held by ``fixed_region`` boundaries (``fixed_mask``),
   the order of points by grid cell (``cell_order``, ``material_first_order``), mass statistics and
   stranded passive points;
-- :mod:`~gasp_core.toolkit.memory`: the memory estimate and the refusal before allocating;
+- :mod:`~gasp_core.toolkit.ground_check`: the engines' ``check_scene`` (an explicit domain holds the contact's
+  ground layers); the memory estimate lives in :mod:`gasp_core.seam.memory` (the core's assembly checks it too);
 - :mod:`~gasp_core.toolkit.failures`: the known conformance failures of the shared algorithm;
 - :mod:`~gasp_core.toolkit.grid_tables`: colliders, forces and impulses packed for the kernels, with the named
   columns both MPM plugins index them by (``CM_*``, ``FR_*``, ``MD_*``, ``IM_*``, ``FT_*``, ``PO_*``);

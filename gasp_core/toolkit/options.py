@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from gasp_core.seam.options import Option
-from gasp_core.toolkit.substeps import MAX_SUBSTEPS
+from gasp_core.toolkit.substeps import CFL, MAX_SUBSTEPS
 
 
 def mpm_options(*extra: Option, cuda_index: bool = False) -> tuple[Option, ...]:
@@ -33,7 +33,7 @@ def mpm_options(*extra: Option, cuda_index: bool = False) -> tuple[Option, ...]:
         Option("dt", None, "substep length, s (default: from cfl); not with n_substeps", kind="number",
                lo=0.0, lo_open=True, excludes=("n_substeps",)),
         Option("n_substeps", None, "substeps per frame (default: from cfl); not with dt", kind="int", lo=1),
-        Option("cfl", 0.4, "Courant number of the automatic substep: dt = cfl dx / max(c_p, v_max)",
+        Option("cfl", CFL, "Courant number of the automatic substep: dt = cfl dx / max(c_p, v_max)",
                kind="number", lo=0.0, hi=1.0, lo_open=True),
         Option("max_substeps", MAX_SUBSTEPS, "refuse a scene needing more substeps per frame than this "
                "(bounds the work a bad value can ask for)", kind="int", lo=1),

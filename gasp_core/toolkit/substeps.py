@@ -16,23 +16,17 @@ from gasp_core.errors import SceneError
 from gasp_core.seam.options import Option
 from gasp_core.seam.setup import Material
 
+#: The grid engines' default Courant number (engine option ``cfl``): ``dt = cfl dx / max(c_p, v_max)``.
+CFL = 0.4
+
 
 def p_wave_speed(m: Material) -> float:
-    """Dilatational (P-wave) speed ``sqrt((lam + 2 mu) / rho)``, m/s.
-
-    For ``liquid`` the shear modulus is not used: ``sqrt(lam' / rho)`` with the bulk modulus
-    ``K`` (:attr:`Material.K`).
-    """
-    if m.name == "liquid":
-        return math.sqrt(m.K / m.rho)
-    if m.name == "snow":  # hardening can stiffen the material up to exp(xi * theta_c) (Jp < 1)
-        h = math.exp(m.hardening * m.theta_c)
-        return math.sqrt(h * (m.lam + 2.0 * m.mu) / m.rho)
-    return math.sqrt((m.lam + 2.0 * m.mu) / m.rho)
+    """Dilatational (P-wave) speed of ``m``, m/s (:attr:`gasp_core.seam.setup.Material.p_wave_speed`)."""
+    return m.p_wave_speed
 
 
 def mpm_stable_dt(materials: Iterable[Material], dx: float, gravity, height: float,
-                  v0_max: float = 0.0, cfl: float = 0.4, implicit_viscosity: bool = False) -> float:
+                  v0_max: float = 0.0, cfl: float = CFL, implicit_viscosity: bool = False) -> float:
     """Largest substep that satisfies the elastic-wave, particle CFL and viscous limits.
 
     ``dt = cfl * dx / max(c_p, v_max)`` where ``c_p`` is the fastest P-wave speed over the
@@ -89,7 +83,7 @@ def viscous_dt(m: Material, dx: float) -> float:
 
 
 def mpm_substeps(setup, dt: float | None = None, n_substeps: int | None = None,
-                 cfl: float = 0.4, implicit_viscosity: bool = False) -> tuple[int, float]:
+                 cfl: float = CFL, implicit_viscosity: bool = False) -> tuple[int, float]:
     """Substeps per frame and substep length for a grid engine (``docs/mpm.md``, "Time step").
 
     Parameters
@@ -145,7 +139,7 @@ def substeps_from_options(setup, options: Mapping[str, Any], engine: str = "",
         gives the count, what drives it (the stiffest material's wave speed, the fall speed or
         ``frame_dt``) and how to raise the bound, instead of a run that never finishes a frame.
     """
-    n, dt = mpm_substeps(setup, options.get("dt"), options.get("n_substeps"), options.get("cfl", 0.4),
+    n, dt = mpm_substeps(setup, options.get("dt"), options.get("n_substeps"), options.get("cfl", CFL),
                          implicit_viscosity)
     bound = options.get("max_substeps") or MAX_SUBSTEPS
     if n > bound:

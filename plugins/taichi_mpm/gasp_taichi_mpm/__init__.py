@@ -24,6 +24,7 @@ from gasp_core.toolkit.sweep import mpm_sweep
 from gasp_core.toolkit.failures import MPM_KNOWN_FAILURES
 from gasp_core.toolkit.substeps import PASSIVE_EVERY
 from gasp_core.toolkit.contact import BALANCE, CONTACT
+from gasp_core.toolkit.ground_check import check_ground_in_grid
 from gasp_core.toolkit.transfer import FLIP
 
 __all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "gasp_engines", "make_engine", "sweep", "taichi_available"]
@@ -88,6 +89,7 @@ def gasp_engines():
         deterministic_options={"threads": 1},
         known_failures=KNOWN_FAILURES,
         sweep=sweep,
+        check_scene=check_ground_in_grid,
         available=taichi_available,
         description=("MLS-MPM with APIC transfers and quadratic B-splines (Hu et al. 2018), "
                      "docs/mpm.md, on Taichi (CPU or CUDA, f32 or f64). The CPU default: its coloured block "

@@ -16,7 +16,7 @@ from gasp_core.toolkit.contact import (contact_coefficients, contact_model, cont
 from gasp_core.toolkit.grid_engine import choose_dt, GridEngineBase
 from gasp_core.toolkit.materials import JELLY, initial_Jp, material_table
 from gasp_core.toolkit.rigid import body_frames, rigid_contact, rigid_mask, step_view, zero_stress
-from gasp_core.toolkit.memory import check_memory, estimate_bytes
+from gasp_core.seam.memory import check_memory, estimate_bytes
 from gasp_core.toolkit.points import fixed_mask, passive_bounds
 from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
 

@@ -16,6 +16,7 @@ from gasp_core.toolkit.sweep import mpm_sweep
 from gasp_core.toolkit.failures import MPM_KNOWN_FAILURES
 from gasp_core.toolkit.substeps import PASSIVE_EVERY
 from gasp_core.toolkit.contact import BALANCE, CONTACT
+from gasp_core.toolkit.ground_check import check_ground_in_grid
 from gasp_core.toolkit.transfer import FLIP
 
 __all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "gasp_engines", "make_engine", "sweep"]
@@ -69,6 +70,7 @@ def gasp_engines():
         deterministic_options={},
         known_failures=KNOWN_FAILURES,
         sweep=sweep,
+        check_scene=check_ground_in_grid,
         available=_available,
         description=("MLS-MPM (docs/mpm.md) in NVIDIA Warp; CUDA, or CPU on one core (Warp runs CPU kernels "
                      "serially, deterministic): on CPU use taichi_mpm, which uses every core (docs/performance.md); "

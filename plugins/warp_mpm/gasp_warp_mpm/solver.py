@@ -35,7 +35,7 @@ import warp as wp
 from gasp_core.toolkit.grid_engine import choose_dt, GridEngineBase
 from gasp_core.toolkit.materials import JELLY, P_ETA, initial_Jp, material_table
 from gasp_core.toolkit.rigid import rigid_contact, step_view, zero_stress
-from gasp_core.toolkit.memory import check_memory, estimate_bytes
+from gasp_core.seam.memory import check_memory, estimate_bytes
 from gasp_core.toolkit.contact import (contact_coefficients, contact_model, contact_planes, flowing_bodies,
                                       ground_node_layer, rule_models, wall_grid_cells)
 from gasp_core.toolkit.points import cell_order, fixed_mask, passive_bounds
