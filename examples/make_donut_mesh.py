@@ -18,7 +18,7 @@ from skimage.measure import marching_cubes
 
 from gasp_core.gs.io import read_gaussians
 from gasp_core.maps.occupancy import solid_field
-from gasp_core.prepare.placement import Placement
+from gasp_core.prepare.placed import Placement
 from gasp_core.prepare.selection import flat_world
 
 HERE = Path(__file__).resolve().parent

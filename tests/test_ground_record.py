@@ -5,7 +5,7 @@ import numpy as np
 
 from gasp_core.gs.gaussians import quat_to_rotmat
 from gasp_core.gs.io import read_gaussians
-from gasp_core.prepare.placement import Placement
+from gasp_core.prepare.placed import Placement
 from gasp_core.run.record import ground_in_file_frame
 
 

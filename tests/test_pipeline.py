@@ -9,7 +9,7 @@ from plyfile import PlyData
 from gasp_core.errors import GaspError
 from gasp_core.gs.gaussians import quat_to_rotmat
 from gasp_core.gs.io import read_gaussians
-from gasp_core.prepare.placement import UP_ROTATIONS
+from gasp_core.prepare.placed import UP_ROTATIONS
 from gasp_core.run.pipeline import simulate_scene
 from gasp_core.scene.spec import load_scene
 

@@ -287,3 +287,27 @@ def test_the_core_never_imports_the_plugin_facades():
                     or isinstance(n, ast.Import) and any(a.name in facades for a in n.names)):
                 bad.append(f"{p.relative_to(root)}:{n.lineno}")
     assert bad == []
+
+
+def test_an_engine_is_registered_by_a_declarative_record():
+    """Issue 51: ``engine_hook`` makes the hook from records; a factory named ``"module:attr"`` is imported at its
+    first call, and ``requires`` gives the availability (the first missing module, the install line)."""
+    from fractions import Fraction
+    from gasp_core.seam import Capabilities, EngineInfo, engine_hook
+    from gasp_core.seam.engine import LazyFactory
+    caps = Capabilities(materials=frozenset({"jelly"}), boundaries=frozenset({"ground"}))
+    info = EngineInfo(name="rec", factory="fractions:Fraction", capabilities=caps,
+                      requires=("json", "gasp_no_such_module_51"), install="gasp-rec")
+    assert isinstance(info.factory, LazyFactory) and info.factory(3) == Fraction(3)
+    why = info.unavailable_reason()
+    assert why is not None and "'gasp_no_such_module_51'" in why and "gasp-rec" in why
+    assert EngineInfo(name="rec", factory="fractions:Fraction", capabilities=caps,
+                      requires=("json",)).unavailable_reason() is None
+    assert EngineInfo(name="rec", factory=Fraction, capabilities=caps, requires=("gasp_no_such_module_51",),
+                      available=lambda: None).unavailable_reason() is None     # an own check wins
+    hook = engine_hook(info)
+    assert hook() == [info] and hasattr(hook, "gasp_impl")                        # pluggy's marker
+    # the shipped MPM engines are records too
+    from gasp_core.seam.plugins import engines
+    found = engines()
+    assert all(isinstance(found[n].factory, LazyFactory) for n in ("taichi_mpm", "warp_mpm") if n in found)

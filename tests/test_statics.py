@@ -13,7 +13,8 @@ from gasp_core.colliders.sdf import box_collider
 from gasp_core.prepare.colliders import build_colliders
 from gasp_core.run.contact import CONTACT_DX, collider_records, contact_row
 from gasp_core.errors import SceneError
-from gasp_core.prepare.placement import UP_ROTATIONS, euler_matrix, place, prepare_object
+from gasp_core.prepare.placed import UP_ROTATIONS, euler_matrix
+from gasp_core.prepare.placement import place, prepare_object
 from gasp_core.scene.spec import parse_scene
 from gasp_core.seam.setup import Material, SimSetup
 

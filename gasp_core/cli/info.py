@@ -14,7 +14,8 @@ from gasp_core.gs.registry import is_dynamic
 from gasp_core.gs.splatv import MIDDLE_TIME
 from gasp_core.maps.fill import fill_interior, fill_spacing
 from gasp_core.prepare.assembly import build_setup
-from gasp_core.prepare.placement import UP_ROTATIONS, prepare_object
+from gasp_core.prepare.placed import UP_ROTATIONS
+from gasp_core.prepare.placement import prepare_object
 from gasp_core.prepare.stand import stand_estimate
 from gasp_core.scene.spec import ObjectSpec, parse_scene
 from gasp_core.scene.tables import DomainSpec

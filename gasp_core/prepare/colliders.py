@@ -30,7 +30,7 @@ def build_colliders(scene, objects, dx: float) -> list[Collider]:
     Parameters
     ----------
     scene : gasp_core.scene.spec.Scene
-    objects : list of gasp_core.prepare.placement.PreparedObject
+    objects : list of gasp_core.prepare.placed.PreparedObject
         The scene's objects, placed (for ``object = ...`` colliders).
     dx : float
         Simulation grid spacing, metres.

@@ -24,9 +24,7 @@ from gasp_core.scene.spec import ObjectSpec
 from gasp_core.prepare.selection import flat_world, moving_rows
 from gasp_core.prepare.surface import choose_surface_points
 
-#: Re-exported: the records live in :mod:`gasp_core.prepare.placed` (callers import them from either).
-__all__ = ["UP_ROTATIONS", "euler_matrix", "Placement", "PreparedObject", "place", "load_gaussians",
-           "prepare_object", "drop_floaters"]
+__all__ = ["place", "load_gaussians", "prepare_object", "drop_floaters"]
 
 def place(g: Gaussians, spec: ObjectSpec, floating: np.ndarray | None = None) -> Placement:
     """The file -> world transform of an object (up-axis, rotation, metres, position).

@@ -12,7 +12,8 @@ from pathlib import Path
 
 from gasp_core.errors import SceneError
 from gasp_core.prepare.assembly import build_setup
-from gasp_core.prepare.placement import prepare_object, PreparedObject
+from gasp_core.prepare.placed import PreparedObject
+from gasp_core.prepare.placement import prepare_object
 from gasp_core.prepare.route import declared_cfl, resolve_models
 from gasp_core.scene.quality import engine_options as quality_options
 from gasp_core.scene.spec import Scene

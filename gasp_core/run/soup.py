@@ -32,7 +32,8 @@ from gasp_core import __version__
 from gasp_core.errors import EngineError, SceneError, missing_module_message
 from gasp_core.gs.io import write_gaussians
 from gasp_core.fsutil import atomic_json, output_folder
-from gasp_core.prepare.placement import prepare_object, PreparedObject
+from gasp_core.prepare.placed import PreparedObject
+from gasp_core.prepare.placement import prepare_object
 from gasp_core.run.frames import rebuild
 from gasp_core.scene.spec import Scene
 from gasp_core.seam.plugins import soup_writers

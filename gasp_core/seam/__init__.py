@@ -39,7 +39,7 @@ from gasp_core.seam.engine import (call_engine, Capabilities, EngineInfo, Engine
 from gasp_core.seam.options import Option
 from gasp_core.seam.limits import Limit
 from gasp_core.seam.passive import mass_properties
-from gasp_core.seam.plugins import RendererInfo, SoupWriterInfo, engines, get_engine, hookimpl
+from gasp_core.seam.plugins import RendererInfo, SoupWriterInfo, engine_hook, engines, get_engine, hookimpl
 from gasp_core.seam.runner import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, check_state
 from gasp_core.seam.setup import BOUNDARIES, MATERIALS, Boundary, Material, SimSetup
 
@@ -51,7 +51,7 @@ __all__ = [
     # protocol
     "PointEngine", "StatefulEngine", "SleepingEngine", "EngineStats", "mass_properties",
     # hooks
-    "hookimpl", "RendererInfo", "SoupWriterInfo",
+    "engine_hook", "hookimpl", "RendererInfo", "SoupWriterInfo",
     # errors
     "GaspError", "SceneError", "EngineError", "EngineDivergence", "EngineBug",
     # driving an engine

@@ -14,6 +14,8 @@ raises is wrapped as ``EngineBug``. The conformance kit (:mod:`gasp_core.testing
 """
 from __future__ import annotations
 
+import importlib
+import importlib.util
 import os
 import tempfile
 import traceback
@@ -23,6 +25,7 @@ from typing import Any, Callable, Iterable, Mapping, NotRequired, Protocol, Requ
 import numpy as np
 
 from gasp_core.errors import EngineBug, GaspError
+from gasp_core.seam.install import install_hint
 from gasp_core.seam.limits import Limit, split_key
 from gasp_core.seam.options import Option
 from gasp_core.seam.setup import SimSetup
@@ -222,11 +225,19 @@ class EngineInfo:
     ----------
     name : str
         Engine name used in scene files (``[engine] name = "my_engine"``).
-    factory : callable
-        ``factory(setup: SimSetup) -> PointEngine``. Imports the engine package lazily, so
-        that listing engines stays cheap. It gets a setup that the core checked against
-        ``capabilities``, ``options`` and ``limits`` (:func:`gasp_core.seam.build.build_engine`),
-        with ``setup.options`` holding every declared option (defaults filled in).
+    factory : callable or str
+        ``factory(setup: SimSetup) -> PointEngine``, or where to find it, ``"package.module:Class"`` (the
+        declarative record of issue 51: the module is imported when a simulation is built, so that listing engines
+        stays cheap). It gets a setup that the core checked against ``capabilities``, ``options`` and ``limits``
+        (:func:`gasp_core.seam.build.build_engine`), with ``setup.options`` holding every declared option
+        (defaults filled in).
+    requires : tuple of str
+        Modules the engine needs (``("my_solver",)``): without ``available``, the engine is available where each can
+        be found (``importlib.util.find_spec``; nothing is imported), else the reason names the first missing one
+        and the line that installs ``install``.
+    install : str
+        The distribution a user installs for the engine (``"gasp-my-engine"``, ``"gasp-my-engine[engine]"``), for
+        the install line of a missing requirement (:func:`gasp_core.seam.install.install_hint`).
     capabilities : Capabilities
     options : tuple of Option
         Every option the engine takes; anything else in a scene is refused before the factory runs.
@@ -262,7 +273,7 @@ class EngineInfo:
     """
 
     name: str
-    factory: Callable[[SimSetup], PointEngine]
+    factory: Callable[[SimSetup], PointEngine] | str
     capabilities: Capabilities
     options: tuple[Option, ...] = ()
     deterministic_options: Mapping[str, Any] = field(default_factory=dict)
@@ -274,13 +285,32 @@ class EngineInfo:
     description: str = ""
     limits: Mapping[str, Limit] = field(default_factory=dict)
     check_scene: Callable[[Any, Mapping[str, Any], SimSetup | None], None] | None = None
+    requires: tuple[str, ...] = ()
+    install: str = ""
 
     def __post_init__(self):
         for key in self.limits:
             split_key(key)
+        if isinstance(self.factory, str):
+            object.__setattr__(self, "factory", LazyFactory(self.factory))
 
     def unavailable_reason(self) -> str | None:
-        return self.available() if self.available is not None else None
+        if self.available is not None:
+            return self.available()
+        missing = next((m for m in self.requires if importlib.util.find_spec(m) is None), None)
+        return None if missing is None else (f"the '{missing}' package is not installed: "
+                                             f"{install_hint(self.name, distribution=self.install or None)}")
+
+
+@dataclass(frozen=True)
+class LazyFactory:
+    """An engine factory named ``"package.module:Class"``, imported at its first call (:class:`EngineInfo`)."""
+
+    target: str
+
+    def __call__(self, setup: SimSetup) -> PointEngine:
+        module, _, name = self.target.partition(":")
+        return getattr(importlib.import_module(module), name)(setup)
 
 
 def _bug(info: EngineInfo, where: str, e: BaseException) -> EngineBug:

@@ -242,3 +242,22 @@ def get_engine(name: str, pm: pluggy.PluginManager | None = None) -> EngineInfo:
     if reason:
         raise EngineError(f"engine '{name}' is installed but cannot run: {reason}")
     return info
+
+
+def engine_hook(*records: EngineInfo) -> Callable[[], list[EngineInfo]]:
+    """The ``gasp_engines`` hook of a plugin that registers ``records`` (issue 51: registration is a record, not
+    code). In the plugin's module: ``gasp_engines = engine_hook(EngineInfo(name=..., factory="pkg.engine:Class",
+    requires=("pkg_dependency",), ...))``; the entry point names that module.
+
+    Example
+    -------
+    >>> from gasp_core.seam import Capabilities, EngineInfo, engine_hook
+    >>> gasp_engines = engine_hook(EngineInfo(name="springs", factory="gasp_springs.engine:SpringEngine",
+    ...     capabilities=Capabilities(materials=frozenset({"jelly"}), boundaries=frozenset({"ground"}))))
+    >>> [info.name for info in gasp_engines()]
+    ['springs']
+    """
+    @hookimpl
+    def gasp_engines() -> list[EngineInfo]:
+        return list(records)
+    return gasp_engines

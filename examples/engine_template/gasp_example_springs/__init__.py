@@ -7,9 +7,9 @@ physics. Importing this module is cheap (no NumPy work, no engine import): the f
 """
 from __future__ import annotations
 
-from gasp_core.seam import Capabilities, EngineInfo, hookimpl, Option, SimSetup
+from gasp_core.seam import Capabilities, engine_hook, EngineInfo, Option
 
-__all__ = ["CAPABILITIES", "OPTIONS", "gasp_engines", "make_engine"]
+__all__ = ["CAPABILITIES", "OPTIONS", "gasp_engines"]
 
 #: What the engine can do, as data: the core refuses anything else before the factory runs, and the
 #: conformance kit skips the scenes that need more.
@@ -34,12 +34,6 @@ OPTIONS = (
 )
 
 
-def make_engine(setup: SimSetup):
-    """Build a :class:`gasp_example_springs.engine.SpringEngine` (imports it lazily)."""
-    from .engine import SpringEngine
-    return SpringEngine(setup)
-
-
 #: The analytic continuum scenes a mass-spring network does not meet (its springs are a lattice, not
 #: an elastic continuum; a real engine would fix these rather than declare them). Measured with
 #: ``gasp conform example_springs`` on the template as shipped.
@@ -60,16 +54,15 @@ KNOWN_FAILURES = {
 }
 
 
-@hookimpl
-def gasp_engines():
-    """The engine records of this plugin (the ``gasp_engines`` hook)."""
-    return [EngineInfo(
-        name="example_springs",
-        factory=make_engine,
-        capabilities=CAPABILITIES,
-        options=OPTIONS,
-        limits={},                  # ranges narrower than the core's, as gasp_core.seam.Limit: none here
-        deterministic_options={},   # nothing to ask for: every run on cpu is deterministic
-        known_failures=KNOWN_FAILURES,   # conformance scenes it fails, each with the measured figure
-        description="template: NumPy mass-spring network (semi-implicit Euler) with ground contact",
-    )]
+#: The engine records of this plugin: the ``gasp_engines`` hook (``engine_hook``), the factory named so that it is
+#: imported when a simulation is built.
+gasp_engines = engine_hook(EngineInfo(
+    name="example_springs",
+    factory="gasp_example_springs.engine:SpringEngine",
+    capabilities=CAPABILITIES,
+    options=OPTIONS,
+    limits={},                  # ranges narrower than the core's, as gasp_core.seam.Limit: none here
+    deterministic_options={},   # nothing to ask for: every run on cpu is deterministic
+    known_failures=KNOWN_FAILURES,   # conformance scenes it fails, each with the measured figure
+    description="template: NumPy mass-spring network (semi-implicit Euler) with ground contact",
+))

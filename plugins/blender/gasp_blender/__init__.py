@@ -15,10 +15,9 @@ from __future__ import annotations
 import importlib.util
 import math
 
-from gasp_core.seam import Capabilities, EngineInfo, hookimpl, install_hint, Limit, SimSetup, SoupWriterInfo
+from gasp_core.seam import Capabilities, engine_hook, EngineInfo, hookimpl, install_hint, Limit, SoupWriterInfo
 
-__all__ = ["CAPABILITIES", "INSTALL_HINT", "LIMITS", "bpy_available", "gasp_engines", "gasp_soup_writers",
-           "make_engine"]
+__all__ = ["CAPABILITIES", "INSTALL_HINT", "LIMITS", "bpy_available", "gasp_engines", "gasp_soup_writers"]
 
 #: Reason given when bpy is missing.
 INSTALL_HINT = ("bpy (Blender as a Python module) is not installed; "
@@ -80,40 +79,24 @@ def bpy_available() -> str | None:
     return None if found else INSTALL_HINT
 
 
-def make_engine(setup: SimSetup):
-    """Build a :class:`gasp_blender.engine.BlenderSoftBodyEngine` (imports bpy lazily).
-
-    Raises
-    ------
-    SceneError
-        Initial velocities (options, materials and boundaries are checked by the core before,
-        ``gasp_core.seam.build.build_engine``).
-    EngineError
-        bpy cannot be imported.
-    """
-    from .engine import BlenderSoftBodyEngine
-    return BlenderSoftBodyEngine(setup)
-
-
 def _options():
     from .engine import OPTIONS  # the engine module imports bpy only inside its functions
     return OPTIONS
 
 
-@hookimpl
-def gasp_engines():
-    return [EngineInfo(
-        name="blender",
-        factory=make_engine,
-        capabilities=CAPABILITIES,
-        options=_options(),
-        limits=LIMITS,
-        known_failures=KNOWN_FAILURES,
-        available=bpy_available,
-        description=("Blender soft bodies (bpy, headless): a coarse voxel cage per body with edge, "
-                     "face- and body-diagonal springs, points carried trilinearly; ground as a "
-                     "collision plane; fixed_region as goal-pinned cage vertices."),
-    )]
+#: The engine's registration record (the ``gasp_engines`` hook, :func:`gasp_core.seam.plugins.engine_hook`).
+gasp_engines = engine_hook(EngineInfo(
+    name="blender",
+    factory="gasp_blender.engine:BlenderSoftBodyEngine",
+    capabilities=CAPABILITIES,
+    options=_options(),
+    limits=LIMITS,
+    known_failures=KNOWN_FAILURES,
+    available=bpy_available,
+    description=("Blender soft bodies (bpy, headless): a coarse voxel cage per body with edge, "
+                 "face- and body-diagonal springs, points carried trilinearly; ground as a "
+                 "collision plane; fixed_region as goal-pinned cage vertices."),
+))
 
 
 def _write_blend(outdir, soups):

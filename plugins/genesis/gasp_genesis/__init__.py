@@ -32,12 +32,12 @@ from __future__ import annotations
 
 import importlib.util
 
-from gasp_core.seam import Capabilities, EngineInfo, hookimpl, install_hint, Limit, SimSetup
+from gasp_core.seam import Capabilities, engine_hook, EngineInfo, install_hint, Limit, SimSetup
 from gasp_core.toolkit.options import mpm_options
 from gasp_core.toolkit.sweep import mpm_sweep
 
 __all__ = ["BENCH_EXCLUDED", "CAPABILITIES", "ENGINE", "INSTALL_HINT", "OPTIONS", "gasp_engines",
-           "genesis_available", "make_engine", "sweep"]
+           "genesis_available", "sweep"]
 
 ENGINE = "genesis"
 
@@ -108,22 +108,6 @@ def genesis_available() -> str | None:
     return None
 
 
-def make_engine(setup: SimSetup):
-    """Build a :class:`gasp_genesis.engine.GenesisMPMEngine` (imports Genesis lazily).
-
-    Raises
-    ------
-    SceneError
-        Points outside Genesis's padded domain. (Options, unsupported materials and boundaries, and values
-        outside :data:`LIMITS`, are refused by the core first: ``gasp_core.seam.build.build_engine``.)
-    EngineError
-        Genesis cannot be imported, the device is not available, or Genesis was already
-        initialised in this process with another device or precision.
-    """
-    from .engine import GenesisMPMEngine
-    return GenesisMPMEngine(setup)
-
-
 KNOWN_FAILURES = {"spinning": (
     "the body spins 11.7% slow: rigid-fit angle 79.47 deg after 0.5 s vs 90 deg; L_z(frame 1) / L_z(0) = 0.883, "
     "then constant within 0.2%. The plugin does not start the APIC affine matrix from SimSetup.C (the Genesis "
@@ -145,20 +129,19 @@ KNOWN_FAILURES = {"spinning": (
                       "0.025): Genesis' own wall (its grid nodes), not the particle contact")}
 
 
-@hookimpl
-def gasp_engines():
-    return [EngineInfo(
-        name=ENGINE,
-        factory=make_engine,
-        capabilities=CAPABILITIES,
-        options=OPTIONS,
-        limits=LIMITS,
-        deterministic_options={},
-        known_failures=KNOWN_FAILURES,
-        sweep=sweep,
-        available=genesis_available,
-        description=("MPM solver of Genesis (genesis-world; MLS-MPM, quadratic B-splines, APIC) "
-                     "on CPU or CUDA. Ground and walls via rigid planes with Coulomb coupling "
-                     "friction; one particle volume per scene; gs.init once per process (one "
-                     "device and precision per process)."),
-    )]
+#: The engine's registration record (the ``gasp_engines`` hook, :func:`gasp_core.seam.plugins.engine_hook`).
+gasp_engines = engine_hook(EngineInfo(
+    name=ENGINE,
+    factory="gasp_genesis.engine:GenesisMPMEngine",
+    capabilities=CAPABILITIES,
+    options=OPTIONS,
+    limits=LIMITS,
+    deterministic_options={},
+    known_failures=KNOWN_FAILURES,
+    sweep=sweep,
+    available=genesis_available,
+    description=("MPM solver of Genesis (genesis-world; MLS-MPM, quadratic B-splines, APIC) "
+                 "on CPU or CUDA. Ground and walls via rigid planes with Coulomb coupling "
+                 "friction; one particle volume per scene; gs.init once per process (one "
+                 "device and precision per process)."),
+))

@@ -9,13 +9,12 @@ Importing this module does not import ``mujoco``; the factory does.
 """
 from __future__ import annotations
 
-import importlib.util
 import itertools
 
-from gasp_core.seam import Capabilities, EngineInfo, hookimpl, install_hint, Limit, Option
+from gasp_core.seam import Capabilities, engine_hook, EngineInfo, Limit, Option
 from gasp_core.toolkit.sweep import dedupe_settings
 
-__all__ = ["CAPABILITIES", "ENGINE", "LIMITS", "OPTIONS", "gasp_engines", "make_engine", "sweep"]
+__all__ = ["CAPABILITIES", "ENGINE", "LIMITS", "OPTIONS", "gasp_engines", "sweep"]
 
 ENGINE = "mujoco_flex"
 
@@ -93,18 +92,6 @@ def sweep(quick: bool) -> tuple[list[dict], dict]:
     return dedupe_settings(out, ref), ref
 
 
-def _available() -> str | None:
-    if importlib.util.find_spec("mujoco") is None:
-        return f"the 'mujoco' package is not installed: {install_hint('mujoco_flex', distribution='gasp-mujoco-flex')}"
-    return None
-
-
-def make_engine(setup):
-    """Build a :class:`~gasp_mujoco_flex.engine.MujocoFlexEngine` from a ``SimSetup`` (imports mujoco)."""
-    from .engine import MujocoFlexEngine
-    return MujocoFlexEngine(setup)
-
-
 KNOWN_FAILURES = {
     "bounce": "EngineDivergence at frame 13 (t = 0.22 s): 6 lattice tetrahedra inverted on impact of "
               "the E = 2e5 Pa ball after a 0.14 m drop (dt 0.794 ms)",
@@ -135,19 +122,18 @@ KNOWN_FAILURES = {
 }
 
 
-@hookimpl
-def gasp_engines():
-    """The ``mujoco_flex`` engine record."""
-    return [EngineInfo(
-        name=ENGINE,
-        factory=make_engine,
-        capabilities=CAPABILITIES,
-        options=OPTIONS,
-        limits=LIMITS,
-        deterministic_options={},
-        known_failures=KNOWN_FAILURES,
-        sweep=sweep,
-        available=_available,
-        description="MuJoCo 4 flex: tetrahedral FEM lattice per body (SVK elasticity, von Mises "
-                    "plasticity), points embedded barycentrically; rigid bodies as free bodies",
-    )]
+#: The engine's registration record (the ``gasp_engines`` hook, :func:`gasp_core.seam.plugins.engine_hook`).
+gasp_engines = engine_hook(EngineInfo(
+    name=ENGINE,
+    factory="gasp_mujoco_flex.engine:MujocoFlexEngine",
+    capabilities=CAPABILITIES,
+    options=OPTIONS,
+    limits=LIMITS,
+    deterministic_options={},
+    known_failures=KNOWN_FAILURES,
+    sweep=sweep,
+    requires=("mujoco",),
+    install="gasp-mujoco-flex",
+    description="MuJoCo 4 flex: tetrahedral FEM lattice per body (SVK elasticity, von Mises "
+                "plasticity), points embedded barycentrically; rigid bodies as free bodies",
+))

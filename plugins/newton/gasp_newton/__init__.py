@@ -7,14 +7,13 @@ neither Warp nor Newton: the factory imports :mod:`gasp_newton.engine` when a si
 """
 from __future__ import annotations
 
-import importlib.util
 
-from gasp_core.seam import Capabilities, EngineInfo, hookimpl, install_hint, Option, SimSetup
+from gasp_core.seam import Capabilities, engine_hook, EngineInfo, Option
 from gasp_core.toolkit.sweep import dedupe_settings
 
 from .materials import MATERIALS
 
-__all__ = ["CAPABILITIES", "ENGINE", "KNOWN_FAILURES", "OPTIONS", "gasp_engines", "make_engine", "sweep"]
+__all__ = ["CAPABILITIES", "ENGINE", "KNOWN_FAILURES", "OPTIONS", "gasp_engines", "sweep"]
 
 ENGINE = "newton"
 
@@ -82,18 +81,6 @@ def sweep(quick: bool) -> tuple[list[dict], dict]:
     return dedupe_settings(out, ref), ref
 
 
-def make_engine(setup: SimSetup):
-    """Build a :class:`gasp_newton.engine.NewtonEngine` for ``setup`` (imports Warp and Newton here)."""
-    from .engine import NewtonEngine
-    return NewtonEngine(setup)
-
-
-def _available() -> str | None:
-    if importlib.util.find_spec("newton") is None:
-        return f"the 'newton' package is not installed: {install_hint('newton', distribution='gasp-newton')}"
-    return None
-
-
 _CLAMP = ("the clamped bar hangs as if hinged: time-averaged tip deflection {d} mm vs Timoshenko 20.63 mm "
           "(+{p}x), first frequency 2.136 Hz vs 4.272 Hz (-50 %); fixed_region points are Newton's zero-mass "
           "(kinematic) particles (measured with the defaults, 250 iterations, gasp conform newton, Newton 1.8.0)")
@@ -128,18 +115,17 @@ KNOWN_FAILURES: dict[str, str] = {
 }
 
 
-@hookimpl
-def gasp_engines():
-    """The ``newton`` engine record (GASP ``gasp_engines`` hook)."""
-    return [EngineInfo(
-        name=ENGINE,
-        factory=make_engine,
-        capabilities=CAPABILITIES,
-        options=OPTIONS,
-        deterministic_options={},
-        known_failures=KNOWN_FAILURES,
-        sweep=sweep,
-        available=_available,
-        description="NVIDIA Newton's implicit MPM (SolverImplicitMPM): large steps for stiff and granular "
-                    "bodies, more numerical dissipation; CPU or CUDA, f32 (docs/newton.md)",
-    )]
+#: The engine's registration record (the ``gasp_engines`` hook, :func:`gasp_core.seam.plugins.engine_hook`).
+gasp_engines = engine_hook(EngineInfo(
+    name=ENGINE,
+    factory="gasp_newton.engine:NewtonEngine",
+    capabilities=CAPABILITIES,
+    options=OPTIONS,
+    deterministic_options={},
+    known_failures=KNOWN_FAILURES,
+    sweep=sweep,
+    requires=("newton",),
+    install="gasp-newton",
+    description="NVIDIA Newton's implicit MPM (SolverImplicitMPM): large steps for stiff and granular "
+                "bodies, more numerical dissipation; CPU or CUDA, f32 (docs/newton.md)",
+))

@@ -17,7 +17,7 @@ os.environ.setdefault("ENABLE_TAICHI_HEADER_PRINT", "False")
 
 import dataclasses
 
-from gasp_core.seam import EngineInfo, hookimpl, install_hint, Option, SimSetup
+from gasp_core.seam import engine_hook, EngineInfo, Option
 from gasp_core.toolkit.grid_engine import MPM_CAPABILITIES
 from gasp_core.toolkit.options import mpm_options
 from gasp_core.toolkit.sweep import mpm_sweep
@@ -27,7 +27,7 @@ from gasp_core.toolkit.contact import BALANCE, CONTACT
 from gasp_core.toolkit.ground_check import check_ground_in_grid
 from gasp_core.toolkit.transfer import FLIP
 
-__all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "gasp_engines", "make_engine", "sweep", "taichi_available"]
+__all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "gasp_engines", "sweep"]
 
 ENGINE = "taichi_mpm"
 
@@ -51,48 +51,24 @@ def sweep(quick: bool) -> tuple[list[dict], dict]:
     return mpm_sweep(quick, CAPABILITIES.precisions)
 
 
-def taichi_available() -> str | None:
-    """None if Taichi is installed here, else the reason it is not (found without importing it:
-    listing engines stays quick and prints nothing)."""
-    import importlib.util
-    if importlib.util.find_spec("taichi") is None:
-        return f"taichi is not installed: {install_hint('taichi_mpm', distribution='gasp-taichi-mpm')}"
-    return None
-
-
-def make_engine(setup: SimSetup):
-    """Build a :class:`gasp_taichi_mpm.engine.TaichiMPMEngine` (imports Taichi lazily).
-
-    Raises
-    ------
-    SceneError
-        Too many substeps per frame (options, materials and boundaries are checked by the core
-        before, ``gasp_core.seam.build.build_engine``).
-    EngineError
-        Device not available (``device="cuda"`` without CUDA).
-    """
-    from .engine import TaichiMPMEngine
-    return TaichiMPMEngine(setup)
-
-
 #: Known failures of the shared MLS-MPM algorithm (docs/mpm.md), measured figures in the reasons.
 KNOWN_FAILURES = dict(MPM_KNOWN_FAILURES)
 
 
-@hookimpl
-def gasp_engines():
-    return [EngineInfo(
-        name=ENGINE,
-        factory=make_engine,
-        capabilities=CAPABILITIES,
-        options=OPTIONS,
-        deterministic_options={"threads": 1},
-        known_failures=KNOWN_FAILURES,
-        sweep=sweep,
-        check_scene=check_ground_in_grid,
-        available=taichi_available,
-        description=("MLS-MPM with APIC transfers and quadratic B-splines (Hu et al. 2018), "
-                     "docs/mpm.md, on Taichi (CPU or CUDA, f32 or f64). The CPU default: its coloured block "
-                     "P2G uses every core and gives the same numbers on any thread count (docs/performance.md); "
-                     "viscosity implicit (no step limit). One engine per process at a time (ti.init is global)."),
-    )]
+#: The engine's registration record (the ``gasp_engines`` hook, :func:`gasp_core.seam.plugins.engine_hook`).
+gasp_engines = engine_hook(EngineInfo(
+    name=ENGINE,
+    factory="gasp_taichi_mpm.engine:TaichiMPMEngine",
+    capabilities=CAPABILITIES,
+    options=OPTIONS,
+    deterministic_options={"threads": 1},
+    known_failures=KNOWN_FAILURES,
+    sweep=sweep,
+    check_scene=check_ground_in_grid,
+    requires=("taichi",),
+    install="gasp-taichi-mpm",
+    description=("MLS-MPM with APIC transfers and quadratic B-splines (Hu et al. 2018), "
+                 "docs/mpm.md, on Taichi (CPU or CUDA, f32 or f64). The CPU default: its coloured block "
+                 "P2G uses every core and gives the same numbers on any thread count (docs/performance.md); "
+                 "viscosity implicit (no step limit). One engine per process at a time (ti.init is global)."),
+))

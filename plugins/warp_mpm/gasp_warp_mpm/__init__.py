@@ -9,7 +9,7 @@ from __future__ import annotations
 import dataclasses
 import importlib.util
 
-from gasp_core.seam import EngineInfo, hookimpl, install_hint, Option, SimSetup
+from gasp_core.seam import engine_hook, EngineInfo, install_hint, Option
 from gasp_core.toolkit.grid_engine import MPM_CAPABILITIES
 from gasp_core.toolkit.options import mpm_options
 from gasp_core.toolkit.sweep import mpm_sweep
@@ -19,7 +19,7 @@ from gasp_core.toolkit.contact import BALANCE, CONTACT
 from gasp_core.toolkit.ground_check import check_ground_in_grid
 from gasp_core.toolkit.transfer import FLIP
 
-__all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "gasp_engines", "make_engine", "sweep"]
+__all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "gasp_engines", "sweep"]
 
 ENGINE = "warp_mpm"
 
@@ -39,12 +39,6 @@ def sweep(quick: bool) -> tuple[list[dict], dict]:
     return mpm_sweep(quick, CAPABILITIES.precisions)
 
 
-def make_engine(setup: SimSetup):
-    """Build a :class:`gasp_warp_mpm.solver.WarpMPMEngine` for ``setup`` (imports Warp here)."""
-    from .solver import WarpMPMEngine
-    return WarpMPMEngine(setup)
-
-
 def _available() -> str | None:
     if importlib.util.find_spec("warp") is None:
         return f"the 'warp-lang' package is not installed: {install_hint('warp_mpm', distribution='gasp-warp-mpm')}"
@@ -59,20 +53,18 @@ def _available() -> str | None:
 KNOWN_FAILURES = dict(MPM_KNOWN_FAILURES)
 
 
-@hookimpl
-def gasp_engines():
-    """The ``warp_mpm`` engine record (GASP ``gasp_engines`` hook)."""
-    return [EngineInfo(
-        name=ENGINE,
-        factory=make_engine,
-        capabilities=CAPABILITIES,
-        options=OPTIONS,
-        deterministic_options={},
-        known_failures=KNOWN_FAILURES,
-        sweep=sweep,
-        check_scene=check_ground_in_grid,
-        available=_available,
-        description=("MLS-MPM (docs/mpm.md) in NVIDIA Warp; CUDA, or CPU on one core (Warp runs CPU kernels "
-                     "serially, deterministic): on CPU use taichi_mpm, which uses every core (docs/performance.md); "
-                     "viscosity implicit (no step limit)"),
-    )]
+#: The engine's registration record (the ``gasp_engines`` hook, :func:`gasp_core.seam.plugins.engine_hook`).
+gasp_engines = engine_hook(EngineInfo(
+    name=ENGINE,
+    factory="gasp_warp_mpm.solver:WarpMPMEngine",
+    capabilities=CAPABILITIES,
+    options=OPTIONS,
+    deterministic_options={},
+    known_failures=KNOWN_FAILURES,
+    sweep=sweep,
+    check_scene=check_ground_in_grid,
+    available=_available,
+    description=("MLS-MPM (docs/mpm.md) in NVIDIA Warp; CUDA, or CPU on one core (Warp runs CPU kernels "
+                 "serially, deterministic): on CPU use taichi_mpm, which uses every core (docs/performance.md); "
+                 "viscosity implicit (no step limit)"),
+))
