@@ -136,7 +136,6 @@ gasp_engines = engine_hook(EngineInfo(
     capabilities=CAPABILITIES,
     options=OPTIONS,
     limits=LIMITS,
-    deterministic_options={},
     known_failures=KNOWN_FAILURES,
     sweep=sweep,
     available=genesis_available,

@@ -129,7 +129,6 @@ gasp_engines = engine_hook(EngineInfo(
     capabilities=CAPABILITIES,
     options=OPTIONS,
     limits=LIMITS,
-    deterministic_options={},
     known_failures=KNOWN_FAILURES,
     sweep=sweep,
     requires=("mujoco",),

@@ -121,7 +121,6 @@ gasp_engines = engine_hook(EngineInfo(
     factory="gasp_newton.engine:NewtonEngine",
     capabilities=CAPABILITIES,
     options=OPTIONS,
-    deterministic_options={},
     known_failures=KNOWN_FAILURES,
     sweep=sweep,
     requires=("newton",),

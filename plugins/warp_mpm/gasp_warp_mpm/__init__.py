@@ -59,7 +59,6 @@ gasp_engines = engine_hook(EngineInfo(
     factory="gasp_warp_mpm.solver:WarpMPMEngine",
     capabilities=CAPABILITIES,
     options=OPTIONS,
-    deterministic_options={},
     known_failures=KNOWN_FAILURES,
     sweep=sweep,
     check_scene=check_ground_in_grid,
