@@ -31,10 +31,10 @@ import contextlib, io, json, sys
 for name in {hidden!r}:
     sys.modules[name] = None
 if {prepare_only!r}:         # stop where the first frame would be simulated: everything before it has run
-    import gasp_core.run.pipeline as pipeline
+    import gasp_core.run.simulation as simulation
     def _stop(*args, **kwargs):
         raise SystemExit(0)
-    pipeline._write_frames = _stop
+    simulation.SimulationRun.write_frames = _stop
 from gasp_core.cli.main import main
 out = {{}}
 for path, folder in zip(sys.argv[1::2], sys.argv[2::2]):

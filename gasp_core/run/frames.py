@@ -10,7 +10,7 @@ from gasp_core.maps.games import EPS
 from gasp_core.gs.gaussians import Gaussians, rotmat_to_quat
 from gasp_core.prepare.dynamic import background_at
 from gasp_core.prepare.placed import PreparedObject
-from gasp_core.seam.runner import RunStats, run_engine
+from gasp_core.seam.runner import EngineRun, RunStats
 from gasp_core.prepare.selection import scatter
 
 if TYPE_CHECKING:
@@ -98,25 +98,11 @@ class Rebuilder:
         return gs, row
 
 
-def iter_positions(prep: PreparedScene, n_frames: int, stats: RunStats | None = None,
-                   resume: Checkpoint | None = None, before_frames=None):
-    """Yield ``(frame, x, sim_s, get_state)`` for frame 0 (the input, ``sim_s`` None) to ``n_frames``: the engine's
-    positions (n_points, 3) float64, world frame, before any rebuild (:class:`Rebuilder` makes the Gaussians).
-
-    ``get_state`` is the engine's checkpoint reader (None without the feature ``state``): call it before the
-    next frame is asked for. Parameters and errors as :func:`iter_frames`.
-    """
-    if resume is None:
-        yield 0, prep.setup.x, None, None
-    for rec in run_engine(prep.info, prep.setup, n_frames, stats, start_frame=0 if resume is None else resume.frame,
-                          state=None if resume is None else resume.engine_state, before_frames=before_frames,
-                          sleep=getattr(prep.scene, "sleep", False)):
-        yield rec.frame, rec.x, rec.wall_s, rec.get_state
-
-
 def iter_frames(prep: PreparedScene, n_frames: int, stats: RunStats | None = None,
-                resume: Checkpoint | None = None, state: FrameState | None = None, before_frames=None):
-    """Yield ``(frame, gaussians_per_object, counts)`` for frame 0 (the input) to ``n_frames``.
+                resume: Checkpoint | None = None, state: FrameState | None = None):
+    """Yield ``(frame, gaussians_per_object, counts)`` for frame 0 (the input) to ``n_frames``: the engine's
+    positions through every object's surface map (:class:`Rebuilder`), for a study or a notebook (``gasp simulate``
+    writes them on its own: :class:`gasp_core.run.pipeline.SimulationRun`).
 
     ``counts`` holds ``frame``, ``degenerate`` faces and ``clamped`` scales, and ``sim_s`` (engine
     wall time) from frame 1 on.
@@ -130,20 +116,23 @@ def iter_frames(prep: PreparedScene, n_frames: int, stats: RunStats | None = Non
         Continue after ``resume.frame`` (frames up to it are not yielded again).
     state : FrameState, optional
         Updated before each yield with the frame's rotations and the engine's ``get_state``.
-    before_frames : callable, optional
-        Passed to :func:`gasp_core.seam.runner.run_engine` (called once the engine is built).
 
     Raises
     ------
     EngineDivergence, EngineBug
-        See :func:`gasp_core.seam.runner.run_engine`.
+        See :class:`gasp_core.seam.runner.EngineRun`.
     """
     state = state if state is not None else FrameState()
     rebuild_all = Rebuilder(prep, None if resume is None else resume.prev_rot)
     state.prev_rot = rebuild_all.prev_rot
-    for frame, x, sim_s, get_state in iter_positions(prep, n_frames, stats, resume, before_frames):
-        gs, row = rebuild_all(frame, x)
-        if sim_s is not None:
-            row["sim_s"] = sim_s
-            state.get_state = get_state
-        yield frame, gs, row
+    if resume is None:
+        gs, row = rebuild_all(0, prep.setup.x)
+        yield 0, gs, row
+    with EngineRun(prep.info, prep.setup, stats, start_frame=0 if resume is None else resume.frame,
+                   state=None if resume is None else resume.engine_state,
+                   sleep=getattr(prep.scene, "sleep", False)) as engine:
+        for rec in engine.frames(n_frames):
+            gs, row = rebuild_all(rec.frame, rec.x)
+            row["sim_s"] = rec.wall_s
+            state.get_state = rec.get_state
+            yield rec.frame, gs, row

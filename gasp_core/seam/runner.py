@@ -1,6 +1,7 @@
 """Drive an engine frame by frame and stop it cleanly when it blows up.
 
-Every engine goes through :func:`run_engine`, so NaN and points leaving the domain are caught
+Every engine goes through :class:`EngineRun` (or :func:`run_engine`, its frames as one generator), so NaN and
+points leaving the domain are caught
 in one place and reported as :class:`EngineDivergence` with the frame and the likely cause,
 before anything is written. Exceptions follow the error contract of :mod:`gasp_core.errors`:
 an engine's ``GaspError`` passes through, anything else becomes :class:`EngineBug`.
@@ -105,70 +106,87 @@ def check_state(x: np.ndarray, setup: SimSetup, frame: int, margin: float | None
             f"(first index {bad[0]} at {x[bad[0]].tolist()})", frame, CAUSE_LEFT_DOMAIN)
 
 
-def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int,
-               stats: RunStats | None = None, start_frame: int = 0,
-               state: dict | None = None,
-               before_frames: Callable[[dict], None] | None = None, sleep: bool = False) -> Iterator[FrameRecord]:
-    """Build the engine and yield ``n_frames`` checked frames.
+class EngineRun:
+    """An engine built for a setup (and restored after ``start_frame``), then driven frame by frame: the one place
+    a run meets its engine. Use it as a context manager: the engine is closed on leaving it.
 
     Parameters
     ----------
     info : EngineInfo
         From :func:`gasp_core.seam.plugins.get_engine`.
     setup : SimSetup
-    n_frames : int
-        Frames to simulate, each ``setup.frame_dt`` seconds.
     stats : RunStats, optional
-        Filled with build time, per-frame wall times and ``engine.stats()``.
+        Filled with the build time, ``engine.stats()`` (once built: ``n_substeps`` for the work estimate; again after
+        the last frame), per-frame wall times, the sleep's record.
     start_frame : int
-        Resume after this frame: ``state`` (from the engine's ``get_state``) is restored with
-        ``set_state`` (engines with the feature ``state``, a
-        :class:`~gasp_core.seam.engine.StatefulEngine`) and frames ``start_frame + 1 .. n_frames``
-        are simulated.
+        Resume after this frame: ``state`` (from the engine's ``get_state``) is restored with ``set_state`` (engines
+        with the feature ``state``, a :class:`~gasp_core.seam.engine.StatefulEngine`); :meth:`frames` then
+        simulates frames ``start_frame + 1 .. n_frames``.
     state : dict, optional
-    before_frames : callable, optional
-        ``before_frames(engine_stats)`` once the engine is built, before its first frame (the work estimate
-        of :mod:`gasp_core.run.budget`); what it raises ends the run.
     sleep : bool
         Let a scene at rest fall asleep (:mod:`gasp_core.seam.sleep`): later frames repeat the last one (``wall_s``
         0, ``stats.asleep_after``); ``get_state`` then carries the sleep's count, so a resumed run sleeps alike. With
         an engine with the feature ``sleep``, each body at rest is frozen on its own and woken by what comes within
         its reach (:mod:`gasp_core.seam.body_sleep`, the engine's ``set_asleep``; ``stats.bodies``).
 
-    Yields
-    ------
-    FrameRecord
-
     Raises
     ------
     SceneError, EngineError
         From :func:`gasp_core.seam.build.build_engine` (capabilities, options, limits) or the engine;
         ``EngineError`` too for ``start_frame`` on an engine without the feature ``state``.
-    EngineDivergence
-        At the first frame whose state is non-finite or outside the domain, or when the engine
-        itself reports a blow-up.
     EngineBug
         The engine raised anything outside the error contract.
     """
-    stats = stats if stats is not None else RunStats()
-    if start_frame and "state" not in info.capabilities.features:
-        raise EngineError(f"engine '{info.name}' cannot resume after frame {start_frame}: "
-                          f"it does not have the feature 'state'")
-    t0 = time.perf_counter()
-    watch = SleepWatch(setup, sleep, BodySleep(setup) if "sleep" in info.capabilities.features else None)
-    engine, saved_state = _built(info, setup, start_frame, state, watch)
-    stats.build_s = time.perf_counter() - t0
-    advance = _advancer(engine, watch)
-    try:
-        stats.engine = dict(call_engine(info, "stats", engine.stats))   # n_substeps, for the work estimate
-        if before_frames is not None:
-            before_frames(stats.engine)
+
+    def __init__(self, info: EngineInfo, setup: SimSetup, stats: RunStats | None = None, start_frame: int = 0,
+                 state: dict | None = None, sleep: bool = False):
+        if start_frame and "state" not in info.capabilities.features:
+            raise EngineError(f"engine '{info.name}' cannot resume after frame {start_frame}: "
+                              f"it does not have the feature 'state'")
+        self.info, self.setup, self.start_frame = info, setup, start_frame
+        self.stats = stats if stats is not None else RunStats()
+        t0 = time.perf_counter()
+        self.watch = SleepWatch(setup, sleep, BodySleep(setup) if "sleep" in info.capabilities.features else None)
+        self.engine, self.get_state = _built(info, setup, start_frame, state, self.watch)
+        self.stats.build_s = time.perf_counter() - t0
+        self._open = True
+        try:
+            self.stats.engine = dict(call_engine(info, "stats", self.engine.stats))
+        except BaseException:
+            self.close()
+            raise
+
+    def __enter__(self) -> EngineRun:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Close the engine (once)."""
+        if self._open:
+            self._open = False
+            call_engine(self.info, "close", self.engine.close)
+
+    def frames(self, n_frames: int) -> Iterator[FrameRecord]:
+        """Simulate up to frame ``n_frames`` (each ``setup.frame_dt`` seconds), yielding each checked frame.
+
+        Raises
+        ------
+        EngineDivergence
+            At the first frame whose state is non-finite or outside the domain (:func:`check_state`), or when the
+            engine itself reports a blow-up.
+        EngineBug
+            The engine raised anything outside the error contract.
+        """
+        info, setup, stats, watch, engine = self.info, self.setup, self.stats, self.watch, self.engine
+        advance = _advancer(engine, watch)
         x = np.asarray(call_engine(info, "positions", engine.positions), dtype=np.float64) if watch.enabled else None
-        for frame in range(start_frame + 1, n_frames + 1):
+        for frame in range(self.start_frame + 1, n_frames + 1):
             if watch.asleep_after is not None:   # asleep: the frame repeats the last one (gasp_core.seam.sleep)
                 stats.asleep_after = watch.asleep_after
                 stats.frame_s.append(0.0)
-                yield FrameRecord(frame, x + 0.0, 0.0, saved_state)
+                yield FrameRecord(frame, x + 0.0, 0.0, self.get_state)
                 continue
             t0 = time.perf_counter()
             x_prev, x = x, call_engine(info, f"frame {frame}", advance, frame, x)
@@ -177,10 +195,21 @@ def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int,
             stats.frame_s.append(dt_wall)
             watch.update(frame, x_prev, x)
             stats.bodies = [] if watch.bodies is None else watch.bodies.record()
-            yield FrameRecord(frame, x, dt_wall, saved_state)
+            yield FrameRecord(frame, x, dt_wall, self.get_state)
         stats.engine = dict(call_engine(info, "stats", engine.stats))
-    finally:
-        call_engine(info, "close", engine.close)
+
+
+def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int, stats: RunStats | None = None,
+               start_frame: int = 0, state: dict | None = None, sleep: bool = False) -> Iterator[FrameRecord]:
+    """:class:`EngineRun`'s frames as one generator (the engine built at the first ``next``, closed at the end):
+    ``n_frames`` checked frames. Parameters and errors as :class:`EngineRun` and :meth:`EngineRun.frames`.
+
+    Yields
+    ------
+    FrameRecord
+    """
+    with EngineRun(info, setup, stats, start_frame, state, sleep) as run:
+        yield from run.frames(n_frames)
 
 
 def _advancer(engine: PointEngine, watch: SleepWatch) -> Callable[[int, np.ndarray], np.ndarray]:

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import importlib.util
 
-from gasp_core.seam import Capabilities, engine_hook, EngineInfo, install_hint, Limit, SimSetup
+from gasp_core.seam import Capabilities, engine_hook, EngineInfo, install_hint, Limit
 from gasp_core.toolkit.options import mpm_options
 from gasp_core.toolkit.sweep import mpm_sweep
 
