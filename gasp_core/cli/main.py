@@ -30,7 +30,8 @@ import warnings
 from gasp_core.cli import early, streams
 from gasp_core.cli.args import GaspArgumentParser, length, positive_float, positive_int
 from gasp_core.cli.simulate import add_simulate_parser, reporter_for
-from gasp_core.errors import EngineBug, EngineDivergence, GaspError, extra_hint, missing_module_message
+from gasp_core.errors import (EngineBug, EngineDivergence, GaspError, extra_hint, missing_module_message,
+                              save_traceback)
 from gasp_core.scene.values import UP_AXES
 from gasp_core.run import stop
 from gasp_core.run.report import ConsoleReporter, Reporter
@@ -335,9 +336,20 @@ def _run(args, reporter: Reporter) -> int:
     except ImportError as e:             # an optional extra that is not installed: its install line
         message = missing_module_message(e, f"'gasp {args.command}'")
         if message is None:
-            raise
+            return _last_resort(e, args, reporter)
         reporter.error(f"error: {message}", 2)
         return 2
+    except Exception as e:               # the last resort: any other exception is one line, its traceback saved
+        return _last_resort(e, args, reporter)
+
+
+def _last_resort(e: Exception, args, reporter: Reporter) -> int:
+    """An exception outside the error contract: one line naming it and the file its traceback was saved to
+    (:func:`gasp_core.errors.save_traceback`, as :class:`EngineBug` does); exit status 1."""
+    saved = save_traceback(e, f"gasp-bug-{args.command}-", f"gasp {args.command}")
+    reporter.error(f"error: unexpected {type(e).__name__}: {str(e)[:300] or '(no message)'}; this is a bug in "
+                   f"gasp, not in your input{f'; traceback saved to {saved}' if saved else ''}", 1)
+    return 1
 
 
 def _exit_status(e: BaseException) -> int:

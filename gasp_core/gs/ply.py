@@ -8,6 +8,7 @@ import numpy as np
 from plyfile import PlyData, PlyListProperty
 
 from gasp_core.errors import SceneError
+from gasp_core.gs.bound import check_count
 
 
 #: Degree-0 real spherical harmonic, ``1 / (2 sqrt(pi))``; colour = ``0.5 + SH_C0 * f_dc``.
@@ -35,8 +36,11 @@ def read_ply(path) -> PlyData:
             # plyfile's mmap=False path parses row by row (seconds per 45k-vertex file); map the file
             # copy-on-write instead and copy the arrays out, so the file can be replaced afterwards
             ply = PlyData.read(f, mmap="c")
+            check_count(path, sum(el.count for el in ply.elements if el.name == "vertex"), "its header")
             for el in ply.elements:
                 el.data = np.array(el.data)
+    except SceneError:
+        raise
     except Exception as exc:  # plyfile raises PlyHeaderParseError, PlyElementParseError, ...
         msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         reject_file(path, f"not a readable PLY file (truncated or corrupt?): {msg}")

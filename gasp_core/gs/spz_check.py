@@ -22,6 +22,7 @@ import struct
 import zlib
 from pathlib import Path
 
+from gasp_core.gs.bound import check_count
 from gasp_core.gs.ply import reject_file
 
 NGSP = 0x5053474E
@@ -44,6 +45,7 @@ def check_spz(path: Path) -> None:
         head = f.read(16)
         if head[:4] == b"NGSP" and len(head) == 16:   # v4: zstd sections of the sizes its count implies
             n, sh_degree = struct.unpack_from("<IB", head, 8)
+            check_count(path, n, "its header")
             need = (9 + 1 + 3 + 3 + 4 + 3 * _SH_DIM[min(sh_degree, 3)]) * n
             if need > limit:
                 reject_file(path, f"the header declares {n:,} points, {need:,} bytes of sections: more than "
@@ -92,5 +94,6 @@ def _expected(path: Path, head: bytes) -> int:
     if magic != NGSP or version not in (1, 2, 3) or sh_degree > 3:
         reject_file(path, f"not an SPZ stream (magic 0x{magic:08x}, version {version}, SH degree {sh_degree}); "
                     "expected NGSP version 1-3, SH degree 0-3")
+    check_count(path, n, "its header")
     rot = 4 if version >= 3 else 3
     return 16 + (9 + 1 + 3 + 3 + rot + 3 * _SH_DIM[sh_degree]) * n
