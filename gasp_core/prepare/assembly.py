@@ -11,7 +11,7 @@ from gasp_core.seam.setup import SimSetup, grid_spacing
 from gasp_core.maps.centres import build_centre_frame
 from gasp_core.maps.fill import fill_interior, fill_spacing
 from gasp_core.maps.occupancy import SPLAT_SIGMA
-from gasp_core.prepare.checks import check_kept_floaters, check_resolution
+from gasp_core.prepare.checks import check_kept_floaters, check_overlap, check_resolution
 from gasp_core.prepare.dynamic import fill_velocities, vertex_velocities
 from gasp_core.prepare.placement import PreparedObject, simulated_triangles
 from gasp_core.prepare.stand import stand_warnings
@@ -146,6 +146,7 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> SimSetup:
     outside = ((x < lo) | (x > hi)).any(axis=1)
     if outside.any():
         raise SceneError(_outside_message(scene, objects, x, np.concatenate(bodies), outside, lo, hi))
+    check_overlap(scene.path, x, body_id, [o.name for o in objects], lo, dx)   # two bodies fused into one
     extras = scene_extras(scene, scenery, x, dx)  # colliders may name static objects
     for o in objects:   # PhysGaussian's layout: each centre's rest neighbours among its object's carried points
         if o.spec.surface_points == "centres":
