@@ -45,11 +45,11 @@ def check_spz(path: Path) -> None:
         head = f.read(16)
         if head[:4] == b"NGSP" and len(head) == 16:   # v4: zstd sections of the sizes its count implies
             n, sh_degree = struct.unpack_from("<IB", head, 8)
-            check_count(path, n, "its header")
             need = (9 + 1 + 3 + 3 + 4 + 3 * _SH_DIM[min(sh_degree, 3)]) * n
             if need > limit:
                 reject_file(path, f"the header declares {n:,} points, {need:,} bytes of sections: more than "
                             f"{MAX_RATIO} times the file's {size:,} bytes can hold (a zstd bomb?)")
+            check_count(path, n, "its header")
             return
         if head[:2] != b"\x1f\x8b":
             return
@@ -86,6 +86,7 @@ def check_spz(path: Path) -> None:
     if expected is None or total < expected:
         reject_file(path, f"truncated: {total:,} bytes decompressed, the header's count needs "
                     f"{expected if expected is not None else 16:,}")
+    check_count(path, struct.unpack_from("<I", head, 8)[0], "its header")   # a whole stream: its count, decoded
 
 
 def _expected(path: Path, head: bytes) -> int:
@@ -94,6 +95,5 @@ def _expected(path: Path, head: bytes) -> int:
     if magic != NGSP or version not in (1, 2, 3) or sh_degree > 3:
         reject_file(path, f"not an SPZ stream (magic 0x{magic:08x}, version {version}, SH degree {sh_degree}); "
                     "expected NGSP version 1-3, SH degree 0-3")
-    check_count(path, n, "its header")
     rot = 4 if version >= 3 else 3
     return 16 + (9 + 1 + 3 + 3 + rot + 3 * _SH_DIM[sh_degree]) * n

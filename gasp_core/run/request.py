@@ -79,7 +79,7 @@ class SimulateRequest:
         if self.hold is not None:
             from pathlib import Path
             h = Path(self.hold)
-            if not self.hold.strip() or h.name in ("", ".", "..") or h.is_dir():
+            if not str(self.hold).strip() or h.name in ("", ".", "..") or h.is_dir():
                 raise GaspError(f"--hold {self.hold!r}: expected the path of a file whose removal releases the run "
                                 "(not empty, not a folder)")
 
