@@ -63,6 +63,17 @@ def test_a_2gb_splat_is_refused_from_its_size_in_one_line(tmp_path, command):
     assert "67,108,864 Gaussians" in line and "its size" in line and "16.0 GiB" in line
 
 
+def test_a_ksplat_header_claiming_4_billion_splats_is_refused_from_its_header(tmp_path):
+    """A GaussianSplats3D header (version 0.1, level 0) whose splat count is 2^32 - 1, and nothing after it."""
+    head = bytearray(4096)
+    head[0:2] = bytes([0, 1])
+    struct.pack_into("<I", head, 4, 1)
+    struct.pack_into("<I", head, 16, 2**32 - 1)
+    (tmp_path / "big.ksplat").write_bytes(bytes(head) + bytes(1024))
+    r = gasp_in_2g("info", str(tmp_path / "big.ksplat"))
+    assert "4,294,967,295 Gaussians" in one_error(r.stderr, r.returncode)
+
+
 def _ply_header(n: int) -> bytes:
     props = "".join(f"property float {p}\n" for p in ("x", "y", "z", "f_dc_0", "f_dc_1", "f_dc_2", "opacity",
                                                       "scale_0", "scale_1", "scale_2", "rot_0", "rot_1", "rot_2",
@@ -96,7 +107,7 @@ def write_splat(path: Path, g) -> None:
 
 def test_the_bound_is_the_stated_share_of_memory_two_sided(monkeypatch, tmp_path):
     """Each file reads with room for exactly its count and is refused with room for one less (the count each
-    reader bounds is the file's own): a PLY (header), a .splat (size), a .splatv and a .glb (size over the least
+    reader bounds is the file's own): a PLY, a .spz and a .sog (header), a .splat (size), a .splatv and a .glb (size over the least
     a record takes, 64 and 56 bytes: their headers counted as records, the bound errs early, never late)."""
     from gasp_core.gs import bound
     from gasp_core.gs.gltf import write_glb
@@ -106,6 +117,8 @@ def test_the_bound_is_the_stated_share_of_memory_two_sided(monkeypatch, tmp_path
     if needs_package("pygltflib"):
         write_glb(tmp_path / "d.glb", donut)
         files[tmp_path / "d.glb"] = (tmp_path / "d.glb").stat().st_size // 56
+    if needs_package("gsply"):     # .spz's header count, .sog's meta.json count: 1,000 each
+        files.update({DATA / "train-1000.spz": 1000, DATA / "train-1000.sog": 1000})
     counts = {path: read_gaussians(path).n if bounded is None else bounded for path, bounded in files.items()}
     for path, n in counts.items():
         monkeypatch.setattr(bound, "machine_bytes", lambda n=n: (n * bound.READ_BYTES + 1) / bound.SHARE)

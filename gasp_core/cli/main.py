@@ -3,7 +3,8 @@
 Every error is one line on stderr, ``gasp: error: ...``, with an exit status from the error
 contract (:mod:`gasp_core.errors`): 2 for what the user can fix (bad input, unknown engine,
 missing capability, existing output, a folder that cannot be written), 3 when the engine blew up,
-4 for a bug in an engine (its traceback saved to a file the line names), 130 when stopped
+4 for a bug in an engine (its traceback saved to a file the line names), 1 for any other exception (the last
+resort: a bug in gasp, one line, its traceback saved to a file the line names), 130 when stopped
 (Ctrl-C, SIGTERM, SIGHUP: ``gasp simulate`` finishes the frame in flight and keeps the finished frames
 for ``--resume``, :mod:`gasp_core.run.stop`). NumPy's floating-point warnings are held back and
 printed only after a run that succeeded: before an error line they would be noise.
