@@ -464,3 +464,19 @@ def test_gasp_view_answers_a_half_http_request_without_a_traceback(mini_run, cap
     out, err = capfd.readouterr()
     assert "Traceback" not in out + err, out + err
     assert not [r for r in caplog.records if r.exc_info], [r.getMessage() for r in caplog.records]
+
+
+def test_a_usd_export_onto_a_full_disk_is_one_line_and_leaves_nothing(tmp_path, mini_run):
+    """The disk runs out while OpenUSD saves (pxr.Tf.ErrorException): a file-size limit of 20 kB on the process
+    makes its writes fail as a full disk's do (EFBIG for ENOSPC; SIGXFSZ ignored)."""
+    needs_package("pxr")
+    import signal
+
+    def small_disk():
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (20_000, 20_000))
+    r = subprocess.run([sys.executable, "-m", "gasp_core", "export", str(mini_run), "--format", "usd", "-o",
+                        str(tmp_path / "o.usdc")], preexec_fn=small_disk, capture_output=True, text=True, timeout=120)
+    line = one_error(r.stderr, r.returncode)
+    assert "OpenUSD could not save" in line and "File too large" in line and "disk full" in line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]

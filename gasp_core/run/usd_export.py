@@ -19,6 +19,7 @@ What GASP writes:
 """
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -105,7 +106,8 @@ def write_usd(path, frames, names: list[str], up_axes: list[str], frame_dt: floa
         try:
             stage.GetRootLayer().Save()
         except RuntimeError as e:   # pxr.Tf.ErrorException: a full disk, a folder gone or not writable
-            why = (str(e).strip().splitlines() or [type(e).__name__])[-1][:200]
+            first = re.search(r" : '([^']*)'", str(e))   # Tf's first error: "Error occurred writing file: ..."
+            why = first.group(1)[:200] if first else type(e).__name__
             raise OSError(f"OpenUSD could not save {path} ({why}); is the disk full or the folder not "
                           "writable?") from None
         del stage
