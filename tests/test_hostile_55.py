@@ -480,3 +480,11 @@ def test_a_usd_export_onto_a_full_disk_is_one_line_and_leaves_nothing(tmp_path, 
     line = one_error(r.stderr, r.returncode)
     assert "OpenUSD could not save" in line and "File too large" in line and "disk full" in line
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
+
+
+@pytest.mark.parametrize("name", ["run.json", "frames.json"])
+def test_a_run_folders_json_nested_200000_deep_is_one_line(tmp_path, mini_run, capsys, name):
+    (mini_run / name).write_bytes(DEEP)
+    code = main(["export", str(mini_run), "--format", "ply", "-o", str(tmp_path / "o")])
+    line = one_error(capsys.readouterr().err, code)
+    assert name in line and "RecursionError" in line
