@@ -78,6 +78,20 @@ class EngineBug(GaspError):
             f"to its authors{saved}")
 
 
+def save_traceback(e: BaseException, prefix: str, heading: str) -> str:
+    """Write ``e``'s full traceback, after the line ``heading``, to a new temporary file named ``prefix...txt``;
+    its path, or ``""`` when it cannot be written (a full disk)."""
+    import tempfile
+    import traceback
+    try:
+        fd, path = tempfile.mkstemp(prefix=prefix, suffix=".txt")
+        with os.fdopen(fd, "w") as f:
+            f.write(f"{heading}\n" + "".join(traceback.format_exception(e)))
+    except (OSError, RecursionError):
+        return ""
+    return path
+
+
 #: The optional packages the core (and gasp_studies) import, by top-level module, and the extra of
 #: ``pyproject.toml`` that installs each (Pillow comes with imageio, the render extra).
 EXTRA_OF = {"imageio": "render", "imageio_ffmpeg": "render", "numba": "render", "PIL": "render",

@@ -72,7 +72,7 @@ def unexpected_entries(folder: Path) -> list[str]:
         files, dirs = marker["files"], set(marker["dirs"])
         if not isinstance(files, dict):
             raise TypeError("files")
-    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+    except (OSError, ValueError, KeyError, TypeError, AttributeError, RecursionError):
         return [NO_LIST]
     extra = []
     try:

@@ -3,7 +3,8 @@
 Every error is one line on stderr, ``gasp: error: ...``, with an exit status from the error
 contract (:mod:`gasp_core.errors`): 2 for what the user can fix (bad input, unknown engine,
 missing capability, existing output, a folder that cannot be written), 3 when the engine blew up,
-4 for a bug in an engine (its traceback saved to a file the line names), 130 when stopped
+4 for a bug in an engine (its traceback saved to a file the line names), 1 for any other exception (the last
+resort: a bug in gasp, one line, its traceback saved to a file the line names), 130 when stopped
 (Ctrl-C, SIGTERM, SIGHUP: ``gasp simulate`` finishes the frame in flight and keeps the finished frames
 for ``--resume``, :mod:`gasp_core.run.stop`). NumPy's floating-point warnings are held back and
 printed only after a run that succeeded: before an error line they would be noise.
@@ -30,7 +31,8 @@ import warnings
 from gasp_core.cli import early, streams
 from gasp_core.cli.args import GaspArgumentParser, length, positive_float, positive_int
 from gasp_core.cli.simulate import add_simulate_parser, reporter_for
-from gasp_core.errors import EngineBug, EngineDivergence, GaspError, extra_hint, missing_module_message
+from gasp_core.errors import (EngineBug, EngineDivergence, GaspError, extra_hint, missing_module_message,
+                              save_traceback)
 from gasp_core.scene.values import UP_AXES
 from gasp_core.run import stop
 from gasp_core.run.report import ConsoleReporter, Reporter
@@ -335,9 +337,20 @@ def _run(args, reporter: Reporter) -> int:
     except ImportError as e:             # an optional extra that is not installed: its install line
         message = missing_module_message(e, f"'gasp {args.command}'")
         if message is None:
-            raise
+            return _last_resort(e, args, reporter)
         reporter.error(f"error: {message}", 2)
         return 2
+    except Exception as e:               # the last resort: any other exception is one line, its traceback saved
+        return _last_resort(e, args, reporter)
+
+
+def _last_resort(e: Exception, args, reporter: Reporter) -> int:
+    """An exception outside the error contract: one line naming it and the file its traceback was saved to
+    (:func:`gasp_core.errors.save_traceback`, as :class:`EngineBug` does); exit status 1."""
+    saved = save_traceback(e, f"gasp-bug-{args.command}-", f"gasp {args.command}")
+    reporter.error(f"error: unexpected {type(e).__name__}: {str(e)[:300] or '(no message)'}; this is a bug in "
+                   f"gasp, not in your input{f'; traceback saved to {saved}' if saved else ''}", 1)
+    return 1
 
 
 def _exit_status(e: BaseException) -> int:

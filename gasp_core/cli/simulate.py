@@ -54,12 +54,13 @@ def cmd_simulate(args) -> int:
     """Run ``args.scene`` (``args.reporter`` receives its events) and report the result; exit status 0."""
     from gasp_core.run.pipeline import simulate_scene
     from gasp_core.scene.spec import load_scene
+    request = request_from(args)   # its options checked before the scene is loaded
     scene = load_scene(args.scene, quality=args.quality)
     out = args.output or scene.output
     if out is None:
         raise GaspError("no output folder: pass -o OUTDIR or set 'output' in the scene")
     reporter = args.reporter
-    res = simulate_scene(scene, out, request_from(args), reporter=reporter)
+    res = simulate_scene(scene, out, request, reporter=reporter)
     s = res.summary
     fps = len(s["frames"]) - 1
     per_frame = sum(f.get("sim_s", 0.0) for f in s["frames"]) / max(fps, 1)

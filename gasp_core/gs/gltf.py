@@ -34,6 +34,7 @@ import numpy as np
 
 from gasp_core.errors import SceneError
 from gasp_core.fsutil import atomic_write
+from gasp_core.gs.bound import check_count
 from gasp_core.gs.gaussians import Gaussians, quat_to_rotmat, rotmat_to_quat
 from gasp_core.gs.ply import SH_C0, reject_file
 
@@ -210,15 +211,19 @@ def read_glb(path, fmt: str = "glb") -> Gaussians:
         pygltflib not installed.
     """
     gl = gltf_module(path)
+    # 56 bytes a splat at least (float32 POSITION, ROTATION, SCALE, OPACITY, SH 0): bounded before it is read
+    check_count(path, Path(path).stat().st_size // 56, "its size")
     try:
         doc = gl.GLTF2().load_binary(str(path))
         blob = doc.binary_blob()
     except Exception as e:   # pygltflib raises several kinds for a corrupt file
         reject_file(path, f"not a readable GLB file (truncated or corrupt?): {type(e).__name__}: {e}")
-    prims = [p for m in doc.meshes for p in m.primitives if EXT in (p.extensions or {})]
+    prims = [p for m in (doc.meshes or []) for p in (m.primitives or []) if EXT in (p.extensions or {})]
     if not prims:
         reject_file(path, f"no primitive with {EXT}; expected a Gaussian Splatting glTF")
     attrs = prims[0].attributes
+    if attrs is None or not (isinstance(attrs, dict) or hasattr(attrs, "__dict__")):
+        reject_file(path, f"the {EXT} primitive's attributes are {attrs!r}; expected a table of accessors")
     attrs = attrs if isinstance(attrs, dict) else {k: v for k, v in vars(attrs).items() if v is not None}
 
     def column(name, width, required=True):

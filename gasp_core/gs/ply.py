@@ -1,6 +1,7 @@
 """Helpers shared by the Gaussian Splatting readers (:mod:`gasp_core.gs.io`): PLY parsing and checks."""
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import NoReturn
 
@@ -8,6 +9,7 @@ import numpy as np
 from plyfile import PlyData, PlyListProperty
 
 from gasp_core.errors import SceneError
+from gasp_core.gs.bound import check_count
 
 
 #: Degree-0 real spherical harmonic, ``1 / (2 sqrt(pi))``; colour = ``0.5 + SH_C0 * f_dc``.
@@ -34,9 +36,13 @@ def read_ply(path) -> PlyData:
         with open(path, "rb") as f:
             # plyfile's mmap=False path parses row by row (seconds per 45k-vertex file); map the file
             # copy-on-write instead and copy the arrays out, so the file can be replaced afterwards
+            check_count(path, _header_vertices(f.read(65536)), "its header")   # before the file is mapped
+            f.seek(0)
             ply = PlyData.read(f, mmap="c")
             for el in ply.elements:
                 el.data = np.array(el.data)
+    except SceneError:
+        raise
     except Exception as exc:  # plyfile raises PlyHeaderParseError, PlyElementParseError, ...
         msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         reject_file(path, f"not a readable PLY file (truncated or corrupt?): {msg}")
@@ -47,6 +53,12 @@ def read_ply(path) -> PlyData:
                 reject_file(path, f"element '{el.name}' property '{lists[0]}' is a list; expected scalar "
                             "properties (one number per splat)")
     return ply
+
+
+def _header_vertices(head: bytes) -> int:
+    """The ``element vertex N`` count of a PLY header's first bytes (0 when it says none)."""
+    m = re.search(rb"^element\s+vertex\s+(\d+)", head.split(b"end_header", 1)[0], re.MULTILINE)
+    return int(m.group(1)) if m else 0
 
 
 def check_is_file(path: Path, what: str) -> None:

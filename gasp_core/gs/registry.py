@@ -192,7 +192,15 @@ def _ply_kind(path: Path) -> str:
 
 def glb_has_splats(path) -> bool:
     """Whether the GLB at ``path`` lists ``KHR_gaussian_splatting`` in ``extensionsUsed`` (reads its JSON chunk only,
-    at most 64 MiB; a glTF without it is a mesh)."""
+    at most 64 MiB; a glTF without it is a mesh).
+
+    Raises
+    ------
+    SceneError
+        A JSON chunk longer than the file or 64 MiB, cut short, nested too deep or not JSON: the file is corrupt,
+        whatever it holds (never called a mesh).
+    """
+    size = Path(path).stat().st_size
     with open(path, "rb") as f:
         head = f.read(20)
         if len(head) < 20:
@@ -200,10 +208,14 @@ def glb_has_splats(path) -> bool:
         length, kind = struct.unpack_from("<II", head, 12)
         if kind != 0x4E4F534A:   # "JSON"
             return False
+        if length > min(size - 20, 1 << 26):
+            reject_file(path, f"a GLB whose JSON chunk says {length:,} bytes; the file has {size:,} bytes in all "
+                        "and GASP reads at most 64 MiB of JSON (truncated or corrupt?)")
         try:
-            doc = json.loads(f.read(min(length, 1 << 26)))
-        except ValueError:
-            return False
+            doc = json.loads(f.read(length))
+        except (ValueError, RecursionError) as e:   # cut inside the JSON; nested 200,000 deep
+            reject_file(path, f"a GLB whose JSON chunk is not readable JSON (truncated or corrupt?): "
+                        f"{type(e).__name__}: {str(e)[:200]}")
     return isinstance(doc, dict) and "KHR_gaussian_splatting" in (doc.get("extensionsUsed") or [])
 
 

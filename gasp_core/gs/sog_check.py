@@ -23,6 +23,7 @@ import zipfile
 from pathlib import Path
 
 from gasp_core.errors import SceneError
+from gasp_core.gs.bound import check_count
 from gasp_core.gs.ply import reject_file
 
 #: Largest splat count a ``.sog`` may declare (its images would be 46k x 46k pixels).
@@ -166,9 +167,10 @@ def _collect(path: Path, read) -> bytes:
         _bad(path, "(size)", "larger than 16 MiB")
     try:
         meta = json.loads(raw.decode("utf-8"))
-    except (UnicodeDecodeError, ValueError) as e:
-        _bad(path, "(text)", f"not JSON ({e})")
+    except (UnicodeDecodeError, ValueError, RecursionError) as e:   # nested 200,000 deep: RecursionError
+        _bad(path, "(text)", f"not JSON ({type(e).__name__}: {str(e)[:200]})")
     count, images = _check_meta(path, meta)
+    check_count(path, count, "its meta.json count")
     out = io.BytesIO()
     held = 0
     with zipfile.ZipFile(out, "w", zipfile.ZIP_STORED) as z:

@@ -6,7 +6,8 @@ from pathlib import Path
 import numpy as np
 
 from gasp_core.gs.gaussians import Gaussians
-from gasp_core.gs.ply import LOGIT_CLAMP, SH_C0, reject_file
+from gasp_core.gs.bound import check_count
+from gasp_core.gs.ply import LOGIT_CLAMP, SH_C0, check_is_file, reject_file
 
 _SPLAT_RECORD = 32  # bytes per splat in a .splat file
 _KSPLAT_HEADER, _KSPLAT_SECTION_HEADER = 4096, 1024
@@ -57,10 +58,13 @@ def read_splat(path) -> Gaussians:
         A size that is not a whole number of records, a non-finite position, a zero quaternion.
     """
     path = Path(path)
-    raw = path.read_bytes()
-    if not raw or len(raw) % _SPLAT_RECORD:
-        reject_file(path, f"{len(raw)} bytes is not a whole number of {_SPLAT_RECORD}-byte .splat records; "
+    check_is_file(path, ".splat file")
+    size = path.stat().st_size
+    if not size or size % _SPLAT_RECORD:
+        reject_file(path, f"{size} bytes is not a whole number of {_SPLAT_RECORD}-byte .splat records; "
                     "truncated?")
+    check_count(path, size // _SPLAT_RECORD, "its size")   # no header: bounded before a byte is decoded
+    raw = path.read_bytes()
     rec = np.frombuffer(raw, dtype=np.dtype([("pos", "<f4", 3), ("scale", "<f4", 3), ("rgba", "u1", 4),
                                              ("rot", "u1", 4)]))
     means = rec["pos"].astype(np.float64)
@@ -99,9 +103,13 @@ def read_ksplat(path) -> Gaussians:
         that does not match the sections, a non-finite position, a zero quaternion.
     """
     path = Path(path)
+    check_is_file(path, ".ksplat file")
+    with open(path, "rb") as f:
+        head = f.read(_KSPLAT_HEADER)
+    if len(head) < _KSPLAT_HEADER:
+        reject_file(path, f"{len(head)} bytes; a .ksplat file starts with a {_KSPLAT_HEADER}-byte header")
+    check_count(path, int(np.frombuffer(head, "<u4", 1, 16)[0]), "its header")
     raw = path.read_bytes()
-    if len(raw) < _KSPLAT_HEADER:
-        reject_file(path, f"{len(raw)} bytes; a .ksplat file starts with a {_KSPLAT_HEADER}-byte header")
     major, minor = raw[0], raw[1]
     n_sections = int(np.frombuffer(raw, "<u4", 1, 4)[0])
     n_total = int(np.frombuffer(raw, "<u4", 1, 16)[0])

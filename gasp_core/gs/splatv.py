@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from gasp_core.gs.bound import check_count
 from gasp_core.gs.gaussians import Gaussians
 from gasp_core.gs.ply import LOGIT_CLAMP, SH_C0, check_is_file, reject_file
 
@@ -98,18 +99,21 @@ def _header_and_body(path: Path) -> tuple[object, bytes]:
     """The JSON header of a splaTV file and its body of whole 64-byte records; :class:`SceneError` for a wrong
     magic number, a header that is not JSON or a truncated file."""
     check_is_file(path, "splaTV file")
-    raw = path.read_bytes()
-    if len(raw) < 8:
-        reject_file(path, f"splaTV file of {len(raw)} bytes; expected at least an 8-byte header")
-    magic, hlen = struct.unpack_from("<II", raw, 0)
+    with open(path, "rb") as f:
+        head = f.read(8)
+    if len(head) < 8:
+        reject_file(path, f"splaTV file of {len(head)} bytes; expected at least an 8-byte header")
+    magic, hlen = struct.unpack_from("<II", head, 0)
     if magic != _SPLATV_MAGIC:
         reject_file(path, f"magic 0x{magic:x}; expected 0x{_SPLATV_MAGIC:x} (a splaTV file)")
+    check_count(path, path.stat().st_size // _SPLATV_RECORD, "its size")   # bounded before it is read
+    raw = path.read_bytes()
     if 8 + hlen > len(raw):
         reject_file(path, f"header length {hlen} runs past the end of the file ({len(raw)} bytes); truncated?")
     try:
         header = json.loads(raw[8:8 + hlen].decode("utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        reject_file(path, f"header is not JSON: {exc}")
+    except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:   # nested 200,000 deep: RecursionError
+        reject_file(path, f"header is not JSON: {type(exc).__name__}: {str(exc)[:200]}")
     body = raw[8 + hlen:]
     if len(body) % _SPLATV_RECORD:
         reject_file(path, f"body of {len(body)} bytes is not a whole number of {_SPLATV_RECORD}-byte "

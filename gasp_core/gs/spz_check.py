@@ -22,6 +22,7 @@ import struct
 import zlib
 from pathlib import Path
 
+from gasp_core.gs.bound import check_count
 from gasp_core.gs.ply import reject_file
 
 NGSP = 0x5053474E
@@ -48,6 +49,7 @@ def check_spz(path: Path) -> None:
             if need > limit:
                 reject_file(path, f"the header declares {n:,} points, {need:,} bytes of sections: more than "
                             f"{MAX_RATIO} times the file's {size:,} bytes can hold (a zstd bomb?)")
+            check_count(path, n, "its header")
             return
         if head[:2] != b"\x1f\x8b":
             return
@@ -84,6 +86,7 @@ def check_spz(path: Path) -> None:
     if expected is None or total < expected:
         reject_file(path, f"truncated: {total:,} bytes decompressed, the header's count needs "
                     f"{expected if expected is not None else 16:,}")
+    check_count(path, struct.unpack_from("<I", head, 8)[0], "its header")   # a whole stream: its count, decoded
 
 
 def _expected(path: Path, head: bytes) -> int:

@@ -240,7 +240,7 @@ def cameras_cue(path: Path) -> Cue:
     try:
         cams = json.loads(path.read_text())
         R = np.array([c["rotation"] for c in cams], dtype=np.float64).reshape(-1, 3, 3)
-    except (OSError, ValueError, KeyError, TypeError) as e:
+    except (OSError, ValueError, KeyError, TypeError, RecursionError) as e:
         raise SceneError(f"{path}: not a graphdeco cameras.json (a list of objects with a 3x3 'rotation'): "
                          f"{e}") from None
     if not len(R):

@@ -11,7 +11,7 @@ from gasp_core.errors import SceneError
 from gasp_core.seam.setup import SimSetup, grid_spacing
 from gasp_core.maps.fill import fill_interior, fill_spacing
 from gasp_core.maps.occupancy import SPLAT_SIGMA
-from gasp_core.prepare.checks import check_kept_floaters, check_resolution
+from gasp_core.prepare.checks import check_kept_floaters, check_overlap, check_resolution
 from gasp_core.prepare.dynamic import fill_velocities, vertex_velocities
 from gasp_core.prepare.placed import PreparedObject
 from gasp_core.prepare.stand import stand_warnings
@@ -149,6 +149,7 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> tuple[SimSetup, 
     outside = ((x < lo) | (x > hi)).any(axis=1)
     if outside.any():
         raise SceneError(_outside_message(scene, objects, x, np.concatenate(bodies), outside, lo, hi))
+    check_overlap(scene.path, x, body_id, [o.name for o in objects], lo, dx)   # two bodies fused into one
     extras = scene_extras(scene, scenery, x, dx)  # colliders may name static objects
     made = iter([dataclasses.replace(o, surface=o.surface.with_fill(fr.fill_x), **a)   # the map bound to its fill
                  for o, fr, a in zip(objects, fills, assembled)])

@@ -151,3 +151,46 @@ def check_kept_floaters(path, objects) -> None:
                              f"{whole / size:.0f}x coarser); set keep_floaters = false to leave them static, select "
                              f"the part that moves (select), or give [domain] lo/hi")
 
+
+#: Share of the smaller body's grid cells that another body's points may share at the start. Bodies touching
+#: share one layer of cells (a sixth of a body six cells thick); two copies of an object at the same place share
+#: all of them, and the engine, which adds their masses on one grid, moves them as one body of double density.
+OVERLAP_SHARE = 0.5
+
+
+def check_overlap(path, x: np.ndarray, body_id: np.ndarray, names: list[str], lo: np.ndarray, dx: float) -> None:
+    """Refuse two bodies that start inside each other, as a body inside a collider is refused.
+
+    Parameters
+    ----------
+    path : str or Path
+        The scene file, for the message.
+    x : ndarray, shape (n, 3), float64
+        The simulated points (metres, world frame).
+    body_id : ndarray, shape (n,), int
+        Each point's body, an index into ``names``.
+    names : list of str
+        The bodies' object names.
+    lo : ndarray, shape (3,)
+        The domain's low corner, metres.
+    dx : float
+        Grid spacing, metres: the cells compared are the engine's.
+
+    Raises
+    ------
+    SceneError
+        Two bodies whose points share more than :data:`OVERLAP_SHARE` of the smaller one's cells: names both
+        objects, the share and the fix.
+    """
+    cells = [np.unique(np.floor((x[body_id == b] - lo) / dx).astype(np.int64) @ np.array([1, 1 << 21, 1 << 42]))
+             for b in range(len(names))]
+    boxes = [(x[body_id == b].min(axis=0), x[body_id == b].max(axis=0)) for b in range(len(names))]
+    for i in range(len(names)):
+        for j in range(i + 1, len(names)):
+            if (boxes[i][1] < boxes[j][0]).any() or (boxes[j][1] < boxes[i][0]).any():
+                continue   # boxes apart: nothing shared
+            share = np.isin(cells[i], cells[j], assume_unique=True).sum() / max(min(len(cells[i]), len(cells[j])), 1)
+            if share > OVERLAP_SHARE:
+                raise SceneError(f"{path}: objects '{names[i]}' and '{names[j]}' start inside each other ({share:.0%} "
+                                 f"of the smaller one's grid cells hold both): the engine would move them as one body "
+                                 f"of double density; move them apart (position) or make them one object")

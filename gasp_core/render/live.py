@@ -87,7 +87,7 @@ def _record(folder: Path) -> dict:
     """``folder/run.json`` as a dict; {} when missing or unreadable (being written, renamed)."""
     try:
         rec = json.loads((folder / "run.json").read_text())
-    except (OSError, ValueError):
+    except (OSError, ValueError, RecursionError):
         return {}
     return rec if isinstance(rec, dict) else {}
 

@@ -55,7 +55,7 @@ def graphdeco_camera(path, index: int, placement: dict | None = None, width: int
     path = Path(path)
     try:
         cams = json.loads(path.read_text())
-    except (OSError, ValueError) as e:
+    except (OSError, ValueError, RecursionError) as e:
         raise SceneError(f"{path}: cannot read a graphdeco cameras.json ({e})") from None
     if not isinstance(cams, list) or not cams:
         raise SceneError(f"{path}: expected a non-empty JSON list of cameras (graphdeco cameras.json)")
@@ -104,7 +104,7 @@ def keyframe_path(file):
         frames = np.array([float(k["frame"]) for k in keys])
         pos = np.array([np.asarray(k["position"], float).reshape(3) for k in keys])
         look = np.array([np.asarray(k["look_at"], float).reshape(3) for k in keys])
-    except (OSError, ValueError, KeyError, TypeError) as e:
+    except (OSError, ValueError, KeyError, TypeError, RecursionError) as e:
         raise SceneError(f"{file}: expected {{\"keyframes\": [{{\"frame\", \"position\", \"look_at\"}}, ...]}} "
                          f"({e!r})") from None
     if not len(keys):

@@ -8,7 +8,6 @@ A run folder holds ``run.json`` and its frames in any format and layout, read th
 from __future__ import annotations
 
 import contextlib
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterable, Sequence
@@ -19,6 +18,7 @@ from gasp_core.errors import SceneError
 from gasp_core.render.camera import Camera, auto_camera, ground_background, nice_step
 from gasp_core.render.splat_numpy import Splats, splats_from_gaussians
 from gasp_core.run.layout import RunFrames, open_frames
+from gasp_core.run.run_json import check_run_json
 
 
 @dataclass
@@ -72,10 +72,8 @@ def load_run(path) -> Run:
     """
     path = Path(path)
     meta_path = path / "run.json"
-    if not meta_path.is_file():
-        raise SceneError(f"{path}: not a run folder (no run.json; make one with 'gasp simulate')")
+    meta = check_run_json(path, need_frame_dt=False)   # frame_dt > 0 where given, names, up axes
     try:
-        meta = json.loads(meta_path.read_text())
         objects = meta["objects"]
         for o in objects:
             o["placement"]["R"], o["placement"]["scale"], o["placement"]["t"]  # noqa: B018 (presence)

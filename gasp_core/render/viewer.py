@@ -15,6 +15,7 @@ import numpy as np
 
 from gasp_core.errors import SceneError
 from gasp_core.render.live import FINISHED, LIVE, RUNNING, LiveRun
+from gasp_core.render.quiet_logs import QuietLogs
 from gasp_core.render.run import Run, sequence_bounds
 
 
@@ -64,6 +65,7 @@ class RunViewer:
         self.frames = [self.live.splats(i) for i in range(self.live.n_frames)]
         lo, hi = sequence_bounds(self.frames)
         gz = self.run.ground_z if self.run.ground_z is not None else float(lo[2])
+        self._quiet = QuietLogs("gasp view").__enter__()   # a half HTTP request: one line, no traceback
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
         s = self.server
         s.scene.set_up_direction("+z")
@@ -146,6 +148,7 @@ class RunViewer:
     def stop(self) -> None:
         self._stop.set()
         self.server.stop()
+        self._quiet.__exit__()
 
 
 def serve(run_dir, host: str = "127.0.0.1", port: int = 8080) -> None:

@@ -14,13 +14,13 @@ rate from its ``frame_dt``.
 """
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
-from gasp_core.errors import GaspError, SceneError
+from gasp_core.errors import GaspError
 from gasp_core.fsutil import atomic_json, output_folder
 from gasp_core.gs import registry
 from gasp_core.run.layout import open_frames
+from gasp_core.run.run_json import check_run_json
 
 #: What :func:`export_run` writes beside the frames of a per-frame export.
 EXPORT_RECORD = "export.json"
@@ -33,18 +33,13 @@ def run_facts(folder: Path) -> tuple[float, dict[str, str], set[str]]:
     Raises
     ------
     SceneError
-        No readable ``run.json`` with ``frame_dt`` (one line naming it).
+        No readable ``run.json``, or a field of it that is not what gasp simulate writes
+        (:func:`gasp_core.run.run_json.check_run_json`; one line naming it).
     """
-    p = folder / "run.json"
-    try:
-        run = json.loads(p.read_text())
-        frame_dt = float(run["frame_dt"])
-        objects = run.get("objects") or []
-    except (OSError, ValueError, KeyError, TypeError) as e:
-        raise SceneError(f"{p}: expected the run.json of a gasp simulate run with frame_dt ({e!r})") from None
-    up = {o.get("name"): o.get("up_axis", "+z") for o in objects if isinstance(o, dict)}
-    static = {o.get("name") for o in objects if isinstance(o, dict) and o.get("static")}
-    return frame_dt, up, static
+    run = check_run_json(folder)   # frame_dt > 0, object names one path component, up axes known
+    up = {o["name"]: o.get("up_axis", "+z") for o in run["objects"]}
+    static = {o["name"] for o in run["objects"] if o.get("static")}
+    return float(run["frame_dt"]), up, static
 
 
 def export_run(run, fmt: str, out, *, overwrite: bool = False, into_run: bool = False) -> dict:
@@ -70,8 +65,8 @@ def export_run(run, fmt: str, out, *, overwrite: bool = False, into_run: bool = 
     spec = registry.check_writer(fmt)
     if not into_run and (out.resolve() == run.resolve() or run.resolve() in out.resolve().parents):
         raise GaspError(f"-o {out}: inside the run folder {run}; write the export somewhere else")
+    frame_dt, up, static = run_facts(run)   # run.json checked before any frame is read
     frames = open_frames(run)
-    frame_dt, up, static = run_facts(run)
     names = [o["name"] for o in frames.manifest["objects"]]
     ups = [up.get(n, "+z") for n in names]
     if spec.sequence:
@@ -79,6 +74,8 @@ def export_run(run, fmt: str, out, *, overwrite: bool = False, into_run: bool = 
         if out.suffix.lower() not in suffixes:
             raise GaspError(f"-o {out}: --format {fmt} writes one file; expected a name ending in "
                             f"{' or '.join(suffixes)}")
+        if out.exists() and not overwrite:   # said in the command's words, before any frame is read
+            raise FileExistsError(f"-o {out}: the file exists; pass --overwrite to replace it")
         moving = [not bool(frames.manifest["objects"][k].get("static")) and n not in static
                   for k, n in enumerate(names)]
         registry.load(spec.sequence)(out, frames, names, ups, frame_dt, moving, overwrite=overwrite)

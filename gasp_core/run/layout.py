@@ -20,7 +20,6 @@ layout, and a folder of an older run without a manifest (``<object>/frame_*.ply`
 """
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -31,6 +30,7 @@ from gasp_core.fsutil import atomic_json, atomic_write
 from gasp_core.gs import registry
 from gasp_core.gs.gaussians import Gaussians
 from gasp_core.gs.io import read_gaussians
+from gasp_core.run.run_json import check_component, check_run_json, load_json
 
 MANIFEST = "frames.json"
 LAYOUTS = ("frames", "split")
@@ -190,7 +190,7 @@ class RunFrames:
             return self._once(o["static"], k)
         g = self._read(self.folder / o["frames"][frame], k)
         if not o.get("rest"):
-            return g
+            return self._whole(g, frame, k)
         rows = self._once(o["moving_rows"], k)
         rest = self._once(o["rest"], k)
         if len(rows) != g.n or len(rows) + rest.n != o["n_gaussians"]:
@@ -199,11 +199,39 @@ class RunFrames:
                              f"({o['moving_rows']}, {MANIFEST})")
         return _merge(rest, rows, g, o["n_gaussians"])
 
+    def _whole(self, g: Gaussians, frame: int, k: int) -> Gaussians:
+        """``g``, frame ``frame`` of object ``k`` in the ``frames`` layout, after checking it has the object's rows
+        (``n_gaussians``, else frame 0's): a frame cut short would give a USD whose counts differ."""
+        o = self.manifest["objects"][k]
+        if ("n", k) not in self._cache:
+            self._cache[("n", k)] = o.get("n_gaussians") or (g.n if frame == 0 else self.gaussians(0, k).n)
+        want = self._cache[("n", k)]
+        if g.n != want:
+            raise SceneError(f"{self.folder / o['frames'][frame]}: {g.n} Gaussians; the object '{o['name']}' has "
+                             f"{want} in every frame ({MANIFEST} n_gaussians, or frame 0): a cut or foreign frame")
+        return g
+
     def _once(self, rel: str, k: int):
         if rel not in self._cache:
             p = self.folder / rel
-            self._cache[rel] = np.load(p) if p.suffix == ".npy" else self._read(p, k)
+            self._cache[rel] = self._rows(p, k) if p.suffix == ".npy" else self._read(p, k)
         return self._cache[rel]
+
+    def _rows(self, path: Path, k: int) -> np.ndarray:
+        """The moving rows of object ``k`` (``moving_rows.npy``): distinct integers in ``[0, n_gaussians)``."""
+        n = self.manifest["objects"][k].get("n_gaussians", 0)
+        try:
+            rows = np.load(path, allow_pickle=False)
+        except (OSError, ValueError, EOFError) as e:   # garbage bytes; an object array (pickled)
+            raise SceneError(f"{path}: not a moving_rows.npy written by gasp simulate ({type(e).__name__}: "
+                             f"{str(e)[:120]})") from None
+        if not isinstance(rows, np.ndarray):   # an .npz archive under the name
+            raise SceneError(f"{path}: not a moving_rows.npy written by gasp simulate (an archive)")
+        if (rows.ndim != 1 or rows.dtype.kind not in "iu"
+                or (rows.size and (rows.min() < 0 or rows.max() >= n)) or len(np.unique(rows)) != rows.size):
+            raise SceneError(f"{path}: expected distinct integer row numbers in [0, {n}) ({MANIFEST}'s "
+                             f"n_gaussians), got {rows.dtype} values of shape {rows.shape}")
+        return rows.astype(np.int64)
 
     def _read(self, path: Path, k: int) -> Gaussians:
         """A frame file of object ``k`` in its file frame: a format with an up axis of its own (glTF's +Y, read back
@@ -246,27 +274,37 @@ def open_frames(folder) -> RunFrames:
     folder = Path(folder)
     path = folder / MANIFEST
     if path.is_file():
-        try:
-            manifest = json.loads(path.read_text())
-            objects = manifest["objects"]
-        except (ValueError, KeyError, TypeError) as e:
-            raise SceneError(f"{path}: not a frame manifest ({e!r})") from None
+        manifest = load_json(path)
+        objects = manifest.get("objects") if isinstance(manifest, dict) else None
     else:  # a run written before the manifest: full PLY frames per object
-        try:
-            names = [o["name"] for o in json.loads((folder / "run.json").read_text())["objects"]]
-        except (OSError, ValueError, KeyError, TypeError) as e:
-            raise SceneError(f"{folder}: neither {MANIFEST} nor a run.json listing objects ({e!r})") from None
-        objects = []
-        for name in names:
-            files = sorted((folder / name).glob("frame_*.ply"))
-            if not files:
-                raise SceneError(f"{folder / name}: no frame_*.ply files for object '{name}'")
-            objects.append({"name": name, "frames": [f"{name}/{f.name}" for f in files]})
+        if not (folder / "run.json").is_file():
+            raise SceneError(f"{folder}: neither {MANIFEST} nor a run.json listing objects")
+        names = [o["name"] for o in check_run_json(folder, need_frame_dt=False)["objects"]]
+        objects = [{"name": name, "frames": _numbered_frames(folder, name)} for name in names]
         manifest = {"format": "ply", "layout": "frames", "objects": objects}
     _check_manifest(path, manifest)
     counts = [len(o["frames"]) for o in objects if o["frames"]]
     n = min(counts) if counts else int(manifest.get("n_frames", 1))
     return RunFrames(folder, manifest, n)
+
+
+def _numbered_frames(folder: Path, name: str) -> list[str]:
+    """``name/frame_0000.ply, name/frame_0001.ply, ...`` of a run without a manifest, numbered from 0 without a
+    gap (a missing frame would shift every later frame's time).
+
+    Raises
+    ------
+    SceneError
+        No frame, or the first missing number named.
+    """
+    numbers = sorted(int(f.stem[6:]) for f in (folder / name).glob("frame_*.ply") if f.stem[6:].isdigit())
+    if not numbers:
+        raise SceneError(f"{folder / name}: no frame_*.ply files for object '{name}'")
+    missing = next((i for i, n in enumerate(numbers) if n != i), None)
+    if missing is not None:
+        raise SceneError(f"{folder / name}: frame_{missing:04d}.ply is missing (frames {numbers[0]}-{numbers[-1]} "
+                         f"otherwise, no {MANIFEST}); its times would shift: restore it or write a {MANIFEST}")
+    return [f"{name}/frame_{n:04d}.ply" for n in numbers]
 
 
 def _check_manifest(path: Path, manifest) -> None:
@@ -282,6 +320,7 @@ def _check_manifest(path: Path, manifest) -> None:
     for k, o in enumerate(manifest["objects"]):
         if not isinstance(o, dict) or not isinstance(o.get("frames"), list):
             bad(f"objects[{k}]", "expected a table with a list 'frames'")
+        check_component(o.get("name"), f"{path}: objects[{k}].name")   # a folder name under -o on export
         files = [*o["frames"], *(o[key] for key in ("static", "rest", "moving_rows") if key in o)]
         for f in files:
             if not isinstance(f, str) or Path(f).is_absolute() or ".." in Path(f).parts:
@@ -291,3 +330,6 @@ def _check_manifest(path: Path, manifest) -> None:
         n = o.get("n_gaussians", 0)
         if not isinstance(n, int) or isinstance(n, bool) or n < 0:
             bad(f"objects[{k}].n_gaussians", f"expected a count, got {n!r}")
+    names = [o["name"] for o in manifest["objects"]]
+    if len(set(names)) != len(names):
+        bad("objects", f"the name '{next(n for n in names if names.count(n) > 1)}' is there twice")

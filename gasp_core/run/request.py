@@ -30,7 +30,7 @@ class SimulateRequest:
     Raises
     ------
     GaspError
-        ``resume`` and ``discard`` both set.
+        ``resume`` and ``discard`` both set; ``hold`` not a file path (empty, ``.``, a folder).
     """
 
     #: Replace an existing gasp output folder (only after the new run succeeded).
@@ -76,6 +76,12 @@ class SimulateRequest:
     def __post_init__(self) -> None:
         if self.resume and self.discard:
             raise GaspError("--resume and --discard exclude each other: continue the stopped run, or throw it away")
+        if self.hold is not None:
+            from pathlib import Path
+            h = Path(self.hold)
+            if not str(self.hold).strip() or h.name in ("", ".", "..") or h.is_dir():
+                raise GaspError(f"--hold {self.hold!r}: expected the path of a file whose removal releases the run "
+                                "(not empty, not a folder)")
 
 
 def option_fields():

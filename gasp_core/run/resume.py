@@ -106,7 +106,7 @@ def load(folder: Path) -> Checkpoint:
                 raise ValueError("meta per_frame or files of the wrong type")
             engine_state = {k[len("engine/"):]: z[k] for k in z.files if k.startswith("engine/")}
             prev_rot = [z[f"rot/{i}"] for i in range(meta["n_rot"])]
-    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as e:
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, RecursionError) as e:
         raise GaspError(f"cannot resume from '{path}': the checkpoint is truncated or damaged ({e}); "
                         f"start again with --discard") from None
     return Checkpoint(meta["frame"], engine_state, prev_rot, meta)
@@ -167,7 +167,7 @@ def refuse_diverged(outdir: Path) -> None:
     try:
         record = json.loads((Path(outdir) / "run.json").read_text())
         diverged = record["diverged"] if record.get("status") == "diverged" else None
-    except (OSError, ValueError, TypeError, KeyError, AttributeError):
+    except (OSError, ValueError, TypeError, KeyError, AttributeError, RecursionError):
         return
     frame = diverged.get("frame") if isinstance(diverged, dict) else None
     raise GaspError(f"cannot resume '{outdir}': its run diverged at frame {frame} and a blow-up is not resumed (it "

@@ -19,6 +19,7 @@ What GASP writes:
 """
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -102,7 +103,13 @@ def write_usd(path, frames, names: list[str], up_axes: list[str], frame_dt: floa
                 attrs[0].Set(Vt.Vec3fArray.FromNumpy(g.means.astype(np.float32)), time)
                 attrs[1].Set(Vt.QuatfArray.FromNumpy(np.ascontiguousarray(q[:, [1, 2, 3, 0]])), time)
                 attrs[2].Set(Vt.Vec3fArray.FromNumpy(g.scales.astype(np.float32)), time)
-        stage.GetRootLayer().Save()
+        try:
+            stage.GetRootLayer().Save()
+        except RuntimeError as e:   # pxr.Tf.ErrorException: a full disk, a folder gone or not writable
+            first = re.search(r" : '([^']*)'", str(e))   # Tf's first error: "Error occurred writing file: ..."
+            why = first.group(1)[:200] if first else type(e).__name__
+            raise OSError(f"OpenUSD could not save {path} ({why}); is the disk full or the folder not "
+                          "writable?") from None
         del stage
     return path
 

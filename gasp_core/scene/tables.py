@@ -69,9 +69,10 @@ def read_material(value, where: str, src: Path) -> Material:
     uses = ("name",) + MATERIAL_KINDS[name].keys + (("model",) if name in RIGID_KINDS else ())
     unused = sorted(set(table) - set(uses))
     if unused:
-        others = sorted({m for k in unused for m, kind in MATERIAL_KINDS.items() if k in kind.keys})
-        raise SceneError(f"{src}: {where}: material {name!r} does not use {unused} (a key of "
-                         f"{', '.join(others)}); {name!r} takes {sorted(uses)}")
+        others = sorted({m for k in unused for m, kind in MATERIAL_KINDS.items()
+                         if k in kind.keys or (k == "model" and m in RIGID_KINDS)})   # model: the rigid ones'
+        of = f" (a key of {', '.join(others)})" if others else ""
+        raise SceneError(f"{src}: {where}: material {name!r} does not use {unused}{of}; {name!r} takes {sorted(uses)}")
     kw: dict[str, Any] = {"name": name}
     if "model" in table:
         kw["model"] = as_string(table["model"], f"{where}.model", src, BODY_MODELS)

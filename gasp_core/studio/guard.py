@@ -15,7 +15,7 @@
   nothing.
 * **the files** (:func:`inside`): a path from the page is a file inside the studio's folder (or the folder
   named by ``--save-dir``), never ``..``, never through a symlink that leads out.
-* **the logs** (:class:`QuietLogs`): a malformed HTTP request or websocket message costs its connection and at
+* **the logs** (:class:`gasp_core.render.quiet_logs.QuietLogs`): a malformed HTTP request or websocket message costs its connection and at
   most one line in the server's output, never a traceback.
 """
 from __future__ import annotations
@@ -23,7 +23,6 @@ from __future__ import annotations
 import contextlib
 import http
 import ipaddress
-import logging
 import math
 import secrets
 import threading
@@ -32,6 +31,7 @@ from pathlib import Path
 from urllib.parse import parse_qs, urlsplit
 
 from gasp_core.errors import SceneError
+from gasp_core.render.quiet_logs import QuietLogs  # noqa: F401  (the studio's, beside its other guards)
 
 def one_line(text: str) -> str:
     """``text`` on one line (a message from a library may span several)."""
@@ -266,34 +266,6 @@ def inside(folder: Path, text, field: str, suffix: str) -> Path:
 
 
 # -- logs ---------------------------------------------------------------------------------------------------
-class QuietLogs(logging.Filter):
-    """On the ``websockets.server`` logger: a connection that failed its handshake or sent what viser cannot read
-    (garbage MessagePack, an unknown message type) gives one line, without its traceback; a connection closed
-    before it said anything (browsers open spare ones) gives none."""
-
-    LOGGER = "websockets.server"
-
-    def filter(self, record: logging.LogRecord) -> bool:
-        if record.exc_info is None:
-            return record.levelno < logging.WARNING or record.getMessage() not in (
-                "opening handshake failed", "connection rejected (200 OK)")
-        exc = record.exc_info[1]
-        record.exc_info, record.exc_text, record.stack_info = None, None, None
-        cause = exc.__cause__ or exc
-        if isinstance(cause, (EOFError, ConnectionError, TimeoutError)):
-            return False
-        what = "a request that is not HTTP" if "handshake" in record.getMessage() else "a message it cannot read"
-        record.msg, record.args = f"gasp studio: closed a connection that sent {what} ({type(cause).__name__})", ()
-        return True
-
-    def __enter__(self):
-        logging.getLogger(self.LOGGER).addFilter(self)
-        return self
-
-    def __exit__(self, *exc):
-        logging.getLogger(self.LOGGER).removeFilter(self)
-
-
 def guard_messages(server, say) -> None:
     """Every GUI value from the page through :func:`check_update` before viser casts it (a refusal: one line in the
     page through ``say``, nothing changed); any other message a handler cannot use: one line, no traceback.
