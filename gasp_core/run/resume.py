@@ -166,13 +166,28 @@ def refuse_diverged(outdir: Path) -> None:
     """
     try:
         record = json.loads((Path(outdir) / "run.json").read_text())
-        diverged = record["diverged"] if record.get("status") == "diverged" else None
+        if record.get("status") != "diverged":
+            return                           # a finished run (no status) is not a blow-up: find_resumable says so
+        diverged = record["diverged"]
     except (OSError, ValueError, TypeError, KeyError, AttributeError):
         return
     frame = diverged.get("frame") if isinstance(diverged, dict) else None
     raise GaspError(f"cannot resume '{outdir}': its run diverged at frame {frame} and a blow-up is not resumed (it "
                     f"would come again); its frames before it are kept there; change the scene (a smaller time step, "
                     f"a softer material, walls) and run again with --overwrite, or with another -o")
+
+
+def _finished_message(outdir: Path) -> str:
+    """The line for ``--resume`` of a folder that holds a finished run and no killed one (issue 55: it was told
+    its run had blown up): what is there and what ``--overwrite`` would do instead."""
+    try:
+        record = json.loads((outdir / "run.json").read_text())
+        frames = f"{int(record['n_frames'])} frames, " if isinstance(record, dict) and "n_frames" in record else ""
+    except (OSError, ValueError, TypeError, KeyError):
+        frames = ""
+    return (f"nothing to resume for '{outdir}': it holds a finished run ({frames}{outdir / 'run.json'}) and no "
+            f"killed run's partial folder; the run is finished. --overwrite (without --resume) would simulate it "
+            f"again from frame 0 and replace those frames once the new run finishes; another -o keeps them")
 
 
 def find_resumable(outdir: Path, run_fingerprint: str) -> tuple[Path, Checkpoint]:
@@ -184,6 +199,8 @@ def find_resumable(outdir: Path, run_fingerprint: str) -> tuple[Path, Checkpoint
         None is found, or the checkpoints found belong to another scene, input or setting.
     """
     candidates = [p for p in leftover_partials(outdir) if (p / CHECKPOINT).exists()]
+    if not candidates and (Path(outdir) / "run.json").is_file():
+        raise GaspError(_finished_message(Path(outdir)))
     if not candidates:
         raise GaspError(f"nothing to resume for '{outdir}': no partial folder of a killed run with a checkpoint "
                         f"(.{outdir.name}.partial-*/{CHECKPOINT}); run without --resume")
