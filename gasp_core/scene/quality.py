@@ -5,10 +5,11 @@ Each level is a set of scene keys and engine options, measured on the README sce
 a key the file sets (``[domain] n_grid``, an object's ``surface``, an engine option) always wins,
 except ``n_grid``, which a level scales (``grid_factor``) from the file's value.
 
-* ``draft``: the cheapest model measured (on the README donut's first 12 frames 2.53x cheaper than the full
-  model in CPU time, its shape after the best rigid fit 2.33 U from it, U = the full model's distance to its
-  ``n_grid`` 48 twin; particle contact, passive points held by the ground: docs/contact.md): passive surface points (``surface = "passive"``), 2 fill points per cell, the grid
-  velocity gathered at them every 16th substep, ``cfl`` 0.8.
+* ``draft``: ``default``'s model with half its fill points (2 per cell) and the grid velocity gathered at
+  passive points every 16th substep, ``cfl`` 0.8: never more points than ``default`` on any scene, and never more
+  time per frame (issue 55: the draft before it made every surface passive, which on an elastic body means its
+  three triangle vertices per Gaussian, not the centres ``default`` simulates: 151,503 points against 65,036 on
+  the README donut; docs/speed_accuracy.md, "draft against default").
 * ``default``: chosen by the rule of ``docs/speed_accuracy.md`` ("Choosing the default": the cheapest setting
   whose shape residual is within 1.5 U, whose events are in their bands and whose renders are as close to the
   reference's as its twin's). No cheaper model meets it on the elastic donut (passive points: 2.7x at 2.4 U,
@@ -90,7 +91,7 @@ class QualityPreset:
 STATIC_SKIPS = ("surface_points",)
 
 PRESETS: dict[str, QualityPreset] = {
-    "draft": QualityPreset({"surface": "passive", "surface_points": "auto"}, {"particles_per_cell": 2}, 1.0,
+    "draft": QualityPreset({"surface": "auto", "surface_points": "auto"}, {"particles_per_cell": 2}, 1.0,
                            {"passive_every": 16, "cfl": 0.8}),
     "default": QualityPreset({"surface": "auto", "surface_points": "auto"}, {"particles_per_cell": 4}, 1.0,
                              {"passive_every": 8, "cfl": 0.8}),
