@@ -90,7 +90,8 @@ def main() -> None:
                                                      indent=1))
     lines = [f"# draft against default (`python benchmarks/bench_draft.py --frames {args.frames}`)", "",
              f"Every example scene the core engines run, {args.frames} frames, the frames after the first timed "
-             f"(sim s a frame: the run's result, every frame; wall and CPU s a frame: its frame rows from frame 2). Machine: "
+             "(sim s a frame: the run's result, every frame; wall and CPU s a frame: its frame rows from frame 2). "
+             f"Machine: "
              f"{os.cpu_count()} cores, {platform.platform()}, load average {load[0]:.1f} at the end (shared: "
              "times are inflated and noisy, the points and substeps are exact).", "",
              "| scene | level | points | substeps/frame | sim s/frame | wall s/frame | CPU s/frame |",
