@@ -1,7 +1,7 @@
 """``--quality draft`` against ``default`` on every example scene (issue 55: draft must never simulate more
 points nor cost more time than default): simulated points, substeps a frame, and the cost of the frames after the
 first (wall and CPU seconds a frame), for ``default``, ``draft``, and the draft before issue 55 (``draft`` with
-every object's ``surface = "passive"``, what that level set then).
+every object's ``surface = "passive"`` and ``surface_points = "vertices"``, what that level gave then).
 
 Each run is a ``gasp simulate SCENE --quality Q --frames F --json`` process of its own; the first frame (the
 engine's build, kernels loaded or compiled) is left out of the per-frame figures. CPU seconds are the process's
@@ -28,7 +28,8 @@ VARIANTS = ("default", "draft", "draft before issue 55")
 
 
 def old_draft_scene(scene: Path, where: Path) -> Path:
-    """``scene`` with ``surface = "passive"`` on every object that is not static, its paths made absolute."""
+    """``scene`` with ``surface = "passive"`` and ``surface_points = "vertices"`` on every object that is not static,
+    its paths made absolute."""
     import tomli_w
     data = tomllib.loads(scene.read_text())
     for o in data.get("object", []):
@@ -39,7 +40,7 @@ def old_draft_scene(scene: Path, where: Path) -> Path:
         if isinstance(sel, dict) and isinstance(sel.get("mask"), str):
             sel["mask"] = str((scene.parent / sel["mask"]).resolve())
         if not o.get("static"):
-            o["surface"] = "passive"
+            o["surface"], o["surface_points"] = "passive", "vertices"
     for c in data.get("collider", []):
         for key in ("file", "mesh"):
             if isinstance(c.get(key), str):

@@ -22,7 +22,7 @@ from gasp_testing import scene_text, needs_package
 def test_levels_fill_in_only_what_the_file_leaves_out(donut_small, write_scene):
     path = write_scene(scene_text(donut_small, n_grid=24))
     d, dr, r = (load_scene(path, quality=q) for q in QUALITY_LEVELS)
-    assert (d.quality, d.domain.n_grid, d.domain.particles_per_cell, d.objects[0].surface) == ("draft", 24, 2, "auto")
+    assert (d.quality, d.domain.n_grid, d.domain.particles_per_cell, d.objects[0].surface) == ("draft", 24, 2, "passive")
     assert (dr.domain.n_grid, dr.domain.particles_per_cell, dr.objects[0].surface) == (24, 4, "auto")
     assert (r.domain.n_grid, r.domain.particles_per_cell, r.objects[0].surface, r.objects[0].core_fraction) == \
         (36, 8, "material", 1.0)

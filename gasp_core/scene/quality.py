@@ -5,11 +5,13 @@ Each level is a set of scene keys and engine options, measured on the README sce
 a key the file sets (``[domain] n_grid``, an object's ``surface``, an engine option) always wins,
 except ``n_grid``, which a level scales (``grid_factor``) from the file's value.
 
-* ``draft``: ``default``'s model with half its fill points (2 per cell) and the grid velocity gathered at
-  passive points every 16th substep, ``cfl`` 0.8: never more points than ``default`` on any scene, and never more
-  time per frame (issue 55: the draft before it made every surface passive, which on an elastic body means its
-  three triangle vertices per Gaussian, not the centres ``default`` simulates: 151,503 points against 65,036 on
-  the README donut; docs/speed_accuracy.md, "draft against default").
+* ``draft``: passive surface points (``surface = "passive"``), on an elastic body its Gaussians' centres alone
+  (``surface_points = "auto"``, :func:`gasp_core.prepare.surface.choose_surface_points`), 2 fill points per cell,
+  the grid velocity gathered at them every 16th substep, ``cfl`` 0.8: no more points and no more time a frame than
+  ``default`` on every example (issue 55: with three passive vertices per Gaussian it simulated 151,503 points on
+  the README donut against ``default``'s 65,036; now 60,255; docs/speed_accuracy.md, "draft against default").
+  Its accuracy figures below and in docs/speed_accuracy.md are of the vertex draft (particle contact, passive
+  points held by the ground: docs/contact.md).
 * ``default``: chosen by the rule of ``docs/speed_accuracy.md`` ("Choosing the default": the cheapest setting
   whose shape residual is within 1.5 U, whose events are in their bands and whose renders are as close to the
   reference's as its twin's). No cheaper model meets it on the elastic donut (passive points: 2.7x at 2.4 U,
@@ -91,7 +93,7 @@ class QualityPreset:
 STATIC_SKIPS = ("surface_points",)
 
 PRESETS: dict[str, QualityPreset] = {
-    "draft": QualityPreset({"surface": "auto", "surface_points": "auto"}, {"particles_per_cell": 2}, 1.0,
+    "draft": QualityPreset({"surface": "passive", "surface_points": "auto"}, {"particles_per_cell": 2}, 1.0,
                            {"passive_every": 16, "cfl": 0.8}),
     "default": QualityPreset({"surface": "auto", "surface_points": "auto"}, {"particles_per_cell": 4}, 1.0,
                              {"passive_every": 8, "cfl": 0.8}),
