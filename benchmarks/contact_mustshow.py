@@ -1,5 +1,5 @@
 """Issue 28's must-show through `gasp simulate`: a ball of 600 flat Gaussians with its fill (jelly E 2e4,
-nu 0.3, rho 300), dropped 5 cm onto ground with friction 0.5, n_grid 16, 40 frames: the Gaussians' centroid
+nu 0.3, rho 300), its bottom 10 cm (``RADIUS + DROP``) above a ground with friction 0.5, n_grid 16, 40 frames: the Gaussians' centroid
 travel (horizontal, mm) per engine and contact model, on the Fibonacci ball and with its Gaussians' centres
 jittered (uniform, +-``JITTER`` m per axis, seeded). taichi_mpm runs on all cores (its default ``threads``), so its
 sums differ from warp_mpm's in the last bits and the rolling (chaotic) motions part.
@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-N, RADIUS, DROP, JITTER = 600, 0.05, 0.05, 0.003
+N, RADIUS, DROP, JITTER = 600, 0.05, 0.05, 0.003   # position is the bottom centre: at RADIUS + DROP, a 10 cm fall
 
 
 def ball(path: Path, jitter: float) -> Path:

@@ -340,7 +340,8 @@ def bench_summary(path: Path, *, scene_name: str, scene_path: Any, n_frames: int
 def runner_line(runner) -> str:
     """One sentence on how the runs were made (for the reports)."""
     where = f"the Dask cluster at {runner.scheduler}" if runner.scheduler else \
-        f"a local Dask cluster of {runner._n_workers} one-thread worker process(es)"
+        f"a local Dask cluster of {runner._n_workers} worker process(es) running one run at a time each (the " \
+        f"engine inside a run uses the CPU threads its own options give it: see each run's run.json)"
     iso = ("every run in a fresh worker process (restarted after each run)" if runner.isolated
            else "runs sharing worker processes (they could not be restarted: " + "; ".join(runner.notes) + ")")
     return f"Runs went to {where}, {iso}; the cluster took {runner.startup_s:.1f} s to start."

@@ -257,8 +257,10 @@ class Runner:
             n = max(1, min(self.workers, os.cpu_count() or 1))
             if n < self.workers:
                 self.notes.append(f"workers: {self.workers} asked, {n} started (one per core)")
+            # dashboard_address=None still serves Dask's dashboard on its default port 8787, and warns when another
+            # cluster holds it (issue 55); ":0" takes a free port, so nothing is said
             self._cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                         dashboard_address=None, silence_logs=logging.ERROR)
+                                         dashboard_address=":0", silence_logs=logging.ERROR)
             self._client = Client(self._cluster)
             self._client.wait_for_workers(n, timeout=120)
         self._n_workers = len(self._client.nthreads())

@@ -103,19 +103,20 @@ def test_scene_key_is_checked(write_scene, donut_small):
 
 def test_auto_takes_centres_only_where_the_trade_picked_them(write_scene, donut_small):
     """The levels' ``surface_points = "auto"``: centres on an elastic body with a material surface (the README
-    donut's trade, docs/speed_accuracy.md), vertices on a passive surface, with Core Gaussians, or another
-    material."""
+    donut's trade, docs/speed_accuracy.md) and on an elastic body's passive surface (draft, issue 55), vertices on
+    the passive surface of another material, with Core Gaussians, or another material."""
     import dataclasses
     from gasp_core.prepare.surface import choose_surface_points
     spec = load_scene(write_scene(scene_text(donut_small)), quality="default").objects[0]
     assert spec.surface_points == "auto" and spec.material.name == "jelly"
     assert choose_surface_points(spec).surface_points == "centres"
     assert choose_surface_points(dataclasses.replace(spec, surface="material")).surface_points == "centres"
-    for changed in ({"surface": "passive"}, {"core_fraction": 0.5},
-                    {"material": dataclasses.replace(spec.material, name="sand")}):
+    assert choose_surface_points(dataclasses.replace(spec, surface="passive")).surface_points == "centres"
+    for changed in ({"surface": "passive", "material": dataclasses.replace(spec.material, name="sand")},
+                    {"core_fraction": 0.5}, {"material": dataclasses.replace(spec.material, name="sand")}):
         assert choose_surface_points(dataclasses.replace(spec, **changed)).surface_points == "vertices", changed
     draft = load_scene(write_scene(scene_text(donut_small)), quality="draft").objects[0]
-    assert choose_surface_points(draft).surface_points == "vertices"      # draft's surface is passive
+    assert choose_surface_points(draft).surface_points == "centres"   # draft's passive surface, elastic (issue 55)
     assert choose_surface_points(dataclasses.replace(spec, surface_points="vertices")).surface_points == "vertices"
 
 

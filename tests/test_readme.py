@@ -193,3 +193,4 @@ def test_scene_reference_example_loads(tmp_path):
     (tmp_path / "full.toml").write_text(example, encoding="utf-8")
     scene = load_scene(tmp_path / "full.toml")
     assert scene.engine.name == "taichi_mpm" and scene.objects[0].material.name == "jelly"
+

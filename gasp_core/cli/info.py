@@ -105,10 +105,11 @@ def _stand(spec: ObjectSpec, rho: float, n_grid: int):
     ground at its lowest point in a default scene (quality ``default``, jelly of density ``rho``, the grid
     ``n_grid``): the same points and ``dx`` as :func:`gasp_core.prepare.assembly.build_setup` builds, so the same
     ``E``. None when the solid has fewer than 4 points with volume."""
+    file = Path(spec.file).resolve()   # resolved once here: a relative path is not read against the scene's folder
     data = {"domain": {"n_grid": n_grid}, "boundary": [{"kind": "ground", "height": 0.0}],
-            "object": [{"file": str(spec.file), "up_axis": spec.up_axis, "scale": spec.scale,
+            "object": [{"file": str(file), "up_axis": spec.up_axis, "scale": spec.scale,
                         "material": {"name": "jelly", "E": 1e5, "nu": 0.3, "rho": rho}}]}
-    scene = parse_scene(data, Path(spec.file).parent / "gasp-info.toml")
+    scene = parse_scene(data, file.parent / "gasp-info.toml")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")     # the fill's own warnings are reported above, once
         s, _ = build_setup(scene, [prepare_object(o) for o in scene.objects])

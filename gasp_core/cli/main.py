@@ -295,7 +295,21 @@ def _show_warning(reporter: Reporter, message, category, filename, lineno, file=
     if issubclass(category, RuntimeWarning) and " encountered in " in str(message):   # numpy's floating point
         _HELD[str(message)] = _HELD.get(str(message), 0) + 1
         return
-    reporter.warning(str(message))
+    origin = _foreign_origin(filename)
+    text = " ".join(str(message).split())         # one line, whatever the library wrote
+    reporter.warning(f"from {origin} (a library GASP uses, not GASP itself): {text}" if origin else text)
+
+
+def _foreign_origin(filename) -> str:
+    """The installed package a warning was raised in when it is not GASP's (``""`` for GASP's own code and the
+    standard library): its top-level folder under ``site-packages``/``dist-packages`` (issue 55: Dask's "Port 8787
+    is already in use" read as GASP's)."""
+    parts = Path(str(filename)).parts
+    at = [i for i, p in enumerate(parts) if p in ("site-packages", "dist-packages")]
+    if not at or at[-1] + 1 >= len(parts):
+        return ""
+    name = parts[at[-1] + 1].split(".")[0]
+    return "" if name.startswith(("gasp", "_gasp")) else name
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -68,15 +68,18 @@ def choose_surface_points(spec):
 
     ``"centres"`` (PhysGaussian's layout, :mod:`gasp_core.maps.centres`) where the trade's rule picks it: an
     elastic body (:data:`ELASTIC`) whose surface is simulated as material (``surface`` ``"material"``, or
-    ``"auto"``, which keeps elastic bodies' surfaces material), all of its Gaussians simulated
+    ``"auto"``, which keeps elastic bodies' surfaces material) or is passive (``draft``'s; issue 55: its three
+    vertices per Gaussian made ``draft`` heavier than ``default``, 151,503 points against 65,036 on the README
+    donut, 60,255 with the centres and 61 substeps a frame against 69), all of its Gaussians simulated
     (``core_fraction = 1``) and no ``mesh``. Measured on the README donut (12 frames, against the full vertex
     model at ``cfl = 0.4``): 0.33 U of shape, every event in its band, renders 33.3 dB from the reference's
-    against the twin's 28.6, 1.5x less CPU. Elsewhere ``"vertices"``: on a passive surface the centres give the
-    same means and cost more (the sand guitar: 0.87x), and no other material was measured. Any other value is
+    against the twin's 28.6, 1.5x less CPU. Elsewhere ``"vertices"``: on the passive surface of a material that is
+    not elastic the centres give the same means and cost more (the sand guitar: 0.87x), and no other material was
+    measured. Any other value is
     returned unchanged.
     """
     if spec.surface_points != "auto":
         return spec
     centres = (spec.mesh is None and not spec.static and spec.core_fraction == 1.0
-               and spec.surface in ("auto", "material") and spec.material.name in ELASTIC)
+               and spec.surface in ("auto", "material", "passive") and spec.material.name in ELASTIC)
     return dataclasses.replace(spec, surface_points="centres" if centres else "vertices")

@@ -3,7 +3,7 @@
 The page (``player.html`` beside this module) is WebGL2 splatting in plain JavaScript; the run's frames
 are embedded as one gzip + base64 block, decoded in the browser with ``DecompressionStream``. The frames are
 compressed by :mod:`gasp_core.render.page_codec`: colours once, rows that never move once, centres on a
-12-bit grid over the sequence's box, rotations and log scales of later frames as small steps from frame 0,
+10-bit grid over the sequence's box, rotations and log scales of later frames as small steps from frame 0,
 each frame predicted from the one before. What the compression moves is in :func:`pack_run`'s metadata
 (``errors``, with ``errors=True``); the README donut's figures are in ``benchmarks/results/bench_share.md``.
 """

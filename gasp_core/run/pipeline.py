@@ -110,13 +110,14 @@ def simulate_scene(scene: Scene, outdir: str | Path, request: SimulateRequest | 
 
 def _refuse_early(req: SimulateRequest, outdir: Path) -> None:
     """What is refused before the output is claimed or an engine built: an output format whose writer is missing
-    (issue 41: it came after, naming a hidden folder), ``--resume`` of a run that diverged (it would blow up again).
+    (issue 41: it came after, naming a hidden folder), ``--resume`` of a run that diverged (it would blow up again)
+    or is finished (nothing to resume).
 
     Raises
     ------
     GaspError
-        See :func:`gasp_core.run.layout.check_format` and :func:`gasp_core.run.resume.refuse_diverged`.
+        See :func:`gasp_core.run.layout.check_format` and :func:`gasp_core.run.resume.refuse_unresumable`.
     """
     check_format(req.fmt)
     if req.resume:
-        resume_mod.refuse_diverged(outdir)
+        resume_mod.refuse_unresumable(outdir)

@@ -154,25 +154,43 @@ def remove_temporaries(folder: Path) -> None:
         p.unlink(missing_ok=True)
 
 
-def refuse_diverged(outdir: Path) -> None:
-    """Refuse ``--resume`` of an output folder that holds a run which diverged (``run.json`` ``status:
-    "diverged"``, kept by :func:`gasp_core.run.pipeline.simulate_scene`): it has no checkpoint, and going on from
-    its last frame would blow up again.
+def refuse_unresumable(outdir: Path) -> None:
+    """Refuse ``--resume`` of an output folder that holds a finished run and no killed one, or a run which
+    diverged (``run.json`` ``status: "diverged"``, kept by :func:`gasp_core.run.pipeline.simulate_scene`): the
+    first has nothing to resume (issue 55: it was called a blow-up), the second has no checkpoint, and going on
+    from its last frame would blow up again.
 
     Raises
     ------
     GaspError
-        ``outdir/run.json`` says the run diverged; the message names the frame and what to do.
+        ``outdir/run.json`` says the run diverged (the message names the frame and what to do), or it is a finished
+        run and no partial folder of a killed run with a checkpoint lies beside it (the message says so, and what
+        ``--overwrite`` would do).
     """
     try:
         record = json.loads((Path(outdir) / "run.json").read_text())
-        diverged = record["diverged"] if record.get("status") == "diverged" else None
+        status = record.get("status")
+        diverged = record.get("diverged") if status == "diverged" else None
     except (OSError, ValueError, TypeError, KeyError, AttributeError, RecursionError):
+        return                               # no readable run.json: find_resumable looks for a killed run
+    if status != "diverged":
+        if not any((p / CHECKPOINT).exists() for p in leftover_partials(outdir)):
+            raise GaspError(_finished_message(Path(outdir), record))
         return
     frame = diverged.get("frame") if isinstance(diverged, dict) else None
     raise GaspError(f"cannot resume '{outdir}': its run diverged at frame {frame} and a blow-up is not resumed (it "
                     f"would come again); its frames before it are kept there; change the scene (a smaller time step, "
                     f"a softer material, walls) and run again with --overwrite, or with another -o")
+
+
+def _finished_message(outdir: Path, record: dict) -> str:
+    """The line for ``--resume`` of a folder that holds a finished run and no killed one: what is there and what
+    ``--overwrite`` would do instead."""
+    n = record.get("n_frames")
+    frames = f"{n} frames, " if isinstance(n, int) else ""
+    return (f"nothing to resume for '{outdir}': the run there is finished ({frames}{outdir / 'run.json'}) and no "
+            f"killed run's partial folder lies beside it. --overwrite (without --resume) would simulate the scene "
+            f"again from frame 0 and replace those frames once the new run finishes; another -o keeps them")
 
 
 def find_resumable(outdir: Path, run_fingerprint: str) -> tuple[Path, Checkpoint]:

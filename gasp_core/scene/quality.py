@@ -5,10 +5,13 @@ Each level is a set of scene keys and engine options, measured on the README sce
 a key the file sets (``[domain] n_grid``, an object's ``surface``, an engine option) always wins,
 except ``n_grid``, which a level scales (``grid_factor``) from the file's value.
 
-* ``draft``: the cheapest model measured (on the README donut's first 12 frames 2.53x cheaper than the full
-  model in CPU time, its shape after the best rigid fit 2.33 U from it, U = the full model's distance to its
-  ``n_grid`` 48 twin; particle contact, passive points held by the ground: docs/contact.md): passive surface points (``surface = "passive"``), 2 fill points per cell, the grid
-  velocity gathered at them every 16th substep, ``cfl`` 0.8.
+* ``draft``: passive surface points (``surface = "passive"``), on an elastic body its Gaussians' centres alone
+  (``surface_points = "auto"``, :func:`gasp_core.prepare.surface.choose_surface_points`), 2 fill points per cell,
+  the grid velocity gathered at them every 16th substep, ``cfl`` 0.8: no more points and no more time a frame than
+  ``default`` on every example (issue 55: with three passive vertices per Gaussian it simulated 151,503 points on
+  the README donut against ``default``'s 65,036; now 60,255; docs/speed_accuracy.md, "draft against default").
+  Its accuracy figures below and in docs/speed_accuracy.md are of the vertex draft (particle contact, passive
+  points held by the ground: docs/contact.md).
 * ``default``: chosen by the rule of ``docs/speed_accuracy.md`` ("Choosing the default": the cheapest setting
   whose shape residual is within 1.5 U, whose events are in their bands and whose renders are as close to the
   reference's as its twin's). No cheaper model meets it on the elastic donut (passive points: 2.7x at 2.4 U,

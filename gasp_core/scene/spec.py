@@ -129,8 +129,8 @@ class ObjectSpec:
         Which points of a Gaussian the engine moves (:data:`gasp_core.maps.centres.SURFACE_POINTS`): the GaMeS
         triangle's three ``"vertices"`` (the paper's), or its ``"centres"`` alone (PhysGaussian's layout, a
         third of the points; ``F`` from the neighbours' motion, :mod:`gasp_core.maps.centres`), or ``"auto"``
-        (what the levels ``draft`` and ``default`` set: centres on elastic bodies with a material surface,
-        else vertices; :func:`gasp_core.prepare.surface.choose_surface_points`). Centres not with
+        (what the levels ``draft`` and ``default`` set: centres on elastic bodies, their surface material or
+        passive, else vertices; :func:`gasp_core.prepare.surface.choose_surface_points`). Centres not with
         ``core_fraction < 1`` or ``mesh``.
     dynamic_time : float or None
         For a dynamic model (``.splatv``): the model time ``s`` at which physics takes over,
