@@ -13,7 +13,9 @@ any rotation):
 3. **Support**: a plane is a support when the object lies on one side: at most :data:`MAX_BELOW` of the
    Gaussians (floaters left out) lie beyond it by more than the tolerance. Up is its normal turned to the side
    the object lies on; the plane is refined by a weighted least-squares fit to its inliers.
-4. **Confidence** ``(1 - s2 / s1) * (1 - below / MAX_BELOW)``: ``s1`` the best support's score, ``s2`` the best
+4. **Cameras**, where a ``cameras.json`` lies beside the file (:func:`with_cameras`): their mean up confirms
+   the plane, vetoes it, or decides alone when every camera is upright.
+5. **Confidence** ``(1 - s2 / s1) * (1 - below / MAX_BELOW)``: ``s1`` the best support's score, ``s2`` the best
    other support's whose normal is more than :data:`DISTINCT` degrees away (an object that could stand two ways
    is ambiguous), ``below`` the best one's share beyond it. Below :data:`UP_SURE` (or with no support, or a
    support holding less than :data:`MIN_SHARE`) the answer is **unsure**: ``up`` is None and ``lean`` the best
@@ -49,6 +51,10 @@ MIN_SHARE = 0.005
 DISTINCT = 20.0
 #: Below this confidence no up vector is claimed.
 UP_SURE = 0.5
+#: Cameras (a ``cameras.json`` beside the file): a plane this many degrees from their mean up stands; with no
+#: sure plane, cameras this upright (their mean up's length) decide alone.
+CAMERA_AGREE = 15.0
+CAMERA_SURE = 0.9
 
 
 @dataclass(frozen=True)
@@ -179,6 +185,54 @@ def estimate_up(g: Gaussians) -> UpEstimate:
     return UpEstimate(normal, conf, best, best, figures)
 
 
+def plane_rows(g: Gaussians, plane: SupportPlane) -> np.ndarray:
+    """Rows (int64, sorted) of the flat Gaussians of ``g`` on ``plane``: within :data:`PLANE_TOL` times the
+    robust diagonal of it, normal within :data:`NORMAL_TOL` degrees (floaters included)."""
+    rows, p, n, _ = flat_normals(g)
+    lo, hi = np.quantile(g.means.astype(np.float64), [0.01, 0.99], axis=0)
+    tol = PLANE_TOL * float(np.linalg.norm(hi - lo))
+    on = (np.abs(n @ plane.normal) >= np.cos(np.radians(NORMAL_TOL))) & (np.abs(p @ plane.normal - plane.offset) <= tol)
+    return rows[on]
+
+
+def camera_up(path) -> np.ndarray:
+    """Minus the mean camera ``y`` axis of a graphdeco ``cameras.json`` (camera-to-world ``rotation``, OpenCV
+    cameras: ``y`` down), shape (3,): its length is 1 when every camera is upright, less as they roll or tilt.
+    Raises :class:`~gasp_core.errors.SceneError` for a file that is not one (:func:`~gasp_core.gs.up_axis.cameras_cue`)."""
+    import json
+    from pathlib import Path
+    from gasp_core.errors import SceneError
+    path = Path(path)
+    try:
+        R = np.array([c["rotation"] for c in json.loads(path.read_text())], dtype=np.float64).reshape(-1, 3, 3)
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        raise SceneError(f"{path}: not a graphdeco cameras.json (a list of objects with a 3x3 'rotation'): "
+                         f"{e}") from None
+    if not len(R):
+        raise SceneError(f"{path}: no cameras")
+    return -R[:, :, 1].mean(axis=0)
+
+
+def with_cameras(e: UpEstimate, cam: np.ndarray) -> UpEstimate:
+    """``e`` checked against the cameras' mean up ``cam`` (:func:`camera_up`): a sure plane within
+    :data:`CAMERA_AGREE` degrees of it stands; a sure plane further away than that, against cameras at least
+    :data:`UP_SURE` upright, becomes unsure; with no sure plane, cameras at least :data:`CAMERA_SURE` upright
+    give the up vector (their mean's direction, confidence its length)."""
+    c = float(np.linalg.norm(cam))
+    if c == 0.0:
+        return e
+    u = cam / c
+    said = f"; cameras' mean up {np.round(u, 3).tolist()} (length {c:.2f})"
+    if e.up is not None:
+        angle = float(np.degrees(np.arccos(np.clip(e.up @ u, -1.0, 1.0))))
+        if angle <= CAMERA_AGREE or c < UP_SURE:
+            return UpEstimate(e.up, e.confidence, e.plane, e.lean, e.figures + said + f", {angle:.1f} deg off")
+        return UpEstimate(None, 0.0, None, e.lean, e.figures + said + f" disagrees by {angle:.1f} deg: unsure")
+    if c >= CAMERA_SURE:
+        return UpEstimate(u, c, None, e.lean, e.figures + said + ": the cameras decide")
+    return UpEstimate(None, e.confidence, None, e.lean, e.figures + said)
+
+
 def rotation_to_z(up) -> np.ndarray:
     """The proper rotation (3, 3) taking the unit vector along ``up`` (3,) to +z by the shortest turn
     (Rodrigues' formula); a half turn about x for ``up`` along -z. Raises ValueError for a zero vector."""
@@ -193,3 +247,4 @@ def rotation_to_z(up) -> np.ndarray:
     v = np.array([u[1], -u[0], 0.0])             # u x z
     K = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
     return np.eye(3) + K + K @ K / (1.0 + c)
+

@@ -12,6 +12,7 @@ from pathlib import Path
 from gasp_core.errors import SceneError
 from gasp_core.prepare.assembly import build_setup
 from gasp_core.prepare.checks import check_ground_in_grid
+from gasp_core.prepare.ground import has_auto_ground, resolve_ground
 from gasp_core.prepare.placement import prepare_object, PreparedObject
 from gasp_core.prepare.route import resolve_models
 from gasp_core.toolkit.rigid import step_view
@@ -84,10 +85,15 @@ def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None 
     info = get_engine(name)
     check_supported(info, **scene_needs(scene), others=all_engines())
     declared = {o.name for o in info.options}
-    if "contact" in declared:      # the grid engines' particle contact: its ground layers inside the grid
+    if "contact" in declared and not has_auto_ground(scene):   # the particle contact's ground layers in the grid
         given = scene.engine.options if options is None else options
         check_ground_in_grid(scene, quality_options(scene.quality, dict(given), declared))
     objects = [prepare_object(spec) for spec in scene.objects]
+    if has_auto_ground(scene):     # height = "auto": the support in the scan, once the objects are placed
+        scene = resolve_ground(scene, objects)
+        if "contact" in declared:
+            given = scene.engine.options if options is None else options
+            check_ground_in_grid(scene, quality_options(scene.quality, dict(given), declared))
     # object folder names: a stem that is one of a run folder's own files (run.json.ply) or hidden
     # (.gasp-output.ply) gets a leading "_"; equal ones their index
     stems = [f"_{o.name}" if o.name in RUN_FILES or o.name.startswith(".") else o.name for o in objects]
