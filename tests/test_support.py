@@ -172,3 +172,18 @@ def test_gasp_info_json_carries_the_up_vector(capsys):
     assert main(["info", str(TRAIN)]) == 0
     out = capsys.readouterr().out
     assert "up_vector: unsure" in out and "support_plane: None" in out
+
+
+@pytest.mark.slow
+def test_kitchen_runs_with_its_ground_from_the_scan(tmp_path):
+    """End to end: the kitchen example with ``height = "auto"``, 1 frame; run.json records the resolved ground."""
+    import subprocess
+    import sys
+    src = (ROOT / "examples" / "kitchen_spinach.toml").read_text()
+    p = tmp_path / "kitchen.toml"
+    p.write_text(src.replace("height = -0.565", 'height = "auto"').replace('"data/spinach_4.splatv"', f'"{KITCHEN}"'))
+    subprocess.run([sys.executable, "-m", "gasp_core.cli.main", "simulate", str(p), "-o", str(tmp_path / "out"),
+                    "--frames", "1", "-q"], check=True, cwd=ROOT)
+    rec = json.loads((tmp_path / "out" / "run.json").read_text())
+    (ground,) = [b for b in rec["boundaries"] if b["kind"] == "ground"]
+    assert abs(ground["height"] - (-0.565)) <= 0.01 and ground["friction"] == 0.6
