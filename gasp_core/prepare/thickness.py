@@ -10,11 +10,10 @@ diameter of the largest ball inside the solid that covers it, from openings by b
 form the thin pieces; those holding at least :data:`MIN_PART_SHARE` of the solid are named by the side of the
 object they lie on (``+z`` end, ...), their length and their median local thickness.
 
-The thickness is measured on voxels of ``h`` (half a grid cell at 8 points per cell): a slab of ``N`` voxel
-layers measures ``N +- 0.5``, and a part that is a shell in the fill (open in the capture) measures about a cell
-at every ``n_grid``. So the ``n_grid`` named is a lower bound: on the jelly guitar the neck measures 1.6 cells at
-``n_grid`` 64, 80 and 96 alike (0.049, 0.039, 0.033 m), a shell that a finer grid does not thicken; the warning
-says so.
+The thickness is measured on voxels of ``h`` (half a grid cell at 8 points per cell), which shrink with the grid:
+a slab of ``N`` voxel layers measures ``N +- 0.5``, and a part that is a shell in the fill measures about a cell
+at any ``n_grid``. So the ``n_grid`` named is a lower bound: the jelly guitar's neck measures 1.6 cells at
+``n_grid`` 64 (0.049 m: 80 named for it), still 1.6 at 80 (0.039 m), and no part is thin at 96.
 """
 from __future__ import annotations
 
