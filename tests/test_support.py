@@ -187,3 +187,27 @@ def test_kitchen_runs_with_its_ground_from_the_scan(tmp_path):
     rec = json.loads((tmp_path / "out" / "run.json").read_text())
     (ground,) = [b for b in rec["boundaries"] if b["kind"] == "ground"]
     assert abs(ground["height"] - (-0.565)) <= 0.01 and ground["friction"] == 0.6
+
+
+def test_cameras_confirm_veto_or_decide(tmp_path):
+    """A graphdeco cameras.json beside the file: upright cameras agreeing with the plane keep it; cameras whose
+    mean up is 90 degrees away veto it (unsure); on an unsure scan, upright cameras decide alone."""
+    from gasp_core.gs.support import camera_up, with_cameras
+
+    def cams(up):       # every camera upright about ``up``: its y axis (down) is -up
+        up = np.asarray(up, float)
+        side = np.cross(up, [0.3, 0.5, 0.1])
+        side /= np.linalg.norm(side)
+        R = np.stack([side, -up, np.cross(side, -up)], axis=1)      # columns: camera x, y, z in the world
+        p = tmp_path / "cameras.json"
+        p.write_text(json.dumps([{"rotation": R.tolist(), "position": [0, 0, 0]}] * 3))
+        return camera_up(p)
+    e = estimate_up(_load(DONUT))
+    assert np.allclose(cams((0, 0, 1)), (0, 0, 1))
+    assert with_cameras(e, cams((0, 0, 1))).up is not None
+    assert with_cameras(e, cams((1, 0, 0))).up is None
+    t = with_cameras(estimate_up(_load(TRAIN)), cams((0, -1, 0)))
+    assert np.allclose(t.up, (0, -1, 0)) and t.confidence == pytest.approx(1.0)
+    (tmp_path / "cameras.json").write_text("[]")
+    with pytest.raises(SceneError, match="no cameras"):
+        camera_up(tmp_path / "cameras.json")
