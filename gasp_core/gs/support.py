@@ -198,7 +198,8 @@ def plane_rows(g: Gaussians, plane: SupportPlane) -> np.ndarray:
 def camera_up(path) -> np.ndarray:
     """Minus the mean camera ``y`` axis of a graphdeco ``cameras.json`` (camera-to-world ``rotation``, OpenCV
     cameras: ``y`` down), shape (3,): its length is 1 when every camera is upright, less as they roll or tilt.
-    Raises :class:`~gasp_core.errors.SceneError` for a file that is not one (:func:`~gasp_core.gs.up_axis.cameras_cue`)."""
+    Raises :class:`~gasp_core.errors.SceneError` for a file that is not one
+    (:func:`~gasp_core.gs.up_axis.cameras_cue`)."""
     import json
     from pathlib import Path
     from gasp_core.errors import SceneError

@@ -33,7 +33,8 @@ def place(g: Gaussians, spec: ObjectSpec, floating: np.ndarray | None = None) ->
     """The file -> world transform of an object (up-axis, rotation, metres, position).
 
     ``R = euler_matrix(spec.rotation) @ U``, ``U`` the turn of the file's up to +z (``up_axis``, or ``up``:
-    :func:`gasp_core.prepare.up.up_rotation`). With ``recentre``, the bottom centre of the means' bounding box (world orientation) lands on
+    :func:`gasp_core.prepare.up.up_rotation`). With ``recentre``, the bottom centre of the means' bounding box
+    (world orientation) lands on
     ``spec.position``; otherwise ``spec.position`` is a plain offset. ``floating`` (bool, shape (n,)) marks
     floaters, which the bounding box leaves out.
     """

@@ -62,7 +62,8 @@ def thin_parts(points: np.ndarray, h: float, dx: float) -> list[dict]:
     """The parts of the solid ``points`` (n, 3), metres (fill and surface points, spacing about ``h``) thinner
     than :data:`MIN_PART_CELLS` grid cells of ``dx`` (module notes), longest first: each a dict with ``voxels``
     (int), ``share`` of the object's voxels, ``thickness`` (m: the median local thickness of its voxels; a
-    slab of ``N`` voxel layers measures ``N + 0.5`` layers for odd ``N``, ``N - 0.5`` for even), ``length`` (m, its longest box side), ``lo``,
+    slab of ``N`` voxel layers measures ``N + 0.5`` layers for odd ``N``, ``N - 0.5`` for even),
+    ``length`` (m, its longest box side), ``lo``,
     ``hi`` (its box, m), ``side`` (e.g. ``"+z"``: where it lies from the object's centre)."""
     from scipy import ndimage
     h = max(h, float(np.ptp(points, axis=0).max()) / MAX_VOXELS_SIDE)

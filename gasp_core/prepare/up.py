@@ -27,7 +27,8 @@ def up_rotation(g: Gaussians, up_axis: str, up=None, name: str = "object") -> np
     if isinstance(up, str):
         e = estimate_up(g)
         if e.up is None:
-            lean = "" if e.lean is None else f"; the best candidate plane's normal is {np.round(e.lean.normal, 3).tolist()}"
+            lean = ("" if e.lean is None else
+                    f"; the best candidate plane's normal is {np.round(e.lean.normal, 3).tolist()}")
             raise SceneError(f"object '{name}': up = \"auto\" is unsure (confidence {e.confidence:.2f} < {UP_SURE}): "
                              f"{e.figures}{lean}; state up = [x, y, z] or up_axis (gasp info gives the figures)")
         up = e.up

@@ -39,7 +39,8 @@ def _check_render_args(args, size) -> None:
     if size is not None and size[0] * size[1] * len(args.runs) > MAX_PIXELS:
         raise SceneError(f"--resolution {args.resolution}: {size[0] * size[1] * len(args.runs):,} pixels per picture "
                          f"({len(args.runs)} run(s) side by side); at most {MAX_PIXELS:,} (7680x4320)")
-    if args.camera and args.camera not in FRAMINGS and args.look_at and _vec3(args.camera, "--camera") == _vec3(args.look_at, "--look-at"):
+    if (args.camera and args.camera not in FRAMINGS and args.look_at
+            and _vec3(args.camera, "--camera") == _vec3(args.look_at, "--look-at")):
         raise SceneError(f"--camera {args.camera} and --look-at {args.look_at} are the same point; the camera "
                          "must look at a point away from it")
 
