@@ -57,6 +57,7 @@ def _thin_warnings(scene):
     return [str(m.message) for m in w if "thin part" in str(m.message)]
 
 
+@pytest.mark.slow
 def test_the_jelly_guitar_at_n_grid_64_is_warned_about_its_neck(tmp_path):
     """The guitar stands 1.11 m tall: its first (longest) thin part lies at its +z end, in its top half (the neck
     and head, measured z 0.585-1.111 m, 1.6 grid cells across), and the warning names the n_grid for 2 cells
