@@ -116,7 +116,11 @@ def _cmd_info(args) -> int:
         print(json.dumps(d, indent=2, default=str))
         return 0
     for k, v in d.items():
-        if isinstance(v, dict):          # up_axis_candidates: one line per axis
+        if k == "up_vector" and v is None:
+            v = "unsure (no support plane sure enough: see up_figures)"
+        elif isinstance(v, dict) and not all(isinstance(c, dict) for c in v.values()):   # the support plane
+            v = ", ".join(f"{n} {x}" for n, x in v.items())
+        elif isinstance(v, dict):          # up_axis_candidates: one line per axis
             v = [f"{a}: " + ", ".join(f"{n} {x:.4g}" for n, x in c.items()) for a, c in v.items()]
         if isinstance(v, list) and v and isinstance(v[0], str):   # the cues: one line each
             v = ("\n" + " " * 20).join(v)

@@ -9,6 +9,7 @@ import numpy as np
 
 from gasp_core.gs.io import read_gaussians, refuse_one_point
 from gasp_core.gs.registry import sniff
+from gasp_core.gs.support import camera_up, estimate_up, with_cameras
 from gasp_core.gs.up_axis import guess_up
 
 
@@ -30,6 +31,11 @@ def describe(path) -> dict[str, Any]:
         (float in [0, 1]), ``up_axis_method`` (str: which cues decided, or why unsure), ``up_axis_lean`` (the
         best direction or axis even when unsure, ``""`` for none), ``up_axis_cues`` (list of str: each cue,
         its figures and what it said), ``up_axis_note`` (str),
+        ``up_vector`` (list of 3 floats: the unit up vector in the file's frame, from the support plane in any
+        direction, :mod:`gasp_core.gs.support`; None when unsure), ``up_confidence`` (float in [0, 1]),
+        ``support_plane`` (None when unsure, else ``normal`` (the up vector), ``offset`` (file units: the plane
+        is ``normal . x = offset``), ``share`` of the flat Gaussians on it, ``below`` share of the Gaussians
+        beyond it), ``up_lean`` (the best candidate plane's normal even when unsure, or None), ``up_figures`` (str),
         ``flat_fraction`` (fraction of Gaussians with min/max scale ratio < 0.01),
         ``median_scale_ratio``. A file with no Gaussians gives only ``count``, ``sh_degree``,
         ``layout``.
@@ -55,6 +61,9 @@ def describe(path) -> dict[str, Any]:
         return {"count": 0, "sh_degree": g.sh_degree, "layout": g.layout}
     lo, hi = x.min(axis=0), x.max(axis=0)
     u = guess_up(g, path.parent / "cameras.json")
+    e = estimate_up(g)
+    if (path.parent / "cameras.json").is_file():
+        e = with_cameras(e, camera_up(path.parent / "cameras.json"))
     ratio = g.scales.min(axis=1) / np.maximum(g.scales.max(axis=1), 1e-300)
     return {
         "count": g.n,
@@ -72,6 +81,11 @@ def describe(path) -> dict[str, Any]:
         "up_axis_note": ("a guess: state up_axis in the scene file" if u.up != "unknown" else
                          "unsure: the height and scale along each axis follow; state up_axis in the scene file "
                          "(gasp info --up=AXIS gives the figures along it)"),
+        "up_vector": None if e.up is None else [round(float(v), 6) for v in e.up],
+        "up_confidence": round(e.confidence, 3),
+        "support_plane": None if e.plane is None else e.plane.as_dict(),
+        "up_lean": None if e.lean is None else [round(float(v), 3) for v in e.lean.normal],
+        "up_figures": e.figures,
         "flat_fraction": float(np.mean(ratio < 0.01)),
         "median_scale_ratio": float(np.median(ratio)),
     }

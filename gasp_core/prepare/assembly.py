@@ -15,6 +15,7 @@ from gasp_core.prepare.checks import check_kept_floaters, check_overlap, check_r
 from gasp_core.prepare.dynamic import fill_velocities, vertex_velocities
 from gasp_core.prepare.placed import PreparedObject
 from gasp_core.prepare.stand import stand_warnings
+from gasp_core.prepare.thickness import thin_part_warnings
 from gasp_core.prepare.surface import ELASTIC, surface_rule
 from gasp_core.seam.memory import check_fill
 from gasp_core.scene.spec import Scene
@@ -117,7 +118,9 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> tuple[SimSetup, 
         others = sum(map(len, vertices)) - len(verts) + sum(len(f.fill_x) for f in fills)
         fr, passive, rule = fill_object(scene, o, verts, dx, others)
         reach = footprints(o)
-        for msg in [fr.report.warning] + check_resolution(o.name, np.ptp(reach, axis=0), dx, n_grid, fr.report):
+        thin = thin_part_warnings(o.name, np.concatenate([verts, fr.fill_x]), fr.h, dx, n_grid) \
+            if len(fr.fill_x) else []                      # by local thickness, not the bounding box (issue 54)
+        for msg in [fr.report.warning] + check_resolution(o.name, np.ptp(reach, axis=0), dx, n_grid, fr.report) + thin:
             if msg:
                 warnings.warn(msg, stacklevel=2)
         assembled.append(dict(vertex_slice=slice(start, start + len(verts)), fill_report=fr.report,

@@ -19,21 +19,24 @@ from gasp_core.gs.splatv import read_splatv, splatv_at
 from gasp_core.maps.surface import surface_map
 from gasp_core.prepare.checks import check_object
 from gasp_core.prepare.mesh import bind_object, laid_gaussians
-from gasp_core.prepare.placed import UP_ROTATIONS, Placement, PreparedObject, euler_matrix
+from gasp_core.prepare.placed import Placement, PreparedObject, euler_matrix
 from gasp_core.scene.spec import ObjectSpec
 from gasp_core.prepare.selection import flat_world, moving_rows
 from gasp_core.prepare.surface import choose_surface_points
+from gasp_core.prepare.up import up_rotation
 
 __all__ = ["place", "load_gaussians", "prepare_object", "drop_floaters"]
 
 def place(g: Gaussians, spec: ObjectSpec, floating: np.ndarray | None = None) -> Placement:
     """The file -> world transform of an object (up-axis, rotation, metres, position).
 
-    ``R = euler_matrix(spec.rotation) @ UP_ROTATIONS[spec.up_axis]``. With ``recentre``, the bottom centre of the means' bounding box (world orientation) lands on
+    ``R = euler_matrix(spec.rotation) @ U``, ``U`` the turn of the file's up to +z (``up_axis``, or ``up``:
+    :func:`gasp_core.prepare.up.up_rotation`). With ``recentre``, the bottom centre of the means' bounding box
+    (world orientation) lands on
     ``spec.position``; otherwise ``spec.position`` is a plain offset. ``floating`` (bool, shape (n,)) marks
     floaters, which the bounding box leaves out.
     """
-    R = UP_ROTATIONS[spec.up_axis]
+    R = up_rotation(g, spec.up_axis, getattr(spec, "up", None), Path(spec.file).stem)
     if any(getattr(spec, "rotation", (0.0, 0.0, 0.0))):
         R = euler_matrix(spec.rotation) @ R
     s = float(spec.scale)

@@ -12,6 +12,7 @@ from pathlib import Path
 
 from gasp_core.errors import SceneError
 from gasp_core.prepare.assembly import build_setup
+from gasp_core.prepare.ground import has_auto_ground, resolve_ground
 from gasp_core.prepare.placed import PreparedObject
 from gasp_core.prepare.placement import prepare_object
 from gasp_core.prepare.route import declared_cfl, resolve_models
@@ -86,9 +87,13 @@ def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None 
     declared = {o.name for o in info.options}
     given = dict(scene.engine.options if options is None else options)
     run_options = quality_options(scene.quality, given, declared)     # the options the run takes
-    if info.check_scene is not None:     # the engine's own check of the scene, before any file is read
+    if info.check_scene is not None and not has_auto_ground(scene):   # the engine's own check, before any file is read
         info.check_scene(scene, run_options, None)
     objects = [prepare_object(spec) for spec in scene.objects]
+    if has_auto_ground(scene):     # height = "auto": the support in the scan, once the objects are placed
+        scene = resolve_ground(scene, objects)
+        if info.check_scene is not None:
+            info.check_scene(scene, run_options, None)
     # object folder names: a stem that is one of a run folder's own files (run.json.ply) or hidden
     # (.gasp-output.ply) gets a leading "_"; equal ones their index
     stems = [f"_{o.name}" if o.name in RUN_FILES or o.name.startswith(".") else o.name for o in objects]

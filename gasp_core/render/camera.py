@@ -137,6 +137,25 @@ def auto_camera(lo, hi, width: int = 640, height: int = 480, fov_deg: float = 40
     return Camera(centre + dist * direction, centre, fov_deg, width, height, near=1e-3 * dist)
 
 
+def fit_to_box(cam: Camera, lo, hi, margin: float = 1.1, steps: int = 4) -> Camera:
+    """``cam`` moved along its line of sight to the centre of the box ``[lo, hi]`` (world, metres) until the
+    projection of the box's 8 corners spans the picture's width or height divided by ``margin`` (the tighter of
+    the two): :func:`auto_camera` fits the box's bounding sphere, which leaves a flat box small. Each step
+    scales the distance by the corners' largest offset from the picture centre over the half picture (exact for
+    points at the centre's depth); a corner behind the camera stops it."""
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    centre = 0.5 * (lo + hi)
+    corners = np.array([[(lo, hi)[i >> k & 1][k] for k in range(3)] for i in range(8)])
+    for _ in range(steps):
+        uv, z = cam.project_points(corners)
+        if np.any(z <= cam.near):
+            break
+        k = margin * max(np.max(np.abs(uv[:, 0] - cam.cx)) / cam.cx, np.max(np.abs(uv[:, 1] - cam.cy)) / cam.cy)
+        d = (cam.position - centre) * k
+        cam = Camera(centre + d, centre, cam.fov_deg, cam.width, cam.height, near=1e-3 * float(np.linalg.norm(d)))
+    return cam
+
+
 def nice_step(x: float) -> float:
     """The 1, 2, 5 x 10^k number nearest below ``x`` (grid spacing)."""
     k = np.floor(np.log10(x))

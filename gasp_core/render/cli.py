@@ -13,6 +13,8 @@ MAX_PIXELS = 7680 * 4320
 MAX_GIF_BYTES = 2 * 2**30
 #: Largest frames per second of a video.
 MAX_FPS = 1000.0
+#: ``--camera`` presets: what the camera frames (``gasp_core.render.run.FRAMINGS``, kept light to import here).
+FRAMINGS = ("moving", "scene")
 
 
 def _vec3(text: str, what: str):
@@ -37,7 +39,8 @@ def _check_render_args(args, size) -> None:
     if size is not None and size[0] * size[1] * len(args.runs) > MAX_PIXELS:
         raise SceneError(f"--resolution {args.resolution}: {size[0] * size[1] * len(args.runs):,} pixels per picture "
                          f"({len(args.runs)} run(s) side by side); at most {MAX_PIXELS:,} (7680x4320)")
-    if args.camera and args.look_at and _vec3(args.camera, "--camera") == _vec3(args.look_at, "--look-at"):
+    if (args.camera and args.camera not in FRAMINGS and args.look_at
+            and _vec3(args.camera, "--camera") == _vec3(args.look_at, "--look-at")):
         raise SceneError(f"--camera {args.camera} and --look-at {args.look_at} are the same point; the camera "
                          "must look at a point away from it")
 
@@ -55,7 +58,9 @@ def add_parsers(sub) -> None:
                    help="WIDTHxHEIGHT per run, pixels (default 640x480; with --camera-index the camera's own)")
     r.add_argument("--fov", type=float, default=40.0, help="vertical field of view, degrees (default 40)")
     r.add_argument("--camera", default=None,
-                   help="camera position x,y,z, world metres, z up (default: framing the whole sequence)")
+                   help="camera position x,y,z, world metres, z up; or a preset: 'moving' (the default: framing the "
+                        "simulated part over the sequence, all of it where everything moves), 'scene' (framing the "
+                        "whole sequence)")
     r.add_argument("--look-at", default=None, help="point the camera looks at, x,y,z metres (default: the centre)")
     r.add_argument("--camera-index", type=int, default=None, metavar="N",
                    help="render from camera N (0 = first) of the capture's graphdeco cameras.json (default: off)")
@@ -75,6 +80,8 @@ def add_parsers(sub) -> None:
                                "and follows the new ones")
     v.add_argument("--host", default="127.0.0.1", help="interface to listen on (default 127.0.0.1: this machine only)")
     v.add_argument("--port", type=int, default=8080, help="TCP port (default 8080)")
+    v.add_argument("--camera", choices=FRAMINGS, default="moving",
+                   help="what the first camera frames: 'moving' the simulated part (default), 'scene' everything")
     v.add_argument("--export", default=None, metavar="PAGE",
                    help="write a self-contained player instead of serving: PAGE.html, or a folder that gets "
                         "index.html; it opens from disk in a browser, no server needed (default: serve)")
@@ -86,7 +93,8 @@ def _camera_path(args, run_dirs, size):
     """The ``--camera-index`` / ``--orbit`` / ``--camera-path`` choice as a camera path (or ``None``)."""
     from gasp_core.render import paths
     chosen = [o for o, v in (("--camera-index", args.camera_index), ("--orbit", args.orbit),
-                             ("--camera-path", args.camera_path), ("--camera", args.camera)) if v is not None]
+                             ("--camera-path", args.camera_path),
+                             ("--camera", None if args.camera in FRAMINGS else args.camera)) if v is not None]
     if len(chosen) > 1:
         raise SceneError(f"{' and '.join(chosen)}: choose one way to place the camera")
     if args.orbit is not None:
@@ -116,7 +124,8 @@ def cmd_render(args) -> int:
         except (ValueError, AssertionError):
             raise SceneError(f"--resolution: expected WIDTHxHEIGHT in pixels, got {args.resolution!r}") from None
     _check_render_args(args, size)
-    pos = _vec3(args.camera, "--camera") if args.camera else None
+    framing = args.camera if args.camera in FRAMINGS else "moving"
+    pos = _vec3(args.camera, "--camera") if args.camera and args.camera not in FRAMINGS else None
     look = _vec3(args.look_at, "--look-at") if args.look_at else None
     path = _camera_path(args, args.runs, size)
     w, h = size or (640, 480)
@@ -140,7 +149,7 @@ def cmd_render(args) -> int:
     t0 = time.perf_counter()
     out = render_run(args.runs, output, overwrite=args.overwrite, fps=fps, renderer=get_renderer(args.renderer),
                      width=w, height=h, fov_deg=args.fov, position=pos, look_at=look, progress=not args.quiet,
-                     camera_path=path)
+                     camera_path=path, framing=framing)
     took = time.perf_counter() - t0
     print(f"wrote {out}: {n} frames of {w * len(runs)}x{h} px, plays {n / fps:.2f} s at {fps:g} fps "
           f"(rendering took {took:.1f} s, {took / max(n, 1):.2f} s per frame)")
@@ -166,7 +175,7 @@ def cmd_view(args) -> int:
         return 0
     from gasp_core.render.viewer import serve
     try:
-        serve(args.run, host=args.host, port=args.port)
+        serve(args.run, host=args.host, port=args.port, framing=args.camera)
     except KeyboardInterrupt as e:  # a viewer writes nothing: "no partial output was kept" would not fit
         print(f"gasp: viewer stopped by {getattr(e, 'signal_name', 'Ctrl-C')}", file=sys.stderr)
         return 130

@@ -15,10 +15,14 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from gasp_core.errors import SceneError
-from gasp_core.render.camera import Camera, auto_camera, ground_background, nice_step
+from gasp_core.render.camera import Camera, auto_camera, fit_to_box, ground_background, nice_step
 from gasp_core.render.splat_numpy import Splats, splats_from_gaussians
 from gasp_core.run.layout import RunFrames, open_frames
+from gasp_core.run.record import ranges_rows
 from gasp_core.run.run_json import check_run_json
+
+#: What the default camera frames: the simulated part of a run (the default), or the whole scene.
+FRAMINGS = ("moving", "scene")
 
 
 @dataclass
@@ -89,13 +93,51 @@ def load_run(path) -> Run:
                f"{meta.get('engine', '')}" or path.name, meta)
 
 
-def sequence_bounds(frames: Iterable[Splats], q: float = 0.1) -> tuple[np.ndarray, np.ndarray]:
-    """Box holding the means of every frame (``q``/``100 - q`` percentiles, so strays do not count)."""
+def sequence_bounds(frames: Iterable[Splats], q: float = 0.1, mask: np.ndarray | None = None
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """Box holding the means of every frame (``q``/``100 - q`` percentiles, so strays do not count); of the rows
+    ``mask`` (bool, one per row) alone when given."""
     lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
     for s in frames:
-        lo = np.minimum(lo, np.percentile(s.means, q, axis=0))
-        hi = np.maximum(hi, np.percentile(s.means, 100 - q, axis=0))
+        x = s.means if mask is None else s.means[mask]
+        lo = np.minimum(lo, np.percentile(x, q, axis=0))
+        hi = np.maximum(hi, np.percentile(x, 100 - q, axis=0))
     return lo, hi
+
+
+def moving_mask(run: Run) -> np.ndarray | None:
+    """Which rows of :meth:`Run.splats` (objects in order) the run simulates, bool: ``run.json``'s per-object
+    ``moving_rows`` (:func:`gasp_core.run.record.row_ranges`; null: every row), none of a static object's.
+    None when every row moves, when nothing does, or for a run recorded without ``moving_rows``."""
+    parts, partial = [], False
+    for o in run.objects:
+        m = np.zeros(int(o.get("n_gaussians", 0)), dtype=bool)
+        if "moving_rows" not in o and not o.get("static"):
+            return None
+        if o.get("static"):
+            partial = True
+        elif o["moving_rows"] is None:
+            m[:] = True
+        else:
+            m[ranges_rows(o["moving_rows"])] = True
+            partial = True
+        parts.append(m)
+    mask = np.concatenate(parts) if parts else np.zeros(0, dtype=bool)
+    return mask if partial and mask.any() else None
+
+
+def framed_bounds(runs: Sequence[Run], frames: Sequence[Splats], what: str = "moving"):
+    """The box the default camera frames: ``what = "moving"`` the simulated rows of every frame
+    (:func:`moving_mask`; the whole scene where everything moves), ``"scene"`` everything. ``frames`` holds each
+    run's splats, run by run. Raises SceneError for another ``what``."""
+    if what not in FRAMINGS:
+        raise SceneError(f"camera framing {what!r}: expected one of {list(FRAMINGS)}")
+    masks = [moving_mask(r) for r in runs] if what == "moving" else [None] * len(runs)
+    if all(m is None for m in masks):
+        return sequence_bounds(frames)
+    per_run = len(frames) // len(runs)
+    boxes = [sequence_bounds(frames[i * per_run:(i + 1) * per_run], mask=m) for i, m in enumerate(masks)]
+    return np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)
 
 
 @dataclass
@@ -108,14 +150,17 @@ class View:
 
 
 def make_view(lo, hi, ground_z: float | None, width: int = 640, height: int = 480, fov_deg: float = 40.0,
-              position=None, look_at=None) -> View:
-    """The camera (given, or framing the box ``[lo, hi]``) and a grid at ``ground_z`` (else ``lo[2]``)."""
+              position=None, look_at=None, tight: bool = False) -> View:
+    """The camera (given, or framing the box ``[lo, hi]``) and a grid at ``ground_z`` (else ``lo[2]``);
+    ``tight``: the default camera fits the box's corners, not its bounding sphere (:func:`fit_to_box`)."""
     lo, hi = np.asarray(lo, float), np.asarray(hi, float)
     gz = float(lo[2]) if ground_z is None else float(ground_z)
     lo_g = lo.copy()
     lo_g[2] = min(lo[2], gz)
     if position is None:
         cam = auto_camera(lo_g, hi, width, height, fov_deg)
+        if tight:
+            cam = fit_to_box(cam, lo_g, hi)
         if look_at is not None:
             cam = Camera(cam.position, look_at, fov_deg, width, height, cam.near)
     else:
@@ -123,6 +168,18 @@ def make_view(lo, hi, ground_z: float | None, width: int = 640, height: int = 48
         cam = Camera(position, target, fov_deg, width, height,
                      near=1e-3 * float(np.linalg.norm(np.asarray(position) - target)))
     return View(cam, _background(cam, lo, hi, gz), gz)
+
+
+def run_view(runs: Sequence[Run], frames: Sequence[Splats], framing: str = "moving", width: int = 640,
+             height: int = 480, fov_deg: float = 40.0, position=None, look_at=None):
+    """The view :func:`render_runs` renders from, and the box it frames: :func:`framed_bounds` of ``frames``
+    (each run's splats, run by run), the grid at the runs' lowest ground; where only a part of the scene moves
+    (``framing = "moving"``), the camera fits that part's box tightly. Returns ``(View, lo, hi)``."""
+    lo, hi = framed_bounds(runs, frames, framing)
+    grounds = [r.ground_z for r in runs if r.ground_z is not None]
+    tight = framing == "moving" and any(moving_mask(r) is not None for r in runs)
+    return make_view(lo, hi, min(grounds) if grounds else None, width, height, fov_deg, position, look_at,
+                     tight), lo, hi
 
 
 def to_uint8(img: np.ndarray) -> np.ndarray:
@@ -149,7 +206,7 @@ def label_image(img: np.ndarray, text: str, height_frac: float = 0.06) -> np.nda
 
 def render_runs(run_dirs: Sequence, renderer=None, frames: Sequence[int] | None = None, width: int = 640,
                 height: int = 480, fov_deg: float = 40.0, position=None, look_at=None, labels: bool | None = None,
-                progress: bool = False, camera_path=None):
+                progress: bool = False, camera_path=None, framing: str = "moving"):
     """Yield ``(frame, image)`` for the runs in ``run_dirs``, side by side (one camera for all).
 
     Parameters
@@ -165,12 +222,15 @@ def render_runs(run_dirs: Sequence, renderer=None, frames: Sequence[int] | None 
     fov_deg : float
         Vertical field of view, degrees.
     position, look_at : array-like (3,), optional
-        Camera placement, world metres; by default the camera frames the whole sequence.
+        Camera placement, world metres; by default the camera frames ``framing``.
     labels : bool, optional
         Write the engine name in the corner (default: when there are several runs).
     camera_path : callable, optional
         ``camera_path(lo, hi, n, width, height, fov_deg) -> list[Camera]``, one camera per rendered
         frame (:mod:`gasp_core.render.paths`); overrides ``position`` / ``look_at``.
+    framing : str
+        What the default camera frames (:func:`framed_bounds`): ``"moving"`` the simulated part of the runs over
+        the sequence (all of it where everything moves), ``"scene"`` the whole sequence.
 
     Yields
     ------
@@ -191,9 +251,8 @@ def render_runs(run_dirs: Sequence, renderer=None, frames: Sequence[int] | None 
     for i, r in enumerate(runs):
         for f in frames:
             cache[i, f] = r.splats(f)
-    lo, hi = sequence_bounds(cache.values())
-    grounds = [r.ground_z for r in runs if r.ground_z is not None]
-    view = make_view(lo, hi, min(grounds) if grounds else None, width, height, fov_deg, position, look_at)
+    view, lo, hi = run_view(runs, [cache[i, f] for i in range(len(runs)) for f in frames], framing, width,
+                            height, fov_deg, position, look_at)
     cams = camera_path(lo, hi, len(frames), width, height, fov_deg) if camera_path else [view.camera] * len(frames)
     labels = len(runs) > 1 if labels is None else labels
     bar = None

@@ -16,7 +16,7 @@ import numpy as np
 from gasp_core.errors import SceneError
 from gasp_core.render.live import FINISHED, LIVE, RUNNING, LiveRun
 from gasp_core.render.quiet_logs import QuietLogs
-from gasp_core.render.run import Run, sequence_bounds
+from gasp_core.render.run import Run, framed_bounds, sequence_bounds
 
 
 class RunViewer:
@@ -34,6 +34,9 @@ class RunViewer:
         TCP port (0: viser picks the next free one from 8080).
     poll_s : float
         Seconds between looks for new frames of a run in progress.
+    framing : str
+        What the first camera looks at (:func:`gasp_core.render.run.framed_bounds`): ``"moving"`` the simulated
+        part of the frames so far, ``"scene"`` everything.
 
     Attributes
     ----------
@@ -55,7 +58,8 @@ class RunViewer:
         Without viser (``pip install -e ".[view]"``).
     """
 
-    def __init__(self, run_dir, host: str = "127.0.0.1", port: int = 8080, poll_s: float = 0.5):
+    def __init__(self, run_dir, host: str = "127.0.0.1", port: int = 8080, poll_s: float = 0.5,
+                 framing: str = "moving"):
         import viser
         self.live = run_dir if isinstance(run_dir, LiveRun) else LiveRun(run_dir)
         if self.live.wait(1, poll_s) == 0:
@@ -73,8 +77,10 @@ class RunViewer:
         centre = 0.5 * (lo + hi)
         s.scene.add_grid("/ground", width=4 * size, height=4 * size, cell_size=size / 8,
                          section_size=size / 2, position=(float(centre[0]), float(centre[1]), gz))
-        s.initial_camera.look_at = tuple(float(x) for x in centre)
-        s.initial_camera.position = tuple(float(x) for x in centre + size * np.array([0.9, -1.6, 0.9]))
+        f_lo, f_hi = framed_bounds([self.run], self.frames, framing)      # the camera: what moves, by default
+        f_size, f_centre = float(np.max(f_hi - f_lo)), 0.5 * (f_lo + f_hi)
+        s.initial_camera.look_at = tuple(float(x) for x in f_centre)
+        s.initial_camera.position = tuple(float(x) for x in f_centre + f_size * np.array([0.9, -1.6, 0.9]))
         s.initial_camera.up = (0.0, 0.0, 1.0)
         self.status = None if self.live.status == FINISHED else s.gui.add_markdown(self.status_line())
         self.playing = s.gui.add_checkbox("Play", initial_value=False)
@@ -151,13 +157,14 @@ class RunViewer:
         self._quiet.__exit__()
 
 
-def serve(run_dir, host: str = "127.0.0.1", port: int = 8080) -> None:
-    """Serve ``run_dir`` until interrupted (Ctrl-C); a run in progress is followed (one line says so)."""
+def serve(run_dir, host: str = "127.0.0.1", port: int = 8080, framing: str = "moving") -> None:
+    """Serve ``run_dir`` until interrupted (Ctrl-C); a run in progress is followed (one line says so); the first
+    camera frames ``framing`` (:class:`RunViewer`)."""
     import viser  # noqa: F401  (without the view extra: that error first, whatever the folder)
     live = LiveRun(run_dir)
     if live.status in LIVE and live.n_frames == 0:
         print(f"gasp view: {run_dir} is a run in progress; waiting for its first frame", flush=True)
-    v = RunViewer(live, host, port)
+    v = RunViewer(live, host, port, framing=framing)
     if v.live.status in LIVE:
         print(f"gasp view: http://{host}:{v.port}  (following a run in progress: {len(v.frames)} of "
               f"{v.live.n_total} frames so far; Ctrl-C to stop)", flush=True)

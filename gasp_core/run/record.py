@@ -94,12 +94,31 @@ def _named(bodies: list, names) -> list:
     return [{**b, "name": names[b["body"]] if len(names) == len(bodies) else b.get("name")} for b in bodies]
 
 
+def row_ranges(rows) -> list | None:
+    """``run.json``'s ``moving_rows``: the sorted rows ``rows`` (int array; None: every row moves) as half-open
+    ``[start, stop]`` ranges, so that a renderer can frame what moves (:func:`ranges_rows`)."""
+    if rows is None:
+        return None
+    rows = np.asarray(rows, dtype=np.int64)
+    if not len(rows):
+        return []
+    cut = np.flatnonzero(np.diff(rows) != 1) + 1
+    starts, stops = rows[np.r_[0, cut]], rows[np.r_[cut - 1, len(rows) - 1]] + 1
+    return [[int(a), int(b)] for a, b in zip(starts, stops)]
+
+
+def ranges_rows(ranges) -> np.ndarray:
+    """The rows (int64) of :func:`row_ranges`' ``[start, stop]`` list."""
+    return np.concatenate([np.arange(a, b, dtype=np.int64) for a, b in ranges] or [np.zeros(0, np.int64)])
+
+
 def _object_record(o, name: str, boundaries=()) -> dict:
     s = o.spec
     return {
         "name": name, "file": str(s.file), "n_gaussians": o.gaussians.n,
         "layout": o.gaussians.layout, "material": dataclasses.asdict(s.material),
-        "up_axis": s.up_axis, "dynamic_time": s.dynamic_time, "scale": s.scale, "fill": s.fill,
+        "up_axis": s.up_axis, "up": s.up if s.up is None or isinstance(s.up, str) else list(s.up),
+        "moving_rows": row_ranges(o.moving), "dynamic_time": s.dynamic_time, "scale": s.scale, "fill": s.fill,
         "velocity": list(s.velocity), "angular_velocity": list(s.angular_velocity),
         "velocity_from_model": s.velocity_from_model,
         "n_fill_points": o.fill_slice.stop - o.fill_slice.start,

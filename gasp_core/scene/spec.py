@@ -79,6 +79,10 @@ class ObjectSpec:
         Gaussian Splatting file (graphdeco / GaMeS / 2DGS / compressed PLY), relative to the scene file.
     up_axis : str
         The file's up axis, one of ``+x -x +y -y +z -z``; it is turned to world +z.
+    up : None, "auto" or (3,) float
+        Replaces ``up_axis``: the file's up as a vector in the file frame, any direction, or ``"auto"`` (the
+        support plane of the scan, :mod:`gasp_core.gs.support`; a :class:`SceneError` where it is unsure). It
+        is turned to world +z by the shortest turn (:func:`gasp_core.prepare.up.up_rotation`).
     scale : float
         Metres per file unit.
     recentre : bool
@@ -163,6 +167,7 @@ class ObjectSpec:
 
     file: Path
     up_axis: str = "+z"
+    up: str | tuple[float, float, float] | None = None
     scale: float = 1.0
     recentre: bool = True
     position: tuple[float, float, float] = (0.0, 0.0, 0.0)
@@ -239,6 +244,20 @@ def _surface_points(o: dict, mesh, where: str, src: Path) -> str:
     return v
 
 
+def _up(o: dict, where: str, src: Path):
+    if "up" not in o:
+        return None
+    if "up_axis" in o:
+        raise SceneError(f"{src}: {where} states both 'up' and 'up_axis'; keep one ('up' replaces 'up_axis')")
+    if o["up"] == "auto":
+        return "auto"
+    expected = '"auto" or a vector [x, y, z] in the file frame, not [0, 0, 0]'
+    u = as_vec3(o["up"], f"{where}.up", src) if not isinstance(o["up"], str) else None
+    if u is None or not any(u):
+        bad_value(src, f"{where}.up", o["up"], expected)
+    return u
+
+
 def _object(o: dict, where: str, src: Path) -> ObjectSpec:
     check_keys(o, _OBJECT_KEYS, where, src)
     mesh = read_mesh(o, where, src)
@@ -263,7 +282,7 @@ def _object(o: dict, where: str, src: Path) -> ObjectSpec:
         return read_key(o, key, read, *args, default_from=ObjectSpec, where=where, src=src, **kw)
     return ObjectSpec(
         file=f, alpha=alpha, mesh=mesh,
-        up_axis=get("up_axis", as_string, UP_AXES),
+        up_axis=get("up_axis", as_string, UP_AXES), up=_up(o, where, src),
         scale=get("scale", as_number, *SCALE_RANGE),
         recentre=get("recentre", as_boolean),
         position=get("position", as_vec3, max_abs=MAX_COORD, unit=" m"),

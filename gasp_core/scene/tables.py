@@ -123,7 +123,9 @@ def read_boundary(b: dict, where: str, src: Path) -> Boundary:
     kind = as_string(b.get("kind"), f"{where}.kind", src, BOUNDARIES)
     check_keys(b, _BOUNDARY_KIND_KEYS.get(kind, _BOUNDARY_KEYS), f"{where} (kind = {kind!r})", src)
     kw: dict[str, Any] = {"kind": kind}
-    if "height" in b:
+    if b.get("height") == "auto" and kind == "ground":    # the support in the scan: gasp_core.prepare.ground
+        kw["height"] = "auto"
+    elif "height" in b:
         kw["height"] = as_number(b["height"], f"{where}.height", src, -MAX_COORD, MAX_COORD)
     if "friction" in b:
         kw["friction"] = as_number(b["friction"], f"{where}.friction", src, 0.0)

@@ -151,7 +151,8 @@ class Boundary:
         ``"walls"``: the faces of the domain box are walls with the same friction rule.
         ``"fixed_region"``: points that start inside the box ``[lo, hi]`` are held still.
     height : float
-        Ground height, metres (``"ground"``).
+        Ground height, metres (``"ground"``); a scene read from a file may hold ``"auto"`` until
+        :func:`gasp_core.prepare.ground.resolve_ground` sets it from the scan (an engine never sees it).
     friction : float
         Coulomb friction coefficient (``"ground"``, ``"walls"``).
     lo, hi : tuple of 3 floats
