@@ -19,8 +19,8 @@ def up_rotation(g: Gaussians, up_axis: str, up=None, name: str = "object") -> np
     Raises
     ------
     SceneError
-        ``up = "auto"`` where the estimate is unsure, naming ``name``, the figures and the best candidate's
-        normal to state instead.
+        ``up = "auto"`` where the estimate is unsure, naming ``name``, the figures and the best candidate
+        plane's normal (a candidate, not a verdict).
     """
     if up is None:
         return UP_ROTATIONS[up_axis]
@@ -28,7 +28,7 @@ def up_rotation(g: Gaussians, up_axis: str, up=None, name: str = "object") -> np
         e = estimate_up(g)
         if e.up is None:
             lean = ("" if e.lean is None else
-                    f"; the best candidate plane's normal is {np.round(e.lean.normal, 3).tolist()}")
+                    f"; the best candidate plane's normal is {np.round(e.lean.normal, 3).tolist()} (not a verdict)")
             raise SceneError(f"object '{name}': up = \"auto\" is unsure (confidence {e.confidence:.2f} < {UP_SURE}): "
                              f"{e.figures}{lean}; state up = [x, y, z] or up_axis (gasp info gives the figures)")
         up = e.up
