@@ -472,7 +472,7 @@ def test_a_fill_beyond_the_machines_memory_is_refused_before_it_allocates(tmp_pa
     from gasp_testing import scene_text
     from gasp_core.prepare.scene import prepare_scene
     from gasp_core.scene.spec import load_scene
-    from gasp_core.toolkit import memory
+    from gasp_core.seam import memory
     monkeypatch.setattr(memory, "machine_bytes", lambda: 2**29)
     scene = tmp_path / "s.toml"
     scene.write_text(scene_text(donut_small, n_frames=1, n_grid=100, engine="warp_mpm", engine_options="{ }",
