@@ -19,7 +19,7 @@ from typing import Callable
 from gasp_core.run import resume as resume_mod
 from gasp_core.fsutil import OutputClaim
 from gasp_core.gs.gaussians import Gaussians
-from gasp_core.run.layout import check_format, default_layout
+from gasp_core.run.layout import check_format
 from gasp_core.prepare.scene import input_files
 from gasp_core.run.report import ConsoleReporter, Reporter
 from gasp_core.run.request import SimulateRequest
@@ -102,7 +102,7 @@ def simulate_scene(scene: Scene, outdir: str | Path, request: SimulateRequest | 
     n_frames = scene.n_frames if req.n_frames is None else req.n_frames
     _refuse_early(req, outdir)
     claim = OutputClaim(outdir, req.overwrite, input_files(scene), resume=req.resume, discard=req.discard)
-    run = SimulationRun(claim, n_frames, fmt=req.fmt, layout=req.layout or default_layout(req.fmt), yes=req.yes,
+    run = SimulationRun(claim, n_frames, fmt=req.fmt, layout=req.layout, yes=req.yes,
                         reporter=reporter, hold=req.hold)
     summary = run.run(scene, req, on_frame)
     return RunResult(outdir=outdir, n_frames=n_frames, stats=run.stats, summary=summary)

@@ -34,6 +34,9 @@ from typing import TextIO
 
 #: What ``gasp simulate`` says before it builds the engine (the console, with progress).
 BUILDING = "gasp: {engine}: building the engine (its kernels compile on a first run, cached afterwards)…"
+#: What the run will write (issue 54: a big capture rewrote 125 MB a frame without a word).
+WRITES = ("gasp: the run writes about {size:,.1f} MB (layout {layout}: 'split' writes what never moves once; "
+          "--layout chooses)")
 #: ... and once the first frame it computes is done.
 BUILT = "gasp: {engine}: frame {frame} after {seconds:.3g} s (the engine's build and its kernels included)"
 
@@ -56,9 +59,13 @@ class Reporter:
         """Every event ends here; this one keeps it."""
         self.events.append(event)
 
-    def start(self, engine: str, n_frames: int, first_frame: int = 0) -> None:
-        """The frames begin: ``first_frame`` is done already (a resumed run), ``n_frames`` is the last."""
-        self.emit({"event": "start", "engine": engine, "n_frames": n_frames, "first_frame": first_frame})
+    def start(self, engine: str, n_frames: int, first_frame: int = 0, output_bytes: int | None = None,
+              layout: str | None = None) -> None:
+        """The frames begin: ``first_frame`` is done already (a resumed run), ``n_frames`` is the last;
+        ``output_bytes`` the bytes the run will write in its ``layout`` (None: not known for the format)."""
+        event = {"event": "start", "engine": engine, "n_frames": n_frames, "first_frame": first_frame,
+                 "output_bytes": output_bytes, "layout": layout}
+        self.emit({k: v for k, v in event.items() if v is not None})
 
     def frame(self, frame: int, wall_s: float, sim_s: float | None = None, n_substeps: int | None = None) -> None:
         """Frame ``frame`` is done (see the module docstring for the fields); None fields are left out."""
@@ -102,11 +109,15 @@ class ConsoleReporter(Reporter):
     def emit(self, event: dict) -> None:
         """Nothing is kept: the console has shown it."""
 
-    def start(self, engine: str, n_frames: int, first_frame: int = 0) -> None:
-        """Say that the engine builds (with ``progress``) and open the progress bar, named after the engine."""
+    def start(self, engine: str, n_frames: int, first_frame: int = 0, output_bytes: int | None = None,
+              layout: str | None = None) -> None:
+        """Say that the engine builds and what the run will write (with ``progress``), and open the progress bar,
+        named after the engine."""
         if self.progress:
             from tqdm import tqdm
             print(BUILDING.format(engine=engine), file=sys.stderr, flush=True)
+            if output_bytes is not None:
+                print(WRITES.format(size=output_bytes / 1e6, layout=layout), file=sys.stderr, flush=True)
             self._first = (engine, first_frame + 1, time.perf_counter())
             self._bar = tqdm(total=n_frames, initial=first_frame, unit="frame", desc=engine, leave=True)
 

@@ -21,7 +21,7 @@ from gasp_core.run.frames import Rebuilder
 from gasp_core.fsutil import OutputClaim, OutputConflict, atomic_json, leftover_partials
 from gasp_core.gs.gaussians import Gaussians
 from gasp_core.gs import registry
-from gasp_core.run.layout import FrameWriter
+from gasp_core.run.layout import FrameWriter, choose_layout, run_bytes
 from gasp_core.prepare.dynamic import follows_model
 from gasp_core.prepare.scene import PreparedScene, prepare_scene
 from gasp_core.run.record import run_summary, running_record
@@ -42,8 +42,10 @@ class SimulationRun:
         The output folder, claimed before any work.
     n_frames : int
         The last frame.
-    fmt, layout : str
-        Output format and layout (:mod:`gasp_core.run.layout`).
+    fmt : str
+        Output format (:mod:`gasp_core.run.layout`).
+    layout : str or None
+        Output layout; None: :func:`gasp_core.run.layout.choose_layout` once the scene is prepared.
     yes : bool
         Run beyond the work bound (``--yes``).
     reporter : Reporter
@@ -51,7 +53,7 @@ class SimulationRun:
         The hold file (``--hold``): the run waits after its first frame while it exists.
     """
 
-    def __init__(self, claim: OutputClaim, n_frames: int, fmt: str = "ply", layout: str = "frames",
+    def __init__(self, claim: OutputClaim, n_frames: int, fmt: str = "ply", layout: str | None = None,
                  yes: bool = False, reporter: Reporter | None = None, hold: str | None = None):
         self.claim, self.n_frames = claim, n_frames
         self.fmt, self.layout, self.yes, self.hold = fmt, layout, yes, hold
@@ -71,6 +73,8 @@ class SimulationRun:
         self.files: dict = {}
         #: Seconds the run waited on its hold file.
         self.held_s = 0.0
+        #: The bytes the run writes (:func:`gasp_core.run.layout.run_bytes`), None where it cannot say.
+        self.output_bytes: int | None = None
         #: Files written since the last checkpoint (frame 0's are written before the engine can save its state).
         self.unrecorded: list = []
 
@@ -80,9 +84,13 @@ class SimulationRun:
         n_frames, summary = self.n_frames, {}
         try:
             self.prep = prepare_scene(scene, req.engine)
+            rows = self.rows()
+            if self.layout is None:   # split where what never moves outweighs what does (SPLIT_RATIO)
+                self.layout = choose_layout(self.fmt, sum(g.n - m for g, _, m in rows), sum(m for _, _, m in rows))
             self.fingerprint = resume_mod.fingerprint(scene, self.prep.info.name, self.prep.setup.options, n_frames,
                                                       output=(self.fmt, self.layout))
             self.open_partial(req.resume)
+            self.output_bytes = run_bytes(rows, n_frames, self.layout, self.fmt)
             run_s = self.write_frames(on_frame)
             summary = run_summary(self.prep, self.stats, n_frames, self.per_frame, run_s)
             self.write_record(scene, summary)
@@ -96,6 +104,16 @@ class SimulationRun:
             self.give_up(e)
             raise
         return summary
+
+    def rows(self) -> list[tuple[Gaussians, int, int]]:
+        """Per object: its Gaussians, the rows a ``frames`` layout writes every frame and the rows that move (a
+        dynamic model's background moves with it; a static object none; a selection its selected rows)."""
+        out = []
+        for o in self.prep.objects:
+            g = o.gaussians
+            moving = g.n if follows_model(o) else 0 if o.spec.static else g.n if o.moving is None else len(o.moving)
+            out.append((g, g.n, moving))
+        return out
 
     # ---------------------------------------------------------------- the output folder
     def open_partial(self, resume: bool) -> None:
@@ -153,7 +171,8 @@ class SimulationRun:
         the next frame; after each, for engines with ``state``, a checkpoint.
         """
         prep, checkpoint = self.prep, self.checkpoint
-        self.reporter.start(prep.info.name, self.n_frames, 0 if checkpoint is None else checkpoint.frame)
+        self.reporter.start(prep.info.name, self.n_frames, 0 if checkpoint is None else checkpoint.frame,
+                            output_bytes=self.output_bytes, layout=self.layout)
         t_run = time.perf_counter()
         moves = [follows_model(o) for o in prep.objects]   # a dynamic model's background moves: every row, every frame
         writer = FrameWriter(self.tmp, list(prep.names), [o.spec.static and not m for o, m in zip(prep.objects, moves)],
