@@ -30,7 +30,8 @@ from scipy.spatial import cKDTree
 
 #: ``[[object]] surface_points``: the GaMeS triangle's three vertices (the paper's), the Gaussian's centre alone
 #: (PhysGaussian's layout, this module), or ``"auto"`` (the levels ``draft`` and ``default``): centres on an
-#: elastic body whose surface is simulated as material, where the trade's rule picks them, else vertices
+#: elastic body (its surface material, or passive as at the level ``draft``), where the trade's rule picks them,
+#: else vertices
 #: (:func:`gasp_core.prepare.surface.choose_surface_points`; docs/speed_accuracy.md, "PhysGaussian's layout").
 SURFACE_POINTS = ("vertices", "centres", "auto")
 #: Neighbours per centre in the least-squares fit of ``F``.
