@@ -312,7 +312,9 @@ class Transfers:
         substeps since its last gather through the affine field
         ``v(y, k) = v_prev + (k/m)(v_new - v_prev) + (C_prev + (k/m)(C_new - C_prev)) y``,
         ``y += dt v(y, k)`` for ``k = 1..m`` (:func:`gasp_core.toolkit.substeps.passive_schedule`), so it turns with
-        the material; ``m = 1`` is plain G2P."""
+        the material; ``m = 1`` is plain G2P. A point with no node of mass in its stencil (stranded: the material
+        flowed away, issue 55's specks in the air) falls freely, ``v_new = v_prev + m dt g``, until the material or
+        the boundaries' box takes it again."""
         base, fx, ok = self.base_fx(self.x[p])
         if not ok:
             ti.atomic_add(self.n_out[None], 1)
@@ -342,6 +344,8 @@ class Transfers:
                 Svr -= wsum * new_v.outer_product(rbar)
                 Srr += ti.Matrix.identity(self.real, 3) * (2.5e-5 * wsum) - wsum * rbar.outer_product(rbar)
                 new_C = self.inv_dx[None] * (Svr @ Srr.inverse())
+            else:   # stranded, no material in its stencil: it falls freely until material or a boundary takes it
+                new_v = self.v[p] + ti.cast(self.passive_substeps[pair], self.real) * self.dt[None] * self.gravity[None]
             v_prev = self.v[p]
             C_prev = self.C[p]
             if ti.static(self.any_fixed):

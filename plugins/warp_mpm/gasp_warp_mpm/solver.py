@@ -262,7 +262,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
                     by_interval[m] = wp.launch(
                         k.g2p_passive, dim=n_passive, device=d, record_cmd=True, inputs=[
                             self.x, self.v, self.C, self.fixed, self.grid_v, self.grid_m, self.flags, lo_v,
-                            inv_dx, dt_f, m, ng, self.n_material, hold_lo, hold_hi])
+                            inv_dx, dt_f, m, ng, self.n_material, hold_lo, hold_hi, g_v])
                 self._passive_at[substep] = by_interval[m]
         self._tick = (wp.launch(k.tick, dim=1, device=d, record_cmd=True, inputs=[ex.step])
                       if has_extras else None)

@@ -294,7 +294,7 @@ def build_g2p_passive(Ft):
     def g2p_passive(
         x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33), fixed: wp.array(dtype=wp.int32),
         grid_v: wp.array(dtype=vec3), grid_m: wp.array(dtype=Ft), flags: wp.array(dtype=wp.int32),
-        lo: vec3, inv_dx: Ft, dt: Ft, m: int, n_grid: int, first: int, hold_lo: vec3, hold_hi: vec3,
+        lo: vec3, inv_dx: Ft, dt: Ft, m: int, n_grid: int, first: int, hold_lo: vec3, hold_hi: vec3, gravity: vec3,
     ):
         # Passive points (rows first..): velocity v and affine velocity gradient C from the grid
         # (no F, no P2G). Only nodes with mass count, weights renormalised over them: a surface point
@@ -303,6 +303,7 @@ def build_g2p_passive(Ft):
         # point then advances over the m substeps since its last gather through the affine field
         # v(y, k) = v_prev + (k/m)(v_new - v_prev) + (C_prev + (k/m)(C_new - C_prev)) y,
         # y += dt v(y, k), k = 1..m (gasp_core.toolkit.substeps.passive_schedule), so it turns with the material.
+        # A point with no node of mass in its stencil (stranded) falls freely: v_new = v_prev + m dt g.
         p = first + wp.tid()
         if fixed[p] != 0:
             v[p] = vec3(Ft(0.0))
@@ -346,6 +347,8 @@ def build_g2p_passive(Ft):
             Svr = Svr - wsum * wp.outer(new_v, rbar)
             Srr = Srr - wsum * wp.outer(rbar, rbar) + wp.identity(3, dtype=Ft) * (Ft(2.5e-5) * wsum)
             Cn = inv_dx * (Svr * wp.inverse(Srr))
+        else:   # stranded, no material in its stencil: it falls freely until material or a boundary takes it
+            new_v = v[p] + Ft(m) * dt * gravity
         vp = v[p]
         Cp = C[p]
         y = vec3(Ft(0.0))
