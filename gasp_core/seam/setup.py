@@ -62,6 +62,12 @@ class Material:
         parallel; bulk viscosity ``2 eta / 3``, ``docs/dissipation.md``). From a loss factor ``tan(delta)``
         measured at the angular frequency ``omega``: ``eta = tan(delta) mu / omega``. Needs an engine with
         the feature ``viscosity``.
+    tensile_strength : float
+        Rankine tensile strength ``f_t``, Pa (brittle): damage starts where the largest principal stress of the
+        undamaged material passes it (``docs/fracture.md``).
+    fracture_energy : float
+        Fracture energy ``G_f``, J/m^2 (brittle): the work dissipated per unit crack area, whatever ``n_grid``
+        (crack band of width ``dx``, Bazant & Oh 1983); a grid engine refuses ``G_f <= f_t^2 dx / (2 E)``.
     model : str
         How the engine simulates the body (issue 40; :data:`gasp_core.seam.schema.BODY_MODELS`): ``"elastic"``
         (the full model), ``"rigid"`` (the rigid limit: the body moves as one rigid body, its stress is zero, its
@@ -81,6 +87,8 @@ class Material:
     theta_c: float = MATERIAL_PARAMS["theta_c"].default
     theta_s: float = MATERIAL_PARAMS["theta_s"].default
     viscosity: float = MATERIAL_PARAMS["viscosity"].default
+    tensile_strength: float = MATERIAL_PARAMS["tensile_strength"].default
+    fracture_energy: float = MATERIAL_PARAMS["fracture_energy"].default
     model: str = "auto"
 
     @staticmethod
