@@ -195,8 +195,8 @@ def build_elastic_funcs(Ft):
 
 @functools.cache
 def build_plastic_funcs(Ft):
-    """``(hencky_return, snow_return, brittle_return)``: return mappings and stresses of the plastic materials
-    (metal, plasticine, sand; snow) and of the brittle damage (docs/fracture.md) for the scalar type ``Ft``."""
+    """``(hencky_return, snow_return)``: return mappings and stresses of the plastic materials (metal,
+    plasticine, sand; snow) for the scalar type ``Ft``."""
     vec3, vec4, mat33 = build_types(Ft)
     hencky_tau, corotated_tau, _ = build_elastic_funcs(Ft)
     svd = build_decompositions(Ft)[2]
@@ -249,6 +249,15 @@ def build_plastic_funcs(Ft):
         Fp = U * wp.diag(sc) * wp.transpose(V)
         return Fp, corotated_tau(Fp, U, V, mu * h, lam * h)
 
+    return hencky_return, snow_return
+
+
+@functools.cache
+def build_brittle_return(Ft):
+    """``brittle_return``: the brittle damage and stress (docs/fracture.md) for the scalar type ``Ft``."""
+    vec3, vec4, mat33 = build_types(Ft)
+    svd = build_decompositions(Ft)[2]
+
     @wp.func
     def brittle_return(F_trial: mat33, mu: Ft, lam: Ft, b: int, p: int, mat_par: wp.array2d(dtype=Ft),
                        Jp: wp.array(dtype=Ft)):
@@ -279,7 +288,7 @@ def build_plastic_funcs(Ft):
             g[2] = Ft(1.0) - d
         return F_trial, U * wp.diag(wp.cw_mul(g, s)) * wp.transpose(U)
 
-    return hencky_return, snow_return, brittle_return
+    return brittle_return
 
 
 @functools.cache
@@ -288,7 +297,8 @@ def build_return_mapping(Ft):
     scalar type ``Ft``."""
     vec3, vec4, mat33 = build_types(Ft)
     jelly_tau = build_elastic_funcs(Ft)[2]
-    hencky_return, snow_return, brittle_return = build_plastic_funcs(Ft)
+    hencky_return, snow_return = build_plastic_funcs(Ft)
+    brittle_return = build_brittle_return(Ft)
 
     @wp.func
     def return_mapping(F_trial: mat33, p: int, body: wp.array(dtype=wp.int32), mat_kind: wp.array(dtype=wp.int32),
