@@ -19,7 +19,7 @@ from typing import Callable
 import numpy as np
 
 from gasp_core.run import resume as resume_mod
-from gasp_core.run import budget, hold, stop
+from gasp_core.run import budget, hold, pieces, stop
 from gasp_core.run.background import Background, gil_handover
 from gasp_core.errors import EngineDivergence, GaspError
 from gasp_core.run.frames import Rebuilder, iter_positions
@@ -226,6 +226,7 @@ def _write_frames(run: _Run, n_frames: int, on_frame: Callable[[int, list[Gaussi
     stop.frame_started(None)
     t_frame, c_frame = time.perf_counter(), time.process_time()
     rebuild_all = Rebuilder(prep, None if checkpoint is None else checkpoint.prev_rot)
+    tracker = pieces.tracker_for(prep.setup)   # None without a brittle body
     # a frame's rebuild (T^-1) and files are made on the writer while the engine runs the next frame
     with Background() as writes, gil_handover():
         for frame, x, sim_s, get_state in iter_positions(
@@ -236,6 +237,8 @@ def _write_frames(run: _Run, n_frames: int, on_frame: Callable[[int, list[Gaussi
             made: list = []
             wall_s, cpu_s = time.perf_counter() - t_frame, time.process_time() - c_frame
             times = {"sim_s": sim_s, "wall_s": wall_s, "cpu_s": cpu_s} if sim_s is not None else {}
+            if tracker is not None:
+                times.update(pieces.frame_row(tracker, run.reporter, frame, x, run.stats.damage if frame else None))
             writes.submit(_save_frame, run, writer, rebuild_all, frame, np.array(x), times, state,
                           list(run.stats.frame_s), made)
             run.reporter.frame(frame, wall_s, sim_s, run.stats.engine.get("n_substeps"))

@@ -1,0 +1,112 @@
+"""Pieces: the connected parts of a broken body, labelled each frame from the engine's per-point damage.
+
+A body of the ``brittle`` material breaks where its points' damage ``d`` (the engine feature ``damage``,
+``docs/fracture.md``) reaches 1. Two material points are *linked* when they were neighbours at rest (closer than
+:data:`LINK_RADIUS` times the median nearest-neighbour spacing of the body's points) and both have
+``d < BROKEN``; a piece is a connected component of the undamaged points over those links
+(``scipy.sparse.csgraph.connected_components``). A broken point (``d >= BROKEN``, the crack band) joins the piece of
+the nearest undamaged point at its current position, and a passive point the piece of the nearest material point
+at rest, so every point, and each piece's mass, is counted once. Points of different bodies never link.
+
+``run.json`` holds, per frame, ``pieces`` (the count) and ``piece_mass`` (kg, each piece's, largest first);
+``gasp simulate --json`` emits a ``pieces`` event when the count changes (``frame``, ``pieces``,
+``piece_mass``).
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+#: A point at or above this damage no longer links its neighbours: it carries at most 10 % of its tensile stress.
+BROKEN = 0.9
+#: Rest neighbours are closer than this times the median nearest-neighbour spacing: a lattice's face and edge
+#: neighbours (1 and sqrt 2 spacings) but no pair across one broken layer (2 spacings).
+LINK_RADIUS = 1.5
+
+
+class PieceTracker:
+    """The pieces of a run's points, frame after frame.
+
+    Parameters
+    ----------
+    x_rest : ndarray, shape (n, 3), float64
+        Rest positions, m (``SimSetup.x``).
+    body_id : ndarray, shape (n,), int
+    p_mass : ndarray, shape (n,), float64
+        Point masses, kg; 0 marks a passive point (rendered, not simulated).
+    """
+
+    def __init__(self, x_rest: np.ndarray, body_id: np.ndarray, p_mass: np.ndarray):
+        x_rest = np.asarray(x_rest, np.float64)
+        self.body = np.asarray(body_id)
+        self.mass = np.asarray(p_mass, np.float64)
+        self.material = np.flatnonzero(self.mass > 0)
+        pairs = [self._rest_pairs(x_rest, np.intersect1d(self.material, np.flatnonzero(self.body == b)))
+                 for b in np.unique(self.body[self.material])]
+        self.pairs = np.concatenate(pairs) if pairs else np.zeros((0, 2), np.int64)
+        passive = np.flatnonzero(self.mass <= 0)
+        near = cKDTree(x_rest[self.material]).query(x_rest[passive])[1] if len(passive) else np.zeros(0, np.int64)
+        self.passive, self.passive_host = passive, self.material[near]
+        self.count: int | None = None
+
+    @staticmethod
+    def _rest_pairs(x: np.ndarray, idx: np.ndarray) -> np.ndarray:
+        """Index pairs (k, 2) of the points ``idx`` closer than :data:`LINK_RADIUS` median spacings at rest."""
+        if len(idx) < 2:
+            return np.zeros((0, 2), np.int64)
+        tree = cKDTree(x[idx])
+        spacing = float(np.median(tree.query(x[idx], k=2)[0][:, 1]))
+        local = tree.query_pairs(LINK_RADIUS * spacing, output_type="ndarray")
+        return idx[local]
+
+    def labels(self, x: np.ndarray, damage: np.ndarray | None) -> np.ndarray:
+        """Piece label of every point, shape (n,), int64, 0 .. count - 1 (pieces numbered by first point).
+
+        ``x`` (n, 3): current positions, m; ``damage`` (n,) in [0, 1] or None (nothing broken)."""
+        n = len(self.mass)
+        d = np.zeros(n) if damage is None else np.asarray(damage, np.float64)
+        whole = d < BROKEN
+        keep = self.pairs[whole[self.pairs[:, 0]] & whole[self.pairs[:, 1]]]
+        graph = coo_matrix((np.ones(len(keep)), (keep[:, 0], keep[:, 1])), shape=(n, n))
+        _, comp = connected_components(graph, directed=False)
+        lab = np.full(n, -1, np.int64)
+        intact = self.material[whole[self.material]]
+        lab[intact] = comp[intact]
+        broken = self.material[~whole[self.material]]
+        if len(broken):
+            if len(intact):
+                lab[broken] = lab[intact[cKDTree(x[intact]).query(x[broken])[1]]]
+            else:   # nothing intact: each broken point a piece of its own
+                lab[broken] = broken
+        lab[self.passive] = lab[self.passive_host]
+        _, first, dense = np.unique(lab, return_index=True, return_inverse=True)
+        return np.argsort(np.argsort(first))[dense]
+
+    def row(self, x: np.ndarray, damage: np.ndarray | None) -> tuple[dict, bool]:
+        """``({"pieces": count, "piece_mass": [kg, largest first]}, changed)`` of the frame at positions ``x``;
+        ``changed``: the count differs from the last call's (always True on the first)."""
+        lab = self.labels(x, damage)
+        masses = np.bincount(lab, weights=self.mass)
+        count = int(len(masses))
+        changed, self.count = count != self.count, count
+        return {"pieces": count, "piece_mass": sorted((float(m) for m in masses), reverse=True)}, changed
+
+
+def tracker_for(setup) -> PieceTracker | None:
+    """A :class:`PieceTracker` of ``setup`` (a :class:`~gasp_core.seam.setup.SimSetup`) when one of its bodies is
+    ``brittle``, else None (nothing can break)."""
+    if not any(m.name == "brittle" for m in setup.materials):
+        return None
+    return PieceTracker(setup.x, setup.body_id, setup.p_mass)
+
+
+def frame_row(tracker: PieceTracker, reporter, frame: int, x: np.ndarray, damage: np.ndarray | None) -> dict:
+    """The frame's ``run.json`` figures (:meth:`PieceTracker.row`); on a change of the count (and at frame 0), the
+    event ``{"event": "pieces", "frame", "pieces", "piece_mass"}`` through ``reporter``
+    (:class:`gasp_core.run.report.Reporter`)."""
+    row, changed = tracker.row(x, damage)
+    if changed:
+        reporter.emit({"event": "pieces", "frame": frame, **row})
+    return row
