@@ -2,11 +2,11 @@
 
 A body of the ``brittle`` material breaks where its points' damage ``d`` (the engine feature ``damage``,
 ``docs/fracture.md``) reaches 1. Two material points are *linked* when they were neighbours at rest (closer than
-:data:`LINK_RADIUS` times the median nearest-neighbour spacing of the body's points) and both have
-``d < BROKEN``; a piece is a connected component of the undamaged points over those links
-(``scipy.sparse.csgraph.connected_components``). A broken point (``d >= BROKEN``, the crack band) joins the piece of
-the nearest undamaged point at its current position, and a passive point the piece of the nearest material point
-at rest, so every point, and each piece's mass, is counted once. Points of different bodies never link.
+:data:`LINK_RADIUS` times the fill spacing ``max(p_vol)^(1/3)`` of the body) and both have ``d < BROKEN``; a piece
+is a connected component of the undamaged points over those links (``scipy.sparse.csgraph.connected_components``).
+A broken point (``d >= BROKEN``, the crack band) or one without a rest neighbour joins the piece of the nearest
+undamaged linked point at its current position, and a passive point the piece of the nearest material point at
+rest, so every point, and each piece's mass, is counted once. Points of different bodies never link.
 
 ``run.json`` holds, per frame, ``pieces`` (the count) and ``piece_mass`` (kg, each piece's, largest first);
 ``gasp simulate --json`` emits a ``pieces`` event when the count changes (``frame``, ``pieces``,
@@ -21,8 +21,9 @@ from scipy.spatial import cKDTree
 
 #: A point at or above this damage no longer links its neighbours: it carries at most 10 % of its tensile stress.
 BROKEN = 0.9
-#: Rest neighbours are closer than this times the median nearest-neighbour spacing: a lattice's face and edge
-#: neighbours (1 and sqrt 2 spacings) but no pair across one broken layer (2 spacings).
+#: Rest neighbours are closer than this times the fill spacing ``max(p_vol)^(1/3)`` (the fill's lattice,
+#: docs/fill.md): a lattice's face and edge neighbours (1 and sqrt 2 spacings) but no pair across one broken layer
+#: (2 spacings).
 LINK_RADIUS = 1.5
 
 
@@ -36,30 +37,33 @@ class PieceTracker:
     body_id : ndarray, shape (n,), int
     p_mass : ndarray, shape (n,), float64
         Point masses, kg; 0 marks a passive point (rendered, not simulated).
+    p_vol : ndarray, shape (n,), float64
+        Point volumes, m^3 (the link radius, :data:`LINK_RADIUS`).
     """
 
-    def __init__(self, x_rest: np.ndarray, body_id: np.ndarray, p_mass: np.ndarray):
+    def __init__(self, x_rest: np.ndarray, body_id: np.ndarray, p_mass: np.ndarray, p_vol: np.ndarray):
         x_rest = np.asarray(x_rest, np.float64)
         self.body = np.asarray(body_id)
         self.mass = np.asarray(p_mass, np.float64)
         self.material = np.flatnonzero(self.mass > 0)
-        pairs = [self._rest_pairs(x_rest, np.intersect1d(self.material, np.flatnonzero(self.body == b)))
-                 for b in np.unique(self.body[self.material])]
+        pairs = []
+        for b in np.unique(self.body[self.material]):
+            idx = np.intersect1d(self.material, np.flatnonzero(self.body == b))
+            pairs.append(self._rest_pairs(x_rest, idx, LINK_RADIUS * float(np.max(p_vol[idx])) ** (1 / 3)))
         self.pairs = np.concatenate(pairs) if pairs else np.zeros((0, 2), np.int64)
+        self.linked = np.zeros(len(self.mass), bool)
+        self.linked[self.pairs.ravel()] = True
         passive = np.flatnonzero(self.mass <= 0)
         near = cKDTree(x_rest[self.material]).query(x_rest[passive])[1] if len(passive) else np.zeros(0, np.int64)
         self.passive, self.passive_host = passive, self.material[near]
         self.count: int | None = None
 
     @staticmethod
-    def _rest_pairs(x: np.ndarray, idx: np.ndarray) -> np.ndarray:
-        """Index pairs (k, 2) of the points ``idx`` closer than :data:`LINK_RADIUS` median spacings at rest."""
+    def _rest_pairs(x: np.ndarray, idx: np.ndarray, radius: float) -> np.ndarray:
+        """Index pairs (k, 2) of the points ``idx`` closer than ``radius`` (m) at rest."""
         if len(idx) < 2:
             return np.zeros((0, 2), np.int64)
-        tree = cKDTree(x[idx])
-        spacing = float(np.median(tree.query(x[idx], k=2)[0][:, 1]))
-        local = tree.query_pairs(LINK_RADIUS * spacing, output_type="ndarray")
-        return idx[local]
+        return idx[cKDTree(x[idx]).query_pairs(radius, output_type="ndarray")]
 
     def labels(self, x: np.ndarray, damage: np.ndarray | None) -> np.ndarray:
         """Piece label of every point, shape (n,), int64, 0 .. count - 1 (pieces numbered by first point).
@@ -67,7 +71,7 @@ class PieceTracker:
         ``x`` (n, 3): current positions, m; ``damage`` (n,) in [0, 1] or None (nothing broken)."""
         n = len(self.mass)
         d = np.zeros(n) if damage is None else np.asarray(damage, np.float64)
-        whole = d < BROKEN
+        whole = (d < BROKEN) & self.linked
         keep = self.pairs[whole[self.pairs[:, 0]] & whole[self.pairs[:, 1]]]
         graph = coo_matrix((np.ones(len(keep)), (keep[:, 0], keep[:, 1])), shape=(n, n))
         _, comp = connected_components(graph, directed=False)
@@ -99,7 +103,7 @@ def tracker_for(setup) -> PieceTracker | None:
     ``brittle``, else None (nothing can break)."""
     if not any(m.name == "brittle" for m in setup.materials):
         return None
-    return PieceTracker(setup.x, setup.body_id, setup.p_mass)
+    return PieceTracker(setup.x, setup.body_id, setup.p_mass, setup.p_vol)
 
 
 def frame_row(tracker: PieceTracker, reporter, frame: int, x: np.ndarray, damage: np.ndarray | None) -> dict:
