@@ -193,3 +193,121 @@ def test_the_bar_check_catches_an_engine_that_never_damages(name, monkeypatch):
     never_damages(monkeypatch, name)
     r = bar_run(name)
     assert r["d_max"] == 0.0 and r["peak"] > 1.05 * FT, r
+
+
+# ----------------------------------------------------------------------------- a rod hanging under its weight
+NECK, NECK_L, HEAD, HEAD_H = 0.08, 0.3, 0.2, 0.1    # neck side and length, head side and height, m
+ROD_Z0 = 0.45                                       # the rod's bottom, m (world)
+RHO_G_L = RHO * 9.81 * NECK_L                       # the static stress at the top of the neck, Pa
+
+
+def _box_faces(size, z0: float, spacing: float, skip_top: bool = False, hole: float = 0.0):
+    """Centres and rotations (wxyz, thin axis along the face normal) of flat square Gaussians of side ``spacing``
+    tiling the faces of the box ``|x|, |y| <= size / 2``, ``z0 <= z <= z0 + size[2]``; ``skip_top`` leaves out
+    its top face, ``hole`` the central square of that side out of its bottom face."""
+    size = np.asarray(size, float)
+    lo = np.array([-size[0] / 2, -size[1] / 2, z0])
+    hi = lo + size
+    # rotation taking the local x axis (the thin one) to the world axis ``ax``
+    q = {0: [1.0, 0.0, 0.0, 0.0], 1: [0.70710678, 0.0, 0.0, 0.70710678], 2: [0.70710678, 0.0, -0.70710678, 0.0]}
+    means, rots = [], []
+    for ax in range(3):
+        u, w = [k for k in range(3) if k != ax]
+        nu_, nw = round(size[u] / spacing), round(size[w] / spacing)
+        U, W = np.meshgrid(lo[u] + (np.arange(nu_) + 0.5) * spacing, lo[w] + (np.arange(nw) + 0.5) * spacing,
+                           indexing="ij")
+        for side in (lo[ax], hi[ax]):
+            if ax == 2 and side == hi[2] and skip_top:
+                continue
+            p = np.zeros((U.size, 3))
+            p[:, u], p[:, w], p[:, ax] = U.ravel(), W.ravel(), side
+            if ax == 2 and side == lo[2] and hole:
+                p = p[(np.abs(p[:, 0]) > hole / 2) | (np.abs(p[:, 1]) > hole / 2)]
+            means.append(p)
+            rots.append(np.tile(q[ax], (len(p), 1)))
+    return np.concatenate(means), np.concatenate(rots)
+
+
+def t_rod(spacing: float = 0.02):
+    """Flat Gaussians on the surface of a T: a neck ``NECK`` square, ``NECK_L`` long (z from 0), under a head
+    ``HEAD`` square, ``HEAD_H`` high."""
+    from gasp_core.gs.gaussians import Gaussians
+    from gasp_core.maps.games import EPS
+    m1, r1 = _box_faces((NECK, NECK, NECK_L), 0.0, spacing, skip_top=True)
+    m2, r2 = _box_faces((HEAD, HEAD, HEAD_H), NECK_L, spacing, hole=NECK)
+    means, rots = np.concatenate([m1, m2]), np.concatenate([r1, r2])
+    n = len(means)
+    return Gaussians(means=means, scales=np.column_stack([np.full(n, EPS), np.full(n, spacing / 2),
+                                                          np.full(n, spacing / 2)]),
+                     rotations=rots, opacities=np.full(n, 2.0, np.float32), sh_dc=np.full((n, 3), 0.5, np.float32))
+
+
+def rod_run(tmp_path, name: str, tensile_strength: float, n_frames: int = 8) -> tuple[list, float | None]:
+    """``gasp simulate``'s pipeline on the T rod hanging from its head (``fixed_region`` over the head's top half,
+    z > 0.8 m): ``run.json``'s frames and the rest height (rod frame, m) of the highest Gaussian that fell more
+    than 2 cm (None: none fell)."""
+    from gasp_core.gs.io import read_gaussians, write_gaussians
+    from gasp_core.run.pipeline import simulate_scene
+    from gasp_core.scene.spec import load_scene
+    write_gaussians(tmp_path / "rod.ply", t_rod())
+    opts = "{ threads = 1 }" if name == "taichi_mpm" else "{}"
+    (tmp_path / "rod.toml").write_text(f"""
+frame_dt = 0.02
+n_frames = {n_frames}
+[engine]
+name = "{name}"
+options = {opts}
+[domain]
+lo = [-0.5, -0.5, -0.2]
+hi = [0.5, 0.5, 1.0]
+n_grid = 29
+[[boundary]]
+kind = "ground"
+[[boundary]]
+kind = "fixed_region"
+lo = [-1.0, -1.0, 0.8]
+hi = [1.0, 1.0, 1.0]
+[[object]]
+file = "{tmp_path / 'rod.ply'}"
+up_axis = "+z"
+position = [0.0, 0.0, {ROD_Z0}]
+[object.material]
+name = "brittle"
+E = {E}
+nu = {NU}
+rho = {RHO}
+tensile_strength = {tensile_strength}
+fracture_energy = 5.0
+""")
+    out = tmp_path / "run"
+    simulate_scene(load_scene(tmp_path / "rod.toml"), out)
+    frames = json.loads((out / "run.json").read_text())["frames"]
+    g0 = read_gaussians(out / "rod" / "frame_0000.ply").means
+    g1 = read_gaussians(out / "rod" / f"frame_{n_frames:04d}.ply").means
+    fell = g0[:, 2] - g1[:, 2] > 0.02
+    return frames, (float(g0[fell, 2].max()) if fell.any() else None)   # frames are written in the file's frame
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", _names())
+def test_a_rod_under_its_weight_breaks_in_its_upper_half_below_rho_g_L(tmp_path, name):
+    frames, crack = rod_run(tmp_path, name, 0.6 * RHO_G_L)
+    assert frames[0]["pieces"] == 1 and frames[-1]["pieces"] >= 2, [f["pieces"] for f in frames]
+    assert crack is not None and NECK_L / 2 < crack <= NECK_L, f"{name}: broke at {crack} m of the {NECK_L} m neck"
+    total = sum(frames[0]["piece_mass"])
+    assert all(abs(sum(f["piece_mass"]) / total - 1) < 1e-9 for f in frames)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", _names())
+def test_a_rod_stays_whole_above_twice_rho_g_L(tmp_path, name):
+    frames, crack = rod_run(tmp_path, name, 2.5 * RHO_G_L)
+    assert [f["pieces"] for f in frames] == [1] * len(frames) and crack is None
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", _names())
+def test_the_rod_check_catches_an_engine_that_never_damages(tmp_path, name, monkeypatch):
+    never_damages(monkeypatch, name)
+    frames, crack = rod_run(tmp_path, name, 0.6 * RHO_G_L)
+    assert frames[-1]["pieces"] == 1 and crack is None
