@@ -242,10 +242,11 @@ def t_rod(spacing: float = 0.02):
                      rotations=rots, opacities=np.full(n, 2.0, np.float32), sh_dc=np.full((n, 3), 0.5, np.float32))
 
 
-def rod_run(tmp_path, name: str, tensile_strength: float, n_frames: int = 8) -> tuple[list, float | None]:
+def rod_run(tmp_path, name: str, tensile_strength: float, n_frames: int = 8) -> tuple[list, float | None, list]:
     """``gasp simulate``'s pipeline on the T rod hanging from its head (``fixed_region`` over the head's top half,
-    z > 0.8 m): ``run.json``'s frames and the rest height (rod frame, m) of the highest Gaussian that fell more
-    than 2 cm (None: none fell)."""
+    z > 0.8 m): ``run.json``'s frames, the rest height (rod frame, m) of the highest Gaussian that fell more
+    than 2 cm (None: none fell), and the run's ``pieces`` events."""
+    from gasp_core.run.report import Reporter
     from gasp_core.gs.io import read_gaussians, write_gaussians
     from gasp_core.run.pipeline import simulate_scene
     from gasp_core.scene.spec import load_scene
@@ -280,19 +281,23 @@ tensile_strength = {tensile_strength}
 fracture_energy = 5.0
 """)
     out = tmp_path / "run"
-    simulate_scene(load_scene(tmp_path / "rod.toml"), out)
+    rep = Reporter()
+    simulate_scene(load_scene(tmp_path / "rod.toml"), out, reporter=rep)
     frames = json.loads((out / "run.json").read_text())["frames"]
     g0 = read_gaussians(out / "rod" / "frame_0000.ply").means
     g1 = read_gaussians(out / "rod" / f"frame_{n_frames:04d}.ply").means
     fell = g0[:, 2] - g1[:, 2] > 0.02
-    return frames, (float(g0[fell, 2].max()) if fell.any() else None)   # frames are written in the file's frame
+    crack = float(g0[fell, 2].max()) if fell.any() else None   # frames are written in the file's frame
+    return frames, crack, [e for e in rep.events if e["event"] == "pieces"]
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", _names())
 def test_a_rod_under_its_weight_breaks_in_its_upper_half_below_rho_g_L(tmp_path, name):
-    frames, crack = rod_run(tmp_path, name, 0.6 * RHO_G_L)
+    frames, crack, events = rod_run(tmp_path, name, 0.6 * RHO_G_L)
     assert frames[0]["pieces"] == 1 and frames[-1]["pieces"] >= 2, [f["pieces"] for f in frames]
+    changes = [f["frame"] for k, f in enumerate(frames) if k == 0 or f["pieces"] != frames[k - 1]["pieces"]]
+    assert [e["frame"] for e in events] == changes and events[-1]["pieces"] == frames[-1]["pieces"]
     assert crack is not None and NECK_L / 2 < crack <= NECK_L, f"{name}: broke at {crack} m of the {NECK_L} m neck"
     total = sum(frames[0]["piece_mass"])
     assert all(abs(sum(f["piece_mass"]) / total - 1) < 1e-9 for f in frames)
@@ -301,13 +306,13 @@ def test_a_rod_under_its_weight_breaks_in_its_upper_half_below_rho_g_L(tmp_path,
 @pytest.mark.slow
 @pytest.mark.parametrize("name", _names())
 def test_a_rod_stays_whole_above_twice_rho_g_L(tmp_path, name):
-    frames, crack = rod_run(tmp_path, name, 2.5 * RHO_G_L)
-    assert [f["pieces"] for f in frames] == [1] * len(frames) and crack is None
+    frames, crack, events = rod_run(tmp_path, name, 2.5 * RHO_G_L)
+    assert [f["pieces"] for f in frames] == [1] * len(frames) and crack is None and len(events) == 1
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", _names())
 def test_the_rod_check_catches_an_engine_that_never_damages(tmp_path, name, monkeypatch):
     never_damages(monkeypatch, name)
-    frames, crack = rod_run(tmp_path, name, 0.6 * RHO_G_L)
+    frames, crack, _ = rod_run(tmp_path, name, 0.6 * RHO_G_L)
     assert frames[-1]["pieces"] == 1 and crack is None
