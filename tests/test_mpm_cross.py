@@ -42,14 +42,17 @@ def cross_setup() -> SimSetup:
 
 def cross_state(n: int):
     """``F`` (small and large stretches, some compressed: every return mapping is active on some points),
-    ``C`` (1/s) and ``Jp`` (1 for snow, plastic strain for plasticine, else 1) per point, float64."""
+    ``C`` (1/s) and ``Jp`` (1 for snow, plastic strain for plasticine, damage for brittle, else 1) per point,
+    float64."""
     rng = np.random.default_rng(28)
     scale = np.where(np.arange(n) % 3 == 0, 0.01, 0.12)[:, None, None]   # a third stay elastic
     F = np.eye(3) + scale * rng.normal(size=(n, 3, 3))
     C = rng.normal(0, 2.0, (n, 3, 3))
     body = np.repeat(np.arange(len(MATERIALS)), PER_BODY)
-    Jp = np.where((body == MATERIAL_CODES["plasticine"]) | (body == MATERIAL_CODES["brittle"]), rng.uniform(0, 0.5, n),
+    Jp = np.where(body == MATERIAL_CODES["plasticine"], rng.uniform(0, 0.5, n),
                   np.where(body == MATERIAL_CODES["snow"], rng.uniform(0.95, 1.05, n), 1.0))
+    brittle = body == MATERIAL_CODES["brittle"]   # damage: a quarter broken through (their sand branch)
+    Jp[brittle] = np.where(np.arange(n)[brittle] % 4 == 0, 1.0, rng.uniform(0, 0.5, brittle.sum()))
     return F, C, Jp
 
 

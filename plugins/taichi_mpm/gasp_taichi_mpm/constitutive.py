@@ -151,6 +151,23 @@ class Constitutive:
         return self.udvt(U, d, U)
 
     @ti.func
+    def drucker_prager(self, eps, mu, lam, alpha):
+        """The Hencky strain ``eps`` (principal) return-mapped onto the Drucker-Prager cone of ``alpha`` without
+        cohesion (Klar et al. 2016, Sec. 4 and Eq. 27): 0 in volumetric tension, else its deviator shortened by
+        ``dg = |e| + (3 lam + 2 mu) / (2 mu) tr(eps) alpha`` where that is positive. Sand, and a brittle point
+        broken through."""
+        tr = eps.sum()
+        e = eps - tr / 3.0
+        ne = e.norm()
+        if tr >= 0.0:
+            eps = ti.Vector.zero(self.real, 3)
+        else:
+            dg = ne + (3.0 * lam + 2.0 * mu) / (2.0 * mu) * tr * alpha
+            if dg > 0.0:
+                eps -= dg * e / ne
+        return eps
+
+    @ti.func
     def brittle_tau(self, U, eps, mu, lam, ft, sf, d):
         """``(tau, d)``: the brittle Kirchhoff stress and the damage after it (docs/fracture.md).
 
@@ -209,12 +226,7 @@ class Constitutive:
                 e = eps - tr / 3.0
                 ne = e.norm()
                 if kind == SAND:
-                    if tr >= 0.0:
-                        eps = ti.Vector.zero(self.real, 3)
-                    else:
-                        dg = ne + (3.0 * lam + 2.0 * mu) / (2.0 * mu) * tr * prm[P_ALPHA]
-                        if dg > 0.0:
-                            eps -= dg * e / ne
+                    eps = self.drucker_prager(eps, mu, lam, prm[P_ALPHA])
                     F = self.udvt(U, ti.exp(eps), V)
                 else:
                     yield_stress = prm[P_YIELD]
@@ -231,7 +243,12 @@ class Constitutive:
             if kind == BRITTLE:
                 U, sig, V = self.svd(F)
                 eps = ti.log(ti.max(sig, 1e-4))
-                tau, Jp = self.brittle_tau(U, eps, mu, lam, prm[P_FT], prm[P_SF], Jp)
+                if Jp >= 1.0:   # broken through: cohesionless sand (docs/fracture.md)
+                    eps = self.drucker_prager(eps, mu, lam, prm[P_ALPHA])
+                    F = self.udvt(U, ti.exp(eps), V)
+                    tau = self.hencky_tau(U, eps, mu, lam)
+                else:
+                    tau, Jp = self.brittle_tau(U, eps, mu, lam, prm[P_FT], prm[P_SF], Jp)
         if ti.static(LIQUID in self.kinds):
             if kind == LIQUID:
                 J = F.determinant()

@@ -266,13 +266,13 @@ def build_brittle_return(Ft):
         # gasp_core.toolkit.materials.brittle_damage), kept in Jp when larger (never heals); only the tensile
         # s_i > 0 are scaled by 1 - d. Returns (F unchanged, tau). The Taichi plugin's brittle_tau.
         U, sig, V = svd(F_trial)
+        d = Jp[p]
         eps = vec3(wp.log(wp.max(sig[0], Ft(1e-4))), wp.log(wp.max(sig[1], Ft(1e-4))),
                    wp.log(wp.max(sig[2], Ft(1e-4))))
         s = Ft(2.0) * mu * eps + vec3(lam * (eps[0] + eps[1] + eps[2]))
         smax = wp.max(s[0], wp.max(s[1], s[2]))
         ft = mat_par[b, P_FT]
         sf = mat_par[b, P_SF]
-        d = Jp[p]
         if smax > ft:
             dt = Ft(1.0)
             if smax < sf:
@@ -321,7 +321,10 @@ def build_return_mapping(Ft):
         elif kind == SNOW:
             Fp, tau = snow_return(Fp, mu, lam, b, p, mat_par, Jp)
         elif kind == BRITTLE:
-            Fp, tau = brittle_return(Fp, mu, lam, b, p, mat_par, Jp)
+            if Jp[p] >= Ft(1.0):   # broken through: cohesionless sand (docs/fracture.md)
+                Fp, tau = hencky_return(Fp, mu, lam, SAND, b, p, mat_par, Jp)
+            else:
+                Fp, tau = brittle_return(Fp, mu, lam, b, p, mat_par, Jp)
         else:  # LIQUID
             J = wp.determinant(Fp)
             Fp = wp.identity(3, dtype=Ft) * wp.pow(J, Ft(1.0) / Ft(3.0))
