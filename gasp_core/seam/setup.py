@@ -116,6 +116,27 @@ class Material:
             raise SceneError(f"{where}.model = 'rigid' needs an elastic material ({', '.join(RIGID_KINDS)}); "
                              f"{self.name!r} flows or yields")
 
+    def snap_back_limit(self, dx: float) -> float:
+        """The least ``fracture_energy`` a crack band of width ``dx`` (m) takes, J/m^2: ``f_t^2 dx / (2 E)``
+        (brittle; docs/fracture.md, Bazant & Oh 1983): below it the band's softening strain would be shorter than
+        its elastic strain and the band would snap back."""
+        return self.tensile_strength ** 2 * dx / (2.0 * self.E)
+
+    def check_band(self, dx: float, where: str = "material") -> None:
+        """Refuse a ``brittle`` material whose ``fracture_energy`` is at or below :meth:`snap_back_limit` at the grid
+        spacing ``dx`` (m); other materials pass.
+
+        Raises
+        ------
+        SceneError
+            Naming the limit, ``dx`` and what to change.
+        """
+        limit = self.snap_back_limit(dx)
+        if self.name == "brittle" and not self.fracture_energy > limit:
+            raise SceneError(f"{where}.fracture_energy = {self.fracture_energy:g} J/m^2 is at or below the snap-back "
+                             f"limit tensile_strength^2 dx / (2 E) = {limit:.4g} J/m^2 at dx = {dx:.4g} m; raise "
+                             f"fracture_energy above it, or lower tensile_strength, or raise n_grid")
+
     @property
     def K(self) -> float:
         """Bulk modulus ``E / (3 (1 - 2 nu))``, Pa."""
@@ -286,6 +307,7 @@ class SimSetup:
             raise SceneError(f"SimSetup.frame_dt = {self.frame_dt}; expected a positive number of seconds")
         for i, m in enumerate(self.materials):
             m.check(f"SimSetup.materials[{i}] ({m.name!r})")
+            m.check_band(self.dx, f"SimSetup.materials[{i}] ({m.name!r})")
 
     @property
     def dx(self) -> float:

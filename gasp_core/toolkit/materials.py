@@ -63,14 +63,15 @@ VON_MISES_RADIUS = math.sqrt(2.0 / 3.0)
 
 
 def snap_back_limit(m: Material, dx: float) -> float:
-    """The least fracture energy a crack band of width ``dx`` takes, J/m^2: ``f_t^2 dx / (2 E)``.
+    """The least fracture energy a crack band of width ``dx`` takes, J/m^2: ``f_t^2 dx / (2 E)``
+    (:meth:`Material.snap_back_limit`).
 
     With linear softening the band's stress falls from ``f_t`` to 0 over the strain ``2 G_f / (f_t dx)``; below
     this limit that strain is smaller than the elastic ``f_t / E`` and the band would snap back (Bazant & Oh
     1983, "Crack band theory for fracture of concrete", Materiaux et Constructions 16; Jirasek & Bazant,
     "Inelastic Analysis of Structures", Wiley 2002, on the crack band model).
     """
-    return m.tensile_strength ** 2 * dx / (2.0 * m.E)
+    return m.snap_back_limit(dx)
 
 
 def softening_stress(m: Material, dx: float) -> float:
@@ -81,13 +82,10 @@ def softening_stress(m: Material, dx: float) -> float:
     Raises
     ------
     SceneError
-        ``G_f`` at or below :func:`snap_back_limit`, naming the limit and the ``n_grid`` it comes from.
+        ``G_f`` at or below :func:`snap_back_limit`, naming the limit and the ``dx`` it comes from
+        (:meth:`Material.check_band`; ``SimSetup`` refuses it first).
     """
-    limit = snap_back_limit(m, dx)
-    if not m.fracture_energy > limit:
-        raise SceneError(f"material 'brittle': fracture_energy = {m.fracture_energy:g} J/m^2 is at or below the "
-                         f"snap-back limit tensile_strength^2 dx / (2 E) = {limit:.4g} J/m^2 at dx = {dx:.4g} m; "
-                         f"raise fracture_energy above it, or lower tensile_strength, or raise n_grid")
+    m.check_band(dx, "material 'brittle'")
     return 2.0 * m.E * m.fracture_energy / (m.tensile_strength * dx)
 
 
