@@ -379,3 +379,36 @@ def test_the_n_grid_check_catches_a_fracture_energy_not_regularised(name, monkey
 def test_the_work_to_break_the_bar_is_its_fracture_energy(name):
     w = dissipated_per_area(name, 32)
     assert abs(w / 5.0 - 1) < 0.20, f"{name}: {w:.3f} J/m^2 against G_f = 5"
+
+
+# ----------------------------------------------------------------------------- the crack starts at the notch
+def notched_bar_cracks(name: str) -> np.ndarray:
+    """The rest x (m) of the layers of points broken through (``d > 0.99``) after the bar of :func:`bar_setup`,
+    with its points in the layer at x = 0.5 m taken out over the upper half of its section (a notch), is pulled
+    for 60 frames. The plain bar breaks next to its clamp (x 0.255-0.287 m at n_grid 32)."""
+    s, _ = bar_setup(name)
+    keep = ~((np.abs(s.x[:, 0] - 0.5) < s.dx / 2) & (s.x[:, 1] > 0.5))
+    s = s.replace(x=s.x[keep], v=s.v[keep], p_vol=s.p_vol[keep], body_id=s.body_id[keep])
+    e = build_engine(engines()[name], s)
+    try:
+        for _ in range(60):
+            e.step_frame()
+        d = e.damage()
+    finally:
+        e.close()
+    return np.unique(np.round(s.x[d > 0.99, 0], 4))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", _names())
+def test_a_notched_bar_breaks_at_its_notch(name):
+    """Measured: layers at x = 0.492, 0.508, 0.524 m (the notch at 0.5, spacing 1/64 m) on warp_mpm."""
+    broken = notched_bar_cracks(name)
+    assert len(broken) and np.all(np.abs(broken - 0.5) < 1.5 / BAR_N_GRID), f"{name}: broken layers at {broken}"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", _names())
+def test_the_notch_check_catches_an_engine_that_never_damages(name, monkeypatch):
+    never_damages(monkeypatch, name)
+    assert len(notched_bar_cracks(name)) == 0
