@@ -57,6 +57,7 @@ class PieceTracker:
         near = cKDTree(x_rest[self.material]).query(x_rest[passive])[1] if len(passive) else np.zeros(0, np.int64)
         self.passive, self.passive_host = passive, self.material[near]
         self.count: int | None = None
+        self._last: tuple[np.ndarray, np.ndarray] | None = None   # (intact mask, labels) of the last labelling
 
     @staticmethod
     def _rest_pairs(x: np.ndarray, idx: np.ndarray, radius: float) -> np.ndarray:
@@ -68,10 +69,14 @@ class PieceTracker:
     def labels(self, x: np.ndarray, damage: np.ndarray | None) -> np.ndarray:
         """Piece label of every point, shape (n,), int64, 0 .. count - 1 (pieces numbered by first point).
 
-        ``x`` (n, 3): current positions, m; ``damage`` (n,) in [0, 1] or None (nothing broken)."""
+        ``x`` (n, 3): current positions, m; ``damage`` (n,) in [0, 1] or None (nothing broken). Labelled again only
+        when the set of intact points changed since the last call (damage never heals: a frame where nothing broke
+        costs one comparison); the broken points keep the piece they joined then."""
         n = len(self.mass)
         d = np.zeros(n) if damage is None else np.asarray(damage, np.float64)
         whole = (d < BROKEN) & self.linked
+        if self._last is not None and np.array_equal(whole, self._last[0]):
+            return self._last[1]   # no point broke since: the same pieces (a broken point stays where it joined)
         keep = self.pairs[whole[self.pairs[:, 0]] & whole[self.pairs[:, 1]]]
         graph = coo_matrix((np.ones(len(keep)), (keep[:, 0], keep[:, 1])), shape=(n, n))
         _, comp = connected_components(graph, directed=False)
@@ -86,7 +91,9 @@ class PieceTracker:
                 lab[broken] = broken
         lab[self.passive] = lab[self.passive_host]
         _, first, dense = np.unique(lab, return_index=True, return_inverse=True)
-        return np.argsort(np.argsort(first))[dense]
+        lab = np.argsort(np.argsort(first))[dense]
+        self._last = (whole, lab)
+        return lab
 
     def row(self, x: np.ndarray, damage: np.ndarray | None) -> tuple[dict, bool]:
         """``({"pieces": count, "piece_mass": [kg, largest first]}, changed)`` of the frame at positions ``x``;
