@@ -1,7 +1,7 @@
 """Cost of the brittle material (issue 52) on the README donut (`examples/donut_jelly.toml`): per substep, the same
 setup as ``jelly`` (its material), ``metal`` (the same SVD and Hencky stress, no yield reached) and ``brittle``
-(damage criterion evaluated, never reached at this strength), the engine stepped directly, 2 frames of warm-up, then ``FRAMES`` frames
-timed; and per frame, the core's piece labelling (:class:`gasp_core.run.pieces.PieceTracker` on the donut's points:
+(damage criterion evaluated, never reached at this strength), the engine stepped directly, 2 frames of warm-up,
+then ``FRAMES`` frames timed; and per frame, the core's piece labelling (:class:`gasp_core.run.pieces.PieceTracker` on the donut's points:
 on a frame where the set of broken points changed, and on one where nothing new broke) and the engine's
 ``damage()`` read, against the brittle frame.
 
