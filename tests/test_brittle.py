@@ -450,3 +450,42 @@ def test_a_free_bar_that_breaks_keeps_its_momentum_and_gains_no_energy(name):
     p, E0 = np.array(r["p"]), r["E"][0]
     assert np.all(np.abs(p / p[0] - 1) < 0.01), p
     assert max(r["E"][1:]) <= 1.01 * E0, (E0, max(r["E"][1:]))
+
+
+# ----------------------------------------------------------------------------- a ball dropped on the ground
+def ball_pieces(name: str, drop: float, tensile_strength: float, fracture_energy: float) -> int:
+    """Pieces after 15 frames of 0.01 s of a brittle ball (radius 0.1 m, E 200 kPa, rho 300 kg/m^3, lattice of
+    spacing dx/2 at n_grid 32) that reaches the ground (friction 0.5) at ``sqrt(2 g drop)`` (it starts 5 mm above
+    it with that speed: the same impact, a smaller domain)."""
+    from gasp_core.run.pieces import tracker_for
+    from gasp_core.testing.helpers import sphere_points
+    dx, ground = 1 / 32, 0.1 + 3 / 32
+    x, pv = sphere_points((0.5, 0.5, ground + 0.105), 0.1, dx / 2)
+    m = Material("brittle", E=2e5, nu=0.25, rho=300.0, tensile_strength=tensile_strength,
+                 fracture_energy=fracture_energy)
+    s = make_setup(x, pv, m, v=np.array([0.0, 0.0, -np.sqrt(2 * 9.81 * drop)]), n_grid=32, frame_dt=0.01,
+                   boundaries=[Boundary("ground", height=ground, friction=0.5), Boundary("walls")],
+                   options={"precision": "f32", **({"threads": 1} if name == "taichi_mpm" else {})})
+    e = build_engine(engines()[name], s)
+    try:
+        for _ in range(15):
+            e.step_frame()
+        return tracker_for(s).row(e.positions(), e.damage())[0]["pieces"]
+    finally:
+        e.close()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", _names())
+def test_a_ball_breaks_from_1_m_at_a_low_strength_and_stays_whole_from_5_cm_at_a_high_one(name):
+    """Measured on warp_mpm: 5 pieces at f_t = 10 kPa from 1 m (impact stress about rho c v = 34 kPa); 1 piece
+    at 25 kPa from 5 cm (about 7.7 kPa)."""
+    assert ball_pieces(name, 1.0, 1e4, 10.0) >= 3
+    assert ball_pieces(name, 0.05, 2.5e4, 80.0) == 1
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", _names())
+def test_the_ball_check_catches_an_engine_that_never_damages(name, monkeypatch):
+    never_damages(monkeypatch, name)
+    assert ball_pieces(name, 1.0, 1e4, 10.0) == 1
