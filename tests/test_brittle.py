@@ -496,3 +496,14 @@ def test_a_ball_breaks_from_1_m_at_a_low_strength_and_stays_whole_from_5_cm_at_a
 def test_the_ball_check_catches_an_engine_that_never_damages(name, monkeypatch):
     never_damages(monkeypatch, name)
     assert ball_pieces(name, 1.0, 1e4, 10.0) == 1
+
+
+def test_the_studio_offers_brittle_with_its_two_keys():
+    """The studio's material menu comes from the installed engines' materials (issue 52: both MLS-MPM engines);
+    its starting values are the ball's that breaks from 1 m, above the snap-back limit at any dx under 0.04 m."""
+    from gasp_core.studio.form import installed_engines, typical
+    assert set(installed_engines("brittle")) == set(_names())
+    start = typical("brittle")
+    assert start["tensile_strength"] == 1e4 and start["fracture_energy"] == 10.0
+    m = Material("brittle", **{k: v for k, v in start.items()})
+    assert m.snap_back_limit(0.04) < m.fracture_energy
