@@ -1,10 +1,10 @@
-"""The two MLS-MPM backends against each other, concern by concern (issue 27, docs/mpm.md): for each of the seven
+"""The two MLS-MPM backends against each other, concern by concern (issue 27, docs/mpm.md): for each of the eight
 materials, the same ``F``, ``Jp`` and parameters give the same return mapping (new ``F``, ``Jp``) and Kirchhoff
 stress ``tau`` in taichi_mpm and warp_mpm, and the same ``F``, ``C``, ``v`` give the same grid momentum and mass
 from one P2G, to float32 tolerance. The check is shown to catch a constitutive model whose stiffnesses (``mu``,
 ``lam``, ``K``) are 5 % off.
 
-Both engines run in f32 on the CPU; one setup holds the seven materials as seven bodies, so each backend compiles
+Both engines run in f32 on the CPU; one setup holds the eight materials as eight bodies, so each backend compiles
 its kernels once (Taichi about a minute on two loaded cores the first time, then from its offline cache).
 
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of the probe kernel.
@@ -20,7 +20,7 @@ from gasp_core.seam import build_engine, Material, SimSetup  # noqa: E402
 from gasp_core.seam.plugins import engines  # noqa: E402
 from gasp_core.toolkit.materials import MATERIAL_CODES, P_K, P_LAM, P_MU  # noqa: E402
 
-MATERIALS = list(MATERIAL_CODES)   # the seven, in code order
+MATERIALS = list(MATERIAL_CODES)   # the eight, in code order
 PER_BODY = 12                       # points per material
 DT = 2e-4                           # s, one substep
 #: Relative tolerance of a comparison (to the largest magnitude of that quantity for that material): a few f32
@@ -32,7 +32,8 @@ def cross_setup() -> SimSetup:
     """Seven bodies (one per material) of :data:`PER_BODY` scattered points, f32, one substep of :data:`DT`."""
     rng = np.random.default_rng(27)
     n = PER_BODY * len(MATERIALS)
-    mats = [Material(name, E=2e4, nu=0.3, rho=1000.0, yield_stress=300.0, softening=0.5) for name in MATERIALS]
+    mats = [Material(name, E=2e4, nu=0.3, rho=1000.0, yield_stress=300.0, softening=0.5, tensile_strength=300.0)
+            for name in MATERIALS]
     return SimSetup(x=rng.uniform(0.3, 0.7, (n, 3)), v=rng.normal(0, 0.2, (n, 3)), p_vol=rng.uniform(0.5, 1.5, n) * 1e-5,
                     body_id=np.repeat(np.arange(len(MATERIALS)), PER_BODY), materials=mats,
                     gravity=np.array([0.0, 0.0, -9.81]), domain_lo=np.zeros(3), domain_hi=np.ones(3), n_grid=16,
@@ -41,7 +42,8 @@ def cross_setup() -> SimSetup:
 
 def cross_state(n: int):
     """``F`` (small and large stretches, some compressed: every return mapping is active on some points),
-    ``C`` (1/s) and ``Jp`` (1 for snow, plastic strain for plasticine, else 1) per point, float64."""
+    ``C`` (1/s) and ``Jp`` (1 for snow, plastic strain for plasticine, damage for brittle, else 1) per point,
+    float64."""
     rng = np.random.default_rng(28)
     scale = np.where(np.arange(n) % 3 == 0, 0.01, 0.12)[:, None, None]   # a third stay elastic
     F = np.eye(3) + scale * rng.normal(size=(n, 3, 3))
@@ -49,6 +51,8 @@ def cross_state(n: int):
     body = np.repeat(np.arange(len(MATERIALS)), PER_BODY)
     Jp = np.where(body == MATERIAL_CODES["plasticine"], rng.uniform(0, 0.5, n),
                   np.where(body == MATERIAL_CODES["snow"], rng.uniform(0.95, 1.05, n), 1.0))
+    brittle = body == MATERIAL_CODES["brittle"]   # damage: a quarter broken through (their sand branch)
+    Jp[brittle] = np.where(np.arange(n)[brittle] % 4 == 0, 1.0, rng.uniform(0, 0.5, brittle.sum()))
     return F, C, Jp
 
 

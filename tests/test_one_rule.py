@@ -43,7 +43,8 @@ def test_an_auxetic_material_is_accepted_by_the_scene_and_by_simsetup(donut_smal
     assert scene.objects[0].material.nu == -0.5
     _setup(Material("jelly", nu=-0.5))
     assert set(MATERIAL_PARAMS) == {"E", "nu", "rho", "yield_stress", "friction_angle", "softening",
-                                    "hardening", "theta_c", "theta_s", "viscosity"}
+                                    "hardening", "theta_c", "theta_s", "viscosity", "tensile_strength",
+                                    "fracture_energy"}
 
 
 def test_the_moduli_and_dx_have_one_formula():

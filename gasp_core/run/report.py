@@ -1,6 +1,6 @@
 """One reporter: the progress, warnings, result and error of a run go through one object.
 
-A run says five kinds of thing, each an event (a dict with ``"event"`` naming its kind):
+A run says six kinds of thing, each an event (a dict with ``"event"`` naming its kind):
 
 ``start``
     ``engine`` (its name), ``n_frames`` (the last frame), ``first_frame`` (0, or the checkpoint a
@@ -11,6 +11,9 @@ A run says five kinds of thing, each an event (a dict with ``"event"`` naming it
     seconds, from frame 1 on), ``n_substeps`` (the engine's substeps per frame, when it says).
 ``warning``
     ``message``: one line in words.
+``pieces``
+    ``frame``, ``pieces`` (the count) and ``piece_mass`` (kg, largest first) of a scene with a ``brittle`` body,
+    at frame 0 and whenever the count changes (:mod:`gasp_core.run.pieces`).
 ``result``
     ``message`` (the line the console prints) and the record's fields (``gasp simulate``: ``run_json``,
     ``output``, ...).

@@ -14,7 +14,7 @@ from typing import Callable
 import numpy as np
 
 from gasp_core.run import resume as resume_mod
-from gasp_core.run import budget, hold, stop
+from gasp_core.run import budget, hold, pieces, stop
 from gasp_core.run.background import Background, gil_handover
 from gasp_core.errors import EngineDivergence, GaspError
 from gasp_core.run.frames import Rebuilder
@@ -180,8 +180,9 @@ class SimulationRun:
                              overwrite=checkpoint is not None, up_axes=[o.spec.up_axis for o in prep.objects])
         stop.frame_started(None)
         rebuild_all = Rebuilder(prep, None if checkpoint is None else checkpoint.prev_rot)
+        tracker = pieces.tracker_for(prep.setup)   # None without a brittle body
         with Background() as writes, gil_handover():
-            hand = _Handover(self, writes, writer, rebuild_all, on_frame)
+            hand = _Handover(self, writes, writer, rebuild_all, on_frame, tracker)
             if checkpoint is None:
                 hand(0, prep.setup.x, None, None)      # its files are written while the engine is built
             with EngineRun(prep.info, prep.setup, self.stats, start_frame=0 if checkpoint is None else checkpoint.frame,
@@ -329,6 +330,8 @@ class _Handover:
     writer: FrameWriter
     rebuild_all: Rebuilder
     on_frame: Callable[[int, list[Gaussians]], None] | None
+    #: The pieces of a scene with a brittle body (:mod:`gasp_core.run.pieces`); None without one.
+    tracker: object = None
     t_frame: float = field(default_factory=time.perf_counter)
     c_frame: float = field(default_factory=time.process_time)
 
@@ -339,6 +342,8 @@ class _Handover:
         made: list = []
         wall_s, cpu_s = time.perf_counter() - self.t_frame, time.process_time() - self.c_frame
         times = {"sim_s": sim_s, "wall_s": wall_s, "cpu_s": cpu_s} if sim_s is not None else {}
+        if self.tracker is not None:
+            times.update(pieces.frame_row(self.tracker, run.reporter, frame, x, run.stats.damage if frame else None))
         self.writes.submit(run.save_frame, self.writer, self.rebuild_all, frame, np.array(x), times, state,
                            list(run.stats.frame_s), made)
         run.reporter.frame(frame, wall_s, sim_s, run.stats.engine.get("n_substeps"))

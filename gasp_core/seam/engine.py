@@ -60,6 +60,9 @@ FEATURES = {
              "stress, contact moments: their x, v, F, C, Jp stay as they are) and a cleared flag resumes them with "
              "the v, F, C they had; called between frames only, by gasp_core.seam.body_sleep's watch, which also "
              "saves the flags in a checkpoint and gives them again after set_state",
+    "damage": "damage() -> ndarray (n,) float64 in [0, 1], setup order: each point's damage d after the last frame "
+              "(the brittle material, docs/fracture.md; 0 for points of other materials); d never decreases. The "
+              "core labels the pieces from it (gasp_core.pieces)",
     "rigid_limit": "Material.model = 'rigid': the body moves as one rigid body (momentum and angular momentum of "
                    "its points kept), its stress is zero and its stiffness sets no step (docs/rigid.md)",
 }

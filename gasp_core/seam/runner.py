@@ -57,6 +57,9 @@ class RunStats:
     #: Per body, when it slept and woke (:meth:`gasp_core.seam.body_sleep.BodySleep.record`; engines with the feature
     #: ``sleep`` and sleep on); empty otherwise.
     bodies: list = field(default_factory=list)
+    #: The last frame's per-point damage, shape (n,), float64, setup order (engines with the feature ``damage`` on a
+    #: scene with a ``brittle`` body, ``docs/fracture.md``); None otherwise. ``gasp_core.run.pieces`` reads it.
+    damage: np.ndarray | None = None
 
 
 #: The likely cause of non-finite values, or of points jumping out of the domain within a step: the one
@@ -182,6 +185,7 @@ class EngineRun:
         info, setup, stats, watch, engine = self.info, self.setup, self.stats, self.watch, self.engine
         advance = _advancer(engine, watch)
         x = np.asarray(call_engine(info, "positions", engine.positions), dtype=np.float64) if watch.enabled else None
+        damaged = "damage" in info.capabilities.features and any(m.name == "brittle" for m in setup.materials)
         for frame in range(self.start_frame + 1, n_frames + 1):
             if watch.asleep_after is not None:   # asleep: the frame repeats the last one (gasp_core.seam.sleep)
                 stats.asleep_after = watch.asleep_after
@@ -192,6 +196,8 @@ class EngineRun:
             x_prev, x = x, call_engine(info, f"frame {frame}", advance, frame, x)
             dt_wall = time.perf_counter() - t0
             check_state(x, setup, frame)
+            if damaged:
+                stats.damage = np.asarray(call_engine(info, "damage", engine.damage), dtype=np.float64)
             stats.frame_s.append(dt_wall)
             watch.update(frame, x_prev, x)
             stats.bodies = [] if watch.bodies is None else watch.bodies.record()

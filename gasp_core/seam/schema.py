@@ -95,6 +95,12 @@ MATERIAL_PARAMS: dict[str, Param] = {
     "viscosity": Param(0.0, 0.0, unit="Pa s",
                        doc="Kelvin-Voigt shear viscosity eta, 0 = no physical damping (engine feature "
                            "'viscosity'; docs/dissipation.md)"),
+    "tensile_strength": Param(1e3, 0.0, lo_open=True, unit="Pa",
+                              doc="Rankine tensile strength f_t: the largest principal stress an undamaged point "
+                                  "carries (docs/fracture.md)"),
+    "fracture_energy": Param(10.0, 0.0, lo_open=True, unit="J/m^2",
+                             doc="fracture energy G_f: the work to open a unit area of crack; at least "
+                                 "tensile_strength^2 dx / (2 E), the snap-back limit (docs/fracture.md)"),
 }
 
 
@@ -127,6 +133,8 @@ MATERIAL_KINDS: dict[str, MaterialKind] = {
     "snow": MaterialKind("hardening plasticity (Stomakhin et al. 2013)",
                          _ELASTIC + ("hardening", "theta_c", "theta_s")),
     "plasticine": MaterialKind("von Mises with softening", _ELASTIC + ("yield_stress", "softening")),
+    "brittle": MaterialKind("Rankine damage on Hencky elasticity, crack band of width dx (Bazant & Oh 1983)",
+                            _ELASTIC + ("tensile_strength", "fracture_energy")),
     "liquid": MaterialKind("weakly compressible fluid (pressure from the bulk modulus K of E and nu)", _ELASTIC),
     "rigid": MaterialKind("rigid body (engines with rigid bodies)", ("rho",)),
 }

@@ -64,6 +64,12 @@ class Material:
         parallel; bulk viscosity ``2 eta / 3``, ``docs/dissipation.md``). From a loss factor ``tan(delta)``
         measured at the angular frequency ``omega``: ``eta = tan(delta) mu / omega``. Needs an engine with
         the feature ``viscosity``.
+    tensile_strength : float
+        Rankine tensile strength ``f_t``, Pa (brittle): damage starts where the largest principal stress of the
+        undamaged material passes it (``docs/fracture.md``).
+    fracture_energy : float
+        Fracture energy ``G_f``, J/m^2 (brittle): the work dissipated per unit crack area, whatever ``n_grid``
+        (crack band of width ``dx``, Bazant & Oh 1983); a grid engine refuses ``G_f <= f_t^2 dx / (2 E)``.
     model : str
         How the engine simulates the body (issue 40; :data:`gasp_core.seam.schema.BODY_MODELS`): ``"elastic"``
         (the full model), ``"rigid"`` (the rigid limit: the body moves as one rigid body, its stress is zero, its
@@ -83,6 +89,8 @@ class Material:
     theta_c: float = MATERIAL_PARAMS["theta_c"].default
     theta_s: float = MATERIAL_PARAMS["theta_s"].default
     viscosity: float = MATERIAL_PARAMS["viscosity"].default
+    tensile_strength: float = MATERIAL_PARAMS["tensile_strength"].default
+    fracture_energy: float = MATERIAL_PARAMS["fracture_energy"].default
     model: str = "auto"
 
     @staticmethod
@@ -109,6 +117,27 @@ class Material:
         if self.model == "rigid" and self.name not in RIGID_KINDS:
             raise SceneError(f"{where}.model = 'rigid' needs an elastic material ({', '.join(RIGID_KINDS)}); "
                              f"{self.name!r} flows or yields")
+
+    def snap_back_limit(self, dx: float) -> float:
+        """The least ``fracture_energy`` a crack band of width ``dx`` (m) takes, J/m^2: ``f_t^2 dx / (2 E)``
+        (brittle; docs/fracture.md, Bazant & Oh 1983): below it the band's softening strain would be shorter than
+        its elastic strain and the band would snap back."""
+        return self.tensile_strength ** 2 * dx / (2.0 * self.E)
+
+    def check_band(self, dx: float, where: str = "material") -> None:
+        """Refuse a ``brittle`` material whose ``fracture_energy`` is at or below :meth:`snap_back_limit` at the grid
+        spacing ``dx`` (m); other materials pass.
+
+        Raises
+        ------
+        SceneError
+            Naming the limit, ``dx`` and what to change.
+        """
+        limit = self.snap_back_limit(dx)
+        if self.name == "brittle" and not self.fracture_energy > limit:
+            raise SceneError(f"{where}.fracture_energy = {self.fracture_energy:g} J/m^2 is at or below the snap-back "
+                             f"limit tensile_strength^2 dx / (2 E) = {limit:.4g} J/m^2 at dx = {dx:.4g} m; raise "
+                             f"fracture_energy above it, or lower tensile_strength, or raise n_grid")
 
     @property
     def K(self) -> float:
@@ -294,6 +323,7 @@ class SimSetup:
             raise SceneError(f"SimSetup.frame_dt = {self.frame_dt}; expected a positive number of seconds")
         for i, m in enumerate(self.materials):
             m.check(f"SimSetup.materials[{i}] ({m.name!r})")
+            m.check_band(self.dx, f"SimSetup.materials[{i}] ({m.name!r})")
 
     @property
     def dx(self) -> float:

@@ -23,13 +23,13 @@ from gasp_core.toolkit.substeps import MAX_SUBSTEPS, substeps_for, substeps_from
 
 #: What an engine implementing ``docs/mpm.md`` on CPU and CUDA offers (its plugin may narrow it).
 MPM_CAPABILITIES = Capabilities(
-    materials=frozenset({"jelly", "neo_hookean", "metal", "sand", "snow", "plasticine", "liquid"}),
+    materials=frozenset({"jelly", "neo_hookean", "metal", "sand", "snow", "plasticine", "liquid", "brittle"}),
     boundaries=frozenset({"ground", "walls", "fixed_region"}),
     devices=frozenset({"cpu", "cuda"}),
     precisions=frozenset({"f32", "f64"}),
     deterministic=frozenset({"cpu"}),
     features=frozenset({"grid", "initial_C", "state", "static_colliders", "moving_colliders", "impulse", "wind",
-                        "attractors", "passive_points", "viscosity"}),
+                        "attractors", "passive_points", "viscosity", "damage"}),
 )
 
 
@@ -146,6 +146,15 @@ class GridEngineBase:
                                   f"{want}")
             self.write_array(k, a)
         self.restore_extras(state)
+
+    def damage(self) -> np.ndarray:
+        """Per-point damage ``d``, shape (n,), float64, in [0, 1], setup order (feature ``damage``): the ``Jp`` of a
+        ``brittle`` point (``gasp_core.toolkit.materials.brittle_damage``), 0 for every other point. Needs
+        :meth:`read_array` to know ``Jp`` (it is in :attr:`STATE`)."""
+        self.check_open()
+        brittle = np.array([m.name == "brittle" for m in self.setup.materials])[self.setup.body_id]
+        jp = self.to_setup_order(np.asarray(self.read_array("Jp"), np.float64))
+        return np.where(brittle, np.clip(jp, 0.0, 1.0), 0.0)
 
     # ------------------------------------------------------------------ statistics
     def grid_stats(self, device: str, precision: str, x: np.ndarray | None, p_mass: np.ndarray | None,

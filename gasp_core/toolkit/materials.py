@@ -28,6 +28,7 @@ class MaterialKind(IntEnum):
     SNOW = 4
     PLASTICINE = 5
     LIQUID = 6
+    BRITTLE = 7
 
 
 class Param(IntEnum):
@@ -43,12 +44,15 @@ class Param(IntEnum):
     ALPHA = 7
     K = 8
     ETA = 9
+    FT = 10
+    SF = 11
 
 
 #: The codes and columns as plain ints, the constants the plugins' kernels compile in.
-JELLY, NEO_HOOKEAN, METAL, SAND, SNOW, PLASTICINE, LIQUID = (int(k) for k in MaterialKind)
+JELLY, NEO_HOOKEAN, METAL, SAND, SNOW, PLASTICINE, LIQUID, BRITTLE = (int(k) for k in MaterialKind)
 MATERIAL_CODES = {k.name.lower(): int(k) for k in MaterialKind}
-P_MU, P_LAM, P_YIELD, P_SOFTENING, P_HARDENING, P_THETA_C, P_THETA_S, P_ALPHA, P_K, P_ETA = (int(c) for c in Param)
+(P_MU, P_LAM, P_YIELD, P_SOFTENING, P_HARDENING, P_THETA_C, P_THETA_S, P_ALPHA, P_K, P_ETA, P_FT,
+ P_SF) = (int(c) for c in Param)
 N_PARAMS = len(Param)
 #: von Mises yield surface radius per unit yield stress: metal and plasticine return-map the Hencky
 #: strain's deviator ``e`` onto ``2 mu ||e|| <= sqrt(2/3) Y``, i.e. ``||dev tau|| <= sqrt(2/3) Y``, so a
@@ -58,13 +62,57 @@ N_PARAMS = len(Param)
 VON_MISES_RADIUS = math.sqrt(2.0 / 3.0)
 
 
-def material_table(materials: Sequence[Material]) -> tuple[np.ndarray, np.ndarray]:
+def snap_back_limit(m: Material, dx: float) -> float:
+    """The least fracture energy a crack band of width ``dx`` takes, J/m^2: ``f_t^2 dx / (2 E)``
+    (:meth:`Material.snap_back_limit`).
+
+    With linear softening the band's stress falls from ``f_t`` to 0 over the strain ``2 G_f / (f_t dx)``; below
+    this limit that strain is smaller than the elastic ``f_t / E`` and the band would snap back (Bazant & Oh
+    1983, "Crack band theory for fracture of concrete", Materiaux et Constructions 16; Jirasek & Bazant,
+    "Inelastic Analysis of Structures", Wiley 2002, on the crack band model).
+    """
+    return m.snap_back_limit(dx)
+
+
+def softening_stress(m: Material, dx: float) -> float:
+    """``s_f = 2 E G_f / (f_t dx)``, Pa: the undamaged (effective) principal stress at which a brittle point is
+    fully damaged (linear softening in a crack band of width ``dx``, Bazant & Oh 1983): the band then dissipates
+    ``f_t s_f / (2 E) dx = G_f`` per unit crack area, whatever ``dx``.
+
+    Raises
+    ------
+    SceneError
+        ``G_f`` at or below :func:`snap_back_limit`, naming the limit and the ``dx`` it comes from
+        (:meth:`Material.check_band`; ``SimSetup`` refuses it first).
+    """
+    m.check_band(dx, "material 'brittle'")
+    return 2.0 * m.E * m.fracture_energy / (m.tensile_strength * dx)
+
+
+def brittle_damage(s, ft, sf):
+    """Damage ``d`` in [0, 1] that the largest undamaged principal stress ``s`` (Pa) gives, NumPy (the kernels'
+    ``brittle_tau`` in both MPM plugins, and the reference of their tests).
+
+    Linear softening of the crack band (Bazant & Oh 1983): the stress ``(1 - d) s`` carried at an effective
+    stress ``s`` is ``s`` up to ``f_t``, then ``f_t (s_f - s) / (s_f - f_t)`` down to 0 at ``s_f``
+    (:func:`softening_stress`), so ``d = 1 - f_t (s_f - s) / (s (s_f - f_t))`` on ``(f_t, s_f)``, 0 below and 1
+    above. A point keeps the largest ``d`` it has had (damage never heals).
+    """
+    s = np.asarray(s, dtype=np.float64)
+    safe = np.maximum(s, ft)
+    d = 1.0 - ft * (sf - safe) / (safe * (sf - ft))
+    return np.where(s <= ft, 0.0, np.where(s >= sf, 1.0, d))
+
+
+def material_table(materials: Sequence[Material], dx: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Material code and parameter row of each body, as the kernels read them.
 
     Parameters
     ----------
     materials : sequence of Material
         One per body; names in :data:`MATERIAL_CODES`.
+    dx : float or None
+        Grid spacing, m: the crack band width of a ``brittle`` body (needed when one is present).
 
     Returns
     -------
@@ -77,13 +125,15 @@ def material_table(materials: Sequence[Material]) -> tuple[np.ndarray, np.ndarra
         friction angle phi, Klar et al. 2016 Eq. 27), ``P_K`` (bulk modulus
         :attr:`Material.K`, Pa, of the liquid's equation of state) and ``P_ETA`` (Kelvin-Voigt
         viscosity :attr:`Material.viscosity`, Pa s: the kernels add the Kirchhoff stress
-        ``J eta (C + C^T)``, APIC's ``C`` standing for ``grad v``; ``docs/dissipation.md``).
+        ``J eta (C + C^T)``, APIC's ``C`` standing for ``grad v``; ``docs/dissipation.md``), and for a
+        ``brittle`` body ``P_FT`` (tensile strength ``f_t``, Pa) and ``P_SF`` (:func:`softening_stress`, Pa).
 
     Raises
     ------
     SceneError
         A material without an MPM model here (``rigid``); the engine's capabilities normally
-        refuse it before.
+        refuse it before. A ``brittle`` body without ``dx``, or below its snap-back limit
+        (:func:`softening_stress`).
     """
     kinds = np.zeros(len(materials), dtype=np.int32)
     params = np.zeros((len(materials), N_PARAMS), dtype=np.float64)
@@ -103,6 +153,11 @@ def material_table(materials: Sequence[Material]) -> tuple[np.ndarray, np.ndarra
         params[b, P_ALPHA] = math.sqrt(2.0 / 3.0) * 2.0 * s / (3.0 - s)
         params[b, P_K] = m.K
         params[b, P_ETA] = m.viscosity
+        if m.name == "brittle":
+            if dx is None:
+                raise SceneError(f"material 'brittle' (body {b}) needs the grid spacing dx (its crack band width)")
+            params[b, P_FT] = m.tensile_strength
+            params[b, P_SF] = softening_stress(m, dx)
     return kinds, params
 
 
@@ -110,7 +165,8 @@ def initial_Jp(materials: Sequence[Material], body_id: np.ndarray) -> np.ndarray
     """Initial ``Jp`` of each point, shape (n,), float64.
 
     ``Jp`` is the plastic volume ratio for ``snow`` (1 at rest; Stomakhin et al. 2013) and the
-    accumulated plastic strain for ``plasticine`` (0 at rest); no other model reads it (1).
+    accumulated plastic strain for ``plasticine`` (0 at rest) and the damage ``d`` for ``brittle`` (0 at rest,
+    ``docs/fracture.md``); no other model reads it (1).
     """
-    start = np.array([0.0 if m.name == "plasticine" else 1.0 for m in materials])
+    start = np.array([0.0 if m.name in ("plasticine", "brittle") else 1.0 for m in materials])
     return start[np.asarray(body_id)]

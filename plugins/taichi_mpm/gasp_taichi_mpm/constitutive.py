@@ -3,14 +3,15 @@ and the per-material return mapping, as Taichi functions.
 
 Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields and flags (``real``, ``atomic``, ...) it reads.
 Sources: taichi_elements (materials), Klar et al. 2016 (Drucker-Prager sand), Stomakhin et al. 2013 (snow),
-Higham 1986 (polar decomposition), Golub & Van Loan (Jacobi eigenvalues).
+Higham 1986 (polar decomposition), Golub & Van Loan (Jacobi eigenvalues), Rankine damage in a crack band
+(Bazant & Oh 1983; docs/fracture.md) for brittle.
 """
 import taichi as ti
 
 # Material codes and the per-body parameter columns (``MPMSolver.mat``) are gasp_core.toolkit.materials'.
-from gasp_core.toolkit.materials import (JELLY, LIQUID, METAL, NEO_HOOKEAN, P_ALPHA, P_HARDENING, P_K, P_LAM, P_MU,
-                                         P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND, SNOW,
-                                         VON_MISES_RADIUS)
+from gasp_core.toolkit.materials import (BRITTLE, JELLY, LIQUID, METAL, NEO_HOOKEAN, P_ALPHA, P_FT, P_HARDENING,
+                                         P_K, P_LAM, P_MU, P_SF, P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD,
+                                         PLASTICINE, SAND, SNOW, VON_MISES_RADIUS)
 
 
 class Constitutive:
@@ -150,6 +151,44 @@ class Constitutive:
         return self.udvt(U, d, U)
 
     @ti.func
+    def drucker_prager(self, eps, mu, lam, alpha):
+        """The Hencky strain ``eps`` (principal) return-mapped onto the Drucker-Prager cone of ``alpha`` without
+        cohesion (Klar et al. 2016, Sec. 4 and Eq. 27): 0 in volumetric tension, else its deviator shortened by
+        ``dg = |e| + (3 lam + 2 mu) / (2 mu) tr(eps) alpha`` where that is positive. Sand, and a brittle point
+        broken through."""
+        tr = eps.sum()
+        e = eps - tr / 3.0
+        ne = e.norm()
+        if tr >= 0.0:
+            eps = ti.Vector.zero(self.real, 3)
+        else:
+            dg = ne + (3.0 * lam + 2.0 * mu) / (2.0 * mu) * tr * alpha
+            if dg > 0.0:
+                eps -= dg * e / ne
+        return eps
+
+    @ti.func
+    def brittle_tau(self, U, eps, mu, lam, ft, sf, d):
+        """``(tau, d)``: the brittle Kirchhoff stress and the damage after it (docs/fracture.md).
+
+        The undamaged Hencky principal stresses ``s_i = 2 mu eps_i + lam tr(eps)`` (Pa); the largest one sets the
+        damage of linear softening in a crack band (Bazant & Oh 1983; ``gasp_core.toolkit.materials.brittle_damage``
+        with ``ft = f_t``, ``sf = s_f``), kept when larger than ``d`` (never heals); only the tensile ``s_i > 0`` are
+        scaled by ``1 - d`` (compression is still carried). The Warp plugin's ``brittle_tau``.
+        """
+        s = 2.0 * mu * eps + lam * eps.sum()
+        smax = ti.max(s[0], s[1], s[2])
+        if smax > ft:
+            dt = ti.cast(1.0, self.real)
+            if smax < sf:
+                dt = 1.0 - ft * (sf - smax) / (smax * (sf - ft))
+            d = ti.max(d, dt)
+        for i in ti.static(range(3)):
+            if s[i] > 0.0:
+                s[i] *= 1.0 - d
+        return self.udvt(U, s, U), d
+
+    @ti.func
     def return_mapping(self, p, F):
         """Return mapping and Kirchhoff stress (docs/mpm.md table). Writes F[p], Jp[p]; returns tau."""
         b = self.body[p]
@@ -187,12 +226,7 @@ class Constitutive:
                 e = eps - tr / 3.0
                 ne = e.norm()
                 if kind == SAND:
-                    if tr >= 0.0:
-                        eps = ti.Vector.zero(self.real, 3)
-                    else:
-                        dg = ne + (3.0 * lam + 2.0 * mu) / (2.0 * mu) * tr * prm[P_ALPHA]
-                        if dg > 0.0:
-                            eps -= dg * e / ne
+                    eps = self.drucker_prager(eps, mu, lam, prm[P_ALPHA])
                     F = self.udvt(U, ti.exp(eps), V)
                 else:
                     yield_stress = prm[P_YIELD]
@@ -205,6 +239,16 @@ class Constitutive:
                     if kind == PLASTICINE:
                         Jp += ti.max(dg, 0.0)
                 tau = self.hencky_tau(U, eps, mu, lam)
+        if ti.static(BRITTLE in self.kinds):
+            if kind == BRITTLE:
+                U, sig, V = self.svd(F)
+                eps = ti.log(ti.max(sig, 1e-4))
+                if Jp >= 1.0:   # broken through: cohesionless sand (docs/fracture.md)
+                    eps = self.drucker_prager(eps, mu, lam, prm[P_ALPHA])
+                    F = self.udvt(U, ti.exp(eps), V)
+                    tau = self.hencky_tau(U, eps, mu, lam)
+                else:
+                    tau, Jp = self.brittle_tau(U, eps, mu, lam, prm[P_FT], prm[P_SF], Jp)
         if ti.static(LIQUID in self.kinds):
             if kind == LIQUID:
                 J = F.determinant()

@@ -107,9 +107,9 @@ def test_momentum_is_conserved_without_gravity_and_boundaries():
     assert np.abs(L1 - L0).max() < 1e-3 * np.abs(L0).max()
 
 
-@pytest.mark.parametrize("name", ["jelly", "neo_hookean", "metal", "sand", "snow", "plasticine", "liquid"])
+@pytest.mark.parametrize("name", ["jelly", "neo_hookean", "metal", "sand", "snow", "plasticine", "liquid", "brittle"])
 def test_each_material_runs_finite(name):
-    mat = Material(name, E=2e4, nu=0.3, yield_stress=500.0)
+    mat = Material(name, E=2e4, nu=0.3, yield_stress=500.0, tensile_strength=500.0)
     s = block_setup(lo=(0.4, 0.4, 0.1), size=(0.2, 0.2, 0.2), material=mat,
                     boundaries=[Boundary("ground", height=0.1)])
     e = run(s, 3)

@@ -2,7 +2,7 @@
 per-material return mapping, as Warp functions per scalar type (:mod:`gasp_warp_mpm.precision`).
 
 Sources: taichi_elements (materials), Klar et al. 2016 (Drucker-Prager sand), Stomakhin et al. 2013 (snow),
-Higham 1986 (polar decomposition).
+Higham 1986 (polar decomposition), Rankine damage in a crack band (Bazant & Oh 1983; docs/fracture.md) for brittle.
 
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of
 the closures below as type objects.
@@ -12,9 +12,9 @@ import functools
 import warp as wp
 
 # Material codes and the columns of the per-body parameter table ``mat_par`` are gasp_core.toolkit.materials'.
-from gasp_core.toolkit.materials import (JELLY, METAL, NEO_HOOKEAN, P_ALPHA, P_HARDENING, P_K, P_LAM, P_MU,
-                                         P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE, SAND, SNOW,
-                                         VON_MISES_RADIUS)
+from gasp_core.toolkit.materials import (BRITTLE, JELLY, METAL, NEO_HOOKEAN, P_ALPHA, P_FT, P_HARDENING, P_K,
+                                         P_LAM, P_MU, P_SF, P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE,
+                                         SAND, SNOW, VON_MISES_RADIUS)
 
 from .precision import build_types
 
@@ -253,12 +253,52 @@ def build_plastic_funcs(Ft):
 
 
 @functools.cache
+def build_brittle_return(Ft):
+    """``brittle_return``: the brittle damage and stress (docs/fracture.md) for the scalar type ``Ft``."""
+    vec3, vec4, mat33 = build_types(Ft)
+    svd = build_decompositions(Ft)[2]
+
+    @wp.func
+    def brittle_return(F_trial: mat33, mu: Ft, lam: Ft, b: int, p: int, mat_par: wp.array2d(dtype=Ft),
+                       Jp: wp.array(dtype=Ft)):
+        # brittle (docs/fracture.md): undamaged Hencky principal stresses s_i = 2 mu eps_i + lam tr(eps); the
+        # largest sets the crack band's linear-softening damage (Bazant & Oh 1983;
+        # gasp_core.toolkit.materials.brittle_damage), kept in Jp when larger (never heals); only the tensile
+        # s_i > 0 are scaled by 1 - d. Returns (F unchanged, tau). The Taichi plugin's brittle_tau.
+        U, sig, V = svd(F_trial)
+        d = Jp[p]
+        eps = vec3(wp.log(wp.max(sig[0], Ft(1e-4))), wp.log(wp.max(sig[1], Ft(1e-4))),
+                   wp.log(wp.max(sig[2], Ft(1e-4))))
+        s = Ft(2.0) * mu * eps + vec3(lam * (eps[0] + eps[1] + eps[2]))
+        smax = wp.max(s[0], wp.max(s[1], s[2]))
+        ft = mat_par[b, P_FT]
+        sf = mat_par[b, P_SF]
+        if smax > ft:
+            dt = Ft(1.0)
+            if smax < sf:
+                dt = Ft(1.0) - ft * (sf - smax) / (smax * (sf - ft))
+            d = wp.max(d, dt)
+        Jp[p] = d
+        g = vec3(Ft(1.0))   # the factor on each principal stress: 1 - d in tension, 1 in compression
+        if s[0] > Ft(0.0):
+            g[0] = Ft(1.0) - d
+        if s[1] > Ft(0.0):
+            g[1] = Ft(1.0) - d
+        if s[2] > Ft(0.0):
+            g[2] = Ft(1.0) - d
+        return F_trial, U * wp.diag(wp.cw_mul(g, s)) * wp.transpose(U)
+
+    return brittle_return
+
+
+@functools.cache
 def build_return_mapping(Ft):
     """``return_mapping``: the per-material return mapping and Kirchhoff stress (docs/mpm.md) for the
     scalar type ``Ft``."""
     vec3, vec4, mat33 = build_types(Ft)
     jelly_tau = build_elastic_funcs(Ft)[2]
     hencky_return, snow_return = build_plastic_funcs(Ft)
+    brittle_return = build_brittle_return(Ft)
 
     @wp.func
     def return_mapping(F_trial: mat33, p: int, body: wp.array(dtype=wp.int32), mat_kind: wp.array(dtype=wp.int32),
@@ -280,6 +320,11 @@ def build_return_mapping(Ft):
             Fp, tau = hencky_return(Fp, mu, lam, kind, b, p, mat_par, Jp)
         elif kind == SNOW:
             Fp, tau = snow_return(Fp, mu, lam, b, p, mat_par, Jp)
+        elif kind == BRITTLE:
+            if Jp[p] >= Ft(1.0):   # broken through: cohesionless sand (docs/fracture.md)
+                Fp, tau = hencky_return(Fp, mu, lam, SAND, b, p, mat_par, Jp)
+            else:
+                Fp, tau = brittle_return(Fp, mu, lam, b, p, mat_par, Jp)
         else:  # LIQUID
             J = wp.determinant(Fp)
             Fp = wp.identity(3, dtype=Ft) * wp.pow(J, Ft(1.0) / Ft(3.0))

@@ -79,7 +79,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
         self.setup = setup
         opts = setup.options  # checked and completed by the core (build_engine)
         self.options = opts
-        kinds, par = zero_stress(*material_table(setup.materials), setup.materials, JELLY)   # rigid bodies: no stress
+        kinds, par = zero_stress(*material_table(setup.materials, setup.dx), setup.materials, JELLY)   # rigid bodies: no stress
         steps = choose_dt(step_view(setup), opts, ENGINE, implicit_viscosity=True)  # refuses a scene past max_substeps before any build work
         check_memory(estimate_bytes(len(setup.x), setup.n_grid, opts["precision"]), ENGINE,
                      f"{len(setup.x)} points, n_grid {setup.n_grid}, {opts['precision']}")

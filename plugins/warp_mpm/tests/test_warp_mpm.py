@@ -127,10 +127,10 @@ def test_momentum_conserved_in_free_flight():
 
 
 @pytest.mark.parametrize("material", ["jelly", "neo_hookean", "metal", "sand", "snow",
-                                      "plasticine", "liquid"])
+                                      "plasticine", "liquid", "brittle"])
 def test_every_material_runs_finite(material):
     s = make_setup(material, n_side=8, boundaries=[Boundary("ground", height=0.1), Boundary("walls")],
-                   lo=(0.35, 0.35, 0.15), E=2e4)
+                   lo=(0.35, 0.35, 0.15), E=2e4, tensile_strength=500.0)
     e = run(s, 10)
     x, v = e.positions(), e.velocities()
     assert np.all(np.isfinite(x)) and np.all(np.isfinite(v))

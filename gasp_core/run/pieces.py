@@ -1,0 +1,123 @@
+"""Pieces: the connected parts of a broken body, labelled each frame from the engine's per-point damage.
+
+A body of the ``brittle`` material breaks where its points' damage ``d`` (the engine feature ``damage``,
+``docs/fracture.md``) reaches 1. Two material points are *linked* when they were neighbours at rest (closer than
+:data:`LINK_RADIUS` times the fill spacing ``max(p_vol)^(1/3)`` of the body) and both have ``d < BROKEN``; a piece
+is a connected component of the undamaged points over those links (``scipy.sparse.csgraph.connected_components``).
+A broken point (``d >= BROKEN``, the crack band) or one without a rest neighbour joins the piece of the nearest
+undamaged linked point at its current position, and a passive point the piece of the nearest material point at
+rest, so every point, and each piece's mass, is counted once. Points of different bodies never link.
+
+``run.json`` holds, per frame, ``pieces`` (the count) and ``piece_mass`` (kg, each piece's, largest first);
+``gasp simulate --json`` emits a ``pieces`` event when the count changes (``frame``, ``pieces``,
+``piece_mass``).
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+#: A point at or above this damage no longer links its neighbours: it carries at most 10 % of its tensile stress.
+BROKEN = 0.9
+#: Rest neighbours are closer than this times the fill spacing ``max(p_vol)^(1/3)`` (the fill's lattice,
+#: docs/fill.md): a lattice's face and edge neighbours (1 and sqrt 2 spacings) but no pair across one broken layer
+#: (2 spacings).
+LINK_RADIUS = 1.5
+
+
+class PieceTracker:
+    """The pieces of a run's points, frame after frame.
+
+    Parameters
+    ----------
+    x_rest : ndarray, shape (n, 3), float64
+        Rest positions, m (``SimSetup.x``).
+    body_id : ndarray, shape (n,), int
+    p_mass : ndarray, shape (n,), float64
+        Point masses, kg; 0 marks a passive point (rendered, not simulated).
+    p_vol : ndarray, shape (n,), float64
+        Point volumes, m^3 (the link radius, :data:`LINK_RADIUS`).
+    """
+
+    def __init__(self, x_rest: np.ndarray, body_id: np.ndarray, p_mass: np.ndarray, p_vol: np.ndarray):
+        x_rest = np.asarray(x_rest, np.float64)
+        self.body = np.asarray(body_id)
+        self.mass = np.asarray(p_mass, np.float64)
+        self.material = np.flatnonzero(self.mass > 0)
+        pairs = []
+        for b in np.unique(self.body[self.material]):
+            idx = np.intersect1d(self.material, np.flatnonzero(self.body == b))
+            pairs.append(self._rest_pairs(x_rest, idx, LINK_RADIUS * float(np.max(p_vol[idx])) ** (1 / 3)))
+        self.pairs = np.concatenate(pairs) if pairs else np.zeros((0, 2), np.int64)
+        self.linked = np.zeros(len(self.mass), bool)
+        self.linked[self.pairs.ravel()] = True
+        passive = np.flatnonzero(self.mass <= 0)
+        near = cKDTree(x_rest[self.material]).query(x_rest[passive])[1] if len(passive) else np.zeros(0, np.int64)
+        self.passive, self.passive_host = passive, self.material[near]
+        self.count: int | None = None
+        self._last: tuple[np.ndarray, np.ndarray] | None = None   # (intact mask, labels) of the last labelling
+
+    @staticmethod
+    def _rest_pairs(x: np.ndarray, idx: np.ndarray, radius: float) -> np.ndarray:
+        """Index pairs (k, 2) of the points ``idx`` closer than ``radius`` (m) at rest."""
+        if len(idx) < 2:
+            return np.zeros((0, 2), np.int64)
+        return idx[cKDTree(x[idx]).query_pairs(radius, output_type="ndarray")]
+
+    def labels(self, x: np.ndarray, damage: np.ndarray | None) -> np.ndarray:
+        """Piece label of every point, shape (n,), int64, 0 .. count - 1 (pieces numbered by first point).
+
+        ``x`` (n, 3): current positions, m; ``damage`` (n,) in [0, 1] or None (nothing broken). Labelled again only
+        when the set of intact points changed since the last call (damage never heals: a frame where nothing broke
+        costs one comparison); the broken points keep the piece they joined then."""
+        n = len(self.mass)
+        d = np.zeros(n) if damage is None else np.asarray(damage, np.float64)
+        whole = (d < BROKEN) & self.linked
+        if self._last is not None and np.array_equal(whole, self._last[0]):
+            return self._last[1]   # no point broke since: the same pieces (a broken point stays where it joined)
+        keep = self.pairs[whole[self.pairs[:, 0]] & whole[self.pairs[:, 1]]]
+        graph = coo_matrix((np.ones(len(keep)), (keep[:, 0], keep[:, 1])), shape=(n, n))
+        _, comp = connected_components(graph, directed=False)
+        lab = np.full(n, -1, np.int64)
+        intact = self.material[whole[self.material]]
+        lab[intact] = comp[intact]
+        broken = self.material[~whole[self.material]]
+        if len(broken):
+            if len(intact):
+                lab[broken] = lab[intact[cKDTree(x[intact]).query(x[broken])[1]]]
+            else:   # nothing intact: each broken point a piece of its own
+                lab[broken] = broken
+        lab[self.passive] = lab[self.passive_host]
+        _, first, dense = np.unique(lab, return_index=True, return_inverse=True)
+        lab = np.argsort(np.argsort(first))[dense]
+        self._last = (whole, lab)
+        return lab
+
+    def row(self, x: np.ndarray, damage: np.ndarray | None) -> tuple[dict, bool]:
+        """``({"pieces": count, "piece_mass": [kg, largest first]}, changed)`` of the frame at positions ``x``;
+        ``changed``: the count differs from the last call's (always True on the first)."""
+        lab = self.labels(x, damage)
+        masses = np.bincount(lab, weights=self.mass)
+        count = int(len(masses))
+        changed, self.count = count != self.count, count
+        return {"pieces": count, "piece_mass": sorted((float(m) for m in masses), reverse=True)}, changed
+
+
+def tracker_for(setup) -> PieceTracker | None:
+    """A :class:`PieceTracker` of ``setup`` (a :class:`~gasp_core.seam.setup.SimSetup`) when one of its bodies is
+    ``brittle``, else None (nothing can break)."""
+    if not any(m.name == "brittle" for m in setup.materials):
+        return None
+    return PieceTracker(setup.x, setup.body_id, setup.p_mass, setup.p_vol)
+
+
+def frame_row(tracker: PieceTracker, reporter, frame: int, x: np.ndarray, damage: np.ndarray | None) -> dict:
+    """The frame's ``run.json`` figures (:meth:`PieceTracker.row`); on a change of the count (and at frame 0), the
+    event ``{"event": "pieces", "frame", "pieces", "piece_mass"}`` through ``reporter``
+    (:class:`gasp_core.run.report.Reporter`)."""
+    row, changed = tracker.row(x, damage)
+    if changed:
+        reporter.emit({"event": "pieces", "frame": frame, **row})
+    return row
