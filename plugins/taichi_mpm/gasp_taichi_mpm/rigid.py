@@ -33,6 +33,17 @@ class Rigid:
         self.rb_I0 = ti.Matrix.field(3, 3, ti.f64, shape=max(nb, 1))
         self.X0 = ti.Vector.field(3, ti.f64, shape=cap)
         self.n_bodies = nb
+        # the restitution's hysteresis (set_restitution): per body its e (-1: none), the approach speed of its
+        # ongoing contact, this substep's (atomic max) and whether a point touched; per plane its e; the rest speed
+        self.rb_e, self.rb_vin, self.rb_vin_next = (ti.field(self.real, shape=max(nb, 1)) for _ in range(3))
+        self.rb_touch, self.rb_was = (ti.field(ti.i32, shape=max(nb, 1)) for _ in range(2))
+        self.rb_jn = ti.Vector.field(3, self.real, shape=max(nb, 1))   # the contact's sum j n and sum j e_sup, sum j
+        self.rb_je, self.rb_j = (ti.field(self.real, shape=max(nb, 1)) for _ in range(2))
+        self.rb_c0 = ti.Vector.field(3, ti.f64, shape=max(nb, 1))   # the centre where the contact began
+        self.plane_e = ti.field(self.real, shape=max(self.n_planes, 1))
+        self.v_rest = ti.field(self.real, shape=())
+        self.rb_e.fill(-1.0)
+        self.plane_e.fill(1.0)
         if not self.any_rigid:
             return
         self.rb_rigid.from_numpy(np.asarray(rigid, np.int32))
@@ -43,6 +54,41 @@ class Rigid:
         buf = np.zeros((cap, 3))
         buf[:len(X0)] = X0
         self.X0.from_numpy(buf)
+
+    def set_restitution(self, body_e, plane_e, v_rest: float) -> None:
+        """The rigid bodies' restitution (``gasp_core.toolkit.restitution``): ``body_e`` per body (shape
+        (n_bodies,), -1 for a body without it), ``plane_e`` per contact plane (shape (n_planes,)), ``v_rest`` (m/s)
+        the rebound speed below which a contact is inelastic."""
+        if self.any_rigid:
+            self.rb_e.from_numpy(np.asarray(body_e, self._np_real))
+            if self.n_planes:
+                self.plane_e.from_numpy(np.asarray(plane_e, self._np_real))
+            self.v_rest[None] = float(v_rest)
+
+    @ti.func
+    def unloading(self, p, e_sup, vn, n, jq):
+        """The factor on point p's normal impulse (``gasp_core.toolkit.restitution``, Walton & Braun 1986): 1 while
+        the point approaches its support (``vn`` < 0, its normal velocity relative to it, m/s), ``e^2`` while it
+        recedes, ``e`` the product of its body's and the support's ``e_sup`` (0 when ``e`` times the approach speed
+        of the body's ongoing contact is below ``v_rest``). Also records the touch, the approach speed and the
+        impulse ``jq`` (before the factor) along the normal ``n`` and times ``e_sup`` (:meth:`lift_off`); 1 for a
+        body without restitution."""
+        f = ti.cast(1.0, self.real)
+        if ti.static(self.any_rigid):
+            b = self.body[p]
+            if self.rb_e[b] >= 0.0:
+                self.rb_touch[b] = 1
+                ti.atomic_add(self.rb_jn[b], jq * n)
+                ti.atomic_add(self.rb_je[b], jq * e_sup)
+                ti.atomic_add(self.rb_j[b], jq)
+                if vn < 0.0:
+                    ti.atomic_max(self.rb_vin_next[b], -vn)
+                else:
+                    e = self.rb_e[b] * e_sup
+                    if e * self.rb_vin[b] < self.v_rest[None]:
+                        e = 0.0
+                    f = e * e
+        return f
 
     def rigid_state(self) -> dict:
         """``rigid_c`` (n_bodies, 3) and ``rigid_R`` (n_bodies, 3, 3): what a saved state adds for the rigid bodies."""
@@ -122,10 +168,48 @@ class Rigid:
                 w_pred = (R @ self.rb_I0[b] @ R.transpose() + half * M * Id).inverse() @ Lc
                 R_new = self.rotation_of(dt * w_pred) @ R
                 w = (R_new @ self.rb_I0[b] @ R_new.transpose() + half * M * Id).inverse() @ Lc
-                self.rb_V[b] = P / M
+                if self.rb_touch[b] != 0 and self.rb_was[b] == 0:
+                    self.rb_c0[b] = c
+                V = self.lift_off(b, P / M, c)
+                self.rb_V[b] = V
                 self.rb_w[b] = w
-                self.rb_c[b] = c + dt * (P / M)
+                self.rb_c[b] = c + dt * V
                 self.rb_R[b] = R_new
+            # the contact's approach speed: kept while a point touches, the largest of its substeps; 0 once free
+            if self.rb_touch[b] != 0:
+                self.rb_vin[b] = ti.max(self.rb_vin[b], self.rb_vin_next[b])
+            else:
+                self.rb_vin[b] = 0.0
+                self.rb_jn[b] = ti.Vector.zero(self.real, 3)
+                self.rb_je[b] = 0.0
+                self.rb_j[b] = 0.0
+            self.rb_was[b] = self.rb_touch[b]
+            self.rb_vin_next[b] = 0.0
+            self.rb_touch[b] = 0
+
+    @ti.func
+    def lift_off(self, b, V, c):
+        """Body b's velocity ``V`` (m/s, float64) at the substep its contact ends (no point touched in this P2G,
+        one did in the last), its centre at ``c`` (m): its normal part along the contact's mean normal ``n`` made
+        the speed ``e v_in`` would keep up to there from where the contact began (``sqrt((e v_in)^2 - 2 g_n (c -
+        c_0) . n)``, ``g_n = -g . n``), ``e`` the body's times its supports' impulse-weighted, ``v_in`` the
+        contact's approach speed (0 below ``v_rest``): the restitution at the impulse level, whatever the
+        hysteresis gave back in a contact of a few substeps."""
+        out = V
+        if self.rb_e[b] >= 0.0 and self.rb_touch[b] == 0 and self.rb_was[b] != 0 and self.rb_j[b] > 0.0:
+            jn = ti.cast(self.rb_jn[b], ti.f64)
+            if jn.norm() > 0.0:
+                n = jn / jn.norm()
+                e = ti.cast(self.rb_e[b] * self.rb_je[b] / self.rb_j[b], ti.f64)
+                v_out = e * ti.cast(self.rb_vin[b], ti.f64)
+                if v_out < ti.cast(self.v_rest[None], ti.f64):
+                    v_out = 0.0
+                g_n = -ti.cast(self.gravity[None], ti.f64).dot(n)
+                v_out = ti.sqrt(ti.max(v_out * v_out - 2.0 * g_n * (c - self.rb_c0[b]).dot(n), 0.0))
+                u = V.dot(n)
+                if u > 0.0:
+                    out = V + (v_out - u) * n
+        return out
 
     @ti.kernel
     def rigid_apply(self):

@@ -34,7 +34,7 @@ import warp as wp
 
 from gasp_core.toolkit.contact import TORQUE_REACH
 
-from .contact import build_collider_contact, build_contact
+from .contact import build_collider_contact, build_contact, build_unloading
 from .forces import build_extras_struct
 from .precision import MODULE_OPTIONS, build_types
 
@@ -98,6 +98,7 @@ def build_moments(Ft):
     vec3, vec4, mat33 = build_types(Ft)
     plane_contact, _ = build_contact(Ft)
     collider_contact = build_collider_contact(Ft)[0]
+    unloading = build_unloading(Ft)
     Extras = build_extras_struct(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
@@ -128,6 +129,8 @@ def build_moments(Ft):
         for q in range(planes.shape[0]):   # support 0: the grounds; a wall's face: its own (planes[q][2])
             jq = plane_contact(plane_n[q], planes[q], kcs, xp, vp, dt)
             if jq > Ft(0.0):
+                jq = jq * unloading(ex, b, ex.plane_e[q], wp.dot(plane_n[q], vp), 0)
+            if jq > Ft(0.0):
                 nq = plane_n[q]
                 add_contact(jsums, b * n_sup + int(planes[q][2]), f64(jq), r, v64(f64(nq[0]), f64(nq[1]), f64(nq[2])),
                             v64(f64(0.0)))
@@ -135,6 +138,8 @@ def build_moments(Ft):
             base = ex.step[0] * ex.width
             for cc in range(ex.n_col):
                 jq, n, vc = collider_contact(ex, base, cc, xp, vp, kcs, dt)
+                if jq > Ft(0.0):
+                    jq = jq * unloading(ex, b, Ft(1.0), wp.dot(vp - vc, n), 0)
                 if jq > Ft(0.0):
                     add_contact(jsums, b * n_sup + 1 + cc, f64(jq), r, v64(f64(n[0]), f64(n[1]), f64(n[2])),
                                 v64(f64(vc[0]), f64(vc[1]), f64(vc[2])))

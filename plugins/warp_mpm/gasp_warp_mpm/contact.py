@@ -56,6 +56,35 @@ def build_contact(Ft):
 
 
 @functools.cache
+def build_unloading(Ft):
+    """``unloading(ex, b, e_sup, vn, mark) -> factor``, a Warp function of the scalar type ``Ft``: the factor on a
+    point's normal impulse from a support of restitution ``e_sup`` (``gasp_core.toolkit.restitution``, the hysteresis
+    of Walton & Braun 1986): 1 while it approaches (``vn`` < 0, its normal velocity relative to the support, m/s),
+    ``e^2`` while it recedes, ``e = ex.rb_e[b] e_sup`` (0 when ``e`` times the approach speed of the body's ongoing
+    contact ``ex.rb_vin[b]`` is below ``ex.v_rest``); 1 for a body without restitution (``rb_e`` < 0). With
+    ``mark`` (in P2G) it records the touch and the approach speed for ``rigid.rigid_update``; taichi_mpm's
+    ``Rigid.unloading`` spells the same."""
+    Extras = build_extras_struct(Ft)
+
+    @wp.func
+    def unloading(ex: Extras, b: int, e_sup: Ft, vn: Ft, mark: int):
+        f = Ft(1.0)
+        if ex.rb_e[b] >= Ft(0.0):
+            if mark != 0:
+                ex.rb_touch[b] = 1
+                if vn < Ft(0.0):
+                    wp.atomic_max(ex.rb_vin_next, b, -vn)
+            if vn >= Ft(0.0):
+                e = ex.rb_e[b] * e_sup
+                if e * ex.rb_vin[b] < ex.v_rest:
+                    e = Ft(0.0)
+                f = e * e
+        return f
+
+    return unloading
+
+
+@functools.cache
 def build_collider_contact(Ft):
     """``(collider_contact, point_contact, surface_friction)`` Warp functions of the scalar type ``Ft``: the particle
     contact against the ``[[collider]]``s' signed distances (``gasp_core.toolkit.contact.surface_impulse``).
@@ -73,6 +102,7 @@ def build_collider_contact(Ft):
     Extras = build_extras_struct(Ft)
     collider_at = build_collider_at(Ft)
     plane_contact = build_contact(Ft)[0]
+    unloading = build_unloading(Ft)
 
     @wp.func
     def collider_contact(ex: Extras, base: int, cc: int, x: vec3, v: vec3, kcs: vec3, dt: Ft):
@@ -85,7 +115,7 @@ def build_collider_contact(Ft):
 
     @wp.func
     def point_contact(planes: wp.array(dtype=vec3), plane_n: wp.array(dtype=vec3), kcs: vec3, x: vec3, v: vec3,
-                      dt: Ft, colc: int, ex: Extras):
+                      dt: Ft, colc: int, ex: Extras, b: int):
         imp = vec3(Ft(0.0))
         bud = Ft(0.0)
         fn = vec3(Ft(0.0))
@@ -94,6 +124,8 @@ def build_collider_contact(Ft):
         jbest = Ft(0.0)
         for q in range(planes.shape[0]):   # the grounds (support 0) and the walls' faces (each its own)
             jq = plane_contact(plane_n[q], planes[q], kcs, x, v, dt)
+            if jq > Ft(0.0):
+                jq = jq * unloading(ex, b, ex.plane_e[q], wp.dot(plane_n[q], v), 1)
             if jq > Ft(0.0):
                 mu = planes[q][1]
                 imp = imp + jq * plane_n[q]
@@ -106,6 +138,8 @@ def build_collider_contact(Ft):
             base = ex.step[0] * ex.width
             for cc in range(ex.n_col):
                 jq, n, vc = collider_contact(ex, base, cc, x, v, kcs, dt)
+                if jq > Ft(0.0):
+                    jq = jq * unloading(ex, b, Ft(1.0), wp.dot(v - vc, n), 1)
                 if jq > Ft(0.0):
                     mu = ex.meta[cc * COL_META + CM_FRICTION]
                     imp = imp + jq * n

@@ -39,6 +39,14 @@ def build_extras_struct(Ft):
         n_force: int
         n_imp: int
         width: int
+        # the rigid bodies' restitution (gasp_core.toolkit.restitution, contact.build_unloading): per body its e (-1:
+        # none), the approach speed of its ongoing contact, this substep's (atomic max), a touch flag; per plane its e
+        rb_e: wp.array(dtype=Ft)
+        rb_vin: wp.array(dtype=Ft)
+        rb_vin_next: wp.array(dtype=Ft)
+        rb_touch: wp.array(dtype=wp.int32)
+        plane_e: wp.array(dtype=Ft)
+        v_rest: Ft   # m/s: a rebound below it is none
     return Extras
 
 

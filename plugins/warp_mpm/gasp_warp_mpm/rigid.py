@@ -56,7 +56,8 @@ def build_rigid(Ft):
     def rigid_update(rigid: wp.array(dtype=wp.int32), mass: wp.array(dtype=wp.float64),
                      inertia0: wp.array(dtype=mat33d), acc_p: wp.array(dtype=vec3d), acc_l: wp.array(dtype=vec3d),
                      centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d), vel: wp.array(dtype=vec3d),
-                     spin: wp.array(dtype=vec3d), dt: wp.float64, dx: wp.float64, n_bodies: int):
+                     spin: wp.array(dtype=vec3d), dt: wp.float64, dx: wp.float64, n_bodies: int,
+                     vin: wp.array(dtype=Ft), vin_next: wp.array(dtype=Ft), touch: wp.array(dtype=wp.int32)):
         for b in range(n_bodies):
             M = mass[b]
             if rigid[b] != 0 and M > wp.float64(0.0):
@@ -74,6 +75,14 @@ def build_rigid(Ft):
                 rot[b] = R_new
             acc_p[b] = vec3d()
             acc_l[b] = vec3d()
+            # the contact's approach speed (contact.build_unloading): kept while a point touches, the largest of
+            # its substeps; 0 once the body is free
+            if touch[b] != 0:
+                vin[b] = wp.max(vin[b], vin_next[b])
+            else:
+                vin[b] = Ft(0.0)
+            vin_next[b] = Ft(0.0)
+            touch[b] = 0
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def rigid_apply(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33),
@@ -131,7 +140,8 @@ class RigidBodies:
                     self.x, self.v, self.C, self.p_mass, self.body, self.rb_rigid, dx, self.acc_p, self.acc_l]),
                 wp.launch(update_k, dim=1, device=d, record_cmd=True, inputs=[
                     self.rb_rigid, self.rb_M, self.rb_I0, self.acc_p, self.acc_l, self.rb_c, self.rb_R, self.rb_V,
-                    self.rb_w, dt, dx, len(self.setup.materials)]),
+                    self.rb_w, dt, dx, len(self.setup.materials), self._ex.rb_vin, self._ex.rb_vin_next,
+                    self._ex.rb_touch]),
                 wp.launch(apply_k, dim=self.n_points, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.F, self.body, self.rb_rigid, self.X0, self.rb_c, self.rb_R,
                     self.rb_V, self.rb_w])]
