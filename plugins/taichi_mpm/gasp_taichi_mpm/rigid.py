@@ -66,29 +66,32 @@ class Rigid:
             self.v_rest[None] = float(v_rest)
 
     @ti.func
-    def unloading(self, p, e_sup, vn, n, jq):
-        """The factor on point p's normal impulse (``gasp_core.toolkit.restitution``, Walton & Braun 1986): 1 while
-        the point approaches its support (``vn`` < 0, its normal velocity relative to it, m/s), ``e^2`` while it
-        recedes, ``e`` the product of its body's and the support's ``e_sup`` (0 when ``e`` times the approach speed
-        of the body's ongoing contact is below ``v_rest``). Also records the touch, the approach speed and the
-        impulse ``jq`` (before the factor) along the normal ``n`` and times ``e_sup`` (:meth:`lift_off`); 1 for a
-        body without restitution."""
-        f = ti.cast(1.0, self.real)
+    def contact_impulse(self, p, e_sup, vn, n, depth, kcs):
+        """Point p's normal impulse (kg m/s) at ``depth`` (m, > 0) in a support of restitution ``e_sup``, ``vn`` its
+        normal velocity relative to it (m/s), ``n`` its normal, ``kcs = (k, c, skin)``: ``max(0, dt (k depth - c
+        vn))``; a rigid body's point with restitution (``gasp_core.toolkit.restitution``) while its body bounces:
+        ``dt k depth`` while it approaches (``vn`` < 0), ``e^2 dt k depth`` while it recedes (the hysteresis of Walton
+        & Braun 1986), ``e`` its body's times ``e_sup``; once ``e`` times the approach speed of the body's ongoing
+        contact is below ``v_rest`` the damped law again (the body settles). Records the touch, the approach speed
+        and ``dt k depth`` along ``n`` and times ``e_sup`` for :meth:`lift_off`."""
+        dt = self.dt[None]
+        jq = ti.max(dt * (kcs[0] * depth - kcs[1] * vn), 0.0)
         if ti.static(self.any_rigid):
             b = self.body[p]
             if self.rb_e[b] >= 0.0:
+                jk = dt * kcs[0] * depth
                 self.rb_touch[b] = 1
-                ti.atomic_add(self.rb_jn[b], jq * n)
-                ti.atomic_add(self.rb_je[b], jq * e_sup)
-                ti.atomic_add(self.rb_j[b], jq)
+                ti.atomic_add(self.rb_jn[b], jk * n)
+                ti.atomic_add(self.rb_je[b], jk * e_sup)
+                ti.atomic_add(self.rb_j[b], jk)
                 if vn < 0.0:
                     ti.atomic_max(self.rb_vin_next[b], -vn)
-                else:
-                    e = self.rb_e[b] * e_sup
-                    if e * self.rb_vin[b] < self.v_rest[None]:
-                        e = 0.0
-                    f = e * e
-        return f
+                e = self.rb_e[b] * e_sup
+                if e * self.rb_vin[b] >= self.v_rest[None]:
+                    jq = jk
+                    if vn >= 0.0:
+                        jq = e * e * jk
+        return jq
 
     def rigid_state(self) -> dict:
         """``rigid_c`` (n_bodies, 3) and ``rigid_R`` (n_bodies, 3, 3): what a saved state adds for the rigid bodies."""
@@ -175,9 +178,12 @@ class Rigid:
                 self.rb_w[b] = w
                 self.rb_c[b] = c + dt * V
                 self.rb_R[b] = R_new
-            # the contact's approach speed: kept while a point touches, the largest of its substeps; 0 once free
+            # the contact's approach speed: its first substep's, kept while a point touches; 0 once free (the
+            # largest of its substeps took the speed gravity adds in the contact's first substeps: a steel ball's
+            # bounces of 0.5 m/s grew instead of dying out)
             if self.rb_touch[b] != 0:
-                self.rb_vin[b] = ti.max(self.rb_vin[b], self.rb_vin_next[b])
+                if self.rb_was[b] == 0:
+                    self.rb_vin[b] = self.rb_vin_next[b]
             else:
                 self.rb_vin[b] = 0.0
                 self.rb_jn[b] = ti.Vector.zero(self.real, 3)

@@ -56,32 +56,39 @@ def build_contact(Ft):
 
 
 @functools.cache
-def build_unloading(Ft):
-    """``unloading(ex, b, e_sup, vn, mark) -> factor``, a Warp function of the scalar type ``Ft``: the factor on a
-    point's normal impulse from a support of restitution ``e_sup`` (``gasp_core.toolkit.restitution``, the hysteresis
-    of Walton & Braun 1986): 1 while it approaches (``vn`` < 0, its normal velocity relative to the support, m/s),
-    ``e^2`` while it recedes, ``e = ex.rb_e[b] e_sup`` (0 when ``e`` times the approach speed of the body's ongoing
-    contact ``ex.rb_vin[b]`` is below ``ex.v_rest``); 1 for a body without restitution (``rb_e`` < 0). With
-    ``mark`` (in P2G) it records the touch and the approach speed for ``rigid.rigid_update``; taichi_mpm's
-    ``Rigid.unloading`` spells the same."""
+def build_contact_impulse(Ft):
+    """``contact_impulse(ex, b, e_sup, vn, mark, n, depth, kcs, dt) -> j_n``, a Warp function of the scalar type
+    ``Ft``: a point of body ``b`` at ``depth`` (m, > 0) in a support of restitution ``e_sup``, ``vn`` its normal
+    velocity relative to it (m/s), ``n`` the normal, ``kcs = (k, c, skin)``: ``max(0, dt (k depth - c vn))``; a
+    rigid body's point with restitution (``ex.rb_e[b]`` >= 0, ``gasp_core.toolkit.restitution``) while its body
+    bounces: ``dt k depth`` while it approaches (``vn`` < 0), ``e^2 dt k depth`` while it recedes (the hysteresis of
+    Walton & Braun 1986), ``e = ex.rb_e[b] e_sup``; once ``e`` times the approach speed of the body's ongoing contact
+    (``ex.rb_vin[b]``) is below ``ex.v_rest``, the damped law again. With ``mark`` (in P2G) it records the touch, the
+    approach speed and ``dt k depth`` along ``n`` and times ``e_sup`` for ``rigid.rigid_update``'s lift-off;
+    taichi_mpm's ``Rigid.contact_impulse`` spells the same."""
+    vec3 = build_types(Ft)[0]
     Extras = build_extras_struct(Ft)
 
     @wp.func
-    def unloading(ex: Extras, b: int, e_sup: Ft, vn: Ft, mark: int):
-        f = Ft(1.0)
+    def contact_impulse(ex: Extras, b: int, e_sup: Ft, vn: Ft, mark: int, n: vec3, depth: Ft, kcs: vec3, dt: Ft):
+        jq = wp.max(dt * (kcs[0] * depth - kcs[1] * vn), Ft(0.0))
         if ex.rb_e[b] >= Ft(0.0):
+            jk = dt * kcs[0] * depth
             if mark != 0:
                 ex.rb_touch[b] = 1
+                wp.atomic_add(ex.rb_jn, b, jk * n)
+                wp.atomic_add(ex.rb_je, b, jk * e_sup)
+                wp.atomic_add(ex.rb_j, b, jk)
                 if vn < Ft(0.0):
                     wp.atomic_max(ex.rb_vin_next, b, -vn)
-            if vn >= Ft(0.0):
-                e = ex.rb_e[b] * e_sup
-                if e * ex.rb_vin[b] < ex.v_rest:
-                    e = Ft(0.0)
-                f = e * e
-        return f
+            e = ex.rb_e[b] * e_sup
+            if e * ex.rb_vin[b] >= ex.v_rest:
+                jq = jk
+                if vn >= Ft(0.0):
+                    jq = e * e * jk
+        return jq
 
-    return unloading
+    return contact_impulse
 
 
 @functools.cache
@@ -89,7 +96,7 @@ def build_collider_contact(Ft):
     """``(collider_contact, point_contact, surface_friction)`` Warp functions of the scalar type ``Ft``: the particle
     contact against the ``[[collider]]``s' signed distances (``gasp_core.toolkit.contact.surface_impulse``).
 
-    - ``collider_contact(ex, base, cc, x, v, kcs, dt) -> (j_n, n, v_c)``: collider ``cc``'s normal impulse on a point
+    - ``collider_contact(ex, base, cc, x, v, kcs, dt, b, mark) -> (j_n, n, v_c)``: collider ``cc``'s normal impulse on a point of body ``b``
       ``max(0, dt (k depth - c (v - v_c) . n))``, ``depth = skin - phi``, along its outward normal ``n``;
     - ``point_contact(...) -> (impulse, budget, budget n, budget v_c, support)``: the planes' and the colliders'
       impulses on a point summed, its friction budget, the budget-weighted normal and collider velocity (for the
@@ -101,16 +108,15 @@ def build_collider_contact(Ft):
     vec3, vec4, mat33 = build_types(Ft)
     Extras = build_extras_struct(Ft)
     collider_at = build_collider_at(Ft)
-    plane_contact = build_contact(Ft)[0]
-    unloading = build_unloading(Ft)
+    contact_impulse = build_contact_impulse(Ft)
 
     @wp.func
-    def collider_contact(ex: Extras, base: int, cc: int, x: vec3, v: vec3, kcs: vec3, dt: Ft):
+    def collider_contact(ex: Extras, base: int, cc: int, x: vec3, v: vec3, kcs: vec3, dt: Ft, b: int, mark: int):
         phi, n, vc = collider_at(x, cc, base, ex, kcs[2])
         jq = Ft(0.0)
         depth = kcs[2] - phi
         if depth > Ft(0.0):
-            jq = wp.max(dt * (kcs[0] * depth - kcs[1] * wp.dot(v - vc, n)), Ft(0.0))
+            jq = contact_impulse(ex, b, Ft(1.0), wp.dot(v - vc, n), mark, n, depth, kcs, dt)
         return jq, n, vc
 
     @wp.func
@@ -123,9 +129,10 @@ def build_collider_contact(Ft):
         sup = int(-1)
         jbest = Ft(0.0)
         for q in range(planes.shape[0]):   # the grounds (support 0) and the walls' faces (each its own)
-            jq = plane_contact(plane_n[q], planes[q], kcs, x, v, dt)
-            if jq > Ft(0.0):
-                jq = jq * unloading(ex, b, ex.plane_e[q], wp.dot(plane_n[q], v), 1)
+            jq = Ft(0.0)
+            depth = planes[q][0] + kcs[2] - wp.dot(plane_n[q], x)   # build_contact's plane_contact, with the law
+            if depth > Ft(0.0):
+                jq = contact_impulse(ex, b, ex.plane_e[q], wp.dot(plane_n[q], v), 1, plane_n[q], depth, kcs, dt)
             if jq > Ft(0.0):
                 mu = planes[q][1]
                 imp = imp + jq * plane_n[q]
@@ -137,9 +144,7 @@ def build_collider_contact(Ft):
         if colc != 0:
             base = ex.step[0] * ex.width
             for cc in range(ex.n_col):
-                jq, n, vc = collider_contact(ex, base, cc, x, v, kcs, dt)
-                if jq > Ft(0.0):
-                    jq = jq * unloading(ex, b, Ft(1.0), wp.dot(v - vc, n), 1)
+                jq, n, vc = collider_contact(ex, base, cc, x, v, kcs, dt, b, 1)
                 if jq > Ft(0.0):
                     mu = ex.meta[cc * COL_META + CM_FRICTION]
                     imp = imp + jq * n

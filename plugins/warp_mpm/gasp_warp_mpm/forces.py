@@ -45,6 +45,9 @@ def build_extras_struct(Ft):
         rb_vin: wp.array(dtype=Ft)
         rb_vin_next: wp.array(dtype=Ft)
         rb_touch: wp.array(dtype=wp.int32)
+        rb_jn: wp.array(dtype=build_types(Ft)[0])   # the contact's sum j n, sum j e_sup and sum j (rigid.py)
+        rb_je: wp.array(dtype=Ft)
+        rb_j: wp.array(dtype=Ft)
         plane_e: wp.array(dtype=Ft)
         v_rest: Ft   # m/s: a rebound below it is none
     return Extras

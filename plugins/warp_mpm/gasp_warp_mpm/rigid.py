@@ -52,12 +52,34 @@ def build_rigid(Ft):
             c = (wp.float64(1.0) - wp.cos(th)) / (th * th)
         return wp.identity(3, wp.float64) + s * K + c * (K * K)
 
+    @wp.func
+    def lift_off(V: vec3d, c: vec3d, c0: vec3d, jn: vec3, e: Ft, vin: Ft, v_rest: Ft, gravity: vec3d):
+        # taichi_mpm's Rigid.lift_off: the normal part of V along the contact's mean normal made the speed e v_in
+        # keeps from where the contact began (c0) to c; 0 below v_rest
+        out = V
+        n = vec3d(wp.float64(jn[0]), wp.float64(jn[1]), wp.float64(jn[2]))
+        ln = wp.length(n)
+        if ln > wp.float64(0.0):
+            n = n / ln
+            v_out = wp.float64(e) * wp.float64(vin)
+            if v_out < wp.float64(v_rest):
+                v_out = wp.float64(0.0)
+            g_n = -wp.dot(gravity, n)
+            v_out = wp.sqrt(wp.max(v_out * v_out - wp.float64(2.0) * g_n * wp.dot(c - c0, n), wp.float64(0.0)))
+            u = wp.dot(V, n)
+            if u > wp.float64(0.0):
+                out = V + (v_out - u) * n
+        return out
+
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def rigid_update(rigid: wp.array(dtype=wp.int32), mass: wp.array(dtype=wp.float64),
                      inertia0: wp.array(dtype=mat33d), acc_p: wp.array(dtype=vec3d), acc_l: wp.array(dtype=vec3d),
                      centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d), vel: wp.array(dtype=vec3d),
                      spin: wp.array(dtype=vec3d), dt: wp.float64, dx: wp.float64, n_bodies: int,
-                     vin: wp.array(dtype=Ft), vin_next: wp.array(dtype=Ft), touch: wp.array(dtype=wp.int32)):
+                     vin: wp.array(dtype=Ft), vin_next: wp.array(dtype=Ft), touch: wp.array(dtype=wp.int32),
+                     was: wp.array(dtype=wp.int32), c0: wp.array(dtype=vec3d), jn: wp.array(dtype=vec3),
+                     je: wp.array(dtype=Ft), jsum: wp.array(dtype=Ft), e_body: wp.array(dtype=Ft), v_rest: Ft,
+                     gravity: vec3d):
         for b in range(n_bodies):
             M = mass[b]
             if rigid[b] != 0 and M > wp.float64(0.0):
@@ -69,18 +91,28 @@ def build_rigid(Ft):
                 w_pred = wp.inverse(R * inertia0[b] * wp.transpose(R) + extra) * Lc
                 R_new = rotation_of(dt * w_pred) * R
                 w = wp.inverse(R_new * inertia0[b] * wp.transpose(R_new) + extra) * Lc
-                vel[b] = P / M
+                if touch[b] != 0 and was[b] == 0:
+                    c0[b] = c
+                V = P / M
+                if e_body[b] >= Ft(0.0) and touch[b] == 0 and was[b] != 0 and jsum[b] > Ft(0.0):
+                    V = lift_off(V, c, c0[b], jn[b], e_body[b] * je[b] / jsum[b], vin[b], v_rest, gravity)
+                vel[b] = V
                 spin[b] = w
-                centre[b] = c + dt * (P / M)
+                centre[b] = c + dt * V
                 rot[b] = R_new
             acc_p[b] = vec3d()
             acc_l[b] = vec3d()
-            # the contact's approach speed (contact.build_unloading): kept while a point touches, the largest of
-            # its substeps; 0 once the body is free
+            # the contact's approach speed (contact.build_unloading): its first substep's, kept while a point
+            # touches; 0 once the body is free (taichi_mpm's Rigid.rigid_update)
             if touch[b] != 0:
-                vin[b] = wp.max(vin[b], vin_next[b])
+                if was[b] == 0:
+                    vin[b] = vin_next[b]
             else:
                 vin[b] = Ft(0.0)
+                jn[b] = vec3(Ft(0.0))
+                je[b] = Ft(0.0)
+                jsum[b] = Ft(0.0)
+            was[b] = touch[b]
             vin_next[b] = Ft(0.0)
             touch[b] = 0
 
@@ -135,13 +167,16 @@ class RigidBodies:
         if not self.any_rigid:
             return []
         reduce_k, update_k, apply_k = build_rigid(Ft)
-        d, dx, dt = self.device, float(self.dx), float(self.dt)
+        d, dx, dt, ex = self.device, float(self.dx), float(self.dt), self._ex
+        self.rb_was = wp.zeros(len(self.setup.materials), dtype=wp.int32, device=d)
+        self.rb_c0 = wp.zeros(len(self.setup.materials), dtype=vec3d, device=d)
         return [wp.launch(reduce_k, dim=self.n_material, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.p_mass, self.body, self.rb_rigid, dx, self.acc_p, self.acc_l]),
                 wp.launch(update_k, dim=1, device=d, record_cmd=True, inputs=[
                     self.rb_rigid, self.rb_M, self.rb_I0, self.acc_p, self.acc_l, self.rb_c, self.rb_R, self.rb_V,
-                    self.rb_w, dt, dx, len(self.setup.materials), self._ex.rb_vin, self._ex.rb_vin_next,
-                    self._ex.rb_touch]),
+                    self.rb_w, dt, dx, len(self.setup.materials), ex.rb_vin, ex.rb_vin_next, ex.rb_touch, self.rb_was,
+                    self.rb_c0, ex.rb_jn, ex.rb_je, ex.rb_j, ex.rb_e, ex.v_rest,
+                    vec3d(*[float(g) for g in self.setup.gravity])]),
                 wp.launch(apply_k, dim=self.n_points, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.F, self.body, self.rb_rigid, self.X0, self.rb_c, self.rb_R,
                     self.rb_V, self.rb_w])]

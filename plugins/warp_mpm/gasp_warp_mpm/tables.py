@@ -40,6 +40,8 @@ class ExtraTables:
         ex.rb_e = arr(body_table(setup).astype(np_t), Ft)
         ex.rb_vin, ex.rb_vin_next = (wp.zeros(len(setup.materials), dtype=Ft, device=self.device) for _ in "ab")
         ex.rb_touch = wp.zeros(len(setup.materials), dtype=wp.int32, device=self.device)
+        ex.rb_jn = wp.zeros(len(setup.materials), dtype=self.k.vec3, device=self.device)
+        ex.rb_je, ex.rb_j = (wp.zeros(len(setup.materials), dtype=Ft, device=self.device) for _ in "ab")
         ex.plane_e = arr(plane_table(setup, n_planes).astype(np_t) if n_planes else np.ones(1, np_t), Ft)
         ex.v_rest = Ft(rest_speed(setup))
         self._ex = ex
