@@ -3,7 +3,7 @@
 ``drop``: a 10 cm ball (``bench_rigid.ball_ply``: 600 flat Gaussians on a sphere) of steel (E 2e11, rho 7850) or
 hardwood (E 1e10, rho 700), ``model = "auto"`` (the rigid route), its bottom 0.2 m over a ground (friction 0.5),
 30 fps; the restitution read from the free flights around the first bounce
-(``gasp_studies.accuracy.events``' ``restitution_ballistic``) against the one the materials give
+(``gasp_studies.accuracy.first_bounce``) against the one the materials give
 (``gasp_core.toolkit.restitution``). Per engine and ``n_grid``. Also the last frame's lowest Gaussian over the
 ground (``rest_gap_dx``, in cells) after ``--rest-frames`` more frames.
 
@@ -61,24 +61,8 @@ def track_of(means, s, dt):
                  ground_z=0.0, dx=float(s.dx))
 
 
-def first_bounce(cz, bottom, dt: float, level: float) -> float:
-    """The first bounce's restitution from the free flights around it (``ballistic_restitution``): the frames
-    before the first one whose lowest Gaussian is within ``level`` (m) of the ground, and those from the next one
-    above it on, until the next contact. ``level`` one cell: at 6 substeps a frame (n_grid 24) the ball moves 11 mm
-    a substep and a frame within its contact may show its bottom 8 mm over the ground."""
-    from gasp_studies.accuracy import ballistic_restitution
-    t = np.arange(len(cz)) * dt
-    hit = np.flatnonzero(bottom <= level)
-    if not len(hit):
-        return float("nan")
-    off = np.flatnonzero((bottom > level) & (np.arange(len(cz)) > hit[0]))
-    if not len(off):
-        return float("nan")
-    return ballistic_restitution(t, cz, bottom, level, t[hit[0]] - 0.5 * dt, t[off[0]] - 0.5 * dt)
-
-
 def drop(engine: str, mat: str, n_grid: int, frames: int, work: Path) -> dict:
-    from gasp_studies.accuracy import events
+    from gasp_studies.accuracy import events, first_bounce
     doc = {"frame_dt": 1.0 / 30.0, "n_frames": frames,
            "engine": {"name": engine, "options": {**({"threads": 1} if engine == "taichi_mpm" else {}), **OPTIONS}},
            "domain": {"n_grid": n_grid}, "boundary": [{"kind": "ground", "height": 0.0, "friction": 0.5}],

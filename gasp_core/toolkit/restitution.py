@@ -102,3 +102,20 @@ def plane_table(setup, n_planes: int) -> np.ndarray:
     walls = [float(getattr(b, "restitution", BOUNDARY_RESTITUTION)) for b in setup.boundaries if b.kind == "walls"]
     out = np.array(grounds + [e for e in walls for _ in range(6)], np.float64)
     return out[:n_planes] if len(out) >= n_planes else np.ones(n_planes)
+
+
+def lift_off_speed(e: float, v_in: float, T: float, dz: float, g_n: float) -> float:
+    """The normal speed (m/s) a body leaves its contact with, so that its free flights before and after cross as an
+    instantaneous bounce of restitution ``e``: the figure a filmed drop reads (``gasp_studies.accuracy.
+    ballistic_restitution``), whatever the contact's duration.
+
+    The flight in meets the contact at ``t_0`` with the normal speed ``-v_in``; the body leaves ``T`` (s) later,
+    ``dz`` (m) further along the normal, with ``u``; ``g_n`` (m/s^2) is gravity's pull against the normal. The two
+    parabolas cross at ``tau`` after ``t_0`` with ``u - g_n (tau - T) = e (v_in + g_n tau)``, which gives, for
+    ``A = u + g_n T``, ``A^2 + B A - C = 0`` with ``B = v_in (1 - e) - (1 + e) g_n T`` and ``C = e v_in^2 - (1 + e)
+    g_n (dz + g_n T^2 / 2)``; ``u`` is the larger root less ``g_n T`` (``e v_in`` for an instantaneous contact,
+    ``T = dz = 0``), at least 0. The engines spell it in their rigid kernels (``lift_off``).
+    """
+    B = v_in * (1.0 - e) - (1.0 + e) * g_n * T
+    C = e * v_in * v_in - (1.0 + e) * g_n * (dz + 0.5 * g_n * T * T)
+    return max(0.5 * (-B + math.sqrt(max(B * B + 4.0 * C, 0.0))) - g_n * T, 0.0)

@@ -78,6 +78,21 @@ def face_points(x: np.ndarray, h: float) -> int:
                    for d in range(3)))
 
 
+def face_counts(setup) -> np.ndarray:
+    """Per body the ``N`` of :func:`rigid_contact` (the points of its largest flat face, :func:`face_points`, at
+    least 1) for a rigid body, 1 for the others: shape (n_bodies,), float64. The engines scale a rigid body's
+    contact stiffness by ``N / max(N, N_touch)`` (``N_touch`` the points that touched in the last substep), so the
+    body keeps ``Omega dt = RIGID_OMEGA_DT`` when more points touch than ``N`` (a donut of 65,036 points with
+    ``N`` = 487 rested on about 2,000, at ``Omega dt`` about 2: it chattered 5 mm a frame)."""
+    out = np.ones(len(setup.materials))
+    body, vol = np.asarray(setup.body_id), np.asarray(setup.p_vol, np.float64)
+    for b in np.flatnonzero(rigid_mask(setup.materials)):
+        sel = (body == b) & (vol > 0.0)
+        if sel.any():
+            out[b] = max(face_points(np.asarray(setup.x)[sel], float(np.median(np.cbrt(vol[sel])))), 1)
+    return out
+
+
 def rigid_contact(setup, dt: float, coeffs: np.ndarray) -> np.ndarray:
     """The particle contact's ``(k_p, c_p, s_p)`` (``gasp_core.toolkit.contact.contact_coefficients``) with each
     rigid body's rows replaced: its stiffness follows the step, not its ``E``.

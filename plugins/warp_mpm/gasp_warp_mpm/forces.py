@@ -48,6 +48,9 @@ def build_extras_struct(Ft):
         rb_jn: wp.array(dtype=build_types(Ft)[0])   # the contact's sum j n, sum j e_sup and sum j (rigid.py)
         rb_je: wp.array(dtype=Ft)
         rb_j: wp.array(dtype=Ft)
+        rb_nface: wp.array(dtype=Ft)   # gasp_core.toolkit.rigid.face_counts; the points touching now and last
+        rb_count: wp.array(dtype=wp.int32)
+        rb_nlast: wp.array(dtype=wp.int32)
         plane_e: wp.array(dtype=Ft)
         v_rest: Ft   # m/s: a rebound below it is none
     return Extras

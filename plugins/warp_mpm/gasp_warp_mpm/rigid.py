@@ -53,22 +53,28 @@ def build_rigid(Ft):
         return wp.identity(3, wp.float64) + s * K + c * (K * K)
 
     @wp.func
-    def lift_off(V: vec3d, c: vec3d, c0: vec3d, jn: vec3, e: Ft, vin: Ft, v_rest: Ft, gravity: vec3d):
-        # taichi_mpm's Rigid.lift_off: the normal part of V along the contact's mean normal made the speed e v_in
-        # keeps from where the contact began (c0) to c; 0 below v_rest
+    def lift_off(V: vec3d, c: vec3d, c0: vec3d, jn: vec3, e_pair: Ft, vin_f: Ft, v_rest: Ft, gravity: vec3d,
+                 T: wp.float64):
+        # taichi_mpm's Rigid.lift_off: the normal part of V along the contact's mean normal made the speed with which
+        # the free flights cross as an instantaneous bounce of restitution e (gasp_core.toolkit.restitution.
+        # lift_off_speed); e 0 below v_rest
         out = V
         n = vec3d(wp.float64(jn[0]), wp.float64(jn[1]), wp.float64(jn[2]))
         ln = wp.length(n)
         if ln > wp.float64(0.0):
             n = n / ln
-            v_out = wp.float64(e) * wp.float64(vin)
-            if v_out < wp.float64(v_rest):
-                v_out = wp.float64(0.0)
+            e = wp.float64(e_pair)
+            vin = wp.float64(vin_f)
+            if e * vin < wp.float64(v_rest):
+                e = wp.float64(0.0)
             g_n = -wp.dot(gravity, n)
-            v_out = wp.sqrt(wp.max(v_out * v_out - wp.float64(2.0) * g_n * wp.dot(c - c0, n), wp.float64(0.0)))
+            one = wp.float64(1.0)
+            B = vin * (one - e) - (one + e) * g_n * T
+            C = e * vin * vin - (one + e) * g_n * (wp.dot(c - c0, n) + wp.float64(0.5) * g_n * T * T)
+            u_out = wp.float64(0.5) * (-B + wp.sqrt(wp.max(B * B + wp.float64(4.0) * C, wp.float64(0.0)))) - g_n * T
             u = wp.dot(V, n)
             if u > wp.float64(0.0):
-                out = V + (v_out - u) * n
+                out = V + (wp.max(u_out, wp.float64(0.0)) - u) * n
         return out
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
@@ -79,7 +85,8 @@ def build_rigid(Ft):
                      vin: wp.array(dtype=Ft), vin_next: wp.array(dtype=Ft), touch: wp.array(dtype=wp.int32),
                      was: wp.array(dtype=wp.int32), c0: wp.array(dtype=vec3d), jn: wp.array(dtype=vec3),
                      je: wp.array(dtype=Ft), jsum: wp.array(dtype=Ft), e_body: wp.array(dtype=Ft), v_rest: Ft,
-                     gravity: vec3d):
+                     gravity: vec3d, steps: wp.array(dtype=wp.int32), count: wp.array(dtype=wp.int32),
+                     nlast: wp.array(dtype=wp.int32)):
         for b in range(n_bodies):
             M = mass[b]
             if rigid[b] != 0 and M > wp.float64(0.0):
@@ -93,9 +100,12 @@ def build_rigid(Ft):
                 w = wp.inverse(R_new * inertia0[b] * wp.transpose(R_new) + extra) * Lc
                 if touch[b] != 0 and was[b] == 0:
                     c0[b] = c
+                    steps[b] = 0
                 V = P / M
                 if e_body[b] >= Ft(0.0) and touch[b] == 0 and was[b] != 0 and jsum[b] > Ft(0.0):
-                    V = lift_off(V, c, c0[b], jn[b], e_body[b] * je[b] / jsum[b], vin[b], v_rest, gravity)
+                    V = lift_off(V, c, c0[b], jn[b], e_body[b] * je[b] / jsum[b], vin[b], v_rest, gravity,
+                                 dt * wp.float64(steps[b]))
+                steps[b] = steps[b] + touch[b]
                 vel[b] = V
                 spin[b] = w
                 centre[b] = c + dt * V
@@ -113,6 +123,8 @@ def build_rigid(Ft):
                 je[b] = Ft(0.0)
                 jsum[b] = Ft(0.0)
             was[b] = touch[b]
+            nlast[b] = count[b]
+            count[b] = 0
             vin_next[b] = Ft(0.0)
             touch[b] = 0
 
@@ -170,13 +182,14 @@ class RigidBodies:
         d, dx, dt, ex = self.device, float(self.dx), float(self.dt), self._ex
         self.rb_was = wp.zeros(len(self.setup.materials), dtype=wp.int32, device=d)
         self.rb_c0 = wp.zeros(len(self.setup.materials), dtype=vec3d, device=d)
+        self.rb_steps = wp.zeros(len(self.setup.materials), dtype=wp.int32, device=d)
         return [wp.launch(reduce_k, dim=self.n_material, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.p_mass, self.body, self.rb_rigid, dx, self.acc_p, self.acc_l]),
                 wp.launch(update_k, dim=1, device=d, record_cmd=True, inputs=[
                     self.rb_rigid, self.rb_M, self.rb_I0, self.acc_p, self.acc_l, self.rb_c, self.rb_R, self.rb_V,
                     self.rb_w, dt, dx, len(self.setup.materials), ex.rb_vin, ex.rb_vin_next, ex.rb_touch, self.rb_was,
                     self.rb_c0, ex.rb_jn, ex.rb_je, ex.rb_j, ex.rb_e, ex.v_rest,
-                    vec3d(*[float(g) for g in self.setup.gravity])]),
+                    vec3d(*[float(g) for g in self.setup.gravity]), self.rb_steps, ex.rb_count, ex.rb_nlast]),
                 wp.launch(apply_k, dim=self.n_points, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.F, self.body, self.rb_rigid, self.X0, self.rb_c, self.rb_R,
                     self.rb_V, self.rb_w])]

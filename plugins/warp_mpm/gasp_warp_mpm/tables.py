@@ -42,6 +42,9 @@ class ExtraTables:
         ex.rb_touch = wp.zeros(len(setup.materials), dtype=wp.int32, device=self.device)
         ex.rb_jn = wp.zeros(len(setup.materials), dtype=self.k.vec3, device=self.device)
         ex.rb_je, ex.rb_j = (wp.zeros(len(setup.materials), dtype=Ft, device=self.device) for _ in "ab")
+        from gasp_core.toolkit.rigid import face_counts
+        ex.rb_nface = arr(face_counts(setup).astype(np_t), Ft)
+        ex.rb_count, ex.rb_nlast = (wp.zeros(len(setup.materials), dtype=wp.int32, device=self.device) for _ in "ab")
         ex.plane_e = arr(plane_table(setup, n_planes).astype(np_t) if n_planes else np.ones(1, np_t), Ft)
         ex.v_rest = Ft(rest_speed(setup))
         self._ex = ex
