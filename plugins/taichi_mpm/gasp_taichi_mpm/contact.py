@@ -124,6 +124,7 @@ class Contact:
                 n = self.plane_n[q]
                 imp += jq * n
                 budget += mu * jq
+                self.add_twist(p, mu * jq, n)
                 fn += (mu * jq) * n
                 sq = ti.cast(self.plane_row[q][2], ti.i32)
                 self.add_contact(p, sq, jq, n, fv)
@@ -142,6 +143,7 @@ class Contact:
                         mu = self.ex_meta[c * COL_META + CM_FRICTION]
                         imp += jq * n
                         budget += mu * jq
+                        self.add_twist(p, mu * jq, n)
                         fn += (mu * jq) * n
                         fv += (mu * jq) * vc
                         self.add_contact(p, 1 + c, jq, n, vc)

@@ -47,6 +47,7 @@ class Rigid:
         self.rb_nface = ti.field(self.real, shape=max(nb, 1))
         self.rb_count, self.rb_nlast = (ti.field(ti.i32, shape=max(nb, 1)) for _ in range(2))
         self.rest_zeta = float(DAMPING)
+        self.rb_twist = ti.field(ti.f64, shape=max(nb, 1))   # this substep's sum mu j |r_perp| (kg m^2/s)
         self.plane_e = ti.field(self.real, shape=max(self.n_planes, 1))
         self.v_rest = ti.field(self.real, shape=())
         self.rb_e.fill(-1.0)
@@ -73,6 +74,35 @@ class Rigid:
             if self.n_planes:
                 self.plane_e.from_numpy(np.asarray(plane_e, self._np_real))
             self.v_rest[None] = float(v_rest)
+
+    @ti.func
+    def add_twist(self, p, fj, n):
+        """Point p's friction budget ``fj`` (kg m/s) times its lever about the axis along ``n`` through its body's
+        centre, into the body's ``rb_twist`` (a rigid body with restitution): the most angular momentum about the
+        normal Coulomb's friction can take from the body this substep (:meth:`twist_brake`)."""
+        if ti.static(self.any_rigid):
+            b = self.body[p]
+            if self.rb_e[b] >= 0.0:
+                r = ti.cast(self.x[p], ti.f64) - self.rb_c[b]
+                nd = ti.cast(n, ti.f64)
+                ti.atomic_add(self.rb_twist[b], ti.cast(fj, ti.f64) * (r - r.dot(nd) * nd).norm())
+
+    @ti.func
+    def twist_brake(self, b, w, inertia):
+        """Body b's spin ``w`` (rad/s) less Coulomb's torsional friction of this substep: its part about the
+        contact's mean normal ``n`` brought towards 0 by at most ``rb_twist / (n . I n)`` (``inertia``, kg m^2),
+        never reversed. The nodes' friction stops only the nodes under the body (a rigid donut kept a twist of 0.06
+        rad/s, losing 4.5 % a frame); this is the friction on the body as one."""
+        out = w
+        jn = ti.cast(self.rb_jn[b], ti.f64)
+        if self.rb_twist[b] > 0.0 and jn.norm() > 0.0:
+            n = jn / jn.norm()
+            wn = w.dot(n)
+            In = n.dot(inertia @ n)
+            if In > 0.0 and wn != 0.0:
+                out = w - n * (wn / ti.abs(wn)) * ti.min(ti.abs(wn), self.rb_twist[b] / In)
+        self.rb_twist[b] = 0.0
+        return out
 
     @ti.func
     def contact_impulse(self, p, e_sup, vn, n, depth, kcs):
@@ -188,7 +218,10 @@ class Rigid:
                 Id = ti.Matrix.identity(ti.f64, 3)
                 w_pred = (R @ self.rb_I0[b] @ R.transpose() + half * M * Id).inverse() @ Lc
                 R_new = self.rotation_of(dt * w_pred) @ R
-                w = (R_new @ self.rb_I0[b] @ R_new.transpose() + half * M * Id).inverse() @ Lc
+                inertia = R_new @ self.rb_I0[b] @ R_new.transpose() + half * M * Id
+                w = inertia.inverse() @ Lc
+                if self.rb_e[b] >= 0.0:
+                    w = self.twist_brake(b, w, inertia)
                 if self.rb_touch[b] != 0 and self.rb_was[b] == 0:
                     self.rb_c0[b] = c
                     self.rb_steps[b] = 0
@@ -240,162 +273,6 @@ class Rigid:
                 u = V.dot(n)
                 if u > 0.0:
                     out = V + (ti.max(u_out, 0.0) - u) * n
-        return out
-
-    @ti.func
-    def contact_impulse(self, p, e_sup, vn, n, depth, kcs):
-        """Point p's normal impulse (kg m/s) at ``depth`` (m, > 0) in a support of restitution ``e_sup``, ``vn`` its
-        normal velocity relative to it (m/s), ``n`` its normal, ``kcs = (k, c, skin)``: ``max(0, dt (k depth - c
-        vn))``; a rigid body's point with restitution (``gasp_core.toolkit.restitution``) while its body bounces:
-        ``dt k depth`` while it approaches (``vn`` < 0), ``e^2 dt k depth`` while it recedes (the hysteresis of Walton
-        & Braun 1986), ``e`` its body's times ``e_sup``; once ``e`` times the approach speed of the body's ongoing
-        contact is below ``v_rest`` a damped law whose ratio is the body's (``DAMPING`` on the ``N_touch`` points that
-        touched in the last substep, not per point: the body settles whatever the number of points); its ``k`` times
-        ``N / max(N, N_touch)`` (``gasp_core.toolkit.rigid.face_counts``). Records the touch, the approach speed
-        and ``dt k depth`` along ``n`` and times ``e_sup`` for :meth:`lift_off`."""
-        dt = self.dt[None]
-        jq = ti.max(dt * (kcs[0] * depth - kcs[1] * vn), 0.0)
-        if ti.static(self.any_rigid):
-            b = self.body[p]
-            if self.rb_e[b] >= 0.0:
-                jk = dt * kcs[0] * depth
-                self.rb_touch[b] = 1
-                ti.atomic_add(self.rb_jn[b], jk * n)
-                ti.atomic_add(self.rb_je[b], jk * e_sup)
-                ti.atomic_add(self.rb_j[b], jk)
-                if vn < 0.0:
-                    ti.atomic_max(self.rb_vin_next[b], -vn)
-                e = self.rb_e[b] * e_sup
-                if e * self.rb_vin[b] >= self.v_rest[None]:
-                    jq = jk
-                    if vn >= 0.0:
-                        jq = e * e * jk
-        return jq
-
-    def rigid_state(self) -> dict:
-        """``rigid_c`` (n_bodies, 3) and ``rigid_R`` (n_bodies, 3, 3): what a saved state adds for the rigid bodies."""
-        return {"rigid_c": self.rb_c.to_numpy(), "rigid_R": self.rb_R.to_numpy()}
-
-    def set_rigid_state(self, state: dict) -> None:
-        """Restore :meth:`rigid_state`."""
-        self.rb_c.from_numpy(np.asarray(state["rigid_c"], np.float64))
-        self.rb_R.from_numpy(np.asarray(state["rigid_R"], np.float64))
-
-    @ti.func
-    def fused_g2p(self, p):
-        """G2P of point p in the fused G2P + P2G kernels (``transfers.py``), skipped for a rigid body's point: it had
-        its G2P and its projection before (:meth:`g2p_rigid`, :meth:`rigid_step`). The other bodies so run the same
-        kernel on the same numbers with or without a rigid body in the scene (bit for bit:
-        ``tests/test_rigid_engines.py``); a branch on the data, not a ``ti.static`` one, so the kernel compiled is
-        the same in both."""
-        if self.rb_rigid[self.body[p]] == 0:
-            self.g2p_point(p)
-
-    @ti.kernel
-    def g2p_rigid(self):
-        """G2P of the rigid bodies' points only (before their projection; the fused kernel skips them)."""
-        for p in range(self.n_points[None]):
-            if self.rb_rigid[self.body[p]] != 0:
-                self.g2p_point(p)
-
-    def rigid_step(self) -> None:
-        """Project the rigid bodies' points after a G2P (:mod:`gasp_taichi_mpm.rigid`)."""
-        self.rigid_reduce()
-        self.rigid_update()
-        self.rigid_apply()
-
-    @ti.kernel
-    def rigid_reduce(self):
-        for b in range(self.n_bodies):
-            self.rb_acc[b] = ti.Vector.zero(ti.f64, 6)
-        quarter = 0.25 * ti.cast(self.dx[None], ti.f64) ** 2
-        ti.loop_config(serialize=True)
-        for p in range(self.n_points[None]):
-            b = self.body[p]
-            if self.rb_rigid[b] != 0:
-                m = ti.cast(self.p_mass[p], ti.f64)
-                x = ti.cast(self.x[p], ti.f64)
-                v = ti.cast(self.v[p], ti.f64)
-                C = ti.cast(self.C[p], ti.f64)
-                aff = ti.Vector([C[2, 1] - C[1, 2], C[0, 2] - C[2, 0], C[1, 0] - C[0, 1]])
-                L = m * x.cross(v) + (m * quarter) * aff
-                self.rb_acc[b] += ti.Vector([m * v[0], m * v[1], m * v[2], L[0], L[1], L[2]])
-
-    @ti.func
-    def rotation_of(self, a):
-        """``exp(skew(a))`` (Rodrigues), ``a`` a rotation vector, rad."""
-        th = a.norm()
-        K = ti.Matrix([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]], dt=ti.f64)
-        s = 1.0 - th * th / 6.0
-        c = 0.5 - th * th / 24.0
-        if th > 1e-4:
-            s = ti.sin(th) / th
-            c = (1.0 - ti.cos(th)) / (th * th)
-        return ti.Matrix.identity(ti.f64, 3) + s * K + c * (K @ K)
-
-    @ti.kernel
-    def rigid_update(self):
-        dt = ti.cast(self.dt[None], ti.f64)
-        half = 0.5 * ti.cast(self.dx[None], ti.f64) ** 2
-        ti.loop_config(serialize=True)
-        for b in range(self.n_bodies):
-            if self.rb_rigid[b] != 0 and self.rb_M[b] > 0.0:
-                M = self.rb_M[b]
-                acc = self.rb_acc[b]
-                P = ti.Vector([acc[0], acc[1], acc[2]])
-                c = self.rb_c[b]
-                Lc = ti.Vector([acc[3], acc[4], acc[5]]) - c.cross(P)
-                R = self.rb_R[b]
-                Id = ti.Matrix.identity(ti.f64, 3)
-                w_pred = (R @ self.rb_I0[b] @ R.transpose() + half * M * Id).inverse() @ Lc
-                R_new = self.rotation_of(dt * w_pred) @ R
-                w = (R_new @ self.rb_I0[b] @ R_new.transpose() + half * M * Id).inverse() @ Lc
-                if self.rb_touch[b] != 0 and self.rb_was[b] == 0:
-                    self.rb_c0[b] = c
-                    self.rb_steps[b] = 0
-                V = self.lift_off(b, P / M, c, dt * self.rb_steps[b])
-                self.rb_steps[b] += self.rb_touch[b]
-                self.rb_V[b] = V
-                self.rb_w[b] = w
-                self.rb_c[b] = c + dt * V
-                self.rb_R[b] = R_new
-            # the contact's approach speed: its first substep's, kept while a point touches; 0 once free (the
-            # largest of its substeps took the speed gravity adds in the contact's first substeps: a steel ball's
-            # bounces of 0.5 m/s grew instead of dying out)
-            if self.rb_touch[b] != 0:
-                if self.rb_was[b] == 0:
-                    self.rb_vin[b] = self.rb_vin_next[b]
-            else:
-                self.rb_vin[b] = 0.0
-                self.rb_jn[b] = ti.Vector.zero(self.real, 3)
-                self.rb_je[b] = 0.0
-                self.rb_j[b] = 0.0
-            self.rb_was[b] = self.rb_touch[b]
-            self.rb_vin_next[b] = 0.0
-            self.rb_touch[b] = 0
-
-    @ti.func
-    def lift_off(self, b, V, c):
-        """Body b's velocity ``V`` (m/s, float64) at the substep its contact ends (no point touched in this P2G,
-        one did in the last), its centre at ``c`` (m): its normal part along the contact's mean normal ``n`` made
-        the speed ``e v_in`` would keep up to there from where the contact began (``sqrt((e v_in)^2 - 2 g_n (c -
-        c_0) . n)``, ``g_n = -g . n``), ``e`` the body's times its supports' impulse-weighted, ``v_in`` the
-        contact's approach speed (0 below ``v_rest``): the restitution at the impulse level, whatever the
-        hysteresis gave back in a contact of a few substeps."""
-        out = V
-        if self.rb_e[b] >= 0.0 and self.rb_touch[b] == 0 and self.rb_was[b] != 0 and self.rb_j[b] > 0.0:
-            jn = ti.cast(self.rb_jn[b], ti.f64)
-            if jn.norm() > 0.0:
-                n = jn / jn.norm()
-                e = ti.cast(self.rb_e[b] * self.rb_je[b] / self.rb_j[b], ti.f64)
-                v_out = e * ti.cast(self.rb_vin[b], ti.f64)
-                if v_out < ti.cast(self.v_rest[None], ti.f64):
-                    v_out = 0.0
-                g_n = -ti.cast(self.gravity[None], ti.f64).dot(n)
-                v_out = ti.sqrt(ti.max(v_out * v_out - 2.0 * g_n * (c - self.rb_c0[b]).dot(n), 0.0))
-                u = V.dot(n)
-                if u > 0.0:
-                    out = V + (v_out - u) * n
         return out
 
     @ti.kernel

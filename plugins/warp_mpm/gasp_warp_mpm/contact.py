@@ -120,6 +120,16 @@ def build_collider_contact(Ft):
     contact_impulse = build_contact_impulse(Ft)
 
     @wp.func
+    def add_twist(ex: Extras, b: int, x: vec3, fj: Ft, n: vec3):
+        # a rigid body's point: its friction budget times its lever about the normal through the body's centre, the
+        # most angular momentum about the normal Coulomb's friction can take this substep (taichi_mpm's add_twist)
+        if ex.rb_e[b] >= Ft(0.0):
+            c = ex.rb_cx[b]
+            r = wp.vec3d(wp.float64(x[0]) - c[0], wp.float64(x[1]) - c[1], wp.float64(x[2]) - c[2])
+            nd = wp.vec3d(wp.float64(n[0]), wp.float64(n[1]), wp.float64(n[2]))
+            wp.atomic_add(ex.rb_twist, b, wp.float64(fj) * wp.length(r - wp.dot(r, nd) * nd))
+
+    @wp.func
     def collider_contact(ex: Extras, base: int, cc: int, x: vec3, v: vec3, kcs: vec3, dt: Ft, b: int, mark: int):
         phi, n, vc = collider_at(x, cc, base, ex, kcs[2])
         jq = Ft(0.0)
@@ -146,6 +156,7 @@ def build_collider_contact(Ft):
                 mu = planes[q][1]
                 imp = imp + jq * plane_n[q]
                 bud = bud + mu * jq
+                add_twist(ex, b, x, mu * jq, plane_n[q])
                 fn = fn + (mu * jq) * plane_n[q]
                 if jq > jbest:
                     sup = int(planes[q][2])
@@ -158,6 +169,7 @@ def build_collider_contact(Ft):
                     mu = ex.meta[cc * COL_META + CM_FRICTION]
                     imp = imp + jq * n
                     bud = bud + mu * jq
+                    add_twist(ex, b, x, mu * jq, n)
                     fn = fn + (mu * jq) * n
                     fv = fv + (mu * jq) * vc
                     if jq > jbest:

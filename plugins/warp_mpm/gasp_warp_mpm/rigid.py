@@ -77,6 +77,21 @@ def build_rigid(Ft):
                 out = V + (wp.max(u_out, wp.float64(0.0)) - u) * n
         return out
 
+    @wp.func
+    def twist_brake(w: vec3d, inertia: mat33d, jn: vec3, tw: wp.float64):
+        # taichi_mpm's Rigid.twist_brake: the spin about the contact's mean normal brought towards 0 by at most
+        # tw / (n . I n), never reversed
+        out = w
+        n = vec3d(wp.float64(jn[0]), wp.float64(jn[1]), wp.float64(jn[2]))
+        ln = wp.length(n)
+        if tw > wp.float64(0.0) and ln > wp.float64(0.0):
+            n = n / ln
+            wn = wp.dot(w, n)
+            In = wp.dot(n, inertia * n)
+            if In > wp.float64(0.0) and wn != wp.float64(0.0):
+                out = w - n * wp.sign(wn) * wp.min(wp.abs(wn), tw / In)
+        return out
+
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def rigid_update(rigid: wp.array(dtype=wp.int32), mass: wp.array(dtype=wp.float64),
                      inertia0: wp.array(dtype=mat33d), acc_p: wp.array(dtype=vec3d), acc_l: wp.array(dtype=vec3d),
@@ -86,7 +101,7 @@ def build_rigid(Ft):
                      was: wp.array(dtype=wp.int32), c0: wp.array(dtype=vec3d), jn: wp.array(dtype=vec3),
                      je: wp.array(dtype=Ft), jsum: wp.array(dtype=Ft), e_body: wp.array(dtype=Ft), v_rest: Ft,
                      gravity: vec3d, steps: wp.array(dtype=wp.int32), count: wp.array(dtype=wp.int32),
-                     nlast: wp.array(dtype=wp.int32)):
+                     nlast: wp.array(dtype=wp.int32), twist: wp.array(dtype=wp.float64)):
         for b in range(n_bodies):
             M = mass[b]
             if rigid[b] != 0 and M > wp.float64(0.0):
@@ -97,7 +112,10 @@ def build_rigid(Ft):
                 extra = wp.float64(0.5) * dx * dx * M * wp.identity(3, wp.float64)
                 w_pred = wp.inverse(R * inertia0[b] * wp.transpose(R) + extra) * Lc
                 R_new = rotation_of(dt * w_pred) * R
-                w = wp.inverse(R_new * inertia0[b] * wp.transpose(R_new) + extra) * Lc
+                inertia = R_new * inertia0[b] * wp.transpose(R_new) + extra
+                w = wp.inverse(inertia) * Lc
+                if e_body[b] >= Ft(0.0):
+                    w = twist_brake(w, inertia, jn[b], twist[b])
                 if touch[b] != 0 and was[b] == 0:
                     c0[b] = c
                     steps[b] = 0
@@ -123,6 +141,7 @@ def build_rigid(Ft):
                 je[b] = Ft(0.0)
                 jsum[b] = Ft(0.0)
             was[b] = touch[b]
+            twist[b] = wp.float64(0.0)
             nlast[b] = count[b]
             count[b] = 0
             vin_next[b] = Ft(0.0)
@@ -189,7 +208,8 @@ class RigidBodies:
                     self.rb_rigid, self.rb_M, self.rb_I0, self.acc_p, self.acc_l, self.rb_c, self.rb_R, self.rb_V,
                     self.rb_w, dt, dx, len(self.setup.materials), ex.rb_vin, ex.rb_vin_next, ex.rb_touch, self.rb_was,
                     self.rb_c0, ex.rb_jn, ex.rb_je, ex.rb_j, ex.rb_e, ex.v_rest,
-                    vec3d(*[float(g) for g in self.setup.gravity]), self.rb_steps, ex.rb_count, ex.rb_nlast]),
+                    vec3d(*[float(g) for g in self.setup.gravity]), self.rb_steps, ex.rb_count, ex.rb_nlast,
+                    ex.rb_twist]),
                 wp.launch(apply_k, dim=self.n_points, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.F, self.body, self.rb_rigid, self.X0, self.rb_c, self.rb_R,
                     self.rb_V, self.rb_w])]

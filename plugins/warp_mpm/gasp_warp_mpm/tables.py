@@ -45,6 +45,9 @@ class ExtraTables:
         from gasp_core.toolkit.rigid import face_counts
         ex.rb_nface = arr(face_counts(setup).astype(np_t), Ft)
         ex.rb_count, ex.rb_nlast = (wp.zeros(len(setup.materials), dtype=wp.int32, device=self.device) for _ in "ab")
+        vec3d = wp.types.vector(3, wp.float64)
+        ex.rb_cx = self.rb_c if getattr(self, "any_rigid", False) else wp.zeros(1, dtype=vec3d, device=self.device)
+        ex.rb_twist = wp.zeros(len(setup.materials), dtype=wp.float64, device=self.device)
         ex.plane_e = arr(plane_table(setup, n_planes).astype(np_t) if n_planes else np.ones(1, np_t), Ft)
         ex.v_rest = Ft(rest_speed(setup))
         self._ex = ex
