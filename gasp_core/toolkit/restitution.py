@@ -7,8 +7,8 @@ speed of the two surfaces. Each body's material gives one (:func:`body_restituti
 pair takes their product (:func:`combine`), the rule of Bullet (``btManifoldResult::calculateCombinedRestitution``).
 The product is chosen because the substances' values below are measured against a hard, nearly elastic floor: a
 steel ball on the default floor bounces with the steel figure, and a softer floor (``restitution`` < 1 on the
-boundary) lowers every body's bounce in proportion. (PhysX averages by default, MuJoCo sets each contact's damping
-from the pair's ``solref``; neither keeps a table value on a hard floor unchanged.)
+boundary) lowers every body's bounce in proportion. (PhysX averages by default; an average would not keep a table
+value on a hard floor unchanged; ``docs/rigid.md`` compares the rules.)
 
 The engines apply ``e`` to a rigid body's points by a hysteretic contact law (Walton & Braun 1986, "Viscosity,
 granular-temperature, and stress calculations for shearing assemblies of inelastic, frictional disks", J. Rheol.

@@ -101,23 +101,12 @@ def build_contact_impulse(Ft):
 
 
 @functools.cache
-def build_collider_contact(Ft):
-    """``(collider_contact, point_contact, surface_friction)`` Warp functions of the scalar type ``Ft``: the particle
-    contact against the ``[[collider]]``s' signed distances (``gasp_core.toolkit.contact.surface_impulse``).
-
-    - ``collider_contact(ex, base, cc, x, v, kcs, dt, b, mark) -> (j_n, n, v_c)``: collider ``cc``'s normal impulse on a point of body ``b``
-      ``max(0, dt (k depth - c (v - v_c) . n))``, ``depth = skin - phi``, along its outward normal ``n``;
-    - ``point_contact(...) -> (impulse, budget, budget n, budget v_c, support)``: the planes' and the colliders'
-      impulses on a point summed, its friction budget, the budget-weighted normal and collider velocity (for the
-      nodes' friction) and the support that pushes it most (0: the grounds, 1 + cc: collider cc, then the walls'
-      faces, ``planes[q][2]``; -1: none);
-    - ``surface_friction(vel, m, fb, fn, fv)``: a node's Coulomb friction in the plane normal to its budget-weighted
-      normal ``fn``, on its velocity relative to the supports' ``fv / fb``.
-    """
-    vec3, vec4, mat33 = build_types(Ft)
+def build_add_twist(Ft):
+    """``add_twist(ex, b, x, fj, n)``, a Warp function of the scalar type ``Ft``: a rigid body's point at ``x`` adds
+    its friction budget ``fj`` times its lever about the normal ``n`` through its body's centre to ``ex.rb_twist[b]``
+    (``rigid.py``'s twist brake; taichi_mpm's ``Rigid.add_twist``)."""
+    vec3 = build_types(Ft)[0]
     Extras = build_extras_struct(Ft)
-    collider_at = build_collider_at(Ft)
-    contact_impulse = build_contact_impulse(Ft)
 
     @wp.func
     def add_twist(ex: Extras, b: int, x: vec3, fj: Ft, n: vec3):
@@ -128,6 +117,28 @@ def build_collider_contact(Ft):
             r = wp.vec3d(wp.float64(x[0]) - c[0], wp.float64(x[1]) - c[1], wp.float64(x[2]) - c[2])
             nd = wp.vec3d(wp.float64(n[0]), wp.float64(n[1]), wp.float64(n[2]))
             wp.atomic_add(ex.rb_twist, b, wp.float64(fj) * wp.length(r - wp.dot(r, nd) * nd))
+
+    return add_twist
+
+
+@functools.cache
+def build_collider_contact(Ft):
+    """``(collider_contact, point_contact, surface_friction)`` Warp functions of the scalar type ``Ft``: the particle
+    contact against the ``[[collider]]``s' signed distances (``gasp_core.toolkit.contact.surface_impulse``).
+
+    - ``collider_contact(ex, base, cc, x, v, kcs, dt, b, mark) -> (j_n, n, v_c)``: collider ``cc``'s normal impulse
+      on a point of body ``b`` (``build_contact_impulse``), ``depth = skin - phi``, along its outward normal ``n``;
+    - ``point_contact(...) -> (impulse, budget, budget n, budget v_c, support)``: the planes' and the colliders'
+      impulses on a point summed, its friction budget, the budget-weighted normal and collider velocity (for the
+      nodes' friction) and the support that pushes it most (0: the grounds, 1 + cc: collider cc, then the walls'
+      faces, ``planes[q][2]``; -1: none);
+    - ``surface_friction(vel, m, fb, fn, fv)``: a node's Coulomb friction in the plane normal to its budget-weighted
+      normal ``fn``, on its velocity relative to the supports' ``fv / fb``.
+    """
+    vec3, vec4, mat33 = build_types(Ft)
+    Extras = build_extras_struct(Ft)
+    collider_at = build_collider_at(Ft)
+    contact_impulse, add_twist = build_contact_impulse(Ft), build_add_twist(Ft)
 
     @wp.func
     def collider_contact(ex: Extras, base: int, cc: int, x: vec3, v: vec3, kcs: vec3, dt: Ft, b: int, mark: int):

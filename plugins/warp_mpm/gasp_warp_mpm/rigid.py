@@ -21,36 +21,10 @@ mat33d = wp.types.matrix((3, 3), wp.float64)
 
 
 @functools.cache
-def build_rigid(Ft):
-    """``(rigid_reduce, rigid_update, rigid_apply)`` for the scalar type ``Ft``."""
+def build_rigid_contact(Ft):
+    """``(lift_off, twist_brake)``, Warp functions of the scalar type ``Ft`` (taichi_mpm's ``Rigid.lift_off`` and
+    ``Rigid.twist_brake``)."""
     vec3, vec4, mat33 = build_types(Ft)
-
-    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def rigid_reduce(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33),
-                     p_mass: wp.array(dtype=Ft), body: wp.array(dtype=wp.int32), rigid: wp.array(dtype=wp.int32),
-                     dx: wp.float64, acc_p: wp.array(dtype=vec3d), acc_l: wp.array(dtype=vec3d)):
-        p = wp.tid()
-        b = body[p]
-        if rigid[b] == 0:
-            return
-        m = wp.float64(p_mass[p])
-        xp = vec3d(wp.float64(x[p][0]), wp.float64(x[p][1]), wp.float64(x[p][2]))
-        vp = vec3d(wp.float64(v[p][0]), wp.float64(v[p][1]), wp.float64(v[p][2]))
-        c = C[p]
-        aff = vec3d(wp.float64(c[2, 1] - c[1, 2]), wp.float64(c[0, 2] - c[2, 0]), wp.float64(c[1, 0] - c[0, 1]))
-        wp.atomic_add(acc_p, b, m * vp)
-        wp.atomic_add(acc_l, b, m * wp.cross(xp, vp) + (m * wp.float64(0.25) * dx * dx) * aff)
-
-    @wp.func
-    def rotation_of(a: vec3d):
-        th = wp.length(a)
-        K = mat33d(wp.float64(0.0), -a[2], a[1], a[2], wp.float64(0.0), -a[0], -a[1], a[0], wp.float64(0.0))
-        s = wp.float64(1.0) - th * th / wp.float64(6.0)
-        c = wp.float64(0.5) - th * th / wp.float64(24.0)
-        if th > wp.float64(1e-4):
-            s = wp.sin(th) / th
-            c = (wp.float64(1.0) - wp.cos(th)) / (th * th)
-        return wp.identity(3, wp.float64) + s * K + c * (K * K)
 
     @wp.func
     def lift_off(V: vec3d, c: vec3d, c0: vec3d, jn: vec3, e_pair: Ft, vin_f: Ft, v_rest: Ft, gravity: vec3d,
@@ -91,6 +65,27 @@ def build_rigid(Ft):
             if In > wp.float64(0.0) and wn != wp.float64(0.0):
                 out = w - n * wp.sign(wn) * wp.min(wp.abs(wn), tw / In)
         return out
+
+    return lift_off, twist_brake
+
+
+@functools.cache
+def build_rigid_update(Ft):
+    """``rigid_update`` (one thread over the bodies: velocity, spin, centre and rotation from the sums; the contact's
+    lift-off, twist brake and bookkeeping, ``gasp_core.toolkit.restitution``) for the scalar type ``Ft``."""
+    vec3, vec4, mat33 = build_types(Ft)
+    lift_off, twist_brake = build_rigid_contact(Ft)
+
+    @wp.func
+    def rotation_of(a: vec3d):
+        th = wp.length(a)
+        K = mat33d(wp.float64(0.0), -a[2], a[1], a[2], wp.float64(0.0), -a[0], -a[1], a[0], wp.float64(0.0))
+        s = wp.float64(1.0) - th * th / wp.float64(6.0)
+        c = wp.float64(0.5) - th * th / wp.float64(24.0)
+        if th > wp.float64(1e-4):
+            s = wp.sin(th) / th
+            c = (wp.float64(1.0) - wp.cos(th)) / (th * th)
+        return wp.identity(3, wp.float64) + s * K + c * (K * K)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def rigid_update(rigid: wp.array(dtype=wp.int32), mass: wp.array(dtype=wp.float64),
@@ -146,6 +141,31 @@ def build_rigid(Ft):
             count[b] = 0
             vin_next[b] = Ft(0.0)
             touch[b] = 0
+
+    return rigid_update
+
+
+@functools.cache
+def build_rigid(Ft):
+    """``(rigid_reduce, rigid_update, rigid_apply)`` for the scalar type ``Ft``."""
+    vec3, vec4, mat33 = build_types(Ft)
+    rigid_update = build_rigid_update(Ft)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def rigid_reduce(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33),
+                     p_mass: wp.array(dtype=Ft), body: wp.array(dtype=wp.int32), rigid: wp.array(dtype=wp.int32),
+                     dx: wp.float64, acc_p: wp.array(dtype=vec3d), acc_l: wp.array(dtype=vec3d)):
+        p = wp.tid()
+        b = body[p]
+        if rigid[b] == 0:
+            return
+        m = wp.float64(p_mass[p])
+        xp = vec3d(wp.float64(x[p][0]), wp.float64(x[p][1]), wp.float64(x[p][2]))
+        vp = vec3d(wp.float64(v[p][0]), wp.float64(v[p][1]), wp.float64(v[p][2]))
+        c = C[p]
+        aff = vec3d(wp.float64(c[2, 1] - c[1, 2]), wp.float64(c[0, 2] - c[2, 0]), wp.float64(c[1, 0] - c[0, 1]))
+        wp.atomic_add(acc_p, b, m * vp)
+        wp.atomic_add(acc_l, b, m * wp.cross(xp, vp) + (m * wp.float64(0.25) * dx * dx) * aff)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def rigid_apply(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33),
