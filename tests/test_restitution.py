@@ -130,3 +130,23 @@ def test_rigid_ball_comes_to_rest_on_its_lowest_points(engine):
     tail = low[-15:]
     assert np.ptp(tail) < 0.01 * s.dx, f"{engine}: lowest point moves {1e3 * np.ptp(tail):.3f} mm in the last 0.5 s"
     assert abs(tail[-1]) <= 0.1 * s.dx, f"{engine}: rests {tail[-1] / s.dx:+.3f} dx from the ground"
+
+
+def test_route_line_gives_the_substeps_the_run_takes():
+    """Issue 53: the rigid route's line said "about 37 substeps a frame" where the run took 19: it now gives the
+    step rule's figure with the scene's options (here ``cfl = 0.8``), the one the engine takes."""
+    import re
+    import warnings
+    from gasp_core.prepare.route import resolve_models
+    from gasp_core.toolkit.grid_engine import choose_dt
+    from gasp_core.toolkit.rigid import step_view
+    s = ball(WOOD, 40)
+    s.materials = [Material("jelly", model="auto", **WOOD)]
+    s.options = {"cfl": 0.8}
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        rec = resolve_models(s, ["ball"], frozenset({"rigid_limit"}))[0]
+    line = next(str(x.message) for x in w if "rigid limit" in str(x.message))
+    n_run = choose_dt(step_view(s), s.options, "", implicit_viscosity=True)[0]
+    assert rec["model"] == "rigid" and rec["substeps_rigid"] == n_run
+    assert int(re.search(r"about (\d+) substeps a frame", line).group(1)) == n_run, line

@@ -95,15 +95,15 @@ def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None 
     setup = build_setup(scene, objects)
     moving = [i for i, o in enumerate(objects) if not o.spec.static]   # body k of the setup (build_setup's order)
     bodies = [objects[i] for i in moving]
+    if options is not None:   # before the routes: their lines give the substeps these options take (issue 53)
+        setup.options = dict(options)
+    setup.options = quality_options(scene.quality, setup.options, {o.name for o in info.options})
     for o, route in zip(bodies, resolve_models(setup, [names[i] for i in moving],
                                                info.capabilities.features)):
         o.body_model = route
     if "contact" in declared and any(m.model == "rigid" for m in setup.materials):   # a rigid body shows E = 1 Pa
         given = scene.engine.options if options is None else options
         check_ground_in_grid(scene, quality_options(scene.quality, dict(given), declared), step_view(setup).materials)
-    if options is not None:
-        setup.options = dict(options)
-    setup.options = quality_options(scene.quality, setup.options, {o.name for o in info.options})
     return PreparedScene(scene, info, objects, names, setup, prepare_s=time.perf_counter() - t0)
 
 
