@@ -231,7 +231,19 @@ def first_bounce(cz: np.ndarray, bottom: np.ndarray, frame_dt: float, level: flo
     off = np.flatnonzero((bottom > level) & (np.arange(len(cz)) > hit[0]))
     if not len(off):
         return float("nan")
-    return ballistic_restitution(t, cz, bottom, level, t[hit[0]] - 0.5 * frame_dt, t[off[0]] - 0.5 * frame_dt, g)
+    # the flight out ends before the next bounce: at the frame before the centroid rises again after its apex (a
+    # frame just after a second bounce may show its bottom over the level)
+    apex, end = off[0], len(cz)
+    for f in range(off[0] + 1, len(cz)):
+        if cz[f] < cz[f - 1]:
+            apex = f
+            break
+    for f in range(apex + 1, len(cz)):
+        if cz[f] >= cz[f - 1]:
+            end = f - 1
+            break
+    return ballistic_restitution(t[:end], cz[:end], bottom[:end], level, t[hit[0]] - 0.5 * frame_dt,
+                                 t[off[0]] - 0.5 * frame_dt, g)
 
 
 def events(track: Track, k: int, gap_m: float) -> dict[str, float]:
