@@ -48,6 +48,7 @@ class Rigid:
         self.rb_count, self.rb_nlast = (ti.field(ti.i32, shape=max(nb, 1)) for _ in range(2))
         self.rest_zeta = float(DAMPING)
         self.rb_twist = ti.field(ti.f64, shape=max(nb, 1))   # this substep's sum mu j |r_perp| (kg m^2/s)
+        self.rb_fx = ti.Vector.field(4, ti.f64, shape=max(nb, 1))   # this substep's sum mu j x (kg m^2/s), sum mu j
         self.plane_e = ti.field(self.real, shape=max(self.n_planes, 1))
         self.v_rest = ti.field(self.real, shape=())
         self.rb_e.fill(-1.0)
@@ -83,9 +84,12 @@ class Rigid:
         if ti.static(self.any_rigid):
             b = self.body[p]
             if self.rb_e[b] >= 0.0:
-                r = ti.cast(self.x[p], ti.f64) - self.rb_c[b]
+                x = ti.cast(self.x[p], ti.f64)
+                r = x - self.rb_c[b]
                 nd = ti.cast(n, ti.f64)
-                ti.atomic_add(self.rb_twist[b], ti.cast(fj, ti.f64) * (r - r.dot(nd) * nd).norm())
+                f = ti.cast(fj, ti.f64)
+                ti.atomic_add(self.rb_twist[b], f * (r - r.dot(nd) * nd).norm())
+                ti.atomic_add(self.rb_fx[b], ti.Vector([f * x[0], f * x[1], f * x[2], f], ti.f64))
 
     @ti.func
     def twist_brake(self, b, w, inertia):
@@ -103,6 +107,32 @@ class Rigid:
                 out = w - n * (wn / ti.abs(wn)) * ti.min(ti.abs(wn), self.rb_twist[b] / In)
         self.rb_twist[b] = 0.0
         return out
+
+    @ti.func
+    def slide_brake(self, b, V, w, inertia, M, c):
+        """Body b's ``(V, w)`` less Coulomb's friction on the body as one: at the budget-weighted contact point
+        ``x_f`` the tangential velocity ``u_t`` (to the contact's mean normal) of ``V + w x (x_f - c)`` loses at most
+        the substep's budget ``sum mu j`` through the body's effective mass there (an impulse along ``-u_t`` at
+        ``x_f``: ``V`` and ``w`` change together), never reversed. The contact's balance is not run on such a body
+        (``balance.py``): its net friction on the rigid motion is this."""
+        Vo, wo = V, w
+        fx = self.rb_fx[b]
+        jn = ti.cast(self.rb_jn[b], ti.f64)
+        if fx[3] > 0.0 and jn.norm() > 0.0:
+            n = jn / jn.norm()
+            r = ti.Vector([fx[0], fx[1], fx[2]]) / fx[3] - c
+            u = V + w.cross(r)
+            ut = u - u.dot(n) * n
+            lt = ut.norm()
+            if lt > 0.0:
+                t = ut / lt
+                rt = r.cross(t)
+                k = 1.0 / M + rt.dot(inertia.inverse() @ rt)   # 1 / the effective mass along t at x_f
+                P = -ti.min(fx[3], lt / k) * t
+                Vo = V + P / M
+                wo = w + inertia.inverse() @ r.cross(P)
+        self.rb_fx[b] = ti.Vector.zero(ti.f64, 4)
+        return Vo, wo
 
     @ti.func
     def contact_impulse(self, p, e_sup, vn, n, depth, kcs):
@@ -220,12 +250,14 @@ class Rigid:
                 R_new = self.rotation_of(dt * w_pred) @ R
                 inertia = R_new @ self.rb_I0[b] @ R_new.transpose() + half * M * Id
                 w = inertia.inverse() @ Lc
+                V = P / M
                 if self.rb_e[b] >= 0.0:
                     w = self.twist_brake(b, w, inertia)
+                    V, w = self.slide_brake(b, V, w, inertia, M, c)
                 if self.rb_touch[b] != 0 and self.rb_was[b] == 0:
                     self.rb_c0[b] = c
                     self.rb_steps[b] = 0
-                V = self.lift_off(b, P / M, c, dt * self.rb_steps[b])
+                V = self.lift_off(b, V, c, dt * self.rb_steps[b])
                 self.rb_steps[b] += self.rb_touch[b]
                 self.rb_V[b] = V
                 self.rb_w[b] = w

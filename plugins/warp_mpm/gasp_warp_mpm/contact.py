@@ -116,7 +116,9 @@ def build_add_twist(Ft):
             c = ex.rb_cx[b]
             r = wp.vec3d(wp.float64(x[0]) - c[0], wp.float64(x[1]) - c[1], wp.float64(x[2]) - c[2])
             nd = wp.vec3d(wp.float64(n[0]), wp.float64(n[1]), wp.float64(n[2]))
-            wp.atomic_add(ex.rb_twist, b, wp.float64(fj) * wp.length(r - wp.dot(r, nd) * nd))
+            f = wp.float64(fj)
+            wp.atomic_add(ex.rb_twist, b, f * wp.length(r - wp.dot(r, nd) * nd))
+            wp.atomic_add(ex.rb_fx, b, wp.vec4d(f * wp.float64(x[0]), f * wp.float64(x[1]), f * wp.float64(x[2]), f))
 
     return add_twist
 

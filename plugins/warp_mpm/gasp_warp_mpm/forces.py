@@ -53,6 +53,7 @@ def build_extras_struct(Ft):
         rb_nlast: wp.array(dtype=wp.int32)
         rb_cx: wp.array(dtype=wp.types.vector(3, wp.float64))   # the rigid bodies' centres (rigid.py's rb_c)
         rb_twist: wp.array(dtype=wp.float64)   # this substep's sum mu j |r_perp| per body (rigid.py's twist brake)
+        rb_fx: wp.array(dtype=wp.vec4d)   # this substep's sum mu j x, sum mu j (slide brake)
         plane_e: wp.array(dtype=Ft)
         v_rest: Ft   # m/s: a rebound below it is none
     return Extras

@@ -22,7 +22,7 @@ mat33d = wp.types.matrix((3, 3), wp.float64)
 
 @functools.cache
 def build_rigid_contact(Ft):
-    """``(lift_off, twist_brake)``, Warp functions of the scalar type ``Ft`` (taichi_mpm's ``Rigid.lift_off`` and
+    """``(lift_off, twist_brake, slide_brake)``, Warp functions of the scalar type ``Ft`` (taichi_mpm's ``Rigid.lift_off`` and
     ``Rigid.twist_brake``)."""
     vec3, vec4, mat33 = build_types(Ft)
 
@@ -66,7 +66,32 @@ def build_rigid_contact(Ft):
                 out = w - n * wp.sign(wn) * wp.min(wp.abs(wn), tw / In)
         return out
 
-    return lift_off, twist_brake
+    @wp.func
+    def slide_brake(V: vec3d, w: vec3d, inertia: mat33d, M: wp.float64, c: vec3d, jn: vec3,
+                    fx: wp.vec4d):
+        # taichi_mpm's Rigid.slide_brake: Coulomb's friction on the body as one, an impulse along -u_t at the
+        # budget-weighted contact point, at most the substep's budget sum mu j, never reversing u_t
+        Vo = V
+        wo = w
+        n = vec3d(wp.float64(jn[0]), wp.float64(jn[1]), wp.float64(jn[2]))
+        ln = wp.length(n)
+        if fx[3] > wp.float64(0.0) and ln > wp.float64(0.0):
+            n = n / ln
+            r = vec3d(fx[0], fx[1], fx[2]) / fx[3] - c
+            u = V + wp.cross(w, r)
+            ut = u - wp.dot(u, n) * n
+            lt = wp.length(ut)
+            if lt > wp.float64(0.0):
+                t = ut / lt
+                rt = wp.cross(r, t)
+                inv = wp.inverse(inertia)
+                k = wp.float64(1.0) / M + wp.dot(rt, inv * rt)
+                P = -wp.min(fx[3], lt / k) * t
+                Vo = V + P / M
+                wo = w + inv * wp.cross(r, P)
+        return Vo, wo
+
+    return lift_off, twist_brake, slide_brake
 
 
 @functools.cache
@@ -74,7 +99,7 @@ def build_rigid_update(Ft):
     """``rigid_update`` (one thread over the bodies: velocity, spin, centre and rotation from the sums; the contact's
     lift-off, twist brake and bookkeeping, ``gasp_core.toolkit.restitution``) for the scalar type ``Ft``."""
     vec3, vec4, mat33 = build_types(Ft)
-    lift_off, twist_brake = build_rigid_contact(Ft)
+    lift_off, twist_brake, slide_brake = build_rigid_contact(Ft)
 
     @wp.func
     def rotation_of(a: vec3d):
@@ -96,7 +121,8 @@ def build_rigid_update(Ft):
                      was: wp.array(dtype=wp.int32), c0: wp.array(dtype=vec3d), jn: wp.array(dtype=vec3),
                      je: wp.array(dtype=Ft), jsum: wp.array(dtype=Ft), e_body: wp.array(dtype=Ft), v_rest: Ft,
                      gravity: vec3d, steps: wp.array(dtype=wp.int32), count: wp.array(dtype=wp.int32),
-                     nlast: wp.array(dtype=wp.int32), twist: wp.array(dtype=wp.float64)):
+                     nlast: wp.array(dtype=wp.int32), twist: wp.array(dtype=wp.float64),
+                     fx: wp.array(dtype=wp.vec4d)):
         for b in range(n_bodies):
             M = mass[b]
             if rigid[b] != 0 and M > wp.float64(0.0):
@@ -109,12 +135,14 @@ def build_rigid_update(Ft):
                 R_new = rotation_of(dt * w_pred) * R
                 inertia = R_new * inertia0[b] * wp.transpose(R_new) + extra
                 w = wp.inverse(inertia) * Lc
+                V = P / M
                 if e_body[b] >= Ft(0.0):
                     w = twist_brake(w, inertia, jn[b], twist[b])
+                    V, w = slide_brake(V, w, inertia, M, c, jn[b], fx[b])
+                fx[b] = wp.vec4d()
                 if touch[b] != 0 and was[b] == 0:
                     c0[b] = c
                     steps[b] = 0
-                V = P / M
                 if e_body[b] >= Ft(0.0) and touch[b] == 0 and was[b] != 0 and jsum[b] > Ft(0.0):
                     V = lift_off(V, c, c0[b], jn[b], e_body[b] * je[b] / jsum[b], vin[b], v_rest, gravity,
                                  dt * wp.float64(steps[b]))
@@ -229,7 +257,7 @@ class RigidBodies:
                     self.rb_w, dt, dx, len(self.setup.materials), ex.rb_vin, ex.rb_vin_next, ex.rb_touch, self.rb_was,
                     self.rb_c0, ex.rb_jn, ex.rb_je, ex.rb_j, ex.rb_e, ex.v_rest,
                     vec3d(*[float(g) for g in self.setup.gravity]), self.rb_steps, ex.rb_count, ex.rb_nlast,
-                    ex.rb_twist]),
+                    ex.rb_twist, ex.rb_fx]),
                 wp.launch(apply_k, dim=self.n_points, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.F, self.body, self.rb_rigid, self.X0, self.rb_c, self.rb_R,
                     self.rb_V, self.rb_w])]
