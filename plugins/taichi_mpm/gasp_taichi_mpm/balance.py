@@ -298,7 +298,7 @@ class Balance:
         b = s // self.n_sup
         Mc = self.fr_sums[s, 3]
         mass = self.c_mass[b]
-        if Mc > 0.0 and mass > 0.0 and self.rb_e[b] < 0.0:   # a rigid body with restitution: rigid.slide_brake
+        if Mc > 0.0 and mass > 0.0:
             first = ti.Vector([self.fr_sums[s, 4], self.fr_sums[s, 5], self.fr_sums[s, 6]], ti.f64)
             xm = first / Mc
             c = ti.Vector([self.c_shift[b, 0], self.c_shift[b, 1], self.c_shift[b, 2]], ti.f64)

@@ -30,7 +30,6 @@ as type objects.
 """
 import functools
 
-import numpy as np
 import warp as wp
 
 from gasp_core.toolkit.contact import TORQUE_REACH
@@ -380,12 +379,9 @@ def balance_launches(engine, k, lo_v, dx, dt_f, ex) -> tuple[list, object]:
         return [], None
     d, ng = engine.device, engine.n_grid
     g_dt = k.vec3(*[float(c) * engine.dt for c in engine.setup.gravity])
-    # a rigid body with restitution takes Coulomb's friction as one body (rigid.py's slide brake), not the balance's
-    fix_mass = wp.array(np.where(ex.rb_e.numpy() >= 0.0, 0.0, engine.c_mass.numpy()), dtype=wp.float64, device=d)
-    engine.c_mass_fix = fix_mass
     fix = wp.launch(k.contact_fix, dim=1, device=d, record_cmd=True, inputs=[
         engine.grid_v, engine.grid_fbody, engine.c_shift, engine.c_jsums, engine.fr_sums, engine.fr_nodes,
-        fix_mass, engine.c_reach, g_dt, lo_v, dx, ng, engine.n_sup])
+        engine.c_mass, engine.c_reach, g_dt, lo_v, dx, ng, engine.n_sup])
     pre = [wp.launch(k.contact_moments, dim=engine.n_material, device=d, record_cmd=True, inputs=[
                engine.x, engine.v, engine.C, engine.p_mass, engine.body, engine.p_contact, engine.planes,
                engine.plane_n, dt_f, dx, engine.c_sums, engine.c_jsums, ex, engine.colc, engine.n_sup]),
