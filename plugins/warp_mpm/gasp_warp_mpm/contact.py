@@ -64,8 +64,7 @@ def build_contact_impulse(Ft):
     rigid body's point with restitution (``ex.rb_e[b]`` >= 0, ``gasp_core.toolkit.restitution``) while its body
     bounces: ``dt k depth`` while it approaches (``vn`` < 0), ``e^2 dt k depth`` while it recedes (the hysteresis of
     Walton & Braun 1986), ``e = ex.rb_e[b] e_sup``; once ``e`` times the approach speed of the body's ongoing contact
-    (``ex.rb_vin[b]``) is below ``ex.v_rest``, a damped law whose ratio is the body's (``DAMPING`` on the points
-    that touched in the last substep); its ``k`` times ``N / max(N, N_touch)`` (``ex.rb_nface``, ``ex.rb_nlast``:
+    (``ex.rb_vin[b]``) is below ``ex.v_rest``, a damped law set by the body (``c = 2 DAMPING dt k``); its ``k`` times ``N / max(N, N_touch)`` (``ex.rb_nface``, ``ex.rb_nlast``:
     ``gasp_core.toolkit.rigid.face_counts``). With ``mark`` (in P2G) it records the touch, the
     approach speed and ``dt k depth`` along ``n`` and times ``e_sup`` for ``rigid.rigid_update``'s lift-off;
     taichi_mpm's ``Rigid.contact_impulse`` spells the same."""
@@ -79,8 +78,9 @@ def build_contact_impulse(Ft):
             n_t = wp.max(Ft(ex.rb_nlast[b]), Ft(1.0))
             sk = ex.rb_nface[b] / wp.max(ex.rb_nface[b], n_t)
             jk = dt * kcs[0] * sk * depth
-            # settling: the body's damping ratio DAMPING on the n_t points touching (taichi_mpm's contact_impulse)
-            c = Ft(2.0 * DAMPING) * dt * kcs[0] * wp.sqrt(sk * ex.rb_nface[b] / n_t)
+            # settling: per point c = 2 zeta dt k', at most 2 zeta of the body's normal speed a substep
+            # (taichi_mpm's contact_impulse)
+            c = Ft(2.0 * DAMPING) * dt * kcs[0] * sk
             jq = wp.max(jk - dt * c * vn, Ft(0.0))
             if mark != 0:
                 wp.atomic_add(ex.rb_count, b, 1)
