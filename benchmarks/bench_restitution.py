@@ -109,7 +109,8 @@ def donut(engine: str, flat: bool, seconds: float, work: Path) -> dict:
     f1 = f0 + int(round(0.5 / doc["frame_dt"]))   # once settled: from 0.5 s on
     R1, _, _ = kabsch(means[f1], means[-1])
     return {"travel_after_settling_mm": float(1e3 * np.linalg.norm(c[-1, :2] - c[f1, :2])),
-            "turn_after_settling_deg": float(rotation_angle_deg(R1)), "settled_from_frame": f1,"engine": engine, "scene": "set down flat" if flat else "donut_wood.toml", "seconds": seconds,
+            "turn_after_settling_deg": float(rotation_angle_deg(R1)), "settled_from_frame": f1,
+            "engine": engine, "scene": "set down flat" if flat else "donut_wood.toml", "seconds": seconds,
             "from_frame": f0, "travel_mm": float(1e3 * np.linalg.norm(c[-1, :2] - c[f0, :2])),
             "max_travel_mm": float(1e3 * np.linalg.norm(c[f0:, :2] - c[f0, :2], axis=1).max()),
             "turn_deg": float(rotation_angle_deg(R)), "dx": float(s.dx),

@@ -131,7 +131,8 @@ def resolve_models(setup, names, features) -> list[dict]:
     -------
     list of dict
         Per body, for ``run.json``: ``model`` (``"elastic"`` or ``"rigid"``; ``"auto"`` for a material that has no
-        rigid limit, which keeps its own model), ``why`` and :func:`estimate`'s figures. One ``UserWarning`` line per body whose choice matters (:func:`message`).
+        rigid limit, which keeps its own model), ``why`` and :func:`estimate`'s figures (its substeps the run's,
+        :func:`run_substeps`). One ``UserWarning`` line per body whose choice matters (:func:`message`).
     """
     grounds = [float(b.height) for b in setup.boundaries if b.kind == "ground"]
     colliders = bool(getattr(setup, "colliders", None))

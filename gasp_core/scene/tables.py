@@ -45,7 +45,8 @@ class DomainSpec:
 
 _MATERIAL_KEYS = {f.name for f in fields(Material)}
 _BOUNDARY_KEYS = {f.name for f in fields(Boundary)}
-_BOUNDARY_KIND_KEYS = {"ground": {"kind", "height", "friction", "restitution"}, "walls": {"kind", "friction", "restitution"},
+_BOUNDARY_KIND_KEYS = {"ground": {"kind", "height", "friction", "restitution"},
+                       "walls": {"kind", "friction", "restitution"},
                        "fixed_region": {"kind", "lo", "hi"}}
 _DOMAIN_KEYS = {f.name for f in fields(DomainSpec)}
 _ENGINE_KEYS = {"name", "options"}

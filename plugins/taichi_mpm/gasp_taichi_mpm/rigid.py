@@ -113,8 +113,8 @@ class Rigid:
         """Body b's ``(V, w)`` less Coulomb's friction on the body as one: at the budget-weighted contact point
         ``x_f`` the tangential velocity ``u_t`` (to the contact's mean normal) of ``V + w x (x_f - c)`` loses at most
         the substep's budget ``sum mu j`` through the body's effective mass there (an impulse along ``-u_t`` at
-        ``x_f``: ``V`` and ``w`` change together), never reversed. The nodes' friction alone stops only the nodes under the
-        body (the dropped donut crept 0.36 mm/s without the balance, 1.75 mm/s with it); with this brake after the
+        ``x_f``: ``V`` and ``w`` change together), never reversed. The nodes' friction alone stops only the nodes
+        under the body (the dropped donut crept 0.36 mm/s without the balance, 1.75 mm/s with it); with this brake after the
         balance it stays within 0.001 mm over 2 s."""
         Vo, wo = V, w
         fx = self.rb_fx[b]

@@ -64,7 +64,8 @@ def build_contact_impulse(Ft):
     rigid body's point with restitution (``ex.rb_e[b]`` >= 0, ``gasp_core.toolkit.restitution``) while its body
     bounces: ``dt k depth`` while it approaches (``vn`` < 0), ``e^2 dt k depth`` while it recedes (the hysteresis of
     Walton & Braun 1986), ``e = ex.rb_e[b] e_sup``; once ``e`` times the approach speed of the body's ongoing contact
-    (``ex.rb_vin[b]``) is below ``ex.v_rest``, a damped law set by the body (``c = 2 DAMPING dt k``); its ``k`` times ``N / max(N, N_touch)`` (``ex.rb_nface``, ``ex.rb_nlast``:
+    (``ex.rb_vin[b]``) is below ``ex.v_rest``, a damped law set by the body (``c = 2 DAMPING dt k``); its ``k``
+    times ``N / max(N, N_touch)`` (``ex.rb_nface``, ``ex.rb_nlast``:
     ``gasp_core.toolkit.rigid.face_counts``). With ``mark`` (in P2G) it records the touch, the
     approach speed and ``dt k depth`` along ``n`` and times ``e_sup`` for ``rigid.rigid_update``'s lift-off;
     taichi_mpm's ``Rigid.contact_impulse`` spells the same."""

@@ -22,8 +22,8 @@ mat33d = wp.types.matrix((3, 3), wp.float64)
 
 @functools.cache
 def build_rigid_contact(Ft):
-    """``(lift_off, twist_brake, slide_brake)``, Warp functions of the scalar type ``Ft`` (taichi_mpm's ``Rigid.lift_off`` and
-    ``Rigid.twist_brake``)."""
+    """``(lift_off, twist_brake, slide_brake)``, Warp functions of the scalar type ``Ft`` (taichi_mpm's
+    ``Rigid.lift_off``, ``Rigid.twist_brake`` and ``Rigid.slide_brake``)."""
     vec3, vec4, mat33 = build_types(Ft)
 
     @wp.func
