@@ -175,14 +175,25 @@ class Rigid:
                         jq = e * e * jk
         return jq
 
+    def _contact_fields(self) -> dict:
+        """The rigid bodies' ongoing contact (the restitution's state, :meth:`contact_impulse`), by state key."""
+        return {"rigid_vin": self.rb_vin, "rigid_was": self.rb_was, "rigid_steps": self.rb_steps,
+                "rigid_c0": self.rb_c0, "rigid_jn": self.rb_jn, "rigid_je": self.rb_je, "rigid_j": self.rb_j,
+                "rigid_nlast": self.rb_nlast}
+
     def rigid_state(self) -> dict:
-        """``rigid_c`` (n_bodies, 3) and ``rigid_R`` (n_bodies, 3, 3): what a saved state adds for the rigid bodies."""
-        return {"rigid_c": self.rb_c.to_numpy(), "rigid_R": self.rb_R.to_numpy()}
+        """``rigid_c`` (n_bodies, 3) and ``rigid_R`` (n_bodies, 3, 3), and the ongoing contact's state
+        (``rigid_vin``, ...): what a saved state adds for the rigid bodies."""
+        return {"rigid_c": self.rb_c.to_numpy(), "rigid_R": self.rb_R.to_numpy(),
+                **{k: f.to_numpy() for k, f in self._contact_fields().items()}}
 
     def set_rigid_state(self, state: dict) -> None:
-        """Restore :meth:`rigid_state`."""
+        """Restore :meth:`rigid_state` (a state saved before issue 53 has no contact state: a body free then)."""
         self.rb_c.from_numpy(np.asarray(state["rigid_c"], np.float64))
         self.rb_R.from_numpy(np.asarray(state["rigid_R"], np.float64))
+        for k, f in self._contact_fields().items():
+            if k in state:
+                f.from_numpy(np.asarray(state[k], f.to_numpy().dtype))
 
     @ti.func
     def fused_g2p(self, p):

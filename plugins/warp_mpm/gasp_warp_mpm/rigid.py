@@ -262,13 +262,28 @@ class RigidBodies:
                     self.x, self.v, self.C, self.F, self.body, self.rb_rigid, self.X0, self.rb_c, self.rb_R,
                     self.rb_V, self.rb_w])]
 
+    def _contact_arrays(self) -> dict:
+        """The rigid bodies' ongoing contact (the restitution's state, ``contact.build_contact_impulse``), by state
+        key (taichi_mpm's ``Rigid._contact_fields``)."""
+        ex = self._ex
+        return {"rigid_vin": ex.rb_vin, "rigid_was": self.rb_was, "rigid_steps": self.rb_steps, "rigid_c0": self.rb_c0,
+                "rigid_jn": ex.rb_jn, "rigid_je": ex.rb_je, "rigid_j": ex.rb_j, "rigid_nlast": ex.rb_nlast}
+
     def rigid_state(self) -> dict:
-        """``rigid_c`` and ``rigid_R`` of the bodies (empty without a rigid body)."""
-        return {"rigid_c": self.rb_c.numpy().copy(), "rigid_R": self.rb_R.numpy().copy()} if self.any_rigid else {}
+        """``rigid_c`` and ``rigid_R`` of the bodies and their ongoing contact's state (``rigid_vin``, ...; empty
+        without a rigid body)."""
+        if not self.any_rigid:
+            return {}
+        return {"rigid_c": self.rb_c.numpy().copy(), "rigid_R": self.rb_R.numpy().copy(),
+                **{k: a.numpy().copy() for k, a in self._contact_arrays().items()}}
 
     def set_rigid_state(self, state: dict) -> None:
-        """Restore :meth:`rigid_state`; ``X0`` follows the restored point order."""
+        """Restore :meth:`rigid_state`; ``X0`` follows the restored point order (a state saved before issue 53 has
+        no contact state: a body free then)."""
         if self.any_rigid:
             self.rb_c.assign(state["rigid_c"])
             self.rb_R.assign(state["rigid_R"])
             self.X0.assign(self._X0_setup[self._order])
+            for k, a in self._contact_arrays().items():
+                if k in state:
+                    a.assign(state[k])
