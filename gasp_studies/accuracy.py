@@ -216,6 +216,36 @@ def ballistic_restitution(t: np.ndarray, c: np.ndarray, bottom: np.ndarray, leve
     return float(-v_out / v_in) if v_in < 0 else float("nan")
 
 
+def first_bounce(cz: np.ndarray, bottom: np.ndarray, frame_dt: float, level: float, g: float = G_FLIGHT) -> float:
+    """The first bounce's restitution from the free flights around it (:func:`ballistic_restitution`), the flights
+    told by the body's lowest point: the frames before the first one whose ``bottom`` (m over the ground, one per
+    frame) is within ``level`` (m), and those from the next one above it until the next contact. ``cz``: the
+    centroid heights, m. A ``level`` of a cell keeps frames within a contact out (at 6 substeps a frame a 10 cm
+    ball moves 11 mm a substep: a frame in its contact may show its bottom 8 mm over the ground; issue 53). NaN
+    without a contact or a flight after it."""
+    cz, bottom = np.asarray(cz, np.float64), np.asarray(bottom, np.float64)
+    t = np.arange(len(cz)) * frame_dt
+    hit = np.flatnonzero(bottom <= level)
+    if not len(hit):
+        return float("nan")
+    off = np.flatnonzero((bottom > level) & (np.arange(len(cz)) > hit[0]))
+    if not len(off):
+        return float("nan")
+    # the flight out ends before the next bounce: at the frame before the centroid rises again after its apex (a
+    # frame just after a second bounce may show its bottom over the level)
+    apex, end = off[0], len(cz)
+    for f in range(off[0] + 1, len(cz)):
+        if cz[f] < cz[f - 1]:
+            apex = f
+            break
+    for f in range(apex + 1, len(cz)):
+        if cz[f] >= cz[f - 1]:
+            end = f - 1
+            break
+    return ballistic_restitution(t[:end], cz[:end], bottom[:end], level, t[hit[0]] - 0.5 * frame_dt,
+                                 t[off[0]] - 0.5 * frame_dt, g)
+
+
 def events(track: Track, k: int, gap_m: float) -> dict[str, float]:
     """Event observables of object ``k``: what a user reads off a drop.
 

@@ -26,7 +26,7 @@ def test_every_default_is_declared_once_and_lies_in_its_range():
         assert getattr(Material(), key) == p.default, key
         assert in_range(p.default, p.lo, p.hi, p.lo_open, p.hi_open), key
         assert p.doc and "\n" not in p.doc, key
-    assert {f.name for f in dataclasses.fields(Material)} == {"name", "model"} | set(MATERIAL_PARAMS)
+    assert {f.name for f in dataclasses.fields(Material)} == {"name", "model", "restitution"} | set(MATERIAL_PARAMS)
     used = {k for kind in MATERIAL_KINDS.values() for k in kind.keys}
     assert used == set(MATERIAL_PARAMS), "every parameter is used by some material and every key is declared"
 
@@ -51,15 +51,16 @@ def test_each_material_takes_its_own_keys_at_their_defaults_and_refuses_the_othe
             load_scene(write_scene(scene_text(donut_small, material=_material(name, **{key: 1.0}))))
         msg = str(e.value)
         assert "\n" not in msg and f"material {name!r} does not use [{key!r}]" in msg, msg
-        model = {"model"} if name in RIGID_KINDS else set()   # issue 40: the elastic materials take model
-        assert f"{name!r} takes {sorted({'name', *own, *model})}" in msg, msg
+        model = {"model", "restitution"} if name in RIGID_KINDS else set()   # issues 40, 53: the elastic materials
+        assert f"{name!r} takes {sorted({'name', *own, *model})}" in msg, msg   # take model and restitution
 
 
 def test_jelly_with_a_yield_stress_is_one_line_naming_the_keys_jelly_takes(donut_small, write_scene):
     with pytest.raises(SceneError) as e:
         load_scene(write_scene(scene_text(donut_small, material='name = "jelly"\nyield_stress = 5e3')))
     assert str(e.value).endswith("[[object]] #1.material: material 'jelly' does not use ['yield_stress'] (a key "
-                                 "of metal, plasticine); 'jelly' takes ['E', 'model', 'name', 'nu', 'rho', 'viscosity']")
+                                 "of metal, plasticine); 'jelly' takes ['E', 'model', 'name', 'nu', 'restitution', "
+                                 "'rho', 'viscosity']")
     # no name: the default material (jelly) is the one that refuses it
     with pytest.raises(SceneError, match="material 'jelly' does not use"):
         load_scene(write_scene(scene_text(donut_small, material="softening = 0.2")))

@@ -23,6 +23,7 @@ import warnings
 
 import numpy as np
 
+from gasp_core.errors import SceneError
 from gasp_core.seam.schema import RIGID_KINDS
 
 #: ``auto`` takes the rigid limit when the estimated deformation is below this share of a grid cell.
@@ -119,7 +120,7 @@ def message(name: str, model: str, why: str, est: dict) -> str | None:
             f"frame instead of {n_el}, without its deformation")
 
 
-def resolve_models(setup, names, features, cfl: float | None = None) -> list[dict]:
+def resolve_models(setup, names, features, cfl: float | None = None, substeps=None) -> list[dict]:
     """Resolve every body's ``material.model`` in ``setup.materials`` (in place) and say each choice.
 
     Parameters
@@ -130,13 +131,17 @@ def resolve_models(setup, names, features, cfl: float | None = None) -> list[dic
     features : frozenset of str
         The engine's features (``rigid_limit``).
     cfl : float, optional
-        The engine's declared default ``cfl`` (:func:`declared_cfl`), for the substep figures; None: none.
+        The engine's declared default ``cfl`` (:func:`declared_cfl`), for the estimated substep figures; None: none.
+    substeps : callable, optional
+        The engine's step rule, ``substeps(setup) -> int`` (``EngineInfo.substeps``): the figures become the run's
+        (:func:`run_substeps`); None keeps the estimate's.
 
     Returns
     -------
     list of dict
         Per body, for ``run.json``: ``model`` (``"elastic"`` or ``"rigid"``; ``"auto"`` for a material that has no
-        rigid limit, which keeps its own model), ``why`` and :func:`estimate`'s figures. One ``UserWarning`` line per body whose choice matters (:func:`message`).
+        rigid limit, which keeps its own model), ``why`` and :func:`estimate`'s figures (its substeps the run's,
+        :func:`run_substeps`). One ``UserWarning`` line per body whose choice matters (:func:`message`).
     """
     grounds = [float(b.height) for b in setup.boundaries if b.kind == "ground"]
     colliders = bool(getattr(setup, "colliders", None))
@@ -156,10 +161,31 @@ def resolve_models(setup, names, features, cfl: float | None = None) -> list[dic
         model, why = choose(m, est, "rigid_limit" in features)
         mats[b] = dataclasses.replace(m, model=model) if m.model == "auto" or model != m.model else m
         out.append({"model": model, "why": why, **est})
-        line = message(names[b], model, why, est)
-        if line:
-            warnings.warn(line, stacklevel=2)
     setup.materials = mats
+    for b, rec in enumerate(out):
+        if "substeps_rigid" in rec:
+            rec.update(run_substeps(setup, b, substeps))
+            line = message(names[b], rec["model"], rec["why"], rec)
+            if line:
+                warnings.warn(line, stacklevel=2)
+    return out
+
+
+def run_substeps(setup, b: int, substeps) -> dict:
+    """``substeps_rigid`` and ``substeps_elastic``: the substeps a frame the engine's step rule ``substeps(setup)``
+    (``EngineInfo.substeps``, with the scene's engine options) takes with body ``b`` rigid and elastic, the other
+    bodies as resolved: the figures the run will show (issue 53: the line said "about 37 substeps a frame" where the
+    run took 19). Without a rule, or where it refuses the scene (more than ``max_substeps``), :func:`estimate`'s
+    figures stay (the empty dict)."""
+    out = {}
+    if substeps is None:
+        return out
+    for key, model in (("substeps_rigid", "rigid"), ("substeps_elastic", "elastic")):
+        mats = [dataclasses.replace(m, model=model) if i == b else m for i, m in enumerate(setup.materials)]
+        try:
+            out[key] = int(substeps(dataclasses.replace(setup, materials=mats)))
+        except SceneError:
+            pass
     return out
 
 

@@ -100,12 +100,13 @@ def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None 
     names = [n if stems.count(n) == 1 else f"{i}_{n}" for i, n in enumerate(stems)]
     setup, objects = build_setup(scene, objects)
     moving = [i for i, o in enumerate(objects) if not o.spec.static]   # body k of the setup (build_setup's order)
-    routes = resolve_models(setup, [names[i] for i in moving], info.capabilities.features, declared_cfl(info))
+    setup.options = run_options   # before the routes: their lines give the substeps these options take (issue 53)
+    routes = resolve_models(setup, [names[i] for i in moving], info.capabilities.features, declared_cfl(info),
+                            info.substeps)
     for i, route in zip(moving, routes):
         objects[i] = dataclasses.replace(objects[i], body_model=route)
     if info.check_scene is not None:     # again with the bodies' models chosen
         info.check_scene(scene, run_options, setup)
-    setup.options = run_options
     return PreparedScene(scene, info, objects, names, setup, prepare_s=time.perf_counter() - t0)
 
 

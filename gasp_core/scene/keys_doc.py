@@ -9,6 +9,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from gasp_core.toolkit.restitution import BOUNDARY_RESTITUTION, DEFAULT_RESTITUTION, SUBSTANCES
 from gasp_core.seam.schema import (BODY_MODEL_DOCS, BODY_MODELS, DEFAULT_MATERIAL, MATERIAL_KINDS, MATERIAL_PARAMS,
                                    RIGID_KINDS)
 
@@ -33,7 +34,7 @@ def scene_keys_markdown() -> str:
              "its default. Units are SI. An engine may accept a narrower range (`gasp engines` lists its "
              "limits).", "", "## Materials", "", "| `name` | model | keys (besides `name`) |", "|---|---|---|"]
     for name, kind in MATERIAL_KINDS.items():
-        keys = kind.keys + (("model",) if name in RIGID_KINDS else ())
+        keys = kind.keys + (("model", "restitution") if name in RIGID_KINDS else ())
         lines.append(f"| `{name}` | {kind.doc} | {', '.join(f'`{k}`' for k in keys)} |")
     lines += ["", "## Parameters", "", "| key | default | range | unit | meaning | used by |",
               "|---|---|---|---|---|---|"]
@@ -44,6 +45,15 @@ def scene_keys_markdown() -> str:
               f"Taken by {', '.join(f'`{k}`' for k in RIGID_KINDS)} (issue 40); default `{BODY_MODELS[0]}`.", "",
               "| `model` | what the engine does |", "|---|---|"]
     lines += [f"| `{m}` | {BODY_MODEL_DOCS[m]} |" for m in BODY_MODELS]
+    lines += ["", "## `restitution`: the bounce on the rigid route", "",
+              f"Taken by {', '.join(f'`{k}`' for k in RIGID_KINDS)} and by `[[boundary]]` `ground` and `walls` "
+              "(issue 53, `docs/rigid.md`): a coefficient of restitution in [0, 1], or on a material a substance's "
+              "name. Left out: a material takes the substance its `E` and `rho` fall in, else "
+              f"{DEFAULT_RESTITUTION:g}; a boundary {BOUNDARY_RESTITUTION:g} (a hard floor). A rigid body bounces on "
+              "a boundary with the product of the two (Bullet's rule). Elastic bodies bounce by their own "
+              "vibration; the key does not act on them.", "",
+              "| substance | restitution on a hard floor | `E` (Pa) | `rho` (kg/m^3) |", "|---|---|---|---|"]
+    lines += [f"| `{n}` | {e:g} | {lo:g}-{hi:g} | {rl:g}-{rh:g} |" for n, (e, (lo, hi), (rl, rh)) in SUBSTANCES.items()]
     return "\n".join(lines) + "\n"
 
 

@@ -12,7 +12,7 @@ from typing import Any
 from gasp_core.errors import SceneError
 from gasp_core.scene.values import (MAX_COORD, MAX_PADDING, N_GRID_RANGE, PPC_RANGE, as_integer, as_number, as_string,
                                     as_table, as_vec3, bad_value, check_keys)
-from gasp_core.seam.schema import BODY_MODELS, DEFAULT_MATERIAL, MATERIAL_KINDS, RIGID_KINDS
+from gasp_core.seam.schema import BODY_MODELS, DEFAULT_MATERIAL, MATERIAL_KINDS, RIGID_KINDS, in_range
 from gasp_core.seam.setup import BOUNDARIES, Boundary, Material, MATERIALS
 
 
@@ -45,7 +45,8 @@ class DomainSpec:
 
 _MATERIAL_KEYS = {f.name for f in fields(Material)}
 _BOUNDARY_KEYS = {f.name for f in fields(Boundary)}
-_BOUNDARY_KIND_KEYS = {"ground": {"kind", "height", "friction"}, "walls": {"kind", "friction"},
+_BOUNDARY_KIND_KEYS = {"ground": {"kind", "height", "friction", "restitution"},
+                       "walls": {"kind", "friction", "restitution"},
                        "fixed_region": {"kind", "lo", "hi"}}
 _DOMAIN_KEYS = {f.name for f in fields(DomainSpec)}
 _ENGINE_KEYS = {"name", "options"}
@@ -66,7 +67,7 @@ def read_material(value, where: str, src: Path) -> Material:
     table = as_table(value, where, src)
     name = as_string(table.get("name", DEFAULT_MATERIAL), f"{where}.name", src, MATERIALS)
     check_keys(table, _MATERIAL_KEYS, where, src)
-    uses = ("name",) + MATERIAL_KINDS[name].keys + (("model",) if name in RIGID_KINDS else ())
+    uses = ("name",) + MATERIAL_KINDS[name].keys + (("model", "restitution") if name in RIGID_KINDS else ())
     unused = sorted(set(table) - set(uses))
     if unused:
         others = sorted({m for k in unused for m, kind in MATERIAL_KINDS.items()
@@ -76,7 +77,9 @@ def read_material(value, where: str, src: Path) -> Material:
     kw: dict[str, Any] = {"name": name}
     if "model" in table:
         kw["model"] = as_string(table["model"], f"{where}.model", src, BODY_MODELS)
-    for k in sorted(set(table) - {"name", "model"}):
+    if "restitution" in table:
+        kw["restitution"] = read_restitution(table["restitution"], f"{where}.restitution", src, substances=True)
+    for k in sorted(set(table) - {"name", "model", "restitution"}):
         expected = Material.expected(k, table[k])
         if expected is not None:
             bad_value(src, f"{where}.{k}", table[k], expected)
@@ -117,6 +120,24 @@ def read_domain(value, src: Path) -> DomainSpec:
     return domain
 
 
+def read_restitution(value, where: str, src: Path, substances: bool = False) -> float:
+    """A ``restitution`` key: a number in [0, 1], or (``substances``, a material's) a name of
+    :data:`gasp_core.toolkit.restitution.SUBSTANCES`, taken as its figure.
+
+    Raises
+    ------
+    SceneError
+        Another value, naming the key, the value and what is expected.
+    """
+    from gasp_core.toolkit.restitution import SUBSTANCES
+    if substances and isinstance(value, str) and value in SUBSTANCES:
+        return SUBSTANCES[value][0]
+    if not in_range(value, 0.0, 1.0):
+        names = f" or one of {', '.join(map(repr, SUBSTANCES))}" if substances else ""
+        bad_value(src, where, value, f"a coefficient of restitution: a finite number in [0, 1]{names}")
+    return float(value)
+
+
 def read_boundary(b: dict, where: str, src: Path) -> Boundary:
     """One ``[[boundary]]``: the keys its ``kind`` takes; a ``fixed_region`` needs ``lo`` and ``hi`` with
     ``hi > lo``."""
@@ -129,6 +150,8 @@ def read_boundary(b: dict, where: str, src: Path) -> Boundary:
         kw["height"] = as_number(b["height"], f"{where}.height", src, -MAX_COORD, MAX_COORD)
     if "friction" in b:
         kw["friction"] = as_number(b["friction"], f"{where}.friction", src, 0.0)
+    if "restitution" in b:
+        kw["restitution"] = read_restitution(b["restitution"], f"{where}.restitution", src)
     if kind == "fixed_region":
         if "lo" not in b or "hi" not in b:
             raise SceneError(f"{src}: {where} (fixed_region) needs 'lo' and 'hi'")

@@ -234,6 +234,10 @@ class EngineInfo:
         stays cheap). It gets a setup that the core checked against ``capabilities``, ``options`` and ``limits``
         (:func:`gasp_core.seam.build.build_engine`), with ``setup.options`` holding every declared option
         (defaults filled in).
+    substeps : callable or None
+        ``substeps(setup) -> int``: the substeps a frame the engine's step rule takes for ``setup`` (its options
+        completed as the run's), for the line the core prints when it chooses a body's model
+        (``gasp_core.prepare.route``); may raise ``SceneError`` where the rule refuses the scene.
     requires : tuple of str
         Modules the engine needs (``("my_solver",)``): without ``available``, the engine is available where each can
         be found (``importlib.util.find_spec``; nothing is imported), else the reason names the first missing one
@@ -288,6 +292,7 @@ class EngineInfo:
     description: str = ""
     limits: Mapping[str, Limit] = field(default_factory=dict)
     check_scene: Callable[[Any, Mapping[str, Any], SimSetup | None], None] | None = None
+    substeps: Callable[[SimSetup], int] | None = None
     requires: tuple[str, ...] = ()
     install: str = ""
 

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from gasp_core.errors import SceneError
-from gasp_core.seam.schema import BODY_MODELS, DEFAULT_MATERIAL, MATERIAL_KINDS, MATERIAL_PARAMS, RIGID_KINDS
+from gasp_core.seam.schema import BODY_MODELS, DEFAULT_MATERIAL, MATERIAL_KINDS, MATERIAL_PARAMS, RIGID_KINDS, in_range
 
 #: Material models an engine may offer (capability names; :data:`gasp_core.seam.schema.MATERIAL_KINDS` says what
 #: each is and which keys it uses).
@@ -76,6 +76,11 @@ class Material:
         stiffness sets no step; engines with the feature ``rigid_limit``) or ``"auto"`` (the default: chosen from
         the body's estimated strain, ``gasp_core.prepare.route``; a setup built in code with ``"auto"`` runs
         elastic).
+    restitution : float or None
+        Coefficient of restitution on a hard floor, in [0, 1] (issue 53): the rigid route's bounce
+        (``gasp_core.toolkit.restitution``; a scene may name a substance instead, ``"steel"``, ...). None: the
+        substance the material's ``E`` and ``rho`` match, else the default (``body_restitution``). Elastic bodies
+        bounce by their own vibration and their contact's damping (``docs/rigid.md``); the key does not act on them.
     """
 
     name: str = DEFAULT_MATERIAL
@@ -92,6 +97,7 @@ class Material:
     tensile_strength: float = MATERIAL_PARAMS["tensile_strength"].default
     fracture_energy: float = MATERIAL_PARAMS["fracture_energy"].default
     model: str = "auto"
+    restitution: float | None = None
 
     @staticmethod
     def expected(key: str, value) -> str | None:
@@ -114,6 +120,8 @@ class Material:
                 raise SceneError(f"{where}.{key} = {value!r}; expected {expected}")
         if self.model not in BODY_MODELS:
             raise SceneError(f"{where}.model = {self.model!r}; expected one of {', '.join(map(repr, BODY_MODELS))}")
+        if self.restitution is not None and not in_range(self.restitution, 0.0, 1.0):
+            raise SceneError(f"{where}.restitution = {self.restitution!r}; expected a finite number in [0, 1]")
         if self.model == "rigid" and self.name not in RIGID_KINDS:
             raise SceneError(f"{where}.model = 'rigid' needs an elastic material ({', '.join(RIGID_KINDS)}); "
                              f"{self.name!r} flows or yields")
@@ -184,6 +192,9 @@ class Boundary:
         :func:`gasp_core.prepare.ground.resolve_ground` sets it from the scan (an engine never sees it).
     friction : float
         Coulomb friction coefficient (``"ground"``, ``"walls"``).
+    restitution : float
+        Coefficient of restitution of the surface, in [0, 1] (``"ground"``, ``"walls"``; default 1, a hard floor):
+        a rigid body's bounce on it is the product of this and the body's (``gasp_core.toolkit.restitution``).
     lo, hi : tuple of 3 floats
         Corners of the fixed box, metres (``"fixed_region"``).
     """
@@ -191,6 +202,7 @@ class Boundary:
     kind: str
     height: float = 0.0
     friction: float = 0.5
+    restitution: float = 1.0
     lo: tuple[float, float, float] = (0.0, 0.0, 0.0)
     hi: tuple[float, float, float] = (0.0, 0.0, 0.0)
 

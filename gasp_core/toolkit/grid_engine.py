@@ -70,6 +70,20 @@ def choose_dt(setup, opts: dict[str, Any], engine: str, implicit_viscosity: bool
     return n_c, dt_new
 
 
+def grid_substeps(setup) -> int:
+    """The substeps a frame :func:`choose_dt` takes for ``setup`` (its options; a rigid body seen as
+    :func:`gasp_core.toolkit.rigid.step_view` shows it), silently: the grid engines' ``EngineInfo.substeps``.
+
+    Raises
+    ------
+    SceneError
+        From :func:`choose_dt` (more substeps than ``max_substeps``).
+    """
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return choose_dt(step_view(setup), dict(getattr(setup, "options", None) or {}), "", implicit_viscosity=True)[0]
+
+
 class GridEngineBase:
     """The part of a grid engine that is not a kernel.
 

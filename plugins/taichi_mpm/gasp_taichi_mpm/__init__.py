@@ -18,7 +18,7 @@ os.environ.setdefault("ENABLE_TAICHI_HEADER_PRINT", "False")
 import dataclasses
 
 from gasp_core.seam import engine_hook, EngineInfo, Option
-from gasp_core.toolkit.grid_engine import MPM_CAPABILITIES
+from gasp_core.toolkit.grid_engine import MPM_CAPABILITIES, grid_substeps
 from gasp_core.toolkit.options import mpm_options
 from gasp_core.toolkit.sweep import mpm_sweep
 from gasp_core.toolkit.failures import MPM_KNOWN_FAILURES
@@ -65,6 +65,7 @@ gasp_engines = engine_hook(EngineInfo(
     known_failures=KNOWN_FAILURES,
     sweep=sweep,
     check_scene=check_ground_in_grid,
+    substeps=grid_substeps,
     requires=("taichi",),
     install="gasp-taichi-mpm",
     description=("MLS-MPM with APIC transfers and quadratic B-splines (Hu et al. 2018), "

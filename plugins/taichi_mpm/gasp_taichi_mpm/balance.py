@@ -123,11 +123,14 @@ class Balance:
                     omega = inv @ (L - M * c.cross(V))
                     for q in ti.static(range(9)):
                         self.c_shift[b, 12 + q] = inv[q // 3, q % 3]
-                # the moments miss the last substep's grid update: its gravity and its contact (the last fix)
-                V += ti.cast(self.dt[None] * self.gravity[None], ti.f64) \
-                    + ti.Vector([self.c_last[b, 0], self.c_last[b, 1], self.c_last[b, 2]], ti.f64)
-                omega += ti.Vector([self.c_last[b, 3], self.c_last[b, 4], self.c_last[b, 5]], ti.f64)
-                c += ti.cast(self.dt[None], ti.f64) * V
+                # the moments miss the last substep's grid update: its gravity and its contact (the last fix); not
+                # a rigid body's, whose G2P and projection ran before them (solver.substeps; issue 53: counted
+                # twice, the last fix drove a donut at rest to slide at 15 mm/s)
+                if self.rb_rigid[b] == 0:
+                    V += ti.cast(self.dt[None] * self.gravity[None], ti.f64) \
+                        + ti.Vector([self.c_last[b, 0], self.c_last[b, 1], self.c_last[b, 2]], ti.f64)
+                    omega += ti.Vector([self.c_last[b, 3], self.c_last[b, 4], self.c_last[b, 5]], ti.f64)
+                    c += ti.cast(self.dt[None], ti.f64) * V
             for q in ti.static(range(3)):
                 self.c_shift[b, q] = c[q]
                 self.c_shift[b, 3 + q] = V[q]

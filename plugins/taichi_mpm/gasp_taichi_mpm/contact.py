@@ -1,7 +1,8 @@
 """The particle contact with the grounds, walls and colliders (engine option ``contact = "particle"``, ``gasp_core.toolkit.contact``,
 ``docs/contact.md``), as Taichi functions; warp_mpm's ``contact.py`` spells the same steps.
 
-- :meth:`Contact.plane_contact` in P2G: a point's normal impulse ``j_n = max(0, dt (k depth - c v . n))`` from each
+- :meth:`Contact.plane_contact` in P2G: a point's normal impulse ``j_n = max(0, dt (k depth - c v . n))`` (a rigid
+  body's point: its restitution's law, :meth:`gasp_taichi_mpm.rigid.Rigid.contact_impulse`) from each
   plane (the grounds and the walls' faces, ``gasp_core.toolkit.contact.contact_planes``) less than its skin from its
   centre (``depth = offset + skin - n . x``), and its friction budget ``sum mu j_n``, which P2G adds to its nodes
   with its weights (``grid_mv``'s last channel);
@@ -99,7 +100,7 @@ class Contact:
         jq = ti.cast(0.0, self.real)
         depth = self.plane_row[q][0] + kcs[2] - n.dot(self.x[p])
         if depth > 0.0:
-            jq = ti.max(self.dt[None] * (kcs[0] * depth - kcs[1] * n.dot(self.v[p])), 0.0)
+            jq = self.contact_impulse(p, self.plane_e[q], n.dot(self.v[p]), n, depth, kcs)
         return jq
 
     @ti.func
@@ -123,6 +124,7 @@ class Contact:
                 n = self.plane_n[q]
                 imp += jq * n
                 budget += mu * jq
+                self.add_twist(p, mu * jq, n)
                 fn += (mu * jq) * n
                 sq = ti.cast(self.plane_row[q][2], ti.i32)
                 self.add_contact(p, sq, jq, n, fv)
@@ -136,11 +138,12 @@ class Contact:
                 phi, n, vc = self.collider_at(self.x[p], c, base, kcs[2])
                 depth = kcs[2] - phi
                 if depth > 0.0:
-                    jq = ti.max(self.dt[None] * (kcs[0] * depth - kcs[1] * (self.v[p] - vc).dot(n)), 0.0)
+                    jq = self.contact_impulse(p, 1.0, (self.v[p] - vc).dot(n), n, depth, kcs)
                     if jq > 0.0:
                         mu = self.ex_meta[c * COL_META + CM_FRICTION]
                         imp += jq * n
                         budget += mu * jq
+                        self.add_twist(p, mu * jq, n)
                         fn += (mu * jq) * n
                         fv += (mu * jq) * vc
                         self.add_contact(p, 1 + c, jq, n, vc)

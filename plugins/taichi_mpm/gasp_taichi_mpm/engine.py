@@ -15,8 +15,9 @@ from gasp_core.toolkit.contact import (contact_coefficients, contact_model, cont
                                       flowing_bodies, rule_models)
 from gasp_core.toolkit.grid_engine import choose_dt, GridEngineBase
 from gasp_core.toolkit.materials import JELLY, initial_Jp, material_table
-from gasp_core.toolkit.rigid import body_frames, rigid_contact, rigid_mask, step_view, zero_stress
+from gasp_core.toolkit.rigid import body_frames, face_counts, rigid_contact, rigid_mask, step_view, zero_stress
 from gasp_core.seam.memory import check_memory, estimate_bytes
+from gasp_core.toolkit.restitution import body_table, plane_table, rest_speed
 from gasp_core.toolkit.points import fixed_mask, passive_bounds
 from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
 
@@ -177,6 +178,9 @@ class TaichiMPMEngine(GridEngineBase):
             contact_reach=contact_reach(setup),
             body_mass=np.bincount(setup.body_id, weights=setup.p_mass, minlength=len(setup.materials)),
             **self._extras(setup))
+        # the rigid bodies' restitution, applied by their contact's hysteresis (gasp_core.toolkit.restitution)
+        self.solver.set_restitution(body_table(setup), plane_table(setup, self.solver.n_planes), rest_speed(setup),
+                                    face_counts(setup))
         self._p2g_mode = "atomic" if atomic else "coloured blocks"
         self.frame = 0
         self._x = setup.x.astype(np.float32 if real == ti.f32 else np.float64)

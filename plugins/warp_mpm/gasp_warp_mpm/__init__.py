@@ -10,7 +10,7 @@ import dataclasses
 import importlib.util
 
 from gasp_core.seam import engine_hook, EngineInfo, install_hint, Option
-from gasp_core.toolkit.grid_engine import MPM_CAPABILITIES
+from gasp_core.toolkit.grid_engine import MPM_CAPABILITIES, grid_substeps
 from gasp_core.toolkit.options import mpm_options
 from gasp_core.toolkit.sweep import mpm_sweep
 from gasp_core.toolkit.failures import MPM_KNOWN_FAILURES
@@ -62,6 +62,7 @@ gasp_engines = engine_hook(EngineInfo(
     known_failures=KNOWN_FAILURES,
     sweep=sweep,
     check_scene=check_ground_in_grid,
+    substeps=grid_substeps,
     available=_available,
     description=("MLS-MPM (docs/mpm.md) in NVIDIA Warp; CUDA, or CPU on one core (Warp runs CPU kernels "
                  "serially, deterministic): on CPU use taichi_mpm, which uses every core (docs/performance.md); "

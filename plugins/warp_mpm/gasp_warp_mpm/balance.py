@@ -34,7 +34,7 @@ import warp as wp
 
 from gasp_core.toolkit.contact import TORQUE_REACH
 
-from .contact import build_collider_contact, build_contact
+from .contact import build_collider_contact, build_contact, build_contact_impulse
 from .forces import build_extras_struct
 from .precision import MODULE_OPTIONS, build_types
 
@@ -96,8 +96,8 @@ def add_contact(jsums: wp.array2d(dtype=f64), s: int, j: f64, r: v64, n: v64, vc
 def build_moments(Ft):
     """``(contact_moments, contact_shift)`` of scalar type ``Ft``."""
     vec3, vec4, mat33 = build_types(Ft)
-    plane_contact, _ = build_contact(Ft)
     collider_contact = build_collider_contact(Ft)[0]
+    contact_impulse = build_contact_impulse(Ft)
     Extras = build_extras_struct(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
@@ -126,7 +126,10 @@ def build_moments(Ft):
         add_second_moments(sums, b, 4, m, r)
         kcs = p_contact[p]
         for q in range(planes.shape[0]):   # support 0: the grounds; a wall's face: its own (planes[q][2])
-            jq = plane_contact(plane_n[q], planes[q], kcs, xp, vp, dt)
+            jq = Ft(0.0)
+            depth = planes[q][0] + kcs[2] - wp.dot(plane_n[q], xp)   # plane_contact, with the rigid bodies' law
+            if depth > Ft(0.0):
+                jq = contact_impulse(ex, b, ex.plane_e[q], wp.dot(plane_n[q], vp), 0, plane_n[q], depth, kcs, dt)
             if jq > Ft(0.0):
                 nq = plane_n[q]
                 add_contact(jsums, b * n_sup + int(planes[q][2]), f64(jq), r, v64(f64(nq[0]), f64(nq[1]), f64(nq[2])),
@@ -134,7 +137,7 @@ def build_moments(Ft):
         if colc != 0:   # support 1 + cc: collider cc
             base = ex.step[0] * ex.width
             for cc in range(ex.n_col):
-                jq, n, vc = collider_contact(ex, base, cc, xp, vp, kcs, dt)
+                jq, n, vc = collider_contact(ex, base, cc, xp, vp, kcs, dt, b, 0)
                 if jq > Ft(0.0):
                     add_contact(jsums, b * n_sup + 1 + cc, f64(jq), r, v64(f64(n[0]), f64(n[1]), f64(n[2])),
                                 v64(f64(vc[0]), f64(vc[1]), f64(vc[2])))

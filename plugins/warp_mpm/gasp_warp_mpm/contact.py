@@ -21,6 +21,7 @@ import functools
 
 import warp as wp
 
+from gasp_core.toolkit.contact import DAMPING
 from gasp_core.toolkit.grid_tables import CM_FRICTION, COL_META
 
 from .colliders import build_collider_at
@@ -56,12 +57,80 @@ def build_contact(Ft):
 
 
 @functools.cache
+def build_contact_impulse(Ft):
+    """``contact_impulse(ex, b, e_sup, vn, mark, n, depth, kcs, dt) -> j_n``, a Warp function of the scalar type
+    ``Ft``: a point of body ``b`` at ``depth`` (m, > 0) in a support of restitution ``e_sup``, ``vn`` its normal
+    velocity relative to it (m/s), ``n`` the normal, ``kcs = (k, c, skin)``: ``max(0, dt (k depth - c vn))``; a
+    rigid body's point with restitution (``ex.rb_e[b]`` >= 0, ``gasp_core.toolkit.restitution``) while its body
+    bounces: ``dt k depth`` while it approaches (``vn`` < 0), ``e^2 dt k depth`` while it recedes (the hysteresis of
+    Walton & Braun 1986), ``e = ex.rb_e[b] e_sup``; once ``e`` times the approach speed of the body's ongoing contact
+    (``ex.rb_vin[b]``) is below ``ex.v_rest``, a damped law set by the body (``c = 2 DAMPING dt k``); its ``k``
+    times ``N / max(N, N_touch)`` (``ex.rb_nface``, ``ex.rb_nlast``:
+    ``gasp_core.toolkit.rigid.face_counts``). With ``mark`` (in P2G) it records the touch, the
+    approach speed and ``dt k depth`` along ``n`` and times ``e_sup`` for ``rigid.rigid_update``'s lift-off;
+    taichi_mpm's ``Rigid.contact_impulse`` spells the same."""
+    vec3 = build_types(Ft)[0]
+    Extras = build_extras_struct(Ft)
+
+    @wp.func
+    def contact_impulse(ex: Extras, b: int, e_sup: Ft, vn: Ft, mark: int, n: vec3, depth: Ft, kcs: vec3, dt: Ft):
+        jq = wp.max(dt * (kcs[0] * depth - kcs[1] * vn), Ft(0.0))
+        if ex.rb_e[b] >= Ft(0.0):
+            n_t = wp.max(Ft(ex.rb_nlast[b]), Ft(1.0))
+            sk = ex.rb_nface[b] / wp.max(ex.rb_nface[b], n_t)
+            jk = dt * kcs[0] * sk * depth
+            # settling: per point c = 2 zeta dt k', at most 2 zeta of the body's normal speed a substep
+            # (taichi_mpm's contact_impulse)
+            c = Ft(2.0 * DAMPING) * dt * kcs[0] * sk
+            jq = wp.max(jk - dt * c * vn, Ft(0.0))
+            if mark != 0:
+                wp.atomic_add(ex.rb_count, b, 1)
+                ex.rb_touch[b] = 1
+                wp.atomic_add(ex.rb_jn, b, jk * n)
+                wp.atomic_add(ex.rb_je, b, jk * e_sup)
+                wp.atomic_add(ex.rb_j, b, jk)
+                if vn < Ft(0.0):
+                    wp.atomic_max(ex.rb_vin_next, b, -vn)
+            e = ex.rb_e[b] * e_sup
+            if e * ex.rb_vin[b] >= ex.v_rest:
+                jq = jk
+                if vn >= Ft(0.0):
+                    jq = e * e * jk
+        return jq
+
+    return contact_impulse
+
+
+@functools.cache
+def build_add_twist(Ft):
+    """``add_twist(ex, b, x, fj, n)``, a Warp function of the scalar type ``Ft``: a rigid body's point at ``x`` adds
+    its friction budget ``fj`` times its lever about the normal ``n`` through its body's centre to ``ex.rb_twist[b]``
+    (``rigid.py``'s twist brake; taichi_mpm's ``Rigid.add_twist``)."""
+    vec3 = build_types(Ft)[0]
+    Extras = build_extras_struct(Ft)
+
+    @wp.func
+    def add_twist(ex: Extras, b: int, x: vec3, fj: Ft, n: vec3):
+        # a rigid body's point: its friction budget times its lever about the normal through the body's centre, the
+        # most angular momentum about the normal Coulomb's friction can take this substep (taichi_mpm's add_twist)
+        if ex.rb_e[b] >= Ft(0.0):
+            c = ex.rb_cx[b]
+            r = wp.vec3d(wp.float64(x[0]) - c[0], wp.float64(x[1]) - c[1], wp.float64(x[2]) - c[2])
+            nd = wp.vec3d(wp.float64(n[0]), wp.float64(n[1]), wp.float64(n[2]))
+            f = wp.float64(fj)
+            wp.atomic_add(ex.rb_twist, b, f * wp.length(r - wp.dot(r, nd) * nd))
+            wp.atomic_add(ex.rb_fx, b, wp.vec4d(f * wp.float64(x[0]), f * wp.float64(x[1]), f * wp.float64(x[2]), f))
+
+    return add_twist
+
+
+@functools.cache
 def build_collider_contact(Ft):
     """``(collider_contact, point_contact, surface_friction)`` Warp functions of the scalar type ``Ft``: the particle
     contact against the ``[[collider]]``s' signed distances (``gasp_core.toolkit.contact.surface_impulse``).
 
-    - ``collider_contact(ex, base, cc, x, v, kcs, dt) -> (j_n, n, v_c)``: collider ``cc``'s normal impulse on a point
-      ``max(0, dt (k depth - c (v - v_c) . n))``, ``depth = skin - phi``, along its outward normal ``n``;
+    - ``collider_contact(ex, base, cc, x, v, kcs, dt, b, mark) -> (j_n, n, v_c)``: collider ``cc``'s normal impulse
+      on a point of body ``b`` (``build_contact_impulse``), ``depth = skin - phi``, along its outward normal ``n``;
     - ``point_contact(...) -> (impulse, budget, budget n, budget v_c, support)``: the planes' and the colliders'
       impulses on a point summed, its friction budget, the budget-weighted normal and collider velocity (for the
       nodes' friction) and the support that pushes it most (0: the grounds, 1 + cc: collider cc, then the walls'
@@ -72,20 +141,20 @@ def build_collider_contact(Ft):
     vec3, vec4, mat33 = build_types(Ft)
     Extras = build_extras_struct(Ft)
     collider_at = build_collider_at(Ft)
-    plane_contact = build_contact(Ft)[0]
+    contact_impulse, add_twist = build_contact_impulse(Ft), build_add_twist(Ft)
 
     @wp.func
-    def collider_contact(ex: Extras, base: int, cc: int, x: vec3, v: vec3, kcs: vec3, dt: Ft):
+    def collider_contact(ex: Extras, base: int, cc: int, x: vec3, v: vec3, kcs: vec3, dt: Ft, b: int, mark: int):
         phi, n, vc = collider_at(x, cc, base, ex, kcs[2])
         jq = Ft(0.0)
         depth = kcs[2] - phi
         if depth > Ft(0.0):
-            jq = wp.max(dt * (kcs[0] * depth - kcs[1] * wp.dot(v - vc, n)), Ft(0.0))
+            jq = contact_impulse(ex, b, Ft(1.0), wp.dot(v - vc, n), mark, n, depth, kcs, dt)
         return jq, n, vc
 
     @wp.func
     def point_contact(planes: wp.array(dtype=vec3), plane_n: wp.array(dtype=vec3), kcs: vec3, x: vec3, v: vec3,
-                      dt: Ft, colc: int, ex: Extras):
+                      dt: Ft, colc: int, ex: Extras, b: int):
         imp = vec3(Ft(0.0))
         bud = Ft(0.0)
         fn = vec3(Ft(0.0))
@@ -93,11 +162,15 @@ def build_collider_contact(Ft):
         sup = int(-1)
         jbest = Ft(0.0)
         for q in range(planes.shape[0]):   # the grounds (support 0) and the walls' faces (each its own)
-            jq = plane_contact(plane_n[q], planes[q], kcs, x, v, dt)
+            jq = Ft(0.0)
+            depth = planes[q][0] + kcs[2] - wp.dot(plane_n[q], x)   # build_contact's plane_contact, with the law
+            if depth > Ft(0.0):
+                jq = contact_impulse(ex, b, ex.plane_e[q], wp.dot(plane_n[q], v), 1, plane_n[q], depth, kcs, dt)
             if jq > Ft(0.0):
                 mu = planes[q][1]
                 imp = imp + jq * plane_n[q]
                 bud = bud + mu * jq
+                add_twist(ex, b, x, mu * jq, plane_n[q])
                 fn = fn + (mu * jq) * plane_n[q]
                 if jq > jbest:
                     sup = int(planes[q][2])
@@ -105,11 +178,12 @@ def build_collider_contact(Ft):
         if colc != 0:
             base = ex.step[0] * ex.width
             for cc in range(ex.n_col):
-                jq, n, vc = collider_contact(ex, base, cc, x, v, kcs, dt)
+                jq, n, vc = collider_contact(ex, base, cc, x, v, kcs, dt, b, 1)
                 if jq > Ft(0.0):
                     mu = ex.meta[cc * COL_META + CM_FRICTION]
                     imp = imp + jq * n
                     bud = bud + mu * jq
+                    add_twist(ex, b, x, mu * jq, n)
                     fn = fn + (mu * jq) * n
                     fv = fv + (mu * jq) * vc
                     if jq > jbest:

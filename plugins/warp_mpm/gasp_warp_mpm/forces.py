@@ -39,6 +39,23 @@ def build_extras_struct(Ft):
         n_force: int
         n_imp: int
         width: int
+        # the rigid bodies' restitution (gasp_core.toolkit.restitution, contact.build_unloading): per body its e (-1:
+        # none), the approach speed of its ongoing contact, this substep's (atomic max), a touch flag; per plane its e
+        rb_e: wp.array(dtype=Ft)
+        rb_vin: wp.array(dtype=Ft)
+        rb_vin_next: wp.array(dtype=Ft)
+        rb_touch: wp.array(dtype=wp.int32)
+        rb_jn: wp.array(dtype=build_types(Ft)[0])   # the contact's sum j n, sum j e_sup and sum j (rigid.py)
+        rb_je: wp.array(dtype=Ft)
+        rb_j: wp.array(dtype=Ft)
+        rb_nface: wp.array(dtype=Ft)   # gasp_core.toolkit.rigid.face_counts; the points touching now and last
+        rb_count: wp.array(dtype=wp.int32)
+        rb_nlast: wp.array(dtype=wp.int32)
+        rb_cx: wp.array(dtype=wp.types.vector(3, wp.float64))   # the rigid bodies' centres (rigid.py's rb_c)
+        rb_twist: wp.array(dtype=wp.float64)   # this substep's sum mu j |r_perp| per body (rigid.py's twist brake)
+        rb_fx: wp.array(dtype=wp.vec4d)   # this substep's sum mu j x, sum mu j (slide brake)
+        plane_e: wp.array(dtype=Ft)
+        v_rest: Ft   # m/s: a rebound below it is none
     return Extras
 
 

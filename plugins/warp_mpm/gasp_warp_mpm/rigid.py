@@ -21,25 +21,85 @@ mat33d = wp.types.matrix((3, 3), wp.float64)
 
 
 @functools.cache
-def build_rigid(Ft):
-    """``(rigid_reduce, rigid_update, rigid_apply)`` for the scalar type ``Ft``."""
+def build_rigid_contact(Ft):
+    """``(lift_off, twist_brake, slide_brake)``, Warp functions of the scalar type ``Ft`` (taichi_mpm's
+    ``Rigid.lift_off``, ``Rigid.twist_brake`` and ``Rigid.slide_brake``)."""
     vec3, vec4, mat33 = build_types(Ft)
 
-    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def rigid_reduce(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33),
-                     p_mass: wp.array(dtype=Ft), body: wp.array(dtype=wp.int32), rigid: wp.array(dtype=wp.int32),
-                     dx: wp.float64, acc_p: wp.array(dtype=vec3d), acc_l: wp.array(dtype=vec3d)):
-        p = wp.tid()
-        b = body[p]
-        if rigid[b] == 0:
-            return
-        m = wp.float64(p_mass[p])
-        xp = vec3d(wp.float64(x[p][0]), wp.float64(x[p][1]), wp.float64(x[p][2]))
-        vp = vec3d(wp.float64(v[p][0]), wp.float64(v[p][1]), wp.float64(v[p][2]))
-        c = C[p]
-        aff = vec3d(wp.float64(c[2, 1] - c[1, 2]), wp.float64(c[0, 2] - c[2, 0]), wp.float64(c[1, 0] - c[0, 1]))
-        wp.atomic_add(acc_p, b, m * vp)
-        wp.atomic_add(acc_l, b, m * wp.cross(xp, vp) + (m * wp.float64(0.25) * dx * dx) * aff)
+    @wp.func
+    def lift_off(V: vec3d, c: vec3d, c0: vec3d, jn: vec3, e_pair: Ft, vin_f: Ft, v_rest: Ft, gravity: vec3d,
+                 T: wp.float64):
+        # taichi_mpm's Rigid.lift_off: the normal part of V along the contact's mean normal made the speed with which
+        # the free flights cross as an instantaneous bounce of restitution e (gasp_core.toolkit.restitution.
+        # lift_off_speed); e 0 below v_rest
+        out = V
+        n = vec3d(wp.float64(jn[0]), wp.float64(jn[1]), wp.float64(jn[2]))
+        ln = wp.length(n)
+        if ln > wp.float64(0.0):
+            n = n / ln
+            e = wp.float64(e_pair)
+            vin = wp.float64(vin_f)
+            if e * vin < wp.float64(v_rest):
+                e = wp.float64(0.0)
+            g_n = -wp.dot(gravity, n)
+            one = wp.float64(1.0)
+            B = vin * (one - e) - (one + e) * g_n * T
+            C = e * vin * vin - (one + e) * g_n * (wp.dot(c - c0, n) + wp.float64(0.5) * g_n * T * T)
+            u_out = wp.float64(0.5) * (-B + wp.sqrt(wp.max(B * B + wp.float64(4.0) * C, wp.float64(0.0)))) - g_n * T
+            u = wp.dot(V, n)
+            if u > wp.float64(0.0):
+                out = V + (wp.max(u_out, wp.float64(0.0)) - u) * n
+        return out
+
+    @wp.func
+    def twist_brake(w: vec3d, inertia: mat33d, jn: vec3, tw: wp.float64):
+        # taichi_mpm's Rigid.twist_brake: the spin about the contact's mean normal brought towards 0 by at most
+        # tw / (n . I n), never reversed
+        out = w
+        n = vec3d(wp.float64(jn[0]), wp.float64(jn[1]), wp.float64(jn[2]))
+        ln = wp.length(n)
+        if tw > wp.float64(0.0) and ln > wp.float64(0.0):
+            n = n / ln
+            wn = wp.dot(w, n)
+            In = wp.dot(n, inertia * n)
+            if In > wp.float64(0.0) and wn != wp.float64(0.0):
+                out = w - n * wp.sign(wn) * wp.min(wp.abs(wn), tw / In)
+        return out
+
+    @wp.func
+    def slide_brake(V: vec3d, w: vec3d, inertia: mat33d, M: wp.float64, c: vec3d, jn: vec3,
+                    fx: wp.vec4d):
+        # taichi_mpm's Rigid.slide_brake: Coulomb's friction on the body as one, an impulse along -u_t at the
+        # budget-weighted contact point, at most the substep's budget sum mu j, never reversing u_t
+        Vo = V
+        wo = w
+        n = vec3d(wp.float64(jn[0]), wp.float64(jn[1]), wp.float64(jn[2]))
+        ln = wp.length(n)
+        if fx[3] > wp.float64(0.0) and ln > wp.float64(0.0):
+            n = n / ln
+            r = vec3d(fx[0], fx[1], fx[2]) / fx[3] - c
+            u = V + wp.cross(w, r)
+            ut = u - wp.dot(u, n) * n
+            lt = wp.length(ut)
+            if lt > wp.float64(0.0):
+                t = ut / lt
+                rt = wp.cross(r, t)
+                inv = wp.inverse(inertia)
+                k = wp.float64(1.0) / M + wp.dot(rt, inv * rt)
+                P = -wp.min(fx[3], lt / k) * t
+                Vo = V + P / M
+                wo = w + inv * wp.cross(r, P)
+        return Vo, wo
+
+    return lift_off, twist_brake, slide_brake
+
+
+@functools.cache
+def build_rigid_update(Ft):
+    """``rigid_update`` (one thread over the bodies: velocity, spin, centre and rotation from the sums; the contact's
+    lift-off, twist brake and bookkeeping, ``gasp_core.toolkit.restitution``) for the scalar type ``Ft``."""
+    vec3, vec4, mat33 = build_types(Ft)
+    lift_off, twist_brake, slide_brake = build_rigid_contact(Ft)
 
     @wp.func
     def rotation_of(a: vec3d):
@@ -56,7 +116,13 @@ def build_rigid(Ft):
     def rigid_update(rigid: wp.array(dtype=wp.int32), mass: wp.array(dtype=wp.float64),
                      inertia0: wp.array(dtype=mat33d), acc_p: wp.array(dtype=vec3d), acc_l: wp.array(dtype=vec3d),
                      centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d), vel: wp.array(dtype=vec3d),
-                     spin: wp.array(dtype=vec3d), dt: wp.float64, dx: wp.float64, n_bodies: int):
+                     spin: wp.array(dtype=vec3d), dt: wp.float64, dx: wp.float64, n_bodies: int,
+                     vin: wp.array(dtype=Ft), vin_next: wp.array(dtype=Ft), touch: wp.array(dtype=wp.int32),
+                     was: wp.array(dtype=wp.int32), c0: wp.array(dtype=vec3d), jn: wp.array(dtype=vec3),
+                     je: wp.array(dtype=Ft), jsum: wp.array(dtype=Ft), e_body: wp.array(dtype=Ft), v_rest: Ft,
+                     gravity: vec3d, steps: wp.array(dtype=wp.int32), count: wp.array(dtype=wp.int32),
+                     nlast: wp.array(dtype=wp.int32), twist: wp.array(dtype=wp.float64),
+                     fx: wp.array(dtype=wp.vec4d)):
         for b in range(n_bodies):
             M = mass[b]
             if rigid[b] != 0 and M > wp.float64(0.0):
@@ -67,13 +133,67 @@ def build_rigid(Ft):
                 extra = wp.float64(0.5) * dx * dx * M * wp.identity(3, wp.float64)
                 w_pred = wp.inverse(R * inertia0[b] * wp.transpose(R) + extra) * Lc
                 R_new = rotation_of(dt * w_pred) * R
-                w = wp.inverse(R_new * inertia0[b] * wp.transpose(R_new) + extra) * Lc
-                vel[b] = P / M
+                inertia = R_new * inertia0[b] * wp.transpose(R_new) + extra
+                w = wp.inverse(inertia) * Lc
+                V = P / M
+                if e_body[b] >= Ft(0.0):
+                    w = twist_brake(w, inertia, jn[b], twist[b])
+                    V, w = slide_brake(V, w, inertia, M, c, jn[b], fx[b])
+                fx[b] = wp.vec4d()
+                if touch[b] != 0 and was[b] == 0:
+                    c0[b] = c
+                    steps[b] = 0
+                if e_body[b] >= Ft(0.0) and touch[b] == 0 and was[b] != 0 and jsum[b] > Ft(0.0):
+                    V = lift_off(V, c, c0[b], jn[b], e_body[b] * je[b] / jsum[b], vin[b], v_rest, gravity,
+                                 dt * wp.float64(steps[b]))
+                steps[b] = steps[b] + touch[b]
+                vel[b] = V
                 spin[b] = w
-                centre[b] = c + dt * (P / M)
+                centre[b] = c + dt * V
                 rot[b] = R_new
             acc_p[b] = vec3d()
             acc_l[b] = vec3d()
+            # the contact's approach speed (contact.build_unloading): its first substep's, kept while a point
+            # touches; 0 once the body is free (taichi_mpm's Rigid.rigid_update)
+            if touch[b] != 0:
+                if was[b] == 0:
+                    vin[b] = vin_next[b]
+            else:
+                vin[b] = Ft(0.0)
+                jn[b] = vec3(Ft(0.0))
+                je[b] = Ft(0.0)
+                jsum[b] = Ft(0.0)
+            was[b] = touch[b]
+            twist[b] = wp.float64(0.0)
+            nlast[b] = count[b]
+            count[b] = 0
+            vin_next[b] = Ft(0.0)
+            touch[b] = 0
+
+    return rigid_update
+
+
+@functools.cache
+def build_rigid(Ft):
+    """``(rigid_reduce, rigid_update, rigid_apply)`` for the scalar type ``Ft``."""
+    vec3, vec4, mat33 = build_types(Ft)
+    rigid_update = build_rigid_update(Ft)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def rigid_reduce(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33),
+                     p_mass: wp.array(dtype=Ft), body: wp.array(dtype=wp.int32), rigid: wp.array(dtype=wp.int32),
+                     dx: wp.float64, acc_p: wp.array(dtype=vec3d), acc_l: wp.array(dtype=vec3d)):
+        p = wp.tid()
+        b = body[p]
+        if rigid[b] == 0:
+            return
+        m = wp.float64(p_mass[p])
+        xp = vec3d(wp.float64(x[p][0]), wp.float64(x[p][1]), wp.float64(x[p][2]))
+        vp = vec3d(wp.float64(v[p][0]), wp.float64(v[p][1]), wp.float64(v[p][2]))
+        c = C[p]
+        aff = vec3d(wp.float64(c[2, 1] - c[1, 2]), wp.float64(c[0, 2] - c[2, 0]), wp.float64(c[1, 0] - c[0, 1]))
+        wp.atomic_add(acc_p, b, m * vp)
+        wp.atomic_add(acc_l, b, m * wp.cross(xp, vp) + (m * wp.float64(0.25) * dx * dx) * aff)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def rigid_apply(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33),
@@ -126,23 +246,44 @@ class RigidBodies:
         if not self.any_rigid:
             return []
         reduce_k, update_k, apply_k = build_rigid(Ft)
-        d, dx, dt = self.device, float(self.dx), float(self.dt)
+        d, dx, dt, ex = self.device, float(self.dx), float(self.dt), self._ex
+        self.rb_was = wp.zeros(len(self.setup.materials), dtype=wp.int32, device=d)
+        self.rb_c0 = wp.zeros(len(self.setup.materials), dtype=vec3d, device=d)
+        self.rb_steps = wp.zeros(len(self.setup.materials), dtype=wp.int32, device=d)
         return [wp.launch(reduce_k, dim=self.n_material, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.p_mass, self.body, self.rb_rigid, dx, self.acc_p, self.acc_l]),
                 wp.launch(update_k, dim=1, device=d, record_cmd=True, inputs=[
                     self.rb_rigid, self.rb_M, self.rb_I0, self.acc_p, self.acc_l, self.rb_c, self.rb_R, self.rb_V,
-                    self.rb_w, dt, dx, len(self.setup.materials)]),
+                    self.rb_w, dt, dx, len(self.setup.materials), ex.rb_vin, ex.rb_vin_next, ex.rb_touch, self.rb_was,
+                    self.rb_c0, ex.rb_jn, ex.rb_je, ex.rb_j, ex.rb_e, ex.v_rest,
+                    vec3d(*[float(g) for g in self.setup.gravity]), self.rb_steps, ex.rb_count, ex.rb_nlast,
+                    ex.rb_twist, ex.rb_fx]),
                 wp.launch(apply_k, dim=self.n_points, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.F, self.body, self.rb_rigid, self.X0, self.rb_c, self.rb_R,
                     self.rb_V, self.rb_w])]
 
+    def _contact_arrays(self) -> dict:
+        """The rigid bodies' ongoing contact (the restitution's state, ``contact.build_contact_impulse``), by state
+        key (taichi_mpm's ``Rigid._contact_fields``)."""
+        ex = self._ex
+        return {"rigid_vin": ex.rb_vin, "rigid_was": self.rb_was, "rigid_steps": self.rb_steps, "rigid_c0": self.rb_c0,
+                "rigid_jn": ex.rb_jn, "rigid_je": ex.rb_je, "rigid_j": ex.rb_j, "rigid_nlast": ex.rb_nlast}
+
     def rigid_state(self) -> dict:
-        """``rigid_c`` and ``rigid_R`` of the bodies (empty without a rigid body)."""
-        return {"rigid_c": self.rb_c.numpy().copy(), "rigid_R": self.rb_R.numpy().copy()} if self.any_rigid else {}
+        """``rigid_c`` and ``rigid_R`` of the bodies and their ongoing contact's state (``rigid_vin``, ...; empty
+        without a rigid body)."""
+        if not self.any_rigid:
+            return {}
+        return {"rigid_c": self.rb_c.numpy().copy(), "rigid_R": self.rb_R.numpy().copy(),
+                **{k: a.numpy().copy() for k, a in self._contact_arrays().items()}}
 
     def set_rigid_state(self, state: dict) -> None:
-        """Restore :meth:`rigid_state`; ``X0`` follows the restored point order."""
+        """Restore :meth:`rigid_state`; ``X0`` follows the restored point order (a state saved before issue 53 has
+        no contact state: a body free then)."""
         if self.any_rigid:
             self.rb_c.assign(state["rigid_c"])
             self.rb_R.assign(state["rigid_R"])
             self.X0.assign(self._X0_setup[self._order])
+            for k, a in self._contact_arrays().items():
+                if k in state:
+                    a.assign(state[k])

@@ -2,6 +2,7 @@
 (``gasp_core.toolkit.grid_tables``): built once, and their time-dependent rows loaded each frame."""
 from __future__ import annotations
 
+import numpy as np
 import warp as wp
 
 from gasp_core.seam import SimSetup
@@ -32,6 +33,24 @@ class ExtraTables:
         # (the contact chosen per body: from the surface, fully from there; gasp_core.toolkit.contact.rule_models)
         reach, full = rule_models(contact_model(step_view(setup)))
         ex.col_deep, ex.col_full = Ft(collider_grid_depth(reach, self.dx)), Ft(collider_grid_depth(full, self.dx))
+        # the rigid bodies' restitution (per body and per plane of contact_planes) and the rest speed
+        from gasp_core.toolkit.contact import contact_planes
+        from gasp_core.toolkit.restitution import body_table, plane_table, rest_speed
+        n_planes = len(contact_planes(step_view(setup), contact_model(step_view(setup)))[0])
+        ex.rb_e = arr(body_table(setup).astype(np_t), Ft)
+        ex.rb_vin, ex.rb_vin_next = (wp.zeros(len(setup.materials), dtype=Ft, device=self.device) for _ in "ab")
+        ex.rb_touch = wp.zeros(len(setup.materials), dtype=wp.int32, device=self.device)
+        ex.rb_jn = wp.zeros(len(setup.materials), dtype=self.k.vec3, device=self.device)
+        ex.rb_je, ex.rb_j = (wp.zeros(len(setup.materials), dtype=Ft, device=self.device) for _ in "ab")
+        from gasp_core.toolkit.rigid import face_counts
+        ex.rb_nface = arr(face_counts(setup).astype(np_t), Ft)
+        ex.rb_count, ex.rb_nlast = (wp.zeros(len(setup.materials), dtype=wp.int32, device=self.device) for _ in "ab")
+        vec3d = wp.types.vector(3, wp.float64)
+        ex.rb_cx = self.rb_c if getattr(self, "any_rigid", False) else wp.zeros(1, dtype=vec3d, device=self.device)
+        ex.rb_twist = wp.zeros(len(setup.materials), dtype=wp.float64, device=self.device)
+        ex.rb_fx = wp.zeros(len(setup.materials), dtype=wp.vec4d, device=self.device)
+        ex.plane_e = arr(plane_table(setup, n_planes).astype(np_t) if n_planes else np.ones(1, np_t), Ft)
+        ex.v_rest = Ft(rest_speed(setup))
         self._ex = ex
         return int(tables.any), ex
 
