@@ -137,15 +137,17 @@ def test_route_line_gives_the_substeps_the_run_takes():
     step rule's figure with the scene's options (here ``cfl = 0.8``), the one the engine takes."""
     import re
     import warnings
-    from gasp_core.prepare.route import resolve_models
+    from gasp_core.prepare.route import declared_cfl, resolve_models
+    from gasp_core.seam.plugins import engines
     from gasp_core.toolkit.grid_engine import choose_dt
     from gasp_core.toolkit.rigid import step_view
+    info = engines()["warp_mpm"]      # the engine's own step rule (EngineInfo.substeps), as prepare_scene passes it
     s = ball(WOOD, 40)
     s.materials = [Material("jelly", model="auto", **WOOD)]
     s.options = {"cfl": 0.8}
     with warnings.catch_warnings(record=True) as w:
         warnings.simplefilter("always")
-        rec = resolve_models(s, ["ball"], frozenset({"rigid_limit"}))[0]
+        rec = resolve_models(s, ["ball"], frozenset({"rigid_limit"}), declared_cfl(info), info.substeps)[0]
     line = next(str(x.message) for x in w if "rigid limit" in str(x.message))
     n_run = choose_dt(step_view(s), s.options, "", implicit_viscosity=True)[0]
     assert rec["model"] == "rigid" and rec["substeps_rigid"] == n_run
