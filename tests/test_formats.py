@@ -176,7 +176,7 @@ def test_format_spz_without_gsply_is_refused_before_the_run(tmp_path, monkeypatc
             raise ImportError("no gsply")
         return real(name, *a, **kw)
 
-    import gasp_core.run.pipeline as prep
+    import gasp_core.run.simulation as prep        # the run prepares the scene (issue 51: SimulationRun)
     built = []
     monkeypatch.setattr(prep, "prepare_scene", lambda *a, **k: built.append(1))
     monkeypatch.setattr(builtins, "__import__", no_gsply)

@@ -164,8 +164,11 @@ def resolve_models(setup, names, features, cfl: float | None = None, substeps=No
     setup.materials = mats
     for b, rec in enumerate(out):
         if "substeps_rigid" in rec:
+            # whether the choice is worth a line is the estimate's (its wave speed against the motion); the figures
+            # the line gives are the run's where the engine says them
+            said = message(names[b], rec["model"], rec["why"], rec) is not None
             rec.update(run_substeps(setup, b, substeps))
-            line = message(names[b], rec["model"], rec["why"], rec)
+            line = message(names[b], rec["model"], rec["why"], rec) if said else None
             if line:
                 warnings.warn(line, stacklevel=2)
     return out
