@@ -40,7 +40,7 @@ from gasp_core.maps.games import alpha_rule, limit_edges, triangles_to_gaussians
 from gasp_core.maps.hierarchy import Hierarchy, build_hierarchy, sub_triangles
 from gasp_core.maps.mesh_bind import MeshBinding, bound_triangles
 
-__all__ = ["SurfaceMap", "TriangleMap", "CentreMap", "CoreMap", "MeshMap", "surface_map", "FORMS"]
+__all__ = ["SurfaceMap", "CentreMap", "CoreMap", "MeshMap", "surface_map"]
 
 
 @dataclass(frozen=True)
@@ -142,10 +142,6 @@ class SurfaceMap:
         return means, rot, scales, {"degenerate": int(degenerate.sum()), "clamped": int(clamped.sum())}
 
 
-#: The paper's own form.
-TriangleMap = SurfaceMap
-
-
 @dataclass(frozen=True)
 class CentreMap(SurfaceMap):
     """PhysGaussian's layout: the engine moves each Gaussian's centre; ``F`` is fitted to the motion of its rest
@@ -235,10 +231,6 @@ class MeshMap(SurfaceMap):
 
     def triangles(self, x: np.ndarray, fill: np.ndarray) -> np.ndarray:
         return bound_triangles(self.binding, x)
-
-
-#: The forms, by name.
-FORMS = {m.form: m for m in (SurfaceMap, CentreMap, CoreMap, MeshMap)}
 
 
 def surface_map(tri_rest: np.ndarray, rot_rest: np.ndarray, scales_rest: np.ndarray, *, surface_points: str,
