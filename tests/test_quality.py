@@ -12,9 +12,10 @@ from gasp_core.maps.fill import fill_interior
 from gasp_core.prepare.surface import MIN_SOLID_CELLS, surface_rule
 from gasp_core.cli.main import main
 from gasp_core.scene.quality import PRESETS, QUALITY_LEVELS, STUDIO_LEVEL, engine_options, studio_engine
-from gasp_core.seam import Capabilities, EngineInfo
+from gasp_core.seam import Capabilities, EngineInfo, Preset
 from gasp_core.seam.options import Option
 from gasp_core.seam.plugins import engines
+from gasp_core.toolkit.options import MPM_PRESETS
 from gasp_core.scene.spec import load_scene
 from gasp_testing import scene_text, needs_package
 
@@ -45,17 +46,35 @@ def test_a_bad_level_names_the_key_and_the_levels(donut_small, write_scene):
         load_scene(write_scene(scene_text(donut_small), "ok.toml"), quality="fast")
 
 
-def test_engine_options_of_a_level_reach_only_engines_that_declare_them():
-    assert engine_options("default", {}, {"passive_every", "threads"}) == {"passive_every": 8}
-    assert engine_options("draft", {}, {"passive_every"}) == {"passive_every": 16}
-    assert engine_options("default", {}, {"threads"}) == {}                       # an engine without the option
-    assert engine_options("default", {"passive_every": 2}, {"passive_every"}) == {"passive_every": 2}
-    assert engine_options("reference", {"threads": 1}, {"cfl", "threads"}) == {"threads": 1, "cfl": 0.2}
-    # the step: cfl 0.8 at default and draft (docs/speed_accuracy.md, "The time step"), a scene's own cfl wins
-    assert engine_options("default", {}, {"cfl"}) == {"cfl": 0.8}
-    assert engine_options("draft", {}, {"cfl"}) == {"cfl": 0.8}
-    assert engine_options("default", {"cfl": 0.4}, {"cfl"}) == {"cfl": 0.4}
+def test_engine_options_of_a_level_are_what_the_engine_declares():
+    mpm = {"draft": Preset({"passive_every": 16, "cfl": 0.8}), "default": Preset({"passive_every": 8, "cfl": 0.8}),
+           "reference": Preset({"cfl": 0.2})}
+    assert engine_options("default", {}, mpm) == {"passive_every": 8, "cfl": 0.8}
+    assert engine_options("draft", {}, mpm) == {"passive_every": 16, "cfl": 0.8}
+    assert engine_options("default", {}, {}) == {}                                # an engine declaring no preset
+    assert engine_options("default", {"passive_every": 2}, mpm) == {"passive_every": 2, "cfl": 0.8}
+    assert engine_options("reference", {"threads": 1}, mpm) == {"threads": 1, "cfl": 0.2}
+    assert engine_options("default", {"cfl": 0.4}, mpm) == {"passive_every": 8, "cfl": 0.4}   # the scene's own wins
     assert set(PRESETS) == set(QUALITY_LEVELS)
+
+
+def test_the_mpm_engines_declare_the_levels_measured_on_them():
+    """The levels' engine options as measured (docs/speed_accuracy.md, "The time step" and "Quality levels"): the
+    values the core applied before the engines declared them (issue 51), so runs are unchanged."""
+    assert {lv: dict(p.options) for lv, p in MPM_PRESETS.items()} == {
+        "draft": {"passive_every": 16, "cfl": 0.8}, "default": {"passive_every": 8, "cfl": 0.8},
+        "reference": {"cfl": 0.2}}
+    assert set(MPM_PRESETS) == set(QUALITY_LEVELS) and all(p.measured for p in MPM_PRESETS.values())
+    for info in engines().values():
+        assert set(info.presets) <= set(QUALITY_LEVELS), info.name
+        declared = {o.name for o in info.options}
+        assert all(set(p.options) <= declared for p in info.presets.values()), info.name
+
+
+def test_a_preset_setting_an_undeclared_option_is_refused_at_registration():
+    caps = Capabilities(materials=frozenset({"jelly"}), boundaries=frozenset())
+    with pytest.raises(ValueError, match=r"'x'.*'draft'.*\['cfl'\]"):
+        EngineInfo("x", factory=lambda setup: None, capabilities=caps, presets={"draft": Preset({"cfl": 0.8})})
 
 
 def test_the_studio_engine_takes_the_levels_options_then_repeats_without_an_option():
@@ -67,10 +86,12 @@ def test_the_studio_engine_takes_the_levels_options_then_repeats_without_an_opti
     assert studio_engine([threads, none, free]) == "z_free"
     assert studio_engine([none, threads]) == "a_threads" and studio_engine([]) is None
     assert studio_engine([info("z_gpu", {"cuda"}), none]) == "b_none"      # repeats on CUDA only: no preference
-    # an engine taking the studio level's options comes first (the levels were measured on such engines)
-    level = dataclasses.replace(info("c_level", {"cpu"}, {"threads": 1}), options=tuple(
-        Option(k, v, "", kind="int") for k, v in PRESETS[STUDIO_LEVEL].options.items()))
+    # an engine declaring a measured preset for the studio level comes first (the levels were measured on it)
+    level = dataclasses.replace(info("c_level", {"cpu"}, {"threads": 1}), options=(Option("cfl", 0.4, ""),),
+                                presets={STUDIO_LEVEL: Preset({"cfl": 0.8}, measured="docs/speed_accuracy.md")})
+    unmeasured = dataclasses.replace(level, name="b_unmeasured", presets={STUDIO_LEVEL: Preset({"cfl": 0.8})})
     assert studio_engine([free, level]) == "c_level"
+    assert studio_engine([free, unmeasured]) == "z_free"
 
 
 def test_the_studio_level_runs_the_studios_donut_on_its_engine(tmp_path, donut_small, write_scene, capsys):
@@ -94,7 +115,8 @@ def test_the_studio_level_runs_the_studios_donut_on_its_engine(tmp_path, donut_s
     preset = PRESETS[STUDIO_LEVEL]
     assert (run["quality"], run["engine"]) == (STUDIO_LEVEL, engine)
     assert run["objects"][0]["surface"] == preset.objects["surface"]
-    assert all(run["engine_options"][k] == v for k, v in preset.options.items() if k in run["engine_options"])
+    level = engines()[engine].presets[STUDIO_LEVEL].options
+    assert level and all(run["engine_options"][k] == v for k, v in level.items())
 
 
 def _ball(radius: float, n: int = 2000) -> np.ndarray:

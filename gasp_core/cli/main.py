@@ -30,55 +30,13 @@ import warnings
 
 from gasp_core.cli import early, streams
 from gasp_core.cli.args import GaspArgumentParser, length, positive_float, positive_int
+from gasp_core.cli.engines import cmd_engines
 from gasp_core.cli.simulate import add_simulate_parser, reporter_for
 from gasp_core.errors import (EngineBug, EngineDivergence, GaspError, extra_hint, missing_module_message,
                               save_traceback)
 from gasp_core.scene.values import UP_AXES
 from gasp_core.run import stop
 from gasp_core.run.report import ConsoleReporter, Reporter
-
-
-def _cmd_engines(args) -> int:
-    from gasp_core.seam.install import clone_engine_plugins
-    from gasp_core.seam.plugins import BROKEN, engines, install_hint
-    found = engines()
-    missing = {n: install_hint(n) for n in clone_engine_plugins() if n not in found and n not in BROKEN}
-    for name, (dist, err) in BROKEN.items():
-        args.reporter.warning(f"plugin '{name}' ({dist}) fails to import: {err}")
-    if args.json:
-        print(json.dumps({n: {"distribution": e.distribution, "version": e.version,
-                              "available": e.unavailable_reason() or "yes",
-                              "capabilities": e.capabilities.as_dict(),
-                              "options": [{"name": o.name, "default": o.default, "expected": o.expected(),
-                                           "doc": o.doc} for o in e.options],
-                              "limits": {k: lim.describe(k) for k, lim in e.limits.items()},
-                              "deterministic_options": dict(e.deterministic_options),
-                              "known_failures": dict(e.known_failures),
-                              "description": e.description, "install": install_hint(n)}
-                          for n, e in found.items()}, indent=2))
-        return 0
-    if not found:
-        print("no engines installed (each engine is a plugin distribution: see README, 'Engines')")
-    for name, e in found.items():
-        c = e.capabilities
-        reason = e.unavailable_reason()
-        print(f"{name}  ({e.distribution} {e.version})" + (f"  NOT AVAILABLE: {reason}" if reason else ""))
-        print(f"    materials:  {', '.join(sorted(c.materials))}")
-        print(f"    boundaries: {', '.join(sorted(c.boundaries))}")
-        print(f"    devices:    {', '.join(sorted(c.devices))}; precisions: {', '.join(sorted(c.precisions))}")
-        if c.features:
-            print(f"    features:   {', '.join(sorted(c.features))}")
-        for o in e.options:
-            print(f"    option {o.name} = {o.default!r}: {o.doc} ({o.expected()})")
-        for k, lim in e.limits.items():
-            print(f"    limit {k}: {lim.describe(k)}")
-        if e.known_failures:
-            print(f"    known failures: {', '.join(sorted(e.known_failures))}")
-        if e.description:
-            print(f"    {e.description}")
-    for name, line in missing.items():         # this clone's engines not installed: the same line as errors give
-        print(f"{name}  NOT INSTALLED: {line}")
-    return 0
 
 
 def _cmd_plugins(args) -> int:
@@ -204,7 +162,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     e = sub.add_parser("engines", help="list installed engines and their capabilities")
     e.add_argument("--json", action="store_true", help="print JSON instead of a table")
-    e.set_defaults(func=_cmd_engines)
+    e.add_argument("--markdown", action="store_true", help="print each engine's options and quality presets as "
+                                                           "the tables of docs/engine_options.md")
+    e.set_defaults(func=cmd_engines)
 
     pl = sub.add_parser("plugins", help="list every installed plugin record by kind: engines, renderers, "
                                         "soup writers")

@@ -84,9 +84,8 @@ def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None 
                          f"(installed: {sorted(all_engines()) or 'none'})")
     info = get_engine(name)
     check_supported(info, **scene_needs(scene), others=all_engines())
-    declared = {o.name for o in info.options}
     given = dict(scene.engine.options if options is None else options)
-    run_options = quality_options(scene.quality, given, declared)     # the options the run takes
+    run_options = quality_options(scene.quality, given, info.presets)     # the options the run takes
     if info.check_scene is not None and not has_auto_ground(scene):   # the engine's own check, before any file is read
         info.check_scene(scene, run_options, None)
     objects = [prepare_object(spec) for spec in scene.objects]

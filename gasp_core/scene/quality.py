@@ -25,13 +25,17 @@ except ``n_grid``, which a level scales (``grid_factor``) from the file's value.
   binding first; docs/speed_accuracy.md, "The time step").
 * ``reference``: the full model (every triangle vertex simulated as material, no hierarchy, 8 fill
   points per cell) on a grid 1.5 times finer, ``cfl`` 0.2: the run the others are measured against.
+
+The scene keys of each level are here (:data:`PRESETS`); its engine options (``cfl``, ``passive_every``) are the
+engine's to declare (``EngineInfo.presets``, :mod:`gasp_core.seam.config`; the MLS-MPM engines' are
+``gasp_core.toolkit.options.MPM_PRESETS``), and :func:`engine_options` gives an engine only what it declares.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Mapping
 
 from gasp_core.scene.tables import DomainSpec
 from gasp_core.scene.values import N_GRID_RANGE, as_string
@@ -49,15 +53,16 @@ STUDIO_LEVEL = "draft"
 
 
 def studio_engine_rank(info) -> tuple:
-    """Sort key of the engines ``gasp studio`` offers, best first: those taking every engine option of
-    :data:`STUDIO_LEVEL` (the engines the levels were measured on, ``docs/speed_accuracy.md``), then those whose CPU
+    """Sort key of the engines ``gasp studio`` offers, best first: those declaring a measured preset for
+    :data:`STUDIO_LEVEL` (``EngineInfo.presets``: the engines the levels were measured on, ``docs/speed_accuracy.md``),
+    then those whose CPU
     runs repeat bit for bit with their default options (``"cpu"`` in ``capabilities.deterministic`` and no
     ``deterministic_options``: the studio's saved scene then reproduces its run without an extra key), then by
     name (a tie-break, not a measurement). Which engine that is on the studio's donut, and how fast it answers:
     docs/studio.md, "Time to the first frame"."""
-    declared = {o.name for o in info.options}
+    preset = info.presets.get(STUDIO_LEVEL)
     repeats = "cpu" in info.capabilities.deterministic and not info.deterministic_options
-    return (not set(PRESETS[STUDIO_LEVEL].options) <= declared, not repeats, info.name)
+    return (not (preset is not None and preset.measured), not repeats, info.name)
 
 
 def studio_engine(infos) -> str | None:
@@ -69,7 +74,8 @@ def studio_engine(infos) -> str | None:
 
 @dataclass(frozen=True)
 class QualityPreset:
-    """What a level sets where the scene file is silent.
+    """What a level sets among the scene keys where the scene file is silent (its engine options are the engine's to
+    declare: ``EngineInfo.presets``, :func:`engine_options`).
 
     Attributes
     ----------
@@ -79,26 +85,20 @@ class QualityPreset:
         ``[domain]`` keys (``particles_per_cell``).
     grid_factor : float
         The scene's ``n_grid`` is multiplied by this (rounded, at least 8).
-    options : dict
-        Engine options, given to the engine only where it declares the option.
     """
 
     objects: dict[str, Any] = field(default_factory=dict)
     domain: dict[str, Any] = field(default_factory=dict)
     grid_factor: float = 1.0
-    options: dict[str, Any] = field(default_factory=dict)
 
 
 #: A level's object keys that a static object does not take (the scene reader refuses them beside ``static``).
 STATIC_SKIPS = ("surface_points",)
 
 PRESETS: dict[str, QualityPreset] = {
-    "draft": QualityPreset({"surface": "passive", "surface_points": "auto"}, {"particles_per_cell": 2}, 1.0,
-                           {"passive_every": 16, "cfl": 0.8}),
-    "default": QualityPreset({"surface": "auto", "surface_points": "auto"}, {"particles_per_cell": 4}, 1.0,
-                             {"passive_every": 8, "cfl": 0.8}),
-    "reference": QualityPreset({"surface": "material", "core_fraction": 1.0}, {"particles_per_cell": 8}, 1.5,
-                               {"cfl": 0.2}),
+    "draft": QualityPreset({"surface": "passive", "surface_points": "auto"}, {"particles_per_cell": 2}, 1.0),
+    "default": QualityPreset({"surface": "auto", "surface_points": "auto"}, {"particles_per_cell": 4}, 1.0),
+    "reference": QualityPreset({"surface": "material", "core_fraction": 1.0}, {"particles_per_cell": 8}, 1.5),
 }
 
 
@@ -139,11 +139,24 @@ def apply_quality(data: dict, level: str) -> dict:
     return out
 
 
-def engine_options(level: str, given: dict[str, Any], declared: set[str]) -> dict[str, Any]:
-    """Engine options of ``level`` for an engine declaring ``declared``, under the ``given`` ones.
+def engine_options(level: str, given: dict[str, Any], presets: Mapping[str, Any]) -> dict[str, Any]:
+    """Engine options of ``level`` under the ``given`` ones.
 
-    Returns ``given`` with the level's options added where the engine declares them and the scene
-    does not set them.
+    Parameters
+    ----------
+    level : str
+        One of :data:`QUALITY_LEVELS`.
+    given : dict
+        The scene's ``[engine] options``.
+    presets : mapping
+        The engine's ``EngineInfo.presets`` (``{level: Preset}``, each with ``options``): what the engine declares
+        each level sets among its own options.
+
+    Returns
+    -------
+    dict
+        ``given`` with the level's preset options added where the scene does not set them.
     """
-    extra = {k: v for k, v in PRESETS[level].options.items() if k in declared and k not in given}
+    preset = presets.get(level)
+    extra = {} if preset is None else {k: v for k, v in preset.options.items() if k not in given}
     return {**given, **extra}

@@ -37,6 +37,7 @@ from gasp_core.seam.install import install_hint
 from gasp_core.seam.engine import (call_engine, Capabilities, EngineInfo, EngineStats, FEATURES, PointEngine,
                                    SleepingEngine, StatefulEngine)
 from gasp_core.seam.options import Option
+from gasp_core.seam.config import Preset, from_option, option
 from gasp_core.seam.limits import Limit
 from gasp_core.seam.passive import mass_properties
 from gasp_core.seam.plugins import RendererInfo, SoupWriterInfo, engine_hook, engines, get_engine, hookimpl
@@ -47,7 +48,7 @@ __all__ = [
     # input
     "SimSetup", "Material", "Boundary", "MATERIALS", "BOUNDARIES",
     # declaration
-    "EngineInfo", "Capabilities", "Option", "Limit", "FEATURES",
+    "EngineInfo", "Capabilities", "Option", "Limit", "FEATURES", "option", "from_option", "Preset",
     # protocol
     "PointEngine", "StatefulEngine", "SleepingEngine", "EngineStats", "mass_properties",
     # hooks

@@ -28,6 +28,7 @@ from gasp_core.errors import EngineBug, GaspError
 from gasp_core.seam.install import install_hint
 from gasp_core.seam.limits import Limit, split_key
 from gasp_core.seam.options import Option
+from gasp_core.seam.config import Preset, config_options, config_presets
 from gasp_core.seam.setup import SimSetup
 
 
@@ -267,6 +268,13 @@ class EngineInfo:
         Ranges this engine accepts that are narrower than the core's, as data
         (:mod:`gasp_core.seam.limits`): ``{"nu": Limit(lo=0.0, why="the engine's elasticity model")}``.
         The core refuses a setup outside them before the factory runs, with one error text.
+    config : type or None
+        The engine's settings as a frozen dataclass whose fields are its options (:mod:`gasp_core.seam.config`):
+        ``options`` and ``presets`` are then read from it where not given, and the engine reads
+        ``config(**setup.options)``.
+    presets : dict of str -> Preset
+        What each quality level (``"draft"``, ``"default"``, ``"reference"``) sets among this engine's options
+        (:class:`gasp_core.seam.config.Preset`); a level sets no engine option that its engine does not declare here.
     check_scene : callable or None
         ``check_scene(scene, options, setup)``: a check of the scene that the engine owns (its domain against its
         own contact's needs, say), run by the core with the run's options (quality level applied) before any
@@ -295,10 +303,21 @@ class EngineInfo:
     substeps: Callable[[SimSetup], int] | None = None
     requires: tuple[str, ...] = ()
     install: str = ""
+    config: type | None = None
+    presets: Mapping[str, Preset] = field(default_factory=dict)
 
     def __post_init__(self):
         for key in self.limits:
             split_key(key)
+        if self.config is not None:
+            if not self.options:
+                object.__setattr__(self, "options", config_options(self.config))
+            if not self.presets:
+                object.__setattr__(self, "presets", config_presets(self.config))
+        for level, preset in self.presets.items():
+            unknown = set(preset.options) - {o.name for o in self.options}
+            if unknown:
+                raise ValueError(f"engine '{self.name}': the preset {level!r} sets undeclared option(s) {sorted(unknown)}")
         if isinstance(self.factory, str):
             object.__setattr__(self, "factory", LazyFactory(self.factory))
 

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import importlib.util
 
-from gasp_core.seam import Capabilities, engine_hook, EngineInfo, install_hint, Limit
+from gasp_core.seam import Capabilities, engine_hook, EngineInfo, install_hint, Limit, Preset
 from gasp_core.toolkit.options import mpm_options
 from gasp_core.toolkit.sweep import mpm_sweep
 
@@ -129,12 +129,18 @@ KNOWN_FAILURES = {"spinning": (
                       "0.025): Genesis' own wall (its grid nodes), not the particle contact")}
 
 
+#: The quality levels' step, as the core gave it before each engine declared its presets (issue 51): the cfl of
+#: the MLS-MPM engines' levels, not measured on this engine (docs/speed_accuracy.md measures the MLS-MPM engines).
+PRESETS = {level: Preset({"cfl": cfl}) for level, cfl in (("draft", 0.8), ("default", 0.8), ("reference", 0.2))}
+
+
 #: The engine's registration record (the ``gasp_engines`` hook, :func:`gasp_core.seam.plugins.engine_hook`).
 gasp_engines = engine_hook(EngineInfo(
     name=ENGINE,
     factory="gasp_genesis.engine:GenesisMPMEngine",
     capabilities=CAPABILITIES,
     options=OPTIONS,
+    presets=PRESETS,
     limits=LIMITS,
     known_failures=KNOWN_FAILURES,
     sweep=sweep,

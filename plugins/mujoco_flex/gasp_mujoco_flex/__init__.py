@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import itertools
 
-from gasp_core.seam import Capabilities, engine_hook, EngineInfo, Limit, Option
+from gasp_core.seam import Capabilities, engine_hook, EngineInfo, Limit, Option, Preset
 from gasp_core.toolkit.sweep import dedupe_settings
 
 __all__ = ["CAPABILITIES", "ENGINE", "LIMITS", "OPTIONS", "gasp_engines", "sweep"]
@@ -122,12 +122,18 @@ KNOWN_FAILURES = {
 }
 
 
+#: The quality levels' step, as the core gave it before each engine declared its presets (issue 51): the cfl of
+#: the MLS-MPM engines' levels, not measured on this engine (docs/speed_accuracy.md measures the MLS-MPM engines).
+PRESETS = {level: Preset({"cfl": cfl}) for level, cfl in (("draft", 0.8), ("default", 0.8), ("reference", 0.2))}
+
+
 #: The engine's registration record (the ``gasp_engines`` hook, :func:`gasp_core.seam.plugins.engine_hook`).
 gasp_engines = engine_hook(EngineInfo(
     name=ENGINE,
     factory="gasp_mujoco_flex.engine:MujocoFlexEngine",
     capabilities=CAPABILITIES,
     options=OPTIONS,
+    presets=PRESETS,
     limits=LIMITS,
     known_failures=KNOWN_FAILURES,
     sweep=sweep,

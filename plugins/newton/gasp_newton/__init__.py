@@ -8,7 +8,7 @@ neither Warp nor Newton: the factory imports :mod:`gasp_newton.engine` when a si
 from __future__ import annotations
 
 
-from gasp_core.seam import Capabilities, engine_hook, EngineInfo, Option
+from gasp_core.seam import Capabilities, engine_hook, EngineInfo, Option, Preset
 from gasp_core.toolkit.sweep import dedupe_settings
 
 from .materials import MATERIALS
@@ -115,12 +115,18 @@ KNOWN_FAILURES: dict[str, str] = {
 }
 
 
+#: The quality levels' step, as the core gave it before each engine declared its presets (issue 51): the cfl of
+#: the MLS-MPM engines' levels, not measured on this engine (docs/speed_accuracy.md measures the MLS-MPM engines).
+PRESETS = {level: Preset({"cfl": cfl}) for level, cfl in (("draft", 0.8), ("default", 0.8), ("reference", 0.2))}
+
+
 #: The engine's registration record (the ``gasp_engines`` hook, :func:`gasp_core.seam.plugins.engine_hook`).
 gasp_engines = engine_hook(EngineInfo(
     name=ENGINE,
     factory="gasp_newton.engine:NewtonEngine",
     capabilities=CAPABILITIES,
     options=OPTIONS,
+    presets=PRESETS,
     known_failures=KNOWN_FAILURES,
     sweep=sweep,
     requires=("newton",),

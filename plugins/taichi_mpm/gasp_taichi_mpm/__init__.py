@@ -16,34 +16,38 @@ import os
 os.environ.setdefault("ENABLE_TAICHI_HEADER_PRINT", "False")
 
 import dataclasses
+from dataclasses import dataclass
 
-from gasp_core.seam import engine_hook, EngineInfo, Option
+from gasp_core.seam import engine_hook, EngineInfo, option
+from gasp_core.seam.config import config_options
 from gasp_core.toolkit.grid_engine import MPM_CAPABILITIES, grid_substeps
-from gasp_core.toolkit.options import mpm_options
+from gasp_core.toolkit.options import MPMConfig
 from gasp_core.toolkit.sweep import mpm_sweep
 from gasp_core.toolkit.failures import MPM_KNOWN_FAILURES
-from gasp_core.toolkit.substeps import PASSIVE_EVERY
-from gasp_core.toolkit.contact import BALANCE, CONTACT
 from gasp_core.toolkit.ground_check import check_ground_in_grid
-from gasp_core.toolkit.transfer import FLIP
 
-__all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "gasp_engines", "sweep"]
+__all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "TaichiMPMConfig", "gasp_engines", "sweep"]
 
 ENGINE = "taichi_mpm"
 
 #: The MLS-MPM record of the grid-engine base (``gasp_core.toolkit.grid_engine``), with the rigid limit (issue 40).
 CAPABILITIES = dataclasses.replace(MPM_CAPABILITIES, features=MPM_CAPABILITIES.features | {"rigid_limit", "sleep"})
 
-#: The grid-engine options of ``gasp_core.toolkit.options`` (``device``: Taichi runs on the default CUDA device
-#: only, so "cpu" or "cuda"), ``threads`` and ``passive_every``.
-OPTIONS = mpm_options(
-    Option("threads", None, "CPU threads (Taichi's cpu_max_num_threads; default: the cores this process may use); "
-                            "the coloured block P2G gives the same numbers on any count (the contact balance's "
-                            "impulse sums may differ in the last bits beyond 1)", kind="int", lo=1),
-    Option("pin_threads", True, "pin each CPU worker thread to its own core (Linux; 2 threads or more, no more than "
-                                "the allowed cores): left to the scheduler, the workers often share one core "
-                                "(docs/performance.md); the numbers are the same either way", kind="bool"),
-    PASSIVE_EVERY, FLIP, CONTACT, BALANCE)
+@dataclass(frozen=True)
+class TaichiMPMConfig(MPMConfig):
+    """The engine's settings (:class:`gasp_core.toolkit.options.MPMConfig`: ``device`` "cpu" or "cuda", Taichi runs
+    on the default CUDA device only), with ``threads`` and ``pin_threads``."""
+
+    threads: int | None = option(None, "CPU threads (Taichi's cpu_max_num_threads; default: the cores this process "
+                                 "may use); the coloured block P2G gives the same numbers on any count (the contact "
+                                 "balance's impulse sums may differ in the last bits beyond 1)", kind="int", lo=1)
+    pin_threads: bool = option(True, "pin each CPU worker thread to its own core (Linux; 2 threads or more, no more "
+                               "than the allowed cores): left to the scheduler, the workers often share one core "
+                               "(docs/performance.md); the numbers are the same either way", kind="bool")
+
+
+#: The options, one per field of :class:`TaichiMPMConfig`.
+OPTIONS = config_options(TaichiMPMConfig)
 
 
 def sweep(quick: bool) -> tuple[list[dict], dict]:
@@ -60,7 +64,7 @@ gasp_engines = engine_hook(EngineInfo(
     name=ENGINE,
     factory="gasp_taichi_mpm.engine:TaichiMPMEngine",
     capabilities=CAPABILITIES,
-    options=OPTIONS,
+    config=TaichiMPMConfig,
     deterministic_options={"threads": 1},
     known_failures=KNOWN_FAILURES,
     sweep=sweep,

@@ -21,7 +21,7 @@ from gasp_core.toolkit.restitution import body_table, plane_table, rest_speed
 from gasp_core.toolkit.points import fixed_mask, passive_bounds
 from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
 
-from . import ENGINE
+from . import ENGINE, TaichiMPMConfig
 from .affinity import allowed_cores, pin_workers, spin_all_threads, thread_ids
 from .frontend import lighten_position_notes
 
@@ -110,19 +110,20 @@ class TaichiMPMEngine(GridEngineBase):
     def __init__(self, setup: SimSetup):
         global _generation
         opt = setup.options  # checked and completed by the core (build_engine)
+        cfg = self.config = TaichiMPMConfig(**opt)   # the same settings, typed
         # viscosity is integrated implicitly (backward Euler): no viscous step cap
         # a rigid body (material.model = "rigid") sets no elastic or contact step (gasp_core.toolkit.rigid.step_view)
         view = step_view(setup)
         self.n_substeps, self.dt = choose_dt(view, opt, ENGINE, implicit_viscosity=True)
-        check_memory(estimate_bytes(len(setup.x), setup.n_grid, opt["precision"]),
-                     ENGINE, f"{len(setup.x)} points, n_grid {setup.n_grid}, {opt['precision']}")
+        check_memory(estimate_bytes(len(setup.x), setup.n_grid, cfg.precision),
+                     ENGINE, f"{len(setup.x)} points, n_grid {setup.n_grid}, {cfg.precision}")
         import taichi as ti
         lighten_position_notes()   # frame 1's kernel load: 1.1 s less on the README donut (frontend.py)
 
         self.setup = setup
         self.options = opt
-        real = ti.f32 if opt["precision"] == "f32" else ti.f64
-        if opt["device"] == "cuda":
+        real = ti.f32 if cfg.precision == "f32" else ti.f64
+        if cfg.device == "cuda":
             if not ti.lang.misc.is_arch_supported(ti.cuda):
                 raise EngineError(f"engine '{ENGINE}': device 'cuda' requested but this Taichi build "
                                   "or machine has no CUDA; use device='cpu'")
@@ -133,8 +134,8 @@ class TaichiMPMEngine(GridEngineBase):
             threads = None
             self.pinned, self.unpinned_why = [], "device cuda"
         else:
-            threads = int(opt["threads"]) if opt["threads"] is not None else len(allowed_cores())
-            self.pinned, self.unpinned_why = _init_cpu(ti, real, threads, opt["pin_threads"])
+            threads = int(cfg.threads) if cfg.threads is not None else len(allowed_cores())
+            self.pinned, self.unpinned_why = _init_cpu(ti, real, threads, cfg.pin_threads)
         _generation += 1
         self._gen = _generation
         self._ti = ti
@@ -160,7 +161,7 @@ class TaichiMPMEngine(GridEngineBase):
         jp0 = initial_Jp(setup.materials, setup.body_id)
         bytes_per = 4 if real == ti.f32 else 8
         grid_bytes = 4 * bytes_per * setup.n_grid ** 3
-        atomic = opt["device"] == "cuda" or grid_bytes > MAX_PRIVATE_GRID_BYTES
+        atomic = cfg.device == "cuda" or grid_bytes > MAX_PRIVATE_GRID_BYTES
         C0 = np.zeros((n, 3, 3)) if setup.C is None else setup.C[o]
         self.solver = MPMSolver(
             x=setup.x[o], v=setup.v[o], C0=C0, p_mass=setup.p_mass[o], p_vol=setup.p_vol[o],
@@ -168,7 +169,7 @@ class TaichiMPMEngine(GridEngineBase):
             n_grid=setup.n_grid, lo=setup.domain_lo, dx=dx, dt=self.dt, gravity=setup.gravity,
             walls=walls, grounds=grounds, regions=regions, real=real,
             n_chunks=1, atomic=atomic, coloured=not atomic, n_material=self.n_material,
-            passive_every=opt["passive_every"], flip=opt.get("flip") or 0.0,
+            passive_every=cfg.passive_every, flip=cfg.flip or 0.0,
             p_contact=(rigid_contact(setup, self.dt, contact_coefficients(view))[o]
                        if contact in ("particle", "mixed") and (grounds or walls or setup.colliders) else None),
             n_colc=len(setup.colliders) if contact in ("particle", "mixed") else 0,
@@ -299,7 +300,7 @@ class TaichiMPMEngine(GridEngineBase):
         (with a viscous material: mean CG iterations per viscous solve)."""
         live = not self._closed and self._gen == _generation
         s = self.solver
-        out = self.grid_stats(self.options["device"], self.options["precision"], s.get(s.x) if live else None,
+        out = self.grid_stats(self.config.device, self.config.precision, s.get(s.x) if live else None,
                               s.get(s.p_mass) if live else None, s.grid_m.to_numpy() if live else None)
         out.update(threads=self.threads, p2g=self._p2g_mode, pinned_cores=list(self.pinned))
         if not self.pinned:

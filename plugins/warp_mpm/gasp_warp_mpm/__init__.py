@@ -7,31 +7,36 @@ Warp: the factory imports :mod:`gasp_warp_mpm.solver` when a simulation is built
 from __future__ import annotations
 
 import dataclasses
+from dataclasses import dataclass
 import importlib.util
 
-from gasp_core.seam import engine_hook, EngineInfo, install_hint, Option
+from gasp_core.seam import engine_hook, EngineInfo, install_hint, option
+from gasp_core.seam.config import config_options
 from gasp_core.toolkit.grid_engine import MPM_CAPABILITIES, grid_substeps
-from gasp_core.toolkit.options import mpm_options
+from gasp_core.toolkit.options import MPMConfigCudaIndex
 from gasp_core.toolkit.sweep import mpm_sweep
 from gasp_core.toolkit.failures import MPM_KNOWN_FAILURES
-from gasp_core.toolkit.substeps import PASSIVE_EVERY
-from gasp_core.toolkit.contact import BALANCE, CONTACT
 from gasp_core.toolkit.ground_check import check_ground_in_grid
-from gasp_core.toolkit.transfer import FLIP
 
-__all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "gasp_engines", "sweep"]
+__all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "WarpMPMConfig", "gasp_engines", "sweep"]
 
 ENGINE = "warp_mpm"
 
 #: The MLS-MPM record of the grid-engine base (``gasp_core.toolkit.grid_engine``), with the rigid limit (issue 40).
 CAPABILITIES = dataclasses.replace(MPM_CAPABILITIES, features=MPM_CAPABILITIES.features | {"rigid_limit", "sleep"})
 
-#: The grid-engine options of ``gasp_core.toolkit.options`` (``device``: "cpu", "cuda" or "cuda:N", Warp's device
-#: names) and ``threads``, accepted so that a scene written for another MPM engine runs unchanged.
-OPTIONS = mpm_options(
-    Option("threads", None, "accepted and ignored: Warp runs CPU kernels on one thread (runs repeat bit "
-                            "for bit)", kind="int", lo=1),
-    PASSIVE_EVERY, FLIP, CONTACT, BALANCE, cuda_index=True)
+@dataclass(frozen=True)
+class WarpMPMConfig(MPMConfigCudaIndex):
+    """The engine's settings (:class:`gasp_core.toolkit.options.MPMConfigCudaIndex`: ``device`` "cpu", "cuda" or
+    "cuda:N", Warp's device names), with ``threads``, accepted so that a scene written for another MPM engine runs
+    unchanged."""
+
+    threads: int | None = option(None, "accepted and ignored: Warp runs CPU kernels on one thread (runs repeat bit "
+                                 "for bit)", kind="int", lo=1)
+
+
+#: The options, one per field of :class:`WarpMPMConfig`.
+OPTIONS = config_options(WarpMPMConfig)
 
 
 def sweep(quick: bool) -> tuple[list[dict], dict]:
@@ -58,7 +63,7 @@ gasp_engines = engine_hook(EngineInfo(
     name=ENGINE,
     factory="gasp_warp_mpm.solver:WarpMPMEngine",
     capabilities=CAPABILITIES,
-    options=OPTIONS,
+    config=WarpMPMConfig,
     known_failures=KNOWN_FAILURES,
     sweep=sweep,
     check_scene=check_ground_in_grid,

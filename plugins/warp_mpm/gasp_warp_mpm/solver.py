@@ -42,7 +42,7 @@ from gasp_core.toolkit.points import cell_order, fixed_mask, passive_bounds
 from gasp_core.toolkit.substeps import passive_schedule
 from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
 
-from . import ENGINE
+from . import ENGINE, WarpMPMConfig
 from . import kernels as K
 from .balance import allocate_balance, balance_launches
 from .rigid import RigidBodies
@@ -77,14 +77,14 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
 
     def __init__(self, setup: SimSetup):
         self.setup = setup
-        opts = setup.options  # checked and completed by the core (build_engine)
-        self.options = opts
+        self.options = opts = setup.options  # checked and completed by the core (build_engine)
+        cfg = self.config = WarpMPMConfig(**opts)   # the same settings, typed
         kinds, par = zero_stress(*material_table(setup.materials, setup.dx), setup.materials, JELLY)   # rigid bodies: no stress
         steps = choose_dt(step_view(setup), opts, ENGINE, implicit_viscosity=True)  # refuses a scene past max_substeps before any build work
-        check_memory(estimate_bytes(len(setup.x), setup.n_grid, opts["precision"]), ENGINE,
-                     f"{len(setup.x)} points, n_grid {setup.n_grid}, {opts['precision']}")
-        self.device = self._start_warp(opts["device"])
-        self.precision = opts["precision"]
+        check_memory(estimate_bytes(len(setup.x), setup.n_grid, cfg.precision), ENGINE,
+                     f"{len(setup.x)} points, n_grid {setup.n_grid}, {cfg.precision}")
+        self.device = self._start_warp(cfg.device)
+        self.precision = cfg.precision
         Ft = wp.float32 if self.precision == "f32" else wp.float64
         self._np_dtype = np.float32 if self.precision == "f32" else np.float64
         self.k = K.build_kernels(Ft)
@@ -163,7 +163,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
         self.grid_g = wp.zeros(n_nodes if self.has_wind else 1, dtype=k.vec3, device=d)
         self.flags = wp.zeros(2, dtype=wp.int32, device=d)  # [out-of-grid count, non-finite count]
         # with the option flip (AFLIP): the APIC momentum alone and its velocity per node
-        self.flip = float(self.options.get("flip") or 0.0)
+        self.flip = float(self.config.flip or 0.0)
         self.grid_mv0 = wp.zeros(n_nodes if self.flip else 1, dtype=k.vec4, device=d)
         self.grid_v0 = wp.zeros(n_nodes if self.flip else 1, dtype=k.vec3, device=d)
         # with a viscous material: the viscous volume sum_p w J V eta per node and the implicit step (viscosity.py)
@@ -254,7 +254,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
         n_passive = self.n_points - self.n_material
         if n_passive:
             by_interval: dict = {}
-            schedule = passive_schedule(self.n_substeps, self.options["passive_every"], self.dt)
+            schedule = passive_schedule(self.n_substeps, self.config.passive_every, self.dt)
             hold_lo, hold_hi = (k.vec3(*[float(c) for c in b]) for b in passive_bounds(setup, self._contact))
             for substep, weight_prev, weight_now in schedule:
                 m = int(round((weight_prev + weight_now) / self.dt))   # substeps since the last gather
