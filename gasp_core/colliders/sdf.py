@@ -88,7 +88,8 @@ def collider_from_triangles(triangles: np.ndarray, h: float, name: str = "collid
     return _finish(name, phi, origin, h, triangles=tris, **kw)
 
 
-def collider_from_splats(splats: np.ndarray, h: float, name: str = "collider", **kw) -> Collider:
+def collider_from_splats(splats: np.ndarray, h: float, name: str = "collider", shell: bool = False,
+                         bounds=None, **kw) -> Collider:
     """A collider from Gaussians (world frame): the space their footprints enclose, as the fill finds it.
 
     Parameters
@@ -98,6 +99,11 @@ def collider_from_splats(splats: np.ndarray, h: float, name: str = "collider", *
     h : float
         SDF sample spacing, metres.
     name : str
+    shell : bool
+        True for an open surface (the unselected rest of a capture: a pan, a counter): the samples its footprints
+        touch are solid and nothing they enclose is filled. False: a closed object, as described below.
+    bounds : (lo, hi), optional
+        A box (metres, shape (3,) each) the distance grid is clipped to (the simulation domain and its padding).
     **kw
         ``friction`` of :class:`Collider` (a collider from Gaussians is static).
 
@@ -114,20 +120,23 @@ def collider_from_splats(splats: np.ndarray, h: float, name: str = "collider", *
     if len(splats) == 0:
         raise SceneError(f"collider '{name}': no opaque Gaussians to collide with")
     pts = splats.reshape(-1, 3)
-    origin, shape = _grid_around(pts.min(axis=0), pts.max(axis=0), h, name)
-    inside_field, field_lo, voxel = solid_field(splats)[:3]
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    if bounds is not None:
+        lo, hi = np.maximum(lo, bounds[0]), np.minimum(hi, bounds[1])
+    origin, shape = _grid_around(lo, hi, h, name)
+    inside_field, field_lo, voxel = (None, None, None) if shell else solid_field(splats)[:3]
     ii = np.stack(np.meshgrid(*[np.arange(s) for s in shape], indexing="ij"), axis=-1).reshape(-1, 3)
     samples = origin + ii * h
-    shell = rasterize(splats, origin - 0.5 * h, shape, h)
+    surface = rasterize(splats, origin - 0.5 * h, shape, h)
     if inside_field is not None:
         u = (samples - field_lo) / voxel - 0.5
         depth = ndimage.map_coordinates(inside_field, u.T, order=1, mode="constant", cval=-1.0).reshape(shape)
         # the fill's voxel bounds its grid (MAX_VOXELS a side: 9 mm on the 1.1 m guitar), and its surface lies up to
         # a voxel outside the footprints; within a voxel of that surface the footprints, at the SDF's spacing, say
         # what is solid, and the space they enclose with the deeper inside is filled
-        occ = ndimage.binary_fill_holes((depth > 1.0) | (shell & (depth > -1.0)))
+        occ = ndimage.binary_fill_holes((depth > 1.0) | (surface & (depth > -1.0)))
     else:
-        occ = shell
+        occ = surface
     if not occ.any():
         raise SceneError(f"collider '{name}': its Gaussians occupy no sample of the {h:.3g} m distance grid")
     out = ndimage.distance_transform_edt(~occ) * h

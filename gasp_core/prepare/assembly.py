@@ -153,7 +153,7 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> tuple[SimSetup, 
     if outside.any():
         raise SceneError(_outside_message(scene, objects, x, np.concatenate(bodies), outside, lo, hi))
     check_overlap(scene.path, x, body_id, [o.name for o in objects], lo, dx)   # two bodies fused into one
-    extras = scene_extras(scene, scenery, x, dx)  # colliders may name static objects
+    extras = scene_extras(scene, scenery, x, dx, lo, hi)  # colliders may name static objects
     made = iter([dataclasses.replace(o, surface=o.surface.with_fill(fr.fill_x), **a)   # the map bound to its fill
                  for o, fr, a in zip(objects, fills, assembled)])
     setup = SimSetup(
@@ -202,7 +202,7 @@ def fill_object(scene: Scene, o: PreparedObject, verts: np.ndarray, dx: float, o
     return fr, passive, rule
 
 
-def scene_extras(scene: Scene, objects: list[PreparedObject], x: np.ndarray, dx: float) -> dict:
+def scene_extras(scene: Scene, objects: list[PreparedObject], x: np.ndarray, dx: float, lo=None, hi=None) -> dict:
     """``colliders``, ``forces`` and ``impulses`` of the setup (:mod:`gasp_core.colliders.model`).
 
     Raises
@@ -214,7 +214,7 @@ def scene_extras(scene: Scene, objects: list[PreparedObject], x: np.ndarray, dx:
         return {}
     from gasp_core.colliders.model import check_start
     from gasp_core.prepare.colliders import build_colliders
-    colliders = build_colliders(scene, objects, dx)
+    colliders = build_colliders(scene, objects, dx, lo, hi)
     check_start(colliders, x)
     return {"colliders": colliders, "forces": list(scene.forces), "impulses": list(scene.impulses)}
 

@@ -1,10 +1,11 @@
 """Colliders from a scene: ``[[collider]]`` entries and static objects turned into :class:`~gasp_core.colliders.model.Collider` s."""
 from __future__ import annotations
 import numpy as np
+from scipy.special import expit
 from gasp_core.errors import SceneError, missing_module_message
 
 from gasp_core.colliders.model import Collider, Motion
-from gasp_core.colliders.sdf import collider_from_splats, collider_from_triangles, SDF_SPACING
+from gasp_core.colliders.sdf import collider_from_splats, collider_from_triangles, SDF_PAD, SDF_SPACING
 
 
 # --------------------------------------------------------------------------- from a scene
@@ -24,7 +25,7 @@ def _placed_frame(points: np.ndarray, spec) -> np.ndarray:
     return p
 
 
-def build_colliders(scene, objects, dx: float) -> list[Collider]:
+def build_colliders(scene, objects, dx: float, lo=None, hi=None) -> list[Collider]:
     """Every ``[[collider]]`` of ``scene`` as a :class:`Collider` (SDF spacing :data:`SDF_SPACING` ``dx``).
 
     Parameters
@@ -34,6 +35,9 @@ def build_colliders(scene, objects, dx: float) -> list[Collider]:
         The scene's objects, placed (for ``object = ...`` colliders).
     dx : float
         Simulation grid spacing, metres.
+    lo, hi : array-like, shape (3,), optional
+        The simulation domain, metres: an ``object`` collider keeps only the Gaussians within it (padded by the
+        SDF's own padding), so that the rest of a large capture costs only the part the bodies can touch.
 
     Raises
     ------
@@ -64,15 +68,46 @@ def build_colliders(scene, objects, dx: float) -> list[Collider]:
                                                rotation=R, motion=motion, source=f"mesh:{spec.mesh}"))
             continue
         splats = _collider_splats(spec, objects)
+        bounds = None
+        if spec.object is not None and lo is not None:
+            splats = _within(splats, lo, hi, SDF_PAD * h, spec.where)
+            bounds = (np.asarray(lo) - SDF_PAD * h, np.asarray(hi) + SDF_PAD * h)
         if spec.object is None:
             splats = (splats.reshape(-1, 3) @ R.T + np.asarray(spec.position, float)).reshape(-1, 3, 3)
         source = f"gaussians:{spec.gaussians}" if spec.object is None else f"object:{spec.object}"
-        out.append(collider_from_splats(splats, h, name=spec.where, friction=spec.friction, source=source))
+        out.append(collider_from_splats(splats, h, name=spec.where, friction=spec.friction, source=source,
+                                        shell=spec.object is not None and _is_rest(spec, objects), bounds=bounds))
     return out
 
 
+def _within(splats: np.ndarray, lo, hi, pad: float, where: str) -> np.ndarray:
+    """The splats (n, 3, 3) with a vertex inside the box ``[lo - pad, hi + pad]``; SceneError when none is."""
+    p = splats.reshape(len(splats), -1, 3)
+    keep = ((p >= np.asarray(lo) - pad) & (p <= np.asarray(hi) + pad)).all(axis=2).any(axis=1)
+    if not keep.any():
+        raise SceneError(f"{where}: none of its Gaussians lies within the simulation domain "
+                         f"{np.round(lo, 3).tolist()} - {np.round(hi, 3).tolist()}: nothing could touch it")
+    return splats[keep]
+
+
+def _is_rest(spec, objects) -> bool:
+    """True when an ``object`` collider is the unselected rest of a capture (``select``): an open surface (a pan,
+    a counter, a shelf), so its footprints alone are solid (no enclosed space is filled)."""
+    o = _named_object(spec, objects)
+    return o.spec.select is not None and not o.spec.static
+
+
+def _named_object(spec, objects):
+    names = [o.name for o in objects]
+    if isinstance(spec.object, int):
+        return objects[spec.object - 1]
+    if spec.object in names:
+        return objects[names.index(spec.object)]
+    raise SceneError(f"{spec.where}.object = {spec.object!r}: no [[object]] with that file stem; objects: {names}")
+
+
 def _opaque(o, min_opacity: float) -> np.ndarray:
-    return 1.0 / (1.0 + np.exp(-o.gaussians.opacities.astype(np.float64))) >= min_opacity
+    return expit(o.gaussians.opacities.astype(np.float64)) >= min_opacity
 
 
 def _collider_splats(spec, objects) -> np.ndarray:
@@ -83,14 +118,7 @@ def _collider_splats(spec, objects) -> np.ndarray:
         o = prepare_object(ObjectSpec(file=spec.gaussians, up_axis=spec.up_axis, scale=spec.scale,
                                       recentre=spec.recentre, fill=False, alpha=None))
         return o.tri_rest[_opaque(o, spec.min_opacity)]
-    names = [o.name for o in objects]
-    if isinstance(spec.object, int):
-        o = objects[spec.object - 1]
-    elif spec.object in names:
-        o = objects[names.index(spec.object)]
-    else:
-        raise SceneError(f"{spec.where}.object = {spec.object!r}: no [[object]] with that file stem; "
-                         f"objects: {names}")
+    o = _named_object(spec, objects)
     from gasp_core.prepare.selection import static_rows
     rows = static_rows(o)
     if not len(rows):
@@ -100,5 +128,5 @@ def _collider_splats(spec, objects) -> np.ndarray:
     if any(spec.position) or any(spec.rotation):
         raise SceneError(f"{spec.where}: a collider from an [[object]] sits where the object is (its position "
                          "and rotation); remove 'position' and 'rotation' here")
-    alpha = 1.0 / (1.0 + np.exp(-o.gaussians.opacities[rows].astype(np.float64)))
+    alpha = expit(o.gaussians.opacities[rows].astype(np.float64))
     return o.static_tri[alpha >= spec.min_opacity]
