@@ -31,6 +31,7 @@ import warnings
 from gasp_core.cli import early, streams
 from gasp_core.cli.args import GaspArgumentParser, length, positive_float, positive_int
 from gasp_core.cli.engines import cmd_engines
+from gasp_core.cli.place import add_place_parser
 from gasp_core.cli.simulate import add_simulate_parser, reporter_for
 from gasp_core.errors import (EngineBug, EngineDivergence, GaspError, extra_hint, missing_module_message,
                               save_traceback)
@@ -199,6 +200,8 @@ def build_parser() -> argparse.ArgumentParser:
     x.add_argument("-o", "--output", type=Path, required=True, help="folder for the soup files (required)")
     x.add_argument("--overwrite", action="store_true", help="replace an existing folder (default: refuse)")
     x.set_defaults(func=_cmd_export_soup)
+
+    add_place_parser(sub)
 
     ex = sub.add_parser("export", help="write an existing run's frames in another format (glTF, OpenUSD, ...)")
     ex.add_argument("run", type=Path, help="a run folder written by gasp simulate")
