@@ -8,7 +8,12 @@ A body's ``material.model`` (:data:`gasp_core.seam.schema.BODY_MODELS`) is ``"el
   starting speed downwards, ``gap`` its lowest point's height over the ground under it, or over the domain's floor
   where the scene has colliders or no ground under it): the strain of a bar hitting a rigid wall at ``v`` (the
   stress ``rho c v`` of a plane wave), an upper bound for a rounded body;
-* from its own spin and spread of speeds: ``eps_s = rho max|v - v_mean|^2 / E``,
+* from its own spin and spread of speeds: ``eps_s = rho max|v - v_mean|^2 / E``;
+* from what will land on it (issue 53 item 4, :func:`loads`): the bodies above it whose horizontal extents overlap
+  its own, of mass ``M`` landing at ``u`` (their fall from their lowest point to its top): the larger of the strain of
+  their weight applied at once over its horizontal section ``A`` (``2 M g / (A E)``, twice the static strain of a
+  sudden load) and the strain whose elastic energy over its volume ``V`` takes up their kinetic energy
+  (``eps_l = sqrt(M u^2 / (E V))``, from ``E eps^2 V / 2 = M u^2 / 2``),
 
 and the deformation ``max(eps) L`` (``L`` its largest extent). Below :data:`RIGID_SHARE` of a grid cell the grid
 cannot show it, and the body takes the rigid limit (on an engine with the feature ``rigid_limit``); ``metal`` also
@@ -31,7 +36,7 @@ RIGID_SHARE = 0.25
 
 
 def estimate(m, x: np.ndarray, p_vol: np.ndarray, v: np.ndarray, gravity, floor: float | None, dx: float,
-             frame_dt: float, v_max: float, cfl: float | None = None) -> dict:
+             frame_dt: float, v_max: float, cfl: float | None = None, load: dict | None = None) -> dict:
     """The strain estimates of one body (the module's model).
 
     Parameters
@@ -55,11 +60,13 @@ def estimate(m, x: np.ndarray, p_vol: np.ndarray, v: np.ndarray, gravity, floor:
     cfl : float, optional
         The Courant number of the engine's automatic substep (its declared option ``cfl``); None: no substep
         figures.
+    load : dict, optional
+        What will land on the body (:func:`loads`): ``mass`` (kg) and ``speed`` (m/s); None: nothing.
 
     Returns
     -------
     dict
-        ``strain_weight, strain_impact, strain_spin, strain`` (dimensionless), ``impact_speed`` (m/s),
+        ``strain_weight, strain_impact, strain_spin, strain_load, strain`` (dimensionless), ``impact_speed`` (m/s),
         ``deformation`` (m), ``deformation_cells`` (in ``dx``), ``substeps_elastic`` and ``substeps_rigid`` (about
         how many substeps per frame the body's wave speed and the motion alone need at ``cfl``; None without).
     """
@@ -77,10 +84,15 @@ def estimate(m, x: np.ndarray, p_vol: np.ndarray, v: np.ndarray, gravity, floor:
     eps_i = v_imp / c
     spread = float(np.max(np.linalg.norm(v - v_mean, axis=1))) if len(v) else 0.0
     eps_s = rho * spread * spread / E
-    eps = max(eps_w, eps_i, eps_s)
+    eps_l = 0.0
+    if load and load["mass"] > 0.0 and len(x):
+        area = max(float(np.ptp(x[:, 0]) * np.ptp(x[:, 1])), 1e-12)
+        volume = max(float(p_vol.sum()), 1e-12)
+        eps_l = max(2.0 * load["mass"] * g / (area * E), math.sqrt(load["mass"] * load["speed"] ** 2 / (E * volume)))
+    eps = max(eps_w, eps_i, eps_s, eps_l)
     n_el = None if cfl is None else math.ceil(frame_dt / (cfl * dx / max(m.p_wave_speed, v_max, 1e-12)))
     n_rg = None if cfl is None else math.ceil(frame_dt / (cfl * dx / max(v_max, 1e-12)))
-    return {"strain_weight": eps_w, "strain_impact": eps_i, "strain_spin": eps_s, "strain": eps,
+    return {"strain_weight": eps_w, "strain_impact": eps_i, "strain_spin": eps_s, "strain_load": eps_l, "strain": eps,
             "impact_speed": v_imp, "deformation": eps * size, "deformation_cells": eps * size / dx,
             "substeps_elastic": n_el, "substeps_rigid": n_rg}
 
@@ -94,11 +106,13 @@ def choose(m, est: dict, rigid_ok: bool) -> tuple[str, str]:
     if m.name == "metal" and float(m.E) * est["strain"] >= float(m.yield_stress):
         return "elastic", (f"auto: its estimated stress {float(m.E) * est['strain']:.3g} Pa reaches its yield "
                            f"stress {float(m.yield_stress):.3g} Pa")
+    carried = est.get("load_text") if est.get("strain_load", 0.0) >= est["strain"] > 0.0 else None
     if not small:
         return "elastic", (f"auto: its estimated deformation {1e3 * est['deformation']:.3g} mm is "
-                           f"{est['deformation_cells']:.2g} of a cell (the rigid limit below {RIGID_SHARE:g})")
+                           f"{est['deformation_cells']:.2g} of a cell (the rigid limit below {RIGID_SHARE:g})"
+                           + (f" under {carried}" if carried else ""))
     why = (f"auto: its estimated deformation {1e3 * est['deformation']:.3g} mm (strain {est['strain']:.2g}) is "
-           f"{est['deformation_cells']:.2g} of a cell (below {RIGID_SHARE:g})")
+           f"{est['deformation_cells']:.2g} of a cell (below {RIGID_SHARE:g})" + (f" under {carried}" if carried else ""))
     return ("rigid", why) if rigid_ok else ("elastic", why + ", but the engine has no rigid limit")
 
 
@@ -149,6 +163,7 @@ def resolve_models(setup, names, features, cfl: float | None = None, substeps=No
     v0 = float(np.max(np.linalg.norm(setup.v, axis=1))) if len(setup.v) else 0.0
     v_max = v0 + math.sqrt(2.0 * g * float(setup.domain_hi[2] - setup.domain_lo[2]))
     out, mats = [], list(setup.materials)
+    carry = loads(setup, names)
     for b, m in enumerate(mats):
         if m.name not in RIGID_KINDS:
             out.append({"model": "auto", "why": f"{m.name!r} has no rigid limit: its own model"})
@@ -157,7 +172,9 @@ def resolve_models(setup, names, features, cfl: float | None = None, substeps=No
         below = [h for h in grounds if h <= float(setup.x[sel, 2].min()) + 1e-9]
         floor = max(below) if below and not colliders else float(setup.domain_lo[2])
         est = estimate(m, setup.x[sel], setup.p_vol[sel], setup.v[sel], setup.gravity, floor, setup.dx,
-                       setup.frame_dt, v_max, cfl)
+                       setup.frame_dt, v_max, cfl, carry[b])
+        if carry[b]:
+            est["load_text"] = carry[b]["text"]
         model, why = choose(m, est, "rigid_limit" in features)
         mats[b] = dataclasses.replace(m, model=model) if m.model == "auto" or model != m.model else m
         out.append({"model": model, "why": why, **est})
@@ -171,6 +188,44 @@ def resolve_models(setup, names, features, cfl: float | None = None, substeps=No
             line = message(names[b], rec["model"], rec["why"], rec) if said else None
             if line:
                 warnings.warn(line, stacklevel=2)
+    return out
+
+
+def loads(setup, names) -> list[dict | None]:
+    """Per body, what will land on it: the other bodies above it (their lowest point above its centre, z up against
+    gravity) whose horizontal extents overlap its own.
+
+    Returns
+    -------
+    list of dict or None
+        Per body: ``mass`` (kg, the sum of ``rho p_vol`` of those bodies), ``speed`` (m/s, the fastest landing:
+        ``sqrt(v_down^2 + 2 g gap)``, ``gap`` from a body's lowest point to this one's top) and ``text`` (their names
+        and figures, for the route's line); None where nothing is above it or gravity is off.
+    """
+    g = float(np.linalg.norm(setup.gravity))
+    n = len(setup.materials)
+    if g == 0.0 or n < 2:
+        return [None] * n
+    sel = [setup.body_id == b for b in range(n)]
+    lo = [setup.x[s].min(axis=0) if s.any() else None for s in sel]
+    hi = [setup.x[s].max(axis=0) if s.any() else None for s in sel]
+    out = []
+    for b in range(n):
+        if lo[b] is None:
+            out.append(None)
+            continue
+        centre = 0.5 * (lo[b][2] + hi[b][2])
+        above = [k for k in range(n) if k != b and lo[k] is not None and lo[k][2] >= centre
+                 and np.all(lo[k][:2] <= hi[b][:2]) and np.all(hi[k][:2] >= lo[b][:2])]
+        if not above:
+            out.append(None)
+            continue
+        mass = sum(float(setup.materials[k].rho * setup.p_vol[sel[k]].sum()) for k in above)
+        speed = max(math.sqrt(max(0.0, -float(setup.v[sel[k], 2].mean())) ** 2
+                              + 2.0 * g * max(float(lo[k][2] - hi[b][2]), 0.0)) for k in above)
+        who = ", ".join(f"'{names[k]}'" for k in above)
+        out.append({"mass": mass, "speed": speed, "text": f"the load of {who} ({mass:.3g} kg landing at "
+                                                             f"{speed:.2g} m/s)"})
     return out
 
 
