@@ -71,3 +71,18 @@ def test_a_rest_outside_the_domain_is_refused_naming_the_collider(kitchen):
     scene, objects, lo, hi, dx = kitchen
     with pytest.raises(SceneError, match=r"\[\[collider\]\] #1: none of its Gaussians lies within"):
         build_colliders(_rest(scene), objects, dx, lo + 100.0, hi + 100.0)
+
+
+def test_the_rest_is_carved_free_around_the_selection_so_it_can_start(kitchen):
+    """The spinach lies in the pan's footprints (leaves and pan share samples): carved around the simulated points,
+    no point starts inside, and the carve takes a small share of the rest's surface (the pan keeps its wall)."""
+    from gasp_core.colliders.model import check_start
+    scene, objects, lo, hi, dx = kitchen
+    x = np.concatenate([objects[0].surface.points()])
+    (whole,) = build_colliders(_rest(scene), objects, dx, lo, hi)
+    (carved,) = build_colliders(_rest(scene), objects, dx, lo, hi, x)
+    with pytest.raises(SceneError, match="start inside it"):
+        check_start([whole], x)
+    check_start([carved], x)
+    solid_whole, solid_carved = int((whole.phi < 0).sum()), int((carved.phi < 0).sum())
+    assert 0 < solid_whole - solid_carved < 0.05 * solid_whole

@@ -89,7 +89,7 @@ def collider_from_triangles(triangles: np.ndarray, h: float, name: str = "collid
 
 
 def collider_from_splats(splats: np.ndarray, h: float, name: str = "collider", shell: bool = False,
-                         bounds=None, **kw) -> Collider:
+                         bounds=None, carve=None, **kw) -> Collider:
     """A collider from Gaussians (world frame): the space their footprints enclose, as the fill finds it.
 
     Parameters
@@ -104,6 +104,9 @@ def collider_from_splats(splats: np.ndarray, h: float, name: str = "collider", s
         touch are solid and nothing they enclose is filled. False: a closed object, as described below.
     bounds : (lo, hi), optional
         A box (metres, shape (3,) each) the distance grid is clipped to (the simulation domain and its padding).
+    carve : ndarray, shape (k, 3), optional
+        Points (metres) that must start outside: the samples within :data:`CARVE_SAMPLES` samples of one are made free
+        (a selection lying in the captured surface it was cut from: its leaves in the pan's footprints).
     **kw
         ``friction`` of :class:`Collider` (a collider from Gaussians is static).
 
@@ -137,12 +140,28 @@ def collider_from_splats(splats: np.ndarray, h: float, name: str = "collider", s
         occ = ndimage.binary_fill_holes((depth > 1.0) | (surface & (depth > -1.0)))
     else:
         occ = surface
+    if carve is not None and len(carve):
+        occ &= ~_near(np.asarray(carve, float), origin, shape, h)
     if not occ.any():
         raise SceneError(f"collider '{name}': its Gaussians occupy no sample of the {h:.3g} m distance grid")
     out = ndimage.distance_transform_edt(~occ) * h
     ins = ndimage.distance_transform_edt(occ) * h
     phi = np.where(occ, -(ins - 0.5 * h), out - 0.5 * h)
     return _finish(name, phi, origin, h, **kw)
+
+
+#: A carved point frees the samples within this many samples of it (the start check allows a quarter sample).
+CARVE_SAMPLES = 1.0
+
+
+def _near(points: np.ndarray, origin: np.ndarray, shape, h: float) -> np.ndarray:
+    """Samples of the grid ``origin + i h`` (``shape``) within :data:`CARVE_SAMPLES` samples of a point, bool."""
+    mark = np.zeros(shape, bool)
+    idx = np.rint((points - origin) / h).astype(np.int64)
+    ok = np.all((idx >= 0) & (idx < np.asarray(shape)), axis=1)
+    mark[tuple(idx[ok].T)] = True
+    r = int(np.ceil(CARVE_SAMPLES))
+    return ndimage.binary_dilation(mark, structure=ndimage.generate_binary_structure(3, 3), iterations=r)
 
 
 def box_collider(half_extents, h: float, name: str = "box", **kw) -> Collider:

@@ -214,7 +214,7 @@ def scene_extras(scene: Scene, objects: list[PreparedObject], x: np.ndarray, dx:
         return {}
     from gasp_core.colliders.model import check_start
     from gasp_core.prepare.colliders import build_colliders
-    colliders = build_colliders(scene, objects, dx, lo, hi)
+    colliders = build_colliders(scene, objects, dx, lo, hi, x)
     check_start(colliders, x)
     return {"colliders": colliders, "forces": list(scene.forces), "impulses": list(scene.impulses)}
 

@@ -25,7 +25,7 @@ def _placed_frame(points: np.ndarray, spec) -> np.ndarray:
     return p
 
 
-def build_colliders(scene, objects, dx: float, lo=None, hi=None) -> list[Collider]:
+def build_colliders(scene, objects, dx: float, lo=None, hi=None, x=None) -> list[Collider]:
     """Every ``[[collider]]`` of ``scene`` as a :class:`Collider` (SDF spacing :data:`SDF_SPACING` ``dx``).
 
     Parameters
@@ -38,6 +38,9 @@ def build_colliders(scene, objects, dx: float, lo=None, hi=None) -> list[Collide
     lo, hi : array-like, shape (3,), optional
         The simulation domain, metres: an ``object`` collider keeps only the Gaussians within it (padded by the
         SDF's own padding), so that the rest of a large capture costs only the part the bodies can touch.
+    x : ndarray, shape (n, 3), optional
+        The simulated points at the start, metres: the rest of a capture is carved free around them (a selection
+        lies in the surface it was cut from).
 
     Raises
     ------
@@ -75,8 +78,9 @@ def build_colliders(scene, objects, dx: float, lo=None, hi=None) -> list[Collide
         if spec.object is None:
             splats = (splats.reshape(-1, 3) @ R.T + np.asarray(spec.position, float)).reshape(-1, 3, 3)
         source = f"gaussians:{spec.gaussians}" if spec.object is None else f"object:{spec.object}"
+        rest = spec.object is not None and _is_rest(spec, objects)
         out.append(collider_from_splats(splats, h, name=spec.where, friction=spec.friction, source=source,
-                                        shell=spec.object is not None and _is_rest(spec, objects), bounds=bounds))
+                                        shell=rest, bounds=bounds, carve=x if rest else None))
     return out
 
 
