@@ -188,11 +188,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     _add_study_parsers(sub)
 
-    from gasp_core.testing.cli import add_parser as add_conform_parser
+    from gasp_core.testing.command import add_parser as add_conform_parser
     add_conform_parser(sub)
-    from gasp_core.render.cli import add_parsers as add_render_parsers
+    from gasp_core.render.commands import add_parsers as add_render_parsers
     add_render_parsers(sub)
-    from gasp_core.studio.cli import add_parser as add_studio_parser
+    from gasp_core.studio.command import add_parser as add_studio_parser
     add_studio_parser(sub)
 
     x = sub.add_parser("export-soup", help="write the rest triangle soup per object (OBJ, PLY, ...) for a mesh tool")

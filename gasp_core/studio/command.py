@@ -26,7 +26,7 @@ def add_parser(sub) -> None:
 
 
 def cmd_studio(args) -> int:
-    from gasp_core.render.cli import check_port
+    from gasp_core.render.commands import check_port
     check_port(args.port)
     if not args.input.exists():
         raise SceneError(f"{args.input}: no such file; expected a Gaussian Splatting file or a scene .toml")
