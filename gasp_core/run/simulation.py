@@ -236,9 +236,10 @@ class SimulationRun:
         stop.frame_started(frame_wall_s)
 
     def save_frame(self, writer: FrameWriter, rebuild_all: Rebuilder, frame: int, x: np.ndarray, times: dict,
-                   engine_state: dict | None, frame_s: list, made: list) -> None:
+                   engine_state: dict | None, frame_s: list, made: list, labels=None) -> None:
         """Rebuild one frame's Gaussians from the positions ``x`` and write its files, then (``engine_state`` not
-        None) its checkpoint (on :class:`Background`'s worker); the Gaussians are appended to ``made``. ``times``
+        None) its checkpoint (on :class:`Background`'s worker); the Gaussians are appended to ``made``; ``labels``
+        (``(point labels, point masses)`` of a scene with pieces) each Gaussian's piece (:mod:`pieces`). ``times``
         (empty for frame 0) go into the frame's row: ``sim_s`` (the engine), ``wall_s`` and ``cpu_s`` (the process's
         CPU time, every thread, from the previous frame's hand-off to the writer to this frame's: ``cpu_s / wall_s``
         is the cores the frame used, the previous frame's rebuild and files on the writer included)."""
@@ -249,6 +250,8 @@ class SimulationRun:
         made.append(gs)
         t0 = time.perf_counter()
         self.unrecorded += writer.write(frame, gs)
+        if labels is not None:
+            self.unrecorded += pieces.write_frame_pieces(writer.folder, self.prep, frame, *labels)
         row["write_s"] = time.perf_counter() - t0
         self.per_frame.append(row)
         if engine_state is not None:
@@ -342,10 +345,12 @@ class _Handover:
         made: list = []
         wall_s, cpu_s = time.perf_counter() - self.t_frame, time.process_time() - self.c_frame
         times = {"sim_s": sim_s, "wall_s": wall_s, "cpu_s": cpu_s} if sim_s is not None else {}
+        labels = None
         if self.tracker is not None:
             times.update(pieces.frame_row(self.tracker, run.reporter, frame, x, run.stats.damage if frame else None))
+            labels = (self.tracker.last_labels, self.tracker.mass)
         self.writes.submit(run.save_frame, self.writer, self.rebuild_all, frame, np.array(x), times, state,
-                           list(run.stats.frame_s), made)
+                           list(run.stats.frame_s), made, labels)
         run.reporter.frame(frame, wall_s, sim_s, run.stats.engine.get("n_substeps"))
         if self.on_frame is not None:
             self.writes.flush()
