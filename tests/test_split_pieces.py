@@ -172,3 +172,21 @@ def test_split_pieces_is_refused_for_other_formats_and_runs_without_pieces(broke
         f.unlink()
     assert main(["export", str(bare), "--format", "glb", "-o", str(tmp_path / "g"), "--split-pieces"]) == 2
     assert "the run has no pieces" in capsys.readouterr().err
+
+
+def test_the_run_writes_crack_faces_hidden_while_whole_and_render_draws_them(broken_run):
+    """``<object>/crack_faces_NNNN.ply`` (gasp_core.run.crack_output): one Gaussian per fill point of the brittle
+    donut, every one hidden at frame 0 (whole), some shown once it has broken (measured 670 and 559 of 3 487 at frames
+    1 and 2), and ``gasp render``'s run reader draws them with the object."""
+    from gasp_core.render.run import load_run
+    from gasp_core.run.crack_output import HIDDEN, SHOWN, read_crack_faces
+    run = json.loads((broken_run / "run.json").read_text())
+    n_fill = run["objects"][0]["n_fill_points"]
+    shown = []
+    for f in range(3):
+        g = read_crack_faces(broken_run, "donut_small", f)
+        assert g.n == n_fill and set(np.unique(g.opacities)) <= {np.float32(SHOWN), np.float32(HIDDEN)}
+        shown.append(int((g.opacities > 0).sum()))
+    assert shown[0] == 0 and 0.05 * n_fill < shown[1] < 0.5 * n_fill and shown[2] > 0, shown
+    n_gauss = json.loads((broken_run / "frames.json").read_text())["objects"][0]["n_gaussians"]
+    assert load_run(broken_run).splats(2).n == n_gauss + n_fill
