@@ -54,7 +54,7 @@ def scene_parts(prep, x, d):
     s, o = prep.setup, prep.objects[0]
     tracker = PieceTracker(s.x, s.body_id, s.p_mass, s.p_vol)
     labels = tracker.labels(x, d)
-    g = rebuild(o, x, o.rot_rest)[0]
+    g = rebuild(o, x, o.rot_rest, labels=labels)[0]   # straddling Gaussians kept whole, as gasp simulate writes
     pl = o.placement
     surf = splats_from_gaussians(g, pl.R, pl.scale, pl.t)
     surf.sh = surf.sh_frames = None

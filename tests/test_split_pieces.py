@@ -190,3 +190,29 @@ def test_the_run_writes_crack_faces_hidden_while_whole_and_render_draws_them(bro
     assert shown[0] == 0 and 0.05 * n_fill < shown[1] < 0.5 * n_fill and shown[2] > 0, shown
     n_gauss = json.loads((broken_run / "frames.json").read_text())["objects"][0]["n_gaussians"]
     assert load_run(broken_run).splats(2).n == n_gauss + n_fill
+
+
+def test_a_gaussian_straddling_a_crack_keeps_its_rest_shape_and_the_others_stretch(broken_run):
+    """``rebuild(..., labels)``: the donut_small biscuit at rest with the ``v1-v2`` edge of ten Gaussians doubled; five of those ``v2`` are labelled with another piece (the triangle straddles a crack). The five keep
+    their rest rotation and scales exactly (they belong to ``v1``'s piece, not stretched across the gap), the five
+    others stretch (largest scale above rest, to the alpha cap), the untouched ones are as at rest; without the labels
+    the straddling five stretch too (what the check catches)."""
+    from gasp_core.prepare.scene import prepare_scene
+    from gasp_core.run.frames import rebuild
+    from gasp_core.scene.spec import load_scene
+    prep = prepare_scene(load_scene(broken_run.parent / "scene.toml"))
+    o, x0 = prep.objects[0], prep.setup.x
+    rest = rebuild(o, x0, o.rot_rest)[0]
+    rows = np.arange(len(x0))[o.vertex_slice][o.surface.shape_rows()]      # (n, 3) setup rows of v1, v2, v3
+    x = x0.copy()
+    x[rows[:10, 1]] += x0[rows[:10, 1]] - x0[rows[:10, 0]]          # the v1-v2 edge doubled
+    labels = np.zeros(len(x0), np.int64)
+    labels[rows[:5, 1]] = 1
+    g, _, counts = rebuild(o, x, o.rot_rest, labels=labels)
+    assert counts["straddling"] == 5
+    np.testing.assert_allclose(g.scales[:5], rest.scales[:5], rtol=1e-12)
+    np.testing.assert_allclose(np.abs(np.sum(g.rotations[:5] * rest.rotations[:5], 1)), 1.0, atol=1e-12)
+    assert (g.scales[5:10].max(1) > 1.2 * rest.scales[5:10].max(1)).all()
+    np.testing.assert_allclose(g.scales[10:], rest.scales[10:], rtol=1e-9)
+    blind = rebuild(o, x, o.rot_rest)[0]
+    assert (blind.scales[:5].max(1) > 1.2 * rest.scales[:5].max(1)).all()
