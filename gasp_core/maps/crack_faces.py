@@ -13,7 +13,7 @@ hidden (opacity 0) while the material around it is whole, shown where a crack ha
   (two at ``h`` apart leave alpha 0.98 between them at full opacity).
 - **Coloured** from the nearest surface Gaussians at rest: the inverse-distance mean of the DC colour of the
   :data:`K_COLOUR` nearest (PhysGaussian fills its interior with its nearest particle's appearance; Xie et al.,
-  CVPR 2024, Sec. 3.4, "internal filling").
+  CVPR 2024, "Internal Filling").
 
 The module only computes the Gaussians from positions, piece labels and damage; it does not choose a form of the
 surface map (``gasp_core.maps.surface``).
