@@ -5,8 +5,8 @@
   Shown to catch a labelling by ``v2`` (the straddling triangle then goes to the other piece).
 - A real broken run (every 16th Gaussian of the README donut as a brittle biscuit landing at 4.43 m/s, warp_mpm,
   n_grid 32, 2 frames: measured 13 pieces at frame 2, each holding Gaussians) writes ``pieces_NNNN.npy`` per frame;
-  exported with ``--split-pieces`` the GLB of each frame has one node per piece of that frame and the USD one prim
-  per piece of the last frame, each holding exactly the Gaussians labelled with it (positions equal to the PLY
+  exported with ``--split-pieces`` the GLB of each frame has one node per piece of that frame (and one with the piece's
+  shown crack faces) and the USD one prim per piece of the last frame, each holding exactly the Gaussians labelled with it (positions equal to the PLY
   frame's, turned to the format's axes). Shown to catch an export that ignores the labels (one node: the count
   check fails). Without the flag the files are byte for byte those of a plain export.
 """
@@ -120,14 +120,27 @@ def _glb_nodes(path):
 def test_split_glb_has_a_node_per_piece_holding_its_gaussians(broken_run, tmp_path):
     from gasp_core.gs.gltf import UP_TO_Z, Z_TO_Y
     from gasp_core.gs.io import read_gaussians
+    from gasp_core.run.crack_output import read_crack_faces
     assert main(["export", str(broken_run), "--format", "glb", "-o", str(tmp_path / "split"), "--split-pieces"]) == 0
+    M = (Z_TO_Y @ UP_TO_Z["+z"]).T
+    n_faces = []
     for f in range(3):
         lab = _labels(broken_run, f)
         nodes = _glb_nodes(tmp_path / "split" / "donut_small" / f"frame_{f:04d}.glb")
-        assert sorted(nodes) == [f"donut_small_piece_{k:03d}" for k in np.unique(lab)]
-        means = read_gaussians(broken_run / "donut_small" / f"frame_{f:04d}.ply").means @ (Z_TO_Y @ UP_TO_Z["+z"]).T
+        pieces = sorted(n for n in nodes if not n.endswith("_faces"))
+        assert pieces == [f"donut_small_piece_{k:03d}" for k in np.unique(lab)]
+        means = read_gaussians(broken_run / "donut_small" / f"frame_{f:04d}.ply").means @ M
         for k in np.unique(lab):
             np.testing.assert_allclose(nodes[f"donut_small_piece_{k:03d}"], means[lab == k], atol=1e-6)
+        faces = read_crack_faces(broken_run, "donut_small", f)          # each piece's shown crack faces, own node
+        for k in np.unique(lab):
+            shown = (faces.extra["piece"] == k) & (faces.opacities > 0)
+            got = nodes.get(f"donut_small_piece_{k:03d}_faces")
+            assert (got is None) == (not shown.any())
+            if got is not None:
+                np.testing.assert_allclose(got, faces.means[shown] @ M, atol=1e-6)
+        n_faces.append(sum(len(v) for n, v in nodes.items() if n.endswith("_faces")))
+    assert n_faces[0] == 0 and n_faces[1] > 0, n_faces
 
 
 def test_without_the_flag_the_glb_export_is_unchanged(broken_run, tmp_path):

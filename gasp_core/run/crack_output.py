@@ -3,7 +3,9 @@
 Each file is a graphdeco 3DGS PLY in the object's file frame (the frame file's), one Gaussian per fill point of the
 object (:mod:`gasp_core.maps.crack_faces`): opacity 0.99 (logit 4.6) where the face is exposed at that frame, a logit
 of -30 (opacity 1e-13: not drawn) where the material around it is whole; SH degree 0, the colour of its nearest
-surface Gaussians. Frame 0 has every face hidden. ``gasp render`` draws them with their object (and any 3DGS viewer
+surface Gaussians; an int32 property ``piece``, the face's piece numbered as the object's ``pieces_NNNN.npy``
+(:func:`gasp_core.run.pieces.piece_ranks`; -1 for a piece that holds no surface Gaussian). Frame 0 has every face
+hidden. ``gasp render`` draws them with their object (and any 3DGS viewer
 that is given both files); the object's own frame files are unchanged (one row per input Gaussian).
 """
 from __future__ import annotations
@@ -15,6 +17,7 @@ import numpy as np
 from gasp_core.gs.gaussians import Gaussians, rotmat_to_quat
 from gasp_core.gs.io import write_gaussians
 from gasp_core.maps.crack_faces import CrackFaces, build_crack_faces, crack_face_gaussians
+from gasp_core.run.pieces import piece_ranks
 
 #: A frame's crack-face file in an object's folder.
 CRACK_FILE = "crack_faces_{:04d}.ply"
@@ -34,6 +37,7 @@ class CrackOutput:
 
     def __init__(self, prep, pairs: np.ndarray):
         s = prep.setup
+        self.mass = np.asarray(s.p_mass, np.float64)
         self.objects: list[tuple[str, object, CrackFaces]] = []
         for o, name in zip(prep.objects, prep.names):
             rows = np.arange(len(s.x))[o.fill_slice]
@@ -52,9 +56,11 @@ class CrackOutput:
         for name, o, faces in self.objects:
             means, rot, scales, visible = crack_face_gaussians(faces, x, labels, d)
             pl = o.placement
+            piece = piece_ranks(o, labels, self.mass)[np.asarray(labels)[faces.rows]]
             g = Gaussians(means=pl.to_file(means), scales=scales / pl.scale,
                           rotations=rotmat_to_quat(pl.R.T @ rot), opacities=np.where(visible, SHOWN, HIDDEN),
-                          sh_dc=faces.sh_dc, sh_rest=np.zeros((len(means), 0, 3)), source=f"{name} crack faces")
+                          sh_dc=faces.sh_dc, sh_rest=np.zeros((len(means), 0, 3)), extra={"piece": piece},
+                          source=f"{name} crack faces")
             rel = f"{name}/{CRACK_FILE.format(frame)}"
             write_gaussians(Path(folder) / rel, g, overwrite=True)
             rels.append(rel)

@@ -101,8 +101,7 @@ def export_run(run, fmt: str, out, *, overwrite: bool = False, into_run: bool = 
                 if labels is None:
                     registry.write(path, g, fmt, up_axis=ups[k])
                 else:
-                    write_glb_nodes(path, [(n, g.subset(r)) for n, r in split.parts_of(labels, f"{name}_")],
-                                    up_axis=ups[k])
+                    write_glb_nodes(path, split.glb_parts(run, name, f, g, labels), up_axis=ups[k])
                 count += 1
         atomic_json(tmp / EXPORT_RECORD, {"format": fmt, "from_run": str(run.resolve()), "n_frames": frames.n_frames,
                                           "frame_dt": frame_dt, "objects": names, "up_axes": ups,

@@ -148,12 +148,20 @@ def gaussian_pieces(o, labels: np.ndarray, mass: np.ndarray) -> np.ndarray:
     if o.spec.static or o.surface is None:
         return out
     lab = np.asarray(labels)[o.vertex_slice][o.surface.anchors()]
-    masses = np.bincount(labels, weights=mass)
-    present = np.unique(lab)
-    rank = np.empty(int(present.max()) + 1, np.int64) if len(present) else np.zeros(0, np.int64)
-    rank[present] = np.argsort(np.argsort(-masses[present], kind="stable"), kind="stable")
-    out[np.arange(o.gaussians.n) if o.moving is None else o.moving] = rank[lab]
+    out[np.arange(o.gaussians.n) if o.moving is None else o.moving] = piece_ranks(o, labels, mass)[lab]
     return out
+
+
+def piece_ranks(o, labels: np.ndarray, mass: np.ndarray) -> np.ndarray:
+    """The object's number of each point label (``labels`` (n_points,) from :meth:`PieceTracker.labels`), shape
+    (max label + 1,), int32: the pieces that hold a Gaussian of ``o`` numbered 0.. heaviest first (``mass``
+    (n_points,) kg), -1 for the others (:func:`gaussian_pieces`, the crack faces' ``piece``)."""
+    labels = np.asarray(labels)
+    present = np.unique(labels[o.vertex_slice][o.surface.anchors()])
+    masses = np.bincount(labels, weights=mass)
+    rank = np.full(len(masses), -1, np.int32)
+    rank[present] = np.argsort(np.argsort(-masses[present], kind="stable"), kind="stable")
+    return rank
 
 
 def write_frame_pieces(folder, prep, frame: int, labels: np.ndarray, mass: np.ndarray) -> list[str]:

@@ -4,12 +4,13 @@ A run with a ``brittle`` body records each Gaussian's piece per frame (``<object
 :mod:`gasp_core.run.pieces`: numbered from 0 within the object, the heaviest first; -1 for rows not simulated).
 
 * ``glb``: every frame's file holds one node per piece of that frame, ``<object>_piece_NNN``, each with its own
-  ``KHR_gaussian_splatting`` mesh of the piece's Gaussians, and ``<object>_unsimulated`` for the rows not simulated
-  (:func:`gasp_core.gs.gltf.write_glb_nodes`);
+  ``KHR_gaussian_splatting`` mesh of the piece's Gaussians, then ``<object>_piece_NNN_faces`` with the piece's crack
+  faces shown at that frame (:mod:`gasp_core.run.crack_output`; none while it is whole), and
+  ``<object>_unsimulated`` for the rows not simulated (:func:`gasp_core.gs.gltf.write_glb_nodes`);
 * ``usd``: the object is an ``Xform`` ``/Run/<object>`` with one ``ParticleField3DGaussianSplat`` prim per piece of
   the run's **last** frame, ``/Run/<object>/piece_NNN``, time-sampled over every frame. A body only comes apart
   (damage never heals), so the last frame's pieces are the finest: each prim moves as one piece from the frame it
-  broke off (:func:`gasp_core.run.usd_export.write_usd`).
+  broke off (:func:`gasp_core.run.usd_export.write_usd`); no crack faces.
 
 An object without piece files (not brittle) is written as without the flag; a run with none is refused.
 """
@@ -69,3 +70,20 @@ def check_split(run, fmt: str, frames, names: list[str]) -> list[np.ndarray | No
                         "in any object's folder: no body of the brittle material, or a run written before pieces "
                         "were recorded); export it without --split-pieces")
     return last
+
+
+def glb_parts(run, name: str, frame: int, g, labels: np.ndarray) -> list:
+    """The ``(node name, Gaussians)`` of object ``name`` at ``frame`` for a split GLB: each piece's Gaussians
+    (:func:`parts_of`), each followed by its shown crack faces, ``<object>_piece_NNN_faces``, when the run wrote
+    them (``<object>/crack_faces_NNNN.ply``, :mod:`gasp_core.run.crack_output`)."""
+    from gasp_core.run.crack_output import read_crack_faces
+    faces = read_crack_faces(run, name, frame)
+    out = []
+    for part, rows in parts_of(labels, f"{name}_"):
+        out.append((part, g.subset(rows)))
+        if faces is not None and "piece" in faces.extra and part.startswith(f"{name}_piece_"):
+            k = int(part.rsplit("_", 1)[1])
+            shown = np.flatnonzero((np.asarray(faces.extra["piece"]) == k) & (faces.opacities > 0))
+            if len(shown):
+                out.append((f"{part}_faces", faces.subset(shown)))
+    return out
