@@ -54,3 +54,17 @@ def test_babylon_plays_a_glb_sequence_one_frame_at_a_time(tmp_path, donut_small)
     assert r["animation_groups"] == 1 and r["names"] == ["a_static"] + [f"a_frame_{f:04d}" for f in range(5)], r
     assert r["splats"] == [g.n - len(moving)] + [len(moving)] * 5, r
     assert r["visible"] == [["a_static", "a_frame_0000"], ["a_static", "a_frame_0002"], ["a_static", "a_frame_0004"]]
+
+
+def test_babylon_opens_each_piece_of_a_split_glb_as_its_own_mesh(tmp_path, donut_small):
+    """gasp export --split-pieces (issue 52): the GLB's piece nodes (gasp_core.gs.gltf.write_glb_nodes, the writer
+    the export uses) open in Babylon.js as one GaussianSplattingMesh each, named by the node, with its splats."""
+    from gasp_core.gs.gltf import write_glb_nodes
+    from gasp_core.gs.io import read_gaussians
+    g = read_gaussians(donut_small)
+    parts = [(f"d_piece_{k:03d}", g.subset(np.arange(k, g.n, 3))) for k in range(3)]
+    write_glb_nodes(tmp_path / "p.glb", parts, up_axis="+z")
+    r = open_in_babylon(tmp_path / "p.glb", tmp_path / "p.png", MODULES)
+    assert "error" not in r, r
+    assert r["classes"].count("GaussianSplattingMesh") == 3, r
+    assert sorted(zip(r["names"], r["splats"])) == [(n, p.n) for n, p in parts], r

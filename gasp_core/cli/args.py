@@ -76,3 +76,26 @@ class GaspArgumentParser(argparse.ArgumentParser):
     def error(self, message: str) -> NoReturn:
         sys.stderr.write(f"gasp: error: {message} (see '{self.prog} -h')\n")
         sys.exit(2)
+
+
+def add_export_parser(sub, func) -> argparse.ArgumentParser:
+    """``gasp export RUN --format F -o OUT [--overwrite] [--split-pieces]`` (:func:`gasp_core.run.export.export_run`),
+    calling ``func(args)``."""
+    from pathlib import Path
+    from gasp_core.gs.registry import output_formats
+    ex = sub.add_parser("export", help="write an existing run's frames in another format (glTF, OpenUSD, ...)")
+    ex.add_argument("run", type=Path, help="a run folder written by gasp simulate")
+    ex.add_argument("--format", required=True, choices=output_formats(),
+                    help="glb: a folder of KHR_gaussian_splatting GLB files, one per object and frame; glb_sequence: "
+                         "one .glb that plays the run; usd: one .usdc with every frame time-sampled; the others as "
+                         "gasp simulate --format (docs/formats.md)")
+    ex.add_argument("-o", "--output", type=Path, required=True,
+                    help="the folder (per-frame formats) or the one file (glb_sequence: .glb; usd: .usdc, .usd, .usda) to "
+                         "write (required)")
+    ex.add_argument("--overwrite", action="store_true", help="replace an existing output (default: refuse)")
+    ex.add_argument("--split-pieces", action="store_true",
+                    help="glb, usd: each piece of a broken (brittle) body its own node or prim, so the pieces can be "
+                         "taken apart in a 3D editor or a game engine (docs/fracture.md; default: one per "
+                         "object)")
+    ex.set_defaults(func=func)
+    return ex

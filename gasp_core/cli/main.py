@@ -29,7 +29,7 @@ from pathlib import Path
 import warnings
 
 from gasp_core.cli import early, streams
-from gasp_core.cli.args import GaspArgumentParser, length, positive_float, positive_int
+from gasp_core.cli.args import GaspArgumentParser, add_export_parser, length, positive_float, positive_int
 from gasp_core.cli.engines import cmd_engines
 from gasp_core.cli.place import add_place_parser
 from gasp_core.cli.simulate import add_simulate_parser, reporter_for
@@ -142,9 +142,9 @@ def _cmd_export_soup(args) -> int:
 
 def _cmd_export(args) -> int:
     from gasp_core.run.export import export_run
-    r = export_run(args.run, args.format, args.output, overwrite=args.overwrite)
+    r = export_run(args.run, args.format, args.output, overwrite=args.overwrite, split_pieces=args.split_pieces)
     print(f"wrote {r['n_frames']} frames x {len(r['objects'])} object(s) of {args.run} as {r['format']} to "
-          f"{r['output']} ({r['files']} file(s))")
+          f"{r['output']} ({r['files']} file(s){', each piece its own node or prim' if args.split_pieces else ''})")
     return 0
 
 
@@ -173,7 +173,7 @@ def build_parser() -> argparse.ArgumentParser:
     pl.set_defaults(func=_cmd_plugins)
 
     i = sub.add_parser("info", help="describe a Gaussian Splatting file")
-    from gasp_core.gs.registry import FORMATS, output_formats, readable
+    from gasp_core.gs.registry import FORMATS, readable
     i.add_argument("file", type=Path, help="a Gaussian Splatting file (" + ", ".join(
         f"{FORMATS[n].title.split(':')[0]}" for n in readable()) + "; docs/formats.md)")
     i.add_argument("--json", action="store_true", help="print JSON instead of text")
@@ -202,18 +202,7 @@ def build_parser() -> argparse.ArgumentParser:
     x.set_defaults(func=_cmd_export_soup)
 
     add_place_parser(sub)
-
-    ex = sub.add_parser("export", help="write an existing run's frames in another format (glTF, OpenUSD, ...)")
-    ex.add_argument("run", type=Path, help="a run folder written by gasp simulate")
-    ex.add_argument("--format", required=True, choices=output_formats(),
-                    help="glb: a folder of KHR_gaussian_splatting GLB files, one per object and frame; glb_sequence: "
-                         "one .glb that plays the run; usd: one .usdc with every frame time-sampled; the others as "
-                         "gasp simulate --format (docs/formats.md)")
-    ex.add_argument("-o", "--output", type=Path, required=True,
-                    help="the folder (per-frame formats) or the one file (glb_sequence: .glb; usd: .usdc, .usd, .usda) to "
-                         "write (required)")
-    ex.add_argument("--overwrite", action="store_true", help="replace an existing output (default: refuse)")
-    ex.set_defaults(func=_cmd_export)
+    add_export_parser(sub, _cmd_export)
 
     m = sub.add_parser("import-motion", help="rebuild Gaussian frames from an animated triangle soup")
     m.add_argument("scene", type=Path, help="the scene file the soup was exported from (.toml)")

@@ -130,6 +130,23 @@ def write_glb(path, g: Gaussians, *, overwrite: bool = False, up_axis: str = "+z
     return atomic_write(Path(path), lambda f: f.write(data), overwrite=overwrite)
 
 
+def write_glb_nodes(path, parts: list[tuple[str, Gaussians]], *, overwrite: bool = False,
+                    up_axis: str = "+z") -> Path:
+    """As :func:`write_glb`, with one node (and its own mesh) per ``(name, Gaussians)`` of ``parts``, in that order
+    (``gasp export --split-pieces``: a broken body's pieces, :mod:`gasp_core.run.split_pieces`).
+
+    Raises
+    ------
+    FileExistsError, GaspError
+        As :func:`write_glb`.
+    """
+    b = GlbBuilder(gltf_module(path))
+    M = Z_TO_Y @ UP_TO_Z[up_axis]
+    nodes = [{"mesh": b.splat_mesh(turned(g, M)), "name": name} for name, g in parts]
+    data = b.to_bytes(nodes=nodes)
+    return atomic_write(Path(path), lambda f: f.write(data), overwrite=overwrite)
+
+
 class GlbBuilder:
     """Accumulates float32 accessors, splat meshes and nodes into one GLB (one buffer, the binary chunk).
 

@@ -95,6 +95,18 @@ class SurfaceMap:
         metres (none but a mesh's vertices)."""
         return np.zeros((0, 3))
 
+    def shape_rows(self) -> np.ndarray:
+        """For each Gaussian :meth:`gaussians` returns, the rows of :meth:`points` its shape is rebuilt from, shape
+        (n, k), int64, the anchor first: its triangle's ``v1, v2, v3`` here."""
+        return np.arange(3 * len(self.tri_rest), dtype=np.int64).reshape(-1, 3)
+
+    def anchors(self) -> np.ndarray:
+        """For each Gaussian :meth:`gaussians` returns, the row of :meth:`points` it is labelled by, shape (n,),
+        int64: the first of :meth:`shape_rows` (the triangle's ``v1``, its centre); a piece of a broken body
+        (``gasp_core.run.pieces``) takes the whole Gaussian, so a triangle whose vertices fall in different pieces
+        belongs to ``v1``'s."""
+        return self.shape_rows()[:, 0]
+
     def velocities(self, v_tri: np.ndarray) -> np.ndarray:
         """The velocities of :meth:`points` (shape (k, 3), m/s) from those of the rest triangles' vertices
         ``v_tri`` (shape (n, 3, 3), m/s)."""
@@ -157,6 +169,10 @@ class CentreMap(SurfaceMap):
     def points(self) -> np.ndarray:
         return self.tri_rest[:, 0]
 
+    def shape_rows(self) -> np.ndarray:
+        """Each Gaussian's centre (its frame is fitted to the rest neighbours, never split by a crack)."""
+        return np.arange(len(self.tri_rest), dtype=np.int64)[:, None]
+
     def record(self) -> dict:
         return {**super().record(), "centres_degenerate": None if self.frame is None else self.frame.n_degenerate}
 
@@ -191,6 +207,10 @@ class CoreMap(SurfaceMap):
     def points(self) -> np.ndarray:
         return self.hierarchy.core_points.reshape(-1, 3)
 
+    def shape_rows(self) -> np.ndarray:
+        """Each sub-Gaussian: its core's four points, ``v1`` (the core's centroid) first."""
+        return 4 * np.asarray(self.hierarchy.core_of, np.int64)[:, None] + np.arange(4)
+
     def velocities(self, v_tri: np.ndarray) -> np.ndarray:
         """Each core's four points take the mean velocity of its members' triangle vertices."""
         h = self.hierarchy
@@ -219,6 +239,10 @@ class MeshMap(SurfaceMap):
 
     def points(self) -> np.ndarray:
         return self.binding.vertices
+
+    def shape_rows(self) -> np.ndarray:
+        """Each Gaussian: its face's three vertices."""
+        return np.asarray(self.binding.faces, np.int64)[self.binding.face_of]
 
     def reach(self) -> np.ndarray:
         return self.binding.vertices

@@ -17,6 +17,7 @@ import numpy as np
 from gasp_core.errors import SceneError
 from gasp_core.render.camera import Camera, auto_camera, fit_to_box, ground_background, nice_step
 from gasp_core.render.splat_numpy import Splats, splats_from_gaussians
+from gasp_core.run.crack_output import read_crack_faces
 from gasp_core.run.layout import RunFrames, open_frames
 from gasp_core.run.record import ranges_rows
 from gasp_core.run.run_json import check_run_json
@@ -62,6 +63,9 @@ class Run:
                 rest = self._rest_rotmats[k]
             pl = o["placement"]
             parts.append(splats_from_gaussians(g, pl["R"], float(pl["scale"]), pl["t"], rest_rotmats=rest))
+            faces = read_crack_faces(self.path, o["name"], frame)   # a brittle object's crack faces, if written
+            if faces is not None:
+                parts.append(splats_from_gaussians(faces, pl["R"], float(pl["scale"]), pl["t"]))
         return Splats.concat(parts)
 
 

@@ -19,8 +19,11 @@ from pathlib import Path
 from gasp_core.errors import GaspError
 from gasp_core.fsutil import atomic_json, output_folder
 from gasp_core.gs import registry
+from gasp_core.gs.gltf import write_glb_nodes
+from gasp_core.run import split_pieces as split
 from gasp_core.run.layout import open_frames
 from gasp_core.run.run_json import check_run_json
+from gasp_core.run.usd_export import write_usd
 
 #: What :func:`export_run` writes beside the frames of a per-frame export.
 EXPORT_RECORD = "export.json"
@@ -42,10 +45,12 @@ def run_facts(folder: Path) -> tuple[float, dict[str, str], set[str]]:
     return float(run["frame_dt"]), up, static
 
 
-def export_run(run, fmt: str, out, *, overwrite: bool = False, into_run: bool = False) -> dict:
+def export_run(run, fmt: str, out, *, overwrite: bool = False, into_run: bool = False,
+               split_pieces: bool = False) -> dict:
     """Write the frames of the run folder ``run`` in format ``fmt`` to ``out`` (module notes). ``into_run``: the
     run's own partial folder takes a whole-run file (``gasp simulate --format usd``); otherwise ``out`` must lie
-    outside the run folder.
+    outside the run folder. ``split_pieces``: each piece of a broken body its own node or prim
+    (:mod:`gasp_core.run.split_pieces`; ``glb`` and ``usd`` only).
 
     Returns
     -------
@@ -55,7 +60,8 @@ def export_run(run, fmt: str, out, *, overwrite: bool = False, into_run: bool = 
     Raises
     ------
     GaspError
-        ``fmt`` not an output format, or its library missing (the install line); ``out`` inside the run folder.
+        ``fmt`` not an output format, or its library missing (the install line); ``out`` inside the run folder;
+        ``split_pieces`` with another format or a run without pieces.
     FileExistsError, OutputConflict
         ``out`` exists and ``overwrite`` is false (or it is not gasp's to replace).
     SceneError
@@ -69,6 +75,7 @@ def export_run(run, fmt: str, out, *, overwrite: bool = False, into_run: bool = 
     frames = open_frames(run)
     names = [o["name"] for o in frames.manifest["objects"]]
     ups = [up.get(n, "+z") for n in names]
+    last = split.check_split(run, fmt, frames, names) if split_pieces else None
     if spec.sequence:
         suffixes = (".usda",) + spec.suffixes if fmt == "usd" else spec.suffixes
         if out.suffix.lower() not in suffixes:
@@ -78,15 +85,25 @@ def export_run(run, fmt: str, out, *, overwrite: bool = False, into_run: bool = 
             raise FileExistsError(f"-o {out}: the file exists; pass --overwrite to replace it")
         moving = [not bool(frames.manifest["objects"][k].get("static")) and n not in static
                   for k, n in enumerate(names)]
-        registry.load(spec.sequence)(out, frames, names, ups, frame_dt, moving, overwrite=overwrite)
+        if last is not None:
+            write_usd(out, frames, names, ups, frame_dt, moving, overwrite=overwrite,
+                      pieces=[None if a is None else split.parts_of(a, "") for a in last])
+        else:
+            registry.load(spec.sequence)(out, frames, names, ups, frame_dt, moving, overwrite=overwrite)
         return {"format": fmt, "output": str(out), "n_frames": frames.n_frames, "objects": names, "files": 1}
     count = 0
     with output_folder(out, overwrite=overwrite, protected=[run]) as tmp:
         for k, name in enumerate(names):
             (tmp / name).mkdir()
             for f in range(frames.n_frames):
-                registry.write(tmp / name / f"frame_{f:04d}{spec.suffix}", frames.gaussians(f, k), fmt, up_axis=ups[k])
+                path, g = tmp / name / f"frame_{f:04d}{spec.suffix}", frames.gaussians(f, k)
+                labels = None if last is None else split.frame_labels(run, name, f, g.n)
+                if labels is None:
+                    registry.write(path, g, fmt, up_axis=ups[k])
+                else:
+                    write_glb_nodes(path, split.glb_parts(run, name, f, g, labels), up_axis=ups[k])
                 count += 1
         atomic_json(tmp / EXPORT_RECORD, {"format": fmt, "from_run": str(run.resolve()), "n_frames": frames.n_frames,
-                                          "frame_dt": frame_dt, "objects": names, "up_axes": ups})
+                                          "frame_dt": frame_dt, "objects": names, "up_axes": ups,
+                                          **({"split_pieces": True} if split_pieces else {})})
     return {"format": fmt, "output": str(out), "n_frames": frames.n_frames, "objects": names, "files": count}

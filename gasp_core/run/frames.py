@@ -27,7 +27,7 @@ class FrameState:
 
 
 def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray,
-            t: float | None = None) -> tuple[Gaussians, np.ndarray, dict]:
+            t: float | None = None, labels: np.ndarray | None = None) -> tuple[Gaussians, np.ndarray, dict]:
     """``G_t = T^-1(phi(T(G), t))`` with the alpha rule for one object at one frame, back in the file frame.
 
     ``T^-1`` is the object's surface map (:meth:`gasp_core.maps.surface.SurfaceMap.gaussians`: its form and its
@@ -43,6 +43,11 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray,
     t : float, optional
         Seconds since the start: rows of a dynamic model that are not simulated follow it,
         ``psi(V, dynamic_time + t)`` (:func:`gasp_core.prepare.dynamic.background_at`); None keeps them as read.
+    labels : ndarray, shape (n_points,), int, optional
+        The pieces of a broken body (:meth:`gasp_core.run.pieces.PieceTracker.labels`): a Gaussian whose shape
+        points (:meth:`~gasp_core.maps.surface.SurfaceMap.shape_rows`) fall in different pieces *straddles* a crack;
+        it belongs to its anchor's piece, so it is not stretched across the gap: it keeps its rest scales and the
+        previous frame's rotation (its centre still follows the map).
 
     Returns
     -------
@@ -53,12 +58,17 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray,
     rot : ndarray, shape (n, 3, 3)
         World rotations of this frame.
     counts : dict
-        ``degenerate`` faces and ``clamped`` scales (alpha rule) this frame.
+        ``degenerate`` faces and ``clamped`` scales (alpha rule) this frame; with ``labels``, ``straddling``.
     """
     if o.spec.static:
         g = o.gaussians if t is None else background_at(o, o.gaussians, t)
         return g, prev_rot, {"degenerate": 0, "clamped": 0}
     means_w, rot, scales_w, counts = o.surface.gaussians(x[o.vertex_slice], x[o.fill_slice], prev_rot)
+    if labels is not None:
+        lab = np.asarray(labels)[o.vertex_slice][o.surface.shape_rows()]
+        straddle = (lab != lab[:, :1]).any(axis=1)
+        rot[straddle], scales_w[straddle] = prev_rot[straddle], o.surface.scales_rest[straddle]
+        counts["straddling"] = int(straddle.sum())
     pl = o.placement
     scales = scales_w / pl.scale
     scales[:, 0] = o.thin_scale if o.spec.thickness == "keep" else EPS
@@ -82,15 +92,18 @@ class Rebuilder:
         self.prep = prep
         self.prev_rot = [o.rot_rest for o in prep.objects] if prev_rot is None else list(prev_rot)
 
-    def __call__(self, frame: int, x: np.ndarray) -> tuple[list[Gaussians], dict]:
+    def __call__(self, frame: int, x: np.ndarray, labels: np.ndarray | None = None) -> tuple[list[Gaussians], dict]:
         """Every object's Gaussians at ``frame`` from the positions ``x`` (n_points, 3), world frame, and the
-        frame's row (``frame``, ``degenerate``, ``clamped`` and, with colliders, ``colliders``)."""
+        frame's row (``frame``, ``degenerate``, ``clamped``, with ``labels`` (a broken body's pieces, :func:`rebuild`)
+        ``straddling`` and, with colliders, ``colliders``)."""
         prep, prev = self.prep, self.prev_rot
         gs, row = [], {"frame": frame, "degenerate": 0, "clamped": 0}
         for k, o in enumerate(prep.objects):
-            g, prev[k], counts = rebuild(o, x, prev[k], frame * prep.setup.frame_dt)
+            g, prev[k], counts = rebuild(o, x, prev[k], frame * prep.setup.frame_dt, labels)
             row["degenerate"] += counts["degenerate"]
             row["clamped"] += counts["clamped"]
+            if "straddling" in counts:
+                row["straddling"] = row.get("straddling", 0) + counts["straddling"]
             gs.append(g)
         if prep.setup.colliders:  # run.json collider figures (gasp_core.run.contact)
             from gasp_core.run.contact import contact_row

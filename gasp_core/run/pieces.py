@@ -11,13 +11,23 @@ rest, so every point, and each piece's mass, is counted once. Points of differen
 ``run.json`` holds, per frame, ``pieces`` (the count) and ``piece_mass`` (kg, each piece's, largest first);
 ``gasp simulate --json`` emits a ``pieces`` event when the count changes (``frame``, ``pieces``,
 ``piece_mass``).
+
+Each Gaussian's piece: ``<run>/<object>/pieces_NNNN.npy`` beside the frame's file (:func:`write_frame_pieces`,
+:func:`read_pieces`), int32 of shape (n_gaussians,) in the file's row order: the piece of the point that anchors the
+Gaussian (:meth:`gasp_core.maps.surface.SurfaceMap.anchors`: its triangle's ``v1``, so a triangle whose vertices fall
+in different pieces goes whole to ``v1``'s), numbered within the object from 0, the heaviest first; -1 for rows that
+are not simulated (``select``, ``static``). ``gasp export --split-pieces`` reads them.
 """
 from __future__ import annotations
+
+from pathlib import Path
 
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
+
+from gasp_core.fsutil import atomic_write
 
 #: A point at or above this damage no longer links its neighbours: it carries at most 10 % of its tensile stress.
 BROKEN = 0.9
@@ -57,6 +67,8 @@ class PieceTracker:
         near = cKDTree(x_rest[self.material]).query(x_rest[passive])[1] if len(passive) else np.zeros(0, np.int64)
         self.passive, self.passive_host = passive, self.material[near]
         self.count: int | None = None
+        #: The labels of the last :meth:`row`, shape (n,), int64 (what :func:`write_frame_pieces` writes).
+        self.last_labels: np.ndarray | None = None
         self._last: tuple[np.ndarray, np.ndarray] | None = None   # (intact mask, labels) of the last labelling
 
     @staticmethod
@@ -99,6 +111,7 @@ class PieceTracker:
         """``({"pieces": count, "piece_mass": [kg, largest first]}, changed)`` of the frame at positions ``x``;
         ``changed``: the count differs from the last call's (always True on the first)."""
         lab = self.labels(x, damage)
+        self.last_labels = lab
         masses = np.bincount(lab, weights=self.mass)
         count = int(len(masses))
         changed, self.count = count != self.count, count
@@ -121,3 +134,54 @@ def frame_row(tracker: PieceTracker, reporter, frame: int, x: np.ndarray, damage
     if changed:
         reporter.emit({"event": "pieces", "frame": frame, **row})
     return row
+
+
+#: A frame's piece file in an object's folder (module notes).
+PIECES_FILE = "pieces_{:04d}.npy"
+
+
+def gaussian_pieces(o, labels: np.ndarray, mass: np.ndarray) -> np.ndarray:
+    """Each Gaussian's piece in object ``o`` (a :class:`~gasp_core.prepare.placed.PreparedObject`), shape
+    (o.gaussians.n,), int32, file row order (module notes): ``labels`` (n_points,) the setup's point labels
+    (:meth:`PieceTracker.labels`), ``mass`` (n_points,) kg, to number the object's pieces heaviest first."""
+    out = np.full(o.gaussians.n, -1, np.int32)
+    if o.spec.static or o.surface is None:
+        return out
+    lab = np.asarray(labels)[o.vertex_slice][o.surface.anchors()]
+    out[np.arange(o.gaussians.n) if o.moving is None else o.moving] = piece_ranks(o, labels, mass)[lab]
+    return out
+
+
+def piece_ranks(o, labels: np.ndarray, mass: np.ndarray) -> np.ndarray:
+    """The object's number of each point label (``labels`` (n_points,) from :meth:`PieceTracker.labels`), shape
+    (max label + 1,), int32: the pieces that hold a Gaussian of ``o`` numbered 0.. heaviest first (``mass``
+    (n_points,) kg), -1 for the others (:func:`gaussian_pieces`, the crack faces' ``piece``)."""
+    labels = np.asarray(labels)
+    present = np.unique(labels[o.vertex_slice][o.surface.anchors()])
+    masses = np.bincount(labels, weights=mass)
+    rank = np.full(len(masses), -1, np.int32)
+    rank[present] = np.argsort(np.argsort(-masses[present], kind="stable"), kind="stable")
+    return rank
+
+
+def write_frame_pieces(folder, prep, frame: int, labels: np.ndarray, mass: np.ndarray) -> list[str]:
+    """Write ``<object>/pieces_NNNN.npy`` of every simulated object of ``prep`` (a
+    :class:`~gasp_core.prepare.scene.PreparedScene`) into the run folder ``folder``, atomically (a resumed run
+    rewrites its frame); the files written, relative to ``folder``."""
+    rels = []
+    for o, name in zip(prep.objects, prep.names):
+        if o.spec.static:
+            continue
+        rel = f"{name}/{PIECES_FILE.format(frame)}"
+        a = gaussian_pieces(o, labels, mass)
+        atomic_write(Path(folder) / rel, lambda f, a=a: np.save(f, a), overwrite=True)
+        rels.append(rel)
+    return rels
+
+
+def read_pieces(run, name: str, frame: int) -> np.ndarray | None:
+    """Object ``name``'s Gaussians' pieces at ``frame`` in the run folder ``run`` (module notes), shape
+    (n_gaussians,), int32; None when the run has no such file (no brittle body, or a run before pieces were
+    written)."""
+    path = Path(run) / name / PIECES_FILE.format(frame)
+    return np.load(path) if path.is_file() else None

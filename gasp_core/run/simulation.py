@@ -16,6 +16,7 @@ import numpy as np
 from gasp_core.run import resume as resume_mod
 from gasp_core.run import budget, hold, pieces, stop
 from gasp_core.run.background import Background, gil_handover
+from gasp_core.run.crack_output import crack_output_for
 from gasp_core.errors import EngineDivergence, GaspError
 from gasp_core.run.frames import Rebuilder
 from gasp_core.fsutil import OutputClaim, OutputConflict, atomic_json, leftover_partials
@@ -67,6 +68,7 @@ class SimulationRun:
         self.stats = RunStats()
         #: One row of timings per frame written (``run.json`` ``per_frame``).
         self.per_frame: list[dict] = []
+        self.cracks = None   # gasp_core.run.crack_output.CrackOutput of a scene with a brittle object
         #: The last frame whose checkpoint is saved (what a stopped run keeps); None before the first.
         self.saved_frame: int | None = None
         #: ``{file: [size, crc32]}`` of every finished frame's files, kept in the checkpoint (``--resume`` checks them).
@@ -181,6 +183,7 @@ class SimulationRun:
         stop.frame_started(None)
         rebuild_all = Rebuilder(prep, None if checkpoint is None else checkpoint.prev_rot)
         tracker = pieces.tracker_for(prep.setup)   # None without a brittle body
+        self.cracks = crack_output_for(prep, tracker)   # crack faces beside a brittle object's frames, or None
         with Background() as writes, gil_handover():
             hand = _Handover(self, writes, writer, rebuild_all, on_frame, tracker)
             if checkpoint is None:
@@ -236,19 +239,25 @@ class SimulationRun:
         stop.frame_started(frame_wall_s)
 
     def save_frame(self, writer: FrameWriter, rebuild_all: Rebuilder, frame: int, x: np.ndarray, times: dict,
-                   engine_state: dict | None, frame_s: list, made: list) -> None:
+                   engine_state: dict | None, frame_s: list, made: list, labels=None) -> None:
         """Rebuild one frame's Gaussians from the positions ``x`` and write its files, then (``engine_state`` not
-        None) its checkpoint (on :class:`Background`'s worker); the Gaussians are appended to ``made``. ``times``
+        None) its checkpoint (on :class:`Background`'s worker); the Gaussians are appended to ``made``; ``labels``
+        (``(point labels, point masses, damage)`` of a scene with pieces) each Gaussian's piece (:mod:`pieces`) and
+        the crack faces (:mod:`gasp_core.run.crack_output`). ``times``
         (empty for frame 0) go into the frame's row: ``sim_s`` (the engine), ``wall_s`` and ``cpu_s`` (the process's
         CPU time, every thread, from the previous frame's hand-off to the writer to this frame's: ``cpu_s / wall_s``
         is the cores the frame used, the previous frame's rebuild and files on the writer included)."""
         t0 = time.perf_counter()
-        gs, row = rebuild_all(frame, x)
+        gs, row = rebuild_all(frame, x, None if labels is None else labels[0])
         row.update(times)
         row["rebuild_s"] = time.perf_counter() - t0
         made.append(gs)
         t0 = time.perf_counter()
         self.unrecorded += writer.write(frame, gs)
+        if labels is not None:
+            self.unrecorded += pieces.write_frame_pieces(writer.folder, self.prep, frame, *labels[:2])
+            if self.cracks is not None:
+                self.unrecorded += self.cracks.write(writer.folder, frame, x, labels[0], labels[2])
         row["write_s"] = time.perf_counter() - t0
         self.per_frame.append(row)
         if engine_state is not None:
@@ -342,10 +351,12 @@ class _Handover:
         made: list = []
         wall_s, cpu_s = time.perf_counter() - self.t_frame, time.process_time() - self.c_frame
         times = {"sim_s": sim_s, "wall_s": wall_s, "cpu_s": cpu_s} if sim_s is not None else {}
+        labels = None
         if self.tracker is not None:
             times.update(pieces.frame_row(self.tracker, run.reporter, frame, x, run.stats.damage if frame else None))
+            labels = (self.tracker.last_labels, self.tracker.mass, run.stats.damage if frame else None)
         self.writes.submit(run.save_frame, self.writer, self.rebuild_all, frame, np.array(x), times, state,
-                           list(run.stats.frame_s), made)
+                           list(run.stats.frame_s), made, labels)
         run.reporter.frame(frame, wall_s, sim_s, run.stats.engine.get("n_substeps"))
         if self.on_frame is not None:
             self.writes.flush()

@@ -49,7 +49,7 @@ def _sh_coefficients(g: Gaussians) -> np.ndarray:
 
 
 def write_usd(path, frames, names: list[str], up_axes: list[str], frame_dt: float, moving: list[bool], *,
-              overwrite: bool = False) -> Path:
+              overwrite: bool = False, pieces: list | None = None) -> Path:
     """Write a run's frames as one ``.usdc`` / ``.usd`` / ``.usda`` (module notes), atomically.
 
     Parameters
@@ -67,6 +67,9 @@ def write_usd(path, frames, names: list[str], up_axes: list[str], frame_dt: floa
         Per object: false for an object that never moves (written once, no time samples).
     overwrite : bool
         Replace an existing file.
+    pieces : list, optional
+        Per object, None (one prim) or ``[(part name, rows), ...]``: the object becomes an ``Xform`` with one splat
+        prim per part holding those rows (ndarray of int), ``/Run/<object>/<part>`` (``--split-pieces``).
 
     Raises
     ------
@@ -88,21 +91,11 @@ def write_usd(path, frames, names: list[str], up_axes: list[str], frame_dt: floa
         stage.SetEndTimeCode(frames.n_frames - 1)
         stage.SetDefaultPrim(UsdGeom.Xform.Define(stage, "/Run").GetPrim())
         for k, name in enumerate(names):
-            M = UP_TO_Z[up_axes[k]]
-            prim = UsdVol.ParticleField3DGaussianSplat.Define(stage, f"/Run/{prim_name(name)}")
-            g0 = turned(frames.gaussians(0, k), M)
-            prim.CreateOpacitiesAttr(Vt.FloatArray.FromNumpy(
-                (1.0 / (1.0 + np.exp(-g0.opacities.astype(np.float64)))).astype(np.float32)))
-            prim.CreateRadianceSphericalHarmonicsDegreeAttr(g0.sh_degree)
-            prim.CreateRadianceSphericalHarmonicsCoefficientsAttr(Vt.Vec3fArray.FromNumpy(_sh_coefficients(g0)))
-            attrs = (prim.CreatePositionsAttr(), prim.CreateOrientationsAttr(), prim.CreateScalesAttr())
-            for f in (range(frames.n_frames) if moving[k] else [None]):
-                g = g0 if f in (0, None) else turned(frames.gaussians(f, k), M)
-                time = Usd.TimeCode.Default() if f is None else Usd.TimeCode(f)
-                q = g.rotations.astype(np.float32)   # wxyz; Gf.Quatf's numpy layout is (i, j, k, real)
-                attrs[0].Set(Vt.Vec3fArray.FromNumpy(g.means.astype(np.float32)), time)
-                attrs[1].Set(Vt.QuatfArray.FromNumpy(np.ascontiguousarray(q[:, [1, 2, 3, 0]])), time)
-                attrs[2].Set(Vt.Vec3fArray.FromNumpy(g.scales.astype(np.float32)), time)
+            parts = [(f"/Run/{prim_name(name)}", None)]
+            if pieces is not None and pieces[k] is not None:   # an Xform holding one prim per part
+                UsdGeom.Xform.Define(stage, parts[0][0])
+                parts = [(f"{parts[0][0]}/{prim_name(part)}", rows) for part, rows in pieces[k]]
+            _splat_prims(stage, parts, frames, k, UP_TO_Z[up_axes[k]], moving[k])
         try:
             stage.GetRootLayer().Save()
         except RuntimeError as e:   # pxr.Tf.ErrorException: a full disk, a folder gone or not writable
@@ -118,3 +111,33 @@ def prim_name(name: str) -> str:
     """A valid USD prim name from an object name (letters, digits, ``_``; not starting with a digit)."""
     s = "".join(c if c.isalnum() or c == "_" else "_" for c in name) or "object"
     return s if not s[0].isdigit() else f"_{s}"
+
+
+def _splat_prims(stage, parts: list, frames, k: int, M: np.ndarray, moving: bool) -> None:
+    """One ``ParticleField3DGaussianSplat`` per ``(prim path, rows)`` of ``parts``: object ``k``'s Gaussians (those
+    rows, or all when None) turned by ``M``, time-sampled at every frame when ``moving`` (module notes); each frame
+    is read once."""
+    from pxr import Usd, UsdVol, Vt
+
+    def pick(g, rows):
+        return g if rows is None else g.subset(rows)
+
+    g0 = turned(frames.gaussians(0, k), M)
+    attrs = []
+    for path, rows in parts:
+        prim = UsdVol.ParticleField3DGaussianSplat.Define(stage, path)
+        p0 = pick(g0, rows)
+        prim.CreateOpacitiesAttr(Vt.FloatArray.FromNumpy(
+            (1.0 / (1.0 + np.exp(-p0.opacities.astype(np.float64)))).astype(np.float32)))
+        prim.CreateRadianceSphericalHarmonicsDegreeAttr(p0.sh_degree)
+        prim.CreateRadianceSphericalHarmonicsCoefficientsAttr(Vt.Vec3fArray.FromNumpy(_sh_coefficients(p0)))
+        attrs.append((prim.CreatePositionsAttr(), prim.CreateOrientationsAttr(), prim.CreateScalesAttr()))
+    for f in (range(frames.n_frames) if moving else [None]):
+        g = g0 if f in (0, None) else turned(frames.gaussians(f, k), M)
+        time = Usd.TimeCode.Default() if f is None else Usd.TimeCode(f)
+        for (_, rows), (pos, ori, sca) in zip(parts, attrs):
+            p = pick(g, rows)
+            q = p.rotations.astype(np.float32)   # wxyz; Gf.Quatf's numpy layout is (i, j, k, real)
+            pos.Set(Vt.Vec3fArray.FromNumpy(p.means.astype(np.float32)), time)
+            ori.Set(Vt.QuatfArray.FromNumpy(np.ascontiguousarray(q[:, [1, 2, 3, 0]])), time)
+            sca.Set(Vt.Vec3fArray.FromNumpy(p.scales.astype(np.float32)), time)

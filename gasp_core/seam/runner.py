@@ -188,6 +188,8 @@ class EngineRun:
         damaged = "damage" in info.capabilities.features and any(m.name == "brittle" for m in setup.materials)
         for frame in range(self.start_frame + 1, n_frames + 1):
             if watch.asleep_after is not None:   # asleep: the frame repeats the last one (gasp_core.seam.sleep)
+                if damaged and stats.damage is None:   # resumed asleep: the restored state's damage (the pieces)
+                    stats.damage = np.asarray(call_engine(info, "damage", engine.damage), dtype=np.float64)
                 stats.asleep_after = watch.asleep_after
                 stats.frame_s.append(0.0)
                 yield FrameRecord(frame, x + 0.0, 0.0, self.get_state)

@@ -340,9 +340,10 @@ class Transfers:
             if wsum > 0.0:
                 new_v /= wsum
                 rbar /= wsum
-                # centred moments; a tiny ridge (1e-4 of a full stencil's wsum / 4) where the nodes with mass are planar
-                Svr -= wsum * new_v.outer_product(rbar)
-                Srr += ti.Matrix.identity(self.real, 3) * (2.5e-5 * wsum) - wsum * rbar.outer_product(rbar)
+                # centred moments per unit weight (unscaled, a crack's lone far-corner node, wsum ~ 1e-12, underflowed
+                # f32's determinant: C went non-finite); a ridge (1e-4 of a full stencil's / 4) for planar nodes
+                Svr = Svr / wsum - new_v.outer_product(rbar)
+                Srr = Srr / wsum + ti.Matrix.identity(self.real, 3) * 2.5e-5 - rbar.outer_product(rbar)
                 new_C = self.inv_dx[None] * (Svr @ Srr.inverse())
             else:   # stranded, no material in its stencil: it falls freely until material or a boundary takes it
                 new_v = self.v[p] + ti.cast(self.passive_substeps[pair], self.real) * self.dt[None] * self.gravity[None]

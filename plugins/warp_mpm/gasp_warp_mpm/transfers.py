@@ -343,9 +343,11 @@ def build_g2p_passive(Ft):
         if wsum > Ft(0.0):
             new_v = new_v / wsum
             rbar = rbar / wsum
-            # centred moments; a tiny ridge (1e-4 of a full stencil's wsum / 4) where the nodes with mass are planar
-            Svr = Svr - wsum * wp.outer(new_v, rbar)
-            Srr = Srr - wsum * wp.outer(rbar, rbar) + wp.identity(3, dtype=Ft) * (Ft(2.5e-5) * wsum)
+            # centred moments per unit weight (divided by wsum: a point at a crack may see only a far corner node,
+            # wsum ~ 1e-12, whose unscaled moments' determinant underflows f32 and made C non-finite); a tiny
+            # ridge (1e-4 of a full stencil's second moment / 4) where the nodes with mass are planar
+            Svr = Svr / wsum - wp.outer(new_v, rbar)
+            Srr = Srr / wsum - wp.outer(rbar, rbar) + wp.identity(3, dtype=Ft) * Ft(2.5e-5)
             Cn = inv_dx * (Svr * wp.inverse(Srr))
         else:   # stranded, no material in its stencil: it falls freely until material or a boundary takes it
             new_v = v[p] + Ft(m) * dt * gravity

@@ -1,0 +1,189 @@
+"""Crack faces on the shattered donut (issue 52, item 3; docs/fracture.md, "Crack faces"): how much of each piece's
+silhouette lets the background through (alpha below 0.9), seen from the side that faces its crack, with and without
+the crack-face Gaussians of :mod:`gasp_core.maps.crack_faces`, and two stills of the whole break.
+
+``examples/donut_shatter.toml`` is run ``--frames`` frames on the engine (default taichi_mpm, 4 frames); at the last
+one every piece of at least 5 % of the donut's mass is rendered alone (CPU renderer, 480 x 480, DC colour) from a
+camera on its crack side (the mean normal of its exposed faces), fitted to it. A piece's silhouette is the footprint
+of its material: its intact fill points (``d < 0.9``), each a disc of 0.75 fill spacings (the surface Gaussians lie
+around it; the broken points are the crack band between the pieces). Stills:
+``docs/fracture_crack_without.png`` and ``docs/fracture_crack_with.png`` (the whole donut from the largest piece's
+crack side).
+
+Run: ``python benchmarks/crack_faces.py [--engine taichi_mpm] [--frames 4]``; the table goes to stdout and
+``benchmarks/results/crack_faces.md``.
+"""
+from __future__ import annotations
+
+import argparse
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+ALPHA = 0.9
+BIG = 0.05
+BROKEN = 0.9            # gasp_core.run.pieces.BROKEN
+
+
+def run_to(engine: str, frames: int):
+    """``(prep, x, damage)`` of the donut shatter after ``frames`` frames."""
+    from gasp_core.prepare.scene import prepare_scene
+    from gasp_core.scene.spec import load_scene
+    from gasp_core.seam.build import build_engine
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        prep = prepare_scene(load_scene(ROOT / "examples" / "donut_shatter.toml"), engine=engine)
+        e = build_engine(prep.info, prep.setup)
+    for _ in range(frames):
+        e.step_frame()
+    x, d = np.asarray(e.positions(), np.float64), np.asarray(e.damage(), np.float64)
+    e.close()
+    return prep, x, d
+
+
+def scene_parts(prep, x, d):
+    """Surface splats and their pieces, crack-face splats (all; visible ones opaque) and theirs, point labels."""
+    from gasp_core.maps.crack_faces import build_crack_faces, crack_face_gaussians
+    from gasp_core.render.splat_numpy import Splats, splats_from_gaussians
+    from gasp_core.run.frames import rebuild
+    from gasp_core.run.pieces import PieceTracker
+    from gasp_core.gs.ply import SH_C0
+    s, o = prep.setup, prep.objects[0]
+    tracker = PieceTracker(s.x, s.body_id, s.p_mass, s.p_vol)
+    labels = tracker.labels(x, d)
+    g = rebuild(o, x, o.rot_rest, labels=labels)[0]   # straddling Gaussians kept whole, as gasp simulate writes
+    pl = o.placement
+    surf = splats_from_gaussians(g, pl.R, pl.scale, pl.t)
+    surf.sh = surf.sh_frames = None
+    rows = np.arange(len(s.x))[o.fill_slice]
+    h = float(np.max(s.p_vol[rows])) ** (1 / 3)
+    dc = o.gaussians.sh_dc if o.moving is None else o.gaussians.sh_dc[o.moving]
+    faces = build_crack_faces(s.x[rows], rows, tracker.pairs, o.surface.tri_rest[:, 0], dc, h)
+    means, rot, scales, vis = crack_face_gaussians(faces, x, labels, d)
+    M = rot * scales[:, None, :]
+    crack = Splats(means, M @ M.transpose(0, 2, 1), np.clip(0.5 + SH_C0 * faces.sh_dc, 0, 1).astype(np.float32),
+                   np.where(vis, 0.99, 0.0).astype(np.float32))
+    normals = rot[:, :, 0]
+    # each Gaussian's piece, as the point labels (gaussian_pieces numbers them within the object; all rows move here)
+    glab = labels[o.vertex_slice][o.surface.anchors()]
+    return dict(surf=surf, surf_piece=glab, crack=crack, vis=vis,
+                crack_piece=labels[rows], normals=normals, labels=labels, mass=tracker.mass, h=h, o=o)
+
+
+def subset(sp, keep):
+    from gasp_core.render.splat_numpy import Splats
+    return Splats(sp.means[keep], sp.covs[keep], sp.rgb[keep], sp.opacities[keep])
+
+
+def silhouette(cam, pts, h):
+    """Pixels within 0.75 h (projected at the points' mean depth) of a point of ``pts``, shape (H, W), bool."""
+    from scipy.ndimage import binary_dilation
+    uv, z = cam.project_points(pts)
+    mask = np.zeros((cam.height, cam.width), bool)
+    i = np.floor(uv).astype(int)
+    ok = (z > cam.near) & (i[:, 0] >= 0) & (i[:, 0] < cam.width) & (i[:, 1] >= 0) & (i[:, 1] < cam.height)
+    mask[i[ok, 1], i[ok, 0]] = True
+    r = max(1, int(round(0.75 * h * cam.focal_px / float(np.mean(z[ok])))))
+    yy, xx = np.mgrid[-r:r + 1, -r:r + 1]
+    return binary_dilation(mask, structure=xx ** 2 + yy ** 2 <= r * r)
+
+
+def crack_camera(centre, direction, lo, hi, size):
+    from gasp_core.render.camera import Camera, fit_to_box
+    direction = direction / np.linalg.norm(direction)
+    if abs(direction[2]) > 0.97:       # straight down or up: lean it so the look-at frame is defined
+        direction = direction + np.array([0.3, 0.0, 0.0])
+        direction /= np.linalg.norm(direction)
+    dist = 4.0 * float(np.linalg.norm(hi - lo))
+    cam = Camera(centre + dist * direction, centre, 30.0, size, size, near=1e-3)
+    return fit_to_box(cam, lo, hi, margin=1.15)
+
+
+def measure_pieces(parts, x, d, render, size=480):
+    """Rows of (piece, mass kg, faces shown, share with alpha < 0.9 without / with faces)."""
+    o, lab = parts["o"], parts["labels"]
+    total = float(parts["mass"].sum())
+    masses = np.bincount(lab, weights=parts["mass"])
+    rows = []
+    vert_rows = np.arange(len(x))[o.vertex_slice]
+    fill_rows = np.arange(len(x))[o.fill_slice]
+    for p in np.argsort(-masses):
+        if masses[p] < BIG * total:
+            break
+        shown = parts["vis"] & (parts["crack_piece"] == p)
+        if not shown.any():
+            rows.append((int(p), float(masses[p]), 0, None, None))
+            continue
+        # the piece's material: its intact fill (its surface lies around it; its broken points are the crack band)
+        pts = x[fill_rows[(lab[fill_rows] == p) & (d[fill_rows] < BROKEN)]]
+        lo, hi = pts.min(0), pts.max(0)
+        cam = crack_camera(pts.mean(0), parts["normals"][shown].mean(0), lo, hi, size)
+        sil = silhouette(cam, pts, parts["h"])
+        surf = subset(parts["surf"], parts["surf_piece"] == p)
+        shares = []
+        for with_faces in (False, True):
+            sp = surf if not with_faces else type(surf).concat([surf, subset(parts["crack"], shown)])
+            _, alpha = render(sp, cam)
+            shares.append(float(np.mean(alpha[sil] < ALPHA)))
+        rows.append((int(p), float(masses[p]), int(shown.sum()), *shares))
+    return rows
+
+
+def stills(parts, x, d, render, out_dir: Path, size=480):
+    """Two PNGs (without, with the crack faces), each the whole break from above and beside, then the largest piece
+    alone from its crack side."""
+    import imageio.v3 as iio
+    from gasp_core.render.camera import auto_camera
+    surf, crack = parts["surf"], subset(parts["crack"], parts["vis"])
+    lo, hi = surf.means.min(0), surf.means.max(0)
+    whole = auto_camera(lo, hi, size, size, 30.0, azimuth_deg=-60.0, elevation_deg=35.0)
+    big = int(np.bincount(parts["labels"], weights=parts["mass"]).argmax())
+    shown = parts["vis"] & (parts["crack_piece"] == big)
+    fill = np.arange(len(x))[parts["o"].fill_slice]
+    pts = x[fill[(parts["labels"][fill] == big) & (d[fill] < BROKEN)]]
+    piece_cam = crack_camera(pts.mean(0), parts["normals"][shown].mean(0), pts.min(0), pts.max(0), size)
+    piece = subset(surf, parts["surf_piece"] == big)
+    paths = []
+    for name, faces in (("without", False), ("with", True)):
+        views = [(whole, type(surf).concat([surf, crack]) if faces else surf),
+                 (piece_cam, type(surf).concat([piece, subset(parts["crack"], shown)]) if faces else piece)]
+        imgs = [render(sp, cam, background=np.ones(3))[0] for cam, sp in views]
+        path = out_dir / f"fracture_crack_{name}.png"
+        iio.imwrite(path, (np.clip(np.concatenate(imgs, 1), 0, 1) * 255).astype(np.uint8))
+        paths.append(path)
+    return paths
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--engine", default="taichi_mpm")
+    ap.add_argument("--frames", type=int, default=4)
+    args = ap.parse_args(argv)
+    from gasp_core.render.builtin import CpuRenderer
+    render = CpuRenderer(jit=True)
+    t0 = time.perf_counter()
+    prep, x, d = run_to(args.engine, args.frames)
+    sim_s = time.perf_counter() - t0
+    parts = scene_parts(prep, x, d)
+    rows = measure_pieces(parts, x, d, render)
+    paths = stills(parts, x, d, render, ROOT / "docs")
+    n_faces, n_vis = len(parts["vis"]), int(parts["vis"].sum())
+    lines = [f"# Crack faces on the shattered donut ({args.engine}, frame {args.frames}; `benchmarks/crack_faces.py`)",
+             "", f"{n_faces} fill points carry a crack face, {n_vis} shown at this frame "
+             f"({len(np.unique(parts['labels']))} pieces; simulated in {sim_s:.0f} s).", "",
+             "| piece | mass (kg) | faces shown | alpha < 0.9 without faces | with faces |", "|---|---|---|---|---|"]
+    for p, m, k, a, b in rows:
+        fmt = (lambda v: "-" if v is None else f"{100 * v:.1f} %")
+        lines.append(f"| {p} | {m:.3f} | {k} | {fmt(a)} | {fmt(b)} |")
+    lines += ["", "Stills: " + ", ".join(f"`docs/{q.name}`" for q in paths)]
+    text = "\n".join(lines) + "\n"
+    print(text)
+    (ROOT / "benchmarks" / "results" / "crack_faces.md").write_text(text)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

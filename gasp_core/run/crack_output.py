@@ -1,0 +1,86 @@
+"""Crack faces in a run's output: ``<object>/crack_faces_NNNN.ply`` beside each frame of a brittle object.
+
+Each file is a graphdeco 3DGS PLY in the object's file frame (the frame file's), one Gaussian per fill point of the
+object (:mod:`gasp_core.maps.crack_faces`): opacity 0.99 (logit 4.6) where the face is exposed at that frame, a logit
+of -30 (opacity 1e-13: not drawn) where the material around it is whole; SH degree 0, the colour of its nearest
+surface Gaussians; an int32 property ``piece``, the face's piece numbered as the object's ``pieces_NNNN.npy``
+(:func:`gasp_core.run.pieces.piece_ranks`; -1 for a piece that holds no surface Gaussian). Frame 0 has every face
+hidden. ``gasp render`` draws them with their object (and any 3DGS viewer
+that is given both files); the object's own frame files are unchanged (one row per input Gaussian).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from gasp_core.gs.gaussians import Gaussians, rotmat_to_quat
+from gasp_core.gs.io import write_gaussians
+from gasp_core.maps.crack_faces import CrackFaces, build_crack_faces, crack_face_gaussians
+from gasp_core.run.pieces import piece_ranks
+
+#: A frame's crack-face file in an object's folder.
+CRACK_FILE = "crack_faces_{:04d}.ply"
+#: Opacity logits of a shown and of a hidden face.
+SHOWN, HIDDEN = 4.6, -30.0
+
+
+class CrackOutput:
+    """The crack faces of a prepared scene's brittle objects, written frame after frame.
+
+    Parameters
+    ----------
+    prep : PreparedScene
+    pairs : ndarray, shape (k, 2), int
+        Rest neighbour links of the material points (:attr:`gasp_core.run.pieces.PieceTracker.pairs`).
+    """
+
+    def __init__(self, prep, pairs: np.ndarray):
+        s = prep.setup
+        self.mass = np.asarray(s.p_mass, np.float64)
+        self.objects: list[tuple[str, object, CrackFaces]] = []
+        for o, name in zip(prep.objects, prep.names):
+            rows = np.arange(len(s.x))[o.fill_slice]
+            if o.spec.static or o.spec.material.name != "brittle" or len(rows) == 0:
+                continue
+            dc = o.gaussians.sh_dc if o.moving is None else o.gaussians.sh_dc[o.moving]
+            h = float(np.max(s.p_vol[rows])) ** (1 / 3)
+            self.objects.append((name, o, build_crack_faces(s.x[rows], rows, pairs, o.surface.tri_rest[:, 0],
+                                                            dc, h)))
+
+    def write(self, folder, frame: int, x: np.ndarray, labels: np.ndarray, damage: np.ndarray | None) -> list[str]:
+        """Write every brittle object's ``crack_faces_NNNN.ply`` at positions ``x`` (n, 3, world), point ``labels``
+        (n,) and ``damage`` (n,) or None (nothing broken), atomically; the files, relative to ``folder``."""
+        d = np.zeros(len(x)) if damage is None else np.asarray(damage, np.float64)
+        rels = []
+        for name, o, faces in self.objects:
+            means, rot, scales, visible = crack_face_gaussians(faces, x, labels, d)
+            pl = o.placement
+            piece = piece_ranks(o, labels, self.mass)[np.asarray(labels)[faces.rows]]
+            g = Gaussians(means=pl.to_file(means), scales=scales / pl.scale,
+                          rotations=rotmat_to_quat(pl.R.T @ rot), opacities=np.where(visible, SHOWN, HIDDEN),
+                          sh_dc=faces.sh_dc, sh_rest=np.zeros((len(means), 0, 3)), extra={"piece": piece},
+                          source=f"{name} crack faces")
+            rel = f"{name}/{CRACK_FILE.format(frame)}"
+            write_gaussians(Path(folder) / rel, g, overwrite=True)
+            rels.append(rel)
+        return rels
+
+
+def crack_output_for(prep, tracker) -> CrackOutput | None:
+    """A :class:`CrackOutput` of ``prep`` when it has a brittle object with fill points (and a piece tracker), else
+    None."""
+    if tracker is None:
+        return None
+    out = CrackOutput(prep, tracker.pairs)
+    return out if out.objects else None
+
+
+def read_crack_faces(run, name: str, frame: int):
+    """Object ``name``'s crack faces at ``frame`` in the run folder ``run`` (:class:`Gaussians`, file frame), or None
+    when the run has no such file."""
+    path = Path(run) / name / CRACK_FILE.format(frame)
+    if not path.is_file():
+        return None
+    from gasp_core.gs.io import read_gaussians
+    return read_gaussians(path)

@@ -1,0 +1,44 @@
+"""The donut shatter example (``examples/donut_shatter.toml``, issue 52, docs/fracture.md) on both MPM engines.
+
+The README donut as a brittle biscuit landing at the speed of a 1 m drop breaks into pieces and the run finishes
+with every frame finite. Measured (6 frames): 6 (taichi_mpm) and 7 (warp_mpm) pieces at frame 6, the five largest
+0.163, 0.149, 0.125, 0.111 and 0.054 kg of 0.608 kg on both. Before the passive G2P's fit was scaled per unit weight
+(``tests/test_passive_crack.py``) taichi_mpm stopped at frame 5 with a passive surface point non-finite, so this
+check failed there (run by hand; at the example's first parameters, E 200 kPa and f_t 12 kPa, both engines stopped
+at frame 3). Slow tier (about 20 s on taichi_mpm, 35 s on warp_mpm).
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gasp_core.gs.io import read_gaussians
+from gasp_core.run.pipeline import simulate_scene
+from gasp_core.scene.spec import load_scene
+from gasp_testing import needs_package
+
+SCENE = Path(__file__).resolve().parents[1] / "examples" / "donut_shatter.toml"
+N_FRAMES = 6
+#: A piece counts when it holds at least this share of the donut's mass (the crumbs of one or a few points do not).
+BIG = 0.05
+
+
+@pytest.mark.parametrize("engine", ["taichi_mpm", "warp_mpm"])
+def test_the_donut_shatters_into_three_or_more_pieces_and_stays_finite(engine, tmp_path):
+    needs_package(f"gasp_{engine}")
+    res = simulate_scene(load_scene(SCENE), tmp_path / "out", n_frames=N_FRAMES, engine=engine, quiet=True)
+    run = json.loads((tmp_path / "out" / "run.json").read_text())
+    assert "diverged" not in run and len(run["frames"]) == N_FRAMES + 1, run.get("diverged")
+    total = run["frames"][0]["piece_mass"][0]
+    last = run["frames"][-1]
+    assert sum(last["piece_mass"]) == pytest.approx(total, rel=1e-9)          # mass is shared out, none lost
+    big = [m for m in last["piece_mass"] if m >= BIG * total]
+    assert len(big) >= 3, last["piece_mass"][:6]
+    assert run["frames"][1]["pieces"] < last["pieces"]                          # it broke on landing, not at rest
+    for o in res.summary["objects"]:
+        for f in sorted((tmp_path / "out" / o["name"]).glob("frame_*.ply")):
+            g = read_gaussians(f)
+            assert np.isfinite(g.means).all() and np.isfinite(g.scales).all(), f.name
