@@ -271,3 +271,59 @@ def test_the_figure_stands_at_the_E_named_and_falls_at_a_fifth(tmp_path):
     assert leans.max() - leans[0] < 0.1 and abs(heights - 1).max() < 0.03, at
     low = _run_figure(ply, E_crit / 5, tmp_path)
     assert max(lean for lean, _ in low) > leans[0] + 5.0, low
+
+
+# ----------------------------------------------------------------------------- the figure as a scan sees it (issue 54)
+def scan_figure(path, seed=54, shear=0.01, jitter=0.0015, tilt_deg=15.0, dropout=0.2, step=0.005):
+    """The figure of test_stand, as a scan sees it: each face's Gaussians jittered (position +-jitter m along every
+    axis, normal tilted by up to tilt_deg, sizes 0.6-1.4 x), a share dropped, and no Gaussian on the legs' soles."""
+    from scipy.spatial.transform import Rotation
+    from gasp_core.gs.gaussians import Gaussians
+    from gasp_core.gs.io import write_gaussians
+    rng = np.random.default_rng(seed)
+    boxes = [((-LEG_GAP / 2 - LEG, -LEG / 2, 0.0), (-LEG_GAP / 2, LEG / 2, LEG_H)),
+             ((LEG_GAP / 2, -LEG / 2, 0.0), (LEG_GAP / 2 + LEG, LEG / 2, LEG_H)),
+             ((-TORSO[0] / 2, -TORSO[1] / 2, LEG_H), (TORSO[0] / 2, TORSO[1] / 2, LEG_H + TORSO[2]))]
+    means, normals = [], []
+    for bi, (lo, hi) in enumerate(boxes):
+        lo, hi = np.array(lo), np.array(hi)
+        for d in range(3):
+            e1, e2 = [k for k in range(3) if k != d]
+            u = np.arange(lo[e1] + step / 2, hi[e1], step); w = np.arange(lo[e2] + step / 2, hi[e2], step)
+            U, Wg = np.meshgrid(u, w, indexing="ij")
+            for side, sign in ((lo[d], -1.0), (hi[d], 1.0)):
+                if bi < 2 and d == 2 and sign < 0:
+                    continue                       # open soles
+                p = np.zeros((U.size, 3)); p[:, e1], p[:, e2], p[:, d] = U.ravel(), Wg.ravel(), side
+                n = np.zeros(3); n[d] = sign
+                means.append(p); normals.append(np.tile(n, (len(p), 1)))
+    means, normals = np.concatenate(means), np.concatenate(normals)
+    keep = rng.random(len(means)) >= dropout
+    means, normals = means[keep], normals[keep]
+    means = means + rng.uniform(-jitter, jitter, means.shape)
+    means[:, 2] = np.maximum(means[:, 2], 0.0)
+    means[:, 1] += shear * means[:, 2]
+    base = np.array([Rotation.align_vectors([n], [[1.0, 0.0, 0.0]])[0].as_quat() for n in normals])
+    axis = rng.normal(size=(len(means), 3)); axis /= np.linalg.norm(axis, axis=1)[:, None]
+    tilt = Rotation.from_rotvec(axis * np.radians(rng.uniform(0, tilt_deg, (len(means), 1))))
+    quats = (tilt * Rotation.from_quat(base)).as_quat()
+    sizes = step / 2 * rng.uniform(0.6, 1.4, (len(means), 2))
+    g = Gaussians(means=means, scales=np.column_stack([np.full(len(means), 1e-8), sizes]),
+                  rotations=quats[:, [3, 0, 1, 2]], opacities=np.full(len(means), 3.0, np.float32),
+                  sh_dc=np.full((len(means), 3), 0.5, np.float32))
+    return write_gaussians(path, g)
+
+
+@pytest.mark.slow
+def test_the_scan_like_figure_stands_at_the_E_named_and_falls_at_a_twentieth(tmp_path):
+    """Issue 54 item 6: the figure above as a scan gives it (positions jittered 1.5 mm, normals tilted up to 15 deg,
+    sizes 0.6-1.4x, a fifth of the Gaussians dropped, the soles open), warp_mpm, 30 frames, sleep off. Measured: the
+    warning names 2.69e5 Pa; there its lean grows 0.14 deg (height 0.999); at a third and a fifth it still stands
+    (+0.03 deg), at a tenth it sags (+0.33 deg, height 0.895), at a twentieth it falls (90 deg). The issue asks for a
+    fall at a third: on this figure the estimate is 5-10 times conservative (docs/info.md), a shortfall."""
+    ply = scan_figure(tmp_path / "scan_figure.ply")
+    E_crit = _named(_warnings(ply, 1.0, tmp_path)[0])
+    at = _run_figure(ply, E_crit, tmp_path)
+    assert len(at) >= 30 and max(lean for lean, _ in at) - at[0][0] <= 1.0, at
+    low = _run_figure(ply, E_crit / 20, tmp_path)
+    assert max(lean for lean, _ in low) > at[0][0] + 5.0, low
