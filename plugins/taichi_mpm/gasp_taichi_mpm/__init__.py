@@ -24,6 +24,7 @@ from gasp_core.toolkit.sweep import mpm_sweep
 from gasp_core.toolkit.failures import MPM_KNOWN_FAILURES
 from gasp_core.toolkit.substeps import PASSIVE_EVERY
 from gasp_core.toolkit.contact import BALANCE, CONTACT
+from gasp_core.toolkit.fields import FIELDS
 from gasp_core.toolkit.ground_check import check_ground_in_grid
 from gasp_core.toolkit.transfer import FLIP
 
@@ -43,7 +44,7 @@ OPTIONS = mpm_options(
     Option("pin_threads", True, "pin each CPU worker thread to its own core (Linux; 2 threads or more, no more than "
                                 "the allowed cores): left to the scheduler, the workers often share one core "
                                 "(docs/performance.md); the numbers are the same either way", kind="bool"),
-    PASSIVE_EVERY, FLIP, CONTACT, BALANCE)
+    PASSIVE_EVERY, FLIP, CONTACT, BALANCE, FIELDS)
 
 
 def sweep(quick: bool) -> tuple[list[dict], dict]:

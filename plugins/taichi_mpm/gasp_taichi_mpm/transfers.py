@@ -83,6 +83,7 @@ class Transfers:
             w = self.weights(fx)
             self.scatter_contact(base, w, budget, fn, fv)   # with colliders: the budget's normal, supports' velocity
             self.scatter_flow(p, base, w, m)   # with the contact chosen per body: the flowing bodies' mass
+            self.scatter_field(p, base, w, mv0, A, m)   # with the two-field contact: the point's field (fields.py)
             for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                 weight = w[i][0] * w[j][1] * w[k][2]
                 mv = mv0
@@ -121,7 +122,7 @@ class Transfers:
             B = ti.Matrix.zero(self.real, 3, 3)
             for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                 weight = w[i][0] * w[j][1] * w[k][2]
-                gv = weight * self.grid_v[base + ti.Vector([i, j, k])]
+                gv = weight * self.node_v(p, base + ti.Vector([i, j, k]))   # two fields: its own (fields.py)
                 new_v += gv
                 if ti.static(i > 0):
                     B[0, 0] += ti.static(float(i)) * gv[0]

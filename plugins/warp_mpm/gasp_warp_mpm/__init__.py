@@ -16,6 +16,7 @@ from gasp_core.toolkit.sweep import mpm_sweep
 from gasp_core.toolkit.failures import MPM_KNOWN_FAILURES
 from gasp_core.toolkit.substeps import PASSIVE_EVERY
 from gasp_core.toolkit.contact import BALANCE, CONTACT
+from gasp_core.toolkit.fields import FIELDS
 from gasp_core.toolkit.ground_check import check_ground_in_grid
 from gasp_core.toolkit.transfer import FLIP
 
@@ -31,7 +32,7 @@ CAPABILITIES = dataclasses.replace(MPM_CAPABILITIES, features=MPM_CAPABILITIES.f
 OPTIONS = mpm_options(
     Option("threads", None, "accepted and ignored: Warp runs CPU kernels on one thread (runs repeat bit "
                             "for bit)", kind="int", lo=1),
-    PASSIVE_EVERY, FLIP, CONTACT, BALANCE, cuda_index=True)
+    PASSIVE_EVERY, FLIP, CONTACT, BALANCE, FIELDS, cuda_index=True)
 
 
 def sweep(quick: bool) -> tuple[list[dict], dict]:
