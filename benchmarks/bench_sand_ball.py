@@ -11,6 +11,12 @@ as before issue 53), and the free pile (no ball).
 
 Writes ``benchmarks/results/sand_ball.json`` (or ``--out``), a JSON line per run, as each run ends; a run that
 diverges records its frame and message.
+
+``--sha FRAMES`` instead prints the sha1 of the positions after FRAMES frames of the scenes the contact must leave
+bit for bit (the column alone; the pair with ``contact = "grid"``; the pair with one field), per engine: run it on
+two checkouts and compare (on a checkout before issue 53, ``--sha-base`` leaves out the option it lacks), e.g.
+``PYTHONPATH=BASE:BASE/plugins/taichi_mpm:BASE/plugins/warp_mpm python benchmarks/bench_sand_ball.py --sha 10
+--sha-base`` against the same line with this checkout's paths and without ``--sha-base``.
 """
 from __future__ import annotations
 
@@ -40,13 +46,35 @@ def run(engine: str, frames: int, ball: bool, surface: bool, fields: bool):
     return tr.x, setup, time.perf_counter() - t, None
 
 
+def sha(engines: list[str], frames: int, base: bool) -> None:
+    """Print ``engine scene sha1`` for the scenes of ``--sha``."""
+    import hashlib
+    import importlib.util
+    from gasp_core.seam.plugins import get_engine
+    from gasp_core.testing.kit import run_trace
+    # this checkout's scene, also when PYTHONPATH points at another checkout (which may not have it)
+    spec = importlib.util.spec_from_file_location("sand_ball", HERE.parent / "gasp_core" / "testing" / "sand_ball.py")
+    S = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(S)
+    one = {} if base else {"contact_fields": False}
+    scenes = {"sand_alone": (False, {}), "pair_grid": (True, {"contact": "grid"}), "pair_one_field": (True, one)}
+    for engine in engines:
+        for name, (ball, opts) in scenes.items():
+            tr = run_trace(get_engine(engine), S.pair_setup(ball=ball, options={"threads": 1, **opts}), frames)
+            print(engine, name, hashlib.sha1(np.ascontiguousarray(tr.x[-1]).tobytes()).hexdigest(), flush=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--engines", default="warp_mpm,taichi_mpm")
     ap.add_argument("--frames", type=int, default=60)
     ap.add_argument("--surfaces", default="0,1", help="0: the fill alone, 1: with points 5 mm apart on the faces")
     ap.add_argument("--out", default=str(HERE / "results" / "sand_ball.json"))
+    ap.add_argument("--sha", type=int, default=0, metavar="FRAMES")
+    ap.add_argument("--sha-base", action="store_true")
     a = ap.parse_args()
+    if a.sha:
+        return sha(a.engines.split(","), a.sha, a.sha_base)
     from gasp_core.testing import sand_ball as S
     out = Path(a.out)
     out.parent.mkdir(parents=True, exist_ok=True)
