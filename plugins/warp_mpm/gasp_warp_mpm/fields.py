@@ -19,6 +19,32 @@ from .precision import MODULE_OPTIONS, build_types
 
 
 @functools.cache
+def build_field_reads(Ft):
+    """``(field_offset_base, field_node_v)``: G2P's reads of a point's field, scalar type ``Ft``. The first gives
+    where the point's offsets start in ``grid_dv`` (0 for field A, ``n_nodes`` for B; -1 without two fields), the
+    second a node's velocity plus that offset (the grid's alone at -1)."""
+    vec3, vec4, mat33 = build_types(Ft)
+
+    @wp.func
+    def field_offset_base(grid_dv: wp.array(dtype=vec3), flows: wp.array(dtype=wp.int32), b: int, n_nodes: int):
+        off = int(-1)
+        if grid_dv.shape[0] > 1:
+            off = n_nodes
+            if flows[b] != 0:
+                off = 0
+        return off
+
+    @wp.func
+    def field_node_v(grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), off: int, node: int):
+        gv = grid_v[node]
+        if off >= 0:
+            gv = gv + grid_dv[off + node]
+        return gv
+
+    return field_offset_base, field_node_v
+
+
+@functools.cache
 def build_fields(Ft):
     """``field_contact``: the node kernel of the two-field contact, scalar type ``Ft``."""
     vec3, vec4, mat33 = build_types(Ft)

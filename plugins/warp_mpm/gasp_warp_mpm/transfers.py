@@ -19,6 +19,7 @@ from gasp_core.toolkit.materials import P_ETA
 
 from .constitutive import build_return_mapping
 from .contact import build_collider_contact, build_passive_hold
+from .fields import build_field_reads
 from .forces import build_extras_struct
 from .precision import MODULE_OPTIONS, build_types
 
@@ -198,9 +199,8 @@ def build_p2g(Ft):
                 scatter_scalar(grid_mf, idx0, n_grid, W, pm)
                 if grid_sv.shape[0] > 1:
                     scatter(grid_sv, idx0, n_grid, W, mom0, A, pm)
-                    scatter_scalar(grid_vf, idx0, n_grid, W, p_vol[p])
-            elif grid_sv.shape[0] > 1:
-                scatter_scalar(grid_vf, idx0 + n_grid * n_grid * n_grid, n_grid, W, p_vol[p])
+            if grid_sv.shape[0] > 1:   # the point's volume into its field's (A: flows, at the node; B: n_grid^3 on)
+                scatter_scalar(grid_vf, idx0 + (1 - flows[body[p]]) * n_grid * n_grid * n_grid, n_grid, W, p_vol[p])
         if flip != 0:
             A0 = (dx * pm) * Cp
             scatter(grid_mv0, idx0, n_grid, W, pm * v[p] - A0 * fx, A0, pm)
@@ -217,6 +217,7 @@ def build_g2p(Ft):
     """``g2p``: the G2P kernel of scalar type ``Ft`` for material points (with the position update)."""
     vec3, vec4, mat33 = build_types(Ft)
     in_grid, weights = build_stencil(Ft)
+    field_offset_base, field_node_v = build_field_reads(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def g2p(
@@ -243,11 +244,7 @@ def build_g2p(Ft):
         nn = n_grid * n_grid
         idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
         # new_v = sum w g;  B = sum w g (i, j, k)^T  accumulated as sums over node planes.
-        off = int(-1)
-        if grid_dv.shape[0] > 1:
-            off = n_grid * nn
-            if flows[body[p]] != 0:
-                off = 0
+        off = field_offset_base(grid_dv, flows, body[p], n_grid * nn)   # -1 without two fields (fields.py)
         new_v = vec3(Ft(0.0))
         si1 = vec3(Ft(0.0))
         si2 = vec3(Ft(0.0))
@@ -262,10 +259,7 @@ def build_g2p(Ft):
                 row = idx0 + i * nn + j * n_grid
                 vj = vec3(Ft(0.0))
                 for k in range(3):
-                    gv = grid_v[row + k]
-                    if off >= 0:
-                        gv = gv + grid_dv[off + row + k]
-                    wg = (wij * W[k, 2]) * gv
+                    wg = (wij * W[k, 2]) * field_node_v(grid_v, grid_dv, off, row + k)
                     vj = vj + wg
                     if k == 1:
                         sk1 = sk1 + wg
