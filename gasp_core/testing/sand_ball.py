@@ -4,7 +4,7 @@ the scene, built from physics, and the figures of its must-show, measured on the
 The scene: a square sand column (side ``SIDE_C`` 6 cm, height ``HEIGHT_C`` 15 cm; E 3.5e5 Pa, nu 0.3, rho 1600,
 friction angle 30 degrees: the sand of ``sand_column_collapse`` at the issue's angle) on a ground of friction
 ``MU_GROUND``, its fill at half a cell; a jelly ball (``R`` 5 cm, E 5e4 Pa, nu 0.3, rho 1000) resting on the ground
-``GAP`` 5 mm beyond the column's +x face, in its path. With ``surface`` the column's faces (not its base) also carry
+``GAP`` 5 mm beyond the column's +x face, in its path (or, ``light``, a ball of E 2e4 Pa and rho 300 touching it). With ``surface`` the column's faces (not its base) also carry
 points ``SURFACE_SPACING`` 5 mm apart, each with the volume of a 1 mm sheet of that spacing (the issue's "surface
 Gaussians 5 mm apart": light points at the surface). ``n_grid`` 32 on a 0.48 m domain (dx 15 mm), frames of 1/30 s.
 The free pile is the same column with no ball.
@@ -34,6 +34,8 @@ MU_GROUND = 0.5
 SURFACE_SPACING = 0.005
 SAND = Material("sand", E=3.5e5, nu=0.3, rho=1600.0, friction_angle=30.0)
 BALL = Material("jelly", E=5e4, nu=0.3, rho=1000.0)
+#: The light ball (``light``): the jelly of ``jittered_ball_rest`` (E 2e4 Pa, rho 300), touching the column's face.
+BALL_LIGHT = Material("jelly", E=2e4, nu=0.3, rho=300.0)
 LO = np.array([-0.12, -SIDE / 2, -3 * DX])
 #: The column's x range and the ball's centre (m).
 COL_X = (0.0, SIDE_C)
@@ -55,8 +57,9 @@ def _surface_points() -> np.ndarray:
     return np.concatenate(out)
 
 
-def pair_setup(ball: bool = True, surface: bool = False, options: dict | None = None) -> SimSetup:
-    """The column (body 0, or 0 and its surface points) and the ball (the last body) on the ground."""
+def pair_setup(ball: bool = True, surface: bool = False, options: dict | None = None, light: bool = False) -> SimSetup:
+    """The column (body 0, or 0 and its surface points) and the ball (the last body) on the ground; ``light``: the
+    light ball (:data:`BALL_LIGHT`) touching the column instead."""
     lo = np.array([COL_X[0], -SIDE_C / 2, 0.0])
     xs, vs = box_points(lo, lo + np.array([SIDE_C, SIDE_C, HEIGHT_C]), DX / 2)
     xs_l, vol_l = [xs], [np.full(len(xs), vs)]
@@ -69,10 +72,11 @@ def pair_setup(ball: bool = True, surface: bool = False, options: dict | None = 
     body = np.zeros(len(x), int)
     mats = [SAND]
     if ball:
-        xb, vb = sphere_points(BALL_C + np.array([0.3 * DX, 0.2 * DX, 0.0]), R, DX / 2)
+        c = BALL_C - np.array([GAP if light else 0.0, 0.0, 0.0])
+        xb, vb = sphere_points(c + np.array([0.3 * DX, 0.2 * DX, 0.0]), R, DX / 2)
         x, vol = np.concatenate([x, xb]), np.concatenate([vol, np.full(len(xb), vb)])
         body = np.concatenate([body, np.ones(len(xb), int)])
-        mats.append(BALL)
+        mats.append(BALL_LIGHT if light else BALL)
     return SimSetup(x=x, v=np.zeros_like(x), p_vol=vol, body_id=body, materials=mats,
                     gravity=np.array([0.0, 0.0, -9.81]), domain_lo=LO, domain_hi=LO + SIDE, n_grid=N_GRID,
                     frame_dt=1.0 / 30.0, boundaries=[Boundary("ground", height=0.0, friction=MU_GROUND)],
