@@ -42,20 +42,35 @@ MIN_FRACTION = 1e-6
 #: The two fields touch at a node when their volumes there (``sum_p w_ip V_p`` per field) fill this fraction of a
 #: cell (``dx^3``): where the bodies merely share a node's stencil across a gap, each keeps its own velocity.
 TOUCH_FRACTION = 0.9
+#: The Coulomb coefficient between two bodies that do not flow (soft on soft: rubber-like jelly on itself).
+SOLID_FRICTION = 0.5
 #: A node's mass gradient shorter than this (kg/m, relative to ``m / dx``) gives no normal: the fields move as one.
 MIN_GRADIENT = 1e-6
 
 
+def field_bodies(setup) -> np.ndarray | None:
+    """Which bodies make field A (shape (n_materials,), bool), or None where the scene runs one field. With the
+    option ``contact_fields`` true (the default): in a ``"mixed"`` scene the flowing bodies (A) against the others
+    (B). Any other scene runs one field (two soft bodies on two fields, body 0 against body 1, were tried:
+    ``docs/contact.md``, not adopted)."""
+    if not setup.options.get("contact_fields", True):
+        return None
+    c = contact_model(setup)
+    return flowing_bodies(setup, c) if c == "mixed" else None
+
+
 def uses_fields(setup) -> bool:
-    """Whether a setup runs the two-field contact: a ``"mixed"`` scene (flowing and other bodies) with the option
-    ``contact_fields`` true (the default)."""
-    return contact_model(setup) == "mixed" and bool(setup.options.get("contact_fields", True))
+    """Whether a setup runs the two-field contact (:func:`field_bodies` is not None)."""
+    return field_bodies(setup) is not None
 
 
 def field_friction(setup) -> float:
-    """The Coulomb coefficient between the two fields: ``tan(phi)`` of the flowing bodies' largest friction angle
-    (sand: its ``friction_angle``, degrees; Drucker-Prager's angle is the angle of the sand's friction on a rough
-    surface); 0 where no flowing body has one (liquid, snow: they slide freely). Dimensionless."""
+    """The Coulomb coefficient between the two fields, dimensionless. Flowing bodies: ``tan(phi)`` of their largest
+    friction angle (sand: its ``friction_angle``, degrees; the angle of the sand's internal friction taken as its
+    friction on the other body's surface); 0 where no flowing body has one (liquid, snow: they slide freely). Two
+    bodies that do not flow (tried, not the default): :data:`SOLID_FRICTION`."""
+    if contact_model(setup) != "mixed":
+        return SOLID_FRICTION
     flows = flowing_bodies(setup, "mixed")
     angles = [m.friction_angle for m, f in zip(setup.materials, flows) if f and m.name == "sand"]
     return math.tan(math.radians(max(angles))) if angles else 0.0

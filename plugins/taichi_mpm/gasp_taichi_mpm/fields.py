@@ -1,6 +1,6 @@
 """The two-field grid contact (``gasp_core.toolkit.fields``, ``docs/contact.md`` "Sand that slides on what it
-touches", issue 53 item 3) in Taichi, the steps of warp_mpm's ``fields.py``: in a mixed scene the flowing bodies'
-momentum and mass go to ``grid_sv`` and each field's volume to ``grid_vf`` in P2G (:meth:`Fields.scatter_field`);
+touches", issue 53 item 3) in Taichi, the steps of warp_mpm's ``fields.py``: field A's bodies (``in_a``: a mixed
+scene's flowing bodies, or body 0 of two) scatter their momentum and mass to ``grid_sv`` and each field's volume to ``grid_vf`` in P2G (:meth:`Fields.scatter_field`);
 :meth:`Fields.contact_fields`, after P2G and before the grid update, turns them and the whole grid's into each field's
 velocity offset ``grid_dv`` (A's in its first three channels, B's in the last three) and clears them; G2P reads a
 node's velocity through :meth:`Fields.node_v`, the grid velocity plus the point's field's offset.
@@ -16,11 +16,14 @@ from gasp_core.toolkit.fields import MIN_FRACTION, MIN_GRADIENT, TOUCH_FRACTION
 class Fields:
     """The two-field contact's fields and kernels (none without it: ``self.fields`` False)."""
 
-    def allocate_fields(self, on: bool, mu: float) -> None:
-        """``on``: the scene runs the two-field contact (``gasp_core.toolkit.fields.uses_fields``); ``mu`` its
-        Coulomb coefficient (``field_friction``). Call before the first substep."""
-        self.fields = bool(on)
+    def allocate_fields(self, in_a, mu: float) -> None:
+        """``in_a``: per body, True in field A (``gasp_core.toolkit.fields.field_bodies``), or None: one field;
+        ``mu`` the Coulomb coefficient (``field_friction``). Before the first substep."""
+        self.fields = in_a is not None
         self.field_mu = float(mu)
+        self.in_a = ti.field(ti.i32, shape=max(4, len(in_a) if self.fields else 1))
+        for b, a in enumerate(in_a if self.fields else []):
+            self.in_a[b] = int(a)
         ng = self.n_grid if self.fields else 1
         self.grid_sv = ti.Vector.field(4, self.real, shape=(ng, ng, ng))
         self.grid_vf = ti.Vector.field(2, self.real, shape=(ng, ng, ng))
@@ -28,10 +31,10 @@ class Fields:
 
     @ti.func
     def scatter_field(self, p, base, w, mv0, A, m):
-        """P2G of point p into its field: a flowing body's momentum and mass to ``grid_sv`` and its volume to
+        """P2G of point p into its field: a field-A body's momentum and mass to ``grid_sv`` and its volume to
         ``grid_vf[.][0]``, another body's volume to ``grid_vf[.][1]`` (nothing without the two-field contact)."""
         if ti.static(self.fields):
-            fl = self.flows[self.body[p]]
+            fl = self.in_a[self.body[p]]
             vol = self.p_vol[p]
             for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                 weight = w[i][0] * w[j][1] * w[k][2]
@@ -49,7 +52,7 @@ class Fields:
         v = self.grid_v[node]
         if ti.static(self.fields):
             d = self.grid_dv[node]
-            if self.flows[self.body[p]] != 0:
+            if self.in_a[self.body[p]] != 0:
                 v += ti.Vector([d[0], d[1], d[2]])
             else:
                 v += ti.Vector([d[3], d[4], d[5]])

@@ -1,6 +1,6 @@
 """The two-field grid contact (``gasp_core.toolkit.fields``, ``docs/contact.md`` "Sand that slides on what it
-touches", issue 53 item 3) as Warp kernels: in a mixed scene the flowing bodies' momentum and mass go to ``grid_sv`` in
-P2G (``transfers.p2g``); :func:`build_fields`' ``field_contact``, after P2G and before the grid update, turns them and
+touches", issue 53 item 3) as Warp kernels: field A's bodies (``in_a``, ``field_bodies``: a mixed scene's flowing
+bodies, or body 0 of two) scatter their momentum and mass to ``grid_sv`` in P2G (``transfers.p2g``); :func:`build_fields`' ``field_contact``, after P2G and before the grid update, turns them and
 the whole grid's into each field's velocity offset ``grid_dv`` (field A's at ``node``, B's at ``n_nodes + node``) and
 clears ``grid_sv``; G2P (``transfers.g2p``) adds a point's own field's offset to the grid velocity.
 
@@ -13,7 +13,7 @@ import numpy as np
 import warp as wp
 
 from gasp_core.toolkit.contact import flowing_bodies
-from gasp_core.toolkit.fields import MIN_FRACTION, MIN_GRADIENT, TOUCH_FRACTION, field_friction, uses_fields
+from gasp_core.toolkit.fields import MIN_FRACTION, MIN_GRADIENT, TOUCH_FRACTION, field_bodies, field_friction
 
 from .precision import MODULE_OPTIONS, build_types
 
@@ -26,11 +26,11 @@ def build_field_reads(Ft):
     vec3, vec4, mat33 = build_types(Ft)
 
     @wp.func
-    def field_offset_base(grid_dv: wp.array(dtype=vec3), flows: wp.array(dtype=wp.int32), b: int, n_nodes: int):
+    def field_offset_base(grid_dv: wp.array(dtype=vec3), in_a: wp.array(dtype=wp.int32), b: int, n_nodes: int):
         off = int(-1)
         if grid_dv.shape[0] > 1:
             off = n_nodes
-            if flows[b] != 0:
+            if in_a[b] != 0:
                 off = 0
         return off
 
@@ -113,15 +113,18 @@ def build_fields(Ft):
 
 def allocate_fields(eng, Ft, contact: str) -> None:
     """The contact chosen per body (``contact`` the scene's): ``eng.flows`` (per body, 1 where it flows) and
-    ``grid_mf`` (the flowing bodies' mass per node in a mixed scene); the two-field contact's ``grid_sv`` (field A's
-    momentum and mass per node) and ``grid_dv`` (the two offsets per node), one unused entry each without it
-    (``eng.fields`` says which), and its friction ``eng.field_mu``."""
+    ``grid_mf`` (the flowing bodies' mass per node in a mixed scene); the two-field contact's ``in_a`` (per body, 1 in
+    field A), ``grid_sv`` (field A's momentum and mass per node), ``grid_vf`` (each field's volume) and ``grid_dv``
+    (the two offsets per node), one unused entry each without it (``eng.fields`` says which), and its friction
+    ``eng.field_mu``."""
     from gasp_core.toolkit.rigid import step_view
     k, d = eng.k, eng.device
     view = step_view(eng.setup)
     eng.flows = wp.array(flowing_bodies(view, contact).astype(np.int32), dtype=wp.int32, device=d)
     eng.grid_mf = wp.zeros(eng.n_grid ** 3 if contact == "mixed" else 1, dtype=Ft, device=d)
-    eng.fields = uses_fields(view)
+    in_a = field_bodies(view)
+    eng.fields = in_a is not None
+    eng.in_a = wp.array((in_a if eng.fields else np.zeros(1, bool)).astype(np.int32), dtype=wp.int32, device=d)
     eng.field_mu = field_friction(view) if eng.fields else 0.0
     n = eng.n_grid ** 3 if eng.fields else 1
     eng.grid_sv = wp.zeros(n, dtype=k.vec4, device=d)

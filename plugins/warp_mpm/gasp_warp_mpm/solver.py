@@ -233,7 +233,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
                 self.mat_kind, self.mat_par, self.grid_mv, self.flags, lo_v, inv_dx, dx, dt_f, ng,
                 self.grid_g, self.has_wind, self.grid_mv0, int(self.flip > 0), self.p_contact, self.planes, self.plane_n,
                 self.grid_fb, self.grid_eta, self.c_shift, self.grid_fbody, ex, self.colc, self.n_sup, self.grid_fn,
-                self.grid_fv, self.grid_mf, self.flows, self.grid_sv, self.grid_vf]),
+                self.grid_fv, self.grid_mf, self.flows, self.grid_sv, self.grid_vf, self.in_a]),
             wp.launch(k.grid_update, dim=ng ** 3, device=d, record_cmd=True, inputs=[
                 self.grid_mv, self.grid_v, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, Ft(self.wall_in), self.wall_mu,
                 self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex, self.grid_g, self.has_wind,
@@ -241,7 +241,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
                 self.fr_sums, self.fr_nodes, self.nfric, self.grid_fn, self.grid_fv, Ft(self.wall_full), self.grid_mf]),
             wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
                 self.x, self.v, self.C, self.fixed, self.grid_v, lo_v, inv_dx, dt_f, ng, self.grid_v0, Ft(self.flip),
-                self.grid_dv, self.body, self.flows]),
+                self.grid_dv, self.body, self.in_a]),
         ] + self._rigid_launches(Ft)
         # the contact's balance (gasp_warp_mpm.balance): its moments before P2G, its fix after the grid update
         self._pre, fix = balance_launches(self, k, lo_v, dx, dt_f, ex)
