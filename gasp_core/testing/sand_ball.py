@@ -118,3 +118,33 @@ def pair_figures(x0: np.ndarray, x1: np.ndarray, body: np.ndarray, free_x1: np.n
             "pile": h_pair / h_peak,
             "depth_dx": float(np.max(R - r) / DX), "turn_deg": rotation_deg(x0[ball], xb),
             "ball_travel_mm": 1e3 * float(np.linalg.norm((c - c0)[:2]))}
+
+
+#: The sliding block (:func:`slide_setup`): a 6 x 6 x 3 cm block of the sand on a 40 x 16 x 3 cm jelly slab (E 2e5 Pa,
+#: rho 1000; held on the ground, friction 0.5, by its weight: it carries 2.6 times the block's friction).
+SLAB = Material("jelly", E=2e5, nu=0.3, rho=1000.0)
+
+
+def slide_setup(v0: float, options: dict | None = None) -> SimSetup:
+    """The sand block (body 0) thrown along +x at ``v0`` (m/s) over the slab (body 1), touching it at rest.
+
+    Coulomb's law with the sand's ``mu = tan(30 deg)`` on the block's whole base decelerates its mass centre at
+    ``mu g`` whatever it does inside (only the slab pushes on it): it stops after ``v0^2 / (2 mu g)``
+    (:func:`slide_travel`)."""
+    xs, vs = box_points([-0.03, -0.03, 0.03], [0.03, 0.03, 0.06], DX / 2)
+    xb, vb = box_points([-0.08, -0.08, 0.0], [0.32, 0.08, 0.03], DX / 2)
+    x = np.concatenate([xs, xb])
+    v = np.zeros_like(x)
+    v[:len(xs), 0] = v0
+    return SimSetup(x=x, v=v, p_vol=np.concatenate([np.full(len(xs), vs), np.full(len(xb), vb)]),
+                    body_id=np.concatenate([np.zeros(len(xs), int), np.ones(len(xb), int)]), materials=[SAND, SLAB],
+                    gravity=np.array([0.0, 0.0, -9.81]), domain_lo=LO, domain_hi=LO + SIDE, n_grid=N_GRID,
+                    frame_dt=1.0 / 30.0, boundaries=[Boundary("ground", height=0.0, friction=MU_GROUND)],
+                    options=dict(options or {}))
+
+
+def slide_travel(x0: np.ndarray, x1: np.ndarray, setup: SimSetup) -> float:
+    """The block's mass-centre travel along x (m) from ``x0`` to ``x1`` (setup order)."""
+    sel = np.asarray(setup.body_id) == 0
+    m = setup.p_mass[sel]
+    return float((m @ x1[sel, 0] - m @ x0[sel, 0]) / m.sum())
