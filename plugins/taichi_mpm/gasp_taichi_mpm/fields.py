@@ -39,12 +39,18 @@ class Fields:
             for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                 weight = w[i][0] * w[j][1] * w[k][2]
                 node = base + ti.Vector([i, j, k])
+                add_vf = ti.Vector([weight * vol, 0.0]) if fl != 0 else ti.Vector([0.0, weight * vol])
+                if ti.static(self.atomic):
+                    ti.atomic_add(self.grid_vf[node], add_vf)
+                else:   # coloured or serial P2G: no two threads share a node (transfers.py)
+                    self.grid_vf[node] = self.grid_vf[node] + add_vf
                 if fl != 0:
                     mv = mv0 + A @ ti.Vector([float(i), float(j), float(k)])
-                    ti.atomic_add(self.grid_sv[node], weight * ti.Vector([mv[0], mv[1], mv[2], m]))
-                    ti.atomic_add(self.grid_vf[node][0], weight * vol)
-                else:
-                    ti.atomic_add(self.grid_vf[node][1], weight * vol)
+                    add_sv = weight * ti.Vector([mv[0], mv[1], mv[2], m])
+                    if ti.static(self.atomic):
+                        ti.atomic_add(self.grid_sv[node], add_sv)
+                    else:
+                        self.grid_sv[node] = self.grid_sv[node] + add_sv
 
     @ti.func
     def node_v(self, p, node):
@@ -63,13 +69,31 @@ class Fields:
         """``m_B - m_A`` at node I."""
         return self.grid_mv[0, I][3] - 2.0 * self.grid_sv[I][3]
 
+    @ti.func
+    def touched_box(self):
+        """The nodes P2G touched (the union of the chunks' boxes; the whole grid with atomic P2G), as the grid
+        update reads them."""
+        ng = self.n_grid
+        lo = ti.Vector([0, 0, 0])
+        hi = ti.Vector([ng - 1, ng - 1, ng - 1])
+        if ti.static(not self.atomic):
+            lo = ti.Vector([ng, ng, ng])
+            hi = ti.Vector([-1, -1, -1])
+            for t in ti.static(range(self.n_chunks)):
+                lo = ti.min(lo, self.box[t, 0])
+                hi = ti.max(hi, self.box[t, 1])
+        return lo, ti.max(hi - lo + 1, 0)
+
     @ti.kernel
     def field_contact(self):
-        """Each shared node's offsets (``gasp_core.toolkit.fields``): the Coulomb contact of the two fields."""
+        """Each shared node's offsets (``gasp_core.toolkit.fields``): the Coulomb contact of the two fields, over the
+        nodes P2G touched (G2P reads no other: its points are where they scattered from)."""
         ng = self.n_grid
         mu = ti.cast(self.field_mu, self.real)
         cell = self.dx[None] ** 3
-        for I in ti.grouped(ti.ndrange(ng, ng, ng)):
+        lo, ext = self.touched_box()
+        for idx in range(ext[0] * ext[1] * ext[2]):
+            I = lo + ti.Vector([idx // (ext[1] * ext[2]), (idx // ext[2]) % ext[1], idx % ext[2]])
             g = self.grid_mv[0, I]
             m = g[3]
             sv = self.grid_sv[I]
@@ -109,8 +133,10 @@ class Fields:
 
     @ti.kernel
     def field_clear(self):
-        """``grid_sv`` and ``grid_vf`` back to zero for the next P2G."""
-        for I in ti.grouped(self.grid_sv):
+        """``grid_sv`` and ``grid_vf`` back to zero for the next P2G, over the nodes P2G touched."""
+        lo, ext = self.touched_box()
+        for idx in range(ext[0] * ext[1] * ext[2]):
+            I = lo + ti.Vector([idx // (ext[1] * ext[2]), (idx // ext[2]) % ext[1], idx % ext[2]])
             self.grid_sv[I] = ti.Vector.zero(self.real, 4)
             self.grid_vf[I] = ti.Vector.zero(self.real, 2)
 
