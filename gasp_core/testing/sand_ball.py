@@ -4,18 +4,21 @@ the scene, built from physics, and the figures of its must-show, measured on the
 The scene: a square sand column (side ``SIDE_C`` 6 cm, height ``HEIGHT_C`` 15 cm; E 3.5e5 Pa, nu 0.3, rho 1600,
 friction angle 30 degrees: the sand of ``sand_column_collapse`` at the issue's angle) on a ground of friction
 ``MU_GROUND``, its fill at half a cell; a jelly ball (``R`` 5 cm, E 5e4 Pa, nu 0.3, rho 1000) resting on the ground
-``GAP`` 5 mm beyond the column's +x face, in its path (or, ``light``, a ball of E 2e4 Pa and rho 300 touching it). With ``surface`` the column's faces (not its base) also carry
-points ``SURFACE_SPACING`` 5 mm apart, each with the volume of a 1 mm sheet of that spacing (the issue's "surface
-Gaussians 5 mm apart": light points at the surface). ``n_grid`` 32 on a 0.48 m domain (dx 15 mm), frames of 1/30 s.
+``GAP`` 5 mm beyond the column's +x face, in its path (or, ``light``, a ball of E 2e4 Pa and rho 300 touching it).
+With ``surface`` the column's faces (not its base) also carry points ``SURFACE_SPACING`` 5 mm apart, each with the
+volume of a 1 mm sheet of that spacing (the issue's "surface Gaussians 5 mm apart": light points at the surface).
+``n_grid`` 32 on a 0.48 m domain (dx 15 mm), frames of 1/30 s.
 The free pile is the same column with no ball.
 
 Figures at the last frame (:func:`pair_figures`):
 
 - ``steep``: the fraction of the sand's points within ``1 dx`` of the ball's surface where its slope exceeds 50
   degrees (polar angle from its top between 50 and 90 degrees): sand held on the ball's steep side;
-- ``pile``: the sand's height against the ball (95th percentile of the sand within ``1.5 dx`` of the ball's surface
-  and below its top) over the free pile's height at the same place (the same percentile of the free run's sand in
-  the same region, the ball's first footprint); 1 = as the free pile;
+- ``pile``: the sand's height against the ball (``h_pair_mm``: the 95th percentile of the heights of the sand within
+  ``1.5 dx`` of the ball's surface and below its top) over the free pile's height (``h_free_mm``: the 99th
+  percentile of the free run's sand heights); 1 = as high as the free pile. ``pile_here``: over the free pile's
+  height where the ball stood (``h_free_here_mm``, the 95th percentile of the free sand within ``R + 1.5 dx`` of the
+  ball's first axis), lower than the pile's top;
 - ``depth_dx``: the deepest sand point inside the ball (its nominal radius about its current centroid), over dx;
 - ``turn_deg``: the ball's rotation (Kabsch fit of its points, start to end), degrees.
 """
