@@ -9,6 +9,7 @@ as before issue 53), and the free pile (no ball).
 
     python benchmarks/bench_sand_ball.py --engines warp_mpm,taichi_mpm --frames 60
     python benchmarks/bench_sand_ball.py --light --out benchmarks/results/sand_ball_light.json
+    python benchmarks/bench_sand_ball.py --rigid --out benchmarks/results/sand_ball_rigid.json
 
 Writes ``benchmarks/results/sand_ball.json`` (or ``--out``), a JSON line per run, as each run ends; a run that
 diverges records its frame and message.
@@ -32,13 +33,14 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 
 
-def run(engine: str, frames: int, ball: bool, surface: bool, fields: bool, light: bool = False):
+def run(engine: str, frames: int, ball: bool, surface: bool, fields: bool, light: bool = False, rigid: bool = False):
     """(positions per frame, setup, wall seconds, divergence message or None)."""
     from gasp_core.seam import EngineDivergence
     from gasp_core.seam.plugins import get_engine
     from gasp_core.testing import sand_ball as S
     from gasp_core.testing.kit import run_trace
-    setup = S.pair_setup(ball=ball, surface=surface, options={"threads": 1, "contact_fields": fields}, light=light)
+    setup = S.pair_setup(ball=ball, surface=surface, options={"threads": 1, "contact_fields": fields}, light=light,
+                         rigid=rigid)
     t = time.perf_counter()
     try:
         tr = run_trace(get_engine(engine), setup, frames)
@@ -72,6 +74,7 @@ def main() -> None:
     ap.add_argument("--surfaces", default="0,1", help="0: the fill alone, 1: with points 5 mm apart on the faces")
     ap.add_argument("--out", default=str(HERE / "results" / "sand_ball.json"))
     ap.add_argument("--light", action="store_true", help="the light ball (E 2e4, rho 300) touching the column")
+    ap.add_argument("--rigid", action="store_true", help="the ball on the rigid route (model = 'rigid')")
     ap.add_argument("--sha", type=int, default=0, metavar="FRAMES")
     ap.add_argument("--sha-base", action="store_true")
     a = ap.parse_args()
@@ -86,8 +89,9 @@ def main() -> None:
         for surface in (s == "1" for s in a.surfaces.split(",")):
             free, _s, sec_free, err_free = run(engine, a.frames, False, surface, True)
             for fields in (True, False):
-                x, setup, sec, err = run(engine, a.frames, True, surface, fields, a.light)
-                row = {"engine": engine, "ball": "light" if a.light else "default", "surface": surface,
+                x, setup, sec, err = run(engine, a.frames, True, surface, fields, a.light, a.rigid)
+                row = {"engine": engine, "ball": ("light" if a.light else "default") + (", rigid" if a.rigid else ""),
+                       "surface": surface,
                        "contact_fields": fields, "frames": a.frames,
                        "points": len(setup.x), "seconds": round(sec, 1), "diverged": err}
                 if x is not None and free is not None:

@@ -24,6 +24,8 @@ Figures at the last frame (:func:`pair_figures`):
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from gasp_core.seam.setup import Boundary, Material, SimSetup
@@ -60,9 +62,11 @@ def _surface_points() -> np.ndarray:
     return np.concatenate(out)
 
 
-def pair_setup(ball: bool = True, surface: bool = False, options: dict | None = None, light: bool = False) -> SimSetup:
+def pair_setup(ball: bool = True, surface: bool = False, options: dict | None = None, light: bool = False,
+               rigid: bool = False) -> SimSetup:
     """The column (body 0, or 0 and its surface points) and the ball (the last body) on the ground; ``light``: the
-    light ball (:data:`BALL_LIGHT`) touching the column instead."""
+    light ball (:data:`BALL_LIGHT`) touching the column instead; ``rigid``: the ball on the rigid route
+    (``model = "rigid"``, ``docs/rigid.md``)."""
     lo = np.array([COL_X[0], -SIDE_C / 2, 0.0])
     xs, vs = box_points(lo, lo + np.array([SIDE_C, SIDE_C, HEIGHT_C]), DX / 2)
     xs_l, vol_l = [xs], [np.full(len(xs), vs)]
@@ -79,7 +83,7 @@ def pair_setup(ball: bool = True, surface: bool = False, options: dict | None = 
         xb, vb = sphere_points(c + np.array([0.3 * DX, 0.2 * DX, 0.0]), R, DX / 2)
         x, vol = np.concatenate([x, xb]), np.concatenate([vol, np.full(len(xb), vb)])
         body = np.concatenate([body, np.ones(len(xb), int)])
-        mats.append(BALL_LIGHT if light else BALL)
+        mats.append(replace(BALL_LIGHT if light else BALL, model="rigid") if rigid else BALL_LIGHT if light else BALL)
     return SimSetup(x=x, v=np.zeros_like(x), p_vol=vol, body_id=body, materials=mats,
                     gravity=np.array([0.0, 0.0, -9.81]), domain_lo=LO, domain_hi=LO + SIDE, n_grid=N_GRID,
                     frame_dt=1.0 / 30.0, boundaries=[Boundary("ground", height=0.0, friction=MU_GROUND)],
