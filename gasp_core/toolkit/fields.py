@@ -20,8 +20,8 @@ Per node, with ``m = m_A + m_B`` and the velocities ``v_A = p_A / m_A``, ``v_B =
     else q = 0;  u' = u - q,  dv_A = (m_B / m) u',  dv_B = -(m_A / m) u'
 
 ``v_A' = v_cm + dv_A``, ``v_B' = v_cm + dv_B`` conserve the node's momentum (``m_A dv_A + m_B dv_B = 0``). The mass
-gradients are central differences of the node masses. A node in a ground's node layers (the grid rule's reach)
-takes no offset: both fields move with the projected mean there.
+gradients are central differences of the node masses. A node in a ground's node layers or the walls' (the grid
+rule's reach) takes no offset: both fields move with the projected mean there. Colliders are not looked at.
 """
 from __future__ import annotations
 

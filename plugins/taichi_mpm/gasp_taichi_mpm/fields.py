@@ -102,9 +102,12 @@ class Fields:
             m_a = sv[3]
             m_b = m - m_a
             u2 = ti.Vector.zero(self.real, 3)
-            held = 0   # in a ground's node layers (the grid rule's reach): both fields move with the mean
+            held = 0   # in a ground's node layers or the walls' (the grid rule's reach): both move with the mean
             for b in ti.static(range(self.n_grounds)):
                 if I[2] <= self.ground_kmax[b]:
+                    held = 1
+            for b in ti.static(range(self.n_walls)):
+                if (I < self.wall_lo_first[b]).any() or (I >= self.wall_hi_first[b]).any():
                     held = 1
             inner = (I > 0).all() and (I < ng - 1).all()
             if inner and held == 0 and m_a > MIN_FRACTION * m and m_b > MIN_FRACTION * m:

@@ -57,7 +57,8 @@ def build_fields(Ft):
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def field_contact(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), grid_dv: wp.array(dtype=vec3),
-                      n_grid: int, mu: Ft, ground: wp.array(dtype=vec3), grid_vf: wp.array(dtype=Ft), cell: Ft):
+                      n_grid: int, mu: Ft, ground: wp.array(dtype=vec3), grid_vf: wp.array(dtype=Ft), cell: Ft,
+                      wall_lo: Ft, wall_hi: vec3):
         node = wp.tid()
         nn = n_grid * n_grid
         n_nodes = nn * n_grid
@@ -71,10 +72,14 @@ def build_fields(Ft):
         dva = vec3(Ft(0.0))
         dvb = vec3(Ft(0.0))
         inner = i > 0 and j > 0 and k > 0 and i < n_grid - 1 and j < n_grid - 1 and k < n_grid - 1
-        held = int(0)   # in a ground's node layers (the grid rule's reach): both fields move with the mean
+        held = int(0)   # in a ground's node layers or the walls' (the grid rule's reach): both move with the mean
         for r in range(ground.shape[0]):
             if Ft(k) <= ground[r][0]:
                 held = int(1)
+        if Ft(i) < wall_lo or Ft(j) < wall_lo or Ft(k) < wall_lo:
+            held = int(1)
+        if Ft(i) > wall_hi[0] or Ft(j) > wall_hi[1] or Ft(k) > wall_hi[2]:
+            held = int(1)
         touch = (grid_vf[node] + grid_vf[n_nodes + node]) >= Ft(TOUCH_FRACTION) * cell   # the bodies meet here
         if inner and held == 0 and m_a > Ft(MIN_FRACTION) * m and m_b > Ft(MIN_FRACTION) * m:
             pa = grid_sv[node]
@@ -139,8 +144,13 @@ def field_launches(eng, Ft) -> list:
         return []
     contact, clear = build_fields(Ft)
     ng, d = eng.n_grid, eng.device
+    # the walls' grid rule reaches node indices below wall_in and above (hi - lo) / dx - wall_in (grid.py)
+    walls = eng.wall_mu.shape[0] > 0
+    wall_lo = eng.wall_in if walls else -1.0
+    side = (np.asarray(eng.setup.domain_hi, float) - np.asarray(eng.setup.domain_lo, float)) / eng.dx
+    wall_hi = side - eng.wall_in if walls else np.full(3, 1e30)
     return [wp.launch(contact, dim=ng ** 3, device=d, record_cmd=True, inputs=[
                 eng.grid_mv, eng.grid_sv, eng.grid_dv, ng, Ft(eng.field_mu), eng.ground, eng.grid_vf,
-                Ft(eng.dx ** 3)]),
+                Ft(eng.dx ** 3), Ft(wall_lo), eng.k.vec3(*[float(c) for c in wall_hi])]),
             wp.launch(clear, dim=ng ** 3, device=d, record_cmd=True, inputs=[eng.grid_sv, eng.grid_vf])]
 
