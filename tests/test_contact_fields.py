@@ -11,7 +11,7 @@
   contact switched off (``contact_fields = false``, one velocity field: the no-slip before issue 53) the same checks
   fail (:func:`test_the_checks_fail_with_one_field`): the ball turned 6.7 degrees on warp_mpm, the pile 1.36 times
   the free pile's height. The column with points 5 mm apart on its faces, 60 frames, warp_mpm: the same limits.
-- Both engines (slow tier): a sand block thrown at 0.4, 0.6 and 0.8 m/s over a jelly slab (``sand_ball.slide_setup``)
+- Both engines (taichi_mpm in the slow tier): a sand block thrown at 0.4, 0.6 and 0.8 m/s over a jelly slab (``sand_ball.slide_setup``)
   stops after ``v0^2 / (2 mu g)`` within ``SLIDE_TOL`` = 15 % (measured -10 % to +12 %: the friction is Coulomb's
   on average, not to 5 %); with the friction switched off (``field_friction`` made 0) or one field the check fails
   (:func:`test_the_slide_check_fails_without_friction_or_with_one_field`).
