@@ -67,7 +67,8 @@ def cmd_simulate(args) -> int:
     substeps = s["engine_stats"].get("n_substeps")
     per_body = s["engine_stats"].get("contact_per_body") or []   # the grid engines' contact chosen per body
     mixed = (f", contact per body: grid for {per_body.count('grid')} flowing, particle for "
-             f"{per_body.count('particle')}" if s["engine_stats"].get("contact") == "mixed" else "")
+             f"{per_body.count('particle')}" + (", two velocity fields" if s["engine_stats"].get("contact_fields") else "")
+             if s["engine_stats"].get("contact") == "mixed" else "")
     reporter.result(f"wrote {fps + 1} frames (frame 0 = the input) x {len(s['objects'])} object(s) to {res.outdir} "
                     f"({s['n_points']} simulated points, {'-' if substeps is None else substeps} substeps/frame, "
                     f"{per_frame:.3f} s/frame{mixed})",

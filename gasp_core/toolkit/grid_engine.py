@@ -17,6 +17,7 @@ import numpy as np
 from gasp_core.errors import EngineError, SceneError
 from gasp_core.seam.engine import Capabilities
 from gasp_core.toolkit.contact import contact_dt, contact_model, flowing_bodies
+from gasp_core.toolkit.fields import uses_fields
 from gasp_core.toolkit.rigid import step_view
 from gasp_core.toolkit.points import engine_mass_stats, material_first_order, stranded_passive
 from gasp_core.toolkit.substeps import MAX_SUBSTEPS, substeps_for, substeps_from_options
@@ -176,7 +177,8 @@ class GridEngineBase:
         """The statistics every grid engine reports: ``device, precision, n_points, dt`` (s), ``n_substeps``,
         ``n_grid``, ``dx`` (m), ``frame``, ``n_passive``, ``contact`` (``gasp_core.toolkit.contact.contact_model``:
         ``"particle"``, ``"grid"`` or ``"mixed"``) and ``contact_per_body`` (per body, ``"grid"`` or
-        ``"particle"``); with ``x`` and ``p_mass`` (internal order, the engine's
+        ``"particle"``), ``contact_fields`` (bool: the two-field contact of ``gasp_core.toolkit.fields``); with ``x``
+        and ``p_mass`` (internal order, the engine's
         own arrays) ``mass`` (kg), ``centre_of_mass`` (m), ``inertia`` (kg m^2); with passive points after a frame
         and ``grid_m`` (node masses of the last grid update, shape (n_grid,)*3), ``passive_stranded``
         (:func:`gasp_core.toolkit.points.stranded_passive`)."""
@@ -188,6 +190,7 @@ class GridEngineBase:
         view = step_view(setup)
         out["contact"] = contact_model(view)
         out["contact_per_body"] = ["grid" if f else "particle" for f in flowing_bodies(view, out["contact"])]
+        out["contact_fields"] = uses_fields(view)   # two velocity fields (gasp_core.toolkit.fields)
         if x is not None:
             out.update(engine_mass_stats(x, p_mass))
             if grid_m is not None and self.n_material < n and self.frame > 0:

@@ -16,6 +16,7 @@ from typing import ClassVar
 from gasp_core.seam.config import Preset, config_options, from_option, option
 from gasp_core.seam.options import Option
 from gasp_core.toolkit.contact import BALANCE, CONTACT
+from gasp_core.toolkit.fields import FIELDS
 from gasp_core.toolkit.substeps import CFL, MAX_SUBSTEPS, PASSIVE_EVERY
 from gasp_core.toolkit.transfer import FLIP
 
@@ -60,12 +61,14 @@ MPM_PRESETS = {
 @dataclass(frozen=True)
 class MPMConfig(GridConfig):
     """The MLS-MPM engines' settings (``docs/mpm.md``): :class:`GridConfig` and the passive points' schedule, the
-    AFLIP blend, the contact model and its balance, with the quality levels of :data:`MPM_PRESETS`."""
+    AFLIP blend, the contact model, its balance and the two-field contact of flowing bodies, with the quality levels of
+    :data:`MPM_PRESETS`."""
 
     passive_every: int = from_option(PASSIVE_EVERY)
     flip: float = from_option(FLIP)
     contact: str = from_option(CONTACT)
     contact_balance: bool = from_option(BALANCE)
+    contact_fields: bool = from_option(FIELDS)
     PRESETS: ClassVar = MPM_PRESETS
 
 

@@ -19,19 +19,18 @@ Implementation notes (all algebraically identical to the spec; they change round
   never share a node; a point that drifted more than a cell out of its block since the sort is scattered
   after the 8 passes, serially. Every node's sum is then in a fixed order (colour, block, sorted point),
   so the grid is the same on any thread count (the contact balance's impulse sums are not: engine.py); the
-  sort at a frame's start depends only on the positions, so ``--resume`` repeats bit for bit where the run does. On CUDA the scatter is atomic. (The older
-  private grid copies per point chunk, ``n_chunks > 1``, are still supported by the grid update.)
+  sort at a frame's start depends only on the positions, so ``--resume`` repeats bit for bit where the run does.
+  On CUDA the scatter is atomic. (The grid update still takes private grid copies per chunk, ``n_chunks > 1``.)
 * **Active region.** The P2G records the bounding box of the nodes it touched; the grid update
   visits only that box and clears it, so the grid is zero again for the next substep.
-* **Implicit viscosity.** With a viscous material, a backward-Euler viscous step on the grid runs between
-  P2G and the grid update (:mod:`~gasp_taichi_mpm.viscosity`): no viscous step limit.
-* **Fused transfers.** Within a frame, the G2P of substep ``s`` and the P2G of substep ``s + 1``
-  run in one pass over the points (the grid velocity ``grid_v`` is a separate field from the
-  accumulation copies, so no double buffering is needed).
+* **Implicit viscosity.** With a viscous material, a backward-Euler viscous step on the grid runs between P2G and the
+  grid update (:mod:`~gasp_taichi_mpm.viscosity`): no viscous step limit; then a mixed scene's two-field contact.
+* **Fused transfers.** Within a frame, the G2P of substep ``s`` and the P2G of substep ``s + 1`` run in one pass over
+  the points (``grid_v`` is a separate field from the accumulation copies: no double buffering).
 * P2G adds ``(p_mass v - A fx dx) + A (i, j, k)^T dx`` per node, with ``A = affine``; G2P forms
   ``C = 4 inv_dx (sum_w w g (i,j,k)^T - v fx^T)``: the spec's ``dpos = ((i,j,k) - fx) dx`` expanded.
-* Boundary masks (walls, ground, fixed regions) are turned into integer node-index ranges in
-  float64 in Python; ties within 1e-9 cells count as exact ties.
+* Boundary masks (walls, ground, fixed regions) are integer node-index ranges, found in float64 in Python; ties
+  within 1e-9 cells count as exact ties.
 """
 import numpy as np
 import taichi as ti
@@ -46,6 +45,7 @@ from .colliders import Colliders
 from .constitutive import Constitutive
 from .balance import Balance
 from .contact import Contact
+from .fields import Fields
 from .forces import Forces
 from .grid import GridUpdate
 from .rigid import Rigid
@@ -57,7 +57,7 @@ SORT_EVERY = 10
 
 
 @ti.data_oriented
-class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact, Balance, Rigid):
+class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact, Balance, Rigid, Fields):
     """Fields and kernels of one simulation.
 
     Parameters
@@ -109,7 +109,7 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
     def __init__(self, *, x, v, C0, p_mass, p_vol, body, fixed, jp0, params, kinds, n_grid, lo, dx, dt,
                  gravity, walls, grounds, regions, real, n_chunks, atomic, extras=None, time_table=None, n_substeps=1,
                  n_material=None, passive_every=1, flip=0.0, coloured=False, p_contact=None, passive_bounds=None,
-                 rigid_frames=None, contact_reach=None, body_mass=None, n_colc=0, planes=None, mixed=None):
+                 rigid_frames=None, contact_reach=None, body_mass=None, n_colc=0, planes=None, mixed=None, fields=None):
         n = len(x)
         self.n = n
         self.n_material = n if n_material is None else int(n_material)
@@ -149,7 +149,8 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         # dt, dx and 1 / dx (computed in float64), each rounded once to the working precision
         self.dt[None], self.dx[None], self.inv_dx[None] = np.array([dt, dx, 1.0 / dx], np_real)
         self.col_deep = collider_grid_depth("particle" if self.n_colc else "grid", dx)   # colliders' grid rule
-        self.allocate_mixed(mixed, dx)   # the contact chosen per body (contact.py)
+        self.allocate_mixed(mixed, dx)   # the contact chosen per body (contact.py); two fields (in_a, mu):
+        self.allocate_fields(*(fields or (None, 0.0)))
         self._passive_every, self._np_real = int(passive_every), np_real
         self._passive_plan: tuple[int, list] = (0, [])   # (n_substeps, per-substep weight pair or None)
         self.lo[None] = [float(a) for a in lo]
@@ -205,17 +206,15 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         self.pchunk_lo = ti.field(ti.i32, shape=self.n_chunks)   # passive points of each chunk
         self.pchunk_hi = ti.field(ti.i32, shape=self.n_chunks)
         self.pbox = ti.Vector.field(3, ti.i32, shape=(self.n_chunks, 2))  # passive points' node box
-        self.dt = ti.field(real, shape=())       # substep, s
-        self.dx = ti.field(real, shape=())       # node spacing, m
-        self.inv_dx = ti.field(real, shape=())   # 1 / dx, 1/m
+        # substep (s), node spacing (m), 1 / dx (1/m)
+        self.dt, self.dx, self.inv_dx = (ti.field(real, shape=()) for _ in range(3))
         # substeps of the passive points' full interval [0] and last interval [1]
         # (gasp_core.toolkit.substeps.passive_schedule)
         self.passive_substeps = ti.field(ti.i32, shape=2)
         self.lo = ti.Vector.field(3, real, shape=())
         self.gravity = ti.Vector.field(3, real, shape=())
         # the box the boundaries keep passive points in (m; gasp_core.toolkit.points.passive_bounds)
-        self.hold_lo = ti.Vector.field(3, real, shape=())
-        self.hold_hi = ti.Vector.field(3, real, shape=())
+        self.hold_lo, self.hold_hi = ti.Vector.field(3, real, shape=()), ti.Vector.field(3, real, shape=())
         if self.coloured:   # the block sort (transfers.sort_blocks): keys, sorted order, counts per (chunk, key)
             from .transfers import BLOCK, SORT_CHUNKS
             cap = self.x.shape[0]
@@ -387,6 +386,7 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
                 self.full_box()
         if self.visc is not None:
             self.visc.solve()
+        self.contact_fields()   # the two-field contact of a mixed scene (fields.py)
 
     # ------------------------------------------------------------------ helpers
     @ti.kernel

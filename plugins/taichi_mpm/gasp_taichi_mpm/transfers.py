@@ -83,6 +83,7 @@ class Transfers:
             w = self.weights(fx)
             self.scatter_contact(base, w, budget, fn, fv)   # with colliders: the budget's normal, supports' velocity
             self.scatter_flow(p, base, w, m)   # with the contact chosen per body: the flowing bodies' mass
+            self.scatter_field(p, base, w, mv0, A, m)   # with the two-field contact: the point's field (fields.py)
             for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                 weight = w[i][0] * w[j][1] * w[k][2]
                 mv = mv0
@@ -121,7 +122,7 @@ class Transfers:
             B = ti.Matrix.zero(self.real, 3, 3)
             for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                 weight = w[i][0] * w[j][1] * w[k][2]
-                gv = weight * self.grid_v[base + ti.Vector([i, j, k])]
+                gv = weight * self.node_v(p, base + ti.Vector([i, j, k]))   # two fields: its own (fields.py)
                 new_v += gv
                 if ti.static(i > 0):
                     B[0, 0] += ti.static(float(i)) * gv[0]
@@ -340,8 +341,7 @@ class Transfers:
             if wsum > 0.0:
                 new_v /= wsum
                 rbar /= wsum
-                # centred moments per unit weight (unscaled, a crack's lone far-corner node, wsum ~ 1e-12, underflowed
-                # f32's determinant: C went non-finite); a ridge (1e-4 of a full stencil's / 4) for planar nodes
+                # moments per unit weight (unscaled: a crack's lone far corner underflowed f32); ridge for planar nodes
                 Svr = Svr / wsum - new_v.outer_product(rbar)
                 Srr = Srr / wsum + ti.Matrix.identity(self.real, 3) * 2.5e-5 - rbar.outer_product(rbar)
                 new_C = self.inv_dx[None] * (Svr @ Srr.inverse())

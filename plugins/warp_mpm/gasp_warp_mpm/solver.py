@@ -4,9 +4,9 @@ Implements ``docs/mpm.md`` (3D MLS-MPM, quadratic B-splines, APIC; Hu et al. 201
 kernels of :mod:`gasp_warp_mpm.kernels`. Per substep three launches: P2G (return mapping, stress once per point,
 scatter), grid update over nodes (which also clears the accumulation grid), and G2P fused with the position update;
 with a viscous material the implicit viscous step (:mod:`gasp_warp_mpm.viscosity`) runs between P2G and the grid
-update. On CUDA the substeps of a frame are captured once in a CUDA
-graph; on CPU the launches are pre-recorded ``wp.Launch`` objects. The host synchronises once per
-frame, for the blow-up check.
+update, then the two-field contact of a mixed scene (:mod:`gasp_warp_mpm.fields`). On CUDA the substeps of a frame are
+captured once in a CUDA graph; on CPU the launches are pre-recorded ``wp.Launch`` objects. The host synchronises once
+per frame, for the blow-up check.
 
 Notes
 -----
@@ -36,8 +36,8 @@ from gasp_core.toolkit.grid_engine import choose_dt, GridEngineBase
 from gasp_core.toolkit.materials import JELLY, P_ETA, initial_Jp, material_table
 from gasp_core.toolkit.rigid import rigid_contact, step_view, zero_stress
 from gasp_core.seam.memory import check_memory, estimate_bytes
-from gasp_core.toolkit.contact import (contact_coefficients, contact_model, contact_planes, flowing_bodies,
-                                      ground_node_layer, rule_models, wall_grid_cells)
+from gasp_core.toolkit.contact import (contact_coefficients, contact_model, contact_planes, ground_node_layer,
+                                      rule_models, wall_grid_cells)
 from gasp_core.toolkit.points import cell_order, fixed_mask, passive_bounds
 from gasp_core.toolkit.substeps import passive_schedule
 from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
@@ -45,6 +45,7 @@ from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, 
 from . import ENGINE, WarpMPMConfig
 from . import kernels as K
 from .balance import allocate_balance, balance_launches
+from .fields import allocate_fields, field_launches
 from .rigid import RigidBodies
 from .sleeping import Sleeping
 from .tables import ExtraTables
@@ -195,10 +196,8 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
         dt_np, k, arr = self._np_dtype, self.k, self._array
         self.wall_mu = arr(np.array(wall_mu, dtype=dt_np), Ft)
         self.wall_in, self.wall_full = wall_grid_cells(reach), wall_grid_cells(full)   # 3 cells in, 1.5 with particle
-        flows = flowing_bodies(step_view(self.setup), contact)   # the contact chosen per body: flowing mass per node
-        self.flows = arr(flows.astype(np.int32), wp.int32)
-        self.grid_mf = wp.zeros(self.n_grid ** 3 if contact == "mixed" else 1, dtype=Ft, device=self.device)
         self.ground = arr(np.array(ground, dtype=dt_np).reshape(-1, 3), k.vec3)
+        allocate_fields(self, Ft, contact)   # the contact chosen per body: flows, grid_mf; the two fields (fields.py)
         self.fixed_lo = arr(np.array(fixed_lo, dtype=dt_np).reshape(-1, 3), k.vec3)
         # the particle contact: the planes (offset, friction, support) and normals, each point's (k, c, skin) and the
         # nodes' friction budgets; colc: the colliders too; nfric: normals other than +z (walls or colliders), whose
@@ -234,19 +233,21 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
                 self.mat_kind, self.mat_par, self.grid_mv, self.flags, lo_v, inv_dx, dx, dt_f, ng,
                 self.grid_g, self.has_wind, self.grid_mv0, int(self.flip > 0), self.p_contact, self.planes, self.plane_n,
                 self.grid_fb, self.grid_eta, self.c_shift, self.grid_fbody, ex, self.colc, self.n_sup, self.grid_fn,
-                self.grid_fv, self.grid_mf, self.flows]),
+                self.grid_fv, self.grid_mf, self.flows, self.grid_sv, self.grid_vf, self.in_a]),
             wp.launch(k.grid_update, dim=ng ** 3, device=d, record_cmd=True, inputs=[
                 self.grid_mv, self.grid_v, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, Ft(self.wall_in), self.wall_mu,
                 self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex, self.grid_g, self.has_wind,
                 self.grid_mv0, self.grid_v0, int(self.flip > 0), self.grid_fb, self.grid_fbody,
                 self.fr_sums, self.fr_nodes, self.nfric, self.grid_fn, self.grid_fv, Ft(self.wall_full), self.grid_mf]),
             wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
-                self.x, self.v, self.C, self.fixed, self.grid_v, lo_v, inv_dx, dt_f, ng, self.grid_v0, Ft(self.flip)]),
+                self.x, self.v, self.C, self.fixed, self.grid_v, lo_v, inv_dx, dt_f, ng, self.grid_v0, Ft(self.flip),
+                self.grid_dv, self.body, self.in_a]),
         ] + self._rigid_launches(Ft)
         # the contact's balance (gasp_warp_mpm.balance): its moments before P2G, its fix after the grid update
         self._pre, fix = balance_launches(self, k, lo_v, dx, dt_f, ex)
         if fix is not None:
             self._launches.insert(2, fix)
+        self._launches[1:1] = field_launches(self, Ft)   # the two-field contact after P2G (fields.py)
         # passive points after the grid update (the grid velocity holds forces, colliders, boundaries):
         # one launch per distinct interval of passive_schedule, at the substeps it names; each then held in
         # the box the ground and walls leave them (gasp_core.toolkit.points.passive_bounds)
@@ -269,7 +270,6 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
         self._check_launch = wp.launch(k.check, dim=self.n_points, device=d, record_cmd=True,
                                        inputs=[self.x, self.v, self.flags])
 
-    # ------------------------------------------------------------------ colliders, forces, impulses
     # ------------------------------------------------------------------ helpers
     def _cell_order(self, x: np.ndarray) -> np.ndarray:
         """Stable order of points by flat cell index (``gasp_core.toolkit.points.cell_order``)."""
@@ -391,9 +391,8 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
 
     def close(self) -> None:
         """Release the Warp arrays and the CUDA graph."""
-        self._graph = None
+        self._graph, self._check_launch = None, None
         self._launches, self._passive_at, self._tick = [], [], None
-        self._check_launch = None
         for name in ("x", "v", "F", "C", "Jp", "p_mass", "p_vol", "body", "fixed", "grid_mv", "grid_v", "grid_m"):
             if hasattr(self, name):
                 setattr(self, name, None)

@@ -19,6 +19,7 @@ from gasp_core.toolkit.materials import P_ETA
 
 from .constitutive import build_return_mapping
 from .contact import build_collider_contact, build_passive_hold
+from .fields import build_field_reads
 from .forces import build_extras_struct
 from .precision import MODULE_OPTIONS, build_types
 
@@ -152,13 +153,16 @@ def build_p2g(Ft):
         grid_fb: wp.array(dtype=Ft),
         grid_eta: wp.array(dtype=Ft), shift: wp.array2d(dtype=wp.float64), grid_fbody: wp.array(dtype=wp.int32),
         ex: Extras, colc: int, n_sup: int, grid_fn: wp.array(dtype=vec3), grid_fv: wp.array(dtype=vec3),
-        grid_mf: wp.array(dtype=Ft), flows: wp.array(dtype=wp.int32),
+        grid_mf: wp.array(dtype=Ft), flows: wp.array(dtype=wp.int32), grid_sv: wp.array(dtype=vec4),
+        grid_vf: wp.array(dtype=Ft), in_a: wp.array(dtype=wp.int32),
     ):
         # F advanced by C, return mapping and stress (docs/mpm.md), then the scatter (and, with wind, grid_g;
         # with flip, the APIC momentum alone into grid_mv0: gasp_core.toolkit.transfer); with the particle
         # contact (planes: grounds and walls; colc: the colliders too), the normal impulses join the momentum and their
         # friction budget goes to grid_fb (with walls or colliders its normal to grid_fn, supports' velocity to grid_fv;
         # :mod:`gasp_warp_mpm.contact`); with the contact chosen per body the flowing bodies' (flows[b]) mass to grid_mf
+        # and, with the two-field contact (gasp_warp_mpm.fields), field A's (in_a[b]) momentum and mass to grid_sv,
+        # each field's volume to grid_vf (field A's at the node, B's n_grid^3 further)
         p = wp.tid()
         X = (x[p] - lo) * inv_dx
         if not in_grid(X, n_grid):
@@ -193,6 +197,10 @@ def build_p2g(Ft):
         if grid_mf.shape[0] > 1:
             if flows[body[p]] != 0:
                 scatter_scalar(grid_mf, idx0, n_grid, W, pm)
+        if grid_sv.shape[0] > 1:   # field A's momentum and mass; the volume into its field's (B's n_grid^3 on)
+            if in_a[body[p]] != 0:
+                scatter(grid_sv, idx0, n_grid, W, mom0, A, pm)
+            scatter_scalar(grid_vf, idx0 + (1 - in_a[body[p]]) * n_grid * n_grid * n_grid, n_grid, W, p_vol[p])
         if flip != 0:
             A0 = (dx * pm) * Cp
             scatter(grid_mv0, idx0, n_grid, W, pm * v[p] - A0 * fx, A0, pm)
@@ -209,13 +217,16 @@ def build_g2p(Ft):
     """``g2p``: the G2P kernel of scalar type ``Ft`` for material points (with the position update)."""
     vec3, vec4, mat33 = build_types(Ft)
     in_grid, weights = build_stencil(Ft)
+    field_offset_base, field_node_v = build_field_reads(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def g2p(
         x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33),
         fixed: wp.array(dtype=wp.int32), grid_v: wp.array(dtype=vec3),
         lo: vec3, inv_dx: Ft, dt: Ft, n_grid: int, grid_v0: wp.array(dtype=vec3), alpha: Ft,
+        grid_dv: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32),
     ):
+        # with the two-field contact (gasp_warp_mpm.fields) each node's velocity plus the point's field's offset
         p = wp.tid()
         if fixed[p] != 0:
             v[p] = vec3(Ft(0.0))
@@ -233,6 +244,7 @@ def build_g2p(Ft):
         nn = n_grid * n_grid
         idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
         # new_v = sum w g;  B = sum w g (i, j, k)^T  accumulated as sums over node planes.
+        off = field_offset_base(grid_dv, in_a, body[p], n_grid * nn)   # -1 without two fields (fields.py)
         new_v = vec3(Ft(0.0))
         si1 = vec3(Ft(0.0))
         si2 = vec3(Ft(0.0))
@@ -247,7 +259,7 @@ def build_g2p(Ft):
                 row = idx0 + i * nn + j * n_grid
                 vj = vec3(Ft(0.0))
                 for k in range(3):
-                    wg = (wij * W[k, 2]) * grid_v[row + k]
+                    wg = (wij * W[k, 2]) * field_node_v(grid_v, grid_dv, off, row + k)
                     vj = vj + wg
                     if k == 1:
                         sk1 = sk1 + wg

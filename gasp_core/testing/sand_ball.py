@@ -1,0 +1,157 @@
+"""Issue 53's sand column collapsing against a jelly ball (``docs/contact.md``, "Sand that slides on what it touches"):
+the scene, built from physics, and the figures of its must-show, measured on the points.
+
+The scene: a square sand column (side ``SIDE_C`` 6 cm, height ``HEIGHT_C`` 15 cm; E 3.5e5 Pa, nu 0.3, rho 1600,
+friction angle 30 degrees: the sand of ``sand_column_collapse`` at the issue's angle) on a ground of friction
+``MU_GROUND``, its fill at half a cell; a jelly ball (``R`` 5 cm, E 5e4 Pa, nu 0.3, rho 1000) resting on the ground
+``GAP`` 5 mm beyond the column's +x face, in its path (or, ``light``, a ball of E 2e4 Pa and rho 300 touching it).
+With ``surface`` the column's faces (not its base) also carry points ``SURFACE_SPACING`` 5 mm apart, each with the
+volume of a 1 mm sheet of that spacing (the issue's "surface Gaussians 5 mm apart": light points at the surface).
+``n_grid`` 32 on a 0.48 m domain (dx 15 mm), frames of 1/30 s.
+The free pile is the same column with no ball.
+
+Figures at the last frame (:func:`pair_figures`):
+
+- ``steep``: the fraction of the sand's points within ``1 dx`` of the ball's surface where its slope exceeds 50
+  degrees (polar angle from its top between 50 and 90 degrees): sand held on the ball's steep side;
+- ``pile``: the sand's height against the ball (``h_pair_mm``: the 95th percentile of the heights of the sand within
+  ``1.5 dx`` of the ball's surface and below its top) over the free pile's height (``h_free_mm``: the 99th
+  percentile of the free run's sand heights); 1 = as high as the free pile. ``pile_here``: over the free pile's
+  height where the ball stood (``h_free_here_mm``, the 95th percentile of the free sand within ``R + 1.5 dx`` of the
+  ball's first axis), lower than the pile's top;
+- ``depth_dx``: the deepest sand point inside the ball (its nominal radius about its current centroid), over dx;
+- ``turn_deg``: the ball's rotation (Kabsch fit of its points, start to end), degrees.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from gasp_core.seam.setup import Boundary, Material, SimSetup
+from gasp_core.testing.helpers import box_points, sphere_points
+
+N_GRID, SIDE = 32, 0.48
+DX = SIDE / N_GRID
+SIDE_C, HEIGHT_C = 0.06, 0.15
+R, GAP = 0.05, 0.005
+MU_GROUND = 0.5
+SURFACE_SPACING = 0.005
+SAND = Material("sand", E=3.5e5, nu=0.3, rho=1600.0, friction_angle=30.0)
+BALL = Material("jelly", E=5e4, nu=0.3, rho=1000.0)
+#: The light ball (``light``): the jelly of ``jittered_ball_rest`` (E 2e4 Pa, rho 300), touching the column's face.
+BALL_LIGHT = Material("jelly", E=2e4, nu=0.3, rho=300.0)
+LO = np.array([-0.12, -SIDE / 2, -3 * DX])
+#: The column's x range and the ball's centre (m).
+COL_X = (0.0, SIDE_C)
+BALL_C = np.array([SIDE_C + GAP + R, 0.0, R])
+
+
+def _surface_points() -> np.ndarray:
+    """Points ``SURFACE_SPACING`` apart on the column's four sides and its top (not its base)."""
+    s = SURFACE_SPACING
+    a = np.arange(s / 2, SIDE_C, s)
+    z = np.arange(s / 2, HEIGHT_C, s)
+    out = []
+    for fixed in (0.0, SIDE_C):
+        u, w = np.meshgrid(a - SIDE_C / 2, z, indexing="ij")
+        out.append(np.stack([np.full(u.size, fixed), u.ravel(), w.ravel()], 1))
+        out.append(np.stack([u.ravel() + SIDE_C / 2, np.full(u.size, fixed - SIDE_C / 2), w.ravel()], 1))
+    u, w = np.meshgrid(a, a - SIDE_C / 2, indexing="ij")
+    out.append(np.stack([u.ravel(), w.ravel(), np.full(u.size, HEIGHT_C)], 1))
+    return np.concatenate(out)
+
+
+def pair_setup(ball: bool = True, surface: bool = False, options: dict | None = None, light: bool = False,
+               rigid: bool = False) -> SimSetup:
+    """The column (body 0, or 0 and its surface points) and the ball (the last body) on the ground; ``light``: the
+    light ball (:data:`BALL_LIGHT`) touching the column instead; ``rigid``: the ball on the rigid route
+    (``model = "rigid"``, ``docs/rigid.md``)."""
+    lo = np.array([COL_X[0], -SIDE_C / 2, 0.0])
+    xs, vs = box_points(lo, lo + np.array([SIDE_C, SIDE_C, HEIGHT_C]), DX / 2)
+    xs_l, vol_l = [xs], [np.full(len(xs), vs)]
+    if surface:
+        xf = _surface_points()
+        xs_l.append(xf)
+        vol_l.append(np.full(len(xf), SURFACE_SPACING ** 2 * 1e-3))
+    x = np.concatenate(xs_l)
+    vol = np.concatenate(vol_l)
+    body = np.zeros(len(x), int)
+    mats = [SAND]
+    if ball:
+        c = BALL_C - np.array([GAP if light else 0.0, 0.0, 0.0])
+        xb, vb = sphere_points(c + np.array([0.3 * DX, 0.2 * DX, 0.0]), R, DX / 2)
+        x, vol = np.concatenate([x, xb]), np.concatenate([vol, np.full(len(xb), vb)])
+        body = np.concatenate([body, np.ones(len(xb), int)])
+        mats.append(replace(BALL_LIGHT if light else BALL, model="rigid") if rigid else BALL_LIGHT if light else BALL)
+    return SimSetup(x=x, v=np.zeros_like(x), p_vol=vol, body_id=body, materials=mats,
+                    gravity=np.array([0.0, 0.0, -9.81]), domain_lo=LO, domain_hi=LO + SIDE, n_grid=N_GRID,
+                    frame_dt=1.0 / 30.0, boundaries=[Boundary("ground", height=0.0, friction=MU_GROUND)],
+                    options=dict(options or {}))
+
+
+def rotation_deg(x0: np.ndarray, x1: np.ndarray) -> float:
+    """The angle (degrees) of the best-fit rotation taking the points ``x0`` to ``x1`` (Kabsch)."""
+    a, b = x0 - x0.mean(0), x1 - x1.mean(0)
+    u, _s, vt = np.linalg.svd(a.T @ b)
+    d = np.sign(np.linalg.det(vt.T @ u.T))
+    rot = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
+    return float(np.degrees(np.arccos(np.clip((np.trace(rot) - 1.0) / 2.0, -1.0, 1.0))))
+
+
+def _near_ball(xs: np.ndarray, c: np.ndarray, band: float) -> np.ndarray:
+    r = np.linalg.norm(xs - c, axis=1)
+    return (r <= R + band) & (xs[:, 2] <= c[2] + R)
+
+
+def pair_figures(x0: np.ndarray, x1: np.ndarray, body: np.ndarray, free_x1: np.ndarray) -> dict:
+    """The figures of the module's docstring from the start ``x0`` and end ``x1`` (setup order, the ball the last
+    body), and the free pile's end ``free_x1`` (its sand in the same order as ``x1``'s sand)."""
+    ball = body == body.max()
+    xs, xb = x1[~ball], x1[ball]
+    c = xb.mean(0)
+    rel = xs - c
+    r = np.linalg.norm(rel, axis=1)
+    polar = np.degrees(np.arccos(np.clip(rel[:, 2] / np.maximum(r, 1e-12), -1.0, 1.0)))
+    steep = (r <= R + DX) & (polar >= 50.0) & (polar <= 90.0)
+    near = _near_ball(xs, c, 1.5 * DX)
+    c0 = x0[ball].mean(0)
+    free_near = (np.linalg.norm(free_x1[:, :2] - c0[:2], axis=1) <= R + 1.5 * DX)
+    h_pair = float(np.percentile(xs[near, 2], 95.0)) if near.any() else 0.0
+    h_free = float(np.percentile(free_x1[free_near, 2], 95.0)) if free_near.any() else 0.0
+    h_peak = float(np.percentile(free_x1[:, 2], 99.0))
+    return {"steep": float(steep.mean()), "h_pair_mm": 1e3 * h_pair, "h_free_here_mm": 1e3 * h_free,
+            "h_free_mm": 1e3 * h_peak, "pile_here": h_pair / h_free if h_free > 0 else float("inf"),
+            "pile": h_pair / h_peak,
+            "depth_dx": float(np.max(R - r) / DX), "turn_deg": rotation_deg(x0[ball], xb),
+            "ball_travel_mm": 1e3 * float(np.linalg.norm((c - c0)[:2]))}
+
+
+#: The sliding block (:func:`slide_setup`): a 6 x 6 x 3 cm block of the sand on a 40 x 16 x 3 cm jelly slab (E 2e5 Pa,
+#: rho 1000; held on the ground, friction 0.5, by its weight: it carries 2.6 times the block's friction).
+SLAB = Material("jelly", E=2e5, nu=0.3, rho=1000.0)
+
+
+def slide_setup(v0: float, options: dict | None = None) -> SimSetup:
+    """The sand block (body 0) thrown along +x at ``v0`` (m/s) over the slab (body 1), touching it at rest.
+
+    Coulomb's law with the sand's ``mu = tan(30 deg)`` on the block's whole base decelerates its mass centre at
+    ``mu g`` whatever it does inside (only the slab pushes on it): it stops after ``v0^2 / (2 mu g)``
+    (:func:`slide_travel`)."""
+    xs, vs = box_points([-0.03, -0.03, 0.03], [0.03, 0.03, 0.06], DX / 2)
+    xb, vb = box_points([-0.08, -0.08, 0.0], [0.32, 0.08, 0.03], DX / 2)
+    x = np.concatenate([xs, xb])
+    v = np.zeros_like(x)
+    v[:len(xs), 0] = v0
+    return SimSetup(x=x, v=v, p_vol=np.concatenate([np.full(len(xs), vs), np.full(len(xb), vb)]),
+                    body_id=np.concatenate([np.zeros(len(xs), int), np.ones(len(xb), int)]), materials=[SAND, SLAB],
+                    gravity=np.array([0.0, 0.0, -9.81]), domain_lo=LO, domain_hi=LO + SIDE, n_grid=N_GRID,
+                    frame_dt=1.0 / 30.0, boundaries=[Boundary("ground", height=0.0, friction=MU_GROUND)],
+                    options=dict(options or {}))
+
+
+def slide_travel(x0: np.ndarray, x1: np.ndarray, setup: SimSetup) -> float:
+    """The block's mass-centre travel along x (m) from ``x0`` to ``x1`` (setup order)."""
+    sel = np.asarray(setup.body_id) == 0
+    m = setup.p_mass[sel]
+    return float((m @ x1[sel, 0] - m @ x0[sel, 0]) / m.sum())

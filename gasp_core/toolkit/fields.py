@@ -1,0 +1,124 @@
+"""The two-field grid contact between flowing bodies and the others (issue 53 item 3, ``docs/contact.md``, "Sand that
+slides on what it touches"): the shared maths and parameters; each grid engine's ``fields.py`` spells the same steps.
+
+In a single-velocity-field MPM grid, two bodies that share a node move with one velocity: the no-slip of a sand pile
+glued to a ball. Here, in a ``"mixed"`` scene (:func:`gasp_core.toolkit.contact.contact_model`: a flowing body beside
+one that does not flow), the flowing bodies (field A) also scatter their momentum and mass to a grid of their own; the
+other bodies' field (B) is the whole grid's less A's. Where both fields have mass at a node, the contact normal comes
+from the mass gradients and the two velocities are corrected by Coulomb's law (Bardenhagen, Brackbill and Sulsky
+2000, "The material-point method for granular materials", CMAME 187, 529-541; Homel and Herbold 2017, "Field-gradient
+partitioning for fracture and frictional contact in the material point method", IJNME 109, 1013-1044): they do not
+approach along the normal and slide with friction ``mu``. G2P then reads each point's own field. The whole grid's
+velocity (mass-weighted mean of the two) is updated as before, with gravity and the boundaries; each field's
+velocity is that mean plus its own offset, so a scene whose fields never share a node runs as before.
+
+Per node, with ``m = m_A + m_B`` and the velocities ``v_A = p_A / m_A``, ``v_B = p_B / m_B`` after P2G:
+
+    u = v_A - v_B,   n = (grad m_B - grad m_A) / |.|   (out of A, into B)
+    approaching (u . n > 0):  q = (u . n) n + u_t            if |u_t| <= mu (u . n)   (stick)
+                              q = (u . n) n + mu (u . n) t   otherwise, t = u_t / |u_t|   (slide)
+    else q = 0;  u' = u - q,  dv_A = (m_B / m) u',  dv_B = -(m_A / m) u'
+
+``v_A' = v_cm + dv_A``, ``v_B' = v_cm + dv_B`` conserve the node's momentum (``m_A dv_A + m_B dv_B = 0``). The mass
+gradients are central differences of the node masses. A node in a ground's node layers or the walls' (the grid
+rule's reach) takes no offset: both fields move with the projected mean there. Colliders are not looked at.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from gasp_core.seam.options import Option
+from gasp_core.toolkit.contact import contact_model, flowing_bodies
+
+#: Engine option ``contact_fields`` of the MPM engines.
+FIELDS = Option("contact_fields", True, "in a scene with flowing (sand, snow, liquid) and other bodies, the flowing "
+                "bodies take a grid velocity field of their own, in Coulomb contact with the others' (docs/contact.md, "
+                "issue 53): sand slides on a ball instead of sticking to it; false: one field, no-slip where they "
+                "share nodes", kind="bool")
+#: A node is shared when each field holds at least this fraction of its mass (below it the fields move as one).
+MIN_FRACTION = 1e-6
+#: The two fields touch at a node when their volumes there (``sum_p w_ip V_p`` per field) fill this fraction of a
+#: cell (``dx^3``): where the bodies merely share a node's stencil across a gap, each keeps its own velocity.
+TOUCH_FRACTION = 0.9
+#: The Coulomb coefficient between two bodies that do not flow (soft on soft: rubber-like jelly on itself).
+SOLID_FRICTION = 0.5
+#: A node's mass gradient shorter than this (kg/m, relative to ``m / dx``) gives no normal: the fields move as one.
+MIN_GRADIENT = 1e-6
+
+
+def field_bodies(setup) -> np.ndarray | None:
+    """Which bodies make field A (shape (n_materials,), bool), or None where the scene runs one field. With the
+    option ``contact_fields`` true (the default): in a ``"mixed"`` scene the flowing bodies (A) against the others
+    (B). Any other scene runs one field (two soft bodies on two fields, body 0 against body 1, were tried:
+    ``docs/contact.md``, not adopted)."""
+    if not setup.options.get("contact_fields", True):
+        return None
+    c = contact_model(setup)
+    return flowing_bodies(setup, c) if c == "mixed" else None
+
+
+def uses_fields(setup) -> bool:
+    """Whether a setup runs the two-field contact (:func:`field_bodies` is not None)."""
+    return field_bodies(setup) is not None
+
+
+def field_friction(setup) -> float:
+    """The Coulomb coefficient between the two fields, dimensionless. Flowing bodies: ``tan(phi)`` of their largest
+    friction angle (sand: its ``friction_angle``, degrees; the angle of the sand's internal friction taken as its
+    friction on the other body's surface); 0 where no flowing body has one (liquid, snow: they slide freely). Two
+    bodies that do not flow (tried, not the default): :data:`SOLID_FRICTION`."""
+    if contact_model(setup) != "mixed":
+        return SOLID_FRICTION
+    flows = flowing_bodies(setup, "mixed")
+    angles = [m.friction_angle for m, f in zip(setup.materials, flows) if f and m.name == "sand"]
+    return math.tan(math.radians(max(angles))) if angles else 0.0
+
+
+def field_offsets(m: np.ndarray, m_a: np.ndarray, p: np.ndarray, p_a: np.ndarray, n: np.ndarray, mu: float):
+    """The NumPy reference of a node's correction (the module's equations), vectorised over nodes.
+
+    Parameters
+    ----------
+    m, m_a : (k,) float
+        The node's whole mass and field A's, kg.
+    p, p_a : (k, 3) float
+        The whole momentum and field A's, kg m/s (after P2G, before gravity).
+    n : (k, 3) float
+        The unnormalised normal ``grad m_B - grad m_A`` (kg/m).
+    mu : float
+        The Coulomb coefficient (:func:`field_friction`).
+
+    Returns
+    -------
+    dv_a, dv_b : (k, 3) float
+        Each field's velocity offset from the whole grid's (m/s); zero where the node is not shared.
+    """
+    m_b = m - m_a
+    shared = (m_a > MIN_FRACTION * m) & (m_b > MIN_FRACTION * m)
+    safe_a, safe_b = np.where(shared, m_a, 1.0), np.where(shared, m_b, 1.0)
+    u = p_a / safe_a[:, None] - (p - p_a) / safe_b[:, None]
+    ln = np.linalg.norm(n, axis=1)
+    has_n = ln > 0.0
+    nh = n / np.where(has_n, ln, 1.0)[:, None]
+    un = np.einsum("ij,ij->i", u, nh)
+    ut = u - un[:, None] * nh
+    lt = np.linalg.norm(ut, axis=1)
+    slide = lt > mu * un
+    t_part = np.where(slide[:, None], (mu * un / np.where(lt > 0, lt, 1.0))[:, None] * ut, ut)
+    q = np.where(((un > 0) & has_n)[:, None], un[:, None] * nh + t_part, 0.0)
+    u2 = np.where(shared[:, None], u - q, 0.0)
+    return (m_b / m)[:, None] * u2, -(m_a / m)[:, None] * u2
+
+
+def mass_normals(m: np.ndarray, m_a: np.ndarray, dx: float) -> np.ndarray:
+    """The NumPy reference of the normals: ``grad m_B - grad m_A`` by central differences of the node masses
+    (shape (n, n, n) each, kg) at the inner nodes; shape (n, n, n, 3), kg/m, zero on the grid's outer layer."""
+    d = (m - m_a) - m_a
+    out = np.zeros(m.shape + (3,))
+    for ax in range(3):
+        sl_c, sl_p, sl_m = [slice(1, -1)] * 3, [slice(1, -1)] * 3, [slice(1, -1)] * 3
+        sl_p[ax], sl_m[ax] = slice(2, None), slice(None, -2)
+        out[tuple(sl_c) + (ax,)] = (d[tuple(sl_p)] - d[tuple(sl_m)]) / (2.0 * dx)
+    return out

@@ -1,0 +1,152 @@
+"""The two-field grid contact (``gasp_core.toolkit.fields``, ``docs/contact.md`` "Sand that slides on what it
+touches", issue 53 item 3) in Taichi, the steps of warp_mpm's ``fields.py``: field A's bodies (``in_a``: a mixed
+scene's flowing bodies) scatter their momentum and mass to ``grid_sv`` and each field's volume to ``grid_vf`` in P2G
+(:meth:`Fields.scatter_field`);
+:meth:`Fields.contact_fields`, after P2G and before the grid update, turns them and the whole grid's into each field's
+velocity offset ``grid_dv`` (A's in its first three channels, B's in the last three) and clears them; G2P reads a
+node's velocity through :meth:`Fields.node_v`, the grid velocity plus the point's field's offset.
+
+Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields and flags (``real``, ``body``, ``box``, ...) it
+reads.
+"""
+import taichi as ti
+
+from gasp_core.toolkit.fields import MIN_FRACTION, MIN_GRADIENT, TOUCH_FRACTION
+
+
+@ti.data_oriented
+class Fields:
+    """The two-field contact's fields and kernels (none without it: ``self.fields`` False)."""
+
+    def allocate_fields(self, in_a, mu: float) -> None:
+        """``in_a``: per body, True in field A (``gasp_core.toolkit.fields.field_bodies``), or None: one field;
+        ``mu`` the Coulomb coefficient (``field_friction``). Before the first substep."""
+        self.fields = in_a is not None
+        self.field_mu = float(mu)
+        self.in_a = ti.field(ti.i32, shape=max(4, len(in_a) if self.fields else 1))
+        for b, a in enumerate(in_a if self.fields else []):
+            self.in_a[b] = int(a)
+        ng = self.n_grid if self.fields else 1
+        self.grid_sv = ti.Vector.field(4, self.real, shape=(ng, ng, ng))
+        self.grid_vf = ti.Vector.field(2, self.real, shape=(ng, ng, ng))
+        self.grid_dv = ti.Vector.field(6, self.real, shape=(ng, ng, ng))
+
+    @ti.func
+    def scatter_field(self, p, base, w, mv0, A, m):
+        """P2G of point p into its field: a field-A body's momentum and mass to ``grid_sv`` and its volume to
+        ``grid_vf[.][0]``, another body's volume to ``grid_vf[.][1]`` (nothing without the two-field contact)."""
+        if ti.static(self.fields):
+            fl = self.in_a[self.body[p]]
+            vol = self.p_vol[p]
+            for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
+                weight = w[i][0] * w[j][1] * w[k][2]
+                node = base + ti.Vector([i, j, k])
+                add_vf = ti.Vector([weight * vol, 0.0]) if fl != 0 else ti.Vector([0.0, weight * vol])
+                if ti.static(self.atomic):
+                    ti.atomic_add(self.grid_vf[node], add_vf)
+                else:   # coloured or serial P2G: no two threads share a node (transfers.py)
+                    self.grid_vf[node] = self.grid_vf[node] + add_vf
+                if fl != 0:
+                    mv = mv0 + A @ ti.Vector([float(i), float(j), float(k)])
+                    add_sv = weight * ti.Vector([mv[0], mv[1], mv[2], m])
+                    if ti.static(self.atomic):
+                        ti.atomic_add(self.grid_sv[node], add_sv)
+                    else:
+                        self.grid_sv[node] = self.grid_sv[node] + add_sv
+
+    @ti.func
+    def node_v(self, p, node):
+        """The velocity point p reads at ``node`` in G2P: the grid's, plus its field's offset."""
+        v = self.grid_v[node]
+        if ti.static(self.fields):
+            d = self.grid_dv[node]
+            if self.in_a[self.body[p]] != 0:
+                v += ti.Vector([d[0], d[1], d[2]])
+            else:
+                v += ti.Vector([d[3], d[4], d[5]])
+        return v
+
+    @ti.func
+    def mass_diff(self, I):
+        """``m_B - m_A`` at node I."""
+        return self.grid_mv[0, I][3] - 2.0 * self.grid_sv[I][3]
+
+    @ti.func
+    def touched_box(self):
+        """The nodes P2G touched (the union of the chunks' boxes; the whole grid with atomic P2G), as the grid
+        update reads them."""
+        ng = self.n_grid
+        lo = ti.Vector([0, 0, 0])
+        hi = ti.Vector([ng - 1, ng - 1, ng - 1])
+        if ti.static(not self.atomic):
+            lo = ti.Vector([ng, ng, ng])
+            hi = ti.Vector([-1, -1, -1])
+            for t in ti.static(range(self.n_chunks)):
+                lo = ti.min(lo, self.box[t, 0])
+                hi = ti.max(hi, self.box[t, 1])
+        return lo, ti.max(hi - lo + 1, 0)
+
+    @ti.kernel
+    def field_contact(self):
+        """Each shared node's offsets (``gasp_core.toolkit.fields``): the Coulomb contact of the two fields, over the
+        nodes P2G touched (G2P reads no other: its points are where they scattered from)."""
+        ng = self.n_grid
+        mu = ti.cast(self.field_mu, self.real)
+        cell = self.dx[None] ** 3
+        lo, ext = self.touched_box()
+        for idx in range(ext[0] * ext[1] * ext[2]):
+            I = lo + ti.Vector([idx // (ext[1] * ext[2]), (idx // ext[2]) % ext[1], idx % ext[2]])
+            g = self.grid_mv[0, I]
+            m = g[3]
+            sv = self.grid_sv[I]
+            m_a = sv[3]
+            m_b = m - m_a
+            u2 = ti.Vector.zero(self.real, 3)
+            held = 0   # in a ground's node layers or the walls' (the grid rule's reach): both move with the mean
+            for b in ti.static(range(self.n_grounds)):
+                if I[2] <= self.ground_kmax[b]:
+                    held = 1
+            for b in ti.static(range(self.n_walls)):
+                if (I < self.wall_lo_first[b]).any() or (I >= self.wall_hi_first[b]).any():
+                    held = 1
+            inner = (I > 0).all() and (I < ng - 1).all()
+            if inner and held == 0 and m_a > MIN_FRACTION * m and m_b > MIN_FRACTION * m:
+                vf = self.grid_vf[I]
+                touch = vf[0] + vf[1] >= TOUCH_FRACTION * cell
+                u = ti.Vector([sv[0], sv[1], sv[2]]) / m_a - ti.Vector([g[0] - sv[0], g[1] - sv[1], g[2] - sv[2]]) / m_b
+                ex, ey, ez = ti.Vector([1, 0, 0]), ti.Vector([0, 1, 0]), ti.Vector([0, 0, 1])
+                n = ti.Vector([self.mass_diff(I + ex) - self.mass_diff(I - ex),
+                               self.mass_diff(I + ey) - self.mass_diff(I - ey),
+                               self.mass_diff(I + ez) - self.mass_diff(I - ez)])
+                ln = n.norm()
+                u2 = u
+                if ln > MIN_GRADIENT * m:
+                    nh = n / ln
+                    un = u.dot(nh)
+                    if un > 0.0 and touch:   # approaching: no interpenetration, Coulomb friction along the surface
+                        ut = u - un * nh
+                        lt = ut.norm()
+                        q = un * nh + ut
+                        if lt > mu * un:
+                            q = un * nh + (mu * un / lt) * ut
+                        u2 = u - q
+                else:
+                    u2 = ti.Vector.zero(self.real, 3)   # no normal: the fields move as one
+            da = (m_b / ti.max(m, 1e-30)) * u2
+            db = -(m_a / ti.max(m, 1e-30)) * u2
+            self.grid_dv[I] = ti.Vector([da[0], da[1], da[2], db[0], db[1], db[2]])
+
+    @ti.kernel
+    def field_clear(self):
+        """``grid_sv`` and ``grid_vf`` back to zero for the next P2G, over the nodes P2G touched."""
+        lo, ext = self.touched_box()
+        for idx in range(ext[0] * ext[1] * ext[2]):
+            I = lo + ti.Vector([idx // (ext[1] * ext[2]), (idx // ext[2]) % ext[1], idx % ext[2]])
+            self.grid_sv[I] = ti.Vector.zero(self.real, 4)
+            self.grid_vf[I] = ti.Vector.zero(self.real, 2)
+
+    def contact_fields(self) -> None:
+        """After P2G (and the viscous step), before the grid update: the contact, then the clear."""
+        if self.fields:
+            self.field_contact()
+            self.field_clear()

@@ -1,0 +1,156 @@
+"""The two-field grid contact (``gasp_core.toolkit.fields``, ``docs/contact.md`` "Sand that slides on what it touches",
+issue 53 item 3) as Warp kernels: field A's bodies (``in_a``, ``field_bodies``: a mixed scene's flowing bodies)
+scatter their momentum and mass to ``grid_sv`` in P2G (``transfers.p2g``); :func:`build_fields`' ``field_contact``,
+after P2G and before the grid update, turns them and the whole grid's into each field's velocity offset ``grid_dv``
+(field A's at ``node``, B's at ``n_nodes + node``) and clears ``grid_sv``; G2P (``transfers.g2p``) adds a point's own
+field's offset to the grid velocity.
+
+This module must not use ``from __future__ import annotations``: Warp reads the annotations of
+the closures below as type objects.
+"""
+import functools
+
+import numpy as np
+import warp as wp
+
+from gasp_core.toolkit.contact import flowing_bodies
+from gasp_core.toolkit.fields import MIN_FRACTION, MIN_GRADIENT, TOUCH_FRACTION, field_bodies, field_friction
+
+from .precision import MODULE_OPTIONS, build_types
+
+
+@functools.cache
+def build_field_reads(Ft):
+    """``(field_offset_base, field_node_v)``: G2P's reads of a point's field, scalar type ``Ft``. The first gives
+    where the point's offsets start in ``grid_dv`` (0 for field A, ``n_nodes`` for B; -1 without two fields), the
+    second a node's velocity plus that offset (the grid's alone at -1)."""
+    vec3, vec4, mat33 = build_types(Ft)
+
+    @wp.func
+    def field_offset_base(grid_dv: wp.array(dtype=vec3), in_a: wp.array(dtype=wp.int32), b: int, n_nodes: int):
+        off = int(-1)
+        if grid_dv.shape[0] > 1:
+            off = n_nodes
+            if in_a[b] != 0:
+                off = 0
+        return off
+
+    @wp.func
+    def field_node_v(grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), off: int, node: int):
+        gv = grid_v[node]
+        if off >= 0:
+            gv = gv + grid_dv[off + node]
+        return gv
+
+    return field_offset_base, field_node_v
+
+
+@functools.cache
+def build_fields(Ft):
+    """``field_contact``: the node kernel of the two-field contact, scalar type ``Ft``."""
+    vec3, vec4, mat33 = build_types(Ft)
+
+    @wp.func
+    def mass_diff(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), node: int):
+        # m_B - m_A at a node
+        return grid_mv[node][3] - Ft(2.0) * grid_sv[node][3]
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def field_contact(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), grid_dv: wp.array(dtype=vec3),
+                      n_grid: int, mu: Ft, ground: wp.array(dtype=vec3), grid_vf: wp.array(dtype=Ft), cell: Ft,
+                      wall_lo: Ft, wall_hi: vec3):
+        node = wp.tid()
+        nn = n_grid * n_grid
+        n_nodes = nn * n_grid
+        i = node / nn
+        j = (node / n_grid) % n_grid
+        k = node % n_grid
+        g = grid_mv[node]
+        m = g[3]
+        m_a = grid_sv[node][3]
+        m_b = m - m_a
+        dva = vec3(Ft(0.0))
+        dvb = vec3(Ft(0.0))
+        inner = i > 0 and j > 0 and k > 0 and i < n_grid - 1 and j < n_grid - 1 and k < n_grid - 1
+        held = int(0)   # in a ground's node layers or the walls' (the grid rule's reach): both move with the mean
+        for r in range(ground.shape[0]):
+            if Ft(k) <= ground[r][0]:
+                held = int(1)
+        if Ft(i) < wall_lo or Ft(j) < wall_lo or Ft(k) < wall_lo:
+            held = int(1)
+        if Ft(i) > wall_hi[0] or Ft(j) > wall_hi[1] or Ft(k) > wall_hi[2]:
+            held = int(1)
+        touch = (grid_vf[node] + grid_vf[n_nodes + node]) >= Ft(TOUCH_FRACTION) * cell   # the bodies meet here
+        if inner and held == 0 and m_a > Ft(MIN_FRACTION) * m and m_b > Ft(MIN_FRACTION) * m:
+            pa = grid_sv[node]
+            u = vec3(pa[0], pa[1], pa[2]) / m_a - vec3(g[0] - pa[0], g[1] - pa[1], g[2] - pa[2]) / m_b
+            # grad m_B - grad m_A, central differences (the 1 / (2 dx) cancels in the direction)
+            n = vec3(mass_diff(grid_mv, grid_sv, node + nn) - mass_diff(grid_mv, grid_sv, node - nn),
+                     mass_diff(grid_mv, grid_sv, node + n_grid) - mass_diff(grid_mv, grid_sv, node - n_grid),
+                     mass_diff(grid_mv, grid_sv, node + 1) - mass_diff(grid_mv, grid_sv, node - 1))
+            ln = wp.length(n)
+            u2 = u
+            if ln > Ft(MIN_GRADIENT) * m:
+                nh = n / ln
+                un = wp.dot(u, nh)
+                if un > Ft(0.0) and touch:   # approaching: no interpenetration, Coulomb friction along the surface
+                    ut = u - un * nh
+                    lt = wp.length(ut)
+                    q = un * nh + ut
+                    if lt > mu * un:
+                        q = un * nh + (mu * un / lt) * ut
+                    u2 = u - q
+            else:
+                u2 = vec3(Ft(0.0))   # no normal: the fields move as one
+            dva = (m_b / m) * u2
+            dvb = -(m_a / m) * u2
+        grid_dv[node] = dva
+        grid_dv[n_nodes + node] = dvb
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def field_clear(grid_sv: wp.array(dtype=vec4), grid_vf: wp.array(dtype=Ft)):
+        node = wp.tid()
+        grid_sv[node] = vec4(Ft(0.0))
+        grid_vf[node] = Ft(0.0)
+        grid_vf[grid_sv.shape[0] + node] = Ft(0.0)
+
+    return field_contact, field_clear
+
+
+def allocate_fields(eng, Ft, contact: str) -> None:
+    """The contact chosen per body (``contact`` the scene's): ``eng.flows`` (per body, 1 where it flows) and
+    ``grid_mf`` (the flowing bodies' mass per node in a mixed scene); the two-field contact's ``in_a`` (per body, 1 in
+    field A), ``grid_sv`` (field A's momentum and mass per node), ``grid_vf`` (each field's volume) and ``grid_dv``
+    (the two offsets per node), one unused entry each without it (``eng.fields`` says which), and its friction
+    ``eng.field_mu``."""
+    from gasp_core.toolkit.rigid import step_view
+    k, d = eng.k, eng.device
+    view = step_view(eng.setup)
+    eng.flows = wp.array(flowing_bodies(view, contact).astype(np.int32), dtype=wp.int32, device=d)
+    eng.grid_mf = wp.zeros(eng.n_grid ** 3 if contact == "mixed" else 1, dtype=Ft, device=d)
+    in_a = field_bodies(view)
+    eng.fields = in_a is not None
+    eng.in_a = wp.array((in_a if eng.fields else np.zeros(1, bool)).astype(np.int32), dtype=wp.int32, device=d)
+    eng.field_mu = field_friction(view) if eng.fields else 0.0
+    n = eng.n_grid ** 3 if eng.fields else 1
+    eng.grid_sv = wp.zeros(n, dtype=k.vec4, device=d)
+    eng.grid_dv = wp.zeros(2 * n if eng.fields else 1, dtype=k.vec3, device=d)
+    eng.grid_vf = wp.zeros(2 * n if eng.fields else 1, dtype=Ft, device=d)
+
+
+def field_launches(eng, Ft) -> list:
+    """The recorded launches of the contact and the clear (after P2G, before the grid update); none without it."""
+    if not eng.fields:
+        return []
+    contact, clear = build_fields(Ft)
+    ng, d = eng.n_grid, eng.device
+    # the walls' grid rule reaches node indices below wall_in and above (hi - lo) / dx - wall_in (grid.py)
+    walls = eng.wall_mu.shape[0] > 0
+    wall_lo = eng.wall_in if walls else -1.0
+    side = (np.asarray(eng.setup.domain_hi, float) - np.asarray(eng.setup.domain_lo, float)) / eng.dx
+    wall_hi = side - eng.wall_in if walls else np.full(3, 1e30)
+    return [wp.launch(contact, dim=ng ** 3, device=d, record_cmd=True, inputs=[
+                eng.grid_mv, eng.grid_sv, eng.grid_dv, ng, Ft(eng.field_mu), eng.ground, eng.grid_vf,
+                Ft(eng.dx ** 3), Ft(wall_lo), eng.k.vec3(*[float(c) for c in wall_hi])]),
+            wp.launch(clear, dim=ng ** 3, device=d, record_cmd=True, inputs=[eng.grid_sv, eng.grid_vf])]
+
