@@ -39,7 +39,7 @@ from gasp_core.toolkit.materials import P_FT, brittle_damage, material_table, sn
 
 E, NU, RHO, FT = 1e6, 0.25, 1000.0, 1e4
 MU, LAM = E / (2 * (1 + NU)), E * NU / ((1 + NU) * (1 - 2 * NU))
-PLUGIN_MODULE = {"warp_mpm": "gasp_warp_mpm.solver", "taichi_mpm": "gasp_taichi_mpm.engine"}
+PLUGIN_MODULE = {"warp_mpm": "gasp_warp_mpm.engine", "taichi_mpm": "gasp_taichi_mpm.engine"}
 
 
 def _names():

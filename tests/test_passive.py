@@ -183,7 +183,7 @@ def test_simulate_warns_about_stranded_passive_points(donut, write_scene, tmp_pa
     from gasp_core.run.pipeline import simulate_scene
     from gasp_core.run.report import Reporter
     from gasp_core.scene.spec import load_scene
-    from gasp_warp_mpm.solver import WarpMPMEngine
+    from gasp_warp_mpm.engine import WarpMPMEngine
     ply = tmp_path / "donut_tiny.ply"
     write_gaussians(ply, donut.subset(np.arange(0, donut.n, 64)))
     scene = load_scene(write_scene(scene_text(ply, n_frames=2, n_grid=16, engine="warp_mpm", engine_options="{}",
@@ -276,7 +276,7 @@ def test_the_hold_check_catches_an_engine_without_the_rule(name, monkeypatch):
     """The same run with the rule taken out of the engine (its box made unbounded): the markers sink 1.1 dx into the
     ground and cross the wall's face by 0.12 dx (measured on both engines), and the check says so."""
     unbounded = lambda setup, contact="grid": (np.full(3, -np.inf), np.full(3, np.inf))      # noqa: E731
-    module = {"warp_mpm": "gasp_warp_mpm.solver", "taichi_mpm": "gasp_taichi_mpm.engine"}[name]
+    module = {"warp_mpm": "gasp_warp_mpm.engine", "taichi_mpm": "gasp_taichi_mpm.engine"}[name]
     monkeypatch.setattr(f"{module}.passive_bounds", unbounded)
     traj, err = _markers_run(name)
     bad = _markers_held(traj, err, 1 / 16)

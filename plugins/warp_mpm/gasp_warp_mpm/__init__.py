@@ -1,7 +1,7 @@
 """GASP engine plugin ``warp_mpm``: the MLS-MPM solver of ``docs/mpm.md`` written in NVIDIA Warp.
 
 Registers one engine through the ``gasp_engines`` hook. Importing this module does not import
-Warp: the factory imports :mod:`gasp_warp_mpm.solver` when a simulation is built, and
+Warp: the factory imports :mod:`gasp_warp_mpm.engine` when a simulation is built, and
 ``available()`` only checks that ``warp`` can be imported.
 """
 from __future__ import annotations
@@ -61,7 +61,7 @@ KNOWN_FAILURES = dict(MPM_KNOWN_FAILURES)
 #: The engine's registration record (the ``gasp_engines`` hook, :func:`gasp_core.seam.plugins.engine_hook`).
 gasp_engines = engine_hook(EngineInfo(
     name=ENGINE,
-    factory="gasp_warp_mpm.solver:WarpMPMEngine",
+    factory="gasp_warp_mpm.engine:WarpMPMEngine",
     capabilities=CAPABILITIES,
     config=WarpMPMConfig,
     known_failures=KNOWN_FAILURES,

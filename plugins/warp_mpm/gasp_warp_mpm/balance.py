@@ -344,7 +344,7 @@ def build_contact_fix(Ft):
 
 
 def allocate_balance(engine, planes: list, Ft, n_sup: int = 1) -> None:
-    """The contact's balance arrays on ``engine`` (a :class:`~gasp_warp_mpm.solver.WarpMPMEngine` with ``setup``,
+    """The contact's balance arrays on ``engine`` (a :class:`~gasp_warp_mpm.engine.WarpMPMEngine` with ``setup``,
     ``device``, ``n_grid``): per body its sums, shift, reach (m) and mass (kg); per support (``n_sup`` a body: the
     grounds, then each collider with the particle contact) its contact sums and friction sums; the contact nodes'
     supports and list. No particle contact (``planes`` empty and ``n_sup`` 1), or ``contact_balance = false``: zero

@@ -219,7 +219,7 @@ def build_rigid(Ft):
 
 
 class RigidBodies:
-    """The host side of the rigid limit, mixed into :class:`gasp_warp_mpm.solver.WarpMPMEngine`: the bodies' arrays
+    """The host side of the rigid limit, mixed into :class:`gasp_warp_mpm.engine.WarpMPMEngine`: the bodies' arrays
     (:meth:`_upload_rigid`), their launches after G2P (:meth:`_rigid_launches`), their share of a saved state."""
 
     def _upload_rigid(self) -> None:

@@ -1,5 +1,5 @@
 """Sleeping bodies (the feature ``sleep``, ``gasp_core.seam.body_sleep``): :class:`Sleeping`, a mixin of
-:class:`gasp_warp_mpm.solver.WarpMPMEngine`.
+:class:`gasp_warp_mpm.engine.WarpMPMEngine`.
 
 The points of the sleeping bodies are moved to the end of the material range (a stable partition of the point
 order: on CPU of the cell order, which ``_resort`` keeps after every frame) and the per-material-point launches (P2G,

@@ -1,4 +1,4 @@
-"""Warp start-up for :class:`gasp_warp_mpm.solver.WarpMPMEngine`: ``wp.init()`` without the CPU-only noise."""
+"""Warp start-up for :class:`gasp_warp_mpm.engine.WarpMPMEngine`: ``wp.init()`` without the CPU-only noise."""
 import warp as wp
 
 
@@ -8,7 +8,7 @@ def init_warp() -> None:
     it prints is passed on.
 
     On a CPU run the warning is noise; on a CUDA run the engine refuses in its own one line
-    (:meth:`gasp_warp_mpm.solver.WarpMPMEngine._start_warp`), so Warp's line beside it is dropped too."""
+    (:meth:`gasp_warp_mpm.engine.WarpMPMEngine._start_warp`), so Warp's line beside it is dropped too."""
     import os
     import sys
     import tempfile

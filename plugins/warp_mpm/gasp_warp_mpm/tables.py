@@ -1,4 +1,4 @@
-"""The colliders', forces' and impulses' tables of a :class:`~gasp_warp_mpm.solver.WarpMPMEngine`
+"""The colliders', forces' and impulses' tables of a :class:`~gasp_warp_mpm.engine.WarpMPMEngine`
 (``gasp_core.toolkit.grid_tables``): built once, and their time-dependent rows loaded each frame."""
 from __future__ import annotations
 

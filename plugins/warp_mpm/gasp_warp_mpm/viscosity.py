@@ -240,7 +240,7 @@ def build_viscosity(Ft):
 
 
 class ImplicitViscosity:
-    """The viscous step of one :class:`gasp_warp_mpm.solver.WarpMPMEngine`: arrays and launches.
+    """The viscous step of one :class:`gasp_warp_mpm.engine.WarpMPMEngine`: arrays and launches.
 
     Parameters
     ----------
