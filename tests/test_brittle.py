@@ -460,19 +460,24 @@ def test_a_free_bar_that_breaks_keeps_its_momentum_and_gains_no_energy(name):
 
 
 # ----------------------------------------------------------------------------- a ball dropped on the ground
-def ball_pieces(name: str, drop: float, tensile_strength: float, fracture_energy: float) -> int:
-    """Pieces after 15 frames of 0.01 s of a brittle ball (radius 0.1 m, E 200 kPa, rho 300 kg/m^3, lattice of
-    spacing dx/2 at n_grid 32) that reaches the ground (friction 0.5) at ``sqrt(2 g drop)`` (it starts 5 mm above
-    it with that speed: the same impact, a smaller domain)."""
-    from gasp_core.run.pieces import tracker_for
+def ball_setup(name: str, speed: float, tensile_strength: float, fracture_energy: float) -> SimSetup:
+    """A brittle ball (radius 0.1 m, E 200 kPa, nu 0.25, rho 300 kg/m^3, lattice of spacing dx/2 at n_grid 32, frames
+    of 0.01 s) that reaches the ground (friction 0.5, walls) at ``speed`` m/s: it starts 5 mm above it with that speed."""
     from gasp_core.testing.helpers import sphere_points
     dx, ground = 1 / 32, 0.1 + 3 / 32
     x, pv = sphere_points((0.5, 0.5, ground + 0.105), 0.1, dx / 2)
     m = Material("brittle", E=2e5, nu=0.25, rho=300.0, tensile_strength=tensile_strength,
                  fracture_energy=fracture_energy)
-    s = make_setup(x, pv, m, v=np.array([0.0, 0.0, -np.sqrt(2 * 9.81 * drop)]), n_grid=32, frame_dt=0.01,
-                   boundaries=[Boundary("ground", height=ground, friction=0.5), Boundary("walls")],
-                   options={"precision": "f32", **({"threads": 1} if name == "taichi_mpm" else {})})
+    return make_setup(x, pv, m, v=np.array([0.0, 0.0, -speed]), n_grid=32, frame_dt=0.01,
+                      boundaries=[Boundary("ground", height=ground, friction=0.5), Boundary("walls")],
+                      options={"precision": "f32", **({"threads": 1} if name == "taichi_mpm" else {})})
+
+
+def ball_pieces(name: str, drop: float, tensile_strength: float, fracture_energy: float) -> int:
+    """Pieces after 15 frames of :func:`ball_setup`'s ball landing at ``sqrt(2 g drop)`` (the same impact as a drop
+    from ``drop`` m, a smaller domain)."""
+    from gasp_core.run.pieces import tracker_for
+    s = ball_setup(name, np.sqrt(2 * 9.81 * drop), tensile_strength, fracture_energy)
     e = build_engine(engines()[name], s)
     try:
         for _ in range(15):

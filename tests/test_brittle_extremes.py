@@ -11,8 +11,7 @@ import pytest
 
 from gasp_core.seam.build import build_engine
 from gasp_core.seam.plugins import engines
-from gasp_core.seam.setup import Boundary, Material
-from gasp_core.testing.helpers import make_setup, sphere_points
+from test_brittle import ball_setup
 
 E, NU, RHO, G = 2e5, 0.25, 300.0, 9.81
 MU, LAM = E / (2 * (1 + NU)), E * NU / ((1 + NU) * (1 - 2 * NU))
@@ -40,12 +39,7 @@ def ball_extreme(name: str, speed: float, tensile_strength: float, fracture_ener
     the grid (m) and whether every value stayed finite. ``spoil``: a broken engine, whose velocities grow by this
     factor after each frame (its state set back with them)."""
     from gasp_core.run.pieces import tracker_for
-    dx, ground = 1 / 32, 0.1 + 3 / 32
-    x, pv = sphere_points((0.5, 0.5, ground + 0.105), 0.1, dx / 2)
-    m = Material("brittle", E=E, nu=NU, rho=RHO, tensile_strength=tensile_strength, fracture_energy=fracture_energy)
-    s = make_setup(x, pv, m, v=np.array([0.0, 0.0, -speed]), n_grid=32, frame_dt=0.01,
-                   boundaries=[Boundary("ground", height=ground, friction=0.5), Boundary("walls")],
-                   options={"precision": "f32", **({"threads": 1} if name == "taichi_mpm" else {})})
+    s = ball_setup(name, speed, tensile_strength, fracture_energy)
     e = build_engine(engines()[name], s)
     out = {"E": [energy(s, s.x, np.broadcast_to(s.v, s.x.shape), np.broadcast_to(np.eye(3), (len(s.x), 3, 3)),
                         np.zeros(len(s.x)))], "finite": True, "outside": 0.0}

@@ -17,6 +17,7 @@ import numpy as np
 
 from gasp_core.errors import EngineError, GaspError, missing_module_message
 from gasp_core.fsutil import atomic_path
+from gasp_core.gs.ply import SH_C0
 from gasp_core.run.budget import duration_text
 
 #: Point-substeps a second at which the time is estimated: the README donut on a 2-core CPU (65,036 points,
@@ -25,8 +26,6 @@ from gasp_core.run.budget import duration_text
 CPU_RATE = 5e6
 #: At most this many Gaussians drawn per object and per kind (moving, rest), chosen evenly.
 MAX_DRAWN = 40_000
-#: SH degree-0 constant (colour = 0.5 + C0 f_dc).
-C0 = 0.28209479177387814
 
 
 def place_picture(scene_path: str | Path, output: str | Path, quality: str | None = None,
@@ -132,7 +131,7 @@ def _view(ax, scene, setup, objects, a: int, b: int, title: str) -> None:
             ax.scatter(p[:, a], p[:, b], s=0.3, c="0.75", linewidths=0)
         if not o.spec.static:
             p = o.tri_rest[:, 0]
-            rgb = np.clip(0.5 + C0 * o.simulated_rows(o.gaussians.sh_dc)[:, :3], 0, 1)
+            rgb = np.clip(0.5 + SH_C0 * o.simulated_rows(o.gaussians.sh_dc)[:, :3], 0, 1)
             k = _even(len(p))
             ax.scatter(p[k, a], p[k, b], s=float(np.clip(4000 / max(len(k), 1), 0.6, 4.0)), c=rgb[k], linewidths=0)
     for c in getattr(setup, "colliders", None) or []:

@@ -71,21 +71,6 @@ class Fields:
         """``m_B - m_A`` at node I."""
         return self.grid_mv[0, I][3] - 2.0 * self.grid_sv[I][3]
 
-    @ti.func
-    def touched_box(self):
-        """The nodes P2G touched (the union of the chunks' boxes; the whole grid with atomic P2G), as the grid
-        update reads them."""
-        ng = self.n_grid
-        lo = ti.Vector([0, 0, 0])
-        hi = ti.Vector([ng - 1, ng - 1, ng - 1])
-        if ti.static(not self.atomic):
-            lo = ti.Vector([ng, ng, ng])
-            hi = ti.Vector([-1, -1, -1])
-            for t in ti.static(range(self.n_chunks)):
-                lo = ti.min(lo, self.box[t, 0])
-                hi = ti.max(hi, self.box[t, 1])
-        return lo, ti.max(hi - lo + 1, 0)
-
     @ti.kernel
     def field_contact(self):
         """Each shared node's offsets (``gasp_core.toolkit.fields``): the Coulomb contact of the two fields, over the

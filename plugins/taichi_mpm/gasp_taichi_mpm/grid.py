@@ -93,9 +93,10 @@ class GridUpdate:
                 v = self.rule(v, self.axis_friction(v, 2, 1.0, self.ground_fric[b]), I[2] > self.ground_kfull[b], f)
         return v
 
-    @ti.kernel
-    def grid_update(self):
-        """Sum the copies over the touched box, clear them, velocity + gravity + boundaries -> grid_v."""
+    @ti.func
+    def touched_box(self):
+        """The nodes P2G touched (the union of the chunks' boxes; the whole grid with atomic P2G), as the grid
+        update reads them."""
         ng = self.n_grid
         lo = ti.Vector([0, 0, 0])
         hi = ti.Vector([ng - 1, ng - 1, ng - 1])
@@ -105,7 +106,13 @@ class GridUpdate:
             for t in ti.static(range(self.n_chunks)):
                 lo = ti.min(lo, self.box[t, 0])
                 hi = ti.max(hi, self.box[t, 1])
-        ext = ti.max(hi - lo + 1, 0)
+        return lo, ti.max(hi - lo + 1, 0)
+
+    @ti.kernel
+    def grid_update(self):
+        """Sum the copies over the touched box, clear them, velocity + gravity + boundaries -> grid_v."""
+        ng = self.n_grid
+        lo, ext = self.touched_box()
         if ti.static(not self.atomic):
             for i in range(ng):   # the chunks whose box reaches node plane I_x = i: first and last
                 first, last = self.n_chunks, -1
