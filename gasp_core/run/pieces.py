@@ -23,7 +23,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from scipy.sparse import coo_matrix
+from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
@@ -63,6 +63,13 @@ class PieceTracker:
         self.pairs = np.concatenate(pairs) if pairs else np.zeros((0, 2), np.int64)
         self.linked = np.zeros(len(self.mass), bool)
         self.linked[self.pairs.ravel()] = True
+        # the links both ways, sorted by their first point (a CSR graph's order): each labelling only masks them
+        rows = np.concatenate([self.pairs[:, 0], self.pairs[:, 1]])
+        cols = np.concatenate([self.pairs[:, 1], self.pairs[:, 0]])
+        order = np.lexsort((cols, rows))
+        self._cols = cols[order].astype(np.int32)
+        self._degree = np.bincount(rows, minlength=len(self.mass))
+        self._indptr = np.concatenate([[0], np.cumsum(self._degree)])
         passive = np.flatnonzero(self.mass <= 0)
         near = cKDTree(x_rest[self.material]).query(x_rest[passive])[1] if len(passive) else np.zeros(0, np.int64)
         self.passive, self.passive_host = passive, self.material[near]
@@ -89,9 +96,7 @@ class PieceTracker:
         whole = (d < BROKEN) & self.linked
         if self._last is not None and np.array_equal(whole, self._last[0]):
             return self._last[1]   # no point broke since: the same pieces (a broken point stays where it joined)
-        keep = self.pairs[whole[self.pairs[:, 0]] & whole[self.pairs[:, 1]]]
-        graph = coo_matrix((np.ones(len(keep)), (keep[:, 0], keep[:, 1])), shape=(n, n))
-        _, comp = connected_components(graph, directed=False)
+        comp = self._components(whole)
         lab = np.full(n, -1, np.int64)
         intact = self.material[whole[self.material]]
         lab[intact] = comp[intact]
@@ -106,6 +111,17 @@ class PieceTracker:
         lab = np.argsort(np.argsort(first))[dense]
         self._last = (whole, lab)
         return lab
+
+    def _components(self, whole: np.ndarray) -> np.ndarray:
+        """Connected components over the links between ``whole`` points, shape (n,): a CSR graph cut from the
+        sorted two-way links without a sort or a transpose (the cost of a frame where something broke; on a
+        symmetric graph the strong components are the connected ones)."""
+        n = len(self.mass)
+        keep = np.repeat(whole, self._degree) & whole[self._cols]
+        indptr = np.concatenate([[0], np.cumsum(keep)])[self._indptr]
+        graph = csr_matrix((np.ones(int(indptr[-1]), np.int8), self._cols[keep], indptr), shape=(n, n))
+        graph.has_sorted_indices = True
+        return connected_components(graph, directed=True, connection="strong")[1]
 
     def row(self, x: np.ndarray, damage: np.ndarray | None) -> tuple[dict, bool]:
         """``({"pieces": count, "piece_mass": [kg, largest first]}, changed)`` of the frame at positions ``x``;
