@@ -263,11 +263,14 @@ def test_coarse_grid_warns_with_the_n_grid_that_gives_8_cells():
     from gasp_core.maps.fill import FillReport
     from gasp_core.prepare.checks import check_resolution
     solid = FillReport("ball", 1e-3, 10, 0.01, 0.001, "six-ray", True, 1)
-    msgs = check_resolution("ball", np.array([0.1, 0.1, 0.1]), 0.025, 16, solid)
-    assert len(msgs) == 1 and "4.0 grid cells" in msgs[0] and "n_grid = 32 gives 8" in msgs[0]
-    assert check_resolution("ball", np.array([0.1, 0.1, 0.1]), 0.0125, 32, solid) == []
+    # a filled solid is judged by its thinnest part (tests/test_thin_parts.py), not by its box (issue 54)
+    assert check_resolution("ball", np.array([0.1, 0.1, 0.1]), 0.025, 16, solid) == []
     sheet = FillReport("flag", 1e-5, 0, 0.01, 0.001, "shell-open", False, 0)
     assert check_resolution("flag", np.array([0.3, 0.2, 1e-4]), 0.01, 64, sheet) == []   # a sheet: its width
+    msgs = check_resolution("flag", np.array([0.1, 0.1, 1e-4]), 0.025, 16, sheet)
+    assert len(msgs) == 1 and "4.0 grid cells across its width" in msgs[0] and "n_grid = 32 gives 8" in msgs[0]
+    unfilled = dataclasses.replace(solid, n_fill=0)    # closed, but too small to hold a fill point: by its box
+    assert len(check_resolution("ball", np.array([0.1, 0.1, 0.1]), 0.025, 16, unfilled)) == 1
     thin = dataclasses.replace(solid, thin_share=0.2, thin_h=0.002, h=0.005, thin_box=[[0.0, 0.0, 0.0], [0.1, 0.0, 0.01]])
     msgs = check_resolution("cow", np.array([0.3, 0.3, 0.3]), 0.01, 64, thin)
     assert len(msgs) == 1 and "thin parts (20% of its solid" in msgs[0] and "n_grid = 160 fills them" in msgs[0]

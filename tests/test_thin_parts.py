@@ -1,6 +1,7 @@
 """Thin parts by local thickness (issue 54, item 5): the jelly guitar at n_grid 64 is warned about its neck, named by
 where it is, with the n_grid that would put 2 cells across it; a well-resolved donut is not; a slab of known
 thickness beside a thick block is found at its thickness, and the block's trimmed edges are not a part."""
+import dataclasses
 import re
 import warnings
 
@@ -80,3 +81,15 @@ def test_the_jelly_guitar_at_n_grid_64_is_warned_about_its_neck(tmp_path):
 
 def test_a_well_resolved_donut_has_no_thin_part():
     assert _thin_warnings(load_scene(EXAMPLES / "donut_jelly.toml")) == []
+
+
+def test_a_solid_is_not_warned_by_its_bounding_box():
+    """The README donut at n_grid 32 is 7.3 cells across its smallest axis (the tube) and has no part under 2
+    cells: no resolution line (the bounding-box rule warned "7.3 grid cells across its smallest", issue 54)."""
+    scene = load_scene(EXAMPLES / "donut_jelly.toml")
+    scene = dataclasses.replace(scene, domain=dataclasses.replace(scene.domain, n_grid=32))
+    objs = [prepare_object(s) for s in scene.objects]
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        build_setup(scene, objs)
+    assert not [str(m.message) for m in w if "grid cells across" in str(m.message)]

@@ -73,13 +73,16 @@ def check_resolution(name: str, extent: np.ndarray, dx: float, n_grid: int, repo
     n_grid : int
         Cells along the domain's longest side.
     report : FillReport or None
-        Its fill (a solid is measured on its smallest axis, a shell on its second largest: a sheet's width).
+        Its fill (a shell is measured on its second largest axis: a sheet's width).
 
     Returns
     -------
     list of str
-        Warnings (empty when fine): fewer than :data:`MIN_CELLS` cells across, naming the ``n_grid`` that
-        gives that many; thin parts that stay shells, naming the ``n_grid`` that fills them.
+        Warnings (empty when fine): a shell (no closed fill) with fewer than :data:`MIN_CELLS` cells across its
+        width, naming the ``n_grid`` that gives that many; thin parts of a solid that stay shells, naming the
+        ``n_grid`` that fills them. A solid's resolution is judged by its local thickness, not its bounding box
+        (:func:`gasp_core.prepare.thickness.thin_part_warnings`, issue 54: a donut 6 cells across its tube is
+        resolved, a guitar 12 cells across its box is not at its neck).
 
     Raises
     ------
@@ -92,12 +95,10 @@ def check_resolution(name: str, extent: np.ndarray, dx: float, n_grid: int, repo
                          f"across); raise [domain] n_grid to at least {math.ceil(n_grid * MIN_CELLS * dx / ext[2])} "
                          f"or lower padding")
     out = []
-    solid = report is not None and report.closed
-    span = ext[0] if solid else ext[1]
-    if span < MIN_CELLS * dx:
-        out.append(f"object '{name}': {span / dx:.1f} grid cells across its {'smallest' if solid else 'width'} "
-                   f"({span:.3g} m, dx = {dx:.3g} m); n_grid = {math.ceil(n_grid * MIN_CELLS * dx / span)} "
-                   f"gives {MIN_CELLS}")
+    solid = report is not None and report.closed and report.n_fill > 0
+    if not solid and ext[1] < MIN_CELLS * dx:   # a solid is judged by its thinnest part (prepare/thickness.py)
+        out.append(f"object '{name}': {ext[1] / dx:.1f} grid cells across its width ({ext[1]:.3g} m, dx = "
+                   f"{dx:.3g} m); n_grid = {math.ceil(n_grid * MIN_CELLS * dx / ext[1])} gives {MIN_CELLS}")
     if solid and report.thin_share > THIN_WARN_SHARE and report.thin_h > 0:
         lo, hi = (np.round(b, 3).tolist() for b in report.thin_box)
         out.append(f"object '{name}': thin parts ({report.thin_share:.0%} of its solid, up to "
