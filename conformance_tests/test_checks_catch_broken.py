@@ -51,6 +51,7 @@ ANALYTIC_SCREEN = {
     "ground_raised": ("rest_gap",),
     "holds_every_tilt": ("tip_over", "settle_back"),
     "inelastic_wall": ("ball_off_wall",),
+    "restitution_high": ("restitution_wood", "restitution_steel"),
 }
 
 
@@ -185,6 +186,10 @@ def broken_engine(info, kind: str):
         if kind in ("viscosity_low", "viscosity_high"):  # Kelvin-Voigt viscosity 5 % low / high: decrement -+5.2 %
             f = 0.95 if kind == "viscosity_low" else 1.05
             mats = [dataclasses.replace(m, viscosity=f * m.viscosity) for m in setup.materials]
+            return info.factory(setup.replace(materials=mats))
+        if kind == "restitution_high":  # every body's restitution 5 % over what its material gives (capped at 1)
+            from gasp_core.toolkit.restitution import body_restitution
+            mats = [dataclasses.replace(m, restitution=min(1.0, 1.05 * body_restitution(m))) for m in setup.materials]
             return info.factory(setup.replace(materials=mats))
         if kind == "ground_friction_low":  # ground friction 5 % low: a slide 5.3 % long
             bounds = [dataclasses.replace(b, friction=0.95 * b.friction) if b.kind == "ground" else b
