@@ -52,6 +52,9 @@ ANALYTIC_SCREEN = {
     "holds_every_tilt": ("tip_over", "settle_back"),
     "inelastic_wall": ("ball_off_wall",),
     "restitution_high": ("restitution_wood", "restitution_steel"),
+    "rigid_creeps": ("rigid_rest",),
+    "rigid_tilts": ("rigid_rest",),
+    "ground_raised_0.05dx": ("rigid_rest",),
 }
 
 
@@ -123,6 +126,13 @@ class _Broken:
             x = x + np.random.default_rng().normal(scale=1e-9, size=x.shape)
         elif self.kind == "friction_pushes":  # the ground carries what touches it along +x at 1% dx / frame
             x[self._contact(x), 0] += 0.01 * self.setup.dx * self.frame
+        elif self.kind == "rigid_creeps":   # a body at rest creeps along +x at 0.1 % of a cell a frame
+            x[:, 0] += 0.001 * self.setup.dx * self.frame
+        elif self.kind == "rigid_tilts":    # a body at rest tilts about x through its centroid, 0.002 deg a frame
+            c = x.mean(axis=0)
+            a = np.radians(0.002 * self.frame)
+            rot = np.array([[1.0, 0.0, 0.0], [0.0, np.cos(a), -np.sin(a)], [0.0, np.sin(a), np.cos(a)]])
+            x = c + (x - c) @ rot.T
         elif self.kind == "passive_straight_lines" and hasattr(self, "xp"):
             x[self.setup.passive] = self.xp
         elif self.kind == "holds_every_tilt":   # a contact that takes back every torque: bodies only translate
@@ -193,6 +203,10 @@ def broken_engine(info, kind: str):
             return info.factory(setup.replace(materials=mats))
         if kind == "ground_friction_low":  # ground friction 5 % low: a slide 5.3 % long
             bounds = [dataclasses.replace(b, friction=0.95 * b.friction) if b.kind == "ground" else b
+                      for b in setup.boundaries]
+            return info.factory(setup.replace(boundaries=bounds))
+        if kind == "ground_raised_0.05dx":  # the ground 0.05 dx above where it is declared: a body hovers over it
+            bounds = [dataclasses.replace(b, height=b.height + 0.05 * setup.dx) if b.kind == "ground" else b
                       for b in setup.boundaries]
             return info.factory(setup.replace(boundaries=bounds))
         if kind == "ground_raised":  # the ground 5 % of the half point spacing (dx / 4) above where it is declared
