@@ -44,6 +44,10 @@ DEFAULT_SCENES = {
                          "nominal", "E_1e10", "outside_domain"}),   # test_extremes cases
 }
 
+#: Scenes marked ``slow`` on one engine only (over a minute there, a second or so on the grid engines):
+#: mujoco_flex's ``stacked_gap`` (its two flex balls in contact, 113 s for 0.5 s of it).
+SLOW_SCENES = {"mujoco_flex": frozenset({"stacked_gap"})}
+
 
 @pytest.hookimpl(tryfirst=True)     # before pytest's own -m selection
 def pytest_collection_modifyitems(config, items):
@@ -53,5 +57,5 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(getattr(pytest.mark, MARK))
             engine, _, case = getattr(getattr(item, "callspec", None), "id", "").partition("-")  # "engine-scene"
             subset = DEFAULT_SCENES.get(engine)
-            if not full and subset is not None and case not in subset:
+            if not full and ((subset is not None and case not in subset) or case in SLOW_SCENES.get(engine, ())):
                 item.add_marker(pytest.mark.slow)
