@@ -15,8 +15,7 @@
 
 - ``rigid_rest``: a hardwood slab (6 x 6 x 2 cells, on the rigid route) let go with the bottom of its lowest points'
   volumes ``REST_DROP`` = 0.5 dx over a ground with friction 0.5 (as ``rest_gap``: set down touching, it would stay where it
-  was put: the rigid contact's inelastic branch never pushes a body at rest out of the ground, measured: put 0.2 dx
-  into it, it stays there), placed off the grid's symmetry, for ``REST_T`` = 3 s. Known answer: it stays
+  was put: put 0.2 dx into the ground, a resting rigid body stays there, docs/contact.md), placed off the grid's symmetry, for ``REST_T`` = 3 s. Known answer: it stays
   where it is (issue 53 item 2: a rigid donut slid 15 mm/s on one engine, another rocked 3-10 degrees and turned 12.8
   degrees by itself). Checks: the centroid's horizontal travel under ``RIGID_TRAVEL_TOL`` = 0.025 dx (the elastic
   slab's ``REST_TOL``), its turn under ``RIGID_TURN_TOL`` = 0.1 degree, and the bottom of its lowest points' volumes
