@@ -7,7 +7,8 @@
   n_grid 32, 2 frames: measured 13 pieces at frame 2, each holding Gaussians) writes ``pieces_NNNN.npy`` per frame;
   exported with ``--split-pieces`` the GLB of each frame has one node per piece of that frame (and one with the piece's
   shown crack faces) and the USD one prim per piece of the last frame, each holding exactly the Gaussians labelled with it (positions equal to the PLY
-  frame's, turned to the format's axes). Shown to catch an export that ignores the labels (one node: the count
+  frame's, turned to the format's axes), and beside each a prim of its crack faces, time-sampled, hidden at frame 0 and
+  shown where the frame's crack-face file shows them. Shown to catch an export that ignores the labels (one node: the count
   check fails). Without the flag the files are byte for byte those of a plain export.
 """
 from __future__ import annotations
@@ -166,12 +167,28 @@ def test_split_usd_has_a_prim_per_piece_of_the_last_frame(broken_run, tmp_path):
     assert obj.GetTypeName() == "Xform"
     lab = _labels(broken_run, 2)
     prims = {p.GetName(): p for p in obj.GetChildren()}
-    assert sorted(prims) == [f"piece_{k:03d}" for k in np.unique(lab)]
+    faces = read_gaussians(broken_run / "donut_small" / "crack_faces_0002.ply")
+    with_faces = np.unique(faces.extra["piece"][faces.extra["piece"] >= 0])
+    assert sorted(prims) == sorted([f"piece_{k:03d}" for k in np.unique(lab)]
+                                   + [f"piece_{k:03d}_faces" for k in with_faces])
     for f in range(3):
         means = read_gaussians(broken_run / "donut_small" / f"frame_{f:04d}.ply").means   # +z up: USD's own
         for k in np.unique(lab):
             got = np.asarray(prims[f"piece_{k:03d}"].GetAttribute("positions").Get(Usd.TimeCode(f)))
             np.testing.assert_allclose(got, means[lab == k], atol=1e-6)
+    # each piece's crack faces (those of the last frame), drawn from the frame their crack opens: none at frame 0
+    for k in with_faces:
+        rows = faces.extra["piece"] == k
+        prim = prims[f"piece_{k:03d}_faces"]
+        for f in range(3):
+            ff = read_gaussians(broken_run / "donut_small" / f"crack_faces_{f:04d}.ply")
+            np.testing.assert_allclose(np.asarray(prim.GetAttribute("positions").Get(Usd.TimeCode(f))),
+                                       ff.means[rows], atol=1e-6)
+            alpha = np.asarray(prim.GetAttribute("opacities").Get(Usd.TimeCode(f)))
+            np.testing.assert_array_equal(alpha > 0.5, ff.opacities[rows] > 0)
+            assert f > 0 or not (alpha > 0.5).any()
+    assert sum((np.asarray(prims[f"piece_{k:03d}_faces"].GetAttribute("opacities").Get(Usd.TimeCode(2))) > 0.5).sum()
+               for k in with_faces) > 0, "no face shown at the last frame of a broken run"
 
 
 def test_split_pieces_is_refused_for_other_formats_and_runs_without_pieces(broken_run, tmp_path, capsys):

@@ -87,7 +87,8 @@ def export_run(run, fmt: str, out, *, overwrite: bool = False, into_run: bool = 
                   for k, n in enumerate(names)]
         if last is not None:
             write_usd(out, frames, names, ups, frame_dt, moving, overwrite=overwrite,
-                      pieces=[None if a is None else split.parts_of(a, "") for a in last])
+                      pieces=[None if a is None else split.parts_of(a, "") for a in last],
+                      crack_faces=split.usd_faces(run, names))
         else:
             registry.load(spec.sequence)(out, frames, names, ups, frame_dt, moving, overwrite=overwrite)
         return {"format": fmt, "output": str(out), "n_frames": frames.n_frames, "objects": names, "files": 1}

@@ -10,7 +10,8 @@ A run with a ``brittle`` body records each Gaussian's piece per frame (``<object
 * ``usd``: the object is an ``Xform`` ``/Run/<object>`` with one ``ParticleField3DGaussianSplat`` prim per piece of
   the run's **last** frame, ``/Run/<object>/piece_NNN``, time-sampled over every frame. A body only comes apart
   (damage never heals), so the last frame's pieces are the finest: each prim moves as one piece from the frame it
-  broke off (:func:`gasp_core.run.usd_export.write_usd`); no crack faces.
+  broke off (:func:`gasp_core.run.usd_export.write_usd`), beside ``piece_NNN_faces``, the crack faces of that piece at
+  the last frame, time-sampled (hidden until their crack opens; :func:`usd_faces`).
 
 An object without piece files (not brittle) is written as without the flag; a run with none is refused.
 """
@@ -87,3 +88,10 @@ def glb_parts(run, name: str, frame: int, g, labels: np.ndarray) -> list:
             if len(shown):
                 out.append((f"{part}_faces", faces.subset(shown)))
     return out
+
+
+def usd_faces(run, names: list[str]) -> list:
+    """Per object, the function ``frame -> crack faces or None`` (:func:`gasp_core.run.crack_output.read_crack_faces`)
+    that :func:`gasp_core.run.usd_export.write_usd` reads for a split USD."""
+    from gasp_core.run.crack_output import read_crack_faces
+    return [lambda f, n=n: read_crack_faces(run, n, f) for n in names]

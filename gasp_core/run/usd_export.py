@@ -49,7 +49,7 @@ def _sh_coefficients(g: Gaussians) -> np.ndarray:
 
 
 def write_usd(path, frames, names: list[str], up_axes: list[str], frame_dt: float, moving: list[bool], *,
-              overwrite: bool = False, pieces: list | None = None) -> Path:
+              overwrite: bool = False, pieces: list | None = None, crack_faces: list | None = None) -> Path:
     """Write a run's frames as one ``.usdc`` / ``.usd`` / ``.usda`` (module notes), atomically.
 
     Parameters
@@ -70,6 +70,11 @@ def write_usd(path, frames, names: list[str], up_axes: list[str], frame_dt: floa
     pieces : list, optional
         Per object, None (one prim) or ``[(part name, rows), ...]``: the object becomes an ``Xform`` with one splat
         prim per part holding those rows (ndarray of int), ``/Run/<object>/<part>`` (``--split-pieces``).
+    crack_faces : list, optional
+        Per object, None or a function ``frame -> Gaussians or None``: the object's crack faces at that frame
+        (:func:`gasp_core.run.crack_output.read_crack_faces`). With ``pieces``, each ``piece_NNN`` gets a sibling
+        ``piece_NNN_faces`` holding the faces of that piece at the last frame, time-sampled, hidden (opacity 1e-13)
+        while the material around them is whole (:func:`_face_prims`).
 
     Raises
     ------
@@ -96,6 +101,8 @@ def write_usd(path, frames, names: list[str], up_axes: list[str], frame_dt: floa
                 UsdGeom.Xform.Define(stage, parts[0][0])
                 parts = [(f"{parts[0][0]}/{prim_name(part)}", rows) for part, rows in pieces[k]]
             _splat_prims(stage, parts, frames, k, UP_TO_Z[up_axes[k]], moving[k])
+            if crack_faces is not None and crack_faces[k] is not None and len(parts) > 1:
+                _face_prims(stage, f"/Run/{prim_name(name)}", crack_faces[k], frames.n_frames, UP_TO_Z[up_axes[k]])
         try:
             stage.GetRootLayer().Save()
         except RuntimeError as e:   # pxr.Tf.ErrorException: a full disk, a folder gone or not writable
@@ -141,3 +148,37 @@ def _splat_prims(stage, parts: list, frames, k: int, M: np.ndarray, moving: bool
             pos.Set(Vt.Vec3fArray.FromNumpy(p.means.astype(np.float32)), time)
             ori.Set(Vt.QuatfArray.FromNumpy(np.ascontiguousarray(q[:, [1, 2, 3, 0]])), time)
             sca.Set(Vt.Vec3fArray.FromNumpy(p.scales.astype(np.float32)), time)
+
+
+def _face_prims(stage, parent: str, faces_at, n_frames: int, M: np.ndarray) -> None:
+    """``<parent>/piece_NNN_faces``: per piece of the last frame's crack faces (their ``piece``; rows of a piece that
+    holds no surface Gaussian, -1, left out), one ``ParticleField3DGaussianSplat`` time-sampled at every frame
+    (positions, orientations, scales and opacities: a face is drawn from the frame its crack opens); a frame without
+    a crack-face file shows none of them."""
+    from pxr import Usd, UsdVol, Vt
+    last = faces_at(n_frames - 1)
+    if last is None or "piece" not in last.extra:
+        return
+    piece = np.asarray(last.extra["piece"])
+    groups = [(k, np.flatnonzero(piece == k)) for k in np.unique(piece[piece >= 0])]
+    prims = {}
+    for k, rows in groups:
+        prim = UsdVol.ParticleField3DGaussianSplat.Define(stage, f"{parent}/{prim_name(f'piece_{k:03d}_faces')}")
+        prim.CreateRadianceSphericalHarmonicsDegreeAttr(0)
+        prim.CreateRadianceSphericalHarmonicsCoefficientsAttr(Vt.Vec3fArray.FromNumpy(
+            last.subset(rows).sh_dc.astype(np.float32)))
+        prims[k] = (prim.CreatePositionsAttr(), prim.CreateOrientationsAttr(), prim.CreateScalesAttr(),
+                    prim.CreateOpacitiesAttr())
+    for f in range(n_frames):
+        g = faces_at(f)
+        g = None if g is None or g.n != last.n else turned(g, M)
+        for k, rows in groups:
+            pos, ori, sca, opa = prims[k]
+            time = Usd.TimeCode(f)
+            src = turned(last, M).subset(rows) if g is None else g.subset(rows)
+            alpha = np.zeros(len(rows)) if g is None else 1.0 / (1.0 + np.exp(-src.opacities.astype(np.float64)))
+            q = src.rotations.astype(np.float32)
+            pos.Set(Vt.Vec3fArray.FromNumpy(src.means.astype(np.float32)), time)
+            ori.Set(Vt.QuatfArray.FromNumpy(np.ascontiguousarray(q[:, [1, 2, 3, 0]])), time)
+            sca.Set(Vt.Vec3fArray.FromNumpy(src.scales.astype(np.float32)), time)
+            opa.Set(Vt.FloatArray.FromNumpy(alpha.astype(np.float32)), time)
