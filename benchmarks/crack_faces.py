@@ -10,8 +10,12 @@ around it; the broken points are the crack band between the pieces). Stills:
 ``docs/fracture_crack_without.png`` and ``docs/fracture_crack_with.png`` (the whole donut from the largest piece's
 crack side).
 
-Run: ``python benchmarks/crack_faces.py [--engine taichi_mpm] [--frames 4]``; the table goes to stdout and
-``benchmarks/results/crack_faces.md``.
+``--scene rod``: the same on the T rod of ``tests/test_brittle.py`` hanging from its head at ``tensile_strength =
+0.6 rho g L`` (it breaks in the upper half of its neck), 8 frames; stills ``docs/fracture_rod_without.png`` and
+``docs/fracture_rod_with.png``.
+
+Run: ``python benchmarks/crack_faces.py [--engine taichi_mpm] [--frames 4] [--scene donut|rod]``; the table goes to
+stdout and ``benchmarks/results/crack_faces.md`` (``crack_faces_rod.md``).
 """
 from __future__ import annotations
 
@@ -28,14 +32,52 @@ BIG = 0.05
 BROKEN = 0.9            # gasp_core.run.pieces.BROKEN
 
 
-def run_to(engine: str, frames: int):
-    """``(prep, x, damage)`` of the donut shatter after ``frames`` frames."""
+def rod_scene(folder: Path, engine: str) -> Path:
+    """The T rod of ``tests/test_brittle.py`` hanging from its head (held over its top half) at ``tensile_strength =
+    0.6 rho g L``, where it breaks in the upper half of its neck: its PLY and scene file written into ``folder``;
+    the scene's path."""
+    import sys
+    sys.path.insert(0, str(ROOT / "tests"))
+    import test_brittle as tb   # the rod the brittle tests hang (tests/test_brittle.py: t_rod, rod_run)
+    from gasp_core.gs.io import write_gaussians
+    write_gaussians(folder / "rod.ply", tb.t_rod())
+    (folder / "rod.toml").write_text(f"""frame_dt = 0.02
+n_frames = 8
+[engine]
+name = "{engine}"
+[domain]
+lo = [-0.5, -0.5, -0.2]
+hi = [0.5, 0.5, 1.0]
+n_grid = 29
+[[boundary]]
+kind = "ground"
+[[boundary]]
+kind = "fixed_region"
+lo = [-1.0, -1.0, 0.8]
+hi = [1.0, 1.0, 1.0]
+[[object]]
+file = "rod.ply"
+up_axis = "+z"
+position = [0.0, 0.0, {tb.ROD_Z0}]
+[object.material]
+name = "brittle"
+E = {tb.E}
+nu = {tb.NU}
+rho = {tb.RHO}
+tensile_strength = {0.6 * tb.RHO_G_L}
+fracture_energy = 5.0
+""")
+    return folder / "rod.toml"
+
+
+def run_to(engine: str, frames: int, scene: Path = ROOT / "examples" / "donut_shatter.toml"):
+    """``(prep, x, damage)`` of ``scene`` (default the donut shatter) after ``frames`` frames."""
     from gasp_core.prepare.scene import prepare_scene
     from gasp_core.scene.spec import load_scene
     from gasp_core.seam.build import build_engine
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        prep = prepare_scene(load_scene(ROOT / "examples" / "donut_shatter.toml"), engine=engine)
+        prep = prepare_scene(load_scene(scene), engine=engine)
         e = build_engine(prep.info, prep.setup)
     for _ in range(frames):
         e.step_frame()
@@ -102,8 +144,20 @@ def crack_camera(centre, direction, lo, hi, size):
     return fit_to_box(cam, lo, hi, margin=1.15)
 
 
-def measure_pieces(parts, x, d, render, size=480):
-    """Rows of (piece, mass kg, faces shown, share with alpha < 0.9 without / with faces)."""
+def at_rest_share(rest, sel, direction, render, size=480) -> float:
+    """The share below alpha 0.9 of the same material points ``sel`` (setup rows) in the unbroken body at frame 0
+    (``rest``: ``(parts, x)`` of :func:`scene_parts` there), seen from the same side ``direction`` with the whole
+    body's surface: what the Gaussians' own edges leave under 0.9 with no crack (the floor of the measure)."""
+    parts0, x0 = rest
+    pts = x0[sel]
+    cam = crack_camera(pts.mean(0), direction, pts.min(0), pts.max(0), size)
+    _, alpha = render(parts0["surf"], cam)
+    return float(np.mean(alpha[silhouette(cam, pts, parts0["h"])] < ALPHA))
+
+
+def measure_pieces(parts, x, d, render, size=480, rest=None):
+    """Rows of (piece, mass kg, faces shown, share with alpha < 0.9 without / with faces[, the same material unbroken
+    at frame 0 from the same side: :func:`at_rest_share`, with ``rest``])."""
     o, lab = parts["o"], parts["labels"]
     total = float(parts["mass"].sum())
     masses = np.bincount(lab, weights=parts["mass"])
@@ -115,10 +169,11 @@ def measure_pieces(parts, x, d, render, size=480):
             break
         shown = parts["vis"] & (parts["crack_piece"] == p)
         if not shown.any():
-            rows.append((int(p), float(masses[p]), 0, None, None))
+            rows.append((int(p), float(masses[p]), 0, None, None) + ((None,) if rest is not None else ()))
             continue
         # the piece's material: its intact fill (its surface lies around it; its broken points are the crack band)
-        pts = x[fill_rows[(lab[fill_rows] == p) & (d[fill_rows] < BROKEN)]]
+        sel = fill_rows[(lab[fill_rows] == p) & (d[fill_rows] < BROKEN)]
+        pts = x[sel]
         lo, hi = pts.min(0), pts.max(0)
         cam = crack_camera(pts.mean(0), parts["normals"][shown].mean(0), lo, hi, size)
         sil = silhouette(cam, pts, parts["h"])
@@ -128,11 +183,13 @@ def measure_pieces(parts, x, d, render, size=480):
             sp = surf if not with_faces else type(surf).concat([surf, subset(parts["crack"], shown)])
             _, alpha = render(sp, cam)
             shares.append(float(np.mean(alpha[sil] < ALPHA)))
+        if rest is not None:
+            shares.append(at_rest_share(rest, sel, parts["normals"][shown].mean(0), render, size))
         rows.append((int(p), float(masses[p]), int(shown.sum()), *shares))
     return rows
 
 
-def stills(parts, x, d, render, out_dir: Path, size=480):
+def stills(parts, x, d, render, out_dir: Path, size=480, stem: str = "fracture_crack"):
     """Two PNGs (without, with the crack faces), each the whole break from above and beside, then the largest piece
     alone from its crack side."""
     import imageio.v3 as iio
@@ -151,7 +208,7 @@ def stills(parts, x, d, render, out_dir: Path, size=480):
         views = [(whole, type(surf).concat([surf, crack]) if faces else surf),
                  (piece_cam, type(surf).concat([piece, subset(parts["crack"], shown)]) if faces else piece)]
         imgs = [render(sp, cam, background=np.ones(3))[0] for cam, sp in views]
-        path = out_dir / f"fracture_crack_{name}.png"
+        path = out_dir / f"{stem}_{name}.png"
         iio.imwrite(path, (np.clip(np.concatenate(imgs, 1), 0, 1) * 255).astype(np.uint8))
         paths.append(path)
     return paths
@@ -160,28 +217,37 @@ def stills(parts, x, d, render, out_dir: Path, size=480):
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--engine", default="taichi_mpm")
-    ap.add_argument("--frames", type=int, default=4)
+    ap.add_argument("--frames", type=int, default=None, help="default: 4 (donut), 8 (rod)")
+    ap.add_argument("--scene", choices=("donut", "rod"), default="donut",
+                    help="the donut shatter, or the T rod of tests/test_brittle.py broken under its own weight")
     args = ap.parse_args(argv)
+    import tempfile
     from gasp_core.render.builtin import CpuRenderer
     render = CpuRenderer(jit=True)
+    frames = args.frames or (8 if args.scene == "rod" else 4)
     t0 = time.perf_counter()
-    prep, x, d = run_to(args.engine, args.frames)
-    sim_s = time.perf_counter() - t0
+    with tempfile.TemporaryDirectory() as tmp:
+        scene = rod_scene(Path(tmp), args.engine) if args.scene == "rod" else ROOT / "examples" / "donut_shatter.toml"
+        prep, x, d = run_to(args.engine, frames, scene)
+        sim_s = time.perf_counter() - t0
+        prep0, x0, d0 = run_to(args.engine, 0, scene)
     parts = scene_parts(prep, x, d)
-    rows = measure_pieces(parts, x, d, render)
-    paths = stills(parts, x, d, render, ROOT / "docs")
+    rows = measure_pieces(parts, x, d, render, rest=(scene_parts(prep0, x0, d0), x0))
+    paths = stills(parts, x, d, render, ROOT / "docs", stem="fracture_crack" if args.scene == "donut" else "fracture_rod")
     n_faces, n_vis = len(parts["vis"]), int(parts["vis"].sum())
-    lines = [f"# Crack faces on the shattered donut ({args.engine}, frame {args.frames}; `benchmarks/crack_faces.py`)",
+    what = "the shattered donut" if args.scene == "donut" else "the broken T rod"
+    lines = [f"# Crack faces on {what} ({args.engine}, frame {frames}; `benchmarks/crack_faces.py --scene {args.scene}`)",
              "", f"{n_faces} fill points carry a crack face, {n_vis} shown at this frame "
              f"({len(np.unique(parts['labels']))} pieces; simulated in {sim_s:.0f} s).", "",
-             "| piece | mass (kg) | faces shown | alpha < 0.9 without faces | with faces |", "|---|---|---|---|---|"]
-    for p, m, k, a, b in rows:
+             "| piece | mass (kg) | faces shown | alpha < 0.9 without faces | with faces | the same material unbroken "
+             "(frame 0), same side |", "|---|---|---|---|---|---|"]
+    for p, m, k, a, b, c in rows:
         fmt = (lambda v: "-" if v is None else f"{100 * v:.1f} %")
-        lines.append(f"| {p} | {m:.3f} | {k} | {fmt(a)} | {fmt(b)} |")
+        lines.append(f"| {p} | {m:.3f} | {k} | {fmt(a)} | {fmt(b)} | {fmt(c)} |")
     lines += ["", "Stills: " + ", ".join(f"`docs/{q.name}`" for q in paths)]
     text = "\n".join(lines) + "\n"
     print(text)
-    (ROOT / "benchmarks" / "results" / "crack_faces.md").write_text(text)
+    (ROOT / "benchmarks" / "results" / ("crack_faces.md" if args.scene == "donut" else "crack_faces_rod.md")).write_text(text)
     return 0
 
 
