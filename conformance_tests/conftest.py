@@ -28,6 +28,7 @@ def pytest_configure(config):
         "test_extremes.py": "Stability at the extremes",
         "test_stiffness_ladder.py": "E from 1e4 to 2e11 Pa: the same drop (issue 40)",
         "test_checks_catch_broken.py": "Checks against deliberately broken engines",
+        "test_brittle_checks_catch_broken.py": "Brittle checks against deliberately broken engines (issue 52)",
         "test_error_contract.py": "The error contract through the command line",
     })
 

@@ -100,7 +100,8 @@ MATERIAL_PARAMS: dict[str, Param] = {
                                   "carries (docs/fracture.md)"),
     "fracture_energy": Param(10.0, 0.0, lo_open=True, unit="J/m^2",
                              doc="fracture energy G_f: the work to open a unit area of crack; at least "
-                                 "tensile_strength^2 dx / (2 E), the snap-back limit (docs/fracture.md)"),
+                                 "tensile_strength^2 h / (2 E), the snap-back limit at the crack band width "
+                                 "h = dx + the point spacing (docs/fracture.md)"),
 }
 
 
@@ -133,7 +134,8 @@ MATERIAL_KINDS: dict[str, MaterialKind] = {
     "snow": MaterialKind("hardening plasticity (Stomakhin et al. 2013)",
                          _ELASTIC + ("hardening", "theta_c", "theta_s")),
     "plasticine": MaterialKind("von Mises with softening", _ELASTIC + ("yield_stress", "softening")),
-    "brittle": MaterialKind("Rankine damage on Hencky elasticity, crack band of width dx (Bazant & Oh 1983)",
+    "brittle": MaterialKind("Rankine damage on Hencky elasticity, crack band of width dx + the point spacing "
+                            "(Bazant & Oh 1983)",
                             _ELASTIC + ("tensile_strength", "fracture_energy")),
     "liquid": MaterialKind("weakly compressible fluid (pressure from the bulk modulus K of E and nu)", _ELASTIC),
     "rigid": MaterialKind("rigid body (engines with rigid bodies)", ("rho",)),

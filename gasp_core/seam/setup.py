@@ -29,6 +29,25 @@ def grid_spacing(domain_lo, domain_hi, n_grid: int) -> float:
     return float(np.max(np.asarray(domain_hi, dtype=np.float64) - np.asarray(domain_lo, dtype=np.float64))) / n_grid
 
 
+def crack_band(dx: float, p_vol: np.ndarray, body_id: np.ndarray, n_bodies: int) -> np.ndarray:
+    """Crack band width ``h`` of each body, metres, shape (n_bodies,), float64: ``dx + s``, with ``s`` the body's
+    point spacing ``max(p_vol)^(1/3)`` over its material points (0 for a body without any).
+
+    ``h`` is the width of the zone a crack localises in (Bazant & Oh 1983, "Crack band theory for fracture of
+    concrete", Materiaux et Constructions 16; Jirasek & Bazant, "Inelastic Analysis of Structures", Wiley 2002,
+    on the crack band model: the band is the element's width, the zone the strain localises in). In MLS-MPM the
+    velocity jump of a crack localises in one cell; the points that break are those whose slab (thickness ``s``)
+    meets that cell, ``dx / s + 1`` layers on average, a band ``dx + s`` wide. Measured on the bar of
+    ``tests/test_brittle.py`` (docs/fracture.md): 1.5 ``dx`` at 8 points per cell, 1.0-1.3 ``dx`` at 27, 1.25
+    ``dx`` at 64 (this rule: 1.5, 1.33, 1.25).
+    """
+    s = np.zeros(n_bodies)
+    pv = np.asarray(p_vol, np.float64)
+    solid = pv > 0
+    np.maximum.at(s, np.asarray(body_id)[solid], np.cbrt(pv[solid]))
+    return dx + s
+
+
 @dataclass(frozen=True)
 class Material:
     """Constitutive parameters of one body, SI units.
@@ -126,26 +145,27 @@ class Material:
             raise SceneError(f"{where}.model = 'rigid' needs an elastic material ({', '.join(RIGID_KINDS)}); "
                              f"{self.name!r} flows or yields")
 
-    def snap_back_limit(self, dx: float) -> float:
-        """The least ``fracture_energy`` a crack band of width ``dx`` (m) takes, J/m^2: ``f_t^2 dx / (2 E)``
-        (brittle; docs/fracture.md, Bazant & Oh 1983): below it the band's softening strain would be shorter than
-        its elastic strain and the band would snap back."""
-        return self.tensile_strength ** 2 * dx / (2.0 * self.E)
+    def snap_back_limit(self, h: float) -> float:
+        """The least ``fracture_energy`` a crack band of width ``h`` (m, :func:`crack_band`) takes, J/m^2:
+        ``f_t^2 h / (2 E)`` (brittle; docs/fracture.md, Bazant & Oh 1983): below it the band's softening strain
+        would be shorter than its elastic strain and the band would snap back."""
+        return self.tensile_strength ** 2 * h / (2.0 * self.E)
 
-    def check_band(self, dx: float, where: str = "material") -> None:
-        """Refuse a ``brittle`` material whose ``fracture_energy`` is at or below :meth:`snap_back_limit` at the grid
-        spacing ``dx`` (m); other materials pass.
+    def check_band(self, h: float, where: str = "material") -> None:
+        """Refuse a ``brittle`` material whose ``fracture_energy`` is at or below :meth:`snap_back_limit` at the crack
+        band width ``h`` (m, :func:`crack_band`: ``dx + p_vol^(1/3)``); other materials pass.
 
         Raises
         ------
         SceneError
-            Naming the limit, ``dx`` and what to change.
+            Naming the limit, the band width ``h`` and what to change.
         """
-        limit = self.snap_back_limit(dx)
+        limit = self.snap_back_limit(h)
         if self.name == "brittle" and not self.fracture_energy > limit:
             raise SceneError(f"{where}.fracture_energy = {self.fracture_energy:g} J/m^2 is at or below the snap-back "
-                             f"limit tensile_strength^2 dx / (2 E) = {limit:.4g} J/m^2 at dx = {dx:.4g} m; raise "
-                             f"fracture_energy above it, or lower tensile_strength, or raise n_grid")
+                             f"limit tensile_strength^2 h / (2 E) = {limit:.4g} J/m^2 at the crack band width h = "
+                             f"dx + p_vol^(1/3) = {h:.4g} m; raise fracture_energy above it, or lower "
+                             f"tensile_strength, or raise n_grid")
 
     @property
     def K(self) -> float:
@@ -333,14 +353,21 @@ class SimSetup:
             raise SceneError(f"SimSetup.n_grid = {self.n_grid!r}; expected an integer >= 4")
         if not (self.frame_dt > 0 and np.isfinite(self.frame_dt)):
             raise SceneError(f"SimSetup.frame_dt = {self.frame_dt}; expected a positive number of seconds")
+        band = self.crack_band
         for i, m in enumerate(self.materials):
             m.check(f"SimSetup.materials[{i}] ({m.name!r})")
-            m.check_band(self.dx, f"SimSetup.materials[{i}] ({m.name!r})")
+            m.check_band(float(band[i]), f"SimSetup.materials[{i}] ({m.name!r})")
 
     @property
     def dx(self) -> float:
         """Grid spacing, metres: the longest domain side divided by ``n_grid`` (:func:`grid_spacing`)."""
         return grid_spacing(self.domain_lo, self.domain_hi, self.n_grid)
+
+    @property
+    def crack_band(self) -> np.ndarray:
+        """Crack band width of each body, metres, shape (n_bodies,) (:func:`crack_band`): a ``brittle`` body's
+        softening is scaled to it (``gasp_core.toolkit.materials.material_table``)."""
+        return crack_band(self.dx, self.p_vol, self.body_id, len(self.materials))
 
     @property
     def n_passive(self) -> int:

@@ -62,31 +62,32 @@ N_PARAMS = len(Param)
 VON_MISES_RADIUS = math.sqrt(2.0 / 3.0)
 
 
-def snap_back_limit(m: Material, dx: float) -> float:
-    """The least fracture energy a crack band of width ``dx`` takes, J/m^2: ``f_t^2 dx / (2 E)``
-    (:meth:`Material.snap_back_limit`).
+def snap_back_limit(m: Material, h: float) -> float:
+    """The least fracture energy a crack band of width ``h`` (m) takes, J/m^2: ``f_t^2 h / (2 E)``
+    (:meth:`Material.snap_back_limit`; ``h`` from ``gasp_core.seam.setup.crack_band``).
 
-    With linear softening the band's stress falls from ``f_t`` to 0 over the strain ``2 G_f / (f_t dx)``; below
+    With linear softening the band's stress falls from ``f_t`` to 0 over the strain ``2 G_f / (f_t h)``; below
     this limit that strain is smaller than the elastic ``f_t / E`` and the band would snap back (Bazant & Oh
     1983, "Crack band theory for fracture of concrete", Materiaux et Constructions 16; Jirasek & Bazant,
     "Inelastic Analysis of Structures", Wiley 2002, on the crack band model).
     """
-    return m.snap_back_limit(dx)
+    return m.snap_back_limit(h)
 
 
-def softening_stress(m: Material, dx: float) -> float:
-    """``s_f = 2 E G_f / (f_t dx)``, Pa: the undamaged (effective) principal stress at which a brittle point is
-    fully damaged (linear softening in a crack band of width ``dx``, Bazant & Oh 1983): the band then dissipates
-    ``f_t s_f / (2 E) dx = G_f`` per unit crack area, whatever ``dx``.
+def softening_stress(m: Material, h: float) -> float:
+    """``s_f = 2 E G_f / (f_t h)``, Pa: the undamaged (effective) principal stress at which a brittle point is
+    fully damaged (linear softening in a crack band of width ``h``, m, Bazant & Oh 1983): the band then dissipates
+    ``f_t s_f / (2 E) h = G_f`` per unit crack area, whatever ``h``. ``h`` is the width the crack localises in,
+    ``dx + p_vol^(1/3)`` (``gasp_core.seam.setup.crack_band``, docs/fracture.md).
 
     Raises
     ------
     SceneError
-        ``G_f`` at or below :func:`snap_back_limit`, naming the limit and the ``dx`` it comes from
+        ``G_f`` at or below :func:`snap_back_limit`, naming the limit and the band width ``h``
         (:meth:`Material.check_band`; ``SimSetup`` refuses it first).
     """
-    m.check_band(dx, "material 'brittle'")
-    return 2.0 * m.E * m.fracture_energy / (m.tensile_strength * dx)
+    m.check_band(h, "material 'brittle'")
+    return 2.0 * m.E * m.fracture_energy / (m.tensile_strength * h)
 
 
 def brittle_damage(s, ft, sf):
@@ -104,15 +105,16 @@ def brittle_damage(s, ft, sf):
     return np.where(s <= ft, 0.0, np.where(s >= sf, 1.0, d))
 
 
-def material_table(materials: Sequence[Material], dx: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+def material_table(materials: Sequence[Material], band=None) -> tuple[np.ndarray, np.ndarray]:
     """Material code and parameter row of each body, as the kernels read them.
 
     Parameters
     ----------
     materials : sequence of Material
         One per body; names in :data:`MATERIAL_CODES`.
-    dx : float or None
-        Grid spacing, m: the crack band width of a ``brittle`` body (needed when one is present).
+    band : float, sequence of float (one per body) or None
+        Crack band width of each body, m (``SimSetup.crack_band``: ``dx + p_vol^(1/3)``); needed when a
+        ``brittle`` body is present.
 
     Returns
     -------
@@ -132,7 +134,7 @@ def material_table(materials: Sequence[Material], dx: float | None = None) -> tu
     ------
     SceneError
         A material without an MPM model here (``rigid``); the engine's capabilities normally
-        refuse it before. A ``brittle`` body without ``dx``, or below its snap-back limit
+        refuse it before. A ``brittle`` body without ``band``, or below its snap-back limit
         (:func:`softening_stress`).
     """
     kinds = np.zeros(len(materials), dtype=np.int32)
@@ -154,10 +156,10 @@ def material_table(materials: Sequence[Material], dx: float | None = None) -> tu
         params[b, P_K] = m.K
         params[b, P_ETA] = m.viscosity
         if m.name == "brittle":
-            if dx is None:
-                raise SceneError(f"material 'brittle' (body {b}) needs the grid spacing dx (its crack band width)")
+            if band is None:
+                raise SceneError(f"material 'brittle' (body {b}) needs its crack band width h (SimSetup.crack_band)")
             params[b, P_FT] = m.tensile_strength
-            params[b, P_SF] = softening_stress(m, dx)
+            params[b, P_SF] = softening_stress(m, float(np.broadcast_to(band, (len(materials),))[b]))
     return kinds, params
 
 

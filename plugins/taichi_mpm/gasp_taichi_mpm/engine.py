@@ -156,7 +156,7 @@ class TaichiMPMEngine(GridEngineBase):
         walls, grounds, regions = node_ranges(setup, dx, reach)
         mixed = ((flowing_bodies(view, contact),) + node_ranges(setup, dx, full)[:2]) if contact == "mixed" else None
         fixed = fixed_mask(setup.x, setup.boundaries)
-        kinds, params = zero_stress(*material_table(setup.materials, dx), setup.materials, JELLY)
+        kinds, params = zero_stress(*material_table(setup.materials, setup.crack_band), setup.materials, JELLY)
         rigid = rigid_mask(setup.materials)
         frames = body_frames(setup.x[o], setup.p_mass[o], setup.body_id[o], rigid) if rigid.any() else None
         jp0 = initial_Jp(setup.materials, setup.body_id)

@@ -80,7 +80,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
         self.setup = setup
         self.options = opts = setup.options  # checked and completed by the core (build_engine)
         cfg = self.config = WarpMPMConfig(**opts)   # the same settings, typed
-        kinds, par = zero_stress(*material_table(setup.materials, setup.dx), setup.materials, JELLY)   # rigid bodies: no stress
+        kinds, par = zero_stress(*material_table(setup.materials, setup.crack_band), setup.materials, JELLY)   # rigid bodies: no stress
         steps = choose_dt(step_view(setup), opts, ENGINE, implicit_viscosity=True)  # refuses a scene past max_substeps before any build work
         check_memory(estimate_bytes(len(setup.x), setup.n_grid, cfg.precision), ENGINE,
                      f"{len(setup.x)} points, n_grid {setup.n_grid}, {cfg.precision}")

