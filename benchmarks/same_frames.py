@@ -13,6 +13,9 @@ file. Run it on two checkouts and compare the files::
 
 Issue 51 (2026-11-25): the base 3ad98bd (run from a worktree of it) and d350bf7 give the same sha1 for all 10 runs
 (5 scenes x 2 engines, 4 frames each).
+Round 19 (a freshly built virtual environment): the base itself then gives other frames for ``donut_cores`` on both
+engines (its Core Gaussians' clustering), so the base was run again in that environment:
+``benchmarks/results/same_frames_base_3ad98bd_venv2.json``; compare against the file made in the same environment.
 
 Each scene runs a few frames (``--frames``), ``threads = 1`` for taichi_mpm (its CPU P2G is bit-repeatable only
 on one thread when the contact balance is on; docs/engines.md).
