@@ -12,9 +12,10 @@ import pytest
 
 from gasp_core.colliders.sdf import SDF_PAD
 from gasp_core.errors import SceneError
-from gasp_core.prepare.assembly import default_domain, footprints
+from gasp_core.prepare.assembly import domain_for
 from gasp_core.prepare.colliders import build_colliders
 from gasp_core.prepare.placement import prepare_object
+from gasp_core.prepare.scene import around_selection
 from gasp_core.scene.extras import ColliderSpec
 from gasp_core.scene.spec import load_scene
 
@@ -27,7 +28,8 @@ def kitchen():
         warnings.simplefilter("ignore")
         scene = load_scene(KITCHEN)
         objects = [prepare_object(s) for s in scene.objects]
-    lo, hi = default_domain(scene, footprints(objects[0]))
+        scene = around_selection(scene, objects)[0]     # the ground under the selection, the rest a collider
+        lo, hi = domain_for(scene, objects)
     dx = float(np.max(hi - lo)) / scene.domain.n_grid
     return scene, objects, lo, hi, dx
 

@@ -75,7 +75,7 @@ def _prepared(scene):
     from gasp_core.prepare.assembly import build_setup
     from gasp_core.prepare.ground import has_auto_ground, resolve_ground
     from gasp_core.prepare.placement import prepare_object
-    from gasp_core.prepare.scene import prepare_scene
+    from gasp_core.prepare.scene import around_selection, prepare_scene
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
@@ -85,6 +85,7 @@ def _prepared(scene):
             objects = [prepare_object(spec) for spec in scene.objects]
             if has_auto_ground(scene):
                 scene = resolve_ground(scene, objects)
+            scene = around_selection(scene, objects)[0]
             setup, objects = build_setup(scene, objects)
             return setup, objects, None, str(e).split(":")[0]
 
