@@ -3,6 +3,7 @@ its collider, which the example now has by default, and passes its wall on the g
 (``rest_collider = false``). The pan's wall is measured from the capture (``benchmarks/kitchen_wall.py``)."""
 from __future__ import annotations
 
+import json
 import sys
 
 import numpy as np
@@ -46,6 +47,10 @@ def test_the_spinach_stays_in_the_pan_with_the_rest_as_collider_not_on_the_plane
     kw.simulate(text, tmp_path / "rest")
     kw.simulate(kw.without_rest_collider(text), tmp_path / "plane")
     rest, plane = kw.measure(tmp_path / "rest"), kw.measure(tmp_path / "plane")
+    said = json.loads((tmp_path / "rest" / "run.json").read_text())
+    assert [c["name"] for c in said["colliders"]] == ["the rest of [[object]] #1 'spinach_4'"]
+    assert len(said["around_selection"]) == 3 and "n_grid 64" in said["around_selection"][-1]
+    assert json.loads((tmp_path / "plane" / "run.json").read_text())["colliders"] == []
     assert rest["at_start"] == plane["at_start"] == 0 and rest["n"] == 351
     assert rest["beyond"][1.0] <= MAX_SHARE * rest["n"] and rest["max_m"] <= MAX_DX * rest["dx"], rest
     assert plane["beyond"][1.0] > 5 * MAX_SHARE * plane["n"] and plane["max_m"] > MAX_DX * plane["dx"], plane

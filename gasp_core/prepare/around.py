@@ -3,7 +3,7 @@ selection (``select``) in a capture.
 
 - **The rest is a collider** (:func:`with_rest_colliders`): an object with ``select`` collides with its unselected
   rest, built as an open surface clipped to the domain and carved free around the simulated points
-  (:func:`gasp_core.prepare.colliders.build_colliders`), unless the object sets ``rest_collider = false``, a
+  (:func:`gasp_core.prepare.colliders.build_colliders`; none where none of it lies within the domain), unless the object sets ``rest_collider = false``, a
   ``[[collider]] object = ...`` already names it, or the engine has no static colliders (said in the line).
 - **A ground under the selection** (:func:`with_support_ground`): with no ``[[boundary]] kind = "ground"`` and no
   ``[domain]``, a ground plane at the support beneath the first selection
@@ -77,7 +77,7 @@ def with_rest_colliders(scene, features=None):
         if features is not None and FEATURE not in features:
             lines.append(f"{name}: its unselected rest is not a collider: the engine has no static colliders")
             continue
-        add.append(ColliderSpec(where=f"the rest of {name}", object=i + 1))
+        add.append(ColliderSpec(where=f"the rest of {name}", object=i + 1, by_default=True))
         lines.append(f"{name}: its unselected rest is a collider (by default; rest_collider = false turns it off)")
     if not add:
         return scene, lines
