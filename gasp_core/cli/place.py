@@ -139,7 +139,7 @@ def _view(ax, scene, setup, objects, a: int, b: int, title: str) -> None:
         p = _clip(_collider_surface(c), box_lo, box_hi)
         ax.scatter(p[:, a], p[:, b], s=0.3, c="tab:red", linewidths=0, alpha=0.5)
     ax.add_patch(_rect(lo[[a, b]], hi[[a, b]]))
-    for g in scene.boundaries:
+    for g in setup.boundaries:     # the run's: a ground under a selection included (gasp_core.prepare.around)
         if g.kind == "ground" and isinstance(g.height, (int, float)):
             ax.axhline(g.height, color="saddlebrown", lw=1.5)
     centre, size = (lo + hi) / 2, float(np.max(hi - lo))
