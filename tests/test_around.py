@@ -45,9 +45,12 @@ def test_the_rest_is_a_collider_by_default_and_a_key_turns_it_off(tmp_path):
     assert c.object == 1 and "rest_collider = false" in lines[0]
     off = _kitchen(tmp_path, [("\nselect = ", "\nrest_collider = false\nselect = ")])
     assert off.objects[0].rest_collider is False and with_rest_colliders(off) == (off, [])
-    # an engine without static colliders: none, and the line says why
-    same, (line,) = with_rest_colliders(load_scene(KITCHEN), features=frozenset({"grid"}))
-    assert not same.colliders and "no static colliders" in line
+    # an engine without static colliders, or one that makes a convex hull of their field (no grid): none, and the
+    # line says why
+    for features in ({"grid"}, {"static_colliders", "passive_points"}):
+        same, (line,) = with_rest_colliders(load_scene(KITCHEN), features=frozenset(features))
+        assert not same.colliders and "distance field on a grid" in line
+    assert len(with_rest_colliders(load_scene(KITCHEN), features={"grid", "static_colliders"})[0].colliders) == 1
 
 
 def test_an_explicit_collider_naming_the_object_wins(tmp_path):

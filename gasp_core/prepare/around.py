@@ -4,7 +4,7 @@ selection (``select``) in a capture.
 - **The rest is a collider** (:func:`with_rest_colliders`): an object with ``select`` collides with its unselected
   rest, built as an open surface clipped to the domain and carved free around the simulated points
   (:func:`gasp_core.prepare.colliders.build_colliders`; none where none of it lies within the domain), unless the object sets ``rest_collider = false``, a
-  ``[[collider]] object = ...`` already names it, or the engine has no static colliders (said in the line).
+  ``[[collider]] object = ...`` already names it, or the engine lacks :data:`FEATURES` (said in the line).
 - **A ground under the selection** (:func:`with_support_ground`): with no ``[[boundary]] kind = "ground"`` and no
   ``[domain]``, a ground plane at the support beneath the first selection
   (:func:`gasp_core.prepare.ground.support_height`: the unselected Gaussians under it, a pan's bottom); none where
@@ -40,8 +40,9 @@ STENCIL_CELLS = 3.0
 MARGIN = 0.1
 #: The reach domain's side is at most this many times the moving footprints' largest extent.
 REACH_LIMIT = 4.0
-#: The engine feature a rest collider needs (:data:`gasp_core.seam.engine.FEATURES`).
-FEATURE = "static_colliders"
+#: The engine features a rest collider needs (:data:`gasp_core.seam.engine.FEATURES`): static colliders applied on a
+#: grid's nodes from their distance field (an engine that makes a convex hull of the field would fill the pan).
+FEATURES = frozenset({"static_colliders", "grid"})
 
 
 def selected(scene) -> list[int]:
@@ -62,7 +63,7 @@ def with_rest_colliders(scene, features=None):
     ----------
     scene : gasp_core.scene.spec.Scene
     features : collection of str or None
-        The engine's features; None: assumed to have :data:`FEATURE`.
+        The engine's features; None: assumed to have :data:`FEATURES`.
 
     Returns
     -------
@@ -74,8 +75,9 @@ def with_rest_colliders(scene, features=None):
         if not o.rest_collider or _named(scene, i):
             continue
         name = f"[[object]] #{i + 1} '{Path(o.file).stem}'"
-        if features is not None and FEATURE not in features:
-            lines.append(f"{name}: its unselected rest is not a collider: the engine has no static colliders")
+        if features is not None and not FEATURES <= set(features):
+            lines.append(f"{name}: its unselected rest is not a collider: the engine does not apply a collider's "
+                         "distance field on a grid (an open surface, a pan or a counter, needs it)")
             continue
         add.append(ColliderSpec(where=f"the rest of {name}", object=i + 1, by_default=True))
         lines.append(f"{name}: its unselected rest is a collider (by default; rest_collider = false turns it off)")
