@@ -47,7 +47,7 @@ def test_the_default_camera_frames_the_kitchens_spinach():
     scene = load_scene(KITCHEN)
     o = prepare_object(scene.objects[0])
     run = Run(KITCHEN.parent, [{"n_gaussians": o.gaussians.n, "moving_rows": row_ranges(o.moving)}], None,
-              scene.boundaries[0].height, scene.frame_dt, "")
+              None, scene.frame_dt, "")
     mask = moving_mask(run)
     assert mask.sum() == len(o.moving) == 351
     pl = o.placement

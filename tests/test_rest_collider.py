@@ -10,11 +10,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gasp_core.colliders.sdf import SDF_PAD
+from gasp_core.colliders.sdf import SDF_PAD, SHELL_SAMPLES
 from gasp_core.errors import SceneError
-from gasp_core.prepare.assembly import default_domain, footprints
+from gasp_core.prepare.assembly import domain_for
 from gasp_core.prepare.colliders import build_colliders
 from gasp_core.prepare.placement import prepare_object
+from gasp_core.prepare.scene import around_selection
 from gasp_core.scene.extras import ColliderSpec
 from gasp_core.scene.spec import load_scene
 
@@ -27,7 +28,8 @@ def kitchen():
         warnings.simplefilter("ignore")
         scene = load_scene(KITCHEN)
         objects = [prepare_object(s) for s in scene.objects]
-    lo, hi = default_domain(scene, footprints(objects[0]))
+        scene = around_selection(scene, objects)[0]     # the ground under the selection, the rest a collider
+        lo, hi = domain_for(scene, objects)
     dx = float(np.max(hi - lo)) / scene.domain.n_grid
     return scene, objects, lo, hi, dx
 
@@ -48,9 +50,10 @@ def test_the_rest_of_a_capture_is_built_within_the_domain_and_open(kitchen):
     # a point in the pan's cavity, 3 cm above the spinach's lowest twentieth, over its middle: free space
     probe = np.array([[*np.median(x[:, :2], axis=0), bottom + 0.03]])
     assert c.distance(probe, 0.0)[0] > 0.0
-    # the spinach starts within a sample or two of the pan's surface, not buried in a filled volume
+    # the spinach starts within a sample or two of the pan's surface (thickened by SHELL_SAMPLES), not buried in a
+    # filled volume
     d = c.distance(x, 0.0)
-    assert np.percentile(d, 10) > -c.h and d.min() > -3 * c.h
+    assert np.percentile(d, 10) > -(1 + SHELL_SAMPLES) * c.h and d.min() > -(3 + SHELL_SAMPLES) * c.h
 
 
 def test_the_rest_as_a_solid_would_fill_the_pan(kitchen):

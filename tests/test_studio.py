@@ -101,7 +101,7 @@ def test_saved_scene_reproduces_the_run_bit_for_bit_and_an_open_selection_warns(
                         "-q"], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     # the warning the page showed is the one gasp simulate prints
-    assert warned and any(w.split("warning: ", 1)[-1] in r.stderr for w in warned)
+    assert warned and any(w.split("warning: ", 1)[-1] in r.stderr for w in warned), (r.stderr, studio.message_log)
     a, b = studio.stream.outdir, tmp_path / "again"
     files = sorted(f.relative_to(a) for f in a.rglob("frame_*.ply"))
     assert len(files) == 3

@@ -75,7 +75,7 @@ def _prepared(scene):
     from gasp_core.prepare.assembly import build_setup
     from gasp_core.prepare.ground import has_auto_ground, resolve_ground
     from gasp_core.prepare.placement import prepare_object
-    from gasp_core.prepare.scene import prepare_scene
+    from gasp_core.prepare.scene import around_selection, prepare_scene
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
@@ -85,6 +85,7 @@ def _prepared(scene):
             objects = [prepare_object(spec) for spec in scene.objects]
             if has_auto_ground(scene):
                 scene = resolve_ground(scene, objects)
+            scene = around_selection(scene, objects)[0]
             setup, objects = build_setup(scene, objects)
             return setup, objects, None, str(e).split(":")[0]
 
@@ -138,7 +139,7 @@ def _view(ax, scene, setup, objects, a: int, b: int, title: str) -> None:
         p = _clip(_collider_surface(c), box_lo, box_hi)
         ax.scatter(p[:, a], p[:, b], s=0.3, c="tab:red", linewidths=0, alpha=0.5)
     ax.add_patch(_rect(lo[[a, b]], hi[[a, b]]))
-    for g in scene.boundaries:
+    for g in setup.boundaries:     # the run's: a ground under a selection included (gasp_core.prepare.around)
         if g.kind == "ground" and isinstance(g.height, (int, float)):
             ax.axhline(g.height, color="saddlebrown", lw=1.5)
     centre, size = (lo + hi) / 2, float(np.max(hi - lo))

@@ -138,8 +138,9 @@ def collider_from_splats(splats: np.ndarray, h: float, name: str = "collider", s
         # a voxel outside the footprints; within a voxel of that surface the footprints, at the SDF's spacing, say
         # what is solid, and the space they enclose with the deeper inside is filled
         occ = ndimage.binary_fill_holes((depth > 1.0) | (surface & (depth > -1.0)))
-    else:
-        occ = surface
+    else:   # an open surface, thickened so that the grid's nodes (dx = 2 samples apart) see its thinnest wall
+        occ = ndimage.binary_dilation(surface, structure=ndimage.generate_binary_structure(3, 1),
+                                      iterations=SHELL_SAMPLES) if SHELL_SAMPLES else surface
     if carve is not None and len(carve):
         occ &= ~_near(np.asarray(carve, float), origin, shape, h)
     if not occ.any():
@@ -150,18 +151,26 @@ def collider_from_splats(splats: np.ndarray, h: float, name: str = "collider", s
     return _finish(name, phi, origin, h, **kw)
 
 
-#: A carved point frees the samples within this many samples of it (the start check allows a quarter sample).
+#: An open surface (``shell``) is thickened by this many samples on every side (a wall one sample thick grows to
+#: three, 1.5 grid cells at :data:`SDF_SPACING`): a grid node lies in it wherever it is crossed. On the kitchen, the
+#: spinach Gaussians ending beyond the pan's wall by more than a grid cell: 2 of 351 unthickened, 1 thickened by 1
+#: (and by 2, which raises the pan's bottom a further sample), 0 with the carve's six neighbours (docs/colliders.md).
+SHELL_SAMPLES = 1
+#: A carved point frees the samples within this many samples of it, along the axes (its nearest sample and the six
+#: beside it, not the 26 of a cube: a smaller pocket in the wall a selection starts against; the start check allows
+#: a quarter sample, and the kitchen's spinach starts at least 0.13 samples outside).
 CARVE_SAMPLES = 1.0
 
 
 def _near(points: np.ndarray, origin: np.ndarray, shape, h: float) -> np.ndarray:
-    """Samples of the grid ``origin + i h`` (``shape``) within :data:`CARVE_SAMPLES` samples of a point, bool."""
+    """Samples of the grid ``origin + i h`` (``shape``) within :data:`CARVE_SAMPLES` samples (city-block) of a point's
+    nearest sample, bool."""
     mark = np.zeros(shape, bool)
     idx = np.rint((points - origin) / h).astype(np.int64)
     ok = np.all((idx >= 0) & (idx < np.asarray(shape)), axis=1)
     mark[tuple(idx[ok].T)] = True
     r = int(np.ceil(CARVE_SAMPLES))
-    return ndimage.binary_dilation(mark, structure=ndimage.generate_binary_structure(3, 3), iterations=r)
+    return ndimage.binary_dilation(mark, structure=ndimage.generate_binary_structure(3, 1), iterations=r)
 
 
 def box_collider(half_extents, h: float, name: str = "box", **kw) -> Collider:

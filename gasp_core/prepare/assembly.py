@@ -11,6 +11,7 @@ from gasp_core.errors import SceneError
 from gasp_core.seam.setup import SimSetup, grid_spacing
 from gasp_core.maps.fill import fill_interior, fill_spacing
 from gasp_core.maps.occupancy import SPLAT_SIGMA
+from gasp_core.prepare.around import STENCIL_CELLS, reach_domain, uses_reach
 from gasp_core.prepare.checks import check_kept_floaters, check_overlap, check_resolution
 from gasp_core.prepare.dynamic import fill_velocities, vertex_velocities
 from gasp_core.prepare.placed import PreparedObject
@@ -22,9 +23,6 @@ from gasp_core.scene.spec import Scene
 
 #: Smallest default domain side, metres (a single Gaussian, or all Gaussians at one point).
 MIN_DOMAIN_SIDE = 1e-3
-#: Grid cells kept free below a ground plane and above the points in the default domain: the quadratic
-#: stencil's reach (base node ``floor(x/dx - 0.5)`` in ``[0, n_grid - 3]``) plus room to move.
-STENCIL_CELLS = 3.0
 #: An object must span at least this many grid cells: below it the grid cannot resolve its shape at all
 #: (one cell, as :func:`gasp_core.prepare.checks.check_resolution` says after the fill; checked here before
 #: the fill so that a tiny object costs nothing; under 8 cells is a warning there).
@@ -84,6 +82,14 @@ def footprints(o: PreparedObject) -> np.ndarray:
                            (tri[:, :1] - axes).reshape(-1, 3), o.surface.reach()])
 
 
+def domain_for(scene: Scene, objects: list[PreparedObject]) -> tuple[np.ndarray, np.ndarray]:
+    """The domain (lo, hi), metres, shape (3,) each, of the simulated ``objects``: ``[domain]`` lo/hi where stated,
+    else with a selection around what moves and where it can reach in the run
+    (:func:`gasp_core.prepare.around.reach_domain`), else :func:`default_domain` around their :func:`footprints`."""
+    reach = np.concatenate([footprints(o) for o in objects])
+    return reach_domain(scene, objects, reach) if uses_reach(scene) else default_domain(scene, reach)
+
+
 def build_setup(scene: Scene, objects: list[PreparedObject]) -> tuple[SimSetup, list[PreparedObject]]:
     """Assemble the engine's point set: all objects' surface points (``T``), then their fill points.
 
@@ -91,9 +97,10 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> tuple[SimSetup, 
     rule, and the surface map bound to its fill, :meth:`gasp_core.maps.surface.SurfaceMap.with_fill`), static ones
     as given, in the given order.
 
-    Static objects (``static = true``) take no part; a selected object brings its selected rows
-    only (:mod:`gasp_core.prepare.selection`), and the default domain is around what moves. A dynamic
-    model's points start with the model's velocity unless the scene sets one (:mod:`gasp_core.prepare.dynamic`).
+    Static objects (``static = true``) take no part; a selected object brings its selected rows only
+    (:mod:`gasp_core.prepare.selection`), and the default domain is around what moves (with a selection, and where
+    it can reach: :func:`gasp_core.prepare.around.reach_domain`). A dynamic model's points start with the model's
+    velocity unless the scene sets one (:mod:`gasp_core.prepare.dynamic`).
 
     Raises
     ------
@@ -106,7 +113,7 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> tuple[SimSetup, 
     vertices = [o.surface.points() for o in objects]
     if scene.domain.lo is None:
         check_kept_floaters(scene.path, objects)
-    lo, hi = default_domain(scene, np.concatenate([footprints(o) for o in objects]))
+    lo, hi = domain_for(scene, objects)
     n_grid = scene.domain.n_grid
     dx = grid_spacing(lo, hi, n_grid)
     check_fill(str(scene.path), sum(map(len, vertices)), n_grid, scene.domain.particles_per_cell,

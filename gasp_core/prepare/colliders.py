@@ -73,7 +73,9 @@ def build_colliders(scene, objects, dx: float, lo=None, hi=None, x=None) -> list
         splats = _collider_splats(spec, objects)
         bounds = None
         if spec.object is not None and lo is not None:
-            splats = _within(splats, lo, hi, SDF_PAD * h, spec.where)
+            splats = _within(splats, lo, hi, SDF_PAD * h, spec.where, spec.by_default)
+            if not len(splats):    # a selection's rest by default, none of it within reach: nothing to touch
+                continue
             bounds = (np.asarray(lo) - SDF_PAD * h, np.asarray(hi) + SDF_PAD * h)
         if spec.object is None:
             splats = (splats.reshape(-1, 3) @ R.T + np.asarray(spec.position, float)).reshape(-1, 3, 3)
@@ -84,11 +86,12 @@ def build_colliders(scene, objects, dx: float, lo=None, hi=None, x=None) -> list
     return out
 
 
-def _within(splats: np.ndarray, lo, hi, pad: float, where: str) -> np.ndarray:
-    """The splats (n, 3, 3) with a vertex inside the box ``[lo - pad, hi + pad]``; SceneError when none is."""
+def _within(splats: np.ndarray, lo, hi, pad: float, where: str, may_be_empty: bool = False) -> np.ndarray:
+    """The splats (n, 3, 3) with a vertex inside the box ``[lo - pad, hi + pad]``; SceneError when none is (unless
+    ``may_be_empty``: then none)."""
     p = splats.reshape(len(splats), -1, 3)
     keep = ((p >= np.asarray(lo) - pad) & (p <= np.asarray(hi) + pad)).all(axis=2).any(axis=1)
-    if not keep.any():
+    if not keep.any() and not may_be_empty:
         raise SceneError(f"{where}: none of its Gaussians lies within the simulation domain "
                          f"{np.round(lo, 3).tolist()} - {np.round(hi, 3).tolist()}: nothing could touch it")
     return splats[keep]

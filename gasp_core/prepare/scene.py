@@ -7,10 +7,12 @@ from __future__ import annotations
 
 import dataclasses
 import time
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 from gasp_core.errors import SceneError
+from gasp_core.prepare.around import reach_line, uses_reach, with_rest_colliders, with_support_ground
 from gasp_core.prepare.assembly import build_setup
 from gasp_core.prepare.ground import has_auto_ground, resolve_ground
 from gasp_core.prepare.placed import PreparedObject
@@ -32,6 +34,9 @@ class PreparedScene:
     ----------
     prepare_s : float
         Wall time of reading, placing, flattening, the hierarchy and point assembly, seconds.
+    around : list of str
+        The lines saying what the scene around a selection supplied (:mod:`gasp_core.prepare.around`): the rest
+        as a collider, a ground, the domain (``run.json`` ``around_selection``).
     """
 
     scene: Scene
@@ -40,6 +45,7 @@ class PreparedScene:
     names: list[str]
     setup: SimSetup
     prepare_s: float = 0.0
+    around: list = dataclasses.field(default_factory=list)
 
 
 #: Files a run folder holds beside its object folders (``gasp render``'s default output too).
@@ -93,11 +99,18 @@ def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None 
         scene = resolve_ground(scene, objects)
         if info.check_scene is not None:
             info.check_scene(scene, run_options, None)
+    scene, around = around_selection(scene, objects, info.capabilities.features)
+    if around and info.check_scene is not None:
+        info.check_scene(scene, run_options, None)
     # object folder names: a stem that is one of a run folder's own files (run.json.ply) or hidden
     # (.gasp-output.ply) gets a leading "_"; equal ones their index
     stems = [f"_{o.name}" if o.name in RUN_FILES or o.name.startswith(".") else o.name for o in objects]
     names = [n if stems.count(n) == 1 else f"{i}_{n}" for i, n in enumerate(stems)]
     setup, objects = build_setup(scene, objects)
+    if uses_reach(scene):
+        around.append(reach_line(setup, scene))
+    for line in around:
+        warnings.warn(line, stacklevel=2)
     moving = [i for i, o in enumerate(objects) if not o.spec.static]   # body k of the setup (build_setup's order)
     setup.options = run_options   # before the routes: their lines give the substeps these options take (issue 53)
     routes = resolve_models(setup, [names[i] for i in moving], info.capabilities.features, declared_cfl(info),
@@ -106,7 +119,15 @@ def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None 
         objects[i] = dataclasses.replace(objects[i], body_model=route)
     if info.check_scene is not None:     # again with the bodies' models chosen
         info.check_scene(scene, run_options, setup)
-    return PreparedScene(scene, info, objects, names, setup, prepare_s=time.perf_counter() - t0)
+    return PreparedScene(scene, info, objects, names, setup, prepare_s=time.perf_counter() - t0, around=around)
+
+
+def around_selection(scene: Scene, objects: list[PreparedObject], features=None) -> tuple[Scene, list[str]]:
+    """``scene`` with what the scene around a selection supplies where the file states none (the rest as a
+    collider, a ground under the selection: :mod:`gasp_core.prepare.around`) and the lines that say so."""
+    scene, lines = with_rest_colliders(scene, features)
+    scene, ground = with_support_ground(scene, objects)
+    return scene, lines + ([ground] if ground else [])
 
 
 def input_files(scene: Scene) -> list[Path]:

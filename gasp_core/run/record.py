@@ -56,6 +56,8 @@ def run_summary(prep, stats, n_frames: int, per_frame: list[dict], wall_s: float
         "n_points": len(setup.x), "n_render_points": setup.n_render, **selection_totals(prep),
         "objects": [_object_record(o, name, setup.boundaries) for o, name in zip(prep.objects, prep.names)],
         "colliders": collider_records(setup, per_frame),
+        # what the scene around a selection supplied where the file states none (gasp_core.prepare.around)
+        "around_selection": list(getattr(prep, "around", [])),
         "frames": per_frame,
     }
 

@@ -43,6 +43,7 @@ class ColliderSpec:
     angular_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
     path: list | None = None
     min_opacity: float = 0.1
+    by_default: bool = False    # a selection's rest, added by gasp_core.prepare.around (not a scene key)
 
     @property
     def moving(self) -> bool:
@@ -50,7 +51,7 @@ class ColliderSpec:
         return Motion(velocity=self.velocity, angular_velocity=self.angular_velocity, path=self.path).moving
 
 
-_COLLIDER_KEYS = {f.name for f in fields(ColliderSpec)} - {"where"}
+_COLLIDER_KEYS = {f.name for f in fields(ColliderSpec)} - {"where", "by_default"}
 _PLACED = {"up_axis", "scale", "recentre", "position", "rotation"}
 _MOVING = {"velocity", "angular_velocity", "path"}   # refused below, with its own words, on all but a mesh
 #: The keys each collider source uses (an ``object`` collider sits where its object is; only Gaussians have opacity).

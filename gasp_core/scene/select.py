@@ -13,7 +13,7 @@ from gasp_core.scene.values import (MAX_COORD, as_boolean, as_number, as_string,
 
 #: Object keys that only matter when the object is simulated: refused beside ``static = true``.
 _SIMULATION_KEYS = ("material", "select", "velocity", "angular_velocity", "fill", "alpha", "rebuild", "thickness",
-                    "core_fraction", "if_open", "surface_points")
+                    "core_fraction", "if_open", "surface_points", "rest_collider")
 
 #: Kinds of ``select`` region, one per ``select`` table.
 SELECT_KINDS = ("box", "sphere", "indices", "mask", "file")
@@ -106,6 +106,16 @@ def read_static(o: dict, where: str, src: Path) -> bool:
             raise SceneError(f"{src}: {where} is static = true (never simulated) but also sets {extra}; "
                              f"remove them, or set static = false to simulate it")
     return static
+
+
+def read_rest_collider(o: dict, where: str, src: Path) -> bool:
+    """An object's ``rest_collider`` (default true): its unselected rest is a collider
+    (:mod:`gasp_core.prepare.around`); a :class:`SceneError` on an object without ``select``."""
+    if "rest_collider" not in o:
+        return True
+    if "select" not in o:
+        raise SceneError(f"{src}: {where}.rest_collider applies to an object with 'select' (its unselected rest)")
+    return as_boolean(o["rest_collider"], f"{where}.rest_collider", src)
 
 
 def read_select(value, where: str, src: Path) -> SelectSpec:

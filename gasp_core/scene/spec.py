@@ -57,7 +57,7 @@ from gasp_core.gs.registry import is_dynamic
 from gasp_core.scene.extras import read_extras
 from gasp_core.scene.mesh import MESH_KEYS, MeshSpec, read_mesh
 from gasp_core.scene.quality import DEFAULT_QUALITY, apply_quality, read_quality
-from gasp_core.scene.select import SelectSpec, read_select, read_static
+from gasp_core.scene.select import SelectSpec, read_rest_collider, read_select, read_static
 from gasp_core.scene.tables import DomainSpec, EngineSpec, read_boundary, read_domain, read_engine, read_material
 from gasp_core.scene.values import (MAX_COORD, MAX_GRAVITY, MAX_SPEED, MAX_SPIN, SCALE_RANGE, UP_AXES, as_boolean,
                                     as_integer, as_number, as_string, as_table, as_tables, as_vec3, bad_value,
@@ -150,6 +150,8 @@ class ObjectSpec:
     select : SelectSpec or None
         The part of the file that moves (``select = { box = {...} }``, see :class:`SelectSpec`);
         the rest is static background, written unchanged in every frame. None: all of it moves.
+    rest_collider : bool
+        With ``select``: the unselected rest is a collider by default (:mod:`gasp_core.prepare.around`); false: not.
     keep_floaters : bool
         False (default): Gaussians detached from a whole object (:mod:`gasp_core.maps.floaters`; not in a
         ``select``ion) are left out of the domain and the physics and written unchanged in every frame,
@@ -186,6 +188,7 @@ class ObjectSpec:
     surface: str = "material"
     surface_points: str = "vertices"
     select: SelectSpec | None = None
+    rest_collider: bool = True
     static: bool = False
     keep_floaters: bool = False
     mesh: MeshSpec | None = None
@@ -300,6 +303,7 @@ def _object(o: dict, where: str, src: Path) -> ObjectSpec:
         surface_points=_surface_points(o, mesh, where, src),
         dynamic_time=_dynamic_time(o, f, where, src),
         select=read_select(o["select"], f"{where}.select", src) if "select" in o else None,
+        rest_collider=read_rest_collider(o, where, src),
         static=read_static(o, where, src),
         keep_floaters=get("keep_floaters", as_boolean),
         velocity_from_model=is_dynamic(f) and not {"velocity", "angular_velocity"} & set(o),

@@ -32,7 +32,8 @@ class DomainSpec:
     """``[domain]``: the simulation box (metres) and grid resolution.
 
     ``lo``/``hi`` default to the objects' bounds padded by ``padding`` times their largest
-    extent (the ground, if any, at the bottom). ``particles_per_cell`` sets the interior fill
+    extent (the ground, if any, at the bottom); with a ``select``ion, to what moves and where it can reach
+    (:func:`gasp_core.prepare.around.reach_domain`, ``padding`` unused). ``particles_per_cell`` sets the interior fill
     spacing ``dx / ppc^(1/3)``.
     """
 

@@ -55,6 +55,10 @@ def piece_labels(means: np.ndarray, radii: np.ndarray, linking: np.ndarray) -> n
     return label
 
 
+#: Lines the page keeps (newest first): a run's warnings and what the scene around a selection supplied fit.
+MESSAGES = 10
+
+
 class Studio:
     """The studio's server: one :class:`StudioScene`, its page, and at most one run at a time.
 
@@ -194,7 +198,7 @@ class Studio:
 
     def say(self, text: str) -> None:
         """Show ``text`` (one line) in the page's message box, newest first."""
-        self.message_log = [text, *self.message_log][:6]
+        self.message_log = [text, *self.message_log][:MESSAGES]
         self.n_said += 1
         if self.form is not None:
             self.form.set_messages(self.message_log)

@@ -271,7 +271,7 @@ class Form:
 
     # -- showing ----------------------------------------------------------------------------------------
     def set_messages(self, lines: list[str]) -> None:
-        """The newest line at the top of the page, the five before it in "Earlier messages" (folded)."""
+        """The newest line at the top of the page, the ones before it in "Earlier messages" (folded)."""
         self.messages.content = f"**{lines[0]}**" if lines else ""
         self.history.content = "\n\n".join(lines[1:]) or "-"
 
