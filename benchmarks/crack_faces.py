@@ -41,32 +41,7 @@ def rod_scene(folder: Path, engine: str) -> Path:
     import test_brittle as tb   # the rod the brittle tests hang (tests/test_brittle.py: t_rod, rod_run)
     from gasp_core.gs.io import write_gaussians
     write_gaussians(folder / "rod.ply", tb.t_rod())
-    (folder / "rod.toml").write_text(f"""frame_dt = 0.02
-n_frames = 8
-[engine]
-name = "{engine}"
-[domain]
-lo = [-0.5, -0.5, -0.2]
-hi = [0.5, 0.5, 1.0]
-n_grid = 29
-[[boundary]]
-kind = "ground"
-[[boundary]]
-kind = "fixed_region"
-lo = [-1.0, -1.0, 0.8]
-hi = [1.0, 1.0, 1.0]
-[[object]]
-file = "rod.ply"
-up_axis = "+z"
-position = [0.0, 0.0, {tb.ROD_Z0}]
-[object.material]
-name = "brittle"
-E = {tb.E}
-nu = {tb.NU}
-rho = {tb.RHO}
-tensile_strength = {0.6 * tb.RHO_G_L}
-fracture_energy = 5.0
-""")
+    (folder / "rod.toml").write_text(tb.rod_scene_text(engine, folder / "rod.ply", 0.6 * tb.RHO_G_L))
     return folder / "rod.toml"
 
 
@@ -162,7 +137,6 @@ def measure_pieces(parts, x, d, render, size=480, rest=None):
     total = float(parts["mass"].sum())
     masses = np.bincount(lab, weights=parts["mass"])
     rows = []
-    vert_rows = np.arange(len(x))[o.vertex_slice]
     fill_rows = np.arange(len(x))[o.fill_slice]
     for p in np.argsort(-masses):
         if masses[p] < BIG * total:

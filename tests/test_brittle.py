@@ -261,17 +261,12 @@ def t_rod(spacing: float = 0.02):
                      rotations=rots, opacities=np.full(n, 2.0, np.float32), sh_dc=np.full((n, 3), 0.5, np.float32))
 
 
-def rod_run(tmp_path, name: str, tensile_strength: float, n_frames: int = 8) -> tuple[list, float | None, list]:
-    """``gasp simulate``'s pipeline on the T rod hanging from its head (``fixed_region`` over the head's top half,
-    z > 0.8 m): ``run.json``'s frames, the rest height (rod frame, m) of the highest Gaussian that fell more
-    than 2 cm (None: none fell), and the run's ``pieces`` events."""
-    from gasp_core.run.report import Reporter
-    from gasp_core.gs.io import read_gaussians, write_gaussians
-    from gasp_core.run.pipeline import simulate_scene
-    from gasp_core.scene.spec import load_scene
-    write_gaussians(tmp_path / "rod.ply", t_rod())
+def rod_scene_text(name: str, ply, tensile_strength: float, n_frames: int = 8) -> str:
+    """The scene file of the T rod hanging from its head (``fixed_region`` over the head's top half, z > 0.8 m) on
+    the engine ``name`` (taichi_mpm on one thread), its Gaussians in ``ply`` (:func:`t_rod`); also
+    ``benchmarks/crack_faces.py --scene rod``."""
     opts = "{ threads = 1 }" if name == "taichi_mpm" else "{}"
-    (tmp_path / "rod.toml").write_text(f"""
+    return f"""
 frame_dt = 0.02
 n_frames = {n_frames}
 [engine]
@@ -288,7 +283,7 @@ kind = "fixed_region"
 lo = [-1.0, -1.0, 0.8]
 hi = [1.0, 1.0, 1.0]
 [[object]]
-file = "{tmp_path / 'rod.ply'}"
+file = "{ply}"
 up_axis = "+z"
 position = [0.0, 0.0, {ROD_Z0}]
 [object.material]
@@ -298,7 +293,19 @@ nu = {NU}
 rho = {RHO}
 tensile_strength = {tensile_strength}
 fracture_energy = 5.0
-""")
+"""
+
+
+def rod_run(tmp_path, name: str, tensile_strength: float, n_frames: int = 8) -> tuple[list, float | None, list]:
+    """``gasp simulate``'s pipeline on the T rod hanging from its head (``fixed_region`` over the head's top half,
+    z > 0.8 m): ``run.json``'s frames, the rest height (rod frame, m) of the highest Gaussian that fell more
+    than 2 cm (None: none fell), and the run's ``pieces`` events."""
+    from gasp_core.run.report import Reporter
+    from gasp_core.gs.io import read_gaussians, write_gaussians
+    from gasp_core.run.pipeline import simulate_scene
+    from gasp_core.scene.spec import load_scene
+    write_gaussians(tmp_path / "rod.ply", t_rod())
+    (tmp_path / "rod.toml").write_text(rod_scene_text(name, tmp_path / "rod.ply", tensile_strength, n_frames))
     out = tmp_path / "run"
     rep = Reporter()
     simulate_scene(load_scene(tmp_path / "rod.toml"), out, reporter=rep)
