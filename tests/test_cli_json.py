@@ -49,13 +49,15 @@ def test_simulate_json_is_one_event_per_line(tmp_path, donut_small):
     """The command as a script runs it: a separate process, stdout parsed line by line (library banners,
     if any, went to stderr)."""
     pytest.importorskip(f"gasp_{ENGINE}")
-    r = gasp("simulate", small_scene(tmp_path, donut_small), "-o", tmp_path / "out", "--json")
+    # a shell (fill = false) at n_grid 16 is 7.9 cells across its width: the resolution advice, a warning
+    r = gasp("simulate", small_scene(tmp_path, donut_small, extra_object="fill = false"), "-o", tmp_path / "out",
+             "--json")
     assert r.returncode == 0, r.stderr
     events = check_stream(r.stdout, N_FRAMES)
     assert Path(events[-1]["output"]) == (tmp_path / "out").resolve()
     assert [e["event"] for e in events if e["event"] not in ("frame", "warning")] == ["start", "result"]
     assert events[[e["event"] for e in events].index("start")]["engine"] == ENGINE
-    # the warnings are events, and also the console's lines on stderr (n_grid 16: the resolution advice)
+    # the warnings are events, and also the console's lines on stderr
     said = [e["message"] for e in events if e["event"] == "warning"]
     assert said and [f"gasp: warning: {m}" for m in said] == r.stderr.splitlines(), r.stderr
 
