@@ -111,7 +111,8 @@ def sequence_bounds(frames: Iterable[Splats], q: float = 0.1, mask: np.ndarray |
 
 def moving_mask(run: Run) -> np.ndarray | None:
     """Which rows of :meth:`Run.splats` (objects in order) the run simulates, bool: ``run.json``'s per-object
-    ``moving_rows`` (:func:`gasp_core.run.record.row_ranges`; null: every row), none of a static object's.
+    ``moving_rows`` (:func:`gasp_core.run.record.row_ranges`; null: every row), none of a static object's, and a
+    brittle object's crack faces (drawn after its rows: one per fill point, every frame the same count).
     None when every row moves, when nothing does, or for a run recorded without ``moving_rows``."""
     parts, partial = [], False
     for o in run.objects:
@@ -126,6 +127,9 @@ def moving_mask(run: Run) -> np.ndarray | None:
             m[ranges_rows(o["moving_rows"])] = True
             partial = True
         parts.append(m)
+        faces = read_crack_faces(run.path, o["name"], 0) if "name" in o else None   # drawn after its rows: they move
+        if faces is not None:
+            parts.append(np.ones(faces.n, dtype=bool))
     mask = np.concatenate(parts) if parts else np.zeros(0, dtype=bool)
     return mask if partial and mask.any() else None
 
