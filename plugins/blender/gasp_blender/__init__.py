@@ -46,7 +46,11 @@ _CANT = ("tip deflection 2.71 mm vs Euler-Bernoulli 19.99 mm (-86%), largest 5.2
 #: Conformance scenes this engine fails, with the measured figures (run as strict expected failures).
 KNOWN_FAILURES = {"momentum": _V0, "spinning": _V0, "determinism": _V0, "invariance": _V0,
                   "contract_blowup": "the kit drives the blow-up with random initial velocities: " + _V0,
-                  "cantilever": _CANT, "cantilever_offgrid": "same cage as 'cantilever': 2.71 mm vs 19.99 mm (-86%)",
+                  "cantilever": _CANT,
+                  "stacked_gap": ("two stacked jelly balls (R 5 cm) overlap -0.403 dx (mean of the last 0.5 s of "
+                                  "1 s, -0.492 to -0.283 dx): Blender's soft-body self and body-body collision "
+                                  "lets the cages interpenetrate under the top ball's weight (limit 0.25 dx; "
+                                  "measured, bpy 5.0.1)"), "cantilever_offgrid": "same cage as 'cantilever': 2.71 mm vs 19.99 mm (-86%)",
                   "bar_wave": "the scene starts part of the bar moving: " + _V0,
                   "rest_on_tilted_ground": ("Blender soft bodies have no contact friction with the ground plane "
                                             "(README known limits): a slab on ground tilted 15 deg slides 6.2 dx "

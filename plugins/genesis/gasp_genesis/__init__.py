@@ -108,7 +108,11 @@ def genesis_available() -> str | None:
     return None
 
 
-KNOWN_FAILURES = {"spinning": (
+KNOWN_FAILURES = {"stacked_gap": (
+    "two stacked jelly balls (R 5 cm, n_grid 24) rest +0.868 dx apart (mean of the last 0.5 s of 1 s, +0.717 to "
+    "+1.071 dx): one MPM velocity field, so bodies whose points share a grid node move together and stay about a "
+    "cell apart, as on taichi_mpm and warp_mpm (+0.84 dx; limit 0.25 dx; measured on genesis-world, CPU, 43 s)"),
+    "spinning": (
     "the body spins 11.7% slow: rigid-fit angle 79.47 deg after 0.5 s vs 90 deg; L_z(frame 1) / L_z(0) = 0.883, "
     "then constant within 0.2%. The plugin does not start the APIC affine matrix from SimSetup.C (the Genesis "
     "1.4.5 entity API sets only positions, velocities and active flags; its MPM solver state setter also writes "
