@@ -169,13 +169,14 @@ def _face_prims(stage, parent: str, faces_at, n_frames: int, M: np.ndarray) -> N
             last.subset(rows).sh_dc.astype(np.float32)))
         prims[k] = (prim.CreatePositionsAttr(), prim.CreateOrientationsAttr(), prim.CreateScalesAttr(),
                     prim.CreateOpacitiesAttr())
+    last_turned = turned(last, M)   # a frame without a file: the last frame's faces, hidden
     for f in range(n_frames):
         g = faces_at(f)
         g = None if g is None or g.n != last.n else turned(g, M)
         for k, rows in groups:
             pos, ori, sca, opa = prims[k]
             time = Usd.TimeCode(f)
-            src = turned(last, M).subset(rows) if g is None else g.subset(rows)
+            src = (last_turned if g is None else g).subset(rows)
             alpha = np.zeros(len(rows)) if g is None else 1.0 / (1.0 + np.exp(-src.opacities.astype(np.float64)))
             q = src.rotations.astype(np.float32)
             pos.Set(Vt.Vec3fArray.FromNumpy(src.means.astype(np.float32)), time)
