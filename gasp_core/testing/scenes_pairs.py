@@ -40,7 +40,7 @@ import numpy as np
 
 from gasp_core.seam.engine import EngineInfo
 from gasp_core.seam.setup import Boundary, Material
-from gasp_core.testing.helpers import Check, check, make_setup, sphere_points
+from gasp_core.testing.helpers import box_points, Check, check, make_setup, sphere_points
 from gasp_core.testing.kit import Requires, Scene, Trace
 
 N_GRID = 24
@@ -118,7 +118,6 @@ SLAB = (6 * DX, 6 * DX, 2 * DX)
 
 
 def _build_rest(info: EngineInfo):
-    from gasp_core.testing.helpers import box_points
     lo = np.array([SIDE / 2 - SLAB[0] / 2 + 0.3 * DX, SIDE / 2 - SLAB[1] / 2 + 0.2 * DX, GROUND + REST_DROP * DX])
     x, p_vol = box_points(lo, lo + np.array(SLAB), DX / 2)
     mat = Material("jelly", model="rigid", **SUBSTANCES["wood"])
