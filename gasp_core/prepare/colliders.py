@@ -71,6 +71,11 @@ def build_colliders(scene, objects, dx: float, lo=None, hi=None, x=None) -> list
                                                rotation=R, motion=motion, source=f"mesh:{spec.mesh}"))
             continue
         splats = _collider_splats(spec, objects)
+        if not len(splats):
+            if spec.by_default:    # a selection's rest with no opaque Gaussian (floaters, a halo): nothing to touch
+                continue
+            raise SceneError(f"{spec.where}: none of its Gaussians has an opacity of min_opacity = "
+                             f"{spec.min_opacity} or more: nothing to collide with (lower min_opacity)")
         bounds = None
         if spec.object is not None and lo is not None:
             splats = _within(splats, lo, hi, SDF_PAD * h, spec.where, spec.by_default)
