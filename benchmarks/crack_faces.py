@@ -15,7 +15,7 @@ crack side).
 ``docs/fracture_rod_with.png``.
 
 ``--faces both`` (or ``triangles``) measures the issue's second candidate beside the first on the same break, from the
-same camera: Gaussians spawned on the crack faces from the split triangles (``gasp_core.maps.crack_triangles``): the same share, the Gaussians each adds, and the render's milliseconds (best of 5,
+same camera: Gaussians spawned on the crack faces from the split triangles (``benchmarks/studies/crack_triangles.py``: measured here and rejected, so kept out of ``gasp_core``): the same share, the Gaussians each adds, and the render's milliseconds (best of 5,
 each piece alone and the whole break); results in ``crack_faces_compare.md`` (``crack_faces_compare_rod.md``), a still
 ``docs/fracture_crack_triangles.png`` (none when no triangle is split).
 
@@ -92,8 +92,10 @@ def scene_parts(prep, x, d):
     normals = rot[:, :, 0]
     # each Gaussian's piece, as the point labels (gaussian_pieces numbers them within the object; all rows move here)
     glab = labels[o.vertex_slice][o.surface.anchors()]
-    # candidate B: Gaussians on the crack faces from the split triangles (gasp_core.maps.crack_triangles)
-    from gasp_core.maps.crack_triangles import build_split_triangles, split_triangle_faces
+    # candidate B: Gaussians on the crack faces from the split triangles (benchmarks/studies/crack_triangles.py)
+    import sys
+    sys.path.insert(0, str(ROOT / "benchmarks" / "studies"))
+    from crack_triangles import build_split_triangles, split_triangle_faces
     t0 = time.perf_counter()
     tris = build_split_triangles(np.arange(len(s.x))[o.vertex_slice][o.surface.shape_rows()], s.x, dc, h)
     tb = split_triangle_faces(tris, x, labels)
@@ -298,7 +300,7 @@ def main(argv=None) -> int:
     ap.add_argument("--faces", choices=("fill", "triangles", "both"), default="fill",
                     help="which candidate's crack faces: the fill's (gasp_core.maps.crack_faces, what gasp simulate "
                          "writes; results in crack_faces[_rod].md), the split triangles' "
-                         "(gasp_core.maps.crack_triangles), or both compared (crack_faces_compare[_rod].md)")
+                         "(benchmarks/studies/crack_triangles.py), or both compared (crack_faces_compare[_rod].md)")
     args = ap.parse_args(argv)
     import tempfile
     from gasp_core.render.builtin import CpuRenderer

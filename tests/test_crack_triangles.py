@@ -1,4 +1,5 @@
-"""Crack faces from the split triangles (``gasp_core.maps.crack_triangles``, issue 52 item 3, the second candidate).
+"""Crack faces from the split triangles (``benchmarks/studies/crack_triangles.py``, issue 52 item 3, the second
+candidate: measured against the fill's and rejected, kept as a study for its figures; docs/fracture.md).
 
 Known answers on a square tube of GaMeS triangles (spacing h = 1 cm, the tube 10 h long, its section 4 h x 4 h;
 each triangle ``v1`` on the surface, ``v2 = v1 + h/2 x``, ``v3 = v1 + h/2`` along the section's perimeter):
@@ -15,9 +16,13 @@ each triangle ``v1`` on the surface, ``v2 = v1 + h/2 x``, ``v3 = v1 + h/2`` alon
 """
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
 import numpy as np
 
-from gasp_core.maps.crack_triangles import build_split_triangles, split_triangle_faces
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks" / "studies"))
+from crack_triangles import build_split_triangles, split_triangle_faces  # noqa: E402
 
 H = 0.01
 RED, BLUE = np.array([1.0, -1.0, -1.0]), np.array([-1.0, -1.0, 1.0])

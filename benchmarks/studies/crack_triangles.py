@@ -1,5 +1,11 @@
 """Crack faces from the split triangles (issue 52, item 3, the second candidate; docs/fracture.md "Crack faces").
 
+**A study, not part of GASP:** measured against the first candidate (``benchmarks/crack_faces.py --faces both``,
+``benchmarks/results/crack_faces_compare[_rod].md``) it covered less (0.7-10.9 % of the donut pieces' silhouettes below
+alpha 0.9 from their crack side, against 0.0-1.7 %), added more Gaussians (13 818 against 3 150 shown) and nothing at
+all where the crack passed between triangles (the rod), so it was taken out of ``gasp_core`` and kept here for the
+figures (``tests/test_crack_triangles.py`` still holds it to its known answers).
+
 The first candidate (:mod:`gasp_core.maps.crack_faces`) puts a face on every fill point next to a crack. This one
 uses only the surface: a GaMeS triangle whose shape points (:meth:`gasp_core.maps.surface.SurfaceMap.shape_rows`,
 its ``v1, v2, v3`` in the triangles form) fall in different pieces is *split* by the crack, and the crack meets
