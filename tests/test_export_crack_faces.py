@@ -4,14 +4,16 @@ On the broken donut_small biscuit (``broken_run``, tests/conftest.py: its crack-
 some at frames 1 and 2), the known answer is the run's own ``<object>/crack_faces_NNNN.ply``:
 
 - ``glb``: each frame's file holds the object's node (named ``frame_NNNN`` as a plain GLB frame's, the frame's
-  Gaussians, positions equal to the PLY frame's) and, where faces are shown, ``<object>_crack_faces`` with exactly the shown ones (hidden ones left out); frame 0 (none
-  shown) is byte for byte the plain frame; ``export.json`` records the shown count per frame;
+  Gaussians, positions equal to the PLY frame's) and, where faces are shown, ``<object>_crack_faces`` with exactly
+  the shown ones (hidden ones left out); frame 0 (none shown) is byte for byte the plain frame; ``export.json``
+  records the shown count per frame;
 - ``ply``: the object's rows first and unchanged, then exactly the shown faces (colour kept, SH padded with 0);
 - ``usd``: ``/Run/<object>`` as before and ``/Run/<object>_crack_faces`` with every face, positions time-sampled
   equal to the crack-face file's, opacity above 0.5 exactly where the file shows the face (none at frame 0);
+- ``glb_sequence``: each frame's node holds its rows, then the faces shown at that frame;
 - ``--no-crack-faces`` leaves them out.
 
-Shown failing (by hand) on the export before the change (no faces: the node, row and prim checks fail), on an
+Shown failing (by hand) on the export before the change (no faces: all four fail), on an
 export that writes every face, hidden ones too (frame 0 then holds a faces node, and the row counts differ), and
 on one that puts the faces before the object's rows (the row check fails).
 """
@@ -121,3 +123,17 @@ def test_the_usd_export_has_a_time_sampled_prim_with_every_crack_face(broken_run
     assert main(["export", str(broken_run), "--format", "usd", "-o", str(out2), "--no-crack-faces"]) == 0
     bare = Usd.Stage.Open(str(out2))
     assert [p.GetName() for p in bare.GetPrimAtPath("/Run").GetChildren()] == [NAME]
+
+
+def test_the_glb_sequence_draws_each_frames_shown_faces_with_it(broken_run, tmp_path):
+    from gasp_core.gs.gltf import UP_TO_Z, Z_TO_Y
+    from gasp_core.gs.io import read_gaussians
+    out = tmp_path / "run.glb"
+    assert main(["export", str(broken_run), "--format", "glb_sequence", "-o", str(out)]) == 0
+    nodes = _glb_nodes(out)
+    M = (Z_TO_Y @ UP_TO_Z["+z"]).T
+    for f in range(3):
+        faces = _faces(broken_run, f)
+        means = read_gaussians(broken_run / NAME / f"frame_{f:04d}.ply").means @ M
+        want = np.concatenate([means, faces.means[faces.opacities > 0] @ M])
+        np.testing.assert_allclose(nodes[f"{NAME}_frame_{f:04d}"], want, atol=1e-6)
