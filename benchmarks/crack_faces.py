@@ -15,9 +15,10 @@ crack side).
 ``docs/fracture_rod_with.png``.
 
 ``--faces both`` (or ``triangles``) measures the issue's second candidate beside the first on the same break, from the
-same camera: Gaussians spawned on the crack faces from the split triangles (``benchmarks/studies/crack_triangles.py``: measured here and rejected, so kept out of ``gasp_core``): the same share, the Gaussians each adds, and the render's milliseconds (best of 5,
-each piece alone and the whole break); results in ``crack_faces_compare.md`` (``crack_faces_compare_rod.md``), a still
-``docs/fracture_crack_triangles.png`` (none when no triangle is split).
+same camera: Gaussians spawned on the crack faces from the split triangles (``benchmarks/studies/crack_triangles.py``:
+measured here and rejected, so kept out of ``gasp_core``): the same share, the Gaussians each adds, and the render's
+milliseconds (best of 5, each piece alone and the whole break); results in ``crack_faces_compare.md``
+(``crack_faces_compare_rod.md``), a still ``docs/fracture_crack_triangles.png`` (none when no triangle is split).
 
 Run: ``python benchmarks/crack_faces.py [--engine taichi_mpm] [--frames 4] [--scene donut|rod] [--faces
 fill|triangles|both]``; the table goes to stdout and ``benchmarks/results/crack_faces.md`` (``crack_faces_rod.md``;
@@ -274,7 +275,8 @@ def fill_table(rows) -> list[str]:
 
 def compare_table(rows, faces: str) -> list[str]:
     """Both candidates (or the one asked for) side by side, with the render times."""
-    cols = [("fill", "fill: faces shown", "fill: alpha < 0.9"), ("tri", "triangles: Gaussians", "triangles: alpha < 0.9")]
+    cols = [("fill", "fill: faces shown", "fill: alpha < 0.9"),
+            ("tri", "triangles: Gaussians", "triangles: alpha < 0.9")]
     cols = [c for c in cols if faces == "both" or c[0] == {"fill": "fill", "triangles": "tri"}[faces]]
     head = ["piece", "mass (kg)", "alpha < 0.9 without faces"]
     for _, n, a in cols:
@@ -286,7 +288,8 @@ def compare_table(rows, faces: str) -> list[str]:
         for k, _, _ in cols:
             cells += [str(r[f"{k}_n"]), _pct(r.get(k))]
         ms = r.get("ms", {})
-        cells += [_pct(r.get("floor")), " / ".join(f"{ms[k]:.0f}" if k in ms else "-" for k in ["none"] + [c[0] for c in cols])]
+        keys = ["none"] + [c[0] for c in cols]
+        cells += [_pct(r.get("floor")), " / ".join(f"{ms[k]:.0f}" if k in ms else "-" for k in keys)]
         lines.append("| " + " | ".join(cells) + " |")
     return lines
 
@@ -321,8 +324,9 @@ def main(argv=None) -> int:
     n_faces, n_vis = len(parts["vis"]), int(parts["vis"].sum())
     what = "the shattered donut" if args.scene == "donut" else "the broken T rod"
     suffix = "" if args.scene == "donut" else "_rod"
+    flag = "" if args.faces == "fill" else f" --faces {args.faces}"
     head = [f"# Crack faces on {what} ({args.engine}, frame {frames}; "
-            f"`benchmarks/crack_faces.py --scene {args.scene}{'' if args.faces == 'fill' else ' --faces ' + args.faces}`)",
+            f"`benchmarks/crack_faces.py --scene {args.scene}{flag}`)",
             "", f"{n_faces} fill points carry a crack face, {n_vis} shown at this frame "
             f"({len(np.unique(parts['labels']))} pieces; simulated in {sim_s:.0f} s)."]
     if args.faces == "fill":

@@ -51,7 +51,7 @@ def _setup(colour_split_at):
     return x, rows, build_split_triangles(rows, x, colours, H)
 
 
-def _covers(means, plane_axis_value):
+def _covers(means):
     """Every point of the section (a 0.2 h grid) within 0.75 h of a face centre, in the plane."""
     yz = np.stack(np.meshgrid(*[np.linspace(0.1 * H, 3.9 * H, 20)] * 2, indexing="ij"), -1).reshape(-1, 2)
     d = np.linalg.norm(yz[:, None, :] - means[None, :, 1:], axis=2).min(1)
@@ -73,7 +73,7 @@ def test_a_cut_tube_gets_a_face_on_each_side_facing_the_gap_coloured_by_the_spli
         assert 16 <= k.sum() <= 25, k.sum()
         np.testing.assert_allclose(f.means[k, 0], plane, atol=1e-9)
         np.testing.assert_allclose(f.rotations[k, :, 0], np.broadcast_to([sign, 0.0, 0.0], (k.sum(), 3)), atol=1e-9)
-        assert _covers(f.means[k], plane)
+        assert _covers(f.means[k])
     np.testing.assert_allclose(f.sh_dc, np.broadcast_to(RED, f.sh_dc.shape))           # the split triangles' own
     np.testing.assert_allclose(np.einsum("nij,nik->njk", f.rotations, f.rotations),
                                np.broadcast_to(np.eye(3), f.rotations.shape), atol=1e-12)

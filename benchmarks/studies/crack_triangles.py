@@ -19,10 +19,11 @@ flat Gaussians:
 - **Plane.** A crack's face is the plane through its rim points' mean, its normal the direction of least spread of
   the rim points (a rim around a cross-section is a closed loop in that plane), turned to point out of ``p``: away
   from the mean of ``p``'s anchors (its Gaussians' centres) within the rim's reach (2 ``h`` past its farthest
-  point from the mean), so a piece that curves back (a ring's arc) still faces its crack. A rim that does not span a plane (fewer than 3 points, or a second principal
-  spread under half a spacing: a crack just starting at the surface) takes the normal from the split triangles'
-  own normals instead: ``t x n_s``, ``t`` the rim's direction and ``n_s`` the triangles' mean normal (the crack
-  face holds the rim and runs into the body along ``-n_s``), and gets one Gaussian per rim point, no fill.
+  point from the mean), so a piece that curves back (a ring's arc) still faces its crack. A rim that does not span
+  a plane (fewer than 3 points, or a second principal spread under half a spacing: a crack just starting at the
+  surface) takes the normal from the split triangles' own normals instead: ``t x n_s``, ``t`` the rim's direction
+  and ``n_s`` the triangles' mean normal (the crack face holds the rim and runs into the body along ``-n_s``),
+  and gets one Gaussian per rim point, no fill.
 - **Fill.** The face is the convex hull of the rim points in that plane, covered by a square grid of flat
   Gaussians ``h`` apart (at least one, at the rim's mean), ``h`` the fill spacing: scales ``(THIN h, FACE h,
   FACE h)`` along ``(n, e1, e2)`` as the first candidate's (:data:`gasp_core.maps.crack_faces.THIN`,

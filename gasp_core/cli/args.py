@@ -79,8 +79,8 @@ class GaspArgumentParser(argparse.ArgumentParser):
 
 
 def add_export_parser(sub, func) -> argparse.ArgumentParser:
-    """``gasp export RUN --format F -o OUT [--overwrite] [--split-pieces] [--no-crack-faces]`` (:func:`gasp_core.run.export.export_run`),
-    calling ``func(args)``."""
+    """``gasp export RUN --format F -o OUT [--overwrite] [--split-pieces] [--no-crack-faces]``
+    (:func:`gasp_core.run.export.export_run`), calling ``func(args)``."""
     from pathlib import Path
     from gasp_core.gs.registry import output_formats
     ex = sub.add_parser("export", help="write an existing run's frames in another format (glTF, OpenUSD, ...)")

@@ -18,10 +18,10 @@ rate from its ``frame_dt``.
 
 * per-frame formats: the faces *shown* at that frame, hidden ones left out (each frame's file stands alone, and a
   hidden face would cost a viewer its sort and memory for nothing: 9 844 on the README donut beside its 45 624):
-  ``glb`` a second node ``<object>_crack_faces`` in the frame's file (after the object's, named as without faces); the single-cloud formats (``ply``, ``spz``,
-  ...) after the object's rows, which stay first and unchanged (:func:`gasp_core.run.crack_output.with_crack_faces`);
-  ``export.json`` records each object's shown count per frame (``crack_faces``). A frame with none shown (frame 0)
-  is written as without faces.
+  ``glb`` a second node ``<object>_crack_faces`` in the frame's file (after the object's, named as without
+  faces); the single-cloud formats (``ply``, ``spz``, ...) after the object's rows, which stay first and
+  unchanged (:func:`gasp_core.run.crack_output.with_crack_faces`); ``export.json`` records each object's shown
+  count per frame (``crack_faces``). A frame with none shown (frame 0) is written as without faces.
 * ``usd``: one more prim ``/Run/<object>_crack_faces`` holding every face, time-sampled with its opacity (0 while
   hidden): a time-sampled particle field keeps one count over the run, so its samples interpolate
   (:func:`gasp_core.run.usd_export.write_usd`); with ``--split-pieces`` each piece's prim has its own (as before).
