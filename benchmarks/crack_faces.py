@@ -14,8 +14,15 @@ crack side).
 0.6 rho g L`` (it breaks in the upper half of its neck), 8 frames; stills ``docs/fracture_rod_without.png`` and
 ``docs/fracture_rod_with.png``.
 
-Run: ``python benchmarks/crack_faces.py [--engine taichi_mpm] [--frames 4] [--scene donut|rod]``; the table goes to
-stdout and ``benchmarks/results/crack_faces.md`` (``crack_faces_rod.md``).
+``--faces both`` (or ``triangles``) measures the issue's second candidate beside the first on the same break, from the
+same camera: Gaussians spawned on the crack faces from the split triangles (``benchmarks/studies/crack_triangles.py``:
+measured here and rejected, so kept out of ``gasp_core``): the same share, the Gaussians each adds, and the render's
+milliseconds (best of 5, each piece alone and the whole break); results in ``crack_faces_compare.md``
+(``crack_faces_compare_rod.md``), a still ``docs/fracture_crack_triangles.png`` (none when no triangle is split).
+
+Run: ``python benchmarks/crack_faces.py [--engine taichi_mpm] [--frames 4] [--scene donut|rod] [--faces
+fill|triangles|both]``; the table goes to stdout and ``benchmarks/results/crack_faces.md`` (``crack_faces_rod.md``;
+``--faces both``: ``crack_faces_compare[_rod].md``).
 """
 from __future__ import annotations
 
@@ -86,8 +93,27 @@ def scene_parts(prep, x, d):
     normals = rot[:, :, 0]
     # each Gaussian's piece, as the point labels (gaussian_pieces numbers them within the object; all rows move here)
     glab = labels[o.vertex_slice][o.surface.anchors()]
+    # candidate B: Gaussians on the crack faces from the split triangles (benchmarks/studies/crack_triangles.py)
+    import sys
+    sys.path.insert(0, str(ROOT / "benchmarks" / "studies"))
+    from crack_triangles import build_split_triangles, split_triangle_faces
+    t0 = time.perf_counter()
+    tris = build_split_triangles(np.arange(len(s.x))[o.vertex_slice][o.surface.shape_rows()], s.x, dc, h)
+    tb = split_triangle_faces(tris, x, labels)
+    tri_s = time.perf_counter() - t0
+    Mb = tb.rotations * tb.scales[:, None, :]
+    tri = Splats(tb.means, Mb @ Mb.transpose(0, 2, 1), np.clip(0.5 + SH_C0 * tb.sh_dc, 0, 1).astype(np.float32),
+                 np.full(tb.n, 0.99, np.float32))
     return dict(surf=surf, surf_piece=glab, crack=crack, vis=vis,
-                crack_piece=labels[rows], normals=normals, labels=labels, mass=tracker.mass, h=h, o=o)
+                crack_piece=labels[rows], normals=normals, labels=labels, mass=tracker.mass, h=h, o=o,
+                tri=tri, tri_piece=tb.piece, tri_normals=tb.rotations[:, :, 0], tri_s=tri_s,
+                n_split=int(len(np.unique(split_rows(tris, labels)))))
+
+
+def split_rows(tris, labels):
+    """The split triangles (rows of ``tris.rows``) at the point ``labels``."""
+    lab = np.asarray(labels)[tris.rows]
+    return np.flatnonzero((lab != lab[:, :1]).any(axis=1))
 
 
 def subset(sp, keep):
@@ -130,9 +156,14 @@ def at_rest_share(rest, sel, direction, render, size=480) -> float:
     return float(np.mean(alpha[silhouette(cam, pts, parts0["h"])] < ALPHA))
 
 
-def measure_pieces(parts, x, d, render, size=480, rest=None):
-    """Rows of (piece, mass kg, faces shown, share with alpha < 0.9 without / with faces[, the same material unbroken
-    at frame 0 from the same side: :func:`at_rest_share`, with ``rest``])."""
+def measure_pieces(parts, x, d, render, size=480, rest=None, faces="fill"):
+    """One dict per piece of at least 5 % of the mass: ``piece``, ``mass`` (kg), ``without`` (the share of its
+    silhouette with alpha < 0.9 without crack faces), and per candidate (``faces``: ``fill``, ``triangles`` or
+    ``both``) ``fill_n`` / ``fill`` (the first: its shown faces, the share) and ``tri_n`` / ``tri`` (the second),
+    ``floor`` (the same material unbroken at frame 0 from the same side: :func:`at_rest_share`, with ``rest``), and
+    ``ms`` (the render's milliseconds, best of 5: ``none``, ``fill``, ``tri``). The camera is the same for every
+    candidate: on the piece's crack side, the mean normal of the first candidate's shown faces there (else the
+    second's)."""
     o, lab = parts["o"], parts["labels"]
     total = float(parts["mass"].sum())
     masses = np.bincount(lab, weights=parts["mass"])
@@ -142,30 +173,65 @@ def measure_pieces(parts, x, d, render, size=480, rest=None):
         if masses[p] < BIG * total:
             break
         shown = parts["vis"] & (parts["crack_piece"] == p)
-        if not shown.any():
-            rows.append((int(p), float(masses[p]), 0, None, None) + ((None,) if rest is not None else ()))
+        tri = parts["tri_piece"] == p
+        row = {"piece": int(p), "mass": float(masses[p]), "fill_n": int(shown.sum()), "tri_n": int(tri.sum())}
+        rows.append(row)
+        direction = parts["normals"][shown].mean(0) if shown.any() else (
+            parts["tri_normals"][tri].mean(0) if tri.any() else None)
+        if direction is None or np.linalg.norm(direction) < 1e-9:
             continue
         # the piece's material: its intact fill (its surface lies around it; its broken points are the crack band)
         sel = fill_rows[(lab[fill_rows] == p) & (d[fill_rows] < BROKEN)]
         pts = x[sel]
         lo, hi = pts.min(0), pts.max(0)
-        cam = crack_camera(pts.mean(0), parts["normals"][shown].mean(0), lo, hi, size)
+        cam = crack_camera(pts.mean(0), direction, lo, hi, size)
         sil = silhouette(cam, pts, parts["h"])
         surf = subset(parts["surf"], parts["surf_piece"] == p)
-        shares = []
-        for with_faces in (False, True):
-            sp = surf if not with_faces else type(surf).concat([surf, subset(parts["crack"], shown)])
-            _, alpha = render(sp, cam)
-            shares.append(float(np.mean(alpha[sil] < ALPHA)))
+        variants = [("without", surf)]
+        if faces in ("fill", "both"):
+            variants.append(("fill", type(surf).concat([surf, subset(parts["crack"], shown)])))
+        if faces in ("triangles", "both"):
+            variants.append(("tri", type(surf).concat([surf, subset(parts["tri"], tri)])))
+        row["ms"] = {}
+        for key, sp in variants:
+            times = []
+            for _ in range(5):
+                t0 = time.perf_counter()
+                _, alpha = render(sp, cam)
+                times.append(time.perf_counter() - t0)
+            row[key] = float(np.mean(alpha[sil] < ALPHA))
+            row["ms"]["none" if key == "without" else key] = 1e3 * min(times)
         if rest is not None:
-            shares.append(at_rest_share(rest, sel, parts["normals"][shown].mean(0), render, size))
-        rows.append((int(p), float(masses[p]), int(shown.sum()), *shares))
+            row["floor"] = at_rest_share(rest, sel, direction, render, size)
     return rows
 
 
-def stills(parts, x, d, render, out_dir: Path, size=480, stem: str = "fracture_crack"):
-    """Two PNGs (without, with the crack faces), each the whole break from above and beside, then the largest piece
-    alone from its crack side."""
+def whole_render_ms(parts, render, size=480):
+    """Milliseconds (best of 5) to render the whole break from above and beside (the stills' first camera):
+    ``none``; ``fill_all`` every fill face as ``gasp render`` draws a run (hidden ones at opacity 0); ``fill`` the
+    shown ones only; ``tri`` the second candidate's."""
+    from gasp_core.render.camera import auto_camera
+    surf = parts["surf"]
+    cam = auto_camera(surf.means.min(0), surf.means.max(0), size, size, 30.0, azimuth_deg=-60.0, elevation_deg=35.0)
+    sets = {"none": surf, "fill_all": type(surf).concat([surf, parts["crack"]]),
+            "fill": type(surf).concat([surf, subset(parts["crack"], parts["vis"])]),
+            "tri": type(surf).concat([surf, parts["tri"]])}
+    out = {}
+    for key, sp in sets.items():
+        times = []
+        for _ in range(5):
+            t0 = time.perf_counter()
+            render(sp, cam)
+            times.append(time.perf_counter() - t0)
+        out[key] = 1e3 * min(times)
+    return out
+
+
+def stills(parts, x, d, render, out_dir: Path, size=480, stem: str = "fracture_crack", faces: str = "fill"):
+    """PNGs, each the whole break from above and beside, then the largest piece alone from its crack side:
+    ``faces = "fill"`` two (without, with the first candidate's faces: ``<stem>_without.png``, ``<stem>_with.png``);
+    ``"triangles"`` or ``"both"`` one with the second candidate's (``<stem>_triangles.png``; the first candidate's
+    stills are left as they are)."""
     import imageio.v3 as iio
     from gasp_core.render.camera import auto_camera
     surf, crack = parts["surf"], subset(parts["crack"], parts["vis"])
@@ -173,19 +239,59 @@ def stills(parts, x, d, render, out_dir: Path, size=480, stem: str = "fracture_c
     whole = auto_camera(lo, hi, size, size, 30.0, azimuth_deg=-60.0, elevation_deg=35.0)
     big = int(np.bincount(parts["labels"], weights=parts["mass"]).argmax())
     shown = parts["vis"] & (parts["crack_piece"] == big)
+    tri = parts["tri_piece"] == big
     fill = np.arange(len(x))[parts["o"].fill_slice]
     pts = x[fill[(parts["labels"][fill] == big) & (d[fill] < BROKEN)]]
-    piece_cam = crack_camera(pts.mean(0), parts["normals"][shown].mean(0), pts.min(0), pts.max(0), size)
+    direction = parts["normals"][shown].mean(0) if shown.any() else parts["tri_normals"][tri].mean(0)
+    piece_cam = crack_camera(pts.mean(0), direction, pts.min(0), pts.max(0), size)
     piece = subset(surf, parts["surf_piece"] == big)
+    sets = {"without": (surf, piece),
+            "with": (type(surf).concat([surf, crack]), type(surf).concat([piece, subset(parts["crack"], shown)])),
+            "triangles": (type(surf).concat([surf, parts["tri"]]),
+                          type(surf).concat([piece, subset(parts["tri"], tri)]))}
     paths = []
-    for name, faces in (("without", False), ("with", True)):
-        views = [(whole, type(surf).concat([surf, crack]) if faces else surf),
-                 (piece_cam, type(surf).concat([piece, subset(parts["crack"], shown)]) if faces else piece)]
+    for name in (("without", "with") if faces == "fill" else ("triangles",)):
+        views = [(whole, sets[name][0]), (piece_cam, sets[name][1])]
         imgs = [render(sp, cam, background=np.ones(3))[0] for cam, sp in views]
         path = out_dir / f"{stem}_{name}.png"
         iio.imwrite(path, (np.clip(np.concatenate(imgs, 1), 0, 1) * 255).astype(np.uint8))
         paths.append(path)
     return paths
+
+
+def _pct(v):
+    return "-" if v is None else f"{100 * v:.1f} %"
+
+
+def fill_table(rows) -> list[str]:
+    """The first candidate's table, as ``benchmarks/results/crack_faces.md`` has always held it."""
+    lines = ["| piece | mass (kg) | faces shown | alpha < 0.9 without faces | with faces | the same material unbroken "
+             "(frame 0), same side |", "|---|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r['piece']} | {r['mass']:.3f} | {r['fill_n']} | {_pct(r.get('without'))} | "
+                     f"{_pct(r.get('fill'))} | {_pct(r.get('floor'))} |")
+    return lines
+
+
+def compare_table(rows, faces: str) -> list[str]:
+    """Both candidates (or the one asked for) side by side, with the render times."""
+    cols = [("fill", "fill: faces shown", "fill: alpha < 0.9"),
+            ("tri", "triangles: Gaussians", "triangles: alpha < 0.9")]
+    cols = [c for c in cols if faces == "both" or c[0] == {"fill": "fill", "triangles": "tri"}[faces]]
+    head = ["piece", "mass (kg)", "alpha < 0.9 without faces"]
+    for _, n, a in cols:
+        head += [n, a]
+    head += ["unbroken (frame 0), same side", "render ms: none / " + " / ".join(k for k, _, _ in cols)]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for r in rows:
+        cells = [str(r["piece"]), f"{r['mass']:.3f}", _pct(r.get("without"))]
+        for k, _, _ in cols:
+            cells += [str(r[f"{k}_n"]), _pct(r.get(k))]
+        ms = r.get("ms", {})
+        keys = ["none"] + [c[0] for c in cols]
+        cells += [_pct(r.get("floor")), " / ".join(f"{ms[k]:.0f}" if k in ms else "-" for k in keys)]
+        lines.append("| " + " | ".join(cells) + " |")
+    return lines
 
 
 def main(argv=None) -> int:
@@ -194,6 +300,10 @@ def main(argv=None) -> int:
     ap.add_argument("--frames", type=int, default=None, help="default: 4 (donut), 8 (rod)")
     ap.add_argument("--scene", choices=("donut", "rod"), default="donut",
                     help="the donut shatter, or the T rod of tests/test_brittle.py broken under its own weight")
+    ap.add_argument("--faces", choices=("fill", "triangles", "both"), default="fill",
+                    help="which candidate's crack faces: the fill's (gasp_core.maps.crack_faces, what gasp simulate "
+                         "writes; results in crack_faces[_rod].md), the split triangles' "
+                         "(benchmarks/studies/crack_triangles.py), or both compared (crack_faces_compare[_rod].md)")
     args = ap.parse_args(argv)
     import tempfile
     from gasp_core.render.builtin import CpuRenderer
@@ -206,22 +316,35 @@ def main(argv=None) -> int:
         sim_s = time.perf_counter() - t0
         prep0, x0, d0 = run_to(args.engine, 0, scene)
     parts = scene_parts(prep, x, d)
-    rows = measure_pieces(parts, x, d, render, rest=(scene_parts(prep0, x0, d0), x0))
-    paths = stills(parts, x, d, render, ROOT / "docs", stem="fracture_crack" if args.scene == "donut" else "fracture_rod")
+    render(parts["surf"], crack_camera(np.zeros(3), np.ones(3), -np.ones(3), np.ones(3), 64))   # compile first
+    rows = measure_pieces(parts, x, d, render, rest=(scene_parts(prep0, x0, d0), x0), faces=args.faces)
+    stem = "fracture_crack" if args.scene == "donut" else "fracture_rod"
+    paths = [] if args.faces != "fill" and parts["tri"].n == 0 else \
+        stills(parts, x, d, render, ROOT / "docs", stem=stem, faces=args.faces)   # no split triangle: no new still
     n_faces, n_vis = len(parts["vis"]), int(parts["vis"].sum())
     what = "the shattered donut" if args.scene == "donut" else "the broken T rod"
-    lines = [f"# Crack faces on {what} ({args.engine}, frame {frames}; `benchmarks/crack_faces.py --scene {args.scene}`)",
-             "", f"{n_faces} fill points carry a crack face, {n_vis} shown at this frame "
-             f"({len(np.unique(parts['labels']))} pieces; simulated in {sim_s:.0f} s).", "",
-             "| piece | mass (kg) | faces shown | alpha < 0.9 without faces | with faces | the same material unbroken "
-             "(frame 0), same side |", "|---|---|---|---|---|---|"]
-    for p, m, k, a, b, c in rows:
-        fmt = (lambda v: "-" if v is None else f"{100 * v:.1f} %")
-        lines.append(f"| {p} | {m:.3f} | {k} | {fmt(a)} | {fmt(b)} | {fmt(c)} |")
-    lines += ["", "Stills: " + ", ".join(f"`docs/{q.name}`" for q in paths)]
+    suffix = "" if args.scene == "donut" else "_rod"
+    flag = "" if args.faces == "fill" else f" --faces {args.faces}"
+    head = [f"# Crack faces on {what} ({args.engine}, frame {frames}; "
+            f"`benchmarks/crack_faces.py --scene {args.scene}{flag}`)",
+            "", f"{n_faces} fill points carry a crack face, {n_vis} shown at this frame "
+            f"({len(np.unique(parts['labels']))} pieces; simulated in {sim_s:.0f} s)."]
+    if args.faces == "fill":
+        lines = head + [""] + fill_table(rows)
+        out = ROOT / "benchmarks" / "results" / f"crack_faces{suffix}.md"
+    else:
+        whole = whole_render_ms(parts, render)
+        lines = head + [f"The split triangles' faces: {parts['tri'].n} Gaussians from {parts['n_split']} split "
+                        f"triangles (built in {1e3 * parts['tri_s']:.0f} ms).", ""] + compare_table(rows, args.faces)
+        lines += ["", f"The whole break, {parts['surf'].n} surface Gaussians, 480 x 480 from above and beside, ms "
+                  f"(best of 5): none {whole['none']:.0f}; fill, every face as a run draws them (hidden at opacity 0, "
+                  f"+{n_faces}) {whole['fill_all']:.0f}; fill, the shown ones (+{n_vis}) {whole['fill']:.0f}; "
+                  f"triangles (+{parts['tri'].n}) {whole['tri']:.0f}."]
+        out = ROOT / "benchmarks" / "results" / f"crack_faces_compare{suffix}.md"
+    lines += ["", "Stills: " + (", ".join(f"`docs/{q.name}`" for q in paths) or "none (nothing new to show)")]
     text = "\n".join(lines) + "\n"
     print(text)
-    (ROOT / "benchmarks" / "results" / ("crack_faces.md" if args.scene == "donut" else "crack_faces_rod.md")).write_text(text)
+    out.write_text(text)
     return 0
 
 

@@ -26,8 +26,6 @@ from gasp_core.run.pieces import gaussian_pieces, read_pieces
 
 pytest.importorskip("pygltflib", reason="the export extra (pip install -e '.[export]') is not installed")
 
-BRITTLE = 'name = "brittle"\nE = 2.0e5\nnu = 0.25\nrho = 300.0\ntensile_strength = 4.0e3\nfracture_energy = 5.0'
-
 
 def _object(n_gaussians: int, moving=None):
     """A stand-in for a PreparedObject: ``n`` unit triangles (the triangles form) and the rows that move."""
@@ -53,39 +51,6 @@ def test_a_straddling_triangle_goes_to_its_v1s_piece_and_pieces_are_numbered_hea
             return super().anchors() + 1
     o.surface = ByV2(o.surface.tri_rest, o.surface.rot_rest, o.surface.scales_rest)
     assert gaussian_pieces(o, labels, mass).tolist() != [1, 1, -1, 0, 0]
-
-
-@pytest.fixture(scope="module")
-def broken_run(tmp_path_factory, donut_small):
-    """The donut_small biscuit broken on landing: 2 frames on warp_mpm (about 5 s)."""
-    needs_package("gasp_warp_mpm")
-    from gasp_core.run.pipeline import simulate_scene
-    from gasp_core.scene.spec import load_scene
-    tmp = tmp_path_factory.mktemp("pieces")
-    (tmp / "scene.toml").write_text(f"""
-frame_dt = 0.0333333
-n_frames = 2
-[engine]
-name = "warp_mpm"
-options = {{ threads = 1, contact = "grid" }}
-[domain]
-n_grid = 32
-[[boundary]]
-kind = "ground"
-height = 0.0
-friction = 0.5
-[[boundary]]
-kind = "walls"
-[[object]]
-file = "{donut_small}"
-up_axis = "+z"
-position = [0.0, 0.0, 0.05]
-velocity = [0.0, 0.0, -4.43]
-[object.material]
-{BRITTLE}
-""")
-    simulate_scene(load_scene(tmp / "scene.toml"), tmp / "run", quiet=True)
-    return tmp / "run"
 
 
 def _labels(run, frame):
@@ -144,7 +109,6 @@ def test_split_glb_has_a_node_per_piece_holding_its_gaussians(broken_run, tmp_pa
     assert n_faces[0] == 0 and n_faces[1] > 0, n_faces
 
 
-
 def test_the_split_glb_of_a_broken_run_opens_in_babylon_as_a_mesh_per_piece(broken_run, tmp_path):
     """Issue 52's must-show: the pieces of ``gasp export --split-pieces`` open as separate nodes in a real reader,
     Babylon.js's glTF loader in headless Chromium (tests/glb_browser.py): the last frame's GLB gives one
@@ -162,11 +126,21 @@ def test_the_split_glb_of_a_broken_run_opens_in_babylon_as_a_mesh_per_piece(brok
     assert "error" not in r, r
     assert r["classes"].count("GaussianSplattingMesh") == len(written), r
     assert dict(zip(r["names"], r["splats"])) == written, r
+    # the plain export: the object's node and its shown crack faces' node, both read as splat meshes
+    assert main(["export", str(broken_run), "--format", "glb", "-o", str(tmp_path / "plain")]) == 0
+    glb = tmp_path / "plain" / "donut_small" / "frame_0002.glb"
+    written = {name: len(p) for name, p in _glb_nodes(glb).items()}
+    assert sorted(written) == ["donut_small_crack_faces", "frame_0002"], written     # the frame node, then the faces
+    r = open_in_babylon(glb, tmp_path / "plain.png", babylon_dir())
+    assert "error" not in r and dict(zip(r["names"], r["splats"])) == written, r
 
-def test_without_the_flag_the_glb_export_is_unchanged(broken_run, tmp_path):
+
+def test_without_the_flag_and_the_crack_faces_the_glb_export_is_unchanged(broken_run, tmp_path):
+    """Without ``--split-pieces`` (and with ``--no-crack-faces``: the plain export carries the crack faces,
+    ``tests/test_export_crack_faces.py``) every frame is byte for byte ``write_glb`` of the frame."""
     from gasp_core.gs.gltf import write_glb
     from gasp_core.run.layout import open_frames
-    assert main(["export", str(broken_run), "--format", "glb", "-o", str(tmp_path / "plain")]) == 0
+    assert main(["export", str(broken_run), "--format", "glb", "-o", str(tmp_path / "plain"), "--no-crack-faces"]) == 0
     frames = open_frames(broken_run)
     for f in range(3):
         write_glb(tmp_path / "ref.glb", frames.gaussians(f, 0), up_axis="+z", overwrite=True)

@@ -79,8 +79,8 @@ class GaspArgumentParser(argparse.ArgumentParser):
 
 
 def add_export_parser(sub, func) -> argparse.ArgumentParser:
-    """``gasp export RUN --format F -o OUT [--overwrite] [--split-pieces]`` (:func:`gasp_core.run.export.export_run`),
-    calling ``func(args)``."""
+    """``gasp export RUN --format F -o OUT [--overwrite] [--split-pieces] [--no-crack-faces]``
+    (:func:`gasp_core.run.export.export_run`), calling ``func(args)``."""
     from pathlib import Path
     from gasp_core.gs.registry import output_formats
     ex = sub.add_parser("export", help="write an existing run's frames in another format (glTF, OpenUSD, ...)")
@@ -97,5 +97,9 @@ def add_export_parser(sub, func) -> argparse.ArgumentParser:
                     help="glb, usd: each piece of a broken (brittle) body its own node or prim, so the pieces can be "
                          "taken apart in a 3D editor or a game engine (docs/fracture.md; default: one per "
                          "object)")
+    ex.add_argument("--no-crack-faces", dest="crack_faces", action="store_false",
+                    help="leave a broken (brittle) body's crack faces out of the export (default: the faces shown at "
+                         "each frame go in: a second GLB node, rows after the object's in the other per-frame "
+                         "formats, a time-sampled prim in USD; docs/fracture.md)")
     ex.set_defaults(func=func)
     return ex

@@ -84,3 +84,24 @@ def read_crack_faces(run, name: str, frame: int):
         return None
     from gasp_core.gs.io import read_gaussians
     return read_gaussians(path)
+
+
+def shown_crack_faces(run, name: str, frame: int):
+    """Object ``name``'s crack faces shown at ``frame`` (:func:`read_crack_faces`, the rows of positive opacity;
+    file frame, SH degree 0, the ``piece`` property kept), or None when the run has no such file (no brittle body)."""
+    g = read_crack_faces(run, name, frame)
+    return None if g is None else g.subset(np.flatnonzero(g.opacities > 0))
+
+
+def with_crack_faces(g: Gaussians, faces: Gaussians) -> Gaussians:
+    """``g``'s rows, unchanged and in order, then the crack faces ``faces`` (one file of a single-cloud format, as
+    ``gasp export`` writes a brittle object's frame): the faces in ``g``'s SH degree (higher coefficients 0) and
+    with ``g``'s extra properties (0 for the faces; their ``piece`` is not carried over)."""
+    k = g.sh_rest.shape[1]
+    extra = {key: np.concatenate([v, np.zeros(faces.n, v.dtype)]) for key, v in g.extra.items()}
+    return Gaussians(means=np.concatenate([g.means, faces.means]), scales=np.concatenate([g.scales, faces.scales]),
+                     rotations=np.concatenate([g.rotations, faces.rotations]),
+                     opacities=np.concatenate([g.opacities, faces.opacities]),
+                     sh_dc=np.concatenate([g.sh_dc, faces.sh_dc]),
+                     sh_rest=np.concatenate([g.sh_rest, np.zeros((faces.n, k, 3), np.float32)]), extra=extra,
+                     source=g.source, layout=g.layout, meta=dict(g.meta))

@@ -9,6 +9,7 @@ glTF animates nodes, not per-point attributes, so each frame is its own ``KHR_ga
   elsewhere: the extension reads a float as a boolean, non-zero = true);
 * what does not move is written once, always visible: a ``static`` object, and the rows an object's ``select``
   leaves out (the run's ``moving_rows.npy``), so the frame nodes hold only the rows that move;
+* a ``brittle`` object's crack faces shown at a frame (``crack_faces``) follow that frame's rows in its node;
 * ``KHR_node_visibility`` is in ``extensionsRequired``: a reader without it would draw every frame at once, so it
   refuses the file instead. Babylon.js reads both extensions (``tests/test_export_browser.py``).
 
@@ -22,12 +23,13 @@ import numpy as np
 
 from gasp_core.fsutil import atomic_write
 from gasp_core.gs.gltf import UP_TO_Z, Z_TO_Y, GlbBuilder, gltf_module, turned
+from gasp_core.run.crack_output import with_crack_faces
 
 VISIBILITY, POINTER = "KHR_node_visibility", "KHR_animation_pointer"
 
 
 def write_glb_sequence(path, frames, names: list[str], up_axes: list[str], frame_dt: float, moving: list[bool], *,
-                       overwrite: bool = False) -> Path:
+                       overwrite: bool = False, crack_faces: list | None = None) -> Path:
     """Write a run's frames as one animated GLB (module notes), atomically.
 
     Parameters
@@ -45,6 +47,9 @@ def write_glb_sequence(path, frames, names: list[str], up_axes: list[str], frame
         Per object: false for an object that never moves (one node, no animation).
     overwrite : bool
         Replace an existing file.
+    crack_faces : list, optional
+        Per object, None or a function ``frame -> Gaussians or None`` (its crack faces,
+        :func:`gasp_core.run.crack_output.read_crack_faces`): the faces shown at a frame are drawn with it.
 
     Raises
     ------
@@ -65,10 +70,14 @@ def write_glb_sequence(path, frames, names: list[str], up_axes: list[str], frame
             nodes.append({"mesh": b.splat_mesh(turned(g0.subset(keep), M)), "name": f"{name}_static"})
         if not len(rows):
             continue
+        faces_at = None if crack_faces is None else crack_faces[k]
         for f in range(frames.n_frames):
-            g = g0 if f == 0 else frames.gaussians(f, k)
+            g = (g0 if f == 0 else frames.gaussians(f, k)).subset(rows)
+            faces = None if faces_at is None else faces_at(f)
+            if faces is not None and (faces.opacities > 0).any():
+                g = with_crack_faces(g, faces.subset(np.flatnonzero(faces.opacities > 0)))
             switched.append((len(nodes), f))
-            nodes.append({"mesh": b.splat_mesh(turned(g.subset(rows), M)), "name": f"{name}_frame_{f:04d}",
+            nodes.append({"mesh": b.splat_mesh(turned(g, M)), "name": f"{name}_frame_{f:04d}",
                           "extensions": {VISIBILITY: {"visible": f == 0}}})
     animations = [_switch_animation(gl, b, switched, frames.n_frames, frame_dt)] if switched else []
     data = b.to_bytes(nodes, animations, used=(VISIBILITY, POINTER) if switched else (),

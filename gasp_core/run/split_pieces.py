@@ -73,12 +73,12 @@ def check_split(run, fmt: str, frames, names: list[str]) -> list[np.ndarray | No
     return last
 
 
-def glb_parts(run, name: str, frame: int, g, labels: np.ndarray) -> list:
+def glb_parts(run, name: str, frame: int, g, labels: np.ndarray, with_faces: bool = True) -> list:
     """The ``(node name, Gaussians)`` of object ``name`` at ``frame`` for a split GLB: each piece's Gaussians
     (:func:`parts_of`), each followed by its shown crack faces, ``<object>_piece_NNN_faces``, when the run wrote
-    them (``<object>/crack_faces_NNNN.ply``, :mod:`gasp_core.run.crack_output`)."""
+    them (``<object>/crack_faces_NNNN.ply``, :mod:`gasp_core.run.crack_output`) and ``with_faces``."""
     from gasp_core.run.crack_output import read_crack_faces
-    faces = read_crack_faces(run, name, frame)
+    faces = read_crack_faces(run, name, frame) if with_faces else None
     out = []
     for part, rows in parts_of(labels, f"{name}_"):
         out.append((part, g.subset(rows)))

@@ -15,7 +15,11 @@ What GASP writes:
   an object that does not move (``static``) is written once, without time samples;
 * ``opacities`` (``sigmoid`` of the logit, in [0, 1]) and the SH coefficients once: GASP never changes them
   over a run. The coefficients are written per particle, ``(degree + 1)^2`` of them each, DC first, then the
-  graphdeco order of the higher degrees (m = -l .. l), rotated with the object when its up axis is not +Z.
+  graphdeco order of the higher degrees (m = -l .. l), rotated with the object when its up axis is not +Z;
+* a ``brittle`` object's crack faces (``gasp export``, unless ``--no-crack-faces``): a sibling prim
+  ``/Run/<object>_crack_faces`` with every face of the object, positions, orientations, scales and opacities
+  time-sampled (0 while a face is hidden, so the count is one over the run); split by pieces, one per piece
+  (``piece_NNN_faces``, :mod:`gasp_core.run.split_pieces`).
 """
 from __future__ import annotations
 
@@ -74,7 +78,8 @@ def write_usd(path, frames, names: list[str], up_axes: list[str], frame_dt: floa
         Per object, None or a function ``frame -> Gaussians or None``: the object's crack faces at that frame
         (:func:`gasp_core.run.crack_output.read_crack_faces`). With ``pieces``, each ``piece_NNN`` gets a sibling
         ``piece_NNN_faces`` holding the faces of that piece at the last frame, time-sampled, hidden (opacity 1e-13)
-        while the material around them is whole (:func:`_face_prims`).
+        while the material around them is whole (:func:`_face_prims`); without, the object gets a sibling
+        ``/Run/<object>_crack_faces`` holding every face, time-sampled the same way (:func:`_all_faces_prim`).
 
     Raises
     ------
@@ -101,8 +106,14 @@ def write_usd(path, frames, names: list[str], up_axes: list[str], frame_dt: floa
                 UsdGeom.Xform.Define(stage, parts[0][0])
                 parts = [(f"{parts[0][0]}/{prim_name(part)}", rows) for part, rows in pieces[k]]
             _splat_prims(stage, parts, frames, k, UP_TO_Z[up_axes[k]], moving[k])
-            if crack_faces is not None and crack_faces[k] is not None and len(parts) > 1:
-                _face_prims(stage, f"/Run/{prim_name(name)}", crack_faces[k], frames.n_frames, UP_TO_Z[up_axes[k]])
+            if crack_faces is None or crack_faces[k] is None:
+                continue
+            if pieces is not None and pieces[k] is not None:
+                if len(parts) > 1:
+                    _face_prims(stage, f"/Run/{prim_name(name)}", crack_faces[k], frames.n_frames, UP_TO_Z[up_axes[k]])
+            else:
+                _all_faces_prim(stage, f"/Run/{prim_name(name)}_crack_faces", crack_faces[k], frames.n_frames,
+                                UP_TO_Z[up_axes[k]])
         try:
             stage.GetRootLayer().Save()
         except RuntimeError as e:   # pxr.Tf.ErrorException: a full disk, a folder gone or not writable
@@ -155,27 +166,42 @@ def _face_prims(stage, parent: str, faces_at, n_frames: int, M: np.ndarray) -> N
     holds no surface Gaussian, -1, left out), one ``ParticleField3DGaussianSplat`` time-sampled at every frame
     (positions, orientations, scales and opacities: a face is drawn from the frame its crack opens); a frame without
     a crack-face file shows none of them."""
-    from pxr import Usd, UsdVol, Vt
     last = faces_at(n_frames - 1)
     if last is None or "piece" not in last.extra:
         return
     piece = np.asarray(last.extra["piece"])
-    groups = [(k, np.flatnonzero(piece == k)) for k in np.unique(piece[piece >= 0])]
-    prims = {}
-    for k, rows in groups:
-        prim = UsdVol.ParticleField3DGaussianSplat.Define(stage, f"{parent}/{prim_name(f'piece_{k:03d}_faces')}")
+    groups = [(f"{parent}/{prim_name(f'piece_{k:03d}_faces')}", np.flatnonzero(piece == k))
+              for k in np.unique(piece[piece >= 0])]
+    _sampled_faces(stage, groups, faces_at, last, n_frames, M)
+
+
+def _all_faces_prim(stage, path: str, faces_at, n_frames: int, M: np.ndarray) -> None:
+    """``path``: every crack face of an object in one ``ParticleField3DGaussianSplat``, time-sampled at every frame
+    as :func:`_face_prims` (opacity 0 while a face is hidden: one count over the run); nothing without faces."""
+    last = faces_at(n_frames - 1)
+    if last is not None:
+        _sampled_faces(stage, [(path, np.arange(last.n))], faces_at, last, n_frames, M)
+
+
+def _sampled_faces(stage, groups: list, faces_at, last, n_frames: int, M: np.ndarray) -> None:
+    """One splat prim per ``(path, rows of the faces)`` of ``groups``, its DC colour once and its positions,
+    orientations, scales and opacities (``sigmoid`` of the logit) at every frame from ``faces_at(frame)``; a frame
+    without a file (or with another count) takes the last frame's faces, hidden."""
+    from pxr import Usd, UsdVol, Vt
+    prims = []
+    for path, rows in groups:
+        prim = UsdVol.ParticleField3DGaussianSplat.Define(stage, path)
         prim.CreateRadianceSphericalHarmonicsDegreeAttr(0)
         prim.CreateRadianceSphericalHarmonicsCoefficientsAttr(Vt.Vec3fArray.FromNumpy(
             last.subset(rows).sh_dc.astype(np.float32)))
-        prims[k] = (prim.CreatePositionsAttr(), prim.CreateOrientationsAttr(), prim.CreateScalesAttr(),
-                    prim.CreateOpacitiesAttr())
+        prims.append((rows, prim.CreatePositionsAttr(), prim.CreateOrientationsAttr(), prim.CreateScalesAttr(),
+                      prim.CreateOpacitiesAttr()))
     last_turned = turned(last, M)   # a frame without a file: the last frame's faces, hidden
     for f in range(n_frames):
         g = faces_at(f)
         g = None if g is None or g.n != last.n else turned(g, M)
-        for k, rows in groups:
-            pos, ori, sca, opa = prims[k]
-            time = Usd.TimeCode(f)
+        time = Usd.TimeCode(f)
+        for rows, pos, ori, sca, opa in prims:
             src = (last_turned if g is None else g).subset(rows)
             alpha = np.zeros(len(rows)) if g is None else 1.0 / (1.0 + np.exp(-src.opacities.astype(np.float64)))
             q = src.rotations.astype(np.float32)
