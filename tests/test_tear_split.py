@@ -183,3 +183,36 @@ def test_a_triangle_straddling_a_crack_is_not_split(rod):
     lab = labels[o.vertex_slice][o.surface.shape_rows()]
     straddle = np.flatnonzero((lab != lab[:, :1]).any(1))
     assert not np.isin(cl["split_gaussians"].extra["parent"], straddle).any()
+
+
+@pytest.mark.slow
+def test_a_tearing_run_writes_the_sub_gaussians_and_gasp_render_draws_them(tmp_path):
+    """``gasp simulate``'s pipeline on the plasticine rod, 8 frames (its neck's clamp appears at frame 7, taichi_mpm):
+    no ``split_NNNN.ply`` before anything is clamped, one at frame 8 whose rows match ``run.json``'s ``split`` and
+    whose parents are rows of the object; ``gasp render``'s reader draws them after the object's rows and renders."""
+    sys.path.insert(0, str(Path(__file__).parent))
+    import json
+    import test_brittle as tb
+    from gasp_core.gs.io import write_gaussians
+    from gasp_core.render.run import load_run, render_run
+    from gasp_core.run.pipeline import simulate_scene
+    from gasp_core.run.split_output import read_split
+    from gasp_core.scene.spec import load_scene
+    write_gaussians(tmp_path / "rod.ply", tb.t_rod())
+    text = tb.rod_scene_text("taichi_mpm", tmp_path / "rod.ply", 1.0, 8).replace('name = "brittle"',
+                                                                                'name = "plasticine"')
+    text = "sleep = false\n" + text   # the rod creeps about 1 mm a frame: asleep, it would never stretch
+    (tmp_path / "rod.toml").write_text(text.replace("tensile_strength = 1.0\nfracture_energy = 5.0",
+                                                    "yield_stress = 2700.0\nsoftening = 3.0"))
+    out = tmp_path / "run"
+    simulate_scene(load_scene(tmp_path / "rod.toml"), out)
+    rows = json.loads((out / "run.json").read_text())["frames"]
+    assert read_split(out, "rod", 0) is None and rows[0].get("split", 0) == 0
+    sub = read_split(out, "rod", 8)
+    assert sub is not None and sub.n == rows[8]["split"] > 0, [r.get("split") for r in rows]
+    n = tb.t_rod().n
+    assert sub.extra["parent"].min() >= 0 and sub.extra["parent"].max() < n
+    r = load_run(out)
+    assert r.splats(0).n == n and r.splats(8).n == n + sub.n
+    png = render_run(out, tmp_path / "frames", frames=[0, 8], width=96, height=72)
+    assert len(list(Path(png).glob("*.png"))) == 2
