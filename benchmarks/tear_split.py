@@ -135,12 +135,13 @@ def donut(frames: int = 4) -> str:
             render(sp, cam)
             acc.append(time.perf_counter() - t3)
     a, b = float(np.median(tb_)), float(np.median(tw))
-    return (f"# The split's cost on the donut shatter (`benchmarks/tear_split.py --donut`, taichi_mpm, frame {frames})\n\n"
+    return (f"# The split's cost on the donut shatter (`benchmarks/tear_split.py --donut`, taichi_mpm, "
+            f"frame {frames})\n\n"
             f"{o.gaussians.n} Gaussians, {c['clamped']} scales clamped, {c['straddling']} Gaussians straddling a crack "
             f"(not split); the split adds **{c['split']}** sub-Gaussians ({100 * c['split'] / o.gaussians.n:+.0f} %). "
-            f"Rebuild {1e3 * (t1 - t0):.0f} ms without, {1e3 * (t2 - t1):.0f} ms with the split. Render (the whole donut, "
-            f"480 x 480, CPU renderer with numba, median of 5 alternating, 2 cores shared with another engineer's "
-            f"work): {1e3 * a:.0f} ms without, {1e3 * b:.0f} ms with ({100 * (b / a - 1):+.0f} %).\n")
+            f"Rebuild {1e3 * (t1 - t0):.0f} ms without, {1e3 * (t2 - t1):.0f} ms with the split. Render (the whole "
+            f"donut, 480 x 480, CPU renderer with numba, median of 5 alternating, 2 cores shared with another "
+            f"engineer's work): {1e3 * a:.0f} ms without, {1e3 * b:.0f} ms with ({100 * (b / a - 1):+.0f} %).\n")
 
 
 def main(argv=None) -> int:

@@ -1,13 +1,14 @@
 """A Gaussian straddling a crack turns with its piece (issue 52; docs/fracture.md, "Each Gaussian's piece").
 
-The T rod of tests/test_brittle.py, prepared as brittle (no engine is built); its neck below z = 0.6 m (world) is
-one piece, the rest another (cut at z = 0.605 m, between the vertices of the tiles at 0.60 m). The lower piece turns rigidly about the x axis through (0, 0, 0.5) by 10, 20 and 30
-degrees over three frames (:func:`gasp_core.run.frames.rebuild` called frame after frame with its own previous
-rotations). Every Gaussian whose triangle straddles the cut keeps its rest scales and must have the rotation of its
-anchor's piece times its rest rotation, ``R_x(theta) R_rest`` below the cut and ``R_rest`` above: within 1 % of the
-angle (measured: 0 to the float32 quaternions, the Kabsch rotation of a rigid motion is exact; 16 straddling Gaussians, all anchored below the cut). The tolerance fails a
-5 % bias (``R_x(0.95 theta)``, checked here) and the old behaviour (the previous frame's rotation: frozen at rest,
-off by the whole angle; run here by making ``turn_with_pieces`` a no-op).
+The T rod of tests/test_brittle.py, prepared as brittle (no engine is built); its neck below z = 0.605 m (world,
+between the vertices of the tiles at 0.60 m) is one piece, the rest another. The lower piece turns rigidly about the
+x axis through (0, 0, 0.5) by 10, 20 and 30 degrees over three frames (:func:`gasp_core.run.frames.rebuild` called
+frame after frame with its own previous rotations). Every Gaussian whose triangle straddles the cut keeps its rest
+scales and must have the rotation of its anchor's piece times its rest rotation, ``R_x(theta) R_rest`` below the cut
+and ``R_rest`` above: within 1 % of the angle (measured: 0 to the float32 quaternions, the Kabsch rotation of a rigid
+motion is exact; 16 straddling Gaussians, all anchored below the cut). The tolerance fails a 5 % bias
+(``R_x(0.95 theta)``, checked here) and the old behaviour (the previous frame's rotation: frozen at rest, off by the
+whole angle; run here by making ``turn_with_pieces`` a no-op).
 """
 from __future__ import annotations
 

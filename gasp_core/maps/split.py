@@ -13,8 +13,8 @@ the edge's stretch ``|e_i| / |e_i rest|`` (at most :data:`MAX_SPLIT`); cell ``(i
 alpha rule against its **parent's** rest triangle (a stretch past ``MAX_SPLIT alpha`` stays clamped). Each
 sub-Gaussian's scale is then ``lambda_i s_i / k_i``, at most ``alpha`` times the parent's rest scale, and the
 ``k2 x k3`` of them tile the ``+-1 sigma`` footprint the unclamped Gaussian had, at the spacing (twice the scale)
-the rest tiling has (its tails past ``1 sigma`` are not reproduced). They take the parent's colour and opacity (the run's sidecar,
-:mod:`gasp_core.run.split_output`); the parent's own row, clamped, is unchanged.
+the rest tiling has (its tails past ``1 sigma`` are not reproduced). They take the parent's colour and opacity (the
+run's sidecar, :mod:`gasp_core.run.split_output`); the parent's own row, clamped, is unchanged.
 
 **Until it parts.** A triangle whose vertices fall in different pieces of a broken body straddles a crack and is not
 split (:func:`gasp_core.run.frames.rebuild`). A body without pieces (plasticine tears without damage) is judged by its
