@@ -122,7 +122,7 @@ class SurfaceMap:
         fill points ``fill`` (shape (m, 3))."""
         return x.reshape(-1, 3, 3)
 
-    def gaussians(self, x: np.ndarray, fill: np.ndarray, prev_rot: np.ndarray):
+    def gaussians(self, x: np.ndarray, fill: np.ndarray, prev_rot: np.ndarray, out: dict | None = None):
         """``T^-1`` with the control rule: the Gaussians of the moved points, world frame.
 
         Parameters
@@ -133,6 +133,10 @@ class SurfaceMap:
             The object's moved fill points, metres (read by the ``centres`` form only).
         prev_rot : ndarray, shape (n, 3, 3)
             The previous frame's rotations, the fallback of a degenerate triangle.
+        out : dict, optional
+            Filled with ``tri`` (the moved triangles before any clamp, shape (n, 3, 3), metres) and ``clamped``
+            (shape (n,), bool: the rule held one of the Gaussian's scales), for the split of clamped triangles
+            (:mod:`gasp_core.maps.split`).
 
         Returns
         -------
@@ -141,7 +145,7 @@ class SurfaceMap:
         counts : dict
             ``degenerate`` triangles and ``clamped`` scales (the alpha rule) of this frame.
         """
-        tri = self.triangles(x, fill)
+        tri = tri_t = self.triangles(x, fill)
         clamped = np.zeros((len(tri), 2), bool)
         if self.rebuild == "covariance":
             if self.alpha is not None:
@@ -151,6 +155,8 @@ class SurfaceMap:
             means, rot, scales, degenerate = triangles_to_gaussians(tri, fallback=prev_rot)
             if self.alpha is not None:
                 scales, clamped = alpha_rule(self.tri_rest, tri, scales, self.scales_rest, self.alpha)
+        if out is not None:
+            out["tri"], out["clamped"] = tri_t, clamped.any(axis=1)
         return means, rot, scales, {"degenerate": int(degenerate.sum()), "clamped": int(clamped.sum())}
 
 

@@ -18,6 +18,7 @@ from gasp_core.errors import SceneError
 from gasp_core.render.camera import Camera, auto_camera, fit_to_box, ground_background, nice_step
 from gasp_core.render.splat_numpy import Splats, splats_from_gaussians
 from gasp_core.run.crack_output import read_crack_faces
+from gasp_core.run.split_output import read_split
 from gasp_core.run.layout import RunFrames, open_frames
 from gasp_core.run.record import ranges_rows
 from gasp_core.run.run_json import check_run_json
@@ -52,8 +53,11 @@ class Run:
 
     def splats(self, frame: int) -> Splats:
         """World-frame splats of every object at ``frame``; with SH degree >= 1 each Gaussian's SH frame
-        turns with it (its rotation at ``frame`` against frame 0, :mod:`gasp_core.render.sh`)."""
-        parts = []
+        turns with it (its rotation at ``frame`` against frame 0, :mod:`gasp_core.render.sh`). Each object's rows,
+        then its crack faces (a fixed count a run); after every object, the sub-triangle Gaussians of split clamped
+        triangles (:mod:`gasp_core.run.split_output`, a count that varies by frame: last, so the rows before keep
+        their place for :func:`moving_mask`)."""
+        parts, late = [], []
         for k, o in enumerate(self.objects):
             g = self.read(frame, k)
             rest = None
@@ -66,7 +70,12 @@ class Run:
             faces = read_crack_faces(self.path, o["name"], frame)   # a brittle object's crack faces, if written
             if faces is not None:
                 parts.append(splats_from_gaussians(faces, pl["R"], float(pl["scale"]), pl["t"]))
-        return Splats.concat(parts)
+            sub = read_split(self.path, o["name"], frame) if "name" in o else None
+            if sub is not None:
+                parent = np.asarray(sub.extra["parent"], np.int64)
+                late.append(splats_from_gaussians(sub, pl["R"], float(pl["scale"]), pl["t"],
+                                                  rest_rotmats=None if rest is None else rest[parent]))
+        return Splats.concat(parts + late)
 
 
 def load_run(path) -> Run:
@@ -100,10 +109,12 @@ def load_run(path) -> Run:
 def sequence_bounds(frames: Iterable[Splats], q: float = 0.1, mask: np.ndarray | None = None
                     ) -> tuple[np.ndarray, np.ndarray]:
     """Box holding the means of every frame (``q``/``100 - q`` percentiles, so strays do not count); of the rows
-    ``mask`` (bool, one per row) alone when given."""
+    ``mask`` (bool, one per row) alone when given; rows past the mask's length (the sub-triangle Gaussians a frame
+    adds at its end, :meth:`Run.splats`) count as moving."""
     lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
     for s in frames:
-        x = s.means if mask is None else s.means[mask]
+        m = None if mask is None else np.concatenate([mask, np.ones(max(0, s.n - len(mask)), bool)])[:s.n]
+        x = s.means if m is None else s.means[m]
         lo = np.minimum(lo, np.percentile(x, q, axis=0))
         hi = np.maximum(hi, np.percentile(x, 100 - q, axis=0))
     return lo, hi

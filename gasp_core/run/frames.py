@@ -26,8 +26,79 @@ class FrameState:
     get_state: Callable[[], dict] | None = None
 
 
+#: Materials that tear (plasticine softens to zero strength, brittle breaks): only their objects split the
+#: triangles the alpha rule clamps (:mod:`gasp_core.maps.split`); a stretched jelly keeps the rule alone.
+TEARING = ("plasticine", "brittle")
+
+
+@dataclass(frozen=True)
+class SplitContext:
+    """What the split of clamped triangles needs of one object (:mod:`gasp_core.maps.split`).
+
+    Attributes
+    ----------
+    fill_rest : ndarray, shape (m, 3), float64
+        The object's fill points at rest, world frame, metres.
+    h : float
+        Its fill spacing ``max(p_vol)^(1/3)``, metres.
+    """
+
+    fill_rest: np.ndarray
+    h: float
+
+
+def split_context(o: PreparedObject, setup) -> SplitContext | None:
+    """The :class:`SplitContext` of ``o`` in ``setup`` (a :class:`~gasp_core.seam.setup.SimSetup`) when it splits
+    its clamped triangles: a simulated object with the alpha rule whose material tears (:data:`TEARING`); else
+    None (nothing is split and nothing more is written)."""
+    if o.spec.static or o.surface.alpha is None or o.spec.material.name not in TEARING:
+        return None
+    rows = np.arange(len(setup.x))[o.fill_slice]
+    h = float(np.max(setup.p_vol[rows])) ** (1 / 3) if len(rows) else 0.0
+    return SplitContext(np.asarray(setup.x, np.float64)[rows], h)
+
+
+def piece_rotations(p_rest: np.ndarray, p_t: np.ndarray, piece: np.ndarray) -> tuple[np.ndarray, np.ndarray,
+                                                                                       np.ndarray]:
+    """The best-fit rotation of each piece from rest to now (Kabsch 1976, "A solution for the best rotation to
+    relate two sets of vectors", Acta Cryst. A32: ``H = sum (p_rest - c_rest)(p_t - c_t)^T = U S V^T``,
+    ``R = V diag(1, 1, det(V U^T)) U^T``).
+
+    Parameters
+    ----------
+    p_rest, p_t : ndarray, shape (k, 3), float
+        The same points at rest and now, metres.
+    piece : ndarray, shape (k,), int
+        Each point's piece.
+
+    Returns
+    -------
+    pieces : ndarray, shape (q,), int64
+        The pieces, sorted.
+    rot : ndarray, shape (q, 3, 3), float64
+        Each one's rotation, rest to now (``p_t - c_t ~ R (p_rest - c_rest)``).
+    ok : ndarray, shape (q,), bool
+        Whether it is defined: at least 3 points, not all on one line (second singular value of ``H`` above
+        ``1e-9`` times the first).
+    """
+    pieces, inv, count = np.unique(np.asarray(piece), return_inverse=True, return_counts=True)
+    q = len(pieces)
+    c0 = np.stack([np.bincount(inv, p_rest[:, d], q) for d in range(3)], 1) / count[:, None]
+    c1 = np.stack([np.bincount(inv, p_t[:, d], q) for d in range(3)], 1) / count[:, None]
+    a, b = p_rest - c0[inv], p_t - c1[inv]
+    H = np.stack([np.bincount(inv, a[:, i] * b[:, j], q) for i in range(3) for j in range(3)], 1).reshape(q, 3, 3)
+    U, S, Vt = np.linalg.svd(H)
+    V, Ut = Vt.transpose(0, 2, 1), U.transpose(0, 2, 1)
+    D = np.broadcast_to(np.eye(3), (q, 3, 3)).copy()
+    D[:, 2, 2] = np.sign(np.linalg.det(V @ Ut))
+    D[D[:, 2, 2] == 0, 2, 2] = 1.0
+    ok = (count >= 3) & (S[:, 1] > 1e-9 * np.maximum(S[:, 0], 1e-300))
+    return pieces, V @ D @ Ut, ok
+
+
 def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray,
-            t: float | None = None, labels: np.ndarray | None = None) -> tuple[Gaussians, np.ndarray, dict]:
+            t: float | None = None, labels: np.ndarray | None = None,
+            split: SplitContext | None = None) -> tuple[Gaussians, np.ndarray, dict]:
     """``G_t = T^-1(phi(T(G), t))`` with the alpha rule for one object at one frame, back in the file frame.
 
     ``T^-1`` is the object's surface map (:meth:`gasp_core.maps.surface.SurfaceMap.gaussians`: its form and its
@@ -46,8 +117,14 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray,
     labels : ndarray, shape (n_points,), int, optional
         The pieces of a broken body (:meth:`gasp_core.run.pieces.PieceTracker.labels`): a Gaussian whose shape
         points (:meth:`~gasp_core.maps.surface.SurfaceMap.shape_rows`) fall in different pieces *straddles* a crack;
-        it belongs to its anchor's piece, so it is not stretched across the gap: it keeps its rest scales and the
-        previous frame's rotation (its centre still follows the map).
+        it belongs to its anchor's piece, so it is not stretched across the gap: it keeps its rest scales and turns
+        with its anchor's piece, ``R = R_piece R_rest`` with ``R_piece`` the best-fit rotation (rest to now,
+        :func:`piece_rotations`) of the shape points of that piece's Gaussians that do not straddle (the previous
+        frame's rotation where a piece has fewer than 3 such points, or all on a line); its centre still follows
+        the map.
+    split : SplitContext, optional
+        Split the triangles the alpha rule clamps and that straddle no crack into sub-triangle Gaussians
+        (:mod:`gasp_core.maps.split`; :func:`split_context` says which objects do); None splits nothing.
 
     Returns
     -------
@@ -58,16 +135,23 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray,
     rot : ndarray, shape (n, 3, 3)
         World rotations of this frame.
     counts : dict
-        ``degenerate`` faces and ``clamped`` scales (alpha rule) this frame; with ``labels``, ``straddling``.
+        ``degenerate`` faces and ``clamped`` scales (alpha rule) this frame; with ``labels``, ``straddling``; with
+        ``split``, ``split`` (the sub-Gaussians made) and ``split_gaussians`` (:class:`Gaussians` of them, file
+        frame, with the int32 field ``parent``: the file row each comes from; None when there are none).
     """
     if o.spec.static:
         g = o.gaussians if t is None else background_at(o, o.gaussians, t)
         return g, prev_rot, {"degenerate": 0, "clamped": 0}
-    means_w, rot, scales_w, counts = o.surface.gaussians(x[o.vertex_slice], x[o.fill_slice], prev_rot)
+    detail = {} if split is not None else None
+    means_w, rot, scales_w, counts = o.surface.gaussians(x[o.vertex_slice], x[o.fill_slice], prev_rot, detail)
+    straddle = None
     if labels is not None:
-        lab = np.asarray(labels)[o.vertex_slice][o.surface.shape_rows()]
+        sr = o.surface.shape_rows()
+        lab = np.asarray(labels)[o.vertex_slice][sr]
         straddle = (lab != lab[:, :1]).any(axis=1)
         rot[straddle], scales_w[straddle] = prev_rot[straddle], o.surface.scales_rest[straddle]
+        if straddle.any():
+            turn_with_pieces(o, x, sr, lab, straddle, rot)
         counts["straddling"] = int(straddle.sum())
     pl = o.placement
     scales = scales_w / pl.scale
@@ -75,7 +159,52 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray,
     out = scatter(o, pl.to_file(means_w), scales, rotmat_to_quat(pl.R.T @ rot))
     if t is not None:
         out = background_at(o, out, t)
+    if split is not None:
+        counts["split_gaussians"] = split_gaussians(o, x, detail, straddle, split)
+        counts["split"] = 0 if counts["split_gaussians"] is None else counts["split_gaussians"].n
     return out, rot, counts
+
+
+def turn_with_pieces(o: PreparedObject, x: np.ndarray, sr: np.ndarray, lab: np.ndarray, straddle: np.ndarray,
+                     rot: np.ndarray) -> None:
+    """Set ``rot`` (n, 3, 3, world) of the straddling Gaussians (``straddle``, (n,) bool) to their anchor piece's
+    rotation since rest times their rest rotation (:func:`rebuild`), in place; ``sr`` (n, k) their shape rows in
+    :meth:`~gasp_core.maps.surface.SurfaceMap.points`, ``lab`` (n, k) those points' pieces."""
+    inner = sr[~straddle].ravel()
+    if len(inner) == 0:
+        return
+    pieces, R, ok = piece_rotations(o.surface.points()[inner], x[o.vertex_slice][inner], lab[~straddle].ravel())
+    anchor = lab[straddle, 0]
+    at = np.clip(np.searchsorted(pieces, anchor), 0, len(pieces) - 1)
+    found = (pieces[at] == anchor) & ok[at]
+    idx = np.flatnonzero(straddle)[found]
+    rot[idx] = R[at[found]] @ o.surface.rot_rest[idx]
+
+
+def split_gaussians(o: PreparedObject, x: np.ndarray, detail: dict, straddle: np.ndarray | None,
+                    split: SplitContext) -> Gaussians | None:
+    """The sub-triangle Gaussians of ``o``'s clamped triangles that straddle no crack and lie on material
+    (:mod:`gasp_core.maps.split`), file frame, each with its parent's opacity and SH and the int32 field ``parent``
+    (its row in the object's file); None when there are none."""
+    from gasp_core.maps.split import near_material, split_triangles
+    rows = detail["clamped"] if straddle is None else detail["clamped"] & ~straddle
+    rows = np.flatnonzero(rows)
+    if len(rows) == 0:
+        return None
+    sm = o.surface
+    parent, means, rot, scales, centres_rest = split_triangles(sm.tri_rest, detail["tri"], rows, sm.alpha)
+    keep = near_material(means, centres_rest, x[o.fill_slice], split.fill_rest, split.h)
+    if not keep.any():
+        return None
+    parent, means, rot, scales = parent[keep], means[keep], rot[keep], scales[keep]
+    pl = o.placement
+    scales = scales / pl.scale
+    scales[:, 0] = o.thin_scale[parent] if o.spec.thickness == "keep" else EPS
+    row = parent if o.moving is None else np.asarray(o.moving)[parent]
+    g = o.gaussians
+    return Gaussians(means=pl.to_file(means), scales=scales, rotations=rotmat_to_quat(pl.R.T @ rot),
+                     opacities=g.opacities[row], sh_dc=g.sh_dc[row], sh_rest=g.sh_rest[row],
+                     extra={"parent": row.astype(np.int32)}, source=f"{g.source} split")
 
 
 class Rebuilder:
@@ -86,24 +215,37 @@ class Rebuilder:
     prep : PreparedScene
     prev_rot : list of ndarray, optional
         Each object's rotations of the frame before (a resumed run's checkpoint); default the rest rotations.
+
+    Attributes
+    ----------
+    split : list of SplitContext or None
+        Per object, whether (and how) it splits its clamped triangles (:func:`split_context`).
+    last_split : list of Gaussians or None
+        Per object, the sub-triangle Gaussians of the last frame (:func:`rebuild`; None: none).
     """
 
     def __init__(self, prep: PreparedScene, prev_rot: list | None = None):
         self.prep = prep
         self.prev_rot = [o.rot_rest for o in prep.objects] if prev_rot is None else list(prev_rot)
+        self.split = [split_context(o, prep.setup) for o in prep.objects]
+        self.last_split: list = [None] * len(prep.objects)
 
     def __call__(self, frame: int, x: np.ndarray, labels: np.ndarray | None = None) -> tuple[list[Gaussians], dict]:
         """Every object's Gaussians at ``frame`` from the positions ``x`` (n_points, 3), world frame, and the
         frame's row (``frame``, ``degenerate``, ``clamped``, with ``labels`` (a broken body's pieces, :func:`rebuild`)
-        ``straddling`` and, with colliders, ``colliders``)."""
+        ``straddling``, with an object that splits its clamped triangles ``split`` (the sub-Gaussians made,
+        :attr:`last_split`) and, with colliders, ``colliders``)."""
         prep, prev = self.prep, self.prev_rot
         gs, row = [], {"frame": frame, "degenerate": 0, "clamped": 0}
         for k, o in enumerate(prep.objects):
-            g, prev[k], counts = rebuild(o, x, prev[k], frame * prep.setup.frame_dt, labels)
+            g, prev[k], counts = rebuild(o, x, prev[k], frame * prep.setup.frame_dt, labels, self.split[k])
             row["degenerate"] += counts["degenerate"]
             row["clamped"] += counts["clamped"]
             if "straddling" in counts:
                 row["straddling"] = row.get("straddling", 0) + counts["straddling"]
+            if "split" in counts:
+                row["split"] = row.get("split", 0) + counts["split"]
+            self.last_split[k] = counts.get("split_gaussians")
             gs.append(g)
         if prep.setup.colliders:  # run.json collider figures (gasp_core.run.contact)
             from gasp_core.run.contact import contact_row

@@ -19,6 +19,7 @@ from gasp_core.run.background import Background, gil_handover
 from gasp_core.run.crack_output import crack_output_for
 from gasp_core.errors import EngineDivergence, GaspError
 from gasp_core.run.frames import Rebuilder
+from gasp_core.run.split_output import write_split
 from gasp_core.fsutil import OutputClaim, OutputConflict, atomic_json, leftover_partials
 from gasp_core.gs.gaussians import Gaussians
 from gasp_core.gs import registry
@@ -258,6 +259,8 @@ class SimulationRun:
             self.unrecorded += pieces.write_frame_pieces(writer.folder, self.prep, frame, *labels[:2])
             if self.cracks is not None:
                 self.unrecorded += self.cracks.write(writer.folder, frame, x, labels[0], labels[2])
+        if any(c is not None for c in rebuild_all.split):   # an object that tears: its clamped triangles split
+            self.unrecorded += write_split(writer.folder, self.prep.names, frame, rebuild_all.last_split)
         row["write_s"] = time.perf_counter() - t0
         self.per_frame.append(row)
         if engine_state is not None:
