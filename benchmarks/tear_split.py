@@ -41,6 +41,9 @@ from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from crack_faces import silhouette  # noqa: E402  (benchmarks/crack_faces.py: the same footprint measure)
+
 ROOT = Path(__file__).resolve().parents[1]
 ALPHA = 0.9
 YIELD_FRACTION, SOFTENING = 0.92, 3.0
@@ -71,19 +74,6 @@ def groups(xf: np.ndarray, h: float) -> np.ndarray:
     n = len(xf)
     return connected_components(coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n)),
                                 directed=False)[1]
-
-
-def silhouette(cam, pts, h):
-    """Pixels within 0.75 h (at the points' mean depth) of a point of ``pts``, shape (H, W), bool."""
-    from scipy.ndimage import binary_dilation
-    uv, z = cam.project_points(pts)
-    mask = np.zeros((cam.height, cam.width), bool)
-    i = np.floor(uv).astype(int)
-    ok = (z > cam.near) & (i[:, 0] >= 0) & (i[:, 0] < cam.width) & (i[:, 1] >= 0) & (i[:, 1] < cam.height)
-    mask[i[ok, 1], i[ok, 0]] = True
-    r = max(1, int(round(0.75 * h * cam.focal_px / float(np.mean(z[ok])))))
-    yy, xx = np.mgrid[-r:r + 1, -r:r + 1]
-    return binary_dilation(mask, structure=xx ** 2 + yy ** 2 <= r * r)
 
 
 def side_camera(pts, size=480):

@@ -59,3 +59,18 @@ def needs_package(module: str):
     """``pytest.importorskip(module)``, the skip's reason naming the ``pip install`` line that brings it."""
     import pytest
     return pytest.importorskip(module, reason=f"{module} is not installed: {install_line(module)}")
+
+
+def glb_nodes(path) -> dict:
+    """``{node name: POSITION (k, 3) float32}`` of a GLB (pygltflib), for the export tests."""
+    import numpy as np
+    import pygltflib
+    g = pygltflib.GLTF2().load(str(path))
+    blob = g.binary_blob()
+    out = {}
+    for node in g.nodes:
+        acc = g.accessors[g.meshes[node.mesh].primitives[0].attributes.POSITION]
+        view = g.bufferViews[acc.bufferView]
+        out[node.name] = np.frombuffer(blob, np.float32, acc.count * 3,
+                                       view.byteOffset + (acc.byteOffset or 0)).reshape(-1, 3)
+    return out

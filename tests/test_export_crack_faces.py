@@ -25,6 +25,7 @@ import numpy as np
 import pytest
 
 from gasp_core.cli.main import main
+from gasp_testing import glb_nodes
 
 pytest.importorskip("pygltflib", reason="the export extra (pip install -e '.[export]') is not installed")
 
@@ -36,20 +37,6 @@ def _faces(run, f):
     return read_crack_faces(run, NAME, f)
 
 
-def _glb_nodes(path):
-    """``{node name: POSITION (k, 3)}`` of a GLB."""
-    import pygltflib
-    g = pygltflib.GLTF2().load(str(path))
-    blob = g.binary_blob()
-    out = {}
-    for node in g.nodes:
-        acc = g.accessors[g.meshes[node.mesh].primitives[0].attributes.POSITION]
-        view = g.bufferViews[acc.bufferView]
-        out[node.name] = np.frombuffer(blob, np.float32, acc.count * 3,
-                                       view.byteOffset + (acc.byteOffset or 0)).reshape(-1, 3)
-    return out
-
-
 def test_the_glb_export_has_a_node_with_the_shown_crack_faces(broken_run, tmp_path):
     from gasp_core.gs.gltf import UP_TO_Z, Z_TO_Y, write_glb
     from gasp_core.gs.io import read_gaussians
@@ -58,7 +45,7 @@ def test_the_glb_export_has_a_node_with_the_shown_crack_faces(broken_run, tmp_pa
     M = (Z_TO_Y @ UP_TO_Z["+z"]).T
     counts = []
     for f in range(3):
-        nodes = _glb_nodes(tmp_path / "g" / NAME / f"frame_{f:04d}.glb")
+        nodes = glb_nodes(tmp_path / "g" / NAME / f"frame_{f:04d}.glb")
         faces = _faces(broken_run, f)
         shown = faces.opacities > 0
         counts.append(int(shown.sum()))
@@ -76,7 +63,7 @@ def test_the_glb_export_has_a_node_with_the_shown_crack_faces(broken_run, tmp_pa
     assert json.loads((tmp_path / "g" / "export.json").read_text())["crack_faces"] == {NAME: counts}
     # --no-crack-faces: the object's node alone at every frame
     assert main(["export", str(broken_run), "--format", "glb", "-o", str(tmp_path / "bare"), "--no-crack-faces"]) == 0
-    assert all(list(_glb_nodes(tmp_path / "bare" / NAME / f"frame_{f:04d}.glb")) == [f"frame_{f:04d}"]
+    assert all(list(glb_nodes(tmp_path / "bare" / NAME / f"frame_{f:04d}.glb")) == [f"frame_{f:04d}"]
                for f in range(3))
     assert "crack_faces" not in json.loads((tmp_path / "bare" / "export.json").read_text())
 
@@ -130,7 +117,7 @@ def test_the_glb_sequence_draws_each_frames_shown_faces_with_it(broken_run, tmp_
     from gasp_core.gs.io import read_gaussians
     out = tmp_path / "run.glb"
     assert main(["export", str(broken_run), "--format", "glb_sequence", "-o", str(out)]) == 0
-    nodes = _glb_nodes(out)
+    nodes = glb_nodes(out)
     M = (Z_TO_Y @ UP_TO_Z["+z"]).T
     for f in range(3):
         faces = _faces(broken_run, f)

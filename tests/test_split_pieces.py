@@ -18,7 +18,7 @@ import types
 
 import numpy as np
 import pytest
-from gasp_testing import needs_package
+from gasp_testing import glb_nodes, needs_package
 
 from gasp_core.cli.main import main
 from gasp_core.maps.surface import SurfaceMap
@@ -69,20 +69,6 @@ def test_every_frame_records_each_gaussians_piece(broken_run):
     assert rows[0]["pieces"] == 1 and rows[-1]["pieces"] >= 3 and len(np.unique(_labels(broken_run, 2))) >= 3
 
 
-def _glb_nodes(path):
-    """``{node name: POSITION (k, 3)}`` of a GLB."""
-    import pygltflib
-    g = pygltflib.GLTF2().load(str(path))
-    blob = g.binary_blob()
-    out = {}
-    for node in g.nodes:
-        acc = g.accessors[g.meshes[node.mesh].primitives[0].attributes.POSITION]
-        view = g.bufferViews[acc.bufferView]
-        a = np.frombuffer(blob, np.float32, acc.count * 3, view.byteOffset + (acc.byteOffset or 0))
-        out[node.name] = a.reshape(-1, 3)
-    return out
-
-
 def test_split_glb_has_a_node_per_piece_holding_its_gaussians(broken_run, tmp_path):
     from gasp_core.gs.gltf import UP_TO_Z, Z_TO_Y
     from gasp_core.gs.io import read_gaussians
@@ -92,7 +78,7 @@ def test_split_glb_has_a_node_per_piece_holding_its_gaussians(broken_run, tmp_pa
     n_faces = []
     for f in range(3):
         lab = _labels(broken_run, f)
-        nodes = _glb_nodes(tmp_path / "split" / "donut_small" / f"frame_{f:04d}.glb")
+        nodes = glb_nodes(tmp_path / "split" / "donut_small" / f"frame_{f:04d}.glb")
         pieces = sorted(n for n in nodes if not n.endswith("_faces"))
         assert pieces == [f"donut_small_piece_{k:03d}" for k in np.unique(lab)]
         means = read_gaussians(broken_run / "donut_small" / f"frame_{f:04d}.ply").means @ M
@@ -120,7 +106,7 @@ def test_the_split_glb_of_a_broken_run_opens_in_babylon_as_a_mesh_per_piece(brok
         pytest.skip(f"needs Chromium (apt-get install -y chromium) and Babylon.js ({INSTALL})")
     assert main(["export", str(broken_run), "--format", "glb", "-o", str(tmp_path / "split"), "--split-pieces"]) == 0
     glb = tmp_path / "split" / "donut_small" / "frame_0002.glb"
-    written = {name: len(p) for name, p in _glb_nodes(glb).items()}
+    written = {name: len(p) for name, p in glb_nodes(glb).items()}
     assert sum(not n.endswith("_faces") for n in written) >= 3
     r = open_in_babylon(glb, tmp_path / "split.png", babylon_dir())
     assert "error" not in r, r
@@ -129,7 +115,7 @@ def test_the_split_glb_of_a_broken_run_opens_in_babylon_as_a_mesh_per_piece(brok
     # the plain export: the object's node and its shown crack faces' node, both read as splat meshes
     assert main(["export", str(broken_run), "--format", "glb", "-o", str(tmp_path / "plain")]) == 0
     glb = tmp_path / "plain" / "donut_small" / "frame_0002.glb"
-    written = {name: len(p) for name, p in _glb_nodes(glb).items()}
+    written = {name: len(p) for name, p in glb_nodes(glb).items()}
     assert sorted(written) == ["donut_small_crack_faces", "frame_0002"], written     # the frame node, then the faces
     r = open_in_babylon(glb, tmp_path / "plain.png", babylon_dir())
     assert "error" not in r and dict(zip(r["names"], r["splats"])) == written, r
