@@ -6,7 +6,10 @@ and the fused G2P + P2G kernel skips it, :meth:`Rigid.fused_g2p`): :meth:`Rigid.
 body's momentum and angular momentum about the origin (APIC's affine part included) over its points, serially in the point order (a fixed
 order: the same numbers on any thread count); :meth:`Rigid.rigid_update` turns them into the body's velocity and
 spin and advances its centre and rotation; :meth:`Rigid.rigid_apply` puts every point of the body (its passive
-points too) on the rigid pose ``c + R X0`` with the rigid velocity, ``C`` the spin's skew matrix and ``F = R``.
+points too) on the rigid pose ``c + R X0`` with the rigid velocity, ``C`` the spin's skew matrix and ``F = R``;
+with the particle contact's planes :meth:`Rigid.rigid_depth` and :meth:`Rigid.rigid_lift` then move a resting body
+deeper than the slop out without speed (``gasp_core.toolkit.rigid.settle_projection``, Bullet's split impulse; issue
+53) and :meth:`Rigid.rigid_apply` runs again.
 The body's state is kept in float64 whatever the working precision.
 
 Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields (``x``, ``v``, ``C``, ``F``, ``body``, ...) it reads.
@@ -15,6 +18,7 @@ import numpy as np
 import taichi as ti
 
 from gasp_core.toolkit.contact import DAMPING
+from gasp_core.toolkit.rigid import RIGID_LEVER, RIGID_SLOP
 
 
 class Rigid:
@@ -46,11 +50,17 @@ class Rigid:
         # the points of the largest flat face (gasp_core.toolkit.rigid.face_counts), those touching now and last
         self.rb_nface = ti.field(self.real, shape=max(nb, 1))
         self.rb_count, self.rb_nlast = (ti.field(ti.i32, shape=max(nb, 1)) for _ in range(2))
+        # the points in a plane at the pose the next P2G takes (rigid_depth)
+        self.rb_ndepth = ti.field(ti.i32, shape=max(nb, 1))
         self.rest_zeta = float(DAMPING)
         self.rb_twist = ti.field(ti.f64, shape=max(nb, 1))   # this substep's sum mu j |r_perp| (kg m^2/s)
         self.rb_fx = ti.Vector.field(4, ti.f64, shape=max(nb, 1))   # this substep's sum mu j x (kg m^2/s), sum mu j
         self.plane_e = ti.field(self.real, shape=max(self.n_planes, 1))
         self.v_rest = ti.field(self.real, shape=())
+        # the resting bodies' non-penetration (rigid_depth, rigid_lift): per body and plane the deepest penetration
+        # and the penetration-weighted sum of the touching points
+        self.rb_dmax = ti.field(ti.f64, shape=max(nb * self.n_planes, 1))
+        self.rb_dsum = ti.Vector.field(4, ti.f64, shape=max(nb * self.n_planes, 1))
         self.rb_e.fill(-1.0)
         self.plane_e.fill(1.0)
         if not self.any_rigid:
@@ -152,8 +162,12 @@ class Rigid:
         if ti.static(self.any_rigid):
             b = self.body[p]
             if self.rb_e[b] >= 0.0:
-                n_t = ti.max(ti.cast(self.rb_nlast[b], self.real), 1.0)
+                n_t = ti.max(ti.cast(ti.max(self.rb_nlast[b], self.rb_ndepth[b]), self.real), 1.0)
                 sk = self.rb_nface[b] / ti.max(self.rb_nface[b], n_t)
+                if self.rb_ndepth[b] > 0:
+                    # the points this P2G finds in the planes counted (rigid_depth): N / max(n_t, min(N, LEVER n_t)),
+                    # Omega dt 1 on more than N points, at most 1 on a few (gasp_core.toolkit.rigid.support_scale)
+                    sk = self.rb_nface[b] / ti.max(n_t, ti.min(self.rb_nface[b], RIGID_LEVER * n_t))
                 jk = dt * kcs[0] * sk * depth
                 # settling: per point c = 2 zeta dt k' (M = k N dt^2 at Omega dt = 1, gasp_core.toolkit.rigid.
                 # RIGID_OMEGA_DT): a substep takes 2 zeta n / N of the body's normal speed on n points, at most 2 zeta
@@ -179,7 +193,7 @@ class Rigid:
         """The rigid bodies' ongoing contact (the restitution's state, :meth:`contact_impulse`), by state key."""
         return {"rigid_vin": self.rb_vin, "rigid_was": self.rb_was, "rigid_steps": self.rb_steps,
                 "rigid_c0": self.rb_c0, "rigid_jn": self.rb_jn, "rigid_je": self.rb_je, "rigid_j": self.rb_j,
-                "rigid_nlast": self.rb_nlast}
+                "rigid_nlast": self.rb_nlast, "rigid_ndepth": self.rb_ndepth}
 
     def rigid_state(self) -> dict:
         """``rigid_c`` (n_bodies, 3) and ``rigid_R`` (n_bodies, 3, 3), and the ongoing contact's state
@@ -213,10 +227,96 @@ class Rigid:
                 self.g2p_point(p)
 
     def rigid_step(self) -> None:
-        """Project the rigid bodies' points after a G2P (:mod:`gasp_taichi_mpm.rigid`)."""
+        """Project the rigid bodies' points after a G2P (:mod:`gasp_taichi_mpm.rigid`); with the particle contact's
+        planes, a resting body deeper than the slop is then moved out (:meth:`rigid_lift`) and its points put on the
+        pose again."""
         self.rigid_reduce()
         self.rigid_update()
         self.rigid_apply()
+        if self.n_planes and self.pc:
+            self.rigid_depth()
+            self.rigid_lift()
+            self.rigid_apply()
+
+    @ti.kernel
+    def rigid_depth(self):
+        """Per rigid body and plane of the particle contact its deepest point's penetration ``offset + skin - n . x``
+        (m) and the penetration-weighted sum of its touching points (serially in the point order, as
+        :meth:`rigid_reduce`; warp_mpm's ``rigid_depth``)."""
+        ti.loop_config(serialize=True)
+        for p in range(self.n_points[None]):
+            b = self.body[p]
+            kcs = self.p_contact[p]
+            if self.rb_rigid[b] != 0 and kcs[0] > 0.0:
+                x = ti.cast(self.x[p], ti.f64)
+                inside = 0
+                for q in range(self.n_planes):
+                    n = ti.cast(self.plane_n[q], ti.f64)
+                    d = ti.cast(self.plane_row[q][0], ti.f64) + ti.cast(kcs[2], ti.f64) - n.dot(x)
+                    if d > 0.0:
+                        k = b * self.n_planes + q
+                        ti.atomic_max(self.rb_dmax[k], d)
+                        self.rb_dsum[k] += ti.Vector([d * x[0], d * x[1], d * x[2], d], ti.f64)
+                        inside = 1
+                if inside != 0:
+                    self.rb_ndepth[b] += 1
+
+    @ti.kernel
+    def rigid_lift(self):
+        """The position-level non-penetration of a resting rigid body (``gasp_core.toolkit.rigid.settle_projection``,
+        issue 53; warp_mpm's ``rigid_lift``): a body that is not bouncing (``e`` times its approach, the ongoing
+        contact's ``v_in`` or the body's at the contact now, under ``v_rest``, as :meth:`lift_off`) whose deepest
+        point is more than ``RIGID_SLOP`` cells into a plane is moved out along its
+        normal to that depth, its velocity untouched by the move (Bullet's split impulse, no Baumgarte term), and the
+        approach at the touching points' penetration-weighted centre removed through its effective mass there, with
+        Coulomb's friction of that impulse."""
+        dx = ti.cast(self.dx[None], ti.f64)
+        slop = RIGID_SLOP * dx
+        ti.loop_config(serialize=True)
+        for b in range(self.n_bodies):
+            M = self.rb_M[b]
+            if self.rb_rigid[b] != 0 and M > 0.0:
+                c = self.rb_c[b]
+                V = self.rb_V[b]
+                w = self.rb_w[b]
+                R = self.rb_R[b]
+                inertia = R @ self.rb_I0[b] @ R.transpose() + 0.5 * dx * dx * M * ti.Matrix.identity(ti.f64, 3)
+                inv = inertia.inverse()
+                shift = ti.Vector.zero(ti.f64, 3)
+                for q in range(self.n_planes):
+                    d = self.rb_dmax[b * self.n_planes + q]
+                    sq = self.rb_dsum[b * self.n_planes + q]
+                    if d > slop and sq[3] > 0.0:
+                        n = ti.cast(self.plane_n[q], ti.f64)
+                        r = ti.Vector([sq[0], sq[1], sq[2]]) / sq[3] - c
+                        rn = r.cross(n)
+                        un = (V + w.cross(r)).dot(n)
+                        # a bouncing contact keeps its restitution's law: e times the approach (its ongoing
+                        # contact's, or the body's now there) at least v_rest
+                        e = ti.cast(self.rb_e[b], ti.f64) * ti.cast(self.plane_e[q], ti.f64)
+                        if self.rb_e[b] >= 0.0 and e * ti.max(ti.cast(self.rb_vin[b], ti.f64), -un) < ti.cast(self.v_rest[None],
+                                                                                                ti.f64):
+                            shift += (d - slop) * n
+                            if un < 0.0:
+                                P = -un / (1.0 / M + rn.dot(inv @ rn))
+                                V = V + (P / M) * n
+                                w = w + (inv @ rn) * P
+                                mu = ti.cast(self.plane_row[q][1], ti.f64)
+                                u = V + w.cross(r)
+                                ut = u - u.dot(n) * n
+                                lt = ut.norm()
+                                if lt > 0.0 and mu > 0.0:
+                                    t = ut / lt
+                                    rt = r.cross(t)
+                                    Pt = -ti.min(mu * P, lt / (1.0 / M + rt.dot(inv @ rt))) * t
+                                    V = V + Pt / M
+                                    w = w + inv @ r.cross(Pt)
+                self.rb_c[b] = c + shift
+                self.rb_V[b] = V
+                self.rb_w[b] = w
+            for q in range(self.n_planes):
+                self.rb_dmax[b * self.n_planes + q] = 0.0
+                self.rb_dsum[b * self.n_planes + q] = ti.Vector.zero(ti.f64, 4)
 
     @ti.kernel
     def rigid_reduce(self):
@@ -292,6 +392,7 @@ class Rigid:
             self.rb_was[b] = self.rb_touch[b]
             self.rb_nlast[b] = self.rb_count[b]
             self.rb_count[b] = 0
+            self.rb_ndepth[b] = 0
             self.rb_vin_next[b] = 0.0
             self.rb_touch[b] = 0
 
