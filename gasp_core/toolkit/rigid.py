@@ -172,19 +172,19 @@ def settle_projection(depth: float, n, x_c, c, V, w, inertia, M: float, mu: floa
     ``depth`` (m) into a support of normal ``n`` is moved out along ``n`` by ``depth - slop`` (``slop`` =
     :data:`RIGID_SLOP` cells), its velocity untouched by the move (Bullet's split impulse: the position error is
     not turned into speed, Catto 2006 / Coumans, "Bullet 2.x physics SDK manual", "split impulse"; no Baumgarte
-    term). The contact's approach speed at ``x_c`` (the penetration-weighted centre of its touching points) is then
-    removed through the body's effective mass there (the inelastic velocity constraint of a sequential-impulse
-    solver; the penalty alone left the body that deep), and Coulomb's friction of that impulse (at most
-    ``mu`` times it, never reversing the slip) applied at ``x_c``.
+    term). The centre's approach along ``n`` is then removed by an impulse through the centre (the inelastic velocity
+    constraint of a sequential-impulse solver; the penalty alone left the body that deep; through the centre, as an
+    impulse at ``x_c``, the penetration-weighted centre of a few lattice points, set a resting ball rolling 0.2 mm/s),
+    and Coulomb's friction of that impulse (at most ``mu`` times it, never reversing the slip) applied at ``x_c``.
 
     The engines (each grid plugin's ``rigid_depth`` and ``rigid_lift``, after the rigid update of every substep, per
     plane of the particle contact) apply it to a body with the restitution law (``gasp_core.toolkit.restitution``)
     that is not bouncing: ``e`` (the body's times the plane's) times its approach speed (its ongoing contact's
-    ``v_in``, or ``-u_n`` at ``x_c`` now) under the rest speed; a bounce keeps its hysteresis and lift-off. Issue 53
-    measured what held a body at depth: a fill-only slab put 0.2 dx in the ground stayed there because the particle
-    contact took its start clearance (0.05 dx) as its skin (:func:`rigid_contact` now gives a fill alone half a
-    spacing wherever it is put, and :func:`lift_setup` lifts it out); the wooden donut's lowest Gaussian rested
-    0.46-0.59 dx deep because 5-13 hanging Gaussians held its weight at the stiffness of its 487 face points
+    ``v_in``, or its centre's ``-V . n`` now) under the rest speed; a bounce keeps its hysteresis and lift-off.
+    Issue 53 measured what held a body at depth: a fill-only slab put 0.2 dx in the ground stayed there because the
+    particle contact took its start clearance (0.05 dx) as its skin (:func:`rigid_contact` now gives a fill alone
+    half a spacing wherever it is put, and :func:`lift_setup` lifts it out); the wooden donut's lowest Gaussian
+    rested 0.46-0.59 dx deep because 5-13 hanging Gaussians held its weight at the stiffness of its 487 face points
     (:func:`support_scale`).
 
     Parameters
@@ -214,12 +214,10 @@ def settle_projection(depth: float, n, x_c, c, V, w, inertia, M: float, mu: floa
         return np.zeros(3), V, w
     inv = np.linalg.inv(np.asarray(inertia, np.float64))
     r = x_c - c
-    rn = np.cross(r, n)
-    u_n = float(np.dot(V + np.cross(w, r), n))
+    u_n = float(np.dot(V, n))
     if u_n < 0.0:
-        P = -u_n / (1.0 / M + rn @ inv @ rn)
-        V = V + P * n / M
-        w = w + inv @ rn * P
+        P = -u_n * M
+        V = V - u_n * n
         u = V + np.cross(w, r)
         ut = u - np.dot(u, n) * n
         lt = float(np.linalg.norm(ut))

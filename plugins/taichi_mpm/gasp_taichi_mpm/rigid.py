@@ -265,11 +265,11 @@ class Rigid:
     def rigid_lift(self):
         """The position-level non-penetration of a resting rigid body (``gasp_core.toolkit.rigid.settle_projection``,
         issue 53; warp_mpm's ``rigid_lift``): a body that is not bouncing (``e`` times its approach, the ongoing
-        contact's ``v_in`` or the body's at the contact now, under ``v_rest``, as :meth:`lift_off`) whose deepest
-        point is more than ``RIGID_SLOP`` cells into a plane is moved out along its
-        normal to that depth, its velocity untouched by the move (Bullet's split impulse, no Baumgarte term), and the
-        approach at the touching points' penetration-weighted centre removed through its effective mass there, with
-        Coulomb's friction of that impulse."""
+        contact's ``v_in`` or its centre's now, under ``v_rest``, as :meth:`lift_off`) whose deepest point is more
+        than ``RIGID_SLOP`` cells into a plane is moved out along its normal to that depth, its velocity untouched by
+        the move (Bullet's split impulse, no Baumgarte term), and its centre's approach removed (an impulse through
+        the centre: no spin), with Coulomb's friction of that impulse at the touching points' penetration-weighted
+        centre."""
         dx = ti.cast(self.dx[None], ti.f64)
         slop = RIGID_SLOP * dx
         ti.loop_config(serialize=True)
@@ -289,18 +289,16 @@ class Rigid:
                     if d > slop and sq[3] > 0.0:
                         n = ti.cast(self.plane_n[q], ti.f64)
                         r = ti.Vector([sq[0], sq[1], sq[2]]) / sq[3] - c
-                        rn = r.cross(n)
-                        un = (V + w.cross(r)).dot(n)
+                        un = V.dot(n)
                         # a bouncing contact keeps its restitution's law: e times the approach (its ongoing
-                        # contact's, or the body's now there) at least v_rest
+                        # contact's, or its centre's now) at least v_rest
                         e = ti.cast(self.rb_e[b], ti.f64) * ti.cast(self.plane_e[q], ti.f64)
-                        if self.rb_e[b] >= 0.0 and e * ti.max(ti.cast(self.rb_vin[b], ti.f64), -un) < ti.cast(self.v_rest[None],
-                                                                                                ti.f64):
+                        vin = ti.max(ti.cast(self.rb_vin[b], ti.f64), -un)
+                        if self.rb_e[b] >= 0.0 and e * vin < ti.cast(self.v_rest[None], ti.f64):
                             shift += (d - slop) * n
-                            if un < 0.0:
-                                P = -un / (1.0 / M + rn.dot(inv @ rn))
-                                V = V + (P / M) * n
-                                w = w + (inv @ rn) * P
+                            if un < 0.0:   # the centre's approach, through the centre: no spin
+                                P = -un * M
+                                V = V - un * n
                                 mu = ti.cast(self.plane_row[q][1], ti.f64)
                                 u = V + w.cross(r)
                                 ut = u - u.dot(n) * n

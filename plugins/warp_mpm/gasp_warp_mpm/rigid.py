@@ -184,7 +184,8 @@ def build_rigid_lift(Ft):
     ``Rigid.rigid_lift``). ``rigid_depth`` (one thread a point) takes each rigid body's deepest penetration into each
     plane of the particle contact and the penetration-weighted sum of its touching points; ``rigid_lift`` (one thread)
     moves a body that is not bouncing out along the plane's normal to ``slop`` (m) of it, without speed, and removes
-    the approach there through its effective mass, with Coulomb's friction of that impulse."""
+    its centre's approach (through the centre: no spin), with Coulomb's friction of that impulse at the touching
+    points' penetration-weighted centre."""
     vec3, vec4, mat33 = build_types(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
@@ -234,17 +235,15 @@ def build_rigid_lift(Ft):
                     if d > slop and sq[3] > wp.float64(0.0):
                         n = vec3d(wp.float64(plane_n[q][0]), wp.float64(plane_n[q][1]), wp.float64(plane_n[q][2]))
                         r = vec3d(sq[0], sq[1], sq[2]) / sq[3] - c
-                        rn = wp.cross(r, n)
-                        un = wp.dot(V + wp.cross(w, r), n)
+                        un = wp.dot(V, n)
                         # a bouncing contact keeps its restitution's law: e times the approach (its ongoing
-                        # contact's, or the body's now there) at least v_rest (taichi_mpm's Rigid.rigid_lift)
+                        # contact's, or its centre's now) at least v_rest (taichi_mpm's Rigid.rigid_lift)
                         e = wp.float64(e_body[b]) * wp.float64(plane_e[q])
                         if e_body[b] >= Ft(0.0) and e * wp.max(wp.float64(vin[b]), -un) < wp.float64(v_rest):
                             shift = shift + (d - slop) * n
-                            if un < wp.float64(0.0):
-                                P = -un / (wp.float64(1.0) / M + wp.dot(rn, inv * rn))
-                                V = V + (P / M) * n
-                                w = w + inv * rn * P
+                            if un < wp.float64(0.0):   # the centre's approach, through the centre: no spin
+                                P = -un * M
+                                V = V - un * n
                                 mu = wp.float64(planes[q][1])
                                 u = V + wp.cross(w, r)
                                 ut = u - wp.dot(u, n) * n
