@@ -114,8 +114,7 @@ class TaichiMPMEngine(GridEngineBase):
         setup = lift_setup(setup)   # a rigid body put inside a ground or wall is lifted out (issue 53)
         opt = setup.options  # checked and completed by the core (build_engine)
         cfg = self.config = TaichiMPMConfig(**opt)   # the same settings, typed
-        # viscosity is integrated implicitly (backward Euler): no viscous step cap
-        # a rigid body (material.model = "rigid") sets no elastic or contact step (gasp_core.toolkit.rigid.step_view)
+        # viscosity implicit (backward Euler): no viscous step cap; a rigid body sets no elastic or contact step (step_view)
         view = step_view(setup)
         self.n_substeps, self.dt = choose_dt(view, opt, ENGINE, implicit_viscosity=True)
         check_memory(estimate_bytes(len(setup.x), setup.n_grid, cfg.precision),

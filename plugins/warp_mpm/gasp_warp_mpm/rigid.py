@@ -185,7 +185,8 @@ def build_rigid_lift(Ft):
     plane of the particle contact and the penetration-weighted sum of its touching points; ``rigid_lift`` (one thread)
     moves a body that is not bouncing out along the plane's normal to ``slop`` (m) of it, without speed, and removes
     its centre's approach (through the centre: no spin), with Coulomb's friction of that impulse at the touching
-    points' penetration-weighted centre."""
+    points' penetration-weighted centre. It is long because both kernels are closures of the scalar type, spelled as
+    taichi_mpm's two methods."""
     vec3, vec4, mat33 = build_types(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
