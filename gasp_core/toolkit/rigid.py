@@ -20,7 +20,7 @@ import dataclasses
 
 import numpy as np
 
-from gasp_core.toolkit.contact import DAMPING
+from gasp_core.toolkit.contact import DAMPING, SKIN
 from gasp_core.toolkit.materials import P_LAM, P_MU
 
 #: Elastic modulus (Pa) a rigid body shows the step and contact rules of the grid engines
@@ -36,6 +36,16 @@ RIGID_OMEGA_DT = 1.0
 #: restitution set by how many points touch (0.75 at n_grid 24, 0.855 at 40, 0.50 for a donut landing flat, the
 #: same for steel and wood).
 RIGID_DAMPING = DAMPING
+#: The largest ``M |r|^2 / I`` of a contact point's lever about the body's centre that a rigid body's contact
+#: stiffness allows for when few of its points touch (:func:`support_scale`): 3 for a thin plate on a corner or a rod
+#: on its end, 2 for a ring on its rim.
+RIGID_LEVER = 3.0
+#: Penetration (cells) a resting rigid body's deepest contact point may keep: deeper, the body is moved out along the
+#: support's normal to this depth after its velocity update, without gaining speed (:func:`settle_projection`,
+#: issue 53). Bullet's split impulse and Box2D's ``b2_linearSlop`` leave such an allowance so that the contact keeps
+#: touching (here the penalty still carries part of the weight and gives the friction its budget); half the issue's
+#: 0.1 dx.
+RIGID_SLOP = 0.05
 
 
 def rigid_mask(materials) -> np.ndarray:
@@ -93,6 +103,22 @@ def face_counts(setup) -> np.ndarray:
     return out
 
 
+def support_scale(n_face, n_touch):
+    """The factor on a rigid body's contact stiffness ``k_p`` (:func:`rigid_contact`) with ``n_touch`` of its points
+    touching in the last substep (the engines' ``contact_impulse``): ``N / max(n_t, min(N, RIGID_LEVER n_t))``,
+    ``N = n_face`` (:func:`face_counts`), ``n_t = max(n_touch, 1)``.
+
+    On more than ``N`` points ``N / n_t``: the body keeps ``Omega dt = RIGID_OMEGA_DT`` (issue 53: a donut on about
+    2,000 points chattered at ``Omega dt`` 2). On fewer than ``N / RIGID_LEVER`` points ``N / (RIGID_LEVER n_t)``:
+    its few points hold its weight at about ``RIGID_LEVER g dt^2`` of depth instead of ``g dt^2 N / n_t`` (issue 53:
+    the wooden donut set down flat rested on 5-13 of its Gaussians that hang under its bottom, the lowest 0.46-0.59
+    dx in the ground, ``N`` = 487), while a contact point at a lever ``r`` (its effective mass ``M / (1 + M r^2 /
+    I)``) stays at ``Omega dt <= 1``. Between, 1 (the stiffness of issue 40)."""
+    n_face = np.asarray(n_face, np.float64)
+    n_t = np.maximum(np.asarray(n_touch, np.float64), 1.0)
+    return n_face / np.maximum(n_t, np.minimum(n_face, RIGID_LEVER * n_t))
+
+
 def rigid_contact(setup, dt: float, coeffs: np.ndarray) -> np.ndarray:
     """The particle contact's ``(k_p, c_p, s_p)`` (``gasp_core.toolkit.contact.contact_coefficients``) with each
     rigid body's rows replaced: its stiffness follows the step, not its ``E``.
@@ -135,7 +161,105 @@ def rigid_contact(setup, dt: float, coeffs: np.ndarray) -> np.ndarray:
         out[rows, 0] = np.where(vol[rows] > 0.0, k, 0.0)
         out[rows, 1] = np.where(vol[rows] > 0.0, 2.0 * RIGID_DAMPING * np.sqrt(k * m[rows]), 0.0)
         out[sel & surface, 2] = 0.0
+        if not (sel & surface).any():   # a fill alone: its surface half a spacing out, wherever it was put
+            out[sel, 2] = SKIN * np.cbrt(vol[sel])
     return out
+
+
+def settle_projection(depth: float, n, x_c, c, V, w, inertia, M: float, mu: float, slop: float):
+    """The position-level non-penetration of a resting rigid body against one plane (issue 53, the NumPy reference
+    of each grid plugin's ``rigid_lift``): after its velocity update, a body whose deepest contact point is
+    ``depth`` (m) into a support of normal ``n`` is moved out along ``n`` by ``depth - slop`` (``slop`` =
+    :data:`RIGID_SLOP` cells), its velocity untouched by the move (Bullet's split impulse: the position error is
+    not turned into speed, Catto 2006 / Coumans, "Bullet 2.x physics SDK manual", "split impulse"; no Baumgarte
+    term). The centre's approach along ``n`` is then removed by an impulse through the centre (the inelastic velocity
+    constraint of a sequential-impulse solver; the penalty alone left the body that deep; through the centre, as an
+    impulse at ``x_c``, the penetration-weighted centre of a few lattice points, set a resting ball rolling 0.2 mm/s),
+    and Coulomb's friction of that impulse (at most ``mu`` times it, never reversing the slip) applied at ``x_c``.
+
+    The engines (each grid plugin's ``rigid_depth`` and ``rigid_lift``, after the rigid update of every substep, per
+    plane of the particle contact) apply it to a body with the restitution law (``gasp_core.toolkit.restitution``)
+    that is not bouncing: ``e`` (the body's times the plane's) times its approach speed (its ongoing contact's
+    ``v_in``, or its centre's ``-V . n`` now) under the rest speed; a bounce keeps its hysteresis and lift-off.
+    Issue 53 measured what held a body at depth: a fill-only slab put 0.2 dx in the ground stayed there because the
+    particle contact took its start clearance (0.05 dx) as its skin (:func:`rigid_contact` now gives a fill alone
+    half a spacing wherever it is put, and :func:`lift_setup` lifts it out); the wooden donut's lowest Gaussian
+    rested 0.46-0.59 dx deep because 5-13 hanging Gaussians held its weight at the stiffness of its 487 face points
+    (:func:`support_scale`).
+
+    Parameters
+    ----------
+    depth : float
+        The deepest point's penetration ``offset + skin - n . x``, m.
+    n : array_like, shape (3,)
+        The support's unit normal.
+    x_c, c : array_like, shape (3,)
+        The contact centre and the body's mass centre before the move, m.
+    V, w : array_like, shape (3,)
+        Velocity (m/s) and spin (rad/s).
+    inertia : array_like, shape (3, 3)
+        The body's inertia at its pose, kg m^2.
+    M, mu, slop : float
+        Mass (kg), the support's friction, the allowance (m).
+
+    Returns
+    -------
+    shift : ndarray, shape (3,)
+        The move of the centre, m (zero when ``depth <= slop``).
+    V, w : ndarray, shape (3,)
+        After the approach is removed (unchanged when nothing approaches or ``depth <= slop``).
+    """
+    n, x_c, c, V, w = (np.asarray(a, np.float64) for a in (n, x_c, c, V, w))
+    if depth <= slop:
+        return np.zeros(3), V, w
+    inv = np.linalg.inv(np.asarray(inertia, np.float64))
+    r = x_c - c
+    u_n = float(np.dot(V, n))
+    if u_n < 0.0:
+        P = -u_n * M
+        V = V - u_n * n
+        u = V + np.cross(w, r)
+        ut = u - np.dot(u, n) * n
+        lt = float(np.linalg.norm(ut))
+        if lt > 0.0 and mu > 0.0:
+            t = ut / lt
+            rt = np.cross(r, t)
+            Pt = -min(mu * P, lt / (1.0 / M + rt @ inv @ rt)) * t
+            V = V + Pt / M
+            w = w + inv @ np.cross(r, Pt)
+    return (depth - slop) * n, V, w
+
+
+def lift_setup(setup):
+    """The setup with each rigid body moved out of the particle contact's planes (the grounds and the walls' faces)
+    until its deepest point touches (:func:`settle_projection`'s move before the first substep, without its slop: a
+    body placed inside the ground is lifted out, not thrown; issue 53 measured a slab put 0.35 dx into the ground
+    thrown up at 2.6 m/s in its first frame, and one lifted to the slop, 0.05 dx deep on its whole face, rose at
+    0.36 m/s). Its points' penetration takes :func:`rigid_contact`'s skins
+    (0 for its own Gaussians, half a spacing for a fill alone). Returns ``setup`` itself when nothing moves, else a
+    shallow copy with ``x`` replaced."""
+    from gasp_core.toolkit.contact import contact_coefficients, contact_planes
+    rigid = rigid_mask(setup.materials)
+    if not rigid.any():
+        return setup
+    view = step_view(setup)
+    normals, rows = contact_planes(view)
+    if not len(normals):
+        return setup
+    skin = rigid_contact(setup, 1.0, contact_coefficients(view))[:, 2]
+    x = np.array(setup.x, dtype=np.float64)
+    body, vol = np.asarray(setup.body_id), np.asarray(setup.p_vol, np.float64)
+    moved = False
+    for b in np.flatnonzero(rigid):
+        sel = (body == b) & (vol > 0.0)
+        if not sel.any():
+            continue
+        for n, row in zip(normals, rows):
+            depth = float((row[0] + skin[sel] - x[sel] @ n).max())
+            if depth > 0.0:
+                x[body == b] += depth * n
+                moved = True
+    return dataclasses.replace(setup, x=x) if moved else setup
 
 
 def affine_spin(C: np.ndarray) -> np.ndarray:

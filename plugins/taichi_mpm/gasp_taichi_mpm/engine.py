@@ -16,7 +16,8 @@ from gasp_core.toolkit.contact import (contact_coefficients, contact_model, cont
 from gasp_core.toolkit.fields import field_bodies, field_friction
 from gasp_core.toolkit.grid_engine import choose_dt, GridEngineBase
 from gasp_core.toolkit.materials import JELLY, initial_Jp, material_table
-from gasp_core.toolkit.rigid import body_frames, face_counts, rigid_contact, rigid_mask, step_view, zero_stress
+from gasp_core.toolkit.rigid import (body_frames, face_counts, lift_setup, rigid_contact, rigid_mask, step_view,
+                                     zero_stress)
 from gasp_core.seam.memory import check_memory, estimate_bytes
 from gasp_core.toolkit.restitution import body_table, plane_table, rest_speed
 from gasp_core.toolkit.points import fixed_mask, passive_bounds
@@ -110,10 +111,10 @@ class TaichiMPMEngine(GridEngineBase):
 
     def __init__(self, setup: SimSetup):
         global _generation
+        setup = lift_setup(setup)   # a rigid body put inside a ground or wall is lifted out (issue 53)
         opt = setup.options  # checked and completed by the core (build_engine)
         cfg = self.config = TaichiMPMConfig(**opt)   # the same settings, typed
-        # viscosity is integrated implicitly (backward Euler): no viscous step cap
-        # a rigid body (material.model = "rigid") sets no elastic or contact step (gasp_core.toolkit.rigid.step_view)
+        # viscosity implicit (backward Euler): no viscous step cap; a rigid body sets no elastic or contact step (step_view)
         view = step_view(setup)
         self.n_substeps, self.dt = choose_dt(view, opt, ENGINE, implicit_viscosity=True)
         check_memory(estimate_bytes(len(setup.x), setup.n_grid, cfg.precision),

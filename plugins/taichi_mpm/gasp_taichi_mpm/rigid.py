@@ -6,7 +6,10 @@ and the fused G2P + P2G kernel skips it, :meth:`Rigid.fused_g2p`): :meth:`Rigid.
 body's momentum and angular momentum about the origin (APIC's affine part included) over its points, serially in the point order (a fixed
 order: the same numbers on any thread count); :meth:`Rigid.rigid_update` turns them into the body's velocity and
 spin and advances its centre and rotation; :meth:`Rigid.rigid_apply` puts every point of the body (its passive
-points too) on the rigid pose ``c + R X0`` with the rigid velocity, ``C`` the spin's skew matrix and ``F = R``.
+points too) on the rigid pose ``c + R X0`` with the rigid velocity, ``C`` the spin's skew matrix and ``F = R``;
+with the particle contact's planes :meth:`Rigid.rigid_depth` and :meth:`Rigid.rigid_lift` then move a resting body
+deeper than the slop out without speed (``gasp_core.toolkit.rigid.settle_projection``, Bullet's split impulse; issue
+53) and :meth:`Rigid.rigid_apply` runs again.
 The body's state is kept in float64 whatever the working precision.
 
 Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields (``x``, ``v``, ``C``, ``F``, ``body``, ...) it reads.
@@ -15,9 +18,12 @@ import numpy as np
 import taichi as ti
 
 from gasp_core.toolkit.contact import DAMPING
+from gasp_core.toolkit.rigid import RIGID_LEVER
+
+from .rigid_lift import RigidLift
 
 
-class Rigid:
+class Rigid(RigidLift):
     """Per-body rigid state and the three kernels of :meth:`rigid_step`."""
 
     def _allocate_rigid(self, rigid, centre, X0, inertia0, mass) -> None:
@@ -46,11 +52,17 @@ class Rigid:
         # the points of the largest flat face (gasp_core.toolkit.rigid.face_counts), those touching now and last
         self.rb_nface = ti.field(self.real, shape=max(nb, 1))
         self.rb_count, self.rb_nlast = (ti.field(ti.i32, shape=max(nb, 1)) for _ in range(2))
+        # the points in a plane at the pose the next P2G takes (rigid_depth)
+        self.rb_ndepth = ti.field(ti.i32, shape=max(nb, 1))
         self.rest_zeta = float(DAMPING)
         self.rb_twist = ti.field(ti.f64, shape=max(nb, 1))   # this substep's sum mu j |r_perp| (kg m^2/s)
         self.rb_fx = ti.Vector.field(4, ti.f64, shape=max(nb, 1))   # this substep's sum mu j x (kg m^2/s), sum mu j
         self.plane_e = ti.field(self.real, shape=max(self.n_planes, 1))
         self.v_rest = ti.field(self.real, shape=())
+        # the resting bodies' non-penetration (rigid_depth, rigid_lift): per body and plane the deepest penetration
+        # and the penetration-weighted sum of the touching points
+        self.rb_dmax = ti.field(ti.f64, shape=max(nb * self.n_planes, 1))
+        self.rb_dsum = ti.Vector.field(4, ti.f64, shape=max(nb * self.n_planes, 1))
         self.rb_e.fill(-1.0)
         self.plane_e.fill(1.0)
         if not self.any_rigid:
@@ -152,8 +164,12 @@ class Rigid:
         if ti.static(self.any_rigid):
             b = self.body[p]
             if self.rb_e[b] >= 0.0:
-                n_t = ti.max(ti.cast(self.rb_nlast[b], self.real), 1.0)
+                n_t = ti.max(ti.cast(ti.max(self.rb_nlast[b], self.rb_ndepth[b]), self.real), 1.0)
                 sk = self.rb_nface[b] / ti.max(self.rb_nface[b], n_t)
+                if self.rb_ndepth[b] > 0:
+                    # the points this P2G finds in the planes counted (rigid_depth): N / max(n_t, min(N, LEVER n_t)),
+                    # Omega dt 1 on more than N points, at most 1 on a few (gasp_core.toolkit.rigid.support_scale)
+                    sk = self.rb_nface[b] / ti.max(n_t, ti.min(self.rb_nface[b], RIGID_LEVER * n_t))
                 jk = dt * kcs[0] * sk * depth
                 # settling: per point c = 2 zeta dt k' (M = k N dt^2 at Omega dt = 1, gasp_core.toolkit.rigid.
                 # RIGID_OMEGA_DT): a substep takes 2 zeta n / N of the body's normal speed on n points, at most 2 zeta
@@ -179,7 +195,7 @@ class Rigid:
         """The rigid bodies' ongoing contact (the restitution's state, :meth:`contact_impulse`), by state key."""
         return {"rigid_vin": self.rb_vin, "rigid_was": self.rb_was, "rigid_steps": self.rb_steps,
                 "rigid_c0": self.rb_c0, "rigid_jn": self.rb_jn, "rigid_je": self.rb_je, "rigid_j": self.rb_j,
-                "rigid_nlast": self.rb_nlast}
+                "rigid_nlast": self.rb_nlast, "rigid_ndepth": self.rb_ndepth}
 
     def rigid_state(self) -> dict:
         """``rigid_c`` (n_bodies, 3) and ``rigid_R`` (n_bodies, 3, 3), and the ongoing contact's state
@@ -213,10 +229,16 @@ class Rigid:
                 self.g2p_point(p)
 
     def rigid_step(self) -> None:
-        """Project the rigid bodies' points after a G2P (:mod:`gasp_taichi_mpm.rigid`)."""
+        """Project the rigid bodies' points after a G2P (:mod:`gasp_taichi_mpm.rigid`); with the particle contact's
+        planes, a resting body deeper than the slop is then moved out (:meth:`rigid_lift`) and its points put on the
+        pose again."""
         self.rigid_reduce()
         self.rigid_update()
         self.rigid_apply()
+        if self.n_planes and self.pc:
+            self.rigid_depth()
+            self.rigid_lift()
+            self.rigid_apply()
 
     @ti.kernel
     def rigid_reduce(self):
@@ -292,6 +314,7 @@ class Rigid:
             self.rb_was[b] = self.rb_touch[b]
             self.rb_nlast[b] = self.rb_count[b]
             self.rb_count[b] = 0
+            self.rb_ndepth[b] = 0
             self.rb_vin_next[b] = 0.0
             self.rb_touch[b] = 0
 

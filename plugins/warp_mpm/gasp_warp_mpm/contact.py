@@ -22,6 +22,7 @@ import functools
 import warp as wp
 
 from gasp_core.toolkit.contact import DAMPING
+from gasp_core.toolkit.rigid import RIGID_LEVER
 from gasp_core.toolkit.grid_tables import CM_FRICTION, COL_META
 
 from .colliders import build_collider_at
@@ -76,8 +77,13 @@ def build_contact_impulse(Ft):
     def contact_impulse(ex: Extras, b: int, e_sup: Ft, vn: Ft, mark: int, n: vec3, depth: Ft, kcs: vec3, dt: Ft):
         jq = wp.max(dt * (kcs[0] * depth - kcs[1] * vn), Ft(0.0))
         if ex.rb_e[b] >= Ft(0.0):
-            n_t = wp.max(Ft(ex.rb_nlast[b]), Ft(1.0))
+            n_t = wp.max(Ft(wp.max(ex.rb_nlast[b], ex.rb_ndepth[b])), Ft(1.0))
             sk = ex.rb_nface[b] / wp.max(ex.rb_nface[b], n_t)
+            if ex.rb_ndepth[b] > 0:
+                # the points this P2G finds in the planes counted (rigid.py's rigid_depth): N / max(n_t, min(N,
+                # LEVER n_t)), Omega dt 1 on more than N points, at most 1 on a few (gasp_core.toolkit.rigid.
+                # support_scale; taichi_mpm's contact_impulse)
+                sk = ex.rb_nface[b] / wp.max(n_t, wp.min(ex.rb_nface[b], Ft(RIGID_LEVER) * n_t))
             jk = dt * kcs[0] * sk * depth
             # settling: per point c = 2 zeta dt k', at most 2 zeta of the body's normal speed a substep
             # (taichi_mpm's contact_impulse)

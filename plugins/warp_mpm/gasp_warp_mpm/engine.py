@@ -34,7 +34,7 @@ import warp as wp
 
 from gasp_core.toolkit.grid_engine import choose_dt, GridEngineBase
 from gasp_core.toolkit.materials import JELLY, P_ETA, initial_Jp, material_table
-from gasp_core.toolkit.rigid import rigid_contact, step_view, zero_stress
+from gasp_core.toolkit.rigid import lift_setup, rigid_contact, step_view, zero_stress
 from gasp_core.seam.memory import check_memory, estimate_bytes
 from gasp_core.toolkit.contact import (contact_coefficients, contact_model, contact_planes, ground_node_layer,
                                       rule_models, wall_grid_cells)
@@ -77,6 +77,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
     ENGINE = ENGINE
 
     def __init__(self, setup: SimSetup):
+        setup = lift_setup(setup)   # a rigid body put inside a ground or wall is lifted out (issue 53)
         self.setup = setup
         self.options = opts = setup.options  # checked and completed by the core (build_engine)
         cfg = self.config = WarpMPMConfig(**opts)   # the same settings, typed

@@ -51,6 +51,7 @@ def build_extras_struct(Ft):
         rb_nface: wp.array(dtype=Ft)   # gasp_core.toolkit.rigid.face_counts; the points touching now and last
         rb_count: wp.array(dtype=wp.int32)
         rb_nlast: wp.array(dtype=wp.int32)
+        rb_ndepth: wp.array(dtype=wp.int32)   # the points in a plane at the pose the next P2G takes (rigid.py)
         rb_cx: wp.array(dtype=wp.types.vector(3, wp.float64))   # the rigid bodies' centres (rigid.py's rb_c)
         rb_twist: wp.array(dtype=wp.float64)   # this substep's sum mu j |r_perp| per body (rigid.py's twist brake)
         rb_fx: wp.array(dtype=wp.vec4d)   # this substep's sum mu j x, sum mu j (slide brake)

@@ -5,7 +5,10 @@ After each G2P: ``rigid_reduce`` sums each rigid body's momentum and angular mom
 affine part included) over its points into float64 accumulators (atomic adds: on the CPU Warp runs a launch
 serially, so the order is the point order); ``rigid_update`` (one thread) turns them into the body's velocity and
 spin and advances its centre and rotation; ``rigid_apply`` puts every point of the body (its passive points too) on
-the rigid pose ``c + R X0`` with the rigid velocity, ``C`` the spin's skew matrix and ``F = R``.
+the rigid pose ``c + R X0`` with the rigid velocity, ``C`` the spin's skew matrix and ``F = R``. With the particle
+contact's planes, ``rigid_depth`` and ``rigid_lift`` (:func:`build_rigid_lift`) then move a resting body deeper than
+the slop out without speed (``gasp_core.toolkit.rigid.settle_projection``, Bullet's split impulse; issue 53) and
+``rigid_apply`` runs again.
 
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of
 the closures below as type objects.
@@ -122,7 +125,7 @@ def build_rigid_update(Ft):
                      je: wp.array(dtype=Ft), jsum: wp.array(dtype=Ft), e_body: wp.array(dtype=Ft), v_rest: Ft,
                      gravity: vec3d, steps: wp.array(dtype=wp.int32), count: wp.array(dtype=wp.int32),
                      nlast: wp.array(dtype=wp.int32), twist: wp.array(dtype=wp.float64),
-                     fx: wp.array(dtype=wp.vec4d)):
+                     fx: wp.array(dtype=wp.vec4d), ndepth: wp.array(dtype=wp.int32)):
         for b in range(n_bodies):
             M = mass[b]
             if rigid[b] != 0 and M > wp.float64(0.0):
@@ -167,10 +170,99 @@ def build_rigid_update(Ft):
             twist[b] = wp.float64(0.0)
             nlast[b] = count[b]
             count[b] = 0
+            ndepth[b] = 0
             vin_next[b] = Ft(0.0)
             touch[b] = 0
 
     return rigid_update
+
+
+@functools.cache
+def build_rigid_lift(Ft):
+    """``(rigid_depth, rigid_lift)`` for the scalar type ``Ft``: the position-level non-penetration of a resting rigid
+    body (``gasp_core.toolkit.rigid.settle_projection``, issue 53; taichi_mpm's ``Rigid.rigid_depth`` and
+    ``Rigid.rigid_lift``). ``rigid_depth`` (one thread a point) takes each rigid body's deepest penetration into each
+    plane of the particle contact and the penetration-weighted sum of its touching points; ``rigid_lift`` (one thread)
+    moves a body that is not bouncing out along the plane's normal to ``slop`` (m) of it, without speed, and removes
+    its centre's approach (through the centre: no spin), with Coulomb's friction of that impulse at the touching
+    points' penetration-weighted centre. It is long because both kernels are closures of the scalar type, spelled as
+    taichi_mpm's two methods."""
+    vec3, vec4, mat33 = build_types(Ft)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def rigid_depth(x: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), rigid: wp.array(dtype=wp.int32),
+                    p_contact: wp.array(dtype=vec3), planes: wp.array(dtype=vec3), plane_n: wp.array(dtype=vec3),
+                    dmax: wp.array(dtype=wp.float64), dsum: wp.array(dtype=wp.vec4d), ndepth: wp.array(dtype=wp.int32)):
+        p = wp.tid()
+        b = body[p]
+        kcs = p_contact[p]
+        if rigid[b] == 0 or kcs[0] <= Ft(0.0):
+            return
+        n_pl = planes.shape[0]
+        xp = vec3d(wp.float64(x[p][0]), wp.float64(x[p][1]), wp.float64(x[p][2]))
+        inside = int(0)
+        for q in range(n_pl):
+            nq = vec3d(wp.float64(plane_n[q][0]), wp.float64(plane_n[q][1]), wp.float64(plane_n[q][2]))
+            d = wp.float64(planes[q][0]) + wp.float64(kcs[2]) - wp.dot(nq, xp)
+            if d > wp.float64(0.0):
+                wp.atomic_max(dmax, b * n_pl + q, d)
+                wp.atomic_add(dsum, b * n_pl + q, wp.vec4d(d * xp[0], d * xp[1], d * xp[2], d))
+                inside = 1
+        if inside != 0:
+            wp.atomic_add(ndepth, b, 1)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def rigid_lift(rigid: wp.array(dtype=wp.int32), mass: wp.array(dtype=wp.float64),
+                   inertia0: wp.array(dtype=mat33d), centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d),
+                   vel: wp.array(dtype=vec3d), spin: wp.array(dtype=vec3d), dx: wp.float64, n_bodies: int,
+                   planes: wp.array(dtype=vec3), plane_n: wp.array(dtype=vec3), dmax: wp.array(dtype=wp.float64),
+                   dsum: wp.array(dtype=wp.vec4d), e_body: wp.array(dtype=Ft), vin: wp.array(dtype=Ft),
+                   plane_e: wp.array(dtype=Ft), v_rest: Ft, slop: wp.float64):
+        n_pl = planes.shape[0]
+        for b in range(n_bodies):
+            M = mass[b]
+            if rigid[b] != 0 and M > wp.float64(0.0):
+                c = centre[b]
+                V = vel[b]
+                w = spin[b]
+                R = rot[b]
+                inertia = R * inertia0[b] * wp.transpose(R) + wp.float64(0.5) * dx * dx * M * wp.identity(
+                    3, wp.float64)
+                inv = wp.inverse(inertia)
+                shift = vec3d()
+                for q in range(n_pl):
+                    d = dmax[b * n_pl + q]
+                    sq = dsum[b * n_pl + q]
+                    if d > slop and sq[3] > wp.float64(0.0):
+                        n = vec3d(wp.float64(plane_n[q][0]), wp.float64(plane_n[q][1]), wp.float64(plane_n[q][2]))
+                        r = vec3d(sq[0], sq[1], sq[2]) / sq[3] - c
+                        un = wp.dot(V, n)
+                        # a bouncing contact keeps its restitution's law: e times the approach (its ongoing
+                        # contact's, or its centre's now) at least v_rest (taichi_mpm's Rigid.rigid_lift)
+                        e = wp.float64(e_body[b]) * wp.float64(plane_e[q])
+                        if e_body[b] >= Ft(0.0) and e * wp.max(wp.float64(vin[b]), -un) < wp.float64(v_rest):
+                            shift = shift + (d - slop) * n
+                            if un < wp.float64(0.0):   # the centre's approach, through the centre: no spin
+                                P = -un * M
+                                V = V - un * n
+                                mu = wp.float64(planes[q][1])
+                                u = V + wp.cross(w, r)
+                                ut = u - wp.dot(u, n) * n
+                                lt = wp.length(ut)
+                                if lt > wp.float64(0.0) and mu > wp.float64(0.0):
+                                    t = ut / lt
+                                    rt = wp.cross(r, t)
+                                    Pt = -wp.min(mu * P, lt / (wp.float64(1.0) / M + wp.dot(rt, inv * rt))) * t
+                                    V = V + Pt / M
+                                    w = w + inv * wp.cross(r, Pt)
+                centre[b] = c + shift
+                vel[b] = V
+                spin[b] = w
+            for q in range(n_pl):
+                dmax[b * n_pl + q] = wp.float64(0.0)
+                dsum[b * n_pl + q] = wp.vec4d()
+
+    return rigid_depth, rigid_lift
 
 
 @functools.cache
@@ -250,24 +342,41 @@ class RigidBodies:
         self.rb_was = wp.zeros(len(self.setup.materials), dtype=wp.int32, device=d)
         self.rb_c0 = wp.zeros(len(self.setup.materials), dtype=vec3d, device=d)
         self.rb_steps = wp.zeros(len(self.setup.materials), dtype=wp.int32, device=d)
-        return [wp.launch(reduce_k, dim=self.n_material, device=d, record_cmd=True, inputs=[
+        out = [wp.launch(reduce_k, dim=self.n_material, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.p_mass, self.body, self.rb_rigid, dx, self.acc_p, self.acc_l]),
                 wp.launch(update_k, dim=1, device=d, record_cmd=True, inputs=[
                     self.rb_rigid, self.rb_M, self.rb_I0, self.acc_p, self.acc_l, self.rb_c, self.rb_R, self.rb_V,
                     self.rb_w, dt, dx, len(self.setup.materials), ex.rb_vin, ex.rb_vin_next, ex.rb_touch, self.rb_was,
                     self.rb_c0, ex.rb_jn, ex.rb_je, ex.rb_j, ex.rb_e, ex.v_rest,
                     vec3d(*[float(g) for g in self.setup.gravity]), self.rb_steps, ex.rb_count, ex.rb_nlast,
-                    ex.rb_twist, ex.rb_fx]),
+                    ex.rb_twist, ex.rb_fx, ex.rb_ndepth]),
                 wp.launch(apply_k, dim=self.n_points, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.F, self.body, self.rb_rigid, self.X0, self.rb_c, self.rb_R,
                     self.rb_V, self.rb_w])]
+        n_pl = self.planes.shape[0] if self.p_contact.shape[0] == self.n_points else 0
+        if n_pl:   # the resting bodies' position-level non-penetration, then their points on the pose again
+            from gasp_core.toolkit.rigid import RIGID_SLOP
+            depth_k, lift_k = build_rigid_lift(Ft)
+            nb = len(self.setup.materials)
+            self.rb_dmax = wp.zeros(nb * n_pl, dtype=wp.float64, device=d)
+            self.rb_dsum = wp.zeros(nb * n_pl, dtype=wp.vec4d, device=d)
+            out += [wp.launch(depth_k, dim=self.n_material, device=d, record_cmd=True, inputs=[
+                        self.x, self.body, self.rb_rigid, self.p_contact, self.planes, self.plane_n, self.rb_dmax,
+                        self.rb_dsum, ex.rb_ndepth]),
+                    wp.launch(lift_k, dim=1, device=d, record_cmd=True, inputs=[
+                        self.rb_rigid, self.rb_M, self.rb_I0, self.rb_c, self.rb_R, self.rb_V, self.rb_w, dx, nb,
+                        self.planes, self.plane_n, self.rb_dmax, self.rb_dsum, ex.rb_e, ex.rb_vin, ex.plane_e,
+                        ex.v_rest, RIGID_SLOP * dx]),
+                    out[2]]
+        return out
 
     def _contact_arrays(self) -> dict:
         """The rigid bodies' ongoing contact (the restitution's state, ``contact.build_contact_impulse``), by state
         key (taichi_mpm's ``Rigid._contact_fields``)."""
         ex = self._ex
         return {"rigid_vin": ex.rb_vin, "rigid_was": self.rb_was, "rigid_steps": self.rb_steps, "rigid_c0": self.rb_c0,
-                "rigid_jn": ex.rb_jn, "rigid_je": ex.rb_je, "rigid_j": ex.rb_j, "rigid_nlast": ex.rb_nlast}
+                "rigid_jn": ex.rb_jn, "rigid_je": ex.rb_je, "rigid_j": ex.rb_j, "rigid_nlast": ex.rb_nlast,
+                "rigid_ndepth": ex.rb_ndepth}
 
     def rigid_state(self) -> dict:
         """``rigid_c`` and ``rigid_R`` of the bodies and their ongoing contact's state (``rigid_vin``, ...; empty

@@ -44,7 +44,8 @@ class ExtraTables:
         ex.rb_je, ex.rb_j = (wp.zeros(len(setup.materials), dtype=Ft, device=self.device) for _ in "ab")
         from gasp_core.toolkit.rigid import face_counts
         ex.rb_nface = arr(face_counts(setup).astype(np_t), Ft)
-        ex.rb_count, ex.rb_nlast = (wp.zeros(len(setup.materials), dtype=wp.int32, device=self.device) for _ in "ab")
+        ex.rb_count, ex.rb_nlast, ex.rb_ndepth = (wp.zeros(len(setup.materials), dtype=wp.int32, device=self.device)
+                                                  for _ in "abc")
         vec3d = wp.types.vector(3, wp.float64)
         ex.rb_cx = self.rb_c if getattr(self, "any_rigid", False) else wp.zeros(1, dtype=vec3d, device=self.device)
         ex.rb_twist = wp.zeros(len(setup.materials), dtype=wp.float64, device=self.device)

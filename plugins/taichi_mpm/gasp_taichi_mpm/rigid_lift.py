@@ -1,0 +1,97 @@
+"""The position-level non-penetration of a resting rigid body (issue 53, ``gasp_core.toolkit.rigid.settle_projection``)
+as Taichi kernels; warp_mpm's ``rigid.build_rigid_lift`` spells the same steps.
+
+:meth:`RigidLift.rigid_depth` takes each rigid body's deepest penetration into each plane of the particle contact and
+the penetration-weighted sum of its touching points (and counts them for the next P2G's stiffness,
+``gasp_core.toolkit.rigid.support_scale``); :meth:`RigidLift.rigid_lift` moves a resting body deeper than the slop out
+along the plane's normal without speed (Bullet's split impulse). Both run in :meth:`gasp_taichi_mpm.rigid.Rigid.
+rigid_step` after the rigid update, then the points are put on the pose again.
+
+Mixed into :class:`gasp_taichi_mpm.rigid.Rigid` (so into :class:`gasp_taichi_mpm.solver.MPMSolver`), whose fields
+(``rb_*``, ``p_contact``, ``plane_n``, ``plane_row``) it reads.
+"""
+import taichi as ti
+
+from gasp_core.toolkit.rigid import RIGID_SLOP
+
+
+class RigidLift:
+    """The two kernels of the resting bodies' non-penetration."""
+
+    @ti.kernel
+    def rigid_depth(self):
+        """Per rigid body and plane of the particle contact its deepest point's penetration ``offset + skin - n . x``
+        (m) and the penetration-weighted sum of its touching points (serially in the point order, as
+        :meth:`rigid_reduce`; warp_mpm's ``rigid_depth``)."""
+        ti.loop_config(serialize=True)
+        for p in range(self.n_points[None]):
+            b = self.body[p]
+            kcs = self.p_contact[p]
+            if self.rb_rigid[b] != 0 and kcs[0] > 0.0:
+                x = ti.cast(self.x[p], ti.f64)
+                inside = 0
+                for q in range(self.n_planes):
+                    n = ti.cast(self.plane_n[q], ti.f64)
+                    d = ti.cast(self.plane_row[q][0], ti.f64) + ti.cast(kcs[2], ti.f64) - n.dot(x)
+                    if d > 0.0:
+                        k = b * self.n_planes + q
+                        ti.atomic_max(self.rb_dmax[k], d)
+                        self.rb_dsum[k] += ti.Vector([d * x[0], d * x[1], d * x[2], d], ti.f64)
+                        inside = 1
+                if inside != 0:
+                    self.rb_ndepth[b] += 1
+
+    @ti.kernel
+    def rigid_lift(self):
+        """The position-level non-penetration of a resting rigid body (``gasp_core.toolkit.rigid.settle_projection``,
+        issue 53; warp_mpm's ``rigid_lift``): a body that is not bouncing (``e`` times its approach, the ongoing
+        contact's ``v_in`` or its centre's now, under ``v_rest``, as :meth:`lift_off`) whose deepest point is more
+        than ``RIGID_SLOP`` cells into a plane is moved out along its normal to that depth, its velocity untouched by
+        the move (Bullet's split impulse, no Baumgarte term), and its centre's approach removed (an impulse through
+        the centre: no spin), with Coulomb's friction of that impulse at the touching points' penetration-weighted
+        centre."""
+        dx = ti.cast(self.dx[None], ti.f64)
+        slop = RIGID_SLOP * dx
+        ti.loop_config(serialize=True)
+        for b in range(self.n_bodies):
+            M = self.rb_M[b]
+            if self.rb_rigid[b] != 0 and M > 0.0:
+                c = self.rb_c[b]
+                V = self.rb_V[b]
+                w = self.rb_w[b]
+                R = self.rb_R[b]
+                inertia = R @ self.rb_I0[b] @ R.transpose() + 0.5 * dx * dx * M * ti.Matrix.identity(ti.f64, 3)
+                inv = inertia.inverse()
+                shift = ti.Vector.zero(ti.f64, 3)
+                for q in range(self.n_planes):
+                    d = self.rb_dmax[b * self.n_planes + q]
+                    sq = self.rb_dsum[b * self.n_planes + q]
+                    if d > slop and sq[3] > 0.0:
+                        n = ti.cast(self.plane_n[q], ti.f64)
+                        r = ti.Vector([sq[0], sq[1], sq[2]]) / sq[3] - c
+                        un = V.dot(n)
+                        # a bouncing contact keeps its restitution's law: e times the approach (its ongoing
+                        # contact's, or its centre's now) at least v_rest
+                        e = ti.cast(self.rb_e[b], ti.f64) * ti.cast(self.plane_e[q], ti.f64)
+                        vin = ti.max(ti.cast(self.rb_vin[b], ti.f64), -un)
+                        if self.rb_e[b] >= 0.0 and e * vin < ti.cast(self.v_rest[None], ti.f64):
+                            shift += (d - slop) * n
+                            if un < 0.0:   # the centre's approach, through the centre: no spin
+                                P = -un * M
+                                V = V - un * n
+                                mu = ti.cast(self.plane_row[q][1], ti.f64)
+                                u = V + w.cross(r)
+                                ut = u - u.dot(n) * n
+                                lt = ut.norm()
+                                if lt > 0.0 and mu > 0.0:
+                                    t = ut / lt
+                                    rt = r.cross(t)
+                                    Pt = -ti.min(mu * P, lt / (1.0 / M + rt.dot(inv @ rt))) * t
+                                    V = V + Pt / M
+                                    w = w + inv @ r.cross(Pt)
+                self.rb_c[b] = c + shift
+                self.rb_V[b] = V
+                self.rb_w[b] = w
+            for q in range(self.n_planes):
+                self.rb_dmax[b * self.n_planes + q] = 0.0
+                self.rb_dsum[b * self.n_planes + q] = ti.Vector.zero(ti.f64, 4)
