@@ -26,8 +26,10 @@ default-like camera, DC colour, median of 5 alternating), with and without them;
 
 Run: ``python benchmarks/tear_split.py [--frames 40]``; the table to stdout and
 ``benchmarks/results/tear_split.md``; stills ``docs/fracture_tear_split.png`` (the neck without and with the split, the
-frame before it parts and 3 frames after). The engine is stepped directly (no ``gasp simulate``): the rod creeps about
-1 mm a frame, and the pipeline's default ``sleep`` would put it to sleep before it tears.
+frame before it parts and 3 frames after). The engine is stepped directly (no ``gasp simulate``). The rod creeps
+about 1.2 mm (0.03 dx) a frame, under both of sleep's displacement bounds: the pipeline's default ``sleep`` put it to
+sleep after frame 5, before it tore, until a growing plastic strain kept it awake (``gasp_core.seam.sleep.FLOW_TOL``;
+``tests/test_sleep_creep.py``: through ``gasp simulate`` it now parts at frame 32 on both engines).
 """
 from __future__ import annotations
 

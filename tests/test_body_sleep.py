@@ -153,7 +153,7 @@ def test_the_ball_checks_fail_when_a_never_wakes(warp_balls, monkeypatch):
 
 def test_the_ball_checks_fail_when_a_never_sleeps(warp_balls, monkeypatch):
     info, setup, awake, _, _ = warp_balls
-    monkeypatch.setattr(BodySleep, "after_frame", lambda self, frame, x_prev, x: False)   # a watch that never sleeps
+    monkeypatch.setattr(BodySleep, "after_frame", lambda self, frame, x_prev, x, flowing=None: False)   # a watch that never sleeps
     asleep, stats = S.frames(info, setup, sleep=True)
     assert all(np.array_equal(a, b) for a, b in zip(awake, asleep))
     failed = {c.name for c in S.ball_checks(setup, awake, asleep, stats) if not c.passed}

@@ -3,7 +3,8 @@ go on, and wakes when anything can reach it.
 
 The unit is the body (one ``SimSetup.body_id`` value, one scene object). After each simulated frame a body's quiet
 count grows when none of its material points moved more than :data:`~gasp_core.seam.sleep.SLEEP_TOL` cells and its
-centroid no more than :data:`~gasp_core.seam.sleep.SLEEP_DRIFT` cells, and is reset otherwise; after
+centroid no more than :data:`~gasp_core.seam.sleep.SLEEP_DRIFT` cells and none of its points' damage or plastic
+strain grew more than :data:`~gasp_core.seam.sleep.FLOW_TOL` (a creep is not rest), and is reset otherwise; after
 :data:`~gasp_core.seam.sleep.SLEEP_FRAMES` quiet frames in a row the body falls asleep, unless something that varies
 in time is still to come (:func:`~gasp_core.seam.sleep.sleep_blockers`: then no body sleeps) or an awake point of
 another body is within its reach (then it stays awake with its count, and sleeps with that body). An engine with
@@ -86,16 +87,19 @@ class BodySleep:
         q = xm[others]
         return bool(((q >= lo) & (q <= hi)).all(axis=1).any())
 
-    def after_frame(self, frame: int, x_prev: np.ndarray, x: np.ndarray) -> bool:
+    def after_frame(self, frame: int, x_prev: np.ndarray, x: np.ndarray, flowing: np.ndarray | None = None) -> bool:
         """Count the quiet frames of the awake bodies after simulated frame ``frame`` and put to sleep those that
-        may sleep. ``x_prev``, ``x``: (n, 3) positions, m, setup order. Returns whether ``asleep`` changed."""
+        may sleep. ``x_prev``, ``x``: (n, 3) positions, m, setup order; ``flowing``: (n_bodies,) bool, the bodies
+        whose damage or plastic strain grew over the frame (:meth:`gasp_core.seam.sleep.SleepWatch.flowing`; not at
+        rest; None: none). Returns whether ``asleep`` changed."""
         xm = np.asarray(x, np.float64)[self._material]
         d = xm - np.asarray(x_prev, np.float64)[self._material]
         awake_pts = ~self.asleep[self._body]
         self.last_move = float(np.abs(d[awake_pts]).max()) if awake_pts.any() else 0.0
         for b in np.flatnonzero(~self.asleep & self.can_sleep):
             db = d[self._index[b]]
-            rest = np.abs(db).max() <= self._tol and np.linalg.norm(db.mean(axis=0)) <= self._drift
+            rest = np.abs(db).max() <= self._tol and np.linalg.norm(db.mean(axis=0)) <= self._drift \
+                and not (flowing is not None and flowing[b])
             self.quiet[b] = self.quiet[b] + 1 if rest else 0
         if sleep_blockers(self.setup, frame * float(self.setup.frame_dt)):
             return False

@@ -64,6 +64,10 @@ FEATURES = {
     "damage": "damage() -> ndarray (n,) float64 in [0, 1], setup order: each point's damage d after the last frame "
               "(the brittle material, docs/fracture.md; 0 for points of other materials); d never decreases. The "
               "core labels the pieces from it (gasp_core.pieces)",
+    "plastic_strain": "plastic_strain() -> ndarray (n,) float64, setup order: each point's accumulated plastic strain "
+                      "after the last frame (the plasticine material's Jp, the variable its softening acts on, "
+                      "docs/mpm.md; 0 for points of other materials); it never decreases. The sleep watch keeps a "
+                      "body whose plastic strain still grows awake (gasp_core.seam.sleep, FLOW_TOL)",
     "rigid_limit": "Material.model = 'rigid': the body moves as one rigid body (momentum and angular momentum of "
                    "its points kept), its stress is zero and its stiffness sets no step (docs/rigid.md)",
 }

@@ -186,6 +186,8 @@ class EngineRun:
         advance = _advancer(engine, watch)
         x = np.asarray(call_engine(info, "positions", engine.positions), dtype=np.float64) if watch.enabled else None
         damaged = "damage" in info.capabilities.features and any(m.name == "brittle" for m in setup.materials)
+        flow = _flow_reader(info, engine, setup) if watch.enabled else None
+        state = None if flow is None else flow()   # the damage and plastic strain now: a creep is no rest
         for frame in range(self.start_frame + 1, n_frames + 1):
             if watch.asleep_after is not None:   # asleep: the frame repeats the last one (gasp_core.seam.sleep)
                 if damaged and stats.damage is None:   # resumed asleep: the restored state's damage (the pieces)
@@ -201,7 +203,11 @@ class EngineRun:
             if damaged:
                 stats.damage = np.asarray(call_engine(info, "damage", engine.damage), dtype=np.float64)
             stats.frame_s.append(dt_wall)
-            watch.update(frame, x_prev, x)
+            growth = None
+            if flow is not None and watch.asleep_after is None:
+                state_prev, state = state, flow()
+                growth = state - state_prev
+            watch.update(frame, x_prev, x, growth)
             stats.bodies = [] if watch.bodies is None else watch.bodies.record()
             yield FrameRecord(frame, x, dt_wall, self.get_state)
         stats.engine = dict(call_engine(info, "stats", engine.stats))
@@ -218,6 +224,19 @@ def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int, stats: RunStats
     """
     with EngineRun(info, setup, stats, start_frame, state, sleep) as run:
         yield from run.frames(n_frames)
+
+
+def _flow_reader(info: EngineInfo, engine: PointEngine, setup: SimSetup) -> Callable[[], np.ndarray] | None:
+    """``read()``: each point's irreversible state, shape (n,), float64, setup order: its damage (feature
+    ``damage``, brittle bodies) plus its plastic strain (feature ``plastic_strain``, plasticine bodies), whose growth
+    keeps a body awake (:data:`gasp_core.seam.sleep.FLOW_TOL`); None where the scene has neither."""
+    names = {m.name for m in setup.materials}
+    features = info.capabilities.features
+    parts = [(k, getattr(engine, k)) for k, mat in (("damage", "brittle"), ("plastic_strain", "plasticine"))
+             if k in features and mat in names]
+    if not parts:
+        return None
+    return lambda: sum(np.asarray(call_engine(info, k, f), dtype=np.float64) for k, f in parts)
 
 
 def _advancer(engine: PointEngine, watch: SleepWatch) -> Callable[[int, np.ndarray], np.ndarray]:

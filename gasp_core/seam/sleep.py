@@ -6,7 +6,9 @@ is frozen while the others go on, and woken before anything can reach it. **The 
 module): once, for :data:`SLEEP_FRAMES` frames in a row, no simulated point of it has moved more than
 :data:`SLEEP_TOL` cells in a frame (what is left of its vibration) and no body's centroid more than
 :data:`SLEEP_DRIFT` cells (a steady slide or creep is not rest; per body, so that two bodies moving opposite ways do
-not add up to rest), or every body sleeps on its own, and nothing that varies in time can reach it any more (no
+not add up to rest) and no point's damage or plastic strain grew more than :data:`FLOW_TOL` (engines with the
+feature ``damage`` / ``plastic_strain``: a body still cracking or yielding flows, and a creep under the displacement
+bounds accumulates), or every body sleeps on its own, and nothing that varies in time can reach it any more (no
 moving collider, no wind or attractor, no impulse still to come), the engine is no longer stepped and each later
 frame repeats the last one. Nothing can wake such a scene: a scene with anything still moving or still to come (a
 second body in flight, a collider on its path, an impulse window ahead) never sleeps as a whole, because its points
@@ -29,6 +31,14 @@ SLEEP_DRIFT = 0.02
 SLEEP_KEY = "gasp_sleep"
 #: Frames in a row at rest before the scene (or a body) sleeps.
 SLEEP_FRAMES = 5
+#: Largest growth in one frame of any point's irreversible state (dimensionless: a brittle point's damage in
+#: [0, 1], a plasticine point's accumulated plastic strain; engines with the feature ``damage`` /
+#: ``plastic_strain``) that counts as rest. Such a state grows only while the material yields or cracks, so a body
+#: whose state still grows is flowing, not resting, however slowly its points move (the plasticine T rod of
+#: ``benchmarks/tear_split.py`` creeps 0.03 dx a frame, under both displacement bounds, while its largest growth
+#: falls no lower than about 1e-4 a frame before it tears, taichi_mpm). 1e-5 is ten times below that and far above
+#: the float32 rounding of a strain near 0.01 (1e-9).
+FLOW_TOL = 1e-5
 #: The entry of a checkpoint that carries the per-body watch (:meth:`gasp_core.seam.body_sleep.BodySleep.state`).
 BODY_SLEEP_KEY = "gasp_body_sleep"
 
@@ -91,14 +101,26 @@ class SleepWatch:
         mean = np.stack([np.bincount(self._body, weights=d[:, a])[has] for a in range(3)], axis=1) / count[has, None]
         return float(np.abs(d).max()), float(np.linalg.norm(mean, axis=1).max())
 
-    def update(self, frame: int, x_prev: np.ndarray, x: np.ndarray) -> bool:
-        """After simulated frame ``frame``: whether the scene is asleep from the next frame on."""
+    def flowing(self, growth: np.ndarray | None) -> np.ndarray:
+        """Per body (``n_bodies``,), bool: whether any of its points' irreversible state (damage, plastic strain)
+        grew by more than :data:`FLOW_TOL` over the frame. ``growth``: shape (n,), setup order, dimensionless, the
+        state after the frame less the state before (None: the engine exposes none, no body flows)."""
+        n_bodies = len(self.setup.materials)
+        if growth is None:
+            return np.zeros(n_bodies, bool)
+        body = np.asarray(self.setup.body_id, dtype=np.int64)
+        return np.bincount(body, weights=np.asarray(growth, np.float64) > FLOW_TOL, minlength=n_bodies) > 0
+
+    def update(self, frame: int, x_prev: np.ndarray, x: np.ndarray, growth: np.ndarray | None = None) -> bool:
+        """After simulated frame ``frame``: whether the scene is asleep from the next frame on. ``growth``: the
+        growth of each point's damage or plastic strain over the frame (:meth:`flowing`; None: none known)."""
         if not self.enabled or self.asleep_after is not None:
             return self.asleep_after is not None
         most, centroid = self.moved(x_prev, x)
-        self.quiet = self.quiet + 1 if most <= self._tol and centroid <= self._drift else 0
+        flowing = self.flowing(growth)
+        self.quiet = self.quiet + 1 if most <= self._tol and centroid <= self._drift and not flowing.any() else 0
         if self.bodies is not None:
-            self.bodies.after_frame(frame, x_prev, x)
+            self.bodies.after_frame(frame, x_prev, x, flowing)
         rest = self.quiet >= SLEEP_FRAMES or (self.bodies is not None and self.bodies.all_asleep())
         if rest and not sleep_blockers(self.setup, frame * float(self.setup.frame_dt)):
             self.asleep_after = frame

@@ -30,7 +30,7 @@ MPM_CAPABILITIES = Capabilities(
     precisions=frozenset({"f32", "f64"}),
     deterministic=frozenset({"cpu"}),
     features=frozenset({"grid", "initial_C", "state", "static_colliders", "moving_colliders", "impulse", "wind",
-                        "attractors", "passive_points", "viscosity", "damage"}),
+                        "attractors", "passive_points", "viscosity", "damage", "plastic_strain"}),
 )
 
 
@@ -170,6 +170,15 @@ class GridEngineBase:
         brittle = np.array([m.name == "brittle" for m in self.setup.materials])[self.setup.body_id]
         jp = self.to_setup_order(np.asarray(self.read_array("Jp"), np.float64))
         return np.where(brittle, np.clip(jp, 0.0, 1.0), 0.0)
+
+    def plastic_strain(self) -> np.ndarray:
+        """Per-point accumulated plastic strain, shape (n,), float64, setup order (feature ``plastic_strain``): the
+        ``Jp`` of a ``plasticine`` point (the sum of its von Mises return mappings' ``dg``, dimensionless, what its
+        ``softening`` acts on), 0 for every other point. Needs :meth:`read_array` to know ``Jp``."""
+        self.check_open()
+        plastic = np.array([m.name == "plasticine" for m in self.setup.materials])[self.setup.body_id]
+        jp = self.to_setup_order(np.asarray(self.read_array("Jp"), np.float64))
+        return np.where(plastic, jp, 0.0)
 
     # ------------------------------------------------------------------ statistics
     def grid_stats(self, device: str, precision: str, x: np.ndarray | None, p_mass: np.ndarray | None,
