@@ -36,8 +36,8 @@ SLEEP_FRAMES = 5
 #: ``plastic_strain``) that counts as rest. Such a state grows only while the material yields or cracks, so a body
 #: whose state still grows is flowing, not resting, however slowly its points move (the plasticine T rod of
 #: ``benchmarks/tear_split.py`` creeps 0.03 dx a frame, under both displacement bounds, while its largest growth
-#: falls no lower than about 1e-4 a frame before it tears, taichi_mpm). 1e-5 is ten times below that and far above
-#: the float32 rounding of a strain near 0.01 (1e-9).
+#: falls no lower than about 1e-4 a frame before it tears: docs/performance.md, "Sleep"). 1e-5 is ten times below
+#: that and far above the float32 rounding of a strain near 0.01 (1e-9).
 FLOW_TOL = 1e-5
 #: The entry of a checkpoint that carries the per-body watch (:meth:`gasp_core.seam.body_sleep.BodySleep.state`).
 BODY_SLEEP_KEY = "gasp_body_sleep"
