@@ -205,7 +205,7 @@ class EngineRun:
             stats.frame_s.append(dt_wall)
             growth = None
             if flow is not None and watch.asleep_after is None:
-                state_prev, state = state, flow()
+                state_prev, state = state, flow(stats.damage if damaged else None)   # damage read once
                 growth = state - state_prev
             watch.update(frame, x_prev, x, growth)
             stats.bodies = [] if watch.bodies is None else watch.bodies.record()
@@ -226,8 +226,8 @@ def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int, stats: RunStats
         yield from run.frames(n_frames)
 
 
-def _flow_reader(info: EngineInfo, engine: PointEngine, setup: SimSetup) -> Callable[[], np.ndarray] | None:
-    """``read()``: each point's irreversible state, shape (n,), float64, setup order: its damage (feature
+def _flow_reader(info: EngineInfo, engine: PointEngine, setup: SimSetup) -> Callable[..., np.ndarray] | None:
+    """``read(damage=None)``: each point's irreversible state, shape (n,), float64, setup order: its damage (feature
     ``damage``, brittle bodies) plus its plastic strain (feature ``plastic_strain``, plasticine bodies), whose growth
     keeps a body awake (:data:`gasp_core.seam.sleep.FLOW_TOL`); None where the scene has neither."""
     names = {m.name for m in setup.materials}
@@ -236,7 +236,12 @@ def _flow_reader(info: EngineInfo, engine: PointEngine, setup: SimSetup) -> Call
              if k in features and mat in names]
     if not parts:
         return None
-    return lambda: sum(np.asarray(call_engine(info, k, f), dtype=np.float64) for k, f in parts)
+
+    def read(damage: np.ndarray | None = None) -> np.ndarray:
+        """The sum of the parts; ``damage`` (n,): the frame's damage where the caller read it already."""
+        return sum(damage if k == "damage" and damage is not None else
+                   np.asarray(call_engine(info, k, f), dtype=np.float64) for k, f in parts)
+    return read
 
 
 def _advancer(engine: PointEngine, watch: SleepWatch) -> Callable[[int, np.ndarray], np.ndarray]:
