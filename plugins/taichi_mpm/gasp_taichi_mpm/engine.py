@@ -176,8 +176,7 @@ class TaichiMPMEngine(GridEngineBase):
                        if contact in ("particle", "mixed") and (grounds or walls or setup.colliders) else None),
             n_colc=len(setup.colliders) if contact in ("particle", "mixed") else 0,
             planes=contact_planes(view, contact),
-            mixed=mixed, fields=(field_bodies(view), field_friction(view)),
-            hold=flowing_bodies(view, contact) if setup.colliders else None,   # the colliders' hold (colliders.py)
+            mixed=mixed, fields=(field_bodies(view), field_friction(view)), hold=flowing_bodies(view, contact) if setup.colliders else None,
             passive_bounds=passive_bounds(setup, contact), rigid_frames=None if frames is None else (rigid, *frames),
             contact_reach=contact_reach(setup),
             body_mass=np.bincount(setup.body_id, weights=setup.p_mass, minlength=len(setup.materials)),
