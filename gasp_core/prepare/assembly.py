@@ -15,6 +15,7 @@ from gasp_core.prepare.around import STENCIL_CELLS, reach_domain, uses_reach
 from gasp_core.prepare.checks import check_kept_floaters, check_overlap, check_resolution
 from gasp_core.prepare.dynamic import fill_velocities, vertex_velocities
 from gasp_core.prepare.placed import PreparedObject
+from gasp_core.prepare.runout import runout_reach, widen
 from gasp_core.prepare.stand import stand_warnings
 from gasp_core.prepare.thickness import thin_part_warnings
 from gasp_core.prepare.surface import ELASTIC, surface_rule
@@ -85,9 +86,18 @@ def footprints(o: PreparedObject) -> np.ndarray:
 def domain_for(scene: Scene, objects: list[PreparedObject]) -> tuple[np.ndarray, np.ndarray]:
     """The domain (lo, hi), metres, shape (3,) each, of the simulated ``objects``: ``[domain]`` lo/hi where stated,
     else with a selection around what moves and where it can reach in the run
-    (:func:`gasp_core.prepare.around.reach_domain`), else :func:`default_domain` around their :func:`footprints`."""
+    (:func:`gasp_core.prepare.around.reach_domain`), else :func:`default_domain` around their :func:`footprints`,
+    widened to where a sand body spreads on the ground (:mod:`gasp_core.prepare.runout`)."""
     reach = np.concatenate([footprints(o) for o in objects])
-    return reach_domain(scene, objects, reach) if uses_reach(scene) else default_domain(scene, reach)
+    if uses_reach(scene):
+        return reach_domain(scene, objects, reach)
+    lo, hi = default_domain(scene, reach)
+    if scene.domain.lo is not None:
+        return lo, hi
+    grounds = [float(b.height) for b in scene.boundaries if b.kind == "ground"]
+    spread = runout_reach([o.surface.points() for o in objects], [o.spec.material for o in objects],
+                          min(grounds) if grounds else None)   # a sand body's collapse on the ground (runout.py)
+    return widen(lo, hi, spread, scene.domain.n_grid, STENCIL_CELLS)
 
 
 def build_setup(scene: Scene, objects: list[PreparedObject]) -> tuple[SimSetup, list[PreparedObject]]:
