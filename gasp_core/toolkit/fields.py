@@ -42,6 +42,10 @@ MIN_FRACTION = 1e-6
 #: The two fields touch at a node when their volumes there (``sum_p w_ip V_p`` per field) fill this fraction of a
 #: cell (``dx^3``): where the bodies merely share a node's stencil across a gap, each keeps its own velocity.
 TOUCH_FRACTION = 0.9
+#: The touch threshold of two soft bodies (:func:`soft_pair`): lower than a flowing body's, as two convex surfaces
+#: meet over few nodes whose cells they fill only in part (the stacked balls, ``docs/contact.md``: at 0.9 the top
+#: ball rests 0.40 dx inside the bottom one, at 0.5 within 0.05 dx of touching).
+SOFT_TOUCH_FRACTION = 0.5
 #: The Coulomb coefficient between two bodies that do not flow (soft on soft: rubber-like jelly on itself).
 SOLID_FRICTION = 0.5
 #: A node's mass gradient shorter than this (kg/m, relative to ``m / dx``) gives no normal: the fields move as one.
@@ -56,7 +60,20 @@ def field_bodies(setup) -> np.ndarray | None:
     if not setup.options.get("contact_fields", True):
         return None
     c = contact_model(setup)
-    return flowing_bodies(setup, c) if c == "mixed" else None
+    if c == "mixed":
+        return flowing_bodies(setup, c)
+    if c == "particle" and soft_pair(setup):
+        return np.array([False, True])
+    return None
+
+
+def soft_pair(setup) -> bool:
+    """Whether a scene is two soft bodies on the particle contact (two materials, neither flowing nor rigid): they
+    take a field each, body 1 (A) against body 0 (B), so they meet at their surfaces (issue 53 item 5, ``docs/contact.md``
+    "Two jelly balls stacked"). Three or more soft bodies keep one field (no multi-field contact yet)."""
+    from gasp_core.toolkit.rigid import rigid_mask
+    return (len(setup.materials) == 2 and contact_model(setup) == "particle"
+            and not np.asarray(rigid_mask(setup.materials)).any())
 
 
 def uses_fields(setup) -> bool:
@@ -74,6 +91,12 @@ def field_friction(setup) -> float:
     flows = flowing_bodies(setup, "mixed")
     angles = [m.friction_angle for m, f in zip(setup.materials, flows) if f and m.name == "sand"]
     return math.tan(math.radians(max(angles))) if angles else 0.0
+
+
+def touch_fraction(setup) -> float:
+    """The touch threshold of the two fields (fraction of a cell's volume their volumes fill at a node):
+    :data:`SOFT_TOUCH_FRACTION` for two soft bodies (:func:`soft_pair`), else :data:`TOUCH_FRACTION`."""
+    return SOFT_TOUCH_FRACTION if soft_pair(setup) else TOUCH_FRACTION
 
 
 def field_offsets(m: np.ndarray, m_a: np.ndarray, p: np.ndarray, p_a: np.ndarray, n: np.ndarray, mu: float):
