@@ -10,7 +10,11 @@ from the mass gradients and the two velocities are corrected by Coulomb's law (B
 partitioning for fracture and frictional contact in the material point method", IJNME 109, 1013-1044): they do not
 approach along the normal and slide with friction ``mu``. G2P then reads each point's own field. The whole grid's
 velocity (mass-weighted mean of the two) is updated as before, with gravity and the boundaries; each field's
-velocity is that mean plus its own offset, so a scene whose fields never share a node runs as before.
+velocity is that mean plus its own offset, so a scene whose fields never share a node runs as before. Two soft bodies
+(:func:`soft_pair`: a scene of two bodies on the particle contact, neither rigid nor flowing) take the same contact,
+body 1 as field A against body 0, with friction :data:`SOLID_FRICTION` and the touch threshold
+:data:`SOFT_TOUCH_FRACTION`, so they meet at their surfaces (issue 53 item 5, ``docs/contact.md`` "Two jelly balls
+stacked").
 
 Per node, with ``m = m_A + m_B`` and the velocities ``v_A = p_A / m_A``, ``v_B = p_B / m_B`` after P2G:
 
@@ -35,8 +39,8 @@ from gasp_core.toolkit.contact import contact_model, flowing_bodies
 #: Engine option ``contact_fields`` of the MPM engines.
 FIELDS = Option("contact_fields", True, "in a scene with flowing (sand, snow, liquid) and other bodies, the flowing "
                 "bodies take a grid velocity field of their own, in Coulomb contact with the others' (docs/contact.md, "
-                "issue 53): sand slides on a ball instead of sticking to it; false: one field, no-slip where they "
-                "share nodes", kind="bool")
+                "issue 53): sand slides on a ball instead of sticking to it; so do two soft bodies, a field each: "
+                "they meet at their surfaces; false: one field, no-slip where they share nodes", kind="bool")
 #: A node is shared when each field holds at least this fraction of its mass (below it the fields move as one).
 MIN_FRACTION = 1e-6
 #: The two fields touch at a node when their volumes there (``sum_p w_ip V_p`` per field) fill this fraction of a
@@ -44,8 +48,9 @@ MIN_FRACTION = 1e-6
 TOUCH_FRACTION = 0.9
 #: The touch threshold of two soft bodies (:func:`soft_pair`): lower than a flowing body's, as two convex surfaces
 #: meet over few nodes whose cells they fill only in part (the stacked balls, ``docs/contact.md``: at 0.9 the top
-#: ball rests 0.40 dx inside the bottom one, at 0.5 within 0.05 dx of touching).
-SOFT_TOUCH_FRACTION = 0.5
+#: ball rests 0.40 dx inside the bottom one; at 0.55 the lattices within 0.01 dx of touching, and with surface
+#: Gaussians these 0.20 dx apart; 0.5 left the Gaussians 0.30 dx apart, 0.65 the light balls' lattices 0.17 dx deep).
+SOFT_TOUCH_FRACTION = 0.55
 #: The Coulomb coefficient between two bodies that do not flow (soft on soft: rubber-like jelly on itself).
 SOLID_FRICTION = 0.5
 #: A node's mass gradient shorter than this (kg/m, relative to ``m / dx``) gives no normal: the fields move as one.
@@ -55,8 +60,8 @@ MIN_GRADIENT = 1e-6
 def field_bodies(setup) -> np.ndarray | None:
     """Which bodies make field A (shape (n_materials,), bool), or None where the scene runs one field. With the
     option ``contact_fields`` true (the default): in a ``"mixed"`` scene the flowing bodies (A) against the others
-    (B). Any other scene runs one field (two soft bodies on two fields, body 0 against body 1, were tried:
-    ``docs/contact.md``, not adopted)."""
+    (B); two soft bodies (:func:`soft_pair`) body 1 (A) against body 0 (B). Any other scene runs one field (three or
+    more soft bodies among them: a field per body is not built)."""
     if not setup.options.get("contact_fields", True):
         return None
     c = contact_model(setup)
@@ -69,8 +74,8 @@ def field_bodies(setup) -> np.ndarray | None:
 
 def soft_pair(setup) -> bool:
     """Whether a scene is two soft bodies on the particle contact (two materials, neither flowing nor rigid): they
-    take a field each, body 1 (A) against body 0 (B), so they meet at their surfaces (issue 53 item 5, ``docs/contact.md``
-    "Two jelly balls stacked"). Three or more soft bodies keep one field (no multi-field contact yet)."""
+    take a field each, body 1 (A) against body 0 (B), so they meet at their surfaces (issue 53 item 5,
+    ``docs/contact.md`` "Two jelly balls stacked"). Three or more soft bodies keep one field (no multi-field contact yet)."""
     from gasp_core.toolkit.rigid import rigid_mask
     return (len(setup.materials) == 2 and contact_model(setup) == "particle"
             and not np.asarray(rigid_mask(setup.materials)).any())
@@ -85,7 +90,7 @@ def field_friction(setup) -> float:
     """The Coulomb coefficient between the two fields, dimensionless. Flowing bodies: ``tan(phi)`` of their largest
     friction angle (sand: its ``friction_angle``, degrees; the angle of the sand's internal friction taken as its
     friction on the other body's surface); 0 where no flowing body has one (liquid, snow: they slide freely). Two
-    bodies that do not flow (tried, not the default): :data:`SOLID_FRICTION`."""
+    soft bodies (:func:`soft_pair`): :data:`SOLID_FRICTION`."""
     if contact_model(setup) != "mixed":
         return SOLID_FRICTION
     flows = flowing_bodies(setup, "mixed")

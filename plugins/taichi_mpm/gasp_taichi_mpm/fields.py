@@ -1,7 +1,7 @@
 """The two-field grid contact (``gasp_core.toolkit.fields``, ``docs/contact.md`` "Sand that slides on what it
-touches", issue 53 item 3) in Taichi, the steps of warp_mpm's ``fields.py``: field A's bodies (``in_a``: a mixed
-scene's flowing bodies) scatter their momentum and mass to ``grid_sv`` and each field's volume to ``grid_vf`` in P2G
-(:meth:`Fields.scatter_field`);
+touches", issue 53 items 3 and 5) in Taichi, the steps of warp_mpm's ``fields.py``: field A's bodies (``in_a``: a
+mixed scene's flowing bodies, or body 1 of two soft bodies) scatter their momentum and mass to ``grid_sv`` and each
+field's volume to ``grid_vf`` in P2G (:meth:`Fields.scatter_field`);
 :meth:`Fields.contact_fields`, after P2G and before the grid update, turns them and the whole grid's into each field's
 velocity offset ``grid_dv`` (A's in its first three channels, B's in the last three) and clears them; G2P reads a
 node's velocity through :meth:`Fields.node_v`, the grid velocity plus the point's field's offset.

@@ -1,7 +1,7 @@
 """The two-field grid contact (``gasp_core.toolkit.fields``, ``docs/contact.md`` "Sand that slides on what it touches",
-issue 53 item 3) as Warp kernels: field A's bodies (``in_a``, ``field_bodies``: a mixed scene's flowing bodies)
-scatter their momentum and mass to ``grid_sv`` in P2G (``transfers.p2g``); :func:`build_fields`' ``field_contact``,
-after P2G and before the grid update, turns them and the whole grid's into each field's velocity offset ``grid_dv``
+issue 53 items 3 and 5) as Warp kernels: field A's bodies (``in_a``, ``field_bodies``: a mixed scene's flowing
+bodies, or body 1 of two soft bodies) scatter their momentum and mass to ``grid_sv`` in P2G (``transfers.p2g``);
+:func:`build_fields`' ``field_contact``, after P2G and before the grid update, turns them and the whole grid's into each field's velocity offset ``grid_dv``
 (field A's at ``node``, B's at ``n_nodes + node``) and clears ``grid_sv``; G2P (``transfers.g2p``) adds a point's own
 field's offset to the grid velocity.
 
