@@ -5,7 +5,8 @@ rho 1000, lattice points at dx / 2, n_grid 24 on 0.6 m, the top one let go 1.5 d
 tube of frictionless walls 0.25 dx clear of their sides). Variants: ``open`` (no tube, the balls in a 0.6 m box off
 the grid's symmetry: the scene before), ``light`` (the jelly of ``jittered_ball_rest``, E 2e4 Pa, rho 300),
 ``gaussians`` (``N_SURFACE`` = 602 points on each ball's sphere, each a 1 mm sheet of its share of the surface: the
-issue's surface Gaussians, 7.2 mm apart), ``n_grid`` 32; each with the two fields (the default) and with one field
+issue's surface Gaussians, 7.2 mm apart), ``n_grid`` 32, and the three together (the issue's balls: dx 18.75 mm,
+the Gaussians 7.2 mm apart); each with the two fields (the default) and with one field
 (``contact_fields = false``, the rule before).
 
 Figures per run: the lattices' gap (the conformance check's: nearest points less half of each one's spacing; dx)
@@ -17,7 +18,8 @@ centres (the issue's figure; two such spheres set exactly touching read ``touch_
 
     python benchmarks/bench_stacked.py --engines warp_mpm,taichi_mpm
 
-Writes ``benchmarks/results/stacked.json`` (or ``--out``), one JSON line per run.
+Writes ``benchmarks/results/stacked.json`` (or ``--out``), one JSON line per run. ``--timing 60`` appends the seconds
+per frame of the scene with a field per body and with one field, alternated ``--reps`` times, and their ratio.
 
 ``--sha FRAMES`` instead prints the sha1 of the positions after FRAMES frames of the scenes the contact must leave
 bit for bit (the sand column beside the jelly ball on two fields; the column alone; one jelly ball alone; the
@@ -164,11 +166,31 @@ def main() -> None:
     ap.add_argument("--frames", type=int, default=30)
     ap.add_argument("--out", default=str(HERE / "results" / "stacked.json"))
     ap.add_argument("--sha", type=int, default=0, metavar="FRAMES")
+    ap.add_argument("--timing", type=int, default=0, metavar="FRAMES",
+                    help="instead: seconds per frame (frames 4 on) of the scene with a field per body and with one, "
+                         "alternated --reps times; appended to --out")
+    ap.add_argument("--reps", type=int, default=3)
+    ap.add_argument("--variants", default="", help="indices into the variants, e.g. 0,5 (default: all)")
     a = ap.parse_args()
     if a.sha:
         return sha(a.engines.split(","), a.sha)
-    variants = [{}, {"open_": True}, {"light": True}, {"gaussians": True}, {"n_grid": 32}]
-    with open(a.out, "w") as f:
+    if a.timing:
+        for engine in a.engines.split(","):
+            t = {True: [], False: []}
+            for _ in range(a.reps):
+                for fields in (True, False):
+                    t[fields].append(run(engine, a.timing, options={"contact_fields": fields})["s_per_frame"])
+            r = {"engine": engine, "timing_frames": a.timing, "fields_s_per_frame": t[True], "one_s_per_frame": t[False],
+                 "ratio_of_least": min(t[True]) / min(t[False])}
+            print(json.dumps(r), flush=True)
+            with open(a.out, "a") as f:
+                f.write(json.dumps(r) + "\n")
+        return None
+    variants = [{}, {"open_": True}, {"light": True}, {"gaussians": True}, {"n_grid": 32},
+                {"light": True, "gaussians": True, "n_grid": 32}]
+    if a.variants:
+        variants = [variants[int(i)] for i in a.variants.split(",")]
+    with open(a.out, "a" if a.variants else "w") as f:
         for engine in a.engines.split(","):
             for v in variants:
                 for fields in (True, False):

@@ -48,9 +48,10 @@ MIN_FRACTION = 1e-6
 TOUCH_FRACTION = 0.9
 #: The touch threshold of two soft bodies (:func:`soft_pair`): lower than a flowing body's, as two convex surfaces
 #: meet over few nodes whose cells they fill only in part (the stacked balls, ``docs/contact.md``: at 0.9 the top
-#: ball rests 0.40 dx inside the bottom one; at 0.55 the lattices within 0.01 dx of touching, and with surface
-#: Gaussians these 0.20 dx apart; 0.5 left the Gaussians 0.30 dx apart, 0.65 the light balls' lattices 0.17 dx deep).
-SOFT_TOUCH_FRACTION = 0.55
+#: ball rests 0.40 dx inside the bottom one; at 0.7 the lattices' surfaces 0.04-0.21 dx inside each other and the
+#: surface Gaussians 0.06-0.18 dx apart; 0.55 put the lattices within 0.03 dx of touching but left the Gaussians of
+#: the lightest balls 0.41 dx apart).
+SOFT_TOUCH_FRACTION = 0.7
 #: The Coulomb coefficient between two bodies that do not flow (soft on soft: rubber-like jelly on itself).
 SOLID_FRICTION = 0.5
 #: A node's mass gradient shorter than this (kg/m, relative to ``m / dx``) gives no normal: the fields move as one.
