@@ -57,8 +57,9 @@ def test_rigid_slab_put_in_the_ground_is_lifted_out(engine, depth):
     assert max(abs(v) for v in low) < GAP_TOL, f"{engine}: put {depth} dx in, its bottom at {np.round(low, 3)} dx"
 
 
-@pytest.mark.parametrize("engine", ENGINES)
-def test_rigid_slab_rests_on_three_hanging_points(engine):
+def _slab_on_three_points():
+    """The wide hardwood slab (12 x 12 x 2 cells of fill) on three single points hanging 0.5 dx under its bottom,
+    just over the ground (the rendered rows: the body's own surface), and their height."""
     from gasp_core.testing.helpers import box_points, make_setup
     from gasp_core.seam.setup import Boundary, Material
     side = (12 * sp.DX, 12 * sp.DX, 2 * sp.DX)
@@ -75,6 +76,12 @@ def test_rigid_slab_rests_on_three_hanging_points(engine):
                    hi=np.full(3, sp.SIDE), n_grid=sp.N_GRID, frame_dt=1.0 / 30.0,
                    boundaries=[Boundary("ground", height=sp.GROUND, friction=0.5)])
     s.n_render = 3   # the hanging points are the body's own surface (no skin), the rest its fill
+    return s, hang[0, 2]
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_rigid_slab_rests_on_three_hanging_points(engine):
+    s, _ = _slab_on_three_points()
     xs, vz = run(engine, s, 30)
     low = np.array([x[:3, 2].min() - sp.GROUND for x in xs[1:]]) / sp.DX
     assert abs(low[-1]) < GAP_TOL, f"{engine}: its lowest points rest {low[-1]:+.3f} dx from the ground"
@@ -105,3 +112,39 @@ def test_settle_projection_reference():
     assert not shift.any() and np.allclose(V2, [0.2, 0.0, -0.5])
     shift, V3, _ = settle_projection(0.003, n, [0.01, 0.0, -0.05], c, [0.2, 0.0, 0.3], np.zeros(3), I, 2.0, 0.5, 0.001)
     assert np.allclose(shift, [0.0, 0.0, 0.002]) and np.allclose(V3, [0.2, 0.0, 0.3])
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_rigid_slab_does_not_rest_on_three_faint_points(engine):
+    """The same slab whose three hanging points only faint Gaussians move (``SimSetup.faint``: a capture's floaters,
+    as the wooden donut's three of opacity 0.002-0.004 hanging 9 mm under it, which tipped it 1.46 deg): it falls the
+    0.25 dx onto its face and rests flat there within 0.1 dx, the faint points under the ground. Taking them as
+    support (``faint`` left out: the test above) rests it on them, its face 0.25 dx up, and fails here."""
+    s, hang_z = _slab_on_three_points()
+    s.faint = np.r_[np.ones(3, bool), np.zeros(len(s.x) - 3, bool)]
+    h = float(np.cbrt(np.median(s.p_vol[3:])))
+    xs, _ = run(engine, s, 30)
+    face = np.array([(np.sort(x[3:, 2])[:len(x) // 20].mean() - 0.5 * h - sp.GROUND) for x in xs[1:]]) / sp.DX
+    assert abs(face[-1]) < GAP_TOL, f"{engine}: its face rests {face[-1]:+.3f} dx from the ground"
+    # they hang 0.5 dx under the bottom row of points, 0.25 dx under the face (the points' volumes' bottom)
+    assert xs[-1][:3, 2].max() < sp.GROUND - 0.15 * sp.DX, "the faint points must hang under the ground"
+    assert sp._turn_deg(xs[0][3:], xs[-1][3:]) < 0.1, f"{engine}: it tips onto its faint points"
+
+
+def test_the_wooden_donuts_floaters_are_faint_rows():
+    """``SimSetup.faint`` of ``examples/donut_wood.toml`` marks the rows of its Gaussians under ``min_opacity`` (0.1),
+    its three lowest among them (opacity 0.002-0.004, up to 9 mm under the bottom of the opaque ones, 1.4 cells),
+    and no row of an opaque Gaussian."""
+    from pathlib import Path
+    from scipy.special import expit
+    from gasp_core.prepare.scene import prepare_scene
+    from gasp_core.scene.spec import load_scene
+    prep = prepare_scene(load_scene(Path(__file__).resolve().parents[1] / "examples" / "donut_wood.toml"))
+    s, o = prep.setup, prep.objects[0]
+    opaque = expit(o.simulated_rows(o.gaussians.opacities).astype(np.float64)) >= o.spec.min_opacity
+    assert s.faint is not None and not s.faint[s.n_render:].any()
+    per = s.n_render // len(opaque)   # one point a Gaussian (its centre) or three (its triangle)
+    assert per in (1, 3) and np.array_equal(s.faint[:s.n_render], np.repeat(~opaque, per))
+    z = s.x[:s.n_render, 2]
+    assert s.faint[np.argsort(z)[:3]].all(), "the three lowest points are the floaters'"
+    assert (z[~s.faint[:s.n_render]].min() - z.min()) / s.dx > 1.0, "the floaters hang over a cell under the body"

@@ -165,11 +165,22 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> tuple[SimSetup, 
                  for o, fr, a in zip(objects, fills, assembled)])
     setup = SimSetup(
         **extras, x=x, v=v, p_vol=p_vol, body_id=body_id, C=C, passive=passive if passive.any() else None,
+        faint=np.concatenate([faint_rows(o) for o in objects] + [np.zeros(len(f.fill_x), bool) for f in fills]),
         materials=[o.spec.material for o in objects], gravity=np.array(scene.gravity),
         domain_lo=lo, domain_hi=hi, n_grid=n_grid, boundaries=list(scene.boundaries),
-        frame_dt=scene.frame_dt, n_render=sum(len(v) for v in vertices),
-        options=dict(scene.engine.options))
+        frame_dt=scene.frame_dt, n_render=sum(len(v) for v in vertices), options=dict(scene.engine.options))
     return setup, [o if o.spec.static else next(made) for o in scenery]
+
+
+def faint_rows(o: PreparedObject) -> np.ndarray:
+    """Which of the object's simulated points (:meth:`~gasp_core.maps.surface.SurfaceMap.points`) only faint
+    Gaussians move: each Gaussian rebuilt from them (``shape_rows``) has an activated opacity below the object's
+    ``min_opacity`` (a capture's floaters; :attr:`gasp_core.seam.setup.SimSetup.faint`). Shape (k,), bool."""
+    rows = o.surface.shape_rows()
+    opaque = expit(o.simulated_rows(o.gaussians.opacities).astype(np.float64)) >= o.spec.min_opacity
+    seen = np.zeros(len(o.surface.points()), bool)
+    seen[rows[opaque].ravel()] = True
+    return ~seen
 
 
 def fill_object(scene: Scene, o: PreparedObject, verts: np.ndarray, dx: float, others: int):

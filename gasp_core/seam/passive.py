@@ -158,7 +158,8 @@ def material_setup(setup: SimSetup) -> SimSetup:
     keep = setup.material_mask
     return setup.replace(x=setup.x[keep], v=setup.v[keep], p_vol=setup.p_vol[keep],
                          body_id=setup.body_id[keep], C=None if setup.C is None else setup.C[keep],
-                         n_render=int(keep[:setup.n_render].sum()), passive=None)
+                         n_render=int(keep[:setup.n_render].sum()), passive=None,
+                         faint=None if setup.faint is None else setup.faint[keep])
 
 
 def build_with_fallback(info, setup: SimSetup, build):

@@ -275,6 +275,8 @@ class SimSetup:
         then represent the whole solid. Engines with the feature ``passive_points`` move them
         themselves (grid engines: G2P only, no P2G); for the others the core embeds them in the
         material points' motion (:mod:`gasp_core.seam.passive`). None means no passive point.
+    faint : ndarray, shape (n,), bool, or None
+        Rendered rows moved by Gaussians under ``min_opacity`` only (floaters): no rigid body rests on them.
     colliders : list of gasp_core.colliders.model.Collider
         Rigid obstacles (signed distance fields, friction, prescribed motion); features
         ``static_colliders`` / ``moving_colliders``.
@@ -299,6 +301,7 @@ class SimSetup:
     options: dict[str, Any] = field(default_factory=dict)
     C: np.ndarray | None = None
     passive: np.ndarray | None = None
+    faint: np.ndarray | None = None
     colliders: list = field(default_factory=list)
     forces: list = field(default_factory=list)
     impulses: list = field(default_factory=list)
@@ -331,6 +334,11 @@ class SimSetup:
             self.passive = np.ascontiguousarray(np.broadcast_to(self.passive, (n,)), dtype=bool)
             if not self.passive.any():
                 self.passive = None
+        if self.faint is not None:
+            self.faint = np.ascontiguousarray(np.broadcast_to(self.faint, (n,)), dtype=bool)
+            if self.faint[self.n_render:].any():
+                raise SceneError("SimSetup.faint: only rendered rows [:n_render] may be faint")
+            self.faint = self.faint if self.faint.any() else None
         massless = np.zeros(n, bool) if self.passive is None else self.passive
         if np.any(self.p_vol[~massless] <= 0) or not np.all(np.isfinite(self.p_vol)):
             raise SceneError("SimSetup.p_vol: volumes must be positive and finite (0 only on passive rows)")

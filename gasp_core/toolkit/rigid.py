@@ -96,11 +96,21 @@ def face_counts(setup) -> np.ndarray:
     ``N`` = 487 rested on about 2,000, at ``Omega dt`` about 2: it chattered 5 mm a frame)."""
     out = np.ones(len(setup.materials))
     body, vol = np.asarray(setup.body_id), np.asarray(setup.p_vol, np.float64)
+    touching = touch_rows(setup)
     for b in np.flatnonzero(rigid_mask(setup.materials)):
         sel = (body == b) & (vol > 0.0)
         if sel.any():
-            out[b] = max(face_points(np.asarray(setup.x)[sel], float(np.median(np.cbrt(vol[sel])))), 1)
+            out[b] = max(face_points(np.asarray(setup.x)[sel & touching], float(np.median(np.cbrt(vol[sel])))), 1)
     return out
+
+
+def touch_rows(setup) -> np.ndarray:
+    """The rows a rigid body may rest on: all but the rendered rows that only faint Gaussians move
+    (:attr:`gasp_core.seam.setup.SimSetup.faint`, a capture's floaters; issue 53: three of the wooden donut's, of
+    opacity 0.002-0.004 hanging 9 mm under its bottom, tipped it 1.46 deg, where the hull of its Gaussians of
+    opacity 0.1 or more is 0.13 deg off flat under its mass centre). Shape (n,), bool."""
+    faint = getattr(setup, "faint", None)
+    return np.ones(len(setup.x), bool) if faint is None else ~np.asarray(faint, bool)
 
 
 def support_scale(n_face, n_touch):
@@ -127,11 +137,13 @@ def rigid_contact(setup, dt: float, coeffs: np.ndarray) -> np.ndarray:
     once the body settles, the restitution's law while it bounces: ``gasp_core.toolkit.restitution``), the skin
     unchanged for its fill points and 0 for the scene's own Gaussians that carry mass (the first ``n_render``
     points): they are its surface, so it rests on them, not half a point spacing above them (issue 53: a 10 cm ball
-    of surface Gaussians rested with its lowest ones 2.6 mm, 0.105 dx, over the ground at n_grid 24, 2.3 mm at 40);
-    ``M`` the body's mass (kg) and ``N`` the points of its largest flat face (:func:`face_points`, within one point
-    spacing), so the body on that face oscillates at ``Omega = RIGID_OMEGA_DT / dt``, stable
-    and resolved at the step ``dt`` (s) the engine takes. A rigid body's points move together, so the step is
-    bounded by the body's frequency, not by one node's (the elastic contact's ``contact_dt``).
+    of surface Gaussians rested with its lowest ones 2.6 mm, 0.105 dx, over the ground at n_grid 24, 2.3 mm at 40),
+    and no contact (``k_p = c_p = 0``) on the rows only faint Gaussians move (:func:`touch_rows`: a floater holds no
+    rigid body up; ``N`` counts none of them); ``M`` the body's mass (kg) and ``N`` the points of its largest flat
+    face (:func:`face_points`, within one point spacing), so the body on that face oscillates at
+    ``Omega = RIGID_OMEGA_DT / dt``, stable and resolved at the step ``dt`` (s) the engine takes. A rigid body's
+    points move together, so the step is bounded by the body's frequency, not by one node's (the elastic contact's
+    ``contact_dt``).
 
     Parameters
     ----------
@@ -149,17 +161,19 @@ def rigid_contact(setup, dt: float, coeffs: np.ndarray) -> np.ndarray:
     body = np.asarray(setup.body_id)
     m, vol = np.asarray(setup.p_mass, np.float64), np.asarray(setup.p_vol, np.float64)
     surface = np.arange(len(vol)) < int(getattr(setup, "n_render", 0) or 0)   # the scene's own Gaussians
+    touching = touch_rows(setup)
     for b in np.flatnonzero(rigid_mask(setup.materials)):
         sel = (body == b) & (vol > 0.0)
         if not sel.any():
             continue
         h = float(np.median(np.cbrt(vol[sel])))
         M = float(m[sel].sum())
-        n_face = max(face_points(np.asarray(setup.x)[sel], h), 1)
+        n_face = max(face_points(np.asarray(setup.x)[sel & touching], h), 1)
         k = (RIGID_OMEGA_DT / dt) ** 2 * M / n_face
         rows = body == b
-        out[rows, 0] = np.where(vol[rows] > 0.0, k, 0.0)
-        out[rows, 1] = np.where(vol[rows] > 0.0, 2.0 * RIGID_DAMPING * np.sqrt(k * m[rows]), 0.0)
+        holds = (vol[rows] > 0.0) & touching[rows]   # a floater holds no rigid body up (touch_rows)
+        out[rows, 0] = np.where(holds, k, 0.0)
+        out[rows, 1] = np.where(holds, 2.0 * RIGID_DAMPING * np.sqrt(k * m[rows]), 0.0)
         out[sel & surface, 2] = 0.0
         if not (sel & surface).any():   # a fill alone: its surface half a spacing out, wherever it was put
             out[sel, 2] = SKIN * np.cbrt(vol[sel])
@@ -251,7 +265,7 @@ def lift_setup(setup):
     body, vol = np.asarray(setup.body_id), np.asarray(setup.p_vol, np.float64)
     moved = False
     for b in np.flatnonzero(rigid):
-        sel = (body == b) & (vol > 0.0)
+        sel = (body == b) & (vol > 0.0) & touch_rows(setup)
         if not sel.any():
             continue
         for n, row in zip(normals, rows):

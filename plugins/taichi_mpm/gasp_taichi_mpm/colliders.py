@@ -3,6 +3,7 @@ signed-distance colliders on a grid node's velocity, as Taichi functions.
 
 Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields and flags (``real``, ``atomic``, ...) it reads.
 """
+import numpy as np
 import taichi as ti
 
 from gasp_core.toolkit.grid_tables import (CM_FRICTION, CM_H, CM_NX, CM_NY, CM_NZ, CM_OFFSET, CM_ORIGIN, COL_META,
@@ -79,6 +80,33 @@ class Colliders:
                 om = ti.Vector([self.ex_tab[p0 + PO_W], self.ex_tab[p0 + PO_W + 1], self.ex_tab[p0 + PO_W + 2]])
                 vc = vl + om.cross(X - T)
         return phi, n, vc
+
+    def allocate_hold(self, hold) -> None:
+        """``hold``: per body, True where its points take the colliders' hold (:meth:`hold_point`: the bodies of the
+        grid contact in a scene with colliders), or None: no hold (``self.hold_cols`` False)."""
+        self.hold_cols = hold is not None and bool(np.any(hold))
+        self.holds = ti.field(ti.i32, shape=max(4, len(hold) if self.hold_cols else 1))
+        for b, h in enumerate(hold if self.hold_cols else []):
+            self.holds[b] = int(h)
+
+    @ti.func
+    def hold_point(self, p):
+        """The colliders' position-level hold on point ``p`` after its G2P (warp_mpm's ``collider_hold``,
+        docs/colliders.md "The hold"): inside a collider (``phi < 0``) it is put back on the surface along
+        the outward normal, its approach relative to the collider removed and its slip reduced by Coulomb's
+        friction of it (:meth:`collide`). The grid rule alone, at the nodes a cell apart, let sand slip
+        through a thin wall; a point held each substep gets no deeper than one substep's travel, so it leaves
+        a thin wall on the side it entered."""
+        base = self.ex_step[None] * self.ex_width
+        xp = self.x[p]
+        vp = self.v[p]
+        for c in range(self.n_col):
+            phi, n, vc = self.collider_at(xp, c, base, 0.0)
+            if phi < 0.0:
+                xp -= phi * n
+                vp = vc + self.collide(vp - vc, n, self.ex_meta[c * COL_META + CM_FRICTION])
+        self.x[p] = xp
+        self.v[p] = vp
 
     @ti.func
     def apply_colliders(self, X, v, base, f):

@@ -177,6 +177,7 @@ class TaichiMPMEngine(GridEngineBase):
             n_colc=len(setup.colliders) if contact in ("particle", "mixed") else 0,
             planes=contact_planes(view, contact),
             mixed=mixed, fields=(field_bodies(view), field_friction(view), touch_fraction(view)),
+            hold=flowing_bodies(view, contact) if setup.colliders else None,   # the colliders' hold (colliders.py)
             passive_bounds=passive_bounds(setup, contact), rigid_frames=None if frames is None else (rigid, *frames),
             contact_reach=contact_reach(setup),
             body_mass=np.bincount(setup.body_id, weights=setup.p_mass, minlength=len(setup.materials)),

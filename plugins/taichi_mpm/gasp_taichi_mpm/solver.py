@@ -104,12 +104,16 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         ``(rigid, centre, X0, inertia0, mass)``: which bodies are rigid and their rest frames
         (``gasp_core.toolkit.rigid.body_frames``, ``X0`` in solver order); the rigid bodies' points are projected
         onto a rigid motion after every G2P (:mod:`gasp_taichi_mpm.rigid`). Default none.
+    hold : ndarray, shape (n_bodies,), bool, optional
+        Which bodies' points take the colliders' hold after G2P (:meth:`~gasp_taichi_mpm.colliders.Colliders.hold_point`:
+        the grid contact's bodies in a scene with colliders). Default none.
     """
 
     def __init__(self, *, x, v, C0, p_mass, p_vol, body, fixed, jp0, params, kinds, n_grid, lo, dx, dt,
                  gravity, walls, grounds, regions, real, n_chunks, atomic, extras=None, time_table=None, n_substeps=1,
                  n_material=None, passive_every=1, flip=0.0, coloured=False, p_contact=None, passive_bounds=None,
-                 rigid_frames=None, contact_reach=None, body_mass=None, n_colc=0, planes=None, mixed=None, fields=None):
+                 rigid_frames=None, contact_reach=None, body_mass=None, n_colc=0, planes=None, mixed=None, fields=None,
+                 hold=None):
         n = len(x)
         self.n = n
         self.n_material = n if n_material is None else int(n_material)
@@ -151,6 +155,7 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         self.col_deep = collider_grid_depth("particle" if self.n_colc else "grid", dx)   # colliders' grid rule
         self.allocate_mixed(mixed, dx)   # the contact chosen per body (contact.py); two fields (in_a, mu):
         self.allocate_fields(*(fields or (None, 0.0, 0.0)))
+        self.allocate_hold(hold)   # the colliders' hold on the grid contact's points (colliders.py)
         self._passive_every, self._np_real = int(passive_every), np_real
         self._passive_plan: tuple[int, list] = (0, [])   # (n_substeps, per-substep weight pair or None)
         self.lo[None] = [float(a) for a in lo]

@@ -151,6 +151,9 @@ class Transfers:
             self.v[p] = v_p
             self.C[p] = new_C
             self.x[p] += self.dt[None] * new_v
+            if ti.static(self.hold_cols):   # the colliders' hold on the grid contact's points (colliders.py)
+                if self.holds[self.body[p]] != 0:
+                    self.hold_point(p)
 
     # ------------------------------------------------------------------ kernels
     @ti.kernel

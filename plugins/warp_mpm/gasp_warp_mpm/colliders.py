@@ -13,7 +13,7 @@ from gasp_core.toolkit.grid_tables import (CM_FRICTION, CM_H, CM_NX, CM_NY, CM_N
                                            COL_POSE, FT_POSES, PO_R, PO_T, PO_V, PO_W)
 
 from .forces import build_extras_struct
-from .precision import build_types
+from .precision import MODULE_OPTIONS, build_types
 
 
 @functools.cache
@@ -167,3 +167,37 @@ def build_collider_func(Ft):
         return v
 
     return apply_colliders
+
+
+@functools.cache
+def build_collider_hold(Ft):
+    """``collider_hold``: the colliders' position-level hold on the points of the bodies that take the grid contact,
+    scalar type ``Ft`` (docs/colliders.md "The hold"; taichi_mpm's ``Colliders.collider_hold``): after G2P, a
+    point inside a collider (``phi < 0``) is put back on its surface along the outward normal, its approach
+    relative to the collider removed and its slip reduced by Coulomb's friction of that approach (``collide``).
+    The grid rule alone acts at the nodes, a cell apart, and let sand slip through a thin wall (the kitchen's
+    spinach through the pan's, docs/colliders.md); a point held each substep cannot get deeper than one substep's
+    travel, so it leaves a thin wall on the side it entered."""
+    vec3, vec4, mat33 = build_types(Ft)
+    Extras = build_extras_struct(Ft)
+    collider_at = build_collider_at(Ft)
+    collide = build_collide(Ft)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def collider_hold(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32),
+                      flows: wp.array(dtype=wp.int32), ex: Extras):
+        p = wp.tid()
+        if flows[body[p]] == 0:
+            return
+        base = ex.step[0] * ex.width
+        xp = x[p]
+        vp = v[p]
+        for cc in range(ex.n_col):
+            phi, n, vc = collider_at(xp, cc, base, ex, Ft(0.0))
+            if phi < Ft(0.0):
+                xp = xp - phi * n
+                vp = vc + collide(vp - vc, n, ex.meta[cc * COL_META + CM_FRICTION])
+        x[p] = xp
+        v[p] = vp
+
+    return collider_hold
