@@ -68,6 +68,9 @@ FEATURES = {
                       "after the last frame (the plasticine material's Jp, the variable its softening acts on, "
                       "docs/mpm.md; 0 for points of other materials); it never decreases. The sleep watch keeps a "
                       "body whose plastic strain still grows awake (gasp_core.seam.sleep, FLOW_TOL)",
+    "body_friction": "bodies slide on each other by Coulomb's law where they touch, whatever their routes: a flowing "
+                     "body (sand, snow, liquid) against the others with its friction angle's tan as the coefficient "
+                     "(docs/contact.md; the two velocity fields of Bardenhagen et al. 2000)",
     "rigid_limit": "Material.model = 'rigid': the body moves as one rigid body (momentum and angular momentum of "
                    "its points kept), its stress is zero and its stiffness sets no step (docs/rigid.md)",
 }

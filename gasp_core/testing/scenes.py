@@ -24,10 +24,11 @@ from gasp_core.testing.scenes_mass import SCENES_MASS
 from gasp_core.testing.scenes_materials import SCENES_MATERIALS
 from gasp_core.testing.scenes_granular import SCENES_GRANULAR
 from gasp_core.testing.scenes_pairs import SCENES_PAIRS
+from gasp_core.testing.scenes_flow_pairs import SCENES_FLOW_PAIRS
 from gasp_core.testing.scenes_fracture import SCENES_FRACTURE
 
 #: All scenes: physics with known answers first, then the error contract.
-SCENES: list[Scene] = [*SCENES_FREEFALL, *SCENES_BASIC, *SCENES_MATERIALS, *SCENES_GRANULAR, *SCENES_COLLIDERS, *SCENES_REST, *SCENES_CONTACT, *SCENES_PAIRS, *SCENES_SUPPORT, *SCENES_WALLS, *SCENES_ANALYTIC, *SCENES_DAMPING, *SCENES_PASSIVE, *SCENES_WIND, *SCENES_MASS,
+SCENES: list[Scene] = [*SCENES_FREEFALL, *SCENES_BASIC, *SCENES_MATERIALS, *SCENES_GRANULAR, *SCENES_COLLIDERS, *SCENES_REST, *SCENES_CONTACT, *SCENES_PAIRS, *SCENES_FLOW_PAIRS, *SCENES_SUPPORT, *SCENES_WALLS, *SCENES_ANALYTIC, *SCENES_DAMPING, *SCENES_PASSIVE, *SCENES_WIND, *SCENES_MASS,
                      *SCENES_SLEEP, *SCENES_FRACTURE]
 SCENES += contract_scenes(lambda: {s.name for s in SCENES})
 

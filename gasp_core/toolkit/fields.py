@@ -105,6 +105,11 @@ def touch_fraction(setup) -> float:
     return SOFT_TOUCH_FRACTION if soft_pair(setup) else TOUCH_FRACTION
 
 
+def field_setup(setup) -> tuple:
+    """``(field_bodies, field_friction, touch_fraction)`` of a setup: what an engine allocates the contact from."""
+    return field_bodies(setup), field_friction(setup), touch_fraction(setup)
+
+
 def field_offsets(m: np.ndarray, m_a: np.ndarray, p: np.ndarray, p_a: np.ndarray, n: np.ndarray, mu: float):
     """The NumPy reference of a node's correction (the module's equations), vectorised over nodes.
 

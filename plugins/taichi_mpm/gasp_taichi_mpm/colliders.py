@@ -97,16 +97,17 @@ class Colliders:
         friction of it (:meth:`collide`). The grid rule alone, at the nodes a cell apart, let sand slip
         through a thin wall; a point held each substep gets no deeper than one substep's travel, so it leaves
         a thin wall on the side it entered."""
-        base = self.ex_step[None] * self.ex_width
-        xp = self.x[p]
-        vp = self.v[p]
-        for c in range(self.n_col):
-            phi, n, vc = self.collider_at(xp, c, base, 0.0)
-            if phi < 0.0:
-                xp -= phi * n
-                vp = vc + self.collide(vp - vc, n, self.ex_meta[c * COL_META + CM_FRICTION])
-        self.x[p] = xp
-        self.v[p] = vp
+        if self.holds[self.body[p]] != 0:   # a body of the grid contact
+            base = self.ex_step[None] * self.ex_width
+            xp = self.x[p]
+            vp = self.v[p]
+            for c in range(self.n_col):
+                phi, n, vc = self.collider_at(xp, c, base, 0.0)
+                if phi < 0.0:
+                    xp -= phi * n
+                    vp = vc + self.collide(vp - vc, n, self.ex_meta[c * COL_META + CM_FRICTION])
+            self.x[p] = xp
+            self.v[p] = vp
 
     @ti.func
     def apply_colliders(self, X, v, base, f):

@@ -105,8 +105,7 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         (``gasp_core.toolkit.rigid.body_frames``, ``X0`` in solver order); the rigid bodies' points are projected
         onto a rigid motion after every G2P (:mod:`gasp_taichi_mpm.rigid`). Default none.
     hold : ndarray, shape (n_bodies,), bool, optional
-        Which bodies' points take the colliders' hold after G2P (:meth:`~gasp_taichi_mpm.colliders.Colliders.hold_point`:
-        the grid contact's bodies in a scene with colliders). Default none.
+        The bodies held out of the colliders after G2P (:meth:`~gasp_taichi_mpm.colliders.Colliders.allocate_hold`).
     """
 
     def __init__(self, *, x, v, C0, p_mass, p_vol, body, fixed, jp0, params, kinds, n_grid, lo, dx, dt,
@@ -205,19 +204,15 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         self.plane_chunks = ti.Vector.field(2, ti.i32, shape=ng)  # first and last chunk whose box reaches I_x
         self.n_out = ti.field(ti.i32, shape=())  # out-of-grid point-substeps since last reset
         self.n_points = ti.field(ti.i32, shape=())
-        self.chunk_lo = ti.field(ti.i32, shape=self.n_chunks)
-        self.chunk_hi = ti.field(ti.i32, shape=self.n_chunks)
+        self.chunk_lo, self.chunk_hi = ti.field(ti.i32, shape=self.n_chunks), ti.field(ti.i32, shape=self.n_chunks)
         self.n_total = ti.field(ti.i32, shape=())
-        self.pchunk_lo = ti.field(ti.i32, shape=self.n_chunks)   # passive points of each chunk
-        self.pchunk_hi = ti.field(ti.i32, shape=self.n_chunks)
+        self.pchunk_lo, self.pchunk_hi = (ti.field(ti.i32, shape=self.n_chunks) for _ in "lh")   # passive points
         self.pbox = ti.Vector.field(3, ti.i32, shape=(self.n_chunks, 2))  # passive points' node box
         # substep (s), node spacing (m), 1 / dx (1/m)
         self.dt, self.dx, self.inv_dx = (ti.field(real, shape=()) for _ in range(3))
-        # substeps of the passive points' full interval [0] and last interval [1]
-        # (gasp_core.toolkit.substeps.passive_schedule)
+        # substeps of the passive points' full interval [0] and last [1] (toolkit.substeps.passive_schedule)
         self.passive_substeps = ti.field(ti.i32, shape=2)
-        self.lo = ti.Vector.field(3, real, shape=())
-        self.gravity = ti.Vector.field(3, real, shape=())
+        self.lo, self.gravity = ti.Vector.field(3, real, shape=()), ti.Vector.field(3, real, shape=())
         # the box the boundaries keep passive points in (m; gasp_core.toolkit.points.passive_bounds)
         self.hold_lo, self.hold_hi = ti.Vector.field(3, real, shape=()), ti.Vector.field(3, real, shape=())
         if self.coloured:   # the block sort (transfers.sort_blocks): keys, sorted order, counts per (chunk, key)

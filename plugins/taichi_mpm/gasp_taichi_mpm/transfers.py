@@ -151,9 +151,7 @@ class Transfers:
             self.v[p] = v_p
             self.C[p] = new_C
             self.x[p] += self.dt[None] * new_v
-            if ti.static(self.hold_cols):   # the colliders' hold on the grid contact's points (colliders.py)
-                if self.holds[self.body[p]] != 0:
-                    self.hold_point(p)
+            if ti.static(self.hold_cols): self.hold_point(p)  # noqa: E701 (the colliders' hold, colliders.py)
 
     # ------------------------------------------------------------------ kernels
     @ti.kernel
@@ -178,8 +176,7 @@ class Transfers:
                 bmin = ti.Vector([self.n_grid, self.n_grid, self.n_grid])
                 bmax = ti.Vector([-1, -1, -1])
                 if ti.static(self.has_passive):   # nodes the passive points will read
-                    bmin = self.pbox[t, 0]
-                    bmax = self.pbox[t, 1]
+                    bmin, bmax = self.pbox[t, 0], self.pbox[t, 1]
                 for p in range(self.chunk_lo[t], self.chunk_hi[t]):
                     if self.asleep[self.body[p]] == 0:
                         if with_g2p:

@@ -23,7 +23,7 @@ __all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "WarpMPMConfig", "gasp_engines",
 ENGINE = "warp_mpm"
 
 #: The MLS-MPM record of the grid-engine base (``gasp_core.toolkit.grid_engine``), with the rigid limit (issue 40).
-CAPABILITIES = dataclasses.replace(MPM_CAPABILITIES, features=MPM_CAPABILITIES.features | {"rigid_limit", "sleep"})
+CAPABILITIES = dataclasses.replace(MPM_CAPABILITIES, features=MPM_CAPABILITIES.features | {"rigid_limit", "sleep", "body_friction"})
 
 @dataclass(frozen=True)
 class WarpMPMConfig(MPMConfigCudaIndex):

@@ -201,3 +201,12 @@ def build_collider_hold(Ft):
         v[p] = vp
 
     return collider_hold
+
+
+def hold_launches(eng, Ft, has_extras: int, ex) -> list:
+    """The recorded launch of the colliders' hold on the grid contact's points after G2P (:func:`build_collider_hold`)
+    for the engine ``eng``, where its scene has colliders and a body that takes the grid contact; else none."""
+    if not (has_extras and eng.setup.colliders and eng.flows.numpy().any()):
+        return []
+    return [wp.launch(build_collider_hold(Ft), dim=eng.n_material, device=eng.device, record_cmd=True,
+                      inputs=[eng.x, eng.v, eng.body, eng.flows, ex])]

@@ -45,7 +45,7 @@ from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, 
 from . import ENGINE, WarpMPMConfig
 from . import kernels as K
 from .balance import allocate_balance, balance_launches
-from .colliders import build_collider_hold
+from .colliders import hold_launches
 from .fields import allocate_fields, field_launches
 from .rigid import RigidBodies
 from .sleeping import Sleeping
@@ -97,8 +97,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
         self.dx = setup.dx
         self.inv_dx = 1.0 / self.dx
         self.n_substeps, self.dt = steps   # chosen once: a step shortened for the contact warns once
-        self.frame = 0
-        self.sim_time = 0.0
+        self.frame, self.sim_time = 0, 0.0
         # Sort points by grid cell (cache locality of scatter and gather); order[i] is the
         # setup index of internal point i.
         # Material points first, then the passive ones (SimSetup.passive: G2P only, no P2G).
@@ -221,14 +220,6 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
         """The particle contact's coefficients, setup order; a rigid body's follow the step (``rigid_contact``)."""
         return rigid_contact(self.setup, self.dt, contact_coefficients(step_view(self.setup)))
 
-    def _hold_launches(self, Ft, has_extras: int, ex) -> list:
-        """The colliders' hold on the grid contact's points after G2P (``colliders.build_collider_hold``), where the
-        scene has colliders and a body that takes the grid contact."""
-        if not (has_extras and self.setup.colliders and self.flows.numpy().any()):
-            return []
-        return [wp.launch(build_collider_hold(Ft), dim=self.n_material, device=self.device, record_cmd=True,
-                          inputs=[self.x, self.v, self.body, self.flows, ex])]
-
     def _record_launches(self, Ft, has_extras: int, ex) -> None:
         """Pre-recorded launches of a substep (P2G, grid update, G2P), of the passive points' G2P, of the
         time-table tick and of the frame's finite check."""
@@ -252,7 +243,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
             wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
                 self.x, self.v, self.C, self.fixed, self.grid_v, lo_v, inv_dx, dt_f, ng, self.grid_v0, Ft(self.flip),
                 self.grid_dv, self.body, self.in_a]),
-        ] + self._hold_launches(Ft, has_extras, ex) + self._rigid_launches(Ft)
+        ] + hold_launches(self, Ft, has_extras, ex) + self._rigid_launches(Ft)
         # the contact's balance (gasp_warp_mpm.balance): its moments before P2G, its fix after the grid update
         self._pre, fix = balance_launches(self, k, lo_v, dx, dt_f, ex)
         if fix is not None:
