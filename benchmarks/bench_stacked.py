@@ -6,7 +6,8 @@ tube of frictionless walls 0.25 dx clear of their sides). Variants: ``open`` (no
 the grid's symmetry: the scene before), ``light`` (the jelly of ``jittered_ball_rest``, E 2e4 Pa, rho 300),
 ``gaussians`` (``N_SURFACE`` = 602 points on each ball's sphere, each a 1 mm sheet of its share of the surface: the
 issue's surface Gaussians, 7.2 mm apart), ``n_grid`` 32, and the three together (the issue's balls: dx 18.75 mm,
-the Gaussians 7.2 mm apart); each with the two fields (the default) and with one field
+the Gaussians 7.2 mm apart), and ``set_down`` (the top ball let go touching, no drop) alone and with the issue's
+balls; each with the two fields (the default) and with one field
 (``contact_fields = false``, the rule before).
 
 Figures per run: the lattices' gap (the conformance check's: nearest points less half of each one's spacing; dx)
@@ -58,9 +59,11 @@ def fibonacci_sphere(n: int) -> np.ndarray:
 
 
 def stack_setup(S, info, *, open_: bool = False, light: bool = False, gaussians: bool = False, n_grid: int = 0,
-                options: dict | None = None):
+                set_down: bool = False, options: dict | None = None):
     """The ``stacked_gap`` setup with the variants of the module's docstring (``S``: the scenes_pairs module)."""
     from gasp_core.seam.setup import Material
+    if set_down:
+        S.STACK_DROP = 0.0
     if n_grid:
         S.N_GRID, S.DX = n_grid, S.SIDE / n_grid
         S.STACK_GROUND = 4 * S.DX
@@ -187,7 +190,8 @@ def main() -> None:
                 f.write(json.dumps(r) + "\n")
         return None
     variants = [{}, {"open_": True}, {"light": True}, {"gaussians": True}, {"n_grid": 32},
-                {"light": True, "gaussians": True, "n_grid": 32}]
+                {"light": True, "gaussians": True, "n_grid": 32},
+                {"set_down": True}, {"set_down": True, "light": True, "gaussians": True, "n_grid": 32}]
     if a.variants:
         variants = [variants[int(i)] for i in a.variants.split(",")]
     with open(a.out, "a" if a.variants else "w") as f:
