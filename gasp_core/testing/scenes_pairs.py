@@ -31,7 +31,7 @@
   less half of each one's spacing: the lattices' surfaces), averaged over the last ``STACK_AVG_T`` s of ``STACK_T``
   s, is within ``STACK_GAP_TOL`` = 0.25 dx of 0, above or below (issue 53 item 5's limit; a shared grid node couples
   two bodies about a cell apart, so a single-velocity MPM grid holds them ~0.84 dx apart; the MLS-MPM engines' two
-  velocity fields for two soft bodies, ``gasp_core.toolkit.fields.soft_pair``, bring them to +0.04 dx).
+  velocity fields for two soft bodies, ``gasp_core.toolkit.fields.soft_pair``, rest them -0.13 to -0.15 dx).
 
 The restitution ball is the one of ``tests/test_restitution.py`` (a lattice of two points a cell side in a 0.6 m box at
 n_grid 24: 268 points).
