@@ -1,9 +1,8 @@
 """The contact-pair conformance scenes' checks (``gasp_core/testing/scenes_pairs.py``, issue 53 item 6) against
 traces whose answer is known by construction: the engines are run by ``conformance_tests/``, and the broken engines
 that the restitution and rest checks catch are in ``conformance_tests/test_checks_catch_broken.py``. The stacked
-balls' check has no passing grid engine to wrap (the MLS-MPM engines declare it with their figure), so it is shown
-here on the scene's own balls put at known gaps: it passes them touching and fails them a fifth of a cell too far
-apart or too deep.
+balls' check is shown here on the scene's own balls put at known gaps: it passes them touching and fails them a fifth
+of a cell too far apart or too deep; on the MLS-MPM engines with their contact broken in ``tests/test_stacked_balls.py``.
 """
 import numpy as np
 import pytest

@@ -10,7 +10,11 @@ from the mass gradients and the two velocities are corrected by Coulomb's law (B
 partitioning for fracture and frictional contact in the material point method", IJNME 109, 1013-1044): they do not
 approach along the normal and slide with friction ``mu``. G2P then reads each point's own field. The whole grid's
 velocity (mass-weighted mean of the two) is updated as before, with gravity and the boundaries; each field's
-velocity is that mean plus its own offset, so a scene whose fields never share a node runs as before.
+velocity is that mean plus its own offset, so a scene whose fields never share a node runs as before. Two soft bodies
+(:func:`soft_pair`: a scene of two bodies on the particle contact, neither rigid nor flowing) take the same contact,
+body 1 as field A against body 0, with friction :data:`SOLID_FRICTION` and the touch threshold
+:data:`SOFT_TOUCH_FRACTION`, so they meet at their surfaces (issue 53 item 5, ``docs/contact.md`` "Two jelly balls
+stacked").
 
 Per node, with ``m = m_A + m_B`` and the velocities ``v_A = p_A / m_A``, ``v_B = p_B / m_B`` after P2G:
 
@@ -35,13 +39,19 @@ from gasp_core.toolkit.contact import contact_model, flowing_bodies
 #: Engine option ``contact_fields`` of the MPM engines.
 FIELDS = Option("contact_fields", True, "in a scene with flowing (sand, snow, liquid) and other bodies, the flowing "
                 "bodies take a grid velocity field of their own, in Coulomb contact with the others' (docs/contact.md, "
-                "issue 53): sand slides on a ball instead of sticking to it; false: one field, no-slip where they "
-                "share nodes", kind="bool")
+                "issue 53): sand slides on a ball instead of sticking to it; so do two soft bodies, a field each: "
+                "they meet at their surfaces; false: one field, no-slip where they share nodes", kind="bool")
 #: A node is shared when each field holds at least this fraction of its mass (below it the fields move as one).
 MIN_FRACTION = 1e-6
 #: The two fields touch at a node when their volumes there (``sum_p w_ip V_p`` per field) fill this fraction of a
 #: cell (``dx^3``): where the bodies merely share a node's stencil across a gap, each keeps its own velocity.
 TOUCH_FRACTION = 0.9
+#: The touch threshold of two soft bodies (:func:`soft_pair`): lower than a flowing body's, as two convex surfaces
+#: meet over few nodes whose cells they fill only in part (the stacked balls, ``docs/contact.md``: at 0.9 the top
+#: ball rests 0.40 dx inside the bottom one; at 0.7 the lattices' surfaces 0.04-0.21 dx inside each other and the
+#: surface Gaussians 0.06-0.18 dx apart; 0.55 put the lattices within 0.03 dx of touching but left the Gaussians of
+#: the lightest balls 0.41 dx apart).
+SOFT_TOUCH_FRACTION = 0.7
 #: The Coulomb coefficient between two bodies that do not flow (soft on soft: rubber-like jelly on itself).
 SOLID_FRICTION = 0.5
 #: A node's mass gradient shorter than this (kg/m, relative to ``m / dx``) gives no normal: the fields move as one.
@@ -51,12 +61,25 @@ MIN_GRADIENT = 1e-6
 def field_bodies(setup) -> np.ndarray | None:
     """Which bodies make field A (shape (n_materials,), bool), or None where the scene runs one field. With the
     option ``contact_fields`` true (the default): in a ``"mixed"`` scene the flowing bodies (A) against the others
-    (B). Any other scene runs one field (two soft bodies on two fields, body 0 against body 1, were tried:
-    ``docs/contact.md``, not adopted)."""
+    (B); two soft bodies (:func:`soft_pair`) body 1 (A) against body 0 (B). Any other scene runs one field (three or
+    more soft bodies among them: a field per body is not built)."""
     if not setup.options.get("contact_fields", True):
         return None
     c = contact_model(setup)
-    return flowing_bodies(setup, c) if c == "mixed" else None
+    if c == "mixed":
+        return flowing_bodies(setup, c)
+    if c == "particle" and soft_pair(setup):
+        return np.array([False, True])
+    return None
+
+
+def soft_pair(setup) -> bool:
+    """Whether a scene is two soft bodies on the particle contact (two materials, neither flowing nor rigid): they
+    take a field each, body 1 (A) against body 0 (B), so they meet at their surfaces (issue 53 item 5,
+    ``docs/contact.md`` "Two jelly balls stacked"). Three or more soft bodies keep one field (no multi-field contact yet)."""
+    from gasp_core.toolkit.rigid import rigid_mask
+    return (len(setup.materials) == 2 and contact_model(setup) == "particle"
+            and not np.asarray(rigid_mask(setup.materials)).any())
 
 
 def uses_fields(setup) -> bool:
@@ -68,12 +91,23 @@ def field_friction(setup) -> float:
     """The Coulomb coefficient between the two fields, dimensionless. Flowing bodies: ``tan(phi)`` of their largest
     friction angle (sand: its ``friction_angle``, degrees; the angle of the sand's internal friction taken as its
     friction on the other body's surface); 0 where no flowing body has one (liquid, snow: they slide freely). Two
-    bodies that do not flow (tried, not the default): :data:`SOLID_FRICTION`."""
+    soft bodies (:func:`soft_pair`): :data:`SOLID_FRICTION`."""
     if contact_model(setup) != "mixed":
         return SOLID_FRICTION
     flows = flowing_bodies(setup, "mixed")
     angles = [m.friction_angle for m, f in zip(setup.materials, flows) if f and m.name == "sand"]
     return math.tan(math.radians(max(angles))) if angles else 0.0
+
+
+def touch_fraction(setup) -> float:
+    """The touch threshold of the two fields (fraction of a cell's volume their volumes fill at a node):
+    :data:`SOFT_TOUCH_FRACTION` for two soft bodies (:func:`soft_pair`), else :data:`TOUCH_FRACTION`."""
+    return SOFT_TOUCH_FRACTION if soft_pair(setup) else TOUCH_FRACTION
+
+
+def field_setup(setup) -> tuple:
+    """``(field_bodies, field_friction, touch_fraction)`` of a setup: what an engine allocates the contact from."""
+    return field_bodies(setup), field_friction(setup), touch_fraction(setup)
 
 
 def field_offsets(m: np.ndarray, m_a: np.ndarray, p: np.ndarray, p_a: np.ndarray, n: np.ndarray, mu: float):

@@ -93,9 +93,6 @@ def sweep(quick: bool) -> tuple[list[dict], dict]:
 
 
 KNOWN_FAILURES = {
-    "stacked_gap": ("two stacked jelly balls (R 5 cm, flex lattices at n_grid 24) overlap -0.276 dx (mean of the last "
-                    "0.5 s of 1 s, -0.281 to -0.273): MuJoCo's soft contacts let the flexes interpenetrate under the top "
-                    "ball's weight (limit 0.25 dx; 241 s on this machine, a slow-tier scene here)"),
     "bounce": "EngineDivergence at frame 13 (t = 0.22 s): 6 lattice tetrahedra inverted on impact of "
               "the E = 2e5 Pa ball after a 0.14 m drop (dt 0.794 ms)",
     "bounce_hertz": "EngineDivergence at frame 49 (t = 0.20 s, the impact): 2 lattice tetrahedra inverted when the "

@@ -13,7 +13,7 @@ import numpy as np
 
 from gasp_core.toolkit.contact import (contact_coefficients, contact_model, contact_planes, contact_reach,
                                       flowing_bodies, rule_models)
-from gasp_core.toolkit.fields import field_bodies, field_friction
+from gasp_core.toolkit.fields import field_setup
 from gasp_core.toolkit.grid_engine import choose_dt, GridEngineBase
 from gasp_core.toolkit.materials import JELLY, initial_Jp, material_table
 from gasp_core.toolkit.rigid import (body_frames, face_counts, lift_setup, rigid_contact, rigid_mask, step_view,
@@ -176,7 +176,7 @@ class TaichiMPMEngine(GridEngineBase):
                        if contact in ("particle", "mixed") and (grounds or walls or setup.colliders) else None),
             n_colc=len(setup.colliders) if contact in ("particle", "mixed") else 0,
             planes=contact_planes(view, contact),
-            mixed=mixed, fields=(field_bodies(view), field_friction(view)), hold=flowing_bodies(view, contact) if setup.colliders else None,
+            mixed=mixed, fields=field_setup(view), hold=flowing_bodies(view, contact) if setup.colliders else None,
             passive_bounds=passive_bounds(setup, contact), rigid_frames=None if frames is None else (rigid, *frames),
             contact_reach=contact_reach(setup),
             body_mass=np.bincount(setup.body_id, weights=setup.p_mass, minlength=len(setup.materials)),

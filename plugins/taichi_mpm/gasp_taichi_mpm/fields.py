@@ -1,7 +1,7 @@
 """The two-field grid contact (``gasp_core.toolkit.fields``, ``docs/contact.md`` "Sand that slides on what it
-touches", issue 53 item 3) in Taichi, the steps of warp_mpm's ``fields.py``: field A's bodies (``in_a``: a mixed
-scene's flowing bodies) scatter their momentum and mass to ``grid_sv`` and each field's volume to ``grid_vf`` in P2G
-(:meth:`Fields.scatter_field`);
+touches", issue 53 items 3 and 5) in Taichi, the steps of warp_mpm's ``fields.py``: field A's bodies (``in_a``: a
+mixed scene's flowing bodies, or body 1 of two soft bodies) scatter their momentum and mass to ``grid_sv`` and each
+field's volume to ``grid_vf`` in P2G (:meth:`Fields.scatter_field`);
 :meth:`Fields.contact_fields`, after P2G and before the grid update, turns them and the whole grid's into each field's
 velocity offset ``grid_dv`` (A's in its first three channels, B's in the last three) and clears them; G2P reads a
 node's velocity through :meth:`Fields.node_v`, the grid velocity plus the point's field's offset.
@@ -11,18 +11,20 @@ reads.
 """
 import taichi as ti
 
-from gasp_core.toolkit.fields import MIN_FRACTION, MIN_GRADIENT, TOUCH_FRACTION
+from gasp_core.toolkit.fields import MIN_FRACTION, MIN_GRADIENT
 
 
 @ti.data_oriented
 class Fields:
     """The two-field contact's fields and kernels (none without it: ``self.fields`` False)."""
 
-    def allocate_fields(self, in_a, mu: float) -> None:
+    def allocate_fields(self, in_a, mu: float, touch: float) -> None:
         """``in_a``: per body, True in field A (``gasp_core.toolkit.fields.field_bodies``), or None: one field;
-        ``mu`` the Coulomb coefficient (``field_friction``). Before the first substep."""
+        ``mu`` the Coulomb coefficient (``field_friction``), ``touch`` the touch threshold (``touch_fraction``).
+        Before the first substep."""
         self.fields = in_a is not None
         self.field_mu = float(mu)
+        self.field_touch = float(touch)
         self.in_a = ti.field(ti.i32, shape=max(4, len(in_a) if self.fields else 1))
         for b, a in enumerate(in_a if self.fields else []):
             self.in_a[b] = int(a)
@@ -97,7 +99,7 @@ class Fields:
             inner = (I > 0).all() and (I < ng - 1).all()
             if inner and held == 0 and m_a > MIN_FRACTION * m and m_b > MIN_FRACTION * m:
                 vf = self.grid_vf[I]
-                touch = vf[0] + vf[1] >= TOUCH_FRACTION * cell
+                touch = vf[0] + vf[1] >= self.field_touch * cell
                 u = ti.Vector([sv[0], sv[1], sv[2]]) / m_a - ti.Vector([g[0] - sv[0], g[1] - sv[1], g[2] - sv[2]]) / m_b
                 ex, ey, ez = ti.Vector([1, 0, 0]), ti.Vector([0, 1, 0]), ti.Vector([0, 0, 1])
                 n = ti.Vector([self.mass_diff(I + ex) - self.mass_diff(I - ex),

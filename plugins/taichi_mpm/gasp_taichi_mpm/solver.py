@@ -153,7 +153,7 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         self.dt[None], self.dx[None], self.inv_dx[None] = np.array([dt, dx, 1.0 / dx], np_real)
         self.col_deep = collider_grid_depth("particle" if self.n_colc else "grid", dx)   # colliders' grid rule
         self.allocate_mixed(mixed, dx)   # the contact chosen per body (contact.py); two fields (in_a, mu):
-        self.allocate_fields(*(fields or (None, 0.0)))
+        self.allocate_fields(*(fields or (None, 0.0, 0.0)))
         self.allocate_hold(hold)   # the colliders' hold on the grid contact's points (colliders.py)
         self._passive_every, self._np_real = int(passive_every), np_real
         self._passive_plan: tuple[int, list] = (0, [])   # (n_substeps, per-substep weight pair or None)

@@ -1,7 +1,7 @@
 """The two-field grid contact (``gasp_core.toolkit.fields``, ``docs/contact.md`` "Sand that slides on what it touches",
-issue 53 item 3) as Warp kernels: field A's bodies (``in_a``, ``field_bodies``: a mixed scene's flowing bodies)
-scatter their momentum and mass to ``grid_sv`` in P2G (``transfers.p2g``); :func:`build_fields`' ``field_contact``,
-after P2G and before the grid update, turns them and the whole grid's into each field's velocity offset ``grid_dv``
+issue 53 items 3 and 5) as Warp kernels: field A's bodies (``in_a``, ``field_bodies``: a mixed scene's flowing
+bodies, or body 1 of two soft bodies) scatter their momentum and mass to ``grid_sv`` in P2G (``transfers.p2g``);
+:func:`build_fields`' ``field_contact``, after P2G and before the grid update, turns them and the whole grid's into each field's velocity offset ``grid_dv``
 (field A's at ``node``, B's at ``n_nodes + node``) and clears ``grid_sv``; G2P (``transfers.g2p``) adds a point's own
 field's offset to the grid velocity.
 
@@ -14,7 +14,7 @@ import numpy as np
 import warp as wp
 
 from gasp_core.toolkit.contact import flowing_bodies
-from gasp_core.toolkit.fields import MIN_FRACTION, MIN_GRADIENT, TOUCH_FRACTION, field_bodies, field_friction
+from gasp_core.toolkit.fields import MIN_FRACTION, MIN_GRADIENT, field_bodies, field_friction, touch_fraction
 
 from .precision import MODULE_OPTIONS, build_types
 
@@ -58,7 +58,7 @@ def build_fields(Ft):
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def field_contact(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), grid_dv: wp.array(dtype=vec3),
                       n_grid: int, mu: Ft, ground: wp.array(dtype=vec3), grid_vf: wp.array(dtype=Ft), cell: Ft,
-                      wall_lo: Ft, wall_hi: vec3):
+                      wall_lo: Ft, wall_hi: vec3, touch_frac: Ft):
         node = wp.tid()
         nn = n_grid * n_grid
         n_nodes = nn * n_grid
@@ -80,7 +80,7 @@ def build_fields(Ft):
             held = int(1)
         if Ft(i) > wall_hi[0] or Ft(j) > wall_hi[1] or Ft(k) > wall_hi[2]:
             held = int(1)
-        touch = (grid_vf[node] + grid_vf[n_nodes + node]) >= Ft(TOUCH_FRACTION) * cell   # the bodies meet here
+        touch = (grid_vf[node] + grid_vf[n_nodes + node]) >= touch_frac * cell   # the bodies meet here
         if inner and held == 0 and m_a > Ft(MIN_FRACTION) * m and m_b > Ft(MIN_FRACTION) * m:
             pa = grid_sv[node]
             u = vec3(pa[0], pa[1], pa[2]) / m_a - vec3(g[0] - pa[0], g[1] - pa[1], g[2] - pa[2]) / m_b
@@ -122,7 +122,7 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     ``grid_mf`` (the flowing bodies' mass per node in a mixed scene); the two-field contact's ``in_a`` (per body, 1 in
     field A), ``grid_sv`` (field A's momentum and mass per node), ``grid_vf`` (each field's volume) and ``grid_dv``
     (the two offsets per node), one unused entry each without it (``eng.fields`` says which), and its friction
-    ``eng.field_mu``."""
+    ``eng.field_mu`` and touch threshold ``eng.field_touch``."""
     from gasp_core.toolkit.rigid import step_view
     k, d = eng.k, eng.device
     view = step_view(eng.setup)
@@ -132,6 +132,7 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     eng.fields = in_a is not None
     eng.in_a = wp.array((in_a if eng.fields else np.zeros(1, bool)).astype(np.int32), dtype=wp.int32, device=d)
     eng.field_mu = field_friction(view) if eng.fields else 0.0
+    eng.field_touch = touch_fraction(view) if eng.fields else 0.0
     n = eng.n_grid ** 3 if eng.fields else 1
     eng.grid_sv = wp.zeros(n, dtype=k.vec4, device=d)
     eng.grid_dv = wp.zeros(2 * n if eng.fields else 1, dtype=k.vec3, device=d)
@@ -151,6 +152,6 @@ def field_launches(eng, Ft) -> list:
     wall_hi = side - eng.wall_in if walls else np.full(3, 1e30)
     return [wp.launch(contact, dim=ng ** 3, device=d, record_cmd=True, inputs=[
                 eng.grid_mv, eng.grid_sv, eng.grid_dv, ng, Ft(eng.field_mu), eng.ground, eng.grid_vf,
-                Ft(eng.dx ** 3), Ft(wall_lo), eng.k.vec3(*[float(c) for c in wall_hi])]),
+                Ft(eng.dx ** 3), Ft(wall_lo), eng.k.vec3(*[float(c) for c in wall_hi]), Ft(eng.field_touch)]),
             wp.launch(clear, dim=ng ** 3, device=d, record_cmd=True, inputs=[eng.grid_sv, eng.grid_vf])]
 

@@ -1,0 +1,75 @@
+"""Two soft bodies meet at their surfaces (issue 53 item 5, ``docs/contact.md`` "Two jelly balls stacked").
+
+- Which scenes take a velocity field per body (:func:`gasp_core.toolkit.fields.soft_pair`: two soft bodies on the
+  particle contact, neither rigid nor flowing) and their touch threshold (``SOFT_TOUCH_FRACTION``, the sand's
+  ``TOUCH_FRACTION`` otherwise).
+- Both engines (taichi_mpm in the slow tier: its kernels compile in about 40 s): the conformance scene ``stacked_gap``
+  (two jelly balls stacked in a frictionless tube) passes its check, the gap between the lattices' surfaces over the
+  last 0.5 s within ``STACK_GAP_TOL`` = 0.25 dx of 0 (measured -0.132 dx on warp_mpm, -0.146 on taichi_mpm: the
+  lattices' surfaces a little inside each other).
+- The check fails on broken engines (:func:`test_the_gap_check_fails_on_a_broken_contact`, warp_mpm): one velocity
+  field (``contact_fields = false``: +0.84 dx, held a cell apart), the contact acting wherever the two fields share
+  a node, across a gap (touch threshold 0: +0.83 dx), and the contact acting only once the volumes fill the cell
+  (the sand's threshold 0.9: -0.40 dx, the top ball inside the bottom one).
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import gasp_core.toolkit.fields as F
+from gasp_core.seam.plugins import get_engine
+from gasp_core.seam.setup import Material
+from gasp_core.testing.kit import run_trace
+from gasp_core.testing.scenes_pairs import _build_stack, _eval_stack, STACK_T
+from gasp_core.toolkit.fields import field_bodies, soft_pair, touch_fraction, uses_fields
+
+FRAMES = round(STACK_T * 30)
+
+
+def _stack(**options):
+    s = _build_stack(None)
+    return dataclasses.replace(s, options={"threads": 1, **options})
+
+
+def test_two_soft_bodies_take_a_field_each():
+    s = _stack()
+    assert soft_pair(s) and uses_fields(s)
+    assert field_bodies(s).tolist() == [False, True]
+    assert touch_fraction(s) == F.SOFT_TOUCH_FRACTION
+    assert not uses_fields(_stack(contact_fields=False))
+    assert not uses_fields(_stack(contact="grid"))                       # the grid contact by hand: one field
+    one = dataclasses.replace(s, x=s.x[s.body_id == 0], v=0.0, p_vol=s.p_vol[s.body_id == 0], body_id=0,
+                              materials=s.materials[:1])
+    assert not uses_fields(one)                                           # one body: one field, as before
+    rigid = dataclasses.replace(s, materials=[s.materials[0], Material("jelly", model="rigid", E=1e10, rho=700.0)])
+    assert not soft_pair(rigid)
+    three = dataclasses.replace(s, body_id=np.where(np.arange(len(s.x)) % 7 == 0, 2, s.body_id),
+                                materials=[*s.materials, s.materials[0]])
+    assert not uses_fields(three)                                         # three soft bodies: one field (not done)
+    sand = dataclasses.replace(s, materials=[s.materials[0], Material("sand", E=3.5e5, rho=1600.0)])
+    assert not soft_pair(sand) and touch_fraction(sand) == F.TOUCH_FRACTION   # mixed: the sand's contact
+
+
+def _gap(engine: str) -> tuple[bool, float]:
+    s = _stack()
+    (c,) = _eval_stack(None, run_trace(get_engine(engine), s, FRAMES))
+    return c.passed, c.figures["signed"]
+
+
+@pytest.mark.parametrize("engine", ["warp_mpm", pytest.param("taichi_mpm", marks=pytest.mark.slow)])
+def test_the_stacked_balls_meet_at_their_surfaces(engine):
+    ok, gap = _gap(engine)
+    assert ok and gap == pytest.approx(-0.14, abs=0.05), gap     # measured -0.132 (warp_mpm), -0.146 (taichi_mpm)
+
+
+@pytest.mark.parametrize("broken, expect", [("one_field", 0.84), ("across_gap", 0.83), ("late_touch", -0.40)])
+def test_the_gap_check_fails_on_a_broken_contact(monkeypatch, broken, expect):
+    if broken == "one_field":
+        monkeypatch.setattr(F, "soft_pair", lambda setup: False)          # one velocity field, the rule before
+    else:
+        monkeypatch.setattr(F, "SOFT_TOUCH_FRACTION", 0.0 if broken == "across_gap" else 0.9)
+    ok, gap = _gap("warp_mpm")
+    assert not ok and gap == pytest.approx(expect, abs=0.05), gap
