@@ -55,3 +55,24 @@ def test_the_users_sand_column_stays_in_its_default_domain(tmp_path):
                        capture_output=True, text=True, cwd=ROOT)
     assert p.returncode == 0, p.stderr[-600:]
     assert len(list((out / "sand").glob("frame_*.ply"))) == 13
+
+
+@pytest.mark.skipif(not any(__import__("importlib").util.find_spec(m) for m in ("gasp_warp_mpm",)),
+                    reason="warp_mpm not installed")
+def test_the_users_passive_sand_gaussians_slide_on_the_ball(tmp_path):
+    """The same column run to its end (60 frames) with the free column: its Gaussians are passive (``surface =
+    "auto"`` on sand) and read their body's own velocity field (the two-field contact's offset, both engines'
+    passive G2P), so none stays on the ball's steep side and the pile against the ball is 1.54 times the free pile's
+    (warp_mpm; taichi_mpm 1.43). Read from the whole grid's velocity, as before, they stuck to the ball: a wedge
+    3.96 times the free pile, 2 % of them on its steep side. The issue's 20 % is not met (docs/contact.md);
+    ``PILE_LIMIT`` holds today's figure with room and fails the sticking read."""
+    PILE_LIMIT = 2.0
+    runs = {}
+    for ball in (True, False):
+        out = tmp_path / f"out_{int(ball)}"
+        seconds, err = sb.simulate(sb.scene(tmp_path, 0.01, "warp_mpm", 60, ball), out)
+        assert err is None, err
+        runs[ball] = out
+    f = sb.figures(runs[True], runs[False])
+    assert f["steep"] <= 0.01, f
+    assert 1.0 <= f["pile"] <= PILE_LIMIT, f

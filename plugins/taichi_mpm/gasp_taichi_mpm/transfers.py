@@ -331,7 +331,7 @@ class Transfers:
                 if self.grid_m[node] > 0.0:
                     wn = w[i][0] * w[j][1] * w[k][2]
                     r = ti.Vector([ti.static(float(i)), ti.static(float(j)), ti.static(float(k))], self.real) - fx
-                    gv = self.grid_v[node]
+                    gv = self.node_v(p, node)   # its body's field (fields.py): a passive sand point slides too
                     new_v += wn * gv
                     wsum += wn
                     rbar += wn * r

@@ -92,8 +92,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
         self._np_dtype = np.float32 if self.precision == "f32" else np.float64
         self.k = K.build_kernels(Ft)
 
-        self.n_points = len(setup.x)
-        self.n_grid = int(setup.n_grid)
+        self.n_points, self.n_grid = len(setup.x), int(setup.n_grid)
         self.dx = setup.dx
         self.inv_dx = 1.0 / self.dx
         self.n_substeps, self.dt = steps   # chosen once: a step shortened for the contact warns once
@@ -264,7 +263,8 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
                     by_interval[m] = wp.launch(
                         k.g2p_passive, dim=n_passive, device=d, record_cmd=True, inputs=[
                             self.x, self.v, self.C, self.fixed, self.grid_v, self.grid_m, self.flags, lo_v,
-                            inv_dx, dt_f, m, ng, self.n_material, hold_lo, hold_hi, g_v])
+                            inv_dx, dt_f, m, ng, self.n_material, hold_lo, hold_hi, g_v, self.grid_dv, self.body,
+                            self.in_a])
                 self._passive_at[substep] = by_interval[m]
         self._tick = (wp.launch(k.tick, dim=1, device=d, record_cmd=True, inputs=[ex.step])
                       if has_extras else None)

@@ -297,16 +297,20 @@ def build_g2p(Ft):
 
 @functools.cache
 def build_g2p_passive(Ft):
-    """``g2p_passive``: the G2P kernel of scalar type ``Ft`` for passive points."""
+    """``g2p_passive``: the G2P kernel of scalar type ``Ft`` for passive points, each reading its body's velocity field
+    (the two-field contact's offset, ``fields.build_field_reads``). It is long because the kernel is one closure of
+    the scalar type: the gather over the nodes with mass, the least-squares ``C`` and the affine advance."""
     vec3, vec4, mat33 = build_types(Ft)
     in_grid, weights = build_stencil(Ft)
     hold_passive = build_passive_hold(Ft)
+    field_offset_base, field_node_v = build_field_reads(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def g2p_passive(
         x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33), fixed: wp.array(dtype=wp.int32),
         grid_v: wp.array(dtype=vec3), grid_m: wp.array(dtype=Ft), flags: wp.array(dtype=wp.int32),
         lo: vec3, inv_dx: Ft, dt: Ft, m: int, n_grid: int, first: int, hold_lo: vec3, hold_hi: vec3, gravity: vec3,
+        grid_dv: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32),
     ):
         # Passive points (rows first..): velocity v and affine velocity gradient C from the grid
         # (no F, no P2G). Only nodes with mass count, weights renormalised over them: a surface point
@@ -333,6 +337,7 @@ def build_g2p_passive(Ft):
         W = weights(fx)
         nn = n_grid * n_grid
         idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
+        off = field_offset_base(grid_dv, in_a, body[p], n_grid * nn)   # its body's field: passive sand slides too
         new_v = vec3(Ft(0.0))
         wsum = Ft(0.0)
         rbar = vec3(Ft(0.0))
@@ -345,7 +350,7 @@ def build_g2p_passive(Ft):
                     if grid_m[row + k] > Ft(0.0):
                         w = W[i, 0] * W[j, 1] * W[k, 2]
                         r = vec3(Ft(i), Ft(j), Ft(k)) - fx          # node - point, cells
-                        gv = grid_v[row + k]
+                        gv = field_node_v(grid_v, grid_dv, off, row + k)
                         new_v = new_v + w * gv
                         wsum = wsum + w
                         rbar = rbar + w * r
