@@ -133,7 +133,7 @@ def fill_spacing(dx: float, particles_per_cell: float, core_fraction: float = 1.
 def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None, fill: bool = True,
                   name: str = "object", if_open: str = "warn", max_dilation: int = 4,
                   voxel: float | None = None, surface_mass: bool = True, unit: str = "m",
-                  check_points: Callable[[int], None] | None = None) -> FillResult:
+                  check_points: Callable[[int], None] | None = None, floor: float | None = None) -> FillResult:
     """Fill an object's enclosed interior at spacing ``h`` and give every point its volume.
 
     Parameters
@@ -143,17 +143,16 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
     h : float
         Fill spacing, metres (:func:`fill_spacing`).
     splats : ndarray, shape (m, 3, 3), optional
-        GaMeS triangles of the opaque Gaussians (all of them, also when only cores are
-        simulated); they decide the occupied space. Default: ``points`` as degenerate splats.
+        GaMeS triangles of the opaque Gaussians (all, also when only cores are simulated): they decide the
+        occupied space. Default: ``points`` as degenerate splats.
     fill : bool
         Fill the enclosed interior (solids). False: a shell, the cells the footprints touch
         (the paper's vertices-only mode).
     name : str
         Object name for the warning or error.
     if_open : {"warn", "error"}
-        An object whose footprints enclose no volume (open, or leaking through gaps wider than
-        about ``2 max_dilation`` voxels) is simulated as a shell with ``report.warning`` set, or
-        raises.
+        An object whose footprints enclose no volume (open, or leaking through gaps wider than about
+        ``2 max_dilation`` voxels) is simulated as a shell with ``report.warning`` set, or raises.
     max_dilation : int
         Largest closing radius, occupancy voxels.
     voxel : float, optional
@@ -165,8 +164,9 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
         fill point. False (passive surface, ``surface = "passive"``): the surface points get
         volume 0 and every inside cell gets a fill point, so the fill alone is the whole solid.
     check_points : callable, optional
-        Called with the point count (surface points plus inside cells, an upper bound) before the fill
-        points are allocated; it raises to refuse them (:func:`gasp_core.seam.memory.check_fill`).
+        Called with the point count (an upper bound) before the fill is allocated; raises to refuse it.
+    floor : float, optional
+        Height (metres, world z) of the ground it is set on: no fill point starts under it (:func:`_above`).
 
     Returns
     -------
@@ -188,11 +188,11 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
     if fill:
         phi, vlo, voxel_used, r, enclosed, confidence, sealed = solid_field(splats, max_dilation, voxel)
     if phi is not None:
-        inside = _above_lowest(_inside_cells(phi, vlo, voxel_used, lo, shape, h), lo, h, splats[:, 0, 2].min())
+        inside = _above(_inside_cells(phi, vlo, voxel_used, lo, shape, h), lo, h, floor)
         thin = thin_parts(phi, vlo, voxel_used, inside, lo, h)
         method, closed, warning = "six-ray", True, ""
     else:
-        inside = rasterize(splats, lo, shape, h)
+        inside = _above(rasterize(splats, lo, shape, h), lo, h, floor)
         closed = False
         method = "shell" if not fill else "shell-open"
         shell = float(inside.sum()) * h ** 3
@@ -276,18 +276,19 @@ def _inside_cells(phi: np.ndarray, vlo: np.ndarray, voxel: float, lo: np.ndarray
     return inside
 
 
-def _above_lowest(inside: np.ndarray, lo: np.ndarray, h: float, z_low: float) -> np.ndarray:
-    """``inside`` (bool, the fill grid's shape) without the cells whose centre lies below ``z_low`` (metres, world z
-    up): the lowest Gaussian centre. Where the base is open (a scan's unseen soles) the five-ray enclosure ends at
-    the side splats' footprints, :data:`~gasp_core.maps.occupancy.SPLAT_SIGMA` of their sizes under the lowest
-    Gaussians, so a layer of fill points could lie under the solid the Gaussians show (the scan-like figure of
-    ``tests/test_stand.py``: its soles' 13 fill points 2.2 mm under them, which held it up at a fifth of the
-    ``E`` it needs; issue 54 item 6). A closed base's surface lies mid-shell, at its Gaussians: nothing changes."""
-    k = np.arange(inside.shape[2])
-    below = lo[2] + (k + 0.5) * h < z_low
-    if below.any():
-        inside = inside.copy()
-        inside[:, :, below] = False
+def _above(inside: np.ndarray, lo: np.ndarray, h: float, floor: float | None) -> np.ndarray:
+    """``inside`` (bool, the fill grid's shape) without the cells whose centre lies below ``floor`` (metres, world z
+    up; None: unchanged). Where a scan's base is open the enclosure ends at its side splats' footprints,
+    :data:`~gasp_core.maps.occupancy.SPLAT_SIGMA` of their sizes under the lowest Gaussians: set on a ground, the
+    scan-like figure of ``tests/test_stand.py`` got 13 fill points 2.2 mm in it under its soles, which held it up
+    at a fifth of the ``E`` it needs (issue 54 item 6, ``docs/contact.md``)."""
+    if floor is None:
+        return inside
+    below = lo[2] + (np.arange(inside.shape[2]) + 0.5) * h < floor
+    if not below.any():
+        return inside
+    inside = inside.copy()
+    inside[:, :, below] = False
     return inside
 
 

@@ -178,7 +178,8 @@ def fill_object(scene: Scene, o: PreparedObject, verts: np.ndarray, dx: float, o
     ``surface = "auto"`` starts passive unless the material alone already decides for the full model (one
     fill, not two). Before the fill points are allocated, the scene's point count (``others`` points of the
     other objects plus this object's) is checked against this machine's memory
-    (:func:`gasp_core.seam.memory.check_fill`).
+    (:func:`gasp_core.seam.memory.check_fill`). No fill point starts under a ground (the highest ``kind = "ground"``
+    boundary is the fill's ``floor``).
 
     Returns
     -------
@@ -193,19 +194,20 @@ def fill_object(scene: Scene, o: PreparedObject, verts: np.ndarray, dx: float, o
         check_fill(f"{scene.path}: object '{o.name}'", others + n, n_grid, ppc, precision)
 
     h = fill_spacing(dx, ppc, o.spec.core_fraction)
+    floor = max((float(b.height) for b in scene.boundaries if b.kind == "ground"), default=None)  # no fill in it
     opaque = expit(o.simulated_rows(o.gaussians.opacities).astype(np.float64)) >= o.spec.min_opacity
     passive = o.spec.surface == "passive" or (o.spec.surface == "auto" and o.spec.material.name not in ELASTIC)
     # a passive surface carries no mass: its fill is the vertex layout's whichever points it hands the engine
     own = o.tri_rest.reshape(-1, 3) if passive and o.surface.per_gaussian else verts
     fr = fill_interior(own, h, splats=o.tri_rest[opaque], fill=o.spec.fill, name=o.name,
-                       if_open=o.spec.if_open, surface_mass=not passive, check_points=check_points)
+                       if_open=o.spec.if_open, surface_mass=not passive, check_points=check_points, floor=floor)
     rule = None
     if o.spec.surface == "auto":
         was_passive = passive
         passive, rule = surface_rule(o.spec.fill, len(verts), fr, dx, o.spec.material.name)
         if was_passive and not passive:
             fr = fill_interior(verts, h, splats=o.tri_rest[opaque], fill=o.spec.fill, name=o.name,
-                               if_open=o.spec.if_open, surface_mass=True, check_points=check_points)
+                               if_open=o.spec.if_open, surface_mass=True, check_points=check_points, floor=floor)
     return fr, passive, rule
 
 
