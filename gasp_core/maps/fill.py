@@ -186,7 +186,7 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
     lo, shape = _fill_grid(points, splats, h, name)
     phi, vlo, voxel_used, r, enclosed, confidence, sealed, thin = (None, lo, 0.0, 0, [], 0.0, 0.0, (0.0, 0.0, []))
     if fill:
-        phi, vlo, voxel_used, r, enclosed, confidence, sealed = solid_field(splats, max_dilation, voxel)
+        phi, vlo, voxel_used, r, enclosed, confidence, sealed = solid_field(splats, max_dilation, voxel, floor)
     if phi is not None:
         inside = _above(_inside_cells(phi, vlo, voxel_used, lo, shape, h), lo, h, floor)
         thin = thin_parts(phi, vlo, voxel_used, inside, lo, h)
