@@ -111,6 +111,10 @@ class FillResult:
     volume : float
         Solid volume, m^3 (sum of all point volumes).
     report : FillReport
+    n_floored : int
+        Cells the ``floor`` took out (0 without one).
+    floored_low : float or None
+        Lowest centre of those cells, metres (None when none).
     """
 
     fill_x: np.ndarray
@@ -119,6 +123,8 @@ class FillResult:
     h: float
     volume: float
     report: FillReport
+    n_floored: int = 0
+    floored_low: float | None = None
 
 
 def fill_spacing(dx: float, particles_per_cell: float, core_fraction: float = 1.0) -> float:
@@ -188,11 +194,11 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
     if fill:
         phi, vlo, voxel_used, r, enclosed, confidence, sealed = solid_field(splats, max_dilation, voxel, floor)
     if phi is not None:
-        inside = _above(_inside_cells(phi, vlo, voxel_used, lo, shape, h), lo, h, floor)
+        inside, floored = _above(_inside_cells(phi, vlo, voxel_used, lo, shape, h), lo, h, floor)
         thin = thin_parts(phi, vlo, voxel_used, inside, lo, h)
         method, closed, warning = "six-ray", True, ""
     else:
-        inside = _above(rasterize(splats, lo, shape, h), lo, h, floor)
+        inside, floored = _above(rasterize(splats, lo, shape, h), lo, h, floor)
         closed = False
         method = "shell" if not fill else "shell-open"
         shell = float(inside.sum()) * h ** 3
@@ -209,7 +215,7 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
                         method=method, closed=closed, dilation=int(r), enclosed=enclosed, warning=warning,
                         confidence=round(confidence, 4), sealed=round(sealed, 4), bbox_share=len(cells) * h ** 3 / box if box > 0 else 0.0,
                         thin_share=thin[0], thin_h=thin[1], thin_box=thin[2])
-    return FillResult(fill_x, p_vol_surface, p_vol_fill, float(h), volume, report)
+    return FillResult(fill_x, p_vol_surface, p_vol_fill, float(h), volume, report, *floored)
 
 
 def _points_and_volumes(points: np.ndarray, cells: np.ndarray, lo: np.ndarray, shape, h: float,
@@ -276,20 +282,24 @@ def _inside_cells(phi: np.ndarray, vlo: np.ndarray, voxel: float, lo: np.ndarray
     return inside
 
 
-def _above(inside: np.ndarray, lo: np.ndarray, h: float, floor: float | None) -> np.ndarray:
+def _above(inside: np.ndarray, lo: np.ndarray, h: float, floor: float | None) -> tuple[np.ndarray, tuple]:
     """``inside`` (bool, the fill grid's shape) without the cells whose centre lies below ``floor`` (metres, world z
-    up; None: unchanged). Where a scan's base is open the enclosure ends at its side splats' footprints,
-    :data:`~gasp_core.maps.occupancy.SPLAT_SIGMA` of their sizes under the lowest Gaussians: set on a ground, the
-    scan-like figure of ``tests/test_stand.py`` got 13 fill points 2.2 mm in it under its soles, which held it up
-    at a fifth of the ``E`` it needs (issue 54 item 6, ``docs/contact.md``)."""
+    up; None: unchanged), and (how many it took out, the lowest one's centre z or None). Where a scan's base is
+    open the enclosure ends at its side splats' footprints, :data:`~gasp_core.maps.occupancy.SPLAT_SIGMA` of their
+    sizes under the lowest Gaussians: set on a ground, the scan-like figure of ``tests/test_stand.py`` got 13 fill
+    points 2.2 mm in it under its soles, which held it up at a fifth of the ``E`` it needs (issue 54 item 6,
+    ``docs/contact.md``)."""
     if floor is None:
-        return inside
-    below = lo[2] + (np.arange(inside.shape[2]) + 0.5) * h < floor
-    if not below.any():
-        return inside
+        return inside, (0, None)
+    centres = lo[2] + (np.arange(inside.shape[2]) + 0.5) * h
+    below = centres < floor
+    taken = inside[:, :, below]
+    if not taken.any():
+        return inside, (0, None)
+    low = float(centres[below][taken.any(axis=(0, 1))].min())
     inside = inside.copy()
     inside[:, :, below] = False
-    return inside
+    return inside, (int(taken.sum()), low)
 
 
 def thin_parts(phi: np.ndarray, vlo: np.ndarray, voxel: float, inside: np.ndarray, lo: np.ndarray,
