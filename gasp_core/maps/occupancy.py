@@ -18,7 +18,8 @@ made from Gaussians):
    ``STABLE_TOL`` from ``r`` to ``r + 1``) and holds an interior core is taken (failing that, the ``r`` of
    least growth if under ``LOOSE_TOL``): a gap narrower than
    about ``2 r`` voxels is sealed, real openings (a donut's hole) are not, because closing them
-   would keep growing the volume; a bowl open upwards is a sheet, not a solid. If no ``r`` up to ``max_dilation`` gives a stable enclosed
+   would keep growing the volume; a bowl open upwards is a sheet, not a solid. On a ground (``floor``) the ground
+   closes the soles whose outline it touches (:func:`_soles`). If no ``r`` up to ``max_dilation`` gives a stable enclosed
    volume the object is *open*: it is simulated as a shell, with a warning naming it (or a
    :class:`~gasp_core.errors.SceneError` with ``if_open = "error"``).
 4. **Sub-voxel surface.** With ``d_ext``, ``d_core`` the taxicab distances (voxels,
