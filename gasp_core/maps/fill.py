@@ -111,6 +111,10 @@ class FillResult:
     volume : float
         Solid volume, m^3 (sum of all point volumes).
     report : FillReport
+    n_floored : int
+        Cells the ``floor`` took out (0 without one).
+    floored_low : float or None
+        Lowest centre of those cells, metres (None when none).
     """
 
     fill_x: np.ndarray
@@ -119,6 +123,8 @@ class FillResult:
     h: float
     volume: float
     report: FillReport
+    n_floored: int = 0
+    floored_low: float | None = None
 
 
 def fill_spacing(dx: float, particles_per_cell: float, core_fraction: float = 1.0) -> float:
@@ -133,7 +139,7 @@ def fill_spacing(dx: float, particles_per_cell: float, core_fraction: float = 1.
 def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None, fill: bool = True,
                   name: str = "object", if_open: str = "warn", max_dilation: int = 4,
                   voxel: float | None = None, surface_mass: bool = True, unit: str = "m",
-                  check_points: Callable[[int], None] | None = None) -> FillResult:
+                  check_points: Callable[[int], None] | None = None, floor: float | None = None) -> FillResult:
     """Fill an object's enclosed interior at spacing ``h`` and give every point its volume.
 
     Parameters
@@ -143,17 +149,16 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
     h : float
         Fill spacing, metres (:func:`fill_spacing`).
     splats : ndarray, shape (m, 3, 3), optional
-        GaMeS triangles of the opaque Gaussians (all of them, also when only cores are
-        simulated); they decide the occupied space. Default: ``points`` as degenerate splats.
+        GaMeS triangles of the opaque Gaussians (all, also when only cores are simulated): they decide the
+        occupied space. Default: ``points`` as degenerate splats.
     fill : bool
         Fill the enclosed interior (solids). False: a shell, the cells the footprints touch
         (the paper's vertices-only mode).
     name : str
         Object name for the warning or error.
     if_open : {"warn", "error"}
-        An object whose footprints enclose no volume (open, or leaking through gaps wider than
-        about ``2 max_dilation`` voxels) is simulated as a shell with ``report.warning`` set, or
-        raises.
+        An object whose footprints enclose no volume (open, or leaking through gaps wider than about
+        ``2 max_dilation`` voxels) is simulated as a shell with ``report.warning`` set, or raises.
     max_dilation : int
         Largest closing radius, occupancy voxels.
     voxel : float, optional
@@ -165,8 +170,9 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
         fill point. False (passive surface, ``surface = "passive"``): the surface points get
         volume 0 and every inside cell gets a fill point, so the fill alone is the whole solid.
     check_points : callable, optional
-        Called with the point count (surface points plus inside cells, an upper bound) before the fill
-        points are allocated; it raises to refuse them (:func:`gasp_core.seam.memory.check_fill`).
+        Called with the point count (an upper bound) before the fill is allocated; raises to refuse it.
+    floor : float, optional
+        Height (metres, world z) of the ground it is set on: no fill point starts under it (:func:`_above`).
 
     Returns
     -------
@@ -186,13 +192,13 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
     lo, shape = _fill_grid(points, splats, h, name)
     phi, vlo, voxel_used, r, enclosed, confidence, sealed, thin = (None, lo, 0.0, 0, [], 0.0, 0.0, (0.0, 0.0, []))
     if fill:
-        phi, vlo, voxel_used, r, enclosed, confidence, sealed = solid_field(splats, max_dilation, voxel)
+        phi, vlo, voxel_used, r, enclosed, confidence, sealed = solid_field(splats, max_dilation, voxel, floor)
     if phi is not None:
-        inside = _inside_cells(phi, vlo, voxel_used, lo, shape, h)
+        inside, floored = _above(_inside_cells(phi, vlo, voxel_used, lo, shape, h), lo, h, floor)
         thin = thin_parts(phi, vlo, voxel_used, inside, lo, h)
         method, closed, warning = "six-ray", True, ""
     else:
-        inside = rasterize(splats, lo, shape, h)
+        inside, floored = _above(rasterize(splats, lo, shape, h), lo, h, floor)
         closed = False
         method = "shell" if not fill else "shell-open"
         shell = float(inside.sum()) * h ** 3
@@ -209,7 +215,7 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
                         method=method, closed=closed, dilation=int(r), enclosed=enclosed, warning=warning,
                         confidence=round(confidence, 4), sealed=round(sealed, 4), bbox_share=len(cells) * h ** 3 / box if box > 0 else 0.0,
                         thin_share=thin[0], thin_h=thin[1], thin_box=thin[2])
-    return FillResult(fill_x, p_vol_surface, p_vol_fill, float(h), volume, report)
+    return FillResult(fill_x, p_vol_surface, p_vol_fill, float(h), volume, report, *floored)
 
 
 def _points_and_volumes(points: np.ndarray, cells: np.ndarray, lo: np.ndarray, shape, h: float,
@@ -274,6 +280,26 @@ def _inside_cells(phi: np.ndarray, vlo: np.ndarray, voxel: float, lo: np.ndarray
         cx = np.full(cy.shape, (lo[0] + (i + 0.5) * h - vlo[0]) / voxel - 0.5)
         inside[i] = ndimage.map_coordinates(phi, [cx, cy, cz], order=1, mode="constant", cval=-1.0) > 0
     return inside
+
+
+def _above(inside: np.ndarray, lo: np.ndarray, h: float, floor: float | None) -> tuple[np.ndarray, tuple]:
+    """``inside`` (bool, the fill grid's shape) without the cells whose centre lies below ``floor`` (metres, world z
+    up; None: unchanged), and (how many it took out, the lowest one's centre z or None). Where a scan's base is
+    open the enclosure ends at its side splats' footprints, :data:`~gasp_core.maps.occupancy.SPLAT_SIGMA` of their
+    sizes under the lowest Gaussians: set on a ground, the scan-like figure of ``tests/test_stand.py`` got 13 fill
+    points 2.2 mm in it under its soles, which held it up at a fifth of the ``E`` it needs (issue 54 item 6,
+    ``docs/contact.md``)."""
+    if floor is None:
+        return inside, (0, None)
+    centres = lo[2] + (np.arange(inside.shape[2]) + 0.5) * h
+    below = centres < floor
+    taken = inside[:, :, below]
+    if not taken.any():
+        return inside, (0, None)
+    low = float(centres[below][taken.any(axis=(0, 1))].min())
+    inside = inside.copy()
+    inside[:, :, below] = False
+    return inside, (int(taken.sum()), low)
 
 
 def thin_parts(phi: np.ndarray, vlo: np.ndarray, voxel: float, inside: np.ndarray, lo: np.ndarray,

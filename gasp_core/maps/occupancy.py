@@ -18,7 +18,8 @@ made from Gaussians):
    ``STABLE_TOL`` from ``r`` to ``r + 1``) and holds an interior core is taken (failing that, the ``r`` of
    least growth if under ``LOOSE_TOL``): a gap narrower than
    about ``2 r`` voxels is sealed, real openings (a donut's hole) are not, because closing them
-   would keep growing the volume; a bowl open upwards is a sheet, not a solid. If no ``r`` up to ``max_dilation`` gives a stable enclosed
+   would keep growing the volume; a bowl open upwards is a sheet, not a solid. On a ground (``floor``) the ground
+   closes the soles whose outline it touches (:func:`_soles`). If no ``r`` up to ``max_dilation`` gives a stable enclosed
    volume the object is *open*: it is simulated as a shell, with a warning naming it (or a
    :class:`~gasp_core.errors.SceneError` with ``if_open = "error"``).
 4. **Sub-voxel surface.** With ``d_ext``, ``d_core`` the taxicab distances (voxels,
@@ -203,25 +204,57 @@ def ray_votes(shell: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return sides, below
 
 
-def _exterior(closed_shell: np.ndarray, r: int) -> tuple[np.ndarray, float]:
+def _exterior(closed_shell: np.ndarray, r: int, floor_k: int | None = None) -> tuple[np.ndarray, float]:
     """Exterior of a shell dilated ``r`` times, grown back by ``r``, and the share of the enclosed free voxels
     sealed on all six sides.
 
     A free voxel is enclosed when all six axis rays hit the shell (:func:`ray_votes`). When fewer than
-    :data:`OPEN_BASE` of the voxels whose rays ``-x, +x, -y, +y, +z`` hit it are sealed below too, the object
+    :data:`OPEN_BASE` of the voxels whose rays ``-x, +x, -y, +y, +z`` hit it are sealed below as well, the object
     is taken as a capture with an unseen base and those five rays suffice (an overhang of a closed object,
     such as a torus's underside, is the small difference the first rule keeps out). Either way a gap in the
-    surface leaks only the voxels in line with it, where a flood fill from the border leaks the interior.
+    surface leaks only the voxels in line with it, where a flood fill from the border leaks the interior. With a
+    ground at voxel layer ``floor_k``, the ray down of a sole standing on it hits the ground (:func:`_soles`).
     """
     sides, below = ray_votes(closed_shell)
     five = ~closed_shell & (sides == 5)
+    if floor_k is not None:
+        soles = _soles(closed_shell, five, floor_k)
+        if soles.any():
+            below[soles, max(floor_k, 0):] = True
     six = five & below
     sealed = float(six.sum() / max(int(five.sum()), 1))
     outside = ~closed_shell & ~(six if sealed >= OPEN_BASE else five)
     return ndimage.binary_dilation(outside, _BALL, iterations=r), sealed
 
 
-def solid_field(splats: np.ndarray, max_dilation: int = 4, voxel: float | None = None):
+#: Voxel layers over the ground in which a sole's outline and its inside are looked for (:func:`_soles`).
+SOLE_BAND = 2
+#: Share of a sole's columns enclosed by five rays at the ground (the rest: gaps in a scanned wall).
+SOLE_SHARE = 0.9
+
+
+def _soles(closed_shell: np.ndarray, five: np.ndarray, floor_k: int) -> np.ndarray:
+    """Columns (bool, the grid's x-y shape) of the soles a ground at voxel layer ``floor_k`` closes: the areas the
+    shell's outline on the ground (its voxels from one layer under it to :data:`SOLE_BAND` over it) encloses, when
+    at least :data:`SOLE_SHARE` of their columns are enclosed by five rays over the ground (a leg whose sole a scan
+    never saw, standing on it). A torus lying on the ground touches it along a ring, whose hole is open upwards in
+    the middle: not a sole, and the overhang under its inner half stays out (issue 54 item 6)."""
+    nz = closed_shell.shape[2]
+    lo_k, hi_k = max(floor_k - 1, 0), min(floor_k + SOLE_BAND + 1, nz)
+    if lo_k >= hi_k:
+        return np.zeros(closed_shell.shape[:2], bool)
+    outline = closed_shell[:, :, lo_k:hi_k].any(axis=2)
+    holes = ndimage.binary_fill_holes(outline) & ~outline
+    enclosed = five[:, :, max(floor_k, 0):hi_k].any(axis=2)
+    labels, n = ndimage.label(holes)
+    if n == 0:
+        return holes
+    share = ndimage.mean(enclosed, labels, index=np.arange(1, n + 1))
+    good = np.concatenate([[False], np.asarray(share) >= SOLE_SHARE])
+    return good[labels]
+
+
+def solid_field(splats: np.ndarray, max_dilation: int = 4, voxel: float | None = None, floor: float | None = None):
     """The signed inside field of the splats' footprints (module notes, steps 2-4).
 
     Parameters
@@ -232,6 +265,9 @@ def solid_field(splats: np.ndarray, max_dilation: int = 4, voxel: float | None =
         Largest closing radius tried, occupancy voxels.
     voxel : float, optional
         Occupancy voxel size, metres; default :func:`density_voxel`.
+    floor : float, optional
+        Height (metres, world z) of a ground the object stands on: it closes the soles whose outline it touches
+        (:func:`_soles`). None: no ground.
 
     Returns
     -------
@@ -261,6 +297,7 @@ def solid_field(splats: np.ndarray, max_dilation: int = 4, voxel: float | None =
     voxel = max(voxel, span / MAX_VOXELS)       # bounded grid, whatever the splats' sizes and spacing
     lo, shape = padded_grid(pts.min(axis=0) - reach, pts.max(axis=0) + reach, voxel, max_dilation + 3)
     shell = rasterize(splats, lo, shape, voxel)
+    floor_k = None if floor is None else int(np.floor((floor - lo[2]) / voxel))
     closed_shell = shell
     enclosed, solids, sealed, solid_at = [], [], [], {}
 
@@ -271,7 +308,7 @@ def solid_field(splats: np.ndarray, max_dilation: int = 4, voxel: float | None =
 
     for r in range(1, max_dilation + 2):
         closed_shell = ndimage.binary_dilation(closed_shell, _BALL)
-        ext, share = _exterior(closed_shell, r)
+        ext, share = _exterior(closed_shell, r, floor_k)
         solids.append(ext)
         sealed.append(share)
         enclosed.append(float((~ext).sum()) * voxel ** 3)

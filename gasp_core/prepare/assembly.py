@@ -133,7 +133,7 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> tuple[SimSetup, 
     for i, (o, verts) in enumerate(zip(objects, vertices)):
         check_resolved(o.name, o.tri_rest.reshape(-1, 3), dx, n_grid)
         others = sum(map(len, vertices)) - len(verts) + sum(len(f.fill_x) for f in fills)
-        fr, passive, rule = fill_object(scene, o, verts, dx, others)
+        fr, passive, rule = fill_object(scene, o, verts, dx, others, float(lo[2]))
         reach = footprints(o)
         thin = thin_part_warnings(o.name, np.concatenate([verts, fr.fill_x]), fr.h, dx, n_grid) \
             if len(fr.fill_x) else []                      # by local thickness, not the bounding box (issue 54)
@@ -193,19 +193,26 @@ def faint_rows(o: PreparedObject) -> np.ndarray:
     return ~seen
 
 
-def fill_object(scene: Scene, o: PreparedObject, verts: np.ndarray, dx: float, others: int):
+def fill_object(scene: Scene, o: PreparedObject, verts: np.ndarray, dx: float, others: int, lo_z: float = -np.inf):
     """One object's interior fill (:func:`gasp_core.maps.fill.fill_interior`) and whether its surface is passive.
 
     ``surface = "auto"`` starts passive unless the material alone already decides for the full model (one
     fill, not two). Before the fill points are allocated, the scene's point count (``others`` points of the
     other objects plus this object's) is checked against this machine's memory
-    (:func:`gasp_core.seam.memory.check_fill`).
+    (:func:`gasp_core.seam.memory.check_fill`). No fill point starts under a ground (the highest ``kind = "ground"``
+    boundary is the fill's ``floor``); a fill that reached under the domain's floor ``lo_z`` (metres: splats far
+    larger than the object) is refused as :func:`_below_ground` says.
 
     Returns
     -------
     (FillResult, bool, dict or None)
         The fill, whether the surface is passive, and ``surface = "auto"``'s rule
         (:func:`gasp_core.prepare.surface.surface_rule`; None for another ``surface``).
+
+    Raises
+    ------
+    SceneError
+        From :func:`gasp_core.maps.fill.fill_interior` and the memory check, or a fill reaching under ``lo_z``.
     """
     n_grid, ppc = scene.domain.n_grid, scene.domain.particles_per_cell
     precision = str(scene.engine.options.get("precision", "f32"))
@@ -214,19 +221,22 @@ def fill_object(scene: Scene, o: PreparedObject, verts: np.ndarray, dx: float, o
         check_fill(f"{scene.path}: object '{o.name}'", others + n, n_grid, ppc, precision)
 
     h = fill_spacing(dx, ppc, o.spec.core_fraction)
+    floor = max((float(b.height) for b in scene.boundaries if b.kind == "ground"), default=None)  # no fill in it
     opaque = expit(o.simulated_rows(o.gaussians.opacities).astype(np.float64)) >= o.spec.min_opacity
     passive = o.spec.surface == "passive" or (o.spec.surface == "auto" and o.spec.material.name not in ELASTIC)
     # a passive surface carries no mass: its fill is the vertex layout's whichever points it hands the engine
     own = o.tri_rest.reshape(-1, 3) if passive and o.surface.per_gaussian else verts
     fr = fill_interior(own, h, splats=o.tri_rest[opaque], fill=o.spec.fill, name=o.name,
-                       if_open=o.spec.if_open, surface_mass=not passive, check_points=check_points)
+                       if_open=o.spec.if_open, surface_mass=not passive, check_points=check_points, floor=floor)
     rule = None
     if o.spec.surface == "auto":
         was_passive = passive
         passive, rule = surface_rule(o.spec.fill, len(verts), fr, dx, o.spec.material.name)
         if was_passive and not passive:
             fr = fill_interior(verts, h, splats=o.tri_rest[opaque], fill=o.spec.fill, name=o.name,
-                               if_open=o.spec.if_open, surface_mass=True, check_points=check_points)
+                               if_open=o.spec.if_open, surface_mass=True, check_points=check_points, floor=floor)
+    if fr.n_floored and fr.floored_low < lo_z:     # the fill reached further under the ground than the domain
+        raise SceneError(_below_ground(scene, o, fr.n_floored, fr.floored_low))
     return fr, passive, rule
 
 
@@ -276,6 +286,23 @@ def spin(objects: list[PreparedObject], x: np.ndarray, v: np.ndarray, p_vol: np.
     return C
 
 
+def _below_ground(scene: Scene, o: PreparedObject, n: int, z_low: float) -> str:
+    """Why ``n`` points of ``o`` would start below the ground (the lowest at ``z_low``, metres): the object placed
+    under it, or, its Gaussians' centres above it, splats far larger than the object (whose fill reached deeper
+    than the domain holds under the ground; the fill's floor takes out only what lies within it)."""
+    ground = min(b.height for b in scene.boundaries if b.kind == "ground")
+    head = (f"{scene.path}: {n} point(s) of object '{o.name}' start below the ground at height {ground:g} m "
+            f"(lowest at z = {z_low:.4g} m)")
+    centres = o.tri_rest[:, 0]
+    if centres[:, 2].min() >= ground:   # the Gaussians' centres are above: their footprints reach down
+        reach = 2 * SPLAT_SIGMA * float(np.linalg.norm(o.tri_rest[:, 1:] - o.tri_rest[:, :1], axis=2).max())
+        return (f"{head}, though every Gaussian's centre is above it: its splats are up to {reach:.3g} m across "
+                f"on an object {float(np.ptp(centres, axis=0).max()):.3g} m across; check the file's scales "
+                f"(or raise min_opacity to leave the largest out), or lower the ground's height")
+    return (f"{head}: raise the object's position by at least {ground - z_low:.3g} m or lower the ground's height "
+            f"([[boundary]] kind = \"ground\")")
+
+
 def _outside_message(scene: Scene, objects: list[PreparedObject], x: np.ndarray, body: np.ndarray,
                      outside: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> str:
     """Why points start outside the domain, naming the object and the key that fixes it: below a ground
@@ -287,18 +314,7 @@ def _outside_message(scene: Scene, objects: list[PreparedObject], x: np.ndarray,
     below = outside & (x[:, 2] < lo[2]) & (x[:, 2] < min(grounds)) if grounds else np.zeros(len(x), bool)
     if below.any():
         k = int(np.flatnonzero(below)[0])
-        o = objects[int(body[k])]
-        head = (f"{scene.path}: {int(below.sum())} point(s) of object '{o.name}' start below the ground at height "
-                f"{min(grounds):g} m (lowest at z = {float(x[below, 2].min()):.4g} m)")
-        centres = o.tri_rest[:, 0]
-        if centres[:, 2].min() >= min(grounds):   # the Gaussians' centres are above: their footprints reach down
-            reach = 2 * SPLAT_SIGMA * float(np.linalg.norm(o.tri_rest[:, 1:] - o.tri_rest[:, :1], axis=2).max())
-            return (f"{head}, though every Gaussian's centre is above it: its splats are up to {reach:.3g} m across "
-                    f"on an object {float(np.ptp(centres, axis=0).max()):.3g} m across; check the file's scales "
-                    f"(or raise min_opacity to leave the largest out), or lower the ground's height")
-        rise = min(grounds) - float(x[below, 2].min())
-        return (f"{head}: raise the object's position by at least {rise:.3g} m or lower the ground's height "
-                f"([[boundary]] kind = \"ground\")")
+        return _below_ground(scene, objects[int(body[k])], int(below.sum()), float(x[below, 2].min()))
     where = "[domain] lo/hi" if scene.domain.lo is not None else "the default domain around the objects"
     return (f"{scene.path}: {int(outside.sum())} point(s) of object '{name}' start outside {where} "
             f"[{lo.tolist()}, {hi.tolist()}] (first at {x[k].tolist()}); enlarge [domain] lo/hi or move the object")
