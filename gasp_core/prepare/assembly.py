@@ -15,7 +15,7 @@ from gasp_core.prepare.around import STENCIL_CELLS, reach_domain, uses_reach
 from gasp_core.prepare.checks import check_kept_floaters, check_overlap, check_resolution
 from gasp_core.prepare.dynamic import fill_velocities, vertex_velocities
 from gasp_core.prepare.placed import PreparedObject
-from gasp_core.prepare.runout import runout_reach, widen
+from gasp_core.prepare.runout import RUNOUT_SAFETY, runout_reach, widen
 from gasp_core.prepare.stand import stand_warnings
 from gasp_core.prepare.thickness import thin_part_warnings
 from gasp_core.prepare.surface import ELASTIC, surface_rule
@@ -97,7 +97,13 @@ def domain_for(scene: Scene, objects: list[PreparedObject]) -> tuple[np.ndarray,
     grounds = [float(b.height) for b in scene.boundaries if b.kind == "ground"]
     spread = runout_reach([o.surface.points() for o in objects], [o.spec.material for o in objects],
                           min(grounds) if grounds else None)   # a sand body's collapse on the ground (runout.py)
-    return widen(lo, hi, spread, scene.domain.n_grid, STENCIL_CELLS)
+    lo2, hi2 = widen(lo, hi, spread, scene.domain.n_grid, STENCIL_CELLS)
+    side, side2 = float(hi[0] - lo[0]), float(hi2[0] - lo2[0])
+    if side2 > side:
+        warnings.warn(f"{scene.path}: the default domain is widened from {side:.3g} to {side2:.3g} m a side (dx "
+                      f"{side2 / scene.domain.n_grid * 1e3:.3g} mm) to hold where its sand can spread on the ground "
+                      f"(Lube et al. 2004's runout x {RUNOUT_SAFETY:g}); state [domain] lo/hi to choose it", stacklevel=3)
+    return lo2, hi2
 
 
 def build_setup(scene: Scene, objects: list[PreparedObject]) -> tuple[SimSetup, list[PreparedObject]]:
