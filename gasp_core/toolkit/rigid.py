@@ -263,9 +263,9 @@ def lift_setup(setup):
     skin = rigid_contact(setup, 1.0, contact_coefficients(view))[:, 2]
     x = np.array(setup.x, dtype=np.float64)
     body, vol = np.asarray(setup.body_id), np.asarray(setup.p_vol, np.float64)
-    moved = False
+    moved, touching = False, touch_rows(setup)
     for b in np.flatnonzero(rigid):
-        sel = (body == b) & (vol > 0.0) & touch_rows(setup)
+        sel = (body == b) & (vol > 0.0) & touching
         if not sel.any():
             continue
         for n, row in zip(normals, rows):
