@@ -13,8 +13,8 @@ other laws and is not covered (a stated ``[domain]`` holds it).
 The same paper gives the deposit's final height at its centre, ``h_inf / r_i = 0.88 a^(1/6)`` for ``a > 0.74``
 (below it the column keeps its height: ``h_inf = H``); :func:`pile_warnings` warns when that pile stands fewer than
 :data:`PILE_CELLS` grid cells high, naming the ``n_grid`` that gives that many (issue 53: at n_grid 32 the column's
-pile, 38 mm by the law, is 2 cells of 19.6 mm, and the pile against the jelly ball read 1.47-1.65 times the free
-pile; at n_grid 48-64, 0.88-1.03, ``benchmarks/sand_ball_pipeline.py``). The law's constants were not read from the
+pile, 38 mm by the law, is 1.9 cells of 19.6 mm, and the pile against the jelly ball read 1.35-1.65 times the free
+pile; at n_grid 48-64, 0.88-1.03, and at the 50 the warning names 1.04-1.17, ``benchmarks/sand_ball_pipeline.py``). The law's constants were not read from the
 paper here (it was not reachable): they are the values its abstract is widely quoted with; the warning needs only
 the pile's height to within a cell.
 """
@@ -37,8 +37,8 @@ GRANULAR = ("sand",)
 #: Lube et al. 2004's final-height law (module notes): ``h_inf / r_i = LUBE_H a^(1/6)`` above ``a = LUBE_H_A``.
 LUBE_H, LUBE_H_A = 0.88, 0.74
 #: Fewest grid cells a collapsed pile should stand before a warning: the quadratic B-spline stencil's width, so that
-#: the pile's top has nodes of its own above the ground's (below it the measured pile against a body read 1.5 times
-#: the free pile's height, above it within 3 %: module notes).
+#: the pile's top has nodes of its own above the ground's (module notes: at 1.9 cells the pile against a ball read
+#: 1.35-1.65 times the free pile's height, at 3 cells 1.04-1.17).
 PILE_CELLS = 3
 
 
