@@ -121,3 +121,36 @@ def test_the_users_sand_piles_against_the_ball_as_high_as_alone(tmp_path):
     f = sb.figures(runs[True], runs[False])
     assert f["steep"] <= 0.01, f
     assert 0.8 <= f["pile"] <= 1.2, f
+
+
+@pytest.mark.parametrize("name", [pytest.param("warp_mpm"), pytest.param("taichi_mpm", marks=pytest.mark.slow)])
+def test_a_stranded_point_on_the_ground_stops_where_friction_stops_it(name):
+    """Both engines' passive G2P: a passive point far from any material (stranded) set sliding on a ground of friction
+    0.5 at 1 m/s stops after ``v^2 / (2 mu g)`` = 0.102 m (Coulomb, within 10 %). Before, it kept its speed: 0.5 m in
+    0.5 s (the column's surface points that left the grid at n_grid 48)."""
+    import dataclasses
+    from importlib.util import find_spec
+    from gasp_core.seam.build import build_engine
+    from gasp_core.seam.plugins import engines
+    from gasp_core.seam.setup import Boundary
+    from test_passive import G, block_with_skin
+    if not find_spec(f"gasp_{name}"):
+        pytest.skip(f"{name} not installed")
+    s = block_with_skin()
+    start = np.array([[0.35, 0.15, 0.1]])                          # on the ground, 5 dx from the block, sliding -x
+    n = len(s.x) + 1
+    v = np.zeros((n, 3))
+    v[0] = [-1.0, 0.0, 0.0]
+    s = dataclasses.replace(s, x=np.concatenate([start, s.x]), v=v, body_id=np.zeros(n, np.int64),
+                            p_vol=np.r_[0.0, s.p_vol], passive=np.r_[True, s.passive], n_render=s.n_render + 1,
+                            boundaries=[Boundary("ground", height=0.1, friction=0.5)], options={"threads": 1})
+    e = build_engine(engines()[name], s)
+    try:
+        for _ in range(15):                                        # 0.5 s; it stops by 0.2 s
+            e.step_frame()
+        x = e.positions().astype(np.float64)
+    finally:
+        e.close()
+    slid = start[0, 0] - x[0, 0]
+    assert slid == pytest.approx(1.0 / (2 * 0.5 * G), rel=0.1), slid
+    assert abs(x[0, 2] - 0.1) < 1e-6 and abs(x[0, 1] - 0.15) < 1e-6, x[0]
