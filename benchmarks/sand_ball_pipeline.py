@@ -5,20 +5,24 @@ conformance scene ``sand_on_ball`` uses).
 The scene: a 6 x 6 x 15 cm column of flat Gaussians on the faces of a box (its base open, as a capture sees it),
 ``--spacing`` apart (the reviewer's column, 10 mm, and the issue's "surface Gaussians 5 mm apart"), sand (E 3.5e5 Pa,
 nu 0.3, rho 1600, friction angle 30); beside it a 5 cm jelly ball (E 5e4 Pa, rho 1000) of 600 flat Gaussians on its
-sphere, resting on the ground 5 mm beyond the column's +x face; ground friction 0.5; ``n_grid`` 32 over the default
-domain; ``--frames`` frames of 1/30 s. The free pile: the same column alone. Figures on the Gaussians' centres at
+sphere, resting on the ground 5 mm beyond the column's +x face; ground friction 0.5; ``--n-grid`` cells over the default
+domain (default :data:`N_GRID`, 50: the n_grid gasp's pile warning names at 32, where the column's pile is under
+two cells high; a comma list runs each); ``--frames`` frames of 1/30 s. The free pile: the same column alone. Figures on the Gaussians' centres at
 the last frame (the definitions of ``gasp_core.testing.sand_ball.pair_figures``, with the run's own ``dx``): sand on
 the ball's side steeper than 50 degrees (share within 1 dx of it), the pile against the ball over the free pile's
 height, the deepest sand Gaussian inside the ball's sphere about its Gaussians' centroid (dx; negative: a gap), the
 ball's turn (Kabsch, degrees); and whether the run reached its last frame.
 
     python benchmarks/sand_ball_pipeline.py --engines taichi_mpm,warp_mpm --spacing 0.01,0.005 --frames 60
+    python benchmarks/sand_ball_pipeline.py --engines warp_mpm --n-grid 32,48,64   # against resolution
 
-Writes ``benchmarks/results/sand_ball_pipeline.json`` (or ``--out``), a JSON line per run.
+Writes ``benchmarks/results/sand_ball_pipeline.json`` (or ``--out``), a JSON line per run (its ``n_grid`` in it);
+``--keep DIR`` keeps the runs there.
 """
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import os
 import subprocess
@@ -32,6 +36,9 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 SIDE_C, HEIGHT_C, R, GAP = 0.06, 0.15, 0.05, 0.005
 N_BALL = 600
+#: The n_grid gasp's pile warning names for this scene at n_grid 32 (gasp_core/prepare/runout.py: the column's pile,
+#: 38 mm by Lube et al. 2004, is 1.9 cells of 19.6 mm there; 50 gives 3).
+N_GRID = 50
 SAND = {"name": "sand", "E": 3.5e5, "nu": 0.3, "rho": 1600.0, "friction_angle": 30.0}
 BALL = {"name": "jelly", "E": 5e4, "nu": 0.3, "rho": 1000.0}
 
@@ -75,7 +82,7 @@ def ball_ply(path: Path) -> Path:
     return _write(path, R * d, d, 0.006, (0.3, 0.5, 0.8))
 
 
-def scene(work: Path, spacing: float, engine: str, frames: int, ball: bool) -> Path:
+def scene(work: Path, spacing: float, engine: str, frames: int, ball: bool, n_grid: int = N_GRID) -> Path:
     import tomli_w
     d = work / f"spacing_{spacing:g}"
     d.mkdir(exist_ok=True)
@@ -87,9 +94,9 @@ def scene(work: Path, spacing: float, engine: str, frames: int, ball: bool) -> P
                      "position": [SIDE_C + GAP + R, 0.0, R], "material": {**BALL, "model": "elastic"}})
     doc = {"name": "sand_ball", "frame_dt": 1.0 / 30.0, "n_frames": frames,
            "engine": {"name": engine, "options": {"threads": 1} if engine == "taichi_mpm" else {}},
-           "domain": {"n_grid": 32}, "boundary": [{"kind": "ground", "height": 0.0, "friction": 0.5}],
+           "domain": {"n_grid": n_grid}, "boundary": [{"kind": "ground", "height": 0.0, "friction": 0.5}],
            "object": objs}
-    path = work / f"{engine}_{spacing:g}_{int(ball)}.toml"
+    path = work / f"{engine}_{spacing:g}_{n_grid}_{int(ball)}.toml"
     path.write_text(tomli_w.dumps(doc))
     return path
 
@@ -138,25 +145,29 @@ def main(argv=None) -> int:
     ap.add_argument("--engines", type=lambda s: s.split(","), default=["taichi_mpm", "warp_mpm"])
     ap.add_argument("--spacing", type=lambda s: [float(v) for v in s.split(",")], default=[0.01, 0.005])
     ap.add_argument("--frames", type=int, default=60)
+    ap.add_argument("--n-grid", type=lambda s: [int(v) for v in s.split(",")], default=[N_GRID],
+                    help="grid cells along the domain's side, a comma list (one run each); default the n_grid the "
+                         "pile warning names (N_GRID)")
+    ap.add_argument("--keep", type=Path, default=None, help="write the runs here (kept) instead of a temporary folder")
     ap.add_argument("--out", type=Path, default=HERE / "results" / "sand_ball_pipeline.json")
     args = ap.parse_args(argv)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
-        work = Path(tmp)
-        for engine in args.engines:
-            for spacing in args.spacing:
-                runs = {}
-                for ball in (True, False):
-                    out = work / f"out_{engine}_{spacing:g}_{int(ball)}"
-                    runs[ball] = (out, *simulate(scene(work, spacing, engine, args.frames, ball), out))
-                rec = {"engine": engine, "spacing_m": spacing, "frames_asked": args.frames,
-                       "seconds": round(runs[True][1], 1), "error": runs[True][2] or runs[False][2],
-                       "load": os.getloadavg()[0]}
-                if rec["error"] is None:
-                    rec.update(figures(runs[True][0], runs[False][0]))
-                print(json.dumps(rec), flush=True)
-                with open(args.out, "a") as fh:
-                    fh.write(json.dumps(rec) + "\n")
+        work = args.keep or Path(tmp)
+        work.mkdir(parents=True, exist_ok=True)
+        for engine, spacing, n_grid in itertools.product(args.engines, args.spacing, args.n_grid):
+            runs = {}
+            for ball in (True, False):
+                out = work / f"out_{engine}_{spacing:g}_{n_grid}_{int(ball)}"
+                runs[ball] = (out, *simulate(scene(work, spacing, engine, args.frames, ball, n_grid), out))
+            rec = {"engine": engine, "spacing_m": spacing, "n_grid": n_grid, "frames_asked": args.frames,
+                   "seconds": round(runs[True][1], 1), "error": runs[True][2] or runs[False][2],
+                   "load": os.getloadavg()[0]}
+            if rec["error"] is None:
+                rec.update(figures(runs[True][0], runs[False][0]))
+            print(json.dumps(rec), flush=True)
+            with open(args.out, "a") as fh:
+                fh.write(json.dumps(rec) + "\n")
     return 0
 
 

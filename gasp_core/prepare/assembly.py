@@ -15,7 +15,7 @@ from gasp_core.prepare.around import STENCIL_CELLS, reach_domain, uses_reach
 from gasp_core.prepare.checks import check_kept_floaters, check_overlap, check_resolution
 from gasp_core.prepare.dynamic import fill_velocities, vertex_velocities
 from gasp_core.prepare.placed import PreparedObject
-from gasp_core.prepare.runout import RUNOUT_SAFETY, runout_reach, widen
+from gasp_core.prepare.runout import RUNOUT_SAFETY, pile_warnings, runout_reach, widen
 from gasp_core.prepare.stand import stand_warnings
 from gasp_core.prepare.thickness import thin_part_warnings
 from gasp_core.prepare.surface import ELASTIC, surface_rule
@@ -106,6 +106,14 @@ def domain_for(scene: Scene, objects: list[PreparedObject]) -> tuple[np.ndarray,
     return lo2, hi2
 
 
+def piles(scene: Scene, o: PreparedObject, verts: np.ndarray, dx: float) -> list[str]:
+    """:func:`gasp_core.prepare.runout.pile_warnings` of object ``o`` (its points ``verts``, m, shape (n, 3)) on the
+    scene's lowest ground at grid spacing ``dx`` (m)."""
+    grounds = [float(b.height) for b in scene.boundaries if b.kind == "ground"]
+    return pile_warnings([o.name], [verts], [o.spec.material], min(grounds) if grounds else None, dx,
+                         scene.domain.n_grid)
+
+
 def build_setup(scene: Scene, objects: list[PreparedObject]) -> tuple[SimSetup, list[PreparedObject]]:
     """Assemble the engine's point set: all objects' surface points (``T``), then their fill points.
 
@@ -141,8 +149,8 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> tuple[SimSetup, 
         others = sum(map(len, vertices)) - len(verts) + sum(len(f.fill_x) for f in fills)
         fr, passive, rule = fill_object(scene, o, verts, dx, others, float(lo[2]))
         reach = footprints(o)
-        thin = thin_part_warnings(o.name, np.concatenate([verts, fr.fill_x]), fr.h, dx, n_grid) \
-            if len(fr.fill_x) else []                      # by local thickness, not the bounding box (issue 54)
+        thin = (thin_part_warnings(o.name, np.concatenate([verts, fr.fill_x]), fr.h, dx, n_grid)   # issue 54
+                if len(fr.fill_x) else []) + piles(scene, o, verts, dx)     # a sand pile under 3 cells (runout.py)
         for msg in [fr.report.warning] + check_resolution(o.name, np.ptp(reach, axis=0), dx, n_grid, fr.report) + thin:
             if msg:
                 warnings.warn(msg, stacklevel=2)

@@ -206,7 +206,17 @@ def passive_bounds(setup, contact: str = "grid") -> tuple[np.ndarray, np.ndarray
     return lo, hi
 
 
-def hold_passive(x: np.ndarray, v: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def passive_floor_friction(setup, contact: str = "grid") -> float:
+    """The Coulomb coefficient of the face :func:`passive_bounds` holds passive points on from below (its ``lo[2]``):
+    the highest ground's ``friction``, or the walls' where their floor is higher; 0 with neither (dimensionless)."""
+    floor = passive_bounds(setup, contact)[0][2]
+    grounds = [b for b in setup.boundaries if b.kind == "ground" and float(b.height) == floor]
+    walls = [b for b in setup.boundaries if b.kind == "walls"]
+    return float((grounds or walls)[0].friction) if grounds or walls else 0.0
+
+
+def hold_passive(x: np.ndarray, v: np.ndarray, lo: np.ndarray, hi: np.ndarray, stranded=None,
+                 mu: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Passive points after an update, held in the box of :func:`passive_bounds` (the kernels' reference).
 
     Parameters
@@ -221,11 +231,21 @@ def hold_passive(x: np.ndarray, v: np.ndarray, lo: np.ndarray, hi: np.ndarray) -
     x, v : ndarray, shape (m, 3)
         On each axis, a point below ``lo_d`` is put at ``lo_d`` and its velocity's component ``v_d`` made
         ``max(v_d, 0)`` (it may leave the face, never go into it); above ``hi_d`` likewise with ``min``.
-        The tangential velocity is the grid's (with the ground's friction in it); nothing else changes.
+        The tangential velocity is the grid's (with the ground's friction in it); nothing else changes, except:
+    stranded : ndarray of bool, shape (m,), optional
+        Points that read no node with mass (:func:`stranded_passive`): one held on the floor (``lo_2``) is slowed by
+        Coulomb friction ``mu`` (:func:`passive_floor_friction`), its horizontal speed less by ``mu`` times the speed
+        into the floor removed (issue 53: at n_grid 48 a quarter of a sand column's surface points, left on the ground
+        by the collapse, kept sliding at 0.5 m/s and left the grid).
     """
     x = np.array(x, dtype=np.float64)
     v = np.array(v, dtype=np.float64)
     below, above = x < lo, x > hi
     x = np.clip(x, lo, hi)
-    v = np.where(below, np.maximum(v, 0.0), np.where(above, np.minimum(v, 0.0), v))
-    return x, v
+    held = np.where(below, np.maximum(v, 0.0), np.where(above, np.minimum(v, 0.0), v))
+    if stranded is not None:
+        floor = np.asarray(stranded, bool) & below[:, 2]
+        vt = np.linalg.norm(held[:, :2], axis=1)
+        cut = np.minimum(vt, mu * (held[:, 2] - v[:, 2])) / np.maximum(vt, 1e-30)
+        held[floor, :2] *= 1.0 - cut[floor, None]
+    return x, held

@@ -180,10 +180,12 @@ class Contact:
         return out
 
     @ti.func
-    def hold_passive(self, x, v):
+    def hold_passive(self, x, v, stranded):
         """``(x, v)`` of a passive point after its update, held in ``[hold_lo, hold_hi]``: on each axis a point below
-        ``hold_lo[d]`` is put there with ``v[d] = max(v[d], 0)``, above ``hold_hi[d]`` likewise with ``min``
-        (``gasp_core.toolkit.points.hold_passive``: a massless surface marker cannot be inside the ground or the walls)."""
+        ``hold_lo[d]`` is put there with ``v[d] = max(v[d], 0)``, above ``hold_hi[d]`` likewise with ``min``; a
+        ``stranded`` one (no node with mass in its stencil) held on the floor loses ``hold_mu`` times the speed into
+        it removed from its horizontal speed, Coulomb friction (``gasp_core.toolkit.points.hold_passive``: a massless
+        surface marker cannot be inside the ground or the walls, nor slide on the ground for ever)."""
         xo = x
         vo = v
         for d in ti.static(range(3)):
@@ -193,5 +195,10 @@ class Contact:
             if xo[d] > self.hold_hi[None][d]:
                 xo[d] = self.hold_hi[None][d]
                 vo[d] = ti.min(vo[d], 0.0)
+        vt = ti.sqrt(vo[0] * vo[0] + vo[1] * vo[1])
+        if stranded and x[2] < self.hold_lo[None][2] and vt > 0.0:
+            keep = 1.0 - ti.min(vt, self.hold_mu[None] * (vo[2] - v[2])) / vt
+            vo[0] *= keep
+            vo[1] *= keep
         return xo, vo
 

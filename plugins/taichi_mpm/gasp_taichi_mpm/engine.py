@@ -20,7 +20,7 @@ from gasp_core.toolkit.rigid import (body_frames, face_counts, lift_setup, rigid
                                      zero_stress)
 from gasp_core.seam.memory import check_memory, estimate_bytes
 from gasp_core.toolkit.restitution import body_table, plane_table, rest_speed
-from gasp_core.toolkit.points import fixed_mask, passive_bounds
+from gasp_core.toolkit.points import fixed_mask, passive_bounds, passive_floor_friction
 from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
 
 from . import ENGINE, TaichiMPMConfig
@@ -177,7 +177,7 @@ class TaichiMPMEngine(GridEngineBase):
             n_colc=len(setup.colliders) if contact in ("particle", "mixed") else 0,
             planes=contact_planes(view, contact),
             mixed=mixed, fields=field_setup(view), hold=flowing_bodies(view, contact) if setup.colliders else None,
-            passive_bounds=passive_bounds(setup, contact), rigid_frames=None if frames is None else (rigid, *frames),
+            passive_bounds=(*passive_bounds(setup, contact), passive_floor_friction(setup, contact)), rigid_frames=None if frames is None else (rigid, *frames),
             contact_reach=contact_reach(setup),
             body_mass=np.bincount(setup.body_id, weights=setup.p_mass, minlength=len(setup.materials)),
             **self._extras(setup))

@@ -97,9 +97,9 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         G2P only (velocity and position from the grid), no P2G, stress, ``F`` or ``C``. Default all
         are material. Their touched-node box is added to their chunk's box, so the grid update
         visits every node they read.
-    passive_bounds : (ndarray, ndarray), optional
-        The box (m, shape (3,) each) the passive points are held in after each update
-        (``gasp_core.toolkit.points.passive_bounds``); default unbounded.
+    passive_bounds : (ndarray, ndarray[, float]), optional
+        The box (m, shape (3,) each) the passive points are held in after each update and its floor's friction
+        (``gasp_core.toolkit.points.passive_bounds``, ``passive_floor_friction``; 0); default unbounded.
     rigid_frames : tuple, optional
         ``(rigid, centre, X0, inertia0, mass)``: which bodies are rigid and their rest frames
         (``gasp_core.toolkit.rigid.body_frames``, ``X0`` in solver order); the rigid bodies' points are projected
@@ -157,13 +157,12 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         self.allocate_hold(hold)   # the colliders' hold on the grid contact's points (colliders.py)
         self._passive_every, self._np_real = int(passive_every), np_real
         self._passive_plan: tuple[int, list] = (0, [])   # (n_substeps, per-substep weight pair or None)
-        self.lo[None] = [float(a) for a in lo]
-        self.gravity[None] = [float(a) for a in gravity]
+        self.lo[None], self.gravity[None] = [float(a) for a in lo], [float(a) for a in gravity]
         hold = passive_bounds if passive_bounds is not None else (np.full(3, -np.inf), np.full(3, np.inf))
-        self.hold_lo[None], self.hold_hi[None] = ([float(a) for a in b] for b in hold)
+        self.hold_lo[None], self.hold_hi[None] = ([float(a) for a in b] for b in hold[:2])
+        self.hold_mu[None] = float(hold[2]) if len(hold) > 2 else 0.0
         self._upload_boundaries(walls, grounds, regions, plane_n, plane_row)
-        self.grid_mv.fill(0)
-        self.grid_v.fill(0)
+        self.grid_mv.fill(0), self.grid_v.fill(0)
         self._split_chunks()
         self._init_box()
         self._setup_extras(extras, time_table, np_real, n_substeps)
@@ -213,8 +212,9 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         # substeps of the passive points' full interval [0] and last [1] (toolkit.substeps.passive_schedule)
         self.passive_substeps = ti.field(ti.i32, shape=2)
         self.lo, self.gravity = ti.Vector.field(3, real, shape=()), ti.Vector.field(3, real, shape=())
-        # the box the boundaries keep passive points in (m; gasp_core.toolkit.points.passive_bounds)
+        # the box the boundaries keep passive points in (m; gasp_core.toolkit.points.passive_bounds), its floor's mu
         self.hold_lo, self.hold_hi = ti.Vector.field(3, real, shape=()), ti.Vector.field(3, real, shape=())
+        self.hold_mu = ti.field(real, shape=())
         if self.coloured:   # the block sort (transfers.sort_blocks): keys, sorted order, counts per (chunk, key)
             from .transfers import BLOCK, SORT_CHUNKS
             cap = self.x.shape[0]

@@ -315,7 +315,7 @@ class Transfers:
         ``y += dt v(y, k)`` for ``k = 1..m`` (:func:`gasp_core.toolkit.substeps.passive_schedule`), so it turns with
         the material; ``m = 1`` is plain G2P. A point with no node of mass in its stencil (stranded: the material
         flowed away, issue 55's specks in the air) falls freely, ``v_new = v_prev + m dt g``, until the material or
-        the boundaries' box takes it again."""
+        the boundaries' box takes it again (on the floor, slowed by its friction)."""
         base, fx, ok = self.base_fx(self.x[p])
         if not ok:
             ti.atomic_add(self.n_out[None], 1)
@@ -362,7 +362,7 @@ class Transfers:
                 t = ti.cast(kk + 1, self.real) / ti.cast(m, self.real)
                 y += dt * (v_prev + t * (new_v - v_prev) + (C_prev + t * (new_C - C_prev)) @ y)
             # then held in the box the boundaries leave it (gasp_core.toolkit.points.passive_bounds)
-            self.x[p], self.v[p] = self.hold_passive(self.x[p] + y, new_v + new_C @ y)
+            self.x[p], self.v[p] = self.hold_passive(self.x[p] + y, new_v + new_C @ y, wsum <= 0.0)
             self.C[p] = new_C
 
     @ti.func

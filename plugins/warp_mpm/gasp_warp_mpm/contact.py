@@ -215,14 +215,16 @@ def build_collider_contact(Ft):
 
 @functools.cache
 def build_passive_hold(Ft):
-    """``hold_passive(x, v, lo, hi) -> (x, v)``, a Warp function of the scalar type ``Ft``: on each axis a passive
-    point below ``lo[d]`` is put at ``lo[d]`` with ``v[d] = max(v[d], 0)``, above ``hi[d]`` at ``hi[d]`` with
-    ``v[d] = min(v[d], 0)`` (``gasp_core.toolkit.points.hold_passive``: a massless surface marker cannot be
-    inside the ground or the walls)."""
+    """``hold_passive(x, v, lo, hi, stranded, mu) -> (x, v)``, a Warp function of the scalar type ``Ft``: on each axis
+    a passive point below ``lo[d]`` is put at ``lo[d]`` with ``v[d] = max(v[d], 0)``, above ``hi[d]`` at ``hi[d]`` with
+    ``v[d] = min(v[d], 0)``; a ``stranded`` one (nonzero: no node with mass in its stencil) held on the floor ``lo[2]``
+    loses ``mu`` times the speed into it removed from its horizontal speed, Coulomb friction
+    (``gasp_core.toolkit.points.hold_passive``: a massless surface marker cannot be inside the ground or the walls,
+    nor slide on the ground for ever)."""
     vec3, vec4, mat33 = build_types(Ft)
 
     @wp.func
-    def hold_passive(x: vec3, v: vec3, lo: vec3, hi: vec3):
+    def hold_passive(x: vec3, v: vec3, lo: vec3, hi: vec3, stranded: int, mu: Ft):
         xo = x
         vo = v
         for d in range(3):
@@ -232,6 +234,11 @@ def build_passive_hold(Ft):
             if xo[d] > hi[d]:
                 xo[d] = hi[d]
                 vo[d] = wp.min(vo[d], Ft(0.0))
+        if stranded != 0 and x[2] < lo[2]:
+            vt = wp.sqrt(vo[0] * vo[0] + vo[1] * vo[1])
+            if vt > Ft(0.0):
+                keep = Ft(1.0) - wp.min(vt, mu * (vo[2] - v[2])) / vt
+                vo = vec3(vo[0] * keep, vo[1] * keep, vo[2])
         return xo, vo
 
     return hold_passive

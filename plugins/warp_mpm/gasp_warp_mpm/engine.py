@@ -38,7 +38,7 @@ from gasp_core.toolkit.rigid import lift_setup, rigid_contact, step_view, zero_s
 from gasp_core.seam.memory import check_memory, estimate_bytes
 from gasp_core.toolkit.contact import (contact_coefficients, contact_model, contact_planes, ground_node_layer,
                                       rule_models, wall_grid_cells)
-from gasp_core.toolkit.points import cell_order, fixed_mask, passive_bounds
+from gasp_core.toolkit.points import cell_order, fixed_mask, passive_bounds, passive_floor_friction
 from gasp_core.toolkit.substeps import passive_schedule
 from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
 
@@ -264,7 +264,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
                         k.g2p_passive, dim=n_passive, device=d, record_cmd=True, inputs=[
                             self.x, self.v, self.C, self.fixed, self.grid_v, self.grid_m, self.flags, lo_v,
                             inv_dx, dt_f, m, ng, self.n_material, hold_lo, hold_hi, g_v, self.grid_dv, self.body,
-                            self.in_a])
+                            self.in_a, Ft(passive_floor_friction(setup, self._contact))])
                 self._passive_at[substep] = by_interval[m]
         self._tick = (wp.launch(k.tick, dim=1, device=d, record_cmd=True, inputs=[ex.step])
                       if has_extras else None)

@@ -310,7 +310,7 @@ def build_g2p_passive(Ft):
         x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33), fixed: wp.array(dtype=wp.int32),
         grid_v: wp.array(dtype=vec3), grid_m: wp.array(dtype=Ft), flags: wp.array(dtype=wp.int32),
         lo: vec3, inv_dx: Ft, dt: Ft, m: int, n_grid: int, first: int, hold_lo: vec3, hold_hi: vec3, gravity: vec3,
-        grid_dv: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32),
+        grid_dv: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32), mu_floor: Ft,
     ):
         # Passive points (rows first..): velocity v and affine velocity gradient C from the grid
         # (no F, no P2G). Only nodes with mass count, weights renormalised over them: a surface point
@@ -319,7 +319,8 @@ def build_g2p_passive(Ft):
         # point then advances over the m substeps since its last gather through the affine field
         # v(y, k) = v_prev + (k/m)(v_new - v_prev) + (C_prev + (k/m)(C_new - C_prev)) y,
         # y += dt v(y, k), k = 1..m (gasp_core.toolkit.substeps.passive_schedule), so it turns with the material.
-        # A point with no node of mass in its stencil (stranded) falls freely: v_new = v_prev + m dt g.
+        # A point with no node of mass in its stencil (stranded) falls freely: v_new = v_prev + m dt g; on the floor
+        # it slides with the floor's Coulomb friction mu_floor (gasp_core.toolkit.points.hold_passive).
         p = first + wp.tid()
         if fixed[p] != 0:
             v[p] = vec3(Ft(0.0))
@@ -357,7 +358,9 @@ def build_g2p_passive(Ft):
                         Svr = Svr + w * wp.outer(gv, r)
                         Srr = Srr + w * wp.outer(r, r)
         Cn = mat33()
+        stranded = int(1)
         if wsum > Ft(0.0):
+            stranded = int(0)
             new_v = new_v / wsum
             rbar = rbar / wsum
             # centred moments per unit weight (divided by wsum: a point at a crack may see only a far corner node,
@@ -375,7 +378,7 @@ def build_g2p_passive(Ft):
             t = Ft(kk + 1) / Ft(m)
             y = y + dt * (vp + t * (new_v - vp) + (Cp + t * (Cn - Cp)) * y)
         # then held in the box the boundaries leave it, [hold_lo, hold_hi] (gasp_core.toolkit.points.passive_bounds)
-        xn, vn = hold_passive(xp + y, new_v + Cn * y, hold_lo, hold_hi)
+        xn, vn = hold_passive(xp + y, new_v + Cn * y, hold_lo, hold_hi, stranded, mu_floor)
         x[p] = xn
         v[p] = vn
         C[p] = Cn
