@@ -5,12 +5,12 @@
   ``TOUCH_FRACTION`` otherwise).
 - Both engines (taichi_mpm in the slow tier: its kernels compile in about 40 s): the conformance scene ``stacked_gap``
   (two jelly balls stacked in a frictionless tube) passes its check, the gap between the lattices' surfaces over the
-  last 0.5 s within ``STACK_GAP_TOL`` = 0.25 dx of 0 (measured -0.132 dx on warp_mpm, -0.146 on taichi_mpm: the
+  last 0.5 s within ``STACK_GAP_TOL`` = 0.25 dx of 0 (measured -0.181 dx on warp_mpm, -0.193 on taichi_mpm since round 22: the
   lattices' surfaces a little inside each other).
 - The check fails on broken engines (:func:`test_the_gap_check_fails_on_a_broken_contact`, warp_mpm): one velocity
   field (``contact_fields = false``: +0.84 dx, held a cell apart), the contact acting wherever the two fields share
   a node, across a gap (touch threshold 0: +0.83 dx), and the contact acting only once the volumes fill the cell
-  (the sand's threshold 0.9: -0.40 dx, the top ball inside the bottom one).
+  (the sand's threshold 0.9: -0.29 dx, the top ball inside the bottom one; -0.40 before round 22).
 """
 from __future__ import annotations
 
@@ -62,10 +62,10 @@ def _gap(engine: str) -> tuple[bool, float]:
 @pytest.mark.parametrize("engine", ["warp_mpm", pytest.param("taichi_mpm", marks=pytest.mark.slow)])
 def test_the_stacked_balls_meet_at_their_surfaces(engine):
     ok, gap = _gap(engine)
-    assert ok and gap == pytest.approx(-0.14, abs=0.05), gap     # measured -0.132 (warp_mpm), -0.146 (taichi_mpm)
+    assert ok and gap == pytest.approx(-0.19, abs=0.05), gap     # measured -0.181 (warp_mpm), -0.193 (taichi_mpm); round 21 -0.13, -0.15
 
 
-@pytest.mark.parametrize("broken, expect", [("one_field", 0.84), ("across_gap", 0.83), ("late_touch", -0.40)])
+@pytest.mark.parametrize("broken, expect", [("one_field", 0.84), ("across_gap", 0.83), ("late_touch", -0.29)])
 def test_the_gap_check_fails_on_a_broken_contact(monkeypatch, broken, expect):
     if broken == "one_field":
         monkeypatch.setattr(F, "soft_pair", lambda setup: False)          # one velocity field, the rule before

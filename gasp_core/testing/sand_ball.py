@@ -130,24 +130,40 @@ def pair_figures(x0: np.ndarray, x1: np.ndarray, body: np.ndarray, free_x1: np.n
 #: The sliding block (:func:`slide_setup`): a 6 x 6 x 3 cm block of the sand on a 40 x 16 x 3 cm jelly slab (E 2e5 Pa,
 #: rho 1000; held on the ground, friction 0.5, by its weight: it carries 2.6 times the block's friction).
 SLAB = Material("jelly", E=2e5, nu=0.3, rho=1000.0)
+#: The solid block of :func:`slide_setup` ``solid=True``: the slab's jelly (a block that keeps its shape), on a grid of
+#: :data:`SOLID_N_GRID` over the same box (the block 8 x 8 x 4 cells: at 32 its 2-cell thickness reads friction 16-20 %
+#: high, docs/contact.md "Friction between bodies").
+SOLID_N_GRID = 64
 
 
-def slide_setup(v0: float, options: dict | None = None) -> SimSetup:
-    """The sand block (body 0) thrown along +x at ``v0`` (m/s) over the slab (body 1), touching it at rest.
+def slide_setup(v0: float, options: dict | None = None, ground: bool = False, solid: bool = False) -> SimSetup:
+    """The block (body 0) thrown along +x at ``v0`` (m/s) over the slab (body 1), touching it at rest.
 
-    Coulomb's law with the sand's ``mu = tan(30 deg)`` on the block's whole base decelerates its mass centre at
-    ``mu g`` whatever it does inside (only the slab pushes on it): it stops after ``v0^2 / (2 mu g)``
-    (:func:`slide_travel`)."""
-    xs, vs = box_points([-0.03, -0.03, 0.03], [0.03, 0.03, 0.06], DX / 2)
-    xb, vb = box_points([-0.08, -0.08, 0.0], [0.32, 0.08, 0.03], DX / 2)
+    Coulomb's law on the block's whole base decelerates its mass centre at ``mu g`` while all of it slides forward
+    (only the slab pushes on it): a block that keeps its shape (``solid``: the jelly, ``mu`` the two soft bodies'
+    :data:`gasp_core.toolkit.fields.SOLID_FRICTION`) stops after ``v0^2 / (2 mu g)`` (:func:`slide_travel`). A sand
+    block spreads as it slides (its back slips backwards once it slows, and friction there pushes it on), so its
+    answer is measured: ``ground=True`` throws it along the ground itself, no slab, the ground's friction the sand's
+    ``tan(phi)``: the grid's boundary rule with the same coefficient (the solid block there stops within 0.4 % of
+    Coulomb's travel)."""
+    n_grid = SOLID_N_GRID if solid else N_GRID
+    dx = SIDE / n_grid
+    lo = np.array([-0.12, -SIDE / 2, -3 * dx])
+    base = 0.0 if ground else 0.03
+    xs, vs = box_points([-0.03, -0.03, base], [0.03, 0.03, base + 0.03], dx / 2)
+    xb, vb = box_points([-0.08, -0.08, 0.0], [0.32, 0.08, 0.03], dx / 2)
+    if ground:
+        xb = xb[:0]
     x = np.concatenate([xs, xb])
     v = np.zeros_like(x)
     v[:len(xs), 0] = v0
+    mats = [SLAB if solid else SAND] + ([] if ground else [SLAB])
+    bounds = [Boundary("ground", height=0.0,
+                       friction=float(np.tan(np.radians(SAND.friction_angle))) if ground else MU_GROUND)]
     return SimSetup(x=x, v=v, p_vol=np.concatenate([np.full(len(xs), vs), np.full(len(xb), vb)]),
-                    body_id=np.concatenate([np.zeros(len(xs), int), np.ones(len(xb), int)]), materials=[SAND, SLAB],
-                    gravity=np.array([0.0, 0.0, -9.81]), domain_lo=LO, domain_hi=LO + SIDE, n_grid=N_GRID,
-                    frame_dt=1.0 / 30.0, boundaries=[Boundary("ground", height=0.0, friction=MU_GROUND)],
-                    options=dict(options or {}))
+                    body_id=np.concatenate([np.zeros(len(xs), int), np.ones(len(xb), int)]), materials=mats,
+                    gravity=np.array([0.0, 0.0, -9.81]), domain_lo=lo, domain_hi=lo + SIDE, n_grid=n_grid,
+                    frame_dt=1.0 / 30.0, boundaries=bounds, options=dict(options or {}))
 
 
 def slide_travel(x0: np.ndarray, x1: np.ndarray, setup: SimSetup) -> float:

@@ -12,19 +12,26 @@ approach along the normal and slide with friction ``mu``. G2P then reads each po
 velocity (mass-weighted mean of the two) is updated as before, with gravity and the boundaries; each field's
 velocity is that mean plus its own offset, so a scene whose fields never share a node runs as before. Two soft bodies
 (:func:`soft_pair`: a scene of two bodies on the particle contact, neither rigid nor flowing) take the same contact,
-body 1 as field A against body 0, with friction :data:`SOLID_FRICTION` and the touch threshold
+the smaller as field A against the larger, with friction :data:`SOLID_FRICTION` and the touch threshold
 :data:`SOFT_TOUCH_FRACTION`, so they meet at their surfaces (issue 53 item 5, ``docs/contact.md`` "Two jelly balls
 stacked").
 
 Per node, with ``m = m_A + m_B`` and the velocities ``v_A = p_A / m_A``, ``v_B = p_B / m_B`` after P2G:
 
-    u = v_A - v_B,   n = (grad m_B - grad m_A) / |.|   (out of A, into B)
+    u = v_A - v_B,   n = grad m_B / |.|   (into B: field B's surface normal)
     approaching (u . n > 0):  q = (u . n) n + u_t            if |u_t| <= mu (u . n)   (stick)
                               q = (u . n) n + mu (u . n) t   otherwise, t = u_t / |u_t|   (slide)
     else q = 0;  u' = u - q,  dv_A = (m_B / m) u',  dv_B = -(m_A / m) u'
 
 ``v_A' = v_cm + dv_A``, ``v_B' = v_cm + dv_B`` conserve the node's momentum (``m_A dv_A + m_B dv_B = 0``). The mass
-gradients are central differences of the node masses. A node in a ground's node layers or the walls' (the grid
+gradient is a central difference of field B's node masses. **The normal is B's alone** (the solid under a flowing
+body, the larger of two soft bodies), the choice of a specified normal among the multi-material options (Nairn's
+NairnMPM documents "each material's gradient", "maximum gradient", "average gradient", "maximum volume" and a
+specified normal, and finds that no one option works for every problem): with the average of the two
+(``grad m_B - grad m_A``, before round 22) a block's edges tilt the normal, its front ploughs (approach made of the
+slide) and its back lets go; a jelly block thrown along a jelly slab then stopped as with a coefficient 0.88-0.91
+for 0.5 (n_grid 32), 0.68-0.76 at n_grid 64; with the slab's normal 0.58-0.60 and **0.502-0.504** at 64, at every
+speed (``docs/contact.md``, "Friction between bodies"). A node in a ground's node layers or the walls' (the grid
 rule's reach) takes no offset: both fields move with the projected mean there. Colliders are not looked at.
 """
 from __future__ import annotations
@@ -61,21 +68,23 @@ MIN_GRADIENT = 1e-6
 def field_bodies(setup) -> np.ndarray | None:
     """Which bodies make field A (shape (n_materials,), bool), or None where the scene runs one field. With the
     option ``contact_fields`` true (the default): in a ``"mixed"`` scene the flowing bodies (A) against the others
-    (B); two soft bodies (:func:`soft_pair`) body 1 (A) against body 0 (B). Any other scene runs one field (three or
+    (B); two soft bodies (:func:`soft_pair`) the smaller by volume (A; body 1 when equal) against the larger (B),
+    whose surface gives the contact normal (a block on a slab: the slab's face). Any other scene runs one field (three or
     more soft bodies among them: a field per body is not built)."""
     if not setup.options.get("contact_fields", True):
         return None
     c = contact_model(setup)
     if c == "mixed":
         return flowing_bodies(setup, c)
-    if c == "particle" and soft_pair(setup):
-        return np.array([False, True])
+    if c == "particle" and soft_pair(setup):   # A the smaller body (by volume; body 1 when equal): B's is the normal
+        vol = np.bincount(np.asarray(setup.body_id), weights=np.asarray(setup.p_vol, float), minlength=2)
+        return np.array([False, True]) if vol[1] <= vol[0] else np.array([True, False])
     return None
 
 
 def soft_pair(setup) -> bool:
     """Whether a scene is two soft bodies on the particle contact (two materials, neither flowing nor rigid): they
-    take a field each, body 1 (A) against body 0 (B), so they meet at their surfaces (issue 53 item 5,
+    take a field each, the smaller (A) against the larger (B), so they meet at their surfaces (issue 53 item 5,
     ``docs/contact.md`` "Two jelly balls stacked"). Three or more soft bodies keep one field (no multi-field contact yet)."""
     from gasp_core.toolkit.rigid import rigid_mask
     return (len(setup.materials) == 2 and contact_model(setup) == "particle"
@@ -120,7 +129,7 @@ def field_offsets(m: np.ndarray, m_a: np.ndarray, p: np.ndarray, p_a: np.ndarray
     p, p_a : (k, 3) float
         The whole momentum and field A's, kg m/s (after P2G, before gravity).
     n : (k, 3) float
-        The unnormalised normal ``grad m_B - grad m_A`` (kg/m).
+        The unnormalised normal ``grad m_B`` (kg/m).
     mu : float
         The Coulomb coefficient (:func:`field_friction`).
 
@@ -147,9 +156,10 @@ def field_offsets(m: np.ndarray, m_a: np.ndarray, p: np.ndarray, p_a: np.ndarray
 
 
 def mass_normals(m: np.ndarray, m_a: np.ndarray, dx: float) -> np.ndarray:
-    """The NumPy reference of the normals: ``grad m_B - grad m_A`` by central differences of the node masses
-    (shape (n, n, n) each, kg) at the inner nodes; shape (n, n, n, 3), kg/m, zero on the grid's outer layer."""
-    d = (m - m_a) - m_a
+    """The NumPy reference of the normals: ``grad m_B`` (field B's surface normal, into B) by central differences of
+    the node masses (shape (n, n, n) each, kg) at the inner nodes; shape (n, n, n, 3), kg/m, zero on the grid's
+    outer layer."""
+    d = m - m_a
     out = np.zeros(m.shape + (3,))
     for ax in range(3):
         sl_c, sl_p, sl_m = [slice(1, -1)] * 3, [slice(1, -1)] * 3, [slice(1, -1)] * 3

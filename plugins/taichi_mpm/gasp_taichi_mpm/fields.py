@@ -69,9 +69,9 @@ class Fields:
         return v
 
     @ti.func
-    def mass_diff(self, I):
-        """``m_B - m_A`` at node I."""
-        return self.grid_mv[0, I][3] - 2.0 * self.grid_sv[I][3]
+    def mass_b(self, I):
+        """``m_B`` at node I: the whole grid's mass less field A's."""
+        return self.grid_mv[0, I][3] - self.grid_sv[I][3]
 
     @ti.kernel
     def field_contact(self):
@@ -102,9 +102,9 @@ class Fields:
                 touch = vf[0] + vf[1] >= self.field_touch * cell
                 u = ti.Vector([sv[0], sv[1], sv[2]]) / m_a - ti.Vector([g[0] - sv[0], g[1] - sv[1], g[2] - sv[2]]) / m_b
                 ex, ey, ez = ti.Vector([1, 0, 0]), ti.Vector([0, 1, 0]), ti.Vector([0, 0, 1])
-                n = ti.Vector([self.mass_diff(I + ex) - self.mass_diff(I - ex),
-                               self.mass_diff(I + ey) - self.mass_diff(I - ey),
-                               self.mass_diff(I + ez) - self.mass_diff(I - ez)])
+                n = ti.Vector([self.mass_b(I + ex) - self.mass_b(I - ex),   # field B's surface normal
+                               self.mass_b(I + ey) - self.mass_b(I - ey),
+                               self.mass_b(I + ez) - self.mass_b(I - ez)])
                 ln = n.norm()
                 u2 = u
                 if ln > MIN_GRADIENT * m:

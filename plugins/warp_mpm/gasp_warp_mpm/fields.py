@@ -51,9 +51,9 @@ def build_fields(Ft):
     vec3, vec4, mat33 = build_types(Ft)
 
     @wp.func
-    def mass_diff(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), node: int):
-        # m_B - m_A at a node
-        return grid_mv[node][3] - Ft(2.0) * grid_sv[node][3]
+    def mass_b(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), node: int):
+        # m_B at a node: the whole grid's mass less field A's
+        return grid_mv[node][3] - grid_sv[node][3]
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def field_contact(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), grid_dv: wp.array(dtype=vec3),
@@ -84,10 +84,10 @@ def build_fields(Ft):
         if inner and held == 0 and m_a > Ft(MIN_FRACTION) * m and m_b > Ft(MIN_FRACTION) * m:
             pa = grid_sv[node]
             u = vec3(pa[0], pa[1], pa[2]) / m_a - vec3(g[0] - pa[0], g[1] - pa[1], g[2] - pa[2]) / m_b
-            # grad m_B - grad m_A, central differences (the 1 / (2 dx) cancels in the direction)
-            n = vec3(mass_diff(grid_mv, grid_sv, node + nn) - mass_diff(grid_mv, grid_sv, node - nn),
-                     mass_diff(grid_mv, grid_sv, node + n_grid) - mass_diff(grid_mv, grid_sv, node - n_grid),
-                     mass_diff(grid_mv, grid_sv, node + 1) - mass_diff(grid_mv, grid_sv, node - 1))
+            # grad m_B, central differences (the 1 / (2 dx) cancels in the direction): field B's surface normal
+            n = vec3(mass_b(grid_mv, grid_sv, node + nn) - mass_b(grid_mv, grid_sv, node - nn),
+                     mass_b(grid_mv, grid_sv, node + n_grid) - mass_b(grid_mv, grid_sv, node - n_grid),
+                     mass_b(grid_mv, grid_sv, node + 1) - mass_b(grid_mv, grid_sv, node - 1))
             ln = wp.length(n)
             u2 = u
             if ln > Ft(MIN_GRADIENT) * m:
