@@ -151,9 +151,7 @@ def slide_setup(v0: float, options: dict | None = None, ground: bool = False, so
     lo = np.array([-0.12, -SIDE / 2, -3 * dx])
     base = 0.0 if ground else 0.03
     xs, vs = box_points([-0.03, -0.03, base], [0.03, 0.03, base + 0.03], dx / 2)
-    xb, vb = box_points([-0.08, -0.08, 0.0], [0.32, 0.08, 0.03], dx / 2)
-    if ground:
-        xb = xb[:0]
+    xb, vb = (np.zeros((0, 3)), 0.0) if ground else box_points([-0.08, -0.08, 0.0], [0.32, 0.08, 0.03], dx / 2)
     x = np.concatenate([xs, xb])
     v = np.zeros_like(x)
     v[:len(xs), 0] = v0
