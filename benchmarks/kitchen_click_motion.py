@@ -20,8 +20,11 @@ Measured (``benchmarks/results/kitchen_click_motion.md``): the aim is **not met*
 piece: recall 0.838, 15 Gaussians more than 2 cm outside the box (precision 0.86); the other 4 (hits at the box's
 still end and one on the cook's hand 5.7 cm above it) select 1 to 4 Gaussians. Recall stops near 0.86 whatever the
 threshold, link or a dilation of the hull (1 cm: 0.86 with 28 outside; a looser link percolates into thousands of
-Gaussians of the kitchen): about 15 % of the box's rows move less than the 2 cm around the box does (the box's
-low-z end in the file, near x = -0.5, holds a still cluster of grey and brown Gaussians), so motion cannot find them.
+Gaussians of the kitchen): the box's rows move 2.7 cm at the median, the 5 cm around the box 0.84 cm, but 17 % of
+the box's rows move less than that 0.84 cm (the box's low-z end in the file, near x = -0.5, holds a still cluster of
+grey and brown Gaussians), so motion cannot find them. Neighbours' trajectories do not separate either: box rows
+within 3.5 cm of each other drift apart by 3.3 cm (median over pairs; the leaves are stirred), a box row and its
+outside neighbour by 0.7 to 1.2 cm.
 
 Run: ``python benchmarks/kitchen_click_motion.py`` (about 10 s; numpy and scipy).
 """
