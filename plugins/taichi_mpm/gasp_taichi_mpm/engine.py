@@ -16,6 +16,7 @@ from gasp_core.toolkit.contact import (contact_coefficients, contact_model, cont
 from gasp_core.toolkit.fields import field_setup
 from gasp_core.toolkit.grid_engine import choose_dt, GridEngineBase
 from gasp_core.toolkit.materials import JELLY, initial_Jp, material_table
+from gasp_core.toolkit.rigid_hold import rigid_hold_tables
 from gasp_core.toolkit.rigid import (body_frames, face_counts, lift_setup, rigid_contact, rigid_mask, step_view,
                                      zero_stress)
 from gasp_core.seam.memory import check_memory, estimate_bytes
@@ -184,6 +185,9 @@ class TaichiMPMEngine(GridEngineBase):
         # the rigid bodies' restitution, applied by their contact's hysteresis (gasp_core.toolkit.restitution)
         self.solver.set_restitution(body_table(setup), plane_table(setup, self.solver.n_planes), rest_speed(setup),
                                     face_counts(setup))
+        # the rigid bodies' hold on the flowing points (gasp_core.toolkit.rigid_hold; none: the code before)
+        flows = flowing_bodies(view, contact)
+        self.solver.allocate_rigid_hold(rigid_hold_tables(setup, dx, flows) if rigid.any() else None, flows)
         self._p2g_mode = "atomic" if atomic else "coloured blocks"
         self.frame = 0
         self._x = setup.x.astype(np.float32 if real == ti.f32 else np.float64)
