@@ -11,8 +11,8 @@ the outward normal ``n = R grad phi / |grad phi|``, its approach relative to the
 (``V + w x (x - c)``) removed and its slip reduced by Coulomb's friction of that approach (the collider rule
 ``collide``, coefficient :func:`gasp_core.toolkit.fields.field_friction`: the two fields' between the same bodies).
 The point's momentum change ``m dv`` is given back to the body (``-m dv`` at ``x``, its angular part ``x x (-m dv)``
-about the origin), added to the body's sums of its next projection: Newton's third law, the grid contact's momentum
-kept.
+about the origin), added to the body's sums of its next projection: action and reaction, the momentum of the two
+bodies kept.
 
 :func:`hold_reference` is the NumPy reference of one point's hold.
 """
