@@ -157,7 +157,7 @@ def field_depth(x0: np.ndarray, x1: np.ndarray, setup) -> float:
     from gasp_core.toolkit.contact import contact_model, flowing_bodies
     from gasp_core.toolkit.rigid import body_frames, rigid_mask, step_view
     view = step_view(setup)
-    row, sdf, _grad, meta = _TABLES(setup, S.DX, flowing_bodies(view, contact_model(view)))
+    _row, sdf, _grad, meta = _TABLES(setup, S.DX, flowing_bodies(view, contact_model(view)))
     body = np.asarray(setup.body_id)
     ball = body == 1
     c0 = body_frames(x0, setup.p_mass, body, rigid_mask(setup.materials))[0][1]

@@ -52,9 +52,11 @@ def body_sdf(X: np.ndarray, vol: np.ndarray, dx: float) -> tuple[np.ndarray, np.
     The occupancy is the points' smoothed volume fraction over one half (each point's volume on its nearest sample,
     a Gaussian of :data:`SMOOTHING` times the median point spacing ``s = cbrt(vol)``: on a lattice fill of spacing
     ``s`` it is 1 inside, with ripples of ``exp(-2 pi^2 0.75^2)``, 2e-5, and it falls through one half half a spacing
-    beyond a flat outer layer, where a fill's surface is); closed holes are filled; ``phi`` is the Euclidean distance to it outside and minus the
-    distance to its outside inside, each less half a sample (as ``gasp_core.colliders.sdf.collider_from_splats``).
-    ``h = dx / SAMPLES_PER_CELL`` (wider where the body would need more than :data:`MAX_SAMPLES`)."""
+    beyond a flat outer layer, where a fill's surface is); closed holes are filled; ``phi`` is the Euclidean distance
+    to it outside and minus the distance to its outside inside, each less half a sample (as
+    ``gasp_core.colliders.sdf.collider_from_splats``).
+    ``h = dx / SAMPLES_PER_CELL`` (wider where the body would need more than :data:`MAX_SAMPLES`). Points whose
+    volumes fill no sample give ``phi`` 1e30 everywhere: nothing held."""
     X, vol = np.asarray(X, np.float64), np.asarray(vol, np.float64)
     s = float(np.median(np.cbrt(vol)))
     sigma = SMOOTHING * s
@@ -70,6 +72,8 @@ def body_sdf(X: np.ndarray, vol: np.ndarray, dx: float) -> tuple[np.ndarray, np.
     np.add.at(rho, tuple(idx.T), vol / h ** 3)
     rho = ndimage.gaussian_filter(rho, sigma / h, mode="constant", truncate=4.0)
     occ = ndimage.binary_fill_holes(rho > 0.5)
+    if not occ.any():   # points too sparse for their volumes to fill a sample (no body to hold with)
+        return np.full(shape, 1e30), origin, h
     out = ndimage.distance_transform_edt(~occ) * h
     ins = ndimage.distance_transform_edt(occ) * h
     return np.where(occ, -(ins - 0.5 * h), out - 0.5 * h), origin, h
