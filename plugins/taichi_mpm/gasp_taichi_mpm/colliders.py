@@ -28,28 +28,21 @@ class Colliders:
         return out
 
     @ti.func
-    def collider_at(self, X, c, base, thr):
-        """``(phi, n, v_c)``: collider ``c``'s signed distance (m; ``1e30`` off its field's grid or where its gradient
-        vanishes), unit outward normal and velocity at the world point ``X``, trilinear in its frame at the pose of
-        the time-table row at ``base``; the normal and velocity only where ``phi <= thr`` (zeros elsewhere: the
-        callers act only there). The grid rule and the particle contact both read it (warp_mpm's ``collider_at``)."""
-        r = c * COL_META
-        p0 = base + FT_POSES + COL_POSE * c
-        pr = p0 + PO_R
-        R = ti.Matrix([[self.ex_tab[pr + 0], self.ex_tab[pr + 1], self.ex_tab[pr + 2]],
-                       [self.ex_tab[pr + 3], self.ex_tab[pr + 4], self.ex_tab[pr + 5]],
-                       [self.ex_tab[pr + 6], self.ex_tab[pr + 7], self.ex_tab[pr + 8]]])
-        T = ti.Vector([self.ex_tab[p0 + PO_T], self.ex_tab[p0 + PO_T + 1], self.ex_tab[p0 + PO_T + 2]])
-        h = self.ex_meta[r + CM_H]
-        org = ti.Vector([self.ex_meta[r + CM_ORIGIN], self.ex_meta[r + CM_ORIGIN + 1], self.ex_meta[r + CM_ORIGIN + 2]])
-        nx = ti.cast(self.ex_meta[r + CM_NX], ti.i32)
-        ny = ti.cast(self.ex_meta[r + CM_NY], ti.i32)
-        nz = ti.cast(self.ex_meta[r + CM_NZ], ti.i32)
-        off = ti.cast(self.ex_meta[r + CM_OFFSET], ti.i32)
+    def field_at(self, X, R, T, meta: ti.template(), sdf: ti.template(), grad: ti.template(), r, thr):
+        """``(phi, n)``: the signed distance (m; ``1e30`` off its grid or where its gradient vanishes) and unit outward
+        normal (world) at the world point ``X`` of the field whose ``COL_META`` row starts at ``r`` of ``meta``
+        (samples in ``sdf``, gradients in ``grad``), its frame at the pose ``x = R X + T``, trilinear; the normal only
+        where ``phi <= thr`` (zeros elsewhere: the callers act only there). A collider's (:meth:`collider_at`) and a
+        rigid body's (``rigid_hold.py``; warp_mpm's ``field_at``)."""
+        h = meta[r + CM_H]
+        org = ti.Vector([meta[r + CM_ORIGIN], meta[r + CM_ORIGIN + 1], meta[r + CM_ORIGIN + 2]])
+        nx = ti.cast(meta[r + CM_NX], ti.i32)
+        ny = ti.cast(meta[r + CM_NY], ti.i32)
+        nz = ti.cast(meta[r + CM_NZ], ti.i32)
+        off = ti.cast(meta[r + CM_OFFSET], ti.i32)
         u = (R.transpose() @ (X - T) - org) / h
         phi = ti.cast(1.0e30, self.real)
         n = ti.Vector.zero(self.real, 3)
-        vc = ti.Vector.zero(self.real, 3)
         if (u[0] >= 0.0 and u[1] >= 0.0 and u[2] >= 0.0 and u[0] <= nx - 1.0 and u[1] <= ny - 1.0
                 and u[2] <= nz - 1.0):
             i0 = ti.min(ti.cast(ti.floor(u[0]), ti.i32), nx - 2)
@@ -60,7 +53,7 @@ class Colliders:
             for di, dj, dk in ti.static(ti.ndrange(2, 2, 2)):
                 wgt = ((fx[0] if di else 1.0 - fx[0]) * (fx[1] if dj else 1.0 - fx[1])
                        * (fx[2] if dk else 1.0 - fx[2]))
-                ph += wgt * self.ex_sdf[off + ((i0 + di) * ny + (j0 + dj)) * nz + (k0 + dk)]
+                ph += wgt * sdf[off + ((i0 + di) * ny + (j0 + dj)) * nz + (k0 + dk)]
             phi = ph
             g = ti.Vector.zero(self.real, 3)
             if ph <= thr:   # the gradient only where the caller acts (the lookup's costly part)
@@ -68,7 +61,7 @@ class Colliders:
                     wgt = ((fx[0] if di else 1.0 - fx[0]) * (fx[1] if dj else 1.0 - fx[1])
                            * (fx[2] if dk else 1.0 - fx[2]))
                     idx = off + ((i0 + di) * ny + (j0 + dj)) * nz + (k0 + dk)
-                    g += wgt * ti.Vector([self.ex_grad[3 * idx], self.ex_grad[3 * idx + 1], self.ex_grad[3 * idx + 2]])
+                    g += wgt * ti.Vector([grad[3 * idx], grad[3 * idx + 1], grad[3 * idx + 2]])
             gl = g.norm()
             if ph > thr:
                 phi = ph
@@ -76,14 +69,33 @@ class Colliders:
                 phi = ti.cast(1.0e30, self.real)
             else:
                 n = R @ (g / gl)
-                vl = ti.Vector([self.ex_tab[p0 + PO_V], self.ex_tab[p0 + PO_V + 1], self.ex_tab[p0 + PO_V + 2]])
-                om = ti.Vector([self.ex_tab[p0 + PO_W], self.ex_tab[p0 + PO_W + 1], self.ex_tab[p0 + PO_W + 2]])
-                vc = vl + om.cross(X - T)
+        return phi, n
+
+    @ti.func
+    def collider_at(self, X, c, base, thr):
+        """``(phi, n, v_c)``: collider ``c``'s signed distance and unit outward normal at the world point ``X``
+        (:meth:`field_at`) and its velocity there, at the pose of the time-table row at ``base``; the normal and
+        velocity only where ``phi <= thr`` (zeros elsewhere: the callers act only there). The grid rule and the
+        particle contact both read it (warp_mpm's ``collider_at``)."""
+        p0 = base + FT_POSES + COL_POSE * c
+        pr = p0 + PO_R
+        R = ti.Matrix([[self.ex_tab[pr + 0], self.ex_tab[pr + 1], self.ex_tab[pr + 2]],
+                       [self.ex_tab[pr + 3], self.ex_tab[pr + 4], self.ex_tab[pr + 5]],
+                       [self.ex_tab[pr + 6], self.ex_tab[pr + 7], self.ex_tab[pr + 8]]])
+        T = ti.Vector([self.ex_tab[p0 + PO_T], self.ex_tab[p0 + PO_T + 1], self.ex_tab[p0 + PO_T + 2]])
+        phi, n = self.field_at(X, R, T, self.ex_meta, self.ex_sdf, self.ex_grad, c * COL_META, thr)
+        vc = ti.Vector.zero(self.real, 3)
+        if phi <= thr:
+            vl = ti.Vector([self.ex_tab[p0 + PO_V], self.ex_tab[p0 + PO_V + 1], self.ex_tab[p0 + PO_V + 2]])
+            om = ti.Vector([self.ex_tab[p0 + PO_W], self.ex_tab[p0 + PO_W + 1], self.ex_tab[p0 + PO_W + 2]])
+            vc = vl + om.cross(X - T)
         return phi, n, vc
 
     def allocate_hold(self, hold) -> None:
         """``hold``: per body, True where its points take the colliders' hold (:meth:`hold_point`: the bodies of the
-        grid contact in a scene with colliders), or None: no hold (``self.hold_cols`` False)."""
+        grid contact in a scene with colliders), or None: no hold (``self.hold_cols`` False). The rigid bodies' hold
+        is allocated after (``rigid_hold.py``; none: ``self.hold_rigid`` False)."""
+        self.hold_rigid = False
         self.hold_cols = hold is not None and bool(np.any(hold))
         self.holds = ti.field(ti.i32, shape=max(4, len(hold) if self.hold_cols else 1))
         for b, h in enumerate(hold if self.hold_cols else []):
@@ -91,6 +103,15 @@ class Colliders:
 
     @ti.func
     def hold_point(self, p):
+        """The holds on point ``p`` after its G2P: the colliders' (:meth:`hold_colliders`), then the rigid bodies'
+        (``rigid_hold.py``); nothing where neither applies (the code before)."""
+        if ti.static(self.hold_cols):
+            self.hold_colliders(p)
+        if ti.static(self.hold_rigid):
+            self.hold_rigid_point(p)
+
+    @ti.func
+    def hold_colliders(self, p):
         """The colliders' position-level hold on point ``p`` after its G2P (warp_mpm's ``collider_hold``,
         docs/colliders.md "The hold"): inside a collider (``phi < 0``) it is put back on the surface along
         the outward normal, its approach relative to the collider removed and its slip reduced by Coulomb's

@@ -16,6 +16,7 @@ from gasp_core.toolkit.contact import (contact_coefficients, contact_model, cont
 from gasp_core.toolkit.fields import field_setup
 from gasp_core.toolkit.grid_engine import choose_dt, GridEngineBase
 from gasp_core.toolkit.materials import JELLY, initial_Jp, material_table
+from gasp_core.toolkit.rigid_hold import rigid_hold_tables
 from gasp_core.toolkit.rigid import (body_frames, face_counts, lift_setup, rigid_contact, rigid_mask, step_view,
                                      zero_stress)
 from gasp_core.seam.memory import check_memory, estimate_bytes
@@ -181,14 +182,20 @@ class TaichiMPMEngine(GridEngineBase):
             contact_reach=contact_reach(setup),
             body_mass=np.bincount(setup.body_id, weights=setup.p_mass, minlength=len(setup.materials)),
             **self._extras(setup))
-        # the rigid bodies' restitution, applied by their contact's hysteresis (gasp_core.toolkit.restitution)
-        self.solver.set_restitution(body_table(setup), plane_table(setup, self.solver.n_planes), rest_speed(setup),
-                                    face_counts(setup))
+        self._rigid_extras(setup, flowing_bodies(view, contact), rigid.any())
         self._p2g_mode = "atomic" if atomic else "coloured blocks"
         self.frame = 0
         self._x = setup.x.astype(np.float32 if real == ti.f32 else np.float64)
         self._v = setup.v.astype(self._x.dtype)
         self._closed = False
+
+    def _rigid_extras(self, setup: SimSetup, flows: np.ndarray, any_rigid: bool) -> None:
+        """The rigid bodies' restitution, applied by their contact's hysteresis (``gasp_core.toolkit.restitution``),
+        and their hold on the flowing points (``gasp_core.toolkit.rigid_hold``, ``rigid_hold.py``; none: the code
+        before); ``flows``: per body, whether it takes the grid contact."""
+        self.solver.set_restitution(body_table(setup), plane_table(setup, self.solver.n_planes), rest_speed(setup),
+                                    face_counts(setup))
+        self.solver.allocate_rigid_hold(rigid_hold_tables(setup, setup.dx, flows) if any_rigid else None, flows)
 
     def _extras(self, setup: SimSetup) -> dict[str, Any]:
         """Colliders, forces and impulses for the solver (``gasp_core.colliders.model``); none: nothing."""

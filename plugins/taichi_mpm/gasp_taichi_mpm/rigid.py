@@ -243,7 +243,7 @@ class Rigid(RigidLift):
     @ti.kernel
     def rigid_reduce(self):
         for b in range(self.n_bodies):
-            self.rb_acc[b] = ti.Vector.zero(ti.f64, 6)
+            self.rb_acc[b] = self.held(b)   # the hold's impulses since the last projection (rigid_hold.py)
         quarter = 0.25 * ti.cast(self.dx[None], ti.f64) ** 2
         ti.loop_config(serialize=True)
         for p in range(self.n_points[None]):

@@ -49,6 +49,7 @@ from .fields import Fields
 from .forces import Forces
 from .grid import GridUpdate
 from .rigid import Rigid
+from .rigid_hold import RigidHold
 from .transfers import Transfers
 from .viscosity import ImplicitViscosity
 
@@ -57,7 +58,7 @@ SORT_EVERY = 10
 
 
 @ti.data_oriented
-class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact, Balance, Rigid, Fields):
+class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact, Balance, Rigid, Fields, RigidHold):
     """Fields and kernels of one simulation.
 
     Parameters
@@ -357,11 +358,7 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         self.grid_update()
         if self.n_spin:
             self.contact_fix()
-        self.g2p()
-        if at[-1] is not None:
-            self.g2p_passive(at[-1])
-        if self.any_rigid:
-            self.rigid_step()
+        self.last_g2p(at[-1])   # G2P, the passive points', the rigid projection (rigid_hold.py)
 
     def p2g_substep(self, with_g2p: int, substep: int) -> None:
         """(G2P and) P2G of one substep, then the implicit viscous step. Coloured: the block sort at the frame's

@@ -151,7 +151,7 @@ class Transfers:
             self.v[p] = v_p
             self.C[p] = new_C
             self.x[p] += self.dt[None] * new_v
-            if ti.static(self.hold_cols): self.hold_point(p)  # noqa: E701 (the colliders' hold, colliders.py)
+            self.hold_point(p)   # the colliders' and rigid bodies' holds (colliders.py, rigid_hold.py)
 
     # ------------------------------------------------------------------ kernels
     @ti.kernel

@@ -60,14 +60,13 @@ def build_blend(Ft):
 
 
 @functools.cache
-def build_collider_at(Ft):
-    """``collider_at(X, cc, base, ex, thr) -> (phi, n, v_c)``, scalar type ``Ft``: collider ``cc``'s signed distance
-    (m; ``1e30`` off its field's grid or where its gradient vanishes), unit outward normal and velocity at the world
-    point ``X``, trilinear in its frame at the pose of the time-table row at ``base``; the normal and velocity only
-    where ``phi <= thr`` (m; zeros elsewhere: the callers act only there). The grid rule
-    (:func:`build_collider_func`) and the particle contact (``contact.build_collider_contact``) both read it."""
+def build_field_at(Ft):
+    """``field_at(X, R, T, meta, r, sdf, grad, thr) -> (phi, n)``, scalar type ``Ft``: the signed distance (m; ``1e30``
+    off its grid or where its gradient vanishes) and unit outward normal (world) at the world point ``X`` of the field
+    whose ``COL_META`` row starts at ``r`` of ``meta`` (samples in ``sdf``, gradients in ``grad``), its frame at the
+    pose ``x = R X + T``, trilinear; the normal only where ``phi <= thr`` (m; zeros elsewhere: the callers act only
+    there). A collider's (:func:`build_collider_at`) and a rigid body's (``rigid_hold``)."""
     vec3, vec4, mat33 = build_types(Ft)
-    Extras = build_extras_struct(Ft)
 
     @wp.func
     def corner_weight(fx: vec3, di: int, dj: int, dk: int):
@@ -84,24 +83,17 @@ def build_collider_at(Ft):
         return wx * wy * wz
 
     @wp.func
-    def collider_at(X: vec3, cc: int, base: int, ex: Extras, thr: Ft):
-        r = cc * COL_META
-        p0 = base + FT_POSES + COL_POSE * cc
-        pr = p0 + PO_R
-        R = mat33(ex.tab[pr + 0], ex.tab[pr + 1], ex.tab[pr + 2],
-                  ex.tab[pr + 3], ex.tab[pr + 4], ex.tab[pr + 5],
-                  ex.tab[pr + 6], ex.tab[pr + 7], ex.tab[pr + 8])
-        T = vec3(ex.tab[p0 + PO_T], ex.tab[p0 + PO_T + 1], ex.tab[p0 + PO_T + 2])
-        h = ex.meta[r + CM_H]
-        org = vec3(ex.meta[r + CM_ORIGIN], ex.meta[r + CM_ORIGIN + 1], ex.meta[r + CM_ORIGIN + 2])
-        nx = int(ex.meta[r + CM_NX])
-        ny = int(ex.meta[r + CM_NY])
-        nz = int(ex.meta[r + CM_NZ])
-        off = int(ex.meta[r + CM_OFFSET])
+    def field_at(X: vec3, R: mat33, T: vec3, meta: wp.array(dtype=Ft), r: int, sdf: wp.array(dtype=Ft),
+                 grad: wp.array(dtype=Ft), thr: Ft):
+        h = meta[r + CM_H]
+        org = vec3(meta[r + CM_ORIGIN], meta[r + CM_ORIGIN + 1], meta[r + CM_ORIGIN + 2])
+        nx = int(meta[r + CM_NX])
+        ny = int(meta[r + CM_NY])
+        nz = int(meta[r + CM_NZ])
+        off = int(meta[r + CM_OFFSET])
         u = (wp.transpose(R) * (X - T) - org) / h
         phi = Ft(1.0e30)
         n = vec3(Ft(0.0))
-        vc = vec3(Ft(0.0))
         if (u[0] >= Ft(0.0) and u[1] >= Ft(0.0) and u[2] >= Ft(0.0) and u[0] <= Ft(nx - 1)
                 and u[1] <= Ft(ny - 1) and u[2] <= Ft(nz - 1)):
             i0 = wp.min(int(wp.floor(u[0])), nx - 2)
@@ -114,7 +106,7 @@ def build_collider_at(Ft):
                 dj = (q / 2) % 2
                 dk = q % 2
                 idx = off + ((i0 + di) * ny + (j0 + dj)) * nz + (k0 + dk)
-                ph = ph + corner_weight(fx, di, dj, dk) * ex.sdf[idx]
+                ph = ph + corner_weight(fx, di, dj, dk) * sdf[idx]
             phi = ph
             gr = vec3(Ft(0.0))
             if ph <= thr:   # the gradient only where the caller acts (the lookup's costly part)
@@ -123,8 +115,7 @@ def build_collider_at(Ft):
                     dj = (q / 2) % 2
                     dk = q % 2
                     idx = off + ((i0 + di) * ny + (j0 + dj)) * nz + (k0 + dk)
-                    gr = gr + corner_weight(fx, di, dj, dk) * vec3(ex.grad[3 * idx], ex.grad[3 * idx + 1],
-                                                                  ex.grad[3 * idx + 2])
+                    gr = gr + corner_weight(fx, di, dj, dk) * vec3(grad[3 * idx], grad[3 * idx + 1], grad[3 * idx + 2])
             gl = wp.length(gr)
             if ph > thr:
                 phi = ph
@@ -132,9 +123,36 @@ def build_collider_at(Ft):
                 phi = Ft(1.0e30)
             else:
                 n = R * (gr / gl)
-                vl = vec3(ex.tab[p0 + PO_V], ex.tab[p0 + PO_V + 1], ex.tab[p0 + PO_V + 2])
-                om = vec3(ex.tab[p0 + PO_W], ex.tab[p0 + PO_W + 1], ex.tab[p0 + PO_W + 2])
-                vc = vl + wp.cross(om, X - T)
+        return phi, n
+
+    return field_at
+
+
+@functools.cache
+def build_collider_at(Ft):
+    """``collider_at(X, cc, base, ex, thr) -> (phi, n, v_c)``, scalar type ``Ft``: collider ``cc``'s signed distance
+    and unit outward normal at the world point ``X`` (:func:`build_field_at`) and its velocity there, at the pose of
+    the time-table row at ``base``; the normal and velocity only where ``phi <= thr`` (m; zeros elsewhere: the
+    callers act only there). The grid rule (:func:`build_collider_func`) and the particle contact
+    (``contact.build_collider_contact``) both read it."""
+    vec3, vec4, mat33 = build_types(Ft)
+    Extras = build_extras_struct(Ft)
+    field_at = build_field_at(Ft)
+
+    @wp.func
+    def collider_at(X: vec3, cc: int, base: int, ex: Extras, thr: Ft):
+        p0 = base + FT_POSES + COL_POSE * cc
+        pr = p0 + PO_R
+        R = mat33(ex.tab[pr + 0], ex.tab[pr + 1], ex.tab[pr + 2],
+                  ex.tab[pr + 3], ex.tab[pr + 4], ex.tab[pr + 5],
+                  ex.tab[pr + 6], ex.tab[pr + 7], ex.tab[pr + 8])
+        T = vec3(ex.tab[p0 + PO_T], ex.tab[p0 + PO_T + 1], ex.tab[p0 + PO_T + 2])
+        phi, n = field_at(X, R, T, ex.meta, cc * COL_META, ex.sdf, ex.grad, thr)
+        vc = vec3(Ft(0.0))
+        if phi <= thr:
+            vl = vec3(ex.tab[p0 + PO_V], ex.tab[p0 + PO_V + 1], ex.tab[p0 + PO_V + 2])
+            om = vec3(ex.tab[p0 + PO_W], ex.tab[p0 + PO_W + 1], ex.tab[p0 + PO_W + 2])
+            vc = vl + wp.cross(om, X - T)
         return phi, n, vc
 
     return collider_at

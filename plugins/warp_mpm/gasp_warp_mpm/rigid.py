@@ -334,7 +334,7 @@ class RigidBodies:
         self.X0 = wp.array(self._X0_setup[self._order], dtype=vec3d, device=d)
 
     def _rigid_launches(self, Ft) -> list:
-        """The three launches of the rigid projection after G2P (none without a rigid body)."""
+        """The launches of the rigid projection after G2P and of the bodies' hold (none without a rigid body)."""
         if not self.any_rigid:
             return []
         reduce_k, update_k, apply_k = build_rigid(Ft)
@@ -368,7 +368,8 @@ class RigidBodies:
                         self.planes, self.plane_n, self.rb_dmax, self.rb_dsum, ex.rb_e, ex.rb_vin, ex.plane_e,
                         ex.v_rest, RIGID_SLOP * dx]),
                     out[2]]
-        return out
+        from .rigid_hold import rigid_hold_launches   # then the flowing points held out of the bodies
+        return out + rigid_hold_launches(self, Ft)
 
     def _contact_arrays(self) -> dict:
         """The rigid bodies' ongoing contact (the restitution's state, ``contact.build_contact_impulse``), by state
