@@ -69,10 +69,9 @@ def beyond_wall(x: np.ndarray, centre: np.ndarray, wall: np.ndarray) -> np.ndarr
     return np.hypot(s[:, 0], s[:, 1]) - wall[_sector(s)]
 
 
-def measure(run_dir) -> dict:
-    """The figures of a kitchen run folder: ``n`` spinach Gaussians, ``beyond`` (dict cells -> count beyond the
-    wall by more than that many ``dx``), ``max_m`` the largest distance beyond it (m), ``dx``, ``at_start`` (count
-    outside at frame 0, 0 by construction)."""
+def _wall_run(run_dir) -> dict:
+    """A kitchen run folder read against the pan's wall: ``mask`` (the spinach rows), ``dx``, ``centre``, ``wall``
+    (:func:`pan_wall`), ``first`` and ``last`` (the Gaussians of frames 0 and the last)."""
     import json
     from gasp_core.render.run import load_run, moving_mask
     run = load_run(run_dir)
@@ -82,11 +81,20 @@ def measure(run_dir) -> dict:
     first, last = run.splats(0), run.splats(run.n_frames - 1)
     rest = first.means[~mask][expit(first.opacities[~mask].astype(np.float64)) >= 0.1]
     centre, wall = pan_wall(rest, first.means[mask], ground)
-    d = beyond_wall(last.means[mask], centre, wall)
-    dx = float(rec["domain"]["dx"])
+    return {"mask": mask, "dx": float(rec["domain"]["dx"]), "centre": centre, "wall": wall, "first": first,
+            "last": last}
+
+
+def measure(run_dir) -> dict:
+    """The figures of a kitchen run folder: ``n`` spinach Gaussians, ``beyond`` (dict cells -> count beyond the
+    wall by more than that many ``dx``), ``max_m`` the largest distance beyond it (m), ``dx``, ``at_start`` (count
+    outside at frame 0, 0 by construction)."""
+    w = _wall_run(run_dir)
+    mask, dx, centre, wall = w["mask"], w["dx"], w["centre"], w["wall"]
+    d = beyond_wall(w["last"].means[mask], centre, wall)
     return {"n": int(mask.sum()), "dx": dx, "max_m": float(d.max()), "wall_m": wall.tolist(),
             "beyond": {c: int((d > c * dx).sum()) for c in CELLS},
-            "at_start": int((beyond_wall(first.means[mask], centre, wall) > 0).sum())}
+            "at_start": int((beyond_wall(w["first"].means[mask], centre, wall) > 0).sum())}
 
 
 def who_left(run_dir, k: int = 10) -> list[dict]:
@@ -95,18 +103,11 @@ def who_left(run_dir, k: int = 10) -> list[dict]:
     is at ``dynamic_time``, over 21 times in [0, 1], file units) and the same figures' means over its ``k`` nearest
     unselected and ``k`` nearest selected Gaussians at ``dynamic_time`` (file frame). A Gaussian of the pan caught by
     the select box looks like its unselected neighbours (dark, still); a leaf like the selection."""
-    import json
     import tomllib
     from gasp_core.gs.splatv import read_splatv, splatv_at
-    from gasp_core.render.run import load_run, moving_mask
-    run = load_run(run_dir)
-    rec = json.loads((Path(run_dir) / "run.json").read_text())
-    ground = min(b["height"] for b in rec["boundaries"] if b["kind"] == "ground")
-    mask = moving_mask(run)
-    first = run.splats(0)
-    rest = first.means[~mask][expit(first.opacities[~mask].astype(np.float64)) >= 0.1]
-    centre, wall = pan_wall(rest, first.means[mask], ground)
-    d = beyond_wall(run.splats(run.n_frames - 1).means[mask], centre, wall)
+    w = _wall_run(run_dir)
+    mask = w["mask"]
+    d = beyond_wall(w["last"].means[mask], w["centre"], w["wall"])
     obj = tomllib.loads(KITCHEN.read_text())["object"][0]
     base, motion = read_splatv(KITCHEN.parent / obj["file"])
     at = splatv_at(base, motion, obj["dynamic_time"])
@@ -121,7 +122,7 @@ def who_left(run_dir, k: int = 10) -> list[dict]:
         dist[r] = np.inf
         near = {name: np.argsort(np.where(mask == want, dist, np.inf))[:k]
                 for name, want in (("unselected", False), ("selected", True))}
-        out.append({"row": int(r), "beyond_dx": float(d[i] / rec["domain"]["dx"]), "rgb": rgb[r].round(2).tolist(),
+        out.append({"row": int(r), "beyond_dx": float(d[i] / w["dx"]), "rgb": rgb[r].round(2).tolist(),
                     "moves": float(moves[r]), "selection_moves_median": float(np.median(moves[rows])),
                     **{f"{n}_rgb": rgb[j].mean(axis=0).round(2).tolist() for n, j in near.items()},
                     **{f"{n}_moves": float(np.median(moves[j])) for n, j in near.items()}})
