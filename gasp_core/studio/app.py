@@ -2,7 +2,8 @@
 
 * **select:** a click casts the browser camera's ray and takes the splat a renderer shows there
   (:func:`gasp_core.studio.pick.ray_pick`), then its whole connected piece (the ``grow`` rule of
-  :mod:`gasp_core.prepare.selection`); shift-click adds a piece, a click on a selected piece removes it, a
+  :mod:`gasp_core.prepare.selection`), or on a dynamic model the moving piece it belongs to
+  (:mod:`gasp_core.studio.pieces`); shift-click adds a piece, a click on a selected piece removes it, a
   click on the background selects nothing and says so; ctrl-drag draws a box that selects the centres inside
   it (ctrl-shift-drag adds), for what clicks cannot separate. The selection is drawn tinted, with its count
   and size.
@@ -29,6 +30,7 @@ from gasp_core.errors import GaspError, SceneError
 from gasp_core.render.viewer import until_interrupted
 from gasp_core.studio import form as form_mod
 from gasp_core.studio.guard import Gate, QuietLogs, exposure_line, gated_serve, guard_messages, one_line
+from gasp_core.studio.pieces import motion_pick, piece_labels
 from gasp_core.studio.pick import box_rows, ray_pick
 from gasp_core.studio.scene import StudioScene
 from gasp_core.studio.stream import RunStream
@@ -36,23 +38,6 @@ from gasp_core.studio.warm import Warmer, choice_key, run_identity, studio_reque
 
 #: Tint of selected splats (orange), and how much of it.
 HIGHLIGHT, HIGHLIGHT_MIX = np.array([1.0, 0.45, 0.0], np.float32), 0.6
-
-
-def piece_labels(means: np.ndarray, radii: np.ndarray, linking: np.ndarray) -> np.ndarray:
-    """Which piece each Gaussian belongs to, shape (n,), int: the connected pieces of the opaque Gaussians
-    (:func:`gasp_core.prepare.selection.component_labels`), and each faint one (``linking`` false) joins the piece
-    of its nearest opaque Gaussian when either splat holds the other's centre (the same link rule), so that a
-    selected object takes its faint halo with it instead of leaving it hanging where it was."""
-    from scipy.spatial import cKDTree
-    from gasp_core.prepare.selection import component_labels
-    label = component_labels(means, radii, linking)
-    faint, opaque = np.flatnonzero(~linking), np.flatnonzero(linking)
-    if len(faint) and len(opaque):
-        dist, j = cKDTree(means[opaque]).query(means[faint])
-        near = opaque[j]
-        joins = dist <= np.maximum(radii[faint], radii[near])
-        label[faint[joins]] = label[near[joins]]
-    return label
 
 
 #: Lines the page keeps (newest first): a run's warnings and what the scene around a selection supplied fit.
@@ -102,6 +87,7 @@ class Studio:
         self.written: set[Path] = set()
         self._lock = threading.RLock()
         self.labels: list[np.ndarray | None] = [None] * len(self.scene.pieces)
+        self.moving: list = [None] * len(self.scene.pieces)   # a dynamic object's moving pieces (studio.pieces)
         self.stream: RunStream | None = None
         self.message_log: list[str] = []
         self.n_said = 0                     # lines said so far (the page shows the newest six)
@@ -205,9 +191,17 @@ class Studio:
 
     # -- selection --------------------------------------------------------------------------------------
     def _find_pieces(self) -> None:
-        """The connected pieces of every object (``grow``'s graph, seconds on a large file), once, in the background."""
+        """The connected pieces of every object (``grow``'s graph, seconds on a large file), and a dynamic object's
+        moving pieces (:func:`gasp_core.studio.pieces.moving_pieces`), once, in the background."""
+        from gasp_core.gs.splatv import read_splatv
+        from gasp_core.studio.pieces import displacement, moving_pieces
         for p in self.scene.pieces:
-            self.labels[p.index] = piece_labels(p.means, p.radii, p.linking)
+            try:       # the moving pieces first: a click waits for the labels only
+                if p.dynamic_time is not None:
+                    base, motion = read_splatv(self.scene.doc["object"][p.index]["file"])
+                    self.moving[p.index] = moving_pieces(p.means, displacement(base, motion, p.dynamic_time, p.scale))
+            finally:
+                self.labels[p.index] = piece_labels(p.means, p.radii, p.linking)
 
     def click(self, origin, direction, add: bool = False) -> str:
         """A click's ray: select the piece it hits (module notes). Returns the line said in the page."""
@@ -227,7 +221,10 @@ class Studio:
             return self._said(f"object #{p.index + 1} is static = true (never simulated): it cannot be selected")
         while self.labels[p.index] is None:
             time.sleep(0.05)
-        piece = self.labels[p.index] == self.labels[p.index][hit.row]
+        mp = self.moving[p.index]
+        piece = motion_pick(p.means, hit.row, mp) if mp is not None else None
+        if piece is None:
+            piece = self.labels[p.index] == self.labels[p.index][hit.row]
         if p.selected[hit.row]:
             p.selected[piece] = False
             verb = "removed"

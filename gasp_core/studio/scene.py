@@ -92,6 +92,10 @@ class Piece:
     selected : ndarray, shape (n,), bool
     static : bool
         ``static = true``: shown, never simulated.
+    scale : float
+        File units to metres (the placement's scale).
+    dynamic_time : float or None
+        A dynamic model's ``dynamic_time`` (the page shows it there); None for a still file.
     """
 
     index: int
@@ -106,6 +110,8 @@ class Piece:
     radii: np.ndarray
     static: bool = False
     selected: np.ndarray = field(default=None)
+    scale: float = 1.0
+    dynamic_time: float | None = None
 
     def __post_init__(self):
         if self.selected is None:
@@ -126,7 +132,8 @@ def place_piece(index: int, spec, g: Gaussians, selected: np.ndarray | None = No
     rotmats, scales = world_frames(g, pl.R, pl.scale)
     return Piece(index, g, sp.means, rotmats, scales, sp.covs.astype(np.float32), sp.rgb, sp.opacities,
                  linking=sp.opacities.astype(np.float64) >= spec.min_opacity,
-                 radii=GROW_SIGMAS * scales.max(axis=1), static=spec.static, selected=selected)
+                 radii=GROW_SIGMAS * scales.max(axis=1), static=spec.static, selected=selected, scale=pl.scale,
+                 dynamic_time=spec.dynamic_time)
 
 
 class StudioScene:

@@ -40,7 +40,7 @@ WARM_MAX_S = 600.0
 
 def predicted_selection(selected: np.ndarray, labels: np.ndarray, linking: np.ndarray) -> np.ndarray:
     """What a run will most likely simulate, shape (n,), bool: the selection made (when any), else the largest
-    connected piece of opaque Gaussians (``labels`` from :func:`gasp_core.studio.app.piece_labels`), which a
+    connected piece of opaque Gaussians (``labels`` from :func:`gasp_core.studio.pieces.piece_labels`), which a
     click on the object selects."""
     if selected.any():
         return selected.copy()
