@@ -172,16 +172,16 @@ BULK_SAMPLES = 4.0
 
 def _toward_bulk(u: np.ndarray) -> np.ndarray:
     """Unit directions (k, 3) from points ``u`` (k, 3, in samples of the distance grid) toward their local bulk: the
-    gradient of their count per sample smoothed by a Gaussian of :data:`BULK_SAMPLES` (central differences a sample
-    apart), which points to their Gaussian-weighted mean around each (the mean shift); zero where it vanishes."""
+    gradient of their count per sample smoothed by a Gaussian of :data:`BULK_SAMPLES`, which points to their
+    Gaussian-weighted mean around each (the mean shift), by central differences a sample either side of each point's
+    nearest sample (where its own count cancels); zero where it vanishes."""
     pad = int(np.ceil(4 * BULK_SAMPLES)) + 2
     lo = np.floor(u.min(axis=0)).astype(np.int64) - pad
     c = np.rint(u).astype(np.int64) - lo
     count = np.zeros(tuple(c.max(axis=0) + pad + 1), np.float32)
     np.add.at(count, tuple(c.T), 1.0)
     dens = ndimage.gaussian_filter(count, BULK_SAMPLES)
-    g = np.stack([ndimage.map_coordinates(dens, (u - lo + e).T, order=1)
-                  - ndimage.map_coordinates(dens, (u - lo - e).T, order=1) for e in np.eye(3)], axis=1)
+    g = np.stack([dens[tuple((c + e).T)] - dens[tuple((c - e).T)] for e in np.eye(3, dtype=np.int64)], axis=1)
     norm = np.linalg.norm(g, axis=1, keepdims=True)
     return np.divide(g, norm, out=np.zeros_like(g), where=norm > 0)
 
