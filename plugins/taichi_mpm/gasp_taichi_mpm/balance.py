@@ -2,10 +2,14 @@
 :class:`gasp_taichi_mpm.solver.MPMSolver`; warp_mpm's ``balance.py`` spells the same steps: each body's net contact
 force and torque made those of a smooth contact.
 
-- :meth:`Balance.contact_moments` and :meth:`Balance.contact_shift` before each P2G: per body its mass centre ``c``,
+- :meth:`Balance.contact_moments` and :meth:`Balance.contact_shift` after each P2G: per body its mass centre ``c``,
   rigid velocity ``V``, spin ``omega`` (from ``m x x v`` and APIC's spin), normal impulse ``J`` and its centre.
-  They are taken before the fused G2P and P2G kernel, on the positions and velocities the previous P2G used (one
-  substep behind warp_mpm, which takes them on the same ones; ``c`` is moved on by ``V dt``);
+  They are taken after the fused G2P and P2G kernel, on the positions and velocities that P2G used (P2G leaves them
+  as they are), as warp_mpm takes them before its P2G; nothing reads them before the grid update's
+  :meth:`Balance.contact_fix`. (Taken before the fused kernel, one substep behind, with the last substep's gravity
+  and fix added as a predictor, they missed what else moved the body in that substep, the two-field contact's push
+  of another body: the light ball of ``gasp_core.testing.sand_ball`` turned 2.37 degrees on taichi_mpm against 1.51
+  on warp_mpm, issue 53);
 - in P2G a point with a normal impulse marks its nodes with its body and adds its impulse and the impulse's moments
   to its body's (:meth:`Balance.mark_contact_nodes`: ``J`` and its centre are this substep's, as in warp_mpm);
 - :meth:`Balance.balance_node` in the grid update, at each marked node after its friction: its friction impulse and
@@ -47,7 +51,6 @@ class Balance:
         self.c_part = ti.field(ti.f64, shape=(N_PARTS, max(nb, 1), 19))   # each slice's sums (contact_moments)
         self.c_jsums = ti.field(ti.f64, shape=(max(ns, 1), len(JSUMS)))   # this P2G's contact sums per support
         self.c_shift = ti.field(ti.f64, shape=(max(nb, 1), 21))   # c, V, omega, (unused), I^-1
-        self.c_last = ti.field(ti.f64, shape=(max(nb, 1), 6))   # the last fix's change of V and omega
         self.c_reach = ti.field(ti.f64, shape=max(nb, 1))
         self.c_mass = ti.field(ti.f64, shape=max(nb, 1))
         ng = self.n_grid if nb else 1
@@ -99,8 +102,8 @@ class Balance:
 
     @ti.kernel
     def contact_shift(self):
-        """Per body: the slices' sums added in slice order (``c_part`` cleared), then into ``c_shift``: ``c`` (a
-        substep on), ``V``, ``omega``, ``I^-1``."""
+        """Per body: the slices' sums added in slice order (``c_part`` cleared), then into ``c_shift``: ``c``, ``V``,
+        ``omega``, ``I^-1``."""
         for b in range(self.n_spin):
             sums = ti.Vector.zero(ti.f64, 19)
             for q in ti.static(range(19)):
@@ -123,14 +126,6 @@ class Balance:
                     omega = inv @ (L - M * c.cross(V))
                     for q in ti.static(range(9)):
                         self.c_shift[b, 12 + q] = inv[q // 3, q % 3]
-                # the moments miss the last substep's grid update: its gravity and its contact (the last fix); not
-                # a rigid body's, whose G2P and projection ran before them (solver.substeps; issue 53: counted
-                # twice, the last fix drove a donut at rest to slide at 15 mm/s)
-                if self.rb_rigid[b] == 0:
-                    V += ti.cast(self.dt[None] * self.gravity[None], ti.f64) \
-                        + ti.Vector([self.c_last[b, 0], self.c_last[b, 1], self.c_last[b, 2]], ti.f64)
-                    omega += ti.Vector([self.c_last[b, 3], self.c_last[b, 4], self.c_last[b, 5]], ti.f64)
-                    c += ti.cast(self.dt[None], ti.f64) * V
             for q in ti.static(range(3)):
                 self.c_shift[b, q] = c[q]
                 self.c_shift[b, 3 + q] = V[q]
@@ -293,8 +288,7 @@ class Balance:
 
     @ti.func
     def body_fix(self, s):
-        """Support s's ``dv``, ``alpha`` and ``x_m`` into ``fr_sums[s, 17:26]``, its change of its body's rigid motion
-        added to ``c_last`` (warp_mpm's ``body_fix``)."""
+        """Support s's ``dv``, ``alpha`` and ``x_m`` into ``fr_sums[s, 17:26]`` (warp_mpm's ``body_fix``)."""
         b = s // self.n_sup
         Mc = self.fr_sums[s, 3]
         mass = self.c_mass[b]
@@ -334,10 +328,6 @@ class Balance:
             alpha = ti.Vector.zero(ti.f64, 3)
             if inertia.determinant() > 1.0e-12 * inertia.trace() ** 3:
                 alpha = -(inertia.inverse() @ th)
-            dw = inv @ (tq - th)   # what this substep's contact does to the body's rigid motion, for the next:
-            for q in ti.static(range(3)):   # the friction's net force and the normal impulses (a pusher's push)
-                self.c_last[b, q] += (Fexp[q] + self.c_jsums[s, 4 + q]) / mass
-                self.c_last[b, 3 + q] += dw[q]
             for q in ti.static(range(3)):
                 self.fr_sums[s, 17 + q] = dF[q] / Mc
                 self.fr_sums[s, 20 + q] = alpha[q]
@@ -351,10 +341,6 @@ class Balance:
         ti.loop_config(serialize=True)
         for s in range(ti.min(self.fr_nodes[0][0], self.fr_nodes.shape[0] - 1)):
             self.sum_node(self.fr_nodes[s + 1])
-        ti.loop_config(serialize=True)
-        for b in range(self.n_spin):
-            for q in ti.static(range(6)):
-                self.c_last[b, q] = 0.0
         ti.loop_config(serialize=True)
         for s in range(self.n_slots):
             self.body_fix(s)

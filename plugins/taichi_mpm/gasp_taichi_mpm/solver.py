@@ -340,8 +340,6 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         if self.has_extras:
             self.ex_tab.from_numpy(self._time_table().astype(self._ex_np))
             self.ex_step[None] = 0
-        if self.n_spin:   # the frame's first moments follow a whole substep (balance.py's c_last)
-            self.c_last.fill(0.0)
         self.p2g_substep(0, 0)
         for s in range(n_substeps - 1):
             self.grid_update()
@@ -362,11 +360,9 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
 
     def p2g_substep(self, with_g2p: int, substep: int) -> None:
         """(G2P and) P2G of one substep, then the implicit viscous step. Coloured: the block sort at the frame's
-        first substep and every :data:`SORT_EVERY`, the 8 colour passes, the late points. First, with the particle
-        contact, the bodies' moments for the contact's balance (:mod:`gasp_taichi_mpm.balance`)."""
-        if self.n_spin:
-            self.contact_moments()
-            self.contact_shift()
+        first substep and every :data:`SORT_EVERY`, the 8 colour passes, the late points. Last, with the particle
+        contact, the bodies' moments for the contact's balance (:mod:`gasp_taichi_mpm.balance`), taken on the points'
+        ``x, v, C`` this P2G used (P2G leaves them as they are): warp_mpm's, which takes them before its P2G."""
         if self.coloured:
             if substep % SORT_EVERY == 0:
                 self.sort_blocks()
@@ -384,6 +380,9 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         if self.visc is not None:
             self.visc.solve()
         self.contact_fields()   # the two-field contact of a mixed scene (fields.py)
+        if self.n_spin:   # the bodies' moments for the balance, on the x, v, C this P2G used (balance.py)
+            self.contact_moments()
+            self.contact_shift()
 
     # ------------------------------------------------------------------ helpers
     @ti.kernel
