@@ -4,8 +4,9 @@
 on a 2-core CPU (docs/reliability.md gives the measured times); ``python -m pytest -m slow`` runs the rest. A test
 is slow when it carries ``@pytest.mark.slow`` or is listed in ``tests/slow_tier.txt``: one line per test,
 ``SECONDS NODEID``, where SECONDS is what the test took in a full run on the 2-core machine (its fixtures included)
-and NODEID is a pytest node id, or a test function's id without its parameters (all of them), or a file. The list is kept where the measurement is: each entry's file
-must exist and define its test function, else the run stops with the entry's line.
+and NODEID is a pytest node id, or a test function's id without its parameters (all of them), or a file. The list
+is kept where the measurement is: each entry's file must exist and define its test function, else the run stops
+with the entry's line.
 """
 from __future__ import annotations
 
