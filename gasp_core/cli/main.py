@@ -189,7 +189,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     _add_study_parsers(sub)
 
-    from gasp_core.testing.command import add_parser as add_conform_parser
+    from gasp_core.cli.conform import add_parser as add_conform_parser
     add_conform_parser(sub)
     from gasp_core.render.commands import add_parsers as add_render_parsers
     add_render_parsers(sub)

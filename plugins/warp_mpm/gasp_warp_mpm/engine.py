@@ -42,8 +42,7 @@ from gasp_core.toolkit.points import cell_order, fixed_mask, passive_bounds, pas
 from gasp_core.toolkit.substeps import passive_schedule
 from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
 
-from . import ENGINE, WarpMPMConfig
-from . import kernels as K
+from . import ENGINE, WarpMPMConfig, kernels as K
 from .balance import allocate_balance, balance_launches
 from .colliders import hold_launches
 from .fields import allocate_fields, field_launches
@@ -51,6 +50,7 @@ from .rigid import RigidBodies
 from .sleeping import Sleeping
 from .tables import ExtraTables
 from .startup import init_warp
+from .warmup import compile_all
 
 
 class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
@@ -89,6 +89,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
         self.device = self._start_warp(cfg.device)
         self.precision = cfg.precision
         Ft = wp.float32 if self.precision == "f32" else wp.float64
+        compile_all(Ft, self.device)   # once per install: a later scene compiles nothing (warmup.py)
         self._np_dtype = np.float32 if self.precision == "f32" else np.float64
         self.k = K.build_kernels(Ft)
 
@@ -383,10 +384,9 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
         """:meth:`GridEngineBase.grid_stats` (mass and passive statistics from the engine's arrays, not after
         close) and ``sim_time`` (s)."""
         live = not self._closed
+        grid_m = self.grid_m.numpy().reshape((self.n_grid,) * 3) if live and self.n_material < self.n_points else None
         out = self.grid_stats(str(self.device), self.precision, self.x.numpy() if live else None,
-                              self.p_mass.numpy() if live else None,
-                              self.grid_m.numpy().reshape((self.n_grid,) * 3) if live and self.n_material < self.n_points
-                              else None)
+                              self.p_mass.numpy() if live else None, grid_m)
         out["sim_time"] = self.sim_time
         return out
 
