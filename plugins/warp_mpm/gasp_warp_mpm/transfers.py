@@ -342,6 +342,7 @@ def build_g2p_passive(Ft):
         new_v = vec3(Ft(0.0))
         wsum = Ft(0.0)
         rbar = vec3(Ft(0.0))
+        steps = vec3(Ft(0.0), Ft(1.0), Ft(2.0))
         Svr = mat33()
         Srr = mat33()
         for i in range(3):
@@ -350,7 +351,9 @@ def build_g2p_passive(Ft):
                 for k in range(3):
                     if grid_m[row + k] > Ft(0.0):
                         w = W[i, 0] * W[j, 1] * W[k, 2]
-                        r = vec3(Ft(i), Ft(j), Ft(k)) - fx          # node - point, cells
+                        # node - point, cells; the steps read from `steps`, since in Warp 1.19 casting an unrolled
+                        # loop's index, Ft(i) with Ft float64, retypes the index for the rest of the loop
+                        r = vec3(steps[i], steps[j], steps[k]) - fx
                         gv = field_node_v(grid_v, grid_dv, off, row + k)
                         new_v = new_v + w * gv
                         wsum = wsum + w
