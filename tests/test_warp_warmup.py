@@ -115,7 +115,8 @@ def test_every_kernel_compiles_in_both_precisions(tmp_path, scalar):
     # a fresh process and cache folder: every module compiled, not loaded (about 25 s each). Round 25 found the f64
     # passive G2P failing to compile (Warp 1.19 retyped an unrolled loop's index cast to float64); no scene built it.
     code = ("import warp as wp; wp.config.quiet = True; wp.init(); from gasp_warp_mpm import warmup; "
-            f"Ft = wp.{scalar}; print(warmup.compile_all(Ft, 'cpu'), len({{k.module.name for k in warmup.all_kernels(Ft)}}))")
+            f"Ft = wp.{scalar}; n = len({{k.module.name for k in warmup.all_kernels(Ft)}}); "
+            "print(warmup.compile_all(Ft, 'cpu'), n)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600,
                          env={**os.environ, "WARP_CACHE_PATH": str(tmp_path)})
     assert out.returncode == 0, out.stderr[-2000:]
