@@ -77,3 +77,11 @@ def test_the_header_names_the_kept_engines_and_their_runs():
     merged = keep_other_environments(run, old, owned={"genesis"})
     assert "Engines: genesis\nRows kept from earlier runs in other environments: warp_mpm (2026-11-23T18:00:00)." \
         in merged, merged[:400]
+
+
+def test_a_run_that_leaves_tests_out_does_not_replace_the_committed_rows():
+    from gasp_core.testing.pytest_plugin import why_not_update
+    assert why_not_update("", 0) is None                                   # -m '' and no -k: every row is run
+    assert "-k 'warp_mpm'" in why_not_update("warp_mpm", 0)
+    refused = why_not_update("", 34)                                       # the default -m 'not slow'
+    assert "34 tests deselected" in refused and "-m ''" in refused

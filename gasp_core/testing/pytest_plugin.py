@@ -9,9 +9,10 @@ It gives:
 - a result table of every test marked ``gasp_conformance`` (the parametrised ones are), printed at
   the end of the session and written to ``<rootdir>/build/conformance/RESULTS.md``;
 - ``--gasp-update-results`` (or ``GASP_UPDATE_RESULTS=1``): also replace the committed results
-  file named by :func:`configure_results` (only for a run without ``-k``); the engines the run could not load
-  keep their rows from the committed file (:func:`gasp_core.testing.results.keep_other_environments`), so engines
-  that need an environment of their own are each run in theirs.
+  file named by :func:`configure_results` (only for a run that deselects nothing: ``-m ''``, no ``-k``); the engines
+  the run could not load keep their rows from the committed file
+  (:func:`gasp_core.testing.results.keep_other_environments`), so engines that need an environment of their own are
+  each run in theirs.
 
 An engine developed elsewhere needs only ``pip install gasp`` and a test file::
 
@@ -175,6 +176,18 @@ def pytest_runtest_logreport(report):
         store[report.nodeid] = ("ERROR", _reason(report))
 
 
+def why_not_update(keyword: str, n_deselected: int) -> str | None:
+    """Why a run may not replace the committed results (a row it did not run would be lost), or None: ``-k`` selects a
+    subset; tests deselected otherwise (the default ``-m 'not slow'`` leaves out the slow tier, whose scenes have
+    rows too). ``n_deselected``: the session's deselected items."""
+    if keyword:
+        return f"-k '{keyword}' selects a subset"
+    if n_deselected:
+        return (f"{n_deselected} tests deselected (the default -m 'not slow' leaves out the slow tier); "
+                "run with -m '' to regenerate every row")
+    return None
+
+
 def pytest_terminal_summary(terminalreporter, exitstatus, config):
     store = config.stash.get(_STORE, {})
     if not store:
@@ -192,8 +205,8 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config):
         return
     if committed is None:
         terminalreporter.write_line("--gasp-update-results: no committed results file configured (configure_results)")
-    elif config.option.keyword:
-        terminalreporter.write_line(f"{committed} not updated: -k '{config.option.keyword}' selects a subset")
+    elif refused := why_not_update(config.option.keyword, len(terminalreporter.stats.get("deselected", []))):
+        terminalreporter.write_line(f"{committed} not updated: {refused}")
     else:
         old = Path(committed).read_text(encoding="utf-8") if Path(committed).is_file() else ""
         owned = None
