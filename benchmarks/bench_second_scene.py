@@ -4,8 +4,9 @@ second, different example after a first one has warmed the kernel caches, on eac
 For each engine, with kernel caches of its own (empty at the start: ``TI_OFFLINE_CACHE_FILE_PATH`` and
 ``WARP_CACHE_PATH`` in a temporary folder): example A (the README donut) runs 1 frame twice (cold, then cached), then
 examples B (the wooden donut: a rigid body, same size) and C (the kitchen: sand, another point count and grid) run
-1 frame each. Each run is a fresh process; the figure is the wall time of the whole command (prepare, build,
-frame 1, writing) and frame 1's own time from its ``run.json``. The issue's target: B and C within 5 s of the start.
+1 frame each. Each run is a fresh process; the figure is when frame 1's file is written, from the start of the
+command (its modification time), beside the whole command's time (which adds the process's exit) and frame 1's own
+time from its ``run.json``. The issue's target: B's and C's frame 1 within 5 s of the start.
 
 Beside the times, the figure that decides "one compile per install" without a clock: the files each run adds to the
 engine's kernel cache (Warp: its compiled modules; Taichi: its cached kernels). On warp_mpm the first run compiles
@@ -35,7 +36,7 @@ EXAMPLES = ROOT / "examples"
 RUNS = [("A (README donut, cold caches)", "donut_jelly"), ("A again (its own cache)", "donut_jelly"),
         ("B (wooden donut: rigid, same size)", "donut_wood"), ("C (kitchen: sand, 6,736 points)", "kitchen_spinach")]
 #: Runs of each warp_mpm scene after the cold one (median reported).
-REPEATS = 3
+REPEATS = 5
 
 
 def cache_entries(cache: Path) -> int:
@@ -49,13 +50,14 @@ def run(engine: str, example: str, work: Path, env: dict) -> dict:
     scene = work / f"{engine}_{example}_{time.monotonic_ns()}.toml"
     scene.write_text(text)
     out = work / scene.stem
-    t0 = time.perf_counter()
+    t0, start = time.perf_counter(), time.time()
     subprocess.run([sys.executable, "-m", "gasp_core.cli.main", "simulate", str(scene), "-o", str(out),
                     "--frames", "1", "-q"], check=True, capture_output=True, env=env)
     wall = time.perf_counter() - t0
     rec = json.loads((out / "run.json").read_text())
-    return {"wall_s": wall, "frame1_s": rec["frames"][1]["wall_s"], "prepare_s": rec.get("prepare_s", 0.0),
-            "build_s": rec.get("build_s", 0.0)}
+    written = max(f.stat().st_mtime for f in out.glob("*/frame_0001*"))   # the last object's frame 1 file
+    return {"frame1_at_s": written - start, "wall_s": wall, "frame1_s": rec["frames"][1]["wall_s"],
+            "prepare_s": rec.get("prepare_s", 0.0), "build_s": rec.get("build_s", 0.0)}
 
 
 def median_run(engine: str, example: str, work: Path, env: dict, cache: Path, times: int) -> dict:
@@ -63,7 +65,7 @@ def median_run(engine: str, example: str, work: Path, env: dict, cache: Path, ti
     before = cache_entries(cache)
     rs = [run(engine, example, work, env) for _ in range(times)]
     out = {k: round(float(np.median([r[k] for r in rs])), 2) for k in rs[0]}
-    return {**out, "first_wall_s": round(rs[0]["wall_s"], 2), "runs": times,
+    return {**out, "first_frame1_at_s": round(rs[0]["frame1_at_s"], 2), "runs": times,
             "added_to_cache": cache_entries(cache) - before}
 
 
@@ -81,10 +83,10 @@ def main() -> None:
                 print(engine, label, r, flush=True)
     res = ROOT / "benchmarks" / "results"
     (res / "second_scene.json").write_text(json.dumps(rows, indent=2))
-    md = ["| engine | run | whole command (s) | first run's (s) | frame 1 (s) | prepare (s) | build (s) | runs "
-          "| added to the kernel cache |", "|---|---|---|---|---|---|---|---|---|"]
-    md += [f"| {r['engine']} | {r['run']} | {r['wall_s']} | {r['first_wall_s']} | {r['frame1_s']} | {r['prepare_s']} "
-           f"| {r['build_s']} | {r['runs']} | {r['added_to_cache']} |" for r in rows]
+    md = ["| engine | run | frame 1 written (s from the start) | first run's | whole command (s) | frame 1 (s) "
+          "| prepare (s) | build (s) | runs | added to the kernel cache |", "|---|---|---|---|---|---|---|---|---|---|"]
+    md += [f"| {r['engine']} | {r['run']} | {r['frame1_at_s']} | {r['first_frame1_at_s']} | {r['wall_s']} "
+           f"| {r['frame1_s']} | {r['prepare_s']} | {r['build_s']} | {r['runs']} | {r['added_to_cache']} |" for r in rows]
     (res / "second_scene.md").write_text("\n".join(md) + "\n")
     print("\n".join(md))
 
