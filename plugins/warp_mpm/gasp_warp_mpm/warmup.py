@@ -14,12 +14,13 @@ it; clearing Warp's cache (``wp.clear_kernel_cache()``) removes the marker with 
 """
 import hashlib
 import importlib
-import os
 import pkgutil
 import types
 from pathlib import Path
 
 import warp as wp
+
+from gasp_core.fsutil import atomic_write
 
 from .precision import MODULE_OPTIONS
 
@@ -57,12 +58,12 @@ def all_kernels(Ft) -> list:
     """Every Warp kernel of the plugin for scalar type ``Ft`` (``wp.float32`` or ``wp.float64``): the results of every
     ``build_*`` function defined in one of its modules, called with ``Ft`` (each is cached per type, so the engine
     later gets the same kernels). Returns a list of :class:`warp.Kernel`, each once."""
-    seen, kernels = set(), []
+    seen, kernels = set(), []     # seen: what _kernels_in has visited, so each kernel comes once
     for mod in plugin_modules():
         for name, fn in sorted(vars(mod).items()):
             if name.startswith("build_") and callable(fn) and getattr(fn, "__module__", None) == mod.__name__:
                 kernels += _kernels_in(fn(Ft), seen)
-    return list({id(k): k for k in kernels}.values())
+    return kernels
 
 
 def marker_path(Ft, device) -> Path:
@@ -89,7 +90,6 @@ def compile_all(Ft, device) -> bool:
         return False
     modules = list({k.module.name: k.module for k in all_kernels(Ft)}.values())
     wp.force_load(device=device, modules=modules)   # one after another (Warp's default): see the module's notes
-    tmp = marker.with_suffix(f".{os.getpid()}.tmp")
-    tmp.write_text(f"{len(modules)} modules of {PACKAGE} for {Ft.__name__} on {device}\n")
-    os.replace(tmp, marker)
+    atomic_write(marker, lambda f: f.write(f"{len(modules)} modules of {PACKAGE} for {Ft.__name__} on {device}\n"),
+                 binary=False)
     return True
