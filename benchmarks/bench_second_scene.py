@@ -61,12 +61,13 @@ def run(engine: str, example: str, work: Path, env: dict) -> dict:
 
 
 def median_run(engine: str, example: str, work: Path, env: dict, cache: Path, times: int) -> dict:
-    """``times`` runs: the median of each figure, the first run's whole command, and the cache entries they added."""
-    before = cache_entries(cache)
+    """``times`` runs: the median of each figure, the first run's frame 1 time, the cache entries they added and the
+    load average (1 min) before them."""
+    before, load = cache_entries(cache), round(os.getloadavg()[0], 2)
     rs = [run(engine, example, work, env) for _ in range(times)]
     out = {k: round(float(np.median([r[k] for r in rs])), 2) for k in rs[0]}
     return {**out, "first_frame1_at_s": round(rs[0]["frame1_at_s"], 2), "runs": times,
-            "added_to_cache": cache_entries(cache) - before}
+            "added_to_cache": cache_entries(cache) - before, "load_1min": load}
 
 
 def main() -> None:
@@ -84,9 +85,10 @@ def main() -> None:
     res = ROOT / "benchmarks" / "results"
     (res / "second_scene.json").write_text(json.dumps(rows, indent=2))
     md = ["| engine | run | frame 1 written (s from the start) | first run's | whole command (s) | frame 1 (s) "
-          "| prepare (s) | build (s) | runs | added to the kernel cache |", "|---|---|---|---|---|---|---|---|---|---|"]
+          "| prepare (s) | build (s) | runs | added to the kernel cache | load (1 min) |", "|---" * 11 + "|"]
     md += [f"| {r['engine']} | {r['run']} | {r['frame1_at_s']} | {r['first_frame1_at_s']} | {r['wall_s']} "
-           f"| {r['frame1_s']} | {r['prepare_s']} | {r['build_s']} | {r['runs']} | {r['added_to_cache']} |" for r in rows]
+           f"| {r['frame1_s']} | {r['prepare_s']} | {r['build_s']} | {r['runs']} | {r['added_to_cache']} "
+           f"| {r['load_1min']} |" for r in rows]
     (res / "second_scene.md").write_text("\n".join(md) + "\n")
     print("\n".join(md))
 
