@@ -36,11 +36,15 @@ CAPABILITIES = dataclasses.replace(MPM_CAPABILITIES, features=MPM_CAPABILITIES.f
 @dataclass(frozen=True)
 class TaichiMPMConfig(MPMConfig):
     """The engine's settings (:class:`gasp_core.toolkit.options.MPMConfig`: ``device`` "cpu" or "cuda", Taichi runs
-    on the default CUDA device only), with ``threads`` and ``pin_threads``."""
+    on the default CUDA device only), with ``threads``, ``schedule`` and ``pin_threads``."""
 
     threads: int | None = option(None, "CPU threads (Taichi's cpu_max_num_threads; default: the cores this process "
                                  "may use); the coloured block P2G gives the same numbers on any count (the contact "
                                  "balance's impulse sums may differ in the last bits beyond 1)", kind="int", lo=1)
+    schedule: str = option("auto", "how a substep's loops, scans and sums run (gasp_taichi_mpm.schedule): 'cpu' "
+                           "ordered for the same bits on any thread count, 'gpu' every loop parallel (atomic P2G, "
+                           "fixed-tree sums), 'auto' gpu on cuda and cpu on the CPU", kind="str",
+                           choices=("auto", "cpu", "gpu"))
     pin_threads: bool = option(True, "pin each CPU worker thread to its own core (Linux; 2 threads or more, no more "
                                "than the allowed cores): left to the scheduler, the workers often share one core "
                                "(docs/performance.md); the numbers are the same either way", kind="bool")

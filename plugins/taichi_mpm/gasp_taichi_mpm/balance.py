@@ -18,15 +18,29 @@ force and torque made those of a smooth contact.
   listed nodes that makes the friction's net force Coulomb's on the body's rigid motion at its centre of pressure
   and takes back the contact's torque about ``c`` up to ``J reach``, unless ``c`` lies more than ``reach`` beyond the pushed
   points' box.
+
+On the GPU schedule (:mod:`gasp_taichi_mpm.schedule`) the same sums run with every loop parallel: the moments over
+slices of :attr:`Balance.m_slice` points summed by a fixed tree (:meth:`Balance.contact_moments_gpu`), and the fix
+with no list and no sort: the marked nodes listed in node order by flag, scan and scatter, their terms summed per
+support over chunks of :data:`FR_CHUNK` list entries by a fixed tree, then applied one thread a node
+(:meth:`Balance.contact_fix_gpu`). The support sums of P2G (:meth:`Balance.add_contact`) stay float64 atomics on both.
 """
 import numpy as np
 import taichi as ti
 
 from gasp_core.toolkit.contact import JSUMS, TORQUE_REACH
 
+from .schedule.primitives import BoxCompaction, SliceSums
+
 #: Slices of the points the moments run over (each summed serially on one thread into its own row of ``c_part``;
-#: the rows are then added in slice order, so the sums do not depend on which thread finished first).
+#: the rows are then added in slice order, so the sums do not depend on which thread finished first). CPU schedule.
 N_PARTS = 64
+#: GPU schedule: points a slice of the moments holds at least (more when the slices' rows would pass
+#: :data:`SLICE_BYTES`), and listed contact nodes a chunk of the fix's sums holds.
+M_SLICE, FR_CHUNK = 128, 64
+SLICE_BYTES = 64 << 20
+#: Columns of a listed node's terms (:meth:`Balance.node_terms`): fr_sums[s, :17].
+N_NODE_TERMS = 17
 
 
 @ti.func
@@ -64,8 +78,38 @@ class Balance:
             self.c_reach.from_numpy(np.asarray(reach, np.float64))
             self.c_mass.from_numpy(np.asarray(mass, np.float64))
         self.grid_fbody.fill(-1)
+        if nb and self.gpu:   # the GPU schedule's slice sums and node list (module docstring)
+            cap = self.x.shape[0]
+            self.m_slice = max(M_SLICE, -(-cap * nb * 19 * 8 // SLICE_BYTES))
+            self.moments = SliceSums(-(-cap // self.m_slice), nb * 19)
+            self.fr_list = ti.Vector.field(3, ti.i32, shape=self.fr_nodes.shape[0])
+            self.fr_comp = BoxCompaction(self, ng, (self.fr_list,))
+            self.fr_parts = SliceSums(-(-self.fr_list.shape[0] // FR_CHUNK), ns * N_NODE_TERMS)
         if nb:
             self.clear_boxes()
+
+    @ti.func
+    def listed(self, I, q: ti.template()):
+        """A node the contact marked (:class:`gasp_taichi_mpm.schedule.primitives.BoxCompaction`'s test)."""
+        return self.grid_fbody[I] >= 0
+
+    @ti.func
+    def overflow(self, I, q: ti.template()):
+        self.grid_fbody[I] = -1   # past the list's capacity: left out of the fix, as balance_node does
+
+    @ti.func
+    def moment_terms(self, p, D):
+        """Point p's mass, first and second mass moments, momentum and angular momentum (with APIC's spin ``D``
+        ``= dx^2 / 4``): the 19 columns of ``gasp_core.toolkit.contact.SUMS`` (the impulse's three 0)."""
+        x = ti.cast(self.x[p], ti.f64)
+        m = ti.cast(self.p_mass[p], ti.f64)
+        mv = m * ti.cast(self.v[p], ti.f64)
+        C = ti.cast(self.C[p], ti.f64)
+        L = x.cross(mv) + m * D * ti.Vector([C[2, 1] - C[1, 2], C[0, 2] - C[2, 0], C[1, 0] - C[0, 1]])
+        return ti.Vector([m, m * x[0], m * x[1], m * x[2], m * x[0] * x[0], m * x[0] * x[1],
+                          m * x[0] * x[2], m * x[1] * x[1], m * x[1] * x[2], m * x[2] * x[2],
+                          0.0, 0.0, 0.0,   # J: c_jsums
+                          mv[0], mv[1], mv[2], L[0], L[1], L[2]], ti.f64)
 
     @ti.kernel
     def contact_moments(self):
@@ -87,18 +131,41 @@ class Balance:
                     acc = ti.Vector.zero(ti.f64, 19)
                     cur = b
                 if self.asleep[b] == 0:   # a sleeping body has no moments (sleeping.py)
-                    x = ti.cast(self.x[p], ti.f64)
-                    m = ti.cast(self.p_mass[p], ti.f64)
-                    mv = m * ti.cast(self.v[p], ti.f64)
-                    C = ti.cast(self.C[p], ti.f64)
-                    L = x.cross(mv) + m * D * ti.Vector([C[2, 1] - C[1, 2], C[0, 2] - C[2, 0], C[1, 0] - C[0, 1]])
-                    acc += ti.Vector([m, m * x[0], m * x[1], m * x[2], m * x[0] * x[0], m * x[0] * x[1],
-                                      m * x[0] * x[2], m * x[1] * x[1], m * x[1] * x[2], m * x[2] * x[2],
-                                      0.0, 0.0, 0.0,   # J: c_jsums
-                                      mv[0], mv[1], mv[2], L[0], L[1], L[2]], ti.f64)
+                    acc += self.moment_terms(p, D)
             if cur >= 0:
                 for q in ti.static(range(19)):
                     self.c_part[t, cur, q] += acc[q]
+
+    @ti.kernel
+    def contact_moments_gpu(self):
+        """:meth:`contact_moments` and :meth:`contact_shift` on the GPU schedule: slices of ``m_slice`` points, one
+        thread a slice, into ``moments.part``; their fixed-tree sums per body into ``c_shift``."""
+        n = self.n_points[None]
+        D = ti.cast(0.25 * self.dx[None] * self.dx[None], ti.f64)
+        nt = (n + self.m_slice - 1) // self.m_slice
+        self.moments.clear(nt)
+        for t in range(nt):
+            acc = ti.Vector.zero(ti.f64, 19)
+            cur = -1
+            for p in range(t * self.m_slice, ti.min(t * self.m_slice + self.m_slice, n)):
+                b = self.body[p]
+                if b != cur:
+                    if cur >= 0:
+                        for q in ti.static(range(19)):
+                            self.moments.part[t, cur * 19 + q] += acc[q]
+                    acc = ti.Vector.zero(ti.f64, 19)
+                    cur = b
+                if self.asleep[b] == 0:
+                    acc += self.moment_terms(p, D)
+            if cur >= 0:
+                for q in ti.static(range(19)):
+                    self.moments.part[t, cur * 19 + q] += acc[q]
+        self.moments.reduce(nt)
+        for b in range(self.n_spin):
+            sums = ti.Vector.zero(ti.f64, 19)
+            for q in ti.static(range(19)):
+                sums[q] = self.moments.out[b * 19 + q]
+            self.shift_body(b, sums)
 
     @ti.kernel
     def contact_shift(self):
@@ -110,26 +177,31 @@ class Balance:
                 for t in range(N_PARTS):
                     sums[q] += self.c_part[t, b, q]
                     self.c_part[t, b, q] = 0.0
-            M = sums[0]
-            c = ti.Vector.zero(ti.f64, 3)
-            V = ti.Vector.zero(ti.f64, 3)
-            omega = ti.Vector.zero(ti.f64, 3)
-            if M > 0.0:
-                first = ti.Vector([sums[1], sums[2], sums[3]], ti.f64)
-                c = first / M
-                V = ti.Vector([sums[13], sums[14], sums[15]], ti.f64) / M
-                inertia = inertia_of(M, first, sums[4], sums[5], sums[6],
-                                     sums[7], sums[8], sums[9])
-                if inertia.determinant() > 0.0:
-                    L = ti.Vector([sums[16], sums[17], sums[18]], ti.f64)
-                    inv = inertia.inverse()
-                    omega = inv @ (L - M * c.cross(V))
-                    for q in ti.static(range(9)):
-                        self.c_shift[b, 12 + q] = inv[q // 3, q % 3]
-            for q in ti.static(range(3)):
-                self.c_shift[b, q] = c[q]
-                self.c_shift[b, 3 + q] = V[q]
-                self.c_shift[b, 6 + q] = omega[q]
+            self.shift_body(b, sums)
+
+    @ti.func
+    def shift_body(self, b, sums):
+        """Body b's ``c``, ``V``, ``omega`` and ``I^-1`` into ``c_shift`` from its 19 sums."""
+        M = sums[0]
+        c = ti.Vector.zero(ti.f64, 3)
+        V = ti.Vector.zero(ti.f64, 3)
+        omega = ti.Vector.zero(ti.f64, 3)
+        if M > 0.0:
+            first = ti.Vector([sums[1], sums[2], sums[3]], ti.f64)
+            c = first / M
+            V = ti.Vector([sums[13], sums[14], sums[15]], ti.f64) / M
+            inertia = inertia_of(M, first, sums[4], sums[5], sums[6],
+                                 sums[7], sums[8], sums[9])
+            if inertia.determinant() > 0.0:
+                L = ti.Vector([sums[16], sums[17], sums[18]], ti.f64)
+                inv = inertia.inverse()
+                omega = inv @ (L - M * c.cross(V))
+                for q in ti.static(range(9)):
+                    self.c_shift[b, 12 + q] = inv[q // 3, q % 3]
+        for q in ti.static(range(3)):
+            self.c_shift[b, q] = c[q]
+            self.c_shift[b, 3 + q] = V[q]
+            self.c_shift[b, 6 + q] = omega[q]
 
     @ti.func
     def clear_box(self, s):
@@ -182,11 +254,12 @@ class Balance:
         if b >= 0:
             f = m * (v_out - v_in)
             self.grid_ff[I] = ti.Vector([f[0], f[1], f[2], m, fb], self.real)
-            slot = ti.atomic_add(self.fr_nodes[0][0], 1) + 1
-            if slot < self.fr_nodes.shape[0]:
-                self.fr_nodes[slot] = I
-            else:
-                self.grid_fbody[I] = -1
+            if ti.static(not self.gpu):   # the GPU schedule lists the marked nodes in contact_fix_gpu
+                slot = ti.atomic_add(self.fr_nodes[0][0], 1) + 1
+                if slot < self.fr_nodes.shape[0]:
+                    self.fr_nodes[slot] = I
+                else:
+                    self.grid_fbody[I] = -1
 
     @ti.func
     def sort_listed(self):
@@ -212,26 +285,25 @@ class Balance:
             gap = gap // 3
 
     @ti.func
-    def sum_node(self, I):
-        """A listed node's friction impulse and moment, mass and moments and budget into its body's ``fr_sums``."""
-        b = self.grid_fbody[I]
+    def node_terms(self, I):
+        """A listed node's friction impulse (0-2), mass (3), first (4-6) and second (7-12) mass moments, friction
+        moment (13-15) and budget (16): the columns of its support's ``fr_sums``."""
         g = ti.cast(self.grid_ff[I], ti.f64)
         X = ti.cast(self.lo[None] + self.dx[None] * ti.cast(I, self.real), ti.f64)
         f = ti.Vector([g[0], g[1], g[2]], ti.f64)
         tq = X.cross(f)
         mm = g[3]
-        for q in ti.static(range(3)):
-            self.fr_sums[b, q] += f[q]
-            self.fr_sums[b, 4 + q] += mm * X[q]
-            self.fr_sums[b, 13 + q] += tq[q]
-        self.fr_sums[b, 3] += mm
-        self.fr_sums[b, 7] += mm * X[0] * X[0]
-        self.fr_sums[b, 8] += mm * X[0] * X[1]
-        self.fr_sums[b, 9] += mm * X[0] * X[2]
-        self.fr_sums[b, 10] += mm * X[1] * X[1]
-        self.fr_sums[b, 11] += mm * X[1] * X[2]
-        self.fr_sums[b, 12] += mm * X[2] * X[2]
-        self.fr_sums[b, 16] += g[4]
+        return ti.Vector([f[0], f[1], f[2], mm, mm * X[0], mm * X[1], mm * X[2],
+                          mm * X[0] * X[0], mm * X[0] * X[1], mm * X[0] * X[2], mm * X[1] * X[1], mm * X[1] * X[2],
+                          mm * X[2] * X[2], tq[0], tq[1], tq[2], g[4]], ti.f64)
+
+    @ti.func
+    def sum_node(self, I):
+        """A listed node's terms (:meth:`node_terms`) into its support's ``fr_sums``."""
+        b = self.grid_fbody[I]
+        t = self.node_terms(I)
+        for q in ti.static(range(N_NODE_TERMS)):
+            self.fr_sums[b, q] += t[q]
 
     @ti.func
     def support_frame(self, s):
@@ -333,6 +405,47 @@ class Balance:
                 self.fr_sums[s, 20 + q] = alpha[q]
                 self.fr_sums[s, 23 + q] = xm[q]
 
+    @ti.func
+    def apply_fix(self, I):
+        """A listed node moved by its support's ``dv + alpha x (X - x_m)``; its mark cleared."""
+        b = self.grid_fbody[I]
+        if self.fr_sums[b, 3] > 0.0:
+            X = ti.cast(self.lo[None] + self.dx[None] * ti.cast(I, self.real), ti.f64)
+            dv = ti.Vector([self.fr_sums[b, 17], self.fr_sums[b, 18], self.fr_sums[b, 19]], ti.f64) + ti.Vector(
+                [self.fr_sums[b, 20], self.fr_sums[b, 21], self.fr_sums[b, 22]], ti.f64).cross(
+                X - ti.Vector([self.fr_sums[b, 23], self.fr_sums[b, 24], self.fr_sums[b, 25]], ti.f64))
+            self.grid_v[I] += ti.cast(dv, self.real)
+        self.grid_fbody[I] = -1
+
+    @ti.kernel
+    def contact_fix_gpu(self):
+        """:meth:`contact_fix` on the GPU schedule: the marked nodes listed in node order (flag, scan, scatter), their
+        terms summed per support over chunks of :data:`FR_CHUNK` entries by a fixed tree, each support's fix, then
+        each node moved: every loop parallel, no sort, no atomics on the sums."""
+        ng = self.n_grid
+        self.fr_comp.run(ti.Vector([0, 0, 0]), ti.Vector([ng, ng, ng]))
+        n = ti.min(self.fr_comp.count[0], self.fr_list.shape[0])
+        nch = (n + FR_CHUNK - 1) // FR_CHUNK
+        self.fr_parts.clear(nch)
+        for ch in range(nch):
+            for k in range(ch * FR_CHUNK, ti.min(ch * FR_CHUNK + FR_CHUNK, n)):
+                I = self.fr_list[k]
+                b = self.grid_fbody[I]
+                t = self.node_terms(I)
+                for q in ti.static(range(N_NODE_TERMS)):
+                    self.fr_parts.part[ch, b * N_NODE_TERMS + q] += t[q]
+        self.fr_parts.reduce(nch)
+        for s in range(self.n_slots):
+            for q in ti.static(range(N_NODE_TERMS)):
+                self.fr_sums[s, q] = self.fr_parts.out[s * N_NODE_TERMS + q]
+            self.body_fix(s)
+        for k in range(n):
+            self.apply_fix(self.fr_list[k])
+        for s in range(self.n_slots):
+            for q in ti.static(range(26)):
+                self.fr_sums[s, q] = 0.0
+            self.clear_box(s)
+
     @ti.kernel
     def contact_fix(self):
         """Each support's listed nodes summed, then moved by ``dv + alpha x (X - x_m)``; the sums and the list
@@ -346,15 +459,7 @@ class Balance:
             self.body_fix(s)
         ti.loop_config(serialize=True)
         for s in range(ti.min(self.fr_nodes[0][0], self.fr_nodes.shape[0] - 1)):
-            I = self.fr_nodes[s + 1]
-            b = self.grid_fbody[I]
-            if self.fr_sums[b, 3] > 0.0:
-                X = ti.cast(self.lo[None] + self.dx[None] * ti.cast(I, self.real), ti.f64)
-                dv = ti.Vector([self.fr_sums[b, 17], self.fr_sums[b, 18], self.fr_sums[b, 19]], ti.f64) + ti.Vector(
-                    [self.fr_sums[b, 20], self.fr_sums[b, 21], self.fr_sums[b, 22]], ti.f64).cross(
-                    X - ti.Vector([self.fr_sums[b, 23], self.fr_sums[b, 24], self.fr_sums[b, 25]], ti.f64))
-                self.grid_v[I] += ti.cast(dv, self.real)
-            self.grid_fbody[I] = -1
+            self.apply_fix(self.fr_nodes[s + 1])
         ti.loop_config(serialize=True)
         for s in range(self.n_slots):
             for q in ti.static(range(26)):

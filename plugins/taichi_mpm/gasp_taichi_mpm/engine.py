@@ -83,7 +83,8 @@ class TaichiMPMEngine(GridEngineBase):
     setup : SimSetup
         World frame, SI units. ``setup.options`` (checked and completed by the core) hold ``device`` ("cpu" | "cuda"),
         ``precision`` ("f32" | "f64"), ``dt`` (s) or ``n_substeps`` (per frame), ``cfl`` (0.4) and
-        ``threads`` (CPU threads, Taichi's ``cpu_max_num_threads``; default the cores this process may use) and
+        ``threads`` (CPU threads, Taichi's ``cpu_max_num_threads``; default the cores this process may use),
+        ``schedule`` (:mod:`gasp_taichi_mpm.schedule`: "cpu", "gpu" or "auto", gpu on CUDA) and
         ``pin_threads`` (each worker on its own core: :mod:`gasp_taichi_mpm.affinity`; ``stats()["pinned_cores"]``).
 
     Raises
@@ -164,7 +165,9 @@ class TaichiMPMEngine(GridEngineBase):
         jp0 = initial_Jp(setup.materials, setup.body_id)
         bytes_per = 4 if real == ti.f32 else 8
         grid_bytes = 4 * bytes_per * setup.n_grid ** 3
-        atomic = cfg.device == "cuda" or grid_bytes > MAX_PRIVATE_GRID_BYTES
+        from .schedule import resolve
+        self.schedule = resolve(cfg.schedule, cfg.device)   # "cpu" or "gpu" (gasp_taichi_mpm.schedule)
+        atomic = cfg.device == "cuda" or self.schedule == "gpu" or grid_bytes > MAX_PRIVATE_GRID_BYTES
         C0 = np.zeros((n, 3, 3)) if setup.C is None else setup.C[o]
         self.solver = MPMSolver(
             x=setup.x[o], v=setup.v[o], C0=C0, p_mass=setup.p_mass[o], p_vol=setup.p_vol[o],
@@ -179,7 +182,7 @@ class TaichiMPMEngine(GridEngineBase):
             planes=contact_planes(view, contact),
             mixed=mixed, fields=field_setup(view), hold=flowing_bodies(view, contact) if setup.colliders else None,
             passive_bounds=(*passive_bounds(setup, contact), passive_floor_friction(setup, contact)), rigid_frames=None if frames is None else (rigid, *frames),
-            contact_reach=contact_reach(setup),
+            contact_reach=contact_reach(setup), gpu=self.schedule == "gpu",
             body_mass=np.bincount(setup.body_id, weights=setup.p_mass, minlength=len(setup.materials)),
             **self._extras(setup))
         self._rigid_extras(setup, flowing_bodies(view, contact), rigid.any())
@@ -311,7 +314,7 @@ class TaichiMPMEngine(GridEngineBase):
         s = self.solver
         out = self.grid_stats(self.config.device, self.config.precision, s.get(s.x) if live else None,
                               s.get(s.p_mass) if live else None, s.grid_m.to_numpy() if live else None)
-        out.update(threads=self.threads, p2g=self._p2g_mode, pinned_cores=list(self.pinned))
+        out.update(threads=self.threads, p2g=self._p2g_mode, schedule=self.schedule, pinned_cores=list(self.pinned))
         if not self.pinned:
             out["unpinned_why"] = self.unpinned_why
         if live and s.coloured:

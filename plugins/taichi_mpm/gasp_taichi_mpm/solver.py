@@ -107,20 +107,24 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         onto a rigid motion after every G2P (:mod:`gasp_taichi_mpm.rigid`). Default none.
     hold : ndarray, shape (n_bodies,), bool, optional
         The bodies held out of the colliders after G2P (:meth:`~gasp_taichi_mpm.colliders.Colliders.allocate_hold`).
+    gpu : bool, optional
+        The GPU schedule (:mod:`gasp_taichi_mpm.schedule`; implies ``atomic``): no loop over points, nodes or list
+        entries on one thread. Default the CPU schedule.
     """
 
     def __init__(self, *, x, v, C0, p_mass, p_vol, body, fixed, jp0, params, kinds, n_grid, lo, dx, dt,
                  gravity, walls, grounds, regions, real, n_chunks, atomic, extras=None, time_table=None, n_substeps=1,
                  n_material=None, passive_every=1, flip=0.0, coloured=False, p_contact=None, passive_bounds=None,
                  rigid_frames=None, contact_reach=None, body_mass=None, n_colc=0, planes=None, mixed=None, fields=None,
-                 hold=None):
+                 hold=None, gpu=False):
         n = len(x)
         self.n = n
         self.n_material = n if n_material is None else int(n_material)
         self.has_passive = self.n_material < n
         self.real = real
         self.n_grid = int(n_grid)
-        self.atomic = bool(atomic)
+        self.gpu = bool(gpu)   # the GPU schedule (gasp_taichi_mpm.schedule): every loop parallel, atomic P2G
+        self.atomic = bool(atomic) or self.gpu
         self.n_chunks = 1 if self.atomic else int(n_chunks)
         self.kinds = frozenset(int(k) for k in kinds)
         self.multi_kind = len(self.kinds) > 1
@@ -344,7 +348,7 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         for s in range(n_substeps - 1):
             self.grid_update()
             if self.n_spin:
-                self.contact_fix()
+                self.fix_contact()
             if at[s] is not None:
                 self.g2p_passive(at[s])
             if self.has_extras:
@@ -355,7 +359,7 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
             self.p2g_substep(1, s + 1)
         self.grid_update()
         if self.n_spin:
-            self.contact_fix()
+            self.fix_contact()
         self.last_g2p(at[-1])   # G2P, the passive points', the rigid projection (rigid_hold.py)
 
     def p2g_substep(self, with_g2p: int, substep: int) -> None:
@@ -381,8 +385,18 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
             self.visc.solve()
         self.contact_fields()   # the two-field contact of a mixed scene (fields.py)
         if self.n_spin:   # the bodies' moments for the balance, on the x, v, C this P2G used (balance.py)
-            self.contact_moments()
-            self.contact_shift()
+            if self.gpu:
+                self.contact_moments_gpu()
+            else:
+                self.contact_moments()
+                self.contact_shift()
+
+    def fix_contact(self) -> None:
+        """The balance's fix after a grid update (:mod:`gasp_taichi_mpm.balance`), on the run's schedule."""
+        if self.gpu:
+            self.contact_fix_gpu()
+        else:
+            self.contact_fix()
 
     # ------------------------------------------------------------------ helpers
     @ti.kernel

@@ -14,10 +14,18 @@ the Rayleigh dissipation ``sum_c (eta V)_c D_c : D_c``: symmetric, positive semi
 motions, so the step conserves linear and angular momentum and is stable at any ``dt``. It is solved by
 conjugate gradients with the diagonal as preconditioner, starting from ``v*``, until the preconditioned
 residual falls below :data:`TOL` of its start (at most :data:`MAX_ITERS` iterations). The nodes with mass and the
-valid cells are listed in node order; the dot products are summed in fixed chunks of :data:`CHUNK` nodes and the
-chunks' sums in order, so the result does not depend on the thread count.
+valid cells are listed in node order by a flag, scan and scatter over the box
+(:class:`gasp_taichi_mpm.schedule.primitives.BoxCompaction`: every loop parallel, the lists those of a serial walk).
+The dot products: on the CPU schedule summed in fixed chunks of :data:`CHUNK` nodes and the chunks' sums in order;
+on the GPU schedule each list entry's term stored, then summed by a fixed tree
+(:class:`~gasp_taichi_mpm.schedule.primitives.SliceSums`); either way the result does not depend on the thread count.
+The GPU schedule reads the convergence flag every :data:`gasp_taichi_mpm.schedule.CHECK_EVERY` iterations (an
+iteration after convergence changes nothing: ``alpha = beta = 0``).
 """
 import taichi as ti
+
+from .schedule import CHECK_EVERY
+from .schedule.primitives import BoxCompaction, SliceSums
 
 #: CG stops when sqrt(r.z) has fallen to this fraction of its value at v* (the viscous correction's accuracy).
 TOL = 1e-2
@@ -65,6 +73,23 @@ class ImplicitViscosity:
         self.done = ti.field(ti.i32, shape=())
         self.iters = 0        # CG iterations done in all (statistics)
         self.solves = 0
+        self.gpu = bool(solver.gpu)   # the GPU schedule (gasp_taichi_mpm.schedule)
+        self.comp = BoxCompaction(self, ng, (self.nodes, self.cells))
+        self.dots = SliceSums(ng ** 3 if self.gpu else 1, 1, real)   # a dot product's terms per list entry (GPU)
+
+    @ti.func
+    def listed(self, I, q: ti.template()):
+        """List 0: the nodes with mass; list 1: the valid cells (``wc`` set by :meth:`_start`'s first loop)."""
+        ok = False
+        if ti.static(q == 0):
+            ok = self.s.grid_mv[0, I][3] > 0.0
+        else:
+            ok = self.wc[I] > 0.0
+        return ok
+
+    @ti.func
+    def overflow(self, I, q: ti.template()):
+        pass   # the lists hold the whole grid
 
     @ti.func
     def _box(self):
@@ -130,6 +155,45 @@ class ImplicitViscosity:
             total += self.part[q]
         return total
 
+    @ti.func
+    def _start_node(self, k, lo, hi, kd, dt):
+        """List entry k's diagonal, residual ``-dt K v*``, ``z`` and ``p``; returns its ``r.z``."""
+        I = self.nodes[k]
+        wsum = ti.cast(0.0, self.s.real)
+        for a, b, e in ti.static(ti.ndrange(2, 2, 2)):
+            c = I - ti.Vector([a, b, e])
+            if self._in(c, lo, hi):
+                wsum += self.wc[c]
+        d = self.s.grid_mv[0, I][3] + kd * wsum
+        r = -dt * self._node_force(I, lo, hi)
+        self.diag[I] = d
+        self.r[I] = r
+        z = r / d
+        self.z[I] = z
+        self.p[I] = z
+        return r.dot(z)
+
+    @ti.func
+    def _direction_node(self, k, beta, dt, lo, hi):
+        """List entry k's direction ``p = z + beta p`` and ``A p``; returns its ``p.Ap``."""
+        I = self.nodes[k]
+        p = self.z[I] + beta * self.p[I]
+        self.p[I] = p
+        ap = self.s.grid_mv[0, I][3] * p + dt * self._node_force(I, lo, hi)
+        self.Ap[I] = ap
+        return p.dot(ap)
+
+    @ti.func
+    def _update_node(self, k, alpha):
+        """List entry k's ``u += alpha p``, ``r -= alpha Ap``, ``z = r / diag``; returns its ``r.z``."""
+        I = self.nodes[k]
+        self.u[I] += alpha * self.p[I]
+        r = self.r[I] - alpha * self.Ap[I]
+        self.r[I] = r
+        z = r / self.diag[I]
+        self.z[I] = z
+        return r.dot(z)
+
     @ti.kernel
     def _start(self):
         """Lists, cell weights, diagonal; u = v*, r = M v* - A u, z = r / diag, p = z, rz."""
@@ -148,17 +212,9 @@ class ImplicitViscosity:
                 if not self._active(I + ti.Vector([a, b, e]), lo, hi):
                     valid = False
             self.wc[I] = 1.0 if valid else 0.0
-        nn = 0
-        nc = 0
-        ti.loop_config(serialize=True)
-        for idx in range(count):   # the lists, in node order
-            I = self._node(lo, ext, idx)
-            if self.s.grid_mv[0, I][3] > 0.0:
-                self.nodes[nn] = I
-                nn += 1
-            if self.wc[I] > 0.0:
-                self.cells[nc] = I
-                nc += 1
+        self.comp.run(lo, ext)   # the lists, in node order
+        nn = self.comp.count[0]
+        nc = self.comp.count[1]
         self.n_nodes[None] = nn
         self.n_cells[None] = nc
         for k in range(nn):   # valid cells per node
@@ -182,26 +238,20 @@ class ImplicitViscosity:
             self.S[c] = self._cell_stress(c, self.u)
         dt = self.s.dt[None]
         kd = 0.25 * dt * self.s.inv_dx[None] * self.s.inv_dx[None]
-        for k0 in range(nn):
-            if k0 % CHUNK == 0:
-                acc = ti.cast(0.0, self.s.real)
-                for k in range(k0, ti.min(k0 + CHUNK, nn)):
-                    I = self.nodes[k]
-                    wsum = ti.cast(0.0, self.s.real)
-                    for a, b, e in ti.static(ti.ndrange(2, 2, 2)):
-                        c = I - ti.Vector([a, b, e])
-                        if self._in(c, lo, hi):
-                            wsum += self.wc[c]
-                    d = self.s.grid_mv[0, I][3] + kd * wsum
-                    r = -dt * self._node_force(I, lo, hi)
-                    self.diag[I] = d
-                    self.r[I] = r
-                    z = r / d
-                    self.z[I] = z
-                    self.p[I] = z
-                    acc += r.dot(z)
-                self.part[k0 // CHUNK] = acc
-        rz = self._sum_parts(nn)
+        rz = ti.cast(0.0, self.s.real)
+        if ti.static(self.gpu):
+            for k in range(nn):
+                self.dots.part[k, 0] = self._start_node(k, lo, hi, kd, dt)
+            self.dots.reduce(nn)
+            rz = self.dots.out[0]
+        else:
+            for k0 in range(nn):
+                if k0 % CHUNK == 0:
+                    acc = ti.cast(0.0, self.s.real)
+                    for k in range(k0, ti.min(k0 + CHUNK, nn)):
+                        acc += self._start_node(k, lo, hi, kd, dt)
+                    self.part[k0 // CHUNK] = acc
+            rz = self._sum_parts(nn)
         self.rz[None] = rz
         self.rz0[None] = rz
         self.beta[None] = 0.0   # the first direction is z
@@ -220,37 +270,40 @@ class ImplicitViscosity:
             c = self.cells[k]
             self.S[c] = self._cell_stress_zp(c, beta)
         dt = self.s.dt[None]
-        for k0 in range(nn):
-            if k0 % CHUNK == 0:
-                acc = ti.cast(0.0, self.s.real)
-                for k in range(k0, ti.min(k0 + CHUNK, nn)):
-                    I = self.nodes[k]
-                    p = self.z[I] + beta * self.p[I]
-                    self.p[I] = p
-                    ap = self.s.grid_mv[0, I][3] * p + dt * self._node_force(I, lo, hi)
-                    self.Ap[I] = ap
-                    acc += p.dot(ap)
-                self.part[k0 // CHUNK] = acc
-        pap = self._sum_parts(nn)
+        pap = ti.cast(0.0, self.s.real)
+        if ti.static(self.gpu):
+            for k in range(nn):
+                self.dots.part[k, 0] = self._direction_node(k, beta, dt, lo, hi)
+            self.dots.reduce(nn)
+            pap = self.dots.out[0]
+        else:
+            for k0 in range(nn):
+                if k0 % CHUNK == 0:
+                    acc = ti.cast(0.0, self.s.real)
+                    for k in range(k0, ti.min(k0 + CHUNK, nn)):
+                        acc += self._direction_node(k, beta, dt, lo, hi)
+                    self.part[k0 // CHUNK] = acc
+            pap = self._sum_parts(nn)
         self.alpha[None] = 0.0
         if pap > 0.0 and self.done[None] == 0:
             self.alpha[None] = self.rz[None] / pap
         else:
             self.done[None] = 1
-        for k0 in range(nn):
-            if k0 % CHUNK == 0:
-                alpha = self.alpha[None]
-                acc = ti.cast(0.0, self.s.real)
-                for k in range(k0, ti.min(k0 + CHUNK, nn)):
-                    I = self.nodes[k]
-                    self.u[I] += alpha * self.p[I]
-                    r = self.r[I] - alpha * self.Ap[I]
-                    self.r[I] = r
-                    z = r / self.diag[I]
-                    self.z[I] = z
-                    acc += r.dot(z)
-                self.part[k0 // CHUNK] = acc
-        rz = self._sum_parts(nn)
+        rz = ti.cast(0.0, self.s.real)
+        if ti.static(self.gpu):
+            for k in range(nn):
+                self.dots.part[k, 0] = self._update_node(k, self.alpha[None])
+            self.dots.reduce(nn)
+            rz = self.dots.out[0]
+        else:
+            for k0 in range(nn):
+                if k0 % CHUNK == 0:
+                    alpha = self.alpha[None]
+                    acc = ti.cast(0.0, self.s.real)
+                    for k in range(k0, ti.min(k0 + CHUNK, nn)):
+                        acc += self._update_node(k, alpha)
+                    self.part[k0 // CHUNK] = acc
+            rz = self._sum_parts(nn)
         self.beta[None] = 0.0
         if self.done[None] == 0:
             if self.rz[None] > 0.0:
@@ -274,9 +327,11 @@ class ImplicitViscosity:
         """One backward-Euler viscous step on the grid momentum (between P2G and the grid update)."""
         self._start()
         k = 0
+        every = CHECK_EVERY if self.gpu else 1   # GPU: the flag read every few iterations (no-ops once converged)
         while k < MAX_ITERS and not self.done[None]:
-            self._iterate()
-            k += 1
+            for _ in range(min(every, MAX_ITERS - k)):
+                self._iterate()
+                k += 1
         self._finish()
         self.iters += k
         self.solves += 1

@@ -1,0 +1,240 @@
+"""taichi_mpm on a GPU against the same machine's CPU cores, in one device call (issue 65).
+
+Cases, each in a process of its own (Taichi has one runtime a process), under one deadline (``--budget`` s):
+
+- ``donut_<device>``: the README donut (``examples/donut_jelly.toml``: 65,036 points, 69 substeps a frame, implicit
+  viscosity, the contact's balance), ``--donut-frames`` frames; s a frame after frame 1 (which compiles), and the
+  positions at frame 30 (1 s) saved, so CUDA's frames are measured against the CPU's (largest point distance, in dx);
+- ``profile``: three donut frames on CUDA under Taichi's kernel profiler: seconds a frame per kernel;
+- ``block_<material>_<n>``: a block at 8 points a cell (as ``bench_mpm.py``, n_grid grown to hold it), 10 substeps
+  a frame, particle-substeps a second, for jelly from 65k to 16M points, sand and brittle at 1M.
+
+Writes ``bench_gpu.json`` and ``bench_gpu.md`` to ``--out`` (``$OUT`` on the device machine). Each case's line is
+printed as it ends, so a case past the deadline leaves the others. Usage, on the device (``../shared/device``)::
+
+    bash .device/setup.sh && PYTHONPATH=/tmp/site python3 benchmarks/bench_gpu.py --out $OUT
+"""
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+DONUT = ROOT / "examples" / "donut_jelly.toml"
+SUBSTEPS = 10
+
+
+def donut_scene(device: str, folder: Path, schedule: str = "auto") -> Path:
+    """The README donut with ``device`` and ``schedule`` in its engine options, written to ``folder``."""
+    text = DONUT.read_text().replace('file = "data/', f'file = "{DONUT.parent}/data/')
+    text += f'\n[engine.options]\ndevice = "{device}"\nschedule = "{schedule}"\n'
+    path = folder / f"donut_{device}_{schedule}.toml"
+    path.write_text(text)
+    return path
+
+
+def case_donut(device: str, frames: int, out: Path, schedule: str = "auto") -> dict:
+    from gasp_core.prepare.scene import prepare_scene
+    from gasp_core.scene.spec import load_scene
+    from gasp_core.seam.runner import RunStats, run_engine
+    with tempfile.TemporaryDirectory() as tmp:
+        prep = prepare_scene(load_scene(donut_scene(device, Path(tmp), schedule)), "taichi_mpm")
+    stats = RunStats()
+    walls = []
+    for rec in run_engine(prep.info, prep.setup, frames, stats):
+        walls.append(rec.wall_s)
+        if rec.frame == 30:
+            np.save(out / f"donut_{device}_{schedule}_f30.npy", rec.x)
+    after = walls[1:]
+    n_sub = stats.engine.get("n_substeps", 0)
+    return {"points": len(prep.setup.x), "n_substeps": n_sub, "frame1_s": walls[0],
+            "s_per_frame_median": float(np.median(after)), "s_per_frame_min": float(np.min(after)),
+            "s_per_frame_max": float(np.max(after)), "frames": len(walls), "dx": float(prep.setup.dx),
+            "M_per_s": len(prep.setup.x) * n_sub / float(np.median(after)) / 1e6,
+            "schedule": stats.engine.get("schedule"), "cg_iters": stats.engine.get("viscous_cg_iterations")}
+
+
+def case_profile(frames: int) -> dict:
+    """Per kernel, seconds a frame, from Taichi's kernel profiler over ``frames`` frames after frame 1."""
+    import taichi as ti
+    from gasp_taichi_mpm import engine as eng_mod
+    init = eng_mod._quiet_init
+    eng_mod._quiet_init = lambda t, **kw: init(t, kernel_profiler=True, **kw)
+    from gasp_core.prepare.scene import prepare_scene
+    from gasp_core.scene.spec import load_scene
+    from gasp_core.seam.runner import RunStats, run_engine
+    with tempfile.TemporaryDirectory() as tmp:
+        prep = prepare_scene(load_scene(donut_scene("cuda", Path(tmp))), "taichi_mpm")
+    kernels: dict = {}
+    for rec in run_engine(prep.info, prep.setup, frames + 1, RunStats()):
+        if rec.frame == 1:
+            ti.sync()
+            ti.profiler.clear_kernel_profiler_info()
+        elif rec.frame == frames + 1:
+            ti.sync()
+            import contextlib
+            import io
+            buf = io.StringIO()
+            with contextlib.redirect_stdout(buf):
+                ti.profiler.print_kernel_profiler_info("count")
+            kernels["table"] = buf.getvalue()
+    return kernels
+
+
+def block_setup(n_target: int, material: str, device: str):
+    """A block of about ``n_target`` points, 8 a cell, 1 cell over a ground, falling at 1 m/s; n_grid at least
+    64 and twice the block's cells."""
+    from gasp_core.seam.setup import Boundary, Material, SimSetup
+    from gasp_core.toolkit.substeps import mpm_stable_dt
+    cells = max(1, int(round((n_target / 8) ** (1 / 3))))
+    n_grid = max(64, 1 << int(np.ceil(np.log2(2 * cells))))
+    dx = 1.0 / n_grid
+    h = dx / 2
+    side = cells * dx
+    g = (np.arange(2 * cells) + 0.5) * h
+    x = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3).astype(np.float64)
+    x += np.array([0.5 - side / 2, 0.5 - side / 2, 0.1 + dx])
+    kw = {"tensile_strength": 2e3, "fracture_energy": 20.0} if material == "brittle" else {}
+    mat = Material(material, E=1e5, nu=0.3, rho=1000.0, **kw)
+    gravity = np.array([0.0, 0.0, -9.81])
+    dt = mpm_stable_dt([mat], dx, gravity, height=1.0, v0_max=1.0)
+    return SimSetup(x=x, v=np.array([0.0, 0.0, -1.0]), p_vol=h ** 3, body_id=0, materials=[mat], gravity=gravity,
+                    domain_lo=np.zeros(3), domain_hi=np.ones(3), n_grid=n_grid,
+                    boundaries=[Boundary("ground", height=0.1, friction=0.5)], frame_dt=SUBSTEPS * dt,
+                    options={"device": device, "precision": "f32", "n_substeps": SUBSTEPS})
+
+
+def case_block(n_target: int, material: str, device: str, frames: int) -> dict:
+    from gasp_core.seam.build import build_engine
+    from gasp_core.seam.plugins import get_engine
+    setup = block_setup(n_target, material, device)
+    t0 = time.perf_counter()
+    eng = build_engine(get_engine("taichi_mpm"), setup)
+    build = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    eng.step_frame()
+    eng.positions()
+    first = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    for _ in range(frames):
+        eng.step_frame()
+    x = eng.positions()
+    wall = time.perf_counter() - t0
+    st = eng.stats()
+    eng.close()
+    n = len(setup.x)
+    return {"points": n, "n_grid": setup.n_grid, "build_s": build, "frame1_s": first, "frames": frames,
+            "s_per_frame": wall / frames, "M_per_s": n * SUBSTEPS * frames / wall / 1e6,
+            "finite": bool(np.isfinite(x).all()), "schedule": st.get("schedule")}
+
+
+def run_case(name: str, args: list[str], timeout: float) -> dict:
+    """``name`` in a subprocess of this script (``--case``), at most ``timeout`` s."""
+    t0 = time.perf_counter()
+    try:
+        r = subprocess.run([sys.executable, __file__, "--case", name, *args], capture_output=True, text=True,
+                           timeout=max(timeout, 1.0))
+        line = [ln for ln in r.stdout.splitlines() if ln.startswith("{")]
+        rec = json.loads(line[-1]) if r.returncode == 0 and line else \
+            {"error": f"exit {r.returncode}: " + " | ".join(r.stderr.strip().splitlines()[-4:])}
+    except subprocess.TimeoutExpired:
+        rec = {"error": f"past its {timeout:.0f} s"}
+    rec.update(case=name, wall_s=round(time.perf_counter() - t0, 1))
+    print(json.dumps(rec), flush=True)
+    return rec
+
+
+def markdown(doc: dict) -> str:
+    lines = [f"# bench_gpu.py: taichi_mpm, {doc['gpu']}, {doc['date']}", "",
+             f"Host: {doc['cpu_count']} CPU threads. Each case in its own process; frame 1 compiles.", "",
+             "| case | points | s a frame (median) | M particle-substeps/s | frame 1 s | note |",
+             "|---|---:|---:|---:|---:|---|"]
+    for r in doc["cases"]:
+        if r["case"] == "profile":
+            continue
+        if "error" in r:
+            lines.append(f"| {r['case']} | | | | | {r['error'][:120]} |")
+            continue
+        spf = r.get("s_per_frame_median", r.get("s_per_frame"))
+        note = f"n_grid {r['n_grid']}" if "n_grid" in r else f"{r.get('n_substeps')} substeps, CG {r.get('cg_iters')}"
+        lines.append(f"| {r['case']} | {r['points']} | {spf:.4f} | {r['M_per_s']:.1f} | {r['frame1_s']:.1f} | "
+                     f"{note}; schedule {r.get('schedule')} |")
+    for k, v in doc.get("derived", {}).items():
+        lines.append(f"\n{k}: {v}")
+    prof = [r for r in doc["cases"] if r["case"] == "profile" and "table" in r]
+    if prof:
+        lines += ["", "Kernel profiler (CUDA, README donut):", "", "```", prof[0]["table"].strip(), "```"]
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
+    ap.add_argument("--budget", type=float, default=460.0, help="seconds for all the cases")
+    ap.add_argument("--donut-frames", type=int, default=31)
+    ap.add_argument("--sizes", default="65000,1000000,4000000,16000000")
+    ap.add_argument("--only", default=None, help="comma-separated case names (default all)")
+    ap.add_argument("--case", default=None, help=argparse.SUPPRESS)
+    ap.add_argument("rest", nargs="*", help=argparse.SUPPRESS)
+    a = ap.parse_args(argv)
+    a.out.mkdir(parents=True, exist_ok=True)
+    if a.case:   # inside a case's process
+        if a.case.startswith("donut_"):
+            _, device, schedule = a.case.split("_")
+            rec = case_donut(device, a.donut_frames, a.out, schedule)
+        elif a.case == "profile":
+            rec = case_profile(3)
+        else:
+            _, material, n, device = a.case.split("_")
+            rec = case_block(int(n), material, device, 3)
+        print(json.dumps(rec))
+        return 0
+    try:
+        gpu = subprocess.run(["nvidia-smi", "-L"], capture_output=True, text=True).stdout.strip() or "no GPU"
+    except OSError:
+        gpu = "no GPU"
+    cases = [("donut_cuda_auto", []), ("donut_cpu_auto", []), ("profile", [])]
+    cases += [(f"block_jelly_{n}_cuda", []) for n in a.sizes.split(",")]
+    cases += [("block_sand_1000000_cuda", []), ("block_brittle_1000000_cuda", []), ("donut_cuda_cpu", ["--donut-frames", "4"])]
+    if a.only:
+        keep = set(a.only.split(","))
+        cases = [c for c in cases if c[0] in keep]
+    end = time.perf_counter() + a.budget
+    doc = {"gpu": gpu, "date": datetime.date.today().isoformat(), "cpu_count": os.cpu_count(),
+           "python": platform.python_version(), "cases": []}
+    for name, extra in cases:
+        left = end - time.perf_counter()
+        if left < 20:
+            doc["cases"].append({"case": name, "error": "not run: the budget was spent"})
+            continue
+        doc["cases"].append(run_case(name, [*extra, "--out", str(a.out)], left))
+    by = {r["case"]: r for r in doc["cases"]}
+    derived = {}
+    c, p = by.get("donut_cuda_auto", {}), by.get("donut_cpu_auto", {})
+    if "s_per_frame_median" in c and "s_per_frame_median" in p:
+        derived["README donut, CUDA against this machine's CPU cores"] = \
+            f"{p['s_per_frame_median'] / c['s_per_frame_median']:.1f}x faster"
+        fa, fb = a.out / "donut_cuda_auto_f30.npy", a.out / "donut_cpu_auto_f30.npy"
+        if fa.exists() and fb.exists():
+            d = np.linalg.norm(np.load(fa) - np.load(fb), axis=1)
+            derived["README donut after 1 s, CUDA against CPU: largest point distance"] = \
+                f"{d.max() / c['dx']:.3f} dx (median {np.median(d) / c['dx']:.4f} dx)"
+    doc["derived"] = derived
+    (a.out / "bench_gpu.json").write_text(json.dumps(doc, indent=1))
+    (a.out / "bench_gpu.md").write_text(markdown(doc))
+    print(markdown(doc))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

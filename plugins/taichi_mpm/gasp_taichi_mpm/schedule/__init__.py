@@ -1,0 +1,40 @@
+"""How a substep's loops, scans and sums run (issue 65): the *schedule*, chosen per run, apart from what the substep
+computes.
+
+- ``"cpu"``, the CPU default: ordered for bit-repeatability on any thread count (the coloured block P2G of
+  :mod:`gasp_taichi_mpm.transfers`, fixed-slice sums with one thread a slice, node-order lists, host-checked
+  convergence). On a GPU its ordered loops are single GPU threads (issue 65: 7.7 s a frame on an H100).
+- ``"gpu"``, the CUDA default: every loop over points, nodes or list entries is parallel. Atomic P2G into one grid;
+  lists by flag, scan and scatter (:class:`~gasp_taichi_mpm.schedule.primitives.BoxCompaction`, still in node
+  order); every body or support sum a fixed-order tree of slice sums
+  (:class:`~gasp_taichi_mpm.schedule.primitives.SliceSums`: no atomics, so the sums repeat bit for bit for the
+  same inputs); convergence read every :data:`CHECK_EVERY` iterations. It runs on ``ti.cpu`` too (``schedule =
+  "gpu"``), where the conformance scenes check it against the CPU schedule.
+
+Rule (from the anchors, ``../shared/design/gpu-first.md``): no ``ti.loop_config(serialize=True)`` and no
+``block_dim=1`` in a kernel the GPU schedule compiles (``tests/test_taichi_schedule.py`` checks it).
+"""
+from __future__ import annotations
+
+#: The schedules ``TaichiMPMConfig.schedule`` takes; ``"auto"``: ``"gpu"`` on CUDA, ``"cpu"`` on the CPU.
+SCHEDULES = ("auto", "cpu", "gpu")
+
+#: The GPU schedule reads the viscous CG's convergence flag on the host every this many iterations (the iterations
+#: after convergence change nothing: :mod:`gasp_taichi_mpm.viscosity`).
+CHECK_EVERY = 4
+
+
+def resolve(schedule: str, device: str) -> str:
+    """``"cpu"`` or ``"gpu"`` for ``schedule`` (one of :data:`SCHEDULES`) on ``device`` ("cpu" or "cuda").
+
+    Raises
+    ------
+    ValueError
+        ``schedule`` not one of :data:`SCHEDULES`.
+    """
+    if schedule not in SCHEDULES:
+        raise ValueError(f"engine 'taichi_mpm': option 'schedule' must be one of {', '.join(SCHEDULES)}; "
+                         f"got {schedule!r}")
+    if schedule == "auto":
+        return "gpu" if device == "cuda" else "cpu"
+    return schedule
