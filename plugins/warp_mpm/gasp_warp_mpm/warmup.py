@@ -49,9 +49,10 @@ def _kernels_in(obj, seen: set) -> list:
 
 
 def plugin_modules() -> list:
-    """Every Python module of this plugin, imported (``pkgutil.iter_modules`` over the package's folder)."""
+    """Every Python module of this plugin, imported (``pkgutil.walk_packages`` over the package's folder: its
+    subpackages' modules too, ``schedule.gpu``)."""
     pkg = importlib.import_module(PACKAGE)
-    return [importlib.import_module(f"{PACKAGE}.{m.name}") for m in pkgutil.iter_modules(pkg.__path__)]
+    return [importlib.import_module(m.name) for m in pkgutil.walk_packages(pkg.__path__, prefix=f"{PACKAGE}.")]
 
 
 def all_kernels(Ft) -> list:
@@ -71,8 +72,9 @@ def marker_path(Ft, device) -> Path:
     ``device``: named by a digest of the plugin's ``.py`` files, Warp's version, the module options, the scalar type
     and the device (its name and, on CUDA, its architecture)."""
     h = hashlib.sha256()
-    for f in sorted(Path(__file__).parent.glob("*.py")):
-        h.update(f.name.encode() + b"\0" + f.read_bytes())
+    root = Path(__file__).parent
+    for f in sorted(root.rglob("*.py")):
+        h.update(f.relative_to(root).as_posix().encode() + b"\0" + f.read_bytes())
     dev = wp.get_device(device)
     h.update(f"{wp.config.version}|{sorted(MODULE_OPTIONS.items())}|{Ft.__name__}|{dev.name}|"
              f"{getattr(dev, 'arch', '')}".encode())
