@@ -67,14 +67,22 @@ def all_kernels(Ft) -> list:
     return kernels
 
 
+def _sources() -> list:
+    """(name, path) of the plugin's ``.py`` files: those beside this module, then its subpackages' (``schedule/``,
+    found where that package was imported from)."""
+    from . import schedule
+    files = [(f.name, f) for f in sorted(Path(__file__).parent.glob("*.py"))]
+    sub = Path(schedule.__file__).parent
+    return files + [(f"{sub.name}/{f.name}", f) for f in sorted(sub.glob("*.py"))]
+
+
 def marker_path(Ft, device) -> Path:
     """The marker :func:`compile_all` leaves in Warp's kernel cache folder once every kernel of ``Ft`` is compiled for
-    ``device``: named by a digest of the plugin's ``.py`` files, Warp's version, the module options, the scalar type
-    and the device (its name and, on CUDA, its architecture)."""
+    ``device``: named by a digest of the plugin's ``.py`` files (:func:`_sources`), Warp's version, the module
+    options, the scalar type and the device (its name and, on CUDA, its architecture)."""
     h = hashlib.sha256()
-    root = Path(__file__).parent
-    for f in sorted(root.rglob("*.py")):
-        h.update(f.relative_to(root).as_posix().encode() + b"\0" + f.read_bytes())
+    for name, f in _sources():
+        h.update(name.encode() + b"\0" + f.read_bytes())
     dev = wp.get_device(device)
     h.update(f"{wp.config.version}|{sorted(MODULE_OPTIONS.items())}|{Ft.__name__}|{dev.name}|"
              f"{getattr(dev, 'arch', '')}".encode())
