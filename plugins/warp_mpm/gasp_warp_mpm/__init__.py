@@ -29,10 +29,14 @@ CAPABILITIES = dataclasses.replace(MPM_CAPABILITIES, features=MPM_CAPABILITIES.f
 class WarpMPMConfig(MPMConfigCudaIndex):
     """The engine's settings (:class:`gasp_core.toolkit.options.MPMConfigCudaIndex`: ``device`` "cpu", "cuda" or
     "cuda:N", Warp's device names), with ``threads``, accepted so that a scene written for another MPM engine runs
-    unchanged."""
+    unchanged, and ``schedule`` (:mod:`gasp_warp_mpm.schedule`)."""
 
     threads: int | None = option(None, "accepted and ignored: Warp runs CPU kernels on one thread (runs repeat bit "
                                  "for bit)", kind="int", lo=1)
+    schedule: str = option("auto", "how a substep's reductions and lists run: 'cpu' (serial loops, one thread; the "
+                           "CPU's bits), 'gpu' (parallel flag-scan-scatter lists and fixed-block reductions, no "
+                           "atomics on a body's row, CG stopped on the device; runs on CPU too) or 'auto' (gpu on "
+                           "CUDA, cpu on CPU)", kind="str", choices=("auto", "cpu", "gpu"))
 
 
 #: The options, one per field of :class:`WarpMPMConfig`.

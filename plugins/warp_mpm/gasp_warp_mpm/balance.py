@@ -177,9 +177,15 @@ def build_balance_node(Ft):
     @wp.func
     def balance_node(node: int, v_in: vec3, v_out: vec3, m: Ft, fb: Ft, X: vec3,
                      grid_fbody: wp.array(dtype=wp.int32), fr_sums: wp.array2d(dtype=f64),
-                     fr_nodes: wp.array(dtype=wp.int32)):
+                     fr_nodes: wp.array(dtype=wp.int32), fr_dv: wp.array(dtype=vec4), fr_fb: wp.array(dtype=Ft)):
+        # fr_dv, fr_fb: one entry per node on the gpu schedule (the node's friction change, mass and budget kept for
+        # its block reduction, gasp_warp_mpm.schedule.gpu), one unused entry on the cpu schedule (the atomics below)
         b = grid_fbody[node]
-        if b >= 0:
+        if b >= 0 and fr_dv.shape[0] > 1:
+            dvg = v_out - v_in
+            fr_dv[node] = vec4(dvg[0], dvg[1], dvg[2], m)
+            fr_fb[node] = fb
+        elif b >= 0:
             r = v64(f64(X[0]), f64(X[1]), f64(X[2]))
             dvf = v_out - v_in
             f = f64(m) * v64(f64(dvf[0]), f64(dvf[1]), f64(dvf[2]))
@@ -369,6 +375,10 @@ def allocate_balance(engine, planes: list, Ft, n_sup: int = 1) -> None:
     engine.fr_sums = wp.zeros((nb * n_sup, FR_COLUMNS), dtype=f64, device=d)
     engine.fr_nodes = wp.zeros(1 + min(n_nodes, 8 * engine.n_grid ** 2 * max(1, len(planes) + n_sup - 1)),
                                dtype=wp.int32, device=d)
+    # the gpu schedule (gasp_warp_mpm.schedule): each contact node's friction change and mass, and its budget
+    n_gpu = n_nodes if nb and getattr(engine, "schedule", "cpu") == "gpu" else 1
+    engine.fr_dv = wp.zeros(n_gpu, dtype=build_types(Ft)[1], device=d)
+    engine.fr_fb = wp.zeros(n_gpu, dtype=Ft, device=d)
 
 
 def balance_launches(engine, k, lo_v, dx, dt_f, ex) -> tuple[list, object]:

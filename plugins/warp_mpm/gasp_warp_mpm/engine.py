@@ -51,6 +51,7 @@ from .sleeping import Sleeping
 from .tables import ExtraTables
 from .startup import init_warp
 from .warmup import compile_all
+from .schedule import resolve as resolve_schedule
 
 
 class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
@@ -87,6 +88,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
         check_memory(estimate_bytes(len(setup.x), setup.n_grid, cfg.precision), ENGINE,
                      f"{len(setup.x)} points, n_grid {setup.n_grid}, {cfg.precision}")
         self.device = self._start_warp(cfg.device)
+        self.schedule = resolve_schedule(cfg.schedule, self.device.is_cuda)   # "cpu" or "gpu" (schedule/__init__.py)
         self.precision = cfg.precision
         Ft = wp.float32 if self.precision == "f32" else wp.float64
         compile_all(Ft, self.device)   # once per install: a later scene compiles nothing (warmup.py)
@@ -173,8 +175,12 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
         self.grid_eta = wp.zeros(n_nodes if viscous else 1, dtype=Ft, device=d)
         self.visc = None
         if viscous:
-            from .viscosity import ImplicitViscosity
-            self.visc = ImplicitViscosity(self, Ft)
+            if self.schedule == "gpu":
+                from .schedule.gpu import GpuViscosity
+                self.visc = GpuViscosity(self, Ft)
+            else:
+                from .viscosity import ImplicitViscosity
+                self.visc = ImplicitViscosity(self, Ft)
 
     def _upload_boundaries(self, Ft) -> None:
         """Walls' friction, grounds' (top node layer, friction, 0) and fixed regions' boxes as arrays; with the particle
@@ -239,15 +245,20 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
                 self.grid_mv, self.grid_v, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, Ft(self.wall_in), self.wall_mu,
                 self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex, self.grid_g, self.has_wind,
                 self.grid_mv0, self.grid_v0, int(self.flip > 0), self.grid_fb, self.grid_fbody,
-                self.fr_sums, self.fr_nodes, self.nfric, self.grid_fn, self.grid_fv, Ft(self.wall_full), self.grid_mf]),
+                self.fr_sums, self.fr_nodes, self.nfric, self.grid_fn, self.grid_fv, Ft(self.wall_full), self.grid_mf,
+                self.fr_dv, self.fr_fb]),
             wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
                 self.x, self.v, self.C, self.fixed, self.grid_v, lo_v, inv_dx, dt_f, ng, self.grid_v0, Ft(self.flip),
                 self.grid_dv, self.body, self.in_a]),
         ] + hold_launches(self, Ft, has_extras, ex) + self._rigid_launches(Ft)
         # the contact's balance (gasp_warp_mpm.balance): its moments before P2G, its fix after the grid update
-        self._pre, fix = balance_launches(self, k, lo_v, dx, dt_f, ex)
-        if fix is not None:
-            self._launches.insert(2, fix)
+        if self.schedule == "gpu":   # the same steps, no atomics on a body's row, the fix per node (schedule/gpu.py)
+            from .schedule.gpu import gpu_balance_launches
+            self._pre, fixes = gpu_balance_launches(self, k, lo_v, dx, dt_f, ex)
+        else:
+            self._pre, fix = balance_launches(self, k, lo_v, dx, dt_f, ex)
+            fixes = [] if fix is None else [fix]
+        self._launches[2:2] = fixes
         self._launches[1:1] = field_launches(self, Ft)   # the two-field contact after P2G (fields.py)
         # passive points after the grid update (the grid velocity holds forces, colliders, boundaries):
         # one launch per distinct interval of passive_schedule, at the substeps it names; each then held in

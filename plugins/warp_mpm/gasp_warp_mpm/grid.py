@@ -136,7 +136,7 @@ def build_grid_update(Ft):
         grid_mv0: wp.array(dtype=vec4), grid_v0: wp.array(dtype=vec3), flip: int, grid_fb: wp.array(dtype=Ft),
         grid_fbody: wp.array(dtype=wp.int32), fr_sums: wp.array2d(dtype=wp.float64), fr_nodes: wp.array(dtype=wp.int32),
         colc: int, grid_fn: wp.array(dtype=vec3), grid_fv: wp.array(dtype=vec3), wall_full: Ft,
-        grid_mf: wp.array(dtype=Ft)):
+        grid_mf: wp.array(dtype=Ft), fr_dv: wp.array(dtype=vec4), fr_fb: wp.array(dtype=Ft)):
         # wall_in: the walls' grid rule reaches this many cells in (gasp_core.toolkit.contact.wall_grid_cells);
         # ground[g] = (top node layer k_max as a float, friction, unused); grid_m (node mass, for
         # passive points) has one entry per node when the setup has passive points, else one unused entry;
@@ -170,7 +170,8 @@ def build_grid_update(Ft):
                 v_in = vel
                 vel = contact_friction(vel, m, node, grid_fb, colc, grid_fn, grid_fv)
                 if fr_sums.shape[0] > 0:
-                    balance_node(node, v_in, vel, m, grid_fb[node], X, grid_fbody, fr_sums, fr_nodes)
+                    balance_node(node, v_in, vel, m, grid_fb[node], X, grid_fbody, fr_sums, fr_nodes,
+                                     fr_dv, fr_fb)
             for r in range(fixed_lo.shape[0]):
                 flo = fixed_lo[r]
                 fhi = fixed_hi[r]

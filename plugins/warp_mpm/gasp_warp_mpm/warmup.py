@@ -49,9 +49,10 @@ def _kernels_in(obj, seen: set) -> list:
 
 
 def plugin_modules() -> list:
-    """Every Python module of this plugin, imported (``pkgutil.iter_modules`` over the package's folder)."""
+    """Every Python module of this plugin, imported (``pkgutil.walk_packages`` over the package's folder: its
+    subpackages' modules too, ``schedule.gpu``)."""
     pkg = importlib.import_module(PACKAGE)
-    return [importlib.import_module(f"{PACKAGE}.{m.name}") for m in pkgutil.iter_modules(pkg.__path__)]
+    return [importlib.import_module(m.name) for m in pkgutil.walk_packages(pkg.__path__, prefix=f"{PACKAGE}.")]
 
 
 def all_kernels(Ft) -> list:
@@ -66,13 +67,22 @@ def all_kernels(Ft) -> list:
     return kernels
 
 
+def _sources() -> list:
+    """(name, path) of the plugin's ``.py`` files: those beside this module, then its subpackages' (``schedule/``,
+    found where that package was imported from)."""
+    from . import schedule
+    files = [(f.name, f) for f in sorted(Path(__file__).parent.glob("*.py"))]
+    sub = Path(schedule.__file__).parent
+    return files + [(f"{sub.name}/{f.name}", f) for f in sorted(sub.glob("*.py"))]
+
+
 def marker_path(Ft, device) -> Path:
     """The marker :func:`compile_all` leaves in Warp's kernel cache folder once every kernel of ``Ft`` is compiled for
-    ``device``: named by a digest of the plugin's ``.py`` files, Warp's version, the module options, the scalar type
-    and the device (its name and, on CUDA, its architecture)."""
+    ``device``: named by a digest of the plugin's ``.py`` files (:func:`_sources`), Warp's version, the module
+    options, the scalar type and the device (its name and, on CUDA, its architecture)."""
     h = hashlib.sha256()
-    for f in sorted(Path(__file__).parent.glob("*.py")):
-        h.update(f.name.encode() + b"\0" + f.read_bytes())
+    for name, f in _sources():
+        h.update(name.encode() + b"\0" + f.read_bytes())
     dev = wp.get_device(device)
     h.update(f"{wp.config.version}|{sorted(MODULE_OPTIONS.items())}|{Ft.__name__}|{dev.name}|"
              f"{getattr(dev, 'arch', '')}".encode())
