@@ -37,7 +37,7 @@ from .schedule.primitives import BoxCompaction, SliceSums
 N_PARTS = 64
 #: GPU schedule: points a slice of the moments holds at least (more when the slices' rows would pass
 #: :data:`SLICE_BYTES`), and listed contact nodes a chunk of the fix's sums holds.
-M_SLICE, FR_CHUNK = 128, 64
+M_SLICE, FR_CHUNK = 32, 64
 SLICE_BYTES = 64 << 20
 #: Columns of a listed node's terms (:meth:`Balance.node_terms`): fr_sums[s, :17].
 N_NODE_TERMS = 17

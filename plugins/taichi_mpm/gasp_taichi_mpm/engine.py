@@ -239,6 +239,9 @@ class TaichiMPMEngine(GridEngineBase):
         s.reset_out()
         s.substeps(self.n_substeps)
         self.frame += 1
+        if s.gpu:
+            self._checked_on_device()
+            return
         x = self.to_setup_order(s.get(s.x))
         v = self.to_setup_order(s.get(s.v))
         n_out = int(s.n_out[None])
@@ -259,6 +262,26 @@ class TaichiMPMEngine(GridEngineBase):
                 f"point-substeps in this frame", self.frame, CAUSE_UNSTABLE if fast else CAUSE_LEFT_DOMAIN)
         self._x, self._v = x, v
 
+    def _checked_on_device(self) -> None:
+        """:meth:`step_frame`'s checks on the GPU schedule: counted on the device (``MPMSolver.check_points``), then
+        only the positions read back; the velocities when asked (:meth:`velocities`) or when a check fails."""
+        s = self.solver
+        s.check_points()
+        bad = s.bad.to_numpy()
+        n_out = int(s.n_out[None])
+        if bad[0]:
+            raise EngineDivergence(f"{bad[0]} point(s) with non-finite position or velocity "
+                                   f"(first index {int(self._order[bad[1]])})", self.frame, CAUSE_UNSTABLE)
+        x = self.to_setup_order(s.get(s.x))
+        if bad[2] or n_out > 0:
+            v = self.to_setup_order(s.get(s.v))
+            where = f" (first index {int(self._order[bad[3]])} at {x[self._order[bad[3]]].tolist()})" if bad[2] else ""
+            fast = float(np.max(np.linalg.norm(v, axis=1))) * self.dt > self.setup.dx
+            raise EngineDivergence(
+                f"{max(int(bad[2]), 1)} point(s) left the grid{where}; {n_out} out-of-grid "
+                f"point-substeps in this frame", self.frame, CAUSE_UNSTABLE if fast else CAUSE_LEFT_DOMAIN)
+        self._x, self._v = x, None
+
     def set_asleep(self, asleep: np.ndarray) -> None:
         """Freeze the flagged bodies from the next frame (feature ``sleep``, :mod:`gasp_core.seam.body_sleep`).
 
@@ -276,7 +299,9 @@ class TaichiMPMEngine(GridEngineBase):
         return self._x.copy()
 
     def velocities(self) -> np.ndarray:
-        """Current velocities, shape (n, 3), m/s, setup order."""
+        """Current velocities, shape (n, 3), m/s, setup order (on the GPU schedule read from the device when asked)."""
+        if self._v is None:
+            self._v = self.to_setup_order(self.solver.get(self.solver.v))
         return self._v.copy()
 
     # get_state / set_state (GridEngineBase): these fields in solver order, and frame

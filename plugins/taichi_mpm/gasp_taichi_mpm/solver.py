@@ -207,6 +207,7 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         self.box = ti.Vector.field(3, ti.i32, shape=(self.n_chunks, 2))  # touched node box per chunk
         self.plane_chunks = ti.Vector.field(2, ti.i32, shape=ng)  # first and last chunk whose box reaches I_x
         self.n_out = ti.field(ti.i32, shape=())  # out-of-grid point-substeps since last reset
+        self.bad = ti.field(ti.i32, shape=4)     # check_points' counts and first indices
         self.n_points = ti.field(ti.i32, shape=())
         self.chunk_lo, self.chunk_hi = ti.field(ti.i32, shape=self.n_chunks), ti.field(ti.i32, shape=self.n_chunks)
         self.n_total = ti.field(ti.i32, shape=())
@@ -404,6 +405,27 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         for t in range(self.n_chunks):
             self.box[t, 0] = ti.Vector([self.n_grid, self.n_grid, self.n_grid])
             self.box[t, 1] = ti.Vector([-1, -1, -1])
+
+    @ti.kernel
+    def check_points(self):
+        """The frame's checks on the device (GPU schedule: one small read a frame instead of NumPy over every
+        point): ``bad`` = [points with a non-finite x or v, the first of them, points whose stencil leaves the grid,
+        the first of them] (solver order; ``n`` when none)."""
+        self.bad[0], self.bad[1], self.bad[2], self.bad[3] = 0, self.n_total[None], 0, self.n_total[None]
+        for p in range(self.n_total[None]):
+            x, v = self.x[p], self.v[p]
+            finite = True
+            for d in ti.static(range(3)):
+                if ti.math.isnan(x[d]) or ti.math.isinf(x[d]) or ti.math.isnan(v[d]) or ti.math.isinf(v[d]):
+                    finite = False
+            if not finite:
+                ti.atomic_add(self.bad[0], 1)
+                ti.atomic_min(self.bad[1], p)
+            else:
+                base = ti.floor((x - self.lo[None]) * self.inv_dx[None] - 0.5, ti.i32)
+                if (base < 0).any() or (base > self.n_grid - 3).any():
+                    ti.atomic_add(self.bad[2], 1)
+                    ti.atomic_min(self.bad[3], p)
 
     @ti.kernel
     def reset_out(self):
