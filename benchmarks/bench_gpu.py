@@ -5,9 +5,11 @@ Cases, each in a process of its own (Taichi has one runtime a process), under on
 - ``donut_<device>``: the README donut (``examples/donut_jelly.toml``: 65,036 points, 69 substeps a frame, implicit
   viscosity, the contact's balance), ``--donut-frames`` frames; s a frame after frame 1 (which compiles), and the
   positions at frame 30 (1 s) saved, so CUDA's frames are measured against the CPU's (largest point distance, in dx);
-- ``profile``: three donut frames on CUDA under Taichi's kernel profiler: seconds a frame per kernel;
+- ``profile`` and ``block_jelly_1000000_cuda_profile``: three frames on CUDA under Taichi's kernel profiler;
 - ``block_<material>_<n>``: a block at 8 points a cell (as ``bench_mpm.py``, n_grid grown to hold it), 10 substeps
-  a frame, particle-substeps a second, for jelly from 65k to 16M points, sand and brittle at 1M.
+  a frame, particle-substeps a second, for jelly from 65k to 16M points, sand and brittle at 1M;
+- ``donut_cuda_cpu``: the README donut on CUDA with the CPU schedule (``schedule = "cpu"``: today's design before
+  issue 65), the baseline measured in the same call.
 
 Writes ``bench_gpu.json`` and ``bench_gpu.md`` to ``--out`` (``$OUT`` on the device machine). Each case's line is
 printed as it ends, so a case past the deadline leaves the others. Usage, on the device (``../shared/device``)::
@@ -67,9 +69,7 @@ def case_donut(device: str, frames: int, out: Path, schedule: str = "auto") -> d
 def case_profile(frames: int) -> dict:
     """Per kernel, seconds a frame, from Taichi's kernel profiler over ``frames`` frames after frame 1."""
     import taichi as ti
-    from gasp_taichi_mpm import engine as eng_mod
-    init = eng_mod._quiet_init
-    eng_mod._quiet_init = lambda t, **kw: init(t, kernel_profiler=True, **kw)
+    profiled(True)
     from gasp_core.prepare.scene import prepare_scene
     from gasp_core.scene.spec import load_scene
     from gasp_core.seam.runner import RunStats, run_engine
@@ -81,13 +81,7 @@ def case_profile(frames: int) -> dict:
             ti.sync()
             ti.profiler.clear_kernel_profiler_info()
         elif rec.frame == frames + 1:
-            ti.sync()
-            import contextlib
-            import io
-            buf = io.StringIO()
-            with contextlib.redirect_stdout(buf):
-                ti.profiler.print_kernel_profiler_info("count")
-            kernels["table"] = buf.getvalue()
+            kernels["table"] = profile_table()
     return kernels
 
 
@@ -114,9 +108,31 @@ def block_setup(n_target: int, material: str, device: str):
                     options={"device": device, "precision": "f32", "n_substeps": SUBSTEPS})
 
 
-def case_block(n_target: int, material: str, device: str, frames: int) -> dict:
+def profiled(on: bool) -> None:
+    """Taichi's kernel profiler on for the engines built next (their ``ti.init``)."""
+    if on:
+        from gasp_taichi_mpm import engine as eng_mod
+        init = eng_mod._quiet_init
+        eng_mod._quiet_init = lambda t, **kw: init(t, kernel_profiler=True, **kw)
+
+
+def profile_table(top: int = 30) -> str:
+    """The kernel profiler's table, its ``top`` costliest kernels."""
+    import contextlib
+    import io
+    import taichi as ti
+    ti.sync()
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        ti.profiler.print_kernel_profiler_info("count")
+    lines = buf.getvalue().strip().splitlines()
+    return "\n".join(lines if len(lines) <= top + 7 else lines[:5 + top] + lines[-2:])
+
+
+def case_block(n_target: int, material: str, device: str, frames: int, profile: bool = False) -> dict:
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import get_engine
+    profiled(profile)
     setup = block_setup(n_target, material, device)
     t0 = time.perf_counter()
     eng = build_engine(get_engine("taichi_mpm"), setup)
@@ -125,14 +141,21 @@ def case_block(n_target: int, material: str, device: str, frames: int) -> dict:
     eng.step_frame()
     eng.positions()
     first = time.perf_counter() - t0
+    if profile:
+        import taichi as ti
+        ti.sync()
+        ti.profiler.clear_kernel_profiler_info()
     t0 = time.perf_counter()
     for _ in range(frames):
         eng.step_frame()
     x = eng.positions()
     wall = time.perf_counter() - t0
     st = eng.stats()
+    table = profile_table() if profile else None
     eng.close()
     n = len(setup.x)
+    if table:
+        return {"points": n, "table": table}
     return {"points": n, "n_grid": setup.n_grid, "build_s": build, "frame1_s": first, "frames": frames,
             "s_per_frame": wall / frames, "M_per_s": n * SUBSTEPS * frames / wall / 1e6,
             "finite": bool(np.isfinite(x).all()), "schedule": st.get("schedule")}
@@ -160,7 +183,7 @@ def markdown(doc: dict) -> str:
              "| case | points | s a frame (median) | M particle-substeps/s | frame 1 s | note |",
              "|---|---:|---:|---:|---:|---|"]
     for r in doc["cases"]:
-        if r["case"] == "profile":
+        if "table" in r:
             continue
         if "error" in r:
             lines.append(f"| {r['case']} | | | | | {r['error'][:120]} |")
@@ -171,9 +194,10 @@ def markdown(doc: dict) -> str:
                      f"{note}; schedule {r.get('schedule')} |")
     for k, v in doc.get("derived", {}).items():
         lines.append(f"\n{k}: {v}")
-    prof = [r for r in doc["cases"] if r["case"] == "profile" and "table" in r]
-    if prof:
-        lines += ["", "Kernel profiler (CUDA, README donut):", "", "```", prof[0]["table"].strip(), "```"]
+    for r in doc["cases"]:
+        if "table" in r:
+            what = "README donut" if r["case"] == "profile" else r["case"]
+            lines += ["", f"Kernel profiler ({what}, 3 frames):", "", "```", r["table"].strip(), "```"]
     return "\n".join(lines) + "\n"
 
 
@@ -195,8 +219,8 @@ def main(argv=None) -> int:
         elif a.case == "profile":
             rec = case_profile(3)
         else:
-            _, material, n, device = a.case.split("_")
-            rec = case_block(int(n), material, device, 3)
+            _, material, n, device, *prof = a.case.split("_")
+            rec = case_block(int(n), material, device, 3, profile=bool(prof))
         print(json.dumps(rec))
         return 0
     try:
@@ -205,7 +229,8 @@ def main(argv=None) -> int:
         gpu = "no GPU"
     cases = [("donut_cuda_auto", []), ("donut_cpu_auto", []), ("profile", [])]
     cases += [(f"block_jelly_{n}_cuda", []) for n in a.sizes.split(",")]
-    cases += [("block_sand_1000000_cuda", []), ("block_brittle_1000000_cuda", []), ("donut_cuda_cpu", ["--donut-frames", "4"])]
+    cases += [("block_sand_1000000_cuda", []), ("block_brittle_1000000_cuda", []),
+              ("block_jelly_1000000_cuda_profile", []), ("donut_cuda_cpu", ["--donut-frames", "4"])]
     if a.only:
         keep = set(a.only.split(","))
         cases = [c for c in cases if c[0] in keep]

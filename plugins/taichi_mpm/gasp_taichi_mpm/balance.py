@@ -20,7 +20,7 @@ force and torque made those of a smooth contact.
   points' box.
 
 On the GPU schedule (:mod:`gasp_taichi_mpm.schedule`) the same sums run with every loop parallel: the moments over
-slices of :attr:`Balance.m_slice` points summed by a fixed tree (:meth:`Balance.contact_moments_gpu`), and the fix
+slices of ``m_slice`` points (:func:`gasp_taichi_mpm.schedule.primitives.slice_points`) summed by a fixed tree (:meth:`Balance.contact_moments_gpu`), and the fix
 with no list and no sort: the marked nodes listed in node order by flag, scan and scatter, their terms summed per
 support over chunks of :data:`FR_CHUNK` list entries by a fixed tree, then applied one thread a node
 (:meth:`Balance.contact_fix_gpu`). The support sums of P2G (:meth:`Balance.add_contact`) stay float64 atomics on both.
@@ -30,15 +30,13 @@ import taichi as ti
 
 from gasp_core.toolkit.contact import JSUMS, TORQUE_REACH
 
-from .schedule.primitives import BoxCompaction, SliceSums
+from .schedule.primitives import BoxCompaction, SliceSums, slice_points
 
 #: Slices of the points the moments run over (each summed serially on one thread into its own row of ``c_part``;
 #: the rows are then added in slice order, so the sums do not depend on which thread finished first). CPU schedule.
 N_PARTS = 64
-#: GPU schedule: points a slice of the moments holds at least (more when the slices' rows would pass
-#: :data:`SLICE_BYTES`), and listed contact nodes a chunk of the fix's sums holds.
-M_SLICE, FR_CHUNK = 32, 64
-SLICE_BYTES = 64 << 20
+#: GPU schedule: listed contact nodes a chunk of the fix's sums holds.
+FR_CHUNK = 64
 #: Columns of a listed node's terms (:meth:`Balance.node_terms`): fr_sums[s, :17].
 N_NODE_TERMS = 17
 
@@ -80,7 +78,7 @@ class Balance:
         self.grid_fbody.fill(-1)
         if nb and self.gpu:   # the GPU schedule's slice sums and node list (module docstring)
             cap = self.x.shape[0]
-            self.m_slice = max(M_SLICE, -(-cap * nb * 19 * 8 // SLICE_BYTES))
+            self.m_slice = slice_points(cap, nb * 19)
             self.moments = SliceSums(-(-cap // self.m_slice), nb * 19)
             self.fr_list = ti.Vector.field(3, ti.i32, shape=self.fr_nodes.shape[0])
             self.fr_comp = BoxCompaction(self, ng, (self.fr_list,))

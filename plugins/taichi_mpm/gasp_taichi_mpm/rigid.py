@@ -65,6 +65,11 @@ class Rigid(RigidLift):
         self.rb_dsum = ti.Vector.field(4, ti.f64, shape=max(nb * self.n_planes, 1))
         self.rb_e.fill(-1.0)
         self.plane_e.fill(1.0)
+        if self.any_rigid and self.gpu:   # the GPU schedule's slice sums of the momenta and the depths
+            from .schedule.primitives import SliceSums, slice_points
+            self.rb_slice = slice_points(cap, nb * max(6, 4 * self.n_planes))
+            self.rb_sums = SliceSums(-(-cap // self.rb_slice), nb * 6)
+            self.rb_dsums = SliceSums(-(-cap // self.rb_slice), max(nb * self.n_planes * 4, 1))
         if not self.any_rigid:
             return
         self.rb_rigid.from_numpy(np.asarray(rigid, np.int32))
@@ -232,13 +237,30 @@ class Rigid(RigidLift):
         """Project the rigid bodies' points after a G2P (:mod:`gasp_taichi_mpm.rigid`); with the particle contact's
         planes, a resting body deeper than the slop is then moved out (:meth:`rigid_lift`) and its points put on the
         pose again."""
-        self.rigid_reduce()
+        if self.gpu:
+            self.rigid_reduce_gpu()
+        else:
+            self.rigid_reduce()
         self.rigid_update()
         self.rigid_apply()
         if self.n_planes and self.pc:
-            self.rigid_depth()
+            if self.gpu:
+                self.rigid_depth_gpu()
+            else:
+                self.rigid_depth()
             self.rigid_lift()
             self.rigid_apply()
+
+    @ti.func
+    def rigid_terms(self, p, quarter):
+        """Point p's momentum and angular momentum about the origin (APIC's spin with ``quarter = dx^2 / 4``)."""
+        m = ti.cast(self.p_mass[p], ti.f64)
+        x = ti.cast(self.x[p], ti.f64)
+        v = ti.cast(self.v[p], ti.f64)
+        C = ti.cast(self.C[p], ti.f64)
+        aff = ti.Vector([C[2, 1] - C[1, 2], C[0, 2] - C[2, 0], C[1, 0] - C[0, 1]])
+        L = m * x.cross(v) + (m * quarter) * aff
+        return ti.Vector([m * v[0], m * v[1], m * v[2], L[0], L[1], L[2]])
 
     @ti.kernel
     def rigid_reduce(self):
@@ -249,13 +271,29 @@ class Rigid(RigidLift):
         for p in range(self.n_points[None]):
             b = self.body[p]
             if self.rb_rigid[b] != 0:
-                m = ti.cast(self.p_mass[p], ti.f64)
-                x = ti.cast(self.x[p], ti.f64)
-                v = ti.cast(self.v[p], ti.f64)
-                C = ti.cast(self.C[p], ti.f64)
-                aff = ti.Vector([C[2, 1] - C[1, 2], C[0, 2] - C[2, 0], C[1, 0] - C[0, 1]])
-                L = m * x.cross(v) + (m * quarter) * aff
-                self.rb_acc[b] += ti.Vector([m * v[0], m * v[1], m * v[2], L[0], L[1], L[2]])
+                self.rb_acc[b] += self.rigid_terms(p, quarter)
+
+    @ti.kernel
+    def rigid_reduce_gpu(self):
+        """:meth:`rigid_reduce` on the GPU schedule: slices of ``rb_slice`` points, one thread a slice, summed per
+        body by a fixed tree (:class:`gasp_taichi_mpm.schedule.primitives.SliceSums`)."""
+        n = self.n_points[None]
+        quarter = 0.25 * ti.cast(self.dx[None], ti.f64) ** 2
+        nt = (n + self.rb_slice - 1) // self.rb_slice
+        self.rb_sums.clear(nt)
+        for t in range(nt):
+            for p in range(t * self.rb_slice, ti.min(t * self.rb_slice + self.rb_slice, n)):
+                b = self.body[p]
+                if self.rb_rigid[b] != 0:
+                    a = self.rigid_terms(p, quarter)
+                    for q in ti.static(range(6)):
+                        self.rb_sums.part[t, b * 6 + q] += a[q]
+        self.rb_sums.reduce(nt)
+        for b in range(self.n_bodies):
+            acc = self.held(b)
+            for q in ti.static(range(6)):
+                acc[q] += self.rb_sums.out[b * 6 + q]
+            self.rb_acc[b] = acc
 
     @ti.func
     def rotation_of(self, a):
@@ -273,7 +311,7 @@ class Rigid(RigidLift):
     def rigid_update(self):
         dt = ti.cast(self.dt[None], ti.f64)
         half = 0.5 * ti.cast(self.dx[None], ti.f64) ** 2
-        ti.loop_config(serialize=True)
+        ti.loop_config(serialize=not self.gpu)   # each body its own: parallel on the GPU schedule
         for b in range(self.n_bodies):
             if self.rb_rigid[b] != 0 and self.rb_M[b] > 0.0:
                 M = self.rb_M[b]

@@ -25,21 +25,46 @@ class RigidLift:
         :meth:`rigid_reduce`; warp_mpm's ``rigid_depth``)."""
         ti.loop_config(serialize=True)
         for p in range(self.n_points[None]):
-            b = self.body[p]
-            kcs = self.p_contact[p]
-            if self.rb_rigid[b] != 0 and kcs[0] > 0.0:
-                x = ti.cast(self.x[p], ti.f64)
-                inside = 0
-                for q in range(self.n_planes):
-                    n = ti.cast(self.plane_n[q], ti.f64)
-                    d = ti.cast(self.plane_row[q][0], ti.f64) + ti.cast(kcs[2], ti.f64) - n.dot(x)
-                    if d > 0.0:
-                        k = b * self.n_planes + q
-                        ti.atomic_max(self.rb_dmax[k], d)
-                        self.rb_dsum[k] += ti.Vector([d * x[0], d * x[1], d * x[2], d], ti.f64)
-                        inside = 1
-                if inside != 0:
-                    self.rb_ndepth[b] += 1
+            self.depth_point(p, 0, False)
+
+    @ti.func
+    def depth_point(self, p, t, sliced: ti.template()):
+        """Point p's penetration into each plane: the deepest (an atomic max: the same in any order), the count,
+        and the weighted sums into ``rb_dsum`` (serial) or slice t's row of ``rb_dsums`` (``sliced``)."""
+        b = self.body[p]
+        kcs = self.p_contact[p]
+        if self.rb_rigid[b] != 0 and kcs[0] > 0.0:
+            x = ti.cast(self.x[p], ti.f64)
+            inside = 0
+            for q in range(self.n_planes):
+                n = ti.cast(self.plane_n[q], ti.f64)
+                d = ti.cast(self.plane_row[q][0], ti.f64) + ti.cast(kcs[2], ti.f64) - n.dot(x)
+                if d > 0.0:
+                    k = b * self.n_planes + q
+                    ti.atomic_max(self.rb_dmax[k], d)
+                    w = ti.Vector([d * x[0], d * x[1], d * x[2], d], ti.f64)
+                    if ti.static(sliced):
+                        for c in ti.static(range(4)):
+                            self.rb_dsums.part[t, k * 4 + c] += w[c]
+                    else:
+                        self.rb_dsum[k] += w
+                    inside = 1
+            if inside != 0:
+                ti.atomic_add(self.rb_ndepth[b], 1)
+
+    @ti.kernel
+    def rigid_depth_gpu(self):
+        """:meth:`rigid_depth` on the GPU schedule: slices of ``rb_slice`` points, one thread a slice; the weighted
+        sums by a fixed tree; the deepest and the count by integer-exact atomics."""
+        n = self.n_points[None]
+        nt = (n + self.rb_slice - 1) // self.rb_slice
+        self.rb_dsums.clear(nt)
+        for t in range(nt):
+            for p in range(t * self.rb_slice, ti.min(t * self.rb_slice + self.rb_slice, n)):
+                self.depth_point(p, t, True)
+        self.rb_dsums.reduce(nt)
+        for k in range(self.n_bodies * self.n_planes):
+            self.rb_dsum[k] = ti.Vector([self.rb_dsums.out[k * 4 + c] for c in ti.static(range(4))], ti.f64)
 
     @ti.kernel
     def rigid_lift(self):
@@ -52,7 +77,7 @@ class RigidLift:
         centre."""
         dx = ti.cast(self.dx[None], ti.f64)
         slop = RIGID_SLOP * dx
-        ti.loop_config(serialize=True)
+        ti.loop_config(serialize=not self.gpu)   # each body its own: parallel on the GPU schedule
         for b in range(self.n_bodies):
             M = self.rb_M[b]
             if self.rb_rigid[b] != 0 and M > 0.0:

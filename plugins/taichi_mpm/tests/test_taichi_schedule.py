@@ -100,7 +100,7 @@ def _viscous_contact_scene(schedule):
                            schedule=schedule, threads=1))
 
 
-def _serial_loops_compiled(monkeypatch, break_it=None):
+def _serial_loops_compiled(monkeypatch, break_it=None, scene=None, rigid=False):
     """The loop configs compiled while one frame of the GPU schedule runs: [(kernel, what)], what "serialize" or
     "block_dim=1". ``break_it(solver)`` puts a serial loop back before the first substep compiles."""
     seen = []
@@ -117,8 +117,9 @@ def _serial_loops_compiled(monkeypatch, break_it=None):
         return real(**kw)
 
     monkeypatch.setattr(ti, "loop_config", spy)
-    e = build(_viscous_contact_scene("gpu"))
-    assert e.stats()["schedule"] == "gpu" and e.solver.n_spin and e.solver.visc is not None
+    e = build(scene or _viscous_contact_scene("gpu"))
+    assert e.stats()["schedule"] == "gpu"
+    assert e.solver.any_rigid if rigid else (e.solver.n_spin and e.solver.visc is not None)
     if break_it:
         break_it(e.solver)
     e.step_frame()
@@ -127,6 +128,17 @@ def _serial_loops_compiled(monkeypatch, break_it=None):
 
 def test_no_serial_loop_is_compiled_into_a_gpu_schedule_substep(monkeypatch):
     assert _serial_loops_compiled(monkeypatch) == []
+
+
+def test_no_serial_loop_in_a_rigid_gpu_substep(monkeypatch):
+    assert _serial_loops_compiled(monkeypatch, scene=FAMILY["rigid_on_ground"]("gpu"), rigid=True) == []
+
+
+def test_the_check_catches_serial_rigid_sums(monkeypatch):
+    def cpu_rigid(solver):
+        solver.rigid_reduce_gpu = solver.rigid_reduce
+    seen = _serial_loops_compiled(monkeypatch, cpu_rigid, scene=FAMILY["rigid_on_ground"]("gpu"), rigid=True)
+    assert ("rigid_reduce", "serialize") in seen
 
 
 def test_the_check_catches_a_serialize_put_back(monkeypatch):
@@ -147,6 +159,10 @@ def test_the_check_catches_a_block_dim_1_put_back(monkeypatch):
 FAMILY = {
     "viscous_on_ground": lambda s: _viscous_contact_scene(s),
     "two_bodies_walls": lambda s: _two_bodies(s),
+    "rigid_on_ground": lambda s: _dt(block_setup(lo=(0.4, 0.4, 0.43), size=(0.2, 0.15, 0.1), n_grid=16,
+                                                 material=Material("jelly", E=1e9, nu=0.3, rho=700.0, model="rigid"),
+                                                 boundaries=[Boundary("ground", height=0.4, friction=0.4)],
+                                                 v=(0.4, 0.0, -0.3), schedule=s, threads=1)),
     "sand_column": lambda s: _dt(block_setup(lo=(0.45, 0.45, 0.3), size=(0.1, 0.1, 0.3), n_grid=24,
                                              material=Material("sand", E=1e5, nu=0.3, rho=1500.0,
                                                                friction_angle=30.0),

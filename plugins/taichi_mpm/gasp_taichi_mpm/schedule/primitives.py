@@ -15,6 +15,16 @@ import taichi as ti
 
 #: Slices a thread sums at each level of :class:`SliceSums`.
 WIDTH = 32
+#: Points a slice of a per-body sum over points holds at least (:func:`slice_points`), and the most bytes its
+#: slices' rows may take.
+MIN_SLICE, SLICE_BYTES = 32, 64 << 20
+
+
+def slice_points(n_points: int, n_cols: int) -> int:
+    """Points a thread sums into its slice's row of ``n_cols`` float64 columns: :data:`MIN_SLICE`, more when the
+    rows of ``n_points / slice`` slices would pass :data:`SLICE_BYTES` (the memory a bad value can ask for is
+    bounded)."""
+    return max(MIN_SLICE, -(-int(n_points) * int(n_cols) * 8 // SLICE_BYTES))
 
 
 @ti.data_oriented
