@@ -22,6 +22,7 @@ from gasp_core.scene.quality import engine_options as quality_options
 from gasp_core.scene.spec import Scene
 from gasp_core.seam.build import check_supported, needs
 from gasp_core.seam.engine import EngineInfo
+from gasp_core.seam.options import check_options
 from gasp_core.seam.plugins import engines as all_engines, get_engine
 from gasp_core.seam.setup import SimSetup
 
@@ -92,6 +93,9 @@ def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None 
     check_supported(info, **scene_needs(scene), others=all_engines())
     given = dict(scene.engine.options if options is None else options)
     run_options = quality_options(scene.quality, given, info.presets)     # the options the run takes
+    with warnings.catch_warnings():      # checked before anything uses them (issue 68: cfl = 0 reached the substep
+        warnings.simplefilter("ignore")  # estimate); the threads cap says its line once, when the engine is built
+        check_options(run_options, info.options, info.name)
     if info.check_scene is not None and not has_auto_ground(scene):   # the engine's own check, before any file is read
         info.check_scene(scene, run_options, None)
     objects = [prepare_object(spec) for spec in scene.objects]
