@@ -48,3 +48,62 @@ def test_an_engine_option_out_of_range_is_one_line_naming_it(tmp_path, donut_sma
     line = one_error(capsys.readouterr().err, code)
     assert expected in line and f"engine '{engine}'" in line
     assert not (tmp_path / "out").exists()
+
+
+# ------------------------------------------- 2. brittle values beyond the working precision, and a huge up
+
+
+def brittle_scene(tmp_path, donut_small, engine, tensile_strength, precision=None) -> Path:
+    opts = "{ threads = 1 }" if precision is None else f'{{ threads = 1, precision = "{precision}" }}'
+    scene = tmp_path / "b.toml"
+    scene.write_text(scene_text(donut_small, n_frames=1, n_grid=16, engine=engine, engine_options=opts,
+                                material=f'name = "brittle"\nE = 2.0e5\nnu = 0.25\nrho = 300.0\n'
+                                         f'tensile_strength = {tensile_strength}\nfracture_energy = 5.0'))
+    return scene
+
+
+@pytest.mark.parametrize("engine", ["taichi_mpm", "warp_mpm"])
+@pytest.mark.parametrize("ts, precision, said", [
+    ("1e-300", None, 'precision = "f64" does not hold it either'),
+    ("1e-30", None, 'or precision = "f64"'),
+    ("1e-300", "f64", "beyond precision 'f64'")])
+def test_a_tensile_strength_whose_softening_stress_leaves_the_precision_is_refused(tmp_path, donut_small, capsys,
+                                                                                   engine, ts, precision, said):
+    """The corpus's ``tensile_strength = 1e-300``: ``s_f = 2 E G_f / (f_t h)`` was inf in the float32 table, the
+    damage NaN, and the biscuit never broke, with one numpy warning."""
+    needs_package(f"gasp_{engine}")
+    code = main(["simulate", str(brittle_scene(tmp_path, donut_small, engine, ts, precision)), "-o",
+                 str(tmp_path / "out"), "-q"])
+    line = one_error(capsys.readouterr().err, code)
+    assert f"tensile_strength = {float(ts):g} Pa" in line and "softening stress" in line and said in line
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_tensile_strength_whose_snap_back_limit_overflows_float64_is_one_line(tmp_path, donut_small, capsys):
+    needs_package("gasp_taichi_mpm")
+    code = main(["simulate", str(brittle_scene(tmp_path, donut_small, "taichi_mpm", "1e200")), "-o",
+                 str(tmp_path / "out"), "-q"])
+    line = one_error(capsys.readouterr().err, code)
+    assert "tensile_strength = 1e+200 Pa" in line and "snap-back limit" in line and "overflows float64" in line
+
+
+def test_an_up_of_1e308_has_the_direction_it_states():
+    """``up = [1e308, 1e308, 0]``: its norm overflows, its direction is x + y."""
+    from gasp_core.gs.support import rotation_to_z
+    for big in ([1e308, 1e308, 0.0], [1e-320, 1e-320, 0.0]):
+        R = rotation_to_z(big)
+        assert np.allclose(R, rotation_to_z([1.0, 1.0, 0.0])) and np.allclose(R @ np.array([1, 1, 0]) / np.sqrt(2),
+                                                                              [0, 0, 1])
+    with pytest.raises(ValueError, match="no direction"):
+        rotation_to_z([0.0, 0.0, 0.0])
+
+
+def test_an_up_of_1e308_places_the_object(tmp_path, donut_small):
+    from gasp_core.prepare.scene import prepare_scene
+    from gasp_core.scene.spec import load_scene
+    needs_package("gasp_taichi_mpm")
+    scene = tmp_path / "u.toml"
+    scene.write_text(scene_text(donut_small, n_frames=1, n_grid=16).replace('up_axis = "+z"',
+                                                                             "up = [1e308, 1e308, 0]"))
+    prep = prepare_scene(load_scene(scene))
+    assert np.all(np.isfinite(prep.setup.x))
