@@ -107,3 +107,28 @@ def test_an_up_of_1e308_places_the_object(tmp_path, donut_small):
                                                                              "up = [1e308, 1e308, 0]"))
     prep = prepare_scene(load_scene(scene))
     assert np.all(np.isfinite(prep.setup.x))
+
+
+# ---------------------------------------------------------- 3. gasp studio on the engine = "NAME" shorthand
+
+
+@pytest.mark.parametrize("engine", ["warp_mpm", "taichi_mpm"])
+def test_the_studio_opens_a_scene_that_names_its_engine_in_shorthand(tmp_path, donut_small, engine):
+    """``engine = "warp_mpm"`` at the top level, which ``gasp simulate`` accepts: the studio raised AttributeError
+    (``'str' object has no attribute 'get'``) in its form."""
+    needs_package("viser")
+    needs_package("tomli_w")
+    needs_package(f"gasp_{engine}")
+    from gasp_core.studio.app import Studio
+    from gasp_core.studio.warm import choice_key
+    scene = tmp_path / "s.toml"
+    scene.write_text(f'engine = "{engine}"\n' + scene_text(donut_small, n_frames=2, n_grid=16).replace(
+        '[engine]\nname = "taichi_mpm"\noptions = { threads = 1 }\n', ""))
+    st = Studio(scene, tmp_path / "studio", port=0, warm=False)
+    try:
+        assert st.form.engine.value == engine
+        doc = st.form.document()
+        assert doc["engine"]["name"] == engine and choice_key(doc)[0] == engine
+        st.scene.check(doc)
+    finally:
+        st.stop()
