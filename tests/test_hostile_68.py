@@ -132,3 +132,42 @@ def test_the_studio_opens_a_scene_that_names_its_engine_in_shorthand(tmp_path, d
         st.scene.check(doc)
     finally:
         st.stop()
+
+
+# ------------------------------------------------------- 4. a selection that holds every row: the whole object
+
+
+@pytest.mark.parametrize("select", ["box", "indices"])
+def test_a_selection_of_every_row_runs_as_the_whole_object(tmp_path, donut_small, select):
+    """The studio's click on the donut, whose connected piece is the whole donut, then Run: ``gasp: error: the rest
+    of [[object]] #1 ... a collider can only be made from a static object``, a collider the scene never states."""
+    needs_package("gasp_taichi_mpm")
+    from gasp_core.gs.io import read_gaussians
+    from gasp_core.prepare.scene import prepare_scene
+    from gasp_core.scene.spec import load_scene
+    n = read_gaussians(donut_small).n
+    sel = ("select = { box = { lo = [-1e3, -1e3, -1e3], hi = [1e3, 1e3, 1e3] } }" if select == "box"
+           else f"select = {{ indices = {list(range(n))} }}")
+    scene = tmp_path / "w.toml"
+    scene.write_text(scene_text(donut_small, n_frames=1, n_grid=16, extra_object=sel))
+    with pytest.warns(UserWarning, match=f"its selection holds all {n:,} Gaussians: it runs as the whole object"):
+        prep = prepare_scene(load_scene(scene))
+    assert not prep.scene.colliders and prep.objects[0].moving is None
+    assert int((prep.setup.body_id[:prep.setup.n_render] == 0).sum()) >= n
+
+
+def test_a_selection_of_all_but_one_row_keeps_its_rest_collider(tmp_path, donut_small):
+    """The other side: a selection that leaves one row out still collides with its rest."""
+    needs_package("gasp_taichi_mpm")
+    from gasp_core.gs.io import read_gaussians
+    from gasp_core.prepare.scene import prepare_scene
+    from gasp_core.scene.spec import load_scene
+    import warnings
+    n = read_gaussians(donut_small).n
+    scene = tmp_path / "w.toml"
+    scene.write_text(scene_text(donut_small, n_frames=1, n_grid=16,
+                                extra_object=f"select = {{ indices = {list(range(1, n))} }}"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        prep = prepare_scene(load_scene(scene))
+    assert [c.by_default for c in prep.scene.colliders] == [True] and len(prep.objects[0].moving) == n - 1

@@ -12,7 +12,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from gasp_core.errors import SceneError
-from gasp_core.prepare.around import reach_line, uses_reach, with_rest_colliders, with_support_ground
+from gasp_core.prepare.around import (reach_line, uses_reach, whole_selections, with_rest_colliders,
+                                      with_support_ground)
 from gasp_core.prepare.assembly import build_setup
 from gasp_core.prepare.ground import has_auto_ground, resolve_ground
 from gasp_core.prepare.placed import PreparedObject
@@ -99,11 +100,13 @@ def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None 
     if info.check_scene is not None and not has_auto_ground(scene):   # the engine's own check, before any file is read
         info.check_scene(scene, run_options, None)
     objects = [prepare_object(spec) for spec in scene.objects]
+    scene, objects, whole = whole_selections(scene, objects)     # a select of every row: the whole object
     if has_auto_ground(scene):     # height = "auto": the support in the scan, once the objects are placed
         scene = resolve_ground(scene, objects)
         if info.check_scene is not None:
             info.check_scene(scene, run_options, None)
     scene, around = around_selection(scene, objects, info.capabilities.features)
+    around = whole + around
     if around and info.check_scene is not None:
         info.check_scene(scene, run_options, None)
     # object folder names: a stem that is one of a run folder's own files (run.json.ply) or hidden
