@@ -257,3 +257,84 @@ def test_a_moving_piece_search_that_fails_leaves_clicks_working(tmp_path, monkey
         assert any("moving pieces were not found (MemoryError" in m for m in st.message_log), st.message_log
     finally:
         st.stop()
+
+
+# -------------------------------------------- 6. corrupt or missing pieces and crack-face files in an export
+
+
+@pytest.fixture
+def pieces_run(tmp_path, donut_small):
+    """A 3-frame run folder as gasp simulate writes a brittle object's (PLY frames, frames.json, run.json, and at
+    every frame ``pieces_NNNN.npy``, two pieces, and ``crack_faces_NNNN.ply``), from the real donut."""
+    from gasp_core.fsutil import atomic_json
+    from gasp_core.gs.io import read_gaussians, write_gaussians
+    run = tmp_path / "run"
+    (run / "obj").mkdir(parents=True)
+    g = read_gaussians(donut_small)
+    faces = g.subset(np.arange(50))
+    faces.extra["piece"] = (np.arange(50) % 2).astype(np.int32)
+    for f in range(3):
+        write_gaussians(run / "obj" / f"frame_{f:04d}.ply", g)
+        np.save(run / "obj" / f"pieces_{f:04d}.npy", (np.arange(g.n) % 2).astype(np.int32))
+        write_gaussians(run / "obj" / f"crack_faces_{f:04d}.ply", faces)
+    atomic_json(run / "frames.json", {"format": "ply", "layout": "frames", "n_frames": 3, "objects": [
+        {"name": "obj", "n_gaussians": g.n, "frames": [f"obj/frame_{f:04d}.ply" for f in range(3)]}]})
+    atomic_json(run / "run.json", {"engine": "test", "frame_dt": 0.0333, "objects": [
+        {"name": "obj", "placement": {"R": np.eye(3).tolist(), "scale": 1.0, "t": [0.0, 0.0, 0.0]}}]})
+    return run
+
+
+def _pickle_npy() -> bytes:
+    import pickle
+    return pickle.dumps(np.arange(10))
+
+
+CORRUPT = {"random-bytes": lambda: np.random.default_rng(0).bytes(4000), "pickle": _pickle_npy,
+           "empty": lambda: b"", "object-array": None, "header-claims-1e12": None}
+
+
+@pytest.mark.parametrize("kind", list(CORRUPT))
+def test_a_corrupt_pieces_file_is_one_line_naming_it(tmp_path, pieces_run, capsys, kind):
+    needs_package("pygltflib")
+    import io
+    bad = pieces_run / "obj" / "pieces_0001.npy"
+    if kind == "object-array":
+        b = io.BytesIO()
+        np.save(b, np.array([1, "x", None], dtype=object), allow_pickle=True)
+        bad.write_bytes(b.getvalue())
+    elif kind == "header-claims-1e12":      # a valid int32 header over 40 bytes of data
+        b = io.BytesIO()
+        np.lib.format.write_array_header_1_0(b, {"descr": "<i4", "fortran_order": False, "shape": (10**12,)})
+        bad.write_bytes(b.getvalue() + bytes(40))
+    else:
+        bad.write_bytes(CORRUPT[kind]())
+    code = main(["export", str(pieces_run), "--format", "glb", "--split-pieces", "-o", str(tmp_path / "o")])
+    line = one_error(capsys.readouterr().err, code)
+    assert "pieces_0001.npy" in line and "expected" in line
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("gone", ["pieces_0001.npy", "crack_faces_0002.ply", "both"])
+def test_a_missing_sidecar_is_named_and_refused_unless_allowed(tmp_path, pieces_run, capsys, gone):
+    """The corpus's damaged runs: a frame without its pieces file was exported unsplit and its crack faces
+    dropped, exit 0, without a word."""
+    needs_package("pygltflib")
+    names = ["pieces_0001.npy", "crack_faces_0002.ply"] if gone == "both" else [gone]
+    for n in names:
+        (pieces_run / "obj" / n).unlink()
+    argv = ["export", str(pieces_run), "--format", "glb", "--split-pieces", "-o", str(tmp_path / "o")]
+    code = main(argv)
+    line = one_error(capsys.readouterr().err, code)
+    assert all(f"obj/{n}" in line for n in names) and "--allow-missing" in line
+    assert not (tmp_path / "o").exists()
+    assert main(argv + ["--allow-missing"]) == 0
+    warned = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
+    assert len(warned) == 1 and warned[0].startswith("gasp: warning:") and all(f"obj/{n}" in warned[0] for n in names)
+    assert len(list((tmp_path / "o" / "obj").glob("frame_*.glb"))) == 3
+
+
+def test_a_whole_run_with_its_sidecars_still_splits(tmp_path, pieces_run, capsys):
+    """The other side: the same run, untouched, exports split without a warning."""
+    needs_package("pygltflib")
+    assert main(["export", str(pieces_run), "--format", "glb", "--split-pieces", "-o", str(tmp_path / "o")]) == 0
+    assert "warning" not in capsys.readouterr().err
