@@ -338,3 +338,29 @@ def test_a_whole_run_with_its_sidecars_still_splits(tmp_path, pieces_run, capsys
     needs_package("pygltflib")
     assert main(["export", str(pieces_run), "--format", "glb", "--split-pieces", "-o", str(tmp_path / "o")]) == 0
     assert "warning" not in capsys.readouterr().err
+
+
+# ------------------------------------------------ 7. a Warp kernel cache that cannot be written
+
+
+def test_a_kernel_cache_that_cannot_take_the_marker_warns_once_and_runs_on(tmp_path, monkeypatch):
+    """A full or read-only Warp kernel cache, every kernel loaded: only the warm-up marker could not be written, and
+    the run failed with exit 4 and "This is a bug in the engine". Here the marker's write fails as on a full disk."""
+    needs_package("gasp_warp_mpm")
+    import errno
+    import warnings
+    import warp as wp
+    import gasp_warp_mpm.warmup as warmup
+    wp.init()
+
+    def full(*a, **k):
+        raise OSError(errno.ENOSPC, "No space left on device")
+    cache = tmp_path / "cache"
+    monkeypatch.setattr(warmup, "atomic_write", full)
+    monkeypatch.setattr(warmup, "marker_path", lambda Ft, device: cache / "gasp_warp_mpm-x.compiled")
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        assert warmup.compile_all(wp.float32, "cpu") is True
+        assert warmup.compile_all(wp.float32, "cpu") is True
+    lines = [str(w.message) for w in said if "kernel cache" in str(w.message)]
+    assert len(lines) == 1 and str(cache) in lines[0] and "No space left on device" in lines[0], lines
