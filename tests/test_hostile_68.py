@@ -364,3 +364,36 @@ def test_a_kernel_cache_that_cannot_take_the_marker_warns_once_and_runs_on(tmp_p
         assert warmup.compile_all(wp.float32, "cpu") is True
     lines = [str(w.message) for w in said if "kernel cache" in str(w.message)]
     assert len(lines) == 1 and str(cache) in lines[0] and "No space left on device" in lines[0], lines
+
+
+# ----------------------------------------------------------- 8. gasp info with a NaN in cameras.json
+
+
+def upright_cameras(n: int = 10) -> list[dict]:
+    """``n`` graphdeco cameras (camera-to-world ``rotation``, OpenCV: ``y`` down) level around world +z."""
+    cams = []
+    for i in range(n):
+        fwd = np.array([np.cos(0.6 * i), np.sin(0.6 * i), 0.0])
+        y = np.array([0.0, 0.0, -1.0])
+        cams.append({"id": i, "rotation": np.stack([np.cross(y, fwd), y, fwd], axis=1).tolist(),
+                     "position": (-fwd).tolist()})
+    return cams
+
+
+@pytest.mark.parametrize("bad", ["one-nan", "one-inf", "all-nan"])
+def test_gasp_info_leaves_out_a_camera_that_is_not_finite(tmp_path, donut_small, capsys, bad):
+    """The corpus's ``cameras.json`` with a NaN: the up guess went from +z to -x, confidence nan."""
+    import shutil
+    shutil.copy(donut_small, tmp_path / "d.ply")
+    cams = upright_cameras()
+    for i in (range(len(cams)) if bad == "all-nan" else [3]):
+        cams[i]["rotation"][2][1] = float("inf") if bad == "one-inf" else float("nan")
+    (tmp_path / "cameras.json").write_text(json.dumps(cams))
+    assert main(["info", str(tmp_path / "d.ply")]) == 0
+    out = capsys.readouterr().out
+    assert not [ln for ln in out.splitlines() if "up" in ln and "nan" in ln.lower()], out
+    guess = next(ln.split(":", 1)[1].strip() for ln in out.splitlines() if ln.strip().startswith("up_axis_guess:"))
+    if bad == "all-nan":
+        assert "no camera with a finite rotation" in out and guess in ("+z", "unknown")
+    else:
+        assert guess == "+z" and "9 cameras (1 with a non-finite rotation left out)" in out

@@ -211,7 +211,8 @@ def camera_up(path) -> np.ndarray:
                          f"{e}") from None
     if not len(R):
         raise SceneError(f"{path}: no cameras")
-    return -R[:, :, 1].mean(axis=0)
+    R = R[np.isfinite(R).all(axis=(1, 2))]     # a camera with NaN or inf is left out (issue 68); none left: no cue
+    return -R[:, :, 1].mean(axis=0) if len(R) else np.zeros(3)
 
 
 def with_cameras(e: UpEstimate, cam: np.ndarray) -> UpEstimate:
