@@ -84,7 +84,7 @@ def test_a_tensile_strength_whose_snap_back_limit_overflows_float64_is_one_line(
     code = main(["simulate", str(brittle_scene(tmp_path, donut_small, "taichi_mpm", "1e200")), "-o",
                  str(tmp_path / "out"), "-q"])
     line = one_error(capsys.readouterr().err, code)
-    assert "tensile_strength = 1e+200 Pa" in line and "snap-back limit" in line and "overflows float64" in line
+    assert "tensile_strength = 1e+200" in line and "snap-back limit" in line and "float64" in line
 
 
 def test_an_up_of_1e308_has_the_direction_it_states():

@@ -201,14 +201,9 @@ class Studio:
                     base, motion = read_splatv(self.scene.doc["object"][p.index]["file"])
                     self.moving[p.index] = moving_pieces(p.means, displacement(base, motion, p.dynamic_time, p.scale))
             except Exception as e:    # noqa: BLE001 (a thread: said, and a click then takes the connected piece)
-                self.say(f"object #{p.index + 1}: its moving pieces were not found ({type(e).__name__}: {e}); a click "
-                         "selects its connected piece")
-            try:
+                self.say(f"object #{p.index + 1}: its moving pieces were not found ({type(e).__name__}: {e})")
+            finally:
                 self.labels[p.index] = piece_labels(p.means, p.radii, p.linking)
-            except Exception as e:    # noqa: BLE001 (never left unset: every later click would wait on it forever)
-                self.labels[p.index] = np.arange(p.n)
-                self.say(f"object #{p.index + 1}: its connected pieces were not found ({type(e).__name__}: {e}); a "
-                         "click selects one Gaussian")
 
     def click(self, origin, direction, add: bool = False) -> str:
         """A click's ray: select the piece it hits (module notes). Returns the line said in the page."""
