@@ -397,3 +397,47 @@ def test_gasp_info_leaves_out_a_camera_that_is_not_finite(tmp_path, donut_small,
         assert "no camera with a finite rotation" in out and guess in ("+z", "unknown")
     else:
         assert guess == "+z" and "9 cameras (1 with a non-finite rotation left out)" in out
+
+
+# ------------------------------------------ 9. the new user's findings: --overwrite after gasp render
+
+
+def test_simulate_overwrite_replaces_a_run_folder_that_gasp_render_wrote_into(tmp_path, donut_small, capsys):
+    """The README's order: gasp simulate, gasp render (RUN/render.mp4), gasp simulate --overwrite, which refused:
+    "it holds what gasp did not write there (render.mp4)"."""
+    needs_package("gasp_taichi_mpm")
+    needs_package("imageio_ffmpeg")
+    scene = tmp_path / "s.toml"
+    scene.write_text(scene_text(donut_small, n_frames=1, n_grid=16))
+    run = tmp_path / "run"
+    assert main(["simulate", str(scene), "-o", str(run), "-q"]) == 0
+    assert main(["render", str(run), "--resolution", "64x48", "-q"]) == 0
+    assert (run / "render.mp4").is_file()
+    capsys.readouterr()
+    assert main(["simulate", str(scene), "-o", str(run), "-q", "--overwrite"]) == 0, capsys.readouterr().err
+    assert not (run / "render.mp4").exists() and (run / "run.json").is_file()
+
+
+def test_a_render_recorded_in_a_run_folder_is_refused_again_once_changed_and_never_vouches_for_foreign_files(
+        tmp_path):
+    """The other side: only what gasp wrote, as it wrote it, is replaced: a render changed since, or one written
+    into a folder that already holds a file of the user's, still blocks --overwrite."""
+    from gasp_core.fsmarker import record_written, unexpected_entries, write_marker
+    run = tmp_path / "run"
+    (run / "obj").mkdir(parents=True)
+    (run / "run.json").write_text("{}")
+    write_marker(run)
+    (run / "render.mp4").write_bytes(b"video")
+    assert unexpected_entries(run) == ["render.mp4"]
+    assert record_written(run / "render.mp4") == run.resolve() and unexpected_entries(run) == []
+    (run / "frames_png").mkdir()
+    (run / "frames_png" / "frame_0000.png").write_bytes(b"png")
+    record_written(run / "frames_png")
+    assert unexpected_entries(run) == []
+    (run / "render.mp4").write_bytes(b"the user's own edit")
+    assert unexpected_entries(run) == ["render.mp4 (changed)"]
+    (run / "mine.txt").write_text("mine")
+    (run / "page.html").write_text("page")
+    assert record_written(run / "page.html") is None
+    assert sorted(unexpected_entries(run)) == ["mine.txt", "page.html", "render.mp4 (changed)"]
+    assert record_written(tmp_path / "elsewhere.mp4") is None
