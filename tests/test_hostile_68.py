@@ -441,3 +441,49 @@ def test_a_render_recorded_in_a_run_folder_is_refused_again_once_changed_and_nev
     assert record_written(run / "page.html") is None
     assert sorted(unexpected_entries(run)) == ["mine.txt", "page.html", "render.mp4 (changed)"]
     assert record_written(tmp_path / "elsewhere.mp4") is None
+
+
+# --------------------------- 9. the new user's findings: a dynamic model sampled past the time it covers
+
+
+def kitchen_scene(tmp_path, n_frames: int) -> Path:
+    text = (ROOT / "examples" / "kitchen_spinach.toml").read_text()
+    text = text.replace('file = "data/', f'file = "{DATA}/').replace("n_grid = 64", "n_grid = 32")
+    text = text.replace("n_frames = 30", f"n_frames = {n_frames}")
+    (tmp_path / "k.toml").write_text(text)
+    return tmp_path / "k.toml"
+
+
+def test_a_dynamic_model_is_held_at_its_last_time_and_said_once(tmp_path):
+    """examples/kitchen_spinach.toml: 30 frames from dynamic_time 0.5 sampled the model up to 1.5, where it covers
+    [0, 1], without a word: the still kitchen faded (mean alpha 0.370 to 0.267)."""
+    import warnings
+    from gasp_core.prepare.dynamic import background_at
+    from gasp_core.prepare.scene import prepare_scene
+    from gasp_core.scene.spec import load_scene
+    needs_package("gasp_taichi_mpm")
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        prep = prepare_scene(load_scene(kitchen_scene(tmp_path, 30)))
+    lines = [str(w.message) for w in said if "dynamic model covers" in str(w.message)]
+    assert len(lines) == 1 and "reach 1.5" in lines[0] and "held at time 1 from frame 16" in lines[0], lines
+    o = prep.objects[0]
+    g = o.gaussians
+    frame = {k: background_at(o, g, k * 0.0333333) for k in (15, 16, 30)}
+    still = np.ones(g.n, bool)
+    still[o.moving] = False
+    assert np.array_equal(frame[16].opacities[still], frame[30].opacities[still])
+    from scipy.special import expit
+    alpha = {k: float(np.mean(expit(f.opacities[still].astype(np.float64)))) for k, f in frame.items()}
+    assert abs(alpha[30] - alpha[15]) < 0.01 * alpha[15], alpha
+
+
+def test_a_run_within_the_models_time_says_nothing_of_it(tmp_path):
+    import warnings
+    from gasp_core.prepare.scene import prepare_scene
+    from gasp_core.scene.spec import load_scene
+    needs_package("gasp_taichi_mpm")
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        prepare_scene(load_scene(kitchen_scene(tmp_path, 15)))
+    assert not [w for w in said if "dynamic model covers" in str(w.message)]

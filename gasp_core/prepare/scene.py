@@ -15,6 +15,7 @@ from gasp_core.errors import SceneError
 from gasp_core.prepare.around import (reach_line, uses_reach, whole_selections, with_rest_colliders,
                                       with_support_ground)
 from gasp_core.prepare.assembly import build_setup
+from gasp_core.prepare.dynamic import beyond_model_lines
 from gasp_core.prepare.ground import has_auto_ground, resolve_ground
 from gasp_core.prepare.placed import PreparedObject
 from gasp_core.prepare.placement import prepare_object
@@ -116,7 +117,7 @@ def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None 
     setup, objects = build_setup(scene, objects)
     if uses_reach(scene):
         around.append(reach_line(setup, scene))
-    for line in around:
+    for line in around + beyond_model_lines(objects, scene.frame_dt, scene.n_frames):   # a model held past its end
         warnings.warn(line, stacklevel=2)
     moving = [i for i, o in enumerate(objects) if not o.spec.static]   # body k of the setup (build_setup's order)
     setup.options = run_options   # before the routes: their lines give the substeps these options take (issue 53)
