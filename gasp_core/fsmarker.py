@@ -89,6 +89,57 @@ def unexpected_entries(folder: Path) -> list[str]:
     return extra
 
 
+def record_written(path) -> Path | None:
+    """Add ``path``, a file or folder a gasp command has just written inside a finished run folder (``gasp render``'s
+    ``RUN/render.mp4``, ``gasp view --export RUN/page.html``), to that folder's :data:`MARKER` list with its size and
+    time, so that ``gasp simulate --overwrite`` replaces it with the run (issue 68: ``render.mp4`` made the README's
+    folder "not a gasp output"), and refuses it again once someone changes it. Nothing is recorded outside a folder
+    whose marker holds a file list, nor where the folder already holds anything its marker does not list (the list
+    vouches only for what gasp wrote). Returns the run folder whose list took ``path``, or None."""
+    path = Path(path)
+    for folder in path.resolve().parents:
+        if (folder / MARKER).is_file():
+            break
+    else:
+        return None
+    try:
+        marker = json.loads((folder / MARKER).read_text())
+        files, dirs = marker["files"], marker["dirs"]
+        if not isinstance(files, dict) or not isinstance(dirs, list):
+            return None
+    except (OSError, ValueError, KeyError, TypeError, AttributeError, RecursionError):
+        return None
+    rel = path.resolve().relative_to(folder).as_posix()
+    if [e for e in unexpected_entries(folder) if e != rel and not e.startswith(rel + "/")
+            and not e.startswith(rel + " ")]:
+        return None
+    parts = rel.split("/")
+    for k in range(1, len(parts)):                       # the folders above it, inside the run folder
+        if "/".join(parts[:k]) not in dirs:
+            dirs.append("/".join(parts[:k]))
+    st = path.lstat()
+    if stat.S_ISDIR(st.st_mode):
+        if rel not in dirs:
+            dirs.append(rel)
+        for sub, sst in _walk(path):
+            key = f"{rel}/{sub}"
+            if stat.S_ISDIR(sst.st_mode):
+                if key not in dirs:
+                    dirs.append(key)
+            else:
+                files[key] = [sst.st_size, sst.st_mtime_ns]
+    else:
+        files[rel] = [st.st_size, st.st_mtime_ns]
+    marker["entries"] = sorted(set(marker.get("entries", [])) | {parts[0]})
+    tmp = folder / f".{MARKER}.{os.getpid()}.tmp"       # replaced whole (fsutil imports this module)
+    try:
+        tmp.write_text(json.dumps(marker) + "\n")
+        os.replace(tmp, folder / MARKER)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return folder
+
+
 #: What a gasp run writes inside an object folder (the only files a marker of before the file list may cover).
 _RUN_FILE = re.compile(r"(frame_\d{4,}|static|rest)(\.ply|\.compressed\.ply|\.spz|\.sog)|moving_rows\.npy")
 

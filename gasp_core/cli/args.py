@@ -79,7 +79,7 @@ class GaspArgumentParser(argparse.ArgumentParser):
 
 
 def add_export_parser(sub, func) -> argparse.ArgumentParser:
-    """``gasp export RUN --format F -o OUT [--overwrite] [--split-pieces] [--no-crack-faces]``
+    """``gasp export RUN --format F -o OUT [--overwrite] [--split-pieces] [--no-crack-faces] [--allow-missing]``
     (:func:`gasp_core.run.export.export_run`), calling ``func(args)``."""
     from pathlib import Path
     from gasp_core.gs.registry import output_formats
@@ -101,5 +101,8 @@ def add_export_parser(sub, func) -> argparse.ArgumentParser:
                     help="leave a broken (brittle) body's crack faces out of the export (default: the faces shown at "
                          "each frame go in: a second GLB node, rows after the object's in the other per-frame "
                          "formats, a time-sampled prim in USD; docs/fracture.md)")
+    ex.add_argument("--allow-missing", action="store_true",
+                    help="export a damaged run whose brittle object lacks some frames' pieces or crack-face files, "
+                         "those frames unsplit and without faces (default: refuse, naming every missing file)")
     ex.set_defaults(func=func)
     return ex

@@ -143,7 +143,7 @@ def _cmd_export_soup(args) -> int:
 def _cmd_export(args) -> int:
     from gasp_core.run.export import export_run
     r = export_run(args.run, args.format, args.output, overwrite=args.overwrite, split_pieces=args.split_pieces,
-                   crack_faces=args.crack_faces)
+                   crack_faces=args.crack_faces, allow_missing=args.allow_missing)
     print(f"wrote {r['n_frames']} frames x {len(r['objects'])} object(s) of {args.run} as {r['format']} to "
           f"{r['output']} ({r['files']} file(s){', each piece its own node or prim' if args.split_pieces else ''})")
     return 0

@@ -211,7 +211,8 @@ def camera_up(path) -> np.ndarray:
                          f"{e}") from None
     if not len(R):
         raise SceneError(f"{path}: no cameras")
-    return -R[:, :, 1].mean(axis=0)
+    R = R[np.isfinite(R).all(axis=(1, 2))]     # a camera with NaN or inf is left out (issue 68); none left: no cue
+    return -R[:, :, 1].mean(axis=0) if len(R) else np.zeros(3)
 
 
 def with_cameras(e: UpEstimate, cam: np.ndarray) -> UpEstimate:
@@ -238,10 +239,11 @@ def rotation_to_z(up) -> np.ndarray:
     """The proper rotation (3, 3) taking the unit vector along ``up`` (3,) to +z by the shortest turn
     (Rodrigues' formula); a half turn about x for ``up`` along -z. Raises ValueError for a zero vector."""
     u = np.asarray(up, dtype=np.float64)
-    norm = float(np.linalg.norm(u))
-    if not np.isfinite(norm) or norm == 0.0:
+    big = float(np.max(np.abs(u))) if u.size else 0.0
+    if not np.isfinite(big) or big == 0.0:
         raise ValueError(f"up vector {list(u)} has no direction")
-    u = u / norm
+    u = u / big                     # scaled first: [1e308, 1e308, 0] has a direction, its norm overflows (issue 68)
+    u = u / float(np.linalg.norm(u))
     c = float(u[2])
     if c < -1.0 + 1e-12:
         return np.diag([1.0, -1.0, -1.0])

@@ -93,7 +93,7 @@ def guess_up(g: Gaussians, cameras: Path | None = None) -> UpGuess:
     cues = [flat_area_asymmetry(g), support_plane(g), longest_axis(g.means), floater_sides(g)]
     if cameras is not None and Path(cameras).is_file():
         cam = cameras_cue(Path(cameras))
-        (up, c), = cam.votes.items()
+        up, c = next(iter(cam.votes.items()), ("unknown", 0.0))    # no vote: no finite camera
         if c >= UP_SURE:
             return UpGuess(up, c, f"cameras ({Path(cameras).name})", up, [cam, *cues])
         cues.insert(0, cam)
@@ -245,8 +245,13 @@ def cameras_cue(path: Path) -> Cue:
                          f"{e}") from None
     if not len(R):
         raise SceneError(f"{path}: no cameras")
+    finite = np.isfinite(R).all(axis=(1, 2))      # a camera with NaN or inf is left out (issue 68: one NaN turned
+    left = f" ({int((~finite).sum())} with a non-finite rotation left out)" if not finite.all() else ""   # +z to -x)
+    R = R[finite]
+    if not len(R):
+        return Cue("cameras", {}, f"{path.name}: no camera with a finite rotation{left}")
     mean_up = -R[:, :, 1].mean(axis=0)
     a = int(np.argmax(np.abs(mean_up)))
     up = ("+" if mean_up[a] > 0 else "-") + AXES[a]
     return Cue("cameras", {up: float(abs(mean_up[a]))},
-               f"{path.name}, {len(R)} cameras, mean camera up {np.round(mean_up, 3).tolist()}")
+               f"{path.name}, {len(R)} cameras{left}, mean camera up {np.round(mean_up, 3).tolist()}")

@@ -50,6 +50,28 @@ def selected(scene) -> list[int]:
     return [i for i, o in enumerate(scene.objects) if o.select is not None and not o.static]
 
 
+def whole_selections(scene, objects: list[PreparedObject]):
+    """``scene`` and ``objects`` where a ``select`` holds every row of its object's file: that object runs as the
+    whole object (no ``select``: no rest to collide with, no ground under the selection, no reach domain from it),
+    and the lines that say so (issue 68: the studio's click on a donut whose connected piece is the whole donut, then
+    Run, failed building a collider from the empty rest). ``objects[i].spec`` keeps the ``select`` as stated (it is
+    recorded in ``run.json``); ``objects[i].moving`` becomes None and ``scene.objects[i].select`` None.
+
+    Returns
+    -------
+    (Scene, list of PreparedObject, list of str)
+    """
+    specs, objects, lines = list(scene.objects), list(objects), []
+    for i, o in enumerate(objects):
+        if o.spec.static or o.spec.select is None or o.moving is None or len(o.moving) != o.gaussians.n:
+            continue
+        objects[i] = dataclasses.replace(o, moving=None, static_tri=np.zeros((0, 3, 3)))
+        specs[i] = dataclasses.replace(specs[i], select=None)
+        lines.append(f"object '{o.name}': its selection holds all {o.gaussians.n:,} Gaussians: it runs as the whole "
+                     "object (no rest to collide with)")
+    return (dataclasses.replace(scene, objects=specs) if lines else scene), objects, lines
+
+
 def _named(scene, i: int) -> bool:
     stem = Path(scene.objects[i].file).stem
     return any(c.object in (i + 1, stem) for c in scene.colliders)

@@ -12,8 +12,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from gasp_core.errors import SceneError
-from gasp_core.prepare.around import reach_line, uses_reach, with_rest_colliders, with_support_ground
+from gasp_core.prepare.around import (reach_line, uses_reach, whole_selections, with_rest_colliders,
+                                      with_support_ground)
 from gasp_core.prepare.assembly import build_setup
+from gasp_core.prepare.dynamic import beyond_model_lines
 from gasp_core.prepare.ground import has_auto_ground, resolve_ground
 from gasp_core.prepare.placed import PreparedObject
 from gasp_core.prepare.placement import prepare_object
@@ -22,6 +24,7 @@ from gasp_core.scene.quality import engine_options as quality_options
 from gasp_core.scene.spec import Scene
 from gasp_core.seam.build import check_supported, needs
 from gasp_core.seam.engine import EngineInfo
+from gasp_core.seam.options import check_options
 from gasp_core.seam.plugins import engines as all_engines, get_engine
 from gasp_core.seam.setup import SimSetup
 
@@ -92,14 +95,19 @@ def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None 
     check_supported(info, **scene_needs(scene), others=all_engines())
     given = dict(scene.engine.options if options is None else options)
     run_options = quality_options(scene.quality, given, info.presets)     # the options the run takes
+    with warnings.catch_warnings():      # checked before anything uses them (issue 68: cfl = 0 reached the substep
+        warnings.simplefilter("ignore")  # estimate); the threads cap says its line once, when the engine is built
+        check_options(run_options, info.options, info.name)
     if info.check_scene is not None and not has_auto_ground(scene):   # the engine's own check, before any file is read
         info.check_scene(scene, run_options, None)
     objects = [prepare_object(spec) for spec in scene.objects]
+    scene, objects, whole = whole_selections(scene, objects)     # a select of every row: the whole object
     if has_auto_ground(scene):     # height = "auto": the support in the scan, once the objects are placed
         scene = resolve_ground(scene, objects)
         if info.check_scene is not None:
             info.check_scene(scene, run_options, None)
     scene, around = around_selection(scene, objects, info.capabilities.features)
+    around = whole + around
     if around and info.check_scene is not None:
         info.check_scene(scene, run_options, None)
     # object folder names: a stem that is one of a run folder's own files (run.json.ply) or hidden
@@ -109,7 +117,7 @@ def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None 
     setup, objects = build_setup(scene, objects)
     if uses_reach(scene):
         around.append(reach_line(setup, scene))
-    for line in around:
+    for line in around + beyond_model_lines(objects, scene.frame_dt, scene.n_frames):   # a model held past its end
         warnings.warn(line, stacklevel=2)
     moving = [i for i, o in enumerate(objects) if not o.spec.static]   # body k of the setup (build_setup's order)
     setup.options = run_options   # before the routes: their lines give the substeps these options take (issue 53)

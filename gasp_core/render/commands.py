@@ -6,6 +6,7 @@ import sys
 import time
 
 from gasp_core.errors import SceneError
+from gasp_core.fsmarker import record_written
 
 #: Largest picture ``gasp render`` makes, pixels (width x height of all runs side by side): 8K UHD.
 MAX_PIXELS = 7680 * 4320
@@ -151,6 +152,7 @@ def cmd_render(args) -> int:
                      width=w, height=h, fov_deg=args.fov, position=pos, look_at=look, progress=not args.quiet,
                      camera_path=path, framing=framing)
     took = time.perf_counter() - t0
+    record_written(out)      # RUN/render.mp4: gasp's own, so gasp simulate --overwrite may replace it (issue 68)
     print(f"wrote {out}: {n} frames of {w * len(runs)}x{h} px, plays {n / fps:.2f} s at {fps:g} fps "
           f"(rendering took {took:.1f} s, {took / max(n, 1):.2f} s per frame)")
     return 0
@@ -171,6 +173,7 @@ def cmd_view(args) -> int:
             raise SceneError(f"{args.run}: a run still in progress; --export it once it has finished, or watch it "
                              f"with 'gasp view {args.run}'")
         out = export_page(args.run, args.export, overwrite=args.overwrite)
+        record_written(out)  # a page written into a run folder: gasp's own, as gasp render's video (issue 68)
         print(f"wrote {out} ({out.stat().st_size / 1e6:.1f} MB; open it in a browser, no server needed)")
         return 0
     from gasp_core.render.viewer import serve

@@ -31,7 +31,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from gasp_core.errors import GaspError
+from gasp_core.errors import GaspError, SceneError
 from gasp_core.fsutil import atomic_json, output_folder
 from gasp_core.gs import registry
 from gasp_core.gs.gltf import write_glb_nodes
@@ -61,13 +61,36 @@ def run_facts(folder: Path) -> tuple[float, dict[str, str], set[str]]:
     return float(run["frame_dt"]), up, static
 
 
+def check_sidecars(run, n_frames: int, names: list[str], split_pieces: bool, crack_faces: bool,
+                   allow_missing: bool) -> None:
+    """Refuse (or, ``allow_missing``, warn once about) the pieces and crack-face files a damaged run lacks
+    (:func:`gasp_core.run.split_pieces.missing_sidecars`), naming every one (the first 8 and how many in all).
+
+    Raises
+    ------
+    SceneError
+        Some are missing and ``allow_missing`` is false.
+    """
+    import warnings
+    missing = split.missing_sidecars(run, n_frames, names, pieces=split_pieces, faces=crack_faces)
+    if not missing:
+        return
+    listed = ", ".join(missing[:8]) + (f" and {len(missing) - 8} more" if len(missing) > 8 else "")
+    said = f"{run}: {len(missing)} sidecar file(s) of a brittle object missing (a damaged run): {listed}"
+    if not allow_missing:
+        raise SceneError(f"{said}; restore them, or pass --allow-missing to export those frames without them "
+                         "(unsplit, without crack faces)")
+    warnings.warn(f"{said}: those frames exported without them (--allow-missing)", stacklevel=2)
+
+
 def export_run(run, fmt: str, out, *, overwrite: bool = False, into_run: bool = False,
-               split_pieces: bool = False, crack_faces: bool = True) -> dict:
+               split_pieces: bool = False, crack_faces: bool = True, allow_missing: bool = False) -> dict:
     """Write the frames of the run folder ``run`` in format ``fmt`` to ``out`` (module notes). ``into_run``: the
     run's own partial folder takes a whole-run file (``gasp simulate --format usd``); otherwise ``out`` must lie
     outside the run folder. ``split_pieces``: each piece of a broken body its own node or prim
     (:mod:`gasp_core.run.split_pieces`; ``glb`` and ``usd`` only). ``crack_faces``: a brittle object's crack faces
-    in the export (module notes); false leaves them out.
+    in the export (module notes); false leaves them out. ``allow_missing``: a damaged run's missing pieces and
+    crack-face files (:func:`check_sidecars`) are warned about, not refused.
 
     Returns
     -------
@@ -92,6 +115,7 @@ def export_run(run, fmt: str, out, *, overwrite: bool = False, into_run: bool = 
     frames = open_frames(run)
     names = [o["name"] for o in frames.manifest["objects"]]
     ups = [up.get(n, "+z") for n in names]
+    check_sidecars(run, frames.n_frames, names, split_pieces, crack_faces, allow_missing or into_run)
     last = split.check_split(run, fmt, frames, names) if split_pieces else None
     if spec.sequence:
         suffixes = (".usda",) + spec.suffixes if fmt == "usd" else spec.suffixes

@@ -27,6 +27,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from gasp_core.errors import SceneError
 from gasp_core.fsutil import atomic_write
 
 #: A point at or above this damage no longer links its neighbours: it carries at most 10 % of its tensile stress.
@@ -200,4 +201,14 @@ def read_pieces(run, name: str, frame: int) -> np.ndarray | None:
     (n_gaussians,), int32; None when the run has no such file (no brittle body, or a run before pieces were
     written)."""
     path = Path(run) / name / PIECES_FILE.format(frame)
-    return np.load(path) if path.is_file() else None
+    if not path.is_file():
+        return None
+    try:      # memory-mapped: a header that claims more than the file holds reads nothing (issue 68)
+        a = np.load(path, mmap_mode="r", allow_pickle=False)
+    except (OSError, ValueError, EOFError) as e:     # random bytes, a pickle, an empty or cut file
+        raise SceneError(f"{path}: not a pieces file written by gasp simulate ({type(e).__name__}: "
+                         f"{str(e)[:120] or 'empty'}); expected one int32 piece per Gaussian (.npy)") from None
+    if not isinstance(a, np.ndarray):                # an .npz archive under the name
+        raise SceneError(f"{path}: not a pieces file written by gasp simulate (an archive); expected one int32 "
+                         "piece per Gaussian (.npy)")
+    return a      # memory-mapped until its shape is checked (gasp_core.run.split_pieces.frame_labels)

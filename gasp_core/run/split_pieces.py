@@ -49,7 +49,25 @@ def frame_labels(run, name: str, frame: int, n_gaussians: int) -> np.ndarray | N
     if labels is not None and (labels.shape != (n_gaussians,) or labels.dtype.kind != "i"):
         raise SceneError(f"{Path(run) / name / PIECES_FILE.format(frame)}: {labels.dtype} array of shape "
                          f"{labels.shape}; expected one integer piece per Gaussian, shape ({n_gaussians},)")
-    return labels
+    return None if labels is None else np.array(labels)
+
+
+def missing_sidecars(run, n_frames: int, names: list[str], pieces: bool = True, faces: bool = True) -> list[str]:
+    """The sidecar files a damaged run lacks, relative to ``run``: for each object with a ``pieces_NNNN.npy``
+    (``pieces``) or a ``crack_faces_NNNN.ply`` (``faces``, :mod:`gasp_core.run.crack_output`) at some frame, those of
+    the frames ``0 .. n_frames - 1`` without theirs (gasp simulate writes both at every frame of a brittle object).
+    Issue 68: a frame without its pieces file was exported unsplit, and its crack faces dropped, without a word."""
+    from gasp_core.run.crack_output import CRACK_FILE
+    out = []
+    for name in names:
+        folder = Path(run) / name
+        for pattern, wanted in ((PIECES_FILE, pieces), (CRACK_FILE, faces)):
+            if not wanted:
+                continue
+            have = [(folder / pattern.format(f)).is_file() for f in range(n_frames)]
+            if any(have) and not all(have):
+                out += [f"{name}/{pattern.format(f)}" for f, h in enumerate(have) if not h]
+    return out
 
 
 def check_split(run, fmt: str, frames, names: list[str]) -> list[np.ndarray | None]:

@@ -85,6 +85,9 @@ def read_material(value, where: str, src: Path) -> Material:
         if expected is not None:
             bad_value(src, f"{where}.{k}", table[k], expected)
         kw[k] = float(table[k])
+    if kw.get("tensile_strength", 0.0) >= 1e154:     # issue 68: 1e200 overflowed its snap-back limit (OverflowError)
+        bad_value(src, f"{where}.tensile_strength", table["tensile_strength"], "a tensile strength whose snap-back "
+                  "limit tensile_strength^2 h / (2 E) stays within float64 (below 1e154 Pa; concrete: about 3e6)")
     return Material(**kw)
 
 

@@ -178,13 +178,34 @@ def check_precision(engine: str, precision: str, setup: SimSetup) -> None:
         ``engine 'NAME': material 'jelly': rho = 1e+300 is beyond precision 'f32': ...``, naming the limit.
     """
     top = math.sqrt(PRECISION_MAX.get(precision, PRECISION_MAX["f32"]))
-    for m in setup.materials:
+    band = setup.crack_band if any(m.name == "brittle" for m in setup.materials) else None
+    for i, m in enumerate(setup.materials):
         values = {f: getattr(m, f) for f in sorted(MATERIAL_FIELDS)}
         values.update(mu=m.mu, lam=m.lam, K=m.K)
+        if m.name == "brittle":
+            # the derived values the material table holds (issue 68: tensile_strength = 1e-300 gave
+            # s_f = 2 E G_f / (f_t h) = inf in float32, NaN damage and a run that never broke)
+            h = float(band[i])
+            s_f = 2.0 * float(m.E) * float(m.fracture_energy) / (float(m.tensile_strength) * h)
+            values[f"the softening stress 2 E fracture_energy / (tensile_strength h) at tensile_strength = "
+                   f"{m.tensile_strength:g} Pa (h = {h:.3g} m)"] = s_f
+            values[f"the snap-back limit tensile_strength^2 h / (2 E) at tensile_strength = "
+                   f"{m.tensile_strength:g} Pa"] = m.snap_back_limit(h)
         for name, v in values.items():
             if isinstance(v, (int, float)) and not abs(v) <= top:
                 raise SceneError(
                     f"engine '{engine}': material '{m.name}': {name} = {v:.3g} is beyond precision '{precision}': "
                     f"material values must stay below {top:.2g} (the square root of its largest number, "
                     f"{PRECISION_MAX.get(precision, PRECISION_MAX['f32']):.2g}, so that their products stay "
-                    f"finite); use a realistic value" + (" or precision = \"f64\"" if precision == "f32" else ""))
+                    f"finite); use a realistic value" + _wider(precision, v))
+
+
+def _wider(precision: str, v: float) -> str:
+    """The end of :func:`check_precision`'s line: ``precision = "f64"`` where it holds ``v``, and where it does not,
+    that it does not (issue 68: ``tensile_strength = 1e-300`` is beyond both)."""
+    if precision != "f32":
+        return ""
+    if abs(v) <= math.sqrt(PRECISION_MAX["f64"]):
+        return " or precision = \"f64\""
+    return " (precision = \"f64\" does not hold it either)"
+

@@ -149,7 +149,7 @@ class Material:
         """The least ``fracture_energy`` a crack band of width ``h`` (m, :func:`crack_band`) takes, J/m^2:
         ``f_t^2 h / (2 E)`` (brittle; docs/fracture.md, Bazant & Oh 1983): below it the band's softening strain
         would be shorter than its elastic strain and the band would snap back."""
-        return self.tensile_strength ** 2 * h / (2.0 * self.E)
+        return float(self.tensile_strength) * self.tensile_strength * h / (2.0 * self.E)   # inf past float64
 
     def check_band(self, h: float, where: str = "material") -> None:
         """Refuse a ``brittle`` material whose ``fracture_energy`` is at or below :meth:`snap_back_limit` at the crack

@@ -200,6 +200,8 @@ class Studio:
                 if p.dynamic_time is not None:
                     base, motion = read_splatv(self.scene.doc["object"][p.index]["file"])
                     self.moving[p.index] = moving_pieces(p.means, displacement(base, motion, p.dynamic_time, p.scale))
+            except Exception as e:    # noqa: BLE001 (a thread: said, and a click then takes the connected piece)
+                self.say(f"object #{p.index + 1}: its moving pieces were not found ({type(e).__name__}: {e})")
             finally:
                 self.labels[p.index] = piece_labels(p.means, p.radii, p.linking)
 

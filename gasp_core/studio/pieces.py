@@ -35,6 +35,8 @@ DRAWN = 0.02
 TAU_FACTOR = 3.0
 #: The link distance is the median distance of a moving Gaussian to its K_LINK-th nearest moving one.
 K_LINK = 4
+#: At most this many links a distinct centre, where the link distance would give more (a dense pile of centres).
+MAX_LINKS_PER_POINT = 64
 
 
 def piece_labels(means: np.ndarray, radii: np.ndarray, linking: np.ndarray) -> np.ndarray:
@@ -105,20 +107,41 @@ def displacement(base, motion: dict, s: float, scale: float) -> np.ndarray:
 
 def moving_pieces(means: np.ndarray, dv: np.ndarray) -> MovingPieces | None:
     """The moving pieces (module notes, steps 2 and 3) of Gaussians at ``means`` (n, 3), world metres, with
-    displacements ``dv`` (n,), metres; None when fewer than ``K_LINK + 1`` Gaussians move (a still model)."""
+    displacements ``dv`` (n,), metres; None when fewer than ``K_LINK + 1`` Gaussians move (a still model).
+
+    The work is bounded by the input (issue 68: 20,000 moving Gaussians at one point were linked at distance 0, about
+    2e8 pairs, 6.35 GB and a ``MemoryError``): Gaussians at one centre are one node
+    (:func:`gasp_core.maps.occupancy.distinct_points`), each counted for its multiplicity in the link distance, and
+    where the links between distinct centres would exceed :data:`MAX_LINKS_PER_POINT` a centre, each centre links
+    to at most that many of its nearest within the link distance instead of to all of them."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
+    from gasp_core.maps.occupancy import distinct_points
     tau = TAU_FACTOR * float(np.median(dv))
     rows = np.flatnonzero(dv > tau)
     if len(rows) <= K_LINK:
         return None
-    x = means[rows]
-    tree = cKDTree(x)
-    link = float(np.median(tree.query(x, k=K_LINK + 1)[0][:, K_LINK]))
-    pairs = tree.query_pairs(link, output_type="ndarray")
-    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(rows), len(rows)))
-    return MovingPieces(rows, connected_components(graph, directed=False)[1], link, tau)
+    points, inverse, mult = distinct_points(means[rows])
+    m = len(points)
+    tree = cKDTree(points)
+    # the K_LINK-th nearest other Gaussian of each, counting the Gaussians at its own centre and at each neighbour's
+    k = min(K_LINK + 1, m)
+    dist, idx = tree.query(points, k=k)
+    dist, idx = dist.reshape(m, k), idx.reshape(m, k)
+    reach = np.cumsum(mult[idx], axis=1)            # Gaussians within each neighbour's distance, itself included
+    kth = dist[np.arange(m), np.argmax(reach > K_LINK, axis=1)]
+    link = float(np.median(np.repeat(kth, mult)))
+    if tree.count_neighbors(tree, link) - m <= 2 * MAX_LINKS_PER_POINT * m:
+        pairs = tree.query_pairs(link, output_type="ndarray")
+        src, dst = pairs[:, 0], pairs[:, 1]
+    else:      # a dense pile of distinct centres: each to its nearest within the link distance
+        near_d, near = tree.query(points, k=min(MAX_LINKS_PER_POINT + 1, m), distance_upper_bound=link)
+        near_d, near = near_d.reshape(m, -1), near.reshape(m, -1)
+        ok = np.isfinite(near_d)
+        src, dst = np.broadcast_to(np.arange(m)[:, None], near.shape)[ok], near[ok]
+    graph = coo_matrix((np.ones(len(src), np.int8), (src, dst)), shape=(m, m))
+    return MovingPieces(rows, connected_components(graph, directed=False)[1][inverse], link, tau)
 
 
 def _hull(points: np.ndarray):

@@ -171,6 +171,8 @@ class StudioScene:
             load_scene(self.path)                     # the checker's one line for a bad scene, before anything
             self.up_guess = None
             self.doc = absolute_paths(tomllib.loads(self.path.read_text(encoding="utf-8")), self.path.parent)
+            if isinstance(self.doc.get("engine"), str):      # the shorthand engine = "NAME" (issue 68): the table
+                self.doc["engine"] = {"name": self.doc["engine"]}      # the form and the warm-up read and write
             self._read = []
         self.replace(self.doc, keep_selection=False)
 

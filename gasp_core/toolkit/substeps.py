@@ -8,6 +8,7 @@ whole substeps per frame (:func:`substeps_for`), bounded by :data:`MAX_SUBSTEPS`
 from __future__ import annotations
 
 import math
+import sys
 from typing import Any, Iterable, Mapping
 
 import numpy as np
@@ -117,8 +118,11 @@ def mpm_substeps(setup, dt: float | None = None, n_substeps: int | None = None,
 
 
 def substeps_for(frame_dt: float, dt_max: float) -> tuple[int, float]:
-    """Whole substeps per frame: ``n_substeps = ceil(frame_dt / dt_max)``, ``dt = frame_dt / n_substeps``."""
-    n = max(1, math.ceil(frame_dt / dt_max - 1e-9))
+    """Whole substeps per frame: ``n_substeps = ceil(frame_dt / dt_max)``, ``dt = frame_dt / n_substeps``; a
+    ``dt_max`` so small that the ratio overflows (``dt = 1e-320``) counts as ``sys.maxsize`` substeps, which
+    ``max_substeps`` then refuses (issue 68)."""
+    ratio = frame_dt / dt_max
+    n = max(1, math.ceil(ratio - 1e-9)) if math.isfinite(ratio) else sys.maxsize
     return n, frame_dt / n
 
 

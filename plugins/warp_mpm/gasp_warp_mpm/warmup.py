@@ -16,6 +16,7 @@ import hashlib
 import importlib
 import pkgutil
 import types
+import warnings
 from pathlib import Path
 
 import warp as wp
@@ -100,6 +101,17 @@ def compile_all(Ft, device) -> bool:
         return False
     modules = list({k.module.name: k.module for k in all_kernels(Ft)}.values())
     wp.force_load(device=device, modules=modules)   # one after another (Warp's default): see the module's notes
-    atomic_write(marker, lambda f: f.write(f"{len(modules)} modules of {PACKAGE} for {Ft.__name__} on {device}\n"),
-                 binary=False)
+    try:
+        atomic_write(marker, lambda f: f.write(f"{len(modules)} modules of {PACKAGE} for {Ft.__name__} on {device}\n"),
+                     binary=False)
+    except OSError as e:     # a read-only or full cache whose kernels loaded: the run runs (issue 68), said once
+        if marker.parent not in _UNWRITABLE:
+            _UNWRITABLE.add(marker.parent)
+            warnings.warn(f"warp_mpm: Warp's kernel cache {marker.parent} cannot be written ({e.strerror or e}): "
+                          "every kernel loaded, but the next run checks them all again; make the folder writable "
+                          "or set WARP_CACHE_PATH to one that is", stacklevel=2)
     return True
+
+
+#: Cache folders whose marker could not be written, said once each (:func:`compile_all`).
+_UNWRITABLE: set = set()
