@@ -127,19 +127,7 @@ class TaichiMPMEngine(GridEngineBase):
         self.setup = setup
         self.options = opt
         real = ti.f32 if cfg.precision == "f32" else ti.f64
-        if cfg.device == "cuda":
-            if not ti.lang.misc.is_arch_supported(ti.cuda):
-                raise EngineError(f"engine '{ENGINE}': device 'cuda' requested but this Taichi build "
-                                  "or machine has no CUDA; use device='cpu'")
-            _quiet_init(ti, arch=ti.cuda, default_fp=real, offline_cache=True, fast_math=False, log_level=ti.WARN)
-            if ti.lang.impl.current_cfg().arch != ti.cuda:
-                raise EngineError(f"engine '{ENGINE}': device 'cuda' requested but Taichi could not "
-                                  "start CUDA (no GPU or driver); use device='cpu'")
-            threads = None
-            self.pinned, self.unpinned_why = [], "device cuda"
-        else:
-            threads = int(cfg.threads) if cfg.threads is not None else len(allowed_cores())
-            self.pinned, self.unpinned_why = _init_cpu(ti, real, threads, cfg.pin_threads)
+        threads = self._start_taichi(ti, cfg, real)
         _generation += 1
         self._gen = _generation
         self._ti = ti
@@ -166,8 +154,8 @@ class TaichiMPMEngine(GridEngineBase):
         bytes_per = 4 if real == ti.f32 else 8
         grid_bytes = 4 * bytes_per * setup.n_grid ** 3
         from .schedule import resolve
-        self.schedule = resolve(cfg.schedule, cfg.device)   # "cpu" or "gpu" (gasp_taichi_mpm.schedule)
-        atomic = cfg.device == "cuda" or self.schedule == "gpu" or grid_bytes > MAX_PRIVATE_GRID_BYTES
+        self.schedule = resolve(cfg.schedule, self.device)   # "cpu" or "gpu" (gasp_taichi_mpm.schedule)
+        atomic = self.device == "cuda" or self.schedule == "gpu" or grid_bytes > MAX_PRIVATE_GRID_BYTES
         C0 = np.zeros((n, 3, 3)) if setup.C is None else setup.C[o]
         self.solver = MPMSolver(
             x=setup.x[o], v=setup.v[o], C0=C0, p_mass=setup.p_mass[o], p_vol=setup.p_vol[o],
@@ -191,6 +179,38 @@ class TaichiMPMEngine(GridEngineBase):
         self._x = setup.x.astype(np.float32 if real == ti.f32 else np.float64)
         self._v = setup.v.astype(self._x.dtype)
         self._closed = False
+
+    def _start_taichi(self, ti, cfg: TaichiMPMConfig, real) -> int | None:
+        """``ti.init`` on ``cfg.device`` ("auto": CUDA where Taichi starts one, measured faster there,
+        docs/performance.md; else the CPU); sets ``device``, ``pinned`` and ``unpinned_why``; returns the CPU threads
+        (None on CUDA).
+
+        Raises
+        ------
+        EngineError
+            ``device = "cuda"`` where Taichi has no CUDA or cannot start it.
+        """
+        self.device = cfg.device
+        if cfg.device == "auto":   # CUDA where it starts (measured faster there, docs/performance.md), else the CPU
+            self.device = "cpu"
+            import ctypes.util
+            if ti.lang.misc.is_arch_supported(ti.cuda) and ctypes.util.find_library("cuda"):   # a driver to start
+                _quiet_init(ti, arch=ti.cuda, default_fp=real, offline_cache=True, fast_math=False, log_level=ti.ERROR)
+                self.device = "cuda" if ti.lang.impl.current_cfg().arch == ti.cuda else "cpu"
+        if self.device == "cuda":
+            if not ti.lang.misc.is_arch_supported(ti.cuda):
+                raise EngineError(f"engine '{ENGINE}': device 'cuda' requested but this Taichi build "
+                                  "or machine has no CUDA; use device='cpu'")
+            _quiet_init(ti, arch=ti.cuda, default_fp=real, offline_cache=True, fast_math=False, log_level=ti.WARN)
+            if ti.lang.impl.current_cfg().arch != ti.cuda:
+                raise EngineError(f"engine '{ENGINE}': device 'cuda' requested but Taichi could not "
+                                  "start CUDA (no GPU or driver); use device='cpu'")
+            threads = None
+            self.pinned, self.unpinned_why = [], "device cuda"
+        else:
+            threads = int(cfg.threads) if cfg.threads is not None else len(allowed_cores())
+            self.pinned, self.unpinned_why = _init_cpu(ti, real, threads, cfg.pin_threads)
+        return threads
 
     def _rigid_extras(self, setup: SimSetup, flows: np.ndarray, any_rigid: bool) -> None:
         """The rigid bodies' restitution, applied by their contact's hysteresis (``gasp_core.toolkit.restitution``),
@@ -337,7 +357,7 @@ class TaichiMPMEngine(GridEngineBase):
         (with a viscous material: mean CG iterations per viscous solve)."""
         live = not self._closed and self._gen == _generation
         s = self.solver
-        out = self.grid_stats(self.config.device, self.config.precision, s.get(s.x) if live else None,
+        out = self.grid_stats(self.device, self.config.precision, s.get(s.x) if live else None,
                               s.get(s.p_mass) if live else None, s.grid_m.to_numpy() if live else None)
         out.update(threads=self.threads, p2g=self._p2g_mode, schedule=self.schedule, pinned_cores=list(self.pinned))
         if not self.pinned:
@@ -345,7 +365,7 @@ class TaichiMPMEngine(GridEngineBase):
         if live and s.coloured:
             out["late_points"] = int(s.late_points)
         if live and s.visc is not None:
-            out["viscous_cg_iterations"] = s.visc.iters / max(s.visc.solves, 1)
+            out["viscous_cg_iterations"] = s.visc.mean_iterations()
         return out
 
     def close(self) -> None:

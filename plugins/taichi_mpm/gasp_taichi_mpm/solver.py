@@ -44,6 +44,8 @@ from gasp_core.toolkit.materials import N_PARAMS, P_ETA
 from .colliders import Colliders
 from .constitutive import Constitutive
 from .balance import Balance
+from .balance_gpu import BalanceGPU
+from .checks import FrameChecks
 from .contact import Contact
 from .fields import Fields
 from .forces import Forces
@@ -58,7 +60,8 @@ SORT_EVERY = 10
 
 
 @ti.data_oriented
-class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact, Balance, Rigid, Fields, RigidHold):
+class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact, Balance, BalanceGPU, Rigid, Fields,
+                RigidHold, FrameChecks):
     """Fields and kernels of one simulation.
 
     Parameters
@@ -392,41 +395,4 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
                 self.contact_moments()
                 self.contact_shift()
 
-    def fix_contact(self) -> None:
-        """The balance's fix after a grid update (:mod:`gasp_taichi_mpm.balance`), on the run's schedule."""
-        if self.gpu:
-            self.contact_fix_gpu()
-        else:
-            self.contact_fix()
 
-    # ------------------------------------------------------------------ helpers
-    @ti.kernel
-    def _init_box(self):
-        for t in range(self.n_chunks):
-            self.box[t, 0] = ti.Vector([self.n_grid, self.n_grid, self.n_grid])
-            self.box[t, 1] = ti.Vector([-1, -1, -1])
-
-    @ti.kernel
-    def check_points(self):
-        """The frame's checks on the device (GPU schedule: one small read a frame instead of NumPy over every
-        point): ``bad`` = [points with a non-finite x or v, the first of them, points whose stencil leaves the grid,
-        the first of them] (solver order; ``n`` when none)."""
-        self.bad[0], self.bad[1], self.bad[2], self.bad[3] = 0, self.n_total[None], 0, self.n_total[None]
-        for p in range(self.n_total[None]):
-            x, v = self.x[p], self.v[p]
-            finite = True
-            for d in ti.static(range(3)):
-                if ti.math.isnan(x[d]) or ti.math.isinf(x[d]) or ti.math.isnan(v[d]) or ti.math.isinf(v[d]):
-                    finite = False
-            if not finite:
-                ti.atomic_add(self.bad[0], 1)
-                ti.atomic_min(self.bad[1], p)
-            else:
-                base = ti.floor((x - self.lo[None]) * self.inv_dx[None] - 0.5, ti.i32)
-                if (base < 0).any() or (base > self.n_grid - 3).any():
-                    ti.atomic_add(self.bad[2], 1)
-                    ti.atomic_min(self.bad[3], p)
-
-    @ti.kernel
-    def reset_out(self):
-        self.n_out[None] = 0

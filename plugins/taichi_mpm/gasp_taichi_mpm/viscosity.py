@@ -71,6 +71,7 @@ class ImplicitViscosity:
         self.alpha = ti.field(real, shape=())
         self.beta = ti.field(real, shape=())
         self.done = ti.field(ti.i32, shape=())
+        self.active = ti.field(ti.i32, shape=())   # iterations run before convergence (the GPU schedule's batches)
         self.iters = 0        # CG iterations done in all (statistics)
         self.solves = 0
         self.gpu = bool(solver.gpu)   # the GPU schedule (gasp_taichi_mpm.schedule)
@@ -270,6 +271,8 @@ class ImplicitViscosity:
             c = self.cells[k]
             self.S[c] = self._cell_stress_zp(c, beta)
         dt = self.s.dt[None]
+        if self.done[None] == 0:
+            self.active[None] += 1
         pap = ti.cast(0.0, self.s.real)
         if ti.static(self.gpu):
             for k in range(nn):
@@ -333,5 +336,11 @@ class ImplicitViscosity:
                 self._iterate()
                 k += 1
         self._finish()
-        self.iters += k
+        self.iters += k if not self.gpu else 0   # the GPU schedule counts on the device (active)
         self.solves += 1
+
+    def mean_iterations(self) -> float:
+        """CG iterations a viscous solve took, on average (the no-op iterations of the GPU schedule's batches
+        left out)."""
+        iters = self.iters if not self.gpu else int(self.active[None])
+        return iters / max(self.solves, 1)

@@ -75,5 +75,5 @@ gasp_engines = engine_hook(EngineInfo(
     available=_available,
     description=("MLS-MPM (docs/mpm.md) in NVIDIA Warp; CUDA, or CPU on one core (Warp runs CPU kernels "
                  "serially, deterministic): on CPU use taichi_mpm, which uses every core (docs/performance.md); "
-                 "viscosity implicit (no step limit)"),
+                 "viscosity implicit (no step limit); its CUDA speed is not measured yet"),
 ))

@@ -43,7 +43,7 @@ from gasp_core.toolkit.substeps import passive_schedule
 from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
 
 from . import ENGINE, WarpMPMConfig, kernels as K
-from .balance import allocate_balance, balance_launches
+from .balance import allocate_balance
 from .colliders import hold_launches
 from .fields import allocate_fields, field_launches
 from .rigid import RigidBodies
@@ -51,7 +51,7 @@ from .sleeping import Sleeping
 from .tables import ExtraTables
 from .startup import init_warp
 from .warmup import compile_all
-from .schedule import resolve as resolve_schedule
+from .schedule import balance_for, resolve as resolve_schedule, viscosity_for
 
 
 class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
@@ -173,14 +173,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
         # with a viscous material: the viscous volume sum_p w J V eta per node and the implicit step (viscosity.py)
         viscous = bool(np.any(self.mat_par.numpy()[:, P_ETA] > 0))
         self.grid_eta = wp.zeros(n_nodes if viscous else 1, dtype=Ft, device=d)
-        self.visc = None
-        if viscous:
-            if self.schedule == "gpu":
-                from .schedule.gpu import GpuViscosity
-                self.visc = GpuViscosity(self, Ft)
-            else:
-                from .viscosity import ImplicitViscosity
-                self.visc = ImplicitViscosity(self, Ft)
+        self.visc = viscosity_for(self, Ft) if viscous else None   # the run's schedule's (schedule/__init__.py)
 
     def _upload_boundaries(self, Ft) -> None:
         """Walls' friction, grounds' (top node layer, friction, 0) and fixed regions' boxes as arrays; with the particle
@@ -252,12 +245,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
                 self.grid_dv, self.body, self.in_a]),
         ] + hold_launches(self, Ft, has_extras, ex) + self._rigid_launches(Ft)
         # the contact's balance (gasp_warp_mpm.balance): its moments before P2G, its fix after the grid update
-        if self.schedule == "gpu":   # the same steps, no atomics on a body's row, the fix per node (schedule/gpu.py)
-            from .schedule.gpu import gpu_balance_launches
-            self._pre, fixes = gpu_balance_launches(self, k, lo_v, dx, dt_f, ex)
-        else:
-            self._pre, fix = balance_launches(self, k, lo_v, dx, dt_f, ex)
-            fixes = [] if fix is None else [fix]
+        self._pre, fixes = balance_for(self, k, lo_v, dx, dt_f, ex)   # on the run's schedule (schedule/__init__.py)
         self._launches[2:2] = fixes
         self._launches[1:1] = field_launches(self, Ft)   # the two-field contact after P2G (fields.py)
         # passive points after the grid update (the grid velocity holds forces, colliders, boundaries):

@@ -35,3 +35,25 @@ def resolve(schedule: str, is_cuda: bool) -> str:
 def n_blocks(n: int) -> int:
     """Blocks of :data:`BLOCK` items covering ``n`` items (at least one)."""
     return max(1, -(-int(n) // BLOCK))
+
+
+def viscosity_for(engine, Ft):
+    """The implicit viscous step of ``engine``'s schedule: :class:`gasp_warp_mpm.viscosity.ImplicitViscosity` ("cpu")
+    or :class:`gasp_warp_mpm.schedule.gpu.GpuViscosity` ("gpu")."""
+    if engine.schedule == "gpu":
+        from .gpu import GpuViscosity
+        return GpuViscosity(engine, Ft)
+    from ..viscosity import ImplicitViscosity
+    return ImplicitViscosity(engine, Ft)
+
+
+def balance_for(engine, k, lo_v, dx, dt_f, ex) -> tuple[list, list]:
+    """The contact's balance launches of ``engine``'s schedule: (before P2G, after the grid update), each a list of
+    recorded launches (:func:`gasp_warp_mpm.balance.balance_launches` or
+    :func:`gasp_warp_mpm.schedule.gpu_balance.gpu_balance_launches`: the same steps, no atomics on a body's row)."""
+    if engine.schedule == "gpu":
+        from .gpu_balance import gpu_balance_launches
+        return gpu_balance_launches(engine, k, lo_v, dx, dt_f, ex)
+    from ..balance import balance_launches
+    pre, fix = balance_launches(engine, k, lo_v, dx, dt_f, ex)
+    return pre, [] if fix is None else [fix]
