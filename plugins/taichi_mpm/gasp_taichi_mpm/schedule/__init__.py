@@ -9,12 +9,15 @@ computes.
   order); every body or support sum a fixed-order tree of slice sums
   (:class:`~gasp_taichi_mpm.schedule.primitives.SliceSums`: no atomics, so the sums repeat bit for bit for the
   same inputs); convergence read every :data:`CHECK_EVERY` iterations. It runs on ``ti.cpu`` too (``schedule =
-  "gpu"``), where the conformance scenes check it against the CPU schedule.
+  "gpu"``), where the conformance scenes check it: ``GASP_SCHEDULE=gpu`` in the environment turns every ``"auto"``
+  into ``"gpu"`` (``GASP_SCHEDULE=gpu python -m pytest conformance_tests -k taichi_mpm``).
 
 Rule (from the anchors, ``../shared/design/gpu-first.md``): no ``ti.loop_config(serialize=True)`` and no
 ``block_dim=1`` in a kernel the GPU schedule compiles (``tests/test_taichi_schedule.py`` checks it).
 """
 from __future__ import annotations
+
+import os
 
 #: The schedules ``TaichiMPMConfig.schedule`` takes; ``"auto"``: ``"gpu"`` on CUDA, ``"cpu"`` on the CPU.
 SCHEDULES = ("auto", "cpu", "gpu")
@@ -36,5 +39,6 @@ def resolve(schedule: str, device: str) -> str:
         raise ValueError(f"engine 'taichi_mpm': option 'schedule' must be one of {', '.join(SCHEDULES)}; "
                          f"got {schedule!r}")
     if schedule == "auto":
-        return "gpu" if device == "cuda" else "cpu"
+        forced = os.environ.get("GASP_SCHEDULE")   # the test runs' override of "auto" (docs/performance.md)
+        return forced if forced in ("cpu", "gpu") else ("gpu" if device == "cuda" else "cpu")
     return schedule
