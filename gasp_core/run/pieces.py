@@ -1,9 +1,12 @@
 """Pieces: the connected parts of a broken body, labelled each frame from the engine's per-point damage.
 
 A body of the ``brittle`` material breaks where its points' damage ``d`` (the engine feature ``damage``,
-``docs/fracture.md``) reaches 1. Two material points are *linked* when they were neighbours at rest (closer than
-:data:`LINK_RADIUS` times the fill spacing ``max(p_vol)^(1/3)`` of the body) and both have ``d < BROKEN``; a piece
-is a connected component of the undamaged points over those links (``scipy.sparse.csgraph.connected_components``).
+``docs/fracture.md``) reaches 1. Two material points are *linked* when they were neighbours at rest (each point's
+at most :data:`MAX_LINKS` nearest within :data:`LINK_RADIUS` times the body's fill spacing, the 90th percentile of
+its ``p_vol^(1/3)``: the work and memory are bounded by the points, whatever one point's volume), both have
+``d < BROKEN`` and the two are no further apart than a spacing plus ``gap`` (``SimSetup.dx``: a crack a grid cell
+wide parts the pieces, whatever the damage says; issue 66); a piece is a connected component of the undamaged points over those
+links (``scipy.sparse.csgraph.connected_components``).
 A broken point (``d >= BROKEN``, the crack band) or one without a rest neighbour joins the piece of the nearest
 undamaged linked point at its current position, and a passive point the piece of the nearest material point at
 rest, so every point, and each piece's mass, is counted once. Points of different bodies never link.
@@ -36,6 +39,11 @@ BROKEN = 0.9
 #: docs/fill.md): a lattice's face and edge neighbours (1 and sqrt 2 spacings) but no pair across one broken layer
 #: (2 spacings).
 LINK_RADIUS = 1.5
+#: A point links at most this many rest neighbours (a lattice's 6 face and 12 edge neighbours).
+MAX_LINKS = 18
+#: The body's fill spacing is this percentile of its points' ``p_vol^(1/3)`` (the fill's lattice; a few points of
+#: outsized volume, an open shell's, do not widen the links).
+SPACING_PERCENTILE = 90.0
 
 
 class PieceTracker:
@@ -50,24 +58,36 @@ class PieceTracker:
         Point masses, kg; 0 marks a passive point (rendered, not simulated).
     p_vol : ndarray, shape (n,), float64
         Point volumes, m^3 (the link radius, :data:`LINK_RADIUS`).
+    gap : float, optional
+        A link whose points are further apart than the body's spacing plus this (m; ``SimSetup.dx``) is cut: their
+        cells have opened by more than ``gap``. Default: the body's spacing.
     """
 
-    def __init__(self, x_rest: np.ndarray, body_id: np.ndarray, p_mass: np.ndarray, p_vol: np.ndarray):
+    def __init__(self, x_rest: np.ndarray, body_id: np.ndarray, p_mass: np.ndarray, p_vol: np.ndarray,
+                 gap: float | None = None):
         x_rest = np.asarray(x_rest, np.float64)
         self.body = np.asarray(body_id)
         self.mass = np.asarray(p_mass, np.float64)
         self.material = np.flatnonzero(self.mass > 0)
-        pairs = []
+        pairs, reach = [], []
         for b in np.unique(self.body[self.material]):
             idx = np.intersect1d(self.material, np.flatnonzero(self.body == b))
-            pairs.append(self._rest_pairs(x_rest, idx, LINK_RADIUS * float(np.max(p_vol[idx])) ** (1 / 3)))
+            spacing = float(np.percentile(np.cbrt(np.asarray(p_vol, np.float64)[idx]), SPACING_PERCENTILE))
+            pairs.append(self._rest_pairs(x_rest, idx, LINK_RADIUS * spacing))
+            reach.append(np.full(len(pairs[-1]), spacing + (spacing if gap is None else float(gap))))
         self.pairs = np.concatenate(pairs) if pairs else np.zeros((0, 2), np.int64)
+        # a link is cut when its two points are further apart than a spacing plus the gap: their cells are then apart
+        # by more than the gap (a face link opened by the gap, an edge link by less); never below a quarter over its
+        # rest length (a fill coarser than the grid keeps its rest links)
+        rest = np.linalg.norm(x_rest[self.pairs[:, 0]] - x_rest[self.pairs[:, 1]], axis=1)
+        self._open = np.maximum(np.concatenate(reach) if reach else np.zeros(0), 1.25 * rest)
         self.linked = np.zeros(len(self.mass), bool)
         self.linked[self.pairs.ravel()] = True
         # the links both ways, sorted by their first point (a CSR graph's order): each labelling only masks them
         rows = np.concatenate([self.pairs[:, 0], self.pairs[:, 1]])
         cols = np.concatenate([self.pairs[:, 1], self.pairs[:, 0]])
         order = np.lexsort((cols, rows))
+        self._pair_of = np.concatenate([np.arange(len(self.pairs))] * 2)[order]
         self._cols = cols[order].astype(np.int32)
         self._degree = np.bincount(rows, minlength=len(self.mass))
         self._indptr = np.concatenate([[0], np.cumsum(self._degree)])
@@ -81,10 +101,17 @@ class PieceTracker:
 
     @staticmethod
     def _rest_pairs(x: np.ndarray, idx: np.ndarray, radius: float) -> np.ndarray:
-        """Index pairs (k, 2) of the points ``idx`` closer than ``radius`` (m) at rest."""
+        """Index pairs (k, 2), each once, of the points ``idx``: each point with its at most :data:`MAX_LINKS` nearest
+        closer than ``radius`` (m) at rest (at most ``MAX_LINKS len(idx)`` pairs: bounded by the input)."""
         if len(idx) < 2:
             return np.zeros((0, 2), np.int64)
-        return idx[cKDTree(x[idx]).query_pairs(radius, output_type="ndarray")]
+        k = min(MAX_LINKS + 1, len(idx))
+        dist, near = cKDTree(x[idx]).query(x[idx], k=k, distance_upper_bound=radius)
+        me = np.broadcast_to(np.arange(len(idx))[:, None], near.shape)
+        ok = np.isfinite(dist) & (near != me)
+        a, b = me[ok], near[ok]
+        ab = np.unique(np.stack([np.minimum(a, b), np.maximum(a, b)], 1), axis=0)
+        return idx[ab]
 
     def labels(self, x: np.ndarray, damage: np.ndarray | None) -> np.ndarray:
         """Piece label of every point, shape (n,), int64, 0 .. count - 1 (pieces numbered by first point).
@@ -95,9 +122,12 @@ class PieceTracker:
         n = len(self.mass)
         d = np.zeros(n) if damage is None else np.asarray(damage, np.float64)
         whole = (d < BROKEN) & self.linked
-        if self._last is not None and np.array_equal(whole, self._last[0]):
-            return self._last[1]   # no point broke since: the same pieces (a broken point stays where it joined)
-        comp = self._components(whole)
+        x = np.asarray(x, np.float64)
+        held = np.linalg.norm(x[self.pairs[:, 0]] - x[self.pairs[:, 1]], axis=1) <= self._open
+        state = np.concatenate([whole, held])
+        if self._last is not None and np.array_equal(state, self._last[0]):
+            return self._last[1]   # nothing broke or opened since: the same pieces
+        comp = self._components(whole, held)
         lab = np.full(n, -1, np.int64)
         intact = self.material[whole[self.material]]
         lab[intact] = comp[intact]
@@ -110,15 +140,15 @@ class PieceTracker:
         lab[self.passive] = lab[self.passive_host]
         _, first, dense = np.unique(lab, return_index=True, return_inverse=True)
         lab = np.argsort(np.argsort(first))[dense]
-        self._last = (whole, lab)
+        self._last = (state, lab)
         return lab
 
-    def _components(self, whole: np.ndarray) -> np.ndarray:
-        """Connected components over the links between ``whole`` points, shape (n,): a CSR graph cut from the
-        sorted two-way links without a sort or a transpose (the cost of a frame where something broke; on a
-        symmetric graph the strong components are the connected ones)."""
+    def _components(self, whole: np.ndarray, held: np.ndarray) -> np.ndarray:
+        """Connected components over the ``held`` links (per pair) between ``whole`` points, shape (n,): a CSR graph
+        cut from the sorted two-way links without a sort or a transpose (the cost of a frame where something broke;
+        on a symmetric graph the strong components are the connected ones)."""
         n = len(self.mass)
-        keep = np.repeat(whole, self._degree) & whole[self._cols]
+        keep = np.repeat(whole, self._degree) & whole[self._cols] & held[self._pair_of]
         indptr = np.concatenate([[0], np.cumsum(keep)])[self._indptr]
         graph = csr_matrix((np.ones(int(indptr[-1]), np.int8), self._cols[keep], indptr), shape=(n, n))
         graph.has_sorted_indices = True
@@ -140,7 +170,7 @@ def tracker_for(setup) -> PieceTracker | None:
     ``brittle``, else None (nothing can break)."""
     if not any(m.name == "brittle" for m in setup.materials):
         return None
-    return PieceTracker(setup.x, setup.body_id, setup.p_mass, setup.p_vol)
+    return PieceTracker(setup.x, setup.body_id, setup.p_mass, setup.p_vol, gap=setup.dx)
 
 
 def frame_row(tracker: PieceTracker, reporter, frame: int, x: np.ndarray, damage: np.ndarray | None) -> dict:
