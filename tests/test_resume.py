@@ -7,6 +7,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 from gasp_testing import scene_text, needs_package
 
@@ -98,3 +99,40 @@ def test_a_collider_mesh_changed_after_the_kill_refuses_the_resume(tmp_path, don
                     if not l.startswith("gasp: warning:"))                # n_grid 16: the resolution warning
     assert "cannot resume" in err and "input file" in err and "\n" not in err, err
     assert not (out / "run.json").exists()
+
+
+def test_a_large_state_checkpoints_every_few_frames_and_still_resumes_bit_for_bit(tmp_path, donut_small, capsys):
+    """With ``GASP_CHECKPOINT_MB`` below a third of the state's size a checkpoint is written every third frame (issue
+    65: a 16M-point body's 1.6 GB state every frame); a run killed after it resumes from the last one, frames bit for
+    bit as an uninterrupted run's."""
+    needs_package("gasp_taichi_mpm")
+    from gasp_core.run.resume import checkpoint_every
+    n_frames = 8
+    scene = tmp_path / "scene.toml"
+    scene.write_text(scene_text(donut_small, n_frames=n_frames, n_grid=16, engine="taichi_mpm",
+                                engine_options=ENGINES["taichi_mpm"]))
+    ref = tmp_path / "ref"
+    subprocess.run([sys.executable, "-m", "gasp_core.cli.main", "simulate", str(scene), "-o", str(ref), "-q"],
+                   check=True, capture_output=True, cwd=tmp_path)
+    import json
+    n_points = json.loads((ref / "run.json").read_text())["engine_stats"]["n_points"]
+    state_mb = n_points * 25 * 4 / 2 ** 20    # x, v, C, F, Jp in f32
+    os.environ["GASP_CHECKPOINT_MB"] = str(state_mb / 2.5)
+    try:
+        assert checkpoint_every({"x": np.zeros((n_points, 25), np.float32)}) == 3
+        sparse = tmp_path / "sparse"
+        subprocess.run([sys.executable, "-m", "gasp_core.cli.main", "simulate", str(scene), "-o", str(sparse), "-q"],
+                       check=True, capture_output=True, cwd=tmp_path)
+        rows = json.loads((sparse / "run.json").read_text())["frames"]
+        assert [r["frame"] for r in rows if "checkpoint_s" in r] == [1, 3, 6]   # not every frame (or none)
+        assert frames(sparse) == frames(ref)
+        out = tmp_path / "out"
+        written = kill_9_after(scene, out, 5)
+        resumed = subprocess.run([sys.executable, "-m", "gasp_core.cli.main", "simulate", str(scene), "-o", str(out),
+                                  "-q", "--resume"], capture_output=True, text=True, cwd=tmp_path)
+    finally:
+        del os.environ["GASP_CHECKPOINT_MB"]
+    assert resumed.returncode == 0, resumed.stderr
+    after = json.loads((out / "run.json").read_text())["resumed_after_frame"]
+    assert after in (1, 3, 6) and after <= written    # the checkpoints: frame 1 (it measures the state), then every 3rd
+    assert frames(out) == frames(ref)

@@ -14,6 +14,7 @@ from __future__ import annotations
 import hashlib
 import io
 import json
+import os
 import zipfile
 import zlib
 from dataclasses import dataclass, field
@@ -27,6 +28,17 @@ from gasp_core.fsutil import atomic_write, leftover_partials
 from gasp_core.prepare.scene import input_files
 
 CHECKPOINT = ".gasp-checkpoint.npz"
+#: A run checkpoints every frame while an engine's state takes at most this many bytes, and every
+#: ``ceil(bytes / CHECKPOINT_BYTES)`` frames beyond (a 16M-point body's 1.6 GB every 7th frame, not every one:
+#: issue 65); ``GASP_CHECKPOINT_MB`` in the environment sets it (MB).
+CHECKPOINT_BYTES = 256 << 20
+
+
+def checkpoint_every(state: dict) -> int:
+    """Frames between checkpoints for an engine state (a dict of arrays, the first frame's), at least 1."""
+    limit = float(os.environ.get("GASP_CHECKPOINT_MB", CHECKPOINT_BYTES / 2 ** 20)) * 2 ** 20
+    size = sum(np.asarray(a).nbytes for a in state.values())
+    return max(1, int(np.ceil(size / max(limit, 1.0))))
 
 
 @dataclass

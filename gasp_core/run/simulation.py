@@ -344,13 +344,19 @@ class _Handover:
     on_frame: Callable[[int, list[Gaussians]], None] | None
     #: The pieces of a scene with a brittle body (:mod:`gasp_core.run.pieces`); None without one.
     tracker: object = None
+    #: Frames between checkpoints, set at the first (:func:`gasp_core.run.resume.checkpoint_every`); 0 before it.
+    ckpt_every: int = 0
     t_frame: float = field(default_factory=time.perf_counter)
     c_frame: float = field(default_factory=time.process_time)
 
     def __call__(self, frame: int, x: np.ndarray, sim_s: float | None, get_state) -> None:
         run = self.run
         stop.frame_started(sim_s)   # its rebuild, writes and checkpoint take about as long as it did
-        state = get_state() if get_state is not None and frame < run.n_frames else None
+        # a checkpoint every frame, or every few for a state of hundreds of MB (resume_mod.checkpoint_every)
+        due = get_state is not None and frame < run.n_frames and (not self.ckpt_every or frame % self.ckpt_every == 0)
+        state = get_state() if due else None
+        if state is not None and self.ckpt_every == 0:
+            self.ckpt_every = resume_mod.checkpoint_every(state)
         made: list = []
         wall_s, cpu_s = time.perf_counter() - self.t_frame, time.process_time() - self.c_frame
         times = {"sim_s": sim_s, "wall_s": wall_s, "cpu_s": cpu_s} if sim_s is not None else {}
