@@ -196,3 +196,28 @@ def test_the_checks_catch_broken_engines(engine, monkeypatch):
         caught["the friction taken twice (issue 67)"] = check(*slide, measure(engine, *slide))
     missed = [k for k, v in caught.items() if v is None]
     assert not missed, f"{engine}: the checks miss {missed}"
+
+
+def test_coulomb_friction_reference():
+    """``gasp_core.toolkit.rigid.coulomb_friction``: a block on its face (a wide patch) that needs less than ``mu J``
+    is stopped at its contact point without a spin; one that needs more keeps ``u - mu J / M``; a ball on a point
+    (no patch) takes the impulse through its effective mass at the contact, ``M / (1 + M R^2 / I)``, and spins up:
+    ``omega R = v`` after a stopping impulse."""
+    from gasp_core.toolkit.rigid import coulomb_friction
+    M, n, c = 2.0, np.array([0.0, 0.0, 1.0]), np.zeros(3)
+    I_block = np.diag([0.01, 0.01, 0.02])
+    S_face = np.diag([0.05 ** 2 / 3, 0.05 ** 2 / 3, 0.0])   # a 10 cm face
+    x_f = np.array([0.0, 0.0, -0.02])
+    J = M * 9.81 * 0.01
+    V, w = coulomb_friction([0.02, 0.0, 0.0], np.zeros(3), I_block, M, c, n, x_f, np.zeros(3), 0.5 * J, J, S_face)
+    assert np.allclose(V, 0.0, atol=1e-12) and np.allclose(w, 0.0, atol=1e-12)   # sticks, no spin
+    V, w = coulomb_friction([0.5, 0.0, 0.0], np.zeros(3), I_block, M, c, n, x_f, np.zeros(3), 0.5 * J, J, S_face)
+    assert V[0] == pytest.approx(0.5 - 0.5 * J / M) and np.allclose(w, 0.0, atol=1e-12)   # slides, kinetic
+    # a moving support: the same block at the support's speed needs no friction
+    V, w = coulomb_friction([0.5, 0.0, 0.0], np.zeros(3), I_block, M, c, n, x_f, [0.5, 0.0, 0.0], 0.5 * J, J, S_face)
+    assert np.allclose(V, [0.5, 0.0, 0.0])
+    R = 0.05
+    I_ball = np.eye(3) * 0.4 * M * R * R
+    V, w = coulomb_friction([0.01, 0.0, 0.0], np.zeros(3), I_ball, M, c, n, [0.0, 0.0, -R], np.zeros(3), 10.0, J,
+                            np.zeros((3, 3)))
+    assert V[0] == pytest.approx(0.01 * 5.0 / 7.0) and w[1] * R == pytest.approx(V[0])   # rolls: omega R = v
