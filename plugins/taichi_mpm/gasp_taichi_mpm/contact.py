@@ -124,7 +124,7 @@ class Contact:
                 n = self.plane_n[q]
                 imp += jq * n
                 budget += mu * jq
-                self.add_twist(p, mu * jq, n)
+                self.add_twist(p, mu, jq, n, ti.Vector.zero(self.real, 3))
                 fn += (mu * jq) * n
                 sq = ti.cast(self.plane_row[q][2], ti.i32)
                 self.add_contact(p, sq, jq, n, fv)
@@ -143,7 +143,7 @@ class Contact:
                         mu = self.ex_meta[c * COL_META + CM_FRICTION]
                         imp += jq * n
                         budget += mu * jq
-                        self.add_twist(p, mu * jq, n)
+                        self.add_twist(p, mu, jq, n, vc)
                         fn += (mu * jq) * n
                         fv += (mu * jq) * vc
                         self.add_contact(p, 1 + c, jq, n, vc)
@@ -152,7 +152,7 @@ class Contact:
                             jbest = jq
         if sup >= 0:
             sup += self.body[p] * self.n_sup
-        return imp, budget, fn, fv, sup
+        return imp, self.node_budget(p, budget), fn, fv, sup
 
     @ti.func
     def surface_friction(self, v, m, fb, fn, fv):

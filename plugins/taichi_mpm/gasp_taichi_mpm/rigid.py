@@ -57,6 +57,9 @@ class Rigid(RigidLift):
         self.rest_zeta = float(DAMPING)
         self.rb_twist = ti.field(ti.f64, shape=max(nb, 1))   # this substep's sum mu j |r_perp| (kg m^2/s)
         self.rb_fx = ti.Vector.field(4, ti.f64, shape=max(nb, 1))   # this substep's sum mu j x (kg m^2/s), sum mu j
+        self.rb_fv = ti.Vector.field(3, ti.f64, shape=max(nb, 1))   # this substep's sum mu j v_sup (kg m^2/s^2)
+        # this substep's normal impulses: sum j, sum j x, sum j x x^T (xx, xy, xz, yy, yz, zz): the patch's spread
+        self.rb_jx = ti.Vector.field(10, ti.f64, shape=max(nb, 1))
         self.plane_e = ti.field(self.real, shape=max(self.n_planes, 1))
         self.v_rest = ti.field(self.real, shape=())
         # the resting bodies' non-penetration (rigid_depth, rigid_lift): per body and plane the deepest penetration
@@ -94,19 +97,38 @@ class Rigid(RigidLift):
             self.v_rest[None] = float(v_rest)
 
     @ti.func
-    def add_twist(self, p, fj, n):
-        """Point p's friction budget ``fj`` (kg m/s) times its lever about the axis along ``n`` through its body's
-        centre, into the body's ``rb_twist`` (a rigid body with restitution): the most angular momentum about the
-        normal Coulomb's friction can take from the body this substep (:meth:`twist_brake`)."""
+    def add_twist(self, p, mu, jq, n, vc):
+        """Point p's normal impulse ``jq`` (kg m/s) from a support of friction ``mu`` and normal ``n`` moving at ``vc``
+        (m/s), for Coulomb's friction on its body as one (a rigid body with restitution): its budget ``mu jq`` times
+        its lever about the axis along ``n`` through the body's centre into ``rb_twist`` (the most angular momentum
+        about the normal the friction can take this substep, :meth:`twist_brake`); the budget's moments into
+        ``rb_fx`` and ``rb_fv``, the impulse's into ``rb_jx`` (:meth:`slide_brake`)."""
         if ti.static(self.any_rigid):
             b = self.body[p]
             if self.rb_e[b] >= 0.0:
                 x = ti.cast(self.x[p], ti.f64)
                 r = x - self.rb_c[b]
                 nd = ti.cast(n, ti.f64)
-                f = ti.cast(fj, ti.f64)
+                j = ti.cast(jq, ti.f64)
+                f = ti.cast(mu, ti.f64) * j
                 ti.atomic_add(self.rb_twist[b], f * (r - r.dot(nd) * nd).norm())
                 ti.atomic_add(self.rb_fx[b], ti.Vector([f * x[0], f * x[1], f * x[2], f], ti.f64))
+                ti.atomic_add(self.rb_fv[b], f * ti.cast(vc, ti.f64))
+                ti.atomic_add(self.rb_jx[b], j * ti.Vector([1.0, x[0], x[1], x[2], x[0] * x[0], x[0] * x[1],
+                                                            x[0] * x[2], x[1] * x[1], x[1] * x[2], x[2] * x[2]],
+                                                           ti.f64))
+
+    @ti.func
+    def node_budget(self, p, budget):
+        """The friction budget point p gives its nodes (kg m/s): none for a rigid body with restitution, whose
+        Coulomb friction acts on the body as one (:meth:`slide_brake`, :meth:`twist_brake`; issue 67: the nodes'
+        friction, made Coulomb's on the body by the contact's balance, and the slide brake after it took the budget
+        twice, and a wooden block on a 30 degree slope at mu 0.3 stuck), else ``budget``."""
+        out = budget
+        if ti.static(self.any_rigid):
+            if self.rb_e[self.body[p]] >= 0.0:
+                out = ti.cast(0.0, self.real)
+        return out
 
     @ti.func
     def twist_brake(self, b, w, inertia):
@@ -127,29 +149,52 @@ class Rigid(RigidLift):
 
     @ti.func
     def slide_brake(self, b, V, w, inertia, M, c):
-        """Body b's ``(V, w)`` less Coulomb's friction on the body as one: at the budget-weighted contact point
-        ``x_f`` the tangential velocity ``u_t`` (to the contact's mean normal) of ``V + w x (x_f - c)`` loses at most
-        the substep's budget ``sum mu j`` through the body's effective mass there (an impulse along ``-u_t`` at
-        ``x_f``: ``V`` and ``w`` change together), never reversed. The nodes' friction alone stops only the nodes
-        under the body (the dropped donut crept 0.36 mm/s without the balance, 1.75 mm/s with it); with this brake after the
-        balance it stays within 0.001 mm over 2 s."""
+        """Body b's ``(V, w)`` after Coulomb's friction on the body as one, decided by force balance
+        (``gasp_core.toolkit.rigid.coulomb_friction``, the same steps): at the budget-weighted contact point ``x_f``
+        the tangential velocity ``u_t`` (to the contact's mean normal) of ``V + w x (x_f - c)`` relative to the
+        supports' takes the impulse along ``-u_t`` that stops it when that is within the substep's budget ``sum mu j``
+        (it sticks), else the budget (it slides at the kinetic rate); the impulse's tipping moment is held by the
+        normal contact up to ``J a`` (``a`` the patch's half-width along ``u_t``): a block slides as a particle, a
+        ball rolls. ``(V, w)`` already hold gravity's and the normal contact's impulses of the substep, so the impulse
+        that stops ``u_t`` is the one the body needs to stay. Its only friction with the planes and colliders
+        (:meth:`node_budget`; issue 67)."""
         Vo, wo = V, w
         fx = self.rb_fx[b]
+        jx = self.rb_jx[b]
         jn = ti.cast(self.rb_jn[b], ti.f64)
-        if fx[3] > 0.0 and jn.norm() > 0.0:
+        if fx[3] > 0.0 and jn.norm() > 0.0 and jx[0] > 0.0:
             n = jn / jn.norm()
             r = ti.Vector([fx[0], fx[1], fx[2]]) / fx[3] - c
-            u = V + w.cross(r)
+            u = V + w.cross(r) - self.rb_fv[b] / fx[3]
             ut = u - u.dot(n) * n
             lt = ut.norm()
             if lt > 0.0:
                 t = ut / lt
                 rt = r.cross(t)
-                k = 1.0 / M + rt.dot(inertia.inverse() @ rt)   # 1 / the effective mass along t at x_f
-                P = -ti.min(fx[3], lt / k) * t
-                Vo = V + P / M
-                wo = w + inertia.inverse() @ r.cross(P)
+                rh = rt - rt.dot(n) * n   # the tipping part of the moment arm
+                inv = inertia.inverse()
+                k_a = 1.0 / M + rt.dot(inv @ rt)   # free to turn: 1 / the effective mass along t at x_f
+                m = rt.dot(inv @ rh)
+                k_b = ti.max(k_a - m, 1.0 / M)   # its tipping moment held by the normal contact
+                J = jx[0]
+                xm = ti.Vector([jx[1], jx[2], jx[3]]) / J
+                S = ti.Matrix([[jx[4], jx[5], jx[6]], [jx[5], jx[7], jx[8]], [jx[6], jx[8], jx[9]]], ti.f64) / J \
+                    - xm.outer_product(xm)
+                a = ti.sqrt(ti.max(3.0 * t.dot(S @ t), 0.0))
+                lh = rh.norm()
+                p = lt / k_b
+                held = p
+                if J * a < p * lh:   # more than the contact holds: the rest turns the body
+                    ph = J * a / lh
+                    p = (lt + ph * m) / k_a
+                    held = ph
+                p = ti.min(p, fx[3])
+                held = ti.min(held, p)
+                Vo = V - (p / M) * t
+                wo = w + inv @ (held * rh - p * rt)
         self.rb_fx[b] = ti.Vector.zero(ti.f64, 4)
+        self.rb_fv[b] = ti.Vector.zero(ti.f64, 3)
+        self.rb_jx[b] = ti.Vector.zero(ti.f64, 10)
         return Vo, wo
 
     @ti.func

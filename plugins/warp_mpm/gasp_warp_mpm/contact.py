@@ -109,23 +109,39 @@ def build_contact_impulse(Ft):
 
 @functools.cache
 def build_add_twist(Ft):
-    """``add_twist(ex, b, x, fj, n)``, a Warp function of the scalar type ``Ft``: a rigid body's point at ``x`` adds
-    its friction budget ``fj`` times its lever about the normal ``n`` through its body's centre to ``ex.rb_twist[b]``
-    (``rigid.py``'s twist brake; taichi_mpm's ``Rigid.add_twist``)."""
+    """``add_twist(ex, b, x, mu, jq, n, vc)``, a Warp function of the scalar type ``Ft``: a rigid body's point at ``x``
+    with the normal impulse ``jq`` from a support of friction ``mu``, normal ``n`` and velocity ``vc`` adds its budget
+    ``mu jq`` times its lever about the normal through its body's centre to ``ex.rb_twist[b]``, the budget's moments
+    to ``ex.rb_fx[b]`` and ``ex.rb_fv[b]``, the impulse's to ``ex.rb_jx`` (``rigid.py``'s twist and slide brakes;
+    taichi_mpm's ``Rigid.add_twist``)."""
     vec3 = build_types(Ft)[0]
     Extras = build_extras_struct(Ft)
 
     @wp.func
-    def add_twist(ex: Extras, b: int, x: vec3, fj: Ft, n: vec3):
+    def add_twist(ex: Extras, b: int, x: vec3, mu: Ft, jq: Ft, n: vec3, vc: vec3):
         # a rigid body's point: its friction budget times its lever about the normal through the body's centre, the
         # most angular momentum about the normal Coulomb's friction can take this substep (taichi_mpm's add_twist)
         if ex.rb_e[b] >= Ft(0.0):
             c = ex.rb_cx[b]
-            r = wp.vec3d(wp.float64(x[0]) - c[0], wp.float64(x[1]) - c[1], wp.float64(x[2]) - c[2])
+            xd = wp.vec3d(wp.float64(x[0]), wp.float64(x[1]), wp.float64(x[2]))
+            r = xd - c
             nd = wp.vec3d(wp.float64(n[0]), wp.float64(n[1]), wp.float64(n[2]))
-            f = wp.float64(fj)
+            j = wp.float64(jq)
+            f = wp.float64(mu) * j
             wp.atomic_add(ex.rb_twist, b, f * wp.length(r - wp.dot(r, nd) * nd))
-            wp.atomic_add(ex.rb_fx, b, wp.vec4d(f * wp.float64(x[0]), f * wp.float64(x[1]), f * wp.float64(x[2]), f))
+            wp.atomic_add(ex.rb_fx, b, wp.vec4d(f * xd[0], f * xd[1], f * xd[2], f))
+            wp.atomic_add(ex.rb_fv, b, f * wp.vec3d(wp.float64(vc[0]), wp.float64(vc[1]), wp.float64(vc[2])))
+            k = 10 * b
+            wp.atomic_add(ex.rb_jx, k, j)
+            wp.atomic_add(ex.rb_jx, k + 1, j * xd[0])
+            wp.atomic_add(ex.rb_jx, k + 2, j * xd[1])
+            wp.atomic_add(ex.rb_jx, k + 3, j * xd[2])
+            wp.atomic_add(ex.rb_jx, k + 4, j * xd[0] * xd[0])
+            wp.atomic_add(ex.rb_jx, k + 5, j * xd[0] * xd[1])
+            wp.atomic_add(ex.rb_jx, k + 6, j * xd[0] * xd[2])
+            wp.atomic_add(ex.rb_jx, k + 7, j * xd[1] * xd[1])
+            wp.atomic_add(ex.rb_jx, k + 8, j * xd[1] * xd[2])
+            wp.atomic_add(ex.rb_jx, k + 9, j * xd[2] * xd[2])
 
     return add_twist
 
@@ -176,7 +192,7 @@ def build_collider_contact(Ft):
                 mu = planes[q][1]
                 imp = imp + jq * plane_n[q]
                 bud = bud + mu * jq
-                add_twist(ex, b, x, mu * jq, plane_n[q])
+                add_twist(ex, b, x, mu, jq, plane_n[q], vec3(Ft(0.0)))
                 fn = fn + (mu * jq) * plane_n[q]
                 if jq > jbest:
                     sup = int(planes[q][2])
@@ -189,12 +205,16 @@ def build_collider_contact(Ft):
                     mu = ex.meta[cc * COL_META + CM_FRICTION]
                     imp = imp + jq * n
                     bud = bud + mu * jq
-                    add_twist(ex, b, x, mu * jq, n)
+                    add_twist(ex, b, x, mu, jq, n, vc)
                     fn = fn + (mu * jq) * n
                     fv = fv + (mu * jq) * vc
                     if jq > jbest:
                         sup = 1 + cc
                         jbest = jq
+        if ex.rb_e[b] >= Ft(0.0):
+            # a rigid body with restitution: its friction acts on the body as one (rigid.py's slide brake, issue 67),
+            # its points give the nodes no budget (taichi_mpm's Rigid.node_budget)
+            bud = Ft(0.0)
         return imp, bud, fn, fv, sup
 
     @wp.func

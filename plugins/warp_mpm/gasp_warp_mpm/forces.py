@@ -55,6 +55,9 @@ def build_extras_struct(Ft):
         rb_cx: wp.array(dtype=wp.types.vector(3, wp.float64))   # the rigid bodies' centres (rigid.py's rb_c)
         rb_twist: wp.array(dtype=wp.float64)   # this substep's sum mu j |r_perp| per body (rigid.py's twist brake)
         rb_fx: wp.array(dtype=wp.vec4d)   # this substep's sum mu j x, sum mu j (slide brake)
+        rb_fv: wp.array(dtype=wp.types.vector(3, wp.float64))   # this substep's sum mu j v_sup (slide brake)
+        # this substep's normal impulses, 10 a body: sum j, sum j x, sum j x x^T (xx, xy, xz, yy, yz, zz)
+        rb_jx: wp.array(dtype=wp.float64)
         plane_e: wp.array(dtype=Ft)
         v_rest: Ft   # m/s: a rebound below it is none
     return Extras

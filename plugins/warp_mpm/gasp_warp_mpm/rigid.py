@@ -71,27 +71,46 @@ def build_rigid_contact(Ft):
 
     @wp.func
     def slide_brake(V: vec3d, w: vec3d, inertia: mat33d, M: wp.float64, c: vec3d, jn: vec3,
-                    fx: wp.vec4d):
-        # taichi_mpm's Rigid.slide_brake: Coulomb's friction on the body as one, an impulse along -u_t at the
-        # budget-weighted contact point, at most the substep's budget sum mu j, never reversing u_t
+                    fx: wp.vec4d, fv: vec3d, jx: wp.array(dtype=wp.float64), b: int):
+        # taichi_mpm's Rigid.slide_brake (gasp_core.toolkit.rigid.coulomb_friction): Coulomb's friction on the body
+        # as one, decided by force balance: the impulse along -u_t at the budget-weighted contact point that stops
+        # u_t (relative to the supports) when within the budget sum mu j (it sticks), else the budget (it slides);
+        # its tipping moment held by the normal contact up to J a (a the patch's half-width along u_t)
         Vo = V
         wo = w
         n = vec3d(wp.float64(jn[0]), wp.float64(jn[1]), wp.float64(jn[2]))
         ln = wp.length(n)
-        if fx[3] > wp.float64(0.0) and ln > wp.float64(0.0):
+        k0 = 10 * b
+        J = jx[k0]
+        if fx[3] > wp.float64(0.0) and ln > wp.float64(0.0) and J > wp.float64(0.0):
             n = n / ln
             r = vec3d(fx[0], fx[1], fx[2]) / fx[3] - c
-            u = V + wp.cross(w, r)
+            u = V + wp.cross(w, r) - fv / fx[3]
             ut = u - wp.dot(u, n) * n
             lt = wp.length(ut)
             if lt > wp.float64(0.0):
                 t = ut / lt
                 rt = wp.cross(r, t)
+                rh = rt - wp.dot(rt, n) * n   # the tipping part of the moment arm
                 inv = wp.inverse(inertia)
-                k = wp.float64(1.0) / M + wp.dot(rt, inv * rt)
-                P = -wp.min(fx[3], lt / k) * t
-                Vo = V + P / M
-                wo = w + inv * wp.cross(r, P)
+                k_a = wp.float64(1.0) / M + wp.dot(rt, inv * rt)   # free to turn: 1 / the effective mass at x_f
+                m = wp.dot(rt, inv * rh)
+                k_b = wp.max(k_a - m, wp.float64(1.0) / M)   # its tipping moment held by the normal contact
+                xm = vec3d(jx[k0 + 1], jx[k0 + 2], jx[k0 + 3]) / J
+                S = mat33d(jx[k0 + 4], jx[k0 + 5], jx[k0 + 6], jx[k0 + 5], jx[k0 + 7], jx[k0 + 8],
+                           jx[k0 + 6], jx[k0 + 8], jx[k0 + 9]) / J - wp.outer(xm, xm)
+                a = wp.sqrt(wp.max(wp.float64(3.0) * wp.dot(t, S * t), wp.float64(0.0)))
+                lh = wp.length(rh)
+                p = lt / k_b
+                held = p
+                if J * a < p * lh:   # more than the contact holds: the rest turns the body
+                    ph = J * a / lh
+                    p = (lt + ph * m) / k_a
+                    held = ph
+                p = wp.min(p, fx[3])
+                held = wp.min(held, p)
+                Vo = V - (p / M) * t
+                wo = w + inv * (held * rh - p * rt)
         return Vo, wo
 
     return lift_off, twist_brake, slide_brake
@@ -125,7 +144,8 @@ def build_rigid_update(Ft):
                      je: wp.array(dtype=Ft), jsum: wp.array(dtype=Ft), e_body: wp.array(dtype=Ft), v_rest: Ft,
                      gravity: vec3d, steps: wp.array(dtype=wp.int32), count: wp.array(dtype=wp.int32),
                      nlast: wp.array(dtype=wp.int32), twist: wp.array(dtype=wp.float64),
-                     fx: wp.array(dtype=wp.vec4d), ndepth: wp.array(dtype=wp.int32)):
+                     fx: wp.array(dtype=wp.vec4d), ndepth: wp.array(dtype=wp.int32), fv: wp.array(dtype=vec3d),
+                     jx: wp.array(dtype=wp.float64)):
         for b in range(n_bodies):
             M = mass[b]
             if rigid[b] != 0 and M > wp.float64(0.0):
@@ -141,8 +161,11 @@ def build_rigid_update(Ft):
                 V = P / M
                 if e_body[b] >= Ft(0.0):
                     w = twist_brake(w, inertia, jn[b], twist[b])
-                    V, w = slide_brake(V, w, inertia, M, c, jn[b], fx[b])
+                    V, w = slide_brake(V, w, inertia, M, c, jn[b], fx[b], fv[b], jx, b)
                 fx[b] = wp.vec4d()
+                fv[b] = vec3d()
+                for q in range(10):
+                    jx[10 * b + q] = wp.float64(0.0)
                 if touch[b] != 0 and was[b] == 0:
                     c0[b] = c
                     steps[b] = 0
@@ -349,7 +372,7 @@ class RigidBodies:
                     self.rb_w, dt, dx, len(self.setup.materials), ex.rb_vin, ex.rb_vin_next, ex.rb_touch, self.rb_was,
                     self.rb_c0, ex.rb_jn, ex.rb_je, ex.rb_j, ex.rb_e, ex.v_rest,
                     vec3d(*[float(g) for g in self.setup.gravity]), self.rb_steps, ex.rb_count, ex.rb_nlast,
-                    ex.rb_twist, ex.rb_fx, ex.rb_ndepth]),
+                    ex.rb_twist, ex.rb_fx, ex.rb_ndepth, ex.rb_fv, ex.rb_jx]),
                 wp.launch(apply_k, dim=self.n_points, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.F, self.body, self.rb_rigid, self.X0, self.rb_c, self.rb_R,
                     self.rb_V, self.rb_w])]

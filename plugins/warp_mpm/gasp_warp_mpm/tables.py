@@ -50,6 +50,8 @@ class ExtraTables:
         ex.rb_cx = self.rb_c if getattr(self, "any_rigid", False) else wp.zeros(1, dtype=vec3d, device=self.device)
         ex.rb_twist = wp.zeros(len(setup.materials), dtype=wp.float64, device=self.device)
         ex.rb_fx = wp.zeros(len(setup.materials), dtype=wp.vec4d, device=self.device)
+        ex.rb_fv = wp.zeros(len(setup.materials), dtype=vec3d, device=self.device)
+        ex.rb_jx = wp.zeros(10 * len(setup.materials), dtype=wp.float64, device=self.device)
         ex.plane_e = arr(plane_table(setup, n_planes).astype(np_t) if n_planes else np.ones(1, np_t), Ft)
         ex.v_rest = Ft(rest_speed(setup))
         self._ex = ex
