@@ -98,10 +98,10 @@ def test_rigid_slab_rests_on_three_hanging_points(engine):
 
 
 def test_settle_projection_reference():
-    """The NumPy reference (``gasp_core.toolkit.rigid.settle_projection``): moved out by ``depth - slop`` along the
+    """The NumPy reference (``gasp_core.toolkit.rigid_friction.settle_projection``): moved out by ``depth - slop`` along the
     normal, its approach removed and no upward speed gained, its slip braked by at most ``mu`` times that impulse;
     nothing within the slop or when it recedes."""
-    from gasp_core.toolkit.rigid import settle_projection
+    from gasp_core.toolkit.rigid_friction import settle_projection
     n, c, I = np.array([0.0, 0.0, 1.0]), np.zeros(3), np.eye(3) * 0.1
     shift, V, w = settle_projection(0.003, n, [0.01, 0.0, -0.05], c, [0.2, 0.0, -0.5], np.zeros(3), I, 2.0, 0.5, 0.001)
     assert np.allclose(shift, [0.0, 0.0, 0.002])

@@ -8,7 +8,7 @@ order: the same numbers on any thread count); :meth:`Rigid.rigid_update` turns t
 spin and advances its centre and rotation; :meth:`Rigid.rigid_apply` puts every point of the body (its passive
 points too) on the rigid pose ``c + R X0`` with the rigid velocity, ``C`` the spin's skew matrix and ``F = R``;
 with the particle contact's planes :meth:`Rigid.rigid_depth` and :meth:`Rigid.rigid_lift` then move a resting body
-deeper than the slop out without speed (``gasp_core.toolkit.rigid.settle_projection``, Bullet's split impulse; issue
+deeper than the slop out without speed (``gasp_core.toolkit.rigid_friction.settle_projection``, Bullet's split impulse; issue
 53) and :meth:`Rigid.rigid_apply` runs again.
 The body's state is kept in float64 whatever the working precision.
 
@@ -20,10 +20,11 @@ import taichi as ti
 from gasp_core.toolkit.contact import DAMPING
 from gasp_core.toolkit.rigid import RIGID_LEVER
 
+from .rigid_friction import RigidFriction
 from .rigid_lift import RigidLift
 
 
-class Rigid(RigidLift):
+class Rigid(RigidLift, RigidFriction):
     """Per-body rigid state and the three kernels of :meth:`rigid_step`."""
 
     def _allocate_rigid(self, rigid, centre, X0, inertia0, mass) -> None:
@@ -129,73 +130,6 @@ class Rigid(RigidLift):
             if self.rb_e[self.body[p]] >= 0.0:
                 out = ti.cast(0.0, self.real)
         return out
-
-    @ti.func
-    def twist_brake(self, b, w, inertia):
-        """Body b's spin ``w`` (rad/s) less Coulomb's torsional friction of this substep: its part about the
-        contact's mean normal ``n`` brought towards 0 by at most ``rb_twist / (n . I n)`` (``inertia``, kg m^2),
-        never reversed. The nodes' friction stops only the nodes under the body (a rigid donut kept a twist of 0.06
-        rad/s, losing 4.5 % a frame); this is the friction on the body as one."""
-        out = w
-        jn = ti.cast(self.rb_jn[b], ti.f64)
-        if self.rb_twist[b] > 0.0 and jn.norm() > 0.0:
-            n = jn / jn.norm()
-            wn = w.dot(n)
-            In = n.dot(inertia @ n)
-            if In > 0.0 and wn != 0.0:
-                out = w - n * (wn / ti.abs(wn)) * ti.min(ti.abs(wn), self.rb_twist[b] / In)
-        self.rb_twist[b] = 0.0
-        return out
-
-    @ti.func
-    def slide_brake(self, b, V, w, inertia, M, c):
-        """Body b's ``(V, w)`` after Coulomb's friction on the body as one, decided by force balance
-        (``gasp_core.toolkit.rigid.coulomb_friction``, the same steps): at the budget-weighted contact point ``x_f``
-        the tangential velocity ``u_t`` (to the contact's mean normal) of ``V + w x (x_f - c)`` relative to the
-        supports' takes the impulse along ``-u_t`` that stops it when that is within the substep's budget ``sum mu j``
-        (it sticks), else the budget (it slides at the kinetic rate); the impulse's tipping moment is held by the
-        normal contact up to ``J a`` (``a`` the patch's half-width along ``u_t``): a block slides as a particle, a
-        ball rolls. ``(V, w)`` already hold gravity's and the normal contact's impulses of the substep, so the impulse
-        that stops ``u_t`` is the one the body needs to stay. Its only friction with the planes and colliders
-        (:meth:`node_budget`; issue 67)."""
-        Vo, wo = V, w
-        fx = self.rb_fx[b]
-        jx = self.rb_jx[b]
-        jn = ti.cast(self.rb_jn[b], ti.f64)
-        if fx[3] > 0.0 and jn.norm() > 0.0 and jx[0] > 0.0:
-            n = jn / jn.norm()
-            r = ti.Vector([fx[0], fx[1], fx[2]]) / fx[3] - c
-            u = V + w.cross(r) - self.rb_fv[b] / fx[3]
-            ut = u - u.dot(n) * n
-            lt = ut.norm()
-            if lt > 0.0:
-                t = ut / lt
-                rt = r.cross(t)
-                rh = rt - rt.dot(n) * n   # the tipping part of the moment arm
-                inv = inertia.inverse()
-                k_a = 1.0 / M + rt.dot(inv @ rt)   # free to turn: 1 / the effective mass along t at x_f
-                m = rt.dot(inv @ rh)
-                k_b = ti.max(k_a - m, 1.0 / M)   # its tipping moment held by the normal contact
-                J = jx[0]
-                xm = ti.Vector([jx[1], jx[2], jx[3]]) / J
-                S = ti.Matrix([[jx[4], jx[5], jx[6]], [jx[5], jx[7], jx[8]], [jx[6], jx[8], jx[9]]], ti.f64) / J \
-                    - xm.outer_product(xm)
-                a = ti.sqrt(ti.max(3.0 * t.dot(S @ t), 0.0))
-                lh = rh.norm()
-                p = lt / k_b
-                held = p
-                if J * a < p * lh:   # more than the contact holds: the rest turns the body
-                    ph = J * a / lh
-                    p = (lt + ph * m) / k_a
-                    held = ph
-                p = ti.min(p, fx[3])
-                held = ti.min(held, p)
-                Vo = V - (p / M) * t
-                wo = w + inv @ (held * rh - p * rt)
-        self.rb_fx[b] = ti.Vector.zero(ti.f64, 4)
-        self.rb_fv[b] = ti.Vector.zero(ti.f64, 3)
-        self.rb_jx[b] = ti.Vector.zero(ti.f64, 10)
-        return Vo, wo
 
     @ti.func
     def contact_impulse(self, p, e_sup, vn, n, depth, kcs):

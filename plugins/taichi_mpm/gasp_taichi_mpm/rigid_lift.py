@@ -1,4 +1,4 @@
-"""The position-level non-penetration of a resting rigid body (issue 53, ``gasp_core.toolkit.rigid.settle_projection``)
+"""The position-level non-penetration of a resting rigid body (issue 53, ``gasp_core.toolkit.rigid_friction.settle_projection``)
 as Taichi kernels; warp_mpm's ``rigid.build_rigid_lift`` spells the same steps.
 
 :meth:`RigidLift.rigid_depth` takes each rigid body's deepest penetration into each plane of the particle contact and
@@ -68,7 +68,7 @@ class RigidLift:
 
     @ti.kernel
     def rigid_lift(self):
-        """The position-level non-penetration of a resting rigid body (``gasp_core.toolkit.rigid.settle_projection``,
+        """The position-level non-penetration of a resting rigid body (``gasp_core.toolkit.rigid_friction.settle_projection``,
         issue 53; warp_mpm's ``rigid_lift``): a body that is not bouncing (``e`` times its approach, the ongoing
         contact's ``v_in`` or its centre's now, under ``v_rest``, as :meth:`lift_off`) whose deepest point is more
         than ``RIGID_SLOP`` cells into a plane is moved out along its normal to that depth, its velocity untouched by

@@ -150,6 +150,7 @@ def build_add_twist(Ft):
 def build_collider_contact(Ft):
     """``(collider_contact, point_contact, surface_friction)`` Warp functions of the scalar type ``Ft``: the particle
     contact against the ``[[collider]]``s' signed distances (``gasp_core.toolkit.contact.surface_impulse``).
+    It is long because the three are closures of the scalar type, built together.
 
     - ``collider_contact(ex, base, cc, x, v, kcs, dt, b, mark) -> (j_n, n, v_c)``: collider ``cc``'s normal impulse
       on a point of body ``b`` (``build_contact_impulse``), ``depth = skin - phi``, along its outward normal ``n``;

@@ -1,0 +1,140 @@
+"""The NumPy references of a rigid body's contact with a plane (``docs/rigid.md``), beside
+:mod:`gasp_core.toolkit.rigid`: :func:`settle_projection` (the position-level non-penetration of a resting body,
+issue 53) and :func:`coulomb_friction` (its friction decided by force balance, issue 67), transcribed by both MPM
+plugins' kernels.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def settle_projection(depth: float, n, x_c, c, V, w, inertia, M: float, mu: float, slop: float):
+    """The position-level non-penetration of a resting rigid body against one plane (issue 53, the NumPy reference
+    of each grid plugin's ``rigid_lift``): after its velocity update, a body whose deepest contact point is
+    ``depth`` (m) into a support of normal ``n`` is moved out along ``n`` by ``depth - slop`` (``slop`` =
+    :data:`gasp_core.toolkit.rigid.RIGID_SLOP` cells), its velocity untouched by the move (Bullet's split impulse: the position error is
+    not turned into speed, Catto 2006 / Coumans, "Bullet 2.x physics SDK manual", "split impulse"; no Baumgarte
+    term). The centre's approach along ``n`` is then removed by an impulse through the centre (the inelastic velocity
+    constraint of a sequential-impulse solver; the penalty alone left the body that deep; through the centre, as an
+    impulse at ``x_c``, the penetration-weighted centre of a few lattice points, set a resting ball rolling 0.2 mm/s),
+    and Coulomb's friction of that impulse (at most ``mu`` times it, never reversing the slip) applied at ``x_c``.
+
+    The engines (each grid plugin's ``rigid_depth`` and ``rigid_lift``, after the rigid update of every substep, per
+    plane of the particle contact) apply it to a body with the restitution law (``gasp_core.toolkit.restitution``)
+    that is not bouncing: ``e`` (the body's times the plane's) times its approach speed (its ongoing contact's
+    ``v_in``, or its centre's ``-V . n`` now) under the rest speed; a bounce keeps its hysteresis and lift-off.
+    Issue 53 measured what held a body at depth: a fill-only slab put 0.2 dx in the ground stayed there because the
+    particle contact took its start clearance (0.05 dx) as its skin (:func:`rigid_contact` now gives a fill alone
+    half a spacing wherever it is put, and :func:`lift_setup` lifts it out); the wooden donut's lowest Gaussian
+    rested 0.46-0.59 dx deep because 5-13 hanging Gaussians held its weight at the stiffness of its 487 face points
+    (:func:`gasp_core.toolkit.rigid.support_scale`).
+
+    Parameters
+    ----------
+    depth : float
+        The deepest point's penetration ``offset + skin - n . x``, m.
+    n : array_like, shape (3,)
+        The support's unit normal.
+    x_c, c : array_like, shape (3,)
+        The contact centre and the body's mass centre before the move, m.
+    V, w : array_like, shape (3,)
+        Velocity (m/s) and spin (rad/s).
+    inertia : array_like, shape (3, 3)
+        The body's inertia at its pose, kg m^2.
+    M, mu, slop : float
+        Mass (kg), the support's friction, the allowance (m).
+
+    Returns
+    -------
+    shift : ndarray, shape (3,)
+        The move of the centre, m (zero when ``depth <= slop``).
+    V, w : ndarray, shape (3,)
+        After the approach is removed (unchanged when nothing approaches or ``depth <= slop``).
+    """
+    n, x_c, c, V, w = (np.asarray(a, np.float64) for a in (n, x_c, c, V, w))
+    if depth <= slop:
+        return np.zeros(3), V, w
+    inv = np.linalg.inv(np.asarray(inertia, np.float64))
+    r = x_c - c
+    u_n = float(np.dot(V, n))
+    if u_n < 0.0:
+        P = -u_n * M
+        V = V - u_n * n
+        u = V + np.cross(w, r)
+        ut = u - np.dot(u, n) * n
+        lt = float(np.linalg.norm(ut))
+        if lt > 0.0 and mu > 0.0:
+            t = ut / lt
+            rt = np.cross(r, t)
+            Pt = -min(mu * P, lt / (1.0 / M + rt @ inv @ rt)) * t
+            V = V + Pt / M
+            w = w + inv @ np.cross(r, Pt)
+    return (depth - slop) * n, V, w
+
+
+def coulomb_friction(V, w, inertia, M: float, c, n, x_f, v_sup, budget: float, J: float, spread: np.ndarray):
+    """Coulomb's friction on a rigid body as one, decided by force balance (issue 67; the NumPy reference of each grid
+    plugin's ``slide_brake``): the substep's one tangential impulse at the contact point.
+
+    ``(V, w)`` hold the substep's gravity and normal contact impulses, so the impulse ``P = -p t`` (``t`` the direction
+    of the tangential velocity ``u_t`` of ``V + w x (x_f - c) - v_sup``) that stops ``u_t`` is the impulse the body
+    needs to stay: within the budget ``mu J`` it sticks (``p`` that impulse), else it slides at the kinetic rate
+    (``p`` the budget). Not a speed threshold: a body at any speed sticks when Coulomb's cone holds what it needs.
+
+    The impulse's moment about the mass centre ``r x P`` (``r = x_f - c``) has a part about the normal (a twist) and
+    a part that would tip the body; the normal contact takes that one back up to ``J a`` (a torque impulse, N m s),
+    ``a = sqrt(3 t.S t)`` the half-width along ``t`` of a uniform patch of the normal impulses' covariance ``S``
+    (``spread``, m^2): the statics of a block, whose centre of pressure moves within its face to hold the friction's
+    tipping moment. A block on its face so slides as a particle (effective mass ``M``: ``a = g (sin theta - mu cos
+    theta)`` on a slope), and a ball on a point (``a`` about 0) takes the impulse through its effective mass at the
+    contact, ``1 / (1/M + (r x t) . I^-1 (r x t))``: it rolls (``a = g sin theta / (1 + I / (M R^2))``, 5/7 of
+    ``g sin theta`` for a solid ball) while ``p`` is within the budget, and slips beyond it. The impulse through the
+    full effective mass on a face (the slide brake of issue 53) left the block a spin that its normal contact then
+    took back without the speed that came with it: a creep of 1.05 mm/s on a 15 degree slope at mu 0.4.
+
+    Parameters
+    ----------
+    V, w : array_like, shape (3,)
+        Velocity (m/s) and spin (rad/s) before the friction.
+    inertia : array_like, shape (3, 3)
+        The body's inertia at its pose, kg m^2.
+    M : float
+        Mass, kg.
+    c, x_f : array_like, shape (3,)
+        The mass centre and the contact point (the friction budget's centre), m.
+    n : array_like, shape (3,)
+        The contact's unit normal.
+    v_sup : array_like, shape (3,)
+        The supports' velocity at the contact, m/s.
+    budget, J : float
+        ``sum mu j`` and ``sum j`` of the substep's normal impulses, kg m/s.
+    spread : array_like, shape (3, 3)
+        The normal impulses' covariance about their centre, m^2.
+
+    Returns
+    -------
+    V, w : ndarray, shape (3,)
+    """
+    V, w, c, n, x_f, v_sup = (np.asarray(a, np.float64) for a in (V, w, c, n, x_f, v_sup))
+    inv = np.linalg.inv(np.asarray(inertia, np.float64))
+    r = x_f - c
+    u = V + np.cross(w, r) - v_sup
+    ut = u - np.dot(u, n) * n
+    lt = float(np.linalg.norm(ut))
+    if budget <= 0.0 or lt <= 0.0:
+        return V, w
+    t = ut / lt
+    rt = np.cross(r, t)
+    rh = rt - np.dot(rt, n) * n                      # the tipping part of the moment arm
+    k_a = 1.0 / M + rt @ inv @ rt                    # free to turn: 1 / the effective mass at x_f along t
+    m = rt @ inv @ rh
+    k_b = max(k_a - m, 1.0 / M)                      # its tipping moment held by the normal contact
+    a = math.sqrt(max(3.0 * float(t @ np.asarray(spread, np.float64) @ t), 0.0))
+    lh = float(np.linalg.norm(rh))
+    p_hold = J * a / lh if lh > 0.0 else math.inf   # the impulse whose tipping moment the contact can hold
+    p = lt / k_b if p_hold * k_b >= lt else (lt + p_hold * m) / k_a
+    p = min(p, budget)
+    held = min(p, p_hold)
+    return V - (p / M) * t, w + inv @ (-p * rt + held * rh)

@@ -1,0 +1,109 @@
+"""A rigid body's lift-off and friction with its supports as one body (issue 53's twist, issue 67's Coulomb by force
+balance) as Warp functions per scalar type, called by ``rigid.build_rigid_update``; the NumPy reference is
+:mod:`gasp_core.toolkit.rigid_friction`, taichi_mpm's ``rigid_friction.py`` spells the same steps.
+
+This module must not use ``from __future__ import annotations``: Warp reads the annotations of
+the closures below as type objects.
+"""
+import functools
+
+import warp as wp
+
+from .precision import build_types
+
+vec3d = wp.types.vector(3, wp.float64)
+mat33d = wp.types.matrix((3, 3), wp.float64)
+
+
+@functools.cache
+def build_rigid_contact(Ft):
+    """``(lift_off, twist_brake, slide_brake)``, Warp functions of the scalar type ``Ft`` (taichi_mpm's
+    ``Rigid.lift_off``, ``RigidFriction.twist_brake`` and ``RigidFriction.slide_brake``). It is long because the three
+    are closures of the scalar type, built together."""
+    vec3, vec4, mat33 = build_types(Ft)
+
+    @wp.func
+    def lift_off(V: vec3d, c: vec3d, c0: vec3d, jn: vec3, e_pair: Ft, vin_f: Ft, v_rest: Ft, gravity: vec3d,
+                 T: wp.float64):
+        # taichi_mpm's Rigid.lift_off: the normal part of V along the contact's mean normal made the speed with which
+        # the free flights cross as an instantaneous bounce of restitution e (gasp_core.toolkit.restitution.
+        # lift_off_speed); e 0 below v_rest
+        out = V
+        n = vec3d(wp.float64(jn[0]), wp.float64(jn[1]), wp.float64(jn[2]))
+        ln = wp.length(n)
+        if ln > wp.float64(0.0):
+            n = n / ln
+            e = wp.float64(e_pair)
+            vin = wp.float64(vin_f)
+            if e * vin < wp.float64(v_rest):
+                e = wp.float64(0.0)
+            g_n = -wp.dot(gravity, n)
+            one = wp.float64(1.0)
+            B = vin * (one - e) - (one + e) * g_n * T
+            C = e * vin * vin - (one + e) * g_n * (wp.dot(c - c0, n) + wp.float64(0.5) * g_n * T * T)
+            u_out = wp.float64(0.5) * (-B + wp.sqrt(wp.max(B * B + wp.float64(4.0) * C, wp.float64(0.0)))) - g_n * T
+            u = wp.dot(V, n)
+            if u > wp.float64(0.0):
+                out = V + (wp.max(u_out, wp.float64(0.0)) - u) * n
+        return out
+
+    @wp.func
+    def twist_brake(w: vec3d, inertia: mat33d, jn: vec3, tw: wp.float64):
+        # taichi_mpm's Rigid.twist_brake: the spin about the contact's mean normal brought towards 0 by at most
+        # tw / (n . I n), never reversed
+        out = w
+        n = vec3d(wp.float64(jn[0]), wp.float64(jn[1]), wp.float64(jn[2]))
+        ln = wp.length(n)
+        if tw > wp.float64(0.0) and ln > wp.float64(0.0):
+            n = n / ln
+            wn = wp.dot(w, n)
+            In = wp.dot(n, inertia * n)
+            if In > wp.float64(0.0) and wn != wp.float64(0.0):
+                out = w - n * wp.sign(wn) * wp.min(wp.abs(wn), tw / In)
+        return out
+
+    @wp.func
+    def slide_brake(V: vec3d, w: vec3d, inertia: mat33d, M: wp.float64, c: vec3d, jn: vec3,
+                    fx: wp.vec4d, fv: vec3d, jx: wp.array(dtype=wp.float64), b: int):
+        # taichi_mpm's Rigid.slide_brake (gasp_core.toolkit.rigid_friction.coulomb_friction): Coulomb's friction on the body
+        # as one, decided by force balance: the impulse along -u_t at the budget-weighted contact point that stops
+        # u_t (relative to the supports) when within the budget sum mu j (it sticks), else the budget (it slides);
+        # its tipping moment held by the normal contact up to J a (a the patch's half-width along u_t)
+        Vo = V
+        wo = w
+        n = vec3d(wp.float64(jn[0]), wp.float64(jn[1]), wp.float64(jn[2]))
+        ln = wp.length(n)
+        k0 = 10 * b
+        J = jx[k0]
+        if fx[3] > wp.float64(0.0) and ln > wp.float64(0.0) and J > wp.float64(0.0):
+            n = n / ln
+            r = vec3d(fx[0], fx[1], fx[2]) / fx[3] - c
+            u = V + wp.cross(w, r) - fv / fx[3]
+            ut = u - wp.dot(u, n) * n
+            lt = wp.length(ut)
+            if lt > wp.float64(0.0):
+                t = ut / lt
+                rt = wp.cross(r, t)
+                rh = rt - wp.dot(rt, n) * n   # the tipping part of the moment arm
+                inv = wp.inverse(inertia)
+                k_a = wp.float64(1.0) / M + wp.dot(rt, inv * rt)   # free to turn: 1 / the effective mass at x_f
+                m = wp.dot(rt, inv * rh)
+                k_b = wp.max(k_a - m, wp.float64(1.0) / M)   # its tipping moment held by the normal contact
+                xm = vec3d(jx[k0 + 1], jx[k0 + 2], jx[k0 + 3]) / J
+                S = mat33d(jx[k0 + 4], jx[k0 + 5], jx[k0 + 6], jx[k0 + 5], jx[k0 + 7], jx[k0 + 8],
+                           jx[k0 + 6], jx[k0 + 8], jx[k0 + 9]) / J - wp.outer(xm, xm)
+                a = wp.sqrt(wp.max(wp.float64(3.0) * wp.dot(t, S * t), wp.float64(0.0)))
+                lh = wp.length(rh)
+                p = lt / k_b
+                held = p
+                if J * a < p * lh:   # more than the contact holds: the rest turns the body
+                    ph = J * a / lh
+                    p = (lt + ph * m) / k_a
+                    held = ph
+                p = wp.min(p, fx[3])
+                held = wp.min(held, p)
+                Vo = V - (p / M) * t
+                wo = w + inv * (held * rh - p * rt)
+        return Vo, wo
+
+    return lift_off, twist_brake, slide_brake
