@@ -23,7 +23,7 @@ from gasp_core.prepare.placed import Placement, PreparedObject, euler_matrix
 from gasp_core.scene.spec import ObjectSpec
 from gasp_core.prepare.selection import flat_world, moving_rows
 from gasp_core.prepare.surface import choose_surface_points
-from gasp_core.prepare.up import up_rotation
+from gasp_core.prepare.up import resolve_up_axis, up_rotation
 
 __all__ = ["place", "load_gaussians", "prepare_object", "drop_floaters"]
 
@@ -78,6 +78,7 @@ def prepare_object(spec: ObjectSpec, g: Gaussians | None = None) -> PreparedObje
     spec = choose_surface_points(spec)   # the levels' surface_points = "auto"
     g = load_gaussians(spec) if g is None else g
     check_object(spec, g)
+    spec = resolve_up_axis(spec, g)      # no up_axis in the scene: the sure guess, said in one line (issue 68)
     # floaters of a whole object are found in the file frame (the rule is scale and rotation free), so that
     # recentring ignores them; a selection is the user's choice of what moves and is kept as it is
     floating = None if spec.select is not None or spec.keep_floaters or spec.static or spec.mesh else \
