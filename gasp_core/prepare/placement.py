@@ -36,7 +36,8 @@ def place(g: Gaussians, spec: ObjectSpec, floating: np.ndarray | None = None) ->
     ``spec.position``; otherwise ``spec.position`` is a plain offset. ``floating`` (bool, shape (n,)) marks
     floaters, which the bounding box leaves out.
     """
-    R = up_rotation(g, spec.up_axis, getattr(spec, "up", None), Path(spec.file).stem)
+    R = up_rotation(g, spec.up_axis, getattr(spec, "up", None), Path(spec.file).stem,
+                    Path(spec.file).parent / "cameras.json")
     if any(getattr(spec, "rotation", (0.0, 0.0, 0.0))):
         R = euler_matrix(spec.rotation) @ R
     s = float(spec.scale)

@@ -13,14 +13,16 @@ import numpy as np
 
 from gasp_core.errors import SceneError
 from gasp_core.gs.gaussians import Gaussians
-from gasp_core.gs.support import UP_SURE, estimate_up, rotation_to_z
+from gasp_core.gs.support import UP_SURE, camera_up, estimate_up, rotation_to_z, with_cameras
 from gasp_core.prepare.placed import UP_ROTATIONS
 
 
-def up_rotation(g: Gaussians, up_axis: str, up=None, name: str = "object") -> np.ndarray:
+def up_rotation(g: Gaussians, up_axis: str, up=None, name: str = "object", cameras: Path | None = None) -> np.ndarray:
     """The rotation (3, 3) taking the file's up to world +z: ``up`` a vector (3,) in the file frame, any
-    direction (:func:`rotation_to_z`); ``"auto"`` the up vector of :func:`estimate_up`; None the signed axis
-    ``up_axis`` (``UP_ROTATIONS``, :mod:`gasp_core.prepare.placed`).
+    direction (:func:`rotation_to_z`); ``"auto"`` the up vector of :func:`estimate_up`, checked against the
+    capture's cameras where ``cameras`` (a graphdeco ``cameras.json``) exists (:func:`with_cameras`: they confirm
+    it, veto it, or decide alone when upright); None the signed axis ``up_axis`` (``UP_ROTATIONS``,
+    :mod:`gasp_core.prepare.placed`).
 
     Raises
     ------
@@ -32,6 +34,8 @@ def up_rotation(g: Gaussians, up_axis: str, up=None, name: str = "object") -> np
         return UP_ROTATIONS[up_axis]
     if isinstance(up, str):
         e = estimate_up(g)
+        if cameras is not None and Path(cameras).is_file():
+            e = with_cameras(e, camera_up(cameras))
         if e.up is None:
             lean = ("" if e.lean is None else
                     f"; the best candidate plane's normal is {np.round(e.lean.normal, 3).tolist()} (not a verdict)")
