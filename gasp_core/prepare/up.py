@@ -6,6 +6,7 @@
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import warnings
 from pathlib import Path
 
@@ -45,6 +46,10 @@ def up_rotation(g: Gaussians, up_axis: str, up=None, name: str = "object", camer
     return rotation_to_z(up)
 
 
+#: Guesses of :func:`resolve_up_axis` by file, cameras and a sample of the means (at most 16 kept).
+_GUESSES: dict = {}
+
+
 def resolve_up_axis(spec, g: Gaussians, name: str | None = None):
     """``spec`` (an :class:`~gasp_core.scene.spec.ObjectSpec`) with its up axis settled: unchanged where the scene
     states ``up_axis`` or ``up``; else the axis :func:`gasp_core.gs.up_axis.guess_up` guesses from ``g`` (and a
@@ -58,10 +63,17 @@ def resolve_up_axis(spec, g: Gaussians, name: str | None = None):
     from gasp_core.gs.up_axis import UP_SURE, guess_up
     name = name or Path(spec.file).stem
     cameras = Path(spec.file).parent / "cameras.json"
-    try:
-        u = guess_up(g, cameras)
-    except SceneError:        # a cameras.json that is not one: guessed from the Gaussians alone
-        u = guess_up(g, None)
+    key = (str(spec.file), str(cameras), cameras.is_file() and cameras.stat().st_mtime_ns, g.n,
+           hashlib.sha1(np.ascontiguousarray(g.means[:: max(1, g.n // 4096)]).tobytes()).hexdigest())
+    u = _GUESSES.get(key)
+    if u is None:
+        try:
+            u = guess_up(g, cameras)
+        except SceneError:        # a cameras.json that is not one: guessed from the Gaussians alone
+            u = guess_up(g, None)
+        if len(_GUESSES) >= 16:
+            _GUESSES.pop(next(iter(_GUESSES)))
+        _GUESSES[key] = u         # the same file prepared again (a resume, the studio, the tests): guessed once
     if u.up != "unknown":
         warnings.warn(f"object '{name}': no up_axis in the scene; using the guessed up axis {u.up} (confidence "
                       f"{u.confidence:.2f}: {u.method}, as gasp info says); up_axis = \"{u.up}\" in its [[object]] "
