@@ -80,9 +80,7 @@ class ObjectSpec:
     up_axis : str
         The file's up axis, one of ``+x -x +y -y +z -z``; it is turned to world +z.
     up_axis_stated : bool
-        False where the scene file states neither ``up_axis`` nor ``up``: the object is read with the up axis
-        :func:`gasp_core.gs.up_axis.guess_up` guesses (what ``gasp info`` says) when that guess is sure, else
-        ``+z``, said in one line either way (:func:`gasp_core.prepare.up.resolve_up_axis`). Not a scene key.
+        False where the file states neither ``up_axis`` nor ``up``: :func:`gasp_core.prepare.up.resolve_up_axis`.
     up : None, "auto" or (3,) float
         Replaces ``up_axis``: the file's up as a vector in the file frame, any direction, or ``"auto"`` (the
         support plane of the scan, :mod:`gasp_core.gs.support`; a :class:`SceneError` where it is unsure). It
