@@ -10,9 +10,32 @@ from gasp_core.errors import SceneError
 from gasp_core.gs.io import read_gaussians
 from gasp_core.run.pipeline import simulate_scene
 from gasp_core.scene.spec import load_scene
+from gasp_testing import BUNDLED_EXAMPLES, bundled_examples
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
-SCENES = sorted(p for p in EXAMPLES.glob("*.toml"))
+SCENES = bundled_examples(EXAMPLES)    # the project's own: a user's scene saved beside them is not the suite's
+
+
+def test_bundled_examples_exist():
+    """Every example the tests name is there (one removed or renamed is caught here, not skipped)."""
+    assert len(SCENES) == len(BUNDLED_EXAMPLES) >= 12 and all(p.is_file() for p in SCENES)
+
+
+def test_a_users_half_written_scene_is_not_collected(tmp_path):
+    """Issue 68: the README says to save a scene in examples/, and the suite parsed every file there, so a user's
+    half-written scene failed it. In a copy of examples/ with such a scene added, the suite's list is the bundled
+    examples alone, and each of them parses."""
+    for p in SCENES:
+        (tmp_path / p.name).write_text(p.read_text())
+    (tmp_path / "data").symlink_to(EXAMPLES / "data")
+    stray = tmp_path / "my_scene.toml"
+    stray.write_text('frame_dt = 0.0333333\n[[object]]\nfile = "data/donut_v3dg.ply"\n[object.material\nname = "je')
+    with pytest.raises(SceneError):
+        load_scene(stray)                        # the user's scene is half-written: it does not parse
+    listed = bundled_examples(tmp_path)
+    assert stray not in listed and [p.name for p in listed] == [p.name for p in SCENES]
+    for p in listed:
+        assert load_scene(p).objects
 
 
 @pytest.mark.parametrize("path", SCENES, ids=[p.stem for p in SCENES])

@@ -194,3 +194,56 @@ def test_scene_reference_example_loads(tmp_path):
     scene = load_scene(tmp_path / "full.toml")
     assert scene.engine.name == "taichi_mpm" and scene.objects[0].material.name == "jelly"
 
+
+
+#: The tests the README's browser-tools line (Chromium, splat-transform, Babylon.js) feeds, by tier (issue 68: the
+#: README did not say that most of them are slow): node ids, a function standing for all its parameters.
+TOOL_TESTS = {
+    "default": ["tests/test_export_page.py::test_small_page_plays_every_frame_as_numpy_decodes_it",
+                "tests/test_export.py::test_splat_transform_writes_the_same_glb_values_as_gasp",
+                "tests/test_formats_splat_transform.py::test_splat_reads_as_in_splat_transform",
+                "tests/test_formats_splat_transform.py::test_ksplat_reads_as_in_splat_transform[0]",
+                "tests/test_formats_splat_transform.py::test_ksplat_reads_as_in_splat_transform[1]"],
+    "slow": ["tests/test_studio_browser.py::test_studio_click_pick_run_watch",
+             "tests/test_view.py::test_view_shows_donut_and_slider_changes_picture",
+             "tests/test_export_page.py::test_exported_page_shows_donut_moving_from_file",
+             "tests/test_live.py::test_the_page_of_a_run_in_progress_says_so_and_shows_the_new_frames",
+             "tests/test_export_browser.py::test_babylon_loads_a_gasp_glb_with_every_splat_and_draws_it",
+             "tests/test_export_browser.py::test_babylon_plays_a_glb_sequence_one_frame_at_a_time",
+             "tests/test_export_browser.py::test_babylon_opens_each_piece_of_a_split_glb_as_its_own_mesh",
+             "tests/test_split_pieces.py::test_the_split_glb_of_a_broken_run_opens_in_babylon_as_a_mesh_per_piece",
+             "tests/test_formats_splat_transform.py::test_every_file_of_a_run_opens_in_splat_transform[spz]",
+             "tests/test_formats_splat_transform.py::test_every_file_of_a_run_opens_in_splat_transform[sog]",
+             "tests/test_formats_splat_transform.py::test_every_file_of_a_run_opens_in_splat_transform[compressed_ply]"]}
+
+
+def test_the_readme_says_which_tests_the_browser_tools_feed():
+    """The README's counts of the tests its browser-tools line feeds are the tiers' own: each listed test exists, is
+    in the tier said (``tests/slow_tier.txt`` or a ``slow`` mark), and every test that looks for Chromium,
+    splat-transform or Babylon.js is listed."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("root_conftest", ROOT / "conftest.py")   # the tiers' own rule
+    tiers = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tiers)
+    _matches, entries = tiers._matches, tiers.slow_entries()
+    readme = README.read_text()
+    assert (f"They feed {len(TOOL_TESTS['default'])} default tests" in readme
+            and f"and {len(TOOL_TESTS['slow'])} slow ones" in readme)
+    listed = {n.split("[")[0] for ids in TOOL_TESTS.values() for n in ids}
+    for tier, ids in TOOL_TESTS.items():
+        for nodeid in ids:
+            path, func = nodeid.split("::")
+            text = (ROOT / path).read_text()
+            assert f"def {func.split('[')[0]}(" in text, nodeid
+            block = text.split(f"def {func.split('[')[0]}(")[0].rsplit("\n\n\n", 1)[-1]
+            slow = any(_matches(nodeid, e) for e in entries) or "@pytest.mark.slow" in block
+            assert slow == (tier == "slow"), (nodeid, tier)
+    needs = re.compile(r"chromium|CHROMIUM|splat.transform|babylon|\bST\b")
+    for f in ["test_export_page.py", "test_export.py", "test_formats_splat_transform.py", "test_studio_browser.py",
+              "test_view.py", "test_live.py", "test_export_browser.py", "test_split_pieces.py"]:
+        text = (ROOT / "tests" / f).read_text()
+        module_wide = re.search(r"pytest\.skip\([^)]*(chromium|splat|babylon)[^)]*allow_module_level", text,
+                                re.I | re.S)
+        for m in re.finditer(r"^(?:@[^\n]*\n)*def (test_\w+)\((.*?)^(?=def |@|\Z)", text, re.M | re.S):
+            if module_wide or needs.search(m.group(0)):
+                assert f"tests/{f}::{m.group(1)}" in listed, f"tests/{f}::{m.group(1)} needs a browser tool"

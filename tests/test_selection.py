@@ -18,6 +18,7 @@ from gasp_core.gs.io import read_gaussians
 from gasp_core.gs.splatv import read_splatv, splatv_at
 from gasp_core.prepare.scene import prepare_scene
 from gasp_core.run.pipeline import simulate_scene
+from gasp_core.prepare.dynamic import still_rows
 from gasp_core.prepare.placement import prepare_object
 from gasp_core.scene.spec import load_scene, parse_scene
 from gasp_core.prepare.selection import grow_selection, static_splats
@@ -311,14 +312,14 @@ def test_kitchen_two_frames(tmp_path):
     needs_package("gasp_taichi_mpm")
     data = tomllib.loads(KITCHEN.read_text())
     data["domain"]["n_grid"] = 16
-    data["domain"]["lo"][2], data["domain"]["hi"][2] = -0.75, -0.20  # 3 coarse cells below the lowest point
     data["engine"]["options"] = {"threads": 1}
     scene = parse_scene(data, KITCHEN)
     res = simulate_scene(scene, tmp_path / "out", n_frames=2, quiet=True)
     run = res.summary
     assert (run["n_gaussians"], run["n_selected"], run["n_static"]) == (62442, 351, 62091)
     assert run["n_render_points"] == 3 * 351 and run["n_points"] < 0.1 * 3 * 62442
-    rows = prepare_object(scene.objects[0]).moving
+    o = prepare_object(scene.objects[0])
+    rows, still = o.moving, still_rows(o)       # the still rows keep their opacity at s (issue 68)
     static = np.ones(62442, bool)
     static[rows] = False
     frames = [vertex(tmp_path / "out" / "spinach_4" / f"frame_{i:04d}.ply") for i in range(3)]
@@ -328,9 +329,11 @@ def test_kitchen_two_frames(tmp_path):
         psi = splatv_at(*model, 0.5 + k * scene.frame_dt)
         for j, axis in enumerate("xyz"):
             assert np.array_equal(f[axis][static], psi.means[static, j].astype(np.float32)), (k, axis)
-        # opacity as alpha: a logit of -738 (alpha 1e-321, subnormal) reads -40 where the CPU flushes subnormals
-        assert np.allclose(expit(f["opacity"][static].astype(np.float64)), expit(psi.opacities[static]), rtol=1e-6,
-                           atol=1e-12)
+        # opacity as alpha: a logit of -738 (alpha 1e-321, subnormal) reads -40 where the CPU flushes subnormals;
+        # the still rows keep psi(V, s)'s (issue 68)
+        alpha = np.where(still, expit(splatv_at(*model, 0.5).opacities), expit(psi.opacities))
+        assert np.allclose(expit(f["opacity"][static].astype(np.float64)), alpha[static], rtol=1e-6, atol=1e-12)
+        assert 0.75 * static.sum() < (still & static).sum() < static.sum()
         if k:
             assert not np.array_equal(f["x"][static], frames[0]["x"][static])
     dz = frames[2]["z"][rows].astype(np.float64) - frames[0]["z"][rows]

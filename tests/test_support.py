@@ -99,13 +99,13 @@ def test_the_donut_is_found_under_rotations_and_the_judge_catches_broken_estimat
 @pytest.mark.parametrize("name", list(CAPTURES))
 def test_each_capture_under_20_rotations(name):
     """Each bundled real capture under 20 random rotations (seed 54): within 3 degrees or unsure, never sure and
-    wrong. Figures (docs/info.md): the donut sure 20 of 20 (0.6 degrees off); the guitar, the kitchen and the
-    train unsure 20 of 20."""
+    wrong. Figures (docs/info.md): the donut sure 20 of 20 (0.6 degrees off); the guitar sure 20 of 20 from its own
+    axes (issue 68: unsure 20 of 20 before); the kitchen and the train unsure 20 of 20."""
     path, truth = CAPTURES[name]
     g = _load(path)
     bad, sure = judge([_ours(_turned(g, R)) for R in ROTATIONS], truth, ROTATIONS)
     assert not bad, bad
-    assert sure == (20 if name == "donut" else 0)
+    assert sure == (20 if name in ("donut", "guitar") else 0)
 
 
 def test_rotation_to_z_is_the_shortest_proper_turn():

@@ -18,12 +18,8 @@ import numpy as np
 from gasp_core.errors import EngineError, GaspError, missing_module_message
 from gasp_core.fsutil import atomic_path
 from gasp_core.gs.ply import SH_C0
-from gasp_core.run.budget import duration_text
+from gasp_core.run.budget import CPU_RATE, duration_text   # CPU_RATE: the rate the time is estimated at
 
-#: Point-substeps a second at which the time is estimated: the README donut on a 2-core CPU (65,036 points,
-#: 94 substeps a frame, 36 frames in about 44 s with the kernels' compilation: docs/performance.md). A rate, not a
-#: promise: a GPU is 10-100 times faster, a loaded machine slower.
-CPU_RATE = 5e6
 #: At most this many Gaussians drawn per object and per kind (moving, rest), chosen evenly.
 MAX_DRAWN = 40_000
 

@@ -4,7 +4,7 @@
 the normal of the **support plane**, found without reference to the file's axes (so it follows the geometry under
 any rotation):
 
-1. **Flat Gaussians** (min / max scale < :data:`FLAT_RATIO`, floaters left out,
+1. **Flat Gaussians** (min / max scale < :data:`gasp_core.gs.flat.FLAT_RATIO`, floaters left out,
    :func:`gasp_core.maps.floaters.find_floaters`) each give a point (``means``) and a normal (the thin axis).
 2. **Planes, by a seeded vote** (RANSAC with one-point hypotheses, Fischler & Bolles 1981): each of
    :data:`N_SEEDS` flat Gaussians, drawn with a fixed seed, proposes the plane through its mean along its normal;
@@ -21,20 +21,27 @@ any rotation):
    support holding less than :data:`MIN_SHARE`) the answer is **unsure**: ``up`` is None and ``lean`` the best
    candidate.
 
+6. **The object's own axes** (issue 68; :func:`gasp_core.gs.object_up.object_up`): an object capture without a floor (SuperSplat,
+   Polycam, Scaniverse) still has a base. Each end of each principal axis is a candidate, moved to the plane of
+   the flat splats it would stand on (the support polygon's plane, :func:`~gasp_core.gs.object_up.base_plane`); the object turned so that
+   the candidate is +z, the cues of :mod:`gasp_core.gs.up_axis` (flat base facing down, support slab at one end,
+   the long axis of an upright figure) must say +z, the support slab and another cue among them. Where the
+   support plane of step 3 is sure too, the two must agree within ``AGREE`` (10) degrees, else unsure.
+
 A scene slice (a room seen from inside: content on both sides of every plane) has no support and comes out
-unsure; so does a standing guitar, whose largest planes are its faces. Figures on the bundled files:
-``docs/info.md``.
+unsure. A standing guitar, whose largest planes are its faces, has no sure support plane but its own axes find
+its base (1.9 degrees off under any rotation). Figures on the bundled files: ``docs/info.md``.
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 
-from gasp_core.gs.gaussians import Gaussians, quat_to_rotmat
+from gasp_core.gs.flat import flat_normals
+from gasp_core.gs.gaussians import Gaussians
 
-#: A Gaussian is flat (it has a normal) when its smallest scale is below this share of its largest.
-FLAT_RATIO = 0.2
 #: Plane tolerance: inlier distance, times the robust diagonal (1st to 99th percentile box of the means).
 PLANE_TOL = 0.005
 #: Inlier normals within this many degrees of the plane's.
@@ -87,21 +94,6 @@ class UpEstimate:
     figures: str
 
 
-def flat_normals(g: Gaussians, keep: np.ndarray | None = None):
-    """Rows, means (m, 3), unit normals (m, 3) and opacity weights (m,) of the flat Gaussians of ``g`` among
-    the rows ``keep`` (bool, shape (n,); all when None)."""
-    s = g.scales.astype(np.float64)
-    flat = s.min(axis=1) < FLAT_RATIO * s.max(axis=1)
-    if keep is not None:
-        flat &= keep
-    rows = np.flatnonzero(flat)
-    R = quat_to_rotmat(g.rotations[rows]).astype(np.float64)
-    normal = R[np.arange(len(rows)), :, np.argmin(s[rows], axis=1)]
-    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
-    w = 1.0 / (1.0 + np.exp(-np.clip(g.opacities[rows].astype(np.float64), -50.0, 50.0)))
-    return rows, g.means[rows].astype(np.float64), normal, w
-
-
 def _hypotheses(p, n, w, tol):
     """Score of each seed plane (through ``p[j]`` along ``n[j]``): opacity-weighted inlier share."""
     rng = np.random.default_rng(SEED)
@@ -127,7 +119,10 @@ def _refine(p, n, w, normal, offset, tol):
 
 
 def estimate_up(g: Gaussians) -> UpEstimate:
-    """The up vector and support plane of ``g`` (module notes), frame-free.
+    """The up vector and support plane of ``g`` (module notes), frame-free: the support plane of the scan
+    (:func:`support_up`) and, for an object capture without a floor, its base found from its own axes
+    (:func:`gasp_core.gs.object_up.object_up`, issue 68). Where both are sure they must agree within ``AGREE``
+    degrees (the support plane's answer stands), else the answer is unsure; where only one is sure, it decides.
 
     Parameters
     ----------
@@ -139,8 +134,39 @@ def estimate_up(g: Gaussians) -> UpEstimate:
     UpEstimate
         ``up`` unit (3,) float64 or None (unsure), ``confidence``, ``plane``, ``lean``, ``figures``.
     """
+    from gasp_core.gs.object_up import AGREE, base_plane, object_up
     from gasp_core.maps.floaters import find_floaters
     body = ~find_floaters(g.means, g.scales.max(axis=1)) if g.n > 1 else np.ones(g.n, dtype=bool)
+    e = support_up(g, body)
+    if e.figures.endswith("too few to fit a plane"):
+        return e
+    try:
+        up, conf, _, said = object_up(g, body)
+    except (np.linalg.LinAlgError, ValueError) as err:     # degenerate geometry (all on a line, non-finite)
+        up, conf, said = None, 0.0, f"none ({err})"
+    figures = e.figures + "; object axes: " + said
+    if up is None:
+        return dataclasses.replace(e, figures=figures)
+    if e.up is not None:
+        angle = float(np.degrees(np.arccos(np.clip(e.up @ up, -1.0, 1.0))))
+        if angle <= AGREE:
+            return dataclasses.replace(e, figures=figures + f"; the two agree ({angle:.1f} deg)")
+        return UpEstimate(None, 0.0, None, e.lean, figures + f"; the support plane and the object's base disagree "
+                          f"by {angle:.1f} deg: unsure")
+    d, k, offset = base_plane(g, up, body)
+    if d is None:
+        d, offset = up, float(np.min(g.means[body] @ up))
+    xb = g.means[body].astype(np.float64)
+    lo, hi = np.quantile(xb, [0.01, 0.99], axis=0)
+    tol = PLANE_TOL * float(np.linalg.norm(hi - lo))
+    below = float(np.mean(xb @ d - offset < -tol))
+    plane = SupportPlane(d, offset, k / max(len(flat_normals(g, body)[0]), 1), below)
+    return UpEstimate(d, conf, plane, plane, figures + ": the object's base decides")
+
+
+def support_up(g: Gaussians, body: np.ndarray) -> UpEstimate:
+    """The up vector and support plane of ``g`` from the support plane of the scan alone (module notes, steps 1-3
+    and 5), frame-free; ``body`` (bool, (n,)) the rows that are not floaters."""
     rows, p, n, w = flat_normals(g, body)
     if len(rows) < 10:
         return UpEstimate(None, 0.0, None, None, f"{len(rows)} flat Gaussians: too few to fit a plane")
@@ -250,4 +276,3 @@ def rotation_to_z(up) -> np.ndarray:
     v = np.array([u[1], -u[0], 0.0])             # u x z
     K = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
     return np.eye(3) + K + K @ K / (1.0 + c)
-

@@ -68,6 +68,9 @@ def support_height(o: PreparedObject) -> tuple[float, str]:
         raise SceneError(f"object '{o.name}': its support plane is tilted {tilt:.1f} degrees from its placed up "
                          f"(at most {MAX_TILT:g}): use up = \"auto\", or state the ground's height")
     rows = plane_rows(g, e.plane)
+    if not len(rows):       # an object's base (issue 68) whose splats are tilted more than plane_rows takes
+        raise SceneError(f"object '{o.name}': ground height = \"auto\": no flat Gaussian lies on its support "
+                         f"plane ({e.figures}); state the ground's height")
     return float(np.median(x[rows, 2])), f"the support plane's {len(rows)} flat Gaussians"
 
 

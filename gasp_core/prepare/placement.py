@@ -23,7 +23,7 @@ from gasp_core.prepare.placed import Placement, PreparedObject, euler_matrix
 from gasp_core.scene.spec import ObjectSpec
 from gasp_core.prepare.selection import flat_world, moving_rows
 from gasp_core.prepare.surface import choose_surface_points
-from gasp_core.prepare.up import up_rotation
+from gasp_core.prepare.up import resolve_up_axis, up_rotation
 
 __all__ = ["place", "load_gaussians", "prepare_object", "drop_floaters"]
 
@@ -36,7 +36,8 @@ def place(g: Gaussians, spec: ObjectSpec, floating: np.ndarray | None = None) ->
     ``spec.position``; otherwise ``spec.position`` is a plain offset. ``floating`` (bool, shape (n,)) marks
     floaters, which the bounding box leaves out.
     """
-    R = up_rotation(g, spec.up_axis, getattr(spec, "up", None), Path(spec.file).stem)
+    R = up_rotation(g, spec.up_axis, getattr(spec, "up", None), Path(spec.file).stem,
+                    Path(spec.file).parent / "cameras.json")
     if any(getattr(spec, "rotation", (0.0, 0.0, 0.0))):
         R = euler_matrix(spec.rotation) @ R
     s = float(spec.scale)
@@ -78,6 +79,7 @@ def prepare_object(spec: ObjectSpec, g: Gaussians | None = None) -> PreparedObje
     spec = choose_surface_points(spec)   # the levels' surface_points = "auto"
     g = load_gaussians(spec) if g is None else g
     check_object(spec, g)
+    spec = resolve_up_axis(spec, g)      # no up_axis in the scene: the sure guess, said in one line (issue 68)
     # floaters of a whole object are found in the file frame (the rule is scale and rotation free), so that
     # recentring ignores them; a selection is the user's choice of what moves and is kept as it is
     floating = None if spec.select is not None or spec.keep_floaters or spec.static or spec.mesh else \

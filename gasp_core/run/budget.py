@@ -22,6 +22,35 @@ NOTE_S = 600.0
 MAX_S = 24 * 3600.0
 #: Point-substeps per second taken as the fastest any engine runs (for the refusal before the first frame).
 FAST_RATE = 1e9
+#: Point-substeps a second of the 2-core CPU the project is measured on: the README donut (65,036 points, 69
+#: substeps a frame, 36 frames in 44 s on a quiet machine, kernels cached: README; 5e6 until issue 68, taken when it
+#: ran 94 substeps, estimated it at 32 s). What ``gasp place`` and ``gasp simulate`` estimate a run's time at before
+#: it starts: a rate, not a promise (a GPU is 10-100 times faster, a loaded machine slower: the quick start took
+#: 61 s at load 1, 193 s at load 5-7; a first run adds its kernels' compilation, frame 1: 16.7 s).
+CPU_RATE = 3.7e6
+#: What ``gasp simulate`` says of the time before it starts (the line after the bytes it writes, issue 68).
+TAKES = ("gasp: the run takes about {time} on a 2-core CPU ({points:,} points x {substeps} substeps x {frames} "
+         "frames at {rate:.2g} point-substeps/s, docs/performance.md; a GPU is 10-100 times faster{load})")
+
+
+def start_estimate(points: int, n_substeps: int | None, frames: int, load: tuple | None = None) -> dict | None:
+    """The time a run of ``frames`` frames of ``points`` points at ``n_substeps`` substeps a frame takes at
+    :data:`CPU_RATE`: ``{"points", "n_substeps", "frames", "work", "seconds", "line"}`` (``line`` :data:`TAKES`),
+    None where the substeps are not known before the engine runs. ``load``: (1-minute load, cores) of this machine;
+    a load above the cores is said (the run takes longer)."""
+    if n_substeps is None or points <= 0 or frames <= 0:
+        return None
+    work = float(points) * float(n_substeps) * float(frames)
+    seconds = work / CPU_RATE
+    note = ""
+    if load is not None and load[1] and load[0] > load[1]:
+        note = f"; this machine's load is {load[0]:.1f} on {load[1]} cores: longer"
+    line = TAKES.format(time=duration_text(seconds), points=int(points), substeps=int(n_substeps), frames=int(frames),
+                        rate=CPU_RATE, load=note)
+    return {"points": int(points), "n_substeps": int(n_substeps), "frames": int(frames), "work": work,
+            "seconds": seconds, "line": line}
+
+
 #: Runs asking for more point-substeps than this say so before their first frame: minutes to hours on a CPU
 #: engine (about 1e6 to 1e8 point-substeps/s; the README donut asks for about 1e9, the guitar at
 #: ``n_grid = 200``, ``particles_per_cell = 64`` for 7e9).

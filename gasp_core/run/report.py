@@ -63,11 +63,14 @@ class Reporter:
         self.events.append(event)
 
     def start(self, engine: str, n_frames: int, first_frame: int = 0, output_bytes: int | None = None,
-              layout: str | None = None) -> None:
+              layout: str | None = None, estimate: dict | None = None) -> None:
         """The frames begin: ``first_frame`` is done already (a resumed run), ``n_frames`` is the last;
-        ``output_bytes`` the bytes the run will write in its ``layout`` (None: not known for the format)."""
+        ``output_bytes`` the bytes the run will write in its ``layout`` (None: not known for the format);
+        ``estimate`` the time it takes (:func:`gasp_core.run.budget.start_estimate`; its ``seconds`` become the
+        event's ``estimate_s``)."""
         event = {"event": "start", "engine": engine, "n_frames": n_frames, "first_frame": first_frame,
-                 "output_bytes": output_bytes, "layout": layout}
+                 "output_bytes": output_bytes, "layout": layout,
+                 "estimate_s": None if estimate is None else round(estimate["seconds"], 3)}
         self.emit({k: v for k, v in event.items() if v is not None})
 
     def frame(self, frame: int, wall_s: float, sim_s: float | None = None, n_substeps: int | None = None) -> None:
@@ -113,14 +116,16 @@ class ConsoleReporter(Reporter):
         """Nothing is kept: the console has shown it."""
 
     def start(self, engine: str, n_frames: int, first_frame: int = 0, output_bytes: int | None = None,
-              layout: str | None = None) -> None:
-        """Say that the engine builds and what the run will write (with ``progress``), and open the progress bar,
-        named after the engine."""
+              layout: str | None = None, estimate: dict | None = None) -> None:
+        """Say that the engine builds, what the run will write and how long it takes (with ``progress``), and open
+        the progress bar, named after the engine."""
         if self.progress:
             from tqdm import tqdm
             print(BUILDING.format(engine=engine), file=sys.stderr, flush=True)
             if output_bytes is not None:
                 print(WRITES.format(size=output_bytes / 1e6, layout=layout), file=sys.stderr, flush=True)
+            if estimate is not None:
+                print(estimate["line"], file=sys.stderr, flush=True)
             self._first = (engine, first_frame + 1, time.perf_counter())
             self._bar = tqdm(total=n_frames, initial=first_frame, unit="frame", desc=engine, leave=True)
 

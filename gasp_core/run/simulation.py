@@ -165,6 +165,24 @@ class SimulationRun:
             name = getattr(scene, "name", None) or "run"
             export_run(self.tmp, self.fmt, self.tmp / f"{name}{registry.get(self.fmt).suffix}", into_run=True)
 
+    def time_estimate(self, frames: int) -> dict | None:
+        """How long the ``frames`` frames left take at :data:`gasp_core.run.budget.CPU_RATE`
+        (:func:`~gasp_core.run.budget.start_estimate`), from the engine's step rule as ``gasp place`` reads it;
+        None where the engine has none or it refuses the setup (the engine says why when it is built)."""
+        import os
+        from gasp_core.errors import GaspError
+        from gasp_core.run.budget import start_estimate
+        info, setup = self.prep.info, self.prep.setup
+        try:
+            n_sub = None if info.substeps is None else int(info.substeps(setup))
+        except (GaspError, ValueError, TypeError, ZeroDivisionError, OverflowError):
+            n_sub = None
+        try:
+            load = (os.getloadavg()[0], os.cpu_count())
+        except OSError:
+            load = None
+        return start_estimate(len(setup.x), n_sub, frames, load)
+
     # ---------------------------------------------------------------- the frames
     def write_frames(self, on_frame: Callable[[int, list[Gaussians]], None] | None) -> float:
         """Frame 0 handed to the writer, the engine built (its work checked, :meth:`before_frames`), then every frame
@@ -174,8 +192,9 @@ class SimulationRun:
         the next frame; after each, for engines with ``state``, a checkpoint.
         """
         prep, checkpoint = self.prep, self.checkpoint
-        self.reporter.start(prep.info.name, self.n_frames, 0 if checkpoint is None else checkpoint.frame,
-                            output_bytes=self.output_bytes, layout=self.layout)
+        first = 0 if checkpoint is None else checkpoint.frame
+        self.reporter.start(prep.info.name, self.n_frames, first, output_bytes=self.output_bytes, layout=self.layout,
+                            estimate=self.time_estimate(self.n_frames - first))
         t_run = time.perf_counter()
         moves = [follows_model(o) for o in prep.objects]   # a dynamic model's background moves: every row, every frame
         writer = FrameWriter(self.tmp, list(prep.names), [o.spec.static and not m for o, m in zip(prep.objects, moves)],

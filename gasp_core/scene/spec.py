@@ -79,6 +79,8 @@ class ObjectSpec:
         Gaussian Splatting file (graphdeco / GaMeS / 2DGS / compressed PLY), relative to the scene file.
     up_axis : str
         The file's up axis, one of ``+x -x +y -y +z -z``; it is turned to world +z.
+    up_axis_stated : bool
+        False where the file states neither ``up_axis`` nor ``up``: :func:`gasp_core.prepare.up.resolve_up_axis`.
     up : None, "auto" or (3,) float
         Replaces ``up_axis``: the file's up as a vector in the file frame, any direction, or ``"auto"`` (the
         support plane of the scan, :mod:`gasp_core.gs.support`; a :class:`SceneError` where it is unsure). It
@@ -170,6 +172,7 @@ class ObjectSpec:
     file: Path
     up_axis: str = "+z"
     up: str | tuple[float, float, float] | None = None
+    up_axis_stated: bool = True
     scale: float = 1.0
     recentre: bool = True
     position: tuple[float, float, float] = (0.0, 0.0, 0.0)
@@ -219,7 +222,7 @@ class Scene:
 
 _TOP_KEYS = {"name", "frame_dt", "n_frames", "gravity", "output", "engine", "domain", "boundary", "object",
              "collider", "force", "impulse", "quality", "sleep"}
-_OBJECT_KEYS = ({f.name for f in fields(ObjectSpec)} | set(MESH_KEYS)) - {"velocity_from_model"}
+_OBJECT_KEYS = ({f.name for f in fields(ObjectSpec)} | set(MESH_KEYS)) - {"velocity_from_model", "up_axis_stated"}
 
 
 def _dynamic_time(o: dict, f: Path, where: str, src: Path) -> float | None:
@@ -286,6 +289,7 @@ def _object(o: dict, where: str, src: Path) -> ObjectSpec:
     return ObjectSpec(
         file=f, alpha=alpha, mesh=mesh,
         up_axis=get("up_axis", as_string, UP_AXES), up=_up(o, where, src),
+        up_axis_stated="up_axis" in o or "up" in o,
         scale=get("scale", as_number, *SCALE_RANGE),
         recentre=get("recentre", as_boolean),
         position=get("position", as_vec3, max_abs=MAX_COORD, unit=" m"),

@@ -1,0 +1,50 @@
+"""Issue 68: nothing warned that a run would take minutes. ``gasp simulate`` says how long a run takes before it
+starts, on the line after the bytes it writes: points x substeps x frames at the 2-core CPU's measured rate
+(``gasp_core.run.budget.CPU_RATE``, the README donut: 65,036 points x 69 substeps x 36 frames in 44 s)."""
+import json
+import re
+
+import pytest
+
+from gasp_core.cli.main import main
+from gasp_core.run.budget import CPU_RATE, start_estimate
+from gasp_testing import scene_text
+
+
+def test_the_readme_donut_is_estimated_at_its_measured_44_s():
+    e = start_estimate(65_036, 69, 36)
+    assert e["seconds"] == pytest.approx(44.0, abs=1.0) and e["work"] == 65_036 * 69 * 36
+    assert e["line"] == ("gasp: the run takes about 44 s on a 2-core CPU (65,036 points x 69 substeps x 36 frames at "
+                         "3.7e+06 point-substeps/s, docs/performance.md; a GPU is 10-100 times faster)"), e["line"]
+    assert "load is 5.5 on 2 cores: longer" in start_estimate(65_036, 69, 36, load=(5.5, 2))["line"]
+    assert "load" not in start_estimate(65_036, 69, 36, load=(1.5, 2))["line"]
+    assert start_estimate(65_036, None, 36) is None            # no step rule before the engine runs: no figure
+    assert start_estimate(10, 5, 3)["seconds"] == pytest.approx(150 / CPU_RATE)
+
+
+def test_gasp_simulate_says_the_time_after_the_bytes(donut_small, write_scene, tmp_path, capsys):
+    pytest.importorskip("gasp_taichi_mpm")
+    path = write_scene(scene_text(donut_small, n_frames=2))
+    out = tmp_path / "out"
+    assert main(["simulate", str(path), "-o", str(out)]) == 0
+    err = capsys.readouterr().err.splitlines()
+    writes = [i for i, line in enumerate(err) if line.startswith("gasp: the run writes about")]
+    assert len(writes) == 1, err
+    takes = err[writes[0] + 1]
+    m = re.match(r"gasp: the run takes about (.+) on a 2-core CPU \(([\d,]+) points x (\d+) substeps x (\d+) frames",
+                 takes)
+    assert m, takes
+    run = json.loads((out / "run.json").read_text())
+    points, substeps = int(m.group(2).replace(",", "")), int(m.group(3))
+    assert points == run["n_points"], (points, run["n_points"])
+    assert substeps == run["engine_stats"]["n_substeps"], (substeps, run["engine_stats"])
+    assert int(m.group(4)) == 2
+
+
+def test_the_json_start_event_carries_the_estimate(donut_small, write_scene, tmp_path, capsys):
+    pytest.importorskip("gasp_taichi_mpm")
+    path = write_scene(scene_text(donut_small, n_frames=1))
+    assert main(["simulate", str(path), "-o", str(tmp_path / "out"), "--json"]) == 0
+    events = [json.loads(line) for line in capsys.readouterr().out.splitlines() if line.startswith("{")]
+    (start,) = [e for e in events if e["event"] == "start"]
+    assert start["estimate_s"] > 0
