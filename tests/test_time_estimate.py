@@ -15,7 +15,7 @@ def test_the_readme_donut_is_estimated_at_its_measured_44_s():
     e = start_estimate(65_036, 69, 36)
     assert e["seconds"] == pytest.approx(44.0, abs=1.0) and e["work"] == 65_036 * 69 * 36
     assert e["line"] == ("gasp: the run takes about 44 s on a 2-core CPU (65,036 points x 69 substeps x 36 frames at "
-                         "3.7e+06 point-substeps/s, docs/performance.md; a GPU is 10-100 times faster)"), e["line"]
+                         "3.7e+06 point-substeps/s, docs/performance.md; an H100 ran 11-40 times faster)"), e["line"]
     assert "load is 5.5 on 2 cores: longer" in start_estimate(65_036, 69, 36, load=(5.5, 2))["line"]
     assert "load" not in start_estimate(65_036, 69, 36, load=(1.5, 2))["line"]
     assert start_estimate(65_036, None, 36) is None            # no step rule before the engine runs: no figure

@@ -25,12 +25,12 @@ FAST_RATE = 1e9
 #: Point-substeps a second of the 2-core CPU the project is measured on: the README donut (65,036 points, 69
 #: substeps a frame, 36 frames in 44 s on a quiet machine, kernels cached: README; 5e6 until issue 68, taken when it
 #: ran 94 substeps, estimated it at 32 s). What ``gasp place`` and ``gasp simulate`` estimate a run's time at before
-#: it starts: a rate, not a promise (a GPU is 10-100 times faster, a loaded machine slower: the quick start took
+#: it starts: a rate, not a promise (an H100 ran 11-40 times faster, a loaded machine slower: the quick start took
 #: 61 s at load 1, 193 s at load 5-7; a first run adds its kernels' compilation, frame 1: 16.7 s).
 CPU_RATE = 3.7e6
 #: What ``gasp simulate`` says of the time before it starts (the line after the bytes it writes, issue 68).
 TAKES = ("gasp: the run takes about {time} on a 2-core CPU ({points:,} points x {substeps} substeps x {frames} "
-         "frames at {rate:.2g} point-substeps/s, docs/performance.md; a GPU is 10-100 times faster{load})")
+         "frames at {rate:.2g} point-substeps/s, docs/performance.md; an H100 ran 11-40 times faster{load})")
 
 
 def start_estimate(points: int, n_substeps: int | None, frames: int, load: tuple | None = None) -> dict | None:

@@ -29,9 +29,10 @@ from gasp_core.prepare.scene import input_files
 
 CHECKPOINT = ".gasp-checkpoint.npz"
 #: A run checkpoints every frame while an engine's state takes at most this many bytes, and every
-#: ``ceil(bytes / CHECKPOINT_BYTES)`` frames beyond (a 16M-point body's 1.6 GB every 7th frame, not every one:
-#: issue 65); ``GASP_CHECKPOINT_MB`` in the environment sets it (MB).
-CHECKPOINT_BYTES = 256 << 20
+#: ``ceil(bytes / CHECKPOINT_BYTES)`` frames beyond (issue 65: 2M points' 200 MB took 1.7-2.3 s a frame to write on
+#: 2 cores, now every 4th frame; a 16M-point body's 1.6 GB every 25th); ``GASP_CHECKPOINT_MB`` in the environment
+#: sets it (MB).
+CHECKPOINT_BYTES = 64 << 20
 
 
 def checkpoint_every(state: dict) -> int:
