@@ -1,0 +1,144 @@
+"""Correctness on a lent GPU (issue 65), in one short device call: what the CPU cannot show of taichi_mpm's CUDA path.
+
+1. The GPU schedule's primitives on CUDA: a fixed-tree slice sum repeats bit for bit over three runs and equals a
+   float64 sum; the compaction gives the lists of a serial walk in node order.
+2. A rigid block on a slope (tests/test_rigid_slope.py's scene) on CUDA: its acceleration against Coulomb's closed form
+   where it slides, its travel where it sticks (the rigid bodies' GPU-schedule sums and the slide brake on CUDA).
+3. The README donut with ``device = "auto"`` twice, 3 frames each: the device ``auto`` chose, and how far two runs'
+   positions differ (the atomic P2G: CUDA runs are not bit-repeatable; ``deterministic`` stays ``{"cpu"}``).
+
+Writes ``gpu_checks.json`` to ``--out``. (No ``from __future__ import annotations`` here: Taichi reads the kernels'
+annotations as types.) Usage on the device (``../shared/device``)::
+
+    bash .device/setup.sh && PYTHONPATH=/tmp/site python3 benchmarks/gpu_checks.py --out $OUT
+"""
+import argparse
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def primitives(device: str) -> dict:
+    import taichi as ti
+    ti.init(arch=ti.cuda if device == "cuda" else ti.cpu, offline_cache=False)
+    from gasp_taichi_mpm.schedule.primitives import BoxCompaction, SliceSums
+
+    @ti.data_oriented
+    class Sums:
+        def __init__(self, n, r):
+            self.s = SliceSums(n, r)
+
+        @ti.kernel
+        def reduce(self, n: ti.i32):
+            self.s.reduce(n)
+
+    rng = np.random.default_rng(65)
+    n = 400_000
+    part = rng.normal(size=(n, 19)) * 10.0 ** rng.integers(-6, 6, size=(n, 1))
+    k = Sums(n, 19)
+    k.s.part.from_numpy(part)
+    outs = []
+    for _ in range(3):
+        k.reduce(n)
+        outs.append(k.s.out.to_numpy().copy())
+    rel = float(np.max(np.abs(outs[0] - part.sum(0)) / np.abs(part).sum(0)))
+
+    @ti.data_oriented
+    class Flags:
+        def __init__(self, flags):
+            ng = flags.shape[0]
+            self.f = ti.field(ti.i32, shape=flags.shape)
+            self.f.from_numpy(flags.astype(np.int32))
+            self.a = ti.Vector.field(3, ti.i32, shape=ng ** 3)
+            self.comp = BoxCompaction(self, ng, (self.a,))
+
+        @ti.func
+        def listed(self, I, q: ti.template()):
+            return self.f[I] == 1
+
+        @ti.func
+        def overflow(self, I, q: ti.template()):
+            pass
+
+        @ti.kernel
+        def run(self, lo: ti.types.vector(3, ti.i32), ext: ti.types.vector(3, ti.i32)):
+            self.comp.run(lo, ext)
+
+    flags = rng.integers(0, 2, size=(64, 64, 64))
+    c = Flags(flags)
+    c.run(ti.Vector([3, 5, 7]), ti.Vector([50, 40, 45]))
+    want = np.argwhere(flags[3:53, 5:45, 7:52] == 1) + np.array([3, 5, 7])
+    got = c.a.to_numpy()[:len(want)]
+    return {"slice_sums_alike_3_runs": all(np.array_equal(outs[0], o) for o in outs[1:]),
+            "slice_sums_rel_error": rel, "compaction_is_the_serial_walk": bool(np.array_equal(got, want)
+                                                                              and c.comp.count[0] == len(want))}
+
+
+def slope(device: str) -> dict:
+    sys.path.insert(0, str(ROOT / "tests"))
+    import test_rigid_slope as rs
+    out = {}
+    make = rs.block_setup
+
+    def on_cuda(theta, mu):
+        s = make(theta, mu)
+        s.options = {**(s.options or {}), "device": device}
+        return s
+    rs.block_setup = on_cuda
+    for theta, mu in ((30, 0.3), (30, 0.2), (15, 0.4)):
+        fig = rs.measure("taichi_mpm", theta, mu)
+        out[f"{theta}deg_mu{mu}"] = {"figure": fig, "closed_form": rs.closed_form(theta, mu),
+                                     "problem": rs.check(theta, mu, fig)}
+    return out
+
+
+def donut_twice(device: str) -> dict:
+    from gasp_core.prepare.scene import prepare_scene
+    from gasp_core.scene.spec import load_scene
+    from gasp_core.seam.runner import RunStats, run_engine
+    src = ROOT / "examples" / "donut_jelly.toml"
+    text = src.read_text().replace('file = "data/', f'file = "{src.parent}/data/') + \
+        f'\n[engine.options]\ndevice = "{"auto" if device == "cuda" else device}"\n'
+    xs, device = [], None
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "donut_auto.toml"
+        path.write_text(text)
+        for _ in range(2):
+            prep = prepare_scene(load_scene(path), "taichi_mpm")
+            stats = RunStats()
+            for rec in run_engine(prep.info, prep.setup, 3, stats):
+                last = rec.x
+            xs.append(last)
+            device = stats.engine.get("device")
+    d = np.linalg.norm(xs[0] - xs[1], axis=1)
+    return {"device_auto_chose": device, "two_runs_max_dx": float(d.max() / prep.setup.dx),
+            "two_runs_alike": bool(np.array_equal(xs[0], xs[1]))}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
+    ap.add_argument("--device", default="cuda", choices=("cuda", "cpu"), help="cpu: a smoke run of the script")
+    a = ap.parse_args(argv)
+    a.out.mkdir(parents=True, exist_ok=True)
+    doc = {}
+    for name, fn in (("primitives", primitives), ("slope", slope), ("donut_auto", donut_twice)):
+        t0 = time.perf_counter()
+        try:
+            doc[name] = fn(a.device)
+        except Exception as e:   # one failed check is reported, the others still run
+            doc[name] = {"error": f"{type(e).__name__}: {e}"}
+        doc[name]["wall_s"] = round(time.perf_counter() - t0, 1)
+        print(name, json.dumps(doc[name]), flush=True)
+    (a.out / "gpu_checks.json").write_text(json.dumps(doc, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
