@@ -26,7 +26,7 @@ def test_every_default_is_declared_once_and_lies_in_its_range():
         assert getattr(Material(), key) == p.default, key
         assert in_range(p.default, p.lo, p.hi, p.lo_open, p.hi_open), key
         assert p.doc and "\n" not in p.doc, key
-    assert {f.name for f in dataclasses.fields(Material)} == {"name", "model", "restitution"} | set(MATERIAL_PARAMS)
+    assert {f.name for f in dataclasses.fields(Material)} == {"name", "model", "restitution", "friction"} | set(MATERIAL_PARAMS)
     used = {k for kind in MATERIAL_KINDS.values() for k in kind.keys}
     assert used == set(MATERIAL_PARAMS), "every parameter is used by some material and every key is declared"
 

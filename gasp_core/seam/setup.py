@@ -5,9 +5,8 @@ object into this frame before the engine sees it and converts the result back.
 """
 from __future__ import annotations
 
-import math
-
 import dataclasses
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -117,6 +116,7 @@ class Material:
     fracture_energy: float = MATERIAL_PARAMS["fracture_energy"].default
     model: str = "auto"
     restitution: float | None = None
+    friction: float | None = None   # Coulomb's against another soft body (no scene key yet): fields.body_friction
 
     @staticmethod
     def expected(key: str, value) -> str | None:
@@ -139,8 +139,9 @@ class Material:
                 raise SceneError(f"{where}.{key} = {value!r}; expected {expected}")
         if self.model not in BODY_MODELS:
             raise SceneError(f"{where}.model = {self.model!r}; expected one of {', '.join(map(repr, BODY_MODELS))}")
-        if self.restitution is not None and not in_range(self.restitution, 0.0, 1.0):
-            raise SceneError(f"{where}.restitution = {self.restitution!r}; expected a finite number in [0, 1]")
+        for key, val, top in (("restitution", self.restitution, 1.0), ("friction", self.friction, math.inf)):
+            if val is not None and not in_range(val, 0.0, top):
+                raise SceneError(f"{where}.{key} = {val!r}; expected a finite number in [0, {top:g}]")
         if self.model == "rigid" and self.name not in RIGID_KINDS:
             raise SceneError(f"{where}.model = 'rigid' needs an elastic material ({', '.join(RIGID_KINDS)}); "
                              f"{self.name!r} flows or yields")
@@ -396,5 +397,3 @@ class SimSetup:
     def replace(self, **changes) -> "SimSetup":
         """A copy with some fields changed (``dataclasses.replace``)."""
         return dataclasses.replace(self, **changes)
-
-

@@ -59,7 +59,7 @@ TOUCH_FRACTION = 0.9
 #: surface Gaussians 0.06-0.18 dx apart; 0.55 put the lattices within 0.03 dx of touching but left the Gaussians of
 #: the lightest balls 0.41 dx apart).
 SOFT_TOUCH_FRACTION = 0.7
-#: The Coulomb coefficient between two bodies that do not flow (soft on soft: rubber-like jelly on itself).
+#: A soft body's Coulomb coefficient against another body (:func:`body_friction`): rubber-like jelly on itself.
 SOLID_FRICTION = 0.5
 #: A node's mass gradient shorter than this (kg/m, relative to ``m / dx``) gives no normal: the fields move as one.
 MIN_GRADIENT = 1e-6
@@ -100,12 +100,31 @@ def field_friction(setup) -> float:
     """The Coulomb coefficient between the two fields, dimensionless. Flowing bodies: ``tan(phi)`` of their largest
     friction angle (sand: its ``friction_angle``, degrees; the angle of the sand's internal friction taken as its
     friction on the other body's surface); 0 where no flowing body has one (liquid, snow: they slide freely). Two
-    soft bodies (:func:`soft_pair`): :data:`SOLID_FRICTION`."""
+    soft bodies (:func:`soft_pair`): the pair's (:func:`combine_friction` of each body's :func:`body_friction`)."""
     if contact_model(setup) != "mixed":
-        return SOLID_FRICTION
+        mus = [body_friction(m) for m in setup.materials[:2]] or [SOLID_FRICTION]
+        return combine_friction(mus[0], mus[-1])
     flows = flowing_bodies(setup, "mixed")
     angles = [m.friction_angle for m, f in zip(setup.materials, flows) if f and m.name == "sand"]
     return math.tan(math.radians(max(angles))) if angles else 0.0
+
+
+def body_friction(material) -> float:
+    """A body's Coulomb coefficient against another body: its material's ``friction`` where it has one (a setup built
+    in code; no scene key yet), else :data:`SOLID_FRICTION`."""
+    mu = getattr(material, "friction", None)
+    return SOLID_FRICTION if mu is None else float(mu)
+
+
+def combine_friction(mu_a: float, mu_b: float) -> float:
+    """A pair's Coulomb coefficient from its two bodies': the geometric mean ``sqrt(mu_a mu_b)``, Bullet's rule
+    (``btManifoldResult::calculateCombinedFriction``, the friction counterpart of the product that
+    ``gasp_core.toolkit.restitution.combine`` takes from ``calculateCombinedRestitution``; Bullet clamps it to 10).
+    Chosen as the restitution rule is: a body on a body of the same material keeps its own coefficient (an average
+    does too), and a frictionless body (0) slides on anything (an average would not: ice on rubber would take half
+    rubber's coefficient). Other engines average or take the larger; ``docs/rigid.md`` "A block on a block" compares
+    the rules."""
+    return min(math.sqrt(max(float(mu_a), 0.0) * max(float(mu_b), 0.0)), 10.0)
 
 
 def touch_fraction(setup) -> float:

@@ -1,0 +1,143 @@
+"""Issue 67 item 3: an elastic (jelly, E 1e5 Pa) block on a slope slides and sticks as Coulomb says, on both MPM
+engines and both contact models (``[engine.options] contact = "particle"`` and ``"grid"``, ``docs/contact.md``).
+
+The scene is ``tests/test_rigid_slope.py``'s (6 x 6 x 2 cells of fill, 15 x 15 x 5 cm at n_grid 24, on a flat ground
+of friction ``mu``, gravity tilted by ``theta``) with the block elastic: jelly, E 1e5 Pa, nu 0.3, rho 1000,
+``model = "elastic"``. Known answers (Coulomb, a block on its face):
+
+* ``tan theta > mu``: it slides with ``a = g (sin theta - mu cos theta)``, measured as in the rigid test (twice the
+  leading coefficient of a parabola fitted to its centroid's travel from 0.05 s to 0.3 s). Tolerance
+  ``SLIDE_TOL`` = 2.5 %, two-sided: the issue asks 10 %; every sliding case on both engines and both contacts reads
+  within 0.5 % (``docs/rigid.md`` "Elastic blocks on slopes"), and an engine 5 % off must fail.
+* ``tan theta < mu``: it sticks: its centroid moves less than ``STICK_MM`` = 1 mm in 1 s **after the first
+  settle**: from ``SETTLE_T`` = 0.1 s (6 frames) to 1.1 s. The block is put on the ground undeformed and sags
+  into its own weight and the contact's skin in the first frames (0.07-0.27 mm of its 1.1 s travel, both engines);
+  the elastic settling is over by then (the centroid's travel from 0.1 s is 0.003-0.009 mm where it sticks).
+
+**The grid contact's tolerance** (measured on warp_mpm, the same on taichi_mpm where run; ``docs/rigid.md``
+"Elastic blocks on slopes"): the grid rule (taichi_elements' separate collider with Coulomb friction at the ground's
+node layer) holds the jelly block only where ``mu`` exceeds ``tan theta`` by a margin that grows with the slope: at
+15 degrees it sticks at ``tan theta / mu`` = 0.96 (0.6 mm); at 30 degrees at 0.85 (mu 0.68), not at 0.96 (mu 0.6:
+105.6 mm in 1 s) nor 0.92 (mu 0.62: 92 mm); at 45 degrees at 0.63 (mu 1.6), not at 0.71 (mu 1.4: 109 mm) nor 0.8
+(mu 1.25): a block that should stick slides off at 0.1-0.2 m/s while it lifts off the ground by millimetres to
+centimetres. The particle contact holds every case (0.001-0.003 mm after the settle). The issue's case 30 degrees,
+mu 0.6 with ``contact = "grid"`` is kept as a strict ``xfail`` with its figure.
+
+The default tier runs two cases (a slide, a stick) on each engine and contact; the full 3 x 3 grid on both engines and
+contacts is slow. ``test_the_checks_catch_broken_engines`` runs the checks on engines broken on purpose: one that
+ignores ``mu`` (the ground's friction 0.4 whatever the scene says), one that never sticks (the friction halved: the
+15 degree block at mu 0.4 slides), one that brakes at a rest speed (its motion held while the centroid is slower
+than 0.1 m/s) and one whose acceleration is 5 % high or low.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from test_rigid_slope import (DEFAULT_CASES, DX, ENGINES, FPS, G, GROUND, MUS, N_GRID, SIDE, SLIDE_FROM, SLIDE_T,
+                              STICK_MM, THETAS, _friction, _rest_brake, closed_form, slides)
+
+from gasp_core.errors import EngineDivergence
+from gasp_core.seam import build_engine, get_engine
+from gasp_core.seam.setup import Boundary, Material
+from gasp_core.testing.helpers import box_points, make_setup
+
+CONTACTS = ("particle", "grid")
+JELLY = Material("jelly", model="elastic", E=1.0e5, nu=0.3, rho=1000.0)
+SLIDE_TOL = 0.025
+SETTLE_T = 0.1
+STICK_T = 1.0
+#: Where the grid contact does not hold the block (module docstring): (theta, mu) -> the measured figure.
+GRID_SLIPS = {(30, 0.6): "moves 105.6 mm in 1 s after the settle on both engines"}
+
+
+def block_setup(theta: float, mu: float, contact: str):
+    """The jelly block of the module docstring on a ground of friction ``mu``, gravity tilted ``theta`` degrees."""
+    side = np.array([6 * DX, 6 * DX, 2 * DX])
+    lo = np.array([4.3 * DX, SIDE / 2 - side[1] / 2 + 0.2 * DX, GROUND])
+    x, p_vol = box_points(lo, lo + side, DX / 2)
+    t = math.radians(theta)
+    s = make_setup(x, p_vol, JELLY, gravity=(G * math.sin(t), 0.0, -G * math.cos(t)), lo=np.zeros(3),
+                   hi=np.full(3, SIDE), n_grid=N_GRID, frame_dt=1.0 / FPS,
+                   boundaries=[Boundary("ground", height=GROUND, friction=mu)], options={"contact": contact})
+    s.n_render = 0
+    return s
+
+
+def measure(engine: str, theta: float, mu: float, contact: str, spoil=None, output=None) -> float:
+    """The acceleration along the slope (m/s^2) where it slides, the centroid's travel (mm) from ``SETTLE_T`` over
+    ``STICK_T`` where it sticks. ``spoil(setup)`` and ``output(centroids)`` break the engine on purpose."""
+    s = block_setup(theta, mu, contact)
+    if spoil is not None:
+        spoil(s)
+    e = build_engine(get_engine(engine), s)
+    c = [np.asarray(s.x, np.float64).mean(axis=0)]
+    try:
+        for _ in range(round((SLIDE_T if slides(theta, mu) else SETTLE_T + STICK_T) * FPS)):
+            e.step_frame()
+            c.append(e.positions().astype(np.float64).mean(axis=0))
+    except EngineDivergence:   # it slid out of the box: no figure meets Coulomb
+        return math.inf
+    c = np.array(c)
+    if output is not None:
+        c = output(c)
+    if slides(theta, mu):
+        t = np.arange(len(c)) / FPS
+        sel = t >= SLIDE_FROM
+        return 2.0 * float(np.polyfit(t[sel], c[sel, 0], 2)[0])
+    return 1000.0 * float(np.linalg.norm(c[-1] - c[round(SETTLE_T * FPS)]))
+
+
+def check(theta: float, mu: float, figure: float) -> str | None:
+    """None when the figure meets Coulomb, else what is wrong (two-sided)."""
+    if slides(theta, mu):
+        a0 = closed_form(theta, mu)
+        err = figure / a0 - 1.0
+        if not abs(err) <= SLIDE_TOL:
+            return f"{theta} deg, mu {mu}: a = {figure:.4f} m/s^2 against {a0:.4f} ({100 * err:+.2f} %)"
+        return None
+    if not figure < STICK_MM:
+        return f"{theta} deg, mu {mu}: it moved {figure:.3f} mm in {STICK_T:g} s after the settle (under {STICK_MM})"
+    return None
+
+
+@pytest.mark.parametrize("contact", CONTACTS)
+@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("theta,mu", DEFAULT_CASES)
+def test_elastic_block_on_a_slope(engine, contact, theta, mu):
+    problem = check(theta, mu, measure(engine, theta, mu, contact))
+    assert problem is None, f"{engine}, contact {contact}: {problem}"
+
+
+def _grid_cases():
+    for theta in THETAS:
+        for mu in MUS:
+            for contact in CONTACTS:
+                why = GRID_SLIPS.get((theta, mu)) if contact == "grid" else None
+                marks = [pytest.mark.xfail(strict=True, reason=f"the grid contact slips: {why}")] if why else []
+                yield pytest.param(theta, mu, contact, marks=marks, id=f"{theta}-{mu}-{contact}")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("theta,mu,contact", list(_grid_cases()))
+def test_elastic_block_on_a_slope_grid(engine, theta, mu, contact):
+    problem = check(theta, mu, measure(engine, theta, mu, contact))
+    assert problem is None, f"{engine}, contact {contact}: {problem}"
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_the_checks_catch_broken_engines(engine):
+    # the real engine passes both default cases (test_elastic_block_on_a_slope); each broken one fails one of them
+    slide, stick = DEFAULT_CASES
+    caught = {
+        "ignores mu (0.4 always)": check(*slide, measure(engine, *slide, "particle", spoil=_friction(value=0.4))),
+        "never sticks (friction halved)": check(*stick, measure(engine, *stick, "particle",
+                                                                spoil=_friction(factor=0.5))),
+        "brakes at a rest speed (0.1 m/s)": check(*slide, measure(engine, *slide, "particle", output=_rest_brake)),
+        "5 % high": check(*slide, 1.05 * closed_form(*slide)),
+        "5 % low": check(*slide, 0.95 * closed_form(*slide)),
+    }
+    missed = [k for k, v in caught.items() if v is None]
+    assert not missed, f"{engine}: the checks miss {missed}"
