@@ -22,7 +22,7 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from gasp_core.errors import SceneError
-from gasp_core.maps.occupancy import SPLAT_SIGMA, padded_grid, rasterize, solid_field
+from gasp_core.maps.occupancy import SPLAT_SIGMA, padded_grid, rasterize, sample_phi, solid_field, surface_planes
 
 #: Largest fill grid (cells) before the fill spacing is refused as too fine.
 MAX_FILL_CELLS = 512 ** 3
@@ -193,12 +193,16 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
     phi, vlo, voxel_used, r, enclosed, confidence, sealed, thin = (None, lo, 0.0, 0, [], 0.0, 0.0, (0.0, 0.0, []))
     if fill:
         phi, vlo, voxel_used, r, enclosed, confidence, sealed = solid_field(splats, max_dilation, voxel, floor)
+    frac = cent = None
     if phi is not None:
-        inside, floored = _above(_inside_cells(phi, vlo, voxel_used, lo, shape, h), lo, h, floor)
+        centre_phi = _centre_phi(phi, vlo, voxel_used, lo, shape, h)
+        inside, floored = _above(centre_phi > 0, lo, h, floor)
         thin = thin_parts(phi, vlo, voxel_used, inside, lo, h)
+        cells, frac, cent = cell_fractions(centre_phi, phi, vlo, voxel_used, splats, lo, h, floor)
         method, closed, warning = "six-ray", True, ""
     else:
         inside, floored = _above(rasterize(splats, lo, shape, h), lo, h, floor)
+        cells = np.argwhere(inside)
         closed = False
         method = "shell" if not fill else "shell-open"
         shell = float(inside.sum()) * h ** 3
@@ -206,28 +210,33 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
         if fill and if_open == "error":
             raise SceneError(warning.replace("; simulated as a hollow shell", "; refusing to simulate a hollow shell"))
     if check_points is not None:
-        check_points(len(points) + int(np.count_nonzero(inside)))
-    cells = np.argwhere(inside)
-    fill_x, p_vol_surface, p_vol_fill = _points_and_volumes(points, cells, lo, shape, h, surface_mass)
+        check_points(len(points) + len(cells))
+    fill_x, p_vol_surface, p_vol_fill = _points_and_volumes(points, cells, lo, shape, h, surface_mass, frac, cent)
     volume = float(p_vol_surface.sum() + p_vol_fill.sum())
     box = float(np.prod(np.ptp(cells, axis=0) + 1)) * h ** 3 if len(cells) else 0.0
     report = FillReport(name=name, volume=volume, n_fill=len(fill_x), h=float(h), voxel=float(voxel_used),
                         method=method, closed=closed, dilation=int(r), enclosed=enclosed, warning=warning,
-                        confidence=round(confidence, 4), sealed=round(sealed, 4), bbox_share=len(cells) * h ** 3 / box if box > 0 else 0.0,
+                        confidence=round(confidence, 4), sealed=round(sealed, 4), bbox_share=volume / box if box > 0 else 0.0,
                         thin_share=thin[0], thin_h=thin[1], thin_box=thin[2])
     return FillResult(fill_x, p_vol_surface, p_vol_fill, float(h), volume, report, *floored)
 
 
 def _points_and_volumes(points: np.ndarray, cells: np.ndarray, lo: np.ndarray, shape, h: float,
-                        surface_mass: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                        surface_mass: bool, share: np.ndarray | None = None,
+                        centre: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Fill points (m, 3) and the volumes (m^3) of the surface points (n,) and of the fill points (m,) for the
-    inside ``cells`` (k, 3) of the grid of corner ``lo`` and spacing ``h`` (``surface_mass``: see
-    :func:`fill_interior`)."""
+    ``cells`` (k, 3) of the grid of corner ``lo`` and spacing ``h`` (``surface_mass``: see :func:`fill_interior`),
+    each holding ``share`` (k,) of its ``h^3`` with its fill point at ``centre`` (k, 3) (default: whole, centred)."""
+    if share is None:
+        share, centre = np.ones(len(cells)), _cell_centres(cells, lo, h)
+    vol = share * h ** 3
     if surface_mass:
-        p_vol_surface, fill_x = _share_cells(points, cells, lo, shape, h)
-        return fill_x, p_vol_surface, np.full(len(fill_x), h ** 3)
-    fill_x = _cell_centres(_cells_or_own(points, cells, lo, shape, h), lo, h)
-    return fill_x, np.zeros(len(points)), np.full(len(fill_x), h ** 3)
+        p_vol_surface, empty = _share_cells(points, cells, lo, shape, h, vol)
+        return centre[empty], p_vol_surface, vol[empty]
+    if len(cells):
+        return centre, np.zeros(len(points)), vol
+    own = _cells_or_own(points, cells, lo, shape, h)
+    return _cell_centres(own, lo, h), np.zeros(len(points)), np.full(len(own), h ** 3)
 
 
 def _open_warning(name: str, max_dilation: int, voxel: float, volume: float, unit: str = "m") -> str:
@@ -269,17 +278,129 @@ def _cell_centres(cells: np.ndarray, lo: np.ndarray, h: float) -> np.ndarray:
     return lo + (cells + 0.5) * h
 
 
-def _inside_cells(phi: np.ndarray, vlo: np.ndarray, voxel: float, lo: np.ndarray, shape, h: float) -> np.ndarray:
-    """Fill-grid cells whose centre has ``phi > 0`` (trilinear in the occupancy field of corner ``vlo``, voxel
-    ``voxel``), sampled slab by slab along x (bounded memory). Returns bool, shape ``shape``."""
-    inside = np.zeros(shape, dtype=bool)
+def _centre_phi(phi: np.ndarray, vlo: np.ndarray, voxel: float, lo: np.ndarray, shape, h: float) -> np.ndarray:
+    """``phi`` (voxels, positive inside; trilinear in the occupancy field of corner ``vlo``, voxel ``voxel``) at the
+    centres of the fill grid's cells, sampled slab by slab along x (bounded memory). Returns float32, shape ``shape``."""
+    out = np.empty(shape, dtype=np.float32)
     j, k = np.meshgrid(np.arange(shape[1]), np.arange(shape[2]), indexing="ij")
     cy = (lo[1] + (j + 0.5) * h - vlo[1]) / voxel - 0.5
     cz = (lo[2] + (k + 0.5) * h - vlo[2]) / voxel - 0.5
     for i in range(shape[0]):
         cx = np.full(cy.shape, (lo[0] + (i + 0.5) * h - vlo[0]) / voxel - 0.5)
-        inside[i] = ndimage.map_coordinates(phi, [cx, cy, cz], order=1, mode="constant", cval=-1.0) > 0
-    return inside
+        out[i] = ndimage.map_coordinates(phi, [cx, cy, cz], order=1, mode="constant", cval=-1.0)
+    return out
+
+
+#: Sub-cells per axis that a cell the surface crosses is sampled at (:func:`cell_fractions`).
+SUB = 3
+#: Surface planes a point is measured against (its nearest, and the neighbours that make an edge with it), and the
+#: cosine under which a neighbour's plane turns from the nearest's (an edge: :func:`surface_distance`).
+NEIGHBOURS, EDGE_COS = 8, 0.5
+#: A cell whose share inside is under this is left out (its volume, under 1 % of a cell, is lost).
+MIN_SHARE = 0.01
+
+
+def surface_distance(phi: np.ndarray, vlo: np.ndarray, voxel: float, splats: np.ndarray, h: float,
+                     floor: float | None = None) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """The signed distance to the solid's surface (metres, positive outside) that :func:`cell_fractions` measures
+    cells with: a function of points ``q`` (shape (k, 3)) returning it and the width factor ``|n|_1`` of the plane it
+    came from (1 for ``phi``'s own or the floor's), both shape (k,)."""
+    means, normals = surface_planes(splats, phi, vlo, voxel)
+    tree = cKDTree(means) if len(means) else None
+    size = np.linalg.norm(splats[:, 1:] - splats[:, :1], axis=2).max(axis=1)
+    reach = 2.0 * voxel + h + 2.0 * SPLAT_SIGMA * float(np.quantile(size, 0.9)) if len(size) else 0.0
+
+    def distance(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        from_phi = -sample_phi(phi, vlo, voxel, q) * voxel
+        sd, width = from_phi.copy(), np.ones(len(q))
+        if tree is not None:
+            d, j = tree.query(q, k=NEIGHBOURS, distance_upper_bound=reach)
+            ok = np.isfinite(d[:, 0])
+            d, j, qq = d[ok], j[ok], q[ok]
+            valid = np.isfinite(d)
+            j = np.where(valid, j, j[:, :1])
+            n, m = normals[j], means[j]
+            plane = np.einsum("ikj,ikj->ik", n, qq[:, None] - m)
+            # an edge: a neighbour whose plane turns from the nearest's; convex (each behind the other) takes the
+            # intersection of the half-spaces, concave the union (a sampled edge's nearest plane alone bulges out)
+            edge = valid & (np.einsum("ikj,ij->ik", n, n[:, 0]) < EDGE_COS)
+            convex = np.einsum("ikj,ikj->ik", n[:, :1] - n, m - m[:, :1]) < 0
+            # the nearest plane bent by the surface's curvature across it (its smooth neighbours' normals): on a
+            # curved face the tangent planes lie outside the solid, which they would grow by l^2 / 2R
+            dm = m[:, 1:] - m[:, :1]
+            dm2 = np.einsum("ikj,ikj->ik", dm, dm)
+            smooth = valid[:, 1:] & ~edge[:, 1:] & (dm2 > 0)
+            kappa = np.einsum("ikj,ikj->ik", n[:, 1:] - n[:, :1], dm) / np.where(smooth, dm2, 1.0)
+            kappa = np.where(smooth, kappa, 0.0).sum(axis=1) / np.maximum(smooth.sum(axis=1), 1)
+            lat = np.sqrt(np.maximum(np.einsum("ij,ij->i", qq - m[:, 0], qq - m[:, 0]) - plane[:, 0] ** 2, 0.0))
+            best = plane[:, 0] + np.clip(0.5 * kappa * lat ** 2, -0.5 * lat, 0.5 * lat)
+            best = np.maximum(best, np.where(edge & convex, plane, -np.inf).max(axis=1))
+            best = np.minimum(best, np.where(edge & ~convex, plane, np.inf).min(axis=1))
+            sd[ok] = best
+            width[ok] = np.abs(n[:, 0]).sum(axis=1)
+        if floor is not None:
+            under = floor - q[:, 2]
+            width = np.where(under > sd, 1.0, width)
+            sd = np.maximum(sd, under)
+        return sd, width
+    return distance
+
+
+def cell_fractions(centre_phi: np.ndarray, phi: np.ndarray, vlo: np.ndarray, voxel: float, splats: np.ndarray,
+                   lo: np.ndarray, h: float, floor: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The fill cells of spacing ``h`` that hold part of the solid, each cell's share of it and where that part's
+    centre is (issue 66: the mass of a body, and its fill inside its faces).
+
+    Cells deep inside (``phi`` at their centre more than the band ``1.5 h / voxel + 2`` voxels) are whole; cells
+    within the band are measured against the surface's planes (:func:`~gasp_core.maps.occupancy.surface_planes`):
+    the signed distance of a point to the plane of its nearest surface splat, held within two voxels of ``phi``'s
+    surface (a capture's stray planes cannot move it further), or ``phi``'s own where no plane is within two voxels
+    and a cell. A cell the surface crosses is sampled at :data:`SUB` ^3 sub-cells, each inside by the share of it
+    under that distance (a slab across the sub-cell), and its point goes to the centre of its inside part. Under a
+    ``floor`` (metres, world z) nothing is inside. Cells under :data:`MIN_SHARE` are left out.
+
+    Returns
+    -------
+    cells : ndarray, shape (k, 3), int64
+        Fill-grid indices, in the grid's ravel order.
+    share : ndarray, shape (k,)
+        Share of each cell inside the solid, (0, 1].
+    centre : ndarray, shape (k, 3)
+        Centre of each cell's inside part, metres.
+    """
+    shape = centre_phi.shape
+    band = 1.5 * h / voxel + 2.0
+    deep = centre_phi >= band
+    if floor is not None:
+        bottom = lo[2] + np.arange(shape[2]) * h
+        deep &= (bottom >= floor)[None, None, :]
+    near = np.argwhere((np.abs(centre_phi) < band) | ((centre_phi > 0) & ~deep))
+    distance = surface_distance(phi, vlo, voxel, splats, h, floor)
+    centres = _cell_centres(near, lo, h)
+    sd, _ = distance(centres)
+    share = np.where(sd <= 0, 1.0, 0.0)
+    cut = np.abs(sd) < h
+    centre = centres.copy()
+    if cut.any():
+        u = (np.arange(SUB) + 0.5) / SUB - 0.5
+        offs = np.stack(np.meshgrid(u, u, u, indexing="ij"), -1).reshape(-1, 3) * h
+        idx = np.flatnonzero(cut)
+        for s in range(0, len(idx), 20_000):
+            ii = idx[s:s + 20_000]
+            q = (centres[ii, None, :] + offs[None]).reshape(-1, 3)
+            d, w = distance(q)
+            f = np.clip(0.5 - d / (w * h / SUB), 0.0, 1.0).reshape(len(ii), -1)
+            tot = f.sum(axis=1)
+            share[ii] = tot / f.shape[1]
+            cen = np.einsum("ik,ikj->ij", f, q.reshape(len(ii), -1, 3)) / np.maximum(tot, 1e-300)[:, None]
+            centre[ii] = np.where(tot[:, None] > 0, cen, centres[ii])
+    keep = share >= MIN_SHARE
+    dcells = np.argwhere(deep)
+    cells = np.concatenate([dcells, near[keep]])
+    share = np.concatenate([np.ones(len(dcells)), share[keep]])
+    centre = np.concatenate([_cell_centres(dcells, lo, h), centre[keep]])
+    order = np.argsort(np.ravel_multi_index(cells.T, shape), kind="stable")
+    return cells[order], share[order], centre[order]
 
 
 def _above(inside: np.ndarray, lo: np.ndarray, h: float, floor: float | None) -> tuple[np.ndarray, tuple]:
@@ -347,21 +468,21 @@ def _cells_or_own(points: np.ndarray, cells: np.ndarray, lo: np.ndarray, shape, 
 
 
 def _share_cells(points: np.ndarray, cells: np.ndarray, lo: np.ndarray, shape,
-                 h: float) -> tuple[np.ndarray, np.ndarray]:
-    """Surface points share the volume ``h^3`` of the inside cell they lie in (or the nearest inside cell);
-    each inside cell no point lies in gets a fill point.
+                 h: float, vol: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Surface points share the volume ``vol`` (k,) of the cell of ``cells`` they lie in (or the nearest one); each
+    cell no point lies in gets a fill point.
 
     Returns
     -------
     p_vol_surface : ndarray, shape (n,)
-        m^3 per surface point (with nothing inside, each point's own cell shared among its points).
-    fill_x : ndarray, shape (k, 3)
-        Centres of the cells left empty, metres.
+        m^3 per surface point (with no cell, each point's own cell's ``h^3`` shared among its points).
+    empty : ndarray, shape (k,), bool
+        The cells left without a surface point (each gets a fill point).
     """
     flat_inside = np.ravel_multi_index(cells.T, shape)
     idx = np.clip(np.floor((points - lo) / h).astype(np.int64), 0, np.array(shape) - 1)
     flat_pts = np.ravel_multi_index(idx.T, shape)
-    pos = np.searchsorted(flat_inside, flat_pts)        # argwhere order == ravel order (sorted)
+    pos = np.searchsorted(flat_inside, flat_pts)        # cells are in ravel order (sorted)
     hit = (pos < len(flat_inside)) & (flat_inside[np.minimum(pos, max(len(flat_inside) - 1, 0))] == flat_pts) \
         if len(flat_inside) else np.zeros(len(flat_pts), bool)
     owner = np.where(hit, pos, -1)
@@ -370,10 +491,10 @@ def _share_cells(points: np.ndarray, cells: np.ndarray, lo: np.ndarray, shape,
         owner[~hit] = near
     if len(cells):
         counts = np.bincount(owner, minlength=len(cells))
-        p_vol_surface = h ** 3 / counts[owner]
+        p_vol_surface = vol[owner] / counts[owner]
         empty = counts == 0
     else:   # nothing inside at this spacing: the points keep their own cells
         _, inv, counts = np.unique(flat_pts, return_inverse=True, return_counts=True)
         p_vol_surface = h ** 3 / counts[inv]
         empty = np.zeros(0, bool)
-    return p_vol_surface, _cell_centres(cells[empty], lo, h)
+    return p_vol_surface, empty
