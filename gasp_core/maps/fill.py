@@ -296,37 +296,66 @@ SUB = 3
 #: Surface planes a point is measured against (its nearest, and the neighbours that make an edge with it), and the
 #: cosine under which a neighbour's plane turns from the nearest's (an edge: :func:`surface_distance`).
 NEIGHBOURS, EDGE_COS = 8, 0.5
+#: Planes nearest a cell's centre that its sub-cells look among.
+CANDIDATES = 16
+#: Cells by the surface (:func:`cell_fractions`): within one cell of those whose centre has ``phi`` above
+#: ``-NEAR_PHI`` voxels (``phi`` stops at ``-HALF_SHELL``, 1.5, outside).
+NEAR_PHI = 1.25
+_CUBE = np.ones((3, 3, 3), bool)
 #: A cell whose share inside is under this is left out (its volume, under 1 % of a cell, is lost).
 MIN_SHARE = 0.01
 
 
 def surface_distance(phi: np.ndarray, vlo: np.ndarray, voxel: float, splats: np.ndarray, h: float,
-                     floor: float | None = None) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
+                     floor: float | None = None) -> Callable[..., tuple[np.ndarray, np.ndarray]]:
     """The signed distance to the solid's surface (metres, positive outside) that :func:`cell_fractions` measures
-    cells with: a function of points ``q`` (shape (k, 3)) returning it and the width factor ``|n|_1`` of the plane it
-    came from (1 for ``phi``'s own or the floor's), both shape (k,)."""
+    cells with (issue 66).
+
+    The surface is the planes of the splats that lie on it (:func:`~gasp_core.maps.occupancy.surface_planes`).
+    A point is measured against its nearest plane, bent by the surface's curvature across it (from the neighbours'
+    normals: on a curved face the tangent planes lie outside the solid, which they would grow by ``l^2 / 2R``), and
+    against the neighbours whose plane turns from the nearest's by more than ``acos(EDGE_COS)``: at a convex edge
+    (each behind the other) the solid is the intersection of the half-spaces, at a concave edge their union (a
+    sampled edge's nearest plane alone bulges out by the sampling gap, as far as the planes reach). Where no plane is
+    within ``2 voxel + h + 2 SPLAT_SIGMA`` splat sizes (the 90th percentile), ``phi`` decides; and no point is
+    inside where ``phi`` is more than a voxel outside (past the footprints' shell), nor under a ``floor``.
+
+    Returns
+    -------
+    callable
+        ``distance(q, cand=None)``: for points ``q`` (shape (k, 3)), the signed distance and the width factor
+        ``|n|_1`` of the plane it came from (1 for ``phi``'s or the floor's), both shape (k,). ``cand`` (shape
+        (k, c), c >= :data:`NEIGHBOURS`) are indices of the planes to look among (``len(planes)``: none), for points
+        close together (a cell's sub-cells) that share one search.
+    """
     means, normals = surface_planes(splats, phi, vlo, voxel)
-    tree = cKDTree(means) if len(means) else None
     size = np.linalg.norm(splats[:, 1:] - splats[:, :1], axis=2).max(axis=1)
     reach = 2.0 * voxel + h + 2.0 * SPLAT_SIGMA * float(np.quantile(size, 0.9)) if len(size) else 0.0
+    tree = cKDTree(means) if len(means) else None
+    padded_m = np.concatenate([means, np.full((1, 3), np.inf)])
 
-    def distance(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def candidates(q: np.ndarray, k: int, bound: float) -> np.ndarray:
+        """Indices (shape (len(q), k)) of the ``k`` planes nearest each point within ``bound``; ``len(means)``: none."""
+        return tree.query(q, k=k, distance_upper_bound=bound)[1].reshape(len(q), k)
+
+    def distance(q: np.ndarray, cand: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         from_phi = -sample_phi(phi, vlo, voxel, q) * voxel
         sd, width = from_phi.copy(), np.ones(len(q))
         if tree is not None:
-            d, j = tree.query(q, k=NEIGHBOURS, distance_upper_bound=reach)
-            ok = np.isfinite(d[:, 0])
-            d, j, qq = d[ok], j[ok], q[ok]
-            valid = np.isfinite(d)
+            if cand is None:
+                j = candidates(q, NEIGHBOURS, reach)
+            else:
+                dc = np.linalg.norm(padded_m[cand] - q[:, None], axis=2)
+                order = np.argsort(dc, axis=1)[:, :NEIGHBOURS]
+                j = np.take_along_axis(np.where(dc <= reach, cand, len(means)), order, axis=1)
+            valid = j < len(means)
+            ok = valid[:, 0]
+            j, valid, qq = j[ok], valid[ok], q[ok]
             j = np.where(valid, j, j[:, :1])
             n, m = normals[j], means[j]
             plane = np.einsum("ikj,ikj->ik", n, qq[:, None] - m)
-            # an edge: a neighbour whose plane turns from the nearest's; convex (each behind the other) takes the
-            # intersection of the half-spaces, concave the union (a sampled edge's nearest plane alone bulges out)
             edge = valid & (np.einsum("ikj,ij->ik", n, n[:, 0]) < EDGE_COS)
             convex = np.einsum("ikj,ikj->ik", n[:, :1] - n, m - m[:, :1]) < 0
-            # the nearest plane bent by the surface's curvature across it (its smooth neighbours' normals): on a
-            # curved face the tangent planes lie outside the solid, which they would grow by l^2 / 2R
             dm = m[:, 1:] - m[:, :1]
             dm2 = np.einsum("ikj,ikj->ik", dm, dm)
             smooth = valid[:, 1:] & ~edge[:, 1:] & (dm2 > 0)
@@ -336,13 +365,15 @@ def surface_distance(phi: np.ndarray, vlo: np.ndarray, voxel: float, splats: np.
             best = plane[:, 0] + np.clip(0.5 * kappa * lat ** 2, -0.5 * lat, 0.5 * lat)
             best = np.maximum(best, np.where(edge & convex, plane, -np.inf).max(axis=1))
             best = np.minimum(best, np.where(edge & ~convex, plane, np.inf).min(axis=1))
-            sd[ok] = best
+            sd[ok] = np.maximum(best, from_phi[ok] - voxel)     # never inside past the footprints' shell
             width[ok] = np.abs(n[:, 0]).sum(axis=1)
         if floor is not None:
             under = floor - q[:, 2]
             width = np.where(under > sd, 1.0, width)
             sd = np.maximum(sd, under)
         return sd, width
+
+    distance.candidates = (lambda q: candidates(q, CANDIDATES, reach + h)) if tree is not None else None
     return distance
 
 
@@ -374,7 +405,8 @@ def cell_fractions(centre_phi: np.ndarray, phi: np.ndarray, vlo: np.ndarray, vox
     if floor is not None:
         bottom = lo[2] + np.arange(shape[2]) * h
         deep &= (bottom >= floor)[None, None, :]
-    near = np.argwhere((np.abs(centre_phi) < band) | ((centre_phi > 0) & ~deep))
+    # outside, phi stops at -HALF_SHELL: the cells by (or in) the shell, and one cell round them
+    near = np.argwhere(ndimage.binary_dilation(centre_phi > -NEAR_PHI, _CUBE) & ~deep)
     distance = surface_distance(phi, vlo, voxel, splats, h, floor)
     centres = _cell_centres(near, lo, h)
     sd, _ = distance(centres)
@@ -385,10 +417,11 @@ def cell_fractions(centre_phi: np.ndarray, phi: np.ndarray, vlo: np.ndarray, vox
         u = (np.arange(SUB) + 0.5) / SUB - 0.5
         offs = np.stack(np.meshgrid(u, u, u, indexing="ij"), -1).reshape(-1, 3) * h
         idx = np.flatnonzero(cut)
-        for s in range(0, len(idx), 20_000):
-            ii = idx[s:s + 20_000]
+        for s in range(0, len(idx), 4_000):
+            ii = idx[s:s + 4_000]
             q = (centres[ii, None, :] + offs[None]).reshape(-1, 3)
-            d, w = distance(q)
+            cand = None if distance.candidates is None else np.repeat(distance.candidates(centres[ii]), len(offs), axis=0)
+            d, w = distance(q, cand)
             f = np.clip(0.5 - d / (w * h / SUB), 0.0, 1.0).reshape(len(ii), -1)
             tot = f.sum(axis=1)
             share[ii] = tot / f.shape[1]
