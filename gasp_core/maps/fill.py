@@ -195,10 +195,10 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
         phi, vlo, voxel_used, r, enclosed, confidence, sealed = solid_field(splats, max_dilation, voxel, floor)
     frac = cent = None
     if phi is not None:
-        centre_phi = _centre_phi(phi, vlo, voxel_used, lo, shape, h)
-        inside, floored = _above(centre_phi > 0, lo, h, floor)
+        inside, seed, deep = _centre_masks(phi, vlo, voxel_used, lo, shape, h, band(h, voxel_used))
+        inside, floored = _above(inside, lo, h, floor)
         thin = thin_parts(phi, vlo, voxel_used, inside, lo, h)
-        cells, frac, cent = cell_fractions(centre_phi, phi, vlo, voxel_used, splats, lo, h, floor)
+        cells, frac, cent = cell_fractions(seed, deep, phi, vlo, voxel_used, splats, lo, h, floor)
         method, closed, warning = "six-ray", True, ""
     else:
         inside, floored = _above(rasterize(splats, lo, shape, h), lo, h, floor)
@@ -278,17 +278,26 @@ def _cell_centres(cells: np.ndarray, lo: np.ndarray, h: float) -> np.ndarray:
     return lo + (cells + 0.5) * h
 
 
-def _centre_phi(phi: np.ndarray, vlo: np.ndarray, voxel: float, lo: np.ndarray, shape, h: float) -> np.ndarray:
-    """``phi`` (voxels, positive inside; trilinear in the occupancy field of corner ``vlo``, voxel ``voxel``) at the
-    centres of the fill grid's cells, sampled slab by slab along x (bounded memory). Returns float32, shape ``shape``."""
-    out = np.empty(shape, dtype=np.float32)
+def _centre_masks(phi: np.ndarray, vlo: np.ndarray, voxel: float, lo: np.ndarray, shape, h: float,
+                  band: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where ``phi`` (voxels, positive inside; trilinear in the occupancy field of corner ``vlo``, voxel ``voxel``) at
+    the centres of the fill grid's cells is positive, above ``-NEAR_PHI`` and at least ``band``, sampled slab by slab
+    along x (bounded memory). Three bool arrays of shape ``shape``."""
+    inside, seed, deep = (np.zeros(shape, dtype=bool) for _ in range(3))
     j, k = np.meshgrid(np.arange(shape[1]), np.arange(shape[2]), indexing="ij")
     cy = (lo[1] + (j + 0.5) * h - vlo[1]) / voxel - 0.5
     cz = (lo[2] + (k + 0.5) * h - vlo[2]) / voxel - 0.5
     for i in range(shape[0]):
         cx = np.full(cy.shape, (lo[0] + (i + 0.5) * h - vlo[0]) / voxel - 0.5)
-        out[i] = ndimage.map_coordinates(phi, [cx, cy, cz], order=1, mode="constant", cval=-1.0)
-    return out
+        v = ndimage.map_coordinates(phi, [cx, cy, cz], order=1, mode="constant", cval=-1.0)
+        inside[i], seed[i], deep[i] = v > 0, v > -NEAR_PHI, v >= band
+    return inside, seed, deep
+
+
+def band(h: float, voxel: float) -> float:
+    """Depth (voxels of ``phi``) from which a fill cell of spacing ``h`` is whole: its diagonal in taxicab voxels and
+    two voxels for where ``phi`` puts the surface."""
+    return 1.5 * h / voxel + 2.0
 
 
 #: Sub-cells per axis that a cell the surface crosses is sampled at (:func:`cell_fractions`).
@@ -377,36 +386,35 @@ def surface_distance(phi: np.ndarray, vlo: np.ndarray, voxel: float, splats: np.
     return distance
 
 
-def cell_fractions(centre_phi: np.ndarray, phi: np.ndarray, vlo: np.ndarray, voxel: float, splats: np.ndarray,
-                   lo: np.ndarray, h: float, floor: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The fill cells of spacing ``h`` that hold part of the solid, each cell's share of it and where that part's
-    centre is (issue 66: the mass of a body, and its fill inside its faces).
+def cell_fractions(seed: np.ndarray, deep: np.ndarray, phi: np.ndarray, vlo: np.ndarray, voxel: float,
+                   splats: np.ndarray, lo: np.ndarray, h: float,
+                   floor: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The fill points of spacing ``h``: the cells that hold part of the solid, the volume each point stands for and
+    where (issue 66: a body's mass, and its fill inside its faces).
 
-    Cells deep inside (``phi`` at their centre more than the band ``1.5 h / voxel + 2`` voxels) are whole; cells
-    within the band are measured against the surface's planes (:func:`~gasp_core.maps.occupancy.surface_planes`):
-    the signed distance of a point to the plane of its nearest surface splat, held within two voxels of ``phi``'s
-    surface (a capture's stray planes cannot move it further), or ``phi``'s own where no plane is within two voxels
-    and a cell. A cell the surface crosses is sampled at :data:`SUB` ^3 sub-cells, each inside by the share of it
-    under that distance (a slab across the sub-cell), and its point goes to the centre of its inside part. Under a
-    ``floor`` (metres, world z) nothing is inside. Cells under :data:`MIN_SHARE` are left out.
+    ``deep`` cells (``phi`` at their centre at least :func:`band` voxels) are whole. The cells within one cell of the
+    ``seed`` (``phi`` above ``-NEAR_PHI`` at their centre) are measured against :func:`surface_distance`: a cell the
+    surface crosses is sampled at :data:`SUB` ^3 sub-cells, each inside by the share of it under that distance (a
+    slab across the sub-cell), and its point goes to the centre of its inside part. A cell whose centre is outside
+    hands its part to the neighbouring cell (of 26) with an inside centre nearest to it (their point moves to the
+    centre of both parts), so that no point stands for a sliver; with none it keeps its part, unless under
+    :data:`MIN_SHARE` of a cell. Under a ``floor`` (metres, world z) nothing is inside.
 
     Returns
     -------
     cells : ndarray, shape (k, 3), int64
         Fill-grid indices, in the grid's ravel order.
     share : ndarray, shape (k,)
-        Share of each cell inside the solid, (0, 1].
+        Volume of each point over ``h^3``, > 0 (above 1 where it took a neighbour's part).
     centre : ndarray, shape (k, 3)
-        Centre of each cell's inside part, metres.
+        Where each point is, metres (the centre of its part of the solid).
     """
-    shape = centre_phi.shape
-    band = 1.5 * h / voxel + 2.0
-    deep = centre_phi >= band
+    shape = seed.shape
+    deep = deep.copy()
     if floor is not None:
         bottom = lo[2] + np.arange(shape[2]) * h
         deep &= (bottom >= floor)[None, None, :]
-    # outside, phi stops at -HALF_SHELL: the cells by (or in) the shell, and one cell round them
-    near = np.argwhere(ndimage.binary_dilation(centre_phi > -NEAR_PHI, _CUBE) & ~deep)
+    near = np.argwhere(ndimage.binary_dilation(seed, _CUBE) & ~deep)
     distance = surface_distance(phi, vlo, voxel, splats, h, floor)
     centres = _cell_centres(near, lo, h)
     sd, _ = distance(centres)
@@ -427,13 +435,47 @@ def cell_fractions(centre_phi: np.ndarray, phi: np.ndarray, vlo: np.ndarray, vox
             share[ii] = tot / f.shape[1]
             cen = np.einsum("ik,ikj->ij", f, q.reshape(len(ii), -1, 3)) / np.maximum(tot, 1e-300)[:, None]
             centre[ii] = np.where(tot[:, None] > 0, cen, centres[ii])
-    keep = share >= MIN_SHARE
     dcells = np.argwhere(deep)
-    cells = np.concatenate([dcells, near[keep]])
-    share = np.concatenate([np.ones(len(dcells)), share[keep]])
-    centre = np.concatenate([_cell_centres(dcells, lo, h), centre[keep]])
-    order = np.argsort(np.ravel_multi_index(cells.T, shape), kind="stable")
-    return cells[order], share[order], centre[order]
+    held = share > 0
+    cells = np.concatenate([dcells, near[held]])
+    share = np.concatenate([np.ones(len(dcells)), share[held]])
+    centre = np.concatenate([_cell_centres(dcells, lo, h), centre[held]])
+    host = np.concatenate([np.ones(len(dcells), bool), sd[held] <= 0])
+    flat = np.ravel_multi_index(cells.T, shape)
+    order = np.argsort(flat, kind="stable")
+    cells, share, centre, host, flat = cells[order], share[order], centre[order], host[order], flat[order]
+    to = _nearest_host(cells, centre, host, flat, shape, lo, h)
+    vol = np.bincount(to, weights=share, minlength=len(cells))
+    mom = np.stack([np.bincount(to, weights=share * centre[:, k], minlength=len(cells)) for k in range(3)], axis=1)
+    keep = (to == np.arange(len(cells))) & (vol >= MIN_SHARE)
+    return cells[keep], vol[keep], mom[keep] / vol[keep, None]
+
+
+def _nearest_host(cells: np.ndarray, centre: np.ndarray, host: np.ndarray, flat: np.ndarray, shape, lo: np.ndarray,
+                  h: float) -> np.ndarray:
+    """For each cell (``flat``: ravel indices, sorted), itself if it is a ``host`` (its centre inside the solid), else
+    the host among its 26 neighbours whose cell centre is nearest its point ``centre``, else itself. Shape (k,)."""
+    to = np.arange(len(cells))
+    guests = np.flatnonzero(~host)
+    if not len(guests) or not host.any():
+        return to
+    hosts = np.flatnonzero(host)
+    hflat = flat[hosts]
+    best = np.full(len(guests), np.inf)
+    dims = np.array(shape)
+    for off in np.argwhere(_CUBE) - 1:
+        if not off.any():
+            continue
+        nb = cells[guests] + off
+        inb = ((nb >= 0) & (nb < dims)).all(axis=1)
+        f = np.ravel_multi_index(np.clip(nb, 0, dims - 1).T, shape)
+        pos = np.minimum(np.searchsorted(hflat, f), len(hflat) - 1)
+        ok = inb & (hflat[pos] == f)
+        d = np.linalg.norm(centre[guests] - _cell_centres(nb, lo, h), axis=1)
+        better = ok & (d < best)
+        best[better] = d[better]
+        to[guests[better]] = hosts[pos[better]]
+    return to
 
 
 def _above(inside: np.ndarray, lo: np.ndarray, h: float, floor: float | None) -> tuple[np.ndarray, tuple]:

@@ -363,6 +363,9 @@ def sample_phi(phi: np.ndarray, lo: np.ndarray, voxel: float, q: np.ndarray) -> 
 #: from one voxel behind it to one voxel in front of it along its normal, and is under ``PLANE_OUT`` voxels two voxels
 #: in front (it faces the outside; a capture's Gaussians deep inside the solid do not).
 PLANE_STEP, PLANE_OUT = 0.5, 0.5
+#: ... and its normal is within ``acos(PLANE_COS)`` of ``phi``'s steepest descent (a trained capture's Gaussians that
+#: are not flat, or lie across the surface, have normals that are not the surface's).
+PLANE_COS = 0.8
 
 
 def surface_planes(splats: np.ndarray, phi: np.ndarray, lo: np.ndarray, voxel: float) -> tuple[np.ndarray, np.ndarray]:
@@ -392,5 +395,8 @@ def surface_planes(splats: np.ndarray, phi: np.ndarray, lo: np.ndarray, voxel: f
     nrm[flip] *= -1.0
     step = np.abs(back - front)
     out = sample_phi(phi, lo, voxel, m + 2.0 * voxel * nrm)
-    keep = (step >= PLANE_STEP) & (out < PLANE_OUT)
+    grad = np.stack([sample_phi(phi, lo, voxel, m + voxel * e) - sample_phi(phi, lo, voxel, m - voxel * e)
+                     for e in np.eye(3)], axis=1)
+    cos = -np.einsum("ij,ij->i", grad, nrm) / np.maximum(np.linalg.norm(grad, axis=1), 1e-12)
+    keep = (step >= PLANE_STEP) & (out < PLANE_OUT) & (cos >= PLANE_COS)
     return m[keep], nrm[keep]
