@@ -395,19 +395,17 @@ def cell_fractions(seed: np.ndarray, deep: np.ndarray, phi: np.ndarray, vlo: np.
     ``deep`` cells (``phi`` at their centre at least :func:`band` voxels) are whole. The cells within one cell of the
     ``seed`` (``phi`` above ``-NEAR_PHI`` at their centre) are measured against :func:`surface_distance`: a cell the
     surface crosses is sampled at :data:`SUB` ^3 sub-cells, each inside by the share of it under that distance (a
-    slab across the sub-cell), and its point goes to the centre of its inside part. A cell whose centre is outside
-    hands its part to the neighbouring cell (of 26) with an inside centre nearest to it (their point moves to the
-    centre of both parts), so that no point stands for a sliver; with none it keeps its part, unless under
-    :data:`MIN_SHARE` of a cell. Under a ``floor`` (metres, world z) nothing is inside.
+    slab across the sub-cell), and its point goes to the centre of its inside part. Cells under :data:`MIN_SHARE` of
+    a cell are left out. Under a ``floor`` (metres, world z) nothing is inside.
 
     Returns
     -------
     cells : ndarray, shape (k, 3), int64
         Fill-grid indices, in the grid's ravel order.
     share : ndarray, shape (k,)
-        Volume of each point over ``h^3``, > 0 (above 1 where it took a neighbour's part).
+        Share of each cell inside the solid, in ``[MIN_SHARE, 1]``.
     centre : ndarray, shape (k, 3)
-        Where each point is, metres (the centre of its part of the solid).
+        Centre of each cell's inside part, metres.
     """
     shape = seed.shape
     deep = deep.copy()
@@ -435,47 +433,13 @@ def cell_fractions(seed: np.ndarray, deep: np.ndarray, phi: np.ndarray, vlo: np.
             share[ii] = tot / f.shape[1]
             cen = np.einsum("ik,ikj->ij", f, q.reshape(len(ii), -1, 3)) / np.maximum(tot, 1e-300)[:, None]
             centre[ii] = np.where(tot[:, None] > 0, cen, centres[ii])
+    keep = share >= MIN_SHARE
     dcells = np.argwhere(deep)
-    held = share > 0
-    cells = np.concatenate([dcells, near[held]])
-    share = np.concatenate([np.ones(len(dcells)), share[held]])
-    centre = np.concatenate([_cell_centres(dcells, lo, h), centre[held]])
-    host = np.concatenate([np.ones(len(dcells), bool), sd[held] <= 0])
-    flat = np.ravel_multi_index(cells.T, shape)
-    order = np.argsort(flat, kind="stable")
-    cells, share, centre, host, flat = cells[order], share[order], centre[order], host[order], flat[order]
-    to = _nearest_host(cells, centre, host, flat, shape, lo, h)
-    vol = np.bincount(to, weights=share, minlength=len(cells))
-    mom = np.stack([np.bincount(to, weights=share * centre[:, k], minlength=len(cells)) for k in range(3)], axis=1)
-    keep = (to == np.arange(len(cells))) & (vol >= MIN_SHARE)
-    return cells[keep], vol[keep], mom[keep] / vol[keep, None]
-
-
-def _nearest_host(cells: np.ndarray, centre: np.ndarray, host: np.ndarray, flat: np.ndarray, shape, lo: np.ndarray,
-                  h: float) -> np.ndarray:
-    """For each cell (``flat``: ravel indices, sorted), itself if it is a ``host`` (its centre inside the solid), else
-    the host among its 26 neighbours whose cell centre is nearest its point ``centre``, else itself. Shape (k,)."""
-    to = np.arange(len(cells))
-    guests = np.flatnonzero(~host)
-    if not len(guests) or not host.any():
-        return to
-    hosts = np.flatnonzero(host)
-    hflat = flat[hosts]
-    best = np.full(len(guests), np.inf)
-    dims = np.array(shape)
-    for off in np.argwhere(_CUBE) - 1:
-        if not off.any():
-            continue
-        nb = cells[guests] + off
-        inb = ((nb >= 0) & (nb < dims)).all(axis=1)
-        f = np.ravel_multi_index(np.clip(nb, 0, dims - 1).T, shape)
-        pos = np.minimum(np.searchsorted(hflat, f), len(hflat) - 1)
-        ok = inb & (hflat[pos] == f)
-        d = np.linalg.norm(centre[guests] - _cell_centres(nb, lo, h), axis=1)
-        better = ok & (d < best)
-        best[better] = d[better]
-        to[guests[better]] = hosts[pos[better]]
-    return to
+    cells = np.concatenate([dcells, near[keep]])
+    share = np.concatenate([np.ones(len(dcells)), share[keep]])
+    centre = np.concatenate([_cell_centres(dcells, lo, h), centre[keep]])
+    order = np.argsort(np.ravel_multi_index(cells.T, shape), kind="stable")
+    return cells[order], share[order], centre[order]
 
 
 def _above(inside: np.ndarray, lo: np.ndarray, h: float, floor: float | None) -> tuple[np.ndarray, tuple]:
