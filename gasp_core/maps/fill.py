@@ -304,9 +304,12 @@ def band(h: float, voxel: float) -> float:
 SUB = 3
 #: Surface planes a point is measured against (its nearest, and the neighbours that make an edge with it), and the
 #: cosine under which a neighbour's plane turns from the nearest's (an edge: :func:`surface_distance`).
-NEIGHBOURS, EDGE_COS = 8, 0.5
+NEIGHBOURS, EDGE_COS = 16, 0.5
+#: How far (footprint radii, the 90th percentile's) a point's foot on a plane may lie from its splat for the plane
+#: to join the nearest's at a concave edge (:func:`surface_distance`).
+COVER = 1.5
 #: Planes nearest a cell's centre that its sub-cells look among.
-CANDIDATES = 16
+CANDIDATES = 24
 #: Cells by the surface (:func:`cell_fractions`): within one cell of those whose centre has ``phi`` above
 #: ``-NEAR_PHI`` voxels (``phi`` stops at ``-HALF_SHELL``, 1.5, outside).
 NEAR_PHI = 1.25
@@ -339,7 +342,9 @@ def surface_distance(phi: np.ndarray, vlo: np.ndarray, voxel: float, splats: np.
     """
     means, normals = surface_planes(splats, phi, vlo, voxel)
     size = np.linalg.norm(splats[:, 1:] - splats[:, :1], axis=2).max(axis=1)
-    reach = 2.0 * voxel + h + 2.0 * SPLAT_SIGMA * float(np.quantile(size, 0.9)) if len(size) else 0.0
+    footprint = SPLAT_SIGMA * float(np.quantile(size, 0.9)) if len(size) else 0.0
+    reach = 2.0 * voxel + h + 2.0 * footprint
+    cover = COVER * footprint
     tree = cKDTree(means) if len(means) else None
     padded_m = np.concatenate([means, np.full((1, 3), np.inf)])
 
@@ -363,8 +368,15 @@ def surface_distance(phi: np.ndarray, vlo: np.ndarray, voxel: float, splats: np.
             j = np.where(valid, j, j[:, :1])
             n, m = normals[j], means[j]
             plane = np.einsum("ikj,ikj->ik", n, qq[:, None] - m)
-            edge = valid & (np.einsum("ikj,ij->ik", n, n[:, 0]) < EDGE_COS)
-            convex = np.einsum("ikj,ikj->ik", n[:, :1] - n, m - m[:, :1]) < 0
+            # pairs of planes that meet at an edge, and whether it is convex (each behind the other)
+            cosn = np.einsum("ikj,ilj->ikl", n, n)
+            # a plane joins at a concave edge only where the point's foot on it lies on its splat's part of the
+            # surface (a face's plane goes on past the face: a dog-bone's gauge face under its grip's shoulder)
+            foot = np.einsum("ikj,ikj->ik", qq[:, None] - m, qq[:, None] - m) - plane ** 2 <= cover ** 2
+            pair = valid[:, :, None] & valid[:, None, :] & (cosn < EDGE_COS)
+            convex = np.einsum("ikj,iklj->ikl", n, m[:, None, :, :] - m[:, :, None, :])
+            convex = pair & (convex + np.swapaxes(convex, 1, 2) < 0)
+            edge = pair[:, 0]
             dm = m[:, 1:] - m[:, :1]
             dm2 = np.einsum("ikj,ikj->ik", dm, dm)
             smooth = valid[:, 1:] & ~edge[:, 1:] & (dm2 > 0)
@@ -372,8 +384,11 @@ def surface_distance(phi: np.ndarray, vlo: np.ndarray, voxel: float, splats: np.
             kappa = np.where(smooth, kappa, 0.0).sum(axis=1) / np.maximum(smooth.sum(axis=1), 1)
             lat = np.sqrt(np.maximum(np.einsum("ij,ij->i", qq - m[:, 0], qq - m[:, 0]) - plane[:, 0] ** 2, 0.0))
             best = plane[:, 0] + np.clip(0.5 * kappa * lat ** 2, -0.5 * lat, 0.5 * lat)
-            best = np.maximum(best, np.where(edge & convex, plane, -np.inf).max(axis=1))
-            best = np.minimum(best, np.where(edge & ~convex, plane, np.inf).min(axis=1))
+            # each plane with those it makes a convex edge with is a convex piece (the intersection of the
+            # half-spaces); the nearest's piece joins those it meets at a concave edge (the union)
+            piece = np.maximum(plane, np.where(convex, plane[:, None, :], -np.inf).max(axis=2))
+            best = np.maximum(best, np.where(convex[:, 0], plane, -np.inf).max(axis=1))
+            best = np.minimum(best, np.where(edge & ~convex[:, 0] & foot, piece, np.inf).min(axis=1))
             sd[ok] = np.maximum(best, from_phi[ok] - voxel)     # never inside past the footprints' shell
             width[ok] = np.abs(n[:, 0]).sum(axis=1)
         if floor is not None:
