@@ -350,3 +350,53 @@ def _choose_radius(enclosed: list, is_solid) -> tuple[int, float]:
             return int(i) + 1, float(growth[i])
     return 0, np.inf
 
+
+
+def sample_phi(phi: np.ndarray, lo: np.ndarray, voxel: float, q: np.ndarray) -> np.ndarray:
+    """``phi`` (voxels, positive inside; :func:`solid_field`) at the points ``q`` (shape (k, 3), metres), trilinear,
+    ``-1`` off the grid. Shape (k,), float64."""
+    c = ((np.asarray(q, np.float64) - lo) / voxel - 0.5).T
+    return ndimage.map_coordinates(phi, c, order=1, mode="constant", cval=-1.0).astype(np.float64)
+
+
+#: A splat is a plane of the surface (:func:`surface_planes`) when ``phi`` falls by at least ``PLANE_STEP`` voxels
+#: from one voxel behind it to one voxel in front of it along its normal, and is under ``PLANE_OUT`` voxels two voxels
+#: in front (it faces the outside; a capture's Gaussians deep inside the solid do not).
+PLANE_STEP, PLANE_OUT = 0.5, 0.5
+#: ... and its normal is within ``acos(PLANE_COS)`` of ``phi``'s steepest descent (a trained capture's Gaussians that
+#: are not flat, or lie across the surface, have normals that are not the surface's).
+PLANE_COS = 0.8
+
+
+def surface_planes(splats: np.ndarray, phi: np.ndarray, lo: np.ndarray, voxel: float) -> tuple[np.ndarray, np.ndarray]:
+    """The splats that lie on the solid's surface as planes with their outward normals: the sub-voxel surface
+    (issue 66) where ``phi``, a distance in voxels, places it only to about a voxel.
+
+    A flat splat ``v1, v2, v3`` (GaMeS) lies in the plane through ``v1`` normal to ``(v2 - v1) x (v3 - v1)``; the normal
+    is turned to where ``phi`` (:func:`solid_field`) falls, and the splat is kept when it falls by
+    :data:`PLANE_STEP` voxels across it and the outside is within two voxels in front of it (:data:`PLANE_OUT`).
+
+    Returns
+    -------
+    means : ndarray, shape (k, 3)
+        Points on the planes (the splats' means), metres.
+    normals : ndarray, shape (k, 3)
+        Outward unit normals.
+    """
+    splats = np.asarray(splats, np.float64)
+    m = splats[:, 0]
+    nrm = np.cross(splats[:, 1] - m, splats[:, 2] - m)
+    size = np.linalg.norm(nrm, axis=1)
+    ok = size > 0
+    m, nrm = m[ok], nrm[ok] / size[ok, None]
+    front = sample_phi(phi, lo, voxel, m + voxel * nrm)
+    back = sample_phi(phi, lo, voxel, m - voxel * nrm)
+    flip = front > back
+    nrm[flip] *= -1.0
+    step = np.abs(back - front)
+    out = sample_phi(phi, lo, voxel, m + 2.0 * voxel * nrm)
+    grad = np.stack([sample_phi(phi, lo, voxel, m + voxel * e) - sample_phi(phi, lo, voxel, m - voxel * e)
+                     for e in np.eye(3)], axis=1)
+    cos = -np.einsum("ij,ij->i", grad, nrm) / np.maximum(np.linalg.norm(grad, axis=1), 1e-12)
+    keep = (step >= PLANE_STEP) & (out < PLANE_OUT) & (cos >= PLANE_COS)
+    return m[keep], nrm[keep]
