@@ -29,7 +29,9 @@ from gasp_core.seam.schema import MATERIAL_KINDS
 from gasp_core.seam.setup import BOUNDARIES, MATERIALS, Boundary, Material, SimSetup
 
 #: Numeric fields a limit may name, by where they live.
-MATERIAL_FIELDS = frozenset(f.name for f in dataclasses.fields(Material) if f.name not in ("name", "model"))
+#: (A material's ``friction``, the pair rule's coefficient with no scene key, is not one: ``friction`` names the
+#: boundaries'.)
+MATERIAL_FIELDS = frozenset(f.name for f in dataclasses.fields(Material) if f.name not in ("name", "model", "friction"))
 BOUNDARY_FIELDS = frozenset({"height", "friction"})
 SETUP_FIELDS = frozenset({"n_grid", "frame_dt"})
 
