@@ -16,7 +16,15 @@ import pytest
 from gasp_testing import needs_package
 
 import gasp_core.maps.fill as fill_mod
+import gasp_core.maps.fill_shares as shares_mod
 from gasp_core.maps.fill import fill_interior, fill_spacing
+
+
+@pytest.fixture(autouse=True)
+def shares(monkeypatch):
+    """The fill of the cells at the faces by their shares is opt-in (``GASP_FILL=shares``, gasp_core.maps.fill_shares):
+    on for these tests."""
+    monkeypatch.setenv("GASP_FILL", "shares")
 
 trimesh = needs_package("trimesh")
 
@@ -173,7 +181,7 @@ def _whole_cells(*args, **kwargs):
     seed, deep, phi, vlo, voxel, splats, lo, h = args[:8]
     inside = fill_mod._centre_masks(phi, vlo, voxel, lo, seed.shape, h, fill_mod.band(h, voxel))[0]
     cells = np.argwhere(inside)
-    return cells, np.ones(len(cells)), fill_mod._cell_centres(cells, lo, h)
+    return cells, np.ones(len(cells)), shares_mod.cell_centres(cells, lo, h)
 
 
 def _rounded(original):
@@ -181,7 +189,7 @@ def _rounded(original):
     def variant(*args, **kwargs):
         cells, share, centre = original(*args, **kwargs)
         keep = share >= 0.5
-        return cells[keep], np.ones(int(keep.sum())), fill_mod._cell_centres(cells[keep], args[6], args[7])
+        return cells[keep], np.ones(int(keep.sum())), shares_mod.cell_centres(cells[keep], args[6], args[7])
     return variant
 
 
@@ -189,8 +197,8 @@ def _rounded(original):
 def test_the_family_catches_a_fill_that_counts_whole_cells(variant, monkeypatch):
     """The check above fails on the fill that issue 66 found (whole cells by ``phi``) and on whole cells by the right
     surface: a thin bar at a coarse grid is off by more than 5 % with either."""
-    broken = _whole_cells if variant == "whole cells by phi" else _rounded(fill_mod.cell_fractions)
-    monkeypatch.setattr(fill_mod, "cell_fractions", broken)
+    broken = _whole_cells if variant == "whole cells by phi" else _rounded(shares_mod.cell_fractions)
+    monkeypatch.setattr(shares_mod, "cell_fractions", broken)
     errors = [measure(name, n_grid)[0] for name, n_grid in QUICK[:4]]
     assert max(abs(e) for e in errors) > 0.05, errors
     with pytest.raises(AssertionError):

@@ -25,7 +25,8 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from gasp_core.errors import SceneError
-from gasp_core.maps.occupancy import SPLAT_SIGMA, padded_grid, rasterize, sample_phi, solid_field, surface_planes
+from gasp_core.maps import fill_shares
+from gasp_core.maps.occupancy import SPLAT_SIGMA, padded_grid, rasterize, solid_field
 
 #: Largest fill grid (cells) before the fill spacing is refused as too fine.
 MAX_FILL_CELLS = 512 ** 3
@@ -144,6 +145,7 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
                   voxel: float | None = None, surface_mass: bool = True, unit: str = "m",
                   check_points: Callable[[int], None] | None = None, floor: float | None = None) -> FillResult:
     """Fill an object's enclosed interior at spacing ``h`` and give every point its volume.
+    It is long because the solid, the shell and the faces' shares (:mod:`.fill_shares`) each decide the cells.
 
     Parameters
     ----------
@@ -201,7 +203,10 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
         inside, seed, deep = _centre_masks(phi, vlo, voxel_used, lo, shape, h, band(h, voxel_used))
         inside, floored = _above(inside, lo, h, floor)
         thin = thin_parts(phi, vlo, voxel_used, inside, lo, h)
-        cells, frac, cent = cell_fractions(seed, deep, phi, vlo, voxel_used, splats, lo, h, floor)
+        if fill_shares.enabled():   # the cells at the faces by their shares (issue 66; opt-in: fill_shares)
+            cells, frac, cent = fill_shares.cell_fractions(seed, deep, phi, vlo, voxel_used, splats, lo, h, floor)
+        else:
+            cells = np.argwhere(inside)
         method, closed, warning = "six-ray", True, ""
     else:
         inside, floored = _above(rasterize(splats, lo, shape, h), lo, h, floor)
@@ -231,7 +236,7 @@ def _points_and_volumes(points: np.ndarray, cells: np.ndarray, lo: np.ndarray, s
     ``cells`` (k, 3) of the grid of corner ``lo`` and spacing ``h`` (``surface_mass``: see :func:`fill_interior`),
     each holding ``share`` (k,) of its ``h^3`` with its fill point at ``centre`` (k, 3) (default: whole, centred)."""
     if share is None:
-        share, centre = np.ones(len(cells)), _cell_centres(cells, lo, h)
+        share, centre = np.ones(len(cells)), fill_shares.cell_centres(cells, lo, h)
     vol = share * h ** 3
     if surface_mass:
         p_vol_surface, empty = _share_cells(points, cells, lo, shape, h, vol)
@@ -239,7 +244,7 @@ def _points_and_volumes(points: np.ndarray, cells: np.ndarray, lo: np.ndarray, s
     if len(cells):
         return centre, np.zeros(len(points)), vol
     own = _cells_or_own(points, cells, lo, shape, h)
-    return _cell_centres(own, lo, h), np.zeros(len(points)), np.full(len(own), h ** 3)
+    return fill_shares.cell_centres(own, lo, h), np.zeros(len(points)), np.full(len(own), h ** 3)
 
 
 def _open_warning(name: str, max_dilation: int, voxel: float, volume: float, unit: str = "m") -> str:
@@ -276,15 +281,10 @@ def _fill_grid(points: np.ndarray, splats: np.ndarray, h: float, name: str) -> t
     return lo, shape
 
 
-def _cell_centres(cells: np.ndarray, lo: np.ndarray, h: float) -> np.ndarray:
-    """Centres (metres) of the fill-grid cells ``cells`` (k, 3) of corner ``lo`` and spacing ``h``."""
-    return lo + (cells + 0.5) * h
-
-
 def _centre_masks(phi: np.ndarray, vlo: np.ndarray, voxel: float, lo: np.ndarray, shape, h: float,
                   band: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Where ``phi`` (voxels, positive inside; trilinear in the occupancy field of corner ``vlo``, voxel ``voxel``) at
-    the centres of the fill grid's cells is positive, above ``-NEAR_PHI`` and at least ``band``, sampled slab by slab
+    the centres of the fill grid's cells is positive, above ``-fill_shares.NEAR_PHI`` and at least ``band``, sampled slab by slab
     along x (bounded memory). Three bool arrays of shape ``shape``."""
     inside, seed, deep = (np.zeros(shape, dtype=bool) for _ in range(3))
     j, k = np.meshgrid(np.arange(shape[1]), np.arange(shape[2]), indexing="ij")
@@ -293,7 +293,7 @@ def _centre_masks(phi: np.ndarray, vlo: np.ndarray, voxel: float, lo: np.ndarray
     for i in range(shape[0]):
         cx = np.full(cy.shape, (lo[0] + (i + 0.5) * h - vlo[0]) / voxel - 0.5)
         v = ndimage.map_coordinates(phi, [cx, cy, cz], order=1, mode="constant", cval=-1.0)
-        inside[i], seed[i], deep[i] = v > 0, v > -NEAR_PHI, v >= band
+        inside[i], seed[i], deep[i] = v > 0, v > -fill_shares.NEAR_PHI, v >= band
     return inside, seed, deep
 
 
@@ -301,163 +301,6 @@ def band(h: float, voxel: float) -> float:
     """Depth (voxels of ``phi``) from which a fill cell of spacing ``h`` is whole: its diagonal in taxicab voxels and
     two voxels for where ``phi`` puts the surface."""
     return 1.5 * h / voxel + 2.0
-
-
-#: Sub-cells per axis that a cell the surface crosses is sampled at (:func:`cell_fractions`).
-SUB = 3
-#: Surface planes a point is measured against (its nearest, and the neighbours that make an edge with it), and the
-#: cosine under which a neighbour's plane turns from the nearest's (an edge: :func:`surface_distance`).
-NEIGHBOURS, EDGE_COS = 16, 0.5
-#: How far (footprint radii, the 90th percentile's) a point's foot on a plane may lie from its splat for the plane
-#: to join the nearest's at a concave edge (:func:`surface_distance`).
-COVER = 1.5
-#: Planes nearest a cell's centre that its sub-cells look among.
-CANDIDATES = 24
-#: Cells by the surface (:func:`cell_fractions`): within one cell of those whose centre has ``phi`` above
-#: ``-NEAR_PHI`` voxels (``phi`` stops at ``-HALF_SHELL``, 1.5, outside).
-NEAR_PHI = 1.25
-_CUBE = np.ones((3, 3, 3), bool)
-#: A cell whose share inside is under this is left out (its volume, under 1 % of a cell, is lost).
-MIN_SHARE = 0.01
-
-
-def surface_distance(phi: np.ndarray, vlo: np.ndarray, voxel: float, splats: np.ndarray, h: float,
-                     floor: float | None = None) -> Callable[..., tuple[np.ndarray, np.ndarray]]:
-    """The signed distance to the solid's surface (metres, positive outside) that :func:`cell_fractions` measures
-    cells with (issue 66).
-
-    The surface is the planes of the splats that lie on it (:func:`~gasp_core.maps.occupancy.surface_planes`).
-    A point is measured against its nearest plane, bent by the surface's curvature across it (from the neighbours'
-    normals: on a curved face the tangent planes lie outside the solid, which they would grow by ``l^2 / 2R``), and
-    against the neighbours whose plane turns from the nearest's by more than ``acos(EDGE_COS)``: at a convex edge
-    (each behind the other) the solid is the intersection of the half-spaces, at a concave edge their union (a
-    sampled edge's nearest plane alone bulges out by the sampling gap, as far as the planes reach). Where no plane is
-    within ``2 voxel + h + 2 SPLAT_SIGMA`` splat sizes (the 90th percentile), ``phi`` decides; and no point is
-    inside where ``phi`` is more than a voxel outside (past the footprints' shell), nor under a ``floor``.
-
-    Returns
-    -------
-    callable
-        ``distance(q, cand=None)``: for points ``q`` (shape (k, 3)), the signed distance and the width factor
-        ``|n|_1`` of the plane it came from (1 for ``phi``'s or the floor's), both shape (k,). ``cand`` (shape
-        (k, c), c >= :data:`NEIGHBOURS`) are indices of the planes to look among (``len(planes)``: none), for points
-        close together (a cell's sub-cells) that share one search.
-    """
-    means, normals = surface_planes(splats, phi, vlo, voxel)
-    size = np.linalg.norm(splats[:, 1:] - splats[:, :1], axis=2).max(axis=1)
-    footprint = SPLAT_SIGMA * float(np.quantile(size, 0.9)) if len(size) else 0.0
-    reach = 2.0 * voxel + h + 2.0 * footprint
-    cover = COVER * footprint
-    tree = cKDTree(means) if len(means) else None
-    padded_m = np.concatenate([means, np.full((1, 3), np.inf)])
-
-    def candidates(q: np.ndarray, k: int, bound: float) -> np.ndarray:
-        """Indices (shape (len(q), k)) of the ``k`` planes nearest each point within ``bound``; ``len(means)``: none."""
-        return tree.query(q, k=k, distance_upper_bound=bound)[1].reshape(len(q), k)
-
-    def distance(q: np.ndarray, cand: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        from_phi = -sample_phi(phi, vlo, voxel, q) * voxel
-        sd, width = from_phi.copy(), np.ones(len(q))
-        if tree is not None:
-            if cand is None:
-                j = candidates(q, NEIGHBOURS, reach)
-            else:
-                dc = np.linalg.norm(padded_m[cand] - q[:, None], axis=2)
-                order = np.argsort(dc, axis=1)[:, :NEIGHBOURS]
-                j = np.take_along_axis(np.where(dc <= reach, cand, len(means)), order, axis=1)
-            valid = j < len(means)
-            ok = valid[:, 0]
-            j, valid, qq = j[ok], valid[ok], q[ok]
-            j = np.where(valid, j, j[:, :1])
-            n, m = normals[j], means[j]
-            plane = np.einsum("ikj,ikj->ik", n, qq[:, None] - m)
-            # pairs of planes that meet at an edge, and whether it is convex (each behind the other)
-            cosn = np.einsum("ikj,ilj->ikl", n, n)
-            # a plane joins at a concave edge only where the point's foot on it lies on its splat's part of the
-            # surface (a face's plane goes on past the face: a dog-bone's gauge face under its grip's shoulder)
-            foot = np.einsum("ikj,ikj->ik", qq[:, None] - m, qq[:, None] - m) - plane ** 2 <= cover ** 2
-            pair = valid[:, :, None] & valid[:, None, :] & (cosn < EDGE_COS)
-            convex = np.einsum("ikj,iklj->ikl", n, m[:, None, :, :] - m[:, :, None, :])
-            convex = pair & (convex + np.swapaxes(convex, 1, 2) < 0)
-            edge = pair[:, 0]
-            dm = m[:, 1:] - m[:, :1]
-            dm2 = np.einsum("ikj,ikj->ik", dm, dm)
-            smooth = valid[:, 1:] & ~edge[:, 1:] & (dm2 > 0)
-            kappa = np.einsum("ikj,ikj->ik", n[:, 1:] - n[:, :1], dm) / np.where(smooth, dm2, 1.0)
-            kappa = np.where(smooth, kappa, 0.0).sum(axis=1) / np.maximum(smooth.sum(axis=1), 1)
-            lat = np.sqrt(np.maximum(np.einsum("ij,ij->i", qq - m[:, 0], qq - m[:, 0]) - plane[:, 0] ** 2, 0.0))
-            best = plane[:, 0] + np.clip(0.5 * kappa * lat ** 2, -0.5 * lat, 0.5 * lat)
-            # each plane with those it makes a convex edge with is a convex piece (the intersection of the
-            # half-spaces); the nearest's piece joins those it meets at a concave edge (the union)
-            piece = np.maximum(plane, np.where(convex, plane[:, None, :], -np.inf).max(axis=2))
-            best = np.maximum(best, np.where(convex[:, 0], plane, -np.inf).max(axis=1))
-            best = np.minimum(best, np.where(edge & ~convex[:, 0] & foot, piece, np.inf).min(axis=1))
-            sd[ok] = np.maximum(best, from_phi[ok] - voxel)     # never inside past the footprints' shell
-            width[ok] = np.abs(n[:, 0]).sum(axis=1)
-        if floor is not None:
-            under = floor - q[:, 2]
-            width = np.where(under > sd, 1.0, width)
-            sd = np.maximum(sd, under)
-        return sd, width
-
-    distance.candidates = (lambda q: candidates(q, CANDIDATES, reach + h)) if tree is not None else None
-    return distance
-
-
-def cell_fractions(seed: np.ndarray, deep: np.ndarray, phi: np.ndarray, vlo: np.ndarray, voxel: float,
-                   splats: np.ndarray, lo: np.ndarray, h: float,
-                   floor: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The fill points of spacing ``h``: the cells that hold part of the solid, the volume each point stands for and
-    where (issue 66: a body's mass, and its fill inside its faces).
-
-    ``deep`` cells (``phi`` at their centre at least :func:`band` voxels) are whole. The cells within one cell of the
-    ``seed`` (``phi`` above ``-NEAR_PHI`` at their centre) are measured against :func:`surface_distance`: a cell the
-    surface crosses is sampled at :data:`SUB` ^3 sub-cells, each inside by the share of it under that distance (a
-    slab across the sub-cell), and its point goes to the centre of its inside part. Cells under :data:`MIN_SHARE` of
-    a cell are left out. Under a ``floor`` (metres, world z) nothing is inside.
-
-    Returns
-    -------
-    cells : ndarray, shape (k, 3), int64
-        Fill-grid indices, in the grid's ravel order.
-    share : ndarray, shape (k,)
-        Share of each cell inside the solid, in ``[MIN_SHARE, 1]``.
-    centre : ndarray, shape (k, 3)
-        Centre of each cell's inside part, metres.
-    """
-    shape = seed.shape
-    deep = deep.copy()
-    if floor is not None:
-        bottom = lo[2] + np.arange(shape[2]) * h
-        deep &= (bottom >= floor)[None, None, :]
-    near = np.argwhere(ndimage.binary_dilation(seed, _CUBE) & ~deep)
-    distance = surface_distance(phi, vlo, voxel, splats, h, floor)
-    centres = _cell_centres(near, lo, h)
-    sd, _ = distance(centres)
-    share = np.where(sd <= 0, 1.0, 0.0)
-    cut = np.abs(sd) < h
-    centre = centres.copy()
-    if cut.any():
-        u = (np.arange(SUB) + 0.5) / SUB - 0.5
-        offs = np.stack(np.meshgrid(u, u, u, indexing="ij"), -1).reshape(-1, 3) * h
-        idx = np.flatnonzero(cut)
-        for s in range(0, len(idx), 4_000):
-            ii = idx[s:s + 4_000]
-            q = (centres[ii, None, :] + offs[None]).reshape(-1, 3)
-            cand = None if distance.candidates is None else np.repeat(distance.candidates(centres[ii]), len(offs), axis=0)
-            d, w = distance(q, cand)
-            f = np.clip(0.5 - d / (w * h / SUB), 0.0, 1.0).reshape(len(ii), -1)
-            tot = f.sum(axis=1)
-            share[ii] = tot / f.shape[1]
-            cen = np.einsum("ik,ikj->ij", f, q.reshape(len(ii), -1, 3)) / np.maximum(tot, 1e-300)[:, None]
-            centre[ii] = np.where(tot[:, None] > 0, cen, centres[ii])
-    keep = share >= MIN_SHARE
-    dcells = np.argwhere(deep)
-    cells = np.concatenate([dcells, near[keep]])
-    share = np.concatenate([np.ones(len(dcells)), share[keep]])
-    centre = np.concatenate([_cell_centres(dcells, lo, h), centre[keep]])
-    order = np.argsort(np.ravel_multi_index(cells.T, shape), kind="stable")
-    return cells[order], share[order], centre[order]
 
 
 def _above(inside: np.ndarray, lo: np.ndarray, h: float, floor: float | None) -> tuple[np.ndarray, tuple]:
@@ -544,7 +387,7 @@ def _share_cells(points: np.ndarray, cells: np.ndarray, lo: np.ndarray, shape,
         if len(flat_inside) else np.zeros(len(flat_pts), bool)
     owner = np.where(hit, pos, -1)
     if (~hit).any() and len(cells):
-        _, near = cKDTree(_cell_centres(cells, lo, h)).query(points[~hit])
+        _, near = cKDTree(fill_shares.cell_centres(cells, lo, h)).query(points[~hit])
         owner[~hit] = near
     if len(cells):
         counts = np.bincount(owner, minlength=len(cells))
