@@ -174,7 +174,7 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         self._split_chunks()
         self._init_box()
         self._setup_extras(extras, time_table, np_real, n_substeps)
-        if self.has_passive:
+        if self.has_passive and not self.atomic:   # the chunks' node box: only the CPU's chunked and coloured P2G read it
             self.passive_box()
         self.visc = ImplicitViscosity(self, self.eta_channel) if self.viscous else None
 

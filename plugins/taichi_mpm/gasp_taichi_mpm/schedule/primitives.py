@@ -144,20 +144,22 @@ class SliceSums:
             self.part[t, r] = 0
 
     @ti.func
-    def reduce(self, n):
-        """``out[r] = sum_{t < n} part[t, r]``: groups of :data:`WIDTH` in order, twice, then the rest in order."""
-        n1 = (n + WIDTH - 1) // WIDTH
-        for g, r in ti.ndrange(n1, self.n_cols):
+    def _fold(self, src: ti.template(), dst: ti.template(), n):
+        """``dst[g, r]`` = the sum of ``src[g W .. g W + W - 1, r]`` (below ``n``) in order, one thread a group;
+        returns the groups."""
+        groups = (n + WIDTH - 1) // WIDTH
+        for g, r in ti.ndrange(groups, self.n_cols):
             s = ti.cast(0, self.dtype)
             for t in range(g * WIDTH, ti.min(g * WIDTH + WIDTH, n)):
-                s += self.part[t, r]
-            self.l1[g, r] = s
-        n2 = (n1 + WIDTH - 1) // WIDTH
-        for g, r in ti.ndrange(n2, self.n_cols):
-            s = ti.cast(0, self.dtype)
-            for t in range(g * WIDTH, ti.min(g * WIDTH + WIDTH, n1)):
-                s += self.l1[t, r]
-            self.l2[g, r] = s
+                s += src[t, r]
+            dst[g, r] = s
+        return groups
+
+    @ti.func
+    def reduce(self, n):
+        """``out[r] = sum_{t < n} part[t, r]``: groups of :data:`WIDTH` in order, twice, then the rest in order."""
+        n1 = self._fold(self.part, self.l1, n)
+        n2 = self._fold(self.l1, self.l2, n1)
         for r in range(self.n_cols):
             s = ti.cast(0, self.dtype)
             for g in range(n2):
