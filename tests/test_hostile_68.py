@@ -514,7 +514,7 @@ def _zero_ply(path, n):
     return path
 
 
-@pytest.mark.parametrize("kind", ["splat", "ply"])
+@pytest.mark.parametrize("kind", ["splat", "ply", "ascii"])
 def test_a_large_file_of_zeros_is_refused_within_2_gib(tmp_path, kind):
     """Issue 68's old cases over their bound: a 512 MB ``.splat`` of zeros took 10.4 s and 3.5 GB to be refused (all
     its Gaussians at one point), a 1 GB PLY of zeros (a 3DGS header of 14 floats) 8.9 s and 3.1 GB (a zero
@@ -524,9 +524,18 @@ def test_a_large_file_of_zeros_is_refused_within_2_gib(tmp_path, kind):
         path = tmp_path / "zeros.splat"
         path.write_bytes(b"")
         os.truncate(path, 512 << 20)
-    else:
+    elif kind == "ply":
         path = _zero_ply(tmp_path / "zeros.ply", 19_173_960)
+    else:                    # an ASCII header over 2 GiB of NUL bytes: plyfile took 45 s and 19 GB
+        path = tmp_path / "ascii.ply"
+        path.write_bytes(b"ply\nformat ascii 1.0\nelement vertex 30000000\nproperty float x\nproperty float y\n"
+                         b"property float z\nend_header\n")
+        os.truncate(path, 2 << 30)
     r = subprocess.run([sys.executable, "-c", ZEROS, str(path)], capture_output=True, text=True, timeout=120)
     assert r.returncode == 2, r.stderr[-2000:]
-    assert r.stderr.strip().endswith("a degenerate file, no object to describe or simulate")
-    assert "lie at one point (0, 0, 0)" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+    assert len(r.stderr.strip().splitlines()) == 1, r.stderr[-2000:]
+    if kind == "ascii":
+        assert "an ASCII PLY whose first row is longer than 1,048,576 bytes" in r.stderr
+    else:
+        assert r.stderr.strip().endswith("a degenerate file, no object to describe or simulate")
+        assert "lie at one point (0, 0, 0)" in r.stderr

@@ -57,7 +57,8 @@ __all__ = ["read_gaussians", "read_ply_gaussians", "write_gaussians"]
 
 def refuse_one_point(path, g: Gaussians) -> None:
     """Refuse a file of more than :data:`~gasp_core.gs.ply.MAX_AT_ONE_POINT` Gaussians whose centres are all equal,
-    before any work that grows with their count (O(n) time, no copy): :func:`gasp_core.gs.ply.refuse_one_point_means`.
+    before any work that grows with their count (O(n) time, no copy): :func:`gasp_core.gs.ply.refuse_one_point_means`
+    (the readers of large formats check their files before this: :func:`gasp_core.gs.ply.refuse_one_point_file`).
 
     Raises
     ------

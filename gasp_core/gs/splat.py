@@ -7,7 +7,7 @@ import numpy as np
 
 from gasp_core.gs.gaussians import Gaussians
 from gasp_core.gs.bound import check_count
-from gasp_core.gs.ply import LOGIT_CLAMP, SH_C0, check_is_file, refuse_one_point_means, reject_file
+from gasp_core.gs.ply import LOGIT_CLAMP, SH_C0, check_is_file, refuse_one_point_file, reject_file
 
 _SPLAT_RECORD = 32  # bytes per splat in a .splat file
 _KSPLAT_HEADER, _KSPLAT_SECTION_HEADER = 4096, 1024
@@ -64,10 +64,10 @@ def read_splat(path) -> Gaussians:
         reject_file(path, f"{size} bytes is not a whole number of {_SPLAT_RECORD}-byte .splat records; "
                     "truncated?")
     check_count(path, size // _SPLAT_RECORD, "its size")   # no header: bounded before a byte is decoded
-    rec = np.memmap(path, mode="r", dtype=np.dtype([("pos", "<f4", 3), ("scale", "<f4", 3), ("rgba", "u1", 4),
-                                                    ("rot", "u1", 4)]))
+    dtype = np.dtype([("pos", "<f4", 3), ("scale", "<f4", 3), ("rgba", "u1", 4), ("rot", "u1", 4)])
+    refuse_one_point_file(path, dtype, 0, size // _SPLAT_RECORD, lambda r: r["pos"])   # before a Gaussian is built
+    rec = np.memmap(path, mode="r", dtype=dtype)
     _check_means(path, rec["pos"])
-    refuse_one_point_means(path, rec["pos"])   # on the mapped file, before the Gaussians are built
     means = rec["pos"].astype(np.float64)
     rgba = rec["rgba"].astype(np.float64) / 255.0
     return Gaussians(means=means, scales=rec["scale"].astype(np.float64),
