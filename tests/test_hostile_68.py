@@ -514,7 +514,7 @@ def _zero_ply(path, n):
     return path
 
 
-@pytest.mark.parametrize("kind", ["splat", "ply", "ascii"])
+@pytest.mark.parametrize("kind", ["splat", "ply", "ascii", "ksplat"])
 def test_a_large_file_of_zeros_is_refused_within_2_gib(tmp_path, kind):
     """Issue 68's old cases over their bound: a 512 MB ``.splat`` of zeros took 10.4 s and 3.5 GB to be refused (all
     its Gaussians at one point), a 1 GB PLY of zeros (a 3DGS header of 14 floats) 8.9 s and 3.1 GB (a zero
@@ -526,6 +526,10 @@ def test_a_large_file_of_zeros_is_refused_within_2_gib(tmp_path, kind):
         os.truncate(path, 512 << 20)
     elif kind == "ply":
         path = _zero_ply(tmp_path / "zeros.ply", 19_173_960)
+    elif kind == "ksplat":   # 2 GiB of zeros: read whole (2.2 GB) before its header's version was checked
+        path = tmp_path / "zeros.ksplat"
+        path.write_bytes(b"")
+        os.truncate(path, 2 << 30)
     else:                    # an ASCII header over 2 GiB of NUL bytes: plyfile took 45 s and 19 GB
         path = tmp_path / "ascii.ply"
         path.write_bytes(b"ply\nformat ascii 1.0\nelement vertex 30000000\nproperty float x\nproperty float y\n"
@@ -536,6 +540,8 @@ def test_a_large_file_of_zeros_is_refused_within_2_gib(tmp_path, kind):
     assert len(r.stderr.strip().splitlines()) == 1, r.stderr[-2000:]
     if kind == "ascii":
         assert "an ASCII PLY whose first row is longer than 1,048,576 bytes" in r.stderr
+    elif kind == "ksplat":
+        assert "version 0.0, compression level 0; expected version 0.1+" in r.stderr
     else:
         assert r.stderr.strip().endswith("a degenerate file, no object to describe or simulate")
         assert "lie at one point (0, 0, 0)" in r.stderr

@@ -109,15 +109,15 @@ def read_ksplat(path) -> Gaussians:
     if len(head) < _KSPLAT_HEADER:
         reject_file(path, f"{len(head)} bytes; a .ksplat file starts with a {_KSPLAT_HEADER}-byte header")
     check_count(path, int(np.frombuffer(head, "<u4", 1, 16)[0]), "its header")
-    raw = path.read_bytes()
-    major, minor = raw[0], raw[1]
-    n_sections = int(np.frombuffer(raw, "<u4", 1, 4)[0])
-    n_total = int(np.frombuffer(raw, "<u4", 1, 16)[0])
-    level = int(np.frombuffer(raw, "<u2", 1, 20)[0])
-    sh_lo, sh_hi = (float(v) for v in np.frombuffer(raw, "<f4", 2, 36))
-    if major != 0 or minor < 1 or level not in _KSPLAT_BYTES:
+    major, minor = head[0], head[1]
+    n_sections = int(np.frombuffer(head, "<u4", 1, 4)[0])
+    n_total = int(np.frombuffer(head, "<u4", 1, 16)[0])
+    level = int(np.frombuffer(head, "<u2", 1, 20)[0])
+    sh_lo, sh_hi = (float(v) for v in np.frombuffer(head, "<f4", 2, 36))
+    if major != 0 or minor < 1 or level not in _KSPLAT_BYTES:   # from the header: before the file is read
         reject_file(path, f"version {major}.{minor}, compression level {level}; expected version 0.1+ and "
                     "level 0, 1 or 2 (a GaussianSplats3D .ksplat file)")
+    raw = path.read_bytes()
     sh_lo, sh_hi = sh_lo or -1.5, sh_hi or 1.5
     offset = _KSPLAT_HEADER + n_sections * _KSPLAT_SECTION_HEADER
     if offset > len(raw):
