@@ -69,10 +69,10 @@ CASES = (("ball", ROLL_MU), ("ball", SLIP_MU))
 K_SOLID = {"ball": 0.4, "cylinder": 0.5}
 
 
-def _volumes(r_fill: np.ndarray, n_shell: int, volume: float, k: float, fill_vol: float) -> tuple[float, float]:
+def _volumes(r_fill: np.ndarray, r_shell: np.ndarray, volume: float, k: float) -> tuple[float, float]:
     """The fill points' and the shell points' volumes (m^3) that give the body ``volume`` and ``I = k M R^2`` about
-    the roll axis (``r_fill``: the fill points' squared distances from it, m^2; the shell's are ``R^2``)."""
-    A = np.array([[len(r_fill), n_shell], [r_fill.sum(), n_shell * R * R]])
+    the roll axis (``r_fill``, ``r_shell``: their squared distances from it, m^2)."""
+    A = np.array([[len(r_fill), len(r_shell)], [r_fill.sum(), r_shell.sum()]])
     vf, vs = np.linalg.solve(A, [volume, k * volume * R * R])
     assert vf > 0.0 and vs > 0.0, (vf, vs)
     return float(vf), float(vs)
@@ -96,7 +96,7 @@ def body_points(shape: str, c: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]
         P, Y = np.meshgrid(phi, y, indexing="ij")
         shell = c + np.stack([R * np.cos(P).ravel(), Y.ravel(), R * np.sin(P).ravel()], axis=1)
         volume, r2 = math.pi * R * R * CYL_LEN, ((x - c)[:, [0, 2]] ** 2).sum(axis=1)
-    vf, vs = _volumes(r2, len(shell), volume, K_SOLID[shape], h ** 3)
+    vf, vs = _volumes(r2, ((shell - c)[:, [0, 2]] ** 2).sum(axis=1), volume, K_SOLID[shape])
     return np.concatenate([shell, x]), np.r_[np.full(len(shell), vs), np.full(len(x), vf)], len(shell)
 
 
