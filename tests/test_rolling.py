@@ -247,3 +247,32 @@ def test_the_checks_catch_broken_engines(engine, monkeypatch):
         caught["every patch a face (before the fix)"] = check("ball", ROLL_MU, measure(engine, "ball", ROLL_MU))
     missed = [k for k, v in caught.items() if v is None]
     assert not missed, f"{engine}: the checks miss {missed}"
+
+
+def test_contact_flatness_reference():
+    """``gasp_core.toolkit.rigid_friction.contact_flatness``: a ball's cap (depths ``d0 - s^2 / 2R`` over its touching
+    lattice) reads 0, a block's evenly pressed face 1; ``coulomb_friction`` then rolls a ball on its cap (``omega R =
+    v``, 5/7 of the speed kept) and holds a block's tipping moment (no spin)."""
+    from gasp_core.toolkit.rigid_friction import contact_flatness, coulomb_friction
+    d0 = 4e-4
+    g = np.linspace(-0.02, 0.02, 41)
+    X, Y = np.meshgrid(g, g, indexing="ij")
+    d = d0 - (X ** 2 + Y ** 2) / (2 * R)
+    sel = d > 0.0
+    w, xs = d[sel], X[sel]
+    s2 = float((w * xs ** 2).sum() / w.sum() - ((w * xs).sum() / w.sum()) ** 2)
+    assert 3 * s2 / d0 == pytest.approx(R, rel=0.1)               # the cap's radius of curvature is the ball's
+    assert contact_flatness(3 * s2, d0, R) == 0.0
+    a_face = 0.075
+    assert contact_flatness(a_face ** 2, 1.3e-4, 0.025) == 1.0   # the 6 x 6 x 2 cell block's face
+    M = 2.0
+    n, c = np.array([0.0, 0.0, 1.0]), np.zeros(3)
+    I_ball = np.eye(3) * 0.4 * M * R * R
+    S_cap = np.diag([s2, s2, 0.0])
+    J = M * 9.81 * 0.003
+    V, wv = coulomb_friction([0.01, 0.0, 0.0], np.zeros(3), I_ball, M, c, n, [0.0, 0.0, -R], np.zeros(3), 10.0 * J,
+                             J, S_cap, deep=d0)
+    assert V[0] == pytest.approx(0.01 * 5.0 / 7.0) and wv[1] * R == pytest.approx(V[0])
+    V, wv = coulomb_friction([0.01, 0.0, 0.0], np.zeros(3), I_ball, M, c, n, [0.0, 0.0, -R], np.zeros(3), 10.0 * J,
+                             J, S_cap)   # deep unknown: the cap taken for a face, its moment held (the old engine)
+    assert V[0] < 0.01 * 5.0 / 7.0 - 1e-4
