@@ -61,7 +61,8 @@ def markdown(rows: list[dict]) -> str:
            f"Ball and cylinder on a {rl.THETA:g} deg slope (gravity tilted), R = {rl.R} m; a: fitted from "
            f"{rl.FIT_FROM} to {rl.T} s; closed form: rolling (5/7 or 2/3) g sin theta, slipping g (sin - mu cos); "
            "'own k' the rolling closed form with the engines' inertia (APIC's M dx^2 / 2 added).", "",
-           "| engine | shape | n_grid | mu | closed form | a (m/s^2) | error | own k | omega R / v | omega R (slip: closed) | ok |",
+           "| engine | shape | n_grid | mu | closed form | a (m/s^2) | error | own k | omega R / v "
+           "| omega R (slip: closed) | ok |",
            "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in (r for r in rows if r["part"] == "roll"):
         wr = f"{r['wR']:.4f} ({r['wR_closed']:.4f})" if r["wR_closed"] is not None else f"{r['wR']:.4f}"

@@ -200,8 +200,8 @@ def test_solid_cylinder_rolls_or_slips_on_a_slope(engine, mu):
 
 def _friction(factor=None, value=None):
     def spoil(s):
-        s.boundaries = [Boundary("ground", height=b.height, friction=value if value is not None else b.friction * factor)
-                        for b in s.boundaries]
+        s.boundaries = [Boundary("ground", height=b.height,
+                                 friction=value if value is not None else b.friction * factor) for b in s.boundaries]
     return spoil
 
 
@@ -235,7 +235,8 @@ def test_the_checks_catch_broken_engines(engine, monkeypatch):
     # the real engine passes both default cases (test_rigid_body_rolls_or_slips_on_a_slope); each broken one fails
     good_roll = measure(engine, "ball", ROLL_MU)
     caught = {
-        "brakes at a rest speed (0.1 m/s)": check("ball", ROLL_MU, measure(engine, "ball", ROLL_MU, output=_rest_brake)),
+        "brakes at a rest speed (0.1 m/s)": check("ball", ROLL_MU,
+                                                  measure(engine, "ball", ROLL_MU, output=_rest_brake)),
         "never sticks (friction a tenth)": check("ball", ROLL_MU, measure(engine, "ball", ROLL_MU,
                                                                            spoil=_friction(factor=0.1))),
         "ignores mu (0.5 always)": check("ball", SLIP_MU, measure(engine, "ball", SLIP_MU, spoil=_friction(value=0.5))),

@@ -46,9 +46,9 @@ class RigidFriction:
         (it sticks), else the budget (it slides at the kinetic rate); the impulse's tipping moment is held by the
         normal contact up to ``J a f`` (``a`` the patch's half-width along ``u_t``, ``f`` its :func:`flatness`, kept
         with the patch's centre in ``rb_flat`` and ``rb_xf`` for the next substep's damping, ``Rigid.rolling_vn``): a
-        block slides as a particle, a ball or a cylinder rolls (issue 67). ``(V, w)`` already hold gravity's and the normal contact's impulses of the substep, so the impulse
-        that stops ``u_t`` is the one the body needs to stay. Its only friction with the planes and colliders
-        (:meth:`node_budget`; issue 67)."""
+        block slides as a particle, a ball or a cylinder rolls (issue 67). ``(V, w)`` already hold gravity's and the
+        normal contact's impulses of the substep, so the impulse that stops ``u_t`` is the one the body needs to stay.
+        Its only friction with the planes and colliders (:meth:`node_budget`; issue 67)."""
         Vo, wo = V, w
         fx = self.rb_fx[b]
         jx = self.rb_jx[b]
