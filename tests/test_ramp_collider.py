@@ -5,7 +5,8 @@ The ramp: a box 1.0 x 0.6 x 0.1 m built from geometry (its 12 triangles, tilted 
 :func:`ramp_triangles`) and turned into a collider by ``gasp_core.colliders.sdf.collider_from_triangles``, the route
 a ``[[collider]] mesh = ...`` takes (trimesh's exact signed distance), with friction ``mu``. The block:
 ``tests/test_rigid_slope.py``'s hardwood block (E 1e10 Pa, rho 700, ``material.model = "rigid"``; 6 x 6 x 2 cells
-of fill at n_grid 24 in a 0.6 m box) set on the ramp's top face, gravity ``[0, 0, -g]``. Known answers (Coulomb, a block on its face):
+of fill at n_grid 24 in a 0.6 m box) set on the ramp's top face, gravity ``[0, 0, -g]``. Known answers (Coulomb, a
+block on its face):
 
 * ``tan theta > mu``: ``a = g (sin theta - mu cos theta)`` down the ramp: twice the leading coefficient of a parabola
   fitted to the centroid's travel along the ramp over ``SLIDE_T`` s from ``SLIDE_FROM`` s. Tolerance ``TOL`` = 5 %,
