@@ -195,7 +195,8 @@ class Rigid(RigidLift, RigidFriction):
         """The rigid bodies' ongoing contact (the restitution's state, :meth:`contact_impulse`), by state key."""
         return {"rigid_vin": self.rb_vin, "rigid_was": self.rb_was, "rigid_steps": self.rb_steps,
                 "rigid_c0": self.rb_c0, "rigid_jn": self.rb_jn, "rigid_je": self.rb_je, "rigid_j": self.rb_j,
-                "rigid_nlast": self.rb_nlast, "rigid_ndepth": self.rb_ndepth}
+                "rigid_nlast": self.rb_nlast, "rigid_ndepth": self.rb_ndepth, "rigid_w": self.rb_w,
+                "rigid_flat": self.rb_flat, "rigid_xf": self.rb_xf}
 
     def rigid_state(self) -> dict:
         """``rigid_c`` (n_bodies, 3) and ``rigid_R`` (n_bodies, 3, 3), and the ongoing contact's state

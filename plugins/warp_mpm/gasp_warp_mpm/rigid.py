@@ -311,7 +311,7 @@ class RigidBodies:
         ex = self._ex
         return {"rigid_vin": ex.rb_vin, "rigid_was": self.rb_was, "rigid_steps": self.rb_steps, "rigid_c0": self.rb_c0,
                 "rigid_jn": ex.rb_jn, "rigid_je": ex.rb_je, "rigid_j": ex.rb_j, "rigid_nlast": ex.rb_nlast,
-                "rigid_ndepth": ex.rb_ndepth}
+                "rigid_ndepth": ex.rb_ndepth, "rigid_w": self.rb_w, "rigid_flat": ex.rb_flat, "rigid_xf": ex.rb_xf}
 
     def rigid_state(self) -> dict:
         """``rigid_c`` and ``rigid_R`` of the bodies and their ongoing contact's state (``rigid_vin``, ...; empty
