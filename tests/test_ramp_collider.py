@@ -21,6 +21,7 @@ friction halved), one that brakes at a rest speed (the block held while slower t
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 
 import numpy as np
@@ -81,10 +82,16 @@ def ramp_triangles(theta: float) -> np.ndarray:
     return world[_FACES]
 
 
+@functools.lru_cache(maxsize=None)
+def ramp_collider(theta: float):
+    """The ramp's collider (its signed distance field from the mesh, once per ``theta``: trimesh takes about 1 s)."""
+    return collider_from_triangles(ramp_triangles(theta), SDF_SPACING * DX, name="ramp", friction=0.0)
+
+
 def ramp_setup(theta: float, mu: float):
     """The block on the ramp of friction ``mu``, gravity straight down."""
     n, s = ramp_frame(theta)
-    col = collider_from_triangles(ramp_triangles(theta), SDF_SPACING * DX, name="ramp", friction=mu)
+    col = dataclasses.replace(ramp_collider(theta), friction=mu)
     side = np.array([6 * DX, 6 * DX, 2 * DX])
     local, p_vol = box_points(-side * np.array([0.5, 0.5, 0.0]), side * np.array([0.5, 0.5, 1.0]), DX / 2)
     x = START + local[:, :1] * s + local[:, 1:2] * np.array([0.0, 1.0, 0.0]) + local[:, 2:] * n
