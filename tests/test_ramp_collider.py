@@ -17,6 +17,7 @@ The default tier runs a slide (30 deg, mu 0.2) and a stick (15 deg, mu 0.4) on e
 (15, 30, 45 degrees x mu 0.2, 0.4, 0.6) is slow. ``test_the_checks_catch_broken_engines`` fails engines broken on
 purpose: one that ignores ``mu`` (the collider's friction 0.4 whatever the scene says), one that never sticks (the
 friction halved), one that brakes at a rest speed (the block held while slower than 0.1 m/s) and figures 6 % off.
+``test_a_ball_rolls_or_slips_on_the_mesh_ramp``: ``tests/test_rolling.py``'s ball on the 20 degree ramp.
 """
 from __future__ import annotations
 
@@ -200,3 +201,27 @@ def test_the_checks_catch_broken_engines(engine):
     }
     missed = [k for k, v in caught.items() if v is None]
     assert not missed, f"{engine}: the checks miss {missed}"
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("shape,mu", (("ball", 0.5), ("ball", 0.05)))
+def test_a_ball_rolls_or_slips_on_the_mesh_ramp(engine, shape, mu):
+    """``tests/test_rolling.py``'s ball (and its checks: ``(5/7) g sin theta`` and ``omega R = v`` rolling, ``g (sin -
+    mu cos)`` and the spin-up slipping, 5 % two-sided) on the 20 degree mesh ramp, gravity straight down, in a 0.8 m
+    box at n_grid 32 (the same cell): the rolling law on a collider as on the ground."""
+    import test_rolling as rl
+    from gasp_core.testing.helpers import make_setup as setup_of
+    n, s = ramp_frame(rl.THETA)
+    x, vol, n_shell = rl.body_points(shape, np.zeros(3))
+    x = START + 0.15 * s + rl.R * n + x[:, :1] * s + x[:, 1:2] * np.array([0.0, 1.0, 0.0]) + x[:, 2:] * n
+    st = setup_of(x, vol, Material("jelly", model="rigid", E=1.0e10, nu=0.3, rho=700.0), lo=np.zeros(3),
+                  hi=np.full(3, 0.8), n_grid=32, frame_dt=1.0 / FPS)
+    st.n_render = n_shell
+    st.colliders = [dataclasses.replace(ramp_collider(rl.THETA), friction=mu)]
+    c, v, w = rl.trace(engine, st)
+    t = np.arange(len(c)) / FPS
+    sel = t >= rl.FIT_FROM
+    fig = {"a": 2.0 * float(np.polyfit(t[sel], (c[sel] - c[0]) @ s, 2)[0]), "wR": float(w[-1, 1]) * rl.R,
+           "v": float(v[-1] @ s)}
+    problem = rl.check(shape, mu, fig)
+    assert problem is None, f"{engine}: {problem}"
