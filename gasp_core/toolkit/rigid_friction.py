@@ -9,6 +9,42 @@ import math
 
 import numpy as np
 
+#: The patch's radius of curvature over the mass centre's height above it (``contact_flatness``) at which the normal
+#: contact starts to hold the friction's tipping moment (as a face) and holds all of it, J a. A ball's cap reads 0.9-1.3
+#: (a sphere rolls on it: the radius of curvature is its height), the 6 x 6 x 2 cell block's face about 1,500 (issue
+#: 67, ``docs/rigid.md`` "Rolling").
+FLAT_FROM, FLAT_TO = 2.0, 4.0
+
+
+def contact_flatness(s3: float, deep: float, h: float) -> float:
+    """How much of a face a rigid body's contact patch is, in [0, 1]: 0 on a rounded body (it rolls), 1 on a face
+    (its tipping moment held, :func:`coulomb_friction`).
+
+    A rounded body of radius of curvature ``rho`` pressed ``deep`` into a plane touches on a cap of half-width ``a``,
+    ``a^2 = 2 rho deep``, whose impulses (its depths) spread along a line in it with variance ``a^2 / 6 = rho deep /
+    3`` (``a^2 / 5`` on a cylinder's strip), so ``rho = s3 / deep``, ``s3`` three times that variance. A body turns
+    on the cap without changing it when ``rho`` is its mass centre's height ``h`` over the contact (a ball, a
+    cylinder on its side: rolling, which no normal force resists); a face (``rho`` infinite) holds the friction's
+    moment by moving its centre of pressure. The fraction ``(rho / h - FLAT_FROM) / (FLAT_TO - FLAT_FROM)``, clipped:
+    a ball's cap measured ``rho / h`` 0.9-1.3, a block's face about 1,500.
+
+    Parameters
+    ----------
+    s3 : float
+        Three times the normal impulses' variance along the slip, m^2.
+    deep : float
+        The deepest touching point's penetration, m (0: unknown, the patch taken for a face).
+    h : float
+        The mass centre's height over the contact, m.
+
+    Returns
+    -------
+    float
+    """
+    if deep <= 0.0 or h <= 0.0:
+        return 1.0
+    return min(max((s3 / (deep * h) - FLAT_FROM) / (FLAT_TO - FLAT_FROM), 0.0), 1.0)
+
 
 def settle_projection(depth: float, n, x_c, c, V, w, inertia, M: float, mu: float, slop: float):
     """The position-level non-penetration of a resting rigid body against one plane (issue 53, the NumPy reference
@@ -74,7 +110,8 @@ def settle_projection(depth: float, n, x_c, c, V, w, inertia, M: float, mu: floa
     return (depth - slop) * n, V, w
 
 
-def coulomb_friction(V, w, inertia, M: float, c, n, x_f, v_sup, budget: float, J: float, spread: np.ndarray):
+def coulomb_friction(V, w, inertia, M: float, c, n, x_f, v_sup, budget: float, J: float, spread: np.ndarray,
+                     deep: float = 0.0, x_j=None):
     """Coulomb's friction on a rigid body as one, decided by force balance (issue 67; the NumPy reference of each grid
     plugin's ``slide_brake``): the substep's one tangential impulse at the contact point.
 
@@ -87,8 +124,10 @@ def coulomb_friction(V, w, inertia, M: float, c, n, x_f, v_sup, budget: float, J
     a part that would tip the body; the normal contact takes that one back up to ``J a`` (a torque impulse, N m s),
     ``a = sqrt(3 t.S t)`` the half-width along ``t`` of a uniform patch of the normal impulses' covariance ``S``
     (``spread``, m^2): the statics of a block, whose centre of pressure moves within its face to hold the friction's
-    tipping moment. A block on its face so slides as a particle (effective mass ``M``: ``a = g (sin theta - mu cos
-    theta)`` on a slope), and a ball on a point (``a`` about 0) takes the impulse through its effective mass at the
+    tipping moment; ``a`` times :func:`contact_flatness`, 0 on a rounded body's cap (issue 67: the cap a ball's
+    penetration makes, a few mm across, held the moment as a face and slowed its rolling by 23 %). A block on its face
+    so slides as a particle (effective mass ``M``: ``a = g (sin theta - mu cos theta)`` on a slope), and a ball (``a``
+    0) takes the impulse through its effective mass at the
     contact, ``1 / (1/M + (r x t) . I^-1 (r x t))``: it rolls (``a = g sin theta / (1 + I / (M R^2))``, 5/7 of
     ``g sin theta`` for a solid ball) while ``p`` is within the budget, and slips beyond it. The impulse through the
     full effective mass on a face (the slide brake of issue 53) left the block a spin that its normal contact then
@@ -112,6 +151,9 @@ def coulomb_friction(V, w, inertia, M: float, c, n, x_f, v_sup, budget: float, J
         ``sum mu j`` and ``sum j`` of the substep's normal impulses, kg m/s.
     spread : array_like, shape (3, 3)
         The normal impulses' covariance about their centre, m^2.
+    deep : float
+        The deepest touching point's penetration, m; with ``x_j`` (the normal impulses' centre, m) the patch's
+        :func:`contact_flatness` scales ``a`` (a rounded body holds no tipping moment: it rolls; issue 67). 0: a face.
 
     Returns
     -------
@@ -131,7 +173,9 @@ def coulomb_friction(V, w, inertia, M: float, c, n, x_f, v_sup, budget: float, J
     k_a = 1.0 / M + rt @ inv @ rt                    # free to turn: 1 / the effective mass at x_f along t
     m = rt @ inv @ rh
     k_b = max(k_a - m, 1.0 / M)                      # its tipping moment held by the normal contact
-    a = math.sqrt(max(3.0 * float(t @ np.asarray(spread, np.float64) @ t), 0.0))
+    s3 = max(3.0 * float(t @ np.asarray(spread, np.float64) @ t), 0.0)
+    h = abs(float(np.dot(np.asarray(x_f if x_j is None else x_j, np.float64) - c, n)))
+    a = math.sqrt(s3) * contact_flatness(s3, deep, h)
     lh = float(np.linalg.norm(rh))
     p_hold = J * a / lh if lh > 0.0 else math.inf   # the impulse whose tipping moment the contact can hold
     p = lt / k_b if p_hold * k_b >= lt else (lt + p_hold * m) / k_a

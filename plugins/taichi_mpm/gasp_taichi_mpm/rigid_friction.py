@@ -4,6 +4,18 @@ Taichi funcs mixed into :class:`gasp_taichi_mpm.rigid.Rigid`; the NumPy referenc
 """
 import taichi as ti
 
+from gasp_core.toolkit.rigid_friction import FLAT_FROM, FLAT_TO
+
+
+@ti.func
+def flatness(s3, deep, h):
+    """``gasp_core.toolkit.rigid_friction.contact_flatness`` (the same steps): ``s3`` three times the patch's spread
+    along the slip (m^2), ``deep`` its deepest point (m), ``h`` the mass centre's height over it (m)."""
+    out = ti.cast(1.0, ti.f64)
+    if deep > 0.0 and h > 0.0:
+        out = ti.min(ti.max((s3 / (deep * h) - FLAT_FROM) / (FLAT_TO - FLAT_FROM), 0.0), 1.0)
+    return out
+
 
 class RigidFriction:
     """:meth:`twist_brake` and :meth:`slide_brake`, called by ``Rigid.rigid_update`` per body."""
@@ -32,10 +44,11 @@ class RigidFriction:
         the tangential velocity ``u_t`` (to the contact's mean normal) of ``V + w x (x_f - c)`` relative to the
         supports' takes the impulse along ``-u_t`` that stops it when that is within the substep's budget ``sum mu j``
         (it sticks), else the budget (it slides at the kinetic rate); the impulse's tipping moment is held by the
-        normal contact up to ``J a`` (``a`` the patch's half-width along ``u_t``): a block slides as a particle, a
-        ball rolls. ``(V, w)`` already hold gravity's and the normal contact's impulses of the substep, so the impulse
-        that stops ``u_t`` is the one the body needs to stay. Its only friction with the planes and colliders
-        (:meth:`node_budget`; issue 67)."""
+        normal contact up to ``J a f`` (``a`` the patch's half-width along ``u_t``, ``f`` its :func:`flatness`, kept
+        with the patch's centre in ``rb_flat`` and ``rb_xf`` for the next substep's damping, ``Rigid.rolling_vn``): a
+        block slides as a particle, a ball or a cylinder rolls (issue 67). ``(V, w)`` already hold gravity's and the
+        normal contact's impulses of the substep, so the impulse that stops ``u_t`` is the one the body needs to stay.
+        Its only friction with the planes and colliders (:meth:`node_budget`; issue 67)."""
         Vo, wo = V, w
         fx = self.rb_fx[b]
         jx = self.rb_jx[b]
@@ -58,7 +71,13 @@ class RigidFriction:
                 xm = ti.Vector([jx[1], jx[2], jx[3]]) / J
                 S = ti.Matrix([[jx[4], jx[5], jx[6]], [jx[5], jx[7], jx[8]], [jx[6], jx[8], jx[9]]], ti.f64) / J \
                     - xm.outer_product(xm)
-                a = ti.sqrt(ti.max(3.0 * t.dot(S @ t), 0.0))
+                s2 = ti.max(t.dot(S @ t), 0.0)
+                # a face holds the moment, a rounded contact rolls (contact_flatness): the patch's radius of
+                # curvature 3 s2 / depth against the lever from the mass centre
+                f = flatness(3.0 * s2, self.rb_deep[b], ti.abs((xm - c).dot(n)))
+                self.rb_flat[b] = f
+                self.rb_xf[b] = xm
+                a = ti.sqrt(3.0 * s2) * f
                 lh = rh.norm()
                 p = lt / k_b
                 held = p
@@ -73,4 +92,5 @@ class RigidFriction:
         self.rb_fx[b] = ti.Vector.zero(ti.f64, 4)
         self.rb_fv[b] = ti.Vector.zero(ti.f64, 3)
         self.rb_jx[b] = ti.Vector.zero(ti.f64, 10)
+        self.rb_deep[b] = 0.0
         return Vo, wo

@@ -9,9 +9,13 @@ import functools
 
 import warp as wp
 
+from gasp_core.toolkit.rigid_friction import FLAT_FROM, FLAT_TO
+
 from .precision import build_types
 
 vec3d = wp.types.vector(3, wp.float64)
+FLAT_0 = wp.constant(wp.float64(FLAT_FROM))   # gasp_core.toolkit.rigid_friction.contact_flatness's bounds
+FLAT_W = wp.constant(wp.float64(FLAT_TO - FLAT_FROM))
 mat33d = wp.types.matrix((3, 3), wp.float64)
 
 
@@ -64,7 +68,8 @@ def build_rigid_contact(Ft):
 
     @wp.func
     def slide_brake(V: vec3d, w: vec3d, inertia: mat33d, M: wp.float64, c: vec3d, jn: vec3,
-                    fx: wp.vec4d, fv: vec3d, jx: wp.array(dtype=wp.float64), b: int):
+                    fx: wp.vec4d, fv: vec3d, jx: wp.array(dtype=wp.float64), b: int,
+                    deep: wp.array(dtype=wp.float64), flat: wp.array(dtype=wp.float64), xf: wp.array(dtype=vec3d)):
         # taichi_mpm's Rigid.slide_brake (gasp_core.toolkit.rigid_friction.coulomb_friction): Coulomb's friction on the body
         # as one, decided by force balance: the impulse along -u_t at the budget-weighted contact point that stops
         # u_t (relative to the supports) when within the budget sum mu j (it sticks), else the budget (it slides);
@@ -92,7 +97,16 @@ def build_rigid_contact(Ft):
                 xm = vec3d(jx[k0 + 1], jx[k0 + 2], jx[k0 + 3]) / J
                 S = mat33d(jx[k0 + 4], jx[k0 + 5], jx[k0 + 6], jx[k0 + 5], jx[k0 + 7], jx[k0 + 8],
                            jx[k0 + 6], jx[k0 + 8], jx[k0 + 9]) / J - wp.outer(xm, xm)
-                a = wp.sqrt(wp.max(wp.float64(3.0) * wp.dot(t, S * t), wp.float64(0.0)))
+                s3 = wp.max(wp.float64(3.0) * wp.dot(t, S * t), wp.float64(0.0))
+                # a face holds the moment, a rounded contact rolls (gasp_core.toolkit.rigid_friction.
+                # contact_flatness): the patch's radius of curvature s3 / depth against the mass centre's height
+                f = wp.float64(1.0)
+                h = wp.abs(wp.dot(xm - c, n))
+                if deep[b] > wp.float64(0.0) and h > wp.float64(0.0):
+                    f = wp.min(wp.max((s3 / (deep[b] * h) - FLAT_0) / FLAT_W, wp.float64(0.0)), wp.float64(1.0))
+                flat[b] = f
+                xf[b] = xm
+                a = wp.sqrt(s3) * f
                 lh = wp.length(rh)
                 p = lt / k_b
                 held = p
