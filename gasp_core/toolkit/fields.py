@@ -148,8 +148,9 @@ def touch_fraction(setup) -> float:
 
 
 def field_setup(setup) -> tuple:
-    """``(field_bodies, field_friction, touch_fraction)`` of a setup: what an engine allocates the contact from."""
-    return field_bodies(setup), field_friction(setup), touch_fraction(setup)
+    """``(field_bodies, field_friction, touch_fraction, rigid_pair)`` of a setup: what an engine allocates the contact
+    from."""
+    return field_bodies(setup), field_friction(setup), touch_fraction(setup), rigid_pair(setup)
 
 
 def field_offsets(m: np.ndarray, m_a: np.ndarray, p: np.ndarray, p_a: np.ndarray, n: np.ndarray, mu: float):
