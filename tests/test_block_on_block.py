@@ -222,3 +222,24 @@ def test_combine_friction():
     assert fields.combine_friction(0.2, 0.8) == pytest.approx(0.4)
     assert fields.combine_friction(100.0, 100.0) == 10.0
     assert math.isclose(pair_mu(block_setup(friction=0.3, n_grid=16)), 0.3)
+
+
+def test_pair_contact_reference():
+    """``pair_contact`` (the NumPy reference the engines spell): the approach removed through the centres, then the
+    tangential slip stopped when within ``mu P`` (stick), else ``mu P`` against it (slide); momentum kept."""
+    from gasp_core.toolkit.rigid_friction import pair_contact
+    I = np.eye(3) * 1e-3
+    n = np.array([0.0, 0.0, -1.0])                       # from A (above) into B
+    A = (np.array([0.5, 0.0, -0.01]), np.zeros(3), I, 1.0, np.array([0.0, 0.0, 0.05]))
+    B = (np.zeros(3), np.zeros(3), I, 4.0, np.array([0.0, 0.0, 0.01]))
+    x_c = np.array([0.0, 0.0, 0.03])
+    (VA, _), (VB, _), P = pair_contact(A, B, x_c, n, 0.5)
+    assert P == pytest.approx(0.01 / (1.0 + 0.25))      # the centres' approach, through them
+    assert VA[2] - VB[2] == pytest.approx(0.0, abs=1e-15)
+    assert VA[0] == pytest.approx(0.5 - 0.5 * P)         # slides: mu P against the slip
+    assert 1.0 * VA + 4.0 * VB == pytest.approx(1.0 * A[0] + 4.0 * B[0])
+    slow = (np.array([1e-3, 0.0, -0.01]),) + A[1:]
+    (VA, _), (VB, _), P = pair_contact(slow, B, x_c, n, 0.5)
+    assert VA[0] == pytest.approx(VB[0]) and VA[0] == pytest.approx(1e-3 / 5.0)   # sticks: moves with B
+    (VA, _), _, P = pair_contact((np.array([0.5, 0.0, 0.01]),) + A[1:], B, x_c, n, 0.5)
+    assert P == 0.0 and VA[0] == 0.5                    # separating: no contact, no friction
