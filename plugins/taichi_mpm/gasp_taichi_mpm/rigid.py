@@ -238,6 +238,8 @@ class Rigid(RigidLift, RigidFriction):
         else:
             self.rigid_reduce()
         self.rigid_update()
+        if self.field_pair:   # two rigid bodies: their contact as one (rigid_friction.py)
+            self.rigid_pair()
         self.rigid_apply()
         if self.n_planes and self.pc:
             if self.gpu:

@@ -18,7 +18,8 @@ def flatness(s3, deep, h):
 
 
 class RigidFriction:
-    """:meth:`twist_brake` and :meth:`slide_brake`, called by ``Rigid.rigid_update`` per body."""
+    """:meth:`twist_brake` and :meth:`slide_brake`, called by ``Rigid.rigid_update`` per body; :meth:`rigid_pair`,
+    the contact of two rigid bodies, after it (``Rigid.rigid_step``)."""
 
     @ti.func
     def twist_brake(self, b, w, inertia):
@@ -94,3 +95,53 @@ class RigidFriction:
         self.rb_jx[b] = ti.Vector.zero(ti.f64, 10)
         self.rb_deep[b] = 0.0
         return Vo, wo
+
+    @ti.kernel
+    def rigid_pair(self):
+        """The contact of two rigid bodies as one, by force balance (issue 67 item 4;
+        ``gasp_core.toolkit.rigid_friction.pair_contact``, warp_mpm's ``rigid_friction.build_rigid_pair``, the same
+        steps), after ``rigid_update``: the touching nodes' sums ``pair_acc`` (``Fields.pair_touch``) give the
+        contact's centre and normal; the mass centres' approach along it is removed through the centres, then
+        Coulomb's friction of that impulse at the centre (stick within ``mu P``, else slide at ``mu P``); the
+        centres' advance of the substep follows the new velocities. ``pair_acc`` is cleared."""
+        dt = ti.cast(self.dt[None], ti.f64)
+        half = 0.5 * ti.cast(self.dx[None], ti.f64) ** 2
+        mu = ti.cast(self.field_mu, ti.f64)
+        for _ in range(1):
+            a = 1
+            if self.in_a[0] != 0:
+                a = 0
+            b = 1 - a
+            W = self.pair_acc[0]
+            n = ti.Vector([self.pair_acc[4], self.pair_acc[5], self.pair_acc[6]])
+            if W > 0.0 and n.norm() > 0.0:
+                n = n / n.norm()
+                x_c = ti.Vector([self.pair_acc[1], self.pair_acc[2], self.pair_acc[3]]) / W
+                MA, MB = self.rb_M[a], self.rb_M[b]
+                VA, VB, wA, wB = self.rb_V[a], self.rb_V[b], self.rb_w[a], self.rb_w[b]
+                un = (VA - VB).dot(n)
+                P = ti.cast(0.0, ti.f64)
+                if un > 0.0:   # the centres' approach, through the centres
+                    P = un / (1.0 / MA + 1.0 / MB)
+                VA -= (P / MA) * n
+                VB += (P / MB) * n
+                rA, rB = x_c - self.rb_c[a], x_c - self.rb_c[b]
+                u = VA + wA.cross(rA) - VB - wB.cross(rB)
+                ut = u - u.dot(n) * n
+                lt = ut.norm()
+                if P > 0.0 and mu > 0.0 and lt > 0.0:
+                    t = ut / lt
+                    RA, RB = self.rb_R[a], self.rb_R[b]
+                    nIA = n.dot(RA @ self.rb_I0[a] @ RA.transpose() @ n) + half * MA
+                    nIB = n.dot(RB @ self.rb_I0[b] @ RB.transpose() @ n) + half * MB
+                    sA, sB = rA.cross(t).dot(n), rB.cross(t).dot(n)   # the twist arms about n
+                    p = ti.min(lt / (1.0 / MA + 1.0 / MB + sA * sA / nIA + sB * sB / nIB), mu * P)
+                    VA -= (p / MA) * t
+                    VB += (p / MB) * t
+                    wA -= (p * sA / nIA) * n
+                    wB += (p * sB / nIB) * n
+                self.rb_c[a] += dt * (VA - self.rb_V[a])
+                self.rb_c[b] += dt * (VB - self.rb_V[b])
+                self.rb_V[a], self.rb_V[b], self.rb_w[a], self.rb_w[b] = VA, VB, wA, wB
+            for q in ti.static(range(7)):
+                self.pair_acc[q] = 0.0

@@ -18,7 +18,7 @@ import functools
 import warp as wp
 
 from .precision import MODULE_OPTIONS, build_types
-from .rigid_friction import build_rigid_contact
+from .rigid_friction import build_rigid_contact, build_rigid_pair
 
 vec3d = wp.types.vector(3, wp.float64)
 mat33d = wp.types.matrix((3, 3), wp.float64)
@@ -287,6 +287,10 @@ class RigidBodies:
                 wp.launch(apply_k, dim=self.n_points, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.F, self.body, self.rb_rigid, self.X0, self.rb_c, self.rb_R,
                     self.rb_V, self.rb_w])]
+        if self.pair:   # two rigid bodies: their contact as one, before their points take the pose
+            out.insert(2, wp.launch(build_rigid_pair(Ft), dim=1, device=d, record_cmd=True, inputs=[
+                self.in_a, self.rb_M, self.rb_I0, self.rb_c, self.rb_R, self.rb_V, self.rb_w, dt, dx,
+                float(self.field_mu), self.pair_acc]))
         n_pl = self.planes.shape[0] if self.p_contact.shape[0] == self.n_points else 0
         if n_pl:   # the resting bodies' position-level non-penetration, then their points on the pose again
             from gasp_core.toolkit.rigid import RIGID_SLOP
@@ -301,7 +305,7 @@ class RigidBodies:
                         self.rb_rigid, self.rb_M, self.rb_I0, self.rb_c, self.rb_R, self.rb_V, self.rb_w, dx, nb,
                         self.planes, self.plane_n, self.rb_dmax, self.rb_dsum, ex.rb_e, ex.rb_vin, ex.plane_e,
                         ex.v_rest, RIGID_SLOP * dx]),
-                    out[2]]
+                    out[-1]]
         from .rigid_hold import rigid_hold_launches   # then the flowing points held out of the bodies
         return out + rigid_hold_launches(self, Ft)
 
