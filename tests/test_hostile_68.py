@@ -204,11 +204,11 @@ print(time.perf_counter() - t, int(np.bincount(mp.labels).max()), int(sel.sum())
 def test_the_moving_piece_search_on_a_pile_of_gaussians_is_bounded(kind):
     """The corpus's ``.splatv`` whose 20,000 moving Gaussians share one point: linked at distance 0, about 2e8 pairs,
     6.35 GB and a ``MemoryError`` in the studio's thread (and every later click waited forever). Here under 2 GiB of
-    address space; a pile of 19,998 distinct centres within 1 um beside 20,000 spread ones (2.8 GB on main) too."""
+    address space (the subprocess's 60 s timeout guards against a hang; no timed assertion); a pile of 19,998 distinct
+    centres within 1 um beside 20,000 spread ones (2.8 GB on main) too."""
     r = subprocess.run([sys.executable, "-c", PILE, kind, "20000"], capture_output=True, text=True, timeout=60)
     assert r.returncode == 0, r.stderr[-2000:]
-    seconds, biggest, selected = r.stdout.split()
-    assert float(seconds) < 10
+    _seconds, biggest, selected = r.stdout.split()   # the time is printed, not asserted (a loaded machine varies)
     assert int(biggest) == (20000 if kind == "one-point" else 19998) and int(selected) >= int(biggest)
 
 
