@@ -144,7 +144,12 @@ def contact_coefficients(setup) -> np.ndarray:
         (zeros for passive points, which have no volume). A point that starts closer to a ground, a wall's plane or a
         ``[[collider]]`` (its signed distance at t = 0) than its skin (a body placed standing on it, its splats on
         the surface) gets its starting clearance as its skin, so a body the scene places on a support is not
-        pushed up by half a spacing in its first substep. With the contact chosen per body (``"mixed"``) the points
+        pushed up by half a spacing in its first substep. A point that starts behind one (a negative clearance: a
+        capture's Gaussian vertex through the pan or the ground, as the kitchen's spinach's, 5.9 dx below its ground)
+        gets that clearance as its skin, negative: the support holds it at its starting depth and pushes it only
+        deeper than that, where ``k_p depth`` on its starting depth threw it out at about ``depth omega`` in one
+        substep (issue 66: the brittle spinach at ``default`` left the grid at frame 1). With the contact chosen per
+        body (``"mixed"``) the points
         of the bodies that take the grid contact (:func:`flowing_bodies`) get ``k_p = c_p = 0``: no impulse.
     """
     E = np.array([m.E for m in setup.materials], dtype=np.float64)
@@ -152,12 +157,15 @@ def contact_coefficients(setup) -> np.ndarray:
         E = np.where(flowing_bodies(setup, "mixed"), 0.0, E)
     h = np.cbrt(np.asarray(setup.p_vol, dtype=np.float64))
     k = KAPPA * E[np.asarray(setup.body_id, dtype=np.int64)] * h
-    skin = SKIN * h
+    x = np.asarray(setup.x, dtype=np.float64)
+    clear = np.full(len(h), np.inf)   # each point's starting clearance from its nearest support (m; < 0: behind it)
     normals, rows = contact_planes(setup, "particle")
     for n, row in zip(normals, rows):   # the grounds' and walls' planes
-        skin = np.minimum(skin, np.maximum(np.asarray(setup.x, dtype=np.float64) @ n - row[0], 0.0))
+        clear = np.minimum(clear, x @ n - row[0])
     for col in getattr(setup, "colliders", None) or []:
-        skin = np.minimum(skin, np.maximum(col.distance(np.asarray(setup.x, dtype=np.float64), 0.0), 0.0))
+        clear = np.minimum(clear, col.distance(x, 0.0))
+    skin = np.minimum(SKIN * h, np.maximum(clear, 0.0))
+    skin = np.where((clear < 0.0) & (h > 0.0), clear, skin)   # behind a support at t = 0: held at that depth
     return np.column_stack([k, 2.0 * DAMPING * np.sqrt(k * np.asarray(setup.p_mass, dtype=np.float64)), skin])
 
 

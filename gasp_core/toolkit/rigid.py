@@ -175,6 +175,7 @@ def rigid_contact(setup, dt: float, coeffs: np.ndarray) -> np.ndarray:
         holds = (vol[rows] > 0.0) & touching[rows]   # a floater holds no rigid body up (touch_rows)
         out[rows, 0] = np.where(holds, k, 0.0)
         out[rows, 1] = np.where(holds, 2.0 * RIGID_DAMPING * np.sqrt(k * m[rows]), 0.0)
+        out[sel, 2] = np.maximum(out[sel, 2], 0.0)   # a rigid body placed inside a support is lifted (lift_setup)
         out[sel & surface, 2] = 0.0
         if not (sel & surface).any():   # a fill alone: its surface half a spacing out, wherever it was put
             out[sel, 2] = SKIN * np.cbrt(vol[sel])
