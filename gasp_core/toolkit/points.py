@@ -64,6 +64,46 @@ def fixed_mask(x: np.ndarray, boundaries: Iterable[Boundary]) -> np.ndarray:
     return mask
 
 
+#: Cells: how deep inside a held box's faces its nodes are ghost nodes (``fixed_region`` and box impulses of
+#: ``mode = "set"``, the engines' ``mirror_held``): each takes the velocity of its mirror image across the box's
+#: nearest face, reflected about the held velocity, so the grid field meets the held velocity on the face itself and a
+#: uniform strain crosses it (docs/fracture.md, "The held region"). Twice :data:`HELD_STRAIN_CELLS`: the stencils of the
+#: held points that deform reach that far.
+MIRROR_CELLS = 3.0
+#: Cells: held points (``fixed_region``) within this of their box's nearest face keep the grid's velocity gradient
+#: (their ``F`` follows it, so they carry the stress of the material beside them); deeper ones keep ``F``. The free
+#: material's stencils reach 1.5 cells past the face.
+HELD_STRAIN_CELLS = 1.5
+
+
+def held_codes(x: np.ndarray, boundaries: Iterable[Boundary], dx: float) -> np.ndarray:
+    """Each point's hold: 0 free, 1 held rigidly (inside a ``fixed_region``, :func:`fixed_mask`), 2 held within
+    :data:`HELD_STRAIN_CELLS` cells of the nearest face of the region that holds it (it keeps its position and
+    ``v = 0``, but its ``F`` follows the grid's velocity gradient, as the material beside the face).
+
+    Parameters
+    ----------
+    x : ndarray, shape (n, 3)
+        Initial positions, metres.
+    boundaries : iterable of Boundary
+    dx : float
+        Grid spacing, metres.
+
+    Returns
+    -------
+    ndarray, shape (n,), int8
+    """
+    x = np.asarray(x, dtype=np.float64)
+    code = np.zeros(len(x), dtype=np.int8)
+    for b in boundaries:
+        if b.kind == "fixed_region":
+            lo, hi = np.asarray(b.lo, float), np.asarray(b.hi, float)
+            inside = np.all((x >= lo) & (x <= hi), axis=1)
+            near = np.minimum(x - lo, hi - x).min(axis=1) < HELD_STRAIN_CELLS * dx
+            code = np.where(inside, np.maximum(code, np.where(near, 2, 1)), code).astype(np.int8)
+    return code
+
+
 def cell_order(x: np.ndarray, domain_lo: np.ndarray, dx: float, n_grid: int) -> np.ndarray:
     """Stable order of the points by flat grid-cell index ``(i n_grid + j) n_grid + k``.
 

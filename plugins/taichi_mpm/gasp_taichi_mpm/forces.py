@@ -12,6 +12,14 @@ from gasp_core.toolkit.grid_tables import (COL_POSE, FALLOFF_INVERSE_SQUARE, FOR
                                            IMPULSE_ROW, MD_A, MD_K, MD_OMEGA, MD_PHASE, MODE_ROW)
 
 
+def count_set_boxes(ex) -> int:
+    """Box impulses of ``mode = "set"`` in the tables ``ex`` (None: none): their nodes are held (``mirror_held``)."""
+    if ex is None or not ex.any:
+        return 0
+    rows = np.asarray(ex.impulses, float).reshape(-1, IMPULSE_ROW)[:ex.n_impulses]
+    return int(np.sum((rows[:, IM_SHAPE] == IMPULSE_BOX) & (rows[:, IM_MODE] != IMPULSE_ADD)))
+
+
 class Forces:
     """The tables' fields (:meth:`_setup_extras`), forces (:meth:`apply_forces`) and impulses (:meth:`apply_impulses`)."""
 
@@ -73,6 +81,23 @@ class Forces:
                     a = d * (mag / rr)
             v += dt * a
         return v
+
+    @ti.func
+    def mirror_set_boxes(self, I):
+        """The ghost node ``I`` of each box impulse of ``mode = "set"`` acting in this substep that holds it
+        (:meth:`gasp_taichi_mpm.grid.GridUpdate.mirror_node`, reflected about the imposed velocity)."""
+        X = self.lo[None] + self.dx[None] * ti.Vector([ti.cast(I[0], self.real), ti.cast(I[1], self.real),
+                                                       ti.cast(I[2], self.real)])
+        base = self.ex_step[None] * self.ex_width
+        for q in range(self.n_imp):
+            r = q * IMPULSE_ROW
+            c = ti.Vector([self.ex_imps[r + IM_A], self.ex_imps[r + IM_A + 1], self.ex_imps[r + IM_A + 2]])
+            b = ti.Vector([self.ex_imps[r + IM_B], self.ex_imps[r + IM_B + 1], self.ex_imps[r + IM_B + 2]])
+            w = self.ex_tab[base + FT_POSES + COL_POSE * self.n_col + q]
+            if (self.ex_imps[r + IM_SHAPE] == IMPULSE_BOX and self.ex_imps[r + IM_MODE] != IMPULSE_ADD and w > 0.0
+                    and (X >= c).all() and (X <= b).all()):
+                dv = ti.Vector([self.ex_imps[r + IM_DV], self.ex_imps[r + IM_DV + 1], self.ex_imps[r + IM_DV + 2]])
+                self.grid_v[I] = self.mirror_node(I, c, b, dv, True)
 
     @ti.func
     def apply_impulses(self, X, v, base):

@@ -144,10 +144,11 @@ class Transfers:
                     old_v += w[i][0] * w[j][1] * w[k][2] * self.grid_v0[base + ti.Vector([i, j, k])]
                 v_p = new_v + self.flip * (self.v[p] - old_v)
             if ti.static(self.any_fixed):
-                if self.fixed[p] != 0:
+                if self.fixed[p] != 0:   # held; near its region's face (2) its F follows the grid's gradient
                     new_v = ti.Vector.zero(self.real, 3)
                     v_p = new_v
-                    new_C = ti.Matrix.zero(self.real, 3, 3)
+                    if self.fixed[p] == 1:
+                        new_C = ti.Matrix.zero(self.real, 3, 3)
             self.v[p] = v_p
             self.C[p] = new_C
             self.x[p] += self.dt[None] * new_v
