@@ -228,7 +228,7 @@ def build_g2p(Ft):
     ):
         # with the two-field contact (gasp_warp_mpm.fields) each node's velocity plus the point's field's offset
         p = wp.tid()
-        if fixed[p] != 0:
+        if fixed[p] == 1:   # held; near its region's face (2) its C, so its F, follows the grid (docs/fracture.md)
             v[p] = vec3(Ft(0.0))
             C[p] = mat33()
             return
@@ -281,6 +281,9 @@ def build_g2p(Ft):
         B = wp.matrix_from_cols(c0, c1, c2)
         # C = 4 inv_dx^2 sum w g ((i, j, k) - fx)^T dx = 4 inv_dx (B - new_v fx^T)
         C[p] = (Ft(4.0) * inv_dx) * (B - wp.outer(new_v, fx))
+        if fixed[p] != 0:
+            v[p] = vec3(Ft(0.0))
+            return
         if alpha > Ft(0.0):  # AFLIP: v_PIC(new) + alpha (v_p - v_PIC(old)) (gasp_core.toolkit.transfer)
             old_v = vec3(Ft(0.0))
             for i in range(3):
