@@ -19,10 +19,12 @@ Measured per case, from the engine's state each frame (``F`` and ``d`` of every 
   free length more than 1.5 cells from both held faces), ``held edge`` (within 1.5 cells of the clamp's or the pulled
   box's face), else ``grip`` (the dog-bone's shoulders and grips).
 - ``work``: the work to separate over the section, ``int sigma_c dw``: ``sigma_c`` the nominal stress of the crack's
-  layer, ``w`` the inelastic opening over the gauge (the stretch between the gauge's end layers less each layer's
-  elastic ``P / E`` share), trapezoid over the frames; against G_f.
-- ``dissipated``: the damage's own account, ``sum V f_t s d / (2 E)`` over the points (``s`` the effective stress
-  the point's ``d`` stands for, linear softening) per gauge area; against G_f.
+  layer, ``w`` the crack's inelastic opening (the stretch between the layers 2 cells either side of it, less each
+  layer's elastic ``P / E`` share), trapezoid over the frames until that layer is at ``d = 1`` throughout; against
+  G_f.
+- ``dissipated``: the damage's own account over the same zone, ``sum V f_t s d / (2 E)`` (``s`` the effective
+  stress the point's ``d`` stands for, linear softening) per gauge area; against G_f (``dissipated_everywhere``:
+  over the whole body, the damage the waves leave after the break included).
 
 Run: ``python benchmarks/tension_family.py --engine taichi_mpm`` (and ``--engine warp_mpm``; ``--n-grid 24``,
 ``--only NAME``); each engine's cases are added to ``benchmarks/results/tension_family.json`` and the table
@@ -42,6 +44,7 @@ E, NU, RHO, FT, GF = 1e6, 0.0, 1000.0, 1e4, 20.0
 PULL, FRAME_DT, SIZE, Y0 = 0.02, 0.0005, 1.2, 0.6
 X0, HOLD = 0.2, 0.1       # the specimen starts at x = X0; the clamp and the pulled box take HOLD m of its ends
 RESULTS = Path(__file__).parent / "results"
+AFTER = 40                # frames run after a layer is at d = 1 throughout (the crack open)
 
 
 @dataclass(frozen=True)
@@ -136,12 +139,13 @@ def run_case(sp: Specimen, n_grid: int, engine: str, build_fn=build) -> dict:
     g_lo, g_hi = sp.gauge(dx)
     gauge = (lx > g_lo) & (lx < g_hi)
     gl = np.flatnonzero(gauge)
-    span = np.arange(gl[0], gl[-1] + 1)
+    free = (lx > clamp) & (lx < pulled)
     t_peak = (FT / E) * (np.interp(pulled, lx, np.cumsum(a_gauge / sp.width(lx) ** 2)) -
                          np.interp(clamp, lx, np.cumsum(a_gauge / sp.width(lx) ** 2))) * s / PULL
-    n_frames = int(np.ceil(1.6 * t_peak / FRAME_DT))
+    # until the crack has opened past 1.5 w_c = 3 G_f / f_t beyond the peak's stretch, or 20 ms after it is open
+    n_frames = int(np.ceil((t_peak + 1.5 * 2 * GF / FT / PULL) / FRAME_DT))
     e = build_engine(engines()[name_check(engine)], st)
-    force, pos, dmean, thru = [], [], [], []
+    force, pos, dmean, thru, opened = [], [], [], [], []
     t0 = time.time()
     try:
         for _ in range(n_frames):
@@ -154,6 +158,9 @@ def run_case(sp: Specimen, n_grid: int, engine: str, build_fn=build) -> dict:
             pos.append(np.bincount(layer, xs[:, 0], nl) / np.maximum(count, 1))
             dmean.append(np.bincount(layer, d, nl) / np.maximum(count, 1))
             thru.append(bool(np.any(np.bincount(layer, d >= 0.9, nl) == count)))   # a layer broken through
+            opened.append(bool(np.any(np.bincount(layer, d >= 1.0, nl) == count)))   # a layer at d = 1 throughout
+            if len(opened) > AFTER and opened[-AFTER]:
+                break
     finally:
         e.close()
     wall = time.time() - t0
@@ -163,6 +170,7 @@ def run_case(sp: Specimen, n_grid: int, engine: str, build_fn=build) -> dict:
     sig_g = np.median(force[:, gl], axis=1) / a_gauge
     peak = float(sig_g[:max(k_end, 1)].max())
     crack = int(np.argmax(dmean[-1]))
+    span = np.flatnonzero(free & (np.abs(lx - lx[crack]) <= 2 * dx + 1e-9))   # the crack's zone: 2 cells each side
     x_c = float(lx[crack])
     if g_lo < x_c < g_hi:
         where = "gauge"
@@ -180,13 +188,16 @@ def run_case(sp: Specimen, n_grid: int, engine: str, build_fn=build) -> dict:
     sf = softening_stress(st.materials[0], float(st.crack_band[0]))
     dl = dmean[-1]
     D = FT ** 2 * sf * dl / (2 * E * ((1 - dl) * (sf - FT) + FT))
-    dissipated = float((D * count * s ** 3).sum() / a_gauge)
+    dissipated = float((D[span] * count[span] * s ** 3).sum() / a_gauge)
+    dissipated_all = float((D * count * s ** 3).sum() / a_gauge)
     return {"specimen": sp.name, "engine": engine, "n_grid": n_grid, "dx": dx, "cells_across": sp.gauge_w / dx,
             "points": int(len(st.x)), "frames": n_frames, "seconds": round(wall, 1),
             "peak": peak, "peak_vs_ft": peak / FT - 1, "crack_x": x_c, "where": where,
             "clamp_face": clamp, "pulled_face": pulled, "gauge": [g_lo, g_hi],
             "work": work, "work_vs_gf": work / GF - 1, "dissipated": dissipated, "dissipated_vs_gf": dissipated / GF - 1,
-            "broken_through": bool(broken.any()), "final_stress": float(sig_g[-1])}
+            "dissipated_everywhere": dissipated_all,
+            "broken_through": bool(broken.any()), "final_stress": float(sig_g[-1]), "frames_run": len(force),
+            "damaged_layers": [[round(float(lx[k]), 4), round(float(dl[k]), 3)] for k in np.flatnonzero(dl > 0.05)]}
 
 
 def name_check(engine: str) -> str:
