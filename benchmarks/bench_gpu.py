@@ -8,6 +8,8 @@ Cases, each in a process of its own (Taichi has one runtime a process), under on
 - ``profile`` and ``block_jelly_1000000_cuda_profile``: three frames on CUDA under Taichi's kernel profiler;
 - ``block_<material>_<n>``: a block at 8 points a cell (as ``bench_mpm.py``, n_grid grown to hold it), 10 substeps
   a frame, particle-substeps a second, for jelly from 65k to 16M points, sand and brittle at 1M;
+- ``..._atomic``, ``..._tiles``: the same with the engine option ``p2g`` set (the GPU schedule's P2G: atomic, or tiled
+  in shared memory, :mod:`gasp_taichi_mpm.schedule.tiles`; ``auto`` tiles from 262,144 points);
 - ``donut_cuda_cpu``: the README donut on CUDA with the CPU schedule (``schedule = "cpu"``: today's design before
   issue 65), the baseline measured in the same call.
 
@@ -37,9 +39,12 @@ SUBSTEPS = 10
 
 
 def donut_scene(device: str, folder: Path, schedule: str = "auto") -> Path:
-    """The README donut with ``device`` and ``schedule`` in its engine options, written to ``folder``."""
+    """The README donut with ``device`` and ``schedule`` in its engine options, written to ``folder``; schedule
+    ``"tiles"`` or ``"atomic"``: the GPU schedule with that ``p2g`` (``"auto"`` chooses atomic at its 65k points)."""
     text = DONUT.read_text().replace('file = "data/', f'file = "{DONUT.parent}/data/')
-    text += f'\n[engine.options]\ndevice = "{device}"\nschedule = "{schedule}"\n'
+    p2g = schedule if schedule in ("tiles", "atomic") else "auto"
+    text += f'\n[engine.options]\ndevice = "{device}"\nschedule = "{"auto" if p2g != "auto" else schedule}"\n'
+    text += f'p2g = "{p2g}"\n'
     path = folder / f"donut_{device}_{schedule}.toml"
     path.write_text(text)
     return path
@@ -63,7 +68,8 @@ def case_donut(device: str, frames: int, out: Path, schedule: str = "auto") -> d
             "s_per_frame_median": float(np.median(after)), "s_per_frame_min": float(np.min(after)),
             "s_per_frame_max": float(np.max(after)), "frames": len(walls), "dx": float(prep.setup.dx),
             "M_per_s": len(prep.setup.x) * n_sub / float(np.median(after)) / 1e6,
-            "schedule": stats.engine.get("schedule"), "cg_iters": stats.engine.get("viscous_cg_iterations")}
+            "schedule": stats.engine.get("schedule"), "cg_iters": stats.engine.get("viscous_cg_iterations"),
+            "p2g": stats.engine.get("p2g")}
 
 
 def case_profile(frames: int) -> dict:
@@ -85,9 +91,9 @@ def case_profile(frames: int) -> dict:
     return kernels
 
 
-def block_setup(n_target: int, material: str, device: str):
+def block_setup(n_target: int, material: str, device: str, p2g: str = "auto"):
     """A block of about ``n_target`` points, 8 a cell, 1 cell over a ground, falling at 1 m/s; n_grid at least
-    64 and twice the block's cells."""
+    64 and twice the block's cells; ``p2g`` the engine option (``"auto"``: tiles on CUDA, or ``"atomic"``)."""
     from gasp_core.seam.setup import Boundary, Material, SimSetup
     from gasp_core.toolkit.substeps import mpm_stable_dt
     cells = max(1, int(round((n_target / 8) ** (1 / 3))))
@@ -105,7 +111,7 @@ def block_setup(n_target: int, material: str, device: str):
     return SimSetup(x=x, v=np.array([0.0, 0.0, -1.0]), p_vol=h ** 3, body_id=0, materials=[mat], gravity=gravity,
                     domain_lo=np.zeros(3), domain_hi=np.ones(3), n_grid=n_grid,
                     boundaries=[Boundary("ground", height=0.1, friction=0.5)], frame_dt=SUBSTEPS * dt,
-                    options={"device": device, "precision": "f32", "n_substeps": SUBSTEPS})
+                    options={"device": device, "precision": "f32", "n_substeps": SUBSTEPS, "p2g": p2g})
 
 
 def profiled(on: bool) -> None:
@@ -129,11 +135,12 @@ def profile_table(top: int = 30) -> str:
     return "\n".join(lines if len(lines) <= top + 7 else lines[:5 + top] + lines[-2:])
 
 
-def case_block(n_target: int, material: str, device: str, frames: int, profile: bool = False) -> dict:
+def case_block(n_target: int, material: str, device: str, frames: int, profile: bool = False,
+               p2g: str = "auto") -> dict:
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import get_engine
     profiled(profile)
-    setup = block_setup(n_target, material, device)
+    setup = block_setup(n_target, material, device, p2g)
     t0 = time.perf_counter()
     eng = build_engine(get_engine("taichi_mpm"), setup)
     build = time.perf_counter() - t0
@@ -158,7 +165,7 @@ def case_block(n_target: int, material: str, device: str, frames: int, profile: 
         return {"points": n, "table": table}
     return {"points": n, "n_grid": setup.n_grid, "build_s": build, "frame1_s": first, "frames": frames,
             "s_per_frame": wall / frames, "M_per_s": n * SUBSTEPS * frames / wall / 1e6,
-            "finite": bool(np.isfinite(x).all()), "schedule": st.get("schedule")}
+            "finite": bool(np.isfinite(x).all()), "schedule": st.get("schedule"), "p2g": st.get("p2g")}
 
 
 def run_case(name: str, args: list[str], timeout: float) -> dict:
@@ -191,7 +198,7 @@ def markdown(doc: dict) -> str:
         spf = r.get("s_per_frame_median", r.get("s_per_frame"))
         note = f"n_grid {r['n_grid']}" if "n_grid" in r else f"{r.get('n_substeps')} substeps, CG {r.get('cg_iters')}"
         lines.append(f"| {r['case']} | {r['points']} | {spf:.4f} | {r['M_per_s']:.1f} | {r['frame1_s']:.1f} | "
-                     f"{note}; schedule {r.get('schedule')} |")
+                     f"{note}; schedule {r.get('schedule')}, p2g {r.get('p2g')} |")
     for k, v in doc.get("derived", {}).items():
         lines.append(f"\n{k}: {v}")
     for r in doc["cases"]:
@@ -219,18 +226,22 @@ def main(argv=None) -> int:
         elif a.case == "profile":
             rec = case_profile(3)
         else:
-            _, material, n, device, *prof = a.case.split("_")
-            rec = case_block(int(n), material, device, 3, profile=bool(prof))
+            _, material, n, device, *suffix = a.case.split("_")
+            rec = case_block(int(n), material, device, 3, profile="profile" in suffix,
+                             p2g=next((x for x in ("atomic", "tiles") if x in suffix), "auto"))
         print(json.dumps(rec))
         return 0
     try:
         gpu = subprocess.run(["nvidia-smi", "-L"], capture_output=True, text=True).stdout.strip() or "no GPU"
     except OSError:
         gpu = "no GPU"
-    cases = [("donut_cuda_auto", []), ("donut_cpu_auto", []), ("profile", [])]
-    cases += [(f"block_jelly_{n}_cuda", []) for n in a.sizes.split(",")]
-    cases += [("block_sand_1000000_cuda", []), ("block_brittle_1000000_cuda", []),
-              ("block_jelly_1000000_cuda_profile", []), ("donut_cuda_cpu", ["--donut-frames", "4"])]
+    cases = [("block_jelly_16000000_cuda", []), ("block_jelly_16000000_cuda_atomic", []),
+             ("block_jelly_1000000_cuda", []), ("block_jelly_1000000_cuda_atomic", []),
+             ("donut_cuda_auto", []), ("donut_cpu_auto", []), ("donut_cuda_tiles", [])]
+    cases += [(f"block_jelly_{n}_cuda", []) for n in a.sizes.split(",") if n not in ("1000000", "16000000")]
+    cases += [("block_jelly_65000_cuda_tiles", []), ("block_sand_1000000_cuda", []),
+              ("block_brittle_1000000_cuda", []), ("block_jelly_1000000_cuda_profile", []), ("profile", []),
+              ("donut_cuda_cpu", ["--donut-frames", "4"])]
     if a.only:
         keep = set(a.only.split(","))
         cases = [c for c in cases if c[0] in keep]
@@ -253,7 +264,18 @@ def main(argv=None) -> int:
         if fa.exists() and fb.exists():
             d = np.linalg.norm(np.load(fa) - np.load(fb), axis=1)
             derived["README donut after 1 s, CUDA against CPU: largest point distance"] = \
-                f"{d.max() / c['dx']:.3f} dx (median {np.median(d) / c['dx']:.4f} dx)"
+                f"{d.max() / c['dx']:.2g} dx (median {np.median(d) / c['dx']:.2g} dx)"
+        fc = a.out / "donut_cuda_tiles_f30.npy"
+        if fa.exists() and fc.exists():
+            d = np.linalg.norm(np.load(fa) - np.load(fc), axis=1)
+            derived["README donut after 1 s, CUDA tiled against CUDA atomic P2G: largest point distance"] = \
+                f"{d.max() / c['dx']:.2g} dx (median {np.median(d) / c['dx']:.2g} dx)"
+    for n, t, at in (("65000", "block_jelly_65000_cuda_tiles", "block_jelly_65000_cuda"),
+                     ("1000000", "block_jelly_1000000_cuda", "block_jelly_1000000_cuda_atomic"),
+                     ("16000000", "block_jelly_16000000_cuda", "block_jelly_16000000_cuda_atomic")):
+        t, at = by.get(t, {}), by.get(at, {})
+        if "M_per_s" in t and "M_per_s" in at:
+            derived[f"jelly block {n} points, tiled P2G against atomic P2G"] = f"{t['M_per_s'] / at['M_per_s']:.2f}x"
     doc["derived"] = derived
     (a.out / "bench_gpu.json").write_text(json.dumps(doc, indent=1))
     (a.out / "bench_gpu.md").write_text(markdown(doc))

@@ -123,6 +123,32 @@ def test_engines_lists_installed(capsys):
     assert "taichi_mpm  (gasp-taichi-mpm" in out and "jelly" in out
 
 
+def test_engines_give_a_speed_or_not_measured_on_each_device(capsys):
+    """Issue 65 item 5: every listed device of every engine has a speed line, a measured figure with its source or
+    "not measured"; taichi_mpm's CUDA line is the measured one."""
+    import re
+    code, out, _ = run(capsys, "engines")
+    assert code == 0
+    needs_package("gasp_taichi_mpm")
+    for block in re.split(r"\n(?=\S)", out):
+        devices = re.search(r"devices:\s+([^;]+);", block)
+        if devices:
+            for d in devices.group(1).split(", "):
+                line = re.search(rf"speed on {d}: (.+)", block)
+                assert line and ("not measured" in line.group(1) or re.search(r"\d", line.group(1))), (block, d)
+    tm = out[out.index("taichi_mpm  ("):]
+    assert re.search(r"speed on cuda: README donut 0\.\d+ s a frame on an H100", tm)
+
+
+def test_a_speed_for_a_device_the_engine_does_not_list_is_refused():
+    from gasp_core.seam import Capabilities, EngineInfo
+    caps = Capabilities(materials=frozenset({"jelly"}), boundaries=frozenset(), devices=frozenset({"cpu"}),
+                        precisions=frozenset({"f32"}))
+    EngineInfo(name="x", factory=lambda s: None, capabilities=caps, speed={"cpu": "1 s a frame"})
+    with pytest.raises(ValueError, match="speed given for device"):
+        EngineInfo(name="x", factory=lambda s: None, capabilities=caps, speed={"cuda": "1 s a frame"})
+
+
 def test_info_on_real_files(capsys):
     code, out, _ = run(capsys, "info", DONUT)
     assert code == 0

@@ -57,6 +57,8 @@ def cmd_engines(args) -> int:
         print(f"    materials:  {', '.join(sorted(c.materials))}")
         print(f"    boundaries: {', '.join(sorted(c.boundaries))}")
         print(f"    devices:    {', '.join(sorted(c.devices))}; precisions: {', '.join(sorted(c.precisions))}")
+        for device in sorted(c.devices):
+            print(f"    speed on {device}: {e.speed.get(device, 'not measured')}")
         if c.features:
             print(f"    features:   {', '.join(sorted(c.features))}")
         for o in e.options:

@@ -279,6 +279,9 @@ class EngineInfo:
         The engine's settings as a frozen dataclass whose fields are its options (:mod:`gasp_core.seam.config`):
         ``options`` and ``presets`` are then read from it where not given, and the engine reads
         ``config(**setup.options)``.
+    speed : dict of str -> str
+        The engine's measured speed on each device it lists (``{"cuda": "README donut 0.111 s a frame on an H100
+        (docs/performance.md)"}``); ``gasp engines`` says "not measured" for a device not in it.
     presets : dict of str -> Preset
         What each quality level (``"draft"``, ``"default"``, ``"reference"``) sets among this engine's options
         (:class:`gasp_core.seam.config.Preset`); a level sets no engine option that its engine does not declare here.
@@ -291,7 +294,7 @@ class EngineInfo:
     Raises
     ------
     ValueError
-        A limit key that names no material, boundary or setup value.
+        A limit key that names no material, boundary or setup value; a ``speed`` device the engine does not list.
     """
 
     name: str
@@ -312,10 +315,14 @@ class EngineInfo:
     install: str = ""
     config: type | None = None
     presets: Mapping[str, Preset] = field(default_factory=dict)
+    speed: Mapping[str, str] = field(default_factory=dict)
 
     def __post_init__(self):
         for key in self.limits:
             split_key(key)
+        if set(self.speed) - set(self.capabilities.devices):
+            raise ValueError(f"engine '{self.name}': speed given for device(s) "
+                             f"{sorted(set(self.speed) - set(self.capabilities.devices))} it does not list")
         if self.config is not None:
             if not self.options:
                 object.__setattr__(self, "options", config_options(self.config))

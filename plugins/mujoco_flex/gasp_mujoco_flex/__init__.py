@@ -137,6 +137,7 @@ gasp_engines = engine_hook(EngineInfo(
     limits=LIMITS,
     known_failures=KNOWN_FAILURES,
     sweep=sweep,
+    speed={"cpu": "jelly block of 46,656 points 1.72 s a frame on 2 cores (benchmarks/results/bench_engines.md)"},
     requires=("mujoco",),
     install="gasp-mujoco-flex",
     description="MuJoCo 4 flex: tetrahedral FEM lattice per body (SVK elasticity, von Mises "

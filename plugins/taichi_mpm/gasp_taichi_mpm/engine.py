@@ -28,6 +28,15 @@ from . import ENGINE, TaichiMPMConfig
 from .affinity import allowed_cores, pin_workers, spin_all_threads, thread_ids
 from .frontend import lighten_position_notes
 
+#: ``p2g = "auto"`` tiles the GPU schedule's P2G on CUDA from this many material points (docs/performance.md).
+TILES_MIN_POINTS = 1 << 18
+
+
+def use_tiles(p2g: str, n_material: int) -> bool:
+    """Whether CUDA's GPU schedule tiles its P2G (:mod:`gasp_taichi_mpm.schedule.tiles`) for option ``p2g``."""
+    return p2g == "tiles" or (p2g == "auto" and n_material >= TILES_MIN_POINTS)
+
+
 #: On CPU the coloured block P2G is used while the grid takes at most this many bytes (beyond, the atomic one).
 MAX_PRIVATE_GRID_BYTES = 1 << 30
 
@@ -84,7 +93,8 @@ class TaichiMPMEngine(GridEngineBase):
         World frame, SI units. ``setup.options`` (checked and completed by the core) hold ``device`` ("cpu" | "cuda"),
         ``precision`` ("f32" | "f64"), ``dt`` (s) or ``n_substeps`` (per frame), ``cfl`` (0.4) and
         ``threads`` (CPU threads, Taichi's ``cpu_max_num_threads``; default the cores this process may use),
-        ``schedule`` (:mod:`gasp_taichi_mpm.schedule`: "cpu", "gpu" or "auto", gpu on CUDA) and
+        ``schedule`` (:mod:`gasp_taichi_mpm.schedule`: "cpu", "gpu" or "auto", gpu on CUDA), ``p2g`` ("tiles", "atomic" or
+        "auto": tiles from :data:`TILES_MIN_POINTS` points, on CUDA's GPU schedule only) and
         ``pin_threads`` (each worker on its own core: :mod:`gasp_taichi_mpm.affinity`; ``stats()["pinned_cores"]``).
 
     Raises
@@ -171,10 +181,11 @@ class TaichiMPMEngine(GridEngineBase):
             mixed=mixed, fields=field_setup(view), hold=flowing_bodies(view, contact) if setup.colliders else None,
             passive_bounds=(*passive_bounds(setup, contact), passive_floor_friction(setup, contact)), rigid_frames=None if frames is None else (rigid, *frames),
             contact_reach=contact_reach(setup), gpu=self.schedule == "gpu",
+            tiles=self.schedule == "gpu" and self.device == "cuda" and use_tiles(cfg.p2g, self.n_material),
             body_mass=np.bincount(setup.body_id, weights=setup.p_mass, minlength=len(setup.materials)),
             **self._extras(setup))
         self._rigid_extras(setup, flowing_bodies(view, contact), rigid.any())
-        self._p2g_mode = "atomic" if atomic else "coloured blocks"
+        self._p2g_mode = "tiles" if self.solver.tiles else "atomic" if atomic else "coloured blocks"
         self.frame = 0
         self._x = setup.x.astype(np.float32 if real == ti.f32 else np.float64)
         self._v = setup.v.astype(self._x.dtype)
@@ -352,8 +363,8 @@ class TaichiMPMEngine(GridEngineBase):
 
     def stats(self) -> dict[str, Any]:
         """:meth:`GridEngineBase.grid_stats` (mass and passive statistics from the solver's fields while the
-        engine is live), ``threads``, ``p2g`` (coloured blocks or atomic) and, while live, ``late_points`` (coloured
-        P2G: points scattered serially after the colour passes, since the build) and ``viscous_cg_iterations``
+        engine is live), ``threads``, ``p2g`` (coloured blocks, atomic or tiles) and, while live, ``late_points``
+        (coloured P2G: points scattered serially after the colour passes, since the build) and ``viscous_cg_iterations``
         (with a viscous material: mean CG iterations per viscous solve)."""
         live = not self._closed and self._gen == _generation
         s = self.solver

@@ -12,7 +12,7 @@ been called (by :class:`gasp_taichi_mpm.engine.TaichiMPMEngine`) before it is bu
 Implementation notes (all algebraically identical to the spec; they change rounding only):
 
 * **Coloured block P2G on CPU** (``coloured``; :mod:`~gasp_taichi_mpm.transfers`). The material points are
-  sorted by grid block (4 nodes a side) at the start of every frame and every :data:`SORT_EVERY` substeps
+  sorted by grid block (4 nodes a side) at the start of every frame and every ``SORT_EVERY`` substeps
   (a stable counting sort in Taichi), then G2P + P2G run in 8 passes, one per colour (the parity of the
   block index on each axis), each a flat parallel loop in which one thread scatters a whole block with
   plain adds into the single grid ``grid_mv[0]``. Same-colour blocks are a block apart, so their stencils
@@ -52,16 +52,16 @@ from .forces import Forces, count_set_boxes
 from .grid import GridUpdate
 from .rigid import Rigid
 from .rigid_hold import RigidHold
+from .schedule.coloured import SORT_EVERY, ColouredP2G  # noqa: F401 (SORT_EVERY: benchmarks/bench_threads.py)
+from .schedule.tiles import TileP2G
 from .transfers import Transfers
 from .viscosity import ImplicitViscosity
 
-#: The coloured P2G re-sorts the points by block every this many substeps (and at every frame's start).
-SORT_EVERY = 10
 
 
 @ti.data_oriented
-class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact, Balance, BalanceGPU, Rigid, Fields,
-                RigidHold, FrameChecks):
+class MPMSolver(Transfers, ColouredP2G, TileP2G, Constitutive, GridUpdate, Colliders, Forces, Contact, Balance,
+                BalanceGPU, Rigid, Fields, RigidHold, FrameChecks):
     """Fields and kernels of one simulation.
 
     Parameters
@@ -112,14 +112,15 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         The bodies held out of the colliders after G2P (:meth:`~gasp_taichi_mpm.colliders.Colliders.allocate_hold`).
     gpu : bool, optional
         The GPU schedule (:mod:`gasp_taichi_mpm.schedule`; implies ``atomic``): no loop over points, nodes or list
-        entries on one thread. Default the CPU schedule.
+        entries on one thread. Default the CPU schedule. ``tiles``: with it on CUDA, the tiled P2G in shared memory
+        (:mod:`gasp_taichi_mpm.schedule.tiles`; not with wind, whose gradients it does not sum).
     """
 
     def __init__(self, *, x, v, C0, p_mass, p_vol, body, fixed, jp0, params, kinds, n_grid, lo, dx, dt,
                  gravity, walls, grounds, regions, real, n_chunks, atomic, extras=None, time_table=None, n_substeps=1,
                  n_material=None, passive_every=1, flip=0.0, coloured=False, p_contact=None, passive_bounds=None,
                  rigid_frames=None, contact_reach=None, body_mass=None, n_colc=0, planes=None, mixed=None, fields=None,
-                 hold=None, gpu=False):
+                 hold=None, gpu=False, tiles=False):
         n = len(x)
         self.n = n
         self.n_material = n if n_material is None else int(n_material)
@@ -175,6 +176,9 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         self._split_chunks()
         self._init_box()
         self._setup_extras(extras, time_table, np_real, n_substeps)
+        self.tiles = bool(tiles) and self.gpu and not self.has_wind   # the tiled P2G (schedule/tiles.py), CUDA only
+        if self.tiles:
+            self.allocate_tiles()
         if self.has_passive and not self.atomic:   # the chunks' node box: only the CPU's chunked and coloured P2G read it
             self.passive_box()
         self.visc = ImplicitViscosity(self, self.eta_channel) if self.viscous else None
@@ -227,7 +231,7 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         self.hold_lo, self.hold_hi = ti.Vector.field(3, real, shape=()), ti.Vector.field(3, real, shape=())
         self.hold_mu = ti.field(real, shape=())
         if self.coloured:   # the block sort (transfers.sort_blocks): keys, sorted order, counts per (chunk, key)
-            from .transfers import BLOCK, SORT_CHUNKS
+            from .schedule.coloured import BLOCK, SORT_CHUNKS
             cap = self.x.shape[0]
             self.nbh = ((ng + BLOCK - 1) // BLOCK + 1) // 2   # blocks per axis, halved (rounded up): colour-major keys
             self.n_keys = 8 * self.nbh ** 3
@@ -369,24 +373,17 @@ class MPMSolver(Transfers, Constitutive, GridUpdate, Colliders, Forces, Contact,
         self.last_g2p(at[-1])   # G2P, the passive points', the rigid projection (rigid_hold.py)
 
     def p2g_substep(self, with_g2p: int, substep: int) -> None:
-        """(G2P and) P2G of one substep, then the implicit viscous step. Coloured: the block sort at the frame's
-        first substep and every :data:`SORT_EVERY`, the 8 colour passes, the late points. Last, with the particle
-        contact, the bodies' moments for the contact's balance (:mod:`gasp_taichi_mpm.balance`), taken on the points'
+        """(G2P and) P2G of one substep (coloured, tiled or atomic), then the implicit viscous step. Last, with the
+        particle contact, the bodies' moments for the contact's balance (:mod:`gasp_taichi_mpm.balance`), taken on the points'
         ``x, v, C`` this P2G used (P2G leaves them as they are): warp_mpm's, which takes them before its P2G."""
         if self.coloured:
-            if substep % SORT_EVERY == 0:
-                self.sort_blocks()
-            self.p2g_begin()
-            for c in range(8):
-                self.g2p_p2g_colour(c, with_g2p)
-            n_late = int(self.n_late[None])
-            if n_late:   # rare: launched (and compiled) only when a point was late
-                self.p2g_late()
-            self.late_points += n_late
+            self.p2g_coloured(with_g2p, substep)
+        elif self.tiles:
+            self.p2g_tiled(with_g2p)
         else:
             self.g2p_p2g(with_g2p)
-            if self.visc is not None and self.atomic:
-                self.full_box()
+        if self.visc is not None and self.atomic:
+            self.full_box()
         if self.visc is not None:
             self.visc.solve()
         self.contact_fields()   # the two-field contact of a mixed scene (fields.py)

@@ -8,18 +8,9 @@ import taichi as ti
 
 from gasp_core.toolkit.materials import P_ETA
 
-#: Block side of the coloured P2G, nodes. A point is filed under the block of its stencil base ``floor(X - 0.5)``;
-#: blocks of one colour are a block apart, so the 3-node stencils of two same-colour blocks do not overlap while
-#: their points stay within :data:`MARGIN` cells of their block (``2 MARGIN < BLOCK - 1``).
-BLOCK = 4
-#: Cells a point may drift out of its block since the last sort and still scatter in its block's pass.
-MARGIN = 1
-#: Fixed chunks of the counting sort (each counts and places its points serially, in order: a stable sort).
-SORT_CHUNKS = 16
-
-
 class Transfers:
-    """The stencil of a point, P2G (coloured blocks on CPU, atomic on CUDA), G2P and the passive points' G2P."""
+    """The stencil of a point, P2G (atomic or into private grid copies; the schedules' own P2G passes are in
+    :mod:`gasp_taichi_mpm.schedule.coloured` and :mod:`gasp_taichi_mpm.schedule.tiles`), G2P and the passive points' G2P."""
 
     @ti.func
     def base_fx(self, xp):
@@ -56,45 +47,57 @@ class Transfers:
             return ti.Vector([mv[0], mv[1], mv[2], m])
 
     @ti.func
+    def p2g_prep(self, p, base, fx):
+        """Point p's stress update (``F``, the return mapping) and the scatters beside grid_mv's (the contact's, the
+        flow's, the two fields'); returns ``mv0, A, S, m, jvec, eta_v, budget`` for :meth:`node_val`."""
+        dt = self.dt[None]
+        inv_dx = self.inv_dx[None]
+        C = self.C[p]
+        F = (ti.Matrix.identity(self.real, 3) + dt * C) @ self.F[p]
+        tau = self.return_mapping(p, F)
+        eta_v = ti.cast(0.0, self.real)
+        if ti.static(self.viscous):   # Kelvin-Voigt, implicit on the grid: the point's J V eta (docs/dissipation.md)
+            eta_v = self.mat[self.body[p]][P_ETA] * F.determinant() * self.p_vol[p]
+        m = self.p_mass[p]
+        dx = self.dx[None]
+        affine = (-dt * self.p_vol[p] * 4.0 * inv_dx * inv_dx) * tau + m * C
+        A = affine * dx
+        S = (affine - m * C) * dx   # the stress part of A (AFLIP sums the momentum without it)
+        mv0 = m * self.v[p] - A @ fx
+        # the particle contact (zeros without it): not in AFLIP's APIC momentum (a boundary, as in warp_mpm)
+        jvec, budget, fn, fv, sup = self.point_contact(p)
+        mv0 += jvec
+        self.mark_contact_nodes(base, sup)   # the contact's balance (balance.py)
+        w = self.weights(fx)
+        self.scatter_contact(base, w, budget, fn, fv)   # with colliders: the budget's normal, supports' velocity
+        self.scatter_flow(p, base, w, m)   # with the contact chosen per body: the flowing bodies' mass
+        self.scatter_field(p, base, w, mv0, A, m)   # with the two-field contact: the point's field (fields.py)
+        return mv0, A, S, m, jvec, eta_v, budget
+
+    @ti.func
+    def node_val(self, i: ti.template(), j: ti.template(), k: ti.template(), fx, mv0, A, S, m, jvec, eta_v, budget):
+        """What a point adds to stencil node (i, j, k) of grid_mv per unit weight (:meth:`mv_value`)."""
+        mv = mv0
+        if ti.static(i > 0):
+            mv += ti.static(float(i)) * ti.Vector([A[0, 0], A[1, 0], A[2, 0]])
+        if ti.static(j > 0):
+            mv += ti.static(float(j)) * ti.Vector([A[0, 1], A[1, 1], A[2, 1]])
+        if ti.static(k > 0):
+            mv += ti.static(float(k)) * ti.Vector([A[0, 2], A[1, 2], A[2, 2]])
+        return self.mv_value(mv, m, mv - S @ (ti.Vector([float(i), float(j), float(k)]) - fx) - jvec, eta_v, budget)
+
+    @ti.func
     def p2g_point(self, p, t, bmin, bmax):
         """Scatter point p into grid copy t; returns the updated touched-node box."""
         base, fx, ok = self.base_fx(self.x[p])
         if not ok:
             ti.atomic_add(self.n_out[None], 1)
         else:
-            dt = self.dt[None]
-            inv_dx = self.inv_dx[None]
-            C = self.C[p]
-            F = (ti.Matrix.identity(self.real, 3) + dt * C) @ self.F[p]
-            tau = self.return_mapping(p, F)
-            eta_v = ti.cast(0.0, self.real)
-            if ti.static(self.viscous):   # Kelvin-Voigt, implicit on the grid: the point's J V eta (docs/dissipation.md)
-                eta_v = self.mat[self.body[p]][P_ETA] * F.determinant() * self.p_vol[p]
-            m = self.p_mass[p]
-            dx = self.dx[None]
-            affine = (-dt * self.p_vol[p] * 4.0 * inv_dx * inv_dx) * tau + m * C
-            A = affine * dx
-            S = (affine - m * C) * dx   # the stress part of A (AFLIP sums the momentum without it)
-            mv0 = m * self.v[p] - A @ fx
-            # the particle contact (zeros without it): not in AFLIP's APIC momentum (a boundary, as in warp_mpm)
-            jvec, budget, fn, fv, sup = self.point_contact(p)
-            mv0 += jvec
-            self.mark_contact_nodes(base, sup)   # the contact's balance (balance.py)
+            mv0, A, S, m, jvec, eta_v, budget = self.p2g_prep(p, base, fx)
             w = self.weights(fx)
-            self.scatter_contact(base, w, budget, fn, fv)   # with colliders: the budget's normal, supports' velocity
-            self.scatter_flow(p, base, w, m)   # with the contact chosen per body: the flowing bodies' mass
-            self.scatter_field(p, base, w, mv0, A, m)   # with the two-field contact: the point's field (fields.py)
             for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                 weight = w[i][0] * w[j][1] * w[k][2]
-                mv = mv0
-                if ti.static(i > 0):
-                    mv += ti.static(float(i)) * ti.Vector([A[0, 0], A[1, 0], A[2, 0]])
-                if ti.static(j > 0):
-                    mv += ti.static(float(j)) * ti.Vector([A[0, 1], A[1, 1], A[2, 1]])
-                if ti.static(k > 0):
-                    mv += ti.static(float(k)) * ti.Vector([A[0, 2], A[1, 2], A[2, 2]])
-                val = weight * self.mv_value(mv, m, mv - S @ (ti.Vector([float(i), float(j), float(k)]) - fx) - jvec,
-                                             eta_v, budget)
+                val = weight * self.node_val(i, j, k, fx, mv0, A, S, m, jvec, eta_v, budget)
                 node = base + ti.Vector([i, j, k])
                 if ti.static(self.atomic):
                     self.grid_mv[0, node] += val
@@ -103,8 +106,9 @@ class Transfers:
                 if ti.static(self.has_wind):
                     # p_vol grad N_ip: d N / d x_node per axis is (1.5 - fx, 2 (fx - 1), 0.5 - fx) inv_dx
                     dw = [1.5 - fx, 2.0 * (fx - 1.0), 0.5 - fx]
-                    gv = (self.p_vol[p] * inv_dx) * ti.Vector([dw[i][0] * w[j][1] * w[k][2], w[i][0] * dw[j][1] * w[k][2],
-                                                               w[i][0] * w[j][1] * dw[k][2]])
+                    gv = (self.p_vol[p] * self.inv_dx[None]) * ti.Vector([dw[i][0] * w[j][1] * w[k][2],
+                                                                          w[i][0] * dw[j][1] * w[k][2],
+                                                                          w[i][0] * w[j][1] * dw[k][2]])
                     if ti.static(self.atomic):
                         self.grid_g[0, node] += gv
                     else:
@@ -185,117 +189,6 @@ class Transfers:
                         bmin, bmax = self.p2g_point(p, t, bmin, bmax)
                 self.box[t, 0] = bmin
                 self.box[t, 1] = bmax
-
-    # ------------------------------------------------------------------ coloured block P2G (CPU)
-    @ti.func
-    def block_key(self, p):
-        """Sort key of point p: its block (of the stencil base), colour-major (colour = parity of the block index)."""
-        X = (self.x[p] - self.lo[None]) * self.inv_dx[None]
-        base = ti.cast(ti.floor(X - 0.5), ti.i32)
-        bi = ti.min(ti.max(base, 0), self.n_grid - 1) // BLOCK
-        colour = (bi[0] & 1) + 2 * (bi[1] & 1) + 4 * (bi[2] & 1)
-        h = bi >> 1
-        return ((colour * self.nbh + h[0]) * self.nbh + h[1]) * self.nbh + h[2]
-
-    @ti.func
-    def block_origin(self, key):
-        """First node of the block with sort key ``key``."""
-        per = self.nbh * self.nbh * self.nbh
-        colour = key // per
-        r = key % per
-        h = ti.Vector([r // (self.nbh * self.nbh), (r // self.nbh) % self.nbh, r % self.nbh])
-        return (2 * h + ti.Vector([colour & 1, (colour >> 1) & 1, (colour >> 2) & 1])) * BLOCK
-
-    @ti.kernel
-    def sort_blocks(self):
-        """Counting sort of the material points by block key, stable in the solver's point order: ``order``,
-        ``skey`` (the sorted keys) and ``colour_lo`` (where each colour starts). Deterministic: the chunks count
-        and place their points serially, and the offsets are summed in (key, chunk) order."""
-        n = self.n_points[None]
-        for q, kk in self.hist:
-            self.hist[q, kk] = 0
-        for p in range(n):
-            self.key[p] = self.block_key(p)
-        per = (n + SORT_CHUNKS - 1) // SORT_CHUNKS
-        for p0 in range(n):   # one iteration per chunk start does the chunk (Taichi splits the loop by points)
-            if p0 % per == 0:
-                for p in range(p0, ti.min(p0 + per, n)):
-                    if self.asleep[self.body[p]] == 0:   # a sleeping body's points are in no block (sleeping.py)
-                        self.hist[p0 // per, self.key[p]] += 1
-        off = 0
-        per_colour = self.nbh * self.nbh * self.nbh
-        ti.loop_config(serialize=True)
-        for kk in range(self.n_keys):
-            if kk % per_colour == 0:
-                self.colour_lo[kk // per_colour] = off
-            for q in range(SORT_CHUNKS):
-                c = self.hist[q, kk]
-                self.hist[q, kk] = off
-                off += c
-        self.colour_lo[8] = off
-        for p0 in range(n):
-            if p0 % per == 0:
-                for p in range(p0, ti.min(p0 + per, n)):
-                    if self.asleep[self.body[p]] == 0:
-                        k = self.key[p]
-                        slot = self.hist[p0 // per, k]
-                        self.hist[p0 // per, k] = slot + 1
-                        self.order[slot] = p
-                        self.skey[slot] = k
-
-    @ti.kernel
-    def p2g_begin(self):
-        """Clear the late-point count; the touched-node box starts at the passive points' box (or empty)."""
-        self.n_late[None] = 0
-        if ti.static(self.has_passive):
-            self.box[0, 0] = self.pbox[0, 0]
-            self.box[0, 1] = self.pbox[0, 1]
-        else:
-            self.box[0, 0] = ti.Vector([self.n_grid, self.n_grid, self.n_grid])
-            self.box[0, 1] = ti.Vector([-1, -1, -1])
-
-    @ti.kernel
-    def g2p_p2g_colour(self, c: ti.i32, with_g2p: ti.i32):
-        """G2P (if ``with_g2p``) and P2G of the blocks of colour ``c``, plain adds into ``grid_mv[0]``.
-
-        One flat loop over the colour's sorted points (Taichi gives each thread a contiguous share of at least
-        512 iterations); the iteration at a block's first point does the whole block in sorted order, the
-        others nothing. A point more than ``MARGIN`` cells out of its block is marked late."""
-        for k0 in range(self.colour_lo[c], self.colour_lo[c + 1]):
-            if k0 == self.colour_lo[c] or self.skey[k0] != self.skey[k0 - 1]:
-                key = self.skey[k0]
-                o = self.block_origin(key)
-                bmin = ti.Vector([self.n_grid, self.n_grid, self.n_grid])
-                bmax = ti.Vector([-1, -1, -1])
-                k = k0
-                while k < self.colour_lo[c + 1] and self.skey[k] == key:
-                    p = self.order[k]
-                    if with_g2p:
-                        self.fused_g2p(p)   # a rigid body's points: done before (rigid.py)
-                    X = (self.x[p] - self.lo[None]) * self.inv_dx[None]
-                    base = ti.cast(ti.floor(X - 0.5), ti.i32)
-                    if (base >= o - MARGIN).all() and (base <= o + BLOCK - 1 + MARGIN).all():
-                        bmin, bmax = self.p2g_point(p, 0, bmin, bmax)
-                    else:
-                        self.late[p] = ti.cast(1, ti.i8)
-                        ti.atomic_add(self.n_late[None], 1)
-                    k += 1
-                ti.atomic_min(self.box[0, 0], bmin)
-                ti.atomic_max(self.box[0, 1], bmax)
-
-    @ti.kernel
-    def p2g_late(self):
-        """P2G of the late points, serially in sorted order (after the 8 colours)."""
-        if self.n_late[None] > 0:   # not the outermost scope: serial
-            bmin = self.box[0, 0]
-            bmax = self.box[0, 1]
-            for k in range(self.colour_lo[8]):
-                p = self.order[k]
-                if self.late[p] != 0:
-                    self.late[p] = ti.cast(0, ti.i8)
-                    bmin, bmax = self.p2g_point(p, 0, bmin, bmax)
-            self.box[0, 0] = bmin
-            self.box[0, 1] = bmax
 
     @ti.kernel
     def full_box(self):

@@ -73,6 +73,9 @@ gasp_engines = engine_hook(EngineInfo(
     check_scene=check_ground_in_grid,
     substeps=grid_substeps,
     available=_available,
+    speed={"cpu": "jelly block of 46,656 points 3.8 M particle-substeps/s on one core (Warp's CPU kernels run "
+                  "serially), 6.2 on the donut of 146,471 points (benchmarks/results/bench_engines.md)",
+           "cuda": "not measured (Warp's wheel does not fit the lent GPU machine; docs/performance.md)"},
     description=("MLS-MPM (docs/mpm.md) in NVIDIA Warp; CUDA, or CPU on one core (Warp runs CPU kernels "
                  "serially, deterministic): on CPU use taichi_mpm, which uses every core (docs/performance.md); "
                  "viscosity implicit (no step limit); its CUDA speed is not measured yet"),
