@@ -15,11 +15,12 @@ neighbours (central differences), so no scene reads an engine's internal state.
   before any point breaks through) is ``FT`` within 5 %, the bar breaks through (a section of points all at ``d >= 0.9``), and no point's ``d`` ever decreases
   between frames (damage never heals).
 - ``brittle_fracture_energy``: the work the damage dissipated per crack area (each point's volume times the
-  linear-softening energy of its ``d``) is ``GF`` within 20 % at n_grid 32 and within 15 % of itself at n_grid 64
-  (the crack band ``h = dx + p_vol^(1/3)``, ``gasp_core.seam.setup.crack_band``). Slow tier.
+  linear-softening energy of its ``d``, over the first crack's zone: :func:`work_per_crack`) is ``GF`` within 20 % at
+  n_grid 32 and within 15 % of itself at n_grid 64 (the crack band ``h = dx + p_vol^(1/3)``,
+  ``gasp_core.seam.setup.crack_band``). Slow tier.
 - ``brittle_below_strength``: pulled to about half ``FT`` and let go, nothing damages and the energy (kinetic +
   elastic) at each of the 40 frames after the release is the same bar's as Hencky elasticity that never yields
-  within 1 % (the elastic energy returned: the MPM's own 7 % loss is common to both runs) and gains none; the bar, free, given the velocity field of a uniform uniaxial compression (ends at
+  within 1 % (the elastic energy returned: the MPM's own 11 % loss is common to both runs) and gains none; the bar, free, given the velocity field of a uniform uniaxial compression (ends at
   4.8 m/s), nothing damages until its middle is most compressed, past 10 ``FT``.
 - ``brittle_free_break``: no boundary, the half x > 0.5 m thrown at 1 m/s: it breaks through, its momentum stays
   within 1 % of the start's, and its energy never rises above 1.01 times the start's.
@@ -45,8 +46,9 @@ AREA = 0.125 ** 2
 STRENGTH_TOL, GF_TOL, REGULAR_TOL, MOMENTUM_TOL = 0.05, 0.20, 0.15, 0.01
 #: The bar let go below its strength: its energy (kinetic + elastic) at each frame after the release against the same
 #: bar as Hencky elasticity that never yields (``metal`` with an unreachable yield stress: the brittle model's
-#: undamaged stress, docs/fracture.md), within 1 %, two-sided. The MPM's own dissipation (7 % over the 40 frames on
-#: both) is common to the two runs, so what is left is what the damage model returns or keeps of the elastic energy.
+#: undamaged stress, docs/fracture.md), within 1 %, two-sided. The MPM's own dissipation (11 % over the 40 frames on
+#: both, 7 % before issue 66's held region: docs/tolerances.md) is common to the two runs, so what is left is what the
+#: damage model returns or keeps of the elastic energy.
 ENERGY_TOL = 0.01
 BRITTLE = Material("brittle", E=E, nu=NU, rho=RHO, tensile_strength=FT, fracture_energy=GF)
 
@@ -161,16 +163,48 @@ def _bar_strength(info: EngineInfo) -> list[Check]:
             check("never_heals", drop, 1e-6, "largest fall of a point's d between frames")]
 
 
+#: Cells each side of a crack's broken-through layers over which its work is summed (the crack's zone, as
+#: ``benchmarks/tension_family.py``'s).
+CRACK_ZONE_CELLS = 2
+
+
+def broken_runs(layer: np.ndarray, d: np.ndarray) -> list[tuple[int, int]]:
+    """The runs of consecutive lattice layers broken through (every point at ``d >= 0.9``), as (first, last)."""
+    broken = [int(k) for k in np.unique(layer) if (d[layer == k] >= 0.9).all()]
+    if not broken:
+        return []
+    runs = np.split(np.array(broken), np.flatnonzero(np.diff(broken) > 1) + 1)
+    return [(int(r[0]), int(r[-1])) for r in runs]
+
+
+def work_per_crack(layer: np.ndarray, work: np.ndarray, cracks: list[tuple[int, int]], zone: int) -> float:
+    """The work (J) the damage dissipated per crack: ``work`` (per point) summed over the zones of ``cracks`` (their
+    layers and ``zone`` layers each side) over their number; with none, over the whole body. ``cracks`` are the
+    first to part (:func:`broken_runs` at the first frame with any): once the bar parts it sheds the elastic energy
+    it stored (``f_t^2 L / (2 E)`` = 30 J/m^2 here, six times ``G_f``) as waves, which may damage it elsewhere (with
+    ``nu`` 0.25 both grips pin the section's lateral contraction and concentrate the stress alike, and the waves
+    part the bar at the other grip too at n_grid 32): damage that is not the first crack's work of fracture."""
+    if not cracks:
+        return float(work.sum())
+    near = np.zeros(len(layer), dtype=bool)
+    for lo, hi in cracks:
+        near |= (layer >= lo - zone) & (layer <= hi + zone)
+    return float(work[near].sum() / len(cracks))
+
+
 def dissipated_per_area(info: EngineInfo, n_grid: int) -> float:
     """Work the bar's damage dissipated per crack area, J/m^2, after 60 frames at ``n_grid``: per point
     ``V f_t s d / (2 E)``, ``s = f_t s_f / ((1 - d)(s_f - f_t) + f_t)`` the largest effective stress its ``d``
-    stands for (linear softening, ``s_f`` of the setup's crack band)."""
+    stands for (linear softening, ``s_f`` of the setup's crack band), over the zone of the first crack
+    (:func:`work_per_crack`)."""
     s = bar_setup(n_grid)
+    layer = Lattice(s).layer
     sf = softening_stress(BRITTLE, float(s.crack_band[0]))
+    cracks: list[tuple[int, int]] = []
     for _, _, d in frames(info, s, 60):
-        pass
+        cracks = cracks or broken_runs(layer, d)
     D = FT ** 2 * sf * d / (2 * E * ((1 - d) * (sf - FT) + FT))
-    return float((s.p_vol * D).sum() / AREA)
+    return work_per_crack(layer, s.p_vol * D, cracks, 2 * CRACK_ZONE_CELLS) / AREA
 
 
 def _fracture_energy(info: EngineInfo) -> list[Check]:

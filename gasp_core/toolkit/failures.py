@@ -15,5 +15,5 @@ _CLAMP_OFF_GRID = ("clamp face 0.6 dx past a grid node: time-averaged tip deflec
                    "soft when its face falls between nodes")
 #: (``stacked_gap`` passes since the two soft bodies take a velocity field each: docs/contact.md, issue 53 item 5.)
 #: ``cantilever_offgrid`` passes since issue 66's held region (the fixed region's ghost nodes, docs/fracture.md "The
-#: held region"): 20.86 mm against Timoshenko 20.63 mm (+1.1 %), 4.22 Hz against 4.27 Hz (-1.2 %), warp_mpm.
+#: held region"): 21.01 mm against Timoshenko 20.63 mm (+1.8 %), 4.20 Hz against 4.27 Hz (-1.6 %; docs/tolerances.md).
 MPM_KNOWN_FAILURES: dict = {}

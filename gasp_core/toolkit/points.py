@@ -72,14 +72,36 @@ def fixed_mask(x: np.ndarray, boundaries: Iterable[Boundary]) -> np.ndarray:
 MIRROR_CELLS = 3.0
 #: Cells: held points (``fixed_region``) within this of their box's nearest face keep the grid's velocity gradient
 #: (their ``F`` follows it, so they carry the stress of the material beside them); deeper ones keep ``F``. The free
-#: material's stencils reach 1.5 cells past the face.
+#: material's stencils reach 1.5 cells past the face. The points of a box impulse of ``mode = "set"`` move with it while
+#: it acts, and this near its face take the same image gradient (:data:`HELD_STRAINED`); deeper they keep ``F``.
 HELD_STRAIN_CELLS = 1.5
+#: :func:`held_codes` of a held point within :data:`HELD_STRAIN_CELLS` of its region's face: ``HELD_STRAINED + a``, ``a``
+#: the axis of that face's normal. The grid's gradient ``G`` there is the ghost field's, ``2 v_set - v(X')`` with
+#: ``X' = R X`` the mirror image (``R`` the reflection across the face), so ``G = -grad v(X') R``: its column along the
+#: normal is the image's, its columns along the face are the image's negated. Such a point takes ``G`` with those two
+#: columns negated, the gradient of the material beside the face (:func:`image_gradient`; P2G advances ``F`` by it and
+#: scatters the stress ``tau D`` that pairs with it). With the raw ``G`` a bar's lateral contraction (``nu > 0``)
+#: reverses into an expansion in the held points: at ``nu`` 0.25 their stress along the bar is 1.3-1.4 times the
+#: section's, and they damaged at half the strength (conformance ``brittle_below_strength``). A brittle point a box
+#: holds keeps its damage: its stress is its mirror image's, not a crack of the body (docs/fracture.md).
+HELD_STRAINED = 2
+
+
+def image_gradient(C: np.ndarray, axis: int) -> np.ndarray:
+    """The velocity gradient ``C`` (..., 3, 3) of a ghost field at a held point, as the gradient at its mirror image
+    across a face of normal ``axis`` (the engines do the same in their P2G, :data:`HELD_STRAINED`): the columns other
+    than ``axis`` negated."""
+    out = -np.array(C, dtype=np.float64)
+    out[..., :, axis] *= -1
+    return out
 
 
 def held_codes(x: np.ndarray, boundaries: Iterable[Boundary], dx: float) -> np.ndarray:
-    """Each point's hold: 0 free, 1 held rigidly (inside a ``fixed_region``, :func:`fixed_mask`), 2 held within
-    :data:`HELD_STRAIN_CELLS` cells of the nearest face of the region that holds it (it keeps its position and
-    ``v = 0``, but its ``F`` follows the grid's velocity gradient, as the material beside the face).
+    """Each point's hold: 0 free, 1 held rigidly (inside a ``fixed_region``, :func:`fixed_mask`), ``HELD_STRAINED
+    + a`` held within :data:`HELD_STRAIN_CELLS` cells of the nearest face of the region that holds it, ``a`` the axis
+    of that face's normal (it keeps its position and ``v = 0``, but its ``F`` follows the grid's velocity gradient as
+    the material beside the face: :data:`HELD_STRAINED`). A point deep inside one region is held rigidly though near
+    the face of another.
 
     Parameters
     ----------
@@ -95,12 +117,16 @@ def held_codes(x: np.ndarray, boundaries: Iterable[Boundary], dx: float) -> np.n
     """
     x = np.asarray(x, dtype=np.float64)
     code = np.zeros(len(x), dtype=np.int8)
+    deep = np.zeros(len(x), dtype=bool)
     for b in boundaries:
         if b.kind == "fixed_region":
             lo, hi = np.asarray(b.lo, float), np.asarray(b.hi, float)
             inside = np.all((x >= lo) & (x <= hi), axis=1)
-            near = np.minimum(x - lo, hi - x).min(axis=1) < HELD_STRAIN_CELLS * dx
-            code = np.where(inside, np.maximum(code, np.where(near, 2, 1)), code).astype(np.int8)
+            dist = np.minimum(x - lo, hi - x)
+            near = inside & (dist.min(axis=1) < HELD_STRAIN_CELLS * dx)
+            deep |= inside & ~near
+            code = np.where(near & (code == 0), HELD_STRAINED + dist.argmin(axis=1), code).astype(np.int8)
+    code[deep] = 1
     return code
 
 

@@ -11,7 +11,8 @@ import taichi as ti
 
 from gasp_core.toolkit.grid_tables import FT_TIME
 from gasp_core.toolkit.contact import ground_node_layer, wall_grid_cells
-from gasp_core.toolkit.points import MIRROR_CELLS
+from gasp_core.toolkit.materials import BRITTLE
+from gasp_core.toolkit.points import HELD_STRAINED, MIRROR_CELLS
 
 _TIE = 1e-9  # cells: tolerance for ties when boundary tests become node-index ranges
 
@@ -153,6 +154,47 @@ class GridUpdate:
                 if self.grid_m[Ia] <= 0.0 or self.grid_m[Ib] <= 0.0:
                     v = v_set
         return v
+
+    @ti.func
+    def held_axis(self, p):
+        """The normal axis of the held box's face that point ``p`` takes its image gradient across
+        (:meth:`image_gradient`): a held point near its region's face (``fixed = HELD_STRAINED + a``), or a point near
+        the face of a set box impulse acting now (:meth:`~gasp_taichi_mpm.forces.Forces.set_box_axis`); else -1."""
+        a = -1
+        if ti.static(self.any_fixed):
+            if self.fixed[p] >= HELD_STRAINED:
+                a = ti.cast(self.fixed[p], ti.i32) - HELD_STRAINED
+        if ti.static(self.n_set_boxes > 0):
+            if self.fixed[p] == 0:
+                a = self.set_box_axis(self.x[p])
+        return a
+
+    @ti.func
+    def image_gradient(self, C, a):
+        """``C D``, ``D`` the diagonal matrix that negates every column but ``a`` (``a`` -1: ``C``): for a point
+        near a held box's face (normal axis ``a``, :data:`~gasp_core.toolkit.points.HELD_STRAINED`) the ghost field's
+        gradient ``C`` as the gradient at its mirror image (P2G advances its ``F`` by it), and its stress ``tau D``
+        (the force that update pairs with)."""
+        out = C
+        for j in ti.static(range(3)):
+            if j != a and a >= 0:
+                for i in ti.static(range(3)):
+                    out[i, j] = -C[i, j]
+        return out
+
+    @ti.func
+    def held_stress(self, p, tau, a, d_held):
+        """The stress point ``p`` scatters under the held boxes' rule (``a`` from :meth:`held_axis`): ``tau D`` near a
+        face; a brittle point in a held box keeps its damage ``d_held`` (its stress is its mirror image's: the
+        material a box holds does not break)."""
+        out = self.image_gradient(tau, a)
+        if a >= 0:
+            kind = self.kind[self.body[p]]
+            if ti.static(not self.multi_kind):
+                kind = ti.static(next(iter(self.kinds)))
+            if kind == BRITTLE:
+                self.Jp[p] = d_held
+        return out
 
     @ti.kernel
     def mirror_held(self):

@@ -46,7 +46,7 @@ from . import ENGINE, WarpMPMConfig, kernels as K
 from .balance import allocate_balance
 from .colliders import hold_launches
 from .fields import allocate_fields, field_launches
-from .grid import held_boxes, mirror_launches
+from .held import held_boxes, mirror_launches
 from .rigid import RigidBodies
 from .sleeping import Sleeping
 from .tables import ExtraTables
@@ -234,7 +234,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
                 self.mat_kind, self.mat_par, self.grid_mv, self.flags, lo_v, inv_dx, dx, dt_f, ng,
                 self.grid_g, self.has_wind, self.grid_mv0, int(self.flip > 0), self.p_contact, self.planes, self.plane_n,
                 self.grid_fb, self.grid_eta, self.c_shift, self.grid_fbody, ex, self.colc, self.n_sup, self.grid_fn,
-                self.grid_fv, self.grid_mf, self.flows, self.grid_sv, self.grid_vf, self.in_a]),
+                self.grid_fv, self.grid_mf, self.flows, self.grid_sv, self.grid_vf, self.in_a, self.fixed]),
             wp.launch(k.grid_update, dim=ng ** 3, device=d, record_cmd=True, inputs=[
                 self.grid_mv, self.grid_v, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, Ft(self.wall_in), self.wall_mu,
                 self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex, self.grid_g, self.has_wind,

@@ -11,9 +11,7 @@ import functools
 
 import warp as wp
 
-from gasp_core.toolkit.grid_tables import (COL_POSE, FT_POSES, FT_TIME, IM_A, IM_B, IM_DV, IM_MODE, IM_SHAPE,
-                                           IMPULSE_ADD, IMPULSE_BOX, IMPULSE_ROW)
-from gasp_core.toolkit.points import MIRROR_CELLS
+from gasp_core.toolkit.grid_tables import FT_TIME
 
 from .colliders import build_blend, build_collide, build_collider_func
 from .balance import build_balance
@@ -195,103 +193,3 @@ def build_grid_update(Ft):
             grid_g[node] = vec3(Ft(0.0))
 
     return grid_update
-
-
-@functools.cache
-def build_mirror(Ft):
-    """``mirror_held``: the kernel of the held boxes' ghost nodes (docs/fracture.md, "The held region"; taichi_mpm's
-    ``GridUpdate.mirror_held``): each box impulse of ``mode = "set"`` while it acts (held at its velocity), then each
-    ``fixed_region`` (held at 0). A node inside a box within ``MIRROR_CELLS`` cells of its nearest face takes
-    ``2 v_set - v(X')``, ``X'`` its mirror image across that face (``v`` linear along the face's normal; where one of
-    the two nodes is the node itself, solved for it); a set box leaves ``v_set`` where a mirror node has no mass."""
-    vec3, vec4, mat33 = build_types(Ft)
-    Extras = build_extras_struct(Ft)
-
-    @wp.func
-    def mirror_node(node: int, X: vec3, blo: vec3, bhi: vec3, v_set: vec3, grid_v: wp.array(dtype=vec3),
-                    grid_m: wp.array(dtype=Ft), empty: int, lo: vec3, dx: Ft, n_grid: int):
-        s = Ft(1e30)
-        ax = int(0)
-        side = Ft(1.0)
-        for d in range(3):
-            if X[d] - blo[d] < s:
-                s = X[d] - blo[d]
-                ax = d
-                side = Ft(-1.0)
-            if bhi[d] - X[d] < s:
-                s = bhi[d] - X[d]
-                ax = d
-                side = Ft(1.0)
-        v = v_set
-        if s < Ft(MIRROR_CELLS) * dx:
-            stride = int(1)
-            if ax == 0:
-                stride = n_grid * n_grid
-            elif ax == 1:
-                stride = n_grid
-            me = (node / stride) % n_grid
-            q = (X[ax] + Ft(2.0) * side * s - lo[ax]) / dx
-            a = wp.min(wp.max(int(wp.floor(q)), 0), n_grid - 2)
-            t = q - Ft(a)
-            na = node + (a - me) * stride
-            nb = na + stride
-            if a == me:       # the lower node is this one (an upper face under dx/2 away)
-                v = (Ft(2.0) * v_set - t * grid_v[nb]) / (Ft(2.0) - t)
-            elif a + 1 == me:   # the upper node is this one (a lower face)
-                v = (Ft(2.0) * v_set - (Ft(1.0) - t) * grid_v[na]) / (Ft(1.0) + t)
-            else:
-                v = Ft(2.0) * v_set - (Ft(1.0) - t) * grid_v[na] - t * grid_v[nb]
-            if empty != 0:
-                if grid_m[na] <= Ft(0.0) or grid_m[nb] <= Ft(0.0):
-                    v = v_set
-        return v
-
-    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def mirror_held(grid_v: wp.array(dtype=vec3), grid_m: wp.array(dtype=Ft), lo: vec3, dx: Ft, n_grid: int,
-                    fixed_lo: wp.array(dtype=vec3), fixed_hi: wp.array(dtype=vec3), has_extras: int, ex: Extras):
-        node = wp.tid()
-        i = node / (n_grid * n_grid)
-        j = (node / n_grid) % n_grid
-        k = node % n_grid
-        X = lo + dx * vec3(Ft(i), Ft(j), Ft(k))
-        if has_extras != 0:
-            base = ex.step[0] * ex.width
-            for q in range(ex.n_imp):
-                r = q * IMPULSE_ROW
-                c = vec3(ex.imps[r + IM_A], ex.imps[r + IM_A + 1], ex.imps[r + IM_A + 2])
-                b = vec3(ex.imps[r + IM_B], ex.imps[r + IM_B + 1], ex.imps[r + IM_B + 2])
-                w = ex.tab[base + FT_POSES + COL_POSE * ex.n_col + q]
-                if (ex.imps[r + IM_SHAPE] == Ft(IMPULSE_BOX) and ex.imps[r + IM_MODE] != Ft(IMPULSE_ADD)
-                        and w > Ft(0.0) and X[0] >= c[0] and X[1] >= c[1] and X[2] >= c[2] and X[0] <= b[0]
-                        and X[1] <= b[1] and X[2] <= b[2]):
-                    dv = vec3(ex.imps[r + IM_DV], ex.imps[r + IM_DV + 1], ex.imps[r + IM_DV + 2])
-                    grid_v[node] = mirror_node(node, X, c, b, dv, grid_v, grid_m, 1, lo, dx, n_grid)
-        for r in range(fixed_lo.shape[0]):
-            flo = fixed_lo[r]
-            fhi = fixed_hi[r]
-            if (X[0] >= flo[0] and X[0] <= fhi[0] and X[1] >= flo[1] and X[1] <= fhi[1]
-                    and X[2] >= flo[2] and X[2] <= fhi[2]):
-                grid_v[node] = mirror_node(node, X, flo, fhi, vec3(Ft(0.0)), grid_v, grid_m, 0, lo, dx, n_grid)
-
-    return mirror_held
-
-
-def count_set_boxes(setup) -> int:
-    """Box impulses of ``mode = "set"`` in ``setup`` (their nodes are held: :func:`build_mirror`)."""
-    return sum(1 for i in (getattr(setup, "impulses", None) or []) if i.shape == "box" and i.mode == "set")
-
-
-def held_boxes(setup) -> bool:
-    """Whether ``setup`` holds a box (a ``fixed_region`` or a set box impulse): its grid keeps the node mass."""
-    return any(b.kind == "fixed_region" for b in setup.boundaries) or count_set_boxes(setup) > 0
-
-
-def mirror_launches(eng, Ft, has_extras: int, ex) -> list:
-    """The recorded launch of :func:`build_mirror`'s kernel after the grid update, where the setup has a
-    ``fixed_region`` or a set box impulse; else none."""
-    if not held_boxes(eng.setup):
-        return []
-    k = eng.k
-    lo_v = k.vec3(*[float(c) for c in eng.setup.domain_lo])
-    return [wp.launch(build_mirror(Ft), dim=eng.n_grid ** 3, device=eng.device, record_cmd=True, inputs=[
-        eng.grid_v, eng.grid_m, lo_v, Ft(eng.dx), eng.n_grid, eng.fixed_lo, eng.fixed_hi, has_extras, ex])]
