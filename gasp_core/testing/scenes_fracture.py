@@ -15,7 +15,7 @@ neighbours (central differences), so no scene reads an engine's internal state.
   before any point breaks through) is ``FT`` within 5 %, the bar breaks through (a section of points all at ``d >= 0.9``), and no point's ``d`` ever decreases
   between frames (damage never heals).
 - ``brittle_fracture_energy``: the work the damage dissipated per crack area (each point's volume times the
-  linear-softening energy of its ``d``, over the first crack's zone: :func:`work_per_crack`) is ``GF`` within 20 % at
+  linear-softening energy of its ``d``, over the whole body) is ``GF`` within 20 % at
   n_grid 32 and within 15 % of itself at n_grid 64 (the crack band ``h = dx + p_vol^(1/3)``,
   ``gasp_core.seam.setup.crack_band``). Slow tier.
 - ``brittle_below_strength``: pulled to about half ``FT`` and let go, nothing damages and the energy (kinetic +
@@ -195,16 +195,17 @@ def work_per_crack(layer: np.ndarray, work: np.ndarray, cracks: list[tuple[int, 
 def dissipated_per_area(info: EngineInfo, n_grid: int) -> float:
     """Work the bar's damage dissipated per crack area, J/m^2, after 60 frames at ``n_grid``: per point
     ``V f_t s d / (2 E)``, ``s = f_t s_f / ((1 - d)(s_f - f_t) + f_t)`` the largest effective stress its ``d``
-    stands for (linear softening, ``s_f`` of the setup's crack band), over the zone of the first crack
-    (:func:`work_per_crack`)."""
+    stands for (linear softening, ``s_f`` of the setup's crack band), over the whole body. The scene reads ``d``
+    alone, so it cannot see an engine's own ``s_f``: counted over the first crack's zone
+    (:func:`work_per_crack`, as ``tests/test_brittle.py`` does with the engine's ``s_f``) the bands ``dx`` and
+    n_grid 32's at 64 read ``G_f`` within 1.4 % and pass; over the whole body they fail by the damage the waves
+    spread."""
     s = bar_setup(n_grid)
-    layer = Lattice(s).layer
     sf = softening_stress(BRITTLE, float(s.crack_band[0]))
-    cracks: list[tuple[int, int]] = []
     for _, _, d in frames(info, s, 60):
-        cracks = cracks or broken_runs(layer, d)
+        pass
     D = FT ** 2 * sf * d / (2 * E * ((1 - d) * (sf - FT) + FT))
-    return work_per_crack(layer, s.p_vol * D, cracks, 2 * CRACK_ZONE_CELLS) / AREA
+    return float((s.p_vol * D).sum() / AREA)
 
 
 def _fracture_energy(info: EngineInfo) -> list[Check]:
