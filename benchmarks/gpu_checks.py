@@ -4,7 +4,9 @@
    float64 sum; the compaction gives the lists of a serial walk in node order.
 2. A rigid block on a slope (tests/test_rigid_slope.py's scene) on CUDA: its acceleration against Coulomb's closed form
    where it slides, its travel where it sticks (the rigid bodies' GPU-schedule sums and the slide brake on CUDA).
-3. The README donut with ``device = "auto"`` twice, 3 frames each: the device ``auto`` chose, and how far two runs'
+3. The rigid ball and cylinder of tests/test_rolling.py on CUDA: rolling at (5/7) or (2/3) g sin theta with
+   omega R = v, slipping at g (sin - mu cos) (issue 67 item 2).
+4. The README donut with ``device = "auto"`` twice, 3 frames each: the device ``auto`` chose, and how far two runs'
    positions differ (the atomic P2G: CUDA runs are not bit-repeatable; ``deterministic`` stays ``{"cpu"}``).
 
 Writes ``gpu_checks.json`` to ``--out``. (No ``from __future__ import annotations`` here: Taichi reads the kernels'
@@ -98,6 +100,29 @@ def slope(device: str) -> dict:
     return out
 
 
+def rolling(device: str) -> dict:
+    """tests/test_rolling.py's ball and cylinder on the 20 degree slope on ``device`` (issue 67 item 2: the contact
+    patch's flatness and the rolling damping on the GPU schedule): each case's figures and its check."""
+    sys.path.insert(0, str(ROOT / "tests"))
+    import test_rolling as rl
+    out = {}
+    make = rl.body_setup
+
+    def on_device(shape, mu, theta=rl.THETA):
+        s = make(shape, mu, theta)
+        s.options = {**(s.options or {}), "device": device}
+        return s
+    rl.body_setup = on_device
+    try:
+        for shape, mu in (("ball", rl.ROLL_MU), ("ball", rl.SLIP_MU), ("cylinder", 0.3)):
+            fig = rl.measure("taichi_mpm", shape, mu)
+            out[f"{shape}_mu{mu}"] = {**fig, "closed_form": rl.closed_form(shape, mu),
+                                      "problem": rl.check(shape, mu, fig)}
+    finally:
+        rl.body_setup = make
+    return out
+
+
 def donut_twice(device: str) -> dict:
     from gasp_core.prepare.scene import prepare_scene
     from gasp_core.scene.spec import load_scene
@@ -128,7 +153,7 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
     a.out.mkdir(parents=True, exist_ok=True)
     doc = {}
-    for name, fn in (("primitives", primitives), ("slope", slope), ("donut_auto", donut_twice)):
+    for name, fn in (("primitives", primitives), ("slope", slope), ("rolling", rolling), ("donut_auto", donut_twice)):
         t0 = time.perf_counter()
         try:
             doc[name] = fn(a.device)

@@ -43,6 +43,7 @@ from gasp_core.gs.gaussians import Gaussians, MAX_MAGNITUDE, quat_to_rotmat, rot
 from gasp_core.maps.games import EPS as FLAT_EPS
 
 from gasp_core.gs.compressed import decode_compressed
+from gasp_core.gs.ply import MAX_AT_ONE_POINT, refuse_one_point_means  # noqa: F401 (MAX_AT_ONE_POINT: re-exported)
 from gasp_core.gs.ply import (check_columns, column, numbered_names, read_ply, reject_file, require_columns,
                               stack_columns)
 
@@ -54,25 +55,17 @@ _2DGS_PERM = (2, 0, 1)
 __all__ = ["read_gaussians", "read_ply_gaussians", "write_gaussians"]
 
 
-#: More Gaussians than this all at one point (equal centres) are a degenerate file, refused by
-#: :func:`refuse_one_point`: one blob that the grid cannot resolve, whose count only costs work (2 M of them
-#: read from a 39 KB ``.spz`` took 20 s and 1.9 GB through ``gasp info``). Fewer are a legal tiny object.
-MAX_AT_ONE_POINT = 1000
-
-
 def refuse_one_point(path, g: Gaussians) -> None:
-    """Refuse a file of more than :data:`MAX_AT_ONE_POINT` Gaussians whose centres are all equal, before any work
-    that grows with their count (O(n) time, no copy).
+    """Refuse a file of more than :data:`~gasp_core.gs.ply.MAX_AT_ONE_POINT` Gaussians whose centres are all equal,
+    before any work that grows with their count (O(n) time, no copy): :func:`gasp_core.gs.ply.refuse_one_point_means`
+    (the readers of large formats check their files before this: :func:`gasp_core.gs.ply.refuse_one_point_file`).
 
     Raises
     ------
     SceneError
         One line naming the file, the count and the point.
     """
-    if g.n > MAX_AT_ONE_POINT and not (g.means.max(axis=0) > g.means.min(axis=0)).any():
-        x = ", ".join(f"{v + 0.0:.6g}" for v in g.means[0])   # + 0.0: no "-0"
-        reject_file(path, f"all {g.n:,} Gaussians lie at one point ({x}): a degenerate file, no object to "
-                    "describe or simulate")
+    refuse_one_point_means(path, g.means)
 
 
 def read_gaussians(path) -> Gaussians:

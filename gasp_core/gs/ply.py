@@ -36,9 +36,12 @@ def read_ply(path) -> PlyData:
         with open(path, "rb") as f:
             # plyfile's mmap=False path parses row by row (seconds per 45k-vertex file); map the file
             # copy-on-write instead and copy the arrays out, so the file can be replaced afterwards
-            check_count(path, _header_vertices(f.read(65536)), "its header")   # before the file is mapped
+            head = f.read(65536)
+            check_count(path, _header_vertices(head), "its header")   # before the file is mapped
+            _check_ascii_body(path, head, f)
             f.seek(0)
             ply = PlyData.read(f, mmap="c")
+            _one_point(path, ply)   # on the mapped file, before its copy
             for el in ply.elements:
                 el.data = np.array(el.data)
     except SceneError:
@@ -53,6 +56,87 @@ def read_ply(path) -> PlyData:
                 reject_file(path, f"element '{el.name}' property '{lists[0]}' is a list; expected scalar "
                             "properties (one number per splat)")
     return ply
+
+
+#: More Gaussians than this all at one point (equal centres) are a degenerate file, refused by
+#: :func:`refuse_one_point_means` and :func:`refuse_one_point_file`: one blob that the grid cannot resolve, whose count only costs work (2 M of them
+#: read from a 39 KB ``.spz`` took 20 s and 1.9 GB through ``gasp info``). Fewer are a legal tiny object.
+MAX_AT_ONE_POINT = 1000
+
+
+def refuse_one_point_means(path, means: np.ndarray) -> None:
+    """Refuse more than :data:`MAX_AT_ONE_POINT` centres, shape (n, 3), all equal (a column with a NaN is left to the
+    readers' own checks).
+
+    Raises
+    ------
+    SceneError
+        One line naming the file, the count and the point.
+    """
+    if len(means) > MAX_AT_ONE_POINT and not _spread(means.min(axis=0), means.max(axis=0)):
+        _one_point_error(path, len(means), means[0])
+
+
+def refuse_one_point_file(path, dtype: np.dtype, offset: int, n: int, centres) -> None:
+    """:func:`refuse_one_point_means` read from the file in chunks of 64 MB (records of ``dtype`` from byte
+    ``offset``, ``centres(records) -> (k, 3)``), before a reader builds anything: a 512 MB ``.splat`` or a 2 GB PLY
+    of zeros is refused in seconds with the memory of one chunk, not after 10 s and 3 GB or more building its
+    Gaussians. A file whose centres differ stops at its first chunk."""
+    if n <= MAX_AT_ONE_POINT:
+        return
+    step, lo, hi, first = max(1, (64 << 20) // dtype.itemsize), None, None, None
+    with open(path, "rb") as f:
+        f.seek(offset)
+        for start in range(0, n, step):
+            c = np.asarray(centres(np.fromfile(f, dtype=dtype, count=min(step, n - start))), dtype=np.float64)
+            if len(c) == 0:
+                return   # shorter than its records: the reader says so
+            first = c[0] if first is None else first
+            lo = c.min(axis=0) if lo is None else np.minimum(lo, c.min(axis=0))
+            hi = c.max(axis=0) if hi is None else np.maximum(hi, c.max(axis=0))
+            if _spread(lo, hi):
+                return
+    _one_point_error(path, n, first)
+
+
+def _spread(lo, hi) -> bool:
+    """Whether the centres' range is more than one point, or not finite (left to the readers' checks)."""
+    return not (np.isfinite(lo).all() and np.isfinite(hi).all()) or bool((hi > lo).any())
+
+
+def _one_point_error(path, n: int, point) -> NoReturn:
+    x = ", ".join(f"{float(v) + 0.0:.6g}" for v in point)   # + 0.0: no "-0"
+    reject_file(path, f"all {n:,} Gaussians lie at one point ({x}): a degenerate file, no object to describe or "
+                "simulate")
+
+
+def _one_point(path: Path, ply: PlyData) -> None:
+    """:func:`refuse_one_point_file` on a mapped PLY's vertex x, y, z, where it has them."""
+    v = next((el for el in ply.elements if el.name == "vertex"), None)
+    d = v.data if v is not None else None
+    if isinstance(d, np.memmap) and d.offset is not None and {"x", "y", "z"} <= set(d.dtype.names or ()):
+        refuse_one_point_file(path, d.dtype, d.offset, len(d), lambda r: np.stack([r["x"], r["y"], r["z"]], 1))
+
+
+#: An ASCII PLY's first body line must end within this many bytes (a row of numbers is far shorter).
+ASCII_LINE_MAX = 1 << 20
+_ASCII_ROW = re.compile(rb"[0-9eEinfaINFA+\-. \t\r]*")
+
+
+def _check_ascii_body(path: Path, head: bytes, f) -> None:
+    """An ASCII PLY's body starts with a row of numbers ending within :data:`ASCII_LINE_MAX` bytes: a 2 GB body of
+    NUL bytes took plyfile 45 s and 19 GB before its error. Binary PLYs and headers without ``end_header`` in
+    ``head`` are left to plyfile."""
+    if not re.search(rb"^format\s+ascii", head, re.MULTILINE) or b"end_header" not in head:
+        return
+    f.seek(head.index(b"end_header") + len(b"end_header"))
+    body = f.read(ASCII_LINE_MAX + 2).lstrip(b"\r\n")
+    line = body.split(b"\n", 1)[0]
+    if len(line) > ASCII_LINE_MAX:
+        reject_file(path, f"an ASCII PLY whose first row is longer than {ASCII_LINE_MAX:,} bytes: not a row of numbers "
+                    "(truncated or corrupt?)")
+    if body and not _ASCII_ROW.fullmatch(line):
+        reject_file(path, "an ASCII PLY whose first row is not numbers (binary data under an ASCII header?)")
 
 
 def _header_vertices(head: bytes) -> int:

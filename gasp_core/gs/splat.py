@@ -7,7 +7,7 @@ import numpy as np
 
 from gasp_core.gs.gaussians import Gaussians
 from gasp_core.gs.bound import check_count
-from gasp_core.gs.ply import LOGIT_CLAMP, SH_C0, check_is_file, reject_file
+from gasp_core.gs.ply import LOGIT_CLAMP, SH_C0, check_is_file, refuse_one_point_file, reject_file
 
 _SPLAT_RECORD = 32  # bytes per splat in a .splat file
 _KSPLAT_HEADER, _KSPLAT_SECTION_HEADER = 4096, 1024
@@ -64,11 +64,11 @@ def read_splat(path) -> Gaussians:
         reject_file(path, f"{size} bytes is not a whole number of {_SPLAT_RECORD}-byte .splat records; "
                     "truncated?")
     check_count(path, size // _SPLAT_RECORD, "its size")   # no header: bounded before a byte is decoded
-    raw = path.read_bytes()
-    rec = np.frombuffer(raw, dtype=np.dtype([("pos", "<f4", 3), ("scale", "<f4", 3), ("rgba", "u1", 4),
-                                             ("rot", "u1", 4)]))
+    dtype = np.dtype([("pos", "<f4", 3), ("scale", "<f4", 3), ("rgba", "u1", 4), ("rot", "u1", 4)])
+    refuse_one_point_file(path, dtype, 0, size // _SPLAT_RECORD, lambda r: r["pos"])   # before a Gaussian is built
+    rec = np.memmap(path, mode="r", dtype=dtype)
+    _check_means(path, rec["pos"])
     means = rec["pos"].astype(np.float64)
-    _check_means(path, means)
     rgba = rec["rgba"].astype(np.float64) / 255.0
     return Gaussians(means=means, scales=rec["scale"].astype(np.float64),
                      rotations=_unit_quats(path, (rec["rot"].astype(np.float64) - 128.0) / 128.0),
@@ -109,15 +109,15 @@ def read_ksplat(path) -> Gaussians:
     if len(head) < _KSPLAT_HEADER:
         reject_file(path, f"{len(head)} bytes; a .ksplat file starts with a {_KSPLAT_HEADER}-byte header")
     check_count(path, int(np.frombuffer(head, "<u4", 1, 16)[0]), "its header")
-    raw = path.read_bytes()
-    major, minor = raw[0], raw[1]
-    n_sections = int(np.frombuffer(raw, "<u4", 1, 4)[0])
-    n_total = int(np.frombuffer(raw, "<u4", 1, 16)[0])
-    level = int(np.frombuffer(raw, "<u2", 1, 20)[0])
-    sh_lo, sh_hi = (float(v) for v in np.frombuffer(raw, "<f4", 2, 36))
-    if major != 0 or minor < 1 or level not in _KSPLAT_BYTES:
+    major, minor = head[0], head[1]
+    n_sections = int(np.frombuffer(head, "<u4", 1, 4)[0])
+    n_total = int(np.frombuffer(head, "<u4", 1, 16)[0])
+    level = int(np.frombuffer(head, "<u2", 1, 20)[0])
+    sh_lo, sh_hi = (float(v) for v in np.frombuffer(head, "<f4", 2, 36))
+    if major != 0 or minor < 1 or level not in _KSPLAT_BYTES:   # from the header: before the file is read
         reject_file(path, f"version {major}.{minor}, compression level {level}; expected version 0.1+ and "
                     "level 0, 1 or 2 (a GaussianSplats3D .ksplat file)")
+    raw = path.read_bytes()
     sh_lo, sh_hi = sh_lo or -1.5, sh_hi or 1.5
     offset = _KSPLAT_HEADER + n_sections * _KSPLAT_SECTION_HEADER
     if offset > len(raw):

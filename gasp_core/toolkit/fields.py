@@ -68,15 +68,17 @@ MIN_GRADIENT = 1e-6
 def field_bodies(setup) -> np.ndarray | None:
     """Which bodies make field A (shape (n_materials,), bool), or None where the scene runs one field. With the
     option ``contact_fields`` true (the default): in a ``"mixed"`` scene the flowing bodies (A) against the others
-    (B); two soft bodies (:func:`soft_pair`) the smaller by volume (A; body 1 when equal) against the larger (B),
-    whose surface gives the contact normal (a block on a slab: the slab's face). Any other scene runs one field (three or
-    more soft bodies among them: a field per body is not built)."""
+    (B); two soft bodies (:func:`soft_pair`) or two rigid ones (:func:`rigid_pair`) the smaller by volume (A; body 1
+    when equal) against the larger (B), whose surface gives the contact normal (a block on a slab: the slab's face).
+    Any other scene runs one field (three or more bodies, a rigid body beside a soft one: a field per body is not
+    built)."""
     if not setup.options.get("contact_fields", True):
         return None
     c = contact_model(setup)
     if c == "mixed":
         return flowing_bodies(setup, c)
-    if c == "particle" and soft_pair(setup):   # A the smaller body (by volume; body 1 when equal): B's is the normal
+    if c == "particle" and (soft_pair(setup) or rigid_pair(setup)):
+        # A the smaller body (by volume; body 1 when equal): B's is the normal
         vol = np.bincount(np.asarray(setup.body_id), weights=np.asarray(setup.p_vol, float), minlength=2)
         return np.array([False, True]) if vol[1] <= vol[0] else np.array([True, False])
     return None
@@ -91,6 +93,16 @@ def soft_pair(setup) -> bool:
             and not np.asarray(rigid_mask(setup.materials)).any())
 
 
+def rigid_pair(setup) -> bool:
+    """Whether a scene is two rigid bodies on the particle contact (two materials, both ``model = "rigid"``): they take
+    a field each (the smaller A), whose nodes only find where they touch; their contact is then taken on the two
+    bodies as one, by force balance (``gasp_core.toolkit.rigid_friction.pair_contact``, issue 67 item 4). One rigid
+    body beside a soft one, or three or more bodies, keep one field."""
+    from gasp_core.toolkit.rigid import rigid_mask
+    return (len(setup.materials) == 2 and contact_model(setup) == "particle"
+            and bool(np.asarray(rigid_mask(setup.materials)).all()))
+
+
 def uses_fields(setup) -> bool:
     """Whether a setup runs the two-field contact (:func:`field_bodies` is not None)."""
     return field_bodies(setup) is not None
@@ -100,7 +112,8 @@ def field_friction(setup) -> float:
     """The Coulomb coefficient between the two fields, dimensionless. Flowing bodies: ``tan(phi)`` of their largest
     friction angle (sand: its ``friction_angle``, degrees; the angle of the sand's internal friction taken as its
     friction on the other body's surface); 0 where no flowing body has one (liquid, snow: they slide freely). Two
-    soft bodies (:func:`soft_pair`): the pair's (:func:`combine_friction` of each body's :func:`body_friction`)."""
+    soft bodies (:func:`soft_pair`) or two rigid ones (:func:`rigid_pair`): the pair's (:func:`combine_friction` of
+    each body's :func:`body_friction`)."""
     if contact_model(setup) != "mixed":
         mus = [body_friction(m) for m in setup.materials[:2]] or [SOLID_FRICTION]
         return combine_friction(mus[0], mus[-1])
@@ -129,13 +142,15 @@ def combine_friction(mu_a: float, mu_b: float) -> float:
 
 def touch_fraction(setup) -> float:
     """The touch threshold of the two fields (fraction of a cell's volume their volumes fill at a node):
-    :data:`SOFT_TOUCH_FRACTION` for two soft bodies (:func:`soft_pair`), else :data:`TOUCH_FRACTION`."""
-    return SOFT_TOUCH_FRACTION if soft_pair(setup) else TOUCH_FRACTION
+    :data:`SOFT_TOUCH_FRACTION` for two soft bodies (:func:`soft_pair`) or two rigid ones (:func:`rigid_pair`), else
+    :data:`TOUCH_FRACTION`."""
+    return SOFT_TOUCH_FRACTION if soft_pair(setup) or rigid_pair(setup) else TOUCH_FRACTION
 
 
 def field_setup(setup) -> tuple:
-    """``(field_bodies, field_friction, touch_fraction)`` of a setup: what an engine allocates the contact from."""
-    return field_bodies(setup), field_friction(setup), touch_fraction(setup)
+    """``(field_bodies, field_friction, touch_fraction, rigid_pair)`` of a setup: what an engine allocates the contact
+    from."""
+    return field_bodies(setup), field_friction(setup), touch_fraction(setup), rigid_pair(setup)
 
 
 def field_offsets(m: np.ndarray, m_a: np.ndarray, p: np.ndarray, p_a: np.ndarray, n: np.ndarray, mu: float):

@@ -9,6 +9,42 @@ import math
 
 import numpy as np
 
+#: The patch's radius of curvature over the mass centre's height above it (``contact_flatness``) at which the normal
+#: contact starts to hold the friction's tipping moment (as a face) and holds all of it, J a. A ball's cap reads 0.9-1.3
+#: (a sphere rolls on it: the radius of curvature is its height), the 6 x 6 x 2 cell block's face about 1,500 (issue
+#: 67, ``docs/rigid.md`` "Rolling").
+FLAT_FROM, FLAT_TO = 2.0, 4.0
+
+
+def contact_flatness(s3: float, deep: float, h: float) -> float:
+    """How much of a face a rigid body's contact patch is, in [0, 1]: 0 on a rounded body (it rolls), 1 on a face
+    (its tipping moment held, :func:`coulomb_friction`).
+
+    A rounded body of radius of curvature ``rho`` pressed ``deep`` into a plane touches on a cap of half-width ``a``,
+    ``a^2 = 2 rho deep``, whose impulses (its depths) spread along a line in it with variance ``a^2 / 6 = rho deep /
+    3`` (``a^2 / 5`` on a cylinder's strip), so ``rho = s3 / deep``, ``s3`` three times that variance. A body turns
+    on the cap without changing it when ``rho`` is its mass centre's height ``h`` over the contact (a ball, a
+    cylinder on its side: rolling, which no normal force resists); a face (``rho`` infinite) holds the friction's
+    moment by moving its centre of pressure. The fraction ``(rho / h - FLAT_FROM) / (FLAT_TO - FLAT_FROM)``, clipped:
+    a ball's cap measured ``rho / h`` 0.9-1.3, a block's face about 1,500.
+
+    Parameters
+    ----------
+    s3 : float
+        Three times the normal impulses' variance along the slip, m^2.
+    deep : float
+        The deepest touching point's penetration, m (0: unknown, the patch taken for a face).
+    h : float
+        The mass centre's height over the contact, m.
+
+    Returns
+    -------
+    float
+    """
+    if deep <= 0.0 or h <= 0.0:
+        return 1.0
+    return min(max((s3 / (deep * h) - FLAT_FROM) / (FLAT_TO - FLAT_FROM), 0.0), 1.0)
+
 
 def settle_projection(depth: float, n, x_c, c, V, w, inertia, M: float, mu: float, slop: float):
     """The position-level non-penetration of a resting rigid body against one plane (issue 53, the NumPy reference
@@ -74,7 +110,8 @@ def settle_projection(depth: float, n, x_c, c, V, w, inertia, M: float, mu: floa
     return (depth - slop) * n, V, w
 
 
-def coulomb_friction(V, w, inertia, M: float, c, n, x_f, v_sup, budget: float, J: float, spread: np.ndarray):
+def coulomb_friction(V, w, inertia, M: float, c, n, x_f, v_sup, budget: float, J: float, spread: np.ndarray,
+                     deep: float = 0.0, x_j=None):
     """Coulomb's friction on a rigid body as one, decided by force balance (issue 67; the NumPy reference of each grid
     plugin's ``slide_brake``): the substep's one tangential impulse at the contact point.
 
@@ -87,8 +124,10 @@ def coulomb_friction(V, w, inertia, M: float, c, n, x_f, v_sup, budget: float, J
     a part that would tip the body; the normal contact takes that one back up to ``J a`` (a torque impulse, N m s),
     ``a = sqrt(3 t.S t)`` the half-width along ``t`` of a uniform patch of the normal impulses' covariance ``S``
     (``spread``, m^2): the statics of a block, whose centre of pressure moves within its face to hold the friction's
-    tipping moment. A block on its face so slides as a particle (effective mass ``M``: ``a = g (sin theta - mu cos
-    theta)`` on a slope), and a ball on a point (``a`` about 0) takes the impulse through its effective mass at the
+    tipping moment; ``a`` times :func:`contact_flatness`, 0 on a rounded body's cap (issue 67: the cap a ball's
+    penetration makes, a few mm across, held the moment as a face and slowed its rolling by 23 %). A block on its face
+    so slides as a particle (effective mass ``M``: ``a = g (sin theta - mu cos theta)`` on a slope), and a ball (``a``
+    0) takes the impulse through its effective mass at the
     contact, ``1 / (1/M + (r x t) . I^-1 (r x t))``: it rolls (``a = g sin theta / (1 + I / (M R^2))``, 5/7 of
     ``g sin theta`` for a solid ball) while ``p`` is within the budget, and slips beyond it. The impulse through the
     full effective mass on a face (the slide brake of issue 53) left the block a spin that its normal contact then
@@ -112,6 +151,9 @@ def coulomb_friction(V, w, inertia, M: float, c, n, x_f, v_sup, budget: float, J
         ``sum mu j`` and ``sum j`` of the substep's normal impulses, kg m/s.
     spread : array_like, shape (3, 3)
         The normal impulses' covariance about their centre, m^2.
+    deep : float
+        The deepest touching point's penetration, m; with ``x_j`` (the normal impulses' centre, m) the patch's
+        :func:`contact_flatness` scales ``a`` (a rounded body holds no tipping moment: it rolls; issue 67). 0: a face.
 
     Returns
     -------
@@ -131,10 +173,69 @@ def coulomb_friction(V, w, inertia, M: float, c, n, x_f, v_sup, budget: float, J
     k_a = 1.0 / M + rt @ inv @ rt                    # free to turn: 1 / the effective mass at x_f along t
     m = rt @ inv @ rh
     k_b = max(k_a - m, 1.0 / M)                      # its tipping moment held by the normal contact
-    a = math.sqrt(max(3.0 * float(t @ np.asarray(spread, np.float64) @ t), 0.0))
+    s3 = max(3.0 * float(t @ np.asarray(spread, np.float64) @ t), 0.0)
+    h = abs(float(np.dot(np.asarray(x_f if x_j is None else x_j, np.float64) - c, n)))
+    a = math.sqrt(s3) * contact_flatness(s3, deep, h)
     lh = float(np.linalg.norm(rh))
     p_hold = J * a / lh if lh > 0.0 else math.inf   # the impulse whose tipping moment the contact can hold
     p = lt / k_b if p_hold * k_b >= lt else (lt + p_hold * m) / k_a
     p = min(p, budget)
     held = min(p, p_hold)
     return V - (p / M) * t, w + inv @ (-p * rt + held * rh)
+
+
+def pair_contact(A, B, x_c, n, mu: float):
+    """The contact of two rigid bodies as one, by force balance (issue 67 item 4; the NumPy reference of each grid
+    plugin's ``pair_contact``): the substep's normal impulse, then Coulomb's friction of it, both equal and opposite.
+
+    The two bodies meet through the two-field contact's nodes (:func:`gasp_core.toolkit.fields.rigid_pair`), which
+    here only find where they touch: ``x_c`` the touching nodes' centre and ``n`` their mean normal (field B's mass
+    gradient, from A into B), each node weighted by its reduced mass ``m_A m_B / m``. The nodes' own velocity
+    correction, spread over a rigid body by its projection, held the upper of two blocks as a soft spring: it sank
+    into the lower block at ``M g dt / sum m_red`` (6 cm/s at n_grid 32) and so pressed on it, and rubbed on it, with
+    12 % less than its weight. Here, after both bodies' projection:
+
+    * **normal**: the approach of the two mass centres along ``n``, ``u_n = (V_A - V_B) . n``, is removed by the
+      impulse ``P = u_n / (1/M_A + 1/M_B)`` through the centres (none when they separate): the inelastic contact of a
+      sequential-impulse solver, through the centres as ``settle_projection`` puts its resting impulse (a face holds
+      its moment by moving its centre of pressure);
+    * **friction**: the tangential velocity ``u_t`` of A's point ``x_c`` relative to B's takes the impulse that stops
+      it, ``|u_t| / k`` with ``k = 1/M_A + 1/M_B + sum (r x t . n)^2 / (n . I n)`` (each body free to twist about
+      ``n``, as ``twist_brake`` turns it; its tipping moment held by the contact, as :func:`coulomb_friction` holds
+      a face's), when that is within
+      ``mu P`` (they stick), else ``mu P`` against it (they slide at the kinetic rate). No speed threshold.
+
+    Parameters
+    ----------
+    A, B : tuple
+        Each body's ``(V, w, inertia, M, c)``: velocity (m/s, shape (3,)), spin (rad/s, (3,)), inertia at its pose
+        (kg m^2, (3, 3)), mass (kg), mass centre (m, (3,)); A the body of field A.
+    x_c : array_like, shape (3,)
+        The contact's centre, m.
+    n : array_like, shape (3,)
+        The contact's unit normal, from A into B.
+    mu : float
+        The pair's coefficient (:func:`gasp_core.toolkit.fields.field_friction`).
+
+    Returns
+    -------
+    (V_A, w_A), (V_B, w_B), P : ndarray pairs and float
+        The bodies' velocities and spins after the contact, and the normal impulse on B (kg m/s, >= 0).
+    """
+    (VA, wA, IA, MA, cA), (VB, wB, IB, MB, cB) = A, B
+    VA, wA, cA, VB, wB, cB, x_c, n = (np.asarray(a, np.float64) for a in (VA, wA, cA, VB, wB, cB, x_c, n))
+    nIA, nIB = float(n @ np.asarray(IA, np.float64) @ n), float(n @ np.asarray(IB, np.float64) @ n)
+    un = float(np.dot(VA - VB, n))
+    P = un / (1.0 / MA + 1.0 / MB) if un > 0.0 else 0.0
+    VA, VB = VA - (P / MA) * n, VB + (P / MB) * n
+    rA, rB = x_c - cA, x_c - cB
+    u = VA + np.cross(wA, rA) - VB - np.cross(wB, rB)
+    ut = u - np.dot(u, n) * n
+    lt = float(np.linalg.norm(ut))
+    if P <= 0.0 or mu <= 0.0 or lt <= 0.0:
+        return (VA, wA), (VB, wB), P
+    t = ut / lt
+    sA, sB = float(np.dot(np.cross(rA, t), n)), float(np.dot(np.cross(rB, t), n))   # the twist arms about n
+    k = 1.0 / MA + 1.0 / MB + sA * sA / nIA + sB * sB / nIB
+    p = min(lt / k, mu * P)
+    return ((VA - (p / MA) * t, wA - (p * sA / nIA) * n), (VB + (p / MB) * t, wB + (p * sB / nIB) * n), P)

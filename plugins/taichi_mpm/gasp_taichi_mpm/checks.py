@@ -33,6 +33,25 @@ class FrameChecks:
                     ti.atomic_add(self.bad[2], 1)
                     ti.atomic_min(self.bad[3], p)
 
+    def positions_setup_order(self, order) -> "np.ndarray":
+        """The positions (n, 3) in the setup's order, permuted on the device (GPU schedule: the host's NumPy scatter
+        of 16M rows took longer than the frame's GPU work): row ``p`` of the solver goes to ``order[p]``
+        (:meth:`gasp_core.toolkit.grid_engine.GridEngineBase.to_setup_order`'s ``out[order] = x``)."""
+        if not hasattr(self, "x_setup"):
+            import numpy as np
+            self.x_setup = ti.Vector.field(3, self.real, shape=self.x.shape[0])
+            self.setup_row = ti.field(ti.i32, shape=self.x.shape[0])
+            rows = np.zeros(self.x.shape[0], np.int32)
+            rows[:self.n] = order
+            self.setup_row.from_numpy(rows)
+        self._to_setup_order()
+        return self.x_setup.to_numpy()[:self.n]
+
+    @ti.kernel
+    def _to_setup_order(self):
+        for p in range(self.n_total[None]):
+            self.x_setup[self.setup_row[p]] = self.x[p]
+
     @ti.kernel
     def _init_box(self):
         for t in range(self.n_chunks):

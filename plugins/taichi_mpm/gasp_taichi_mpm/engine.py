@@ -303,7 +303,7 @@ class TaichiMPMEngine(GridEngineBase):
         if bad[0]:
             raise EngineDivergence(f"{bad[0]} point(s) with non-finite position or velocity "
                                    f"(first index {int(self._order[bad[1]])})", self.frame, CAUSE_UNSTABLE)
-        x = self.to_setup_order(s.get(s.x))
+        x = s.positions_setup_order(self._order)   # permuted on the device
         if bad[2] or n_out > 0:
             v = self.to_setup_order(s.get(s.v))
             where = f" (first index {int(self._order[bad[3]])} at {x[self._order[bad[3]]].tolist()})" if bad[2] else ""

@@ -18,11 +18,14 @@ from gasp_core.toolkit.fields import MIN_FRACTION, MIN_GRADIENT
 class Fields:
     """The two-field contact's fields and kernels (none without it: ``self.fields`` False)."""
 
-    def allocate_fields(self, in_a, mu: float, touch: float) -> None:
+    def allocate_fields(self, in_a, mu: float, touch: float, pair: bool = False) -> None:
         """``in_a``: per body, True in field A (``gasp_core.toolkit.fields.field_bodies``), or None: one field;
-        ``mu`` the Coulomb coefficient (``field_friction``), ``touch`` the touch threshold (``touch_fraction``).
-        Before the first substep."""
+        ``mu`` the Coulomb coefficient (``field_friction``), ``touch`` the touch threshold (``touch_fraction``),
+        ``pair`` whether the two bodies are rigid (``rigid_pair``: the touching nodes only sum into ``pair_acc``,
+        sum m_red, sum m_red x, sum m_red n, for ``RigidFriction.rigid_pair``). Before the first substep."""
         self.fields = in_a is not None
+        self.field_pair = bool(self.fields and pair)
+        self.pair_acc = ti.field(ti.f64, shape=7)
         self.field_mu = float(mu)
         self.field_touch = float(touch)
         self.in_a = ti.field(ti.i32, shape=max(4, len(in_a) if self.fields else 1))
@@ -73,6 +76,17 @@ class Fields:
         """``m_B`` at node I: the whole grid's mass less field A's."""
         return self.grid_mv[0, I][3] - self.grid_sv[I][3]
 
+    @ti.func
+    def pair_touch(self, I, m_red, nh):
+        """A node where two rigid bodies touch: its reduced mass ``m_red`` (kg), and that times its position and its
+        unit normal ``nh`` (field B's), added to ``pair_acc`` (warp_mpm's ``fields.field_contact``)."""
+        wr = ti.cast(m_red, ti.f64)
+        xn = ti.cast(self.lo[None] + self.dx[None] * ti.cast(I, self.real), ti.f64)
+        ti.atomic_add(self.pair_acc[0], wr)
+        for ax in ti.static(range(3)):
+            ti.atomic_add(self.pair_acc[1 + ax], wr * xn[ax])
+            ti.atomic_add(self.pair_acc[4 + ax], wr * ti.cast(nh[ax], ti.f64))
+
     @ti.kernel
     def field_contact(self):
         """Each shared node's offsets (``gasp_core.toolkit.fields``): the Coulomb contact of the two fields, over the
@@ -110,7 +124,10 @@ class Fields:
                 if ln > MIN_GRADIENT * m:
                     nh = n / ln
                     un = u.dot(nh)
-                    if un > 0.0 and touch:   # approaching: no interpenetration, Coulomb friction along the surface
+                    if ti.static(self.field_pair):   # two rigid bodies: where they touch, for their contact as one
+                        if touch:
+                            self.pair_touch(I, m_a * m_b / m, nh)
+                    elif un > 0.0 and touch:   # approaching: no interpenetration, Coulomb friction along the surface
                         ut = u - un * nh
                         lt = ut.norm()
                         q = un * nh + ut

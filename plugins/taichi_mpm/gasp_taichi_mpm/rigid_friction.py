@@ -4,9 +4,22 @@ Taichi funcs mixed into :class:`gasp_taichi_mpm.rigid.Rigid`; the NumPy referenc
 """
 import taichi as ti
 
+from gasp_core.toolkit.rigid_friction import FLAT_FROM, FLAT_TO
+
+
+@ti.func
+def flatness(s3, deep, h):
+    """``gasp_core.toolkit.rigid_friction.contact_flatness`` (the same steps): ``s3`` three times the patch's spread
+    along the slip (m^2), ``deep`` its deepest point (m), ``h`` the mass centre's height over it (m)."""
+    out = ti.cast(1.0, ti.f64)
+    if deep > 0.0 and h > 0.0:
+        out = ti.min(ti.max((s3 / (deep * h) - FLAT_FROM) / (FLAT_TO - FLAT_FROM), 0.0), 1.0)
+    return out
+
 
 class RigidFriction:
-    """:meth:`twist_brake` and :meth:`slide_brake`, called by ``Rigid.rigid_update`` per body."""
+    """:meth:`twist_brake` and :meth:`slide_brake`, called by ``Rigid.rigid_update`` per body; :meth:`rigid_pair`,
+    the contact of two rigid bodies, after it (``Rigid.rigid_step``)."""
 
     @ti.func
     def twist_brake(self, b, w, inertia):
@@ -32,10 +45,11 @@ class RigidFriction:
         the tangential velocity ``u_t`` (to the contact's mean normal) of ``V + w x (x_f - c)`` relative to the
         supports' takes the impulse along ``-u_t`` that stops it when that is within the substep's budget ``sum mu j``
         (it sticks), else the budget (it slides at the kinetic rate); the impulse's tipping moment is held by the
-        normal contact up to ``J a`` (``a`` the patch's half-width along ``u_t``): a block slides as a particle, a
-        ball rolls. ``(V, w)`` already hold gravity's and the normal contact's impulses of the substep, so the impulse
-        that stops ``u_t`` is the one the body needs to stay. Its only friction with the planes and colliders
-        (:meth:`node_budget`; issue 67)."""
+        normal contact up to ``J a f`` (``a`` the patch's half-width along ``u_t``, ``f`` its :func:`flatness`, kept
+        with the patch's centre in ``rb_flat`` and ``rb_xf`` for the next substep's damping, ``Rigid.rolling_vn``): a
+        block slides as a particle, a ball or a cylinder rolls (issue 67). ``(V, w)`` already hold gravity's and the
+        normal contact's impulses of the substep, so the impulse that stops ``u_t`` is the one the body needs to stay.
+        Its only friction with the planes and colliders (:meth:`node_budget`; issue 67)."""
         Vo, wo = V, w
         fx = self.rb_fx[b]
         jx = self.rb_jx[b]
@@ -58,7 +72,13 @@ class RigidFriction:
                 xm = ti.Vector([jx[1], jx[2], jx[3]]) / J
                 S = ti.Matrix([[jx[4], jx[5], jx[6]], [jx[5], jx[7], jx[8]], [jx[6], jx[8], jx[9]]], ti.f64) / J \
                     - xm.outer_product(xm)
-                a = ti.sqrt(ti.max(3.0 * t.dot(S @ t), 0.0))
+                s2 = ti.max(t.dot(S @ t), 0.0)
+                # a face holds the moment, a rounded contact rolls (contact_flatness): the patch's radius of
+                # curvature 3 s2 / depth against the lever from the mass centre
+                f = flatness(3.0 * s2, self.rb_deep[b], ti.abs((xm - c).dot(n)))
+                self.rb_flat[b] = f
+                self.rb_xf[b] = xm
+                a = ti.sqrt(3.0 * s2) * f
                 lh = rh.norm()
                 p = lt / k_b
                 held = p
@@ -73,4 +93,55 @@ class RigidFriction:
         self.rb_fx[b] = ti.Vector.zero(ti.f64, 4)
         self.rb_fv[b] = ti.Vector.zero(ti.f64, 3)
         self.rb_jx[b] = ti.Vector.zero(ti.f64, 10)
+        self.rb_deep[b] = 0.0
         return Vo, wo
+
+    @ti.kernel
+    def rigid_pair(self):
+        """The contact of two rigid bodies as one, by force balance (issue 67 item 4;
+        ``gasp_core.toolkit.rigid_friction.pair_contact``, warp_mpm's ``rigid_friction.build_rigid_pair``, the same
+        steps), after ``rigid_update``: the touching nodes' sums ``pair_acc`` (``Fields.pair_touch``) give the
+        contact's centre and normal; the mass centres' approach along it is removed through the centres, then
+        Coulomb's friction of that impulse at the centre (stick within ``mu P``, else slide at ``mu P``); the
+        centres' advance of the substep follows the new velocities. ``pair_acc`` is cleared."""
+        dt = ti.cast(self.dt[None], ti.f64)
+        half = 0.5 * ti.cast(self.dx[None], ti.f64) ** 2
+        mu = ti.cast(self.field_mu, ti.f64)
+        for _ in range(1):
+            a = 1
+            if self.in_a[0] != 0:
+                a = 0
+            b = 1 - a
+            W = self.pair_acc[0]
+            n = ti.Vector([self.pair_acc[4], self.pair_acc[5], self.pair_acc[6]])
+            if W > 0.0 and n.norm() > 0.0:
+                n = n / n.norm()
+                x_c = ti.Vector([self.pair_acc[1], self.pair_acc[2], self.pair_acc[3]]) / W
+                MA, MB = self.rb_M[a], self.rb_M[b]
+                VA, VB, wA, wB = self.rb_V[a], self.rb_V[b], self.rb_w[a], self.rb_w[b]
+                un = (VA - VB).dot(n)
+                P = ti.cast(0.0, ti.f64)
+                if un > 0.0:   # the centres' approach, through the centres
+                    P = un / (1.0 / MA + 1.0 / MB)
+                VA -= (P / MA) * n
+                VB += (P / MB) * n
+                rA, rB = x_c - self.rb_c[a], x_c - self.rb_c[b]
+                u = VA + wA.cross(rA) - VB - wB.cross(rB)
+                ut = u - u.dot(n) * n
+                lt = ut.norm()
+                if P > 0.0 and mu > 0.0 and lt > 0.0:
+                    t = ut / lt
+                    RA, RB = self.rb_R[a], self.rb_R[b]
+                    nIA = n.dot(RA @ self.rb_I0[a] @ RA.transpose() @ n) + half * MA
+                    nIB = n.dot(RB @ self.rb_I0[b] @ RB.transpose() @ n) + half * MB
+                    sA, sB = rA.cross(t).dot(n), rB.cross(t).dot(n)   # the twist arms about n
+                    p = ti.min(lt / (1.0 / MA + 1.0 / MB + sA * sA / nIA + sB * sB / nIB), mu * P)
+                    VA -= (p / MA) * t
+                    VB += (p / MB) * t
+                    wA -= (p * sA / nIA) * n
+                    wB += (p * sB / nIB) * n
+                self.rb_c[a] += dt * (VA - self.rb_V[a])
+                self.rb_c[b] += dt * (VB - self.rb_V[b])
+                self.rb_V[a], self.rb_V[b], self.rb_w[a], self.rb_w[b] = VA, VB, wA, wB
+            for q in ti.static(range(7)):
+                self.pair_acc[q] = 0.0

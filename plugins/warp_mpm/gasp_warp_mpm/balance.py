@@ -129,7 +129,7 @@ def build_moments(Ft):
             jq = Ft(0.0)
             depth = planes[q][0] + kcs[2] - wp.dot(plane_n[q], xp)   # plane_contact, with the rigid bodies' law
             if depth > Ft(0.0):
-                jq = contact_impulse(ex, b, ex.plane_e[q], wp.dot(plane_n[q], vp), 0, plane_n[q], depth, kcs, dt)
+                jq = contact_impulse(ex, b, ex.plane_e[q], wp.dot(plane_n[q], vp), 0, plane_n[q], depth, kcs, dt, xp)
             if jq > Ft(0.0):
                 nq = plane_n[q]
                 add_contact(jsums, b * n_sup + int(planes[q][2]), f64(jq), r, v64(f64(nq[0]), f64(nq[1]), f64(nq[2])),

@@ -67,14 +67,16 @@ def build_contact_impulse(Ft):
     Walton & Braun 1986), ``e = ex.rb_e[b] e_sup``; once ``e`` times the approach speed of the body's ongoing contact
     (``ex.rb_vin[b]``) is below ``ex.v_rest``, a damped law set by the body (``c = 2 DAMPING dt k``); its ``k``
     times ``N / max(N, N_touch)`` (``ex.rb_nface``, ``ex.rb_nlast``:
-    ``gasp_core.toolkit.rigid.face_counts``). With ``mark`` (in P2G) it records the touch, the
+    ``gasp_core.toolkit.rigid.face_counts``); its damping on the normal velocity of its patch's centre on a rounded
+    body (``x`` the point, m; ``ex.rb_flat``, issue 67). With ``mark`` (in P2G) it records the touch, the
     approach speed and ``dt k depth`` along ``n`` and times ``e_sup`` for ``rigid.rigid_update``'s lift-off;
     taichi_mpm's ``Rigid.contact_impulse`` spells the same."""
     vec3 = build_types(Ft)[0]
     Extras = build_extras_struct(Ft)
 
     @wp.func
-    def contact_impulse(ex: Extras, b: int, e_sup: Ft, vn: Ft, mark: int, n: vec3, depth: Ft, kcs: vec3, dt: Ft):
+    def contact_impulse(ex: Extras, b: int, e_sup: Ft, vn: Ft, mark: int, n: vec3, depth: Ft, kcs: vec3, dt: Ft,
+                        x: vec3):
         jq = wp.max(dt * (kcs[0] * depth - kcs[1] * vn), Ft(0.0))
         if ex.rb_e[b] >= Ft(0.0):
             n_t = wp.max(Ft(wp.max(ex.rb_nlast[b], ex.rb_ndepth[b])), Ft(1.0))
@@ -88,8 +90,14 @@ def build_contact_impulse(Ft):
             # settling: per point c = 2 zeta dt k', at most 2 zeta of the body's normal speed a substep
             # (taichi_mpm's contact_impulse)
             c = Ft(2.0 * DAMPING) * dt * kcs[0] * sk
-            jq = wp.max(jk - dt * c * vn, Ft(0.0))
+            # on a rounded body the patch centre's normal velocity, not the point's (taichi_mpm's rolling_vn):
+            # blended by the last substep's flatness
+            xd = wp.vec3d(wp.float64(x[0]), wp.float64(x[1]), wp.float64(x[2]))
+            nd = wp.vec3d(wp.float64(n[0]), wp.float64(n[1]), wp.float64(n[2]))
+            roll = (wp.float64(1.0) - ex.rb_flat[b]) * wp.dot(nd, wp.cross(ex.rb_wx[b], ex.rb_xf[b] - xd))
+            jq = wp.max(jk - dt * c * (vn + Ft(roll)), Ft(0.0))
             if mark != 0:
+                wp.atomic_max(ex.rb_deep, b, wp.float64(depth))
                 wp.atomic_add(ex.rb_count, b, 1)
                 ex.rb_touch[b] = 1
                 wp.atomic_add(ex.rb_jn, b, jk * n)
@@ -172,7 +180,7 @@ def build_collider_contact(Ft):
         jq = Ft(0.0)
         depth = kcs[2] - phi
         if depth > Ft(0.0):
-            jq = contact_impulse(ex, b, Ft(1.0), wp.dot(v - vc, n), mark, n, depth, kcs, dt)
+            jq = contact_impulse(ex, b, Ft(1.0), wp.dot(v - vc, n), mark, n, depth, kcs, dt, x)
         return jq, n, vc
 
     @wp.func
@@ -188,7 +196,8 @@ def build_collider_contact(Ft):
             jq = Ft(0.0)
             depth = planes[q][0] + kcs[2] - wp.dot(plane_n[q], x)   # build_contact's plane_contact, with the law
             if depth > Ft(0.0):
-                jq = contact_impulse(ex, b, ex.plane_e[q], wp.dot(plane_n[q], v), 1, plane_n[q], depth, kcs, dt)
+                jq = contact_impulse(ex, b, ex.plane_e[q], wp.dot(plane_n[q], v), 1, plane_n[q], depth, kcs, dt,
+                                     x)
             if jq > Ft(0.0):
                 mu = planes[q][1]
                 imp = imp + jq * plane_n[q]

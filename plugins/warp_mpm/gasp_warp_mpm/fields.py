@@ -14,7 +14,8 @@ import numpy as np
 import warp as wp
 
 from gasp_core.toolkit.contact import flowing_bodies
-from gasp_core.toolkit.fields import MIN_FRACTION, MIN_GRADIENT, field_bodies, field_friction, touch_fraction
+from gasp_core.toolkit.fields import (MIN_FRACTION, MIN_GRADIENT, field_bodies, field_friction, rigid_pair,
+                                      touch_fraction)
 
 from .precision import MODULE_OPTIONS, build_types
 
@@ -75,7 +76,8 @@ def build_fields(Ft):
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def field_contact(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), grid_dv: wp.array(dtype=vec3),
                       n_grid: int, mu: Ft, ground: wp.array(dtype=vec3), grid_vf: wp.array(dtype=Ft), cell: Ft,
-                      wall_lo: Ft, wall_hi: vec3, touch_frac: Ft):
+                      wall_lo: Ft, wall_hi: vec3, touch_frac: Ft, pair: int, lo: vec3, dx: Ft,
+                      pair_acc: wp.array(dtype=wp.float64)):
         node = wp.tid()
         nn = n_grid * n_grid
         n_nodes = nn * n_grid
@@ -110,7 +112,14 @@ def build_fields(Ft):
             if ln > Ft(MIN_GRADIENT) * m:
                 nh = n / ln
                 un = wp.dot(u, nh)
-                if un > Ft(0.0) and touch:   # approaching: no interpenetration, Coulomb friction along the surface
+                if pair != 0 and touch:   # two rigid bodies: where they touch, for their contact as one (rigid.py)
+                    wr = wp.float64(m_a * m_b / m)
+                    xn = lo + dx * vec3(Ft(i), Ft(j), Ft(k))
+                    for ax in range(3):
+                        wp.atomic_add(pair_acc, 1 + ax, wr * wp.float64(xn[ax]))
+                        wp.atomic_add(pair_acc, 4 + ax, wr * wp.float64(nh[ax]))
+                    wp.atomic_add(pair_acc, 0, wr)
+                elif un > Ft(0.0) and touch:   # approaching: no interpenetration, Coulomb friction along the surface
                     ut = u - un * nh
                     lt = wp.length(ut)
                     q = un * nh + ut
@@ -137,7 +146,9 @@ def build_fields(Ft):
 def allocate_fields(eng, Ft, contact: str) -> None:
     """The contact chosen per body (``contact`` the scene's): ``eng.flows`` (per body, 1 where it flows) and
     ``grid_mf`` (the flowing bodies' mass per node in a mixed scene); the two-field contact's ``in_a`` (per body, 1 in
-    field A), ``grid_sv`` (field A's momentum and mass per node), ``grid_vf`` (each field's volume) and ``grid_dv``
+    field A), ``pair`` (1 for two rigid bodies, whose touching nodes sum into ``pair_acc``: sum m_red, sum m_red x,
+    sum m_red n; ``rigid_friction.build_rigid_pair``), ``grid_sv`` (field A's momentum and mass per node),
+    ``grid_vf`` (each field's volume) and ``grid_dv``
     (the two offsets per node), one unused entry each without it (``eng.fields`` says which), and its friction
     ``eng.field_mu`` and touch threshold ``eng.field_touch``."""
     from gasp_core.toolkit.rigid import step_view
@@ -150,6 +161,8 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     eng.in_a = wp.array((in_a if eng.fields else np.zeros(1, bool)).astype(np.int32), dtype=wp.int32, device=d)
     eng.field_mu = field_friction(view) if eng.fields else 0.0
     eng.field_touch = touch_fraction(view) if eng.fields else 0.0
+    eng.pair = int(eng.fields and rigid_pair(view))   # two rigid bodies: their contact as one (rigid.py)
+    eng.pair_acc = wp.zeros(7, dtype=wp.float64, device=d)
     n = eng.n_grid ** 3 if eng.fields else 1
     eng.grid_sv = wp.zeros(n, dtype=k.vec4, device=d)
     eng.grid_dv = wp.zeros(2 * n if eng.fields else 1, dtype=k.vec3, device=d)
@@ -169,6 +182,7 @@ def field_launches(eng, Ft) -> list:
     wall_hi = side - eng.wall_in if walls else np.full(3, 1e30)
     return [wp.launch(contact, dim=ng ** 3, device=d, record_cmd=True, inputs=[
                 eng.grid_mv, eng.grid_sv, eng.grid_dv, ng, Ft(eng.field_mu), eng.ground, eng.grid_vf,
-                Ft(eng.dx ** 3), Ft(wall_lo), eng.k.vec3(*[float(c) for c in wall_hi]), Ft(eng.field_touch)]),
+                Ft(eng.dx ** 3), Ft(wall_lo), eng.k.vec3(*[float(c) for c in wall_hi]), Ft(eng.field_touch), eng.pair,
+                eng.k.vec3(*[float(c) for c in eng.setup.domain_lo]), Ft(eng.dx), eng.pair_acc]),
             wp.launch(clear, dim=ng ** 3, device=d, record_cmd=True, inputs=[eng.grid_sv, eng.grid_vf])]
 

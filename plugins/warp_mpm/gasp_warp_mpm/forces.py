@@ -58,6 +58,12 @@ def build_extras_struct(Ft):
         rb_fv: wp.array(dtype=wp.types.vector(3, wp.float64))   # this substep's sum mu j v_sup (slide brake)
         # this substep's normal impulses, 10 a body: sum j, sum j x, sum j x x^T (xx, xy, xz, yy, yz, zz)
         rb_jx: wp.array(dtype=wp.float64)
+        # this substep's deepest touching point (m); the last substep's patch flatness and centre; the bodies' spin
+        # (rigid.py's rb_w): a rolling body's settling damping (contact.build_contact_impulse)
+        rb_deep: wp.array(dtype=wp.float64)
+        rb_flat: wp.array(dtype=wp.float64)
+        rb_xf: wp.array(dtype=wp.types.vector(3, wp.float64))
+        rb_wx: wp.array(dtype=wp.types.vector(3, wp.float64))
         plane_e: wp.array(dtype=Ft)
         v_rest: Ft   # m/s: a rebound below it is none
     return Extras

@@ -18,7 +18,7 @@ import functools
 import warp as wp
 
 from .precision import MODULE_OPTIONS, build_types
-from .rigid_friction import build_rigid_contact
+from .rigid_friction import build_rigid_contact, build_rigid_pair
 
 vec3d = wp.types.vector(3, wp.float64)
 mat33d = wp.types.matrix((3, 3), wp.float64)
@@ -54,7 +54,8 @@ def build_rigid_update(Ft):
                      gravity: vec3d, steps: wp.array(dtype=wp.int32), count: wp.array(dtype=wp.int32),
                      nlast: wp.array(dtype=wp.int32), twist: wp.array(dtype=wp.float64),
                      fx: wp.array(dtype=wp.vec4d), ndepth: wp.array(dtype=wp.int32), fv: wp.array(dtype=vec3d),
-                     jx: wp.array(dtype=wp.float64)):
+                     jx: wp.array(dtype=wp.float64), deep: wp.array(dtype=wp.float64),
+                     flat: wp.array(dtype=wp.float64), xf: wp.array(dtype=vec3d)):
         for b in range(n_bodies):
             M = mass[b]
             if rigid[b] != 0 and M > wp.float64(0.0):
@@ -70,11 +71,12 @@ def build_rigid_update(Ft):
                 V = P / M
                 if e_body[b] >= Ft(0.0):
                     w = twist_brake(w, inertia, jn[b], twist[b])
-                    V, w = slide_brake(V, w, inertia, M, c, jn[b], fx[b], fv[b], jx, b)
+                    V, w = slide_brake(V, w, inertia, M, c, jn[b], fx[b], fv[b], jx, b, deep, flat, xf)
                 fx[b] = wp.vec4d()
                 fv[b] = vec3d()
                 for q in range(10):
                     jx[10 * b + q] = wp.float64(0.0)
+                deep[b] = wp.float64(0.0)
                 if touch[b] != 0 and was[b] == 0:
                     c0[b] = c
                     steps[b] = 0
@@ -281,10 +283,14 @@ class RigidBodies:
                     self.rb_w, dt, dx, len(self.setup.materials), ex.rb_vin, ex.rb_vin_next, ex.rb_touch, self.rb_was,
                     self.rb_c0, ex.rb_jn, ex.rb_je, ex.rb_j, ex.rb_e, ex.v_rest,
                     vec3d(*[float(g) for g in self.setup.gravity]), self.rb_steps, ex.rb_count, ex.rb_nlast,
-                    ex.rb_twist, ex.rb_fx, ex.rb_ndepth, ex.rb_fv, ex.rb_jx]),
+                    ex.rb_twist, ex.rb_fx, ex.rb_ndepth, ex.rb_fv, ex.rb_jx, ex.rb_deep, ex.rb_flat, ex.rb_xf]),
                 wp.launch(apply_k, dim=self.n_points, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.F, self.body, self.rb_rigid, self.X0, self.rb_c, self.rb_R,
                     self.rb_V, self.rb_w])]
+        if self.pair:   # two rigid bodies: their contact as one, before their points take the pose
+            out.insert(2, wp.launch(build_rigid_pair(Ft), dim=1, device=d, record_cmd=True, inputs=[
+                self.in_a, self.rb_M, self.rb_I0, self.rb_c, self.rb_R, self.rb_V, self.rb_w, dt, dx,
+                float(self.field_mu), self.pair_acc]))
         n_pl = self.planes.shape[0] if self.p_contact.shape[0] == self.n_points else 0
         if n_pl:   # the resting bodies' position-level non-penetration, then their points on the pose again
             from gasp_core.toolkit.rigid import RIGID_SLOP
@@ -299,7 +305,7 @@ class RigidBodies:
                         self.rb_rigid, self.rb_M, self.rb_I0, self.rb_c, self.rb_R, self.rb_V, self.rb_w, dx, nb,
                         self.planes, self.plane_n, self.rb_dmax, self.rb_dsum, ex.rb_e, ex.rb_vin, ex.plane_e,
                         ex.v_rest, RIGID_SLOP * dx]),
-                    out[2]]
+                    out[-1]]
         from .rigid_hold import rigid_hold_launches   # then the flowing points held out of the bodies
         return out + rigid_hold_launches(self, Ft)
 
@@ -309,7 +315,7 @@ class RigidBodies:
         ex = self._ex
         return {"rigid_vin": ex.rb_vin, "rigid_was": self.rb_was, "rigid_steps": self.rb_steps, "rigid_c0": self.rb_c0,
                 "rigid_jn": ex.rb_jn, "rigid_je": ex.rb_je, "rigid_j": ex.rb_j, "rigid_nlast": ex.rb_nlast,
-                "rigid_ndepth": ex.rb_ndepth}
+                "rigid_ndepth": ex.rb_ndepth, "rigid_w": self.rb_w, "rigid_flat": ex.rb_flat, "rigid_xf": ex.rb_xf}
 
     def rigid_state(self) -> dict:
         """``rigid_c`` and ``rigid_R`` of the bodies and their ongoing contact's state (``rigid_vin``, ...; empty

@@ -9,9 +9,13 @@ import functools
 
 import warp as wp
 
-from .precision import build_types
+from gasp_core.toolkit.rigid_friction import FLAT_FROM, FLAT_TO
+
+from .precision import MODULE_OPTIONS, build_types
 
 vec3d = wp.types.vector(3, wp.float64)
+FLAT_0 = wp.constant(wp.float64(FLAT_FROM))   # gasp_core.toolkit.rigid_friction.contact_flatness's bounds
+FLAT_W = wp.constant(wp.float64(FLAT_TO - FLAT_FROM))
 mat33d = wp.types.matrix((3, 3), wp.float64)
 
 
@@ -64,7 +68,8 @@ def build_rigid_contact(Ft):
 
     @wp.func
     def slide_brake(V: vec3d, w: vec3d, inertia: mat33d, M: wp.float64, c: vec3d, jn: vec3,
-                    fx: wp.vec4d, fv: vec3d, jx: wp.array(dtype=wp.float64), b: int):
+                    fx: wp.vec4d, fv: vec3d, jx: wp.array(dtype=wp.float64), b: int,
+                    deep: wp.array(dtype=wp.float64), flat: wp.array(dtype=wp.float64), xf: wp.array(dtype=vec3d)):
         # taichi_mpm's Rigid.slide_brake (gasp_core.toolkit.rigid_friction.coulomb_friction): Coulomb's friction on the body
         # as one, decided by force balance: the impulse along -u_t at the budget-weighted contact point that stops
         # u_t (relative to the supports) when within the budget sum mu j (it sticks), else the budget (it slides);
@@ -92,7 +97,16 @@ def build_rigid_contact(Ft):
                 xm = vec3d(jx[k0 + 1], jx[k0 + 2], jx[k0 + 3]) / J
                 S = mat33d(jx[k0 + 4], jx[k0 + 5], jx[k0 + 6], jx[k0 + 5], jx[k0 + 7], jx[k0 + 8],
                            jx[k0 + 6], jx[k0 + 8], jx[k0 + 9]) / J - wp.outer(xm, xm)
-                a = wp.sqrt(wp.max(wp.float64(3.0) * wp.dot(t, S * t), wp.float64(0.0)))
+                s3 = wp.max(wp.float64(3.0) * wp.dot(t, S * t), wp.float64(0.0))
+                # a face holds the moment, a rounded contact rolls (gasp_core.toolkit.rigid_friction.
+                # contact_flatness): the patch's radius of curvature s3 / depth against the mass centre's height
+                f = wp.float64(1.0)
+                h = wp.abs(wp.dot(xm - c, n))
+                if deep[b] > wp.float64(0.0) and h > wp.float64(0.0):
+                    f = wp.min(wp.max((s3 / (deep[b] * h) - FLAT_0) / FLAT_W, wp.float64(0.0)), wp.float64(1.0))
+                flat[b] = f
+                xf[b] = xm
+                a = wp.sqrt(s3) * f
                 lh = wp.length(rh)
                 p = lt / k_b
                 held = p
@@ -107,3 +121,70 @@ def build_rigid_contact(Ft):
         return Vo, wo
 
     return lift_off, twist_brake, slide_brake
+
+
+@functools.cache
+def build_rigid_pair(Ft):
+    """``rigid_pair`` (float64 whatever ``Ft``): the contact of two rigid bodies as one, by force balance (issue 67
+    item 4; the NumPy reference is ``gasp_core.toolkit.rigid_friction.pair_contact``, taichi_mpm's ``RigidFriction.pair_contact`` the same steps),
+    one thread after ``rigid_update``: the touching nodes' sums ``acc`` (``fields.field_contact``: sum m_red,
+    sum m_red x, sum m_red n) give the contact's centre and normal; the mass centres' approach along it is removed
+    through the centres, then Coulomb's friction of that impulse at the centre; the centres' advance of the substep
+    follows the new velocities. ``acc`` is cleared."""
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def rigid_pair(in_a: wp.array(dtype=wp.int32), mass: wp.array(dtype=wp.float64),
+                   inertia0: wp.array(dtype=mat33d), centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d),
+                   vel: wp.array(dtype=vec3d), spin: wp.array(dtype=vec3d), dt: wp.float64, dx: wp.float64,
+                   mu: wp.float64, acc: wp.array(dtype=wp.float64)):
+        a = int(1)
+        if in_a[0] != 0:
+            a = 0
+        b = 1 - a
+        W = acc[0]
+        n = vec3d(acc[4], acc[5], acc[6])
+        ln = wp.length(n)
+        if W > wp.float64(0.0) and ln > wp.float64(0.0):
+            n = n / ln
+            x_c = vec3d(acc[1], acc[2], acc[3]) / W
+            MA = mass[a]
+            MB = mass[b]
+            VA = vel[a]
+            VB = vel[b]
+            wA = spin[a]
+            wB = spin[b]
+            un = wp.dot(VA - VB, n)
+            P = wp.float64(0.0)
+            if un > wp.float64(0.0):   # the centres' approach, through the centres
+                P = un / (wp.float64(1.0) / MA + wp.float64(1.0) / MB)
+            VA = VA - (P / MA) * n
+            VB = VB + (P / MB) * n
+            rA = x_c - centre[a]
+            rB = x_c - centre[b]
+            u = VA + wp.cross(wA, rA) - VB - wp.cross(wB, rB)
+            ut = u - wp.dot(u, n) * n
+            lt = wp.length(ut)
+            if P > wp.float64(0.0) and mu > wp.float64(0.0) and lt > wp.float64(0.0):
+                t = ut / lt
+                RA = rot[a]
+                RB = rot[b]
+                nIA = wp.dot(n, RA * inertia0[a] * wp.transpose(RA) * n) + wp.float64(0.5) * dx * dx * MA
+                nIB = wp.dot(n, RB * inertia0[b] * wp.transpose(RB) * n) + wp.float64(0.5) * dx * dx * MB
+                sA = wp.dot(wp.cross(rA, t), n)   # the twist arms about n
+                sB = wp.dot(wp.cross(rB, t), n)
+                k = wp.float64(1.0) / MA + wp.float64(1.0) / MB + sA * sA / nIA + sB * sB / nIB
+                p = wp.min(lt / k, mu * P)   # stick when within mu P, else slide at mu P
+                VA = VA - (p / MA) * t
+                VB = VB + (p / MB) * t
+                wA = wA - (p * sA / nIA) * n
+                wB = wB + (p * sB / nIB) * n
+            centre[a] = centre[a] + dt * (VA - vel[a])
+            centre[b] = centre[b] + dt * (VB - vel[b])
+            vel[a] = VA
+            vel[b] = VB
+            spin[a] = wA
+            spin[b] = wB
+        for q in range(7):
+            acc[q] = wp.float64(0.0)
+
+    return rigid_pair

@@ -103,7 +103,8 @@ def build_row_sums(Ft):
                 jq = Ft(0.0)
                 depth = planes[q][0] + kcs[2] - wp.dot(plane_n[q], xp)
                 if depth > Ft(0.0):
-                    jq = contact_impulse(ex, b, ex.plane_e[q], wp.dot(plane_n[q], vp), 0, plane_n[q], depth, kcs, dt)
+                    jq = contact_impulse(ex, b, ex.plane_e[q], wp.dot(plane_n[q], vp), 0, plane_n[q], depth, kcs, dt,
+                                         xp)
                 if jq > Ft(0.0):
                     nq = plane_n[q]
                     acc_contact(pjs, blk, b * n_sup + int(planes[q][2]), f64(jq), r,
