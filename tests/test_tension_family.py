@@ -52,7 +52,7 @@ def old_clamp(monkeypatch, name: str) -> None:
     """The engine ``name`` with the held region before issue 66: no ghost nodes, every held point rigid."""
     from gasp_core.toolkit.points import fixed_mask
 
-    def rigid(x, boundaries, dx):
+    def rigid(x, boundaries, dx, sampled=False):
         return fixed_mask(x, boundaries).astype(np.int8)
     if name == "taichi_mpm":
         from gasp_taichi_mpm.grid import GridUpdate

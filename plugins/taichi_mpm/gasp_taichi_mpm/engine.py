@@ -156,7 +156,7 @@ class TaichiMPMEngine(GridEngineBase):
         reach, full = rule_models(contact)   # chosen per body: the rule reaches the grid contact's nodes
         walls, grounds, regions = node_ranges(setup, dx, reach)
         mixed = ((flowing_bodies(view, contact),) + node_ranges(setup, dx, full)[:2]) if contact == "mixed" else None
-        fixed = held_codes(setup.x, setup.boundaries, dx)   # 1 held, 2 held and strained (near a face)
+        fixed = held_codes(setup.x, setup.boundaries, dx, sampled=True)   # 1 held, 2+ held and strained (near a face)
         kinds, params = zero_stress(*material_table(setup.materials, setup.crack_band), setup.materials, JELLY)
         rigid = rigid_mask(setup.materials)
         frames = body_frames(setup.x[o], setup.p_mass[o], setup.body_id[o], rigid) if rigid.any() else None

@@ -140,7 +140,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
 
         Points that start inside a fixed region are held (docs/mpm.md G2P)."""
         setup, order, dt_np, k, arr = self.setup, self._order, self._np_dtype, self.k, self._array
-        fixed = held_codes(setup.x, setup.boundaries, self.dx).astype(np.int32)   # 2: strained near a face
+        fixed = held_codes(setup.x, setup.boundaries, self.dx, sampled=True).astype(np.int32)   # 2+: strained
         jp0 = initial_Jp(setup.materials, setup.body_id)
         self.x = arr(setup.x[order].astype(dt_np), k.vec3)
         self.v = arr(setup.v[order].astype(dt_np), k.vec3)
