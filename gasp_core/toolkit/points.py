@@ -88,7 +88,7 @@ HELD_STRAINED = 2
 #: Cells: :func:`held_codes` strains a held point near its region's face only where the points sample the face's
 #: normal finer than this about its mirror image (:func:`image_gap`: the widest gap along the normal within 1.5 cells
 #: of it); else it stays rigid, as every held point was before issue 66. A cantilever of points 1.6 cells apart along
-#: its length (warp ``test_fixed_region_holds``) diverged on both MPM engines with strained held points (their ``J``
+#: its length (a plugin test of a held cantilever) diverged on both MPM engines with strained held points (their ``J``
 #: 1.6 by frame 4), the grid field between its layers being unresolved; held rigidly it behaves as before.
 HELD_IMAGE_GAP = 1.0
 
