@@ -10,7 +10,7 @@ from gasp_core.seam.setup import Boundary, Material
 from gasp_core.toolkit.materials import (initial_Jp, MATERIAL_CODES, material_table, N_PARAMS, P_ALPHA, P_K, P_LAM,
                                          P_MU, P_THETA_C)
 from gasp_core.toolkit.options import mpm_options
-from gasp_core.toolkit.points import cell_order, fixed_mask
+from gasp_core.toolkit.points import HELD_STRAINED, cell_order, fixed_mask, held_codes, image_gradient
 from gasp_core.toolkit.sweep import mpm_sweep
 
 
@@ -46,6 +46,31 @@ def test_fixed_mask_is_the_closed_box_of_every_fixed_region():
          Boundary("fixed_region", lo=(0.45, 0.45, 0.45), hi=(0.6, 0.6, 0.6))]
     assert fixed_mask(x, b).tolist() == [True, True, False, True]
     assert not fixed_mask(x, b[:1]).any()
+
+
+def test_held_codes_give_the_nearest_face_axis_near_a_face_and_rigid_deeper():
+    dx = 0.1
+    b = [Boundary("fixed_region", lo=(0, 0, 0), hi=(0.5, 1, 1)), Boundary("fixed_region", lo=(0, 0, 0), hi=(1, 0.3, 1))]
+    x = np.array([[0.45, 0.6, 0.5],    # 0.5 dx from region 0's x face: strained across x
+                  [0.2, 0.6, 0.5],     # 3 dx deep in region 0: rigid
+                  [0.7, 0.25, 0.5],    # only in region 1, 0.5 dx from its y face: strained across y
+                  [0.45, 0.1, 0.5],    # near a face of both regions: the first region's face
+                  [0.2, 0.2, 0.5],     # deep in both
+                  [0.8, 0.6, 0.5]])    # free
+    assert held_codes(x, b, dx).tolist() == [HELD_STRAINED + 0, 1, HELD_STRAINED + 1, HELD_STRAINED + 0, 1, 0]
+
+
+def test_the_image_gradient_of_a_ghost_field_is_the_material_beside_the_face():
+    """A bar's uniaxial stretch with lateral contraction beside a face x = 0 (``v = G x``): the ghost field inside,
+    ``-v(R x)``, has the gradient ``-G R``, whose lateral strain is an expansion; :func:`image_gradient` gives ``G``
+    back (the engines' held points near a face take it; the raw one damaged a clamp at half the strength)."""
+    nu = 0.25
+    G = np.diag([1.0, -nu, -nu]) + np.array([[0, 0.3, 0], [0.2, 0, 0], [0, 0, 0]])
+    R = np.diag([-1.0, 1.0, 1.0])
+    ghost = -G @ R
+    assert np.diag(ghost)[1:].tolist() == [nu, nu]                 # the raw ghost: lateral expansion
+    assert np.allclose(image_gradient(ghost, 0), G)
+    assert np.allclose(image_gradient(-G @ np.diag([1.0, -1.0, 1.0]), 1), G)
 
 
 def test_cell_order_sorts_by_flat_cell_stably_and_tolerates_nan():

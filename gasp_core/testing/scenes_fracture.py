@@ -14,12 +14,14 @@ neighbours (central differences), so no scene reads an engine's internal state.
 - ``brittle_bar_strength``: pulled at 0.05 m/s, the largest section-mean nominal stress ``P_xx`` (over the frames
   before any point breaks through) is ``FT`` within 5 %, the bar breaks through (a section of points all at ``d >= 0.9``), and no point's ``d`` ever decreases
   between frames (damage never heals).
-- ``brittle_fracture_energy``: the work the damage dissipated per crack area (each point's volume times the
-  linear-softening energy of its ``d``) is ``GF`` within 20 % at n_grid 32 and within 15 % of itself at n_grid 64
-  (the crack band ``h = dx + p_vol^(1/3)``, ``gasp_core.seam.setup.crack_band``). Slow tier.
+- ``brittle_fracture_energy``: the bar at ``FT_GF`` = 3 kPa and nu 0 (stable softening: it stores less elastic
+  energy than its crack needs), started in its pull's quasi-static stretch: the work to separate its first crack,
+  ``int sigma dw`` of the force entering the crack's zone against its inelastic opening, per area, is ``GF``
+  within 20 % at n_grid 32 and within 15 % of itself at n_grid 64 (the crack band ``h = dx + p_vol^(1/3)``,
+  ``gasp_core.seam.setup.crack_band``). Slow tier.
 - ``brittle_below_strength``: pulled to about half ``FT`` and let go, nothing damages and the energy (kinetic +
   elastic) at each of the 40 frames after the release is the same bar's as Hencky elasticity that never yields
-  within 1 % (the elastic energy returned: the MPM's own 7 % loss is common to both runs) and gains none; the bar, free, given the velocity field of a uniform uniaxial compression (ends at
+  within 1 % (the elastic energy returned: the MPM's own 11 % loss is common to both runs) and gains none; the bar, free, given the velocity field of a uniform uniaxial compression (ends at
   4.8 m/s), nothing damages until its middle is most compressed, past 10 ``FT``.
 - ``brittle_free_break``: no boundary, the half x > 0.5 m thrown at 1 m/s: it breaks through, its momentum stays
   within 1 % of the start's, and its energy never rises above 1.01 times the start's.
@@ -45,8 +47,9 @@ AREA = 0.125 ** 2
 STRENGTH_TOL, GF_TOL, REGULAR_TOL, MOMENTUM_TOL = 0.05, 0.20, 0.15, 0.01
 #: The bar let go below its strength: its energy (kinetic + elastic) at each frame after the release against the same
 #: bar as Hencky elasticity that never yields (``metal`` with an unreachable yield stress: the brittle model's
-#: undamaged stress, docs/fracture.md), within 1 %, two-sided. The MPM's own dissipation (7 % over the 40 frames on
-#: both) is common to the two runs, so what is left is what the damage model returns or keeps of the elastic energy.
+#: undamaged stress, docs/fracture.md), within 1 %, two-sided. The MPM's own dissipation (11 % over the 40 frames on
+#: both, 7 % before issue 66's held region: docs/tolerances.md) is common to the two runs, so what is left is what the
+#: damage model returns or keeps of the elastic energy.
 ENERGY_TOL = 0.01
 BRITTLE = Material("brittle", E=E, nu=NU, rho=RHO, tensile_strength=FT, fracture_energy=GF)
 
@@ -100,20 +103,21 @@ class Lattice:
         return bool(any((d[self.layer == k] >= 0.9).all() for k in range(self.shape[0])))
 
 
-def principal(F: np.ndarray, d: np.ndarray):
-    """``U``, the Hencky strains ``eps`` (n, 3) and the damaged principal stresses ``s'`` (n, 3), Pa."""
+def principal(F: np.ndarray, d: np.ndarray, mu: float = MU, lam: float = LAM):
+    """``U``, the Hencky strains ``eps`` (n, 3) and the damaged principal stresses ``s'`` (n, 3), Pa (Lame ``mu``,
+    ``lam``: the bar's unless given)."""
     U, sig, _ = np.linalg.svd(F)
     eps = np.log(np.clip(sig, 1e-6, None))
-    s = 2 * MU * eps + LAM * eps.sum(axis=1, keepdims=True)
+    s = 2 * mu * eps + lam * eps.sum(axis=1, keepdims=True)
     return U, eps, np.where(s > 0, (1 - d[:, None]) * s, s)
 
 
-def section_stress(lat: Lattice, x: np.ndarray, d: np.ndarray, gauge: np.ndarray) -> np.ndarray:
+def section_stress(lat: Lattice, x: np.ndarray, d: np.ndarray, gauge: np.ndarray, nu: float = NU) -> np.ndarray:
     """Section-mean nominal stress ``P_xx`` (Pa) of each lattice layer in ``gauge`` (``P = tau F^-T``). The bar
     carries one force through every section when it moves slowly; the scenes take the median over the sections,
     which a few layers' differences across a localising crack do not move."""
     F = lat.F(x, d)
-    U, _, s = principal(F, d)
+    U, _, s = principal(F, d, E / (2 * (1 + nu)), E * nu / ((1 + nu) * (1 - 2 * nu)))
     tau = np.einsum("nij,nj,nkj->nik", U, s, U)
     P = np.einsum("nij,nkj->nik", tau, np.linalg.inv(F))[:, 0, 0]
     return np.array([P[gauge & (lat.layer == k)].mean() for k in np.unique(lat.layer[gauge])])
@@ -161,22 +165,92 @@ def _bar_strength(info: EngineInfo) -> list[Check]:
             check("never_heals", drop, 1e-6, "largest fall of a point's d between frames")]
 
 
-def dissipated_per_area(info: EngineInfo, n_grid: int) -> float:
-    """Work the bar's damage dissipated per crack area, J/m^2, after 60 frames at ``n_grid``: per point
-    ``V f_t s d / (2 E)``, ``s = f_t s_f / ((1 - d)(s_f - f_t) + f_t)`` the largest effective stress its ``d``
-    stands for (linear softening, ``s_f`` of the setup's crack band)."""
+#: Cells each side of a crack's broken-through layers over which its work is summed (the crack's zone, as
+#: ``benchmarks/tension_family.py``'s).
+CRACK_ZONE_CELLS = 2
+
+
+def broken_runs(layer: np.ndarray, d: np.ndarray) -> list[tuple[int, int]]:
+    """The runs of consecutive lattice layers broken through (every point at ``d >= 0.9``), as (first, last)."""
+    broken = [int(k) for k in np.unique(layer) if (d[layer == k] >= 0.9).all()]
+    if not broken:
+        return []
+    runs = np.split(np.array(broken), np.flatnonzero(np.diff(broken) > 1) + 1)
+    return [(int(r[0]), int(r[-1])) for r in runs]
+
+
+def work_per_crack(layer: np.ndarray, work: np.ndarray, cracks: list[tuple[int, int]], zone: int) -> float:
+    """The work (J) the damage dissipated per crack: ``work`` (per point) summed over the zones of ``cracks`` (their
+    layers and ``zone`` layers each side) over their number; with none, over the whole body. ``cracks`` are the
+    first to part (:func:`broken_runs` at the first frame with any): once the bar parts it sheds the elastic energy
+    it stored (``f_t^2 L / (2 E)`` = 30 J/m^2 here, six times ``G_f``) as waves, which may damage it elsewhere (with
+    ``nu`` 0.25 both grips pin the section's lateral contraction and concentrate the stress alike, and the waves
+    part the bar at the other grip too at n_grid 32): damage that is not the first crack's work of fracture."""
+    if not cracks:
+        return float(work.sum())
+    near = np.zeros(len(layer), dtype=bool)
+    for lo, hi in cracks:
+        near |= (layer >= lo - zone) & (layer <= hi + zone)
+    return float(work[near].sum() / len(cracks))
+
+
+#: The fracture-energy bar's strength: low enough that the bar between the grips (0.5 m) stores less elastic energy
+#: at its peak than its crack needs, ``FT_GF^2 L / (2 E)`` = 2.25 J/m^2 against ``GF`` = 5 (``L < 2 l_ch``,
+#: ``l_ch = E G_f / f_t^2`` = 0.56 m): its softening is stable under the pull, so the crack takes the work the pull
+#: gives it as it opens and no wave shed at a snap-back breaks the bar a second time (at ``FT``, 10 kPa, it would store
+#: 25 J/m^2, five times ``GF``).
+FT_GF, NU_GF = 3e3, 0.0
+
+
+def fracture_setup(n_grid: int) -> SimSetup:
+    """The bar of :func:`bar_setup` at ``FT_GF``, starting in the quasi-static stretch of its pull (the velocity
+    rising linearly from 0 at the clamp's face to the pull at the pulled box's), so no wave starts it (a sudden pull
+    of 0.05 m/s is a 1.6 kPa wave, doubled where it meets the clamp: past ``FT_GF``)."""
     s = bar_setup(n_grid)
-    sf = softening_stress(BRITTLE, float(s.crack_band[0]))
-    for _, _, d in frames(info, s, 60):
-        pass
-    D = FT ** 2 * sf * d / (2 * E * ((1 - d) * (sf - FT) + FT))
-    return float((s.p_vol * D).sum() / AREA)
+    s = s.replace(materials=[Material("brittle", E=E, nu=NU_GF, rho=RHO, tensile_strength=FT_GF, fracture_energy=GF)])
+    ramp = np.clip((s.x[:, 0] - 0.25) / 0.5, 0.0, 1.0)
+    return s.replace(v=0.05 * ramp[:, None] * np.array([1.0, 0.0, 0.0]))
+
+
+def work_to_separate(info: EngineInfo, n_grid: int, n_frames: int = 60) -> float:
+    """The work to separate the bar's first crack per area, J/m^2: ``int sigma dw`` over the frames until the crack's
+    layer is at ``d = 1`` throughout (open). The crack's zone is the layers ``CRACK_ZONE_CELLS`` cells each side of
+    the layer that first broke through; ``sigma`` the force that enters it, the mean section ``P_xx`` of the two
+    free layers beside each of its ends (far-field sections lag the crack when it opens fast); ``w`` its inelastic
+    opening, the zone's stretch less its elastic ``sigma / E`` share. It is the work the softening took, whatever
+    the ``s_f`` the engine softens with (a band's ``d`` alone cannot show that: read with the setup's ``s_f``, the
+    ``d`` of n_grid 32's softening at 64 reads ``G_f``); a later break elsewhere does not enter it."""
+    s = fracture_setup(n_grid)
+    lat = Lattice(s)
+    free = (s.x[:, 0] > 0.25) & (s.x[:, 0] < 0.75)
+    lx = np.array([s.x[lat.layer == k, 0].mean() for k in range(lat.shape[0])])
+    zone = int(round(CRACK_ZONE_CELLS * s.dx / lat.spacing))
+    hist, crack = [], None
+    for x, _, d in frames(info, s, n_frames):
+        if crack is None and lat.broken_through(d):
+            runs = broken_runs(lat.layer, d)
+            lo, hi = runs[0]
+            crack = lo + int(np.argmax([d[lat.layer == k].mean() for k in range(lo, hi + 1)]))
+        hist.append((x[:, 0].copy(), d.copy(), x))
+        if crack is not None and (d[lat.layer == crack] >= 1.0).all():
+            break
+    if crack is None:
+        return 0.0
+    lo, hi = max(crack - zone, 0), min(crack + zone, lat.shape[0] - 1)
+    outside = free & (((lat.layer >= lo - 2) & (lat.layer < lo)) | ((lat.layer > hi) & (lat.layer <= hi + 2)))
+    sig, w = [], []
+    for xx, d, x in hist:
+        sig.append(float(np.mean(section_stress(lat, x, d, outside, NU_GF))))
+        stretch = xx[lat.layer == hi].mean() - xx[lat.layer == lo].mean()
+        w.append(stretch - (lx[hi] - lx[lo]) * (1 + sig[-1] / E))
+    sig, w = np.array(sig), np.array(w)
+    return float(np.sum(0.5 * (sig[1:] + sig[:-1]) * np.diff(w)))
 
 
 def _fracture_energy(info: EngineInfo) -> list[Check]:
-    w32, w64 = dissipated_per_area(info, N_GRID), dissipated_per_area(info, 2 * N_GRID)
-    return [_within("fracture_energy", w32, GF, GF_TOL, f"work of fracture per crack area at n_grid {N_GRID}",
-                    " J/m^2"),
+    w32, w64 = work_to_separate(info, N_GRID), work_to_separate(info, 2 * N_GRID)
+    return [_within("fracture_energy", w32, GF, GF_TOL, f"work to separate the first crack per area at n_grid "
+                    f"{N_GRID}", " J/m^2"),
             _within("regularised", w64, w32, REGULAR_TOL, f"the same at n_grid {2 * N_GRID}", " J/m^2")]
 
 
@@ -250,7 +324,7 @@ _REQ_FREE = Requires(frozenset({"brittle"}), frozenset(), frozenset({"damage"}))
 SCENES_FRACTURE: list[Scene] = [
     Scene("brittle_bar_strength", f"a brittle bar pulled at 0.05 m/s: peak section stress tensile_strength within "
           f"{100 * STRENGTH_TOL:g} %, it breaks through, d never decreases", _REQ, run=_bar_strength),
-    Scene("brittle_fracture_energy", f"the bar's work of fracture per crack area: fracture_energy within "
+    Scene("brittle_fracture_energy", f"the work to separate the bar's first crack per area: fracture_energy within "
           f"{100 * GF_TOL:g} % at n_grid {N_GRID}, within {100 * REGULAR_TOL:g} % of itself at {2 * N_GRID}",
           _REQ, run=_fracture_energy, slow=True),
     Scene("brittle_below_strength", "the bar pulled to half its strength and let go: no damage, the elastic energy "

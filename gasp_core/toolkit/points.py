@@ -64,6 +64,113 @@ def fixed_mask(x: np.ndarray, boundaries: Iterable[Boundary]) -> np.ndarray:
     return mask
 
 
+#: Cells: how deep inside a held box's faces its nodes are ghost nodes (``fixed_region`` and box impulses of
+#: ``mode = "set"``, the engines' ``mirror_held``): each takes the velocity of its mirror image across the box's
+#: nearest face, reflected about the held velocity, so the grid field meets the held velocity on the face itself and a
+#: uniform strain crosses it (docs/fracture.md, "The held region"). Twice :data:`HELD_STRAIN_CELLS`: the stencils of the
+#: held points that deform reach that far.
+MIRROR_CELLS = 3.0
+#: Cells: held points (``fixed_region``) within this of their box's nearest face keep the grid's velocity gradient
+#: (their ``F`` follows it, so they carry the stress of the material beside them); deeper ones keep ``F``. The free
+#: material's stencils reach 1.5 cells past the face. The points of a box impulse of ``mode = "set"`` move with it while
+#: it acts, and this near its face take the same image gradient (:data:`HELD_STRAINED`); deeper they keep ``F``.
+HELD_STRAIN_CELLS = 1.5
+#: :func:`held_codes` of a held point within :data:`HELD_STRAIN_CELLS` of its region's face: ``HELD_STRAINED + a``, ``a``
+#: the axis of that face's normal. The grid's gradient ``G`` there is the ghost field's, ``2 v_set - v(X')`` with
+#: ``X' = R X`` the mirror image (``R`` the reflection across the face), so ``G = -grad v(X') R``: its column along the
+#: normal is the image's, its columns along the face are the image's negated. Such a point takes ``G`` with those two
+#: columns negated, the gradient of the material beside the face (:func:`image_gradient`; P2G advances ``F`` by it and
+#: scatters the stress ``tau D`` that pairs with it). With the raw ``G`` a bar's lateral contraction (``nu > 0``)
+#: reverses into an expansion in the held points: at ``nu`` 0.25 their stress along the bar is 1.3-1.4 times the
+#: section's, and they damaged at half the strength (conformance ``brittle_below_strength``). A brittle point a box
+#: holds keeps its damage: its stress is its mirror image's, not a crack of the body (docs/fracture.md).
+HELD_STRAINED = 2
+#: Cells: :func:`held_codes` strains a held point near its region's face only where the points sample the face's
+#: normal finer than this about its mirror image (:func:`image_gap`: the widest gap along the normal within 1.5 cells
+#: of it); else it stays rigid, as every held point was before issue 66. A cantilever of points 1.6 cells apart along
+#: its length (a plugin test of a held cantilever) diverged on both MPM engines with strained held points (their ``J``
+#: 1.6 by frame 4), the grid field between its layers being unresolved; held rigidly it behaves as before.
+HELD_IMAGE_GAP = 1.0
+
+
+def image_gradient(C: np.ndarray, axis: int) -> np.ndarray:
+    """The velocity gradient ``C`` (..., 3, 3) of a ghost field at a held point, as the gradient at its mirror image
+    across a face of normal ``axis`` (the engines do the same in their P2G, :data:`HELD_STRAINED`): the columns other
+    than ``axis`` negated."""
+    out = -np.array(C, dtype=np.float64)
+    out[..., :, axis] *= -1
+    return out
+
+
+def held_codes(x: np.ndarray, boundaries: Iterable[Boundary], dx: float,
+               sampled: bool = False) -> np.ndarray:
+    """Each point's hold: 0 free, 1 held rigidly (inside a ``fixed_region``, :func:`fixed_mask`), ``HELD_STRAINED
+    + a`` held within :data:`HELD_STRAIN_CELLS` cells of the nearest face of the region that holds it, ``a`` the axis
+    of that face's normal (it keeps its position and ``v = 0``, but its ``F`` follows the grid's velocity gradient as
+    the material beside the face: :data:`HELD_STRAINED`). A point deep inside one region is held rigidly though near
+    the face of another. With ``sampled``, a point near a face is strained only where the points sample the normal
+    about its mirror image across that face at least once a cell (:func:`image_gap` under :data:`HELD_IMAGE_GAP`);
+    else it is held rigidly, as before issue 66 (a sparse cloud, or no material past the face).
+
+    Parameters
+    ----------
+    x : ndarray, shape (n, 3)
+        Initial positions, metres.
+    boundaries : iterable of Boundary
+    dx : float
+        Grid spacing, metres.
+    sampled : bool
+        Whether to check the sampling about each image (:func:`image_gap`); without it every point near a face is
+        strained.
+
+    Returns
+    -------
+    ndarray, shape (n,), int8
+    """
+    x = np.asarray(x, dtype=np.float64)
+    code = np.zeros(len(x), dtype=np.int8)
+    deep = np.zeros(len(x), dtype=bool)
+    for b in boundaries:
+        if b.kind == "fixed_region":
+            lo, hi = np.asarray(b.lo, float), np.asarray(b.hi, float)
+            inside = np.all((x >= lo) & (x <= hi), axis=1)
+            dist = np.minimum(x - lo, hi - x)
+            near = inside & (dist.min(axis=1) < HELD_STRAIN_CELLS * dx)
+            deep |= inside & ~near
+            axis = dist.argmin(axis=1)
+            if sampled and near.any():
+                idx = np.flatnonzero(near)
+                img = x[idx].copy()
+                a, r = axis[idx], np.arange(len(idx))
+                # the mirror image across the nearest face: 2 face - X along its normal
+                face = np.where(img[r, a] - lo[a] < hi[a] - img[r, a], lo[a], hi[a])
+                img[r, a] = 2.0 * face - img[r, a]
+                sparse = image_gap(x, img, a, dx) >= HELD_IMAGE_GAP
+                deep[idx[sparse]] = True
+                near[idx[sparse]] = False
+            code = np.where(near & (code == 0), HELD_STRAINED + axis, code).astype(np.int8)
+    code[deep] = 1
+    return code
+
+
+def image_gap(x: np.ndarray, at: np.ndarray, axis: np.ndarray, dx: float) -> np.ndarray:
+    """How finely the points ``x`` sample the normal about each of ``at`` (m, shape (m, 3)), in cells: the widest gap
+    along ``axis`` (each row's normal axis) between the normal coordinates of the points within ``1.5 dx`` of it and
+    the ends of that span, ``at -+ 1.5 dx`` (3 where no point is that near). :func:`held_codes` strains a held point
+    only where this is under :data:`HELD_IMAGE_GAP` at its mirror image."""
+    from scipy.spatial import cKDTree
+
+    x = np.asarray(x, dtype=np.float64)
+    at = np.asarray(at, dtype=np.float64).reshape(-1, 3)
+    out = np.full(len(at), 3.0)
+    for i, nb in enumerate(cKDTree(x).query_ball_point(at, 1.5 * dx)):
+        if nb:
+            c = np.sort(np.concatenate([[at[i, axis[i]] - 1.5 * dx, at[i, axis[i]] + 1.5 * dx],
+                                        x[nb, axis[i]]]))
+            out[i] = float(np.diff(c).max()) / dx
+    return out
+
+
 def cell_order(x: np.ndarray, domain_lo: np.ndarray, dx: float, n_grid: int) -> np.ndarray:
     """Stable order of the points by flat grid-cell index ``(i n_grid + j) n_grid + k``.
 

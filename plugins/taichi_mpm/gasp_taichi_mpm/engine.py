@@ -21,7 +21,7 @@ from gasp_core.toolkit.rigid import (body_frames, face_counts, lift_setup, rigid
                                      zero_stress)
 from gasp_core.seam.memory import check_memory, estimate_bytes
 from gasp_core.toolkit.restitution import body_table, plane_table, rest_speed
-from gasp_core.toolkit.points import fixed_mask, passive_bounds, passive_floor_friction
+from gasp_core.toolkit.points import held_codes, passive_bounds, passive_floor_friction
 from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
 
 from . import ENGINE, TaichiMPMConfig
@@ -156,7 +156,7 @@ class TaichiMPMEngine(GridEngineBase):
         reach, full = rule_models(contact)   # chosen per body: the rule reaches the grid contact's nodes
         walls, grounds, regions = node_ranges(setup, dx, reach)
         mixed = ((flowing_bodies(view, contact),) + node_ranges(setup, dx, full)[:2]) if contact == "mixed" else None
-        fixed = fixed_mask(setup.x, setup.boundaries)
+        fixed = held_codes(setup.x, setup.boundaries, dx, sampled=True)   # 1 held, 2+ held and strained (near a face)
         kinds, params = zero_stress(*material_table(setup.materials, setup.crack_band), setup.materials, JELLY)
         rigid = rigid_mask(setup.materials)
         frames = body_frames(setup.x[o], setup.p_mass[o], setup.body_id[o], rigid) if rigid.any() else None

@@ -10,6 +10,15 @@ from gasp_core.toolkit.grid_tables import (COL_POSE, FALLOFF_INVERSE_SQUARE, FOR
                                            FR_FALLOFF, FR_KIND, FR_MODE_COUNT, FR_MODE_START, FR_RADIUS, FR_STRENGTH,
                                            FT_POSES, IM_A, IM_B, IM_DV, IM_MODE, IM_SHAPE, IMPULSE_ADD, IMPULSE_BOX,
                                            IMPULSE_ROW, MD_A, MD_K, MD_OMEGA, MD_PHASE, MODE_ROW)
+from gasp_core.toolkit.points import HELD_STRAIN_CELLS
+
+
+def count_set_boxes(ex) -> int:
+    """Box impulses of ``mode = "set"`` in the tables ``ex`` (None: none): their nodes are held (``mirror_held``)."""
+    if ex is None or not ex.any:
+        return 0
+    rows = np.asarray(ex.impulses, float).reshape(-1, IMPULSE_ROW)[:ex.n_impulses]
+    return int(np.sum((rows[:, IM_SHAPE] == IMPULSE_BOX) & (rows[:, IM_MODE] != IMPULSE_ADD)))
 
 
 class Forces:
@@ -73,6 +82,57 @@ class Forces:
                     a = d * (mag / rr)
             v += dt * a
         return v
+
+    @ti.func
+    def mirror_set_boxes(self, I):
+        """The ghost node ``I`` of each box impulse of ``mode = "set"`` acting in this substep that holds it
+        (:meth:`gasp_taichi_mpm.grid.GridUpdate.mirror_node`, reflected about the imposed velocity)."""
+        X = self.lo[None] + self.dx[None] * ti.Vector([ti.cast(I[0], self.real), ti.cast(I[1], self.real),
+                                                       ti.cast(I[2], self.real)])
+        base = self.ex_step[None] * self.ex_width
+        for q in range(self.n_imp):
+            r = q * IMPULSE_ROW
+            c = ti.Vector([self.ex_imps[r + IM_A], self.ex_imps[r + IM_A + 1], self.ex_imps[r + IM_A + 2]])
+            b = ti.Vector([self.ex_imps[r + IM_B], self.ex_imps[r + IM_B + 1], self.ex_imps[r + IM_B + 2]])
+            w = self.ex_tab[base + FT_POSES + COL_POSE * self.n_col + q]
+            if (self.ex_imps[r + IM_SHAPE] == IMPULSE_BOX and self.ex_imps[r + IM_MODE] != IMPULSE_ADD and w > 0.0
+                    and (X >= c).all() and (X <= b).all()):
+                dv = ti.Vector([self.ex_imps[r + IM_DV], self.ex_imps[r + IM_DV + 1], self.ex_imps[r + IM_DV + 2]])
+                self.grid_v[I] = self.mirror_node(I, c, b, dv, True)
+
+    @ti.func
+    def set_box_at(self, X):
+        """The index of a box impulse of ``mode = "set"`` acting now that holds ``X``, else -1."""
+        base = self.ex_step[None] * self.ex_width
+        hit = -1
+        for q in range(self.n_imp):
+            r = q * IMPULSE_ROW
+            c = ti.Vector([self.ex_imps[r + IM_A], self.ex_imps[r + IM_A + 1], self.ex_imps[r + IM_A + 2]])
+            b = ti.Vector([self.ex_imps[r + IM_B], self.ex_imps[r + IM_B + 1], self.ex_imps[r + IM_B + 2]])
+            w = self.ex_tab[base + FT_POSES + COL_POSE * self.n_col + q]
+            if (self.ex_imps[r + IM_SHAPE] == IMPULSE_BOX and self.ex_imps[r + IM_MODE] != IMPULSE_ADD and w > 0.0
+                    and (X >= c).all() and (X <= b).all()):
+                hit = q
+        return hit
+
+    @ti.func
+    def set_box_axis(self, X):
+        """For a point at ``X`` in a set box acting now (:meth:`set_box_at`): the normal axis of the box's nearest face
+        if within :data:`~gasp_core.toolkit.points.HELD_STRAIN_CELLS` cells of it (the point takes its image
+        gradient, as a held point near its region's face: :meth:`gasp_taichi_mpm.grid.GridUpdate.held_axis`), else
+        -1."""
+        a = -1
+        q = self.set_box_at(X)
+        if q >= 0:
+            r = q * IMPULSE_ROW
+            c = ti.Vector([self.ex_imps[r + IM_A], self.ex_imps[r + IM_A + 1], self.ex_imps[r + IM_A + 2]])
+            b = ti.Vector([self.ex_imps[r + IM_B], self.ex_imps[r + IM_B + 1], self.ex_imps[r + IM_B + 2]])
+            s = ti.min(X - c, b - X)
+            near = HELD_STRAIN_CELLS * self.dx[None]
+            for d in ti.static(range(3)):
+                if s[d] < near:
+                    a, near = d, s[d]
+        return a
 
     @ti.func
     def apply_impulses(self, X, v, base):

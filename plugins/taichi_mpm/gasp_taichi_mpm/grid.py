@@ -11,6 +11,8 @@ import taichi as ti
 
 from gasp_core.toolkit.grid_tables import FT_TIME
 from gasp_core.toolkit.contact import ground_node_layer, wall_grid_cells
+from gasp_core.toolkit.materials import BRITTLE
+from gasp_core.toolkit.points import HELD_STRAINED, MIRROR_CELLS
 
 _TIE = 1e-9  # cells: tolerance for ties when boundary tests become node-index ranges
 
@@ -47,7 +49,8 @@ def node_ranges(setup, dx: float, contact: str = "particle"):
             a = (np.asarray(b.lo, float) - lo) / dx
             c = (np.asarray(b.hi, float) - lo) / dx
             regions.append((tuple(int(math.ceil(a[d] - _TIE)) for d in range(3)),
-                            tuple(int(math.floor(c[d] + _TIE)) for d in range(3))))
+                            tuple(int(math.floor(c[d] + _TIE)) for d in range(3)),
+                            tuple(float(q) for q in b.lo), tuple(float(q) for q in b.hi)))
     return walls, grounds, regions
 
 
@@ -108,8 +111,109 @@ class GridUpdate:
                 hi = ti.max(hi, self.box[t, 1])
         return lo, ti.max(hi - lo + 1, 0)
 
-    @ti.kernel
     def grid_update(self):
+        """The grid update (:meth:`grid_nodes`), then the held boxes' ghost nodes (:meth:`mirror_held`)."""
+        self.grid_nodes()
+        if self.n_regions or self.n_set_boxes:
+            self.mirror_held()
+
+    @ti.func
+    def mirror_node(self, I, blo, bhi, v_set, empty: ti.template()):
+        """The velocity of node ``I`` inside the held box ``[blo, bhi]`` (m) that holds its material at ``v_set``
+        (docs/fracture.md, "The held region"): within :data:`~gasp_core.toolkit.points.MIRROR_CELLS` cells of the
+        box's nearest face, ``2 v_set - v(X')``, ``X'`` its mirror image across that face (``v`` linear along the
+        face's normal between the two nodes around ``X'``; where one of them is ``I`` itself, solved for it), so the
+        grid field meets ``v_set`` on the face and a uniform strain crosses it; deeper, ``v_set``. ``empty``: a
+        mirror node without mass (no material past the face) leaves ``v_set`` (the set boxes; a fixed region's is 0
+        anyway). An image past the grid's edge is read at the edge."""
+        dx = self.dx[None]
+        X = self.lo[None] + dx * ti.Vector([ti.cast(I[0], self.real), ti.cast(I[1], self.real),
+                                            ti.cast(I[2], self.real)])
+        s = ti.cast(1e30, self.real)
+        ax, side = 0, 1
+        for d in ti.static(range(3)):
+            if X[d] - blo[d] < s:
+                s, ax, side = X[d] - blo[d], d, -1
+            if bhi[d] - X[d] < s:
+                s, ax, side = bhi[d] - X[d], d, 1
+        v = v_set
+        if s < MIRROR_CELLS * dx:
+            q = (X[ax] + 2.0 * ti.cast(side, self.real) * s - self.lo[None][ax]) / dx
+            a = ti.min(ti.max(ti.cast(ti.floor(q), ti.i32), 0), self.n_grid - 2)
+            t = q - ti.cast(a, self.real)
+            Ia, Ib = I, I
+            Ia[ax] = a
+            Ib[ax] = a + 1
+            if a == I[ax]:       # the lower node is I itself (an upper face under dx/2 away)
+                v = (2.0 * v_set - t * self.grid_v[Ib]) / (2.0 - t)
+            elif a + 1 == I[ax]:   # the upper node is I itself (a lower face)
+                v = (2.0 * v_set - (1.0 - t) * self.grid_v[Ia]) / (1.0 + t)
+            else:
+                v = 2.0 * v_set - (1.0 - t) * self.grid_v[Ia] - t * self.grid_v[Ib]
+            if ti.static(empty):
+                if self.grid_m[Ia] <= 0.0 or self.grid_m[Ib] <= 0.0:
+                    v = v_set
+        return v
+
+    @ti.func
+    def held_axis(self, p):
+        """The normal axis of the held box's face that point ``p`` takes its image gradient across
+        (:meth:`image_gradient`): a held point near its region's face (``fixed = HELD_STRAINED + a``), or a point near
+        the face of a set box impulse acting now (:meth:`~gasp_taichi_mpm.forces.Forces.set_box_axis`); else -1."""
+        a = -1
+        if ti.static(self.any_fixed):
+            if self.fixed[p] >= HELD_STRAINED:
+                a = ti.cast(self.fixed[p], ti.i32) - HELD_STRAINED
+        if ti.static(self.n_set_boxes > 0):
+            if self.fixed[p] == 0:
+                a = self.set_box_axis(self.x[p])
+        return a
+
+    @ti.func
+    def image_gradient(self, C, a):
+        """``C D``, ``D`` the diagonal matrix that negates every column but ``a`` (``a`` -1: ``C``): for a point
+        near a held box's face (normal axis ``a``, :data:`~gasp_core.toolkit.points.HELD_STRAINED`) the ghost field's
+        gradient ``C`` as the gradient at its mirror image (P2G advances its ``F`` by it), and its stress ``tau D``
+        (the force that update pairs with)."""
+        out = C
+        for j in ti.static(range(3)):
+            if j != a and a >= 0:
+                for i in ti.static(range(3)):
+                    out[i, j] = -C[i, j]
+        return out
+
+    @ti.func
+    def held_stress(self, p, tau, a, d_held):
+        """The stress point ``p`` scatters under the held boxes' rule (``a`` from :meth:`held_axis`): ``tau D`` near a
+        face; a brittle point in a held box keeps its damage ``d_held`` (its stress is its mirror image's: the
+        material a box holds does not break)."""
+        out = self.image_gradient(tau, a)
+        if a >= 0:
+            kind = self.kind[self.body[p]]
+            if ti.static(not self.multi_kind):
+                kind = ti.static(next(iter(self.kinds)))
+            if kind == BRITTLE:
+                self.Jp[p] = d_held
+        return out
+
+    @ti.kernel
+    def mirror_held(self):
+        """The ghost nodes of the held boxes (:meth:`mirror_node`): each box impulse of ``mode = "set"`` while it acts
+        (held at its velocity), then each ``fixed_region`` (held at 0), over the touched nodes. A ghost node reads
+        only nodes outside its own box."""
+        lo, ext = self.touched_box()
+        count = ext[0] * ext[1] * ext[2]
+        for idx in range(count):
+            I = lo + ti.Vector([idx // (ext[1] * ext[2]), (idx // ext[2]) % ext[1], idx % ext[2]])
+            if ti.static(self.n_set_boxes > 0):
+                self.mirror_set_boxes(I)
+            for b in ti.static(range(self.n_regions)):
+                if (I >= self.reg_lo[b]).all() and (I <= self.reg_hi[b]).all():
+                    self.grid_v[I] = self.mirror_node(I, self.reg_box[b, 0], self.reg_box[b, 1],
+                                                      ti.Vector.zero(self.real, 3), False)
+
+    @ti.kernel
+    def grid_nodes(self):
         """Sum the copies over the touched box, clear them, velocity + gravity + boundaries -> grid_v."""
         ng = self.n_grid
         lo, ext = self.touched_box()
@@ -172,5 +276,5 @@ class GridUpdate:
                 if acc[3] > 0.0:
                     v0 = ti.Vector([acc[4], acc[5], acc[6]]) / acc[3]
                 self.grid_v0[I] = v0
-            if ti.static(self.has_passive):
+            if ti.static(self.keep_mass):
                 self.grid_m[I] = acc[3]

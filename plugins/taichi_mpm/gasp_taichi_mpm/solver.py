@@ -48,7 +48,7 @@ from .balance_gpu import BalanceGPU
 from .checks import FrameChecks
 from .contact import Contact
 from .fields import Fields
-from .forces import Forces
+from .forces import Forces, count_set_boxes
 from .grid import GridUpdate
 from .rigid import Rigid
 from .rigid_hold import RigidHold
@@ -149,6 +149,7 @@ class MPMSolver(Transfers, ColouredP2G, TileP2G, Constitutive, GridUpdate, Colli
         # (, friction budget with the particle contact: always the last)
         self.eta_channel = 7 if self.flip > 0 else 4
         self.acc_width = self.eta_channel + (1 if self.viscous else 0) + (1 if self.pc else 0)
+        self.n_set_boxes = count_set_boxes(extras)   # their ghost nodes need the node mass (grid.py)
         self._allocate_points(len(kinds))
         self._allocate_grid()
         self.allocate_contact()
@@ -210,7 +211,8 @@ class MPMSolver(Transfers, ColouredP2G, TileP2G, Constitutive, GridUpdate, Colli
         self.grid_v0 = ti.Vector.field(3, real, shape=(ng, ng, ng) if self.flip > 0 else (1, 1, 1))  # AFLIP's v_i^n
         self.grid_v = ti.Vector.field(3, real, shape=(ng, ng, ng))
         # node mass of the last grid update, read by the passive points' G2P (only with passive points)
-        self.grid_m = ti.field(real, shape=(ng, ng, ng) if self.has_passive else (1, 1, 1))
+        self.keep_mass = self.has_passive or self.n_set_boxes > 0   # and the set boxes' ghost nodes (grid.py)
+        self.grid_m = ti.field(real, shape=(ng, ng, ng) if self.keep_mass else (1, 1, 1))
         self.box = ti.Vector.field(3, ti.i32, shape=(self.n_chunks, 2))  # touched node box per chunk
         self.plane_chunks = ti.Vector.field(2, ti.i32, shape=ng)  # first and last chunk whose box reaches I_x
         self.n_out = ti.field(ti.i32, shape=())  # out-of-grid point-substeps since last reset
@@ -257,6 +259,7 @@ class MPMSolver(Transfers, ColouredP2G, TileP2G, Constitutive, GridUpdate, Colli
         self.ground_h = ti.field(real, shape=nb)
         self.reg_lo = ti.Vector.field(3, ti.i32, shape=nb)
         self.reg_hi = ti.Vector.field(3, ti.i32, shape=nb)
+        self.reg_box = ti.Vector.field(3, real, shape=(nb, 2))   # the regions' boxes, m (GridUpdate.mirror_held)
         if max(self.n_walls, self.n_grounds, self.n_regions) > nb:
             raise SceneError(f"engine 'taichi_mpm': at most {nb} boundaries of each kind (walls, ground, "
                              f"fixed_region); got {self.n_walls}, {self.n_grounds}, {self.n_regions}")
@@ -298,9 +301,8 @@ class MPMSolver(Transfers, ColouredP2G, TileP2G, Constitutive, GridUpdate, Colli
             self.ground_fric[i] = fr
             self.ground_kmax[i] = kmax
             self.ground_h[i] = h
-        for i, (rlo, rhi) in enumerate(regions):
-            self.reg_lo[i] = rlo
-            self.reg_hi[i] = rhi
+        for i, (rlo, rhi, blo, bhi) in enumerate(regions):
+            self.reg_lo[i], self.reg_hi[i], self.reg_box[i, 0], self.reg_box[i, 1] = rlo, rhi, blo, bhi
 
     def _split_chunks(self) -> None:
         """Material points and passive points each split into ``n_chunks`` contiguous chunks."""

@@ -53,8 +53,15 @@ class Transfers:
         dt = self.dt[None]
         inv_dx = self.inv_dx[None]
         C = self.C[p]
-        F = (ti.Matrix.identity(self.real, 3) + dt * C) @ self.F[p]
+        Cf = C
+        a, d_held = -1, ti.cast(0.0, self.real)
+        if ti.static(self.any_fixed or self.n_set_boxes > 0):   # in a held box: the image gradient (grid.py)
+            a, d_held = self.held_axis(p), self.Jp[p]
+            Cf = self.image_gradient(C, a)
+        F = (ti.Matrix.identity(self.real, 3) + dt * Cf) @ self.F[p]
         tau = self.return_mapping(p, F)
+        if ti.static(self.any_fixed or self.n_set_boxes > 0):   # its stress scattered to match; no damage
+            tau = self.held_stress(p, tau, a, d_held)
         eta_v = ti.cast(0.0, self.real)
         if ti.static(self.viscous):   # Kelvin-Voigt, implicit on the grid: the point's J V eta (docs/dissipation.md)
             eta_v = self.mat[self.body[p]][P_ETA] * F.determinant() * self.p_vol[p]
@@ -148,10 +155,11 @@ class Transfers:
                     old_v += w[i][0] * w[j][1] * w[k][2] * self.grid_v0[base + ti.Vector([i, j, k])]
                 v_p = new_v + self.flip * (self.v[p] - old_v)
             if ti.static(self.any_fixed):
-                if self.fixed[p] != 0:
+                if self.fixed[p] != 0:   # held; near its region's face its F follows the image gradient (p2g_prep)
                     new_v = ti.Vector.zero(self.real, 3)
                     v_p = new_v
-                    new_C = ti.Matrix.zero(self.real, 3, 3)
+                    if self.fixed[p] == 1:
+                        new_C = ti.Matrix.zero(self.real, 3, 3)
             self.v[p] = v_p
             self.C[p] = new_C
             self.x[p] += self.dt[None] * new_v

@@ -38,7 +38,7 @@ from gasp_core.toolkit.rigid import lift_setup, rigid_contact, step_view, zero_s
 from gasp_core.seam.memory import check_memory, estimate_bytes
 from gasp_core.toolkit.contact import (contact_coefficients, contact_model, contact_planes, ground_node_layer,
                                       rule_models, wall_grid_cells)
-from gasp_core.toolkit.points import cell_order, fixed_mask, passive_bounds, passive_floor_friction
+from gasp_core.toolkit.points import cell_order, held_codes, passive_bounds, passive_floor_friction
 from gasp_core.toolkit.substeps import passive_schedule
 from gasp_core.seam import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
 
@@ -46,6 +46,7 @@ from . import ENGINE, WarpMPMConfig, kernels as K
 from .balance import allocate_balance
 from .colliders import hold_launches
 from .fields import allocate_fields, field_launches
+from .held import held_boxes, mirror_launches
 from .rigid import RigidBodies
 from .sleeping import Sleeping
 from .tables import ExtraTables
@@ -139,7 +140,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
 
         Points that start inside a fixed region are held (docs/mpm.md G2P)."""
         setup, order, dt_np, k, arr = self.setup, self._order, self._np_dtype, self.k, self._array
-        fixed = fixed_mask(setup.x, setup.boundaries).astype(np.int32)
+        fixed = held_codes(setup.x, setup.boundaries, self.dx, sampled=True).astype(np.int32)   # 2+: strained
         jp0 = initial_Jp(setup.materials, setup.body_id)
         self.x = arr(setup.x[order].astype(dt_np), k.vec3)
         self.v = arr(setup.v[order].astype(dt_np), k.vec3)
@@ -161,7 +162,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
         self.grid_mv = wp.zeros(n_nodes, dtype=k.vec4, device=d)
         self.grid_v = wp.zeros(n_nodes, dtype=k.vec3, device=d)
         n_passive = self.n_points - self.n_material
-        self.grid_m = wp.zeros(n_nodes if n_passive else 1, dtype=Ft, device=d)   # node mass (passive G2P)
+        self.grid_m = wp.zeros(n_nodes if n_passive or held_boxes(self.setup) else 1, dtype=Ft, device=d)   # node mass
         # with wind: sum_p p_vol grad N_ip per node (m^2), the windward area the drag acts on
         self.has_wind = int(any(f.kind == "wind" for f in (getattr(self.setup, "forces", None) or [])))
         self.grid_g = wp.zeros(n_nodes if self.has_wind else 1, dtype=k.vec3, device=d)
@@ -233,7 +234,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
                 self.mat_kind, self.mat_par, self.grid_mv, self.flags, lo_v, inv_dx, dx, dt_f, ng,
                 self.grid_g, self.has_wind, self.grid_mv0, int(self.flip > 0), self.p_contact, self.planes, self.plane_n,
                 self.grid_fb, self.grid_eta, self.c_shift, self.grid_fbody, ex, self.colc, self.n_sup, self.grid_fn,
-                self.grid_fv, self.grid_mf, self.flows, self.grid_sv, self.grid_vf, self.in_a]),
+                self.grid_fv, self.grid_mf, self.flows, self.grid_sv, self.grid_vf, self.in_a, self.fixed]),
             wp.launch(k.grid_update, dim=ng ** 3, device=d, record_cmd=True, inputs=[
                 self.grid_mv, self.grid_v, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, Ft(self.wall_in), self.wall_mu,
                 self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex, self.grid_g, self.has_wind,
@@ -246,7 +247,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
         ] + hold_launches(self, Ft, has_extras, ex) + self._rigid_launches(Ft)
         # the contact's balance (gasp_warp_mpm.balance): its moments before P2G, its fix after the grid update
         self._pre, fixes = balance_for(self, k, lo_v, dx, dt_f, ex)   # on the run's schedule (schedule/__init__.py)
-        self._launches[2:2] = fixes
+        self._launches[2:2] = fixes + mirror_launches(self, Ft, has_extras, ex)   # the held boxes' ghosts (grid.py)
         self._launches[1:1] = field_launches(self, Ft)   # the two-field contact after P2G (fields.py)
         # passive points after the grid update (the grid velocity holds forces, colliders, boundaries):
         # one launch per distinct interval of passive_schedule, at the substeps it names; each then held in

@@ -47,6 +47,23 @@ def build_field_reads(Ft):
 
 
 @functools.cache
+def build_aflip_gather(Ft):
+    """``aflip_gather(grid_v0, W, idx0, nn, n_grid)``: AFLIP's ``v_PIC(old)`` at a point (``sum w grid_v0``)."""
+    vec3, vec4, mat33 = build_types(Ft)
+
+    @wp.func
+    def aflip_gather(grid_v0: wp.array(dtype=vec3), W: mat33, idx0: int, nn: int, n_grid: int):
+        old_v = vec3(Ft(0.0))
+        for i in range(3):
+            for j in range(3):
+                for k in range(3):
+                    old_v = old_v + (W[i, 0] * W[j, 1] * W[k, 2]) * grid_v0[idx0 + i * nn + j * n_grid + k]
+        return old_v
+
+    return aflip_gather
+
+
+@functools.cache
 def build_fields(Ft):
     """``field_contact``: the node kernel of the two-field contact, scalar type ``Ft``."""
     vec3, vec4, mat33 = build_types(Ft)

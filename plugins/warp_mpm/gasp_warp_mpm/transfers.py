@@ -17,10 +17,10 @@ import warp as wp
 
 from gasp_core.toolkit.materials import P_ETA
 
-from .constitutive import build_return_mapping
 from .contact import build_collider_contact, build_passive_hold
-from .fields import build_field_reads
+from .fields import build_aflip_gather, build_field_reads
 from .forces import build_extras_struct
+from .held import build_held_return
 from .precision import MODULE_OPTIONS, build_types
 
 
@@ -134,11 +134,10 @@ def build_p2g(Ft):
     """The P2G kernel ``p2g`` of scalar type ``Ft``: return mapping, stress, scatter."""
     vec3, vec4, mat33 = build_types(Ft)
     in_grid, weights = build_stencil(Ft)
-    return_mapping = build_return_mapping(Ft)
     scatter, scatter_wind, scatter_scalar = build_scatter(Ft)
     point_contact = build_collider_contact(Ft)[1]
     Extras = build_extras_struct(Ft)
-    scatter_vec = build_scatter_vec(Ft)
+    scatter_vec, held_return = build_scatter_vec(Ft), build_held_return(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def p2g(
@@ -154,7 +153,7 @@ def build_p2g(Ft):
         grid_eta: wp.array(dtype=Ft), shift: wp.array2d(dtype=wp.float64), grid_fbody: wp.array(dtype=wp.int32),
         ex: Extras, colc: int, n_sup: int, grid_fn: wp.array(dtype=vec3), grid_fv: wp.array(dtype=vec3),
         grid_mf: wp.array(dtype=Ft), flows: wp.array(dtype=wp.int32), grid_sv: wp.array(dtype=vec4),
-        grid_vf: wp.array(dtype=Ft), in_a: wp.array(dtype=wp.int32),
+        grid_vf: wp.array(dtype=Ft), in_a: wp.array(dtype=wp.int32), fixed: wp.array(dtype=wp.int32),
     ):
         # F advanced by C, return mapping and stress (docs/mpm.md), then the scatter (and, with wind, grid_g;
         # with flip, the APIC momentum alone into grid_mv0: gasp_core.toolkit.transfer); with the particle
@@ -174,7 +173,8 @@ def build_p2g(Ft):
         fx = X - vec3(b0, b1, b2)
         W = weights(fx)
         Cp = C[p]
-        F_new, tau = return_mapping((wp.identity(3, dtype=Ft) + dt * Cp) * F[p], p, body, mat_kind, mat_par, Jp)
+        # (I + dt C) F and the return mapping; in a held box the image gradient, its stress, no damage (grid.py)
+        F_new, tau = held_return(Cp, F[p], dt, p, fixed[p], x[p], dx, ex, body, mat_kind, mat_par, Jp)
         F[p] = F_new
         eta = mat_par[body[p], P_ETA]
         pm = p_mass[p]
@@ -218,6 +218,7 @@ def build_g2p(Ft):
     vec3, vec4, mat33 = build_types(Ft)
     in_grid, weights = build_stencil(Ft)
     field_offset_base, field_node_v = build_field_reads(Ft)
+    aflip_gather = build_aflip_gather(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def g2p(
@@ -228,7 +229,7 @@ def build_g2p(Ft):
     ):
         # with the two-field contact (gasp_warp_mpm.fields) each node's velocity plus the point's field's offset
         p = wp.tid()
-        if fixed[p] != 0:
+        if fixed[p] == 1:   # held; near its region's face (2) its C, so its F, follows the grid (docs/fracture.md)
             v[p] = vec3(Ft(0.0))
             C[p] = mat33()
             return
@@ -281,13 +282,11 @@ def build_g2p(Ft):
         B = wp.matrix_from_cols(c0, c1, c2)
         # C = 4 inv_dx^2 sum w g ((i, j, k) - fx)^T dx = 4 inv_dx (B - new_v fx^T)
         C[p] = (Ft(4.0) * inv_dx) * (B - wp.outer(new_v, fx))
+        if fixed[p] != 0:
+            v[p] = vec3(Ft(0.0))
+            return
         if alpha > Ft(0.0):  # AFLIP: v_PIC(new) + alpha (v_p - v_PIC(old)) (gasp_core.toolkit.transfer)
-            old_v = vec3(Ft(0.0))
-            for i in range(3):
-                for j in range(3):
-                    for k in range(3):
-                        old_v = old_v + (W[i, 0] * W[j, 1] * W[k, 2]) * grid_v0[idx0 + i * nn + j * n_grid + k]
-            v[p] = new_v + alpha * (v[p] - old_v)
+            v[p] = new_v + alpha * (v[p] - aflip_gather(grid_v0, W, idx0, nn, n_grid))
         else:
             v[p] = new_v
         x[p] = xp + dt * new_v

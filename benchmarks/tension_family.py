@@ -1,0 +1,252 @@
+"""Tension over a family of specimens (issue 66, "Tension, over a family"): straight bars of three lengths and two
+sections and dog-bones of two proportions, held by a ``fixed_region`` at one end and pulled at the other by an
+``Impulse`` of ``mode = "set"``, at n_grid N and 2N, on the MPM engines.
+
+The material is a physicist's, not one chosen to pass: E 1 MPa, nu 0 (no lateral effect, so a clamp concentrates no
+stress in the continuum), rho 1000 kg/m^3, ``tensile_strength`` f_t 10 kPa, ``fracture_energy`` G_f 20 J/m^2, a
+slow pull (the pulled end at ``PULL`` m/s, the body starting in the quasi-static stretch that pull gives, so no wave
+starts it: the velocity rises from 0 at the clamp's face to ``PULL`` at the pulled box's face as the compliance
+``int dx / A(x)`` does). No gravity. The domain is [0, 1.2]^3 m (dx 0.05 m at n_grid 24), the points a lattice of
+spacing dx / 2 (8 per cell) inside the shape.
+
+Measured per case, from the engine's state each frame (``F`` and ``d`` of every point, the brittle model's stress
+``P = tau F^-T``, ``tau`` the Hencky stress with its tensile principal values scaled by ``1 - d``):
+
+- ``peak``: the largest nominal stress in the gauge, the median over the gauge's lattice layers of each layer's
+  force (``sum P_xx`` times its points' share of the section) over the gauge's area, before any layer breaks through
+  (all its points at ``d >= 0.9``); against f_t.
+- ``where``: the rest x of the layer with the largest mean ``d`` at the end: ``gauge`` (the narrow part, or a bar's
+  free length more than 1.5 cells from both held faces), ``held edge`` (within 1.5 cells of the clamp's or the pulled
+  box's face), else ``grip`` (the dog-bone's shoulders and grips).
+- ``work``: the work to separate over the section, ``int sigma_c dw``: ``sigma_c`` the nominal stress of the crack's
+  layer, ``w`` the crack's inelastic opening (the stretch between the layers 2 cells either side of it, less each
+  layer's elastic ``P / E`` share), trapezoid over the frames until that layer is at ``d = 1`` throughout; against
+  G_f.
+- ``dissipated``: the damage's own account over the same zone, ``sum V f_t s d / (2 E)`` (``s`` the effective
+  stress the point's ``d`` stands for, linear softening) per gauge area; against G_f (``dissipated_everywhere``:
+  over the whole body, the damage the waves leave after the break included).
+
+Run: ``python benchmarks/tension_family.py --engine taichi_mpm`` (and ``--engine warp_mpm``; ``--n-grid 24``,
+``--only NAME``); each engine's cases are added to ``benchmarks/results/tension_family.json`` and the table
+``tension_family.md`` is written from it. One engine per process (taichi_mpm flushes subnormals in its process).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+E, NU, RHO, FT, GF = 1e6, 0.0, 1000.0, 1e4, 20.0
+PULL, FRAME_DT, SIZE, Y0 = 0.02, 0.0005, 1.2, 0.6
+X0, HOLD = 0.2, 0.1       # the specimen starts at x = X0; the clamp and the pulled box take HOLD m of its ends
+RESULTS = Path(__file__).parent / "results"
+AFTER = 40                # frames run after a layer is at d = 1 throughout (the crack open)
+
+
+@dataclass(frozen=True)
+class Specimen:
+    """A body along x from ``X0``: ``width(x)`` its square section's side (m) at rest x; ``gauge`` (lo, hi) its narrow
+    part's rest x (m, a bar's: its free length)."""
+    name: str
+    length: float
+    grip: float
+    gauge_w: float
+    gauge_l: float = 0.0     # dog-bones: the narrow part's length (m); 0: a straight bar
+    taper: float = 0.0       # dog-bones: each shoulder's length (cosine), m
+
+    def width(self, x: np.ndarray) -> np.ndarray:
+        if self.gauge_l == 0.0:
+            return np.full_like(x, self.gauge_w)
+        mid = X0 + self.length / 2
+        r = np.abs(x - mid) - self.gauge_l / 2          # past the gauge's end
+        t = np.clip(r / self.taper, 0.0, 1.0)
+        return self.gauge_w + (self.grip - self.gauge_w) * 0.5 * (1 - np.cos(np.pi * t))
+
+    def gauge(self, dx: float) -> tuple[float, float]:
+        if self.gauge_l == 0.0:
+            return X0 + HOLD + 1.5 * dx, X0 + self.length - HOLD - 1.5 * dx
+        mid = X0 + self.length / 2
+        return mid - self.gauge_l / 2, mid + self.gauge_l / 2
+
+
+FAMILY = [
+    Specimen("bar_L0.5_a0.15", 0.5, 0.15, 0.15),
+    Specimen("bar_L0.7_a0.15", 0.7, 0.15, 0.15),
+    Specimen("bar_L0.9_a0.15", 0.9, 0.15, 0.15),
+    Specimen("bar_L0.7_a0.30", 0.7, 0.30, 0.30),
+    Specimen("dogbone_2to1", 0.9, 0.30, 0.15, gauge_l=0.3, taper=0.15),
+    Specimen("dogbone_1.5to1", 0.75, 0.225, 0.15, gauge_l=0.2, taper=0.1),
+]
+
+
+def build(sp: Specimen, n_grid: int, engine: str, ft: float = FT):
+    """The setup: the lattice (spacing dx/2) inside the specimen, held over its first ``HOLD`` m, pulled over its
+    last, starting in the quasi-static stretch of the pull. Returns ``(setup, layer index of each point, layer rest
+    x, clamp face x, pulled face x)``."""
+    from gasp_core.colliders.model import Impulse
+    from gasp_core.seam.setup import Boundary, Material
+    from gasp_core.testing.helpers import make_setup
+    dx = SIZE / n_grid
+    s = dx / 2
+    nx = int(round(sp.length / s))
+    lx = X0 + (np.arange(nx) + 0.5) * s
+    half = sp.grip / 2
+    ny = int(round(sp.grip / s))
+    ly = Y0 - half + (np.arange(ny) + 0.5) * s
+    X, Yg, Zg = np.meshgrid(lx, ly, ly, indexing="ij")
+    x = np.stack([X.ravel(), Yg.ravel(), Zg.ravel()], axis=1)
+    w = sp.width(x[:, 0])
+    keep = (np.abs(x[:, 1] - Y0) <= w / 2 + 1e-9) & (np.abs(x[:, 2] - Y0) <= w / 2 + 1e-9)
+    x = x[keep]
+    clamp, pulled = X0 + HOLD, X0 + sp.length - HOLD
+    comp = np.cumsum(1.0 / sp.width(lx) ** 2)               # the compliance int dx / A(x), per layer
+    c_cl, c_pu = np.interp([clamp, pulled], lx, comp)
+    layer = np.round((x[:, 0] - X0) / s - 0.5).astype(int)
+    v = np.zeros_like(x)
+    v[:, 0] = PULL * np.clip((comp[layer] - c_cl) / (c_pu - c_cl), 0.0, 1.0)
+    m = Material("brittle", E=E, nu=NU, rho=RHO, tensile_strength=ft, fracture_energy=GF)
+    opts = {"precision": "f64", **({"threads": 1} if engine == "taichi_mpm" else {})}
+    st = make_setup(x, np.full(len(x), s ** 3), m, v=v, gravity=(0, 0, 0), hi=(SIZE,) * 3, n_grid=n_grid,
+                    frame_dt=FRAME_DT, boundaries=[Boundary("fixed_region", lo=(0, 0, 0), hi=(clamp, SIZE, SIZE))],
+                    options=opts)
+    st.impulses = [Impulse("box", (PULL, 0, 0), 0.0, 100.0, lo=(pulled, 0, 0), hi=(SIZE, SIZE, SIZE), mode="set")]
+    return st, layer, lx, clamp, pulled
+
+
+def nominal_xx(F: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """``P_xx`` (Pa) of the brittle model (nu 0: ``tau_i = 2 mu eps_i``) at ``F`` (n, 3, 3) and damage ``d`` (n,)."""
+    U, sig, _ = np.linalg.svd(F)
+    s = E * np.log(np.clip(sig, 1e-9, None))
+    s = np.where(s > 0, (1 - d[:, None]) * s, s)
+    tau = np.einsum("nij,nj,nkj->nik", U, s, U)
+    return np.einsum("nij,nkj->nik", tau, np.linalg.inv(F))[:, 0, 0]
+
+
+def run_case(sp: Specimen, n_grid: int, engine: str, build_fn=build) -> dict:
+    """One specimen on one engine at one grid: the figures of the module's docstring."""
+    from gasp_core.seam.build import build_engine
+    from gasp_core.seam.plugins import engines
+    from gasp_core.toolkit.materials import softening_stress
+    st, layer, lx, clamp, pulled = build_fn(sp, n_grid, engine)
+    dx, s = st.dx, st.dx / 2
+    nl = len(lx)
+    count = np.bincount(layer, minlength=nl)
+    a_gauge = float(sp.gauge_w ** 2)
+    g_lo, g_hi = sp.gauge(dx)
+    gauge = (lx > g_lo) & (lx < g_hi)
+    gl = np.flatnonzero(gauge)
+    free = (lx > clamp) & (lx < pulled)
+    t_peak = (FT / E) * (np.interp(pulled, lx, np.cumsum(a_gauge / sp.width(lx) ** 2)) -
+                         np.interp(clamp, lx, np.cumsum(a_gauge / sp.width(lx) ** 2))) * s / PULL
+    # until the crack has opened past 1.5 w_c = 3 G_f / f_t beyond the peak's stretch, or 20 ms after it is open
+    n_frames = int(np.ceil((t_peak + 1.5 * 2 * GF / FT / PULL) / FRAME_DT))
+    e = build_engine(engines()[name_check(engine)], st)
+    force, pos, dmean, thru, opened = [], [], [], [], []
+    t0 = time.time()
+    try:
+        for _ in range(n_frames):
+            e.step_frame()
+            F = np.asarray(e.to_setup_order(e.get_state()["F"]), np.float64)
+            d = np.asarray(e.damage(), np.float64)
+            xs = np.asarray(e.positions(), np.float64)
+            P = nominal_xx(F, d)
+            force.append(np.bincount(layer, P, nl) * s * s)
+            pos.append(np.bincount(layer, xs[:, 0], nl) / np.maximum(count, 1))
+            dmean.append(np.bincount(layer, d, nl) / np.maximum(count, 1))
+            thru.append(bool(np.any(np.bincount(layer, d >= 0.9, nl) == count)))   # a layer broken through
+            opened.append(bool(np.any(np.bincount(layer, d >= 1.0, nl) == count)))   # a layer at d = 1 throughout
+            if len(opened) > AFTER and opened[-AFTER]:
+                break
+    finally:
+        e.close()
+    wall = time.time() - t0
+    force, pos, dmean = np.array(force), np.array(pos), np.array(dmean)
+    broken = np.array(thru)
+    k_end = int(np.argmax(broken)) if broken.any() else len(force)
+    sig_g = np.median(force[:, gl], axis=1) / a_gauge
+    peak = float(sig_g[:max(k_end, 1)].max())
+    crack = int(np.argmax(dmean[-1]))
+    span = np.flatnonzero(free & (np.abs(lx - lx[crack]) <= 2 * dx + 1e-9))   # the crack's zone: 2 cells each side
+    x_c = float(lx[crack])
+    if g_lo < x_c < g_hi:
+        where = "gauge"
+    elif min(abs(x_c - clamp), abs(x_c - pulled)) < 1.5 * dx:
+        where = "held edge"
+    else:
+        where = "grip"
+    # the inelastic opening over the span of the gauge's end layers, and the crack layer's nominal stress
+    area = count * s * s
+    elastic = (force[:, span[:-1]] / area[span[:-1]] / E * (lx[span[1:]] - lx[span[:-1]])).sum(axis=1)
+    stretch = pos[:, span[-1]] - pos[:, span[0]]
+    w = stretch - (lx[span[-1]] - lx[span[0]]) - elastic
+    sig_c = force[:, crack] / a_gauge
+    work = float(np.sum(0.5 * (sig_c[1:] + sig_c[:-1]) * np.diff(w))) if crack in span else float("nan")
+    sf = softening_stress(st.materials[0], float(st.crack_band[0]))
+    dl = dmean[-1]
+    D = FT ** 2 * sf * dl / (2 * E * ((1 - dl) * (sf - FT) + FT))
+    dissipated = float((D[span] * count[span] * s ** 3).sum() / a_gauge)
+    dissipated_all = float((D * count * s ** 3).sum() / a_gauge)
+    return {"specimen": sp.name, "engine": engine, "n_grid": n_grid, "dx": dx, "cells_across": sp.gauge_w / dx,
+            "points": int(len(st.x)), "frames": n_frames, "seconds": round(wall, 1),
+            "peak": peak, "peak_vs_ft": peak / FT - 1, "crack_x": x_c, "where": where,
+            "clamp_face": clamp, "pulled_face": pulled, "gauge": [g_lo, g_hi],
+            "work": work, "work_vs_gf": work / GF - 1, "dissipated": dissipated, "dissipated_vs_gf": dissipated / GF - 1,
+            "dissipated_everywhere": dissipated_all,
+            "broken_through": bool(broken.any()), "final_stress": float(sig_g[-1]), "frames_run": len(force),
+            "damaged_layers": [[round(float(lx[k]), 4), round(float(dl[k]), 3)] for k in np.flatnonzero(dl > 0.05)]}
+
+
+def name_check(engine: str) -> str:
+    if engine not in ("taichi_mpm", "warp_mpm"):
+        raise SystemExit(f"engine {engine!r}: taichi_mpm or warp_mpm")
+    return engine
+
+
+def table(rows: list[dict]) -> str:
+    """The Markdown table of the cases, with the must-show's verdicts."""
+    out = ["| specimen | engine | n_grid | cells across | peak / f_t | breaks at (x, m) | where | work to separate "
+           "(J/m^2) | vs G_f | N to 2N | dissipated (J/m^2) | s |",
+           "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    by = {(r["specimen"], r["engine"], r["n_grid"]): r for r in rows}
+    for r in sorted(rows, key=lambda r: (r["specimen"], r["engine"], r["n_grid"])):
+        twin = by.get((r["specimen"], r["engine"], r["n_grid"] // 2))
+        conv = f"{100 * (r['work'] / twin['work'] - 1):+.1f} %" if twin else ""
+        out.append(f"| {r['specimen']} | {r['engine']} | {r['n_grid']} | {r['cells_across']:.0f} | "
+                   f"{r['peak'] / FT:.3f} ({100 * r['peak_vs_ft']:+.1f} %) | {r['crack_x']:.3f} | {r['where']} | "
+                   f"{r['work']:.1f} | {100 * r['work_vs_gf']:+.1f} % | {conv} | {r['dissipated']:.1f} | "
+                   f"{r['seconds']:.0f} |")
+    return "\n".join(out) + "\n"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--engine", default="taichi_mpm")
+    ap.add_argument("--n-grid", type=int, default=24, help="N (the cases run at N and 2N)")
+    ap.add_argument("--only", default="", help="comma-separated specimen names")
+    ap.add_argument("--coarse-only", action="store_true", help="N only")
+    a = ap.parse_args()
+    RESULTS.mkdir(exist_ok=True)
+    path = RESULTS / "tension_family.json"
+    rows = json.loads(path.read_text())["cases"] if path.exists() else []
+    names = set(a.only.split(",")) if a.only else {sp.name for sp in FAMILY}
+    for sp in FAMILY:
+        if sp.name not in names:
+            continue
+        for n in (a.n_grid,) if a.coarse_only else (a.n_grid, 2 * a.n_grid):
+            r = run_case(sp, n, a.engine)
+            print(json.dumps(r), flush=True)
+            rows = [q for q in rows if (q["specimen"], q["engine"], q["n_grid"]) != (sp.name, a.engine, n)] + [r]
+            path.write_text(json.dumps({"material": {"E": E, "nu": NU, "rho": RHO, "f_t": FT, "G_f": GF,
+                                                     "pull_m_s": PULL}, "cases": rows}, indent=1))
+    (RESULTS / "tension_family.md").write_text(
+        f"# Tension over a family (issue 66)\n\n`python benchmarks/tension_family.py` (docstring: the specimens and "
+        f"the measures). E {E:g} Pa, nu {NU:g}, f_t {FT:g} Pa, G_f {GF:g} J/m^2, pull {PULL:g} m/s, f64.\n\n"
+        + table(rows))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,202 @@
+"""The held boxes (docs/fracture.md, "The held region"): a ``fixed_region`` and a box impulse of ``mode = "set"``
+while it acts. Their ghost nodes after the grid update (:func:`build_mirror`), the image gradient, the stress and the
+damage of the points near their faces in P2G (:func:`build_image_flip`, :func:`build_held_return`); as Warp functions and kernels per scalar type (:mod:`gasp_warp_mpm.precision`).
+
+This module must not use ``from __future__ import annotations``: Warp reads the annotations of
+the closures below as type objects.
+"""
+import functools
+
+import warp as wp
+
+from gasp_core.toolkit.grid_tables import (COL_POSE, FT_POSES, IM_A, IM_B, IM_DV, IM_MODE, IM_SHAPE, IMPULSE_ADD,
+                                           IMPULSE_BOX, IMPULSE_ROW)
+from gasp_core.toolkit.materials import BRITTLE
+from gasp_core.toolkit.points import HELD_STRAIN_CELLS, HELD_STRAINED, MIRROR_CELLS
+
+from .constitutive import build_return_mapping
+from .forces import build_extras_struct
+from .precision import MODULE_OPTIONS, build_types
+
+
+@functools.cache
+def build_mirror(Ft):
+    """``mirror_held``: the kernel of the held boxes' ghost nodes (docs/fracture.md, "The held region"; taichi_mpm's
+    ``GridUpdate.mirror_held``): each box impulse of ``mode = "set"`` while it acts (held at its velocity), then each
+    ``fixed_region`` (held at 0). A node inside a box within ``MIRROR_CELLS`` cells of its nearest face takes
+    ``2 v_set - v(X')``, ``X'`` its mirror image across that face (``v`` linear along the face's normal; where one of
+    the two nodes is the node itself, solved for it); a set box leaves ``v_set`` where a mirror node has no mass."""
+    vec3, vec4, mat33 = build_types(Ft)
+    Extras = build_extras_struct(Ft)
+
+    @wp.func
+    def mirror_node(node: int, X: vec3, blo: vec3, bhi: vec3, v_set: vec3, grid_v: wp.array(dtype=vec3),
+                    grid_m: wp.array(dtype=Ft), empty: int, lo: vec3, dx: Ft, n_grid: int):
+        s = Ft(1e30)
+        ax = int(0)
+        side = Ft(1.0)
+        for d in range(3):
+            if X[d] - blo[d] < s:
+                s = X[d] - blo[d]
+                ax = d
+                side = Ft(-1.0)
+            if bhi[d] - X[d] < s:
+                s = bhi[d] - X[d]
+                ax = d
+                side = Ft(1.0)
+        v = v_set
+        if s < Ft(MIRROR_CELLS) * dx:
+            stride = int(1)
+            if ax == 0:
+                stride = n_grid * n_grid
+            elif ax == 1:
+                stride = n_grid
+            me = (node / stride) % n_grid
+            q = (X[ax] + Ft(2.0) * side * s - lo[ax]) / dx
+            a = wp.min(wp.max(int(wp.floor(q)), 0), n_grid - 2)
+            t = q - Ft(a)
+            na = node + (a - me) * stride
+            nb = na + stride
+            if a == me:       # the lower node is this one (an upper face under dx/2 away)
+                v = (Ft(2.0) * v_set - t * grid_v[nb]) / (Ft(2.0) - t)
+            elif a + 1 == me:   # the upper node is this one (a lower face)
+                v = (Ft(2.0) * v_set - (Ft(1.0) - t) * grid_v[na]) / (Ft(1.0) + t)
+            else:
+                v = Ft(2.0) * v_set - (Ft(1.0) - t) * grid_v[na] - t * grid_v[nb]
+            if empty != 0:
+                if grid_m[na] <= Ft(0.0) or grid_m[nb] <= Ft(0.0):
+                    v = v_set
+        return v
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def mirror_held(grid_v: wp.array(dtype=vec3), grid_m: wp.array(dtype=Ft), lo: vec3, dx: Ft, n_grid: int,
+                    fixed_lo: wp.array(dtype=vec3), fixed_hi: wp.array(dtype=vec3), has_extras: int, ex: Extras):
+        node = wp.tid()
+        i = node / (n_grid * n_grid)
+        j = (node / n_grid) % n_grid
+        k = node % n_grid
+        X = lo + dx * vec3(Ft(i), Ft(j), Ft(k))
+        if has_extras != 0:
+            base = ex.step[0] * ex.width
+            for q in range(ex.n_imp):
+                r = q * IMPULSE_ROW
+                c = vec3(ex.imps[r + IM_A], ex.imps[r + IM_A + 1], ex.imps[r + IM_A + 2])
+                b = vec3(ex.imps[r + IM_B], ex.imps[r + IM_B + 1], ex.imps[r + IM_B + 2])
+                w = ex.tab[base + FT_POSES + COL_POSE * ex.n_col + q]
+                if (ex.imps[r + IM_SHAPE] == Ft(IMPULSE_BOX) and ex.imps[r + IM_MODE] != Ft(IMPULSE_ADD)
+                        and w > Ft(0.0) and X[0] >= c[0] and X[1] >= c[1] and X[2] >= c[2] and X[0] <= b[0]
+                        and X[1] <= b[1] and X[2] <= b[2]):
+                    dv = vec3(ex.imps[r + IM_DV], ex.imps[r + IM_DV + 1], ex.imps[r + IM_DV + 2])
+                    grid_v[node] = mirror_node(node, X, c, b, dv, grid_v, grid_m, 1, lo, dx, n_grid)
+        for r in range(fixed_lo.shape[0]):
+            flo = fixed_lo[r]
+            fhi = fixed_hi[r]
+            if (X[0] >= flo[0] and X[0] <= fhi[0] and X[1] >= flo[1] and X[1] <= fhi[1]
+                    and X[2] >= flo[2] and X[2] <= fhi[2]):
+                grid_v[node] = mirror_node(node, X, flo, fhi, vec3(Ft(0.0)), grid_v, grid_m, 0, lo, dx, n_grid)
+
+    return mirror_held
+
+
+@functools.cache
+def build_image_flip(Ft):
+    """``held_axis(code, X, dx, ex)`` and ``image_flip(a)`` (docs/fracture.md, "The held region"). ``held_axis``:
+    the normal axis of the face that a point near it takes its image gradient across: a held point's (``code =
+    HELD_STRAINED + a``, :func:`gasp_core.toolkit.points.held_codes`), or a point's within ``HELD_STRAIN_CELLS`` cells
+    inside the nearest face of a box impulse of ``mode = "set"`` acting now; else -1. ``image_flip``: the diagonal
+    matrix ``D`` that negates every column but ``a``. P2G advances such a point's ``F`` by ``C D``, the velocity
+    gradient at its mirror image across the face (the ghost field is ``2 v_set - v(X')``, so ``C = -grad v(X') R``),
+    and scatters its stress as ``tau D``, the force that update pairs with."""
+    vec3, vec4, mat33 = build_types(Ft)
+    Extras = build_extras_struct(Ft)
+
+    @wp.func
+    def set_box_at(X: vec3, ex: Extras):
+        hit = int(-1)
+        base = ex.step[0] * ex.width
+        for q in range(ex.n_imp):
+            r = q * IMPULSE_ROW
+            c = vec3(ex.imps[r + IM_A], ex.imps[r + IM_A + 1], ex.imps[r + IM_A + 2])
+            b = vec3(ex.imps[r + IM_B], ex.imps[r + IM_B + 1], ex.imps[r + IM_B + 2])
+            if (ex.imps[r + IM_SHAPE] == Ft(IMPULSE_BOX) and ex.imps[r + IM_MODE] != Ft(IMPULSE_ADD)
+                    and ex.tab[base + FT_POSES + COL_POSE * ex.n_col + q] > Ft(0.0) and X[0] >= c[0]
+                    and X[1] >= c[1] and X[2] >= c[2] and X[0] <= b[0] and X[1] <= b[1] and X[2] <= b[2]):
+                hit = q
+        return hit
+
+    @wp.func
+    def held_axis(code: int, X: vec3, dx: Ft, ex: Extras):
+        a = int(-1)
+        if code >= HELD_STRAINED:
+            a = code - HELD_STRAINED
+        if code == 0 and ex.n_imp > 0:
+            q = set_box_at(X, ex)
+            if q >= 0:
+                r = q * IMPULSE_ROW
+                near = Ft(HELD_STRAIN_CELLS) * dx
+                for d in range(3):
+                    s = wp.min(X[d] - ex.imps[r + IM_A + d], ex.imps[r + IM_B + d] - X[d])
+                    if s < near:
+                        near = s
+                        a = d
+        return a
+
+    @wp.func
+    def image_flip(a: int):
+        flip = vec3(Ft(-1.0))
+        flip[a] = Ft(1.0)
+        return wp.diag(flip)
+
+    return held_axis, image_flip
+
+
+@functools.cache
+def build_held_return(Ft):
+    """``held_return(C, F, dt, p, code, X, dx, ex, body, mat_kind, mat_par, Jp)``: P2G's ``F`` update and return
+    mapping (``(F, tau)``, :func:`gasp_warp_mpm.constitutive.build_return_mapping`) with the held boxes' rule
+    (:func:`build_image_flip`): near a held box's face ``F`` advances by ``C D``, ``tau D`` is scattered, and a
+    brittle point keeps its damage (its stress is its mirror image's: the material a box holds does not break);
+    elsewhere ``(I + dt C) F``."""
+    vec3, vec4, mat33 = build_types(Ft)
+    Extras = build_extras_struct(Ft)
+    held_axis, image_flip = build_image_flip(Ft)[:2]
+    return_mapping = build_return_mapping(Ft)
+
+    @wp.func
+    def held_return(Cp: mat33, Fp: mat33, dt: Ft, p: int, code: int, X: vec3, dx: Ft, ex: Extras,
+                    body: wp.array(dtype=wp.int32), mat_kind: wp.array(dtype=wp.int32),
+                    mat_par: wp.array2d(dtype=Ft), Jp: wp.array(dtype=Ft)):
+        a = held_axis(code, X, dx, ex)
+        d_held = Jp[p]
+        Cf = Cp
+        if a >= 0:
+            Cf = Cp * image_flip(a)
+        F_new, tau = return_mapping((wp.identity(3, dtype=Ft) + dt * Cf) * Fp, p, body, mat_kind, mat_par, Jp)
+        if a >= 0:
+            tau = tau * image_flip(a)
+        if a >= 0 and mat_kind[body[p]] == BRITTLE:
+            Jp[p] = d_held
+        return F_new, tau
+
+    return held_return
+
+
+def count_set_boxes(setup) -> int:
+    """Box impulses of ``mode = "set"`` in ``setup`` (their nodes are held: :func:`build_mirror`)."""
+    return sum(1 for i in (getattr(setup, "impulses", None) or []) if i.shape == "box" and i.mode == "set")
+
+
+def held_boxes(setup) -> bool:
+    """Whether ``setup`` holds a box (a ``fixed_region`` or a set box impulse): its grid keeps the node mass."""
+    return any(b.kind == "fixed_region" for b in setup.boundaries) or count_set_boxes(setup) > 0
+
+
+def mirror_launches(eng, Ft, has_extras: int, ex) -> list:
+    """The recorded launch of :func:`build_mirror`'s kernel after the grid update, where the setup has a
+    ``fixed_region`` or a set box impulse; else none."""
+    if not held_boxes(eng.setup):
+        return []
+    k = eng.k
+    lo_v = k.vec3(*[float(c) for c in eng.setup.domain_lo])
+    return [wp.launch(build_mirror(Ft), dim=eng.n_grid ** 3, device=eng.device, record_cmd=True, inputs=[
+        eng.grid_v, eng.grid_m, lo_v, Ft(eng.dx), eng.n_grid, eng.fixed_lo, eng.fixed_hi, has_extras, ex])]

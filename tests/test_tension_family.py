@@ -1,0 +1,102 @@
+"""Tension over a family (issue 66, "Tension, over a family"; ``benchmarks/tension_family.py``, docs/fracture.md "The
+held region"): a straight bar and a dog-bone of the family, held by a ``fixed_region`` at one end and pulled by a set
+impulse at the other, on both MPM engines:
+
+- the peak nominal stress in the gauge is f_t within 5 % (two-sided);
+- the break is in the gauge, not at the held edge;
+- (dog-bones: not met, a strict xfail)
+- the work to separate over the section (``int sigma_c dw``) is G_f within 20 % (two-sided) at n_grid N; at 2N and
+  between N and 2N (15 %) it is not met (a strict xfail with the measured shortfall).
+
+The catch: the engines with the held region before issue 66 (the fixed region's nodes at 0, its points rigid, no
+ghost nodes) fail it: the bar breaks at its clamp's edge at a peak under 0.9 f_t.
+"""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+import tension_family as tf   # noqa: E402
+
+from gasp_core.seam.plugins import engines   # noqa: E402
+
+STRENGTH_TOL, GF_TOL, GRID_TOL = 0.05, 0.20, 0.15
+N = 24
+BAR, BONE = tf.FAMILY[1], tf.FAMILY[4]    # bar_L0.7_a0.15, dogbone_2to1
+
+
+def _names():
+    return [n for n, i in engines().items() if i.unavailable_reason() is None and n in ("taichi_mpm", "warp_mpm")]
+
+
+def failures(r: dict) -> list[str]:
+    """What the must-show finds wrong with one case of :func:`tension_family.run_case`."""
+    bad = []
+    if abs(r["peak"] / tf.FT - 1) > STRENGTH_TOL:
+        bad.append(f"{r['specimen']} n_grid {r['n_grid']}: peak nominal stress {r['peak']:.0f} Pa against f_t "
+                   f"{tf.FT:.0f} ({100 * r['peak_vs_ft']:+.1f} %)")
+    if r["where"] != "gauge":
+        bad.append(f"{r['specimen']} n_grid {r['n_grid']}: breaks at x = {r['crack_x']:.3f} m ({r['where']}; clamp "
+                   f"face {r['clamp_face']:.3f}, gauge {r['gauge'][0]:.3f}-{r['gauge'][1]:.3f})")
+    if not abs(r["work"] / tf.GF - 1) <= GF_TOL:
+        bad.append(f"{r['specimen']} n_grid {r['n_grid']}: work to separate {r['work']:.2f} J/m^2 against G_f "
+                   f"{tf.GF:g}")
+    return bad
+
+
+def old_clamp(monkeypatch, name: str) -> None:
+    """The engine ``name`` with the held region before issue 66: no ghost nodes, every held point rigid."""
+    from gasp_core.toolkit.points import fixed_mask
+
+    def rigid(x, boundaries, dx, sampled=False):
+        return fixed_mask(x, boundaries).astype(np.int8)
+    if name == "taichi_mpm":
+        from gasp_taichi_mpm.grid import GridUpdate
+        monkeypatch.setattr(GridUpdate, "grid_update", lambda self: self.grid_nodes())
+        monkeypatch.setattr("gasp_taichi_mpm.engine.held_codes", rigid)
+    else:
+        monkeypatch.setattr("gasp_warp_mpm.engine.mirror_launches", lambda *a: [])
+        monkeypatch.setattr("gasp_warp_mpm.engine.held_codes", rigid)
+
+
+def strength_failures(r: dict) -> list[str]:
+    """:func:`failures` without the work to separate."""
+    return [b for b in failures(r) if "work to separate" not in b]
+
+
+@pytest.mark.parametrize("name", _names())
+def test_a_bar_carries_f_t_breaks_in_the_gauge_and_takes_G_f_at_N(name):
+    """The peak and the break's place at N and 2N, the work to separate at N (measured:
+    benchmarks/results/tension_family.md). The dog-bones are not held to it: they break at a shoulder (below)."""
+    r1, r2 = tf.run_case(BAR, N, name), tf.run_case(BAR, 2 * N, name)
+    bad = failures(r1) + strength_failures(r2)
+    assert bad == [], bad
+
+
+@pytest.mark.xfail(strict=True, reason="issue 66: the work to separate falls with n_grid (the bar at n_grid 48: "
+                                       "13.8 J/m^2, -31 % against G_f, -22 % from n_grid 24; docs/fracture.md)")
+@pytest.mark.parametrize("name", _names()[:1])
+def test_the_work_to_separate_is_G_f_at_2N_and_within_15_percent_of_N(name):
+    r1, r2 = tf.run_case(BAR, N, name), tf.run_case(BAR, 2 * N, name)
+    bad = failures(r2)
+    if not abs(r2["work"] / r1["work"] - 1) <= GRID_TOL:
+        bad.append(f"{BAR.name}: work to separate {r1['work']:.2f} J/m^2 at n_grid {N}, {r2['work']:.2f} at {2 * N}")
+    assert bad == [], bad
+
+
+@pytest.mark.xfail(strict=True, reason="issue 66: the dog-bones break 1 cell past the gauge's end, in the shoulder's "
+                                       "cosine taper, at a peak 8 % under f_t (docs/fracture.md)")
+@pytest.mark.parametrize("name", _names()[:1])
+def test_a_dog_bone_breaks_in_its_gauge(name):
+    assert failures(tf.run_case(BONE, N, name)) == []
+
+
+@pytest.mark.parametrize("name", _names())
+def test_the_family_check_catches_the_old_node_held_clamp(name, monkeypatch):
+    old_clamp(monkeypatch, name)
+    bad = failures(tf.run_case(BAR, N, name))
+    assert any("breaks at" in b for b in bad) and any("peak nominal" in b for b in bad), bad
