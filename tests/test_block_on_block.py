@@ -36,7 +36,7 @@ import math
 
 import numpy as np
 import pytest
-from test_rigid_slope import ENGINES, _engine
+from slopes import ENGINES, engine_param as _engine
 
 from gasp_core.seam import build_engine, get_engine
 from gasp_core.seam.setup import Boundary, Material, SimSetup

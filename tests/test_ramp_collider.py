@@ -30,23 +30,13 @@ import pytest
 
 from gasp_core.colliders.sdf import SDF_SPACING, collider_from_triangles
 from gasp_core.errors import EngineDivergence
-from gasp_core.seam import build_engine, engines, get_engine
+from gasp_core.seam import build_engine, get_engine
 from gasp_core.seam.setup import Material
 from gasp_core.testing.helpers import box_points, make_setup
+from slopes import ENGINES, closed_form, coulomb_problem, rest_brake, slides
 
 pytest.importorskip("trimesh", reason="mesh colliders need trimesh (the [mesh] extra)")
 
-INSTALLED = engines()
-ENGINE_NAMES = ("taichi_mpm", "warp_mpm")
-
-
-def _engine(e, marks=()):
-    return pytest.param(e, marks=[pytest.mark.skipif(e not in INSTALLED or INSTALLED[e].unavailable_reason()
-                                                     is not None, reason=f"{e} not installed"), *marks])
-
-
-ENGINES = [_engine(e) for e in ENGINE_NAMES]
-G = 9.81
 N_GRID = 24
 SIDE = 0.6
 DX = SIDE / N_GRID
@@ -103,16 +93,6 @@ def ramp_setup(theta: float, mu: float):
     return st
 
 
-def closed_form(theta: float, mu: float) -> float:
-    """Coulomb's acceleration down the ramp (m/s^2), 0 where the block sticks."""
-    t = math.radians(theta)
-    return max(G * (math.sin(t) - mu * math.cos(t)), 0.0)
-
-
-def slides(theta: float, mu: float) -> bool:
-    return math.tan(math.radians(theta)) > mu
-
-
 def measure(engine: str, theta: float, mu: float, spoil=None, output=None) -> float:
     """The acceleration down the ramp (m/s^2) where it slides, the centroid's travel (mm) in ``STICK_T`` where it
     sticks. ``spoil(setup)`` and ``output(centroids)`` break the engine on purpose."""
@@ -139,15 +119,7 @@ def measure(engine: str, theta: float, mu: float, spoil=None, output=None) -> fl
 
 def check(theta: float, mu: float, figure: float) -> str | None:
     """None when the figure meets Coulomb, else what is wrong (two-sided)."""
-    if slides(theta, mu):
-        a0 = closed_form(theta, mu)
-        err = figure / a0 - 1.0
-        if not abs(err) <= TOL:
-            return f"{theta} deg, mu {mu}: a = {figure:.4f} m/s^2 against {a0:.4f} ({100 * err:+.2f} %)"
-        return None
-    if not figure < STICK_MM:
-        return f"{theta} deg, mu {mu}: it moved {figure:.3f} mm in {STICK_T:g} s (sticks: under {STICK_MM} mm)"
-    return None
+    return coulomb_problem(theta, mu, figure, TOL, STICK_MM, STICK_T)
 
 
 @pytest.mark.parametrize("engine", ENGINES)
@@ -174,18 +146,9 @@ def _friction(factor=None, value=None):
 
 
 def _rest_brake(c: np.ndarray, v_rest: float = 0.1) -> np.ndarray:
-    """The centroid of an engine that holds a body still whenever its speed after a frame is under ``v_rest`` (m/s):
-    a speed threshold where Coulomb's force balance should decide (the block gains 0.053 m/s a frame at 30 degrees
-    and mu 0.2)."""
-    out = c.copy()
-    v = np.diff(c, axis=0) * FPS
-    u = np.zeros(3)
-    for i in range(1, len(c)):
-        u = u + (v[i - 1] - (v[i - 2] if i > 1 else 0.0))
-        if np.linalg.norm(u) < v_rest:
-            u = np.zeros(3)
-        out[i] = out[i - 1] + u / FPS
-    return out
+    """A broken engine holding a body still under ``v_rest`` m/s, its whole speed (the block gains 0.053 m/s a frame
+    at 30 degrees and mu 0.2): :func:`slopes.rest_brake`."""
+    return rest_brake(c, FPS, v_rest, horizontal=False)
 
 
 @pytest.mark.parametrize("engine", ENGINES)

@@ -35,22 +35,12 @@ import math
 import numpy as np
 import pytest
 
-from gasp_core.seam import build_engine, engines, get_engine
+from gasp_core.seam import build_engine, get_engine
 from gasp_core.seam.setup import Boundary, Material
 from gasp_core.testing.helpers import box_points, make_setup
 from gasp_core.testing.scenes_passive import fibonacci_sphere
+from slopes import ENGINES, G, rest_brake
 
-INSTALLED = engines()
-ENGINE_NAMES = ("taichi_mpm", "warp_mpm")
-
-
-def _engine(e, marks=()):
-    return pytest.param(e, marks=[pytest.mark.skipif(e not in INSTALLED or INSTALLED[e].unavailable_reason()
-                                                     is not None, reason=f"{e} not installed"), *marks])
-
-
-ENGINES = [_engine(e) for e in ENGINE_NAMES]
-G = 9.81
 N_GRID = 24
 SIDE = 0.6
 DX = SIDE / N_GRID
@@ -206,17 +196,9 @@ def _friction(factor=None, value=None):
 
 
 def _rest_brake(c: np.ndarray, v_rest: float = 0.1) -> np.ndarray:
-    """The centroid of an engine that holds a body still whenever its speed after a frame is under ``v_rest`` (m/s):
-    a speed threshold where Coulomb's force balance should decide (the rolling ball gains 0.04 m/s a frame)."""
-    out = c.copy()
-    v = np.diff(c, axis=0) * FPS
-    u = np.zeros(3)
-    for i in range(1, len(c)):
-        u = u + (v[i - 1] - (v[i - 2] if i > 1 else 0.0))
-        if np.linalg.norm(u[:2]) < v_rest:
-            u = np.zeros(3)
-        out[i] = out[i - 1] + u / FPS
-    return out
+    """A broken engine braking to rest under ``v_rest`` m/s (the rolling ball gains 0.04 m/s a frame):
+    :func:`slopes.rest_brake`."""
+    return rest_brake(c, FPS, v_rest)
 
 
 def _every_patch_a_face(monkeypatch, engine):

@@ -84,21 +84,25 @@ class Forces:
         return v
 
     @ti.func
+    def impulse_corners(self, q):
+        """Impulse ``q``'s two vectors ``a, b``: a box's corners, a sphere's centre and (radius, 0, 0)."""
+        r = q * IMPULSE_ROW
+        return (ti.Vector([self.ex_imps[r + IM_A], self.ex_imps[r + IM_A + 1], self.ex_imps[r + IM_A + 2]]),
+                ti.Vector([self.ex_imps[r + IM_B], self.ex_imps[r + IM_B + 1], self.ex_imps[r + IM_B + 2]]))
+
+    @ti.func
     def mirror_set_boxes(self, I):
-        """The ghost node ``I`` of each box impulse of ``mode = "set"`` acting in this substep that holds it
-        (:meth:`gasp_taichi_mpm.grid.GridUpdate.mirror_node`, reflected about the imposed velocity)."""
+        """The ghost node ``I`` of the box impulse of ``mode = "set"`` acting in this substep that holds it
+        (:meth:`set_box_at`; :meth:`gasp_taichi_mpm.grid.GridUpdate.mirror_node`, reflected about the imposed
+        velocity)."""
         X = self.lo[None] + self.dx[None] * ti.Vector([ti.cast(I[0], self.real), ti.cast(I[1], self.real),
                                                        ti.cast(I[2], self.real)])
-        base = self.ex_step[None] * self.ex_width
-        for q in range(self.n_imp):
+        q = self.set_box_at(X)
+        if q >= 0:
             r = q * IMPULSE_ROW
-            c = ti.Vector([self.ex_imps[r + IM_A], self.ex_imps[r + IM_A + 1], self.ex_imps[r + IM_A + 2]])
-            b = ti.Vector([self.ex_imps[r + IM_B], self.ex_imps[r + IM_B + 1], self.ex_imps[r + IM_B + 2]])
-            w = self.ex_tab[base + FT_POSES + COL_POSE * self.n_col + q]
-            if (self.ex_imps[r + IM_SHAPE] == IMPULSE_BOX and self.ex_imps[r + IM_MODE] != IMPULSE_ADD and w > 0.0
-                    and (X >= c).all() and (X <= b).all()):
-                dv = ti.Vector([self.ex_imps[r + IM_DV], self.ex_imps[r + IM_DV + 1], self.ex_imps[r + IM_DV + 2]])
-                self.grid_v[I] = self.mirror_node(I, c, b, dv, True)
+            c, b = self.impulse_corners(q)
+            dv = ti.Vector([self.ex_imps[r + IM_DV], self.ex_imps[r + IM_DV + 1], self.ex_imps[r + IM_DV + 2]])
+            self.grid_v[I] = self.mirror_node(I, c, b, dv, True)
 
     @ti.func
     def set_box_at(self, X):
@@ -107,8 +111,7 @@ class Forces:
         hit = -1
         for q in range(self.n_imp):
             r = q * IMPULSE_ROW
-            c = ti.Vector([self.ex_imps[r + IM_A], self.ex_imps[r + IM_A + 1], self.ex_imps[r + IM_A + 2]])
-            b = ti.Vector([self.ex_imps[r + IM_B], self.ex_imps[r + IM_B + 1], self.ex_imps[r + IM_B + 2]])
+            c, b = self.impulse_corners(q)
             w = self.ex_tab[base + FT_POSES + COL_POSE * self.n_col + q]
             if (self.ex_imps[r + IM_SHAPE] == IMPULSE_BOX and self.ex_imps[r + IM_MODE] != IMPULSE_ADD and w > 0.0
                     and (X >= c).all() and (X <= b).all()):
@@ -124,9 +127,7 @@ class Forces:
         a = -1
         q = self.set_box_at(X)
         if q >= 0:
-            r = q * IMPULSE_ROW
-            c = ti.Vector([self.ex_imps[r + IM_A], self.ex_imps[r + IM_A + 1], self.ex_imps[r + IM_A + 2]])
-            b = ti.Vector([self.ex_imps[r + IM_B], self.ex_imps[r + IM_B + 1], self.ex_imps[r + IM_B + 2]])
+            c, b = self.impulse_corners(q)
             s = ti.min(X - c, b - X)
             near = HELD_STRAIN_CELLS * self.dx[None]
             for d in ti.static(range(3)):
@@ -140,8 +141,7 @@ class Forces:
         for q in range(self.n_imp):
             r = q * IMPULSE_ROW
             inside = False
-            c = ti.Vector([self.ex_imps[r + IM_A], self.ex_imps[r + IM_A + 1], self.ex_imps[r + IM_A + 2]])
-            b = ti.Vector([self.ex_imps[r + IM_B], self.ex_imps[r + IM_B + 1], self.ex_imps[r + IM_B + 2]])
+            c, b = self.impulse_corners(q)
             if self.ex_imps[r + IM_SHAPE] == IMPULSE_BOX:
                 inside = (X >= c).all() and (X <= b).all()
             else:

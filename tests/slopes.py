@@ -1,0 +1,64 @@
+"""What the slope, ramp and rolling tests share (issue 67): the MPM engines as parameters, Coulomb's closed form, the
+two-sided check of a measured figure against it, and the rest-speed brake that stands for a broken engine."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from gasp_core.seam import engines
+
+G = 9.81
+INSTALLED = engines()
+ENGINE_NAMES = ("taichi_mpm", "warp_mpm")
+
+
+def engine_param(e, marks=()):
+    """Engine ``e`` as a pytest parameter, skipped where it is not installed."""
+    return pytest.param(e, marks=[pytest.mark.skipif(e not in INSTALLED or INSTALLED[e].unavailable_reason()
+                                                     is not None, reason=f"{e} not installed"), *marks])
+
+
+ENGINES = [engine_param(e) for e in ENGINE_NAMES]
+
+
+def closed_form(theta: float, mu: float) -> float:
+    """Coulomb's acceleration along a slope of ``theta`` degrees (m/s^2), 0 where the block sticks."""
+    t = math.radians(theta)
+    return max(G * (math.sin(t) - mu * math.cos(t)), 0.0)
+
+
+def slides(theta: float, mu: float) -> bool:
+    return math.tan(math.radians(theta)) > mu
+
+
+def coulomb_problem(theta: float, mu: float, figure: float, tol: float, stick_mm: float, stick_t: float,
+                    after: str = "") -> str | None:
+    """None when ``figure`` meets Coulomb, else what is wrong (two-sided): where the block slides, its acceleration
+    (m/s^2) within ``tol`` of :func:`closed_form`; where it sticks, its travel (mm) in ``stick_t`` s (``after`` a
+    settle, said in the message) under ``stick_mm``."""
+    if slides(theta, mu):
+        a0 = closed_form(theta, mu)
+        err = figure / a0 - 1.0
+        if not abs(err) <= tol:
+            return f"{theta} deg, mu {mu}: a = {figure:.4f} m/s^2 against {a0:.4f} ({100 * err:+.2f} %)"
+        return None
+    if not figure < stick_mm:
+        return f"{theta} deg, mu {mu}: it moved {figure:.3f} mm in {stick_t:g} s{after} (sticks: under {stick_mm} mm)"
+    return None
+
+
+def rest_brake(c: np.ndarray, fps: float, v_rest: float = 0.1, horizontal: bool = True) -> np.ndarray:
+    """The centroids ``c`` (frames, 3) of an engine that holds a body still whenever its speed after a frame (its
+    horizontal speed, or its whole speed) is under ``v_rest`` m/s: a speed threshold where Coulomb's force balance
+    should decide."""
+    out = c.copy()
+    v = np.diff(c, axis=0) * fps
+    u = np.zeros(3)
+    for i in range(1, len(c)):
+        u = u + (v[i - 1] - (v[i - 2] if i > 1 else 0.0))   # the engine's own change of velocity this frame
+        if np.linalg.norm(u[:2] if horizontal else u) < v_rest:
+            u = np.zeros(3)
+        out[i] = out[i - 1] + u / fps
+    return out
