@@ -14,7 +14,7 @@ GUITAR = ROOT / "examples" / "data" / "guitar.compressed.ply"
 #: collected by the suite (issue 68). An example added to the project is added here.
 BUNDLED_EXAMPLES = ("donut_blender", "donut_jelly", "donut_mesh", "donut_on_guitar", "donut_shatter",
                     "donut_shatter_on_guitar", "donut_wind", "donut_wood", "guitar_flag_blender", "guitar_sand",
-                    "kitchen_spinach", "spot_mesh")
+                    "kitchen_spinach", "kitchen_spinach_drop", "spot_mesh")
 
 
 def bundled_examples(folder: Path | None = None) -> list[Path]:

@@ -184,7 +184,7 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> tuple[SimSetup, 
     if outside.any():
         raise SceneError(_outside_message(scene, objects, x, np.concatenate(bodies), outside, lo, hi))
     check_overlap(scene.path, x, body_id, [o.name for o in objects], lo, dx)   # two bodies fused into one
-    extras = scene_extras(scene, scenery, x, dx, lo, hi)  # colliders may name static objects
+    extras = scene_extras(scene, scenery, x, dx, lo, hi, cut_from(objects, x, body_id))
     made = iter([dataclasses.replace(o, surface=o.surface.with_fill(fr.fill_x), **a)   # the map bound to its fill
                  for o, fr, a in zip(objects, fills, assembled)])
     setup = SimSetup(
@@ -254,8 +254,21 @@ def fill_object(scene: Scene, o: PreparedObject, verts: np.ndarray, dx: float, o
     return fr, passive, rule
 
 
-def scene_extras(scene: Scene, objects: list[PreparedObject], x: np.ndarray, dx: float, lo=None, hi=None) -> dict:
-    """``colliders``, ``forces`` and ``impulses`` of the setup (:mod:`gasp_core.colliders.model`).
+def cut_from(objects: list[PreparedObject], x: np.ndarray, body_id: np.ndarray) -> np.ndarray | None:
+    """Where the points of selections moved by ``select.offset`` were cut from, shape (k, 3), metres (``x`` less the
+    offset); None when no selection is moved. The rest's collider is carved free there too: the space a selection
+    left in its capture is free (the kitchen's spinach lifted and dropped falls back into its pocket)."""
+    moved = [(i, o.spec.select.offset) for i, o in enumerate(objects)
+             if o.spec.select is not None and o.spec.select.offset is not None]
+    if not moved:
+        return None
+    return np.concatenate([x[body_id == i] - np.asarray(off) for i, off in moved])
+
+
+def scene_extras(scene: Scene, objects: list[PreparedObject], x: np.ndarray, dx: float, lo=None, hi=None,
+                 cut: np.ndarray | None = None) -> dict:
+    """``colliders``, ``forces`` and ``impulses`` of the setup (:mod:`gasp_core.colliders.model`); ``cut`` (k, 3),
+    metres: where moved selections were cut from (:func:`cut_from`), carved free in their rest's collider too.
 
     Raises
     ------
@@ -266,7 +279,7 @@ def scene_extras(scene: Scene, objects: list[PreparedObject], x: np.ndarray, dx:
         return {}
     from gasp_core.colliders.model import check_start
     from gasp_core.prepare.colliders import build_colliders
-    colliders = build_colliders(scene, objects, dx, lo, hi, x)
+    colliders = build_colliders(scene, objects, dx, lo, hi, x if cut is None else np.concatenate([x, cut]))
     check_start(colliders, x)
     return {"colliders": colliders, "forces": list(scene.forces), "impulses": list(scene.impulses)}
 

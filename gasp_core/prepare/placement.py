@@ -98,6 +98,8 @@ def prepare_object(spec: ObjectSpec, g: Gaussians | None = None) -> PreparedObje
         sim = g.subset(moving)
         scales_flat, rot_flat, means_w, tri = scales_flat[moving], rot_flat[moving], means_w[moving], tri[moving]
         report = flatten_report(sim.scales * pl.scale)
+        if spec.select is not None and spec.select.offset is not None:     # the selection moved, the rest stays
+            means_w, tri = means_w + spec.select.offset, tri + np.asarray(spec.select.offset)
     surface = surface_map(tri, rot_flat, scales_flat, surface_points=spec.surface_points, rebuild=spec.rebuild,
                           alpha=spec.alpha, core_fraction=spec.core_fraction if sim.n else 1.0, means=means_w,
                           binding=binding, name=f"{spec.file}: core_fraction")

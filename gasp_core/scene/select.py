@@ -19,6 +19,8 @@ _SIMULATION_KEYS = ("material", "select", "velocity", "angular_velocity", "fill"
 SELECT_KINDS = ("box", "sphere", "indices", "mask", "file")
 #: What an editor's PLY (``select = { file = ... }``) stands for: the splats it kept, or those deleted from it.
 SELECT_TAKE = ("kept", "deleted")
+#: The longest ``select.offset``, metres: a selection lifted or moved within a room, not out of the world.
+MAX_OFFSET = 100.0
 #: Frames a ``select`` box or sphere may be given in.
 SELECT_FRAMES = ("file", "world")
 
@@ -35,7 +37,9 @@ class SelectSpec:
     input file; for a dynamic model, its positions at ``dynamic_time``) or ``"world"`` (metres,
     z up, after ``up_axis``, ``scale``, ``position``, ``recentre``; placement is always computed
     from the whole file). Optional ``grow = true`` grows the selection to the whole connected
-    pieces it touches (:func:`gasp_core.prepare.selection.grow_selection`).
+    pieces it touches (:func:`gasp_core.prepare.selection.grow_selection`). Optional ``offset = [dx, dy, dz]``
+    (metres, world frame, z up; default none) moves the selection before the run, the rest staying where it is: lift
+    a part of a capture to drop it (the kitchen's spinach into its pan, ``examples/kitchen_spinach.toml``).
 
     ``file = "cut.ply"``: a copy of the object's file edited in a splat editor (SuperSplat: delete
     splats, export PLY or compressed PLY), matched to the file by position
@@ -65,6 +69,8 @@ class SelectSpec:
         ``"kept"`` or ``"deleted"`` (``kind == "file"``).
     tolerance : float or None
         Match distance, file units (``None``: 1e-3 of the bounding-box diagonal).
+    offset : (3,) float or None
+        World-frame shift of the selected Gaussians before the run, metres.
     """
 
     kind: str
@@ -79,10 +85,13 @@ class SelectSpec:
     file: Path | None = None
     take: str = "kept"
     tolerance: float | None = None
+    offset: tuple[float, float, float] | None = None
 
     def describe(self) -> dict:
         """A JSON-ready summary (``run.json``)."""
         out: dict[str, Any] = {"kind": self.kind, "frame": self.frame, "grow": self.grow}
+        if self.offset is not None:
+            out["offset_m"] = list(self.offset)
         if self.kind == "box":
             out.update(lo=list(self.lo), hi=list(self.hi))
         elif self.kind == "sphere":
@@ -119,9 +128,10 @@ def read_rest_collider(o: dict, where: str, src: Path) -> bool:
 
 
 def read_select(value, where: str, src: Path) -> SelectSpec:
-    """An object's ``select = { box | sphere | indices | mask, frame, grow }``, checked (see :class:`SelectSpec`)."""
+    """An object's ``select = { box | sphere | indices | mask, frame, grow, offset }``, checked (see
+    :class:`SelectSpec`)."""
     t = as_table(value, where, src)
-    check_keys(t, set(SELECT_KINDS) | {"frame", "grow", "take", "tolerance"}, where, src)
+    check_keys(t, set(SELECT_KINDS) | {"frame", "grow", "take", "tolerance", "offset"}, where, src)
     kinds = [k for k in SELECT_KINDS if k in t]
     if len(kinds) != 1:
         raise SceneError(f"{src}: {where} needs exactly one of {list(SELECT_KINDS)}, got {kinds or 'none'}")
@@ -134,6 +144,8 @@ def read_select(value, where: str, src: Path) -> SelectSpec:
         raise SceneError(f"{src}: {where}.{extra[0]} applies to select = {{ file = ... }}, not to {kind}")
     kw: dict[str, Any] = {"kind": kind, "frame": frame,
                           "grow": read_key(t, "grow", as_boolean, default_from=SelectSpec, where=where, src=src)}
+    if "offset" in t:
+        kw["offset"] = as_vec3(t["offset"], f"{where}.offset", src, max_norm=MAX_OFFSET, unit=" m")
     key = f"{where}.{kind}"
     if kind == "box":
         b = as_table(t["box"], key, src)
