@@ -365,6 +365,7 @@ class _Handover:
     tracker: object = None
     #: Frames between checkpoints, set at the first (:func:`gasp_core.run.resume.checkpoint_every`); 0 before it.
     ckpt_every: int = 0
+    left_seen: int = 0
     t_frame: float = field(default_factory=time.perf_counter)
     c_frame: float = field(default_factory=time.process_time)
 
@@ -380,6 +381,12 @@ class _Handover:
         wall_s, cpu_s = time.perf_counter() - self.t_frame, time.process_time() - self.c_frame
         times = {"sim_s": sim_s, "wall_s": wall_s, "cpu_s": cpu_s} if sim_s is not None else {}
         labels = None
+        if run.stats.left_domain is not None and frame:
+            times["left_domain"] = left = run.stats.left_domain
+            if left and not self.left_seen:    # points out of the grid drop out where they are (feature left_domain)
+                run.reporter.warning(f"frame {frame}: {left} point(s) left the domain: they stay there, out of the "
+                                     "simulation (run.json left_domain counts them; walls or a larger domain keep them)")
+                self.left_seen = left
         if self.tracker is not None:
             times.update(pieces.frame_row(self.tracker, run.reporter, frame, x, run.stats.damage if frame else None))
             labels = (self.tracker.last_labels, self.tracker.mass, run.stats.damage if frame else None)

@@ -71,6 +71,11 @@ FEATURES = {
     "body_friction": "bodies slide on each other by Coulomb's law where they touch, whatever their routes: a flowing "
                      "body (sand, snow, liquid) against the others with its friction angle's tan as the coefficient "
                      "(docs/contact.md; the two velocity fields of Bardenhagen et al. 2000)",
+    "left_domain": "a point whose transfer stencil leaves the grid (SimSetup.n_grid nodes of SimSetup.dx from "
+                   "domain_lo) drops out of the simulation where it is (no P2G or G2P: its x and v stay) and the run "
+                   "goes on; the core counts such points every frame (run.json left_domain, with a warning: "
+                   "gasp_core.seam.runner.left_grid). A point that leaves faster than a cell a substep is still a "
+                   "divergence (CAUSE_UNSTABLE)",
     "rigid_limit": "Material.model = 'rigid': the body moves as one rigid body (momentum and angular momentum of "
                    "its points kept), its stress is zero and its stiffness sets no step (docs/rigid.md)",
 }

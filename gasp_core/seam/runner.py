@@ -60,6 +60,9 @@ class RunStats:
     #: The last frame's per-point damage, shape (n,), float64, setup order (engines with the feature ``damage`` on a
     #: scene with a ``brittle`` body, ``docs/fracture.md``); None otherwise. ``gasp_core.run.pieces`` reads it.
     damage: np.ndarray | None = None
+    #: Points whose transfer stencil has left the grid after the last frame (engines with the feature
+    #: ``left_domain``: they drop out of the simulation where they are, :func:`left_grid`); None otherwise.
+    left_domain: int | None = None
 
 
 #: The likely cause of non-finite values, or of points jumping out of the domain within a step: the one
@@ -107,6 +110,14 @@ def check_state(x: np.ndarray, setup: SimSetup, frame: int, margin: float | None
         raise EngineDivergence(
             f"{len(bad)} point(s) left the domain [{setup.domain_lo.tolist()}, {setup.domain_hi.tolist()}] "
             f"(first index {bad[0]} at {x[bad[0]].tolist()})", frame, CAUSE_LEFT_DOMAIN)
+
+
+def left_grid(x: np.ndarray, setup: SimSetup) -> np.ndarray:
+    """Which points' quadratic B-spline stencil (3 nodes an axis from ``floor((x - lo)/dx - 0.5)``) no longer lies
+    within the ``n_grid`` nodes of the grid: bool, shape (n,). The rule of the grid engines' transfers (MLS-MPM's
+    ``base``, Hu et al. 2018); such a point drops out of an engine with the feature ``left_domain``."""
+    base = np.floor((np.asarray(x, np.float64) - setup.domain_lo) / setup.dx - 0.5)
+    return ((base < 0) | (base > setup.n_grid - 3)).any(axis=1)
 
 
 class EngineRun:
@@ -186,6 +197,7 @@ class EngineRun:
         advance = _advancer(engine, watch)
         x = np.asarray(call_engine(info, "positions", engine.positions), dtype=np.float64) if watch.enabled else None
         damaged = "damage" in info.capabilities.features and any(m.name == "brittle" for m in setup.materials)
+        leaves = "left_domain" in info.capabilities.features
         flow = _flow_reader(info, engine, setup) if watch.enabled else None
         state = None if flow is None else flow()   # the damage and plastic strain now: a creep is no rest
         for frame in range(self.start_frame + 1, n_frames + 1):
@@ -200,6 +212,8 @@ class EngineRun:
             x_prev, x = x, call_engine(info, f"frame {frame}", advance, frame, x)
             dt_wall = time.perf_counter() - t0
             check_state(x, setup, frame)
+            if leaves:
+                stats.left_domain = int(left_grid(x, setup).sum())
             if damaged:
                 stats.damage = np.asarray(call_engine(info, "damage", engine.damage), dtype=np.float64)
             stats.frame_s.append(dt_wall)

@@ -30,7 +30,7 @@ MPM_CAPABILITIES = Capabilities(
     precisions=frozenset({"f32", "f64"}),
     deterministic=frozenset({"cpu"}),
     features=frozenset({"grid", "initial_C", "state", "static_colliders", "moving_colliders", "impulse", "wind",
-                        "attractors", "passive_points", "viscosity", "damage", "plastic_strain"}),
+                        "attractors", "passive_points", "viscosity", "damage", "plastic_strain", "left_domain"}),
 )
 
 

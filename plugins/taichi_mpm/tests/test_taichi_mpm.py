@@ -182,18 +182,27 @@ def test_fixed_region_holds_points_while_the_rest_sags():
 
 
 # ---------------------------------------------------------------- blow-ups
-def test_point_leaving_the_domain_raises_divergence_naming_the_frame():
+def test_a_point_leaving_the_grid_drops_out_and_a_fast_one_diverges():
+    """A point flying at 1 m/s reaches the grid limit x = (n_grid - 1.5) dx = 0.906 at t = 0.056 s: it stays where it
+    left, out of the transfers, and the run goes on (feature left_domain; the count: tests/test_left_domain.py). One
+    at 200 m/s with one substep a frame moves more than a cell a substep: a blow-up naming its frame."""
     s = block_setup(gravity=(0, 0, 0))
     x = np.vstack([s.x, [[0.85, 0.5, 0.5]]])
     v = np.zeros_like(x)
-    v[-1] = [1.0, 0.0, 0.0]  # reaches the grid limit x = (n_grid - 1.5) dx = 0.906 at t = 0.056 s
+    v[-1] = [1.0, 0.0, 0.0]
     s = s.replace(x=x, v=v, p_vol=np.full(len(x), s.p_vol[0]), body_id=np.zeros(len(x), np.int32))
     e = build(s)
-    e.step_frame()
-    with pytest.raises(EngineDivergence, match="frame 2") as info:
+    for _ in range(3):
         e.step_frame()
-    assert info.value.frame == 2
-    assert "left the domain" in info.value.cause
+    out = e.positions()[-1]
+    assert 0.906 <= out[0] < 0.906 + e.dt + 1e-6
+    e.step_frame()
+    np.testing.assert_array_equal(e.positions()[-1], out)
+    v[-1] = [200.0, 0.0, 0.0]
+    fast = build(s.replace(v=v, options={**s.options, "n_substeps": 1}))   # the automatic step follows the speed
+    with pytest.raises(EngineDivergence, match="frame 1") as info:
+        fast.step_frame()
+    assert info.value.frame == 1 and "time step" in info.value.cause
 
 
 def test_huge_time_step_raises_divergence_not_nan_positions():
