@@ -1,0 +1,93 @@
+"""The quasi-2D sand column's runout over a family (issue 67 item 5): aspect ratios ``a`` 0.5, 1, 2 and 3, at two
+grids, on the MPM engines, against Lube et al. (2005)'s fit ``(L_inf - L_i) / L_i = 1.2 a`` (``a < 2.3``),
+``1.9 a^(2/3)`` above, and the final height ``H_inf / L_i = a`` (``a < 1.15``), ``a^(2/5)`` above.
+
+The scene is the conformance scene ``sand_column_collapse`` (``gasp_core.testing.scenes_granular``: a column of
+``L_i`` 0.15 m against the channel's end wall, 3-cell channel, sand at Mohr-Coulomb 32 deg as its plane-strain
+Drucker-Prager cone, ground friction tan 32 deg) at other ``a`` and ``n_grid``; the deposit is read as that scene
+reads it (:func:`column_deposit`), after 0.7 s plus the time a taller column takes to fall
+(``2.4 sqrt(2 H / g)``, Staron & Hinch 2005, rounded up to frames).
+
+Run: ``python benchmarks/lube_family.py [--engines taichi_mpm,warp_mpm] [--grids 48,96] [--aspects 0.5,1,2,3]``;
+writes ``benchmarks/results/lube_family.json`` and ``.md`` (each run's figures; the signed errors; the CPU time).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+from gasp_core.seam.setup import Boundary, Material
+from gasp_core.testing import scenes_granular as sg
+from gasp_core.testing.helpers import box_points, make_setup, wall_margin
+from gasp_core.testing.kit import resolve_engine, run_trace
+
+OUT = Path(__file__).resolve().parent / "results"
+FRAME_DT = 0.02
+
+
+def column_setup(info, a: float, n_grid: int):
+    """The conformance column (module notes) of aspect ``a`` on ``n_grid`` cells over the domain's 1 m length; the
+    domain as tall as the column needs (at least the scene's 0.5 m)."""
+    lx, depth, L = sg.COLUMN_DOMAIN[0], sg.COLUMN_DEPTH, sg.COLUMN_L
+    dx = lx / n_grid
+    m, z0, H = wall_margin(info, dx), 3 * dx, a * L
+    x, p_vol = box_points((m, m, z0), (m + L, m + depth, z0 + H), dx / 2)
+    material = Material("sand", E=3.5e5, nu=0.3, rho=1600.0, friction_angle=sg.plane_strain_dp_angle(sg.COLUMN_PHI))
+    top = max(sg.COLUMN_DOMAIN[1], z0 + H + 4 * dx)
+    return make_setup(x, p_vol, material, hi=(lx, 2 * m + depth, top), n_grid=n_grid, frame_dt=FRAME_DT,
+                      boundaries=[Boundary("ground", height=z0, friction=math.tan(math.radians(sg.COLUMN_PHI))),
+                                  Boundary("walls", friction=0.0)], options={"threads": 2})
+
+
+def run_case(engine: str, a: float, n_grid: int) -> dict:
+    """One column: its runout and height against the fits (signed relative errors), its end speed and CPU time."""
+    info = resolve_engine(engine)
+    setup = column_setup(info, a, n_grid)
+    t_end = 0.7 + 2.4 * math.sqrt(2 * a * sg.COLUMN_L / 9.81)
+    frames = int(math.ceil(t_end / FRAME_DT))
+    c0 = time.process_time()
+    tr = run_trace(info, setup, frames)
+    dx = setup.dx
+    L_inf, H_inf = sg.column_deposit(tr.x[-1], wall_margin(info, dx), 3 * dx, dx / 2)
+    runout, height = (L_inf - sg.COLUMN_L) / sg.COLUMN_L, H_inf / sg.COLUMN_L
+    r_ref, h_ref = sg.lube_runout(a), sg.lube_height(a)
+    return {"engine": engine, "a": a, "n_grid": n_grid, "cells_along_column": sg.COLUMN_L / dx, "frames": frames,
+            "n_points": len(setup.x), "runout": runout, "runout_lube": r_ref, "runout_err": runout / r_ref - 1,
+            "height": height, "height_lube": h_ref, "height_err": height / h_ref - 1,
+            "end_speed": float(np.sqrt((tr.v[-1] ** 2).sum(axis=1)).max()), "cpu_s": time.process_time() - c0}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--engines", default="taichi_mpm,warp_mpm")
+    ap.add_argument("--grids", default="48,96")
+    ap.add_argument("--aspects", default="0.5,1,2,3")
+    ap.add_argument("--out", default=str(OUT / "lube_family"))
+    args = ap.parse_args()
+    rows = []
+    for engine in args.engines.split(","):
+        for n in (int(g) for g in args.grids.split(",")):
+            for a in (float(s) for s in args.aspects.split(",")):
+                rows.append(run_case(engine, a, n))
+                r = rows[-1]
+                print(f"{engine} n_grid {n} a {a:g}: runout {r['runout']:.3f} (Lube {r['runout_lube']:.3f}, "
+                      f"{r['runout_err']:+.1%}), height {r['height']:.3f} ({r['height_lube']:.3f}, "
+                      f"{r['height_err']:+.1%}), end speed {r['end_speed']:.3f} m/s, {r['cpu_s']:.0f} s", flush=True)
+    out = Path(args.out)
+    out.with_suffix(".json").write_text(json.dumps(rows, indent=1))
+    lines = ["| engine | n_grid | cells along L_i | a | runout | Lube 2005 | error | H_inf/L_i | Lube | error | "
+             "end speed m/s | CPU s |", "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    lines += [f"| {r['engine']} | {r['n_grid']} | {r['cells_along_column']:.1f} | {r['a']:g} | {r['runout']:.3f} | "
+              f"{r['runout_lube']:.3f} | {r['runout_err']:+.1%} | {r['height']:.3f} | {r['height_lube']:.3f} | "
+              f"{r['height_err']:+.1%} | {r['end_speed']:.3f} | {r['cpu_s']:.0f} |" for r in rows]
+    out.with_suffix(".md").write_text("\n".join(lines) + "\n")
+    print(out.with_suffix(".md").read_text())
+
+
+if __name__ == "__main__":
+    main()
