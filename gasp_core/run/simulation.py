@@ -203,6 +203,8 @@ class SimulationRun:
         stop.frame_started(None)
         rebuild_all = Rebuilder(prep, None if checkpoint is None else checkpoint.prev_rot)
         tracker = pieces.tracker_for(prep.setup)   # None without a brittle body
+        if tracker is not None and checkpoint is not None and checkpoint.pieces:
+            tracker.restore(checkpoint.pieces)      # its cut links stay cut
         self.cracks = crack_output_for(prep, tracker)   # crack faces beside a brittle object's frames, or None
         with Background() as writes, gil_handover():
             hand = _Handover(self, writes, writer, rebuild_all, on_frame, tracker)
@@ -262,7 +264,7 @@ class SimulationRun:
                    engine_state: dict | None, frame_s: list, made: list, labels=None) -> None:
         """Rebuild one frame's Gaussians from the positions ``x`` and write its files, then (``engine_state`` not
         None) its checkpoint (on :class:`Background`'s worker); the Gaussians are appended to ``made``; ``labels``
-        (``(point labels, point masses, damage)`` of a scene with pieces) each Gaussian's piece (:mod:`pieces`) and
+        (``(point labels, point masses, damage, tracker state)`` of a scene with pieces) each Gaussian's piece (:mod:`pieces`) and
         the crack faces (:mod:`gasp_core.run.crack_output`). ``times``
         (empty for frame 0) go into the frame's row: ``sim_s`` (the engine), ``wall_s`` and ``cpu_s`` (the process's
         CPU time, every thread, from the previous frame's hand-off to the writer to this frame's: ``cpu_s / wall_s``
@@ -289,7 +291,8 @@ class SimulationRun:
             resume_mod.save(self.tmp, resume_mod.Checkpoint(
                 frame, engine_state, list(rebuild_all.prev_rot), {"fingerprint": self.fingerprint,
                                                                   "per_frame": self.per_frame, "frame_s": frame_s,
-                                                                  "files": self.files}))
+                                                                  "files": self.files},
+                {} if labels is None else labels[3]))
             row["checkpoint_s"] = time.perf_counter() - t0
             self.saved_frame = frame
 
@@ -382,7 +385,8 @@ class _Handover:
         labels = None
         if self.tracker is not None:
             times.update(pieces.frame_row(self.tracker, run.reporter, frame, x, run.stats.damage if frame else None))
-            labels = (self.tracker.last_labels, self.tracker.mass, run.stats.damage if frame else None)
+            labels = (self.tracker.last_labels, self.tracker.mass, run.stats.damage if frame else None,
+                      self.tracker.state() if state is not None else {})   # the checkpoint's pieces
         self.writes.submit(run.save_frame, self.writer, self.rebuild_all, frame, np.array(x), times, state,
                            list(run.stats.frame_s), made, labels)
         run.reporter.frame(frame, wall_s, sim_s, run.stats.engine.get("n_substeps"))
