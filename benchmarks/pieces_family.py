@@ -29,7 +29,7 @@ WINDOW = 12     # tests/test_pieces_family.py's frames
 
 def case(engine: str, n_grid: int, speed: float) -> dict:
     t0 = time.perf_counter()
-    r = counted_run(engine, ball_setup(engine, speed, n_grid), N_FRAMES)
+    r = counted_run(engine, ball_setup(speed, n_grid), N_FRAMES)
     diff = [abs(a - b) for a, b in zip(r["tracker_1"], r["frames_1"])]
     seq = r["tracker"]
     return {"engine": engine, "n_grid": n_grid, "speed": speed, "pieces": seq, "debris": r["debris"],

@@ -122,18 +122,23 @@ def test_crumbs_under_the_debris_share_are_counted_apart_and_a_piece_ground_whol
     assert row["piece_mass"] == [304.0, 1.0]                    # the heaviest crumb (the first) stays a piece
 
 
-def test_a_restored_state_gives_the_rows_of_a_tracker_never_stopped():
+def test_a_restored_state_gives_the_rows_of_a_tracker_never_stopped_and_a_lost_one_is_caught():
     x, moved, m, v = blocks(2)
     d = np.ones(len(x))
-    frames = [x, (x + moved) / 2, moved, x]
+    frames = [x, moved, x, (x + moved) / 2]                   # apart, then pushed back together
     one = PieceTracker(x, np.zeros(len(x), int), m, v, gap=2 * H)
     rows = [one.row(f, d)[0] for f in frames]
     two = PieceTracker(x, np.zeros(len(x), int), m, v, gap=2 * H)
     for f in frames[:2]:
         two.row(f, d)
-    again = PieceTracker(x, np.zeros(len(x), int), m, v, gap=2 * H)
-    again.restore({k: a.copy() for k, a in two.state().items()})
-    assert [again.row(f, d)[0] for f in frames[2:]] == rows[2:] and rows[-1]["pieces"] == 8
+    resumed = {}
+    for restore in (True, False):                             # False: a checkpoint without the pieces
+        again = PieceTracker(x, np.zeros(len(x), int), m, v, gap=2 * H)
+        if restore:
+            again.restore({k: a.copy() for k, a in two.state().items()})
+        resumed[restore] = [again.row(f, d)[0] for f in frames[2:]]
+    assert resumed[True] == rows[2:] and [r["pieces"] for r in rows] == [1, 8, 8, 8]
+    assert [r["pieces"] for r in resumed[False]] == [1, 1]   # caught
 
 
 def test_one_outsized_point_volume_neither_widens_the_links_nor_the_memory():

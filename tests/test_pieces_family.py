@@ -51,7 +51,7 @@ def failures(r: dict, what: str) -> list[str]:
 def family_failures(name: str, cases, tracker=None) -> list[str]:
     out = []
     for n_grid, speed in cases:
-        s = ball_setup(name, speed, n_grid)
+        s = ball_setup(speed, n_grid)
         t = None if tracker is None else tracker(s.x, s.body_id, s.p_mass, s.p_vol, gap=s.dx)
         out += failures(counted_run(name, s, N_FRAMES, t), f"{name} n_grid {n_grid} {speed} m/s")
     return out
@@ -81,5 +81,5 @@ def test_the_count_is_the_frames_count_and_never_decreases_over_the_family(name)
 @pytest.mark.parametrize("name", _names())
 def test_the_pieces_of_5_percent_never_decrease_with_speed(name):
     for n_grid in GRIDS:
-        big = [counted_run(name, ball_setup(name, v, n_grid), N_FRAMES)["tracker_5"][-1] for v in SPEEDS]
+        big = [counted_run(name, ball_setup(v, n_grid), N_FRAMES)["tracker_5"][-1] for v in SPEEDS]
         assert all(b >= a for a, b in zip(big, big[1:])), (n_grid, big)

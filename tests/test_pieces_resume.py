@@ -11,11 +11,12 @@ from pathlib import Path
 
 import pytest
 
-from conftest import BRITTLE
 from gasp_testing import needs_package
 
 N_FRAMES = 6
 KEYS = ("pieces", "piece_mass", "debris", "debris_mass")
+#: tests/conftest.py's brittle biscuit.
+BRITTLE = 'name = "brittle"\nE = 2.0e5\nnu = 0.25\nrho = 300.0\ntensile_strength = 4.0e3\nfracture_energy = 5.0'
 
 
 def scene_text(ply: Path) -> str:
