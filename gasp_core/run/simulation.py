@@ -264,8 +264,8 @@ class SimulationRun:
                    engine_state: dict | None, frame_s: list, made: list, labels=None) -> None:
         """Rebuild one frame's Gaussians from the positions ``x`` and write its files, then (``engine_state`` not
         None) its checkpoint (on :class:`Background`'s worker); the Gaussians are appended to ``made``; ``labels``
-        (``(point labels, point masses, damage, tracker state)`` of a scene with pieces) each Gaussian's piece (:mod:`pieces`) and
-        the crack faces (:mod:`gasp_core.run.crack_output`). ``times``
+        (``(point labels, point masses, damage, tracker state)`` of a scene with pieces) each Gaussian's piece
+        (:mod:`pieces`), the crack faces (:mod:`gasp_core.run.crack_output`) and the checkpoint's pieces. ``times``
         (empty for frame 0) go into the frame's row: ``sim_s`` (the engine), ``wall_s`` and ``cpu_s`` (the process's
         CPU time, every thread, from the previous frame's hand-off to the writer to this frame's: ``cpu_s / wall_s``
         is the cores the frame used, the previous frame's rebuild and files on the writer included)."""
