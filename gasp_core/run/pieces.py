@@ -27,8 +27,9 @@ first), ``debris`` (the crumbs' count) and ``debris_mass`` (kg, their total); ``
 Each Gaussian's piece: ``<run>/<object>/pieces_NNNN.npy`` beside the frame's file (:func:`write_frame_pieces`,
 :func:`read_pieces`), int32 of shape (n_gaussians,) in the file's row order: the piece of the point that anchors the
 Gaussian (:meth:`gasp_core.maps.surface.SurfaceMap.anchors`: its triangle's ``v1``, so a triangle whose vertices fall
-in different pieces goes whole to ``v1``'s), numbered within the object from 0, the heaviest first (crumbs
-included); -1 for rows that are not simulated (``select``, ``static``). ``gasp export --split-pieces`` reads them.
+in different pieces goes whole to ``v1``'s), numbered within the object from 0, the heaviest first, the crumbs all
+under the number after the pieces (one debris node in an export, not one a crumb); -1 for rows that are not simulated
+(``select``, ``static``). ``gasp export --split-pieces`` reads them.
 """
 from __future__ import annotations
 
@@ -209,6 +210,12 @@ class PieceTracker:
         return {"pieces": count[0], "piece_mass": sorted((float(m) for m in masses[piece]), reverse=True),
                 "debris": count[1], "debris_mass": float(masses[~piece].sum())}, changed
 
+    @property
+    def pieces(self) -> np.ndarray | None:
+        """Per label of the last labelling, whether it is a piece (False: a crumb), shape (count,), bool; None before
+        the first."""
+        return self._counted
+
     def state(self) -> dict[str, np.ndarray]:
         """What a checkpoint keeps (:mod:`gasp_core.run.resume`): ``cut`` (n_links,) bool, ``labels`` (n,) int64 and
         ``counted`` (n_labels,) bool of the last labelling (empty before the first), copies."""
@@ -258,40 +265,48 @@ def frame_row(tracker: PieceTracker, reporter, frame: int, x: np.ndarray, damage
 PIECES_FILE = "pieces_{:04d}.npy"
 
 
-def gaussian_pieces(o, labels: np.ndarray, mass: np.ndarray) -> np.ndarray:
+def gaussian_pieces(o, labels: np.ndarray, mass: np.ndarray, piece: np.ndarray | None = None) -> np.ndarray:
     """Each Gaussian's piece in object ``o`` (a :class:`~gasp_core.prepare.placed.PreparedObject`), shape
     (o.gaussians.n,), int32, file row order (module notes): ``labels`` (n_points,) the setup's point labels
-    (:meth:`PieceTracker.labels`), ``mass`` (n_points,) kg, to number the object's pieces heaviest first."""
+    (:meth:`PieceTracker.labels`), ``mass`` (n_points,) kg, to number the object's pieces heaviest first, ``piece``
+    (per label, bool: :attr:`PieceTracker.pieces`) the labels that are pieces, the others crumbs (:func:`piece_ranks`);
+    None: every label a piece."""
     out = np.full(o.gaussians.n, -1, np.int32)
     if o.spec.static or o.surface is None:
         return out
     lab = np.asarray(labels)[o.vertex_slice][o.surface.anchors()]
-    out[np.arange(o.gaussians.n) if o.moving is None else o.moving] = piece_ranks(o, labels, mass)[lab]
+    out[np.arange(o.gaussians.n) if o.moving is None else o.moving] = piece_ranks(o, labels, mass, piece)[lab]
     return out
 
 
-def piece_ranks(o, labels: np.ndarray, mass: np.ndarray) -> np.ndarray:
+def piece_ranks(o, labels: np.ndarray, mass: np.ndarray, piece: np.ndarray | None = None) -> np.ndarray:
     """The object's number of each point label (``labels`` (n_points,) from :meth:`PieceTracker.labels`), shape
     (max label + 1,), int32: the pieces that hold a Gaussian of ``o`` numbered 0.. heaviest first (``mass``
-    (n_points,) kg), -1 for the others (:func:`gaussian_pieces`, the crack faces' ``piece``)."""
+    (n_points,) kg), then the crumbs that hold one (``piece`` (max label + 1,) bool False, :attr:`PieceTracker.pieces`;
+    None: none) all under the one number after them (an export's debris node, not one node a crumb); -1 for the
+    others (:func:`gaussian_pieces`, the crack faces' ``piece``)."""
     labels = np.asarray(labels)
     present = np.unique(labels[o.vertex_slice][o.surface.anchors()])
     masses = np.bincount(labels, weights=mass)
     rank = np.full(len(masses), -1, np.int32)
-    rank[present] = np.argsort(np.argsort(-masses[present], kind="stable"), kind="stable")
+    crumb = np.zeros(len(present), bool) if piece is None else ~np.asarray(piece, bool)[present]
+    big = present[~crumb]
+    rank[big] = np.argsort(np.argsort(-masses[big], kind="stable"), kind="stable")
+    rank[present[crumb]] = len(big)
     return rank
 
 
-def write_frame_pieces(folder, prep, frame: int, labels: np.ndarray, mass: np.ndarray) -> list[str]:
+def write_frame_pieces(folder, prep, frame: int, labels: np.ndarray, mass: np.ndarray,
+                       piece: np.ndarray | None = None) -> list[str]:
     """Write ``<object>/pieces_NNNN.npy`` of every simulated object of ``prep`` (a
     :class:`~gasp_core.prepare.scene.PreparedScene`) into the run folder ``folder``, atomically (a resumed run
-    rewrites its frame); the files written, relative to ``folder``."""
+    rewrites its frame); the files written, relative to ``folder`` (:func:`gaussian_pieces`)."""
     rels = []
     for o, name in zip(prep.objects, prep.names):
         if o.spec.static:
             continue
         rel = f"{name}/{PIECES_FILE.format(frame)}"
-        a = gaussian_pieces(o, labels, mass)
+        a = gaussian_pieces(o, labels, mass, piece)
         atomic_write(Path(folder) / rel, lambda f, a=a: np.save(f, a), overwrite=True)
         rels.append(rel)
     return rels
