@@ -160,3 +160,15 @@ def test_touching_bodies_are_separate_pieces_and_passive_points_follow_their_hos
     t = PieceTracker(xp, bp, mp, vp)
     lab = t.labels(xp, np.zeros(len(xp)))
     assert len(np.unique(lab)) == 2 and lab[-2] == lab[0] and lab[-1] == lab[len(x) - 1]
+
+
+def test_the_frames_only_count_parts_blocks_apart_by_more_than_the_gap_and_counts_1_percent_parts():
+    """gasp_core/testing/pieces_count.py, the reference of tests/test_pieces_family.py, on known answers: the cube of
+    64 blocks moved 3 spacings apart is 64 parts (each 1.6 % of the mass) with a gap of 2 spacings, 1 with a gap of
+    4; with parts of 2 % counted, none."""
+    from gasp_core.testing.pieces_count import FramePieces
+    x, moved, m, _ = blocks()
+    assert FramePieces(x, m, 1.5 * H, 2 * H).count(x) == 1
+    assert FramePieces(x, m, 1.5 * H, 2 * H).count(moved) == 64
+    assert FramePieces(x, m, 1.5 * H, 4 * H).count(moved) == 1
+    assert FramePieces(x, m, 1.5 * H, 2 * H).count(moved, share=0.02) == 0
