@@ -16,7 +16,9 @@ a piece when none is whole) and a tracker that forgets its cut links.
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
+from gasp_core.errors import GaspError
 from gasp_core.run.pieces import PieceTracker
 
 H = 0.01   # lattice spacing, m
@@ -139,6 +141,9 @@ def test_a_restored_state_gives_the_rows_of_a_tracker_never_stopped_and_a_lost_o
         resumed[restore] = [again.row(f, d)[0] for f in frames[2:]]
     assert resumed[True] == rows[2:] and [r["pieces"] for r in rows] == [1, 8, 8, 8]
     assert [r["pieces"] for r in resumed[False]] == [1, 1]   # caught
+    for bad in ({}, {**two.state(), "cut": np.zeros(3, bool)}, {**two.state(), "counted": np.ones(99, bool)}):
+        with pytest.raises(GaspError, match="--discard"):   # a damaged checkpoint: one line, not a traceback
+            PieceTracker(x, np.zeros(len(x), int), m, v, gap=2 * H).restore(bad)
 
 
 def test_one_outsized_point_volume_neither_widens_the_links_nor_the_memory():

@@ -40,7 +40,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from gasp_core.errors import SceneError
+from gasp_core.errors import GaspError, SceneError
 from gasp_core.fsutil import atomic_write
 
 #: A link opened past its gap is cut only when one of its points is at or above this damage (it carries at most
@@ -228,13 +228,18 @@ class PieceTracker:
 
         Raises
         ------
-        ValueError
-            Its arrays do not fit this tracker's links and points (another scene's checkpoint).
+        GaspError
+            Its arrays are missing or do not fit this tracker's links and points (a damaged checkpoint).
         """
-        cut, lab, counted = (np.asarray(state[k]) for k in ("cut", "labels", "counted"))
-        if cut.shape != self.cut.shape or lab.size not in (0, len(self.mass)) or \
-                (lab.size and counted.shape != (int(lab.max()) + 1,)):
-            raise ValueError(f"pieces state of {cut.shape} links, {lab.size} labels: not this scene's")
+        try:
+            cut, lab, counted = (np.asarray(state[k]) for k in ("cut", "labels", "counted"))
+            fits = cut.shape == self.cut.shape and lab.size in (0, len(self.mass)) and \
+                (not lab.size or (lab.min() >= 0 and counted.shape == (int(lab.max()) + 1,)))
+        except (KeyError, ValueError, TypeError):
+            fits = False
+        if not fits:
+            raise GaspError("cannot resume: the checkpoint's pieces (cut links, labels) do not fit the scene's points; "
+                            "start again with --discard")
         self.cut = cut.astype(bool)
         self._lab = lab.astype(np.int64) if lab.size else None
         self._counted = counted.astype(bool) if lab.size else None

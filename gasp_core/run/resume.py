@@ -3,7 +3,8 @@
 After every frame whose PLYs are written, the pipeline saves the engine's state (engines with
 the feature ``state``, a :class:`~gasp_core.seam.engine.StatefulEngine`: ``get_state`` /
 ``set_state``), the frame rebuild's state (the previous rotations, the fallback of ``T^-1`` for
-degenerate faces) and the run record so far to ``.gasp-checkpoint.npz`` in the partial folder,
+degenerate faces), the pieces' state (their cut links, :mod:`gasp_core.run.pieces`) and the run record so far to
+``.gasp-checkpoint.npz`` in the partial folder,
 atomically. A run killed at any point (even ``kill -9``) therefore loses at most the frame it was
 computing. ``--resume`` finds the partial folder of a run that is no longer alive, checks that the
 scene, its inputs, the engine and its options are the same (a fingerprint), restores the state and
