@@ -89,7 +89,9 @@ def save(key: str, rows: list[dict], same) -> None:
     old.update(n_frames=N_FRAMES, window=WINDOW)
     old[key] = [c for c in old.get(key, []) if not same(c)] + rows
     OUT.parent.mkdir(exist_ok=True)
-    OUT.write_text(json.dumps(old, indent=1) + "\n")
+    lines = [f'"{k}": ' + (json.dumps(v) if not isinstance(v, list) else
+                          "[\n  " + ",\n  ".join(json.dumps(c) for c in v) + "\n ]") for k, v in old.items()]
+    OUT.write_text("{\n " + ",\n ".join(lines) + "\n}\n")      # one case a line
 
 
 def main() -> None:
