@@ -40,7 +40,7 @@ def figures(run: Path) -> dict:
     rec = json.loads((run / "run.json").read_text())
     row = rec["frames"][-1]
     mass = np.sort(np.asarray(row["piece_mass"], float))[::-1]
-    share = mass / mass.sum()
+    share = mass / (mass.sum() + row.get("debris_mass", 0.0))     # of the body's mass, crumbs included (issue 66)
     return {"frame": int(row["frame"]), "pieces": int(row["pieces"]), "pieces_5pct": int((share >= 0.05).sum()),
             "largest_share": float(share[0]), "second_share": float(share[1]) if len(share) > 1 else 0.0,
             "n_points": rec.get("n_points"), "n_grid": rec.get("n_grid", rec.get("domain", {}).get("n_grid")),

@@ -45,7 +45,7 @@ def ball(engine: str, n_grid: int) -> dict:
         e.close()
     mass = np.asarray(row["piece_mass"], float)
     return {"n_grid": n_grid, "points": len(x), "cpu_s": round(time.process_time() - t0, 2),
-            "pieces": int(row["pieces"]), "largest_share": float(mass[0] / mass.sum()),
+            "pieces": int(row["pieces"]), "largest_share": float(mass[0] / (mass.sum() + row["debris_mass"])),
             "broken_share": float((d > 0.99).mean())}
 
 

@@ -53,7 +53,8 @@ BRITTLE = 'name = "brittle"\nE = 2.0e5\nnu = 0.25\nrho = 300.0\ntensile_strength
 @pytest.fixture(scope="session")
 def broken_run(tmp_path_factory, donut_small):
     """The donut_small biscuit broken on landing: 2 frames on warp_mpm (about 5 s; tests/test_split_pieces.py,
-    tests/test_export_crack_faces.py): 1, 11 and 13 pieces at frames 0-2, crack faces shown from frame 1."""
+    tests/test_export_crack_faces.py): 1 piece at frames 0-2, with 0, 0 and 30 crumbs (issue 66: only what has come
+    apart; 1, 11 and 13 pieces by the damage alone before), crack faces shown from frame 1."""
     needs_package("gasp_warp_mpm")
     from gasp_core.run.pipeline import simulate_scene
     from gasp_core.scene.spec import load_scene

@@ -8,13 +8,14 @@
   stress any cross-section carries is ``tensile_strength`` within 5 %; the bar breaks; mass is conserved.
 - A T-shaped rod of flat Gaussians hanging from its head (``fixed_region``) under gravity, through
   ``gasp simulate``'s pipeline: with ``tensile_strength = 0.6 rho g L`` it breaks in the upper half of its neck
-  (two pieces in ``run.json``), with ``2.5 rho g L`` it stays one piece (a suddenly loaded rod reaches up to twice
+  (two or more pieces in ``run.json`` by frame 12, its lower part then a grid cell off), with ``2.5 rho g L`` it
+  stays one piece (a suddenly loaded rod reaches up to twice
   its static stress ``rho g L``).
 
 - The work the damage dissipates per crack area is the same at n_grid 32 and 64 within 15 % (the crack band's
   regularisation) and ``G_f`` within 20 % at 8 and 27 points per cell (the band width ``h = dx + p_vol^(1/3)``,
   the width the crack localises in; with ``h = dx`` it was 67 % high at 8 points per cell).
-- A notched bar breaks at its notch; a brittle ball breaks into at least 3 pieces landing from 1 m at a low
+- A notched bar breaks at its notch; a brittle ball breaks into at least 3 pieces landing from 2.5 m at a low
   strength and stays whole from 5 cm at a high one; a free bar broken by its own motion keeps its momentum and
   gains no energy.
 
@@ -318,22 +319,28 @@ def rod_run(tmp_path, name: str, tensile_strength: float, n_frames: int = 8) -> 
     return frames, crack, [e for e in rep.events if e["event"] == "pieces"]
 
 
+#: The rod's frames: its lower part, broken off at about frame 4, has fallen a grid cell (4.1 cm) from the head by
+#: frame 9-10 (issue 66: pieces are what has come apart; 2 at frame 9, 3 at frame 10 on warp_mpm).
+ROD_FRAMES = 12
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("name", _names())
 def test_a_rod_under_its_weight_breaks_in_its_upper_half_below_rho_g_L(tmp_path, name):
-    frames, crack, events = rod_run(tmp_path, name, 0.6 * RHO_G_L)
+    frames, crack, events = rod_run(tmp_path, name, 0.6 * RHO_G_L, ROD_FRAMES)
     assert frames[0]["pieces"] == 1 and frames[-1]["pieces"] >= 2, [f["pieces"] for f in frames]
-    changes = [f["frame"] for k, f in enumerate(frames) if k == 0 or f["pieces"] != frames[k - 1]["pieces"]]
+    counts = [(f["pieces"], f["debris"]) for f in frames]      # an event when the pieces or the crumbs change
+    changes = [f["frame"] for k, f in enumerate(frames) if k == 0 or counts[k] != counts[k - 1]]
     assert [e["frame"] for e in events] == changes and events[-1]["pieces"] == frames[-1]["pieces"]
     assert crack is not None and NECK_L / 2 < crack <= NECK_L, f"{name}: broke at {crack} m of the {NECK_L} m neck"
     total = sum(frames[0]["piece_mass"])
-    assert all(abs(sum(f["piece_mass"]) / total - 1) < 1e-9 for f in frames)
+    assert all(abs((sum(f["piece_mass"]) + f["debris_mass"]) / total - 1) < 1e-9 for f in frames)
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", _names())
 def test_a_rod_stays_whole_above_twice_rho_g_L(tmp_path, name):
-    frames, crack, events = rod_run(tmp_path, name, 2.5 * RHO_G_L)
+    frames, crack, events = rod_run(tmp_path, name, 2.5 * RHO_G_L, ROD_FRAMES)
     assert [f["pieces"] for f in frames] == [1] * len(frames) and crack is None and len(events) == 1
 
 
@@ -341,7 +348,7 @@ def test_a_rod_stays_whole_above_twice_rho_g_L(tmp_path, name):
 @pytest.mark.parametrize("name", _names())
 def test_the_rod_check_catches_an_engine_that_never_damages(tmp_path, name, monkeypatch):
     never_damages(monkeypatch, name)
-    frames, crack, _ = rod_run(tmp_path, name, 0.6 * RHO_G_L)
+    frames, crack, _ = rod_run(tmp_path, name, 0.6 * RHO_G_L, ROD_FRAMES)
     assert frames[-1]["pieces"] == 1 and crack is None
 
 
@@ -533,11 +540,12 @@ def ball_pieces(name: str, drop: float, tensile_strength: float, fracture_energy
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", _names())
-def test_a_ball_breaks_from_1_m_at_a_low_strength_and_stays_whole_from_5_cm_at_a_high_one(name):
-    """Measured: see docs/fracture.md; f_t = 10 kPa from 1 m (impact stress about rho c v = 34 kPa); 1 piece at
-    25 kPa from 5 cm (about 7.7 kPa). ``G_f`` 15 and 120 J/m^2: the band ``h = dx + p_vol^(1/3) = 1.5 dx`` gives
+def test_a_ball_breaks_from_2_5_m_at_a_low_strength_and_stays_whole_from_5_cm_at_a_high_one(name):
+    """Measured: see docs/fracture.md; f_t = 10 kPa from 2.5 m (7 m/s, impact stress about rho c v = 54 kPa); 1 piece
+    at 25 kPa from 5 cm (about 7.7 kPa). From 1 m (34 kPa) the ball breaks (83 % of its points at d >= 0.9) but does
+    not come apart by a grid cell within the 15 frames: 1 piece (issue 66; 4 by the damage alone before). ``G_f`` 15 and 120 J/m^2: the band ``h = dx + p_vol^(1/3) = 1.5 dx`` gives
     the softening stresses ``s_f`` (12.8 and 41 kPa) that 10 and 80 J/m^2 gave with the band ``dx``."""
-    assert ball_pieces(name, 1.0, 1e4, 15.0) >= 3
+    assert ball_pieces(name, 2.5, 1e4, 15.0) >= 3
     assert ball_pieces(name, 0.05, 2.5e4, 120.0) == 1
 
 
@@ -545,7 +553,7 @@ def test_a_ball_breaks_from_1_m_at_a_low_strength_and_stays_whole_from_5_cm_at_a
 @pytest.mark.parametrize("name", _names())
 def test_the_ball_check_catches_an_engine_that_never_damages(name, monkeypatch):
     never_damages(monkeypatch, name)
-    assert ball_pieces(name, 1.0, 1e4, 15.0) == 1
+    assert ball_pieces(name, 2.5, 1e4, 15.0) == 1
 
 
 def test_the_studio_offers_brittle_with_its_two_keys():

@@ -4,7 +4,8 @@
   ``v2, v3`` are in another goes whole to ``v1``'s; pieces are numbered heaviest first; rows not simulated are -1.
   Shown to catch a labelling by ``v2`` (the straddling triangle then goes to the other piece).
 - A real broken run (every 16th Gaussian of the README donut as a brittle biscuit landing at 4.43 m/s, warp_mpm,
-  n_grid 32, 2 frames: measured 13 pieces at frame 2, each holding Gaussians) writes ``pieces_NNNN.npy`` per frame;
+  n_grid 32, 2 frames: measured 1 piece and 30 crumbs at frame 2, the crumbs that hold Gaussians under one number
+  after the pieces) writes ``pieces_NNNN.npy`` per frame;
   exported with ``--split-pieces`` the GLB of each frame has one node per piece of that frame (and one with the piece's
   shown crack faces) and the USD one prim per piece of the last frame, each holding exactly the Gaussians labelled with it (positions equal to the PLY
   frame's, turned to the format's axes), and beside each a prim of its crack faces, time-sampled, hidden at frame 0 and
@@ -53,6 +54,16 @@ def test_a_straddling_triangle_goes_to_its_v1s_piece_and_pieces_are_numbered_hea
     assert gaussian_pieces(o, labels, mass).tolist() != [1, 1, -1, 0, 0]
 
 
+def test_the_crumbs_that_hold_gaussians_share_the_number_after_the_pieces():
+    """Issue 66: crumbs are counted apart; their Gaussians go under one number (one debris node), not one a crumb."""
+    o = _object(4)
+    labels = np.repeat([0, 1, 2, 3], 3)                            # a triangle per label
+    mass = np.array([3.0, 0, 0, 0.1, 0, 0, 2.0, 0, 0, 0.2, 0, 0])
+    piece = np.array([True, False, True, False])                   # labels 1 and 3 are crumbs
+    assert gaussian_pieces(o, labels, mass, piece).tolist() == [0, 2, 1, 2]
+    assert gaussian_pieces(o, labels, mass).tolist() == [0, 3, 1, 2]   # without it: a number a crumb (caught)
+
+
 def _labels(run, frame):
     return read_pieces(run, "donut_small", frame)
 
@@ -65,8 +76,11 @@ def test_every_frame_records_each_gaussians_piece(broken_run):
         assert lab.shape == (n,) and lab.dtype == np.int32 and lab.min() >= 0
         present = np.unique(lab)
         assert present.tolist() == list(range(len(present)))       # numbered from 0 without a gap
-        assert len(present) <= r["pieces"]                          # a piece of fill points alone holds no Gaussian
-    assert rows[0]["pieces"] == 1 and rows[-1]["pieces"] >= 3 and len(np.unique(_labels(broken_run, 2))) >= 3
+        assert len(present) <= r["pieces"] + (r["debris"] > 0)      # a piece of fill points alone holds no Gaussian
+    # at frame 2 the biscuit is still one piece with 30 crumbs come off (issue 66: what has come apart); the crumbs
+    # that hold a Gaussian share the number after the pieces (one debris node in an export)
+    assert rows[0]["pieces"] == 1 and rows[-1]["debris"] >= 3
+    assert np.unique(_labels(broken_run, 2)).tolist() == list(range(rows[-1]["pieces"] + 1))
 
 
 def test_split_glb_has_a_node_per_piece_holding_its_gaussians(broken_run, tmp_path):

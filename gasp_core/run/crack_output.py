@@ -48,18 +48,20 @@ class CrackOutput:
             self.objects.append((name, o, build_crack_faces(s.x[rows], rows, pairs, o.surface.tri_rest[:, 0],
                                                             dc, h)))
 
-    def write(self, folder, frame: int, x: np.ndarray, labels: np.ndarray, damage: np.ndarray | None) -> list[str]:
+    def write(self, folder, frame: int, x: np.ndarray, labels: np.ndarray, damage: np.ndarray | None,
+              piece: np.ndarray | None = None) -> list[str]:
         """Write every brittle object's ``crack_faces_NNNN.ply`` at positions ``x`` (n, 3, world), point ``labels``
-        (n,) and ``damage`` (n,) or None (nothing broken), atomically; the files, relative to ``folder``."""
+        (n,), ``damage`` (n,) or None (nothing broken) and ``piece`` (per label, bool, or None:
+        :func:`gasp_core.run.pieces.piece_ranks`), atomically; the files, relative to ``folder``."""
         d = np.zeros(len(x)) if damage is None else np.asarray(damage, np.float64)
         rels = []
         for name, o, faces in self.objects:
             means, rot, scales, visible = crack_face_gaussians(faces, x, labels, d)
             pl = o.placement
-            piece = piece_ranks(o, labels, self.mass)[np.asarray(labels)[faces.rows]]
+            rank = piece_ranks(o, labels, self.mass, piece)[np.asarray(labels)[faces.rows]]
             g = Gaussians(means=pl.to_file(means), scales=scales / pl.scale,
                           rotations=rotmat_to_quat(pl.R.T @ rot), opacities=np.where(visible, SHOWN, HIDDEN),
-                          sh_dc=faces.sh_dc, sh_rest=np.zeros((len(means), 0, 3)), extra={"piece": piece},
+                          sh_dc=faces.sh_dc, sh_rest=np.zeros((len(means), 0, 3)), extra={"piece": rank},
                           source=f"{name} crack faces")
             rel = f"{name}/{CRACK_FILE.format(frame)}"
             write_gaussians(Path(folder) / rel, g, overwrite=True)

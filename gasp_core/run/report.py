@@ -12,8 +12,9 @@ A run says six kinds of thing, each an event (a dict with ``"event"`` naming its
 ``warning``
     ``message``: one line in words.
 ``pieces``
-    ``frame``, ``pieces`` (the count) and ``piece_mass`` (kg, largest first) of a scene with a ``brittle`` body,
-    at frame 0 and whenever the count changes (:mod:`gasp_core.run.pieces`).
+    ``frame``, ``pieces`` (the count, crumbs apart), ``piece_mass`` (kg, largest first), ``debris`` (the crumbs'
+    count) and ``debris_mass`` (kg) of a scene with a ``brittle`` body, at frame 0 and whenever the count of pieces
+    or of crumbs changes (:mod:`gasp_core.run.pieces`).
 ``result``
     ``message`` (the line the console prints) and the record's fields (``gasp simulate``: ``run_json``,
     ``output``, ...).

@@ -3,7 +3,8 @@
 After every frame whose PLYs are written, the pipeline saves the engine's state (engines with
 the feature ``state``, a :class:`~gasp_core.seam.engine.StatefulEngine`: ``get_state`` /
 ``set_state``), the frame rebuild's state (the previous rotations, the fallback of ``T^-1`` for
-degenerate faces) and the run record so far to ``.gasp-checkpoint.npz`` in the partial folder,
+degenerate faces), the pieces' state (their cut links, :mod:`gasp_core.run.pieces`) and the run record so far to
+``.gasp-checkpoint.npz`` in the partial folder,
 atomically. A run killed at any point (even ``kill -9``) therefore loses at most the frame it was
 computing. ``--resume`` finds the partial folder of a run that is no longer alive, checks that the
 scene, its inputs, the engine and its options are the same (a fingerprint), restores the state and
@@ -55,12 +56,16 @@ class Checkpoint:
         Per object, the world rotations of ``frame`` (the rebuild's fallback).
     meta : dict
         ``fingerprint``, ``per_frame`` rows, ``build_s`` and ``frame_s`` so far.
+    pieces : dict of ndarray
+        The piece tracker's state after ``frame`` (:meth:`gasp_core.run.pieces.PieceTracker.state`: its cut links
+        stay cut); empty without a brittle body.
     """
 
     frame: int
     engine_state: dict[str, np.ndarray]
     prev_rot: list[np.ndarray]
     meta: dict[str, Any] = field(default_factory=dict)
+    pieces: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 def fingerprint(scene, engine: str, options: dict, n_frames: int, output: tuple = ("ply", "frames")) -> str:
@@ -91,6 +96,7 @@ def save(folder: Path, checkpoint: Checkpoint) -> None:
     """Write ``folder/.gasp-checkpoint.npz`` atomically (the previous checkpoint stays until replaced)."""
     arrays = {f"engine/{k}": np.asarray(v) for k, v in checkpoint.engine_state.items()}
     arrays.update({f"rot/{i}": r for i, r in enumerate(checkpoint.prev_rot)})
+    arrays.update({f"pieces/{k}": np.asarray(v) for k, v in checkpoint.pieces.items()})
     meta = dict(checkpoint.meta, frame=checkpoint.frame, n_rot=len(checkpoint.prev_rot))
     arrays["meta"] = np.frombuffer(json.dumps(meta, default=str).encode(), dtype=np.uint8)
     buf = io.BytesIO()
@@ -119,10 +125,11 @@ def load(folder: Path) -> Checkpoint:
                 raise ValueError("meta per_frame or files of the wrong type")
             engine_state = {k[len("engine/"):]: z[k] for k in z.files if k.startswith("engine/")}
             prev_rot = [z[f"rot/{i}"] for i in range(meta["n_rot"])]
+            piece_state = {k[len("pieces/"):]: z[k] for k in z.files if k.startswith("pieces/")}
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, RecursionError) as e:
         raise GaspError(f"cannot resume from '{path}': the checkpoint is truncated or damaged ({e}); "
                         f"start again with --discard") from None
-    return Checkpoint(meta["frame"], engine_state, prev_rot, meta)
+    return Checkpoint(meta["frame"], engine_state, prev_rot, meta, piece_state)
 
 
 def file_record(folder: Path, rels, known: dict | None = None) -> dict[str, list[int]]:

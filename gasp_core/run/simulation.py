@@ -203,6 +203,8 @@ class SimulationRun:
         stop.frame_started(None)
         rebuild_all = Rebuilder(prep, None if checkpoint is None else checkpoint.prev_rot)
         tracker = pieces.tracker_for(prep.setup)   # None without a brittle body
+        if tracker is not None and checkpoint is not None and checkpoint.pieces:
+            tracker.restore(checkpoint.pieces)      # its cut links stay cut
         self.cracks = crack_output_for(prep, tracker)   # crack faces beside a brittle object's frames, or None
         with Background() as writes, gil_handover():
             hand = _Handover(self, writes, writer, rebuild_all, on_frame, tracker)
@@ -262,8 +264,9 @@ class SimulationRun:
                    engine_state: dict | None, frame_s: list, made: list, labels=None) -> None:
         """Rebuild one frame's Gaussians from the positions ``x`` and write its files, then (``engine_state`` not
         None) its checkpoint (on :class:`Background`'s worker); the Gaussians are appended to ``made``; ``labels``
-        (``(point labels, point masses, damage)`` of a scene with pieces) each Gaussian's piece (:mod:`pieces`) and
-        the crack faces (:mod:`gasp_core.run.crack_output`). ``times``
+        (``(point labels, point masses, damage, tracker state, which labels are pieces)`` of a scene with pieces) each
+        Gaussian's piece (:mod:`pieces`), the crack faces (:mod:`gasp_core.run.crack_output`) and the checkpoint's
+        pieces. ``times``
         (empty for frame 0) go into the frame's row: ``sim_s`` (the engine), ``wall_s`` and ``cpu_s`` (the process's
         CPU time, every thread, from the previous frame's hand-off to the writer to this frame's: ``cpu_s / wall_s``
         is the cores the frame used, the previous frame's rebuild and files on the writer included)."""
@@ -275,9 +278,9 @@ class SimulationRun:
         t0 = time.perf_counter()
         self.unrecorded += writer.write(frame, gs)
         if labels is not None:
-            self.unrecorded += pieces.write_frame_pieces(writer.folder, self.prep, frame, *labels[:2])
+            self.unrecorded += pieces.write_frame_pieces(writer.folder, self.prep, frame, *labels[:2], labels[4])
             if self.cracks is not None:
-                self.unrecorded += self.cracks.write(writer.folder, frame, x, labels[0], labels[2])
+                self.unrecorded += self.cracks.write(writer.folder, frame, x, labels[0], labels[2], labels[4])
         if any(c is not None for c in rebuild_all.split):   # an object that tears: its clamped triangles split
             self.unrecorded += write_split(writer.folder, self.prep.names, frame, rebuild_all.last_split)
         row["write_s"] = time.perf_counter() - t0
@@ -289,7 +292,8 @@ class SimulationRun:
             resume_mod.save(self.tmp, resume_mod.Checkpoint(
                 frame, engine_state, list(rebuild_all.prev_rot), {"fingerprint": self.fingerprint,
                                                                   "per_frame": self.per_frame, "frame_s": frame_s,
-                                                                  "files": self.files}))
+                                                                  "files": self.files},
+                {} if labels is None else labels[3]))
             row["checkpoint_s"] = time.perf_counter() - t0
             self.saved_frame = frame
 
@@ -389,7 +393,8 @@ class _Handover:
                 self.left_seen = left
         if self.tracker is not None:
             times.update(pieces.frame_row(self.tracker, run.reporter, frame, x, run.stats.damage if frame else None))
-            labels = (self.tracker.last_labels, self.tracker.mass, run.stats.damage if frame else None)
+            labels = (self.tracker.last_labels, self.tracker.mass, run.stats.damage if frame else None,
+                      self.tracker.state() if state is not None else {}, self.tracker.pieces)
         self.writes.submit(run.save_frame, self.writer, self.rebuild_all, frame, np.array(x), times, state,
                            list(run.stats.frame_s), made, labels)
         run.reporter.frame(frame, wall_s, sim_s, run.stats.engine.get("n_substeps"))

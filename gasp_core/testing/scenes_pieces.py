@@ -1,0 +1,62 @@
+"""Brittle balls landing on the ground, their pieces counted frame by frame two ways (issue 66, item 4): by the
+run's :class:`~gasp_core.run.pieces.PieceTracker` (geometry and damage, cut links kept) and from the frames alone
+(:class:`~gasp_core.testing.pieces_count.FramePieces`, no damage read). Used by ``tests/test_pieces_family.py`` and
+``benchmarks/pieces_family.py``."""
+from __future__ import annotations
+
+import numpy as np
+
+from gasp_core.run.pieces import LINK_RADIUS, PieceTracker, tracker_for
+from gasp_core.seam.build import build_engine
+from gasp_core.seam.plugins import engines
+from gasp_core.seam.setup import Boundary, Material, SimSetup
+from gasp_core.testing.helpers import make_setup, sphere_points
+from gasp_core.testing.pieces_count import FramePieces, tracker_count
+
+#: The ball family's landing speeds, m/s (issue 66: 1, 2, 4, 7 and 10).
+SPEEDS = (1.0, 2.0, 4.0, 7.0, 10.0)
+#: The ball's brittle material: E 200 kPa, nu 0.25, rho 300 kg/m^3, f_t 10 kPa, G_f 15 J/m^2 (tests/test_brittle.py's
+#: ball that breaks from 1 m).
+BALL = {"E": 2e5, "nu": 0.25, "rho": 300.0, "tensile_strength": 1e4, "fracture_energy": 15.0}
+
+
+def ball_setup(speed: float, n_grid: int = 32, radius: float = 0.1) -> SimSetup:
+    """A brittle ball (:data:`BALL`, radius ``radius`` m, a lattice of spacing ``dx / 2``, frames of 0.01 s) that
+    reaches the ground (friction 0.5, walls) at ``speed`` m/s: it starts 5 mm above it with that speed; one thread,
+    single precision."""
+    dx = 1 / n_grid
+    ground = 3 * dx + 0.004
+    x, pv = sphere_points((0.5, 0.5, ground + radius + 0.005), radius, dx / 2)
+    return make_setup(x, pv, Material("brittle", **BALL), v=np.array([0.0, 0.0, -speed]), n_grid=n_grid,
+                      frame_dt=0.01, boundaries=[Boundary("ground", height=ground, friction=0.5), Boundary("walls")],
+                      options={"precision": "f32", "threads": 1})
+
+
+def counted_run(name: str, setup: SimSetup, n_frames: int, tracker: PieceTracker | None = None) -> dict:
+    """Run ``setup`` on engine ``name`` for ``n_frames`` frames; per frame (0 .. n_frames) lists ``tracker`` (the
+    run's pieces, crumbs apart), ``tracker_1`` and ``tracker_5`` (its pieces of at least 1 and 5 % of the mass),
+    ``frames_1`` (:class:`FramePieces`'s count, 1 %) and ``debris``. ``tracker``: the tracker to count with (a broken
+    variant in the tests); default :func:`gasp_core.run.pieces.tracker_for`."""
+    t = tracker_for(setup) if tracker is None else tracker
+    spacing = float(np.cbrt(np.max(setup.p_vol)))
+    ref = FramePieces(setup.x, setup.p_mass, LINK_RADIUS * spacing, setup.dx)
+    total = float(np.sum(setup.p_mass))
+    out = {k: [] for k in ("tracker", "tracker_1", "tracker_5", "frames_1", "debris")}
+
+    def count(x, d):
+        row = t.row(x, d)[0]
+        out["tracker"].append(row["pieces"])
+        out["debris"].append(row["debris"])
+        out["tracker_1"].append(tracker_count(row, total, 0.01))
+        out["tracker_5"].append(tracker_count(row, total, 0.05))
+        out["frames_1"].append(ref.count(x))
+
+    count(setup.x, None)
+    e = build_engine(engines()[name], setup)
+    try:
+        for _ in range(n_frames):
+            e.step_frame()
+            count(np.asarray(e.positions(), np.float64), np.asarray(e.damage(), np.float64))
+    finally:
+        e.close()
+    return out
