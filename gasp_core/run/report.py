@@ -196,3 +196,22 @@ class JsonLinesReporter(Reporter):
         """The event's ``message`` without the line's ``error: `` prefix; the line itself on stderr."""
         super().error(message.removeprefix("error: "), status, **record)
         print(f"gasp: {message}", file=sys.stderr)
+
+
+def left_domain_row(reporter: Reporter, frame: int, left: int, warned: bool) -> bool:
+    """The frame's ``run.json`` figure ``left_domain`` (points out of the grid, feature ``left_domain``): the first
+    frame with any says so once through ``reporter``; returns whether that warning has been given."""
+    if left and not warned:
+        reporter.warning(f"frame {frame}: {left} point(s) left the domain: they stay there, out of the simulation "
+                         "(run.json left_domain counts them; walls or a larger domain keep them)")
+    return warned or bool(left)
+
+
+def stranded_warning(reporter: Reporter, stranded: int | None, n_passive: int) -> None:
+    """The engine's ``passive_stranded`` count (surface points the material left behind at the last frame) as a
+    warning through ``reporter``; nothing when it is 0 or None."""
+    if stranded:
+        reporter.warning(
+            f"{stranded} of {int(n_passive)} passive surface points had no material within their interpolation "
+            "stencil at the last frame: they stayed where the material left them (pieces of surface left hanging, "
+            "typical of sand or liquid flowing away); surface = \"material\" simulates the surface points as material")

@@ -27,7 +27,7 @@ from gasp_core.run.layout import FrameWriter, choose_layout, run_bytes
 from gasp_core.prepare.dynamic import follows_model
 from gasp_core.prepare.scene import PreparedScene, prepare_scene
 from gasp_core.run.record import run_summary, running_record
-from gasp_core.run.report import Reporter
+from gasp_core.run.report import Reporter, left_domain_row, stranded_warning
 from gasp_core.run.request import SimulateRequest
 from gasp_core.seam.runner import EngineRun, RunStats
 from gasp_core.scene.spec import Scene
@@ -299,14 +299,8 @@ class SimulationRun:
 
     # ---------------------------------------------------------------- the end
     def warn_stranded(self) -> None:
-        """Pass on the engine's ``passive_stranded`` count (surface points the material left behind) as a warning."""
-        stranded = (self.stats.engine or {}).get("passive_stranded")
-        if stranded:
-            self.reporter.warning(
-                f"{stranded} of {int(self.prep.setup.n_passive)} passive surface points had no material within "
-                "their interpolation stencil at the last frame: they stayed where the material left them "
-                "(pieces of surface left hanging, typical of sand or liquid flowing away); surface = "
-                "\"material\" simulates the surface points as material")
+        """Pass on the engine's ``passive_stranded`` count as a warning (:func:`stranded_warning`)."""
+        stranded_warning(self.reporter, (self.stats.engine or {}).get("passive_stranded"), self.prep.setup.n_passive)
 
     def stopped_record(self) -> dict:
         """The ``run.json`` of a stopped run: the record of the frames its checkpoint covers."""
@@ -369,7 +363,7 @@ class _Handover:
     tracker: object = None
     #: Frames between checkpoints, set at the first (:func:`gasp_core.run.resume.checkpoint_every`); 0 before it.
     ckpt_every: int = 0
-    left_seen: int = 0
+    left_warned: bool = False
     t_frame: float = field(default_factory=time.perf_counter)
     c_frame: float = field(default_factory=time.process_time)
 
@@ -385,12 +379,9 @@ class _Handover:
         wall_s, cpu_s = time.perf_counter() - self.t_frame, time.process_time() - self.c_frame
         times = {"sim_s": sim_s, "wall_s": wall_s, "cpu_s": cpu_s} if sim_s is not None else {}
         labels = None
-        if run.stats.left_domain is not None and frame:
-            times["left_domain"] = left = run.stats.left_domain
-            if left and not self.left_seen:    # points out of the grid drop out where they are (feature left_domain)
-                run.reporter.warning(f"frame {frame}: {left} point(s) left the domain: they stay there, out of the "
-                                     "simulation (run.json left_domain counts them; walls or a larger domain keep them)")
-                self.left_seen = left
+        if run.stats.left_domain is not None and frame:   # points out of the grid drop out (feature left_domain)
+            times["left_domain"] = run.stats.left_domain
+            self.left_warned = left_domain_row(run.reporter, frame, run.stats.left_domain, self.left_warned)
         if self.tracker is not None:
             times.update(pieces.frame_row(self.tracker, run.reporter, frame, x, run.stats.damage if frame else None))
             labels = (self.tracker.last_labels, self.tracker.mass, run.stats.damage if frame else None,
