@@ -201,8 +201,10 @@ def test_a_tearing_run_writes_the_sub_gaussians_and_gasp_render_draws_them(tmp_p
     write_gaussians(tmp_path / "rod.ply", tb.t_rod())
     text = tb.rod_scene_text("taichi_mpm", tmp_path / "rod.ply", 1.0, 8).replace('name = "brittle"',
                                                                                 'name = "plasticine"')
+    # yield 1200 Pa: since the held region holds by ghost nodes (issue 66) the clamp no longer concentrates stress and
+    # the rod at 2700 Pa does not yield in 16 frames; at 1200 its neck's clamp appears at frame 7 (32 sub-Gaussians)
     (tmp_path / "rod.toml").write_text(text.replace("tensile_strength = 1.0\nfracture_energy = 5.0",
-                                                    "yield_stress = 2700.0\nsoftening = 3.0"))
+                                                    "yield_stress = 1200.0\nsoftening = 3.0"))
     out = tmp_path / "run"
     simulate_scene(load_scene(tmp_path / "rod.toml"), out)
     rows = json.loads((out / "run.json").read_text())["frames"]
