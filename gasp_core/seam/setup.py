@@ -13,7 +13,8 @@ from typing import Any
 import numpy as np
 
 from gasp_core.errors import SceneError
-from gasp_core.seam.schema import BODY_MODELS, DEFAULT_MATERIAL, MATERIAL_KINDS, MATERIAL_PARAMS, RIGID_KINDS, in_range
+from gasp_core.seam.schema import (BODY_MODELS, DEFAULT_MATERIAL, MATERIAL_KINDS, MATERIAL_PARAMS, RIGID_KINDS,
+                                    STIFF_BRITTLE_E, in_range)
 
 #: Material models an engine may offer (capability names; :data:`gasp_core.seam.schema.MATERIAL_KINDS` says what
 #: each is and which keys it uses).
@@ -161,8 +162,9 @@ class Material:
         SceneError
             Naming the limit, the band width ``h`` and what to change.
         """
-        limit = self.snap_back_limit(h)
-        if self.name == "brittle" and not self.fracture_energy > limit:
+        limit, rigid = self.snap_back_limit(h), self.model == "rigid" or (self.model, self.E >= STIFF_BRITTLE_E) == (
+            "auto", True)   # a stiff brittle body on the rigid route breaks into fragments, not in a crack band
+        if self.name == "brittle" and not self.fracture_energy > limit and not rigid:
             raise SceneError(f"{where}.fracture_energy = {self.fracture_energy:g} J/m^2 is at or below the snap-back "
                              f"limit tensile_strength^2 h / (2 E) = {limit:.4g} J/m^2 at the crack band width h = "
                              f"dx + p_vol^(1/3) = {h:.4g} m; raise fracture_energy above it, or lower "
