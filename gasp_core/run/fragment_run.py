@@ -9,7 +9,8 @@ direction is the contact's normal and whose approach speed ``v_n`` is the body's
 discarded, the engine closed, and a new engine built at the previous frame's positions and velocities in which the
 body is its fragments (:func:`gasp_core.toolkit.fragments.split_body`), each a rigid body of the same material; the
 frame is simulated again, the fragments meeting the ground one by one. The points keep their order, so the frames'
-rebuild (``T^-1``) is unchanged. From the break on the core hands on, as each frame's damage, a cut between the
+rebuild (``T^-1``) is unchanged; the fragments' restitution is capped by the fracture (:func:`broken_restitution`).
+From the break on the core hands on, as each frame's damage, a cut between the
 fragments (:func:`gasp_core.toolkit.fragments.cut_damage`): the pieces (``gasp_core.run.pieces``) are the fragments and
 the crack faces (``gasp_core.maps.crack_faces``) show on their new faces.
 
@@ -76,11 +77,25 @@ def impacts(setup, bodies: list[int], x_prev: np.ndarray, v_prev: np.ndarray, v_
         first = along <= along.min() + setup.dx   # the points that touch first: their centre
         rec = {"body": b, "normal": n, "impact_speed": v_n, "impact_point": x_prev[sel][first].mean(axis=0),
                "mass": float(setup.p_mass[sel].sum()), "volume": float(setup.p_vol[sel].sum()),
-               "length": float(np.ptp(along)), "restitution": body_restitution(m)}
+               "length": float(np.ptp(along)), "restitution": body_restitution(m),
+               "tensile_strength": float(m.tensile_strength), "impedance": float(m.rho * np.sqrt(m.E / m.rho))}
         rec.update(break_check(m, rec["mass"], rec["volume"], rec["length"], v_n))
         if rec["breaks"]:
             out.append(rec)
     return out
+
+
+def broken_restitution(hit: dict) -> float:
+    """The fragments' coefficient of restitution: the body's ``e`` times ``v_break / v_n`` (at most ``e``), where
+    ``v_break = f_t / (rho c)`` is the approach speed whose plane-wave stress reaches the tensile strength.
+
+    The elastic rebound of a bar that meets a wall is the particle velocity of the reflected wave, ``sigma / (rho c)``
+    (Saint-Venant's impact of a bar; Graff 1975, "Wave Motion in Elastic Solids", 2.4). A brittle body carries no
+    stress above ``f_t``: what it gives back is at most that of an impact at ``v_break`` (the body's ``e`` of it),
+    the rest of the approach going into the fracture (its cracks, the fragments' relative motion and vibration),
+    as a plastic impact's restitution falls above its yield velocity (Johnson 1985, "Contact Mechanics", 11.4)."""
+    v_break = hit["tensile_strength"] / hit["impedance"]
+    return float(hit["restitution"] * min(1.0, v_break / max(hit["impact_speed"], 1e-12)))
 
 
 def fragmented(setup, x: np.ndarray, v: np.ndarray, hits: list[dict], seed: int = 0):
@@ -103,11 +118,14 @@ def fragmented(setup, x: np.ndarray, v: np.ndarray, hits: list[dict], seed: int 
         k = int(frag.max()) + 1
         ids = np.concatenate([[h["body"]], len(mats) + np.arange(k - 1)])
         body_id[sel] = ids[frag]
-        mats += [setup.materials[h["body"]]] * (k - 1)
+        m = setup.materials[h["body"]]
+        mats[h["body"]] = m = dataclasses.replace(m, restitution=broken_restitution(h))
+        mats += [m] * (k - 1)
         damage[sel] = cut_damage(x[sel], frag, material[sel], spacing)
         masses = np.bincount(frag, weights=setup.p_mass[sel])
         records.append({**{key: (val.tolist() if isinstance(val, np.ndarray) else val) for key, val in h.items()},
-                        "fragments": k, "fragment_mass": sorted(masses.tolist(), reverse=True)})
+                        "fragments": k, "fragment_mass": sorted(masses.tolist(), reverse=True),
+                        "fragment_restitution": m.restitution})
     new = dataclasses.replace(setup, x=np.array(x), v=np.array(v), body_id=body_id, materials=mats, C=None)
     return new, damage, records
 
