@@ -8,7 +8,9 @@ footprint of its intact fill).
 
 Run: ``python benchmarks/cup_drop.py [--engine taichi_mpm] [--speed 4.43] [--frames 20] [--stills]``; results in
 ``benchmarks/results/cup_drop_<engine>_<speed>.json`` and ``.md``; ``--stills`` renders the run at its break, halfway
-and its last frame into ``docs/cup_drop_<speed>_<frame>.png`` (``gasp render``'s CPU renderer, one camera).
+and its last frame into ``docs/cup_drop_<speed>_<frame>.png`` (``gasp render``'s CPU renderer, its default camera following the cup), the
+same frames with each piece in its own colour (``docs/cup_drop_<speed>_pieces_<frame>.png``) and the largest piece
+from its crack side without and with the crack faces (``docs/cup_drop_<speed>_without.png``, ``_with.png``).
 """
 from __future__ import annotations
 
@@ -67,11 +69,15 @@ def figures(res: dict) -> dict:
     rec = dict(stats.fragments[0]) if stats.fragments else {}
     return {"wall_s": res["wall_s"], "break": rec, "mass_kg": float(setup.p_mass.sum()),
             "lowest_mm": 1e3 * min(float(x[:, 2].min()) for x in xs), "energy_J": e.tolist(),
+            "lowest_per_frame_mm": [1e3 * float(x[:, 2].min()) for x in xs],
             "energy_max_over_start": float(e[1:].max() / e[0]), "energy_last_over_start": float(e[-1] / e[0])}
 
 
-def alpha_measure(res: dict, engine: str) -> list[dict]:
-    """Each piece of 5 % or more at the last frame, from its crack side (``benchmarks/crack_faces.py``)."""
+def alpha_measure(res: dict, engine: str, stills_stem: str | None = None) -> list[dict]:
+    """Each piece of 5 % or more at the last frame, from its crack side (``benchmarks/crack_faces.py``); with
+    ``stills_stem``, that module's two stills (the whole break, the largest piece from its crack side; without and
+    with the crack faces) and one still per frame of :func:`piece_frames` with each piece its own colour, into
+    ``docs/<stills_stem>_*.png``."""
     import crack_faces as cf
     from gasp_core.prepare.scene import prepare_scene
     from gasp_core.render.builtin import CpuRenderer
@@ -83,8 +89,36 @@ def alpha_measure(res: dict, engine: str) -> list[dict]:
     x = res["xs"][-1]
     d = stats.damage if stats.damage is not None else np.zeros(len(x))
     parts = cf.scene_parts(prep, x, d)
-    rows = cf.measure_pieces(parts, x, d, CpuRenderer(jit=True), faces="fill")
+    render = CpuRenderer(jit=True)
+    rows = cf.measure_pieces(parts, x, d, render, faces="fill")
+    if stills_stem:
+        cf.stills(parts, x, d, render, ROOT / "docs", stem=stills_stem)
+        k0 = stats.fragments[0]["frame"] + 1 if stats.fragments else 1
+        for f in (k0, (k0 + len(res["xs"]) - 1) // 2, len(res["xs"]) - 1):
+            piece_still(cf, cf.scene_parts(prep, res["xs"][f], d), render,
+                        ROOT / "docs" / f"{stills_stem}_pieces_{f:02d}.png")
     return [{k: v for k, v in r.items() if k != "ms"} for r in rows]
+
+
+#: Colours of the pieces in :func:`piece_still` (largest first).
+PALETTE = np.array([[0.85, 0.3, 0.25], [0.25, 0.55, 0.85], [0.3, 0.7, 0.35], [0.9, 0.7, 0.2], [0.6, 0.35, 0.75],
+                    [0.2, 0.75, 0.75], [0.85, 0.5, 0.65], [0.5, 0.5, 0.5]], np.float32)
+
+
+def piece_still(cf, parts, render, path: Path, size: int = 480) -> None:
+    """The break from above and beside, each piece's Gaussians and shown crack faces in its own colour."""
+    import imageio.v3 as iio
+    from gasp_core.render.camera import auto_camera
+    rank = np.argsort(np.argsort(-np.bincount(parts["labels"], weights=parts["mass"])))
+    surf = cf.subset(parts["surf"], np.ones(len(parts["surf_piece"]), bool))
+    surf.rgb = PALETTE[np.minimum(rank[parts["surf_piece"]], len(PALETTE) - 1)]
+    crack = cf.subset(parts["crack"], parts["vis"])
+    crack.rgb = PALETTE[np.minimum(rank[parts["crack_piece"][parts["vis"]]], len(PALETTE) - 1)]
+    both = type(surf).concat([surf, crack])
+    lo, hi = both.means.min(0), both.means.max(0)
+    cam = auto_camera(lo, hi, size, size, 30.0, azimuth_deg=-60.0, elevation_deg=35.0)
+    img = render(both, cam, background=np.ones(3))[0]
+    iio.imwrite(path, (np.clip(img, 0, 1) * 255).astype(np.uint8))
 
 
 def main() -> None:
@@ -100,10 +134,10 @@ def main() -> None:
     res = run(a.engine, a.speed, a.frames, out)
     res["scene_file"] = work / f"{out.name}.toml"
     fig = figures(res)
-    fig["pieces_alpha"] = alpha_measure(res, a.engine)
+    fig["pieces_alpha"] = alpha_measure(res, a.engine, f"cup_drop_{a.speed:g}" if a.stills else None)
     fig.update(engine=a.engine, speed=a.speed, frames=a.frames, load=os.getloadavg()[0])
     stem = ROOT / "benchmarks" / "results" / f"cup_drop_{a.engine}_{a.speed:g}"
-    stem.with_suffix(".json").write_text(json.dumps(fig, indent=1, default=float))
+    Path(f"{stem}.json").write_text(json.dumps(fig, indent=1, default=float))
     b = fig["break"]
     lines = [f"# The cup drop: {a.engine}, {a.speed:g} m/s, {a.frames} frames (load {fig['load']:.1f})", "",
              f"gasp simulate to the last frame: {fig['wall_s']:.1f} s", "",
@@ -115,7 +149,7 @@ def main() -> None:
              "| piece | mass (g) | faces shown | below alpha 0.9 without faces | with faces |", "|---|---|---|---|---|"]
     lines += [f"| {r['piece']} | {1e3 * r['mass']:.1f} | {r['fill_n']} | {100 * r.get('without', float('nan')):.2f} % "
               f"| {100 * r.get('fill', float('nan')):.2f} % |" for r in fig["pieces_alpha"]]
-    stem.with_suffix(".md").write_text("\n".join(lines) + "\n")
+    Path(f"{stem}.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
     if a.stills:
         stills(out, b.get("frame", 0) + 1, a.frames, a.speed)
@@ -127,8 +161,7 @@ def stills(run_dir: Path, first: int, last: int, speed: float) -> None:
     import subprocess
     tmp = run_dir.parent / f"{run_dir.name}_png"
     shutil.rmtree(tmp, ignore_errors=True)
-    subprocess.run([sys.executable, "-m", "gasp_core", "render", str(run_dir), "-o", str(tmp), "--camera=0.22,-0.3,0.22",
-                    "--look-at=0,0,0.03", "-q"], check=True)
+    subprocess.run([sys.executable, "-m", "gasp_core", "render", str(run_dir), "-o", str(tmp), "-q"], check=True)
     for f in (first, (first + last) // 2, last):
         shutil.copy(tmp / f"frame_{f:04d}.png", ROOT / "docs" / f"cup_drop_{speed:g}_{f:02d}.png")
 

@@ -160,3 +160,15 @@ def test_cut_damage_separates_the_fragments():
     tracker = PieceTracker(x, np.zeros(len(x), int), vol * 2400.0, vol, gap=0.005)
     assert tracker.row(x, d)[0]["pieces"] == frag.max() + 1
     assert tracker.row(x, None)[0]["pieces"] == 1
+
+
+def test_ground_hit_is_free_fall():
+    """A body 2 cm over the ground at 20 m/s down meets it within a 1/30 s frame at ``sqrt(v^2 + 2 g h)``; at rest
+    1 m up it does not within the frame (it takes 0.45 s), and does within 0.5 s at 4.43 m/s; one moving up and away
+    from a ground below it at 20 m/s does not (the root lies past the frame)."""
+    from gasp_core.run.fragment_run import ground_hit
+    assert ground_hit(0.02, -20.0, 9.81, 1 / 30) == pytest.approx(math.sqrt(400 + 2 * 9.81 * 0.02))
+    assert ground_hit(1.0, 0.0, 9.81, 1 / 30) is None
+    assert ground_hit(1.0, 0.0, 9.81, 0.5) == pytest.approx(4.43, abs=0.01)
+    assert ground_hit(0.02, 20.0, 9.81, 1 / 30) is None
+    assert ground_hit(-0.01, -5.0, 9.81, 1 / 30) is None
