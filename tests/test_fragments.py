@@ -1,4 +1,4 @@
-"""Stiff brittle bodies break into fragments (issue 66 item 5; gasp_core/toolkit/fragments.py,
+"""Stiff brittle bodies break into fragments (issue 66 item 5; gasp_core/run/fragments.py,
 gasp_core/toolkit/fracture_table.py; docs/fracture.md "Stiff brittle bodies: fragments").
 
 No engine here: the handbook table and its scene key, Grady's size law over a family of speeds and fracture
@@ -16,7 +16,7 @@ import pytest
 from gasp_core.errors import SceneError
 from gasp_core.scene.tables import read_material
 from gasp_core.seam.setup import Material
-from gasp_core.toolkit import fragments as fr
+from gasp_core.run import fragments as fr
 from gasp_core.toolkit.fracture_table import BRITTLE_SUBSTANCES, SUBSTANCE_KEYS
 
 
@@ -49,6 +49,7 @@ def test_substance_key_fills_the_material(tmp_path):
     m = read_material({"name": "brittle", "substance": "porcelain"}, "object.material", tmp_path / "s.toml")
     row = BRITTLE_SUBSTANCES["porcelain"]
     assert [getattr(m, k) for k in SUBSTANCE_KEYS] == [getattr(row, k) for k in SUBSTANCE_KEYS]
+    assert m.restitution == 0.9 and m.model == "auto"   # the glass figure its E and rho fall in (restitution table)
     m2 = read_material({"name": "brittle", "substance": "porcelain", "E": 6.0e10}, "object.material",
                        tmp_path / "s.toml")
     assert m2.E == 6.0e10 and m2.rho == row.rho

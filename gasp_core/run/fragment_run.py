@@ -1,17 +1,17 @@
 """The frames of a run whose stiff brittle bodies break on impact into rigid fragments (issue 66 item 5;
-``docs/fracture.md`` "Stiff brittle bodies: fragments"; the physics in :mod:`gasp_core.toolkit.fragments`).
+``docs/fracture.md`` "Stiff brittle bodies: fragments"; the physics in :mod:`gasp_core.run.fragments`).
 
 A ``brittle`` body that takes the rigid route (``material.model`` ``"rigid"``, or ``"auto"`` at handbook stiffness,
 ``gasp_core.prepare.route``) is *breakable*. After each frame the core reads every breakable body's mean velocity
 from the engine; a change beyond gravity's over the frame is an impact with impulse ``J`` (per mass ``dV``), whose
 direction is the contact's normal and whose approach speed ``v_n`` is the body's speed into it half a frame before
-(:func:`impacts`). When the impact breaks the body (:func:`gasp_core.toolkit.fragments.break_check`), that frame is
+(:func:`impacts`). When the impact breaks the body (:func:`gasp_core.run.fragments.break_check`), that frame is
 discarded, the engine closed, and a new engine built at the previous frame's positions and velocities in which the
-body is its fragments (:func:`gasp_core.toolkit.fragments.split_body`), each a rigid body of the same material; the
+body is its fragments (:func:`gasp_core.run.fragments.split_body`), each a rigid body of the same material; the
 frame is simulated again, the fragments meeting the ground one by one. The points keep their order, so the frames'
 rebuild (``T^-1``) is unchanged; the fragments' restitution is capped by the fracture (:func:`broken_restitution`).
 From the break on the core hands on, as each frame's damage, a cut between the
-fragments (:func:`gasp_core.toolkit.fragments.cut_damage`): the pieces (``gasp_core.run.pieces``) are the fragments and
+fragments (:func:`gasp_core.run.fragments.cut_damage`): the pieces (``gasp_core.run.pieces``) are the fragments and
 the crack faces (``gasp_core.maps.crack_faces``) show on their new faces.
 
 Limits: a body breaks once (a fragment does not break again); a run resumed after the break is refused its
@@ -26,8 +26,7 @@ import numpy as np
 
 from gasp_core.seam.engine import call_engine
 from gasp_core.seam.runner import EngineRun, FrameRecord, RunStats
-from gasp_core.toolkit.fragments import break_check, cut_damage, split_body
-from gasp_core.toolkit.restitution import body_restitution
+from gasp_core.run.fragments import break_check, cut_damage, split_body
 
 
 def breakable(setup) -> list[int]:
@@ -61,7 +60,7 @@ def impacts(setup, bodies: list[int], x_prev: np.ndarray, v_prev: np.ndarray, v_
     -------
     list of dict
         ``body``, ``normal`` (3,), ``impact_speed`` (m/s), ``impact_point`` (3,), ``mass`` (kg), ``volume`` (m^3),
-        ``length`` (m) and :func:`~gasp_core.toolkit.fragments.break_check`'s figures.
+        ``length`` (m) and :func:`~gasp_core.run.fragments.break_check`'s figures.
     """
     dt, g = setup.frame_dt, setup.gravity
     ground = max((b.height for b in setup.boundaries if b.kind == "ground"), default=-np.inf)
@@ -84,7 +83,7 @@ def impacts(setup, bodies: list[int], x_prev: np.ndarray, v_prev: np.ndarray, v_
         first = along <= along.min() + setup.dx   # the points that touch first: their centre
         rec = {"body": b, "normal": n, "impact_speed": v_n, "impact_point": x_prev[sel][first].mean(axis=0),
                "mass": float(setup.p_mass[sel].sum()), "volume": float(setup.p_vol[sel].sum()),
-               "length": float(np.ptp(along)), "restitution": body_restitution(m),
+               "length": float(np.ptp(along)), "restitution": 1.0 if m.restitution is None else float(m.restitution),
                "tensile_strength": float(m.tensile_strength), "impedance": float(m.rho * np.sqrt(m.E / m.rho))}
         rec.update(break_check(m, rec["mass"], rec["volume"], rec["length"], v_n))
         if rec["breaks"]:
@@ -94,7 +93,9 @@ def impacts(setup, bodies: list[int], x_prev: np.ndarray, v_prev: np.ndarray, v_
 
 def broken_restitution(hit: dict) -> float:
     """The fragments' coefficient of restitution: the body's ``e`` times ``v_break / v_n`` (at most ``e``), where
-    ``v_break = f_t / (rho c)`` is the approach speed whose plane-wave stress reaches the tensile strength.
+    ``v_break = f_t / (rho c)`` is the approach speed whose plane-wave stress reaches the tensile strength. The
+    body's ``e`` is its material's ``restitution`` (a ``substance`` sets it from the restitution table: 0.9 for
+    porcelain and glass, ``gasp_core.scene.tables``), else 1 (the cap alone: a rebound of at most ``v_break``).
 
     The elastic rebound of a bar that meets a wall is the particle velocity of the reflected wave, ``sigma / (rho c)``
     (Saint-Venant's impact of a bar; Graff 1975, "Wave Motion in Elastic Solids", 2.4). A brittle body carries no

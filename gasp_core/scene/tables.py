@@ -94,7 +94,8 @@ def read_material(value, where: str, src: Path) -> Material:
 
 def _with_substance(table: dict, name: str, where: str, src: Path) -> dict:
     """``table`` without its ``substance`` key, the handbook values of that substance filled in where the table
-    gives none (``brittle`` only: :data:`gasp_core.toolkit.fracture_table.BRITTLE_SUBSTANCES`).
+    gives none (``brittle`` only: :data:`gasp_core.toolkit.fracture_table.BRITTLE_SUBSTANCES`), and its
+    ``restitution`` the figure its ``E`` and ``rho`` take (``gasp_core.toolkit.restitution.body_restitution``).
 
     Raises
     ------
@@ -109,7 +110,11 @@ def _with_substance(table: dict, name: str, where: str, src: Path) -> dict:
         raise SceneError(f"{src}: {where}.substance is a key of the 'brittle' material only (its handbook E, rho, "
                          f"tensile_strength and fracture_energy); {name!r} does not take it")
     sub = as_string(table["substance"], f"{where}.substance", src, tuple(BRITTLE_SUBSTANCES))
-    return {**rest, **substance_values(sub, rest)}
+    out = {**rest, **substance_values(sub, rest)}
+    if "restitution" not in out:   # the bounce its E and rho give (what the engines would take), for its fragments
+        from gasp_core.toolkit.restitution import body_restitution
+        out["restitution"] = body_restitution(Material(name="brittle", E=out["E"], rho=out["rho"]))
+    return out
 
 
 def read_engine(value, src: Path) -> EngineSpec:
