@@ -14,8 +14,8 @@ From the break on the core hands on, as each frame's damage, a cut between the
 fragments (:func:`gasp_core.run.fragments.cut_damage`): the pieces (``gasp_core.run.pieces``) are the fragments and
 the crack faces (``gasp_core.maps.crack_faces``) show on their new faces.
 
-Limits: a body breaks once (a fragment does not break again); a run resumed after the break is refused its
-checkpoints (none is saved after it: the fragments' engine is not the scene's).
+Limits: a body breaks once (a fragment does not break again); no checkpoint is saved after the break (the fragments'
+engine is not the scene's), so a run stopped after it resumes from the last frame before it and breaks again there.
 """
 from __future__ import annotations
 
@@ -158,7 +158,7 @@ def frames(info, setup, stats: RunStats, n_frames: int, start_frame: int = 0, st
     fragments on the impact that breaks them (module notes). ``before`` is called once the engine is built.
     ``stats.fragments`` gains one record per break (``frame``: the last frame before it, and :func:`fragmented`'s).
     Errors as :class:`~gasp_core.seam.runner.EngineRun`."""
-    bodies = breakable(setup) if not start_frame else []
+    bodies = breakable(setup)
     with EngineRun(info, setup, stats, start_frame=start_frame, state=state, sleep=sleep) as run:
         if before is not None:
             before()
@@ -166,6 +166,9 @@ def frames(info, setup, stats: RunStats, n_frames: int, start_frame: int = 0, st
             yield from run.frames(n_frames)
             return
         x_prev, v_prev, hits = setup.x, setup.v, []
+        if start_frame:   # resumed (its checkpoint is before any break): the restored state
+            x_prev = np.asarray(call_engine(info, "positions", run.engine.positions), np.float64)
+            v_prev = np.asarray(call_engine(info, "velocities", run.engine.velocities), np.float64)
         for rec in run.frames(n_frames):
             v_now = np.asarray(call_engine(info, "velocities", run.engine.velocities), np.float64)
             hits = impacts(setup, bodies, x_prev, v_prev, v_now)
