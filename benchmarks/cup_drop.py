@@ -8,8 +8,8 @@ footprint of its intact fill).
 
 Run: ``python benchmarks/cup_drop.py [--engine taichi_mpm] [--speed 4.43] [--frames 20] [--stills]``; results in
 ``benchmarks/results/cup_drop_<engine>_<speed>.json`` and ``.md``; ``--stills`` renders the run at its break, halfway
-and its last frame into ``docs/cup_drop_<speed>_<frame>.png`` (``gasp render``'s CPU renderer, its default camera following the cup), the
-same frames with each piece in its own colour (``docs/cup_drop_<speed>_pieces_<frame>.png``) and the largest piece
+and its last frame into ``docs/cup_drop_<speed>_<frame>.png`` (``gasp render``'s CPU renderer, its default camera
+following the cup), the same frames with each piece in its own colour (``docs/cup_drop_<speed>_pieces_<frame>.png``) and the largest piece
 from its crack side without and with the crack faces (``docs/cup_drop_<speed>_without.png``, ``_with.png``).
 """
 from __future__ import annotations
@@ -45,7 +45,8 @@ def run(engine: str, speed: float, frames: int, out: Path) -> dict:
     real, seen = fragment_run.frames, {}
 
     def recording(info, setup, stats, *a, **k):
-        seen.update(setup=setup, stats=stats, xs=[setup.x.copy()])
+        tracker = k.get("tracker", a[5] if len(a) > 5 else None)
+        seen.update(setup=setup, stats=stats, xs=[setup.x.copy()], tracker=tracker)
         for rec in real(info, setup, stats, *a, **k):
             seen["xs"].append(rec.x.copy())
             yield rec
@@ -86,17 +87,23 @@ def alpha_measure(res: dict, engine: str, stills_stem: str | None = None) -> lis
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         prep = prepare_scene(load_scene(res["scene_file"]), engine=engine)
+    import gasp_core.run.pieces as pieces_mod
     x = res["xs"][-1]
     d = stats.damage if stats.damage is not None else np.zeros(len(x))
-    parts = cf.scene_parts(prep, x, d)
-    render = CpuRenderer(jit=True)
-    rows = cf.measure_pieces(parts, x, d, render, faces="fill")
-    if stills_stem:
-        cf.stills(parts, x, d, render, ROOT / "docs", stem=stills_stem)
-        k0 = stats.fragments[0]["frame"] + 1 if stats.fragments else 1
-        for f in (k0, (k0 + len(res["xs"]) - 1) // 2, len(res["xs"]) - 1):
-            piece_still(cf, cf.scene_parts(prep, res["xs"][f], d), render,
-                        ROOT / "docs" / f"{stills_stem}_pieces_{f:02d}.png")
+    real_tracker = pieces_mod.PieceTracker
+    pieces_mod.PieceTracker = lambda *a, **k: res["tracker"]   # the run's: its pieces are the fragments
+    try:
+        parts = cf.scene_parts(prep, x, d)
+        render = CpuRenderer(jit=True)
+        rows = cf.measure_pieces(parts, x, d, render, faces="fill")
+        if stills_stem:
+            cf.stills(parts, x, d, render, ROOT / "docs", stem=stills_stem)
+            k0 = stats.fragments[0]["frame"] + 1 if stats.fragments else 1
+            for f in (k0, (k0 + len(res["xs"]) - 1) // 2, len(res["xs"]) - 1):
+                piece_still(cf, cf.scene_parts(prep, res["xs"][f], d), render,
+                            ROOT / "docs" / f"{stills_stem}_pieces_{f:02d}.png")
+    finally:
+        pieces_mod.PieceTracker = real_tracker
     return [{k: v for k, v in r.items() if k != "ms"} for r in rows]
 
 

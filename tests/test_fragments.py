@@ -173,3 +173,22 @@ def test_ground_hit_is_free_fall():
     assert ground_hit(1.0, 0.0, 9.81, 0.5) == pytest.approx(4.43, abs=0.01)
     assert ground_hit(0.02, 20.0, 9.81, 1 / 30) is None
     assert ground_hit(-0.01, -5.0, 9.81, 1 / 30) is None
+
+
+def test_split_bodies_makes_the_pieces_the_fragments():
+    """Told the fragments (``PieceTracker.split_bodies``, what a run's tracker is told at the break), the pieces are
+    exactly the fragments without any damage, every point in its own fragment's piece (a mass-weighted match of 1);
+    an untold tracker sees the ring whole (one piece)."""
+    from gasp_core.run.pieces import PieceTracker
+    x = ring()
+    material = np.ones(len(x), bool)
+    material[::10] = False
+    frag = fr.split_body(x, material, 0.0027, np.array([0.035, 0.0, 0.0]), 4, 0.02, seed=3)
+    vol = np.where(material, 0.0027 ** 3, 0.0)
+    tracker = PieceTracker(x, np.zeros(len(x), int), vol * 2400.0, vol, gap=0.005)
+    assert tracker.row(x, None)[0]["pieces"] == 1
+    tracker.split_bodies(frag)
+    lab = tracker.labels(x, None)
+    assert len(np.unique(lab)) == frag.max() + 1
+    pairs = np.unique(np.stack([lab, frag], 1), axis=0)
+    assert len(pairs) == frag.max() + 1   # one fragment per piece and one piece per fragment

@@ -10,9 +10,8 @@ discarded, the engine closed, and a new engine built at the previous frame's pos
 body is its fragments (:func:`gasp_core.run.fragments.split_body`), each a rigid body of the same material; the
 frame is simulated again, the fragments meeting the ground one by one. The points keep their order, so the frames'
 rebuild (``T^-1``) is unchanged; the fragments' restitution is capped by the fracture (:func:`broken_restitution`).
-From the break on the core hands on, as each frame's damage, a cut between the
-fragments (:func:`gasp_core.run.fragments.cut_damage`): the pieces (``gasp_core.run.pieces``) are the fragments and
-the crack faces (``gasp_core.maps.crack_faces``) show on their new faces.
+From the break on the run's pieces (``gasp_core.run.pieces``) no longer link points of different fragments, so they
+are the fragments, and the crack faces (``gasp_core.maps.crack_faces``) show on the points next to the cut.
 
 Limits: a body breaks once (a fragment does not break again); no checkpoint is saved after the break (the fragments'
 engine is not the scene's), so a run stopped after it resumes from the last frame before it and breaks again there.
@@ -153,11 +152,14 @@ def fragmented(setup, x: np.ndarray, v: np.ndarray, hits: list[dict], seed: int 
 
 
 def frames(info, setup, stats: RunStats, n_frames: int, start_frame: int = 0, state: dict | None = None,
-           sleep: bool = False, before: Callable[[], None] | None = None) -> Iterator[FrameRecord]:
+           sleep: bool = False, before: Callable[[], None] | None = None, tracker=None) -> Iterator[FrameRecord]:
     """The run's checked frames (:meth:`gasp_core.seam.runner.EngineRun.frames`), its breakable bodies broken into
     fragments on the impact that breaks them (module notes). ``before`` is called once the engine is built.
     ``stats.fragments`` gains one record per break (``frame``: the last frame before it, and :func:`fragmented`'s).
-    Errors as :class:`~gasp_core.seam.runner.EngineRun`."""
+    ``tracker`` (the run's :class:`gasp_core.run.pieces.PieceTracker`) is told the fragments
+    (:meth:`~gasp_core.run.pieces.PieceTracker.split_bodies`): its pieces are then the fragments and the crack faces
+    show on both sides of the cut; without one, each frame's damage after the break is the cut
+    (:func:`gasp_core.run.fragments.cut_damage`). Errors as :class:`~gasp_core.seam.runner.EngineRun`."""
     bodies = breakable(setup)
     with EngineRun(info, setup, stats, start_frame=start_frame, state=state, sleep=sleep) as run:
         if before is not None:
@@ -181,6 +183,9 @@ def frames(info, setup, stats: RunStats, n_frames: int, start_frame: int = 0, st
     k0 = rec.frame - 1
     new, damage, records = fragmented(setup, x_prev, v_prev, hits)
     stats.fragments = [{"frame": k0, **r} for r in records]
+    if tracker is not None:
+        tracker.split_bodies(new.body_id)
+        damage = None
     with EngineRun(info, new, stats, sleep=sleep) as run:
         for r in run.frames(n_frames - k0):
             stats.damage = damage
