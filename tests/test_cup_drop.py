@@ -107,3 +107,44 @@ def test_broken_variants_are_caught(tmp_path, monkeypatch):
     monkeypatch.setattr(fragment_run, "fragmented", faster)
     with pytest.raises(AssertionError, match="energy gained"):
         check_cup(*run_frames(scene, "taichi_mpm"))
+
+
+def run_json(tmp_path: Path, engine: str = "warp_mpm", frames: int = 3) -> tuple[dict, Path]:
+    """``gasp simulate`` of the cup (n_grid 80, 4.43 m/s, ``frames`` frames): its run.json and folder."""
+    import json
+    import warnings
+    from gasp_core.run.pipeline import simulate_scene
+    out = tmp_path / "out"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        simulate_scene(cup_scene(tmp_path, engine, 4.43), out, n_frames=frames, quiet=True)
+    return json.loads((out / "run.json").read_text()), out
+
+
+def pieces_are_fragments(rec: dict) -> bool:
+    """Every frame after the break counts the fragments as its pieces, with their masses."""
+    brk = rec["fragments"][0]
+    assert brk["fragments"] >= 2 and brk["frame"] == 0
+    return all(row["pieces"] == brk["fragments"] and row["piece_mass"] == pytest.approx(brk["fragment_mass"], rel=1e-9)
+               for row in rec["frames"][brk["frame"] + 1:])
+
+
+@pytest.mark.slow
+def test_gasp_simulate_writes_the_fragments_as_pieces_with_crack_faces(tmp_path):
+    """Through ``gasp simulate``: run.json records the break; from the frame after it every frame's pieces are the
+    fragments (their count and masses); the crack faces are hidden at frame 0 and shown on the fragments' new faces
+    after the break. A run whose piece tracker is not told the fragments (the links kept) counts one piece."""
+    from gasp_core.run.crack_output import read_crack_faces
+    rec, out = run_json(tmp_path)
+    assert pieces_are_fragments(rec)
+    shown = [int((read_crack_faces(out, "cup_mesh", f).opacities > 0.5).sum()) for f in (0, 1)]
+    assert shown[0] == 0 and shown[1] > 50
+
+
+@pytest.mark.slow
+def test_an_untold_tracker_is_caught(tmp_path, monkeypatch):
+    """The broken variant of the test above: the run's tracker not told the fragments (its links kept)."""
+    from gasp_core.run.pieces import PieceTracker
+    monkeypatch.setattr(PieceTracker, "split_bodies", lambda self, body_id: None)
+    rec, _ = run_json(tmp_path)
+    assert not pieces_are_fragments(rec)   # pieces only where the fragments moved a cell apart
