@@ -9,8 +9,9 @@ footprint of its intact fill).
 Run: ``python benchmarks/cup_drop.py [--engine taichi_mpm] [--speed 4.43] [--frames 20] [--stills]``; results in
 ``benchmarks/results/cup_drop_<engine>_<speed>.json`` and ``.md``; ``--stills`` renders the run at its break, halfway
 and its last frame into ``docs/cup_drop_<speed>_<frame>.png`` (``gasp render``'s CPU renderer, its default camera
-following the cup), the same frames with each piece in its own colour (``docs/cup_drop_<speed>_pieces_<frame>.png``) and the largest piece
-from its crack side without and with the crack faces (``docs/cup_drop_<speed>_without.png``, ``_with.png``).
+following the cup), the same frames with each piece in its own colour (``docs/cup_drop_<speed>_pieces_<frame>.png``)
+and the largest piece from its crack side without and with the crack faces (``docs/cup_drop_<speed>_without.png``,
+``_with.png``).
 """
 from __future__ import annotations
 

@@ -60,7 +60,8 @@ def scene_keys_markdown() -> str:
               f"{', '.join(f'`{k}`' for k in SUBSTANCE_KEYS)} from the table below where the material leaves them out "
               "(`gasp_core/toolkit/fracture_table.py`, its sources there). At these stiffnesses `model = \"auto\"` "
               "takes the rigid route, and an impact that breaks the body splits it into rigid fragments.", "",
-              "| `substance` | `E` (Pa) | `nu` | `rho` (kg/m^3) | `tensile_strength` (Pa) | `fracture_energy` (J/m^2) |",
+              "| `substance` | `E` (Pa) | `nu` | `rho` (kg/m^3) | `tensile_strength` (Pa) "
+              "| `fracture_energy` (J/m^2) |",
               "|---|---|---|---|---|---|"]
     lines += [f"| `{n}` | {r.E:g} | {r.nu:g} | {r.rho:g} | {r.tensile_strength:g} | {r.fracture_energy:g} |"
               for n, r in BRITTLE_SUBSTANCES.items()]

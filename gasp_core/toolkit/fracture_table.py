@@ -69,7 +69,8 @@ BRITTLE_SUBSTANCES: dict[str, BrittleSubstance] = {
         3.0e10, 0.2, 2400.0, 2.9e6, 77.0,
         "CEB-FIP Model Code 1990, 2.1.3: a C30 concrete, f_ctm 2.9 MPa, E_c about 30 GPa (E_ci 33.6 GPa), "
         "G_F = G_F0 (f_cm / 10 MPa)^0.7 with G_F0 = 0.030 N/mm (aggregate 16 mm), f_cm 38 MPa; "
-        "Bazant & Planas, Fracture and Size Effect in Concrete and Other Quasibrittle Materials (1998): G_F 50-150 J/m^2"),
+        "Bazant & Planas, Fracture and Size Effect in Concrete and Other Quasibrittle Materials (1998): "
+        "G_F 50-150 J/m^2"),
     "wood_across_grain": BrittleSubstance(
         9.0e8, 0.35, 480.0, 2.3e6, 250.0,
         "USDA Forest Products Laboratory, Wood Handbook (FPL-GTR-190, 2010), Tables 5-1, 5-3a: Douglas-fir E_L "
