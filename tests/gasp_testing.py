@@ -12,7 +12,7 @@ GUITAR = ROOT / "examples" / "data" / "guitar.compressed.ply"
 #: The project's own example scenes (``examples/NAME.toml``), named one by one: the tests check these and only
 #: these, so a scene a user saves in ``examples/`` (as the README suggests), half-written or not, is never
 #: collected by the suite (issue 68). An example added to the project is added here.
-BUNDLED_EXAMPLES = ("donut_blender", "donut_jelly", "donut_mesh", "donut_on_guitar", "donut_shatter",
+BUNDLED_EXAMPLES = ("cup_drop", "donut_blender", "donut_jelly", "donut_mesh", "donut_on_guitar", "donut_shatter",
                     "donut_shatter_on_guitar", "donut_wind", "donut_wood", "guitar_flag_blender", "guitar_sand",
                     "kitchen_spinach", "kitchen_spinach_drop", "spot_mesh")
 

@@ -29,7 +29,7 @@ import warnings
 import numpy as np
 
 from gasp_core.errors import SceneError
-from gasp_core.seam.schema import RIGID_KINDS
+from gasp_core.seam.schema import RIGID_KINDS, STIFF_BRITTLE_E
 
 #: ``auto`` takes the rigid limit when the estimated deformation is below this share of a grid cell.
 RIGID_SHARE = 0.25
@@ -165,7 +165,7 @@ def resolve_models(setup, names, features, cfl: float | None = None, substeps=No
     out, mats = [], list(setup.materials)
     carry = loads(setup, names)
     for b, m in enumerate(mats):
-        if m.name not in RIGID_KINDS:
+        if m.name not in RIGID_KINDS or (m.name == "brittle" and m.model == "auto" and m.E < STIFF_BRITTLE_E):
             out.append({"model": "auto", "why": f"{m.name!r} has no rigid limit: its own model"})
             continue
         sel = setup.body_id == b

@@ -96,6 +96,11 @@ def piece_rotations(p_rest: np.ndarray, p_t: np.ndarray, piece: np.ndarray) -> t
     return pieces, V @ D @ Ut, ok
 
 
+#: A piece whose best-fit rigid motion leaves no point further than this (m) moves rigidly (:func:`turn_with_pieces`):
+#: float32 positions of a rigid body read about 1e-7 m off its fit, a soft piece's deformation far more.
+RIGID_FIT = 1e-5
+
+
 def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray,
             t: float | None = None, labels: np.ndarray | None = None,
             split: SplitContext | None = None) -> tuple[Gaussians, np.ndarray, dict]:
@@ -151,7 +156,7 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray,
         straddle = (lab != lab[:, :1]).any(axis=1)
         rot[straddle], scales_w[straddle] = prev_rot[straddle], o.surface.scales_rest[straddle]
         if straddle.any():
-            turn_with_pieces(o, x, sr, lab, straddle, rot)
+            turn_with_pieces(o, x, sr, lab, straddle, rot, means_w)
         counts["straddling"] = int(straddle.sum())
     pl = o.placement
     scales = scales_w / pl.scale
@@ -166,19 +171,36 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray,
 
 
 def turn_with_pieces(o: PreparedObject, x: np.ndarray, sr: np.ndarray, lab: np.ndarray, straddle: np.ndarray,
-                     rot: np.ndarray) -> None:
+                     rot: np.ndarray, means: np.ndarray | None = None) -> None:
     """Set ``rot`` (n, 3, 3, world) of the straddling Gaussians (``straddle``, (n,) bool) to their anchor piece's
     rotation since rest times their rest rotation (:func:`rebuild`), in place; ``sr`` (n, k) their shape rows in
-    :meth:`~gasp_core.maps.surface.SurfaceMap.points`, ``lab`` (n, k) those points' pieces."""
+    :meth:`~gasp_core.maps.surface.SurfaceMap.points`, ``lab`` (n, k) those points' pieces. With ``means`` (n, 3,
+    world), a straddling Gaussian of a piece that moves rigidly (the best fit's largest residual under
+    :data:`RIGID_FIT` m: the rigid fragments of a stiff brittle body, ``gasp_core.run.fragment_run``) is also put where
+    that motion takes its rest centre, ``c_t + R (m_rest - c_rest)``, instead of the face's map between two pieces
+    apart (issue 66: a trail of Gaussians between the cup's fragments)."""
     inner = sr[~straddle].ravel()
     if len(inner) == 0:
         return
-    pieces, R, ok = piece_rotations(o.surface.points()[inner], x[o.vertex_slice][inner], lab[~straddle].ravel())
+    p_rest, p_t, piece = o.surface.points()[inner], x[o.vertex_slice][inner], lab[~straddle].ravel()
+    pieces, R, ok = piece_rotations(p_rest, p_t, piece)
     anchor = lab[straddle, 0]
     at = np.clip(np.searchsorted(pieces, anchor), 0, len(pieces) - 1)
     found = (pieces[at] == anchor) & ok[at]
     idx = np.flatnonzero(straddle)[found]
     rot[idx] = R[at[found]] @ o.surface.rot_rest[idx]
+    if means is None:
+        return
+    inv = np.searchsorted(pieces, piece)
+    count = np.bincount(inv, minlength=len(pieces))[:, None]
+    c0 = np.stack([np.bincount(inv, p_rest[:, d], len(pieces)) for d in range(3)], 1) / count
+    c1 = np.stack([np.bincount(inv, p_t[:, d], len(pieces)) for d in range(3)], 1) / count
+    resid = np.linalg.norm(p_t - c1[inv] - np.einsum("kij,kj->ki", R[inv], p_rest - c0[inv]), axis=1)
+    worst = np.zeros(len(pieces))
+    np.maximum.at(worst, inv, resid)
+    keep = worst[at[found]] < RIGID_FIT
+    j, a = idx[keep], at[found][keep]
+    means[j] = c1[a] + np.einsum("kij,kj->ki", R[a], o.surface.tri_rest[j, 0] - c0[a])
 
 
 def split_gaussians(o: PreparedObject, x: np.ndarray, detail: dict, straddle: np.ndarray | None,

@@ -118,6 +118,14 @@ class PieceTracker:
         self._lab: np.ndarray | None = None        # the last labelling, (n,) int64
         self._counted: np.ndarray | None = None    # per label of it, a piece (True) or a crumb
 
+    def split_bodies(self, body_id: np.ndarray) -> None:
+        """Cut for good the links between points now of different bodies (``body_id``, shape (n,): a stiff brittle
+        body broken into rigid fragments, each its own body, ``gasp_core.run.fragment_run``): the pieces are then at
+        least the bodies, without damage."""
+        b = np.asarray(body_id)
+        self._open[b[self.pairs[:, 0]] != b[self.pairs[:, 1]]] = -1.0
+        self._last = None
+
     @staticmethod
     def _rest_pairs(x: np.ndarray, idx: np.ndarray, radius: float) -> np.ndarray:
         """Index pairs (k, 2), each once, of the points ``idx``: each point with its at most :data:`MAX_LINKS` nearest

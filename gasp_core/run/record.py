@@ -59,6 +59,7 @@ def run_summary(prep, stats, n_frames: int, per_frame: list[dict], wall_s: float
         # what the scene around a selection supplied where the file states none (gasp_core.prepare.around)
         "around_selection": list(getattr(prep, "around", [])),
         "frames": per_frame,
+        **({"fragments": stats.fragments} if getattr(stats, "fragments", None) else {}),
     }
 
 

@@ -1,12 +1,12 @@
 """One ``gasp simulate`` run as an object (issue 51: the run driver right side out): the scene prepared, the output
 folder opened, the engine built (:class:`gasp_core.seam.runner.EngineRun`), then a loop over the frames, each rebuilt
-(``T^-1``, :class:`gasp_core.run.frames.Rebuilder`) and written on a background writer, a checkpoint after each.
-:func:`gasp_core.run.pipeline.simulate_scene` is its entry.
-"""
+(``T^-1``, :class:`gasp_core.run.frames.Rebuilder`) and written on a background writer, a checkpoint after each
+(stiff brittle bodies break in :mod:`gasp_core.run.fragment_run`). :func:`gasp_core.run.pipeline.simulate_scene`."""
 from __future__ import annotations
 
 import os
 import time
+from contextlib import closing
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -14,7 +14,7 @@ from typing import Callable
 import numpy as np
 
 from gasp_core.run import resume as resume_mod
-from gasp_core.run import budget, hold, pieces, stop
+from gasp_core.run import budget, fragment_run, hold, pieces, stop
 from gasp_core.run.background import Background, gil_handover
 from gasp_core.run.crack_output import crack_output_for
 from gasp_core.errors import EngineDivergence, GaspError
@@ -29,7 +29,7 @@ from gasp_core.prepare.scene import PreparedScene, prepare_scene
 from gasp_core.run.record import run_summary, running_record
 from gasp_core.run.report import Reporter, left_domain_row, stranded_warning
 from gasp_core.run.request import SimulateRequest
-from gasp_core.seam.runner import EngineRun, RunStats
+from gasp_core.seam.runner import RunStats
 from gasp_core.scene.spec import Scene
 
 
@@ -210,11 +210,11 @@ class SimulationRun:
             hand = _Handover(self, writes, writer, rebuild_all, on_frame, tracker)
             if checkpoint is None:
                 hand(0, prep.setup.x, None, None)      # its files are written while the engine is built
-            with EngineRun(prep.info, prep.setup, self.stats, start_frame=0 if checkpoint is None else checkpoint.frame,
-                           state=None if checkpoint is None else checkpoint.engine_state,
-                           sleep=getattr(prep.scene, "sleep", False)) as engine:
-                self.before_frames()
-                for rec in engine.frames(self.n_frames):
+            with closing(fragment_run.frames(prep.info, prep.setup, self.stats, self.n_frames,
+                                             0 if checkpoint is None else checkpoint.frame, None if checkpoint is None
+                                             else checkpoint.engine_state, getattr(prep.scene, "sleep", False),
+                                             self.before_frames, tracker)) as recs:   # stiff brittle bodies break
+                for rec in recs:
                     hand(rec.frame, rec.x, rec.wall_s, rec.get_state)
         self.reporter.end_progress()
         writer.finish(self.n_frames, [o.gaussians.n for o in prep.objects])

@@ -54,6 +54,17 @@ def scene_keys_markdown() -> str:
               "vibration; the key does not act on them.", "",
               "| substance | restitution on a hard floor | `E` (Pa) | `rho` (kg/m^3) |", "|---|---|---|---|"]
     lines += [f"| `{n}` | {e:g} | {lo:g}-{hi:g} | {rl:g}-{rh:g} |" for n, (e, (lo, hi), (rl, rh)) in SUBSTANCES.items()]
+    from gasp_core.toolkit.fracture_table import BRITTLE_SUBSTANCES, SUBSTANCE_KEYS
+    lines += ["", "## `substance`: a brittle material at its handbook figures", "",
+              f"Taken by `brittle` (issue 66, `docs/fracture.md` \"Stiff brittle bodies: fragments\"): fills "
+              f"{', '.join(f'`{k}`' for k in SUBSTANCE_KEYS)} from the table below where the material leaves them out "
+              "(`gasp_core/toolkit/fracture_table.py`, its sources there). At these stiffnesses `model = \"auto\"` "
+              "takes the rigid route, and an impact that breaks the body splits it into rigid fragments.", "",
+              "| `substance` | `E` (Pa) | `nu` | `rho` (kg/m^3) | `tensile_strength` (Pa) "
+              "| `fracture_energy` (J/m^2) |",
+              "|---|---|---|---|---|---|"]
+    lines += [f"| `{n}` | {r.E:g} | {r.nu:g} | {r.rho:g} | {r.tensile_strength:g} | {r.fracture_energy:g} |"
+              for n, r in BRITTLE_SUBSTANCES.items()]
     return "\n".join(lines) + "\n"
 
 

@@ -44,7 +44,7 @@ class DomainSpec:
     particles_per_cell: int = 8
 
 
-_MATERIAL_KEYS = {f.name for f in fields(Material)}
+_MATERIAL_KEYS = {f.name for f in fields(Material)} | {"substance"}
 _BOUNDARY_KEYS = {f.name for f in fields(Boundary)}
 _BOUNDARY_KIND_KEYS = {"ground": {"kind", "height", "friction", "restitution"},
                        "walls": {"kind", "friction", "restitution"},
@@ -68,6 +68,7 @@ def read_material(value, where: str, src: Path) -> Material:
     table = as_table(value, where, src)
     name = as_string(table.get("name", DEFAULT_MATERIAL), f"{where}.name", src, MATERIALS)
     check_keys(table, _MATERIAL_KEYS, where, src)
+    table = _with_substance(table, name, where, src)
     uses = ("name",) + MATERIAL_KINDS[name].keys + (("model", "restitution") if name in RIGID_KINDS else ())
     unused = sorted(set(table) - set(uses))
     if unused:
@@ -89,6 +90,31 @@ def read_material(value, where: str, src: Path) -> Material:
         bad_value(src, f"{where}.tensile_strength", table["tensile_strength"], "a tensile strength whose snap-back "
                   "limit tensile_strength^2 h / (2 E) stays within float64 (below 1e154 Pa; concrete: about 3e6)")
     return Material(**kw)
+
+
+def _with_substance(table: dict, name: str, where: str, src: Path) -> dict:
+    """``table`` without its ``substance`` key, the handbook values of that substance filled in where the table
+    gives none (``brittle`` only: :data:`gasp_core.toolkit.fracture_table.BRITTLE_SUBSTANCES`), and its
+    ``restitution`` the figure its ``E`` and ``rho`` take (``gasp_core.toolkit.restitution.body_restitution``).
+
+    Raises
+    ------
+    SceneError
+        ``substance`` on another material, or a name not in the table (the names listed).
+    """
+    if "substance" not in table:
+        return table
+    from gasp_core.toolkit.fracture_table import BRITTLE_SUBSTANCES, substance_values
+    rest = {k: v for k, v in table.items() if k != "substance"}
+    if name != "brittle":
+        raise SceneError(f"{src}: {where}.substance is a key of the 'brittle' material only (its handbook E, rho, "
+                         f"tensile_strength and fracture_energy); {name!r} does not take it")
+    sub = as_string(table["substance"], f"{where}.substance", src, tuple(BRITTLE_SUBSTANCES))
+    out = {**rest, **substance_values(sub, rest)}
+    if "restitution" not in out:   # the bounce its E and rho give (what the engines would take), for its fragments
+        from gasp_core.toolkit.restitution import body_restitution
+        out["restitution"] = body_restitution(Material(name="brittle", E=out["E"], rho=out["rho"]))
+    return out
 
 
 def read_engine(value, src: Path) -> EngineSpec:

@@ -63,6 +63,8 @@ class RunStats:
     #: Points whose transfer stencil has left the grid after the last frame (engines with the feature
     #: ``left_domain``: they drop out of the simulation where they are, :func:`left_grid`); None otherwise.
     left_domain: int | None = None
+    #: The breaks of stiff brittle bodies into rigid fragments (``gasp_core.run.fragment_run``), one record each.
+    fragments: list = field(default_factory=list)
 
 
 #: The likely cause of non-finite values, or of points jumping out of the domain within a step: the one

@@ -155,8 +155,13 @@ BODY_MODEL_DOCS = {
              "'rigid_limit'; an engine without it refuses the scene)",
 }
 #: Materials that take the ``model`` key: elastic up to a yield (a rigid body never yields, so ``metal`` is
-#: rigid only while its estimated stress stays below its yield stress).
-RIGID_KINDS = ("jelly", "neo_hookean", "metal")
+#: rigid only while its estimated stress stays below its yield stress), or up to fracture (``brittle``: a rigid
+#: brittle body breaks on impact into rigid fragments, ``docs/fracture.md`` "Stiff brittle bodies: fragments").
+RIGID_KINDS = ("jelly", "neo_hookean", "metal", "brittle")
+#: ``auto`` considers the rigid limit for a ``brittle`` body only from this Young's modulus (Pa): at handbook
+#: stiffness (wood across the grain 0.9 GPa and up) an explicit step is out of reach; the soft brittle bodies of the
+#: crack-band model (1e4-1e7 Pa) keep their own model.
+STIFF_BRITTLE_E = 1.0e8
 
 #: The material of a scene object whose ``material`` table gives no ``name``.
 DEFAULT_MATERIAL = "jelly"

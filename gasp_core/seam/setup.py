@@ -13,7 +13,8 @@ from typing import Any
 import numpy as np
 
 from gasp_core.errors import SceneError
-from gasp_core.seam.schema import BODY_MODELS, DEFAULT_MATERIAL, MATERIAL_KINDS, MATERIAL_PARAMS, RIGID_KINDS, in_range
+from gasp_core.seam.schema import (BODY_MODELS, DEFAULT_MATERIAL, MATERIAL_KINDS, MATERIAL_PARAMS, RIGID_KINDS,
+                                    STIFF_BRITTLE_E, in_range)
 
 #: Material models an engine may offer (capability names; :data:`gasp_core.seam.schema.MATERIAL_KINDS` says what
 #: each is and which keys it uses).
@@ -147,22 +148,22 @@ class Material:
                              f"{self.name!r} flows or yields")
 
     def snap_back_limit(self, h: float) -> float:
-        """The least ``fracture_energy`` a crack band of width ``h`` (m, :func:`crack_band`) takes, J/m^2:
-        ``f_t^2 h / (2 E)`` (brittle; docs/fracture.md, Bazant & Oh 1983): below it the band's softening strain
-        would be shorter than its elastic strain and the band would snap back."""
+        """The least ``fracture_energy`` a crack band of width ``h`` (m, :func:`crack_band`) takes, J/m^2: ``f_t^2 h /
+        (2 E)`` (Bazant & Oh 1983): below it the band's softening strain would be shorter than its elastic one."""
         return float(self.tensile_strength) * self.tensile_strength * h / (2.0 * self.E)   # inf past float64
 
     def check_band(self, h: float, where: str = "material") -> None:
         """Refuse a ``brittle`` material whose ``fracture_energy`` is at or below :meth:`snap_back_limit` at the crack
-        band width ``h`` (m, :func:`crack_band`: ``dx + p_vol^(1/3)``); other materials pass.
+        band width ``h`` (m, :func:`crack_band`: ``dx + p_vol^(1/3)``); other materials, and a brittle body on the
+        rigid route (its ``model`` ``"rigid"``, or ``"auto"`` from ``STIFF_BRITTLE_E``: it breaks into fragments), pass.
 
         Raises
         ------
         SceneError
             Naming the limit, the band width ``h`` and what to change.
         """
-        limit = self.snap_back_limit(h)
-        if self.name == "brittle" and not self.fracture_energy > limit:
+        rigid = self.model == "rigid" or (self.model == "auto" and self.E >= STIFF_BRITTLE_E)   # fragments, no band
+        if self.name == "brittle" and not self.fracture_energy > (limit := self.snap_back_limit(h)) and not rigid:
             raise SceneError(f"{where}.fracture_energy = {self.fracture_energy:g} J/m^2 is at or below the snap-back "
                              f"limit tensile_strength^2 h / (2 E) = {limit:.4g} J/m^2 at the crack band width h = "
                              f"dx + p_vol^(1/3) = {h:.4g} m; raise fracture_energy above it, or lower "
