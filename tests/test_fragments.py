@@ -150,7 +150,9 @@ def test_split_ring_into_connected_fragments():
 
 def test_cut_damage_separates_the_fragments():
     """The cut marks exactly the material points with a rest neighbour in another fragment (both sides); with it the
-    pieces' labelling (gasp_core.run.pieces) finds as many pieces as fragments, without it one."""
+    pieces' labelling (gasp_core.run.pieces) finds as many pieces as fragments once they have come apart (fragment f moved
+    2f cm along x, past the 5 mm gap), without it one; in place, unmoved, one (pieces are the parts
+    that have come apart, issue 66 item 4)."""
     from gasp_core.run.pieces import PieceTracker
     x = ring()
     material = np.ones(len(x), bool)
@@ -158,9 +160,13 @@ def test_cut_damage_separates_the_fragments():
     d = fr.cut_damage(x, frag, material, 0.0027)
     assert 0 < d.sum() < 0.5 * len(x)
     vol = np.full(len(x), 0.0027 ** 3)
-    tracker = PieceTracker(x, np.zeros(len(x), int), vol * 2400.0, vol, gap=0.005)
-    assert tracker.row(x, d)[0]["pieces"] == frag.max() + 1
-    assert tracker.row(x, None)[0]["pieces"] == 1
+    apart = x.copy()
+    for f in range(frag.max() + 1):
+        apart[frag == f] += [0.02 * f, 0.0, 0.0]
+    def pieces(at, damage):
+        return PieceTracker(x, np.zeros(len(x), int), vol * 2400.0, vol, gap=0.005).row(at, damage)[0]["pieces"]
+    assert pieces(apart, d) == frag.max() + 1
+    assert pieces(apart, None) == 1 and pieces(x, d) == 1
 
 
 def test_ground_hit_is_free_fall():

@@ -123,8 +123,8 @@ class PieceTracker:
         body broken into rigid fragments, each its own body, ``gasp_core.run.fragment_run``): the pieces are then at
         least the bodies, without damage."""
         b = np.asarray(body_id)
-        self._open[b[self.pairs[:, 0]] != b[self.pairs[:, 1]]] = -1.0
-        self._last = None
+        self.cut |= b[self.pairs[:, 0]] != b[self.pairs[:, 1]]
+        self._lab = None      # labelled again at the next call (kept in the checkpoint with the other cut links)
 
     @staticmethod
     def _rest_pairs(x: np.ndarray, idx: np.ndarray, radius: float) -> np.ndarray:
