@@ -95,7 +95,7 @@ def block_setup(n_target: int, material: str, device: str, p2g: str = "auto"):
     """A block of about ``n_target`` points, 8 a cell, 1 cell over a ground, falling at 1 m/s; n_grid at least
     64 and twice the block's cells; ``p2g`` the engine option (``"auto"``: tiles on CUDA, or ``"atomic"``)."""
     from gasp_core.seam.setup import Boundary, Material, SimSetup
-    from gasp_core.toolkit.substeps import mpm_stable_dt
+    from gasp_core.mpm.substeps import mpm_stable_dt
     cells = max(1, int(round((n_target / 8) ** (1 / 3))))
     n_grid = max(64, 1 << int(np.ceil(np.log2(2 * cells))))
     dx = 1.0 / n_grid

@@ -2,7 +2,7 @@
 
 Scene: a cube of jelly (or neo-Hookean) points sampled at 8 points per grid cell (2 per axis),
 released 1 cell above a ground plane at 1 m/s downwards, in a 1 m box with ``n_grid = 64``,
-f32, CPU. Every engine runs the same substep ``dt = gasp_core.toolkit.substeps.mpm_stable_dt(...)``:
+f32, CPU. Every engine runs the same substep ``dt = gasp_core.mpm.substeps.mpm_stable_dt(...)``:
 ``frame_dt = SUBSTEPS * dt`` and the option ``n_substeps = SUBSTEPS``.
 
 Each engine runs in its own subprocess (Taichi and Warp keep process-global state), one after
@@ -46,7 +46,7 @@ def make_setup(n_target: int, material: str):
         World frame, z up; ``options`` ask for CPU, f32 and ``SUBSTEPS`` substeps per frame.
     """
     from gasp_core.seam.setup import Boundary, Material, SimSetup
-    from gasp_core.toolkit.substeps import mpm_stable_dt
+    from gasp_core.mpm.substeps import mpm_stable_dt
 
     dx = 1.0 / N_GRID
     cells = max(1, int(round((n_target / 8) ** (1 / 3))))

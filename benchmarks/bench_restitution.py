@@ -4,7 +4,7 @@
 hardwood (E 1e10, rho 700), ``model = "auto"`` (the rigid route), its bottom 0.2 m over a ground (friction 0.5),
 30 fps; the restitution read from the free flights around the first bounce
 (``gasp_studies.accuracy.first_bounce``) against the one the materials give
-(``gasp_core.toolkit.restitution``). Per engine and ``n_grid``. Also the last frame's lowest Gaussian over the
+(``gasp_core.mpm.restitution``). Per engine and ``n_grid``. Also the last frame's lowest Gaussian over the
 ground (``rest_gap_dx``, in cells) after ``--rest-frames`` more frames.
 
 ``donut``: ``examples/donut_wood.toml`` (dropped 5 cm) and the same donut set down flat (its lowest Gaussian on the
@@ -77,7 +77,7 @@ def drop(engine: str, mat: str, n_grid: int, frames: int, work: Path) -> dict:
     bottom = means[:, :, 2].min(axis=1)
     ev["restitution_ballistic"] = first_bounce(means[:, :, 2].mean(axis=1), bottom, 1.0 / 30.0, float(s.dx))
     tail = means[-30:].mean(axis=1)
-    from gasp_core.toolkit.restitution import body_restitution
+    from gasp_core.mpm.restitution import body_restitution
     return {"engine": engine, "material": mat, "n_grid": n_grid, "dx": float(s.dx),
             "model": prep.objects[0].body_model.get("model"), "asked": body_restitution(s.materials[0]),
             "restitution_ballistic": ev["restitution_ballistic"], "restitution_frames": ev["restitution"],
@@ -90,7 +90,7 @@ def drop(engine: str, mat: str, n_grid: int, frames: int, work: Path) -> dict:
 
 def donut(engine: str, flat: bool, seconds: float, work: Path) -> dict:
     from gasp_studies.accuracy import kabsch, rotation_angle_deg
-    from gasp_core.toolkit.rigid import touch_rows
+    from gasp_core.mpm.rigid import touch_rows
     doc = tomllib.loads((HERE.parent / "examples" / "donut_wood.toml").read_text())
     doc["engine"] = {"name": engine, "options": {**({"threads": 1} if engine == "taichi_mpm" else {}), **OPTIONS}}
     doc["object"][0]["file"] = str(HERE.parent / "examples" / doc["object"][0]["file"])
@@ -108,7 +108,7 @@ def donut(engine: str, flat: bool, seconds: float, work: Path) -> dict:
     R, _, _ = kabsch(means[f0], means[-1])
     low = np.percentile(means[-1, :, 2], 0.5)
     # the points of the Gaussians a render shows (opacity min_opacity or more; a capture's floaters hang under a
-    # rigid body that does not rest on them: gasp_core.toolkit.rigid.touch_rows)
+    # rigid body that does not rest on them: gasp_core.mpm.rigid.touch_rows)
     seen = touch_rows(s)[:s.n_render]
     f1 = f0 + int(round(0.5 / doc["frame_dt"]))   # once settled: from 0.5 s on
     R1, _, _ = kabsch(means[f1], means[-1])

@@ -254,8 +254,8 @@ def part_table(work: Path, args) -> dict:
     import warnings
     from gasp_core.prepare.scene import prepare_scene
     from gasp_core.scene.spec import load_scene
-    from gasp_core.toolkit.grid_engine import choose_dt
-    from gasp_core.toolkit.rigid import step_view
+    from gasp_core.mpm.grid_engine import choose_dt
+    from gasp_core.mpm.rigid import step_view
     rows = []
     for E in TABLE_E:
         with warnings.catch_warnings():

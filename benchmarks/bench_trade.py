@@ -95,7 +95,7 @@ VARIANTS: dict[str, tuple[dict, dict, dict]] = {
     "full_g48": ({"surface": "material", "core_fraction": 1.0}, {"n_grid": 48}, {}),
     "full_g32": ({"surface": "material", "core_fraction": 1.0}, {"n_grid": 32}, {}),
     # the time step: the full model at cfl 0.8 (the engines' default is 0.4; the contact's own stable step may
-    # bind first, gasp_core.toolkit.contact.contact_dt)
+    # bind first, gasp_core.mpm.contact.contact_dt)
     "full_cfl0.8": ({"surface": "material", "core_fraction": 1.0}, {}, {"cfl": 0.8}),
     "draft_cfl0.4": ({}, {}, {"cfl": 0.4}),
     # the full model with the fill at 8 points per cell (the 'reference' level's model) on three grids:

@@ -5,7 +5,7 @@ it:
 
 - ``base``: the scene as it stands;
 - ``ground1``: the ground's friction 1.0 instead of 0.5 (a rigid ball could not turn in place then);
-- ``mu0``: no friction between the sand and the ball (``gasp_core.toolkit.fields.field_friction`` 0).
+- ``mu0``: no friction between the sand and the ball (``gasp_core.mpm.fields.field_friction`` 0).
 
 Per case: the ball's turn (Kabsch, degrees) and the horizontal travel of its centre (mm) every 6 frames, and the mean
 x travel of its bottom 4 mm of points every 12 frames (mm); for ``base`` also the sand's speeds at frames 30, 45 and
@@ -36,7 +36,7 @@ def run(engine: str, case: str, frames: int) -> dict:
     from gasp_core.seam.plugins import get_engine
     from gasp_core.testing import sand_ball as S
     from gasp_core.testing.kit import run_trace
-    import gasp_core.toolkit.fields as F
+    import gasp_core.mpm.fields as F
     setup = S.pair_setup(ball=True, surface=False, options={"threads": 1, "contact_fields": True}, light=True)
     if case == "ground1":
         setup = replace(setup, boundaries=[replace(b, friction=1.0) for b in setup.boundaries])

@@ -3,7 +3,7 @@
 The README donut at the ``draft`` level (passive surface, 2 fill points per cell), its first ``--frames`` frames,
 one engine, once per value of ``passive_every``: the passive points' largest distance (in cells ``dx``) from where
 the run with ``passive_every = 1`` (a gather every substep) puts them, at the last frame, and the body's own
-largest displacement for scale. The engine option's upper bound (``gasp_core.toolkit.substeps.MAX_PASSIVE_EVERY``)
+largest displacement for scale. The engine option's upper bound (``gasp_core.mpm.substeps.MAX_PASSIVE_EVERY``)
 comes from this table.
 
 Run: ``python benchmarks/passive_every_drift.py [--engine warp_mpm] [--frames 12] [--values 1 8 16 32 64 128]``;
@@ -23,7 +23,7 @@ SCENE = Path(__file__).resolve().parents[1] / "examples" / "donut_jelly.toml"
 
 def _beyond_the_bound() -> None:
     """Lift the option's upper bound in this process only, to measure the values past it."""
-    from gasp_core.toolkit.substeps import PASSIVE_EVERY
+    from gasp_core.mpm.substeps import PASSIVE_EVERY
     object.__setattr__(PASSIVE_EVERY, "hi", 10 ** 6)
 
 

@@ -130,7 +130,7 @@ def run_case(sp: Specimen, n_grid: int, engine: str, build_fn=build) -> dict:
     """One specimen on one engine at one grid: the figures of the module's docstring."""
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import engines
-    from gasp_core.toolkit.materials import softening_stress
+    from gasp_core.mpm.materials import softening_stress
     st, layer, lx, clamp, pulled = build_fn(sp, n_grid, engine)
     dx, s = st.dx, st.dx / 2
     nl = len(lx)

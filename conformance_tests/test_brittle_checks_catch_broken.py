@@ -17,7 +17,7 @@ from gasp_core.seam.plugins import engines as installed_engines
 from gasp_core.seam.setup import Material
 from gasp_core.testing import evaluate_scene, record, scene_by_name
 from gasp_core.testing.scenes_fracture import N_GRID
-from gasp_core.toolkit.materials import brittle_damage, softening_stress
+from gasp_core.mpm.materials import brittle_damage, softening_stress
 
 PREFERRED = ("warp_mpm", "taichi_mpm")
 #: Broken kind -> (the scene that must catch it, the check that must fail there).

@@ -199,7 +199,7 @@ def broken_engine(info, kind: str):
             mats = [dataclasses.replace(m, viscosity=f * m.viscosity) for m in setup.materials]
             return info.factory(setup.replace(materials=mats))
         if kind == "restitution_high":  # every body's restitution 5 % over what its material gives (capped at 1)
-            from gasp_core.toolkit.restitution import body_restitution
+            from gasp_core.mpm.restitution import body_restitution
             mats = [dataclasses.replace(m, restitution=min(1.0, 1.05 * body_restitution(m))) for m in setup.materials]
             return info.factory(setup.replace(materials=mats))
         if kind == "ground_friction_low":  # ground friction 5 % low: a slide 5.3 % long

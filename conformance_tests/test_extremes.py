@@ -30,7 +30,7 @@ from gasp_core.testing.pytest_plugin import engine_case_params
 from gasp_core.testing.scenes_basic import GROUND_H
 from gasp_core.errors import EngineDivergence, EngineError, SceneError
 from gasp_core.seam.setup import Boundary, Material, SimSetup
-from gasp_core.toolkit.substeps import mpm_stable_dt
+from gasp_core.mpm.substeps import mpm_stable_dt
 from gasp_core.seam.runner import simulate
 
 N_FRAMES = 2

@@ -4,7 +4,7 @@ deliberately bad package built in a temporary folder.
 1. No import loop among the core's modules, counting imports inside functions (a lazy import that
    closes a loop is still a loop) and imports under ``if TYPE_CHECKING:`` (a loop hidden from the
    interpreter is still a loop in the design: issue 42 found one in ``prepare``).
-2. Each package imports only packages below it in :data:`LAYERS`; ``toolkit`` is never imported by
+2. Each package imports only packages below it in :data:`LAYERS`; ``mpm`` is never imported by
    ``seam``, ``prepare``, ``run`` or ``studio`` (:data:`FORBIDDEN`).
 3. No core file over :data:`MAX_FILE_LINES` lines (:data:`LONG_FILES` lists exceptions with the reason).
 4. No private name (``_name``) imported from another module.
@@ -36,11 +36,11 @@ CORE = Path(gasp_core.__file__).parent
 
 #: The core's packages (and top-level modules) from the bottom up: each may import only those
 #: before it. Modules directly in ``gasp_core/`` that are not listed (its ``__init__``) are above all.
-LAYERS = ("errors", "fsutil", "maps", "gs", "colliders", "seam", "toolkit", "scene", "prepare", "run", "render",
+LAYERS = ("errors", "fsutil", "maps", "gs", "colliders", "seam", "mpm", "scene", "prepare", "run", "render",
           "testing", "studio", "cli")
 #: Packages that must never import a package even though it is below them: the grid engines' helpers are
 #: theirs (issue 51: the core's ``prepare`` knows no engine internals either).
-FORBIDDEN = {"seam": {"toolkit"}, "prepare": {"toolkit"}, "run": {"toolkit"}, "studio": {"toolkit"}}
+FORBIDDEN = {"seam": {"mpm"}, "prepare": {"mpm"}, "run": {"mpm"}, "studio": {"mpm"}}
 MAX_FILE_LINES = 400
 #: Core files allowed over MAX_FILE_LINES, path relative to gasp_core -> the reason.
 LONG_FILES: dict[str, str] = {}
@@ -325,8 +325,8 @@ def test_the_issue_51_checks_catch_todays_switches(tmp_path):
     placement, frames, dynamic and assembly), rebuilt here in the shapes it had."""
     root = _package(tmp_path, {
         "prepare/route.py": "CFL = 0.4\n",
-        "toolkit/options.py": "x = Option(\"cfl\", 0.4, \"Courant number\")\n",
-        "toolkit/substeps.py": "def f(cfl: float = 0.4):\n    '''cfl = 0.4 in a docstring is text'''\n"
+        "mpm/options.py": "x = Option(\"cfl\", 0.4, \"Courant number\")\n",
+        "mpm/substeps.py": "def f(cfl: float = 0.4):\n    '''cfl = 0.4 in a docstring is text'''\n"
                                "    return options.get(\"cfl\", 0.4)  # cfl = 0.4 in a comment too\n",
         "prepare/placement.py": "def f(o):\n    if o.spec.surface_points == \"centres\":\n        return 1\n"
                                 "    return build_hierarchy(o)\n",
@@ -338,15 +338,15 @@ def test_the_issue_51_checks_catch_todays_switches(tmp_path):
     assert len(bad) == 2 and all(b.startswith("gasp_core.prepare.placement") for b in bad), bad
 
 
-def test_prepare_and_studio_never_import_toolkit(tmp_path):
+def test_prepare_and_studio_never_import_mpm(tmp_path):
     root = _package(tmp_path, {
-        "prepare/scene.py": "from gasp_core.toolkit.rigid import step_view\n",
-        "studio/app.py": "from gasp_core.toolkit.options import mpm_options\n",
-        "toolkit/rigid.py": "step_view = 1\n",
-        "toolkit/options.py": "mpm_options = 1\n",
+        "prepare/scene.py": "from gasp_core.mpm.rigid import step_view\n",
+        "studio/app.py": "from gasp_core.mpm.options import mpm_options\n",
+        "mpm/rigid.py": "step_view = 1\n",
+        "mpm/options.py": "mpm_options = 1\n",
     })
     bad = layer_violations(root)
-    assert len(bad) == 2 and all("must never import toolkit" in b for b in bad), bad
+    assert len(bad) == 2 and all("must never import mpm" in b for b in bad), bad
 def test_no_import_loops():
     loops = import_loops(CORE)
     assert not loops, "modules importing each other in a loop: " + "; ".join(" <-> ".join(g) for g in loops)
@@ -427,16 +427,16 @@ def test_loop_check_counts_lazy_and_type_checking_imports(tmp_path):
 def test_layer_check_catches_an_upward_import_and_toolkit_in_run(tmp_path):
     root = _package(tmp_path, {
         "maps/games.py": "def f():\n    from gasp_core.scene.spec import Scene\n",
-        "run/pipeline.py": "from gasp_core.toolkit.options import mpm_options\nfrom gasp_core.seam import setup\n",
+        "run/pipeline.py": "from gasp_core.mpm.options import mpm_options\nfrom gasp_core.seam import setup\n",
         "scene/spec.py": "Scene = 1\nfrom gasp_core.errors import SceneError\n",
-        "toolkit/options.py": "mpm_options = 1\n",
+        "mpm/options.py": "mpm_options = 1\n",
         "seam/setup.py": "",
         "errors.py": "SceneError = Exception\n",
     })
     bad = layer_violations(root)
     assert len(bad) == 2, bad
     assert "gasp_core.maps.games imports gasp_core.scene.spec" in bad[0]
-    assert "gasp_core.run.pipeline imports gasp_core.toolkit.options: run must never import toolkit" in bad[1]
+    assert "gasp_core.run.pipeline imports gasp_core.mpm.options: run must never import mpm" in bad[1]
 
 
 def test_file_size_check_catches_a_long_file_unless_allowed(tmp_path):

@@ -3,7 +3,7 @@
 The scene (``block_setup``; ``gasp_core.testing.sand_ball.slide_setup``'s geometry): a 6 x 6 x 3 cm block (body 0)
 thrown at ``V0`` along +x on a 40 x 16 x 3 cm block (body 1) lying on a **frictionless** ground, gravity straight
 down, both blocks the same material. Known answers (Coulomb between the blocks, ``mu`` the pair's coefficient,
-``gasp_core.toolkit.fields.combine_friction`` of each body's ``body_friction``; ``m1``, ``m2`` the masses): the upper
+``gasp_core.mpm.fields.combine_friction`` of each body's ``body_friction``; ``m1``, ``m2`` the masses): the upper
 block slows at ``mu g``, the lower speeds up at ``mu g m1 / m2``, so they slide over each other by
 ``d = V0^2 / (2 mu g (1 + m1 / m2))`` (``V0^2 / (2 mu g)`` on a fixed lower block, 5.6 % more) and then move together
 at ``V0 m1 / (m1 + m2)``: the lower block takes up the momentum.
@@ -17,7 +17,7 @@ n_grid 48 and 64, and a pair coefficient 5 % off must fail); the lower block's f
   tested, n_grid 48 (a block 3 cells thick; at n_grid 32 it reads -12 %). Default tier: warp_mpm at the default
   coefficient 0.5; slow: taichi_mpm, and a pair of coefficients 0.3 and 0.3.
 * **rigid on rigid** (the same jelly, ``model = "rigid"``): the two bodies' contact taken on them as one, by force
-  balance (``gasp_core.toolkit.rigid_friction.pair_contact``: the centres' approach removed through the centres,
+  balance (``gasp_core.mpm.rigid_friction.pair_contact``: the centres' approach removed through the centres,
   then Coulomb's friction of that impulse, stick within ``mu P`` else slide at ``mu P``). A family
   (``RIGID_FAMILY``: n_grid 24 and 32, the upper block 4, 6 and 8 cm wide, the pair's coefficient 0.5 and 0.3) on
   both engines reads -1.55 % to -2.03 % on the slide, the lower block's final speed to 0.01 % (``docs/rigid.md``
@@ -41,7 +41,7 @@ from slopes import ENGINES, engine_param as _engine
 from gasp_core.seam import build_engine, get_engine
 from gasp_core.seam.setup import Boundary, Material, SimSetup
 from gasp_core.testing.helpers import box_points
-from gasp_core.toolkit import fields
+from gasp_core.mpm import fields
 
 G = 9.81
 V0 = 0.5
@@ -227,7 +227,7 @@ def test_combine_friction():
 def test_pair_contact_reference():
     """``pair_contact`` (the NumPy reference the engines spell): the approach removed through the centres, then the
     tangential slip stopped when within ``mu P`` (stick), else ``mu P`` against it (slide); momentum kept."""
-    from gasp_core.toolkit.rigid_friction import pair_contact
+    from gasp_core.mpm.rigid_friction import pair_contact
     I = np.eye(3) * 1e-3
     n = np.array([0.0, 0.0, -1.0])                       # from A (above) into B
     A = (np.array([0.5, 0.0, -0.01]), np.zeros(3), I, 1.0, np.array([0.0, 0.0, 0.05]))

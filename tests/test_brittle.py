@@ -2,7 +2,7 @@
 
 - One point, one substep (as ``test_metal_yield``): the damage the return mapping stores for a uniaxial Hencky
   stretch ``diag(exp(e), exp(-nu e), exp(-nu e))`` (uniaxial stress ``E e``) is the crack band's linear softening
-  ``gasp_core.toolkit.materials.brittle_damage`` (1e-6); compression at 10 times the tensile strength leaves
+  ``gasp_core.mpm.materials.brittle_damage`` (1e-6); compression at 10 times the tensile strength leaves
   ``d = 0``; a damaged point at rest keeps its ``d`` (never heals).
 - A bar pulled at one end (``fixed_region`` at the other, ``Impulse`` ``mode = "set"``): the largest nominal
   stress any cross-section carries is ``tensile_strength`` within 5 %; the bar breaks; mass is conserved.
@@ -38,7 +38,7 @@ from gasp_core.seam.plugins import engines
 from gasp_core.seam.setup import Boundary, Material, SimSetup
 from gasp_core.testing.helpers import box_points, make_setup
 from gasp_core.testing.scenes_fracture import CRACK_ZONE_CELLS, broken_runs, work_per_crack
-from gasp_core.toolkit.materials import P_FT, brittle_damage, material_table, snap_back_limit, softening_stress
+from gasp_core.mpm.materials import P_FT, brittle_damage, material_table, snap_back_limit, softening_stress
 
 E, NU, RHO, FT = 1e6, 0.25, 1000.0, 1e4
 MU, LAM = E / (2 * (1 + NU)), E * NU / ((1 + NU) * (1 - 2 * NU))
@@ -365,7 +365,7 @@ def dissipated_per_area(name: str, n_grid: int, per_dx: int = 2, n_frames: int =
     ``f_t^2 / (2 E) L = 30 J/m^2`` before it breaks, six times ``G_f``, and sheds it as waves). Summed over the
     zone of the first crack to part (``gasp_core.testing.scenes_fracture.work_per_crack``): the waves may damage
     or part the bar at its other grip afterwards (nu 0.25: both grips concentrate the stress alike)."""
-    from gasp_core.toolkit.materials import P_SF
+    from gasp_core.mpm.materials import P_SF
     s, _ = bar_setup(name, n_grid, per_dx)
     e = build_engine(engines()[name], s)
     table = e.solver.mat.to_numpy() if name == "taichi_mpm" else e.mat_par.numpy()
@@ -385,7 +385,7 @@ def dissipated_per_area(name: str, n_grid: int, per_dx: int = 2, n_frames: int =
 def fixed_band(monkeypatch, name: str, h) -> None:
     """Break the engine ``name``: its softening stress is the one of a band ``h(materials, band)`` wide (m)."""
     def spoiled(materials, band=None):
-        from gasp_core.toolkit.materials import P_SF
+        from gasp_core.mpm.materials import P_SF
         kinds, params = material_table(materials, band)
         params[:, P_SF] = [softening_stress(mm, h(band)) if mm.name == "brittle" else 0.0 for mm in materials]
         return kinds, params

@@ -10,7 +10,7 @@ from gasp_testing import needs_package
 
 from gasp_core.colliders.model import ForceField, Impulse, Motion
 from gasp_core.colliders.sdf import box_collider, collider_from_triangles
-from gasp_core.toolkit.grid_tables import frame_table, grid_tables
+from gasp_core.mpm.grid_tables import frame_table, grid_tables
 from gasp_core.errors import SceneError
 from gasp_core.seam.build import check_supported, needs
 from gasp_core.seam.engine import Capabilities, EngineInfo

@@ -15,7 +15,7 @@ from gasp_core.seam import Capabilities, EngineInfo, Option, Preset, option
 from gasp_core.seam.config import config_options, options_markdown
 from gasp_core.seam.options import check_options
 from gasp_core.seam.plugins import engines
-from gasp_core.toolkit.options import GridConfig, MPMConfig
+from gasp_core.mpm.options import GridConfig, MPMConfig
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "engine_options.md"
 

@@ -1,4 +1,4 @@
-"""The particle contact's reference (gasp_core.toolkit.contact, docs/contact.md) and its engine option."""
+"""The particle contact's reference (gasp_core.mpm.contact, docs/contact.md) and its engine option."""
 from __future__ import annotations
 
 import numpy as np
@@ -6,9 +6,9 @@ import pytest
 
 from gasp_core.errors import SceneError
 from gasp_core.seam.options import check_options
-from gasp_core.toolkit.contact import (CONTACT, collider_grid_depth, contact_coefficients, contact_planes,
+from gasp_core.mpm.contact import (CONTACT, collider_grid_depth, contact_coefficients, contact_planes,
                                       ground_node_layer, node_friction, plane_impulse, surface_impulse, wall_grid_cells)
-from gasp_core.toolkit.options import mpm_options
+from gasp_core.mpm.options import mpm_options
 
 
 def test_plane_impulse_is_a_damped_penalty_that_never_pulls():
@@ -65,7 +65,7 @@ def test_the_option_is_declared_with_its_values():
 def test_auto_keeps_the_grid_contact_for_flowing_materials():
     from types import SimpleNamespace
     from gasp_core.seam.setup import Material
-    from gasp_core.toolkit.contact import contact_model, flowing_bodies
+    from gasp_core.mpm.contact import contact_model, flowing_bodies
     jelly, sand = Material("jelly"), Material("sand")
     assert contact_model(SimpleNamespace(options={}, materials=[jelly])) == "particle"
     assert contact_model(SimpleNamespace(options={}, materials=[sand, Material("liquid")])) == "grid"

@@ -1,6 +1,6 @@
 """The two-field grid contact (issue 53 item 3, ``docs/contact.md`` "Sand that slides on what it touches").
 
-- The node correction (``gasp_core.toolkit.fields.field_offsets``) against Coulomb's law on hand-made nodes: momentum
+- The node correction (``gasp_core.mpm.fields.field_offsets``) against Coulomb's law on hand-made nodes: momentum
   conserved, the approach along the normal removed, sliding kept where the tangential speed exceeds ``mu`` times the
   approach (its loss exactly ``mu`` times the approach), sticking below it, separation untouched.
 - Which scenes run it (mixed scenes only, option ``contact_fields``) and its friction (``tan`` of the sand's angle).
@@ -30,7 +30,7 @@ import numpy as np
 import pytest
 
 from gasp_core.testing import sand_ball as S
-from gasp_core.toolkit.fields import field_friction, field_offsets, mass_normals, uses_fields
+from gasp_core.mpm.fields import field_friction, field_offsets, mass_normals, uses_fields
 
 STEEP_TOL, PILE_TOL, DEPTH_TOL, TURN_TOL = 0.01, 0.20, 0.3, 2.0
 SLIDE_TOL, SLIDE_FRAMES, SPEEDS = 0.05, 6, (0.4, 0.6, 0.8)
@@ -170,7 +170,7 @@ def test_the_solid_slide_catches_a_friction_5pct_off(monkeypatch, factor):
     from gasp_core.seam.plugins import get_engine
     from gasp_core.testing.kit import evaluate_scene
     from gasp_core.testing.scenes import scene_by_name
-    from gasp_core.toolkit.fields import SOLID_FRICTION
+    from gasp_core.mpm.fields import SOLID_FRICTION
     monkeypatch.setattr(wf, "field_friction", lambda setup: factor * SOLID_FRICTION)
     r = evaluate_scene(get_engine("warp_mpm"), scene_by_name("solid_slide"), {})
     assert r.status == "fail", r

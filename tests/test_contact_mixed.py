@@ -28,7 +28,7 @@ from gasp_core.seam.plugins import get_engine
 from gasp_core.seam.setup import Boundary, Material, SimSetup
 from gasp_core.testing.helpers import box_points, sphere_points
 from gasp_core.testing.kit import run_trace
-from gasp_core.toolkit.contact import contact_coefficients, contact_dt, contact_model
+from gasp_core.mpm.contact import contact_coefficients, contact_dt, contact_model
 
 N_GRID, SIDE = 32, 0.6
 DX = SIDE / N_GRID

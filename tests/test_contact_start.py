@@ -4,7 +4,7 @@ The full model simulates a capture's Gaussian vertices as material; some start t
 stands on (the spinach's: 7 vertices up to 5.9 dx below its ground, 3 inside the pan collider). The particle
 contact (``docs/contact.md``) pushed each with ``k_p depth`` on its starting depth: about ``depth omega`` (hundreds
 of m/s) in one substep, so about 1,000 points left the grid. ``draft`` ran, its vertices being passive. Now such a
-point takes its starting clearance as its skin (negative; :func:`gasp_core.toolkit.contact.contact_coefficients`):
+point takes its starting clearance as its skin (negative; :func:`gasp_core.mpm.contact.contact_coefficients`):
 the support holds it at its starting depth and pushes it only deeper than that.
 
 Measured on both MPM engines: a brittle sheet of one point per cell (the spinach's E, rho and strength) resting on
@@ -20,7 +20,7 @@ from gasp_core.seam.build import build_engine
 from gasp_core.seam.plugins import engines
 from gasp_core.seam.setup import Boundary, Material
 from gasp_core.testing.helpers import box_points, make_setup
-from gasp_core.toolkit.contact import SKIN, contact_coefficients
+from gasp_core.mpm.contact import SKIN, contact_coefficients
 
 PLUGINS = ("taichi_mpm", "warp_mpm")
 N_GRID, H = 32, 0.3                  # cells on the unit cube; the ground's height, m

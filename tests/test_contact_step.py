@@ -1,7 +1,7 @@
 """The particle contact's stable step holds whatever step the user sets (issue 38, ``docs/contact.md``).
 
 The penalty of the particle contact is explicit: a substep longer than
-:func:`gasp_core.toolkit.contact.contact_dt` (``omega dt > 2``) pumps energy into a body on the ground (the
+:func:`gasp_core.mpm.contact.contact_dt` (``omega dt > 2``) pumps energy into a body on the ground (the
 issue measured a ball gaining 91 % of its drop energy at ``n_substeps = 2``). Before, ``choose_dt`` kept only
 the automatic step within it; a hand-set ``dt`` or ``n_substeps`` ran as given, without a word. Now a hand-set
 step longer than the contact's is shortened to it (more substeps per frame) with a warning naming the option.
@@ -18,9 +18,9 @@ import pytest
 from gasp_core.errors import SceneError
 from gasp_core.seam.setup import Boundary, Material
 from gasp_core.testing.helpers import make_setup, sphere_points
-from gasp_core.toolkit.contact import contact_dt, contact_model
-from gasp_core.toolkit.grid_engine import choose_dt
-from gasp_core.toolkit.substeps import substeps_from_options
+from gasp_core.mpm.contact import contact_dt, contact_model
+from gasp_core.mpm.grid_engine import choose_dt
+from gasp_core.mpm.substeps import substeps_from_options
 
 SIDE, N_GRID = 0.3, 16
 DX = SIDE / N_GRID
@@ -115,7 +115,7 @@ def _restitution(engine: str, options: dict) -> tuple[float, int]:
 def test_the_bounce_is_the_same_at_a_hand_set_step(monkeypatch):
     """warp_mpm: restitution at ``n_substeps = 1`` within :data:`RESTITUTION_TOL` of the automatic step's (both
     ways); with the old rule (a hand-set step taken as given) the same check fails."""
-    import gasp_core.toolkit.grid_engine as grid_engine
+    import gasp_core.mpm.grid_engine as grid_engine
     setup = _ball(frame_dt=1.0 / FPS)
     assert _requested_dt(setup, {"n_substeps": 1}) > contact_dt(setup)
     t0 = time.perf_counter()
@@ -155,7 +155,7 @@ def test_a_domain_floored_at_the_ground_is_refused_in_one_line(tmp_path):
     plane) would be outside the grid (the run diverged at frame 3); refused before any file is read, naming the
     file, lo z, the ground's height and the lo z that works; that lo z, and the grid contact, pass the check."""
     import re
-    from gasp_core.toolkit.ground_check import check_ground_in_grid
+    from gasp_core.mpm.ground_check import check_ground_in_grid
     from gasp_core.prepare.scene import prepare_scene
     scene = _floored_scene(tmp_path, 0.0)
     with pytest.raises(SceneError) as e:
@@ -212,7 +212,7 @@ def test_the_elastic_bounce_keeps_its_restitution_at_every_step(engine, monkeypa
     assert all(RESTITUTION_MIN <= v <= 1.02 for v in e.values()), e
     assert max(e.values()) - min(e.values()) <= RESTITUTION_SPREAD, e
     if engine == "warp_mpm":
-        import gasp_core.toolkit.contact as contact
+        import gasp_core.mpm.contact as contact
         monkeypatch.setattr(contact, "KAPPA", 4.0)
         e_old = _bounce_restitution(engine, {"cfl": 0.1})
         assert e_old < RESTITUTION_MIN, e_old

@@ -19,8 +19,8 @@ from gasp_core.seam.build import build_engine, check_supported, needs
 from gasp_core.seam.engine import Capabilities, EngineInfo
 from gasp_core.seam.setup import Boundary, Material
 from gasp_core.testing.helpers import box_points, make_setup
-from gasp_core.toolkit.materials import material_table, P_ETA
-from gasp_core.toolkit.substeps import mpm_stable_dt, p_wave_speed, viscous_dt
+from gasp_core.mpm.materials import material_table, P_ETA
+from gasp_core.mpm.substeps import mpm_stable_dt, p_wave_speed, viscous_dt
 from gasp_testing import DONUT, scene_text, needs_package
 
 GRID_ENGINES = [e for e, mod in (("taichi_mpm", "gasp_taichi_mpm"), ("warp_mpm", "gasp_warp_mpm"))

@@ -1,5 +1,5 @@
 """Stiff brittle bodies break into fragments (issue 66 item 5; gasp_core/run/fragments.py,
-gasp_core/toolkit/fracture_table.py; docs/fracture.md "Stiff brittle bodies: fragments").
+gasp_core/mpm/fracture_table.py; docs/fracture.md "Stiff brittle bodies: fragments").
 
 No engine here: the handbook table and its scene key, Grady's size law over a family of speeds and fracture
 energies, the break test's two thresholds, the Voronoi split of a ring (a hollow body whose cells hold two walls)
@@ -17,7 +17,7 @@ from gasp_core.errors import SceneError
 from gasp_core.scene.tables import read_material
 from gasp_core.seam.setup import Material
 from gasp_core.run import fragments as fr
-from gasp_core.toolkit.fracture_table import BRITTLE_SUBSTANCES, SUBSTANCE_KEYS
+from gasp_core.mpm.fracture_table import BRITTLE_SUBSTANCES, SUBSTANCE_KEYS
 
 
 def porcelain() -> Material:

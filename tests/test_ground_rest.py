@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from gasp_core.seam.build import build_engine
-from gasp_core.toolkit.points import ground_top_node
+from gasp_core.mpm.points import ground_top_node
 from gasp_core.testing.scenes_rest import DX, GROUND_H, LO, TILT_DEG, _build
 
 RUNS = [(e, opts) for e, mod, opts in (

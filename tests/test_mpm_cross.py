@@ -18,7 +18,7 @@ wp = needs_package("warp")
 
 from gasp_core.seam import build_engine, Material, SimSetup  # noqa: E402
 from gasp_core.seam.plugins import engines  # noqa: E402
-from gasp_core.toolkit.materials import MATERIAL_CODES, P_K, P_LAM, P_MU  # noqa: E402
+from gasp_core.mpm.materials import MATERIAL_CODES, P_K, P_LAM, P_MU  # noqa: E402
 
 MATERIALS = list(MATERIAL_CODES)   # the eight, in code order
 PER_BODY = 12                       # points per material

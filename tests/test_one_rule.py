@@ -79,7 +79,7 @@ def test_options_are_checked_by_the_core_alone_and_the_engine_reads_them_complet
     """build_engine checks the declared Options (excludes included) and hands the factory every option."""
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.engine import Capabilities, EngineInfo
-    from gasp_core.toolkit.options import mpm_options
+    from gasp_core.mpm.options import mpm_options
     seen = {}
 
     def factory(setup):

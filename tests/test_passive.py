@@ -101,7 +101,7 @@ def test_passive_schedule_is_exact_for_velocity_linear_in_time(n, every):
     velocity linear in the substep (free fall, any uniform acceleration) the sum equals the plain
     per-substep update ``dt * sum_s v_s`` exactly, whatever ``every``, and the frame's last substep
     always updates."""
-    from gasp_core.toolkit.substeps import passive_schedule
+    from gasp_core.mpm.substeps import passive_schedule
     dt = 1e-3
     c0, c1 = np.array([0.3, -1.0, 2.0]), np.array([0.01, 0.5, -0.2])
 
@@ -121,7 +121,7 @@ def test_passive_schedule_is_exact_for_velocity_linear_in_time(n, every):
 def test_passive_every_follows_an_impact(name):
     """The engine option ``passive_every``: a jelly block thrown sideways lands on the ground at
     frame 5 of 10. Gathering the grid velocity every 4th substep instead of every one (the linear
-    in time interpolation of :func:`gasp_core.toolkit.substeps.passive_schedule`) keeps the passive points to
+    in time interpolation of :func:`gasp_core.mpm.substeps.passive_schedule`) keeps the passive points to
     1e-3 dx of the per-substep run during the fall (velocity linear in time: exact but for f32
     rounding; measured 4.9e-5 dx) and within 0.05 dx through the impact and the sliding (measured
     0.0037 dx on both engines with the affine advance; 0.021 dx with straight lines between gathers)."""
@@ -248,7 +248,7 @@ def _markers_held(traj: np.ndarray, err: str, dx: float) -> list[str]:
     """What is wrong with a run of :func:`block_with_markers` (empty: nothing): the run must finish, and over the
     frames the lowest marker must be on the ground (0.2 m) and the farthest on the +x wall's face (13 dx: the
     particle contact's plane, 3 dx inside the domain's face; 14 dx with the grid rule,
-    ``gasp_core.toolkit.points.passive_bounds``), each within ``HOLD_TOL`` dx: none past the face, and held on it,
+    ``gasp_core.mpm.points.passive_bounds``), each within ``HOLD_TOL`` dx: none past the face, and held on it,
     not short of it (a rule holding them at the material's skin or at a wrong height fails too)."""
     if err:
         return [f"diverged: {err[:120]}"]
@@ -287,7 +287,7 @@ def test_passive_bounds_and_hold_passive():
     """The box of ``passive_bounds`` (ground: its height; walls: the wall node layers nearest the inside, 2 dx in
     from each face of a domain of whole cells, with the grid rule; the particle contact's planes, 3 dx in) and ``hold_passive``'s projection (velocity into a face removed)."""
     from gasp_core.seam.setup import Boundary
-    from gasp_core.toolkit.points import hold_passive, passive_bounds
+    from gasp_core.mpm.points import hold_passive, passive_bounds
     s = block_with_skin()                                          # n_grid 24 on [0, 1]^3, no boundary
     lo, hi = passive_bounds(s)
     assert np.all(np.isinf(lo)) and np.all(np.isinf(hi)) and np.all(lo < 0) and np.all(hi > 0)

@@ -271,16 +271,16 @@ def test_state_feature_means_a_stateful_engine():
 
 
 def test_the_core_never_imports_the_plugin_facades():
-    """gasp_core.seam and gasp_core.toolkit re-export the contract for plugins; core modules import every
+    """gasp_core.seam and gasp_core.mpm re-export the contract for plugins; core modules import every
     name from the module that defines it, so that importing the contract cannot close a loop."""
     import ast
     import pathlib
     import gasp_core
     root = pathlib.Path(gasp_core.__file__).parent
-    facades = {"gasp_core.seam", "gasp_core.toolkit"}
+    facades = {"gasp_core.seam", "gasp_core.mpm"}
     bad = []
     for p in root.rglob("*.py"):
-        if p.name == "__init__.py" and p.parent.name in ("seam", "toolkit"):
+        if p.name == "__init__.py" and p.parent.name in ("seam", "mpm"):
             continue
         for n in ast.walk(ast.parse(p.read_text())):
             if (isinstance(n, ast.ImportFrom) and n.module in facades

@@ -15,7 +15,7 @@ from gasp_core.scene.quality import PRESETS, QUALITY_LEVELS, STUDIO_LEVEL, engin
 from gasp_core.seam import Capabilities, EngineInfo, Preset
 from gasp_core.seam.options import Option
 from gasp_core.seam.plugins import engines
-from gasp_core.toolkit.options import MPM_PRESETS
+from gasp_core.mpm.options import MPM_PRESETS
 from gasp_core.scene.spec import load_scene
 from gasp_testing import scene_text, needs_package
 

@@ -1,5 +1,5 @@
 """Issue 53 item 1: restitution from the materials, settable, and a rigid body that comes to rest
-(``gasp_core.toolkit.restitution``, ``docs/rigid.md`` "Restitution").
+(``gasp_core.mpm.restitution``, ``docs/rigid.md`` "Restitution").
 
 The drops are issue 53's: a 10 cm ball of steel (E 2e11, rho 7850: 0.93 on a hard floor) or hardwood (E 1e10,
 rho 700: 0.55), its bottom 0.2 m over the ground, on the rigid route; the restitution is read from the free flights
@@ -15,7 +15,7 @@ import pytest
 
 from gasp_core.errors import SceneError
 from gasp_core.seam import Boundary, build_engine, engines, get_engine, Material, SimSetup
-from gasp_core.toolkit import restitution as rs
+from gasp_core.mpm import restitution as rs
 
 INSTALLED = engines()
 ENGINES = [pytest.param(e, marks=pytest.mark.skipif(e not in INSTALLED or INSTALLED[e].unavailable_reason() is not None,
@@ -139,8 +139,8 @@ def test_route_line_gives_the_substeps_the_run_takes():
     import warnings
     from gasp_core.prepare.route import declared_cfl, resolve_models
     from gasp_core.seam.plugins import engines
-    from gasp_core.toolkit.grid_engine import choose_dt
-    from gasp_core.toolkit.rigid import step_view
+    from gasp_core.mpm.grid_engine import choose_dt
+    from gasp_core.mpm.rigid import step_view
     info = engines()["warp_mpm"]      # the engine's own step rule (EngineInfo.substeps), as prepare_scene passes it
     s = ball(WOOD, 40)
     s.materials = [Material("jelly", model="auto", **WOOD)]

@@ -7,10 +7,10 @@ import pytest
 
 from gasp_core.errors import SceneError
 from gasp_core.prepare.route import RIGID_SHARE, choose, estimate, message, resolve_models
-from gasp_core.toolkit.substeps import CFL
+from gasp_core.mpm.substeps import CFL
 from gasp_core.scene.tables import read_material
 from gasp_core.seam import Boundary, Material, SimSetup
-from gasp_core.toolkit.rigid import affine_spin, rigid_contact, rigid_project, skew, step_view, zero_stress
+from gasp_core.mpm.rigid import affine_spin, rigid_contact, rigid_project, skew, step_view, zero_stress
 
 DX = 0.02
 
@@ -133,7 +133,7 @@ def test_step_view_and_zero_stress():
     v = step_view(s)
     assert v.materials[0].E == 1.0 and s.materials[0].E == 2e11
     assert step_view(ball(model="elastic")) is not None and step_view(ball(model="elastic")).materials[0].E == 2e11
-    from gasp_core.toolkit.materials import JELLY, METAL, P_LAM, P_MU, material_table
+    from gasp_core.mpm.materials import JELLY, METAL, P_LAM, P_MU, material_table
     kinds, params = zero_stress(*material_table([Material("metal", E=1e9), Material("jelly", E=1e5)]),
                                 [Material("metal", E=1e9, model="rigid"), Material("jelly", E=1e5)], JELLY)
     assert list(kinds) == [JELLY, JELLY] and params[0, P_MU] == 0 and params[0, P_LAM] == 0

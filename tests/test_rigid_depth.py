@@ -1,4 +1,4 @@
-"""Issue 53 item 2: a rigid body rests on its lowest points, not in the ground (``gasp_core.toolkit.rigid``:
+"""Issue 53 item 2: a rigid body rests on its lowest points, not in the ground (``gasp_core.mpm.rigid``:
 ``lift_setup``, ``settle_projection``, ``support_scale``; ``docs/rigid.md`` "Resting on its lowest points").
 
 Known answers:
@@ -93,15 +93,15 @@ def test_rigid_slab_rests_on_three_hanging_points(engine):
     # its contact, not the projection, carries its weight (and gives the friction its budget): it rests less than half
     # the slop deep (support_scale left out, RIGID_LEVER infinite: at the slop, 0.05 dx, held by the projection; the
     # donut so held rocked 1-2 deg for 1.3 s)
-    from gasp_core.toolkit.rigid import RIGID_SLOP
+    from gasp_core.mpm.rigid import RIGID_SLOP
     assert low[-1] > -0.5 * RIGID_SLOP, f"{engine}: it rests {low[-1]:+.4f} dx deep, held by the projection"
 
 
 def test_settle_projection_reference():
-    """The NumPy reference (``gasp_core.toolkit.rigid_friction.settle_projection``): moved out by ``depth - slop`` along the
+    """The NumPy reference (``gasp_core.mpm.rigid_friction.settle_projection``): moved out by ``depth - slop`` along the
     normal, its approach removed and no upward speed gained, its slip braked by at most ``mu`` times that impulse;
     nothing within the slop or when it recedes."""
-    from gasp_core.toolkit.rigid_friction import settle_projection
+    from gasp_core.mpm.rigid_friction import settle_projection
     n, c, I = np.array([0.0, 0.0, 1.0]), np.zeros(3), np.eye(3) * 0.1
     shift, V, w = settle_projection(0.003, n, [0.01, 0.0, -0.05], c, [0.2, 0.0, -0.5], np.zeros(3), I, 2.0, 0.5, 0.001)
     assert np.allclose(shift, [0.0, 0.0, 0.002])

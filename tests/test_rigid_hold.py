@@ -1,4 +1,4 @@
-"""The rigid bodies' hold on the flowing points (issue 53 item 3, ``gasp_core.toolkit.rigid_hold``, docs/contact.md
+"""The rigid bodies' hold on the flowing points (issue 53 item 3, ``gasp_core.mpm.rigid_hold``, docs/contact.md
 "The rigid bodies' hold"; warp_mpm's and taichi_mpm's ``rigid_hold.py``).
 
 A rigid body in a scene with a body of the grid contact holds that body's points out of it as a moving collider
@@ -23,7 +23,7 @@ from gasp_core.seam.build import build_engine
 from gasp_core.seam.plugins import engines
 from gasp_core.seam.setup import Material, SimSetup
 from gasp_core.testing.helpers import box_points, sphere_points
-from gasp_core.toolkit import rigid_hold as RH
+from gasp_core.mpm import rigid_hold as RH
 
 ENGINES = [e for e, mod in (("taichi_mpm", "gasp_taichi_mpm"), ("warp_mpm", "gasp_warp_mpm"))
            if importlib.util.find_spec(mod) is not None]
@@ -77,8 +77,8 @@ def test_one_points_hold_by_hand():
 def test_scenes_without_a_holding_body_build_no_tables():
     """The sand alone, or a rigid ball with a jelly block (no flowing body): no tables, the engines' code before."""
     from gasp_core.testing import sand_ball as S
-    from gasp_core.toolkit.contact import contact_model, flowing_bodies
-    from gasp_core.toolkit.rigid import step_view
+    from gasp_core.mpm.contact import contact_model, flowing_bodies
+    from gasp_core.mpm.rigid import step_view
     rigid = S.pair_setup(rigid=True)
     for setup in (S.pair_setup(ball=False), replace(rigid, materials=[Material("jelly", E=5e4, nu=0.3, rho=1000.0),
                                                                       rigid.materials[1]])):
@@ -151,11 +151,11 @@ def test_the_plate_check_fails_without_the_hold(engine, monkeypatch):
 def field_depth(x0: np.ndarray, x1: np.ndarray, setup) -> float:
     """The deepest sand point inside the rigid ball's own field at the end (dx; negative: a gap): the ball's pose
     from its points (Kabsch, start ``x0`` to end ``x1``, setup order), the field of
-    :func:`gasp_core.toolkit.rigid_hold.rigid_hold_tables` read trilinearly in its rest frame."""
+    :func:`gasp_core.mpm.rigid_hold.rigid_hold_tables` read trilinearly in its rest frame."""
     from scipy import ndimage
     from gasp_core.testing import sand_ball as S
-    from gasp_core.toolkit.contact import contact_model, flowing_bodies
-    from gasp_core.toolkit.rigid import body_frames, rigid_mask, step_view
+    from gasp_core.mpm.contact import contact_model, flowing_bodies
+    from gasp_core.mpm.rigid import body_frames, rigid_mask, step_view
     view = step_view(setup)
     _row, sdf, _grad, meta = _TABLES(setup, S.DX, flowing_bodies(view, contact_model(view)))
     body = np.asarray(setup.body_id)

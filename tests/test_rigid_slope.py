@@ -15,7 +15,7 @@ gravity tilted by ``theta`` (``[g sin theta, 0, -g cos theta]``: the ground is a
 
 Before issue 67 the block stuck at 30 degrees and mu 0.3 (a = -0.0003 m/s^2 against 2.357): the nodes' friction, made
 Coulomb's on the body by the contact's balance, and the slide brake on the body as one each took the budget
-``mu J``: twice the friction (``gasp_core.toolkit.rigid_friction.coulomb_friction``, ``docs/rigid.md`` "Slopes").
+``mu J``: twice the friction (``gasp_core.mpm.rigid_friction.coulomb_friction``, ``docs/rigid.md`` "Slopes").
 
 The default tier runs two cases on each engine (a slide, a stick); the full 3 x 3 grid (15, 30, 45 degrees x mu 0.2,
 0.4, 0.6) on both engines is slow. ``test_the_checks_catch_broken_engines`` runs the checks on engines broken on
@@ -162,11 +162,11 @@ def test_the_checks_catch_broken_engines(engine, monkeypatch):
 
 
 def test_coulomb_friction_reference():
-    """``gasp_core.toolkit.rigid_friction.coulomb_friction``: a block on its face (a wide patch) that needs less than ``mu J``
+    """``gasp_core.mpm.rigid_friction.coulomb_friction``: a block on its face (a wide patch) that needs less than ``mu J``
     is stopped at its contact point without a spin; one that needs more keeps ``u - mu J / M``; a ball on a point
     (no patch) takes the impulse through its effective mass at the contact, ``M / (1 + M R^2 / I)``, and spins up:
     ``omega R = v`` after a stopping impulse."""
-    from gasp_core.toolkit.rigid_friction import coulomb_friction
+    from gasp_core.mpm.rigid_friction import coulomb_friction
     M, n, c = 2.0, np.array([0.0, 0.0, 1.0]), np.zeros(3)
     I_block = np.diag([0.01, 0.01, 0.02])
     S_face = np.diag([0.05 ** 2 / 3, 0.05 ** 2 / 3, 0.0])   # a 10 cm face

@@ -14,14 +14,14 @@ plane, e.g. Goldstein; Bullet, PhysX and MuJoCo meet them within a few percent):
   from the points' velocities (the spin that carries their angular momentum about the centroid).
 * ``mu < (2/7) tan theta``: it slips, ``a = g (sin theta - mu cos theta)``, and spins up at the rate friction gives:
   ``omega R = mu g cos theta t / k``, ``k = I / (M R^2)`` the body's own, APIC's affine parts' ``M dx^2 / 2`` included
-  (``gasp_core.toolkit.rigid.rigid_project``; 0.431 here, where a solid ball's is 0.4).
+  (``gasp_core.mpm.rigid.rigid_project``; 0.431 here, where a solid ball's is 0.4).
 * The solid cylinder (``R`` 0.1 m, 0.15 m long, on its side across the slope): ``(2/3) g sin theta`` while ``mu >=
   tan theta / 3``.
 
 Tolerance ``TOL`` = 5 %, two-sided, on every figure (the issue's). Before issue 67's fix the ball rolled at 1.866
 m/s^2 (-22 %): the cap its contact's penetration makes (a few mm across) held the friction's tipping moment as a
 block's face does, and each contact point's settling damping braked the rolling (-2.8 %);
-``gasp_core.toolkit.rigid_friction.contact_flatness`` and ``docs/rigid.md`` "Rolling".
+``gasp_core.mpm.rigid_friction.contact_flatness`` and ``docs/rigid.md`` "Rolling".
 
 ``test_the_checks_catch_broken_engines`` runs the checks on engines broken on purpose: one that brakes at a rest speed
 (its motion held while the centre is slower than 0.1 m/s), one that never sticks (the friction a tenth: the ball at
@@ -233,10 +233,10 @@ def test_the_checks_catch_broken_engines(engine, monkeypatch):
 
 
 def test_contact_flatness_reference():
-    """``gasp_core.toolkit.rigid_friction.contact_flatness``: a ball's cap (depths ``d0 - s^2 / 2R`` over its touching
+    """``gasp_core.mpm.rigid_friction.contact_flatness``: a ball's cap (depths ``d0 - s^2 / 2R`` over its touching
     lattice) reads 0, a block's evenly pressed face 1; ``coulomb_friction`` then rolls a ball on its cap (``omega R =
     v``, 5/7 of the speed kept) and holds a block's tipping moment (no spin)."""
-    from gasp_core.toolkit.rigid_friction import contact_flatness, coulomb_friction
+    from gasp_core.mpm.rigid_friction import contact_flatness, coulomb_friction
     d0 = 4e-4
     g = np.linspace(-0.02, 0.02, 41)
     X, Y = np.meshgrid(g, g, indexing="ij")

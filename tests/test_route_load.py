@@ -10,7 +10,7 @@ import pytest
 
 from gasp_core.prepare.route import loads, resolve_models
 from gasp_core.seam import Boundary, Material, SimSetup
-from gasp_core.toolkit.substeps import CFL
+from gasp_core.mpm.substeps import CFL
 
 R, RHO_BALL, E_BALL = 0.05, 1000.0, 1.0e6          # a rubber-like ball, resting on the ground
 COLUMN = (0.06, 0.06, 0.15)                          # the sand column, m

@@ -60,7 +60,7 @@ def test_a_stranded_passive_point_slides_on_the_floor_with_its_friction():
     the grid's (its friction is in the grid's velocity). Before, a stranded point on the ground kept its speed for
     ever: at n_grid 48 a quarter of the column's surface points slid out of the grid at 0.35-0.53 m/s."""
     from gasp_core.seam.setup import Boundary
-    from gasp_core.toolkit.points import hold_passive, passive_bounds, passive_floor_friction
+    from gasp_core.mpm.points import hold_passive, passive_bounds, passive_floor_friction
     lo, hi = np.array([-np.inf, -np.inf, 0.0]), np.full(3, np.inf)
     x = np.array([[0.0, 0.0, -1e-3]] * 3)
     v = np.array([[0.3, 0.4, -0.2], [0.3, 0.4, -0.2], [0.03, 0.04, -0.2]])

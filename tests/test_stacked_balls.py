@@ -1,6 +1,6 @@
 """Two soft bodies meet at their surfaces (issue 53 item 5, ``docs/contact.md`` "Two jelly balls stacked").
 
-- Which scenes take a velocity field per body (:func:`gasp_core.toolkit.fields.soft_pair`: two soft bodies on the
+- Which scenes take a velocity field per body (:func:`gasp_core.mpm.fields.soft_pair`: two soft bodies on the
   particle contact, neither rigid nor flowing) and their touch threshold (``SOFT_TOUCH_FRACTION``, the sand's
   ``TOUCH_FRACTION`` otherwise).
 - Both engines (taichi_mpm in the slow tier: its kernels compile in about 40 s): the conformance scene ``stacked_gap``
@@ -19,12 +19,12 @@ import dataclasses
 import numpy as np
 import pytest
 
-import gasp_core.toolkit.fields as F
+import gasp_core.mpm.fields as F
 from gasp_core.seam.plugins import get_engine
 from gasp_core.seam.setup import Material
 from gasp_core.testing.kit import run_trace
 from gasp_core.testing.scenes_pairs import _build_stack, _eval_stack, STACK_T
-from gasp_core.toolkit.fields import field_bodies, soft_pair, touch_fraction, uses_fields
+from gasp_core.mpm.fields import field_bodies, soft_pair, touch_fraction, uses_fields
 
 FRAMES = round(STACK_T * 30)
 

@@ -50,7 +50,7 @@ def failures(r: dict) -> list[str]:
 
 def old_clamp(monkeypatch, name: str) -> None:
     """The engine ``name`` with the held region before issue 66: no ghost nodes, every held point rigid."""
-    from gasp_core.toolkit.points import fixed_mask
+    from gasp_core.mpm.points import fixed_mask
 
     def rigid(x, boundaries, dx, sampled=False):
         return fixed_mask(x, boundaries).astype(np.int8)

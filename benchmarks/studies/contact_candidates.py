@@ -1,4 +1,4 @@
-"""Candidate particle contacts (``gasp_core.toolkit.contact``: stiffness ``KAPPA``, damping ratio ``DAMPING``,
+"""Candidate particle contacts (``gasp_core.mpm.contact``: stiffness ``KAPPA``, damping ratio ``DAMPING``,
 skin ``SKIN``) against the grid contact, on the conformance scenes that decide them, in one engine.
 
 Each candidate sets the module's constants before the engine is built (``contact_coefficients`` reads them
@@ -16,7 +16,7 @@ import dataclasses
 import time
 from pathlib import Path
 
-import gasp_core.toolkit.contact as contact
+import gasp_core.mpm.contact as contact
 from gasp_core.testing import scene_by_name
 from gasp_core.testing.kit import evaluate_scene, resolve_engine
 

@@ -36,8 +36,8 @@ import numpy as np
 
 from gasp_core.seam.setup import Material
 from gasp_core.testing.helpers import sphere_points
-from gasp_core.toolkit.points import ground_top_node
-from gasp_core.toolkit.substeps import mpm_stable_dt, substeps_for
+from gasp_core.mpm.points import ground_top_node
+from gasp_core.mpm.substeps import mpm_stable_dt, substeps_for
 
 SIDE, R, DROP, E, NU, RHO = 0.3, 0.05, 0.05, 2e4, 0.3, 300.0
 G = np.array([0.0, 0.0, -9.81])

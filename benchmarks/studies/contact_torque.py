@@ -10,7 +10,7 @@ call (``frame_dt`` = the contact's substep) over its first bounce (0.19 s). Figu
 - ``lever``: ``|dL| / J`` (mm): how far off the mass centre the contact pushes on average; under 0.03 mm is what
   keeps the travel at friction 0.5 under the issue's 1 mm (a spin of about 0.05 rad/s per bounce);
 - ``contact``: for the point contacts, the torque of the contact's own impulses about the mass centre
-  (``sum_p (x_p - c) x j_p z``, recomputed from the engine's points with ``gasp_core.toolkit.contact.plane_impulse``
+  (``sum_p (x_p - c) x j_p z``, recomputed from the engine's points with ``gasp_core.mpm.contact.plane_impulse``
   before each substep), as a lever (mm), and the share of ``dL`` it explains: the rest is the stress and the
   transfers (MLS-MPM's internal forces and APIC transfers conserve angular momentum, so it should be small).
 
@@ -50,7 +50,7 @@ def budget(contact: str, jitter: float) -> dict:
     from gasp_core.prepare.scene import prepare_scene
     from gasp_core.scene.spec import load_scene
     from gasp_core.seam.build import build_engine
-    from gasp_core.toolkit.contact import plane_impulse
+    from gasp_core.mpm.contact import plane_impulse
     d = Path(tempfile.mkdtemp())
     ply = cm.ball(d / "ball.ply", jitter)
     text = cm.scene(ply, "warp_mpm", contact).replace("friction = 0.5", "friction = 0.0")

@@ -11,8 +11,8 @@ torque_split(log, nsub) splits the ground's torque into node momentum, APIC, tau
 import math, argparse
 import numpy as np
 from gasp_core.testing.helpers import sphere_points
-from gasp_core.toolkit.points import ground_top_node
-from gasp_core.toolkit.substeps import mpm_stable_dt, substeps_for
+from gasp_core.mpm.points import ground_top_node
+from gasp_core.mpm.substeps import mpm_stable_dt, substeps_for
 from gasp_core.seam.setup import Material
 
 def run(mu_b=0.5, frames=40, ng=16, drop=0.05, off=(0.3, 0.2), cfl=0.4, ppc=2.0, E=2e4, variant="base",

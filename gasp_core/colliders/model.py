@@ -16,7 +16,7 @@ Everything here is data in the world frame (metres, seconds, z up) that every en
   uniform speed plus optional divergence-free turbulence, deterministic for a seed) or ``attractor``
   (an **acceleration** towards a point, m/s^2, mass independent like gravity, with a falloff).
 
-Grid (MPM) engines apply all three on the grid nodes: :mod:`gasp_core.toolkit.grid_tables` packs
+Grid (MPM) engines apply all three on the grid nodes: :mod:`gasp_core.mpm.grid_tables` packs
 them into the flat arrays their kernels read (``grid_tables``), and the time-dependent part of one
 frame (``frame_table``: collider poses and impulse weights per substep). Colliders follow
 the MLS-MPM reference code (Hu et al. 2018) and PhysGaussian: at a node inside the collider (``phi <= 0``), the velocity

@@ -9,7 +9,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from gasp_core.toolkit.restitution import BOUNDARY_RESTITUTION, DEFAULT_RESTITUTION, SUBSTANCES
+from gasp_core.mpm.restitution import BOUNDARY_RESTITUTION, DEFAULT_RESTITUTION, SUBSTANCES
 from gasp_core.seam.schema import (BODY_MODEL_DOCS, BODY_MODELS, DEFAULT_MATERIAL, MATERIAL_KINDS, MATERIAL_PARAMS,
                                    RIGID_KINDS)
 
@@ -54,11 +54,11 @@ def scene_keys_markdown() -> str:
               "vibration; the key does not act on them.", "",
               "| substance | restitution on a hard floor | `E` (Pa) | `rho` (kg/m^3) |", "|---|---|---|---|"]
     lines += [f"| `{n}` | {e:g} | {lo:g}-{hi:g} | {rl:g}-{rh:g} |" for n, (e, (lo, hi), (rl, rh)) in SUBSTANCES.items()]
-    from gasp_core.toolkit.fracture_table import BRITTLE_SUBSTANCES, SUBSTANCE_KEYS
+    from gasp_core.mpm.fracture_table import BRITTLE_SUBSTANCES, SUBSTANCE_KEYS
     lines += ["", "## `substance`: a brittle material at its handbook figures", "",
               f"Taken by `brittle` (issue 66, `docs/fracture.md` \"Stiff brittle bodies: fragments\"): fills "
               f"{', '.join(f'`{k}`' for k in SUBSTANCE_KEYS)} from the table below where the material leaves them out "
-              "(`gasp_core/toolkit/fracture_table.py`, its sources there). At these stiffnesses `model = \"auto\"` "
+              "(`gasp_core/mpm/fracture_table.py`, its sources there). At these stiffnesses `model = \"auto\"` "
               "takes the rigid route, and an impact that breaks the body splits it into rigid fragments.", "",
               "| `substance` | `E` (Pa) | `nu` | `rho` (kg/m^3) | `tensile_strength` (Pa) "
               "| `fracture_energy` (J/m^2) |",

@@ -28,7 +28,7 @@ except ``n_grid``, which a level scales (``grid_factor``) from the file's value.
 
 The scene keys of each level are here (:data:`PRESETS`); its engine options (``cfl``, ``passive_every``) are the
 engine's to declare (``EngineInfo.presets``, :mod:`gasp_core.seam.config`; the MLS-MPM engines' are
-``gasp_core.toolkit.options.MPM_PRESETS``), and :func:`engine_options` gives an engine only what it declares.
+``gasp_core.mpm.options.MPM_PRESETS``), and :func:`engine_options` gives an engine only what it declares.
 """
 from __future__ import annotations
 

@@ -94,8 +94,8 @@ def read_material(value, where: str, src: Path) -> Material:
 
 def _with_substance(table: dict, name: str, where: str, src: Path) -> dict:
     """``table`` without its ``substance`` key, the handbook values of that substance filled in where the table
-    gives none (``brittle`` only: :data:`gasp_core.toolkit.fracture_table.BRITTLE_SUBSTANCES`), and its
-    ``restitution`` the figure its ``E`` and ``rho`` take (``gasp_core.toolkit.restitution.body_restitution``).
+    gives none (``brittle`` only: :data:`gasp_core.mpm.fracture_table.BRITTLE_SUBSTANCES`), and its
+    ``restitution`` the figure its ``E`` and ``rho`` take (``gasp_core.mpm.restitution.body_restitution``).
 
     Raises
     ------
@@ -104,7 +104,7 @@ def _with_substance(table: dict, name: str, where: str, src: Path) -> dict:
     """
     if "substance" not in table:
         return table
-    from gasp_core.toolkit.fracture_table import BRITTLE_SUBSTANCES, substance_values
+    from gasp_core.mpm.fracture_table import BRITTLE_SUBSTANCES, substance_values
     rest = {k: v for k, v in table.items() if k != "substance"}
     if name != "brittle":
         raise SceneError(f"{src}: {where}.substance is a key of the 'brittle' material only (its handbook E, rho, "
@@ -112,7 +112,7 @@ def _with_substance(table: dict, name: str, where: str, src: Path) -> dict:
     sub = as_string(table["substance"], f"{where}.substance", src, tuple(BRITTLE_SUBSTANCES))
     out = {**rest, **substance_values(sub, rest)}
     if "restitution" not in out:   # the bounce its E and rho give (what the engines would take), for its fragments
-        from gasp_core.toolkit.restitution import body_restitution
+        from gasp_core.mpm.restitution import body_restitution
         out["restitution"] = body_restitution(Material(name="brittle", E=out["E"], rho=out["rho"]))
     return out
 
@@ -152,14 +152,14 @@ def read_domain(value, src: Path) -> DomainSpec:
 
 def read_restitution(value, where: str, src: Path, substances: bool = False) -> float:
     """A ``restitution`` key: a number in [0, 1], or (``substances``, a material's) a name of
-    :data:`gasp_core.toolkit.restitution.SUBSTANCES`, taken as its figure.
+    :data:`gasp_core.mpm.restitution.SUBSTANCES`, taken as its figure.
 
     Raises
     ------
     SceneError
         Another value, naming the key, the value and what is expected.
     """
-    from gasp_core.toolkit.restitution import SUBSTANCES
+    from gasp_core.mpm.restitution import SUBSTANCES
     if substances and isinstance(value, str) and value in SUBSTANCES:
         return SUBSTANCES[value][0]
     if not in_range(value, 0.0, 1.0):

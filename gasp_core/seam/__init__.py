@@ -1,7 +1,7 @@
 """The plugin contract: everything an engine, renderer or soup-writer plugin imports, from one place.
 
 A plugin writes ``from gasp_core.seam import EngineInfo, Capabilities, Option, hookimpl, ...`` and
-nothing else from the core (grid engines may add the opt-in helpers of :mod:`gasp_core.toolkit`).
+nothing else from the core (grid engines may add the opt-in helpers of :mod:`gasp_core.mpm`).
 ``docs/writing_an_engine.md`` walks through it; ``examples/engine_template`` is a working plugin.
 
 What is here, by the module that defines it:

@@ -49,7 +49,7 @@ def option(default: Any, doc: str, **declared: Any) -> Any:
 
 
 def from_option(declared: Option) -> Any:
-    """A dataclass field for an :class:`Option` declared elsewhere (a toolkit constant shared by engines)."""
+    """A dataclass field for an :class:`Option` declared elsewhere (a gasp_core.mpm constant shared by engines)."""
     spec = {f.name: getattr(declared, f.name) for f in dataclasses.fields(Option) if f.name not in ("name", "default")}
     return field(default=declared.default, metadata={"option": spec})
 

@@ -1,5 +1,5 @@
 """Memory of a grid (MPM) engine: the estimate and the refusal before allocating (in the seam since issue 51:
-the core's point assembly checks it before the fill, and ``prepare/`` imports nothing of ``toolkit/``).
+the core's point assembly checks it before the fill, and ``prepare/`` imports nothing of ``mpm/``).
 
 Two checks use it: the engines' own, once the points are known (:func:`check_memory`), and the point
 assembly's, before an object's interior fill allocates its points (:func:`check_fill`), since ``n_grid``

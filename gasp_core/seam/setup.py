@@ -68,7 +68,7 @@ class Material:
         Density, kg/m^3.
     yield_stress : float
         von Mises yield stress, Pa (metal, plasticine): the uniaxial stress at which a bar yields
-        (``gasp_core.toolkit.materials.VON_MISES_RADIUS``).
+        (``gasp_core.mpm.materials.VON_MISES_RADIUS``).
     friction_angle : float
         Drucker-Prager friction angle, degrees (sand).
     softening : float
@@ -97,7 +97,7 @@ class Material:
         elastic).
     restitution : float or None
         Coefficient of restitution on a hard floor, in [0, 1] (issue 53): the rigid route's bounce
-        (``gasp_core.toolkit.restitution``; a scene may name a substance instead, ``"steel"``, ...). None: the
+        (``gasp_core.mpm.restitution``; a scene may name a substance instead, ``"steel"``, ...). None: the
         substance the material's ``E`` and ``rho`` match, else the default (``body_restitution``). Elastic bodies
         bounce by their own vibration and their contact's damping (``docs/rigid.md``); the key does not act on them.
     """
@@ -216,7 +216,7 @@ class Boundary:
         Coulomb friction coefficient (``"ground"``, ``"walls"``).
     restitution : float
         Coefficient of restitution of the surface, in [0, 1] (``"ground"``, ``"walls"``; default 1, a hard floor):
-        a rigid body's bounce on it is the product of this and the body's (``gasp_core.toolkit.restitution``).
+        a rigid body's bounce on it is the product of this and the body's (``gasp_core.mpm.restitution``).
     lo, hi : tuple of 3 floats
         Corners of the fixed box, metres (``"fixed_region"``).
     """
@@ -376,7 +376,7 @@ class SimSetup:
     @property
     def crack_band(self) -> np.ndarray:
         """Crack band width of each body, metres, shape (n_bodies,) (:func:`crack_band`): a ``brittle`` body's
-        softening is scaled to it (``gasp_core.toolkit.materials.material_table``)."""
+        softening is scaled to it (``gasp_core.mpm.materials.material_table``)."""
         return crack_band(self.dx, self.p_vol, self.body_id, len(self.materials))
 
     @property

@@ -141,7 +141,7 @@ def slide_setup(v0: float, options: dict | None = None, ground: bool = False, so
 
     Coulomb's law on the block's whole base decelerates its mass centre at ``mu g`` while all of it slides forward
     (only the slab pushes on it): a block that keeps its shape (``solid``: the jelly, ``mu`` the two soft bodies'
-    :data:`gasp_core.toolkit.fields.SOLID_FRICTION`) stops after ``v0^2 / (2 mu g)`` (:func:`slide_travel`). A sand
+    :data:`gasp_core.mpm.fields.SOLID_FRICTION`) stops after ``v0^2 / (2 mu g)`` (:func:`slide_travel`). A sand
     block spreads as it slides (its back slips backwards once it slows, and friction there pushes it on), so its
     answer is measured: ``ground=True`` throws it along the ground itself, no slab, the ground's friction the sand's
     ``tan(phi)``: the grid's boundary rule with the same coefficient (the solid block there stops within 0.4 % of

@@ -1,6 +1,6 @@
 """Conformance scenes of a flowing body against another body (issue 53 item 6), each with a known answer; they need
 the feature ``body_friction`` (the bodies slide on each other by Coulomb's law: a flowing body's own grid velocity
-field, ``gasp_core.toolkit.fields``, docs/contact.md "Sand that slides on what it touches"). The scenes are
+field, ``gasp_core.mpm.fields``, docs/contact.md "Sand that slides on what it touches"). The scenes are
 ``gasp_core.testing.sand_ball``'s, measured there first (``tests/test_contact_fields.py``, ``benchmarks/bench_sand_ball.py``).
 
 - ``sand_on_ball``: a 6 x 6 x 15 cm sand column (E 3.5e5 Pa, friction angle 30 deg) collapsing against a 5 cm jelly
@@ -22,7 +22,7 @@ field, ``gasp_core.toolkit.fields``, docs/contact.md "Sand that slides on what i
   travel within ``SLIDE_TOL`` = 5 % of the ground's. One field sticks the block; no friction lets it slide on.
 - ``solid_slide`` (slow tier): a jelly block (the slab's jelly, 6 x 6 x 3 cm) thrown along the slab at the same
   speeds, n_grid 64 (``gasp_core.testing.sand_ball.SOLID_N_GRID``). Known answer: a block that keeps its shape stops
-  after Coulomb's ``v0^2 / (2 mu g)``, ``mu`` = 0.5 (``gasp_core.toolkit.fields.SOLID_FRICTION``, two soft bodies);
+  after Coulomb's ``v0^2 / (2 mu g)``, ``mu`` = 0.5 (``gasp_core.mpm.fields.SOLID_FRICTION``, two soft bodies);
   the same two checks against it. Figures of the engines and the broken ones caught: docs/tolerances.md.
 """
 from __future__ import annotations
@@ -87,7 +87,7 @@ def _eval_slide(info: EngineInfo, tr: Trace) -> list[Check]:
 
 def _eval_solid_slide(info: EngineInfo, tr: Trace) -> list[Check]:
     """The jelly block's travels against Coulomb's ``v0^2 / (2 mu g)``, ``mu`` the soft bodies' friction."""
-    from gasp_core.toolkit.fields import field_friction
+    from gasp_core.mpm.fields import field_friction
     mu = field_friction(tr.setup)
     return _slide_checks(_travels(info, tr, solid=True), {v0: v0 ** 2 / (2.0 * mu * 9.81) for v0 in SPEEDS},
                          f"Coulomb's (mu {mu:g})")

@@ -36,7 +36,7 @@ from gasp_core.seam.engine import EngineInfo
 from gasp_core.seam.setup import Boundary, Material, SimSetup
 from gasp_core.testing.helpers import Check, box_points, check, make_setup
 from gasp_core.testing.kit import Requires, Scene
-from gasp_core.toolkit.materials import softening_stress
+from gasp_core.mpm.materials import softening_stress
 
 E, NU, RHO, FT, GF = 1e6, 0.25, 1000.0, 1e4, 5.0
 MU, LAM = E / (2 * (1 + NU)), E * NU / ((1 + NU) * (1 - 2 * NU))

@@ -3,7 +3,7 @@
 - ``restitution_wood`` and ``restitution_steel``: a 10 cm ball on the rigid route (``Material.model = "rigid"``,
   the feature ``rigid_limit``) of hardwood (E 1e10 Pa, rho 700) or steel (E 2e11 Pa, rho 7850), its lowest point
   ``DROP`` = 0.2 m over a ground (friction 0.5), dropped from rest. Known answer: the coefficient of restitution the
-  materials give on a hard floor (``gasp_core.toolkit.restitution.body_restitution``: 0.55 and 0.93, the figures of
+  materials give on a hard floor (``gasp_core.mpm.restitution.body_restitution``: 0.55 and 0.93, the figures of
   rigid-body engines' material tables; the ground's own restitution 1), read from the rebound's apex:
   ``e = sqrt(h1 / h0)`` with ``h0`` the drop and ``h1`` the lowest point's highest height over the ground between the
   first and the second contact (a free flight: no air, no spin). Frames of 1/120 s put the sampled apex within
@@ -31,7 +31,7 @@
   less half of each one's spacing: the lattices' surfaces), averaged over the last ``STACK_AVG_T`` s of ``STACK_T``
   s, is within ``STACK_GAP_TOL`` = 0.25 dx of 0, above or below (issue 53 item 5's limit; a shared grid node couples
   two bodies about a cell apart, so a single-velocity MPM grid holds them ~0.84 dx apart; the MLS-MPM engines' two
-  velocity fields for two soft bodies, ``gasp_core.toolkit.fields.soft_pair``, rest them -0.13 to -0.15 dx).
+  velocity fields for two soft bodies, ``gasp_core.mpm.fields.soft_pair``, rest them -0.13 to -0.15 dx).
 
 The restitution ball is the one of ``tests/test_restitution.py`` (a lattice of two points a cell side in a 0.6 m box at
 n_grid 24: 268 points).
@@ -88,7 +88,7 @@ def rebound(low: np.ndarray, level: float) -> tuple[float, int, int]:
 
 def _evaluate(substance: str):
     def evaluate(info: EngineInfo, tr: Trace) -> list[Check]:
-        from gasp_core.toolkit.restitution import body_restitution
+        from gasp_core.mpm.restitution import body_restitution
         asked = body_restitution(Material("jelly", **SUBSTANCES[substance]))
         low = np.array([x[:, 2].min() for x in tr.x]) - GROUND
         h0 = float(low[0])

@@ -7,7 +7,7 @@
   ``passive_every`` run with ``PASSIVE_EVERY = 4`` (the README's setting): a passive point moved in
   a straight line between gathers drifts outward, by ``exp(pi omega (m - 1) dt) - 1`` a turn
   (measured 5.7 % at m = 4 and 14 % at m = 8 before the affine advance of
-  :func:`gasp_core.toolkit.substeps.passive_schedule`). The sphere's own centrifugal stretch,
+  :func:`gasp_core.mpm.substeps.passive_schedule`). The sphere's own centrifugal stretch,
   ``~rho omega^2 R^2 / E``, is 0.04 % here.
 """
 from __future__ import annotations

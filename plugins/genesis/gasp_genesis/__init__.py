@@ -33,8 +33,8 @@ from __future__ import annotations
 import importlib.util
 
 from gasp_core.seam import Capabilities, engine_hook, EngineInfo, install_hint, Limit, Preset
-from gasp_core.toolkit.options import mpm_options
-from gasp_core.toolkit.sweep import mpm_sweep
+from gasp_core.mpm.options import mpm_options
+from gasp_core.mpm.sweep import mpm_sweep
 
 __all__ = ["BENCH_EXCLUDED", "CAPABILITIES", "ENGINE", "INSTALL_HINT", "OPTIONS", "gasp_engines",
            "genesis_available", "sweep"]
@@ -70,7 +70,7 @@ LIMITS = {
     "n_grid": Limit(lo=8, why=f"Genesis pads the domain by {PADDING_CELLS} cells on each side"),
 }
 
-#: The grid-engine options of ``gasp_core.toolkit.options``; ``device`` "cpu" or "cuda" (``gs.init(backend=gs.cuda)``
+#: The grid-engine options of ``gasp_core.mpm.options``; ``device`` "cpu" or "cuda" (``gs.init(backend=gs.cuda)``
 #: takes the default GPU).
 OPTIONS = mpm_options()
 
@@ -80,7 +80,7 @@ BENCH_EXCLUDED = ("left out of the default sweep: on CPU its build takes ~50 s a
 
 
 def sweep(quick: bool) -> tuple[list[dict], dict]:
-    """``gasp bench`` settings and reference: the grid-engine sweep of ``gasp_core.toolkit.sweep.mpm_sweep``.
+    """``gasp bench`` settings and reference: the grid-engine sweep of ``gasp_core.mpm.sweep.mpm_sweep``.
 
     ``sweep.excluded_by_default`` (:data:`BENCH_EXCLUDED`) says why a default ``gasp bench`` leaves
     this engine out.

@@ -44,7 +44,7 @@ from typing import Any
 
 import numpy as np
 
-from gasp_core.toolkit.substeps import substeps_from_options
+from gasp_core.mpm.substeps import substeps_from_options
 from gasp_core.seam import (CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, EngineDivergence, EngineError, Material,
                            SceneError, SimSetup)
 
@@ -85,7 +85,7 @@ def mass_classes(p_mass: np.ndarray, k: int = MASS_CLASSES) -> list[np.ndarray]:
 
 
 def time_step(setup: SimSetup, opt: dict[str, Any]) -> tuple[int, float]:
-    """Substeps per frame and substep length (``gasp_core.toolkit.substeps.mpm_substeps``, docs/mpm.md)."""
+    """Substeps per frame and substep length (``gasp_core.mpm.substeps.mpm_substeps``, docs/mpm.md)."""
     return substeps_from_options(setup, opt, ENGINE)
 
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 import itertools
 
 from gasp_core.seam import Capabilities, engine_hook, EngineInfo, Limit, Option, Preset
-from gasp_core.toolkit.sweep import dedupe_settings
+from gasp_core.mpm.sweep import dedupe_settings
 
 __all__ = ["CAPABILITIES", "ENGINE", "LIMITS", "OPTIONS", "gasp_engines", "sweep"]
 

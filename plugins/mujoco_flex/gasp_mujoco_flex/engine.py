@@ -32,8 +32,8 @@ import numpy as np
 import mujoco
 
 from gasp_core.seam import CAUSE_UNSTABLE, check_state, EngineDivergence, EngineError, SceneError, SimSetup
-from gasp_core.toolkit.points import fixed_mask
-from gasp_core.toolkit.substeps import p_wave_speed, substeps_for
+from gasp_core.mpm.points import fixed_mask
+from gasp_core.mpm.substeps import p_wave_speed, substeps_for
 
 from . import ENGINE
 from .lattice import Lattice, build_lattice, embed_points, interpolate, matched_masses

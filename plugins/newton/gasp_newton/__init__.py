@@ -9,7 +9,7 @@ from __future__ import annotations
 
 
 from gasp_core.seam import Capabilities, engine_hook, EngineInfo, Option, Preset
-from gasp_core.toolkit.sweep import dedupe_settings
+from gasp_core.mpm.sweep import dedupe_settings
 
 from .materials import MATERIALS
 

@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from gasp_core.toolkit.points import engine_mass_stats, fixed_mask
+from gasp_core.mpm.points import engine_mass_stats, fixed_mask
 from gasp_core.seam import EngineDivergence, EngineError, SceneError, SimSetup
 
 from .materials import FIELDS, particle_parameters

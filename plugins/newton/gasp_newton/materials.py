@@ -22,7 +22,7 @@ sand          E, nu; cohesionless Drucker-Prager: ``tensile_yield_ratio`` 0, ``f
               (Newton's granular example uses 0.68). The factor sqrt(3) takes Klar's
               ``|dev tau| <= a tr(tau)`` to Newton's normal coordinate ``tr(tau) / sqrt(3)``.
 metal         E, nu; von Mises: ``yield_stress`` = sqrt(2/3) Y on the deviatoric norm (the radius of
-              ``gasp_core.toolkit.materials.VON_MISES_RADIUS``), ``friction`` 0, no pressure bound.
+              ``gasp_core.mpm.materials.VON_MISES_RADIUS``), ``friction`` 0, no pressure bound.
 plasticine    as metal (Newton has no softening law: ``Material.softening`` is not used).
 snow          E, nu; Stomakhin et al. 2013's critical strains as stress bounds: ``yield_pressure`` =
               K theta_c (compressive), ``tensile_yield_ratio`` = theta_s / theta_c, ``yield_stress``

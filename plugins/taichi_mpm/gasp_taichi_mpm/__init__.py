@@ -20,22 +20,22 @@ from dataclasses import dataclass
 
 from gasp_core.seam import engine_hook, EngineInfo, option
 from gasp_core.seam.config import config_options
-from gasp_core.toolkit.grid_engine import MPM_CAPABILITIES, grid_substeps
-from gasp_core.toolkit.options import MPMConfig
-from gasp_core.toolkit.sweep import mpm_sweep
-from gasp_core.toolkit.failures import MPM_KNOWN_FAILURES
-from gasp_core.toolkit.ground_check import check_ground_in_grid
+from gasp_core.mpm.grid_engine import MPM_CAPABILITIES, grid_substeps
+from gasp_core.mpm.options import MPMConfig
+from gasp_core.mpm.sweep import mpm_sweep
+from gasp_core.mpm.failures import MPM_KNOWN_FAILURES
+from gasp_core.mpm.ground_check import check_ground_in_grid
 
 __all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "TaichiMPMConfig", "gasp_engines", "sweep"]
 
 ENGINE = "taichi_mpm"
 
-#: The MLS-MPM record of the grid-engine base (``gasp_core.toolkit.grid_engine``), with the rigid limit (issue 40).
+#: The MLS-MPM record of the grid-engine base (``gasp_core.mpm.grid_engine``), with the rigid limit (issue 40).
 CAPABILITIES = dataclasses.replace(MPM_CAPABILITIES, features=MPM_CAPABILITIES.features | {"rigid_limit", "sleep", "body_friction"})
 
 @dataclass(frozen=True)
 class TaichiMPMConfig(MPMConfig):
-    """The engine's settings (:class:`gasp_core.toolkit.options.MPMConfig`: ``device`` "cpu", "cuda" or "auto", Taichi
+    """The engine's settings (:class:`gasp_core.mpm.options.MPMConfig`: ``device`` "cpu", "cuda" or "auto", Taichi
     runs on the default CUDA device only), with ``threads``, ``schedule``, ``p2g`` and ``pin_threads``."""
 
     device: str = option("cpu", "where to run: 'cpu', 'cuda' (the default GPU) or 'auto': cuda where Taichi starts "
@@ -63,7 +63,7 @@ OPTIONS = config_options(TaichiMPMConfig)
 
 
 def sweep(quick: bool) -> tuple[list[dict], dict]:
-    """``gasp bench`` settings and reference: the grid-engine sweep of ``gasp_core.toolkit.sweep.mpm_sweep``."""
+    """``gasp bench`` settings and reference: the grid-engine sweep of ``gasp_core.mpm.sweep.mpm_sweep``."""
     return mpm_sweep(quick, CAPABILITIES.precisions)
 
 

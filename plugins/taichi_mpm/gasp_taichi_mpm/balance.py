@@ -28,7 +28,7 @@ support over chunks of list entries by a fixed tree, then applied one thread a n
 import numpy as np
 import taichi as ti
 
-from gasp_core.toolkit.contact import JSUMS, TORQUE_REACH
+from gasp_core.mpm.contact import JSUMS, TORQUE_REACH
 
 
 #: Slices of the points the moments run over (each summed serially on one thread into its own row of ``c_part``;
@@ -81,7 +81,7 @@ class Balance:
     @ti.func
     def moment_terms(self, p, D):
         """Point p's mass, first and second mass moments, momentum and angular momentum (with APIC's spin ``D``
-        ``= dx^2 / 4``): the 19 columns of ``gasp_core.toolkit.contact.SUMS`` (the impulse's three 0)."""
+        ``= dx^2 / 4``): the 19 columns of ``gasp_core.mpm.contact.SUMS`` (the impulse's three 0)."""
         x = ti.cast(self.x[p], ti.f64)
         m = ti.cast(self.p_mass[p], ti.f64)
         mv = m * ti.cast(self.v[p], ti.f64)
@@ -95,7 +95,7 @@ class Balance:
     @ti.kernel
     def contact_moments(self):
         """Per slice of the points and per body into ``c_part``: mass, first and second mass moments, momentum,
-        angular momentum (columns ``gasp_core.toolkit.contact.SUMS``; the normal impulse's columns stay 0: P2G sums
+        angular momentum (columns ``gasp_core.mpm.contact.SUMS``; the normal impulse's columns stay 0: P2G sums
         them into ``c_jsums``). No atomics: a slice is one thread's; :meth:`contact_shift` adds the slices in order."""
         n = self.n_points[None]
         D = ti.cast(0.25 * self.dx[None] * self.dx[None], ti.f64)
@@ -170,7 +170,7 @@ class Balance:
     @ti.func
     def add_contact(self, p, sup, jn, n, vc):
         """Point p's normal impulse ``jn`` along ``n`` from support ``sup`` (its velocity ``vc`` there) into the
-        support's row of ``c_jsums`` (``gasp_core.toolkit.contact.JSUMS``), with the balance."""
+        support's row of ``c_jsums`` (``gasp_core.mpm.contact.JSUMS``), with the balance."""
         if ti.static(self.n_spin > 0):
             s = self.body[p] * self.n_sup + sup
             j = ti.cast(jn, ti.f64)

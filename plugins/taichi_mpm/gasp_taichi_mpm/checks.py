@@ -36,7 +36,7 @@ class FrameChecks:
     def positions_setup_order(self, order) -> "np.ndarray":
         """The positions (n, 3) in the setup's order, permuted on the device (GPU schedule: the host's NumPy scatter
         of 16M rows took longer than the frame's GPU work): row ``p`` of the solver goes to ``order[p]``
-        (:meth:`gasp_core.toolkit.grid_engine.GridEngineBase.to_setup_order`'s ``out[order] = x``)."""
+        (:meth:`gasp_core.mpm.grid_engine.GridEngineBase.to_setup_order`'s ``out[order] = x``)."""
         if not hasattr(self, "x_setup"):
             import numpy as np
             self.x_setup = ti.Vector.field(3, self.real, shape=self.x.shape[0])

@@ -6,7 +6,7 @@ Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields and flags (``
 import numpy as np
 import taichi as ti
 
-from gasp_core.toolkit.grid_tables import (CM_FRICTION, CM_H, CM_NX, CM_NY, CM_NZ, CM_OFFSET, CM_ORIGIN, COL_META,
+from gasp_core.mpm.grid_tables import (CM_FRICTION, CM_H, CM_NX, CM_NY, CM_NZ, CM_OFFSET, CM_ORIGIN, COL_META,
                                            COL_POSE, FT_POSES, PO_R, PO_T, PO_V, PO_W)
 
 
@@ -133,7 +133,7 @@ class Colliders:
     @ti.func
     def apply_colliders(self, X, v, base, f):
         """Colliders on ``v`` at ``X`` (:meth:`collider_at`); inside (``phi <= -col_deep``: 0 with
-        ``contact = "grid"``, ``gasp_core.toolkit.contact.collider_grid_depth`` with the particle contact, which
+        ``contact = "grid"``, ``gasp_core.mpm.contact.collider_grid_depth`` with the particle contact, which
         meets the points at the surface), :meth:`collide` relative to the collider's velocity; with the contact
         chosen per body, by the node's flowing-mass fraction ``f`` where ``phi > -col_full`` (:meth:`rule`)."""
         for c in range(self.n_col):

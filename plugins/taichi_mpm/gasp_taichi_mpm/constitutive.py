@@ -8,8 +8,8 @@ Higham 1986 (polar decomposition), Golub & Van Loan (Jacobi eigenvalues), Rankin
 """
 import taichi as ti
 
-# Material codes and the per-body parameter columns (``MPMSolver.mat``) are gasp_core.toolkit.materials'.
-from gasp_core.toolkit.materials import (BRITTLE, JELLY, LIQUID, METAL, NEO_HOOKEAN, P_ALPHA, P_FT, P_HARDENING,
+# Material codes and the per-body parameter columns (``MPMSolver.mat``) are gasp_core.mpm.materials'.
+from gasp_core.mpm.materials import (BRITTLE, JELLY, LIQUID, METAL, NEO_HOOKEAN, P_ALPHA, P_FT, P_HARDENING,
                                          P_K, P_LAM, P_MU, P_SF, P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD,
                                          PLASTICINE, SAND, SNOW, VON_MISES_RADIUS)
 
@@ -172,7 +172,7 @@ class Constitutive:
         """``(tau, d)``: the brittle Kirchhoff stress and the damage after it (docs/fracture.md).
 
         The undamaged Hencky principal stresses ``s_i = 2 mu eps_i + lam tr(eps)`` (Pa); the largest one sets the
-        damage of linear softening in a crack band (Bazant & Oh 1983; ``gasp_core.toolkit.materials.brittle_damage``
+        damage of linear softening in a crack band (Bazant & Oh 1983; ``gasp_core.mpm.materials.brittle_damage``
         with ``ft = f_t``, ``sf = s_f``), kept when larger than ``d`` (never heals); only the tensile ``s_i > 0`` are
         scaled by ``1 - d`` (compression is still carried). The Warp plugin's ``brittle_tau``.
         """

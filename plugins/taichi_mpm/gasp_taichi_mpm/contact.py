@@ -1,9 +1,9 @@
-"""The particle contact with the grounds, walls and colliders (engine option ``contact = "particle"``, ``gasp_core.toolkit.contact``,
+"""The particle contact with the grounds, walls and colliders (engine option ``contact = "particle"``, ``gasp_core.mpm.contact``,
 ``docs/contact.md``), as Taichi functions; warp_mpm's ``contact.py`` spells the same steps.
 
 - :meth:`Contact.plane_contact` in P2G: a point's normal impulse ``j_n = max(0, dt (k depth - c v . n))`` (a rigid
   body's point: its restitution's law, :meth:`gasp_taichi_mpm.rigid.Rigid.contact_impulse`) from each
-  plane (the grounds and the walls' faces, ``gasp_core.toolkit.contact.contact_planes``) less than its skin from its
+  plane (the grounds and the walls' faces, ``gasp_core.mpm.contact.contact_planes``) less than its skin from its
   centre (``depth = offset + skin - n . x``), and its friction budget ``sum mu j_n``, which P2G adds to its nodes
   with its weights (``grid_mv``'s last channel);
 - :meth:`Contact.node_friction` in the grid update: the node's tangential (x, y) velocity loses
@@ -13,17 +13,17 @@
   nodes' budget-weighted normal);
 - the contact's balance (:mod:`gasp_taichi_mpm.balance`, warp_mpm's ``balance.py``);
 - the contact chosen per body (``contact = "auto"`` with flowing and other bodies: ``"mixed"``,
-  ``gasp_core.toolkit.contact.rule_models``): :meth:`Contact.allocate_mixed`, :meth:`Contact.scatter_flow` (the flowing
+  ``gasp_core.mpm.contact.rule_models``): :meth:`Contact.allocate_mixed`, :meth:`Contact.scatter_flow` (the flowing
   bodies' mass per node, in P2G) and :meth:`Contact.rule` (the boundaries' grid rule by the node's flowing-mass fraction
   where only the grid contact's rule reaches);
 - :meth:`Contact.hold_passive` after a passive point's update: the point put back in the box the boundaries keep
-  it in (``gasp_core.toolkit.points.passive_bounds``, ``hold_passive``).
+  it in (``gasp_core.mpm.points.passive_bounds``, ``hold_passive``).
 
 Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields and flags (``real``, ``n_planes``, ...) it reads.
 """
 import taichi as ti
 
-from gasp_core.toolkit.grid_tables import CM_FRICTION, COL_META
+from gasp_core.mpm.grid_tables import CM_FRICTION, COL_META
 
 
 class Contact:
@@ -37,7 +37,7 @@ class Contact:
         acts fully; the solver's own ranges and ``col_deep`` are then the grid contact's (its reach). Allocates
         ``grid_mf`` (the flowing bodies' mass per node), ``flows``, ``wall_lo_full`` / ``wall_hi_full``,
         ``ground_kfull``, and sets ``col_full`` (m)."""
-        from gasp_core.toolkit.contact import collider_grid_depth
+        from gasp_core.mpm.contact import collider_grid_depth
         self.mixed = mixed is not None
         ng = self.n_grid if self.mixed else 1
         self.grid_mf = ti.field(self.real, shape=(ng, ng, ng))
@@ -94,7 +94,7 @@ class Contact:
     @ti.func
     def plane_contact(self, p, q: ti.template()):
         """``j_n`` of point p (kg m/s, along the plane's normal ``plane_n[q]``) from plane q (``plane_n[q] . x =
-        plane_row[q][0]``, ``gasp_core.toolkit.contact.contact_planes``), ``p_contact[p] = (k, c, skin)``."""
+        plane_row[q][0]``, ``gasp_core.mpm.contact.contact_planes``), ``p_contact[p] = (k, c, skin)``."""
         kcs = self.p_contact[p]
         n = self.plane_n[q]
         jq = ti.cast(0.0, self.real)
@@ -184,7 +184,7 @@ class Contact:
         """``(x, v)`` of a passive point after its update, held in ``[hold_lo, hold_hi]``: on each axis a point below
         ``hold_lo[d]`` is put there with ``v[d] = max(v[d], 0)``, above ``hold_hi[d]`` likewise with ``min``; a
         ``stranded`` one (no node with mass in its stencil) held on the floor loses ``hold_mu`` times the speed into
-        it removed from its horizontal speed, Coulomb friction (``gasp_core.toolkit.points.hold_passive``: a massless
+        it removed from its horizontal speed, Coulomb friction (``gasp_core.mpm.points.hold_passive``: a massless
         surface marker cannot be inside the ground or the walls, nor slide on the ground for ever)."""
         xo = x
         vo = v

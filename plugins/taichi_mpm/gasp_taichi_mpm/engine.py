@@ -11,17 +11,17 @@ from typing import Any
 
 import numpy as np
 
-from gasp_core.toolkit.contact import (contact_coefficients, contact_model, contact_planes, contact_reach,
+from gasp_core.mpm.contact import (contact_coefficients, contact_model, contact_planes, contact_reach,
                                       flowing_bodies, rule_models)
-from gasp_core.toolkit.fields import field_setup
-from gasp_core.toolkit.grid_engine import choose_dt, GridEngineBase
-from gasp_core.toolkit.materials import JELLY, initial_Jp, material_table
-from gasp_core.toolkit.rigid_hold import rigid_hold_tables
-from gasp_core.toolkit.rigid import (body_frames, face_counts, lift_setup, rigid_contact, rigid_mask, step_view,
+from gasp_core.mpm.fields import field_setup
+from gasp_core.mpm.grid_engine import choose_dt, GridEngineBase
+from gasp_core.mpm.materials import JELLY, initial_Jp, material_table
+from gasp_core.mpm.rigid_hold import rigid_hold_tables
+from gasp_core.mpm.rigid import (body_frames, face_counts, lift_setup, rigid_contact, rigid_mask, step_view,
                                      zero_stress)
 from gasp_core.seam.memory import check_memory, estimate_bytes
-from gasp_core.toolkit.restitution import body_table, plane_table, rest_speed
-from gasp_core.toolkit.points import held_codes, passive_bounds, passive_floor_friction
+from gasp_core.mpm.restitution import body_table, plane_table, rest_speed
+from gasp_core.mpm.points import held_codes, passive_bounds, passive_floor_friction
 from gasp_core.seam import CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
 
 from . import ENGINE, TaichiMPMConfig
@@ -224,8 +224,8 @@ class TaichiMPMEngine(GridEngineBase):
         return threads
 
     def _rigid_extras(self, setup: SimSetup, flows: np.ndarray, any_rigid: bool) -> None:
-        """The rigid bodies' restitution, applied by their contact's hysteresis (``gasp_core.toolkit.restitution``),
-        and their hold on the flowing points (``gasp_core.toolkit.rigid_hold``, ``rigid_hold.py``; none: the code
+        """The rigid bodies' restitution, applied by their contact's hysteresis (``gasp_core.mpm.restitution``),
+        and their hold on the flowing points (``gasp_core.mpm.rigid_hold``, ``rigid_hold.py``; none: the code
         before); ``flows``: per body, whether it takes the grid contact."""
         self.solver.set_restitution(body_table(setup), plane_table(setup, self.solver.n_planes), rest_speed(setup),
                                     face_counts(setup))
@@ -233,7 +233,7 @@ class TaichiMPMEngine(GridEngineBase):
 
     def _extras(self, setup: SimSetup) -> dict[str, Any]:
         """Colliders, forces and impulses for the solver (``gasp_core.colliders.model``); none: nothing."""
-        from gasp_core.toolkit.grid_tables import frame_table, grid_tables
+        from gasp_core.mpm.grid_tables import frame_table, grid_tables
         ex = grid_tables(setup)
         if not ex.any:
             return {}

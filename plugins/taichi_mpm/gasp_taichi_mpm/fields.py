@@ -1,4 +1,4 @@
-"""The two-field grid contact (``gasp_core.toolkit.fields``, ``docs/contact.md`` "Sand that slides on what it
+"""The two-field grid contact (``gasp_core.mpm.fields``, ``docs/contact.md`` "Sand that slides on what it
 touches", issue 53 items 3 and 5) in Taichi, the steps of warp_mpm's ``fields.py``: field A's bodies (``in_a``: a
 mixed scene's flowing bodies, or body 1 of two soft bodies) scatter their momentum and mass to ``grid_sv`` and each
 field's volume to ``grid_vf`` in P2G (:meth:`Fields.scatter_field`);
@@ -11,7 +11,7 @@ reads.
 """
 import taichi as ti
 
-from gasp_core.toolkit.fields import MIN_FRACTION, MIN_GRADIENT
+from gasp_core.mpm.fields import MIN_FRACTION, MIN_GRADIENT
 
 
 @ti.data_oriented
@@ -19,7 +19,7 @@ class Fields:
     """The two-field contact's fields and kernels (none without it: ``self.fields`` False)."""
 
     def allocate_fields(self, in_a, mu: float, touch: float, pair: bool = False) -> None:
-        """``in_a``: per body, True in field A (``gasp_core.toolkit.fields.field_bodies``), or None: one field;
+        """``in_a``: per body, True in field A (``gasp_core.mpm.fields.field_bodies``), or None: one field;
         ``mu`` the Coulomb coefficient (``field_friction``), ``touch`` the touch threshold (``touch_fraction``),
         ``pair`` whether the two bodies are rigid (``rigid_pair``: the touching nodes only sum into ``pair_acc``,
         sum m_red, sum m_red x, sum m_red n, for ``RigidFriction.rigid_pair``). Before the first substep."""
@@ -89,7 +89,7 @@ class Fields:
 
     @ti.kernel
     def field_contact(self):
-        """Each shared node's offsets (``gasp_core.toolkit.fields``): the Coulomb contact of the two fields, over the
+        """Each shared node's offsets (``gasp_core.mpm.fields``): the Coulomb contact of the two fields, over the
         nodes P2G touched (G2P reads no other: its points are where they scattered from)."""
         ng = self.n_grid
         mu = ti.cast(self.field_mu, self.real)

@@ -1,16 +1,16 @@
 """Forces and impulses (docs/colliders.md) on a grid node's velocity, and the fields of the colliders', forces'
-and impulses' tables (:func:`gasp_core.toolkit.grid_tables.grid_tables`), as Taichi code.
+and impulses' tables (:func:`gasp_core.mpm.grid_tables.grid_tables`), as Taichi code.
 
 Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields and flags (``real``, ``atomic``, ...) it reads.
 """
 import numpy as np
 import taichi as ti
 
-from gasp_core.toolkit.grid_tables import (COL_POSE, FALLOFF_INVERSE_SQUARE, FORCE_ROW, FORCE_WIND, FR_C, FR_DRAG,
+from gasp_core.mpm.grid_tables import (COL_POSE, FALLOFF_INVERSE_SQUARE, FORCE_ROW, FORCE_WIND, FR_C, FR_DRAG,
                                            FR_FALLOFF, FR_KIND, FR_MODE_COUNT, FR_MODE_START, FR_RADIUS, FR_STRENGTH,
                                            FT_POSES, IM_A, IM_B, IM_DV, IM_MODE, IM_SHAPE, IMPULSE_ADD, IMPULSE_BOX,
                                            IMPULSE_ROW, MD_A, MD_K, MD_OMEGA, MD_PHASE, MODE_ROW)
-from gasp_core.toolkit.points import HELD_STRAIN_CELLS
+from gasp_core.mpm.points import HELD_STRAIN_CELLS
 
 
 def count_set_boxes(ex) -> int:
@@ -25,7 +25,7 @@ class Forces:
     """The tables' fields (:meth:`_setup_extras`), forces (:meth:`apply_forces`) and impulses (:meth:`apply_impulses`)."""
 
     def _setup_extras(self, ex, time_table, np_real, n_substeps) -> None:
-        """Fields of :func:`gasp_core.toolkit.grid_tables.grid_tables` (``ex``); none when ``ex`` is None or empty."""
+        """Fields of :func:`gasp_core.mpm.grid_tables.grid_tables` (``ex``); none when ``ex`` is None or empty."""
         self.has_extras = ex is not None and ex.any
         # wind: per node sum_p p_vol grad N_ip (m^2), the windward area its drag acts on (private copies as grid_mv)
         self.has_wind = bool(self.has_extras and ex.has_wind)
@@ -121,7 +121,7 @@ class Forces:
     @ti.func
     def set_box_axis(self, X):
         """For a point at ``X`` in a set box acting now (:meth:`set_box_at`): the normal axis of the box's nearest face
-        if within :data:`~gasp_core.toolkit.points.HELD_STRAIN_CELLS` cells of it (the point takes its image
+        if within :data:`~gasp_core.mpm.points.HELD_STRAIN_CELLS` cells of it (the point takes its image
         gradient, as a held point near its region's face: :meth:`gasp_taichi_mpm.grid.GridUpdate.held_axis`), else
         -1."""
         a = -1

@@ -9,10 +9,10 @@ import math
 import numpy as np
 import taichi as ti
 
-from gasp_core.toolkit.grid_tables import FT_TIME
-from gasp_core.toolkit.contact import ground_node_layer, wall_grid_cells
-from gasp_core.toolkit.materials import BRITTLE
-from gasp_core.toolkit.points import HELD_STRAINED, MIRROR_CELLS
+from gasp_core.mpm.grid_tables import FT_TIME
+from gasp_core.mpm.contact import ground_node_layer, wall_grid_cells
+from gasp_core.mpm.materials import BRITTLE
+from gasp_core.mpm.points import HELD_STRAINED, MIRROR_CELLS
 
 _TIE = 1e-9  # cells: tolerance for ties when boundary tests become node-index ranges
 
@@ -25,9 +25,9 @@ def node_ranges(setup, dx: float, contact: str = "particle"):
     walls : list of (friction, lo_first (3 ints), hi_first (3 ints))
         Wall nodes along axis d are ``I_d < lo_first[d]`` (normal +e_d) and
         ``I_d >= hi_first[d]`` (normal -e_d): within 3 cells of the faces, 1.5 with ``"particle"``, whose points meet
-        the walls' planes (``gasp_core.toolkit.contact.wall_grid_cells``).
+        the walls' planes (``gasp_core.mpm.contact.wall_grid_cells``).
     grounds : list of (friction, k_max, height)
-        Ground nodes are ``I_z <= k_max`` (``gasp_core.toolkit.contact.ground_node_layer`` of ``contact``: the top
+        Ground nodes are ``I_z <= k_max`` (``gasp_core.mpm.contact.ground_node_layer`` of ``contact``: the top
         layer with ``"grid"``, two cells lower with ``"particle"``, whose points meet the plane at ``height``, m).
     regions : list of (ilo (3 ints), ihi (3 ints))
         Fixed nodes are ``ilo <= I <= ihi`` on every axis.
@@ -38,7 +38,7 @@ def node_ranges(setup, dx: float, contact: str = "particle"):
     for b in setup.boundaries:
         if b.kind == "walls":
             # X_d < lo_d + w dx  <=>  I_d < w ;  X_d > hi_d - w dx  <=>  I_d > (hi_d - lo_d)/dx - w  (w = 3, 1.5 with
-            # the particle contact: gasp_core.toolkit.contact.wall_grid_cells)
+            # the particle contact: gasp_core.mpm.contact.wall_grid_cells)
             w = wall_grid_cells(contact)
             r = (hi - lo) / dx - w
             hi_first = tuple(int(math.floor(r[d] + _TIE)) + 1 for d in range(3))
@@ -120,7 +120,7 @@ class GridUpdate:
     @ti.func
     def mirror_node(self, I, blo, bhi, v_set, empty: ti.template()):
         """The velocity of node ``I`` inside the held box ``[blo, bhi]`` (m) that holds its material at ``v_set``
-        (docs/fracture.md, "The held region"): within :data:`~gasp_core.toolkit.points.MIRROR_CELLS` cells of the
+        (docs/fracture.md, "The held region"): within :data:`~gasp_core.mpm.points.MIRROR_CELLS` cells of the
         box's nearest face, ``2 v_set - v(X')``, ``X'`` its mirror image across that face (``v`` linear along the
         face's normal between the two nodes around ``X'``; where one of them is ``I`` itself, solved for it), so the
         grid field meets ``v_set`` on the face and a uniform strain crosses it; deeper, ``v_set``. ``empty``: a
@@ -172,7 +172,7 @@ class GridUpdate:
     @ti.func
     def image_gradient(self, C, a):
         """``C D``, ``D`` the diagonal matrix that negates every column but ``a`` (``a`` -1: ``C``): for a point
-        near a held box's face (normal axis ``a``, :data:`~gasp_core.toolkit.points.HELD_STRAINED`) the ghost field's
+        near a held box's face (normal axis ``a``, :data:`~gasp_core.mpm.points.HELD_STRAINED`) the ghost field's
         gradient ``C`` as the gradient at its mirror image (P2G advances its ``F`` by it), and its stress ``tau D``
         (the force that update pairs with)."""
         out = C

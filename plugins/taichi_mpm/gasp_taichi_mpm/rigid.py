@@ -1,4 +1,4 @@
-"""The rigid limit (``material.model = "rigid"``, ``gasp_core.toolkit.rigid``, ``docs/rigid.md``) as Taichi kernels;
+"""The rigid limit (``material.model = "rigid"``, ``gasp_core.mpm.rigid``, ``docs/rigid.md``) as Taichi kernels;
 warp_mpm's ``rigid.py`` would spell the same steps.
 
 After each G2P (:meth:`Rigid.rigid_step`; within a frame the rigid points' G2P runs alone, :meth:`Rigid.g2p_rigid`,
@@ -8,7 +8,7 @@ order: the same numbers on any thread count); :meth:`Rigid.rigid_update` turns t
 spin and advances its centre and rotation; :meth:`Rigid.rigid_apply` puts every point of the body (its passive
 points too) on the rigid pose ``c + R X0`` with the rigid velocity, ``C`` the spin's skew matrix and ``F = R``;
 with the particle contact's planes :meth:`Rigid.rigid_depth` and :meth:`Rigid.rigid_lift` then move a resting body
-deeper than the slop out without speed (``gasp_core.toolkit.rigid_friction.settle_projection``, Bullet's split impulse; issue
+deeper than the slop out without speed (``gasp_core.mpm.rigid_friction.settle_projection``, Bullet's split impulse; issue
 53) and :meth:`Rigid.rigid_apply` runs again.
 The body's state is kept in float64 whatever the working precision.
 
@@ -17,8 +17,8 @@ Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields (``x``, ``v``
 import numpy as np
 import taichi as ti
 
-from gasp_core.toolkit.contact import DAMPING
-from gasp_core.toolkit.rigid import RIGID_LEVER
+from gasp_core.mpm.contact import DAMPING
+from gasp_core.mpm.rigid import RIGID_LEVER
 
 from .rigid_friction import RigidFriction
 from .rigid_lift import RigidLift
@@ -28,7 +28,7 @@ class Rigid(RigidLift, RigidFriction):
     """Per-body rigid state and the three kernels of :meth:`rigid_step`."""
 
     def _allocate_rigid(self, rigid, centre, X0, inertia0, mass) -> None:
-        """Fields of the rigid bodies (``gasp_core.toolkit.rigid.body_frames``' arrays, solver order)."""
+        """Fields of the rigid bodies (``gasp_core.mpm.rigid.body_frames``' arrays, solver order)."""
         nb = len(rigid)
         self.any_rigid = bool(np.any(rigid))
         cap = self.x.shape[0] if self.any_rigid else 1
@@ -50,7 +50,7 @@ class Rigid(RigidLift, RigidFriction):
         self.rb_je, self.rb_j = (ti.field(self.real, shape=max(nb, 1)) for _ in range(2))
         self.rb_c0 = ti.Vector.field(3, ti.f64, shape=max(nb, 1))   # the centre where the contact began
         self.rb_steps = ti.field(ti.i32, shape=max(nb, 1))   # the contact's substeps so far
-        # the points of the largest flat face (gasp_core.toolkit.rigid.face_counts), those touching now and last
+        # the points of the largest flat face (gasp_core.mpm.rigid.face_counts), those touching now and last
         self.rb_nface = ti.field(self.real, shape=max(nb, 1))
         self.rb_count, self.rb_nlast = (ti.field(ti.i32, shape=max(nb, 1)) for _ in range(2))
         # the points in a plane at the pose the next P2G takes (rigid_depth)
@@ -91,10 +91,10 @@ class Rigid(RigidLift, RigidFriction):
         self.X0.from_numpy(buf)
 
     def set_restitution(self, body_e, plane_e, v_rest: float, n_face) -> None:
-        """The rigid bodies' restitution (``gasp_core.toolkit.restitution``): ``body_e`` per body (shape
+        """The rigid bodies' restitution (``gasp_core.mpm.restitution``): ``body_e`` per body (shape
         (n_bodies,), -1 for a body without it), ``plane_e`` per contact plane (shape (n_planes,)), ``v_rest`` (m/s)
         the rebound speed below which a contact is inelastic, ``n_face`` per body
-        (``gasp_core.toolkit.rigid.face_counts``)."""
+        (``gasp_core.mpm.rigid.face_counts``)."""
         if self.any_rigid:
             self.rb_e.from_numpy(np.asarray(body_e, self._np_real))
             self.rb_nface.from_numpy(np.asarray(n_face, self._np_real))
@@ -140,12 +140,12 @@ class Rigid(RigidLift, RigidFriction):
     def contact_impulse(self, p, e_sup, vn, n, depth, kcs):
         """Point p's normal impulse (kg m/s) at ``depth`` (m, > 0) in a support of restitution ``e_sup``, ``vn`` its
         normal velocity relative to it (m/s), ``n`` its normal, ``kcs = (k, c, skin)``: ``max(0, dt (k depth - c
-        vn))``; a rigid body's point with restitution (``gasp_core.toolkit.restitution``) while its body bounces:
+        vn))``; a rigid body's point with restitution (``gasp_core.mpm.restitution``) while its body bounces:
         ``dt k depth`` while it approaches (``vn`` < 0), ``e^2 dt k depth`` while it recedes (the hysteresis of Walton
         & Braun 1986), ``e`` its body's times ``e_sup``; once ``e`` times the approach speed of the body's ongoing
         contact is below ``v_rest`` a damped law set by the body, not the point (``c = 2 DAMPING dt k``: a substep
         takes ``2 DAMPING n / N`` of the body's normal speed on ``n`` points); its ``k`` times ``N / max(N,
-        N_touch)`` (``gasp_core.toolkit.rigid.face_counts``, ``N_touch`` the points that touched in the last
+        N_touch)`` (``gasp_core.mpm.rigid.face_counts``, ``N_touch`` the points that touched in the last
         substep). Records the touch, the approach speed
         and ``dt k depth`` along ``n`` and times ``e_sup`` for :meth:`lift_off`."""
         dt = self.dt[None]
@@ -157,10 +157,10 @@ class Rigid(RigidLift, RigidFriction):
                 sk = self.rb_nface[b] / ti.max(self.rb_nface[b], n_t)
                 if self.rb_ndepth[b] > 0:
                     # the points this P2G finds in the planes counted (rigid_depth): N / max(n_t, min(N, LEVER n_t)),
-                    # Omega dt 1 on more than N points, at most 1 on a few (gasp_core.toolkit.rigid.support_scale)
+                    # Omega dt 1 on more than N points, at most 1 on a few (gasp_core.mpm.rigid.support_scale)
                     sk = self.rb_nface[b] / ti.max(n_t, ti.min(self.rb_nface[b], RIGID_LEVER * n_t))
                 jk = dt * kcs[0] * sk * depth
-                # settling: per point c = 2 zeta dt k' (M = k N dt^2 at Omega dt = 1, gasp_core.toolkit.rigid.
+                # settling: per point c = 2 zeta dt k' (M = k N dt^2 at Omega dt = 1, gasp_core.mpm.rigid.
                 # RIGID_OMEGA_DT): a substep takes 2 zeta n / N of the body's normal speed on n points, at most 2 zeta
                 # = 1 (explicit damping is stable below 2); sqrt(N / n_t) more (the body's ratio exactly) overshot
                 # when more points touched than in the last substep (a ladder ball gained 633 % of its fall energy)
@@ -186,7 +186,7 @@ class Rigid(RigidLift, RigidFriction):
         """The normal velocity (m/s) the settling damping of point p of rigid body b takes: its own ``vn`` on a
         face, the patch centre's on a rounded body (``rb_flat`` 0: a ball's points entering its rolling cap move down
         at ``omega s``, and damping each on its own braked the rolling by 2.8 %; issue 67), blended by the last
-        substep's flatness (``gasp_core.toolkit.rigid_friction.contact_flatness``)."""
+        substep's flatness (``gasp_core.mpm.rigid_friction.contact_flatness``)."""
         f = self.rb_flat[b]
         d = ti.cast(n, ti.f64).dot(self.rb_w[b].cross(self.rb_xf[b] - ti.cast(self.x[p], ti.f64)))
         return vn + ti.cast((1.0 - f) * d, self.real)
@@ -358,7 +358,7 @@ class Rigid(RigidLift, RigidFriction):
     def lift_off(self, b, V, c, T):
         """Body b's velocity ``V`` (m/s, float64) at the substep its contact ends (no point touched in this P2G,
         one did in the last), its centre at ``c`` (m), ``T`` (s) after the contact began: its normal part along the
-        contact's mean normal ``n`` made :func:`gasp_core.toolkit.restitution.lift_off_speed`'s, with which its free
+        contact's mean normal ``n`` made :func:`gasp_core.mpm.restitution.lift_off_speed`'s, with which its free
         flights before and after cross as an instantaneous bounce of restitution ``e`` (the body's times its
         supports' impulse-weighted; 0 when ``e v_in`` is below ``v_rest``): the restitution at the impulse level,
         whatever the hysteresis gave back in a contact of a few substeps."""
@@ -372,7 +372,7 @@ class Rigid(RigidLift, RigidFriction):
                 if e * vin < ti.cast(self.v_rest[None], ti.f64):
                     e = 0.0
                 g_n = -ti.cast(self.gravity[None], ti.f64).dot(n)
-                # A^2 + B A - C = 0, u = A - g_n T (gasp_core.toolkit.restitution.lift_off_speed)
+                # A^2 + B A - C = 0, u = A - g_n T (gasp_core.mpm.restitution.lift_off_speed)
                 B = vin * (1.0 - e) - (1.0 + e) * g_n * T
                 C = e * vin * vin - (1.0 + e) * g_n * ((c - self.rb_c0[b]).dot(n) + 0.5 * g_n * T * T)
                 u_out = 0.5 * (-B + ti.sqrt(ti.max(B * B + 4.0 * C, 0.0))) - g_n * T

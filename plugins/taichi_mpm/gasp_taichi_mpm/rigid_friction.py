@@ -1,15 +1,15 @@
 """A rigid body's friction with its supports as one body (issue 53's twist, issue 67's Coulomb by force balance),
 Taichi funcs mixed into :class:`gasp_taichi_mpm.rigid.Rigid`; the NumPy reference is
-:mod:`gasp_core.toolkit.rigid_friction`, warp_mpm's ``rigid.py`` spells the same steps.
+:mod:`gasp_core.mpm.rigid_friction`, warp_mpm's ``rigid.py`` spells the same steps.
 """
 import taichi as ti
 
-from gasp_core.toolkit.rigid_friction import FLAT_FROM, FLAT_TO
+from gasp_core.mpm.rigid_friction import FLAT_FROM, FLAT_TO
 
 
 @ti.func
 def flatness(s3, deep, h):
-    """``gasp_core.toolkit.rigid_friction.contact_flatness`` (the same steps): ``s3`` three times the patch's spread
+    """``gasp_core.mpm.rigid_friction.contact_flatness`` (the same steps): ``s3`` three times the patch's spread
     along the slip (m^2), ``deep`` its deepest point (m), ``h`` the mass centre's height over it (m)."""
     out = ti.cast(1.0, ti.f64)
     if deep > 0.0 and h > 0.0:
@@ -41,7 +41,7 @@ class RigidFriction:
     @ti.func
     def slide_brake(self, b, V, w, inertia, M, c):
         """Body b's ``(V, w)`` after Coulomb's friction on the body as one, decided by force balance
-        (``gasp_core.toolkit.rigid_friction.coulomb_friction``, the same steps): at the budget-weighted contact point ``x_f``
+        (``gasp_core.mpm.rigid_friction.coulomb_friction``, the same steps): at the budget-weighted contact point ``x_f``
         the tangential velocity ``u_t`` (to the contact's mean normal) of ``V + w x (x_f - c)`` relative to the
         supports' takes the impulse along ``-u_t`` that stops it when that is within the substep's budget ``sum mu j``
         (it sticks), else the budget (it slides at the kinetic rate); the impulse's tipping moment is held by the
@@ -99,7 +99,7 @@ class RigidFriction:
     @ti.kernel
     def rigid_pair(self):
         """The contact of two rigid bodies as one, by force balance (issue 67 item 4;
-        ``gasp_core.toolkit.rigid_friction.pair_contact``, warp_mpm's ``rigid_friction.build_rigid_pair``, the same
+        ``gasp_core.mpm.rigid_friction.pair_contact``, warp_mpm's ``rigid_friction.build_rigid_pair``, the same
         steps), after ``rigid_update``: the touching nodes' sums ``pair_acc`` (``Fields.pair_touch``) give the
         contact's centre and normal; the mass centres' approach along it is removed through the centres, then
         Coulomb's friction of that impulse at the centre (stick within ``mu P``, else slide at ``mu P``); the

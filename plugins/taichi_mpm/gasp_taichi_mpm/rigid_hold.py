@@ -1,4 +1,4 @@
-"""The rigid bodies' hold on the flowing points (``gasp_core.toolkit.rigid_hold``, docs/contact.md; warp_mpm's
+"""The rigid bodies' hold on the flowing points (``gasp_core.mpm.rigid_hold``, docs/contact.md; warp_mpm's
 ``rigid_hold.py`` spells the same steps): after a point's G2P (:meth:`Colliders.hold_point`, after the colliders'
 hold), a point of a body of the grid contact found inside a holding rigid body (its distance field at the body's
 pose of that substep, read as a collider's, :meth:`Colliders.field_at`) is put back on its surface, its approach
@@ -14,7 +14,7 @@ import numpy as np
 import taichi as ti
 
 from gasp_core.colliders.model import COL_META
-from gasp_core.toolkit.grid_tables import CM_FRICTION
+from gasp_core.mpm.grid_tables import CM_FRICTION
 
 
 class RigidHold:
@@ -22,7 +22,7 @@ class RigidHold:
     and the frame's last G2P (:meth:`last_g2p`)."""
 
     def allocate_rigid_hold(self, tables, flows) -> None:
-        """``tables``: ``gasp_core.toolkit.rigid_hold.rigid_hold_tables``' ``(row, sdf, grad, meta)``, or None: no
+        """``tables``: ``gasp_core.mpm.rigid_hold.rigid_hold_tables``' ``(row, sdf, grad, meta)``, or None: no
         hold (``self.hold_rigid`` False, the code before); ``flows``: per body, whether it takes the grid contact.
         Before the first substep (the kernels read ``hold_rigid`` when they compile)."""
         self.hold_rigid = tables is not None

@@ -1,9 +1,9 @@
-"""The position-level non-penetration of a resting rigid body (issue 53, ``gasp_core.toolkit.rigid_friction.settle_projection``)
+"""The position-level non-penetration of a resting rigid body (issue 53, ``gasp_core.mpm.rigid_friction.settle_projection``)
 as Taichi kernels; warp_mpm's ``rigid.build_rigid_lift`` spells the same steps.
 
 :meth:`RigidLift.rigid_depth` takes each rigid body's deepest penetration into each plane of the particle contact and
 the penetration-weighted sum of its touching points (and counts them for the next P2G's stiffness,
-``gasp_core.toolkit.rigid.support_scale``); :meth:`RigidLift.rigid_lift` moves a resting body deeper than the slop out
+``gasp_core.mpm.rigid.support_scale``); :meth:`RigidLift.rigid_lift` moves a resting body deeper than the slop out
 along the plane's normal without speed (Bullet's split impulse). Both run in :meth:`gasp_taichi_mpm.rigid.Rigid.
 rigid_step` after the rigid update, then the points are put on the pose again.
 
@@ -12,7 +12,7 @@ Mixed into :class:`gasp_taichi_mpm.rigid.Rigid` (so into :class:`gasp_taichi_mpm
 """
 import taichi as ti
 
-from gasp_core.toolkit.rigid import RIGID_SLOP
+from gasp_core.mpm.rigid import RIGID_SLOP
 
 
 class RigidLift:
@@ -68,7 +68,7 @@ class RigidLift:
 
     @ti.kernel
     def rigid_lift(self):
-        """The position-level non-penetration of a resting rigid body (``gasp_core.toolkit.rigid_friction.settle_projection``,
+        """The position-level non-penetration of a resting rigid body (``gasp_core.mpm.rigid_friction.settle_projection``,
         issue 53; warp_mpm's ``rigid_lift``): a body that is not bouncing (``e`` times its approach, the ongoing
         contact's ``v_in`` or its centre's now, under ``v_rest``, as :meth:`lift_off`) whose deepest point is more
         than ``RIGID_SLOP`` cells into a plane is moved out along its normal to that depth, its velocity untouched by

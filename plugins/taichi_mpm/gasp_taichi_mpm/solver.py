@@ -35,11 +35,11 @@ Implementation notes (all algebraically identical to the spec; they change round
 import numpy as np
 import taichi as ti
 
-# Material codes and the per-body parameter columns (``MPMSolver.mat``) are gasp_core.toolkit.materials'.
-from gasp_core.toolkit.substeps import passive_schedule
+# Material codes and the per-body parameter columns (``MPMSolver.mat``) are gasp_core.mpm.materials'.
+from gasp_core.mpm.substeps import passive_schedule
 from gasp_core.seam import SceneError
-from gasp_core.toolkit.contact import collider_grid_depth
-from gasp_core.toolkit.materials import N_PARAMS, P_ETA
+from gasp_core.mpm.contact import collider_grid_depth
+from gasp_core.mpm.materials import N_PARAMS, P_ETA
 
 from .colliders import Colliders
 from .constitutive import Constitutive
@@ -77,17 +77,17 @@ class MPMSolver(Transfers, ColouredP2G, TileP2G, Constitutive, GridUpdate, Colli
     fixed : ndarray, shape (n,), bool
         Points held still (started inside a fixed region).
     jp0 : ndarray, shape (n,)
-        Initial Jp (``gasp_core.toolkit.materials.initial_Jp``: 0 for plasticine, 1 otherwise).
+        Initial Jp (``gasp_core.mpm.materials.initial_Jp``: 0 for plasticine, 1 otherwise).
     params : ndarray, shape (n_bodies, N_PARAMS)
-        ``gasp_core.toolkit.materials.material_table``.
+        ``gasp_core.mpm.materials.material_table``.
     kinds : sequence of int
-        Material code per body (``gasp_core.toolkit.materials.MATERIAL_CODES`` values).
+        Material code per body (``gasp_core.mpm.materials.MATERIAL_CODES`` values).
     n_grid : int
     lo, gravity : ndarray, shape (3,)
         Grid origin (domain_lo), metres; m/s^2.
     dx, dt : float
     walls, grounds, regions
-        From :func:`node_ranges`. ``planes``: ``gasp_core.toolkit.contact.contact_planes`` (with ``p_contact``).
+        From :func:`node_ranges`. ``planes``: ``gasp_core.mpm.contact.contact_planes`` (with ``p_contact``).
     real : taichi dtype
         ``ti.f32`` or ``ti.f64``.
     n_chunks : int
@@ -103,10 +103,10 @@ class MPMSolver(Transfers, ColouredP2G, TileP2G, Constitutive, GridUpdate, Colli
         visits every node they read.
     passive_bounds : (ndarray, ndarray[, float]), optional
         The box (m, shape (3,) each) the passive points are held in after each update and its floor's friction
-        (``gasp_core.toolkit.points.passive_bounds``, ``passive_floor_friction``; 0); default unbounded.
+        (``gasp_core.mpm.points.passive_bounds``, ``passive_floor_friction``; 0); default unbounded.
     rigid_frames : tuple, optional
         ``(rigid, centre, X0, inertia0, mass)``: which bodies are rigid and their rest frames
-        (``gasp_core.toolkit.rigid.body_frames``, ``X0`` in solver order); the rigid bodies' points are projected
+        (``gasp_core.mpm.rigid.body_frames``, ``X0`` in solver order); the rigid bodies' points are projected
         onto a rigid motion after every G2P (:mod:`gasp_taichi_mpm.rigid`). Default none.
     hold : ndarray, shape (n_bodies,), bool, optional
         The bodies held out of the colliders after G2P (:meth:`~gasp_taichi_mpm.colliders.Colliders.allocate_hold`).
@@ -134,7 +134,7 @@ class MPMSolver(Transfers, ColouredP2G, TileP2G, Constitutive, GridUpdate, Colli
         self.multi_kind = len(self.kinds) > 1
         self.any_fixed = bool(np.any(fixed))
         self.viscous = bool(np.any(np.asarray(params)[:, P_ETA] > 0))
-        self.flip = float(flip)   # AFLIP blend (gasp_core.toolkit.transfer); > 0: grid_mv also sums the APIC momentum
+        self.flip = float(flip)   # AFLIP blend (gasp_core.mpm.transfer); > 0: grid_mv also sums the APIC momentum
         self.coloured = bool(coloured) and not self.atomic and self.n_chunks == 1
         self.n_walls, self.n_grounds, self.n_regions = len(walls), len(grounds), len(regions)
         # the particle contact (p_contact: (n, 3) per point, :mod:`gasp_taichi_mpm.contact`) with the planes of the
@@ -224,10 +224,10 @@ class MPMSolver(Transfers, ColouredP2G, TileP2G, Constitutive, GridUpdate, Colli
         self.pbox = ti.Vector.field(3, ti.i32, shape=(self.n_chunks, 2))  # passive points' node box
         # substep (s), node spacing (m), 1 / dx (1/m)
         self.dt, self.dx, self.inv_dx = (ti.field(real, shape=()) for _ in range(3))
-        # substeps of the passive points' full interval [0] and last [1] (toolkit.substeps.passive_schedule)
+        # substeps of the passive points' full interval [0] and last [1] (mpm.substeps.passive_schedule)
         self.passive_substeps = ti.field(ti.i32, shape=2)
         self.lo, self.gravity = ti.Vector.field(3, real, shape=()), ti.Vector.field(3, real, shape=())
-        # the box the boundaries keep passive points in (m; gasp_core.toolkit.points.passive_bounds), its floor's mu
+        # the box the boundaries keep passive points in (m; gasp_core.mpm.points.passive_bounds), its floor's mu
         self.hold_lo, self.hold_hi = ti.Vector.field(3, real, shape=()), ti.Vector.field(3, real, shape=())
         self.hold_mu = ti.field(real, shape=())
         if self.coloured:   # the block sort (transfers.sort_blocks): keys, sorted order, counts per (chunk, key)
@@ -326,7 +326,7 @@ class MPMSolver(Transfers, ColouredP2G, TileP2G, Constitutive, GridUpdate, Colli
     # ------------------------------------------------------------------ driver
     def _passive_at(self, n_substeps: int) -> list:
         """Per substep of a frame: None, or which interval (0 full, 1 last) moves the passive
-        points after its grid update (:func:`gasp_core.toolkit.substeps.passive_schedule`)."""
+        points after its grid update (:func:`gasp_core.mpm.substeps.passive_schedule`)."""
         if not self.has_passive:
             return [None] * n_substeps
         if self._passive_plan[0] != n_substeps:
@@ -346,7 +346,7 @@ class MPMSolver(Transfers, ColouredP2G, TileP2G, Constitutive, GridUpdate, Colli
         """Advance ``n_substeps`` substeps (P2G, grid update, G2P each), no host sync in between.
 
         Passive points (``n_material < n``) are moved after a grid update (every one, or every
-        ``passive_every``-th and the frame's last: :func:`gasp_core.toolkit.substeps.passive_schedule`), by the
+        ``passive_every``-th and the frame's last: :func:`gasp_core.mpm.substeps.passive_schedule`), by the
         grid velocity that already holds the forces, colliders and boundaries, so they follow the
         material and respect what it respects; they add nothing to the grid. With colliders, forces
         or impulses the frame's time table is loaded first and the substep index set before each P2G."""

@@ -6,7 +6,7 @@ Sources: Hu et al. 2018 (MLS-MPM, APIC, quadratic B-splines), taichi's mpm128 (`
 """
 import taichi as ti
 
-from gasp_core.toolkit.materials import P_ETA
+from gasp_core.mpm.materials import P_ETA
 
 class Transfers:
     """The stencil of a point, P2G (atomic or into private grid copies; the schedules' own P2G passes are in
@@ -213,7 +213,7 @@ class Transfers:
         velocities (APIC's ``C`` on a full stencil). The point then advances over the ``m = passive_substeps[pair]``
         substeps since its last gather through the affine field
         ``v(y, k) = v_prev + (k/m)(v_new - v_prev) + (C_prev + (k/m)(C_new - C_prev)) y``,
-        ``y += dt v(y, k)`` for ``k = 1..m`` (:func:`gasp_core.toolkit.substeps.passive_schedule`), so it turns with
+        ``y += dt v(y, k)`` for ``k = 1..m`` (:func:`gasp_core.mpm.substeps.passive_schedule`), so it turns with
         the material; ``m = 1`` is plain G2P. A point with no node of mass in its stencil (stranded: the material
         flowed away, issue 55's specks in the air) falls freely, ``v_new = v_prev + m dt g``, until the material or
         the boundaries' box takes it again (on the floor, slowed by its friction)."""
@@ -262,7 +262,7 @@ class Transfers:
             for kk in range(m):
                 t = ti.cast(kk + 1, self.real) / ti.cast(m, self.real)
                 y += dt * (v_prev + t * (new_v - v_prev) + (C_prev + t * (new_C - C_prev)) @ y)
-            # then held in the box the boundaries leave it (gasp_core.toolkit.points.passive_bounds)
+            # then held in the box the boundaries leave it (gasp_core.mpm.points.passive_bounds)
             self.x[p], self.v[p] = self.hold_passive(self.x[p] + y, new_v + new_C @ y, wsum <= 0.0)
             self.C[p] = new_C
 

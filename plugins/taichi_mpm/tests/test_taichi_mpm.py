@@ -320,7 +320,7 @@ def test_cpu_kernels_compile_without_the_advanced_passes_unless_the_environment_
 
 
 def test_stats_report_the_time_step_from_gasp_core_mpm():
-    from gasp_core.toolkit.substeps import mpm_stable_dt, substeps_for
+    from gasp_core.mpm.substeps import mpm_stable_dt, substeps_for
     s = block_setup()
     st = build(s).stats()
     n, dt = substeps_for(s.frame_dt, mpm_stable_dt(s.materials, s.dx, s.gravity, 1.0, 0.0, 0.4))
@@ -480,7 +480,7 @@ def test_contact_coefficients_follow_the_points_through_the_block_sort():
     (``solver.order``) over fields that stay in the engine's cell order, so ``p_contact`` must stay aligned with
     ``x``: row i is setup point ``_order[i]``'s (the same check as warp_mpm's, whose CPU re-sort moves the points)."""
     from gasp_core.testing.helpers import make_setup, sphere_points
-    from gasp_core.toolkit.contact import contact_coefficients
+    from gasp_core.mpm.contact import contact_coefficients
     rng = np.random.default_rng(3)
     x, p_vol = sphere_points((0.5, 0.5, 0.2), 0.08, 0.02)
     p_vol = p_vol * rng.uniform(0.3, 1.0, len(x))          # coefficients differ point to point

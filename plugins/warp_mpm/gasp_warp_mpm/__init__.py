@@ -12,22 +12,22 @@ import importlib.util
 
 from gasp_core.seam import engine_hook, EngineInfo, install_hint, option
 from gasp_core.seam.config import config_options
-from gasp_core.toolkit.grid_engine import MPM_CAPABILITIES, grid_substeps
-from gasp_core.toolkit.options import MPMConfigCudaIndex
-from gasp_core.toolkit.sweep import mpm_sweep
-from gasp_core.toolkit.failures import MPM_KNOWN_FAILURES
-from gasp_core.toolkit.ground_check import check_ground_in_grid
+from gasp_core.mpm.grid_engine import MPM_CAPABILITIES, grid_substeps
+from gasp_core.mpm.options import MPMConfigCudaIndex
+from gasp_core.mpm.sweep import mpm_sweep
+from gasp_core.mpm.failures import MPM_KNOWN_FAILURES
+from gasp_core.mpm.ground_check import check_ground_in_grid
 
 __all__ = ["CAPABILITIES", "ENGINE", "OPTIONS", "WarpMPMConfig", "gasp_engines", "sweep"]
 
 ENGINE = "warp_mpm"
 
-#: The MLS-MPM record of the grid-engine base (``gasp_core.toolkit.grid_engine``), with the rigid limit (issue 40).
+#: The MLS-MPM record of the grid-engine base (``gasp_core.mpm.grid_engine``), with the rigid limit (issue 40).
 CAPABILITIES = dataclasses.replace(MPM_CAPABILITIES, features=MPM_CAPABILITIES.features | {"rigid_limit", "sleep", "body_friction"})
 
 @dataclass(frozen=True)
 class WarpMPMConfig(MPMConfigCudaIndex):
-    """The engine's settings (:class:`gasp_core.toolkit.options.MPMConfigCudaIndex`: ``device`` "cpu", "cuda" or
+    """The engine's settings (:class:`gasp_core.mpm.options.MPMConfigCudaIndex`: ``device`` "cpu", "cuda" or
     "cuda:N", Warp's device names), with ``threads``, accepted so that a scene written for another MPM engine runs
     unchanged, and ``schedule`` (:mod:`gasp_warp_mpm.schedule`)."""
 
@@ -44,7 +44,7 @@ OPTIONS = config_options(WarpMPMConfig)
 
 
 def sweep(quick: bool) -> tuple[list[dict], dict]:
-    """``gasp bench`` settings and reference: the grid-engine sweep of ``gasp_core.toolkit.sweep.mpm_sweep``."""
+    """``gasp bench`` settings and reference: the grid-engine sweep of ``gasp_core.mpm.sweep.mpm_sweep``."""
     return mpm_sweep(quick, CAPABILITIES.precisions)
 
 

@@ -1,16 +1,16 @@
-"""The contact's balance (``gasp_core.toolkit.contact.contact_balance``, ``docs/contact.md``, issue 38), as Warp
+"""The contact's balance (``gasp_core.mpm.contact.contact_balance``, ``docs/contact.md``, issue 38), as Warp
 kernels per scalar type: each body's net contact force and torque made those of a smooth contact.
 
 Per substep, with the particle contact. A *support* is one body against the grounds (support 0), against one
 ``[[collider]]`` (support ``1 + c``) or against one face of the walls (after the colliders,
-``gasp_core.toolkit.contact.contact_planes``); its row is ``body n_sup + support`` (``n_sup`` = 1 + the colliders
+``gasp_core.mpm.contact.contact_planes``); its row is ``body n_sup + support`` (``n_sup`` = 1 + the colliders
 with the particle contact + the walls' faces):
 
 - ``contact_moments`` (before P2G, one thread a point): its body's mass, first and second mass moments, momentum
   and angular momentum into ``sums`` (float64, shape (n_bodies, 16), columns
-  :data:`gasp_core.toolkit.contact.SUMS`); each support's normal impulse on it (along the support's normal),
+  :data:`gasp_core.mpm.contact.SUMS`); each support's normal impulse on it (along the support's normal),
   the impulse's moments and the support's velocity there, and the box of the pushed points, into ``jsums`` (shape
-  (n_bodies n_sup, 19), :data:`gasp_core.toolkit.contact.JSUMS`);
+  (n_bodies n_sup, 19), :data:`gasp_core.mpm.contact.JSUMS`);
 - ``contact_shift`` (one thread a body): the body's mass centre ``c``, rigid velocity ``V`` and spin ``omega`` into
   ``shift`` (shape (n_bodies, 12): with its angular momentum about ``c``); ``sums`` cleared;
 - in P2G, a point with a normal impulse marks its 27 nodes with the row of the support that pushes it most
@@ -32,7 +32,7 @@ import functools
 
 import warp as wp
 
-from gasp_core.toolkit.contact import TORQUE_REACH
+from gasp_core.mpm.contact import TORQUE_REACH
 
 from .contact import build_collider_contact, build_contact, build_contact_impulse
 from .forces import build_extras_struct
@@ -41,7 +41,7 @@ from .precision import MODULE_OPTIONS, build_types
 #: Columns of ``fr_sums``: friction force (3), contact nodes' mass (1), mass moments (3 + 6), friction's moment
 #: about the origin (3), friction budget (1), then the per-body results dv (3), alpha (3), x_m (3).
 FR_COLUMNS = 26
-#: ``gasp_core.toolkit.contact.TORQUE_REACH`` for the kernels.
+#: ``gasp_core.mpm.contact.TORQUE_REACH`` for the kernels.
 TORQUE_CLIP = wp.constant(TORQUE_REACH)
 
 
@@ -356,7 +356,7 @@ def allocate_balance(engine, planes: list, Ft, n_sup: int = 1) -> None:
     supports and list. No particle contact (``planes`` empty and ``n_sup`` 1), or ``contact_balance = false``: zero
     bodies, no balance."""
     import numpy as np
-    from gasp_core.toolkit.contact import contact_reach, JSUMS, SUMS
+    from gasp_core.mpm.contact import contact_reach, JSUMS, SUMS
     setup, d = engine.setup, engine.device
     reach = contact_reach(setup) if planes or n_sup > 1 else np.zeros(0)
     nb = len(reach)

@@ -9,7 +9,7 @@ import functools
 
 import warp as wp
 
-from gasp_core.toolkit.grid_tables import (CM_FRICTION, CM_H, CM_NX, CM_NY, CM_NZ, CM_OFFSET, CM_ORIGIN, COL_META,
+from gasp_core.mpm.grid_tables import (CM_FRICTION, CM_H, CM_NX, CM_NY, CM_NZ, CM_OFFSET, CM_ORIGIN, COL_META,
                                            COL_POSE, FT_POSES, PO_R, PO_T, PO_V, PO_W)
 
 from .forces import build_extras_struct
@@ -43,7 +43,7 @@ def build_collide(Ft):
 def build_blend(Ft):
     """``blend_rule(v, v_rule, w)``, scalar type ``Ft``: a boundary's grid rule applied by the weight ``w``,
     ``v + w (v_rule - v)``; exactly ``v_rule`` at ``w >= 1`` and ``v`` at ``w <= 0`` (the contact chosen per body,
-    ``gasp_core.toolkit.contact.rule_models``: ``w`` the node's flowing-mass fraction where only the grid contact's
+    ``gasp_core.mpm.contact.rule_models``: ``w`` the node's flowing-mass fraction where only the grid contact's
     rule reaches)."""
     vec3, vec4, mat33 = build_types(Ft)
 
@@ -161,7 +161,7 @@ def build_collider_at(Ft):
 @functools.cache
 def build_collider_func(Ft):
     """``apply_colliders``: the colliders' signed distances on a grid node's velocity, scalar type ``Ft``: the grid
-    rule where ``phi <= -ex.col_deep`` (0 with ``contact = "grid"``; ``gasp_core.toolkit.contact.collider_grid_depth``
+    rule where ``phi <= -ex.col_deep`` (0 with ``contact = "grid"``; ``gasp_core.mpm.contact.collider_grid_depth``
     with the particle contact, which meets the points at the surface)."""
     vec3, vec4, mat33 = build_types(Ft)
     collide = build_collide(Ft)

@@ -11,8 +11,8 @@ import functools
 
 import warp as wp
 
-# Material codes and the columns of the per-body parameter table ``mat_par`` are gasp_core.toolkit.materials'.
-from gasp_core.toolkit.materials import (BRITTLE, JELLY, METAL, NEO_HOOKEAN, P_ALPHA, P_FT, P_HARDENING, P_K,
+# Material codes and the columns of the per-body parameter table ``mat_par`` are gasp_core.mpm.materials'.
+from gasp_core.mpm.materials import (BRITTLE, JELLY, METAL, NEO_HOOKEAN, P_ALPHA, P_FT, P_HARDENING, P_K,
                                          P_LAM, P_MU, P_SF, P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE,
                                          SAND, SNOW, VON_MISES_RADIUS)
 
@@ -263,7 +263,7 @@ def build_brittle_return(Ft):
                        Jp: wp.array(dtype=Ft)):
         # brittle (docs/fracture.md): undamaged Hencky principal stresses s_i = 2 mu eps_i + lam tr(eps); the
         # largest sets the crack band's linear-softening damage (Bazant & Oh 1983;
-        # gasp_core.toolkit.materials.brittle_damage), kept in Jp when larger (never heals); only the tensile
+        # gasp_core.mpm.materials.brittle_damage), kept in Jp when larger (never heals); only the tensile
         # s_i > 0 are scaled by 1 - d. Returns (F unchanged, tau). The Taichi plugin's brittle_tau.
         U, sig, V = svd(F_trial)
         d = Jp[p]

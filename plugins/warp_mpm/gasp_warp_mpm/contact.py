@@ -1,9 +1,9 @@
-"""The particle contact with the grounds, walls and colliders (engine option ``contact = "particle"``, ``gasp_core.toolkit.contact``,
+"""The particle contact with the grounds, walls and colliders (engine option ``contact = "particle"``, ``gasp_core.mpm.contact``,
 ``docs/contact.md``), as Warp functions per scalar type (:mod:`gasp_warp_mpm.precision`); taichi_mpm's
 ``contact.py`` spells the same steps.
 
 - :func:`build_contact` ``plane_contact``: in P2G, a point's normal impulse ``j_n = max(0, dt (k depth - c v . n))``
-  from each plane (the grounds and the walls' faces, ``gasp_core.toolkit.contact.contact_planes``) less than its skin
+  from each plane (the grounds and the walls' faces, ``gasp_core.mpm.contact.contact_planes``) less than its skin
   from its centre (``depth = offset + skin - n . x``), along its normal ``n``, and its friction budget
   ``sum mu j_n``, which P2G adds to its nodes with its weights (``transfers.scatter_scalar``);
 - ``node_friction``: in the grid update, the node's tangential (x, y) velocity loses ``min(budget / m, |v_t|)``
@@ -12,7 +12,7 @@
   the impulse along the outward normal, friction relative to the collider in the plane normal to the nodes'
   budget-weighted normal), with the particle contact and colliders;
 - :func:`build_passive_hold` ``hold_passive``: after a passive point's update, the point put back in the box the
-  boundaries keep it in (``gasp_core.toolkit.points.passive_bounds``, ``hold_passive``).
+  boundaries keep it in (``gasp_core.mpm.points.passive_bounds``, ``hold_passive``).
 
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of
 the closures below as type objects.
@@ -21,9 +21,9 @@ import functools
 
 import warp as wp
 
-from gasp_core.toolkit.contact import DAMPING
-from gasp_core.toolkit.rigid import RIGID_LEVER
-from gasp_core.toolkit.grid_tables import CM_FRICTION, COL_META
+from gasp_core.mpm.contact import DAMPING
+from gasp_core.mpm.rigid import RIGID_LEVER
+from gasp_core.mpm.grid_tables import CM_FRICTION, COL_META
 
 from .colliders import build_collider_at
 from .forces import build_extras_struct
@@ -62,12 +62,12 @@ def build_contact_impulse(Ft):
     """``contact_impulse(ex, b, e_sup, vn, mark, n, depth, kcs, dt) -> j_n``, a Warp function of the scalar type
     ``Ft``: a point of body ``b`` at ``depth`` (m, > 0) in a support of restitution ``e_sup``, ``vn`` its normal
     velocity relative to it (m/s), ``n`` the normal, ``kcs = (k, c, skin)``: ``max(0, dt (k depth - c vn))``; a
-    rigid body's point with restitution (``ex.rb_e[b]`` >= 0, ``gasp_core.toolkit.restitution``) while its body
+    rigid body's point with restitution (``ex.rb_e[b]`` >= 0, ``gasp_core.mpm.restitution``) while its body
     bounces: ``dt k depth`` while it approaches (``vn`` < 0), ``e^2 dt k depth`` while it recedes (the hysteresis of
     Walton & Braun 1986), ``e = ex.rb_e[b] e_sup``; once ``e`` times the approach speed of the body's ongoing contact
     (``ex.rb_vin[b]``) is below ``ex.v_rest``, a damped law set by the body (``c = 2 DAMPING dt k``); its ``k``
     times ``N / max(N, N_touch)`` (``ex.rb_nface``, ``ex.rb_nlast``:
-    ``gasp_core.toolkit.rigid.face_counts``); its damping on the normal velocity of its patch's centre on a rounded
+    ``gasp_core.mpm.rigid.face_counts``); its damping on the normal velocity of its patch's centre on a rounded
     body (``x`` the point, m; ``ex.rb_flat``, issue 67). With ``mark`` (in P2G) it records the touch, the
     approach speed and ``dt k depth`` along ``n`` and times ``e_sup`` for ``rigid.rigid_update``'s lift-off;
     taichi_mpm's ``Rigid.contact_impulse`` spells the same."""
@@ -83,7 +83,7 @@ def build_contact_impulse(Ft):
             sk = ex.rb_nface[b] / wp.max(ex.rb_nface[b], n_t)
             if ex.rb_ndepth[b] > 0:
                 # the points this P2G finds in the planes counted (rigid.py's rigid_depth): N / max(n_t, min(N,
-                # LEVER n_t)), Omega dt 1 on more than N points, at most 1 on a few (gasp_core.toolkit.rigid.
+                # LEVER n_t)), Omega dt 1 on more than N points, at most 1 on a few (gasp_core.mpm.rigid.
                 # support_scale; taichi_mpm's contact_impulse)
                 sk = ex.rb_nface[b] / wp.max(n_t, wp.min(ex.rb_nface[b], Ft(RIGID_LEVER) * n_t))
             jk = dt * kcs[0] * sk * depth
@@ -157,7 +157,7 @@ def build_add_twist(Ft):
 @functools.cache
 def build_collider_contact(Ft):
     """``(collider_contact, point_contact, surface_friction)`` Warp functions of the scalar type ``Ft``: the particle
-    contact against the ``[[collider]]``s' signed distances (``gasp_core.toolkit.contact.surface_impulse``).
+    contact against the ``[[collider]]``s' signed distances (``gasp_core.mpm.contact.surface_impulse``).
     It is long because the three are closures of the scalar type, built together.
 
     - ``collider_contact(ex, base, cc, x, v, kcs, dt, b, mark) -> (j_n, n, v_c)``: collider ``cc``'s normal impulse
@@ -249,7 +249,7 @@ def build_passive_hold(Ft):
     a passive point below ``lo[d]`` is put at ``lo[d]`` with ``v[d] = max(v[d], 0)``, above ``hi[d]`` at ``hi[d]`` with
     ``v[d] = min(v[d], 0)``; a ``stranded`` one (nonzero: no node with mass in its stencil) held on the floor ``lo[2]``
     loses ``mu`` times the speed into it removed from its horizontal speed, Coulomb friction
-    (``gasp_core.toolkit.points.hold_passive``: a massless surface marker cannot be inside the ground or the walls,
+    (``gasp_core.mpm.points.hold_passive``: a massless surface marker cannot be inside the ground or the walls,
     nor slide on the ground for ever)."""
     vec3, vec4, mat33 = build_types(Ft)
 

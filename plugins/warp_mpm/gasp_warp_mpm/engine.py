@@ -32,14 +32,14 @@ from typing import Any
 import numpy as np
 import warp as wp
 
-from gasp_core.toolkit.grid_engine import choose_dt, GridEngineBase
-from gasp_core.toolkit.materials import JELLY, P_ETA, initial_Jp, material_table
-from gasp_core.toolkit.rigid import lift_setup, rigid_contact, step_view, zero_stress
+from gasp_core.mpm.grid_engine import choose_dt, GridEngineBase
+from gasp_core.mpm.materials import JELLY, P_ETA, initial_Jp, material_table
+from gasp_core.mpm.rigid import lift_setup, rigid_contact, step_view, zero_stress
 from gasp_core.seam.memory import check_memory, estimate_bytes
-from gasp_core.toolkit.contact import (contact_coefficients, contact_model, contact_planes, ground_node_layer,
+from gasp_core.mpm.contact import (contact_coefficients, contact_model, contact_planes, ground_node_layer,
                                       rule_models, wall_grid_cells)
-from gasp_core.toolkit.points import cell_order, held_codes, passive_bounds, passive_floor_friction
-from gasp_core.toolkit.substeps import passive_schedule
+from gasp_core.mpm.points import cell_order, held_codes, passive_bounds, passive_floor_friction
+from gasp_core.mpm.substeps import passive_schedule
 from gasp_core.seam import CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
 
 from . import ENGINE, WarpMPMConfig, kernels as K
@@ -187,7 +187,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
                 fixed_lo.append(np.asarray(bd.lo, float))
                 fixed_hi.append(np.asarray(bd.hi, float))
             elif bd.kind == "ground":
-                # the ground's node layers, decided in float64 (gasp_core.toolkit.contact.ground_node_layer: its top
+                # the ground's node layers, decided in float64 (gasp_core.mpm.contact.ground_node_layer: its top
                 # layer with contact = "grid", two cells lower with the particle contact, which meets the plane)
                 lo_z = self.setup.domain_lo[2]
                 ground.append((float(ground_node_layer(reach, bd.height, lo_z, self.dx)), bd.friction,
@@ -251,7 +251,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
         self._launches[1:1] = field_launches(self, Ft)   # the two-field contact after P2G (fields.py)
         # passive points after the grid update (the grid velocity holds forces, colliders, boundaries):
         # one launch per distinct interval of passive_schedule, at the substeps it names; each then held in
-        # the box the ground and walls leave them (gasp_core.toolkit.points.passive_bounds)
+        # the box the ground and walls leave them (gasp_core.mpm.points.passive_bounds)
         self._passive_at = [None] * self.n_substeps
         n_passive = self.n_points - self.n_material
         if n_passive:
@@ -274,7 +274,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
 
     # ------------------------------------------------------------------ helpers
     def _cell_order(self, x: np.ndarray) -> np.ndarray:
-        """Stable order of points by flat cell index (``gasp_core.toolkit.points.cell_order``)."""
+        """Stable order of points by flat cell index (``gasp_core.mpm.points.cell_order``)."""
         return cell_order(x, self.setup.domain_lo, self.dx, self.n_grid)
 
     def _resort(self) -> None:

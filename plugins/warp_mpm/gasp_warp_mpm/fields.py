@@ -1,4 +1,4 @@
-"""The two-field grid contact (``gasp_core.toolkit.fields``, ``docs/contact.md`` "Sand that slides on what it touches",
+"""The two-field grid contact (``gasp_core.mpm.fields``, ``docs/contact.md`` "Sand that slides on what it touches",
 issue 53 items 3 and 5) as Warp kernels: field A's bodies (``in_a``, ``field_bodies``: a mixed scene's flowing
 bodies, or body 1 of two soft bodies) scatter their momentum and mass to ``grid_sv`` in P2G (``transfers.p2g``);
 :func:`build_fields`' ``field_contact``, after P2G and before the grid update, turns them and the whole grid's into each field's velocity offset ``grid_dv``
@@ -13,8 +13,8 @@ import functools
 import numpy as np
 import warp as wp
 
-from gasp_core.toolkit.contact import flowing_bodies
-from gasp_core.toolkit.fields import (MIN_FRACTION, MIN_GRADIENT, field_bodies, field_friction, rigid_pair,
+from gasp_core.mpm.contact import flowing_bodies
+from gasp_core.mpm.fields import (MIN_FRACTION, MIN_GRADIENT, field_bodies, field_friction, rigid_pair,
                                       touch_fraction)
 
 from .precision import MODULE_OPTIONS, build_types
@@ -151,7 +151,7 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     ``grid_vf`` (each field's volume) and ``grid_dv``
     (the two offsets per node), one unused entry each without it (``eng.fields`` says which), and its friction
     ``eng.field_mu`` and touch threshold ``eng.field_touch``."""
-    from gasp_core.toolkit.rigid import step_view
+    from gasp_core.mpm.rigid import step_view
     k, d = eng.k, eng.device
     view = step_view(eng.setup)
     eng.flows = wp.array(flowing_bodies(view, contact).astype(np.int32), dtype=wp.int32, device=d)

@@ -1,5 +1,5 @@
 """Forces and impulses (docs/colliders.md) on a grid node's velocity, and the struct of the colliders', forces'
-and impulses' tables (:func:`gasp_core.toolkit.grid_tables.grid_tables`), as Warp code per scalar type
+and impulses' tables (:func:`gasp_core.mpm.grid_tables.grid_tables`), as Warp code per scalar type
 (:mod:`gasp_warp_mpm.precision`).
 
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of
@@ -9,7 +9,7 @@ import functools
 
 import warp as wp
 
-from gasp_core.toolkit.grid_tables import (COL_POSE, FALLOFF_INVERSE_SQUARE, FORCE_ROW, FORCE_WIND, FR_C, FR_DRAG,
+from gasp_core.mpm.grid_tables import (COL_POSE, FALLOFF_INVERSE_SQUARE, FORCE_ROW, FORCE_WIND, FR_C, FR_DRAG,
                                            FR_FALLOFF, FR_KIND, FR_MODE_COUNT, FR_MODE_START, FR_RADIUS, FR_STRENGTH,
                                            FT_POSES, IM_A, IM_B, IM_DV, IM_MODE, IM_SHAPE, IMPULSE_ADD, IMPULSE_BOX,
                                            IMPULSE_ROW, MD_A, MD_K, MD_OMEGA, MD_PHASE, MODE_ROW)
@@ -19,12 +19,12 @@ from .precision import MODULE_OPTIONS, build_types
 
 @functools.cache
 def build_extras_struct(Ft):
-    """``Extras``: the struct of colliders, forces and impulses (:func:`gasp_core.toolkit.grid_tables.grid_tables`,
+    """``Extras``: the struct of colliders, forces and impulses (:func:`gasp_core.mpm.grid_tables.grid_tables`,
     ``frame_table``) of scalar type ``Ft``."""
 
     @wp.struct
     class Extras:
-        # gasp_core.toolkit.grid_tables.grid_tables / frame_table (docs/colliders.md)
+        # gasp_core.mpm.grid_tables.grid_tables / frame_table (docs/colliders.md)
         sdf: wp.array(dtype=Ft)
         grad: wp.array(dtype=Ft)
         meta: wp.array(dtype=Ft)
@@ -39,7 +39,7 @@ def build_extras_struct(Ft):
         n_force: int
         n_imp: int
         width: int
-        # the rigid bodies' restitution (gasp_core.toolkit.restitution, contact.build_unloading): per body its e (-1:
+        # the rigid bodies' restitution (gasp_core.mpm.restitution, contact.build_unloading): per body its e (-1:
         # none), the approach speed of its ongoing contact, this substep's (atomic max), a touch flag; per plane its e
         rb_e: wp.array(dtype=Ft)
         rb_vin: wp.array(dtype=Ft)
@@ -48,7 +48,7 @@ def build_extras_struct(Ft):
         rb_jn: wp.array(dtype=build_types(Ft)[0])   # the contact's sum j n, sum j e_sup and sum j (rigid.py)
         rb_je: wp.array(dtype=Ft)
         rb_j: wp.array(dtype=Ft)
-        rb_nface: wp.array(dtype=Ft)   # gasp_core.toolkit.rigid.face_counts; the points touching now and last
+        rb_nface: wp.array(dtype=Ft)   # gasp_core.mpm.rigid.face_counts; the points touching now and last
         rb_count: wp.array(dtype=wp.int32)
         rb_nlast: wp.array(dtype=wp.int32)
         rb_ndepth: wp.array(dtype=wp.int32)   # the points in a plane at the pose the next P2G takes (rigid.py)

@@ -11,7 +11,7 @@ import functools
 
 import warp as wp
 
-from gasp_core.toolkit.grid_tables import FT_TIME
+from gasp_core.mpm.grid_tables import FT_TIME
 
 from .colliders import build_blend, build_collide, build_collider_func
 from .balance import build_balance
@@ -137,11 +137,11 @@ def build_grid_update(Ft):
         grid_fbody: wp.array(dtype=wp.int32), fr_sums: wp.array2d(dtype=wp.float64), fr_nodes: wp.array(dtype=wp.int32),
         colc: int, grid_fn: wp.array(dtype=vec3), grid_fv: wp.array(dtype=vec3), wall_full: Ft,
         grid_mf: wp.array(dtype=Ft), fr_dv: wp.array(dtype=vec4), fr_fb: wp.array(dtype=Ft)):
-        # wall_in: the walls' grid rule reaches this many cells in (gasp_core.toolkit.contact.wall_grid_cells);
+        # wall_in: the walls' grid rule reaches this many cells in (gasp_core.mpm.contact.wall_grid_cells);
         # ground[g] = (top node layer k_max as a float, friction, unused); grid_m (node mass, for
         # passive points) has one entry per node when the setup has passive points, else one unused entry;
         # grid_fb: the contact's friction budget per node (kg m/s; one unused entry without it; with colc grid_fn/fv);
-        # the contact chosen per body (gasp_core.toolkit.contact.rule_models): grid_mf the flowing bodies' mass per node
+        # the contact chosen per body (gasp_core.mpm.contact.rule_models): grid_mf the flowing bodies' mass per node
         # (one unused entry otherwise), the rule acting fully within wall_full cells / up to layer ground[g][2] and
         # by the node's flowing-mass fraction f between there and wall_in / ground[g][0] (colliders.build_blend)
         node = wp.tid()
@@ -183,7 +183,7 @@ def build_grid_update(Ft):
         grid_mv[node] = vec4(Ft(0.0))
         if grid_fb.shape[0] > 1:
             clear_contact(node, grid_fb, colc, grid_fn, grid_fv)
-        if flip != 0:  # the APIC velocity before forces (gasp_core.toolkit.transfer)
+        if flip != 0:  # the APIC velocity before forces (gasp_core.mpm.transfer)
             g0 = grid_mv0[node]
             grid_v0[node] = vec3(Ft(0.0))
             if m > Ft(0.0):

@@ -9,10 +9,10 @@ import functools
 
 import warp as wp
 
-from gasp_core.toolkit.grid_tables import (COL_POSE, FT_POSES, IM_A, IM_B, IM_DV, IM_MODE, IM_SHAPE, IMPULSE_ADD,
+from gasp_core.mpm.grid_tables import (COL_POSE, FT_POSES, IM_A, IM_B, IM_DV, IM_MODE, IM_SHAPE, IMPULSE_ADD,
                                            IMPULSE_BOX, IMPULSE_ROW)
-from gasp_core.toolkit.materials import BRITTLE
-from gasp_core.toolkit.points import HELD_STRAIN_CELLS, HELD_STRAINED, MIRROR_CELLS
+from gasp_core.mpm.materials import BRITTLE
+from gasp_core.mpm.points import HELD_STRAIN_CELLS, HELD_STRAINED, MIRROR_CELLS
 
 from .constitutive import build_return_mapping
 from .forces import build_extras_struct
@@ -102,7 +102,7 @@ def build_mirror(Ft):
 def build_image_flip(Ft):
     """``held_axis(code, X, dx, ex)`` and ``image_flip(a)`` (docs/fracture.md, "The held region"). ``held_axis``:
     the normal axis of the face that a point near it takes its image gradient across: a held point's (``code =
-    HELD_STRAINED + a``, :func:`gasp_core.toolkit.points.held_codes`), or a point's within ``HELD_STRAIN_CELLS`` cells
+    HELD_STRAINED + a``, :func:`gasp_core.mpm.points.held_codes`), or a point's within ``HELD_STRAIN_CELLS`` cells
     inside the nearest face of a box impulse of ``mode = "set"`` acting now; else -1. ``image_flip``: the diagonal
     matrix ``D`` that negates every column but ``a``. P2G advances such a point's ``F`` by ``C D``, the velocity
     gradient at its mirror image across the face (the ghost field is ``2 v_set - v(X')``, so ``C = -grad v(X') R``),

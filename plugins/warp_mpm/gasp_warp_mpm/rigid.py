@@ -1,4 +1,4 @@
-"""The rigid limit (``material.model = "rigid"``, ``gasp_core.toolkit.rigid``, ``docs/rigid.md``) as Warp kernels per
+"""The rigid limit (``material.model = "rigid"``, ``gasp_core.mpm.rigid``, ``docs/rigid.md``) as Warp kernels per
 scalar type; taichi_mpm's ``rigid.py`` spells the same steps.
 
 After each G2P: ``rigid_reduce`` sums each rigid body's momentum and angular momentum about the origin (APIC's
@@ -7,7 +7,7 @@ serially, so the order is the point order); ``rigid_update`` (one thread) turns 
 spin and advances its centre and rotation; ``rigid_apply`` puts every point of the body (its passive points too) on
 the rigid pose ``c + R X0`` with the rigid velocity, ``C`` the spin's skew matrix and ``F = R``. With the particle
 contact's planes, ``rigid_depth`` and ``rigid_lift`` (:func:`build_rigid_lift`) then move a resting body deeper than
-the slop out without speed (``gasp_core.toolkit.rigid_friction.settle_projection``, Bullet's split impulse; issue 53) and
+the slop out without speed (``gasp_core.mpm.rigid_friction.settle_projection``, Bullet's split impulse; issue 53) and
 ``rigid_apply`` runs again.
 
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of
@@ -27,7 +27,7 @@ mat33d = wp.types.matrix((3, 3), wp.float64)
 @functools.cache
 def build_rigid_update(Ft):
     """``rigid_update`` (one thread over the bodies: velocity, spin, centre and rotation from the sums; the contact's
-    lift-off, twist brake and bookkeeping, ``gasp_core.toolkit.restitution``) for the scalar type ``Ft``.
+    lift-off, twist brake and bookkeeping, ``gasp_core.mpm.restitution``) for the scalar type ``Ft``.
     It is long because the kernel and its helper are closures of the scalar type."""
     vec3, vec4, mat33 = build_types(Ft)
     lift_off, twist_brake, slide_brake = build_rigid_contact(Ft)
@@ -114,7 +114,7 @@ def build_rigid_update(Ft):
 @functools.cache
 def build_rigid_lift(Ft):
     """``(rigid_depth, rigid_lift)`` for the scalar type ``Ft``: the position-level non-penetration of a resting rigid
-    body (``gasp_core.toolkit.rigid_friction.settle_projection``, issue 53; taichi_mpm's ``Rigid.rigid_depth`` and
+    body (``gasp_core.mpm.rigid_friction.settle_projection``, issue 53; taichi_mpm's ``Rigid.rigid_depth`` and
     ``Rigid.rigid_lift``). ``rigid_depth`` (one thread a point) takes each rigid body's deepest penetration into each
     plane of the particle contact and the penetration-weighted sum of its touching points; ``rigid_lift`` (one thread)
     moves a body that is not bouncing out along the plane's normal to ``slop`` (m) of it, without speed, and removes
@@ -249,9 +249,9 @@ class RigidBodies:
     (:meth:`_upload_rigid`), their launches after G2P (:meth:`_rigid_launches`), their share of a saved state."""
 
     def _upload_rigid(self) -> None:
-        """Which bodies are rigid and their rest frames (``gasp_core.toolkit.rigid.body_frames``, setup order)."""
+        """Which bodies are rigid and their rest frames (``gasp_core.mpm.rigid.body_frames``, setup order)."""
         import numpy as np
-        from gasp_core.toolkit.rigid import body_frames, rigid_mask
+        from gasp_core.mpm.rigid import body_frames, rigid_mask
         setup, d = self.setup, self.device
         rigid = rigid_mask(setup.materials)
         self.any_rigid = bool(rigid.any())
@@ -293,7 +293,7 @@ class RigidBodies:
                 float(self.field_mu), self.pair_acc]))
         n_pl = self.planes.shape[0] if self.p_contact.shape[0] == self.n_points else 0
         if n_pl:   # the resting bodies' position-level non-penetration, then their points on the pose again
-            from gasp_core.toolkit.rigid import RIGID_SLOP
+            from gasp_core.mpm.rigid import RIGID_SLOP
             depth_k, lift_k = build_rigid_lift(Ft)
             nb = len(self.setup.materials)
             self.rb_dmax = wp.zeros(nb * n_pl, dtype=wp.float64, device=d)

@@ -1,6 +1,6 @@
 """A rigid body's lift-off and friction with its supports as one body (issue 53's twist, issue 67's Coulomb by force
 balance) as Warp functions per scalar type, called by ``rigid.build_rigid_update``; the NumPy reference is
-:mod:`gasp_core.toolkit.rigid_friction`, taichi_mpm's ``rigid_friction.py`` spells the same steps.
+:mod:`gasp_core.mpm.rigid_friction`, taichi_mpm's ``rigid_friction.py`` spells the same steps.
 
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of
 the closures below as type objects.
@@ -9,12 +9,12 @@ import functools
 
 import warp as wp
 
-from gasp_core.toolkit.rigid_friction import FLAT_FROM, FLAT_TO
+from gasp_core.mpm.rigid_friction import FLAT_FROM, FLAT_TO
 
 from .precision import MODULE_OPTIONS, build_types
 
 vec3d = wp.types.vector(3, wp.float64)
-FLAT_0 = wp.constant(wp.float64(FLAT_FROM))   # gasp_core.toolkit.rigid_friction.contact_flatness's bounds
+FLAT_0 = wp.constant(wp.float64(FLAT_FROM))   # gasp_core.mpm.rigid_friction.contact_flatness's bounds
 FLAT_W = wp.constant(wp.float64(FLAT_TO - FLAT_FROM))
 mat33d = wp.types.matrix((3, 3), wp.float64)
 
@@ -30,7 +30,7 @@ def build_rigid_contact(Ft):
     def lift_off(V: vec3d, c: vec3d, c0: vec3d, jn: vec3, e_pair: Ft, vin_f: Ft, v_rest: Ft, gravity: vec3d,
                  T: wp.float64):
         # taichi_mpm's Rigid.lift_off: the normal part of V along the contact's mean normal made the speed with which
-        # the free flights cross as an instantaneous bounce of restitution e (gasp_core.toolkit.restitution.
+        # the free flights cross as an instantaneous bounce of restitution e (gasp_core.mpm.restitution.
         # lift_off_speed); e 0 below v_rest
         out = V
         n = vec3d(wp.float64(jn[0]), wp.float64(jn[1]), wp.float64(jn[2]))
@@ -70,7 +70,7 @@ def build_rigid_contact(Ft):
     def slide_brake(V: vec3d, w: vec3d, inertia: mat33d, M: wp.float64, c: vec3d, jn: vec3,
                     fx: wp.vec4d, fv: vec3d, jx: wp.array(dtype=wp.float64), b: int,
                     deep: wp.array(dtype=wp.float64), flat: wp.array(dtype=wp.float64), xf: wp.array(dtype=vec3d)):
-        # taichi_mpm's Rigid.slide_brake (gasp_core.toolkit.rigid_friction.coulomb_friction): Coulomb's friction on the body
+        # taichi_mpm's Rigid.slide_brake (gasp_core.mpm.rigid_friction.coulomb_friction): Coulomb's friction on the body
         # as one, decided by force balance: the impulse along -u_t at the budget-weighted contact point that stops
         # u_t (relative to the supports) when within the budget sum mu j (it sticks), else the budget (it slides);
         # its tipping moment held by the normal contact up to J a (a the patch's half-width along u_t)
@@ -98,7 +98,7 @@ def build_rigid_contact(Ft):
                 S = mat33d(jx[k0 + 4], jx[k0 + 5], jx[k0 + 6], jx[k0 + 5], jx[k0 + 7], jx[k0 + 8],
                            jx[k0 + 6], jx[k0 + 8], jx[k0 + 9]) / J - wp.outer(xm, xm)
                 s3 = wp.max(wp.float64(3.0) * wp.dot(t, S * t), wp.float64(0.0))
-                # a face holds the moment, a rounded contact rolls (gasp_core.toolkit.rigid_friction.
+                # a face holds the moment, a rounded contact rolls (gasp_core.mpm.rigid_friction.
                 # contact_flatness): the patch's radius of curvature s3 / depth against the mass centre's height
                 f = wp.float64(1.0)
                 h = wp.abs(wp.dot(xm - c, n))
@@ -126,7 +126,7 @@ def build_rigid_contact(Ft):
 @functools.cache
 def build_rigid_pair(Ft):
     """``rigid_pair`` (float64 whatever ``Ft``): the contact of two rigid bodies as one, by force balance (issue 67
-    item 4; the NumPy reference is ``gasp_core.toolkit.rigid_friction.pair_contact``, taichi_mpm's ``RigidFriction.pair_contact`` the same steps),
+    item 4; the NumPy reference is ``gasp_core.mpm.rigid_friction.pair_contact``, taichi_mpm's ``RigidFriction.pair_contact`` the same steps),
     one thread after ``rigid_update``: the touching nodes' sums ``acc`` (``fields.field_contact``: sum m_red,
     sum m_red x, sum m_red n) give the contact's centre and normal; the mass centres' approach along it is removed
     through the centres, then Coulomb's friction of that impulse at the centre; the centres' advance of the substep

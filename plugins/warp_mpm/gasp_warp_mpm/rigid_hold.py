@@ -1,4 +1,4 @@
-"""The rigid bodies' hold on the flowing points (``gasp_core.toolkit.rigid_hold``, docs/contact.md; taichi_mpm's
+"""The rigid bodies' hold on the flowing points (``gasp_core.mpm.rigid_hold``, docs/contact.md; taichi_mpm's
 ``rigid_hold.py`` spells the same steps): after each substep's G2P and the rigid projection, a point of a body of the
 grid contact found inside a holding rigid body (its distance field at the body's pose of that substep, read as a
 collider's, ``colliders.build_field_at``) is put back on its surface, its approach relative to the body removed and
@@ -14,7 +14,7 @@ import numpy as np
 import warp as wp
 
 from gasp_core.colliders.model import COL_META
-from gasp_core.toolkit.grid_tables import CM_FRICTION
+from gasp_core.mpm.grid_tables import CM_FRICTION
 
 from .colliders import build_collide, build_field_at
 from .precision import MODULE_OPTIONS, build_types
@@ -69,10 +69,10 @@ def build_rigid_hold(Ft):
 def rigid_hold_launches(eng, Ft) -> list:
     """The recorded launch of the rigid bodies' hold after their projection (:func:`build_rigid_hold`) for the engine
     ``eng``, where a rigid body shares its scene with a body of the grid contact
-    (``gasp_core.toolkit.rigid_hold.rigid_hold_tables``); else none: such scenes run the code before."""
+    (``gasp_core.mpm.rigid_hold.rigid_hold_tables``); else none: such scenes run the code before."""
     if not eng.any_rigid:
         return []
-    from gasp_core.toolkit.rigid_hold import rigid_hold_tables
+    from gasp_core.mpm.rigid_hold import rigid_hold_tables
     tables = rigid_hold_tables(eng.setup, float(eng.dx), eng.flows.numpy().astype(bool))
     if tables is None:
         return []

@@ -1,13 +1,13 @@
 """The colliders', forces' and impulses' tables of a :class:`~gasp_warp_mpm.engine.WarpMPMEngine`
-(``gasp_core.toolkit.grid_tables``): built once, and their time-dependent rows loaded each frame."""
+(``gasp_core.mpm.grid_tables``): built once, and their time-dependent rows loaded each frame."""
 from __future__ import annotations
 
 import numpy as np
 import warp as wp
 
 from gasp_core.seam import SimSetup
-from gasp_core.toolkit.contact import collider_grid_depth, contact_model, rule_models
-from gasp_core.toolkit.rigid import step_view
+from gasp_core.mpm.contact import collider_grid_depth, contact_model, rule_models
+from gasp_core.mpm.rigid import step_view
 
 
 class ExtraTables:
@@ -15,8 +15,8 @@ class ExtraTables:
     ``_np_dtype`` it reads."""
 
     def _extras(self, setup: SimSetup, arr, Ft):
-        """``(has_extras, Extras struct)`` from ``gasp_core.toolkit.grid_tables.grid_tables`` (empty arrays when none)."""
-        from gasp_core.toolkit.grid_tables import grid_tables
+        """``(has_extras, Extras struct)`` from ``gasp_core.mpm.grid_tables.grid_tables`` (empty arrays when none)."""
+        from gasp_core.mpm.grid_tables import grid_tables
         tables = grid_tables(setup)
         ex = self.k.Extras()
         self._ex_tables = tables if tables.any else None
@@ -30,19 +30,19 @@ class ExtraTables:
         ex.n_col, ex.n_force, ex.n_imp, ex.width = (tables.n_colliders, tables.n_forces, tables.n_impulses,
                                                      tables.width)
         # the colliders' grid rule two cells inside them with the particle contact (its points meet the surface)
-        # (the contact chosen per body: from the surface, fully from there; gasp_core.toolkit.contact.rule_models)
+        # (the contact chosen per body: from the surface, fully from there; gasp_core.mpm.contact.rule_models)
         reach, full = rule_models(contact_model(step_view(setup)))
         ex.col_deep, ex.col_full = Ft(collider_grid_depth(reach, self.dx)), Ft(collider_grid_depth(full, self.dx))
         # the rigid bodies' restitution (per body and per plane of contact_planes) and the rest speed
-        from gasp_core.toolkit.contact import contact_planes
-        from gasp_core.toolkit.restitution import body_table, plane_table, rest_speed
+        from gasp_core.mpm.contact import contact_planes
+        from gasp_core.mpm.restitution import body_table, plane_table, rest_speed
         n_planes = len(contact_planes(step_view(setup), contact_model(step_view(setup)))[0])
         ex.rb_e = arr(body_table(setup).astype(np_t), Ft)
         ex.rb_vin, ex.rb_vin_next = (wp.zeros(len(setup.materials), dtype=Ft, device=self.device) for _ in "ab")
         ex.rb_touch = wp.zeros(len(setup.materials), dtype=wp.int32, device=self.device)
         ex.rb_jn = wp.zeros(len(setup.materials), dtype=self.k.vec3, device=self.device)
         ex.rb_je, ex.rb_j = (wp.zeros(len(setup.materials), dtype=Ft, device=self.device) for _ in "ab")
-        from gasp_core.toolkit.rigid import face_counts
+        from gasp_core.mpm.rigid import face_counts
         ex.rb_nface = arr(face_counts(setup).astype(np_t), Ft)
         ex.rb_count, ex.rb_nlast, ex.rb_ndepth = (wp.zeros(len(setup.materials), dtype=wp.int32, device=self.device)
                                                   for _ in "abc")
@@ -63,7 +63,7 @@ class ExtraTables:
 
     def _load_frame_table(self) -> None:
         """The time-dependent inputs of this frame's substeps (collider poses, impulse weights)."""
-        from gasp_core.toolkit.grid_tables import frame_table
+        from gasp_core.mpm.grid_tables import frame_table
         tab = frame_table(self.setup, (self.frame - 1) * self.setup.frame_dt, self.n_substeps, self.dt).astype(self._np_dtype)
         self._ex.tab.assign(tab)
         self._ex.step.zero_()

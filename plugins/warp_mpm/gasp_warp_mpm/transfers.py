@@ -15,7 +15,7 @@ import functools
 
 import warp as wp
 
-from gasp_core.toolkit.materials import P_ETA
+from gasp_core.mpm.materials import P_ETA
 
 from .contact import build_collider_contact, build_passive_hold
 from .fields import build_aflip_gather, build_field_reads
@@ -156,7 +156,7 @@ def build_p2g(Ft):
         grid_vf: wp.array(dtype=Ft), in_a: wp.array(dtype=wp.int32), fixed: wp.array(dtype=wp.int32),
     ):
         # F advanced by C, return mapping and stress (docs/mpm.md), then the scatter (and, with wind, grid_g;
-        # with flip, the APIC momentum alone into grid_mv0: gasp_core.toolkit.transfer); with the particle
+        # with flip, the APIC momentum alone into grid_mv0: gasp_core.mpm.transfer); with the particle
         # contact (planes: grounds and walls; colc: the colliders too), the normal impulses join the momentum and their
         # friction budget goes to grid_fb (with walls or colliders its normal to grid_fn, supports' velocity to grid_fv;
         # :mod:`gasp_warp_mpm.contact`); with the contact chosen per body the flowing bodies' (flows[b]) mass to grid_mf
@@ -285,7 +285,7 @@ def build_g2p(Ft):
         if fixed[p] != 0:
             v[p] = vec3(Ft(0.0))
             return
-        if alpha > Ft(0.0):  # AFLIP: v_PIC(new) + alpha (v_p - v_PIC(old)) (gasp_core.toolkit.transfer)
+        if alpha > Ft(0.0):  # AFLIP: v_PIC(new) + alpha (v_p - v_PIC(old)) (gasp_core.mpm.transfer)
             v[p] = new_v + alpha * (v[p] - aflip_gather(grid_v0, W, idx0, nn, n_grid))
         else:
             v[p] = new_v
@@ -317,9 +317,9 @@ def build_g2p_passive(Ft):
         # the weighted least-squares fit of the node velocities (APIC's C on a full stencil). The
         # point then advances over the m substeps since its last gather through the affine field
         # v(y, k) = v_prev + (k/m)(v_new - v_prev) + (C_prev + (k/m)(C_new - C_prev)) y,
-        # y += dt v(y, k), k = 1..m (gasp_core.toolkit.substeps.passive_schedule), so it turns with the material.
+        # y += dt v(y, k), k = 1..m (gasp_core.mpm.substeps.passive_schedule), so it turns with the material.
         # A point with no node of mass in its stencil (stranded) falls freely: v_new = v_prev + m dt g; on the floor
-        # it slides with the floor's Coulomb friction mu_floor (gasp_core.toolkit.points.hold_passive).
+        # it slides with the floor's Coulomb friction mu_floor (gasp_core.mpm.points.hold_passive).
         p = first + wp.tid()
         if fixed[p] != 0:
             v[p] = vec3(Ft(0.0))
@@ -379,7 +379,7 @@ def build_g2p_passive(Ft):
         for kk in range(m):
             t = Ft(kk + 1) / Ft(m)
             y = y + dt * (vp + t * (new_v - vp) + (Cp + t * (Cn - Cp)) * y)
-        # then held in the box the boundaries leave it, [hold_lo, hold_hi] (gasp_core.toolkit.points.passive_bounds)
+        # then held in the box the boundaries leave it, [hold_lo, hold_hi] (gasp_core.mpm.points.passive_bounds)
         xn, vn = hold_passive(xp + y, new_v + Cn * y, hold_lo, hold_hi, stranded, mu_floor)
         x[p] = xn
         v[p] = vn

@@ -277,7 +277,7 @@ def test_contact_coefficients_follow_the_points_when_they_are_resorted():
     cell and after a state restore (they differ between points of different volumes; before this, the re-sort
     permuted x, v, F, ... but not them)."""
     from gasp_core.testing.helpers import make_setup, sphere_points
-    from gasp_core.toolkit.contact import contact_coefficients
+    from gasp_core.mpm.contact import contact_coefficients
     rng = np.random.default_rng(3)
     x, p_vol = sphere_points((0.5, 0.5, 0.2), 0.08, 0.02)
     p_vol = p_vol * rng.uniform(0.3, 1.0, len(x))          # coefficients differ point to point

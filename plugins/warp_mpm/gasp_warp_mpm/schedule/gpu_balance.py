@@ -25,7 +25,7 @@ BLK = wp.constant(BLOCK)
 #: Columns of the balance's friction sums that the nodes give (``balance.FR_COLUMNS``' first 17; the rest are the
 #: per-support results ``fix_supports`` writes).
 FR_SUM_COLUMNS = 17
-#: ``gasp_core.toolkit.contact.JSUMS``: columns 13-18 are the pushed points' box (min, max per axis), the rest sums.
+#: ``gasp_core.mpm.contact.JSUMS``: columns 13-18 are the pushed points' box (min, max per axis), the rest sums.
 JSUMS_BOX = 13
 
 

@@ -1,4 +1,4 @@
-"""Tests of the MPM toolkit (gasp_core.toolkit) that the grid engines share."""
+"""Tests of the MPM engines' shared half (gasp_core.mpm) that the grid engines share."""
 import math
 
 import numpy as np
@@ -7,11 +7,11 @@ import pytest
 from gasp_core.errors import SceneError
 from gasp_core.seam.options import check_options
 from gasp_core.seam.setup import Boundary, Material
-from gasp_core.toolkit.materials import (initial_Jp, MATERIAL_CODES, material_table, N_PARAMS, P_ALPHA, P_K, P_LAM,
+from gasp_core.mpm.materials import (initial_Jp, MATERIAL_CODES, material_table, N_PARAMS, P_ALPHA, P_K, P_LAM,
                                          P_MU, P_THETA_C)
-from gasp_core.toolkit.options import mpm_options
-from gasp_core.toolkit.points import HELD_STRAINED, cell_order, fixed_mask, held_codes, image_gradient
-from gasp_core.toolkit.sweep import mpm_sweep
+from gasp_core.mpm.options import mpm_options
+from gasp_core.mpm.points import HELD_STRAINED, cell_order, fixed_mask, held_codes, image_gradient
+from gasp_core.mpm.sweep import mpm_sweep
 
 
 def test_material_table_holds_the_lame_parameters_and_the_derived_constants():

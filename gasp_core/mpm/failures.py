@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 
-#: Conformance scenes the grid engines built on this toolkit fail (they run the same algorithm,
+#: Conformance scenes the grid engines built on this package fail (they run the same algorithm,
 #: docs/mpm.md), each with the measured figures; engines copy them into
 #: ``EngineInfo.known_failures``.
 _CLAMP_OFF_GRID = ("clamp face 0.6 dx past a grid node: time-averaged tip deflection 30.83 mm vs Euler-Bernoulli "

@@ -36,7 +36,7 @@ from __future__ import annotations
 import numpy as np
 
 from gasp_core.seam.options import Option
-from gasp_core.toolkit.points import ground_top_node, WALL_NODES
+from gasp_core.mpm.points import ground_top_node, WALL_NODES
 
 #: Contact stiffness per unit Young's modulus and point spacing (dimensionless): ``k_p = KAPPA E p_vol^(1/3)``.
 #: Chosen with ``DAMPING`` and ``SKIN`` from the candidates of ``docs/contact.md``
@@ -177,7 +177,7 @@ def contact_dt(setup) -> float:
     ``omega = sqrt(KAPPA E / (rho dx h))`` (rad/s) is a contact patch's frequency: the stiffness
     ``KAPPA E h`` of the ``(dx / h)^2`` points of median spacing ``h`` (m) that press on one node, over the node's
     mass ``rho dx^3``. The grid engines take the shorter of this and the CFL step; a hand-set ``dt`` or
-    ``n_substeps`` longer than this is shortened to it with a warning (``gasp_core.toolkit.grid_engine.choose_dt``).
+    ``n_substeps`` longer than this is shortened to it with a warning (``gasp_core.mpm.grid_engine.choose_dt``).
     Measured (``conformance_tests/test_extremes.py``, a 0.2 m jelly cube, E 1e5 Pa, dropped at 2 m/s): at ``cfl = 1.0`` (5 ms steps) the contact gained 239 % of the body's energy with ``KAPPA`` 4 and 16.8 % with 2; at 3.3 ms
     none. The README donut (median ``omega dt`` 1.5 at the default ``cfl = 0.4``) is not affected.
     """

@@ -90,13 +90,13 @@ def rest_speed(setup) -> float:
 def body_table(setup) -> np.ndarray:
     """Per body its coefficient (:func:`body_restitution`) for a rigid body, -1 for the others (their contact keeps
     its damping): shape (n_bodies,), float64."""
-    from gasp_core.toolkit.rigid import rigid_mask
+    from gasp_core.mpm.rigid import rigid_mask
     rigid = rigid_mask(setup.materials)
     return np.array([body_restitution(m) if r else -1.0 for m, r in zip(setup.materials, rigid)], np.float64)
 
 
 def plane_table(setup, n_planes: int) -> np.ndarray:
-    """Per plane of ``gasp_core.toolkit.contact.contact_planes`` (the grounds, then each walls boundary's 6 faces)
+    """Per plane of ``gasp_core.mpm.contact.contact_planes`` (the grounds, then each walls boundary's 6 faces)
     its boundary's ``restitution``: shape (n_planes,), float64 (the same order; empty when there are none)."""
     grounds = [float(getattr(b, "restitution", BOUNDARY_RESTITUTION)) for b in setup.boundaries if b.kind == "ground"]
     walls = [float(getattr(b, "restitution", BOUNDARY_RESTITUTION)) for b in setup.boundaries if b.kind == "walls"]

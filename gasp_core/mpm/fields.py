@@ -2,7 +2,7 @@
 slides on what it touches"): the shared maths and parameters; each grid engine's ``fields.py`` spells the same steps.
 
 In a single-velocity-field MPM grid, two bodies that share a node move with one velocity: the no-slip of a sand pile
-glued to a ball. Here, in a ``"mixed"`` scene (:func:`gasp_core.toolkit.contact.contact_model`: a flowing body beside
+glued to a ball. Here, in a ``"mixed"`` scene (:func:`gasp_core.mpm.contact.contact_model`: a flowing body beside
 one that does not flow), the flowing bodies (field A) also scatter their momentum and mass to a grid of their own; the
 other bodies' field (B) is the whole grid's less A's. Where both fields have mass at a node, the contact normal comes
 from the mass gradients and the two velocities are corrected by Coulomb's law (Bardenhagen, Brackbill and Sulsky
@@ -41,7 +41,7 @@ import math
 import numpy as np
 
 from gasp_core.seam.options import Option
-from gasp_core.toolkit.contact import contact_model, flowing_bodies
+from gasp_core.mpm.contact import contact_model, flowing_bodies
 
 #: Engine option ``contact_fields`` of the MPM engines.
 FIELDS = Option("contact_fields", True, "in a scene with flowing (sand, snow, liquid) and other bodies, the flowing "
@@ -88,7 +88,7 @@ def soft_pair(setup) -> bool:
     """Whether a scene is two soft bodies on the particle contact (two materials, neither flowing nor rigid): they
     take a field each, the smaller (A) against the larger (B), so they meet at their surfaces (issue 53 item 5,
     ``docs/contact.md`` "Two jelly balls stacked"). Three or more soft bodies keep one field (no multi-field contact yet)."""
-    from gasp_core.toolkit.rigid import rigid_mask
+    from gasp_core.mpm.rigid import rigid_mask
     return (len(setup.materials) == 2 and contact_model(setup) == "particle"
             and not np.asarray(rigid_mask(setup.materials)).any())
 
@@ -96,9 +96,9 @@ def soft_pair(setup) -> bool:
 def rigid_pair(setup) -> bool:
     """Whether a scene is two rigid bodies on the particle contact (two materials, both ``model = "rigid"``): they take
     a field each (the smaller A), whose nodes only find where they touch; their contact is then taken on the two
-    bodies as one, by force balance (``gasp_core.toolkit.rigid_friction.pair_contact``, issue 67 item 4). One rigid
+    bodies as one, by force balance (``gasp_core.mpm.rigid_friction.pair_contact``, issue 67 item 4). One rigid
     body beside a soft one, or three or more bodies, keep one field."""
-    from gasp_core.toolkit.rigid import rigid_mask
+    from gasp_core.mpm.rigid import rigid_mask
     return (len(setup.materials) == 2 and contact_model(setup) == "particle"
             and bool(np.asarray(rigid_mask(setup.materials)).all()))
 
@@ -132,7 +132,7 @@ def body_friction(material) -> float:
 def combine_friction(mu_a: float, mu_b: float) -> float:
     """A pair's Coulomb coefficient from its two bodies': the geometric mean ``sqrt(mu_a mu_b)``, Bullet's rule
     (``btManifoldResult::calculateCombinedFriction``, the friction counterpart of the product that
-    ``gasp_core.toolkit.restitution.combine`` takes from ``calculateCombinedRestitution``; Bullet clamps it to 10).
+    ``gasp_core.mpm.restitution.combine`` takes from ``calculateCombinedRestitution``; Bullet clamps it to 10).
     Chosen as the restitution rule is: a body on a body of the same material keeps its own coefficient (an average
     does too), and a frictionless body (0) slides on anything (an average would not: ice on rubber would take half
     rubber's coefficient). Other engines average or take the larger; ``docs/rigid.md`` "A block on a block" compares

@@ -289,7 +289,7 @@ def passive_bounds(setup, contact: str = "grid") -> tuple[np.ndarray, np.ndarray
     - ``walls``: ``lo_d + 2 dx <= x_d <= lo_d + hi_first dx`` on each axis, the wall node layers nearest the
       inside (:data:`WALL_NODES`; ``hi_first = floor((hi_d - lo_d) / dx - 3) + 1``, ``hi_d - 2 dx`` on a domain
       of whole cells), where the walls' grid rule stops the material's nodes (``contact = "grid"``); with the
-      particle contact (``contact = "particle"``: ``gasp_core.toolkit.contact.contact_model`` of the setup) its walls'
+      particle contact (``contact = "particle"``: ``gasp_core.mpm.contact.contact_model`` of the setup) its walls'
       planes, ``lo_d + 3 dx <= x_d <= hi_d - 3 dx`` (``contact.contact_planes``);
     - ``fixed_region``: nothing (its passive points are held where they start, like its material points);
     - no boundary on a side: ``-inf`` / ``+inf`` (a point that leaves the grid there is still reported).

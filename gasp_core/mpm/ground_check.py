@@ -9,8 +9,8 @@ from types import SimpleNamespace
 import numpy as np
 
 from gasp_core.errors import SceneError
-from gasp_core.toolkit.contact import contact_model, ground_node_layer
-from gasp_core.toolkit.rigid import step_view
+from gasp_core.mpm.contact import contact_model, ground_node_layer
+from gasp_core.mpm.rigid import step_view
 
 
 #: Cells a scene's ``[domain] lo`` z must lie below a ground for the particle contact: its ground node layers
@@ -21,7 +21,7 @@ GROUND_CELLS_BELOW = 3
 
 def check_ground_in_grid(scene, options, setup=None) -> None:
     """Refuse an explicit ``[domain]`` whose floor lies so close under a ground (or at it) that the particle
-    contact's ground node layers (:func:`gasp_core.toolkit.contact.ground_node_layer`, two cells below the
+    contact's ground node layers (:func:`gasp_core.mpm.contact.ground_node_layer`, two cells below the
     plane) fall outside the grid: a body then rests with its points' stencil below the grid and the run
     diverges (issue 38: ``lo`` z at the ground's height left the domain at frame 3). Decided on the scene alone
     (the domain, the objects' materials and the engine options), before any file is read; for the grid engines.
@@ -30,11 +30,11 @@ def check_ground_in_grid(scene, options, setup=None) -> None:
     ----------
     scene : Scene
     options : dict
-        The engine options the run takes (``contact``; :func:`gasp_core.toolkit.contact.contact_model`).
+        The engine options the run takes (``contact``; :func:`gasp_core.mpm.contact.contact_model`).
     setup : SimSetup, optional
         Once built and its bodies' models chosen: checked again only where a body is rigid, with the materials as
         the contact rule sees them (issue 40: a rigid body shows ``E = 1 Pa``,
-        :func:`gasp_core.toolkit.rigid.step_view`); None: the scene's materials. The engines' ``check_scene``
+        :func:`gasp_core.mpm.rigid.step_view`); None: the scene's materials. The engines' ``check_scene``
         (:class:`gasp_core.seam.engine.EngineInfo`).
 
     Raises

@@ -16,11 +16,11 @@ import numpy as np
 
 from gasp_core.errors import EngineError, SceneError
 from gasp_core.seam.engine import Capabilities
-from gasp_core.toolkit.contact import contact_dt, contact_model, flowing_bodies
-from gasp_core.toolkit.fields import uses_fields
-from gasp_core.toolkit.rigid import step_view
-from gasp_core.toolkit.points import engine_mass_stats, material_first_order, stranded_passive
-from gasp_core.toolkit.substeps import MAX_SUBSTEPS, substeps_for, substeps_from_options
+from gasp_core.mpm.contact import contact_dt, contact_model, flowing_bodies
+from gasp_core.mpm.fields import uses_fields
+from gasp_core.mpm.rigid import step_view
+from gasp_core.mpm.points import engine_mass_stats, material_first_order, stranded_passive
+from gasp_core.mpm.substeps import MAX_SUBSTEPS, substeps_for, substeps_from_options
 
 #: What an engine implementing ``docs/mpm.md`` on CPU and CUDA offers (its plugin may narrow it).
 MPM_CAPABILITIES = Capabilities(
@@ -35,12 +35,12 @@ MPM_CAPABILITIES = Capabilities(
 
 
 def choose_dt(setup, opts: dict[str, Any], engine: str, implicit_viscosity: bool = False) -> tuple[int, float]:
-    """Substeps per frame and substep length, s (``gasp_core.toolkit.substeps.substeps_from_options``,
+    """Substeps per frame and substep length, s (``gasp_core.mpm.substeps.substeps_from_options``,
     docs/mpm.md "Time step"); ``implicit_viscosity``: the engine integrates viscosity by backward Euler, so it
     sets no step cap.
 
     With the particle contact the step is always kept within the contact's stable step
-    (``gasp_core.toolkit.contact.contact_dt``, ``docs/contact.md``): a longer CFL step is shortened silently; a
+    (``gasp_core.mpm.contact.contact_dt``, ``docs/contact.md``): a longer CFL step is shortened silently; a
     longer step set by hand (the option ``dt``, or ``n_substeps`` too few) is shortened to it, more substeps per
     frame, with a ``UserWarning`` naming the option, its value and the step taken (at ``n_substeps = 2`` the
     ``bounce`` ball gained 91 % of its drop energy, issue 38).
@@ -73,7 +73,7 @@ def choose_dt(setup, opts: dict[str, Any], engine: str, implicit_viscosity: bool
 
 def grid_substeps(setup) -> int:
     """The substeps a frame :func:`choose_dt` takes for ``setup`` (its options; a rigid body seen as
-    :func:`gasp_core.toolkit.rigid.step_view` shows it), silently: the grid engines' ``EngineInfo.substeps``.
+    :func:`gasp_core.mpm.rigid.step_view` shows it), silently: the grid engines' ``EngineInfo.substeps``.
 
     Raises
     ------
@@ -99,7 +99,7 @@ class GridEngineBase:
     # ------------------------------------------------------------------ point order
     def order_points(self, setup, dx: float) -> None:
         """Set ``_order`` (internal point i is setup point ``_order[i]``: material points by grid cell, then
-        passive points by cell; ``gasp_core.toolkit.points.material_first_order``) and ``n_material``."""
+        passive points by cell; ``gasp_core.mpm.points.material_first_order``) and ``n_material``."""
         self._order, self.n_material = material_first_order(setup, dx)
 
     @property
@@ -164,7 +164,7 @@ class GridEngineBase:
 
     def damage(self) -> np.ndarray:
         """Per-point damage ``d``, shape (n,), float64, in [0, 1], setup order (feature ``damage``): the ``Jp`` of a
-        ``brittle`` point (``gasp_core.toolkit.materials.brittle_damage``), 0 for every other point. Needs
+        ``brittle`` point (``gasp_core.mpm.materials.brittle_damage``), 0 for every other point. Needs
         :meth:`read_array` to know ``Jp`` (it is in :attr:`STATE`)."""
         self.check_open()
         brittle = np.array([m.name == "brittle" for m in self.setup.materials])[self.setup.body_id]
@@ -184,13 +184,13 @@ class GridEngineBase:
     def grid_stats(self, device: str, precision: str, x: np.ndarray | None, p_mass: np.ndarray | None,
                    grid_m: np.ndarray | None) -> dict[str, Any]:
         """The statistics every grid engine reports: ``device, precision, n_points, dt`` (s), ``n_substeps``,
-        ``n_grid``, ``dx`` (m), ``frame``, ``n_passive``, ``contact`` (``gasp_core.toolkit.contact.contact_model``:
+        ``n_grid``, ``dx`` (m), ``frame``, ``n_passive``, ``contact`` (``gasp_core.mpm.contact.contact_model``:
         ``"particle"``, ``"grid"`` or ``"mixed"``) and ``contact_per_body`` (per body, ``"grid"`` or
-        ``"particle"``), ``contact_fields`` (bool: the two-field contact of ``gasp_core.toolkit.fields``); with ``x``
+        ``"particle"``), ``contact_fields`` (bool: the two-field contact of ``gasp_core.mpm.fields``); with ``x``
         and ``p_mass`` (internal order, the engine's
         own arrays) ``mass`` (kg), ``centre_of_mass`` (m), ``inertia`` (kg m^2); with passive points after a frame
         and ``grid_m`` (node masses of the last grid update, shape (n_grid,)*3), ``passive_stranded``
-        (:func:`gasp_core.toolkit.points.stranded_passive`)."""
+        (:func:`gasp_core.mpm.points.stranded_passive`)."""
         setup = self.setup
         n = len(setup.x)
         out = {"device": device, "precision": precision, "n_points": int(n), "dt": float(self.dt),
@@ -199,7 +199,7 @@ class GridEngineBase:
         view = step_view(setup)
         out["contact"] = contact_model(view)
         out["contact_per_body"] = ["grid" if f else "particle" for f in flowing_bodies(view, out["contact"])]
-        out["contact_fields"] = uses_fields(view)   # two velocity fields (gasp_core.toolkit.fields)
+        out["contact_fields"] = uses_fields(view)   # two velocity fields (gasp_core.mpm.fields)
         if x is not None:
             out.update(engine_mass_stats(x, p_mass))
             if grid_m is not None and self.n_material < n and self.frame > 0:

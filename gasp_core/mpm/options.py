@@ -15,10 +15,10 @@ from typing import ClassVar
 
 from gasp_core.seam.config import Preset, config_options, from_option, option
 from gasp_core.seam.options import Option
-from gasp_core.toolkit.contact import BALANCE, CONTACT
-from gasp_core.toolkit.fields import FIELDS
-from gasp_core.toolkit.substeps import CFL, MAX_SUBSTEPS, PASSIVE_EVERY
-from gasp_core.toolkit.transfer import FLIP
+from gasp_core.mpm.contact import BALANCE, CONTACT
+from gasp_core.mpm.fields import FIELDS
+from gasp_core.mpm.substeps import CFL, MAX_SUBSTEPS, PASSIVE_EVERY
+from gasp_core.mpm.transfer import FLIP
 
 
 @dataclass(frozen=True)

@@ -1,5 +1,5 @@
 """The NumPy references of a rigid body's contact with a plane (``docs/rigid.md``), beside
-:mod:`gasp_core.toolkit.rigid`: :func:`settle_projection` (the position-level non-penetration of a resting body,
+:mod:`gasp_core.mpm.rigid`: :func:`settle_projection` (the position-level non-penetration of a resting body,
 issue 53) and :func:`coulomb_friction` (its friction decided by force balance, issue 67), transcribed by both MPM
 plugins' kernels.
 """
@@ -50,7 +50,7 @@ def settle_projection(depth: float, n, x_c, c, V, w, inertia, M: float, mu: floa
     """The position-level non-penetration of a resting rigid body against one plane (issue 53, the NumPy reference
     of each grid plugin's ``rigid_lift``): after its velocity update, a body whose deepest contact point is
     ``depth`` (m) into a support of normal ``n`` is moved out along ``n`` by ``depth - slop`` (``slop`` =
-    :data:`gasp_core.toolkit.rigid.RIGID_SLOP` cells), its velocity untouched by the move (Bullet's split impulse: the position error is
+    :data:`gasp_core.mpm.rigid.RIGID_SLOP` cells), its velocity untouched by the move (Bullet's split impulse: the position error is
     not turned into speed, Catto 2006 / Coumans, "Bullet 2.x physics SDK manual", "split impulse"; no Baumgarte
     term). The centre's approach along ``n`` is then removed by an impulse through the centre (the inelastic velocity
     constraint of a sequential-impulse solver; the penalty alone left the body that deep; through the centre, as an
@@ -58,14 +58,14 @@ def settle_projection(depth: float, n, x_c, c, V, w, inertia, M: float, mu: floa
     and Coulomb's friction of that impulse (at most ``mu`` times it, never reversing the slip) applied at ``x_c``.
 
     The engines (each grid plugin's ``rigid_depth`` and ``rigid_lift``, after the rigid update of every substep, per
-    plane of the particle contact) apply it to a body with the restitution law (``gasp_core.toolkit.restitution``)
+    plane of the particle contact) apply it to a body with the restitution law (``gasp_core.mpm.restitution``)
     that is not bouncing: ``e`` (the body's times the plane's) times its approach speed (its ongoing contact's
     ``v_in``, or its centre's ``-V . n`` now) under the rest speed; a bounce keeps its hysteresis and lift-off.
     Issue 53 measured what held a body at depth: a fill-only slab put 0.2 dx in the ground stayed there because the
     particle contact took its start clearance (0.05 dx) as its skin (:func:`rigid_contact` now gives a fill alone
     half a spacing wherever it is put, and :func:`lift_setup` lifts it out); the wooden donut's lowest Gaussian
     rested 0.46-0.59 dx deep because 5-13 hanging Gaussians held its weight at the stiffness of its 487 face points
-    (:func:`gasp_core.toolkit.rigid.support_scale`).
+    (:func:`gasp_core.mpm.rigid.support_scale`).
 
     Parameters
     ----------
@@ -188,7 +188,7 @@ def pair_contact(A, B, x_c, n, mu: float):
     """The contact of two rigid bodies as one, by force balance (issue 67 item 4; the NumPy reference of each grid
     plugin's ``pair_contact``): the substep's normal impulse, then Coulomb's friction of it, both equal and opposite.
 
-    The two bodies meet through the two-field contact's nodes (:func:`gasp_core.toolkit.fields.rigid_pair`), which
+    The two bodies meet through the two-field contact's nodes (:func:`gasp_core.mpm.fields.rigid_pair`), which
     here only find where they touch: ``x_c`` the touching nodes' centre and ``n`` their mean normal (field B's mass
     gradient, from A into B), each node weighted by its reduced mass ``m_A m_B / m``. The nodes' own velocity
     correction, spread over a rigid body by its projection, held the upper of two blocks as a soft spring: it sank
@@ -215,7 +215,7 @@ def pair_contact(A, B, x_c, n, mu: float):
     n : array_like, shape (3,)
         The contact's unit normal, from A into B.
     mu : float
-        The pair's coefficient (:func:`gasp_core.toolkit.fields.field_friction`).
+        The pair's coefficient (:func:`gasp_core.mpm.fields.field_friction`).
 
     Returns
     -------

@@ -3,13 +3,13 @@ scene with a body of the grid contact holds that body's points out of it as a mo
 (``docs/colliders.md`` "The hold").
 
 Each such rigid body gets a signed distance field in its own rest frame (the frame of
-:func:`gasp_core.toolkit.rigid.body_frames`: its points relative to its centre of mass, rotation the identity),
+:func:`gasp_core.mpm.rigid.body_frames`: its points relative to its centre of mass, rotation the identity),
 built once at setup from its rest points (:func:`body_sdf`). After each G2P, with the body's pose of that substep
 (centre ``c``, rotation ``R``, velocity ``V``, spin ``w``), a flowing point at ``x`` is mapped to ``X = R^T (x - c)``,
 the field's trilinear ``phi`` and normal read there; inside (``phi < 0``) the point is put back on the surface along
 the outward normal ``n = R grad phi / |grad phi|``, its approach relative to the body's velocity at that point
 (``V + w x (x - c)``) removed and its slip reduced by Coulomb's friction of that approach (the collider rule
-``collide``, coefficient :func:`gasp_core.toolkit.fields.field_friction`: the two fields' between the same bodies).
+``collide``, coefficient :func:`gasp_core.mpm.fields.field_friction`: the two fields' between the same bodies).
 The point's momentum change ``m dv`` is given back to the body (``-m dv`` at ``x``, its angular part ``x x (-m dv)``
 about the origin), added to the body's sums of its next projection: action and reaction, the momentum of the two
 bodies kept.
@@ -22,7 +22,7 @@ import numpy as np
 from scipy import ndimage
 
 from gasp_core.colliders.model import COL_META
-from gasp_core.toolkit.grid_tables import CM_FRICTION, CM_H, CM_NX, CM_OFFSET, CM_ORIGIN
+from gasp_core.mpm.grid_tables import CM_FRICTION, CM_H, CM_NX, CM_OFFSET, CM_ORIGIN
 
 #: Samples of a rigid body's distance field per grid cell: the field's surface is placed within half a sample
 #: (1/16 dx) of the body's smoothed occupancy (the collider's 2 per cell, ``gasp_core.colliders.sdf.SDF_SPACING``,
@@ -39,7 +39,7 @@ MAX_SAMPLES = 128 ** 3
 
 def holding_bodies(rigid: np.ndarray, flows: np.ndarray) -> np.ndarray:
     """Per body, True for a rigid body that holds the flowing points out: every rigid body of a scene with a body of
-    the grid contact that is not rigid (``flows``: ``gasp_core.toolkit.contact.flowing_bodies``); all False
+    the grid contact that is not rigid (``flows``: ``gasp_core.mpm.contact.flowing_bodies``); all False
     otherwise. Shape (n_bodies,), bool."""
     rigid, flows = np.asarray(rigid, bool), np.asarray(flows, bool)
     return rigid & bool(np.any(flows & ~rigid))
@@ -80,13 +80,13 @@ def body_sdf(X: np.ndarray, vol: np.ndarray, dx: float) -> tuple[np.ndarray, np.
 
 
 def rigid_hold_tables(setup, dx: float, flows: np.ndarray):
-    """The holding bodies' fields packed as the colliders' (``gasp_core.toolkit.grid_tables.GridTables``), or None
+    """The holding bodies' fields packed as the colliders' (``gasp_core.mpm.grid_tables.GridTables``), or None
     where no body holds (:func:`holding_bodies`): ``(row, sdf, grad, meta)``, ``row`` per body its row of ``meta``
     (-1: none; shape (n_bodies,), int32), ``sdf`` (N,) and ``grad`` (3N,) every field's samples (x-major), ``meta``
     rows of ``COL_META`` floats (origin in the body's rest frame, ``h``, ``nx, ny, nz``, offset, the Coulomb
-    coefficient :func:`gasp_core.toolkit.fields.field_friction`)."""
-    from gasp_core.toolkit.fields import field_friction
-    from gasp_core.toolkit.rigid import body_frames, rigid_mask, step_view
+    coefficient :func:`gasp_core.mpm.fields.field_friction`)."""
+    from gasp_core.mpm.fields import field_friction
+    from gasp_core.mpm.rigid import body_frames, rigid_mask, step_view
     rigid = rigid_mask(setup.materials)
     hold = holding_bodies(rigid, flows)
     if not hold.any():

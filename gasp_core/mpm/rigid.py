@@ -20,8 +20,8 @@ import dataclasses
 
 import numpy as np
 
-from gasp_core.toolkit.contact import DAMPING, SKIN
-from gasp_core.toolkit.materials import P_LAM, P_MU
+from gasp_core.mpm.contact import DAMPING, SKIN
+from gasp_core.mpm.materials import P_LAM, P_MU
 
 #: Elastic modulus (Pa) a rigid body shows the step and contact rules of the grid engines
 #: (:func:`step_view`): small enough that neither its wave speed nor its contact frequency sets a step.
@@ -31,8 +31,8 @@ NOMINAL_E = 1.0
 #: oscillator is stable below 2; 1 keeps the impact resolved over about 3 substeps.
 RIGID_OMEGA_DT = 1.0
 #: Damping ratio of a rigid body's contact per point (``c_p = 2 RIGID_DAMPING sqrt(k_p m_p)``), the particle contact's
-#: (``gasp_core.toolkit.contact.DAMPING``), once the body settles: while it bounces the engines apply the restitution
-#: asked for instead (issue 53, ``gasp_core.toolkit.restitution``). As the bounce's law this damping gave a
+#: (``gasp_core.mpm.contact.DAMPING``), once the body settles: while it bounces the engines apply the restitution
+#: asked for instead (issue 53, ``gasp_core.mpm.restitution``). As the bounce's law this damping gave a
 #: restitution set by how many points touch (0.75 at n_grid 24, 0.855 at 40, 0.50 for a donut landing flat, the
 #: same for steel and wood).
 RIGID_DAMPING = DAMPING
@@ -41,7 +41,7 @@ RIGID_DAMPING = DAMPING
 #: on its end, 2 for a ring on its rim.
 RIGID_LEVER = 3.0
 #: Penetration (cells) a resting rigid body's deepest contact point may keep: deeper, the body is moved out along the
-#: support's normal to this depth after its velocity update, without gaining speed (:func:`gasp_core.toolkit.rigid_friction.settle_projection`,
+#: support's normal to this depth after its velocity update, without gaining speed (:func:`gasp_core.mpm.rigid_friction.settle_projection`,
 #: issue 53). Bullet's split impulse and Box2D's ``b2_linearSlop`` leave such an allowance so that the contact keeps
 #: touching (here the penalty still carries part of the weight and gives the friction its budget); half the issue's
 #: 0.1 dx.
@@ -131,11 +131,11 @@ def support_scale(n_face, n_touch):
 
 
 def rigid_contact(setup, dt: float, coeffs: np.ndarray) -> np.ndarray:
-    """The particle contact's ``(k_p, c_p, s_p)`` (``gasp_core.toolkit.contact.contact_coefficients``) with each
+    """The particle contact's ``(k_p, c_p, s_p)`` (``gasp_core.mpm.contact.contact_coefficients``) with each
     rigid body's rows replaced: its stiffness follows the step, not its ``E``.
 
     ``k_p = (RIGID_OMEGA_DT / dt)^2 M / N`` (N/m), ``c_p = 2 RIGID_DAMPING sqrt(k_p m_p)`` (N s/m; the engines use it
-    once the body settles, the restitution's law while it bounces: ``gasp_core.toolkit.restitution``), the skin
+    once the body settles, the restitution's law while it bounces: ``gasp_core.mpm.restitution``), the skin
     unchanged for its fill points and 0 for the scene's own Gaussians that carry mass (the first ``n_render``
     points): they are its surface, so it rests on them, not half a point spacing above them (issue 53: a 10 cm ball
     of surface Gaussians rested with its lowest ones 2.6 mm, 0.105 dx, over the ground at n_grid 24, 2.3 mm at 40),
@@ -184,13 +184,13 @@ def rigid_contact(setup, dt: float, coeffs: np.ndarray) -> np.ndarray:
 
 def lift_setup(setup):
     """The setup with each rigid body moved out of the particle contact's planes (the grounds and the walls' faces)
-    until its deepest point touches (:func:`gasp_core.toolkit.rigid_friction.settle_projection`'s move before the first substep, without its slop: a
+    until its deepest point touches (:func:`gasp_core.mpm.rigid_friction.settle_projection`'s move before the first substep, without its slop: a
     body placed inside the ground is lifted out, not thrown; issue 53 measured a slab put 0.35 dx into the ground
     thrown up at 2.6 m/s in its first frame, and one lifted to the slop, 0.05 dx deep on its whole face, rose at
     0.36 m/s). Its points' penetration takes :func:`rigid_contact`'s skins
     (0 for its own Gaussians, half a spacing for a fill alone). Returns ``setup`` itself when nothing moves, else a
     shallow copy with ``x`` replaced."""
-    from gasp_core.toolkit.contact import contact_coefficients, contact_planes
+    from gasp_core.mpm.contact import contact_coefficients, contact_planes
     rigid = rigid_mask(setup.materials)
     if not rigid.any():
         return setup

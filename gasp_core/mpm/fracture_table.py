@@ -1,5 +1,5 @@
 """Brittle substances at their handbook stiffness, strength and fracture energy (issue 66 item 5, ``docs/fracture.md``
-"Stiff brittle bodies: fragments"), beside the restitution table (:data:`gasp_core.toolkit.restitution.SUBSTANCES`).
+"Stiff brittle bodies: fragments"), beside the restitution table (:data:`gasp_core.mpm.restitution.SUBSTANCES`).
 
 A ``brittle`` material may name one (``[object.material] name = "brittle"``, ``substance = "porcelain"``): its ``E``,
 ``nu``, ``rho``, ``tensile_strength`` and ``fracture_energy`` are taken from :data:`BRITTLE_SUBSTANCES` unless the
