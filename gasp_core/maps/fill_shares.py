@@ -88,24 +88,24 @@ def surface_distance(phi: np.ndarray, vlo: np.ndarray, voxel: float, splats: np.
     """The signed distance to the solid's surface (metres, positive outside) that :func:`cell_fractions` measures
     cells with (issue 66).
 
-    The surface is the planes of the splats that lie on it (:func:`~gasp_core.maps.occupancy.surface_planes`).
+    The surface is the planes of the splats that lie on it (:func:`surface_planes`).
     A point is measured against its nearest plane, bent by the surface's curvature across it (from the neighbours'
     normals: on a curved face the tangent planes lie outside the solid, which they would grow by ``l^2 / 2R``), and
     against the neighbours whose plane turns from the nearest's by more than ``acos(EDGE_COS)``: at a convex edge
     (each behind the other) the solid is the intersection of the half-spaces, at a concave edge their union (a
     sampled edge's nearest plane alone bulges out by the sampling gap, as far as the planes reach). Where no plane is
     within ``2 voxel + h + 2 SPLAT_SIGMA`` splat sizes (the 90th percentile), ``phi`` decides; and no point is
-    inside where ``phi`` is more than a voxel outside (past the footprints' shell), nor under a ``floor``.
+    inside where ``phi`` is more than a voxel outside (past the footprints' shell), nor under a ``floor``
+    (:func:`_plane_distance` does the planes' part).
 
     Returns
     -------
     callable
-        ``distance(q, cand=None)``: for points ``q`` (shape (k, 3)), the signed distance and the width factor
-        ``|n|_1`` of the plane it came from (1 for ``phi``'s or the floor's), both shape (k,). ``cand`` (shape
-        (k, c), c >= :data:`NEIGHBOURS`) are indices of the planes to look among (``len(planes)``: none), for points
-        close together (a cell's sub-cells) that share one search.
-
-    It is long because the nearest plane, the convex and the concave edges are each one vectorised step.
+        ``distance(q, cand=None)``: for points ``q`` (shape (k, 3), or (k, s, 3): ``k`` groups of ``s`` points close
+        together, a cell's sub-cells), the signed distance and the width factor ``|n|_1`` of the plane it came from
+        (1 for ``phi``'s or the floor's), both of shape ``q.shape[:-1]``. ``cand`` (shape (k, c), c >=
+        :data:`NEIGHBOURS`) are indices of the planes each group looks among (``len(planes)``: none), one search
+        for the group (``distance.candidates(centres)`` gives them); without it each point searches on its own.
     """
     means, normals = surface_planes(splats, phi, vlo, voxel)
     size = np.linalg.norm(splats[:, 1:] - splats[:, :1], axis=2).max(axis=1)
@@ -113,59 +113,103 @@ def surface_distance(phi: np.ndarray, vlo: np.ndarray, voxel: float, splats: np.
     reach = 2.0 * voxel + h + 2.0 * footprint
     cover = COVER * footprint
     tree = cKDTree(means) if len(means) else None
-    padded_m = np.concatenate([means, np.full((1, 3), np.inf)])
+    pm = np.concatenate([means, np.zeros((1, 3))])       # a last row for "no plane": masked wherever it is read
+    pn = np.concatenate([normals, np.zeros((1, 3))])
 
     def candidates(q: np.ndarray, k: int, bound: float) -> np.ndarray:
         """Indices (shape (len(q), k)) of the ``k`` planes nearest each point within ``bound``; ``len(means)``: none."""
         return tree.query(q, k=k, distance_upper_bound=bound)[1].reshape(len(q), k)
 
     def distance(q: np.ndarray, cand: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        from_phi = -sample_phi(phi, vlo, voxel, q) * voxel
-        sd, width = from_phi.copy(), np.ones(len(q))
+        q = np.asarray(q, np.float64)
+        shape = q.shape[:-1]
+        qg = q.reshape(-1, 1, 3) if q.ndim == 2 or cand is None else q
+        sd = -sample_phi(phi, vlo, voxel, qg.reshape(-1, 3)).reshape(qg.shape[:2]) * voxel
+        width = np.ones(sd.shape)
         if tree is not None:
             if cand is None:
-                j = candidates(q, NEIGHBOURS, reach)
-            else:
-                dc = np.linalg.norm(padded_m[cand] - q[:, None], axis=2)
-                order = np.argsort(dc, axis=1)[:, :NEIGHBOURS]
-                j = np.take_along_axis(np.where(dc <= reach, cand, len(means)), order, axis=1)
-            valid = j < len(means)
-            ok = valid[:, 0]
-            j, valid, qq = j[ok], valid[ok], q[ok]
-            j = np.where(valid, j, j[:, :1])
-            n, m = normals[j], means[j]
-            plane = np.einsum("ikj,ikj->ik", n, qq[:, None] - m)
-            # pairs of planes that meet at an edge, and whether it is convex (each behind the other)
-            cosn = np.einsum("ikj,ilj->ikl", n, n)
-            # a plane joins at a concave edge only where the point's foot on it lies on its splat's part of the
-            # surface (a face's plane goes on past the face: a dog-bone's gauge face under its grip's shoulder)
-            foot = np.einsum("ikj,ikj->ik", qq[:, None] - m, qq[:, None] - m) - plane ** 2 <= cover ** 2
-            pair = valid[:, :, None] & valid[:, None, :] & (cosn < EDGE_COS)
-            convex = np.einsum("ikj,iklj->ikl", n, m[:, None, :, :] - m[:, :, None, :])
-            convex = pair & (convex + np.swapaxes(convex, 1, 2) < 0)
-            edge = pair[:, 0]
-            dm = m[:, 1:] - m[:, :1]
-            dm2 = np.einsum("ikj,ikj->ik", dm, dm)
-            smooth = valid[:, 1:] & ~edge[:, 1:] & (dm2 > 0)
-            kappa = np.einsum("ikj,ikj->ik", n[:, 1:] - n[:, :1], dm) / np.where(smooth, dm2, 1.0)
-            kappa = np.where(smooth, kappa, 0.0).sum(axis=1) / np.maximum(smooth.sum(axis=1), 1)
-            lat = np.sqrt(np.maximum(np.einsum("ij,ij->i", qq - m[:, 0], qq - m[:, 0]) - plane[:, 0] ** 2, 0.0))
-            best = plane[:, 0] + np.clip(0.5 * kappa * lat ** 2, -0.5 * lat, 0.5 * lat)
-            # each plane with those it makes a convex edge with is a convex piece (the intersection of the
-            # half-spaces); the nearest's piece joins those it meets at a concave edge (the union)
-            piece = np.maximum(plane, np.where(convex, plane[:, None, :], -np.inf).max(axis=2))
-            best = np.maximum(best, np.where(convex[:, 0], plane, -np.inf).max(axis=1))
-            best = np.minimum(best, np.where(edge & ~convex[:, 0] & foot, piece, np.inf).min(axis=1))
-            sd[ok] = np.maximum(best, from_phi[ok] - voxel)     # never inside past the footprints' shell
-            width[ok] = np.abs(n[:, 0]).sum(axis=1)
+                cand = candidates(qg[:, 0], NEIGHBOURS, reach)
+            step = max(1, CHUNK // (qg.shape[1] * cand.shape[1] * 3))
+            for s in range(0, len(qg), step):
+                g = slice(s, s + step)
+                best, wid, ok = _plane_distance(qg[g], cand[g], pm, pn, len(means), reach, cover)
+                sd[g] = np.where(ok, np.maximum(best, sd[g] - voxel), sd[g])  # never inside past the footprints' shell
+                width[g] = np.where(ok, wid, 1.0)
         if floor is not None:
-            under = floor - q[:, 2]
+            under = floor - qg[..., 2]
             width = np.where(under > sd, 1.0, width)
             sd = np.maximum(sd, under)
-        return sd, width
+        return sd.reshape(shape), width.reshape(shape)
 
     distance.candidates = (lambda q: candidates(q, CANDIDATES, reach + h)) if tree is not None else None
     return distance
+
+
+#: Elements of the largest array one step of :func:`surface_distance` makes (bounded memory: 8 bytes each).
+CHUNK = 6_000_000
+
+
+def _plane_distance(q: np.ndarray, cand: np.ndarray, pm: np.ndarray, pn: np.ndarray, none: int, reach: float,
+                    cover: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The planes' part of :func:`surface_distance` for groups of points ``q`` (shape (k, s, 3), metres) each looking
+    among its candidate planes ``cand`` (shape (k, c); ``none``: no plane) of points ``pm`` and normals ``pn``.
+
+    Each point's :data:`NEIGHBOURS` nearest candidates within ``reach`` are its neighbours. What it needs of the
+    pairs of planes is the nearest's row (its edges, convex or concave, and the curvature across it), measured from
+    the point's own offsets ``q - m`` (``(s c)`` per group instead of ``NEIGHBOURS^2`` per point); the pieces of the
+    planes it meets at a concave edge (:func:`_concave`) only for the few points that have one.
+
+    Returns
+    -------
+    best, width : ndarray, shape (k, s)
+        Signed distance (metres, positive outside) and ``|n|_1`` of the nearest plane.
+    ok : ndarray, shape (k, s), bool
+        A plane lies within ``reach`` (elsewhere the two above are meaningless).
+    """
+    m, n = pm[cand], pn[cand]                                     # (k, c, 3)
+    d = q[:, :, None, :] - m[:, None, :, :]                       # (k, s, c, 3)
+    d2 = np.where((cand < none)[:, None, :], np.einsum("kscj,kscj->ksc", d, d), np.inf)
+    order = np.argsort(np.sqrt(d2), axis=2)[:, :, :NEIGHBOURS]
+    near = np.zeros(d2.shape, bool)
+    np.put_along_axis(near, order, True, axis=2)
+    near &= np.sqrt(d2) <= reach
+    a0 = order[:, :, :1]                                         # each point's nearest plane (candidate index)
+    ok = np.take_along_axis(near, a0, axis=2)[..., 0]
+    plane = np.einsum("kcj,kscj->ksc", n, d)
+    n0 = n[np.arange(len(q))[:, None], a0[..., 0]]                # (k, s, 3)
+    dd = d - np.take_along_axis(d, a0[..., None], axis=2)         # m_0 - m_c, exactly 0 where they coincide
+    dm2 = np.einsum("kscj,kscj->ksc", dd, dd)
+    ahead = np.einsum("kscj,kscj->ksc", n[:, None, :, :], dd) - np.einsum("ksj,kscj->ksc", n0, dd)
+    edge = near & (np.einsum("ksj,kcj->ksc", n0, n) < EDGE_COS)
+    convex = edge & (ahead < 0)                                   # each behind the other
+    smooth = near & ~edge & (dm2 > 0)
+    kappa = np.where(smooth, -ahead / np.where(smooth, dm2, 1.0), 0.0).sum(axis=2) / np.maximum(smooth.sum(axis=2), 1)
+    p0 = np.take_along_axis(plane, a0, axis=2)[..., 0]
+    lat = np.sqrt(np.maximum(np.take_along_axis(d2, a0, axis=2)[..., 0] - p0 ** 2, 0.0))
+    best = p0 + np.clip(0.5 * kappa * lat ** 2, -0.5 * lat, 0.5 * lat)
+    best = np.maximum(best, np.where(convex, plane, -np.inf).max(axis=2))
+    # the nearest's piece joins those it meets at a concave edge (the union) where the point's foot on that plane
+    # lies on its splat's part of the surface (a face's plane goes on past the face: a dog-bone's gauge face under
+    # its grip's shoulder)
+    concave = edge & ~convex & (np.where(near, d2, 0.0) - plane ** 2 <= cover ** 2)
+    kk, ss = np.nonzero(concave.any(axis=2))
+    if len(kk):
+        piece = _convex_pieces(m[kk], n[kk], plane[kk, ss], near[kk, ss])
+        best[kk, ss] = np.minimum(best[kk, ss], np.where(concave[kk, ss], piece, np.inf).min(axis=1))
+    return best, np.abs(n0).sum(axis=2), ok
+
+
+def _convex_pieces(m: np.ndarray, n: np.ndarray, plane: np.ndarray, near: np.ndarray) -> np.ndarray:
+    """Each plane with those it makes a convex edge with is a convex piece (the intersection of the half-spaces).
+
+    For ``r`` points, their candidate planes' points ``m`` and normals ``n`` (shape (r, c, 3)), the points' signed
+    distances to them ``plane`` and which are their neighbours ``near`` (shape (r, c)): the signed distance to each
+    plane's piece among the neighbours, shape (r, c)."""
+    dm = m[:, None, :, :] - m[:, :, None, :]                      # [r, a, b] = m_b - m_a
+    ahead = np.einsum("raj,rabj->rab", n, dm)
+    pair = near[:, :, None] & near[:, None, :] & (np.einsum("raj,rbj->rab", n, n) < EDGE_COS)
+    convex = pair & (ahead + np.swapaxes(ahead, 1, 2) < 0)
+    return np.maximum(plane, np.where(convex, plane[:, None, :], -np.inf).max(axis=2))
 
 
 def cell_fractions(seed: np.ndarray, deep: np.ndarray, phi: np.ndarray, vlo: np.ndarray, voxel: float,
@@ -207,13 +251,13 @@ def cell_fractions(seed: np.ndarray, deep: np.ndarray, phi: np.ndarray, vlo: np.
         idx = np.flatnonzero(cut)
         for s in range(0, len(idx), 4_000):
             ii = idx[s:s + 4_000]
-            q = (centres[ii, None, :] + offs[None]).reshape(-1, 3)
-            cand = None if distance.candidates is None else np.repeat(distance.candidates(centres[ii]), len(offs), axis=0)
+            q = centres[ii, None, :] + offs[None]                 # (cells, SUB^3, 3)
+            cand = None if distance.candidates is None else distance.candidates(centres[ii])
             d, w = distance(q, cand)
-            f = np.clip(0.5 - d / (w * h / SUB), 0.0, 1.0).reshape(len(ii), -1)
+            f = np.clip(0.5 - d / (w * h / SUB), 0.0, 1.0)
             tot = f.sum(axis=1)
             share[ii] = tot / f.shape[1]
-            cen = np.einsum("ik,ikj->ij", f, q.reshape(len(ii), -1, 3)) / np.maximum(tot, 1e-300)[:, None]
+            cen = np.einsum("ik,ikj->ij", f, q) / np.maximum(tot, 1e-300)[:, None]
             centre[ii] = np.where(tot[:, None] > 0, cen, centres[ii])
     keep = share >= MIN_SHARE
     dcells = np.argwhere(deep)
