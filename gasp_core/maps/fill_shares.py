@@ -115,6 +115,7 @@ def surface_distance(phi: np.ndarray, vlo: np.ndarray, voxel: float, splats: np.
     tree = cKDTree(means) if len(means) else None
     pm = np.concatenate([means, np.zeros((1, 3))])       # a last row for "no plane": masked wherever it is read
     pn = np.concatenate([normals, np.zeros((1, 3))])
+    uid = np.append(np.unique(means, axis=0, return_inverse=True)[1].ravel(), -1)    # planes through one point
 
     def candidates(q: np.ndarray, k: int, bound: float) -> np.ndarray:
         """Indices (shape (len(q), k)) of the ``k`` planes nearest each point within ``bound``; ``len(means)``: none."""
@@ -129,10 +130,10 @@ def surface_distance(phi: np.ndarray, vlo: np.ndarray, voxel: float, splats: np.
         if tree is not None:
             if cand is None:
                 cand = candidates(qg[:, 0], NEIGHBOURS, reach)
-            step = max(1, CHUNK // (qg.shape[1] * cand.shape[1] * 3))
+            step = max(1, CHUNK // (cand.shape[1] * qg.shape[1]))
             for s in range(0, len(qg), step):
                 g = slice(s, s + step)
-                best, wid, ok = _plane_distance(qg[g], cand[g], pm, pn, len(means), reach, cover)
+                best, wid, ok = _plane_distance(qg[g], cand[g], pm, pn, uid, reach, cover)
                 sd[g] = np.where(ok, np.maximum(best, sd[g] - voxel), sd[g])  # never inside past the footprints' shell
                 width[g] = np.where(ok, wid, 1.0)
         if floor is not None:
@@ -145,19 +146,23 @@ def surface_distance(phi: np.ndarray, vlo: np.ndarray, voxel: float, splats: np.
     return distance
 
 
-#: Elements of the largest array one step of :func:`surface_distance` makes (bounded memory: 8 bytes each).
-CHUNK = 6_000_000
+#: Elements of the largest arrays one step of :func:`surface_distance` makes (bounded memory: 8 bytes each, about
+#: twenty of them live).
+CHUNK = 2_000_000
 
 
-def _plane_distance(q: np.ndarray, cand: np.ndarray, pm: np.ndarray, pn: np.ndarray, none: int, reach: float,
+def _plane_distance(q: np.ndarray, cand: np.ndarray, pm: np.ndarray, pn: np.ndarray, uid: np.ndarray, reach: float,
                     cover: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The planes' part of :func:`surface_distance` for groups of points ``q`` (shape (k, s, 3), metres) each looking
-    among its candidate planes ``cand`` (shape (k, c); ``none``: no plane) of points ``pm`` and normals ``pn``.
+    among its candidate planes ``cand`` (shape (k, c); ``len(uid) - 1``: no plane) of points ``pm`` and normals
+    ``pn`` (``uid``: one id for the planes through one point).
 
-    Each point's :data:`NEIGHBOURS` nearest candidates within ``reach`` are its neighbours. What it needs of the
-    pairs of planes is the nearest's row (its edges, convex or concave, and the curvature across it), measured from
-    the point's own offsets ``q - m`` (``(s c)`` per group instead of ``NEIGHBOURS^2`` per point); the pieces of the
-    planes it meets at a concave edge (:func:`_concave`) only for the few points that have one.
+    Each point's :data:`NEIGHBOURS` nearest candidates within ``reach`` are its neighbours. Of the pairs of planes
+    (:func:`_pairs`) a point needs its nearest plane's row with the group's candidates, masked by its own
+    neighbours (the same as measuring each point's neighbours among themselves); a row is measured once for the
+    points of a group that share their nearest plane (a cell's 27 sub-cells have a few), instead of ``NEIGHBOURS^2``
+    pairs per point. The pieces of the planes it meets at a concave edge are measured only when it has one.
+    Offsets are taken from the group's mean point (its cell's centre), in products of shape (k, s, c).
 
     Returns
     -------
@@ -166,50 +171,68 @@ def _plane_distance(q: np.ndarray, cand: np.ndarray, pm: np.ndarray, pn: np.ndar
     ok : ndarray, shape (k, s), bool
         A plane lies within ``reach`` (elsewhere the two above are meaningless).
     """
-    m, n = pm[cand], pn[cand]                                     # (k, c, 3)
-    d = q[:, :, None, :] - m[:, None, :, :]                       # (k, s, c, 3)
-    d2 = np.where((cand < none)[:, None, :], np.einsum("kscj,kscj->ksc", d, d), np.inf)
-    order = np.argsort(np.sqrt(d2), axis=2)[:, :, :NEIGHBOURS]
+    ref = q.mean(axis=1, keepdims=True)
+    ql, m, n = q - ref, pm[cand] - ref, pn[cand]                  # (k, s, 3), (k, c, 3), (k, c, 3)
+    qm = np.matmul(ql, np.swapaxes(m, 1, 2))                      # (k, s, c)
+    mm = np.einsum("kcj,kcj->kc", m, m)
+    d2 = np.maximum(np.einsum("ksj,ksj->ks", ql, ql)[:, :, None] + mm[:, None, :] - 2.0 * qm, 0.0)
+    d2 = np.where((cand < len(uid) - 1)[:, None, :], d2, np.inf)
+    order = np.argsort(d2, axis=2)[:, :, :NEIGHBOURS]
     near = np.zeros(d2.shape, bool)
     np.put_along_axis(near, order, True, axis=2)
-    near &= np.sqrt(d2) <= reach
-    a0 = order[:, :, :1]                                         # each point's nearest plane (candidate index)
-    ok = np.take_along_axis(near, a0, axis=2)[..., 0]
-    plane = np.einsum("kcj,kscj->ksc", n, d)
-    n0 = n[np.arange(len(q))[:, None], a0[..., 0]]                # (k, s, 3)
-    dd = d - np.take_along_axis(d, a0[..., None], axis=2)         # m_0 - m_c, exactly 0 where they coincide
-    dm2 = np.einsum("kscj,kscj->ksc", dd, dd)
-    ahead = np.einsum("kscj,kscj->ksc", n[:, None, :, :], dd) - np.einsum("ksj,kscj->ksc", n0, dd)
-    edge = near & (np.einsum("ksj,kcj->ksc", n0, n) < EDGE_COS)
-    convex = edge & (ahead < 0)                                   # each behind the other
-    smooth = near & ~edge & (dm2 > 0)
-    kappa = np.where(smooth, -ahead / np.where(smooth, dm2, 1.0), 0.0).sum(axis=2) / np.maximum(smooth.sum(axis=2), 1)
-    p0 = np.take_along_axis(plane, a0, axis=2)[..., 0]
-    lat = np.sqrt(np.maximum(np.take_along_axis(d2, a0, axis=2)[..., 0] - p0 ** 2, 0.0))
+    near &= d2 <= reach ** 2
+    a0 = order[:, :, 0]                                          # each point's nearest plane (candidate index)
+    g = np.arange(len(q))[:, None]
+    ok = near[g, np.arange(q.shape[1])[None, :], a0]
+    plane = np.matmul(ql, np.swapaxes(n, 1, 2)) - np.einsum("kcj,kcj->kc", n, m)[:, None, :]
+    rows = np.full(cand.shape, -1)                                # the candidates that are some point's nearest,
+    rows[g, a0] = 1                                               # one row of the pairs each
+    rk, ra = np.nonzero(rows > 0)
+    rows[rk, ra] = np.arange(len(rk))
+    e0, c0, dm2, kap = (t[rows[g, a0], 0] for t in _pairs(m[rk], n[rk], uid[cand[rk]], ra[:, None]))
+    e0, c0 = e0 & near, c0 & near
+    smooth = near & ~e0 & (dm2 > 0)
+    kappa = np.where(smooth, kap, 0.0).sum(axis=2) / np.maximum(smooth.sum(axis=2), 1)
+    p0 = np.take_along_axis(plane, a0[..., None], axis=2)[..., 0]
+    lat = np.sqrt(np.maximum(np.take_along_axis(d2, a0[..., None], axis=2)[..., 0] - p0 ** 2, 0.0))
     best = p0 + np.clip(0.5 * kappa * lat ** 2, -0.5 * lat, 0.5 * lat)
-    best = np.maximum(best, np.where(convex, plane, -np.inf).max(axis=2))
-    # the nearest's piece joins those it meets at a concave edge (the union) where the point's foot on that plane
-    # lies on its splat's part of the surface (a face's plane goes on past the face: a dog-bone's gauge face under
-    # its grip's shoulder)
-    concave = edge & ~convex & (np.where(near, d2, 0.0) - plane ** 2 <= cover ** 2)
+    # each plane with those it makes a convex edge with is a convex piece (the intersection of the half-spaces); the
+    # nearest's piece joins those it meets at a concave edge (the union) where the point's foot on that plane lies on
+    # its splat's part of the surface (a face's plane goes on past the face: a dog-bone's gauge face under its grip's
+    # shoulder)
+    best = np.maximum(best, np.where(c0, plane, -np.inf).max(axis=2))
+    concave = e0 & ~c0 & (np.where(near, d2, 0.0) - plane ** 2 <= cover ** 2)
     kk, ss = np.nonzero(concave.any(axis=2))
-    if len(kk):
-        piece = _convex_pieces(m[kk], n[kk], plane[kk, ss], near[kk, ss])
-        best[kk, ss] = np.minimum(best[kk, ss], np.where(concave[kk, ss], piece, np.inf).min(axis=1))
-    return best, np.abs(n0).sum(axis=2), ok
+    c = cand.shape[1]
+    for r in range(0, len(kk), max(1, CHUNK // c ** 2)):         # (r, c, c) tables, bounded memory
+        k, s = kk[r:r + CHUNK // c ** 2], ss[r:r + CHUNK // c ** 2]
+        pl = plane[k, s]                                          # (r, c)
+        joins = _pairs(m[k], n[k], uid[cand[k]], np.broadcast_to(np.arange(c), (len(k), c)))[1] & near[k, s][:, None, :]
+        piece = np.maximum(pl, np.where(joins, pl[:, None, :], -np.inf).max(axis=2))
+        best[k, s] = np.minimum(best[k, s], np.where(concave[k, s], piece, np.inf).min(axis=1))
+    return best, np.abs(n[g, a0]).sum(axis=2), ok
 
 
-def _convex_pieces(m: np.ndarray, n: np.ndarray, plane: np.ndarray, near: np.ndarray) -> np.ndarray:
-    """Each plane with those it makes a convex edge with is a convex piece (the intersection of the half-spaces).
-
-    For ``r`` points, their candidate planes' points ``m`` and normals ``n`` (shape (r, c, 3)), the points' signed
-    distances to them ``plane`` and which are their neighbours ``near`` (shape (r, c)): the signed distance to each
-    plane's piece among the neighbours, shape (r, c)."""
-    dm = m[:, None, :, :] - m[:, :, None, :]                      # [r, a, b] = m_b - m_a
-    ahead = np.einsum("raj,rabj->rab", n, dm)
-    pair = near[:, :, None] & near[:, None, :] & (np.einsum("raj,rbj->rab", n, n) < EDGE_COS)
-    convex = pair & (ahead + np.swapaxes(ahead, 1, 2) < 0)
-    return np.maximum(plane, np.where(convex, plane[:, None, :], -np.inf).max(axis=2))
+def _pairs(m: np.ndarray, n: np.ndarray, uid: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Between the planes ``a`` (shape (k, s), candidate indices) and each of a group's candidate planes (points
+    ``m``, normals ``n``, shape (k, c, 3); ``uid`` (k, c) the same where the points are): whether they meet at an edge
+    (their normals turn by more than ``acos(EDGE_COS)``), whether it is convex (each behind the other), the squared
+    distance of their points (0 where they are one point) and the curvature ``(n_c - n_a).(m_c - m_a) / |m_c -
+    m_a|^2`` (0 there). Four arrays of shape (k, s, c): ``a`` each point's nearest plane (its row of the pairs), or
+    every candidate (``s = c``: the whole table)."""
+    g = np.arange(len(m))[:, None]
+    na, ma = n[g, a], m[g, a]                                      # (k, s, 3)
+    mt, nt = np.swapaxes(m, 1, 2), np.swapaxes(n, 1, 2)
+    ahead = np.matmul(na, mt) - np.einsum("ksj,ksj->ks", na, ma)[:, :, None]      # n_a . (m_c - m_a)
+    behind = np.matmul(ma, nt) - np.einsum("kcj,kcj->kc", n, m)[:, None, :]       # n_c . (m_a - m_c)
+    mutual = ahead + behind                                       # -(n_c - n_a) . (m_c - m_a)
+    one = uid[g, a][:, :, None] == uid[:, None, :]
+    mm = np.einsum("kcj,kcj->kc", m, m)
+    d2 = np.where(one, 0.0, np.maximum(np.take_along_axis(mm, a, axis=1)[:, :, None] + mm[:, None, :]
+                                       - 2.0 * np.matmul(ma, mt), 1e-300))
+    edge = np.matmul(na, nt) < EDGE_COS
+    convex = edge & ~one & (mutual < 0)
+    return edge, convex, d2, np.where(one, 0.0, -mutual / np.where(one, 1.0, d2))
 
 
 def cell_fractions(seed: np.ndarray, deep: np.ndarray, phi: np.ndarray, vlo: np.ndarray, voxel: float,
