@@ -203,10 +203,8 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
         inside, seed, deep = _centre_masks(phi, vlo, voxel_used, lo, shape, h, band(h, voxel_used))
         inside, floored = _above(inside, lo, h, floor)
         thin = thin_parts(phi, vlo, voxel_used, inside, lo, h)
-        if fill_shares.enabled():   # the cells at the faces by their shares (issue 66; opt-in: fill_shares)
-            cells, frac, cent = fill_shares.cell_fractions(seed, deep, phi, vlo, voxel_used, splats, lo, h, floor)
-        else:
-            cells = np.argwhere(inside)
+        # the cells at the faces by their shares (issue 66: :mod:`.fill_shares`)
+        cells, frac, cent = fill_shares.cell_fractions(seed, deep, phi, vlo, voxel_used, splats, lo, h, floor)
         method, closed, warning = "six-ray", True, ""
     else:
         inside, floored = _above(rasterize(splats, lo, shape, h), lo, h, floor)

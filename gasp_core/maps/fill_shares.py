@@ -8,7 +8,6 @@ inside holds a whole ``h^3`` (:mod:`gasp_core.maps.fill`).
 """
 from __future__ import annotations
 
-import os
 from typing import Callable
 
 import numpy as np
@@ -24,11 +23,6 @@ PLANE_STEP, PLANE_OUT = 0.5, 0.5
 #: ... and its normal is within ``acos(PLANE_COS)`` of ``phi``'s steepest descent (a trained capture's Gaussians that
 #: are not flat, or lie across the surface, have normals that are not the surface's).
 PLANE_COS = 0.8
-
-
-def enabled() -> bool:
-    """Whether the fill gives the cells at the faces their shares (``GASP_FILL=shares`` in the environment)."""
-    return os.environ.get("GASP_FILL", "") == "shares"
 
 
 def surface_planes(splats: np.ndarray, phi: np.ndarray, lo: np.ndarray, voxel: float) -> tuple[np.ndarray, np.ndarray]:
@@ -194,7 +188,7 @@ def _plane_distance(q: np.ndarray, cand: np.ndarray, pm: np.ndarray, pn: np.ndar
     smooth = near & ~e0 & (dm2 > 0)
     kappa = np.where(smooth, kap, 0.0).sum(axis=2) / np.maximum(smooth.sum(axis=2), 1)
     p0 = np.take_along_axis(plane, a0[..., None], axis=2)[..., 0]
-    lat = np.sqrt(np.maximum(np.take_along_axis(d2, a0[..., None], axis=2)[..., 0] - p0 ** 2, 0.0))
+    lat = np.sqrt(np.maximum(np.where(ok, np.take_along_axis(d2, a0[..., None], axis=2)[..., 0], 0.0) - p0 ** 2, 0.0))
     best = p0 + np.clip(0.5 * kappa * lat ** 2, -0.5 * lat, 0.5 * lat)
     # each plane with those it makes a convex edge with is a convex piece (the intersection of the half-spaces); the
     # nearest's piece joins those it meets at a concave edge (the union) where the point's foot on that plane lies on
