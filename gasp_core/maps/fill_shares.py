@@ -155,7 +155,7 @@ def _plane_distance(q: np.ndarray, cand: np.ndarray, pm: np.ndarray, pn: np.ndar
     (:func:`_pairs`) a point needs its nearest plane's row with the group's candidates, masked by its own
     neighbours (the same as measuring each point's neighbours among themselves); a row is measured once for the
     points of a group that share their nearest plane (a cell's 27 sub-cells have a few), instead of ``NEIGHBOURS^2``
-    pairs per point. The pieces of the planes it meets at a concave edge are measured only when it has one.
+    pairs per point; the same for the pieces of the planes a point meets at a concave edge.
     Offsets are taken from the group's mean point (its cell's centre), in products of shape (k, s, c).
 
     Returns
@@ -196,14 +196,12 @@ def _plane_distance(q: np.ndarray, cand: np.ndarray, pm: np.ndarray, pn: np.ndar
     # shoulder)
     best = np.maximum(best, np.where(c0, plane, -np.inf).max(axis=2))
     concave = e0 & ~c0 & (np.where(near, d2, 0.0) - plane ** 2 <= cover ** 2)
-    kk, ss = np.nonzero(concave.any(axis=2))
-    c = cand.shape[1]
-    for r in range(0, len(kk), max(1, CHUNK // c ** 2)):         # (r, c, c) tables, bounded memory
-        k, s = kk[r:r + CHUNK // c ** 2], ss[r:r + CHUNK // c ** 2]
-        pl = plane[k, s]                                          # (r, c)
-        joins = _pairs(m[k], n[k], uid[cand[k]], np.broadcast_to(np.arange(c), (len(k), c)))[1] & near[k, s][:, None, :]
-        piece = np.maximum(pl, np.where(joins, pl[:, None, :], -np.inf).max(axis=2))
-        best[k, s] = np.minimum(best[k, s], np.where(concave[k, s], piece, np.inf).min(axis=1))
+    kk, ss, bb = np.nonzero(concave)                              # each point's planes at a concave edge, and
+    c = cand.shape[1]                                             # their rows of the pairs, once for a group
+    rk, inv = np.unique(kk * c + bb, return_inverse=True)
+    joins = _pairs(m[rk // c], n[rk // c], uid[cand[rk // c]], (rk % c)[:, None])[1][inv.ravel(), 0] & near[kk, ss]
+    piece = np.maximum(plane[kk, ss, bb], np.where(joins, plane[kk, ss], -np.inf).max(axis=1, initial=-np.inf))
+    np.minimum.at(best, (kk, ss), piece)
     return best, np.abs(n[g, a0]).sum(axis=2), ok
 
 
@@ -266,8 +264,9 @@ def cell_fractions(seed: np.ndarray, deep: np.ndarray, phi: np.ndarray, vlo: np.
         u = (np.arange(SUB) + 0.5) / SUB - 0.5
         offs = np.stack(np.meshgrid(u, u, u, indexing="ij"), -1).reshape(-1, 3) * h
         idx = np.flatnonzero(cut)
-        for s in range(0, len(idx), 4_000):
-            ii = idx[s:s + 4_000]
+        step = CHUNK // (len(offs) * CANDIDATES)          # the cells one step of the distance takes
+        for s in range(0, len(idx), step):
+            ii = idx[s:s + step]
             q = centres[ii, None, :] + offs[None]                 # (cells, SUB^3, 3)
             cand = None if distance.candidates is None else distance.candidates(centres[ii])
             d, w = distance(q, cand)
