@@ -203,8 +203,11 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
         inside, seed, deep = _centre_masks(phi, vlo, voxel_used, lo, shape, h, band(h, voxel_used))
         inside, floored = _above(inside, lo, h, floor)
         thin = thin_parts(phi, vlo, voxel_used, inside, lo, h)
-        # the cells at the faces by their shares (issue 66: :mod:`.fill_shares`)
+        # the cells at the faces by their shares (issue 66: :mod:`.fill_shares`), unless the splats' planes do not
+        # describe the surface they show
         cells, frac, cent = fill_shares.cell_fractions(seed, deep, phi, vlo, voxel_used, splats, lo, h, floor)
+        if cells is None:
+            cells, frac, cent = np.argwhere(inside), None, None
         method, closed, warning = "six-ray", True, ""
     else:
         inside, floored = _above(rasterize(splats, lo, shape, h), lo, h, floor)
