@@ -8,12 +8,12 @@ What decides "interior" is :mod:`gasp_core.maps.occupancy` (footprints, voxel si
 splat density, bounded closing, sub-voxel surface).
 
 Volumes (issue 66): a cell deep inside holds ``h^3``; a cell the surface crosses holds its share of ``h^3``, measured
-at sub-cells against the planes of the surface splats (:func:`surface_distance`, :func:`cell_fractions`), and its fill
-point sits at the centre of its inside part. The simulated surface points assigned to a cell share its volume (a
-surface point outside every cell goes to the nearest one), and a cell with none gets one fill point; so the points'
-volumes sum to the solid's volume (PhysGaussian: ``dx^3`` over the particles in the cell). Counting every cell whose
-centre is inside as a whole ``h^3`` made bars of 4-10 cells across 42 % light to 41 % heavy (docs/fill.md, "The mass at
-the faces"). Morphology and distances come from :mod:`scipy.ndimage`.
+at sub-cells against the planes of the surface splats, its fill point at the centre of its inside part
+(:mod:`.fill_shares`; where those planes do not hold the splats, each cell whose centre ``phi`` puts inside is whole).
+The surface points in a cell share its volume (one outside every cell goes to the nearest), and a cell with none gets
+one fill point: the points' volumes sum to the solid's (PhysGaussian: ``dx^3`` over the particles in the cell). Whole
+cells by ``phi`` made bars of 4-10 cells across 42 % light to 41 % heavy (docs/fill.md, "The mass at the faces").
+Morphology and distances come from :mod:`scipy.ndimage`.
 """
 from __future__ import annotations
 
@@ -203,8 +203,7 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
         inside, seed, deep = _centre_masks(phi, vlo, voxel_used, lo, shape, h, band(h, voxel_used))
         inside, floored = _above(inside, lo, h, floor)
         thin = thin_parts(phi, vlo, voxel_used, inside, lo, h)
-        # the cells at the faces by their shares (issue 66: :mod:`.fill_shares`), unless the splats' planes do not
-        # describe the surface they show
+        # the cells at the faces by their shares (issue 66), unless the splats' planes do not hold the splats
         cells, frac, cent = fill_shares.cell_fractions(seed, deep, phi, vlo, voxel_used, splats, lo, h, floor)
         if cells is None:
             cells, frac, cent = np.argwhere(inside), None, None
