@@ -175,7 +175,8 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
         fill point. False (passive surface, ``surface = "passive"``): the surface points get
         volume 0 and every inside cell gets a fill point, so the fill alone is the whole solid.
     check_points : callable, optional
-        Called with the point count (an upper bound) before the fill is allocated; raises to refuse it.
+        Called with the point count before the faces' shares are measured (with the cells ``phi`` puts inside) and
+        before the fill is allocated (its cells); raises to refuse it.
     floor : float, optional
         Height (metres, world z) of the ground it is set on: no fill point starts under it (:func:`_above`).
 
@@ -203,10 +204,12 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
         inside, seed, deep = _centre_masks(phi, vlo, voxel_used, lo, shape, h, band(h, voxel_used))
         inside, floored = _above(inside, lo, h, floor)
         thin = thin_parts(phi, vlo, voxel_used, inside, lo, h)
+        if check_points is not None:      # refused before the shares are measured: the cells phi puts inside
+            check_points(len(points) + int(inside.sum()))
         # the cells at the faces by their shares (issue 66), unless the splats' planes do not hold the splats
         cells, frac, cent = fill_shares.cell_fractions(seed, deep, phi, vlo, voxel_used, splats, lo, h, floor)
         if cells is None:
-            cells, frac, cent = np.argwhere(inside), None, None
+            cells = np.argwhere(inside)
         method, closed, warning = "six-ray", True, ""
     else:
         inside, floored = _above(rasterize(splats, lo, shape, h), lo, h, floor)
@@ -248,8 +251,7 @@ def _points_and_volumes(points: np.ndarray, cells: np.ndarray, lo: np.ndarray, s
 
 
 def _open_warning(name: str, max_dilation: int, voxel: float, volume: float, unit: str = "m") -> str:
-    """The warning for an object whose footprints enclose no volume (simulated as a shell of ``volume``
-    ``unit``^3)."""
+    """The warning for an object whose footprints enclose no volume (a shell of ``volume`` ``unit``^3)."""
     size = f"{voxel * 1e3:.3g} mm" if unit == "m" else f"{voxel:.3g} {unit}"
     return (f"object '{name}': its Gaussians enclose no volume (open, or gaps wider than the largest closing, "
             f"{max_dilation} voxels of {size}); simulated as a hollow shell of {volume:.4g} {unit}^3. "
@@ -257,8 +259,7 @@ def _open_warning(name: str, max_dilation: int, voxel: float, volume: float, uni
 
 
 def _check_fill_arguments(points: np.ndarray, h: float, name: str, if_open: str) -> None:
-    """Refuse (:class:`SceneError`) points that are not a non-empty (n, 3) array, ``h <= 0`` or an unknown
-    ``if_open``."""
+    """Refuse (:class:`SceneError`) points that are not a non-empty (n, 3) array, ``h <= 0`` or a bad ``if_open``."""
     if points.ndim != 2 or points.shape[1] != 3 or len(points) == 0:
         raise SceneError(f"object '{name}': fill_interior needs a non-empty (n, 3) point array, got {points.shape}")
     if not h > 0:
@@ -298,8 +299,7 @@ def _centre_masks(phi: np.ndarray, vlo: np.ndarray, voxel: float, lo: np.ndarray
 
 
 def band(h: float, voxel: float) -> float:
-    """Depth (voxels of ``phi``) from which a fill cell of spacing ``h`` is whole: its diagonal in taxicab voxels and
-    two voxels for where ``phi`` puts the surface."""
+    """Depth (voxels of ``phi``) from which a cell of spacing ``h`` is whole: its taxicab diagonal and two voxels."""
     return 1.5 * h / voxel + 2.0
 
 
