@@ -26,7 +26,7 @@ from scipy.spatial import cKDTree
 
 from gasp_core.errors import SceneError
 from gasp_core.maps import fill_shares
-from gasp_core.maps.occupancy import SPLAT_SIGMA, padded_grid, rasterize, solid_field
+from gasp_core.maps.occupancy import HALF_SHELL, SPLAT_SIGMA, padded_grid, rasterize, solid_field
 
 #: Largest fill grid (cells) before the fill spacing is refused as too fine.
 MAX_FILL_CELLS = 512 ** 3
@@ -293,7 +293,7 @@ def _centre_masks(phi: np.ndarray, vlo: np.ndarray, voxel: float, lo: np.ndarray
     cz = (lo[2] + (k + 0.5) * h - vlo[2]) / voxel - 0.5
     for i in range(shape[0]):
         cx = np.full(cy.shape, (lo[0] + (i + 0.5) * h - vlo[0]) / voxel - 0.5)
-        v = ndimage.map_coordinates(phi, [cx, cy, cz], order=1, mode="constant", cval=-1.0)
+        v = ndimage.map_coordinates(phi, [cx, cy, cz], order=1, mode="constant", cval=-HALF_SHELL)
         inside[i], seed[i], deep[i] = v > 0, v > -fill_shares.NEAR_PHI, v >= band
     return inside, seed, deep
 
