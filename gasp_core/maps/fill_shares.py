@@ -4,7 +4,7 @@ at ``SUB^3`` sub-cells against the planes of the surface splats, with its fill p
 
 The default fill (issue 66 item 3; it was opt-in, ``GASP_FILL=shares``, while it cost about 11 s on the README donut
 against 1.5 s). Measured by ``benchmarks/fill_cost.py`` (the donut's object as ``gasp simulate`` fills it, both ways
-in one run, load 3.3-4.0 on 2 cores): 1.49 s CPU against 0.61 s by whole cells, its mass 0.609 to 0.549 kg; the
+in one run, load 2.6-3.0 on 2 cores): 1.41 s CPU against 0.59 s by whole cells, its mass 0.609 to 0.549 kg; the
 family of ``tests/test_fill_mass.py`` within 1.0 % of its volume at n_grid 32, 48 and 64 (whole cells: -42 to +46 %).
 Where the splats' planes do not hold the splats (:func:`outside_share`, :data:`HELD_OUT`) the object keeps every
 cell whose centre ``phi`` puts inside as a whole ``h^3`` (:mod:`gasp_core.maps.fill`).
