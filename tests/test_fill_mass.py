@@ -20,12 +20,6 @@ import gasp_core.maps.fill_shares as shares_mod
 from gasp_core.maps.fill import fill_interior, fill_spacing
 
 
-@pytest.fixture(autouse=True)
-def shares(monkeypatch):
-    """The fill of the cells at the faces by their shares is opt-in (``GASP_FILL=shares``, gasp_core.maps.fill_shares):
-    on for these tests."""
-    monkeypatch.setenv("GASP_FILL", "shares")
-
 trimesh = needs_package("trimesh")
 
 SPACING = 0.004          # mean distance between splats, m

@@ -8,12 +8,12 @@ What decides "interior" is :mod:`gasp_core.maps.occupancy` (footprints, voxel si
 splat density, bounded closing, sub-voxel surface).
 
 Volumes (issue 66): a cell deep inside holds ``h^3``; a cell the surface crosses holds its share of ``h^3``, measured
-at sub-cells against the planes of the surface splats (:func:`surface_distance`, :func:`cell_fractions`), and its fill
-point sits at the centre of its inside part. The simulated surface points assigned to a cell share its volume (a
-surface point outside every cell goes to the nearest one), and a cell with none gets one fill point; so the points'
-volumes sum to the solid's volume (PhysGaussian: ``dx^3`` over the particles in the cell). Counting every cell whose
-centre is inside as a whole ``h^3`` made bars of 4-10 cells across 42 % light to 41 % heavy (docs/fill.md, "The mass at
-the faces"). Morphology and distances come from :mod:`scipy.ndimage`.
+at sub-cells against the planes of the surface splats, its fill point at the centre of its inside part
+(:mod:`.fill_shares`; where those planes do not hold the splats, each cell whose centre ``phi`` puts inside is whole).
+The surface points in a cell share its volume (one outside every cell goes to the nearest), and a cell with none gets
+one fill point: the points' volumes sum to the solid's (PhysGaussian: ``dx^3`` over the particles in the cell). Whole
+cells by ``phi`` made bars of 4-10 cells across 42 % light to 41 % heavy (docs/fill.md, "The mass at the faces").
+Morphology and distances come from :mod:`scipy.ndimage`.
 """
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ from scipy.spatial import cKDTree
 
 from gasp_core.errors import SceneError
 from gasp_core.maps import fill_shares
-from gasp_core.maps.occupancy import SPLAT_SIGMA, padded_grid, rasterize, solid_field
+from gasp_core.maps.occupancy import HALF_SHELL, SPLAT_SIGMA, padded_grid, rasterize, solid_field
 
 #: Largest fill grid (cells) before the fill spacing is refused as too fine.
 MAX_FILL_CELLS = 512 ** 3
@@ -175,7 +175,8 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
         fill point. False (passive surface, ``surface = "passive"``): the surface points get
         volume 0 and every inside cell gets a fill point, so the fill alone is the whole solid.
     check_points : callable, optional
-        Called with the point count (an upper bound) before the fill is allocated; raises to refuse it.
+        Called with the point count before the faces' shares are measured (with the cells ``phi`` puts inside) and
+        before the fill is allocated (its cells); raises to refuse it.
     floor : float, optional
         Height (metres, world z) of the ground it is set on: no fill point starts under it (:func:`_above`).
 
@@ -203,9 +204,11 @@ def fill_interior(points: np.ndarray, h: float, splats: np.ndarray | None = None
         inside, seed, deep = _centre_masks(phi, vlo, voxel_used, lo, shape, h, band(h, voxel_used))
         inside, floored = _above(inside, lo, h, floor)
         thin = thin_parts(phi, vlo, voxel_used, inside, lo, h)
-        if fill_shares.enabled():   # the cells at the faces by their shares (issue 66; opt-in: fill_shares)
-            cells, frac, cent = fill_shares.cell_fractions(seed, deep, phi, vlo, voxel_used, splats, lo, h, floor)
-        else:
+        if check_points is not None:      # refused before the shares are measured: the cells phi puts inside
+            check_points(len(points) + int(inside.sum()))
+        # the cells at the faces by their shares (issue 66), unless the splats' planes do not hold the splats
+        cells, frac, cent = fill_shares.cell_fractions(seed, deep, phi, vlo, voxel_used, splats, lo, h, floor)
+        if cells is None:
             cells = np.argwhere(inside)
         method, closed, warning = "six-ray", True, ""
     else:
@@ -248,8 +251,7 @@ def _points_and_volumes(points: np.ndarray, cells: np.ndarray, lo: np.ndarray, s
 
 
 def _open_warning(name: str, max_dilation: int, voxel: float, volume: float, unit: str = "m") -> str:
-    """The warning for an object whose footprints enclose no volume (simulated as a shell of ``volume``
-    ``unit``^3)."""
+    """The warning for an object whose footprints enclose no volume (a shell of ``volume`` ``unit``^3)."""
     size = f"{voxel * 1e3:.3g} mm" if unit == "m" else f"{voxel:.3g} {unit}"
     return (f"object '{name}': its Gaussians enclose no volume (open, or gaps wider than the largest closing, "
             f"{max_dilation} voxels of {size}); simulated as a hollow shell of {volume:.4g} {unit}^3. "
@@ -257,8 +259,7 @@ def _open_warning(name: str, max_dilation: int, voxel: float, volume: float, uni
 
 
 def _check_fill_arguments(points: np.ndarray, h: float, name: str, if_open: str) -> None:
-    """Refuse (:class:`SceneError`) points that are not a non-empty (n, 3) array, ``h <= 0`` or an unknown
-    ``if_open``."""
+    """Refuse (:class:`SceneError`) points that are not a non-empty (n, 3) array, ``h <= 0`` or a bad ``if_open``."""
     if points.ndim != 2 or points.shape[1] != 3 or len(points) == 0:
         raise SceneError(f"object '{name}': fill_interior needs a non-empty (n, 3) point array, got {points.shape}")
     if not h > 0:
@@ -292,14 +293,13 @@ def _centre_masks(phi: np.ndarray, vlo: np.ndarray, voxel: float, lo: np.ndarray
     cz = (lo[2] + (k + 0.5) * h - vlo[2]) / voxel - 0.5
     for i in range(shape[0]):
         cx = np.full(cy.shape, (lo[0] + (i + 0.5) * h - vlo[0]) / voxel - 0.5)
-        v = ndimage.map_coordinates(phi, [cx, cy, cz], order=1, mode="constant", cval=-1.0)
+        v = ndimage.map_coordinates(phi, [cx, cy, cz], order=1, mode="constant", cval=-HALF_SHELL)
         inside[i], seed[i], deep[i] = v > 0, v > -fill_shares.NEAR_PHI, v >= band
     return inside, seed, deep
 
 
 def band(h: float, voxel: float) -> float:
-    """Depth (voxels of ``phi``) from which a fill cell of spacing ``h`` is whole: its diagonal in taxicab voxels and
-    two voxels for where ``phi`` puts the surface."""
+    """Depth (voxels of ``phi``) from which a cell of spacing ``h`` is whole: its taxicab diagonal and two voxels."""
     return 1.5 * h / voxel + 2.0
 
 
