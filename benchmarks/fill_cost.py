@@ -9,7 +9,7 @@ of each specimen of ``tests/test_fill_mass.py`` at ``n_grid`` 32, 48 and 64 is m
 
 Writes ``benchmarks/results/fill_cost.json`` (or the path given with ``--out``): per fill, the CPU and wall seconds,
 the volume (m^3), the mass at the scene's ``rho`` (kg), the points and the median ``p_vol^(1/3)`` (the contact's
-stable step reads it, ``gasp_core.toolkit.contact.contact_dt``), the cProfile of one share fill (the ten functions
+stable step reads it, ``gasp_core.mpm.contact.contact_dt``), the cProfile of one share fill (the ten functions
 of most own time) and the machine's load.
 
 Run:  python benchmarks/fill_cost.py [--rounds 3] [--family] [--out path.json]

@@ -424,7 +424,7 @@ def test_loop_check_counts_lazy_and_type_checking_imports(tmp_path):
     assert import_loops(root, type_checking=False) == [["gasp_core.maps.a", "gasp_core.maps.b"]]
 
 
-def test_layer_check_catches_an_upward_import_and_toolkit_in_run(tmp_path):
+def test_layer_check_catches_an_upward_import_and_mpm_in_run(tmp_path):
     root = _package(tmp_path, {
         "maps/games.py": "def f():\n    from gasp_core.scene.spec import Scene\n",
         "run/pipeline.py": "from gasp_core.mpm.options import mpm_options\nfrom gasp_core.seam import setup\n",
