@@ -50,11 +50,12 @@ def spoil(monkeypatch, name: str, ft=None, scale: float = 1.0) -> None:
     monkeypatch.setattr(f"{PLUGIN_MODULE[name]}.material_table", spoiled)
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("case", bf.FAMILY, ids=lambda c: c.name)
+@pytest.mark.parametrize("case", [pytest.param(c, id=c.name, marks=[] if c is ROD else [pytest.mark.slow])
+                                  for c in bf.FAMILY])
 @pytest.mark.parametrize("name", _names())
 def test_each_body_breaks_below_where_beam_theory_says_and_stays_whole_above_twice(name, case):
-    """The must-show, one case of the family on one engine (measured: benchmarks/results/bending_family.md)."""
+    """The must-show, one case of the family on one engine (measured: benchmarks/results/bending_family.md). The
+    rod (about 2 s a run) is in the default tier, the beams in the slow one (6 to 90 s a run)."""
     r = bf.run_case(case, name)
     assert bf.verdict(r) == "ok", r
 
