@@ -9,7 +9,7 @@ the span ``S`` at mid-span, ``3 rho g S^2 / (4 h)``. Gravity switched on at once
 static one (the first mode's overshoot). A hanging rod's largest stress is ``rho g L`` at its top (up to ``2 rho g L``
 dynamically).
 
-The material: E 50 MPa, nu 0, rho 1000 kg/m^3 (the static tip deflection of the cantilevers L/125 and L/200);
+The material: E 50 MPa, nu 0, rho 1000 kg/m^3 (the static tip deflection of the cantilevers L/218 and L/145);
 ``tensile_strength`` f_t = ``ratio * sigma_max``; ``fracture_energy`` from the characteristic length
 ``l_ch = E G_f / f_t^2 = LCH dx`` (``LCH`` = 0.78 cells): under a tenth of the depth at 8 cells (0.0975 h) and
 12 cells (0.065 h). The crack band refuses ``l_ch`` at or under ``(dx + p_vol^(1/3)) / 2 = 0.75 dx`` (the snap-back
