@@ -161,7 +161,7 @@ def run_case(c: Case, engine: str, build_fn=build) -> dict:
             try:
                 e.step_frame()
             except EngineDivergence as err:
-                diverged = f"frame {frames}: {str(err).split(' (likely')[0]}"
+                diverged = str(err).split(" (likely")[0]
                 break
             d = np.asarray(e.damage(), np.float64)
             xs = np.asarray(e.positions(), np.float64)
