@@ -11,7 +11,8 @@ tenth of the depth):
 
 The catches: an engine that never damages (its tensile strength 1e30 Pa) fails "breaks below"; an engine whose
 strength (and softening stress) is a third of the material's fails "stays whole above 2x" on the cantilever and on
-the rod. The verdict's own clauses (where, whole) are checked on made-up records in the default tier.
+the rod; the engines with the held region before issue 66 (no ghost nodes, rigid held points) fail the rod's
+"stays whole" (it breaks at its top, the earlier defect). The verdict's own clauses (where, whole) are checked on made-up records in the default tier.
 """
 from __future__ import annotations
 
@@ -27,6 +28,7 @@ from gasp_core.errors import SceneError   # noqa: E402
 from gasp_core.seam.plugins import engines   # noqa: E402
 from gasp_core.seam.setup import crack_band   # noqa: E402
 from gasp_core.toolkit.materials import P_FT, P_SF, material_table   # noqa: E402
+from test_tension_family import old_clamp   # noqa: E402
 
 PLUGIN_MODULE = {"warp_mpm": "gasp_warp_mpm.engine", "taichi_mpm": "gasp_taichi_mpm.engine"}
 CANT_LOW, CANT_HIGH = bf.Case("cantilever", 8, 0.6), bf.Case("cantilever", 8, 2.2)
@@ -74,6 +76,16 @@ def test_the_whole_check_catches_a_strength_a_third_of_the_material(name, monkey
     spoil(monkeypatch, name, scale=1 / 3)
     verdicts = [bf.verdict(bf.run_case(c, name)) for c in (CANT_HIGH, ROD)]
     assert all("and it broke" in v for v in verdicts), verdicts
+
+
+@pytest.mark.parametrize("name", _names())
+def test_the_rod_check_catches_the_old_node_held_clamp(name, monkeypatch):
+    """The engines with the held region before issue 66 (no ghost nodes, every held point rigid): the rod at
+    ``2 rho g L`` breaks 1.25 cells under its held face (frame 9; peak before damage 1.84 ``rho g L``, measured on
+    both engines), the earlier defect this must-show names."""
+    old_clamp(monkeypatch, name)
+    r = bf.run_case(ROD, name)
+    assert "and it broke" in bf.verdict(r) and r["where"] < bf.WHERE["rod"], r
 
 
 def _record(**kw) -> dict:
