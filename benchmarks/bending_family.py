@@ -25,13 +25,14 @@ follows a full break is not the must-show's; run on, taichi_mpm's 12-cell cantil
 crack in frame 20).
 
 Measured per case: ``broke`` (a lattice layer across the long axis with every point at ``d >= 0.9``: a crack
-through, or two or more pieces), ``where`` (the rest coordinate of the layer with the most points at ``d >= 0.9``:
-its distance from the root face over ``L``, from mid-span over ``S``, from the held face over ``L``), ``pieces``
-(:class:`gasp_core.testing.pieces_count.FramePieces`, the frames alone: links of 1.5 spacings at rest, cut past
-rest + dx; parts of 1 % of the mass or more, at the end), ``d_max``, ``peak`` (the largest principal Kirchhoff
-stress ``E ln(sigma_1(F))`` (nu 0) of any point in the frames before any point damages, over ``sigma_max``: the
-dynamic overshoot and the held face's or support's concentration together; sampled once a frame), the process's
-CPU seconds.
+through, or two or more pieces), ``where`` (the rest coordinate of the layer broken through farthest from where the
+stress is largest, else of the layer with the most points at ``d >= 0.9``: its distance from the root face over
+``L``, from mid-span over ``S``, from the held face over ``L``; ``through_at``: every layer broken through, so;
+``broken_reach``: the farthest layer with any point at ``d >= 0.9``), ``pieces``
+(:class:`gasp_core.testing.pieces_count.FramePieces`, the frames alone: links of 1.5 spacings at rest, cut past rest
++ dx; parts of 1 % of the mass or more, at the end), ``d_max``, ``peak`` (the largest principal Kirchhoff stress ``E
+ln(sigma_1(F))`` (nu 0) of any point in the frames before any point damages, over ``sigma_max``: the dynamic
+overshoot and the held face's or support's concentration together; sampled once a frame), the process's CPU seconds.
 
 Run: ``python benchmarks/bending_family.py --engine taichi_mpm`` (and ``--engine warp_mpm``; ``--only NAME,...``);
 each engine's cases are added to ``benchmarks/results/bending_family.json``, the table ``bending_family.md`` is
@@ -179,14 +180,18 @@ def run_case(c: Case, engine: str, build_fn=build) -> dict:
     nb = np.bincount(layer, d >= BROKEN, nl)
     k = int(np.argmax(nb + np.bincount(layer, d, nl) / count / 2)) if nb.any() else None
     span = c.span * DX
-    where = None if k is None else float(abs(rest[k] - face) / span)
+    off = np.abs(rest - face) / span
+    thr = np.flatnonzero(nb == count)
+    # the farthest layer broken through (else the most broken one) from where the stress is largest
+    where = float(off[thr].max()) if len(thr) else (None if k is None else float(off[k]))
     return {"case": c.name, "engine": engine, "shape": c.shape, "depth_cells": c.depth, "depth_m": c.depth * DX,
             "span_m": span, "n_grid": n, "points": len(x0), "sigma_max_pa": c.sigma_max(),
             "ft_over_sigma_max": c.ratio, "f_t": st.materials[0].tensile_strength,
             "G_f": st.materials[0].fracture_energy, "l_ch_over_depth": LCH / c.depth,
             "broke": bool(through is not None or pieces > 1), "crack_through": through is not None,
             "through_frame": through, "frames_run": frames, "diverged": diverged, "pieces": pieces,
-            "where": where, "broken_points": int((d >= BROKEN).sum()),
+            "where": where, "through_at": sorted({round(float(o), 4) for o in off[thr]}),
+            "broken_reach": float(off[nb > 0].max()) if nb.any() else None, "broken_points": int((d >= BROKEN).sum()),
             "peak_over_sigma_max": peak / c.sigma_max(), "d_max": float(d.max()),
             "seconds_cpu": round(cpu, 1), "seconds_wall": round(wall, 1), "run_s": FRAMES * st.frame_dt}
 
@@ -215,13 +220,15 @@ WHERE = {"cantilever": 0.1, "beam": 0.25, "rod": 0.1}
 def table(rows: list[dict]) -> str:
     """The Markdown table of the cases with the must-show's verdict."""
     out = ["| case | engine | depth (cells, m) | span (m) | n_grid | sigma_max (kPa) | f_t / sigma_max | l_ch / h | "
-           "peak / sigma_max | broke | where (share of span) | pieces | d_max | CPU s | verdict |", "|" + "---|" * 15]
+           "peak / sigma_max | broke | where (share of span) | through at | broken reach | pieces | d_max | CPU s | "
+           "verdict |", "|" + "---|" * 17]
     for r in sorted(rows, key=lambda r: (r["shape"], r["depth_cells"], r["ft_over_sigma_max"], r["engine"])):
         w = "" if r["where"] is None else f"{r['where']:.3f}"
         out.append(f"| {r['case']} | {r['engine']} | {r['depth_cells']}, {r['depth_m']:.4f} | {r['span_m']:.3f} | "
                    f"{r['n_grid']} | {r['sigma_max_pa'] / 1e3:.2f} | {r['ft_over_sigma_max']:g} | "
                    f"{r['l_ch_over_depth']:.3f} | {r['peak_over_sigma_max']:.2f} | {'yes' if r['broke'] else 'no'} | "
-                   f"{w} | {r['pieces']} | "
+                   f"{w} | {', '.join(f'{o:.3f}' for o in r.get('through_at', []))} | "
+                   f"{'' if r.get('broken_reach') is None else format(r['broken_reach'], '.3f')} | {r['pieces']} | "
                    f"{r['d_max']:.3f} | {r['seconds_cpu']:.0f} | {verdict(r)} |")
     return "\n".join(out) + "\n"
 
