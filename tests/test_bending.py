@@ -27,7 +27,7 @@ import bending_family as bf   # noqa: E402
 from gasp_core.errors import SceneError   # noqa: E402
 from gasp_core.seam.plugins import engines   # noqa: E402
 from gasp_core.seam.setup import crack_band   # noqa: E402
-from gasp_core.toolkit.materials import P_FT, P_SF, material_table   # noqa: E402
+from gasp_core.mpm.materials import P_FT, P_SF, material_table   # noqa: E402
 from test_tension_family import old_clamp   # noqa: E402
 
 PLUGIN_MODULE = {"warp_mpm": "gasp_warp_mpm.engine", "taichi_mpm": "gasp_taichi_mpm.engine"}
