@@ -503,7 +503,9 @@ def free_bar_break(name: str, n_frames: int = 30) -> dict:
 @pytest.mark.slow
 @pytest.mark.parametrize("name", _names())
 def test_a_free_bar_that_breaks_keeps_its_momentum_and_gains_no_energy(name):
-    r = free_bar_break(name)
+    # 60 frames: the pieces are the parts that have come apart by a cell (issue 66 item 4); the bar is broken through
+    # by frame 30 (320 points at d >= 0.9, taichi_mpm) but its halves part by a cell only later (3 pieces at 60)
+    r = free_bar_break(name, n_frames=60)
     assert r["pieces"] >= 2, r["pieces"]
     p, E0 = np.array(r["p"]), r["E"][0]
     assert np.all(np.abs(p / p[0] - 1) < 0.01), p
