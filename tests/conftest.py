@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from gasp_core.gs.io import read_gaussians, write_gaussians
-from gasp_testing import DONUT, needs_package
+from gasp_testing import DONUT, biscuit_scene_text, needs_package
 
 
 @pytest.fixture(scope="session")
@@ -47,9 +47,6 @@ def donut_run(tmp_path_factory):
     return d / "run"
 
 
-BRITTLE = 'name = "brittle"\nE = 2.0e5\nnu = 0.25\nrho = 300.0\ntensile_strength = 4.0e3\nfracture_energy = 5.0'
-
-
 @pytest.fixture(scope="session")
 def broken_run(tmp_path_factory, donut_small):
     """The donut_small biscuit broken on landing: 2 frames on warp_mpm (about 5 s; tests/test_split_pieces.py,
@@ -59,27 +56,6 @@ def broken_run(tmp_path_factory, donut_small):
     from gasp_core.run.pipeline import simulate_scene
     from gasp_core.scene.spec import load_scene
     tmp = tmp_path_factory.mktemp("pieces")
-    (tmp / "scene.toml").write_text(f"""
-frame_dt = 0.0333333
-n_frames = 2
-[engine]
-name = "warp_mpm"
-options = {{ threads = 1, contact = "grid" }}
-[domain]
-n_grid = 32
-[[boundary]]
-kind = "ground"
-height = 0.0
-friction = 0.5
-[[boundary]]
-kind = "walls"
-[[object]]
-file = "{donut_small}"
-up_axis = "+z"
-position = [0.0, 0.0, 0.05]
-velocity = [0.0, 0.0, -4.43]
-[object.material]
-{BRITTLE}
-""")
+    (tmp / "scene.toml").write_text(biscuit_scene_text(donut_small, 2, 4.43))
     simulate_scene(load_scene(tmp / "scene.toml"), tmp / "run", quiet=True)
     return tmp / "run"

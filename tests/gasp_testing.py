@@ -88,3 +88,34 @@ def glb_nodes(path) -> dict:
         out[node.name] = np.frombuffer(blob, np.float32, acc.count * 3,
                                        view.byteOffset + (acc.byteOffset or 0)).reshape(-1, 3)
     return out
+
+
+#: The brittle biscuit of the broken-run fixtures (tests/conftest.py ``broken_run``, tests/test_pieces_resume.py).
+BRITTLE = 'name = "brittle"\nE = 2.0e5\nnu = 0.25\nrho = 300.0\ntensile_strength = 4.0e3\nfracture_energy = 5.0'
+
+
+def biscuit_scene_text(ply, n_frames: int, speed: float) -> str:
+    """A scene file's text: the brittle biscuit :data:`BRITTLE` (the PLY ``ply``) thrown down at ``speed`` m/s onto
+    a ground in walls, warp_mpm on one thread, the grid contact, n_grid 32, ``n_frames`` frames of 1/30 s."""
+    return f"""
+frame_dt = 0.0333333
+n_frames = {n_frames}
+[engine]
+name = "warp_mpm"
+options = {{ threads = 1, contact = "grid" }}
+[domain]
+n_grid = 32
+[[boundary]]
+kind = "ground"
+height = 0.0
+friction = 0.5
+[[boundary]]
+kind = "walls"
+[[object]]
+file = "{ply}"
+up_axis = "+z"
+position = [0.0, 0.0, 0.05]
+velocity = [0.0, 0.0, {-speed}]
+[object.material]
+{BRITTLE}
+"""

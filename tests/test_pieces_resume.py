@@ -12,37 +12,15 @@ from pathlib import Path
 
 import pytest
 
-from gasp_testing import needs_package
+from gasp_testing import biscuit_scene_text, needs_package
 
 N_FRAMES = 6
 KEYS = ("pieces", "piece_mass", "debris", "debris_mass")
-#: tests/conftest.py's brittle biscuit.
-BRITTLE = 'name = "brittle"\nE = 2.0e5\nnu = 0.25\nrho = 300.0\ntensile_strength = 4.0e3\nfracture_energy = 5.0'
 
 
 def scene_text(ply: Path) -> str:
-    return f"""
-frame_dt = 0.0333333
-n_frames = {N_FRAMES}
-[engine]
-name = "warp_mpm"
-options = {{ threads = 1, contact = "grid" }}
-[domain]
-n_grid = 32
-[[boundary]]
-kind = "ground"
-height = 0.0
-friction = 0.5
-[[boundary]]
-kind = "walls"
-[[object]]
-file = "{ply}"
-up_axis = "+z"
-position = [0.0, 0.0, 0.05]
-velocity = [0.0, 0.0, -7.0]
-[object.material]
-{BRITTLE}
-"""
+    """tests/conftest.py's brittle biscuit thrown down at 7 m/s for N_FRAMES frames."""
+    return biscuit_scene_text(ply, N_FRAMES, 7.0)
 
 
 def pieces_of(run: Path) -> tuple[dict, list]:
