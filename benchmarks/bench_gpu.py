@@ -40,17 +40,21 @@ SUBSTEPS = 10
 
 def donut_scene(device: str, folder: Path, schedule: str = "auto") -> Path:
     """The README donut with ``device`` and ``schedule`` in its engine options, written to ``folder``; schedule
-    ``"tiles"`` or ``"atomic"``: the GPU schedule with that ``p2g`` (``"auto"`` chooses atomic at its 65k points)."""
+    ``"tiles"`` or ``"atomic"``: the GPU schedule with that ``p2g`` (``"auto"`` chooses atomic at its 65k points);
+    ``"det"``: the GPU schedule with ``deterministic = true`` (the fixed-point P2G)."""
     text = DONUT.read_text().replace('file = "data/', f'file = "{DONUT.parent}/data/')
     p2g = schedule if schedule in ("tiles", "atomic") else "auto"
-    text += f'\n[engine.options]\ndevice = "{device}"\nschedule = "{"auto" if p2g != "auto" else schedule}"\n'
-    text += f'p2g = "{p2g}"\n'
+    sched = schedule if schedule in ("cpu", "gpu") else "auto"
+    text += f'\n[engine.options]\ndevice = "{device}"\nschedule = "{sched}"\np2g = "{p2g}"\n'
+    if schedule == "det":
+        text += "deterministic = true\n"
     path = folder / f"donut_{device}_{schedule}.toml"
     path.write_text(text)
     return path
 
 
 def case_donut(device: str, frames: int, out: Path, schedule: str = "auto") -> dict:
+    import hashlib
     from gasp_core.prepare.scene import prepare_scene
     from gasp_core.scene.spec import load_scene
     from gasp_core.seam.runner import RunStats, run_engine
@@ -60,6 +64,7 @@ def case_donut(device: str, frames: int, out: Path, schedule: str = "auto") -> d
     walls = []
     for rec in run_engine(prep.info, prep.setup, frames, stats):
         walls.append(rec.wall_s)
+        last = rec.x
         if rec.frame == 30:
             np.save(out / f"donut_{device}_{schedule}_f30.npy", rec.x)
     after = walls[1:]
@@ -69,7 +74,7 @@ def case_donut(device: str, frames: int, out: Path, schedule: str = "auto") -> d
             "s_per_frame_max": float(np.max(after)), "frames": len(walls), "dx": float(prep.setup.dx),
             "M_per_s": len(prep.setup.x) * n_sub / float(np.median(after)) / 1e6,
             "schedule": stats.engine.get("schedule"), "cg_iters": stats.engine.get("viscous_cg_iterations"),
-            "p2g": stats.engine.get("p2g")}
+            "p2g": stats.engine.get("p2g"), "sha1_last": hashlib.sha1(np.ascontiguousarray(last).tobytes()).hexdigest()}
 
 
 def case_profile(frames: int) -> dict:
@@ -91,9 +96,10 @@ def case_profile(frames: int) -> dict:
     return kernels
 
 
-def block_setup(n_target: int, material: str, device: str, p2g: str = "auto"):
+def block_setup(n_target: int, material: str, device: str, p2g: str = "auto", **options):
     """A block of about ``n_target`` points, 8 a cell, 1 cell over a ground, falling at 1 m/s; n_grid at least
-    64 and twice the block's cells; ``p2g`` the engine option (``"auto"``: tiles on CUDA, or ``"atomic"``)."""
+    64 and twice the block's cells; ``p2g`` the engine option (``"auto"``: tiles on CUDA, or ``"atomic"``), and
+    further engine ``options`` (``deterministic``, ``tile_sort_every``)."""
     from gasp_core.seam.setup import Boundary, Material, SimSetup
     from gasp_core.mpm.substeps import mpm_stable_dt
     cells = max(1, int(round((n_target / 8) ** (1 / 3))))
@@ -111,7 +117,7 @@ def block_setup(n_target: int, material: str, device: str, p2g: str = "auto"):
     return SimSetup(x=x, v=np.array([0.0, 0.0, -1.0]), p_vol=h ** 3, body_id=0, materials=[mat], gravity=gravity,
                     domain_lo=np.zeros(3), domain_hi=np.ones(3), n_grid=n_grid,
                     boundaries=[Boundary("ground", height=0.1, friction=0.5)], frame_dt=SUBSTEPS * dt,
-                    options={"device": device, "precision": "f32", "n_substeps": SUBSTEPS, "p2g": p2g})
+                    options={"device": device, "precision": "f32", "n_substeps": SUBSTEPS, "p2g": p2g, **options})
 
 
 def profiled(on: bool) -> None:
@@ -136,11 +142,11 @@ def profile_table(top: int = 30) -> str:
 
 
 def case_block(n_target: int, material: str, device: str, frames: int, profile: bool = False,
-               p2g: str = "auto") -> dict:
+               p2g: str = "auto", **options) -> dict:
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import get_engine
     profiled(profile)
-    setup = block_setup(n_target, material, device, p2g)
+    setup = block_setup(n_target, material, device, p2g, **options)
     t0 = time.perf_counter()
     eng = build_engine(get_engine("taichi_mpm"), setup)
     build = time.perf_counter() - t0
@@ -165,7 +171,8 @@ def case_block(n_target: int, material: str, device: str, frames: int, profile: 
         return {"points": n, "table": table}
     return {"points": n, "n_grid": setup.n_grid, "build_s": build, "frame1_s": first, "frames": frames,
             "s_per_frame": wall / frames, "M_per_s": n * SUBSTEPS * frames / wall / 1e6,
-            "finite": bool(np.isfinite(x).all()), "schedule": st.get("schedule"), "p2g": st.get("p2g")}
+            "finite": bool(np.isfinite(x).all()), "schedule": st.get("schedule"), "p2g": st.get("p2g"),
+            "sha1_last": __import__("hashlib").sha1(np.ascontiguousarray(x).tobytes()).hexdigest(), **options}
 
 
 def run_case(name: str, args: list[str], timeout: float) -> dict:
@@ -221,14 +228,16 @@ def main(argv=None) -> int:
     a.out.mkdir(parents=True, exist_ok=True)
     if a.case:   # inside a case's process
         if a.case.startswith("donut_"):
-            _, device, schedule = a.case.split("_")
+            _, device, schedule, *_run = a.case.split("_")   # a last "_runK": the same case again
             rec = case_donut(device, a.donut_frames, a.out, schedule)
         elif a.case == "profile":
             rec = case_profile(3)
         else:
             _, material, n, device, *suffix = a.case.split("_")
+            opts = {"deterministic": True} if "det" in suffix else {}
+            opts.update({"tile_sort_every": int(x[4:]) for x in suffix if x.startswith("sort")})
             rec = case_block(int(n), material, device, 3, profile="profile" in suffix,
-                             p2g=next((x for x in ("atomic", "tiles") if x in suffix), "auto"))
+                             p2g=next((x for x in ("atomic", "tiles") if x in suffix), "auto"), **opts)
         print(json.dumps(rec))
         return 0
     try:
@@ -242,9 +251,13 @@ def main(argv=None) -> int:
     cases += [("block_jelly_65000_cuda_tiles", []), ("block_sand_1000000_cuda", []),
               ("block_brittle_1000000_cuda", []), ("block_jelly_1000000_cuda_profile", []), ("profile", []),
               ("donut_cuda_cpu", ["--donut-frames", "4"])]
-    if a.only:
-        keep = set(a.only.split(","))
-        cases = [c for c in cases if c[0] in keep]
+    cases += [("donut_cuda_det", []), ("donut_cuda_det_run2", []), ("block_jelly_1000000_cuda_det", []),
+              ("block_jelly_1000000_cuda_det_run2", []), ("block_jelly_16000000_cuda_det", []),
+              ("block_jelly_16000000_cuda_sort4", []), ("block_jelly_4000000_cuda_sort4", [])]
+    cases += [(f"block_{m}_1000000_cuda_det{r}", []) for m in ("sand", "brittle") for r in ("", "_run2")]
+    if a.only:   # in the order given
+        extra = dict(cases)
+        cases = [(c, extra.get(c, [])) for c in a.only.split(",")]
     end = time.perf_counter() + a.budget
     doc = {"gpu": gpu, "date": datetime.date.today().isoformat(), "cpu_count": os.cpu_count(),
            "python": platform.python_version(), "cases": []}
@@ -254,6 +267,7 @@ def main(argv=None) -> int:
             doc["cases"].append({"case": name, "error": "not run: the budget was spent"})
             continue
         doc["cases"].append(run_case(name, [*extra, "--out", str(a.out)], left))
+        (a.out / "bench_gpu.json").write_text(json.dumps(doc, indent=1))   # each case kept, should a later one hang
     by = {r["case"]: r for r in doc["cases"]}
     derived = {}
     c, p = by.get("donut_cuda_auto", {}), by.get("donut_cpu_auto", {})
@@ -276,6 +290,24 @@ def main(argv=None) -> int:
         t, at = by.get(t, {}), by.get(at, {})
         if "M_per_s" in t and "M_per_s" in at:
             derived[f"jelly block {n} points, tiled P2G against atomic P2G"] = f"{t['M_per_s'] / at['M_per_s']:.2f}x"
+    for det, run2, base in (("donut_cuda_det", "donut_cuda_det_run2", "donut_cuda_auto"),
+                            ("block_jelly_1000000_cuda_det", "block_jelly_1000000_cuda_det_run2",
+                             "block_jelly_1000000_cuda_atomic"),
+                            ("block_jelly_16000000_cuda_det", None, "block_jelly_16000000_cuda_atomic")):
+        d, b = by.get(det, {}), by.get(base, {})
+        key = "s_per_frame_median" if "s_per_frame_median" in d else "s_per_frame"
+        if key in d and key in b:
+            derived[f"{det}: its cost against {base} (float atomics)"] = f"{d[key] / b[key]:.2f}x the time"
+    for name, d in by.items():   # every case run twice ("_run2"): the same bits?
+        r2 = by.get(name + "_run2", {})
+        if "sha1_last" in d and "sha1_last" in r2:
+            derived[f"{name}: two runs' last positions"] = \
+                "the same bits" if d["sha1_last"] == r2["sha1_last"] else "DIFFERENT bits"
+    for n in ("16000000", "4000000"):
+        t, t4 = by.get(f"block_jelly_{n}_cuda", {}), by.get(f"block_jelly_{n}_cuda_sort4", {})
+        if "M_per_s" in t and "M_per_s" in t4:
+            derived[f"jelly block {n} points, tiles sorted every 4 substeps against every substep"] = \
+                f"{t4['M_per_s'] / t['M_per_s']:.2f}x"
     doc["derived"] = derived
     (a.out / "bench_gpu.json").write_text(json.dumps(doc, indent=1))
     (a.out / "bench_gpu.md").write_text(markdown(doc))

@@ -53,6 +53,14 @@ class TaichiMPMConfig(MPMConfig):
                       "(every point's 27 nodes added to the global grid), 'auto' tiles from 262,144 points (on an "
                       "H100 atomic was 3.5x faster on the 65k-point donut, tiles 2.3x faster on a 1M-point block); the "
                       "CPU never tiles", kind="str", choices=("auto", "atomic", "tiles"))
+    tile_sort_every: int = option(1, "the tiled P2G sorts the points by block every this many substeps (and at each "
+                                  "frame's first); between sorts a point that left its block is added atomically",
+                                  kind="int", lo=1, hi=64)
+    deterministic: bool = option(False, "the GPU schedule's P2G in 64-bit fixed point (integer atomics: the same "
+                                 "grid on any run, thread count and device; gasp_taichi_mpm.schedule.fixed; never "
+                                 "tiled); the CPU schedule repeats without it (threads = 1); not with wind, colliders, "
+                                 "walls' particle contact, the contact chosen per body, two fields or rigid bodies",
+                                 kind="bool")
     pin_threads: bool = option(True, "pin each CPU worker thread to its own core (Linux; 2 threads or more, no more "
                                "than the allowed cores): left to the scheduler, the workers often share one core "
                                "(docs/performance.md); the numbers are the same either way", kind="bool")

@@ -23,7 +23,8 @@ On the GPU schedule (:mod:`gasp_taichi_mpm.schedule`) the same sums run with eve
 slices of ``m_slice`` points (:func:`gasp_taichi_mpm.schedule.primitives.slice_points`) summed by a fixed tree (:meth:`gasp_taichi_mpm.balance_gpu.BalanceGPU.contact_moments_gpu`), and the fix
 with no list and no sort: the marked nodes listed in node order by flag, scan and scatter, their terms summed per
 support over chunks of list entries by a fixed tree, then applied one thread a node
-(:meth:`gasp_taichi_mpm.balance_gpu.BalanceGPU.contact_fix_gpu`). The support sums of P2G (:meth:`Balance.add_contact`) stay float64 atomics on both.
+(:meth:`gasp_taichi_mpm.balance_gpu.BalanceGPU.contact_fix_gpu`). The support sums of P2G (:meth:`Balance.add_contact`) stay float64 atomics on both (in fixed point with
+``deterministic``: :mod:`gasp_taichi_mpm.schedule.fixed`).
 """
 import numpy as np
 import taichi as ti
@@ -178,12 +179,21 @@ class Balance:
             jv = j * ti.cast(n, ti.f64)
             mn = x.cross(jv)
             v = j * ti.cast(vc, ti.f64)
-            ti.atomic_add(self.c_jsums[s, 0], j)
+            if ti.static(self.fixed_point):   # deterministic: the sums in fixed point (schedule/fixed.py)
+                self.add_support_fixed(s, 0, j)
+                for q in ti.static(range(3)):
+                    self.add_support_fixed(s, 1 + q, j * x[q])
+                    self.add_support_fixed(s, 4 + q, jv[q])
+                    self.add_support_fixed(s, 7 + q, mn[q])
+                    self.add_support_fixed(s, 10 + q, v[q])
+            else:
+                ti.atomic_add(self.c_jsums[s, 0], j)
+                for q in ti.static(range(3)):
+                    ti.atomic_add(self.c_jsums[s, 1 + q], j * x[q])
+                    ti.atomic_add(self.c_jsums[s, 4 + q], jv[q])
+                    ti.atomic_add(self.c_jsums[s, 7 + q], mn[q])
+                    ti.atomic_add(self.c_jsums[s, 10 + q], v[q])
             for q in ti.static(range(3)):
-                ti.atomic_add(self.c_jsums[s, 1 + q], j * x[q])
-                ti.atomic_add(self.c_jsums[s, 4 + q], jv[q])
-                ti.atomic_add(self.c_jsums[s, 7 + q], mn[q])
-                ti.atomic_add(self.c_jsums[s, 10 + q], v[q])
                 ti.atomic_min(self.c_jsums[s, 13 + 2 * q], x[q])
                 ti.atomic_max(self.c_jsums[s, 14 + 2 * q], x[q])
 

@@ -27,6 +27,7 @@ from gasp_core.seam import CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSet
 from . import ENGINE, TaichiMPMConfig
 from .affinity import allowed_cores, pin_workers, spin_all_threads, thread_ids
 from .frontend import lighten_position_notes
+from .schedule.fixed import refuse_uncovered
 
 #: ``p2g = "auto"`` tiles the GPU schedule's P2G on CUDA from this many material points (docs/performance.md).
 TILES_MIN_POINTS = 1 << 18
@@ -100,7 +101,8 @@ class TaichiMPMEngine(GridEngineBase):
     Raises
     ------
     SceneError
-        More substeps per frame than ``max_substeps``. Options, materials and boundaries are
+        More substeps per frame than ``max_substeps``; ``deterministic`` with what it does not cover
+        (:func:`gasp_taichi_mpm.schedule.fixed.refuse_uncovered`). Options, materials and boundaries are
         checked by the core (``gasp_core.seam.build.build_engine``) before.
     EngineError
         ``device="cuda"`` where Taichi has no CUDA.
@@ -182,10 +184,13 @@ class TaichiMPMEngine(GridEngineBase):
             passive_bounds=(*passive_bounds(setup, contact), passive_floor_friction(setup, contact)), rigid_frames=None if frames is None else (rigid, *frames),
             contact_reach=contact_reach(setup), gpu=self.schedule == "gpu",
             tiles=self.schedule == "gpu" and self.device == "cuda" and use_tiles(cfg.p2g, self.n_material),
+            deterministic=cfg.deterministic, sort_every=cfg.tile_sort_every,
             body_mass=np.bincount(setup.body_id, weights=setup.p_mass, minlength=len(setup.materials)),
             **self._extras(setup))
         self._rigid_extras(setup, flowing_bodies(view, contact), rigid.any())
         self._p2g_mode = "tiles" if self.solver.tiles else "atomic" if atomic else "coloured blocks"
+        self._p2g_mode += " in fixed point" if self.solver.fixed_point else ""
+        refuse_uncovered(self.solver, cfg.deterministic)   # deterministic: what it covers (schedule/fixed.py)
         self.frame = 0
         self._x = setup.x.astype(np.float32 if real == ti.f32 else np.float64)
         self._v = setup.v.astype(self._x.dtype)

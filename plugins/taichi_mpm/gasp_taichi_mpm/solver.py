@@ -53,14 +53,14 @@ from .grid import GridUpdate
 from .rigid import Rigid
 from .rigid_hold import RigidHold
 from .schedule.coloured import SORT_EVERY, ColouredP2G  # noqa: F401 (SORT_EVERY: benchmarks/bench_threads.py)
+from .schedule.fixed import FixedPointP2G
 from .schedule.tiles import TileP2G
 from .transfers import Transfers
 from .viscosity import ImplicitViscosity
 
 
-
 @ti.data_oriented
-class MPMSolver(Transfers, ColouredP2G, TileP2G, Constitutive, GridUpdate, Colliders, Forces, Contact, Balance,
+class MPMSolver(Transfers, ColouredP2G, TileP2G, FixedPointP2G, Constitutive, GridUpdate, Colliders, Forces, Contact, Balance,
                 BalanceGPU, Rigid, Fields, RigidHold, FrameChecks):
     """Fields and kernels of one simulation.
 
@@ -113,14 +113,15 @@ class MPMSolver(Transfers, ColouredP2G, TileP2G, Constitutive, GridUpdate, Colli
     gpu : bool, optional
         The GPU schedule (:mod:`gasp_taichi_mpm.schedule`; implies ``atomic``): no loop over points, nodes or list
         entries on one thread. Default the CPU schedule. ``tiles``: with it on CUDA, the tiled P2G in shared memory
-        (:mod:`gasp_taichi_mpm.schedule.tiles`; not with wind, whose gradients it does not sum).
+        (:mod:`gasp_taichi_mpm.schedule.tiles`; not with wind, whose gradients it does not sum). ``deterministic``:
+        with it, the P2G in fixed point (:mod:`gasp_taichi_mpm.schedule.fixed`; never tiled).
     """
 
     def __init__(self, *, x, v, C0, p_mass, p_vol, body, fixed, jp0, params, kinds, n_grid, lo, dx, dt,
                  gravity, walls, grounds, regions, real, n_chunks, atomic, extras=None, time_table=None, n_substeps=1,
                  n_material=None, passive_every=1, flip=0.0, coloured=False, p_contact=None, passive_bounds=None,
                  rigid_frames=None, contact_reach=None, body_mass=None, n_colc=0, planes=None, mixed=None, fields=None,
-                 hold=None, gpu=False, tiles=False):
+                 hold=None, gpu=False, tiles=False, deterministic=False, sort_every=1):
         n = len(x)
         self.n = n
         self.n_material = n if n_material is None else int(n_material)
@@ -176,9 +177,10 @@ class MPMSolver(Transfers, ColouredP2G, TileP2G, Constitutive, GridUpdate, Colli
         self._split_chunks()
         self._init_box()
         self._setup_extras(extras, time_table, np_real, n_substeps)
-        self.tiles = bool(tiles) and self.gpu and not self.has_wind   # the tiled P2G (schedule/tiles.py), CUDA only
+        self.tiles = bool(tiles) and self.gpu and not self.has_wind and not deterministic   # schedule/tiles.py, CUDA
+        self.allocate_fixed(deterministic and self.gpu, p_mass, p_vol, np.asarray(params)[:, P_ETA], dx, dt, lo)
         if self.tiles:
-            self.allocate_tiles()
+            self.allocate_tiles(sort_every)
         if self.has_passive and not self.atomic:   # the chunks' node box: only the CPU's chunked and coloured P2G read it
             self.passive_box()
         self.visc = ImplicitViscosity(self, self.eta_channel) if self.viscous else None
@@ -379,9 +381,11 @@ class MPMSolver(Transfers, ColouredP2G, TileP2G, Constitutive, GridUpdate, Colli
         if self.coloured:
             self.p2g_coloured(with_g2p, substep)
         elif self.tiles:
-            self.p2g_tiled(with_g2p)
+            self.p2g_tiled(with_g2p, substep)
         else:
             self.g2p_p2g(with_g2p)
+        if self.fixed_point:   # deterministic: the fixed-point sums to reals (schedule/fixed.py)
+            self.fixed_to_grid()
         if self.visc is not None and self.atomic:
             self.full_box()
         if self.visc is not None:
@@ -393,5 +397,3 @@ class MPMSolver(Transfers, ColouredP2G, TileP2G, Constitutive, GridUpdate, Colli
             else:
                 self.contact_moments()
                 self.contact_shift()
-
-

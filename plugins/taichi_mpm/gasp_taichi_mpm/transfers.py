@@ -106,7 +106,9 @@ class Transfers:
                 weight = w[i][0] * w[j][1] * w[k][2]
                 val = weight * self.node_val(i, j, k, fx, mv0, A, S, m, jvec, eta_v, budget)
                 node = base + ti.Vector([i, j, k])
-                if ti.static(self.atomic):
+                if ti.static(self.atomic and self.fixed_point):   # deterministic (schedule/fixed.py)
+                    self.add_fixed(node, val)
+                elif ti.static(self.atomic):
                     self.grid_mv[0, node] += val
                 else:
                     self.grid_mv[t, node] = self.grid_mv[t, node] + val

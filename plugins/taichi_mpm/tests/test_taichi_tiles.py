@@ -120,3 +120,38 @@ def test_the_check_catches_a_tile_that_swaps_two_axes(monkeypatch):
     assert real is not swapped
     scale = np.abs(atomic).max(axis=(0, 1, 2))
     assert np.any(np.abs(tiled - atomic).max(axis=(0, 1, 2)) > 1e-5 * scale)
+
+
+@pytest.mark.parametrize("name", SCENES[:2])
+def test_tiles_between_sorts_give_the_atomic_grid(name):
+    """``tile_sort_every > 1``: the tiles on an earlier sort's lists, after the points moved (by 1.5 dx along x, so
+    that many leave their block), give the atomic P2G's grid: those points take the atomic path."""
+    e = build(FAMILY[name]("gpu"))
+    for _ in range(2):
+        e.step_frame()
+    s = e.solver
+    s.allocate_tiles(4)
+    s.g2p_keys(1)
+    s.scan_keys()
+    n = s.n_points[None]
+    x = s.x.to_numpy()
+    x[:n, 0] += 1.5 * float(s.dx[None])
+    s.x.from_numpy(x)
+    sorted_keys = s.t_key.to_numpy()[:n]
+    saved = _state(s)
+    s.grid_mv.fill(0)
+    s.g2p_p2g(1)
+    atomic = s.grid_mv.to_numpy()[0]
+    _restore(s, saved)
+    s.grid_mv.fill(0)
+    s.g2p_awake()
+    x = s.x.to_numpy()[:n].astype(np.float64)
+    b = np.clip(np.floor((x - s.lo[None].to_numpy()) * float(s.inv_dx[None]) - 0.5).astype(int), 0, s.n_grid - 1)
+    b //= tiles.TILE_BLOCK
+    moved = np.count_nonzero((b[:, 0] * s.nb_tile + b[:, 1]) * s.nb_tile + b[:, 2] != sorted_keys)
+    pad = ti.field(s.real, shape=tiles.TILE ** 3 * s.acc_width)
+    _tiles_one_at_a_time(s, pad)
+    tiled = s.grid_mv.to_numpy()[0]
+    assert moved > 0
+    scale = np.abs(atomic).max(axis=(0, 1, 2))
+    assert np.all(np.abs(tiled - atomic).max(axis=(0, 1, 2)) <= 1e-5 * scale + 1e-30)

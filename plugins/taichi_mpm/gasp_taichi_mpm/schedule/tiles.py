@@ -33,9 +33,10 @@ SCAN_CHUNK = 256
 class TileP2G:
     """The tiled P2G (module notes). Needs ``allocate_tiles`` and the solver's fields."""
 
-    def allocate_tiles(self) -> None:
+    def allocate_tiles(self, sort_every: int = 1) -> None:
         """The sort's fields: per point its block key and rank, the points in block order, per block its count and
-        first slot, the non-empty blocks' list."""
+        first slot, the non-empty blocks' list; the points are sorted every ``sort_every`` substeps."""
+        self.tile_sort_every = max(1, int(sort_every))
         cap = self.x.shape[0]
         self.nb_tile = (self.n_grid + TILE_BLOCK - 1) // TILE_BLOCK
         self.n_tile_keys = self.nb_tile ** 3
@@ -154,8 +155,20 @@ class TileP2G:
                 s += TILE_THREADS
             ti.simt.block.sync()   # a CUDA block takes its next tile (grid-stride) only once this one is flushed
 
-    def p2g_tiled(self, with_g2p: int) -> None:
-        """(G2P and) P2G of one substep by tiles: three launches."""
-        self.g2p_keys(with_g2p)
-        self.scan_keys()
+    @ti.kernel
+    def g2p_awake(self):
+        """G2P of the awake points (a rigid body's points had theirs), between two sorts."""
+        for p in range(self.n_points[None]):
+            if self.asleep[self.body[p]] == 0:
+                self.fused_g2p(p)
+
+    def p2g_tiled(self, with_g2p: int, substep: int = 0) -> None:
+        """(G2P and) P2G of one substep by tiles: three launches; two (G2P, then the tiles on the last sort's lists)
+        on the substeps between sorts, which come at a frame's first substep and every ``tile_sort_every``-th
+        (a point that has left its block since takes the atomic path: the same sums)."""
+        if with_g2p == 0 or substep % self.tile_sort_every == 0:
+            self.g2p_keys(with_g2p)
+            self.scan_keys()
+        else:
+            self.g2p_awake()
         self.p2g_tiles()
