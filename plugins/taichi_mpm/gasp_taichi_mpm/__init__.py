@@ -93,13 +93,15 @@ gasp_engines = engine_hook(EngineInfo(
     requires=("taichi",),
     speed={"cpu": "README donut 0.80 s a frame on 2 cores, 0.64 s on an H100 machine's 16 CPU threads "
                   "(docs/performance.md, 2026-11-26)",
-           "cuda": "README donut 0.111 s a frame on an H100; jelly block 229, 286 and 235 M particle-substeps/s at "
-                   "1M, 4M and 16M points (docs/performance.md 'On the GPU', 2026-11-26)"},
+           "cuda": "README donut 0.167 s a frame on an H100 (74 substeps); jelly block 295 and 641 M "
+                   "particle-substeps/s at 1M and 16M points (docs/performance.md 'On the GPU', round 29, "
+                   "2026-11-26)"},
     install="gasp-taichi-mpm",
     description=("MLS-MPM with APIC transfers and quadratic B-splines (Hu et al. 2018), "
                  "docs/mpm.md, on Taichi (CPU or CUDA, f32 or f64). The CPU default: its coloured block "
                  "P2G uses every core and gives the same numbers on any thread count (docs/performance.md); "
-                 "viscosity implicit (no step limit). On CUDA its GPU schedule runs the README donut at 0.113 s a "
-                 "frame on an H100, 6.2x that machine's 16 CPU cores (docs/performance.md). One engine per process "
-                 "at a time (ti.init is global)."),
+                 "viscosity implicit (no step limit). On CUDA its GPU schedule runs the README donut at 0.167 s a "
+                 "frame on an H100 (0.111 s at 69 substeps, 5.8x that machine's 16 CPU cores), a 16M-point block "
+                 "at 641 M particle-substeps/s, and repeats bit for bit with deterministic = true "
+                 "(docs/performance.md). One engine per process at a time (ti.init is global)."),
 ))
