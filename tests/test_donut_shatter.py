@@ -31,9 +31,9 @@ BIG = 0.05
 
 
 def check_shatter(run: dict) -> None:
-    """Two-sided: at least 3 pieces of ``BIG`` or more, none holding half the mass (not one lump), and not dust: the
-    largest holds at least 15 % of the mass (measured 25 %), the big pieces 75 % (91 %), the crumbs at most 10 % (5.5 %).
-    """
+    """Two-sided: at least 3 pieces of ``BIG`` or more, none holding half the mass (not one lump), and not dust:
+    the largest holds at least 15 % of the mass (measured 25 %), the big pieces 75 % (91 %), the crumbs at most 10 %
+    (5.5 %)."""
     assert "diverged" not in run, run.get("diverged")
     total = run["frames"][0]["piece_mass"][0]
     last = run["frames"][-1]
