@@ -55,7 +55,8 @@ def mpm_stable_dt(materials: Iterable[Material], dx: float, gravity, height: flo
 
     ``dt = cfl * dx / max(c_p, v_max)`` where ``c_p`` is the fastest P-wave speed over the
     materials (a brittle one's :func:`impact_wave_speed`) and ``v_max = v0_max + sqrt(2 |g| height)`` bounds the
-    speed a falling body reaches in the domain; a material with viscosity caps it at ``cfl * viscous_dt`` (:func:`viscous_dt`,
+    speed a falling body reaches in the domain; a material with viscosity caps it at ``cfl * viscous_dt``
+    (:func:`viscous_dt`,
     about ``cfl rho dx^2 / (4 eta)`` when the viscosity dominates) unless the engine integrates the
     viscosity implicitly (``implicit_viscosity``: backward Euler, stable at any step; ``docs/dissipation.md``).
 
