@@ -39,6 +39,7 @@ from gasp_core.maps.centres import CentreFrame, build_centre_frame, centre_trian
 from gasp_core.maps.games import alpha_rule, limit_edges, triangles_to_gaussians, triangles_to_gaussians_covariance
 from gasp_core.maps.hierarchy import Hierarchy, build_hierarchy, sub_triangles
 from gasp_core.maps.mesh_bind import MeshBinding, bound_triangles
+from gasp_core.maps.rows import by_rows
 
 __all__ = ["SurfaceMap", "CentreMap", "CoreMap", "MeshMap", "surface_map"]
 
@@ -145,19 +146,29 @@ class SurfaceMap:
         counts : dict
             ``degenerate`` triangles and ``clamped`` scales (the alpha rule) of this frame.
         """
-        tri = tri_t = self.triangles(x, fill)
+        tri_t = self.triangles(x, fill)
+        args = (tri_t, prev_rot, self.tri_rest, self.scales_rest)
+        # on the host's cores in chunks (a non-finite vertex in one call: its error names the whole object's face)
+        means, rot, scales, degenerate, clamped = (by_rows(self._inverse, len(tri_t), *args)
+                                                   if np.isfinite(tri_t).all() else self._inverse(*args))
+        if out is not None:
+            out["tri"], out["clamped"] = tri_t, clamped.any(axis=1)
+        return means, rot, scales, {"degenerate": int(degenerate.sum()), "clamped": int(clamped.sum())}
+
+    def _inverse(self, tri, prev_rot, tri_rest, scales_rest) -> tuple:
+        """:meth:`gaussians`' rows: ``T^-1`` and the control rule of the moved triangles ``tri`` (k, 3, 3) beside
+        their rest ``tri_rest`` and ``scales_rest``; ``(means, rot, scales, degenerate, clamped (k, 2))``, row by row
+        (:func:`gasp_core.maps.rows.by_rows` runs it in chunks)."""
         clamped = np.zeros((len(tri), 2), bool)
         if self.rebuild == "covariance":
             if self.alpha is not None:
-                tri, clamped = limit_edges(self.tri_rest, tri, self.alpha)
+                tri, clamped = limit_edges(tri_rest, tri, self.alpha)
             means, rot, scales, degenerate = triangles_to_gaussians_covariance(tri, fallback=prev_rot)
         else:
             means, rot, scales, degenerate = triangles_to_gaussians(tri, fallback=prev_rot)
             if self.alpha is not None:
-                scales, clamped = alpha_rule(self.tri_rest, tri, scales, self.scales_rest, self.alpha)
-        if out is not None:
-            out["tri"], out["clamped"] = tri_t, clamped.any(axis=1)
-        return means, rot, scales, {"degenerate": int(degenerate.sum()), "clamped": int(clamped.sum())}
+                scales, clamped = alpha_rule(tri_rest, tri, scales, scales_rest, self.alpha)
+        return means, rot, scales, degenerate, clamped
 
 
 @dataclass(frozen=True)

@@ -68,16 +68,16 @@ MIN_GRADIENT = 1e-6
 def field_bodies(setup) -> np.ndarray | None:
     """Which bodies make field A (shape (n_materials,), bool), or None where the scene runs one field. With the
     option ``contact_fields`` true (the default): in a ``"mixed"`` scene the flowing bodies (A) against the others
-    (B); two soft bodies (:func:`soft_pair`) or two rigid ones (:func:`rigid_pair`) the smaller by volume (A; body 1
-    when equal) against the larger (B), whose surface gives the contact normal (a block on a slab: the slab's face).
-    Any other scene runs one field (three or more bodies, a rigid body beside a soft one: a field per body is not
-    built)."""
+    (B); two soft bodies (:func:`soft_pair`), two rigid ones (:func:`rigid_pair`) or a rigid one and a soft one
+    (:func:`mixed_pair`) the smaller by volume (A; body 1 when equal) against the larger (B), whose surface gives the
+    contact normal (a block on a slab: the slab's face). Any other scene runs one field (three or more bodies: a
+    field per body is not built)."""
     if not setup.options.get("contact_fields", True):
         return None
     c = contact_model(setup)
     if c == "mixed":
         return flowing_bodies(setup, c)
-    if c == "particle" and (soft_pair(setup) or rigid_pair(setup)):
+    if c == "particle" and (soft_pair(setup) or rigid_pair(setup) or mixed_pair(setup)):
         # A the smaller body (by volume; body 1 when equal): B's is the normal
         vol = np.bincount(np.asarray(setup.body_id), weights=np.asarray(setup.p_vol, float), minlength=2)
         return np.array([False, True]) if vol[1] <= vol[0] else np.array([True, False])
@@ -97,10 +97,21 @@ def rigid_pair(setup) -> bool:
     """Whether a scene is two rigid bodies on the particle contact (two materials, both ``model = "rigid"``): they take
     a field each (the smaller A), whose nodes only find where they touch; their contact is then taken on the two
     bodies as one, by force balance (``gasp_core.mpm.rigid_friction.pair_contact``, issue 67 item 4). One rigid
-    body beside a soft one, or three or more bodies, keep one field."""
+    body beside a soft one: :func:`mixed_pair`; three or more bodies keep one field."""
     from gasp_core.mpm.rigid import rigid_mask
     return (len(setup.materials) == 2 and contact_model(setup) == "particle"
             and bool(np.asarray(rigid_mask(setup.materials)).all()))
+
+
+def mixed_pair(setup) -> bool:
+    """Whether a scene is a rigid body and a soft one on the particle contact (two materials, one ``model = "rigid"``):
+    they take a field each and the nodes' Coulomb correction of the module notes, the rigid body's side then projected
+    onto its rigid motion (issue 67 item 4: a rigid block thrown along a jelly slab on a frictionless ground slides
+    0.4 % past ``V0^2 / (2 mu g (1 + m1 / m2))``, a jelly block on a rigid slab 0.4 % short, both engines; with one
+    field they stuck, -99 %, ``tests/test_block_on_block.py``)."""
+    from gasp_core.mpm.rigid import rigid_mask
+    rigid = np.asarray(rigid_mask(setup.materials))
+    return len(setup.materials) == 2 and contact_model(setup) == "particle" and int(rigid.sum()) == 1
 
 
 def uses_fields(setup) -> bool:
@@ -112,8 +123,8 @@ def field_friction(setup) -> float:
     """The Coulomb coefficient between the two fields, dimensionless. Flowing bodies: ``tan(phi)`` of their largest
     friction angle (sand: its ``friction_angle``, degrees; the angle of the sand's internal friction taken as its
     friction on the other body's surface); 0 where no flowing body has one (liquid, snow: they slide freely). Two
-    soft bodies (:func:`soft_pair`) or two rigid ones (:func:`rigid_pair`): the pair's (:func:`combine_friction` of
-    each body's :func:`body_friction`)."""
+    soft bodies (:func:`soft_pair`), two rigid ones (:func:`rigid_pair`) or one of each (:func:`mixed_pair`): the
+    pair's (:func:`combine_friction` of each body's :func:`body_friction`)."""
     if contact_model(setup) != "mixed":
         mus = [body_friction(m) for m in setup.materials[:2]] or [SOLID_FRICTION]
         return combine_friction(mus[0], mus[-1])
@@ -144,7 +155,7 @@ def touch_fraction(setup) -> float:
     """The touch threshold of the two fields (fraction of a cell's volume their volumes fill at a node):
     :data:`SOFT_TOUCH_FRACTION` for two soft bodies (:func:`soft_pair`) or two rigid ones (:func:`rigid_pair`), else
     :data:`TOUCH_FRACTION`."""
-    return SOFT_TOUCH_FRACTION if soft_pair(setup) or rigid_pair(setup) else TOUCH_FRACTION
+    return SOFT_TOUCH_FRACTION if soft_pair(setup) or rigid_pair(setup) or mixed_pair(setup) else TOUCH_FRACTION
 
 
 def field_setup(setup) -> tuple:

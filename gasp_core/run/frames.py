@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Callable
 import numpy as np
 
 from gasp_core.maps.games import EPS
+from gasp_core.maps.rows import by_rows
 from gasp_core.gs.gaussians import Gaussians, rotmat_to_quat
 from gasp_core.prepare.dynamic import background_at
 from gasp_core.prepare.placed import PreparedObject
@@ -161,7 +162,8 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray,
     pl = o.placement
     scales = scales_w / pl.scale
     scales[:, 0] = o.thin_scale if o.spec.thickness == "keep" else EPS
-    out = scatter(o, pl.to_file(means_w), scales, rotmat_to_quat(pl.R.T @ rot))
+    quats, = by_rows(lambda r: (rotmat_to_quat(pl.R.T @ r),), len(rot), rot)   # on the host's cores (maps.rows)
+    out = scatter(o, pl.to_file(means_w), scales, quats)
     if t is not None:
         out = background_at(o, out, t)
     if split is not None:

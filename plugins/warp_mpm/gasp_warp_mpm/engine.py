@@ -266,7 +266,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
                             self.x, self.v, self.C, self.fixed, self.grid_v, self.grid_m, self.flags, lo_v,
                             inv_dx, dt_f, m, ng, self.n_material, hold_lo, hold_hi, g_v, self.grid_dv, self.body,
                             self.in_a, Ft(passive_floor_friction(setup, self._contact))])
-                self._passive_at[substep] = by_interval[m]
+                self._passive_at[substep] = self.then_pose(by_interval[m])   # a rigid body's back on its pose
         self._tick = (wp.launch(k.tick, dim=1, device=d, record_cmd=True, inputs=[ex.step])
                       if has_extras else None)
         self._check_launch = wp.launch(k.check, dim=self.n_points, device=d, record_cmd=True,
