@@ -1,7 +1,7 @@
 """Time step of a grid (MPM) engine: the stable substep, whole substeps per frame and the passive points' schedule.
 
-``docs/mpm.md``, "Time step": ``dt = cfl dx / max(c_p, v_max)`` (:func:`mpm_stable_dt`; a viscous
-material lowers it, :func:`viscous_dt`), rounded to
+``docs/mpm.md``, "Time step": ``dt = cfl dx / max(c_p, v_max)`` (:func:`mpm_stable_dt`; a brittle body's wave speed
+at its impact, :func:`impact_wave_speed`; a viscous material lowers it, :func:`viscous_dt`), rounded to
 whole substeps per frame (:func:`substeps_for`), bounded by :data:`MAX_SUBSTEPS`
 (:func:`substeps_from_options`); :func:`passive_schedule` says at which substeps passive points move.
 """
@@ -26,13 +26,37 @@ def p_wave_speed(m: Material) -> float:
     return m.p_wave_speed
 
 
+def impact_wave_speed(m: Material, v_max: float) -> float:
+    """The speed (m/s) the step rule takes for ``m`` when its bodies may land at up to ``v_max`` (m/s).
+
+    ``c_p`` for every material but ``brittle``. A brittle body is Hencky-elastic in compression (its damage softens
+    only tension), which stiffens as it is crushed: along a principal axis of log strain ``e < 0`` the Kirchhoff
+    stress is ``M e``, so a plane wave runs at ``c_p sqrt(1 - e)`` in space (``rho_0 c_L^2 = dP/dlambda``, ``P = M
+    ln(lambda) / lambda``, ``c = lambda c_L``). A landing at ``v`` compresses it to ``e = -v / c_p`` (the plane-wave
+    impact stress ``rho c_p v`` over ``M``), and its points still move at up to ``v`` across the grid, so the
+    information crosses a cell at ``c_p sqrt(1 + v / c_p) + v`` (Courant's condition on the wave and the material
+    speed together; Belytschko, Liu & Moran 2000, Sec. 6.3). Measured (issue 66, ``docs/fracture.md``, "The brittle
+    README donut"): the README donut at the brittle defaults (``c_p`` 11.6 m/s) landing at 4.43 m/s, ``cfl`` 0.8
+    with ``max(c_p, v_max)``: ``(c_p + |v|) dt / dx`` 1.11 before it touched, a point crushed to 2 % of its length
+    two substeps after, every point out of the grid at frame 1; at the step of this speed (22.1 m/s) it lands and
+    crumbles. The other materials keep ``c_p`` (jelly's corotated pressure softens as it is crushed, and their
+    frames are unchanged).
+    """
+    c = p_wave_speed(m)
+    if m.name != "brittle" or c <= 0.0:
+        return c
+    v = max(float(v_max), 0.0)
+    return c * math.sqrt(1.0 + v / c) + v
+
+
 def mpm_stable_dt(materials: Iterable[Material], dx: float, gravity, height: float,
                   v0_max: float = 0.0, cfl: float = CFL, implicit_viscosity: bool = False) -> float:
     """Largest substep that satisfies the elastic-wave, particle CFL and viscous limits.
 
     ``dt = cfl * dx / max(c_p, v_max)`` where ``c_p`` is the fastest P-wave speed over the
-    materials and ``v_max = v0_max + sqrt(2 |g| height)`` bounds the speed a falling body reaches
-    in the domain; a material with viscosity caps it at ``cfl * viscous_dt`` (:func:`viscous_dt`,
+    materials (a brittle one's :func:`impact_wave_speed`) and ``v_max = v0_max + sqrt(2 |g| height)`` bounds the
+    speed a falling body reaches in the domain; a material with viscosity caps it at ``cfl * viscous_dt``
+    (:func:`viscous_dt`,
     about ``cfl rho dx^2 / (4 eta)`` when the viscosity dominates) unless the engine integrates the
     viscosity implicitly (``implicit_viscosity``: backward Euler, stable at any step; ``docs/dissipation.md``).
 
@@ -61,9 +85,9 @@ def mpm_stable_dt(materials: Iterable[Material], dx: float, gravity, height: flo
     explicit MLS-MPM with quadratic B-splines.
     """
     materials = list(materials)
-    c = max(p_wave_speed(m) for m in materials)
     g = float(np.linalg.norm(gravity))
     v_max = v0_max + math.sqrt(2.0 * g * max(height, 0.0))
+    c = max(impact_wave_speed(m, v_max) for m in materials)
     caps = [] if implicit_viscosity else [viscous_dt(m, dx) for m in materials if m.viscosity > 0]
     return cfl * min([dx / max(c, v_max, 1e-12)] + caps)
 
