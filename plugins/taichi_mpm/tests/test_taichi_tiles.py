@@ -44,6 +44,18 @@ def _restore(s, saved):
         f.from_numpy(a)
 
 
+def _atomic_grid(s):
+    """``grid_mv`` after one fused G2P + atomic P2G from the solver's state, the state then put back and the grid
+    cleared."""
+    saved = _state(s)
+    s.grid_mv.fill(0)
+    s.g2p_p2g(1)
+    atomic = s.grid_mv.to_numpy()[0]
+    _restore(s, saved)
+    s.grid_mv.fill(0)
+    return atomic
+
+
 def _both_p2gs(name):
     """After two frames of FAMILY[name] on the GPU schedule: grid_mv after one fused G2P + P2G, atomic and tiled, from
     the same state; and the solver."""
@@ -52,12 +64,7 @@ def _both_p2gs(name):
         e.step_frame()
     s = e.solver
     s.allocate_tiles()
-    saved = _state(s)
-    s.grid_mv.fill(0)
-    s.g2p_p2g(1)
-    atomic = s.grid_mv.to_numpy()[0]
-    _restore(s, saved)
-    s.grid_mv.fill(0)
+    atomic = _atomic_grid(s)
     s.g2p_keys(1)
     s.scan_keys()
     pad = ti.field(s.real, shape=tiles.TILE ** 3 * s.acc_width)
@@ -138,12 +145,7 @@ def test_tiles_between_sorts_give_the_atomic_grid(name):
     x[:n, 0] += 1.5 * float(s.dx[None])
     s.x.from_numpy(x)
     sorted_keys = s.t_key.to_numpy()[:n]
-    saved = _state(s)
-    s.grid_mv.fill(0)
-    s.g2p_p2g(1)
-    atomic = s.grid_mv.to_numpy()[0]
-    _restore(s, saved)
-    s.grid_mv.fill(0)
+    atomic = _atomic_grid(s)
     s.g2p_awake()
     x = s.x.to_numpy()[:n].astype(np.float64)
     b = np.clip(np.floor((x - s.lo[None].to_numpy()) * float(s.inv_dx[None]) - 0.5).astype(int), 0, s.n_grid - 1)
