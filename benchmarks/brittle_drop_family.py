@@ -25,6 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
+from gasp_core.testing.helpers import box_face_samples
+
 ROOT = Path(__file__).resolve().parents[1]
 E, NU, RHO, V = 1.0e6, 0.25, 300.0, 4.43          # the donut shatter's biscuit and landing speed (SI)
 LO, HI, N_GRID = (-0.3, -0.3, -0.02), (0.3, 0.3, 0.58), 64
@@ -49,18 +51,7 @@ def _flat_splats(p: np.ndarray, nrm: np.ndarray, size: float, rng) -> np.ndarray
 def box_splats(lo, hi, spacing: float = 0.004, seed: int = 0) -> np.ndarray:
     """Splats on the faces of the box ``[lo, hi]`` (m), about ``spacing`` apart."""
     rng = np.random.default_rng(seed)
-    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
-    pts, nrms = [], []
-    for ax in range(3):
-        o = [a for a in range(3) if a != ax]
-        n = max(1, int((hi[o[0]] - lo[o[0]]) * (hi[o[1]] - lo[o[1]]) / spacing ** 2))
-        for side, val in ((-1.0, lo[ax]), (1.0, hi[ax])):
-            q = lo + rng.random((n, 3)) * (hi - lo)
-            q[:, ax] = val
-            nn = np.zeros((n, 3))
-            nn[:, ax] = side
-            pts.append(q)
-            nrms.append(nn)
+    pts, nrms = box_face_samples(lo, hi, spacing, rng)
     return _flat_splats(np.concatenate(pts), np.concatenate(nrms), 0.5 * spacing, rng)
 
 

@@ -18,6 +18,7 @@ from gasp_testing import needs_package
 import gasp_core.maps.fill as fill_mod
 import gasp_core.maps.fill_shares as shares_mod
 from gasp_core.maps.fill import fill_interior, fill_spacing
+from gasp_core.testing.helpers import box_face_samples
 
 
 trimesh = needs_package("trimesh")
@@ -52,16 +53,9 @@ def boxes(*bounds, seed: int = 0):
     bounds = [(np.asarray(lo, float), np.asarray(hi, float)) for lo, hi in bounds]
     pts, nrms = [], []
     for lo, hi in bounds:
-        for ax in range(3):
-            o = [a for a in range(3) if a != ax]
-            n = max(1, int((hi[o[0]] - lo[o[0]]) * (hi[o[1]] - lo[o[1]]) / SPACING ** 2))
-            for side, val in ((-1.0, lo[ax]), (1.0, hi[ax])):
-                q = lo + rng.random((n, 3)) * (hi - lo)
-                q[:, ax] = val
-                nn = np.zeros((n, 3))
-                nn[:, ax] = side
-                pts.append(q)
-                nrms.append(nn)
+        p, n = box_face_samples(lo, hi, SPACING, rng)
+        pts += p
+        nrms += n
     p, nrm = np.concatenate(pts), np.concatenate(nrms)
     held = sum(np.all((p >= lo - 1e-12) & (p <= hi + 1e-12), axis=1).astype(int) for lo, hi in bounds)
     p, nrm = p[held == 1], nrm[held == 1]          # faces where two boxes meet are inside

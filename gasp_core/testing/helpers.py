@@ -45,6 +45,25 @@ def box_points(lo, hi, spacing: float) -> tuple[np.ndarray, float]:
     return x, float(np.prod(hi - lo)) / len(x)
 
 
+def box_face_samples(lo, hi, spacing: float, rng) -> tuple[list, list]:
+    """Random points on the six faces of the box ``[lo, hi]`` (m), about ``spacing`` apart, and their outward unit
+    normals: per face (axis by axis, low side first) an array of shape (k, 3) each, drawn from ``rng``
+    (``numpy.random.Generator``) in that order."""
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    pts, nrms = [], []
+    for ax in range(3):
+        o = [a for a in range(3) if a != ax]
+        n = max(1, int((hi[o[0]] - lo[o[0]]) * (hi[o[1]] - lo[o[1]]) / spacing ** 2))
+        for side, val in ((-1.0, lo[ax]), (1.0, hi[ax])):
+            q = lo + rng.random((n, 3)) * (hi - lo)
+            q[:, ax] = val
+            nn = np.zeros((n, 3))
+            nn[:, ax] = side
+            pts.append(q)
+            nrms.append(nn)
+    return pts, nrms
+
+
 def sphere_points(center, radius: float, spacing: float) -> tuple[np.ndarray, float]:
     """Lattice points inside a ball; ``p_vol`` = ball volume / n."""
     c = np.asarray(center, float)
