@@ -68,7 +68,7 @@ def test_the_stacked_balls_meet_at_their_surfaces(engine):
 @pytest.mark.parametrize("broken, expect", [("one_field", 0.84), ("across_gap", 0.83), ("late_touch", -0.29)])
 def test_the_gap_check_fails_on_a_broken_contact(monkeypatch, broken, expect):
     if broken == "one_field":
-        monkeypatch.setattr(F, "soft_pair", lambda setup: False)          # one velocity field, the rule before
+        monkeypatch.setattr(F, "body_pair", lambda setup: False)          # one velocity field, the rule before
     else:
         monkeypatch.setattr(F, "SOFT_TOUCH_FRACTION", 0.0 if broken == "across_gap" else 0.9)
     ok, gap = _gap("warp_mpm")

@@ -77,11 +77,17 @@ def field_bodies(setup) -> np.ndarray | None:
     c = contact_model(setup)
     if c == "mixed":
         return flowing_bodies(setup, c)
-    if c == "particle" and (soft_pair(setup) or rigid_pair(setup) or mixed_pair(setup)):
+    if c == "particle" and body_pair(setup):
         # A the smaller body (by volume; body 1 when equal): B's is the normal
         vol = np.bincount(np.asarray(setup.body_id), weights=np.asarray(setup.p_vol, float), minlength=2)
         return np.array([False, True]) if vol[1] <= vol[0] else np.array([True, False])
     return None
+
+
+def body_pair(setup) -> bool:
+    """Whether a scene is two bodies on the particle contact, soft or rigid in any mix (:func:`soft_pair`,
+    :func:`rigid_pair`, :func:`mixed_pair`): they take a field each."""
+    return len(setup.materials) == 2 and contact_model(setup) == "particle"
 
 
 def soft_pair(setup) -> bool:
@@ -153,9 +159,9 @@ def combine_friction(mu_a: float, mu_b: float) -> float:
 
 def touch_fraction(setup) -> float:
     """The touch threshold of the two fields (fraction of a cell's volume their volumes fill at a node):
-    :data:`SOFT_TOUCH_FRACTION` for two soft bodies (:func:`soft_pair`) or two rigid ones (:func:`rigid_pair`), else
+    :data:`SOFT_TOUCH_FRACTION` for two bodies on the particle contact (:func:`body_pair`), else
     :data:`TOUCH_FRACTION`."""
-    return SOFT_TOUCH_FRACTION if soft_pair(setup) or rigid_pair(setup) or mixed_pair(setup) else TOUCH_FRACTION
+    return SOFT_TOUCH_FRACTION if body_pair(setup) else TOUCH_FRACTION
 
 
 def field_setup(setup) -> tuple:
