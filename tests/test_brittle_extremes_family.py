@@ -122,22 +122,10 @@ def _without_the_box_hold(monkeypatch, engine: str) -> None:
         from gasp_taichi_mpm.colliders import Colliders
         allocate = Colliders.allocate_hold
         monkeypatch.setattr(Colliders, "allocate_hold", lambda self, hold, box_hold=None: allocate(self, hold, None))
-    else:
-        import gasp_warp_mpm.colliders as col
-        monkeypatch.setattr(col, "build_box_hold", lambda Ft: _no_hold(Ft))
-
-
-def _no_hold(Ft):
-    import warp as wp
-    from gasp_warp_mpm.precision import MODULE_OPTIONS, build_types
-    vec3 = build_types(Ft)[0]
-
-    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def no_hold(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32),
-                holds: wp.array(dtype=wp.int32), lo: vec3, hi: vec3):
-        pass
-
-    return no_hold
+    else:   # its box hold reads the box when the frame's launches are recorded (gasp_warp_mpm.colliders)
+        import gasp_core.mpm.points as points
+        monkeypatch.setattr(points, "passive_bounds", lambda setup, contact="grid": (np.full(3, -np.inf),
+                                                                                      np.full(3, np.inf)))
 
 
 @pytest.mark.slow
