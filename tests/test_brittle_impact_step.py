@@ -50,13 +50,15 @@ def test_the_impact_speed_is_a_brittle_bodys_alone():
 
 def drop(engine: str, scene: Path, options: dict) -> dict:
     """Run the scene ``FRAMES`` frames: the largest (kinetic + potential) energy over the start's, the lowest point
-    (m), the last frame's pieces, or where it diverged."""
+    (m), the last frame's pieces and points out of the grid (``left``, feature ``left_domain``), or where it
+    diverged."""
     from gasp_core.prepare.scene import prepare_scene
     from gasp_core.run.pieces import tracker_for
     from gasp_core.scene.spec import load_scene
     from gasp_core.seam import EngineDivergence
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import engines
+    from gasp_core.seam.runner import left_grid
     s = prepare_scene(load_scene(scene), engine).setup
     s.options = {**(s.options or {}), **options}
     mat = s.p_vol > 0
@@ -77,6 +79,7 @@ def drop(engine: str, scene: Path, options: dict) -> dict:
             out["E_max"] = max(out["E_max"], energy(x, eng.velocities()) / e0)
             out["z_min"] = min(out["z_min"], float(x[mat, 2].min()))
             out["row"], _ = tracker.row(x, eng.damage())
+            out["left"] = int(left_grid(np.asarray(x, np.float64), s).sum())
     finally:
         eng.close()
     return out

@@ -21,7 +21,7 @@ from gasp_core.mpm.rigid import (body_frames, face_counts, lift_setup, rigid_con
                                      zero_stress)
 from gasp_core.seam.memory import check_memory, estimate_bytes
 from gasp_core.mpm.restitution import body_table, plane_table, rest_speed
-from gasp_core.mpm.points import held_codes, passive_bounds, passive_floor_friction
+from gasp_core.mpm.points import blow_up_rows, held_codes, passive_bounds, passive_floor_friction
 from gasp_core.seam import CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
 
 from . import ENGINE, TaichiMPMConfig
@@ -181,6 +181,7 @@ class TaichiMPMEngine(GridEngineBase):
             n_colc=len(setup.colliders) if contact in ("particle", "mixed") else 0,
             planes=contact_planes(view, contact),
             mixed=mixed, fields=field_setup(view), hold=flowing_bodies(view, contact) if setup.colliders else None,
+            box_hold=flowing_bodies(view, contact) & ~rigid,   # the ground and walls' hold (colliders.py)
             passive_bounds=(*passive_bounds(setup, contact), passive_floor_friction(setup, contact)), rigid_frames=None if frames is None else (rigid, *frames),
             contact_reach=contact_reach(setup), gpu=self.schedule == "gpu",
             tiles=self.schedule == "gpu" and self.device == "cuda" and use_tiles(cfg.p2g, self.n_material),
@@ -298,8 +299,13 @@ class TaichiMPMEngine(GridEngineBase):
         self._x, self._v = x, v     # points that left slower stay where they left, out of the transfers
 
     def _fast(self, v: np.ndarray) -> bool:
-        """Whether some point moves more than a cell a substep (``v``: (n, 3) m/s): points out of the grid are then
-        a blow-up; slower ones have drifted out and drop out of the simulation (feature ``left_domain``)."""
+        """Whether some material point moves more than a cell a substep (``v``: (n, 3) m/s, setup order): points out
+        of the grid are then a blow-up; slower ones have drifted out and drop out of the simulation (feature
+        ``left_domain``). Passive points are not asked: they add nothing to the grid, so their speed is no sign of
+        an unstable step (``gasp_core.mpm.points.blow_up_rows``; issue 66: the brittle README donut at 20 m/s, its
+        material at most 0.85 of a cell a substep, its surface points up to 1.28 cells, read off the grid's affine
+        field beyond the material)."""
+        v = blow_up_rows(v, self.setup.passive)
         return float(np.max(np.linalg.norm(v, axis=1), initial=0.0)) * self.dt > self.setup.dx
 
     def _checked_on_device(self) -> None:

@@ -108,8 +108,9 @@ class MPMSolver(Transfers, ColouredP2G, TileP2G, FixedPointP2G, Constitutive, Gr
         ``(rigid, centre, X0, inertia0, mass)``: which bodies are rigid and their rest frames
         (``gasp_core.mpm.rigid.body_frames``, ``X0`` in solver order); the rigid bodies' points are projected
         onto a rigid motion after every G2P (:mod:`gasp_taichi_mpm.rigid`). Default none.
-    hold : ndarray, shape (n_bodies,), bool, optional
-        The bodies held out of the colliders after G2P (:meth:`~gasp_taichi_mpm.colliders.Colliders.allocate_hold`).
+    hold, box_hold : ndarray, shape (n_bodies,), bool, optional
+        The bodies held out of the colliders, and in the box of ``passive_bounds``, after G2P
+        (:meth:`~gasp_taichi_mpm.colliders.Colliders.allocate_hold`).
     gpu : bool, optional
         The GPU schedule (:mod:`gasp_taichi_mpm.schedule`; implies ``atomic``): no loop over points, nodes or list
         entries on one thread. Default the CPU schedule. ``tiles``: with it on CUDA, the tiled P2G in shared memory
@@ -121,7 +122,7 @@ class MPMSolver(Transfers, ColouredP2G, TileP2G, FixedPointP2G, Constitutive, Gr
                  gravity, walls, grounds, regions, real, n_chunks, atomic, extras=None, time_table=None, n_substeps=1,
                  n_material=None, passive_every=1, flip=0.0, coloured=False, p_contact=None, passive_bounds=None,
                  rigid_frames=None, contact_reach=None, body_mass=None, n_colc=0, planes=None, mixed=None, fields=None,
-                 hold=None, gpu=False, tiles=False, deterministic=False, sort_every=1):
+                 hold=None, box_hold=None, gpu=False, tiles=False, deterministic=False, sort_every=1):
         n = len(x)
         self.n = n
         self.n_material = n if n_material is None else int(n_material)
@@ -165,7 +166,7 @@ class MPMSolver(Transfers, ColouredP2G, TileP2G, FixedPointP2G, Constitutive, Gr
         self.col_deep = collider_grid_depth("particle" if self.n_colc else "grid", dx)   # colliders' grid rule
         self.allocate_mixed(mixed, dx)   # the contact chosen per body (contact.py); two fields (in_a, mu):
         self.allocate_fields(*(fields or (None, 0.0, 0.0)))
-        self.allocate_hold(hold)   # the colliders' hold on the grid contact's points (colliders.py)
+        self.allocate_hold(hold, box_hold)   # the colliders' and boundaries' hold on the grid contact's points
         self._passive_every, self._np_real = int(passive_every), np_real
         self._passive_plan: tuple[int, list] = (0, [])   # (n_substeps, per-substep weight pair or None)
         self.lo[None], self.gravity[None] = [float(a) for a in lo], [float(a) for a in gravity]

@@ -221,10 +221,52 @@ def build_collider_hold(Ft):
     return collider_hold
 
 
+@functools.cache
+def build_box_hold(Ft):
+    """``box_hold``: the ground's and walls' position-level hold on the points of the deformable bodies that take the
+    grid contact, scalar type ``Ft`` (taichi_mpm's ``Colliders.hold_box``; ``gasp_core.mpm.points.hold_passive``'s
+    rule): after G2P, a point outside ``[lo, hi]`` (``gasp_core.mpm.points.passive_bounds``: the ground's plane, the
+    walls' last node layers) is put on the face, its velocity into the face removed. The grid rule acts at the nodes,
+    and a point between a stopped node layer and a moving one was carried up to 1.25 mm under the ground by a landing
+    at 50 m/s (issue 66)."""
+    vec3, _vec4, _mat33 = build_types(Ft)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def box_hold(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32),
+                 holds: wp.array(dtype=wp.int32), lo: vec3, hi: vec3):
+        p = wp.tid()
+        if holds[body[p]] == 0:
+            return
+        xp = x[p]
+        vp = v[p]
+        for d in range(3):
+            if xp[d] < lo[d]:
+                xp[d] = lo[d]
+                vp[d] = wp.max(vp[d], Ft(0.0))
+            if xp[d] > hi[d]:
+                xp[d] = hi[d]
+                vp[d] = wp.min(vp[d], Ft(0.0))
+        x[p] = xp
+        v[p] = vp
+
+    return box_hold
+
+
 def hold_launches(eng, Ft, has_extras: int, ex) -> list:
-    """The recorded launch of the colliders' hold on the grid contact's points after G2P (:func:`build_collider_hold`)
-    for the engine ``eng``, where its scene has colliders and a body that takes the grid contact; else none."""
+    """The recorded launches of the holds on the grid contact's points after G2P for the engine ``eng``: the ground's
+    and walls' (:func:`build_box_hold`) where a deformable body takes the grid contact, then the colliders'
+    (:func:`build_collider_hold`) where its scene has colliders and a body that takes the grid contact; else none."""
+    from gasp_core.mpm.points import passive_bounds
+    from gasp_core.mpm.rigid import rigid_mask
+    out = []
+    boxed = eng.flows.numpy().astype(bool) & ~rigid_mask(eng.setup.materials)
+    if boxed.any():
+        vec3 = build_types(Ft)[0]
+        eng.box_holds = wp.array(boxed.astype("int32"), dtype=wp.int32, device=eng.device)
+        lo, hi = (vec3(*[float(c) for c in b]) for b in passive_bounds(eng.setup, eng._contact))
+        out.append(wp.launch(build_box_hold(Ft), dim=eng.n_material, device=eng.device, record_cmd=True,
+                             inputs=[eng.x, eng.v, eng.body, eng.box_holds, lo, hi]))
     if not (has_extras and eng.setup.colliders and eng.flows.numpy().any()):
-        return []
-    return [wp.launch(build_collider_hold(Ft), dim=eng.n_material, device=eng.device, record_cmd=True,
-                      inputs=[eng.x, eng.v, eng.body, eng.flows, ex])]
+        return out
+    return out + [wp.launch(build_collider_hold(Ft), dim=eng.n_material, device=eng.device, record_cmd=True,
+                            inputs=[eng.x, eng.v, eng.body, eng.flows, ex])]
