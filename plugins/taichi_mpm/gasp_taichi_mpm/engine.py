@@ -301,10 +301,8 @@ class TaichiMPMEngine(GridEngineBase):
     def _fast(self, v: np.ndarray) -> bool:
         """Whether some material point moves more than a cell a substep (``v``: (n, 3) m/s, setup order): points out
         of the grid are then a blow-up; slower ones have drifted out and drop out of the simulation (feature
-        ``left_domain``). Passive points are not asked: they add nothing to the grid, so their speed is no sign of
-        an unstable step (``gasp_core.mpm.points.blow_up_rows``; issue 66: the brittle README donut at 20 m/s, its
-        material at most 0.85 of a cell a substep, its surface points up to 1.28 cells, read off the grid's affine
-        field beyond the material)."""
+        ``left_domain``). Passive points add nothing to the grid: their speed is no sign of an unstable step
+        (``gasp_core.mpm.points.blow_up_rows``, issue 66's brittle README donut at 20 m/s)."""
         v = blow_up_rows(v, self.setup.passive)
         return float(np.max(np.linalg.norm(v, axis=1), initial=0.0)) * self.dt > self.setup.dx
 

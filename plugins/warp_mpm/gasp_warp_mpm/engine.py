@@ -5,8 +5,8 @@ kernels of :mod:`gasp_warp_mpm.kernels`. Per substep three launches: P2G (return
 scatter), grid update over nodes (which also clears the accumulation grid), and G2P fused with the position update;
 with a viscous material the implicit viscous step (:mod:`gasp_warp_mpm.viscosity`) runs between P2G and the grid
 update, then the two-field contact of a mixed scene or of two soft bodies (:mod:`gasp_warp_mpm.fields`). On CUDA the
-substeps of a frame are captured once in a CUDA graph; on CPU the launches are pre-recorded ``wp.Launch`` objects. The
-host synchronises once per frame, for the blow-up check.
+substeps of a frame are captured once in a CUDA graph; on CPU pre-recorded ``wp.Launch`` objects. The host syncs once
+per frame, for the blow-up check.
 
 Notes
 -----
@@ -337,9 +337,8 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
             raise EngineDivergence(
                 f"{n_bad} of {self.n_points} points have non-finite position or velocity "
                 f"(dt = {self.dt:.3g} s, {self.n_substeps} substeps/frame)", self.frame, CAUSE_UNSTABLE)
-        # out of the grid with a material point faster than a cell a substep: a blow-up; slower, drifted out: out
-        # of the transfers where they are (feature left_domain; the core counts them). The passive points add
-        # nothing to the grid: their speed is no sign of an unstable step (gasp_core.mpm.points.blow_up_rows)
+        # out of the grid with a material point faster than a cell a substep: a blow-up; slower: drifted out (feature
+        # left_domain); passive points' speed is no sign of an unstable step (gasp_core.mpm.points.blow_up_rows)
         if n_out and float(np.max(np.linalg.norm(blow_up_rows(self.velocities(), self.setup.passive), axis=1),
                                    initial=0.0)) * self.dt > self.setup.dx:
             raise EngineDivergence(f"{n_out} point-substeps were out of the grid (n_grid {self.n_grid}), moving "
