@@ -2,10 +2,10 @@
 
 Implements ``docs/mpm.md`` (3D MLS-MPM, quadratic B-splines, APIC; Hu et al. 2018) with :mod:`gasp_warp_mpm.kernels`.
 Per substep three launches: P2G (return mapping, stress once per point, scatter), grid update over nodes (which also
-clears the accumulation grid), and G2P fused with the position update; with a viscous material the implicit viscous step (:mod:`gasp_warp_mpm.viscosity`) runs between P2G and the grid
-update, then the two-field contact of a mixed scene or of two soft bodies (:mod:`gasp_warp_mpm.fields`). On CUDA the
-substeps of a frame are captured once in a CUDA graph; on CPU pre-recorded ``wp.Launch`` objects. The host syncs once
-per frame, for the blow-up check.
+clears the accumulation grid), and G2P fused with the position update; with a viscous material the implicit viscous
+step (:mod:`gasp_warp_mpm.viscosity`) runs between P2G and the grid update, then the two-field contact of a mixed
+scene or of two soft bodies (:mod:`gasp_warp_mpm.fields`). On CUDA the substeps of a frame are captured once in a CUDA
+graph; on CPU pre-recorded ``wp.Launch`` objects. The host syncs once per frame, for the blow-up check.
 
 Notes
 -----
