@@ -8,7 +8,8 @@ Drucker-Prager cone, ground friction tan 32 deg) at other ``a`` and ``n_grid``; 
 reads it (:func:`column_deposit`), after 0.7 s plus the time a taller column takes to fall
 (``2.4 sqrt(2 H / g)``, Staron & Hinch 2005, rounded up to frames).
 
-Run: ``python benchmarks/lube_family.py [--engines taichi_mpm,warp_mpm] [--grids 48,96] [--aspects 0.5,1,2,3]``;
+Run: ``python benchmarks/lube_family.py [--engines taichi_mpm,warp_mpm] [--grids 48,96] [--aspects 0.5,1,2,3]
+[--device cuda] [--mu-i]``;
 writes ``benchmarks/results/lube_family.json`` and ``.md`` (each run's figures; the signed errors; the CPU time).
 """
 from __future__ import annotations
@@ -30,7 +31,25 @@ OUT = Path(__file__).resolve().parent / "results"
 FRAME_DT = 0.02
 
 
-def column_setup(info, a: float, n_grid: int, device: str = "cpu"):
+#: The mu(I) sand of ``--mu-i`` (docs/contact.md "mu(I)"): grain diameter 0.5 mm (Lube et al.'s sands, 0.3-1.5 mm),
+#: mu_2 = mu_s + 0.26 (Jop et al. 2006's glass beads: 0.38 to 0.64), mu_s the plane-strain cone's sqrt(J2) / p.
+MU_I_D, MU_I_DELTA = 5e-4, 0.26
+
+
+def cone_angle(eta: float) -> float:
+    """The ``Material.friction_angle`` (deg) whose cone has ``sqrt(J2) / p = eta`` (``eta = 2 sqrt(3) sin(phi) /
+    (3 - sin(phi))``, the inverse of ``scenes_granular.plane_strain_dp_angle``'s cone)."""
+    return math.degrees(math.asin(3.0 * eta / (2.0 * math.sqrt(3.0) + eta)))
+
+
+def mu_i_keys() -> dict:
+    """The material keys of the mu(I) sand (``MU_I_D``, ``MU_I_DELTA``) over the column's plane-strain cone."""
+    s = math.sin(math.radians(sg.plane_strain_dp_angle(sg.COLUMN_PHI)))
+    eta_s = 2.0 * math.sqrt(3.0) * s / (3.0 - s)
+    return {"grain_diameter": MU_I_D, "friction_angle_2": cone_angle(eta_s + MU_I_DELTA)}
+
+
+def column_setup(info, a: float, n_grid: int, device: str = "cpu", mu_i: bool = False):
     """The conformance column (module notes) of aspect ``a`` on ``n_grid`` cells over the domain's 1 m length; the
     domain as tall as the column needs (at least the scene's 0.5 m); ``device`` the engine option (``"cuda"`` on a
     GPU, where the finer grids are affordable)."""
@@ -38,7 +57,9 @@ def column_setup(info, a: float, n_grid: int, device: str = "cpu"):
     dx = lx / n_grid
     m, z0, H = wall_margin(info, dx), 3 * dx, a * L
     x, p_vol = box_points((m, m, z0), (m + L, m + depth, z0 + H), dx / 2)
-    material = Material("sand", E=3.5e5, nu=0.3, rho=1600.0, friction_angle=sg.plane_strain_dp_angle(sg.COLUMN_PHI))
+    rate = mu_i_keys() if mu_i else {}
+    material = Material("sand", E=3.5e5, nu=0.3, rho=1600.0, friction_angle=sg.plane_strain_dp_angle(sg.COLUMN_PHI),
+                        **rate)
     top = max(sg.COLUMN_DOMAIN[1], z0 + H + 4 * dx)
     return make_setup(x, p_vol, material, hi=(lx, 2 * m + depth, top), n_grid=n_grid, frame_dt=FRAME_DT,
                       boundaries=[Boundary("ground", height=z0, friction=math.tan(math.radians(sg.COLUMN_PHI))),
@@ -61,10 +82,10 @@ def front_at(x: np.ndarray, x_wall: float, spacing: float, thickness: float) -> 
     return float((thick.max() + 1) * spacing) if len(thick) else 0.0
 
 
-def run_case(engine: str, a: float, n_grid: int, device: str = "cpu") -> dict:
+def run_case(engine: str, a: float, n_grid: int, device: str = "cpu", mu_i: bool = False) -> dict:
     """One column: its runout and height against the fits (signed relative errors), its end speed and CPU time."""
     info = resolve_engine(engine)
-    setup = column_setup(info, a, n_grid, device)
+    setup = column_setup(info, a, n_grid, device, mu_i)
     t_end = 0.7 + 2.4 * math.sqrt(2 * a * sg.COLUMN_L / 9.81)
     frames = int(math.ceil(t_end / FRAME_DT))
     c0, w0 = time.process_time(), time.perf_counter()
@@ -78,7 +99,7 @@ def run_case(engine: str, a: float, n_grid: int, device: str = "cpu") -> dict:
             "n_points": len(setup.x), "runout": runout, "runout_lube": r_ref, "runout_err": runout / r_ref - 1,
             "runout_fixed_thickness": front, "runout_fixed_err": front / r_ref - 1, "height": height, "height_lube": h_ref, "height_err": height / h_ref - 1,
             "end_speed": float(np.sqrt((tr.v[-1] ** 2).sum(axis=1)).max()), "cpu_s": time.process_time() - c0,
-            "wall_s": time.perf_counter() - w0, "device": device}
+            "wall_s": time.perf_counter() - w0, "device": device, "mu_i": mu_i}
 
 
 def main() -> None:
@@ -87,13 +108,14 @@ def main() -> None:
     ap.add_argument("--grids", default="48,96")
     ap.add_argument("--aspects", default="0.5,1,2,3")
     ap.add_argument("--device", default="cpu", help="the engines' device option: cpu or cuda")
+    ap.add_argument("--mu-i", action="store_true", help="the sand with the mu(I) rheology (MU_I_D, MU_I_DELTA)")
     ap.add_argument("--out", default=str(OUT / "lube_family"))
     args = ap.parse_args()
     rows, out = [], Path(args.out)
     for engine in args.engines.split(","):
         for n in (int(g) for g in args.grids.split(",")):
             for a in (float(s) for s in args.aspects.split(",")):
-                rows.append(run_case(engine, a, n, args.device))
+                rows.append(run_case(engine, a, n, args.device, args.mu_i))
                 out.with_suffix(".json").write_text(json.dumps(rows, indent=1))   # each row kept as it comes
                 r = rows[-1]
                 print(f"{engine} n_grid {n} a {a:g}: runout {r['runout']:.3f} (Lube {r['runout_lube']:.3f}, "

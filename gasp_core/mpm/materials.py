@@ -46,13 +46,15 @@ class Param(IntEnum):
     ETA = 9
     FT = 10
     SF = 11
+    DMU = 12
+    IK = 13
 
 
 #: The codes and columns as plain ints, the constants the plugins' kernels compile in.
 JELLY, NEO_HOOKEAN, METAL, SAND, SNOW, PLASTICINE, LIQUID, BRITTLE = (int(k) for k in MaterialKind)
 MATERIAL_CODES = {k.name.lower(): int(k) for k in MaterialKind}
 (P_MU, P_LAM, P_YIELD, P_SOFTENING, P_HARDENING, P_THETA_C, P_THETA_S, P_ALPHA, P_K, P_ETA, P_FT,
- P_SF) = (int(c) for c in Param)
+ P_SF, P_DMU, P_IK) = (int(c) for c in Param)
 N_PARAMS = len(Param)
 #: von Mises yield surface radius per unit yield stress: metal and plasticine return-map the Hencky
 #: strain's deviator ``e`` onto ``2 mu ||e|| <= sqrt(2/3) Y``, i.e. ``||dev tau|| <= sqrt(2/3) Y``, so a
@@ -60,6 +62,26 @@ N_PARAMS = len(Param)
 #: de Souza Neto, Peric & Owen, Computational Methods for Plasticity, 2008, Ch. 6). The MLS-MPM reference
 #: code (Hu et al. 2018) and PhysGaussian use ``||e|| <= Y / (2 mu)``, which yields at ``sqrt(3/2) Y = 1.22 Y``.
 VON_MISES_RADIUS = math.sqrt(2.0 / 3.0)
+
+
+#: mu(I) rheology's constants (Jop, Forterre & Pouliquen 2006, Nature 441, glass beads): ``I_0`` and the grains'
+#: solid fraction (the grain density is ``rho / MU_I_PACKING``).
+MU_I_I0, MU_I_PACKING = 0.279, 0.6
+
+
+def mu_of_I(ratio_2, ik, shear_rate, p):
+    """The mu(I) cone's widening, ``mu(I) / mu_s = 1 + (mu_2 / mu_s - 1) / (1 + I_0 / I)``, NumPy (the reference
+    of the kernels' ``mu_i_alpha`` in both MPM plugins).
+
+    ``I = gamma_dot d / sqrt(p / rho_s)`` is the inertial number (Jop et al. 2006, Eq. 2-3; GDR MiDi 2004): the
+    shear rate ``gamma_dot`` (1/s; the kernels take the plastic one of the substep, ``sqrt(2) dg / dt``, ``dg``
+    the Hencky deviator the rate-independent cone removes), the pressure ``p`` (Pa), the grain diameter ``d`` and
+    density ``rho_s``. In simple shear the cone's ``sqrt(J2) / p`` is the friction coefficient ``mu = tau / p``, and
+    it is proportional to ``alpha``; so ``alpha(I)`` runs from the cone of ``friction_angle`` (``mu_s``) at rest to
+    that of ``friction_angle_2`` (``mu_2``) as ``I`` grows: ``ratio_2 = alpha(phi_2) / alpha(phi) - 1``
+    (``P_DMU``), ``ik = I_0 / (d sqrt(rho_s))`` (``P_IK``), as :func:`material_table` writes them.
+    """
+    return 1.0 + ratio_2 / (1.0 + ik * np.sqrt(np.maximum(p, 0.0)) / np.maximum(shear_rate, 1e-30))
 
 
 def snap_back_limit(m: Material, h: float) -> float:
@@ -128,13 +150,15 @@ def material_table(materials: Sequence[Material], band=None) -> tuple[np.ndarray
         :attr:`Material.K`, Pa, of the liquid's equation of state) and ``P_ETA`` (Kelvin-Voigt
         viscosity :attr:`Material.viscosity`, Pa s: the kernels add the Kirchhoff stress
         ``J eta (C + C^T)``, APIC's ``C`` standing for ``grad v``; ``docs/dissipation.md``), and for a
-        ``brittle`` body ``P_FT`` (tensile strength ``f_t``, Pa) and ``P_SF`` (:func:`softening_stress`, Pa).
+        ``brittle`` body ``P_FT`` (tensile strength ``f_t``, Pa) and ``P_SF`` (:func:`softening_stress`, Pa), and for
+        a ``sand`` body with a ``grain_diameter`` ``P_DMU`` and ``P_IK`` (:func:`mu_of_I`; 0 without).
 
     Raises
     ------
     SceneError
         A material without an MPM model here (``rigid``); the engine's capabilities normally
-        refuse it before. A ``brittle`` body without ``band``, or below its snap-back limit
+        refuse it before. A ``sand`` body with a ``grain_diameter`` whose ``friction_angle_2`` is not above its
+        ``friction_angle``. A ``brittle`` body without ``band``, or below its snap-back limit
         (:func:`softening_stress`).
     """
     kinds = np.zeros(len(materials), dtype=np.int32)
@@ -155,6 +179,13 @@ def material_table(materials: Sequence[Material], band=None) -> tuple[np.ndarray
         params[b, P_ALPHA] = math.sqrt(2.0 / 3.0) * 2.0 * s / (3.0 - s)
         params[b, P_K] = m.K
         params[b, P_ETA] = m.viscosity
+        if m.name == "sand" and m.grain_diameter > 0.0:   # mu(I) (mu_of_I)
+            if not m.friction_angle < m.friction_angle_2 < 90.0:
+                raise SceneError(f"material 'sand' (body {b}): friction_angle_2 = {m.friction_angle_2!r}; expected "
+                                 f"an angle in (friction_angle = {m.friction_angle!r}, 90) deg with grain_diameter")
+            s2 = math.sin(math.radians(m.friction_angle_2))
+            params[b, P_DMU] = s2 * (3.0 - s) / (s * (3.0 - s2)) - 1.0   # alpha(phi_2) / alpha(phi) - 1
+            params[b, P_IK] = MU_I_I0 / (m.grain_diameter * math.sqrt(m.rho / MU_I_PACKING))
         if m.name == "brittle":
             if band is None:
                 raise SceneError(f"material 'brittle' (body {b}) needs its crack band width h (SimSetup.crack_band)")

@@ -88,6 +88,13 @@ MATERIAL_PARAMS: dict[str, Param] = {
     "yield_stress": Param(1e4, 0.0, lo_open=True, unit="Pa",
                           doc="von Mises yield stress: the uniaxial stress at which a bar yields"),
     "friction_angle": Param(30.0, 0.0, 90.0, hi_open=True, unit="deg", doc="Drucker-Prager friction angle"),
+    "grain_diameter": Param(0.0, 0.0, unit="m",
+                            doc="grain diameter d of the mu(I) rheology (Jop et al. 2006): the cone's friction rises "
+                                "from tan(friction_angle) at rest towards tan(friction_angle_2) at a high inertial "
+                                "number; 0 = rate-independent Drucker-Prager (docs/contact.md)"),
+    "friction_angle_2": Param(0.0, 0.0, 90.0, hi_open=True, unit="deg",
+                              doc="the angle of mu_2, the mu(I) rheology's limiting friction, above "
+                                  "friction_angle (used when grain_diameter > 0)"),
     "softening": Param(0.1, 0.0, doc="yield stress drop per unit accumulated plastic strain"),
     "hardening": Param(10.0, 0.0, lo_open=True, doc="hardening coefficient xi (Stomakhin et al. 2013)"),
     "theta_c": Param(2.5e-2, 0.0, lo_open=True, doc="critical compression (Stomakhin et al. 2013)"),
@@ -129,8 +136,8 @@ MATERIAL_KINDS: dict[str, MaterialKind] = {
     "neo_hookean": MaterialKind("elastic, compressible neo-Hookean", _ELASTIC),
     "metal": MaterialKind("von Mises plasticity on Hencky strain (StVK Hencky elasticity)",
                           _ELASTIC + ("yield_stress",)),
-    "sand": MaterialKind("Drucker-Prager plasticity on Hencky strain (Klar et al. 2016)",
-                         _ELASTIC + ("friction_angle",)),
+    "sand": MaterialKind("Drucker-Prager plasticity on Hencky strain (Klar et al. 2016), optionally mu(I) "
+                         "(Jop et al. 2006)", _ELASTIC + ("friction_angle", "grain_diameter", "friction_angle_2")),
     "snow": MaterialKind("hardening plasticity (Stomakhin et al. 2013)",
                          _ELASTIC + ("hardening", "theta_c", "theta_s")),
     "plasticine": MaterialKind("von Mises with softening", _ELASTIC + ("yield_stress", "softening")),

@@ -16,8 +16,7 @@ from gasp_core.errors import SceneError
 from gasp_core.seam.schema import (BODY_MODELS, DEFAULT_MATERIAL, MATERIAL_KINDS, MATERIAL_PARAMS, RIGID_KINDS,
                                     STIFF_BRITTLE_E, in_range)
 
-#: Material models an engine may offer (capability names; :data:`gasp_core.seam.schema.MATERIAL_KINDS` says what
-#: each is and which keys it uses).
+#: Material models an engine may offer (capability names; :data:`gasp_core.seam.schema.MATERIAL_KINDS`).
 MATERIALS = frozenset(MATERIAL_KINDS)
 
 #: Boundary kinds an engine may offer (capability names).
@@ -33,13 +32,9 @@ def crack_band(dx: float, p_vol: np.ndarray, body_id: np.ndarray, n_bodies: int)
     """Crack band width ``h`` of each body, metres, shape (n_bodies,), float64: ``dx + s``, with ``s`` the body's
     point spacing ``max(p_vol)^(1/3)`` over its material points (0 for a body without any).
 
-    ``h`` is the width of the zone a crack localises in (Bazant & Oh 1983, "Crack band theory for fracture of
-    concrete", Materiaux et Constructions 16; Jirasek & Bazant, "Inelastic Analysis of Structures", Wiley 2002,
-    on the crack band model: the band is the element's width, the zone the strain localises in). In MLS-MPM the
-    velocity jump of a crack localises in one cell; the points that break are those whose slab (thickness ``s``)
-    meets that cell, ``dx / s + 1`` layers on average, a band ``dx + s`` wide. Measured on the bar of
-    ``tests/test_brittle.py`` (docs/fracture.md): 1.5 ``dx`` at 8 points per cell, 1.0-1.3 ``dx`` at 27, 1.25
-    ``dx`` at 64 (this rule: 1.5, 1.33, 1.25).
+    ``h`` is the width of the zone a crack localises in (Bazant & Oh 1983, Materiaux et Constructions 16; Jirasek &
+    Bazant 2002, the crack band model). In MLS-MPM a crack's velocity jump localises in one cell; the points whose
+    slab (thickness ``s``) meets it break, a band ``dx + s`` wide (measured: docs/fracture.md).
     """
     s = np.zeros(n_bodies)
     pv = np.asarray(p_vol, np.float64)
@@ -71,6 +66,9 @@ class Material:
         (``gasp_core.mpm.materials.VON_MISES_RADIUS``).
     friction_angle : float
         Drucker-Prager friction angle, degrees (sand).
+    grain_diameter, friction_angle_2 : float
+        Sand's mu(I) rheology (Jop et al. 2006): grain diameter ``d``, m (0: rate-independent), and the angle of
+        ``mu_2``, degrees (``gasp_core.mpm.materials.mu_of_I``).
     softening : float
         Plasticine softening: yield stress drop per unit plastic strain, dimensionless factor.
     hardening : float
@@ -108,6 +106,8 @@ class Material:
     rho: float = MATERIAL_PARAMS["rho"].default
     yield_stress: float = MATERIAL_PARAMS["yield_stress"].default
     friction_angle: float = MATERIAL_PARAMS["friction_angle"].default
+    grain_diameter: float = MATERIAL_PARAMS["grain_diameter"].default
+    friction_angle_2: float = MATERIAL_PARAMS["friction_angle_2"].default
     softening: float = MATERIAL_PARAMS["softening"].default
     hardening: float = MATERIAL_PARAMS["hardening"].default
     theta_c: float = MATERIAL_PARAMS["theta_c"].default

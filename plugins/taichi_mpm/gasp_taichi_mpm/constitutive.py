@@ -9,7 +9,7 @@ Higham 1986 (polar decomposition), Golub & Van Loan (Jacobi eigenvalues), Rankin
 import taichi as ti
 
 # Material codes and the per-body parameter columns (``MPMSolver.mat``) are gasp_core.mpm.materials'.
-from gasp_core.mpm.materials import (BRITTLE, JELLY, LIQUID, METAL, NEO_HOOKEAN, P_ALPHA, P_FT, P_HARDENING,
+from gasp_core.mpm.materials import (BRITTLE, JELLY, LIQUID, METAL, NEO_HOOKEAN, P_ALPHA, P_DMU, P_FT, P_HARDENING, P_IK,
                                          P_K, P_LAM, P_MU, P_SF, P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD,
                                          PLASTICINE, SAND, SNOW, VON_MISES_RADIUS)
 
@@ -168,6 +168,21 @@ class Constitutive:
         return eps
 
     @ti.func
+    def mu_i_alpha(self, eps, mu, lam, prm):
+        """The cone's ``alpha`` for the Hencky strain ``eps``: ``P_ALPHA``, widened by the mu(I) rheology where the
+        body has it (``P_DMU > 0``; ``gasp_core.mpm.materials.mu_of_I``, Jop et al. 2006): ``I`` from the plastic
+        shear rate ``sqrt(2) dg / dt`` the rate-independent cone gives this substep and the pressure of ``eps``."""
+        alpha = prm[P_ALPHA]
+        tr = eps.sum()
+        if prm[P_DMU] > 0.0 and tr < 0.0:
+            k = (3.0 * lam + 2.0 * mu)
+            dg = (eps - tr / 3.0).norm() + k / (2.0 * mu) * tr * alpha
+            if dg > 0.0:
+                rate = ti.sqrt(2.0) * dg / self.dt[None]
+                alpha *= 1.0 + prm[P_DMU] / (1.0 + prm[P_IK] * ti.sqrt(-k / 3.0 * tr) / rate)
+        return alpha
+
+    @ti.func
     def brittle_tau(self, U, eps, mu, lam, ft, sf, d):
         """``(tau, d)``: the brittle Kirchhoff stress and the damage after it (docs/fracture.md).
 
@@ -226,7 +241,7 @@ class Constitutive:
                 e = eps - tr / 3.0
                 ne = e.norm()
                 if kind == SAND:
-                    eps = self.drucker_prager(eps, mu, lam, prm[P_ALPHA])
+                    eps = self.drucker_prager(eps, mu, lam, self.mu_i_alpha(eps, mu, lam, prm))
                     F = self.udvt(U, ti.exp(eps), V)
                 else:
                     yield_stress = prm[P_YIELD]

@@ -12,7 +12,7 @@ import functools
 import warp as wp
 
 # Material codes and the columns of the per-body parameter table ``mat_par`` are gasp_core.mpm.materials'.
-from gasp_core.mpm.materials import (BRITTLE, JELLY, METAL, NEO_HOOKEAN, P_ALPHA, P_FT, P_HARDENING, P_K,
+from gasp_core.mpm.materials import (BRITTLE, JELLY, METAL, NEO_HOOKEAN, P_ALPHA, P_DMU, P_FT, P_HARDENING, P_IK, P_K,
                                          P_LAM, P_MU, P_SF, P_SOFTENING, P_THETA_C, P_THETA_S, P_YIELD, PLASTICINE,
                                          SAND, SNOW, VON_MISES_RADIUS)
 
@@ -203,7 +203,7 @@ def build_plastic_funcs(Ft):
 
     @wp.func
     def hencky_return(F_trial: mat33, mu: Ft, lam: Ft, kind: int, b: int, p: int,
-                      mat_par: wp.array2d(dtype=Ft), Jp: wp.array(dtype=Ft)):
+                      mat_par: wp.array2d(dtype=Ft), Jp: wp.array(dtype=Ft), dt: Ft):
         # metal, plasticine (von Mises, Jp += plastic strain) and sand (Drucker-Prager) in Hencky strain:
         # returns (F after the return mapping, tau)
         Fp = F_trial
@@ -217,7 +217,14 @@ def build_plastic_funcs(Ft):
             if tr >= Ft(0.0):
                 eps = vec3(Ft(0.0))
             else:
-                dg = e_norm + (Ft(3.0) * lam + Ft(2.0) * mu) / (Ft(2.0) * mu) * tr * mat_par[b, P_ALPHA]
+                k = Ft(3.0) * lam + Ft(2.0) * mu
+                alpha = mat_par[b, P_ALPHA]
+                dg = e_norm + k / (Ft(2.0) * mu) * tr * alpha
+                if mat_par[b, P_DMU] > Ft(0.0) and dg > Ft(0.0):   # mu(I): materials.mu_of_I (taichi's mu_i_alpha)
+                    rate = wp.sqrt(Ft(2.0)) * dg / dt
+                    alpha = alpha * (Ft(1.0) + mat_par[b, P_DMU] / (
+                        Ft(1.0) + mat_par[b, P_IK] * wp.sqrt(-k / Ft(3.0) * tr) / rate))
+                    dg = e_norm + k / (Ft(2.0) * mu) * tr * alpha
                 if dg > Ft(0.0):
                     eps = eps - (dg / e_norm) * e
             Fp = U * wp.diag(vec3(wp.exp(eps[0]), wp.exp(eps[1]), wp.exp(eps[2]))) * wp.transpose(V)
@@ -302,7 +309,7 @@ def build_return_mapping(Ft):
 
     @wp.func
     def return_mapping(F_trial: mat33, p: int, body: wp.array(dtype=wp.int32), mat_kind: wp.array(dtype=wp.int32),
-                       mat_par: wp.array2d(dtype=Ft), Jp: wp.array(dtype=Ft)):
+                       mat_par: wp.array2d(dtype=Ft), Jp: wp.array(dtype=Ft), dt: Ft):
         # return mapping and Kirchhoff stress of point p (docs/mpm.md table): (F, tau); writes Jp[p]
         Fp = F_trial
         b = body[p]
@@ -317,12 +324,12 @@ def build_return_mapping(Ft):
             tau = mu * (Fp * wp.transpose(Fp) - wp.identity(3, dtype=Ft)) + wp.identity(3, dtype=Ft) * (
                 lam * wp.log(wp.max(J, Ft(1e-6))))
         elif kind == METAL or kind == PLASTICINE or kind == SAND:
-            Fp, tau = hencky_return(Fp, mu, lam, kind, b, p, mat_par, Jp)
+            Fp, tau = hencky_return(Fp, mu, lam, kind, b, p, mat_par, Jp, dt)
         elif kind == SNOW:
             Fp, tau = snow_return(Fp, mu, lam, b, p, mat_par, Jp)
         elif kind == BRITTLE:
             if Jp[p] >= Ft(1.0):   # broken through: cohesionless sand (docs/fracture.md)
-                Fp, tau = hencky_return(Fp, mu, lam, SAND, b, p, mat_par, Jp)
+                Fp, tau = hencky_return(Fp, mu, lam, SAND, b, p, mat_par, Jp, dt)
             else:
                 Fp, tau = brittle_return(Fp, mu, lam, b, p, mat_par, Jp)
         else:  # LIQUID
