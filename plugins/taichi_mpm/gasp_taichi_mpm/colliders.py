@@ -127,16 +127,7 @@ class Colliders:
         face, its velocity into the face removed. The grid rule acts at the nodes, and a point between a stopped node
         layer and a moving one was carried up to 1.25 mm under the ground by a landing at 50 m/s (issue 66)."""
         if self.box_holds[self.body[p]] != 0:
-            xp, vp = self.x[p], self.v[p]
-            for d in ti.static(range(3)):
-                if xp[d] < self.hold_lo[None][d]:
-                    xp[d] = self.hold_lo[None][d]
-                    vp[d] = ti.max(vp[d], 0.0)
-                if xp[d] > self.hold_hi[None][d]:
-                    xp[d] = self.hold_hi[None][d]
-                    vp[d] = ti.min(vp[d], 0.0)
-            self.x[p] = xp
-            self.v[p] = vp
+            self.x[p], self.v[p] = self.hold_passive(self.x[p], self.v[p], False)   # contact.py: never stranded
 
     @ti.func
     def hold_colliders(self, p):

@@ -229,7 +229,9 @@ def build_box_hold(Ft):
     walls' last node layers) is put on the face, its velocity into the face removed. The grid rule acts at the nodes,
     and a point between a stopped node layer and a moving one was carried up to 1.25 mm under the ground by a landing
     at 50 m/s (issue 66)."""
+    from .contact import build_passive_hold   # (contact.py imports this module)
     vec3, _vec4, _mat33 = build_types(Ft)
+    hold_passive = build_passive_hold(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def box_hold(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32),
@@ -237,15 +239,7 @@ def build_box_hold(Ft):
         p = wp.tid()
         if holds[body[p]] == 0:
             return
-        xp = x[p]
-        vp = v[p]
-        for d in range(3):
-            if xp[d] < lo[d]:
-                xp[d] = lo[d]
-                vp[d] = wp.max(vp[d], Ft(0.0))
-            if xp[d] > hi[d]:
-                xp[d] = hi[d]
-                vp[d] = wp.min(vp[d], Ft(0.0))
+        xp, vp = hold_passive(x[p], v[p], lo, hi, 0, Ft(0.0))   # never stranded: the clamp alone
         x[p] = xp
         v[p] = vp
 
