@@ -101,16 +101,17 @@ def material(c: Case, ft: float | None = None):
     return Material("brittle", E=E, nu=NU, rho=RHO, tensile_strength=ft, fracture_energy=LCH * DX * ft ** 2 / E)
 
 
-def build(c: Case, engine: str):
+def build(c: Case, engine: str, margin: int = 5):
     """The setup of case ``c``. Returns ``(setup, long axis, rest coordinate of the measuring face, n_grid)``: the
-    root face (cantilever), mid-span (beam), the held face (rod)."""
+    root face (cantilever), mid-span (beam), the held face (rod). ``margin``: cells of the cube past the body's far
+    end (and so, the body being centred across, about half that below it)."""
     from gasp_core.colliders.sdf import SDF_SPACING, box_collider
     from gasp_core.seam.setup import Boundary
     from gasp_core.testing.helpers import box_points, make_setup
     s = DX / 2
     a0 = 4                                             # cells: where the body starts along its long axis
     length = {"cantilever": HELD + c.span, "beam": c.span + 4, "rod": HELD + c.span}[c.shape]
-    n = a0 + length + 5
+    n = a0 + length + margin
     mid = n * DX / 2
     across = (mid - WIDE * DX / 2, mid + WIDE * DX / 2)
     deep = (mid - c.depth * DX / 2, mid + c.depth * DX / 2)

@@ -83,8 +83,22 @@ HELD_STRAIN_CELLS = 1.5
 #: scatters the stress ``tau D`` that pairs with it). With the raw ``G`` a bar's lateral contraction (``nu > 0``)
 #: reverses into an expansion in the held points: at ``nu`` 0.25 their stress along the bar is 1.3-1.4 times the
 #: section's, and they damaged at half the strength (conformance ``brittle_below_strength``). A brittle point a box
-#: holds keeps its damage: its stress is its mirror image's, not a crack of the body (docs/fracture.md).
+#: holds keeps its damage: its stress is its mirror image's, not a crack of the body (docs/fracture.md); but once that
+#: stress passes the full softening's (``d`` 1: the material beside the face is broken through) it stays broken
+#: through, and a fixed region's nodes about it become a free-slip face (:func:`cuts_held_faces`).
 HELD_STRAINED = 2
+
+
+def cuts_held_faces(kinds: Iterable[int], n_regions: int) -> bool:
+    """Whether an engine marks its fixed regions' broken faces (docs/fracture.md, "The held region"): with a brittle
+    material (``kinds``: the material kind codes in use, :data:`gasp_core.mpm.materials.BRITTLE`) and at least one
+    ``fixed_region``, each substep a strained held point broken through (``Jp >= 1``) marks its stencil's nodes, and a
+    marked ghost node takes the velocity of the first node past the face, less its normal part into the region,
+    instead of its mirror image's reflected: the face of a body broken through there is free of traction. Without it
+    the ghosts reflect the falling piece's velocity into the region (a no-slip face that drags the piece at 0.8 g and
+    flings the crack's points up: a broken cantilever ran off the grid at frame 45)."""
+    from gasp_core.mpm.materials import BRITTLE
+    return n_regions > 0 and BRITTLE in {int(k) for k in kinds}
 #: Cells: :func:`held_codes` strains a held point near its region's face only where the points sample the face's
 #: normal finer than this about its mirror image (:func:`image_gap`: the widest gap along the normal within 1.5 cells
 #: of it); else it stays rigid, as every held point was before issue 66. A cantilever of points 1.6 cells apart along
