@@ -21,8 +21,7 @@ The lattice: spacing dx / 2 (8 points a cell), dx = 1/64 m, the section 2 cells 
 between its supports' centres (2 cells past each), the rod 40 cells long under 3 held cells, its section 2 x 2
 cells. The domain is a cube just big enough (``n_grid`` per case). The run: 1.5 periods of the first mode (the
 dynamic stress peaks at half a period), 30 frames, stopped ``AFTER`` = 4 frames after a layer is broken through (what
-follows a full break is not the must-show's; run on, taichi_mpm's 12-cell cantilever at 0.6 diverged at its open
-crack in frame 20).
+follows a full break is ``benchmarks/run_on_family.py``'s).
 
 Measured per case: ``broke`` (a lattice layer across the long axis with every point at ``d >= 0.9``: a crack
 through, or two or more pieces), ``where`` (the rest coordinate of the layer broken through farthest from where the

@@ -10,7 +10,8 @@ and the run goes on. The family, on the MPM engines:
   until ``BAR_STOP`` s; with its weight on top of the pull it breaks through at the clamp's face, then falls.
 
 Each runs ``AFTER`` frames (50 the cantilevers, 25 the bar) past the frame a lattice layer across it is broken
-through (every point ``d >= 0.9``).
+through (every point ``d >= 0.9``), or until a point comes within ``EDGE`` cells of the grid's edge (the boundary
+nodes would hold the piece).
 Measured: ``through_at_cells`` (the rest distance of each layer broken through from the held face, cells; a held
 layer's negative), ``diverged`` (the engine's check), ``held_stretch`` (the largest principal stretch of any held point over
 the run), ``separated`` (the first frame, once broken through and the pulled box stopped, that a part of 1 % of the
@@ -39,6 +40,7 @@ import tension_family as tf   # noqa: E402
 
 AFTER = {"cantilever": 50, "bar": 25}   # frames run past the break
 MARGIN = 25            # cells of the cantilevers' cube past the tip
+EDGE = 4               # cells: a run stops once a point comes this near the grid's edge
 CLEAR = 3.0            # cells: a part is apart once this far past its rest neighbours (two stencils' reach)
 BAR, BAR_GRID, BAR_PULL, BAR_STOP, BAR_DT = tf.FAMILY[0], 24, 0.1, 0.05, 0.01
 CASES = ("cantilever_h8", "cantilever_h12", "bar_hung")
@@ -114,7 +116,7 @@ def run_case(name: str, engine: str, build_fn=build_case) -> dict:
     count = np.bincount(layer, minlength=nl)
     parts = FramePieces(x0, mass, 1.5 * s, CLEAR * dx)
     g = float(np.linalg.norm(st.gravity))
-    through, diverged, stretch, sep, piece, down, k, where = None, None, 1.0, None, None, [], 0, []
+    through, diverged, stretch, sep, piece, down, k, where, edge = None, None, 1.0, None, None, [], 0, [], None
     cpu = time.process_time()
     e = build_engine(engines()[engine], st)
     try:
@@ -141,6 +143,10 @@ def run_case(name: str, engine: str, build_fn=build_case) -> dict:
                 sep = None if piece is None else k
             if through is not None and k >= through + AFTER[name.split("_")[0]]:
                 break
+            lo, hi = np.asarray(st.domain_lo) + EDGE * dx, np.asarray(st.domain_hi) - EDGE * dx
+            if through is not None and np.any((x < lo) | (x > hi)):   # the grid's edge is near: stop there
+                edge = k
+                break
     finally:
         e.close()
     a = None
@@ -148,7 +154,8 @@ def run_case(name: str, engine: str, build_fn=build_case) -> dict:
         com = np.array([np.average(z[piece], weights=mass[piece]) for z in down[sep - 1:k]])
         a = accel(np.arange(sep, k + 1) * st.frame_dt, com)
     return {"case": name, "engine": engine, "points": len(x0), "n_grid": st.n_grid, "frame_dt": st.frame_dt,
-            "through_frame": through, "through_at_cells": where, "frames_run": k, "diverged": diverged,
+            "through_frame": through, "through_at_cells": where, "frames_run": k, "stopped_at_edge": edge,
+            "diverged": diverged,
             "held_stretch": stretch, "separated_frame": sep,
             "piece_share": None if piece is None else float(mass[piece].sum() / mass.sum()),
             "accel_over_g": None if a is None else a / g, "seconds_cpu": round(time.process_time() - cpu, 1)}
