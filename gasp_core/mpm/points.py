@@ -102,12 +102,15 @@ def cuts_held_faces(kinds: Iterable[int], n_regions: int) -> bool:
     """Whether an engine marks its fixed regions' broken faces (docs/fracture.md, "The held region"): with a brittle
     material (``kinds``: the material kind codes in use, :data:`gasp_core.mpm.materials.BRITTLE`) and at least one
     ``fixed_region``, each substep a strained held point broken through (``Jp >= 1``) marks its stencil's nodes, and
-    a ghost node so marked that no intact free point reads (:data:`CUT_REACH`) takes the velocity of the first node past the face, less its normal part into the region,
-    instead of its mirror image's reflected: the face of a body broken through there is free of traction. Without it
-    the ghosts reflect the falling piece's velocity into the region (a no-slip face that drags the piece at 0.8 g and
-    flings the crack's points up: a broken cantilever ran off the grid at frame 45)."""
+    a ghost node so marked whose face's last node no intact free point reads (:data:`CUT_REACH`) takes the velocity
+    of the first node past the face, less its normal part into the region, instead of its mirror image's reflected:
+    the face of a body broken through there is free of traction. Without it the ghosts reflect the falling piece's
+    velocity into the region (a no-slip face that drags the piece at 0.8 g and flings the crack's points up: a broken
+    cantilever ran off the grid at frame 45)."""
     from gasp_core.mpm.materials import BRITTLE
     return n_regions > 0 and BRITTLE in {int(k) for k in kinds}
+
+
 #: Cells: :func:`held_codes` strains a held point near its region's face only where the points sample the face's
 #: normal finer than this about its mirror image (:func:`image_gap`: the widest gap along the normal within 1.5 cells
 #: of it); else it stays rigid, as every held point was before issue 66. A cantilever of points 1.6 cells apart along
