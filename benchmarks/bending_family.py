@@ -21,8 +21,7 @@ The lattice: spacing dx / 2 (8 points a cell), dx = 1/64 m, the section 2 cells 
 between its supports' centres (2 cells past each), the rod 40 cells long under 3 held cells, its section 2 x 2
 cells. The domain is a cube just big enough (``n_grid`` per case). The run: 1.5 periods of the first mode (the
 dynamic stress peaks at half a period), 30 frames, stopped ``AFTER`` = 4 frames after a layer is broken through (what
-follows a full break is not the must-show's; run on, taichi_mpm's 12-cell cantilever at 0.6 diverged at its open
-crack in frame 20).
+follows a full break is ``benchmarks/run_on_family.py``'s).
 
 Measured per case: ``broke`` (a lattice layer across the long axis with every point at ``d >= 0.9``: a crack
 through, or two or more pieces), ``where`` (the rest coordinate of the layer broken through farthest from where the
@@ -101,16 +100,17 @@ def material(c: Case, ft: float | None = None):
     return Material("brittle", E=E, nu=NU, rho=RHO, tensile_strength=ft, fracture_energy=LCH * DX * ft ** 2 / E)
 
 
-def build(c: Case, engine: str):
+def build(c: Case, engine: str, margin: int = 5):
     """The setup of case ``c``. Returns ``(setup, long axis, rest coordinate of the measuring face, n_grid)``: the
-    root face (cantilever), mid-span (beam), the held face (rod)."""
+    root face (cantilever), mid-span (beam), the held face (rod). ``margin``: cells of the cube past the body's far
+    end (and so, the body being centred across, about half that below it)."""
     from gasp_core.colliders.sdf import SDF_SPACING, box_collider
     from gasp_core.seam.setup import Boundary
     from gasp_core.testing.helpers import box_points, make_setup
     s = DX / 2
     a0 = 4                                             # cells: where the body starts along its long axis
     length = {"cantilever": HELD + c.span, "beam": c.span + 4, "rod": HELD + c.span}[c.shape]
-    n = a0 + length + 5
+    n = a0 + length + margin
     mid = n * DX / 2
     across = (mid - WIDE * DX / 2, mid + WIDE * DX / 2)
     deep = (mid - c.depth * DX / 2, mid + c.depth * DX / 2)

@@ -83,8 +83,34 @@ HELD_STRAIN_CELLS = 1.5
 #: scatters the stress ``tau D`` that pairs with it). With the raw ``G`` a bar's lateral contraction (``nu > 0``)
 #: reverses into an expansion in the held points: at ``nu`` 0.25 their stress along the bar is 1.3-1.4 times the
 #: section's, and they damaged at half the strength (conformance ``brittle_below_strength``). A brittle point a box
-#: holds keeps its damage: its stress is its mirror image's, not a crack of the body (docs/fracture.md).
+#: holds keeps its damage: its stress is its mirror image's, not a crack of the body (docs/fracture.md); but once that
+#: stress passes the full softening's (``d`` 1: the material beside the face is broken through) it stays broken
+#: through, and a fixed region's nodes about it become a free-slip face (:func:`cuts_held_faces`).
 HELD_STRAINED = 2
+
+
+#: Cells: a free point not broken through this near a fixed region (past its box, along every axis) keeps the nodes of
+#: its stencil from being a broken face (:func:`cuts_held_faces`): the face lets go only where every free point that
+#: reads the node is broken through, so the crack's band beside it has broken across its width (1.5 cells at 8 points
+#: a cell, ``dx + p_vol^(1/3)``). Marked by the held points alone (they break through with the band's first layer),
+#: the face let go of the rest of the band early: the bar of ``tests/test_brittle.py`` dissipated 3.2 and 2.8 J/m^2
+#: for ``G_f`` 5 (8 and 27 points a cell) instead of 5.06 and 4.99.
+CUT_REACH = 1.5
+
+
+def cuts_held_faces(kinds: Iterable[int], n_regions: int) -> bool:
+    """Whether an engine marks its fixed regions' broken faces (docs/fracture.md, "The held region"): with a brittle
+    material (``kinds``: the material kind codes in use, :data:`gasp_core.mpm.materials.BRITTLE`) and at least one
+    ``fixed_region``, each substep a strained held point broken through (``Jp >= 1``) marks its stencil's nodes, and
+    a ghost node so marked whose face's last node no intact free point reads (:data:`CUT_REACH`) takes the velocity
+    of the first node past the face, less its normal part into the region, instead of its mirror image's reflected:
+    the face of a body broken through there is free of traction. Without it the ghosts reflect the falling piece's
+    velocity into the region (a no-slip face that drags the piece at 0.8 g and flings the crack's points up: a broken
+    cantilever ran off the grid at frame 45)."""
+    from gasp_core.mpm.materials import BRITTLE
+    return n_regions > 0 and BRITTLE in {int(k) for k in kinds}
+
+
 #: Cells: :func:`held_codes` strains a held point near its region's face only where the points sample the face's
 #: normal finer than this about its mirror image (:func:`image_gap`: the widest gap along the normal within 1.5 cells
 #: of it); else it stays rigid, as every held point was before issue 66. A cantilever of points 1.6 cells apart along

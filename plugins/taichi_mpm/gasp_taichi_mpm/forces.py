@@ -102,7 +102,7 @@ class Forces:
             r = q * IMPULSE_ROW
             c, b = self.impulse_corners(q)
             dv = ti.Vector([self.ex_imps[r + IM_DV], self.ex_imps[r + IM_DV + 1], self.ex_imps[r + IM_DV + 2]])
-            self.grid_v[I] = self.mirror_node(I, c, b, dv, True)
+            self.grid_v[I] = self.mirror_node(I, c, b, dv, True, 0)
 
     @ti.func
     def set_box_at(self, X):

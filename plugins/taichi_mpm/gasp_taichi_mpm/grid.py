@@ -12,7 +12,7 @@ import taichi as ti
 from gasp_core.mpm.grid_tables import FT_TIME
 from gasp_core.mpm.contact import ground_node_layer, wall_grid_cells
 from gasp_core.mpm.materials import BRITTLE
-from gasp_core.mpm.points import HELD_STRAINED, MIRROR_CELLS
+from gasp_core.mpm.points import CUT_REACH, HELD_STRAINED, MIRROR_CELLS, cuts_held_faces
 
 _TIE = 1e-9  # cells: tolerance for ties when boundary tests become node-index ranges
 
@@ -112,20 +112,61 @@ class GridUpdate:
         return lo, ti.max(hi - lo + 1, 0)
 
     def grid_update(self):
-        """The grid update (:meth:`grid_nodes`), then the held boxes' ghost nodes (:meth:`mirror_held`)."""
+        """The grid update (:meth:`grid_nodes`), then the held boxes' ghost nodes (:meth:`mirror_held`; first the
+        fixed regions' broken faces, :meth:`mark_cut`)."""
         self.grid_nodes()
         if self.n_regions or self.n_set_boxes:
+            if self.cut:
+                self.grid_cut.fill(0)
+                self.mark_cut()
             self.mirror_held()
 
+    def allocate_cut(self) -> None:
+        """``cut`` (a brittle body beside a ``fixed_region``) and ``grid_cut`` (i8, ``(2, n_grid, n_grid, n_grid)``;
+        else one node): the nodes :meth:`mark_cut` marks."""
+        ng = self.n_grid
+        self.cut = self.any_fixed and cuts_held_faces(self.kinds, self.n_regions)
+        self.grid_cut = ti.field(ti.i8, shape=(2, ng, ng, ng) if self.cut else (2, 1, 1, 1))
+
+    @ti.kernel
+    def mark_cut(self):
+        """The fixed regions' broken faces (docs/fracture.md, "The held region";
+        :func:`~gasp_core.mpm.points.cuts_held_faces`): the 27 nodes of the stencil of a strained held point broken
+        through (``Jp >= 1``: its own stress, its mirror image's, passed the full softening's) in ``grid_cut[0]``, of
+        a free point not broken through within :data:`~gasp_core.mpm.points.CUT_REACH` cells of a region in
+        ``grid_cut[1]`` (both cleared first); :meth:`mirror_node` makes a region's node marked in the first a free-slip
+        face where the face's last node (the node inside the box next to the first one past it, on the node's line
+        along the face's normal) is not marked in the second: the crack's band beside the face is broken through
+        across its width."""
+        for p in range(self.n_points[None]):
+            X = self.x[p]
+            c = -1
+            if self.kind[self.body[p]] == BRITTLE:
+                if self.fixed[p] >= HELD_STRAINED and self.Jp[p] >= 1.0:
+                    c = 0
+                elif self.fixed[p] == 0 and self.Jp[p] < 1.0:
+                    r = CUT_REACH * self.dx[None]
+                    for b in ti.static(range(self.n_regions)):
+                        if (X >= self.reg_box[b, 0] - r).all() and (X <= self.reg_box[b, 1] + r).all():
+                            c = 1
+            if c >= 0:
+                base, fx, ok = self.base_fx(X)
+                if ok:
+                    for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
+                        self.grid_cut[c, base[0] + i, base[1] + j, base[2] + k] = 1
+
     @ti.func
-    def mirror_node(self, I, blo, bhi, v_set, empty: ti.template()):
+    def mirror_node(self, I, blo, bhi, v_set, empty: ti.template(), cut):
         """The velocity of node ``I`` inside the held box ``[blo, bhi]`` (m) that holds its material at ``v_set``
         (docs/fracture.md, "The held region"): within :data:`~gasp_core.mpm.points.MIRROR_CELLS` cells of the
         box's nearest face, ``2 v_set - v(X')``, ``X'`` its mirror image across that face (``v`` linear along the
         face's normal between the two nodes around ``X'``; where one of them is ``I`` itself, solved for it), so the
         grid field meets ``v_set`` on the face and a uniform strain crosses it; deeper, ``v_set``. ``empty``: a
         mirror node without mass (no material past the face) leaves ``v_set`` (the set boxes; a fixed region's is 0
-        anyway). An image past the grid's edge is read at the edge."""
+        anyway). An image past the grid's edge is read at the edge. ``cut`` (a fixed region's node that
+        :meth:`mark_cut` marked, with the face's last node on its line read by no intact free point: the material
+        beside the face is broken through, so the face is free of traction): the velocity of the first node past the
+        face along its normal, less its normal part into the box (a free-slip face the material cannot enter)."""
         dx = self.dx[None]
         X = self.lo[None] + dx * ti.Vector([ti.cast(I[0], self.real), ti.cast(I[1], self.real),
                                             ti.cast(I[2], self.real)])
@@ -153,6 +194,17 @@ class GridUpdate:
             if ti.static(empty):
                 if self.grid_m[Ia] <= 0.0 or self.grid_m[Ib] <= 0.0:
                     v = v_set
+            if cut != 0:
+                Io = I
+                Io[ax] = ti.min(ti.max(I[ax] + side * (ti.cast(ti.floor(s / dx + 1e-6), ti.i32) + 1), 0),
+                                self.n_grid - 1)
+                Iface = Io
+                Iface[ax] = ti.min(ti.max(Io[ax] - side, 0), self.n_grid - 1)
+                if ti.static(self.cut):   # and no free point short of broken through reads the face's last node
+                    if self.grid_cut[1, Iface[0], Iface[1], Iface[2]] == 0:
+                        v = self.grid_v[Io]
+                        if (v[ax] - v_set[ax]) * ti.cast(side, self.real) < 0.0:
+                            v[ax] = v_set[ax]
         return v
 
     @ti.func
@@ -192,7 +244,7 @@ class GridUpdate:
             kind = self.kind[self.body[p]]
             if ti.static(not self.multi_kind):
                 kind = ti.static(next(iter(self.kinds)))
-            if kind == BRITTLE:
+            if kind == BRITTLE and self.Jp[p] < 1.0:   # broken through (its image's crack): stays so
                 self.Jp[p] = d_held
         return out
 
@@ -207,10 +259,13 @@ class GridUpdate:
             I = lo + ti.Vector([idx // (ext[1] * ext[2]), (idx // ext[2]) % ext[1], idx % ext[2]])
             if ti.static(self.n_set_boxes > 0):
                 self.mirror_set_boxes(I)
+            cut = 0
+            if ti.static(self.cut):   # the held points beside broken through (mark_cut)
+                cut = ti.cast(self.grid_cut[0, I[0], I[1], I[2]], ti.i32)
             for b in ti.static(range(self.n_regions)):
                 if (I >= self.reg_lo[b]).all() and (I <= self.reg_hi[b]).all():
                     self.grid_v[I] = self.mirror_node(I, self.reg_box[b, 0], self.reg_box[b, 1],
-                                                      ti.Vector.zero(self.real, 3), False)
+                                                      ti.Vector.zero(self.real, 3), False, cut)
 
     @ti.kernel
     def grid_nodes(self):

@@ -216,6 +216,7 @@ class MPMSolver(Transfers, ColouredP2G, TileP2G, FixedPointP2G, Constitutive, Gr
         # node mass of the last grid update, read by the passive points' G2P (only with passive points)
         self.keep_mass = self.has_passive or self.n_set_boxes > 0   # and the set boxes' ghost nodes (grid.py)
         self.grid_m = ti.field(real, shape=(ng, ng, ng) if self.keep_mass else (1, 1, 1))
+        self.allocate_cut()   # the fixed regions' broken faces (grid.py)
         self.box = ti.Vector.field(3, ti.i32, shape=(self.n_chunks, 2))  # touched node box per chunk
         self.plane_chunks = ti.Vector.field(2, ti.i32, shape=ng)  # first and last chunk whose box reaches I_x
         self.n_out = ti.field(ti.i32, shape=())  # out-of-grid point-substeps since last reset

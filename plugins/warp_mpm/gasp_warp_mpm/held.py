@@ -12,7 +12,7 @@ import warp as wp
 from gasp_core.mpm.grid_tables import (COL_POSE, FT_POSES, IM_A, IM_B, IM_DV, IM_MODE, IM_SHAPE, IMPULSE_ADD,
                                            IMPULSE_BOX, IMPULSE_ROW)
 from gasp_core.mpm.materials import BRITTLE
-from gasp_core.mpm.points import HELD_STRAIN_CELLS, HELD_STRAINED, MIRROR_CELLS
+from gasp_core.mpm.points import CUT_REACH, HELD_STRAIN_CELLS, HELD_STRAINED, MIRROR_CELLS, cuts_held_faces
 
 from .constitutive import build_return_mapping
 from .forces import build_extras_struct
@@ -25,13 +25,18 @@ def build_mirror(Ft):
     ``GridUpdate.mirror_held``): each box impulse of ``mode = "set"`` while it acts (held at its velocity), then each
     ``fixed_region`` (held at 0). A node inside a box within ``MIRROR_CELLS`` cells of its nearest face takes
     ``2 v_set - v(X')``, ``X'`` its mirror image across that face (``v`` linear along the face's normal; where one of
-    the two nodes is the node itself, solved for it); a set box leaves ``v_set`` where a mirror node has no mass."""
+    the two nodes is the node itself, solved for it); a set box leaves ``v_set`` where a mirror node has no mass. A
+    fixed region's node that ``mark_cut`` marked in ``grid_cut`` (its first ``n_grid^3``), where the face's last node
+    on its line along the normal is not marked in the second (no intact free point reads it: the material beside the
+    face broken through, so the face is free of traction), takes the velocity of the first node past the face along
+    its normal, less its normal part into the box (a free-slip face the material cannot enter)."""
     vec3, vec4, mat33 = build_types(Ft)
     Extras = build_extras_struct(Ft)
 
     @wp.func
     def mirror_node(node: int, X: vec3, blo: vec3, bhi: vec3, v_set: vec3, grid_v: wp.array(dtype=vec3),
-                    grid_m: wp.array(dtype=Ft), empty: int, lo: vec3, dx: Ft, n_grid: int):
+                    grid_m: wp.array(dtype=Ft), empty: int, lo: vec3, dx: Ft, n_grid: int, cut: int,
+                    grid_cut: wp.array(dtype=wp.int32)):
         s = Ft(1e30)
         ax = int(0)
         side = Ft(1.0)
@@ -66,11 +71,22 @@ def build_mirror(Ft):
             if empty != 0:
                 if grid_m[na] <= Ft(0.0) or grid_m[nb] <= Ft(0.0):
                     v = v_set
+            if cut != 0:
+                side_i = int(1)
+                if side < Ft(0.0):
+                    side_i = -1
+                out = wp.min(wp.max(me + side_i * (int(wp.floor(s / dx + Ft(1e-6))) + 1), 0), n_grid - 1)
+                last = wp.min(wp.max(out - side_i, 0), n_grid - 1)   # the face's last node on this line
+                if grid_cut[n_grid * n_grid * n_grid + node + (last - me) * stride] == 0:
+                    v = grid_v[node + (out - me) * stride]
+                    if (v[ax] - v_set[ax]) * side < Ft(0.0):
+                        v[ax] = v_set[ax]
         return v
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def mirror_held(grid_v: wp.array(dtype=vec3), grid_m: wp.array(dtype=Ft), lo: vec3, dx: Ft, n_grid: int,
-                    fixed_lo: wp.array(dtype=vec3), fixed_hi: wp.array(dtype=vec3), has_extras: int, ex: Extras):
+                    fixed_lo: wp.array(dtype=vec3), fixed_hi: wp.array(dtype=vec3), has_extras: int, ex: Extras,
+                    grid_cut: wp.array(dtype=wp.int32)):
         node = wp.tid()
         i = node / (n_grid * n_grid)
         j = (node / n_grid) % n_grid
@@ -87,15 +103,67 @@ def build_mirror(Ft):
                         and w > Ft(0.0) and X[0] >= c[0] and X[1] >= c[1] and X[2] >= c[2] and X[0] <= b[0]
                         and X[1] <= b[1] and X[2] <= b[2]):
                     dv = vec3(ex.imps[r + IM_DV], ex.imps[r + IM_DV + 1], ex.imps[r + IM_DV + 2])
-                    grid_v[node] = mirror_node(node, X, c, b, dv, grid_v, grid_m, 1, lo, dx, n_grid)
+                    grid_v[node] = mirror_node(node, X, c, b, dv, grid_v, grid_m, 1, lo, dx, n_grid, 0, grid_cut)
+        cut = int(0)
+        if grid_cut.shape[0] > 2:
+            cut = grid_cut[node]
         for r in range(fixed_lo.shape[0]):
             flo = fixed_lo[r]
             fhi = fixed_hi[r]
             if (X[0] >= flo[0] and X[0] <= fhi[0] and X[1] >= flo[1] and X[1] <= fhi[1]
                     and X[2] >= flo[2] and X[2] <= fhi[2]):
-                grid_v[node] = mirror_node(node, X, flo, fhi, vec3(Ft(0.0)), grid_v, grid_m, 0, lo, dx, n_grid)
+                grid_v[node] = mirror_node(node, X, flo, fhi, vec3(Ft(0.0)), grid_v, grid_m, 0, lo, dx, n_grid,
+                                           cut, grid_cut)
 
     return mirror_held
+
+
+@functools.cache
+def build_mark_cut(Ft):
+    """``clear_cut`` and ``mark_cut``: the fixed regions' broken faces (docs/fracture.md, "The held region";
+    taichi_mpm's ``GridUpdate.mark_cut``; :func:`gasp_core.mpm.points.cuts_held_faces`). ``grid_cut`` (int32,
+    ``2 n_grid^3``) cleared, then the 27 nodes of the stencil of a strained held point of a brittle body broken through
+    (``Jp >= 1``: its own stress, its mirror image's, passed the full softening's) marked in its first ``n_grid^3``,
+    of a free brittle point not broken through within ``CUT_REACH`` cells of a region in the second."""
+    vec3, vec4, mat33 = build_types(Ft)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def clear_cut(grid_cut: wp.array(dtype=wp.int32)):
+        grid_cut[wp.tid()] = 0
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def mark_cut(x: wp.array(dtype=vec3), fixed: wp.array(dtype=wp.int32), Jp: wp.array(dtype=Ft),
+                 body: wp.array(dtype=wp.int32), mat_kind: wp.array(dtype=wp.int32), grid_cut: wp.array(dtype=wp.int32),
+                 lo: vec3, inv_dx: Ft, dx: Ft, n_grid: int, fixed_lo: wp.array(dtype=vec3),
+                 fixed_hi: wp.array(dtype=vec3)):
+        p = wp.tid()
+        if mat_kind[body[p]] != BRITTLE:
+            return
+        X = x[p]
+        c = int(-1)
+        if fixed[p] >= HELD_STRAINED and Jp[p] >= Ft(1.0):
+            c = 0
+        elif fixed[p] == 0 and Jp[p] < Ft(1.0):
+            r = Ft(CUT_REACH) * dx
+            for b in range(fixed_lo.shape[0]):
+                flo = fixed_lo[b]
+                fhi = fixed_hi[b]
+                if (X[0] >= flo[0] - r and X[1] >= flo[1] - r and X[2] >= flo[2] - r and X[0] <= fhi[0] + r
+                        and X[1] <= fhi[1] + r and X[2] <= fhi[2] + r):
+                    c = 1
+        if c < 0:
+            return
+        G = (X - lo) * inv_dx
+        b0 = int(wp.floor(G[0] - Ft(0.5)))
+        b1 = int(wp.floor(G[1] - Ft(0.5)))
+        b2 = int(wp.floor(G[2] - Ft(0.5)))
+        if wp.min(wp.min(b0, b1), b2) < 0 or wp.max(wp.max(b0, b1), b2) > n_grid - 3:
+            return
+        for q in range(27):
+            grid_cut[c * n_grid * n_grid * n_grid + ((b0 + q / 9) * n_grid + b1 + (q / 3) % 3) * n_grid + b2
+                     + q % 3] = 1
+
+    return clear_cut, mark_cut
 
 
 @functools.cache
@@ -175,7 +243,7 @@ def build_held_return(Ft):
                                     dt)
         if a >= 0:
             tau = tau * image_flip(a)
-        if a >= 0 and mat_kind[body[p]] == BRITTLE:
+        if a >= 0 and mat_kind[body[p]] == BRITTLE and Jp[p] < Ft(1.0):   # broken through: stays so
             Jp[p] = d_held
         return F_new, tau
 
@@ -199,5 +267,13 @@ def mirror_launches(eng, Ft, has_extras: int, ex) -> list:
         return []
     k = eng.k
     lo_v = k.vec3(*[float(c) for c in eng.setup.domain_lo])
-    return [wp.launch(build_mirror(Ft), dim=eng.n_grid ** 3, device=eng.device, record_cmd=True, inputs=[
-        eng.grid_v, eng.grid_m, lo_v, Ft(eng.dx), eng.n_grid, eng.fixed_lo, eng.fixed_hi, has_extras, ex])]
+    cut = cuts_held_faces(eng.mat_kind.numpy(), eng.fixed_lo.shape[0])   # the regions' broken faces
+    eng.grid_cut = wp.zeros(2 * eng.n_grid ** 3 if cut else 2, dtype=wp.int32, device=eng.device)
+    clear_cut, mark_cut = build_mark_cut(Ft)
+    marks = [wp.launch(clear_cut, dim=2 * eng.n_grid ** 3, device=eng.device, record_cmd=True, inputs=[eng.grid_cut]),
+             wp.launch(mark_cut, dim=eng.n_material, device=eng.device, record_cmd=True, inputs=[
+                 eng.x, eng.fixed, eng.Jp, eng.body, eng.mat_kind, eng.grid_cut, lo_v, Ft(eng.inv_dx), Ft(eng.dx),
+                 eng.n_grid, eng.fixed_lo, eng.fixed_hi])] if cut else []
+    return marks + [wp.launch(build_mirror(Ft), dim=eng.n_grid ** 3, device=eng.device, record_cmd=True, inputs=[
+        eng.grid_v, eng.grid_m, lo_v, Ft(eng.dx), eng.n_grid, eng.fixed_lo, eng.fixed_hi, has_extras, ex,
+        eng.grid_cut])]
