@@ -17,7 +17,7 @@ layer's section is the specimen's to 1e-15 (whole cubes in or out made a stairca
 76 / 13 = 5.8; here 1.5:1 at 6). **Why:** a shoulder concentrates stress, and a brittle specimen breaks where the
 stress is largest, so the gauge measures f_t only if its shoulders' elastic ``Kt`` is near 1 (W. D. Pilkey, D. F.
 Pilkey, "Peterson's Stress Concentration Factors", 3rd ed., Wiley 2008, ch. 3: a shoulder fillet's ``Kt`` falls
-toward 1 as ``r / d`` grows). The dog-bones before round 70 (``OLD_BONES``: square sections, cosine shoulders as long
+toward 1 as ``r / d`` grows). The dog-bones before round 30 (``OLD_BONES``: square sections, cosine shoulders as long
 as the gauge is wide) have ``Kt`` 1.52 in the plane-stress continuum (``benchmarks/shoulder_kt.py``) and 1.38 (n_grid
 24) to 1.71 (48) in the engines' field with their staircase fill; they broke in the shoulder at 0.92 f_t. These
 fillets: ``Kt`` 1.09 (2:1) and 1.05 (1.5:1) in the continuum, at the fillet's start (0.025 m past the gauge's end,
@@ -120,7 +120,7 @@ FAMILY = [
     Specimen("dogbone_2to1", 0.9, 0.30, 0.15, gauge_l=0.2, fillet=0.45, flat=True),
     Specimen("dogbone_1.5to1", 0.9, 0.225, 0.15, gauge_l=0.18, fillet=0.9, flat=True),
 ]
-#: the dog-bones before round 70: square sections, cosine shoulders as long as the gauge is wide (elastic Kt 1.5)
+#: the dog-bones before round 30: square sections, cosine shoulders as long as the gauge is wide (elastic Kt 1.5)
 OLD_BONES = [
     Specimen("dogbone_2to1_cosine", 0.9, 0.30, 0.15, gauge_l=0.3, taper=0.15),
     Specimen("dogbone_1.5to1_cosine", 0.75, 0.225, 0.15, gauge_l=0.2, taper=0.1),
@@ -320,7 +320,7 @@ def main() -> None:
         f"# Tension over a family (issue 66)\n\n`python benchmarks/tension_family.py` (docstring: the specimens and "
         f"the measures). E {E:g} Pa, nu {NU:g}, f_t {FT:g} Pa, G_f {GF:g} J/m^2, pull {PULL:g} m/s, f64. "
         f"\"section there\": the dog-bone's section at the break over its gauge's; \"where\" is the gauge within "
-        f"{100 * SECTION_TOL:g} %. The dog-bones are flat with circular fillets since round 70 (before: square, cosine "
+        f"{100 * SECTION_TOL:g} %. The dog-bones are flat with circular fillets since round 30 (before: square, cosine "
         f"shoulders, Kt 1.5; docs/fracture.md \"The dog-bones' shoulders\").\n\n"
         + table(rows))
 

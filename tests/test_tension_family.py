@@ -9,7 +9,7 @@ held region" and "The dog-bones' shoulders"): a straight bar and a dog-bone of t
   at 2N, between N and 2N (15 %), and for the dog-bone at N it is not met (strict xfails with the measured figures).
 
 The catches: the engines with the held region before issue 66 (the fixed region's nodes at 0, its points rigid, no
-ghost nodes) fail the bar: it breaks at its clamp's edge at a peak under 0.9 f_t. The dog-bone before round 70 (a
+ghost nodes) fail the bar: it breaks at its clamp's edge at a peak under 0.9 f_t. The dog-bone before round 30 (a
 square section, cosine shoulders as long as the gauge is wide: elastic Kt 1.5, benchmarks/shoulder_kt.py; a
 staircase fill) fails the dog-bone's check: it breaks in its shoulder at 0.92 f_t. The shoulders' continuum Kt
 (``benchmarks/shoulder_kt.py``) is checked apart, against the old cosine shoulders'.
@@ -109,7 +109,7 @@ def test_a_dog_bone_takes_G_f_at_N(name):
 
 
 def test_the_dog_bone_check_catches_the_old_cosine_shoulders():
-    """The 2:1 dog-bone of before round 70 (``tension_family.OLD_BONES``, its staircase fill) on one engine."""
+    """The 2:1 dog-bone of before round 30 (``tension_family.OLD_BONES``, its staircase fill) on one engine."""
     name = _names()[0]
     old = functools.partial(tf.build, partial=False)
     bad = strength_failures(tf.run_case(tf.OLD_BONES[0], N, name, build_fn=old))
