@@ -66,7 +66,8 @@ def _warp_held_return(Ft):
         Cf = Cp
         if a >= 0:
             Cf = Cp * image_flip(a)
-        F_new, tau = return_mapping((wp.identity(3, dtype=Ft) + dt * Cf) * Fp, p, body, mat_kind, mat_par, Jp)
+        F_new, tau = return_mapping((wp.identity(3, dtype=Ft) + dt * Cf) * Fp, p, body, mat_kind, mat_par, Jp,
+                                    dt)
         if a >= 0:
             tau = tau * image_flip(a)
         if a >= 0 and mat_kind[body[p]] == BRITTLE:
