@@ -32,8 +32,9 @@ def cross_setup() -> SimSetup:
     """Seven bodies (one per material) of :data:`PER_BODY` scattered points, f32, one substep of :data:`DT`."""
     rng = np.random.default_rng(27)
     n = PER_BODY * len(MATERIALS)
-    mats = [Material(name, E=2e4, nu=0.3, rho=1000.0, yield_stress=300.0, softening=0.5, tensile_strength=300.0)
-            for name in MATERIALS]
+    mu_i = {"grain_diameter": 1e-3, "friction_angle_2": 45.0}   # sand with its mu(I) rheology (docs/contact.md)
+    mats = [Material(name, E=2e4, nu=0.3, rho=1000.0, yield_stress=300.0, softening=0.5, tensile_strength=300.0,
+                     **(mu_i if name == "sand" else {})) for name in MATERIALS]
     return SimSetup(x=rng.uniform(0.3, 0.7, (n, 3)), v=rng.normal(0, 0.2, (n, 3)), p_vol=rng.uniform(0.5, 1.5, n) * 1e-5,
                     body_id=np.repeat(np.arange(len(MATERIALS)), PER_BODY), materials=mats,
                     gravity=np.array([0.0, 0.0, -9.81]), domain_lo=np.zeros(3), domain_hi=np.ones(3), n_grid=16,
@@ -98,9 +99,9 @@ def warp_run(setup, F, C, Jp):
     @wp.kernel
     def probe(F: wp.array(dtype=mat33), body: wp.array(dtype=wp.int32), mat_kind: wp.array(dtype=wp.int32),
               mat_par: wp.array2d(dtype=Ft), Jp: wp.array(dtype=Ft), F_out: wp.array(dtype=mat33),
-              tau_out: wp.array(dtype=mat33)):
+              tau_out: wp.array(dtype=mat33), dt: Ft):
         p = wp.tid()
-        Fn, tau = return_mapping(F[p], p, body, mat_kind, mat_par, Jp)
+        Fn, tau = return_mapping(F[p], p, body, mat_kind, mat_par, Jp, dt)
         F_out[p] = Fn
         tau_out[p] = tau
 
@@ -109,7 +110,7 @@ def warp_run(setup, F, C, Jp):
     Jpa = wp.array(Jp[o].astype(np.float32), dtype=Ft, device="cpu")
     F_out = wp.zeros(n, dtype=mat33, device="cpu")
     tau = wp.zeros(n, dtype=mat33, device="cpu")
-    wp.launch(probe, dim=n, inputs=[Fa, e.body, e.mat_kind, e.mat_par, Jpa, F_out, tau], device="cpu")
+    wp.launch(probe, dim=n, inputs=[Fa, e.body, e.mat_kind, e.mat_par, Jpa, F_out, tau, Ft(e.dt)], device="cpu")
     inv = np.empty(n, np.int64)
     inv[o] = np.arange(n)
     mapped = F_out.numpy()[inv], Jpa.numpy()[inv], tau.numpy()[inv]
