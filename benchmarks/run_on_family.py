@@ -22,7 +22,8 @@ quadratic stencils, so no grid node is shared), ``piece_share`` (that part's sha
 over ``|g|``).
 
 Run: ``python benchmarks/run_on_family.py --engine taichi_mpm`` (and ``--engine warp_mpm``); prints one JSON line a
-case. One engine per process.
+case and keeps them in ``benchmarks/results/run_on_family.{json,md}`` (the other engine's rows kept). One engine per
+process.
 """
 from __future__ import annotations
 
@@ -44,6 +45,7 @@ EDGE = 4               # cells: a run stops once a point comes this near the gri
 CLEAR = 3.0            # cells: a part is apart once this far past its rest neighbours (two stencils' reach)
 BAR, BAR_GRID, BAR_PULL, BAR_STOP, BAR_DT = tf.FAMILY[0], 24, 0.1, 0.05, 0.01
 CASES = ("cantilever_h8", "cantilever_h12", "bar_hung")
+RESULTS = Path(__file__).resolve().parent / "results"
 
 
 def cantilever(depth: int, engine: str):
@@ -181,9 +183,18 @@ def main() -> None:
     ap.add_argument("--engine", default="taichi_mpm")
     ap.add_argument("--only", default="", help="comma-separated case names")
     a = ap.parse_args()
+    out = RESULTS / "run_on_family.json"
+    rows = json.loads(out.read_text()) if out.exists() else []
     for name in (a.only.split(",") if a.only else CASES):
-        r = run_case(name, a.engine)
-        print(json.dumps({**r, "failures": failures(r)}), flush=True)
+        r = {**run_case(name, a.engine), "failures": []}
+        r["failures"] = failures(r)
+        print(json.dumps(r), flush=True)
+        rows = [x for x in rows if (x["case"], x["engine"]) != (name, a.engine)] + [r]
+        out.write_text(json.dumps(rows, indent=1))   # each case kept as it comes, the other engine's rows kept
+    keys = ("case", "engine", "through_frame", "held_stretch", "separated_frame", "accel_over_g", "failures")
+    lines = ["| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
+    lines += ["| " + " | ".join(str(x.get(k)) for k in keys) + " |" for x in rows]
+    out.with_suffix(".md").write_text("\n".join(lines) + "\n")
 
 
 if __name__ == "__main__":

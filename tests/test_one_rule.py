@@ -42,9 +42,9 @@ def test_an_auxetic_material_is_accepted_by_the_scene_and_by_simsetup(donut_smal
     scene = load_scene(write_scene(scene_text(donut_small, material=material)))
     assert scene.objects[0].material.nu == -0.5
     _setup(Material("jelly", nu=-0.5))
-    assert set(MATERIAL_PARAMS) == {"E", "nu", "rho", "yield_stress", "friction_angle", "softening",
-                                    "hardening", "theta_c", "theta_s", "viscosity", "tensile_strength",
-                                    "fracture_energy"}
+    assert set(MATERIAL_PARAMS) == {"E", "nu", "rho", "yield_stress", "friction_angle", "grain_diameter",
+                                    "friction_angle_2", "softening", "hardening", "theta_c", "theta_s", "viscosity",
+                                    "tensile_strength", "fracture_energy"}
 
 
 def test_the_moduli_and_dx_have_one_formula():

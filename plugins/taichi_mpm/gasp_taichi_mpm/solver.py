@@ -109,8 +109,7 @@ class MPMSolver(Transfers, ColouredP2G, TileP2G, FixedPointP2G, Constitutive, Gr
         (``gasp_core.mpm.rigid.body_frames``, ``X0`` in solver order); the rigid bodies' points are projected
         onto a rigid motion after every G2P (:mod:`gasp_taichi_mpm.rigid`). Default none.
     hold, box_hold : ndarray, shape (n_bodies,), bool, optional
-        The bodies held out of the colliders, and in the box of ``passive_bounds``, after G2P
-        (:meth:`~gasp_taichi_mpm.colliders.Colliders.allocate_hold`).
+        The bodies held out of the colliders, and in ``passive_bounds``' box, after G2P (``Colliders.allocate_hold``).
     gpu : bool, optional
         The GPU schedule (:mod:`gasp_taichi_mpm.schedule`; implies ``atomic``): no loop over points, nodes or list
         entries on one thread. Default the CPU schedule. ``tiles``: with it on CUDA, the tiled P2G in shared memory

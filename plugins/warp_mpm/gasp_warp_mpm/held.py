@@ -29,7 +29,10 @@ def build_mirror(Ft):
     fixed region's node that ``mark_cut`` marked in ``grid_cut`` (its first ``n_grid^3``), where the face's last node
     on its line along the normal is not marked in the second (no intact free point reads it: the material beside the
     face broken through, so the face is free of traction), takes the velocity of the first node past the face along
-    its normal, less its normal part into the box (a free-slip face the material cannot enter)."""
+    its normal, less its normal part into the box (a free-slip face the material cannot enter).
+
+    It is long because its ``wp.func`` (a node's mirror image, solved where the image is the node itself, and the
+    broken face's free slip) and the kernel over the boxes must be built together, from one scalar type."""
     vec3, vec4, mat33 = build_types(Ft)
     Extras = build_extras_struct(Ft)
 
