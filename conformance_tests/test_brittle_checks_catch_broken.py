@@ -1,6 +1,7 @@
 """The brittle conformance scenes (``gasp_core/testing/scenes_fracture.py``) must catch broken engines (issue 52
 item 4): one that never damages, one that heals, one that damages in compression, one whose ``G_f`` is not
-regularised, and one with the crack band ``dx`` (the band before issue 52's fix: +67 %).
+regularised, and one with the crack band ``dx + p_vol^(1/3)`` (1.5 cells: the band before round 31's, 31 % short on a
+crack in free material).
 
 Each broken engine wraps a real installed engine with the material (warp_mpm first): its factory builds the real
 engine from a spoiled setup, or it spoils the engine's state between frames. The scene that must catch it is run on
@@ -27,12 +28,12 @@ CATCHES = {
     "damages_in_compression": ("brittle_below_strength", "compression_no_damage"),
     "loses_energy_below_strength": ("brittle_below_strength", "energy_as_elastic"),
     "not_regularised": ("brittle_fracture_energy", "regularised"),
-    "band_of_one_cell": ("brittle_fracture_energy", "fracture_energy"),
+    "band_of_before": ("brittle_fracture_energy", "fracture_energy"),
 }
 #: The share of each point's velocity ``loses_energy_below_strength`` takes after each frame.
 LOSS = 0.0005
 #: The scenes of the slow tier (brittle_fracture_energy runs the bar at n_grid 32 and 64).
-SLOW = {"not_regularised", "band_of_one_cell"}
+SLOW = {"not_regularised", "band_of_before"}
 
 
 def _real():
@@ -87,7 +88,7 @@ class _StateBroken:
 
 def broken_engine(info, kind: str):
     """An EngineInfo named ``broken_<kind>`` whose factory wraps ``info.factory``."""
-    h0 = 1.0 / N_GRID + 0.5 / N_GRID     # the bar's band at n_grid 32 (points at dx / 2)
+    h0 = 1.0 / N_GRID                    # the bar's band at n_grid 32 (the cell)
 
     def factory(setup):
         if kind == "never_damages":      # the brittle body run as Hencky elasticity that never yields
@@ -96,9 +97,9 @@ def broken_engine(info, kind: str):
         if kind == "not_regularised":    # the softening stress of n_grid 32's band whatever n_grid
             return info.factory(_spoil_materials(setup, lambda m, h: dataclasses.replace(
                 m, fracture_energy=m.fracture_energy * h / h0)))
-        if kind == "band_of_one_cell":   # the band dx (before issue 52's fix)
+        if kind == "band_of_before":     # the band dx + p_vol^(1/3) (points at dx / 2), before round 31
             return info.factory(_spoil_materials(setup, lambda m, h: dataclasses.replace(
-                m, fracture_energy=m.fracture_energy * setup.dx / h)))
+                m, fracture_energy=m.fracture_energy * h / (h + setup.dx / 2))))
         return _StateBroken(info.factory(setup), setup, kind)
 
     return dataclasses.replace(info, name=f"broken_{kind}", factory=factory, known_failures={})

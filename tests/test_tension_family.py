@@ -5,10 +5,14 @@ held region" and "The dog-bones' shoulders"): a straight bar and a dog-bone of t
 - the peak nominal stress in the gauge is f_t within 5 % (two-sided);
 - the break is in the gauge, not at the held edge (a dog-bone's gauge: where its section is within 2 % of the
   narrowest, ``tension_family.SECTION_TOL``);
-- the work to separate over the section (``int sigma_c dw``) is G_f within 20 % (two-sided) at n_grid N for the bar;
-  at 2N, between N and 2N (15 %), and for the dog-bone at N it is not met (strict xfails with the measured figures).
+- the work to separate over the section (``int sigma_c dw``) is G_f within 20 % (two-sided) at n_grid N and 2N, and
+  within 15 % between them (the crack band ``h = dx``, round 31).
 
-The catches: the engines with the held region before issue 66 (the fixed region's nodes at 0, its points rigid, no
+The slow tier runs the family's six specimens (bars of three lengths and two sections, dog-bones of two proportions)
+on both engines; the default tier the bar L0.7. The bar L0.9 at 2N breaks at the pulled box's face (a strict xfail
+with its figures).
+
+The catches: the crack band of before (``dx + p_vol^(1/3)``) fails the work (31 % short at 2N); the engines with the held region before issue 66 (the fixed region's nodes at 0, its points rigid, no
 ghost nodes) fail the bar: it breaks at its clamp's edge at a peak under 0.9 f_t. The dog-bone before round 30 (a
 square section, cosine shoulders as long as the gauge is wide: elastic Kt 1.5, benchmarks/shoulder_kt.py; a
 staircase fill) fails the dog-bone's check: it breaks in its shoulder at 0.92 f_t. The shoulders' continuum Kt
@@ -30,7 +34,7 @@ from gasp_core.seam.plugins import engines   # noqa: E402
 
 STRENGTH_TOL, GF_TOL, GRID_TOL = 0.05, 0.20, 0.15
 N = 24
-BAR, BONE = tf.FAMILY[1], tf.FAMILY[4]    # bar_L0.7_a0.15, dogbone_2to1
+BAR = tf.FAMILY[1]    # bar_L0.7_a0.15
 
 
 def _names():
@@ -72,40 +76,63 @@ def strength_failures(r: dict) -> list[str]:
     return [b for b in failures(r) if "work to separate" not in b]
 
 
-@pytest.mark.parametrize("name", _names())
-def test_a_bar_carries_f_t_breaks_in_the_gauge_and_takes_G_f_at_N(name):
-    """The peak and the break's place at N and 2N, the work to separate at N (measured:
-    benchmarks/results/tension_family.md)."""
-    r1, r2 = tf.run_case(BAR, N, name), tf.run_case(BAR, 2 * N, name)
-    bad = failures(r1) + strength_failures(r2)
-    assert bad == [], bad
+#: the family's cases that miss the must-show, with the measured figures (benchmarks/results/tension_family.md)
+KNOWN = {"bar_L0.9_a0.15": "at n_grid 48 the longest bar (35 J/m^2 stored at its peak, 1.7 G_f) breaks first at the "
+                           "pulled box's face (x 0.994 m, 0.25 cells inside its free length), both engines"}
 
 
-@pytest.mark.xfail(strict=True, reason="issue 66: the work to separate falls with n_grid (the bar at n_grid 48: "
-                                       "13.8 J/m^2, -31 % against G_f, -35 % from n_grid 24's 21.1; docs/fracture.md)")
-@pytest.mark.parametrize("name", _names()[:1])
-def test_the_work_to_separate_is_G_f_at_2N_and_within_15_percent_of_N(name):
-    r1, r2 = tf.run_case(BAR, N, name), tf.run_case(BAR, 2 * N, name)
-    bad = failures(r2)
+def family_failures(sp, name: str) -> list[str]:
+    """Every line of the must-show on specimen ``sp`` at n_grid N and 2N: peak, place and work at both, and the work
+    within ``GRID_TOL`` between them."""
+    r1, r2 = tf.run_case(sp, N, name), tf.run_case(sp, 2 * N, name)
+    bad = failures(r1) + failures(r2)
     if not abs(r2["work"] / r1["work"] - 1) <= GRID_TOL:
-        bad.append(f"{BAR.name}: work to separate {r1['work']:.2f} J/m^2 at n_grid {N}, {r2['work']:.2f} at {2 * N}")
+        bad.append(f"{sp.name}: work to separate {r1['work']:.2f} J/m^2 at n_grid {N}, {r2['work']:.2f} at {2 * N}")
+    return bad
+
+
+def _cases():
+    return [pytest.param(sp, n, id=f"{n}-{sp.name}",
+                         marks=[pytest.mark.xfail(strict=True, reason=KNOWN[sp.name])] if sp.name in KNOWN else [])
+            for sp in tf.FAMILY for n in _names()]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sp, name", _cases())
+def test_each_specimen_carries_f_t_breaks_in_its_gauge_and_takes_G_f(sp, name):
+    """Bars of three lengths and two sections and dog-bones of two proportions at n_grid 24 and 48 (measured:
+    benchmarks/results/tension_family.md; the crack band ``h = dx``, docs/fracture.md "The crack band")."""
+    bad = family_failures(sp, name)
     assert bad == [], bad
 
 
 @pytest.mark.parametrize("name", _names())
-def test_a_dog_bone_carries_f_t_and_breaks_in_its_gauge(name):
-    """The flat 2:1 dog-bone (fillets of R / d 3, elastic Kt 1.09) at N and 2N: peak and place (measured:
-    benchmarks/results/tension_family.md)."""
-    r1, r2 = tf.run_case(BONE, N, name), tf.run_case(BONE, 2 * N, name)
-    bad = strength_failures(r1) + strength_failures(r2)
+def test_a_bar_carries_f_t_breaks_in_the_gauge_and_takes_G_f(name):
+    """The default tier's case: the bar L0.7 at N and 2N, every line of the must-show."""
+    bad = family_failures(BAR, name)
     assert bad == [], bad
 
 
-@pytest.mark.xfail(strict=True, reason="issue 66: the 2:1 dog-bone's work to separate at n_grid 24 is 13.5 J/m^2, "
-                                       "-33 % against G_f (docs/fracture.md \"The dog-bones' shoulders\")")
-@pytest.mark.parametrize("name", _names()[:1])
-def test_a_dog_bone_takes_G_f_at_N(name):
-    assert failures(tf.run_case(BONE, N, name)) == []
+def band_of_before(monkeypatch) -> None:
+    """Break the core's crack band: ``dx + p_vol^(1/3)`` (1.5 cells at 8 points a cell), the rule before round 31."""
+    import gasp_core.seam.setup as su
+    rule = su.crack_band
+
+    def wide(dx, p_vol, body_id, n_bodies):
+        h = rule(dx, p_vol, body_id, n_bodies)
+        s = np.zeros(n_bodies)
+        pv = np.asarray(p_vol, np.float64)
+        np.maximum.at(s, np.asarray(body_id)[pv > 0], np.cbrt(pv[pv > 0]))
+        return h + s
+    monkeypatch.setattr(su, "crack_band", wide)
+
+
+@pytest.mark.parametrize("name", _names())
+def test_the_work_check_catches_the_band_of_before(name, monkeypatch):
+    """With the band ``dx + p_vol^(1/3)`` the bar's work to separate at 2N is 31 % short: the check fails it."""
+    band_of_before(monkeypatch)
+    bad = family_failures(BAR, name)
+    assert any("work to separate" in b for b in bad), bad
 
 
 def test_the_dog_bone_check_catches_the_old_cosine_shoulders():

@@ -100,7 +100,7 @@ def softening_stress(m: Material, h: float) -> float:
     """``s_f = 2 E G_f / (f_t h)``, Pa: the undamaged (effective) principal stress at which a brittle point is
     fully damaged (linear softening in a crack band of width ``h``, m, Bazant & Oh 1983): the band then dissipates
     ``f_t s_f / (2 E) h = G_f`` per unit crack area, whatever ``h``. ``h`` is the width the crack localises in,
-    ``dx + p_vol^(1/3)`` (``gasp_core.seam.setup.crack_band``, docs/fracture.md).
+    ``dx``, the cell (``gasp_core.seam.setup.crack_band``, docs/fracture.md "The crack band").
 
     Raises
     ------
@@ -135,7 +135,7 @@ def material_table(materials: Sequence[Material], band=None) -> tuple[np.ndarray
     materials : sequence of Material
         One per body; names in :data:`MATERIAL_CODES`.
     band : float, sequence of float (one per body) or None
-        Crack band width of each body, m (``SimSetup.crack_band``: ``dx + p_vol^(1/3)``); needed when a
+        Crack band width of each body, m (``SimSetup.crack_band``: ``dx``); needed when a
         ``brittle`` body is present.
 
     Returns

@@ -92,7 +92,7 @@ HELD_STRAINED = 2
 #: Cells: a free point not broken through this near a fixed region (past its box, along every axis) keeps the nodes of
 #: its stencil from being a broken face (:func:`cuts_held_faces`): the face lets go only where every free point that
 #: reads the node is broken through, so the crack's band beside it has broken across its width (1.5 cells at 8 points
-#: a cell, ``dx + p_vol^(1/3)``). Marked by the held points alone (they break through with the band's first layer),
+#: a cell at a clamp's face). Marked by the held points alone (they break through with the band's first layer),
 #: the face let go of the rest of the band early: the bar of ``tests/test_brittle.py`` dissipated 3.2 and 2.8 J/m^2
 #: for ``G_f`` 5 (8 and 27 points a cell) instead of 5.06 and 4.99.
 CUT_REACH = 1.5

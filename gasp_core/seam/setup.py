@@ -29,18 +29,22 @@ def grid_spacing(domain_lo, domain_hi, n_grid: int) -> float:
 
 
 def crack_band(dx: float, p_vol: np.ndarray, body_id: np.ndarray, n_bodies: int) -> np.ndarray:
-    """Crack band width ``h`` of each body, metres, shape (n_bodies,), float64: ``dx + s``, with ``s`` the body's
-    point spacing ``max(p_vol)^(1/3)`` over its material points (0 for a body without any).
+    """Crack band width ``h`` of each body, metres, shape (n_bodies,), float64: the grid cell ``dx`` for every body
+    with material points (0 for a body without any; ``p_vol`` and ``body_id``, shapes (n,), say which).
 
     ``h`` is the width of the zone a crack localises in (Bazant & Oh 1983, Materiaux et Constructions 16; Jirasek &
-    Bazant 2002, the crack band model). In MLS-MPM a crack's velocity jump localises in one cell; the points whose
-    slab (thickness ``s``) meets it break, a band ``dx + s`` wide (measured: docs/fracture.md).
+    Bazant 2002, the crack band model: the element's width in finite elements). In MLS-MPM a crack's velocity jump
+    localises between two nodes, one cell, and the points inside that cell break through; the quadratic B-spline
+    strains the layers beside it by a quarter of the jump, and they unload as the crack opens. Measured on the
+    tension family (issue 66, round 31: bars of three lengths and two sections and two dog-bones at n_grid 24 and 48,
+    cracks in their gauges): two layers broken through at 8 points per cell (``dx``), and the work to separate
+    ``G_f`` +1 to +7 % with ``h = dx`` where ``dx + s`` (the rule before, from cracks at a clamp's face) gave -31 %
+    at n_grid 48 (docs/fracture.md "The crack band").
     """
-    s = np.zeros(n_bodies)
+    h = np.zeros(n_bodies)
     pv = np.asarray(p_vol, np.float64)
-    solid = pv > 0
-    np.maximum.at(s, np.asarray(body_id)[solid], np.cbrt(pv[solid]))
-    return dx + s
+    h[np.unique(np.asarray(body_id)[pv > 0])] = dx
+    return h
 
 
 @dataclass(frozen=True)
@@ -154,7 +158,7 @@ class Material:
 
     def check_band(self, h: float, where: str = "material") -> None:
         """Refuse a ``brittle`` material whose ``fracture_energy`` is at or below :meth:`snap_back_limit` at the crack
-        band width ``h`` (m, :func:`crack_band`: ``dx + p_vol^(1/3)``); other materials, and a brittle body on the
+        band width ``h`` (m, :func:`crack_band`: ``dx``); other materials, and a brittle body on the
         rigid route (its ``model`` ``"rigid"``, or ``"auto"`` from ``STIFF_BRITTLE_E``: it breaks into fragments), pass.
 
         Raises
@@ -166,7 +170,7 @@ class Material:
         if self.name == "brittle" and not self.fracture_energy > (limit := self.snap_back_limit(h)) and not rigid:
             raise SceneError(f"{where}.fracture_energy = {self.fracture_energy:g} J/m^2 is at or below the snap-back "
                              f"limit tensile_strength^2 h / (2 E) = {limit:.4g} J/m^2 at the crack band width h = "
-                             f"dx + p_vol^(1/3) = {h:.4g} m; raise fracture_energy above it, or lower "
+                             f"dx = {h:.4g} m; raise fracture_energy above it, or lower "
                              f"tensile_strength, or raise n_grid")
 
     @property
