@@ -81,6 +81,7 @@ def alpha_measure(res: dict, engine: str, stills_stem: str | None = None) -> lis
     with the crack faces) and one still per frame of :func:`piece_frames` with each piece its own colour, into
     ``docs/<stills_stem>_*.png``."""
     import crack_faces as cf
+    import piece_silhouette as ps
     from gasp_core.prepare.scene import prepare_scene
     from gasp_core.render.builtin import CpuRenderer
     from gasp_core.scene.spec import load_scene
@@ -96,7 +97,8 @@ def alpha_measure(res: dict, engine: str, stills_stem: str | None = None) -> lis
     try:
         parts = cf.scene_parts(prep, x, d)
         render = CpuRenderer(jit=True)
-        rows = cf.measure_pieces(parts, x, d, render, faces="fill")
+        rows = cf.measure_pieces(parts, x, d, render, faces="fill", geometry=ps.object_geometry(prep.setup,
+                                                                                                prep.objects[0]))
         if stills_stem:
             cf.stills(parts, x, d, render, ROOT / "docs", stem=stills_stem)
             k0 = stats.fragments[0]["frame"] + 1 if stats.fragments else 1
@@ -154,9 +156,16 @@ def main() -> None:
              f"{b.get('fragments')} fragments, masses (g) {[round(1e3 * m, 1) for m in b.get('fragment_mass', [])]}",
              "", f"energy: start {fig['energy_J'][0]:.3f} J, largest later {fig['energy_max_over_start']:.4f} of it, "
              f"last {fig['energy_last_over_start']:.4f}; lowest point {fig['lowest_mm']:.2f} mm", "",
-             "| piece | mass (g) | faces shown | below alpha 0.9 without faces | with faces |", "|---|---|---|---|---|"]
-    lines += [f"| {r['piece']} | {1e3 * r['mass']:.1f} | {r['fill_n']} | {100 * r.get('without', float('nan')):.2f} % "
-              f"| {100 * r.get('fill', float('nan')):.2f} % |" for r in fig["pieces_alpha"]]
+             "Each piece of 5 % or more from its crack side: the share of its silhouette below alpha 0.9, the "
+             "silhouette its geometry (`benchmarks/piece_silhouette.py`) and, as before round 31, the fill's "
+             "footprint (discs of 0.75 spacing); and the pixels at alpha 0.9 or more outside the geometry, over its "
+             "silhouette (what the splats show beyond the piece).", "",
+             "| piece | mass (g) | faces shown | geometry: without faces | with faces | footprint: without | with "
+             "| beyond the geometry: without | with |", "|---|---|---|---|---|---|---|---|---|"]
+    pct = lambda r, k: f"{100 * r.get(k, float('nan')):.2f} %"   # noqa: E731
+    lines += [f"| {r['piece']} | {1e3 * r['mass']:.1f} | {r['fill_n']} | {pct(r, 'geo_without')} | "
+              f"{pct(r, 'geo_fill')} | {pct(r, 'without')} | {pct(r, 'fill')} | {pct(r, 'over_without')} | "
+              f"{pct(r, 'over_fill')} |" for r in fig["pieces_alpha"]]
     Path(f"{stem}.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
     if a.stills:
