@@ -165,7 +165,8 @@ def measure_pieces(parts, x, d, render, size=480, rest=None, faces="fill", geome
     candidate: on the piece's crack side, the mean normal of the first candidate's shown faces there (else the
     second's). With ``geometry`` (a :class:`piece_silhouette.PieceGeometry`), each share is also read on the piece's
     geometric silhouette (``geo_without``, ``geo_fill``, ``geo_tri``) and ``over_<key>`` is the count of pixels at
-    alpha 0.9 or more outside it, over the silhouette's pixels (what the splats show beyond the piece)."""
+    alpha 0.9 or more outside it, over the silhouette's pixels (what the splats show beyond the piece). ``cam``: the
+    piece's camera."""
     o, lab = parts["o"], parts["labels"]
     total = float(parts["mass"].sum())
     masses = np.bincount(lab, weights=parts["mass"])
@@ -187,6 +188,7 @@ def measure_pieces(parts, x, d, render, size=480, rest=None, faces="fill", geome
         pts = x[sel]
         lo, hi = pts.min(0), pts.max(0)
         cam = crack_camera(pts.mean(0), direction, lo, hi, size)
+        row["cam"] = cam
         sil = silhouette(cam, pts, parts["h"])
         surf = subset(parts["surf"], parts["surf_piece"] == p)
         variants = [("without", surf)]

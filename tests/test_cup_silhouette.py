@@ -6,7 +6,7 @@ solid where the nearest material point is the piece's, moved by the piece's rigi
 first, on the whole cup at rest from three sides: the silhouette's area is the area of the convex hull of the mesh's
 projected vertices (the cup's outside is a cylinder: its projection is convex) within 1 %, and the rendered cup
 leaves under 2 % of it below alpha 0.9. The footprint of the fill (discs of 0.75 spacing, the measure before round
-31) is caught by the first: it reads 5-9 % larger. Then the broken cup (4.43 m/s, n_grid 80, 4 frames): each piece of
+31) is caught by the first: it reads 7-12 % larger (n_grid 80). Then the broken cup (4.43 m/s, n_grid 80, 4 frames): each piece of
 5 % of the mass or more, rendered alone with its crack faces, has under 2 % of its silhouette below alpha 0.9, and
 over 2 % without them (the catch: a piece whose crack faces are removed).
 """
