@@ -9,9 +9,9 @@ hidden (opacity 0) while the material around it is whole, shown where a crack ha
   broken (``d >= BROKEN``): the crack runs between them.
 - **Oriented.** Its normal ``n`` is the mean of the unit directions from the point to those neighbours across the
   crack: at rest, carried by the point's local deformation (Nanson's ``n ~ F^-T N``, ``F`` fitted to its links within
-  its piece) when the rest positions are given, else at the current positions; the Gaussian is flat across ``n``: scales ``(THIN h, FACE h, FACE h)`` along
-  ``(n, t1, t2)``, ``h`` the fill spacing, so the faces of a lattice's exposed layer overlap into a covered face
-  (two at ``h`` apart leave alpha 0.98 between them at full opacity).
+  its piece) when the rest positions are given, else at the current positions; the Gaussian is flat across ``n``:
+  scales ``(THIN h, FACE h, FACE h)`` along ``(n, t1, t2)``, ``h`` the fill spacing, so the faces of a lattice's
+  exposed layer overlap into a covered face (two at ``h`` apart leave alpha 0.98 between them at full opacity).
 - **Coloured** from the nearest surface Gaussians at rest: the inverse-distance mean of the DC colour of the
   :data:`K_COLOUR` nearest (PhysGaussian fills its interior with its nearest particle's appearance; Xie et al.,
   CVPR 2024, "Internal Filling").
