@@ -109,8 +109,8 @@ def exposed_normals(faces: CrackFaces, x: np.ndarray, labels: np.ndarray, damage
     crack face is a material surface, so its rest normal ``N`` (the mean unit rest direction to the neighbours
     across) is carried by the point's deformation gradient ``F`` (the least-squares fit of its links to intact
     neighbours of its own piece, rest to now), ``n ~ F^-T N`` (Nanson's formula); where those links do not span
-    space, the first rule. The first rule turns a face to wherever the piece across has gone: two rigid fragments
-    1 cm apart sideways show faces turned towards each other, not along their cut."""
+    space, the first rule. The first rule turns a face to wherever the piece across has gone: a rigid fragment turned
+    and carried sideways shows faces tilted off its cut (``tests/test_crack_faces.py``)."""
     x = np.asarray(x, np.float64)
     broken = np.asarray(damage) >= BROKEN
     i, j = faces.pairs[:, 0], faces.pairs[:, 1]
