@@ -13,8 +13,9 @@ solid: the pixels whose centre (where the renderer evaluates the Gaussians) lies
   are the piece's, each a disc of radius ``pitch / 2``. These are the rays that meet the solid through crack faces
   only (a strip of wall seen along its length); being a voxel inside the surface, a sample never reaches past it.
 
-Both parts are inside the piece's solid, so the silhouette is never larger than the true one; it misses at most a
-``pitch``-wide band where the crack's own edge is the outline and at the cut's granularity (``pitch``).
+Both parts are inside the mesh's solid, so the outline is never larger than the body's; along a cut it is the
+Voronoi interface to within a small triangle (``pitch``), and it may miss a band of about ``voxel`` where the
+crack's own edge is the outline.
 The crack surface is the points' Voronoi interface, stepped at the fill spacing: that is the cut the simulation made.
 """
 from __future__ import annotations
