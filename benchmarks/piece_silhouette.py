@@ -9,8 +9,8 @@ solid: the pixels whose centre (where the renderer evaluates the Gaussians) lies
 
 * the piece's share of the mesh surface: the mesh subdivided to edges of at most ``pitch``, each small triangle the
   piece's when its centroid's nearest material point is, rasterized exactly (pixel centres inside its projection);
-* the piece's interior: the centres of the mesh's interior voxels (``pitch`` cubes, none touching the surface) that
-  are the piece's, each a disc of radius ``pitch / 2``. These are the rays that meet the solid through crack faces
+* the piece's interior: the centres of the mesh's interior voxels (``voxel`` cubes, none touching the surface) that
+  are the piece's, each a disc of radius ``voxel / 2``. These are the rays that meet the solid through crack faces
   only (a strip of wall seen along its length); being a voxel inside the surface, a sample never reaches past it.
 
 Both parts are inside the mesh's solid, so the outline is never larger than the body's; along a cut it is the
