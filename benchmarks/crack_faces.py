@@ -85,7 +85,7 @@ def scene_parts(prep, x, d):
     rows = np.arange(len(s.x))[o.fill_slice]
     h = float(np.max(s.p_vol[rows])) ** (1 / 3)
     dc = o.gaussians.sh_dc if o.moving is None else o.gaussians.sh_dc[o.moving]
-    faces = build_crack_faces(s.x[rows], rows, tracker.pairs, o.surface.tri_rest[:, 0], dc, h)
+    faces = build_crack_faces(s.x[rows], rows, tracker.pairs, o.surface.tri_rest[:, 0], dc, h, x_rest=s.x)
     means, rot, scales, vis = crack_face_gaussians(faces, x, labels, d)
     M = rot * scales[:, None, :]
     crack = Splats(means, M @ M.transpose(0, 2, 1), np.clip(0.5 + SH_C0 * faces.sh_dc, 0, 1).astype(np.float32),
@@ -156,14 +156,17 @@ def at_rest_share(rest, sel, direction, render, size=480) -> float:
     return float(np.mean(alpha[silhouette(cam, pts, parts0["h"])] < ALPHA))
 
 
-def measure_pieces(parts, x, d, render, size=480, rest=None, faces="fill"):
+def measure_pieces(parts, x, d, render, size=480, rest=None, faces="fill", geometry=None):
     """One dict per piece of at least 5 % of the mass: ``piece``, ``mass`` (kg), ``without`` (the share of its
     silhouette with alpha < 0.9 without crack faces), and per candidate (``faces``: ``fill``, ``triangles`` or
     ``both``) ``fill_n`` / ``fill`` (the first: its shown faces, the share) and ``tri_n`` / ``tri`` (the second),
     ``floor`` (the same material unbroken at frame 0 from the same side: :func:`at_rest_share`, with ``rest``), and
     ``ms`` (the render's milliseconds, best of 5: ``none``, ``fill``, ``tri``). The camera is the same for every
     candidate: on the piece's crack side, the mean normal of the first candidate's shown faces there (else the
-    second's)."""
+    second's). With ``geometry`` (a :class:`piece_silhouette.PieceGeometry`), each share is also read on the piece's
+    geometric silhouette (``geo_without``, ``geo_fill``, ``geo_tri``) and ``over_<key>`` is the count of pixels at
+    alpha 0.9 or more outside it, over the silhouette's pixels (what the splats show beyond the piece). ``cam``: the
+    piece's camera."""
     o, lab = parts["o"], parts["labels"]
     total = float(parts["mass"].sum())
     masses = np.bincount(lab, weights=parts["mass"])
@@ -185,6 +188,7 @@ def measure_pieces(parts, x, d, render, size=480, rest=None, faces="fill"):
         pts = x[sel]
         lo, hi = pts.min(0), pts.max(0)
         cam = crack_camera(pts.mean(0), direction, lo, hi, size)
+        row["cam"] = cam
         sil = silhouette(cam, pts, parts["h"])
         surf = subset(parts["surf"], parts["surf_piece"] == p)
         variants = [("without", surf)]
@@ -200,6 +204,10 @@ def measure_pieces(parts, x, d, render, size=480, rest=None, faces="fill"):
                 _, alpha = render(sp, cam)
                 times.append(time.perf_counter() - t0)
             row[key] = float(np.mean(alpha[sil] < ALPHA))
+            if geometry is not None:
+                geo = geometry.silhouette(cam, x, lab, p) if key == "without" else geo
+                row[f"geo_{key}"] = float(np.mean(alpha[geo] < ALPHA))
+                row[f"over_{key}"] = float(np.sum(alpha[~geo] >= ALPHA) / max(1, geo.sum()))
             row["ms"]["none" if key == "without" else key] = 1e3 * min(times)
         if rest is not None:
             row["floor"] = at_rest_share(rest, sel, direction, render, size)

@@ -3,15 +3,17 @@ fragments"): ``gasp simulate``'s wall time to its last frame, the break (frame, 
 Grady's size, fragments and their masses), the pieces, the lowest point, the total energy per frame (kinetic from the
 frames' differences at mid-frame, potential over the ground) against the start's, and, at the last frame, each piece
 of 5 % or more of the mass rendered alone from its crack side: the share of its silhouette below alpha 0.9 with and
-without the crack faces (``benchmarks/crack_faces.py``'s measure: CPU renderer, 480 x 480, the silhouette the
-footprint of its intact fill).
+without the crack faces (``benchmarks/crack_faces.py``'s measure: CPU renderer, 480 x 480), the silhouette the
+projection of the piece's geometry (``benchmarks/piece_silhouette.py``) and, as before, the footprint of its intact
+fill; and the opaque pixels beyond the geometry.
 
 Run: ``python benchmarks/cup_drop.py [--engine taichi_mpm] [--speed 4.43] [--frames 20] [--stills]``; results in
 ``benchmarks/results/cup_drop_<engine>_<speed>.json`` and ``.md``; ``--stills`` renders the run at its break, halfway
 and its last frame into ``docs/cup_drop_<speed>_<frame>.png`` (``gasp render``'s CPU renderer, its default camera
 following the cup), the same frames with each piece in its own colour (``docs/cup_drop_<speed>_pieces_<frame>.png``)
-and the largest piece from its crack side without and with the crack faces (``docs/cup_drop_<speed>_without.png``,
-``_with.png``).
+the largest piece from its crack side without and with the crack faces (``docs/cup_drop_<speed>_without.png``,
+``_with.png``) and each measured piece from its crack side with the pixels of its geometric silhouette below alpha 0.9
+in red and the opaque ones beyond it in blue (``docs/cup_drop_<speed>_alpha_rim.png``).
 """
 from __future__ import annotations
 
@@ -81,6 +83,7 @@ def alpha_measure(res: dict, engine: str, stills_stem: str | None = None) -> lis
     with the crack faces) and one still per frame of :func:`piece_frames` with each piece its own colour, into
     ``docs/<stills_stem>_*.png``."""
     import crack_faces as cf
+    import piece_silhouette as ps
     from gasp_core.prepare.scene import prepare_scene
     from gasp_core.render.builtin import CpuRenderer
     from gasp_core.scene.spec import load_scene
@@ -96,16 +99,36 @@ def alpha_measure(res: dict, engine: str, stills_stem: str | None = None) -> lis
     try:
         parts = cf.scene_parts(prep, x, d)
         render = CpuRenderer(jit=True)
-        rows = cf.measure_pieces(parts, x, d, render, faces="fill")
+        geo = ps.object_geometry(prep.setup, prep.objects[0])
+        rows = cf.measure_pieces(parts, x, d, render, faces="fill", geometry=geo)
         if stills_stem:
             cf.stills(parts, x, d, render, ROOT / "docs", stem=stills_stem)
+            rim_still(cf, parts, geo, x, rows, render, ROOT / "docs" / f"{stills_stem}_alpha_rim.png")
             k0 = stats.fragments[0]["frame"] + 1 if stats.fragments else 1
             for f in (k0, (k0 + len(res["xs"]) - 1) // 2, len(res["xs"]) - 1):
                 piece_still(cf, cf.scene_parts(prep, res["xs"][f], d), render,
                             ROOT / "docs" / f"{stills_stem}_pieces_{f:02d}.png")
     finally:
         pieces_mod.PieceTracker = real_tracker
-    return [{k: v for k, v in r.items() if k != "ms"} for r in rows]
+    return [{k: v for k, v in r.items() if k not in ("ms", "cam")} for r in rows]
+
+
+def rim_still(cf, parts, geo, x, rows, render, path: Path) -> None:
+    """Each measured piece with its crack faces from its camera, side by side: grey as rendered (alpha over
+    white), the pixels of its geometric silhouette below alpha 0.9 red, those at 0.9 or more outside it blue."""
+    import imageio.v3 as iio
+    imgs = []
+    for r in rows:
+        p, cam = r["piece"], r["cam"]
+        shown = parts["vis"] & (parts["crack_piece"] == p)
+        surf = cf.subset(parts["surf"], parts["surf_piece"] == p)
+        alpha = render(type(surf).concat([surf, cf.subset(parts["crack"], shown)]), cam)[1]
+        sil = geo.silhouette(cam, x, parts["labels"], p)
+        img = np.repeat((1.0 - 0.6 * alpha)[..., None], 3, axis=2)
+        img[sil & (alpha < cf.ALPHA)] = [1.0, 0.0, 0.0]
+        img[~sil & (alpha >= cf.ALPHA)] = [0.3, 0.3, 1.0]
+        imgs.append(img)
+    iio.imwrite(path, (np.clip(np.concatenate(imgs, 1), 0, 1) * 255).astype(np.uint8))
 
 
 #: Colours of the pieces in :func:`piece_still` (largest first).
@@ -154,9 +177,16 @@ def main() -> None:
              f"{b.get('fragments')} fragments, masses (g) {[round(1e3 * m, 1) for m in b.get('fragment_mass', [])]}",
              "", f"energy: start {fig['energy_J'][0]:.3f} J, largest later {fig['energy_max_over_start']:.4f} of it, "
              f"last {fig['energy_last_over_start']:.4f}; lowest point {fig['lowest_mm']:.2f} mm", "",
-             "| piece | mass (g) | faces shown | below alpha 0.9 without faces | with faces |", "|---|---|---|---|---|"]
-    lines += [f"| {r['piece']} | {1e3 * r['mass']:.1f} | {r['fill_n']} | {100 * r.get('without', float('nan')):.2f} % "
-              f"| {100 * r.get('fill', float('nan')):.2f} % |" for r in fig["pieces_alpha"]]
+             "Each piece of 5 % or more from its crack side: the share of its silhouette below alpha 0.9, the "
+             "silhouette its geometry (`benchmarks/piece_silhouette.py`) and, as before round 31, the fill's "
+             "footprint (discs of 0.75 spacing); and the pixels at alpha 0.9 or more outside the geometry, over its "
+             "silhouette (what the splats show beyond the piece).", "",
+             "| piece | mass (g) | faces shown | geometry: without faces | with faces | footprint: without | with "
+             "| beyond the geometry: without | with |", "|---|---|---|---|---|---|---|---|---|"]
+    pct = lambda r, k: f"{100 * r.get(k, float('nan')):.2f} %"   # noqa: E731
+    lines += [f"| {r['piece']} | {1e3 * r['mass']:.1f} | {r['fill_n']} | {pct(r, 'geo_without')} | "
+              f"{pct(r, 'geo_fill')} | {pct(r, 'without')} | {pct(r, 'fill')} | {pct(r, 'over_without')} | "
+              f"{pct(r, 'over_fill')} |" for r in fig["pieces_alpha"]]
     Path(f"{stem}.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
     if a.stills:

@@ -64,3 +64,36 @@ def test_the_checks_catch_a_rule_blind_to_damage_and_one_showing_every_face():
     assert set(layer[blind]) == {4, 5}                                # the check above wants {3, 5}: the broken layer
     every = np.ones(len(faces.rows), bool)                            # a rule that never hides a face
     assert every.any()                                                # the whole-body check wants none
+
+
+def turned():
+    """The broken bar with its right part turned 90 degrees about z and carried 5 cm along x and y (a rigid
+    fragment that flew off sideways): ``(x, tracker, d, moved, labels, R)``."""
+    x, tracker, _, d, _, _ = broken()
+    R = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    right = x[:, 0] > 4.5 * H
+    c = x[right].mean(0)
+    moved = x.copy()
+    moved[right] = (x[right] - c) @ R.T + c + [0.05, 0.05, 0.0]
+    return x, tracker, d, moved, tracker.labels(moved, d), R
+
+
+def test_a_turned_fragment_carries_its_faces_normals():
+    """With the rest positions, each face's normal is its rest normal carried by its piece's motion: the left
+    layer (unmoved) faces +x, the right layer faces R (-x), as at rest (within the corners' 0.92)."""
+    x, tracker, d, moved, labels, R = turned()
+    faces = build_crack_faces(x, np.arange(len(x)), tracker.pairs, x[:1], RED[None], H, x_rest=x)
+    n = exposed_normals(faces, moved, labels, d)
+    layer = np.round(x[:, 0] / H).astype(int)
+    assert n[layer == 3, 0].min() >= 0.92
+    assert (n[layer == 5] @ (R @ [-1.0, 0.0, 0.0])).min() >= 0.92
+    np.testing.assert_allclose(np.linalg.norm(n[np.isin(layer, (3, 5))], axis=1), 1.0, atol=1e-12)
+
+
+def test_the_turned_check_catches_directions_read_at_the_current_positions():
+    """The rule without the rest positions turns the right layer's faces towards the broken layer it left."""
+    x, tracker, d, moved, labels, R = turned()
+    faces = build_crack_faces(x, np.arange(len(x)), tracker.pairs, x[:1], RED[None], H)
+    n = exposed_normals(faces, moved, labels, d)
+    layer = np.round(x[:, 0] / H).astype(int)
+    assert (n[layer == 5] @ (R @ [-1.0, 0.0, 0.0])).max() < 0.92       # the check above wants >= 0.92

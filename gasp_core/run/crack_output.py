@@ -46,7 +46,7 @@ class CrackOutput:
             dc = o.gaussians.sh_dc if o.moving is None else o.gaussians.sh_dc[o.moving]
             h = float(np.max(s.p_vol[rows])) ** (1 / 3)
             self.objects.append((name, o, build_crack_faces(s.x[rows], rows, pairs, o.surface.tri_rest[:, 0],
-                                                            dc, h)))
+                                                            dc, h, x_rest=s.x)))
 
     def write(self, folder, frame: int, x: np.ndarray, labels: np.ndarray, damage: np.ndarray | None,
               piece: np.ndarray | None = None) -> list[str]:
