@@ -579,10 +579,10 @@ def test_the_ball_check_catches_an_engine_that_never_damages(name, monkeypatch):
 def test_the_studio_offers_brittle_with_its_two_keys():
     """The studio's material menu comes from the installed engines' materials (issue 52: both MLS-MPM engines);
     its starting values are the ball's that breaks from 1 m, above the snap-back limit at any crack band width
-    ``h = dx + p_vol^(1/3)`` under 0.06 m (``dx`` under 0.04 m at 8 points per cell)."""
+    ``h = dx`` under 0.04 m."""
     from gasp_core.studio.form import installed_engines, typical
     assert set(installed_engines("brittle")) == set(_names())
     start = typical("brittle")
-    assert start["tensile_strength"] == 1e4 and start["fracture_energy"] == 15.0
+    assert start["tensile_strength"] == 1e4 and start["fracture_energy"] == 10.0
     m = Material("brittle", **{k: v for k, v in start.items()})
-    assert m.snap_back_limit(0.059) < m.fracture_energy <= m.snap_back_limit(0.06)
+    assert m.snap_back_limit(0.039) < m.fracture_energy <= m.snap_back_limit(0.04)

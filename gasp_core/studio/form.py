@@ -21,7 +21,7 @@ TYPICAL = {
               "the README donut (examples/donut_jelly.toml; viscosity: docs/dissipation.md, 'Typical values')"),
     "neo_hookean": ({"E": 2.0e4, "nu": 0.3, "rho": 300.0, "viscosity": 4.0}, "as jelly"),
     "sand": ({"E": 3.0e5, "nu": 0.3, "rho": 1600.0, "friction_angle": 35.0}, "examples/guitar_sand.toml"),
-    "brittle": ({"E": 2.0e5, "nu": 0.25, "rho": 300.0, "tensile_strength": 1.0e4, "fracture_energy": 15.0},
+    "brittle": ({"E": 2.0e5, "nu": 0.25, "rho": 300.0, "tensile_strength": 1.0e4, "fracture_energy": 10.0},
                 "a ball of it breaks into pieces landing from 1 m (tests/test_brittle.py, docs/fracture.md)"),
 }
 
