@@ -267,7 +267,8 @@ def run_case(sp: Specimen, n_grid: int, engine: str, build_fn=build, shift: tupl
     D = FT ** 2 * sf * dl / (2 * E * ((1 - dl) * (sf - FT) + FT))
     dissipated = float((D[span] * count[span] * s ** 3).sum() / a_gauge)
     dissipated_all = float((D * count * s ** 3).sum() / a_gauge)
-    return {"specimen": sp.name, "engine": engine, "n_grid": n_grid, "shift": list(shift), "dx": dx, "cells_across": sp.gauge_w / dx,
+    return {"specimen": sp.name, "engine": engine, "n_grid": n_grid, "shift": list(shift), "dx": dx,
+            "cells_across": sp.gauge_w / dx,
             "points": int(len(st.x)), "frames": n_frames, "seconds": round(wall, 1),
             "peak": peak, "peak_vs_ft": peak / FT - 1, "crack_x": x_c, "where": where, "section_at_crack": section,
             "clamp_face": clamp, "pulled_face": pulled, "gauge": [g_lo, g_hi],
