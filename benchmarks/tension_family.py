@@ -128,10 +128,14 @@ OLD_BONES = [
 SECTION_TOL = 0.02        # "in the gauge": where the section is within 2 % of the gauge's
 
 
-def build(sp: Specimen, n_grid: int, engine: str, ft: float = FT, partial: bool = True):
+def build(sp: Specimen, n_grid: int, engine: str, ft: float = FT, partial: bool = True,
+          shift: tuple[float, float] = (0.0, 0.0)):
     """The setup: the lattice (spacing dx/2) inside the specimen, held over its first ``HOLD`` m, pulled over its
-    last, starting in the quasi-static stretch of the pull. Returns ``(setup, layer index of each point, layer rest
-    x, clamp face x, pulled face x)``."""
+    last, starting in the quasi-static stretch of the pull. ``shift``: the lattice's offset from the grid's nodes
+    along x and the held faces' (cells; (0, 0): the specimen's end and both faces on nodes, the lattice's layers a
+    quarter cell off them): the grid's origin moves by ``-shift[0] dx`` and the faces by ``shift[1] - shift[0]``
+    cells against the specimen. Returns ``(setup, layer index of each point, layer rest x, clamp face x, pulled
+    face x)``."""
     from gasp_core.colliders.model import Impulse
     from gasp_core.seam.setup import Boundary, Material
     from gasp_core.testing.helpers import make_setup
@@ -151,7 +155,8 @@ def build(sp: Specimen, n_grid: int, engine: str, ft: float = FT, partial: bool 
     else:
         keep = (np.abs(x[:, 1] - Y0) <= w / 2 + 1e-9) & (np.abs(x[:, 2] - Y0) <= th / 2 + 1e-9)
         x, p_vol = x[keep], np.full(int(keep.sum()), s ** 3)
-    clamp, pulled = X0 + HOLD, X0 + sp.length - HOLD
+    lat, face = shift
+    clamp, pulled = X0 + HOLD + (face - lat) * dx, X0 + sp.length - HOLD + (face - lat) * dx
     comp = np.cumsum(1.0 / sp.area(lx))               # the compliance int dx / A(x), per layer
     c_cl, c_pu = np.interp([clamp, pulled], lx, comp)
     layer = np.round((x[:, 0] - X0) / s - 0.5).astype(int)
@@ -159,7 +164,8 @@ def build(sp: Specimen, n_grid: int, engine: str, ft: float = FT, partial: bool 
     v[:, 0] = PULL * np.clip((comp[layer] - c_cl) / (c_pu - c_cl), 0.0, 1.0)
     m = Material("brittle", E=E, nu=NU, rho=RHO, tensile_strength=ft, fracture_energy=GF)
     opts = {"precision": "f64", **({"threads": 1} if engine == "taichi_mpm" else {})}
-    st = make_setup(x, p_vol, m, v=v, gravity=(0, 0, 0), hi=(SIZE,) * 3, n_grid=n_grid,
+    st = make_setup(x, p_vol, m, v=v, gravity=(0, 0, 0), lo=(-lat * dx, 0, 0), hi=(SIZE - lat * dx, SIZE, SIZE),
+                    n_grid=n_grid,
                     frame_dt=FRAME_DT, boundaries=[Boundary("fixed_region", lo=(0, 0, 0), hi=(clamp, SIZE, SIZE))],
                     options=opts)
     st.impulses = [Impulse("box", (PULL, 0, 0), 0.0, 100.0, lo=(pulled, 0, 0), hi=(SIZE, SIZE, SIZE), mode="set")]
@@ -194,18 +200,18 @@ def nominal_xx(F: np.ndarray, d: np.ndarray) -> np.ndarray:
     return np.einsum("nij,nkj->nik", tau, np.linalg.inv(F))[:, 0, 0]
 
 
-def run_case(sp: Specimen, n_grid: int, engine: str, build_fn=build) -> dict:
-    """One specimen on one engine at one grid: the figures of the module's docstring."""
+def run_case(sp: Specimen, n_grid: int, engine: str, build_fn=build, shift: tuple[float, float] = (0.0, 0.0)) -> dict:
+    """One specimen on one engine at one grid (``shift``: :func:`build`'s): the figures of the module's docstring."""
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import engines
     from gasp_core.mpm.materials import softening_stress
-    st, layer, lx, clamp, pulled = build_fn(sp, n_grid, engine)
+    st, layer, lx, clamp, pulled = build_fn(sp, n_grid, engine, shift=tuple(shift))
     dx, s = st.dx, st.dx / 2
     nl = len(lx)
     wgt = np.asarray(st.p_vol, np.float64) / s ** 3            # each point's share of a full lattice cube
     count = np.bincount(layer, wgt, nl)                        # each layer's volume, in full cubes
     a_gauge = float(sp.gauge_w ** 2)
-    g_lo, g_hi = sp.gauge(dx)
+    g_lo, g_hi = (clamp + 1.5 * dx, pulled - 1.5 * dx) if sp.gauge_l == 0.0 else sp.gauge(dx)
     gauge = (lx > g_lo) & (lx < g_hi)
     gl = np.flatnonzero(gauge)
     free = (lx > clamp) & (lx < pulled)
@@ -261,7 +267,8 @@ def run_case(sp: Specimen, n_grid: int, engine: str, build_fn=build) -> dict:
     D = FT ** 2 * sf * dl / (2 * E * ((1 - dl) * (sf - FT) + FT))
     dissipated = float((D[span] * count[span] * s ** 3).sum() / a_gauge)
     dissipated_all = float((D * count * s ** 3).sum() / a_gauge)
-    return {"specimen": sp.name, "engine": engine, "n_grid": n_grid, "dx": dx, "cells_across": sp.gauge_w / dx,
+    return {"specimen": sp.name, "engine": engine, "n_grid": n_grid, "shift": list(shift), "dx": dx,
+            "cells_across": sp.gauge_w / dx,
             "points": int(len(st.x)), "frames": n_frames, "seconds": round(wall, 1),
             "peak": peak, "peak_vs_ft": peak / FT - 1, "crack_x": x_c, "where": where, "section_at_crack": section,
             "clamp_face": clamp, "pulled_face": pulled, "gauge": [g_lo, g_hi],
