@@ -108,7 +108,7 @@ MATERIAL_PARAMS: dict[str, Param] = {
     "fracture_energy": Param(10.0, 0.0, lo_open=True, unit="J/m^2",
                              doc="fracture energy G_f: the work to open a unit area of crack; at least "
                                  "tensile_strength^2 h / (2 E), the snap-back limit at the crack band width "
-                                 "h = dx + the point spacing (docs/fracture.md)"),
+                                 "h = dx, the grid cell (docs/fracture.md)"),
 }
 
 
@@ -141,7 +141,7 @@ MATERIAL_KINDS: dict[str, MaterialKind] = {
     "snow": MaterialKind("hardening plasticity (Stomakhin et al. 2013)",
                          _ELASTIC + ("hardening", "theta_c", "theta_s")),
     "plasticine": MaterialKind("von Mises with softening", _ELASTIC + ("yield_stress", "softening")),
-    "brittle": MaterialKind("Rankine damage on Hencky elasticity, crack band of width dx + the point spacing "
+    "brittle": MaterialKind("Rankine damage on Hencky elasticity, crack band of width dx, the grid cell "
                             "(Bazant & Oh 1983)",
                             _ELASTIC + ("tensile_strength", "fracture_energy")),
     "liquid": MaterialKind("weakly compressible fluid (pressure from the bulk modulus K of E and nu)", _ELASTIC),
