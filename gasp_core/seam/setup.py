@@ -32,15 +32,10 @@ def crack_band(dx: float, p_vol: np.ndarray, body_id: np.ndarray, n_bodies: int)
     """Crack band width ``h`` of each body, metres, shape (n_bodies,), float64: the grid cell ``dx`` for every body
     with material points (0 for a body without any; ``p_vol`` and ``body_id``, shapes (n,), say which).
 
-    ``h`` is the width of the zone a crack localises in (Bazant & Oh 1983, Materiaux et Constructions 16; Jirasek &
-    Bazant 2002, the crack band model: the element's width in finite elements). In MLS-MPM a crack's velocity jump
-    localises between two nodes, one cell, and the points inside that cell break through; the quadratic B-spline
-    strains the layers beside it by a quarter of the jump, and they unload as the crack opens. Measured on the
-    tension family (issue 66, round 31: bars of three lengths and two sections and two dog-bones at n_grid 24 and 48,
-    cracks in their gauges): two layers broken through at 8 points per cell (``dx``), and the work to separate
-    ``G_f`` +1 to +7 % with ``h = dx`` where ``dx + s`` (the rule before, from cracks at a clamp's face) gave -31 %
-    at n_grid 48 (docs/fracture.md "The crack band").
-    """
+    ``h`` is the width a crack localises in (Bazant & Oh 1983, Materiaux et Constructions 16). In MLS-MPM a crack's
+    velocity jump localises between two nodes: the points in that cell break through. Measured on the tension family
+    (round 31, both engines): the work to separate ``G_f`` +1 to +7 % at n_grid 24 and 48 where ``dx + s`` gave -31 %
+    at 48 (docs/fracture.md "The crack band")."""
     h = np.zeros(n_bodies)
     pv = np.asarray(p_vol, np.float64)
     h[np.unique(np.asarray(body_id)[pv > 0])] = dx
