@@ -93,6 +93,45 @@ def apart_row(means: np.ndarray, rot: np.ndarray, scales: np.ndarray, x_fill: np
     return {"spanning": int(spanning.sum()), "specks": int(specks.sum())}
 
 
+def piece_rotations(p_rest: np.ndarray, p_t: np.ndarray, piece: np.ndarray) -> tuple[np.ndarray, np.ndarray,
+                                                                                       np.ndarray]:
+    """The best-fit rotation of each piece from rest to now (Kabsch 1976, "A solution for the best rotation to
+    relate two sets of vectors", Acta Cryst. A32: ``H = sum (p_rest - c_rest)(p_t - c_t)^T = U S V^T``,
+    ``R = V diag(1, 1, det(V U^T)) U^T``).
+
+    Parameters
+    ----------
+    p_rest, p_t : ndarray, shape (k, 3), float
+        The same points at rest and now, metres.
+    piece : ndarray, shape (k,), int
+        Each point's piece.
+
+    Returns
+    -------
+    pieces : ndarray, shape (q,), int64
+        The pieces, sorted.
+    rot : ndarray, shape (q, 3, 3), float64
+        Each one's rotation, rest to now (``p_t - c_t ~ R (p_rest - c_rest)``).
+    ok : ndarray, shape (q,), bool
+        Whether it is defined: at least 3 points, not all on one line (second singular value of ``H`` above
+        ``1e-9`` times the first).
+    """
+    pieces, inv, count = np.unique(np.asarray(piece), return_inverse=True, return_counts=True)
+    q = len(pieces)
+    c0 = np.stack([np.bincount(inv, p_rest[:, d], q) for d in range(3)], 1) / count[:, None]
+    c1 = np.stack([np.bincount(inv, p_t[:, d], q) for d in range(3)], 1) / count[:, None]
+    a, b = p_rest - c0[inv], p_t - c1[inv]
+    H = np.stack([np.bincount(inv, a[:, i] * b[:, j], q) for i in range(3) for j in range(3)], 1).reshape(q, 3, 3)
+    U, S, Vt = np.linalg.svd(H)
+    V, Ut = Vt.transpose(0, 2, 1), U.transpose(0, 2, 1)
+    D = np.broadcast_to(np.eye(3), (q, 3, 3)).copy()
+    D[:, 2, 2] = np.sign(np.linalg.det(V @ Ut))
+    D[D[:, 2, 2] == 0, 2, 2] = 1.0
+    ok = (count >= 3) & (S[:, 1] > 1e-9 * np.maximum(S[:, 0], 1e-300))
+    return pieces, V @ D @ Ut, ok
+
+
+
 class PieceContext(NamedTuple):
     """What :func:`gasp_core.run.frames.rebuild` needs of a frame's pieces beside the point labels.
 
@@ -139,7 +178,7 @@ def hold_to_pieces(o, x: np.ndarray, labels: np.ndarray, ctx: PieceContext, prev
     material point of a piece nearest its anchor at rest (for a crumb's Gaussian: the piece the crumb was part of,
     by rest adjacency). It moves rigidly with the host's piece, as a straddling Gaussian turns
     (:func:`gasp_core.run.frames.turn_with_pieces`): ``m = x_host + R (m_rest - x_host,rest)``, ``R_g = R R_rest``,
-    its rest scales, ``R`` the piece's best-fit rotation since rest (:func:`gasp_core.run.frames.piece_rotations`
+    its rest scales, ``R`` the piece's best-fit rotation since rest (:func:`piece_rotations`
     over the piece's material points; where that is undefined, the Gaussian's previous rotation carries it). So it is
     drawn within its rest distance from its host, a material point of the piece.
 
@@ -147,7 +186,6 @@ def hold_to_pieces(o, x: np.ndarray, labels: np.ndarray, ctx: PieceContext, prev
     frame's rotations; ``means`` (n, 3), ``rot`` (n, 3, 3), ``scales`` (n, 3): the Gaussians (world frame, metres),
     changed in place.
     """
-    from gasp_core.run.frames import piece_rotations
     pts = piece_points(o, labels, ctx)
     n = len(means)
     if len(pts) == 0 or n == 0:
