@@ -2,11 +2,12 @@
 
 Each file is a graphdeco 3DGS PLY in the object's file frame (the frame file's), one Gaussian per fill point of the
 object (:mod:`gasp_core.maps.crack_faces`): opacity 0.99 (logit 4.6) where the face is exposed at that frame, a logit
-of -30 (opacity 1e-13: not drawn) where the material around it is whole; SH degree 0, the colour of its nearest
-surface Gaussians; an int32 property ``piece``, the face's piece numbered as the object's ``pieces_NNNN.npy``
-(:func:`gasp_core.run.pieces.piece_ranks`; -1 for a piece that holds no surface Gaussian). Frame 0 has every face
-hidden. ``gasp render`` draws them with their object (and any 3DGS viewer
-that is given both files); the object's own frame files are unchanged (one row per input Gaussian).
+of -30 (opacity 1e-13: not drawn) where the material around it is whole or the point is in a crumb (a part under
+the pieces' debris share, whose surface Gaussians are drawn on its piece: :func:`gasp_core.run.apart.hold_to_pieces`);
+SH degree 0, the colour of its nearest surface Gaussians; an int32 property ``piece``, the face's piece numbered as
+the object's ``pieces_NNNN.npy`` (:func:`gasp_core.run.pieces.piece_ranks`; -1 for a piece that holds no surface
+Gaussian). Frame 0 has every face hidden. ``gasp render`` draws them with their object (and any 3DGS viewer that is
+given both files); the object's own frame files are unchanged (one row per input Gaussian).
 """
 from __future__ import annotations
 
@@ -57,6 +58,8 @@ class CrackOutput:
         rels = []
         for name, o, faces in self.objects:
             means, rot, scales, visible = crack_face_gaussians(faces, x, labels, d)
+            if piece is not None:     # a crumb's faces are hidden: its Gaussians go with its piece (run.apart)
+                visible &= np.asarray(piece, bool)[np.asarray(labels)[faces.rows]]
             pl = o.placement
             rank = piece_ranks(o, labels, self.mass, piece)[np.asarray(labels)[faces.rows]]
             g = Gaussians(means=pl.to_file(means), scales=scales / pl.scale,

@@ -13,6 +13,7 @@ from gasp_core.prepare.dynamic import background_at
 from gasp_core.prepare.placed import PreparedObject
 from gasp_core.seam.runner import EngineRun, RunStats
 from gasp_core.prepare.selection import scatter
+from gasp_core.run.apart import REACH, PieceContext, apart_row, hold_to_pieces, piece_rotations
 
 if TYPE_CHECKING:
     from gasp_core.prepare.scene import PreparedScene
@@ -59,44 +60,6 @@ def split_context(o: PreparedObject, setup) -> SplitContext | None:
     return SplitContext(np.asarray(setup.x, np.float64)[rows], h)
 
 
-def piece_rotations(p_rest: np.ndarray, p_t: np.ndarray, piece: np.ndarray) -> tuple[np.ndarray, np.ndarray,
-                                                                                       np.ndarray]:
-    """The best-fit rotation of each piece from rest to now (Kabsch 1976, "A solution for the best rotation to
-    relate two sets of vectors", Acta Cryst. A32: ``H = sum (p_rest - c_rest)(p_t - c_t)^T = U S V^T``,
-    ``R = V diag(1, 1, det(V U^T)) U^T``).
-
-    Parameters
-    ----------
-    p_rest, p_t : ndarray, shape (k, 3), float
-        The same points at rest and now, metres.
-    piece : ndarray, shape (k,), int
-        Each point's piece.
-
-    Returns
-    -------
-    pieces : ndarray, shape (q,), int64
-        The pieces, sorted.
-    rot : ndarray, shape (q, 3, 3), float64
-        Each one's rotation, rest to now (``p_t - c_t ~ R (p_rest - c_rest)``).
-    ok : ndarray, shape (q,), bool
-        Whether it is defined: at least 3 points, not all on one line (second singular value of ``H`` above
-        ``1e-9`` times the first).
-    """
-    pieces, inv, count = np.unique(np.asarray(piece), return_inverse=True, return_counts=True)
-    q = len(pieces)
-    c0 = np.stack([np.bincount(inv, p_rest[:, d], q) for d in range(3)], 1) / count[:, None]
-    c1 = np.stack([np.bincount(inv, p_t[:, d], q) for d in range(3)], 1) / count[:, None]
-    a, b = p_rest - c0[inv], p_t - c1[inv]
-    H = np.stack([np.bincount(inv, a[:, i] * b[:, j], q) for i in range(3) for j in range(3)], 1).reshape(q, 3, 3)
-    U, S, Vt = np.linalg.svd(H)
-    V, Ut = Vt.transpose(0, 2, 1), U.transpose(0, 2, 1)
-    D = np.broadcast_to(np.eye(3), (q, 3, 3)).copy()
-    D[:, 2, 2] = np.sign(np.linalg.det(V @ Ut))
-    D[D[:, 2, 2] == 0, 2, 2] = 1.0
-    ok = (count >= 3) & (S[:, 1] > 1e-9 * np.maximum(S[:, 0], 1e-300))
-    return pieces, V @ D @ Ut, ok
-
-
 #: A piece whose best-fit rigid motion leaves no point further than this (m) moves rigidly (:func:`turn_with_pieces`):
 #: float32 positions of a rigid body read about 1e-7 m off its fit, a soft piece's deformation far more.
 RIGID_FIT = 1e-5
@@ -104,7 +67,7 @@ RIGID_FIT = 1e-5
 
 def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray,
             t: float | None = None, labels: np.ndarray | None = None,
-            split: SplitContext | None = None) -> tuple[Gaussians, np.ndarray, dict]:
+            split: SplitContext | None = None, apart=None) -> tuple[Gaussians, np.ndarray, dict]:
     """``G_t = T^-1(phi(T(G), t))`` with the alpha rule for one object at one frame, back in the file frame.
 
     ``T^-1`` is the object's surface map (:meth:`gasp_core.maps.surface.SurfaceMap.gaussians`: its form and its
@@ -142,8 +105,9 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray,
         World rotations of this frame.
     counts : dict
         ``degenerate`` faces and ``clamped`` scales (alpha rule) this frame; with ``labels``, ``straddling``; with
-        ``split``, ``split`` (the sub-Gaussians made) and ``split_gaussians`` (:class:`Gaussians` of them, file
-        frame, with the int32 field ``parent``: the file row each comes from; None when there are none).
+        ``apart``, ``held``, ``spanning`` and ``specks``; with ``split``, ``split`` (the sub-Gaussians made) and
+        ``split_gaussians`` (:class:`Gaussians` of them, file frame, with the int32 field ``parent``: the file row
+        each comes from; None when there are none).
     """
     if o.spec.static:
         g = o.gaussians if t is None else background_at(o, o.gaussians, t)
@@ -159,6 +123,13 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray,
         if straddle.any():
             turn_with_pieces(o, x, sr, lab, straddle, rot, means_w)
         counts["straddling"] = int(straddle.sum())
+        if apart is not None:
+            if apart.hold:
+                held = hold_to_pieces(o, x, labels, apart, prev_rot, means_w, rot, scales_w)
+                counts["held"], straddle = int(held.sum()), straddle | held
+            fs = o.fill_slice
+            counts.update(apart_row(means_w, rot, scales_w, x[fs], np.asarray(labels)[fs], apart.p_mass[fs],
+                                    apart.pieces, apart.reach))
     pl = o.placement
     scales = scales_w / pl.scale
     scales[:, 0] = o.thin_scale if o.spec.thickness == "keep" else EPS
@@ -253,24 +224,33 @@ class Rebuilder:
         self.prev_rot = [o.rot_rest for o in prep.objects] if prev_rot is None else list(prev_rot)
         self.split = [split_context(o, prep.setup) for o in prep.objects]
         self.last_split: list = [None] * len(prep.objects)
+        self.hold = True    # False: the Gaussians of crumbs and specks drawn where the map puts them (the rule before)
 
-    def __call__(self, frame: int, x: np.ndarray, labels: np.ndarray | None = None) -> tuple[list[Gaussians], dict]:
+    def __call__(self, frame: int, x: np.ndarray, labels: np.ndarray | None = None,
+                 pieces: np.ndarray | None = None) -> tuple[list[Gaussians], dict]:
         """Every object's Gaussians at ``frame`` from the positions ``x`` (n_points, 3), world frame, and the
-        frame's row (``frame``, ``degenerate``, ``clamped``, with ``labels`` (a broken body's pieces, :func:`rebuild`)
-        ``straddling``, with an object that splits its clamped triangles ``split`` (the sub-Gaussians made,
-        :attr:`last_split`) and, with colliders, ``colliders``)."""
+        frame's row (``frame``, ``degenerate``, ``clamped``, with ``labels`` (a broken body's pieces, :func:`rebuild`;
+        ``pieces`` per label whether it is a piece, :attr:`gasp_core.run.pieces.PieceTracker.pieces`) ``straddling``,
+        ``held``, ``spanning``, ``specks`` and ``apart_reach`` (m: :mod:`gasp_core.run.apart`), with an object that
+        splits its clamped triangles ``split`` (the sub-Gaussians made, :attr:`last_split`) and, with colliders,
+        ``colliders``)."""
         prep, prev = self.prep, self.prev_rot
         gs, row = [], {"frame": frame, "degenerate": 0, "clamped": 0}
+        apart = None if labels is None else PieceContext(prep.setup.p_mass, pieces, REACH * float(prep.setup.dx),
+                                                         prep.setup.x, self.hold)
         for k, o in enumerate(prep.objects):
-            g, prev[k], counts = rebuild(o, x, prev[k], frame * prep.setup.frame_dt, labels, self.split[k])
+            g, prev[k], counts = rebuild(o, x, prev[k], frame * prep.setup.frame_dt, labels, self.split[k], apart)
             row["degenerate"] += counts["degenerate"]
             row["clamped"] += counts["clamped"]
-            if "straddling" in counts:
-                row["straddling"] = row.get("straddling", 0) + counts["straddling"]
+            for key in ("straddling", "held", "spanning", "specks"):
+                if key in counts:
+                    row[key] = row.get(key, 0) + counts[key]
             if "split" in counts:
                 row["split"] = row.get("split", 0) + counts["split"]
             self.last_split[k] = counts.get("split_gaussians")
             gs.append(g)
+        if apart is not None:
+            row["apart_reach"] = apart.reach
         if prep.setup.colliders:  # run.json collider figures (gasp_core.run.contact)
             from gasp_core.run.contact import contact_row
             row["colliders"] = contact_row(prep.setup, x, frame * prep.setup.frame_dt)

@@ -271,7 +271,7 @@ class SimulationRun:
         CPU time, every thread, from the previous frame's hand-off to the writer to this frame's: ``cpu_s / wall_s``
         is the cores the frame used, the previous frame's rebuild and files on the writer included)."""
         t0 = time.perf_counter()
-        gs, row = rebuild_all(frame, x, None if labels is None else labels[0])
+        gs, row = rebuild_all(frame, x, *((None,) if labels is None else (labels[0], labels[4])))
         row.update(times)
         row["rebuild_s"] = time.perf_counter() - t0
         made.append(gs)

@@ -1,0 +1,210 @@
+"""Whether a broken body's Gaussians read as its pieces (issue 66, "What a user sees"): per frame, the Gaussians
+drawn across two pieces and the specks away from every piece, counted from the drawn Gaussians and the material.
+
+A Gaussian is drawn at its centre ``m`` with its in-plane axes ``r2, r3`` and scales ``s2, s3`` (GaMeS, the flat
+Gaussian; the thin axis ``r1`` is the face's normal). Its *samples* are its centre and the four tips
+``m +- TIPS s_j r_j`` (``j = 2, 3``: at two standard deviations, where a splat's alpha has fallen to
+``exp(-2)`` = 14 % of its centre's). Each sample takes the piece of the nearest material point of a piece within
+``reach`` (m; :data:`REACH` grid cells ``dx``, the support of the quadratic B-spline the engines weigh a point's
+nodes with: a Gaussian further than it from every material point of a piece shares no node with one; the rest
+surface of the bundled donut lies within 1.22 ``dx`` of its fill), or none.
+
+* A Gaussian *spans two pieces* when its samples take two or more pieces: it is drawn from one piece's material to
+  another's (a Gaussian stretched across a crack, or laid over two pieces that touch within ``reach``).
+* A Gaussian is a *speck* when its centre is further than ``reach`` from every material point of every piece: it is
+  drawn in the air or on the floor, away from the parts that have come apart.
+
+The pieces are the piece tracker's (:class:`gasp_core.run.pieces.PieceTracker`: crumbs, the pieces under its debris
+share, are not pieces), each body's material points (``p_mass > 0``) in them. ``run.json`` holds, per frame, the
+counts ``spanning`` and ``specks`` and the ``reach`` (m) they were counted at (:func:`apart_row`), and ``held``: the
+Gaussians put back on their pieces (:func:`hold_to_pieces`).
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+#: The reach, in grid cells ``dx`` (module notes).
+REACH = 1.5
+#: The tips are this many standard deviations from the centre along each in-plane axis (module notes).
+TIPS = 2.0
+
+
+def apart_masks(means: np.ndarray, rot: np.ndarray, scales: np.ndarray, points: np.ndarray, piece: np.ndarray,
+                reach: float) -> tuple[np.ndarray, np.ndarray]:
+    """Which Gaussians span two pieces and which are specks (module notes).
+
+    Parameters
+    ----------
+    means : ndarray, shape (n, 3), float
+        The drawn Gaussians' centres, world frame, metres.
+    rot : ndarray, shape (n, 3, 3), float
+        Their rotations, world frame (columns ``r1`` the normal, ``r2``, ``r3``).
+    scales : ndarray, shape (n, 3), float
+        Their scales along those columns, metres.
+    points : ndarray, shape (k, 3), float
+        The material points of the pieces, world frame, metres.
+    piece : ndarray, shape (k,), int
+        Each one's piece.
+    reach : float
+        Metres, > 0 (:data:`REACH` ``dx``).
+
+    Returns
+    -------
+    spanning, specks : ndarray, shape (n,), bool
+
+    Raises
+    ------
+    ValueError
+        ``reach`` is not positive, or the shapes disagree.
+    """
+    means, rot, scales = (np.asarray(a, np.float64) for a in (means, rot, scales))
+    points, piece = np.asarray(points, np.float64).reshape(-1, 3), np.asarray(piece).ravel()
+    if not reach > 0 or len(points) != len(piece) or rot.shape != (len(means), 3, 3) or scales.shape != means.shape:
+        raise ValueError(f"apart_masks: reach {reach} must be > 0, points {points.shape} and piece {piece.shape} "
+                         f"agree, rot {rot.shape} and scales {scales.shape} fit means {means.shape}")
+    n = len(means)
+    if n == 0 or len(points) == 0:
+        return np.zeros(n, bool), np.ones(n, bool) if len(points) == 0 else np.zeros(n, bool)
+    arms = [TIPS * scales[:, j, None] * rot[:, :, j] for j in (1, 2)]
+    samples = np.stack([means, means + arms[0], means - arms[0], means + arms[1], means - arms[1]], 1)
+    dist, near = cKDTree(points).query(samples.reshape(-1, 3), distance_upper_bound=reach)
+    lab = np.where(np.isfinite(dist), piece[np.minimum(near, len(piece) - 1)], -1).reshape(n, 5)
+    specks = lab[:, 0] < 0
+    lo = np.where(lab >= 0, lab, np.iinfo(np.int64).max).min(axis=1)
+    spanning = ((lab >= 0) & (lab != lo[:, None])).any(axis=1)
+    return spanning, specks
+
+
+def apart_row(means: np.ndarray, rot: np.ndarray, scales: np.ndarray, x_fill: np.ndarray, lab_fill: np.ndarray,
+              mass_fill: np.ndarray, pieces: np.ndarray | None, reach: float) -> dict:
+    """One object's ``run.json`` figures of a frame: ``{"spanning", "specks"}`` (counts, :func:`apart_masks`) of its
+    drawn Gaussians (``means``, ``rot``, ``scales`` as there) against its material points: ``x_fill`` (k, 3) world
+    metres, ``lab_fill`` (k,) their labels (:meth:`gasp_core.run.pieces.PieceTracker.labels`), ``mass_fill`` (k,) kg
+    (0: passive, not material), ``pieces`` (per label, bool: :attr:`~gasp_core.run.pieces.PieceTracker.pieces`; None:
+    every label a piece), ``reach`` metres."""
+    lab = np.asarray(lab_fill)
+    keep = np.asarray(mass_fill) > 0
+    if pieces is not None:
+        keep &= np.asarray(pieces, bool)[lab]
+    spanning, specks = apart_masks(means, rot, scales, np.asarray(x_fill)[keep], lab[keep], reach)
+    return {"spanning": int(spanning.sum()), "specks": int(specks.sum())}
+
+
+def piece_rotations(p_rest: np.ndarray, p_t: np.ndarray, piece: np.ndarray) -> tuple[np.ndarray, np.ndarray,
+                                                                                       np.ndarray]:
+    """The best-fit rotation of each piece from rest to now (Kabsch 1976, "A solution for the best rotation to
+    relate two sets of vectors", Acta Cryst. A32: ``H = sum (p_rest - c_rest)(p_t - c_t)^T = U S V^T``,
+    ``R = V diag(1, 1, det(V U^T)) U^T``).
+
+    Parameters
+    ----------
+    p_rest, p_t : ndarray, shape (k, 3), float
+        The same points at rest and now, metres.
+    piece : ndarray, shape (k,), int
+        Each point's piece.
+
+    Returns
+    -------
+    pieces : ndarray, shape (q,), int64
+        The pieces, sorted.
+    rot : ndarray, shape (q, 3, 3), float64
+        Each one's rotation, rest to now (``p_t - c_t ~ R (p_rest - c_rest)``).
+    ok : ndarray, shape (q,), bool
+        Whether it is defined: at least 3 points, not all on one line (second singular value of ``H`` above
+        ``1e-9`` times the first).
+    """
+    pieces, inv, count = np.unique(np.asarray(piece), return_inverse=True, return_counts=True)
+    q = len(pieces)
+    c0 = np.stack([np.bincount(inv, p_rest[:, d], q) for d in range(3)], 1) / count[:, None]
+    c1 = np.stack([np.bincount(inv, p_t[:, d], q) for d in range(3)], 1) / count[:, None]
+    a, b = p_rest - c0[inv], p_t - c1[inv]
+    H = np.stack([np.bincount(inv, a[:, i] * b[:, j], q) for i in range(3) for j in range(3)], 1).reshape(q, 3, 3)
+    U, S, Vt = np.linalg.svd(H)
+    V, Ut = Vt.transpose(0, 2, 1), U.transpose(0, 2, 1)
+    D = np.broadcast_to(np.eye(3), (q, 3, 3)).copy()
+    D[:, 2, 2] = np.sign(np.linalg.det(V @ Ut))
+    D[D[:, 2, 2] == 0, 2, 2] = 1.0
+    ok = (count >= 3) & (S[:, 1] > 1e-9 * np.maximum(S[:, 0], 1e-300))
+    return pieces, V @ D @ Ut, ok
+
+
+
+class PieceContext(NamedTuple):
+    """What :func:`gasp_core.run.frames.rebuild` needs of a frame's pieces beside the point labels.
+
+    Attributes
+    ----------
+    p_mass : ndarray, shape (n_points,), float64
+        Point masses, kg (0: passive).
+    pieces : ndarray or None
+        Per label, whether it is a piece (False: a crumb; :attr:`gasp_core.run.pieces.PieceTracker.pieces`); None:
+        every label a piece.
+    reach : float
+        Metres (:data:`REACH` times the setup's ``dx``).
+    x_rest : ndarray, shape (n_points, 3), float64
+        Rest positions, world frame, metres.
+    hold : bool
+        Put the Gaussians of crumbs and the specks on their pieces (:func:`hold_to_pieces`); False draws them where
+        the map puts them (the rule before issue 66's round 31, kept to show what it drew).
+    """
+
+    p_mass: np.ndarray
+    pieces: np.ndarray | None
+    reach: float
+    x_rest: np.ndarray
+    hold: bool = True
+
+
+def piece_points(o, labels: np.ndarray, ctx: PieceContext) -> np.ndarray:
+    """The setup rows of object ``o``'s material points that lie in a piece (not a crumb), shape (k,), int64."""
+    rows = np.arange(len(ctx.p_mass))[o.fill_slice]
+    rows = rows[np.asarray(ctx.p_mass)[rows] > 0]
+    if ctx.pieces is not None:
+        rows = rows[np.asarray(ctx.pieces, bool)[np.asarray(labels)[rows]]]
+    return rows
+
+
+def hold_to_pieces(o, x: np.ndarray, labels: np.ndarray, ctx: PieceContext, prev_rot: np.ndarray,
+                   means: np.ndarray, rot: np.ndarray, scales: np.ndarray) -> np.ndarray:
+    """Put object ``o``'s Gaussians that its pieces would not show back on them, in place; which, shape (n,), bool.
+
+    A Gaussian is held to a piece when its anchor point (:meth:`~gasp_core.maps.surface.SurfaceMap.anchors`) is in a
+    crumb (a part under the tracker's debris share: the crack band's broken material, not a fragment a user would
+    count), or when the map draws it further than ``ctx.reach`` from every material point of every piece (its
+    surface point left behind where the material flowed away, or carried off with a crumb). Its *host* is the
+    material point of a piece nearest its anchor at rest (for a crumb's Gaussian: the piece the crumb was part of,
+    by rest adjacency). It moves rigidly with the host's piece, as a straddling Gaussian turns
+    (:func:`gasp_core.run.frames.turn_with_pieces`): ``m = x_host + R (m_rest - x_host,rest)``, ``R_g = R R_rest``,
+    its rest scales, ``R`` the piece's best-fit rotation since rest (:func:`piece_rotations`
+    over the piece's material points; where that is undefined, the Gaussian's previous rotation carries it). So it is
+    drawn within its rest distance from its host, a material point of the piece.
+
+    ``x`` (n_points, 3) world positions, ``labels`` (n_points,) the point labels, ``prev_rot`` (n, 3, 3) the last
+    frame's rotations; ``means`` (n, 3), ``rot`` (n, 3, 3), ``scales`` (n, 3): the Gaussians (world frame, metres),
+    changed in place.
+    """
+    pts = piece_points(o, labels, ctx)
+    n = len(means)
+    if len(pts) == 0 or n == 0:
+        return np.zeros(n, bool)
+    lab = np.asarray(labels)
+    anchor = np.arange(len(ctx.p_mass))[o.vertex_slice][o.surface.anchors()]
+    crumb = np.zeros(n, bool) if ctx.pieces is None else ~np.asarray(ctx.pieces, bool)[lab[anchor]]
+    away = cKDTree(x[pts]).query(means, distance_upper_bound=ctx.reach)[0] > ctx.reach
+    held = np.flatnonzero(crumb | away)
+    if len(held) == 0:
+        return np.zeros(n, bool)
+    m_rest = o.surface.tri_rest[held, 0]
+    host = pts[cKDTree(ctx.x_rest[pts]).query(m_rest)[1]]
+    pieces, R, ok = piece_rotations(ctx.x_rest[pts], x[pts], lab[pts])
+    at = np.searchsorted(pieces, lab[host])
+    Rg = np.where(ok[at][:, None, None], R[at], prev_rot[held] @ o.surface.rot_rest[held].transpose(0, 2, 1))
+    means[held] = x[host] + np.einsum("kij,kj->ki", Rg, m_rest - ctx.x_rest[host])
+    rot[held] = Rg @ o.surface.rot_rest[held]
+    scales[held] = o.surface.scales_rest[held]
+    out = np.zeros(n, bool)
+    out[held] = True
+    return out
