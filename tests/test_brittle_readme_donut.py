@@ -1,0 +1,77 @@
+"""The brittle README donut from 1 m on the default contact ends in pieces, not dust (issue 66, "What a user sees";
+docs/fracture.md, "The brittle README donut from 1 m").
+
+``examples/donut_jelly.toml`` with ``[object.material] name = "brittle"`` (every other key at the schema's
+defaults) thrown down at 4.43 m/s (``tests/test_brittle_impact_step.py``'s scene), ``contact`` unset, at the
+README's ``n_grid`` 64 and at 48, on both MLS-MPM engines. After 4 frames (the rebound reaches the domain's top at
+frame 5) its parts are counted from the frames alone (``benchmarks/brittle_readme_donut.py``:
+:class:`gasp_core.testing.pieces_count.FramePieces`, a gap of at least ``dx``, no damage read). **Pieces, not dust:**
+
+- at least 2 parts of 1 % of the mass or more (it broke: the landing is 5.1 times the strength);
+- at least 95 % of the mass in those parts (dust, the mass in smaller parts, at most 5 %).
+
+Measured (docs/fracture.md): 2 and 4 pieces at n_grid 48 and 64, 0.94 and 0.87 of the mass in the largest, 3.2 and
+3.1 % in crumbs. Catch: at the defaults before round 31 (f_t 1 kPa, G_f 10 J/m^2) the same landing is dust (23-25 %
+in crumbs, the largest 0.32-0.35), which the check refuses; the check itself refuses a dust-like and a whole body on
+known part masses (default tier).
+"""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gasp_testing import needs_package
+
+ROOT = Path(__file__).resolve().parents[1]
+FRAMES = 4
+MIN_PIECES, MIN_IN_PIECES = 2, 0.95
+
+
+def not_dust(r: dict) -> list[str]:
+    """What keeps a run's row (``benchmarks/brittle_readme_donut.counted``: ``pieces_1``, ``in_pieces``) from
+    reading as pieces (module notes); empty when it does."""
+    bad = []
+    if r["pieces_1"] < MIN_PIECES:
+        bad.append(f"{r['pieces_1']} parts of 1 % or more (at least {MIN_PIECES}: it lands at 5 times its strength)")
+    if r["in_pieces"] < MIN_IN_PIECES:
+        bad.append(f"{r['in_pieces']:.3f} of the mass in them (at least {MIN_IN_PIECES}: the rest is dust)")
+    return bad
+
+
+def row(parts) -> dict:
+    """A row of part masses (kg, any order) as ``counted`` gives it."""
+    p = np.sort(np.asarray(parts, float))[::-1] / np.sum(parts)
+    return {"pieces_1": int((p >= 0.01).sum()), "in_pieces": float(p[p >= 0.01].sum())}
+
+
+def test_the_check_refuses_dust_and_a_whole_body_and_takes_pieces():
+    assert not not_dust(row([0.87, 0.06, 0.03, 0.01] + [0.03 / 300] * 300))      # the new defaults' donut
+    assert not_dust(row([0.35, 0.2, 0.15, 0.06] + [0.24 / 3000] * 3000))          # the old: 24 % crumbs
+    assert not_dust(row([1.0]))                                                    # whole: not broken
+    assert not_dust(row([0.9, 0.04] + [0.06 / 600] * 600))                        # 6 % dust
+
+
+def run(engine: str, n_grid: int, defaults: str) -> dict:
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import brittle_readme_donut as bd
+    return bd.counted(engine, bd.donut_setup(engine, n_grid, bd.brittle(defaults)), FRAMES)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("n_grid", [48, 64])
+@pytest.mark.parametrize("engine", ["taichi_mpm", "warp_mpm"])
+def test_the_brittle_readme_donut_from_1_m_ends_in_pieces(engine, n_grid):
+    needs_package(f"gasp_{engine}")
+    r = run(engine, n_grid, "new")
+    assert not not_dust(r), (not_dust(r), r)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("engine", ["taichi_mpm", "warp_mpm"])
+def test_catch_at_the_old_defaults_it_is_dust(engine):
+    needs_package(f"gasp_{engine}")
+    r = run(engine, 48, "old")
+    assert not_dust(r), r
