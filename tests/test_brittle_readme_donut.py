@@ -8,12 +8,15 @@ frame 5) its parts are counted from the frames alone (``benchmarks/brittle_readm
 :class:`gasp_core.testing.pieces_count.FramePieces`, a gap of at least ``dx``, no damage read). **Pieces, not dust:**
 
 - at least 2 parts of 1 % of the mass or more (it broke: the landing is 5.1 times the strength);
-- at least 95 % of the mass in those parts (dust, the mass in smaller parts, at most 5 %).
+- at least 95 % of the mass in those parts (dust, the mass in smaller parts, at most 5 %);
+- its points fill at most twice the grid cells they filled at rest (``swell``: pieces that come apart keep the
+  cells they fill, give or take the landing's squash and the cells between them; a cloud of grains multiplies them,
+  which the count of parts alone misses when the grains drift apart by less than ``dx`` each).
 
 Measured (docs/fracture.md): 2 and 4 pieces at n_grid 48 and 64, 0.94 and 0.87 of the mass in the largest, 3.2 and
-3.1 % in crumbs. Catch: at the defaults before round 31 (f_t 1 kPa, G_f 10 J/m^2) the same landing is dust (23-25 %
-in crumbs, the largest 0.32-0.35), which the check refuses; the check itself refuses a dust-like and a whole body on
-known part masses (default tier).
+3.1 % in crumbs, swell 1.55 and 1.44. Catch: at the defaults before round 31 (f_t 1 kPa, G_f 10 J/m^2) the same
+landing is dust (23-25 % in crumbs, the largest 0.32-0.35, swell 2.2-2.3), which the check refuses; the check itself
+refuses a dust-like, a whole, a 6 %-dust and a swollen body on known part masses (default tier).
 """
 from __future__ import annotations
 
@@ -27,7 +30,7 @@ from gasp_testing import needs_package
 
 ROOT = Path(__file__).resolve().parents[1]
 FRAMES = 4
-MIN_PIECES, MIN_IN_PIECES = 2, 0.95
+MIN_PIECES, MIN_IN_PIECES, MAX_SWELL = 2, 0.95, 2.0
 
 
 def not_dust(r: dict) -> list[str]:
@@ -38,13 +41,15 @@ def not_dust(r: dict) -> list[str]:
         bad.append(f"{r['pieces_1']} parts of 1 % or more (at least {MIN_PIECES}: it lands at 5 times its strength)")
     if r["in_pieces"] < MIN_IN_PIECES:
         bad.append(f"{r['in_pieces']:.3f} of the mass in them (at least {MIN_IN_PIECES}: the rest is dust)")
+    if r["swell"] > MAX_SWELL:
+        bad.append(f"its points fill {r['swell']:.2f} times the cells they filled at rest (at most {MAX_SWELL})")
     return bad
 
 
-def row(parts) -> dict:
-    """A row of part masses (kg, any order) as ``counted`` gives it."""
+def row(parts, swell: float = 1.0) -> dict:
+    """A row of part masses (kg, any order) and ``swell`` as ``counted`` gives it."""
     p = np.sort(np.asarray(parts, float))[::-1] / np.sum(parts)
-    return {"pieces_1": int((p >= 0.01).sum()), "in_pieces": float(p[p >= 0.01].sum())}
+    return {"pieces_1": int((p >= 0.01).sum()), "in_pieces": float(p[p >= 0.01].sum()), "swell": swell}
 
 
 def test_the_check_refuses_dust_and_a_whole_body_and_takes_pieces():
@@ -52,12 +57,14 @@ def test_the_check_refuses_dust_and_a_whole_body_and_takes_pieces():
     assert not_dust(row([0.35, 0.2, 0.15, 0.06] + [0.24 / 3000] * 3000))          # the old: 24 % crumbs
     assert not_dust(row([1.0]))                                                    # whole: not broken
     assert not_dust(row([0.9, 0.04] + [0.06 / 600] * 600))                        # 6 % dust
+    assert not_dust(row([0.98, 0.02], swell=70.0))                                  # the cage: one "piece"
 
 
-def run(engine: str, n_grid: int, defaults: str) -> dict:
+def run(engine: str, n_grid: int, defaults: str, placed: bool = False) -> dict:
     sys.path.insert(0, str(ROOT / "benchmarks"))
     import brittle_readme_donut as bd
-    return bd.counted(engine, bd.donut_setup(engine, n_grid, bd.brittle(defaults)), FRAMES)
+    setup = bd.donut_setup(engine, n_grid, bd.brittle(defaults), placed=placed)
+    return bd.counted(engine, setup, bd.PLACED_FRAMES if placed else FRAMES)
 
 
 @pytest.mark.slow
@@ -75,3 +82,12 @@ def test_catch_at_the_old_defaults_it_is_dust(engine):
     needs_package(f"gasp_{engine}")
     r = run(engine, 48, "old")
     assert not_dust(r), r
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="not met: placed 1 m up in the default domain (dx 3.4 cm, the donut 2.3 crack "
+                                       "bands tall) it breaks through everywhere and swells (docs/fracture.md)")
+def test_the_donut_placed_1_m_up_in_the_default_domain_ends_in_pieces():
+    needs_package("gasp_taichi_mpm")
+    r = run("taichi_mpm", 64, "new", placed=True)
+    assert not not_dust(r), (not_dust(r), r)
