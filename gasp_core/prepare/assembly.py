@@ -18,7 +18,7 @@ from gasp_core.prepare.placed import PreparedObject
 from gasp_core.prepare.runout import RUNOUT_SAFETY, pile_warnings, runout_reach, widen
 from gasp_core.prepare.stand import stand_warnings
 from gasp_core.prepare.thickness import thin_part_warnings
-from gasp_core.prepare.surface import ELASTIC, surface_rule
+from gasp_core.prepare.surface import ELASTIC, brittle_skin_warning, surface_rule
 from gasp_core.seam.memory import check_fill
 from gasp_core.scene.spec import Scene
 
@@ -150,7 +150,7 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> tuple[SimSetup, 
         fr, passive, rule = fill_object(scene, o, verts, dx, others, float(lo[2]))
         reach = footprints(o)
         thin = (thin_part_warnings(o.name, np.concatenate([verts, fr.fill_x]), fr.h, dx, n_grid)   # issue 54
-                if len(fr.fill_x) else []) + piles(scene, o, verts, dx)     # a sand pile under 3 cells (runout.py)
+                if len(fr.fill_x) else []) + piles(scene, o, verts, dx) + [brittle_skin_warning(o.name, rule, n_grid)]
         for msg in [fr.report.warning] + check_resolution(o.name, np.ptp(reach, axis=0), dx, n_grid, fr.report) + thin:
             if msg:
                 warnings.warn(msg, stacklevel=2)

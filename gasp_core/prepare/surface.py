@@ -18,6 +18,7 @@ across). The rule's inputs and its choice are recorded per object in ``run.json`
 from __future__ import annotations
 
 import dataclasses
+import math
 
 from gasp_core.maps.fill import FillResult
 
@@ -83,3 +84,31 @@ def choose_surface_points(spec):
     centres = (spec.mesh is None and not spec.static and spec.core_fraction == 1.0
                and spec.surface in ("auto", "material", "passive") and spec.material.name in ELASTIC)
     return dataclasses.replace(spec, surface_points="centres" if centres else "vertices")
+
+
+def brittle_skin_warning(name: str, rule: dict | None, n_grid: int) -> str:
+    """A warning (empty when none) for a ``brittle`` object whose closed fill spans fewer than
+    :data:`MIN_SOLID_CELLS` grid cells, so that its surface is simulated as material and the faces' shares put
+    (nearly) all of its mass on its skin: a brittle shell is broken through everywhere at an impact and its points
+    drift apart into a swelling cloud (issue 66, round 31; docs/fracture.md, "The brittle README donut from 1 m":
+    the README donut placed 1 m up in its default domain, n_grid 64, 43 solid cells, no interior point, filled 70
+    times the cells it filled at rest 10 frames after landing; at n_grid 96, 150 cells, one cracked piece).
+
+    Parameters
+    ----------
+    name : str
+        The object's name.
+    rule : dict or None
+        Its :func:`surface_rule` record (None: ``surface`` set by the scene, no rule applied).
+    n_grid : int
+        The scene's ``n_grid``; the warning names the one that gives :data:`MIN_SOLID_CELLS` cells (the solid's
+        cells grow as ``n_grid^3``).
+    """
+    if (rule is None or rule["material"] != "brittle" or rule["surface"] != "material"
+            or rule["fill_method"] != "six-ray" or not rule["solid_cells"] > 0):
+        return ""
+    need = math.ceil(n_grid * (MIN_SOLID_CELLS / rule["solid_cells"]) ** (1.0 / 3.0))
+    return (f"object '{name}': a brittle body of {rule['solid_cells']:g} grid cells of solid (under "
+            f"{MIN_SOLID_CELLS}), so its mass rides on its {rule['n_surface_points']} surface points: where it breaks "
+            f"through, a brittle shell turns to a swelling cloud of points, not pieces (docs/fracture.md); n_grid = "
+            f"{need} gives it {MIN_SOLID_CELLS} cells and an interior")

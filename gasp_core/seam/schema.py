@@ -102,10 +102,10 @@ MATERIAL_PARAMS: dict[str, Param] = {
     "viscosity": Param(0.0, 0.0, unit="Pa s",
                        doc="Kelvin-Voigt shear viscosity eta, 0 = no physical damping (engine feature "
                            "'viscosity'; docs/dissipation.md)"),
-    "tensile_strength": Param(1e3, 0.0, lo_open=True, unit="Pa",
+    "tensile_strength": Param(1e4, 0.0, lo_open=True, unit="Pa",
                               doc="Rankine tensile strength f_t: the largest principal stress an undamaged point "
                                   "carries (docs/fracture.md)"),
-    "fracture_energy": Param(10.0, 0.0, lo_open=True, unit="J/m^2",
+    "fracture_energy": Param(50.0, 0.0, lo_open=True, unit="J/m^2",
                              doc="fracture energy G_f: the work to open a unit area of crack; at least "
                                  "tensile_strength^2 h / (2 E), the snap-back limit at the crack band width "
                                  "h = dx, the grid cell (docs/fracture.md)"),
