@@ -450,9 +450,10 @@ def test_the_work_to_break_the_bar_at_its_clamp_at_8_points_a_cell(name):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", _names())
-def test_the_work_check_catches_the_band_of_before(name, monkeypatch):
-    """The band ``dx + p_vol^(1/3)`` (before round 31; 1.33 ``dx`` at 27 points per cell): the check fails it."""
-    fixed_band(monkeypatch, name, lambda band: band * 4 / 3)
+def test_the_work_check_catches_the_band_of_the_kernels_support(name, monkeypatch):
+    """The band ``2 dx`` (every layer a jump's B-spline hat reaches, the quadratic kernel's support across a node
+    pair; 27 points per cell): the check fails it (measured 5.91 J/m^2 with ``dx``, +18 %, on warp_mpm)."""
+    fixed_band(monkeypatch, name, lambda band: 2 * float(band[0]))
     assert any(b.startswith("27 points per cell") for b in work_to_break_failures(name))
 
 
@@ -520,9 +521,10 @@ def free_bar_break(name: str, n_frames: int = 30) -> dict:
 @pytest.mark.slow
 @pytest.mark.parametrize("name", _names())
 def test_a_free_bar_that_breaks_keeps_its_momentum_and_gains_no_energy(name):
-    # 60 frames: the pieces are the parts that have come apart by a cell (issue 66 item 4); the bar is broken through
-    # by frame 30 (320 points at d >= 0.9, taichi_mpm) but its halves part by a cell only later (3 pieces at 60)
-    r = free_bar_break(name, n_frames=60)
+    # 90 frames: the pieces are the parts that have come apart by a cell (issue 66 item 4); the bar is broken through
+    # by frame 30 but its halves part by a cell only later (in the crack band dx, round 31: 1 piece at 60 frames, 3
+    # at 90 on warp_mpm; 3 at 60 in the band 1.5 dx of before)
+    r = free_bar_break(name, n_frames=90)
     assert r["pieces"] >= 2, r["pieces"]
     p, E0 = np.array(r["p"]), r["E"][0]
     assert np.all(np.abs(p / p[0] - 1) < 0.01), p
