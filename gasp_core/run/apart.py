@@ -33,7 +33,7 @@ TIPS = 2.0
 
 
 def apart_masks(means: np.ndarray, rot: np.ndarray, scales: np.ndarray, points: np.ndarray, piece: np.ndarray,
-                reach: float) -> tuple[np.ndarray, np.ndarray]:
+                reach: float, tree: cKDTree | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Which Gaussians span two pieces and which are specks (module notes).
 
     Parameters
@@ -50,6 +50,8 @@ def apart_masks(means: np.ndarray, rot: np.ndarray, scales: np.ndarray, points: 
         Each one's piece.
     reach : float
         Metres, > 0 (:data:`REACH` ``dx``).
+    tree : cKDTree, optional
+        A tree already built over ``points`` (the frame's, shared with :func:`hold_to_pieces`).
 
     Returns
     -------
@@ -70,7 +72,8 @@ def apart_masks(means: np.ndarray, rot: np.ndarray, scales: np.ndarray, points: 
         return np.zeros(n, bool), np.ones(n, bool) if len(points) == 0 else np.zeros(n, bool)
     arms = [TIPS * scales[:, j, None] * rot[:, :, j] for j in (1, 2)]
     samples = np.stack([means, means + arms[0], means - arms[0], means + arms[1], means - arms[1]], 1)
-    dist, near = cKDTree(points).query(samples.reshape(-1, 3), distance_upper_bound=reach)
+    tree = cKDTree(points) if tree is None else tree
+    dist, near = tree.query(samples.reshape(-1, 3), distance_upper_bound=reach)
     lab = np.where(np.isfinite(dist), piece[np.minimum(near, len(piece) - 1)], -1).reshape(n, 5)
     specks = lab[:, 0] < 0
     lo = np.where(lab >= 0, lab, np.iinfo(np.int64).max).min(axis=1)
@@ -79,17 +82,20 @@ def apart_masks(means: np.ndarray, rot: np.ndarray, scales: np.ndarray, points: 
 
 
 def apart_row(means: np.ndarray, rot: np.ndarray, scales: np.ndarray, x_fill: np.ndarray, lab_fill: np.ndarray,
-              mass_fill: np.ndarray, pieces: np.ndarray | None, reach: float) -> dict:
+              mass_fill: np.ndarray, pieces: np.ndarray | None, reach: float, tree: cKDTree | None = None) -> dict:
     """One object's ``run.json`` figures of a frame: ``{"spanning", "specks"}`` (counts, :func:`apart_masks`) of its
     drawn Gaussians (``means``, ``rot``, ``scales`` as there) against its material points: ``x_fill`` (k, 3) world
     metres, ``lab_fill`` (k,) their labels (:meth:`gasp_core.run.pieces.PieceTracker.labels`), ``mass_fill`` (k,) kg
     (0: passive, not material), ``pieces`` (per label, bool: :attr:`~gasp_core.run.pieces.PieceTracker.pieces`; None:
-    every label a piece), ``reach`` metres."""
+    every label a piece), ``reach`` metres; ``tree`` (optional) one built over those of its points in a piece, in
+    their order (:func:`piece_points`)."""
     lab = np.asarray(lab_fill)
     keep = np.asarray(mass_fill) > 0
     if pieces is not None:
         keep &= np.asarray(pieces, bool)[lab]
-    spanning, specks = apart_masks(means, rot, scales, np.asarray(x_fill)[keep], lab[keep], reach)
+    if tree is not None and tree.n != int(keep.sum()):
+        raise ValueError(f"apart_row: the tree holds {tree.n} points, the pieces {int(keep.sum())}")
+    spanning, specks = apart_masks(means, rot, scales, np.asarray(x_fill)[keep], lab[keep], reach, tree)
     return {"spanning": int(spanning.sum()), "specks": int(specks.sum())}
 
 
@@ -131,7 +137,6 @@ def piece_rotations(p_rest: np.ndarray, p_t: np.ndarray, piece: np.ndarray) -> t
     return pieces, V @ D @ Ut, ok
 
 
-
 class PieceContext(NamedTuple):
     """What :func:`gasp_core.run.frames.rebuild` needs of a frame's pieces beside the point labels.
 
@@ -168,7 +173,8 @@ def piece_points(o, labels: np.ndarray, ctx: PieceContext) -> np.ndarray:
 
 
 def hold_to_pieces(o, x: np.ndarray, labels: np.ndarray, ctx: PieceContext, prev_rot: np.ndarray,
-                   means: np.ndarray, rot: np.ndarray, scales: np.ndarray) -> np.ndarray:
+                   means: np.ndarray, rot: np.ndarray, scales: np.ndarray, pts: np.ndarray | None = None,
+                   tree: cKDTree | None = None) -> np.ndarray:
     """Put object ``o``'s Gaussians that its pieces would not show back on them, in place; which, shape (n,), bool.
 
     A Gaussian is held to a piece when its anchor point (:meth:`~gasp_core.maps.surface.SurfaceMap.anchors`) is in a
@@ -184,16 +190,17 @@ def hold_to_pieces(o, x: np.ndarray, labels: np.ndarray, ctx: PieceContext, prev
 
     ``x`` (n_points, 3) world positions, ``labels`` (n_points,) the point labels, ``prev_rot`` (n, 3, 3) the last
     frame's rotations; ``means`` (n, 3), ``rot`` (n, 3, 3), ``scales`` (n, 3): the Gaussians (world frame, metres),
-    changed in place.
+    changed in place; ``pts`` (:func:`piece_points`) and ``tree`` (over ``x[pts]``), when the caller has them.
     """
-    pts = piece_points(o, labels, ctx)
+    pts = piece_points(o, labels, ctx) if pts is None else pts
     n = len(means)
     if len(pts) == 0 or n == 0:
         return np.zeros(n, bool)
     lab = np.asarray(labels)
     anchor = np.arange(len(ctx.p_mass))[o.vertex_slice][o.surface.anchors()]
     crumb = np.zeros(n, bool) if ctx.pieces is None else ~np.asarray(ctx.pieces, bool)[lab[anchor]]
-    away = cKDTree(x[pts]).query(means, distance_upper_bound=ctx.reach)[0] > ctx.reach
+    tree = cKDTree(x[pts]) if tree is None else tree
+    away = tree.query(means, distance_upper_bound=ctx.reach)[0] > ctx.reach
     held = np.flatnonzero(crumb | away)
     if len(held) == 0:
         return np.zeros(n, bool)

@@ -5,6 +5,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Callable
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from gasp_core.maps.games import EPS
 from gasp_core.maps.rows import by_rows
@@ -13,7 +14,7 @@ from gasp_core.prepare.dynamic import background_at
 from gasp_core.prepare.placed import PreparedObject
 from gasp_core.seam.runner import EngineRun, RunStats
 from gasp_core.prepare.selection import scatter
-from gasp_core.run.apart import REACH, PieceContext, apart_row, hold_to_pieces, piece_rotations
+from gasp_core.run.apart import REACH, PieceContext, apart_row, hold_to_pieces, piece_points, piece_rotations
 
 if TYPE_CHECKING:
     from gasp_core.prepare.scene import PreparedScene
@@ -123,13 +124,15 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray,
         if straddle.any():
             turn_with_pieces(o, x, sr, lab, straddle, rot, means_w)
         counts["straddling"] = int(straddle.sum())
-        if apart is not None:
+        if apart is not None:   # one tree over the pieces' material points serves the hold and the counts
+            pts = piece_points(o, labels, apart)
+            tree = cKDTree(x[pts]) if len(pts) else None
             if apart.hold:
-                held = hold_to_pieces(o, x, labels, apart, prev_rot, means_w, rot, scales_w)
+                held = hold_to_pieces(o, x, labels, apart, prev_rot, means_w, rot, scales_w, pts, tree)
                 counts["held"], straddle = int(held.sum()), straddle | held
             fs = o.fill_slice
             counts.update(apart_row(means_w, rot, scales_w, x[fs], np.asarray(labels)[fs], apart.p_mass[fs],
-                                    apart.pieces, apart.reach))
+                                    apart.pieces, apart.reach, tree))
     pl = o.placement
     scales = scales_w / pl.scale
     scales[:, 0] = o.thin_scale if o.spec.thickness == "keep" else EPS
