@@ -58,6 +58,8 @@ class Transfers:
         if ti.static(self.any_fixed or self.n_set_boxes > 0):   # in a held box: the image gradient (grid.py)
             a, d_held = self.held_axis(p), self.Jp[p]
             Cf = self.image_gradient(C, a)
+            if a == -2:   # deep in a set box: rigid
+                Cf = ti.Matrix.zero(self.real, 3, 3)
         F = (ti.Matrix.identity(self.real, 3) + dt * Cf) @ self.F[p]
         tau = self.return_mapping(p, F)
         if ti.static(self.any_fixed or self.n_set_boxes > 0):   # its stress scattered to match; no damage
@@ -156,6 +158,14 @@ class Transfers:
                 for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                     old_v += w[i][0] * w[j][1] * w[k][2] * self.grid_v0[base + ti.Vector([i, j, k])]
                 v_p = new_v + self.flip * (self.v[p] - old_v)
+            if ti.static(self.any_fixed or self.n_set_boxes > 0):   # near a held box's face: its image's gradient
+                a = self.held_axis(p)
+                if a >= 0:
+                    new_C = self.image_C(p, a, new_C)
+                if ti.static(self.n_set_boxes > 0):   # a set box's points move with it
+                    if self.fixed[p] == 0:
+                        new_v = self.set_box_velocity(self.x[p], new_v)
+                        v_p = self.set_box_velocity(self.x[p], v_p)
             if ti.static(self.any_fixed):
                 if self.fixed[p] != 0:   # held; near its region's face its F follows the image gradient (p2g_prep)
                     new_v = ti.Vector.zero(self.real, 3)
