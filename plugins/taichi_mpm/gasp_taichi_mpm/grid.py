@@ -119,7 +119,7 @@ class GridUpdate:
             if self.cut:
                 self.grid_cut.fill(0)
                 self.mark_cut()
-            if self.n_set_boxes:
+            if self.n_set_boxes and BRITTLE in self.kinds:   # a brittle body's set box (docs/fracture.md)
                 self.hold_set_faces()
             self.mirror_held()
 
