@@ -57,6 +57,12 @@ def node_ranges(setup, dx: float, contact: str = "particle"):
 class GridUpdate:
     """The grid update (:meth:`grid_update`) and the node extras it applies (:meth:`extras`)."""
 
+    #: The brittle held rule of issue 66 round 32 (docs/fracture.md, "The held region"): a held brittle point's stress
+    #: at its held damage, its gradient its mirror image's, a set box's points at ``v_set`` (rigid deeper than
+    #: ``HELD_STRAIN_CELLS``), the free node within half a cell outside a set box's face held with it. False: the rule
+    #: before (the tension family's catch, ``tests/test_tension_family.py``).
+    held_rule = True
+
     @ti.func
     def extras(self, I, v, m, gsurf, f):
         """Forces, impulses, then colliders at node ``I`` (docs/colliders.md; the same order as warp_mpm):
@@ -119,7 +125,7 @@ class GridUpdate:
             if self.cut:
                 self.grid_cut.fill(0)
                 self.mark_cut()
-            if self.n_set_boxes and BRITTLE in self.kinds:   # a brittle body's set box (docs/fracture.md)
+            if self.n_set_boxes and BRITTLE in self.kinds and self.held_rule:   # a brittle body's set box
                 self.hold_set_faces()
             self.mirror_held()
 
@@ -291,11 +297,12 @@ class GridUpdate:
                 kind = ti.static(next(iter(self.kinds)))
             if kind == BRITTLE and self.Jp[p] < 1.0:   # broken through (its image's crack): stays so
                 self.Jp[p] = d_held
-                prm = self.mat[self.body[p]]   # not softened on the way: its stress at its held damage
-                U, sig, V = self.svd(self.F[p])
-                tau0, _d = self.brittle_tau(U, ti.log(ti.max(sig, 1e-4)), prm[P_MU], prm[P_LAM], prm[P_SF],
-                                            prm[P_SF], d_held)
-                out = self.image_gradient(tau0, a)
+                if ti.static(self.held_rule):   # not softened on the way: its stress at its held damage
+                    prm = self.mat[self.body[p]]
+                    U, sig, V = self.svd(self.F[p])
+                    tau0, _d = self.brittle_tau(U, ti.log(ti.max(sig, 1e-4)), prm[P_MU], prm[P_LAM], prm[P_SF],
+                                                prm[P_SF], d_held)
+                    out = self.image_gradient(tau0, a)
         return out
 
     @ti.kernel
