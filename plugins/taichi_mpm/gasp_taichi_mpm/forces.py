@@ -10,7 +10,7 @@ from gasp_core.mpm.grid_tables import (COL_POSE, FALLOFF_INVERSE_SQUARE, FORCE_R
                                            FR_FALLOFF, FR_KIND, FR_MODE_COUNT, FR_MODE_START, FR_RADIUS, FR_STRENGTH,
                                            FT_POSES, IM_A, IM_B, IM_DV, IM_MODE, IM_SHAPE, IMPULSE_ADD, IMPULSE_BOX,
                                            IMPULSE_ROW, MD_A, MD_K, MD_OMEGA, MD_PHASE, MODE_ROW)
-from gasp_core.mpm.points import HELD_STRAIN_CELLS
+from gasp_core.mpm.points import HELD_STRAIN_CELLS, SET_FACE_CELLS
 
 
 def count_set_boxes(ex) -> int:
@@ -120,10 +120,11 @@ class Forces:
 
     @ti.kernel
     def hold_set_faces(self):
-        """The free node within half a cell outside a set box's face (along its normal, inside its extent along the
-        face): ``(v_set + s v_out) / (1 + s)``, ``s`` its distance to the face in cells, ``v_out`` the next node away
-        from the box, so that with the ghost beyond it (:meth:`mirror_set_boxes`) the grid's linear velocity meets
-        ``v_set`` on the face for any field, as where the box's own node is nearest the face."""
+        """The free node within :data:`~gasp_core.mpm.points.SET_FACE_CELLS` (half a cell) outside a set box's face
+        (along its normal, inside its extent along the face): ``(v_set + s v_out) / (1 + s)``, ``s`` its distance to
+        the face in cells, ``v_out`` the next node away from the box, so that with the ghost beyond it
+        (:meth:`mirror_set_boxes`) the grid's linear velocity meets ``v_set`` on the face for any field, as where the
+        box's own node is nearest the face. The warp_mpm plugin's ``hold_set_faces``."""
         lo, ext = self.touched_box()
         for idx in range(ext[0] * ext[1] * ext[2]):
             I = lo + ti.Vector([idx // (ext[1] * ext[2]), (idx // ext[2]) % ext[1], idx % ext[2]])
@@ -143,12 +144,12 @@ class Forces:
                                 lat = lat and X[e] >= c[e] and X[e] <= b[e]
                         sl = (c[d] - X[d]) * self.inv_dx[None]
                         sh = (X[d] - b[d]) * self.inv_dx[None]
-                        if lat and sl > 0.0 and sl < 0.5 and I[d] >= 1:
+                        if lat and sl > 0.0 and sl < SET_FACE_CELLS and I[d] >= 1:
                             J = I
                             J[d] -= 1
                             if self.grid_m[J] > 0.0:
                                 self.grid_v[I] = (dv + sl * self.grid_v[J]) / (1.0 + sl)
-                        if lat and sh > 0.0 and sh < 0.5 and I[d] < self.n_grid - 1:
+                        if lat and sh > 0.0 and sh < SET_FACE_CELLS and I[d] < self.n_grid - 1:
                             J = I
                             J[d] += 1
                             if self.grid_m[J] > 0.0:
