@@ -24,10 +24,9 @@ from gasp_core.mpm.materials import BRITTLE
 from gasp_core.mpm.points import HELD_STRAINED, SET_FACE_CELLS
 
 from .constitutive import build_decompositions
-from .fields import build_field_reads
 from .forces import build_extras_struct
 from .precision import MODULE_OPTIONS, build_types
-from .stencil import build_stencil
+from .stencil import build_gather, build_stencil
 
 
 class HeldRule:
@@ -68,19 +67,20 @@ def build_held_tau(Ft):
 
 @functools.cache
 def build_image_C(Ft):
-    """``(image_C, set_box_velocity)``. ``image_C(C, a, code, X, ex, fixed_lo, fixed_hi, grid_v, grid_dv, off, lo,
-    inv_dx, n_grid)``: the velocity gradient (1/s, ``mat33``) of a brittle point at ``X`` (m) near a held box's face of
-    normal axis ``a`` (``held.build_image_flip``'s ``held_axis``): the grid's gradient gathered at its mirror image
-    ``X'`` across the nearest face of the box that holds it (a fixed region for ``code >= HELD_STRAINED``, a set box
-    for ``code`` 0), as the ghost field's, ``grad v(X') D``, so its ``F`` follows the image's strain for any field;
-    ``C`` where no box holds it or ``X'`` is off the grid. ``set_box_velocity(X, v, ex)``: ``v_set`` of the set box
-    acting now that holds ``X``, else ``v``. taichi_mpm's ``GridUpdate.image_C`` and ``Forces.set_box_velocity``."""
+    """``(image_C, set_box_velocity)``. ``image_C(C, a, code, X, ex, fixed_lo, fixed_hi, grid_v, grid_dv,
+    off, lo, inv_dx, n_grid)``: the velocity gradient (1/s, ``mat33``) of a brittle point at ``X`` (m) near a held
+    box's face of normal axis ``a`` (``held.build_image_flip``'s ``held_axis``): the grid's gradient gathered at its
+    mirror image ``X'`` across the nearest face of the box that holds it (a fixed region for ``code >=
+    HELD_STRAINED``, a set box for ``code`` 0), as the ghost field's, ``grad v(X') D``, so its ``F`` follows the
+    image's strain for any field; ``C`` where no box holds it or ``X'`` is off the grid. ``set_box_velocity(X, v,
+    ex)``: ``v_set`` of the set box acting now that holds ``X``, else ``v``. taichi_mpm's ``GridUpdate.image_C`` and
+    ``Forces.set_box_velocity``."""
     vec3, vec4, mat33 = build_types(Ft)
     Extras = build_extras_struct(Ft)
     from .held import build_image_flip   # held.py's P2G rule imports this module
     held_axis, image_flip, set_box_at = build_image_flip(Ft)
     in_grid, weights = build_stencil(Ft)
-    field_offset_base, field_node_v = build_field_reads(Ft)
+    gather = build_gather(Ft)
 
     @wp.func
     def image_C(Cp: mat33, a: int, code: int, X: vec3, ex: Extras, fixed_lo: wp.array(dtype=vec3),
@@ -123,16 +123,7 @@ def build_image_C(Ft):
                 fx = G - vec3(b0, b1, b2)
                 W = weights(fx)
                 idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
-                steps = vec3(Ft(0.0), Ft(1.0), Ft(2.0))   # as g2p_passive: no cast of an unrolled loop's index
-                v = vec3(Ft(0.0))
-                B = mat33()
-                for i in range(3):
-                    for j in range(3):
-                        for k in range(3):
-                            gv = (W[i, 0] * W[j, 1] * W[k, 2]) * field_node_v(
-                                grid_v, grid_dv, off, idx0 + (i * n_grid + j) * n_grid + k)
-                            v = v + gv
-                            B = B + wp.outer(gv, vec3(steps[i], steps[j], steps[k]))
+                v, B = gather(grid_v, grid_dv, off, W, idx0, n_grid)
                 out = ((Ft(4.0) * inv_dx) * (B - wp.outer(v, fx))) * image_flip(a)
         return out
 
@@ -146,6 +137,36 @@ def build_image_C(Ft):
         return out
 
     return image_C, set_box_velocity
+
+
+@functools.cache
+def build_held_g2p(Ft):
+    """``held_g2p(C, v, code, X, ex, fixed_lo, fixed_hi, grid_v, grid_dv, off, lo, inv_dx, dx, n_grid)``: G2P's ``(C,
+    v, held)`` of a brittle point under the rule (``code`` its hold, ``held_codes``): near a held box's face its
+    mirror image's gradient (``image_C``, :func:`build_image_C`), in a set box acting now its ``v_set`` with ``held``
+    1 (its AFLIP part dropped). taichi_mpm's ``g2p_point`` under ``held_rule``."""
+    vec3, vec4, mat33 = build_types(Ft)
+    Extras = build_extras_struct(Ft)
+    from .held import build_image_flip   # held.py's P2G rule imports this module
+    held_axis, image_flip, set_box_at = build_image_flip(Ft)
+    image_C, set_box_velocity = build_image_C(Ft)
+
+    @wp.func
+    def held_g2p(Cn: mat33, new_v: vec3, code: int, X: vec3, ex: Extras, fixed_lo: wp.array(dtype=vec3),
+                 fixed_hi: wp.array(dtype=vec3), grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3),
+                 off: int, lo: vec3, inv_dx: Ft, dx: Ft, n_grid: int):
+        a = held_axis(code, X, dx, ex)
+        C_out = Cn
+        if a >= 0:
+            C_out = image_C(Cn, a, code, X, ex, fixed_lo, fixed_hi, grid_v, grid_dv, off, lo, inv_dx, n_grid)
+        held_v = int(0)
+        v_out = new_v
+        if code == 0 and set_box_at(X, ex) >= 0:   # a set box's points move with it
+            held_v = 1
+            v_out = set_box_velocity(X, new_v, ex)
+        return C_out, v_out, held_v
+
+    return held_g2p
 
 
 @functools.cache

@@ -1,7 +1,7 @@
 """The stencil of a point (docs/mpm.md "Grid": the grid-stencil test and the quadratic B-spline weights) and the
-scatter of a vector over it, as Warp functions per scalar type (:mod:`gasp_warp_mpm.precision`), shared by the
-transfers (:mod:`gasp_warp_mpm.transfers`) and the brittle held rule's image gradient
-(:mod:`gasp_warp_mpm.held_rule`).
+scatter of a vector over it and the gather of the grid's velocity, as Warp functions per scalar type
+(:mod:`gasp_warp_mpm.precision`), shared by the transfers (:mod:`gasp_warp_mpm.transfers`) and the brittle held
+rule's image gradient (:mod:`gasp_warp_mpm.held_rule`).
 
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of
 the closures below as type objects.
@@ -10,6 +10,7 @@ import functools
 
 import warp as wp
 
+from .fields import build_field_reads
 from .precision import build_types
 
 
@@ -61,3 +62,54 @@ def build_scatter_vec(Ft):
                     grid_s[row + k] += (W[i, 0] * W[j, 1] * W[k, 2]) * value
 
     return scatter_vec
+
+
+@functools.cache
+def build_gather(Ft):
+    """``gather(grid_v, grid_dv, off, W, idx0, n_grid)``: ``(v, B)`` over a point's 27 nodes from flat index ``idx0``
+    with its weights ``W`` (:func:`build_stencil`): ``v = sum w g`` (m/s) and ``B = sum w g (i, j, k)^T`` (m/s), ``g``
+    each node's velocity plus its field's offset (``fields.build_field_reads``, ``off`` -1: the grid's alone), summed
+    over node planes; G2P's ``C = 4 inv_dx (B - v fx^T)`` (APIC, Jiang et al. 2015)."""
+    vec3, vec4, mat33 = build_types(Ft)
+    field_node_v = build_field_reads(Ft)[1]
+
+    @wp.func
+    def gather(grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), off: int, W: mat33, idx0: int,
+               n_grid: int):
+        nn = n_grid * n_grid
+        new_v = vec3(Ft(0.0))
+        si1 = vec3(Ft(0.0))
+        si2 = vec3(Ft(0.0))
+        sj1 = vec3(Ft(0.0))
+        sj2 = vec3(Ft(0.0))
+        sk1 = vec3(Ft(0.0))
+        sk2 = vec3(Ft(0.0))
+        for i in range(3):
+            vi = vec3(Ft(0.0))
+            for j in range(3):
+                wij = W[i, 0] * W[j, 1]
+                row = idx0 + i * nn + j * n_grid
+                vj = vec3(Ft(0.0))
+                for k in range(3):
+                    wg = (wij * W[k, 2]) * field_node_v(grid_v, grid_dv, off, row + k)
+                    vj = vj + wg
+                    if k == 1:
+                        sk1 = sk1 + wg
+                    if k == 2:
+                        sk2 = sk2 + wg
+                vi = vi + vj
+                if j == 1:
+                    sj1 = sj1 + vj
+                if j == 2:
+                    sj2 = sj2 + vj
+            new_v = new_v + vi
+            if i == 1:
+                si1 = si1 + vi
+            if i == 2:
+                si2 = si2 + vi
+        c0 = si1 + Ft(2.0) * si2
+        c1 = sj1 + Ft(2.0) * sj2
+        c2 = sk1 + Ft(2.0) * sk2
+        return new_v, wp.matrix_from_cols(c0, c1, c2)
+
+    return gather

@@ -20,10 +20,10 @@ from gasp_core.mpm.materials import BRITTLE, P_ETA
 from .contact import build_collider_contact, build_passive_hold
 from .fields import build_aflip_gather, build_field_reads
 from .forces import build_extras_struct
-from .held import build_held_return, build_image_flip
-from .held_rule import build_image_C
+from .held import build_held_return
+from .held_rule import build_held_g2p
 from .precision import MODULE_OPTIONS, build_types
-from .stencil import build_scatter_vec, build_stencil
+from .stencil import build_gather, build_scatter_vec, build_stencil
 
 
 @functools.cache
@@ -125,8 +125,7 @@ def build_p2g(Ft):
         fx = X - vec3(b0, b1, b2)
         W = weights(fx)
         Cp = C[p]
-        # (I + dt C) F and the return mapping; in a held box the image gradient, its stress, no damage (held.py;
-        # rule: the brittle held rule, held_rule.py)
+        # (I + dt C) F and the return mapping; in a held box the image gradient, its stress, no damage (held.py)
         F_new, tau = held_return(Cp, F[p], dt, p, fixed[p], x[p], dx, ex, body, mat_kind, mat_par, Jp, rule)
         F[p] = F_new
         eta = mat_par[body[p], P_ETA]
@@ -172,9 +171,7 @@ def build_g2p(Ft):
     in_grid, weights = build_stencil(Ft)
     field_offset_base, field_node_v = build_field_reads(Ft)
     aflip_gather = build_aflip_gather(Ft)
-    Extras = build_extras_struct(Ft)
-    held_axis, image_flip, set_box_at = build_image_flip(Ft)
-    image_C, set_box_velocity = build_image_C(Ft)
+    Extras, gather, held_g2p = build_extras_struct(Ft), build_gather(Ft), build_held_g2p(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def g2p(
@@ -186,8 +183,7 @@ def build_g2p(Ft):
         dx: Ft, rule: int,
     ):
         # with the two-field contact (gasp_warp_mpm.fields) each node's velocity plus the point's field's offset; with
-        # rule (the brittle held rule, held_rule.py) a brittle point near a held box's face takes its mirror image's
-        # gradient, and a set box's points its v_set
+        # rule a brittle point near a held box's face takes its mirror image's gradient, a set box's its v_set
         p = wp.tid()
         if fixed[p] == 1:   # held; near its region's face (2) its C, so its F, follows the grid (docs/fracture.md)
             v[p] = vec3(Ft(0.0))
@@ -204,52 +200,14 @@ def build_g2p(Ft):
         W = weights(fx)
         nn = n_grid * n_grid
         idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
-        # new_v = sum w g;  B = sum w g (i, j, k)^T  accumulated as sums over node planes.
         off = field_offset_base(grid_dv, in_a, body[p], n_grid * nn)   # -1 without two fields (fields.py)
-        new_v = vec3(Ft(0.0))
-        si1 = vec3(Ft(0.0))
-        si2 = vec3(Ft(0.0))
-        sj1 = vec3(Ft(0.0))
-        sj2 = vec3(Ft(0.0))
-        sk1 = vec3(Ft(0.0))
-        sk2 = vec3(Ft(0.0))
-        for i in range(3):
-            vi = vec3(Ft(0.0))
-            for j in range(3):
-                wij = W[i, 0] * W[j, 1]
-                row = idx0 + i * nn + j * n_grid
-                vj = vec3(Ft(0.0))
-                for k in range(3):
-                    wg = (wij * W[k, 2]) * field_node_v(grid_v, grid_dv, off, row + k)
-                    vj = vj + wg
-                    if k == 1:
-                        sk1 = sk1 + wg
-                    if k == 2:
-                        sk2 = sk2 + wg
-                vi = vi + vj
-                if j == 1:
-                    sj1 = sj1 + vj
-                if j == 2:
-                    sj2 = sj2 + vj
-            new_v = new_v + vi
-            if i == 1:
-                si1 = si1 + vi
-            if i == 2:
-                si2 = si2 + vi
-        c0 = si1 + Ft(2.0) * si2
-        c1 = sj1 + Ft(2.0) * sj2
-        c2 = sk1 + Ft(2.0) * sk2
-        B = wp.matrix_from_cols(c0, c1, c2)
+        new_v, B = gather(grid_v, grid_dv, off, W, idx0, n_grid)   # sum w g, sum w g (i, j, k)^T
         # C = 4 inv_dx^2 sum w g ((i, j, k) - fx)^T dx = 4 inv_dx (B - new_v fx^T)
         Cn = (Ft(4.0) * inv_dx) * (B - wp.outer(new_v, fx))
         held_v = int(0)
-        if rule != 0 and mat_kind[body[p]] == BRITTLE:
-            a = held_axis(fixed[p], xp, dx, ex)
-            if a >= 0:
-                Cn = image_C(Cn, a, fixed[p], xp, ex, fixed_lo, fixed_hi, grid_v, grid_dv, off, lo, inv_dx, n_grid)
-            if fixed[p] == 0 and set_box_at(xp, ex) >= 0:   # a set box's points move with it
-                held_v = 1
-                new_v = set_box_velocity(xp, new_v, ex)
+        if rule != 0 and mat_kind[body[p]] == BRITTLE:   # the brittle held rule (held_rule.py)
+            Cn, new_v, held_v = held_g2p(Cn, new_v, fixed[p], xp, ex, fixed_lo, fixed_hi, grid_v, grid_dv, off, lo,
+                                         inv_dx, dx, n_grid)
         C[p] = Cn
         if fixed[p] != 0:
             v[p] = vec3(Ft(0.0))
