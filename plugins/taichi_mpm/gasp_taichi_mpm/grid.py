@@ -234,7 +234,8 @@ class GridUpdate:
         """The velocity gradient point ``p`` near a held box's face (normal axis ``a`` from :meth:`held_axis`) takes:
         the grid's gradient gathered at its mirror image ``X'`` across that face, as the ghost field's (``grad v(X')
         D``, :meth:`image_gradient`), so its ``F`` follows the image's strain for any field, not the ghost nodes'
-        reflection of a field linear along the normal (``C`` as it is where no box holds it)."""
+        reflection of a field linear along the normal (``C`` as it is where no box holds it, or where a node of the
+        image's stencil has no mass: no material there to follow, as past a T rod's head)."""
         X = self.x[p]
         f = X[a]
         best = ti.cast(1e30, self.real)
@@ -265,11 +266,14 @@ class GridUpdate:
                 w = self.weights(fx)
                 v = ti.Vector.zero(self.real, 3)
                 B = ti.Matrix.zero(self.real, 3, 3)
+                full = True   # the image's stencil all in material (else the ghosts' C: no image to follow)
                 for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                     gv = w[i][0] * w[j][1] * w[k][2] * self.node_v(p, base + ti.Vector([i, j, k]))
                     v += gv
                     B += gv.outer_product(ti.Vector([float(i), float(j), float(k)], self.real))
-                out = self.image_gradient((4.0 * self.inv_dx[None]) * (B - v.outer_product(fx)), a)
+                    full = full and self.grid_m[base + ti.Vector([i, j, k])] > 0.0
+                if full:
+                    out = self.image_gradient((4.0 * self.inv_dx[None]) * (B - v.outer_product(fx)), a)
         return out
 
     @ti.func
@@ -289,7 +293,9 @@ class GridUpdate:
     def held_stress(self, p, tau, a, d_held):
         """The stress point ``p`` scatters under the held boxes' rule (``a`` from :meth:`held_axis`): ``tau D`` near a
         face; a brittle point in a held box keeps its damage ``d_held`` (its stress is its mirror image's: the
-        material a box holds does not break)."""
+        material a box holds does not break); under ``held_rule`` a set box's point scatters the stress of ``d_held``
+        (not softened on the way; a fixed region's held points keep their strain's: with both there a T rod hung by
+        its head diverged, ``tests/test_brittle.py``)."""
         out = self.image_gradient(tau, a)
         if a >= 0:
             kind = self.kind[self.body[p]]
@@ -297,12 +303,13 @@ class GridUpdate:
                 kind = ti.static(next(iter(self.kinds)))
             if kind == BRITTLE and self.Jp[p] < 1.0:   # broken through (its image's crack): stays so
                 self.Jp[p] = d_held
-                if ti.static(self.held_rule):   # not softened on the way: its stress at its held damage
-                    prm = self.mat[self.body[p]]
-                    U, sig, V = self.svd(self.F[p])
-                    tau0, _d = self.brittle_tau(U, ti.log(ti.max(sig, 1e-4)), prm[P_MU], prm[P_LAM], prm[P_SF],
-                                                prm[P_SF], d_held)
-                    out = self.image_gradient(tau0, a)
+                if ti.static(self.held_rule):   # a set box's point (held_rule): its stress at its held damage
+                    if self.fixed[p] == 0:
+                        prm = self.mat[self.body[p]]
+                        U, sig, V = self.svd(self.F[p])
+                        tau0, _d = self.brittle_tau(U, ti.log(ti.max(sig, 1e-4)), prm[P_MU], prm[P_LAM], prm[P_SF],
+                                                    prm[P_SF], d_held)
+                        out = self.image_gradient(tau0, a)
         return out
 
     @ti.kernel

@@ -113,8 +113,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
         self._passive_at, self._tick = [None] * self.n_substeps, None
         if self.n_points:
             self._record_launches(Ft, has_extras, ex)
-        self._graph = None
-        self._closed = False
+        self._graph, self._closed = None, False
 
     def _start_warp(self, dev: str):
         """``wp.init()`` quietly; the Warp device named by option ``device``.
@@ -242,7 +241,8 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
                 self.fr_dv, self.fr_fb]),
             wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
                 self.x, self.v, self.C, self.fixed, self.grid_v, lo_v, inv_dx, dt_f, ng, self.grid_v0, Ft(self.flip),
-                self.grid_dv, self.body, self.in_a, ex, self.mat_kind, self.fixed_lo, self.fixed_hi, dx, rule]),
+                self.grid_dv, self.body, self.in_a, ex, self.mat_kind, self.fixed_lo, self.fixed_hi, dx, rule,
+                self.grid_m]),
         ] + hold_launches(self, Ft, has_extras, ex) + self._rigid_launches(Ft)
         # the contact's balance (gasp_warp_mpm.balance): its moments before P2G, its fix after the grid update
         self._pre, fixes = balance_for(self, k, lo_v, dx, dt_f, ex)   # on the run's schedule (schedule/__init__.py)

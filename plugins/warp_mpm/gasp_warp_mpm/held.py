@@ -231,8 +231,9 @@ def build_held_return(Ft):
     (:func:`build_image_flip`): near a held box's face ``F`` advances by ``C D``, ``tau D`` is scattered, and a
     brittle point keeps its damage (its stress is its mirror image's: the material a box holds does not break);
     elsewhere ``(I + dt C) F``. With ``rule`` 1 (the brittle held rule, :mod:`gasp_warp_mpm.held_rule`) a brittle
-    point near the face scatters the stress of its held damage (not softened on the way) and one deeper in a set box
-    keeps its ``F`` (rigid)."""
+    point near a set box's face scatters the stress of its held damage (not softened on the way; a fixed region's
+    held points keep the stress of their strain: with both parts there a T rod hung by its head diverged) and one
+    deeper in a set box keeps its ``F`` (rigid)."""
     vec3, vec4, mat33 = build_types(Ft)
     Extras = build_extras_struct(Ft)
     held_axis, image_flip = build_image_flip(Ft)[:2]
@@ -255,7 +256,7 @@ def build_held_return(Ft):
                                     dt)
         if a >= 0 and brittle and Jp[p] < Ft(1.0):   # broken through: stays so
             Jp[p] = d_held
-            if rule != 0:   # not softened on the way: its stress at its held damage
+            if rule != 0 and code == 0:   # a set box's: not softened on the way, its stress at its held damage
                 tau = held_tau(F_new, mat_par[body[p], P_MU], mat_par[body[p], P_LAM], d_held)
         if a >= 0:
             tau = tau * image_flip(a)

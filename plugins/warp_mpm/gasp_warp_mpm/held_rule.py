@@ -68,11 +68,12 @@ def build_held_tau(Ft):
 @functools.cache
 def build_image_C(Ft):
     """``(image_C, set_box_velocity)``. ``image_C(C, a, code, X, ex, fixed_lo, fixed_hi, grid_v, grid_dv,
-    off, lo, inv_dx, n_grid)``: the velocity gradient (1/s, ``mat33``) of a brittle point at ``X`` (m) near a held
+    grid_m, off, lo, inv_dx, n_grid)``: the velocity gradient (1/s, ``mat33``) of a brittle point at ``X`` (m) near a held
     box's face of normal axis ``a`` (``held.build_image_flip``'s ``held_axis``): the grid's gradient gathered at its
     mirror image ``X'`` across the nearest face of the box that holds it (a fixed region for ``code >=
     HELD_STRAINED``, a set box for ``code`` 0), as the ghost field's, ``grad v(X') D``, so its ``F`` follows the
-    image's strain for any field; ``C`` where no box holds it or ``X'`` is off the grid. ``set_box_velocity(X, v,
+    image's strain for any field; ``C`` where no box holds it, ``X'`` is off the grid or a node of its stencil has no
+    mass (``grid_m``: no material there to follow, as past a T rod's head). ``set_box_velocity(X, v,
     ex)``: ``v_set`` of the set box acting now that holds ``X``, else ``v``. taichi_mpm's ``GridUpdate.image_C`` and
     ``Forces.set_box_velocity``."""
     vec3, vec4, mat33 = build_types(Ft)
@@ -85,7 +86,7 @@ def build_image_C(Ft):
     @wp.func
     def image_C(Cp: mat33, a: int, code: int, X: vec3, ex: Extras, fixed_lo: wp.array(dtype=vec3),
                 fixed_hi: wp.array(dtype=vec3), grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3),
-                off: int, lo: vec3, inv_dx: Ft, n_grid: int):
+                grid_m: wp.array(dtype=Ft), off: int, lo: vec3, inv_dx: Ft, n_grid: int):
         f = X[a]
         best = Ft(1e30)
         if code >= HELD_STRAINED:
@@ -124,7 +125,12 @@ def build_image_C(Ft):
                 W = weights(fx)
                 idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
                 v, B = gather(grid_v, grid_dv, off, W, idx0, n_grid)
-                out = ((Ft(4.0) * inv_dx) * (B - wp.outer(v, fx))) * image_flip(a)
+                full = int(1)   # the image's stencil all in material (else the ghosts' C: no image to follow)
+                for q in range(27):
+                    if grid_m[idx0 + ((q / 9) * n_grid + (q / 3) % 3) * n_grid + q % 3] <= Ft(0.0):
+                        full = 0
+                if full != 0:
+                    out = ((Ft(4.0) * inv_dx) * (B - wp.outer(v, fx))) * image_flip(a)
         return out
 
     @wp.func
@@ -141,8 +147,8 @@ def build_image_C(Ft):
 
 @functools.cache
 def build_held_g2p(Ft):
-    """``held_g2p(C, v, code, X, ex, fixed_lo, fixed_hi, grid_v, grid_dv, off, lo, inv_dx, dx, n_grid)``: G2P's ``(C,
-    v, held)`` of a brittle point under the rule (``code`` its hold, ``held_codes``): near a held box's face its
+    """``held_g2p(C, v, code, X, ex, fixed_lo, fixed_hi, grid_v, grid_dv, grid_m, off, lo, inv_dx, dx, n_grid)``:
+    G2P's ``(C, v, held)`` of a brittle point under the rule (``code`` its hold, ``held_codes``): near a held box's face its
     mirror image's gradient (``image_C``, :func:`build_image_C`), in a set box acting now its ``v_set`` with ``held``
     1 (its AFLIP part dropped). taichi_mpm's ``g2p_point`` under ``held_rule``."""
     vec3, vec4, mat33 = build_types(Ft)
@@ -154,11 +160,12 @@ def build_held_g2p(Ft):
     @wp.func
     def held_g2p(Cn: mat33, new_v: vec3, code: int, X: vec3, ex: Extras, fixed_lo: wp.array(dtype=vec3),
                  fixed_hi: wp.array(dtype=vec3), grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3),
-                 off: int, lo: vec3, inv_dx: Ft, dx: Ft, n_grid: int):
+                 grid_m: wp.array(dtype=Ft), off: int, lo: vec3, inv_dx: Ft, dx: Ft, n_grid: int):
         a = held_axis(code, X, dx, ex)
         C_out = Cn
         if a >= 0:
-            C_out = image_C(Cn, a, code, X, ex, fixed_lo, fixed_hi, grid_v, grid_dv, off, lo, inv_dx, n_grid)
+            C_out = image_C(Cn, a, code, X, ex, fixed_lo, fixed_hi, grid_v, grid_dv, grid_m, off, lo, inv_dx,
+                            n_grid)
         held_v = int(0)
         v_out = new_v
         if code == 0 and set_box_at(X, ex) >= 0:   # a set box's points move with it

@@ -180,7 +180,7 @@ def build_g2p(Ft):
         lo: vec3, inv_dx: Ft, dt: Ft, n_grid: int, grid_v0: wp.array(dtype=vec3), alpha: Ft,
         grid_dv: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32),
         ex: Extras, mat_kind: wp.array(dtype=wp.int32), fixed_lo: wp.array(dtype=vec3), fixed_hi: wp.array(dtype=vec3),
-        dx: Ft, rule: int,
+        dx: Ft, rule: int, grid_m: wp.array(dtype=Ft),
     ):
         # with the two-field contact (gasp_warp_mpm.fields) each node's velocity plus the point's field's offset; with
         # rule a brittle point near a held box's face takes its mirror image's gradient, a set box's its v_set
@@ -206,8 +206,8 @@ def build_g2p(Ft):
         Cn = (Ft(4.0) * inv_dx) * (B - wp.outer(new_v, fx))
         held_v = int(0)
         if rule != 0 and mat_kind[body[p]] == BRITTLE:   # the brittle held rule (held_rule.py)
-            Cn, new_v, held_v = held_g2p(Cn, new_v, fixed[p], xp, ex, fixed_lo, fixed_hi, grid_v, grid_dv, off, lo,
-                                         inv_dx, dx, n_grid)
+            Cn, new_v, held_v = held_g2p(Cn, new_v, fixed[p], xp, ex, fixed_lo, fixed_hi, grid_v, grid_dv, grid_m, off,
+                                         lo, inv_dx, dx, n_grid)
         C[p] = Cn
         if fixed[p] != 0:
             v[p] = vec3(Ft(0.0))
