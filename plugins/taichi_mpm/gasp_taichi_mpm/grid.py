@@ -57,10 +57,11 @@ def node_ranges(setup, dx: float, contact: str = "particle"):
 class GridUpdate:
     """The grid update (:meth:`grid_update`) and the node extras it applies (:meth:`extras`)."""
 
-    #: The brittle held rule of issue 66 round 32 (docs/fracture.md, "The held region"): a held brittle point's stress
-    #: at its held damage, its gradient its mirror image's, a set box's points at ``v_set`` (rigid deeper than
-    #: ``HELD_STRAIN_CELLS``), the free node within half a cell outside a set box's face held with it. False: the rule
-    #: before (the tension family's catch, ``tests/test_tension_family.py``).
+    #: The brittle held rule of issue 66 round 32 (docs/fracture.md, "The held region"): a set box's brittle point's
+    #: stress at its held damage, a held brittle point's gradient its mirror image's, a set box's points at ``v_set``
+    #: (rigid deeper than ``HELD_STRAIN_CELLS``), the free node within half a cell outside a set box's face held with
+    #: it. False: the rule before (the tension family's catch, ``tests/test_tension_family.py``; warp_mpm's switch is
+    #: ``WarpMPMEngine.held_rule``).
     held_rule = True
 
     @ti.func
