@@ -163,7 +163,7 @@ class Transfers:
                 if ti.static(self.held_rule):   # the brittle held rule (grid.py held_rule)
                     if self.kind[self.body[p]] == BRITTLE:
                         a = self.held_axis(p)
-                        if a >= 0:
+                        if a >= 0 and self.fixed[p] == 0:   # a set box's (not a fixed region's: as before)
                             new_C = self.image_C(p, a, new_C)
                         if ti.static(self.n_set_boxes > 0):   # a set box's points move with it
                             if self.fixed[p] == 0:

@@ -70,10 +70,10 @@ def build_held_tau(Ft):
 @functools.cache
 def build_image_C(Ft):
     """``(image_C, set_box_velocity)``. ``image_C(C, a, code, X, ex, fixed_lo, fixed_hi, grid_v, grid_dv,
-    grid_m, off, lo, inv_dx, n_grid)``: the velocity gradient (1/s, ``mat33``) of a brittle point at ``X`` (m) near a held
-    box's face of normal axis ``a`` (``held.build_image_flip``'s ``held_axis``): the grid's gradient gathered at its
-    mirror image ``X'`` across the nearest face of the box that holds it (a fixed region for ``code >=
-    HELD_STRAINED``, a set box for ``code`` 0), as the ghost field's, ``grad v(X') D``, so its ``F`` follows the
+    grid_m, off, lo, inv_dx, n_grid)``: the velocity gradient (1/s, ``mat33``) of a brittle point at ``X`` (m)
+    near a held box's face of normal axis ``a`` (``held.build_image_flip``'s ``held_axis``): the grid's gradient
+    gathered at its mirror image ``X'`` across the nearest face of the box that holds it (a fixed region for ``code
+    >= HELD_STRAINED``, a set box for ``code`` 0), as the ghost field's, ``grad v(X') D``, so its ``F`` follows the
     image's strain for any field; ``C`` where no box holds it, ``X'`` is off the grid or a node of its stencil has no
     mass (``grid_m``: no material there to follow, as past a T rod's head). ``set_box_velocity(X, v,
     ex)``: ``v_set`` of the set box acting now that holds ``X``, else ``v``. taichi_mpm's ``GridUpdate.image_C`` and
@@ -150,9 +150,10 @@ def build_image_C(Ft):
 @functools.cache
 def build_held_g2p(Ft):
     """``held_g2p(C, v, code, X, ex, fixed_lo, fixed_hi, grid_v, grid_dv, grid_m, off, lo, inv_dx, dx, n_grid)``:
-    G2P's ``(C, v, held)`` of a brittle point under the rule (``code`` its hold, ``held_codes``): near a held box's face its
-    mirror image's gradient (``image_C``, :func:`build_image_C`), in a set box acting now its ``v_set`` with ``held``
-    1 (its AFLIP part dropped). taichi_mpm's ``g2p_point`` under ``held_rule``."""
+    G2P's ``(C, v, held)`` of a brittle point under the rule (``code`` its hold, ``held_codes``): near a set box's
+    face its mirror image's gradient (``image_C``, :func:`build_image_C`; a fixed region's held points keep the
+    ghosts' gradient: with the image's a T rod hung by its head diverged), in a set box acting now its ``v_set`` with
+    ``held`` 1 (its AFLIP part dropped). taichi_mpm's ``g2p_point`` under ``held_rule``."""
     vec3, vec4, mat33 = build_types(Ft)
     Extras = build_extras_struct(Ft)
     from .held import build_image_flip   # held.py's P2G rule imports this module
@@ -165,7 +166,7 @@ def build_held_g2p(Ft):
                  grid_m: wp.array(dtype=Ft), off: int, lo: vec3, inv_dx: Ft, dx: Ft, n_grid: int):
         a = held_axis(code, X, dx, ex)
         C_out = Cn
-        if a >= 0:
+        if a >= 0 and code == 0:   # a set box's (a fixed region's held points: the ghosts' gradient, as before)
             C_out = image_C(Cn, a, code, X, ex, fixed_lo, fixed_hi, grid_v, grid_dv, grid_m, off, lo, inv_dx,
                             n_grid)
         held_v = int(0)
