@@ -58,10 +58,10 @@ class GridUpdate:
     """The grid update (:meth:`grid_update`) and the node extras it applies (:meth:`extras`)."""
 
     #: The brittle held rule of issue 66 round 32 (docs/fracture.md, "The held region"): a set box's brittle point's
-    #: stress at its held damage, a held brittle point's gradient its mirror image's, a set box's points at ``v_set``
-    #: (rigid deeper than ``HELD_STRAIN_CELLS``), the free node within half a cell outside a set box's face held with
-    #: it. False: the rule before (the tension family's catch, ``tests/test_tension_family.py``; warp_mpm's switch is
-    #: ``WarpMPMEngine.held_rule``).
+    #: stress at its held damage and its gradient its mirror image's (a fixed region's as before), its points at
+    #: ``v_set`` (rigid deeper than ``HELD_STRAIN_CELLS``), the free node within half a cell outside its face held
+    #: with it. False: the rule before (the tension family's catch, ``tests/test_tension_family.py``; warp_mpm's
+    #: switch is ``WarpMPMEngine.held_rule``).
     held_rule = True
 
     @ti.func

@@ -232,8 +232,8 @@ def build_held_return(Ft):
     brittle point keeps its damage (its stress is its mirror image's: the material a box holds does not break);
     elsewhere ``(I + dt C) F``. With ``rule`` 1 (the brittle held rule, :mod:`gasp_warp_mpm.held_rule`) a brittle
     point near a set box's face scatters the stress of its held damage (not softened on the way; a fixed region's
-    held points keep the stress of their strain: with both parts there a T rod hung by its head diverged) and one
-    deeper in a set box keeps its ``F`` (rigid)."""
+    held points keep the stress of their strain, :mod:`gasp_warp_mpm.held_rule`) and one deeper in a set box keeps
+    its ``F`` (rigid)."""
     vec3, vec4, mat33 = build_types(Ft)
     Extras = build_extras_struct(Ft)
     held_axis, image_flip = build_image_flip(Ft)[:2]

@@ -3,9 +3,10 @@
 (:mod:`gasp_warp_mpm.precision`); taichi_mpm's ``GridUpdate.held_rule``, the same four parts:
 
 - a set box's brittle point near its face scatters the stress of its held damage (:func:`build_held_tau`), never
-  softened on the way (not a fixed region's: with the next part there a T rod hung by its head diverged);
-- a held brittle point's velocity gradient is the grid's gathered at its mirror image across the box's face
-  (``image_C``; the ghosts' where the image's stencil has a node without mass);
+  softened on the way;
+- its velocity gradient is the grid's gathered at its mirror image across the box's face (``image_C``; the ghosts'
+  where the image's stencil has a node without mass). A fixed region's held points keep the rule before (with these
+  two parts there a T rod hung by its head diverged, docs/fracture.md);
 - a set box's points move at ``v_set`` (``set_box_velocity``), those deeper than ``HELD_STRAIN_CELLS`` rigid (P2G);
 - the free node within ``SET_FACE_CELLS`` outside a set box's face holds the face's linear velocity
   (:func:`build_hold_set_faces`).
