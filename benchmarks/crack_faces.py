@@ -68,6 +68,12 @@ def run_to(engine: str, frames: int, scene: Path = ROOT / "examples" / "donut_sh
     return prep, x, d
 
 
+#: The drawing rule of a broken body's Gaussians the measure renders: None the map with straddling Gaussians kept
+#: whole (the rule before round 31, the figures of docs/fracture.md's tables), "hold" (round 31) or "trim" (round 32:
+#: what ``gasp simulate`` draws now); ``benchmarks/cup_drop.py --rule`` sets it.
+RULE = None
+
+
 def scene_parts(prep, x, d):
     """Surface splats and their pieces, crack-face splats (all; visible ones opaque) and theirs, point labels."""
     from gasp_core.maps.crack_faces import build_crack_faces, crack_face_gaussians
@@ -78,7 +84,11 @@ def scene_parts(prep, x, d):
     s, o = prep.setup, prep.objects[0]
     tracker = PieceTracker(s.x, s.body_id, s.p_mass, s.p_vol)
     labels = tracker.labels(x, d)
-    g = rebuild(o, x, o.rot_rest, labels=labels)[0]   # straddling Gaussians kept whole, as gasp simulate writes
+    apart = None
+    if RULE is not None:      # the run's drawing rule on top (gasp_core.run.apart, gasp_core.run.sides)
+        from gasp_core.run.apart import REACH, PieceContext
+        apart = PieceContext(s.p_mass, tracker.pieces, REACH * float(s.dx), s.x, True, RULE == "trim")
+    g = rebuild(o, x, o.rot_rest, labels=labels, apart=apart)[0]   # straddling Gaussians kept whole
     pl = o.placement
     surf = splats_from_gaussians(g, pl.R, pl.scale, pl.t)
     surf.sh = surf.sh_frames = None

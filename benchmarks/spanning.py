@@ -64,7 +64,7 @@ def scene_file(name: str, engine: str, frames: int, work: Path) -> Path:
 
 
 def record(scene: Path, out: Path) -> dict:
-    """``gasp simulate`` of ``scene`` into ``out``; each frame's ``(frame, x, labels, pieces)`` and the prepared scene."""
+    """``gasp simulate`` of ``scene`` into ``out``; each frame's ``(frame, x, labels, pieces)``, the prepared scene."""
     from gasp_core.run import frames as fm
     from gasp_core.run.pipeline import simulate_scene
     from gasp_core.scene.spec import load_scene
@@ -114,7 +114,8 @@ def replay(rec: dict, rule: str) -> list[dict]:
         if pieces is not None:
             keep &= np.asarray(pieces, bool)[np.asarray(lab_fill)]
         seen.update(points=np.asarray(x_fill)[keep], piece=np.asarray(lab_fill)[keep], reach=reach, own=own)
-        seen["spanning_any"] = apart_row(means, rot, scales, x_fill, lab_fill, mass_fill, pieces, reach, tree)["spanning"]
+        seen["spanning_any"] = apart_row(means, rot, scales, x_fill, lab_fill, mass_fill, pieces, reach,
+                                         tree)["spanning"]
         return apart_row(means, rot, scales, x_fill, lab_fill, mass_fill, pieces, reach, tree, own)
     rb = fm.Rebuilder(rec["prep"])
     rb.hold, rb.trim = RULES[rule]
@@ -130,7 +131,8 @@ def replay(rec: dict, rule: str) -> list[dict]:
             big = gs[0].scales.max(axis=1)
             rest = big if rest is None else rest
             rows.append({"frame": frame, "pieces": 0 if pieces is None else int(np.sum(pieces)),
-                         **{k: row.get(k, 0) for k in ("straddling", "held", "trimmed", "spanning", "specks", "clamped")},
+                         **{k: row.get(k, 0) for k in ("straddling", "held", "trimmed", "spanning", "specks",
+                                                       "clamped")},
                          "spanning_any": seen.get("spanning_any", 0),
                          "spanning_split": split_spanning(o, rb.last_split[0], seen), "split": row.get("split", 0),
                          "grown_max": float((big / rest).max()), "rebuild_ms": ms})

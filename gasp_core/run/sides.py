@@ -104,7 +104,8 @@ def trim_to_side(means: np.ndarray, rot: np.ndarray, scales: np.ndarray, own: np
     First each axis by the clear share of its two rays (``r2``: angles 0 and pi; ``r3``: pi/2 and 3 pi/2), then both by
     the least clear share of all :data:`SIDES` rays of the ellipse so shrunk (a uniform shrink keeps each ray's
     direction, so what was clear stays clear). No axis shrinks below half the first of :data:`FRACTIONS` of its scale
-    (a centre on another piece's side, which the rule first moves, blocks every ray: such a Gaussian stays counted). ``means``, ``rot`` as
+    (a centre on another piece's side, which the rule first moves, blocks every ray: such a Gaussian stays
+    counted). ``means``, ``rot`` as
     :func:`ellipse_points`; ``own`` (n,) each one's piece; ``tree``, ``piece``, ``reach`` as :func:`side_of`;
     ``tips`` standard deviations to the ellipse."""
     floor = 0.5 * FRACTIONS[0]

@@ -1,0 +1,111 @@
+"""A Gaussian spans two pieces when its 2-sigma ellipse reaches the side of a piece not its own, whatever the crack's
+width, and the rule keeps each Gaussian on its own side (``gasp_core.run.sides``, issue 66 "What a user sees"), on
+hand-built layouts: two blocks of material points ``g`` apart (0.5, 1 and 2 grid cells), flat Gaussians on their tops.
+
+Known answers: a Gaussian on block A away from the crack, and one whose tip stops at A's edge (wholly on A beside the
+crack), do not span; one stretched from A over the crack onto B does, and so does one of A drawn wholly on B's side.
+The rule trims the one stretched across so that its tip stops within one step of the crack's mid-plane, leaves the
+others exactly as they were, and hands the one on B's side to the hold. Each is shown failing on a broken variant: a
+counter without tips, one that counts a Gaussian near two pieces, one without the Gaussian's own piece, and the rule
+before (nothing trimmed).
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+
+from gasp_core.run import apart
+from gasp_core.run.apart import apart_masks
+from gasp_core.run.sides import FRACTIONS, keep_to_side
+
+DX = 0.01                 # the grid cell, m
+REACH = 1.5 * DX
+H = 0.5 * DX              # the fill spacing
+LIFT = 0.5 * DX           # the surface above the top layer of fill
+GAPS = (0.5, 1.0, 2.0)    # in cells
+
+
+def block(x0: float, x1: float) -> np.ndarray:
+    """Points ``H`` apart over ``[x0, x1] x [0, 0.04] x [0, 0.02]``, metres."""
+    g = np.meshgrid(np.arange(x0, x1 + 1e-9, H), np.arange(0, 0.04 + 1e-9, H), np.arange(0, 0.02 + 1e-9, H),
+                    indexing="ij")
+    return np.stack([a.ravel() for a in g], 1)
+
+
+def layout(gap: float):
+    """Blocks A (piece 0, x in [0, 0.05]) and B (piece 1) ``gap`` cells apart, and four Gaussians flat on the tops
+    (normal z, ``r2`` along x), all of A: ``on`` (centre 2.5 cm from the crack, tips 1 cm either side), ``beside``
+    (its +x tip at A's edge), ``across`` (centre 3 mm inside A's edge, tip 1 cm onto B), ``on_b`` (drawn wholly on
+    B's top, 1.5 cm from its edge). Returns ``(means, rot, scales, points, piece, own, x_mid)``: ``x_mid`` the
+    crack's mid-plane."""
+    a, b0 = block(0.0, 0.05), 0.05 + gap * DX
+    b = block(b0, b0 + 0.05)
+    points, piece = np.concatenate([a, b]), np.repeat([0, 1], [len(a), len(b)])
+    z = 0.02 + LIFT
+    means = np.array([[0.025, 0.02, z], [0.045, 0.02, z], [0.047, 0.02, z], [b0 + 0.015, 0.02, z]])
+    half = np.array([0.01, 0.005, (b0 + 0.01 - 0.047), 0.005])       # the 2-sigma half-length along x
+    scales = np.stack([np.full(4, 1e-6), half / 2, np.full(4, 0.002)], 1)
+    rot = np.broadcast_to(np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]]), (4, 3, 3)).copy()
+    return means, rot, scales, points, piece, np.zeros(4, np.int64), 0.05 + gap * DX / 2
+
+
+WANT = [False, False, True, True]
+
+
+def counted(masks=apart_masks, gap: float = 1.0) -> list[bool]:
+    means, rot, scales, points, piece, own, _ = layout(gap)
+    return [bool(v) for v in masks(means, rot, scales, points, piece, REACH, own)[0]]
+
+
+@pytest.mark.parametrize("gap", GAPS)
+def test_spanning_is_reaching_another_pieces_side_whatever_the_gap(gap):
+    assert counted(gap=gap) == WANT
+
+
+def near_two(means, rot, scales, points, piece, reach, own=None, tree=None):
+    """A broken counter: a Gaussian whose centre or tips are within reach of two pieces' material."""
+    arms = [2 * scales[:, j, None] * rot[:, :, j] for j in (1, 2)]
+    out = np.zeros(len(means), bool)
+    for p in (means, means + arms[0], means - arms[0], means + arms[1], means - arms[1]):
+        hits = cKDTree(points).query_ball_point(p, reach)
+        out |= np.array([len(set(piece[h])) > 1 for h in hits])
+    return out, np.zeros(len(means), bool)
+
+
+def test_catch_counters_without_tips_near_two_pieces_or_without_its_own_piece(monkeypatch):
+    assert any(counted(near_two, g) != WANT for g in GAPS)          # counts the one beside a narrow crack
+    assert counted(lambda *a: apart_masks(*a[:6]), 1.0) != WANT     # without its own piece: on B is not seen
+    monkeypatch.setattr(apart, "TIPS", 0.0)                          # the centre alone misses the one across
+    assert counted(gap=1.0) != WANT
+
+
+def kept(gap: float, trim: bool = True):
+    """The layout after :func:`keep_to_side` (``trim``: False, the rule before: nothing done); the Gaussians, the
+    rows handed to the hold, and the layout."""
+    means, rot, scales, points, piece, own, x_mid = layout(gap)
+    m, r, s = means.copy(), rot.copy(), scales.copy()
+    handed = []
+    if trim:
+        keep_to_side(m, r, s, own, cKDTree(points), piece, REACH, apart.TIPS, lambda idx: handed.extend(idx))
+    return m, r, s, handed, (means, rot, scales, points, piece, own, x_mid)
+
+
+@pytest.mark.parametrize("gap", GAPS)
+def test_the_rule_trims_the_one_across_to_the_mid_plane_and_leaves_the_others(gap):
+    m, r, s, handed, (means, rot, scales, points, piece, own, x_mid) = kept(gap)
+    assert handed == [3]                                             # drawn on B's side: to the hold
+    np.testing.assert_array_equal(m, means)
+    np.testing.assert_array_equal(r, rot)
+    np.testing.assert_array_equal(s[[0, 1]], scales[[0, 1]])        # on A: untouched
+    tip = m[2, 0] + 2 * s[2, 1]
+    step = 2 * scales[2, 1] * (FRACTIONS[-1] - FRACTIONS[-2])
+    assert x_mid - step - 1e-9 <= tip <= x_mid + 1e-9, (tip, x_mid, step)   # up to the mid-plane, within a step
+    assert (s[2, 1:] <= scales[2, 1:]).all() and s[2, 2] > 0
+    span = apart_masks(m[:3], r[:3], s[:3], points, piece, REACH, own[:3])[0]
+    assert not span.any(), span
+
+
+def test_catch_the_rule_before_leaves_the_one_across():
+    m, r, s, handed, lay = kept(1.0, trim=False)
+    assert apart_masks(m[:3], r[:3], s[:3], *lay[3:5], REACH, lay[5][:3])[0].tolist() == [False, False, True]
