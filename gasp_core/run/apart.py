@@ -2,22 +2,24 @@
 drawn across two pieces and the specks away from every piece, counted from the drawn Gaussians and the material.
 
 A Gaussian is drawn at its centre ``m`` with its in-plane axes ``r2, r3`` and scales ``s2, s3`` (GaMeS, the flat
-Gaussian; the thin axis ``r1`` is the face's normal). Its *samples* are its centre and the four tips
-``m +- TIPS s_j r_j`` (``j = 2, 3``: at two standard deviations, where a splat's alpha has fallen to
-``exp(-2)`` = 14 % of its centre's). Each sample takes the piece of the nearest material point of a piece within
-``reach`` (m; :data:`REACH` grid cells ``dx``, the support of the quadratic B-spline the engines weigh a point's
-nodes with: a Gaussian further than it from every material point of a piece shares no node with one; the rest
-surface of the bundled donut lies within 1.22 ``dx`` of its fill), or none.
+Gaussian; the thin axis ``r1`` is the face's normal). Its *samples* are its centre and the
+:data:`gasp_core.run.sides.SIDES` points of its ellipse at ``TIPS`` standard deviations (where a splat's alpha has
+fallen to ``exp(-2)`` = 14 % of its centre's). Each sample lies on the *side* of the piece of the nearest material
+point of a piece within ``reach`` (m; :data:`REACH` grid cells ``dx``, the support of the quadratic B-spline the
+engines weigh a point's nodes with: a Gaussian further than it from every material point of a piece shares no node
+with one; the rest surface of the bundled donut lies within 1.22 ``dx`` of its fill), or on none.
 
-* A Gaussian *spans two pieces* when its samples take two or more pieces: it is drawn from one piece's material to
-  another's (a Gaussian stretched across a crack, or laid over two pieces that touch within ``reach``).
+* A Gaussian *spans two pieces* when a sample lies on the side of a piece not its own (its own: its host's,
+  :mod:`gasp_core.run.sides`): its ellipse reaches past the mid-surface of a crack, whatever the crack's width, or
+  it is drawn on another piece. One wholly on its piece beside a narrow crack is not counted.
 * A Gaussian is a *speck* when its centre is further than ``reach`` from every material point of every piece: it is
   drawn in the air or on the floor, away from the parts that have come apart.
 
 The pieces are the piece tracker's (:class:`gasp_core.run.pieces.PieceTracker`: crumbs, the pieces under its debris
 share, are not pieces), each body's material points (``p_mass > 0``) in them. ``run.json`` holds, per frame, the
-counts ``spanning`` and ``specks`` and the ``reach`` (m) they were counted at (:func:`apart_row`), and ``held``: the
-Gaussians put back on their pieces (:func:`hold_to_pieces`).
+counts ``spanning`` and ``specks`` and the ``reach`` (m) they were counted at (:func:`apart_row`), ``held``: the
+Gaussians put back on their pieces (:func:`hold_to_pieces`, and those whose centre lay on another piece's side), and
+``trimmed``: those kept to their side (:func:`gasp_core.run.sides.keep_to_side`).
 """
 from __future__ import annotations
 

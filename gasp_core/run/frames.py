@@ -108,9 +108,9 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray,
         World rotations of this frame.
     counts : dict
         ``degenerate`` faces and ``clamped`` scales (alpha rule) this frame; with ``labels``, ``straddling``; with
-        ``apart``, ``held``, ``spanning`` and ``specks``; with ``split``, ``split`` (the sub-Gaussians made) and
-        ``split_gaussians`` (:class:`Gaussians` of them, file frame, with the int32 field ``parent``: the file row
-        each comes from; None when there are none).
+        ``apart``, ``held``, ``trimmed``, ``spanning`` and ``specks``; with ``split``, ``split`` (the sub-Gaussians
+        made) and ``split_gaussians`` (:class:`Gaussians` of them, file frame, with the int32 field ``parent``: the
+        file row each comes from; None when there are none).
     """
     if o.spec.static:
         g = o.gaussians if t is None else background_at(o, o.gaussians, t)
@@ -264,9 +264,9 @@ class Rebuilder:
         """Every object's Gaussians at ``frame`` from the positions ``x`` (n_points, 3), world frame, and the
         frame's row (``frame``, ``degenerate``, ``clamped``, with ``labels`` (a broken body's pieces, :func:`rebuild`;
         ``pieces`` per label whether it is a piece, :attr:`gasp_core.run.pieces.PieceTracker.pieces`) ``straddling``,
-        ``held``, ``spanning``, ``specks`` and ``apart_reach`` (m: :mod:`gasp_core.run.apart`), with an object that
-        splits its clamped triangles ``split`` (the sub-Gaussians made, :attr:`last_split`) and, with colliders,
-        ``colliders``)."""
+        ``held``, ``trimmed``, ``spanning``, ``specks`` and ``apart_reach`` (m: :mod:`gasp_core.run.apart`), with an
+        object that splits its clamped triangles ``split`` (the sub-Gaussians made, :attr:`last_split`) and, with
+        colliders, ``colliders``)."""
         prep, prev = self.prep, self.prev_rot
         gs, row = [], {"frame": frame, "degenerate": 0, "clamped": 0}
         apart = None if labels is None else PieceContext(prep.setup.p_mass, pieces, REACH * float(prep.setup.dx),
