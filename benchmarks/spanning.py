@@ -6,19 +6,24 @@ rebuilt again with each rule from the same positions (the rule changes what is d
 
 * ``map``: each Gaussian where the map and the alpha rule put it (the paper's rule);
 * ``hold``: a crumb's and a left-behind Gaussian moved with its piece (round 31, ``gasp_core.run.apart``);
-* ``trim``: also each Gaussian kept on its own side of every crack (round 32, :func:`gasp_core.run.sides.keep_to_side`:
-  what ``gasp simulate`` draws now).
+* ``trim``: also each Gaussian kept on its own side of every crack (round 32, :func:`gasp_core.run.sides.keep_to_side`
+  without its hosts);
+* ``pull``: also a centre that the hold leaves on another piece's side pulled towards its host (round 33,
+  :func:`gasp_core.run.sides.pull_to_side`: what ``gasp simulate`` draws now).
 
 Per frame and rule: ``spanning`` (a Gaussian whose 2-sigma ellipse reaches the side of a piece not its own),
 ``spanning_any`` (the count without an own piece: its samples take two pieces, round 31's definition, 8 points on the
 ellipse), ``spanning_split`` (the sub-Gaussians of clamped triangles, ``split_NNNN.ply``, counted as their parents),
-``specks``, ``held``, ``trimmed``, the largest scale over its rest value (the alpha rule's cap must hold) and the
+``specks``, ``held``, ``trimmed``, ``pulled``, ``faces_spanning`` (the crack faces shown,
+:mod:`gasp_core.maps.crack_faces`, whose 2-sigma ellipse reaches another piece's side: before round 33 the faces were
+drawn as made, with the rule ``pull`` they are kept to their side, :func:`gasp_core.run.sides.keep_faces_to_side`),
+``faces_shown``, the largest scale over its rest value (the alpha rule's cap must hold) and the
 rebuild's time.
 
 Run: ``python benchmarks/spanning.py --scene donut_shatter --engine taichi_mpm --frames 10`` (also ``--scene
 biscuit7``, the donut_small biscuit thrown down at 7 m/s, and ``--scene cup``, ``examples/cup_drop.toml``); results in
 ``benchmarks/results/spanning_<scene>_<engine>.{md,json}``; ``--keep DIR`` keeps the run (its frames drawn with the rule
-``trim``) for ``gasp render``.
+``pull``) for ``gasp render``.
 """
 from __future__ import annotations
 
@@ -35,7 +40,8 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
-RULES = {"map": (False, False), "hold": (True, False), "trim": (True, True)}
+RULES = {"map": (False, False, False), "hold": (True, False, False), "trim": (True, True, False),
+         "pull": (True, True, True)}
 
 
 def scene_file(name: str, engine: str, frames: int, work: Path) -> Path:
@@ -75,7 +81,14 @@ def record(scene: Path, out: Path) -> dict:
         rec["frames"].append((frame, np.array(x), None if labels is None else np.array(labels),
                               None if pieces is None else np.array(pieces)))
         return real(self, frame, x, labels, pieces)
-    fm.Rebuilder.__call__ = recording
+    from gasp_core.run import crack_output as co
+    write = co.CrackOutput.write
+
+    def writing(self, folder, frame, x, labels, damage, piece=None):
+        rec["cracks"] = self
+        rec.setdefault("damage", {})[frame] = None if damage is None else np.array(damage)
+        return write(self, folder, frame, x, labels, damage, piece)
+    fm.Rebuilder.__call__, co.CrackOutput.write = recording, writing
     try:
         t0 = time.perf_counter()
         with warnings.catch_warnings():
@@ -83,8 +96,35 @@ def record(scene: Path, out: Path) -> dict:
             simulate_scene(load_scene(scene), out, quiet=True, overwrite=True)
         rec["wall_s"] = time.perf_counter() - t0
     finally:
-        fm.Rebuilder.__call__ = real
+        fm.Rebuilder.__call__, co.CrackOutput.write = real, write
     return rec
+
+
+def faces_row(rec: dict, frame: int, x, labels, pieces, rule: str) -> dict:
+    """The crack faces shown at ``frame`` and how many reach another piece's side, drawn with ``rule`` (module
+    notes: only ``pull`` keeps them to their side)."""
+    from gasp_core.maps.crack_faces import crack_face_gaussians
+    from gasp_core.run.apart import apart_masks
+    from gasp_core.run.sides import keep_faces_to_side
+    cr = rec.get("cracks")
+    if cr is None or not cr.objects or rec["damage"].get(frame) is None:
+        return {"faces_spanning": 0, "faces_shown": 0}
+    faces, lab = cr.objects[0][2], np.asarray(labels)
+    means, rot, scales, visible = crack_face_gaussians(faces, x, lab, rec["damage"][frame])
+    rows = np.asarray(faces.rows)
+    if pieces is not None:
+        visible &= np.asarray(pieces, bool)[lab[rows]]
+    pts = rows[cr.mass[rows] > 0]
+    pts = pts if pieces is None else pts[np.asarray(pieces, bool)[lab[pts]]]
+    if len(pts) == 0:
+        return {"faces_spanning": 0, "faces_shown": int(visible.sum())}
+    from scipy.spatial import cKDTree
+    tree = cKDTree(x[pts])
+    if rule == "pull":
+        visible, _ = keep_faces_to_side(means, rot, scales, visible, lab[rows], tree, lab[pts], cr.reach, 2.0)
+    v = np.flatnonzero(visible)
+    span = apart_masks(means[v], rot[v], scales[v], x[pts], lab[pts], cr.reach, lab[rows][v], tree)[0]
+    return {"faces_spanning": int(span.sum()), "faces_shown": len(v)}
 
 
 def split_spanning(o, g_split, seen: dict) -> int:
@@ -118,7 +158,7 @@ def replay(rec: dict, rule: str) -> list[dict]:
                                          tree)["spanning"]
         return apart_row(means, rot, scales, x_fill, lab_fill, mass_fill, pieces, reach, tree, own)
     rb = fm.Rebuilder(rec["prep"])
-    rb.hold, rb.trim = RULES[rule]
+    rb.hold, rb.trim, rb.pull = RULES[rule]
     real, fm.apart_row = fm.apart_row, watching
     rows, rest = [], None
     try:
@@ -131,8 +171,9 @@ def replay(rec: dict, rule: str) -> list[dict]:
             big = gs[0].scales.max(axis=1)
             rest = big if rest is None else rest
             rows.append({"frame": frame, "pieces": 0 if pieces is None else int(np.sum(pieces)),
-                         **{k: row.get(k, 0) for k in ("straddling", "held", "trimmed", "spanning", "specks",
-                                                       "clamped")},
+                         **{k: row.get(k, 0) for k in ("straddling", "held", "trimmed", "pulled", "spanning",
+                                                       "specks", "clamped")},
+                         **faces_row(rec, frame, x, labels, pieces, rule),
                          "spanning_any": seen.get("spanning_any", 0),
                          "spanning_split": split_spanning(o, rb.last_split[0], seen), "split": row.get("split", 0),
                          "grown_max": float((big / rest).max()), "rebuild_ms": ms})
@@ -143,12 +184,13 @@ def replay(rec: dict, rule: str) -> list[dict]:
 
 def table(name: str, engine: str, rec: dict, res: dict) -> list[str]:
     """The markdown of one scene's figures."""
-    frames = [r["frame"] for r in res["map"]]
+    frames = [r["frame"] for r in next(iter(res.values()))]
     out = [f"# Spanning and specks: {name}, {engine}, {len(frames) - 1} frames (load {os.getloadavg()[0]:.1f})", "",
-           f"gasp simulate {rec['wall_s']:.1f} s; {res['trim'][-1]['pieces']} pieces at the last frame.", "",
+           f"gasp simulate {rec['wall_s']:.1f} s; {res[list(res)[-1]][-1]['pieces']} pieces at the last frame.", "",
            "| rule | figure | " + " | ".join(str(f) for f in frames) + " |", "|---|---|" + "---|" * len(frames)]
-    for rule in RULES:
-        for key in ("spanning", "spanning_any", "spanning_split", "specks", "held", "trimmed", "grown_max"):
+    for rule in res:
+        for key in ("spanning", "spanning_any", "spanning_split", "faces_spanning", "faces_shown", "specks", "held",
+                    "trimmed", "pulled", "grown_max"):
             vals = [r[key] for r in res[rule]]
             cells = [f"{v:.3f}" if isinstance(v, float) else str(v) for v in vals]
             out.append(f"| {rule} | {key} | " + " | ".join(cells) + " |")
@@ -162,12 +204,13 @@ def main() -> None:
     ap.add_argument("--scene", default="donut_shatter", choices=["donut_shatter", "biscuit7", "cup"])
     ap.add_argument("--engine", default="taichi_mpm")
     ap.add_argument("--frames", type=int, default=10)
-    ap.add_argument("--keep", type=Path, default=None, help="keep the run here (drawn with the rule trim)")
+    ap.add_argument("--keep", type=Path, default=None, help="keep the run here (drawn with the rule pull)")
+    ap.add_argument("--rules", default=",".join(RULES), help="the rules replayed, comma-separated")
     a = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
         rec = record(scene_file(a.scene, a.engine, a.frames, work), a.keep or work / "out")
-        res = {rule: replay(rec, rule) for rule in RULES}
+        res = {rule: replay(rec, rule) for rule in a.rules.split(",")}
     stem = ROOT / "benchmarks" / "results" / f"spanning_{a.scene}_{a.engine}"
     Path(f"{stem}.json").write_text(json.dumps({"scene": a.scene, "engine": a.engine, "wall_s": rec["wall_s"],
                                                 "rules": res}, indent=1, default=float))

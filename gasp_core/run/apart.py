@@ -19,7 +19,8 @@ The pieces are the piece tracker's (:class:`gasp_core.run.pieces.PieceTracker`: 
 share, are not pieces), each body's material points (``p_mass > 0``) in them. ``run.json`` holds, per frame, the
 counts ``spanning`` and ``specks`` and the ``reach`` (m) they were counted at (:func:`apart_row`), ``held``: the
 Gaussians put back on their pieces (:func:`hold_to_pieces`, and those whose centre lay on another piece's side), and
-``trimmed``: those kept to their side (:func:`gasp_core.run.sides.keep_to_side`).
+``trimmed``: those kept to their side and ``pulled``: those pulled towards their host
+(:func:`gasp_core.run.sides.keep_to_side`).
 """
 from __future__ import annotations
 
@@ -167,6 +168,9 @@ class PieceContext(NamedTuple):
     trim : bool
         Keep each Gaussian on its own side of every crack (:func:`gasp_core.run.sides.keep_to_side`); False draws
         them as the map and ``hold`` do (the rule before round 32, kept to show what it drew).
+    pull : bool
+        Pull a centre that the hold leaves on another piece's side towards its host (:func:`gasp_core.run.sides.
+        pull_to_side`); False leaves it there, shrunk to a dot (round 32's rule, kept to show what it drew).
     """
 
     p_mass: np.ndarray
@@ -175,6 +179,7 @@ class PieceContext(NamedTuple):
     x_rest: np.ndarray
     hold: bool = True
     trim: bool = True
+    pull: bool = True
 
 
 def piece_points(o, labels: np.ndarray, ctx: PieceContext) -> np.ndarray:

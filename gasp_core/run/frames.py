@@ -108,7 +108,7 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray,
         World rotations of this frame.
     counts : dict
         ``degenerate`` faces and ``clamped`` scales (alpha rule) this frame; with ``labels``, ``straddling``; with
-        ``apart``, ``held``, ``trimmed``, ``spanning`` and ``specks``; with ``split``, ``split`` (the sub-Gaussians
+        ``apart``, ``held``, ``trimmed``, ``pulled``, ``spanning`` and ``specks``; with ``split``, ``split`` (the sub-Gaussians
         made) and ``split_gaussians`` (:class:`Gaussians` of them, file frame, with the int32 field ``parent``: the
         file row each comes from; None when there are none).
     """
@@ -157,10 +157,12 @@ def keep_apart(o: PreparedObject, x: np.ndarray, labels: np.ndarray, apart: Piec
         held = hold_to_pieces(o, x, labels, apart, prev_rot, means, rot, scales, pts, tree, motion)
         if apart.trim and motion is not None:
             sides = (motion.own, tree, np.asarray(labels)[pts], apart.reach)
-            moved, trimmed = keep_to_side(means, rot, scales, *sides, TIPS,
-                                          lambda idx: motion.move(idx, means, rot, scales))
+            moved, trimmed, pulled = keep_to_side(means, rot, scales, *sides, TIPS,
+                                                  lambda idx: motion.move(idx, means, rot, scales),
+                                                  None if not apart.pull else x[motion.host])
             held |= moved
-            counts["trimmed"], straddle = int(trimmed.sum()), straddle | trimmed
+            counts["trimmed"], counts["pulled"] = int(trimmed.sum()), int(pulled.sum())
+            straddle = straddle | trimmed
         counts["held"], straddle = int(held.sum()), straddle | held
     fs = o.fill_slice
     counts.update(apart_row(means, rot, scales, x[fs], np.asarray(labels)[fs], apart.p_mass[fs], apart.pieces,
@@ -258,24 +260,26 @@ class Rebuilder:
         self.last_split: list = [None] * len(prep.objects)
         self.hold = True    # False: the Gaussians of crumbs and specks drawn where the map puts them (the rule before)
         self.trim = True    # False: the Gaussians not kept to their side of a crack (the rule before round 32)
+        self.pull = True    # False: a centre the hold leaves on another piece's side not pulled (round 32's rule)
 
     def __call__(self, frame: int, x: np.ndarray, labels: np.ndarray | None = None,
                  pieces: np.ndarray | None = None) -> tuple[list[Gaussians], dict]:
         """Every object's Gaussians at ``frame`` from the positions ``x`` (n_points, 3), world frame, and the
         frame's row (``frame``, ``degenerate``, ``clamped``, with ``labels`` (a broken body's pieces, :func:`rebuild`;
         ``pieces`` per label whether it is a piece, :attr:`gasp_core.run.pieces.PieceTracker.pieces`) ``straddling``,
-        ``held``, ``trimmed``, ``spanning``, ``specks`` and ``apart_reach`` (m: :mod:`gasp_core.run.apart`), with an
+        ``held``, ``trimmed``, ``pulled``, ``spanning``, ``specks`` and ``apart_reach`` (m: :mod:`gasp_core.run.apart`), with an
         object that splits its clamped triangles ``split`` (the sub-Gaussians made, :attr:`last_split`) and, with
         colliders, ``colliders``)."""
         prep, prev = self.prep, self.prev_rot
         gs, row = [], {"frame": frame, "degenerate": 0, "clamped": 0}
         apart = None if labels is None else PieceContext(prep.setup.p_mass, pieces, REACH * float(prep.setup.dx),
-                                                         prep.setup.x, self.hold, self.trim)
+                                                         prep.setup.x, self.hold, self.trim,
+                                                         self.pull)
         for k, o in enumerate(prep.objects):
             g, prev[k], counts = rebuild(o, x, prev[k], frame * prep.setup.frame_dt, labels, self.split[k], apart)
             row["degenerate"] += counts["degenerate"]
             row["clamped"] += counts["clamped"]
-            for key in ("straddling", "held", "trimmed", "spanning", "specks"):
+            for key in ("straddling", "held", "trimmed", "pulled", "spanning", "specks"):
                 if key in counts:
                     row[key] = row.get(key, 0) + counts[key]
             if "split" in counts:

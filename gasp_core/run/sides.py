@@ -18,11 +18,17 @@ and is not counted; one stretched from its piece over a gap onto another piece i
 
 **The rule** (:func:`keep_to_side`, called by :func:`gasp_core.run.frames.rebuild` for every broken body): a
 Gaussian whose centre the map puts on another piece's side is held by its host's piece (moved rigidly with it from
-rest, :func:`gasp_core.run.apart.hold_to_pieces`'s motion); a Gaussian whose ellipse reaches another piece's side is
-trimmed: its two in-plane scales are shrunk (never grown) until every point at the :data:`FRACTIONS` of the way along
-each of the :data:`SIDES` rays from its centre to its ellipse lies on its own side (or on none). Nothing else changes: a
-Gaussian that reaches no other piece's side is drawn as the map (paper Eq. ``T^-1``) and the alpha rule draw it, so an
-unbroken body (one piece) is drawn exactly as before.
+rest, :func:`gasp_core.run.apart.hold_to_pieces`'s motion); one whose centre the hold still puts on another piece's
+side (where two pieces have come together after the break: its rest offset from its host points into the other
+piece) is *pulled* towards its host (:func:`pull_to_side`): to the furthest of :data:`PULL` of the way from its host
+to where the hold put it that lies on its own side (or on none), the host itself at worst; a Gaussian whose ellipse
+reaches another piece's side is trimmed: its two in-plane scales are shrunk (never grown) until every point at the
+:data:`FRACTIONS` of the way along each of the :data:`SIDES` rays from its centre to its ellipse lies on its own side
+(or on none); one whose ellipse, so shrunk to its floor, still reaches another side (its centre within a hair of the
+border) is put on its host and trimmed again. Nothing else changes: a Gaussian that reaches no other piece's side is
+drawn as the map (paper Eq. ``T^-1``) and the alpha rule draw it, so an unbroken body (one piece) is drawn exactly as
+before. The crack faces (:mod:`gasp_core.maps.crack_faces`) are drawn Gaussians too: each is its fill point's piece's
+and is trimmed the same way (:func:`keep_faces_to_side`).
 """
 from __future__ import annotations
 
@@ -36,6 +42,9 @@ SIDES = 8
 #: near a border keeps a small part of itself rather than its whole first step.
 STEPS = 8
 FRACTIONS = np.concatenate([[1 / 64, 1 / 32, 1 / 16], np.arange(1, STEPS + 1) / STEPS])
+#: Fractions of the way from a Gaussian's host to where the hold put it that the pull tries, furthest first (module
+#: notes): :data:`FRACTIONS` reversed, then the host itself.
+PULL = np.concatenate([FRACTIONS[::-1], [0.0]])
 
 
 def ellipse_points(means: np.ndarray, rot: np.ndarray, scales: np.ndarray, tips: float,
@@ -120,8 +129,31 @@ def trim_to_side(means: np.ndarray, rot: np.ndarray, scales: np.ndarray, own: np
     return f
 
 
+def pull_to_side(means: np.ndarray, own: np.ndarray, hosts: np.ndarray, tree: cKDTree, piece: np.ndarray,
+                 reach: float) -> None:
+    """Pull each centre towards its host (module notes, "The rule"), in place: ``means`` (n, 3) metres becomes
+    ``hosts + f (means - hosts)``, ``f`` the first of :data:`PULL` at which it lies on its own side (``own`` (n,)) or
+    on none, 0 (the host, ``hosts`` (n, 3) metres, a material point of its piece) at worst; ``tree``, ``piece``,
+    ``reach`` as :func:`side_of`."""
+    if len(means) == 0:
+        return
+    hosts = np.asarray(hosts, np.float64)
+    cand = hosts[:, None] + PULL[None, :, None] * (np.asarray(means, np.float64) - hosts)[:, None]   # (n, p, 3)
+    lab = side_of(cand, tree, piece, reach)
+    ok = (lab < 0) | (lab == np.asarray(own)[:, None])
+    ok[:, -1] = True
+    means[:] = cand[np.arange(len(means)), ok.argmax(axis=1)]
+
+
+def _reaching(means, rot, scales, own, tree, piece, reach, tips) -> np.ndarray:
+    """Which Gaussians have their centre or a point of their ``tips``-sigma ellipse on another piece's side, (n,)."""
+    lab = side_of(ellipse_points(means, rot, scales, tips, np.array([0.0, 1.0])), tree, piece, reach)
+    return ((lab >= 0) & (lab != np.asarray(own)[:, None, None])).any(axis=(1, 2))
+
+
 def keep_to_side(means: np.ndarray, rot: np.ndarray, scales: np.ndarray, own: np.ndarray, tree: cKDTree,
-                 piece: np.ndarray, reach: float, tips: float, hold) -> tuple[np.ndarray, np.ndarray]:
+                 piece: np.ndarray, reach: float, tips: float, hold,
+                 hosts: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The rule (module notes) on one object's Gaussians, in place.
 
     Parameters
@@ -141,45 +173,85 @@ def keep_to_side(means: np.ndarray, rot: np.ndarray, scales: np.ndarray, own: np
     hold : callable
         ``hold(idx)`` moves the Gaussians ``idx`` (int array) rigidly with their host's piece, in place
         (:func:`gasp_core.run.apart.hold_to_pieces`'s motion).
+    hosts : ndarray, shape (n, 3), float, optional
+        Each one's host now, metres: with them a centre the hold leaves on another piece's side is pulled to its
+        own (:func:`pull_to_side`); None: it is not (the rule of round 32, kept to show what it drew).
 
     Returns
     -------
-    held, trimmed : ndarray, shape (n,), bool
-        Those moved to their host's piece (their centre was on another piece's side), and those whose scales shrank.
+    held, trimmed, pulled : ndarray, shape (n,), bool
+        Those moved to their host's piece (their centre was on another piece's side), those whose scales shrank, and
+        those pulled towards their host.
     """
     n = len(means)
-    held, trimmed = np.zeros(n, bool), np.zeros(n, bool)
+    held, trimmed, pulled = np.zeros(n, bool), np.zeros(n, bool), np.zeros(n, bool)
     if n == 0 or tree.n == 0:
-        return held, trimmed
+        return held, trimmed, pulled
+    own = np.asarray(own)
     centre = side_of(np.asarray(means, np.float64), tree, piece, reach)
     idx = np.flatnonzero((centre >= 0) & (centre != own))
     if len(idx):
         hold(idx)
         held[idx] = True
-    lab = side_of(ellipse_points(means, rot, scales, tips, np.ones(1))[:, :, 0], tree, piece, reach)
-    idx = np.flatnonzero(((lab >= 0) & (lab != np.asarray(own)[:, None])).any(axis=1))
-    if len(idx):
+        if hosts is not None:
+            lab = side_of(np.asarray(means[idx], np.float64), tree, piece, reach)
+            idx = idx[(lab >= 0) & (lab != own[idx])]
+            sub = means[idx].copy()
+            pull_to_side(sub, own[idx], np.asarray(hosts)[idx], tree, piece, reach)
+            means[idx], pulled[idx] = sub, True
+    idx = np.flatnonzero(_reaching(means, rot, scales, own, tree, piece, reach, tips))
+    first, before = idx, scales[idx].copy()
+    for last in (False, True):     # the second time: those still reaching another side put on their host
+        if len(idx) == 0 or (last and hosts is None):
+            break
         sub = scales[idx].copy()
-        f = trim_to_side(means[idx], rot[idx], sub, np.asarray(own)[idx], tree, piece, reach, tips)
+        if last:
+            means[idx], pulled[idx], sub = np.asarray(hosts)[idx], True, before[np.isin(first, idx)]
+        f = trim_to_side(means[idx], rot[idx], sub, own[idx], tree, piece, reach, tips)
         scales[idx] = sub
-        trimmed[idx] = (f < 1).any(axis=1)
-    return held, trimmed
+        trimmed[idx] |= (f < 1).any(axis=1)
+        idx = idx[_reaching(means[idx], rot[idx], scales[idx], own[idx], tree, piece, reach, tips)]
+    return held, trimmed, pulled
 
 
 def keep_split_to_side(means: np.ndarray, rot: np.ndarray, scales: np.ndarray, own: np.ndarray, tree: cKDTree,
                        piece: np.ndarray, reach: float, tips: float) -> np.ndarray:
-    """The rule (module notes) on sub-Gaussians of split triangles (:mod:`gasp_core.maps.split`; arguments as
-    :func:`keep_to_side`, ``own`` their parent's piece): those whose centre lies on another piece's side are dropped
-    (as the split drops those over an opened gap), the others trimmed to their side in place (``scales``). Returns the
-    kept ones, shape (n,), bool."""
+    """The rule (module notes) on Gaussians that are dropped rather than moved: the sub-Gaussians of split triangles
+    (:mod:`gasp_core.maps.split`; ``own`` their parent's piece) and the crack faces (:func:`keep_faces_to_side`).
+    Arguments as :func:`keep_to_side`. Those whose centre lies on another piece's side are dropped (as the split
+    drops those over an opened gap), the others trimmed to their side in place (``scales``), and those that still
+    reach another side (a centre within a hair of the border) dropped. Returns the kept ones, shape (n,), bool."""
     if len(means) == 0 or tree.n == 0:
         return np.ones(len(means), bool)
+    own = np.asarray(own)
     centre = side_of(np.asarray(means, np.float64), tree, piece, reach)
     keep = (centre < 0) | (centre == own)
-    lab = side_of(ellipse_points(means, rot, scales, tips, np.ones(1))[:, :, 0], tree, piece, reach)
-    idx = np.flatnonzero(keep & ((lab >= 0) & (lab != np.asarray(own)[:, None])).any(axis=1))
+    idx = np.flatnonzero(keep & _reaching(means, rot, scales, own, tree, piece, reach, tips))
     if len(idx):
         sub = scales[idx].copy()
-        trim_to_side(means[idx], rot[idx], sub, np.asarray(own)[idx], tree, piece, reach, tips)
+        trim_to_side(means[idx], rot[idx], sub, own[idx], tree, piece, reach, tips)
         scales[idx] = sub
+        keep[idx] = ~_reaching(means[idx], rot[idx], sub, own[idx], tree, piece, reach, tips)
     return keep
+
+
+def keep_faces_to_side(means: np.ndarray, rot: np.ndarray, scales: np.ndarray, visible: np.ndarray,
+                       own: np.ndarray, tree: cKDTree, piece: np.ndarray, reach: float,
+                       tips: float) -> tuple[np.ndarray, dict]:
+    """The rule (module notes) on a body's crack faces (:func:`gasp_core.maps.crack_faces.crack_face_gaussians`:
+    ``means`` (m, 3), ``rot`` (m, 3, 3) columns ``(n, t1, t2)``, ``scales`` (m, 3), world metres; ``visible`` (m,)
+    bool, the shown ones), each its fill point's piece ``own`` (m,): the shown ones trimmed to their side in place
+    (``scales``), those that cannot be hidden (:func:`keep_split_to_side`). ``tree``, ``piece``, ``reach``, ``tips``
+    as :func:`keep_to_side`. Returns the faces shown now, (m,) bool, and ``{"faces_spanning"`` (the shown faces that
+    reached another piece's side before the rule), ``"faces_trimmed"}``."""
+    visible = np.asarray(visible, bool).copy()
+    idx = np.flatnonzero(visible)
+    if len(idx) == 0 or tree.n == 0:
+        return visible, {"faces_spanning": 0, "faces_trimmed": 0}
+    own = np.asarray(own)
+    span = _reaching(means[idx], rot[idx], scales[idx], own[idx], tree, piece, reach, tips)
+    sub = scales[idx].copy()
+    visible[idx] = keep_split_to_side(means[idx], rot[idx], sub, own[idx], tree, piece, reach, tips)
+    trimmed = (sub < scales[idx]).any(axis=1)
+    scales[idx] = sub
+    return visible, {"faces_spanning": int(span.sum()), "faces_trimmed": int(trimmed.sum())}
