@@ -7,7 +7,8 @@ crack), do not span; one stretched from A over the crack onto B does, and so doe
 The rule trims the one stretched across so that its tip stops within one step of the crack's mid-plane, leaves the
 others exactly as they were, and hands the one on B's side to the hold. Each is shown failing on a broken variant: a
 counter without tips, one that counts a Gaussian near two pieces, one without the Gaussian's own piece, and the rule
-before (nothing trimmed).
+before (nothing trimmed). Round 33: a centre the hold leaves on B's side is pulled to A's (without its host it stays
+counted), and crack faces on A's edge are counted and trimmed to A's side (drawn as made, one reaches B's side).
 """
 from __future__ import annotations
 
@@ -109,3 +110,58 @@ def test_the_rule_trims_the_one_across_to_the_mid_plane_and_leaves_the_others(ga
 def test_catch_the_rule_before_leaves_the_one_across():
     m, r, s, handed, lay = kept(1.0, trim=False)
     assert apart_masks(m[:3], r[:3], s[:3], *lay[3:5], REACH, lay[5][:3])[0].tolist() == [False, False, True]
+
+
+def pulled(gap: float, with_hosts: bool = True):
+    """The layout after :func:`keep_to_side` with a hold that leaves the Gaussian drawn on B's side where it is (as
+    where two pieces have come together after the break) and, with ``with_hosts``, each Gaussian's host (the point of
+    A under it; the rule before round 33: none). Returns the Gaussians, the rows pulled, and the layout."""
+    means, rot, scales, points, piece, own, x_mid = layout(gap)
+    hosts = points[cKDTree(points[piece == 0]).query(means)[1]] if with_hosts else None
+    m, r, s = means.copy(), rot.copy(), scales.copy()
+    out = keep_to_side(m, r, s, own, cKDTree(points), piece, REACH, apart.TIPS, lambda idx: None, hosts)
+    return m, r, s, out[2], (means, rot, scales, points, piece, own, x_mid)
+
+
+@pytest.mark.parametrize("gap", GAPS)
+def test_a_centre_the_hold_leaves_on_another_side_is_pulled_to_its_own(gap):
+    m, r, s, was_pulled, (means, rot, scales, points, piece, own, x_mid) = pulled(gap)
+    assert was_pulled.tolist() == [False, False, False, True]
+    np.testing.assert_array_equal(m[:3], means[:3])                  # the others: not moved
+    assert m[3, 0] <= x_mid + 1e-9, (m[3, 0], x_mid)                   # on A's side of the crack's mid-plane
+    assert (s[3, 1:] <= scales[3, 1:]).all() and s[3, 1:].min() > 0
+    assert not apart_masks(m, r, s, points, piece, REACH, own)[0].any()
+
+
+def test_catch_without_its_host_the_one_on_b_stays_counted():
+    m, r, s, was_pulled, lay = pulled(1.0, with_hosts=False)
+    assert not was_pulled.any()
+    assert apart_masks(m, r, s, *lay[3:5], REACH, lay[5])[0].tolist() == [False, False, False, True]
+
+
+def faces(gap: float):
+    """Two crack faces of A standing on its edge (normal z, in-plane x and y, ``FACE`` 0.9 of the 0.5-cell fill
+    spacing): one 2 cm from the crack, one at A's last column, its 2-sigma ellipse 0.9 cell across onto B's side."""
+    from gasp_core.maps.crack_faces import FACE, THIN
+    _, _, _, points, piece, own, x_mid = layout(gap)
+    means = np.array([[0.03, 0.02, 0.01], [0.05, 0.02, 0.01]])
+    rot = np.broadcast_to(np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]]), (2, 3, 3)).copy()
+    scales = np.tile([THIN * H, FACE * H, FACE * H], (2, 1))
+    return means, rot, scales, points, piece, np.zeros(2, np.int64), x_mid
+
+
+@pytest.mark.parametrize("gap", GAPS)
+def test_crack_faces_are_counted_and_kept_to_their_side(gap):
+    from gasp_core.run.sides import keep_faces_to_side
+    means, rot, scales, points, piece, own, x_mid = faces(gap)
+    assert apart_masks(means, rot, scales, points, piece, REACH, own)[0].tolist() == [False, gap < 2]
+    s = scales.copy()
+    shown, c = keep_faces_to_side(means, rot, s, np.ones(2, bool), own, cKDTree(points), piece, REACH, apart.TIPS)
+    assert c == {"faces_spanning": int(gap < 2), "faces_trimmed": int(gap < 2)}
+    np.testing.assert_array_equal(s[0], scales[0])
+    assert shown.all() and not apart_masks(means, rot, s, points, piece, REACH, own)[0].any()
+
+
+def test_catch_faces_drawn_as_made_reach_the_other_side():
+    means, rot, scales, points, piece, own, _ = faces(1.0)        # the rule before round 33: faces not kept
+    assert apart_masks(means, rot, scales, points, piece, REACH, own)[0].any()
