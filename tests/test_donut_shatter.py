@@ -34,10 +34,11 @@ BIG = 0.05
 #: crumbs and of surface points left behind drawn where the map puts them) 0 / 507 / 2 245 / 2 653 on taichi_mpm.
 SPECKS = 1e-3
 #: At most this share of the Gaussians may span two pieces (``run.json`` ``spanning``, :mod:`gasp_core.run.sides`: a
-#: Gaussian whose 2-sigma ellipse reaches the side of a piece not its own) at any frame: measured 0 / 0 / 28 / 100 of
-#: 45 624 at frames 0-3 (taichi_mpm; the ones left: Gaussians whose centre lies on another piece's side even after the
-#: hold, shrunk to a dot); with the rule before (nothing kept to its side) 0 / 0 / 696 / 811.
-SPANNING = 5e-3
+#: Gaussian whose 2-sigma ellipse reaches the side of a piece not its own) at any frame, and as many crack faces
+#: (``faces_spanning``): measured 0 at frames 0-10 on both engines (round 33); with round 32's rule (no pull)
+#: 0 / 0 / 28 / 100 at frames 0-3, with round 31's (held, not trimmed) 0 / 0 / 696 / 811; the faces drawn as made (the
+#: rule before round 33) 0 / 0 / 0 / 8.
+SPANNING = 5e-5
 
 
 def check_specks(run: dict, n: int) -> list[int]:
@@ -55,6 +56,12 @@ def check_spanning(run: dict, n: int) -> list[int]:
     rows = run["frames"]
     assert all(r.get("trimmed", 1) > 0 for r in rows[2:]), [r.get("trimmed") for r in rows]
     return [r["frame"] for r in rows if r.get("spanning", 0) > SPANNING * n]
+
+
+def check_faces(run: dict, n: int) -> list[int]:
+    """The frames whose crack faces spanning two pieces (``faces_spanning``) exceed ``SPANNING`` of the ``n``
+    Gaussians, or that have no count written from the break on (none wanted)."""
+    return [r["frame"] for r in run["frames"][2:] if r.get("faces_spanning", n) > SPANNING * n]
 
 
 def check_shatter(run: dict) -> None:
@@ -93,25 +100,34 @@ def test_the_donut_shatters_into_three_or_more_pieces_and_stays_finite(engine, t
     assert check_specks(run, run["objects"][0]["n_gaussians"]) == [], [(r["frame"], r["specks"]) for r in run["frames"]]
     assert check_spanning(run, run["objects"][0]["n_gaussians"]) == [], \
         [(r["frame"], r["spanning"]) for r in run["frames"]]
+    assert check_faces(run, run["objects"][0]["n_gaussians"]) == [], [r.get("faces_spanning") for r in run["frames"]]
 
 
-def test_catch_the_rule_before_draws_gaussians_across_the_cracks(tmp_path, monkeypatch):
-    """The catch: with each Gaussian not kept to its side of the cracks (the rule before round 32: held, not
-    trimmed), frames 2 and 3 have hundreds spanning two pieces (measured 696 and 811, taichi_mpm), and
-    :func:`check_spanning` fails them."""
+@pytest.mark.parametrize("rule", ["trim", "pull"])
+def test_catch_the_rules_before_draw_gaussians_across_the_cracks(tmp_path, monkeypatch, rule):
+    """The catch: with a centre the hold leaves on another piece's side not pulled to its own (``pull``: round 32's
+    rule; measured 28 and 100 spanning at frames 2 and 3, taichi_mpm), or each Gaussian not kept to its side at all
+    (``trim``: round 31's; 696 and 811), :func:`check_spanning` fails frames 2 and 3; with the crack faces drawn as
+    made (the rule before round 33), :func:`check_faces` fails frame 3 (8 faces, frame 2 has none)."""
     needs_package("gasp_taichi_mpm")
-    from gasp_core.run import frames
-    init = frames.Rebuilder.__init__
+    from gasp_core.run import crack_output, frames
+    init, cinit = frames.Rebuilder.__init__, crack_output.CrackOutput.__init__
 
     def old_rule(self, *a, **k):
         init(self, *a, **k)
+        setattr(self, rule, False)
+
+    def old_faces(self, *a, **k):
+        cinit(self, *a, **k)
         self.trim = False
 
     monkeypatch.setattr(frames.Rebuilder, "__init__", old_rule)
+    monkeypatch.setattr(crack_output.CrackOutput, "__init__", old_faces)
     simulate_scene(load_scene(SCENE), tmp_path / "out", n_frames=BREAK_FRAMES, engine="taichi_mpm", quiet=True)
     run = json.loads((tmp_path / "out" / "run.json").read_text())
     assert check_spanning(run, run["objects"][0]["n_gaussians"]) == [2, 3], \
         [(r["frame"], r["spanning"]) for r in run["frames"]]
+    assert check_faces(run, run["objects"][0]["n_gaussians"]) == [3], [r.get("faces_spanning") for r in run["frames"]]
 
 
 def test_catch_the_rule_before_leaves_specks(tmp_path, monkeypatch):

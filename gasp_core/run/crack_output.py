@@ -8,8 +8,8 @@ SH degree 0, the colour of its nearest surface Gaussians; an int32 property ``pi
 the object's ``pieces_NNNN.npy`` (:func:`gasp_core.run.pieces.piece_ranks`; -1 for a piece that holds no surface
 Gaussian). Frame 0 has every face hidden. A shown face is kept on its piece's side of every crack as the object's
 Gaussians are (:func:`gasp_core.run.sides.keep_faces_to_side`: its in-plane scales trimmed, or hidden), and the
-frame's ``run.json`` row counts ``faces_spanning`` (shown faces whose 2-sigma ellipse reached another piece's side
-before that) and ``faces_trimmed``. ``gasp render`` draws them with their object (and any 3DGS viewer that is
+frame's ``run.json`` row counts ``faces_spanning`` (shown faces whose 2-sigma ellipse reaches another piece's side,
+as :func:`gasp_core.run.apart.apart_masks` counts the Gaussians) and ``faces_trimmed`` (trimmed or hidden). ``gasp render`` draws them with their object (and any 3DGS viewer that is
 given both files); the object's own frame files are unchanged (one row per input Gaussian).
 """
 from __future__ import annotations
@@ -68,8 +68,7 @@ class CrackOutput:
             means, rot, scales, visible = crack_face_gaussians(faces, x, labels, d)
             if piece is not None:     # a crumb's faces are hidden: its Gaussians go with its piece (run.apart)
                 visible &= np.asarray(piece, bool)[np.asarray(labels)[faces.rows]]
-            if self.trim:
-                visible = self._keep_to_side(faces, x, labels, piece, means, rot, scales, visible)
+            visible = self._keep_to_side(faces, x, labels, piece, means, rot, scales, visible)
             pl = o.placement
             rank = piece_ranks(o, labels, self.mass, piece)[np.asarray(labels)[faces.rows]]
             g = Gaussians(means=pl.to_file(means), scales=scales / pl.scale,
@@ -83,20 +82,23 @@ class CrackOutput:
 
 
     def _keep_to_side(self, faces: CrackFaces, x, labels, piece, means, rot, scales, visible) -> np.ndarray:
-        """The shown faces kept on their piece's side (module notes; ``scales`` changed in place), the count added
-        to :attr:`counts`; returns the faces shown now, (m,) bool."""
+        """The shown faces kept on their piece's side (module notes; ``scales`` changed in place; not with
+        :attr:`trim` False) and counted into :attr:`counts`; returns the faces shown now, (m,) bool."""
         from scipy.spatial import cKDTree
-        lab = np.asarray(labels)
-        rows = np.asarray(faces.rows)
+        from gasp_core.run.apart import apart_masks
+        lab, rows = np.asarray(labels), np.asarray(faces.rows)
         pts = rows[self.mass[rows] > 0]
         if piece is not None:
             pts = pts[np.asarray(piece, bool)[lab[pts]]]
         if not visible.any() or len(pts) == 0:
             return visible
-        visible, c = keep_faces_to_side(means, rot, scales, visible, lab[rows], cKDTree(x[pts]), lab[pts],
-                                        self.reach, TIPS)
-        for key, v in c.items():
-            self.counts[key] += v
+        tree = cKDTree(x[pts])
+        if self.trim:
+            visible, k = keep_faces_to_side(means, rot, scales, visible, lab[rows], tree, lab[pts], self.reach, TIPS)
+            self.counts["faces_trimmed"] += k
+        v = np.flatnonzero(visible)
+        span = apart_masks(means[v], rot[v], scales[v], x[pts], lab[pts], self.reach, lab[rows][v], tree)[0]
+        self.counts["faces_spanning"] += int(span.sum())
         return visible
 
 

@@ -237,21 +237,18 @@ def keep_split_to_side(means: np.ndarray, rot: np.ndarray, scales: np.ndarray, o
 
 def keep_faces_to_side(means: np.ndarray, rot: np.ndarray, scales: np.ndarray, visible: np.ndarray,
                        own: np.ndarray, tree: cKDTree, piece: np.ndarray, reach: float,
-                       tips: float) -> tuple[np.ndarray, dict]:
+                       tips: float) -> tuple[np.ndarray, int]:
     """The rule (module notes) on a body's crack faces (:func:`gasp_core.maps.crack_faces.crack_face_gaussians`:
     ``means`` (m, 3), ``rot`` (m, 3, 3) columns ``(n, t1, t2)``, ``scales`` (m, 3), world metres; ``visible`` (m,)
     bool, the shown ones), each its fill point's piece ``own`` (m,): the shown ones trimmed to their side in place
     (``scales``), those that cannot be hidden (:func:`keep_split_to_side`). ``tree``, ``piece``, ``reach``, ``tips``
-    as :func:`keep_to_side`. Returns the faces shown now, (m,) bool, and ``{"faces_spanning"`` (the shown faces that
-    reached another piece's side before the rule), ``"faces_trimmed"}``."""
+    as :func:`keep_to_side`. Returns the faces shown now, (m,) bool, and how many were trimmed or hidden."""
     visible = np.asarray(visible, bool).copy()
     idx = np.flatnonzero(visible)
     if len(idx) == 0 or tree.n == 0:
-        return visible, {"faces_spanning": 0, "faces_trimmed": 0}
-    own = np.asarray(own)
-    span = _reaching(means[idx], rot[idx], scales[idx], own[idx], tree, piece, reach, tips)
+        return visible, 0
     sub = scales[idx].copy()
-    visible[idx] = keep_split_to_side(means[idx], rot[idx], sub, own[idx], tree, piece, reach, tips)
-    trimmed = (sub < scales[idx]).any(axis=1)
+    visible[idx] = keep_split_to_side(means[idx], rot[idx], sub, np.asarray(own)[idx], tree, piece, reach, tips)
+    changed = (sub < scales[idx]).any(axis=1) | ~visible[idx]
     scales[idx] = sub
-    return visible, {"faces_spanning": int(span.sum()), "faces_trimmed": int(trimmed.sum())}
+    return visible, int(changed.sum())
