@@ -70,8 +70,9 @@ def run_to(engine: str, frames: int, scene: Path = ROOT / "examples" / "donut_sh
 
 #: The drawing rule of a broken body's Gaussians the measure renders: None the map with straddling Gaussians kept
 #: whole (the rule before round 31, the figures of docs/fracture.md's tables), "hold" (round 31), "trim" (round 32) or
-#: "pull" (round 33: what ``gasp simulate`` draws now, the crack faces kept to their side too); ``benchmarks/cup_drop.py
-#: --rule`` sets it.
+#: "pull" (round 33: the crack faces kept to their side too) or "gap" (round 34, what ``gasp simulate`` draws now:
+#: kept to their side only where the pieces are apart, :class:`gasp_core.run.sides.PieceTree`);
+#: ``benchmarks/cup_drop.py --rule`` sets it.
 RULE = None
 
 
@@ -88,8 +89,8 @@ def scene_parts(prep, x, d):
     apart = None
     if RULE is not None:      # the run's drawing rule on top (gasp_core.run.apart, gasp_core.run.sides)
         from gasp_core.run.apart import REACH, PieceContext
-        apart = PieceContext(s.p_mass, tracker.pieces, REACH * float(s.dx), s.x, True, RULE in ("trim", "pull"),
-                             RULE == "pull")
+        apart = PieceContext(s.p_mass, tracker.pieces, REACH * float(s.dx), s.x, True, RULE != "hold",
+                             RULE in ("pull", "gap"), s.p_vol, float(s.dx) if RULE == "gap" else None)
     g = rebuild(o, x, o.rot_rest, labels=labels, apart=apart)[0]   # straddling Gaussians kept whole
     pl = o.placement
     surf = splats_from_gaussians(g, pl.R, pl.scale, pl.t)
@@ -99,7 +100,7 @@ def scene_parts(prep, x, d):
     dc = o.gaussians.sh_dc if o.moving is None else o.gaussians.sh_dc[o.moving]
     faces = build_crack_faces(s.x[rows], rows, tracker.pairs, o.surface.tri_rest[:, 0], dc, h, x_rest=s.x)
     means, rot, scales, vis = crack_face_gaussians(faces, x, labels, d)
-    if RULE == "pull":        # the faces kept to their piece's side too (round 33, gasp_core.run.sides)
+    if RULE in ("pull", "gap"):   # the faces kept to their piece's side too (round 33, gasp_core.run.sides)
         vis = faces_to_side(s, rows, tracker.pieces, labels, x, means, rot, scales, vis)
     M = rot * scales[:, None, :]
     crack = Splats(means, M @ M.transpose(0, 2, 1), np.clip(0.5 + SH_C0 * faces.sh_dc, 0, 1).astype(np.float32),
@@ -125,19 +126,19 @@ def scene_parts(prep, x, d):
 
 
 def faces_to_side(s, rows, pieces, labels, x, means, rot, scales, vis):
-    """The crack faces ``vis`` (shown) kept on their piece's side, ``scales`` trimmed in place, as ``gasp simulate``
-    draws them (:func:`gasp_core.run.sides.keep_faces_to_side`); the faces shown now."""
-    from scipy.spatial import cKDTree
+    """The crack faces ``vis`` (shown) kept on their piece's side (with :data:`RULE` "gap" only where the pieces
+    are apart), ``scales`` trimmed in place, as ``gasp simulate`` draws them
+    (:func:`gasp_core.run.sides.keep_faces_to_side`); the faces shown now."""
     from gasp_core.run.apart import REACH, TIPS
-    from gasp_core.run.sides import keep_faces_to_side
+    from gasp_core.run.sides import PieceTree, keep_faces_to_side, opening
     lab = np.asarray(labels)
     pts = rows[np.asarray(s.p_mass)[rows] > 0]
     if pieces is not None:
         pts = pts[np.asarray(pieces, bool)[lab[pts]]]
     if len(pts) == 0:
         return vis
-    return keep_faces_to_side(means, rot, scales, vis, lab[rows], cKDTree(x[pts]), lab[pts], REACH * float(s.dx),
-                              TIPS)[0]
+    tree = PieceTree(x[pts], lab[pts], opening(s.p_vol[pts], float(s.dx)) if RULE == "gap" else None)
+    return keep_faces_to_side(means, rot, scales, vis, lab[rows], tree, lab[pts], REACH * float(s.dx), TIPS)[0]
 
 
 def split_rows(tris, labels):

@@ -158,7 +158,7 @@ def main() -> None:
     ap.add_argument("--speed", type=float, default=4.43)
     ap.add_argument("--frames", type=int, default=20)
     ap.add_argument("--stills", action="store_true")
-    ap.add_argument("--rule", choices=["map", "hold", "trim", "pull"], default="map",
+    ap.add_argument("--rule", choices=["map", "hold", "trim", "pull", "gap"], default="map",
                     help="the Gaussians' drawing rule the silhouettes are measured with (crack_faces.RULE; map: as "
                          "before round 31)")
     a = ap.parse_args()

@@ -9,9 +9,13 @@ rebuilt again with each rule from the same positions (the rule changes what is d
 * ``trim``: also each Gaussian kept on its own side of every crack (round 32, :func:`gasp_core.run.sides.keep_to_side`
   without its hosts);
 * ``pull``: also a centre that the hold leaves on another piece's side pulled towards its host (round 33,
-  :func:`gasp_core.run.sides.pull_to_side`: what ``gasp simulate`` draws now).
+  :func:`gasp_core.run.sides.pull_to_side`);
+* ``gap``: the same, but only where the two pieces are apart at that place (round 34,
+  :class:`gasp_core.run.sides.PieceTree`: what ``gasp simulate`` draws now).
 
-Per frame and rule: ``spanning`` (a Gaussian whose 2-sigma ellipse reaches the side of a piece not its own),
+Per frame and rule: ``spanning`` (a Gaussian whose 2-sigma ellipse reaches the side of a piece not its own; with the
+rule ``gap`` across a gap: where the pieces are apart), ``spanning_sides`` (the same without the gap: any other
+piece's side, round 33's count), ``faces_spanning_sides`` (the crack faces so),
 ``spanning_any`` (the count without an own piece: its samples take two pieces, round 31's definition, 8 points on the
 ellipse), ``spanning_split`` (the sub-Gaussians of clamped triangles, ``split_NNNN.ply``, counted as their parents),
 ``specks``, ``held``, ``trimmed``, ``pulled``, ``faces_spanning`` (the crack faces shown,
@@ -23,7 +27,7 @@ rebuild's time.
 Run: ``python benchmarks/spanning.py --scene donut_shatter --engine taichi_mpm --frames 10`` (also ``--scene
 biscuit7``, the donut_small biscuit thrown down at 7 m/s, and ``--scene cup``, ``examples/cup_drop.toml``); results in
 ``benchmarks/results/spanning_<scene>_<engine>.{md,json}``; ``--keep DIR`` keeps the run (its frames drawn with the rule
-``pull``) for ``gasp render``.
+``gap``) for ``gasp render``.
 """
 from __future__ import annotations
 
@@ -40,8 +44,8 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
-RULES = {"map": (False, False, False), "hold": (True, False, False), "trim": (True, True, False),
-         "pull": (True, True, True)}
+RULES = {"map": (False, False, False, False), "hold": (True, False, False, False), "trim": (True, True, False, False),
+         "pull": (True, True, True, False), "gap": (True, True, True, True)}
 
 
 def scene_file(name: str, engine: str, frames: int, work: Path) -> Path:
@@ -108,7 +112,7 @@ def faces_row(rec: dict, frame: int, x, labels, pieces, rule: str) -> dict:
     from gasp_core.run.sides import keep_faces_to_side
     cr = rec.get("cracks")
     if cr is None or not cr.objects or rec["damage"].get(frame) is None:
-        return {"faces_spanning": 0, "faces_shown": 0}
+        return {"faces_spanning": 0, "faces_spanning_sides": 0, "faces_shown": 0}
     faces, lab = cr.objects[0][2], np.asarray(labels)
     means, rot, scales, visible = crack_face_gaussians(faces, x, lab, rec["damage"][frame])
     rows = np.asarray(faces.rows)
@@ -117,14 +121,15 @@ def faces_row(rec: dict, frame: int, x, labels, pieces, rule: str) -> dict:
     pts = rows[cr.mass[rows] > 0]
     pts = pts if pieces is None else pts[np.asarray(pieces, bool)[lab[pts]]]
     if len(pts) == 0:
-        return {"faces_spanning": 0, "faces_shown": int(visible.sum())}
-    from scipy.spatial import cKDTree
-    tree = cKDTree(x[pts])
-    if rule == "pull":
+        return {"faces_spanning": 0, "faces_spanning_sides": 0, "faces_shown": int(visible.sum())}
+    from gasp_core.run.sides import PieceTree, opening
+    tree = PieceTree(x[pts], lab[pts], opening(cr.vol[pts], cr.dx) if rule == "gap" else None)
+    if rule in ("pull", "gap"):
         visible, _ = keep_faces_to_side(means, rot, scales, visible, lab[rows], tree, lab[pts], cr.reach, 2.0)
     v = np.flatnonzero(visible)
     span = apart_masks(means[v], rot[v], scales[v], x[pts], lab[pts], cr.reach, lab[rows][v], tree)[0]
-    return {"faces_spanning": int(span.sum()), "faces_shown": len(v)}
+    sides = apart_masks(means[v], rot[v], scales[v], x[pts], lab[pts], cr.reach, lab[rows][v])[0]
+    return {"faces_spanning": int(span.sum()), "faces_spanning_sides": int(sides.sum()), "faces_shown": len(v)}
 
 
 def split_spanning(o, g_split, seen: dict) -> int:
@@ -139,12 +144,14 @@ def split_spanning(o, g_split, seen: dict) -> int:
     local = rows if o.moving is None else np.searchsorted(np.asarray(o.moving), rows)
     own = None if seen["own"] is None else np.asarray(seen["own"])[local]
     span, _ = apart_masks(pl.to_world(g_split.means), pl.R @ quat_to_rotmat(g_split.rotations),
-                          g_split.scales * pl.scale, seen["points"], seen["piece"], seen["reach"], own)
+                          g_split.scales * pl.scale, seen["points"], seen["piece"], seen["reach"], own,
+                          seen.get("tree"))
     return int(span.sum())
 
 
 def replay(rec: dict, rule: str) -> list[dict]:
     """The frames of ``rec`` rebuilt with ``rule`` (module notes); one row per frame."""
+    from scipy.spatial import cKDTree
     from gasp_core.run import frames as fm
     from gasp_core.run.apart import apart_row
     seen = {}
@@ -155,10 +162,13 @@ def replay(rec: dict, rule: str) -> list[dict]:
             keep &= np.asarray(pieces, bool)[np.asarray(lab_fill)]
         seen.update(points=np.asarray(x_fill)[keep], piece=np.asarray(lab_fill)[keep], reach=reach, own=own)
         seen["spanning_any"] = apart_row(means, rot, scales, x_fill, lab_fill, mass_fill, pieces, reach,
-                                         tree)["spanning"]
+                                         cKDTree(seen["points"]))["spanning"]
+        seen["spanning_sides"] = apart_row(means, rot, scales, x_fill, lab_fill, mass_fill, pieces, reach,
+                                           cKDTree(seen["points"]), own)["spanning"]
+        seen["tree"] = tree
         return apart_row(means, rot, scales, x_fill, lab_fill, mass_fill, pieces, reach, tree, own)
     rb = fm.Rebuilder(rec["prep"])
-    rb.hold, rb.trim, rb.pull = RULES[rule]
+    rb.hold, rb.trim, rb.pull, rb.gap = RULES[rule]
     real, fm.apart_row = fm.apart_row, watching
     rows, rest = [], None
     try:
@@ -175,6 +185,7 @@ def replay(rec: dict, rule: str) -> list[dict]:
                                                        "specks", "clamped")},
                          **faces_row(rec, frame, x, labels, pieces, rule),
                          "spanning_any": seen.get("spanning_any", 0),
+                         "spanning_sides": seen.get("spanning_sides", 0),
                          "spanning_split": split_spanning(o, rb.last_split[0], seen), "split": row.get("split", 0),
                          "grown_max": float((big / rest).max()), "rebuild_ms": ms})
     finally:
@@ -189,7 +200,8 @@ def table(name: str, engine: str, rec: dict, res: dict) -> list[str]:
            f"gasp simulate {rec['wall_s']:.1f} s; {res[list(res)[-1]][-1]['pieces']} pieces at the last frame.", "",
            "| rule | figure | " + " | ".join(str(f) for f in frames) + " |", "|---|---|" + "---|" * len(frames)]
     for rule in res:
-        for key in ("spanning", "spanning_any", "spanning_split", "faces_spanning", "faces_shown", "specks", "held",
+        for key in ("spanning", "spanning_sides", "spanning_any", "spanning_split", "faces_spanning",
+                    "faces_spanning_sides", "faces_shown", "specks", "held",
                     "trimmed", "pulled", "grown_max"):
             vals = [r[key] for r in res[rule]]
             cells = [f"{v:.3f}" if isinstance(v, float) else str(v) for v in vals]
@@ -204,7 +216,7 @@ def main() -> None:
     ap.add_argument("--scene", default="donut_shatter", choices=["donut_shatter", "biscuit7", "cup"])
     ap.add_argument("--engine", default="taichi_mpm")
     ap.add_argument("--frames", type=int, default=10)
-    ap.add_argument("--keep", type=Path, default=None, help="keep the run here (drawn with the rule pull)")
+    ap.add_argument("--keep", type=Path, default=None, help="keep the run here (drawn with the rule gap)")
     ap.add_argument("--rules", default=",".join(RULES), help="the rules replayed, comma-separated")
     a = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:

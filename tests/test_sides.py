@@ -165,3 +165,106 @@ def test_crack_faces_are_counted_and_kept_to_their_side(gap):
 def test_catch_faces_drawn_as_made_reach_the_other_side():
     means, rot, scales, points, piece, own, _ = faces(1.0)        # the rule before round 33: faces not kept
     assert apart_masks(means, rot, scales, points, piece, REACH, own)[0].any()
+
+
+# Round 34: across a gap only where the two pieces are apart there (gasp_core.run.sides, "Apart there"). The blocks
+# are ``g`` cells apart point to point: 0.5 cell is the fill spacing (the pieces touch), 1 cell opens them by half a
+# cell (under the gap of 1 dx the pieces are told apart by), 2 and 3 cells by 1.5 and 2.5 (apart).
+OPENING = H + DX          # opening(): the fill spacing plus the gap (dx)
+TOUCH, APART = (0.5, 1.0), (2.0, 3.0)
+
+
+def gap_tree(points, piece, opening=OPENING):
+    from gasp_core.run.sides import PieceTree
+    return PieceTree(points, piece, opening)
+
+
+@pytest.mark.parametrize("gap", TOUCH + APART)
+def test_spanning_counts_only_where_the_pieces_are_apart(gap):
+    means, rot, scales, points, piece, own, _ = layout(gap)
+    span = apart_masks(means, rot, scales, points, piece, REACH, own, gap_tree(points, piece))[0]
+    assert span.tolist() == (WANT if gap in APART else [False, False, False, True])   # on B, 3 cells from A: drawn
+    #                                                                            on another piece where they are apart
+
+
+@pytest.mark.parametrize("gap", TOUCH + APART)
+def test_the_rule_leaves_what_overlaps_a_touching_piece_and_trims_across_a_gap(gap):
+    means, rot, scales, points, piece, own, x_mid = layout(gap)
+    m, r, s = means.copy(), rot.copy(), scales.copy()
+    hosts = points[cKDTree(points[piece == 0]).query(means)[1]]
+    handed = []
+    tree = gap_tree(points, piece)
+    held, trimmed, was_pulled = keep_to_side(m, r, s, own, tree, piece, REACH, apart.TIPS,
+                                             lambda idx: handed.extend(idx), hosts)
+    assert handed == [3]                                             # drawn on B away from A: to the hold
+    if gap in TOUCH:                                                 # no gap where it crosses: drawn as before
+        assert not (held[:3] | trimmed[:3] | was_pulled[:3]).any()
+        np.testing.assert_array_equal(s[:3], scales[:3])
+        np.testing.assert_array_equal(m[:3], means[:3])
+    else:
+        assert trimmed[2] and not trimmed[:2].any()
+        tip = m[2, 0] + 2 * s[2, 1]
+        assert x_mid - 2 * scales[2, 1] / STEPS_ - 1e-9 <= tip <= x_mid + 1e-9
+    assert not apart_masks(m, r, s, points, piece, REACH, own, tree)[0].any()
+
+
+STEPS_ = 8
+
+
+@pytest.mark.parametrize("gap", TOUCH)
+def test_crack_faces_where_the_pieces_touch_are_left_whole(gap):
+    from gasp_core.run.sides import keep_faces_to_side
+    means, rot, scales, points, piece, own, _ = faces(gap)
+    s = scales.copy()
+    shown, k = keep_faces_to_side(means, rot, s, np.ones(2, bool), own, gap_tree(points, piece), piece, REACH,
+                                  apart.TIPS)
+    assert k == 0 and shown.all()
+    np.testing.assert_array_equal(s, scales)
+
+
+def test_catch_round_33s_rule_trims_the_faces_where_the_pieces_touch():
+    from gasp_core.run.sides import keep_faces_to_side
+    means, rot, scales, points, piece, own, _ = faces(0.5)
+    s = scales.copy()
+    assert keep_faces_to_side(means, rot, s, np.ones(2, bool), own, cKDTree(points), piece, REACH, apart.TIPS)[1] == 1
+    assert (s[1] < scales[1]).any()
+
+
+def wedge():
+    """Blocks A and B whose crack opens along y: B's points ``0.5 + 2.5 y / 4 cm`` cells from A's edge (touching at
+    y = 0, 3 cells apart at y = 4 cm); two Gaussians of A stretched to x = 9 cm, onto B, at y = 2 mm (the pieces
+    touch there: opened by under 0.25 cell) and at y = 3.8 cm (2.4 cells apart)."""
+    a = block(0.0, 0.05)
+    b = block(0.0, 0.05)
+    b[:, 0] += 0.05 + (0.5 + 2.5 * b[:, 1] / 0.04) * DX
+    points, piece = np.concatenate([a, b]), np.repeat([0, 1], [len(a), len(b)])
+    z = 0.02 + LIFT
+    means = np.array([[0.047, 0.002, z], [0.047, 0.038, z]])
+    scales = np.tile([1e-6, (0.09 - 0.047) / 2, 0.001], (2, 1))
+    rot = np.broadcast_to(np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]]), (2, 3, 3)).copy()
+    return means, rot, scales, points, piece, np.zeros(2, np.int64)
+
+
+def test_apart_is_decided_where_the_gaussian_reaches_not_per_pair_of_pieces():
+    means, rot, scales, points, piece, own = wedge()
+    tree = gap_tree(points, piece)
+    assert apart_masks(means, rot, scales, points, piece, REACH, own, tree)[0].tolist() == [False, True]
+    s = scales.copy()
+    trimmed = keep_to_side(means.copy(), rot, s, own, tree, piece, REACH, apart.TIPS, lambda idx: None)[1]
+    assert trimmed.tolist() == [False, True]
+
+
+@pytest.mark.parametrize("opening, want", [(0.0, [True, True]), (10 * DX, [False, False])])
+def test_catch_an_opening_of_nothing_or_of_the_whole_body_misses_the_wedge(opening, want):
+    means, rot, scales, points, piece, own = wedge()
+    tree = gap_tree(points, piece, opening)            # 0: apart wherever another side is; 10 cells: never apart
+    assert apart_masks(means, rot, scales, points, piece, REACH, own, tree)[0].tolist() == want
+
+
+def test_the_opening_is_the_fill_spacing_plus_the_gap():
+    from gasp_core.run.sides import opening
+    vol = np.full(100, H ** 3)
+    vol[:5] = (3 * H) ** 3                              # a few outsized points (an open shell's) do not widen it
+    assert opening(vol, DX) == pytest.approx(H + DX, rel=1e-12)
+    with pytest.raises(ValueError):
+        opening(np.zeros(0), DX)

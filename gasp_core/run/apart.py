@@ -29,7 +29,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial import cKDTree
 
-from gasp_core.run.sides import ellipse_points, host_rows, side_of
+from gasp_core.run.sides import across, across_rays, ellipse_points, host_rows, side_of
 
 #: The reach, in grid cells ``dx`` (module notes).
 REACH = 1.5
@@ -60,7 +60,9 @@ def apart_masks(means: np.ndarray, rot: np.ndarray, scales: np.ndarray, points: 
         Each Gaussian's own piece (:func:`gasp_core.run.sides.host_rows`' piece); -1 or None: the side its centre
         lies on.
     tree : cKDTree, optional
-        A tree already built over ``points`` (the frame's, shared with :func:`hold_to_pieces`).
+        A tree already built over ``points`` (the frame's, shared with :func:`hold_to_pieces`); a
+        :class:`gasp_core.run.sides.PieceTree` with an opening counts only what reaches across a gap (the pieces
+        apart there, :func:`gasp_core.run.sides.across`).
 
     Returns
     -------
@@ -82,12 +84,13 @@ def apart_masks(means: np.ndarray, rot: np.ndarray, scales: np.ndarray, points: 
     if n == 0 or len(points) == 0:
         return np.zeros(n, bool), np.ones(n, bool) if len(points) == 0 else np.zeros(n, bool)
     tree = cKDTree(points) if tree is None else tree
-    centre = side_of(means, tree, piece, reach)
-    ring = side_of(ellipse_points(means, rot, scales, TIPS, np.ones(1))[:, :, 0], tree, piece, reach)
-    lab = np.concatenate([centre[:, None], ring], 1)
+    ring = ellipse_points(means, rot, scales, TIPS, np.ones(1))
+    lab = side_of(np.concatenate([means[:, None], ring[:, :, 0]], 1), tree, piece, reach)
+    centre = lab[:, 0]
     first = np.where(lab >= 0, lab, np.iinfo(np.int64).max).min(axis=1)      # without an own piece: a side it takes
     mine = np.where(own >= 0, own, np.where(centre >= 0, centre, first))
-    spanning = ((lab >= 0) & (lab != mine[:, None])).any(axis=1)
+    spanning = across(means, mine, tree, piece, reach) | across_rays(means, ring, mine, tree, piece,
+                                                                      reach).any(axis=(1, 2))
     return spanning, centre < 0
 
 
@@ -171,6 +174,12 @@ class PieceContext(NamedTuple):
     pull : bool
         Pull a centre that the hold leaves on another piece's side towards its host (:func:`gasp_core.run.sides.
         pull_to_side`); False leaves it there, shrunk to a dot (round 32's rule, kept to show what it drew).
+    p_vol : ndarray, shape (n_points,), float64, optional
+        Point volumes, m^3 (the fill spacing of :func:`gasp_core.run.sides.opening`).
+    gap : float, optional
+        Metres (the piece tracker's: the setup's ``dx``): a Gaussian is kept to its side only where the pieces are
+        apart by it there (:class:`gasp_core.run.sides.PieceTree`); None (or no ``p_vol``): wherever another
+        piece's side is (round 33's rule, kept to show what it drew).
     """
 
     p_mass: np.ndarray
@@ -180,6 +189,8 @@ class PieceContext(NamedTuple):
     hold: bool = True
     trim: bool = True
     pull: bool = True
+    p_vol: np.ndarray | None = None
+    gap: float | None = None
 
 
 def piece_points(o, labels: np.ndarray, ctx: PieceContext) -> np.ndarray:

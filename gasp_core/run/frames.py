@@ -5,7 +5,6 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Callable
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from gasp_core.maps.games import EPS
 from gasp_core.maps.rows import by_rows
@@ -16,7 +15,7 @@ from gasp_core.seam.runner import EngineRun, RunStats
 from gasp_core.prepare.selection import scatter
 from gasp_core.run.apart import (REACH, TIPS, HostMotion, PieceContext, apart_row, hold_to_pieces, piece_points,
                                  piece_rotations)
-from gasp_core.run.sides import keep_split_to_side, keep_to_side
+from gasp_core.run.sides import PieceTree, keep_split_to_side, keep_to_side, opening
 
 if TYPE_CHECKING:
     from gasp_core.prepare.scene import PreparedScene
@@ -108,9 +107,9 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray,
         World rotations of this frame.
     counts : dict
         ``degenerate`` faces and ``clamped`` scales (alpha rule) this frame; with ``labels``, ``straddling``; with
-        ``apart``, ``held``, ``trimmed``, ``pulled``, ``spanning`` and ``specks``; with ``split``, ``split`` (the sub-Gaussians
-        made) and ``split_gaussians`` (:class:`Gaussians` of them, file frame, with the int32 field ``parent``: the
-        file row each comes from; None when there are none).
+        ``apart``, ``held``, ``trimmed``, ``pulled``, ``spanning`` and ``specks``; with ``split``, ``split`` (the
+        sub-Gaussians made) and ``split_gaussians`` (:class:`Gaussians` of them, file frame, with the int32 field
+        ``parent``: the file row each comes from; None when there are none).
     """
     if o.spec.static:
         g = o.gaussians if t is None else background_at(o, o.gaussians, t)
@@ -146,17 +145,22 @@ def keep_apart(o: PreparedObject, x: np.ndarray, labels: np.ndarray, apart: Piec
                counts: dict) -> tuple[np.ndarray, tuple | None]:
     """A broken object's Gaussians kept on their pieces (:func:`hold_to_pieces`, then each on its own side of every
     crack: :func:`gasp_core.run.sides.keep_to_side`), in place, and the frame's ``held``, ``trimmed``, ``spanning``
-    and ``specks`` put in ``counts``. One tree over the pieces' material points serves the rule and the counts.
+    and ``specks`` put in ``counts``. One tree over the pieces' material points serves the rule and the counts: with
+    ``apart.gap`` a :class:`gasp_core.run.sides.PieceTree` that keeps them to their side only where the pieces are
+    apart by it (``gasp_core.run.sides``, "Apart there").
     Returns ``straddle`` (n,) with the Gaussians held or trimmed added (the split of clamped triangles leaves them
     alone) and, when the rule keeps sides, ``(own, tree, piece, reach)`` for the split's sub-Gaussians (else None)."""
     pts = piece_points(o, labels, apart)
-    tree = cKDTree(x[pts]) if len(pts) else None
+    lab = np.asarray(labels)
+    gap = None if apart.gap is None or apart.p_vol is None or not len(pts) else \
+        opening(np.asarray(apart.p_vol)[pts], apart.gap)
+    tree = PieceTree(x[pts], lab[pts], gap) if len(pts) else None
     motion = HostMotion(o, x, labels, apart, prev_rot, pts) if len(pts) else None
     sides = None
     if apart.hold:
         held = hold_to_pieces(o, x, labels, apart, prev_rot, means, rot, scales, pts, tree, motion)
         if apart.trim and motion is not None:
-            sides = (motion.own, tree, np.asarray(labels)[pts], apart.reach)
+            sides = (motion.own, tree, lab[pts], apart.reach)
             moved, trimmed, pulled = keep_to_side(means, rot, scales, *sides, TIPS,
                                                   lambda idx: motion.move(idx, means, rot, scales),
                                                   None if not apart.pull else x[motion.host])
@@ -261,20 +265,21 @@ class Rebuilder:
         self.hold = True    # False: the Gaussians of crumbs and specks drawn where the map puts them (the rule before)
         self.trim = True    # False: the Gaussians not kept to their side of a crack (the rule before round 32)
         self.pull = True    # False: a centre the hold leaves on another piece's side not pulled (round 32's rule)
+        self.gap = True     # False: kept to their side wherever another piece's side is, touching or not (round 33's)
 
     def __call__(self, frame: int, x: np.ndarray, labels: np.ndarray | None = None,
                  pieces: np.ndarray | None = None) -> tuple[list[Gaussians], dict]:
         """Every object's Gaussians at ``frame`` from the positions ``x`` (n_points, 3), world frame, and the
         frame's row (``frame``, ``degenerate``, ``clamped``, with ``labels`` (a broken body's pieces, :func:`rebuild`;
         ``pieces`` per label whether it is a piece, :attr:`gasp_core.run.pieces.PieceTracker.pieces`) ``straddling``,
-        ``held``, ``trimmed``, ``pulled``, ``spanning``, ``specks`` and ``apart_reach`` (m: :mod:`gasp_core.run.apart`), with an
-        object that splits its clamped triangles ``split`` (the sub-Gaussians made, :attr:`last_split`) and, with
-        colliders, ``colliders``)."""
+        ``held``, ``trimmed``, ``pulled``, ``spanning``, ``specks`` and ``apart_reach`` (m:
+        :mod:`gasp_core.run.apart`), with an object that splits its clamped triangles ``split`` (the sub-Gaussians
+        made, :attr:`last_split`) and, with colliders, ``colliders``)."""
         prep, prev = self.prep, self.prev_rot
         gs, row = [], {"frame": frame, "degenerate": 0, "clamped": 0}
         apart = None if labels is None else PieceContext(prep.setup.p_mass, pieces, REACH * float(prep.setup.dx),
-                                                         prep.setup.x, self.hold, self.trim,
-                                                         self.pull)
+                                                         prep.setup.x, self.hold, self.trim, self.pull,
+                                                         prep.setup.p_vol, float(prep.setup.dx) if self.gap else None)
         for k, o in enumerate(prep.objects):
             g, prev[k], counts = rebuild(o, x, prev[k], frame * prep.setup.frame_dt, labels, self.split[k], apart)
             row["degenerate"] += counts["degenerate"]

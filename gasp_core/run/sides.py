@@ -11,10 +11,20 @@ piece of its nearest material point, if that is within the reach (:data:`gasp_co
 no side (in the air). The border between two pieces' sides is the mid-surface of the crack between them, whatever
 its width: a crack half a cell wide has its border a quarter of a cell from each piece.
 
-**Spanning two pieces** (:func:`gasp_core.run.apart.apart_masks`): a Gaussian whose drawn ellipse reaches another
-piece's side: its centre, or one of :data:`SIDES` points on its ``TIPS``-sigma in-plane ellipse, on the side of a
-piece not its own. A Gaussian lying wholly on its piece beside a narrow crack stops short of the crack's mid-surface
-and is not counted; one stretched from its piece over a gap onto another piece is.
+**Apart there** (round 34, :class:`PieceTree`): a point on another piece's side lies *across a gap* only where the
+two pieces are apart at that place: the other piece's material point nearest it (``b``) has no material point of the
+Gaussian's own piece within :func:`opening` (the body's fill spacing, a rest neighbour's distance, plus the gap the
+pieces are told apart by: :class:`gasp_core.run.pieces.PieceTracker`'s ``gap``, the setup's ``dx``; issue 66: parts
+"separated by a gap of at least 1 dx"). Where the two pieces touch (pressed together after the break, or not yet
+parted along part of their crack) there is no gap there for a Gaussian to be stretched across: what overlaps the
+neighbour there is left as drawn. A plain ``cKDTree`` (or a :class:`PieceTree` without an opening) keeps round 33's
+rule: every point on another piece's side is across.
+
+**Spanning two pieces** (:func:`gasp_core.run.apart.apart_masks`): a Gaussian whose drawn ellipse reaches across a
+gap onto another piece's side: its centre, or one of :data:`SIDES` points on its ``TIPS``-sigma in-plane ellipse, on
+the side of a piece not its own, apart from its own there. A Gaussian lying wholly on its piece beside a narrow crack
+stops short of the crack's mid-surface and is not counted; one stretched from its piece over a gap onto another piece
+is.
 
 **The rule** (:func:`keep_to_side`, called by :func:`gasp_core.run.frames.rebuild` for every broken body): a
 Gaussian whose centre the map puts on another piece's side is held by its host's piece (moved rigidly with it from
@@ -34,6 +44,8 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.spatial import cKDTree
+
+from gasp_core.run.pieces import SPACING_PERCENTILE
 
 #: Points on each Gaussian's ellipse that the counter and the trim look at, evenly spaced in angle (module notes).
 SIDES = 8
@@ -87,6 +99,104 @@ def side_of(samples: np.ndarray, tree: cKDTree, piece: np.ndarray, reach: float)
     return lab.reshape(shape).astype(np.int64)
 
 
+def opening(p_vol: np.ndarray, gap: float) -> float:
+    """The distance (metres) past which a material point has no neighbour of another piece at that place (module
+    notes, "Apart there"): the body's fill spacing (the :data:`gasp_core.run.pieces.SPACING_PERCENTILE` percentile of
+    ``p_vol^(1/3)``, ``p_vol`` (k,) m^3 its material points' volumes, as the piece tracker's links) plus ``gap``
+    (metres, the tracker's: the setup's ``dx``). Raises ValueError on no volumes."""
+    p_vol = np.asarray(p_vol, np.float64)
+    if p_vol.size == 0:
+        raise ValueError("opening: no material point volumes")
+    return float(np.percentile(np.cbrt(p_vol), SPACING_PERCENTILE)) + float(gap)
+
+
+class PieceTree(cKDTree):
+    """A tree over the pieces' material points (``points`` (k, 3) metres, ``piece`` (k,) int) that also tells
+    where two pieces are apart (module notes, "Apart there"): with ``opening`` (metres, :func:`opening`) a point on
+    another piece's side is across only where that piece's nearest material point has none of the own piece within
+    ``opening``; None: everywhere (round 33's rule)."""
+
+    def __init__(self, points: np.ndarray, piece: np.ndarray, opening: float | None = None):
+        super().__init__(np.asarray(points, np.float64).reshape(-1, 3))
+        self.piece, self.opening = np.asarray(piece).ravel(), opening
+        self._trees: dict = {}
+
+    def apart(self, rows: np.ndarray, own: np.ndarray) -> np.ndarray:
+        """Whether the material points ``rows`` (k,) of this tree have no point of piece ``own`` (k,) within the
+        opening: the two pieces apart there; shape (k,), bool."""
+        out = np.ones(len(rows), bool)
+        for p in np.unique(own):
+            if p not in self._trees:
+                mine = self.data[self.piece == p]
+                self._trees[p] = cKDTree(mine) if len(mine) else None
+            t, k = self._trees[p], np.flatnonzero(own == p)
+            if t is not None:
+                out[k] = ~np.isfinite(t.query(self.data[rows[k]], distance_upper_bound=self.opening)[0])
+        return out
+
+
+def across(samples: np.ndarray, own: np.ndarray, tree: cKDTree, piece: np.ndarray, reach: float) -> np.ndarray:
+    """Which points of ``samples`` (..., 3), metres, lie across a gap from their Gaussian's own piece ``own``
+    (broadcast to ``samples.shape[:-1]``): on another piece's side (:func:`side_of`), and, with a :class:`PieceTree`
+    that has an opening, that piece apart from the own one there, at the point itself (module notes: a centre); shape
+    ``samples.shape[:-1]``, bool."""
+    shape = samples.shape[:-1]
+    if tree.n == 0:
+        return np.zeros(shape, bool)
+    lab, near = _side_near(samples, tree, piece, reach)
+    mine = np.broadcast_to(np.asarray(own), shape)
+    bad = (lab >= 0) & (lab != mine)
+    if getattr(tree, "opening", None) is not None and bad.any():
+        bad[bad] = tree.apart(near[bad], mine[bad])
+    return bad
+
+
+def _side_near(samples, tree, piece, reach):
+    """:func:`side_of` of ``samples`` (..., 3) and each one's nearest point of ``tree`` (rows; any where none)."""
+    dist, near = tree.query(np.asarray(samples, np.float64).reshape(-1, 3), distance_upper_bound=reach)
+    near = np.minimum(near, tree.n - 1)
+    lab = np.where(np.isfinite(dist), np.asarray(piece)[near], -1)
+    return lab.reshape(samples.shape[:-1]).astype(np.int64), near.reshape(samples.shape[:-1])
+
+
+#: Halvings of the step before a ray's first point on another piece's side that find where it crosses the border.
+BISECT = 6
+
+
+def across_rays(means: np.ndarray, pts: np.ndarray, own: np.ndarray, tree: cKDTree, piece: np.ndarray,
+                reach: float) -> np.ndarray:
+    """Which points ``pts`` (n, r, f, 3) metres, along rays from the centres ``means`` (n, 3) in order of their
+    distance, lie across a gap from their Gaussian's own piece ``own`` (n,) (module notes): on another piece's side
+    and, with a :class:`PieceTree` that has an opening, that piece apart from the own one *where the ray crosses into
+    its side* (the border found by :data:`BISECT` halvings between the point that enters that side and the one before
+    it, or the centre): a Gaussian that reaches over a closed part of a crack onto the neighbour is not across, one
+    over an opened part is. Shape (n, r, f), bool."""
+    pts = np.asarray(pts, np.float64)
+    if tree.n == 0:
+        return np.zeros(pts.shape[:3], bool)
+    own = np.asarray(own)
+    lab = _side_near(pts, tree, piece, reach)[0]
+    bad = (lab >= 0) & (lab != own[:, None, None])
+    if getattr(tree, "opening", None) is None or not bad.any():
+        return bad
+    entry = np.zeros(lab.shape, np.int64)       # where each run of one side along the ray begins
+    for j in range(1, lab.shape[2]):
+        entry[:, :, j] = np.where(lab[:, :, j] == lab[:, :, j - 1], entry[:, :, j - 1], j)
+    gi, ri, fi = np.nonzero(bad)
+    key, inv = np.unique(np.stack([gi, ri, entry[gi, ri, fi]], 1), axis=0, return_inverse=True)
+    g, r, e = key.T
+    hi = pts[g, r, e]
+    lo = np.where((e > 0)[:, None], pts[g, r, np.maximum(e - 1, 0)], np.asarray(means, np.float64)[g])
+    target = lab[g, r, e]
+    for _ in range(BISECT):
+        mid = 0.5 * (lo + hi)
+        on = (_side_near(mid, tree, piece, reach)[0] == target)[:, None]
+        hi, lo = np.where(on, mid, hi), np.where(on, lo, mid)
+    near = _side_near(hi, tree, piece, reach)[1]
+    bad[gi, ri, fi] = tree.apart(near, own[g])[np.ravel(inv)]
+    return bad
+
+
 def host_rows(m_rest: np.ndarray, x_rest_pts: np.ndarray, pts: np.ndarray) -> np.ndarray:
     """Each Gaussian's host (module notes): the row of ``pts`` (the setup rows of the material points in a piece,
     shape (k,)) whose rest position (``x_rest_pts``, shape (k, 3), metres) is nearest its rest centre (``m_rest``,
@@ -99,8 +209,7 @@ def host_rows(m_rest: np.ndarray, x_rest_pts: np.ndarray, pts: np.ndarray) -> np
 def _clear_steps(means, rot, scales, own, tree, piece, reach, tips) -> np.ndarray:
     """Per Gaussian and ray, the share of the way to its ellipse that lies on its own side (or on none): the last of
     :data:`FRACTIONS` before the first on another piece's side (0 if that is the first); shape (n, SIDES), float."""
-    lab = side_of(ellipse_points(means, rot, scales, tips, FRACTIONS), tree, piece, reach)   # (n, SIDES, steps)
-    bad = (lab >= 0) & (lab != np.asarray(own)[:, None, None])
+    bad = across_rays(means, ellipse_points(means, rot, scales, tips, FRACTIONS), own, tree, piece, reach)
     first = np.where(bad.any(axis=2), bad.argmax(axis=2), len(FRACTIONS))
     return np.concatenate([[0.0], FRACTIONS])[first]
 
@@ -139,16 +248,15 @@ def pull_to_side(means: np.ndarray, own: np.ndarray, hosts: np.ndarray, tree: cK
         return
     hosts = np.asarray(hosts, np.float64)
     cand = hosts[:, None] + PULL[None, :, None] * (np.asarray(means, np.float64) - hosts)[:, None]   # (n, p, 3)
-    lab = side_of(cand, tree, piece, reach)
-    ok = (lab < 0) | (lab == np.asarray(own)[:, None])
+    ok = ~across(cand, np.asarray(own)[:, None], tree, piece, reach)
     ok[:, -1] = True
     means[:] = cand[np.arange(len(means)), ok.argmax(axis=1)]
 
 
 def _reaching(means, rot, scales, own, tree, piece, reach, tips) -> np.ndarray:
     """Which Gaussians have their centre or a point of their ``tips``-sigma ellipse on another piece's side, (n,)."""
-    lab = side_of(ellipse_points(means, rot, scales, tips, np.array([0.0, 1.0])), tree, piece, reach)
-    return ((lab >= 0) & (lab != np.asarray(own)[:, None, None])).any(axis=(1, 2))
+    ring = across_rays(means, ellipse_points(means, rot, scales, tips, np.ones(1)), own, tree, piece, reach)
+    return across(np.asarray(means, np.float64), own, tree, piece, reach) | ring.any(axis=(1, 2))
 
 
 def keep_to_side(means: np.ndarray, rot: np.ndarray, scales: np.ndarray, own: np.ndarray, tree: cKDTree,
@@ -188,14 +296,12 @@ def keep_to_side(means: np.ndarray, rot: np.ndarray, scales: np.ndarray, own: np
     if n == 0 or tree.n == 0:
         return held, trimmed, pulled
     own = np.asarray(own)
-    centre = side_of(np.asarray(means, np.float64), tree, piece, reach)
-    idx = np.flatnonzero((centre >= 0) & (centre != own))
+    idx = np.flatnonzero(across(np.asarray(means, np.float64), own, tree, piece, reach))
     if len(idx):
         hold(idx)
         held[idx] = True
         if hosts is not None:
-            lab = side_of(np.asarray(means[idx], np.float64), tree, piece, reach)
-            idx = idx[(lab >= 0) & (lab != own[idx])]
+            idx = idx[across(np.asarray(means[idx], np.float64), own[idx], tree, piece, reach)]
             sub = means[idx].copy()
             pull_to_side(sub, own[idx], np.asarray(hosts)[idx], tree, piece, reach)
             means[idx], pulled[idx] = sub, True
@@ -224,8 +330,7 @@ def keep_split_to_side(means: np.ndarray, rot: np.ndarray, scales: np.ndarray, o
     if len(means) == 0 or tree.n == 0:
         return np.ones(len(means), bool)
     own = np.asarray(own)
-    centre = side_of(np.asarray(means, np.float64), tree, piece, reach)
-    keep = (centre < 0) | (centre == own)
+    keep = ~across(np.asarray(means, np.float64), own, tree, piece, reach)
     idx = np.flatnonzero(keep & _reaching(means, rot, scales, own, tree, piece, reach, tips))
     if len(idx):
         sub = scales[idx].copy()
