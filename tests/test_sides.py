@@ -268,3 +268,16 @@ def test_the_opening_is_the_fill_spacing_plus_the_gap():
     assert opening(vol, DX) == pytest.approx(H + DX, rel=1e-12)
     with pytest.raises(ValueError):
         opening(np.zeros(0), DX)
+
+
+def test_a_crack_face_across_a_gap_is_still_trimmed():
+    """Blocks 1.6 cells apart (opened by 1.1 cells: apart): the face at A's last column, 0.9 cell across, reaches past
+    the mid-plane (0.8 cell) and is trimmed with the gap rule as with round 33's."""
+    from gasp_core.run.sides import keep_faces_to_side
+    means, rot, scales, points, piece, own, _ = faces(1.6)
+    tree = gap_tree(points, piece)
+    assert apart_masks(means, rot, scales, points, piece, REACH, own, tree)[0].tolist() == [False, True]
+    s = scales.copy()
+    shown, k = keep_faces_to_side(means, rot, s, np.ones(2, bool), own, tree, piece, REACH, apart.TIPS)
+    assert k == 1 and shown.all() and (s[1] < scales[1]).any()
+    assert not apart_masks(means, rot, s, points, piece, REACH, own, tree)[0].any()
