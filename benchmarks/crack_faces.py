@@ -69,8 +69,8 @@ def run_to(engine: str, frames: int, scene: Path = ROOT / "examples" / "donut_sh
 
 
 #: The drawing rule of a broken body's Gaussians the measure renders: None the map with straddling Gaussians kept
-#: whole (the rule before round 31, the figures of docs/fracture.md's tables), "hold" (round 31), "trim" (round 32) or
-#: "pull" (round 33: the crack faces kept to their side too) or "gap" (round 34, what ``gasp simulate`` draws now:
+#: whole (the rule before round 31, the figures of docs/fracture.md's tables), "hold" (round 31), "trim" (round 32, the trim rule) or
+#: "pull" (round 32, the pull rule: the crack faces kept to their side too) or "gap" (round 32, the gap rule, what ``gasp simulate`` draws now:
 #: kept to their side only where the pieces are apart, :class:`gasp_core.run.sides.PieceTree`);
 #: ``benchmarks/cup_drop.py --rule`` sets it.
 RULE = None
@@ -100,7 +100,7 @@ def scene_parts(prep, x, d):
     dc = o.gaussians.sh_dc if o.moving is None else o.gaussians.sh_dc[o.moving]
     faces = build_crack_faces(s.x[rows], rows, tracker.pairs, o.surface.tri_rest[:, 0], dc, h, x_rest=s.x)
     means, rot, scales, vis = crack_face_gaussians(faces, x, labels, d)
-    if RULE in ("pull", "gap"):   # the faces kept to their piece's side too (round 33, gasp_core.run.sides)
+    if RULE in ("pull", "gap"):   # the faces kept to their piece's side too (round 32, the pull rule, gasp_core.run.sides)
         vis = faces_to_side(s, rows, tracker.pieces, labels, x, means, rot, scales, vis)
     M = rot * scales[:, None, :]
     crack = Splats(means, M @ M.transpose(0, 2, 1), np.clip(0.5 + SH_C0 * faces.sh_dc, 0, 1).astype(np.float32),

@@ -6,20 +6,20 @@ rebuilt again with each rule from the same positions (the rule changes what is d
 
 * ``map``: each Gaussian where the map and the alpha rule put it (the paper's rule);
 * ``hold``: a crumb's and a left-behind Gaussian moved with its piece (round 31, ``gasp_core.run.apart``);
-* ``trim``: also each Gaussian kept on its own side of every crack (round 32, :func:`gasp_core.run.sides.keep_to_side`
+* ``trim``: also each Gaussian kept on its own side of every crack (round 32, the trim rule, :func:`gasp_core.run.sides.keep_to_side`
   without its hosts);
-* ``pull``: also a centre that the hold leaves on another piece's side pulled towards its host (round 33,
+* ``pull``: also a centre that the hold leaves on another piece's side pulled towards its host (the pull rule,
   :func:`gasp_core.run.sides.pull_to_side`);
-* ``gap``: the same, but only where the two pieces are apart at that place (round 34,
+* ``gap``: the same, but only where the two pieces are apart at that place (the gap rule,
   :class:`gasp_core.run.sides.PieceTree`: what ``gasp simulate`` draws now).
 
 Per frame and rule: ``spanning`` (a Gaussian whose 2-sigma ellipse reaches the side of a piece not its own; with the
 rule ``gap`` across a gap: where the pieces are apart), ``spanning_sides`` (the same without the gap: any other
-piece's side, round 33's count), ``faces_spanning_sides`` (the crack faces so),
+piece's side, the pull rule's count), ``faces_spanning_sides`` (the crack faces so),
 ``spanning_any`` (the count without an own piece: its samples take two pieces, round 31's definition, 8 points on the
 ellipse), ``spanning_split`` (the sub-Gaussians of clamped triangles, ``split_NNNN.ply``, counted as their parents),
 ``specks``, ``held``, ``trimmed``, ``pulled``, ``faces_spanning`` (the crack faces shown,
-:mod:`gasp_core.maps.crack_faces`, whose 2-sigma ellipse reaches another piece's side: before round 33 the faces were
+:mod:`gasp_core.maps.crack_faces`, whose 2-sigma ellipse reaches another piece's side: before the pull rule the faces were
 drawn as made, with the rule ``pull`` they are kept to their side, :func:`gasp_core.run.sides.keep_faces_to_side`),
 ``faces_shown``, the largest scale over its rest value (the alpha rule's cap must hold) and the
 rebuild's time.

@@ -10,8 +10,8 @@ The footprint of the fill (discs of 0.75 spacing, the measure before round 31) i
 7-19 % larger. Then the broken cup (4.43 m/s, n_grid 80, 4 frames): each piece of 5 % of the mass or more, rendered
 alone with its crack faces, drawn as ``gasp simulate`` draws them (kept to their side only across a gap,
 ``gasp_core.run.sides``), has under 2 % of its silhouette below alpha 0.9, and over 2 % without them (the catch: a
-piece whose crack faces are removed); with round 33's rule (kept to their side where the fragments touch too) a piece
-is over 2 % (the catch of round 34). A measure without the pieces' rigid fit reads 63 % on the largest piece (run
+piece whose crack faces are removed); with the pull rule (kept to their side where the fragments touch too) a piece
+is over 2 % (the catch of the gap rule). A measure without the pieces' rigid fit reads 63 % on the largest piece (run
 by hand).
 """
 from __future__ import annotations
@@ -138,7 +138,7 @@ def test_the_cups_pieces_close_from_their_crack_side(tmp_path, engine):
     for r in rows:
         assert r["geo_fill"] < MARK, f"piece {r['piece']}: {100 * r['geo_fill']:.2f} % below alpha 0.9"
         assert r["geo_without"] > MARK                               # the catch: no crack faces
-    # the catch of round 34: round 33's rule trims the faces and Gaussians where two fragments touch too
+    # the catch of the gap rule: the pull rule trims the faces and Gaussians where two fragments touch too
     old = cf.measure_pieces(parts_at(prep, x, tracker, "pull"), x, np.zeros(len(x)), render, faces="fill",
                             geometry=geo)
     assert max(r["geo_fill"] for r in old) > MARK, [round(100 * r["geo_fill"], 2) for r in old]

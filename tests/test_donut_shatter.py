@@ -36,7 +36,7 @@ SPECKS = 1e-3
 #: At most this share of the Gaussians may span two pieces (``run.json`` ``spanning``, :mod:`gasp_core.run.sides`: a
 #: Gaussian whose 2-sigma ellipse reaches across a gap onto the side of a piece not its own) at any frame, and as many
 #: crack faces (``faces_spanning``): measured 0 at frames 0-10 on both engines (rounds 33 and 34); with round 31's rule
-#: (held, not trimmed) the catch below fails frames 2 and 3 (round 33's count: 0 / 0 / 696 / 811).
+#: (held, not trimmed) the catch below fails frames 2 and 3 (the pull rule's count: 0 / 0 / 696 / 811).
 SPANNING = 5e-5
 
 
@@ -104,8 +104,8 @@ def test_the_donut_shatters_into_three_or_more_pieces_and_stays_finite(engine, t
 
 def test_catch_the_rule_before_draws_gaussians_across_the_cracks(tmp_path, monkeypatch):
     """The catch: with each Gaussian not kept to its side at all (``trim`` off: round 31's rule), :func:`check_spanning`
-    fails frames 2 and 3 (taichi_mpm). Round 32's catch (no pull) and round 33's (the crack faces drawn as made) do not
-    apply at frames 0-3 any more: with round 34's rule (kept to their side only across a gap) the pull first acts at
+    fails frames 2 and 3 (taichi_mpm). The trim rule's catch (no pull) and the pull rule's (the crack faces drawn as made) do not
+    apply at frames 0-3 any more: with the gap rule (kept to their side only across a gap) the pull first acts at
     frame 4 (12 pulled) and the 8 faces that reached another piece's side at frame 3 reach a touching neighbour, not
     across a gap (``benchmarks/results/spanning_donut_shatter_*.md``); ``tests/test_sides.py`` holds both rules and
     their catches on known layouts."""

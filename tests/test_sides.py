@@ -7,7 +7,7 @@ crack), do not span; one stretched from A over the crack onto B does, and so doe
 The rule trims the one stretched across so that its tip stops within one step of the crack's mid-plane, leaves the
 others exactly as they were, and hands the one on B's side to the hold. Each is shown failing on a broken variant: a
 counter without tips, one that counts a Gaussian near two pieces, one without the Gaussian's own piece, and the rule
-before (nothing trimmed). Round 33: a centre the hold leaves on B's side is pulled to A's (without its host it stays
+before (nothing trimmed). The pull rule: a centre the hold leaves on B's side is pulled to A's (without its host it stays
 counted), and crack faces on A's edge are counted and trimmed to A's side (drawn as made, one reaches B's side).
 """
 from __future__ import annotations
@@ -115,7 +115,7 @@ def test_catch_the_rule_before_leaves_the_one_across():
 def pulled(gap: float, with_hosts: bool = True):
     """The layout after :func:`keep_to_side` with a hold that leaves the Gaussian drawn on B's side where it is (as
     where two pieces have come together after the break) and, with ``with_hosts``, each Gaussian's host (the point of
-    A under it; the rule before round 33: none). Returns the Gaussians, the rows pulled, and the layout."""
+    A under it; the rule before the pull rule: none). Returns the Gaussians, the rows pulled, and the layout."""
     means, rot, scales, points, piece, own, x_mid = layout(gap)
     hosts = points[cKDTree(points[piece == 0]).query(means)[1]] if with_hosts else None
     m, r, s = means.copy(), rot.copy(), scales.copy()
@@ -163,11 +163,11 @@ def test_crack_faces_are_counted_and_kept_to_their_side(gap):
 
 
 def test_catch_faces_drawn_as_made_reach_the_other_side():
-    means, rot, scales, points, piece, own, _ = faces(1.0)        # the rule before round 33: faces not kept
+    means, rot, scales, points, piece, own, _ = faces(1.0)        # the rule before the pull rule: faces not kept
     assert apart_masks(means, rot, scales, points, piece, REACH, own)[0].any()
 
 
-# Round 34: across a gap only where the two pieces are apart there (gasp_core.run.sides, "Apart there"). The blocks
+# The gap rule: across a gap only where the two pieces are apart there (gasp_core.run.sides, "Apart there"). The blocks
 # are ``g`` cells apart point to point: 0.5 cell is the fill spacing (the pieces touch), 1 cell opens them by half a
 # cell (under the gap of 1 dx the pieces are told apart by), 2 and 3 cells by 1.5 and 2.5 (apart).
 OPENING = H + DX          # opening(): the fill spacing plus the gap (dx)
@@ -272,7 +272,7 @@ def test_the_opening_is_the_fill_spacing_plus_the_gap():
 
 def test_a_crack_face_across_a_gap_is_still_trimmed():
     """Blocks 1.6 cells apart (opened by 1.1 cells: apart): the face at A's last column, 0.9 cell across, reaches past
-    the mid-plane (0.8 cell) and is trimmed with the gap rule as with round 33's."""
+    the mid-plane (0.8 cell) and is trimmed with the gap rule as with the pull rule's."""
     from gasp_core.run.sides import keep_faces_to_side
     means, rot, scales, points, piece, own, _ = faces(1.6)
     tree = gap_tree(points, piece)

@@ -173,13 +173,13 @@ class PieceContext(NamedTuple):
         them as the map and ``hold`` do (the rule before round 32, kept to show what it drew).
     pull : bool
         Pull a centre that the hold leaves on another piece's side towards its host (:func:`gasp_core.run.sides.
-        pull_to_side`); False leaves it there, shrunk to a dot (round 32's rule, kept to show what it drew).
+        pull_to_side`); False leaves it there, shrunk to a dot (the trim rule, kept to show what it drew).
     p_vol : ndarray, shape (n_points,), float64, optional
         Point volumes, m^3 (the fill spacing of :func:`gasp_core.run.sides.opening`).
     gap : float, optional
         Metres (the piece tracker's: the setup's ``dx``): a Gaussian is kept to its side only where the pieces are
         apart by it there (:class:`gasp_core.run.sides.PieceTree`); None (or no ``p_vol``): wherever another
-        piece's side is (round 33's rule, kept to show what it drew).
+        piece's side is (the pull rule, kept to show what it drew).
     """
 
     p_mass: np.ndarray

@@ -49,7 +49,7 @@ class CrackOutput:
         self.reach = REACH * float(s.dx)
         self.trim = True    # False: the faces not kept to their side (the rule before, kept to show what it drew)
         self.vol, self.dx = np.asarray(s.p_vol, np.float64), float(s.dx)
-        self.gap = True     # False: kept to their side wherever another piece's side is, touching or not (round 33)
+        self.gap = True     # False: kept to their side wherever another piece's side is, touching or not (round 32, the pull rule)
         self.counts: dict = {}   # the last frame's faces_spanning and faces_trimmed, all objects
         self.objects: list[tuple[str, object, CrackFaces]] = []
         for o, name in zip(prep.objects, prep.names):

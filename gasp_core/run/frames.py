@@ -264,8 +264,8 @@ class Rebuilder:
         self.last_split: list = [None] * len(prep.objects)
         self.hold = True    # False: the Gaussians of crumbs and specks drawn where the map puts them (the rule before)
         self.trim = True    # False: the Gaussians not kept to their side of a crack (the rule before round 32)
-        self.pull = True    # False: a centre the hold leaves on another piece's side not pulled (round 32's rule)
-        self.gap = True     # False: kept to their side wherever another piece's side is, touching or not (round 33's)
+        self.pull = True    # False: a centre the hold leaves on another piece's side not pulled (the trim rule)
+        self.gap = True     # False: kept to their side wherever another piece's side is, touching or not (the pull rule's)
 
     def __call__(self, frame: int, x: np.ndarray, labels: np.ndarray | None = None,
                  pieces: np.ndarray | None = None) -> tuple[list[Gaussians], dict]:

@@ -11,13 +11,13 @@ piece of its nearest material point, if that is within the reach (:data:`gasp_co
 no side (in the air). The border between two pieces' sides is the mid-surface of the crack between them, whatever
 its width: a crack half a cell wide has its border a quarter of a cell from each piece.
 
-**Apart there** (round 34, :class:`PieceTree`): a point on another piece's side lies *across a gap* only where the
+**Apart there** (round 32, the gap rule, :class:`PieceTree`): a point on another piece's side lies *across a gap* only where the
 two pieces are apart at that place: the other piece's material point nearest it (``b``) has no material point of the
 Gaussian's own piece within :func:`opening` (the body's fill spacing, a rest neighbour's distance, plus the gap the
 pieces are told apart by: :class:`gasp_core.run.pieces.PieceTracker`'s ``gap``, the setup's ``dx``; issue 66: parts
 "separated by a gap of at least 1 dx"). Where the two pieces touch (pressed together after the break, or not yet
 parted along part of their crack) there is no gap there for a Gaussian to be stretched across: what overlaps the
-neighbour there is left as drawn. A plain ``cKDTree`` (or a :class:`PieceTree` without an opening) keeps round 33's
+neighbour there is left as drawn. A plain ``cKDTree`` (or a :class:`PieceTree` without an opening) keeps the pull rule's
 rule: every point on another piece's side is across.
 
 **Spanning two pieces** (:func:`gasp_core.run.apart.apart_masks`): a Gaussian whose drawn ellipse reaches across a
@@ -114,7 +114,7 @@ class PieceTree(cKDTree):
     """A tree over the pieces' material points (``points`` (k, 3) metres, ``piece`` (k,) int) that also tells
     where two pieces are apart (module notes, "Apart there"): with ``opening`` (metres, :func:`opening`) a point on
     another piece's side is across only where that piece's nearest material point has none of the own piece within
-    ``opening``; None: everywhere (round 33's rule)."""
+    ``opening``; None: everywhere (the pull rule)."""
 
     def __init__(self, points: np.ndarray, piece: np.ndarray, opening: float | None = None):
         super().__init__(np.asarray(points, np.float64).reshape(-1, 3))
