@@ -15,8 +15,8 @@ from gasp_core.seam.setup import Boundary
 
 #: Cells: a boundary plane within this of a node layer passes through it (ties are exact ties).
 NODE_TIE = 1e-9
-#: ``walls``: the node layers ``I_d < WALL_NODES`` and ``I_d > (hi_d - lo_d) / dx - WALL_NODES`` are wall nodes
-#: (docs/mpm.md step 3).
+#: ``walls``: their planes lie this many cells inside the domain's faces (docs/mpm.md step 3; the wall nodes are
+#: ``gasp_core.mpm.contact.wall_grid_cells``').
 WALL_NODES = 3
 
 
@@ -312,11 +312,10 @@ def passive_bounds(setup, contact: str = "grid") -> tuple[np.ndarray, np.ndarray
     has no mass: no momentum or energy of the simulated body changes.
 
     - ``ground``: ``z >= height`` (the plane itself, with either contact model; the highest of several);
-    - ``walls``: ``lo_d + 2 dx <= x_d <= lo_d + hi_first dx`` on each axis, the wall node layers nearest the
-      inside (:data:`WALL_NODES`; ``hi_first = floor((hi_d - lo_d) / dx - 3) + 1``, ``hi_d - 2 dx`` on a domain
-      of whole cells), where the walls' grid rule stops the material's nodes (``contact = "grid"``); with the
-      particle contact (``contact = "particle"``: ``gasp_core.mpm.contact.contact_model`` of the setup) its walls'
-      planes, ``lo_d + 3 dx <= x_d <= hi_d - 3 dx`` (``contact.contact_planes``);
+    - ``walls``: ``lo_d + 3 dx <= x_d <= hi_d - 3 dx`` on each axis, the walls' planes (:data:`WALL_NODES`), with
+      either contact model: with ``contact = "grid"`` the walls' grid rule stops the node layers on the planes and
+      behind them (``gasp_core.mpm.contact.wall_grid_cells``); with ``contact = "particle"`` its points meet the
+      planes (``contact.contact_planes``);
     - ``fixed_region``: nothing (its passive points are held where they start, like its material points);
     - no boundary on a side: ``-inf`` / ``+inf`` (a point that leaves the grid there is still reported).
     """
@@ -327,13 +326,9 @@ def passive_bounds(setup, contact: str = "grid") -> tuple[np.ndarray, np.ndarray
     dx = float(setup.dx)
     particle = contact == "particle"
     for b in setup.boundaries:
-        if b.kind == "walls" and particle:   # the particle contact's planes (contact.contact_planes)
+        if b.kind == "walls":   # the walls' planes (contact.contact_planes, contact.wall_grid_cells)
             lo = np.maximum(lo, d_lo + WALL_NODES * dx)
             hi = np.minimum(hi, d_hi - WALL_NODES * dx)
-        elif b.kind == "walls":
-            hi_first = np.floor((d_hi - d_lo) / dx - WALL_NODES + NODE_TIE) + 1.0
-            lo = np.maximum(lo, d_lo + (WALL_NODES - 1) * dx)
-            hi = np.minimum(hi, d_lo + hi_first * dx)
         elif b.kind == "ground":
             lo[2] = max(lo[2], float(b.height))
     return lo, hi

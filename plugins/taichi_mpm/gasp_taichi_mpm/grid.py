@@ -82,7 +82,11 @@ class GridUpdate:
     def boundary_rules(self, I, v, f):
         """The walls' and grounds' grid rule at node ``I`` on ``v`` (:func:`node_ranges`; with the contact chosen per
         body by the node's flowing-mass fraction ``f`` where only the grid contact's rule reaches,
-        :meth:`Contact.rule`)."""
+        :meth:`Contact.rule`). The grounds first: a ground on the floor wall's plane keeps its friction there (the
+        wall's rule, first, took the node's approach and left the ground none to scale its friction by)."""
+        for b in ti.static(range(self.n_grounds)):
+            if I[2] <= self.ground_kmax[b]:
+                v = self.rule(v, self.axis_friction(v, 2, 1.0, self.ground_fric[b]), I[2] > self.ground_kfull[b], f)
         for b in ti.static(range(self.n_walls)):
             mu_b = self.wall_fric[b]
             hi_first = self.wall_hi_first[b]
@@ -91,9 +95,6 @@ class GridUpdate:
                     v = self.rule(v, self.axis_friction(v, d, 1.0, mu_b), I[d] >= self.wall_lo_full[b][d], f)
                 if I[d] >= hi_first[d]:
                     v = self.rule(v, self.axis_friction(v, d, -1.0, mu_b), I[d] < self.wall_hi_full[b][d], f)
-        for b in ti.static(range(self.n_grounds)):
-            if I[2] <= self.ground_kmax[b]:
-                v = self.rule(v, self.axis_friction(v, 2, 1.0, self.ground_fric[b]), I[2] > self.ground_kfull[b], f)
         return v
 
     @ti.func

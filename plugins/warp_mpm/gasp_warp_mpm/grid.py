@@ -88,6 +88,14 @@ def build_boundary_rules(Ft):
     def boundary_rules(vel_in: vec3, X: vec3, k: int, lo: vec3, hi: vec3, dx: Ft, wall_in: Ft, wall_full: Ft,
                        wall_mu: wp.array(dtype=Ft), ground: wp.array(dtype=vec3), f: Ft):
         vel = vel_in
+        # the grounds first: a ground on the floor wall's plane keeps its friction there (taichi_mpm's order)
+        for q in range(ground.shape[0]):
+            gr = ground[q]
+            if Ft(k) <= gr[0]:  # node layer k at or below the ground's top layer (exact small integers)
+                wt = Ft(1.0)
+                if Ft(k) > gr[2]:
+                    wt = f
+                vel = blend_rule(vel, collide(vel, vec3(Ft(0.0), Ft(0.0), Ft(1.0)), gr[1]), wt)
         for w in range(wall_mu.shape[0]):
             mu_b = wall_mu[w]
             for d in range(3):
@@ -105,13 +113,6 @@ def build_boundary_rules(Ft):
                     if X[d] <= hi[d] - wall_full * dx:
                         wt = f
                     vel = blend_rule(vel, collide(vel, n, mu_b), wt)
-        for q in range(ground.shape[0]):
-            gr = ground[q]
-            if Ft(k) <= gr[0]:  # node layer k at or below the ground's top layer (exact small integers)
-                wt = Ft(1.0)
-                if Ft(k) > gr[2]:
-                    wt = f
-                vel = blend_rule(vel, collide(vel, vec3(Ft(0.0), Ft(0.0), Ft(1.0)), gr[1]), wt)
         return vel
 
     return boundary_rules
