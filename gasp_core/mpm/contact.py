@@ -215,6 +215,15 @@ def wall_grid_cells(contact: str) -> float:
     return WALL_NODES + 0.5 if contact == "grid" else WALL_NODES - GRID_LAYERS_BELOW + 0.5
 
 
+def wall_floor(setup, contact: str) -> bool:
+    """Whether the ``walls``' floor face (``z = lo_z + 3 dx``) acts for the grid rule of ``contact``: not with
+    ``"grid"`` in a scene with a ``ground``, whose plane is then the floor (:func:`wall_grid_cells`' node layer on the
+    floor's plane would otherwise stand above a ground placed within three cells of the domain's bottom:
+    ``examples/donut_shatter.toml``'s ground is 2.1 cells up, under a floor plane 8 mm higher). The particle
+    contact keeps its six planes (:func:`contact_planes`)."""
+    return not (contact == "grid" and any(b.kind == "ground" for b in setup.boundaries))
+
+
 def contact_planes(setup, contact: str | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The plane supports of the particle contact: each ``ground``, then each face of each ``walls`` boundary.
 

@@ -10,7 +10,7 @@ import numpy as np
 import taichi as ti
 
 from gasp_core.mpm.grid_tables import FT_TIME
-from gasp_core.mpm.contact import ground_node_layer, wall_grid_cells
+from gasp_core.mpm.contact import ground_node_layer, wall_floor, wall_grid_cells
 from gasp_core.mpm.materials import BRITTLE
 from gasp_core.mpm.points import CUT_REACH, HELD_STRAINED, MIRROR_CELLS, cuts_held_faces
 
@@ -42,7 +42,8 @@ def node_ranges(setup, dx: float, contact: str = "particle"):
             w = wall_grid_cells(contact)
             r = (hi - lo) / dx - w
             hi_first = tuple(int(math.floor(r[d] + _TIE)) + 1 for d in range(3))
-            walls.append((float(b.friction), (int(math.ceil(w - _TIE)),) * 3, hi_first))
+            first = int(math.ceil(w - _TIE))   # no floor nodes where a ground is the floor (wall_floor)
+            walls.append((float(b.friction), (first, first, first if wall_floor(setup, contact) else 0), hi_first))
         elif b.kind == "ground":
             grounds.append((float(b.friction), ground_node_layer(contact, b.height, lo[2], dx), float(b.height)))
         elif b.kind == "fixed_region":

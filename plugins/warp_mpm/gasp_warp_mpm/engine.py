@@ -36,7 +36,7 @@ from gasp_core.mpm.materials import JELLY, P_ETA, initial_Jp, material_table
 from gasp_core.mpm.rigid import lift_setup, rigid_contact, step_view, zero_stress
 from gasp_core.seam.memory import check_memory, estimate_bytes
 from gasp_core.mpm.contact import (contact_coefficients, contact_model, contact_planes, ground_node_layer,
-                                      rule_models, wall_grid_cells)
+                                      rule_models, wall_floor, wall_grid_cells)
 from gasp_core.mpm.points import blow_up_rows, cell_order, held_codes, passive_bounds, passive_floor_friction
 from gasp_core.mpm.substeps import passive_schedule
 from gasp_core.seam import CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
@@ -195,7 +195,8 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
                 wall_mu.append(bd.friction)
         dt_np, k, arr = self._np_dtype, self.k, self._array
         self.wall_mu = arr(np.array(wall_mu, dtype=dt_np), Ft)
-        self.wall_in, self.wall_full = wall_grid_cells(reach), wall_grid_cells(full)   # 3 cells in, 1.5 with particle
+        self.wall_in, self.wall_full = wall_grid_cells(reach), wall_grid_cells(full)   # 3.5 cells in, 1.5 with particle
+        self.wall_floor = int(wall_floor(self.setup, reach))   # no floor face where a ground is the floor
         self.ground = arr(np.array(ground, dtype=dt_np).reshape(-1, 3), k.vec3)
         allocate_fields(self, Ft, contact)   # the contact chosen per body: flows, grid_mf; the two fields (fields.py)
         self.fixed_lo = arr(np.array(fixed_lo, dtype=dt_np).reshape(-1, 3), k.vec3)
@@ -239,7 +240,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
                 self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex, self.grid_g, self.has_wind,
                 self.grid_mv0, self.grid_v0, int(self.flip > 0), self.grid_fb, self.grid_fbody,
                 self.fr_sums, self.fr_nodes, self.nfric, self.grid_fn, self.grid_fv, Ft(self.wall_full), self.grid_mf,
-                self.fr_dv, self.fr_fb]),
+                self.fr_dv, self.fr_fb, self.wall_floor]),
             wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
                 self.x, self.v, self.C, self.fixed, self.grid_v, lo_v, inv_dx, dt_f, ng, self.grid_v0, Ft(self.flip),
                 self.grid_dv, self.body, self.in_a]),
