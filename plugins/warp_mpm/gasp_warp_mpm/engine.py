@@ -100,9 +100,8 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
         self.inv_dx = 1.0 / self.dx
         self.n_substeps, self.dt = steps   # chosen once: a step shortened for the contact warns once
         self.frame, self.sim_time = 0, 0.0
-        # Sort points by grid cell (cache locality of scatter and gather); order[i] is the
-        # setup index of internal point i.
-        # Material points first, then the passive ones (SimSetup.passive: G2P only, no P2G).
+        # Sort points by grid cell (cache locality of scatter and gather); order[i] is the setup index of internal
+        # point i. Material points first, then the passive ones (SimSetup.passive: G2P only, no P2G).
         self.order_points(setup, self.dx)
         self._upload_points(kinds, par, Ft)
         self._upload_rigid()
