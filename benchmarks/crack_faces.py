@@ -68,6 +68,14 @@ def run_to(engine: str, frames: int, scene: Path = ROOT / "examples" / "donut_sh
     return prep, x, d
 
 
+#: The drawing rule of a broken body's Gaussians the measure renders: None the map with straddling Gaussians kept
+#: whole (the rule before round 31, the figures of docs/fracture.md's tables), "hold" (round 31), "trim" (round 32, the trim rule) or
+#: "pull" (round 32, the pull rule: the crack faces kept to their side too) or "gap" (round 32, the gap rule, what ``gasp simulate`` draws now:
+#: kept to their side only where the pieces are apart, :class:`gasp_core.run.sides.PieceTree`);
+#: ``benchmarks/cup_drop.py --rule`` sets it.
+RULE = None
+
+
 def scene_parts(prep, x, d):
     """Surface splats and their pieces, crack-face splats (all; visible ones opaque) and theirs, point labels."""
     from gasp_core.maps.crack_faces import build_crack_faces, crack_face_gaussians
@@ -78,7 +86,12 @@ def scene_parts(prep, x, d):
     s, o = prep.setup, prep.objects[0]
     tracker = PieceTracker(s.x, s.body_id, s.p_mass, s.p_vol)
     labels = tracker.labels(x, d)
-    g = rebuild(o, x, o.rot_rest, labels=labels)[0]   # straddling Gaussians kept whole, as gasp simulate writes
+    apart = None
+    if RULE is not None:      # the run's drawing rule on top (gasp_core.run.apart, gasp_core.run.sides)
+        from gasp_core.run.apart import REACH, PieceContext
+        apart = PieceContext(s.p_mass, tracker.pieces, REACH * float(s.dx), s.x, True, RULE != "hold",
+                             RULE in ("pull", "gap"), s.p_vol, float(s.dx) if RULE == "gap" else None)
+    g = rebuild(o, x, o.rot_rest, labels=labels, apart=apart)[0]   # straddling Gaussians kept whole
     pl = o.placement
     surf = splats_from_gaussians(g, pl.R, pl.scale, pl.t)
     surf.sh = surf.sh_frames = None
@@ -87,6 +100,8 @@ def scene_parts(prep, x, d):
     dc = o.gaussians.sh_dc if o.moving is None else o.gaussians.sh_dc[o.moving]
     faces = build_crack_faces(s.x[rows], rows, tracker.pairs, o.surface.tri_rest[:, 0], dc, h, x_rest=s.x)
     means, rot, scales, vis = crack_face_gaussians(faces, x, labels, d)
+    if RULE in ("pull", "gap"):   # the faces kept to their piece's side too (round 32, the pull rule, gasp_core.run.sides)
+        vis = faces_to_side(s, rows, tracker.pieces, labels, x, means, rot, scales, vis)
     M = rot * scales[:, None, :]
     crack = Splats(means, M @ M.transpose(0, 2, 1), np.clip(0.5 + SH_C0 * faces.sh_dc, 0, 1).astype(np.float32),
                    np.where(vis, 0.99, 0.0).astype(np.float32))
@@ -108,6 +123,22 @@ def scene_parts(prep, x, d):
                 crack_piece=labels[rows], normals=normals, labels=labels, mass=tracker.mass, h=h, o=o,
                 tri=tri, tri_piece=tb.piece, tri_normals=tb.rotations[:, :, 0], tri_s=tri_s,
                 n_split=int(len(np.unique(split_rows(tris, labels)))))
+
+
+def faces_to_side(s, rows, pieces, labels, x, means, rot, scales, vis):
+    """The crack faces ``vis`` (shown) kept on their piece's side (with :data:`RULE` "gap" only where the pieces
+    are apart), ``scales`` trimmed in place, as ``gasp simulate`` draws them
+    (:func:`gasp_core.run.sides.keep_faces_to_side`); the faces shown now."""
+    from gasp_core.run.apart import REACH, TIPS
+    from gasp_core.run.sides import PieceTree, keep_faces_to_side, opening
+    lab = np.asarray(labels)
+    pts = rows[np.asarray(s.p_mass)[rows] > 0]
+    if pieces is not None:
+        pts = pts[np.asarray(pieces, bool)[lab[pts]]]
+    if len(pts) == 0:
+        return vis
+    tree = PieceTree(x[pts], lab[pts], opening(s.p_vol[pts], float(s.dx)) if RULE == "gap" else None)
+    return keep_faces_to_side(means, rot, scales, vis, lab[rows], tree, lab[pts], REACH * float(s.dx), TIPS)[0]
 
 
 def split_rows(tris, labels):

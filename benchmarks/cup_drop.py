@@ -158,7 +158,12 @@ def main() -> None:
     ap.add_argument("--speed", type=float, default=4.43)
     ap.add_argument("--frames", type=int, default=20)
     ap.add_argument("--stills", action="store_true")
+    ap.add_argument("--rule", choices=["map", "hold", "trim", "pull", "gap"], default="map",
+                    help="the Gaussians' drawing rule the silhouettes are measured with (crack_faces.RULE; map: as "
+                         "before round 31)")
     a = ap.parse_args()
+    import crack_faces
+    crack_faces.RULE = None if a.rule == "map" else a.rule
     work = Path(os.environ.get("TMPDIR", "/tmp")) / "gasp_cup_drop"
     work.mkdir(parents=True, exist_ok=True)
     out = work / f"{a.engine}_{a.speed:g}"
@@ -167,10 +172,13 @@ def main() -> None:
     fig = figures(res)
     fig["pieces_alpha"] = alpha_measure(res, a.engine, f"cup_drop_{a.speed:g}" if a.stills else None)
     fig.update(engine=a.engine, speed=a.speed, frames=a.frames, load=os.getloadavg()[0])
-    stem = ROOT / "benchmarks" / "results" / f"cup_drop_{a.engine}_{a.speed:g}"
+    fig["rule"] = a.rule
+    tail = "" if a.rule == "map" else f"_{a.rule}"
+    stem = ROOT / "benchmarks" / "results" / f"cup_drop_{a.engine}_{a.speed:g}{tail}"
     Path(f"{stem}.json").write_text(json.dumps(fig, indent=1, default=float))
     b = fig["break"]
-    lines = [f"# The cup drop: {a.engine}, {a.speed:g} m/s, {a.frames} frames (load {fig['load']:.1f})", "",
+    lines = [f"# The cup drop: {a.engine}, {a.speed:g} m/s, {a.frames} frames (load {fig['load']:.1f}; the Gaussians "
+             f"drawn with the rule {a.rule})", "",
              f"gasp simulate to the last frame: {fig['wall_s']:.1f} s", "",
              f"break after frame {b.get('frame')}: approach {b.get('impact_speed', 0):.2f} m/s, stress "
              f"{b.get('stress', 0) / 1e6:.1f} MPa, Grady size {1e3 * b.get('size', 0):.1f} mm, "

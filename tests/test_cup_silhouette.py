@@ -8,8 +8,10 @@ prepared in mesh mode and seen from three sides): the silhouette's area is the a
 projected vertices within 1 %, and the rendered body leaves under 2 % of it below alpha 0.9 (measured 0.004-0.83 %).
 The footprint of the fill (discs of 0.75 spacing, the measure before round 31) is caught by the first: it reads
 7-19 % larger. Then the broken cup (4.43 m/s, n_grid 80, 4 frames): each piece of 5 % of the mass or more, rendered
-alone with its crack faces, has under 2 % of its silhouette below alpha 0.9, and over 2 % without them (the catch: a
-piece whose crack faces are removed). A measure without the pieces' rigid fit reads 63 % on the largest piece (run
+alone with its crack faces, drawn as ``gasp simulate`` draws them (kept to their side only across a gap,
+``gasp_core.run.sides``), has under 2 % of its silhouette below alpha 0.9, and over 2 % without them (the catch: a
+piece whose crack faces are removed); with the pull rule (kept to their side where the fragments touch too) a piece
+is over 2 % (the catch of the gap rule). A measure without the pieces' rigid fit reads 63 % on the largest piece (run
 by hand).
 """
 from __future__ import annotations
@@ -106,16 +108,18 @@ def run_cup(tmp_path: Path, engine: str):
     return prep, x, tracker
 
 
-def parts_at(prep, x, tracker):
-    """``benchmarks/crack_faces.py``'s parts at ``x``, the pieces the run's tracker's (the fragments)."""
+def parts_at(prep, x, tracker, rule: str | None = "gap"):
+    """``benchmarks/crack_faces.py``'s parts at ``x``, the pieces the run's tracker's (the fragments), the Gaussians
+    and crack faces drawn with ``rule`` (``crack_faces.RULE``; default "gap", what ``gasp simulate`` draws)."""
     import crack_faces as cf
     import gasp_core.run.pieces as pieces_mod
-    real = pieces_mod.PieceTracker
+    real, real_rule = pieces_mod.PieceTracker, cf.RULE
     pieces_mod.PieceTracker = lambda *a, **k: tracker
+    cf.RULE = rule
     try:
         return cf.scene_parts(prep, x, np.zeros(len(x)))
     finally:
-        pieces_mod.PieceTracker = real
+        pieces_mod.PieceTracker, cf.RULE = real, real_rule
 
 
 @pytest.mark.slow
@@ -134,3 +138,7 @@ def test_the_cups_pieces_close_from_their_crack_side(tmp_path, engine):
     for r in rows:
         assert r["geo_fill"] < MARK, f"piece {r['piece']}: {100 * r['geo_fill']:.2f} % below alpha 0.9"
         assert r["geo_without"] > MARK                               # the catch: no crack faces
+    # the catch of the gap rule: the pull rule trims the faces and Gaussians where two fragments touch too
+    old = cf.measure_pieces(parts_at(prep, x, tracker, "pull"), x, np.zeros(len(x)), render, faces="fill",
+                            geometry=geo)
+    assert max(r["geo_fill"] for r in old) > MARK, [round(100 * r["geo_fill"], 2) for r in old]

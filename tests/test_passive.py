@@ -284,8 +284,8 @@ def test_the_hold_check_catches_an_engine_without_the_rule(name, monkeypatch):
 
 
 def test_passive_bounds_and_hold_passive():
-    """The box of ``passive_bounds`` (ground: its height; walls: the wall node layers nearest the inside, 2 dx in
-    from each face of a domain of whole cells, with the grid rule; the particle contact's planes, 3 dx in) and ``hold_passive``'s projection (velocity into a face removed)."""
+    """The box of ``passive_bounds`` (ground: its height; walls: their planes, 3 dx in from each face, with either
+    contact model since round 32) and ``hold_passive``'s projection (velocity into a face removed)."""
     from gasp_core.seam.setup import Boundary
     from gasp_core.mpm.points import hold_passive, passive_bounds
     s = block_with_skin()                                          # n_grid 24 on [0, 1]^3, no boundary
@@ -294,15 +294,15 @@ def test_passive_bounds_and_hold_passive():
     s = dataclasses.replace(s, boundaries=[Boundary("ground", height=0.3), Boundary("ground", height=0.25),
                                            Boundary("walls"), Boundary("fixed_region", lo=(0, 0, 0), hi=(0.1, 0.1, 0.1))])
     lo, hi = passive_bounds(s, "grid")
-    np.testing.assert_allclose(lo, [2 / 24, 2 / 24, 0.3], rtol=1e-12)
-    np.testing.assert_allclose(hi, [22 / 24] * 3, rtol=1e-12)
-    lo3, hi3 = passive_bounds(s, "particle")   # the particle contact: its walls' planes, 3 dx in
-    np.testing.assert_allclose(lo3, [3 / 24, 3 / 24, 0.3], rtol=1e-12)
-    np.testing.assert_allclose(hi3, [21 / 24] * 3, rtol=1e-12)
+    np.testing.assert_allclose(lo, [3 / 24, 3 / 24, 0.3], rtol=1e-12)
+    np.testing.assert_allclose(hi, [21 / 24] * 3, rtol=1e-12)
+    lo3, hi3 = passive_bounds(s, "particle")   # the particle contact: the same planes
+    np.testing.assert_allclose(lo3, lo, rtol=1e-12)
+    np.testing.assert_allclose(hi3, hi, rtol=1e-12)
     x = np.array([[0.5, 0.5, 0.2], [0.95, 0.5, 0.5], [0.5, 0.5, 0.5]])
     v = np.array([[1.0, 0.0, -2.0], [3.0, 1.0, 0.0], [0.0, 0.0, -1.0]])
     xh, vh = hold_passive(x, v, lo, hi)
-    np.testing.assert_array_equal(xh, [[0.5, 0.5, 0.3], [22 / 24, 0.5, 0.5], [0.5, 0.5, 0.5]])
+    np.testing.assert_array_equal(xh, [[0.5, 0.5, 0.3], [21 / 24, 0.5, 0.5], [0.5, 0.5, 0.5]])
     np.testing.assert_array_equal(vh, [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -1.0]])
     xh, vh = hold_passive(x[:1], [[0.0, 0.0, 2.0]], lo, hi)         # leaving the ground: kept
     np.testing.assert_array_equal(vh, [[0.0, 0.0, 2.0]])

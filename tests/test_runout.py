@@ -111,7 +111,9 @@ def test_the_users_sand_piles_against_the_ball_as_high_as_alone(tmp_path):
     the law) it read 1.65. Its passive Gaussians read their body's velocity field (both engines' passive G2P; read
     from the whole grid's they stuck to the ball, 3.96), and those the collapse leaves on the ground (a quarter at
     this n_grid) slide with the ground's friction: without it they kept their speed and the run left the grid at frame
-    18 (57 point-substeps out)."""
+    18 (57 point-substeps out). The grid contact's ground hold (issue 66) without the floor's friction let the whole
+    column slide out flat, its plane 0.78 dx above the ground's top node layer: 0 (every Gaussian under 1.1 mm); with
+    it 1.14 again, both heights about 5 mm higher (``tests/test_ground_hold_friction.py``)."""
     runs = {}
     for ball in (True, False):
         out = tmp_path / f"out_{int(ball)}"

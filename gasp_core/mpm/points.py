@@ -15,8 +15,8 @@ from gasp_core.seam.setup import Boundary
 
 #: Cells: a boundary plane within this of a node layer passes through it (ties are exact ties).
 NODE_TIE = 1e-9
-#: ``walls``: the node layers ``I_d < WALL_NODES`` and ``I_d > (hi_d - lo_d) / dx - WALL_NODES`` are wall nodes
-#: (docs/mpm.md step 3).
+#: ``walls``: their planes lie this many cells inside the domain's faces (docs/mpm.md step 3; the wall nodes are
+#: ``gasp_core.mpm.contact.wall_grid_cells``').
 WALL_NODES = 3
 
 
@@ -87,10 +87,6 @@ HELD_STRAIN_CELLS = 1.5
 #: stress passes the full softening's (``d`` 1: the material beside the face is broken through) it stays broken
 #: through, and a fixed region's nodes about it become a free-slip face (:func:`cuts_held_faces`).
 HELD_STRAINED = 2
-#: Cells: a free node this near outside the face of a set box that holds a brittle body (along the face's normal, within
-#: its extent along the face) takes ``(v_set + s v_out) / (1 + s)``, ``s`` its distance in cells, ``v_out`` the next node
-#: outward, so the linear field meets ``v_set`` on the face (docs/fracture.md "The held region", round 32).
-SET_FACE_CELLS = 0.5
 
 
 #: Cells: a free point not broken through this near a fixed region (past its box, along every axis) keeps the nodes of
@@ -316,11 +312,11 @@ def passive_bounds(setup, contact: str = "grid") -> tuple[np.ndarray, np.ndarray
     has no mass: no momentum or energy of the simulated body changes.
 
     - ``ground``: ``z >= height`` (the plane itself, with either contact model; the highest of several);
-    - ``walls``: ``lo_d + 2 dx <= x_d <= lo_d + hi_first dx`` on each axis, the wall node layers nearest the
-      inside (:data:`WALL_NODES`; ``hi_first = floor((hi_d - lo_d) / dx - 3) + 1``, ``hi_d - 2 dx`` on a domain
-      of whole cells), where the walls' grid rule stops the material's nodes (``contact = "grid"``); with the
-      particle contact (``contact = "particle"``: ``gasp_core.mpm.contact.contact_model`` of the setup) its walls'
-      planes, ``lo_d + 3 dx <= x_d <= hi_d - 3 dx`` (``contact.contact_planes``);
+    - ``walls``: ``lo_d + 3 dx <= x_d <= hi_d - 3 dx`` on each axis, the walls' planes (:data:`WALL_NODES`), with
+      either contact model (with ``contact = "grid"`` and a ground, no floor face: the ground is the floor,
+      ``gasp_core.mpm.contact.wall_floor``): with ``contact = "grid"`` the walls' grid rule stops the node layers on the planes and
+      behind them (``gasp_core.mpm.contact.wall_grid_cells``); with ``contact = "particle"`` its points meet the
+      planes (``contact.contact_planes``);
     - ``fixed_region``: nothing (its passive points are held where they start, like its material points);
     - no boundary on a side: ``-inf`` / ``+inf`` (a point that leaves the grid there is still reported).
     """
@@ -331,13 +327,12 @@ def passive_bounds(setup, contact: str = "grid") -> tuple[np.ndarray, np.ndarray
     dx = float(setup.dx)
     particle = contact == "particle"
     for b in setup.boundaries:
-        if b.kind == "walls" and particle:   # the particle contact's planes (contact.contact_planes)
-            lo = np.maximum(lo, d_lo + WALL_NODES * dx)
+        if b.kind == "walls":   # the walls' planes (contact.contact_planes, contact.wall_grid_cells, wall_floor)
+            planes = d_lo + WALL_NODES * dx
+            if not particle and any(g.kind == "ground" for g in setup.boundaries):
+                planes[2] = -np.inf   # the ground is the floor (contact.wall_floor)
+            lo = np.maximum(lo, planes)
             hi = np.minimum(hi, d_hi - WALL_NODES * dx)
-        elif b.kind == "walls":
-            hi_first = np.floor((d_hi - d_lo) / dx - WALL_NODES + NODE_TIE) + 1.0
-            lo = np.maximum(lo, d_lo + (WALL_NODES - 1) * dx)
-            hi = np.minimum(hi, d_lo + hi_first * dx)
         elif b.kind == "ground":
             lo[2] = max(lo[2], float(b.height))
     return lo, hi

@@ -2,22 +2,25 @@
 drawn across two pieces and the specks away from every piece, counted from the drawn Gaussians and the material.
 
 A Gaussian is drawn at its centre ``m`` with its in-plane axes ``r2, r3`` and scales ``s2, s3`` (GaMeS, the flat
-Gaussian; the thin axis ``r1`` is the face's normal). Its *samples* are its centre and the four tips
-``m +- TIPS s_j r_j`` (``j = 2, 3``: at two standard deviations, where a splat's alpha has fallen to
-``exp(-2)`` = 14 % of its centre's). Each sample takes the piece of the nearest material point of a piece within
-``reach`` (m; :data:`REACH` grid cells ``dx``, the support of the quadratic B-spline the engines weigh a point's
-nodes with: a Gaussian further than it from every material point of a piece shares no node with one; the rest
-surface of the bundled donut lies within 1.22 ``dx`` of its fill), or none.
+Gaussian; the thin axis ``r1`` is the face's normal). Its *samples* are its centre and the
+:data:`gasp_core.run.sides.SIDES` points of its ellipse at ``TIPS`` standard deviations (where a splat's alpha has
+fallen to ``exp(-2)`` = 14 % of its centre's). Each sample lies on the *side* of the piece of the nearest material
+point of a piece within ``reach`` (m; :data:`REACH` grid cells ``dx``, the support of the quadratic B-spline the
+engines weigh a point's nodes with: a Gaussian further than it from every material point of a piece shares no node
+with one; the rest surface of the bundled donut lies within 1.22 ``dx`` of its fill), or on none.
 
-* A Gaussian *spans two pieces* when its samples take two or more pieces: it is drawn from one piece's material to
-  another's (a Gaussian stretched across a crack, or laid over two pieces that touch within ``reach``).
+* A Gaussian *spans two pieces* when a sample lies on the side of a piece not its own (its own: its host's,
+  :mod:`gasp_core.run.sides`): its ellipse reaches past the mid-surface of a crack, whatever the crack's width, or
+  it is drawn on another piece. One wholly on its piece beside a narrow crack is not counted.
 * A Gaussian is a *speck* when its centre is further than ``reach`` from every material point of every piece: it is
   drawn in the air or on the floor, away from the parts that have come apart.
 
 The pieces are the piece tracker's (:class:`gasp_core.run.pieces.PieceTracker`: crumbs, the pieces under its debris
 share, are not pieces), each body's material points (``p_mass > 0``) in them. ``run.json`` holds, per frame, the
-counts ``spanning`` and ``specks`` and the ``reach`` (m) they were counted at (:func:`apart_row`), and ``held``: the
-Gaussians put back on their pieces (:func:`hold_to_pieces`).
+counts ``spanning`` and ``specks`` and the ``reach`` (m) they were counted at (:func:`apart_row`), ``held``: the
+Gaussians put back on their pieces (:func:`hold_to_pieces`, and those whose centre lay on another piece's side), and
+``trimmed``: those kept to their side and ``pulled``: those pulled towards their host
+(:func:`gasp_core.run.sides.keep_to_side`).
 """
 from __future__ import annotations
 
@@ -26,6 +29,8 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial import cKDTree
 
+from gasp_core.run.sides import across, across_rays, ellipse_points, host_rows, side_of
+
 #: The reach, in grid cells ``dx`` (module notes).
 REACH = 1.5
 #: The tips are this many standard deviations from the centre along each in-plane axis (module notes).
@@ -33,7 +38,8 @@ TIPS = 2.0
 
 
 def apart_masks(means: np.ndarray, rot: np.ndarray, scales: np.ndarray, points: np.ndarray, piece: np.ndarray,
-                reach: float, tree: cKDTree | None = None) -> tuple[np.ndarray, np.ndarray]:
+                reach: float, own: np.ndarray | None = None,
+                tree: cKDTree | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Which Gaussians span two pieces and which are specks (module notes).
 
     Parameters
@@ -50,8 +56,13 @@ def apart_masks(means: np.ndarray, rot: np.ndarray, scales: np.ndarray, points: 
         Each one's piece.
     reach : float
         Metres, > 0 (:data:`REACH` ``dx``).
+    own : ndarray, shape (n,), int, optional
+        Each Gaussian's own piece (:func:`gasp_core.run.sides.host_rows`' piece); -1 or None: the side its centre
+        lies on.
     tree : cKDTree, optional
-        A tree already built over ``points`` (the frame's, shared with :func:`hold_to_pieces`).
+        A tree already built over ``points`` (the frame's, shared with :func:`hold_to_pieces`); a
+        :class:`gasp_core.run.sides.PieceTree` with an opening counts only what reaches across a gap (the pieces
+        apart there, :func:`gasp_core.run.sides.across`).
 
     Returns
     -------
@@ -64,38 +75,41 @@ def apart_masks(means: np.ndarray, rot: np.ndarray, scales: np.ndarray, points: 
     """
     means, rot, scales = (np.asarray(a, np.float64) for a in (means, rot, scales))
     points, piece = np.asarray(points, np.float64).reshape(-1, 3), np.asarray(piece).ravel()
-    if not reach > 0 or len(points) != len(piece) or rot.shape != (len(means), 3, 3) or scales.shape != means.shape:
+    own = np.full(len(means), -1, np.int64) if own is None else np.asarray(own).ravel()
+    if not reach > 0 or len(points) != len(piece) or rot.shape != (len(means), 3, 3) or scales.shape != means.shape \
+            or len(own) != len(means):
         raise ValueError(f"apart_masks: reach {reach} must be > 0, points {points.shape} and piece {piece.shape} "
-                         f"agree, rot {rot.shape} and scales {scales.shape} fit means {means.shape}")
+                         f"agree, rot {rot.shape}, scales {scales.shape} and own {own.shape} fit means {means.shape}")
     n = len(means)
     if n == 0 or len(points) == 0:
         return np.zeros(n, bool), np.ones(n, bool) if len(points) == 0 else np.zeros(n, bool)
-    arms = [TIPS * scales[:, j, None] * rot[:, :, j] for j in (1, 2)]
-    samples = np.stack([means, means + arms[0], means - arms[0], means + arms[1], means - arms[1]], 1)
     tree = cKDTree(points) if tree is None else tree
-    dist, near = tree.query(samples.reshape(-1, 3), distance_upper_bound=reach)
-    lab = np.where(np.isfinite(dist), piece[np.minimum(near, len(piece) - 1)], -1).reshape(n, 5)
-    specks = lab[:, 0] < 0
-    lo = np.where(lab >= 0, lab, np.iinfo(np.int64).max).min(axis=1)
-    spanning = ((lab >= 0) & (lab != lo[:, None])).any(axis=1)
-    return spanning, specks
+    ring = ellipse_points(means, rot, scales, TIPS, np.ones(1))
+    lab = side_of(np.concatenate([means[:, None], ring[:, :, 0]], 1), tree, piece, reach)
+    centre = lab[:, 0]
+    first = np.where(lab >= 0, lab, np.iinfo(np.int64).max).min(axis=1)      # without an own piece: a side it takes
+    mine = np.where(own >= 0, own, np.where(centre >= 0, centre, first))
+    spanning = across(means, mine, tree, piece, reach) | across_rays(means, ring, mine, tree, piece,
+                                                                      reach).any(axis=(1, 2))
+    return spanning, centre < 0
 
 
 def apart_row(means: np.ndarray, rot: np.ndarray, scales: np.ndarray, x_fill: np.ndarray, lab_fill: np.ndarray,
-              mass_fill: np.ndarray, pieces: np.ndarray | None, reach: float, tree: cKDTree | None = None) -> dict:
+              mass_fill: np.ndarray, pieces: np.ndarray | None, reach: float, tree: cKDTree | None = None,
+              own: np.ndarray | None = None) -> dict:
     """One object's ``run.json`` figures of a frame: ``{"spanning", "specks"}`` (counts, :func:`apart_masks`) of its
     drawn Gaussians (``means``, ``rot``, ``scales`` as there) against its material points: ``x_fill`` (k, 3) world
     metres, ``lab_fill`` (k,) their labels (:meth:`gasp_core.run.pieces.PieceTracker.labels`), ``mass_fill`` (k,) kg
     (0: passive, not material), ``pieces`` (per label, bool: :attr:`~gasp_core.run.pieces.PieceTracker.pieces`; None:
     every label a piece), ``reach`` metres; ``tree`` (optional) one built over those of its points in a piece, in
-    their order (:func:`piece_points`)."""
+    their order (:func:`piece_points`); ``own`` (n,) each Gaussian's own piece (as :func:`apart_masks`)."""
     lab = np.asarray(lab_fill)
     keep = np.asarray(mass_fill) > 0
     if pieces is not None:
         keep &= np.asarray(pieces, bool)[lab]
     if tree is not None and tree.n != int(keep.sum()):
         raise ValueError(f"apart_row: the tree holds {tree.n} points, the pieces {int(keep.sum())}")
-    spanning, specks = apart_masks(means, rot, scales, np.asarray(x_fill)[keep], lab[keep], reach, tree)
+    spanning, specks = apart_masks(means, rot, scales, np.asarray(x_fill)[keep], lab[keep], reach, own, tree)
     return {"spanning": int(spanning.sum()), "specks": int(specks.sum())}
 
 
@@ -154,6 +168,18 @@ class PieceContext(NamedTuple):
     hold : bool
         Put the Gaussians of crumbs and the specks on their pieces (:func:`hold_to_pieces`); False draws them where
         the map puts them (the rule before issue 66's round 31, kept to show what it drew).
+    trim : bool
+        Keep each Gaussian on its own side of every crack (:func:`gasp_core.run.sides.keep_to_side`); False draws
+        them as the map and ``hold`` do (the rule before round 32, kept to show what it drew).
+    pull : bool
+        Pull a centre that the hold leaves on another piece's side towards its host (:func:`gasp_core.run.sides.
+        pull_to_side`); False leaves it there, shrunk to a dot (the trim rule, kept to show what it drew).
+    p_vol : ndarray, shape (n_points,), float64, optional
+        Point volumes, m^3 (the fill spacing of :func:`gasp_core.run.sides.opening`).
+    gap : float, optional
+        Metres (the piece tracker's: the setup's ``dx``): a Gaussian is kept to its side only where the pieces are
+        apart by it there (:class:`gasp_core.run.sides.PieceTree`); None (or no ``p_vol``): wherever another
+        piece's side is (the pull rule, kept to show what it drew).
     """
 
     p_mass: np.ndarray
@@ -161,6 +187,10 @@ class PieceContext(NamedTuple):
     reach: float
     x_rest: np.ndarray
     hold: bool = True
+    trim: bool = True
+    pull: bool = True
+    p_vol: np.ndarray | None = None
+    gap: float | None = None
 
 
 def piece_points(o, labels: np.ndarray, ctx: PieceContext) -> np.ndarray:
@@ -172,9 +202,61 @@ def piece_points(o, labels: np.ndarray, ctx: PieceContext) -> np.ndarray:
     return rows
 
 
+class HostMotion:
+    """Each Gaussian's host and the rigid motion of its piece, for one object and frame (:func:`hold_to_pieces`,
+    :func:`gasp_core.run.sides.keep_to_side`).
+
+    Parameters
+    ----------
+    o : PreparedObject
+    x : ndarray, shape (n_points, 3), float
+        World positions now, metres.
+    labels : ndarray, shape (n_points,), int
+        The point labels.
+    ctx : PieceContext
+    prev_rot : ndarray, shape (n, 3, 3), float
+        The object's Gaussians' rotations of the frame before (world).
+    pts : ndarray, shape (k,), int
+        The setup rows of its material points in a piece (:func:`piece_points`), not empty.
+
+    Attributes
+    ----------
+    host : ndarray, shape (n,), int64
+        Each Gaussian's host: the material point of a piece nearest its centre at rest (setup rows;
+        :func:`gasp_core.run.sides.host_rows`).
+    own : ndarray, shape (n,), int64
+        The host's piece: the Gaussian's own piece.
+    """
+
+    def __init__(self, o, x: np.ndarray, labels: np.ndarray, ctx: PieceContext, prev_rot: np.ndarray,
+                 pts: np.ndarray):
+        self.o, self.x, self.lab, self.ctx, self.prev_rot, self.pts = o, x, np.asarray(labels), ctx, prev_rot, pts
+        self.host = host_rows(o.surface.tri_rest[:, 0], ctx.x_rest[pts], pts)
+        self.own = self.lab[self.host]
+        self._fit: tuple | None = None
+
+    def move(self, idx: np.ndarray, means: np.ndarray, rot: np.ndarray, scales: np.ndarray) -> None:
+        """Move the Gaussians ``idx`` (int array) rigidly with their host's piece, in place: ``m = x_host + R (m_rest
+        - x_host,rest)``, ``R_g = R R_rest``, their rest scales, ``R`` the piece's best-fit rotation since rest
+        (:func:`piece_rotations` over its material points; where undefined, the Gaussian's previous rotation)."""
+        if len(idx) == 0:
+            return
+        o, ctx, pts = self.o, self.ctx, self.pts
+        if self._fit is None:
+            self._fit = piece_rotations(ctx.x_rest[pts], self.x[pts], self.lab[pts])
+        pieces, R, ok = self._fit
+        host = self.host[idx]
+        m_rest = o.surface.tri_rest[idx, 0]
+        at = np.searchsorted(pieces, self.lab[host])
+        Rg = np.where(ok[at][:, None, None], R[at], self.prev_rot[idx] @ o.surface.rot_rest[idx].transpose(0, 2, 1))
+        means[idx] = self.x[host] + np.einsum("kij,kj->ki", Rg, m_rest - ctx.x_rest[host])
+        rot[idx] = Rg @ o.surface.rot_rest[idx]
+        scales[idx] = o.surface.scales_rest[idx]
+
+
 def hold_to_pieces(o, x: np.ndarray, labels: np.ndarray, ctx: PieceContext, prev_rot: np.ndarray,
                    means: np.ndarray, rot: np.ndarray, scales: np.ndarray, pts: np.ndarray | None = None,
-                   tree: cKDTree | None = None) -> np.ndarray:
+                   tree: cKDTree | None = None, motion: HostMotion | None = None) -> np.ndarray:
     """Put object ``o``'s Gaussians that its pieces would not show back on them, in place; which, shape (n,), bool.
 
     A Gaussian is held to a piece when its anchor point (:meth:`~gasp_core.maps.surface.SurfaceMap.anchors`) is in a
@@ -182,15 +264,14 @@ def hold_to_pieces(o, x: np.ndarray, labels: np.ndarray, ctx: PieceContext, prev
     count), or when the map draws it further than ``ctx.reach`` from every material point of every piece (its
     surface point left behind where the material flowed away, or carried off with a crumb). Its *host* is the
     material point of a piece nearest its anchor at rest (for a crumb's Gaussian: the piece the crumb was part of,
-    by rest adjacency). It moves rigidly with the host's piece, as a straddling Gaussian turns
-    (:func:`gasp_core.run.frames.turn_with_pieces`): ``m = x_host + R (m_rest - x_host,rest)``, ``R_g = R R_rest``,
-    its rest scales, ``R`` the piece's best-fit rotation since rest (:func:`piece_rotations`
-    over the piece's material points; where that is undefined, the Gaussian's previous rotation carries it). So it is
-    drawn within its rest distance from its host, a material point of the piece.
+    by rest adjacency). It moves rigidly with the host's piece (:meth:`HostMotion.move`), as a straddling Gaussian
+    turns (:func:`gasp_core.run.frames.turn_with_pieces`). So it is drawn within its rest distance from its host, a
+    material point of the piece.
 
     ``x`` (n_points, 3) world positions, ``labels`` (n_points,) the point labels, ``prev_rot`` (n, 3, 3) the last
     frame's rotations; ``means`` (n, 3), ``rot`` (n, 3, 3), ``scales`` (n, 3): the Gaussians (world frame, metres),
-    changed in place; ``pts`` (:func:`piece_points`) and ``tree`` (over ``x[pts]``), when the caller has them.
+    changed in place; ``pts`` (:func:`piece_points`), ``tree`` (over ``x[pts]``) and ``motion`` (a
+    :class:`HostMotion` of this frame), when the caller has them.
     """
     pts = piece_points(o, labels, ctx) if pts is None else pts
     n = len(means)
@@ -204,14 +285,8 @@ def hold_to_pieces(o, x: np.ndarray, labels: np.ndarray, ctx: PieceContext, prev
     held = np.flatnonzero(crumb | away)
     if len(held) == 0:
         return np.zeros(n, bool)
-    m_rest = o.surface.tri_rest[held, 0]
-    host = pts[cKDTree(ctx.x_rest[pts]).query(m_rest)[1]]
-    pieces, R, ok = piece_rotations(ctx.x_rest[pts], x[pts], lab[pts])
-    at = np.searchsorted(pieces, lab[host])
-    Rg = np.where(ok[at][:, None, None], R[at], prev_rot[held] @ o.surface.rot_rest[held].transpose(0, 2, 1))
-    means[held] = x[host] + np.einsum("kij,kj->ki", Rg, m_rest - ctx.x_rest[host])
-    rot[held] = Rg @ o.surface.rot_rest[held]
-    scales[held] = o.surface.scales_rest[held]
+    motion = HostMotion(o, x, labels, ctx, prev_rot, pts) if motion is None else motion
+    motion.move(held, means, rot, scales)
     out = np.zeros(n, bool)
     out[held] = True
     return out

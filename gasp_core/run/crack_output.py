@@ -6,8 +6,13 @@ of -30 (opacity 1e-13: not drawn) where the material around it is whole or the p
 the pieces' debris share, whose surface Gaussians are drawn on its piece: :func:`gasp_core.run.apart.hold_to_pieces`);
 SH degree 0, the colour of its nearest surface Gaussians; an int32 property ``piece``, the face's piece numbered as
 the object's ``pieces_NNNN.npy`` (:func:`gasp_core.run.pieces.piece_ranks`; -1 for a piece that holds no surface
-Gaussian). Frame 0 has every face hidden. ``gasp render`` draws them with their object (and any 3DGS viewer that is
-given both files); the object's own frame files are unchanged (one row per input Gaussian).
+Gaussian). Frame 0 has every face hidden. A shown face is kept on its piece's side of every crack where the
+pieces are apart, as the object's Gaussians are (:func:`gasp_core.run.sides.keep_faces_to_side`: its in-plane scales
+trimmed, or hidden; where they touch it is left whole, :class:`gasp_core.run.sides.PieceTree`), and the frame's
+``run.json`` row counts ``faces_spanning`` (shown faces whose 2-sigma ellipse reaches across a gap onto another
+piece's side, as :func:`gasp_core.run.apart.apart_masks` counts the Gaussians) and ``faces_trimmed`` (trimmed or
+hidden). ``gasp render`` draws them with their object (and any 3DGS viewer that is given both files); the object's
+own frame files are unchanged (one row per input Gaussian).
 """
 from __future__ import annotations
 
@@ -18,7 +23,9 @@ import numpy as np
 from gasp_core.gs.gaussians import Gaussians, rotmat_to_quat
 from gasp_core.gs.io import write_gaussians
 from gasp_core.maps.crack_faces import CrackFaces, build_crack_faces, crack_face_gaussians
+from gasp_core.run.apart import REACH, TIPS
 from gasp_core.run.pieces import piece_ranks
+from gasp_core.run.sides import keep_faces_to_side
 
 #: A frame's crack-face file in an object's folder.
 CRACK_FILE = "crack_faces_{:04d}.ply"
@@ -39,6 +46,11 @@ class CrackOutput:
     def __init__(self, prep, pairs: np.ndarray):
         s = prep.setup
         self.mass = np.asarray(s.p_mass, np.float64)
+        self.reach = REACH * float(s.dx)
+        self.trim = True    # False: the faces not kept to their side (the rule before, kept to show what it drew)
+        self.vol, self.dx = np.asarray(s.p_vol, np.float64), float(s.dx)
+        self.gap = True     # False: kept to their side wherever another piece's side is, touching or not (round 32, the pull rule)
+        self.counts: dict = {}   # the last frame's faces_spanning and faces_trimmed, all objects
         self.objects: list[tuple[str, object, CrackFaces]] = []
         for o, name in zip(prep.objects, prep.names):
             rows = np.arange(len(s.x))[o.fill_slice]
@@ -55,11 +67,12 @@ class CrackOutput:
         (n,), ``damage`` (n,) or None (nothing broken) and ``piece`` (per label, bool, or None:
         :func:`gasp_core.run.pieces.piece_ranks`), atomically; the files, relative to ``folder``."""
         d = np.zeros(len(x)) if damage is None else np.asarray(damage, np.float64)
-        rels = []
+        rels, self.counts = [], {"faces_spanning": 0, "faces_trimmed": 0}
         for name, o, faces in self.objects:
             means, rot, scales, visible = crack_face_gaussians(faces, x, labels, d)
             if piece is not None:     # a crumb's faces are hidden: its Gaussians go with its piece (run.apart)
                 visible &= np.asarray(piece, bool)[np.asarray(labels)[faces.rows]]
+            visible = self._keep_to_side(faces, x, labels, piece, means, rot, scales, visible)
             pl = o.placement
             rank = piece_ranks(o, labels, self.mass, piece)[np.asarray(labels)[faces.rows]]
             g = Gaussians(means=pl.to_file(means), scales=scales / pl.scale,
@@ -70,6 +83,27 @@ class CrackOutput:
             write_gaussians(Path(folder) / rel, g, overwrite=True)
             rels.append(rel)
         return rels
+
+
+    def _keep_to_side(self, faces: CrackFaces, x, labels, piece, means, rot, scales, visible) -> np.ndarray:
+        """The shown faces kept on their piece's side (module notes; ``scales`` changed in place; not with
+        :attr:`trim` False) and counted into :attr:`counts`; returns the faces shown now, (m,) bool."""
+        from gasp_core.run.apart import apart_masks
+        from gasp_core.run.sides import PieceTree, opening
+        lab, rows = np.asarray(labels), np.asarray(faces.rows)
+        pts = rows[self.mass[rows] > 0]
+        if piece is not None:
+            pts = pts[np.asarray(piece, bool)[lab[pts]]]
+        if not visible.any() or len(pts) == 0:
+            return visible
+        tree = PieceTree(x[pts], lab[pts], opening(self.vol[pts], self.dx) if self.gap else None)
+        if self.trim:
+            visible, k = keep_faces_to_side(means, rot, scales, visible, lab[rows], tree, lab[pts], self.reach, TIPS)
+            self.counts["faces_trimmed"] += k
+        v = np.flatnonzero(visible)
+        span = apart_masks(means[v], rot[v], scales[v], x[pts], lab[pts], self.reach, lab[rows][v], tree)[0]
+        self.counts["faces_spanning"] += int(span.sum())
+        return visible
 
 
 def crack_output_for(prep, tracker) -> CrackOutput | None:

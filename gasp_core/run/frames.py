@@ -5,7 +5,6 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Callable
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from gasp_core.maps.games import EPS
 from gasp_core.maps.rows import by_rows
@@ -14,7 +13,9 @@ from gasp_core.prepare.dynamic import background_at
 from gasp_core.prepare.placed import PreparedObject
 from gasp_core.seam.runner import EngineRun, RunStats
 from gasp_core.prepare.selection import scatter
-from gasp_core.run.apart import REACH, PieceContext, apart_row, hold_to_pieces, piece_points, piece_rotations
+from gasp_core.run.apart import (REACH, TIPS, HostMotion, PieceContext, apart_row, hold_to_pieces, piece_points,
+                                 piece_rotations)
+from gasp_core.run.sides import PieceTree, keep_split_to_side, keep_to_side, opening
 
 if TYPE_CHECKING:
     from gasp_core.prepare.scene import PreparedScene
@@ -106,16 +107,16 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray,
         World rotations of this frame.
     counts : dict
         ``degenerate`` faces and ``clamped`` scales (alpha rule) this frame; with ``labels``, ``straddling``; with
-        ``apart``, ``held``, ``spanning`` and ``specks``; with ``split``, ``split`` (the sub-Gaussians made) and
-        ``split_gaussians`` (:class:`Gaussians` of them, file frame, with the int32 field ``parent``: the file row
-        each comes from; None when there are none).
+        ``apart``, ``held``, ``trimmed``, ``pulled``, ``spanning`` and ``specks``; with ``split``, ``split`` (the
+        sub-Gaussians made) and ``split_gaussians`` (:class:`Gaussians` of them, file frame, with the int32 field
+        ``parent``: the file row each comes from; None when there are none).
     """
     if o.spec.static:
         g = o.gaussians if t is None else background_at(o, o.gaussians, t)
         return g, prev_rot, {"degenerate": 0, "clamped": 0}
     detail = {} if split is not None else None
     means_w, rot, scales_w, counts = o.surface.gaussians(x[o.vertex_slice], x[o.fill_slice], prev_rot, detail)
-    straddle = None
+    straddle, sides = None, None
     if labels is not None:
         sr = o.surface.shape_rows()
         lab = np.asarray(labels)[o.vertex_slice][sr]
@@ -124,15 +125,8 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray,
         if straddle.any():
             turn_with_pieces(o, x, sr, lab, straddle, rot, means_w)
         counts["straddling"] = int(straddle.sum())
-        if apart is not None:   # one tree over the pieces' material points serves the hold and the counts
-            pts = piece_points(o, labels, apart)
-            tree = cKDTree(x[pts]) if len(pts) else None
-            if apart.hold:
-                held = hold_to_pieces(o, x, labels, apart, prev_rot, means_w, rot, scales_w, pts, tree)
-                counts["held"], straddle = int(held.sum()), straddle | held
-            fs = o.fill_slice
-            counts.update(apart_row(means_w, rot, scales_w, x[fs], np.asarray(labels)[fs], apart.p_mass[fs],
-                                    apart.pieces, apart.reach, tree))
+        if apart is not None:
+            straddle, sides = keep_apart(o, x, labels, apart, prev_rot, means_w, rot, scales_w, straddle, counts)
     pl = o.placement
     scales = scales_w / pl.scale
     scales[:, 0] = o.thin_scale if o.spec.thickness == "keep" else EPS
@@ -141,9 +135,43 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray,
     if t is not None:
         out = background_at(o, out, t)
     if split is not None:
-        counts["split_gaussians"] = split_gaussians(o, x, detail, straddle, split)
+        counts["split_gaussians"] = split_gaussians(o, x, detail, straddle, split, sides)
         counts["split"] = 0 if counts["split_gaussians"] is None else counts["split_gaussians"].n
     return out, rot, counts
+
+
+def keep_apart(o: PreparedObject, x: np.ndarray, labels: np.ndarray, apart: PieceContext, prev_rot: np.ndarray,
+               means: np.ndarray, rot: np.ndarray, scales: np.ndarray, straddle: np.ndarray,
+               counts: dict) -> tuple[np.ndarray, tuple | None]:
+    """A broken object's Gaussians kept on their pieces (:func:`hold_to_pieces`, then each on its own side of every
+    crack: :func:`gasp_core.run.sides.keep_to_side`), in place, and the frame's ``held``, ``trimmed``, ``spanning``
+    and ``specks`` put in ``counts``. One tree over the pieces' material points serves the rule and the counts: with
+    ``apart.gap`` a :class:`gasp_core.run.sides.PieceTree` that keeps them to their side only where the pieces are
+    apart by it (``gasp_core.run.sides``, "Apart there").
+    Returns ``straddle`` (n,) with the Gaussians held or trimmed added (the split of clamped triangles leaves them
+    alone) and, when the rule keeps sides, ``(own, tree, piece, reach)`` for the split's sub-Gaussians (else None)."""
+    pts = piece_points(o, labels, apart)
+    lab = np.asarray(labels)
+    gap = None if apart.gap is None or apart.p_vol is None or not len(pts) else \
+        opening(np.asarray(apart.p_vol)[pts], apart.gap)
+    tree = PieceTree(x[pts], lab[pts], gap) if len(pts) else None
+    motion = HostMotion(o, x, labels, apart, prev_rot, pts) if len(pts) else None
+    sides = None
+    if apart.hold:
+        held = hold_to_pieces(o, x, labels, apart, prev_rot, means, rot, scales, pts, tree, motion)
+        if apart.trim and motion is not None:
+            sides = (motion.own, tree, lab[pts], apart.reach)
+            moved, trimmed, pulled = keep_to_side(means, rot, scales, *sides, TIPS,
+                                                  lambda idx: motion.move(idx, means, rot, scales),
+                                                  None if not apart.pull else x[motion.host])
+            held |= moved
+            counts["trimmed"], counts["pulled"] = int(trimmed.sum()), int(pulled.sum())
+            straddle = straddle | trimmed
+        counts["held"], straddle = int(held.sum()), straddle | held
+    fs = o.fill_slice
+    counts.update(apart_row(means, rot, scales, x[fs], np.asarray(labels)[fs], apart.p_mass[fs], apart.pieces,
+                            apart.reach, tree, None if motion is None else motion.own))
+    return straddle, sides
 
 
 def turn_with_pieces(o: PreparedObject, x: np.ndarray, sr: np.ndarray, lab: np.ndarray, straddle: np.ndarray,
@@ -180,10 +208,11 @@ def turn_with_pieces(o: PreparedObject, x: np.ndarray, sr: np.ndarray, lab: np.n
 
 
 def split_gaussians(o: PreparedObject, x: np.ndarray, detail: dict, straddle: np.ndarray | None,
-                    split: SplitContext) -> Gaussians | None:
+                    split: SplitContext, sides: tuple | None = None) -> Gaussians | None:
     """The sub-triangle Gaussians of ``o``'s clamped triangles that straddle no crack and lie on material
     (:mod:`gasp_core.maps.split`), file frame, each with its parent's opacity and SH and the int32 field ``parent``
-    (its row in the object's file); None when there are none."""
+    (its row in the object's file); None when there are none. With ``sides`` (:func:`keep_apart`'s) each is kept to
+    its parent's side of every crack (:func:`gasp_core.run.sides.keep_split_to_side`)."""
     from gasp_core.maps.split import near_material, split_triangles
     rows = detail["clamped"] if straddle is None else detail["clamped"] & ~straddle
     rows = np.flatnonzero(rows)
@@ -192,6 +221,12 @@ def split_gaussians(o: PreparedObject, x: np.ndarray, detail: dict, straddle: np
     sm = o.surface
     parent, means, rot, scales, centres_rest = split_triangles(sm.tri_rest, detail["tri"], rows, sm.alpha)
     keep = near_material(means, centres_rest, x[o.fill_slice], split.fill_rest, split.h)
+    if sides is not None and keep.any():
+        own, tree, piece, reach = sides
+        kept = np.flatnonzero(keep)
+        sub = scales[kept].copy()
+        keep[kept] = keep_split_to_side(means[kept], rot[kept], sub, own[parent[kept]], tree, piece, reach, TIPS)
+        scales[kept] = sub
     if not keep.any():
         return None
     parent, means, rot, scales = parent[keep], means[keep], rot[keep], scales[keep]
@@ -228,24 +263,28 @@ class Rebuilder:
         self.split = [split_context(o, prep.setup) for o in prep.objects]
         self.last_split: list = [None] * len(prep.objects)
         self.hold = True    # False: the Gaussians of crumbs and specks drawn where the map puts them (the rule before)
+        self.trim = True    # False: the Gaussians not kept to their side of a crack (the rule before round 32)
+        self.pull = True    # False: a centre the hold leaves on another piece's side not pulled (the trim rule)
+        self.gap = True     # False: kept to their side wherever another piece's side is, touching or not (the pull rule's)
 
     def __call__(self, frame: int, x: np.ndarray, labels: np.ndarray | None = None,
                  pieces: np.ndarray | None = None) -> tuple[list[Gaussians], dict]:
         """Every object's Gaussians at ``frame`` from the positions ``x`` (n_points, 3), world frame, and the
         frame's row (``frame``, ``degenerate``, ``clamped``, with ``labels`` (a broken body's pieces, :func:`rebuild`;
         ``pieces`` per label whether it is a piece, :attr:`gasp_core.run.pieces.PieceTracker.pieces`) ``straddling``,
-        ``held``, ``spanning``, ``specks`` and ``apart_reach`` (m: :mod:`gasp_core.run.apart`), with an object that
-        splits its clamped triangles ``split`` (the sub-Gaussians made, :attr:`last_split`) and, with colliders,
-        ``colliders``)."""
+        ``held``, ``trimmed``, ``pulled``, ``spanning``, ``specks`` and ``apart_reach`` (m:
+        :mod:`gasp_core.run.apart`), with an object that splits its clamped triangles ``split`` (the sub-Gaussians
+        made, :attr:`last_split`) and, with colliders, ``colliders``)."""
         prep, prev = self.prep, self.prev_rot
         gs, row = [], {"frame": frame, "degenerate": 0, "clamped": 0}
         apart = None if labels is None else PieceContext(prep.setup.p_mass, pieces, REACH * float(prep.setup.dx),
-                                                         prep.setup.x, self.hold)
+                                                         prep.setup.x, self.hold, self.trim, self.pull,
+                                                         prep.setup.p_vol, float(prep.setup.dx) if self.gap else None)
         for k, o in enumerate(prep.objects):
             g, prev[k], counts = rebuild(o, x, prev[k], frame * prep.setup.frame_dt, labels, self.split[k], apart)
             row["degenerate"] += counts["degenerate"]
             row["clamped"] += counts["clamped"]
-            for key in ("straddling", "held", "spanning", "specks"):
+            for key in ("straddling", "held", "trimmed", "pulled", "spanning", "specks"):
                 if key in counts:
                     row[key] = row.get(key, 0) + counts[key]
             if "split" in counts:

@@ -281,6 +281,7 @@ class SimulationRun:
             self.unrecorded += pieces.write_frame_pieces(writer.folder, self.prep, frame, *labels[:2], labels[4])
             if self.cracks is not None:
                 self.unrecorded += self.cracks.write(writer.folder, frame, x, labels[0], labels[2], labels[4])
+                row.update(self.cracks.counts)
         if any(c is not None for c in rebuild_all.split):   # an object that tears: its clamped triangles split
             self.unrecorded += write_split(writer.folder, self.prep.names, frame, rebuild_all.last_split)
         row["write_s"] = time.perf_counter() - t0

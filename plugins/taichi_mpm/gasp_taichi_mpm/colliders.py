@@ -124,10 +124,14 @@ class Colliders:
         """The ground's and walls' position-level hold on point ``p`` of a body of the grid contact after its G2P
         (warp_mpm's ``box_hold``; ``gasp_core.mpm.points.hold_passive``'s rule): outside ``[hold_lo, hold_hi]`` (the box of
         ``gasp_core.mpm.points.passive_bounds``: the ground's plane, the walls' last node layers) it is put on the
-        face, its velocity into the face removed. The grid rule acts at the nodes, and a point between a stopped node
-        layer and a moving one was carried up to 1.25 mm under the ground by a landing at 50 m/s (issue 66)."""
-        if self.box_holds[self.body[p]] != 0:
-            self.x[p], self.v[p] = self.hold_passive(self.x[p], self.v[p], False)   # contact.py: never stranded
+        face, its velocity into the face removed, and one put on the floor loses ``hold_mu`` (the floor's friction)
+        times that removed speed from its horizontal speed, Coulomb's friction. The grid rule acts at the nodes, and a
+        point between a stopped node layer and a moving one was carried up to 1.25 mm under the ground by a landing at
+        50 m/s (issue 66). The floor's friction: the ground's plane lies up to a cell above its top node layer, and a
+        point held on it reads that stopped layer with a weight as low as 1/8, so without its own friction a sand
+        column held there slid out flat (``tests/test_runout.py``)."""
+        if self.box_holds[self.body[p]] != 0:   # contact.py: with the floor's friction, as a stranded point
+            self.x[p], self.v[p] = self.hold_passive(self.x[p], self.v[p], True)
 
     @ti.func
     def hold_colliders(self, p):

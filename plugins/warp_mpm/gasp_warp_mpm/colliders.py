@@ -226,20 +226,24 @@ def build_box_hold(Ft):
     """``box_hold``: the ground's and walls' position-level hold on the points of the deformable bodies that take the
     grid contact, scalar type ``Ft`` (taichi_mpm's ``Colliders.hold_box``; ``gasp_core.mpm.points.hold_passive``'s
     rule): after G2P, a point outside ``[lo, hi]`` (``gasp_core.mpm.points.passive_bounds``: the ground's plane, the
-    walls' last node layers) is put on the face, its velocity into the face removed. The grid rule acts at the nodes,
-    and a point between a stopped node layer and a moving one was carried up to 1.25 mm under the ground by a landing
-    at 50 m/s (issue 66)."""
+    walls' last node layers) is put on the face, its velocity into the face removed, and one put on the floor loses
+    ``mu`` (the floor's friction, ``gasp_core.mpm.points.passive_floor_friction``) times that removed speed from its
+    horizontal speed, Coulomb's friction (``hold_passive``'s rule for a stranded point). The grid rule acts at the
+    nodes, and a point between a stopped node layer and a moving one was carried up to 1.25 mm under the ground by a
+    landing at 50 m/s (issue 66). The floor's friction: the ground's plane lies up to a cell above its top node layer
+    (``gasp_core.mpm.points.ground_top_node``), and a point held on it reads that stopped layer with a weight as low
+    as 1/8, so without its own friction a sand column held there slid out flat (``tests/test_runout.py``)."""
     from .contact import build_passive_hold   # (contact.py imports this module)
     vec3, _vec4, _mat33 = build_types(Ft)
     hold_passive = build_passive_hold(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def box_hold(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32),
-                 holds: wp.array(dtype=wp.int32), lo: vec3, hi: vec3):
+                 holds: wp.array(dtype=wp.int32), lo: vec3, hi: vec3, mu: Ft):
         p = wp.tid()
         if holds[body[p]] == 0:
             return
-        xp, vp = hold_passive(x[p], v[p], lo, hi, 0, Ft(0.0))   # never stranded: the clamp alone
+        xp, vp = hold_passive(x[p], v[p], lo, hi, 1, mu)   # on the floor with its friction, as a stranded point
         x[p] = xp
         v[p] = vp
 
@@ -250,7 +254,7 @@ def hold_launches(eng, Ft, has_extras: int, ex) -> list:
     """The recorded launches of the holds on the grid contact's points after G2P for the engine ``eng``: the ground's
     and walls' (:func:`build_box_hold`) where a deformable body takes the grid contact, then the colliders'
     (:func:`build_collider_hold`) where its scene has colliders and a body that takes the grid contact; else none."""
-    from gasp_core.mpm.points import passive_bounds
+    from gasp_core.mpm.points import passive_bounds, passive_floor_friction
     from gasp_core.mpm.rigid import rigid_mask
     out = []
     boxed = eng.flows.numpy().astype(bool) & ~rigid_mask(eng.setup.materials)
@@ -259,7 +263,8 @@ def hold_launches(eng, Ft, has_extras: int, ex) -> list:
         eng.box_holds = wp.array(boxed.astype("int32"), dtype=wp.int32, device=eng.device)
         lo, hi = (vec3(*[float(c) for c in b]) for b in passive_bounds(eng.setup, eng._contact))
         out.append(wp.launch(build_box_hold(Ft), dim=eng.n_material, device=eng.device, record_cmd=True,
-                             inputs=[eng.x, eng.v, eng.body, eng.box_holds, lo, hi]))
+                             inputs=[eng.x, eng.v, eng.body, eng.box_holds, lo, hi,
+                                     Ft(passive_floor_friction(eng.setup, eng._contact))]))
     if not (has_extras and eng.setup.colliders and eng.flows.numpy().any()):
         return out
     return out + [wp.launch(build_collider_hold(Ft), dim=eng.n_material, device=eng.device, record_cmd=True,

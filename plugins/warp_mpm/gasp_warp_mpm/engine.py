@@ -36,7 +36,7 @@ from gasp_core.mpm.materials import JELLY, P_ETA, initial_Jp, material_table
 from gasp_core.mpm.rigid import lift_setup, rigid_contact, step_view, zero_stress
 from gasp_core.seam.memory import check_memory, estimate_bytes
 from gasp_core.mpm.contact import (contact_coefficients, contact_model, contact_planes, ground_node_layer,
-                                      rule_models, wall_grid_cells)
+                                      rule_models, wall_floor, wall_grid_cells)
 from gasp_core.mpm.points import blow_up_rows, cell_order, held_codes, passive_bounds, passive_floor_friction
 from gasp_core.mpm.substeps import passive_schedule
 from gasp_core.seam import CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
@@ -45,7 +45,7 @@ from . import ENGINE, WarpMPMConfig, kernels as K
 from .balance import allocate_balance
 from .colliders import hold_launches
 from .fields import allocate_fields, field_launches
-from .held import HeldRule, held_boxes, mirror_launches   # HeldRule: held_rule.py
+from .held import held_boxes, mirror_launches
 from .rigid import RigidBodies
 from .sleeping import Sleeping
 from .tables import ExtraTables
@@ -54,7 +54,7 @@ from .warmup import compile_all
 from .schedule import balance_for, resolve as resolve_schedule, viscosity_for
 
 
-class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule):
+class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
     """MLS-MPM in Warp (docs/mpm.md), one instance per simulation (the non-kernel part: GridEngineBase).
 
     Parameters
@@ -100,9 +100,8 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
         self.inv_dx = 1.0 / self.dx
         self.n_substeps, self.dt = steps   # chosen once: a step shortened for the contact warns once
         self.frame, self.sim_time = 0, 0.0
-        # Sort points by grid cell (cache locality of scatter and gather); order[i] is the
-        # setup index of internal point i.
-        # Material points first, then the passive ones (SimSetup.passive: G2P only, no P2G).
+        # Sort points by grid cell (cache locality of scatter and gather); order[i] is the setup index of internal
+        # point i. Material points first, then the passive ones (SimSetup.passive: G2P only, no P2G).
         self.order_points(setup, self.dx)
         self._upload_points(kinds, par, Ft)
         self._upload_rigid()
@@ -113,7 +112,8 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
         self._passive_at, self._tick = [None] * self.n_substeps, None
         if self.n_points:
             self._record_launches(Ft, has_extras, ex)
-        self._graph, self._closed = None, False
+        self._graph = None
+        self._closed = False
 
     def _start_warp(self, dev: str):
         """``wp.init()`` quietly; the Warp device named by option ``device``.
@@ -194,7 +194,8 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
                 wall_mu.append(bd.friction)
         dt_np, k, arr = self._np_dtype, self.k, self._array
         self.wall_mu = arr(np.array(wall_mu, dtype=dt_np), Ft)
-        self.wall_in, self.wall_full = wall_grid_cells(reach), wall_grid_cells(full)   # 3 cells in, 1.5 with particle
+        self.wall_in, self.wall_full = wall_grid_cells(reach), wall_grid_cells(full)   # 3.5 cells in, 1.5 with particle
+        self.wall_floor = int(wall_floor(self.setup, reach))   # no floor face where a ground is the floor
         self.ground = arr(np.array(ground, dtype=dt_np).reshape(-1, 3), k.vec3)
         allocate_fields(self, Ft, contact)   # the contact chosen per body: flows, grid_mf; the two fields (fields.py)
         self.fixed_lo = arr(np.array(fixed_lo, dtype=dt_np).reshape(-1, 3), k.vec3)
@@ -225,24 +226,23 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
         lo_v = k.vec3(*[float(c) for c in setup.domain_lo])
         hi_v = k.vec3(*[float(c) for c in setup.domain_hi])
         g_v = k.vec3(*[float(c) for c in setup.gravity])
-        inv_dx, dx, dt_f, ng, rule = Ft(self.inv_dx), Ft(self.dx), Ft(self.dt), self.n_grid, self.held_rule_flag()
+        inv_dx, dx, dt_f, ng = Ft(self.inv_dx), Ft(self.dx), Ft(self.dt), self.n_grid
         self._launches = [
             wp.launch(k.p2g, dim=self.n_material, device=d, record_cmd=True, inputs=[
                 self.x, self.v, self.F, self.C, self.Jp, self.p_mass, self.p_vol, self.body,
                 self.mat_kind, self.mat_par, self.grid_mv, self.flags, lo_v, inv_dx, dx, dt_f, ng,
                 self.grid_g, self.has_wind, self.grid_mv0, int(self.flip > 0), self.p_contact, self.planes, self.plane_n,
                 self.grid_fb, self.grid_eta, self.c_shift, self.grid_fbody, ex, self.colc, self.n_sup, self.grid_fn,
-                self.grid_fv, self.grid_mf, self.flows, self.grid_sv, self.grid_vf, self.in_a, self.fixed, rule]),
+                self.grid_fv, self.grid_mf, self.flows, self.grid_sv, self.grid_vf, self.in_a, self.fixed]),
             wp.launch(k.grid_update, dim=ng ** 3, device=d, record_cmd=True, inputs=[
                 self.grid_mv, self.grid_v, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, Ft(self.wall_in), self.wall_mu,
                 self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex, self.grid_g, self.has_wind,
                 self.grid_mv0, self.grid_v0, int(self.flip > 0), self.grid_fb, self.grid_fbody,
                 self.fr_sums, self.fr_nodes, self.nfric, self.grid_fn, self.grid_fv, Ft(self.wall_full), self.grid_mf,
-                self.fr_dv, self.fr_fb]),
+                self.fr_dv, self.fr_fb, self.wall_floor]),
             wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
                 self.x, self.v, self.C, self.fixed, self.grid_v, lo_v, inv_dx, dt_f, ng, self.grid_v0, Ft(self.flip),
-                self.grid_dv, self.body, self.in_a, ex, self.mat_kind, self.fixed_lo, self.fixed_hi, dx, rule,
-                self.grid_m]),
+                self.grid_dv, self.body, self.in_a]),
         ] + hold_launches(self, Ft, has_extras, ex) + self._rigid_launches(Ft)
         # the contact's balance (gasp_warp_mpm.balance): its moments before P2G, its fix after the grid update
         self._pre, fixes = balance_for(self, k, lo_v, dx, dt_f, ex)   # on the run's schedule (schedule/__init__.py)

@@ -86,12 +86,20 @@ def build_boundary_rules(Ft):
 
     @wp.func
     def boundary_rules(vel_in: vec3, X: vec3, k: int, lo: vec3, hi: vec3, dx: Ft, wall_in: Ft, wall_full: Ft,
-                       wall_mu: wp.array(dtype=Ft), ground: wp.array(dtype=vec3), f: Ft):
+                       wall_mu: wp.array(dtype=Ft), ground: wp.array(dtype=vec3), f: Ft, floor: int):
         vel = vel_in
+        # the grounds first: a ground on the floor wall's plane keeps its friction there (taichi_mpm's order)
+        for q in range(ground.shape[0]):
+            gr = ground[q]
+            if Ft(k) <= gr[0]:  # node layer k at or below the ground's top layer (exact small integers)
+                wt = Ft(1.0)
+                if Ft(k) > gr[2]:
+                    wt = f
+                vel = blend_rule(vel, collide(vel, vec3(Ft(0.0), Ft(0.0), Ft(1.0)), gr[1]), wt)
         for w in range(wall_mu.shape[0]):
             mu_b = wall_mu[w]
             for d in range(3):
-                if X[d] < lo[d] + wall_in * dx:
+                if X[d] < lo[d] + wall_in * dx and (d != 2 or floor != 0):   # floor: gasp_core wall_floor
                     n = vec3(Ft(0.0))
                     n[d] = Ft(1.0)
                     wt = Ft(1.0)
@@ -105,13 +113,6 @@ def build_boundary_rules(Ft):
                     if X[d] <= hi[d] - wall_full * dx:
                         wt = f
                     vel = blend_rule(vel, collide(vel, n, mu_b), wt)
-        for q in range(ground.shape[0]):
-            gr = ground[q]
-            if Ft(k) <= gr[0]:  # node layer k at or below the ground's top layer (exact small integers)
-                wt = Ft(1.0)
-                if Ft(k) > gr[2]:
-                    wt = f
-                vel = blend_rule(vel, collide(vel, vec3(Ft(0.0), Ft(0.0), Ft(1.0)), gr[1]), wt)
         return vel
 
     return boundary_rules
@@ -136,7 +137,7 @@ def build_grid_update(Ft):
         grid_mv0: wp.array(dtype=vec4), grid_v0: wp.array(dtype=vec3), flip: int, grid_fb: wp.array(dtype=Ft),
         grid_fbody: wp.array(dtype=wp.int32), fr_sums: wp.array2d(dtype=wp.float64), fr_nodes: wp.array(dtype=wp.int32),
         colc: int, grid_fn: wp.array(dtype=vec3), grid_fv: wp.array(dtype=vec3), wall_full: Ft,
-        grid_mf: wp.array(dtype=Ft), fr_dv: wp.array(dtype=vec4), fr_fb: wp.array(dtype=Ft)):
+        grid_mf: wp.array(dtype=Ft), fr_dv: wp.array(dtype=vec4), fr_fb: wp.array(dtype=Ft), floor: int):
         # wall_in: the walls' grid rule reaches this many cells in (gasp_core.mpm.contact.wall_grid_cells);
         # ground[g] = (top node layer k_max as a float, friction, unused); grid_m (node mass, for
         # passive points) has one entry per node when the setup has passive points, else one unused entry;
@@ -165,7 +166,7 @@ def build_grid_update(Ft):
                 if has_wind != 0:
                     gsurf = grid_g[node]
                 vel = extras(vel, X, dt, m, gsurf, ex, f)
-            vel = boundary_rules(vel, X, k, lo, hi, dx, wall_in, wall_full, wall_mu, ground, f)
+            vel = boundary_rules(vel, X, k, lo, hi, dx, wall_in, wall_full, wall_mu, ground, f, floor)
             if grid_fb.shape[0] > 1:   # friction, then the contact's balance (balance.py)
                 v_in = vel
                 vel = contact_friction(vel, m, node, grid_fb, colc, grid_fn, grid_fv)
