@@ -44,8 +44,9 @@ Measured per case, from the engine's state each frame (``F`` and ``d`` of every 
   over the whole body, the damage the waves leave after the break included).
 
 Run: ``python benchmarks/tension_family.py --engine taichi_mpm`` (and ``--engine warp_mpm``; ``--n-grid 24``,
-``--only NAME``); each engine's cases are added to ``benchmarks/results/tension_family.json`` and the table
-``tension_family.md`` is written from it. One engine per process (taichi_mpm flushes subnormals in its process).
+``--only NAME``, ``--shift 0.25,0.25``: the lattice and the faces off the nodes); each engine's cases are added to
+``benchmarks/results/tension_family.json`` and the table ``tension_family.md`` is written from it. One engine per
+process (taichi_mpm flushes subnormals in its process).
 """
 from __future__ import annotations
 
@@ -285,17 +286,24 @@ def name_check(engine: str) -> str:
     return engine
 
 
+def _key(r: dict) -> tuple:
+    """A case's key in the results: specimen, engine, n_grid, shift (cells; :func:`build`'s)."""
+    return r["specimen"], r["engine"], r["n_grid"], tuple(r.get("shift", (0.0, 0.0)))
+
+
 def table(rows: list[dict]) -> str:
     """The Markdown table of the cases, with the must-show's verdicts."""
     out = ["| specimen | engine | n_grid | cells across | peak / f_t | breaks at (x, m) | section there | where | work "
            "to separate (J/m^2) | vs G_f | N to 2N | dissipated (J/m^2) | s |",
            "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
-    by = {(r["specimen"], r["engine"], r["n_grid"]): r for r in rows}
-    for r in sorted(rows, key=lambda r: (r["specimen"], r["engine"], r["n_grid"])):
-        twin = by.get((r["specimen"], r["engine"], r["n_grid"] // 2))
+    by = {_key(r): r for r in rows}
+    for r in sorted(rows, key=_key):
+        twin = by.get(_key(r)[:2] + (r["n_grid"] // 2, _key(r)[3]))
         conv = f"{100 * (r['work'] / twin['work'] - 1):+.1f} %" if twin else ""
         section = f"{100 * r['section_at_crack']:+.1f} %" if "section_at_crack" in r else ""
-        out.append(f"| {r['specimen']} | {r['engine']} | {r['n_grid']} | {r['cells_across']:.0f} | "
+        sh = _key(r)[3]
+        name = r["specimen"] + (f" shift ({sh[0]:g}, {sh[1]:g})" if any(sh) else "")
+        out.append(f"| {name} | {r['engine']} | {r['n_grid']} | {r['cells_across']:.0f} | "
                    f"{r['peak'] / FT:.3f} ({100 * r['peak_vs_ft']:+.1f} %) | {r['crack_x']:.3f} | {section} | "
                    f"{r['where']} | "
                    f"{r['work']:.1f} | {100 * r['work_vs_gf']:+.1f} % | {conv} | {r['dissipated']:.1f} | "
@@ -309,18 +317,20 @@ def main() -> None:
     ap.add_argument("--n-grid", type=int, default=24, help="N (the cases run at N and 2N)")
     ap.add_argument("--only", default="", help="comma-separated specimen names")
     ap.add_argument("--coarse-only", action="store_true", help="N only")
+    ap.add_argument("--shift", default="0,0", help="the lattice's and the faces' shift off the nodes, cells (build)")
     a = ap.parse_args()
     RESULTS.mkdir(exist_ok=True)
     path = RESULTS / "tension_family.json"
     rows = json.loads(path.read_text())["cases"] if path.exists() else []
     names = set(a.only.split(",")) if a.only else {sp.name for sp in FAMILY}
+    shift = tuple(float(c) for c in a.shift.split(","))
     for sp in FAMILY:
         if sp.name not in names:
             continue
         for n in (a.n_grid,) if a.coarse_only else (a.n_grid, 2 * a.n_grid):
-            r = run_case(sp, n, a.engine)
+            r = run_case(sp, n, a.engine, shift=shift)
             print(json.dumps(r), flush=True)
-            rows = [q for q in rows if (q["specimen"], q["engine"], q["n_grid"]) != (sp.name, a.engine, n)] + [r]
+            rows = [q for q in rows if _key(q) != _key(r)] + [r]
             path.write_text(json.dumps({"material": {"E": E, "nu": NU, "rho": RHO, "f_t": FT, "G_f": GF,
                                                      "pull_m_s": PULL}, "cases": rows}, indent=1))
     (RESULTS / "tension_family.md").write_text(
@@ -328,7 +338,8 @@ def main() -> None:
         f"the measures). E {E:g} Pa, nu {NU:g}, f_t {FT:g} Pa, G_f {GF:g} J/m^2, pull {PULL:g} m/s, f64. "
         f"\"section there\": the dog-bone's section at the break over its gauge's; \"where\" is the gauge within "
         f"{100 * SECTION_TOL:g} %. The dog-bones are flat with circular fillets since round 30 (before: square, cosine "
-        f"shoulders, Kt 1.5; docs/fracture.md \"The dog-bones' shoulders\").\n\n"
+        f"shoulders, Kt 1.5; docs/fracture.md \"The dog-bones' shoulders\"). A row named with a shift: the lattice and "
+        f"the held faces off the grid's nodes (``--shift``, cells; docs/fracture.md \"The held region\").\n\n"
         + table(rows))
 
 

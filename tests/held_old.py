@@ -45,7 +45,8 @@ def clear_warp_caches() -> None:
 
 @functools.cache
 def _warp_held_return(Ft):
-    """warp_mpm's ``held_return`` before the broken faces: a brittle held point keeps its damage always."""
+    """warp_mpm's ``held_return`` before the broken faces: a brittle held point keeps its damage always (and, as the
+    Taichi variant, scatters the stress of its own strain: the brittle held rule's held stress is not in it)."""
     import warp as wp
     from gasp_core.mpm.materials import BRITTLE
     from gasp_warp_mpm.constitutive import build_return_mapping
@@ -60,12 +61,14 @@ def _warp_held_return(Ft):
     @wp.func
     def held_return(Cp: mat33, Fp: mat33, dt: Ft, p: int, code: int, X: vec3, dx: Ft, ex: Extras,
                     body: wp.array(dtype=wp.int32), mat_kind: wp.array(dtype=wp.int32),
-                    mat_par: wp.array2d(dtype=Ft), Jp: wp.array(dtype=Ft)):
+                    mat_par: wp.array2d(dtype=Ft), Jp: wp.array(dtype=Ft), rule: int):
         a = held_axis(code, X, dx, ex)
         d_held = Jp[p]
         Cf = Cp
         if a >= 0:
             Cf = Cp * image_flip(a)
+        if rule != 0 and a == -2 and mat_kind[body[p]] == BRITTLE:   # as the Taichi variant: the set box rigid deep
+            Cf = mat33()
         F_new, tau = return_mapping((wp.identity(3, dtype=Ft) + dt * Cf) * Fp, p, body, mat_kind, mat_par, Jp,
                                     dt)
         if a >= 0:

@@ -87,6 +87,10 @@ HELD_STRAIN_CELLS = 1.5
 #: stress passes the full softening's (``d`` 1: the material beside the face is broken through) it stays broken
 #: through, and a fixed region's nodes about it become a free-slip face (:func:`cuts_held_faces`).
 HELD_STRAINED = 2
+#: Cells: a free node this near outside the face of a set box that holds a brittle body (along the face's normal, within
+#: its extent along the face) takes ``(v_set + s v_out) / (1 + s)``, ``s`` its distance in cells, ``v_out`` the next node
+#: outward, so the linear field meets ``v_set`` on the face (docs/fracture.md "The held region", round 32).
+SET_FACE_CELLS = 0.5
 
 
 #: Cells: a free point not broken through this near a fixed region (past its box, along every axis) keeps the nodes of

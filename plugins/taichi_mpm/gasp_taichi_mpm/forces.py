@@ -10,7 +10,7 @@ from gasp_core.mpm.grid_tables import (COL_POSE, FALLOFF_INVERSE_SQUARE, FORCE_R
                                            FR_FALLOFF, FR_KIND, FR_MODE_COUNT, FR_MODE_START, FR_RADIUS, FR_STRENGTH,
                                            FT_POSES, IM_A, IM_B, IM_DV, IM_MODE, IM_SHAPE, IMPULSE_ADD, IMPULSE_BOX,
                                            IMPULSE_ROW, MD_A, MD_K, MD_OMEGA, MD_PHASE, MODE_ROW)
-from gasp_core.mpm.points import HELD_STRAIN_CELLS
+from gasp_core.mpm.points import HELD_STRAIN_CELLS, SET_FACE_CELLS
 
 
 def count_set_boxes(ex) -> int:
@@ -118,6 +118,53 @@ class Forces:
                 hit = q
         return hit
 
+    @ti.kernel
+    def hold_set_faces(self):
+        """The free node within :data:`~gasp_core.mpm.points.SET_FACE_CELLS` (half a cell) outside a set box's face
+        (along its normal, inside its extent along the face): ``(v_set + s v_out) / (1 + s)``, ``s`` its distance to
+        the face in cells, ``v_out`` the next node away from the box, so that with the ghost beyond it
+        (:meth:`mirror_set_boxes`) the grid's linear velocity meets ``v_set`` on the face for any field, as where the
+        box's own node is nearest the face. The warp_mpm plugin's ``hold_set_faces``."""
+        lo, ext = self.touched_box()
+        for idx in range(ext[0] * ext[1] * ext[2]):
+            I = lo + ti.Vector([idx // (ext[1] * ext[2]), (idx // ext[2]) % ext[1], idx % ext[2]])
+            X = self.lo[None] + self.dx[None] * ti.cast(I, self.real)
+            base = self.ex_step[None] * self.ex_width
+            for q in range(self.n_imp):
+                r = q * IMPULSE_ROW
+                c, b = self.impulse_corners(q)
+                w = self.ex_tab[base + FT_POSES + COL_POSE * self.n_col + q]
+                if (self.ex_imps[r + IM_SHAPE] == IMPULSE_BOX and self.ex_imps[r + IM_MODE] != IMPULSE_ADD
+                        and w > 0.0 and self.grid_m[I] > 0.0):
+                    dv = ti.Vector([self.ex_imps[r + IM_DV], self.ex_imps[r + IM_DV + 1], self.ex_imps[r + IM_DV + 2]])
+                    for d in ti.static(range(3)):
+                        lat = True
+                        for e in ti.static(range(3)):
+                            if e != d:
+                                lat = lat and X[e] >= c[e] and X[e] <= b[e]
+                        sl = (c[d] - X[d]) * self.inv_dx[None]
+                        sh = (X[d] - b[d]) * self.inv_dx[None]
+                        if lat and sl > 0.0 and sl < SET_FACE_CELLS and I[d] >= 1:
+                            J = I
+                            J[d] -= 1
+                            if self.grid_m[J] > 0.0:
+                                self.grid_v[I] = (dv + sl * self.grid_v[J]) / (1.0 + sl)
+                        if lat and sh > 0.0 and sh < SET_FACE_CELLS and I[d] < self.n_grid - 1:
+                            J = I
+                            J[d] += 1
+                            if self.grid_m[J] > 0.0:
+                                self.grid_v[I] = (dv + sh * self.grid_v[J]) / (1.0 + sh)
+
+    @ti.func
+    def set_box_velocity(self, X, v):
+        """``v_set`` of the set box impulse acting now that holds ``X`` (:meth:`set_box_at`), else ``v``."""
+        q = self.set_box_at(X)
+        out = v
+        if q >= 0:
+            r = q * IMPULSE_ROW
+            out = ti.Vector([self.ex_imps[r + IM_DV], self.ex_imps[r + IM_DV + 1], self.ex_imps[r + IM_DV + 2]])
+        return out
+
     @ti.func
     def set_box_axis(self, X):
         """For a point at ``X`` in a set box acting now (:meth:`set_box_at`): the normal axis of the box's nearest face
@@ -130,6 +177,7 @@ class Forces:
             c, b = self.impulse_corners(q)
             s = ti.min(X - c, b - X)
             near = HELD_STRAIN_CELLS * self.dx[None]
+            a = -2   # deeper: rigid (its F kept)
             for d in ti.static(range(3)):
                 if s[d] < near:
                     a, near = d, s[d]

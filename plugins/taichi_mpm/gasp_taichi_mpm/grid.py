@@ -11,7 +11,7 @@ import taichi as ti
 
 from gasp_core.mpm.grid_tables import FT_TIME
 from gasp_core.mpm.contact import ground_node_layer, wall_floor, wall_grid_cells
-from gasp_core.mpm.materials import BRITTLE
+from gasp_core.mpm.materials import BRITTLE, P_LAM, P_MU, P_SF
 from gasp_core.mpm.points import CUT_REACH, HELD_STRAINED, MIRROR_CELLS, cuts_held_faces
 
 _TIE = 1e-9  # cells: tolerance for ties when boundary tests become node-index ranges
@@ -57,6 +57,13 @@ def node_ranges(setup, dx: float, contact: str = "particle"):
 
 class GridUpdate:
     """The grid update (:meth:`grid_update`) and the node extras it applies (:meth:`extras`)."""
+
+    #: The brittle held rule of issue 66 round 32 (docs/fracture.md, "The held region"): a set box's brittle point's
+    #: stress at its held damage and its gradient its mirror image's (a fixed region's as before), its points at
+    #: ``v_set`` (rigid deeper than ``HELD_STRAIN_CELLS``), the free node within half a cell outside its face held
+    #: with it. False: the rule before (the tension family's catch, ``tests/test_tension_family.py``; warp_mpm's
+    #: switch is ``WarpMPMEngine.held_rule``).
+    held_rule = True
 
     @ti.func
     def extras(self, I, v, m, gsurf, f):
@@ -121,6 +128,8 @@ class GridUpdate:
             if self.cut:
                 self.grid_cut.fill(0)
                 self.mark_cut()
+            if self.n_set_boxes and BRITTLE in self.kinds and self.held_rule:   # a brittle body's set box
+                self.hold_set_faces()
             self.mirror_held()
 
     def allocate_cut(self) -> None:
@@ -224,6 +233,53 @@ class GridUpdate:
         return a
 
     @ti.func
+    def image_C(self, p, a, C):
+        """The velocity gradient point ``p`` near a held box's face (normal axis ``a`` from :meth:`held_axis`) takes:
+        the grid's gradient gathered at its mirror image ``X'`` across that face, as the ghost field's (``grad v(X')
+        D``, :meth:`image_gradient`), so its ``F`` follows the image's strain for any field, not the ghost nodes'
+        reflection of a field linear along the normal (``C`` as it is where no box holds it, or where a node of the
+        image's stencil has no mass: no material there to follow, as past a T rod's head)."""
+        X = self.x[p]
+        f = X[a]
+        best = ti.cast(1e30, self.real)
+        if ti.static(self.any_fixed):
+            if self.fixed[p] >= HELD_STRAINED:
+                for b in ti.static(range(self.n_regions)):
+                    lo_, hi_ = self.reg_box[b, 0], self.reg_box[b, 1]
+                    if (X >= lo_).all() and (X <= hi_).all():
+                        if X[a] - lo_[a] < best:
+                            best, f = X[a] - lo_[a], lo_[a]
+                        if hi_[a] - X[a] < best:
+                            best, f = hi_[a] - X[a], hi_[a]
+        if ti.static(self.n_set_boxes > 0):
+            if self.fixed[p] == 0:
+                q = self.set_box_at(X)
+                if q >= 0:
+                    c, b = self.impulse_corners(q)
+                    if X[a] - c[a] < best:
+                        best, f = X[a] - c[a], c[a]
+                    if b[a] - X[a] < best:
+                        best, f = b[a] - X[a], b[a]
+        out = C
+        if best < 1e29:
+            Xi = X
+            Xi[a] = 2.0 * f - X[a]
+            base, fx, ok = self.base_fx(Xi)
+            if ok:
+                w = self.weights(fx)
+                v = ti.Vector.zero(self.real, 3)
+                B = ti.Matrix.zero(self.real, 3, 3)
+                full = True   # the image's stencil all in material (else the ghosts' C: no image to follow)
+                for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
+                    gv = w[i][0] * w[j][1] * w[k][2] * self.node_v(p, base + ti.Vector([i, j, k]))
+                    v += gv
+                    B += gv.outer_product(ti.Vector([float(i), float(j), float(k)], self.real))
+                    full = full and self.grid_m[base + ti.Vector([i, j, k])] > 0.0
+                if full:
+                    out = self.image_gradient((4.0 * self.inv_dx[None]) * (B - v.outer_product(fx)), a)
+        return out
+
+    @ti.func
     def image_gradient(self, C, a):
         """``C D``, ``D`` the diagonal matrix that negates every column but ``a`` (``a`` -1: ``C``): for a point
         near a held box's face (normal axis ``a``, :data:`~gasp_core.mpm.points.HELD_STRAINED`) the ghost field's
@@ -240,7 +296,9 @@ class GridUpdate:
     def held_stress(self, p, tau, a, d_held):
         """The stress point ``p`` scatters under the held boxes' rule (``a`` from :meth:`held_axis`): ``tau D`` near a
         face; a brittle point in a held box keeps its damage ``d_held`` (its stress is its mirror image's: the
-        material a box holds does not break)."""
+        material a box holds does not break); under ``held_rule`` a set box's point scatters the stress of ``d_held``
+        (not softened on the way; a fixed region's held points keep their strain's: with both there a T rod hung by
+        its head diverged, ``tests/test_brittle.py``)."""
         out = self.image_gradient(tau, a)
         if a >= 0:
             kind = self.kind[self.body[p]]
@@ -248,6 +306,13 @@ class GridUpdate:
                 kind = ti.static(next(iter(self.kinds)))
             if kind == BRITTLE and self.Jp[p] < 1.0:   # broken through (its image's crack): stays so
                 self.Jp[p] = d_held
+                if ti.static(self.held_rule):   # a set box's point (held_rule): its stress at its held damage
+                    if self.fixed[p] == 0:
+                        prm = self.mat[self.body[p]]
+                        U, sig, V = self.svd(self.F[p])
+                        tau0, _d = self.brittle_tau(U, ti.log(ti.max(sig, 1e-4)), prm[P_MU], prm[P_LAM], prm[P_SF],
+                                                    prm[P_SF], d_held)
+                        out = self.image_gradient(tau0, a)
         return out
 
     @ti.kernel

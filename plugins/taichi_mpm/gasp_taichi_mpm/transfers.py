@@ -6,7 +6,7 @@ Sources: Hu et al. 2018 (MLS-MPM, APIC, quadratic B-splines), taichi's mpm128 (`
 """
 import taichi as ti
 
-from gasp_core.mpm.materials import P_ETA
+from gasp_core.mpm.materials import BRITTLE, P_ETA
 
 class Transfers:
     """The stencil of a point, P2G (atomic or into private grid copies; the schedules' own P2G passes are in
@@ -58,6 +58,9 @@ class Transfers:
         if ti.static(self.any_fixed or self.n_set_boxes > 0):   # in a held box: the image gradient (grid.py)
             a, d_held = self.held_axis(p), self.Jp[p]
             Cf = self.image_gradient(C, a)
+            if ti.static(self.held_rule):   # deep in a brittle body's set box: rigid (grid.py held_rule)
+                if a == -2 and self.kind[self.body[p]] == BRITTLE:
+                    Cf = ti.Matrix.zero(self.real, 3, 3)
         F = (ti.Matrix.identity(self.real, 3) + dt * Cf) @ self.F[p]
         tau = self.return_mapping(p, F)
         if ti.static(self.any_fixed or self.n_set_boxes > 0):   # its stress scattered to match; no damage
@@ -156,6 +159,16 @@ class Transfers:
                 for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                     old_v += w[i][0] * w[j][1] * w[k][2] * self.grid_v0[base + ti.Vector([i, j, k])]
                 v_p = new_v + self.flip * (self.v[p] - old_v)
+            if ti.static(self.any_fixed or self.n_set_boxes > 0):   # near a held box's face: its image's gradient
+                if ti.static(self.held_rule):   # the brittle held rule (grid.py held_rule)
+                    if self.kind[self.body[p]] == BRITTLE:
+                        a = self.held_axis(p)
+                        if a >= 0 and self.fixed[p] == 0:   # a set box's (not a fixed region's: as before)
+                            new_C = self.image_C(p, a, new_C)
+                        if ti.static(self.n_set_boxes > 0):   # a set box's points move with it
+                            if self.fixed[p] == 0:
+                                new_v = self.set_box_velocity(self.x[p], new_v)
+                                v_p = self.set_box_velocity(self.x[p], v_p)
             if ti.static(self.any_fixed):
                 if self.fixed[p] != 0:   # held; near its region's face its F follows the image gradient (p2g_prep)
                     new_v = ti.Vector.zero(self.real, 3)

@@ -45,7 +45,7 @@ from . import ENGINE, WarpMPMConfig, kernels as K
 from .balance import allocate_balance
 from .colliders import hold_launches
 from .fields import allocate_fields, field_launches
-from .held import held_boxes, mirror_launches
+from .held import HeldRule, held_boxes, mirror_launches   # HeldRule: held_rule.py
 from .rigid import RigidBodies
 from .sleeping import Sleeping
 from .tables import ExtraTables
@@ -54,7 +54,7 @@ from .warmup import compile_all
 from .schedule import balance_for, resolve as resolve_schedule, viscosity_for
 
 
-class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
+class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule):
     """MLS-MPM in Warp (docs/mpm.md), one instance per simulation (the non-kernel part: GridEngineBase).
 
     Parameters
@@ -112,8 +112,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
         self._passive_at, self._tick = [None] * self.n_substeps, None
         if self.n_points:
             self._record_launches(Ft, has_extras, ex)
-        self._graph = None
-        self._closed = False
+        self._graph, self._closed = None, False
 
     def _start_warp(self, dev: str):
         """``wp.init()`` quietly; the Warp device named by option ``device``.
@@ -226,14 +225,14 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
         lo_v = k.vec3(*[float(c) for c in setup.domain_lo])
         hi_v = k.vec3(*[float(c) for c in setup.domain_hi])
         g_v = k.vec3(*[float(c) for c in setup.gravity])
-        inv_dx, dx, dt_f, ng = Ft(self.inv_dx), Ft(self.dx), Ft(self.dt), self.n_grid
+        inv_dx, dx, dt_f, ng, rule = Ft(self.inv_dx), Ft(self.dx), Ft(self.dt), self.n_grid, self.held_rule_flag()
         self._launches = [
             wp.launch(k.p2g, dim=self.n_material, device=d, record_cmd=True, inputs=[
                 self.x, self.v, self.F, self.C, self.Jp, self.p_mass, self.p_vol, self.body,
                 self.mat_kind, self.mat_par, self.grid_mv, self.flags, lo_v, inv_dx, dx, dt_f, ng,
                 self.grid_g, self.has_wind, self.grid_mv0, int(self.flip > 0), self.p_contact, self.planes, self.plane_n,
                 self.grid_fb, self.grid_eta, self.c_shift, self.grid_fbody, ex, self.colc, self.n_sup, self.grid_fn,
-                self.grid_fv, self.grid_mf, self.flows, self.grid_sv, self.grid_vf, self.in_a, self.fixed]),
+                self.grid_fv, self.grid_mf, self.flows, self.grid_sv, self.grid_vf, self.in_a, self.fixed, rule]),
             wp.launch(k.grid_update, dim=ng ** 3, device=d, record_cmd=True, inputs=[
                 self.grid_mv, self.grid_v, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, Ft(self.wall_in), self.wall_mu,
                 self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex, self.grid_g, self.has_wind,
@@ -242,7 +241,8 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping):
                 self.fr_dv, self.fr_fb, self.wall_floor]),
             wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
                 self.x, self.v, self.C, self.fixed, self.grid_v, lo_v, inv_dx, dt_f, ng, self.grid_v0, Ft(self.flip),
-                self.grid_dv, self.body, self.in_a]),
+                self.grid_dv, self.body, self.in_a, ex, self.mat_kind, self.fixed_lo, self.fixed_hi, dx, rule,
+                self.grid_m]),
         ] + hold_launches(self, Ft, has_extras, ex) + self._rigid_launches(Ft)
         # the contact's balance (gasp_warp_mpm.balance): its moments before P2G, its fix after the grid update
         self._pre, fixes = balance_for(self, k, lo_v, dx, dt_f, ex)   # on the run's schedule (schedule/__init__.py)

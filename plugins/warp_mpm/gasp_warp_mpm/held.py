@@ -11,11 +11,12 @@ import warp as wp
 
 from gasp_core.mpm.grid_tables import (COL_POSE, FT_POSES, IM_A, IM_B, IM_DV, IM_MODE, IM_SHAPE, IMPULSE_ADD,
                                            IMPULSE_BOX, IMPULSE_ROW)
-from gasp_core.mpm.materials import BRITTLE
+from gasp_core.mpm.materials import BRITTLE, P_LAM, P_MU
 from gasp_core.mpm.points import CUT_REACH, HELD_STRAIN_CELLS, HELD_STRAINED, MIRROR_CELLS, cuts_held_faces
 
 from .constitutive import build_return_mapping
 from .forces import build_extras_struct
+from .held_rule import HeldRule, build_held_tau, hold_set_faces_launches   # HeldRule: the engine's switch
 from .precision import MODULE_OPTIONS, build_types
 
 
@@ -171,13 +172,14 @@ def build_mark_cut(Ft):
 
 @functools.cache
 def build_image_flip(Ft):
-    """``held_axis(code, X, dx, ex)`` and ``image_flip(a)`` (docs/fracture.md, "The held region"). ``held_axis``:
+    """``(held_axis, image_flip, set_box_at)`` (docs/fracture.md, "The held region"). ``held_axis(code, X, dx, ex)``:
     the normal axis of the face that a point near it takes its image gradient across: a held point's (``code =
     HELD_STRAINED + a``, :func:`gasp_core.mpm.points.held_codes`), or a point's within ``HELD_STRAIN_CELLS`` cells
-    inside the nearest face of a box impulse of ``mode = "set"`` acting now; else -1. ``image_flip``: the diagonal
-    matrix ``D`` that negates every column but ``a``. P2G advances such a point's ``F`` by ``C D``, the velocity
-    gradient at its mirror image across the face (the ghost field is ``2 v_set - v(X')``, so ``C = -grad v(X') R``),
-    and scatters its stress as ``tau D``, the force that update pairs with."""
+    inside the nearest face of a box impulse of ``mode = "set"`` acting now; -2 deeper in such a box; else -1.
+    ``image_flip(a)``: the diagonal matrix ``D`` that negates every column but ``a``. P2G advances such a point's ``F``
+    by ``C D``, the velocity gradient at its mirror image across the face (the ghost field is ``2 v_set - v(X')``, so
+    ``C = -grad v(X') R``), and scatters its stress as ``tau D``, the force that update pairs with.
+    ``set_box_at(X, ex)``: the index of the box impulse of ``mode = "set"`` acting now that holds ``X``, else -1."""
     vec3, vec4, mat33 = build_types(Ft)
     Extras = build_extras_struct(Ft)
 
@@ -205,6 +207,7 @@ def build_image_flip(Ft):
             if q >= 0:
                 r = q * IMPULSE_ROW
                 near = Ft(HELD_STRAIN_CELLS) * dx
+                a = -2   # deeper: rigid under the brittle held rule (held_rule.py)
                 for d in range(3):
                     s = wp.min(X[d] - ex.imps[r + IM_A + d], ex.imps[r + IM_B + d] - X[d])
                     if s < near:
@@ -218,36 +221,45 @@ def build_image_flip(Ft):
         flip[a] = Ft(1.0)
         return wp.diag(flip)
 
-    return held_axis, image_flip
+    return held_axis, image_flip, set_box_at
 
 
 @functools.cache
 def build_held_return(Ft):
-    """``held_return(C, F, dt, p, code, X, dx, ex, body, mat_kind, mat_par, Jp)``: P2G's ``F`` update and return
+    """``held_return(C, F, dt, p, code, X, dx, ex, body, mat_kind, mat_par, Jp, rule)``: P2G's ``F`` update and return
     mapping (``(F, tau)``, :func:`gasp_warp_mpm.constitutive.build_return_mapping`) with the held boxes' rule
     (:func:`build_image_flip`): near a held box's face ``F`` advances by ``C D``, ``tau D`` is scattered, and a
     brittle point keeps its damage (its stress is its mirror image's: the material a box holds does not break);
-    elsewhere ``(I + dt C) F``."""
+    elsewhere ``(I + dt C) F``. With ``rule`` 1 (the brittle held rule, :mod:`gasp_warp_mpm.held_rule`) a brittle
+    point near a set box's face scatters the stress of its held damage (not softened on the way; a fixed region's
+    held points keep the stress of their strain, :mod:`gasp_warp_mpm.held_rule`) and one deeper in a set box keeps
+    its ``F`` (rigid)."""
     vec3, vec4, mat33 = build_types(Ft)
     Extras = build_extras_struct(Ft)
     held_axis, image_flip = build_image_flip(Ft)[:2]
     return_mapping = build_return_mapping(Ft)
+    held_tau = build_held_tau(Ft)
 
     @wp.func
     def held_return(Cp: mat33, Fp: mat33, dt: Ft, p: int, code: int, X: vec3, dx: Ft, ex: Extras,
                     body: wp.array(dtype=wp.int32), mat_kind: wp.array(dtype=wp.int32),
-                    mat_par: wp.array2d(dtype=Ft), Jp: wp.array(dtype=Ft)):
+                    mat_par: wp.array2d(dtype=Ft), Jp: wp.array(dtype=Ft), rule: int):
         a = held_axis(code, X, dx, ex)
         d_held = Jp[p]
+        brittle = mat_kind[body[p]] == BRITTLE
         Cf = Cp
         if a >= 0:
             Cf = Cp * image_flip(a)
+        if rule != 0 and a == -2 and brittle:   # deep in a brittle body's set box: rigid
+            Cf = mat33()
         F_new, tau = return_mapping((wp.identity(3, dtype=Ft) + dt * Cf) * Fp, p, body, mat_kind, mat_par, Jp,
                                     dt)
+        if a >= 0 and brittle and Jp[p] < Ft(1.0):   # broken through: stays so
+            Jp[p] = d_held
+            if rule != 0 and code == 0:   # a set box's: not softened on the way, its stress at its held damage
+                tau = held_tau(F_new, mat_par[body[p], P_MU], mat_par[body[p], P_LAM], d_held)
         if a >= 0:
             tau = tau * image_flip(a)
-        if a >= 0 and mat_kind[body[p]] == BRITTLE and Jp[p] < Ft(1.0):   # broken through: stays so
-            Jp[p] = d_held
         return F_new, tau
 
     return held_return
@@ -264,8 +276,9 @@ def held_boxes(setup) -> bool:
 
 
 def mirror_launches(eng, Ft, has_extras: int, ex) -> list:
-    """The recorded launch of :func:`build_mirror`'s kernel after the grid update, where the setup has a
-    ``fixed_region`` or a set box impulse; else none."""
+    """The recorded launches after the grid update, where the setup has a ``fixed_region`` or a set box impulse (else
+    none): the broken faces' marks (:func:`build_mark_cut`), the set boxes' face nodes under the brittle held rule
+    (:func:`gasp_warp_mpm.held_rule.hold_set_faces_launches`), then :func:`build_mirror`'s kernel."""
     if not held_boxes(eng.setup):
         return []
     k = eng.k
@@ -277,6 +290,7 @@ def mirror_launches(eng, Ft, has_extras: int, ex) -> list:
              wp.launch(mark_cut, dim=eng.n_material, device=eng.device, record_cmd=True, inputs=[
                  eng.x, eng.fixed, eng.Jp, eng.body, eng.mat_kind, eng.grid_cut, lo_v, Ft(eng.inv_dx), Ft(eng.dx),
                  eng.n_grid, eng.fixed_lo, eng.fixed_hi])] if cut else []
+    marks += hold_set_faces_launches(eng, Ft, ex)   # a brittle body's set box: its faces' free nodes (held_rule.py)
     return marks + [wp.launch(build_mirror(Ft), dim=eng.n_grid ** 3, device=eng.device, record_cmd=True, inputs=[
         eng.grid_v, eng.grid_m, lo_v, Ft(eng.dx), eng.n_grid, eng.fixed_lo, eng.fixed_hi, has_extras, ex,
         eng.grid_cut])]

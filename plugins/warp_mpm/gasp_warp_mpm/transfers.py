@@ -15,44 +15,15 @@ import functools
 
 import warp as wp
 
-from gasp_core.mpm.materials import P_ETA
+from gasp_core.mpm.materials import BRITTLE, P_ETA
 
 from .contact import build_collider_contact, build_passive_hold
 from .fields import build_aflip_gather, build_field_reads
 from .forces import build_extras_struct
 from .held import build_held_return
+from .held_rule import build_held_g2p
 from .precision import MODULE_OPTIONS, build_types
-
-
-@functools.cache
-def build_stencil(Ft):
-    """``(in_grid, weights)``: the grid-stencil test and the quadratic B-spline weights of a point (docs/mpm.md
-    "Grid"), shared by the transfers of scalar type ``Ft``."""
-    vec3, vec4, mat33 = build_types(Ft)
-
-    @wp.func
-    def in_grid(X: vec3, n_grid: int):
-        # base = floor(X - 0.5) must lie in [0, n_grid - 3] on every axis; compared as floats so
-        # that NaN and inf positions are out of the grid (never converted to an index).
-        lim = Ft(n_grid - 3)
-        b0 = wp.floor(X[0] - Ft(0.5))
-        b1 = wp.floor(X[1] - Ft(0.5))
-        b2 = wp.floor(X[2] - Ft(0.5))
-        ok = b0 >= Ft(0.0) and b0 <= lim and b1 >= Ft(0.0) and b1 <= lim
-        return ok and b2 >= Ft(0.0) and b2 <= lim
-
-    @wp.func
-    def weights(fx: vec3):
-        # Quadratic B-spline weights, row r = weights of node offset r on each axis.
-        t0 = vec3(Ft(1.5)) - fx
-        t1 = fx - vec3(Ft(1.0))
-        t2 = fx - vec3(Ft(0.5))
-        w0 = Ft(0.5) * wp.cw_mul(t0, t0)
-        w1 = vec3(Ft(0.75)) - wp.cw_mul(t1, t1)
-        w2 = Ft(0.5) * wp.cw_mul(t2, t2)
-        return wp.matrix_from_rows(w0, w1, w2)
-
-    return in_grid, weights
+from .stencil import build_gather, build_scatter_vec, build_stencil
 
 
 @functools.cache
@@ -111,25 +82,6 @@ def build_scatter(Ft):
 
 
 @functools.cache
-def build_scatter_vec(Ft):
-    """``scatter_vec(grid_s, idx0, n_grid, W, value)``: a vector added to a point's 27 nodes with its weights (P2G),
-    scalar type ``Ft``."""
-    vec3, vec4, mat33 = build_types(Ft)
-
-    @wp.func
-    def scatter_vec(grid_s: wp.array(dtype=vec3), idx0: int, n_grid: int, W: mat33, value: vec3):
-        # grid_s += w value over the 27 nodes from flat index idx0
-        nn = n_grid * n_grid
-        for i in range(3):
-            for j in range(3):
-                row = idx0 + i * nn + j * n_grid
-                for k in range(3):
-                    grid_s[row + k] += (W[i, 0] * W[j, 1] * W[k, 2]) * value
-
-    return scatter_vec
-
-
-@functools.cache
 def build_p2g(Ft):
     """The P2G kernel ``p2g`` of scalar type ``Ft``: return mapping, stress, scatter."""
     vec3, vec4, mat33 = build_types(Ft)
@@ -153,7 +105,7 @@ def build_p2g(Ft):
         grid_eta: wp.array(dtype=Ft), shift: wp.array2d(dtype=wp.float64), grid_fbody: wp.array(dtype=wp.int32),
         ex: Extras, colc: int, n_sup: int, grid_fn: wp.array(dtype=vec3), grid_fv: wp.array(dtype=vec3),
         grid_mf: wp.array(dtype=Ft), flows: wp.array(dtype=wp.int32), grid_sv: wp.array(dtype=vec4),
-        grid_vf: wp.array(dtype=Ft), in_a: wp.array(dtype=wp.int32), fixed: wp.array(dtype=wp.int32),
+        grid_vf: wp.array(dtype=Ft), in_a: wp.array(dtype=wp.int32), fixed: wp.array(dtype=wp.int32), rule: int,
     ):
         # F advanced by C, return mapping and stress (docs/mpm.md), then the scatter (and, with wind, grid_g;
         # with flip, the APIC momentum alone into grid_mv0: gasp_core.mpm.transfer); with the particle
@@ -173,8 +125,8 @@ def build_p2g(Ft):
         fx = X - vec3(b0, b1, b2)
         W = weights(fx)
         Cp = C[p]
-        # (I + dt C) F and the return mapping; in a held box the image gradient, its stress, no damage (grid.py)
-        F_new, tau = held_return(Cp, F[p], dt, p, fixed[p], x[p], dx, ex, body, mat_kind, mat_par, Jp)
+        # (I + dt C) F and the return mapping; in a held box the image gradient, its stress, no damage (held.py)
+        F_new, tau = held_return(Cp, F[p], dt, p, fixed[p], x[p], dx, ex, body, mat_kind, mat_par, Jp, rule)
         F[p] = F_new
         eta = mat_par[body[p], P_ETA]
         pm = p_mass[p]
@@ -219,6 +171,7 @@ def build_g2p(Ft):
     in_grid, weights = build_stencil(Ft)
     field_offset_base, field_node_v = build_field_reads(Ft)
     aflip_gather = build_aflip_gather(Ft)
+    Extras, gather, held_g2p = build_extras_struct(Ft), build_gather(Ft), build_held_g2p(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def g2p(
@@ -226,8 +179,11 @@ def build_g2p(Ft):
         fixed: wp.array(dtype=wp.int32), grid_v: wp.array(dtype=vec3),
         lo: vec3, inv_dx: Ft, dt: Ft, n_grid: int, grid_v0: wp.array(dtype=vec3), alpha: Ft,
         grid_dv: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32),
+        ex: Extras, mat_kind: wp.array(dtype=wp.int32), fixed_lo: wp.array(dtype=vec3), fixed_hi: wp.array(dtype=vec3),
+        dx: Ft, rule: int, grid_m: wp.array(dtype=Ft),
     ):
-        # with the two-field contact (gasp_warp_mpm.fields) each node's velocity plus the point's field's offset
+        # with the two-field contact (gasp_warp_mpm.fields) each node's velocity plus the point's field's offset; with
+        # rule a brittle point near a held box's face takes its mirror image's gradient, a set box's its v_set
         p = wp.tid()
         if fixed[p] == 1:   # held; near its region's face (2) its C, so its F, follows the grid (docs/fracture.md)
             v[p] = vec3(Ft(0.0))
@@ -244,48 +200,21 @@ def build_g2p(Ft):
         W = weights(fx)
         nn = n_grid * n_grid
         idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
-        # new_v = sum w g;  B = sum w g (i, j, k)^T  accumulated as sums over node planes.
         off = field_offset_base(grid_dv, in_a, body[p], n_grid * nn)   # -1 without two fields (fields.py)
-        new_v = vec3(Ft(0.0))
-        si1 = vec3(Ft(0.0))
-        si2 = vec3(Ft(0.0))
-        sj1 = vec3(Ft(0.0))
-        sj2 = vec3(Ft(0.0))
-        sk1 = vec3(Ft(0.0))
-        sk2 = vec3(Ft(0.0))
-        for i in range(3):
-            vi = vec3(Ft(0.0))
-            for j in range(3):
-                wij = W[i, 0] * W[j, 1]
-                row = idx0 + i * nn + j * n_grid
-                vj = vec3(Ft(0.0))
-                for k in range(3):
-                    wg = (wij * W[k, 2]) * field_node_v(grid_v, grid_dv, off, row + k)
-                    vj = vj + wg
-                    if k == 1:
-                        sk1 = sk1 + wg
-                    if k == 2:
-                        sk2 = sk2 + wg
-                vi = vi + vj
-                if j == 1:
-                    sj1 = sj1 + vj
-                if j == 2:
-                    sj2 = sj2 + vj
-            new_v = new_v + vi
-            if i == 1:
-                si1 = si1 + vi
-            if i == 2:
-                si2 = si2 + vi
-        c0 = si1 + Ft(2.0) * si2
-        c1 = sj1 + Ft(2.0) * sj2
-        c2 = sk1 + Ft(2.0) * sk2
-        B = wp.matrix_from_cols(c0, c1, c2)
+        new_v, B = gather(grid_v, grid_dv, off, W, idx0, n_grid)   # sum w g, sum w g (i, j, k)^T
         # C = 4 inv_dx^2 sum w g ((i, j, k) - fx)^T dx = 4 inv_dx (B - new_v fx^T)
-        C[p] = (Ft(4.0) * inv_dx) * (B - wp.outer(new_v, fx))
+        Cn = (Ft(4.0) * inv_dx) * (B - wp.outer(new_v, fx))
+        held_v = int(0)
+        if rule != 0 and mat_kind[body[p]] == BRITTLE:   # the brittle held rule (held_rule.py)
+            Cn, new_v, held_v = held_g2p(Cn, new_v, fixed[p], xp, ex, fixed_lo, fixed_hi, grid_v, grid_dv, grid_m, off,
+                                         lo, inv_dx, dx, n_grid)
+        C[p] = Cn
         if fixed[p] != 0:
             v[p] = vec3(Ft(0.0))
             return
-        if alpha > Ft(0.0):  # AFLIP: v_PIC(new) + alpha (v_p - v_PIC(old)) (gasp_core.mpm.transfer)
+        if held_v != 0:
+            v[p] = new_v
+        elif alpha > Ft(0.0):  # AFLIP: v_PIC(new) + alpha (v_p - v_PIC(old)) (gasp_core.mpm.transfer)
             v[p] = new_v + alpha * (v[p] - aflip_gather(grid_v0, W, idx0, nn, n_grid))
         else:
             v[p] = new_v
