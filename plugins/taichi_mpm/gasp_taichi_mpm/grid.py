@@ -58,11 +58,10 @@ def node_ranges(setup, dx: float, contact: str = "particle"):
 class GridUpdate:
     """The grid update (:meth:`grid_update`) and the node extras it applies (:meth:`extras`)."""
 
-    #: The brittle held rule of issue 66 round 32 (docs/fracture.md, "The held region"): a set box's brittle point's
-    #: stress at its held damage and its gradient its mirror image's (a fixed region's as before), its points at
-    #: ``v_set`` (rigid deeper than ``HELD_STRAIN_CELLS``), the free node within half a cell outside its face held
-    #: with it. False: the rule before (the tension family's catch, ``tests/test_tension_family.py``; warp_mpm's
-    #: switch is ``WarpMPMEngine.held_rule``).
+    #: The brittle held rule (issue 66 round 32, docs/fracture.md "The held region"): a set box's brittle point's
+    #: stress at its held damage, its gradient its mirror image's, its points at ``v_set`` (rigid deeper than
+    #: ``HELD_STRAIN_CELLS``), the free node half a cell outside its face held with it. False: the rule before (the
+    #: catch of ``tests/test_tension_family.py``; warp_mpm's switch ``WarpMPMEngine.held_rule``).
     held_rule = True
 
     @ti.func
@@ -90,8 +89,7 @@ class GridUpdate:
     def boundary_rules(self, I, v, f):
         """The walls' and grounds' grid rule at node ``I`` on ``v`` (:func:`node_ranges`; with the contact chosen per
         body by the node's flowing-mass fraction ``f`` where only the grid contact's rule reaches,
-        :meth:`Contact.rule`). The grounds first: a ground on the floor wall's plane keeps its friction there (the
-        wall's rule, first, took the node's approach and left the ground none to scale its friction by)."""
+        :meth:`Contact.rule`). The grounds first: a ground on a wall's plane keeps its friction there."""
         for b in ti.static(range(self.n_grounds)):
             if I[2] <= self.ground_kmax[b]:
                 v = self.rule(v, self.axis_friction(v, 2, 1.0, self.ground_fric[b]), I[2] > self.ground_kfull[b], f)

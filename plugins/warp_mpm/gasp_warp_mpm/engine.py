@@ -248,9 +248,9 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
         self._pre, fixes = balance_for(self, k, lo_v, dx, dt_f, ex)   # on the run's schedule (schedule/__init__.py)
         self._launches[2:2] = fixes + mirror_launches(self, Ft, has_extras, ex)   # the held boxes' ghosts (grid.py)
         self._launches[1:1] = field_launches(self, Ft)   # the two-field contact after P2G (fields.py)
-        # passive points after the grid update (the grid velocity holds forces, colliders, boundaries):
-        # one launch per distinct interval of passive_schedule, at the substeps it names; each then held in
-        # the box the ground and walls leave them (gasp_core.mpm.points.passive_bounds)
+        # passive points after the grid update (the grid velocity holds forces, colliders, boundaries): one launch per
+        # distinct interval of passive_schedule, at the substeps it names; each then held in the box the ground and
+        # walls leave them (gasp_core.mpm.points.passive_bounds)
         self._passive_at = [None] * self.n_substeps
         n_passive = self.n_points - self.n_material
         if n_passive:
