@@ -156,16 +156,6 @@ class Forces:
                                 self.grid_v[I] = (dv + sh * self.grid_v[J]) / (1.0 + sh)
 
     @ti.func
-    def set_box_velocity(self, X, v):
-        """``v_set`` of the set box impulse acting now that holds ``X`` (:meth:`set_box_at`), else ``v``."""
-        q = self.set_box_at(X)
-        out = v
-        if q >= 0:
-            r = q * IMPULSE_ROW
-            out = ti.Vector([self.ex_imps[r + IM_DV], self.ex_imps[r + IM_DV + 1], self.ex_imps[r + IM_DV + 2]])
-        return out
-
-    @ti.func
     def set_box_axis(self, X):
         """For a point at ``X`` in a set box acting now (:meth:`set_box_at`): the normal axis of the box's nearest face
         if within :data:`~gasp_core.mpm.points.HELD_STRAIN_CELLS` cells of it (the point takes its image
@@ -177,7 +167,6 @@ class Forces:
             c, b = self.impulse_corners(q)
             s = ti.min(X - c, b - X)
             near = HELD_STRAIN_CELLS * self.dx[None]
-            a = -2   # deeper: rigid (its F kept)
             for d in ti.static(range(3)):
                 if s[d] < near:
                     a, near = d, s[d]

@@ -59,9 +59,9 @@ class GridUpdate:
     """The grid update (:meth:`grid_update`) and the node extras it applies (:meth:`extras`)."""
 
     #: The brittle held rule (issue 66 round 32, docs/fracture.md "The held region"): a set box's brittle point's
-    #: stress at its held damage, its gradient its mirror image's, its points at ``v_set`` (rigid deeper than
-    #: ``HELD_STRAIN_CELLS``), the free node half a cell outside its face held with it. False: the rule before (the
-    #: catch of ``tests/test_tension_family.py``; warp_mpm's switch ``WarpMPMEngine.held_rule``).
+    #: stress at its held damage, its gradient its mirror image's, the free node half a cell outside its face held
+    #: with it; its points move with the grid, as any body's. False: the rule before (the catch of
+    #: ``tests/test_tension_family.py``; warp_mpm's switch ``WarpMPMEngine.held_rule``).
     held_rule = True
 
     @ti.func

@@ -58,9 +58,6 @@ class Transfers:
         if ti.static(self.any_fixed or self.n_set_boxes > 0):   # in a held box: the image gradient (grid.py)
             a, d_held = self.held_axis(p), self.Jp[p]
             Cf = self.image_gradient(C, a)
-            if ti.static(self.held_rule):   # deep in a brittle body's set box: rigid (grid.py held_rule)
-                if a == -2 and self.kind[self.body[p]] == BRITTLE:
-                    Cf = ti.Matrix.zero(self.real, 3, 3)
         F = (ti.Matrix.identity(self.real, 3) + dt * Cf) @ self.F[p]
         tau = self.return_mapping(p, F)
         if ti.static(self.any_fixed or self.n_set_boxes > 0):   # its stress scattered to match; no damage
@@ -165,10 +162,6 @@ class Transfers:
                         a = self.held_axis(p)
                         if a >= 0 and self.fixed[p] == 0:   # a set box's (not a fixed region's: as before)
                             new_C = self.image_C(p, a, new_C)
-                        if ti.static(self.n_set_boxes > 0):   # a set box's points move with it
-                            if self.fixed[p] == 0:
-                                new_v = self.set_box_velocity(self.x[p], new_v)
-                                v_p = self.set_box_velocity(self.x[p], v_p)
             if ti.static(self.any_fixed):
                 if self.fixed[p] != 0:   # held; near its region's face its F follows the image gradient (p2g_prep)
                     new_v = ti.Vector.zero(self.real, 3)

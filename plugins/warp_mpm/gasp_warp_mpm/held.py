@@ -175,7 +175,7 @@ def build_image_flip(Ft):
     """``(held_axis, image_flip, set_box_at)`` (docs/fracture.md, "The held region"). ``held_axis(code, X, dx, ex)``:
     the normal axis of the face that a point near it takes its image gradient across: a held point's (``code =
     HELD_STRAINED + a``, :func:`gasp_core.mpm.points.held_codes`), or a point's within ``HELD_STRAIN_CELLS`` cells
-    inside the nearest face of a box impulse of ``mode = "set"`` acting now; -2 deeper in such a box; else -1.
+    inside the nearest face of a box impulse of ``mode = "set"`` acting now; else -1.
     ``image_flip(a)``: the diagonal matrix ``D`` that negates every column but ``a``. P2G advances such a point's ``F``
     by ``C D``, the velocity gradient at its mirror image across the face (the ghost field is ``2 v_set - v(X')``, so
     ``C = -grad v(X') R``), and scatters its stress as ``tau D``, the force that update pairs with.
@@ -207,7 +207,6 @@ def build_image_flip(Ft):
             if q >= 0:
                 r = q * IMPULSE_ROW
                 near = Ft(HELD_STRAIN_CELLS) * dx
-                a = -2   # deeper: rigid under the brittle held rule (held_rule.py)
                 for d in range(3):
                     s = wp.min(X[d] - ex.imps[r + IM_A + d], ex.imps[r + IM_B + d] - X[d])
                     if s < near:
@@ -232,8 +231,7 @@ def build_held_return(Ft):
     brittle point keeps its damage (its stress is its mirror image's: the material a box holds does not break);
     elsewhere ``(I + dt C) F``. With ``rule`` 1 (the brittle held rule, :mod:`gasp_warp_mpm.held_rule`) a brittle
     point near a set box's face scatters the stress of its held damage (not softened on the way; a fixed region's
-    held points keep the stress of their strain, :mod:`gasp_warp_mpm.held_rule`) and one deeper in a set box keeps
-    its ``F`` (rigid)."""
+    held points keep the stress of their strain, :mod:`gasp_warp_mpm.held_rule`)."""
     vec3, vec4, mat33 = build_types(Ft)
     Extras = build_extras_struct(Ft)
     held_axis, image_flip = build_image_flip(Ft)[:2]
@@ -250,8 +248,6 @@ def build_held_return(Ft):
         Cf = Cp
         if a >= 0:
             Cf = Cp * image_flip(a)
-        if rule != 0 and a == -2 and brittle:   # deep in a brittle body's set box: rigid
-            Cf = mat33()
         F_new, tau = return_mapping((wp.identity(3, dtype=Ft) + dt * Cf) * Fp, p, body, mat_kind, mat_par, Jp,
                                     dt)
         if a >= 0 and brittle and Jp[p] < Ft(1.0):   # broken through: stays so

@@ -1,15 +1,17 @@
 """The brittle held rule (docs/fracture.md, "The held region", round 32): how a ``fixed_region`` and a box impulse of
 ``mode = "set"`` hold the material of a brittle body, as Warp functions and kernels per scalar type
-(:mod:`gasp_warp_mpm.precision`); taichi_mpm's ``GridUpdate.held_rule``, the same four parts:
+(:mod:`gasp_warp_mpm.precision`); taichi_mpm's ``GridUpdate.held_rule``, the same three parts:
 
 - a set box's brittle point near its face scatters the stress of its held damage (:func:`build_held_tau`), never
   softened on the way;
 - its velocity gradient is the grid's gathered at its mirror image across the box's face (``image_C``; the ghosts'
   where the image's stencil has a node without mass). A fixed region's held points keep the rule before (with these
   two parts there a T rod hung by its head diverged, docs/fracture.md);
-- a set box's points move at ``v_set`` (``set_box_velocity``), those deeper than ``HELD_STRAIN_CELLS`` rigid (P2G);
 - the free node within ``SET_FACE_CELLS`` outside a set box's face holds the face's linear velocity
   (:func:`build_hold_set_faces`).
+
+A set box's points move with the grid, as any body's: held at ``v_set`` (and rigid deeper in) they stored a strain
+their positions did not show, and the conformance scene ``brittle_below_strength`` failed (docs/fracture.md).
 
 The switch is :attr:`HeldRule.held_rule` (a kernel argument: False runs the rule of before, the tension family's
 catch, ``tests/test_tension_family.py``).
@@ -70,15 +72,13 @@ def build_held_tau(Ft):
 
 @functools.cache
 def build_image_C(Ft):
-    """``(image_C, set_box_velocity)``. ``image_C(C, a, code, X, ex, fixed_lo, fixed_hi, grid_v, grid_dv,
+    """``image_C(C, a, code, X, ex, fixed_lo, fixed_hi, grid_v, grid_dv,
     grid_m, off, lo, inv_dx, n_grid)``: the velocity gradient (1/s, ``mat33``) of a brittle point at ``X`` (m)
     near a held box's face of normal axis ``a`` (``held.build_image_flip``'s ``held_axis``): the grid's gradient
     gathered at its mirror image ``X'`` across the nearest face of the box that holds it (a fixed region for ``code
     >= HELD_STRAINED``, a set box for ``code`` 0), as the ghost field's, ``grad v(X') D``, so its ``F`` follows the
     image's strain for any field; ``C`` where no box holds it, ``X'`` is off the grid or a node of its stencil has no
-    mass (``grid_m``: no material there to follow, as past a T rod's head). ``set_box_velocity(X, v,
-    ex)``: ``v_set`` of the set box acting now that holds ``X``, else ``v``. taichi_mpm's ``GridUpdate.image_C`` and
-    ``Forces.set_box_velocity``."""
+    mass (``grid_m``: no material there to follow, as past a T rod's head). taichi_mpm's ``GridUpdate.image_C``."""
     vec3, vec4, mat33 = build_types(Ft)
     Extras = build_extras_struct(Ft)
     from .held import build_image_flip   # held.py's P2G rule imports this module
@@ -136,33 +136,24 @@ def build_image_C(Ft):
                     out = ((Ft(4.0) * inv_dx) * (B - wp.outer(v, fx))) * image_flip(a)
         return out
 
-    @wp.func
-    def set_box_velocity(X: vec3, v: vec3, ex: Extras):
-        out = v
-        q = set_box_at(X, ex)
-        if q >= 0:
-            r = q * IMPULSE_ROW
-            out = vec3(ex.imps[r + IM_DV], ex.imps[r + IM_DV + 1], ex.imps[r + IM_DV + 2])
-        return out
-
-    return image_C, set_box_velocity
+    return image_C
 
 
 @functools.cache
 def build_held_g2p(Ft):
-    """``held_g2p(C, v, code, X, ex, fixed_lo, fixed_hi, grid_v, grid_dv, grid_m, off, lo, inv_dx, dx, n_grid)``:
-    G2P's ``(C, v, held)`` of a brittle point under the rule (``code`` its hold, ``held_codes``): near a set box's
-    face its mirror image's gradient (``image_C``, :func:`build_image_C`; a fixed region's held points keep the
-    ghosts' gradient: with the image's a T rod hung by its head diverged), in a set box acting now its ``v_set`` with
-    ``held`` 1 (its AFLIP part dropped). taichi_mpm's ``g2p_point`` under ``held_rule``."""
+    """``held_g2p(C, code, X, ex, fixed_lo, fixed_hi, grid_v, grid_dv, grid_m, off, lo, inv_dx, dx, n_grid)``:
+    G2P's ``C`` (1/s, ``mat33``) of a brittle point under the rule (``code`` its hold, ``held_codes``): near a set
+    box's face its mirror image's gradient (``image_C``, :func:`build_image_C`; a fixed region's held points keep the
+    ghosts' gradient: with the image's a T rod hung by its head diverged), else ``C``. taichi_mpm's ``g2p_point``
+    under ``held_rule``."""
     vec3, vec4, mat33 = build_types(Ft)
     Extras = build_extras_struct(Ft)
     from .held import build_image_flip   # held.py's P2G rule imports this module
     held_axis, image_flip, set_box_at = build_image_flip(Ft)
-    image_C, set_box_velocity = build_image_C(Ft)
+    image_C = build_image_C(Ft)
 
     @wp.func
-    def held_g2p(Cn: mat33, new_v: vec3, code: int, X: vec3, ex: Extras, fixed_lo: wp.array(dtype=vec3),
+    def held_g2p(Cn: mat33, code: int, X: vec3, ex: Extras, fixed_lo: wp.array(dtype=vec3),
                  fixed_hi: wp.array(dtype=vec3), grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3),
                  grid_m: wp.array(dtype=Ft), off: int, lo: vec3, inv_dx: Ft, dx: Ft, n_grid: int):
         a = held_axis(code, X, dx, ex)
@@ -170,12 +161,7 @@ def build_held_g2p(Ft):
         if a >= 0 and code == 0:   # a set box's (a fixed region's held points: the ghosts' gradient, as before)
             C_out = image_C(Cn, a, code, X, ex, fixed_lo, fixed_hi, grid_v, grid_dv, grid_m, off, lo, inv_dx,
                             n_grid)
-        held_v = int(0)
-        v_out = new_v
-        if code == 0 and set_box_at(X, ex) >= 0:   # a set box's points move with it
-            held_v = 1
-            v_out = set_box_velocity(X, new_v, ex)
-        return C_out, v_out, held_v
+        return C_out
 
     return held_g2p
 

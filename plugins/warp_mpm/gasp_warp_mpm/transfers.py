@@ -183,7 +183,7 @@ def build_g2p(Ft):
         dx: Ft, rule: int, grid_m: wp.array(dtype=Ft),
     ):
         # with the two-field contact (gasp_warp_mpm.fields) each node's velocity plus the point's field's offset; with
-        # rule a brittle point near a held box's face takes its mirror image's gradient, a set box's its v_set
+        # rule a brittle point near a held box's face takes its mirror image's gradient
         p = wp.tid()
         if fixed[p] == 1:   # held; near its region's face (2) its C, so its F, follows the grid (docs/fracture.md)
             v[p] = vec3(Ft(0.0))
@@ -204,17 +204,14 @@ def build_g2p(Ft):
         new_v, B = gather(grid_v, grid_dv, off, W, idx0, n_grid)   # sum w g, sum w g (i, j, k)^T
         # C = 4 inv_dx^2 sum w g ((i, j, k) - fx)^T dx = 4 inv_dx (B - new_v fx^T)
         Cn = (Ft(4.0) * inv_dx) * (B - wp.outer(new_v, fx))
-        held_v = int(0)
         if rule != 0 and mat_kind[body[p]] == BRITTLE:   # the brittle held rule (held_rule.py)
-            Cn, new_v, held_v = held_g2p(Cn, new_v, fixed[p], xp, ex, fixed_lo, fixed_hi, grid_v, grid_dv, grid_m, off,
-                                         lo, inv_dx, dx, n_grid)
+            Cn = held_g2p(Cn, fixed[p], xp, ex, fixed_lo, fixed_hi, grid_v, grid_dv, grid_m, off, lo, inv_dx, dx,
+                          n_grid)
         C[p] = Cn
         if fixed[p] != 0:
             v[p] = vec3(Ft(0.0))
             return
-        if held_v != 0:
-            v[p] = new_v
-        elif alpha > Ft(0.0):  # AFLIP: v_PIC(new) + alpha (v_p - v_PIC(old)) (gasp_core.mpm.transfer)
+        if alpha > Ft(0.0):  # AFLIP: v_PIC(new) + alpha (v_p - v_PIC(old)) (gasp_core.mpm.transfer)
             v[p] = new_v + alpha * (v[p] - aflip_gather(grid_v0, W, idx0, nn, n_grid))
         else:
             v[p] = new_v
