@@ -67,7 +67,8 @@ def runout(name: str, a: float, cone: str) -> float:
 
 def between(name: str) -> list[str]:
     """The verdict over a = 2 and 3: ``mu_2``'s runout < the rheology's < the static cone's, each by at least one
-    point spacing (0.069 L_i at n_grid 48; measured: 1.36 < 2.06 < 2.13 at a = 2, 2.06 < 3.65 < 3.72 at a = 3)."""
+    point spacing (0.069 L_i at n_grid 48; measured with the column's `flow` cone, round 33: 1.292 < 1.847 < 1.917 at
+    a = 2, 1.986 < 2.958 < 3.028 at a = 3; the rheology sits one point spacing below the static cone)."""
     bad, step = [], 0.5 * (sg.COLUMN_DOMAIN[0] / 48) / sg.COLUMN_L - 1e-9
     for a in (2.0, 3.0):
         r2, ri, rs = (runout(name, a, c) for c in ("mu_2", "mu_i", "static"))
