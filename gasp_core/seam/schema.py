@@ -87,11 +87,12 @@ MATERIAL_PARAMS: dict[str, Param] = {
     "rho": Param(1000.0, 0.0, lo_open=True, unit="kg/m^3", doc="density"),
     "yield_stress": Param(1e4, 0.0, lo_open=True, unit="Pa",
                           doc="von Mises yield stress: the uniaxial stress at which a bar yields"),
-    "friction_angle": Param(30.0, 0.0, 90.0, hi_open=True, unit="deg", doc="Drucker-Prager friction angle"),
+    "friction_angle": Param(30.0, 0.0, 90.0, hi_open=True, unit="deg", doc="Drucker-Prager friction angle (Klar et al. 2016's cone; "
+                            "its layers flow at a steeper angle: 30 deg flows at 34.7, docs/mpm.md)"),
     "grain_diameter": Param(0.0, 0.0, unit="m",
-                            doc="grain diameter d of the mu(I) rheology (Jop et al. 2006): the cone's friction rises "
-                                "from tan(friction_angle) at rest towards tan(friction_angle_2) at a high inertial "
-                                "number; 0 = rate-independent Drucker-Prager (docs/contact.md)"),
+                            doc="grain diameter d of the mu(I) rheology (Jop et al. 2006): the cone widens from "
+                                "friction_angle's at rest towards friction_angle_2's at a high inertial number; "
+                                "0 = rate-independent Drucker-Prager (docs/contact.md)"),
     "friction_angle_2": Param(0.0, 0.0, 90.0, hi_open=True, unit="deg",
                               doc="the angle of mu_2, the mu(I) rheology's limiting friction, above "
                                   "friction_angle (used when grain_diameter > 0)"),
