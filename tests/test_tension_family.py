@@ -250,8 +250,10 @@ def test_shifted_bars_break_in_the_gauge_and_take_G_f(shift, name):
 @pytest.mark.parametrize("name", _names())
 def test_a_shifted_bar_breaks_in_the_gauge_and_the_set_box_of_before_at_its_face(name, monkeypatch):
     """The default tier's shifted case (1/4, 1/4) at n_grid 24: in the gauge (x 0.3875, work 22.0 J/m^2, +10.1 %); the
-    catch: the set box as before (the engine's ``held_rule`` False) breaks it at the pulled face."""
+    catch: the set box as before (the engine's ``held_rule`` False) breaks the (1/8, 1/8) bar at 2N at the pulled face
+    (x 0.794, face 0.800; work 4.1 J/m^2). (With round 33's crack band weight the set box of before no longer breaks
+    the (1/4, 1/4) bar at N at its face; at 2N it breaks (1/4, 0), (1/4, 1/4) and (1/8, 1/8) there, taichi_mpm.)"""
     assert shifted_failures((0.25, 0.25), name, (N,)) == []
     held_rule_off(monkeypatch, name)
-    bad = shifted_failures((0.25, 0.25), name, (N,))
+    bad = shifted_failures((0.125, 0.125), name, (2 * N,))
     assert any("breaks at" in b for b in bad) and any("work to separate" in b for b in bad), bad
