@@ -225,8 +225,8 @@ def build_image_flip(Ft):
 
 @functools.cache
 def build_held_return(Ft):
-    """``held_return(C, F, dt, p, code, X, dx, ex, body, mat_kind, mat_par, Jp, rule, fx)``: P2G's ``F`` update and return
-    mapping (``(F, tau)``, :func:`gasp_warp_mpm.constitutive.build_return_mapping`) with the held boxes' rule
+    """``held_return(C, F, dt, p, code, X, dx, ex, body, mat_kind, mat_par, Jp, rule, fx)``: P2G's ``F`` update and
+    return mapping (``(F, tau)``, :func:`gasp_warp_mpm.constitutive.build_return_mapping`) with the held boxes' rule
     (:func:`build_image_flip`): near a held box's face ``F`` advances by ``C D``, ``tau D`` is scattered, and a
     brittle point keeps its damage (its stress is its mirror image's: the material a box holds does not break);
     elsewhere ``(I + dt C) F``. With ``rule`` 1 (the brittle held rule, :mod:`gasp_warp_mpm.held_rule`) a brittle

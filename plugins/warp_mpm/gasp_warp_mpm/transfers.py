@@ -125,9 +125,8 @@ def build_p2g(Ft):
         fx = X - vec3(b0, b1, b2)
         W = weights(fx)
         Cp = C[p]
-        # (I + dt C) F and the return mapping; in a held box the image gradient, its stress, no damage (held.py)
         F_new, tau = held_return(Cp, F[p], dt, p, fixed[p], x[p], dx, ex, body, mat_kind, mat_par, Jp, rule,
-                                 fx)
+                                 fx)   # (I + dt C) F, the return mapping; in a held box the image gradient (held.py)
         F[p] = F_new
         eta = mat_par[body[p], P_ETA]
         pm = p_mass[p]
