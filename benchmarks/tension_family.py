@@ -205,7 +205,6 @@ def run_case(sp: Specimen, n_grid: int, engine: str, build_fn=build, shift: tupl
     """One specimen on one engine at one grid (``shift``: :func:`build`'s): the figures of the module's docstring."""
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import engines
-    from gasp_core.mpm.materials import softening_stress
     st, layer, lx, clamp, pulled = build_fn(sp, n_grid, engine, shift=tuple(shift))
     dx, s = st.dx, st.dx / 2
     nl = len(lx)
@@ -263,11 +262,13 @@ def run_case(sp: Specimen, n_grid: int, engine: str, build_fn=build, shift: tupl
     w = stretch - (lx[span[-1]] - lx[span[0]]) - elastic
     sig_c = force[:, crack] / a_gauge
     work = float(np.sum(0.5 * (sig_c[1:] + sig_c[:-1]) * np.diff(w))) if crack in span else float("nan")
-    sf = softening_stress(st.materials[0], float(st.crack_band[0]))
+    sf = point_sf(st, xs, engine)
     dl = dmean[-1]
-    D = FT ** 2 * sf * dl / (2 * E * ((1 - dl) * (sf - FT) + FT))
-    dissipated = float((D[span] * count[span] * s ** 3).sum() / a_gauge)
-    dissipated_all = float((D * count * s ** 3).sum() / a_gauge)
+    # each point's own account (its d and its own s_f): V f_t s d / (2 E), s the stress its d stands for
+    Dp = np.asarray(st.p_vol) * FT ** 2 * sf * d / (2 * E * ((1 - d) * (sf - FT) + FT))
+    D = np.bincount(layer, Dp, nl) / a_gauge
+    dissipated = float(D[span].sum())
+    dissipated_all = float(D.sum())
     return {"specimen": sp.name, "engine": engine, "n_grid": n_grid, "shift": list(shift), "dx": dx,
             "cells_across": sp.gauge_w / dx,
             "points": int(len(st.x)), "frames": n_frames, "seconds": round(wall, 1),
@@ -278,6 +279,27 @@ def run_case(sp: Specimen, n_grid: int, engine: str, build_fn=build, shift: tupl
             "dissipated_everywhere": dissipated_all,
             "broken_through": bool(broken.any()), "final_stress": float(sig_g[-1]), "frames_run": len(force),
             "damaged_layers": [[round(float(lx[k]), 4), round(float(dl[k]), 3)] for k in np.flatnonzero(dl > 0.05)]}
+
+
+def point_sf(st, xs: np.ndarray, engine: str) -> np.ndarray:
+    """Each point's end of softening (Pa, (n,)) at positions ``xs`` (n, 3), its crack normal along x: ``s_f`` of the
+    band ``dx`` scaled by the crack band weight (``gasp_core.mpm.materials.band_weight``) where the engine's
+    ``weighted_band`` is on, else ``s_f``."""
+    from gasp_core.mpm.materials import band_softening_stress, band_weight, softening_stress
+    sf = softening_stress(st.materials[0], float(st.crack_band[0]))
+    if not weighted(engine):
+        return np.full(len(xs), sf)
+    X = (xs - np.asarray(st.domain_lo, np.float64)) / st.dx
+    return band_softening_stress(FT, sf, band_weight(X - np.floor(X - 0.5), np.array([1.0, 0.0, 0.0])))
+
+
+def weighted(engine: str) -> bool:
+    """Whether ``engine``'s crack band weight (round 33) is on."""
+    if engine == "taichi_mpm":
+        from gasp_taichi_mpm.constitutive import Constitutive
+        return bool(Constitutive.weighted_band)
+    from gasp_warp_mpm.held_rule import HeldRule
+    return bool(HeldRule.weighted_band)
 
 
 def name_check(engine: str) -> str:

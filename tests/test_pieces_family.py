@@ -12,8 +12,8 @@ n_grid 28 and 32, 12 frames of 0.01 s (from the landing until before its fragmen
   frames-only count, which rejoins what touches, runs up to 24 over the tracker's, which never rejoins (n_grid 28,
   10 m/s, by frame 20; 6-7 at n_grid 32; benchmarks/pieces_family.py).
 - Shown to catch the labelling before issue 66 (damage alone: each point its own piece once all are broken, its 1 %
-  count 0 against 5-45) and a tracker that forgets its cut links (its count falls, 33 to 29 at 7 m/s, n_grid 28, frame
-  12).
+  count 0 against 5-45) and a tracker that forgets its cut links (its count falls, 77 to 69 at 7 m/s, n_grid 28, frame
+  17: ``FORGET_FRAMES``).
 - The pieces of 5 % of the mass or more at the last frame do not grow with the speed: 1, 1, 1, 8, 0 (n_grid 28) and
   1, 1, 1, 12, 0 (32) on both engines (their peak over the frames: 1, 1, 1, 12, 4 and 1, 1, 1, 12, 12). The
   physics, not the count: at 7 and 10 m/s the whole ball is broken (d = 1) within two frames of the touch and
@@ -49,13 +49,20 @@ def failures(r: dict, what: str) -> list[str]:
     return out
 
 
-def family_failures(name: str, cases, tracker=None) -> list[str]:
+def family_failures(name: str, cases, tracker=None, n_frames: int = N_FRAMES) -> list[str]:
     out = []
     for n_grid, speed in cases:
         s = ball_setup(speed, n_grid)
         t = None if tracker is None else tracker(s.x, s.body_id, s.p_mass, s.p_vol, gap=s.dx)
-        out += failures(counted_run(name, s, N_FRAMES, t), f"{name} n_grid {n_grid} {speed} m/s")
+        out += failures(counted_run(name, s, n_frames, t), f"{name} n_grid {n_grid} {speed} m/s")
     return out
+
+
+#: frames the forgetful tracker's catch runs: past the fragments' meeting again (frame 13 on), where a tracker that
+#: forgets its cut links rejoins them (its count falls: 77 -> 69 at 7 m/s, 137 -> 131 at 10, frame 17, n_grid 28, both
+#: engines, round 33). Before round 33's crack band weight it fell at frame 12 (33 -> 29 at 7 m/s), within
+#: ``N_FRAMES``; with it not before frame 17.
+FORGET_FRAMES = 20
 
 
 @pytest.mark.parametrize("name", _names())
@@ -65,8 +72,9 @@ def test_the_count_is_the_frames_count_and_never_decreases_at_10_m_s(name):
 
 @pytest.mark.parametrize("name", _names())
 def test_the_family_check_catches_damage_alone_and_a_tracker_that_forgets(name):
-    for broken in (DamageAlone, Forgets):
-        assert family_failures(name, [(28, 7.0), (28, 10.0)], broken), broken.__name__
+    assert family_failures(name, [(28, 7.0), (28, 10.0)], DamageAlone)
+    bad = family_failures(name, [(28, 7.0), (28, 10.0)], Forgets, FORGET_FRAMES)
+    assert any("decrease" in b for b in bad), bad
 
 
 @pytest.mark.slow

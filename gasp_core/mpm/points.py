@@ -72,8 +72,9 @@ def fixed_mask(x: np.ndarray, boundaries: Iterable[Boundary]) -> np.ndarray:
 MIRROR_CELLS = 3.0
 #: Cells: held points (``fixed_region``) within this of their box's nearest face keep the grid's velocity gradient
 #: (their ``F`` follows it, so they carry the stress of the material beside them); deeper ones keep ``F``. The free
-#: material's stencils reach 1.5 cells past the face. The points of a box impulse of ``mode = "set"`` move with it while
-#: it acts, and this near its face take the same image gradient (:data:`HELD_STRAINED`); deeper they keep ``F``.
+#: material's stencils reach 1.5 cells past the face. The points of a box impulse of ``mode = "set"`` move with the grid
+#: (whose nodes in the box are at its velocity; since round 32, docs/fracture.md "The held region"), and this near its
+#: face take the same image gradient (:data:`HELD_STRAINED`) while it acts.
 HELD_STRAIN_CELLS = 1.5
 #: :func:`held_codes` of a held point within :data:`HELD_STRAIN_CELLS` of its region's face: ``HELD_STRAINED + a``, ``a``
 #: the axis of that face's normal. The grid's gradient ``G`` there is the ghost field's, ``2 v_set - v(X')`` with

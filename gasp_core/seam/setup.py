@@ -35,7 +35,8 @@ def crack_band(dx: float, p_vol: np.ndarray, body_id: np.ndarray, n_bodies: int)
     ``h`` is the width a crack localises in (Bazant & Oh 1983, Materiaux et Constructions 16). In MLS-MPM a crack's
     velocity jump localises between two nodes: the points in that cell break through. Measured on the tension family
     (round 31, both engines): the work to separate ``G_f`` +1 to +7 % at n_grid 24 and 48 where ``dx + s`` gave -31 %
-    at 48 (docs/fracture.md "The crack band")."""
+    at 48 (docs/fracture.md "The crack band"). Each free point's softening range is scaled by its weight on its cell
+    (``gasp_core.mpm.materials.band_weight``, round 33): the cell breaks through as one on any point lattice."""
     h = np.zeros(n_bodies)
     pv = np.asarray(p_vol, np.float64)
     h[np.unique(np.asarray(body_id)[pv > 0])] = dx

@@ -17,6 +17,10 @@ from gasp_core.mpm.materials import (BRITTLE, JELLY, LIQUID, METAL, NEO_HOOKEAN,
 class Constitutive:
     """Return mapping and stress of a point (:meth:`return_mapping`) and the decompositions it uses."""
 
+    #: True: a free brittle point's softening range is scaled by its crack band weight (:meth:`band_sf`, round 33);
+    #: False: one ``s_f`` for every point, as before (the catch of ``tests/test_tension_family.py``). Compile-time.
+    weighted_band = True
+
     @ti.func
     def udvt(self, U, d, V):
         D = ti.Matrix.zero(self.real, 3, 3)
@@ -204,6 +208,35 @@ class Constitutive:
         return self.udvt(U, s, U), d
 
     @ti.func
+    def band_sf(self, p, U, eps, mu, lam, ft, sf):
+        """Point ``p``'s own end of softening (Pa): ``f_t + W (s_f - f_t)``, ``W`` its crack band weight along the
+        direction ``U[:, i]`` of its largest principal stress (``gasp_core.mpm.materials.band_weight`` and
+        ``band_softening_stress``: its MLS gradient weight on its own cell, so every point of a cracked cell breaks
+        through at the same opening); ``s_f`` for a held point (its stress is its image's) or with
+        :attr:`weighted_band` off. The Warp plugin's ``band_sf``."""
+        out = sf
+        if ti.static(self.weighted_band):
+            held = 0
+            if ti.static(self.any_fixed or self.n_set_boxes > 0):
+                if self.fixed[p] != 0 or self.held_axis(p) >= 0:
+                    held = 1
+            if held == 0:
+                s = 2.0 * mu * eps + lam * eps.sum()
+                im = 0
+                if s[1] > s[im]:
+                    im = 1
+                if s[2] > s[im]:
+                    im = 2
+                X = (self.x[p] - self.lo[None]) * self.inv_dx[None]
+                W = ti.cast(0.0, self.real)
+                for a in ti.static(range(3)):
+                    fx = X[a] - ti.floor(X[a] - 0.5)
+                    w = 2.0 * fx * (1.5 - fx) ** 2
+                    W += U[a, im] ** 2 * ti.max(w, 1.0 - w)
+                out = ft + W * (sf - ft)
+        return out
+
+    @ti.func
     def return_mapping(self, p, F):
         """Return mapping and Kirchhoff stress (docs/mpm.md table). Writes F[p], Jp[p]; returns tau."""
         b = self.body[p]
@@ -263,7 +296,8 @@ class Constitutive:
                     F = self.udvt(U, ti.exp(eps), V)
                     tau = self.hencky_tau(U, eps, mu, lam)
                 else:
-                    tau, Jp = self.brittle_tau(U, eps, mu, lam, prm[P_FT], prm[P_SF], Jp)
+                    sf = self.band_sf(p, U, eps, mu, lam, prm[P_FT], prm[P_SF])   # round 33's band weight
+                    tau, Jp = self.brittle_tau(U, eps, mu, lam, prm[P_FT], sf, Jp)
         if ti.static(LIQUID in self.kinds):
             if kind == LIQUID:
                 J = F.determinant()

@@ -266,8 +266,25 @@ def build_brittle_return(Ft):
     svd = build_decompositions(Ft)[2]
 
     @wp.func
+    def band_sf(U: mat33, s: vec3, ft: Ft, sf: Ft, fx: vec3):
+        # the point's own end of softening f_t + W (s_f - f_t), W its crack band weight along the direction of its
+        # largest principal stress (gasp_core.mpm.materials.band_weight, band_softening_stress: its MLS gradient
+        # weight on its own cell, so every point of a cracked cell breaks through at the same opening; round 33).
+        # The Taichi plugin's band_sf.
+        im = 0
+        if s[1] > s[im]:
+            im = 1
+        if s[2] > s[im]:
+            im = 2
+        W = Ft(0.0)
+        for a in range(3):
+            w = Ft(2.0) * fx[a] * (Ft(1.5) - fx[a]) * (Ft(1.5) - fx[a])
+            W += U[a, im] * U[a, im] * wp.max(w, Ft(1.0) - w)
+        return ft + W * (sf - ft)
+
+    @wp.func
     def brittle_return(F_trial: mat33, mu: Ft, lam: Ft, b: int, p: int, mat_par: wp.array2d(dtype=Ft),
-                       Jp: wp.array(dtype=Ft)):
+                       Jp: wp.array(dtype=Ft), fx: vec3, band: int):
         # brittle (docs/fracture.md): undamaged Hencky principal stresses s_i = 2 mu eps_i + lam tr(eps); the
         # largest sets the crack band's linear-softening damage (Bazant & Oh 1983;
         # gasp_core.mpm.materials.brittle_damage), kept in Jp when larger (never heals); only the tensile
@@ -280,6 +297,8 @@ def build_brittle_return(Ft):
         smax = wp.max(s[0], wp.max(s[1], s[2]))
         ft = mat_par[b, P_FT]
         sf = mat_par[b, P_SF]
+        if band != 0:   # round 33's crack band weight (a free point; held_return's band)
+            sf = band_sf(U, s, ft, sf, fx)
         if smax > ft:
             dt = Ft(1.0)
             if smax < sf:
@@ -309,7 +328,7 @@ def build_return_mapping(Ft):
 
     @wp.func
     def return_mapping(F_trial: mat33, p: int, body: wp.array(dtype=wp.int32), mat_kind: wp.array(dtype=wp.int32),
-                       mat_par: wp.array2d(dtype=Ft), Jp: wp.array(dtype=Ft), dt: Ft):
+                       mat_par: wp.array2d(dtype=Ft), Jp: wp.array(dtype=Ft), dt: Ft, fx: vec3, band: int):
         # return mapping and Kirchhoff stress of point p (docs/mpm.md table): (F, tau); writes Jp[p]
         Fp = F_trial
         b = body[p]
@@ -331,7 +350,7 @@ def build_return_mapping(Ft):
             if Jp[p] >= Ft(1.0):   # broken through: cohesionless sand (docs/fracture.md)
                 Fp, tau = hencky_return(Fp, mu, lam, SAND, b, p, mat_par, Jp, dt)
             else:
-                Fp, tau = brittle_return(Fp, mu, lam, b, p, mat_par, Jp)
+                Fp, tau = brittle_return(Fp, mu, lam, b, p, mat_par, Jp, fx, band)
         else:  # LIQUID
             J = wp.determinant(Fp)
             Fp = wp.identity(3, dtype=Ft) * wp.pow(J, Ft(1.0) / Ft(3.0))

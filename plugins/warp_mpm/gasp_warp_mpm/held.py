@@ -225,13 +225,15 @@ def build_image_flip(Ft):
 
 @functools.cache
 def build_held_return(Ft):
-    """``held_return(C, F, dt, p, code, X, dx, ex, body, mat_kind, mat_par, Jp, rule)``: P2G's ``F`` update and return
-    mapping (``(F, tau)``, :func:`gasp_warp_mpm.constitutive.build_return_mapping`) with the held boxes' rule
+    """``held_return(C, F, dt, p, code, X, dx, ex, body, mat_kind, mat_par, Jp, rule, fx)``: P2G's ``F`` update and
+    return mapping (``(F, tau)``, :func:`gasp_warp_mpm.constitutive.build_return_mapping`) with the held boxes' rule
     (:func:`build_image_flip`): near a held box's face ``F`` advances by ``C D``, ``tau D`` is scattered, and a
     brittle point keeps its damage (its stress is its mirror image's: the material a box holds does not break);
     elsewhere ``(I + dt C) F``. With ``rule`` 1 (the brittle held rule, :mod:`gasp_warp_mpm.held_rule`) a brittle
     point near a set box's face scatters the stress of its held damage (not softened on the way; a fixed region's
-    held points keep the stress of their strain, :mod:`gasp_warp_mpm.held_rule`)."""
+    held points keep the stress of their strain, :mod:`gasp_warp_mpm.held_rule`). With ``rule``'s bit 1 a free brittle
+    point's softening range is scaled by its crack band weight at its stencil offset ``fx`` (``constitutive``'s
+    ``band_sf``)."""
     vec3, vec4, mat33 = build_types(Ft)
     Extras = build_extras_struct(Ft)
     held_axis, image_flip = build_image_flip(Ft)[:2]
@@ -241,18 +243,21 @@ def build_held_return(Ft):
     @wp.func
     def held_return(Cp: mat33, Fp: mat33, dt: Ft, p: int, code: int, X: vec3, dx: Ft, ex: Extras,
                     body: wp.array(dtype=wp.int32), mat_kind: wp.array(dtype=wp.int32),
-                    mat_par: wp.array2d(dtype=Ft), Jp: wp.array(dtype=Ft), rule: int):
+                    mat_par: wp.array2d(dtype=Ft), Jp: wp.array(dtype=Ft), rule: int, fx: vec3):
         a = held_axis(code, X, dx, ex)
+        band = 0   # the crack band weight (rule's bit 1) for a free point only: a held one's stress is its image's
+        if rule >= 2 and a < 0 and code == 0:
+            band = 1
         d_held = Jp[p]
         brittle = mat_kind[body[p]] == BRITTLE
         Cf = Cp
         if a >= 0:
             Cf = Cp * image_flip(a)
         F_new, tau = return_mapping((wp.identity(3, dtype=Ft) + dt * Cf) * Fp, p, body, mat_kind, mat_par, Jp,
-                                    dt)
+                                    dt, fx, band)
         if a >= 0 and brittle and Jp[p] < Ft(1.0):   # broken through: stays so
             Jp[p] = d_held
-            if rule != 0 and code == 0:   # a set box's: not softened on the way, its stress at its held damage
+            if rule % 2 != 0 and code == 0:   # a set box's: not softened on the way, its stress at its held damage
                 tau = held_tau(F_new, mat_par[body[p], P_MU], mat_par[body[p], P_LAM], d_held)
         if a >= 0:
             tau = tau * image_flip(a)

@@ -40,10 +40,15 @@ class HeldRule:
     #: True: the brittle held rule of round 32 (the module's docstring); False: the rule before it (the catch of
     #: ``tests/test_tension_family.py``). Read when the launches are recorded.
     held_rule = True
+    #: True: a free brittle point's softening range is scaled by its crack band weight (round 33; ``constitutive``'s
+    #: ``band_sf``); False: one ``s_f`` for every point, as before (the catch of ``tests/test_tension_family.py``).
+    weighted_band = True
 
     def held_rule_flag(self) -> int:
-        """1 where the rule is on and a body is brittle (the kernels' ``rule`` argument), else 0."""
-        return int(bool(self.held_rule) and bool((self.mat_kind.numpy() == BRITTLE).any()))
+        """The kernels' ``rule`` argument where a body is brittle, else 0: bit 0 the held rule (:attr:`held_rule`),
+        bit 1 the crack band weight (:attr:`weighted_band`)."""
+        brittle = bool((self.mat_kind.numpy() == BRITTLE).any())
+        return int(bool(self.held_rule) and brittle) + 2 * int(bool(self.weighted_band) and brittle)
 
 
 @functools.cache
@@ -218,7 +223,7 @@ def hold_set_faces_launches(eng, Ft, ex) -> list:
     """The recorded launch of :func:`build_hold_set_faces`'s kernel, where a set box impulse and a brittle body meet
     the switch (:meth:`HeldRule.held_rule_flag`); else none."""
     from .held import count_set_boxes
-    if not count_set_boxes(eng.setup) or not eng.held_rule_flag():
+    if not count_set_boxes(eng.setup) or not eng.held_rule_flag() % 2:
         return []
     lo_v = eng.k.vec3(*[float(c) for c in eng.setup.domain_lo])
     return [wp.launch(build_hold_set_faces(Ft), dim=eng.n_grid ** 3, device=eng.device, record_cmd=True, inputs=[

@@ -125,8 +125,8 @@ def build_p2g(Ft):
         fx = X - vec3(b0, b1, b2)
         W = weights(fx)
         Cp = C[p]
-        # (I + dt C) F and the return mapping; in a held box the image gradient, its stress, no damage (held.py)
-        F_new, tau = held_return(Cp, F[p], dt, p, fixed[p], x[p], dx, ex, body, mat_kind, mat_par, Jp, rule)
+        F_new, tau = held_return(Cp, F[p], dt, p, fixed[p], x[p], dx, ex, body, mat_kind, mat_par, Jp, rule,
+                                 fx)   # (I + dt C) F, the return mapping; in a held box the image gradient (held.py)
         F[p] = F_new
         eta = mat_par[body[p], P_ETA]
         pm = p_mass[p]
@@ -204,7 +204,7 @@ def build_g2p(Ft):
         new_v, B = gather(grid_v, grid_dv, off, W, idx0, n_grid)   # sum w g, sum w g (i, j, k)^T
         # C = 4 inv_dx^2 sum w g ((i, j, k) - fx)^T dx = 4 inv_dx (B - new_v fx^T)
         Cn = (Ft(4.0) * inv_dx) * (B - wp.outer(new_v, fx))
-        if rule != 0 and mat_kind[body[p]] == BRITTLE:   # the brittle held rule (held_rule.py)
+        if rule % 2 != 0 and mat_kind[body[p]] == BRITTLE:   # the brittle held rule (held_rule.py)
             Cn = held_g2p(Cn, fixed[p], xp, ex, fixed_lo, fixed_hi, grid_v, grid_dv, grid_m, off, lo, inv_dx, dx,
                           n_grid)
         C[p] = Cn
