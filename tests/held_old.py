@@ -61,16 +61,19 @@ def _warp_held_return(Ft):
     @wp.func
     def held_return(Cp: mat33, Fp: mat33, dt: Ft, p: int, code: int, X: vec3, dx: Ft, ex: Extras,
                     body: wp.array(dtype=wp.int32), mat_kind: wp.array(dtype=wp.int32),
-                    mat_par: wp.array2d(dtype=Ft), Jp: wp.array(dtype=Ft), rule: int):
+                    mat_par: wp.array2d(dtype=Ft), Jp: wp.array(dtype=Ft), rule: int, fx: vec3):
         a = held_axis(code, X, dx, ex)
+        band = 0   # the crack band weight (rule's bit 1) on free points, as today's held_return
+        if rule >= 2 and a < 0 and code == 0:
+            band = 1
         d_held = Jp[p]
         Cf = Cp
         if a >= 0:
             Cf = Cp * image_flip(a)
-        if rule != 0 and a == -2 and mat_kind[body[p]] == BRITTLE:   # as the Taichi variant: the set box rigid deep
+        if rule % 2 != 0 and a == -2 and mat_kind[body[p]] == BRITTLE:   # as the Taichi variant: the set box rigid deep
             Cf = mat33()
         F_new, tau = return_mapping((wp.identity(3, dtype=Ft) + dt * Cf) * Fp, p, body, mat_kind, mat_par, Jp,
-                                    dt)
+                                    dt, fx, band)
         if a >= 0:
             tau = tau * image_flip(a)
         if a >= 0 and mat_kind[body[p]] == BRITTLE:
