@@ -99,9 +99,11 @@ def warp_run(setup, F, C, Jp):
     @wp.kernel
     def probe(F: wp.array(dtype=mat33), body: wp.array(dtype=wp.int32), mat_kind: wp.array(dtype=wp.int32),
               mat_par: wp.array2d(dtype=Ft), Jp: wp.array(dtype=Ft), F_out: wp.array(dtype=mat33),
-              tau_out: wp.array(dtype=mat33), dt: Ft):
+              tau_out: wp.array(dtype=mat33), dt: Ft, x: wp.array(dtype=vec3), lo: vec3, inv_dx: Ft):
         p = wp.tid()
-        Fn, tau = return_mapping(F[p], p, body, mat_kind, mat_par, Jp, dt)
+        X = (x[p] - lo) * inv_dx   # the stencil's offset, as the P2G gives it (the brittle band weight reads it)
+        fx = X - vec3(wp.floor(X[0] - Ft(0.5)), wp.floor(X[1] - Ft(0.5)), wp.floor(X[2] - Ft(0.5)))
+        Fn, tau = return_mapping(F[p], p, body, mat_kind, mat_par, Jp, dt, fx, 1)   # a free point: band weight on
         F_out[p] = Fn
         tau_out[p] = tau
 
@@ -110,7 +112,9 @@ def warp_run(setup, F, C, Jp):
     Jpa = wp.array(Jp[o].astype(np.float32), dtype=Ft, device="cpu")
     F_out = wp.zeros(n, dtype=mat33, device="cpu")
     tau = wp.zeros(n, dtype=mat33, device="cpu")
-    wp.launch(probe, dim=n, inputs=[Fa, e.body, e.mat_kind, e.mat_par, Jpa, F_out, tau, Ft(e.dt)], device="cpu")
+    lo = vec3(*[float(c) for c in setup.domain_lo])
+    wp.launch(probe, dim=n, inputs=[Fa, e.body, e.mat_kind, e.mat_par, Jpa, F_out, tau, Ft(e.dt), e.x, lo,
+                                    Ft(1.0 / setup.dx)], device="cpu")
     inv = np.empty(n, np.int64)
     inv[o] = np.arange(n)
     mapped = F_out.numpy()[inv], Jpa.numpy()[inv], tau.numpy()[inv]
