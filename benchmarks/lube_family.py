@@ -39,12 +39,6 @@ FRAME_DT = 0.02
 MU_I_D, MU_I_DELTA = 5e-4, 0.26
 
 
-def cone_angle(eta: float) -> float:
-    """The ``Material.friction_angle`` (deg) whose cone has ``sqrt(J2) / p = eta`` (``eta = 2 sqrt(3) sin(phi) /
-    (3 - sin(phi))``, the inverse of ``scenes_granular.plane_strain_dp_angle``'s cone)."""
-    return math.degrees(math.asin(3.0 * eta / (2.0 * math.sqrt(3.0) + eta)))
-
-
 #: The column's cone from its Coulomb angle ``sg.COLUMN_PHI``: ``plane_strain`` (Mohr-Coulomb's failure in plane strain,
 #: ``sqrt(J2) / p = sin(phi)``) or ``flow`` (a layer flows at ``phi``, ``sqrt(J2) / p = tan(phi)``).
 CONES = {"plane_strain": sg.plane_strain_dp_angle, "flow": sg.flow_dp_angle}
@@ -54,7 +48,7 @@ def mu_i_keys(cone: str = "flow") -> dict:
     """The material keys of the mu(I) sand (``MU_I_D``, ``MU_I_DELTA``) over the column's cone (``CONES``)."""
     s = math.sin(math.radians(CONES[cone](sg.COLUMN_PHI)))
     eta_s = 2.0 * math.sqrt(3.0) * s / (3.0 - s)
-    return {"grain_diameter": MU_I_D, "friction_angle_2": cone_angle(eta_s + MU_I_DELTA)}
+    return {"grain_diameter": MU_I_D, "friction_angle_2": sg.cone_angle(eta_s + MU_I_DELTA)}
 
 
 def column_setup(info, a: float, n_grid: int, device: str = "cpu", mu_i: bool = False, cone: str = "flow"):

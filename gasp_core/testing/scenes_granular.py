@@ -130,7 +130,12 @@ def flow_dp_angle(phi: float) -> float:
     at ``phi`` on its own critical plane, which in a coaxial continuum flows at ``atan(sin(phi))`` on the shearing
     plane (Davis 1968: ``tan(phi_ds) = sin(phi_ps)`` without dilatancy): 27.9 deg for 32 deg.
     """
-    eta = math.tan(math.radians(phi))
+    return cone_angle(math.tan(math.radians(phi)))
+
+
+def cone_angle(eta: float) -> float:
+    """The ``Material.friction_angle`` (deg) whose cone has ``sqrt(J2) / p = eta`` (the inverse of
+    ``eta = 2 sqrt(3) sin(phi) / (3 - sin(phi))``, docs/mpm.md "The angle a sand flows at")."""
     return math.degrees(math.asin(3.0 * eta / (2.0 * math.sqrt(3.0) + eta)))
 
 
