@@ -9,14 +9,13 @@ import functools
 
 import warp as wp
 
-from gasp_core.mpm.grid_tables import (COL_POSE, FT_POSES, IM_A, IM_B, IM_DV, IM_MODE, IM_SHAPE, IMPULSE_ADD,
-                                           IMPULSE_BOX, IMPULSE_ROW)
+from gasp_core.mpm.grid_tables import IM_A, IM_B, IMPULSE_ROW
 from gasp_core.mpm.materials import BRITTLE, P_LAM, P_MU
 from gasp_core.mpm.points import CUT_REACH, HELD_STRAIN_CELLS, HELD_STRAINED, MIRROR_CELLS, cuts_held_faces
 
 from .constitutive import build_return_mapping
 from .forces import build_extras_struct
-from .held_rule import HeldRule, build_held_tau, hold_set_faces_launches   # HeldRule: the engine's switch
+from .held_rule import HeldRule, build_held_tau, build_set_box_row, hold_set_faces_launches   # HeldRule: the engine's switch
 from .precision import MODULE_OPTIONS, build_types
 
 
@@ -36,6 +35,7 @@ def build_mirror(Ft):
     broken face's free slip) and the kernel over the boxes must be built together, from one scalar type."""
     vec3, vec4, mat33 = build_types(Ft)
     Extras = build_extras_struct(Ft)
+    set_box_row = build_set_box_row(Ft)
 
     @wp.func
     def mirror_node(node: int, X: vec3, blo: vec3, bhi: vec3, v_set: vec3, grid_v: wp.array(dtype=vec3),
@@ -97,16 +97,10 @@ def build_mirror(Ft):
         k = node % n_grid
         X = lo + dx * vec3(Ft(i), Ft(j), Ft(k))
         if has_extras != 0:
-            base = ex.step[0] * ex.width
             for q in range(ex.n_imp):
-                r = q * IMPULSE_ROW
-                c = vec3(ex.imps[r + IM_A], ex.imps[r + IM_A + 1], ex.imps[r + IM_A + 2])
-                b = vec3(ex.imps[r + IM_B], ex.imps[r + IM_B + 1], ex.imps[r + IM_B + 2])
-                w = ex.tab[base + FT_POSES + COL_POSE * ex.n_col + q]
-                if (ex.imps[r + IM_SHAPE] == Ft(IMPULSE_BOX) and ex.imps[r + IM_MODE] != Ft(IMPULSE_ADD)
-                        and w > Ft(0.0) and X[0] >= c[0] and X[1] >= c[1] and X[2] >= c[2] and X[0] <= b[0]
+                c, b, dv, on = set_box_row(ex, q)
+                if (on != 0 and X[0] >= c[0] and X[1] >= c[1] and X[2] >= c[2] and X[0] <= b[0]
                         and X[1] <= b[1] and X[2] <= b[2]):
-                    dv = vec3(ex.imps[r + IM_DV], ex.imps[r + IM_DV + 1], ex.imps[r + IM_DV + 2])
                     grid_v[node] = mirror_node(node, X, c, b, dv, grid_v, grid_m, 1, lo, dx, n_grid, 0, grid_cut)
         cut = int(0)
         if grid_cut.shape[0] > 2:
@@ -183,17 +177,15 @@ def build_image_flip(Ft):
     vec3, vec4, mat33 = build_types(Ft)
     Extras = build_extras_struct(Ft)
 
+    set_box_row = build_set_box_row(Ft)
+
     @wp.func
     def set_box_at(X: vec3, ex: Extras):
         hit = int(-1)
-        base = ex.step[0] * ex.width
         for q in range(ex.n_imp):
-            r = q * IMPULSE_ROW
-            c = vec3(ex.imps[r + IM_A], ex.imps[r + IM_A + 1], ex.imps[r + IM_A + 2])
-            b = vec3(ex.imps[r + IM_B], ex.imps[r + IM_B + 1], ex.imps[r + IM_B + 2])
-            if (ex.imps[r + IM_SHAPE] == Ft(IMPULSE_BOX) and ex.imps[r + IM_MODE] != Ft(IMPULSE_ADD)
-                    and ex.tab[base + FT_POSES + COL_POSE * ex.n_col + q] > Ft(0.0) and X[0] >= c[0]
-                    and X[1] >= c[1] and X[2] >= c[2] and X[0] <= b[0] and X[1] <= b[1] and X[2] <= b[2]):
+            c, b, dv, on = set_box_row(ex, q)
+            if (on != 0 and X[0] >= c[0] and X[1] >= c[1] and X[2] >= c[2] and X[0] <= b[0] and X[1] <= b[1]
+                    and X[2] <= b[2]):
                 hit = q
         return hit
 

@@ -172,6 +172,29 @@ def build_held_g2p(Ft):
 
 
 @functools.cache
+def build_set_box_row(Ft):
+    """``set_box_row(ex, q) -> (c, b, dv, on)``: impulse ``q``'s box corners, velocity and whether it is a set box
+    holding its nodes at this substep (a box whose mode is not ``add``, its pose weight above 0); read by
+    :func:`build_hold_set_faces` and ``held.build_mirror``."""
+    vec3, vec4, mat33 = build_types(Ft)
+    Extras = build_extras_struct(Ft)
+
+    @wp.func
+    def set_box_row(ex: Extras, q: int):
+        r = q * IMPULSE_ROW
+        c = vec3(ex.imps[r + IM_A], ex.imps[r + IM_A + 1], ex.imps[r + IM_A + 2])
+        b = vec3(ex.imps[r + IM_B], ex.imps[r + IM_B + 1], ex.imps[r + IM_B + 2])
+        dv = vec3(ex.imps[r + IM_DV], ex.imps[r + IM_DV + 1], ex.imps[r + IM_DV + 2])
+        w = ex.tab[ex.step[0] * ex.width + FT_POSES + COL_POSE * ex.n_col + q]
+        on = int(0)
+        if ex.imps[r + IM_SHAPE] == Ft(IMPULSE_BOX) and ex.imps[r + IM_MODE] != Ft(IMPULSE_ADD) and w > Ft(0.0):
+            on = 1
+        return c, b, dv, on
+
+    return set_box_row
+
+
+@functools.cache
 def build_hold_set_faces(Ft):
     """``hold_set_faces``: the kernel over the nodes, after the grid update and before the held boxes' ghosts
     (``held.build_mirror``), where a set box holds a brittle body: a node with mass within ``SET_FACE_CELLS`` outside a
@@ -180,6 +203,7 @@ def build_hold_set_faces(Ft):
     grid's linear velocity meets ``v_set`` on the face for any field. taichi_mpm's ``Forces.hold_set_faces``."""
     vec3, vec4, mat33 = build_types(Ft)
     Extras = build_extras_struct(Ft)
+    set_box_row = build_set_box_row(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def hold_set_faces(grid_v: wp.array(dtype=vec3), grid_m: wp.array(dtype=Ft), lo: vec3, dx: Ft, inv_dx: Ft,
@@ -189,14 +213,9 @@ def build_hold_set_faces(Ft):
             return
         I = wp.vec3i(node / (n_grid * n_grid), (node / n_grid) % n_grid, node % n_grid)
         X = lo + dx * vec3(Ft(I[0]), Ft(I[1]), Ft(I[2]))
-        base = ex.step[0] * ex.width
         for q in range(ex.n_imp):
-            r = q * IMPULSE_ROW
-            c = vec3(ex.imps[r + IM_A], ex.imps[r + IM_A + 1], ex.imps[r + IM_A + 2])
-            b = vec3(ex.imps[r + IM_B], ex.imps[r + IM_B + 1], ex.imps[r + IM_B + 2])
-            w = ex.tab[base + FT_POSES + COL_POSE * ex.n_col + q]
-            if ex.imps[r + IM_SHAPE] == Ft(IMPULSE_BOX) and ex.imps[r + IM_MODE] != Ft(IMPULSE_ADD) and w > Ft(0.0):
-                dv = vec3(ex.imps[r + IM_DV], ex.imps[r + IM_DV + 1], ex.imps[r + IM_DV + 2])
+            c, b, dv, on = set_box_row(ex, q)
+            if on != 0:
                 for d in range(3):
                     lat = int(1)
                     for e in range(3):
