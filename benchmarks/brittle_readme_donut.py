@@ -48,9 +48,10 @@ def brittle(defaults: str):
     return dataclasses.replace(m, **OLD) if defaults == "old" else m
 
 
-def donut_setup(engine: str, n_grid: int, material, placed: bool = False):
+def donut_setup(engine: str, n_grid: int, material, placed: bool = False, surface: str | None = None):
     """``tests/test_brittle_impact_step.py``'s brittle README donut at ``n_grid``, ``material`` in place; ``placed``:
-    not thrown down but placed 1 m up at rest (:func:`placed_setup`)."""
+    not thrown down but placed 1 m up at rest (:func:`placed_setup`); ``surface``: the object's ``surface`` key
+    (None: unset, ``"auto"``'s rule)."""
     sys.path.insert(0, str(ROOT / "tests"))
     from test_brittle_impact_step import brittle_donut_scene
     from gasp_core.prepare.scene import prepare_scene
@@ -60,6 +61,8 @@ def donut_setup(engine: str, n_grid: int, material, placed: bool = False):
     if placed:
         text = text.replace(f"velocity = [0.0, 0.0, {-V}]\n", "").replace("position = [0.0, 0.0, 0.05]",
                                                                          "position = [0.0, 0.0, 1.0]")
+    if surface is not None:
+        text = text.replace("alpha = 1.5", f'alpha = 1.5\nsurface = "{surface}"')
     path.write_text(text)
     s = prepare_scene(load_scene(path), engine).setup
     s.materials = [material]

@@ -143,6 +143,9 @@ def test_surface_rule_passive_on_a_resolved_solid_material_otherwise():
     fr = fill_interior(small, dx / 2, fill=True, surface_mass=False)
     passive, rec = surface_rule(True, len(small), fr, dx, "sand")
     assert rec["solid_cells"] < MIN_SOLID_CELLS and passive is False and rec["surface"] == "material"
+    # a brittle body takes the passive surface over any interior (its shell would break into a cloud, issue 66)
+    assert len(fr.fill_x) > 0 and surface_rule(True, len(small), fr, dx, "brittle")[0] is True
+    assert surface_rule(False, len(pts), shell, dx, "brittle")[0] is False       # no closed fill: material
 
 
 def test_the_pipeline_resolves_auto_and_records_the_rule(donut_small, write_scene):
