@@ -120,6 +120,32 @@ def mixed_pair(setup) -> bool:
     return len(setup.materials) == 2 and contact_model(setup) == "particle" and int(rigid.sum()) == 1
 
 
+def shared_field_bodies(setup) -> list[int]:
+    """The bodies (indices of ``setup.materials``, the scene's objects in order) that do not flow and share one grid
+    velocity field with another such body: where they touch they move as one (no slip, no Coulomb law, no separation
+    within a cell), as in any single-field MPM. Empty where every solid has a field of its own (:func:`field_bodies`:
+    two bodies on the particle contact, or flowing bodies against one other body) or the option ``contact_fields``
+    is false (the scene asked for one field). Three or more solids, or two beside a flowing body, share one."""
+    from gasp_core.mpm.contact import FLOWING
+    if not setup.options.get("contact_fields", True):
+        return []
+    in_a = field_bodies(setup)
+    solids = [i for i, m in enumerate(setup.materials) if m.name not in FLOWING and (in_a is None or not in_a[i])]
+    return solids if len(solids) >= 2 else []
+
+
+def shared_field_warning(setup, engine: str) -> None:
+    """Warn (``UserWarning``) when :func:`shared_field_bodies` is not empty, naming the bodies and what to do."""
+    shared = shared_field_bodies(setup)
+    if shared:
+        import warnings
+        names = ", ".join(f"{i} ({setup.materials[i].name})" for i in shared)
+        warnings.warn(f"engine '{engine}': bodies {names} share one grid velocity field: where they touch they move "
+                      f"as one, with no slip and no friction law between them (the two-field contact takes two "
+                      f"bodies, or flowing bodies against one other; docs/contact.md); make the ones that only "
+                      f"support the others [[collider]] meshes, or simulate them apart", stacklevel=2)
+
+
 def uses_fields(setup) -> bool:
     """Whether a setup runs the two-field contact (:func:`field_bodies` is not None)."""
     return field_bodies(setup) is not None

@@ -13,7 +13,7 @@ import numpy as np
 
 from gasp_core.mpm.contact import (contact_coefficients, contact_model, contact_planes, contact_reach,
                                       flowing_bodies, rule_models)
-from gasp_core.mpm.fields import field_setup
+from gasp_core.mpm.fields import field_setup, shared_field_warning
 from gasp_core.mpm.grid_engine import choose_dt, GridEngineBase
 from gasp_core.mpm.materials import JELLY, initial_Jp, material_table
 from gasp_core.mpm.rigid_hold import rigid_hold_tables
@@ -131,6 +131,7 @@ class TaichiMPMEngine(GridEngineBase):
         # viscosity implicit (backward Euler): no viscous step cap; a rigid body sets no elastic or contact step (step_view)
         view = step_view(setup)
         self.n_substeps, self.dt = choose_dt(view, opt, ENGINE, implicit_viscosity=True)
+        shared_field_warning(view, ENGINE)   # solids glued where they touch (fields.py)
         check_memory(estimate_bytes(len(setup.x), setup.n_grid, cfg.precision),
                      ENGINE, f"{len(setup.x)} points, n_grid {setup.n_grid}, {cfg.precision}")
         import taichi as ti

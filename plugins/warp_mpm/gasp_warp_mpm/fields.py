@@ -15,8 +15,9 @@ import warp as wp
 
 from gasp_core.mpm.contact import flowing_bodies
 from gasp_core.mpm.fields import (MIN_FRACTION, MIN_GRADIENT, field_bodies, field_friction, rigid_pair,
-                                      touch_fraction)
+                                      shared_field_warning, touch_fraction)
 
+from . import ENGINE
 from .precision import MODULE_OPTIONS, build_types
 
 
@@ -157,6 +158,7 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     eng.flows = wp.array(flowing_bodies(view, contact).astype(np.int32), dtype=wp.int32, device=d)
     eng.grid_mf = wp.zeros(eng.n_grid ** 3 if contact == "mixed" else 1, dtype=Ft, device=d)
     in_a = field_bodies(view)
+    shared_field_warning(view, ENGINE)   # solids glued where they touch (gasp_core.mpm.fields)
     eng.fields = in_a is not None
     eng.in_a = wp.array((in_a if eng.fields else np.zeros(1, bool)).astype(np.int32), dtype=wp.int32, device=d)
     eng.field_mu = field_friction(view) if eng.fields else 0.0

@@ -1,0 +1,50 @@
+"""Solids that share one grid velocity field are named (issue 67 item 4: "three or more bodies still share one field",
+``docs/contact.md``): the two-field contact (``gasp_core.mpm.fields``) gives two bodies on the particle contact a
+field each, and flowing bodies one against the others; any other solids in a scene share one field, where, as in any
+single-field MPM, they move as one where they touch (no slip, no Coulomb law). The MPM engines warn at build, naming
+the bodies, so that a scene of three solids is not silently glued."""
+from __future__ import annotations
+
+import warnings
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from gasp_core.mpm.fields import shared_field_bodies
+from gasp_core.seam.plugins import engines
+from gasp_core.testing import sand_ball as S
+
+
+def with_bodies(materials, options=None):
+    """The sand-and-ball scene's points split into ``len(materials)`` bodies along x, ``materials`` in order."""
+    s = S.pair_setup(options=options)
+    edges = np.quantile(s.x[:, 0], np.linspace(0, 1, len(materials) + 1)[1:-1])
+    return replace(s, body_id=np.searchsorted(edges, s.x[:, 0]), materials=list(materials))
+
+
+def test_shared_field_bodies_names_the_solids_left_in_one_field():
+    jelly, sand, rigid = S.BALL, S.SAND, replace(S.BALL, model="rigid")
+    assert shared_field_bodies(with_bodies([jelly, jelly])) == []                 # a field each
+    assert shared_field_bodies(with_bodies([sand, jelly])) == []                  # sand against the ball
+    assert shared_field_bodies(with_bodies([jelly, jelly, jelly])) == [0, 1, 2]
+    assert shared_field_bodies(with_bodies([jelly, rigid, jelly])) == [0, 1, 2]
+    assert shared_field_bodies(with_bodies([sand, jelly, rigid])) == [1, 2]       # field B holds both solids
+    assert shared_field_bodies(with_bodies([sand, sand, jelly])) == []            # flowing bodies share theirs
+    assert shared_field_bodies(with_bodies([jelly, jelly, jelly], {"contact_fields": False})) == []   # asked for
+    assert shared_field_bodies(with_bodies([jelly, jelly], {"contact": "grid"})) == [0, 1]
+
+
+@pytest.mark.parametrize("name", ["taichi_mpm", "warp_mpm"])
+def test_the_engines_warn_of_three_solids_and_not_of_two(name):
+    if name not in engines() or engines()[name].unavailable_reason() is not None:
+        pytest.skip(f"{name} not installed")
+    from gasp_core.seam.build import build_engine
+    said = {}
+    for n in (2, 3):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            build_engine(engines()[name], with_bodies([S.BALL] * n)).close()
+        said[n] = [str(w.message) for w in caught if "share one grid velocity field" in str(w.message)]
+    assert not said[2], said[2]
+    assert len(said[3]) == 1 and "bodies 0 (jelly), 1 (jelly), 2 (jelly)" in said[3][0], said[3]
