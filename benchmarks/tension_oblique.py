@@ -195,6 +195,7 @@ def run_case(sp: tf.Specimen, n_grid: int, engine: str, angle: str = "45", build
     D = np.bincount(layer, Dp, nl) / a_gauge
     g = lx[gauge]
     return {"specimen": sp.name, "engine": engine, "n_grid": n_grid, "angle": angle, "axis": a.round(6).tolist(),
+            "band": "projected" if oblique(engine) else "dx",
             "dx": dx, "cells_across": sp.gauge_w / dx, "points": int(len(st.x)), "frames": n_frames,
             "seconds": round(out["seconds"], 1), "peak": peak, "peak_vs_ft": peak / tf.FT - 1,
             "crack_s": float(lx[crack]), "where": where, "section_at_crack": float(section[crack]),
@@ -207,29 +208,51 @@ def run_case(sp: tf.Specimen, n_grid: int, engine: str, angle: str = "45", build
 
 
 def point_sf(st, xs: np.ndarray, engine: str, a: np.ndarray) -> np.ndarray:
-    """``tension_family.point_sf`` with the crack normal along the specimen's axis ``a`` (3,)."""
-    from gasp_core.mpm.materials import band_softening_stress, band_weight, softening_stress
+    """``tension_family.point_sf`` with the crack normal along the specimen's axis ``a`` (3,), and the band's
+    projection on it where the engine's ``oblique_band`` is on (``gasp_core.mpm.materials.band_projection``)."""
+    from gasp_core.mpm.materials import band_projection, band_softening_stress, band_weight, softening_stress
     sf = softening_stress(st.materials[0], float(st.crack_band[0]))
     if not tf.weighted(engine):
         return np.full(len(xs), sf)
+    if oblique(engine) and sf / band_projection(a) > tf.FT:
+        sf = sf / float(band_projection(a))
     X = (xs - np.asarray(st.domain_lo, np.float64)) / st.dx
     return band_softening_stress(tf.FT, sf, band_weight(X - np.floor(X - 0.5), np.asarray(a, np.float64)))
 
 
+def oblique(engine: str) -> bool:
+    """Whether ``engine``'s band projection (round 34) is on."""
+    if engine == "taichi_mpm":
+        from gasp_taichi_mpm.constitutive import Constitutive
+        return bool(Constitutive.oblique_band)
+    from gasp_warp_mpm.held_rule import HeldRule
+    return bool(HeldRule.oblique_band)
+
+
+def projected(engine: str, on: bool) -> None:
+    """Turn ``engine``'s band projection (round 34, ``oblique_band``; off by default) on or off in this process."""
+    if engine == "taichi_mpm":
+        from gasp_taichi_mpm.constitutive import Constitutive
+        Constitutive.oblique_band = on
+    else:
+        from gasp_warp_mpm.held_rule import HeldRule
+        HeldRule.oblique_band = on
+
+
 def _key(r: dict) -> tuple:
-    return r["specimen"], r["angle"], r["engine"], r["n_grid"]
+    return r["specimen"], r["angle"], r.get("band", "dx"), r["engine"], r["n_grid"]
 
 
 def table(rows: list[dict]) -> str:
     """The Markdown table of the oblique cases."""
-    out = ["| specimen | angle | engine | n_grid | peak / f_t | breaks at (axial m) | gauge (axial m) | where | work "
+    out = ["| specimen | angle | band | engine | n_grid | peak / f_t | breaks at (axial m) | gauge (axial m) | where | work "
            "to separate (J/m^2) | vs G_f | N to 2N | dissipated (J/m^2) | s |",
-           "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+           "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     by = {_key(r): r for r in rows}
     for r in sorted(rows, key=_key):
-        twin = by.get(_key(r)[:3] + (r["n_grid"] // 2,))
+        twin = by.get(_key(r)[:4] + (r["n_grid"] // 2,))
         conv = f"{100 * (r['work'] / twin['work'] - 1):+.1f} %" if twin else ""
-        out.append(f"| {r['specimen']} | {r['angle']} | {r['engine']} | {r['n_grid']} | "
+        out.append(f"| {r['specimen']} | {r['angle']} | {r.get('band', 'dx')} | {r['engine']} | {r['n_grid']} | "
                    f"{r['peak'] / tf.FT:.3f} ({100 * r['peak_vs_ft']:+.1f} %) | {r['crack_s']:.3f} | "
                    f"{r['gauge'][0]:.3f}-{r['gauge'][1]:.3f} | {r['where']} | {r['work']:.1f} | "
                    f"{100 * r['work_vs_gf']:+.1f} % | {conv} | {r['dissipated']:.1f} | {r['seconds']:.0f} |")
@@ -243,7 +266,9 @@ def main() -> None:
     ap.add_argument("--only", default="bar_L0.9_a0.15", help="comma-separated specimen names")
     ap.add_argument("--angles", default="30,45", help="comma-separated: degrees about z, or 111")
     ap.add_argument("--coarse-only", action="store_true", help="N only")
+    ap.add_argument("--projected", action="store_true", help="the band's projection on (round 34, off by default)")
     a = ap.parse_args()
+    projected(a.engine, a.projected)
     RESULTS.mkdir(exist_ok=True)
     path = RESULTS / "tension_oblique.json"
     rows = json.loads(path.read_text())["cases"] if path.exists() else []
@@ -259,7 +284,9 @@ def main() -> None:
         "# Tension at an angle to the grid (issue 66, round 34)\n\n`python benchmarks/tension_oblique.py` (docstring: "
         "the holds and the measures, in the specimen's frame). The family's material and pull "
         "(`tension_family.py`); angle: the axis about z in degrees, or 111 along (1, 1, 1) / sqrt(3). \"gauge\": the "
-        "layers 1.5 cells (along x) from both held faces, a dog-bone's within 2 % of its gauge's section.\n\n"
+        "layers 1.5 cells (along x) from both held faces, a dog-bone's within 2 % of its gauge's section. band: dx (the "
+        "default) or projected (`--projected`: the band the cell's projection on the crack's normal, the engines' "
+        "`oblique_band`).\n\n"
         + table(rows))
 
 
