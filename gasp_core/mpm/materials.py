@@ -161,6 +161,32 @@ def band_weight(fx, n):
     return np.sum(n * n * np.maximum(w, 1.0 - w), axis=-1)
 
 
+def band_projection(n):
+    """The cell's projection on a crack's normal, in cells: ``g = sum_a |n_a|`` (NumPy; the kernels' ``band_sf`` in
+    both MPM plugins), 1 along a grid axis, sqrt(2) at 45 deg about an axis, sqrt(3) along a cube's diagonal.
+
+    Parameters
+    ----------
+    n : array_like, shape (..., 3), float
+        Unit normals (the direction of the largest principal stress).
+
+    Returns
+    -------
+    g : ndarray, shape (...), float64
+
+    Notes
+    -----
+    A crack across the grid at an angle opens between the nodes either side of it; the points whose quadratic
+    B-spline stencils (1.5 cells each way along every axis) read both sides lie within ``1.5 dx g`` of it, a band
+    ``g`` times the aligned one's: the points of a 45 deg crack broke through over 2.6 to 3 lattice layers of ``dx /
+    2`` where an aligned one breaks 2 (``benchmarks/tension_oblique.py``, docs/fracture.md "Oblique specimens (round
+    34)"). So the band is ``h = g dx``, ``s_f`` its :func:`softening_stress` (``s_f(dx) / g``) where that stays above
+    ``f_t``; as the width of a finite element's band grows by the element's projection on the crack's normal (J. Oliver,
+    "A consistent characteristic length for smeared cracking models", IJNME 28, 1989, 461-474).
+    """
+    return np.sum(np.abs(np.asarray(n, np.float64)), axis=-1)
+
+
 def band_softening_stress(ft, sf, W):
     """A point's own end of softening, Pa: ``f_t + W (s_f - f_t)`` (``W`` from :func:`band_weight`; ``s_f`` of the
     band ``dx``, :func:`softening_stress`). Its strain past the strength is ``W`` times its cell's, so it breaks

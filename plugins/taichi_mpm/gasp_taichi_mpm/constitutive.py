@@ -20,6 +20,11 @@ class Constitutive:
     #: True: a free brittle point's softening range is scaled by its crack band weight (:meth:`band_sf`, round 33);
     #: False: one ``s_f`` for every point, as before (the catch of ``tests/test_tension_family.py``). Compile-time.
     weighted_band = True
+    #: True: with :attr:`weighted_band`, the band of a free brittle point is the cell's projection on its crack's normal
+    #: (:meth:`band_sf`, round 34); False (the default): the band ``dx`` at every angle (docs/fracture.md "Oblique
+    #: specimens (round 34)": on, the damage's dissipation is G_f but the work to separate -28 % at 45 deg).
+    #: Compile-time.
+    oblique_band = False
 
     @ti.func
     def udvt(self, U, d, V):
@@ -212,8 +217,10 @@ class Constitutive:
         """Point ``p``'s own end of softening (Pa): ``f_t + W (s_f - f_t)``, ``W`` its crack band weight along the
         direction ``U[:, i]`` of its largest principal stress (``gasp_core.mpm.materials.band_weight`` and
         ``band_softening_stress``: its MLS gradient weight on its own cell, so every point of a cracked cell breaks
-        through at the same opening); ``s_f`` for a held point (its stress is its image's) or with
-        :attr:`weighted_band` off. The Warp plugin's ``band_sf``."""
+        through at the same opening); with :attr:`oblique_band`, ``s_f`` of the band ``g dx``, ``g = sum_a |n_a|``
+        the cell's projection on that normal (``gasp_core.mpm.materials.band_projection``, round 34), where it stays
+        above ``f_t``; ``s_f`` for a held point (its stress is its image's) or with :attr:`weighted_band` off. The Warp
+        plugin's ``band_sf``."""
         out = sf
         if ti.static(self.weighted_band):
             held = 0
@@ -229,11 +236,17 @@ class Constitutive:
                     im = 2
                 X = (self.x[p] - self.lo[None]) * self.inv_dx[None]
                 W = ti.cast(0.0, self.real)
+                g = ti.cast(0.0, self.real)
                 for a in ti.static(range(3)):
                     fx = X[a] - ti.floor(X[a] - 0.5)
                     w = 2.0 * fx * (1.5 - fx) ** 2
                     W += U[a, im] ** 2 * ti.max(w, 1.0 - w)
-                out = ft + W * (sf - ft)
+                    g += ti.abs(U[a, im])
+                sfb = sf
+                if ti.static(self.oblique_band):
+                    if sf / g > ft:
+                        sfb = sf / g
+                out = ft + W * (sfb - ft)
         return out
 
     @ti.func

@@ -266,21 +266,27 @@ def build_brittle_return(Ft):
     svd = build_decompositions(Ft)[2]
 
     @wp.func
-    def band_sf(U: mat33, s: vec3, ft: Ft, sf: Ft, fx: vec3):
+    def band_sf(U: mat33, s: vec3, ft: Ft, sf: Ft, fx: vec3, band: int):
         # the point's own end of softening f_t + W (s_f - f_t), W its crack band weight along the direction of its
         # largest principal stress (gasp_core.mpm.materials.band_weight, band_softening_stress: its MLS gradient
         # weight on its own cell, so every point of a cracked cell breaks through at the same opening; round 33).
-        # The Taichi plugin's band_sf.
+        # band 3: s_f of the band dx g, g = sum_a |n_a| the cell's projection on that normal (band_projection,
+        # round 34), where it stays above f_t. The Taichi plugin's band_sf.
         im = 0
         if s[1] > s[im]:
             im = 1
         if s[2] > s[im]:
             im = 2
         W = Ft(0.0)
+        g = Ft(0.0)
         for a in range(3):
             w = Ft(2.0) * fx[a] * (Ft(1.5) - fx[a]) * (Ft(1.5) - fx[a])
             W += U[a, im] * U[a, im] * wp.max(w, Ft(1.0) - w)
-        return ft + W * (sf - ft)
+            g += wp.abs(U[a, im])
+        sfb = sf
+        if band >= 3 and sf / g > ft:
+            sfb = sf / g
+        return ft + W * (sfb - ft)
 
     @wp.func
     def brittle_return(F_trial: mat33, mu: Ft, lam: Ft, b: int, p: int, mat_par: wp.array2d(dtype=Ft),
@@ -298,7 +304,7 @@ def build_brittle_return(Ft):
         ft = mat_par[b, P_FT]
         sf = mat_par[b, P_SF]
         if band != 0:   # round 33's crack band weight (a free point; held_return's band)
-            sf = band_sf(U, s, ft, sf, fx)
+            sf = band_sf(U, s, ft, sf, fx, band)
         if smax > ft:
             dt = Ft(1.0)
             if smax < sf:

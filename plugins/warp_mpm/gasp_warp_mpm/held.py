@@ -224,8 +224,8 @@ def build_held_return(Ft):
     elsewhere ``(I + dt C) F``. With ``rule`` 1 (the brittle held rule, :mod:`gasp_warp_mpm.held_rule`) a brittle
     point near a set box's face scatters the stress of its held damage (not softened on the way; a fixed region's
     held points keep the stress of their strain, :mod:`gasp_warp_mpm.held_rule`). With ``rule``'s bit 1 a free brittle
-    point's softening range is scaled by its crack band weight at its stencil offset ``fx`` (``constitutive``'s
-    ``band_sf``)."""
+    point's softening range is scaled by its crack band weight at its stencil offset ``fx``, with bit 2 too its band
+    is the cell's projection on its crack's normal (``constitutive``'s ``band_sf``: ``band`` 1 and 3)."""
     vec3, vec4, mat33 = build_types(Ft)
     Extras = build_extras_struct(Ft)
     held_axis, image_flip = build_image_flip(Ft)[:2]
@@ -237,9 +237,9 @@ def build_held_return(Ft):
                     body: wp.array(dtype=wp.int32), mat_kind: wp.array(dtype=wp.int32),
                     mat_par: wp.array2d(dtype=Ft), Jp: wp.array(dtype=Ft), rule: int, fx: vec3):
         a = held_axis(code, X, dx, ex)
-        band = 0   # the crack band weight (rule's bit 1) for a free point only: a held one's stress is its image's
+        band = 0   # the crack band weight (rule's bits 1, 2) for a free point only: a held one's stress is its image's
         if rule >= 2 and a < 0 and code == 0:
-            band = 1
+            band = rule // 2
         d_held = Jp[p]
         brittle = mat_kind[body[p]] == BRITTLE
         Cf = Cp

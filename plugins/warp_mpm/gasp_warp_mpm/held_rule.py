@@ -43,12 +43,19 @@ class HeldRule:
     #: True: a free brittle point's softening range is scaled by its crack band weight (round 33; ``constitutive``'s
     #: ``band_sf``); False: one ``s_f`` for every point, as before (the catch of ``tests/test_tension_family.py``).
     weighted_band = True
+    #: True: with :attr:`weighted_band`, a free brittle point's band is the cell's projection on its crack's normal
+    #: (round 34; ``constitutive``'s ``band_sf``, ``gasp_core.mpm.materials.band_projection``); False (the default):
+    #: the band ``dx`` at every angle. Off: on the oblique dog-bones it brings the damage's dissipation to G_f but the
+    #: must-show's work to separate to -28 % at 45 deg (docs/fracture.md "Oblique specimens (round 34)").
+    oblique_band = False
 
     def held_rule_flag(self) -> int:
         """The kernels' ``rule`` argument where a body is brittle, else 0: bit 0 the held rule (:attr:`held_rule`),
-        bit 1 the crack band weight (:attr:`weighted_band`)."""
+        bit 1 the crack band weight (:attr:`weighted_band`), bit 2 the band's projection (:attr:`oblique_band`, with
+        bit 1 only)."""
         brittle = bool((self.mat_kind.numpy() == BRITTLE).any())
-        return int(bool(self.held_rule) and brittle) + 2 * int(bool(self.weighted_band) and brittle)
+        weighted = bool(self.weighted_band) and brittle
+        return int(bool(self.held_rule) and brittle) + 2 * int(weighted) + 4 * int(weighted and self.oblique_band)
 
 
 @functools.cache
