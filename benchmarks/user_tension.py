@@ -43,19 +43,19 @@ USER = [tf.FAMILY[1], tf.FAMILY[3], tf.FAMILY[5]]
 
 def specimen_mesh(sp: tf.Specimen, n_grid: int):
     """A closed triangle mesh (trimesh.Trimesh, metres, world frame) of ``sp``: a bar's box, a dog-bone's flat prism
-    (its outline ``tf.Specimen.width`` sampled every ``dx / 8``, the thickness the gauge's), its faces cut to at most
-    ``dx / 4`` a side."""
+    (its outline ``tf.Specimen.width`` sampled every ``dx / 2``, the thickness the gauge's), its faces cut to at most
+    ``dx / 2`` a side."""
     import trimesh
     dx = tf.SIZE / n_grid
     if sp.gauge_l == 0.0:
         m = trimesh.creation.box(extents=(sp.length, sp.grip, sp.grip))
         m.apply_translation((tf.X0 + sp.length / 2, tf.Y0, tf.Y0))
     else:
-        xs = np.linspace(tf.X0, tf.X0 + sp.length, int(np.ceil(sp.length / (dx / 8))) + 1)
+        xs = np.linspace(tf.X0, tf.X0 + sp.length, int(np.ceil(sp.length / (dx / 2))) + 1)
         m = prism(xs, sp.width(xs) / 2, float(sp.thickness(xs[:1])[0]) / 2)
-    m = m.subdivide_to_size(dx / 4)
-    if not m.is_watertight:
-        raise RuntimeError(f"{sp.name}: mesh not closed")
+    m = m.subdivide_to_size(dx / 2)
+    if not (m.is_watertight and m.is_winding_consistent and m.volume > 0):
+        raise RuntimeError(f"{sp.name}: mesh not closed or not outward")
     return m
 
 
@@ -73,13 +73,10 @@ def prism(xs: np.ndarray, half_w: np.ndarray, half_t: float):
     for i in range(k - 1):
         for j in range(4):
             a, b = 4 * i + j, 4 * i + (j + 1) % 4
-            f += [(a, a + 4, b + 4), (a, b + 4, b)]
+            f += [(a, b, b + 4), (a, b + 4, a + 4)]
     last = 4 * (k - 1)
     f += [(0, 2, 1), (0, 3, 2), (last, last + 1, last + 2), (last, last + 2, last + 3)]
-    m = trimesh.Trimesh(v, np.array(f), process=True)
-    if m.volume < 0:
-        m.invert()
-    return m
+    return trimesh.Trimesh(v, np.array(f), process=True)
 
 
 #: a ramped pull (``pull = "ramp"``): the imposed speed rises to ``PULL`` in ``RAMP_ROWS`` equal steps over ``RAMP_S``
