@@ -101,10 +101,19 @@ mode = "set"
 """ for v, t0, t1 in steps)
 
 
+def faces(sp: tf.Specimen, n_grid: int, shift: float = 0.0) -> tuple[float, float]:
+    """The clamp's and the pulled box's faces (x, m): ``HOLD`` from the specimen's ends, moved by ``-shift`` cells with
+    the grid (so on nodes; ``shift`` moves the fill's layers against the nodes and the faces)."""
+    dx = tf.SIZE / n_grid
+    return tf.X0 + tf.HOLD - shift * dx, tf.X0 + sp.length - tf.HOLD - shift * dx
+
+
 def scene_toml(sp: tf.Specimen, n_grid: int, engine: str, mesh: str, surface: str, ppc: int | None,
-               pull: str = "step") -> str:
-    """The scene file a user writes for ``sp``: the family's domain, clamp, pull and material, no gravity."""
-    clamp, pulled = tf.X0 + tf.HOLD, tf.X0 + sp.length - tf.HOLD
+               pull: str = "step", shift: float = 0.0) -> str:
+    """The scene file a user writes for ``sp``: the family's domain, clamp, pull and material, no gravity; the
+    domain and the held faces moved by ``-shift`` cells (:func:`faces`)."""
+    clamp, pulled = faces(sp, n_grid, shift)
+    x_lo = -shift * tf.SIZE / n_grid
     opts = 'precision = "f64"' + (", threads = 1" if engine == "taichi_mpm" else "")
     dom = f"particles_per_cell = {ppc}\n" if ppc else ""
     obj = f'surface = "{surface}"\n' if surface != "auto" else ""
@@ -116,12 +125,12 @@ gravity = [0.0, 0.0, 0.0]
 name = "{engine}"
 options = {{ {opts} }}
 [domain]
-lo = [0.0, 0.0, 0.0]
-hi = [{tf.SIZE}, {tf.SIZE}, {tf.SIZE}]
+lo = [{x_lo!r}, 0.0, 0.0]
+hi = [{tf.SIZE + x_lo!r}, {tf.SIZE}, {tf.SIZE}]
 n_grid = {n_grid}
 {dom}[[boundary]]
 kind = "fixed_region"
-lo = [0.0, 0.0, 0.0]
+lo = [{x_lo!r}, 0.0, 0.0]
 hi = [{clamp}, {tf.SIZE}, {tf.SIZE}]
 {impulse_rows(pulled, pull)}[[object]]
 mesh = "{mesh}"
@@ -139,7 +148,7 @@ model = "elastic"
 
 
 def prepare(sp: tf.Specimen, n_grid: int, engine: str, surface: str = "auto", ppc: int | None = None,
-            folder: Path | None = None, pull: str = "step"):
+            folder: Path | None = None, pull: str = "step", shift: float = 0.0):
     """Write ``sp``'s mesh and scene into ``folder`` (default: a temporary one) and prepare it. Returns the
     ``PreparedScene`` and the mesh."""
     from gasp_core.prepare.scene import prepare_scene
@@ -148,18 +157,18 @@ def prepare(sp: tf.Specimen, n_grid: int, engine: str, surface: str = "auto", pp
     mesh = specimen_mesh(sp, n_grid)
     mesh.export(folder / f"{sp.name}.ply")
     path = folder / f"{sp.name}.toml"
-    path.write_text(scene_toml(sp, n_grid, engine, f"{sp.name}.ply", surface, ppc, pull))
+    path.write_text(scene_toml(sp, n_grid, engine, f"{sp.name}.ply", surface, ppc, pull, shift))
     return prepare_scene(load_scene(path), engine), mesh
 
 
 def layers(st, h: float) -> tuple[np.ndarray, np.ndarray]:
     """The fill's x layers: each point's layer (n,) int (-1: no volume) and the layers' rest x (k,), m. A layer is
     the slab of width ``h`` (the fill's spacing) around one of the fill grid's cell centres along x, found from the
-    points of a whole cell (``p_vol`` within 1e-6 of ``h^3``); a point at a face (its share's centroid) or a material
+    points of a whole cell (the largest ``p_vol``); a point at a face (its share's centroid) or a material
     vertex goes to the slab it lies in."""
     x = np.asarray(st.x, np.float64)[:, 0]
     pv = np.asarray(st.p_vol, np.float64)
-    whole = np.abs(pv - h ** 3) < 1e-6 * h ** 3
+    whole = pv >= (1 - 1e-6) * pv.max()
     ref = x[whole][0]
     k = np.round((x - ref) / h).astype(int)
     k0 = int(k[pv > 0].min())
@@ -242,25 +251,26 @@ def figures(sp: tf.Specimen, rec: dict, lx: np.ndarray, h: float, dx: float, cla
 
 
 def run_user_case(sp: tf.Specimen, n_grid: int, engine: str, surface: str = "auto", start: str = "step",
-                  ppc: int | None = None) -> dict:
+                  ppc: int | None = None, shift: float = 0.0) -> dict:
     """One specimen built through the scene on one engine at one grid: :func:`figures`, the fill's mass against rho
-    times the mesh's volume, and its x layers' offset from the grid's nodes (cells). ``start``: ``"step"`` (at rest,
+    times the mesh's volume, and how far past the clamp's face (a node) its first free x layer is (cells). ``start``: ``"step"`` (at rest,
     one set box at ``PULL`` from t = 0), ``"ramp"`` (at rest, the pull ramped by :func:`impulse_rows`) or
-    ``"stretch"`` (one set box, the body's ``v`` set to the family's quasi-static stretch after ``prepare_scene``)."""
+    ``"stretch"`` (one set box, the body's ``v`` set to the family's quasi-static stretch after ``prepare_scene``);
+    ``shift``: :func:`faces`."""
     from gasp_core.seam.build import build_engine
-    ps, mesh = prepare(sp, n_grid, engine, surface, ppc, pull="ramp" if start == "ramp" else "step")
+    ps, mesh = prepare(sp, n_grid, engine, surface, ppc, pull="ramp" if start == "ramp" else "step", shift=shift)
     st = ps.setup
     dx = st.dx
     ppc_used = ps.scene.domain.particles_per_cell
     h = tf.SIZE / n_grid / ppc_used ** (1 / 3)
     layer, lx = layers(st, h)
     pv = np.asarray(st.p_vol, np.float64)
-    clamp, pulled = tf.X0 + tf.HOLD, tf.X0 + sp.length - tf.HOLD
+    clamp, pulled = faces(sp, n_grid, shift)
     if start == "stretch":
         st.v = np.zeros_like(np.asarray(st.v))
         st.v[:, 0] = compliance_ramp(sp, np.asarray(st.x, np.float64)[:, 0], clamp, pulled)
     a_gauge = float(sp.gauge_w ** 2)
-    x_g = np.array([tf.X0 + tf.HOLD, tf.X0 + sp.length - tf.HOLD])
+    x_g = np.array([clamp, pulled])
     t_peak = (tf.FT / tf.E) * a_gauge * float(np.diff(np.interp(x_g, *_compliance(sp)))[0]) / tf.PULL
     t_peak += RAMP_S / 2 if start == "ramp" else 0.0
     n_frames = int(np.ceil((t_peak + 1.5 * 2 * tf.GF / tf.FT / tf.PULL) / tf.FRAME_DT))
@@ -270,15 +280,14 @@ def run_user_case(sp: tf.Specimen, n_grid: int, engine: str, surface: str = "aut
         rec = record(e, st, layer, len(lx), h, n_frames)
     finally:
         e.close()
-    off = (lx - float(np.asarray(st.domain_lo)[0])) / dx
     rule = (ps.objects[0].surface_rule or {}).get("surface", surface) if hasattr(ps.objects[0], "surface_rule") \
         else surface
     return {"specimen": sp.name, "engine": engine, "n_grid": n_grid, "surface": rule, "surface_key": surface,
-            "start": start, "ppc": ppc_used, "dx": dx, "h": h, "cells_across": sp.gauge_w / dx,
+            "start": start, "ppc": ppc_used, "shift": shift, "dx": dx, "h": h, "cells_across": sp.gauge_w / dx,
             "points": int((pv > 0).sum()), "passive": int((pv == 0).sum()), "frames": n_frames,
             "seconds": round(time.time() - t0, 1),
             "mass_vs_mesh": float(pv.sum() / mesh.volume - 1),
-            "layer_offset_cells": float(np.median(off - np.floor(off))),
+            "first_free_layer_cells": float((lx[lx > clamp][0] - clamp) / dx),
             **figures(sp, rec, lx, h, dx, clamp, pulled)}
 
 
@@ -289,12 +298,12 @@ def _compliance(sp: tf.Specimen) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _key(r: dict) -> tuple:
-    return r["specimen"], r["engine"], r["n_grid"], r["start"], r["surface_key"], r["ppc"]
+    return r["specimen"], r["engine"], r["n_grid"], r["start"], r["surface_key"], r["ppc"], r.get("shift", 0.0)
 
 
 def table(rows: list[dict]) -> str:
     """The Markdown table of the cases, with the must-show's lines (peak, place, work, N to 2N)."""
-    out = ["| specimen | engine | n_grid | start | surface | ppc | fill mass vs rho V | layers off nodes (cells) | "
+    out = ["| specimen | engine | n_grid | start | surface | ppc | fill mass vs rho V | first layer past clamp (cells) | "
            "peak / f_t | breaks at (x, m) | where | work (J/m^2) | vs G_f | N to 2N | s |",
            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     by = {_key(r): r for r in rows}
@@ -302,8 +311,9 @@ def table(rows: list[dict]) -> str:
         k = _key(r)
         twin = by.get(k[:2] + (r["n_grid"] // 2,) + k[3:])
         conv = f"{100 * (r['work'] / twin['work'] - 1):+.1f} %" if twin else ""
-        out.append(f"| {r['specimen']} | {r['engine']} | {r['n_grid']} | {r['start']} | {r['surface']} | {r['ppc']} | "
-                   f"{100 * r['mass_vs_mesh']:+.2f} % | {r['layer_offset_cells']:.2f} | "
+        name = r["specimen"] + (f" shift {r['shift']:g}" if r.get("shift") else "")
+        out.append(f"| {name} | {r['engine']} | {r['n_grid']} | {r['start']} | {r['surface']} | {r['ppc']} | "
+                   f"{100 * r['mass_vs_mesh']:+.2f} % | {r.get('first_free_layer_cells', float('nan')):.2f} | "
                    f"{r['peak'] / tf.FT:.3f} ({100 * r['peak_vs_ft']:+.1f} %) | {r['crack_x']:.3f} | {r['where']} | "
                    f"{r['work']:.1f} | {100 * r['work_vs_gf']:+.1f} % | {conv} | {r['seconds']:.0f} |")
     return "\n".join(out) + "\n"
@@ -317,6 +327,7 @@ def main() -> None:
     ap.add_argument("--start", default="step,ramp", help="comma-separated: step, ramp, stretch (run_user_case)")
     ap.add_argument("--surface", default="auto", help="the object's surface: auto, passive, material")
     ap.add_argument("--ppc", type=int, default=0, help="particles_per_cell (0: the quality level's)")
+    ap.add_argument("--shift", type=float, default=0.0, help="the grid and the held faces off the fill, cells (faces)")
     ap.add_argument("--coarse-only", action="store_true", help="N only")
     a = ap.parse_args()
     tf.name_check(a.engine)
@@ -327,7 +338,7 @@ def main() -> None:
     for sp in [sp for sp in USER if sp.name in names]:
         for start in a.start.split(","):
             for n in (a.n_grid,) if a.coarse_only else (a.n_grid, 2 * a.n_grid):
-                r = run_user_case(sp, n, a.engine, a.surface, start, a.ppc or None)
+                r = run_user_case(sp, n, a.engine, a.surface, start, a.ppc or None, a.shift)
                 print(json.dumps(r), flush=True)
                 rows = [q for q in rows if _key(q) != _key(r)] + [r]
                 path.write_text(json.dumps({"material": {"E": tf.E, "nu": tf.NU, "rho": tf.RHO, "f_t": tf.FT,
@@ -339,8 +350,8 @@ def main() -> None:
         "`step` a user's scene at rest with one set box at the pull speed from t = 0; `ramp` at rest, the pull "
         f"ramped in {RAMP_ROWS} set boxes over {RAMP_S:g} s; `stretch` the family's quasi-static start (the setup's v "
         "set after prepare_scene). surface: what the surface rule chose (or the object's `surface`). \"fill mass\": "
-        "sum p_vol against the mesh's volume; \"layers off nodes\": the fill's x layers' offset from the grid's "
-        "nodes.\n\n" + table(rows))
+        "sum p_vol against the mesh's volume; \"first layer past clamp\": the fill's first x layer past the "
+        "clamp's face (a node), cells; the fill's layers are h = dx / ppc^(1/3) apart (0.63 dx at 4).\n\n" + table(rows))
 
 
 if __name__ == "__main__":

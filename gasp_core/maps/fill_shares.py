@@ -278,7 +278,9 @@ def cell_fractions(seed: np.ndarray, deep: np.ndarray, phi: np.ndarray, vlo: np.
     centres = cell_centres(near, lo, h)
     sd, _ = distance(centres)
     share = np.where(sd <= 0, 1.0, 0.0)
-    cut = np.abs(sd) < h
+    # a centre past phi's floor (inf) may still have sub-cells within reach of the surface: up to 1/2 - HALF_SHELL
+    # voxels / h of the cell is inside (a dog-bone's gauge at n_grid 24 lost 3.2 % of its section so, round 34)
+    cut = (np.abs(sd) < h) | np.isposinf(sd)
     centre = centres.copy()
     if cut.any():
         u = (np.arange(SUB) + 0.5) / SUB - 0.5
