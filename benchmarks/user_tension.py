@@ -176,6 +176,24 @@ def layers(st, h: float) -> tuple[np.ndarray, np.ndarray]:
     return layer, ref + (np.arange(int(layer.max()) + 1) + k0) * h
 
 
+def fill_figures(ps, mesh, sp: tf.Specimen, shift: float = 0.0) -> dict:
+    """The fill of a prepared specimen (:func:`prepare`) against its mesh: ``mass_vs_mesh`` (sum ``p_vol`` over the
+    mesh's volume, less 1), ``gauge_section`` (the median over the gauge's x layers of each layer's volume over ``h``
+    against the section ``sp.area``, less 1), ``first_free_layer_cells`` (the first x layer past the clamp's face,
+    cells), the fill's spacing ``h`` (m) and the layers (:func:`layers`)."""
+    st = ps.setup
+    n_grid = int(round(tf.SIZE / st.dx))
+    h = st.dx / ps.scene.domain.particles_per_cell ** (1 / 3)
+    layer, lx = layers(st, h)
+    pv = np.asarray(st.p_vol, np.float64)
+    clamp, pulled = faces(sp, n_grid, shift)
+    g_lo, g_hi = (clamp + 1.5 * st.dx, pulled - 1.5 * st.dx) if sp.gauge_l == 0.0 else sp.gauge(st.dx)
+    gl = np.flatnonzero((lx > g_lo) & (lx < g_hi))
+    sec = np.bincount(np.maximum(layer, 0), np.where(layer >= 0, pv, 0.0), len(lx))[gl] / h / sp.area(lx[gl])
+    return {"mass_vs_mesh": float(pv.sum() / mesh.volume - 1), "gauge_section": float(np.median(sec) - 1),
+            "first_free_layer_cells": float((lx[lx > clamp][0] - clamp) / st.dx), "h": h, "layer": layer, "lx": lx}
+
+
 def compliance_ramp(sp: tf.Specimen, x: np.ndarray, clamp: float, pulled: float) -> np.ndarray:
     """The family's quasi-static start: ``PULL`` times the share of the compliance ``int dx / A(x)`` between the
     clamp's face and ``x`` (n,), clipped to [0, 1] (:func:`tension_family.build`)."""
@@ -252,18 +270,17 @@ def figures(sp: tf.Specimen, rec: dict, lx: np.ndarray, h: float, dx: float, cla
 
 def run_user_case(sp: tf.Specimen, n_grid: int, engine: str, surface: str = "auto", start: str = "step",
                   ppc: int | None = None, shift: float = 0.0) -> dict:
-    """One specimen built through the scene on one engine at one grid: :func:`figures`, the fill's mass against rho
-    times the mesh's volume, and how far past the clamp's face (a node) its first free x layer is (cells). ``start``: ``"step"`` (at rest,
-    one set box at ``PULL`` from t = 0), ``"ramp"`` (at rest, the pull ramped by :func:`impulse_rows`) or
+    """One specimen built through the scene on one engine at one grid: :func:`figures` and :func:`fill_figures`.
+    ``start``: ``"step"`` (at rest, one set box at ``PULL`` from t = 0), ``"ramp"`` (at rest, the pull ramped by
+    :func:`impulse_rows`) or
     ``"stretch"`` (one set box, the body's ``v`` set to the family's quasi-static stretch after ``prepare_scene``);
     ``shift``: :func:`faces`."""
     from gasp_core.seam.build import build_engine
     ps, mesh = prepare(sp, n_grid, engine, surface, ppc, pull="ramp" if start == "ramp" else "step", shift=shift)
     st = ps.setup
     dx = st.dx
-    ppc_used = ps.scene.domain.particles_per_cell
-    h = tf.SIZE / n_grid / ppc_used ** (1 / 3)
-    layer, lx = layers(st, h)
+    fill = fill_figures(ps, mesh, sp, shift)
+    h, layer, lx = fill.pop("h"), fill.pop("layer"), fill.pop("lx")
     pv = np.asarray(st.p_vol, np.float64)
     clamp, pulled = faces(sp, n_grid, shift)
     if start == "stretch":
@@ -283,11 +300,9 @@ def run_user_case(sp: tf.Specimen, n_grid: int, engine: str, surface: str = "aut
     rule = (ps.objects[0].surface_rule or {}).get("surface", surface) if hasattr(ps.objects[0], "surface_rule") \
         else surface
     return {"specimen": sp.name, "engine": engine, "n_grid": n_grid, "surface": rule, "surface_key": surface,
-            "start": start, "ppc": ppc_used, "shift": shift, "dx": dx, "h": h, "cells_across": sp.gauge_w / dx,
-            "points": int((pv > 0).sum()), "passive": int((pv == 0).sum()), "frames": n_frames,
-            "seconds": round(time.time() - t0, 1),
-            "mass_vs_mesh": float(pv.sum() / mesh.volume - 1),
-            "first_free_layer_cells": float((lx[lx > clamp][0] - clamp) / dx),
+            "start": start, "ppc": ps.scene.domain.particles_per_cell, "shift": shift, "dx": dx, "h": h,
+            "cells_across": sp.gauge_w / dx, "points": int((pv > 0).sum()), "passive": int((pv == 0).sum()),
+            "frames": n_frames, "seconds": round(time.time() - t0, 1), **fill,
             **figures(sp, rec, lx, h, dx, clamp, pulled)}
 
 
@@ -303,9 +318,9 @@ def _key(r: dict) -> tuple:
 
 def table(rows: list[dict]) -> str:
     """The Markdown table of the cases, with the must-show's lines (peak, place, work, N to 2N)."""
-    out = ["| specimen | engine | n_grid | start | surface | ppc | fill mass vs rho V | first layer past clamp (cells) | "
-           "peak / f_t | breaks at (x, m) | where | work (J/m^2) | vs G_f | N to 2N | s |",
-           "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    out = ["| specimen | engine | n_grid | start | surface | ppc | fill mass vs rho V | gauge section | first layer "
+           "past clamp (cells) | peak / f_t | breaks at (x, m) | where | work (J/m^2) | vs G_f | N to 2N | s |",
+           "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     by = {_key(r): r for r in rows}
     for r in sorted(rows, key=_key):
         k = _key(r)
@@ -313,7 +328,8 @@ def table(rows: list[dict]) -> str:
         conv = f"{100 * (r['work'] / twin['work'] - 1):+.1f} %" if twin else ""
         name = r["specimen"] + (f" shift {r['shift']:g}" if r.get("shift") else "")
         out.append(f"| {name} | {r['engine']} | {r['n_grid']} | {r['start']} | {r['surface']} | {r['ppc']} | "
-                   f"{100 * r['mass_vs_mesh']:+.2f} % | {r.get('first_free_layer_cells', float('nan')):.2f} | "
+                   f"{100 * r['mass_vs_mesh']:+.2f} % | {100 * r.get('gauge_section', float('nan')):+.2f} % | "
+                   f"{r.get('first_free_layer_cells', float('nan')):.2f} | "
                    f"{r['peak'] / tf.FT:.3f} ({100 * r['peak_vs_ft']:+.1f} %) | {r['crack_x']:.3f} | {r['where']} | "
                    f"{r['work']:.1f} | {100 * r['work_vs_gf']:+.1f} % | {conv} | {r['seconds']:.0f} |")
     return "\n".join(out) + "\n"
@@ -346,12 +362,14 @@ def main() -> None:
     (RESULTS / "user_tension.md").write_text(
         "# The tension family built through the scene (issue 66, round 34)\n\n`python benchmarks/user_tension.py` "
         "(docstring: how the specimens are built and measured; the measures are benchmarks/tension_family.py's). "
-        f"E {tf.E:g} Pa, nu {tf.NU:g}, f_t {tf.FT:g} Pa, G_f {tf.GF:g} J/m^2, pull {tf.PULL:g} m/s, f64. start: "
-        "`step` a user's scene at rest with one set box at the pull speed from t = 0; `ramp` at rest, the pull "
+        f"E {tf.E:g} Pa, nu {tf.NU:g}, f_t {tf.FT:g} Pa, G_f {tf.GF:g} J/m^2, pull {tf.PULL:g} m/s, f64. "
+        "start: `step` a user's scene at rest with one set box at the pull speed from t = 0; `ramp` at rest, the pull "
         f"ramped in {RAMP_ROWS} set boxes over {RAMP_S:g} s; `stretch` the family's quasi-static start (the setup's v "
         "set after prepare_scene). surface: what the surface rule chose (or the object's `surface`). \"fill mass\": "
-        "sum p_vol against the mesh's volume; \"first layer past clamp\": the fill's first x layer past the "
-        "clamp's face (a node), cells; the fill's layers are h = dx / ppc^(1/3) apart (0.63 dx at 4).\n\n" + table(rows))
+        "sum p_vol against the mesh's volume; \"gauge section\": the fill's section (each x layer's volume over h) "
+        "against the specimen's, the median over the gauge; \"first layer past clamp\": the fill's first x layer past "
+        "the clamp's face (a node), cells; the fill's layers are h = dx / ppc^(1/3) apart (0.63 dx at 4).\n\n"
+        + table(rows))
 
 
 if __name__ == "__main__":

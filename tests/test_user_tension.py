@@ -4,13 +4,15 @@ docs/fracture.md "Specimens built through the scene (round 34)"): two bars and a
 ``default`` level's 4 points a cell, the surface rule's passive surface, a ``fixed_region`` and a ramped ``[[impulse]]
 mode = "set"``), ``prepare_scene``, then each MPM engine at n_grid N and 2N:
 
-- the fill's mass is rho times the mesh's volume within 2 % (two-sided);
+- the fill's mass is rho times the mesh's volume within 2 %, its section in the gauge the specimen's within 2 %
+  (two-sided);
 - the peak nominal stress in the gauge is f_t within 5 % (two-sided), the break in the gauge;
 - the work to separate over the section is G_f within 20 % (two-sided) at N and 2N, and within 15 % between them.
 
 The catches: a fill whose every point holds 10 % more volume than its cell's share (``spoiled_fill``) fails the mass
-and the peak (+10 %); one ``s_f`` for every point (the engines' ``weighted_band`` off, before round 33) and the pull
-started as a step from rest are measured in docs/fracture.md.
+and the peak (+10 %); the fill of before round 34 (``before_round_34``: a face cell whose centre is past ``phi``'s
+floor left out) fails the dog-bone's gauge section (-3.2 %). The pull started as a step from rest (no ramp) is
+measured in docs/fracture.md.
 """
 from __future__ import annotations
 
@@ -37,9 +39,7 @@ def _names():
 def failures(r: dict) -> list[str]:
     """What the must-show finds wrong with one case of :func:`user_tension.run_user_case`."""
     tag = f"{r['specimen']} {r['engine']} n_grid {r['n_grid']}"
-    bad = []
-    if not abs(r["mass_vs_mesh"]) <= MASS_TOL:
-        bad.append(f"{tag}: fill mass {100 * r['mass_vs_mesh']:+.1f} % against rho V")
+    bad = [f"{tag}: {b}" for b in fill_failures(r)]
     if not abs(r["peak"] / tf.FT - 1) <= STRENGTH_TOL:
         bad.append(f"{tag}: peak nominal stress {r['peak']:.0f} Pa against f_t {tf.FT:.0f} "
                    f"({100 * r['peak_vs_ft']:+.1f} %)")
@@ -94,20 +94,36 @@ def test_the_meshes_enclose_the_specimens():
         assert m.is_watertight and m.is_winding_consistent and abs(m.volume / vol - 1) < 1e-3, (sp.name, m.volume, vol)
 
 
-def test_the_fill_of_a_dog_bone_weighs_rho_V_and_a_spoiled_fill_does_not(monkeypatch):
-    """The dog-bone through ``prepare_scene`` at n_grid 24 (no engine run): the fill's volume is the mesh's within
-    2 % (measured -0.8 %); with :func:`spoiled_fill` it is +9 %, and the check fails it."""
-    name = _names()[0]
-    sp = ut.USER[2]
+def fill_of(sp, monkeypatch, spoil=None) -> dict:
+    """:func:`user_tension.fill_figures` of ``sp`` prepared at n_grid N (no engine run), ``spoil(mp)`` first."""
+    with monkeypatch.context() as mp:
+        if spoil is not None:
+            spoil(mp)
+        ps, mesh = ut.prepare(sp, N, _names()[0])
+    return ut.fill_figures(ps, mesh, sp)
 
-    def mass(spoil: bool) -> float:
-        with monkeypatch.context() as mp:
-            if spoil:
-                spoiled_fill(mp)
-            ps, mesh = ut.prepare(sp, N, name)
-        return float(np.asarray(ps.setup.p_vol).sum() / mesh.volume - 1)
-    good, bad = mass(False), mass(True)
-    assert abs(good) <= MASS_TOL and not abs(bad) <= MASS_TOL, (good, bad)
+
+def fill_failures(f: dict) -> list[str]:
+    """The fill's mass against rho V and its section in the gauge against the specimen's, each within 2 %."""
+    return ([f"fill mass {100 * f['mass_vs_mesh']:+.2f} %"] if not abs(f["mass_vs_mesh"]) <= MASS_TOL else []) + \
+        ([f"gauge section {100 * f['gauge_section']:+.2f} %"] if not abs(f["gauge_section"]) <= MASS_TOL else [])
+
+
+def before_round_34(monkeypatch) -> None:
+    """The fill of before round 34: a cell whose centre is past ``phi``'s floor is left out whole."""
+    import gasp_core.maps.fill_shares as fs
+    monkeypatch.setattr(fs, "SAMPLE_PAST_FLOOR", False)
+
+
+def test_the_dog_bones_fill_has_its_mass_and_its_gauges_section_and_the_spoiled_fills_do_not(monkeypatch):
+    """The dog-bone through ``prepare_scene`` at n_grid 24: mass +0.16 %, gauge section within 0.1 %; catches: the
+    fill of before round 34 (:func:`before_round_34`: the gauge -3.2 %, its peak read 0.94 f_t) and a fill 10 %
+    heavy (:func:`spoiled_fill`) each fail."""
+    sp = ut.USER[2]
+    assert fill_failures(fill_of(sp, monkeypatch)) == []
+    old = fill_failures(fill_of(sp, monkeypatch, before_round_34))
+    heavy = fill_failures(fill_of(sp, monkeypatch, spoiled_fill))
+    assert any("gauge section" in b for b in old) and any("fill mass" in b for b in heavy), (old, heavy)
 
 
 @pytest.mark.slow
@@ -118,3 +134,24 @@ def test_the_check_catches_a_spoiled_fill(name, monkeypatch):
     spoiled_fill(monkeypatch)
     bad = failures(ut.run_user_case(ut.USER[0], N, name, start="ramp"))
     assert any("fill mass" in b for b in bad) and any("peak nominal" in b for b in bad), bad
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", _names())
+def test_the_check_catches_the_fill_of_before_on_the_dog_bone(name, monkeypatch):
+    """The dog-bone at n_grid 24 with the fill of before round 34 (:func:`before_round_34`): its gauge's section
+    -3.2 %, its peak 0.940 f_t (-6.0 %, both engines; 0.979 with the fill of round 34)."""
+    before_round_34(monkeypatch)
+    bad = failures(ut.run_user_case(ut.USER[2], N, name, start="ramp"))
+    assert any("gauge section" in b for b in bad) and any("peak nominal" in b for b in bad), bad
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.xfail(strict=True, reason=(
+    "a user's scene at rest pulled by one set box from t = 0: the pull starts a wave of rho c v = 632 Pa (6.3 % of "
+    "f_t) that doubles where it meets the clamp; the bar L0.7 a0.30 at n_grid 48 breaks at the clamp's edge (x 0.267, "
+    "clamp face 0.300) at a gauge peak of 0.960 f_t, both engines. Ramped over 0.1 s (user_tension.impulse_rows) it "
+    "breaks in the gauge"))) for n in _names()])
+def test_a_pull_started_as_a_step_from_rest_breaks_in_the_gauge(name):
+    bad = failures(ut.run_user_case(ut.USER[1], 2 * N, name, start="step"))
+    assert bad == [], bad
