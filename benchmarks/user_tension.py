@@ -9,18 +9,21 @@ The specimens, the material, the holds and the pull are ``benchmarks/tension_fam
   level's ``particles_per_cell``: 4 at ``default``), its cells at the faces holding their inside share at their
   share's centroid, and the mesh's vertices (passive or material, as the surface rule or the object's ``surface``
   says);
-- the body starts at rest (``start = "rest"``, a user's scene: the pull starts a wave) or, to part the pipeline's
-  effect from the start's, in the family's quasi-static stretch (``start = "ramp"``: the setup's ``v`` set after
-  ``prepare_scene`` as :func:`tension_family.build` sets it).
+- the body starts at rest, pulled by one set box at ``PULL`` from t = 0 (``start = "step"``: a user's first scene;
+  the pull starts a wave of ``rho c PULL``, 6.3 % of f_t, that doubles at the clamp) or by set boxes ramping up to
+  ``PULL`` over ``RAMP_S`` (``"ramp"``: :func:`impulse_rows`, what a user can write to start slowly); or, to part the
+  pipeline's effect from the start's, in the family's quasi-static stretch (``"stretch"``: the setup's ``v`` set after
+  ``prepare_scene`` as :func:`tension_family.build` sets it; no scene key gives it).
 
-Measured with the family's measures (:func:`measure`, :func:`tension_family.run_case`'s on the fill's own layers: a
-layer is a slab of the fill's spacing ``h`` around one of its x layers, its force ``sum P_xx V / h``): the peak
-nominal stress in the gauge, where it breaks, the work to separate, N against 2N; and the fill's mass against rho
-times the mesh's volume, and where its layers sit against the grid's nodes.
+Measured with the family's measures (:func:`record` and :func:`figures`, :func:`tension_family.run_case`'s on the
+fill's own layers: a layer is a slab of the fill's spacing ``h`` around one of its x layers, its force
+``sum P_xx V / h``): the peak nominal stress in the gauge, where it breaks, the work to separate, N against 2N; and
+(:func:`fill_figures`) the fill's mass against rho times the mesh's volume, its section in the gauge against the
+specimen's, and where its first free layer sits past the clamp's face (a node).
 
 Run: ``python benchmarks/user_tension.py --engine taichi_mpm`` (and ``warp_mpm``; ``--only``, ``--n-grid``,
-``--surface``, ``--start``, ``--ppc``); each engine's cases are added to ``benchmarks/results/user_tension.json`` and
-``user_tension.md`` is written from it. One engine per process.
+``--surface``, ``--start``, ``--ppc``, ``--shift``); each engine's cases are added to
+``benchmarks/results/user_tension.json`` and ``user_tension.md`` is written from it. One engine per process.
 """
 from __future__ import annotations
 
@@ -149,11 +152,14 @@ model = "elastic"
 
 def prepare(sp: tf.Specimen, n_grid: int, engine: str, surface: str = "auto", ppc: int | None = None,
             folder: Path | None = None, pull: str = "step", shift: float = 0.0):
-    """Write ``sp``'s mesh and scene into ``folder`` (default: a temporary one) and prepare it. Returns the
-    ``PreparedScene`` and the mesh."""
+    """Write ``sp``'s mesh and scene into ``folder`` (default: a temporary one, removed after) and prepare it.
+    Returns the ``PreparedScene`` and the mesh."""
+    if folder is None:
+        with tempfile.TemporaryDirectory(prefix="user_tension_") as tmp:
+            return prepare(sp, n_grid, engine, surface, ppc, Path(tmp), pull, shift)
     from gasp_core.prepare.scene import prepare_scene
     from gasp_core.scene.spec import load_scene
-    folder = Path(folder or tempfile.mkdtemp(prefix="user_tension_"))
+    folder = Path(folder)
     mesh = specimen_mesh(sp, n_grid)
     mesh.export(folder / f"{sp.name}.ply")
     path = folder / f"{sp.name}.toml"
