@@ -78,6 +78,9 @@ NEAR_PHI = 1.25
 _CUBE = np.ones((3, 3, 3), bool)
 #: A cell whose share inside is under this is left out (its volume, under 1 % of a cell, is lost).
 MIN_SHARE = 0.01
+#: True: a cell whose centre is past ``phi``'s floor (its distance ``inf``) is measured by its sub-cells too (round 34;
+#: False: left out whole, as before, up to ``1/2 - HALF_SHELL voxel / h`` of it inside).
+SAMPLE_PAST_FLOOR = True
 
 
 def surface_distance(phi: np.ndarray, vlo: np.ndarray, voxel: float, splats: np.ndarray, h: float,
@@ -278,7 +281,9 @@ def cell_fractions(seed: np.ndarray, deep: np.ndarray, phi: np.ndarray, vlo: np.
     centres = cell_centres(near, lo, h)
     sd, _ = distance(centres)
     share = np.where(sd <= 0, 1.0, 0.0)
-    cut = np.abs(sd) < h
+    # a centre past phi's floor (inf) may still have sub-cells within reach of the surface: up to 1/2 - HALF_SHELL
+    # voxels / h of the cell is inside (a dog-bone's gauge at n_grid 24 lost 3.2 % of its section so, round 34)
+    cut = (np.abs(sd) < h) | (np.isposinf(sd) & SAMPLE_PAST_FLOOR)
     centre = centres.copy()
     if cut.any():
         u = (np.arange(SUB) + 0.5) / SUB - 0.5
