@@ -19,9 +19,9 @@ across). The rule's inputs and its choice are recorded per object in ``run.json`
 material, a body a few cells thick has its mass on its skin (the fill made with the faces' shares leaves no interior
 point), and a brittle shell is broken through everywhere at a landing, its points drifting apart into a swelling
 cloud that no count of pieces calls pieces (docs/fracture.md, "The brittle README donut from 1 m": the README donut
-placed 1 m up in its default domain, n_grid 64, 43 cells of solid, 136 872 skin points, broken through everywhere and
-filling 65 times the cells it filled at rest 10 frames after it lands; with its 261 fill points under a passive
-skin: one cracked piece, 22 % of it broken through, 1.06 times the cells, 11 times less CPU, both engines alike).
+placed 1 m up in its default domain, n_grid 64, 45 cells of solid, 136 872 skin points, broken through everywhere and
+filling 71 times the cells it filled at rest 10 frames after it lands; with its 351 fill points under a passive
+skin: one cracked piece, 16 % of it broken through, 0.99 times the cells, 8-11 times less CPU, both engines alike).
 """
 from __future__ import annotations
 
@@ -101,10 +101,10 @@ def brittle_skin_warning(name: str, rule: dict | None, n_grid: int) -> str:
     :data:`MIN_SOLID_CELLS` grid cells (issue 66; docs/fracture.md, "The brittle README donut from 1 m").
 
     With interior fill points (:func:`surface_rule` makes its surface passive): the body is a few crack bands
-    (``dx``) thick and breaks coarsely (the README donut placed 1 m up at n_grid 64, 43 cells: one cracked piece, 22 %
+    (``dx``) thick and breaks coarsely (the README donut placed 1 m up at n_grid 64, 45 cells: one cracked piece, 16 %
     of it broken through). With none (its surface simulated as material, the faces' shares putting all of its mass
     on its skin): a brittle shell is broken through everywhere at an impact and its points drift apart into a
-    swelling cloud, not pieces (that donut before round 34: 65 times the cells it filled at rest).
+    swelling cloud, not pieces (that donut before round 34: 71 times the cells it filled at rest).
 
     Parameters
     ----------
