@@ -179,15 +179,21 @@ def shifted_failures(shift, name: str, grids=(N, 2 * N)) -> list[str]:
     return [b for n in grids for b in failures(tf.run_case(BAR, n, name, shift=shift))]
 
 
+def band_switch(monkeypatch, name: str, switch: str, on: bool) -> None:
+    """Set the brittle crack band's class switch ``switch`` (``weighted_band``, ``oblique_band``) of engine ``name``:
+    taichi_mpm's ``Constitutive``, warp_mpm's ``HeldRule``."""
+    if name == "taichi_mpm":
+        from gasp_taichi_mpm.constitutive import Constitutive
+        monkeypatch.setattr(Constitutive, switch, on)
+    else:
+        from gasp_warp_mpm.held_rule import HeldRule
+        monkeypatch.setattr(HeldRule, switch, on)
+
+
 def one_sf(monkeypatch, name: str) -> None:
     """The engine ``name`` with one ``s_f`` for every brittle point, as before round 33 (its ``weighted_band``
     False): no crack band weight."""
-    if name == "taichi_mpm":
-        from gasp_taichi_mpm.constitutive import Constitutive
-        monkeypatch.setattr(Constitutive, "weighted_band", False)
-    else:
-        from gasp_warp_mpm.held_rule import HeldRule
-        monkeypatch.setattr(HeldRule, "weighted_band", False)
+    band_switch(monkeypatch, name, "weighted_band", False)
 
 
 def test_the_band_weight_is_a_points_share_of_its_cells_opening():

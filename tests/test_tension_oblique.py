@@ -23,7 +23,7 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 import tension_oblique as to   # noqa: E402
-from test_tension_family import GRID_TOL, N, _names, failures, one_sf   # noqa: E402
+from test_tension_family import GRID_TOL, N, _names, band_switch, failures, one_sf   # noqa: E402
 
 BONES = [to.SPECIMENS["dogbone_2to1"], to.SPECIMENS["dogbone_1.5to1"]]
 ANGLES = ["30", "45"]
@@ -112,12 +112,7 @@ def test_the_band_projection_is_the_cells_width_along_the_normal():
 
 def _projection(monkeypatch, name: str, on: bool) -> None:
     """The engine ``name`` with its band projection (``oblique_band``, round 34) ``on``."""
-    if name == "taichi_mpm":
-        from gasp_taichi_mpm.constitutive import Constitutive
-        monkeypatch.setattr(Constitutive, "oblique_band", on)
-    else:
-        from gasp_warp_mpm.held_rule import HeldRule
-        monkeypatch.setattr(HeldRule, "oblique_band", on)
+    band_switch(monkeypatch, name, "oblique_band", on)
 
 
 @pytest.mark.slow

@@ -28,6 +28,7 @@ import tension_family as tf   # noqa: E402
 import user_tension as ut     # noqa: E402
 
 from gasp_core.seam.plugins import engines   # noqa: E402
+from test_tension_family import one_sf   # noqa: E402
 
 STRENGTH_TOL, GF_TOL, GRID_TOL, MASS_TOL = 0.05, 0.20, 0.15, 0.02
 N = 24
@@ -166,16 +167,6 @@ def test_the_check_catches_the_fill_of_before_on_the_dog_bone(name, monkeypatch)
 def test_a_pull_started_as_a_step_from_rest_breaks_in_the_gauge(name):
     bad = failures(ut.run_user_case(ut.USER[1], 2 * N, name, start="step"))
     assert bad == [], bad
-
-
-def one_sf(monkeypatch, name: str) -> None:
-    """The engine ``name`` with one ``s_f`` for every brittle point (its ``weighted_band`` off, before round 33)."""
-    if name == "taichi_mpm":
-        from gasp_taichi_mpm.constitutive import Constitutive
-        monkeypatch.setattr(Constitutive, "weighted_band", False)
-    else:
-        from gasp_warp_mpm.held_rule import HeldRule
-        monkeypatch.setattr(HeldRule, "weighted_band", False)
 
 
 @pytest.mark.slow
