@@ -333,12 +333,33 @@ def table(rows: list[dict]) -> str:
     return "\n".join(out) + "\n"
 
 
-def main() -> None:
+def family_parser(only: str = "") -> argparse.ArgumentParser:
+    """The arguments every tension benchmark takes: ``--engine``, ``--n-grid`` (N: the cases run at N and 2N),
+    ``--only`` (specimen names, default ``only``), ``--coarse-only`` (N alone; :func:`grids`)."""
     ap = argparse.ArgumentParser()
     ap.add_argument("--engine", default="taichi_mpm")
     ap.add_argument("--n-grid", type=int, default=24, help="N (the cases run at N and 2N)")
-    ap.add_argument("--only", default="", help="comma-separated specimen names")
+    ap.add_argument("--only", default=only, help="comma-separated specimen names")
     ap.add_argument("--coarse-only", action="store_true", help="N only")
+    return ap
+
+
+def grids(a) -> tuple[int, ...]:
+    """The n_grids :func:`family_parser`'s arguments ``a`` ask for: N and 2N, or N alone."""
+    return (a.n_grid,) if a.coarse_only else (a.n_grid, 2 * a.n_grid)
+
+
+def save_case(path: Path, rows: list, r: dict, key) -> list:
+    """``rows`` with ``r`` in place of any row of the same ``key``, written to the results JSON ``path`` under the
+    family's material; returns the new rows."""
+    rows = [q for q in rows if key(q) != key(r)] + [r]
+    path.write_text(json.dumps({"material": {"E": E, "nu": NU, "rho": RHO, "f_t": FT, "G_f": GF, "pull_m_s": PULL},
+                                "cases": rows}, indent=1))
+    return rows
+
+
+def main() -> None:
+    ap = family_parser()
     ap.add_argument("--shift", default="0,0", help="the lattice's and the faces' shift off the nodes, cells (build)")
     a = ap.parse_args()
     RESULTS.mkdir(exist_ok=True)
@@ -349,12 +370,10 @@ def main() -> None:
     for sp in FAMILY:
         if sp.name not in names:
             continue
-        for n in (a.n_grid,) if a.coarse_only else (a.n_grid, 2 * a.n_grid):
+        for n in grids(a):
             r = run_case(sp, n, a.engine, shift=shift)
             print(json.dumps(r), flush=True)
-            rows = [q for q in rows if _key(q) != _key(r)] + [r]
-            path.write_text(json.dumps({"material": {"E": E, "nu": NU, "rho": RHO, "f_t": FT, "G_f": GF,
-                                                     "pull_m_s": PULL}, "cases": rows}, indent=1))
+            rows = save_case(path, rows, r, _key)
     (RESULTS / "tension_family.md").write_text(
         f"# Tension over a family (issue 66)\n\n`python benchmarks/tension_family.py` (docstring: the specimens and "
         f"the measures). E {E:g} Pa, nu {NU:g}, f_t {FT:g} Pa, G_f {GF:g} J/m^2, pull {PULL:g} m/s, f64. "

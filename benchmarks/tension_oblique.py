@@ -26,7 +26,6 @@ Run: ``python benchmarks/tension_oblique.py --engine taichi_mpm --angles 30,45 -
 """
 from __future__ import annotations
 
-import argparse
 import json
 import time
 from pathlib import Path
@@ -260,12 +259,8 @@ def table(rows: list[dict]) -> str:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--engine", default="taichi_mpm")
-    ap.add_argument("--n-grid", type=int, default=24, help="N (the cases run at N and 2N)")
-    ap.add_argument("--only", default="bar_L0.9_a0.15", help="comma-separated specimen names")
+    ap = tf.family_parser("bar_L0.9_a0.15")
     ap.add_argument("--angles", default="30,45", help="comma-separated: degrees about z, or 111")
-    ap.add_argument("--coarse-only", action="store_true", help="N only")
     ap.add_argument("--projected", action="store_true", help="the band's projection on (round 34, off by default)")
     a = ap.parse_args()
     projected(a.engine, a.projected)
@@ -274,12 +269,10 @@ def main() -> None:
     rows = json.loads(path.read_text())["cases"] if path.exists() else []
     for name in a.only.split(","):
         for angle in a.angles.split(","):
-            for n in (a.n_grid,) if a.coarse_only else (a.n_grid, 2 * a.n_grid):
+            for n in tf.grids(a):
                 r = run_case(SPECIMENS[name], n, a.engine, angle)
                 print(json.dumps({k: v for k, v in r.items() if k != "damaged_layers"}), flush=True)
-                rows = [q for q in rows if _key(q) != _key(r)] + [r]
-                path.write_text(json.dumps({"material": {"E": tf.E, "nu": tf.NU, "rho": tf.RHO, "f_t": tf.FT,
-                                                         "G_f": tf.GF, "pull_m_s": tf.PULL}, "cases": rows}, indent=1))
+                rows = tf.save_case(path, rows, r, _key)
     (RESULTS / "tension_oblique.md").write_text(
         "# Tension at an angle to the grid (issue 66, round 34)\n\n`python benchmarks/tension_oblique.py` (docstring: "
         "the holds and the measures, in the specimen's frame). The family's material and pull "

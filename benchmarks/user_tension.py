@@ -27,7 +27,6 @@ Run: ``python benchmarks/user_tension.py --engine taichi_mpm`` (and ``warp_mpm``
 """
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 import tempfile
@@ -342,15 +341,11 @@ def table(rows: list[dict]) -> str:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--engine", default="taichi_mpm")
-    ap.add_argument("--n-grid", type=int, default=24, help="N (the cases run at N and 2N)")
-    ap.add_argument("--only", default="", help="comma-separated specimen names")
+    ap = tf.family_parser()
     ap.add_argument("--start", default="step,ramp", help="comma-separated: step, ramp, stretch (run_user_case)")
     ap.add_argument("--surface", default="auto", help="the object's surface: auto, passive, material")
     ap.add_argument("--ppc", type=int, default=0, help="particles_per_cell (0: the quality level's)")
     ap.add_argument("--shift", type=float, default=0.0, help="the grid and the held faces off the fill, cells (faces)")
-    ap.add_argument("--coarse-only", action="store_true", help="N only")
     a = ap.parse_args()
     tf.name_check(a.engine)
     RESULTS.mkdir(exist_ok=True)
@@ -359,12 +354,10 @@ def main() -> None:
     names = set(a.only.split(",")) if a.only else {sp.name for sp in USER}
     for sp in [sp for sp in USER if sp.name in names]:
         for start in a.start.split(","):
-            for n in (a.n_grid,) if a.coarse_only else (a.n_grid, 2 * a.n_grid):
+            for n in tf.grids(a):
                 r = run_user_case(sp, n, a.engine, a.surface, start, a.ppc or None, a.shift)
                 print(json.dumps(r), flush=True)
-                rows = [q for q in rows if _key(q) != _key(r)] + [r]
-                path.write_text(json.dumps({"material": {"E": tf.E, "nu": tf.NU, "rho": tf.RHO, "f_t": tf.FT,
-                                                         "G_f": tf.GF, "pull_m_s": tf.PULL}, "cases": rows}, indent=1))
+                rows = tf.save_case(path, rows, r, _key)
     (RESULTS / "user_tension.md").write_text(
         "# The tension family built through the scene (issue 66, round 34)\n\n`python benchmarks/user_tension.py` "
         "(docstring: how the specimens are built and measured; the measures are benchmarks/tension_family.py's). "
