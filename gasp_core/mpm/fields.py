@@ -139,7 +139,8 @@ def shared_field_warning(setup, engine: str) -> None:
     shared = shared_field_bodies(setup)
     if shared:
         import warnings
-        names = ", ".join(f"{i} ({setup.materials[i].name})" for i in shared)
+        names = ", ".join(f"{i} ({setup.materials[i].name})" for i in shared[:6])
+        names += f" and {len(shared) - 6} more" if len(shared) > 6 else ""
         warnings.warn(f"engine '{engine}': bodies {names} share one grid velocity field: where they touch they move "
                       f"as one, with no slip and no friction law between them (the two-field contact takes two "
                       f"bodies, or flowing bodies against one other; docs/contact.md); make the ones that only "

@@ -19,6 +19,7 @@ engine is not the scene's), so a run stopped after it resumes from the last fram
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from typing import Callable, Iterator
 
 import numpy as np
@@ -186,7 +187,10 @@ def frames(info, setup, stats: RunStats, n_frames: int, start_frame: int = 0, st
     if tracker is not None:
         tracker.split_bodies(new.body_id)
         damage = None
-    with EngineRun(info, new, stats, sleep=sleep) as run:
+    with warnings.catch_warnings():   # the fragments of one body share its grid field by design (docs/fracture.md)
+        warnings.filterwarnings("ignore", message=".*share one grid velocity field", category=UserWarning)
+        run = EngineRun(info, new, stats, sleep=sleep)
+    with run:
         for r in run.frames(n_frames - k0):
             stats.damage = damage
             yield FrameRecord(r.frame + k0, r.x, r.wall_s, None)
