@@ -18,7 +18,8 @@ from gasp_core.errors import EngineError, SceneError
 from gasp_core.seam.engine import Capabilities
 from gasp_core.mpm.contact import contact_dt, contact_model, flowing_bodies
 from gasp_core.mpm.fields import uses_fields
-from gasp_core.mpm.rigid import step_view
+from gasp_core.mpm.grid_origin import ground_on_node
+from gasp_core.mpm.rigid import lift_setup, step_view
 from gasp_core.mpm.points import engine_mass_stats, material_first_order, stranded_passive
 from gasp_core.mpm.substeps import MAX_SUBSTEPS, substeps_for, substeps_from_options
 
@@ -95,6 +96,13 @@ class GridEngineBase:
 
     ENGINE = "grid engine"
     STATE: tuple[str, ...] = ()
+
+    @staticmethod
+    def grid_setup(setup):
+        """The setup a grid engine builds from: its grid laid with the ground's plane on a node where the grid contact
+        acts (:func:`gasp_core.mpm.grid_origin.ground_on_node`), then each rigid body put inside a ground or wall
+        lifted out (:func:`gasp_core.mpm.rigid.lift_setup`, issue 53). ``setup`` itself when nothing moves."""
+        return lift_setup(ground_on_node(setup))
 
     # ------------------------------------------------------------------ point order
     def order_points(self, setup, dx: float) -> None:

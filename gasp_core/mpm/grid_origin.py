@@ -1,7 +1,7 @@
 """Where a grid engine lays its grid: the ground's plane on a node layer for the grid contact (issue 67, round 35;
 docs/contact.md "The ground on a node layer").
 
-The grid contact (taichi_elements' separate collider with Coulomb friction) stops the node layers at and below a
+The grid contact (the separate collider with Coulomb friction, docs/mpm.md step 3) stops the node layers at and below a
 ground's plane and leaves the layer above it free. In the weak form the plane's reaction reaches every node whose
 kernel covers the plane, in the share ``w(z_node - height)`` (the quadratic B-spline: 3/4 on a node at the plane,
 1/8 on each neighbour); the free node above the plane takes its share of the base's shear from the stress but none of

@@ -17,8 +17,7 @@ from gasp_core.mpm.fields import field_setup, shared_field_warning
 from gasp_core.mpm.grid_engine import choose_dt, GridEngineBase
 from gasp_core.mpm.materials import JELLY, initial_Jp, material_table
 from gasp_core.mpm.rigid_hold import rigid_hold_tables
-from gasp_core.mpm.grid_origin import ground_on_node
-from gasp_core.mpm.rigid import (body_frames, face_counts, lift_setup, rigid_contact, rigid_mask, step_view,
+from gasp_core.mpm.rigid import (body_frames, face_counts, rigid_contact, rigid_mask, step_view,
                                      zero_stress)
 from gasp_core.seam.memory import check_memory, estimate_bytes
 from gasp_core.mpm.restitution import body_table, plane_table, rest_speed
@@ -126,8 +125,7 @@ class TaichiMPMEngine(GridEngineBase):
 
     def __init__(self, setup: SimSetup):
         global _generation
-        setup = lift_setup(ground_on_node(setup))   # the grid contact's ground on a node (grid_origin.py); a rigid
-        # body put inside a ground or wall is lifted out (issue 53)
+        setup = self.grid_setup(setup)   # the ground on a node; rigid bodies put inside a ground lifted out
         opt = setup.options  # checked and completed by the core (build_engine)
         cfg = self.config = TaichiMPMConfig(**opt)   # the same settings, typed
         # viscosity implicit (backward Euler): no viscous step cap; a rigid body sets no elastic or contact step (step_view)

@@ -33,8 +33,7 @@ import warp as wp
 
 from gasp_core.mpm.grid_engine import choose_dt, GridEngineBase
 from gasp_core.mpm.materials import JELLY, P_ETA, initial_Jp, material_table
-from gasp_core.mpm.grid_origin import ground_on_node
-from gasp_core.mpm.rigid import lift_setup, rigid_contact, step_view, zero_stress
+from gasp_core.mpm.rigid import rigid_contact, step_view, zero_stress
 from gasp_core.seam.memory import check_memory, estimate_bytes
 from gasp_core.mpm.contact import (contact_coefficients, contact_model, contact_planes, ground_node_layer,
                                       rule_models, wall_floor, wall_grid_cells)
@@ -80,8 +79,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
     ENGINE = ENGINE
 
     def __init__(self, setup: SimSetup):
-        setup = lift_setup(ground_on_node(setup))   # the grid contact's ground on a node (grid_origin.py); a rigid
-        # body put inside a ground or wall is lifted out (issue 53)
+        setup = self.grid_setup(setup)   # the ground on a node; rigid bodies put inside a ground lifted out
         self.setup = setup
         self.options = opts = setup.options  # checked and completed by the core (build_engine)
         cfg = self.config = WarpMPMConfig(**opts)   # the same settings, typed
