@@ -10,10 +10,12 @@ The specimens, the material, the holds and the pull are ``benchmarks/tension_fam
   share's centroid, and the mesh's vertices (passive or material, as the surface rule or the object's ``surface``
   says);
 - the body starts at rest, pulled by one set box at ``PULL`` from t = 0 (``start = "step"``: a user's first scene;
-  the pull starts a wave of ``rho c PULL``, 6.3 % of f_t, that doubles at the clamp) or by set boxes ramping up to
-  ``PULL`` over ``RAMP_S`` (``"ramp"``: :func:`impulse_rows`, what a user can write to start slowly); or, to part the
-  pipeline's effect from the start's, in the family's quasi-static stretch (``"stretch"``: the setup's ``v`` set after
-  ``prepare_scene`` as :func:`tension_family.build` sets it; no scene key gives it).
+  the pull starts a wave of ``rho c PULL``, 6.3 % of f_t, that doubles at the clamp) or by one set box whose ``ramp``
+  key raises it linearly from 0 to ``PULL`` over ``RAMP_S`` (``"ramp"``: :func:`impulse_rows`, how a user starts
+  slowly); ``"boxes"``, round 34's ramp before the key, ``RAMP_ROWS`` set boxes stepping up to ``PULL``, is kept to
+  compare with; or, to part the pipeline's effect from the start's, in the family's quasi-static stretch
+  (``"stretch"``: the setup's ``v`` set after ``prepare_scene`` as :func:`tension_family.build` sets it; no scene key
+  gives it).
 
 Measured with the family's measures (:func:`record` and :func:`figures`, :func:`tension_family.run_case`'s on the
 fill's own layers: a layer is a slab of the fill's spacing ``h`` around one of its x layers, its force
@@ -81,17 +83,23 @@ def prism(xs: np.ndarray, half_w: np.ndarray, half_t: float):
     return trimesh.Trimesh(v, np.array(f), process=True)
 
 
-#: a ramped pull (``pull = "ramp"``): the imposed speed rises to ``PULL`` in ``RAMP_ROWS`` equal steps over ``RAMP_S``
-#: seconds, three round trips of the free length's wave (``2 L / c``, ``c = sqrt(E / rho)``: 0.032 s for 0.5 m)
+#: a ramped pull (``pull = "ramp"``): the imposed speed rises linearly to ``PULL`` over ``RAMP_S`` seconds (the set
+#: impulse's ``ramp`` key), three round trips of the free length's wave (``2 L / c``, ``c = sqrt(E / rho)``: 0.032 s
+#: for 0.5 m); ``"boxes"``: the same in ``RAMP_ROWS`` equal steps of set boxes (round 34, before the key)
 RAMP_ROWS, RAMP_S = 20, 0.1
+#: the pulls :func:`impulse_rows` writes
+PULLS = ("step", "ramp", "boxes")
 
 
 def impulse_rows(pulled: float, pull: str) -> str:
-    """The ``[[impulse]]`` rows of the pull: one set box at ``PULL`` from t = 0 (``"step"``), or ``RAMP_ROWS`` set
-    boxes at ``PULL k / RAMP_ROWS`` each over its ``RAMP_S / RAMP_ROWS`` s, then ``PULL`` (``"ramp"``)."""
-    steps = [(tf.PULL, 0.0, 100.0)] if pull == "step" else (
-        [(tf.PULL * (k + 1) / RAMP_ROWS, k * RAMP_S / RAMP_ROWS, (k + 1) * RAMP_S / RAMP_ROWS)
-         for k in range(RAMP_ROWS)] + [(tf.PULL, RAMP_S, 100.0)])
+    """The ``[[impulse]]`` rows of the pull: one set box at ``PULL`` from t = 0 (``"step"``), one whose ``ramp =
+    RAMP_S`` raises it from 0 (``"ramp"``), or ``RAMP_ROWS`` set boxes at ``PULL k / RAMP_ROWS`` each over its ``RAMP_S
+    / RAMP_ROWS`` s, then ``PULL`` (``"boxes"``). ``ValueError`` for another ``pull``."""
+    if pull not in PULLS:
+        raise ValueError(f"pull must be one of {PULLS}, got {pull!r}")
+    steps = [(tf.PULL, 0.0, 100.0, 0.0)] if pull == "step" else [(tf.PULL, 0.0, 100.0, RAMP_S)] if pull == "ramp" \
+        else [(tf.PULL * (k + 1) / RAMP_ROWS, k * RAMP_S / RAMP_ROWS, (k + 1) * RAMP_S / RAMP_ROWS, 0.0)
+              for k in range(RAMP_ROWS)] + [(tf.PULL, RAMP_S, 100.0, 0.0)]
     return "".join(f"""[[impulse]]
 shape = "box"
 lo = [{pulled}, 0.0, 0.0]
@@ -100,7 +108,7 @@ velocity_change = [{v!r}, 0.0, 0.0]
 t0 = {t0!r}
 t1 = {t1!r}
 mode = "set"
-""" for v, t0, t1 in steps)
+""" + (f"ramp = {ramp!r}\n" if ramp else "") for v, t0, t1, ramp in steps)
 
 
 def faces(sp: tf.Specimen, n_grid: int, shift: float = 0.0) -> tuple[float, float]:
@@ -276,12 +284,12 @@ def figures(sp: tf.Specimen, rec: dict, lx: np.ndarray, h: float, dx: float, cla
 def run_user_case(sp: tf.Specimen, n_grid: int, engine: str, surface: str = "auto", start: str = "step",
                   ppc: int | None = None, shift: float = 0.0) -> dict:
     """One specimen built through the scene on one engine at one grid: :func:`figures` and :func:`fill_figures`.
-    ``start``: ``"step"`` (at rest, one set box at ``PULL`` from t = 0), ``"ramp"`` (at rest, the pull ramped by
-    :func:`impulse_rows`) or
-    ``"stretch"`` (one set box, the body's ``v`` set to the family's quasi-static stretch after ``prepare_scene``);
+    ``start``: ``"step"`` (at rest, one set box at ``PULL`` from t = 0), ``"ramp"`` (at rest, one set box with the
+    ``ramp`` key), ``"boxes"`` (at rest, round 34's staircase of set boxes; :func:`impulse_rows`) or ``"stretch"``
+    (one set box, the body's ``v`` set to the family's quasi-static stretch after ``prepare_scene``);
     ``shift``: :func:`faces`."""
     from gasp_core.seam.build import build_engine
-    ps, mesh = prepare(sp, n_grid, engine, surface, ppc, pull="ramp" if start == "ramp" else "step", shift=shift)
+    ps, mesh = prepare(sp, n_grid, engine, surface, ppc, pull=start if start in PULLS else "step", shift=shift)
     st = ps.setup
     dx = st.dx
     fill = fill_figures(ps, mesh, sp, shift)
@@ -294,7 +302,7 @@ def run_user_case(sp: tf.Specimen, n_grid: int, engine: str, surface: str = "aut
     a_gauge = float(sp.gauge_w ** 2)
     x_g = np.array([clamp, pulled])
     t_peak = (tf.FT / tf.E) * a_gauge * float(np.diff(np.interp(x_g, *_compliance(sp)))[0]) / tf.PULL
-    t_peak += RAMP_S / 2 if start == "ramp" else 0.0
+    t_peak += RAMP_S / 2 if start in ("ramp", "boxes") else 0.0
     n_frames = int(np.ceil((t_peak + 1.5 * 2 * tf.GF / tf.FT / tf.PULL) / tf.FRAME_DT))
     e = build_engine(ps.info, st)
     t0 = time.time()
@@ -342,7 +350,7 @@ def table(rows: list[dict]) -> str:
 
 def main() -> None:
     ap = tf.family_parser()
-    ap.add_argument("--start", default="step,ramp", help="comma-separated: step, ramp, stretch (run_user_case)")
+    ap.add_argument("--start", default="step,ramp", help="comma-separated: step, ramp, boxes, stretch (run_user_case)")
     ap.add_argument("--surface", default="auto", help="the object's surface: auto, passive, material")
     ap.add_argument("--ppc", type=int, default=0, help="particles_per_cell (0: the quality level's)")
     ap.add_argument("--shift", type=float, default=0.0, help="the grid and the held faces off the fill, cells (faces)")
@@ -362,9 +370,11 @@ def main() -> None:
         "# The tension family built through the scene (issue 66, round 34)\n\n`python benchmarks/user_tension.py` "
         "(docstring: how the specimens are built and measured; the measures are benchmarks/tension_family.py's). "
         f"E {tf.E:g} Pa, nu {tf.NU:g}, f_t {tf.FT:g} Pa, G_f {tf.GF:g} J/m^2, pull {tf.PULL:g} m/s, f64. "
-        "start: `step` a user's scene at rest with one set box at the pull speed from t = 0; `ramp` at rest, the pull "
-        f"ramped in {RAMP_ROWS} set boxes over {RAMP_S:g} s; `stretch` the family's quasi-static start (the setup's v "
-        "set after prepare_scene). surface: what the surface rule chose (or the object's `surface`). \"fill mass\": "
+        "start: `step` a user's scene at rest with one set box at the pull speed from t = 0; `ramp` at rest, one set "
+        f"box whose `ramp = {RAMP_S:g}` s raises the pull linearly from 0; `boxes` at rest, the pull stepped up in "
+        f"{RAMP_ROWS} set boxes over {RAMP_S:g} s (round 34, before the key); `stretch` the family's quasi-static "
+        "start (the setup's v set after prepare_scene). surface: what the surface rule chose (or the object's "
+        "`surface`). \"fill mass\": "
         "sum p_vol against the mesh's volume; \"gauge section\": the fill's section (each x layer's volume over h) "
         "against the specimen's, the median over the gauge; \"first layer past clamp\": the fill's first x layer past "
         "the clamp's face (a node), cells; the fill's layers are h = dx / ppc^(1/3) apart (0.63 dx at 4).\n\n"

@@ -1,8 +1,9 @@
 """The tension family built the way a user builds it (issue 66, round 34; ``benchmarks/user_tension.py``,
 docs/fracture.md "Specimens built through the scene (round 34)"): two bars and a dog-bone of
 ``benchmarks/tension_family.py`` written as closed meshes, a scene TOML (Gaussians laid on the faces, the fill at the
-``default`` level's 4 points a cell, the surface rule's passive surface, a ``fixed_region`` and a ramped ``[[impulse]]
-mode = "set"``), ``prepare_scene``, then each MPM engine at n_grid N and 2N:
+``default`` level's 4 points a cell, the surface rule's passive surface, a ``fixed_region`` and one ``[[impulse]] mode =
+"set"`` whose ``ramp`` key raises the pull from 0 over 0.1 s), ``prepare_scene``, then each MPM engine at n_grid N and
+2N:
 
 - the fill's mass is rho times the mesh's volume within 2 %, its section in the gauge the specimen's within 2 %
   (two-sided);
@@ -85,6 +86,25 @@ def test_the_bar_with_the_grid_and_faces_off_the_fill_breaks_in_its_gauge_and_ta
     assert bad == [], bad
 
 
+def test_the_ramped_pull_is_one_set_impulse_with_the_ramp_key(tmp_path):
+    """``start = "ramp"`` writes one ``[[impulse]]`` with ``ramp = RAMP_S`` (round 34 wrote 20 set boxes, now
+    ``"boxes"``), and the scene reader takes it as a set box rising from 0 to ``PULL`` over ``RAMP_S``."""
+    import tomllib
+
+    from gasp_core.scene.extras import read_extras
+    sp = ut.USER[0]
+    rows = {}
+    for pull in ut.PULLS:
+        text = ut.scene_toml(sp, N, _names()[0] if _names() else "taichi_mpm", "m.ply", "auto", None, pull)
+        rows[pull] = read_extras(tomllib.loads(text), tmp_path / "s.toml", [])["impulses"]
+    (imp,) = rows["ramp"]
+    assert (imp.mode, imp.ramp, imp.t0, imp.velocity_change[0]) == ("set", ut.RAMP_S, 0.0, tf.PULL)
+    assert [imp.ramp_factor(t) for t in (0.0, ut.RAMP_S / 4, ut.RAMP_S, 1.0)] == [0.0, 0.25, 1.0, 1.0]
+    assert len(rows["boxes"]) == ut.RAMP_ROWS + 1 and [i.ramp for i in rows["step"]] == [0.0]
+    with pytest.raises(ValueError, match="pull must be one of"):
+        ut.impulse_rows(0.5, "stairs")
+
+
 def spoiled_fill(monkeypatch) -> None:
     """Spoil the core's fill: every fill point holds 10 % more volume than its cell's share."""
     import gasp_core.maps.fill as fill
@@ -162,8 +182,8 @@ def test_the_check_catches_the_fill_of_before_on_the_dog_bone(name, monkeypatch)
 @pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.xfail(strict=True, reason=(
     "a user's scene at rest pulled by one set box from t = 0: the pull starts a wave of rho c v = 632 Pa (6.3 % of "
     "f_t) that doubles where it meets the clamp; the bar L0.7 a0.30 at n_grid 48 breaks at the clamp's edge (x 0.267, "
-    "clamp face 0.300) at a gauge peak of 0.960 f_t, both engines. Ramped over 0.1 s (user_tension.impulse_rows) it "
-    "breaks in the gauge"))) for n in _names()])
+    "clamp face 0.300) at a gauge peak of 0.960 f_t, both engines. Ramped over 0.1 s (the set impulse's ramp key, "
+    "user_tension.impulse_rows) it breaks in the gauge"))) for n in _names()])
 def test_a_pull_started_as_a_step_from_rest_breaks_in_the_gauge(name):
     bad = failures(ut.run_user_case(ut.USER[1], 2 * N, name, start="step"))
     assert bad == [], bad

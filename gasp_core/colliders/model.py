@@ -11,7 +11,7 @@ Everything here is data in the world frame (metres, seconds, z up) that every en
   closed triangle mesh, a static object's Gaussians or a box).
 - :class:`Impulse`: a velocity change given to whatever is inside a box or sphere between ``t0``
   and ``t1`` (``mode = "add"``, PhysGaussian's ``impulse``), or a velocity imposed there
-  (``mode = "set"``, PhysGaussian's ``enforce_particle_translation``).
+  (``mode = "set"``, PhysGaussian's ``enforce_particle_translation``; ``ramp`` raises it from 0 linearly).
 - :class:`ForceField`: ``wind`` (quadratic drag on the body's surface towards a wind velocity, a
   uniform speed plus optional divergence-free turbulence, deterministic for a seed) or ``attractor``
   (an **acceleration** towards a point, m/s^2, mass independent like gravity, with a falloff).
@@ -29,6 +29,7 @@ Engine features (``gasp_core.seam.engine.FEATURES``): ``static_colliders``, ``mo
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -185,6 +186,15 @@ class Impulse:
     t0, t1 : float
         Seconds.
     mode : {"add", "set"}
+    ramp : float
+        ``set`` only: seconds over which the imposed velocity rises linearly from 0 at ``t0`` to
+        ``velocity_change`` at ``t0 + ramp``, then holds until ``t1`` (:meth:`ramp_factor`); 0 (default):
+        ``velocity_change`` from ``t0``. Finite, in ``[0, t1 - t0]``.
+
+    Raises
+    ------
+    SceneError
+        ``ramp`` negative, not finite, past ``t1 - t0``, or not 0 with ``mode = "add"``.
     """
 
     shape: str
@@ -196,15 +206,36 @@ class Impulse:
     centre: tuple[float, float, float] = (0.0, 0.0, 0.0)
     radius: float = 0.0
     mode: str = "add"
+    ramp: float = 0.0
+
+    def __post_init__(self):
+        r = self.ramp
+        real = isinstance(r, numbers.Real) and not isinstance(r, bool)
+        if not (real and math.isfinite(r) and 0.0 <= r <= self.t1 - self.t0 + 1e-12):
+            raise SceneError(f"impulse 'ramp' must be a finite number of seconds in [0, t1 - t0 = "
+                             f"{self.t1 - self.t0:g}], got {r!r}")
+        if r > 0.0 and self.mode != "set":
+            raise SceneError(f"impulse 'ramp' = {r:g} s is for mode = 'set' only (an 'add' impulse spreads its "
+                             f"change evenly over [t0, t1]), got mode = {self.mode!r}")
 
     def weight(self, t: float, dt: float) -> float:
-        """Share of ``velocity_change`` given in the substep ``[t, t + dt)`` (``add``), or 1/0 active (``set``)."""
+        """Share of ``velocity_change`` given in the substep ``[t, t + dt)`` (``add``), or 1/0 active (``set``: its
+        midpoint in ``[t0, t1]``; the share imposed then is :meth:`ramp_factor` at that midpoint)."""
         if self.mode == "set":
             return 1.0 if (self.t0 <= t + 0.5 * dt and t + 0.5 * dt <= self.t1 + 1e-12) else 0.0
         if self.t1 <= self.t0:
             return 1.0 if t <= self.t0 < t + dt else 0.0
         overlap = min(t + dt, self.t1) - max(t, self.t0)
         return max(0.0, overlap) / (self.t1 - self.t0)
+
+    def ramp_factor(self, t: float) -> float:
+        """``set``: the share of ``velocity_change`` imposed at time ``t`` (s): ``(t - t0) / ramp`` clipped to
+        [0, 1], or 1 with no ramp. The grid engines take it at each substep's midpoint
+        (:func:`gasp_core.mpm.grid_tables.frame_table`), so a point carried through the ramp moves
+        ``velocity_change * (t - t0)^2 / (2 ramp)`` exactly."""
+        if self.ramp <= 0.0:
+            return 1.0
+        return min(1.0, max(0.0, (t - self.t0) / self.ramp))
 
     def contains(self, X: np.ndarray) -> np.ndarray:
         X = np.asarray(X, float)

@@ -30,8 +30,12 @@ IM_SHAPE, IM_A, IM_B, IM_MODE, IM_DV = 0, 1, 4, 7, 8
 IMPULSE_BOX, IMPULSE_SPHERE = 0, 1
 IMPULSE_ADD, IMPULSE_SET = 0, 1
 #: A row of :func:`frame_table` (``GridTables.width`` floats): time (s), then :data:`COL_POSE` floats per collider
-#: from ``FT_POSES``, then one weight per impulse.
+#: from ``FT_POSES``, then one weight per impulse (:func:`impulse_weight`).
 FT_TIME, FT_POSES = 0, 1
+#: A ``set`` impulse's weight while it acts is ``SET_ON + f``, ``f`` in [0, 1] its ramp factor
+#: (:meth:`~gasp_core.colliders.model.Impulse.ramp_factor`), and 0 outside its window: the kernels test ``w > 0`` for
+#: on/off (so ``f = 0`` still holds the region, at rest) and impose ``v = (w - SET_ON) dv``.
+SET_ON = 1.0
 #: A collider's pose block (:data:`COL_POSE` floats): R (9, row-major), T (3, m), v (3, m/s), omega (3, rad/s).
 PO_R, PO_T, PO_V, PO_W = 0, 9, 12, 15
 
@@ -112,12 +116,22 @@ def grid_tables(setup) -> GridTables:
         impulses=np.array(irows, float).reshape(-1) if irows else np.zeros(IMPULSE_ROW))
 
 
+def impulse_weight(imp, t: float, dt: float) -> float:
+    """Impulse ``imp``'s entry in the time table for the substep ``[t, t + dt)``: ``add``, the share of its
+    ``velocity_change`` given then (:meth:`~gasp_core.colliders.model.Impulse.weight`); ``set``, ``SET_ON`` plus its
+    ramp factor at the substep's midpoint while it acts, else 0 (:data:`SET_ON`)."""
+    w = imp.weight(t, dt)
+    if imp.mode != "set":
+        return w
+    return SET_ON + imp.ramp_factor(t + 0.5 * dt) if w > 0.0 else 0.0
+
+
 def frame_table(setup, t_start: float, n_substeps: int, dt: float) -> np.ndarray:
     """Time-dependent inputs of the grid kernels for the substeps of one frame, shape (n_substeps * width,), float64.
 
     Row ``s`` (substep starting at ``t = t_start + s dt``): ``t``, then per collider ``R`` (9,
     row-major), ``T`` (3), ``v`` (3), ``w`` (3) of :meth:`Collider.pose` at ``t``, then per
-    impulse its :meth:`Impulse.weight` for ``[t, t + dt)``.
+    impulse its :func:`impulse_weight` for ``[t, t + dt)``.
     """
     cols = list(getattr(setup, "colliders", []) or [])
     imps = list(getattr(setup, "impulses", []) or [])
@@ -129,7 +143,7 @@ def frame_table(setup, t_start: float, n_substeps: int, dt: float) -> np.ndarray
         for c in cols:
             R, T, v, om = c.pose(t)
             row += [*R.ravel(), *T, *v, *om]
-        row += [i.weight(t, dt) for i in imps]
+        row += [impulse_weight(i, t, dt) for i in imps]
         out[s] = row
     return out.reshape(-1)
 

@@ -62,7 +62,7 @@ _FORCE_KIND_KEYS = {"wind": {"kind", "direction", "speed", "air_density", "drag_
                              "turbulence_scale", "turbulence_time", "seed"},
                     "attractor": {"kind", "point", "strength", "radius", "falloff"}}
 _IMPULSE_SHAPE_KEYS = {"box": {"lo", "hi"}, "sphere": {"centre", "radius"}}
-_IMPULSE_KEYS = {"shape", "velocity_change", "t0", "t1", "mode"}
+_IMPULSE_KEYS = {"shape", "velocity_change", "t0", "t1", "mode", "ramp"}
 #: Largest acceleration of a force field, m/s^2 (as gravity).
 MAX_ACCEL = MAX_GRAVITY
 
@@ -186,6 +186,14 @@ def _impulse(i: dict, where: str, src: Path):
         raise SceneError(f"{src}: {where}: t1 = {kw['t1']:g} s is before t0 = {kw['t0']:g} s")
     if kw["mode"] == "set" and kw["t1"] <= kw["t0"]:
         raise SceneError(f"{src}: {where}: mode = 'set' needs t1 > t0 (the window the velocity is imposed)")
+    if "ramp" in i:
+        if kw["mode"] != "set":
+            raise SceneError(f"{src}: {where}.ramp: only mode = 'set' takes a ramp (an 'add' impulse spreads its "
+                             f"change evenly over [t0, t1] already), got mode = {kw['mode']!r}")
+        kw["ramp"] = as_number(i["ramp"], f"{where}.ramp", src, 0.0)
+        if kw["ramp"] > kw["t1"] - kw["t0"]:
+            bad_value(src, f"{where}.ramp", i["ramp"], f"seconds within the window, at most t1 - t0 = "
+                      f"{kw['t1'] - kw['t0']:g}")
     return Impulse(**kw)
 
 

@@ -9,7 +9,7 @@ import taichi as ti
 from gasp_core.mpm.grid_tables import (COL_POSE, FALLOFF_INVERSE_SQUARE, FORCE_ROW, FORCE_WIND, FR_C, FR_DRAG,
                                            FR_FALLOFF, FR_KIND, FR_MODE_COUNT, FR_MODE_START, FR_RADIUS, FR_STRENGTH,
                                            FT_POSES, IM_A, IM_B, IM_DV, IM_MODE, IM_SHAPE, IMPULSE_ADD, IMPULSE_BOX,
-                                           IMPULSE_ROW, MD_A, MD_K, MD_OMEGA, MD_PHASE, MODE_ROW)
+                                           IMPULSE_ROW, MD_A, MD_K, MD_OMEGA, MD_PHASE, MODE_ROW, SET_ON)
 from gasp_core.mpm.points import HELD_STRAIN_CELLS, SET_FACE_CELLS
 
 
@@ -91,6 +91,19 @@ class Forces:
                 ti.Vector([self.ex_imps[r + IM_B], self.ex_imps[r + IM_B + 1], self.ex_imps[r + IM_B + 2]]))
 
     @ti.func
+    def impulse_weight(self, q):
+        """Impulse ``q``'s weight in this substep's row of the time table (``grid_tables.impulse_weight``)."""
+        return self.ex_tab[self.ex_step[None] * self.ex_width + FT_POSES + COL_POSE * self.n_col + q]
+
+    @ti.func
+    def set_velocity(self, q, w):
+        """The velocity (m/s) a set impulse ``q`` of weight ``w > 0`` imposes: its ramp factor ``w - SET_ON`` times its
+        ``velocity_change`` (``grid_tables.SET_ON``); warp_mpm's ``set_velocity``."""
+        r = q * IMPULSE_ROW
+        dv = ti.Vector([self.ex_imps[r + IM_DV], self.ex_imps[r + IM_DV + 1], self.ex_imps[r + IM_DV + 2]])
+        return (w - SET_ON) * dv
+
+    @ti.func
     def mirror_set_boxes(self, I):
         """The ghost node ``I`` of the box impulse of ``mode = "set"`` acting in this substep that holds it
         (:meth:`set_box_at`; :meth:`gasp_taichi_mpm.grid.GridUpdate.mirror_node`, reflected about the imposed
@@ -99,10 +112,8 @@ class Forces:
                                                        ti.cast(I[2], self.real)])
         q = self.set_box_at(X)
         if q >= 0:
-            r = q * IMPULSE_ROW
             c, b = self.impulse_corners(q)
-            dv = ti.Vector([self.ex_imps[r + IM_DV], self.ex_imps[r + IM_DV + 1], self.ex_imps[r + IM_DV + 2]])
-            self.grid_v[I] = self.mirror_node(I, c, b, dv, True, 0)
+            self.grid_v[I] = self.mirror_node(I, c, b, self.set_velocity(q, self.impulse_weight(q)), True, 0)
 
     @ti.func
     def set_box_at(self, X):
@@ -136,7 +147,7 @@ class Forces:
                 w = self.ex_tab[base + FT_POSES + COL_POSE * self.n_col + q]
                 if (self.ex_imps[r + IM_SHAPE] == IMPULSE_BOX and self.ex_imps[r + IM_MODE] != IMPULSE_ADD
                         and w > 0.0 and self.grid_m[I] > 0.0):
-                    dv = ti.Vector([self.ex_imps[r + IM_DV], self.ex_imps[r + IM_DV + 1], self.ex_imps[r + IM_DV + 2]])
+                    dv = self.set_velocity(q, w)
                     for d in ti.static(range(3)):
                         lat = True
                         for e in ti.static(range(3)):
@@ -174,7 +185,8 @@ class Forces:
 
     @ti.func
     def apply_impulses(self, X, v, base):
-        """Impulses (box or sphere regions, weight from the time table row at ``base``) on ``v`` at ``X``."""
+        """Impulses (box or sphere regions, weight from the time table row at ``base``) on ``v`` at ``X``: ``add``
+        adds ``w dv``, ``set`` imposes :meth:`set_velocity` (its ramp factor times ``dv``)."""
         for q in range(self.n_imp):
             r = q * IMPULSE_ROW
             inside = False
@@ -189,5 +201,5 @@ class Forces:
                 if self.ex_imps[r + IM_MODE] == IMPULSE_ADD:
                     v += w * dv
                 else:
-                    v = dv
+                    v = self.set_velocity(q, w)
         return v

@@ -12,7 +12,7 @@ import warp as wp
 from gasp_core.mpm.grid_tables import (COL_POSE, FALLOFF_INVERSE_SQUARE, FORCE_ROW, FORCE_WIND, FR_C, FR_DRAG,
                                            FR_FALLOFF, FR_KIND, FR_MODE_COUNT, FR_MODE_START, FR_RADIUS, FR_STRENGTH,
                                            FT_POSES, IM_A, IM_B, IM_DV, IM_MODE, IM_SHAPE, IMPULSE_ADD, IMPULSE_BOX,
-                                           IMPULSE_ROW, MD_A, MD_K, MD_OMEGA, MD_PHASE, MODE_ROW)
+                                           IMPULSE_ROW, MD_A, MD_K, MD_OMEGA, MD_PHASE, MODE_ROW, SET_ON)
 
 from .precision import MODULE_OPTIONS, build_types
 
@@ -70,9 +70,26 @@ def build_extras_struct(Ft):
 
 
 @functools.cache
+def build_set_velocity(Ft):
+    """``set_velocity(ex, q, w) -> vec3``: the velocity (m/s) a set impulse ``q`` of time-table weight ``w > 0``
+    imposes, its ramp factor ``w - SET_ON`` times its ``velocity_change`` (``grid_tables.SET_ON``); taichi_mpm's
+    ``Forces.set_velocity``."""
+    vec3, vec4, mat33 = build_types(Ft)
+    Extras = build_extras_struct(Ft)
+
+    @wp.func
+    def set_velocity(ex: Extras, q: int, w: Ft):
+        r = q * IMPULSE_ROW
+        return (w - Ft(SET_ON)) * vec3(ex.imps[r + IM_DV], ex.imps[r + IM_DV + 1], ex.imps[r + IM_DV + 2])
+
+    return set_velocity
+
+
+@functools.cache
 def build_force_funcs(Ft):
     """``(apply_forces, apply_impulses)``: forces and impulses on a grid node's velocity, scalar type ``Ft``."""
     vec3, vec4, mat33 = build_types(Ft)
+    set_velocity = build_set_velocity(Ft)
     Extras = build_extras_struct(Ft)
 
     @wp.func
@@ -118,7 +135,8 @@ def build_force_funcs(Ft):
 
     @wp.func
     def apply_impulses(v_in: vec3, X: vec3, base: int, ex: Extras):
-        # impulses over a box or a sphere, weighted by the substep's time-table entry: add dv, or set v = dv
+        # impulses over a box or a sphere, weighted by the substep's time-table entry: add w dv, or set v to the
+        # ramp factor times dv (set_velocity)
         v = v_in
         for q in range(ex.n_imp):
             r = q * IMPULSE_ROW
@@ -136,7 +154,7 @@ def build_force_funcs(Ft):
                 if ex.imps[r + IM_MODE] == Ft(IMPULSE_ADD):
                     v = v + w * dv
                 else:
-                    v = dv
+                    v = set_velocity(ex, q, w)
         return v
 
     return apply_forces, apply_impulses

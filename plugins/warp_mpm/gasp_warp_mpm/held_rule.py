@@ -23,13 +23,13 @@ import functools
 
 import warp as wp
 
-from gasp_core.mpm.grid_tables import (COL_POSE, FT_POSES, IM_A, IM_B, IM_DV, IM_MODE, IM_SHAPE, IMPULSE_ADD,
+from gasp_core.mpm.grid_tables import (COL_POSE, FT_POSES, IM_A, IM_B, IM_MODE, IM_SHAPE, IMPULSE_ADD,
                                        IMPULSE_BOX, IMPULSE_ROW)
 from gasp_core.mpm.materials import BRITTLE
 from gasp_core.mpm.points import HELD_STRAINED, SET_FACE_CELLS
 
 from .constitutive import build_decompositions
-from .forces import build_extras_struct
+from .forces import build_extras_struct, build_set_velocity
 from .precision import MODULE_OPTIONS, build_types
 from .stencil import build_gather, build_stencil
 
@@ -180,22 +180,25 @@ def build_held_g2p(Ft):
 
 @functools.cache
 def build_set_box_row(Ft):
-    """``set_box_row(ex, q) -> (c, b, dv, on)``: impulse ``q``'s box corners, velocity and whether it is a set box
-    holding its nodes at this substep (a box whose mode is not ``add``, its pose weight above 0); read by
-    :func:`build_hold_set_faces` and ``held.build_mirror``."""
+    """``set_box_row(ex, q) -> (c, b, dv, on)``: impulse ``q``'s box corners, the velocity it imposes now (its ramp
+    factor times its ``velocity_change``, ``forces.build_set_velocity``) and whether it is a set box holding its nodes
+    at this substep (a box whose mode is not ``add``, its weight above 0); read by :func:`build_hold_set_faces` and
+    ``held.build_mirror``."""
     vec3, vec4, mat33 = build_types(Ft)
     Extras = build_extras_struct(Ft)
+    set_velocity = build_set_velocity(Ft)
 
     @wp.func
     def set_box_row(ex: Extras, q: int):
         r = q * IMPULSE_ROW
         c = vec3(ex.imps[r + IM_A], ex.imps[r + IM_A + 1], ex.imps[r + IM_A + 2])
         b = vec3(ex.imps[r + IM_B], ex.imps[r + IM_B + 1], ex.imps[r + IM_B + 2])
-        dv = vec3(ex.imps[r + IM_DV], ex.imps[r + IM_DV + 1], ex.imps[r + IM_DV + 2])
         w = ex.tab[ex.step[0] * ex.width + FT_POSES + COL_POSE * ex.n_col + q]
+        dv = vec3(Ft(0.0))
         on = int(0)
         if ex.imps[r + IM_SHAPE] == Ft(IMPULSE_BOX) and ex.imps[r + IM_MODE] != Ft(IMPULSE_ADD) and w > Ft(0.0):
             on = 1
+            dv = set_velocity(ex, q, w)
         return c, b, dv, on
 
     return set_box_row
