@@ -132,8 +132,7 @@ class GridUpdate(GroundTouch):
 
     def allocate_cut(self) -> None:
         """``cut`` (a brittle body beside a ``fixed_region``) and ``grid_cut`` (i8, ``(2, n_grid, n_grid, n_grid)``;
-        else one node): the nodes :meth:`mark_cut` marks; and the touched columns' (:meth:`allocate_touch`)."""
-        self.allocate_touch()
+        else one node): the nodes :meth:`mark_cut` marks."""
         ng = self.n_grid
         self.cut = self.any_fixed and cuts_held_faces(self.kinds, self.n_regions)
         self.grid_cut = ti.field(ti.i8, shape=(2, ng, ng, ng) if self.cut else (2, 1, 1, 1))
