@@ -36,7 +36,7 @@ class Contact:
         bool) and :func:`gasp_taichi_mpm.grid.node_ranges`' walls and grounds of the particle contact, where the rule
         acts fully; the solver's own ranges and ``col_deep`` are then the grid contact's (its reach). Allocates
         ``grid_mf`` (the flowing bodies' mass per node), ``flows``, ``wall_lo_full`` / ``wall_hi_full``,
-        ``ground_kfull``, and sets ``col_full`` (m)."""
+        ``ground_kfull``, and sets ``col_full`` (m); then the grid contact's touched columns (touch.py)."""
         from gasp_core.mpm.contact import collider_grid_depth
         self.mixed = mixed is not None
         ng = self.n_grid if self.mixed else 1
@@ -53,6 +53,7 @@ class Contact:
                 self.wall_lo_full[i], self.wall_hi_full[i] = lo_full, hi_full
             for i, (_fr, kfull, _h) in enumerate(mixed[2]):
                 self.ground_kfull[i] = kfull
+        self.allocate_touch()
 
     @ti.func
     def scatter_flow(self, p, base, w, m):

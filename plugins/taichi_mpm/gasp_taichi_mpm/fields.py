@@ -105,7 +105,7 @@ class Fields:
             u2 = ti.Vector.zero(self.real, 3)
             held = 0   # in a ground's node layers or the walls' (the grid rule's reach): both move with the mean
             for b in ti.static(range(self.n_grounds)):
-                if I[2] <= self.ground_kmax[b]:
+                if self.ground_reach(b, I):   # with the touched layer (touch.py)
                     held = 1
             for b in ti.static(range(self.n_walls)):
                 if (I < self.wall_lo_first[b]).any() or (I >= self.wall_hi_first[b]).any():

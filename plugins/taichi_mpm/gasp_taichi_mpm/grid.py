@@ -1,6 +1,5 @@
-"""The grid update (docs/mpm.md step 3): summing the private grid copies, node velocity, gravity, forces,
-impulses and colliders, then the walls, grounds and fixed regions, as a Taichi kernel; and the boundaries as
-node-index ranges.
+"""The grid update (docs/mpm.md step 3): summing the private grid copies, node velocity, gravity, forces, impulses and
+colliders, then the walls, grounds and fixed regions, as a Taichi kernel; and the boundaries as node-index ranges.
 
 Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields and flags (``real``, ``atomic``, ...) it reads.
 """
@@ -13,6 +12,8 @@ from gasp_core.mpm.grid_tables import FT_TIME
 from gasp_core.mpm.contact import ground_node_layer, wall_floor, wall_grid_cells
 from gasp_core.mpm.materials import BRITTLE, P_LAM, P_MU, P_SF
 from gasp_core.mpm.points import CUT_REACH, HELD_STRAINED, MIRROR_CELLS, cuts_held_faces
+
+from .touch import GroundTouch
 
 _TIE = 1e-9  # cells: tolerance for ties when boundary tests become node-index ranges
 
@@ -55,7 +56,7 @@ def node_ranges(setup, dx: float, contact: str = "particle"):
     return walls, grounds, regions
 
 
-class GridUpdate:
+class GridUpdate(GroundTouch):
     """The grid update (:meth:`grid_update`) and the node extras it applies (:meth:`extras`)."""
 
     #: The brittle held rule (issue 66 round 32, docs/fracture.md "The held region"): a set box's brittle point's
@@ -66,9 +67,8 @@ class GridUpdate:
 
     @ti.func
     def extras(self, I, v, m, gsurf, f):
-        """Forces, impulses, then colliders at node ``I`` (docs/colliders.md; the same order as warp_mpm):
-        :meth:`apply_forces`, :meth:`apply_impulses`, :meth:`apply_colliders` at the node's position and the substep's row
-        of the time table; ``f``: the node's flowing-mass fraction (:meth:`Contact.rule`)."""
+        """Forces, impulses, then colliders at node ``I`` (docs/colliders.md; warp_mpm's order), at the node's position
+        and the substep's time-table row; ``f``: the node's flowing-mass fraction (:meth:`Contact.rule`)."""
         dt = self.dt[None]
         X = self.lo[None] + self.dx[None] * ti.Vector([ti.cast(I[0], self.real), ti.cast(I[1], self.real),
                                                        ti.cast(I[2], self.real)])
@@ -91,7 +91,7 @@ class GridUpdate:
         body by the node's flowing-mass fraction ``f`` where only the grid contact's rule reaches,
         :meth:`Contact.rule`). The grounds first: a ground on a wall's plane keeps its friction there."""
         for b in ti.static(range(self.n_grounds)):
-            if I[2] <= self.ground_kmax[b]:
+            if self.ground_reach(b, I):   # I_z <= ground_kmax, or the touched layer above (touch.py)
                 v = self.rule(v, self.axis_friction(v, 2, 1.0, self.ground_fric[b]), I[2] > self.ground_kfull[b], f)
         for b in ti.static(range(self.n_walls)):
             mu_b = self.wall_fric[b]
@@ -105,8 +105,7 @@ class GridUpdate:
 
     @ti.func
     def touched_box(self):
-        """The nodes P2G touched (the union of the chunks' boxes; the whole grid with atomic P2G), as the grid
-        update reads them."""
+        """The nodes P2G touched (the union of the chunks' boxes; the whole grid with atomic P2G)."""
         ng = self.n_grid
         lo = ti.Vector([0, 0, 0])
         hi = ti.Vector([ng - 1, ng - 1, ng - 1])
@@ -119,8 +118,9 @@ class GridUpdate:
         return lo, ti.max(hi - lo + 1, 0)
 
     def grid_update(self):
-        """The grid update (:meth:`grid_nodes`), then the held boxes' ghost nodes (:meth:`mirror_held`; first the
-        fixed regions' broken faces, :meth:`mark_cut`)."""
+        """The touched columns (:meth:`touch_update`), the grid update (:meth:`grid_nodes`), then the held boxes' ghost
+        nodes (:meth:`mirror_held`; first the fixed regions' broken faces, :meth:`mark_cut`)."""
+        self.touch_update()
         self.grid_nodes()
         if self.n_regions or self.n_set_boxes:
             if self.cut:
@@ -141,12 +141,12 @@ class GridUpdate:
     def mark_cut(self):
         """The fixed regions' broken faces (docs/fracture.md, "The held region";
         :func:`~gasp_core.mpm.points.cuts_held_faces`): the 27 nodes of the stencil of a strained held point broken
-        through (``Jp >= 1``: its own stress, its mirror image's, passed the full softening's) in ``grid_cut[0]``, of
-        a free point not broken through within :data:`~gasp_core.mpm.points.CUT_REACH` cells of a region in
+        through (``Jp >= 1``: its own stress, its mirror image's, passed the full softening's) in ``grid_cut[0]``, of a
+        free point not broken through within :data:`~gasp_core.mpm.points.CUT_REACH` cells of a region in
         ``grid_cut[1]`` (both cleared first); :meth:`mirror_node` makes a region's node marked in the first a free-slip
-        face where the face's last node (the node inside the box next to the first one past it, on the node's line
-        along the face's normal) is not marked in the second: the crack's band beside the face is broken through
-        across its width."""
+        face where the face's last node (the node inside the box next to the first one past it, on the node's line along
+        the face's normal) is not marked in the second: the crack's band beside the face is broken through across its
+        width."""
         for p in range(self.n_points[None]):
             X = self.x[p]
             c = -1
@@ -218,9 +218,8 @@ class GridUpdate:
 
     @ti.func
     def held_axis(self, p):
-        """The normal axis of the held box's face that point ``p`` takes its image gradient across
-        (:meth:`image_gradient`): a held point near its region's face (``fixed = HELD_STRAINED + a``), or a point near
-        the face of a set box impulse acting now (:meth:`~gasp_taichi_mpm.forces.Forces.set_box_axis`); else -1."""
+        """The normal axis of the held box's face point ``p`` takes its image gradient across (:meth:`image_gradient`):
+        a held point near its region's face (``fixed = HELD_STRAINED + a``), or near a set box's face acting now; -1."""
         a = -1
         if ti.static(self.any_fixed):
             if self.fixed[p] >= HELD_STRAINED:

@@ -1,0 +1,63 @@
+"""The ground's contact detected from the points (issue 67, round 35; docs/contact.md "Round 35: the contact
+detected from the points"): with the grid contact, the node layer just above a ground's plane takes the ground's
+Coulomb rule in the columns where a point of the body lies within ``touch_delta`` cells of the plane.
+
+Mixed into :class:`gasp_taichi_mpm.grid.GridUpdate` (and so :class:`gasp_taichi_mpm.solver.MPMSolver`), whose
+fields (``ground_kmax``, ``ground_h``, ``x``, ``n_points``, ...) it reads.
+"""
+import taichi as ti
+
+
+class GroundTouch:
+    """The touched columns (:meth:`mark_touch`) and the ground's node reach (:meth:`ground_reach`)."""
+
+    #: The switch: False leaves the node layers ``I_z <= ground_kmax`` as the ground's (the rule before); True adds
+    #: the layer ``ground_kmax + 1`` in the touched columns (the grid contact's rule only: ``"grid"`` and the grid
+    #: contact's reach of ``"mixed"``).
+    touch_contact = False
+    #: Cells: a point whose height above the plane is under ``touch_delta dx`` touches it.
+    touch_delta = 0.5
+
+    def allocate_touch(self) -> None:
+        """``touch_on`` (the switch, a ground, and the grid contact's rule: no particle contact, or the contact chosen
+        per body) and ``ground_touch`` (i32, ``(4, n_grid, n_grid)``: ground, column; else one entry). Called by
+        :meth:`~gasp_taichi_mpm.contact.Contact.allocate_mixed` (``mixed`` known)."""
+        self.touch_on = bool(self.touch_contact and self.n_grounds > 0 and (not self.pc or self.mixed))
+        ng = self.n_grid
+        self.ground_touch = ti.field(ti.i32, shape=(4, ng, ng) if self.touch_on else (1, 1, 1))
+
+    @ti.kernel
+    def mark_touch(self):
+        """Clear ``ground_touch``, then mark ground ``b``'s column ``(i, j)`` for the 3 x 3 stencil columns of every
+        material point (with the contact chosen per body, of a flowing body) whose height above ``b``'s plane is
+        under ``touch_delta dx`` (m; below the plane too). A parallel loop over the points with atomic max."""
+        ng = self.n_grid
+        for b, i, j in ti.ndrange(self.n_grounds, ng, ng):
+            self.ground_touch[b, i, j] = 0
+        reach = ti.cast(self.touch_delta, self.real) * self.dx[None]
+        for p in range(self.n_points[None]):
+            mine = True
+            if ti.static(self.mixed):
+                mine = self.flows[self.body[p]] != 0
+            if mine:
+                base, fx, ok = self.base_fx(self.x[p])
+                if ok:
+                    for b in ti.static(range(self.n_grounds)):
+                        if self.x[p][2] - self.ground_h[b] < reach:
+                            for i, j in ti.static(ti.ndrange(3, 3)):
+                                ti.atomic_max(self.ground_touch[b, base[0] + i, base[1] + j], 1)
+
+    @ti.func
+    def ground_reach(self, b: ti.template(), I):
+        """Whether ground ``b``'s grid rule acts at node ``I``: ``I_z <= ground_kmax[b]``, or (``touch_on``) the layer
+        above in a column :meth:`mark_touch` marked."""
+        on = I[2] <= self.ground_kmax[b]
+        if ti.static(self.touch_on):
+            if I[2] == self.ground_kmax[b] + 1 and self.ground_touch[b, I[0], I[1]] != 0:
+                on = True
+        return on
+
+    def touch_update(self) -> None:
+        """:meth:`mark_touch` where ``touch_on`` (before each grid update, on the points' positions P2G used)."""
+        if self.touch_on:
+            self.mark_touch()
