@@ -16,7 +16,7 @@ class GroundTouch:
     #: contact's reach of ``"mixed"``).
     touch_contact = False
     #: Cells: a point whose height above the plane is under ``touch_delta dx`` touches it.
-    touch_delta = 0.5
+    touch_delta = 0.25
 
     def allocate_touch(self) -> None:
         """``touch_on`` (the switch, a ground, and the grid contact's rule: no particle contact, or the contact chosen
