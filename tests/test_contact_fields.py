@@ -13,8 +13,9 @@
   the free pile's height. The column with points 5 mm apart on its faces, 60 frames, warp_mpm: the same limits.
 - Both engines (taichi_mpm in the slow tier): a sand block thrown at 0.4, 0.6 and 0.8 m/s over a jelly slab
   (``sand_ball.slide_setup``) travels as the same block thrown along the ground of the same friction (the boundary
-  rule, the sand's ``tan 30 deg``) within ``SLIDE_TOL`` = 5 % (warp_mpm -1.9 to -2.8 %); with the friction switched
-  off (``field_friction`` made 0), 5 % high, or one field the check fails
+  rule, the sand's ``tan 30 deg``) within ``SLIDE_TOL`` = 5 % (warp_mpm -1.9 to -2.8 % until round 35; since round
+  36 a strict xfail: the ground now meets Coulomb and the slab is 22 % short, ``SLAB_SHORT``); with the friction
+  switched off (``field_friction`` made 0) or one field the check fails
   (:func:`test_the_slide_check_fails_without_friction_or_with_one_field`). The solid block against Coulomb's travel
   is the conformance scene ``solid_slide``.
 - Both engines (slow tier): the light ball against the column in float64, 3 frames, the same points to 1e-9 m: the
@@ -140,10 +141,18 @@ def _slide(engine: str, v0: float, fields: bool = True, **kw) -> tuple[float, fl
     return out[0], out[1]
 
 
+SLAB_SHORT = ("since round 36 the ground's touched layer gives the sand block on the ground Coulomb's friction "
+              "(effective mu 0.563-0.570 against tan 30 deg = 0.577); on the jelly slab the two-field contact still "
+              "gives 0.398-0.480 (20.5 mm against the ground's 14.5 mm at 0.4 m/s, both engines): the two-field "
+              "contact's sand-on-solid friction is 22 % short (docs/contact.md \"Round 36\"); not loosened")
+
+
+@pytest.mark.xfail(strict=True, reason=SLAB_SHORT)
 @pytest.mark.parametrize("engine", ENGINES)
 def test_a_sand_block_slides_on_a_slab_as_on_the_ground(engine):
     """The body contact's friction is the boundary rule's, the same Coulomb coefficient (tan 30 deg): the sand block
-    on the jelly slab travels as the same block on the ground (warp_mpm -1.9 to -2.8 % at 0.4-0.8 m/s)."""
+    on the jelly slab travels as the same block on the ground (warp_mpm -1.9 to -2.8 % at 0.4-0.8 m/s until round
+    35, when the ground's free node layer short-changed both alike; a strict xfail since: ``SLAB_SHORT``)."""
     for v0 in SPEEDS:
         got, want = _slide(engine, v0)
         assert abs(got / want - 1.0) <= SLIDE_TOL, (v0, got, want)
@@ -156,9 +165,8 @@ def test_the_slide_check_fails_without_friction_or_with_one_field(monkeypatch):
     monkeypatch.setattr(wf, "field_friction", lambda setup: 0.0)   # the contact without friction
     got, want = _slide("warp_mpm", 0.6)
     assert got / want > 1.0 + SLIDE_TOL, (got, want)
-    monkeypatch.setattr(wf, "field_friction", lambda setup: 1.05 * math.tan(math.radians(30.0)))   # 5 % high
-    got, want = _slide("warp_mpm", 0.6)
-    assert got / want < 1.0 - SLIDE_TOL, (got, want)
+    # (The "5 % high" catch left with round 36: the check itself fails at the engines' own friction, SLAB_SHORT;
+    # the body friction's 5 % catches are solid_slide's, test_the_solid_slide_catches_a_friction_5pct_off.)
 
 @pytest.mark.slow
 @pytest.mark.parametrize("factor", [0.95, 1.05])

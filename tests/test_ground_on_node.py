@@ -9,7 +9,7 @@ where the scene put it (``tests/test_elastic_slope.py``'s jelly block, grid cont
 settle where Coulomb says it sticks, offsets 1/4, 1/2, 3/4 of a cell):
 
 * 15 deg, mu 0.3: 1.05, 5.83, 11.5 mm; 30 deg, mu 0.68: 81.9, 104.5, 187.1 mm; 45 deg, mu 1.6: 8.8, 333, 369 mm
-  (at offset 0: 0.011, 0.272, 0.053 mm: ``test_elastic_slope.GRID_HOLDS``);
+  (at offset 0: 0.011, 0.272, 0.053 mm: round 35's ``test_elastic_slope.GRID_HOLDS``);
 * 30 deg, mu 0.6: 120, 147, 193, 271 mm at offsets 0 to 3/4;
 * the sand column of a = 2 at n_grid 48 (``benchmarks/lube_family.py``'s): runout -20.1, -20.1, -20.1, -28.8 % from
   Lube et al.'s fit, height -7.8, -9.3, -10.9, -11.4 %.
@@ -19,6 +19,14 @@ at most half a cell; points and boundaries stay): every offset reads as offset 0
 printed. Checked here: the shift itself (default tier), the block's hold at the three slopes' tolerances at the three
 offsets on both engines (one case in the default tier, the family slow), with the catch (the grid left where it
 lay: the block slides), and the sand column's deposit at the four offsets (slow).
+
+Since round 36 the node layer above the plane takes the ground's rule where the points touch it (``touch_contact``,
+docs/contact.md "Round 36"), which also holds the block on a grid left where it lay at most offsets (warp_mpm,
+``GRID_HOLDS`` 15 / 0.28, 30 / 0.6, 45 / 1.05 at offsets 1/4, 1/2, 3/4: 0.0004 / 0.0008 / 0.18, 0.0002 / 0.007 / 0.52
+and 0.0005 / 0.058 / **139** mm). So the catch is the engine before rounds 35-36 (the grid where the domain put it and
+the touched layer off), and the grid alone left where it lay is caught where it still matters: 45 degrees at 3/4 of
+a cell (139 mm), and the column's runout at 3/4 of a cell (1.708 against 1.917, -10.9 %; its height 1.237 against
+1.236, held by the touched layer).
 """
 from __future__ import annotations
 
@@ -89,8 +97,12 @@ def unaligned(engine: str, monkeypatch) -> None:
 
 
 def _holds(engine: str, theta: float, mu: float, offset: float, aligned: bool = True, monkeypatch=None):
+    """``check`` of the block at ``offset``; ``aligned`` False: the engine before rounds 35-36 (the grid where the
+    domain put it and the touched layer off, ``tests/test_ground_touch.py``'s switch)."""
     if not aligned:
+        from test_ground_touch import touch
         unaligned(engine, monkeypatch)
+        touch(monkeypatch, engine, None)
     return check(theta, mu, measure(engine, theta, mu, "grid", spoil=raised(offset)))
 
 
@@ -110,6 +122,9 @@ def test_the_block_holds_with_the_plane_half_a_cell_above_a_node(engine, monkeyp
 def test_the_grid_contacts_tolerance_holds_at_every_offset(engine, theta, mu, offset, monkeypatch):
     problem = _holds(engine, theta, mu, offset)
     assert problem is None, f"{engine}, offset {offset}: {problem}"
+    if (theta, mu, offset) == (45, 1.05, 0.75):   # the grid alone left where it lay: 139 mm (the touched layer on)
+        unaligned(engine, monkeypatch)
+        assert check(theta, mu, measure(engine, theta, mu, "grid", spoil=raised(offset))) is not None
     assert _holds(engine, theta, mu, offset, aligned=False, monkeypatch=monkeypatch) is not None
 
 
@@ -140,6 +155,8 @@ def test_the_sand_columns_deposit_is_the_same_at_every_offset(engine, monkeypatc
     for offset in OFFSETS:
         r, h = _column(engine, offset)
         assert abs(r / r0 - 1) < 0.01 and abs(h / h0 - 1) < 0.01, (engine, offset, r, r0, h, h0)
-    unaligned(engine, monkeypatch)   # the catch: 3/4 of a cell ran out -28.8 % against -20.1 % (height -11.4 / -7.8)
+    # the catch: at 3/4 of a cell it runs out 1.708 against 1.917 (-10.9 %; round 36, the height 1.237 against
+    # 1.236: the touched layer holds it; before round 36, -11.4 / -7.8 % from Lube's)
+    unaligned(engine, monkeypatch)
     r, h = _column(engine, 0.75)
-    assert abs(r / r0 - 1) > 0.05 and abs(h / h0 - 1) > 0.03, (engine, r, r0, h, h0)
+    assert abs(r / r0 - 1) > 0.05, (engine, r, r0, h, h0)

@@ -150,7 +150,9 @@ class Fields:
             self.grid_vf[I] = ti.Vector.zero(self.real, 2)
 
     def contact_fields(self) -> None:
-        """After P2G (and the viscous step), before the grid update: the contact, then the clear."""
+        """After P2G (and the viscous step), before the grid update: the grounds' touched columns (``touch.py``), then
+        the contact and the clear."""
+        self.touch_update()
         if self.fields:
             self.field_contact()
             self.field_clear()

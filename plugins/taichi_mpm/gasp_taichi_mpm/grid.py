@@ -118,9 +118,8 @@ class GridUpdate(GroundTouch):
         return lo, ti.max(hi - lo + 1, 0)
 
     def grid_update(self):
-        """The touched columns (:meth:`touch_update`), the grid update (:meth:`grid_nodes`), then the held boxes' ghost
-        nodes (:meth:`mirror_held`; first the fixed regions' broken faces, :meth:`mark_cut`)."""
-        self.touch_update()
+        """The grid update (:meth:`grid_nodes`; the grounds' touched columns were marked after P2G, ``touch.py``), then
+        the held boxes' ghost nodes (:meth:`mirror_held`; first the fixed regions' broken faces, :meth:`mark_cut`)."""
         self.grid_nodes()
         if self.n_regions or self.n_set_boxes:
             if self.cut:

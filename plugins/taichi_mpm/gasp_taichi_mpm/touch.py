@@ -1,6 +1,7 @@
-"""The ground's contact detected from the points (issue 67, round 35; docs/contact.md "Round 35: the contact
-detected from the points"): with the grid contact, the node layer just above a ground's plane takes the ground's
-Coulomb rule in the columns where a point of the body lies within ``touch_delta`` cells of the plane.
+"""The ground's contact detected from the points (issue 67, rounds 35-36; docs/contact.md "Round 35: the contact
+detected from the points", "Round 36: the touched layer on both engines"): with the grid contact, the node layer just
+above a ground's plane takes the ground's Coulomb rule in the columns where a point of the body lies within
+``touch_delta`` cells of the plane (warp_mpm's ``gasp_warp_mpm.touch``, the same rule).
 
 Mixed into :class:`gasp_taichi_mpm.grid.GridUpdate` (and so :class:`gasp_taichi_mpm.solver.MPMSolver`), whose
 fields (``ground_kmax``, ``ground_h``, ``x``, ``n_points``, ...) it reads.
@@ -11,10 +12,11 @@ import taichi as ti
 class GroundTouch:
     """The touched columns (:meth:`mark_touch`) and the ground's node reach (:meth:`ground_reach`)."""
 
-    #: The switch: False leaves the node layers ``I_z <= ground_kmax`` as the ground's (the rule before); True adds
-    #: the layer ``ground_kmax + 1`` in the touched columns (the grid contact's rule only: ``"grid"`` and the grid
-    #: contact's reach of ``"mixed"``).
-    touch_contact = False
+    #: The switch (on by default since round 36; warp_mpm's ``WarpMPMEngine.touch_contact``, the same rule): False
+    #: leaves the node layers ``I_z <= ground_kmax`` as the ground's (the rule before); True adds the layer
+    #: ``ground_kmax + 1`` in the touched columns (the grid contact's rule only: ``"grid"`` and the grid contact's
+    #: reach of ``"mixed"``).
+    touch_contact = True
     #: Cells: a point whose height above the plane is under ``touch_delta dx`` touches it.
     touch_delta = 0.25
 
@@ -58,6 +60,7 @@ class GroundTouch:
         return on
 
     def touch_update(self) -> None:
-        """:meth:`mark_touch` where ``touch_on`` (before each grid update, on the points' positions P2G used)."""
+        """:meth:`mark_touch` where ``touch_on`` (after each P2G, before the two-field contact and the grid update, on
+        the points' positions P2G used; warp_mpm's order)."""
         if self.touch_on:
             self.mark_touch()

@@ -11,11 +11,10 @@ Notes
 -----
 Choices where docs/mpm.md leaves room (the Taichi plugin agrees to ~1e-5 m on all seven materials):
 
-- ``jelly`` takes ``R = U V^T`` from a Newton polar iteration (Higham 1986) when ``det F > 0``,
-  which is the same matrix as the SVD's ``U V^T``; the plastic materials take the SVD from that
-  rotation and a Jacobi eigen-decomposition of ``R^T F`` (the same algorithm as the Taichi plugin,
-  docs/mpm.md "Constitutive models"); ``wp.svd3`` (U, V proper rotations, the sign of a reflection
-  on ``sig[2]``, checked in the tests) is used when ``det F <= 0`` or the iteration does not converge.
+- ``jelly`` takes ``R = U V^T`` from a Newton polar iteration (Higham 1986) when ``det F > 0``, the same matrix as the
+  SVD's ``U V^T``; the plastic materials take the SVD from that rotation and a Jacobi eigen-decomposition of ``R^T F``
+  (the Taichi plugin's algorithm, docs/mpm.md "Constitutive models"); ``wp.svd3`` (U, V proper rotations, the sign of a
+  reflection on ``sig[2]``, checked in the tests) is used when ``det F <= 0`` or the iteration does not converge.
 - ``metal`` / ``plasticine`` rebuild ``F = U diag(exp(eps)) V^T`` only when ``dg > 0``; ``sand`` always rebuilds it.
 - Wall friction axis by axis, x then y then z, the low face before the high face.
 - A point out of the grid neither scatters nor gathers and keeps its ``x, v, C`` for the rest of the frame; the
@@ -49,12 +48,13 @@ from .held import HeldRule, held_boxes, mirror_launches   # HeldRule: held_rule.
 from .rigid import RigidBodies
 from .sleeping import Sleeping
 from .tables import ExtraTables
+from .touch import GroundTouch
 from .startup import init_warp
 from .warmup import compile_all
 from .schedule import balance_for, resolve as resolve_schedule, viscosity_for
 
 
-class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule):
+class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule, GroundTouch):
     """MLS-MPM in Warp (docs/mpm.md), one instance per simulation (the non-kernel part: GridEngineBase).
 
     Parameters
@@ -238,7 +238,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
                 self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex, self.grid_g, self.has_wind,
                 self.grid_mv0, self.grid_v0, int(self.flip > 0), self.grid_fb, self.grid_fbody,
                 self.fr_sums, self.fr_nodes, self.nfric, self.grid_fn, self.grid_fv, Ft(self.wall_full), self.grid_mf,
-                self.fr_dv, self.fr_fb, self.wall_floor]),
+                self.fr_dv, self.fr_fb, self.wall_floor, self.ground_touch]),
             wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
                 self.x, self.v, self.C, self.fixed, self.grid_v, lo_v, inv_dx, dt_f, ng, self.grid_v0, Ft(self.flip),
                 self.grid_dv, self.body, self.in_a, ex, self.mat_kind, self.fixed_lo, self.fixed_hi, dx, rule,
@@ -247,7 +247,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
         # the contact's balance (gasp_warp_mpm.balance): its moments before P2G, its fix after the grid update
         self._pre, fixes = balance_for(self, k, lo_v, dx, dt_f, ex)   # on the run's schedule (schedule/__init__.py)
         self._launches[2:2] = fixes + mirror_launches(self, Ft, has_extras, ex)   # the held boxes' ghosts (grid.py)
-        self._launches[1:1] = field_launches(self, Ft)   # the two-field contact after P2G (fields.py)
+        self._launches[1:1] = self.touch_launches(Ft) + field_launches(self, Ft)   # after P2G: touch.py, fields.py
         # passive points after the grid update (the grid velocity holds forces, colliders, boundaries): one launch per
         # distinct interval of passive_schedule, at the substeps it names; each then held in the box the ground and
         # walls leave them (gasp_core.mpm.points.passive_bounds)

@@ -19,6 +19,7 @@ from gasp_core.mpm.fields import (MIN_FRACTION, MIN_GRADIENT, field_bodies, fiel
 
 from . import ENGINE
 from .precision import MODULE_OPTIONS, build_types
+from .touch import build_touch
 
 
 @functools.cache
@@ -68,6 +69,7 @@ def build_aflip_gather(Ft):
 def build_fields(Ft):
     """``field_contact``: the node kernel of the two-field contact, scalar type ``Ft``."""
     vec3, vec4, mat33 = build_types(Ft)
+    ground_reach = build_touch(Ft)[2]
 
     @wp.func
     def mass_b(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), node: int):
@@ -78,7 +80,7 @@ def build_fields(Ft):
     def field_contact(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), grid_dv: wp.array(dtype=vec3),
                       n_grid: int, mu: Ft, ground: wp.array(dtype=vec3), grid_vf: wp.array(dtype=Ft), cell: Ft,
                       wall_lo: Ft, wall_hi: vec3, touch_frac: Ft, pair: int, lo: vec3, dx: Ft,
-                      pair_acc: wp.array(dtype=wp.float64)):
+                      pair_acc: wp.array(dtype=wp.float64), ground_touch: wp.array(dtype=wp.int32)):
         node = wp.tid()
         nn = n_grid * n_grid
         n_nodes = nn * n_grid
@@ -94,7 +96,7 @@ def build_fields(Ft):
         inner = i > 0 and j > 0 and k > 0 and i < n_grid - 1 and j < n_grid - 1 and k < n_grid - 1
         held = int(0)   # in a ground's node layers or the walls' (the grid rule's reach): both move with the mean
         for r in range(ground.shape[0]):
-            if Ft(k) <= ground[r][0]:
+            if ground_reach(k, ground[r], r, i, j, n_grid, ground_touch):   # with the touched layer (touch.py)
                 held = int(1)
         if Ft(i) < wall_lo or Ft(j) < wall_lo or Ft(k) < wall_lo:
             held = int(1)
@@ -151,7 +153,8 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     sum m_red n; ``rigid_friction.build_rigid_pair``), ``grid_sv`` (field A's momentum and mass per node),
     ``grid_vf`` (each field's volume) and ``grid_dv``
     (the two offsets per node), one unused entry each without it (``eng.fields`` says which), and its friction
-    ``eng.field_mu`` and touch threshold ``eng.field_touch``."""
+    ``eng.field_mu`` and touch threshold ``eng.field_touch``; last, the grounds' touched columns
+    (``GroundTouch.allocate_touch``, touch.py)."""
     from gasp_core.mpm.rigid import step_view
     k, d = eng.k, eng.device
     view = step_view(eng.setup)
@@ -169,6 +172,7 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     eng.grid_sv = wp.zeros(n, dtype=k.vec4, device=d)
     eng.grid_dv = wp.zeros(2 * n if eng.fields else 1, dtype=k.vec3, device=d)
     eng.grid_vf = wp.zeros(2 * n if eng.fields else 1, dtype=Ft, device=d)
+    eng.allocate_touch(Ft, contact)   # the grounds' touched columns (touch.py)
 
 
 def field_launches(eng, Ft) -> list:
@@ -185,6 +189,6 @@ def field_launches(eng, Ft) -> list:
     return [wp.launch(contact, dim=ng ** 3, device=d, record_cmd=True, inputs=[
                 eng.grid_mv, eng.grid_sv, eng.grid_dv, ng, Ft(eng.field_mu), eng.ground, eng.grid_vf,
                 Ft(eng.dx ** 3), Ft(wall_lo), eng.k.vec3(*[float(c) for c in wall_hi]), Ft(eng.field_touch), eng.pair,
-                eng.k.vec3(*[float(c) for c in eng.setup.domain_lo]), Ft(eng.dx), eng.pair_acc]),
+                eng.k.vec3(*[float(c) for c in eng.setup.domain_lo]), Ft(eng.dx), eng.pair_acc, eng.ground_touch]),
             wp.launch(clear, dim=ng ** 3, device=d, record_cmd=True, inputs=[eng.grid_sv, eng.grid_vf])]
 

@@ -1,0 +1,101 @@
+"""The ground's contact detected from the points (issue 67, rounds 35-36; docs/contact.md "Round 36: the touched layer
+on both engines"), taichi_mpm's ``gasp_taichi_mpm.touch`` in Warp: with the grid contact, the node layer just above a
+ground's plane takes the ground's Coulomb rule in the columns where a point of a flowing body lies within
+``touch_delta`` cells of the plane.
+
+After P2G (and the viscous step), before the two-field contact and the grid update: :func:`build_touch`'s
+``touch_clear`` (a node-column kernel) zeroes ``ground_touch``, then ``touch_mark`` (a points kernel, atomic max)
+marks the 3 x 3 stencil columns of every near point. :func:`build_touch`'s ``ground_reach`` is the grounds' node
+test that ``grid.build_boundary_rules`` and ``fields.build_fields`` read.
+
+This module must not use ``from __future__ import annotations``: Warp reads the annotations of
+the closures below as type objects.
+"""
+import functools
+
+import numpy as np
+import warp as wp
+
+from .precision import MODULE_OPTIONS, build_types
+
+
+class GroundTouch:
+    """The engine's switch (a mixin of :class:`gasp_warp_mpm.engine.WarpMPMEngine`; taichi_mpm's
+    ``GridUpdate.touch_contact``, the same defaults)."""
+
+    #: True: the node layer above a ground's top layer takes its rule in the touched columns (the grid contact's rule
+    #: only: ``"grid"`` and the grid contact's reach of ``"mixed"``); False: the node layers ``k <= ground[g][0]``
+    #: alone, the rule before (the catch of ``tests/test_ground_touch.py``). Read when the engine is built.
+    touch_contact = True
+    #: Cells: a point whose height above the plane is under ``touch_delta dx`` touches it.
+    touch_delta = 0.25
+
+    def allocate_touch(self, Ft, contact: str) -> None:
+        """``touch_on`` (the switch, a ground, and ``contact`` ``"grid"`` or ``"mixed"``), ``ground_touch`` (int32,
+        ``n_grounds * n_grid**2``: ground ``q``'s column ``(i, j)`` at ``(q n_grid + i) n_grid + j``; one unused entry
+        when off) and ``ground_z`` (the grounds' heights, m, scalar type ``Ft``)."""
+        heights = [float(b.height) for b in self.setup.boundaries if b.kind == "ground"]
+        self.touch_on = bool(self.touch_contact and heights and contact in ("grid", "mixed"))
+        n = len(heights) * self.n_grid ** 2 if self.touch_on else 1
+        self.ground_touch = wp.zeros(n, dtype=wp.int32, device=self.device)
+        self.ground_z = wp.array(np.array(heights or [0.0], dtype=self._np_dtype), dtype=Ft, device=self.device)
+
+    def touch_launches(self, Ft) -> list:
+        """The recorded clear and mark (after P2G, before the two-field contact and the grid update); none when
+        ``touch_on`` is False."""
+        if not self.touch_on:
+            return []
+        clear, mark, _ = build_touch(Ft)
+        ng, d = self.n_grid, self.device
+        lo = self.k.vec3(*[float(c) for c in self.setup.domain_lo])
+        return [wp.launch(clear, dim=self.ground_touch.shape[0], device=d, record_cmd=True,
+                          inputs=[self.ground_touch]),
+                wp.launch(mark, dim=self.n_material, device=d, record_cmd=True, inputs=[
+                    self.x, self.body, self.flows, self.ground_z, self.ground_touch, lo, Ft(self.inv_dx),
+                    Ft(self.touch_delta * self.dx), ng])]
+
+
+@functools.cache
+def build_touch(Ft):
+    """``(touch_clear, touch_mark, ground_reach)`` of scalar type ``Ft``: the two kernels (module docstring) and
+    ``ground_reach(k, gr, q, i, j, n_grid, ground_touch)``, whether ground ``q`` (``gr = ground[q]``, its top node
+    layer ``gr[0]``) holds node ``(i, j, k)``: ``k <= gr[0]``, or (``ground_touch`` of more than one entry) the
+    layer ``gr[0] + 1`` in a marked column."""
+    vec3, vec4, mat33 = build_types(Ft)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def touch_clear(ground_touch: wp.array(dtype=wp.int32)):
+        ground_touch[wp.tid()] = 0
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def touch_mark(x: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), flows: wp.array(dtype=wp.int32),
+                   ground_z: wp.array(dtype=Ft), ground_touch: wp.array(dtype=wp.int32), lo: vec3, inv_dx: Ft,
+                   reach: Ft, n_grid: int):
+        # a point of a flowing body (flows: all with "grid", the flowing bodies with "mixed") in the grid (P2G's
+        # stencil test) under reach (m) above ground q's plane (below it too) marks its 3 x 3 stencil columns
+        p = wp.tid()
+        if flows[body[p]] == 0:
+            return
+        xp = x[p]
+        X = (xp - lo) * inv_dx
+        lim = Ft(n_grid - 3)
+        b0 = wp.floor(X[0] - Ft(0.5))
+        b1 = wp.floor(X[1] - Ft(0.5))
+        b2 = wp.floor(X[2] - Ft(0.5))
+        if not (b0 >= Ft(0.0) and b0 <= lim and b1 >= Ft(0.0) and b1 <= lim and b2 >= Ft(0.0) and b2 <= lim):
+            return
+        for q in range(ground_z.shape[0]):
+            if xp[2] - ground_z[q] < reach:
+                for a in range(3):
+                    for c in range(3):
+                        wp.atomic_max(ground_touch, (q * n_grid + int(b0) + a) * n_grid + int(b1) + c, 1)
+
+    @wp.func
+    def ground_reach(k: int, gr: vec3, q: int, i: int, j: int, n_grid: int, ground_touch: wp.array(dtype=wp.int32)):
+        on = Ft(k) <= gr[0]   # node layer k at or below the ground's top layer (exact small integers)
+        if ground_touch.shape[0] > 1 and Ft(k) == gr[0] + Ft(1.0):
+            if ground_touch[(q * n_grid + i) * n_grid + j] != 0:
+                on = True
+        return on
+
+    return touch_clear, touch_mark, ground_reach
