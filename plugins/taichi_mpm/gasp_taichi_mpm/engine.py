@@ -291,6 +291,8 @@ class TaichiMPMEngine(GridEngineBase):
         X = (x - self.setup.domain_lo) / self.setup.dx
         base = np.floor(X - 0.5)
         out = ((base < 0) | (base > self.setup.n_grid - 3)).any(axis=1)
+        if self.setup.passive is not None:   # the material points': a passive one out drops out (blow_up_rows)
+            out &= ~np.asarray(self.setup.passive, dtype=bool)
         if (out.any() or n_out > 0) and self._fast(v):
             bad = np.flatnonzero(out)
             where = f" (first index {bad[0]} at {x[bad[0]].tolist()})" if len(bad) else ""
