@@ -35,9 +35,10 @@ FRAMES, FRAME_DT, SPEED = 3, 2e-3, 1.5     # SPEED: cells a substep (n_substeps 
 JELLY = Material(name="jelly", E=2e3, nu=0.3, rho=300.0)
 
 
-def _setup(n_grid: int) -> SimSetup:
+def _setup(n_grid: int, schedule: str | None = None) -> SimSetup:
     """The block (material, dx / 2 lattice) at ``SPEED dx / FRAME_DT`` m/s along x, 9 passive points on its top face
-    and one passive point a fifth of a cell above the domain's floor (its stencil out of the grid)."""
+    and one passive point a fifth of a cell above the domain's floor (its stencil out of the grid); ``schedule``:
+    taichi_mpm's option (``"gpu"``: the frame's checks counted on the device, run here on the CPU)."""
     dx = 1.0 / n_grid
     x, p_vol = box_points([0.3, 0.4, 0.4], [0.45, 0.55, 0.55], dx / 2)
     g = np.linspace(0.32, 0.43, 3)
@@ -48,12 +49,12 @@ def _setup(n_grid: int) -> SimSetup:
                     np.full(len(x), p_vol)], body_id=0, materials=[JELLY], gravity=np.zeros(3),
                     domain_lo=np.zeros(3), domain_hi=np.ones(3), n_grid=n_grid, frame_dt=FRAME_DT,
                     n_render=len(mk), passive=np.r_[np.ones(len(mk), bool), np.zeros(len(x), bool)],
-                    options={"threads": 1, "n_substeps": 1})
+                    options={"threads": 1, "n_substeps": 1, **({"schedule": schedule} if schedule else {})})
 
 
-def problems(engine: str, n_grid: int) -> list[str]:
+def problems(engine: str, n_grid: int, schedule: str | None = None) -> list[str]:
     """What is wrong with the flight (empty: nothing), as lines with the figures."""
-    setup = _setup(n_grid)
+    setup = _setup(n_grid, schedule)
     stats, xs, counts = RunStats(), [setup.x.copy()], []
     try:
         for rec in run_engine(resolve_engine(engine), setup, FRAMES, stats):
@@ -79,6 +80,11 @@ def problems(engine: str, n_grid: int) -> list[str]:
 @pytest.mark.parametrize("n_grid", GRIDS)
 def test_a_passive_point_out_of_the_grid_drops_out_and_is_counted(engine, n_grid):
     assert problems(engine, n_grid) == []
+
+
+def test_taichi_mpm_gpu_schedule_counts_the_material_points_alone():
+    """taichi_mpm's GPU schedule (its checks on the device, ``FrameChecks.check_points``), on the CPU."""
+    assert problems("taichi_mpm", GRIDS[0], "gpu") == []
 
 
 def test_the_check_catches_a_count_of_the_material_points_alone(monkeypatch):
