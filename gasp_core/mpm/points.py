@@ -394,6 +394,7 @@ def blow_up_rows(v: np.ndarray, passive) -> np.ndarray:
     passive ones' (``passive``: ``SimSetup.passive``, shape (n,) bool, or None). A passive point adds nothing to the
     grid, so its speed is no sign of an unstable step: it reads the grid's affine field ``v + C y`` beyond the
     material, which a crushed body's release makes steep (issue 66, ``docs/fracture.md``: the brittle README donut
-    at 20 m/s, its material at most 0.85 of a cell a substep, its surface points 1.28 cells).
+    at 20 m/s, its material at most 0.85 of a cell a substep, its surface points 1.28 cells). So the engines count
+    material points out of the grid only; a passive one drops out, counted as ``left_domain`` (docs/fracture.md r36).
     """
     return v if passive is None else np.asarray(v)[~np.asarray(passive, dtype=bool)]

@@ -74,8 +74,8 @@ FEATURES = {
     "left_domain": "a point whose transfer stencil leaves the grid (SimSetup.n_grid nodes of SimSetup.dx from "
                    "domain_lo) drops out of the simulation where it is (no P2G or G2P: its x and v stay) and the run "
                    "goes on; the core counts such points every frame (run.json left_domain, with a warning: "
-                   "gasp_core.seam.runner.left_grid). A point that leaves faster than a cell a substep is still a "
-                   "divergence (CAUSE_UNSTABLE)",
+                   "gasp_core.seam.runner.left_grid). A material point that leaves faster than a cell a substep is "
+                   "still a divergence (CAUSE_UNSTABLE); a passive point's leaving never is",
     "rigid_limit": "Material.model = 'rigid': the body moves as one rigid body (momentum and angular momentum of "
                    "its points kept), its stress is zero and its stiffness sets no step (docs/rigid.md)",
 }

@@ -1,5 +1,6 @@
 """A frame's checks on the device (:class:`FrameChecks`, a mixin of :class:`gasp_taichi_mpm.solver.MPMSolver`): the
-out-of-grid counter of the substeps and, on the GPU schedule, the finite and in-grid tests of every point counted
+out-of-grid counter of the substeps and, on the GPU schedule, the finite tests of every point and the in-grid
+tests of the material points counted
 where the points are, so a frame reads back four integers instead of running NumPy over every point.
 """
 import taichi as ti
@@ -15,8 +16,8 @@ class FrameChecks:
     @ti.kernel
     def check_points(self):
         """The frame's checks on the device (GPU schedule: one small read a frame instead of NumPy over every
-        point): ``bad`` = [points with a non-finite x or v, the first of them, points whose stencil leaves the grid,
-        the first of them] (solver order; ``n`` when none)."""
+        point): ``bad`` = [points with a non-finite x or v, the first of them, material points whose stencil
+        leaves the grid, the first of them] (solver order; ``n`` when none)."""
         self.bad[0], self.bad[1], self.bad[2], self.bad[3] = 0, self.n_total[None], 0, self.n_total[None]
         for p in range(self.n_total[None]):
             x, v = self.x[p], self.v[p]
@@ -27,7 +28,7 @@ class FrameChecks:
             if not finite:
                 ti.atomic_add(self.bad[0], 1)
                 ti.atomic_min(self.bad[1], p)
-            else:
+            elif p < self.n_material:   # the material points (first): a passive one out drops out (blow_up_rows)
                 base = ti.floor((x - self.lo[None]) * self.inv_dx[None] - 0.5, ti.i32)
                 if (base < 0).any() or (base > self.n_grid - 3).any():
                     ti.atomic_add(self.bad[2], 1)

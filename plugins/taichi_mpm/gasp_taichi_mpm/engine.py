@@ -288,9 +288,9 @@ class TaichiMPMEngine(GridEngineBase):
             bad = np.flatnonzero(~finite)
             raise EngineDivergence(f"{len(bad)} point(s) with non-finite position or velocity "
                                    f"(first index {bad[0]})", self.frame, CAUSE_UNSTABLE)
-        X = (x - self.setup.domain_lo) / self.setup.dx
-        base = np.floor(X - 0.5)
+        base = np.floor((x - self.setup.domain_lo) / self.setup.dx - 0.5)
         out = ((base < 0) | (base > self.setup.n_grid - 3)).any(axis=1)
+        out &= ~np.asarray(self.setup.passive, dtype=bool)   # the material points' (None: all; blow_up_rows)
         if (out.any() or n_out > 0) and self._fast(v):
             bad = np.flatnonzero(out)
             where = f" (first index {bad[0]} at {x[bad[0]].tolist()})" if len(bad) else ""

@@ -226,9 +226,9 @@ class Transfers:
         flowed away, issue 55's specks in the air) falls freely, ``v_new = v_prev + m dt g``, until the material or
         the boundaries' box takes it again (on the floor, slowed by its friction)."""
         base, fx, ok = self.base_fx(self.x[p])
-        if not ok:
-            ti.atomic_add(self.n_out[None], 1)
-        else:
+        # out of the grid (not ok): it drops out where it is, uncounted here (n_out is the material points' count,
+        # the blow-up verdict's; gasp_core.mpm.points.blow_up_rows), counted by the core (run.json left_domain)
+        if ok:
             w = self.weights(fx)
             new_v = ti.Vector.zero(self.real, 3)
             wsum = ti.cast(0.0, self.real)

@@ -254,7 +254,8 @@ def build_g2p_passive(Ft):
         xp = x[p]
         X = (xp - lo) * inv_dx
         if not in_grid(X, n_grid):
-            wp.atomic_add(flags, 0, 1)
+            # out of the grid: it drops out where it is, uncounted here (flags[0] is the material points' count, the
+            # blow-up verdict's; gasp_core.mpm.points.blow_up_rows), counted by the core (run.json left_domain)
             return
         b0 = wp.floor(X[0] - Ft(0.5))
         b1 = wp.floor(X[1] - Ft(0.5))
