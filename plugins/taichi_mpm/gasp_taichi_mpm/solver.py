@@ -138,10 +138,10 @@ class MPMSolver(Transfers, ColouredP2G, TileP2G, FixedPointP2G, Constitutive, Gr
         self.flip = float(flip)   # AFLIP blend (gasp_core.mpm.transfer); > 0: grid_mv also sums the APIC momentum
         self.coloured = bool(coloured) and not self.atomic and self.n_chunks == 1
         self.n_walls, self.n_grounds, self.n_regions = len(walls), len(grounds), len(regions)
-        # the particle contact (p_contact: (n, 3) per point, :mod:`gasp_taichi_mpm.contact`) with the planes of the
-        # grounds and walls (planes: contact_planes' normals and rows); grid_mv's last channel sums the friction budgets
+        self.ground_rubs = any(g[0] > 0 for g in grounds)   # a ground with friction: the touched layer (touch.py)
+        # the particle contact (p_contact: (n, 3) per point, contact.py) with the grounds' and walls' planes (planes)
         plane_n, plane_row = planes if planes is not None and p_contact is not None else (np.zeros((0, 3)),) * 2
-        self.n_planes = len(plane_n)
+        self.n_planes = len(plane_n)   # (contact_planes' normals and rows); grid_mv's last channel sums the budgets
         self.n_colc = int(n_colc) if p_contact is not None else 0   # colliders in the particle contact; its supports
         n_faces = int(np.sum(plane_row[:, 2] > 0))   # a body: the grounds, each collider, each face of the walls
         self.n_sup, self.nfric = 1 + self.n_colc + n_faces, bool(self.n_colc or n_faces)   # nfric: grid_fnv

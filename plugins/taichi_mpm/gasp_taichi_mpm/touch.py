@@ -21,10 +21,10 @@ class GroundTouch:
     touch_delta = 0.25
 
     def allocate_touch(self) -> None:
-        """``touch_on`` (the switch, a ground, and the grid contact's rule: no particle contact, or the contact chosen
+        """``touch_on`` (the switch, a ground with friction, ``ground_rubs``, and the grid contact's rule: no particle contact, or the contact chosen
         per body) and ``ground_touch`` (i32, ``(4, n_grid, n_grid)``: ground, column; else one entry). Called by
         :meth:`~gasp_taichi_mpm.contact.Contact.allocate_mixed` (``mixed`` known)."""
-        self.touch_on = bool(self.touch_contact and self.n_grounds > 0 and (not self.pc or self.mixed))
+        self.touch_on = bool(self.touch_contact and self.ground_rubs and (not self.pc or self.mixed))
         ng = self.n_grid
         self.ground_touch = ti.field(ti.i32, shape=(4, ng, ng) if self.touch_on else (1, 1, 1))
 

@@ -35,7 +35,8 @@ class GroundTouch:
         ``n_grounds * n_grid**2``: ground ``q``'s column ``(i, j)`` at ``(q n_grid + i) n_grid + j``; one unused entry
         when off) and ``ground_z`` (the grounds' heights, m, scalar type ``Ft``)."""
         heights = [float(b.height) for b in self.setup.boundaries if b.kind == "ground"]
-        self.touch_on = bool(self.touch_contact and heights and contact in ("grid", "mixed"))
+        rubs = any(b.friction > 0 for b in self.setup.boundaries if b.kind == "ground")   # ground_reach: mu > 0 only
+        self.touch_on = bool(self.touch_contact and rubs and contact in ("grid", "mixed"))
         n = len(heights) * self.n_grid ** 2 if self.touch_on else 1
         self.ground_touch = wp.zeros(n, dtype=wp.int32, device=self.device)
         self.ground_z = wp.array(np.array(heights or [0.0], dtype=self._np_dtype), dtype=Ft, device=self.device)
