@@ -72,25 +72,10 @@ def scene_toml(sp: tf.Specimen, n_grid: int, engine: str, mesh: str, angle: str,
     (:func:`faces`)."""
     clamp, pulled = faces(sp, angle, tf.SIZE / n_grid)
     v = [float(c) for c in to.pull_velocity(to.axis_frame(angle)[:, 0])]
-    opts = 'precision = "f64"' + (", threads = 1" if engine == "taichi_mpm" else "")
-    S = tf.SIZE
     rot = [90.0 if sp.flat else 0.0, 0.0, float(angle)]
     z0 = float(to.CENTRE[2] - section_half(sp)[1])
-    return f"""frame_dt = {tf.FRAME_DT}
-n_frames = 10
-gravity = [0.0, 0.0, 0.0]
-[engine]
-name = "{engine}"
-options = {{ {opts} }}
-[domain]
-lo = [0.0, 0.0, 0.0]
-hi = [{S}, {S}, {S}]
-n_grid = {n_grid}
-[[boundary]]
-kind = "fixed_region"
-lo = [0.0, 0.0, 0.0]
-hi = [{clamp!r}, {S}, {S}]
-[[impulse]]
+    S = tf.SIZE
+    return ut.scene_head(engine, n_grid, 0.0, clamp) + f"""[[impulse]]
 shape = "box"
 lo = [{pulled!r}, 0.0, 0.0]
 hi = [{S}, {S}, {S}]
@@ -104,15 +89,7 @@ mesh = "{mesh}"
 up_axis = "+z"
 rotation = {rot}
 position = [{to.CENTRE[0]}, {to.CENTRE[1]}, {z0!r}]
-[object.material]
-name = "brittle"
-E = {tf.E}
-nu = {tf.NU}
-rho = {tf.RHO}
-tensile_strength = {tf.FT}
-fracture_energy = {tf.GF}
-model = "elastic"
-"""
+""" + ut.MATERIAL_ROWS
 
 
 def prepare(sp: tf.Specimen, n_grid: int, engine: str, angle: str, folder: Path | None = None,

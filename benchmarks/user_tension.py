@@ -124,10 +124,21 @@ def scene_toml(sp: tf.Specimen, n_grid: int, engine: str, mesh: str, surface: st
     domain and the held faces moved by ``-shift`` cells (:func:`faces`)."""
     clamp, pulled = faces(sp, n_grid, shift)
     x_lo = -shift * tf.SIZE / n_grid
-    opts = 'precision = "f64"' + (", threads = 1" if engine == "taichi_mpm" else "")
     dom = f"particles_per_cell = {ppc}\n" if ppc else ""
     obj = f'surface = "{surface}"\n' if surface != "auto" else ""
     z0 = tf.Y0 - float(sp.thickness(np.array([tf.X0]))[0]) / 2
+    return scene_head(engine, n_grid, x_lo, clamp, dom) + impulse_rows(pulled, pull) + f"""[[object]]
+mesh = "{mesh}"
+up_axis = "+z"
+position = [{tf.X0 + sp.length / 2}, {tf.Y0}, {z0}]
+{obj}""" + MATERIAL_ROWS
+
+
+def scene_head(engine: str, n_grid: int, x_lo: float, clamp: float, domain_rows: str = "") -> str:
+    """The family's scene up to its pull: 10 frames of ``tf.FRAME_DT`` without gravity, ``engine`` in f64 (taichi_mpm
+    on one thread), the cube of ``tf.SIZE`` from ``x_lo`` (m) at ``n_grid`` (and ``domain_rows``), held by a
+    ``fixed_region`` up to x = ``clamp`` (m)."""
+    opts = 'precision = "f64"' + (", threads = 1" if engine == "taichi_mpm" else "")
     return f"""frame_dt = {tf.FRAME_DT}
 n_frames = 10
 gravity = [0.0, 0.0, 0.0]
@@ -138,15 +149,15 @@ options = {{ {opts} }}
 lo = [{x_lo!r}, 0.0, 0.0]
 hi = [{tf.SIZE + x_lo!r}, {tf.SIZE}, {tf.SIZE}]
 n_grid = {n_grid}
-{dom}[[boundary]]
+{domain_rows}[[boundary]]
 kind = "fixed_region"
 lo = [{x_lo!r}, 0.0, 0.0]
-hi = [{clamp}, {tf.SIZE}, {tf.SIZE}]
-{impulse_rows(pulled, pull)}[[object]]
-mesh = "{mesh}"
-up_axis = "+z"
-position = [{tf.X0 + sp.length / 2}, {tf.Y0}, {z0}]
-{obj}[object.material]
+hi = [{clamp!r}, {tf.SIZE}, {tf.SIZE}]
+"""
+
+
+#: the family's brittle material as a scene's ``[object.material]`` rows
+MATERIAL_ROWS = f"""[object.material]
 name = "brittle"
 E = {tf.E}
 nu = {tf.NU}

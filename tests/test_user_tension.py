@@ -42,12 +42,20 @@ def _names():
 def failures(r: dict) -> list[str]:
     """What the must-show finds wrong with one case of :func:`user_tension.run_user_case`."""
     tag = f"{r['specimen']} {r['engine']} n_grid {r['n_grid']}"
-    bad = [f"{tag}: {b}" for b in fill_failures(r)]
+    where = f"x = {r['crack_x']:.3f} m ({r['where']}; clamp face {r['clamp_face']:.3f})"
+    return [f"{tag}: {b}" for b in fill_failures(r)] + case_failures(r, tag, where)
+
+
+def case_failures(r: dict, tag: str, where: str) -> list[str]:
+    """The must-show on one tension case ``r`` (a dict with ``peak``, ``peak_vs_ft``, ``where``, ``work``): the
+    peak nominal stress within ``STRENGTH_TOL`` of ``f_t``, the break in the gauge (``where`` says where it broke),
+    the work to separate within ``GF_TOL`` of ``G_f``; each miss a line starting with ``tag``."""
+    bad = []
     if not abs(r["peak"] / tf.FT - 1) <= STRENGTH_TOL:
         bad.append(f"{tag}: peak nominal stress {r['peak']:.0f} Pa against f_t {tf.FT:.0f} "
                    f"({100 * r['peak_vs_ft']:+.1f} %)")
     if r["where"] != "gauge":
-        bad.append(f"{tag}: breaks at x = {r['crack_x']:.3f} m ({r['where']}; clamp face {r['clamp_face']:.3f})")
+        bad.append(f"{tag}: breaks at {where}")
     if not abs(r["work"] / tf.GF - 1) <= GF_TOL:
         bad.append(f"{tag}: work to separate {r['work']:.2f} J/m^2 against G_f {tf.GF:g}")
     return bad
