@@ -12,6 +12,10 @@ class Transfers:
     """The stencil of a point, P2G (atomic or into private grid copies; the schedules' own P2G passes are in
     :mod:`gasp_taichi_mpm.schedule.coloured` and :mod:`gasp_taichi_mpm.schedule.tiles`), G2P and the passive points' G2P."""
 
+    #: The passive gather weights each node with mass by its B-spline weight times its mass (round 37); False: by the
+    #: weight alone, renormalised over the nodes with mass (the rule before; kept for tests/test_passive_specks.py)
+    PASSIVE_BY_MASS = True
+
     @ti.func
     def base_fx(self, xp):
         X = (xp - self.lo[None]) * self.inv_dx[None]
@@ -215,10 +219,12 @@ class Transfers:
     def g2p_passive_point(self, p, pair):
         """A passive point: velocity ``v`` and affine velocity gradient ``C`` from the grid (no F, no P2G).
 
-        Only nodes that received mass count, with the weights renormalised over them: a surface point
-        half a spacing outside the material sees empty nodes (velocity 0, not the material's) in its
-        stencil, which would hold it back. ``C`` is the weighted least-squares fit of those nodes'
-        velocities (APIC's ``C`` on a full stencil). The point then advances over the ``m = passive_substeps[pair]``
+        Mass-weighted (round 37): ``v = sum w_i m_i v_i / sum w_i m_i`` over the stencil's nodes, so a node's say
+        is its share of the material at the point; empty nodes (velocity 0, not the material's) have none, so a
+        surface point half a spacing outside the material is not held back, and a node of tiny mass (a far corner
+        of a fragment, a node whose velocity is a force over a tiny mass) cannot fling it (issue 66's specks; by the
+        weight alone, renormalised over the nodes with mass, before: :attr:`PASSIVE_BY_MASS`). ``C`` is the
+        least-squares fit of those nodes' velocities, weighted the same (APIC's ``C`` on a full stencil). The point then advances over the ``m = passive_substeps[pair]``
         substeps since its last gather through the affine field
         ``v(y, k) = v_prev + (k/m)(v_new - v_prev) + (C_prev + (k/m)(C_new - C_prev)) y``,
         ``y += dt v(y, k)`` for ``k = 1..m`` (:func:`gasp_core.mpm.substeps.passive_schedule`), so it turns with
@@ -239,6 +245,8 @@ class Transfers:
                 node = base + ti.Vector([i, j, k])
                 if self.grid_m[node] > 0.0:
                     wn = w[i][0] * w[j][1] * w[k][2]
+                    if ti.static(self.PASSIVE_BY_MASS):
+                        wn *= self.grid_m[node]   # the node's say: its share of the material at the point
                     r = ti.Vector([ti.static(float(i)), ti.static(float(j)), ti.static(float(k))], self.real) - fx
                     gv = self.node_v(p, node)   # its body's field (fields.py): a passive sand point slides too
                     new_v += wn * gv

@@ -220,11 +220,19 @@ def build_g2p(Ft):
     return g2p
 
 
+#: The passive gather weights each node with mass by its B-spline weight times its mass (round 37); False: by the
+#: weight alone, renormalised over the nodes with mass (the rule before; kept for tests/test_passive_specks.py, which
+#: clears :func:`build_g2p_passive`'s and ``kernels.build_kernels``' caches around it)
+PASSIVE_BY_MASS = True
+
+
 @functools.cache
 def build_g2p_passive(Ft):
     """``g2p_passive``: the G2P kernel of scalar type ``Ft`` for passive points, each reading its body's velocity field
     (the two-field contact's offset, ``fields.build_field_reads``). It is long because the kernel is one closure of
-    the scalar type: the gather over the nodes with mass, the least-squares ``C`` and the affine advance."""
+    the scalar type: the mass-weighted gather over the nodes with mass (:data:`PASSIVE_BY_MASS`), the least-squares
+    ``C`` and the affine advance."""
+    by_mass = bool(PASSIVE_BY_MASS)
     vec3, vec4, mat33 = build_types(Ft)
     in_grid, weights = build_stencil(Ft)
     hold_passive = build_passive_hold(Ft)
@@ -238,9 +246,10 @@ def build_g2p_passive(Ft):
         grid_dv: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32), mu_floor: Ft,
     ):
         # Passive points (rows first..): velocity v and affine velocity gradient C from the grid
-        # (no F, no P2G). Only nodes with mass count, weights renormalised over them: a surface point
-        # outside the material would otherwise be held back by the empty nodes' zero velocity; C is
-        # the weighted least-squares fit of the node velocities (APIC's C on a full stencil). The
+        # (no F, no P2G). Mass-weighted (round 37): v = sum w_i m_i v_i / sum w_i m_i, a node's say its share of
+        # the material at the point: empty nodes (velocity 0) have none, so a surface point outside the material is
+        # not held back, and a node of tiny mass cannot fling it (issue 66's specks); C is the least-squares fit
+        # of the node velocities weighted the same (APIC's C on a full stencil). The
         # point then advances over the m substeps since its last gather through the affine field
         # v(y, k) = v_prev + (k/m)(v_new - v_prev) + (C_prev + (k/m)(C_new - C_prev)) y,
         # y += dt v(y, k), k = 1..m (gasp_core.mpm.substeps.passive_schedule), so it turns with the material.
@@ -277,6 +286,8 @@ def build_g2p_passive(Ft):
                 for k in range(3):
                     if grid_m[row + k] > Ft(0.0):
                         w = W[i, 0] * W[j, 1] * W[k, 2]
+                        if wp.static(by_mass):
+                            w = w * grid_m[row + k]   # the node's say: its share of the material at the point
                         # node - point, cells; the steps read from `steps`, since in Warp 1.19 casting an unrolled
                         # loop's index, Ft(i) with Ft float64, retypes the index for the rest of the loop
                         r = vec3(steps[i], steps[j], steps[k]) - fx
