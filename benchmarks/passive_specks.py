@@ -138,14 +138,15 @@ def main() -> None:
 def write_md(rows: list[dict]) -> None:
     lines = ["# Passive surface points away from the material (issue 66, round 37)", "",
              "`python benchmarks/passive_specks.py` (docstring). Specks: passive points further than 1 dx from every "
-             "material point, per frame (every 5th frame shown, and the last); farthest: the largest such distance "
+             "material point, per frame (every 5th frame shown, or a tenth of the run's, and the last); farthest: the largest such distance "
              "over the passive points at the last frame, in dx. `before`: the gather by the B-spline weight alone, "
              "renormalised over the nodes with mass; `mass`: weighted by the nodes' mass (round 37).", "",
              "| case | engine | gather | passive points | specks at frames 0, 5, 10, ... and last | peak | "
              "farthest at the last (dx) | s |", "|---|---|---|---|---|---|---|---|"]
     for r in sorted(rows, key=lambda r: (r["case"], r["engine"], r["gather"])):
         s = r["specks"]
-        shown = s[::5] + ([s[-1]] if (len(s) - 1) % 5 else [])
+        step = max(5, (len(s) - 1) // 10)
+        shown = s[::step] + ([s[-1]] if (len(s) - 1) % step else [])
         lines.append(f"| {r['case']} | {r['engine']} | {r['gather']} | {r['n_passive']} | "
                      f"{' / '.join(str(x) for x in shown)} | {max(s)} | {r['farthest_dx'][-1]} | {r['wall_s']} |")
     (RESULTS / "passive_specks.md").write_text("\n".join(lines) + "\n")

@@ -231,7 +231,17 @@ def build_g2p_passive(Ft):
     """``g2p_passive``: the G2P kernel of scalar type ``Ft`` for passive points, each reading its body's velocity field
     (the two-field contact's offset, ``fields.build_field_reads``). It is long because the kernel is one closure of
     the scalar type: the mass-weighted gather over the nodes with mass (:data:`PASSIVE_BY_MASS`), the least-squares
-    ``C`` and the affine advance."""
+    ``C`` and the affine advance.
+
+    Passive points (rows ``first..``): velocity ``v`` and affine velocity gradient ``C`` from the grid (no F, no P2G).
+    Mass-weighted (round 37): ``v = sum w_i m_i v_i / sum w_i m_i``, a node's say its share of the material at the
+    point: empty nodes (velocity 0) have none, so a surface point outside the material is not held back, and a node
+    of tiny mass cannot fling it (issue 66's specks); ``C`` is the least-squares fit of the node velocities weighted
+    the same (APIC's ``C`` on a full stencil). The point then advances over the ``m`` substeps since its last gather
+    through the affine field ``v(y, k) = v_prev + (k/m)(v_new - v_prev) + (C_prev + (k/m)(C_new - C_prev)) y``,
+    ``y += dt v(y, k)``, ``k = 1..m`` (``gasp_core.mpm.substeps.passive_schedule``), so it turns with the material.
+    A point with no node of mass in its stencil (stranded) falls freely: ``v_new = v_prev + m dt g``; on the floor it
+    slides with the floor's Coulomb friction ``mu_floor`` (``gasp_core.mpm.points.hold_passive``)."""
     by_mass = bool(PASSIVE_BY_MASS)
     vec3, vec4, mat33 = build_types(Ft)
     in_grid, weights = build_stencil(Ft)
@@ -245,16 +255,7 @@ def build_g2p_passive(Ft):
         lo: vec3, inv_dx: Ft, dt: Ft, m: int, n_grid: int, first: int, hold_lo: vec3, hold_hi: vec3, gravity: vec3,
         grid_dv: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32), mu_floor: Ft,
     ):
-        # Passive points (rows first..): velocity v and affine velocity gradient C from the grid
-        # (no F, no P2G). Mass-weighted (round 37): v = sum w_i m_i v_i / sum w_i m_i, a node's say its share of
-        # the material at the point: empty nodes (velocity 0) have none, so a surface point outside the material is
-        # not held back, and a node of tiny mass cannot fling it (issue 66's specks); C is the least-squares fit
-        # of the node velocities weighted the same (APIC's C on a full stencil). The
-        # point then advances over the m substeps since its last gather through the affine field
-        # v(y, k) = v_prev + (k/m)(v_new - v_prev) + (C_prev + (k/m)(C_new - C_prev)) y,
-        # y += dt v(y, k), k = 1..m (gasp_core.mpm.substeps.passive_schedule), so it turns with the material.
-        # A point with no node of mass in its stencil (stranded) falls freely: v_new = v_prev + m dt g; on the floor
-        # it slides with the floor's Coulomb friction mu_floor (gasp_core.mpm.points.hold_passive).
+        # Passive points (rows first..): v and C from the grid, then the affine advance (the builder's docstring)
         p = first + wp.tid()
         if fixed[p] != 0:
             v[p] = vec3(Ft(0.0))
