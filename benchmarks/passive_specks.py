@@ -1,13 +1,15 @@
 """The passive surface points left away from the material (issue 66, "What a user sees", round 37): per frame, the
 passive points further than 1 ``dx`` from every material point (:mod:`gasp_core.testing.specks`), with the passive
-gather weighted by mass (round 37) and by the B-spline weight alone, renormalised over the nodes with mass (the rule
-before), on a family: the brittle ball with a skin of passive points landing at 2, 4, 7 and 10 m/s (n_grid 32, 20
-frames), a pulled dog-bone built through a scene (``benchmarks/user_tension.py``'s ``dogbone_2to1`` at n_grid 24, one
-set box from t = 0), and ``examples/donut_shatter.toml`` (its own grid, ``--donut-frames`` frames).
+gather of the engines (by the B-spline weight alone, renormalised over the nodes with mass) and the two mass-weighted
+variants measured in round 37 (:data:`GATHERS`, :func:`rule`), on a family: the brittle ball with a skin of passive
+points landing at 2, 4, 7 and 10 m/s (n_grid 32, 20 frames), a pulled dog-bone built through a scene
+(``benchmarks/user_tension.py``'s ``dogbone_2to1`` at n_grid 24, one set box from t = 0), the oblique 1.5:1 dog-bone
+at 45 deg (``benchmarks/user_oblique.py``, n_grid 48) and ``examples/donut_shatter.toml`` (its own grid,
+``--donut-frames`` frames).
 
-Run: ``python benchmarks/passive_specks.py --engine taichi_mpm`` (and ``warp_mpm``; ``--only ball,dogbone,donut``),
-one engine per process; rows are added to ``benchmarks/results/passive_specks.json`` and ``passive_specks.md`` is
-written from it.
+Run: ``python benchmarks/passive_specks.py --engine taichi_mpm`` (and ``warp_mpm``; ``--only``
+``ball,dogbone,oblique,donut``, ``--gather``), one engine per process; rows are added to
+``benchmarks/results/passive_specks.json`` and ``passive_specks.md`` is written from it.
 """
 from __future__ import annotations
 
@@ -29,30 +31,37 @@ BALL_FRAMES = 20
 OBLIQUE_FRAMES = 1125   # user_oblique.run_case's for the 1.5:1 at 45 deg, n_grid 48 (docs/fracture.md, round 36)
 
 
+#: the gathers measured: (by mass, the fit read at the point)
+GATHERS = {"before": (False, False), "mass": (True, False), "mass_at_point": (True, True)}
+
+
 @contextlib.contextmanager
-def rule(engine: str, by_mass: bool):
-    """The engine's passive gather weighted by mass (``by_mass``) or by the weight alone (the rule before)."""
+def rule(engine: str, gather: str):
+    """The engine's passive gather ``gather`` (:data:`GATHERS`): ``before``, the rule (by the B-spline weight alone,
+    renormalised over the nodes with mass); ``mass``, weighted by the nodes' mass, the mean read at the weights'
+    centroid; ``mass_at_point``, weighted by mass, the least-squares fit read at the point."""
+    by_mass, at_point = GATHERS[gather]
     if engine == "taichi_mpm":
         from gasp_taichi_mpm.transfers import Transfers as T
-        old = T.PASSIVE_BY_MASS
-        T.PASSIVE_BY_MASS = by_mass
+        old = T.PASSIVE_BY_MASS, T.PASSIVE_AT_POINT
+        T.PASSIVE_BY_MASS, T.PASSIVE_AT_POINT = by_mass, at_point
         try:
             yield
         finally:
-            T.PASSIVE_BY_MASS = old
+            T.PASSIVE_BY_MASS, T.PASSIVE_AT_POINT = old
     else:
         from gasp_warp_mpm import kernels, transfers
-        old = transfers.PASSIVE_BY_MASS
+        old = transfers.PASSIVE_BY_MASS, transfers.PASSIVE_AT_POINT
 
         def clear():
             transfers.build_g2p_passive.cache_clear()
             kernels.build_kernels.cache_clear()
-        transfers.PASSIVE_BY_MASS = by_mass
+        transfers.PASSIVE_BY_MASS, transfers.PASSIVE_AT_POINT = by_mass, at_point
         clear()
         try:
             yield
         finally:
-            transfers.PASSIVE_BY_MASS = old
+            transfers.PASSIVE_BY_MASS, transfers.PASSIVE_AT_POINT = old
             clear()
 
 
@@ -117,19 +126,21 @@ def main() -> None:
     ap.add_argument("--engine", required=True)
     ap.add_argument("--only", default="ball,dogbone,oblique,donut")
     ap.add_argument("--donut-frames", type=int, default=10)
+    ap.add_argument("--gather", default="before,mass,mass_at_point", help="the gathers to run (GATHERS)")
     a = ap.parse_args()
     rows = json.loads(OUT.read_text()) if OUT.exists() else []
     for name, build, n_frames in cases(a.engine, set(a.only.split(",")), a.donut_frames):
-        for by_mass in (False, True):
+        for gather in a.gather.split(","):
             t0 = time.perf_counter()
-            with rule(a.engine, by_mass):
+            with rule(a.engine, gather):
                 r = speck_run(a.engine, build(), n_frames)
-            row = {"case": name, "engine": a.engine, "gather": "mass" if by_mass else "before", "frames": n_frames,
-                   "specks": r["specks"], "specks_1.5": r["specks_1.5"], "specks_3": r["specks_3"], "farthest_dx": [round(f, 2) for f in np.asarray(r["farthest"]) / r["dx"]],
+            row = {"case": name, "engine": a.engine, "gather": gather, "frames": n_frames, "specks": r["specks"],
+                   "specks_1.5": r["specks_1.5"], "specks_3": r["specks_3"],
+                   "farthest_dx": [round(f, 2) for f in np.asarray(r["farthest"]) / r["dx"]],
                    "vmax_cells": [round(v * r["dt"] / r["dx"], 3) for v in r["vmax"]],
                    "n_passive": r["n_passive"], "wall_s": round(time.perf_counter() - t0, 1)}
             print(json.dumps(row), flush=True)
-            rows = [x for x in rows if (x["case"], x["engine"], x["gather"]) != (name, a.engine, row["gather"])]
+            rows = [x for x in rows if (x["case"], x["engine"], x["gather"]) != (name, a.engine, gather)]
             rows.append(row)
             OUT.write_text(json.dumps(rows, indent=1))
     write_md(rows)
@@ -138,9 +149,12 @@ def main() -> None:
 def write_md(rows: list[dict]) -> None:
     lines = ["# Passive surface points away from the material (issue 66, round 37)", "",
              "`python benchmarks/passive_specks.py` (docstring). Specks: passive points further than 1 dx from every "
-             "material point, per frame (every 5th frame shown, or a tenth of the run's, and the last); farthest: the largest such distance "
-             "over the passive points at the last frame, in dx. `before`: the gather by the B-spline weight alone, "
-             "renormalised over the nodes with mass; `mass`: weighted by the nodes' mass (round 37).", "",
+             "material point, per frame (every 5th frame shown, or a tenth of the run's, and the last); farthest: "
+             "the largest such distance over the passive points at the last frame, in dx. `before`: the gather by "
+             "the B-spline weight alone, "
+             "renormalised over the nodes with mass (the rule); `mass`: weighted by the nodes' mass, the mean read at "
+             "the weights' centroid; `mass_at_point`: weighted by mass, the fit read at the point (round 37; neither "
+             "adopted, docs/fracture.md \"Round 37\").", "",
              "| case | engine | gather | passive points | specks at frames 0, 5, 10, ... and last | peak | "
              "farthest at the last (dx) | s |", "|---|---|---|---|---|---|---|---|"]
     for r in sorted(rows, key=lambda r: (r["case"], r["engine"], r["gather"])):

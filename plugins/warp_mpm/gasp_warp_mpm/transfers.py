@@ -220,29 +220,30 @@ def build_g2p(Ft):
     return g2p
 
 
-#: The passive gather weights each node with mass by its B-spline weight times its mass (round 37); False: by the
-#: weight alone, renormalised over the nodes with mass (the rule before; kept for tests/test_passive_specks.py, which
-#: clears :func:`build_g2p_passive`'s and ``kernels.build_kernels``' caches around it)
-PASSIVE_BY_MASS = True
+#: The passive gather by the B-spline weight alone, renormalised over the nodes with mass (False, the rule), or weighted
+#: by the nodes' mass (True: measured in round 37 and not adopted, docs/fracture.md "Round 37"), its mean read at the
+#: weights' centroid or, with PASSIVE_AT_POINT, the weighted fit read at the point. Read when the kernel is built:
+#: a change needs :func:`build_g2p_passive`'s and ``kernels.build_kernels``' caches cleared.
+PASSIVE_BY_MASS = False
+PASSIVE_AT_POINT = True
 
 
 @functools.cache
 def build_g2p_passive(Ft):
     """``g2p_passive``: the G2P kernel of scalar type ``Ft`` for passive points, each reading its body's velocity field
     (the two-field contact's offset, ``fields.build_field_reads``). It is long because the kernel is one closure of
-    the scalar type: the mass-weighted gather over the nodes with mass (:data:`PASSIVE_BY_MASS`), the least-squares
-    ``C`` and the affine advance.
+    the scalar type: the gather over the nodes with mass, the least-squares ``C`` and the affine advance.
 
     Passive points (rows ``first..``): velocity ``v`` and affine velocity gradient ``C`` from the grid (no F, no P2G).
-    Mass-weighted (round 37): ``v = sum w_i m_i v_i / sum w_i m_i``, a node's say its share of the material at the
-    point: empty nodes (velocity 0) have none, so a surface point outside the material is not held back, and a node
-    of tiny mass cannot fling it (issue 66's specks); ``C`` is the least-squares fit of the node velocities weighted
-    the same (APIC's ``C`` on a full stencil). The point then advances over the ``m`` substeps since its last gather
-    through the affine field ``v(y, k) = v_prev + (k/m)(v_new - v_prev) + (C_prev + (k/m)(C_new - C_prev)) y``,
+    Only nodes with mass count, weights renormalised over them: a surface point outside the material would otherwise
+    be held back by the empty nodes' zero velocity; ``C`` is the weighted least-squares fit of the node velocities
+    (APIC's ``C`` on a full stencil; :data:`PASSIVE_BY_MASS`: the mass-weighted variants measured in round 37). The
+    point then advances over the ``m`` substeps since its last gather through the affine field
+    ``v(y, k) = v_prev + (k/m)(v_new - v_prev) + (C_prev + (k/m)(C_new - C_prev)) y``,
     ``y += dt v(y, k)``, ``k = 1..m`` (``gasp_core.mpm.substeps.passive_schedule``), so it turns with the material.
     A point with no node of mass in its stencil (stranded) falls freely: ``v_new = v_prev + m dt g``; on the floor it
     slides with the floor's Coulomb friction ``mu_floor`` (``gasp_core.mpm.points.hold_passive``)."""
-    by_mass = bool(PASSIVE_BY_MASS)
+    by_mass, at_point = bool(PASSIVE_BY_MASS), bool(PASSIVE_AT_POINT)
     vec3, vec4, mat33 = build_types(Ft)
     in_grid, weights = build_stencil(Ft)
     hold_passive = build_passive_hold(Ft)
@@ -310,6 +311,8 @@ def build_g2p_passive(Ft):
             Svr = Svr / wsum - wp.outer(new_v, rbar)
             Srr = Srr / wsum - wp.outer(rbar, rbar) + wp.identity(3, dtype=Ft) * Ft(2.5e-5)
             Cn = inv_dx * (Svr * wp.inverse(Srr))
+            if wp.static(by_mass and at_point):   # the fit read at the point (the builder's docstring)
+                new_v = new_v - Cn * (rbar / inv_dx)
         else:   # stranded, no material in its stencil: it falls freely until material or a boundary takes it
             new_v = v[p] + Ft(m) * dt * gravity
         vp = v[p]
