@@ -12,6 +12,12 @@ class Transfers:
     """The stencil of a point, P2G (atomic or into private grid copies; the schedules' own P2G passes are in
     :mod:`gasp_taichi_mpm.schedule.coloured` and :mod:`gasp_taichi_mpm.schedule.tiles`), G2P and the passive points' G2P."""
 
+    #: The passive gather by the B-spline weight alone, renormalised over the nodes with mass (False, the rule), or
+    #: weighted by the nodes' mass (True: measured in round 37 and not adopted, docs/fracture.md "Round 37"), its mean
+    #: read at the weights' centroid or, with PASSIVE_AT_POINT, the weighted fit read at the point
+    PASSIVE_BY_MASS = False
+    PASSIVE_AT_POINT = True
+
     @ti.func
     def base_fx(self, xp):
         X = (xp - self.lo[None]) * self.inv_dx[None]
@@ -218,7 +224,8 @@ class Transfers:
         Only nodes that received mass count, with the weights renormalised over them: a surface point
         half a spacing outside the material sees empty nodes (velocity 0, not the material's) in its
         stencil, which would hold it back. ``C`` is the weighted least-squares fit of those nodes'
-        velocities (APIC's ``C`` on a full stencil). The point then advances over the ``m = passive_substeps[pair]``
+        velocities (APIC's ``C`` on a full stencil; :attr:`PASSIVE_BY_MASS`: the mass-weighted variants measured in
+        round 37). The point then advances over the ``m = passive_substeps[pair]``
         substeps since its last gather through the affine field
         ``v(y, k) = v_prev + (k/m)(v_new - v_prev) + (C_prev + (k/m)(C_new - C_prev)) y``,
         ``y += dt v(y, k)`` for ``k = 1..m`` (:func:`gasp_core.mpm.substeps.passive_schedule`), so it turns with
@@ -239,6 +246,8 @@ class Transfers:
                 node = base + ti.Vector([i, j, k])
                 if self.grid_m[node] > 0.0:
                     wn = w[i][0] * w[j][1] * w[k][2]
+                    if ti.static(self.PASSIVE_BY_MASS):
+                        wn *= self.grid_m[node]   # the node's say: its share of the material at the point
                     r = ti.Vector([ti.static(float(i)), ti.static(float(j)), ti.static(float(k))], self.real) - fx
                     gv = self.node_v(p, node)   # its body's field (fields.py): a passive sand point slides too
                     new_v += wn * gv
@@ -254,6 +263,8 @@ class Transfers:
                 Svr = Svr / wsum - new_v.outer_product(rbar)
                 Srr = Srr / wsum + ti.Matrix.identity(self.real, 3) * 2.5e-5 - rbar.outer_product(rbar)
                 new_C = self.inv_dx[None] * (Svr @ Srr.inverse())
+                if ti.static(self.PASSIVE_BY_MASS and self.PASSIVE_AT_POINT):   # the fit read at the point
+                    new_v -= new_C @ (rbar * self.dx[None])
             else:   # stranded, no material in its stencil: it falls freely until material or a boundary takes it
                 new_v = self.v[p] + ti.cast(self.passive_substeps[pair], self.real) * self.dt[None] * self.gravity[None]
             v_prev = self.v[p]

@@ -220,11 +220,30 @@ def build_g2p(Ft):
     return g2p
 
 
+#: The passive gather by the B-spline weight alone, renormalised over the nodes with mass (False, the rule), or weighted
+#: by the nodes' mass (True: measured in round 37 and not adopted, docs/fracture.md "Round 37"), its mean read at the
+#: weights' centroid or, with PASSIVE_AT_POINT, the weighted fit read at the point. Read when the kernel is built:
+#: a change needs :func:`build_g2p_passive`'s and ``kernels.build_kernels``' caches cleared.
+PASSIVE_BY_MASS = False
+PASSIVE_AT_POINT = True
+
+
 @functools.cache
 def build_g2p_passive(Ft):
     """``g2p_passive``: the G2P kernel of scalar type ``Ft`` for passive points, each reading its body's velocity field
     (the two-field contact's offset, ``fields.build_field_reads``). It is long because the kernel is one closure of
-    the scalar type: the gather over the nodes with mass, the least-squares ``C`` and the affine advance."""
+    the scalar type: the gather over the nodes with mass, the least-squares ``C`` and the affine advance.
+
+    Passive points (rows ``first..``): velocity ``v`` and affine velocity gradient ``C`` from the grid (no F, no P2G).
+    Only nodes with mass count, weights renormalised over them: a surface point outside the material would otherwise
+    be held back by the empty nodes' zero velocity; ``C`` is the weighted least-squares fit of the node velocities
+    (APIC's ``C`` on a full stencil; :data:`PASSIVE_BY_MASS`: the mass-weighted variants measured in round 37). The
+    point then advances over the ``m`` substeps since its last gather through the affine field
+    ``v(y, k) = v_prev + (k/m)(v_new - v_prev) + (C_prev + (k/m)(C_new - C_prev)) y``,
+    ``y += dt v(y, k)``, ``k = 1..m`` (``gasp_core.mpm.substeps.passive_schedule``), so it turns with the material.
+    A point with no node of mass in its stencil (stranded) falls freely: ``v_new = v_prev + m dt g``; on the floor it
+    slides with the floor's Coulomb friction ``mu_floor`` (``gasp_core.mpm.points.hold_passive``)."""
+    by_mass, at_point = bool(PASSIVE_BY_MASS), bool(PASSIVE_AT_POINT)
     vec3, vec4, mat33 = build_types(Ft)
     in_grid, weights = build_stencil(Ft)
     hold_passive = build_passive_hold(Ft)
@@ -237,15 +256,7 @@ def build_g2p_passive(Ft):
         lo: vec3, inv_dx: Ft, dt: Ft, m: int, n_grid: int, first: int, hold_lo: vec3, hold_hi: vec3, gravity: vec3,
         grid_dv: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32), mu_floor: Ft,
     ):
-        # Passive points (rows first..): velocity v and affine velocity gradient C from the grid
-        # (no F, no P2G). Only nodes with mass count, weights renormalised over them: a surface point
-        # outside the material would otherwise be held back by the empty nodes' zero velocity; C is
-        # the weighted least-squares fit of the node velocities (APIC's C on a full stencil). The
-        # point then advances over the m substeps since its last gather through the affine field
-        # v(y, k) = v_prev + (k/m)(v_new - v_prev) + (C_prev + (k/m)(C_new - C_prev)) y,
-        # y += dt v(y, k), k = 1..m (gasp_core.mpm.substeps.passive_schedule), so it turns with the material.
-        # A point with no node of mass in its stencil (stranded) falls freely: v_new = v_prev + m dt g; on the floor
-        # it slides with the floor's Coulomb friction mu_floor (gasp_core.mpm.points.hold_passive).
+        # Passive points (rows first..): v and C from the grid, then the affine advance (the builder's docstring)
         p = first + wp.tid()
         if fixed[p] != 0:
             v[p] = vec3(Ft(0.0))
@@ -277,6 +288,8 @@ def build_g2p_passive(Ft):
                 for k in range(3):
                     if grid_m[row + k] > Ft(0.0):
                         w = W[i, 0] * W[j, 1] * W[k, 2]
+                        if wp.static(by_mass):
+                            w = w * grid_m[row + k]   # the node's say: its share of the material at the point
                         # node - point, cells; the steps read from `steps`, since in Warp 1.19 casting an unrolled
                         # loop's index, Ft(i) with Ft float64, retypes the index for the rest of the loop
                         r = vec3(steps[i], steps[j], steps[k]) - fx
@@ -298,6 +311,8 @@ def build_g2p_passive(Ft):
             Svr = Svr / wsum - wp.outer(new_v, rbar)
             Srr = Srr / wsum - wp.outer(rbar, rbar) + wp.identity(3, dtype=Ft) * Ft(2.5e-5)
             Cn = inv_dx * (Svr * wp.inverse(Srr))
+            if wp.static(by_mass and at_point):   # the fit read at the point (the builder's docstring)
+                new_v = new_v - Cn * (rbar / inv_dx)
         else:   # stranded, no material in its stencil: it falls freely until material or a boundary takes it
             new_v = v[p] + Ft(m) * dt * gravity
         vp = v[p]
