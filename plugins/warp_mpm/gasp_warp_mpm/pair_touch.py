@@ -1,0 +1,71 @@
+"""The flowing body's touch in the two-field contact (issue 67, round 37; ``gasp_core.mpm.fields.flow_touch``,
+docs/contact.md "Round 37: the flowing body's touch"), taichi_mpm's ``gasp_taichi_mpm.pair_touch`` in Warp.
+
+In a ``"mixed"`` scene, after P2G and before :func:`gasp_warp_mpm.fields.build_fields`' ``field_contact``:
+``flow_mark`` (a points kernel, atomic max) marks the 27 stencil nodes of every point of field A (the flowing bodies)
+where field B's gathered volume fraction reaches ``flow_touch_level`` (the point lies within ``FLOW_TOUCH_DELTA``
+cells of B's surface); ``field_contact`` takes those nodes as where the bodies touch, and at a touching node on A's
+side of the surface (``m_A > m_B``) gives A the pair's whole Coulomb correction, adding the rest of the reaction to
+``flow_push`` at the node behind it (along the normal, into B); after it ``flow_apply`` (a node kernel) adds that
+momentum to B's offset there and clears the marks and the pushes.
+
+This module must not use ``from __future__ import annotations``: Warp reads the annotations of the closures below as
+type objects.
+"""
+import functools
+
+import warp as wp
+
+from .precision import MODULE_OPTIONS, build_types
+
+
+@functools.cache
+def build_pair_touch(Ft):
+    """``(flow_mark, flow_apply)`` of scalar type ``Ft`` (module docstring)."""
+    vec3, vec4, mat33 = build_types(Ft)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def flow_mark(x: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32),
+                  grid_vf: wp.array(dtype=Ft), flow_touch: wp.array(dtype=wp.int32), lo: vec3, inv_dx: Ft,
+                  cell: Ft, level: Ft, n_grid: int):
+        p = wp.tid()
+        if in_a[body[p]] == 0:
+            return
+        X = (x[p] - lo) * inv_dx
+        lim = Ft(n_grid - 3)
+        b = vec3(wp.floor(X[0] - Ft(0.5)), wp.floor(X[1] - Ft(0.5)), wp.floor(X[2] - Ft(0.5)))
+        if not (b[0] >= Ft(0.0) and b[0] <= lim and b[1] >= Ft(0.0) and b[1] <= lim and b[2] >= Ft(0.0)
+                and b[2] <= lim):
+            return
+        fx = X - b
+        W = mat33()
+        for d in range(3):
+            W[0, d] = Ft(0.5) * (Ft(1.5) - fx[d]) * (Ft(1.5) - fx[d])
+            W[1, d] = Ft(0.75) - (fx[d] - Ft(1.0)) * (fx[d] - Ft(1.0))
+            W[2, d] = Ft(0.5) * (fx[d] - Ft(0.5)) * (fx[d] - Ft(0.5))
+        nn = n_grid * n_grid
+        n_nodes = nn * n_grid
+        idx0 = int(b[0]) * nn + int(b[1]) * n_grid + int(b[2])
+        phi = Ft(0.0)
+        for i in range(3):
+            for j in range(3):
+                for k in range(3):
+                    phi += W[i, 0] * W[j, 1] * W[k, 2] * grid_vf[n_nodes + idx0 + i * nn + j * n_grid + k]
+        if phi >= level * cell:   # within FLOW_TOUCH_DELTA cells of B's surface
+            for i in range(3):
+                for j in range(3):
+                    for k in range(3):
+                        wp.atomic_max(flow_touch, idx0 + i * nn + j * n_grid + k, 1)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def flow_apply(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), grid_dv: wp.array(dtype=vec3),
+                   flow_push: wp.array(dtype=vec3), flow_touch: wp.array(dtype=wp.int32)):
+        node = wp.tid()
+        push = flow_push[node]
+        m_b = grid_mv[node][3] - grid_sv[node][3]
+        if m_b > Ft(0.0) and wp.length(push) > Ft(0.0):
+            grid_dv[grid_sv.shape[0] + node] = grid_dv[grid_sv.shape[0] + node] + push / m_b
+        flow_push[node] = vec3(Ft(0.0))
+        flow_touch[node] = 0
+
+    return flow_mark, flow_apply
