@@ -224,9 +224,9 @@ def flow_touch_level(delta: float = FLOW_TOUCH_DELTA) -> float:
 
 
 def field_setup(setup) -> tuple:
-    """``(field_bodies, field_friction, touch_fraction, rigid_pair)`` of a setup: what an engine allocates the contact
-    from."""
-    return field_bodies(setup), field_friction(setup), touch_fraction(setup), rigid_pair(setup)
+    """``(field_bodies, field_friction, touch_fraction, rigid_pair, flow_touch)`` of a setup: what an engine allocates
+    the contact from."""
+    return field_bodies(setup), field_friction(setup), touch_fraction(setup), rigid_pair(setup), flow_touch(setup)
 
 
 def field_offsets(m: np.ndarray, m_a: np.ndarray, p: np.ndarray, p_a: np.ndarray, n: np.ndarray, mu: float):
