@@ -123,7 +123,8 @@ class Fields(PairTouch):
                 touch = vf[0] + vf[1] >= self.field_touch * cell
                 if ti.static(self.flow_touch_on):   # the flowing body's touch (pair_touch.py): its points mark the nodes
                     touch = self.grid_ft[I] != 0
-                u = ti.Vector([sv[0], sv[1], sv[2]]) / m_a - ti.Vector([g[0] - sv[0], g[1] - sv[1], g[2] - sv[2]]) / m_b
+                v_b = ti.Vector([g[0] - sv[0], g[1] - sv[1], g[2] - sv[2]]) / m_b
+                u = ti.Vector([sv[0], sv[1], sv[2]]) / m_a - v_b
                 ex, ey, ez = ti.Vector([1, 0, 0]), ti.Vector([0, 1, 0]), ti.Vector([0, 0, 1])
                 n = ti.Vector([self.mass_b(I + ex) - self.mass_b(I - ex),   # field B's surface normal
                                self.mass_b(I + ey) - self.mass_b(I - ey),
@@ -147,9 +148,15 @@ class Fields(PairTouch):
                             if m_b < m_a:   # A's side: B's node behind it takes the reaction with this one's B
                                 J = self.behind(I, nh)
                                 m_bj = self.mass_b(J)
-                                if m_bj > m_b:
-                                    ti.atomic_add(self.grid_push[J], (m_bj * m_a / (m_a + m_b + m_bj)) * q)
+                                if m_bj > m_b:   # Coulomb against B's velocity over both nodes
                                     mb_eff = m_b + m_bj
+                                    gj = self.grid_mv[0, J]
+                                    sj = self.grid_sv[J]
+                                    v_bj = ti.Vector([gj[0] - sj[0], gj[1] - sj[1], gj[2] - sj[2]]) / m_bj
+                                    v_a = ti.Vector([sv[0], sv[1], sv[2]]) / m_a
+                                    q = self.coulomb(v_a - (m_b * v_b + m_bj * v_bj) / mb_eff, nh, mu)
+                                    u2 = u - q
+                                    ti.atomic_add(self.grid_push[J], (m_bj * m_a / (m_a + mb_eff)) * q)
                                     layer = 1
                 else:
                     u2 = ti.Vector.zero(self.real, 3)   # no normal: the fields move as one

@@ -6,7 +6,8 @@ In a ``"mixed"`` scene, after P2G and before :meth:`gasp_taichi_mpm.fields.Field
 bodies) where field B's gathered volume fraction reaches ``flow_touch_level`` (the point lies within
 ``FLOW_TOUCH_DELTA`` cells of B's surface); ``field_contact`` takes those nodes as where the bodies touch, and at a
 touching node on A's side of the surface (``m_A > m_B``) sets A against B's mass at that node and the node behind
-it (:meth:`behind`) moving as one, adding that node's share of the reaction to ``grid_push``; after it
+it (:meth:`behind`) moving as one (Coulomb's rule, :meth:`coulomb`, on A's velocity less B's mean over the two),
+adding that node's share of the reaction to ``grid_push``; after it
 :meth:`apply_flow` adds that momentum to B's offset there and clears the marks and the pushes.
 
 Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields (``x``, ``body``, ``in_a``, ``grid_vf``, ...)
@@ -45,6 +46,21 @@ class PairTouch:
                     if phi >= level:   # within FLOW_TOUCH_DELTA cells of B's surface
                         for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                             ti.atomic_max(self.grid_ft[base + ti.Vector([i, j, k])], 1)
+
+    @ti.func
+    def coulomb(self, u, nh, mu):
+        """The part ``q`` of the relative velocity ``u`` (m/s) that Coulomb's contact along the unit normal ``nh``
+        removes: none where it does not approach (``u . nh <= 0``), else the approach and the slip, less what slides
+        past ``mu (u . nh)``."""
+        un = u.dot(nh)
+        q = ti.Vector.zero(self.real, 3)
+        if un > 0.0:
+            ut = u - un * nh
+            lt = ut.norm()
+            q = u
+            if lt > mu * un:
+                q = un * nh + (mu * un / lt) * ut
+        return q
 
     @ti.func
     def behind(self, I, nh):

@@ -78,6 +78,19 @@ def build_fields(Ft):
         return grid_mv[node][3] - grid_sv[node][3]
 
     @wp.func
+    def coulomb(u: vec3, nh: vec3, mu: Ft):
+        # the part q of the relative velocity u that Coulomb's contact removes (none where it does not approach)
+        un = wp.dot(u, nh)
+        q = vec3(Ft(0.0))
+        if un > Ft(0.0):
+            ut = u - un * nh
+            lt = wp.length(ut)
+            q = u
+            if lt > mu * un:
+                q = un * nh + (mu * un / lt) * ut
+        return q
+
+    @wp.func
     def behind(node: int, nh: vec3, nn: int, n_grid: int):
         # the node next to this one along the grid axis nearest the normal nh, into B
         a = int(0)
@@ -129,7 +142,8 @@ def build_fields(Ft):
         mb_eff = Ft(0.0)
         if inner and held == 0 and m_a > Ft(MIN_FRACTION) * m and m_b > Ft(MIN_FRACTION) * m:
             pa = grid_sv[node]
-            u = vec3(pa[0], pa[1], pa[2]) / m_a - vec3(g[0] - pa[0], g[1] - pa[1], g[2] - pa[2]) / m_b
+            v_b = vec3(g[0] - pa[0], g[1] - pa[1], g[2] - pa[2]) / m_b
+            u = vec3(pa[0], pa[1], pa[2]) / m_a - v_b
             # grad m_B, central differences (the 1 / (2 dx) cancels in the direction): field B's surface normal
             n = vec3(mass_b(grid_mv, grid_sv, node + nn) - mass_b(grid_mv, grid_sv, node - nn),
                      mass_b(grid_mv, grid_sv, node + n_grid) - mass_b(grid_mv, grid_sv, node - n_grid),
@@ -156,9 +170,14 @@ def build_fields(Ft):
                     if flow and m_b < m_a:   # A's side: B's node behind it takes the reaction with this one's B
                         layer = behind(node, nh, nn, n_grid)
                         m_bj = mass_b(grid_mv, grid_sv, layer)
-                        if m_bj > m_b:
-                            wp.atomic_add(flow_push, layer, (m_bj * m_a / (m_a + m_b + m_bj)) * q)
+                        if m_bj > m_b:   # Coulomb against B's velocity over both nodes
                             mb_eff = m_b + m_bj
+                            gj = grid_mv[layer]
+                            pj = grid_sv[layer]
+                            v_bj = vec3(gj[0] - pj[0], gj[1] - pj[1], gj[2] - pj[2]) / m_bj
+                            q = coulomb(vec3(pa[0], pa[1], pa[2]) / m_a - (m_b * v_b + m_bj * v_bj) / mb_eff, nh, mu)
+                            u2 = u - q
+                            wp.atomic_add(flow_push, layer, (m_bj * m_a / (m_a + mb_eff)) * q)
                         else:
                             layer = int(0)
             else:

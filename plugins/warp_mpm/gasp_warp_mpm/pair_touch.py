@@ -5,8 +5,9 @@ In a ``"mixed"`` scene, after P2G and before :func:`gasp_warp_mpm.fields.build_f
 ``flow_mark`` (a points kernel, atomic max) marks the 27 stencil nodes of every point of field A (the flowing bodies)
 where field B's gathered volume fraction reaches ``flow_touch_level`` (the point lies within ``FLOW_TOUCH_DELTA``
 cells of B's surface); ``field_contact`` takes those nodes as where the bodies touch, and at a touching node on A's
-side of the surface (``m_A > m_B``) gives A the pair's whole Coulomb correction, adding the rest of the reaction to
-``flow_push`` at the node behind it (along the normal, into B); after it ``flow_apply`` (a node kernel) adds that
+side of the surface (``m_A > m_B``) sets A against B's mass at that node and the node behind it moving as one
+(Coulomb's rule on A's velocity less B's mean over the two), adding the share of the node behind it (along the
+normal, into B) to ``flow_push`` there; after it ``flow_apply`` (a node kernel) adds that
 momentum to B's offset there and clears the marks and the pushes.
 
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of the closures below as
