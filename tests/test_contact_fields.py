@@ -18,7 +18,8 @@
   ``gasp_core.mpm.fields.flow_touch``, +0.4 to +1.0 % on both engines); with the friction switched off
   (``field_friction`` made 0), one field, or the flowing body's touch off (``FLOW_TOUCH`` False, the rule of round
   36) the check fails (:func:`test_the_slide_check_fails_without_friction_or_with_one_field`), and the conformance
-  scene ``sand_slide`` fails with the body friction 5 % low or high (:func:`test_the_sand_slide_catches_a_friction_5pct_off`).
+  scene ``sand_slide`` fails with the body friction 5 % low or high
+  (:func:`test_the_sand_slide_catches_a_friction_5pct_off`).
   The family (grids, a stiffer slab, a second friction angle): ``tests/test_flow_touch.py``. The solid block against
   Coulomb's travel is the conformance scene ``solid_slide``.
 - Both engines (slow tier): the light ball against the column in float64, 3 frames, the same points to 1e-9 m: the

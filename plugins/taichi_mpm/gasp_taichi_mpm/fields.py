@@ -121,7 +121,7 @@ class Fields(PairTouch):
             if inner and held == 0 and m_a > MIN_FRACTION * m and m_b > MIN_FRACTION * m:
                 vf = self.grid_vf[I]
                 touch = vf[0] + vf[1] >= self.field_touch * cell
-                if ti.static(self.flow_touch_on):   # the flowing body's touch (pair_touch.py): its points mark the nodes
+                if ti.static(self.flow_touch_on):   # the flowing body's touch (pair_touch.py): its points mark
                     touch = self.grid_ft[I] != 0
                 v_b = ti.Vector([g[0] - sv[0], g[1] - sv[1], g[2] - sv[2]]) / m_b
                 u = ti.Vector([sv[0], sv[1], sv[2]]) / m_a - v_b

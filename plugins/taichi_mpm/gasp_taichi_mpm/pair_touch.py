@@ -57,7 +57,7 @@ class PairTouch:
         if un > 0.0:
             ut = u - un * nh
             lt = ut.norm()
-            q = u
+            q = un * nh + ut
             if lt > mu * un:
                 q = un * nh + (mu * un / lt) * ut
         return q

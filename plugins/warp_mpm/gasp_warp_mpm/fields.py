@@ -18,7 +18,7 @@ from gasp_core.mpm.fields import (MIN_FRACTION, MIN_GRADIENT, field_bodies, fiel
                                   flow_touch_level, rigid_pair, shared_field_warning, touch_fraction)
 
 from . import ENGINE
-from .pair_touch import build_pair_touch
+from .pair_touch import build_pair_funcs, build_pair_touch
 from .precision import MODULE_OPTIONS, build_types
 from .touch import build_touch
 
@@ -71,41 +71,12 @@ def build_fields(Ft):
     """``field_contact``: the node kernel of the two-field contact, scalar type ``Ft``."""
     vec3, vec4, mat33 = build_types(Ft)
     ground_reach = build_touch(Ft)[2]
+    coulomb, flow_layer = build_pair_funcs(Ft)
 
     @wp.func
     def mass_b(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), node: int):
         # m_B at a node: the whole grid's mass less field A's
         return grid_mv[node][3] - grid_sv[node][3]
-
-    @wp.func
-    def coulomb(u: vec3, nh: vec3, mu: Ft):
-        # the part q of the relative velocity u that Coulomb's contact removes (none where it does not approach)
-        un = wp.dot(u, nh)
-        q = vec3(Ft(0.0))
-        if un > Ft(0.0):
-            ut = u - un * nh
-            lt = wp.length(ut)
-            q = u
-            if lt > mu * un:
-                q = un * nh + (mu * un / lt) * ut
-        return q
-
-    @wp.func
-    def behind(node: int, nh: vec3, nn: int, n_grid: int):
-        # the node next to this one along the grid axis nearest the normal nh, into B
-        a = int(0)
-        if wp.abs(nh[1]) > wp.abs(nh[a]):
-            a = int(1)
-        if wp.abs(nh[2]) > wp.abs(nh[a]):
-            a = int(2)
-        stride = nn
-        if a == 1:
-            stride = n_grid
-        if a == 2:
-            stride = int(1)
-        if nh[a] < Ft(0.0):
-            stride = -stride
-        return node + stride
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def field_contact(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), grid_dv: wp.array(dtype=vec3),
@@ -138,8 +109,7 @@ def build_fields(Ft):
         flow = flow_touch.shape[0] > 1   # the flowing body's touch (pair_touch.py): its points mark the nodes
         if flow:
             touch = flow_touch[node] != 0
-        layer = int(0)
-        mb_eff = Ft(0.0)
+        mb_eff = Ft(0.0)   # > 0: A against B's mass here and behind (pair_touch.py)
         if inner and held == 0 and m_a > Ft(MIN_FRACTION) * m and m_b > Ft(MIN_FRACTION) * m:
             pa = grid_sv[node]
             v_b = vec3(g[0] - pa[0], g[1] - pa[1], g[2] - pa[2]) / m_b
@@ -161,34 +131,28 @@ def build_fields(Ft):
                         wp.atomic_add(pair_acc, 4 + ax, wr * wp.float64(nh[ax]))
                     wp.atomic_add(pair_acc, 0, wr)
                 elif un > Ft(0.0) and touch:   # approaching: no interpenetration, Coulomb friction along the surface
-                    ut = u - un * nh
-                    lt = wp.length(ut)
-                    q = un * nh + ut
-                    if lt > mu * un:
-                        q = un * nh + (mu * un / lt) * ut
-                    u2 = u - q
+                    u2 = u - coulomb(u, nh, mu)
                     if flow and m_b < m_a:   # A's side: B's node behind it takes the reaction with this one's B
-                        layer = behind(node, nh, nn, n_grid)
-                        m_bj = mass_b(grid_mv, grid_sv, layer)
-                        if m_bj > m_b:   # Coulomb against B's velocity over both nodes
-                            mb_eff = m_b + m_bj
-                            gj = grid_mv[layer]
-                            pj = grid_sv[layer]
-                            v_bj = vec3(gj[0] - pj[0], gj[1] - pj[1], gj[2] - pj[2]) / m_bj
-                            q = coulomb(vec3(pa[0], pa[1], pa[2]) / m_a - (m_b * v_b + m_bj * v_bj) / mb_eff, nh, mu)
-                            u2 = u - q
-                            wp.atomic_add(flow_push, layer, (m_bj * m_a / (m_a + mb_eff)) * q)
-                        else:
-                            layer = int(0)
+                        qm = flow_layer(grid_mv, grid_sv, flow_push, node, nh, nn, n_grid, pa, v_b, m_b, mu, u2)
+                        u2 = vec3(qm[0], qm[1], qm[2])
+                        mb_eff = qm[3]
             else:
                 u2 = vec3(Ft(0.0))   # no normal: the fields move as one
             dva = (m_b / m) * u2
             dvb = -(m_a / m) * u2
-            if layer != 0:   # A against B's mass at both nodes, moving as one (pair_touch.py)
+            if mb_eff > Ft(0.0):   # A against B's mass at both nodes, moving as one
                 dva = (m_b / m) * u - (mb_eff / (m_a + mb_eff)) * (u - u2)
                 dvb = -(m_a / m) * u + (m_a / (m_a + mb_eff)) * (u - u2)
         grid_dv[node] = dva
         grid_dv[n_nodes + node] = dvb
+
+    return field_contact, build_field_clear(Ft)
+
+
+@functools.cache
+def build_field_clear(Ft):
+    """``field_clear``: ``grid_sv`` and both fields' ``grid_vf`` back to zero for the next P2G."""
+    vec3, vec4, mat33 = build_types(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def field_clear(grid_sv: wp.array(dtype=vec4), grid_vf: wp.array(dtype=Ft)):
@@ -197,7 +161,7 @@ def build_fields(Ft):
         grid_vf[node] = Ft(0.0)
         grid_vf[grid_sv.shape[0] + node] = Ft(0.0)
 
-    return field_contact, field_clear
+    return field_clear
 
 
 def allocate_fields(eng, Ft, contact: str) -> None:

@@ -21,6 +21,68 @@ from .precision import MODULE_OPTIONS, build_types
 
 
 @functools.cache
+def build_pair_funcs(Ft):
+    """``(coulomb, flow_layer)`` of scalar type ``Ft``, the contact's functions: ``coulomb(u, nh, mu)`` the part ``q``
+    of the relative velocity ``u`` (m/s) Coulomb's contact along the unit normal ``nh`` removes (0 where ``u . nh <=
+    0``); ``flow_layer(grid_mv, grid_sv, flow_push, node, nh, nn, n_grid, pa, v_b, m_b, mu, u2)`` at a contact node
+    on A's side (``pa`` A's momentum and mass, ``v_b`` and ``m_b`` B's velocity and mass there, ``u2`` the relative
+    velocity after the node's own rule): ``(u - q, M_B)``, Coulomb's ``q`` on A's velocity less B's mean over this
+    node and the node behind it (``behind``), ``M_B`` their B mass, the reaction's share of the node behind added to
+    ``flow_push``; ``(u2, 0)`` (nothing done) where the node behind holds no more of B."""
+    vec3, vec4, mat33 = build_types(Ft)
+
+    @wp.func
+    def coulomb(u: vec3, nh: vec3, mu: Ft):
+        un = wp.dot(u, nh)
+        q = vec3(Ft(0.0))
+        if un > Ft(0.0):
+            ut = u - un * nh
+            lt = wp.length(ut)
+            q = un * nh + ut
+            if lt > mu * un:
+                q = un * nh + (mu * un / lt) * ut
+        return q
+
+    @wp.func
+    def behind(node: int, nh: vec3, nn: int, n_grid: int):
+        # the node next to this one along the grid axis nearest the normal nh, into B
+        a = int(0)
+        if wp.abs(nh[1]) > wp.abs(nh[a]):
+            a = int(1)
+        if wp.abs(nh[2]) > wp.abs(nh[a]):
+            a = int(2)
+        stride = nn
+        if a == 1:
+            stride = n_grid
+        if a == 2:
+            stride = int(1)
+        if nh[a] < Ft(0.0):
+            stride = -stride
+        return node + stride
+
+    @wp.func
+    def flow_layer(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), flow_push: wp.array(dtype=vec3),
+                   node: int, nh: vec3, nn: int, n_grid: int, pa: vec4, v_b: vec3, m_b: Ft, mu: Ft, u2: vec3):
+        out = vec4(u2[0], u2[1], u2[2], Ft(0.0))
+        m_a = pa[3]
+        p_a = vec3(pa[0], pa[1], pa[2])
+        u = p_a / m_a - v_b
+        j = behind(node, nh, nn, n_grid)
+        gj = grid_mv[j]
+        pj = grid_sv[j]
+        m_bj = gj[3] - pj[3]
+        if m_bj > m_b:   # A against B's mass at both nodes, moving as one
+            mb_eff = m_b + m_bj
+            v_bj = vec3(gj[0] - pj[0], gj[1] - pj[1], gj[2] - pj[2]) / m_bj
+            q = coulomb(p_a / m_a - (m_b * v_b + m_bj * v_bj) / mb_eff, nh, mu)
+            wp.atomic_add(flow_push, j, (m_bj * m_a / (m_a + mb_eff)) * q)
+            out = vec4(u[0] - q[0], u[1] - q[1], u[2] - q[2], mb_eff)
+        return out
+
+    return coulomb, flow_layer
+
+
+@functools.cache
 def build_pair_touch(Ft):
     """``(flow_mark, flow_apply)`` of scalar type ``Ft`` (module docstring)."""
     vec3, vec4, mat33 = build_types(Ft)
