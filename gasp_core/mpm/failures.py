@@ -16,9 +16,7 @@ _CLAMP_OFF_GRID = ("clamp face 0.6 dx past a grid node: time-averaged tip deflec
 #: (``stacked_gap`` passes since the two soft bodies take a velocity field each: docs/contact.md, issue 53 item 5.)
 #: ``cantilever_offgrid`` passes since issue 66's held region (the fixed region's ghost nodes, docs/fracture.md "The
 #: held region"): 21.01 mm against Timoshenko 20.63 mm (+1.8 %), 4.20 Hz against 4.27 Hz (-1.6 %; docs/tolerances.md).
+#: ``sand_slide`` passes since round 37's flowing body's touch (``gasp_core.mpm.fields.flow_touch``; docs/contact.md
+#: "Round 37"): the sand block on the jelly slab within 1 % of the same block on the ground on both grid engines.
 MPM_KNOWN_FAILURES: dict = {
-    "sand_slide": ("since round 36 (the ground's touched layer) the answer, the sand block thrown along the ground, "
-                   "meets Coulomb (effective mu 0.563-0.570 against tan 30 deg = 0.577); the block on the jelly slab "
-                   "still reads 0.398-0.480 through the two-field contact: coulomb_mu -0.221 on both grid engines "
-                   "(docs/contact.md \"Round 36\")"),
 }

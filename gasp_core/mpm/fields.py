@@ -36,6 +36,7 @@ rule's reach) takes no offset: both fields move with the projected mean there. C
 """
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -61,6 +62,13 @@ TOUCH_FRACTION = 0.9
 SOFT_TOUCH_FRACTION = 0.7
 #: A soft body's Coulomb coefficient against another body (:func:`body_friction`): rubber-like jelly on itself.
 SOLID_FRICTION = 0.5
+#: The flowing body's touch (round 37, ``docs/contact.md`` "Round 37"): in a ``"mixed"`` scene a node is a contact
+#: node where a point of field A within ``FLOW_TOUCH_DELTA`` cells of field B's surface has it in its stencil (the
+#: ground's ``touch_delta``), and a contact node on A's side of the surface (``m_A > m_B``) gives A the pair's whole
+#: Coulomb correction, its reaction going to B at the node behind it. False: :data:`TOUCH_FRACTION` and the
+#: node's share alone (the rule before; the catch of ``tests/test_contact_fields.py``).
+FLOW_TOUCH = True
+FLOW_TOUCH_DELTA = 0.25
 #: A node's mass gradient shorter than this (kg/m, relative to ``m / dx``) gives no normal: the fields move as one.
 MIN_GRADIENT = 1e-6
 
@@ -191,10 +199,34 @@ def touch_fraction(setup) -> float:
     return SOFT_TOUCH_FRACTION if body_pair(setup) else TOUCH_FRACTION
 
 
+def flow_touch(setup) -> bool:
+    """Whether a setup's two-field contact takes the flowing body's touch (:data:`FLOW_TOUCH`): a ``"mixed"`` scene
+    (field A its flowing bodies) that runs two fields."""
+    return bool(FLOW_TOUCH) and contact_model(setup) == "mixed" and uses_fields(setup)
+
+
+@functools.cache
+def flow_touch_level(delta: float = FLOW_TOUCH_DELTA) -> float:
+    """Field B's volume fraction ``phi_B(x) = sum_i w_i(x) V_B(i) / dx^3`` (P2G's volume scatter gathered back with the
+    quadratic B-spline) at ``delta`` cells outside a flat face of a filled body, averaged over the face's place in its
+    cell (eight offsets; 0.366 at 0.25 cells, from 0.347 to 0.385 with the offset; 0.5 on the face): a point of A
+    where ``phi_B`` reaches it lies within ``delta`` cells of B's surface. Dimensionless."""
+    def w(r):
+        r = np.abs(r)
+        return np.where(r < 0.5, 0.75 - r ** 2, np.where(r < 1.5, 0.5 * (1.5 - r) ** 2, 0.0))
+    ys = np.linspace(-2.0, 2.0, 8001)
+    ks = np.arange(-4, 5)
+    out = []
+    for s in np.arange(8) / 8.0:   # B fills y < s; V_B(k) / dx^3 the kernel's integral over it
+        vf = np.array([np.trapezoid(w(ys) * (ys + k < s), ys) for k in ks])
+        out.append(float(w(s + delta - ks) @ vf))
+    return float(np.mean(out))
+
+
 def field_setup(setup) -> tuple:
-    """``(field_bodies, field_friction, touch_fraction, rigid_pair)`` of a setup: what an engine allocates the contact
-    from."""
-    return field_bodies(setup), field_friction(setup), touch_fraction(setup), rigid_pair(setup)
+    """``(field_bodies, field_friction, touch_fraction, rigid_pair, flow_touch)`` of a setup: what an engine allocates
+    the contact from."""
+    return field_bodies(setup), field_friction(setup), touch_fraction(setup), rigid_pair(setup), flow_touch(setup)
 
 
 def field_offsets(m: np.ndarray, m_a: np.ndarray, p: np.ndarray, p_a: np.ndarray, n: np.ndarray, mu: float):

@@ -21,9 +21,9 @@ field, ``gasp_core.mpm.fields``, docs/contact.md "Sand that slides on what it to
   ``v0^2 / (2 g travel)`` over the ground's, averaged over the three speeds, within ``MU_TOL`` = 4 %, and each speed's
   travel within ``SLIDE_TOL`` = 5 % of the ground's. One field sticks the block; no friction lets it slide on.
   Since round 36 (the ground's touched layer, docs/contact.md "Round 36") the ground's answer is within 2.5 % of
-  Coulomb's (effective mu 0.563-0.570) and the block on the slab reads 22 % below it on both MPM engines: this scene
-  fails there, a known failure of the grid engines (`gasp_core.mpm.failures`; not loosened: the two-field
-  contact's sand-on-solid friction, open).
+  Coulomb's (effective mu 0.563-0.570); the block on the slab read 22 % below it (a known failure in round 36) until
+  round 37's flowing body's touch (``gasp_core.mpm.fields.flow_touch``, docs/contact.md "Round 37"): now within
+  1 % of the ground's on both MPM engines.
 - ``solid_slide`` (slow tier): a jelly block (the slab's jelly, 6 x 6 x 3 cm) thrown along the slab at the same
   speeds, n_grid 64 (``gasp_core.testing.sand_ball.SOLID_N_GRID``). Known answer: a block that keeps its shape stops
   after Coulomb's ``v0^2 / (2 mu g)``, ``mu`` = 0.5 (``gasp_core.mpm.fields.SOLID_FRICTION``, two soft bodies);

@@ -13,16 +13,19 @@ import taichi as ti
 
 from gasp_core.mpm.fields import MIN_FRACTION, MIN_GRADIENT
 
+from .pair_touch import PairTouch
+
 
 @ti.data_oriented
-class Fields:
+class Fields(PairTouch):
     """The two-field contact's fields and kernels (none without it: ``self.fields`` False)."""
 
-    def allocate_fields(self, in_a, mu: float, touch: float, pair: bool = False) -> None:
+    def allocate_fields(self, in_a, mu: float, touch: float, pair: bool = False, flow: bool = False) -> None:
         """``in_a``: per body, True in field A (``gasp_core.mpm.fields.field_bodies``), or None: one field;
         ``mu`` the Coulomb coefficient (``field_friction``), ``touch`` the touch threshold (``touch_fraction``),
         ``pair`` whether the two bodies are rigid (``rigid_pair``: the touching nodes only sum into ``pair_acc``,
-        sum m_red, sum m_red x, sum m_red n, for ``RigidFriction.rigid_pair``). Before the first substep."""
+        sum m_red, sum m_red x, sum m_red n, for ``RigidFriction.rigid_pair``), ``flow`` the flowing body's touch
+        (``gasp_core.mpm.fields.flow_touch``, pair_touch.py). Before the first substep."""
         self.fields = in_a is not None
         self.field_pair = bool(self.fields and pair)
         self.pair_acc = ti.field(ti.f64, shape=7)
@@ -35,6 +38,7 @@ class Fields:
         self.grid_sv = ti.Vector.field(4, self.real, shape=(ng, ng, ng))
         self.grid_vf = ti.Vector.field(2, self.real, shape=(ng, ng, ng))
         self.grid_dv = ti.Vector.field(6, self.real, shape=(ng, ng, ng))
+        self.allocate_pair_touch(flow)
 
     @ti.func
     def scatter_field(self, p, base, w, mv0, A, m):
@@ -103,6 +107,9 @@ class Fields:
             m_a = sv[3]
             m_b = m - m_a
             u2 = ti.Vector.zero(self.real, 3)
+            u = ti.Vector.zero(self.real, 3)
+            layer = 0
+            mb_eff = ti.cast(0.0, self.real)
             held = 0   # in a ground's node layers or the walls' (the grid rule's reach): both move with the mean
             for b in ti.static(range(self.n_grounds)):
                 if self.ground_reach(b, I):   # with the touched layer (touch.py)
@@ -114,7 +121,10 @@ class Fields:
             if inner and held == 0 and m_a > MIN_FRACTION * m and m_b > MIN_FRACTION * m:
                 vf = self.grid_vf[I]
                 touch = vf[0] + vf[1] >= self.field_touch * cell
-                u = ti.Vector([sv[0], sv[1], sv[2]]) / m_a - ti.Vector([g[0] - sv[0], g[1] - sv[1], g[2] - sv[2]]) / m_b
+                if ti.static(self.flow_touch_on):   # the flowing body's touch (pair_touch.py): its points mark
+                    touch = self.grid_ft[I] != 0
+                v_b = ti.Vector([g[0] - sv[0], g[1] - sv[1], g[2] - sv[2]]) / m_b
+                u = ti.Vector([sv[0], sv[1], sv[2]]) / m_a - v_b
                 ex, ey, ez = ti.Vector([1, 0, 0]), ti.Vector([0, 1, 0]), ti.Vector([0, 0, 1])
                 n = ti.Vector([self.mass_b(I + ex) - self.mass_b(I - ex),   # field B's surface normal
                                self.mass_b(I + ey) - self.mass_b(I - ey),
@@ -134,10 +144,27 @@ class Fields:
                         if lt > mu * un:
                             q = un * nh + (mu * un / lt) * ut
                         u2 = u - q
+                        if ti.static(self.flow_touch_on):
+                            if m_b < m_a:   # A's side: B's node behind it takes the reaction with this one's B
+                                J = self.behind(I, nh)
+                                m_bj = self.mass_b(J)
+                                if m_bj > m_b:   # Coulomb against B's velocity over both nodes
+                                    mb_eff = m_b + m_bj
+                                    gj = self.grid_mv[0, J]
+                                    sj = self.grid_sv[J]
+                                    v_bj = ti.Vector([gj[0] - sj[0], gj[1] - sj[1], gj[2] - sj[2]]) / m_bj
+                                    v_a = ti.Vector([sv[0], sv[1], sv[2]]) / m_a
+                                    q = self.coulomb(v_a - (m_b * v_b + m_bj * v_bj) / mb_eff, nh, mu)
+                                    u2 = u - q
+                                    ti.atomic_add(self.grid_push[J], (m_bj * m_a / (m_a + mb_eff)) * q)
+                                    layer = 1
                 else:
                     u2 = ti.Vector.zero(self.real, 3)   # no normal: the fields move as one
             da = (m_b / ti.max(m, 1e-30)) * u2
             db = -(m_a / ti.max(m, 1e-30)) * u2
+            if layer != 0:   # A against B's mass at both nodes, moving as one (pair_touch.py)
+                da = (m_b / m) * u - (mb_eff / (m_a + mb_eff)) * (u - u2)
+                db = -(m_a / m) * u + (m_a / (m_a + mb_eff)) * (u - u2)
             self.grid_dv[I] = ti.Vector([da[0], da[1], da[2], db[0], db[1], db[2]])
 
     @ti.kernel
@@ -154,5 +181,9 @@ class Fields:
         the contact and the clear."""
         self.touch_update()
         if self.fields:
+            if self.flow_touch_on:
+                self.mark_flow()
             self.field_contact()
+            if self.flow_touch_on:
+                self.apply_flow()
             self.field_clear()

@@ -14,10 +14,11 @@ import numpy as np
 import warp as wp
 
 from gasp_core.mpm.contact import flowing_bodies
-from gasp_core.mpm.fields import (MIN_FRACTION, MIN_GRADIENT, field_bodies, field_friction, rigid_pair,
-                                      shared_field_warning, touch_fraction)
+from gasp_core.mpm.fields import (MIN_FRACTION, MIN_GRADIENT, field_bodies, field_friction, flow_touch,
+                                  flow_touch_level, rigid_pair, shared_field_warning, touch_fraction)
 
 from . import ENGINE
+from .pair_touch import build_pair_funcs, build_pair_touch
 from .precision import MODULE_OPTIONS, build_types
 from .touch import build_touch
 
@@ -70,6 +71,7 @@ def build_fields(Ft):
     """``field_contact``: the node kernel of the two-field contact, scalar type ``Ft``."""
     vec3, vec4, mat33 = build_types(Ft)
     ground_reach = build_touch(Ft)[2]
+    coulomb, flow_layer = build_pair_funcs(Ft)
 
     @wp.func
     def mass_b(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), node: int):
@@ -80,7 +82,8 @@ def build_fields(Ft):
     def field_contact(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), grid_dv: wp.array(dtype=vec3),
                       n_grid: int, mu: Ft, ground: wp.array(dtype=vec3), grid_vf: wp.array(dtype=Ft), cell: Ft,
                       wall_lo: Ft, wall_hi: vec3, touch_frac: Ft, pair: int, lo: vec3, dx: Ft,
-                      pair_acc: wp.array(dtype=wp.float64), ground_touch: wp.array(dtype=wp.int32)):
+                      pair_acc: wp.array(dtype=wp.float64), ground_touch: wp.array(dtype=wp.int32),
+                      flow_touch: wp.array(dtype=wp.int32), flow_push: wp.array(dtype=vec3)):
         node = wp.tid()
         nn = n_grid * n_grid
         n_nodes = nn * n_grid
@@ -103,9 +106,14 @@ def build_fields(Ft):
         if Ft(i) > wall_hi[0] or Ft(j) > wall_hi[1] or Ft(k) > wall_hi[2]:
             held = int(1)
         touch = (grid_vf[node] + grid_vf[n_nodes + node]) >= touch_frac * cell   # the bodies meet here
+        flow = flow_touch.shape[0] > 1   # the flowing body's touch (pair_touch.py): its points mark the nodes
+        if flow:
+            touch = flow_touch[node] != 0
+        mb_eff = Ft(0.0)   # > 0: A against B's mass here and behind (pair_touch.py)
         if inner and held == 0 and m_a > Ft(MIN_FRACTION) * m and m_b > Ft(MIN_FRACTION) * m:
             pa = grid_sv[node]
-            u = vec3(pa[0], pa[1], pa[2]) / m_a - vec3(g[0] - pa[0], g[1] - pa[1], g[2] - pa[2]) / m_b
+            v_b = vec3(g[0] - pa[0], g[1] - pa[1], g[2] - pa[2]) / m_b
+            u = vec3(pa[0], pa[1], pa[2]) / m_a - v_b
             # grad m_B, central differences (the 1 / (2 dx) cancels in the direction): field B's surface normal
             n = vec3(mass_b(grid_mv, grid_sv, node + nn) - mass_b(grid_mv, grid_sv, node - nn),
                      mass_b(grid_mv, grid_sv, node + n_grid) - mass_b(grid_mv, grid_sv, node - n_grid),
@@ -123,18 +131,28 @@ def build_fields(Ft):
                         wp.atomic_add(pair_acc, 4 + ax, wr * wp.float64(nh[ax]))
                     wp.atomic_add(pair_acc, 0, wr)
                 elif un > Ft(0.0) and touch:   # approaching: no interpenetration, Coulomb friction along the surface
-                    ut = u - un * nh
-                    lt = wp.length(ut)
-                    q = un * nh + ut
-                    if lt > mu * un:
-                        q = un * nh + (mu * un / lt) * ut
-                    u2 = u - q
+                    u2 = u - coulomb(u, nh, mu)
+                    if flow and m_b < m_a:   # A's side: B's node behind it takes the reaction with this one's B
+                        qm = flow_layer(grid_mv, grid_sv, flow_push, node, nh, nn, n_grid, pa, v_b, m_b, mu, u2)
+                        u2 = vec3(qm[0], qm[1], qm[2])
+                        mb_eff = qm[3]
             else:
                 u2 = vec3(Ft(0.0))   # no normal: the fields move as one
             dva = (m_b / m) * u2
             dvb = -(m_a / m) * u2
+            if mb_eff > Ft(0.0):   # A against B's mass at both nodes, moving as one
+                dva = (m_b / m) * u - (mb_eff / (m_a + mb_eff)) * (u - u2)
+                dvb = -(m_a / m) * u + (m_a / (m_a + mb_eff)) * (u - u2)
         grid_dv[node] = dva
         grid_dv[n_nodes + node] = dvb
+
+    return field_contact, build_field_clear(Ft)
+
+
+@functools.cache
+def build_field_clear(Ft):
+    """``field_clear``: ``grid_sv`` and both fields' ``grid_vf`` back to zero for the next P2G."""
+    vec3, vec4, mat33 = build_types(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def field_clear(grid_sv: wp.array(dtype=vec4), grid_vf: wp.array(dtype=Ft)):
@@ -143,7 +161,7 @@ def build_fields(Ft):
         grid_vf[node] = Ft(0.0)
         grid_vf[grid_sv.shape[0] + node] = Ft(0.0)
 
-    return field_contact, field_clear
+    return field_clear
 
 
 def allocate_fields(eng, Ft, contact: str) -> None:
@@ -172,6 +190,10 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     eng.grid_sv = wp.zeros(n, dtype=k.vec4, device=d)
     eng.grid_dv = wp.zeros(2 * n if eng.fields else 1, dtype=k.vec3, device=d)
     eng.grid_vf = wp.zeros(2 * n if eng.fields else 1, dtype=Ft, device=d)
+    eng.flow_touch_on = bool(eng.fields and flow_touch(view))   # the flowing body's touch (pair_touch.py)
+    nf = n if eng.flow_touch_on else 1
+    eng.flow_touch = wp.zeros(nf, dtype=wp.int32, device=d)
+    eng.flow_push = wp.zeros(nf, dtype=k.vec3, device=d)
     eng.allocate_touch(Ft, contact)   # the grounds' touched columns (touch.py)
 
 
@@ -186,9 +208,17 @@ def field_launches(eng, Ft) -> list:
     wall_lo = eng.wall_in if walls else -1.0
     side = (np.asarray(eng.setup.domain_hi, float) - np.asarray(eng.setup.domain_lo, float)) / eng.dx
     wall_hi = side - eng.wall_in if walls else np.full(3, 1e30)
-    return [wp.launch(contact, dim=ng ** 3, device=d, record_cmd=True, inputs=[
+    mark, apply = build_pair_touch(Ft)
+    lo = eng.k.vec3(*[float(c) for c in eng.setup.domain_lo])
+    flow = [wp.launch(mark, dim=eng.n_material, device=d, record_cmd=True, inputs=[
+        eng.x, eng.body, eng.in_a, eng.grid_vf, eng.flow_touch, lo, Ft(eng.inv_dx), Ft(eng.dx ** 3),
+        Ft(flow_touch_level()), ng])] if eng.flow_touch_on else []
+    after = [wp.launch(apply, dim=ng ** 3, device=d, record_cmd=True, inputs=[
+        eng.grid_mv, eng.grid_sv, eng.grid_dv, eng.flow_push, eng.flow_touch])] if eng.flow_touch_on else []
+    return flow + [wp.launch(contact, dim=ng ** 3, device=d, record_cmd=True, inputs=[
                 eng.grid_mv, eng.grid_sv, eng.grid_dv, ng, Ft(eng.field_mu), eng.ground, eng.grid_vf,
                 Ft(eng.dx ** 3), Ft(wall_lo), eng.k.vec3(*[float(c) for c in wall_hi]), Ft(eng.field_touch), eng.pair,
-                eng.k.vec3(*[float(c) for c in eng.setup.domain_lo]), Ft(eng.dx), eng.pair_acc, eng.ground_touch]),
+                eng.k.vec3(*[float(c) for c in eng.setup.domain_lo]), Ft(eng.dx), eng.pair_acc, eng.ground_touch,
+                eng.flow_touch, eng.flow_push])] + after + [
             wp.launch(clear, dim=ng ** 3, device=d, record_cmd=True, inputs=[eng.grid_sv, eng.grid_vf])]
 

@@ -1,0 +1,91 @@
+"""The flowing body's touch in the two-field contact (issue 67, round 37; ``gasp_core.mpm.fields.flow_touch``,
+docs/contact.md "Round 37: the flowing body's touch"), warp_mpm's ``gasp_warp_mpm.pair_touch`` in Taichi.
+
+In a ``"mixed"`` scene, after P2G and before :meth:`gasp_taichi_mpm.fields.Fields.field_contact`: :meth:`mark_flow`
+(a parallel loop over the points, atomic max) marks the 27 stencil nodes of every point of field A (the flowing
+bodies) where field B's gathered volume fraction reaches ``flow_touch_level`` (the point lies within
+``FLOW_TOUCH_DELTA`` cells of B's surface); ``field_contact`` takes those nodes as where the bodies touch, and at a
+touching node on A's side of the surface (``m_A > m_B``) sets A against B's mass at that node and the node behind
+it (:meth:`behind`) moving as one (Coulomb's rule, :meth:`coulomb`, on A's velocity less B's mean over the two),
+adding that node's share of the reaction to ``grid_push``; after it
+:meth:`apply_flow` adds that momentum to B's offset there and clears the marks and the pushes.
+
+Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields (``x``, ``body``, ``in_a``, ``grid_vf``, ...)
+it reads.
+"""
+import taichi as ti
+
+from gasp_core.mpm.fields import flow_touch_level
+
+
+@ti.data_oriented
+class PairTouch:
+    """The flowing body's contact nodes (:meth:`mark_flow`) and the reaction behind them (:meth:`apply_flow`)."""
+
+    def allocate_pair_touch(self, flow: bool) -> None:
+        """``flow_touch_on`` (``flow``: ``gasp_core.mpm.fields.flow_touch``, with two fields), ``grid_ft`` (i32 per
+        node, the marks) and ``grid_push`` (B's momentum from the node in front, kg m/s); one entry each when off."""
+        self.flow_touch_on = bool(self.fields and flow)
+        ng = self.n_grid if self.flow_touch_on else 1
+        self.grid_ft = ti.field(ti.i32, shape=(ng, ng, ng))
+        self.grid_push = ti.Vector.field(3, self.real, shape=(ng, ng, ng))
+        self.flow_level = float(flow_touch_level())
+
+    @ti.kernel
+    def mark_flow(self):
+        """Mark the stencil nodes of field A's points where B's volume fraction reaches ``flow_level``."""
+        level = ti.cast(self.flow_level, self.real) * self.dx[None] ** 3
+        for p in range(self.n_points[None]):
+            if self.in_a[self.body[p]] != 0:
+                base, fx, ok = self.base_fx(self.x[p])
+                if ok:
+                    w = self.weights(fx)
+                    phi = ti.cast(0.0, self.real)
+                    for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
+                        phi += w[i][0] * w[j][1] * w[k][2] * self.grid_vf[base + ti.Vector([i, j, k])][1]
+                    if phi >= level:   # within FLOW_TOUCH_DELTA cells of B's surface
+                        for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
+                            ti.atomic_max(self.grid_ft[base + ti.Vector([i, j, k])], 1)
+
+    @ti.func
+    def coulomb(self, u, nh, mu):
+        """The part ``q`` of the relative velocity ``u`` (m/s) that Coulomb's contact along the unit normal ``nh``
+        removes: none where it does not approach (``u . nh <= 0``), else the approach and the slip, less what slides
+        past ``mu (u . nh)``."""
+        un = u.dot(nh)
+        q = ti.Vector.zero(self.real, 3)
+        if un > 0.0:
+            ut = u - un * nh
+            lt = ut.norm()
+            q = un * nh + ut
+            if lt > mu * un:
+                q = un * nh + (mu * un / lt) * ut
+        return q
+
+    @ti.func
+    def behind(self, I, nh):
+        """The node next to ``I`` along the grid axis nearest the unit normal ``nh``, into B."""
+        a = 0
+        if ti.abs(nh[1]) > ti.abs(nh[a]):
+            a = 1
+        if ti.abs(nh[2]) > ti.abs(nh[a]):
+            a = 2
+        step = ti.Vector([0, 0, 0])
+        step[a] = 1 if nh[a] >= 0.0 else -1
+        return I + step
+
+    @ti.kernel
+    def apply_flow(self):
+        """B's offset at each node plus ``grid_push / m_B``; the marks and pushes cleared (over the nodes P2G
+        touched)."""
+        lo, ext = self.touched_box()
+        for idx in range(ext[0] * ext[1] * ext[2]):
+            I = lo + ti.Vector([idx // (ext[1] * ext[2]), (idx // ext[2]) % ext[1], idx % ext[2]])
+            push = self.grid_push[I]
+            m_b = self.mass_b(I)
+            if m_b > 0.0 and push.norm() > 0.0:
+                d = self.grid_dv[I]
+                dv = push / m_b
+                self.grid_dv[I] = ti.Vector([d[0], d[1], d[2], d[3] + dv[0], d[4] + dv[1], d[5] + dv[2]])
+            self.grid_push[I] = ti.Vector.zero(self.real, 3)
+            self.grid_ft[I] = 0

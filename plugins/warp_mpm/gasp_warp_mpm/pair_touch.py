@@ -1,0 +1,134 @@
+"""The flowing body's touch in the two-field contact (issue 67, round 37; ``gasp_core.mpm.fields.flow_touch``,
+docs/contact.md "Round 37: the flowing body's touch"), taichi_mpm's ``gasp_taichi_mpm.pair_touch`` in Warp.
+
+In a ``"mixed"`` scene, after P2G and before :func:`gasp_warp_mpm.fields.build_fields`' ``field_contact``:
+``flow_mark`` (a points kernel, atomic max) marks the 27 stencil nodes of every point of field A (the flowing bodies)
+where field B's gathered volume fraction reaches ``flow_touch_level`` (the point lies within ``FLOW_TOUCH_DELTA``
+cells of B's surface); ``field_contact`` takes those nodes as where the bodies touch, and at a touching node on A's
+side of the surface (``m_A > m_B``) sets A against B's mass at that node and the node behind it moving as one
+(Coulomb's rule on A's velocity less B's mean over the two), adding the share of the node behind it (along the
+normal, into B) to ``flow_push`` there; after it ``flow_apply`` (a node kernel) adds that
+momentum to B's offset there and clears the marks and the pushes.
+
+This module must not use ``from __future__ import annotations``: Warp reads the annotations of the closures below as
+type objects.
+"""
+import functools
+
+import warp as wp
+
+from .precision import MODULE_OPTIONS, build_types
+
+
+@functools.cache
+def build_pair_funcs(Ft):
+    """``(coulomb, flow_layer)`` of scalar type ``Ft``, the contact's functions: ``coulomb(u, nh, mu)`` the part ``q``
+    of the relative velocity ``u`` (m/s) Coulomb's contact along the unit normal ``nh`` removes (0 where ``u . nh <=
+    0``); ``flow_layer(grid_mv, grid_sv, flow_push, node, nh, nn, n_grid, pa, v_b, m_b, mu, u2)`` at a contact node
+    on A's side (``pa`` A's momentum and mass, ``v_b`` and ``m_b`` B's velocity and mass there, ``u2`` the relative
+    velocity after the node's own rule): ``(u - q, M_B)``, Coulomb's ``q`` on A's velocity less B's mean over this
+    node and the node behind it (``behind``), ``M_B`` their B mass, the reaction's share of the node behind added to
+    ``flow_push``; ``(u2, 0)`` (nothing done) where the node behind holds no more of B."""
+    vec3, vec4, mat33 = build_types(Ft)
+
+    @wp.func
+    def coulomb(u: vec3, nh: vec3, mu: Ft):
+        un = wp.dot(u, nh)
+        q = vec3(Ft(0.0))
+        if un > Ft(0.0):
+            ut = u - un * nh
+            lt = wp.length(ut)
+            q = un * nh + ut
+            if lt > mu * un:
+                q = un * nh + (mu * un / lt) * ut
+        return q
+
+    @wp.func
+    def behind(node: int, nh: vec3, nn: int, n_grid: int):
+        # the node next to this one along the grid axis nearest the normal nh, into B
+        a = int(0)
+        if wp.abs(nh[1]) > wp.abs(nh[a]):
+            a = int(1)
+        if wp.abs(nh[2]) > wp.abs(nh[a]):
+            a = int(2)
+        stride = nn
+        if a == 1:
+            stride = n_grid
+        if a == 2:
+            stride = int(1)
+        if nh[a] < Ft(0.0):
+            stride = -stride
+        return node + stride
+
+    @wp.func
+    def flow_layer(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), flow_push: wp.array(dtype=vec3),
+                   node: int, nh: vec3, nn: int, n_grid: int, pa: vec4, v_b: vec3, m_b: Ft, mu: Ft, u2: vec3):
+        out = vec4(u2[0], u2[1], u2[2], Ft(0.0))
+        m_a = pa[3]
+        p_a = vec3(pa[0], pa[1], pa[2])
+        u = p_a / m_a - v_b
+        j = behind(node, nh, nn, n_grid)
+        gj = grid_mv[j]
+        pj = grid_sv[j]
+        m_bj = gj[3] - pj[3]
+        if m_bj > m_b:   # A against B's mass at both nodes, moving as one
+            mb_eff = m_b + m_bj
+            v_bj = vec3(gj[0] - pj[0], gj[1] - pj[1], gj[2] - pj[2]) / m_bj
+            q = coulomb(p_a / m_a - (m_b * v_b + m_bj * v_bj) / mb_eff, nh, mu)
+            wp.atomic_add(flow_push, j, (m_bj * m_a / (m_a + mb_eff)) * q)
+            out = vec4(u[0] - q[0], u[1] - q[1], u[2] - q[2], mb_eff)
+        return out
+
+    return coulomb, flow_layer
+
+
+@functools.cache
+def build_pair_touch(Ft):
+    """``(flow_mark, flow_apply)`` of scalar type ``Ft`` (module docstring)."""
+    vec3, vec4, mat33 = build_types(Ft)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def flow_mark(x: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32),
+                  grid_vf: wp.array(dtype=Ft), flow_touch: wp.array(dtype=wp.int32), lo: vec3, inv_dx: Ft,
+                  cell: Ft, level: Ft, n_grid: int):
+        p = wp.tid()
+        if in_a[body[p]] == 0:
+            return
+        X = (x[p] - lo) * inv_dx
+        lim = Ft(n_grid - 3)
+        b = vec3(wp.floor(X[0] - Ft(0.5)), wp.floor(X[1] - Ft(0.5)), wp.floor(X[2] - Ft(0.5)))
+        if not (b[0] >= Ft(0.0) and b[0] <= lim and b[1] >= Ft(0.0) and b[1] <= lim and b[2] >= Ft(0.0)
+                and b[2] <= lim):
+            return
+        fx = X - b
+        W = mat33()
+        for d in range(3):
+            W[0, d] = Ft(0.5) * (Ft(1.5) - fx[d]) * (Ft(1.5) - fx[d])
+            W[1, d] = Ft(0.75) - (fx[d] - Ft(1.0)) * (fx[d] - Ft(1.0))
+            W[2, d] = Ft(0.5) * (fx[d] - Ft(0.5)) * (fx[d] - Ft(0.5))
+        nn = n_grid * n_grid
+        n_nodes = nn * n_grid
+        idx0 = int(b[0]) * nn + int(b[1]) * n_grid + int(b[2])
+        phi = Ft(0.0)
+        for i in range(3):
+            for j in range(3):
+                for k in range(3):
+                    phi += W[i, 0] * W[j, 1] * W[k, 2] * grid_vf[n_nodes + idx0 + i * nn + j * n_grid + k]
+        if phi >= level * cell:   # within FLOW_TOUCH_DELTA cells of B's surface
+            for i in range(3):
+                for j in range(3):
+                    for k in range(3):
+                        wp.atomic_max(flow_touch, idx0 + i * nn + j * n_grid + k, 1)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def flow_apply(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), grid_dv: wp.array(dtype=vec3),
+                   flow_push: wp.array(dtype=vec3), flow_touch: wp.array(dtype=wp.int32)):
+        node = wp.tid()
+        push = flow_push[node]
+        m_b = grid_mv[node][3] - grid_sv[node][3]
+        if m_b > Ft(0.0) and wp.length(push) > Ft(0.0):
+            grid_dv[grid_sv.shape[0] + node] = grid_dv[grid_sv.shape[0] + node] + push / m_b
+        flow_push[node] = vec3(Ft(0.0))
+        flow_touch[node] = 0
+
+    return flow_mark, flow_apply
