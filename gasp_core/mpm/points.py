@@ -70,10 +70,6 @@ def fixed_mask(x: np.ndarray, boundaries: Iterable[Boundary]) -> np.ndarray:
 #: uniform strain crosses it (docs/fracture.md, "The held region"). Twice :data:`HELD_STRAIN_CELLS`: the stencils of the
 #: held points that deform reach that far.
 MIRROR_CELLS = 3.0
-#: The ghost rule's image nodes by their mass (round 37, docs/fracture.md "The set box's bursts"): each image node
-#: lends a ghost node ``v_set + min(1, m_image / m_ghost) (v_image - v_set)``, not ``v_image`` at full weight whenever
-#: it has any mass. A switch (both engines read it when their kernels are built) so the old rule can be run as a catch.
-MIRROR_BY_MASS = True
 #: Cells: held points (``fixed_region``) within this of their box's nearest face keep the grid's velocity gradient
 #: (their ``F`` follows it, so they carry the stress of the material beside them); deeper ones keep ``F``. The free
 #: material's stencils reach 1.5 cells past the face. The points of a box impulse of ``mode = "set"`` move with the grid

@@ -10,7 +10,7 @@ from gasp_core.mpm.grid_tables import (COL_POSE, FALLOFF_INVERSE_SQUARE, FORCE_R
                                            FR_FALLOFF, FR_KIND, FR_MODE_COUNT, FR_MODE_START, FR_RADIUS, FR_STRENGTH,
                                            FT_POSES, IM_A, IM_B, IM_DV, IM_MODE, IM_SHAPE, IMPULSE_ADD, IMPULSE_BOX,
                                            IMPULSE_ROW, MD_A, MD_K, MD_OMEGA, MD_PHASE, MODE_ROW, SET_ON)
-from gasp_core.mpm import points
+from gasp_core.mpm import grid_tables
 from gasp_core.mpm.points import HELD_STRAIN_CELLS, SET_FACE_CELLS
 
 
@@ -122,9 +122,9 @@ class Forces:
         v_set)``, ``s = min(1, m_J / m_I)`` the image's mass over the ghost's (1 where ``I`` has none), so a node of
         tiny mass (reached by one far point's stencil corner, whose stress term carries any speed) lends its speed in
         proportion to the material it holds, not at full weight (docs/fracture.md, round 37: the set box's bursts).
-        ``gasp_core.mpm.points.MIRROR_BY_MASS`` off: ``v_J``."""
+        ``gasp_core.mpm.grid_tables.MIRROR_BY_MASS`` off: ``v_J``."""
         v = self.grid_v[J]
-        if ti.static(empty and points.MIRROR_BY_MASS):   # a set box's ghost (a fixed region's: v_J)
+        if ti.static(empty and grid_tables.MIRROR_BY_MASS):   # a set box's ghost (a fixed region's: v_J)
             mi = self.grid_m[I]
             if mi > 0.0:
                 v = v_set + ti.min(1.0, self.grid_m[J] / mi) * (v - v_set)

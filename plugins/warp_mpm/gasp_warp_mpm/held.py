@@ -11,7 +11,7 @@ import warp as wp
 
 from gasp_core.mpm.grid_tables import IM_A, IM_B, IMPULSE_ROW
 from gasp_core.mpm.materials import BRITTLE, P_LAM, P_MU
-from gasp_core.mpm import points
+from gasp_core.mpm import grid_tables
 from gasp_core.mpm.points import CUT_REACH, HELD_STRAIN_CELLS, HELD_STRAINED, MIRROR_CELLS, cuts_held_faces
 
 from .constitutive import build_return_mapping
@@ -38,7 +38,7 @@ def build_mirror(Ft):
     Extras = build_extras_struct(Ft)
     set_box_row = build_set_box_row(Ft)
 
-    by_mass = int(points.MIRROR_BY_MASS)
+    by_mass = int(grid_tables.MIRROR_BY_MASS)
 
     @wp.func
     def image_share(v_set: vec3, grid_v: wp.array(dtype=vec3), grid_m: wp.array(dtype=Ft), j: int, node: int,
