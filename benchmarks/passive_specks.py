@@ -8,7 +8,8 @@ at 45 deg (``benchmarks/user_oblique.py``, n_grid 48) and ``examples/donut_shatt
 ``--donut-frames`` frames).
 
 Run: ``python benchmarks/passive_specks.py --engine taichi_mpm`` (and ``warp_mpm``; ``--only``
-``ball,dogbone,oblique,donut``, ``--gather``), one engine per process; rows are added to
+``ball,dogbone,oblique,oblique2,donut``, ``--gather``, ``--mirror new,old``: the set box's ghost rule, :func:`mirror`),
+one engine per process; rows are added to
 ``benchmarks/results/passive_specks.json`` and ``passive_specks.md`` is written from it.
 """
 from __future__ import annotations
@@ -29,6 +30,7 @@ OUT = RESULTS / "passive_specks.json"
 SPEEDS = (2.0, 4.0, 7.0, 10.0)
 BALL_FRAMES = 20
 OBLIQUE_FRAMES = 1125   # user_oblique.run_case's for the 1.5:1 at 45 deg, n_grid 48 (docs/fracture.md, round 36)
+OBLIQUE2_FRAMES = 1200   # the 2:1 at 45 deg, n_grid 48: as long (a set box pulled specimen past its break)
 
 
 #: the gathers measured: (by mass, the fit read at the point)
@@ -91,14 +93,35 @@ def _user_tension():
     return ut
 
 
-def oblique_setup(engine: str):
-    """``user_oblique``'s 1.5:1 dog-bone at 45 deg, n_grid 48, ramped set box (round 36's material bursts by the
-    pulled grip at frames 627-628 and 848) and the frames ``user_oblique.run_case`` runs it."""
+def oblique_setup(engine: str, name: str = "dogbone_1.5to1"):
+    """``user_oblique``'s dog-bone ``name`` at 45 deg, n_grid 48, ramped set box (the 1.5:1: round 36's material
+    bursts by the pulled grip at frames 627-628 and 848)."""
     _user_tension()
     import user_oblique as uo
-    sp = uo.SPECIMENS["dogbone_1.5to1"]
-    ps, _ = uo.prepare(sp, 48, engine, "45")
+    ps, _ = uo.prepare(uo.SPECIMENS[name], 48, engine, "45")
     return ps.setup
+
+
+@contextlib.contextmanager
+def mirror(engine: str, which: str):
+    """The set box's ghost rule: ``new``, image nodes by mass (``grid_tables.MIRROR_BY_MASS``, round 37); ``old``,
+    any image node with mass at full weight (the rule before)."""
+    from gasp_core.mpm import grid_tables
+    if which not in ("new", "old"):
+        raise ValueError(f"--mirror: 'new' or 'old', got {which!r}")
+    old = grid_tables.MIRROR_BY_MASS
+
+    def clear():
+        if engine == "warp_mpm":
+            from gasp_warp_mpm import held
+            held.build_mirror.cache_clear()
+    grid_tables.MIRROR_BY_MASS = which == "new"
+    clear()
+    try:
+        yield
+    finally:
+        grid_tables.MIRROR_BY_MASS = old
+        clear()
 
 
 def donut_setup(engine: str):
@@ -117,6 +140,8 @@ def cases(engine: str, only: set[str], donut_frames: int):
         yield "dogbone_2to1 n_grid 24", lambda: dogbone_setup(engine), dogbone_frames()
     if "oblique" in only:
         yield "dogbone_1.5to1 45 deg n_grid 48", lambda: oblique_setup(engine), OBLIQUE_FRAMES
+    if "oblique2" in only:
+        yield "dogbone_2to1 45 deg n_grid 48", lambda: oblique_setup(engine, "dogbone_2to1"), OBLIQUE2_FRAMES
     if "donut" in only:
         yield "donut_shatter", lambda: donut_setup(engine), donut_frames
 
@@ -127,23 +152,30 @@ def main() -> None:
     ap.add_argument("--only", default="ball,dogbone,oblique,donut")
     ap.add_argument("--donut-frames", type=int, default=10)
     ap.add_argument("--gather", default="before,mass,mass_at_point", help="the gathers to run (GATHERS)")
+    ap.add_argument("--mirror", default="new", help="the set box's ghost rules to run: new, old (mirror)")
     a = ap.parse_args()
     rows = json.loads(OUT.read_text()) if OUT.exists() else []
     for name, build, n_frames in cases(a.engine, set(a.only.split(",")), a.donut_frames):
-        for gather in a.gather.split(","):
+        for gather, mir in [(g, m) for g in a.gather.split(",") for m in a.mirror.split(",")]:
             t0 = time.perf_counter()
-            with rule(a.engine, gather):
+            with rule(a.engine, gather), mirror(a.engine, mir):
                 r = speck_run(a.engine, build(), n_frames)
-            row = {"case": name, "engine": a.engine, "gather": gather, "frames": n_frames, "specks": r["specks"],
+            row = {"case": name, "engine": a.engine, "gather": gather, "mirror": mir, "frames": n_frames,
+                   "specks": r["specks"],
                    "specks_1.5": r["specks_1.5"], "specks_3": r["specks_3"],
                    "farthest_dx": [round(f, 2) for f in np.asarray(r["farthest"]) / r["dx"]],
                    "vmax_cells": [round(v * r["dt"] / r["dx"], 3) for v in r["vmax"]],
                    "n_passive": r["n_passive"], "wall_s": round(time.perf_counter() - t0, 1)}
             print(json.dumps(row), flush=True)
-            rows = [x for x in rows if (x["case"], x["engine"], x["gather"]) != (name, a.engine, gather)]
+            rows = [x for x in rows if _key(x) != (name, a.engine, gather, mir)]
             rows.append(row)
             OUT.write_text(json.dumps(rows, indent=1))
     write_md(rows)
+
+
+def _key(r: dict) -> tuple:
+    """A row's case, engine, gather and set box rule (rows before round 37's fix: the old rule)."""
+    return r["case"], r["engine"], r["gather"], r.get("mirror", "old")
 
 
 def write_md(rows: list[dict]) -> None:
@@ -154,15 +186,19 @@ def write_md(rows: list[dict]) -> None:
              "the B-spline weight alone, "
              "renormalised over the nodes with mass (the rule); `mass`: weighted by the nodes' mass, the mean read at "
              "the weights' centroid; `mass_at_point`: weighted by mass, the fit read at the point (round 37; neither "
-             "adopted, docs/fracture.md \"Round 37\").", "",
-             "| case | engine | gather | passive points | specks at frames 0, 5, 10, ... and last | peak | "
-             "farthest at the last (dx) | s |", "|---|---|---|---|---|---|---|---|"]
-    for r in sorted(rows, key=lambda r: (r["case"], r["engine"], r["gather"])):
+             "adopted, docs/fracture.md \"Round 37\"). Set box rule: `old`, the ghost nodes take any image node "
+             "with mass at full weight (and every row without a set box); `new`, by its mass over the ghost's "
+             "(`--mirror`, round 37's fix). Fastest: the material points' largest speed over the run, in cells a "
+             "substep.", "",
+             "| case | engine | gather | set box rule | passive points | specks at frames 0, 5, 10, ... and last | "
+             "peak | farthest at the last / over the run (dx) | fastest | s |", "|" + "---|" * 10]
+    for r in sorted(rows, key=_key):
         s = r["specks"]
         step = max(5, (len(s) - 1) // 10)
         shown = s[::step] + ([s[-1]] if (len(s) - 1) % step else [])
-        lines.append(f"| {r['case']} | {r['engine']} | {r['gather']} | {r['n_passive']} | "
-                     f"{' / '.join(str(x) for x in shown)} | {max(s)} | {r['farthest_dx'][-1]} | {r['wall_s']} |")
+        lines.append(f"| {r['case']} | {r['engine']} | {r['gather']} | {_key(r)[3]} | {r['n_passive']} | "
+                     f"{' / '.join(str(x) for x in shown)} | {max(s)} | {r['farthest_dx'][-1]} / "
+                     f"{max(r['farthest_dx'])} | {max(r['vmax_cells'])} | {r['wall_s']} |")
     (RESULTS / "passive_specks.md").write_text("\n".join(lines) + "\n")
 
 

@@ -36,6 +36,10 @@ FT_TIME, FT_POSES = 0, 1
 #: (:meth:`~gasp_core.colliders.model.Impulse.ramp_factor`), and 0 outside its window: the kernels test ``w > 0`` for
 #: on/off (so ``f = 0`` still holds the region, at rest) and impose ``v = (w - SET_ON) dv``.
 SET_ON = 1.0
+#: A set box's ghost nodes (``points.MIRROR_CELLS``) take their image nodes by mass (round 37, docs/fracture.md "The
+#: set box's bursts"): each lends ``v_set + min(1, m_image / m_ghost) (v_image - v_set)``, not ``v_image`` at full
+#: weight whenever it has any mass. A switch (read when the engines build their kernels) to run the old rule as a catch.
+MIRROR_BY_MASS = True
 #: A collider's pose block (:data:`COL_POSE` floats): R (9, row-major), T (3, m), v (3, m/s), omega (3, rad/s).
 PO_R, PO_T, PO_V, PO_W = 0, 9, 12, 15
 

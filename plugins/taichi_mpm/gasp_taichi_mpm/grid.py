@@ -193,12 +193,14 @@ class GridUpdate(GroundTouch):
             Ia, Ib = I, I
             Ia[ax] = a
             Ib[ax] = a + 1
+            va = self.image_share(v_set, Ia, I, empty)   # each image node by its share of I's material
+            vb = self.image_share(v_set, Ib, I, empty)
             if a == I[ax]:       # the lower node is I itself (an upper face under dx/2 away)
-                v = (2.0 * v_set - t * self.grid_v[Ib]) / (2.0 - t)
+                v = (2.0 * v_set - t * vb) / (2.0 - t)
             elif a + 1 == I[ax]:   # the upper node is I itself (a lower face)
-                v = (2.0 * v_set - (1.0 - t) * self.grid_v[Ia]) / (1.0 + t)
+                v = (2.0 * v_set - (1.0 - t) * va) / (1.0 + t)
             else:
-                v = 2.0 * v_set - (1.0 - t) * self.grid_v[Ia] - t * self.grid_v[Ib]
+                v = 2.0 * v_set - (1.0 - t) * va - t * vb
             if ti.static(empty):
                 if self.grid_m[Ia] <= 0.0 or self.grid_m[Ib] <= 0.0:
                     v = v_set

@@ -11,6 +11,7 @@ import warp as wp
 
 from gasp_core.mpm.grid_tables import IM_A, IM_B, IMPULSE_ROW
 from gasp_core.mpm.materials import BRITTLE, P_LAM, P_MU
+from gasp_core.mpm import grid_tables
 from gasp_core.mpm.points import CUT_REACH, HELD_STRAIN_CELLS, HELD_STRAINED, MIRROR_CELLS, cuts_held_faces
 
 from .constitutive import build_return_mapping
@@ -36,6 +37,18 @@ def build_mirror(Ft):
     vec3, vec4, mat33 = build_types(Ft)
     Extras = build_extras_struct(Ft)
     set_box_row = build_set_box_row(Ft)
+
+    by_mass = int(grid_tables.MIRROR_BY_MASS)
+
+    @wp.func
+    def image_share(v_set: vec3, grid_v: wp.array(dtype=vec3), grid_m: wp.array(dtype=Ft), j: int, node: int,
+                    empty: int):
+        v = grid_v[j]   # a set box's image node by its mass over the ghost's (taichi_mpm's Forces.image_share)
+        if by_mass != 0 and empty != 0:
+            mi = grid_m[node]
+            if mi > Ft(0.0):
+                v = v_set + wp.min(Ft(1.0), grid_m[j] / mi) * (v - v_set)
+        return v
 
     @wp.func
     def mirror_node(node: int, X: vec3, blo: vec3, bhi: vec3, v_set: vec3, grid_v: wp.array(dtype=vec3),
@@ -66,12 +79,14 @@ def build_mirror(Ft):
             t = q - Ft(a)
             na = node + (a - me) * stride
             nb = na + stride
+            va = image_share(v_set, grid_v, grid_m, na, node, empty)   # by its share of this node's material
+            vb = image_share(v_set, grid_v, grid_m, nb, node, empty)
             if a == me:       # the lower node is this one (an upper face under dx/2 away)
-                v = (Ft(2.0) * v_set - t * grid_v[nb]) / (Ft(2.0) - t)
+                v = (Ft(2.0) * v_set - t * vb) / (Ft(2.0) - t)
             elif a + 1 == me:   # the upper node is this one (a lower face)
-                v = (Ft(2.0) * v_set - (Ft(1.0) - t) * grid_v[na]) / (Ft(1.0) + t)
+                v = (Ft(2.0) * v_set - (Ft(1.0) - t) * va) / (Ft(1.0) + t)
             else:
-                v = Ft(2.0) * v_set - (Ft(1.0) - t) * grid_v[na] - t * grid_v[nb]
+                v = Ft(2.0) * v_set - (Ft(1.0) - t) * va - t * vb
             if empty != 0:
                 if grid_m[na] <= Ft(0.0) or grid_m[nb] <= Ft(0.0):
                     v = v_set
