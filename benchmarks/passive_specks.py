@@ -169,7 +169,7 @@ def main() -> None:
             print(json.dumps(row), flush=True)
             rows = [x for x in rows if _key(x) != (name, a.engine, gather, mir)]
             rows.append(row)
-            OUT.write_text(json.dumps(rows, indent=1))
+            OUT.write_text(json.dumps(rows, separators=(",", ":")))
     write_md(rows)
 
 
