@@ -136,8 +136,10 @@ SLAB = Material("jelly", E=2e5, nu=0.3, rho=1000.0)
 SOLID_N_GRID = 64
 
 
-def slide_setup(v0: float, options: dict | None = None, ground: bool = False, solid: bool = False) -> SimSetup:
-    """The block (body 0) thrown along +x at ``v0`` (m/s) over the slab (body 1), touching it at rest.
+def slide_setup(v0: float, options: dict | None = None, ground: bool = False, solid: bool = False,
+                slab_h: float = 0.03) -> SimSetup:
+    """The block (body 0) thrown along +x at ``v0`` (m/s) over the slab (body 1, ``slab_h`` m thick: 3 cm, or
+    :data:`COULOMB_SLAB_H`), touching it at rest.
 
     Coulomb's law on the block's whole base decelerates its mass centre at ``mu g`` while all of it slides forward
     (only the slab pushes on it): a block that keeps its shape (``solid``: the jelly, ``mu`` the two soft bodies'
@@ -149,9 +151,9 @@ def slide_setup(v0: float, options: dict | None = None, ground: bool = False, so
     n_grid = SOLID_N_GRID if solid else N_GRID
     dx = SIDE / n_grid
     lo = np.array([-0.12, -SIDE / 2, -3 * dx])
-    base = 0.0 if ground else 0.03
+    base = 0.0 if ground else slab_h
     xs, vs = box_points([-0.03, -0.03, base], [0.03, 0.03, base + 0.03], dx / 2)
-    xb, vb = (np.zeros((0, 3)), 0.0) if ground else box_points([-0.08, -0.08, 0.0], [0.32, 0.08, 0.03], dx / 2)
+    xb, vb = (np.zeros((0, 3)), 0.0) if ground else box_points([-0.08, -0.08, 0.0], [0.32, 0.08, slab_h], dx / 2)
     x = np.concatenate([xs, xb])
     v = np.zeros_like(x)
     v[:len(xs), 0] = v0
@@ -169,3 +171,31 @@ def slide_travel(x0: np.ndarray, x1: np.ndarray, setup: SimSetup) -> float:
     sel = np.asarray(setup.body_id) == 0
     m = setup.p_mass[sel]
     return float((m @ x1[sel, 0] - m @ x0[sel, 0]) / m.sum())
+
+
+#: The slab of :func:`coulomb_ratio`'s scene (m): 3 cells at n_grid 32, so that the ground's node layers (its top
+#: layer and the touched layer above it, where both fields move with their mean) stay out of the block's stencil.
+#: On the 3 cm slab (2 cells) they glue the block's lowest nodes to the slab: the ratio read 1.2-2.3 % over ``mu``
+#: (docs/contact.md "Round 38").
+COULOMB_SLAB_H = 0.045
+
+
+def coulomb_ratio(v: np.ndarray, setup: SimSetup, f0: int, f1: int) -> float:
+    """Coulomb's law read on the block (body 0) between frames ``f0`` and ``f1``: its horizontal momentum lost over
+    the normal impulse its support gave it, ``-(V_x(f1) - V_x(f0)) / (g T + V_z(f1) - V_z(f0))`` (``V`` its mass
+    centre's velocity from the points' ``v``, shape (n_frames + 1, n, 3), m/s; ``T`` the time between the frames;
+    ``g`` = -``setup.gravity[2]``), dimensionless. Only the support (a body or the ground) pushes on the block besides
+    gravity, so while the whole base slides forward Coulomb's law makes it the support's ``mu``, however the block
+    deforms: a slump that lowers the normal load (the sand block spreading) lowers both impulses alike.
+
+    Raises
+    ------
+    ValueError
+        ``f1 <= f0`` or a frame outside ``v``."""
+    if not 0 <= f0 < f1 < len(v):
+        raise ValueError(f"coulomb_ratio: frames f0 {f0}, f1 {f1}: expected 0 <= f0 < f1 <= {len(v) - 1}")
+    sel = np.asarray(setup.body_id) == 0
+    m = setup.p_mass[sel]
+    vc = np.einsum("i,fij->fj", m, v[[f0, f1]][:, sel]) / m.sum()
+    g = -float(setup.gravity[2])
+    return float(-(vc[1, 0] - vc[0, 0]) / (g * (f1 - f0) * setup.frame_dt + vc[1, 2] - vc[0, 2]))

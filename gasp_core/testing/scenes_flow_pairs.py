@@ -24,6 +24,14 @@ field, ``gasp_core.mpm.fields``, docs/contact.md "Sand that slides on what it to
   Coulomb's (effective mu 0.563-0.570); the block on the slab read 22 % below it (a known failure in round 36) until
   round 37's flowing body's touch (``gasp_core.mpm.fields.flow_touch``, docs/contact.md "Round 37"): now within
   1 % of the ground's on both MPM engines.
+- ``sand_slide_coulomb`` (round 38, docs/contact.md "Round 38"): the same sand block thrown at 1.2 and 1.6 m/s along
+  the slab made 4.5 cm thick (``S.COULOMB_SLAB_H``: 3 cells, the ground's node layers out of the block's stencil),
+  3 frames, while all of its base still slides forward. Known answer: Coulomb's law on the block, its horizontal
+  momentum lost over the normal impulse the slab gave it (``S.coulomb_ratio``: gravity's impulse plus its vertical
+  momentum gained), is the pair's ``mu`` = tan 30 deg, however the sand slumps. Check: each speed within
+  ``RATIO_TOL`` = 2.5 %, either side. It reads the pair's friction with a slope of 1 (measured 0.95 and 1.05 times
+  it: -5.0 and +4.9 %), so both 5 % biases fail it; ``sand_slide``'s travel against the ground's answer keeps its own
+  +1.9 % and reads a 5 % low friction as -3 %.
 - ``solid_slide`` (slow tier): a jelly block (the slab's jelly, 6 x 6 x 3 cm) thrown along the slab at the same
   speeds, n_grid 64 (``gasp_core.testing.sand_ball.SOLID_N_GRID``). Known answer: a block that keeps its shape stops
   after Coulomb's ``v0^2 / (2 mu g)``, ``mu`` = 0.5 (``gasp_core.mpm.fields.SOLID_FRICTION``, two soft bodies);
@@ -45,6 +53,9 @@ PAIR_FRAMES = 36
 MU_TOL, SLIDE_TOL = 0.04, 0.05
 SPEEDS = (0.4, 0.6, 0.8)
 SLIDE_FRAMES = 6
+#: ``sand_slide_coulomb``: the tolerance, the speeds (m/s: the block still slides at 3 frames at tan 35 deg, 0.69 m/s
+#: lost) and the frames.
+RATIO_TOL, RATIO_SPEEDS, RATIO_FRAMES = 0.025, (1.2, 1.6), 3
 _REQ = Requires(frozenset({"sand", "jelly"}), frozenset({"ground"}), frozenset({"body_friction"}))
 _REQ_SOLID = Requires(frozenset({"jelly"}), frozenset({"ground"}), frozenset({"body_friction"}))
 
@@ -97,6 +108,20 @@ def _eval_solid_slide(info: EngineInfo, tr: Trace) -> list[Check]:
                          f"Coulomb's (mu {mu:g})")
 
 
+def _eval_slide_coulomb(info: EngineInfo, tr: Trace) -> list[Check]:
+    """Coulomb's law on the sand block (``S.coulomb_ratio`` from the throw to the last frame) at each speed against
+    the pair's friction."""
+    from gasp_core.mpm.fields import field_friction
+    mu = field_friction(tr.setup)
+    runs = {v0: tr if v0 == RATIO_SPEEDS[0] else
+            run_trace(info, S.slide_setup(v0, slab_h=S.COULOMB_SLAB_H), RATIO_FRAMES) for v0 in RATIO_SPEEDS}
+    err = {v0: S.coulomb_ratio(r.v, r.setup, 0, RATIO_FRAMES) / mu - 1.0 for v0, r in runs.items()}
+    worst = max(RATIO_SPEEDS, key=lambda v0: abs(err[v0]))
+    each = ", ".join(f"{v0:g} m/s {err[v0]:+.2%}" for v0 in RATIO_SPEEDS)
+    return [check("coulomb_ratio", abs(err[worst]), RATIO_TOL, f"|the block's momentum lost along x / the normal "
+                  f"impulse / mu - 1| at the worst speed (mu {mu:.4f}; {each})", signed=err[worst])]
+
+
 SCENES_FLOW_PAIRS = [
     Scene("sand_on_ball", f"a sand column collapsing against a jelly ball piles as it does alone (within "
           f"{PILE_TOL:.0%}), does not stick to its steep side or enter it, and turns it under {TURN_TOL:g} deg",
@@ -105,6 +130,10 @@ SCENES_FLOW_PAIRS = [
           f"(tan 30 deg; a sand block spreads, so the grid's boundary rule gives its answer): mean effective mu within "
           f"{MU_TOL:.0%}, each speed within {SLIDE_TOL:.0%}", _REQ, lambda info: S.slide_setup(SPEEDS[1]),
           SLIDE_FRAMES, _eval_slide),
+    Scene("sand_slide_coulomb", f"a sand block thrown along a jelly slab at {RATIO_SPEEDS[0]:g} and "
+          f"{RATIO_SPEEDS[1]:g} m/s loses momentum along x at mu (tan 30 deg) times the normal impulse while it "
+          f"slides (Coulomb's law on the block): within {RATIO_TOL:.1%} at each speed", _REQ,
+          lambda info: S.slide_setup(RATIO_SPEEDS[0], slab_h=S.COULOMB_SLAB_H), RATIO_FRAMES, _eval_slide_coulomb),
     Scene("solid_slide", f"a jelly block thrown along a jelly slab (n_grid {S.SOLID_N_GRID}) stops after Coulomb's "
           f"v0^2 / (2 mu g), mu the soft bodies' friction: mean effective mu within {MU_TOL:.0%}, each speed within "
           f"{SLIDE_TOL:.0%}", _REQ_SOLID, lambda info: S.slide_setup(SPEEDS[1], solid=True), SLIDE_FRAMES,
