@@ -45,7 +45,8 @@ ANALYTIC_SCREEN = {
     "friction_high": ("incline_slide",),
     "softer_E": ("cantilever", "self_weight_sag", "bar_wave"),
     "sand_friction_high": ("sand_column_collapse",),
-    "sand_mu_5pct_high": ("sand_slide",),
+    "sand_mu_5pct_high": ("sand_slide", "sand_slide_coulomb"),
+    "sand_mu_5pct_low": ("sand_slide_coulomb",),
     "viscosity_low": ("bar_viscous_decay",),
     "viscosity_high": ("bar_viscous_decay",),
     "ground_friction_low": ("slide_to_rest",),
@@ -217,9 +218,10 @@ def broken_engine(info, kind: str):
         if kind == "softer_E":  # Young's modulus 10 % low: wave speed -5 %, sag and deflection +11 %
             mats = [dataclasses.replace(m, E=0.9 * m.E) for m in setup.materials]
             return info.factory(setup.replace(materials=mats))
-        if kind == "sand_mu_5pct_high":  # the sand's friction coefficient tan(phi) 5 % high (30 -> 31.23 deg)
+        if kind in ("sand_mu_5pct_high", "sand_mu_5pct_low"):  # the sand's tan(phi) 5 % off (30 -> 31.23, 28.74 deg)
+            f = 1.05 if kind.endswith("high") else 0.95
             mats = [dataclasses.replace(m, friction_angle=float(np.degrees(np.arctan(
-                1.05 * np.tan(np.radians(m.friction_angle)))))) if m.name == "sand" else m for m in setup.materials]
+                f * np.tan(np.radians(m.friction_angle)))))) if m.name == "sand" else m for m in setup.materials]
             return info.factory(setup.replace(materials=mats))
         if kind == "sand_friction_high":  # sand 10 deg more frictional (runout -30 % at a = 2)
             mats = [dataclasses.replace(m, friction_angle=m.friction_angle + 10.0) if m.name == "sand" else m
