@@ -19,7 +19,8 @@
   (``field_friction`` made 0), one field, or the flowing body's touch off (``FLOW_TOUCH`` False, the rule of round
   36) the check fails (:func:`test_the_slide_check_fails_without_friction_or_with_one_field`), and the conformance
   scene ``sand_slide`` fails with the body friction 5 % high
-  (:func:`test_the_sand_slide_catches_a_friction_5pct_off`; 5 % low passes it, ``solid_slide`` catches that side).
+  (:func:`test_the_sand_slide_catches_a_friction_5pct_off`; 5 % low passes it: ``solid_slide`` and, for the sand,
+  ``sand_slide_coulomb`` catch that side, ``tests/test_slide_coulomb.py``).
   The family (grids, a stiffer slab, a second friction angle): ``tests/test_flow_touch.py``. The solid block against
   Coulomb's travel is the conformance scene ``solid_slide``.
 - Both engines (slow tier): the light ball against the column in float64, 3 frames, the same points to 1e-9 m: the
@@ -176,7 +177,8 @@ def test_the_slide_check_fails_without_friction_or_with_one_field(monkeypatch):
 def test_the_sand_slide_catches_a_friction_5pct_off(monkeypatch, factor):
     """The conformance scene ``sand_slide`` passes on warp_mpm (+1.95 % mean, docs/contact.md "Round 37") and fails
     with the body friction 5 % high (its answer, the block on the ground, keeps the boundary's tan 30 deg). 5 % low
-    reads about -3 % and passes: that side is ``solid_slide``'s catch (unbiased, +0.55 %)."""
+    reads about -3 % and passes: that side is ``solid_slide``'s catch (unbiased, +0.55 %) and, for the sand,
+    ``sand_slide_coulomb``'s (``tests/test_slide_coulomb.py``)."""
     pytest.importorskip("gasp_warp_mpm")
     import gasp_warp_mpm.fields as wf
     from gasp_core.seam.plugins import get_engine
