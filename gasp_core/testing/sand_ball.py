@@ -173,10 +173,9 @@ def slide_travel(x0: np.ndarray, x1: np.ndarray, setup: SimSetup) -> float:
     return float((m @ x1[sel, 0] - m @ x0[sel, 0]) / m.sum())
 
 
-#: The slab of :func:`coulomb_ratio`'s scene (m): 3 cells at n_grid 32, so that the ground's node layers (its top
-#: layer and the touched layer above it, where both fields move with their mean) stay out of the block's stencil.
-#: On the 3 cm slab (2 cells) they glue the block's lowest nodes to the slab: the ratio read 1.2-2.3 % over ``mu``
-#: (docs/contact.md "Round 38").
+#: The slab of :func:`coulomb_ratio`'s scene (m): 3 cells at n_grid 32. On the 3 cm slab (2 cells, the block's
+#: lowest stencil nodes one cell above the ground's top node layer) the ratio read 1.2-2.3 % over ``mu``, and the
+#: stiff slab's travel 6 %; on this one within 0.1 % (docs/contact.md "Round 38": which nodes rub is not found).
 COULOMB_SLAB_H = 0.045
 
 
