@@ -33,16 +33,24 @@ OBLIQUE_FRAMES = 1125   # user_oblique.run_case's for the 1.5:1 at 45 deg, n_gri
 OBLIQUE2_FRAMES = 1200   # the 2:1 at 45 deg, n_grid 48: as long (a set box pulled specimen past its break)
 
 
-#: the gathers measured: (by mass, the fit read at the point)
-GATHERS = {"before": (False, False), "mass": (True, False), "mass_at_point": (True, True)}
+#: the gathers measured: (by mass, the fit read at the point, the gradient along the spanned directions only)
+GATHERS = {"before": (False, False, False), "mass": (True, False, False), "mass_at_point": (True, True, False),
+           "spanned": (True, True, True)}
 
 
 @contextlib.contextmanager
 def rule(engine: str, gather: str):
     """The engine's passive gather ``gather`` (:data:`GATHERS`): ``before``, the rule (by the B-spline weight alone,
     renormalised over the nodes with mass); ``mass``, weighted by the nodes' mass, the mean read at the weights'
-    centroid; ``mass_at_point``, weighted by mass, the least-squares fit read at the point."""
-    by_mass, at_point = GATHERS[gather]
+    centroid; ``mass_at_point``, weighted by mass, the least-squares fit read at the point; ``spanned``, weighted by
+    mass, the mean at the centroid plus the fitted gradient along the directions the material spans, read at the
+    point (``grid_tables.PASSIVE_SPANNED``, round 38)."""
+    from gasp_core.mpm import grid_tables
+    if gather not in GATHERS:
+        raise ValueError(f"--gather: one of {sorted(GATHERS)}, got {gather!r}")
+    by_mass, at_point, spanned = GATHERS[gather]
+    old_spanned = grid_tables.PASSIVE_SPANNED
+    grid_tables.PASSIVE_SPANNED = spanned
     if engine == "taichi_mpm":
         from gasp_taichi_mpm.transfers import Transfers as T
         old = T.PASSIVE_BY_MASS, T.PASSIVE_AT_POINT
@@ -51,12 +59,14 @@ def rule(engine: str, gather: str):
             yield
         finally:
             T.PASSIVE_BY_MASS, T.PASSIVE_AT_POINT = old
+            grid_tables.PASSIVE_SPANNED = old_spanned
     else:
         from gasp_warp_mpm import kernels, transfers
         old = transfers.PASSIVE_BY_MASS, transfers.PASSIVE_AT_POINT
 
         def clear():
             transfers.build_g2p_passive.cache_clear()
+            transfers.build_spanned_inverse.cache_clear()
             kernels.build_kernels.cache_clear()
         transfers.PASSIVE_BY_MASS, transfers.PASSIVE_AT_POINT = by_mass, at_point
         clear()
@@ -64,6 +74,7 @@ def rule(engine: str, gather: str):
             yield
         finally:
             transfers.PASSIVE_BY_MASS, transfers.PASSIVE_AT_POINT = old
+            grid_tables.PASSIVE_SPANNED = old_spanned
             clear()
 
 

@@ -40,6 +40,19 @@ SET_ON = 1.0
 #: set box's bursts"): each lends ``v_set + min(1, m_image / m_ghost) (v_image - v_set)``, not ``v_image`` at full
 #: weight whenever it has any mass. A switch (read when the engines build their kernels) to run the old rule as a catch.
 MIRROR_BY_MASS = True
+#: The passive points' gather (round 38, docs/fracture.md "Round 38"): off, the engines' gather (each node by its
+#: B-spline weight, renormalised over the nodes with mass; their own round 37 variants). On, each node by its weight
+#: times its mass ``w = N m``: the mean velocity at the weights' centroid ``x_bar``, plus the gradient fitted by
+#: mass-weighted least squares about ``x_bar``, ``G = S_vr M^+``, read at the point, ``v = v_bar + G (x_p - x_bar)``,
+#: ``C = G``; ``M^+`` keeps only the eigen-directions of the moment ``M = sum w (x - x_bar)(x - x_bar)^T / sum w``
+#: at or above :data:`PASSIVE_SPAN_MIN`. A switch read when the engines build their kernels.
+PASSIVE_SPANNED = False
+#: The smallest moment per unit weight (cells^2) of a direction the spanned gather fits a gradient along: a quarter of
+#: a full stencil's, whose quadratic B-spline moment is 1/4 cell^2 along every direction (APIC's ``D = dx^2 / 4``).
+#: Two node layers one cell apart holding the fractions f and 1 - f of the weighted mass give f (1 - f): 1/16 at
+#: f = 6.7 %. A node of weight fraction e carrying a velocity d off the fit then adds at most e d s r / (1/16) <= 32 e d
+#: at the point (s <= 2 cells its offset from the centroid, r <= 1 cell the point's), and one of 1e-15 kg nothing.
+PASSIVE_SPAN_MIN = 1.0 / 16.0
 #: A collider's pose block (:data:`COL_POSE` floats): R (9, row-major), T (3, m), v (3, m/s), omega (3, rad/s).
 PO_R, PO_T, PO_V, PO_W = 0, 9, 12, 15
 

@@ -6,6 +6,7 @@ Sources: Hu et al. 2018 (MLS-MPM, APIC, quadratic B-splines), taichi's mpm128 (`
 """
 import taichi as ti
 
+from gasp_core.mpm import grid_tables
 from gasp_core.mpm.materials import BRITTLE, P_ETA
 
 class Transfers:
@@ -218,6 +219,19 @@ class Transfers:
         self.box[0, 1] = ti.Vector([self.n_grid - 1, self.n_grid - 1, self.n_grid - 1])
 
     @ti.func
+    def spanned_inverse(self, M):
+        """The pseudo-inverse of the symmetric moment ``M`` (3x3, cells^2 per unit weight) over its eigen-directions at
+        or above ``grid_tables.PASSIVE_SPAN_MIN``: ``sum_k [lam_k >= min] V_k V_k^T / lam_k`` (cyclic Jacobi,
+        :meth:`sym_eig`). The passive gather's gradient is fitted only where the material spans (round 38)."""
+        V, lam = self.sym_eig(M)
+        Minv = ti.Matrix.zero(self.real, 3, 3)
+        for k in ti.static(range(3)):
+            if lam[k] >= ti.static(grid_tables.PASSIVE_SPAN_MIN):
+                e = ti.Vector([V[0, k], V[1, k], V[2, k]])
+                Minv += e.outer_product(e) / lam[k]
+        return Minv
+
+    @ti.func
     def g2p_passive_point(self, p, pair):
         """A passive point: velocity ``v`` and affine velocity gradient ``C`` from the grid (no F, no P2G).
 
@@ -246,7 +260,7 @@ class Transfers:
                 node = base + ti.Vector([i, j, k])
                 if self.grid_m[node] > 0.0:
                     wn = w[i][0] * w[j][1] * w[k][2]
-                    if ti.static(self.PASSIVE_BY_MASS):
+                    if ti.static(self.PASSIVE_BY_MASS or grid_tables.PASSIVE_SPANNED):
                         wn *= self.grid_m[node]   # the node's say: its share of the material at the point
                     r = ti.Vector([ti.static(float(i)), ti.static(float(j)), ti.static(float(k))], self.real) - fx
                     gv = self.node_v(p, node)   # its body's field (fields.py): a passive sand point slides too
@@ -261,10 +275,14 @@ class Transfers:
                 rbar /= wsum
                 # moments per unit weight (unscaled: a crack's lone far corner underflowed f32); ridge for planar nodes
                 Svr = Svr / wsum - new_v.outer_product(rbar)
-                Srr = Srr / wsum + ti.Matrix.identity(self.real, 3) * 2.5e-5 - rbar.outer_product(rbar)
-                new_C = self.inv_dx[None] * (Svr @ Srr.inverse())
-                if ti.static(self.PASSIVE_BY_MASS and self.PASSIVE_AT_POINT):   # the fit read at the point
+                if ti.static(grid_tables.PASSIVE_SPANNED):   # the gradient along the spanned directions, at the point
+                    new_C = self.inv_dx[None] * (Svr @ self.spanned_inverse(Srr / wsum - rbar.outer_product(rbar)))
                     new_v -= new_C @ (rbar * self.dx[None])
+                else:
+                    Srr = Srr / wsum + ti.Matrix.identity(self.real, 3) * 2.5e-5 - rbar.outer_product(rbar)
+                    new_C = self.inv_dx[None] * (Svr @ Srr.inverse())
+                    if ti.static(self.PASSIVE_BY_MASS and self.PASSIVE_AT_POINT):   # the fit read at the point
+                        new_v -= new_C @ (rbar * self.dx[None])
             else:   # stranded, no material in its stencil: it falls freely until material or a boundary takes it
                 new_v = self.v[p] + ti.cast(self.passive_substeps[pair], self.real) * self.dt[None] * self.gravity[None]
             v_prev = self.v[p]

@@ -15,8 +15,10 @@ import functools
 
 import warp as wp
 
+from gasp_core.mpm import grid_tables
 from gasp_core.mpm.materials import BRITTLE, P_ETA
 
+from .constitutive import build_sym_eig
 from .contact import build_collider_contact, build_passive_hold
 from .fields import build_aflip_gather, build_field_reads
 from .forces import build_extras_struct
@@ -229,6 +231,29 @@ PASSIVE_AT_POINT = True
 
 
 @functools.cache
+def build_spanned_inverse(Ft):
+    """``spanned_inverse(M) -> M^+``, scalar type ``Ft``: the pseudo-inverse of the symmetric moment ``M`` (3x3, cells^2
+    per unit weight) over its eigen-directions at or above ``grid_tables.PASSIVE_SPAN_MIN`` (read when built),
+    ``sum_k [lam_k >= min] V_k V_k^T / lam_k`` (cyclic Jacobi, ``constitutive.build_sym_eig``); taichi_mpm's
+    ``Transfers.spanned_inverse`` (round 38)."""
+    vec3, vec4, mat33 = build_types(Ft)
+    sym_eig = build_sym_eig(Ft)
+    lam_min = Ft(grid_tables.PASSIVE_SPAN_MIN)
+
+    @wp.func
+    def spanned_inverse(M: mat33):
+        V, lam = sym_eig(M)
+        Minv = mat33()
+        for k in range(3):
+            if lam[k] >= lam_min:
+                e = vec3(V[0, k], V[1, k], V[2, k])
+                Minv = Minv + wp.outer(e, e) / lam[k]
+        return Minv
+
+    return spanned_inverse
+
+
+@functools.cache
 def build_g2p_passive(Ft):
     """``g2p_passive``: the G2P kernel of scalar type ``Ft`` for passive points, each reading its body's velocity field
     (the two-field contact's offset, ``fields.build_field_reads``). It is long because the kernel is one closure of
@@ -243,7 +268,9 @@ def build_g2p_passive(Ft):
     ``y += dt v(y, k)``, ``k = 1..m`` (``gasp_core.mpm.substeps.passive_schedule``), so it turns with the material.
     A point with no node of mass in its stencil (stranded) falls freely: ``v_new = v_prev + m dt g``; on the floor it
     slides with the floor's Coulomb friction ``mu_floor`` (``gasp_core.mpm.points.hold_passive``)."""
-    by_mass, at_point = bool(PASSIVE_BY_MASS), bool(PASSIVE_AT_POINT)
+    spanned = bool(grid_tables.PASSIVE_SPANNED)   # round 38: by mass, the gradient along the spanned directions
+    by_mass, at_point = bool(PASSIVE_BY_MASS) or spanned, bool(PASSIVE_AT_POINT) or spanned
+    spanned_inverse = build_spanned_inverse(Ft)
     vec3, vec4, mat33 = build_types(Ft)
     in_grid, weights = build_stencil(Ft)
     hold_passive = build_passive_hold(Ft)
@@ -309,8 +336,11 @@ def build_g2p_passive(Ft):
             # wsum ~ 1e-12, whose unscaled moments' determinant underflows f32 and made C non-finite); a tiny
             # ridge (1e-4 of a full stencil's second moment / 4) where the nodes with mass are planar
             Svr = Svr / wsum - wp.outer(new_v, rbar)
-            Srr = Srr / wsum - wp.outer(rbar, rbar) + wp.identity(3, dtype=Ft) * Ft(2.5e-5)
-            Cn = inv_dx * (Svr * wp.inverse(Srr))
+            Srr = Srr / wsum - wp.outer(rbar, rbar)
+            if wp.static(spanned):
+                Cn = inv_dx * (Svr * spanned_inverse(Srr))
+            else:
+                Cn = inv_dx * (Svr * wp.inverse(Srr + wp.identity(3, dtype=Ft) * Ft(2.5e-5)))
             if wp.static(by_mass and at_point):   # the fit read at the point (the builder's docstring)
                 new_v = new_v - Cn * (rbar / inv_dx)
         else:   # stranded, no material in its stencil: it falls freely until material or a boundary takes it
