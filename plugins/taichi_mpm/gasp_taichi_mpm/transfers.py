@@ -218,15 +218,22 @@ class Transfers:
         self.box[0, 0] = ti.Vector([0, 0, 0])
         self.box[0, 1] = ti.Vector([self.n_grid - 1, self.n_grid - 1, self.n_grid - 1])
 
+    def allocate_passive_span(self, p_mass, p_vol):
+        """The spanned passive gather's cutoff (kg cells^2, ``grid_tables.passive_span_mass`` of the points' masses
+        and volumes, shapes (n,)) in a scalar field."""
+        self.span_mass = ti.field(self.real, shape=())
+        self.span_mass[None] = grid_tables.passive_span_mass(p_mass, p_vol)
+
     @ti.func
-    def spanned_inverse(self, M):
-        """The pseudo-inverse of the symmetric moment ``M`` (3x3, cells^2 per unit weight) over its eigen-directions at
-        or above ``grid_tables.PASSIVE_SPAN_MIN``: ``sum_k [lam_k >= min] V_k V_k^T / lam_k`` (cyclic Jacobi,
-        :meth:`sym_eig`). The passive gather's gradient is fitted only where the material spans (round 38)."""
+    def spanned_inverse(self, M, wsum):
+        """The pseudo-inverse of the symmetric moment ``M`` (3x3, cells^2 per unit weight; ``wsum`` the weights' sum,
+        kg) over the eigen-directions the material spans, ``lam wsum > span_mass`` (``grid_tables``'
+        ``PASSIVE_SPAN_MOMENT``): ``sum_k V_k V_k^T / lam_k`` (cyclic Jacobi, :meth:`sym_eig`). The passive gather's
+        gradient is fitted only there (round 38)."""
         V, lam = self.sym_eig(M)
         Minv = ti.Matrix.zero(self.real, 3, 3)
         for k in ti.static(range(3)):
-            if lam[k] >= ti.static(grid_tables.PASSIVE_SPAN_MIN):
+            if lam[k] * wsum > self.span_mass[None]:
                 e = ti.Vector([V[0, k], V[1, k], V[2, k]])
                 Minv += e.outer_product(e) / lam[k]
         return Minv
@@ -276,7 +283,7 @@ class Transfers:
                 # moments per unit weight (unscaled: a crack's lone far corner underflowed f32); ridge for planar nodes
                 Svr = Svr / wsum - new_v.outer_product(rbar)
                 if ti.static(grid_tables.PASSIVE_SPANNED):   # the gradient along the spanned directions, at the point
-                    new_C = self.inv_dx[None] * (Svr @ self.spanned_inverse(Srr / wsum - rbar.outer_product(rbar)))
+                    new_C = self.inv_dx[None] * (Svr @ self.spanned_inverse(Srr / wsum - rbar.outer_product(rbar), wsum))
                     new_v -= new_C @ (rbar * self.dx[None])
                 else:
                     Srr = Srr / wsum + ti.Matrix.identity(self.real, 3) * 2.5e-5 - rbar.outer_product(rbar)

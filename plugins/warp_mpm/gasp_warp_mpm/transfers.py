@@ -232,20 +232,19 @@ PASSIVE_AT_POINT = True
 
 @functools.cache
 def build_spanned_inverse(Ft):
-    """``spanned_inverse(M) -> M^+``, scalar type ``Ft``: the pseudo-inverse of the symmetric moment ``M`` (3x3, cells^2
-    per unit weight) over its eigen-directions at or above ``grid_tables.PASSIVE_SPAN_MIN`` (read when built),
-    ``sum_k [lam_k >= min] V_k V_k^T / lam_k`` (cyclic Jacobi, ``constitutive.build_sym_eig``); taichi_mpm's
-    ``Transfers.spanned_inverse`` (round 38)."""
+    """``spanned_inverse(M, wsum, span_mass) -> M^+``, scalar type ``Ft``: the pseudo-inverse of the symmetric
+    moment ``M`` (3x3, cells^2 per unit weight; ``wsum`` the weights' sum, kg) over the eigen-directions the material
+    spans, ``lam wsum > span_mass`` (kg cells^2, ``grid_tables.passive_span_mass``): ``sum_k V_k V_k^T / lam_k``
+    (cyclic Jacobi, ``constitutive.build_sym_eig``); taichi_mpm's ``Transfers.spanned_inverse`` (round 38)."""
     vec3, vec4, mat33 = build_types(Ft)
     sym_eig = build_sym_eig(Ft)
-    lam_min = Ft(grid_tables.PASSIVE_SPAN_MIN)
 
     @wp.func
-    def spanned_inverse(M: mat33):
+    def spanned_inverse(M: mat33, wsum: Ft, span_mass: Ft):
         V, lam = sym_eig(M)
         Minv = mat33()
         for k in range(3):
-            if lam[k] >= lam_min:
+            if lam[k] * wsum > span_mass:
                 e = vec3(V[0, k], V[1, k], V[2, k])
                 Minv = Minv + wp.outer(e, e) / lam[k]
         return Minv
@@ -282,6 +281,7 @@ def build_g2p_passive(Ft):
         grid_v: wp.array(dtype=vec3), grid_m: wp.array(dtype=Ft), flags: wp.array(dtype=wp.int32),
         lo: vec3, inv_dx: Ft, dt: Ft, m: int, n_grid: int, first: int, hold_lo: vec3, hold_hi: vec3, gravity: vec3,
         grid_dv: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32), mu_floor: Ft,
+        span_mass: Ft,
     ):
         # Passive points (rows first..): v and C from the grid, then the affine advance (the builder's docstring)
         p = first + wp.tid()
@@ -338,7 +338,7 @@ def build_g2p_passive(Ft):
             Svr = Svr / wsum - wp.outer(new_v, rbar)
             Srr = Srr / wsum - wp.outer(rbar, rbar)
             if wp.static(spanned):
-                Cn = inv_dx * (Svr * spanned_inverse(Srr))
+                Cn = inv_dx * (Svr * spanned_inverse(Srr, wsum, span_mass))
             else:
                 Cn = inv_dx * (Svr * wp.inverse(Srr + wp.identity(3, dtype=Ft) * Ft(2.5e-5)))
             if wp.static(by_mass and at_point):   # the fit read at the point (the builder's docstring)
