@@ -46,7 +46,7 @@ MIRROR_BY_MASS = True
 #: mass-weighted least squares about ``x_bar``, ``G = S_vr M^+``, read at the point, ``v = v_bar + G (x_p - x_bar)``,
 #: ``C = G``; ``M^+`` keeps only the eigen-directions of the moment ``M = sum w (x - x_bar)(x - x_bar)^T / sum w``
 #: (cells^2) the material spans (:data:`PASSIVE_SPAN_MOMENT`). A switch read when the engines build their kernels.
-PASSIVE_SPANNED = False
+PASSIVE_SPANNED = True
 #: A direction is spanned where its moment in mass, ``lam sum w`` (kg cells^2), is above the most one material point
 #: can give: a lone point's nodes hold ``N_i m_p``, so a passive point reads weights ``N_i(x) N_i(x_p) m_p``, whose
 #: sum along an axis is at most 19/32 (both at a node) and whose moment at most 1/8 cell^2 (both half-way between

@@ -13,9 +13,10 @@ class Transfers:
     """The stencil of a point, P2G (atomic or into private grid copies; the schedules' own P2G passes are in
     :mod:`gasp_taichi_mpm.schedule.coloured` and :mod:`gasp_taichi_mpm.schedule.tiles`), G2P and the passive points' G2P."""
 
-    #: The passive gather by the B-spline weight alone, renormalised over the nodes with mass (False, the rule), or
-    #: weighted by the nodes' mass (True: measured in round 37 and not adopted, docs/fracture.md "Round 37"), its mean
-    #: read at the weights' centroid or, with PASSIVE_AT_POINT, the weighted fit read at the point
+    #: With ``grid_tables.PASSIVE_SPANNED`` off (round 38's spanned gather, the rule, overrides these): the passive
+    #: gather by the B-spline weight alone, renormalised over the nodes with mass (False), or weighted by the nodes'
+    #: mass (True: measured in round 37 and not adopted, docs/fracture.md "Round 37"), its mean read at the weights'
+    #: centroid or, with PASSIVE_AT_POINT, the weighted fit read at the point
     PASSIVE_BY_MASS = False
     PASSIVE_AT_POINT = True
 
@@ -244,9 +245,10 @@ class Transfers:
 
         Only nodes that received mass count, with the weights renormalised over them: a surface point
         half a spacing outside the material sees empty nodes (velocity 0, not the material's) in its
-        stencil, which would hold it back. ``C`` is the weighted least-squares fit of those nodes'
-        velocities (APIC's ``C`` on a full stencil; :attr:`PASSIVE_BY_MASS`: the mass-weighted variants measured in
-        round 37). The point then advances over the ``m = passive_substeps[pair]``
+        stencil, which would hold it back. With ``grid_tables.PASSIVE_SPANNED`` (the rule, round 38) each node counts
+        by its weight times its mass: the mean at the weights' centroid plus the weighted least-squares gradient along
+        the directions the material spans (:meth:`spanned_inverse`), read at the point, ``C`` that gradient; off, by
+        the weight alone, ``C`` the weighted fit (:attr:`PASSIVE_BY_MASS`: round 37's variants). The point then advances over the ``m = passive_substeps[pair]``
         substeps since its last gather through the affine field
         ``v(y, k) = v_prev + (k/m)(v_new - v_prev) + (C_prev + (k/m)(C_new - C_prev)) y``,
         ``y += dt v(y, k)`` for ``k = 1..m`` (:func:`gasp_core.mpm.substeps.passive_schedule`), so it turns with
@@ -283,7 +285,8 @@ class Transfers:
                 # moments per unit weight (unscaled: a crack's lone far corner underflowed f32); ridge for planar nodes
                 Svr = Svr / wsum - new_v.outer_product(rbar)
                 if ti.static(grid_tables.PASSIVE_SPANNED):   # the gradient along the spanned directions, at the point
-                    new_C = self.inv_dx[None] * (Svr @ self.spanned_inverse(Srr / wsum - rbar.outer_product(rbar), wsum))
+                    M = Srr / wsum - rbar.outer_product(rbar)
+                    new_C = self.inv_dx[None] * (Svr @ self.spanned_inverse(M, wsum))
                     new_v -= new_C @ (rbar * self.dx[None])
                 else:
                     Srr = Srr / wsum + ti.Matrix.identity(self.real, 3) * 2.5e-5 - rbar.outer_product(rbar)

@@ -222,8 +222,8 @@ def build_g2p(Ft):
     return g2p
 
 
-#: The passive gather by the B-spline weight alone, renormalised over the nodes with mass (False, the rule), or weighted
-#: by the nodes' mass (True: measured in round 37 and not adopted, docs/fracture.md "Round 37"), its mean read at the
+#: With ``grid_tables.PASSIVE_SPANNED`` off (round 38's spanned gather, the rule, overrides these): the passive gather
+#: by the B-spline weight alone, renormalised over the nodes with mass (False), or weighted by the nodes' mass (True: measured in round 37 and not adopted, docs/fracture.md "Round 37"), its mean read at the
 #: weights' centroid or, with PASSIVE_AT_POINT, the weighted fit read at the point. Read when the kernel is built:
 #: a change needs :func:`build_g2p_passive`'s and ``kernels.build_kernels``' caches cleared.
 PASSIVE_BY_MASS = False
@@ -260,8 +260,10 @@ def build_g2p_passive(Ft):
 
     Passive points (rows ``first..``): velocity ``v`` and affine velocity gradient ``C`` from the grid (no F, no P2G).
     Only nodes with mass count, weights renormalised over them: a surface point outside the material would otherwise
-    be held back by the empty nodes' zero velocity; ``C`` is the weighted least-squares fit of the node velocities
-    (APIC's ``C`` on a full stencil; :data:`PASSIVE_BY_MASS`: the mass-weighted variants measured in round 37). The
+    be held back by the empty nodes' zero velocity. With ``grid_tables.PASSIVE_SPANNED`` (the rule, round 38) each node
+    counts by its weight times its mass: the mean at the weights' centroid plus the weighted least-squares gradient
+    along the directions the material spans (:func:`build_spanned_inverse`), read at the point, ``C`` that gradient;
+    off, by the weight alone, ``C`` the weighted fit (:data:`PASSIVE_BY_MASS`: round 37's variants). The
     point then advances over the ``m`` substeps since its last gather through the affine field
     ``v(y, k) = v_prev + (k/m)(v_new - v_prev) + (C_prev + (k/m)(C_new - C_prev)) y``,
     ``y += dt v(y, k)``, ``k = 1..m`` (``gasp_core.mpm.substeps.passive_schedule``), so it turns with the material.
