@@ -28,8 +28,9 @@ frame (0.024 dx at 20 frames), on both engines.
 
 The set box's bursts (slow tier, both engines): on the same run the material points stay under ``BURST_CELLS`` cells a
 substep at every frame and no passive point goes further than ``BURST_FAR`` dx (measured with the fix: 0.079 cells,
-3.86 dx on both engines; before it 4.363 cells at frames 627, 628, 848, 893, 928 and 1011, 33.97 dx). Its catch: the
-old ghost rule (an image node with any mass at full weight) fails it on both engines.
+3.86 dx on both engines, 3.74 dx with round 38's gather; before it 4.363 cells at frames 627, 628, 848, 893, 928
+and 1011, 33.97 dx). Its catch: the old ghost rule (an image node with any mass at full weight) fails it on both
+engines (both lines, with round 38's gather too).
 """
 from __future__ import annotations
 
