@@ -1,11 +1,11 @@
 """The passive surface points left away from the material (issue 66, "What a user sees", round 37): per frame, the
 passive points further than 1 ``dx`` from every material point (:mod:`gasp_core.testing.specks`), with the passive
-gather of the engines (by the B-spline weight alone, renormalised over the nodes with mass) and the two mass-weighted
-variants measured in round 37 (:data:`GATHERS`, :func:`rule`), on a family: the brittle ball with a skin of passive
-points landing at 2, 4, 7 and 10 m/s (n_grid 32, 20 frames), a pulled dog-bone built through a scene
-(``benchmarks/user_tension.py``'s ``dogbone_2to1`` at n_grid 24, one set box from t = 0), the oblique 1.5:1 dog-bone
-at 45 deg (``benchmarks/user_oblique.py``, n_grid 48) and ``examples/donut_shatter.toml`` (its own grid,
-``--donut-frames`` frames).
+gather of the engines before round 38 (by the B-spline weight alone, renormalised over the nodes with mass), the two
+mass-weighted variants measured in round 37 and round 38's spanned gather (:data:`GATHERS`, :func:`rule`), on a
+family: the brittle ball with a skin of passive points landing at 2, 4, 7 and 10 m/s (n_grid 32, 20 frames), a pulled
+dog-bone built through a scene (``benchmarks/user_tension.py``'s ``dogbone_2to1`` at n_grid 24, one set box from t =
+0), the oblique 1.5:1 dog-bone at 45 deg (``benchmarks/user_oblique.py``, n_grid 48) and
+``examples/donut_shatter.toml`` (its own grid, ``--donut-frames`` frames).
 
 Run: ``python benchmarks/passive_specks.py --engine taichi_mpm`` (and ``warp_mpm``; ``--only``
 ``ball,dogbone,oblique,oblique2,donut``, ``--gather``, ``--mirror new,old``: the set box's ghost rule, :func:`mirror`),
@@ -33,16 +33,24 @@ OBLIQUE_FRAMES = 1125   # user_oblique.run_case's for the 1.5:1 at 45 deg, n_gri
 OBLIQUE2_FRAMES = 1200   # the 2:1 at 45 deg, n_grid 48: as long (a set box pulled specimen past its break)
 
 
-#: the gathers measured: (by mass, the fit read at the point)
-GATHERS = {"before": (False, False), "mass": (True, False), "mass_at_point": (True, True)}
+#: the gathers measured: (by mass, the fit read at the point, the gradient along the spanned directions only)
+GATHERS = {"before": (False, False, False), "mass": (True, False, False), "mass_at_point": (True, True, False),
+           "spanned": (True, True, True)}
 
 
 @contextlib.contextmanager
 def rule(engine: str, gather: str):
     """The engine's passive gather ``gather`` (:data:`GATHERS`): ``before``, the rule (by the B-spline weight alone,
     renormalised over the nodes with mass); ``mass``, weighted by the nodes' mass, the mean read at the weights'
-    centroid; ``mass_at_point``, weighted by mass, the least-squares fit read at the point."""
-    by_mass, at_point = GATHERS[gather]
+    centroid; ``mass_at_point``, weighted by mass, the least-squares fit read at the point; ``spanned``, weighted by
+    mass, the mean at the centroid plus the fitted gradient along the directions the material spans, read at the
+    point (``grid_tables.PASSIVE_SPANNED``, round 38)."""
+    from gasp_core.mpm import grid_tables
+    if gather not in GATHERS:
+        raise ValueError(f"--gather: one of {sorted(GATHERS)}, got {gather!r}")
+    by_mass, at_point, spanned = GATHERS[gather]
+    old_spanned = grid_tables.PASSIVE_SPANNED
+    grid_tables.PASSIVE_SPANNED = spanned
     if engine == "taichi_mpm":
         from gasp_taichi_mpm.transfers import Transfers as T
         old = T.PASSIVE_BY_MASS, T.PASSIVE_AT_POINT
@@ -51,12 +59,14 @@ def rule(engine: str, gather: str):
             yield
         finally:
             T.PASSIVE_BY_MASS, T.PASSIVE_AT_POINT = old
+            grid_tables.PASSIVE_SPANNED = old_spanned
     else:
         from gasp_warp_mpm import kernels, transfers
         old = transfers.PASSIVE_BY_MASS, transfers.PASSIVE_AT_POINT
 
         def clear():
             transfers.build_g2p_passive.cache_clear()
+            transfers.build_spanned_inverse.cache_clear()
             kernels.build_kernels.cache_clear()
         transfers.PASSIVE_BY_MASS, transfers.PASSIVE_AT_POINT = by_mass, at_point
         clear()
@@ -64,6 +74,7 @@ def rule(engine: str, gather: str):
             yield
         finally:
             transfers.PASSIVE_BY_MASS, transfers.PASSIVE_AT_POINT = old
+            grid_tables.PASSIVE_SPANNED = old_spanned
             clear()
 
 
@@ -151,7 +162,7 @@ def main() -> None:
     ap.add_argument("--engine", required=True)
     ap.add_argument("--only", default="ball,dogbone,oblique,donut")
     ap.add_argument("--donut-frames", type=int, default=10)
-    ap.add_argument("--gather", default="before,mass,mass_at_point", help="the gathers to run (GATHERS)")
+    ap.add_argument("--gather", default="before,mass,mass_at_point,spanned", help="the gathers to run (GATHERS)")
     ap.add_argument("--mirror", default="new", help="the set box's ghost rules to run: new, old (mirror)")
     a = ap.parse_args()
     rows = json.loads(OUT.read_text()) if OUT.exists() else []
@@ -179,14 +190,17 @@ def _key(r: dict) -> tuple:
 
 
 def write_md(rows: list[dict]) -> None:
-    lines = ["# Passive surface points away from the material (issue 66, round 37)", "",
+    lines = ["# Passive surface points away from the material (issue 66, rounds 37 and 38)", "",
              "`python benchmarks/passive_specks.py` (docstring). Specks: passive points further than 1 dx from every "
              "material point, per frame (every 5th frame shown, or a tenth of the run's, and the last); farthest: "
              "the largest such distance over the passive points at the last frame, in dx. `before`: the gather by "
              "the B-spline weight alone, "
              "renormalised over the nodes with mass (the rule); `mass`: weighted by the nodes' mass, the mean read at "
              "the weights' centroid; `mass_at_point`: weighted by mass, the fit read at the point (round 37; neither "
-             "adopted, docs/fracture.md \"Round 37\"). Set box rule: `old`, the ghost nodes take any image node "
+             "adopted, docs/fracture.md \"Round 37\"); `spanned`: weighted by mass, the mean at the centroid plus "
+             "the fitted gradient along the directions the material spans, read at the point (round 38, "
+             "`grid_tables.PASSIVE_SPANNED`, docs/fracture.md \"Round 38\"). "
+             "Set box rule: `old`, the ghost nodes take any image node "
              "with mass at full weight (and every row without a set box); `new`, by its mass over the ghost's "
              "(`--mirror`, round 37's fix). Fastest: the material points' largest speed over the run, in cells a "
              "substep.", "",

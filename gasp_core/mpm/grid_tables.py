@@ -40,6 +40,20 @@ SET_ON = 1.0
 #: set box's bursts"): each lends ``v_set + min(1, m_image / m_ghost) (v_image - v_set)``, not ``v_image`` at full
 #: weight whenever it has any mass. A switch (read when the engines build their kernels) to run the old rule as a catch.
 MIRROR_BY_MASS = True
+#: The passive points' gather (round 38, docs/fracture.md "Round 38"): off, the engines' gather (each node by its
+#: B-spline weight, renormalised over the nodes with mass; their own round 37 variants). On, each node by its weight
+#: times its mass ``w = N m``: the mean velocity at the weights' centroid ``x_bar``, plus the gradient fitted by
+#: mass-weighted least squares about ``x_bar``, ``G = S_vr M^+``, read at the point, ``v = v_bar + G (x_p - x_bar)``,
+#: ``C = G``; ``M^+`` keeps only the eigen-directions of the moment ``M = sum w (x - x_bar)(x - x_bar)^T / sum w``
+#: (cells^2) the material spans (:data:`PASSIVE_SPAN_MOMENT`). A switch read when the engines build their kernels.
+PASSIVE_SPANNED = True
+#: A direction is spanned where its moment in mass, ``lam sum w`` (kg cells^2), is above the most one material point
+#: can give: a lone point's nodes hold ``N_i m_p``, so a passive point reads weights ``N_i(x) N_i(x_p) m_p``, whose
+#: sum along an axis is at most 19/32 (both at a node) and whose moment at most 1/8 cell^2 (both half-way between
+#: two nodes): ``(19/32)^2 / 8 = 361/8192`` times ``m_p`` along any direction. So no gradient is read from a single
+#: point's own affine field (an isolated point keeps its ``C`` for ever under APIC) nor from a node of tiny mass (a
+#: corner of 1e-15 kg adds 1e-15 kg cells^2 at most), and where two or more points span a direction it is fitted.
+PASSIVE_SPAN_MOMENT = 361.0 / 8192.0
 #: A collider's pose block (:data:`COL_POSE` floats): R (9, row-major), T (3, m), v (3, m/s), omega (3, rad/s).
 PO_R, PO_T, PO_V, PO_W = 0, 9, 12, 15
 
@@ -152,3 +166,8 @@ def frame_table(setup, t_start: float, n_substeps: int, dt: float) -> np.ndarray
     return out.reshape(-1)
 
 
+def passive_span_mass(p_mass: np.ndarray, p_vol: np.ndarray) -> float:
+    """The spanned passive gather's cutoff (kg cells^2): :data:`PASSIVE_SPAN_MOMENT` times the heaviest material
+    point's mass (``p_mass`` over the rows with ``p_vol > 0``; shapes (n,), kg and m^3); 0 without material."""
+    m, live = np.asarray(p_mass, np.float64), np.asarray(p_vol, np.float64) > 0
+    return float(PASSIVE_SPAN_MOMENT * np.max(m[live])) if live.any() else 0.0

@@ -16,7 +16,8 @@ from scipy.spatial import cKDTree
 
 from gasp_core.seam.build import build_engine
 from gasp_core.seam.plugins import engines
-from gasp_core.seam.setup import SimSetup
+from gasp_core.seam.setup import Material, SimSetup
+from gasp_core.testing.helpers import box_points
 from gasp_core.testing.scenes_pieces import ball_setup
 
 
@@ -61,6 +62,29 @@ def ball_with_skin(speed: float, n_grid: int = 32, radius: float = 0.1, n_skin: 
                     gravity=s.gravity, domain_lo=s.domain_lo, domain_hi=s.domain_hi, n_grid=s.n_grid,
                     frame_dt=s.frame_dt, boundaries=s.boundaries, options=dict(s.options, passive_every=1),
                     n_render=n_skin, passive=np.arange(len(x)) < n_skin)
+
+
+def slab_by_a_spinning_point(omega: float = 100.0, n_grid: int = 32) -> SimSetup:
+    """A jelly slab at rest (no gravity; fill spacing ``dx / 2``, its top fill layer at ``z_top``), a skin of passive
+    points ``dx / 2`` above its top (spacing ``dx / 2`` over its middle), and one lone material point ``3.25 dx``
+    above ``z_top`` over the slab's middle, at rest but spinning about z: ``C = omega [z]x`` (``omega`` rad/s), which
+    APIC keeps for ever on an isolated point, so the nodes of its stencil carry ``omega`` times their offset (up to
+    1.5 ``dx``). Its nodes (from ``z_top + 1.75 dx`` up) are not the slab's (up to ``z_top + 1.5 dx``): the slab does
+    not feel it, but the skin's stencils reach its lowest nodes. Domain the unit cube, ``n_grid`` cells."""
+    dx = 1.0 / n_grid
+    fill, vol = box_points([0.3, 0.3, 0.3], [0.7, 0.7, 0.45], dx / 2)
+    z_top = float(fill[:, 2].max())
+    g = 0.5 + dx * (np.arange(-6, 7) / 2.0 + 0.25)
+    skin = np.stack(np.meshgrid(g, g, [z_top + dx / 2], indexing="ij"), -1).reshape(-1, 3)
+    lone = np.array([[0.5, 0.5, z_top + 3.25 * dx]])
+    x = np.concatenate([skin, lone, fill])
+    C = np.zeros((len(x), 3, 3))
+    C[len(skin)] = [[0.0, -omega, 0.0], [omega, 0.0, 0.0], [0.0, 0.0, 0.0]]
+    n = len(skin)
+    return SimSetup(x=x, v=np.zeros_like(x), p_vol=np.r_[np.zeros(n), np.full(len(x) - n, vol)], body_id=0,
+                    materials=[Material("jelly", E=1e5, nu=0.3, rho=500.0)], gravity=np.zeros(3),
+                    domain_lo=np.zeros(3), domain_hi=np.ones(3), n_grid=n_grid, frame_dt=1e-3, n_render=n,
+                    passive=np.arange(len(x)) < n, C=C, options={"passive_every": 1})
 
 
 def speck_run(name: str, setup: SimSetup, n_frames: int, reach: float | None = None) -> dict:

@@ -174,8 +174,7 @@ class MPMSolver(Transfers, ColouredP2G, TileP2G, FixedPointP2G, Constitutive, Gr
         self.hold_mu[None] = float(hold[2]) if len(hold) > 2 else 0.0
         self._upload_boundaries(walls, grounds, regions, plane_n, plane_row)
         self.grid_mv.fill(0), self.grid_v.fill(0)
-        self._split_chunks()
-        self._init_box()
+        self._split_chunks(), self._init_box(), self.allocate_passive_span(p_mass, p_vol)   # transfers.py
         self._setup_extras(extras, time_table, np_real, n_substeps)
         self.tiles = bool(tiles) and self.gpu and not self.has_wind and not deterministic   # schedule/tiles.py, CUDA
         self.allocate_fixed(deterministic and self.gpu, p_mass, p_vol, np.asarray(params)[:, P_ETA], dx, dt, lo)

@@ -6,15 +6,17 @@ Sources: Hu et al. 2018 (MLS-MPM, APIC, quadratic B-splines), taichi's mpm128 (`
 """
 import taichi as ti
 
+from gasp_core.mpm import grid_tables
 from gasp_core.mpm.materials import BRITTLE, P_ETA
 
 class Transfers:
     """The stencil of a point, P2G (atomic or into private grid copies; the schedules' own P2G passes are in
     :mod:`gasp_taichi_mpm.schedule.coloured` and :mod:`gasp_taichi_mpm.schedule.tiles`), G2P and the passive points' G2P."""
 
-    #: The passive gather by the B-spline weight alone, renormalised over the nodes with mass (False, the rule), or
-    #: weighted by the nodes' mass (True: measured in round 37 and not adopted, docs/fracture.md "Round 37"), its mean
-    #: read at the weights' centroid or, with PASSIVE_AT_POINT, the weighted fit read at the point
+    #: With ``grid_tables.PASSIVE_SPANNED`` off (round 38's spanned gather, the rule, overrides these): the passive
+    #: gather by the B-spline weight alone, renormalised over the nodes with mass (False), or weighted by the nodes'
+    #: mass (True: measured in round 37 and not adopted, docs/fracture.md "Round 37"), its mean read at the weights'
+    #: centroid or, with PASSIVE_AT_POINT, the weighted fit read at the point
     PASSIVE_BY_MASS = False
     PASSIVE_AT_POINT = True
 
@@ -217,15 +219,36 @@ class Transfers:
         self.box[0, 0] = ti.Vector([0, 0, 0])
         self.box[0, 1] = ti.Vector([self.n_grid - 1, self.n_grid - 1, self.n_grid - 1])
 
+    def allocate_passive_span(self, p_mass, p_vol):
+        """The spanned passive gather's cutoff (kg cells^2, ``grid_tables.passive_span_mass`` of the points' masses
+        and volumes, shapes (n,)) in a scalar field."""
+        self.span_mass = ti.field(self.real, shape=())
+        self.span_mass[None] = grid_tables.passive_span_mass(p_mass, p_vol)
+
+    @ti.func
+    def spanned_inverse(self, M, wsum):
+        """The pseudo-inverse of the symmetric moment ``M`` (3x3, cells^2 per unit weight; ``wsum`` the weights' sum,
+        kg) over the eigen-directions the material spans, ``lam wsum > span_mass`` (``grid_tables``'
+        ``PASSIVE_SPAN_MOMENT``): ``sum_k V_k V_k^T / lam_k`` (cyclic Jacobi, :meth:`sym_eig`). The passive gather's
+        gradient is fitted only there (round 38)."""
+        V, lam = self.sym_eig(M)
+        Minv = ti.Matrix.zero(self.real, 3, 3)
+        for k in ti.static(range(3)):
+            if lam[k] * wsum > self.span_mass[None]:
+                e = ti.Vector([V[0, k], V[1, k], V[2, k]])
+                Minv += e.outer_product(e) / lam[k]
+        return Minv
+
     @ti.func
     def g2p_passive_point(self, p, pair):
         """A passive point: velocity ``v`` and affine velocity gradient ``C`` from the grid (no F, no P2G).
 
         Only nodes that received mass count, with the weights renormalised over them: a surface point
         half a spacing outside the material sees empty nodes (velocity 0, not the material's) in its
-        stencil, which would hold it back. ``C`` is the weighted least-squares fit of those nodes'
-        velocities (APIC's ``C`` on a full stencil; :attr:`PASSIVE_BY_MASS`: the mass-weighted variants measured in
-        round 37). The point then advances over the ``m = passive_substeps[pair]``
+        stencil, which would hold it back. With ``grid_tables.PASSIVE_SPANNED`` (the rule, round 38) each node counts
+        by its weight times its mass: the mean at the weights' centroid plus the weighted least-squares gradient along
+        the directions the material spans (:meth:`spanned_inverse`), read at the point, ``C`` that gradient; off, by
+        the weight alone, ``C`` the weighted fit (:attr:`PASSIVE_BY_MASS`: round 37's variants). The point then advances over the ``m = passive_substeps[pair]``
         substeps since its last gather through the affine field
         ``v(y, k) = v_prev + (k/m)(v_new - v_prev) + (C_prev + (k/m)(C_new - C_prev)) y``,
         ``y += dt v(y, k)`` for ``k = 1..m`` (:func:`gasp_core.mpm.substeps.passive_schedule`), so it turns with
@@ -246,7 +269,7 @@ class Transfers:
                 node = base + ti.Vector([i, j, k])
                 if self.grid_m[node] > 0.0:
                     wn = w[i][0] * w[j][1] * w[k][2]
-                    if ti.static(self.PASSIVE_BY_MASS):
+                    if ti.static(self.PASSIVE_BY_MASS or grid_tables.PASSIVE_SPANNED):
                         wn *= self.grid_m[node]   # the node's say: its share of the material at the point
                     r = ti.Vector([ti.static(float(i)), ti.static(float(j)), ti.static(float(k))], self.real) - fx
                     gv = self.node_v(p, node)   # its body's field (fields.py): a passive sand point slides too
@@ -261,10 +284,15 @@ class Transfers:
                 rbar /= wsum
                 # moments per unit weight (unscaled: a crack's lone far corner underflowed f32); ridge for planar nodes
                 Svr = Svr / wsum - new_v.outer_product(rbar)
-                Srr = Srr / wsum + ti.Matrix.identity(self.real, 3) * 2.5e-5 - rbar.outer_product(rbar)
-                new_C = self.inv_dx[None] * (Svr @ Srr.inverse())
-                if ti.static(self.PASSIVE_BY_MASS and self.PASSIVE_AT_POINT):   # the fit read at the point
+                if ti.static(grid_tables.PASSIVE_SPANNED):   # the gradient along the spanned directions, at the point
+                    M = Srr / wsum - rbar.outer_product(rbar)
+                    new_C = self.inv_dx[None] * (Svr @ self.spanned_inverse(M, wsum))
                     new_v -= new_C @ (rbar * self.dx[None])
+                else:
+                    Srr = Srr / wsum + ti.Matrix.identity(self.real, 3) * 2.5e-5 - rbar.outer_product(rbar)
+                    new_C = self.inv_dx[None] * (Svr @ Srr.inverse())
+                    if ti.static(self.PASSIVE_BY_MASS and self.PASSIVE_AT_POINT):   # the fit read at the point
+                        new_v -= new_C @ (rbar * self.dx[None])
             else:   # stranded, no material in its stencil: it falls freely until material or a boundary takes it
                 new_v = self.v[p] + ti.cast(self.passive_substeps[pair], self.real) * self.dt[None] * self.gravity[None]
             v_prev = self.v[p]

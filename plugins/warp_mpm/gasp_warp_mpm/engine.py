@@ -31,6 +31,7 @@ import numpy as np
 import warp as wp
 
 from gasp_core.mpm.grid_engine import choose_dt, GridEngineBase
+from gasp_core.mpm.grid_tables import passive_span_mass
 from gasp_core.mpm.materials import JELLY, P_ETA, initial_Jp, material_table
 from gasp_core.mpm.rigid import rigid_contact, step_view, zero_stress
 from gasp_core.seam.memory import check_memory, estimate_bytes
@@ -248,13 +249,12 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
         self._pre, fixes = balance_for(self, k, lo_v, dx, dt_f, ex)   # on the run's schedule (schedule/__init__.py)
         self._launches[2:2] = fixes + mirror_launches(self, Ft, has_extras, ex)   # the held boxes' ghosts (grid.py)
         self._launches[1:1] = self.touch_launches(Ft) + field_launches(self, Ft)   # after P2G: touch.py, fields.py
-        # passive points after the grid update (the grid velocity holds forces, colliders, boundaries): one launch per
-        # distinct interval of passive_schedule, at the substeps it names; each then held in the box the ground and
-        # walls leave them (gasp_core.mpm.points.passive_bounds)
+        # passive points after the grid update (forces, colliders, boundaries in the grid velocity): one launch per
+        # interval of passive_schedule, at its substeps; then held in the box of gasp_core.mpm.points.passive_bounds
         self._passive_at = [None] * self.n_substeps
         n_passive = self.n_points - self.n_material
         if n_passive:
-            by_interval: dict = {}
+            by_interval, span_mass = {}, Ft(passive_span_mass(setup.p_mass, setup.p_vol))   # transfers.py
             schedule = passive_schedule(self.n_substeps, self.config.passive_every, self.dt)
             hold_lo, hold_hi = (k.vec3(*[float(c) for c in b]) for b in passive_bounds(setup, self._contact))
             for substep, weight_prev, weight_now in schedule:
@@ -264,7 +264,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
                         k.g2p_passive, dim=n_passive, device=d, record_cmd=True, inputs=[
                             self.x, self.v, self.C, self.fixed, self.grid_v, self.grid_m, self.flags, lo_v,
                             inv_dx, dt_f, m, ng, self.n_material, hold_lo, hold_hi, g_v, self.grid_dv, self.body,
-                            self.in_a, Ft(passive_floor_friction(setup, self._contact))])
+                            self.in_a, Ft(passive_floor_friction(setup, self._contact)), span_mass])
                 self._passive_at[substep] = self.then_pose(by_interval[m])   # a rigid body's back on its pose
         self._tick = (wp.launch(k.tick, dim=1, device=d, record_cmd=True, inputs=[ex.step])
                       if has_extras else None)

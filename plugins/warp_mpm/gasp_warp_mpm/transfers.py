@@ -15,8 +15,10 @@ import functools
 
 import warp as wp
 
+from gasp_core.mpm import grid_tables
 from gasp_core.mpm.materials import BRITTLE, P_ETA
 
+from .constitutive import build_sym_eig
 from .contact import build_collider_contact, build_passive_hold
 from .fields import build_aflip_gather, build_field_reads
 from .forces import build_extras_struct
@@ -220,12 +222,34 @@ def build_g2p(Ft):
     return g2p
 
 
-#: The passive gather by the B-spline weight alone, renormalised over the nodes with mass (False, the rule), or weighted
-#: by the nodes' mass (True: measured in round 37 and not adopted, docs/fracture.md "Round 37"), its mean read at the
+#: With ``grid_tables.PASSIVE_SPANNED`` off (round 38's spanned gather, the rule, overrides these): the passive gather
+#: by the B-spline weight alone, renormalised over the nodes with mass (False), or weighted by the nodes' mass (True: measured in round 37 and not adopted, docs/fracture.md "Round 37"), its mean read at the
 #: weights' centroid or, with PASSIVE_AT_POINT, the weighted fit read at the point. Read when the kernel is built:
 #: a change needs :func:`build_g2p_passive`'s and ``kernels.build_kernels``' caches cleared.
 PASSIVE_BY_MASS = False
 PASSIVE_AT_POINT = True
+
+
+@functools.cache
+def build_spanned_inverse(Ft):
+    """``spanned_inverse(M, wsum, span_mass) -> M^+``, scalar type ``Ft``: the pseudo-inverse of the symmetric
+    moment ``M`` (3x3, cells^2 per unit weight; ``wsum`` the weights' sum, kg) over the eigen-directions the material
+    spans, ``lam wsum > span_mass`` (kg cells^2, ``grid_tables.passive_span_mass``): ``sum_k V_k V_k^T / lam_k``
+    (cyclic Jacobi, ``constitutive.build_sym_eig``); taichi_mpm's ``Transfers.spanned_inverse`` (round 38)."""
+    vec3, vec4, mat33 = build_types(Ft)
+    sym_eig = build_sym_eig(Ft)
+
+    @wp.func
+    def spanned_inverse(M: mat33, wsum: Ft, span_mass: Ft):
+        V, lam = sym_eig(M)
+        Minv = mat33()
+        for k in range(3):
+            if lam[k] * wsum > span_mass:
+                e = vec3(V[0, k], V[1, k], V[2, k])
+                Minv = Minv + wp.outer(e, e) / lam[k]
+        return Minv
+
+    return spanned_inverse
 
 
 @functools.cache
@@ -236,14 +260,18 @@ def build_g2p_passive(Ft):
 
     Passive points (rows ``first..``): velocity ``v`` and affine velocity gradient ``C`` from the grid (no F, no P2G).
     Only nodes with mass count, weights renormalised over them: a surface point outside the material would otherwise
-    be held back by the empty nodes' zero velocity; ``C`` is the weighted least-squares fit of the node velocities
-    (APIC's ``C`` on a full stencil; :data:`PASSIVE_BY_MASS`: the mass-weighted variants measured in round 37). The
+    be held back by the empty nodes' zero velocity. With ``grid_tables.PASSIVE_SPANNED`` (the rule, round 38) each node
+    counts by its weight times its mass: the mean at the weights' centroid plus the weighted least-squares gradient
+    along the directions the material spans (:func:`build_spanned_inverse`), read at the point, ``C`` that gradient;
+    off, by the weight alone, ``C`` the weighted fit (:data:`PASSIVE_BY_MASS`: round 37's variants). The
     point then advances over the ``m`` substeps since its last gather through the affine field
     ``v(y, k) = v_prev + (k/m)(v_new - v_prev) + (C_prev + (k/m)(C_new - C_prev)) y``,
     ``y += dt v(y, k)``, ``k = 1..m`` (``gasp_core.mpm.substeps.passive_schedule``), so it turns with the material.
     A point with no node of mass in its stencil (stranded) falls freely: ``v_new = v_prev + m dt g``; on the floor it
     slides with the floor's Coulomb friction ``mu_floor`` (``gasp_core.mpm.points.hold_passive``)."""
-    by_mass, at_point = bool(PASSIVE_BY_MASS), bool(PASSIVE_AT_POINT)
+    spanned = bool(grid_tables.PASSIVE_SPANNED)   # round 38: by mass, the gradient along the spanned directions
+    by_mass, at_point = bool(PASSIVE_BY_MASS) or spanned, bool(PASSIVE_AT_POINT) or spanned
+    spanned_inverse = build_spanned_inverse(Ft)
     vec3, vec4, mat33 = build_types(Ft)
     in_grid, weights = build_stencil(Ft)
     hold_passive = build_passive_hold(Ft)
@@ -255,6 +283,7 @@ def build_g2p_passive(Ft):
         grid_v: wp.array(dtype=vec3), grid_m: wp.array(dtype=Ft), flags: wp.array(dtype=wp.int32),
         lo: vec3, inv_dx: Ft, dt: Ft, m: int, n_grid: int, first: int, hold_lo: vec3, hold_hi: vec3, gravity: vec3,
         grid_dv: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32), mu_floor: Ft,
+        span_mass: Ft,
     ):
         # Passive points (rows first..): v and C from the grid, then the affine advance (the builder's docstring)
         p = first + wp.tid()
@@ -309,8 +338,11 @@ def build_g2p_passive(Ft):
             # wsum ~ 1e-12, whose unscaled moments' determinant underflows f32 and made C non-finite); a tiny
             # ridge (1e-4 of a full stencil's second moment / 4) where the nodes with mass are planar
             Svr = Svr / wsum - wp.outer(new_v, rbar)
-            Srr = Srr / wsum - wp.outer(rbar, rbar) + wp.identity(3, dtype=Ft) * Ft(2.5e-5)
-            Cn = inv_dx * (Svr * wp.inverse(Srr))
+            Srr = Srr / wsum - wp.outer(rbar, rbar)
+            if wp.static(spanned):
+                Cn = inv_dx * (Svr * spanned_inverse(Srr, wsum, span_mass))
+            else:
+                Cn = inv_dx * (Svr * wp.inverse(Srr + wp.identity(3, dtype=Ft) * Ft(2.5e-5)))
             if wp.static(by_mass and at_point):   # the fit read at the point (the builder's docstring)
                 new_v = new_v - Cn * (rbar / inv_dx)
         else:   # stranded, no material in its stencil: it falls freely until material or a boundary takes it
