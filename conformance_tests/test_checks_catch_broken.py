@@ -13,9 +13,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from gasp_core.errors import SceneError
+from gasp_core.errors import EngineDivergence, EngineError, SceneError
 from gasp_core.seam.options import Option
-from gasp_core.errors import EngineDivergence
 from gasp_core.seam.plugins import engines as installed_engines
 from gasp_core.testing import check_engine, evaluate_scene, record, scene_by_name
 
@@ -334,7 +333,6 @@ def test_check_engine_classifies(reference):
 
 
 def test_check_engine_unknown_name():
-    from gasp_core.errors import EngineError
     with pytest.raises(EngineError, match="unknown engine 'no_such_engine'"):
         check_engine("no_such_engine")
 
@@ -351,10 +349,8 @@ def test_free_fall_without_n_substeps_falls_back_to_one_percent(reference):
             return {k: v for k, v in self.inner.stats().items() if k != "n_substeps"}
 
     def wrap(gravity_factor):
-        def factory(setup):
-            return NoSubsteps(info.factory(setup.replace(gravity=gravity_factor * np.asarray(setup.gravity))),
-                              setup, "none")
-        return dataclasses.replace(info, name="no_n_substeps", factory=factory)
+        return dataclasses.replace(info, name="no_n_substeps", factory=lambda setup: NoSubsteps(info.factory(
+            setup.replace(gravity=gravity_factor * np.asarray(setup.gravity))), setup, "none"))
 
     ok = check_engine(wrap(1.0), scenes=["free_fall"], known_failures={}).results[0]
     assert ok.status == "pass" and "reports no n_substeps" in ok.message, ok.message
@@ -367,46 +363,36 @@ def test_free_fall_without_n_substeps_falls_back_to_one_percent(reference):
 CONTACT_SCENES = ("spun_ball_bounce", "jittered_ball_rest", "rest_gap", "ball_off_wall")
 
 
+def _real_and_with_option(info, option: str, value, scenes):
+    """The scenes' results on the real engine and on it with engine option ``option`` set to ``value`` (skips
+    where the engine has no such option)."""
+    if option not in {o.name for o in info.options}:
+        pytest.skip(f"{info.name} has no option {option!r}")
+    broken = dataclasses.replace(info, name=f"broken_{option}", factory=lambda setup: info.factory(
+        setup.replace(options={**setup.options, option: value})))
+    return tuple(check_engine(e, scenes=scenes, known_failures={}).by_scene() for e in (info, broken))
+
+
 def test_contact_scenes_fail_on_the_grid_contact(reference, request):
     """The old grid contact (engine option contact = "grid") is a broken engine for the contact scenes: each of
     them fails on it, and where the default contact fails too (a declared known failure) the grid's figure is
     worse."""
-    info, _ = reference
-    if "contact" not in {o.name for o in info.options}:
-        pytest.skip(f"{info.name} has no option 'contact'")
-
-    def grid(setup):
-        return info.factory(setup.replace(options={**setup.options, "contact": "grid"}))
-
-    broken = dataclasses.replace(info, name="broken_grid_contact", factory=grid)
-    real = check_engine(info, scenes=CONTACT_SCENES, known_failures={}).by_scene()
-    bad = check_engine(broken, scenes=CONTACT_SCENES, known_failures={}).by_scene()
+    real, bad = _real_and_with_option(reference[0], "contact", "grid", CONTACT_SCENES)
     record(request.node, "; ".join(f"{n}: real {real[n].status}, grid {bad[n].status} "
                                     f"({(bad[n].checks[0].message if bad[n].checks else bad[n].message)[-90:]})"
                                     for n in CONTACT_SCENES))
     for n in CONTACT_SCENES:
         assert bad[n].status in ("fail", "error"), (n, bad[n].message)
         if real[n].status != "pass" and bad[n].checks and real[n].checks:   # both fail: the grid is worse
-            assert bad[n].checks[0].figures["value"] > real[n].checks[0].figures["value"], (n, real[n].message,
-                                                                                           bad[n].message)
-
+            assert bad[n].checks[0].figures["value"] > real[n].checks[0].figures["value"], (n, bad[n].message)
 
 
 def test_contact_scenes_fail_without_the_balance(reference, request):
     """The particle contact without its balance (engine option contact_balance = false: the contact before issue 38)
     is a broken engine for the ball scenes: the jittered ball rolls away, the seeded spin grows and the ball thrown
     at a wall comes back turning, where the default passes all three."""
-    info, _ = reference
-    if "contact_balance" not in {o.name for o in info.options}:
-        pytest.skip(f"{info.name} has no option 'contact_balance'")
-
-    def raw(setup):
-        return info.factory(setup.replace(options={**setup.options, "contact_balance": False}))
-
     scenes = ("spun_ball_bounce", "jittered_ball_rest", "ball_off_wall")
-    broken = dataclasses.replace(info, name="broken_no_balance", factory=raw)
-    real = check_engine(info, scenes=scenes, known_failures={}).by_scene()
-    bad = check_engine(broken, scenes=scenes, known_failures={}).by_scene()
+    real, bad = _real_and_with_option(reference[0], "contact_balance", False, scenes)
     record(request.node, "; ".join(f"{n}: balance {real[n].checks[0].figures['value']:.4g}, without "
                                     f"{bad[n].checks[0].figures['value']:.4g}" for n in scenes))
     for n in scenes:
