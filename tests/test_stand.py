@@ -350,8 +350,9 @@ def test_the_scan_like_figures_legs_are_filled_on_the_ground(seed, tmp_path):
 #: Found in round 38 (2026-11-28) by a slow-tier run, the same on cdda83c's code (before round 38's changes);
 #: bisected (2163130 good, cdda83c bad, 10 steps) to 395a1a7, the fill's face shares made the default (issue 66 item 3).
 SEED_54_STANDS = ("regression since the fill's face shares (395a1a7): seed 54's warning now names 2.89e5 Pa "
-                  "(2.57e5 when written) and at a third of it the figure stands (lean 0.643 -> 0.774 deg by frame 30, 0.902 by 45); at a fifth it "
-                  "falls (+7.7 deg by 30, 73.7 by 45). Seed 7 names 2.94e5 (2.62e5) and falls at a third (+5.4 deg)")
+                  "(2.57e5 when written) and at a third of it the figure stands (lean 0.643 -> 0.774 deg by frame "
+                  "30, 0.902 by 45); at a fifth it falls (+7.7 deg by 30, 73.7 by 45). Seed 7 names 2.94e5 (2.62e5) "
+                  "and falls at a third (+5.4 deg)")
 
 
 @pytest.mark.slow
