@@ -8,7 +8,8 @@ surface, its approach relative to the body removed, Coulomb on its slip, its mom
 Known answers: the field of a lattice ball lies on its sphere (within the lattice's steps); one point's hold by hand;
 a sand block thrown at 2 m/s, without gravity, at a free rigid plate one cell thick stops on its near face with no
 point beyond its far face, and the sand's and the plate's momentum together is kept. The engine with the hold
-and round 37's flowing body's touch switched off fails them (the test's broken engine; either one alone passes). Slow tier: the sand column against the rigid ball
+and round 37's flowing body's touch switched off fails them (the test's broken engine; either one alone passes). Slow
+tier: the sand column against the rigid ball
 (``gasp_core.testing.sand_ball``, the surface points) on both engines.
 """
 from __future__ import annotations

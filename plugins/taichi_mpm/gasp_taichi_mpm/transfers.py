@@ -248,7 +248,8 @@ class Transfers:
         stencil, which would hold it back. With ``grid_tables.PASSIVE_SPANNED`` (the rule, round 38) each node counts
         by its weight times its mass: the mean at the weights' centroid plus the weighted least-squares gradient along
         the directions the material spans (:meth:`spanned_inverse`), read at the point, ``C`` that gradient; off, by
-        the weight alone, ``C`` the weighted fit (:attr:`PASSIVE_BY_MASS`: round 37's variants). The point then advances over the ``m = passive_substeps[pair]``
+        the weight alone, ``C`` the weighted fit (:attr:`PASSIVE_BY_MASS`: round 37's variants). The point then advances
+        over the ``m = passive_substeps[pair]``
         substeps since its last gather through the affine field
         ``v(y, k) = v_prev + (k/m)(v_new - v_prev) + (C_prev + (k/m)(C_new - C_prev)) y``,
         ``y += dt v(y, k)`` for ``k = 1..m`` (:func:`gasp_core.mpm.substeps.passive_schedule`), so it turns with

@@ -223,7 +223,8 @@ def build_g2p(Ft):
 
 
 #: With ``grid_tables.PASSIVE_SPANNED`` off (round 38's spanned gather, the rule, overrides these): the passive gather
-#: by the B-spline weight alone, renormalised over the nodes with mass (False), or weighted by the nodes' mass (True: measured in round 37 and not adopted, docs/fracture.md "Round 37"), its mean read at the
+#: by the B-spline weight alone, renormalised over the nodes with mass (False), or weighted by the nodes' mass (True:
+#: measured in round 37 and not adopted, docs/fracture.md "Round 37"), its mean read at the
 #: weights' centroid or, with PASSIVE_AT_POINT, the weighted fit read at the point. Read when the kernel is built:
 #: a change needs :func:`build_g2p_passive`'s and ``kernels.build_kernels``' caches cleared.
 PASSIVE_BY_MASS = False
