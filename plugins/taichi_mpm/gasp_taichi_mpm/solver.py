@@ -222,7 +222,6 @@ class MPMSolver(Transfers, ColouredP2G, TileP2G, FixedPointP2G, Constitutive, Gr
         self.n_points = ti.field(ti.i32, shape=())
         self.chunk_lo, self.chunk_hi = ti.field(ti.i32, shape=self.n_chunks), ti.field(ti.i32, shape=self.n_chunks)
         self.n_total = ti.field(ti.i32, shape=())
-        self.pchunk_lo, self.pchunk_hi = (ti.field(ti.i32, shape=self.n_chunks) for _ in "lh")   # passive points
         self.pbox = ti.Vector.field(3, ti.i32, shape=(self.n_chunks, 2))  # passive points' node box
         # substep (s), node spacing (m), 1 / dx (1/m)
         self.dt, self.dx, self.inv_dx = (ti.field(real, shape=()) for _ in range(3))
@@ -307,13 +306,10 @@ class MPMSolver(Transfers, ColouredP2G, TileP2G, FixedPointP2G, Constitutive, Gr
             self.reg_lo[i], self.reg_hi[i], self.reg_box[i, 0], self.reg_box[i, 1] = rlo, rhi, blo, bhi
 
     def _split_chunks(self) -> None:
-        """Material points and passive points each split into ``n_chunks`` contiguous chunks."""
+        """Material points split into ``n_chunks`` contiguous chunks (the passive points run one thread a point)."""
         bounds = np.linspace(0, self.n_material, self.n_chunks + 1).round().astype(np.int32)
         self.chunk_lo.from_numpy(bounds[:-1].copy())
         self.chunk_hi.from_numpy(bounds[1:].copy())
-        pb = np.linspace(self.n_material, self.n, self.n_chunks + 1).round().astype(np.int32)
-        self.pchunk_lo.from_numpy(pb[:-1].copy())
-        self.pchunk_hi.from_numpy(pb[1:].copy())
 
     def get(self, field) -> np.ndarray:
         """A particle field as NumPy, first ``n`` rows (solver order)."""

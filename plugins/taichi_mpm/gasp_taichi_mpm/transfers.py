@@ -315,35 +315,32 @@ class Transfers:
             self.C[p] = new_C
 
     @ti.func
-    def _passive_chunk(self, t, move: ti.template(), pair):
-        """(G2P and) the node box of chunk t's passive points, for the next grid update."""
-        bmin = ti.Vector([self.n_grid, self.n_grid, self.n_grid])
-        bmax = ti.Vector([-1, -1, -1])
-        for p in range(self.pchunk_lo[t], self.pchunk_hi[t]):
-            if ti.static(move):
-                self.g2p_passive_point(p, pair)
+    def _passive_box(self):
+        """The passive points' node box (the nodes they will read, for the next grid update on the CPU schedule's
+        private box), into every chunk's row of ``pbox``: one thread a point, the bounds by integer atomic min and max
+        (the same in any order, so the same bits as a serial walk)."""
+        for t in range(self.n_chunks):
+            self.pbox[t, 0] = ti.Vector([self.n_grid, self.n_grid, self.n_grid])
+            self.pbox[t, 1] = ti.Vector([-1, -1, -1])
+        for p in range(self.n_points[None], self.n_total[None]):
             base, _fx, ok = self.base_fx(self.x[p])
             if ok:
-                bmin = ti.min(bmin, base)
-                bmax = ti.max(bmax, base + 2)
-        self.pbox[t, 0] = bmin
-        self.pbox[t, 1] = bmax
+                for t in range(self.n_chunks):
+                    for d in ti.static(range(3)):
+                        ti.atomic_min(self.pbox[t, 0][d], base[d])
+                        ti.atomic_max(self.pbox[t, 1][d], base[d] + 2)
 
     @ti.kernel
     def g2p_passive(self, pair: ti.i32):
-        """G2P of the passive points with weight pair ``pair`` (and, on private grids, their node box
-        for the next grid update)."""
-        if ti.static(self.atomic):
-            for p in range(self.n_points[None], self.n_total[None]):
-                self.g2p_passive_point(p, pair)
-        else:
-            ti.loop_config(block_dim=1)
-            for t in range(self.n_chunks):
-                self._passive_chunk(t, True, pair)
+        """G2P of the passive points with weight pair ``pair``, one thread a point on either device (each point reads
+        the grid and writes only its own row), then, without atomics (the CPU schedule), their node box
+        (:meth:`_passive_box`)."""
+        for p in range(self.n_points[None], self.n_total[None]):
+            self.g2p_passive_point(p, pair)
+        if ti.static(not self.atomic):
+            self._passive_box()
 
     @ti.kernel
     def passive_box(self):
-        """The passive points' node box per chunk, at the start."""
-        ti.loop_config(block_dim=1)
-        for t in range(self.n_chunks):
-            self._passive_chunk(t, False, 0)
+        """The passive points' node box, at the start."""
+        self._passive_box()
