@@ -93,9 +93,9 @@ gasp_engines = engine_hook(EngineInfo(
     requires=("taichi",),
     speed={"cpu": "README donut 0.80 s a frame on 2 cores, 0.64 s on an H100 machine's 16 CPU threads "
                   "(docs/performance.md, 2026-11-26)",
-           "cuda": "README donut 0.167 s a frame on an H100 (74 substeps); jelly block 295 and 641 M "
-                   "particle-substeps/s at 1M and 16M points (docs/performance.md 'On the GPU', round 29, "
-                   "2026-11-26)"},
+           "cuda": "README donut 0.167 s a frame on an H100 (74 substeps), 0.117 s on an H200 (5.9x its host's 16 "
+                   "CPU threads, round 39, 2026-11-28); jelly block 295 and 641 M particle-substeps/s at 1M and 16M "
+                   "points (docs/performance.md 'On the GPU', round 29, 2026-11-26)"},
     install="gasp-taichi-mpm",
     description=("MLS-MPM with APIC transfers and quadratic B-splines (Hu et al. 2018), "
                  "docs/mpm.md, on Taichi (CPU or CUDA, f32 or f64). The CPU default: its coloured block "
