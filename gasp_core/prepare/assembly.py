@@ -16,7 +16,6 @@ from gasp_core.prepare.checks import check_kept_floaters, check_overlap, check_r
 from gasp_core.prepare.dynamic import fill_velocities, vertex_velocities
 from gasp_core.prepare.placed import PreparedObject
 from gasp_core.prepare.runout import RUNOUT_SAFETY, pile_warnings, runout_reach, widen
-from gasp_core.prepare.stand import stand_warnings
 from gasp_core.prepare.thickness import thin_part_warnings
 from gasp_core.prepare.surface import ELASTIC, brittle_skin_warning, surface_rule
 from gasp_core.seam.memory import check_fill
@@ -177,9 +176,6 @@ def build_setup(scene: Scene, objects: list[PreparedObject]) -> tuple[SimSetup, 
     passive = np.concatenate(passives)
     v, p_vol, body_id = np.concatenate(vels), np.concatenate(vols), np.concatenate(bodies)
     C = spin(objects, x, v, p_vol, body_id)
-    for msg in stand_warnings([o.spec.material for o in objects], scene.boundaries, scene.gravity, x, p_vol,
-                              body_id, [o.name for o in objects], dx):
-        warnings.warn(msg, stacklevel=2)
     outside = ((x < lo) | (x > hi)).any(axis=1)
     if outside.any():
         raise SceneError(_outside_message(scene, objects, x, np.concatenate(bodies), outside, lo, hi))

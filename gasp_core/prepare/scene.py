@@ -20,6 +20,7 @@ from gasp_core.prepare.ground import has_auto_ground, resolve_ground
 from gasp_core.prepare.placed import PreparedObject
 from gasp_core.prepare.placement import prepare_object
 from gasp_core.prepare.route import declared_cfl, resolve_models
+from gasp_core.prepare.stand import stand_warnings
 from gasp_core.scene.quality import engine_options as quality_options
 from gasp_core.scene.spec import Scene
 from gasp_core.seam.build import check_supported, needs
@@ -125,6 +126,10 @@ def prepare_scene(scene: Scene, engine: str | None = None, options: dict | None 
                             info.substeps)
     for i, route in zip(moving, routes):
         objects[i] = dataclasses.replace(objects[i], body_model=route)
+    # can each body carry itself, with the model it runs as (a rigid body cannot sag: gasp_core.prepare.stand)
+    for msg in stand_warnings(setup.materials, scene.boundaries, scene.gravity, setup.x, setup.p_vol, setup.body_id,
+                              [objects[i].name for i in moving], setup.dx):
+        warnings.warn(msg, stacklevel=2)
     if info.check_scene is not None:     # again with the bodies' models chosen
         info.check_scene(scene, run_options, setup)
     return PreparedScene(scene, info, objects, names, setup, prepare_s=time.perf_counter() - t0, around=around)

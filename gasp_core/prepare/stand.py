@@ -245,18 +245,24 @@ def _inside_hull(pts: np.ndarray, q: np.ndarray) -> bool:
     return bool(Delaunay(pts[hull.vertices]).find_simplex(q) >= 0)
 
 
-def stand_warning(name: str, est: StandEstimate, E: float) -> str | None:
-    """One line for ``gasp simulate`` when the body cannot carry itself at ``E`` (Pa), else None."""
+def stand_warning(name: str, est: StandEstimate, E: float, rigid: bool = False) -> str | None:
+    """One line for ``gasp simulate`` when the body cannot carry itself at ``E`` (Pa), else None. ``rigid``: the body
+    runs as a rigid body (its material's ``model``, or the rigid limit ``model = "auto"`` chose:
+    :func:`gasp_core.prepare.route.resolve_models`), which cannot sag or buckle: the line says so rather than that
+    it will fall (it still tips where its centre of mass lies beyond its footprint)."""
     if not est.com_over_footprint:
         return (f"object '{name}': its centre of mass ({est.com_height:.3g} m up) lies outside its footprint (the "
                 f"convex hull of its points within {est.base_height:.3g} m of the ground): it tips over whatever its "
                 f"stiffness")
     if E < est.E_crit:
         thin = f", thin parts {est.softness:.2g}x softer in MPM" if est.softness > 1.05 else ""
-        return (f"object '{name}' (E = {E:.3g} Pa) is too soft to carry its own weight standing "
+        return (f"object '{name}' (E = {E:.3g} Pa) is too soft to carry its own weight standing"
+                f"{' as an elastic body' if rigid else ''} "
                 f"({est.height:.3g} m tall, weakest {est.weakest_height:.3g} m up): it needs E of about "
                 f"{est.E_crit:.3g} Pa (buckling {est.E_static:.3g} Pa{thin}, x{DYNAMIC_FACTOR:g} for gravity "
-                f"switched on at once; gasp_core.prepare.stand); it will sag or fall over")
+                f"switched on at once; gasp_core.prepare.stand); "
+                + ("it runs as a rigid body (run.json objects[].model), which stands: set its material's "
+                   "model = \"elastic\" to simulate whether it sags or falls" if rigid else "it will sag or fall over"))
     return None
 
 
@@ -264,7 +270,8 @@ def stand_warnings(materials, boundaries, gravity, x: np.ndarray, p_vol: np.ndar
                    names, dx: float) -> list[str]:
     """:func:`stand_warning` for every elastic body (``jelly``, ``neo_hookean``) that starts standing on a ground
     (its lowest point within ``STAND_GAP`` cells of ``dx`` of it) under gravity; a body dropped from higher, or
-    in free flight, carries nothing yet. One line per body that cannot carry itself."""
+    in free flight, carries nothing yet. One line per body that cannot carry itself; ``materials`` with their models
+    resolved (a ``model == "rigid"`` body gets :func:`stand_warning`'s rigid line)."""
     from gasp_core.prepare.surface import ELASTIC
     g = np.asarray(gravity, dtype=np.float64)
     gn = float(np.linalg.norm(g))
@@ -278,7 +285,8 @@ def stand_warnings(materials, boundaries, gravity, x: np.ndarray, p_vol: np.ndar
             continue
         if not any(abs(float(x[sel, 2].min()) - h) <= STAND_GAP * dx for h in heights):
             continue
-        msg = stand_warning(names[i], stand_estimate(x[sel], p_vol[sel], m.rho, gn, -g / gn, dx=dx), m.E)
+        msg = stand_warning(names[i], stand_estimate(x[sel], p_vol[sel], m.rho, gn, -g / gn, dx=dx), m.E,
+                            rigid=getattr(m, "model", "auto") == "rigid")
         if msg:
             out.append(msg)
     return out
