@@ -258,6 +258,7 @@ class Transfers:
     @ti.func
     def g2p_passive_point(self, p, pair):
         """A passive point: velocity ``v`` and affine velocity gradient ``C`` from the grid (no F, no P2G).
+        It is long because the gather over the nodes, the fit and the affine advance are one pass per point.
 
         Only nodes that received mass count, with the weights renormalised over them: a surface point
         half a spacing outside the material sees empty nodes (velocity 0, not the material's) in its
