@@ -231,3 +231,10 @@ def test_the_vertices_stay_by_a_lone_crumb(name, n_grid, kind, rate):
 @pytest.mark.parametrize("name", _engines())
 def test_catch_the_mean_at_the_weights_centroid_leaves_the_crumb(name):
     assert crumb_drift(name, 32, "shear", 40.0, "spanned") > CRUMB_DRIFT
+
+
+def test_a_misspelt_mean_switch_names_itself(monkeypatch):
+    from gasp_core.mpm import grid_tables
+    monkeypatch.setattr(grid_tables, "PASSIVE_MEAN_AT", "centroid")
+    with pytest.raises(ValueError, match="PASSIVE_MEAN_AT.*'centroid'"):
+        grid_tables.passive_mean_at()

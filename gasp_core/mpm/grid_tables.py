@@ -183,3 +183,10 @@ def passive_span_mass(p_mass: np.ndarray, p_vol: np.ndarray) -> float:
     point's mass (``p_mass`` over the rows with ``p_vol > 0``; shapes (n,), kg and m^3); 0 without material."""
     m, live = np.asarray(p_mass, np.float64), np.asarray(p_vol, np.float64) > 0
     return float(PASSIVE_SPAN_MOMENT * np.max(m[live])) if live.any() else 0.0
+
+
+def passive_mean_at() -> str:
+    """:data:`PASSIVE_MEAN_AT`, checked against :data:`PASSIVE_MEANS` (raises ``ValueError`` naming the switch)."""
+    if PASSIVE_MEAN_AT not in PASSIVE_MEANS:
+        raise ValueError(f"grid_tables.PASSIVE_MEAN_AT: one of {PASSIVE_MEANS}, got {PASSIVE_MEAN_AT!r}")
+    return PASSIVE_MEAN_AT

@@ -224,6 +224,7 @@ class Transfers:
         and volumes, shapes (n,)) in a scalar field."""
         self.span_mass = ti.field(self.real, shape=())
         self.span_mass[None] = grid_tables.passive_span_mass(p_mass, p_vol)
+        grid_tables.passive_mean_at()   # a misspelt switch fails here, before the kernels read it
 
     @ti.func
     def spanned_inverse(self, M, wsum):

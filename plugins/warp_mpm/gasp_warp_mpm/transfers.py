@@ -273,7 +273,7 @@ def build_g2p_passive(Ft):
     slides with the floor's Coulomb friction ``mu_floor`` (``gasp_core.mpm.points.hold_passive``)."""
     spanned = bool(grid_tables.PASSIVE_SPANNED)   # round 38: by mass, the gradient along the spanned directions
     by_mass, at_point = bool(PASSIVE_BY_MASS) or spanned, bool(PASSIVE_AT_POINT) or spanned
-    mean_at = grid_tables.PASSIVE_MEAN_AT if spanned else "weights"   # round 39: where the mean is read
+    mean_at = grid_tables.passive_mean_at() if spanned else "weights"   # round 39: where the mean is read
     material, unspanned = mean_at == "material", mean_at == "unspanned"
     spanned_inverse = build_spanned_inverse(Ft)
     vec3, vec4, mat33 = build_types(Ft)
