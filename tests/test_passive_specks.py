@@ -40,7 +40,8 @@ The set box's bursts (slow tier, both engines): on the same run the material poi
 substep at every frame and no passive point goes further than ``BURST_FAR`` dx (measured with the fix: 0.079 cells,
 3.86 dx on both engines, 3.74 dx with round 38's gather, 2.17 with round 39's; before it 4.363 cells at frames
 627, 628, 848, 893, 928 and 1011, 33.97 dx). Its catch: the old ghost rule (an image node with any mass at full
-weight) fails it on both engines (both lines, with round 38's gather too; not rerun with round 39's).
+weight) fails it on both engines (both lines, with round 38's gather too; with round 39's, on taichi_mpm, only the
+material's line: the old rule's bursts no longer take a vertex past ``BURST_FAR`` dx; warp_mpm not rerun).
 """
 from __future__ import annotations
 
@@ -161,7 +162,7 @@ def test_the_set_box_pulls_the_oblique_dog_bone_without_a_burst(name):
 @pytest.mark.parametrize("name", _engines())
 def test_catch_the_ghost_rule_with_any_image_mass_at_full_weight_bursts(name):
     bad = burst_failures(oblique_run(name, by_mass=False))
-    assert len(bad) == 2 and bad[0].startswith("material at 4.36"), bad
+    assert bad and bad[0].startswith("material at 4.36"), bad   # round 39's gather: no vertex past BURST_FAR now
 
 
 
