@@ -1,7 +1,8 @@
 """The passive surface points left away from the material (issue 66, "What a user sees", round 37): per frame, the
 passive points further than 1 ``dx`` from every material point (:mod:`gasp_core.testing.specks`), with the passive
 gather of the engines before round 38 (by the B-spline weight alone, renormalised over the nodes with mass), the two
-mass-weighted variants measured in round 37 and round 38's spanned gather (:data:`GATHERS`, :func:`rule`), on a
+mass-weighted variants measured in round 37, round 38's spanned gather and round 39's (its mean read at the
+material's centroid, the rule since; :data:`GATHERS`, :func:`rule`), on a
 family: the brittle ball with a skin of passive points landing at 2, 4, 7 and 10 m/s (n_grid 32, 20 frames), a pulled
 dog-bone built through a scene (``benchmarks/user_tension.py``'s ``dogbone_2to1`` at n_grid 24, one set box from t =
 0), the oblique 1.5:1 dog-bone at 45 deg (``benchmarks/user_oblique.py``, n_grid 48) and
@@ -33,9 +34,11 @@ OBLIQUE_FRAMES = 1125   # user_oblique.run_case's for the 1.5:1 at 45 deg, n_gri
 OBLIQUE2_FRAMES = 1200   # the 2:1 at 45 deg, n_grid 48: as long (a set box pulled specimen past its break)
 
 
-#: the gathers measured: (by mass, the fit read at the point, the gradient along the spanned directions only)
-GATHERS = {"before": (False, False, False), "mass": (True, False, False), "mass_at_point": (True, True, False),
-           "spanned": (True, True, True)}
+#: the gathers measured: (by mass, the fit read at the point, the gradient along the spanned directions only, where
+#: the mean is read: ``grid_tables.PASSIVE_MEAN_AT``)
+GATHERS = {"before": (False, False, False, "weights"), "mass": (True, False, False, "weights"),
+           "mass_at_point": (True, True, False, "weights"), "spanned": (True, True, True, "weights"),
+           "material": (True, True, True, "material"), "unspanned": (True, True, True, "unspanned")}
 
 
 @contextlib.contextmanager
@@ -44,13 +47,15 @@ def rule(engine: str, gather: str):
     renormalised over the nodes with mass); ``mass``, weighted by the nodes' mass, the mean read at the weights'
     centroid; ``mass_at_point``, weighted by mass, the least-squares fit read at the point; ``spanned``, weighted by
     mass, the mean at the centroid plus the fitted gradient along the directions the material spans, read at the
-    point (``grid_tables.PASSIVE_SPANNED``, round 38)."""
+    point (``grid_tables.PASSIVE_SPANNED``, round 38); ``material``, the same with the mean read at the material's
+    centroid (the nodes by their mass alone), ``unspanned``, round 38's moved there along the directions the material
+    does not span (round 39, the rule; ``grid_tables.PASSIVE_MEAN_AT``)."""
     from gasp_core.mpm import grid_tables
     if gather not in GATHERS:
         raise ValueError(f"--gather: one of {sorted(GATHERS)}, got {gather!r}")
-    by_mass, at_point, spanned = GATHERS[gather]
-    old_spanned = grid_tables.PASSIVE_SPANNED
-    grid_tables.PASSIVE_SPANNED = spanned
+    by_mass, at_point, spanned, mean_at = GATHERS[gather]
+    old_spanned = grid_tables.PASSIVE_SPANNED, grid_tables.PASSIVE_MEAN_AT
+    grid_tables.PASSIVE_SPANNED, grid_tables.PASSIVE_MEAN_AT = spanned, mean_at
     if engine == "taichi_mpm":
         from gasp_taichi_mpm.transfers import Transfers as T
         old = T.PASSIVE_BY_MASS, T.PASSIVE_AT_POINT
@@ -59,7 +64,7 @@ def rule(engine: str, gather: str):
             yield
         finally:
             T.PASSIVE_BY_MASS, T.PASSIVE_AT_POINT = old
-            grid_tables.PASSIVE_SPANNED = old_spanned
+            grid_tables.PASSIVE_SPANNED, grid_tables.PASSIVE_MEAN_AT = old_spanned
     else:
         from gasp_warp_mpm import kernels, transfers
         old = transfers.PASSIVE_BY_MASS, transfers.PASSIVE_AT_POINT
@@ -74,7 +79,7 @@ def rule(engine: str, gather: str):
             yield
         finally:
             transfers.PASSIVE_BY_MASS, transfers.PASSIVE_AT_POINT = old
-            grid_tables.PASSIVE_SPANNED = old_spanned
+            grid_tables.PASSIVE_SPANNED, grid_tables.PASSIVE_MEAN_AT = old_spanned
             clear()
 
 
@@ -190,7 +195,7 @@ def _key(r: dict) -> tuple:
 
 
 def write_md(rows: list[dict]) -> None:
-    lines = ["# Passive surface points away from the material (issue 66, rounds 37 and 38)", "",
+    lines = ["# Passive surface points away from the material (issue 66, rounds 37 to 39)", "",
              "`python benchmarks/passive_specks.py` (docstring). Specks: passive points further than 1 dx from every "
              "material point, per frame (every 5th frame shown, or a tenth of the run's, and the last); farthest: "
              "the largest such distance over the passive points at the last frame, in dx. `before`: the gather by "
@@ -199,7 +204,10 @@ def write_md(rows: list[dict]) -> None:
              "the weights' centroid; `mass_at_point`: weighted by mass, the fit read at the point (round 37; neither "
              "adopted, docs/fracture.md \"Round 37\"); `spanned`: weighted by mass, the mean at the centroid plus "
              "the fitted gradient along the directions the material spans, read at the point (round 38, "
-             "`grid_tables.PASSIVE_SPANNED`, docs/fracture.md \"Round 38\"). "
+             "`grid_tables.PASSIVE_SPANNED`, docs/fracture.md \"Round 38\"); `material`: the same with the mean "
+             "read at the material's centroid, the nodes by their mass alone; `unspanned`: round 38's moved there "
+             "along the directions the material does not span (round 39, the rule, `grid_tables.PASSIVE_MEAN_AT`, "
+             "docs/fracture.md \"Round 39\"). "
              "Set box rule: `old`, the ghost nodes take any image node "
              "with mass at full weight (and every row without a set box); `new`, by its mass over the ghost's "
              "(`--mirror`, round 37's fix). Fastest: the material points' largest speed over the run, in cells a "

@@ -54,6 +54,18 @@ PASSIVE_SPANNED = True
 #: point's own affine field (an isolated point keeps its ``C`` for ever under APIC) nor from a node of tiny mass (a
 #: corner of 1e-15 kg adds 1e-15 kg cells^2 at most), and where two or more points span a direction it is fitted.
 PASSIVE_SPAN_MOMENT = 361.0 / 8192.0
+#: With :data:`PASSIVE_SPANNED`, where its mean is read (round 39, docs/fracture.md "Round 39"). ``"weights"``: at the
+#: ``N m`` weights' centroid ``x_bar`` (round 38). ``"material"``: at the material's centroid ``x_m = sum m x / sum m``
+#: over the stencil's nodes by their mass alone, ``v = v_m + G (x_p - x_m)``. ``"unspanned"`` (the rule): round 38's
+#: plus ``f r``, ``r = v_m - v_bar - G (x_m - x_bar)`` what the spanned fit misses at the material's centroid and ``f =
+#: |P_u d|^2 / |d|^2`` the share of ``d = x_m - x_bar`` along the directions the material does not span (``P_u = I - M^+
+#: M``): over a lone crumb (nothing spanned) the material's centroid, where all three are spanned round 38's. The
+#: nodes of one crumb carry its own ``C`` (``v_p + C (x_i - x_p)``); by ``N m`` their centroid lies between the crumb
+#: and the passive point, so a point over a lone crumb read the crumb's ``C`` there and left it (the oblique 2:1's
+#: farthest vertex). A rigid field reads the same every way. A switch read when the engines build their kernels.
+PASSIVE_MEAN_AT = "unspanned"
+#: The values :data:`PASSIVE_MEAN_AT` takes.
+PASSIVE_MEANS = ("weights", "material", "unspanned")
 #: A collider's pose block (:data:`COL_POSE` floats): R (9, row-major), T (3, m), v (3, m/s), omega (3, rad/s).
 PO_R, PO_T, PO_V, PO_W = 0, 9, 12, 15
 
@@ -171,3 +183,10 @@ def passive_span_mass(p_mass: np.ndarray, p_vol: np.ndarray) -> float:
     point's mass (``p_mass`` over the rows with ``p_vol > 0``; shapes (n,), kg and m^3); 0 without material."""
     m, live = np.asarray(p_mass, np.float64), np.asarray(p_vol, np.float64) > 0
     return float(PASSIVE_SPAN_MOMENT * np.max(m[live])) if live.any() else 0.0
+
+
+def passive_mean_at() -> str:
+    """:data:`PASSIVE_MEAN_AT`, checked against :data:`PASSIVE_MEANS` (raises ``ValueError`` naming the switch)."""
+    if PASSIVE_MEAN_AT not in PASSIVE_MEANS:
+        raise ValueError(f"grid_tables.PASSIVE_MEAN_AT: one of {PASSIVE_MEANS}, got {PASSIVE_MEAN_AT!r}")
+    return PASSIVE_MEAN_AT

@@ -116,3 +116,28 @@ def speck_run(name: str, setup: SimSetup, n_frames: int, reach: float | None = N
     finally:
         e.close()
     return out
+
+
+def crumb_with_vertices(rate: float = 40.0, n_grid: int = 32, speed: float = 1.0, kind: str = "stretch") -> SimSetup:
+    """One lone material point (a crumb: a jelly of ``E`` 10 Pa, so its own stress barely acts over the run) moving
+    at ``speed`` m/s along x with an affine velocity gradient ``C`` (1/s; APIC keeps an isolated point's ``C``),
+    ``kind`` ``"stretch"`` (``rate`` times the identity) or ``"shear"`` (``rate`` in the xy and yx entries), and 8
+    passive vertices at ``0.6 dx`` along the diagonals around it, as a shed crumb's vertices. Its nodes carry ``v_p +
+    C (x_i - x_p)``; a vertex that reads that field away from the crumb leaves it. Domain the unit cube, no gravity,
+    ``n_grid`` cells, the crumb at (0.3, 0.5, 0.5) off the nodes."""
+    if kind not in ("stretch", "shear"):
+        raise ValueError(f"kind: 'stretch' or 'shear', got {kind!r}")
+    dx = 1.0 / n_grid
+    crumb = np.array([0.3 + 0.3 * dx, 0.5 + 0.2 * dx, 0.5 + 0.1 * dx])
+    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], float)
+    verts = crumb + 0.6 * dx * signs / np.sqrt(3.0)
+    x = np.concatenate([verts, crumb[None]])
+    C = np.zeros((len(x), 3, 3))
+    C[-1] = rate * np.eye(3) if kind == "stretch" else [[0.0, rate, 0.0], [rate, 0.0, 0.0], [0.0, 0.0, 0.0]]
+    v = np.zeros_like(x)
+    v[:, 0] = speed
+    n = len(verts)
+    return SimSetup(x=x, v=v, p_vol=np.r_[np.zeros(n), (dx / 2) ** 3], body_id=0,
+                    materials=[Material("jelly", E=10.0, nu=0.3, rho=1000.0)], gravity=np.zeros(3),
+                    domain_lo=np.zeros(3), domain_hi=np.ones(3), n_grid=n_grid, frame_dt=1e-3, n_render=n,
+                    passive=np.arange(len(x)) < n, C=C, options={"passive_every": 1})

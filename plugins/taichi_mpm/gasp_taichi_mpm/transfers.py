@@ -224,6 +224,7 @@ class Transfers:
         and volumes, shapes (n,)) in a scalar field."""
         self.span_mass = ti.field(self.real, shape=())
         self.span_mass[None] = grid_tables.passive_span_mass(p_mass, p_vol)
+        grid_tables.passive_mean_at()   # a misspelt switch fails here, before the kernels read it
 
     @ti.func
     def spanned_inverse(self, M, wsum):
@@ -240,15 +241,33 @@ class Transfers:
         return Minv
 
     @ti.func
+    def passive_mean(self, v_bar, rbar, v_m, r_m, G, P_s):
+        """The spanned gather's velocity at the point (m/s; ``grid_tables.PASSIVE_MEAN_AT``, round 39): ``v_bar`` at
+        ``rbar`` (the ``N m`` weights' mean and centroid, cells from the point), ``v_m`` at ``r_m`` (the nodes' by mass
+        alone), ``G`` the spanned gradient (1/s), ``P_s = M^+ M`` the projector on the spanned directions."""
+        dx = self.dx[None]
+        v = v_bar - G @ (rbar * dx)
+        if ti.static(grid_tables.PASSIVE_MEAN_AT == "material"):
+            v = v_m - G @ (r_m * dx)
+        if ti.static(grid_tables.PASSIVE_MEAN_AT == "unspanned"):
+            d = r_m - rbar
+            du = d - P_s @ d
+            f = du.dot(du) / ti.max(d.dot(d), 1e-30)
+            v += f * (v_m - v_bar - G @ (d * dx))
+        return v
+
+    @ti.func
     def g2p_passive_point(self, p, pair):
         """A passive point: velocity ``v`` and affine velocity gradient ``C`` from the grid (no F, no P2G).
+        It is long because the gather over the nodes, the fit and the affine advance are one pass per point.
 
         Only nodes that received mass count, with the weights renormalised over them: a surface point
         half a spacing outside the material sees empty nodes (velocity 0, not the material's) in its
         stencil, which would hold it back. With ``grid_tables.PASSIVE_SPANNED`` (the rule, round 38) each node counts
-        by its weight times its mass: the mean at the weights' centroid plus the weighted least-squares gradient along
-        the directions the material spans (:meth:`spanned_inverse`), read at the point, ``C`` that gradient; off, by
-        the weight alone, ``C`` the weighted fit (:attr:`PASSIVE_BY_MASS`: round 37's variants). The point then advances
+        by its weight times its mass: the mean at the weights' centroid (``PASSIVE_MEAN_AT``, round 39: moved towards
+        the material's centroid along the unspanned directions, :meth:`passive_mean`) plus the weighted least-squares
+        gradient along the directions the material spans (:meth:`spanned_inverse`), read at the point, ``C`` that
+        gradient; off, by the weight alone, ``C`` the weighted fit (:attr:`PASSIVE_BY_MASS`: round 37's variants). The point then advances
         over the ``m = passive_substeps[pair]``
         substeps since its last gather through the affine field
         ``v(y, k) = v_prev + (k/m)(v_new - v_prev) + (C_prev + (k/m)(C_new - C_prev)) y``,
@@ -266,6 +285,9 @@ class Transfers:
             rbar = ti.Vector.zero(self.real, 3)
             Svr = ti.Matrix.zero(self.real, 3, 3)
             Srr = ti.Matrix.zero(self.real, 3, 3)
+            msum = ti.cast(0.0, self.real)   # the nodes by their mass alone: the material's centroid (round 39)
+            mv = ti.Vector.zero(self.real, 3)
+            mr = ti.Vector.zero(self.real, 3)
             for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                 node = base + ti.Vector([i, j, k])
                 if self.grid_m[node] > 0.0:
@@ -279,6 +301,10 @@ class Transfers:
                     rbar += wn * r
                     Svr += wn * gv.outer_product(r)
                     Srr += wn * r.outer_product(r)
+                    if ti.static(grid_tables.PASSIVE_SPANNED and grid_tables.PASSIVE_MEAN_AT != "weights"):
+                        msum += self.grid_m[node]
+                        mv += self.grid_m[node] * gv
+                        mr += self.grid_m[node] * r
             new_C = ti.Matrix.zero(self.real, 3, 3)
             if wsum > 0.0:
                 new_v /= wsum
@@ -287,8 +313,10 @@ class Transfers:
                 Svr = Svr / wsum - new_v.outer_product(rbar)
                 if ti.static(grid_tables.PASSIVE_SPANNED):   # the gradient along the spanned directions, at the point
                     M = Srr / wsum - rbar.outer_product(rbar)
-                    new_C = self.inv_dx[None] * (Svr @ self.spanned_inverse(M, wsum))
-                    new_v -= new_C @ (rbar * self.dx[None])
+                    Minv = self.spanned_inverse(M, wsum)
+                    new_C = self.inv_dx[None] * (Svr @ Minv)
+                    msum = ti.max(msum, 1e-30)   # (0 only where PASSIVE_MEAN_AT is "weights": unread)
+                    new_v = self.passive_mean(new_v, rbar, mv / msum, mr / msum, new_C, Minv @ M)
                 else:
                     Srr = Srr / wsum + ti.Matrix.identity(self.real, 3) * 2.5e-5 - rbar.outer_product(rbar)
                     new_C = self.inv_dx[None] * (Svr @ Srr.inverse())

@@ -262,7 +262,8 @@ def build_g2p_passive(Ft):
     Passive points (rows ``first..``): velocity ``v`` and affine velocity gradient ``C`` from the grid (no F, no P2G).
     Only nodes with mass count, weights renormalised over them: a surface point outside the material would otherwise
     be held back by the empty nodes' zero velocity. With ``grid_tables.PASSIVE_SPANNED`` (the rule, round 38) each node
-    counts by its weight times its mass: the mean at the weights' centroid plus the weighted least-squares gradient
+    counts by its weight times its mass: the mean at the weights' centroid (``grid_tables.PASSIVE_MEAN_AT``, round 39:
+    moved towards the material's centroid along the unspanned directions) plus the weighted least-squares gradient
     along the directions the material spans (:func:`build_spanned_inverse`), read at the point, ``C`` that gradient;
     off, by the weight alone, ``C`` the weighted fit (:data:`PASSIVE_BY_MASS`: round 37's variants). The
     point then advances over the ``m`` substeps since its last gather through the affine field
@@ -272,11 +273,44 @@ def build_g2p_passive(Ft):
     slides with the floor's Coulomb friction ``mu_floor`` (``gasp_core.mpm.points.hold_passive``)."""
     spanned = bool(grid_tables.PASSIVE_SPANNED)   # round 38: by mass, the gradient along the spanned directions
     by_mass, at_point = bool(PASSIVE_BY_MASS) or spanned, bool(PASSIVE_AT_POINT) or spanned
+    mean_at = grid_tables.passive_mean_at() if spanned else "weights"   # round 39: where the mean is read
+    material, unspanned = mean_at == "material", mean_at == "unspanned"
     spanned_inverse = build_spanned_inverse(Ft)
     vec3, vec4, mat33 = build_types(Ft)
     in_grid, weights = build_stencil(Ft)
     hold_passive = build_passive_hold(Ft)
     field_offset_base, field_node_v = build_field_reads(Ft)
+
+    @wp.func
+    def passive_fit(new_v: vec3, rbar: vec3, Svr: mat33, Srr: mat33, wsum: Ft, mv: vec3, mr: vec3, msum: Ft,
+                    span_mass: Ft, inv_dx: Ft):
+        # the sums over the nodes with mass (weights N m or N, wsum > 0; by mass alone, msum) -> v at the point and C
+        Cn = mat33()
+        new_v = new_v / wsum
+        rbar = rbar / wsum
+        # centred moments per unit weight (divided by wsum: a point at a crack may see only a far corner node,
+        # wsum ~ 1e-12, whose unscaled moments' determinant underflows f32 and made C non-finite); a tiny
+        # ridge (1e-4 of a full stencil's second moment / 4) where the nodes with mass are planar
+        Svr = Svr / wsum - wp.outer(new_v, rbar)
+        Srr = Srr / wsum - wp.outer(rbar, rbar)
+        Ps = mat33()   # the projector on the spanned directions, M^+ M
+        if wp.static(spanned):
+            Minv = spanned_inverse(Srr, wsum, span_mass)
+            Cn = inv_dx * (Svr * Minv)
+            Ps = Minv * Srr
+        else:
+            Cn = inv_dx * (Svr * wp.inverse(Srr + wp.identity(3, dtype=Ft) * Ft(2.5e-5)))
+        if wp.static(material):   # the mean at the material's centroid (grid_tables.PASSIVE_MEAN_AT)
+            new_v = mv / msum
+            rbar = mr / msum
+        if wp.static(unspanned):   # round 38's, plus what it misses there by the unspanned share (ditto)
+            d = mr / msum - rbar
+            du = d - Ps * d
+            f = wp.dot(du, du) / wp.max(wp.dot(d, d), Ft(1e-30))
+            new_v = new_v + f * (mv / msum - new_v - Cn * (d / inv_dx))
+        if wp.static(by_mass and at_point):   # the fit read at the point (the builder's docstring)
+            new_v = new_v - Cn * (rbar / inv_dx)
+        return new_v, Cn
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def g2p_passive(
@@ -312,6 +346,9 @@ def build_g2p_passive(Ft):
         steps = vec3(Ft(0.0), Ft(1.0), Ft(2.0))
         Svr = mat33()
         Srr = mat33()
+        msum = Ft(0.0)   # the nodes by their mass alone: the material's centroid (round 39)
+        mv = vec3(Ft(0.0))
+        mr = vec3(Ft(0.0))
         for i in range(3):
             for j in range(3):
                 row = idx0 + i * nn + j * n_grid
@@ -329,23 +366,14 @@ def build_g2p_passive(Ft):
                         rbar = rbar + w * r
                         Svr = Svr + w * wp.outer(gv, r)
                         Srr = Srr + w * wp.outer(r, r)
+                        msum = msum + grid_m[row + k]   # by mass alone (read where PASSIVE_MEAN_AT says)
+                        mv = mv + grid_m[row + k] * gv
+                        mr = mr + grid_m[row + k] * r
         Cn = mat33()
         stranded = int(1)
         if wsum > Ft(0.0):
             stranded = int(0)
-            new_v = new_v / wsum
-            rbar = rbar / wsum
-            # centred moments per unit weight (divided by wsum: a point at a crack may see only a far corner node,
-            # wsum ~ 1e-12, whose unscaled moments' determinant underflows f32 and made C non-finite); a tiny
-            # ridge (1e-4 of a full stencil's second moment / 4) where the nodes with mass are planar
-            Svr = Svr / wsum - wp.outer(new_v, rbar)
-            Srr = Srr / wsum - wp.outer(rbar, rbar)
-            if wp.static(spanned):
-                Cn = inv_dx * (Svr * spanned_inverse(Srr, wsum, span_mass))
-            else:
-                Cn = inv_dx * (Svr * wp.inverse(Srr + wp.identity(3, dtype=Ft) * Ft(2.5e-5)))
-            if wp.static(by_mass and at_point):   # the fit read at the point (the builder's docstring)
-                new_v = new_v - Cn * (rbar / inv_dx)
+            new_v, Cn = passive_fit(new_v, rbar, Svr, Srr, wsum, mv, mr, wp.max(msum, Ft(1e-30)), span_mass, inv_dx)
         else:   # stranded, no material in its stencil: it falls freely until material or a boundary takes it
             new_v = v[p] + Ft(m) * dt * gravity
         vp = v[p]
