@@ -98,7 +98,8 @@ def markdown(doc: dict) -> str:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
-    ap.add_argument("--scenes", default="donut_shatter:10,donut_jelly:20", help="example:frames or example:frames:device, comma-separated")
+    ap.add_argument("--scenes", default="donut_shatter:10,donut_jelly:20",
+                    help="example:frames or example:frames:device, comma-separated")
     ap.add_argument("--devices", default="cuda,cpu")
     ap.add_argument("--budget", type=float, default=300.0, help="seconds for all the runs")
     a = ap.parse_args(argv)

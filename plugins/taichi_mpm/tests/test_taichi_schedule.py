@@ -90,6 +90,7 @@ def test_slice_sums_repeat_bit_for_bit_and_equal_the_sum(n):
 
 # ---------------------------------------------------------------- nothing serial in a GPU-schedule substep
 def _dt(setup, frame_dt=0.01):
+    import dataclasses
     return dataclasses.replace(setup, frame_dt=frame_dt)
 
 
@@ -208,12 +209,11 @@ def _passive_skin(schedule, threads=1):
     b = _viscous_contact_scene(schedule)
     top = b.x[b.x[:, 2] > b.x[:, 2].max() - 1e-9][::3] + np.array([0.0, 0.0, 0.3 * b.dx])
     from gasp_core.seam import SimSetup
-    return SimSetup(x=np.vstack([top, b.x]), v=np.array([0.3, 0.0, -0.5]), p_vol=np.r_[np.zeros(len(top)), np.full(len(b.x), b.p_vol)], body_id=0,
-                    materials=[Material("jelly", E=1e4, nu=0.3, rho=1000.0)], gravity=b.gravity,
+    passive = np.r_[np.ones(len(top), bool), np.zeros(len(b.x), bool)]
+    return SimSetup(x=np.vstack([top, b.x]), v=np.array([0.3, 0.0, -0.5]), p_vol=np.where(passive, 0.0, b.p_vol[0]),
+                    body_id=0, materials=[Material("jelly", E=1e4, nu=0.3, rho=1000.0)], gravity=b.gravity,
                     domain_lo=b.domain_lo, domain_hi=b.domain_hi, n_grid=b.n_grid, boundaries=b.boundaries,
-                    frame_dt=b.frame_dt, n_render=len(top), passive=np.r_[np.ones(len(top), bool),
-                                                                          np.zeros(len(b.x), bool)],
-                    options={**b.options, "threads": threads})
+                    frame_dt=b.frame_dt, n_render=len(top), passive=passive, options={**b.options, "threads": threads})
 
 
 def _two_bodies(schedule):
