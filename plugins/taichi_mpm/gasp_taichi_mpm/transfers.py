@@ -260,41 +260,6 @@ class Transfers:
         return Minv
 
     @ti.func
-    def passive_moments(self, p, base, w):
-        """The passive gather's sums over the stencil's nodes with mass (each by its weight ``wn``, times the node's
-        mass with ``grid_tables.PASSIVE_SPANNED`` or :attr:`PASSIVE_BY_MASS`): ``sum wn v`` (3,), ``sum wn`` (kg or
-        1), and over the offsets ``o = (i, j, k) - 1`` (cells) from the middle node, ``sum wn o`` (3,),
-        ``sum wn v o^T`` and ``sum wn o o^T`` (3x3). The moments about the mean are the same for any origin of the
-        offsets; these, in -1, 0 and 1 known when the kernel is built, take adds where ``(i, j, k) - fx`` took
-        products (round 39)."""
-        vsum = ti.Vector.zero(self.real, 3)
-        wsum = ti.cast(0.0, self.real)
-        osum = ti.Vector.zero(self.real, 3)
-        Svo = ti.Matrix.zero(self.real, 3, 3)
-        Soo = ti.Matrix.zero(self.real, 3, 3)
-        for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
-            node = base + ti.Vector([i, j, k])
-            if self.grid_m[node] > 0.0:
-                wn = w[i][0] * w[j][1] * w[k][2]
-                if ti.static(self.PASSIVE_BY_MASS or grid_tables.PASSIVE_SPANNED):
-                    wn *= self.grid_m[node]   # the node's say: its share of the material at the point
-                gw = wn * self.node_v(p, node)   # its body's field (fields.py): a passive sand point slides too
-                vsum += gw
-                wsum += wn
-                o = ti.static([i - 1, j - 1, k - 1])
-                for a in ti.static(range(3)):
-                    if ti.static(o[a] != 0):
-                        osum[a] += ti.static(float(o[a])) * wn
-                        for d in ti.static(range(3)):
-                            Svo[d, a] += ti.static(float(o[a])) * gw[d]
-                        for b in ti.static(range(a, 3)):
-                            if ti.static(o[b] != 0):
-                                Soo[a, b] += ti.static(float(o[a] * o[b])) * wn
-        for a, b in ti.static([(0, 1), (0, 2), (1, 2)]):
-            Soo[b, a] = Soo[a, b]
-        return vsum, wsum, osum, Svo, Soo
-
-    @ti.func
     def g2p_passive_point(self, p, pair):
         """A passive point: velocity ``v`` and affine velocity gradient ``C`` from the grid (no F, no P2G).
 
@@ -315,23 +280,40 @@ class Transfers:
         # out of the grid (not ok): it drops out where it is, uncounted here (n_out is the material points' count,
         # the blow-up verdict's; gasp_core.mpm.points.blow_up_rows), counted by the core (run.json left_domain)
         if ok:
-            new_v, wsum, rbar, Svr, Srr = self.passive_moments(p, base, self.weights(fx))
+            w = self.weights(fx)
+            new_v = ti.Vector.zero(self.real, 3)
+            wsum = ti.cast(0.0, self.real)
+            rbar = ti.Vector.zero(self.real, 3)
+            Svr = ti.Matrix.zero(self.real, 3, 3)
+            Srr = ti.Matrix.zero(self.real, 3, 3)
+            for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
+                node = base + ti.Vector([i, j, k])
+                if self.grid_m[node] > 0.0:
+                    wn = w[i][0] * w[j][1] * w[k][2]
+                    if ti.static(self.PASSIVE_BY_MASS or grid_tables.PASSIVE_SPANNED):
+                        wn *= self.grid_m[node]   # the node's say: its share of the material at the point
+                    r = ti.Vector([ti.static(float(i)), ti.static(float(j)), ti.static(float(k))], self.real) - fx
+                    gv = self.node_v(p, node)   # its body's field (fields.py): a passive sand point slides too
+                    new_v += wn * gv
+                    wsum += wn
+                    rbar += wn * r
+                    Svr += wn * gv.outer_product(r)
+                    Srr += wn * r.outer_product(r)
             new_C = ti.Matrix.zero(self.real, 3, 3)
             if wsum > 0.0:
                 new_v /= wsum
-                rbar /= wsum   # the mean offset from the stencil's middle node; at the point: + 1 - fx
+                rbar /= wsum
                 # moments per unit weight (unscaled: a crack's lone far corner underflowed f32); ridge for planar nodes
                 Svr = Svr / wsum - new_v.outer_product(rbar)
-                to_pt = (rbar + 1.0 - fx) * self.dx[None]   # the weights' centroid less the point (m)
                 if ti.static(grid_tables.PASSIVE_SPANNED):   # the gradient along the spanned directions, at the point
                     M = Srr / wsum - rbar.outer_product(rbar)
                     new_C = self.inv_dx[None] * (Svr @ self.spanned_inverse(M, wsum))
-                    new_v -= new_C @ to_pt
+                    new_v -= new_C @ (rbar * self.dx[None])
                 else:
                     Srr = Srr / wsum + ti.Matrix.identity(self.real, 3) * 2.5e-5 - rbar.outer_product(rbar)
                     new_C = self.inv_dx[None] * (Svr @ Srr.inverse())
                     if ti.static(self.PASSIVE_BY_MASS and self.PASSIVE_AT_POINT):   # the fit read at the point
-                        new_v -= new_C @ to_pt
+                        new_v -= new_C @ (rbar * self.dx[None])
             else:   # stranded, no material in its stencil: it falls freely until material or a boundary takes it
                 new_v = self.v[p] + ti.cast(self.passive_substeps[pair], self.real) * self.dt[None] * self.gravity[None]
             v_prev = self.v[p]
