@@ -5,9 +5,11 @@ profiler; then its passive G2P kernel (``Transfers.g2p_passive``, weight pair 0)
 that frame's grid, the passive rows' x, v and C restored before each launch (the same inputs every time), and the
 kernel's loops' times (ms) printed: the gather (``kernel_1``) and the node box (``kernel_4``). Variants (each a
 process: the switches are read when the kernels are built): ``fast`` (``Transfers.PASSIVE_FAST_INVERSE``),
-``order`` (``Transfers.PASSIVE_ORDER``), ``span`` (``grid_tables.PASSIVE_SPANNED``).
+``span`` (``grid_tables.PASSIVE_SPANNED``).
 
-Run:  python benchmarks/bench_passive_g2p.py --fast 1 --order 1 [--threads 2]
+Each run appends its line to ``benchmarks/results/passive_g2p.md`` (``--out``); that file's table is the round-39
+comparison (main's checkout run with ``PYTHONPATH`` for the "before").
+Run:  python benchmarks/bench_passive_g2p.py --fast 1 [--threads 2]
 """
 import argparse
 import contextlib
@@ -23,7 +25,7 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--scene", default="donut_shatter")
     ap.add_argument("--fast", type=int, default=1)
-    ap.add_argument("--order", type=int, default=1)
+    ap.add_argument("--out", default="benchmarks/results/passive_g2p.md")
     ap.add_argument("--span", type=int, default=1)
     ap.add_argument("--frames", type=int, default=1)
     ap.add_argument("--reps", type=int, default=20)
@@ -66,9 +68,14 @@ def main() -> None:
         with contextlib.redirect_stdout(buf):
             ti.profiler.print_kernel_profiler_info("count")
     t_wall.sort()
-    print(f"variant fast={a.fast} order={a.order} span={a.span}; {n1 - n0} passive, {n0} material points; "
-          f"g2p_passive launch min {t_wall[0]:.1f} median {t_wall[len(t_wall) // 2]:.1f} ms")
-    print("\n".join(ln for ln in buf.getvalue().splitlines() if "g2p_passive" in ln))
+    rows = [ln for ln in buf.getvalue().splitlines() if "g2p_passive" in ln and ("kernel_1_" in ln or "kernel_4_" in ln)]
+    line = (f"| {time.strftime('%Y-%m-%d %H:%M')} | {a.scene} frame {a.frames} | fast={a.fast} span={a.span} | "
+            f"{a.threads} | {n1 - n0} | {t_wall[0]:.1f} | {t_wall[len(t_wall) // 2]:.1f} | "
+            + " ; ".join(r.split("|")[1].split("]")[0].strip() for r in rows) + " |")
+    print(line)
+    print("\n".join(rows))
+    with open(a.out, "a") as f:
+        f.write(line + "\n")
 
 
 if __name__ == "__main__":
