@@ -68,7 +68,8 @@ def main() -> None:
         with contextlib.redirect_stdout(buf):
             ti.profiler.print_kernel_profiler_info("count")
     t_wall.sort()
-    rows = [ln for ln in buf.getvalue().splitlines() if "g2p_passive" in ln and ("kernel_1_" in ln or "kernel_4_" in ln)]
+    rows = [ln for ln in buf.getvalue().splitlines()
+            if "g2p_passive" in ln and ("kernel_1_" in ln or "kernel_4_" in ln)]
     line = (f"| {time.strftime('%Y-%m-%d %H:%M')} | {a.scene} frame {a.frames} | fast={a.fast} span={a.span} | "
             f"{a.threads} | {n1 - n0} | {t_wall[0]:.1f} | {t_wall[len(t_wall) // 2]:.1f} | "
             + " ; ".join(r.split("|")[1].split("]")[0].strip() for r in rows) + " |")
