@@ -19,6 +19,9 @@ class Transfers:
     #: centroid or, with PASSIVE_AT_POINT, the weighted fit read at the point
     PASSIVE_BY_MASS = False
     PASSIVE_AT_POINT = True
+    #: The spanned gather's inverse by ``M``'s plain inverse where Gershgorin's bound proves all three directions
+    #: spanned (:meth:`spans_all`), the Jacobi only elsewhere (round 39: docs/performance.md); False: always the Jacobi
+    PASSIVE_FAST_INVERSE = True
 
     @ti.func
     def base_fx(self, xp):
@@ -227,17 +230,34 @@ class Transfers:
         grid_tables.passive_mean_at()   # a misspelt switch fails here, before the kernels read it
 
     @ti.func
+    def spans_all(self, M, wsum):
+        """Whether all three directions of the symmetric moment ``M`` (3x3, cells^2 per unit weight; ``wsum`` kg) are
+        provably spanned, ``lam_min wsum > span_mass``, by Gershgorin's lower bound on its smallest eigenvalue,
+        ``min_i (M_ii - sum_{j != i} |M_ij|)`` (Golub & Van Loan, "Matrix Computations", Thm. 7.2.1); round 39."""
+        lb = M[0, 0] - ti.abs(M[0, 1]) - ti.abs(M[0, 2])
+        lb = ti.min(lb, M[1, 1] - ti.abs(M[1, 0]) - ti.abs(M[1, 2]))
+        lb = ti.min(lb, M[2, 2] - ti.abs(M[2, 0]) - ti.abs(M[2, 1]))
+        return lb * wsum > self.span_mass[None]
+
+    @ti.func
     def spanned_inverse(self, M, wsum):
         """The pseudo-inverse of the symmetric moment ``M`` (3x3, cells^2 per unit weight; ``wsum`` the weights' sum,
         kg) over the eigen-directions the material spans, ``lam wsum > span_mass`` (``grid_tables``'
         ``PASSIVE_SPAN_MOMENT``): ``sum_k V_k V_k^T / lam_k`` (cyclic Jacobi, :meth:`sym_eig`). The passive gather's
-        gradient is fitted only there (round 38)."""
-        V, lam = self.sym_eig(M)
+        gradient is fitted only there (round 38). With :attr:`PASSIVE_FAST_INVERSE` (round 39), where
+        :meth:`spans_all` proves all three spanned, ``M``'s plain inverse (the same ``M^+``, without the Jacobi)."""
         Minv = ti.Matrix.zero(self.real, 3, 3)
-        for k in ti.static(range(3)):
-            if lam[k] * wsum > self.span_mass[None]:
-                e = ti.Vector([V[0, k], V[1, k], V[2, k]])
-                Minv += e.outer_product(e) / lam[k]
+        full = False
+        if ti.static(self.PASSIVE_FAST_INVERSE):
+            full = self.spans_all(M, wsum)
+        if full:
+            Minv = M.inverse()
+        else:
+            V, lam = self.sym_eig(M)
+            for k in ti.static(range(3)):
+                if lam[k] * wsum > self.span_mass[None]:
+                    e = ti.Vector([V[0, k], V[1, k], V[2, k]])
+                    Minv += e.outer_product(e) / lam[k]
         return Minv
 
     @ti.func
@@ -352,11 +372,13 @@ class Transfers:
             self.pbox[t, 1] = ti.Vector([-1, -1, -1])
         for p in range(self.n_points[None], self.n_total[None]):
             base, _fx, ok = self.base_fx(self.x[p])
-            if ok:
+            if ok:   # an atomic only where it may move a bound (they only widen): no contended writes (round 39)
                 for t in range(self.n_chunks):
                     for d in ti.static(range(3)):
-                        ti.atomic_min(self.pbox[t, 0][d], base[d])
-                        ti.atomic_max(self.pbox[t, 1][d], base[d] + 2)
+                        if base[d] < self.pbox[t, 0][d]:
+                            ti.atomic_min(self.pbox[t, 0][d], base[d])
+                        if base[d] + 2 > self.pbox[t, 1][d]:
+                            ti.atomic_max(self.pbox[t, 1][d], base[d] + 2)
 
     @ti.kernel
     def g2p_passive(self, pair: ti.i32):
