@@ -78,7 +78,7 @@ def taichi_inverses(Ms, ws, real: str, fast: bool, always_full: bool = False) ->
 def warp_inverses(Ms, ws, real: str, fast: bool, always_full: bool = False) -> np.ndarray:
     """Warp's ``build_spanned_inverse`` of each M (uncached builds, the switches patched in)."""
     import warp as wp
-    from gasp_warp_mpm import transfers as wt
+    from gasp_warp_mpm import spanned as wt
     from gasp_warp_mpm.precision import build_types
     Ft = wp.float64 if real == "f64" else wp.float32
     vec3, vec4, mat33 = build_types(Ft)

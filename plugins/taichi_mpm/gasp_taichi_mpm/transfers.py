@@ -287,9 +287,9 @@ class Transfers:
         by its weight times its mass: the mean at the weights' centroid (``PASSIVE_MEAN_AT``, round 39: moved towards
         the material's centroid along the unspanned directions, :meth:`passive_mean`) plus the weighted least-squares
         gradient along the directions the material spans (:meth:`spanned_inverse`), read at the point, ``C`` that
-        gradient; off, by the weight alone, ``C`` the weighted fit (:attr:`PASSIVE_BY_MASS`: round 37's variants). The point then advances
-        over the ``m = passive_substeps[pair]``
-        substeps since its last gather through the affine field
+        gradient; off, by the weight alone, ``C`` the weighted fit (:attr:`PASSIVE_BY_MASS`: round 37's variants).
+        The point then advances over the ``m = passive_substeps[pair]`` substeps since its last gather through the
+        affine field
         ``v(y, k) = v_prev + (k/m)(v_new - v_prev) + (C_prev + (k/m)(C_new - C_prev)) y``,
         ``y += dt v(y, k)`` for ``k = 1..m`` (:func:`gasp_core.mpm.substeps.passive_schedule`), so it turns with
         the material; ``m = 1`` is plain G2P. A point with no node of mass in its stencil (stranded: the material
