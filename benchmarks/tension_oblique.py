@@ -72,9 +72,11 @@ def local_lattice(sp: tf.Specimen, s: float) -> tuple[np.ndarray, np.ndarray, np
     return x, p_vol, layer, lx - tf.X0
 
 
-def build(sp: tf.Specimen, n_grid: int, engine: str, angle: str = "45"):
-    """The oblique setup (the module's docstring). Returns ``(setup, layer of each point, layer rest axial (m from
-    the end), R, clamp face x, pulled face x)``."""
+def build(sp: tf.Specimen, n_grid: int, engine: str, angle: str = "45", grip: str = "along"):
+    """The oblique setup (the module's docstring). ``grip``: ``"along"`` pulls along the axis ``a``; ``"free"``
+    along ``a + beta n`` (``n = R e_y``, in the plane it turns in), ``beta`` the drift at which the pulled grip carries
+    no transverse force in the elastic continuum (``oblique_grip.free_drift``; round 40). Returns ``(setup, layer of
+    each point, layer rest axial (m from the end), R, clamp face x, pulled face x)``."""
     from gasp_core.colliders.model import Impulse
     from gasp_core.seam.setup import Boundary, Material
     from gasp_core.testing.helpers import make_setup
@@ -85,6 +87,11 @@ def build(sp: tf.Specimen, n_grid: int, engine: str, angle: str = "45"):
     to_grid = lambda q: CENTRE + (q - mid) @ R.T              # noqa: E731
     x = to_grid(xl)
     a = R[:, 0]
+    beta = 0.0
+    if grip != "along":
+        from oblique_grip import free_drift
+        beta = free_drift(sp, angle, n_grid)
+    a_pull = a + beta * R[:, 1]
     # the faces: every point within HOLD of an end along the axis is held (the section's corners at HOLD)
     ext = np.abs(xl[:, 1:]).max(axis=0)                    # the section's half extents at its widest
     corners = np.array([[0, sy * ext[0], sz * ext[1]] for sy in (-1, 1) for sz in (-1, 1)])
@@ -94,14 +101,20 @@ def build(sp: tf.Specimen, n_grid: int, engine: str, angle: str = "45"):
     s_c, s_p = [float((f - to_grid(np.zeros(3))[0]) / a[0]) for f in (clamp, pulled)]
     comp = np.cumsum(1.0 / sp.area(lx + tf.X0))
     c_cl, c_pu = np.interp([s_c, s_p], lx, comp)
-    v = pull_velocity(a) * np.clip((comp[layer] - c_cl) / (c_pu - c_cl), 0.0, 1.0)[:, None]
+    v = pull_velocity(a_pull) * np.clip((comp[layer] - c_cl) / (c_pu - c_cl), 0.0, 1.0)[:, None]
+    if grip != "along":           # the elastic solution's quasi-static field (no bending wave started by the ramp)
+        from oblique_grip import static_velocity
+        vs = static_velocity(sp, angle, n_grid, beta, xl)
+        v = vs[:, :1] * a + vs[:, 1:] * R[:, 1]
     m = Material("brittle", E=tf.E, nu=tf.NU, rho=tf.RHO, tensile_strength=tf.FT, fracture_energy=tf.GF)
     opts = {"precision": "f64", **({"threads": 1} if engine == "taichi_mpm" else {})}
     S = tf.SIZE
+    held = [] if grip == "free_set" else [Boundary("fixed_region", lo=(0, 0, 0), hi=(clamp, S, S))]
     st = make_setup(x, p_vol, m, v=v, gravity=(0, 0, 0), lo=(0, 0, 0), hi=(S, S, S), n_grid=n_grid,
-                    frame_dt=tf.FRAME_DT, boundaries=[Boundary("fixed_region", lo=(0, 0, 0), hi=(clamp, S, S))],
-                    options=opts)
-    st.impulses = [Impulse("box", tuple(pull_velocity(a)), 0.0, 100.0, lo=(pulled, 0, 0), hi=(S, S, S), mode="set")]
+                    frame_dt=tf.FRAME_DT, boundaries=held, options=opts)
+    st.impulses = [Impulse("box", tuple(pull_velocity(a_pull)), 0.0, 100.0, lo=(pulled, 0, 0), hi=(S, S, S), mode="set")]
+    if grip == "free_set":        # the clamp held as the pulled grip is: a set box at rest
+        st.impulses.append(Impulse("box", (0.0, 0.0, 0.0), 0.0, 100.0, lo=(0, 0, 0), hi=(clamp, S, S), mode="set"))
     return st, layer, lx, R, clamp, pulled
 
 
