@@ -20,6 +20,7 @@ Run: ``python benchmarks/oblique_grip.py`` (no engine, about 10 s); writes ``res
 from __future__ import annotations
 
 import json
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -64,11 +65,13 @@ def _stiffness(sp: tf.Specimen, ns: int, ny: int):
     return K, dof
 
 
+@lru_cache(maxsize=32)
 def elastic_field(sp: tf.Specimen, angle: str, n_grid: int = 24, beta: float = 0.0) -> dict:
     """The plane-stress field of ``sp`` at ``angle`` under ``tension_oblique.build``'s holds, the pulled end displaced
     1e-3 m along ``a + beta n``. Returns ``{"centre": (n_el, 2) element centres (s, y') m, "emax": (n_el,) largest
     principal strain over the gauge's median axial strain, "exx": the axial strain so, "gauge": (n_el,) bool,
-    "reaction": (2,) the pulled grip's force along a and n (N at E 1 Pa)}``. Raises nothing; ``beta`` is free."""
+    "reaction": (2,) the pulled grip's force along a and n (N at E 1 Pa), "u": (ns + 1, ny + 1, 2) the nodes'
+    displacement (m) along a and n}``, cached (do not modify it). Raises nothing; ``beta`` is free."""
     import scipy.sparse.linalg as spl
     ns, ny = int(round(sp.length / H)), int(round(sp.gauge_w / H))
     K, dof = _stiffness(sp, ns, ny)

@@ -73,10 +73,13 @@ def local_lattice(sp: tf.Specimen, s: float) -> tuple[np.ndarray, np.ndarray, np
 
 
 def build(sp: tf.Specimen, n_grid: int, engine: str, angle: str = "45", grip: str = "along"):
-    """The oblique setup (the module's docstring). ``grip``: ``"along"`` pulls along the axis ``a``; ``"free"``
-    along ``a + beta n`` (``n = R e_y``, in the plane it turns in), ``beta`` the drift at which the pulled grip carries
-    no transverse force in the elastic continuum (``oblique_grip.free_drift``; round 40). Returns ``(setup, layer of
-    each point, layer rest axial (m from the end), R, clamp face x, pulled face x)``."""
+    """The oblique setup (the module's docstring). ``grip``: ``"along"`` (round 34) holds the clamp's half-space by a
+    ``fixed_region`` and pulls along the axis ``a``; ``"free"`` (round 40) holds both ends alike, by set boxes, the
+    clamp's at rest and the pulled one along ``a + beta n`` (``n = R e_y``, in the plane it turns in), ``beta`` the
+    drift at which the pulled grip carries no transverse force in the elastic continuum (``oblique_grip.free_drift``),
+    the body starting in that continuum's quasi-static field (``oblique_grip.static_velocity``). Returns ``(setup,
+    layer of each point, layer rest axial (m from the end), R, clamp face x, pulled face x)``. Raises ValueError on
+    another ``grip``."""
     from gasp_core.colliders.model import Impulse
     from gasp_core.seam.setup import Boundary, Material
     from gasp_core.testing.helpers import make_setup
@@ -87,10 +90,10 @@ def build(sp: tf.Specimen, n_grid: int, engine: str, angle: str = "45", grip: st
     to_grid = lambda q: CENTRE + (q - mid) @ R.T              # noqa: E731
     x = to_grid(xl)
     a = R[:, 0]
-    beta = 0.0
-    if grip != "along":
-        from oblique_grip import free_drift
-        beta = free_drift(sp, angle, n_grid)
+    if grip not in ("along", "free"):
+        raise ValueError(f"grip {grip!r}: 'along' or 'free'")
+    from oblique_grip import free_drift, static_velocity
+    beta = free_drift(sp, angle, n_grid) if grip == "free" else 0.0
     a_pull = a + beta * R[:, 1]
     # the faces: every point within HOLD of an end along the axis is held (the section's corners at HOLD)
     ext = np.abs(xl[:, 1:]).max(axis=0)                    # the section's half extents at its widest
@@ -102,18 +105,18 @@ def build(sp: tf.Specimen, n_grid: int, engine: str, angle: str = "45", grip: st
     comp = np.cumsum(1.0 / sp.area(lx + tf.X0))
     c_cl, c_pu = np.interp([s_c, s_p], lx, comp)
     v = pull_velocity(a_pull) * np.clip((comp[layer] - c_cl) / (c_pu - c_cl), 0.0, 1.0)[:, None]
-    if grip != "along":           # the elastic solution's quasi-static field (no bending wave started by the ramp)
-        from oblique_grip import static_velocity
+    if grip == "free":           # the elastic solution's quasi-static field (no bending wave started by the ramp)
         vs = static_velocity(sp, angle, n_grid, beta, xl)
         v = vs[:, :1] * a + vs[:, 1:] * R[:, 1]
     m = Material("brittle", E=tf.E, nu=tf.NU, rho=tf.RHO, tensile_strength=tf.FT, fracture_energy=tf.GF)
     opts = {"precision": "f64", **({"threads": 1} if engine == "taichi_mpm" else {})}
     S = tf.SIZE
-    held = [] if grip == "free_set" else [Boundary("fixed_region", lo=(0, 0, 0), hi=(clamp, S, S))]
+    held = [] if grip == "free" else [Boundary("fixed_region", lo=(0, 0, 0), hi=(clamp, S, S))]
     st = make_setup(x, p_vol, m, v=v, gravity=(0, 0, 0), lo=(0, 0, 0), hi=(S, S, S), n_grid=n_grid,
                     frame_dt=tf.FRAME_DT, boundaries=held, options=opts)
-    st.impulses = [Impulse("box", tuple(pull_velocity(a_pull)), 0.0, 100.0, lo=(pulled, 0, 0), hi=(S, S, S), mode="set")]
-    if grip == "free_set":        # the clamp held as the pulled grip is: a set box at rest
+    st.impulses = [Impulse("box", tuple(pull_velocity(a_pull)), 0.0, 100.0, lo=(pulled, 0, 0), hi=(S, S, S),
+                           mode="set")]
+    if grip == "free":           # the clamp held as the pulled grip is: a set box at rest
         st.impulses.append(Impulse("box", (0.0, 0.0, 0.0), 0.0, 100.0, lo=(0, 0, 0), hi=(clamp, S, S), mode="set"))
     return st, layer, lx, R, clamp, pulled
 
@@ -172,9 +175,12 @@ def frames(st, layer, angle_case) -> dict:
             "d": d, "xs": xs, "seconds": time.time() - t0}
 
 
-def run_case(sp: tf.Specimen, n_grid: int, engine: str, angle: str = "45", build_fn=build) -> dict:
-    """One oblique specimen on one engine at one grid: ``tension_family.run_case``'s figures along the axis."""
-    st, layer, lx, R, clamp, pulled = build_fn(sp, n_grid, engine, angle)
+def run_case(sp: tf.Specimen, n_grid: int, engine: str, angle: str = "45", build_fn=build,
+             grip: str = "along") -> dict:
+    """One oblique specimen on one engine at one grid: ``tension_family.run_case``'s figures along the axis;
+    ``grip``: :func:`build`'s (``"free"`` passed on to ``build_fn``)."""
+    extra = {"grip": grip} if grip != "along" else {}
+    st, layer, lx, R, clamp, pulled = build_fn(sp, n_grid, engine, angle, **extra)
     dx, s, a, nl = st.dx, st.dx / 2, R[:, 0], len(lx)
     wgt = np.asarray(st.p_vol, np.float64) / s ** 3
     count = np.bincount(layer, wgt, nl)
@@ -207,7 +213,7 @@ def run_case(sp: tf.Specimen, n_grid: int, engine: str, angle: str = "45", build
     D = np.bincount(layer, Dp, nl) / a_gauge
     g = lx[gauge]
     return {"specimen": sp.name, "engine": engine, "n_grid": n_grid, "angle": angle, "axis": a.round(6).tolist(),
-            "band": "projected" if oblique(engine) else "dx",
+            "band": "projected" if oblique(engine) else "dx", "grip": grip,
             "dx": dx, "cells_across": sp.gauge_w / dx, "points": int(len(st.x)), "frames": n_frames,
             "seconds": round(out["seconds"], 1), "peak": peak, "peak_vs_ft": peak / tf.FT - 1,
             "crack_s": float(lx[crack]), "where": where, "section_at_crack": float(section[crack]),
@@ -252,19 +258,20 @@ def projected(engine: str, on: bool) -> None:
 
 
 def _key(r: dict) -> tuple:
-    return r["specimen"], r["angle"], r.get("band", "dx"), r["engine"], r["n_grid"]
+    return r["specimen"], r["angle"], r.get("band", "dx"), r.get("grip", "along"), r["engine"], r["n_grid"]
 
 
 def table(rows: list[dict]) -> str:
     """The Markdown table of the oblique cases."""
-    out = ["| specimen | angle | band | engine | n_grid | peak / f_t | breaks at (axial m) | gauge (axial m) | where | work "
-           "to separate (J/m^2) | vs G_f | N to 2N | dissipated (J/m^2) | s |",
-           "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    out = ["| specimen | angle | band | grip | engine | n_grid | peak / f_t | breaks at (axial m) | gauge (axial m) | "
+           "where | work to separate (J/m^2) | vs G_f | N to 2N | dissipated (J/m^2) | s |",
+           "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     by = {_key(r): r for r in rows}
     for r in sorted(rows, key=_key):
-        twin = by.get(_key(r)[:4] + (r["n_grid"] // 2,))
+        twin = by.get(_key(r)[:5] + (r["n_grid"] // 2,))
         conv = f"{100 * (r['work'] / twin['work'] - 1):+.1f} %" if twin else ""
-        out.append(f"| {r['specimen']} | {r['angle']} | {r.get('band', 'dx')} | {r['engine']} | {r['n_grid']} | "
+        out.append(f"| {r['specimen']} | {r['angle']} | {r.get('band', 'dx')} | {r.get('grip', 'along')} | "
+                   f"{r['engine']} | {r['n_grid']} | "
                    f"{r['peak'] / tf.FT:.3f} ({100 * r['peak_vs_ft']:+.1f} %) | {r['crack_s']:.3f} | "
                    f"{r['gauge'][0]:.3f}-{r['gauge'][1]:.3f} | {r['where']} | {r['work']:.1f} | "
                    f"{100 * r['work_vs_gf']:+.1f} % | {conv} | {r['dissipated']:.1f} | {r['seconds']:.0f} |")
@@ -275,6 +282,9 @@ def main() -> None:
     ap = tf.family_parser("bar_L0.9_a0.15")
     ap.add_argument("--angles", default="30,45", help="comma-separated: degrees about z, or 111")
     ap.add_argument("--projected", action="store_true", help="the band's projection on (round 34, off by default)")
+    ap.add_argument("--grip", default="along", choices=["along", "free"],
+                    help="along: a fixed_region and a pull along the axis (round 34); free: both ends set boxes, the "
+                         "pulled one drifting across the axis so it carries no transverse force (round 40)")
     a = ap.parse_args()
     projected(a.engine, a.projected)
     RESULTS.mkdir(exist_ok=True)
@@ -283,16 +293,23 @@ def main() -> None:
     for name in a.only.split(","):
         for angle in a.angles.split(","):
             for n in tf.grids(a):
-                r = run_case(SPECIMENS[name], n, a.engine, angle)
+                r = run_case(SPECIMENS[name], n, a.engine, angle, grip=a.grip)
                 print(json.dumps({k: v for k, v in r.items() if k != "damaged_layers"}), flush=True)
                 rows = tf.save_case(path, rows, r, _key)
+    write_md(rows)
+
+
+def write_md(rows: list[dict]) -> None:
+    """``results/tension_oblique.md`` from the cases ``rows``."""
     (RESULTS / "tension_oblique.md").write_text(
         "# Tension at an angle to the grid (issue 66, round 34)\n\n`python benchmarks/tension_oblique.py` (docstring: "
         "the holds and the measures, in the specimen's frame). The family's material and pull "
         "(`tension_family.py`); angle: the axis about z in degrees, or 111 along (1, 1, 1) / sqrt(3). \"gauge\": the "
-        "layers 1.5 cells (along x) from both held faces, a dog-bone's within 2 % of its gauge's section. band: dx (the "
-        "default) or projected (`--projected`: the band the cell's projection on the crack's normal, the engines' "
-        "`oblique_band`).\n\n"
+        "layers 1.5 cells (along x) from both held faces, a dog-bone's within 2 % of its gauge's section. band: dx "
+        "(the default) or projected (`--projected`: the band the cell's projection on the crack's normal, the engines' "
+        "`oblique_band`). grip: along (round 34: a `fixed_region` and a set box pulled along the axis) or free "
+        "(`--grip free`, round 40: both ends set boxes, the pulled one drifting across the axis by `oblique_grip.py`'s "
+        "`beta` so it carries no transverse force).\n\n"
         + table(rows))
 
 
