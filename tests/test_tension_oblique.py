@@ -14,9 +14,9 @@ across the axis so that it carries no transverse force (the gauge's spread 0.992
 misses there is a strict xfail with its figures (``KNOWN``).
 
 The default tier: the continuum's bending under each grip (no engine); the 2:1 dog-bone at 45 deg at n_grid 24 on
-warp_mpm on free grips (every line of the must-show at N) and its catch, the grips along the axis (the peak 0.935
-f_t); the 2:1 at 30 deg on the grips along the axis and its catch: one ``s_f`` for every point (the engine's
-``weighted_band`` off, before round 33) takes +25 % of G_f. Slow: a straight bar (no grips) at 30 deg breaks at the
+warp_mpm on free grips (every line of the must-show at N) and its two catches: the grips along the axis (the peak
+0.935 f_t) and one ``s_f`` for every point (the engine's ``weighted_band`` off, before round 33: +29 % of G_f). Slow:
+the 2:1 at 30 deg on the grips along the axis at N (it passes), a straight bar (no grips) at 30 deg breaking at the
 clamp's corner (the limit of axis-aligned holds: docs/fracture.md).
 """
 from __future__ import annotations
@@ -36,8 +36,8 @@ ANGLES = ["30", "45"]
 #: the oblique cases on free grips that miss the must-show, with the measured figures (taichi_mpm;
 #: benchmarks/results/tension_oblique.md, grip free)
 KNOWN: dict = {
-    ("dogbone_1.5to1", "45"): "work to separate 24.05 J/m^2 at n_grid 24 (+20.3 %): the band dx across a 45 deg "
-                              "crack; peak 0.987 f_t, in the gauge",
+    ("dogbone_1.5to1", "45"): "work to separate 24.05 J/m^2 at n_grid 24 (+20.3 %), 19.94 at 48 (-17.1 % between): "
+                              "the band dx across a 45 deg crack; peaks 0.987 / 0.954 f_t, in the gauge",
 }
 
 
@@ -114,19 +114,21 @@ def test_the_oblique_peak_check_catches_the_grips_along_the_axis():
     assert any("peak nominal stress" in b for b in bad), bad
 
 
+@pytest.mark.slow
 @pytest.mark.skipif("warp_mpm" not in _names(), reason="warp_mpm is not available")
-def test_a_dog_bone_at_30_deg_meets_the_must_show():
-    """The default tier's oblique case: the 2:1 dog-bone at 30 deg at n_grid 24 (peak 0.955 f_t, -4.5 %; at the
-    gauge's end; work 23.19 J/m^2, +16 %)."""
+def test_a_dog_bone_at_30_deg_on_the_grips_along_the_axis_meets_the_must_show_at_N():
+    """Round 34's holds at 30 deg, n_grid 24 (peak 0.955 f_t, -4.5 %; at the gauge's end; work 23.19 J/m^2, +16 %);
+    slow since round 40 (the default tier's oblique case is on free grips at 45 deg)."""
     assert oblique_failures(BONES[0], "30", "warp_mpm", (N,)) == []
 
 
 @pytest.mark.skipif("warp_mpm" not in _names(), reason="warp_mpm is not available")
 def test_the_oblique_work_check_catches_one_s_f(monkeypatch):
-    """The catch: one ``s_f`` for every point (``weighted_band`` off, before round 33) takes 25.1 J/m^2 (+25.5 %) on
-    the default tier's dog-bone: the work check fails it."""
+    """The catch: one ``s_f`` for every point (``weighted_band`` off, before round 33) takes 25.79 J/m^2 (+29.0 %) on
+    the default tier's dog-bone (45 deg, free grips; 21.80 with the weight): the work check fails it. (Round 34's:
+    25.1 J/m^2 at 30 deg on the grips along the axis.)"""
     one_sf(monkeypatch, "warp_mpm")
-    bad = oblique_failures(BONES[0], "30", "warp_mpm", (N,))
+    bad = oblique_failures(BONES[0], "45", "warp_mpm", (N,), grip="free")
     assert any("work to separate" in b for b in bad), bad
 
 
