@@ -14,6 +14,12 @@ along the axis the held part runs from ``HOLD`` to ``HOLD`` plus the section's e
 for a 0.15 m section at 30 deg, 0.15 m at 45 deg), so the free length is shorter than the aligned bar's and an
 oblique specimen needs to be longer for a gauge (the bar L0.7 a0.15 at 45 deg keeps none 1.5 cells from both faces).
 
+**Free grips (round 40, ``--grip free``).** Those holds bend the gauge: each face crosses the section obliquely, so
+the fibres at its two faces are held over lengths that differ by the section's thickness times ``tan(theta)``, and
+the free length carries a transverse force and a moment (the continuum's gauge strain 0.899-1.104 of its median at 45
+deg, ``oblique_grip.py``). ``grip="free"`` holds both ends by set boxes (the clamp's at rest) and drifts the pulled
+one across the axis by the ``beta`` at which it carries no transverse force (docs/fracture.md "Round 40").
+
 Measured in the specimen's frame, as ``tension_family.run_case`` does along x: a point's layer is its rest axial
 coordinate's lattice layer; ``P_aa = a . P a``; a layer's position is its points' mean ``x . a``; the gauge is the
 layers whose every point is more than 1.5 cells (along x, the faces' normal) from both faces (a dog-bone's: its
@@ -90,8 +96,8 @@ def build(sp: tf.Specimen, n_grid: int, engine: str, angle: str = "45", grip: st
     to_grid = lambda q: CENTRE + (q - mid) @ R.T              # noqa: E731
     x = to_grid(xl)
     a = R[:, 0]
-    if grip not in ("along", "free"):
-        raise ValueError(f"grip {grip!r}: 'along' or 'free'")
+    if grip not in ("along", "free") or (grip == "free" and angle == "111"):
+        raise ValueError(f"grip {grip!r} at {angle}: 'along', or 'free' about z (its drift is solved in that plane)")
     from oblique_grip import free_drift, static_velocity
     beta = free_drift(sp, angle, n_grid) if grip == "free" else 0.0
     a_pull = a + beta * R[:, 1]
