@@ -34,9 +34,9 @@ CASES = "dogbone_1.5to1:45:48,dogbone_2to1:45:48,dogbone_1.5to1:0:48,dogbone_1.5
 def face_run(engine: str, specimen: str, angle: str, n_grid: int, n_frames: int, which: str = "new",
              every: int = 1) -> dict:
     """Run ``specimen`` at ``angle`` deg on ``n_grid`` for ``n_frames`` frames with the image rule ``which``
-    (``passive_specks.image``). Returns per frame read (every ``every``-th, 1 .. n_frames) ``sv_min``, ``sv_max`` (the smallest and largest
-    singular value of ``F`` over the material points within :data:`BAND` cells of the set box's face) and ``rel``
-    (their largest ``|v - v_set|``, in pulls); with ``dx`` (m) and ``face`` (m)."""
+    (``passive_specks.image``). Returns per frame read (every ``every``-th, and the last) ``sv_min``, ``sv_max``
+    (the smallest and largest singular value of ``F`` over the material points within :data:`BAND` cells of the set
+    box's face) and ``rel`` (their largest ``|v - v_set|``, in pulls); with ``dx`` (m) and ``face`` (m)."""
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     import passive_specks as ps
     import tension_family as tf
@@ -100,10 +100,10 @@ def write_md(rows: list[dict]) -> None:
              "`python benchmarks/set_face_crush.py` (docstring). Case: specimen:angle (deg):n_grid, built through the "
              "scene (`user_oblique.prepare`, ramped set box). Over the material points within 2 cells of the set box's "
              "face, every frame: the smallest and largest singular value of `F` over the run, the first frame any is "
-             "under 0.9, the largest speed relative to the box (in pulls, 0.02 m/s), and the smallest singular value in "
-             "each 50 frames. Image rule: `new`, a set box's point's image gradient gathers each image node by its "
-             "mass over its mirror node's (`grid_tables.IMAGE_BY_MASS`); `old`, every image node with mass at full "
-             "weight.", "",
+             "under 0.9, the largest speed relative to the box (in pulls, 0.02 m/s), and the smallest singular "
+             "value in each 50 frames. Image rule: `new`, a set box's point's image gradient gathers each image node "
+             "by its mass over its mirror node's (`grid_tables.IMAGE_BY_MASS`); `old`, every image node with mass at "
+             "full weight.", "",
              "| case | engine | image rule | frames | sv min | sv max | first under 0.9 | fastest (pulls) | "
              "sv min each 50 frames | s |", "|" + "---|" * 10]
     for r in sorted(rows, key=lambda r: (r["case"], r["engine"], r["image"], r["frames"])):
