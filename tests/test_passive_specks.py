@@ -44,7 +44,9 @@ substep at every frame and no passive point goes further than ``BURST_FAR`` dx (
 3.86 dx on both engines, 3.74 dx with round 38's gather, 2.17 with round 39's; before it 4.363 cells at frames
 627, 628, 848, 893, 928 and 1011, 33.97 dx). Its catch: the old ghost rule (an image node with any mass at full
 weight) fails it on both engines (both lines, with round 38's gather too; with round 39's, on taichi_mpm, only the
-material's line: the old rule's bursts no longer take a vertex past ``BURST_FAR`` dx; warp_mpm not rerun).
+material's line: the old rule's bursts no longer take a vertex past ``BURST_FAR`` dx; warp_mpm not rerun). With the
+image gradient by mass (round 40) the old ghost rule alone no longer bursts (0.008 cells a substep, warp_mpm): the
+catch runs both old rules (``IMAGE_BY_MASS`` off too), the rules of round 36 (4.363 cells).
 """
 from __future__ import annotations
 
@@ -109,15 +111,17 @@ def _engines():
 
 @functools.cache
 def oblique_run(name: str, by_mass: bool = True) -> dict:
-    """``speck_run`` of the oblique dog-bone (1125 frames, about 110 s an engine), the set box's ghost nodes taking
-    their image nodes by mass (``by_mass``, the rule) or at full weight (the rule before round 37's fix)."""
+    """``speck_run`` of the oblique dog-bone (1125 frames, about 110 s an engine), the set box's ghost nodes and its
+    points' image gradient taking their image nodes by mass (``by_mass``, the rule) or at full weight (the rule before
+    round 37's fix: with the image gradient by mass, round 40, the old ghost rule alone no longer bursts)."""
     import sys
     from pathlib import Path
     from gasp_core.mpm import grid_tables
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
     import passive_specks as ps
-    with ps.mirror(name, "new" if by_mass else "old"):
-        assert grid_tables.MIRROR_BY_MASS == by_mass
+    which = "new" if by_mass else "old"
+    with ps.mirror(name, which), ps.image(name, which):
+        assert grid_tables.MIRROR_BY_MASS == by_mass == grid_tables.IMAGE_BY_MASS
         return specks.speck_run(name, ps.oblique_setup(name), ps.OBLIQUE_FRAMES)
 
 
@@ -160,7 +164,7 @@ def test_the_set_box_pulls_the_oblique_dog_bone_without_a_burst(name):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", _engines())
-def test_catch_the_ghost_rule_with_any_image_mass_at_full_weight_bursts(name):
+def test_catch_the_ghost_rule_and_image_gradient_with_any_image_mass_at_full_weight_burst(name):
     bad = burst_failures(oblique_run(name, by_mass=False))
     assert bad and bad[0].startswith("material at 4.36"), bad   # round 39's gather: no vertex past BURST_FAR now
 
