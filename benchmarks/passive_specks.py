@@ -9,7 +9,8 @@ dog-bone built through a scene (``benchmarks/user_tension.py``'s ``dogbone_2to1`
 ``examples/donut_shatter.toml`` (its own grid, ``--donut-frames`` frames).
 
 Run: ``python benchmarks/passive_specks.py --engine taichi_mpm`` (and ``warp_mpm``; ``--only``
-``ball,dogbone,oblique,oblique2,donut``, ``--gather``, ``--mirror new,old``: the set box's ghost rule, :func:`mirror`),
+``ball,dogbone,oblique,oblique2,donut``, ``--gather``, ``--mirror new,old``: the set box's ghost rule, :func:`mirror`;
+``--image new,old``: its image gradient, :func:`image`),
 one engine per process; rows are added to
 ``benchmarks/results/passive_specks.json`` and ``passive_specks.md`` is written from it.
 """
@@ -140,6 +141,29 @@ def mirror(engine: str, which: str):
         clear()
 
 
+@contextlib.contextmanager
+def image(engine: str, which: str):
+    """A set box's point's image gradient: ``new``, the image's nodes by mass against their mirror node
+    (``grid_tables.IMAGE_BY_MASS``, round 40); ``old``, every image node with mass at full weight (the rule before)."""
+    from gasp_core.mpm import grid_tables
+    if which not in ("new", "old"):
+        raise ValueError(f"--image: 'new' or 'old', got {which!r}")
+    old = grid_tables.IMAGE_BY_MASS
+
+    def clear():
+        if engine == "warp_mpm":
+            from gasp_warp_mpm import held_rule, kernels, transfers
+            for f in (held_rule.build_image_C, held_rule.build_held_g2p, transfers.build_g2p, kernels.build_kernels):
+                f.cache_clear()
+    grid_tables.IMAGE_BY_MASS = which == "new"
+    clear()
+    try:
+        yield
+    finally:
+        grid_tables.IMAGE_BY_MASS = old
+        clear()
+
+
 def donut_setup(engine: str):
     """``examples/donut_shatter.toml`` prepared for ``engine``."""
     from gasp_core.prepare.scene import prepare_scene
@@ -169,29 +193,32 @@ def main() -> None:
     ap.add_argument("--donut-frames", type=int, default=10)
     ap.add_argument("--gather", default="before,mass,mass_at_point,spanned", help="the gathers to run (GATHERS)")
     ap.add_argument("--mirror", default="new", help="the set box's ghost rules to run: new, old (mirror)")
+    ap.add_argument("--image", default="new", help="the set box's image gradient rules to run: new, old (image)")
     a = ap.parse_args()
     rows = json.loads(OUT.read_text()) if OUT.exists() else []
+    runs = [(g, m, i) for g in a.gather.split(",") for m in a.mirror.split(",") for i in a.image.split(",")]
     for name, build, n_frames in cases(a.engine, set(a.only.split(",")), a.donut_frames):
-        for gather, mir in [(g, m) for g in a.gather.split(",") for m in a.mirror.split(",")]:
+        for gather, mir, img in runs:
             t0 = time.perf_counter()
-            with rule(a.engine, gather), mirror(a.engine, mir):
+            with rule(a.engine, gather), mirror(a.engine, mir), image(a.engine, img):
                 r = speck_run(a.engine, build(), n_frames)
-            row = {"case": name, "engine": a.engine, "gather": gather, "mirror": mir, "frames": n_frames,
+            row = {"case": name, "engine": a.engine, "gather": gather, "mirror": mir, "image": img, "frames": n_frames,
                    "specks": r["specks"],
                    "specks_1.5": r["specks_1.5"], "specks_3": r["specks_3"],
                    "farthest_dx": [round(f, 2) for f in np.asarray(r["farthest"]) / r["dx"]],
                    "vmax_cells": [round(v * r["dt"] / r["dx"], 3) for v in r["vmax"]],
                    "n_passive": r["n_passive"], "wall_s": round(time.perf_counter() - t0, 1)}
             print(json.dumps(row), flush=True)
-            rows = [x for x in rows if _key(x) != (name, a.engine, gather, mir)]
+            rows = [x for x in rows if _key(x) != (name, a.engine, gather, mir, img)]
             rows.append(row)
             OUT.write_text(json.dumps(rows, separators=(",", ":")))
     write_md(rows)
 
 
 def _key(r: dict) -> tuple:
-    """A row's case, engine, gather and set box rule (rows before round 37's fix: the old rule)."""
-    return r["case"], r["engine"], r["gather"], r.get("mirror", "old")
+    """A row's case, engine, gather, set box ghost rule and image rule (rows before round 37's and round 40's fixes:
+    the old rules)."""
+    return r["case"], r["engine"], r["gather"], r.get("mirror", "old"), r.get("image", "old")
 
 
 def write_md(rows: list[dict]) -> None:
@@ -210,16 +237,18 @@ def write_md(rows: list[dict]) -> None:
              "docs/fracture.md \"Round 39\"). "
              "Set box rule: `old`, the ghost nodes take any image node "
              "with mass at full weight (and every row without a set box); `new`, by its mass over the ghost's "
-             "(`--mirror`, round 37's fix). Fastest: the material points' largest speed over the run, in cells a "
-             "substep.", "",
-             "| case | engine | gather | set box rule | passive points | specks at frames 0, 5, 10, ... and last | "
-             "peak | farthest at the last / over the run (dx) | fastest | s |", "|" + "---|" * 10]
+             "(`--mirror`, round 37's fix). Image rule: `old`, a set box's point near its face gathers its image "
+             "gradient from every image node with mass at full weight; `new`, each by its mass over its mirror node's "
+             "(`--image`, round 40, `grid_tables.IMAGE_BY_MASS`). Fastest: the material points' largest speed over "
+             "the run, in cells a substep.", "",
+             "| case | engine | gather | set box rule | image rule | passive points | specks at frames 0, 5, 10, ... "
+             "and last | peak | farthest at the last / over the run (dx) | fastest | s |", "|" + "---|" * 11]
     for r in sorted(rows, key=_key):
         s = r["specks"]
         step = max(5, (len(s) - 1) // 10)
         shown = s[::step] + ([s[-1]] if (len(s) - 1) % step else [])
-        lines.append(f"| {r['case']} | {r['engine']} | {r['gather']} | {_key(r)[3]} | {r['n_passive']} | "
-                     f"{' / '.join(str(x) for x in shown)} | {max(s)} | {r['farthest_dx'][-1]} / "
+        lines.append(f"| {r['case']} | {r['engine']} | {r['gather']} | {_key(r)[3]} | {_key(r)[4]} | "
+                     f"{r['n_passive']} | {' / '.join(str(x) for x in shown)} | {max(s)} | {r['farthest_dx'][-1]} / "
                      f"{max(r['farthest_dx'])} | {max(r['vmax_cells'])} | {r['wall_s']} |")
     (RESULTS / "passive_specks.md").write_text("\n".join(lines) + "\n")
 

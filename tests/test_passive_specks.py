@@ -5,9 +5,10 @@ The measure (default tier): :func:`gasp_core.testing.specks.count_specks` on a k
 points, passive points at 0.5, 0.9, 1.1 and 3 spacings above it, and one below) counts the two past the reach and
 reports the farthest; its catch, a count that ignores the reach (every passive point a speck), fails it.
 
-The must-show (slow tier, a strict xfail on both engines): the oblique 1.5:1 dog-bone at 45 deg, n_grid 48, pulled
-by a ramped set box (``benchmarks/passive_specks.py``, ``user_oblique``'s scene): at most ``OBLIQUE_SPECKS`` passive
-points further than 1 ``dx`` from every material point at any frame, none further than ``OBLIQUE_FAR`` dx. Measured
+The must-show (slow tier, both engines; a strict xfail until round 40): the oblique 1.5:1 dog-bone at 45 deg, n_grid
+48, pulled by a ramped set box (``benchmarks/passive_specks.py``, ``user_oblique``'s scene): at most
+``OBLIQUE_SPECKS`` passive points further than 1 ``dx`` from every material point at any frame, none further than
+``OBLIQUE_FAR`` dx. Measured
 with the engines' gather 138 and 33.8 dx on both (the material's bursts by the set box at nodes of tiny mass fling
 its vertices); the gather weighted by mass with its mean at the weights' centroid meets it (9 and 1.39 dx) but biases
 a surface point towards the material's centroid (the conformance ``passive_spin`` skin shrinks 0.65 % in a turn,
@@ -17,8 +18,10 @@ nodes taking their image nodes by mass (``grid_tables.MIRROR_BY_MASS``, round 37
 stands. Round 38's gather (``grid_tables.PASSIVE_SPANNED``, the rule: each node by its weight times its mass, the
 mean at the weights' centroid plus the fitted gradient along the directions the material spans, read at the point)
 takes them to 56 and 3.74 dx on both engines; round 39's (its mean moved to the material's centroid along the
-directions the material does not span, ``grid_tables.PASSIVE_MEAN_AT``) to 36 and 2.17 dx: the xfail stands, with
-those figures (docs/fracture.md "Round 39").
+directions the material does not span, ``grid_tables.PASSIVE_MEAN_AT``) to 36 and 2.17 dx. Round 40's image gradient
+by mass (``grid_tables.IMAGE_BY_MASS``: the set box's points by its face were crushed by a light node at full weight
+and shed the crumbs those vertices rode) takes them to 0 specks and 0.89 dx on both engines: it passes (the
+specimen no longer breaks through in the run: docs/fracture.md "Round 40").
 
 A skin at rest by a lone spinning material point (default tier, both engines, n_grid 24 and 32;
 :func:`gasp_core.testing.specks.slab_by_a_spinning_point`): a slab at rest, its skin, and one material point
@@ -41,7 +44,9 @@ substep at every frame and no passive point goes further than ``BURST_FAR`` dx (
 3.86 dx on both engines, 3.74 dx with round 38's gather, 2.17 with round 39's; before it 4.363 cells at frames
 627, 628, 848, 893, 928 and 1011, 33.97 dx). Its catch: the old ghost rule (an image node with any mass at full
 weight) fails it on both engines (both lines, with round 38's gather too; with round 39's, on taichi_mpm, only the
-material's line: the old rule's bursts no longer take a vertex past ``BURST_FAR`` dx; warp_mpm not rerun).
+material's line: the old rule's bursts no longer take a vertex past ``BURST_FAR`` dx; warp_mpm not rerun). With the
+image gradient by mass (round 40) the old ghost rule alone no longer bursts (0.008 cells a substep, warp_mpm): the
+catch runs both old rules (``IMAGE_BY_MASS`` off too), the rules of round 36 (4.363 cells).
 """
 from __future__ import annotations
 
@@ -106,15 +111,17 @@ def _engines():
 
 @functools.cache
 def oblique_run(name: str, by_mass: bool = True) -> dict:
-    """``speck_run`` of the oblique dog-bone (1125 frames, about 110 s an engine), the set box's ghost nodes taking
-    their image nodes by mass (``by_mass``, the rule) or at full weight (the rule before round 37's fix)."""
+    """``speck_run`` of the oblique dog-bone (1125 frames, about 110 s an engine), the set box's ghost nodes and its
+    points' image gradient taking their image nodes by mass (``by_mass``, the rule) or at full weight (the rule before
+    round 37's fix: with the image gradient by mass, round 40, the old ghost rule alone no longer bursts)."""
     import sys
     from pathlib import Path
     from gasp_core.mpm import grid_tables
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
     import passive_specks as ps
-    with ps.mirror(name, "new" if by_mass else "old"):
-        assert grid_tables.MIRROR_BY_MASS == by_mass
+    which = "new" if by_mass else "old"
+    with ps.mirror(name, which), ps.image(name, which):
+        assert grid_tables.MIRROR_BY_MASS == by_mass == grid_tables.IMAGE_BY_MASS
         return specks.speck_run(name, ps.oblique_setup(name), ps.OBLIQUE_FRAMES)
 
 
@@ -144,9 +151,6 @@ def burst_failures(r: dict) -> list[str]:
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="measured 36 specks, the farthest 2.17 dx, with round 39's gather (56, "
-                                       "3.74 dx with round 38's; docs/fracture.md \"Round 39\"): vertices by the "
-                                       "pulled grip's face over the material points its face sheds at frames 500-525")
 @pytest.mark.parametrize("name", _engines())
 def test_the_pulled_oblique_dog_bone_leaves_no_speck(name):
     assert oblique_failures(name) == []
@@ -160,7 +164,7 @@ def test_the_set_box_pulls_the_oblique_dog_bone_without_a_burst(name):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", _engines())
-def test_catch_the_ghost_rule_with_any_image_mass_at_full_weight_bursts(name):
+def test_catch_the_ghost_rule_and_image_gradient_with_any_image_mass_at_full_weight_burst(name):
     bad = burst_failures(oblique_run(name, by_mass=False))
     assert bad and bad[0].startswith("material at 4.36"), bad   # round 39's gather: no vertex past BURST_FAR now
 

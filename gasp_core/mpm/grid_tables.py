@@ -40,6 +40,11 @@ SET_ON = 1.0
 #: set box's bursts"): each lends ``v_set + min(1, m_image / m_ghost) (v_image - v_set)``, not ``v_image`` at full
 #: weight whenever it has any mass. A switch (read when the engines build their kernels) to run the old rule as a catch.
 MIRROR_BY_MASS = True
+#: A set box's point near its face gathers its image gradient (``image_C``) from the image's stencil nodes by the same
+#: share (round 40, docs/fracture.md "Round 40"): node ``J`` lends ``v_set + min(1, m_J / m_K) (v_J - v_set)``, ``K``
+#: the node nearest ``J``'s mirror image across the face (the ghost that takes it), not ``v_J`` at full weight. A
+#: switch (read when the engines build their kernels) to run the old rule as a catch.
+IMAGE_BY_MASS = True
 #: The passive points' gather (round 38, docs/fracture.md "Round 38"): off, the engines' gather (each node by its
 #: B-spline weight, renormalised over the nodes with mass; their own round 37 variants). On, each node by its weight
 #: times its mass ``w = N m``: the mean velocity at the weights' centroid ``x_bar``, plus the gradient fitted by

@@ -131,6 +131,25 @@ class Forces:
         return v
 
     @ti.func
+    def image_node_v(self, p, J, a, f, q):
+        """The velocity (m/s) node ``J`` of the image stencil of a point ``p`` in set box ``q`` (-1: none) lends
+        :meth:`gasp_taichi_mpm.grid.GridUpdate.image_C`, the face at ``f`` (m) along axis ``a``: by :meth:`image_share`
+        against ``K``, the node nearest ``J``'s mirror image (the ghost that takes ``J``), so a node of tiny mass and
+        large speed at the image's stencil does not set the point's gradient (docs/fracture.md "Round 40").
+        ``grid_tables.IMAGE_BY_MASS`` off, or no set box: :meth:`node_v`."""
+        v = self.node_v(p, J)
+        if ti.static(grid_tables.IMAGE_BY_MASS):
+            if q >= 0:
+                K = J
+                k = ti.round(2.0 * (f - self.lo[None][a]) * self.inv_dx[None] - ti.cast(J[a], self.real))
+                K[a] = ti.min(ti.max(ti.cast(k, ti.i32), 0), self.n_grid - 1)
+                mk = self.grid_m[K]
+                if mk > 0.0:
+                    vs = self.set_velocity(q, self.impulse_weight(q))
+                    v = vs + ti.min(1.0, self.grid_m[J] / mk) * (v - vs)
+        return v
+
+    @ti.func
     def set_box_at(self, X):
         """The index of a box impulse of ``mode = "set"`` acting now that holds ``X``, else -1."""
         base = self.ex_step[None] * self.ex_width

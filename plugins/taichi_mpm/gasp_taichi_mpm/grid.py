@@ -239,7 +239,7 @@ class GridUpdate(GroundTouch):
         image's stencil has no mass: no material there to follow, as past a T rod's head)."""
         X = self.x[p]
         f = X[a]
-        best = ti.cast(1e30, self.real)
+        best, qs = ti.cast(1e30, self.real), -1   # qs: the set box (its image nodes by mass, image_node_v)
         if ti.static(self.any_fixed):
             if self.fixed[p] >= HELD_STRAINED:
                 for b in ti.static(range(self.n_regions)):
@@ -255,9 +255,9 @@ class GridUpdate(GroundTouch):
                 if q >= 0:
                     c, b = self.impulse_corners(q)
                     if X[a] - c[a] < best:
-                        best, f = X[a] - c[a], c[a]
+                        best, f, qs = X[a] - c[a], c[a], q
                     if b[a] - X[a] < best:
-                        best, f = b[a] - X[a], b[a]
+                        best, f, qs = b[a] - X[a], b[a], q
         out = C
         if best < 1e29:
             Xi = X
@@ -269,7 +269,7 @@ class GridUpdate(GroundTouch):
                 B = ti.Matrix.zero(self.real, 3, 3)
                 full = True   # the image's stencil all in material (else the ghosts' C: no image to follow)
                 for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
-                    gv = w[i][0] * w[j][1] * w[k][2] * self.node_v(p, base + ti.Vector([i, j, k]))
+                    gv = w[i][0] * w[j][1] * w[k][2] * self.image_node_v(p, base + ti.Vector([i, j, k]), a, f, qs)
                     v += gv
                     B += gv.outer_product(ti.Vector([float(i), float(j), float(k)], self.real))
                     full = full and self.grid_m[base + ti.Vector([i, j, k])] > 0.0

@@ -23,12 +23,14 @@ import functools
 
 import warp as wp
 
+from gasp_core.mpm import grid_tables
 from gasp_core.mpm.grid_tables import (COL_POSE, FT_POSES, IM_A, IM_B, IM_MODE, IM_SHAPE, IMPULSE_ADD,
                                        IMPULSE_BOX, IMPULSE_ROW)
 from gasp_core.mpm.materials import BRITTLE
 from gasp_core.mpm.points import HELD_STRAINED, SET_FACE_CELLS
 
 from .constitutive import build_decompositions
+from .fields import build_field_reads
 from .forces import build_extras_struct, build_set_velocity
 from .precision import MODULE_OPTIONS, build_types
 from .stencil import build_gather, build_stencil
@@ -83,6 +85,44 @@ def build_held_tau(Ft):
 
 
 @functools.cache
+def build_image_gather(Ft):
+    """``image_gather(grid_v, grid_dv, grid_m, off, W, base, n_grid, a, f, lo, inv_dx, vs)``: ``(v, B)`` as
+    ``stencil.build_gather``'s over the image's 27 nodes from node ``base`` (``wp.vec3i``), each node ``J`` by its share
+    against ``K``, the node nearest its mirror image across the face at ``f`` (m) along axis ``a`` (the ghost that takes
+    it, ``held.build_mirror``'s ``image_share``): ``vs + min(1, m_J / m_K) (v_J - vs)``, ``vs`` the set box's velocity
+    (m/s), ``v_J`` where ``K`` has no mass (docs/fracture.md "Round 40"; taichi_mpm's ``Forces.image_node_v``)."""
+    vec3, vec4, mat33 = build_types(Ft)
+    field_node_v = build_field_reads(Ft)[1]
+
+    @wp.func
+    def image_gather(grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), grid_m: wp.array(dtype=Ft),
+                     off: int, W: mat33, base: wp.vec3i, n_grid: int, a: int, f: Ft, lo: vec3, inv_dx: Ft, vs: vec3):
+        v = vec3(Ft(0.0))
+        B = mat33(Ft(0.0))
+        stride = int(1)
+        if a == 0:
+            stride = n_grid * n_grid
+        elif a == 1:
+            stride = n_grid
+        for q in range(27):
+            ijk = wp.vec3i(q / 9, (q / 3) % 3, q % 3)
+            J = base + ijk
+            node = (J[0] * n_grid + J[1]) * n_grid + J[2]
+            g = field_node_v(grid_v, grid_dv, off, node)
+            k = int(wp.round(Ft(2.0) * (f - lo[a]) * inv_dx - Ft(J[a])))
+            k = wp.min(wp.max(k, 0), n_grid - 1)
+            mk = grid_m[node + (k - J[a]) * stride]
+            if mk > Ft(0.0):
+                g = vs + wp.min(Ft(1.0), grid_m[node] / mk) * (g - vs)
+            wg = (W[ijk[0], 0] * W[ijk[1], 1] * W[ijk[2], 2]) * g
+            v = v + wg
+            B = B + wp.outer(wg, vec3(Ft(ijk[0]), Ft(ijk[1]), Ft(ijk[2])))
+        return v, B
+
+    return image_gather
+
+
+@functools.cache
 def build_image_C(Ft):
     """``image_C(C, a, code, X, ex, fixed_lo, fixed_hi, grid_v, grid_dv,
     grid_m, off, lo, inv_dx, n_grid)``: the velocity gradient (1/s, ``mat33``) of a brittle point at ``X`` (m)
@@ -96,7 +136,9 @@ def build_image_C(Ft):
     from .held import build_image_flip   # held.py's P2G rule imports this module
     held_axis, image_flip, set_box_at = build_image_flip(Ft)
     in_grid, weights = build_stencil(Ft)
-    gather = build_gather(Ft)
+    gather, image_gather = build_gather(Ft), build_image_gather(Ft)
+    set_box_row = build_set_box_row(Ft)
+    by_mass = int(bool(grid_tables.IMAGE_BY_MASS))   # read when the kernels are built
 
     @wp.func
     def image_C(Cp: mat33, a: int, code: int, X: vec3, ex: Extras, fixed_lo: wp.array(dtype=vec3),
@@ -116,6 +158,7 @@ def build_image_C(Ft):
                     if fhi[a] - X[a] < best:
                         best = fhi[a] - X[a]
                         f = fhi[a]
+        qs = int(-1)   # the set box (its image nodes by mass: image_gather)
         if code == 0:
             q = set_box_at(X, ex)
             if q >= 0:
@@ -124,9 +167,11 @@ def build_image_C(Ft):
                 if X[a] - c < best:
                     best = X[a] - c
                     f = c
+                    qs = q
                 if h - X[a] < best:
                     best = h - X[a]
                     f = h
+                    qs = q
         out = Cp
         if best < Ft(1e29):
             Xi = vec3(X[0], X[1], X[2])
@@ -140,6 +185,10 @@ def build_image_C(Ft):
                 W = weights(fx)
                 idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
                 v, B = gather(grid_v, grid_dv, off, W, idx0, n_grid)
+                if by_mass != 0 and qs >= 0:
+                    c_, b_, vs, on_ = set_box_row(ex, qs)
+                    v, B = image_gather(grid_v, grid_dv, grid_m, off, W, wp.vec3i(int(b0), int(b1), int(b2)),
+                                        n_grid, a, f, lo, inv_dx, vs)
                 full = int(1)   # the image's stencil all in material (else the ghosts' C: no image to follow)
                 for q in range(27):
                     if grid_m[idx0 + ((q / 9) * n_grid + (q / 3) % 3) * n_grid + q % 3] <= Ft(0.0):
