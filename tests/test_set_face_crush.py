@@ -16,6 +16,12 @@ value of ``F`` of the material within 2 cells of the set box's face in ``[1 - SV
 relative to the box under :data:`REL_MAX` pulls. Measured with the rule on warp_mpm: 0.9922-1.0216, 0.58 pulls.
 The catch, the old rule (``IMAGE_BY_MASS`` off): the 1.5:1 at 45 deg, n_grid 24 reads 0.9472-1.0836 and the 2:1 at
 45 deg, n_grid 32, up to 1.0593 (at n_grid 48, 0.0000-1.2548 and 352 pulls).
+
+The clamp (round 40, docs/fracture.md "Round 40: the clamp's face"): the same band by the ``fixed_region``'s face,
+its ghost nodes taking their image nodes by mass (``grid_tables.FIXED_BY_MASS``, held velocity 0), on the
+dog-bones at 45 deg (n_grid 24 to 48) and the aligned 1.5:1 (48). Measured on warp_mpm: 0.9884-1.0198, 0.45 pulls.
+The catch, the old ghost rule (``FIXED_BY_MASS`` off): the 1.5:1 at 45 deg, n_grid 24 reads 0.9504-1.0420 (its
+held points; at n_grid 48, 0.0008-1.1742).
 """
 from __future__ import annotations
 
@@ -72,7 +78,8 @@ def test_catch_the_image_gradient_with_every_node_at_full_weight_crushes(engine,
 
 #: The clamp's family (round 40, docs/fracture.md "Round 40: the clamp's face"): the oblique dog-bones at 45 deg and the
 #: aligned 1.5:1, held by a ``fixed_region`` whose ghost nodes take their image nodes by mass (``FIXED_BY_MASS``)
-CLAMP_FAMILY = [("dogbone_1.5to1", "45", 48), ("dogbone_2to1", "45", 48), ("dogbone_1.5to1", "0", 32)]
+CLAMP_FAMILY = [("dogbone_1.5to1", "45", 24), ("dogbone_2to1", "45", 32), ("dogbone_1.5to1", "45", 48),
+                ("dogbone_2to1", "45", 48), ("dogbone_1.5to1", "0", 48)]
 
 
 @pytest.mark.slow
@@ -85,5 +92,5 @@ def test_a_clamp_holds_a_specimen_without_crushing_the_material_by_its_face(engi
 @pytest.mark.slow
 @pytest.mark.parametrize("engine", _engines())
 def test_catch_the_clamps_ghosts_with_every_image_node_at_full_weight_crush(engine):
-    bad = crush_failures(engine, "dogbone_1.5to1", "45", 48, "old", "clamp")
+    bad = crush_failures(engine, "dogbone_1.5to1", "45", 24, "old", "clamp")
     assert bad and bad[0].startswith("F's singular values"), bad
