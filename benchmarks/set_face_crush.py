@@ -11,6 +11,9 @@ length from frame 502 and springing off at 2-3.9 m/s at frames 518-524 (the shed
 Round 40 traced it to a set box's point 0.29 cells inside the face whose ``F`` the image gradient crushed (singular
 value 0.007 at frame 480) from a node of tiny mass at its image's stencil; this measures that crush on a family.
 
+``--face clamp`` reads the same band by the ``fixed_region``'s face (held at rest), ``--image`` then naming its ghost
+rule: ``new`` its image nodes by mass (``grid_tables.FIXED_BY_MASS``, round 40's clamp fix), ``old`` at full weight.
+
 Run: ``python benchmarks/set_face_crush.py --engine warp_mpm`` (and ``taichi_mpm``; ``--cases``
 ``dogbone_1.5to1:45:48,...`` as specimen:angle:n_grid, ``--image new,old``, ``--frames``); rows are added to
 ``benchmarks/results/set_face_crush.json`` and ``set_face_crush.md`` is written from it. One engine per process.
