@@ -16,6 +16,12 @@ value of ``F`` of the material within 2 cells of the set box's face in ``[1 - SV
 relative to the box under :data:`REL_MAX` pulls. Measured with the rule on warp_mpm: 0.9922-1.0216, 0.58 pulls.
 The catch, the old rule (``IMAGE_BY_MASS`` off): the 1.5:1 at 45 deg, n_grid 24 reads 0.9472-1.0836 and the 2:1 at
 45 deg, n_grid 32, up to 1.0593 (at n_grid 48, 0.0000-1.2548 and 352 pulls).
+
+The clamp (round 40, docs/fracture.md "Round 40: the clamp's face"): the same band by the ``fixed_region``'s face,
+its ghost nodes taking their image nodes by mass (``grid_tables.FIXED_BY_MASS``, held velocity 0), on the
+dog-bones at 45 deg (n_grid 24 to 48) and the aligned 1.5:1 (48). Measured on warp_mpm: 0.9884-1.0198, 0.45 pulls.
+The catch, the old ghost rule (``FIXED_BY_MASS`` off): the 1.5:1 at 45 deg, n_grid 24 reads 0.9504-1.0420 (its
+held points; at n_grid 48, 0.0008-1.1742).
 """
 from __future__ import annotations
 
@@ -40,10 +46,12 @@ def _engines():
     return [n for n, i in engines().items() if i.unavailable_reason() is None and n in ("taichi_mpm", "warp_mpm")]
 
 
-def crush_failures(engine: str, specimen: str, angle: str, n_grid: int, which: str = "new") -> list[str]:
-    """The band by the set box's face over :data:`FRAMES` frames against :data:`SV_TOL` and :data:`REL_MAX`."""
+def crush_failures(engine: str, specimen: str, angle: str, n_grid: int, which: str = "new",
+                   at: str = "set") -> list[str]:
+    """The band by the face ``at`` (``"set"`` the set box's, ``"clamp"`` the fixed region's) over :data:`FRAMES`
+    frames against :data:`SV_TOL` and :data:`REL_MAX`."""
     import set_face_crush as sfc
-    r = sfc.face_run(engine, specimen, angle, n_grid, FRAMES, which, EVERY)
+    r = sfc.face_run(engine, specimen, angle, n_grid, FRAMES, which, EVERY, at)
     lo, hi, rel = min(r["sv_min"]), max(r["sv_max"]), max(r["rel"])
     out = []
     if not (lo >= 1 - SV_TOL and hi <= 1 + SV_TOL):
@@ -65,4 +73,24 @@ def test_a_set_box_pulls_a_specimen_without_crushing_the_material_by_its_face(en
 @pytest.mark.parametrize("engine", _engines())
 def test_catch_the_image_gradient_with_every_node_at_full_weight_crushes(engine, specimen, angle, n_grid):
     bad = crush_failures(engine, specimen, angle, n_grid, "old")
+    assert bad and bad[0].startswith("F's singular values"), bad
+
+
+#: The clamp's family (round 40, docs/fracture.md "Round 40: the clamp's face"): the oblique dog-bones at 45 deg and the
+#: aligned 1.5:1, held by a ``fixed_region`` whose ghost nodes take their image nodes by mass (``FIXED_BY_MASS``)
+CLAMP_FAMILY = [("dogbone_1.5to1", "45", 24), ("dogbone_2to1", "45", 32), ("dogbone_1.5to1", "45", 48),
+                ("dogbone_2to1", "45", 48), ("dogbone_1.5to1", "0", 48)]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("specimen, angle, n_grid", CLAMP_FAMILY, ids=[f"{s}-{a}-{n}" for s, a, n in CLAMP_FAMILY])
+@pytest.mark.parametrize("engine", _engines())
+def test_a_clamp_holds_a_specimen_without_crushing_the_material_by_its_face(engine, specimen, angle, n_grid):
+    assert crush_failures(engine, specimen, angle, n_grid, at="clamp") == []
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("engine", _engines())
+def test_catch_the_clamps_ghosts_with_every_image_node_at_full_weight_crush(engine):
+    bad = crush_failures(engine, "dogbone_1.5to1", "45", 24, "old", "clamp")
     assert bad and bad[0].startswith("F's singular values"), bad

@@ -40,6 +40,11 @@ SET_ON = 1.0
 #: set box's bursts"): each lends ``v_set + min(1, m_image / m_ghost) (v_image - v_set)``, not ``v_image`` at full
 #: weight whenever it has any mass. A switch (read when the engines build their kernels) to run the old rule as a catch.
 MIRROR_BY_MASS = True
+#: A ``fixed_region``'s ghost nodes (a clamp's, held at 0) take their image nodes by the same share, ``min(1, m_image
+#: / m_ghost) v_image`` (round 40, docs/fracture.md "Round 40: the clamp's face"): with every image node at full
+#: weight a node of tiny mass and large speed past the clamp's face crushed its held points' ``F`` (singular value
+#: 0.0008 on the oblique 1.5:1 at n_grid 48). A switch (read when the engines build their kernels) for the catch.
+FIXED_BY_MASS = True
 #: A set box's point near its face gathers its image gradient (``image_C``) from the image's stencil nodes by the same
 #: share (round 40, docs/fracture.md "Round 40"): node ``J`` lends ``v_set + min(1, m_J / m_K) (v_J - v_set)``, ``K``
 #: the node nearest ``J``'s mirror image across the face (the ghost that takes it), not ``v_J`` at full weight. A

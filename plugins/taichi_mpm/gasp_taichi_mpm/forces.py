@@ -122,9 +122,10 @@ class Forces:
         v_set)``, ``s = min(1, m_J / m_I)`` the image's mass over the ghost's (1 where ``I`` has none), so a node of
         tiny mass (reached by one far point's stencil corner, whose stress term carries any speed) lends its speed in
         proportion to the material it holds, not at full weight (docs/fracture.md, round 37: the set box's bursts).
-        ``gasp_core.mpm.grid_tables.MIRROR_BY_MASS`` off: ``v_J``."""
+        ``gasp_core.mpm.grid_tables.MIRROR_BY_MASS`` off (a set box's, ``empty``) or ``FIXED_BY_MASS`` off (a fixed
+        region's, ``v_set`` 0; round 40): ``v_J``."""
         v = self.grid_v[J]
-        if ti.static(empty and grid_tables.MIRROR_BY_MASS):   # a set box's ghost (a fixed region's: v_J)
+        if ti.static(grid_tables.MIRROR_BY_MASS if empty else grid_tables.FIXED_BY_MASS):
             mi = self.grid_m[I]
             if mi > 0.0:
                 v = v_set + ti.min(1.0, self.grid_m[J] / mi) * (v - v_set)

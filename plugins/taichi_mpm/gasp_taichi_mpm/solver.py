@@ -36,6 +36,7 @@ import numpy as np
 import taichi as ti
 
 # Material codes and the per-body parameter columns (``MPMSolver.mat``) are gasp_core.mpm.materials'.
+from gasp_core.mpm import grid_tables
 from gasp_core.mpm.substeps import passive_schedule
 from gasp_core.seam import SceneError
 from gasp_core.mpm.contact import collider_grid_depth
@@ -212,7 +213,8 @@ class MPMSolver(Transfers, ColouredP2G, TileP2G, FixedPointP2G, Constitutive, Gr
         self.grid_v0 = ti.Vector.field(3, real, shape=(ng, ng, ng) if self.flip > 0 else (1, 1, 1))  # AFLIP's v_i^n
         self.grid_v = ti.Vector.field(3, real, shape=(ng, ng, ng))
         # node mass of the last grid update, read by the passive points' G2P (only with passive points)
-        self.keep_mass = self.has_passive or self.n_set_boxes > 0   # and the set boxes' ghost nodes (grid.py)
+        # and the held boxes' ghost nodes (grid.py; a fixed region's under grid_tables.FIXED_BY_MASS)
+        self.keep_mass = self.has_passive or self.n_set_boxes > 0 or (self.n_regions > 0 and grid_tables.FIXED_BY_MASS)
         self.grid_m = ti.field(real, shape=(ng, ng, ng) if self.keep_mass else (1, 1, 1))
         self.allocate_cut()   # the fixed regions' broken faces (grid.py)
         self.box = ti.Vector.field(3, ti.i32, shape=(self.n_chunks, 2))  # touched node box per chunk

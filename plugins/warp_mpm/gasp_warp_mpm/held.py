@@ -39,12 +39,13 @@ def build_mirror(Ft):
     set_box_row = build_set_box_row(Ft)
 
     by_mass = int(grid_tables.MIRROR_BY_MASS)
+    fixed_by_mass = int(grid_tables.FIXED_BY_MASS)   # a fixed region's image nodes too (round 40)
 
     @wp.func
     def image_share(v_set: vec3, grid_v: wp.array(dtype=vec3), grid_m: wp.array(dtype=Ft), j: int, node: int,
                     empty: int):
-        v = grid_v[j]   # a set box's image node by its mass over the ghost's (taichi_mpm's Forces.image_share)
-        if by_mass != 0 and empty != 0:
+        v = grid_v[j]   # an image node by its mass over the ghost's (taichi_mpm's Forces.image_share)
+        if (by_mass != 0 and empty != 0) or (fixed_by_mass != 0 and empty == 0):
             mi = grid_m[node]
             if mi > Ft(0.0):
                 v = v_set + wp.min(Ft(1.0), grid_m[j] / mi) * (v - v_set)
