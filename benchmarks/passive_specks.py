@@ -120,48 +120,42 @@ def oblique_setup(engine: str, name: str = "dogbone_1.5to1"):
 
 
 @contextlib.contextmanager
+def rule_switch(engine: str, flag: str, which: str, option: str, caches=()):
+    """Run with ``grid_tables.<flag>`` on (``which == "new"``) or off (``"old"``), the kernel builders named in
+    ``caches`` (``(module, function)`` of ``gasp_warp_mpm``) cleared on the way in and out so warp_mpm rebuilds with
+    it (taichi_mpm reads the flag when it builds). Raises ``ValueError`` naming ``option`` on another ``which``."""
+    import importlib
+
+    from gasp_core.mpm import grid_tables
+    if which not in ("new", "old"):
+        raise ValueError(f"{option}: 'new' or 'old', got {which!r}")
+    old = getattr(grid_tables, flag)
+
+    def clear():
+        if engine == "warp_mpm":
+            for mod, fn in caches:
+                getattr(importlib.import_module(f"gasp_warp_mpm.{mod}"), fn).cache_clear()
+    setattr(grid_tables, flag, which == "new")
+    clear()
+    try:
+        yield
+    finally:
+        setattr(grid_tables, flag, old)
+        clear()
+
+
 def mirror(engine: str, which: str):
     """The set box's ghost rule: ``new``, image nodes by mass (``grid_tables.MIRROR_BY_MASS``, round 37); ``old``,
     any image node with mass at full weight (the rule before)."""
-    from gasp_core.mpm import grid_tables
-    if which not in ("new", "old"):
-        raise ValueError(f"--mirror: 'new' or 'old', got {which!r}")
-    old = grid_tables.MIRROR_BY_MASS
-
-    def clear():
-        if engine == "warp_mpm":
-            from gasp_warp_mpm import held
-            held.build_mirror.cache_clear()
-    grid_tables.MIRROR_BY_MASS = which == "new"
-    clear()
-    try:
-        yield
-    finally:
-        grid_tables.MIRROR_BY_MASS = old
-        clear()
+    return rule_switch(engine, "MIRROR_BY_MASS", which, "--mirror", [("held", "build_mirror")])
 
 
-@contextlib.contextmanager
 def image(engine: str, which: str):
     """A set box's point's image gradient: ``new``, the image's nodes by mass against their mirror node
     (``grid_tables.IMAGE_BY_MASS``, round 40); ``old``, every image node with mass at full weight (the rule before)."""
-    from gasp_core.mpm import grid_tables
-    if which not in ("new", "old"):
-        raise ValueError(f"--image: 'new' or 'old', got {which!r}")
-    old = grid_tables.IMAGE_BY_MASS
-
-    def clear():
-        if engine == "warp_mpm":
-            from gasp_warp_mpm import held_rule, kernels, transfers
-            for f in (held_rule.build_image_C, held_rule.build_held_g2p, transfers.build_g2p, kernels.build_kernels):
-                f.cache_clear()
-    grid_tables.IMAGE_BY_MASS = which == "new"
-    clear()
-    try:
-        yield
-    finally:
-        grid_tables.IMAGE_BY_MASS = old
-        clear()
+    return rule_switch(engine, "IMAGE_BY_MASS", which, "--image",
+                       [("held_rule", "build_image_C"), ("held_rule", "build_held_g2p"), ("transfers", "build_g2p"),
+                        ("kernels", "build_kernels")])
 
 
 def donut_setup(engine: str):

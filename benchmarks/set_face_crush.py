@@ -21,7 +21,6 @@ Run: ``python benchmarks/set_face_crush.py --engine warp_mpm`` (and ``taichi_mpm
 from __future__ import annotations
 
 import argparse
-import contextlib
 import json
 import sys
 import time
@@ -35,26 +34,11 @@ BAND = 2.0   # cells either side of the set box's face
 CASES = "dogbone_1.5to1:45:48,dogbone_2to1:45:48,dogbone_1.5to1:0:48,dogbone_1.5to1:45:32,bar_L0.9_a0.15:45:32"
 
 
-@contextlib.contextmanager
 def fixed(engine: str, which: str):
     """A ``fixed_region``'s ghost rule: ``new``, its image nodes by mass (``grid_tables.FIXED_BY_MASS``, round 40);
     ``old``, any image node with mass at full weight (the rule before). Raises ``ValueError`` on another name."""
-    from gasp_core.mpm import grid_tables
-    if which not in ("new", "old"):
-        raise ValueError(f"--image at the clamp: 'new' or 'old', got {which!r}")
-    old = grid_tables.FIXED_BY_MASS
-
-    def clear():
-        if engine == "warp_mpm":
-            from gasp_warp_mpm import held
-            held.build_mirror.cache_clear()
-    grid_tables.FIXED_BY_MASS = which == "new"
-    clear()
-    try:
-        yield
-    finally:
-        grid_tables.FIXED_BY_MASS = old
-        clear()
+    import passive_specks as ps
+    return ps.rule_switch(engine, "FIXED_BY_MASS", which, "--image at the clamp", [("held", "build_mirror")])
 
 
 def face_run(engine: str, specimen: str, angle: str, n_grid: int, n_frames: int, which: str = "new",
