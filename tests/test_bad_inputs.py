@@ -94,7 +94,7 @@ def _(d, ply, v):
 
 
 @case("material-key-unused", "material 'jelly' does not use ['yield_stress']", "metal",
-      "['E', 'model', 'name', 'nu', 'restitution', 'rho', 'viscosity']")
+      "['E', 'friction', 'model', 'name', 'nu', 'restitution', 'rho', 'viscosity']")
 def _(d, ply, v):   # issue 33: a key the chosen material ignores was accepted silently
     return simulate(d, scene_text(ply, material='name = "jelly"\nyield_stress = 5e3'))
 

@@ -7,6 +7,7 @@ import pytest
 from gasp_testing import scene_text
 
 from gasp_core.errors import SceneError
+from gasp_core.mpm.contact import FLOWING
 from gasp_core.scene import keys_doc
 from gasp_core.scene.spec import ObjectSpec, Scene, load_scene, parse_scene
 from gasp_core.seam.schema import DEFAULT_MATERIAL, MATERIAL_KINDS, MATERIAL_PARAMS, RIGID_KINDS, Param, in_range
@@ -54,6 +55,7 @@ def test_each_material_takes_its_own_keys_at_their_defaults_and_refuses_the_othe
         msg = str(e.value)
         assert "\n" not in msg and f"material {name!r} does not use [{key!r}]" in msg, msg
         model = {"model", "restitution"} if name in RIGID_KINDS else set()   # issues 40, 53: the elastic materials
+        model |= {"friction"} if name not in FLOWING + ("rigid",) else set()   # issue 67: the grid engines' solids
         assert f"{name!r} takes {sorted({'name', *own, *model})}" in msg, msg   # take model and restitution
 
 
@@ -61,7 +63,7 @@ def test_jelly_with_a_yield_stress_is_one_line_naming_the_keys_jelly_takes(donut
     with pytest.raises(SceneError) as e:
         load_scene(write_scene(scene_text(donut_small, material='name = "jelly"\nyield_stress = 5e3')))
     assert str(e.value).endswith("[[object]] #1.material: material 'jelly' does not use ['yield_stress'] (a key "
-                                 "of metal, plasticine); 'jelly' takes ['E', 'model', 'name', 'nu', 'restitution', "
+                                 "of metal, plasticine); 'jelly' takes ['E', 'friction', 'model', 'name', 'nu', 'restitution', "
                                  "'rho', 'viscosity']")
     # no name: the default material (jelly) is the one that refuses it
     with pytest.raises(SceneError, match="material 'jelly' does not use"):

@@ -163,7 +163,9 @@ def uses_fields(setup) -> bool:
 def field_friction(setup) -> float:
     """The Coulomb coefficient between the two fields, dimensionless. Flowing bodies: ``tan(phi)`` of their largest
     friction angle (sand: its ``friction_angle``, degrees; the angle of the sand's internal friction taken as its
-    friction on the other body's surface); 0 where no flowing body has one (liquid, snow: they slide freely). Two
+    friction on the other body's surface), combined (:func:`combine_friction`) with the other bodies' ``friction``
+    where they name one (the smallest: one field takes one coefficient); 0 where no flowing body has a friction
+    angle (liquid, snow: they slide freely). Two
     soft bodies (:func:`soft_pair`), two rigid ones (:func:`rigid_pair`) or one of each (:func:`mixed_pair`): the
     pair's (:func:`combine_friction` of each body's :func:`body_friction`)."""
     if contact_model(setup) != "mixed":
@@ -171,12 +173,16 @@ def field_friction(setup) -> float:
         return combine_friction(mus[0], mus[-1])
     flows = flowing_bodies(setup, "mixed")
     angles = [m.friction_angle for m, f in zip(setup.materials, flows) if f and m.name == "sand"]
-    return math.tan(math.radians(max(angles))) if angles else 0.0
+    if not angles:
+        return 0.0
+    own = math.tan(math.radians(max(angles)))
+    named = [m.friction for m, f in zip(setup.materials, flows) if not f and m.friction is not None]
+    return combine_friction(own, min(named)) if named else own
 
 
 def body_friction(material) -> float:
-    """A body's Coulomb coefficient against another body: its material's ``friction`` where it has one (a setup built
-    in code; no scene key yet), else :data:`SOLID_FRICTION`."""
+    """A body's Coulomb coefficient against another body: its material's ``friction`` where it has one (the scene key
+    ``friction``, :data:`gasp_core.seam.schema.FRICTION_KINDS`), else :data:`SOLID_FRICTION`."""
     mu = getattr(material, "friction", None)
     return SOLID_FRICTION if mu is None else float(mu)
 

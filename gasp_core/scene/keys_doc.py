@@ -9,9 +9,10 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from gasp_core.mpm.fields import SOLID_FRICTION
 from gasp_core.mpm.restitution import BOUNDARY_RESTITUTION, DEFAULT_RESTITUTION, SUBSTANCES
-from gasp_core.seam.schema import (BODY_MODEL_DOCS, BODY_MODELS, DEFAULT_MATERIAL, MATERIAL_KINDS, MATERIAL_PARAMS,
-                                   RIGID_KINDS)
+from gasp_core.seam.schema import (BODY_MODEL_DOCS, BODY_MODELS, DEFAULT_MATERIAL, FRICTION_KINDS, MATERIAL_KINDS,
+                                   MATERIAL_PARAMS, MAX_FRICTION, RIGID_KINDS, body_keys)
 
 HEADER = ("<!-- Generated from gasp_core/seam/schema.py by `python -m gasp_core.scene.keys_doc`; do not edit by hand "
           "(tests/test_scene_schema.py checks it). -->")
@@ -34,7 +35,7 @@ def scene_keys_markdown() -> str:
              "its default. Units are SI. An engine may accept a narrower range (`gasp engines` lists its "
              "limits).", "", "## Materials", "", "| `name` | model | keys (besides `name`) |", "|---|---|---|"]
     for name, kind in MATERIAL_KINDS.items():
-        keys = kind.keys + (("model", "restitution") if name in RIGID_KINDS else ())
+        keys = kind.keys + body_keys(name)
         lines.append(f"| `{name}` | {kind.doc} | {', '.join(f'`{k}`' for k in keys)} |")
     lines += ["", "## Parameters", "", "| key | default | range | unit | meaning | used by |",
               "|---|---|---|---|---|---|"]
@@ -54,6 +55,15 @@ def scene_keys_markdown() -> str:
               "vibration; the key does not act on them.", "",
               "| substance | restitution on a hard floor | `E` (Pa) | `rho` (kg/m^3) |", "|---|---|---|---|"]
     lines += [f"| `{n}` | {e:g} | {lo:g}-{hi:g} | {rl:g}-{rh:g} |" for n, (e, (lo, hi), (rl, rh)) in SUBSTANCES.items()]
+    lines += ["", "## `friction`: Coulomb's coefficient against another body", "",
+              f"Taken by {', '.join(f'`{k}`' for k in FRICTION_KINDS)} (issue 67 item 4, `docs/rigid.md` \"A block "
+              f"on a block\"): a finite number in [0, {MAX_FRICTION:g}]. Two bodies slide on each other with the "
+              "geometric mean of their two coefficients (Bullet's rule, `gasp_core.mpm.fields.combine_friction`); "
+              f"left out, a body takes {SOLID_FRICTION:g} (jelly on jelly). Engines with the feature `body_friction` "
+              "(`gasp engines`) read it. Sand's own coefficient is `tan(friction_angle)`: sand on a "
+              "body that names a `friction` takes the mean of the two, on one that does not its own; snow and liquid "
+              "slide freely. The key does not act on the ground, the walls or a collider: they take their own "
+              "`friction`.", ""]
     from gasp_core.mpm.fracture_table import BRITTLE_SUBSTANCES, SUBSTANCE_KEYS
     lines += ["", "## `substance`: a brittle material at its handbook figures", "",
               f"Taken by `brittle` (issue 66, `docs/fracture.md` \"Stiff brittle bodies: fragments\"): fills "

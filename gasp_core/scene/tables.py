@@ -12,7 +12,8 @@ from typing import Any
 from gasp_core.errors import SceneError
 from gasp_core.scene.values import (MAX_COORD, MAX_PADDING, N_GRID_RANGE, PPC_RANGE, as_integer, as_number, as_string,
                                     as_table, as_vec3, bad_value, check_keys)
-from gasp_core.seam.schema import BODY_MODELS, DEFAULT_MATERIAL, MATERIAL_KINDS, RIGID_KINDS, in_range
+from gasp_core.seam.schema import (BODY_MODELS, DEFAULT_MATERIAL, MATERIAL_KINDS, MAX_FRICTION, RIGID_KINDS, body_keys,
+                                   in_range)
 from gasp_core.seam.setup import BOUNDARIES, Boundary, Material, MATERIALS
 
 
@@ -69,19 +70,26 @@ def read_material(value, where: str, src: Path) -> Material:
     name = as_string(table.get("name", DEFAULT_MATERIAL), f"{where}.name", src, MATERIALS)
     check_keys(table, _MATERIAL_KEYS, where, src)
     table = _with_substance(table, name, where, src)
-    uses = ("name",) + MATERIAL_KINDS[name].keys + (("model", "restitution") if name in RIGID_KINDS else ())
+    uses = ("name",) + MATERIAL_KINDS[name].keys + body_keys(name)
     unused = sorted(set(table) - set(uses))
     if unused:
-        others = sorted({m for k in unused for m, kind in MATERIAL_KINDS.items()
-                         if k in kind.keys or (k == "model" and m in RIGID_KINDS)})   # model: the rigid ones'
+        others = sorted({m for k in unused for m, kind in MATERIAL_KINDS.items() if k in kind.keys + body_keys(m)})
         of = f" (a key of {', '.join(others)})" if others else ""
-        raise SceneError(f"{src}: {where}: material {name!r} does not use {unused}{of}; {name!r} takes {sorted(uses)}")
+        why = ("; a flowing body's friction on another body is its own (sand: tan(friction_angle); snow and liquid "
+               "slide freely)" if "friction" in unused else "")
+        raise SceneError(f"{src}: {where}: material {name!r} does not use {unused}{of}; {name!r} takes "
+                         f"{sorted(uses)}{why}")
     kw: dict[str, Any] = {"name": name}
     if "model" in table:
         kw["model"] = as_string(table["model"], f"{where}.model", src, BODY_MODELS)
     if "restitution" in table:
         kw["restitution"] = read_restitution(table["restitution"], f"{where}.restitution", src, substances=True)
-    for k in sorted(set(table) - {"name", "model", "restitution"}):
+    if "friction" in table:
+        if not in_range(table["friction"], 0.0, MAX_FRICTION):
+            bad_value(src, f"{where}.friction", table["friction"], "a Coulomb coefficient against another body: a "
+                      f"finite number in [0, {MAX_FRICTION:g}] (docs/scene_keys.md)")
+        kw["friction"] = float(table["friction"])
+    for k in sorted(set(table) - {"name", "model", "restitution", "friction"}):
         expected = Material.expected(k, table[k])
         if expected is not None:
             bad_value(src, f"{where}.{k}", table[k], expected)

@@ -166,6 +166,19 @@ BODY_MODEL_DOCS = {
 #: rigid only while its estimated stress stays below its yield stress), or up to fracture (``brittle``: a rigid
 #: brittle body breaks on impact into rigid fragments, ``docs/fracture.md`` "Stiff brittle bodies: fragments").
 RIGID_KINDS = ("jelly", "neo_hookean", "metal", "brittle")
+#: Materials that take the ``friction`` key (issue 67 item 4): the grid engines' bodies that do not flow. A flowing body's friction on
+#: another body is its own (sand: ``tan(friction_angle)``; snow, liquid: 0), ``gasp_core.mpm.fields.field_friction``.
+FRICTION_KINDS = ("jelly", "neo_hookean", "metal", "plasticine", "brittle")
+#: The largest ``friction`` a scene may give (Bullet clamps a pair's combined coefficient to 10).
+MAX_FRICTION = 10.0
+
+
+def body_keys(name: str) -> tuple[str, ...]:
+    """The keys material ``name`` takes besides its :data:`MATERIAL_KINDS` parameters: ``model`` and ``restitution``
+    (:data:`RIGID_KINDS`), ``friction`` (:data:`FRICTION_KINDS`)."""
+    return (("model", "restitution") if name in RIGID_KINDS else ()) + (("friction",) if name in FRICTION_KINDS else ())
+
+
 #: ``auto`` considers the rigid limit for a ``brittle`` body only from this Young's modulus (Pa): at handbook
 #: stiffness (wood across the grain 0.9 GPa and up) an explicit step is out of reach; the soft brittle bodies of the
 #: crack-band model (1e4-1e7 Pa) keep their own model.

@@ -13,8 +13,8 @@ from typing import Any
 import numpy as np
 
 from gasp_core.errors import SceneError
-from gasp_core.seam.schema import (BODY_MODELS, DEFAULT_MATERIAL, MATERIAL_KINDS, MATERIAL_PARAMS, RIGID_KINDS,
-                                    STIFF_BRITTLE_E, in_range)
+from gasp_core.seam.schema import (BODY_MODELS, DEFAULT_MATERIAL, MATERIAL_KINDS, MATERIAL_PARAMS, MAX_FRICTION,
+                                    RIGID_KINDS, STIFF_BRITTLE_E, in_range)
 
 #: Material models an engine may offer (capability names; :data:`gasp_core.seam.schema.MATERIAL_KINDS`).
 MATERIALS = frozenset(MATERIAL_KINDS)
@@ -93,11 +93,10 @@ class Material:
         stiffness sets no step; engines with the feature ``rigid_limit``) or ``"auto"`` (the default: chosen from
         the body's estimated strain, ``gasp_core.prepare.route``; a setup built in code with ``"auto"`` runs
         elastic).
-    restitution : float or None
-        Coefficient of restitution on a hard floor, in [0, 1] (issue 53): the rigid route's bounce
-        (``gasp_core.mpm.restitution``; a scene may name a substance instead, ``"steel"``, ...). None: the
-        substance the material's ``E`` and ``rho`` match, else the default (``body_restitution``). Elastic bodies
-        bounce by their own vibration and their contact's damping (``docs/rigid.md``); the key does not act on them.
+    restitution, friction : float or None
+        The rigid route's bounce on a hard floor, in [0, 1] (issue 53, ``gasp_core.mpm.restitution``; None: the
+        substance of the material's ``E`` and ``rho``, else the default; elastic bodies bounce by their own
+        vibration); Coulomb's coefficient against another body, in [0, 10] (issue 67, ``fields.field_friction``).
     """
 
     name: str = DEFAULT_MATERIAL
@@ -117,7 +116,7 @@ class Material:
     fracture_energy: float = MATERIAL_PARAMS["fracture_energy"].default
     model: str = "auto"
     restitution: float | None = None
-    friction: float | None = None   # Coulomb's against another soft body (no scene key yet): fields.body_friction
+    friction: float | None = None
 
     @staticmethod
     def expected(key: str, value) -> str | None:
@@ -140,7 +139,7 @@ class Material:
                 raise SceneError(f"{where}.{key} = {value!r}; expected {expected}")
         if self.model not in BODY_MODELS:
             raise SceneError(f"{where}.model = {self.model!r}; expected one of {', '.join(map(repr, BODY_MODELS))}")
-        for key, val, top in (("restitution", self.restitution, 1.0), ("friction", self.friction, math.inf)):
+        for key, val, top in (("restitution", self.restitution, 1.0), ("friction", self.friction, MAX_FRICTION)):
             if val is not None and not in_range(val, 0.0, top):
                 raise SceneError(f"{where}.{key} = {val!r}; expected a finite number in [0, {top:g}]")
         if self.model == "rigid" and self.name not in RIGID_KINDS:
