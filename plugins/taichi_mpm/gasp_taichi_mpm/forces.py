@@ -132,8 +132,9 @@ class Forces:
         return v
 
     @ti.func
-    def image_node_v(self, p, J, a, f, q):
-        """The velocity (m/s) node ``J`` of the image stencil of a point ``p`` in set box ``q`` (-1: none) lends
+    def image_node_v(self, p, J, a, f, q, vs):
+        """The velocity (m/s) node ``J`` of the image stencil of a point ``p`` in set box ``q`` (-1: none; ``vs`` its
+        velocity, :meth:`set_velocity`, found once a point by :meth:`image_C`) lends
         :meth:`gasp_taichi_mpm.grid.GridUpdate.image_C`, the face at ``f`` (m) along axis ``a``: by :meth:`image_share`
         against ``K``, the node nearest ``J``'s mirror image (the ghost that takes ``J``), so a node of tiny mass and
         large speed at the image's stencil does not set the point's gradient (docs/fracture.md "Round 40").
@@ -146,7 +147,6 @@ class Forces:
                 K[a] = ti.min(ti.max(ti.cast(k, ti.i32), 0), self.n_grid - 1)
                 mk = self.grid_m[K]
                 if mk > 0.0:
-                    vs = self.set_velocity(q, self.impulse_weight(q))
                     v = vs + ti.min(1.0, self.grid_m[J] / mk) * (v - vs)
         return v
 

@@ -235,11 +235,10 @@ class GridUpdate(GroundTouch):
         """The velocity gradient point ``p`` near a held box's face (normal axis ``a`` from :meth:`held_axis`) takes:
         the grid's gradient gathered at its mirror image ``X'`` across that face, as the ghost field's (``grad v(X')
         D``, :meth:`image_gradient`), so its ``F`` follows the image's strain for any field, not the ghost nodes'
-        reflection of a field linear along the normal (``C`` as it is where no box holds it, or where a node of the
-        image's stencil has no mass: no material there to follow, as past a T rod's head)."""
-        X = self.x[p]
+        reflection of a field linear along the normal (``C`` where no box holds it, or where a node of the image's
+        stencil has no mass)."""
+        X, best, qs, vs = self.x[p], ti.cast(1e30, self.real), -1, ti.Vector.zero(self.real, 3)   # qs: the set box
         f = X[a]
-        best, qs = ti.cast(1e30, self.real), -1   # qs: the set box (its image nodes by mass, image_node_v)
         if ti.static(self.any_fixed):
             if self.fixed[p] >= HELD_STRAINED:
                 for b in ti.static(range(self.n_regions)):
@@ -254,6 +253,7 @@ class GridUpdate(GroundTouch):
                 q = self.set_box_at(X)
                 if q >= 0:
                     c, b = self.impulse_corners(q)
+                    vs = self.set_velocity(q, self.impulse_weight(q))
                     if X[a] - c[a] < best:
                         best, f, qs = X[a] - c[a], c[a], q
                     if b[a] - X[a] < best:
@@ -269,7 +269,7 @@ class GridUpdate(GroundTouch):
                 B = ti.Matrix.zero(self.real, 3, 3)
                 full = True   # the image's stencil all in material (else the ghosts' C: no image to follow)
                 for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
-                    gv = w[i][0] * w[j][1] * w[k][2] * self.image_node_v(p, base + ti.Vector([i, j, k]), a, f, qs)
+                    gv = w[i][0] * w[j][1] * w[k][2] * self.image_node_v(p, base + ti.Vector([i, j, k]), a, f, qs, vs)
                     v += gv
                     B += gv.outer_product(ti.Vector([float(i), float(j), float(k)], self.real))
                     full = full and self.grid_m[base + ti.Vector([i, j, k])] > 0.0
