@@ -67,11 +67,17 @@ def never_damages(monkeypatch, name: str) -> None:
 # ----------------------------------------------------------------------------- one point, one substep
 PROBE_BAND = 1 / 16    # the probe's crack band width dx, m (n_grid 16 on the unit cube)
 
-def _probe(name: str, eps: float, d0: float = 0.0, gf: float = 10.0) -> float:
-    """The damage after one substep of one brittle point whose ``F`` is the uniaxial stretch of Hencky strain
-    ``eps`` (lateral ``-nu eps``: uniaxial stress ``E eps``), starting from damage ``d0``."""
+#: The probe point, m: the middle of its cell along x (its crack's normal), where the crack band weight is 1 (round 33,
+#: ``band_weight``); :data:`PROBE_NODE` on a node, weight 1/2. (On a node with the weight left out of the answer the
+#: check failed from round 33 on, unseen in the slow tier: d 0.636 for 0.485 at 1.5 f_t.)
+PROBE_X, PROBE_NODE = 0.5 + PROBE_BAND / 2, 0.5
+
+
+def _probe(name: str, eps: float, d0: float = 0.0, gf: float = 10.0, x: float = PROBE_X) -> float:
+    """The damage after one substep of one brittle point at ``(x, 0.5, 0.5)`` whose ``F`` is the uniaxial stretch of
+    Hencky strain ``eps`` (lateral ``-nu eps``: uniaxial stress ``E eps``), starting from damage ``d0``."""
     m = Material("brittle", E=E, nu=NU, rho=RHO, tensile_strength=FT, fracture_energy=gf)
-    s = SimSetup(x=np.array([[0.5, 0.5, 0.5]]), v=0.0, p_vol=np.array([1e-6]), body_id=0, materials=[m],
+    s = SimSetup(x=np.array([[x, 0.5, 0.5]]), v=0.0, p_vol=np.array([1e-6]), body_id=0, materials=[m],
                  gravity=[0, 0, 0], domain_lo=np.zeros(3), domain_hi=np.ones(3), n_grid=16, frame_dt=1e-6,
                  options=_opts(name, n_substeps=1))
     e = build_engine(engines()[name], s)
@@ -105,9 +111,25 @@ def probe_failures(name: str, probe=_probe) -> list[str]:
     return bad
 
 
+def node_probe_failures(name: str) -> list[str]:
+    """The softening of a point on a node, crack band weight 1/2 (``band_softening_stress``): its range half the band's
+    (module ``band_weight``; round 33)."""
+    from gasp_core.mpm.materials import band_softening_stress, band_weight
+    m = Material("brittle", E=E, nu=NU, rho=RHO, tensile_strength=FT, fracture_energy=10.0)
+    W = float(band_weight(np.array([PROBE_NODE / PROBE_BAND % 1.0 + 1.0, 1.0, 1.0]), np.array([1.0, 0.0, 0.0])))
+    sf = float(band_softening_stress(FT, softening_stress(m, PROBE_BAND), W))
+    bad = [] if W == 0.5 else [f"the node's band weight {W} (expected 0.5)"]
+    for s in (1.5 * FT, 0.5 * (FT + sf)):
+        d, want = _probe(name, s / E, x=PROBE_NODE), float(brittle_damage(s, FT, sf))
+        if abs(d - want) > 1e-6:
+            bad.append(f"on a node, stress {s:.0f} Pa: d = {d:.6f}, the weighted band gives {want:.6f}")
+    return bad
+
+
 @pytest.mark.parametrize("name", _names())
 def test_damage_is_the_crack_band_softening_never_heals_and_not_in_compression(name):
     assert probe_failures(name) == []
+    assert node_probe_failures(name) == []
 
 
 def test_the_probe_checks_catch_a_model_that_heals_or_damages_in_compression():
@@ -126,6 +148,15 @@ def test_the_probe_checks_catch_a_model_that_heals_or_damages_in_compression():
     assert probe_failures("reference", right) == []
     assert any("never heals" in b for b in probe_failures("heals", heals))
     assert any("compression" in b for b in probe_failures("abs", absolute))
+
+
+def test_the_node_probe_catches_one_softening_range_for_every_point(monkeypatch):
+    """An engine whose points all soften over the band's whole range (``weighted_band`` off, before round 33) fails
+    the node probe (warp_mpm)."""
+    pytest.importorskip("gasp_warp_mpm")
+    from gasp_warp_mpm.held_rule import HeldRule
+    monkeypatch.setattr(HeldRule, "weighted_band", False)
+    assert any("on a node" in b for b in node_probe_failures("warp_mpm"))
 
 
 def test_fracture_energy_below_the_snap_back_limit_is_refused_naming_it():
