@@ -11,9 +11,9 @@ Why: the same block's travel figure, ``v0^2 / (2 g travel)`` at 0.4-0.8 m/s, rea
 0.516-0.539 at 48 and 0.461-0.513 at 64 against tan 30 deg = 0.577. The ratio reads within 0.4 % of the ground's
 friction on every grid (measured, both engines the same to 0.01 %: n32 -0.04 / -0.02 %, n48 -0.17 / -0.08 %, n64
 -0.31 / -0.15 %), and a block that keeps its shape stops within 0.6 % of Coulomb's travel on the same grids, so the
-finer grid's deficit is not the contact's: the finer sand block slumps and spreads (at 0.6 m/s its outermost points along y
-reach 29, 37 and 44 mm from its axis in 6 frames at n_grid 32, 48, 64, from 26-28; its base's back slips backwards and sideways once it
-slows, where the ground's friction does not act against x).
+finer grid's deficit is not the contact's: the finer sand block slumps and spreads (at 0.6 m/s its outermost points
+along y reach 29, 37 and 44 mm from its axis in 6 frames at n_grid 32, 48, 64, from 26-28; its base's back slips
+backwards and sideways once it slows, where the ground's friction does not act against x).
 
 - The family: n_grid 32, 48, 64 at 30 degrees and 48 at 35, each speed within ``RATIO_TOL`` = 2.5 %, either side
   (warp_mpm n_grid 32 in the default tier, the rest slow).
