@@ -24,7 +24,8 @@ HIDDEN = ["imageio", "imageio_ffmpeg", "numba", "PIL", "viser", "gsply", "imagec
 NEEDS = {"donut_blender": '-e "plugins/blender[engine]"',   # in a venv of its own (issue 42)
          "guitar_flag_blender": '-e "plugins/blender[engine]"',
          "donut_mesh": 'pip install -e ".[mesh]"',
-         "spot_mesh": 'pip install -e ".[mesh]"'}
+         "spot_mesh": 'pip install -e ".[mesh]"',
+         "cup_drop": 'pip install -e ".[mesh]"'}    # a mesh of revolution (GaMeS mesh mode)
 
 SCRIPT = """
 import contextlib, io, json, sys

@@ -70,7 +70,9 @@ def test_compare_writes_report_self_divergence_zero_and_refuses_an_unknown_engin
     cols, table = _read_csv(out / "table.csv")
     assert cols == report.TABLE_COLUMNS
     assert [r["engine"] for r in table] == ["warp_mpm", "warp_mpm#2", "mujoco_flex"]
-    assert all(r["status"] == "ok" and int(r["simulated_points"]) > 3 * 1426 for r in table)
+    # a point for each of the 1,426 Gaussians (their centres since the quality levels' surface_points; vertices, 3
+    # each, before) and the fill's
+    assert all(r["status"] == "ok" and int(r["simulated_points"]) > 1426 for r in table)
     assert all(float(r["s_per_frame"]) > 0 and float(r["peak_rss_mb"]) >= float(r["worker_base_rss_mb"]) > 50
                for r in table)
     # every run in its own fresh worker process
@@ -151,19 +153,21 @@ def test_missing_capability_is_listed_with_reason(donut_tiny, write_scene):
 
 
 @needs_warp
-@needs_flex
+@needs_taichi
 def test_compare_reports_a_diverging_engine_and_runs_the_others(donut_tiny, write_scene, tmp_path):
-    scene = write_scene(scene_text(donut_tiny, n_frames=3, n_grid=16, engine="mujoco_flex",
+    scene = write_scene(scene_text(donut_tiny, n_frames=3, n_grid=16, engine="taichi_mpm",
                                    engine_options="{}",
                                    material='name = "jelly"\nE = 2.0e6\nnu = 0.3\nrho = 300.0\nmodel = "elastic"'))
-    # one substep per frame: ~300x above the elastic-wave limit at n_grid 16
-    res = compare_scene(scene, ["warp_mpm", "mujoco_flex"], tmp_path / "cmp", progress=False,
-                        options={"warp_mpm": {"n_substeps": 1}})
+    # one substep per frame: ~300x above the elastic-wave limit at n_grid 16 (on the grid contact: the particle
+    # contact takes its own stable step whatever n_substeps says); the other engine at its own step (mujoco_flex,
+    # the engine here before, now refuses this stiffness on its lattice: singular inertia at frame 1)
+    res = compare_scene(scene, ["warp_mpm", "taichi_mpm"], tmp_path / "cmp", progress=False,
+                        options={"warp_mpm": {"n_substeps": 1, "contact": "grid"}, "taichi_mpm": {"threads": 1}})
     assert "warp_mpm" in res.failed and "diverged at frame" in res.failed["warp_mpm"]
-    assert res.reference == "mujoco_flex"
+    assert res.reference == "taichi_mpm"
     row = next(r for r in res.table if r["engine"] == "warp_mpm")
     assert row["status"].startswith("diverged at frame")
-    assert next(r for r in res.table if r["engine"] == "mujoco_flex")["status"] == "ok"
+    assert next(r for r in res.table if r["engine"] == "taichi_mpm")["status"] == "ok"
     assert "diverged at frame" in (tmp_path / "cmp" / "report.md").read_text()
 
 
@@ -269,7 +273,10 @@ def test_bench_rows_reference_zero_and_error_grows_as_grid_coarsens(donut_tiny, 
     # the converged reference: the reference's model on the three grids (f64 at 24, f32 at 14 and 18)
     assert {r["ref_method"] for r in rows} in ({"richardson [14, 18, 24]"}, {"finest [18, 24]"})
     bound = float(rows[0]["ref_bound"])
-    assert bound > 0 and float(rows[0]["err_conv_max"]) == pytest.approx(bound)   # the reference's own distance
+    if rows[0]["ref_method"].startswith("richardson"):    # the reference's own distance to the extrapolation
+        assert bound > 0 and float(rows[0]["err_conv_max"]) == pytest.approx(bound)
+    else:   # no order of convergence: the finest run is the converged reference, uncertain by its distance to 18
+        assert bound > 0 and float(rows[0]["err_conv_max"]) == 0.0
     if bound >= 0.01:   # a coarse sequence: the 1 % tolerance is finer than the reference knows
         assert "not ranked" in (out / "summary.md").read_text()
     # the accuracy report's ranking: U from the twin (g18 f32, the reference's model one grid coarser)
