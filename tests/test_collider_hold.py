@@ -64,6 +64,7 @@ def test_the_check_fails_without_the_hold(engine, monkeypatch):
     else:
         from gasp_taichi_mpm.colliders import Colliders
         allocate = Colliders.allocate_hold
-        monkeypatch.setattr(Colliders, "allocate_hold", lambda self, hold: allocate(self, None))
+        monkeypatch.setattr(Colliders, "allocate_hold",   # the colliders' hold off, the ground's and walls' kept
+                            lambda self, hold, box_hold=None: allocate(self, None, box_hold))
     front, through = thrown_at_wall(engine)
     assert through > 0 or abs(front) >= TOL, f"{engine}: without the hold the check still passes"
