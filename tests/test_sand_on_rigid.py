@@ -53,23 +53,26 @@ def _engine(engine: str):
     return get_engine(engine)
 
 
-def rigid_slide_setup(v0: float, slab_mu: float | None):
-    """Round 38's scene (``S.slide_setup`` on the 4.5 cm slab) with the slab rigid and its ``friction`` set."""
-    setup = S.slide_setup(v0, {"threads": 1}, slab_h=S.COULOMB_SLAB_H)
-    setup.materials = [setup.materials[0], dataclasses.replace(setup.materials[1], model="rigid", friction=slab_mu)]
+def rigid_slide_setup(v0: float, slab_mu: float | None, model: str = "rigid", slab_h: float = S.COULOMB_SLAB_H):
+    """Round 38's scene (``S.slide_setup`` on the 4.5 cm slab) with the slab rigid (``model``) and its ``friction``
+    set."""
+    setup = S.slide_setup(v0, {"threads": 1}, slab_h=slab_h)
+    setup.materials = [setup.materials[0], dataclasses.replace(setup.materials[1], model=model, friction=slab_mu)]
     return setup
 
 
-def run_family(engine: str, n_grid: int, slab_mu: float | None, monkeypatch) -> dict:
+def run_family(engine: str, n_grid: int, slab_mu: float | None, monkeypatch, speeds=RATIO_SPEEDS,
+               **slab_kw) -> dict:
     """Per speed ``(ratio error, slab travel along x in cells, lowest sand over the slab's top in cells per frame)``;
-    the answer ``F.field_friction`` read before the run (a catch may bias the engine's)."""
+    the answer ``F.field_friction`` read before the run (a catch may bias the engine's). ``slab_kw``: ``model`` and
+    ``slab_h`` of :func:`rigid_slide_setup`."""
     from gasp_core.testing.kit import run_trace
     info = _engine(engine)
     monkeypatch.setattr(S, "N_GRID", n_grid)
     dx = S.SIDE / n_grid
     out = {}
-    for v0 in RATIO_SPEEDS:
-        setup = rigid_slide_setup(v0, slab_mu)
+    for v0 in speeds:
+        setup = rigid_slide_setup(v0, slab_mu, **slab_kw)
         mu = F.field_friction(setup)
         tr = run_trace(info, setup, RATIO_FRAMES)
         body = np.asarray(setup.body_id)
@@ -161,3 +164,21 @@ def test_the_slab_check_catches_a_slab_that_slides(engine, monkeypatch):
     monkeypatch.setattr(S, "MU_GROUND", 0.0)
     out = run_family(engine, 32, None, monkeypatch)
     assert not _checks(out)["slab"], out
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, raises=AssertionError,
+                   reason="the two-field contact's friction falls short where B's face sits about 3/4 "
+                   "of a cell above a node layer, the more so the slower the slip: field A's momentum at the nodes "
+                   "inside B is its points' affine (APIC) extrapolation of a shearing base (docs/contact.md 'Round "
+                   "41: sand on a rigid body'; measured -6.9 % on the rigid slab, -6.5 % on the jelly one)")
+@pytest.mark.parametrize("model, lower", [("rigid", 0.0), (S.SLAB.model, 0.25)], ids=["rigid", "jelly_lower"])
+@pytest.mark.parametrize("engine", ["warp_mpm", "taichi_mpm"])
+def test_a_slower_slide_with_the_face_off_the_node_layer(engine, model, lower, monkeypatch):
+    """Thrown at 0.7 m/s (all of the base still slides forward at frame 3 on the jelly slab, whose face is on a node
+    layer: -0.21 %); the rigid slab's face settles 3/4 of a cell above node layer 2, the jelly slab is put a quarter
+    cell lower to sit there too. Known failure: -6.88 / -6.76 % (rigid) and -6.50 / -6.49 % (jelly), warp_mpm /
+    taichi_mpm; with field A's points scattered without their affine momentum (a probe) -0.02 and +0.10 %."""
+    h = S.COULOMB_SLAB_H - lower * S.SIDE / S.N_GRID
+    out = run_family(engine, 32, None, monkeypatch, speeds=(0.7,), model=model, slab_h=h)
+    assert all(abs(e) <= RATIO_TOL for e, _t, _r in out.values()), out
