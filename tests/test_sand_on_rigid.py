@@ -176,8 +176,8 @@ def test_the_slab_check_catches_a_slab_that_slides(engine, monkeypatch):
 @pytest.mark.parametrize("engine", ["warp_mpm", "taichi_mpm"])
 def test_a_slower_slide_with_the_face_off_the_node_layer(engine, model, lower, monkeypatch):
     """Thrown at 0.7 m/s (all of the base still slides forward at frame 3 on the jelly slab, whose face is on a node
-    layer: -0.21 %); the rigid slab's face settles 3/4 of a cell above node layer 2, the jelly slab is put a quarter
-    cell lower to sit there too. Known failure: -6.88 / -6.76 % (rigid) and -6.50 / -6.49 % (jelly), warp_mpm /
+    layer: -0.21 %); the rigid slab's face settles 3/4 of a cell above a node layer (2.75 dx over the ground), the jelly
+    slab is put a quarter cell lower to sit there too. Known failure: -6.88 / -6.76 % (rigid) and -6.50 / -6.49 % (jelly), warp_mpm /
     taichi_mpm; with field A's points scattered without their affine momentum (a probe) -0.02 and +0.10 %."""
     h = S.COULOMB_SLAB_H - lower * S.SIDE / S.N_GRID
     out = run_family(engine, 32, None, monkeypatch, speeds=(0.7,), model=model, slab_h=h)
