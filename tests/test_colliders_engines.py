@@ -71,7 +71,7 @@ def test_warp_and_taichi_agree_with_everything_on(balance):
         s.forces = [ForceField("wind", direction=(0.0, 1.0, 0.0), speed=2.0, air_density=1000.0, turbulence=1.0,
                                turbulence_scale=0.2, turbulence_time=0.2, seed=5),
                     ForceField("attractor", strength=2.0, point=(0.5, 0.5, 0.3), radius=0.05, falloff="inverse_square")]
-        s.impulses = [Impulse("sphere", (0.0, 0.0, 0.5), t0=0.1, centre=(0.5, 0.5, 0.5), radius=0.2),
+        s.impulses = [Impulse("sphere", (0.0, 0.0, 0.5), t0=0.1, t1=0.1, centre=(0.5, 0.5, 0.5), radius=0.2),
                       Impulse("box", (0.0, 0.2, 0.0), t0=0.2, t1=0.3, mode="set", lo=(0, 0, 0), hi=(1, 1, 1))]
         return s.replace(options={**s.options, "contact_balance": balance})
     a = _run("taichi_mpm", setup(), 20).positions().astype(np.float64)
