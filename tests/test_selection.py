@@ -337,9 +337,11 @@ def test_kitchen_two_frames(tmp_path):
         if k:
             assert not np.array_equal(f["x"][static], frames[0]["x"][static])
     dz = frames[2]["z"][rows].astype(np.float64) - frames[0]["z"][rows]
-    # the spinach moves: file y points down, so it sinks with +y (scale 0.08 m per unit)
+    # the spinach is simulated: it settles into the pan (the rest of the capture, a collider by default since the
+    # example took it) by a fraction of a millimetre (median 0.2 mm in file units at n_grid 16, largest 1.6); file y
+    # points down (scale 0.08 m per unit)
     dy = frames[2]["y"][rows].astype(np.float64) - frames[0]["y"][rows]
-    assert np.median(dy) > 1e-3 and np.all(np.isfinite(dz))
+    assert np.abs(dy).max() > 1e-4 and np.all(np.abs(dy) < 0.1) and np.all(np.isfinite(dz))
 
 
 def test_selection_with_core_gaussians_rebuilds_the_whole_file():
