@@ -77,8 +77,8 @@ def build_contact_friction(Ft):
 
 @functools.cache
 def build_field_friction(Ft):
-    """``field_friction(grid_dv, node, dv, f, k, i, j, X, lo, hi, dx, wall_in, ground, n_grid, ground_touch)``, scalar
-    type ``Ft``: with the two-field contact (``grid_dv`` of more than one entry; the engine passes one entry where
+    """``field_friction(grid_dv, node, dv, f, lo, hi, dx, wall_in, ground, n_grid, ground_touch)``, scalar type
+    ``Ft``: with the two-field contact (``grid_dv`` of more than one entry; the engine passes one entry where
     ``gasp_core.mpm.fields.B_FRICTION`` is off) the particle contact's friction ``dv``
     (m/s, the change it made to the node's mean velocity; its budget is field B's points', as only the bodies that do
     not flow take the particle contact in a ``"mixed"`` scene) given to field B alone (``gasp_core.mpm.fields
@@ -89,9 +89,12 @@ def build_field_friction(Ft):
     ground_reach = build_touch(Ft)[2]
 
     @wp.func
-    def field_friction(grid_dv: wp.array(dtype=vec3), node: int, dv: vec3, f: Ft, k: int, i: int, j: int, X: vec3,
-                       lo: vec3, hi: vec3, dx: Ft, wall_in: Ft, ground: wp.array(dtype=vec3), n_grid: int,
-                       ground_touch: wp.array(dtype=wp.int32)):
+    def field_friction(grid_dv: wp.array(dtype=vec3), node: int, dv: vec3, f: Ft, lo: vec3, hi: vec3, dx: Ft,
+                       wall_in: Ft, ground: wp.array(dtype=vec3), n_grid: int, ground_touch: wp.array(dtype=wp.int32)):
+        i = node / (n_grid * n_grid)
+        j = (node / n_grid) % n_grid
+        k = node % n_grid
+        X = lo + dx * vec3(Ft(i), Ft(j), Ft(k))
         held = int(0)
         for q in range(ground.shape[0]):
             if ground_reach(k, ground[q], q, i, j, n_grid, ground_touch):
@@ -161,8 +164,7 @@ def build_grid_update(Ft):
     boundary_rules = build_boundary_rules(Ft)
     Extras, extras = build_extras(Ft)
     balance_node = build_balance(Ft)[2]
-    contact_friction, clear_contact = build_contact_friction(Ft)
-    field_friction = build_field_friction(Ft)
+    (contact_friction, clear_contact), field_friction = build_contact_friction(Ft), build_field_friction(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def grid_update(
@@ -213,9 +215,7 @@ def build_grid_update(Ft):
                 if fr_sums.shape[0] > 0:
                     balance_node(node, v_in, vel, m, grid_fb[node], X, grid_fbody, fr_sums, fr_nodes,
                                      fr_dv, fr_fb)
-                if grid_mf.shape[0] > 1:   # field B's own friction (build_field_friction)
-                    field_friction(grid_dv, node, vel - v_in, f, k, i, j, X, lo, hi, dx, wall_in, ground, n_grid,
-                                   ground_touch)
+                field_friction(grid_dv, node, vel - v_in, f, lo, hi, dx, wall_in, ground, n_grid, ground_touch)
             for r in range(fixed_lo.shape[0]):
                 flo = fixed_lo[r]
                 fhi = fixed_hi[r]
