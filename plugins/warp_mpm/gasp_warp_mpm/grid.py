@@ -77,7 +77,7 @@ def build_contact_friction(Ft):
 
 @functools.cache
 def build_field_friction(Ft):
-    """``field_friction(grid_dv, node, dv, f, lo, hi, dx, wall_in, ground, n_grid, ground_touch)``, scalar type
+    """``field_friction(grid_dv, node, dv, f, lo, hi, dx, wall_in, ground, n_grid, ground_touch, n_walls)``, scalar type
     ``Ft``: with the two-field contact (``grid_dv`` of more than one entry; the engine passes one entry where
     ``gasp_core.mpm.fields.B_FRICTION`` is off) the particle contact's friction ``dv``
     (m/s, the change it made to the node's mean velocity; its budget is field B's points', as only the bodies that do
@@ -90,7 +90,8 @@ def build_field_friction(Ft):
 
     @wp.func
     def field_friction(grid_dv: wp.array(dtype=vec3), node: int, dv: vec3, f: Ft, lo: vec3, hi: vec3, dx: Ft,
-                       wall_in: Ft, ground: wp.array(dtype=vec3), n_grid: int, ground_touch: wp.array(dtype=wp.int32)):
+                       wall_in: Ft, ground: wp.array(dtype=vec3), n_grid: int, ground_touch: wp.array(dtype=wp.int32),
+                       n_walls: int):
         i = node / (n_grid * n_grid)
         j = (node / n_grid) % n_grid
         k = node % n_grid
@@ -100,7 +101,7 @@ def build_field_friction(Ft):
             if ground_reach(k, ground[q], q, i, j, n_grid, ground_touch):
                 held = int(1)
         for d in range(3):
-            if X[d] < lo[d] + wall_in * dx or X[d] > hi[d] - wall_in * dx:
+            if n_walls > 0 and (X[d] < lo[d] + wall_in * dx or X[d] > hi[d] - wall_in * dx):
                 held = int(1)
         if grid_dv.shape[0] > 1 and held == 0 and f > Ft(0.0) and f < Ft(1.0):
             n_nodes = grid_dv.shape[0] / 2
@@ -215,7 +216,8 @@ def build_grid_update(Ft):
                 if fr_sums.shape[0] > 0:
                     balance_node(node, v_in, vel, m, grid_fb[node], X, grid_fbody, fr_sums, fr_nodes,
                                      fr_dv, fr_fb)
-                field_friction(grid_dv, node, vel - v_in, f, lo, hi, dx, wall_in, ground, n_grid, ground_touch)
+                field_friction(grid_dv, node, vel - v_in, f, lo, hi, dx, wall_in, ground, n_grid, ground_touch,
+                               wall_mu.shape[0])
             for r in range(fixed_lo.shape[0]):
                 flo = fixed_lo[r]
                 fhi = fixed_hi[r]
