@@ -31,7 +31,9 @@ specified normal, and finds that no one option works for every problem): with th
 (``grad m_B - grad m_A``, before round 22) a block's edges tilt the normal, its front ploughs (approach made of the
 slide) and its back lets go; a jelly block thrown along a jelly slab then stopped as with a coefficient 0.88-0.91
 for 0.5 (n_grid 32), 0.68-0.76 at n_grid 64; with the slab's normal 0.58-0.60 and **0.502-0.504** at 64, at every
-speed (``docs/contact.md``, "Friction between bodies"). A node in a ground's node layers or the walls' (the grid
+speed (``docs/contact.md``, "Friction between bodies"). At and below a ground's top node layer B's mass is seen with its
+mirror image (:func:`ground_mirror`): the ground is B's support, so the middle layer of a thin support on it still
+finds its face above (round 41). A node in a ground's node layers or the walls' (the grid
 rule's reach) takes no offset: both fields move with the projected mean there. Colliders are not looked at.
 """
 from __future__ import annotations
@@ -69,6 +71,18 @@ SOLID_FRICTION = 0.5
 #: node's share alone (the rule before; the catch of ``tests/test_contact_fields.py``).
 FLOW_TOUCH = True
 FLOW_TOUCH_DELTA = 0.25
+#: The ground's mirror in the normal (round 41, ``docs/contact.md`` "Round 41: the thin support's rub"): B's mass at
+#: a node at or below a ground's top node layer is seen with its mirror image in that layer (:func:`ground_mirror`),
+#: the ground beneath B being B's support, not a surface of B. False: the nodes' own mass (the rule before, the catch
+#: of ``tests/test_thin_support.py``): at the middle node layer of a support 2 cells thick, B's mass is the same one
+#: node above and below, its gradient about 1/250 of a face's, and the normal taken from it tilts along the slide.
+GROUND_MIRROR = True
+#: The particle contact's friction on field B alone (round 41): in a ``"mixed"`` scene the bodies that do not flow
+#: (B) take the particle contact, whose friction with the ground the grid update applies to a node's mean velocity;
+#: at a node B shares with A, A's offset is taken back by that change and B's raised, so A keeps its velocity and B
+#: takes the friction's whole momentum. False: both fields take it (the rule before; a sand block on a support 2
+#: cells thick shares the support's lowest free node layer and was braked by the support's ground friction there).
+B_FRICTION = True
 #: A node's mass gradient shorter than this (kg/m, relative to ``m / dx``) gives no normal: the fields move as one.
 MIN_GRADIENT = 1e-6
 
@@ -271,11 +285,27 @@ def field_offsets(m: np.ndarray, m_a: np.ndarray, p: np.ndarray, p_a: np.ndarray
     return (m_b / m)[:, None] * u2, -(m_a / m)[:, None] * u2
 
 
-def mass_normals(m: np.ndarray, m_a: np.ndarray, dx: float) -> np.ndarray:
+def ground_mirror(m_b: np.ndarray, tops=()) -> np.ndarray:
+    """B's node masses as the normal sees them (:data:`GROUND_MIRROR`): at a node layer ``k <= top`` of a ground
+    whose top node layer is ``top`` (the plane on that layer: ``gasp_core.mpm.grid_origin``), ``m_B`` plus the mass
+    at layer ``2 top - k`` (the mirror image of B's mass above the plane; on the top layer itself, twice it).
+    ``m_b`` shape (n, n, n), kg, z the last axis; ``tops`` the grounds' top node layers (ints). Returns a new array
+    of the same shape. Without it the middle layer of a support 2 cells thick on the ground sees B's mass equal above
+    and below (``docs/contact.md`` "Round 41")."""
+    out = np.array(m_b, dtype=float)
+    n = out.shape[2]
+    for top in tops:
+        for k in range(max(0, 2 * top - n + 1), min(top, n - 1) + 1):
+            out[:, :, k] += m_b[:, :, 2 * top - k]
+    return out
+
+
+def mass_normals(m: np.ndarray, m_a: np.ndarray, dx: float, tops=()) -> np.ndarray:
     """The NumPy reference of the normals: ``grad m_B`` (field B's surface normal, into B) by central differences of
-    the node masses (shape (n, n, n) each, kg) at the inner nodes; shape (n, n, n, 3), kg/m, zero on the grid's
-    outer layer."""
-    d = m - m_a
+    the node masses (shape (n, n, n) each, kg) at the inner nodes, B's mass seen through :func:`ground_mirror` of the
+    grounds' top node layers ``tops`` (none: the nodes' own); shape (n, n, n, 3), kg/m, zero on the grid's outer
+    layer."""
+    d = ground_mirror(m - m_a, tops)
     out = np.zeros(m.shape + (3,))
     for ax in range(3):
         sl_c, sl_p, sl_m = [slice(1, -1)] * 3, [slice(1, -1)] * 3, [slice(1, -1)] * 3

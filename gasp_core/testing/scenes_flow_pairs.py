@@ -25,7 +25,8 @@ field, ``gasp_core.mpm.fields``, docs/contact.md "Sand that slides on what it to
   round 37's flowing body's touch (``gasp_core.mpm.fields.flow_touch``, docs/contact.md "Round 37"): now within
   1 % of the ground's on both MPM engines.
 - ``sand_slide_coulomb`` (round 38, docs/contact.md "Round 38"): the same sand block thrown at 1.2 and 1.6 m/s along
-  the slab made 4.5 cm thick (``S.COULOMB_SLAB_H``: 3 cells; on the 3 cm slab the ratio reads 1.2-2.3 % high),
+  the slab made 4.5 cm thick (``S.COULOMB_SLAB_H``: 3 cells; on the 3 cm slab the ratio read 1.2-2.3 % high before
+  round 41, docs/contact.md "Round 41", now within 0.1 % too),
   3 frames, while all of its base still slides forward. Known answer: Coulomb's law on the block, its horizontal
   momentum lost over the normal impulse the slab gave it (``S.coulomb_ratio``: gravity's impulse plus its vertical
   momentum gained), is the pair's ``mu`` = tan 30 deg, however the sand slumps. Check: each speed within

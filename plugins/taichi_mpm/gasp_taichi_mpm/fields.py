@@ -11,6 +11,7 @@ reads.
 """
 import taichi as ti
 
+from gasp_core.mpm import fields as core_fields
 from gasp_core.mpm.fields import MIN_FRACTION, MIN_GRADIENT
 
 from .pair_touch import PairTouch
@@ -39,6 +40,10 @@ class Fields(PairTouch):
         self.grid_vf = ti.Vector.field(2, self.real, shape=(ng, ng, ng))
         self.grid_dv = ti.Vector.field(6, self.real, shape=(ng, ng, ng))
         self.allocate_pair_touch(flow)
+        # round 41 (gasp_core.mpm.fields): B's mass mirrored in a ground's layers for the normal; the particle
+        # contact's friction to field B alone (read when the kernels compile)
+        self.ground_mirror = bool(core_fields.GROUND_MIRROR)
+        self.b_friction = bool(self.fields and core_fields.B_FRICTION)
 
     @ti.func
     def scatter_field(self, p, base, w, mv0, A, m):
@@ -81,6 +86,42 @@ class Fields(PairTouch):
         return self.grid_mv[0, I][3] - self.grid_sv[I][3]
 
     @ti.func
+    def mass_b_seen(self, I):
+        """``m_B`` at node I as the normal sees it (``gasp_core.mpm.fields.ground_mirror``): at or below a ground's
+        top node layer, plus B's mass at its mirror image in that layer."""
+        out = self.mass_b(I)
+        if ti.static(self.ground_mirror):
+            for b in ti.static(range(self.n_grounds)):
+                top = self.ground_kmax[b]
+                if I[2] <= top and 2 * top - I[2] < self.n_grid:
+                    out += self.mass_b(ti.Vector([I[0], I[1], 2 * top - I[2]]))
+        return out
+
+    @ti.func
+    def held_node(self, I):
+        """1 where a ground's or the walls' grid rule reaches node I (both fields move with the mean there)."""
+        held = 0
+        for b in ti.static(range(self.n_grounds)):
+            if self.ground_reach(b, I):   # with the touched layer (touch.py)
+                held = 1
+        for b in ti.static(range(self.n_walls)):
+            if (I < self.wall_lo_first[b]).any() or (I >= self.wall_hi_first[b]).any():
+                held = 1
+        return held
+
+    @ti.func
+    def field_friction(self, I, dv, f):
+        """The particle contact's friction ``dv`` (m/s, its change of node I's mean velocity; B's points' budget) given
+        to field B alone (``gasp_core.mpm.fields.B_FRICTION``; warp_mpm's ``grid.build_field_friction``): A's offset
+        less ``dv``, B's plus ``dv f / (1 - f)``, ``f`` the node's flowing-mass fraction (A's share)."""
+        if ti.static(self.b_friction and self.mixed):
+            if f > 0.0 and f < 1.0 and self.held_node(I) == 0:
+                d = self.grid_dv[I]
+                db = (f / (1.0 - f)) * dv
+                self.grid_dv[I] = ti.Vector([d[0] - dv[0], d[1] - dv[1], d[2] - dv[2], d[3] + db[0], d[4] + db[1],
+                                             d[5] + db[2]])
+
+    @ti.func
     def pair_touch(self, I, m_red, nh):
         """A node where two rigid bodies touch: its reduced mass ``m_red`` (kg), and that times its position and its
         unit normal ``nh`` (field B's), added to ``pair_acc`` (warp_mpm's ``fields.field_contact``)."""
@@ -110,13 +151,7 @@ class Fields(PairTouch):
             u = ti.Vector.zero(self.real, 3)
             layer = 0
             mb_eff = ti.cast(0.0, self.real)
-            held = 0   # in a ground's node layers or the walls' (the grid rule's reach): both move with the mean
-            for b in ti.static(range(self.n_grounds)):
-                if self.ground_reach(b, I):   # with the touched layer (touch.py)
-                    held = 1
-            for b in ti.static(range(self.n_walls)):
-                if (I < self.wall_lo_first[b]).any() or (I >= self.wall_hi_first[b]).any():
-                    held = 1
+            held = self.held_node(I)   # a ground's node layers or the walls' (the grid rule's reach): the mean
             inner = (I > 0).all() and (I < ng - 1).all()
             if inner and held == 0 and m_a > MIN_FRACTION * m and m_b > MIN_FRACTION * m:
                 vf = self.grid_vf[I]
@@ -126,9 +161,9 @@ class Fields(PairTouch):
                 v_b = ti.Vector([g[0] - sv[0], g[1] - sv[1], g[2] - sv[2]]) / m_b
                 u = ti.Vector([sv[0], sv[1], sv[2]]) / m_a - v_b
                 ex, ey, ez = ti.Vector([1, 0, 0]), ti.Vector([0, 1, 0]), ti.Vector([0, 0, 1])
-                n = ti.Vector([self.mass_b(I + ex) - self.mass_b(I - ex),   # field B's surface normal
-                               self.mass_b(I + ey) - self.mass_b(I - ey),
-                               self.mass_b(I + ez) - self.mass_b(I - ez)])
+                n = ti.Vector([self.mass_b_seen(I + ex) - self.mass_b_seen(I - ex),   # field B's surface normal
+                               self.mass_b_seen(I + ey) - self.mass_b_seen(I - ey),
+                               self.mass_b_seen(I + ez) - self.mass_b_seen(I - ez)])
                 ln = n.norm()
                 u2 = u
                 if ln > MIN_GRADIENT * m:

@@ -1,6 +1,5 @@
 """The grid update (docs/mpm.md step 3): summing the private grid copies, node velocity, gravity, forces, impulses and
 colliders, then the walls, grounds and fixed regions, as a Taichi kernel; and the boundaries as node-index ranges.
-
 Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields and flags (``real``, ``atomic``, ...) it reads.
 """
 import math
@@ -387,6 +386,7 @@ class GridUpdate(GroundTouch):
                         v = self.node_friction(v, acc[3], acc[self.acc_width - 1])
                     if self.n_spin > 0:   # and the contact's balance (balance.py)
                         self.balance_node(I, v_in, v, acc[3], acc[self.acc_width - 1])
+                    self.field_friction(I, v - v_in, f)   # field B's own friction (fields.py)
                 for b in ti.static(range(self.n_regions)):
                     if (I >= self.reg_lo[b]).all() and (I <= self.reg_hi[b]).all():
                         v = ti.Vector.zero(self.real, 3)

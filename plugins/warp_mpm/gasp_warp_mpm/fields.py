@@ -14,6 +14,7 @@ import numpy as np
 import warp as wp
 
 from gasp_core.mpm.contact import flowing_bodies
+from gasp_core.mpm import fields as core_fields
 from gasp_core.mpm.fields import (MIN_FRACTION, MIN_GRADIENT, field_bodies, field_friction, flow_touch,
                                   flow_touch_level, rigid_pair, shared_field_warning, touch_fraction)
 
@@ -67,16 +68,50 @@ def build_aflip_gather(Ft):
 
 
 @functools.cache
-def build_fields(Ft):
-    """``field_contact``: the node kernel of the two-field contact, scalar type ``Ft``."""
+def build_b_normal(Ft, mirror: bool = True):
+    """``b_normal(grid_mv, grid_sv, ground, node, n_grid)``, scalar type ``Ft``: ``grad m_B`` at an inner node by
+    central differences (the ``1 / (2 dx)`` cancels in the direction), field B's surface normal, into B (kg, not
+    normalised); ``m_B`` the whole grid's mass less A's, with ``mirror`` seen at or below a ground's top node layer
+    ``ground[r][0]`` plus its mirror image above that layer (``gasp_core.mpm.fields.ground_mirror``: the ground is
+    B's support, not a surface of B)."""
     vec3, vec4, mat33 = build_types(Ft)
-    ground_reach = build_touch(Ft)[2]
-    coulomb, flow_layer = build_pair_funcs(Ft)
+    MIRROR = wp.constant(int(mirror))
 
     @wp.func
-    def mass_b(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), node: int):
-        # m_B at a node: the whole grid's mass less field A's
-        return grid_mv[node][3] - grid_sv[node][3]
+    def mass_b(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), ground: wp.array(dtype=vec3), node: int,
+               n_grid: int):
+        out = grid_mv[node][3] - grid_sv[node][3]
+        if MIRROR != 0:
+            k = node % n_grid
+            for r in range(ground.shape[0]):
+                top = int(ground[r][0])
+                if k <= top and 2 * top - k < n_grid:
+                    j = node + 2 * (top - k)
+                    out = out + grid_mv[j][3] - grid_sv[j][3]
+        return out
+
+    @wp.func
+    def b_normal(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), ground: wp.array(dtype=vec3),
+                 node: int, n_grid: int):
+        nn = n_grid * n_grid
+        return vec3(mass_b(grid_mv, grid_sv, ground, node + nn, n_grid)
+                    - mass_b(grid_mv, grid_sv, ground, node - nn, n_grid),
+                    mass_b(grid_mv, grid_sv, ground, node + n_grid, n_grid)
+                    - mass_b(grid_mv, grid_sv, ground, node - n_grid, n_grid),
+                    mass_b(grid_mv, grid_sv, ground, node + 1, n_grid)
+                    - mass_b(grid_mv, grid_sv, ground, node - 1, n_grid))
+
+    return b_normal
+
+
+@functools.cache
+def build_fields(Ft, mirror: bool = True):
+    """``field_contact``: the node kernel of the two-field contact, scalar type ``Ft``; ``mirror``: B's mass at a
+    ground's node layers seen with its mirror image for the normal (``gasp_core.mpm.fields.GROUND_MIRROR``)."""
+    vec3, vec4, mat33 = build_types(Ft)
+    ground_reach = build_touch(Ft)[2]
+    b_normal = build_b_normal(Ft, mirror)
+    coulomb, flow_layer = build_pair_funcs(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def field_contact(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), grid_dv: wp.array(dtype=vec3),
@@ -114,10 +149,7 @@ def build_fields(Ft):
             pa = grid_sv[node]
             v_b = vec3(g[0] - pa[0], g[1] - pa[1], g[2] - pa[2]) / m_b
             u = vec3(pa[0], pa[1], pa[2]) / m_a - v_b
-            # grad m_B, central differences (the 1 / (2 dx) cancels in the direction): field B's surface normal
-            n = vec3(mass_b(grid_mv, grid_sv, node + nn) - mass_b(grid_mv, grid_sv, node - nn),
-                     mass_b(grid_mv, grid_sv, node + n_grid) - mass_b(grid_mv, grid_sv, node - n_grid),
-                     mass_b(grid_mv, grid_sv, node + 1) - mass_b(grid_mv, grid_sv, node - 1))
+            n = b_normal(grid_mv, grid_sv, ground, node, n_grid)
             ln = wp.length(n)
             u2 = u
             if ln > Ft(MIN_GRADIENT) * m:
@@ -190,6 +222,9 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     eng.grid_sv = wp.zeros(n, dtype=k.vec4, device=d)
     eng.grid_dv = wp.zeros(2 * n if eng.fields else 1, dtype=k.vec3, device=d)
     eng.grid_vf = wp.zeros(2 * n if eng.fields else 1, dtype=Ft, device=d)
+    # the grid update gives the particle contact's friction to field B alone (grid.build_field_friction)
+    on = eng.fields and contact == "mixed" and core_fields.B_FRICTION
+    eng.dv_friction = eng.grid_dv if on else wp.zeros(1, dtype=k.vec3, device=d)
     eng.flow_touch_on = bool(eng.fields and flow_touch(view))   # the flowing body's touch (pair_touch.py)
     nf = n if eng.flow_touch_on else 1
     eng.flow_touch = wp.zeros(nf, dtype=wp.int32, device=d)
@@ -201,7 +236,7 @@ def field_launches(eng, Ft) -> list:
     """The recorded launches of the contact and the clear (after P2G, before the grid update); none without it."""
     if not eng.fields:
         return []
-    contact, clear = build_fields(Ft)
+    contact, clear = build_fields(Ft, bool(core_fields.GROUND_MIRROR))
     ng, d = eng.n_grid, eng.device
     # the walls' grid rule reaches node indices below wall_in and above (hi - lo) / dx - wall_in (grid.py)
     walls = eng.wall_mu.shape[0] > 0

@@ -76,6 +76,42 @@ def build_contact_friction(Ft):
 
 
 @functools.cache
+def build_field_friction(Ft):
+    """``field_friction(grid_dv, node, dv, f, lo, hi, dx, wall_in, ground, n_grid, ground_touch, n_walls)``, scalar type
+    ``Ft``: with the two-field contact (``grid_dv`` of more than one entry; the engine passes one entry where
+    ``gasp_core.mpm.fields.B_FRICTION`` is off) the particle contact's friction ``dv``
+    (m/s, the change it made to the node's mean velocity; its budget is field B's points', as only the bodies that do
+    not flow take the particle contact in a ``"mixed"`` scene) given to field B alone (``gasp_core.mpm.fields
+    .B_FRICTION``): A's offset less ``dv``, B's plus ``dv f / (1 - f)`` (``f`` the node's flowing-mass fraction, A's
+    share of ``m``), so A keeps its velocity and B takes the momentum ``m dv``. Not in a ground's or the walls' node
+    layers (both fields move with the mean there, ``fields.field_contact``)."""
+    vec3, vec4, mat33 = build_types(Ft)
+    ground_reach = build_touch(Ft)[2]
+
+    @wp.func
+    def field_friction(grid_dv: wp.array(dtype=vec3), node: int, dv: vec3, f: Ft, lo: vec3, hi: vec3, dx: Ft,
+                       wall_in: Ft, ground: wp.array(dtype=vec3), n_grid: int, ground_touch: wp.array(dtype=wp.int32),
+                       n_walls: int):
+        i = node / (n_grid * n_grid)
+        j = (node / n_grid) % n_grid
+        k = node % n_grid
+        X = lo + dx * vec3(Ft(i), Ft(j), Ft(k))
+        held = int(0)
+        for q in range(ground.shape[0]):
+            if ground_reach(k, ground[q], q, i, j, n_grid, ground_touch):
+                held = int(1)
+        for d in range(3):
+            if n_walls > 0 and (X[d] < lo[d] + wall_in * dx or X[d] > hi[d] - wall_in * dx):
+                held = int(1)
+        if grid_dv.shape[0] > 1 and held == 0 and f > Ft(0.0) and f < Ft(1.0):
+            n_nodes = grid_dv.shape[0] / 2
+            grid_dv[node] = grid_dv[node] - dv
+            grid_dv[n_nodes + node] = grid_dv[n_nodes + node] + (f / (Ft(1.0) - f)) * dv
+
+    return field_friction
+
+
+@functools.cache
 def build_boundary_rules(Ft):
     """``boundary_rules(vel, X, k, lo, hi, dx, wall_in, wall_full, wall_mu, ground, f, floor, i, j, n_grid,
     ground_touch)``, scalar type ``Ft``: the walls' and grounds' grid rule on node ``(i, j, k)``'s velocity (nodes
@@ -129,7 +165,7 @@ def build_grid_update(Ft):
     boundary_rules = build_boundary_rules(Ft)
     Extras, extras = build_extras(Ft)
     balance_node = build_balance(Ft)[2]
-    contact_friction, clear_contact = build_contact_friction(Ft)
+    (contact_friction, clear_contact), field_friction = build_contact_friction(Ft), build_field_friction(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def grid_update(
@@ -142,7 +178,7 @@ def build_grid_update(Ft):
         grid_fbody: wp.array(dtype=wp.int32), fr_sums: wp.array2d(dtype=wp.float64), fr_nodes: wp.array(dtype=wp.int32),
         colc: int, grid_fn: wp.array(dtype=vec3), grid_fv: wp.array(dtype=vec3), wall_full: Ft,
         grid_mf: wp.array(dtype=Ft), fr_dv: wp.array(dtype=vec4), fr_fb: wp.array(dtype=Ft), floor: int,
-        ground_touch: wp.array(dtype=wp.int32)):
+        ground_touch: wp.array(dtype=wp.int32), grid_dv: wp.array(dtype=vec3)):
         # wall_in: the walls' grid rule reaches this many cells in (gasp_core.mpm.contact.wall_grid_cells);
         # ground[g] = (top node layer k_max as a float, friction, unused); grid_m (node mass, for
         # passive points) has one entry per node when the setup has passive points, else one unused entry;
@@ -180,6 +216,8 @@ def build_grid_update(Ft):
                 if fr_sums.shape[0] > 0:
                     balance_node(node, v_in, vel, m, grid_fb[node], X, grid_fbody, fr_sums, fr_nodes,
                                      fr_dv, fr_fb)
+                field_friction(grid_dv, node, vel - v_in, f, lo, hi, dx, wall_in, ground, n_grid, ground_touch,
+                               wall_mu.shape[0])
             for r in range(fixed_lo.shape[0]):
                 flo = fixed_lo[r]
                 fhi = fixed_hi[r]
