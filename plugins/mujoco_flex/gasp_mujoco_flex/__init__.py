@@ -93,6 +93,9 @@ def sweep(quick: bool) -> tuple[list[dict], dict]:
 
 
 KNOWN_FAILURES = {
+    "rest_gap": "the 4 x 4 x 2 dx slab set on the ground rests with its lowest 1 % of points 0.129 dx inside the "
+                "plane (limit 0.01 dx): MuJoCo's soft contact's penetration (recorded in conformance_tests/RESULTS.md, "
+                "run only in the slow tier; listed here in round 41)",
     "bounce": "EngineDivergence at frame 13 (t = 0.22 s): 6 lattice tetrahedra inverted on impact of "
               "the E = 2e5 Pa ball after a 0.14 m drop (dt 0.794 ms)",
     "bounce_hertz": "EngineDivergence at frame 49 (t = 0.20 s, the impact): 2 lattice tetrahedra inverted when the "
