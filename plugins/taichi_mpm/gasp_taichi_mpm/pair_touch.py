@@ -49,9 +49,9 @@ class PairTouch:
                     phi = ti.cast(0.0, self.real)
                     for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                         phi += w[i][0] * w[j][1] * w[k][2] * self.grid_vf[base + ti.Vector([i, j, k])][1]
-                    if ti.static(self.pic_on):   # B's volume in the point's stencil: its next P2G without C
-                        self.p_pic[p] = 1 if phi > 0.0 else 0
                     if phi >= level:   # within FLOW_TOUCH_DELTA cells of B's surface
+                        if ti.static(self.pic_on):   # its next P2G without its affine momentum (PIC_AT_B)
+                            self.p_pic[p] = 1
                         for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                             ti.atomic_max(self.grid_ft[base + ti.Vector([i, j, k])], 1)
 

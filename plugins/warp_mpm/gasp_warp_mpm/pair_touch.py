@@ -94,7 +94,7 @@ def build_pair_touch(Ft):
         p = wp.tid()
         if in_a[body[p]] == 0:
             return
-        pic = p_pic.shape[0] > 1   # PIC_AT_B: the point's next P2G without its affine momentum where B is
+        pic = p_pic.shape[0] > 1   # PIC_AT_B: a touching point's next P2G without its affine momentum
         if pic:
             p_pic[p] = 0
         X = (x[p] - lo) * inv_dx
@@ -117,9 +117,9 @@ def build_pair_touch(Ft):
             for j in range(3):
                 for k in range(3):
                     phi += W[i, 0] * W[j, 1] * W[k, 2] * grid_vf[n_nodes + idx0 + i * nn + j * n_grid + k]
-        if pic and phi > Ft(0.0):   # B's volume in the point's stencil
-            p_pic[p] = 1
         if phi >= level * cell:   # within FLOW_TOUCH_DELTA cells of B's surface
+            if pic:
+                p_pic[p] = 1
             for i in range(3):
                 for j in range(3):
                     for k in range(3):
