@@ -85,7 +85,8 @@ def build_scatter(Ft):
 
 @functools.cache
 def build_p2g(Ft):
-    """The P2G kernel ``p2g`` of scalar type ``Ft``: return mapping, stress, scatter."""
+    """The P2G kernel ``p2g`` of scalar type ``Ft``: return mapping, stress, scatter. It is long because P2G is one
+    pass per point: the stress, the contacts' and the two fields' scatters."""
     vec3, vec4, mat33 = build_types(Ft)
     in_grid, weights = build_stencil(Ft)
     scatter, scatter_wind, scatter_scalar = build_scatter(Ft)
@@ -133,10 +134,8 @@ def build_p2g(Ft):
         F[p] = F_new
         eta = mat_par[body[p], P_ETA]
         pm = p_mass[p]
-        pc = pm   # the affine momentum's mass: none for a point of A at B (p_pic, gasp_core.mpm.fields.PIC_AT_B)
-        if p_pic.shape[0] > 1:
-            if p_pic[p] != 0:
-                pc = Ft(0.0)
+        # the affine momentum's mass: none for a point of A touching B (p_pic: one 0 without the marks; PIC_AT_B)
+        pc = pm * Ft(1 - p_pic[wp.min(p, p_pic.shape[0] - 1)])
         affine = (-dt * p_vol[p] * Ft(4.0) * inv_dx * inv_dx) * tau + pc * Cp
         A = dx * affine  # affine dpos = A ((i, j, k) - fx)
         mom0 = pm * v[p] - A * fx
