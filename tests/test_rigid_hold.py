@@ -95,8 +95,12 @@ def test_scenes_without_a_holding_body_build_no_tables():
 N_GRID = 32
 DX = 1.0 / N_GRID
 PLATE = 0.6
-#: How far (cells) the block's front may end from the plate's near face, either side.
+#: How far (cells) the block's front may end from the plate's near face: into it at most TOL; short of it at most
+#: GAP, the band in which round 37's touch rests sand points over a face (``tests/test_sand_on_rigid.py``'s
+#: ``REST_BAND``: 0.1-0.4). Round 41's ``PIC_AT_B`` (docs/contact.md "Round 41: the sand's affine momentum at the
+#: face") ends the front 0.168 cells short (before +0.005), both engines.
 TOL = 0.15
+GAP = 0.4
 
 
 def thrown_at_plate(engine: str) -> tuple[float, int, float]:
@@ -144,7 +148,7 @@ def _switch_off(engine: str, monkeypatch) -> None:
 def test_sand_thrown_at_a_thin_rigid_plate_stops_at_its_face(engine):
     front, through, dp = thrown_at_plate(engine)
     assert through == 0, f"{engine}: {through} sand points passed a rigid plate one cell thick"
-    assert abs(front) < TOL, f"{engine}: the block's front ends {front:+.3f} cells from the plate's face"
+    assert -GAP < front < TOL, f"{engine}: the block's front ends {front:+.3f} cells from the plate's face"
     assert abs(dp) < 0.02, f"{engine}: the momentum of the sand and the plate changed by {dp:+.4f}"
 
 
@@ -152,7 +156,8 @@ def test_sand_thrown_at_a_thin_rigid_plate_stops_at_its_face(engine):
 def test_the_plate_check_fails_without_the_hold(engine, monkeypatch):
     _switch_off(engine, monkeypatch)
     front, through, dp = thrown_at_plate(engine)
-    assert through > 0 or abs(front) >= TOL or abs(dp) >= 0.02, f"{engine}: without the hold the check still passes"
+    failed = through > 0 or not -GAP < front < TOL or abs(dp) >= 0.02
+    assert failed, f"{engine}: without the hold the check still passes"
 
 
 def field_depth(x0: np.ndarray, x1: np.ndarray, setup) -> float:

@@ -22,9 +22,13 @@ from the slab's top points at each frame.
   the rest band (the touch alone off: -0.02 dx, fails it too; the hold alone off changes nothing here: the touch
   keeps the sand out of the hold's reach); the slab on a frictionless ground moves 0.092 dx and fails the slab
   check. Neither switch moves the ratio past its tolerance (-0.91 / -0.37 % and +1.97 / +0.31 %).
-- **Known failure** (strict xfail, slow, both engines): thrown at 0.7 m/s the ratio reads -6.9 % on the rigid slab
-  (its face settled 3/4 of a cell above a node layer) and -6.5 % on the jelly slab put there; field A's affine (APIC)
-  momentum at B's face (docs/contact.md, the same part).
+- **The face anywhere in its cell** (round 41, docs/contact.md "Round 41: the sand's affine momentum at the face"):
+  thrown at 0.7 m/s the ratio read -6.9 % on the rigid slab (its face settled 3/4 of a cell above a node layer) and
+  -6.5 % on the jelly slab put there, from field A's affine (APIC) momentum at B's face; with it left out for A's
+  points that touch B (``F.PIC_AT_B``) the family (the face at 0, 1/4, 1/2, 3/4 of a cell, rigid and jelly, n_grid
+  32 and 48, 0.7 and 1.2 m/s, both engines) keeps the checks above but one case (strict xfail: the jelly slab at
+  n_grid 48 not lowered, -3.12 % at 0.7 m/s, before -5.08 %); the catch: ``PIC_AT_B`` off fails the 3/4 cases. The
+  figures of the family above were read before round 41's ``PIC_AT_B`` (with it, n32 unset -0.03 % at 1.2 m/s).
 """
 from __future__ import annotations
 
@@ -169,20 +173,57 @@ def test_the_slab_check_catches_a_slab_that_slides(engine, monkeypatch):
     assert not _checks(out)["slab"], out
 
 
-@pytest.mark.slow
-@pytest.mark.xfail(strict=True, raises=AssertionError,
-                   reason="the two-field contact's friction falls short where B's face sits about 3/4 "
-                   "of a cell above a node layer, the more so the slower the slip: field A's momentum at the nodes "
-                   "inside B is its points' affine (APIC) extrapolation of a shearing base (docs/contact.md 'Round "
-                   "41: sand on a rigid body'; measured -6.9 % on the rigid slab, -6.5 % on the jelly one)")
-@pytest.mark.parametrize("model, lower", [("rigid", 0.0), (S.SLAB.model, 0.25)], ids=["rigid", "jelly_lower"])
-@pytest.mark.parametrize("engine", ["warp_mpm", "taichi_mpm"])
-def test_a_slower_slide_with_the_face_off_the_node_layer(engine, model, lower, monkeypatch):
-    """Thrown at 0.7 m/s (all of the base still slides forward at frame 3 on the jelly slab, whose face is on a node
-    layer: -0.21 %); the rigid slab's face settles 3/4 of a cell above a node layer (2.75 dx over the ground), the
-    jelly slab is put a quarter cell lower to sit there too. Known failure: -6.88 / -6.76 % (rigid) and -6.50 /
-    -6.49 % (jelly), warp_mpm / taichi_mpm; with field A's points scattered without their affine momentum (a probe)
-    -0.02 and +0.10 %."""
-    h = S.COULOMB_SLAB_H - lower * S.SIDE / S.N_GRID
-    out = run_family(engine, 32, None, monkeypatch, speeds=(0.7,), model=model, slab_h=h)
-    assert all(abs(e) <= RATIO_TOL for e, _t, _r in out.values()), out
+#: The face's place in its cell (the slab lowered by this many cells: the rigid slab's face then sits 3/4, 1/2, 1/4
+#: and 0 of a cell above a node layer at n_grid 32, the jelly slab's 0, 3/4, 1/2, 1/4), the slab, n_grid: the
+#: family of round 41's affine momentum at B (``F.PIC_AT_B``), at 0.7 and 1.2 m/s.
+LOWERS = (0.0, 0.25, 0.5, 0.75)
+#: The known failure left: the jelly slab at n_grid 48 (its face half a cell above a node layer) at 0.7 m/s.
+SHORT_48 = ("the mark of round 37's touch (points within FLOW_TOUCH_DELTA of B) misses the sand's lowest points on "
+            "the jelly slab at n_grid 48: -3.12 % at 0.7 m/s (before -5.08 %); a wider mark fixes it but piles "
+            "sand_on_ball (docs/contact.md 'Round 41: the sand's affine momentum at the face')")
+
+
+def _face_params():
+    for engine in ("warp_mpm", "taichi_mpm"):
+        for n_grid in (32, 48):
+            for model in ("rigid", "jelly"):
+                for lower in LOWERS:
+                    fast = engine == "warp_mpm" and n_grid == 32 and model == "rigid" and lower == 0.0
+                    marks = [] if fast else [pytest.mark.slow]
+                    if (n_grid, model, lower) == (48, "jelly", 0.0):
+                        marks.append(pytest.mark.xfail(strict=True, raises=AssertionError, reason=SHORT_48))
+                    yield pytest.param(engine, n_grid, model, lower, id=f"{engine}-n{n_grid}-{model}-{lower}",
+                                       marks=marks)
+
+
+def run_face(engine: str, n_grid: int, model: str, lower: float, monkeypatch, speeds=(0.7, 1.2)) -> dict:
+    """:func:`run_family` at ``speeds`` (m/s) with the slab ``model`` ("rigid" or "jelly") lowered ``lower``
+    cells."""
+    monkeypatch.setattr(S, "N_GRID", n_grid)
+    h = S.COULOMB_SLAB_H - lower * S.SIDE / n_grid
+    return run_family(engine, n_grid, None, monkeypatch, speeds=speeds,
+                      model=S.SLAB.model if model == "jelly" else model, slab_h=h)
+
+
+@pytest.mark.parametrize("engine, n_grid, model, lower", list(_face_params()))
+def test_a_slower_slide_with_the_face_anywhere_in_its_cell(engine, n_grid, model, lower, monkeypatch):
+    """Thrown at 0.7 m/s (and 1.2) on a rigid or jelly slab whose face sits anywhere in its cell: with field A's
+    affine momentum left out where A touches B (``F.PIC_AT_B``, round 41) the ratio within ``RATIO_TOL``; before,
+    -6.88 / -6.76 % (rigid, face 3/4 of a cell above a node layer) and -6.50 / -6.49 % (jelly lowered a quarter
+    cell), warp_mpm / taichi_mpm. The default tier's case at 0.7 m/s alone."""
+    fast = engine == "warp_mpm" and n_grid == 32 and model == "rigid" and lower == 0.0
+    out = run_face(engine, n_grid, model, lower, monkeypatch, speeds=(0.7,) if fast else (0.7, 1.2))
+    assert all(_checks(out).values()), (_checks(out), out)
+
+
+@pytest.mark.parametrize("engine, model, lower", [
+    ("warp_mpm", "rigid", 0.0),
+    pytest.param("taichi_mpm", "rigid", 0.0, marks=pytest.mark.slow),
+    pytest.param("warp_mpm", "jelly", 0.25, marks=pytest.mark.slow),
+    pytest.param("taichi_mpm", "jelly", 0.25, marks=pytest.mark.slow)])
+def test_the_face_family_catches_the_affine_momentum_at_b(engine, model, lower, monkeypatch):
+    """The catch: ``F.PIC_AT_B`` off (every point keeps its affine momentum, the rule before) fails the ratio at
+    0.7 m/s with the face 3/4 of a cell above a node layer."""
+    monkeypatch.setattr(F, "PIC_AT_B", False)
+    out = run_face(engine, 32, model, lower, monkeypatch, speeds=(0.7,))
+    assert out[0.7][0] < -RATIO_TOL, out

@@ -15,6 +15,7 @@ it reads.
 """
 import taichi as ti
 
+from gasp_core.mpm import fields as core_fields
 from gasp_core.mpm.fields import flow_touch_level
 
 
@@ -30,6 +31,9 @@ class PairTouch:
         self.grid_ft = ti.field(ti.i32, shape=(ng, ng, ng))
         self.grid_push = ti.Vector.field(3, self.real, shape=(ng, ng, ng))
         self.flow_level = float(flow_touch_level())
+        # field A's points without their affine momentum where they meet B (transfers.p2g_prep; PIC_AT_B)
+        self.pic_on = bool(self.flow_touch_on and core_fields.PIC_AT_B)
+        self.p_pic = ti.field(ti.i32, shape=self.x.shape[0] if self.pic_on else 1)
 
     @ti.kernel
     def mark_flow(self):
@@ -38,12 +42,16 @@ class PairTouch:
         for p in range(self.n_points[None]):
             if self.in_a[self.body[p]] != 0:
                 base, fx, ok = self.base_fx(self.x[p])
+                if ti.static(self.pic_on):
+                    self.p_pic[p] = 0
                 if ok:
                     w = self.weights(fx)
                     phi = ti.cast(0.0, self.real)
                     for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                         phi += w[i][0] * w[j][1] * w[k][2] * self.grid_vf[base + ti.Vector([i, j, k])][1]
                     if phi >= level:   # within FLOW_TOUCH_DELTA cells of B's surface
+                        if ti.static(self.pic_on):   # its next P2G without its affine momentum (PIC_AT_B)
+                            self.p_pic[p] = 1
                         for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                             ti.atomic_max(self.grid_ft[base + ti.Vector([i, j, k])], 1)
 

@@ -77,10 +77,14 @@ class Transfers:
         if ti.static(self.viscous):   # Kelvin-Voigt, implicit on the grid: the point's J V eta (docs/dissipation.md)
             eta_v = self.mat[self.body[p]][P_ETA] * F.determinant() * self.p_vol[p]
         m = self.p_mass[p]
+        mc = m   # the affine momentum's mass: none for a point of A at B (p_pic, gasp_core.mpm.fields.PIC_AT_B)
+        if ti.static(self.pic_on):
+            if self.p_pic[p] != 0:
+                mc = ti.cast(0.0, self.real)
         dx = self.dx[None]
-        affine = (-dt * self.p_vol[p] * 4.0 * inv_dx * inv_dx) * tau + m * C
+        affine = (-dt * self.p_vol[p] * 4.0 * inv_dx * inv_dx) * tau + mc * C
         A = affine * dx
-        S = (affine - m * C) * dx   # the stress part of A (AFLIP sums the momentum without it)
+        S = (affine - mc * C) * dx   # the stress part of A (AFLIP sums the momentum without it)
         mv0 = m * self.v[p] - A @ fx
         # the particle contact (zeros without it): not in AFLIP's APIC momentum (a boundary, as in warp_mpm)
         jvec, budget, fn, fv, sup = self.point_contact(p)

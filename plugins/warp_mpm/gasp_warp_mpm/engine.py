@@ -2,10 +2,10 @@
 
 Implements ``docs/mpm.md`` (3D MLS-MPM, quadratic B-splines, APIC; Hu et al. 2018) with :mod:`gasp_warp_mpm.kernels`.
 Per substep three launches: P2G (return mapping, stress once per point, scatter), grid update over nodes (which also
-clears the accumulation grid), and G2P fused with the position update; with a viscous material the implicit viscous
-step (:mod:`gasp_warp_mpm.viscosity`) runs between P2G and the grid update, then the two-field contact of a mixed
-scene or of two soft bodies (:mod:`gasp_warp_mpm.fields`). On CUDA the substeps of a frame are captured once in a CUDA
-graph; on CPU pre-recorded ``wp.Launch`` objects. The host syncs once per frame, for the blow-up check.
+clears the accumulation grid), and G2P fused with the position update; with a viscous material the implicit viscous step
+(:mod:`gasp_warp_mpm.viscosity`) runs between P2G and the grid update, then the two-field contact of a mixed scene or of
+two soft bodies (:mod:`gasp_warp_mpm.fields`). On CUDA the substeps of a frame are captured once in a CUDA graph; on CPU
+pre-recorded ``wp.Launch`` objects. The host syncs once per frame, for the blow-up check.
 
 Notes
 -----
@@ -17,8 +17,8 @@ Choices where docs/mpm.md leaves room (the Taichi plugin agrees to ~1e-5 m on al
   reflection on ``sig[2]``, checked in the tests) is used when ``det F <= 0`` or the iteration does not converge.
 - ``metal`` / ``plasticine`` rebuild ``F = U diag(exp(eps)) V^T`` only when ``dg > 0``; ``sand`` always rebuilds it.
 - Wall friction axis by axis, x then y then z, the low face before the high face.
-- A point out of the grid neither scatters nor gathers and keeps its ``x, v, C`` for the rest of the frame; the
-  frame then raises :class:`EngineDivergence`.
+- A point out of the grid neither scatters nor gathers, keeps its ``x, v, C`` for the frame, which raises
+  :class:`EngineDivergence`.
 - ``p_mass v + affine dpos`` and APIC's ``C`` in a factored form (``A (i, j, k) - A fx``): rounding only.
 - On CPU the points are kept sorted by grid cell (re-sorted after every frame, stable, so runs repeat bit for
   bit; every per-point array moves with them, the contact coefficients included); outputs are in ``setup.x``'s order.
@@ -97,8 +97,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
         self.k = K.build_kernels(Ft)
 
         self.n_points, self.n_grid = len(setup.x), int(setup.n_grid)
-        self.dx = setup.dx
-        self.inv_dx = 1.0 / self.dx
+        self.dx, self.inv_dx = setup.dx, 1.0 / setup.dx
         self.n_substeps, self.dt = steps   # chosen once: a step shortened for the contact warns once
         self.frame, self.sim_time = 0, 0.0
         # Sort points by grid cell (cache locality of scatter and gather); order[i] is the setup index of internal
@@ -165,8 +164,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
         self.has_wind = int(any(f.kind == "wind" for f in (getattr(self.setup, "forces", None) or [])))
         self.grid_g = wp.zeros(n_nodes if self.has_wind else 1, dtype=k.vec3, device=d)
         self.flags = wp.zeros(2, dtype=wp.int32, device=d)  # [out-of-grid count, non-finite count]
-        # with the option flip (AFLIP): the APIC momentum alone and its velocity per node
-        self.flip = float(self.config.flip or 0.0)
+        self.flip = float(self.config.flip or 0.0)   # AFLIP: the APIC momentum alone and its velocity per node
         self.grid_mv0 = wp.zeros(n_nodes if self.flip else 1, dtype=k.vec4, device=d)
         self.grid_v0 = wp.zeros(n_nodes if self.flip else 1, dtype=k.vec3, device=d)
         # with a viscous material: the viscous volume sum_p w J V eta per node and the implicit step (viscosity.py)
@@ -233,7 +231,8 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
                 self.mat_kind, self.mat_par, self.grid_mv, self.flags, lo_v, inv_dx, dx, dt_f, ng,
                 self.grid_g, self.has_wind, self.grid_mv0, int(self.flip > 0), self.p_contact, self.planes, self.plane_n,
                 self.grid_fb, self.grid_eta, self.c_shift, self.grid_fbody, ex, self.colc, self.n_sup, self.grid_fn,
-                self.grid_fv, self.grid_mf, self.flows, self.grid_sv, self.grid_vf, self.in_a, self.fixed, rule]),
+                self.grid_fv, self.grid_mf, self.flows, self.grid_sv, self.grid_vf, self.in_a, self.fixed, rule,
+                self.p_pic]),
             wp.launch(k.grid_update, dim=ng ** 3, device=d, record_cmd=True, inputs=[
                 self.grid_mv, self.grid_v, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, Ft(self.wall_in), self.wall_mu,
                 self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex, self.grid_g, self.has_wind,
@@ -288,6 +287,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
         for a in (self.x, self.v, self.F, self.C, self.Jp, self.p_mass, self.p_vol, self.body, self.fixed, *per_point):
             view = a.numpy()
             view[...] = view[perm]
+        self.permute_marks(perm[:m])   # sleeping.py
         self._order = self._order[perm]
 
     def _substeps(self, capturing: bool = False) -> None:

@@ -229,6 +229,8 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     nf = n if eng.flow_touch_on else 1
     eng.flow_touch = wp.zeros(nf, dtype=wp.int32, device=d)
     eng.flow_push = wp.zeros(nf, dtype=k.vec3, device=d)
+    # field A's points without their affine momentum where they meet B (transfers.p2g, gasp_core PIC_AT_B)
+    eng.p_pic = wp.zeros(eng.n_material if eng.flow_touch_on and core_fields.PIC_AT_B else 1, dtype=wp.int32, device=d)
     eng.allocate_touch(Ft, contact)   # the grounds' touched columns (touch.py)
 
 
@@ -247,7 +249,7 @@ def field_launches(eng, Ft) -> list:
     lo = eng.k.vec3(*[float(c) for c in eng.setup.domain_lo])
     flow = [wp.launch(mark, dim=eng.n_material, device=d, record_cmd=True, inputs=[
         eng.x, eng.body, eng.in_a, eng.grid_vf, eng.flow_touch, lo, Ft(eng.inv_dx), Ft(eng.dx ** 3),
-        Ft(flow_touch_level()), ng])] if eng.flow_touch_on else []
+        Ft(flow_touch_level()), ng, eng.p_pic])] if eng.flow_touch_on else []
     after = [wp.launch(apply, dim=ng ** 3, device=d, record_cmd=True, inputs=[
         eng.grid_mv, eng.grid_sv, eng.grid_dv, eng.flow_push, eng.flow_touch])] if eng.flow_touch_on else []
     return flow + [wp.launch(contact, dim=ng ** 3, device=d, record_cmd=True, inputs=[

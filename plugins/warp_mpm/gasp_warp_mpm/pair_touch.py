@@ -90,10 +90,13 @@ def build_pair_touch(Ft):
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def flow_mark(x: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32),
                   grid_vf: wp.array(dtype=Ft), flow_touch: wp.array(dtype=wp.int32), lo: vec3, inv_dx: Ft,
-                  cell: Ft, level: Ft, n_grid: int):
+                  cell: Ft, level: Ft, n_grid: int, p_pic: wp.array(dtype=wp.int32)):
         p = wp.tid()
         if in_a[body[p]] == 0:
             return
+        pic = p_pic.shape[0] > 1   # PIC_AT_B: a touching point's next P2G without its affine momentum
+        if pic:
+            p_pic[p] = 0
         X = (x[p] - lo) * inv_dx
         lim = Ft(n_grid - 3)
         b = vec3(wp.floor(X[0] - Ft(0.5)), wp.floor(X[1] - Ft(0.5)), wp.floor(X[2] - Ft(0.5)))
@@ -115,6 +118,8 @@ def build_pair_touch(Ft):
                 for k in range(3):
                     phi += W[i, 0] * W[j, 1] * W[k, 2] * grid_vf[n_nodes + idx0 + i * nn + j * n_grid + k]
         if phi >= level * cell:   # within FLOW_TOUCH_DELTA cells of B's surface
+            if pic:
+                p_pic[p] = 1
             for i in range(3):
                 for j in range(3):
                     for k in range(3):

@@ -63,7 +63,14 @@ class Sleeping:
         per_point += [self.X0] if self.any_rigid else []
         for a in (self.x, self.v, self.F, self.C, self.Jp, self.p_mass, self.p_vol, self.body, self.fixed, *per_point):
             a.assign(a.numpy()[perm])
+        self.permute_marks(perm[:self.n_material])
         self._order = self._order[perm]
+
+    def permute_marks(self, perm_m: np.ndarray) -> None:
+        """Reorder field A's points' marks ``p_pic`` (fields.py; one entry without them) by ``perm_m``, the material
+        points' new order (n_material,)."""
+        if self.p_pic.shape[0] > 1:
+            self.p_pic.assign(self.p_pic.numpy()[perm_m])
 
 
 def _kernel_name(cmd) -> str:

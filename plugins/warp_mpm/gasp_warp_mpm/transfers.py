@@ -85,7 +85,8 @@ def build_scatter(Ft):
 
 @functools.cache
 def build_p2g(Ft):
-    """The P2G kernel ``p2g`` of scalar type ``Ft``: return mapping, stress, scatter."""
+    """The P2G kernel ``p2g`` of scalar type ``Ft``: return mapping, stress, scatter. It is long because P2G is one
+    pass per point: the stress, the contacts' and the two fields' scatters."""
     vec3, vec4, mat33 = build_types(Ft)
     in_grid, weights = build_stencil(Ft)
     scatter, scatter_wind, scatter_scalar = build_scatter(Ft)
@@ -108,6 +109,7 @@ def build_p2g(Ft):
         ex: Extras, colc: int, n_sup: int, grid_fn: wp.array(dtype=vec3), grid_fv: wp.array(dtype=vec3),
         grid_mf: wp.array(dtype=Ft), flows: wp.array(dtype=wp.int32), grid_sv: wp.array(dtype=vec4),
         grid_vf: wp.array(dtype=Ft), in_a: wp.array(dtype=wp.int32), fixed: wp.array(dtype=wp.int32), rule: int,
+        p_pic: wp.array(dtype=wp.int32),
     ):
         # F advanced by C, return mapping and stress (docs/mpm.md), then the scatter (and, with wind, grid_g;
         # with flip, the APIC momentum alone into grid_mv0: gasp_core.mpm.transfer); with the particle
@@ -132,7 +134,9 @@ def build_p2g(Ft):
         F[p] = F_new
         eta = mat_par[body[p], P_ETA]
         pm = p_mass[p]
-        affine = (-dt * p_vol[p] * Ft(4.0) * inv_dx * inv_dx) * tau + pm * Cp
+        # the affine momentum's mass: none for a point of A touching B (p_pic: one 0 without the marks; PIC_AT_B)
+        pc = pm * Ft(1 - p_pic[wp.min(p, p_pic.shape[0] - 1)])
+        affine = (-dt * p_vol[p] * Ft(4.0) * inv_dx * inv_dx) * tau + pc * Cp
         A = dx * affine  # affine dpos = A ((i, j, k) - fx)
         mom0 = pm * v[p] - A * fx
         idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
@@ -156,7 +160,7 @@ def build_p2g(Ft):
                 scatter(grid_sv, idx0, n_grid, W, mom0, A, pm)
             scatter_scalar(grid_vf, idx0 + (1 - in_a[body[p]]) * n_grid * n_grid * n_grid, n_grid, W, p_vol[p])
         if flip != 0:
-            A0 = (dx * pm) * Cp
+            A0 = (dx * pc) * Cp
             scatter(grid_mv0, idx0, n_grid, W, pm * v[p] - A0 * fx, A0, pm)
         if has_wind != 0:
             scatter_wind(grid_g, idx0, n_grid, W, fx, p_vol[p] * inv_dx)
