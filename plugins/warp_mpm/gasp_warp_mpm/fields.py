@@ -68,20 +68,19 @@ def build_aflip_gather(Ft):
 
 
 @functools.cache
-def build_b_normal(Ft, mirror: bool = True):
-    """``b_normal(grid_mv, grid_sv, ground, node, n_grid)``, scalar type ``Ft``: ``grad m_B`` at an inner node by
-    central differences (the ``1 / (2 dx)`` cancels in the direction), field B's surface normal, into B (kg, not
-    normalised); ``m_B`` the whole grid's mass less A's, with ``mirror`` seen at or below a ground's top node layer
-    ``ground[r][0]`` plus its mirror image above that layer (``gasp_core.mpm.fields.ground_mirror``: the ground is
-    B's support, not a surface of B)."""
+def build_b_normal(Ft):
+    """``b_normal(grid_mv, grid_sv, ground, node, n_grid, mirror)``, scalar type ``Ft``: ``grad m_B`` at an inner node
+    by central differences (the ``1 / (2 dx)`` cancels in the direction), field B's surface normal, into B (kg, not
+    normalised); ``m_B`` the whole grid's mass less A's, with ``mirror`` (int, not 0) seen at or below a ground's top
+    node layer ``ground[r][0]`` plus its mirror image above that layer (``gasp_core.mpm.fields.ground_mirror``: the
+    ground is B's support, not a surface of B)."""
     vec3, vec4, mat33 = build_types(Ft)
-    MIRROR = wp.constant(int(mirror))
 
     @wp.func
     def mass_b(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), ground: wp.array(dtype=vec3), node: int,
-               n_grid: int):
+               n_grid: int, mirror: int):
         out = grid_mv[node][3] - grid_sv[node][3]
-        if MIRROR != 0:
+        if mirror != 0:
             k = node % n_grid
             for r in range(ground.shape[0]):
                 top = int(ground[r][0])
@@ -92,25 +91,25 @@ def build_b_normal(Ft, mirror: bool = True):
 
     @wp.func
     def b_normal(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), ground: wp.array(dtype=vec3),
-                 node: int, n_grid: int):
+                 node: int, n_grid: int, mirror: int):
         nn = n_grid * n_grid
-        return vec3(mass_b(grid_mv, grid_sv, ground, node + nn, n_grid)
-                    - mass_b(grid_mv, grid_sv, ground, node - nn, n_grid),
-                    mass_b(grid_mv, grid_sv, ground, node + n_grid, n_grid)
-                    - mass_b(grid_mv, grid_sv, ground, node - n_grid, n_grid),
-                    mass_b(grid_mv, grid_sv, ground, node + 1, n_grid)
-                    - mass_b(grid_mv, grid_sv, ground, node - 1, n_grid))
+        return vec3(mass_b(grid_mv, grid_sv, ground, node + nn, n_grid, mirror)
+                    - mass_b(grid_mv, grid_sv, ground, node - nn, n_grid, mirror),
+                    mass_b(grid_mv, grid_sv, ground, node + n_grid, n_grid, mirror)
+                    - mass_b(grid_mv, grid_sv, ground, node - n_grid, n_grid, mirror),
+                    mass_b(grid_mv, grid_sv, ground, node + 1, n_grid, mirror)
+                    - mass_b(grid_mv, grid_sv, ground, node - 1, n_grid, mirror))
 
     return b_normal
 
 
 @functools.cache
-def build_fields(Ft, mirror: bool = True):
-    """``field_contact``: the node kernel of the two-field contact, scalar type ``Ft``; ``mirror``: B's mass at a
-    ground's node layers seen with its mirror image for the normal (``gasp_core.mpm.fields.GROUND_MIRROR``)."""
+def build_fields(Ft):
+    """``field_contact``: the node kernel of the two-field contact, scalar type ``Ft``; its ``mirror`` (int): B's mass
+    at a ground's node layers seen with its mirror image for the normal (``gasp_core.mpm.fields.GROUND_MIRROR``)."""
     vec3, vec4, mat33 = build_types(Ft)
     ground_reach = build_touch(Ft)[2]
-    b_normal = build_b_normal(Ft, mirror)
+    b_normal = build_b_normal(Ft)
     coulomb, flow_layer = build_pair_funcs(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
@@ -118,7 +117,7 @@ def build_fields(Ft, mirror: bool = True):
                       n_grid: int, mu: Ft, ground: wp.array(dtype=vec3), grid_vf: wp.array(dtype=Ft), cell: Ft,
                       wall_lo: Ft, wall_hi: vec3, touch_frac: Ft, pair: int, lo: vec3, dx: Ft,
                       pair_acc: wp.array(dtype=wp.float64), ground_touch: wp.array(dtype=wp.int32),
-                      flow_touch: wp.array(dtype=wp.int32), flow_push: wp.array(dtype=vec3)):
+                      flow_touch: wp.array(dtype=wp.int32), flow_push: wp.array(dtype=vec3), mirror: int):
         node = wp.tid()
         nn = n_grid * n_grid
         n_nodes = nn * n_grid
@@ -149,7 +148,7 @@ def build_fields(Ft, mirror: bool = True):
             pa = grid_sv[node]
             v_b = vec3(g[0] - pa[0], g[1] - pa[1], g[2] - pa[2]) / m_b
             u = vec3(pa[0], pa[1], pa[2]) / m_a - v_b
-            n = b_normal(grid_mv, grid_sv, ground, node, n_grid)
+            n = b_normal(grid_mv, grid_sv, ground, node, n_grid, mirror)
             ln = wp.length(n)
             u2 = u
             if ln > Ft(MIN_GRADIENT) * m:
@@ -238,7 +237,7 @@ def field_launches(eng, Ft) -> list:
     """The recorded launches of the contact and the clear (after P2G, before the grid update); none without it."""
     if not eng.fields:
         return []
-    contact, clear = build_fields(Ft, bool(core_fields.GROUND_MIRROR))
+    contact, clear = build_fields(Ft)
     ng, d = eng.n_grid, eng.device
     # the walls' grid rule reaches node indices below wall_in and above (hi - lo) / dx - wall_in (grid.py)
     walls = eng.wall_mu.shape[0] > 0
@@ -256,6 +255,6 @@ def field_launches(eng, Ft) -> list:
                 eng.grid_mv, eng.grid_sv, eng.grid_dv, ng, Ft(eng.field_mu), eng.ground, eng.grid_vf,
                 Ft(eng.dx ** 3), Ft(wall_lo), eng.k.vec3(*[float(c) for c in wall_hi]), Ft(eng.field_touch), eng.pair,
                 eng.k.vec3(*[float(c) for c in eng.setup.domain_lo]), Ft(eng.dx), eng.pair_acc, eng.ground_touch,
-                eng.flow_touch, eng.flow_push])] + after + [
+                eng.flow_touch, eng.flow_push, int(bool(core_fields.GROUND_MIRROR))])] + after + [
             wp.launch(clear, dim=ng ** 3, device=d, record_cmd=True, inputs=[eng.grid_sv, eng.grid_vf])]
 
