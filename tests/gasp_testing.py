@@ -119,3 +119,17 @@ velocity = [0.0, 0.0, {-speed}]
 [object.material]
 {BRITTLE}
 """
+
+
+def set_pair_friction(monkeypatch, engine: str, mu) -> None:
+    """Make grid engine ``engine``'s two-field contact take the pair friction ``mu(setup)`` (a callable of the setup,
+    dimensionless) whatever the scene gives, the answer the tests read left as it is: a broken engine for the catches
+    of the Coulomb checks (``field_friction`` in warp_mpm's fields module; taichi_mpm's copy of ``field_setup``:
+    (bodies, mu, touch, rigid pair, flow touch))."""
+    if engine == "warp_mpm":
+        import gasp_warp_mpm.fields as wf
+        monkeypatch.setattr(wf, "field_friction", mu)
+    else:
+        import gasp_taichi_mpm.engine as te
+        real = te.field_setup
+        monkeypatch.setattr(te, "field_setup", lambda view: (lambda f: (f[0], mu(view), *f[2:]))(real(view)))

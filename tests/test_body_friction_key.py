@@ -17,7 +17,7 @@ import dataclasses
 import math
 
 import pytest
-from gasp_testing import scene_text
+from gasp_testing import scene_text, set_pair_friction
 
 from gasp_core.errors import SceneError
 from gasp_core.mpm import fields
@@ -92,13 +92,7 @@ def test_sand_slides_on_a_slab_with_the_pairs_friction(engine, slab_mu):
 
 def _ignore_the_key(monkeypatch, engine: str) -> None:
     """The engine's pair friction the sand's own ``tan(phi)``, whatever the slab names (the rule before the key)."""
-    if engine == "warp_mpm":
-        import gasp_warp_mpm.fields as wf
-        monkeypatch.setattr(wf, "field_friction", lambda setup: TAN30)
-    else:   # the engine's copy of field_setup: (bodies, mu, touch, rigid pair, flow touch)
-        import gasp_taichi_mpm.engine as te
-        real = te.field_setup
-        monkeypatch.setattr(te, "field_setup", lambda view: (lambda f: (f[0], TAN30, *f[2:]))(real(view)))
+    set_pair_friction(monkeypatch, engine, lambda setup: TAN30)
 
 
 @pytest.mark.parametrize("engine", ENGINES)

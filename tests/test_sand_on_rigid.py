@@ -36,6 +36,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from gasp_testing import set_pair_friction
 
 from gasp_core.colliders.model import COL_META
 from gasp_core.mpm import fields as F
@@ -125,13 +126,9 @@ def bias_friction(monkeypatch, engine: str, factor: float) -> None:
             t[3][CM_FRICTION::COL_META] *= factor
         return t
     monkeypatch.setattr(RH, "rigid_hold_tables", tables)
-    if engine == "warp_mpm":
-        import gasp_warp_mpm.fields as wf
-        monkeypatch.setattr(wf, "field_friction", lambda setup: factor * F.field_friction(setup))
-    else:   # the engine's copies of field_setup (bodies, mu, touch, rigid pair, flow touch) and of the tables
+    set_pair_friction(monkeypatch, engine, lambda setup: factor * F.field_friction(setup))
+    if engine == "taichi_mpm":   # the engine's copy of the tables
         import gasp_taichi_mpm.engine as te
-        real = te.field_setup
-        monkeypatch.setattr(te, "field_setup", lambda view: (lambda f: (f[0], factor * f[1], *f[2:]))(real(view)))
         monkeypatch.setattr(te, "rigid_hold_tables", tables)
 
 

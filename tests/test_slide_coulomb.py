@@ -19,6 +19,7 @@ import dataclasses
 import math
 
 import pytest
+from gasp_testing import set_pair_friction
 
 from gasp_core.testing import sand_ball as S
 from gasp_core.testing.scenes_flow_pairs import RATIO_FRAMES, RATIO_SPEEDS, RATIO_TOL
@@ -37,13 +38,7 @@ def _engine(engine: str):
 def _bias_friction(monkeypatch, engine: str, factor: float) -> None:
     """The engine's pair friction ``factor`` times the sand's tan phi (the scene's answer keeps tan phi)."""
     mu = factor * math.tan(math.radians(S.SAND.friction_angle))
-    if engine == "warp_mpm":
-        import gasp_warp_mpm.fields as wf
-        monkeypatch.setattr(wf, "field_friction", lambda setup: mu)
-    else:   # the engine's copy of field_setup: (bodies, mu, touch, rigid pair, flow touch)
-        import gasp_taichi_mpm.engine as te
-        real = te.field_setup
-        monkeypatch.setattr(te, "field_setup", lambda view: (lambda f: (f[0], mu, *f[2:]))(real(view)))
+    set_pair_friction(monkeypatch, engine, lambda setup: mu)
 
 
 @pytest.mark.slow
