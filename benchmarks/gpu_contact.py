@@ -16,7 +16,8 @@ tolerance is the tests' ``RATIO_TOL`` (2.5 %), either side. The cases are those 
 - ``key_mu1``: the slab's scene ``friction`` 1.0, the pair ``sqrt(tan phi 1.0)`` (``tests/test_body_friction_key.py``).
 
 Each case also gives its wall time (the first case's includes the kernels' compile). Writes
-``gpu_contact_<device>.json`` to ``--out``. Usage on the device (``../shared/device``), both devices in one call::
+``gpu_contact_<device>.json`` (``gpu_contact_warp_mpm_<device>.json`` with ``--engine warp_mpm``) to ``--out``.
+Usage on the device (``../shared/device``), both devices in one call::
 
     bash .device/setup.sh && export PYTHONPATH=/tmp/site && python3 benchmarks/gpu_contact.py --device cuda \
         --out $OUT && python3 benchmarks/gpu_contact.py --device cpu --out $OUT
@@ -61,13 +62,14 @@ def _setup(case: str, v0: float, options: dict):
 CASES = {"slab45": SPEEDS, "thin2_stiff": SPEEDS, "rigid_face": (0.7,), "ground64": SPEEDS, "key_mu1": (1.2,)}
 
 
-def run_case(case: str, device: str) -> dict:
-    """Coulomb's ratio over ``mu`` less 1 at each speed of ``case`` on ``device``, the check, the wall time."""
+def run_case(case: str, device: str, engine: str = "taichi_mpm") -> dict:
+    """Coulomb's ratio over ``mu`` less 1 at each speed of ``case`` on ``engine`` and ``device``, the check, the wall
+    time."""
     from gasp_core.seam.plugins import get_engine
     from gasp_core.testing import sand_ball as S
     from gasp_core.testing.kit import run_trace
     slab0 = S.SLAB
-    info = get_engine("taichi_mpm")
+    info = get_engine(engine)
     out = {}
     t0 = time.perf_counter()
     try:
@@ -87,15 +89,17 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--device", default="cuda", choices=("cuda", "cpu"))
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
+    ap.add_argument("--engine", default="taichi_mpm", choices=("taichi_mpm", "warp_mpm"))
     ap.add_argument("--only", default=None, help="comma-separated cases (default all)")
     args = ap.parse_args(argv)
     names = args.only.split(",") if args.only else list(CASES)
-    doc = {"device": args.device, "tol": TOL, "cases": {}}
+    doc = {"engine": args.engine, "device": args.device, "tol": TOL, "cases": {}}
     args.out.mkdir(parents=True, exist_ok=True)
-    path = args.out / f"gpu_contact_{args.device}.json"
+    tag = "" if args.engine == "taichi_mpm" else f"{args.engine}_"
+    path = args.out / f"gpu_contact_{tag}{args.device}.json"
     for name in names:
         try:
-            doc["cases"][name] = run_case(name, args.device)
+            doc["cases"][name] = run_case(name, args.device, args.engine)
         except Exception as exc:   # one case's failure leaves the others' figures
             doc["cases"][name] = {"error": f"{type(exc).__name__}: {exc}"}
         print(name, json.dumps(doc["cases"][name]), flush=True)

@@ -31,13 +31,15 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def scene_file(example: str, device: str, folder: Path) -> Path:
-    """``examples/<example>.toml`` with ``device`` in its engine options and its objects' files absolute, in
-    ``folder``."""
+def scene_file(example: str, device: str, folder: Path, engine: str | None = None) -> Path:
+    """``examples/<example>.toml`` with ``device`` in its engine options (and ``engine`` for its engine's name, where
+    given) and its objects' files absolute, in ``folder``."""
     import tomli_w
     src = ROOT / "examples" / f"{example}.toml"
     data = tomllib.loads(src.read_text())
     data.setdefault("engine", {}).setdefault("options", {})["device"] = device
+    if engine:
+        data["engine"]["name"] = engine
     for o in data.get("object", []) + data.get("collider", []):
         for key in ("file", "mesh"):
             if key in o:
@@ -47,11 +49,11 @@ def scene_file(example: str, device: str, folder: Path) -> Path:
     return path
 
 
-def run_scene(example: str, device: str, frames: int, timeout: float) -> dict:
+def run_scene(example: str, device: str, frames: int, timeout: float, engine: str | None = None) -> dict:
     """One ``gasp simulate`` of ``example`` on ``device``: the figures of its ``run.json`` (module notes)."""
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
-        toml = scene_file(example, device, Path(tmp))
+        toml = scene_file(example, device, Path(tmp), engine)
         out = Path(tmp) / "out"
         cmd = [sys.executable, "-m", "gasp_core", "simulate", str(toml), "-o", str(out), "--frames", str(frames),
                "--yes", "-q"]
@@ -101,6 +103,7 @@ def main(argv=None) -> int:
     ap.add_argument("--scenes", default="donut_shatter:10,donut_jelly:20",
                     help="example:frames or example:frames:device, comma-separated")
     ap.add_argument("--devices", default="cuda,cpu")
+    ap.add_argument("--engine", default=None, help="run every scene on this engine (default: each example's own)")
     ap.add_argument("--budget", type=float, default=300.0, help="seconds for all the runs")
     a = ap.parse_args(argv)
     a.out.mkdir(parents=True, exist_ok=True)
@@ -114,8 +117,9 @@ def main(argv=None) -> int:
         example, frames, *only = item.split(":")   # example:frames[:device]
         for device in only or a.devices.split(","):
             left = end - time.perf_counter()
-            rec = run_scene(example, device, int(frames), left) if left > 20 else {"error": "not run: budget spent"}
-            rec.update(scene=example, device_asked=device)
+            rec = (run_scene(example, device, int(frames), left, a.engine) if left > 20
+                   else {"error": "not run: budget spent"})
+            rec.update(scene=example, device_asked=device, engine=a.engine or "the example's")
             print(json.dumps(rec), flush=True)
             doc["cases"].append(rec)
             (a.out / "gpu_scenes.json").write_text(json.dumps(doc, indent=1))
