@@ -2,11 +2,11 @@
 :class:`gasp_taichi_mpm.solver.MPMSolver`; warp_mpm's ``balance.py`` spells the same steps: each body's net contact
 force and torque made those of a smooth contact.
 
-- :meth:`Balance.contact_moments` and :meth:`Balance.contact_shift` after each P2G: per body its mass centre ``c``,
+- ``contact_moments`` and ``contact_shift`` after each P2G: per body its mass centre ``c``,
   rigid velocity ``V``, spin ``omega`` (from ``m x x v`` and APIC's spin), normal impulse ``J`` and its centre.
   They are taken after the fused G2P and P2G kernel, on the positions and velocities that P2G used (P2G leaves them
   as they are), as warp_mpm takes them before its P2G; nothing reads them before the grid update's
-  :meth:`Balance.contact_fix`. (Taken before the fused kernel, one substep behind, with the last substep's gravity
+  ``contact_fix``. (Taken before the fused kernel, one substep behind, with the last substep's gravity
   and fix added as a predictor, they missed what else moved the body in that substep, the two-field contact's push
   of another body: the light ball of ``gasp_core.testing.sand_ball`` turned 2.37 degrees on taichi_mpm against 1.51
   on warp_mpm, issue 53);
@@ -14,7 +14,7 @@ force and torque made those of a smooth contact.
   to its body's (:meth:`Balance.mark_contact_nodes`: ``J`` and its centre are this substep's, as in warp_mpm);
 - :meth:`Balance.balance_node` in the grid update, at each marked node after its friction: its friction impulse and
   moment, its mass and moments and its budget into ``fr_sums``; the node listed in ``fr_nodes``;
-- :meth:`Balance.contact_fix` after the grid update: per body, the velocity change ``dv + alpha x (X - x_m)`` of its
+- ``contact_fix`` after the grid update: per body, the velocity change ``dv + alpha x (X - x_m)`` of its
   listed nodes that makes the friction's net force Coulomb's on the body's rigid motion at its centre of pressure
   and takes back the contact's torque about ``c`` up to ``J reach``, unless ``c`` lies more than ``reach`` beyond the pushed
   points' box.
@@ -24,17 +24,16 @@ slices of ``m_slice`` points (:func:`gasp_taichi_mpm.schedule.primitives.slice_p
 with no list and no sort: the marked nodes listed in node order by flag, scan and scatter, their terms summed per
 support over chunks of list entries by a fixed tree, then applied one thread a node
 (:meth:`gasp_taichi_mpm.balance_gpu.BalanceGPU.contact_fix_gpu`). The support sums of P2G (:meth:`Balance.add_contact`) stay float64 atomics on both (in fixed point with
-``deterministic``: :mod:`gasp_taichi_mpm.schedule.fixed`).
+``deterministic``: :mod:`gasp_taichi_mpm.schedule.fixed`). The CPU schedule's kernels, ordered (``contact_moments``,
+``contact_shift``, ``contact_fix`` and its sort), are in :mod:`gasp_taichi_mpm.schedule.ordered`.
 """
 import numpy as np
 import taichi as ti
 
 from gasp_core.mpm.contact import JSUMS, TORQUE_REACH
 
+from .schedule.ordered import N_PARTS
 
-#: Slices of the points the moments run over (each summed serially on one thread into its own row of ``c_part``;
-#: the rows are then added in slice order, so the sums do not depend on which thread finished first). CPU schedule.
-N_PARTS = 64
 #: Columns of a listed node's terms (:meth:`Balance.node_terms`): fr_sums[s, :17].
 N_NODE_TERMS = 17
 
@@ -92,43 +91,6 @@ class Balance:
                           m * x[0] * x[2], m * x[1] * x[1], m * x[1] * x[2], m * x[2] * x[2],
                           0.0, 0.0, 0.0,   # J: c_jsums
                           mv[0], mv[1], mv[2], L[0], L[1], L[2]], ti.f64)
-
-    @ti.kernel
-    def contact_moments(self):
-        """Per slice of the points and per body into ``c_part``: mass, first and second mass moments, momentum,
-        angular momentum (columns ``gasp_core.mpm.contact.SUMS``; the normal impulse's columns stay 0: P2G sums
-        them into ``c_jsums``). No atomics: a slice is one thread's; :meth:`contact_shift` adds the slices in order."""
-        n = self.n_points[None]
-        D = ti.cast(0.25 * self.dx[None] * self.dx[None], ti.f64)
-        ti.loop_config(block_dim=1)
-        for t in range(N_PARTS):
-            acc = ti.Vector.zero(ti.f64, 19)
-            cur = -1
-            for p in range(t * n // N_PARTS, (t + 1) * n // N_PARTS):
-                b = self.body[p]
-                if b != cur:
-                    if cur >= 0:
-                        for q in ti.static(range(19)):
-                            self.c_part[t, cur, q] += acc[q]
-                    acc = ti.Vector.zero(ti.f64, 19)
-                    cur = b
-                if self.asleep[b] == 0:   # a sleeping body has no moments (sleeping.py)
-                    acc += self.moment_terms(p, D)
-            if cur >= 0:
-                for q in ti.static(range(19)):
-                    self.c_part[t, cur, q] += acc[q]
-
-    @ti.kernel
-    def contact_shift(self):
-        """Per body: the slices' sums added in slice order (``c_part`` cleared), then into ``c_shift``: ``c``, ``V``,
-        ``omega``, ``I^-1``."""
-        for b in range(self.n_spin):
-            sums = ti.Vector.zero(ti.f64, 19)
-            for q in ti.static(range(19)):
-                for t in range(N_PARTS):
-                    sums[q] += self.c_part[t, b, q]
-                    self.c_part[t, b, q] = 0.0
-            self.shift_body(b, sums)
 
     @ti.func
     def shift_body(self, b, sums):
@@ -220,29 +182,6 @@ class Balance:
                     self.fr_nodes[slot] = I
                 else:
                     self.grid_fbody[I] = -1
-
-    @ti.func
-    def sort_listed(self):
-        """The listed nodes in node order (a serial Shell sort; the list is filled by threads in any order, and
-        :meth:`sum_node`'s float64 sums must not depend on it)."""
-        n = ti.min(self.fr_nodes[0][0], self.fr_nodes.shape[0] - 1)
-        ng = self.n_grid
-        gap = 1
-        while gap * 3 + 1 < n:
-            gap = gap * 3 + 1
-        while gap > 0:
-            for i in range(gap, n):
-                I = self.fr_nodes[i + 1]
-                key = (I[0] * ng + I[1]) * ng + I[2]
-                j = i
-                while j >= gap:
-                    J = self.fr_nodes[j - gap + 1]
-                    if (J[0] * ng + J[1]) * ng + J[2] <= key:
-                        break
-                    self.fr_nodes[j + 1] = J
-                    j -= gap
-                self.fr_nodes[j + 1] = I
-            gap = gap // 3
 
     @ti.func
     def node_terms(self, I):
@@ -376,24 +315,3 @@ class Balance:
                 X - ti.Vector([self.fr_sums[b, 23], self.fr_sums[b, 24], self.fr_sums[b, 25]], ti.f64))
             self.grid_v[I] += ti.cast(dv, self.real)
         self.grid_fbody[I] = -1
-
-    @ti.kernel
-    def contact_fix(self):
-        """Each support's listed nodes summed, then moved by ``dv + alpha x (X - x_m)``; the sums and the list
-        cleared."""
-        self.sort_listed()
-        ti.loop_config(serialize=True)
-        for s in range(ti.min(self.fr_nodes[0][0], self.fr_nodes.shape[0] - 1)):
-            self.sum_node(self.fr_nodes[s + 1])
-        ti.loop_config(serialize=True)
-        for s in range(self.n_slots):
-            self.body_fix(s)
-        ti.loop_config(serialize=True)
-        for s in range(ti.min(self.fr_nodes[0][0], self.fr_nodes.shape[0] - 1)):
-            self.apply_fix(self.fr_nodes[s + 1])
-        ti.loop_config(serialize=True)
-        for s in range(self.n_slots):
-            for q in ti.static(range(26)):
-                self.fr_sums[s, q] = 0.0
-            self.clear_box(s)
-        self.fr_nodes[0][0] = 0

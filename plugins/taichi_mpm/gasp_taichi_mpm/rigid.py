@@ -2,14 +2,16 @@
 warp_mpm's ``rigid.py`` would spell the same steps.
 
 After each G2P (:meth:`Rigid.rigid_step`; within a frame the rigid points' G2P runs alone, :meth:`Rigid.g2p_rigid`,
-and the fused G2P + P2G kernel skips it, :meth:`Rigid.fused_g2p`): :meth:`Rigid.rigid_reduce` sums each rigid
-body's momentum and angular momentum about the origin (APIC's affine part included) over its points, serially in the point order (a fixed
-order: the same numbers on any thread count); :meth:`Rigid.rigid_update` turns them into the body's velocity and
-spin and advances its centre and rotation; :meth:`Rigid.rigid_apply` puts every point of the body (its passive
-points too) on the rigid pose ``c + R X0`` with the rigid velocity, ``C`` the spin's skew matrix and ``F = R``;
-with the particle contact's planes :meth:`Rigid.rigid_depth` and :meth:`Rigid.rigid_lift` then move a resting body
-deeper than the slop out without speed (``gasp_core.mpm.rigid_friction.settle_projection``, Bullet's split impulse; issue
-53) and :meth:`Rigid.rigid_apply` runs again.
+and the fused G2P + P2G kernel skips it, :meth:`Rigid.fused_g2p`): ``rigid_reduce`` sums each rigid body's momentum
+and angular momentum about the origin (APIC's affine part included) over its points, serially in the point order (a
+fixed order: the same numbers on any thread count; the CPU schedule's kernel, in
+:mod:`gasp_taichi_mpm.schedule.ordered`; the GPU schedule's :meth:`Rigid.rigid_reduce_gpu` sums slices by a fixed
+tree); :meth:`Rigid.rigid_update` turns them into the body's velocity and spin and advances its centre and rotation;
+:meth:`Rigid.rigid_apply` puts every point of the body (its passive points too) on the rigid pose ``c + R X0`` with
+the rigid velocity, ``C`` the spin's skew matrix and ``F = R``; with the particle contact's planes ``rigid_depth``
+and :meth:`Rigid.rigid_lift` then move a resting body deeper than the slop out without speed
+(``gasp_core.mpm.rigid_friction.settle_projection``, Bullet's split impulse; issue 53) and :meth:`Rigid.rigid_apply`
+runs again.
 The body's state is kept in float64 whatever the working precision.
 
 Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields (``x``, ``v``, ``C``, ``F``, ``body``, ...) it reads.
@@ -261,17 +263,6 @@ class Rigid(RigidLift, RigidFriction):
         return ti.Vector([m * v[0], m * v[1], m * v[2], L[0], L[1], L[2]])
 
     @ti.kernel
-    def rigid_reduce(self):
-        for b in range(self.n_bodies):
-            self.rb_acc[b] = self.held(b)   # the hold's impulses since the last projection (rigid_hold.py)
-        quarter = 0.25 * ti.cast(self.dx[None], ti.f64) ** 2
-        ti.loop_config(serialize=True)
-        for p in range(self.n_points[None]):
-            b = self.body[p]
-            if self.rb_rigid[b] != 0:
-                self.rb_acc[b] += self.rigid_terms(p, quarter)
-
-    @ti.kernel
     def rigid_reduce_gpu(self):
         """:meth:`rigid_reduce` on the GPU schedule: slices of ``rb_slice`` points, one thread a slice, summed per
         body by a fixed tree (:class:`gasp_taichi_mpm.schedule.primitives.SliceSums`)."""
@@ -309,7 +300,7 @@ class Rigid(RigidLift, RigidFriction):
     def rigid_update(self):
         dt = ti.cast(self.dt[None], ti.f64)
         half = 0.5 * ti.cast(self.dx[None], ti.f64) ** 2
-        ti.loop_config(serialize=not self.gpu)   # each body its own: parallel on the GPU schedule
+        # each body its own (writes only its own rows): parallel on both schedules, the same bits
         for b in range(self.n_bodies):
             if self.rb_rigid[b] != 0 and self.rb_M[b] > 0.0:
                 M = self.rb_M[b]

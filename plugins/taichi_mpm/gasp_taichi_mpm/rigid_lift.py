@@ -1,8 +1,9 @@
 """The position-level non-penetration of a resting rigid body (issue 53, ``gasp_core.mpm.rigid_friction.settle_projection``)
 as Taichi kernels; warp_mpm's ``rigid.build_rigid_lift`` spells the same steps.
 
-:meth:`RigidLift.rigid_depth` takes each rigid body's deepest penetration into each plane of the particle contact and
-the penetration-weighted sum of its touching points (and counts them for the next P2G's stiffness,
+``rigid_depth`` (the CPU schedule's, ordered: :mod:`gasp_taichi_mpm.schedule.ordered`) or
+:meth:`RigidLift.rigid_depth_gpu` takes each rigid body's deepest penetration into each plane of the particle
+contact and the penetration-weighted sum of its touching points (and counts them for the next P2G's stiffness,
 ``gasp_core.mpm.rigid.support_scale``); :meth:`RigidLift.rigid_lift` moves a resting body deeper than the slop out
 along the plane's normal without speed (Bullet's split impulse). Both run in :meth:`gasp_taichi_mpm.rigid.Rigid.
 rigid_step` after the rigid update, then the points are put on the pose again.
@@ -17,15 +18,6 @@ from gasp_core.mpm.rigid import RIGID_SLOP
 
 class RigidLift:
     """The two kernels of the resting bodies' non-penetration."""
-
-    @ti.kernel
-    def rigid_depth(self):
-        """Per rigid body and plane of the particle contact its deepest point's penetration ``offset + skin - n . x``
-        (m) and the penetration-weighted sum of its touching points (serially in the point order, as
-        :meth:`rigid_reduce`; warp_mpm's ``rigid_depth``)."""
-        ti.loop_config(serialize=True)
-        for p in range(self.n_points[None]):
-            self.depth_point(p, 0, False)
 
     @ti.func
     def depth_point(self, p, t, sliced: ti.template()):
@@ -77,7 +69,7 @@ class RigidLift:
         centre."""
         dx = ti.cast(self.dx[None], ti.f64)
         slop = RIGID_SLOP * dx
-        ti.loop_config(serialize=not self.gpu)   # each body its own: parallel on the GPU schedule
+        # each body its own (writes only its own rows): parallel on both schedules, the same bits
         for b in range(self.n_bodies):
             M = self.rb_M[b]
             if self.rb_rigid[b] != 0 and M > 0.0:

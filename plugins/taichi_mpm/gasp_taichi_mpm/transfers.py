@@ -206,19 +206,7 @@ class Transfers:
                         self.fused_g2p(p)   # a rigid body's points: done before (rigid.py)
                     self.p2g_point(p, 0, ti.Vector([0, 0, 0]), ti.Vector([0, 0, 0]))
         else:
-            ti.loop_config(block_dim=1)
-            for t in range(self.n_chunks):
-                bmin = ti.Vector([self.n_grid, self.n_grid, self.n_grid])
-                bmax = ti.Vector([-1, -1, -1])
-                if ti.static(self.has_passive):   # nodes the passive points will read
-                    bmin, bmax = self.pbox[t, 0], self.pbox[t, 1]
-                for p in range(self.chunk_lo[t], self.chunk_hi[t]):
-                    if self.asleep[self.body[p]] == 0:
-                        if with_g2p:
-                            self.fused_g2p(p)   # a rigid body's points: done before (rigid.py)
-                        bmin, bmax = self.p2g_point(p, t, bmin, bmax)
-                self.box[t, 0] = bmin
-                self.box[t, 1] = bmax
+            self.p2g_chunks(with_g2p)   # one thread a chunk (schedule/ordered.py)
 
     @ti.kernel
     def full_box(self):

@@ -25,6 +25,7 @@ iteration after convergence changes nothing: ``alpha = beta = 0``).
 import taichi as ti
 
 from .schedule import CHECK_EVERY
+from .schedule.ordered import sum_in_order
 from .schedule.primitives import BoxCompaction, SliceSums
 
 #: CG stops when sqrt(r.z) has fallen to this fraction of its value at v* (the viscous correction's accuracy).
@@ -149,12 +150,9 @@ class ImplicitViscosity:
 
     @ti.func
     def _sum_parts(self, n):
-        """Sum of the partial sums of ``n`` list entries, in chunk order."""
-        total = ti.cast(0.0, self.s.real)
-        ti.loop_config(serialize=True)
-        for q in range((n + CHUNK - 1) // CHUNK):
-            total += self.part[q]
-        return total
+        """Sum of the partial sums of ``n`` list entries, in chunk order (CPU schedule: one thread,
+        :func:`gasp_taichi_mpm.schedule.ordered.sum_in_order`)."""
+        return sum_in_order(self.part, (n + CHUNK - 1) // CHUNK)
 
     @ti.func
     def _start_node(self, k, lo, hi, kd, dt):

@@ -3,7 +3,7 @@
 - its primitives: the compaction gives the lists of a serial walk in node order, entry for entry; the slice sums
   repeat bit for bit and equal a float64 sum;
 - no ``ti.loop_config(serialize=True)`` and no ``block_dim=1`` is compiled into a substep of the GPU schedule, shown
-  catching each of the two put back;
+  catching each of the two put back; none is written outside the CPU-only module ``schedule/ordered.py``;
 - its frames agree with the CPU schedule's on a family of scenes (viscous, contact with the balance, two bodies and
   walls, a sand column), and repeat bit for bit on one thread.
 """
@@ -153,6 +153,66 @@ def test_the_check_catches_a_block_dim_1_put_back(monkeypatch):
         solver.contact_moments_gpu = lambda: (solver.contact_moments(), solver.contact_shift())
     seen = _serial_loops_compiled(monkeypatch, cpu_moments)
     assert ("contact_moments", "block_dim=1") in seen
+
+
+# ---------------------------------------------------------------- ordered loops only in the CPU-only module
+#: The CPU-only modules: the only ones of taichi_mpm that may hold an ordered one-thread loop (schedule/__init__.py).
+CPU_ONLY = ("schedule/ordered.py",)
+#: One-iteration loops kept elsewhere, each O(1) work on one thread by nature on both schedules (not an ordered
+#: variant of a parallel loop): kernel name -> why.
+ONE_ITEM = {"rigid_pair": "the contact of one pair of rigid bodies: a dozen float64 operations, once a substep"}
+
+
+def _serial_constructs(root):
+    """[(path relative to root, line, what)] of every ``serialize=...``, ``block_dim=1`` keyword and one-iteration
+    ``for _ in range(1)`` in the .py files under ``root`` (by the syntax tree: docstrings and comments do not
+    count), the one-iteration loops of :data:`ONE_ITEM`'s functions left out."""
+    import ast
+    from pathlib import Path
+    found = []
+    for path in sorted(Path(root).rglob("*.py")):
+        rel = path.relative_to(root).as_posix()
+        tree = ast.parse(path.read_text())
+        allowed = set()
+        for fn in ast.walk(tree):
+            if isinstance(fn, ast.FunctionDef) and fn.name in ONE_ITEM:
+                allowed |= {id(n) for n in ast.walk(fn)}
+        for node in ast.walk(tree):
+            if isinstance(node, ast.keyword) and node.arg == "serialize":
+                found.append((rel, node.value.lineno, "serialize"))
+            if isinstance(node, ast.keyword) and node.arg == "block_dim" and \
+                    isinstance(node.value, ast.Constant) and node.value.value == 1:
+                found.append((rel, node.value.lineno, "block_dim=1"))
+            if isinstance(node, ast.For) and id(node) not in allowed and isinstance(node.iter, ast.Call) and \
+                    getattr(node.iter.func, "id", "") == "range" and \
+                    [getattr(a, "value", None) for a in node.iter.args] in ([1], [0, 1]):
+                found.append((rel, node.lineno, "range(1)"))
+    return sorted(found)
+
+
+def test_ordered_loops_only_in_the_cpu_only_module():
+    """Issue 65's layout: every ``serialize``, ``block_dim=1`` and one-iteration loop of taichi_mpm is in
+    :data:`CPU_ONLY` (the modules both schedules compile hold none), and that module holds some."""
+    from pathlib import Path
+    import gasp_taichi_mpm
+    found = _serial_constructs(Path(gasp_taichi_mpm.__file__).parent)
+    assert [f for f in found if f[0] not in CPU_ONLY] == []
+    assert {f[2] for f in found if f[0] in CPU_ONLY} == {"serialize", "block_dim=1"}
+
+
+def test_the_layout_check_catches_each_kind_outside(tmp_path):
+    """The check above sees each kind put back in a shared module, not in a docstring or comment, and skips
+    :data:`ONE_ITEM`'s kernels."""
+    (tmp_path / "schedule").mkdir()
+    (tmp_path / "schedule" / "ordered.py").write_text("ti.loop_config(serialize=True)\n")
+    (tmp_path / "balance.py").write_text(
+        '"""ti.loop_config(serialize=True)"""\n# ti.loop_config(block_dim=1)\n'
+        "def k():\n    ti.loop_config(serialize=not gpu)\n    ti.loop_config(block_dim=1)\n"
+        "    for _ in range(1):\n        pass\n"
+        "def rigid_pair():\n    for _ in range(1):\n        pass\n")
+    found = _serial_constructs(tmp_path)
+    want = [("balance.py", 4, "serialize"), ("balance.py", 5, "block_dim=1"), ("balance.py", 6, "range(1)")]
+    assert [f for f in found if f[0] not in CPU_ONLY] == want
 
 
 BUNDLED = ("donut_shatter", "cup_drop", "donut_wood", "guitar_sand", "donut_on_guitar", "donut_wind")

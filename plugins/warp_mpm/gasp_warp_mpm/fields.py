@@ -21,7 +21,7 @@ from gasp_core.mpm.fields import (MIN_FRACTION, MIN_GRADIENT, field_bodies, fiel
 from . import ENGINE
 from .pair_touch import build_pair_funcs, build_pair_touch
 from .precision import MODULE_OPTIONS, build_types
-from .touch import build_touch
+from .touch import build_held
 
 
 @functools.cache
@@ -108,7 +108,7 @@ def build_fields(Ft):
     """``field_contact``: the node kernel of the two-field contact, scalar type ``Ft``; its ``mirror`` (int): B's mass
     at a ground's node layers seen with its mirror image for the normal (``gasp_core.mpm.fields.GROUND_MIRROR``)."""
     vec3, vec4, mat33 = build_types(Ft)
-    ground_reach = build_touch(Ft)[2]
+    held_node = build_held(Ft)
     b_normal = build_b_normal(Ft)
     coulomb, flow_layer = build_pair_funcs(Ft)
 
@@ -131,14 +131,8 @@ def build_fields(Ft):
         dva = vec3(Ft(0.0))
         dvb = vec3(Ft(0.0))
         inner = i > 0 and j > 0 and k > 0 and i < n_grid - 1 and j < n_grid - 1 and k < n_grid - 1
-        held = int(0)   # in a ground's node layers or the walls' (the grid rule's reach): both move with the mean
-        for r in range(ground.shape[0]):
-            if ground_reach(k, ground[r], r, i, j, n_grid, ground_touch):   # with the touched layer (touch.py)
-                held = int(1)
-        if Ft(i) < wall_lo or Ft(j) < wall_lo or Ft(k) < wall_lo:
-            held = int(1)
-        if Ft(i) > wall_hi[0] or Ft(j) > wall_hi[1] or Ft(k) > wall_hi[2]:
-            held = int(1)
+        # in a ground's node layers or the walls' (the grid rule's reach): both move with the mean (touch.py)
+        held = held_node(i, j, k, ground, n_grid, ground_touch, vec3(Ft(i), Ft(j), Ft(k)), vec3(wall_lo), wall_hi, 1)
         touch = (grid_vf[node] + grid_vf[n_nodes + node]) >= touch_frac * cell   # the bodies meet here
         flow = flow_touch.shape[0] > 1   # the flowing body's touch (pair_touch.py): its points mark the nodes
         if flow:

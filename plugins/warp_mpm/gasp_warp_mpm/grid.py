@@ -18,7 +18,7 @@ from .balance import build_balance
 from .contact import build_collider_contact, build_contact
 from .forces import build_extras_struct, build_force_funcs
 from .precision import MODULE_OPTIONS, build_types
-from .touch import build_touch
+from .touch import build_held, build_touch
 
 
 @functools.cache
@@ -84,9 +84,9 @@ def build_field_friction(Ft):
     not flow take the particle contact in a ``"mixed"`` scene) given to field B alone (``gasp_core.mpm.fields
     .B_FRICTION``): A's offset less ``dv``, B's plus ``dv f / (1 - f)`` (``f`` the node's flowing-mass fraction, A's
     share of ``m``), so A keeps its velocity and B takes the momentum ``m dv``. Not in a ground's or the walls' node
-    layers (both fields move with the mean there, ``fields.field_contact``)."""
+    layers (both fields move with the mean there, ``fields.field_contact``: the test shared, ``touch.build_held``)."""
     vec3, vec4, mat33 = build_types(Ft)
-    ground_reach = build_touch(Ft)[2]
+    held_node = build_held(Ft)
 
     @wp.func
     def field_friction(grid_dv: wp.array(dtype=vec3), node: int, dv: vec3, f: Ft, lo: vec3, hi: vec3, dx: Ft,
@@ -96,13 +96,8 @@ def build_field_friction(Ft):
         j = (node / n_grid) % n_grid
         k = node % n_grid
         X = lo + dx * vec3(Ft(i), Ft(j), Ft(k))
-        held = int(0)
-        for q in range(ground.shape[0]):
-            if ground_reach(k, ground[q], q, i, j, n_grid, ground_touch):
-                held = int(1)
-        for d in range(3):
-            if n_walls > 0 and (X[d] < lo[d] + wall_in * dx or X[d] > hi[d] - wall_in * dx):
-                held = int(1)
+        reach = wall_in * dx
+        held = held_node(i, j, k, ground, n_grid, ground_touch, X, lo + vec3(reach), hi - vec3(reach), n_walls)
         if grid_dv.shape[0] > 1 and held == 0 and f > Ft(0.0) and f < Ft(1.0):
             n_nodes = grid_dv.shape[0] / 2
             grid_dv[node] = grid_dv[node] - dv

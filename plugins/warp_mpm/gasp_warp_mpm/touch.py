@@ -6,7 +6,9 @@ ground's plane takes the ground's Coulomb rule in the columns where a point of a
 After P2G (and the viscous step), before the two-field contact and the grid update: :func:`build_touch`'s
 ``touch_clear`` (a node-column kernel) zeroes ``ground_touch``, then ``touch_mark`` (a points kernel, atomic max)
 marks the 3 x 3 stencil columns of every near point. :func:`build_touch`'s ``ground_reach`` is the grounds' node
-test that ``grid.build_boundary_rules`` and ``fields.build_fields`` read.
+test that ``grid.build_boundary_rules`` and ``fields.build_fields`` read; :func:`build_held`'s ``held_node`` the
+test of a node both fields move with the mean at (a ground's node layers or the walls'), which the two-field
+contact (``fields.build_fields``) and the friction given to field B (``grid.build_field_friction``) share.
 
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of
 the closures below as type objects.
@@ -102,3 +104,30 @@ def build_touch(Ft):
         return on
 
     return touch_clear, touch_mark, ground_reach
+
+
+@functools.cache
+def build_held(Ft):
+    """``held_node(i, j, k, ground, n_grid, ground_touch, p, p_lo, p_hi, walls) -> int``, scalar type ``Ft``: 1 where
+    node ``(i, j, k)`` is in a ground's node layers (``ground_reach``, with the touched layer) or, with ``walls``
+    non-zero, where the point ``p`` (vec3) lies below ``p_lo`` or above ``p_hi`` on an axis (the walls' reach: each
+    caller gives ``p`` and the bounds in its own units, node indices or metres); 0 elsewhere. The two-field contact
+    leaves such a node's fields moving with the mean (``fields.build_fields``), and gives it none of the particle
+    contact's friction (``grid.build_field_friction``)."""
+    vec3 = build_types(Ft)[0]
+    ground_reach = build_touch(Ft)[2]
+
+    @wp.func
+    def held_node(i: int, j: int, k: int, ground: wp.array(dtype=vec3), n_grid: int,
+                  ground_touch: wp.array(dtype=wp.int32), p: vec3, p_lo: vec3, p_hi: vec3, walls: int):
+        held = int(0)
+        for q in range(ground.shape[0]):
+            if ground_reach(k, ground[q], q, i, j, n_grid, ground_touch):   # with the touched layer
+                held = int(1)
+        if walls != 0:
+            for d in range(3):
+                if p[d] < p_lo[d] or p[d] > p_hi[d]:
+                    held = int(1)
+        return held
+
+    return held_node

@@ -56,17 +56,7 @@ class ColouredP2G:
                 for p in range(p0, ti.min(p0 + per, n)):
                     if self.asleep[self.body[p]] == 0:   # a sleeping body's points are in no block (sleeping.py)
                         self.hist[p0 // per, self.key[p]] += 1
-        off = 0
-        per_colour = self.nbh * self.nbh * self.nbh
-        ti.loop_config(serialize=True)
-        for kk in range(self.n_keys):
-            if kk % per_colour == 0:
-                self.colour_lo[kk // per_colour] = off
-            for q in range(SORT_CHUNKS):
-                c = self.hist[q, kk]
-                self.hist[q, kk] = off
-                off += c
-        self.colour_lo[8] = off
+        self.colour_offsets()   # in (key, chunk) order, one thread (ordered.py)
         for p0 in range(n):
             if p0 % per == 0:
                 for p in range(p0, ti.min(p0 + per, n)):
