@@ -3,8 +3,8 @@ scalar type; taichi_mpm's ``rigid.py`` spells the same steps.
 
 After each G2P: ``rigid_reduce`` sums each rigid body's momentum and angular momentum about the origin (APIC's
 affine part included) over its points into float64 accumulators (atomic adds: on the CPU Warp runs a launch
-serially, so the order is the point order); ``rigid_update`` (one thread) turns them into the body's velocity and
-spin and advances its centre and rotation; ``rigid_apply`` puts every point of the body (its passive points too) on
+serially, so the order is the point order); ``rigid_update`` (one thread a body) turns them into the body's velocity
+and spin and advances its centre and rotation; ``rigid_apply`` puts every point of the body (its passive points too) on
 the rigid pose ``c + R X0`` with the rigid velocity, ``C`` the spin's skew matrix and ``F = R``. With the particle
 contact's planes, ``rigid_depth`` and ``rigid_lift`` (:func:`build_rigid_lift`) then move a resting body deeper than
 the slop out without speed (``gasp_core.mpm.rigid_friction.settle_projection``, Bullet's split impulse; issue 53) and
@@ -56,57 +56,57 @@ def build_rigid_update(Ft):
                      fx: wp.array(dtype=wp.vec4d), ndepth: wp.array(dtype=wp.int32), fv: wp.array(dtype=vec3d),
                      jx: wp.array(dtype=wp.float64), deep: wp.array(dtype=wp.float64),
                      flat: wp.array(dtype=wp.float64), xf: wp.array(dtype=vec3d)):
-        for b in range(n_bodies):
-            M = mass[b]
-            if rigid[b] != 0 and M > wp.float64(0.0):
-                P = acc_p[b]
-                c = centre[b]
-                Lc = acc_l[b] - wp.cross(c, P)
-                R = rot[b]
-                extra = wp.float64(0.5) * dx * dx * M * wp.identity(3, wp.float64)
-                w_pred = wp.inverse(R * inertia0[b] * wp.transpose(R) + extra) * Lc
-                R_new = rotation_of(dt * w_pred) * R
-                inertia = R_new * inertia0[b] * wp.transpose(R_new) + extra
-                w = wp.inverse(inertia) * Lc
-                V = P / M
-                if e_body[b] >= Ft(0.0):
-                    w = twist_brake(w, inertia, jn[b], twist[b])
-                    V, w = slide_brake(V, w, inertia, M, c, jn[b], fx[b], fv[b], jx, b, deep, flat, xf)
-                fx[b] = wp.vec4d()
-                fv[b] = vec3d()
-                for q in range(10):
-                    jx[10 * b + q] = wp.float64(0.0)
-                deep[b] = wp.float64(0.0)
-                if touch[b] != 0 and was[b] == 0:
-                    c0[b] = c
-                    steps[b] = 0
-                if e_body[b] >= Ft(0.0) and touch[b] == 0 and was[b] != 0 and jsum[b] > Ft(0.0):
-                    V = lift_off(V, c, c0[b], jn[b], e_body[b] * je[b] / jsum[b], vin[b], v_rest, gravity,
-                                 dt * wp.float64(steps[b]))
-                steps[b] = steps[b] + touch[b]
-                vel[b] = V
-                spin[b] = w
-                centre[b] = c + dt * V
-                rot[b] = R_new
-            acc_p[b] = vec3d()
-            acc_l[b] = vec3d()
-            # the contact's approach speed (contact.build_unloading): its first substep's, kept while a point
-            # touches; 0 once the body is free (taichi_mpm's Rigid.rigid_update)
-            if touch[b] != 0:
-                if was[b] == 0:
-                    vin[b] = vin_next[b]
-            else:
-                vin[b] = Ft(0.0)
-                jn[b] = vec3(Ft(0.0))
-                je[b] = Ft(0.0)
-                jsum[b] = Ft(0.0)
-            was[b] = touch[b]
-            twist[b] = wp.float64(0.0)
-            nlast[b] = count[b]
-            count[b] = 0
-            ndepth[b] = 0
-            vin_next[b] = Ft(0.0)
-            touch[b] = 0
+        b = wp.tid()   # one thread a body: each writes its own rows (dim = n_bodies)
+        M = mass[b]
+        if rigid[b] != 0 and M > wp.float64(0.0):
+            P = acc_p[b]
+            c = centre[b]
+            Lc = acc_l[b] - wp.cross(c, P)
+            R = rot[b]
+            extra = wp.float64(0.5) * dx * dx * M * wp.identity(3, wp.float64)
+            w_pred = wp.inverse(R * inertia0[b] * wp.transpose(R) + extra) * Lc
+            R_new = rotation_of(dt * w_pred) * R
+            inertia = R_new * inertia0[b] * wp.transpose(R_new) + extra
+            w = wp.inverse(inertia) * Lc
+            V = P / M
+            if e_body[b] >= Ft(0.0):
+                w = twist_brake(w, inertia, jn[b], twist[b])
+                V, w = slide_brake(V, w, inertia, M, c, jn[b], fx[b], fv[b], jx, b, deep, flat, xf)
+            fx[b] = wp.vec4d()
+            fv[b] = vec3d()
+            for q in range(10):
+                jx[10 * b + q] = wp.float64(0.0)
+            deep[b] = wp.float64(0.0)
+            if touch[b] != 0 and was[b] == 0:
+                c0[b] = c
+                steps[b] = 0
+            if e_body[b] >= Ft(0.0) and touch[b] == 0 and was[b] != 0 and jsum[b] > Ft(0.0):
+                V = lift_off(V, c, c0[b], jn[b], e_body[b] * je[b] / jsum[b], vin[b], v_rest, gravity,
+                             dt * wp.float64(steps[b]))
+            steps[b] = steps[b] + touch[b]
+            vel[b] = V
+            spin[b] = w
+            centre[b] = c + dt * V
+            rot[b] = R_new
+        acc_p[b] = vec3d()
+        acc_l[b] = vec3d()
+        # the contact's approach speed (contact.build_unloading): its first substep's, kept while a point
+        # touches; 0 once the body is free (taichi_mpm's Rigid.rigid_update)
+        if touch[b] != 0:
+            if was[b] == 0:
+                vin[b] = vin_next[b]
+        else:
+            vin[b] = Ft(0.0)
+            jn[b] = vec3(Ft(0.0))
+            je[b] = Ft(0.0)
+            jsum[b] = Ft(0.0)
+        was[b] = touch[b]
+        twist[b] = wp.float64(0.0)
+        nlast[b] = count[b]
+        count[b] = 0
+        ndepth[b] = 0
+        vin_next[b] = Ft(0.0)
+        touch[b] = 0
 
     return rigid_update
 
@@ -116,11 +116,11 @@ def build_rigid_lift(Ft):
     """``(rigid_depth, rigid_lift)`` for the scalar type ``Ft``: the position-level non-penetration of a resting rigid
     body (``gasp_core.mpm.rigid_friction.settle_projection``, issue 53; taichi_mpm's ``Rigid.rigid_depth`` and
     ``Rigid.rigid_lift``). ``rigid_depth`` (one thread a point) takes each rigid body's deepest penetration into each
-    plane of the particle contact and the penetration-weighted sum of its touching points; ``rigid_lift`` (one thread)
-    moves a body that is not bouncing out along the plane's normal to ``slop`` (m) of it, without speed, and removes
-    its centre's approach (through the centre: no spin), with Coulomb's friction of that impulse at the touching
-    points' penetration-weighted centre. It is long because both kernels are closures of the scalar type, spelled as
-    taichi_mpm's two methods."""
+    plane of the particle contact and the penetration-weighted sum of its touching points; ``rigid_lift`` (one thread
+    a body) moves a body that is not bouncing out along the plane's normal to ``slop`` (m) of it, without speed, and
+    removes its centre's approach (through the centre: no spin), with Coulomb's friction of that impulse at the
+    touching points' penetration-weighted centre. It is long because both kernels are closures of the scalar type,
+    spelled as taichi_mpm's two methods."""
     vec3, vec4, mat33 = build_types(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
@@ -153,48 +153,48 @@ def build_rigid_lift(Ft):
                    dsum: wp.array(dtype=wp.vec4d), e_body: wp.array(dtype=Ft), vin: wp.array(dtype=Ft),
                    plane_e: wp.array(dtype=Ft), v_rest: Ft, slop: wp.float64):
         n_pl = planes.shape[0]
-        for b in range(n_bodies):
-            M = mass[b]
-            if rigid[b] != 0 and M > wp.float64(0.0):
-                c = centre[b]
-                V = vel[b]
-                w = spin[b]
-                R = rot[b]
-                inertia = R * inertia0[b] * wp.transpose(R) + wp.float64(0.5) * dx * dx * M * wp.identity(
-                    3, wp.float64)
-                inv = wp.inverse(inertia)
-                shift = vec3d()
-                for q in range(n_pl):
-                    d = dmax[b * n_pl + q]
-                    sq = dsum[b * n_pl + q]
-                    if d > slop and sq[3] > wp.float64(0.0):
-                        n = vec3d(wp.float64(plane_n[q][0]), wp.float64(plane_n[q][1]), wp.float64(plane_n[q][2]))
-                        r = vec3d(sq[0], sq[1], sq[2]) / sq[3] - c
-                        un = wp.dot(V, n)
-                        # a bouncing contact keeps its restitution's law: e times the approach (its ongoing
-                        # contact's, or its centre's now) at least v_rest (taichi_mpm's Rigid.rigid_lift)
-                        e = wp.float64(e_body[b]) * wp.float64(plane_e[q])
-                        if e_body[b] >= Ft(0.0) and e * wp.max(wp.float64(vin[b]), -un) < wp.float64(v_rest):
-                            shift = shift + (d - slop) * n
-                            if un < wp.float64(0.0):   # the centre's approach, through the centre: no spin
-                                P = -un * M
-                                V = V - un * n
-                                mu = wp.float64(planes[q][1])
-                                u = V + wp.cross(w, r)
-                                ut = u - wp.dot(u, n) * n
-                                lt = wp.length(ut)
-                                if lt > wp.float64(0.0) and mu > wp.float64(0.0):
-                                    t = ut / lt
-                                    rt = wp.cross(r, t)
-                                    Pt = -wp.min(mu * P, lt / (wp.float64(1.0) / M + wp.dot(rt, inv * rt))) * t
-                                    V = V + Pt / M
-                                    w = w + inv * wp.cross(r, Pt)
-                centre[b] = c + shift
-                vel[b] = V
-                spin[b] = w
+        b = wp.tid()   # one thread a body: each writes its own rows (dim = n_bodies)
+        M = mass[b]
+        if rigid[b] != 0 and M > wp.float64(0.0):
+            c = centre[b]
+            V = vel[b]
+            w = spin[b]
+            R = rot[b]
+            inertia = R * inertia0[b] * wp.transpose(R) + wp.float64(0.5) * dx * dx * M * wp.identity(
+                3, wp.float64)
+            inv = wp.inverse(inertia)
+            shift = vec3d()
             for q in range(n_pl):
-                dmax[b * n_pl + q] = wp.float64(0.0)
-                dsum[b * n_pl + q] = wp.vec4d()
+                d = dmax[b * n_pl + q]
+                sq = dsum[b * n_pl + q]
+                if d > slop and sq[3] > wp.float64(0.0):
+                    n = vec3d(wp.float64(plane_n[q][0]), wp.float64(plane_n[q][1]), wp.float64(plane_n[q][2]))
+                    r = vec3d(sq[0], sq[1], sq[2]) / sq[3] - c
+                    un = wp.dot(V, n)
+                    # a bouncing contact keeps its restitution's law: e times the approach (its ongoing
+                    # contact's, or its centre's now) at least v_rest (taichi_mpm's Rigid.rigid_lift)
+                    e = wp.float64(e_body[b]) * wp.float64(plane_e[q])
+                    if e_body[b] >= Ft(0.0) and e * wp.max(wp.float64(vin[b]), -un) < wp.float64(v_rest):
+                        shift = shift + (d - slop) * n
+                        if un < wp.float64(0.0):   # the centre's approach, through the centre: no spin
+                            P = -un * M
+                            V = V - un * n
+                            mu = wp.float64(planes[q][1])
+                            u = V + wp.cross(w, r)
+                            ut = u - wp.dot(u, n) * n
+                            lt = wp.length(ut)
+                            if lt > wp.float64(0.0) and mu > wp.float64(0.0):
+                                t = ut / lt
+                                rt = wp.cross(r, t)
+                                Pt = -wp.min(mu * P, lt / (wp.float64(1.0) / M + wp.dot(rt, inv * rt))) * t
+                                V = V + Pt / M
+                                w = w + inv * wp.cross(r, Pt)
+            centre[b] = c + shift
+            vel[b] = V
+            spin[b] = w
+        for q in range(n_pl):
+            dmax[b * n_pl + q] = wp.float64(0.0)
+            dsum[b * n_pl + q] = wp.vec4d()
 
     return rigid_depth, rigid_lift
 
@@ -300,7 +300,7 @@ class RigidBodies:
         self.rb_steps = wp.zeros(len(self.setup.materials), dtype=wp.int32, device=d)
         out = [wp.launch(reduce_k, dim=self.n_material, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.p_mass, self.body, self.rb_rigid, dx, self.acc_p, self.acc_l]),
-                wp.launch(update_k, dim=1, device=d, record_cmd=True, inputs=[
+                wp.launch(update_k, dim=len(self.setup.materials), device=d, record_cmd=True, inputs=[
                     self.rb_rigid, self.rb_M, self.rb_I0, self.acc_p, self.acc_l, self.rb_c, self.rb_R, self.rb_V,
                     self.rb_w, dt, dx, len(self.setup.materials), ex.rb_vin, ex.rb_vin_next, ex.rb_touch, self.rb_was,
                     self.rb_c0, ex.rb_jn, ex.rb_je, ex.rb_j, ex.rb_e, ex.v_rest,
@@ -324,7 +324,7 @@ class RigidBodies:
             out += [wp.launch(depth_k, dim=self.n_material, device=d, record_cmd=True, inputs=[
                         self.x, self.body, self.rb_rigid, self.p_contact, self.planes, self.plane_n, self.rb_dmax,
                         self.rb_dsum, ex.rb_ndepth]),
-                    wp.launch(lift_k, dim=1, device=d, record_cmd=True, inputs=[
+                    wp.launch(lift_k, dim=nb, device=d, record_cmd=True, inputs=[
                         self.rb_rigid, self.rb_M, self.rb_I0, self.rb_c, self.rb_R, self.rb_V, self.rb_w, dx, nb,
                         self.planes, self.plane_n, self.rb_dmax, self.rb_dsum, ex.rb_e, ex.rb_vin, ex.plane_e,
                         ex.v_rest, RIGID_SLOP * dx]),
