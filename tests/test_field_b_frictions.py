@@ -72,6 +72,7 @@ def run_two_slabs(engine: str, n_grid: int, mus, monkeypatch, speeds=RATIO_SPEED
         tr = run_trace(info, setup, RATIO_FRAMES)
         out[v0] = tuple(S.coulomb_ratio(tr.v, setup, 0, RATIO_FRAMES, body=b) / math.sqrt(TAN30 * mu) - 1.0
                         for b, mu in ((0, mus[0]), (2, mus[1])))
+    print(f"two slabs {engine} n_grid {n_grid} {mus} {model or 'jelly'}: {out}")   # the figures, with -s
     return out
 
 

@@ -9,7 +9,7 @@ built once at setup from its rest points (:func:`body_sdf`). After each G2P, wit
 the field's trilinear ``phi`` and normal read there; inside (``phi < 0``) the point is put back on the surface along
 the outward normal ``n = R grad phi / |grad phi|``, its approach relative to the body's velocity at that point
 (``V + w x (x - c)``) removed and its slip reduced by Coulomb's friction of that approach (the collider rule
-``collide``, coefficient :func:`gasp_core.mpm.fields.field_friction`: the two fields' between the same bodies).
+``collide``, coefficient :func:`gasp_core.mpm.fields.pair_frictions`: the body's own pair with the sand, round 42).
 The point's momentum change ``m dv`` is given back to the body (``-m dv`` at ``x``, its angular part ``x x (-m dv)``
 about the origin), added to the body's sums of its next projection: action and reaction, the momentum of the two
 bodies kept.

@@ -203,7 +203,9 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     sum m_red n; ``rigid_friction.build_rigid_pair``), ``grid_sv`` (field A's momentum and mass per node),
     ``grid_vf`` (each field's volume) and ``grid_dv``
     (the two offsets per node), one unused entry each without it (``eng.fields`` says which), and its friction
-    ``eng.field_mu`` and touch threshold ``eng.field_touch``; last, the grounds' touched columns
+    ``eng.field_mu`` and touch threshold ``eng.field_touch``; where field B's bodies bring several frictions
+    (``eng.node_mu``, ``gasp_core.mpm.fields.node_friction``), ``eng.body_mu`` (per body) and a third part of
+    ``grid_vf`` (B's ``w m mu`` per node: the pair's friction per node in ``field_contact``), else one entry; last, the grounds' touched columns
     (``GroundTouch.allocate_touch``, touch.py)."""
     from gasp_core.mpm.rigid import step_view
     k, d = eng.k, eng.device
