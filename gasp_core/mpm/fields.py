@@ -184,11 +184,15 @@ def uses_fields(setup) -> bool:
 
 
 def field_friction(setup) -> float:
-    """The Coulomb coefficient between the two fields, dimensionless. Flowing bodies: ``tan(phi)`` of their largest
-    friction angle (sand: its ``friction_angle``, degrees; the angle of the sand's internal friction taken as its
-    friction on the other body's surface), combined (:func:`combine_friction`) with the other bodies' ``friction``
-    where they name one (the smallest: one field takes one coefficient); 0 where no flowing body has a friction
-    angle (liquid, snow: they slide freely). Two
+    """The Coulomb coefficient between the two fields, dimensionless, where one number serves the whole grid. Flowing
+    bodies: ``tan(phi)`` of their largest friction angle (sand: its ``friction_angle``, degrees; the angle of the
+    sand's internal friction taken as its friction on the other body's surface), combined (:func:`combine_friction`)
+    with the other bodies' ``friction`` (:func:`b_frictions`; a body that names none takes the sand's own, so the pair
+    is ``tan(phi)``); 0 where no flowing body has a friction angle (liquid, snow: they slide freely). Where field B's
+    bodies take different coefficients the engines build the pair's friction per grid node (:func:`node_friction`,
+    ``docs/contact.md`` "Round 42: several bodies' frictions in field B"; :func:`pair_frictions` per body) and this is
+    round 41's one scalar, the smallest named (the sand then slid on every body at the slipperiest one's friction),
+    which no engine uses there any more. Two
     soft bodies (:func:`soft_pair`), two rigid ones (:func:`rigid_pair`) or one of each (:func:`mixed_pair`): the
     pair's (:func:`combine_friction` of each body's :func:`body_friction`)."""
     if contact_model(setup) != "mixed":
@@ -201,6 +205,58 @@ def field_friction(setup) -> float:
     own = math.tan(math.radians(max(angles)))
     named = [m.friction for m, f in zip(setup.materials, flows) if not f and m.friction is not None]
     return combine_friction(own, min(named)) if named else own
+
+
+def sand_friction(setup) -> float:
+    """Field A's own coefficient in a ``"mixed"`` scene: ``tan(phi)`` of its sand bodies' largest
+    ``friction_angle`` (degrees), 0 without sand (liquid, snow). Dimensionless."""
+    flows = flowing_bodies(setup, "mixed")
+    angles = [m.friction_angle for m, f in zip(setup.materials, flows) if f and m.name == "sand"]
+    return math.tan(math.radians(max(angles))) if angles else 0.0
+
+
+def b_frictions(setup) -> np.ndarray:
+    """Per body (shape (n_materials,), float64, dimensionless) the coefficient a body of field B brings to its pair
+    with the sand in a ``"mixed"`` scene: its ``friction`` where it names one, else the sand's own
+    (:func:`sand_friction`: the pair is then ``tan(phi)``, the rule of round 41 for a body that names none); 0 for
+    the flowing bodies (field A, not read)."""
+    own = sand_friction(setup)
+    flows = flowing_bodies(setup, "mixed")
+    return np.array([0.0 if f else (own if m.friction is None else float(m.friction))
+                     for m, f in zip(setup.materials, flows)], np.float64)
+
+
+def node_friction(setup):
+    """The per-node friction of a ``"mixed"`` scene's two-field contact (round 42, ``docs/contact.md`` "Round 42:
+    several bodies' frictions in field B"), or None where one scalar (:func:`field_friction`) is exact: not a mixed
+    scene with two fields, no sand (the pair 0), or field B's bodies all bring one coefficient (every scene of one
+    body in B: the engines then run the scalar path, bit-identical to round 41). Else ``(own, mu_b, lo, hi)``:
+    ``own`` the sand's ``tan(phi)`` (:func:`sand_friction`), ``mu_b`` per body (:func:`b_frictions`, shape
+    (n_materials,)), ``lo``/``hi`` the smallest and largest of B's. The engines scatter ``w_ip m_p mu_b[body_p]``
+    of B's points to one more node channel in P2G; at a contact node ``mu_B = clamp(that / m_B, lo, hi)`` (the
+    mass-weighted mean, clamped against the round-off of ``m_B = m - m_A``) and the Coulomb limit takes
+    :func:`combine_friction` ``(own, mu_B)``."""
+    if contact_model(setup) != "mixed" or not uses_fields(setup):
+        return None
+    own = sand_friction(setup)
+    flows = flowing_bodies(setup, "mixed")
+    mu_b = b_frictions(setup)
+    vals = sorted({float(mu_b[b]) for b in range(len(mu_b)) if not flows[b]})
+    if own <= 0.0 or len(vals) < 2:
+        return None
+    return own, mu_b, vals[0], vals[-1]
+
+
+def pair_frictions(setup) -> np.ndarray:
+    """Per body (shape (n_materials,), dimensionless) the pair's coefficient of a body of field B with the sand
+    (:func:`combine_friction` of :func:`sand_friction` and :func:`b_frictions`) in a ``"mixed"`` scene: what a rigid
+    body's hold on the sand takes (``gasp_core.mpm.rigid_hold``); elsewhere :func:`field_friction` for every body."""
+    n = len(setup.materials)
+    if node_friction(setup) is None:
+        return np.full(n, field_friction(setup))
+    own = sand_friction(setup)
+    return np.array([own if m.friction is None else combine_friction(own, mu)
+                     for m, mu in zip(setup.materials, b_frictions(setup))])
 
 
 def body_friction(material) -> float:
@@ -259,9 +315,10 @@ def pic_at_b(setup) -> bool:
 
 
 def field_setup(setup) -> tuple:
-    """``(field_bodies, field_friction, touch_fraction, rigid_pair, flow_touch)`` of a setup: what an engine allocates
-    the contact from."""
-    return field_bodies(setup), field_friction(setup), touch_fraction(setup), rigid_pair(setup), flow_touch(setup)
+    """``(field_bodies, field_friction, touch_fraction, rigid_pair, flow_touch, node_friction)`` of a setup: what an
+    engine allocates the contact from."""
+    return (field_bodies(setup), field_friction(setup), touch_fraction(setup), rigid_pair(setup), flow_touch(setup),
+            node_friction(setup))
 
 
 def field_offsets(m: np.ndarray, m_a: np.ndarray, p: np.ndarray, p_a: np.ndarray, n: np.ndarray, mu: float):

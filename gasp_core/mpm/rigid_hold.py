@@ -9,7 +9,7 @@ built once at setup from its rest points (:func:`body_sdf`). After each G2P, wit
 the field's trilinear ``phi`` and normal read there; inside (``phi < 0``) the point is put back on the surface along
 the outward normal ``n = R grad phi / |grad phi|``, its approach relative to the body's velocity at that point
 (``V + w x (x - c)``) removed and its slip reduced by Coulomb's friction of that approach (the collider rule
-``collide``, coefficient :func:`gasp_core.mpm.fields.field_friction`: the two fields' between the same bodies).
+``collide``, coefficient :func:`gasp_core.mpm.fields.pair_frictions`: the body's own pair with the sand, round 42).
 The point's momentum change ``m dv`` is given back to the body (``-m dv`` at ``x``, its angular part ``x x (-m dv)``
 about the origin), added to the body's sums of its next projection: action and reaction, the momentum of the two
 bodies kept.
@@ -84,8 +84,8 @@ def rigid_hold_tables(setup, dx: float, flows: np.ndarray):
     where no body holds (:func:`holding_bodies`): ``(row, sdf, grad, meta)``, ``row`` per body its row of ``meta``
     (-1: none; shape (n_bodies,), int32), ``sdf`` (N,) and ``grad`` (3N,) every field's samples (x-major), ``meta``
     rows of ``COL_META`` floats (origin in the body's rest frame, ``h``, ``nx, ny, nz``, offset, the Coulomb
-    coefficient :func:`gasp_core.mpm.fields.field_friction`)."""
-    from gasp_core.mpm.fields import field_friction
+    coefficient, the body's own pair's: :func:`gasp_core.mpm.fields.pair_frictions`)."""
+    from gasp_core.mpm.fields import pair_frictions
     from gasp_core.mpm.rigid import body_frames, rigid_mask, step_view
     rigid = rigid_mask(setup.materials)
     hold = holding_bodies(rigid, flows)
@@ -93,7 +93,7 @@ def rigid_hold_tables(setup, dx: float, flows: np.ndarray):
         return None
     body, vol = np.asarray(setup.body_id), np.asarray(setup.p_vol, np.float64)
     _c, X0, _i, _m = body_frames(setup.x, setup.p_mass, body, rigid)
-    mu = field_friction(step_view(setup))
+    mu = pair_frictions(step_view(setup))   # per body: its pair's with the sand (round 42)
     row = np.full(len(rigid), -1, np.int32)
     sdf, grad, meta, off = [], [], [], 0
     for b in np.flatnonzero(hold):
@@ -104,7 +104,7 @@ def rigid_hold_tables(setup, dx: float, flows: np.ndarray):
         row[b] = len(meta)
         m = np.zeros(COL_META)
         m[CM_ORIGIN:CM_ORIGIN + 3], m[CM_H], m[CM_NX:CM_NX + 3] = origin, h, phi.shape
-        m[CM_OFFSET], m[CM_FRICTION] = off, mu
+        m[CM_OFFSET], m[CM_FRICTION] = off, mu[b]
         meta.append(m)
         sdf.append(phi.ravel())
         grad.append(np.stack(np.gradient(phi, h), axis=-1).reshape(-1))

@@ -61,9 +61,10 @@ def scene_keys_markdown() -> str:
               "geometric mean of their two coefficients (Bullet's rule, `gasp_core.mpm.fields.combine_friction`); "
               f"left out, a body takes {SOLID_FRICTION:g} (jelly on jelly). Engines with the feature `body_friction` "
               "(`gasp engines`) read it. Sand's own coefficient is `tan(friction_angle)`: sand on a "
-              "body that names a `friction` takes the mean of the two, on one that does not its own; snow and liquid "
-              "slide freely. The key does not act on the ground, the walls or a collider: they take their own "
-              "`friction`.", ""]
+              "body that names a `friction` takes the mean of the two, on one that does not its own (each body its own "
+              "pair where several beside the sand name different ones: the engines take it per grid node, "
+              "`docs/contact.md` \"Round 42\"); snow and liquid slide freely. The key does not act on the ground, "
+              "the walls or a collider: they take their own `friction`.", ""]
     from gasp_core.mpm.fracture_table import BRITTLE_SUBSTANCES, SUBSTANCE_KEYS
     lines += ["", "## `substance`: a brittle material at its handbook figures", "",
               f"Taken by `brittle` (issue 66, `docs/fracture.md` \"Stiff brittle bodies: fragments\"): fills "

@@ -180,8 +180,9 @@ def slide_travel(x0: np.ndarray, x1: np.ndarray, setup: SimSetup) -> float:
 COULOMB_SLAB_H = 0.045
 
 
-def coulomb_ratio(v: np.ndarray, setup: SimSetup, f0: int, f1: int) -> float:
-    """Coulomb's law read on the block (body 0) between frames ``f0`` and ``f1``: its horizontal momentum lost over
+def coulomb_ratio(v: np.ndarray, setup: SimSetup, f0: int, f1: int, body: int = 0) -> float:
+    """Coulomb's law read on the block (body ``body``, 0 unless told) between frames ``f0`` and ``f1``: its
+    horizontal momentum lost over
     the normal impulse its support gave it, ``-(V_x(f1) - V_x(f0)) / (g T + V_z(f1) - V_z(f0))`` (``V`` its mass
     centre's velocity from the points' ``v``, shape (n_frames + 1, n, 3), m/s; ``T`` the time between the frames;
     ``g`` = -``setup.gravity[2]``), dimensionless. Only the support (a body or the ground) pushes on the block besides
@@ -194,8 +195,40 @@ def coulomb_ratio(v: np.ndarray, setup: SimSetup, f0: int, f1: int) -> float:
         ``f1 <= f0`` or a frame outside ``v``."""
     if not 0 <= f0 < f1 < len(v):
         raise ValueError(f"coulomb_ratio: frames f0 {f0}, f1 {f1}: expected 0 <= f0 < f1 <= {len(v) - 1}")
-    sel = np.asarray(setup.body_id) == 0
+    sel = np.asarray(setup.body_id) == body
     m = setup.p_mass[sel]
     vc = np.einsum("i,fij->fj", m, v[[f0, f1]][:, sel]) / m.sum()
     g = -float(setup.gravity[2])
     return float(-(vc[1, 0] - vc[0, 0]) / (g * (f1 - f0) * setup.frame_dt + vc[1, 2] - vc[0, 2]))
+
+
+def two_slab_setup(v0: float, mus=(0.3, 1.0), options: dict | None = None, model: str = "") -> SimSetup:
+    """Two :func:`slide_setup` slabs side by side (round 42, ``docs/contact.md`` "Round 42: several bodies' frictions
+    in field B"): bodies 1 and 3, each 40 x 16 x 4.5 cm (:data:`COULOMB_SLAB_H`), ``y`` in [-0.16, 0] and [0, 0.16] m
+    (touching along ``y = 0``), their ``friction`` ``mus`` (dimensionless; a board and a rubber mat), ``model``
+    ``"rigid"`` for rigid slabs (else the jelly's own); a sand block
+    (bodies 0 and 2, 6 x 6 x 3 cm) thrown along +x at ``v0`` (m/s) on each, centred 8 cm from the seam. Field B is
+    both slabs, field A both blocks: each block's :func:`coulomb_ratio` (``body`` 0 or 2) reads its own pair's
+    ``sqrt(tan(phi) mu)``."""
+    dx = SIDE / N_GRID
+    lo = np.array([-0.12, -SIDE / 2, -3 * dx])
+    h = COULOMB_SLAB_H
+    xs, ys, xb, yb = [], [], [], []
+    for y0 in (-0.08, 0.08):
+        pts, vs = box_points([-0.03, y0 - 0.03, h], [0.03, y0 + 0.03, h + 0.03], dx / 2)
+        xs.append(pts)
+        pts, vb = box_points([-0.08, y0 - 0.08, 0.0], [0.32, y0 + 0.08, h], dx / 2)
+        xb.append(pts)
+    parts = [xs[0], xb[0], xs[1], xb[1]]
+    x = np.concatenate(parts)
+    v = np.zeros_like(x)
+    v[:len(xs[0]), 0] = v0
+    v[len(xs[0]) + len(xb[0]):2 * len(xs[0]) + len(xb[0]), 0] = v0
+    slabs = [replace(SLAB, friction=float(mu), **({"model": model} if model else {})) for mu in mus]
+    mats = [SAND, slabs[0], SAND, slabs[1]]
+    return SimSetup(x=x, v=v, p_vol=np.concatenate([np.full(len(q), vs if i % 2 == 0 else vb)
+                                                    for i, q in enumerate(parts)]),
+                    body_id=np.concatenate([np.full(len(q), i, int) for i, q in enumerate(parts)]), materials=mats,
+                    gravity=np.array([0.0, 0.0, -9.81]), domain_lo=lo, domain_hi=lo + SIDE, n_grid=N_GRID,
+                    frame_dt=1.0 / 30.0, boundaries=[Boundary("ground", height=0.0, friction=MU_GROUND)],
+                    options=dict(options or {}))

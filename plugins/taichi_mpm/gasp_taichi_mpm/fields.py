@@ -21,12 +21,15 @@ from .pair_touch import PairTouch
 class Fields(PairTouch):
     """The two-field contact's fields and kernels (none without it: ``self.fields`` False)."""
 
-    def allocate_fields(self, in_a, mu: float, touch: float, pair: bool = False, flow: bool = False) -> None:
+    def allocate_fields(self, in_a, mu: float, touch: float, pair: bool = False, flow: bool = False,
+                        node_mu=None) -> None:
         """``in_a``: per body, True in field A (``gasp_core.mpm.fields.field_bodies``), or None: one field;
         ``mu`` the Coulomb coefficient (``field_friction``), ``touch`` the touch threshold (``touch_fraction``),
         ``pair`` whether the two bodies are rigid (``rigid_pair``: the touching nodes only sum into ``pair_acc``,
         sum m_red, sum m_red x, sum m_red n, for ``RigidFriction.rigid_pair``), ``flow`` the flowing body's touch
-        (``gasp_core.mpm.fields.flow_touch``, pair_touch.py). Before the first substep."""
+        (``gasp_core.mpm.fields.flow_touch``, pair_touch.py), ``node_mu`` field B's bodies' several frictions
+        (``gasp_core.mpm.fields.node_friction``: ``(own, mu_b, lo, hi)``, or None: the scalar ``mu``). Before the
+        first substep."""
         self.fields = in_a is not None
         self.field_pair = bool(self.fields and pair)
         self.pair_acc = ti.field(ti.f64, shape=7)
@@ -40,6 +43,15 @@ class Fields(PairTouch):
         self.grid_vf = ti.Vector.field(2, self.real, shape=(ng, ng, ng))
         self.grid_dv = ti.Vector.field(6, self.real, shape=(ng, ng, ng))
         self.allocate_pair_touch(flow)
+        # B's bodies' several frictions (round 42): B's points scatter w m mu_b to grid_fmu, the pair's per node
+        self.node_mu_on = node_mu is not None
+        own, mu_b, lo, hi = node_mu if self.node_mu_on else (0.0, [], 0.0, 0.0)
+        self.node_mu = (float(own), float(lo), float(hi))   # read when the kernels compile
+        self.body_mu = ti.field(self.real, shape=max(4, len(mu_b)))
+        for b, mu in enumerate(mu_b):
+            self.body_mu[b] = float(mu)
+        nm = ng if self.node_mu_on else 1
+        self.grid_fmu = ti.field(self.real, shape=(nm, nm, nm))
         # round 41 (gasp_core.mpm.fields): B's mass mirrored in a ground's layers for the normal; the particle
         # contact's friction to field B alone (read when the kernels compile)
         self.ground_mirror = bool(core_fields.GROUND_MIRROR)
@@ -60,6 +72,13 @@ class Fields(PairTouch):
                     ti.atomic_add(self.grid_vf[node], add_vf)
                 else:   # coloured or serial P2G: no two threads share a node (transfers.py)
                     self.grid_vf[node] = self.grid_vf[node] + add_vf
+                if ti.static(self.node_mu_on):   # B's friction, mass-weighted (node_friction)
+                    if fl == 0:
+                        add_mu = weight * m * self.body_mu[self.body[p]]
+                        if ti.static(self.atomic):
+                            ti.atomic_add(self.grid_fmu[node], add_mu)
+                        else:
+                            self.grid_fmu[node] = self.grid_fmu[node] + add_mu
                 if fl != 0:
                     mv = mv0 + A @ ti.Vector([float(i), float(j), float(k)])
                     add_sv = weight * ti.Vector([mv[0], mv[1], mv[2], m])
@@ -166,6 +185,11 @@ class Fields(PairTouch):
                                self.mass_b_seen(I + ez) - self.mass_b_seen(I - ez)])
                 ln = n.norm()
                 u2 = u
+                mu_n = mu   # B's bodies' several frictions: the pair's per node (gasp_core node_friction)
+                if ti.static(self.node_mu_on):
+                    mu_bn = ti.min(ti.max(self.grid_fmu[I] / m_b, ti.static(self.node_mu[1])),
+                                   ti.static(self.node_mu[2]))
+                    mu_n = ti.min(ti.sqrt(ti.static(self.node_mu[0]) * mu_bn), 10.0)
                 if ln > MIN_GRADIENT * m:
                     nh = n / ln
                     un = u.dot(nh)
@@ -176,8 +200,8 @@ class Fields(PairTouch):
                         ut = u - un * nh
                         lt = ut.norm()
                         q = un * nh + ut
-                        if lt > mu * un:
-                            q = un * nh + (mu * un / lt) * ut
+                        if lt > mu_n * un:
+                            q = un * nh + (mu_n * un / lt) * ut
                         u2 = u - q
                         if ti.static(self.flow_touch_on):
                             if m_b < m_a:   # A's side: B's node behind it takes the reaction with this one's B
@@ -189,7 +213,7 @@ class Fields(PairTouch):
                                     sj = self.grid_sv[J]
                                     v_bj = ti.Vector([gj[0] - sj[0], gj[1] - sj[1], gj[2] - sj[2]]) / m_bj
                                     v_a = ti.Vector([sv[0], sv[1], sv[2]]) / m_a
-                                    q = self.coulomb(v_a - (m_b * v_b + m_bj * v_bj) / mb_eff, nh, mu)
+                                    q = self.coulomb(v_a - (m_b * v_b + m_bj * v_bj) / mb_eff, nh, mu_n)
                                     u2 = u - q
                                     ti.atomic_add(self.grid_push[J], (m_bj * m_a / (m_a + mb_eff)) * q)
                                     layer = 1
@@ -210,6 +234,8 @@ class Fields(PairTouch):
             I = lo + ti.Vector([idx // (ext[1] * ext[2]), (idx // ext[2]) % ext[1], idx % ext[2]])
             self.grid_sv[I] = ti.Vector.zero(self.real, 4)
             self.grid_vf[I] = ti.Vector.zero(self.real, 2)
+            if ti.static(self.node_mu_on):
+                self.grid_fmu[I] = 0.0
 
     def contact_fields(self) -> None:
         """After P2G (and the viscous step), before the grid update: the grounds' touched columns (``touch.py``), then

@@ -16,7 +16,7 @@ import warp as wp
 from gasp_core.mpm.contact import flowing_bodies
 from gasp_core.mpm import fields as core_fields
 from gasp_core.mpm.fields import (MIN_FRACTION, MIN_GRADIENT, field_bodies, field_friction, flow_touch,
-                                  flow_touch_level, rigid_pair, shared_field_warning, touch_fraction)
+                                  flow_touch_level, node_friction, rigid_pair, shared_field_warning, touch_fraction)
 
 from . import ENGINE
 from .pair_touch import build_pair_funcs, build_pair_touch
@@ -117,7 +117,8 @@ def build_fields(Ft):
                       n_grid: int, mu: Ft, ground: wp.array(dtype=vec3), grid_vf: wp.array(dtype=Ft), cell: Ft,
                       wall_lo: Ft, wall_hi: vec3, touch_frac: Ft, pair: int, lo: vec3, dx: Ft,
                       pair_acc: wp.array(dtype=wp.float64), ground_touch: wp.array(dtype=wp.int32),
-                      flow_touch: wp.array(dtype=wp.int32), flow_push: wp.array(dtype=vec3), mirror: int):
+                      flow_touch: wp.array(dtype=wp.int32), flow_push: wp.array(dtype=vec3), mirror: int,
+                      own: Ft, mu_lo: Ft, mu_hi: Ft):
         node = wp.tid()
         nn = n_grid * n_grid
         n_nodes = nn * n_grid
@@ -145,6 +146,9 @@ def build_fields(Ft):
             n = b_normal(grid_mv, grid_sv, ground, node, n_grid, mirror)
             ln = wp.length(n)
             u2 = u
+            mu_n = mu   # B's bodies' several frictions: the pair's per node (node_friction; grid_vf's third part)
+            if grid_vf.shape[0] > 2 * n_nodes:
+                mu_n = wp.min(wp.sqrt(own * wp.clamp(grid_vf[2 * n_nodes + node] / m_b, mu_lo, mu_hi)), Ft(10.0))
             if ln > Ft(MIN_GRADIENT) * m:
                 nh = n / ln
                 un = wp.dot(u, nh)
@@ -156,9 +160,9 @@ def build_fields(Ft):
                         wp.atomic_add(pair_acc, 4 + ax, wr * wp.float64(nh[ax]))
                     wp.atomic_add(pair_acc, 0, wr)
                 elif un > Ft(0.0) and touch:   # approaching: no interpenetration, Coulomb friction along the surface
-                    u2 = u - coulomb(u, nh, mu)
+                    u2 = u - coulomb(u, nh, mu_n)
                     if flow and m_b < m_a:   # A's side: B's node behind it takes the reaction with this one's B
-                        qm = flow_layer(grid_mv, grid_sv, flow_push, node, nh, nn, n_grid, pa, v_b, m_b, mu, u2)
+                        qm = flow_layer(grid_mv, grid_sv, flow_push, node, nh, nn, n_grid, pa, v_b, m_b, mu_n, u2)
                         u2 = vec3(qm[0], qm[1], qm[2])
                         mb_eff = qm[3]
             else:
@@ -176,7 +180,8 @@ def build_fields(Ft):
 
 @functools.cache
 def build_field_clear(Ft):
-    """``field_clear``: ``grid_sv`` and both fields' ``grid_vf`` back to zero for the next P2G."""
+    """``field_clear``: ``grid_sv`` and both fields' ``grid_vf`` (and B's friction channel, its third part where
+    there is one) back to zero for the next P2G."""
     vec3, vec4, mat33 = build_types(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
@@ -185,6 +190,8 @@ def build_field_clear(Ft):
         grid_sv[node] = vec4(Ft(0.0))
         grid_vf[node] = Ft(0.0)
         grid_vf[grid_sv.shape[0] + node] = Ft(0.0)
+        if grid_vf.shape[0] > 2 * grid_sv.shape[0]:
+            grid_vf[2 * grid_sv.shape[0] + node] = Ft(0.0)
 
     return field_clear
 
@@ -196,7 +203,9 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     sum m_red n; ``rigid_friction.build_rigid_pair``), ``grid_sv`` (field A's momentum and mass per node),
     ``grid_vf`` (each field's volume) and ``grid_dv``
     (the two offsets per node), one unused entry each without it (``eng.fields`` says which), and its friction
-    ``eng.field_mu`` and touch threshold ``eng.field_touch``; last, the grounds' touched columns
+    ``eng.field_mu`` and touch threshold ``eng.field_touch``; where field B's bodies bring several frictions
+    (``eng.node_mu``, ``gasp_core.mpm.fields.node_friction``), ``eng.body_mu`` (per body) and a third part of
+    ``grid_vf`` (B's ``w m mu`` per node: the pair's friction per node in ``field_contact``), else one entry; last, the grounds' touched columns
     (``GroundTouch.allocate_touch``, touch.py)."""
     from gasp_core.mpm.rigid import step_view
     k, d = eng.k, eng.device
@@ -214,7 +223,11 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     n = eng.n_grid ** 3 if eng.fields else 1
     eng.grid_sv = wp.zeros(n, dtype=k.vec4, device=d)
     eng.grid_dv = wp.zeros(2 * n if eng.fields else 1, dtype=k.vec3, device=d)
-    eng.grid_vf = wp.zeros(2 * n if eng.fields else 1, dtype=Ft, device=d)
+    # B's bodies' several frictions (gasp_core.mpm.fields.node_friction): a third part of grid_vf, B's w m mu per node
+    eng.node_mu = node_friction(view) if eng.fields else None
+    on_mu = eng.node_mu is not None
+    eng.grid_vf = wp.zeros((3 if on_mu else 2) * n if eng.fields else 1, dtype=Ft, device=d)
+    eng.body_mu = wp.array(eng.node_mu[1] if on_mu else np.zeros(1), dtype=Ft, device=d)
     # the grid update gives the particle contact's friction to field B alone (grid.build_field_friction)
     on = eng.fields and contact == "mixed" and core_fields.B_FRICTION
     eng.dv_friction = eng.grid_dv if on else wp.zeros(1, dtype=k.vec3, device=d)
@@ -249,6 +262,8 @@ def field_launches(eng, Ft) -> list:
                 eng.grid_mv, eng.grid_sv, eng.grid_dv, ng, Ft(eng.field_mu), eng.ground, eng.grid_vf,
                 Ft(eng.dx ** 3), Ft(wall_lo), eng.k.vec3(*[float(c) for c in wall_hi]), Ft(eng.field_touch), eng.pair,
                 eng.k.vec3(*[float(c) for c in eng.setup.domain_lo]), Ft(eng.dx), eng.pair_acc, eng.ground_touch,
-                eng.flow_touch, eng.flow_push, int(bool(core_fields.GROUND_MIRROR))])] + after + [
+                eng.flow_touch, eng.flow_push, int(bool(core_fields.GROUND_MIRROR)),
+                *([Ft(a) for a in (eng.node_mu[0], eng.node_mu[2], eng.node_mu[3])] if eng.node_mu else [Ft(0.0)] * 3)
+                ])] + after + [
             wp.launch(clear, dim=ng ** 3, device=d, record_cmd=True, inputs=[eng.grid_sv, eng.grid_vf])]
 

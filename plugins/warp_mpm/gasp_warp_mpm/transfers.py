@@ -109,7 +109,7 @@ def build_p2g(Ft):
         ex: Extras, colc: int, n_sup: int, grid_fn: wp.array(dtype=vec3), grid_fv: wp.array(dtype=vec3),
         grid_mf: wp.array(dtype=Ft), flows: wp.array(dtype=wp.int32), grid_sv: wp.array(dtype=vec4),
         grid_vf: wp.array(dtype=Ft), in_a: wp.array(dtype=wp.int32), fixed: wp.array(dtype=wp.int32), rule: int,
-        p_pic: wp.array(dtype=wp.int32),
+        p_pic: wp.array(dtype=wp.int32), body_mu: wp.array(dtype=Ft),
     ):
         # F advanced by C, return mapping and stress (docs/mpm.md), then the scatter (and, with wind, grid_g;
         # with flip, the APIC momentum alone into grid_mv0: gasp_core.mpm.transfer); with the particle
@@ -117,7 +117,8 @@ def build_p2g(Ft):
         # friction budget goes to grid_fb (with walls or colliders its normal to grid_fn, supports' velocity to grid_fv;
         # :mod:`gasp_warp_mpm.contact`); with the contact chosen per body the flowing bodies' (flows[b]) mass to grid_mf
         # and, with the two-field contact (gasp_warp_mpm.fields), field A's (in_a[b]) momentum and mass to grid_sv,
-        # each field's volume to grid_vf (field A's at the node, B's n_grid^3 further)
+        # each field's volume to grid_vf (field A's at the node, B's n_grid^3 further) and, with B's per-node friction
+        # (body_mu per body, one entry without it: gasp_core.mpm.fields.node_friction), B's w m mu 2 n_grid^3 further
         p = wp.tid()
         X = (x[p] - lo) * inv_dx
         if not in_grid(X, n_grid):
@@ -159,6 +160,8 @@ def build_p2g(Ft):
             if in_a[body[p]] != 0:
                 scatter(grid_sv, idx0, n_grid, W, mom0, A, pm)
             scatter_scalar(grid_vf, idx0 + (1 - in_a[body[p]]) * n_grid * n_grid * n_grid, n_grid, W, p_vol[p])
+            if body_mu.shape[0] > 1 and in_a[body[p]] == 0:
+                scatter_scalar(grid_vf, idx0 + 2 * n_grid * n_grid * n_grid, n_grid, W, pm * body_mu[body[p]])
         if flip != 0:
             A0 = (dx * pc) * Cp
             scatter(grid_mv0, idx0, n_grid, W, pm * v[p] - A0 * fx, A0, pm)
