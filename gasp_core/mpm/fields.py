@@ -92,6 +92,27 @@ B_FRICTION = True
 #: it (the rule before: Coulomb's ratio -6.9 % for sand thrown at 0.7 m/s on a face 3/4 of a cell above a node
 #: layer; the catch of ``tests/test_sand_on_rigid.py``). Away from B (a free sand column, no B) nothing changes.
 PIC_AT_B = True
+#: The ground's top node layer free for the two fields (issue 67, ``docs/contact.md`` "Round 42: a support 1 cell
+#: thick"): in a ``"mixed"`` scene with the grounds' touched columns, a node on a ground's top layer in a column no
+#: flowing point touches (round 36's touch: none within ``touch_delta`` cells of the plane) takes the two-field
+#: contact like any node above (the ground's grid rule still acts on its mean velocity). False: both fields move with
+#: the mean at every ground layer (the rule before: on a support 1 cell thick the sand's lowest stencil layer is the
+#: ground's top layer, where it was snapped to the support's velocity; Coulomb's ratio +46 / +76 %).
+TOP_FREE = True
+#: The particle contact's friction on field B's own velocity (round 42): at a node where the fields keep their
+#: offsets, with :data:`B_FRICTION`, the friction is taken on B's velocity ``v_B`` and mass ``m_B`` (its budget is B's
+#: points'), not on the mean's, whose tangential part carries A's share ``f v_A``. False: on the mean, its whole
+#: change then given to B (round 41's rule: the budget spent against the sand's share pushes B back; with
+#: :data:`TOP_FREE` the sand on a support 1 cell thick then read -3.1 / -3.7 %).
+B_OWN_FRICTION = True
+
+
+def field_rule() -> int:
+    """The engines' flags of round 42 as one int: bit 1 :data:`TOP_FREE`, bit 2 :data:`B_OWN_FRICTION` (read when
+    an engine is built)."""
+    return int(bool(TOP_FREE)) + 2 * int(bool(B_OWN_FRICTION))
+
+
 #: A node's mass gradient shorter than this (kg/m, relative to ``m / dx``) gives no normal: the fields move as one.
 MIN_GRADIENT = 1e-6
 

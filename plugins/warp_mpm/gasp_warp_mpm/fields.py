@@ -21,7 +21,7 @@ from gasp_core.mpm.fields import (MIN_FRACTION, MIN_GRADIENT, field_bodies, fiel
 from . import ENGINE
 from .pair_touch import build_pair_funcs, build_pair_touch
 from .precision import MODULE_OPTIONS, build_types
-from .touch import build_touch
+from .touch import build_field_reach
 
 
 @functools.cache
@@ -108,7 +108,7 @@ def build_fields(Ft):
     """``field_contact``: the node kernel of the two-field contact, scalar type ``Ft``; its ``mirror`` (int): B's mass
     at a ground's node layers seen with its mirror image for the normal (``gasp_core.mpm.fields.GROUND_MIRROR``)."""
     vec3, vec4, mat33 = build_types(Ft)
-    ground_reach = build_touch(Ft)[2]
+    field_reach = build_field_reach(Ft)
     b_normal = build_b_normal(Ft)
     coulomb, flow_layer = build_pair_funcs(Ft)
 
@@ -117,7 +117,7 @@ def build_fields(Ft):
                       n_grid: int, mu: Ft, ground: wp.array(dtype=vec3), grid_vf: wp.array(dtype=Ft), cell: Ft,
                       wall_lo: Ft, wall_hi: vec3, touch_frac: Ft, pair: int, lo: vec3, dx: Ft,
                       pair_acc: wp.array(dtype=wp.float64), ground_touch: wp.array(dtype=wp.int32),
-                      flow_touch: wp.array(dtype=wp.int32), flow_push: wp.array(dtype=vec3), mirror: int):
+                      flow_touch: wp.array(dtype=wp.int32), flow_push: wp.array(dtype=vec3), mirror: int, free: int):
         node = wp.tid()
         nn = n_grid * n_grid
         n_nodes = nn * n_grid
@@ -133,7 +133,7 @@ def build_fields(Ft):
         inner = i > 0 and j > 0 and k > 0 and i < n_grid - 1 and j < n_grid - 1 and k < n_grid - 1
         held = int(0)   # in a ground's node layers or the walls' (the grid rule's reach): both move with the mean
         for r in range(ground.shape[0]):
-            if ground_reach(k, ground[r], r, i, j, n_grid, ground_touch):   # with the touched layer (touch.py)
+            if field_reach(k, ground[r], r, i, j, n_grid, ground_touch, free):   # touch.py
                 held = int(1)
         if Ft(i) < wall_lo or Ft(j) < wall_lo or Ft(k) < wall_lo:
             held = int(1)
@@ -224,6 +224,8 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     # the grid update gives the particle contact's friction to field B alone (grid.build_field_friction)
     on = eng.fields and contact == "mixed" and core_fields.B_FRICTION
     eng.dv_friction = eng.grid_dv if on else wp.zeros(1, dtype=k.vec3, device=d)
+    # round 42: a ground's top layer free in untouched columns, the friction on B's own velocity (grid.py)
+    eng.field_rule = core_fields.field_rule() if eng.fields and contact == "mixed" else 0
     eng.flow_touch_on = bool(eng.fields and flow_touch(view))   # the flowing body's touch (pair_touch.py)
     nf = n if eng.flow_touch_on else 1
     eng.flow_touch = wp.zeros(nf, dtype=wp.int32, device=d)
@@ -255,6 +257,6 @@ def field_launches(eng, Ft) -> list:
                 eng.grid_mv, eng.grid_sv, eng.grid_dv, ng, Ft(eng.field_mu), eng.ground, eng.grid_vf,
                 Ft(eng.dx ** 3), Ft(wall_lo), eng.k.vec3(*[float(c) for c in wall_hi]), Ft(eng.field_touch), eng.pair,
                 eng.k.vec3(*[float(c) for c in eng.setup.domain_lo]), Ft(eng.dx), eng.pair_acc, eng.ground_touch,
-                eng.flow_touch, eng.flow_push, int(bool(core_fields.GROUND_MIRROR))])] + after + [
+                eng.flow_touch, eng.flow_push, int(bool(core_fields.GROUND_MIRROR)), eng.field_rule % 2])] + after + [
             wp.launch(clear, dim=ng ** 3, device=d, record_cmd=True, inputs=[eng.grid_sv, eng.grid_vf])]
 

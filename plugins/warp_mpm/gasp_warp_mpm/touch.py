@@ -102,3 +102,25 @@ def build_touch(Ft):
         return on
 
     return touch_clear, touch_mark, ground_reach
+
+
+@functools.cache
+def build_field_reach(Ft):
+    """``field_reach(k, gr, q, i, j, n_grid, ground_touch, free)``, scalar type ``Ft``: whether ground ``q`` holds node
+    ``(i, j, k)`` for the two-field contact (both fields move with the mean there): :func:`build_touch`'s
+    ``ground_reach``, except (``free`` not 0, with the touched columns) the ground's top node layer in a column no
+    flowing point touches (``gasp_core.mpm.fields.TOP_FREE``): there the fields keep their offsets."""
+    vec3, vec4, mat33 = build_types(Ft)
+    ground_reach = build_touch(Ft)[2]
+
+    @wp.func
+    def field_reach(k: int, gr: vec3, q: int, i: int, j: int, n_grid: int,
+                    ground_touch: wp.array(dtype=wp.int32), free: int):
+        on = ground_reach(k, gr, q, i, j, n_grid, ground_touch)
+        if free != 0 and ground_touch.shape[0] > 1 and Ft(k) == gr[0]:
+            if ground_touch[(q * n_grid + i) * n_grid + j] == 0:
+                on = False
+        return on
+
+    return field_reach
+
