@@ -77,9 +77,9 @@ def build_contact_friction(Ft):
 
 @functools.cache
 def build_field_friction(Ft):
-    """``(field_friction, field_node)``, scalar type ``Ft``, the particle contact's friction with the two-field contact
-    (``grid_dv`` of more than one entry; the engine passes one entry where ``gasp_core.mpm.fields.B_FRICTION`` is
-    off). ``field_node(grid_dv, node, f, lo, hi, dx, wall_in, ground, n_grid, ground_touch, n_walls, rule)``: 1 where
+    """``(field_friction, field_node, pc_friction)``, scalar type ``Ft``, the particle contact's friction with the
+    two-field contact (``grid_dv`` of more than one entry; the engine passes one entry where
+    ``gasp_core.mpm.fields.B_FRICTION`` is off). ``field_node(grid_dv, node, f, lo, hi, dx, wall_in, ground, n_grid, ground_touch, n_walls, rule)``: 1 where
     the node's two fields keep their offsets (``0 < f < 1``, ``f`` the node's flowing-mass fraction, A's share of
     ``m``; not in a ground's or the walls' node layers, where both move with the mean, ``fields.field_contact``; a
     ground's top layer in an untouched column with ``rule`` bit 1, ``touch.build_field_reach``); there, with
@@ -87,9 +87,13 @@ def build_field_friction(Ft):
     and mass. ``field_friction(grid_dv, node, dv, f, on)``: at such a node (``on``) the friction's change ``dv`` of
     the mean velocity (m/s; its budget is field B's points', as only the bodies that do not flow take the particle
     contact in a ``"mixed"`` scene) given to field B alone (``B_FRICTION``): A's offset less ``dv``, B's plus
-    ``dv f / (1 - f)``, so A keeps its velocity and B takes the momentum ``m dv``."""
+    ``dv f / (1 - f)``, so A keeps its velocity and B takes the momentum ``m dv``. ``pc_friction(vel, m, f, node,
+    grid_fb, colc, grid_fn, grid_fv, grid_dv, lo, hi, dx, wall_in, ground, n_grid, ground_touch, n_walls, rule)``: the
+    grid update's friction (:func:`build_contact_friction`) on the mean ``vel`` or B's own, then ``field_friction``;
+    returns the node's new mean velocity (m/s)."""
     vec3, vec4, mat33 = build_types(Ft)
     field_reach = build_field_reach(Ft)
+    contact_friction = build_contact_friction(Ft)[0]
 
     @wp.func
     def field_node(grid_dv: wp.array(dtype=vec3), node: int, f: Ft, lo: vec3, hi: vec3, dx: Ft, wall_in: Ft,
@@ -117,7 +121,23 @@ def build_field_friction(Ft):
             grid_dv[node] = grid_dv[node] - dv
             grid_dv[n_nodes + node] = grid_dv[n_nodes + node] + (f / (Ft(1.0) - f)) * dv
 
-    return field_friction, field_node
+    @wp.func
+    def pc_friction(vel: vec3, m: Ft, f: Ft, node: int, grid_fb: wp.array(dtype=Ft), colc: int,
+                    grid_fn: wp.array(dtype=vec3), grid_fv: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3),
+                    lo: vec3, hi: vec3, dx: Ft, wall_in: Ft, ground: wp.array(dtype=vec3), n_grid: int,
+                    ground_touch: wp.array(dtype=wp.int32), n_walls: int, rule: int):
+        on = field_node(grid_dv, node, f, lo, hi, dx, wall_in, ground, n_grid, ground_touch, n_walls, rule)
+        out = vel
+        if on != 0 and (rule / 2) % 2 != 0:   # on field B's own velocity and mass (B_OWN_FRICTION)
+            vb = vel + grid_dv[grid_dv.shape[0] / 2 + node]
+            out = vel + (Ft(1.0) - f) * (contact_friction(vb, (Ft(1.0) - f) * m, node, grid_fb, colc, grid_fn,
+                                                          grid_fv) - vb)
+        else:
+            out = contact_friction(vel, m, node, grid_fb, colc, grid_fn, grid_fv)
+        field_friction(grid_dv, node, out - vel, f, on)
+        return out
+
+    return field_friction, field_node, pc_friction
 
 
 @functools.cache
@@ -174,8 +194,7 @@ def build_grid_update(Ft):
     boundary_rules = build_boundary_rules(Ft)
     Extras, extras = build_extras(Ft)
     balance_node = build_balance(Ft)[2]
-    contact_friction, clear_contact = build_contact_friction(Ft)
-    field_friction, field_node = build_field_friction(Ft)
+    clear_contact, pc_friction = build_contact_friction(Ft)[1], build_field_friction(Ft)[2]
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def grid_update(
@@ -220,20 +239,13 @@ def build_grid_update(Ft):
                 vel = extras(vel, X, dt, m, gsurf, ex, f)
             vel = boundary_rules(vel, X, k, lo, hi, dx, wall_in, wall_full, wall_mu, ground, f, floor, i, j, n_grid,
                                  ground_touch)
-            if grid_fb.shape[0] > 1:   # friction, then the contact's balance (balance.py)
+            if grid_fb.shape[0] > 1:   # friction (field B's with two fields), then the contact's balance (balance.py)
                 v_in = vel
-                on = field_node(grid_dv, node, f, lo, hi, dx, wall_in, ground, n_grid, ground_touch,
-                                wall_mu.shape[0], rule)
-                if on != 0 and (rule / 2) % 2 != 0:   # on field B's own velocity and mass (B_OWN_FRICTION)
-                    vb = vel + grid_dv[grid_dv.shape[0] / 2 + node]
-                    vel = vel + (Ft(1.0) - f) * (contact_friction(vb, (Ft(1.0) - f) * m, node, grid_fb, colc, grid_fn,
-                                                                   grid_fv) - vb)
-                else:
-                    vel = contact_friction(vel, m, node, grid_fb, colc, grid_fn, grid_fv)
+                vel = pc_friction(vel, m, f, node, grid_fb, colc, grid_fn, grid_fv, grid_dv, lo, hi, dx, wall_in,
+                                  ground, n_grid, ground_touch, wall_mu.shape[0], rule)
                 if fr_sums.shape[0] > 0:
                     balance_node(node, v_in, vel, m, grid_fb[node], X, grid_fbody, fr_sums, fr_nodes,
                                      fr_dv, fr_fb)
-                field_friction(grid_dv, node, vel - v_in, f, on)
             for r in range(fixed_lo.shape[0]):
                 flo = fixed_lo[r]
                 fhi = fixed_hi[r]
