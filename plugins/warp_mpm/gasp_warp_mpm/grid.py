@@ -79,7 +79,8 @@ def build_contact_friction(Ft):
 def build_field_friction(Ft):
     """``(field_friction, field_node, pc_friction)``, scalar type ``Ft``, the particle contact's friction with the
     two-field contact (``grid_dv`` of more than one entry; the engine passes one entry where
-    ``gasp_core.mpm.fields.B_FRICTION`` is off). ``field_node(grid_dv, node, f, lo, hi, dx, wall_in, ground, n_grid, ground_touch, n_walls, rule)``: 1 where
+    ``gasp_core.mpm.fields.B_FRICTION`` is off). ``field_node(grid_dv, node, f, lo, hi, dx, wall_in, ground, n_grid,
+    ground_touch, n_walls, rule)``: 1 where
     the node's two fields keep their offsets (``0 < f < 1``, ``f`` the node's flowing-mass fraction, A's share of
     ``m``; not in a ground's or the walls' node layers, where both move with the mean, ``fields.field_contact``; a
     ground's top layer in an untouched column with ``rule`` bit 1, ``touch.build_field_reach``); there, with
