@@ -34,7 +34,8 @@ for 0.5 (n_grid 32), 0.68-0.76 at n_grid 64; with the slab's normal 0.58-0.60 an
 speed (``docs/contact.md``, "Friction between bodies"). At and below a ground's top node layer B's mass is seen with its
 mirror image (:func:`ground_mirror`): the ground is B's support, so the middle layer of a thin support on it still
 finds its face above (round 41). A node in a ground's node layers or the walls' (the grid
-rule's reach) takes no offset: both fields move with the projected mean there. Colliders are not looked at.
+rule's reach) takes no offset: both fields move with the projected mean there, except a ground's top layer in a column
+no flowing point touches (:data:`TOP_FREE`, round 42). Colliders are not looked at.
 """
 from __future__ import annotations
 

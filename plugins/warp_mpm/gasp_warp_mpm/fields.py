@@ -106,7 +106,8 @@ def build_b_normal(Ft):
 @functools.cache
 def build_fields(Ft):
     """``field_contact``: the node kernel of the two-field contact, scalar type ``Ft``; its ``mirror`` (int): B's mass
-    at a ground's node layers seen with its mirror image for the normal (``gasp_core.mpm.fields.GROUND_MIRROR``)."""
+    at a ground's node layers seen with its mirror image for the normal (``gasp_core.mpm.fields.GROUND_MIRROR``); its
+    ``free`` (int): a ground's top layer in an untouched column takes the contact (``TOP_FREE``, touch.py)."""
     vec3, vec4, mat33 = build_types(Ft)
     field_reach = build_field_reach(Ft)
     b_normal = build_b_normal(Ft)
