@@ -34,7 +34,8 @@ for 0.5 (n_grid 32), 0.68-0.76 at n_grid 64; with the slab's normal 0.58-0.60 an
 speed (``docs/contact.md``, "Friction between bodies"). At and below a ground's top node layer B's mass is seen with its
 mirror image (:func:`ground_mirror`): the ground is B's support, so the middle layer of a thin support on it still
 finds its face above (round 41). A node in a ground's node layers or the walls' (the grid
-rule's reach) takes no offset: both fields move with the projected mean there. Colliders are not looked at.
+rule's reach) takes no offset: both fields move with the projected mean there, except a ground's top layer in a column
+no flowing point touches (:data:`TOP_FREE`, round 42). Colliders are not looked at.
 """
 from __future__ import annotations
 
@@ -45,14 +46,14 @@ import numpy as np
 
 from gasp_core.seam.options import Option
 from gasp_core.mpm.contact import contact_model, flowing_bodies
+from gasp_core.mpm.fields_reference import (MIN_FRACTION, field_offsets, ground_mirror,  # noqa: F401 (re-exported)
+                                           mass_normals)
 
 #: Engine option ``contact_fields`` of the MPM engines.
 FIELDS = Option("contact_fields", True, "in a scene with flowing (sand, snow, liquid) and other bodies, the flowing "
                 "bodies take a grid velocity field of their own, in Coulomb contact with the others' (docs/contact.md, "
                 "issue 53): sand slides on a ball instead of sticking to it; so do two soft bodies, a field each: "
                 "they meet at their surfaces; false: one field, no-slip where they share nodes", kind="bool")
-#: A node is shared when each field holds at least this fraction of its mass (below it the fields move as one).
-MIN_FRACTION = 1e-6
 #: The two fields touch at a node when their volumes there (``sum_p w_ip V_p`` per field) fill this fraction of a
 #: cell (``dx^3``): where the bodies merely share a node's stencil across a gap, each keeps its own velocity.
 TOUCH_FRACTION = 0.9
@@ -92,6 +93,27 @@ B_FRICTION = True
 #: it (the rule before: Coulomb's ratio -6.9 % for sand thrown at 0.7 m/s on a face 3/4 of a cell above a node
 #: layer; the catch of ``tests/test_sand_on_rigid.py``). Away from B (a free sand column, no B) nothing changes.
 PIC_AT_B = True
+#: The ground's top node layer free for the two fields (issue 67, ``docs/contact.md`` "Round 42: a support 1 cell
+#: thick"): in a ``"mixed"`` scene with the grounds' touched columns, a node on a ground's top layer in a column no
+#: flowing point touches (round 36's touch: none within ``touch_delta`` cells of the plane) takes the two-field
+#: contact like any node above (the ground's grid rule still acts on its mean velocity). False: both fields move with
+#: the mean at every ground layer (the rule before: on a support 1 cell thick the sand's lowest stencil layer is the
+#: ground's top layer, where it was snapped to the support's velocity; Coulomb's ratio +46 / +76 %).
+TOP_FREE = True
+#: The particle contact's friction on field B's own velocity (round 42): at a node where the fields keep their
+#: offsets, with :data:`B_FRICTION`, the friction is taken on B's velocity ``v_B`` and mass ``m_B`` (its budget is B's
+#: points'), not on the mean's, whose tangential part carries A's share ``f v_A``. False: on the mean, its whole
+#: change then given to B (round 41's rule: the budget spent against the sand's share pushes B back; with
+#: :data:`TOP_FREE` the sand on a support 1 cell thick then read -3.1 / -3.7 %).
+B_OWN_FRICTION = True
+
+
+def field_rule() -> int:
+    """The engines' flags of round 42 as one int: bit 1 :data:`TOP_FREE`, bit 2 :data:`B_OWN_FRICTION` (read when
+    an engine is built)."""
+    return int(bool(TOP_FREE)) + 2 * int(bool(B_OWN_FRICTION))
+
+
 #: A node's mass gradient shorter than this (kg/m, relative to ``m / dx``) gives no normal: the fields move as one.
 MIN_GRADIENT = 1e-6
 
@@ -319,68 +341,3 @@ def field_setup(setup) -> tuple:
     engine allocates the contact from."""
     return (field_bodies(setup), field_friction(setup), touch_fraction(setup), rigid_pair(setup), flow_touch(setup),
             node_friction(setup))
-
-
-def field_offsets(m: np.ndarray, m_a: np.ndarray, p: np.ndarray, p_a: np.ndarray, n: np.ndarray, mu: float):
-    """The NumPy reference of a node's correction (the module's equations), vectorised over nodes.
-
-    Parameters
-    ----------
-    m, m_a : (k,) float
-        The node's whole mass and field A's, kg.
-    p, p_a : (k, 3) float
-        The whole momentum and field A's, kg m/s (after P2G, before gravity).
-    n : (k, 3) float
-        The unnormalised normal ``grad m_B`` (kg/m).
-    mu : float
-        The Coulomb coefficient (:func:`field_friction`).
-
-    Returns
-    -------
-    dv_a, dv_b : (k, 3) float
-        Each field's velocity offset from the whole grid's (m/s); zero where the node is not shared.
-    """
-    m_b = m - m_a
-    shared = (m_a > MIN_FRACTION * m) & (m_b > MIN_FRACTION * m)
-    safe_a, safe_b = np.where(shared, m_a, 1.0), np.where(shared, m_b, 1.0)
-    u = p_a / safe_a[:, None] - (p - p_a) / safe_b[:, None]
-    ln = np.linalg.norm(n, axis=1)
-    has_n = ln > 0.0
-    nh = n / np.where(has_n, ln, 1.0)[:, None]
-    un = np.einsum("ij,ij->i", u, nh)
-    ut = u - un[:, None] * nh
-    lt = np.linalg.norm(ut, axis=1)
-    slide = lt > mu * un
-    t_part = np.where(slide[:, None], (mu * un / np.where(lt > 0, lt, 1.0))[:, None] * ut, ut)
-    q = np.where(((un > 0) & has_n)[:, None], un[:, None] * nh + t_part, 0.0)
-    u2 = np.where(shared[:, None], u - q, 0.0)
-    return (m_b / m)[:, None] * u2, -(m_a / m)[:, None] * u2
-
-
-def ground_mirror(m_b: np.ndarray, tops=()) -> np.ndarray:
-    """B's node masses as the normal sees them (:data:`GROUND_MIRROR`): at a node layer ``k <= top`` of a ground
-    whose top node layer is ``top`` (the plane on that layer: ``gasp_core.mpm.grid_origin``), ``m_B`` plus the mass
-    at layer ``2 top - k`` (the mirror image of B's mass above the plane; on the top layer itself, twice it).
-    ``m_b`` shape (n, n, n), kg, z the last axis; ``tops`` the grounds' top node layers (ints). Returns a new array
-    of the same shape. Without it the middle layer of a support 2 cells thick on the ground sees B's mass equal above
-    and below (``docs/contact.md`` "Round 41")."""
-    out = np.array(m_b, dtype=float)
-    n = out.shape[2]
-    for top in tops:
-        for k in range(max(0, 2 * top - n + 1), min(top, n - 1) + 1):
-            out[:, :, k] += m_b[:, :, 2 * top - k]
-    return out
-
-
-def mass_normals(m: np.ndarray, m_a: np.ndarray, dx: float, tops=()) -> np.ndarray:
-    """The NumPy reference of the normals: ``grad m_B`` (field B's surface normal, into B) by central differences of
-    the node masses (shape (n, n, n) each, kg) at the inner nodes, B's mass seen through :func:`ground_mirror` of the
-    grounds' top node layers ``tops`` (none: the nodes' own); shape (n, n, n, 3), kg/m, zero on the grid's outer
-    layer."""
-    d = ground_mirror(m - m_a, tops)
-    out = np.zeros(m.shape + (3,))
-    for ax in range(3):
-        sl_c, sl_p, sl_m = [slice(1, -1)] * 3, [slice(1, -1)] * 3, [slice(1, -1)] * 3
-        sl_p[ax], sl_m[ax] = slice(2, None), slice(None, -2)
-        out[tuple(sl_c) + (ax,)] = (d[tuple(sl_p)] - d[tuple(sl_m)]) / (2.0 * dx)
-    return out

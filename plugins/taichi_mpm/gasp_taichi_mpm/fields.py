@@ -56,6 +56,8 @@ class Fields(PairTouch):
         # contact's friction to field B alone (read when the kernels compile)
         self.ground_mirror = bool(core_fields.GROUND_MIRROR)
         self.b_friction = bool(self.fields and core_fields.B_FRICTION)
+        # round 42: a ground's top layer free in untouched columns, the friction on B's own velocity (touch.py)
+        self.field_rule = core_fields.field_rule() if self.fields and self.mixed else 0
 
     @ti.func
     def scatter_field(self, p, base, w, mv0, A, m):
@@ -121,7 +123,7 @@ class Fields(PairTouch):
         """1 where a ground's or the walls' grid rule reaches node I (both fields move with the mean there)."""
         held = 0
         for b in ti.static(range(self.n_grounds)):
-            if self.ground_reach(b, I):   # with the touched layer (touch.py)
+            if self.field_reach(b, I):   # with the touched layer, the top layer freed (touch.py)
                 held = 1
         for b in ti.static(range(self.n_walls)):
             if (I < self.wall_lo_first[b]).any() or (I >= self.wall_hi_first[b]).any():
@@ -129,12 +131,50 @@ class Fields(PairTouch):
         return held
 
     @ti.func
-    def field_friction(self, I, dv, f):
-        """The particle contact's friction ``dv`` (m/s, its change of node I's mean velocity; B's points' budget) given
-        to field B alone (``gasp_core.mpm.fields.B_FRICTION``; warp_mpm's ``grid.build_field_friction``): A's offset
-        less ``dv``, B's plus ``dv f / (1 - f)``, ``f`` the node's flowing-mass fraction (A's share)."""
+    def friction_base(self, I, v, m, f):
+        """``(v_f, m_f, on)``: what the particle contact's friction acts on at node I (mean velocity ``v`` after the
+        boundaries, mass ``m``, flowing-mass fraction ``f``). ``on`` 1 where the two fields keep their offsets
+        (``B_FRICTION`` in a ``"mixed"`` scene, ``0 < f < 1``, not :meth:`held_node`); there, with ``field_rule`` bit
+        2 (``gasp_core.mpm.fields.B_OWN_FRICTION``), field B's own velocity and mass ``(1 - f) m``; else ``(v, m)``
+        (warp_mpm's ``grid.build_field_friction``)."""
+        on = 0
+        vf, mf = v, m
         if ti.static(self.b_friction and self.mixed):
             if f > 0.0 and f < 1.0 and self.held_node(I) == 0:
+                on = 1
+                if ti.static(self.field_rule // 2 % 2 != 0):
+                    d = self.grid_dv[I]
+                    vf, mf = v + ti.Vector([d[3], d[4], d[5]]), (1.0 - f) * m
+        return vf, mf, on
+
+    @ti.func
+    def pc_friction(self, I, v_in, m, budget, f):
+        """The particle contact's Coulomb friction at node I (mean velocity ``v_in`` after the boundaries, mass ``m``,
+        the budget ``budget``; with walls or colliders relative to the supports, normal to them: ``grid_fnv``) on
+        what :meth:`friction_base` names, then the contact's balance (balance.py) and :meth:`field_friction`; returns
+        the node's new mean velocity."""
+        vf, mf, on = self.friction_base(I, v_in, m, f)
+        v = vf
+        if ti.static(self.nfric):
+            g = self.grid_fnv[I]
+            self.grid_fnv[I] = ti.Vector.zero(self.real, 6)
+            v = self.surface_friction(vf, mf, budget, ti.Vector([g[0], g[1], g[2]]), ti.Vector([g[3], g[4], g[5]]))
+        else:
+            v = self.node_friction(vf, mf, budget)
+        if mf < m:   # on B's own velocity: the mean takes B's share of the change
+            v = v_in + (mf / m) * (v - vf)
+        if self.n_spin > 0:
+            self.balance_node(I, v_in, v, m, budget)
+        self.field_friction(I, v - v_in, f, on)
+        return v
+
+    @ti.func
+    def field_friction(self, I, dv, f, on):
+        """The particle contact's friction ``dv`` (m/s, its change of node I's mean velocity; B's points' budget) given
+        to field B alone where ``on`` (:meth:`friction_base`; ``gasp_core.mpm.fields.B_FRICTION``): A's offset
+        less ``dv``, B's plus ``dv f / (1 - f)``, ``f`` the node's flowing-mass fraction (A's share)."""
+        if ti.static(self.b_friction and self.mixed):
+            if on != 0:
                 d = self.grid_dv[I]
                 db = (f / (1.0 - f)) * dv
                 self.grid_dv[I] = ti.Vector([d[0] - dv[0], d[1] - dv[1], d[2] - dv[2], d[3] + db[0], d[4] + db[1],

@@ -375,18 +375,8 @@ class GridUpdate(GroundTouch):
                 if ti.static(self.has_extras):
                     v = self.extras(I, v, acc[3], gsurf, f)
                 v = self.boundary_rules(I, v, f)
-                if ti.static(self.pc):   # the particle contact's Coulomb friction (its budget: the last channel;
-                    v_in = v             # with walls or colliders relative to the supports, normal to them: grid_fnv)
-                    if ti.static(self.nfric):
-                        g = self.grid_fnv[I]
-                        self.grid_fnv[I] = ti.Vector.zero(self.real, 6)
-                        v = self.surface_friction(v, acc[3], acc[self.acc_width - 1], ti.Vector([g[0], g[1], g[2]]),
-                                                  ti.Vector([g[3], g[4], g[5]]))
-                    else:
-                        v = self.node_friction(v, acc[3], acc[self.acc_width - 1])
-                    if self.n_spin > 0:   # and the contact's balance (balance.py)
-                        self.balance_node(I, v_in, v, acc[3], acc[self.acc_width - 1])
-                    self.field_friction(I, v - v_in, f)   # field B's own friction (fields.py)
+                if ti.static(self.pc):   # the particle contact's friction and balance (its budget: the last channel)
+                    v = self.pc_friction(I, v, acc[3], acc[self.acc_width - 1], f)   # fields.py
                 for b in ti.static(range(self.n_regions)):
                     if (I >= self.reg_lo[b]).all() and (I <= self.reg_hi[b]).all():
                         v = ti.Vector.zero(self.real, 3)

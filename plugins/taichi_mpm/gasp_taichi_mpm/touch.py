@@ -61,6 +61,17 @@ class GroundTouch:
                 on = True
         return on
 
+    @ti.func
+    def field_reach(self, b: ti.template(), I):
+        """:meth:`ground_reach` for the two-field contact (both fields move with the mean where it holds), except
+        (``field_rule`` bit 1, ``gasp_core.mpm.fields.TOP_FREE``) the ground's top node layer in a column no flowing
+        point touches: the fields keep their offsets there (warp_mpm's ``touch.build_field_reach``)."""
+        on = self.ground_reach(b, I)
+        if ti.static(self.touch_on and self.field_rule % 2 != 0):
+            if I[2] == self.ground_kmax[b] and self.ground_touch[b, I[0], I[1]] == 0:
+                on = False
+        return on
+
     def touch_update(self) -> None:
         """:meth:`mark_touch` where ``touch_on`` (after each P2G, before the two-field contact and the grid update, on
         the points' positions P2G used; warp_mpm's order)."""

@@ -106,7 +106,8 @@ def build_b_normal(Ft):
 @functools.cache
 def build_fields(Ft):
     """``field_contact``: the node kernel of the two-field contact, scalar type ``Ft``; its ``mirror`` (int): B's mass
-    at a ground's node layers seen with its mirror image for the normal (``gasp_core.mpm.fields.GROUND_MIRROR``)."""
+    at a ground's node layers seen with its mirror image for the normal (``gasp_core.mpm.fields.GROUND_MIRROR``); its
+    ``free`` (int): a ground's top layer in an untouched column takes the contact (``TOP_FREE``, touch.py)."""
     vec3, vec4, mat33 = build_types(Ft)
     held_node = build_held(Ft)
     b_normal = build_b_normal(Ft)
@@ -118,7 +119,7 @@ def build_fields(Ft):
                       wall_lo: Ft, wall_hi: vec3, touch_frac: Ft, pair: int, lo: vec3, dx: Ft,
                       pair_acc: wp.array(dtype=wp.float64), ground_touch: wp.array(dtype=wp.int32),
                       flow_touch: wp.array(dtype=wp.int32), flow_push: wp.array(dtype=vec3), mirror: int,
-                      own: Ft, mu_lo: Ft, mu_hi: Ft):
+                      free: int, own: Ft, mu_lo: Ft, mu_hi: Ft):
         node = wp.tid()
         nn = n_grid * n_grid
         n_nodes = nn * n_grid
@@ -133,7 +134,8 @@ def build_fields(Ft):
         dvb = vec3(Ft(0.0))
         inner = i > 0 and j > 0 and k > 0 and i < n_grid - 1 and j < n_grid - 1 and k < n_grid - 1
         # in a ground's node layers or the walls' (the grid rule's reach): both move with the mean (touch.py)
-        held = held_node(i, j, k, ground, n_grid, ground_touch, vec3(Ft(i), Ft(j), Ft(k)), vec3(wall_lo), wall_hi, 1)
+        held = held_node(i, j, k, ground, n_grid, ground_touch, free, vec3(Ft(i), Ft(j), Ft(k)), vec3(wall_lo),
+                         wall_hi, 1)
         touch = (grid_vf[node] + grid_vf[n_nodes + node]) >= touch_frac * cell   # the bodies meet here
         flow = flow_touch.shape[0] > 1   # the flowing body's touch (pair_touch.py): its points mark the nodes
         if flow:
@@ -231,6 +233,8 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     # the grid update gives the particle contact's friction to field B alone (grid.build_field_friction)
     on = eng.fields and contact == "mixed" and core_fields.B_FRICTION
     eng.dv_friction = eng.grid_dv if on else wp.zeros(1, dtype=k.vec3, device=d)
+    # round 42: a ground's top layer free in untouched columns, the friction on B's own velocity (grid.py)
+    eng.field_rule = core_fields.field_rule() if eng.fields and contact == "mixed" else 0
     eng.flow_touch_on = bool(eng.fields and flow_touch(view))   # the flowing body's touch (pair_touch.py)
     nf = n if eng.flow_touch_on else 1
     eng.flow_touch = wp.zeros(nf, dtype=wp.int32, device=d)
@@ -262,7 +266,7 @@ def field_launches(eng, Ft) -> list:
                 eng.grid_mv, eng.grid_sv, eng.grid_dv, ng, Ft(eng.field_mu), eng.ground, eng.grid_vf,
                 Ft(eng.dx ** 3), Ft(wall_lo), eng.k.vec3(*[float(c) for c in wall_hi]), Ft(eng.field_touch), eng.pair,
                 eng.k.vec3(*[float(c) for c in eng.setup.domain_lo]), Ft(eng.dx), eng.pair_acc, eng.ground_touch,
-                eng.flow_touch, eng.flow_push, int(bool(core_fields.GROUND_MIRROR)),
+                eng.flow_touch, eng.flow_push, int(bool(core_fields.GROUND_MIRROR)), eng.field_rule % 2,
                 *([Ft(a) for a in (eng.node_mu[0], eng.node_mu[2], eng.node_mu[3])] if eng.node_mu else [Ft(0.0)] * 3)
                 ])] + after + [
             wp.launch(clear, dim=ng ** 3, device=d, record_cmd=True, inputs=[eng.grid_sv, eng.grid_vf])]

@@ -77,33 +77,65 @@ def build_contact_friction(Ft):
 
 @functools.cache
 def build_field_friction(Ft):
-    """``field_friction(grid_dv, node, dv, f, lo, hi, dx, wall_in, ground, n_grid, ground_touch, n_walls)``, scalar type
-    ``Ft``: with the two-field contact (``grid_dv`` of more than one entry; the engine passes one entry where
-    ``gasp_core.mpm.fields.B_FRICTION`` is off) the particle contact's friction ``dv``
-    (m/s, the change it made to the node's mean velocity; its budget is field B's points', as only the bodies that do
-    not flow take the particle contact in a ``"mixed"`` scene) given to field B alone (``gasp_core.mpm.fields
-    .B_FRICTION``): A's offset less ``dv``, B's plus ``dv f / (1 - f)`` (``f`` the node's flowing-mass fraction, A's
-    share of ``m``), so A keeps its velocity and B takes the momentum ``m dv``. Not in a ground's or the walls' node
-    layers (both fields move with the mean there, ``fields.field_contact``: the test shared, ``touch.build_held``)."""
+    """``(field_friction, field_node, pc_friction)``, scalar type ``Ft``, the particle contact's friction with the
+    two-field contact (``grid_dv`` of more than one entry; the engine passes one entry where
+    ``gasp_core.mpm.fields.B_FRICTION`` is off). ``field_node(grid_dv, node, f, lo, hi, dx, wall_in, ground, n_grid,
+    ground_touch, n_walls, rule)``: 1 where
+    the node's two fields keep their offsets (``0 < f < 1``, ``f`` the node's flowing-mass fraction, A's share of
+    ``m``; not in a ground's or the walls' node layers, where both move with the mean, ``fields.field_contact``; a
+    ground's top layer in an untouched column with ``rule`` bit 1, ``touch.build_field_reach``); there, with
+    ``rule`` bit 2 (``gasp_core.mpm.fields.B_OWN_FRICTION``), the grid update takes the friction on B's own velocity
+    and mass. ``field_friction(grid_dv, node, dv, f, on)``: at such a node (``on``) the friction's change ``dv`` of
+    the mean velocity (m/s; its budget is field B's points', as only the bodies that do not flow take the particle
+    contact in a ``"mixed"`` scene) given to field B alone (``B_FRICTION``): A's offset less ``dv``, B's plus
+    ``dv f / (1 - f)``, so A keeps its velocity and B takes the momentum ``m dv``. ``pc_friction(vel, m, f, node,
+    grid_fb, colc, grid_fn, grid_fv, grid_dv, lo, hi, dx, wall_in, ground, n_grid, ground_touch, n_walls, rule)``: the
+    grid update's friction (:func:`build_contact_friction`) on the mean ``vel`` or B's own, then ``field_friction``;
+    returns the node's new mean velocity (m/s)."""
     vec3, vec4, mat33 = build_types(Ft)
     held_node = build_held(Ft)
+    contact_friction = build_contact_friction(Ft)[0]
 
     @wp.func
-    def field_friction(grid_dv: wp.array(dtype=vec3), node: int, dv: vec3, f: Ft, lo: vec3, hi: vec3, dx: Ft,
-                       wall_in: Ft, ground: wp.array(dtype=vec3), n_grid: int, ground_touch: wp.array(dtype=wp.int32),
-                       n_walls: int):
+    def field_node(grid_dv: wp.array(dtype=vec3), node: int, f: Ft, lo: vec3, hi: vec3, dx: Ft, wall_in: Ft,
+                   ground: wp.array(dtype=vec3), n_grid: int, ground_touch: wp.array(dtype=wp.int32), n_walls: int,
+                   rule: int):
         i = node / (n_grid * n_grid)
         j = (node / n_grid) % n_grid
         k = node % n_grid
         X = lo + dx * vec3(Ft(i), Ft(j), Ft(k))
         reach = wall_in * dx
-        held = held_node(i, j, k, ground, n_grid, ground_touch, X, lo + vec3(reach), hi - vec3(reach), n_walls)
+        held = held_node(i, j, k, ground, n_grid, ground_touch, rule % 2, X, lo + vec3(reach), hi - vec3(reach),
+                         n_walls)
+        on = int(0)
         if grid_dv.shape[0] > 1 and held == 0 and f > Ft(0.0) and f < Ft(1.0):
+            on = int(1)
+        return on
+
+    @wp.func
+    def field_friction(grid_dv: wp.array(dtype=vec3), node: int, dv: vec3, f: Ft, on: int):
+        if on != 0:
             n_nodes = grid_dv.shape[0] / 2
             grid_dv[node] = grid_dv[node] - dv
             grid_dv[n_nodes + node] = grid_dv[n_nodes + node] + (f / (Ft(1.0) - f)) * dv
 
-    return field_friction
+    @wp.func
+    def pc_friction(vel: vec3, m: Ft, f: Ft, node: int, grid_fb: wp.array(dtype=Ft), colc: int,
+                    grid_fn: wp.array(dtype=vec3), grid_fv: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3),
+                    lo: vec3, hi: vec3, dx: Ft, wall_in: Ft, ground: wp.array(dtype=vec3), n_grid: int,
+                    ground_touch: wp.array(dtype=wp.int32), n_walls: int, rule: int):
+        on = field_node(grid_dv, node, f, lo, hi, dx, wall_in, ground, n_grid, ground_touch, n_walls, rule)
+        out = vel
+        if on != 0 and (rule / 2) % 2 != 0:   # on field B's own velocity and mass (B_OWN_FRICTION)
+            vb = vel + grid_dv[grid_dv.shape[0] / 2 + node]
+            out = vel + (Ft(1.0) - f) * (contact_friction(vb, (Ft(1.0) - f) * m, node, grid_fb, colc, grid_fn,
+                                                          grid_fv) - vb)
+        else:
+            out = contact_friction(vel, m, node, grid_fb, colc, grid_fn, grid_fv)
+        field_friction(grid_dv, node, out - vel, f, on)
+        return out
+
+    return field_friction, field_node, pc_friction
 
 
 @functools.cache
@@ -160,7 +192,7 @@ def build_grid_update(Ft):
     boundary_rules = build_boundary_rules(Ft)
     Extras, extras = build_extras(Ft)
     balance_node = build_balance(Ft)[2]
-    (contact_friction, clear_contact), field_friction = build_contact_friction(Ft), build_field_friction(Ft)
+    clear_contact, pc_friction = build_contact_friction(Ft)[1], build_field_friction(Ft)[2]
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def grid_update(
@@ -173,7 +205,7 @@ def build_grid_update(Ft):
         grid_fbody: wp.array(dtype=wp.int32), fr_sums: wp.array2d(dtype=wp.float64), fr_nodes: wp.array(dtype=wp.int32),
         colc: int, grid_fn: wp.array(dtype=vec3), grid_fv: wp.array(dtype=vec3), wall_full: Ft,
         grid_mf: wp.array(dtype=Ft), fr_dv: wp.array(dtype=vec4), fr_fb: wp.array(dtype=Ft), floor: int,
-        ground_touch: wp.array(dtype=wp.int32), grid_dv: wp.array(dtype=vec3)):
+        ground_touch: wp.array(dtype=wp.int32), grid_dv: wp.array(dtype=vec3), rule: int):
         # wall_in: the walls' grid rule reaches this many cells in (gasp_core.mpm.contact.wall_grid_cells);
         # ground[g] = (top node layer k_max as a float, friction, unused); grid_m (node mass, for
         # passive points) has one entry per node when the setup has passive points, else one unused entry;
@@ -205,14 +237,13 @@ def build_grid_update(Ft):
                 vel = extras(vel, X, dt, m, gsurf, ex, f)
             vel = boundary_rules(vel, X, k, lo, hi, dx, wall_in, wall_full, wall_mu, ground, f, floor, i, j, n_grid,
                                  ground_touch)
-            if grid_fb.shape[0] > 1:   # friction, then the contact's balance (balance.py)
+            if grid_fb.shape[0] > 1:   # friction (field B's with two fields), then the contact's balance (balance.py)
                 v_in = vel
-                vel = contact_friction(vel, m, node, grid_fb, colc, grid_fn, grid_fv)
+                vel = pc_friction(vel, m, f, node, grid_fb, colc, grid_fn, grid_fv, grid_dv, lo, hi, dx, wall_in,
+                                  ground, n_grid, ground_touch, wall_mu.shape[0], rule)
                 if fr_sums.shape[0] > 0:
                     balance_node(node, v_in, vel, m, grid_fb[node], X, grid_fbody, fr_sums, fr_nodes,
                                      fr_dv, fr_fb)
-                field_friction(grid_dv, node, vel - v_in, f, lo, hi, dx, wall_in, ground, n_grid, ground_touch,
-                               wall_mu.shape[0])
             for r in range(fixed_lo.shape[0]):
                 flo = fixed_lo[r]
                 fhi = fixed_hi[r]

@@ -107,22 +107,44 @@ def build_touch(Ft):
 
 
 @functools.cache
-def build_held(Ft):
-    """``held_node(i, j, k, ground, n_grid, ground_touch, p, p_lo, p_hi, walls) -> int``, scalar type ``Ft``: 1 where
-    node ``(i, j, k)`` is in a ground's node layers (``ground_reach``, with the touched layer) or, with ``walls``
-    non-zero, where the point ``p`` (vec3) lies below ``p_lo`` or above ``p_hi`` on an axis (the walls' reach: each
-    caller gives ``p`` and the bounds in its own units, node indices or metres); 0 elsewhere. The two-field contact
-    leaves such a node's fields moving with the mean (``fields.build_fields``), and gives it none of the particle
-    contact's friction (``grid.build_field_friction``)."""
-    vec3 = build_types(Ft)[0]
+def build_field_reach(Ft):
+    """``field_reach(k, gr, q, i, j, n_grid, ground_touch, free)``, scalar type ``Ft``: whether ground ``q`` holds node
+    ``(i, j, k)`` for the two-field contact (both fields move with the mean there): :func:`build_touch`'s
+    ``ground_reach``, except (``free`` not 0, with the touched columns) the ground's top node layer in a column no
+    flowing point touches (``gasp_core.mpm.fields.TOP_FREE``): there the fields keep their offsets."""
+    vec3, vec4, mat33 = build_types(Ft)
     ground_reach = build_touch(Ft)[2]
 
     @wp.func
+    def field_reach(k: int, gr: vec3, q: int, i: int, j: int, n_grid: int,
+                    ground_touch: wp.array(dtype=wp.int32), free: int):
+        on = ground_reach(k, gr, q, i, j, n_grid, ground_touch)
+        if free != 0 and ground_touch.shape[0] > 1 and Ft(k) == gr[0]:
+            if ground_touch[(q * n_grid + i) * n_grid + j] == 0:
+                on = False
+        return on
+
+    return field_reach
+
+
+@functools.cache
+def build_held(Ft):
+    """``held_node(i, j, k, ground, n_grid, ground_touch, free, p, p_lo, p_hi, walls) -> int``, scalar type ``Ft``: 1
+    where node ``(i, j, k)`` is in a ground's node layers (:func:`build_field_reach`: ``ground_reach`` with the touched
+    layer, less a ground's top layer in an untouched column where ``free`` is not 0) or, with ``walls`` non-zero, where
+    the point ``p`` (vec3) lies below ``p_lo`` or above ``p_hi`` on an axis (the walls' reach: each caller gives ``p``
+    and the bounds in its own units, node indices or metres); 0 elsewhere. The two-field contact leaves such a node's
+    fields moving with the mean (``fields.build_fields``), and gives it none of the particle contact's friction
+    (``grid.build_field_friction``)."""
+    vec3 = build_types(Ft)[0]
+    field_reach = build_field_reach(Ft)
+
+    @wp.func
     def held_node(i: int, j: int, k: int, ground: wp.array(dtype=vec3), n_grid: int,
-                  ground_touch: wp.array(dtype=wp.int32), p: vec3, p_lo: vec3, p_hi: vec3, walls: int):
+                  ground_touch: wp.array(dtype=wp.int32), free: int, p: vec3, p_lo: vec3, p_hi: vec3, walls: int):
         held = int(0)
         for q in range(ground.shape[0]):
-            if ground_reach(k, ground[q], q, i, j, n_grid, ground_touch):   # with the touched layer
+            if field_reach(k, ground[q], q, i, j, n_grid, ground_touch, free):   # with the touched layer
                 held = int(1)
         if walls != 0:
             for d in range(3):
