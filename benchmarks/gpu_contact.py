@@ -13,7 +13,11 @@ tolerance is the tests' ``RATIO_TOL`` (2.5 %), either side. The cases are those 
   ``PIC_AT_B``, round 41);
 - ``ground64``: the block on the ground at n_grid 64 (``tests/test_ground_slide_coulomb.py``; round 36's touched
   layer);
-- ``key_mu1``: the slab's scene ``friction`` 1.0, the pair ``sqrt(tan phi 1.0)`` (``tests/test_body_friction_key.py``).
+- ``key_mu1``: the slab's scene ``friction`` 1.0, the pair ``sqrt(tan phi 1.0)`` (``tests/test_body_friction_key.py``);
+- ``thin1``: the jelly slab 1 cell thick (``tests/test_thin_support.py``; ``TOP_FREE`` and ``B_OWN_FRICTION``, round
+  42);
+- ``two_slabs``: two slabs side by side in field B, friction 0.3 and 1.0, a block on each, each read against its own
+  pair (``tests/test_field_b_frictions.py``; the per-node friction, round 42).
 
 Each case also gives its wall time (the first case's includes the kernels' compile). Writes
 ``gpu_contact_<device>.json`` (``gpu_contact_warp_mpm_<device>.json`` with ``--engine warp_mpm``) to ``--out``.
@@ -38,16 +42,22 @@ TOL = 0.025
 
 
 def _setup(case: str, v0: float, options: dict):
-    """``(setup, mu)`` of ``case`` (module notes) at throw speed ``v0`` (m/s)."""
+    """``(setup, [(body, mu), ...])`` of ``case`` (module notes) at throw speed ``v0`` (m/s): the blocks to read and
+    each one's pair friction."""
     from gasp_core.mpm import fields as F
     from gasp_core.testing import sand_ball as S
     S.N_GRID = 64 if case == "ground64" else 32
     if case == "ground64":
         setup = S.slide_setup(v0, options, ground=True)
-        return setup, float(setup.boundaries[0].friction)
-    if case == "thin2_stiff":
-        S.SLAB = dataclasses.replace(S.SLAB, E=2e6)
-        setup = S.slide_setup(v0, options, slab_h=2 * S.SIDE / S.N_GRID)
+        return setup, [(0, float(setup.boundaries[0].friction))]
+    if case == "two_slabs":
+        setup = S.two_slab_setup(v0, (0.3, 1.0), options)
+        pair = F.pair_frictions(setup)
+        return setup, [(0, float(pair[1])), (2, float(pair[3]))]
+    if case in ("thin2_stiff", "thin1"):
+        cells = 2 if case == "thin2_stiff" else 1
+        S.SLAB = dataclasses.replace(S.SLAB, E=2e6) if case == "thin2_stiff" else S.SLAB
+        setup = S.slide_setup(v0, options, slab_h=cells * S.SIDE / S.N_GRID)
     elif case == "rigid_face":
         setup = S.slide_setup(v0, options, slab_h=S.COULOMB_SLAB_H)
         setup.materials = [setup.materials[0], dataclasses.replace(setup.materials[1], model="rigid")]
@@ -56,10 +66,11 @@ def _setup(case: str, v0: float, options: dict):
         setup.materials = [setup.materials[0], dataclasses.replace(setup.materials[1], friction=1.0)]
     else:
         setup = S.slide_setup(v0, options, slab_h=S.COULOMB_SLAB_H)
-    return setup, F.field_friction(setup)
+    return setup, [(0, F.field_friction(setup))]
 
 
-CASES = {"slab45": SPEEDS, "thin2_stiff": SPEEDS, "rigid_face": (0.7,), "ground64": SPEEDS, "key_mu1": (1.2,)}
+CASES = {"slab45": SPEEDS, "thin2_stiff": SPEEDS, "rigid_face": (0.7,), "ground64": SPEEDS, "key_mu1": (1.2,),
+         "thin1": SPEEDS, "two_slabs": SPEEDS}
 
 
 def run_case(case: str, device: str, engine: str = "taichi_mpm") -> dict:
@@ -74,10 +85,12 @@ def run_case(case: str, device: str, engine: str = "taichi_mpm") -> dict:
     t0 = time.perf_counter()
     try:
         for v0 in CASES[case]:
-            setup, mu = _setup(case, v0, {"device": device})
+            setup, reads = _setup(case, v0, {"device": device})
             tr = run_trace(info, setup, FRAMES)
-            err = S.coulomb_ratio(tr.v, setup, 0, FRAMES) / mu - 1.0
-            out[str(v0)] = {"ratio_error": float(err), "mu": float(mu), "n_points": int(len(setup.x))}
+            for body, mu in reads:
+                err = S.coulomb_ratio(tr.v, setup, 0, FRAMES, body=body) / mu - 1.0
+                key = str(v0) if len(reads) == 1 else f"{v0}_body{body}"
+                out[key] = {"ratio_error": float(err), "mu": float(mu), "n_points": int(len(setup.x))}
     finally:
         S.SLAB = slab0
     errs = [r["ratio_error"] for r in out.values()]
