@@ -1,6 +1,7 @@
 """warp_mpm's CPU schedule, bit for bit across a code change (issue 65's layout: the ordered launches moved to
 ``gasp_warp_mpm/schedule/ordered.py``): sha1 of x, v, F, C after a few frames of a viscous scene and of two contact
-scenes whose balance launches ``contact_fix``, on ``schedule = "cpu"`` (f32, the default precision; the viscous scene also in f64).
+scenes whose balance launches ``contact_fix``, on ``schedule = "cpu"`` (f32, the default precision; the viscous scene
+also in f64).
 
 Run it on two trees (``PYTHONPATH=<tree>:<tree>/plugins/warp_mpm python benchmarks/warp_ordered_bits.py``) and
 compare the lines. Each line also counts the launches of ``lists``, ``dot`` and ``contact_fix`` in the last frame, so

@@ -19,12 +19,13 @@ with the particle contact + the walls' faces):
   impulse, its moment, the node's mass and moments and its friction budget, into ``fr_sums`` (shape
   (n_bodies n_sup, 26)); the node listed in ``fr_nodes`` (``fr_nodes[0]`` counts them);
 - ``contact_fix`` (the cpu schedule's one thread, :mod:`gasp_warp_mpm.schedule.ordered`; the gpu schedule's
-  ``fix_supports``, ``fix_nodes``, ``fix_clear``, :mod:`gasp_warp_mpm.schedule.gpu_balance`): per support, with its mean normal ``n`` (``sum j n`` normalised), the change
-  ``dv + alpha x (X - x_m)`` of its listed nodes' velocities that makes the friction's net force (in the plane
-  normal to ``n``) Coulomb's on the body's rigid motion relative to the support at its centre of pressure, and takes
-  back the contact's torque (normal and friction, less its twist about ``n``) about ``c`` up to ``J reach``, unless
-  the line through ``c`` along ``n`` passes more than ``reach`` beyond the pushed points' box (a body over its edge
-  tips over); the sums and lists cleared. On the ground (``n = +z``) these are the steps before issue 38 item 2.
+  ``fix_supports``, ``fix_nodes``, ``fix_clear``, :mod:`gasp_warp_mpm.schedule.gpu_balance`): per support, with its
+  mean normal ``n`` (``sum j n`` normalised), the change ``dv + alpha x (X - x_m)`` of its listed nodes' velocities
+  that makes the friction's net force (in the plane normal to ``n``) Coulomb's on the body's rigid motion relative
+  to the support at its centre of pressure, and takes back the contact's torque (normal and friction, less its twist
+  about ``n``) about ``c`` up to ``J reach``, unless the line through ``c`` along ``n`` passes more than ``reach``
+  beyond the pushed points' box (a body over its edge tips over); the sums and lists cleared. On the ground
+  (``n = +z``) these are the steps before issue 38 item 2.
 
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of the closures below
 as type objects.
