@@ -3,9 +3,11 @@
 scenes whose balance launches ``contact_fix``, on ``schedule = "cpu"`` (f32, the default precision; the viscous scene
 also in f64).
 
-Run it on two trees (``PYTHONPATH=<tree>:<tree>/plugins/warp_mpm python benchmarks/warp_ordered_bits.py``) and
-compare the lines. Each line also counts the launches of ``lists``, ``dot`` and ``contact_fix`` in the last frame, so
-that a scene which never reached the ordered kernels is seen.
+Run it on two trees and compare the lines:
+``PYTHONPATH=<tree>:<tree>/plugins/warp_mpm python benchmarks/studies/warp_ordered_bits.py`` (the scenes are those of
+``<tree>/plugins/warp_mpm/tests/test_warp_schedule.py`` and ``gasp_core.testing.sand_ball.slide_setup``). Each
+line also counts the launches of ``lists``, ``dot`` and ``contact_fix`` in the last frame, so that a scene which never
+reached the ordered kernels is seen.
 """
 import hashlib
 import sys
