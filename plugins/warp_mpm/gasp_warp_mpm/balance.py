@@ -18,12 +18,14 @@ with the particle contact + the walls' faces):
 - ``balance_node`` (a function of the grid update, at each marked node after its friction): the node's friction
   impulse, its moment, the node's mass and moments and its friction budget, into ``fr_sums`` (shape
   (n_bodies n_sup, 26)); the node listed in ``fr_nodes`` (``fr_nodes[0]`` counts them);
-- ``contact_fix`` (one thread): per support, with its mean normal ``n`` (``sum j n`` normalised), the change
-  ``dv + alpha x (X - x_m)`` of its listed nodes' velocities that makes the friction's net force (in the plane
-  normal to ``n``) Coulomb's on the body's rigid motion relative to the support at its centre of pressure, and takes
-  back the contact's torque (normal and friction, less its twist about ``n``) about ``c`` up to ``J reach``, unless
-  the line through ``c`` along ``n`` passes more than ``reach`` beyond the pushed points' box (a body over its edge
-  tips over); the sums and lists cleared. On the ground (``n = +z``) these are the steps before issue 38 item 2.
+- ``contact_fix`` (the cpu schedule's one thread, :mod:`gasp_warp_mpm.schedule.ordered`; the gpu schedule's
+  ``fix_supports``, ``fix_nodes``, ``fix_clear``, :mod:`gasp_warp_mpm.schedule.gpu_balance`): per support, with its
+  mean normal ``n`` (``sum j n`` normalised), the change ``dv + alpha x (X - x_m)`` of its listed nodes' velocities
+  that makes the friction's net force (in the plane normal to ``n``) Coulomb's on the body's rigid motion relative
+  to the support at its centre of pressure, and takes back the contact's torque (normal and friction, less its twist
+  about ``n``) about ``c`` up to ``J reach``, unless the line through ``c`` along ``n`` passes more than ``reach``
+  beyond the pushed points' box (a body over its edge tips over); the sums and lists cleared. On the ground
+  (``n = +z``) these are the steps before issue 38 item 2.
 
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of the closures below
 as type objects.
@@ -71,10 +73,10 @@ def add_second_moments(sums: wp.array2d(dtype=f64), b: int, col: int, m: f64, r:
 
 @functools.cache
 def build_balance(Ft):
-    """``(contact_moments, contact_shift, balance_node, contact_fix)`` of scalar type ``Ft`` (module docstring)."""
+    """``(contact_moments, contact_shift, balance_node)`` of scalar type ``Ft`` (module docstring; ``contact_fix``,
+    the cpu schedule's one-thread kernel, is :func:`gasp_warp_mpm.schedule.ordered.build_contact_fix`)."""
     contact_moments, contact_shift = build_moments(Ft)
-    balance_node = build_balance_node(Ft)
-    return contact_moments, contact_shift, balance_node, build_contact_fix(Ft)
+    return contact_moments, contact_shift, build_balance_node(Ft)
 
 
 @wp.func
@@ -309,46 +311,6 @@ def body_fix(s: int, b: int, shift: wp.array2d(dtype=f64), jsums: wp.array2d(dty
             fr_sums[s, 23 + q] = xm[q]
 
 
-@functools.cache
-def build_contact_fix(Ft):
-    """``contact_fix``, the kernel of scalar type ``Ft`` after the grid update."""
-    vec3, vec4, mat33 = build_types(Ft)
-
-    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def contact_fix(grid_v: wp.array(dtype=vec3), grid_fbody: wp.array(dtype=wp.int32),
-                    shift: wp.array2d(dtype=f64), jsums: wp.array2d(dtype=f64), fr_sums: wp.array2d(dtype=f64),
-                    fr_nodes: wp.array(dtype=wp.int32), mass: wp.array(dtype=f64), reach: wp.array(dtype=f64),
-                    g_dt: vec3, lo: vec3, dx: Ft, n_grid: int, n_sup: int):
-        for s in range(fr_sums.shape[0]):
-            b = s / n_sup
-            body_fix(s, b, shift, jsums, fr_sums, mass[b], reach[b], v64(f64(g_dt[0]), f64(g_dt[1]), f64(g_dt[2])))
-        n = wp.min(fr_nodes[0], fr_nodes.shape[0] - 1)
-        for q in range(n):
-            node = fr_nodes[q + 1]
-            s = grid_fbody[node]
-            if fr_sums[s, 3] > f64(0.0):
-                i = node / (n_grid * n_grid)
-                j = (node / n_grid) % n_grid
-                k = node % n_grid
-                X = v64(f64(lo[0] + dx * Ft(i)), f64(lo[1] + dx * Ft(j)), f64(lo[2] + dx * Ft(k)))
-                dv = v64(fr_sums[s, 17], fr_sums[s, 18], fr_sums[s, 19]) + wp.cross(
-                    v64(fr_sums[s, 20], fr_sums[s, 21], fr_sums[s, 22]),
-                    X - v64(fr_sums[s, 23], fr_sums[s, 24], fr_sums[s, 25]))
-                grid_v[node] = grid_v[node] + vec3(Ft(dv[0]), Ft(dv[1]), Ft(dv[2]))
-            grid_fbody[node] = -1
-        for s in range(fr_sums.shape[0]):
-            for q in range(26):
-                fr_sums[s, q] = f64(0.0)
-            for q in range(13):
-                jsums[s, q] = f64(0.0)
-            for d in range(3):   # the box of the pushed points, inverted
-                jsums[s, 13 + 2 * d] = f64(1.0e30)
-                jsums[s, 14 + 2 * d] = f64(-1.0e30)
-        fr_nodes[0] = 0
-
-    return contact_fix
-
-
 def allocate_balance(engine, planes: list, Ft, n_sup: int = 1) -> None:
     """The contact's balance arrays on ``engine`` (a :class:`~gasp_warp_mpm.engine.WarpMPMEngine` with ``setup``,
     ``device``, ``n_grid``): per body its sums, shift, reach (m) and mass (kg); per support (``n_sup`` a body: the
@@ -379,22 +341,3 @@ def allocate_balance(engine, planes: list, Ft, n_sup: int = 1) -> None:
     n_gpu = n_nodes if nb and getattr(engine, "schedule", "cpu") == "gpu" else 1
     engine.fr_dv = wp.zeros(n_gpu, dtype=build_types(Ft)[1], device=d)
     engine.fr_fb = wp.zeros(n_gpu, dtype=Ft, device=d)
-
-
-def balance_launches(engine, k, lo_v, dx, dt_f, ex) -> tuple[list, object]:
-    """Pre-recorded launches of the balance on ``engine``: ``[contact_moments, contact_shift]`` (before P2G) and
-    ``contact_fix`` (after the grid update); ``([], None)`` without a balance. ``k``: the engine's kernels; ``ex``
-    its colliders' struct."""
-    if engine.c_shift.shape[0] == 0:
-        return [], None
-    d, ng = engine.device, engine.n_grid
-    g_dt = k.vec3(*[float(c) * engine.dt for c in engine.setup.gravity])
-    fix = wp.launch(k.contact_fix, dim=1, device=d, record_cmd=True, inputs=[
-        engine.grid_v, engine.grid_fbody, engine.c_shift, engine.c_jsums, engine.fr_sums, engine.fr_nodes,
-        engine.c_mass, engine.c_reach, g_dt, lo_v, dx, ng, engine.n_sup])
-    pre = [wp.launch(k.contact_moments, dim=engine.n_material, device=d, record_cmd=True, inputs=[
-               engine.x, engine.v, engine.C, engine.p_mass, engine.body, engine.p_contact, engine.planes,
-               engine.plane_n, dt_f, dx, engine.c_sums, engine.c_jsums, ex, engine.colc, engine.n_sup]),
-           wp.launch(k.contact_shift, dim=engine.c_shift.shape[0], device=d, record_cmd=True, inputs=[
-               engine.c_sums, engine.c_shift])]
-    return pre, fix

@@ -80,8 +80,8 @@ def build_kernels(Ft):
     tick = build_tick(Ft)
     g2p, g2p_passive = build_g2p(Ft), build_g2p_passive(Ft)
     check, svd = build_checks(Ft)
-    contact_moments, contact_shift, _, contact_fix = build_balance(Ft)
-    return types.SimpleNamespace(contact_moments=contact_moments, contact_shift=contact_shift, contact_fix=contact_fix,
+    contact_moments, contact_shift, _ = build_balance(Ft)
+    return types.SimpleNamespace(contact_moments=contact_moments, contact_shift=contact_shift,
                                  vec3=vec3, vec4=vec4, mat33=mat33, p2g=build_p2g(Ft), Extras=Extras, tick=tick,
                                  grid_update=build_grid_update(Ft), g2p=g2p, g2p_passive=g2p_passive, check=check,
                                  svd=svd)

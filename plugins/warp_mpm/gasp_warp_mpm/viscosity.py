@@ -10,8 +10,13 @@ over the nodes with mass; ``c`` runs over the cells whose 8 corners all have mas
 (trilinear shape functions at the cell centre, ``g_ic = (+-1, +-1, +-1) / (4 dx)``), ``(eta V)_c = sum_corners
 (eta V)_i / n_i`` (``n_i`` valid cells at node ``i``). Solved by conjugate gradients with the diagonal
 ``m_i + dt sum_c (eta V)_c / (4 dx^2)`` as preconditioner from ``v*``, until ``r.z`` falls below ``TOL^2`` of its
-start (at most ``MAX_ITERS``). The lists of nodes and cells are built, and the dot products summed, in node
-order by one thread, so the result is the same on every run.
+start (at most ``MAX_ITERS``).
+
+This module holds the kernels both schedules launch (:mod:`gasp_warp_mpm.schedule`) and the step's arrays
+(:class:`ImplicitViscosity`). The lists of nodes and cells (in node order) and the CG's dot products are each
+schedule's own: on the cpu schedule built and summed by one thread in node order
+(:mod:`gasp_warp_mpm.schedule.ordered`, ``CpuViscosity``), on the gpu schedule by compaction and block sums
+(:mod:`gasp_warp_mpm.schedule.gpu`, ``GpuViscosity``); either gives the same result on every run.
 
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of
 the closures below as type objects.
@@ -45,38 +50,6 @@ def build_viscosity(Ft):
     @wp.func
     def grad(a: int, b: int, e: int, q: Ft):
         return vec3(Ft(2 * a - 1), Ft(2 * b - 1), Ft(2 * e - 1)) * q
-
-    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def lists(grid_mv: wp.array(dtype=vec4), u: wp.array(dtype=vec3), valid: wp.array(dtype=wp.int32),
-              nodes: wp.array(dtype=wp.int32), cells: wp.array(dtype=wp.int32), counts: wp.array(dtype=wp.int32),
-              ng: int):
-        # one thread: v*, valid cells (lower corner index, all 8 corners with mass; never on the last plane),
-        # and the lists in node order
-        nn = int(0)
-        nc = int(0)
-        for i in range(ng):
-            for j in range(ng):
-                for k in range(ng):
-                    I = (i * ng + j) * ng + k
-                    g = grid_mv[I]
-                    if g[3] > Ft(0.0):
-                        u[I] = vec3(g[0], g[1], g[2]) / g[3]
-                        nodes[nn] = I
-                        nn = nn + 1
-                    ok = int(0)
-                    if i < ng - 1 and j < ng - 1 and k < ng - 1:
-                        ok = 1
-                        for a in range(2):
-                            for b in range(2):
-                                for e in range(2):
-                                    if grid_mv[corner(I, a, b, e, ng)][3] <= Ft(0.0):
-                                        ok = 0
-                    valid[I] = ok
-                    if ok != 0:
-                        cells[nc] = I
-                        nc = nc + 1
-        counts[0] = nn
-        counts[1] = nc
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def cell_weights(grid_eta: wp.array(dtype=Ft), valid: wp.array(dtype=wp.int32), cells: wp.array(dtype=wp.int32),
@@ -161,16 +134,6 @@ def build_viscosity(Ft):
         Ap[I] = grid_mv[I][3] * p[I] + dt * node_force(I, S, valid, ng, Ft(0.25) * inv_dx)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def dot(a: wp.array(dtype=vec3), b: wp.array(dtype=vec3), nodes: wp.array(dtype=wp.int32),
-            counts: wp.array(dtype=wp.int32), out: wp.array(dtype=Ft), slot: int):
-        # one thread, in node order (the same sum on every run)
-        s = Ft(0.0)
-        for t in range(counts[0]):
-            I = nodes[t]
-            s = s + wp.dot(a[I], b[I])
-        out[slot] = s
-
-    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def step_alpha(scal: wp.array(dtype=Ft), done: wp.array(dtype=wp.int32)):
         # scal: [rz, rz0, pAp, alpha, rz_new, beta]
         scal[3] = Ft(0.0)
@@ -234,13 +197,14 @@ def build_viscosity(Ft):
         grid_mv[I] = vec4(m * u[I][0], m * u[I][1], m * u[I][2], m)
         grid_eta[I] = Ft(0.0)
 
-    return types.SimpleNamespace(lists=lists, cell_weights=cell_weights, cell_stress=cell_stress, start=start,
-                                 apply=apply, dot=dot, step_alpha=step_alpha, update=update, step_beta=step_beta,
+    return types.SimpleNamespace(corner=corner, cell_weights=cell_weights, cell_stress=cell_stress, start=start,
+                                 apply=apply, step_alpha=step_alpha, update=update, step_beta=step_beta,
                                  direction=direction, begin=begin, finish=finish)
 
 
 class ImplicitViscosity:
-    """The viscous step of one :class:`gasp_warp_mpm.engine.WarpMPMEngine`: arrays and launches.
+    """The viscous step of one :class:`gasp_warp_mpm.engine.WarpMPMEngine`: its arrays and the shared kernels
+    (``k``); the schedule's subclass launches them (:meth:`solve`).
 
     Parameters
     ----------
@@ -268,40 +232,7 @@ class ImplicitViscosity:
         self.solves = 0
 
     def solve(self, capturing: bool) -> None:
-        """Launch one viscous step (between P2G and the grid update). On CPU the list lengths and the convergence
-        flag are read back (the launches are synchronous there); inside a CUDA graph capture every launch covers
-        the whole grid and :data:`MAX_ITERS_GRAPH` iterations run."""
-        e, k, d, ng = self.e, self.k, self.e.device, self.e.n_grid
-        dt, inv_dx = self.Ft(e.dt), self.Ft(e.inv_dx)
-        wp.launch(k.lists, dim=1, device=d, inputs=[e.grid_mv, self.u, self.valid, self.nodes, self.cells,
-                                                    self.counts, ng])
-        if capturing:
-            n_nodes = n_cells = ng ** 3
-        else:
-            n_nodes, n_cells = (int(c) for c in self.counts.numpy())
-        cnt = self.counts
-        wp.launch(k.cell_weights, dim=n_cells, device=d, inputs=[e.grid_eta, self.valid, self.cells, cnt, self.wc, ng])
-        wp.launch(k.cell_stress, dim=n_cells, device=d, inputs=[self.u, self.wc, self.cells, cnt, self.S, ng, inv_dx])
-        wp.launch(k.start, dim=n_nodes, device=d, inputs=[e.grid_mv, self.wc, self.valid, self.S, self.nodes, cnt,
-                                                          self.diag, self.r, self.z, self.p, ng, dt, inv_dx])
-        wp.launch(k.dot, dim=1, device=d, inputs=[self.r, self.z, self.nodes, cnt, self.scal, 0])
-        wp.launch(k.begin, dim=1, device=d, inputs=[self.scal, self.done])
-        it = 0
-        while it < (MAX_ITERS_GRAPH if capturing else MAX_ITERS):
-            if not capturing and int(self.done.numpy()[0]):
-                break
-            wp.launch(k.cell_stress, dim=n_cells, device=d, inputs=[self.p, self.wc, self.cells, cnt, self.S, ng,
-                                                                    inv_dx])
-            wp.launch(k.apply, dim=n_nodes, device=d, inputs=[e.grid_mv, self.S, self.valid, self.nodes, cnt, self.p,
-                                                              self.Ap, ng, dt, inv_dx])
-            wp.launch(k.dot, dim=1, device=d, inputs=[self.p, self.Ap, self.nodes, cnt, self.scal, 2])
-            wp.launch(k.step_alpha, dim=1, device=d, inputs=[self.scal, self.done])
-            wp.launch(k.update, dim=n_nodes, device=d, inputs=[self.u, self.r, self.z, self.p, self.Ap, self.diag,
-                                                               self.nodes, cnt, self.scal])
-            wp.launch(k.dot, dim=1, device=d, inputs=[self.r, self.z, self.nodes, cnt, self.scal, 4])
-            wp.launch(k.step_beta, dim=1, device=d, inputs=[self.scal, self.done, self.Ft(TOL * TOL)])
-            wp.launch(k.direction, dim=n_nodes, device=d, inputs=[self.z, self.p, self.nodes, cnt, self.scal])
-            it += 1
-        wp.launch(k.finish, dim=n_nodes, device=d, inputs=[e.grid_mv, e.grid_eta, self.u, self.nodes, cnt])
-        self.iters += it
-        self.solves += 1
+        """Launch one viscous step (between P2G and the grid update): the schedule's subclass,
+        :class:`gasp_warp_mpm.schedule.ordered.CpuViscosity` or :class:`gasp_warp_mpm.schedule.gpu.GpuViscosity`
+        (:func:`gasp_warp_mpm.schedule.viscosity_for`). Raises NotImplementedError here."""
+        raise NotImplementedError("ImplicitViscosity.solve: use the schedule's subclass (schedule.viscosity_for)")

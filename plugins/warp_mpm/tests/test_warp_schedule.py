@@ -16,7 +16,7 @@ from gasp_core.testing.helpers import box_points  # noqa: E402
 
 from gasp_warp_mpm.schedule import BLOCK, resolve  # noqa: E402
 from gasp_warp_mpm.schedule import gpu as G  # noqa: E402
-from gasp_warp_mpm.viscosity import ImplicitViscosity  # noqa: E402
+from gasp_warp_mpm.schedule.ordered import CpuViscosity, build_ordered_viscosity  # noqa: E402
 
 N_GRID = 16
 DX = 1.0 / N_GRID
@@ -88,7 +88,7 @@ def test_option_resolves_and_is_checked():
     assert resolve("gpu", False) == "gpu" and resolve("cpu", True) == "cpu"
     e = build(viscous_scene("auto"))
     try:
-        assert e.schedule == "cpu" and type(e.visc) is ImplicitViscosity   # auto on CPU: today's path
+        assert e.schedule == "cpu" and type(e.visc) is CpuViscosity   # auto on CPU: today's path
     finally:
         e.close()
     with pytest.raises(SceneError, match="schedule"):
@@ -186,7 +186,7 @@ def test_the_check_catches_todays_lists_and_dot(gpu_engine, monkeypatch):
     """The gpu schedule patched to build its lists with today's one-thread ``lists`` kernel, or to sum with today's
     one-thread ``dot``: the check names them."""
     e, visc = gpu_engine, gpu_engine.visc
-    k = visc.k
+    k = build_ordered_viscosity(visc.Ft)   # the cpu schedule's one-thread lists and dot (schedule/ordered.py)
 
     with monkeypatch.context() as m:
         orig_solve = G.GpuViscosity.solve
@@ -207,7 +207,8 @@ def test_the_check_catches_todays_lists_and_dot(gpu_engine, monkeypatch):
     assert dim1_outside_allow_list(rec) == ["dot"]
 
     with monkeypatch.context() as m:   # the whole of today's viscous step
-        m.setattr(G.GpuViscosity, "solve", ImplicitViscosity.solve)
+        m.setattr(G.GpuViscosity, "solve", CpuViscosity.solve)
+        m.setattr(visc, "o", k, raising=False)
         rec = one_substep(e, monkeypatch)
     assert dim1_outside_allow_list(rec) == ["begin", "dot", "lists", "step_beta"]
 

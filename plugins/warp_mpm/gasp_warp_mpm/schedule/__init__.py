@@ -4,7 +4,9 @@ rows 16-22): one MPM, two schedules.
 - ``"cpu"``: the loops of :mod:`gasp_warp_mpm.viscosity` and :mod:`gasp_warp_mpm.balance` as they were, serial where
   a fixed order gives the same bits on every run (one thread builds the viscous lists and sums each dot product; the
   balance's sums are f64 atomics, one thread fixes the listed contact nodes). Warp runs CPU kernels on one thread, so
-  these are the CPU's own bits, unchanged.
+  these are the CPU's own bits, unchanged. Its one-thread kernels and their launches are in the CPU-only module
+  :mod:`gasp_warp_mpm.schedule.ordered` (``lists``, ``dot``, ``contact_fix``; issue 65's layout, as taichi_mpm's
+  ``schedule/ordered.py``).
 - ``"gpu"``: the same algorithm with no ``dim=1`` launch over points, grid nodes or list entries
   (:mod:`gasp_warp_mpm.schedule.gpu`): the viscous node and cell lists by a flag pass over the nodes, an exclusive
   ``wp.utils.array_scan`` and a scatter (node order kept); every dot product, the balance's per-body moments and its
@@ -40,22 +42,22 @@ def n_blocks(n: int) -> int:
 
 
 def viscosity_for(engine, Ft):
-    """The implicit viscous step of ``engine``'s schedule: :class:`gasp_warp_mpm.viscosity.ImplicitViscosity` ("cpu")
-    or :class:`gasp_warp_mpm.schedule.gpu.GpuViscosity` ("gpu")."""
+    """The implicit viscous step of ``engine``'s schedule: :class:`gasp_warp_mpm.schedule.ordered.CpuViscosity`
+    ("cpu") or :class:`gasp_warp_mpm.schedule.gpu.GpuViscosity` ("gpu"), both a
+    :class:`gasp_warp_mpm.viscosity.ImplicitViscosity`."""
     if engine.schedule == "gpu":
         from .gpu import GpuViscosity
         return GpuViscosity(engine, Ft)
-    from ..viscosity import ImplicitViscosity
-    return ImplicitViscosity(engine, Ft)
+    from .ordered import CpuViscosity
+    return CpuViscosity(engine, Ft)
 
 
 def balance_for(engine, k, lo_v, dx, dt_f, ex) -> tuple[list, list]:
     """The contact's balance launches of ``engine``'s schedule: (before P2G, after the grid update), each a list of
-    recorded launches (:func:`gasp_warp_mpm.balance.balance_launches` or
+    recorded launches (:func:`gasp_warp_mpm.schedule.ordered.balance_launches` or
     :func:`gasp_warp_mpm.schedule.gpu_balance.gpu_balance_launches`: the same steps, no atomics on a body's row)."""
     if engine.schedule == "gpu":
         from .gpu_balance import gpu_balance_launches
         return gpu_balance_launches(engine, k, lo_v, dx, dt_f, ex)
-    from ..balance import balance_launches
-    pre, fix = balance_launches(engine, k, lo_v, dx, dt_f, ex)
-    return pre, [] if fix is None else [fix]
+    from .ordered import balance_launches
+    return balance_launches(engine, k, lo_v, dx, dt_f, ex)

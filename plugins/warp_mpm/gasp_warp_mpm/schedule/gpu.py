@@ -176,7 +176,7 @@ class GpuViscosity(ImplicitViscosity):
         self.it = wp.zeros(1, dtype=wp.int32, device=d)
         self.g_lists = build_lists(Ft)
         self.g_sums = build_block_sums(Ft)
-        self.g_cg = build_cg_control(Ft)
+        self.cg_begin, self.cg_beta = build_cg_control(Ft)
 
     def _dot(self, a, b, slot: int) -> None:
         dot_blocks, fold, fold_final = self.g_sums
@@ -197,8 +197,8 @@ class GpuViscosity(ImplicitViscosity):
         wp.launch(k.update, dim=n, device=d, inputs=[self.u, self.r, self.z, self.p, self.Ap, self.diag, self.nodes,
                                                      cnt, self.scal])
         self._dot(self.r, self.z, 4)
-        wp.launch(self.g_cg[1], dim=1, device=d, inputs=[self.scal, self.done, self.Ft(TOL * TOL), self.cond,
-                                                         self.it, MAX_ITERS])
+        wp.launch(self.cg_beta, dim=1, device=d, inputs=[self.scal, self.done, self.Ft(TOL * TOL), self.cond, self.it,
+                                                       MAX_ITERS])
         wp.launch(k.direction, dim=n, device=d, inputs=[self.z, self.p, self.nodes, cnt, self.scal])
 
     def _iterations(self, count: int) -> None:
@@ -221,7 +221,7 @@ class GpuViscosity(ImplicitViscosity):
         wp.launch(k.start, dim=n, device=d, inputs=[e.grid_mv, self.wc, self.valid, self.S, self.nodes, cnt,
                                                     self.diag, self.r, self.z, self.p, ng, dt, inv_dx])
         self._dot(self.r, self.z, 0)
-        wp.launch(self.g_cg[0], dim=1, device=d, inputs=[self.scal, self.done, self.cond, self.it])
+        wp.launch(self.cg_begin, dim=1, device=d, inputs=[self.scal, self.done, self.cond, self.it])
         if capturing and d.is_cuda:
             if wp.is_conditional_graph_supported():
                 wp.capture_while(self.cond, self._iterations, count=1)

@@ -175,8 +175,8 @@ def build_row_sums(Ft):
 
 @functools.cache
 def build_fix(Ft):
-    """``(fix_supports, fix_nodes, fix_clear)`` of scalar type ``Ft``: ``balance.contact_fix`` split into a per-support
-    solve, a per-node apply and a per-support clear."""
+    """``(fix_supports, fix_nodes, fix_clear)`` of scalar type ``Ft``: the cpu schedule's one-thread
+    ``schedule.ordered.contact_fix`` split into a per-support solve, a per-node apply and a per-support clear."""
     vec3, vec4, mat33 = build_types(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
