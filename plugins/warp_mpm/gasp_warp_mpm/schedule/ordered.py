@@ -13,8 +13,8 @@ run; on a GPU each would be one GPU thread, so the gpu schedule runs the paralle
   :func:`~gasp_warp_mpm.schedule.gpu_balance.gpu_balance_launches`).
 
 Moved here from ``viscosity.py`` and ``balance.py`` unchanged, so the cpu schedule's bits are those before
-(``benchmarks/studies/warp_ordered_bits.py``). The modules both schedules import hold no ``dim=1`` launch but of the scalar
-kernels ``plugins/warp_mpm/tests/test_warp_layout.py`` lists, and no kernel loop over a node or point count.
+(``benchmarks/studies/warp_ordered_bits.py``). The modules both schedules import hold no ``dim=1`` launch but of
+the scalar kernels ``plugins/warp_mpm/tests/test_warp_layout.py`` lists, and no kernel loop over a node or point count.
 
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of the closures below
 as type objects.
