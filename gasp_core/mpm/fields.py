@@ -214,7 +214,8 @@ def field_friction(setup) -> float:
     bodies take different coefficients the engines build the pair's friction per grid node (:func:`node_friction`,
     ``docs/contact.md`` "Round 42: several bodies' frictions in field B"; :func:`pair_frictions` per body) and this is
     round 41's one scalar, the smallest named (the sand then slid on every body at the slipperiest one's friction),
-    which no engine uses there any more. Two
+    which no engine uses there any more; where A's sands bring several angles, A's side is per node too
+    (:func:`a_node_friction`, round 43) and this scalar takes the largest. Two
     soft bodies (:func:`soft_pair`), two rigid ones (:func:`rigid_pair`) or one of each (:func:`mixed_pair`): the
     pair's (:func:`combine_friction` of each body's :func:`body_friction`)."""
     if contact_model(setup) != "mixed":
