@@ -152,3 +152,48 @@ def test_the_check_catches_a_per_node_friction_5pct_off(engine, factor, monkeypa
     bias_a_friction(monkeypatch, factor)
     out = run_two_sands(engine, 32, (20.0, 40.0), 0.6, monkeypatch)
     assert all((e < -RATIO_TOL) if factor < 1 else (e > RATIO_TOL) for pair in out.values() for e in pair), out
+
+
+def hold_slips(pairs_on: bool = True) -> list[float]:
+    """warp_mpm's rigid hold (``rigid_hold.build_rigid_hold``, CPU, float64) on one point of each sand block put
+    5 mm inside its rigid slab's top face, moving at (1, 0, -0.1) m/s, the slabs at rest: each point's ``v_x`` after
+    the hold. The top face's normal is +z, so Coulomb leaves ``v_x = 1 - 0.1 mu`` with ``mu`` the point's pair
+    (``hold_pairs``; ``pairs_on`` False: each slab's row's, ``pair_frictions``, the largest angle's)."""
+    import numpy as np
+    import warp as wp
+    from gasp_core.mpm.contact import flowing_bodies
+    from gasp_core.mpm.rigid import body_frames, rigid_mask
+    from gasp_core.mpm.rigid_hold import hold_setup
+    from gasp_warp_mpm.rigid import mat33d, vec3d
+    from gasp_warp_mpm.rigid_hold import build_rigid_hold
+    setup = two_sand_setup(1.2, (20.0, 40.0), 0.6, model="rigid")
+    flows = flowing_bodies(setup, "mixed")
+    (row, sdf, grad, meta), pairs = hold_setup(setup, S.DX, flows)
+    rigid = rigid_mask(setup.materials)
+    centre = body_frames(setup.x, setup.p_mass, np.asarray(setup.body_id), rigid)[0]
+    h = S.COULOMB_SLAB_H
+    x = np.array([[0.1, -0.08, h - 0.005], [0.1, 0.08, h - 0.005]])
+    v = np.array([[1.0, 0.0, -0.1]] * 2)
+    d, f8, nb = "cpu", wp.float64, len(setup.materials)
+    arr = lambda a, t: wp.array(np.asarray(a), dtype=t, device=d)   # noqa: E731
+    xs, vs = arr(x, wp.vec3d), arr(v, wp.vec3d)
+    wp.launch(build_rigid_hold(f8), dim=2, device=d, inputs=[
+        xs, vs, arr([1e-3, 1e-3], f8), arr([0, 2], wp.int32), arr(flows.astype(np.int32), wp.int32),
+        arr(row.astype(np.int32), wp.int32), arr(meta, f8), arr(sdf, f8), arr(grad, f8), arr(centre, vec3d),
+        arr(np.tile(np.eye(3), (nb, 1, 1)), mat33d), arr(np.zeros((nb, 3)), vec3d), arr(np.zeros((nb, 3)), vec3d),
+        arr(np.zeros((nb, 3)), vec3d), arr(np.zeros((nb, 3)), vec3d), nb,
+        arr(pairs.ravel() if pairs_on else np.zeros(1), f8)])
+    return [float(a) for a in vs.numpy()[:, 0]]
+
+
+def test_a_rigid_slab_holds_each_sand_with_its_own_pair():
+    pytest.importorskip("gasp_warp_mpm")
+    got = hold_slips()
+    want = [1.0 - 0.1 * own_pair(phi, 0.6) for phi in (20.0, 40.0)]
+    assert got == pytest.approx(want, abs=2e-4), (got, want)
+
+
+def test_the_hold_check_catches_the_largest_angle():
+    pytest.importorskip("gasp_warp_mpm")
+    got = hold_slips(pairs_on=False)
+    assert got[0] < 1.0 - 0.1 * own_pair(20.0, 0.6) - 2e-3, got   # held at the 40 deg sand's pair

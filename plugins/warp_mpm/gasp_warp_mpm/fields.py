@@ -105,6 +105,33 @@ def build_b_normal(Ft):
 
 
 @functools.cache
+def build_node_pair(Ft):
+    """``node_pair``: the A-B pair's Coulomb coefficient at a node, scalar type ``Ft``: ``mu`` (the scalar) where
+    ``mu_on`` is 0, else ``combine_friction(tan_A, mu_B)``: ``tan_A`` A's one ``own``, or (bit 2, round 43) its
+    mass-weighted mean from ``grid_vf``'s fourth part clamped to ``a_lo, a_hi``; ``mu_B`` (bit 1, round 42) B's
+    mass-weighted mean from the third part clamped to ``mu_lo, mu_hi``, else B's one ``b_mu``, else ``tan_A``
+    (``b_mu`` negative: B names none)."""
+
+    @wp.func
+    def node_pair(grid_vf: wp.array(dtype=Ft), node: int, n_nodes: int, m_a: Ft, m_b: Ft, mu: Ft, mu_on: int,
+                  own: Ft, mu_lo: Ft, mu_hi: Ft, a_lo: Ft, a_hi: Ft, b_mu: Ft):
+        mu_n = mu
+        if mu_on != 0:
+            t_a = own
+            if mu_on >= 2:   # A's sands' angles, mass-weighted (grid_vf's fourth part)
+                t_a = wp.clamp(grid_vf[3 * n_nodes + node] / m_a, a_lo, a_hi)
+            mu_bn = t_a
+            if mu_on % 2 != 0:   # B's bodies' frictions, mass-weighted (grid_vf's third part)
+                mu_bn = wp.clamp(grid_vf[2 * n_nodes + node] / m_b, mu_lo, mu_hi)
+            elif b_mu >= Ft(0.0):
+                mu_bn = b_mu
+            mu_n = wp.min(wp.sqrt(t_a * mu_bn), Ft(10.0))
+        return mu_n
+
+    return node_pair
+
+
+@functools.cache
 def build_fields(Ft):
     """``field_contact``: the node kernel of the two-field contact, scalar type ``Ft``; its ``mirror`` (int): B's mass
     at a ground's node layers seen with its mirror image for the normal (``gasp_core.mpm.fields.GROUND_MIRROR``); its
@@ -116,6 +143,7 @@ def build_fields(Ft):
     held_node = build_held(Ft)
     b_normal = build_b_normal(Ft)
     coulomb, flow_layer = build_pair_funcs(Ft)
+    node_pair = build_node_pair(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def field_contact(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), grid_dv: wp.array(dtype=vec3),
@@ -152,17 +180,8 @@ def build_fields(Ft):
             n = b_normal(grid_mv, grid_sv, ground, node, n_grid, mirror)
             ln = wp.length(n)
             u2 = u
-            mu_n = mu   # several frictions in a field: the pair's per node (node_friction, a_node_friction)
-            if mu_on != 0:
-                t_a = own
-                if mu_on >= 2:   # A's sands' angles, mass-weighted (grid_vf's fourth part)
-                    t_a = wp.clamp(grid_vf[3 * n_nodes + node] / m_a, a_lo, a_hi)
-                mu_bn = t_a
-                if mu_on % 2 != 0:   # B's bodies' frictions, mass-weighted (grid_vf's third part)
-                    mu_bn = wp.clamp(grid_vf[2 * n_nodes + node] / m_b, mu_lo, mu_hi)
-                elif b_mu >= Ft(0.0):
-                    mu_bn = b_mu
-                mu_n = wp.min(wp.sqrt(t_a * mu_bn), Ft(10.0))
+            # several frictions in a field: the pair's per node (node_friction, a_node_friction)
+            mu_n = node_pair(grid_vf, node, n_nodes, m_a, m_b, mu, mu_on, own, mu_lo, mu_hi, a_lo, a_hi, b_mu)
             if ln > Ft(MIN_GRADIENT) * m:
                 nh = n / ln
                 un = wp.dot(u, nh)
