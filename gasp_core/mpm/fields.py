@@ -214,7 +214,8 @@ def field_friction(setup) -> float:
     bodies take different coefficients the engines build the pair's friction per grid node (:func:`node_friction`,
     ``docs/contact.md`` "Round 42: several bodies' frictions in field B"; :func:`pair_frictions` per body) and this is
     round 41's one scalar, the smallest named (the sand then slid on every body at the slipperiest one's friction),
-    which no engine uses there any more. Two
+    which no engine uses there any more; where A's sands bring several angles, A's side is per node too
+    (:func:`a_node_friction`, round 43) and this scalar takes the largest. Two
     soft bodies (:func:`soft_pair`), two rigid ones (:func:`rigid_pair`) or one of each (:func:`mixed_pair`): the
     pair's (:func:`combine_friction` of each body's :func:`body_friction`)."""
     if contact_model(setup) != "mixed":
@@ -230,8 +231,9 @@ def field_friction(setup) -> float:
 
 
 def sand_friction(setup) -> float:
-    """Field A's own coefficient in a ``"mixed"`` scene: ``tan(phi)`` of its sand bodies' largest
-    ``friction_angle`` (degrees), 0 without sand (liquid, snow). Dimensionless."""
+    """Field A's one coefficient in a ``"mixed"`` scene: ``tan(phi)`` of its sand bodies' largest
+    ``friction_angle`` (degrees), 0 without sand (liquid, snow). Dimensionless. Where A's sands bring several angles
+    the engines take each one's per node instead (:func:`a_node_friction`, round 43)."""
     flows = flowing_bodies(setup, "mixed")
     angles = [m.friction_angle for m, f in zip(setup.materials, flows) if f and m.name == "sand"]
     return math.tan(math.radians(max(angles))) if angles else 0.0
@@ -267,6 +269,50 @@ def node_friction(setup):
     if own <= 0.0 or len(vals) < 2:
         return None
     return own, mu_b, vals[0], vals[-1]
+
+
+def a_frictions(setup) -> np.ndarray:
+    """Per body (shape (n_materials,), float64, dimensionless) the coefficient a body of field A brings to its pair in
+    a ``"mixed"`` scene (round 43): a sand body's own ``tan(friction_angle)``; a flowing body without an angle
+    (liquid, snow) beside sand the sand's :func:`sand_friction` (the largest angle's, as before); 0 for field B."""
+    own = sand_friction(setup)
+    flows = flowing_bodies(setup, "mixed")
+    return np.array([(math.tan(math.radians(m.friction_angle)) if m.name == "sand" else own) if f else 0.0
+                     for m, f in zip(setup.materials, flows)], np.float64)
+
+
+def a_node_friction(setup):
+    """Field A's per-node friction (round 43, ``docs/contact.md`` "Round 43: several sands' angles in field A"), or
+    None where field A brings one coefficient (one sand angle: :func:`node_friction` or the scalar, bit-identical to
+    round 42). Else ``(mu_a, lo, hi, mu_b)``: ``mu_a`` per body (:func:`a_frictions`, shape (n_materials,)), ``lo``/
+    ``hi`` A's smallest and largest, ``mu_b`` B's one coefficient where :func:`node_friction` is None (the one its
+    bodies name; -1.0 where none names one: the pair is then A's own per node, round 41's rule). A's points scatter
+    ``w_ip m_p mu_a[body_p]`` to a node channel; at a contact node ``tan_A = clamp(that / m_A, lo, hi)`` and the
+    Coulomb limit is :func:`combine_friction` ``(tan_A, mu_B)``, ``mu_B`` per node where :func:`node_friction` is on
+    (B's unnamed bodies then bring :func:`sand_friction`), else ``mu_b`` (``tan_A`` for -1)."""
+    if contact_model(setup) != "mixed" or not uses_fields(setup):
+        return None
+    flows = flowing_bodies(setup, "mixed")
+    mu_a = a_frictions(setup)
+    vals = sorted({float(mu_a[b]) for b in range(len(mu_a)) if flows[b]})
+    if len(vals) < 2 or vals[0] <= 0.0:
+        return None
+    named = {float(m.friction) for m, f in zip(setup.materials, flows) if not f and m.friction is not None}
+    return mu_a, vals[0], vals[-1], (min(named) if named else -1.0)
+
+
+def hold_pairs(setup):
+    """Per (A body, holding body) the pair's coefficient, shape (n_materials, n_materials), float64, ``[a, b]``:
+    :func:`combine_friction` of :func:`a_frictions` ``[a]`` and body b's ``friction`` (A's own where b names none),
+    what a rigid body's hold on a sand body takes (``gasp_core.mpm.rigid_hold``) where :func:`a_node_friction` is on;
+    None elsewhere (the hold takes :func:`pair_frictions` per body, round 42)."""
+    from gasp_core.mpm.rigid import step_view
+    setup = step_view(setup)
+    if a_node_friction(setup) is None:
+        return None
+    mu_a = a_frictions(setup)
+    return np.array([[a if m.friction is None else combine_friction(a, m.friction) for m in setup.materials]
+                     for a in mu_a], np.float64)
 
 
 def pair_frictions(setup) -> np.ndarray:
@@ -337,7 +383,7 @@ def pic_at_b(setup) -> bool:
 
 
 def field_setup(setup) -> tuple:
-    """``(field_bodies, field_friction, touch_fraction, rigid_pair, flow_touch, node_friction)`` of a setup: what an
-    engine allocates the contact from."""
+    """``(field_bodies, field_friction, touch_fraction, rigid_pair, flow_touch, node_friction, a_node_friction)`` of a
+    setup: what an engine allocates the contact from."""
     return (field_bodies(setup), field_friction(setup), touch_fraction(setup), rigid_pair(setup), flow_touch(setup),
-            node_friction(setup))
+            node_friction(setup), a_node_friction(setup))

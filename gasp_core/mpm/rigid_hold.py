@@ -114,6 +114,15 @@ def rigid_hold_tables(setup, dx: float, flows: np.ndarray):
     return row, np.concatenate(sdf), np.concatenate(grad), np.concatenate(meta)
 
 
+def hold_setup(setup, dx: float, flows: np.ndarray, any_rigid: bool = True) -> tuple:
+    """``(tables, pairs)``: :func:`rigid_hold_tables` (None without a rigid body, ``any_rigid`` False, or none that
+    holds) and, where field A's sands bring several angles, the hold's coefficient per (A body, holding body),
+    ``gasp_core.mpm.fields.hold_pairs`` (shape (n_bodies, n_bodies); None elsewhere: each body's row's, round 42)."""
+    from gasp_core.mpm.fields import hold_pairs
+    tables = rigid_hold_tables(setup, dx, flows) if any_rigid else None
+    return tables, (hold_pairs(setup) if tables is not None else None)
+
+
 def hold_reference(x, v, m: float, phi: float, n, V, w, c, mu: float):
     """One point's hold (the module's equations): ``(x, v, J)`` after it, ``J`` the impulse given back to the body
     (N s, ``-m dv``). ``phi`` (m) and ``n`` (unit, world) the body's distance and normal at ``x``; ``V``, ``w``,

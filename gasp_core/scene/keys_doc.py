@@ -62,8 +62,9 @@ def scene_keys_markdown() -> str:
               f"left out, a body takes {SOLID_FRICTION:g} (jelly on jelly). Engines with the feature `body_friction` "
               "(`gasp engines`) read it. Sand's own coefficient is `tan(friction_angle)`: sand on a "
               "body that names a `friction` takes the mean of the two, on one that does not its own (each body its own "
-              "pair where several beside the sand name different ones: the engines take it per grid node, "
-              "`docs/contact.md` \"Round 42\"); snow and liquid slide freely. The key does not act on the ground, "
+              "pair where several beside the sand name different ones, and each sand its own angle where sands of "
+              "several angles share a scene: the engines take both per grid node, `docs/contact.md` \"Round 42\", "
+              "\"Round 43\"); snow and liquid slide freely. The key does not act on the ground, "
               "the walls or a collider: they take their own `friction`.", ""]
     from gasp_core.mpm.fracture_table import BRITTLE_SUBSTANCES, SUBSTANCE_KEYS
     lines += ["", "## `substance`: a brittle material at its handbook figures", "",

@@ -16,7 +16,7 @@ from gasp_core.mpm.contact import (contact_coefficients, contact_model, contact_
 from gasp_core.mpm.fields import field_setup, shared_field_warning
 from gasp_core.mpm.grid_engine import choose_dt, GridEngineBase
 from gasp_core.mpm.materials import JELLY, initial_Jp, material_table
-from gasp_core.mpm.rigid_hold import rigid_hold_tables
+from gasp_core.mpm.rigid_hold import hold_setup
 from gasp_core.mpm.rigid import (body_frames, face_counts, rigid_contact, rigid_mask, step_view,
                                      zero_stress)
 from gasp_core.seam.memory import check_memory, estimate_bytes
@@ -236,7 +236,7 @@ class TaichiMPMEngine(GridEngineBase):
         before); ``flows``: per body, whether it takes the grid contact."""
         self.solver.set_restitution(body_table(setup), plane_table(setup, self.solver.n_planes), rest_speed(setup),
                                     face_counts(setup))
-        self.solver.allocate_rigid_hold(rigid_hold_tables(setup, setup.dx, flows) if any_rigid else None, flows)
+        self.solver.allocate_rigid_hold(*hold_setup(setup, setup.dx, flows, any_rigid), flows)
 
     def _extras(self, setup: SimSetup) -> dict[str, Any]:
         """Colliders, forces and impulses for the solver (``gasp_core.colliders.model``); none: nothing."""

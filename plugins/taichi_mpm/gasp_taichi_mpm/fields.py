@@ -22,14 +22,15 @@ class Fields(PairTouch):
     """The two-field contact's fields and kernels (none without it: ``self.fields`` False)."""
 
     def allocate_fields(self, in_a, mu: float, touch: float, pair: bool = False, flow: bool = False,
-                        node_mu=None) -> None:
+                        node_mu=None, a_mu=None) -> None:
         """``in_a``: per body, True in field A (``gasp_core.mpm.fields.field_bodies``), or None: one field;
         ``mu`` the Coulomb coefficient (``field_friction``), ``touch`` the touch threshold (``touch_fraction``),
         ``pair`` whether the two bodies are rigid (``rigid_pair``: the touching nodes only sum into ``pair_acc``,
         sum m_red, sum m_red x, sum m_red n, for ``RigidFriction.rigid_pair``), ``flow`` the flowing body's touch
         (``gasp_core.mpm.fields.flow_touch``, pair_touch.py), ``node_mu`` field B's bodies' several frictions
-        (``gasp_core.mpm.fields.node_friction``: ``(own, mu_b, lo, hi)``, or None: the scalar ``mu``). Before the
-        first substep."""
+        (``gasp_core.mpm.fields.node_friction``: ``(own, mu_b, lo, hi)``, or None: the scalar ``mu``), ``a_mu`` field
+        A's sands' several angles (``a_node_friction``: ``(mu_a, lo, hi, mu_b)``, or None: A's one). Before the first
+        substep."""
         self.fields = in_a is not None
         self.field_pair = bool(self.fields and pair)
         self.pair_acc = ti.field(ti.f64, shape=7)
@@ -47,11 +48,20 @@ class Fields(PairTouch):
         self.node_mu_on = node_mu is not None
         own, mu_b, lo, hi = node_mu if self.node_mu_on else (0.0, [], 0.0, 0.0)
         self.node_mu = (float(own), float(lo), float(hi))   # read when the kernels compile
-        self.body_mu = ti.field(self.real, shape=max(4, len(mu_b)))
+        # A's sands' several angles (round 43): A's points scatter w m tan(phi) to grid_amu (a_node_friction)
+        self.a_mu_on = a_mu is not None
+        mu_a, a_lo, a_hi, a_mub = a_mu if self.a_mu_on else ([], 0.0, 0.0, 0.0)
+        self.a_mu = (float(a_lo), float(a_hi), float(a_mub))   # read when the kernels compile
+        self.body_mu = ti.field(self.real, shape=max(4, len(mu_b), len(mu_a)))   # B's friction, A's tan(phi)
         for b, mu in enumerate(mu_b):
             self.body_mu[b] = float(mu)
+        for b, t in enumerate(mu_a):
+            if in_a[b]:
+                self.body_mu[b] = float(t)
         nm = ng if self.node_mu_on else 1
         self.grid_fmu = ti.field(self.real, shape=(nm, nm, nm))
+        na = ng if self.a_mu_on else 1
+        self.grid_amu = ti.field(self.real, shape=(na, na, na))
         # round 41 (gasp_core.mpm.fields): B's mass mirrored in a ground's layers for the normal; the particle
         # contact's friction to field B alone (read when the kernels compile)
         self.ground_mirror = bool(core_fields.GROUND_MIRROR)
@@ -81,6 +91,13 @@ class Fields(PairTouch):
                             ti.atomic_add(self.grid_fmu[node], add_mu)
                         else:
                             self.grid_fmu[node] = self.grid_fmu[node] + add_mu
+                if ti.static(self.a_mu_on):   # A's sands' angles, mass-weighted (a_node_friction)
+                    if fl != 0:
+                        add_t = weight * m * self.body_mu[self.body[p]]
+                        if ti.static(self.atomic):
+                            ti.atomic_add(self.grid_amu[node], add_t)
+                        else:
+                            self.grid_amu[node] = self.grid_amu[node] + add_t
                 if fl != 0:
                     mv = mv0 + A @ ti.Vector([float(i), float(j), float(k)])
                     add_sv = weight * ti.Vector([mv[0], mv[1], mv[2], m])
@@ -88,6 +105,25 @@ class Fields(PairTouch):
                         ti.atomic_add(self.grid_sv[node], add_sv)
                     else:
                         self.grid_sv[node] = self.grid_sv[node] + add_sv
+
+    @ti.func
+    def node_pair(self, I, mu, m_a, m_b):
+        """The A-B pair's Coulomb coefficient at node I: ``mu`` (the scalar) unless a field brings several (round 42:
+        B's mass-weighted ``mu_B`` with the sand's one ``tan(phi)``; round 43: A's mass-weighted ``tan_A`` with B's
+        ``mu_B`` per node, or its one, or ``tan_A`` where B names none), ``combine_friction`` of the two."""
+        mu_n = mu
+        if ti.static(self.a_mu_on):
+            t_a = ti.min(ti.max(self.grid_amu[I] / m_a, ti.static(self.a_mu[0])), ti.static(self.a_mu[1]))
+            mu_bn = t_a
+            if ti.static(self.node_mu_on):
+                mu_bn = ti.min(ti.max(self.grid_fmu[I] / m_b, ti.static(self.node_mu[1])), ti.static(self.node_mu[2]))
+            elif ti.static(self.a_mu[2] >= 0.0):
+                mu_bn = ti.cast(ti.static(self.a_mu[2]), self.real)
+            mu_n = ti.min(ti.sqrt(t_a * mu_bn), 10.0)
+        elif ti.static(self.node_mu_on):
+            mu_bn = ti.min(ti.max(self.grid_fmu[I] / m_b, ti.static(self.node_mu[1])), ti.static(self.node_mu[2]))
+            mu_n = ti.min(ti.sqrt(ti.static(self.node_mu[0]) * mu_bn), 10.0)
+        return mu_n
 
     @ti.func
     def node_v(self, p, node):
@@ -225,11 +261,7 @@ class Fields(PairTouch):
                                self.mass_b_seen(I + ez) - self.mass_b_seen(I - ez)])
                 ln = n.norm()
                 u2 = u
-                mu_n = mu   # B's bodies' several frictions: the pair's per node (gasp_core node_friction)
-                if ti.static(self.node_mu_on):
-                    mu_bn = ti.min(ti.max(self.grid_fmu[I] / m_b, ti.static(self.node_mu[1])),
-                                   ti.static(self.node_mu[2]))
-                    mu_n = ti.min(ti.sqrt(ti.static(self.node_mu[0]) * mu_bn), 10.0)
+                mu_n = self.node_pair(I, mu, m_a, m_b)   # the pair's per node with several frictions (round 42, 43)
                 if ln > MIN_GRADIENT * m:
                     nh = n / ln
                     un = u.dot(nh)
@@ -276,6 +308,8 @@ class Fields(PairTouch):
             self.grid_vf[I] = ti.Vector.zero(self.real, 2)
             if ti.static(self.node_mu_on):
                 self.grid_fmu[I] = 0.0
+            if ti.static(self.a_mu_on):
+                self.grid_amu[I] = 0.0
 
     def contact_fields(self) -> None:
         """After P2G (and the viscous step), before the grid update: the grounds' touched columns (``touch.py``), then

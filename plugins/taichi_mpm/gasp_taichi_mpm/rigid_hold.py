@@ -21,13 +21,19 @@ class RigidHold:
     """The rigid bodies' hold: its fields (:meth:`allocate_rigid_hold`), one point's hold (:meth:`hold_rigid_point`)
     and the frame's last G2P (:meth:`last_g2p`)."""
 
-    def allocate_rigid_hold(self, tables, flows) -> None:
+    def allocate_rigid_hold(self, tables, pairs, flows) -> None:
         """``tables``: ``gasp_core.mpm.rigid_hold.rigid_hold_tables``' ``(row, sdf, grad, meta)``, or None: no
-        hold (``self.hold_rigid`` False, the code before); ``flows``: per body, whether it takes the grid contact.
-        Before the first substep (the kernels read ``hold_rigid`` when they compile)."""
+        hold (``self.hold_rigid`` False, the code before); ``pairs``: the coefficient per (A body, holding body) where
+        A's sands bring several angles (``gasp_core.mpm.fields.hold_pairs``, round 43), or None: each holding body's
+        row's; ``flows``: per body, whether it takes the grid contact. Before the first substep (the kernels read
+        ``hold_rigid`` and ``rh_pairs_on`` when they compile)."""
         self.hold_rigid = tables is not None
+        self.rh_pairs_on = self.hold_rigid and pairs is not None
         if not self.hold_rigid:
             return
+        if self.rh_pairs_on:
+            self.rh_pairs = ti.field(self.real, shape=np.asarray(pairs).size)
+            self.rh_pairs.from_numpy(np.asarray(pairs, np.float32 if self.real == ti.f32 else np.float64).ravel())
         row, sdf, grad, meta = tables
         nb = len(row)
         self.rh_row, self.rh_flows = ti.field(ti.i32, shape=nb), ti.field(ti.i32, shape=nb)
@@ -65,7 +71,10 @@ class RigidHold:
                     if phi < 0.0:
                         vc = ti.cast(self.rb_V[b], self.real) + ti.cast(self.rb_w[b], self.real).cross(xp - T)
                         xp -= phi * n
-                        vn = vc + self.collide(vp - vc, n, self.rh_meta[r * COL_META + CM_FRICTION])
+                        mu = self.rh_meta[r * COL_META + CM_FRICTION]
+                        if ti.static(self.rh_pairs_on):   # A's sands' several angles: the point's body's pair
+                            mu = self.rh_pairs[self.body[p] * self.n_bodies + b]
+                        vn = vc + self.collide(vp - vc, n, mu)
                         J = -ti.cast(self.p_mass[p], ti.f64) * ti.cast(vn - vp, ti.f64)
                         L = ti.cast(xp, ti.f64).cross(J)
                         self.rb_hold[b] += ti.Vector([J[0], J[1], J[2], L[0], L[1], L[2]])   # Newton's third law

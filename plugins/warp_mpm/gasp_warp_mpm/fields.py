@@ -16,7 +16,8 @@ import warp as wp
 from gasp_core.mpm.contact import flowing_bodies
 from gasp_core.mpm import fields as core_fields
 from gasp_core.mpm.fields import (MIN_FRACTION, MIN_GRADIENT, field_bodies, field_friction, flow_touch,
-                                  flow_touch_level, node_friction, rigid_pair, shared_field_warning, touch_fraction)
+                                  flow_touch_level, node_friction, rigid_pair, shared_field_warning, touch_fraction,
+                                  a_node_friction)
 
 from . import ENGINE
 from .pair_touch import build_pair_funcs, build_pair_touch
@@ -104,14 +105,45 @@ def build_b_normal(Ft):
 
 
 @functools.cache
+def build_node_pair(Ft):
+    """``node_pair``: the A-B pair's Coulomb coefficient at a node, scalar type ``Ft``: ``mu`` (the scalar) where
+    ``mu_on`` is 0, else ``combine_friction(tan_A, mu_B)``: ``tan_A`` A's one ``own``, or (bit 2, round 43) its
+    mass-weighted mean from ``grid_vf``'s fourth part clamped to ``a_lo, a_hi``; ``mu_B`` (bit 1, round 42) B's
+    mass-weighted mean from the third part clamped to ``mu_lo, mu_hi``, else B's one ``b_mu``, else ``tan_A``
+    (``b_mu`` negative: B names none)."""
+
+    @wp.func
+    def node_pair(grid_vf: wp.array(dtype=Ft), node: int, n_nodes: int, m_a: Ft, m_b: Ft, mu: Ft, mu_on: int,
+                  own: Ft, mu_lo: Ft, mu_hi: Ft, a_lo: Ft, a_hi: Ft, b_mu: Ft):
+        mu_n = mu
+        if mu_on != 0:
+            t_a = own
+            if mu_on >= 2:   # A's sands' angles, mass-weighted (grid_vf's fourth part)
+                t_a = wp.clamp(grid_vf[3 * n_nodes + node] / m_a, a_lo, a_hi)
+            mu_bn = t_a
+            if mu_on % 2 != 0:   # B's bodies' frictions, mass-weighted (grid_vf's third part)
+                mu_bn = wp.clamp(grid_vf[2 * n_nodes + node] / m_b, mu_lo, mu_hi)
+            elif b_mu >= Ft(0.0):
+                mu_bn = b_mu
+            mu_n = wp.min(wp.sqrt(t_a * mu_bn), Ft(10.0))
+        return mu_n
+
+    return node_pair
+
+
+@functools.cache
 def build_fields(Ft):
     """``field_contact``: the node kernel of the two-field contact, scalar type ``Ft``; its ``mirror`` (int): B's mass
     at a ground's node layers seen with its mirror image for the normal (``gasp_core.mpm.fields.GROUND_MIRROR``); its
-    ``free`` (int): a ground's top layer in an untouched column takes the contact (``TOP_FREE``, touch.py)."""
+    ``free`` (int): a ground's top layer in an untouched column takes the contact (``TOP_FREE``, touch.py); its
+    ``mu_on`` (int): bit 1 B's per-node friction (round 42, ``grid_vf``'s third part, ``own`` A's one ``tan(phi)``),
+    bit 2 A's (round 43, ``grid_vf``'s fourth part, clamped to ``a_lo, a_hi``; B's one ``b_mu`` without bit 1, A's
+    own where it is negative); 0: the scalar ``mu``."""
     vec3, vec4, mat33 = build_types(Ft)
     held_node = build_held(Ft)
     b_normal = build_b_normal(Ft)
     coulomb, flow_layer = build_pair_funcs(Ft)
+    node_pair = build_node_pair(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def field_contact(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), grid_dv: wp.array(dtype=vec3),
@@ -119,7 +151,7 @@ def build_fields(Ft):
                       wall_lo: Ft, wall_hi: vec3, touch_frac: Ft, pair: int, lo: vec3, dx: Ft,
                       pair_acc: wp.array(dtype=wp.float64), ground_touch: wp.array(dtype=wp.int32),
                       flow_touch: wp.array(dtype=wp.int32), flow_push: wp.array(dtype=vec3), mirror: int,
-                      free: int, own: Ft, mu_lo: Ft, mu_hi: Ft):
+                      free: int, own: Ft, mu_lo: Ft, mu_hi: Ft, mu_on: int, a_lo: Ft, a_hi: Ft, b_mu: Ft):
         node = wp.tid()
         nn = n_grid * n_grid
         n_nodes = nn * n_grid
@@ -148,9 +180,8 @@ def build_fields(Ft):
             n = b_normal(grid_mv, grid_sv, ground, node, n_grid, mirror)
             ln = wp.length(n)
             u2 = u
-            mu_n = mu   # B's bodies' several frictions: the pair's per node (node_friction; grid_vf's third part)
-            if grid_vf.shape[0] > 2 * n_nodes:
-                mu_n = wp.min(wp.sqrt(own * wp.clamp(grid_vf[2 * n_nodes + node] / m_b, mu_lo, mu_hi)), Ft(10.0))
+            # several frictions in a field: the pair's per node (node_friction, a_node_friction)
+            mu_n = node_pair(grid_vf, node, n_nodes, m_a, m_b, mu, mu_on, own, mu_lo, mu_hi, a_lo, a_hi, b_mu)
             if ln > Ft(MIN_GRADIENT) * m:
                 nh = n / ln
                 un = wp.dot(u, nh)
@@ -182,8 +213,8 @@ def build_fields(Ft):
 
 @functools.cache
 def build_field_clear(Ft):
-    """``field_clear``: ``grid_sv`` and both fields' ``grid_vf`` (and B's friction channel, its third part where
-    there is one) back to zero for the next P2G."""
+    """``field_clear``: ``grid_sv`` and both fields' ``grid_vf`` (and the friction channels, its third and fourth
+    parts where there are) back to zero for the next P2G."""
     vec3, vec4, mat33 = build_types(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
@@ -192,8 +223,8 @@ def build_field_clear(Ft):
         grid_sv[node] = vec4(Ft(0.0))
         grid_vf[node] = Ft(0.0)
         grid_vf[grid_sv.shape[0] + node] = Ft(0.0)
-        if grid_vf.shape[0] > 2 * grid_sv.shape[0]:
-            grid_vf[2 * grid_sv.shape[0] + node] = Ft(0.0)
+        for part in range(2, grid_vf.shape[0] / grid_sv.shape[0]):
+            grid_vf[part * grid_sv.shape[0] + node] = Ft(0.0)
 
     return field_clear
 
@@ -207,8 +238,10 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     (the two offsets per node), one unused entry each without it (``eng.fields`` says which), and its friction
     ``eng.field_mu`` and touch threshold ``eng.field_touch``; where field B's bodies bring several frictions
     (``eng.node_mu``, ``gasp_core.mpm.fields.node_friction``), ``eng.body_mu`` (per body) and a third part of
-    ``grid_vf`` (B's ``w m mu`` per node: the pair's friction per node in ``field_contact``), else one entry; last, the grounds' touched columns
-    (``GroundTouch.allocate_touch``, touch.py)."""
+    ``grid_vf`` (B's ``w m mu`` per node: the pair's friction per node in ``field_contact``), else one entry; where
+    field A's sands bring several angles (``eng.a_mu``, ``a_node_friction``) a fourth part (A's ``w m tan(phi)``),
+    ``body_mu`` then A's ``tan(phi)`` too (-1: a body whose field has no channel, it scatters none); last, the
+    grounds' touched columns (``GroundTouch.allocate_touch``, touch.py)."""
     from gasp_core.mpm.rigid import step_view
     k, d = eng.k, eng.device
     view = step_view(eng.setup)
@@ -227,9 +260,12 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     eng.grid_dv = wp.zeros(2 * n if eng.fields else 1, dtype=k.vec3, device=d)
     # B's bodies' several frictions (gasp_core.mpm.fields.node_friction): a third part of grid_vf, B's w m mu per node
     eng.node_mu = node_friction(view) if eng.fields else None
-    on_mu = eng.node_mu is not None
-    eng.grid_vf = wp.zeros((3 if on_mu else 2) * n if eng.fields else 1, dtype=Ft, device=d)
-    eng.body_mu = wp.array(eng.node_mu[1] if on_mu else np.zeros(1), dtype=Ft, device=d)
+    eng.a_mu = a_node_friction(view) if eng.fields else None   # round 43: A's several angles, a fourth part
+    eng.mu_on = int(eng.node_mu is not None) + 2 * int(eng.a_mu is not None)
+    eng.grid_vf = wp.zeros((4 if eng.mu_on >= 2 else 3 if eng.mu_on else 2) * n if eng.fields else 1, dtype=Ft,
+                           device=d)
+    eng.body_mu = wp.array(body_channel(in_a, eng.node_mu, eng.a_mu) if eng.mu_on else np.zeros(1), dtype=Ft,
+                           device=d)
     # the grid update gives the particle contact's friction to field B alone (grid.build_field_friction)
     on = eng.fields and contact == "mixed" and core_fields.B_FRICTION
     eng.dv_friction = eng.grid_dv if on else wp.zeros(1, dtype=k.vec3, device=d)
@@ -242,6 +278,18 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     # field A's points without their affine momentum where they meet B (transfers.p2g, gasp_core PIC_AT_B)
     eng.p_pic = wp.zeros(eng.n_material if eng.flow_touch_on and core_fields.PIC_AT_B else 1, dtype=wp.int32, device=d)
     eng.allocate_touch(Ft, contact)   # the grounds' touched columns (touch.py)
+
+
+def body_channel(in_a, node_mu, a_mu) -> np.ndarray:
+    """Per body what its points scatter, weighted by ``w m``, to its field's friction channel (``grid_vf``'s third
+    part for B, fourth for A): B's ``friction`` (``node_mu[1]``), A's ``tan(phi)`` (``a_mu[0]``), -1 for a body
+    whose field has no channel (it scatters none). Shape (n_bodies,), float64."""
+    out = np.full(len(in_a), -1.0)
+    if node_mu is not None:
+        out[~np.asarray(in_a, bool)] = np.asarray(node_mu[1])[~np.asarray(in_a, bool)]
+    if a_mu is not None:
+        out[np.asarray(in_a, bool)] = np.asarray(a_mu[0])[np.asarray(in_a, bool)]
+    return out
 
 
 def field_launches(eng, Ft) -> list:
@@ -267,7 +315,7 @@ def field_launches(eng, Ft) -> list:
                 Ft(eng.dx ** 3), Ft(wall_lo), eng.k.vec3(*[float(c) for c in wall_hi]), Ft(eng.field_touch), eng.pair,
                 eng.k.vec3(*[float(c) for c in eng.setup.domain_lo]), Ft(eng.dx), eng.pair_acc, eng.ground_touch,
                 eng.flow_touch, eng.flow_push, int(bool(core_fields.GROUND_MIRROR)), eng.field_rule % 2,
-                *([Ft(a) for a in (eng.node_mu[0], eng.node_mu[2], eng.node_mu[3])] if eng.node_mu else [Ft(0.0)] * 3)
-                ])] + after + [
+                *([Ft(a) for a in (eng.node_mu[0], eng.node_mu[2], eng.node_mu[3])] if eng.node_mu else [Ft(0.0)] * 3),
+                eng.mu_on, *([Ft(a) for a in eng.a_mu[1:]] if eng.a_mu else [Ft(0.0)] * 3)])] + after + [
             wp.launch(clear, dim=ng ** 3, device=d, record_cmd=True, inputs=[eng.grid_sv, eng.grid_vf])]
 

@@ -23,7 +23,8 @@ from .rigid import mat33d, vec3d
 
 @functools.cache
 def build_rigid_hold(Ft):
-    """``rigid_hold``, one thread a material point, scalar type ``Ft``."""
+    """``rigid_hold``, one thread a material point, scalar type ``Ft``; its ``pair_mu`` the coefficient per (point's
+    body, holding body) (``gasp_core.mpm.fields.hold_pairs``, round 43), one entry: each holding body's row's."""
     vec3, vec4, mat33 = build_types(Ft)
     field_at = build_field_at(Ft)
     collide = build_collide(Ft)
@@ -34,7 +35,7 @@ def build_rigid_hold(Ft):
                    meta: wp.array(dtype=Ft), sdf: wp.array(dtype=Ft), grad: wp.array(dtype=Ft),
                    centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d), vel: wp.array(dtype=vec3d),
                    spin: wp.array(dtype=vec3d), acc_p: wp.array(dtype=vec3d), acc_l: wp.array(dtype=vec3d),
-                   n_bodies: int):
+                   n_bodies: int, pair_mu: wp.array(dtype=Ft)):
         p = wp.tid()
         if flows[body[p]] == 0:
             return
@@ -52,7 +53,10 @@ def build_rigid_hold(Ft):
                     w = vec3(Ft(spin[b][0]), Ft(spin[b][1]), Ft(spin[b][2]))
                     vc = vec3(Ft(vel[b][0]), Ft(vel[b][1]), Ft(vel[b][2])) + wp.cross(w, xp - T)
                     xp = xp - phi * n
-                    vn = vc + collide(vp - vc, n, meta[r * COL_META + CM_FRICTION])
+                    mu = meta[r * COL_META + CM_FRICTION]
+                    if pair_mu.shape[0] > 1:   # A's sands' several angles: the point's body's pair (round 43)
+                        mu = pair_mu[body[p] * n_bodies + b]
+                    vn = vc + collide(vp - vc, n, mu)
                     dv = vn - vp
                     m = wp.float64(p_mass[p])
                     J = vec3d(-m * wp.float64(dv[0]), -m * wp.float64(dv[1]), -m * wp.float64(dv[2]))
@@ -72,14 +76,15 @@ def rigid_hold_launches(eng, Ft) -> list:
     (``gasp_core.mpm.rigid_hold.rigid_hold_tables``); else none: such scenes run the code before."""
     if not eng.any_rigid:
         return []
-    from gasp_core.mpm.rigid_hold import rigid_hold_tables
-    tables = rigid_hold_tables(eng.setup, float(eng.dx), eng.flows.numpy().astype(bool))
+    from gasp_core.mpm.rigid_hold import hold_setup
+    tables, pairs = hold_setup(eng.setup, float(eng.dx), eng.flows.numpy().astype(bool))
     if tables is None:
         return []
     row, sdf, grad, meta = tables
     d, dt_np = eng.device, eng._np_dtype
     eng.rh_row = wp.array(row.astype(np.int32), dtype=wp.int32, device=d)
     eng.rh_meta, eng.rh_sdf, eng.rh_grad = (wp.array(a.astype(dt_np), dtype=Ft, device=d) for a in (meta, sdf, grad))
+    eng.rh_pairs = wp.array((np.zeros(1) if pairs is None else pairs.ravel()).astype(dt_np), dtype=Ft, device=d)
     return [wp.launch(build_rigid_hold(Ft), dim=eng.n_material, device=d, record_cmd=True, inputs=[
         eng.x, eng.v, eng.p_mass, eng.body, eng.flows, eng.rh_row, eng.rh_meta, eng.rh_sdf, eng.rh_grad, eng.rb_c,
-        eng.rb_R, eng.rb_V, eng.rb_w, eng.acc_p, eng.acc_l, len(eng.setup.materials)])]
+        eng.rb_R, eng.rb_V, eng.rb_w, eng.acc_p, eng.acc_l, len(eng.setup.materials), eng.rh_pairs])]

@@ -118,7 +118,8 @@ def build_p2g(Ft):
         # :mod:`gasp_warp_mpm.contact`); with the contact chosen per body the flowing bodies' (flows[b]) mass to grid_mf
         # and, with the two-field contact (gasp_warp_mpm.fields), field A's (in_a[b]) momentum and mass to grid_sv,
         # each field's volume to grid_vf (field A's at the node, B's n_grid^3 further) and, with B's per-node friction
-        # (body_mu per body, one entry without it: gasp_core.mpm.fields.node_friction), B's w m mu 2 n_grid^3 further
+        # (body_mu per body, one entry without it: gasp_core.mpm.fields.node_friction), B's w m mu 2 n_grid^3 further,
+        # with A's several angles (a_node_friction) A's w m tan(phi) 3 n_grid^3 further
         p = wp.tid()
         X = (x[p] - lo) * inv_dx
         if not in_grid(X, n_grid):
@@ -160,8 +161,11 @@ def build_p2g(Ft):
             if in_a[body[p]] != 0:
                 scatter(grid_sv, idx0, n_grid, W, mom0, A, pm)
             scatter_scalar(grid_vf, idx0 + (1 - in_a[body[p]]) * n_grid * n_grid * n_grid, n_grid, W, p_vol[p])
-            if body_mu.shape[0] > 1 and in_a[body[p]] == 0:
-                scatter_scalar(grid_vf, idx0 + 2 * n_grid * n_grid * n_grid, n_grid, W, pm * body_mu[body[p]])
+            if body_mu.shape[0] > 1:   # its field's friction channel (B's third part, A's fourth; -1: none)
+                mu_p = body_mu[body[p]]
+                if mu_p >= Ft(0.0):
+                    scatter_scalar(grid_vf, idx0 + (2 + in_a[body[p]]) * n_grid * n_grid * n_grid, n_grid, W,
+                                   pm * mu_p)
         if flip != 0:
             A0 = (dx * pc) * Cp
             scatter(grid_mv0, idx0, n_grid, W, pm * v[p] - A0 * fx, A0, pm)
