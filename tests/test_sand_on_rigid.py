@@ -177,7 +177,8 @@ LOWERS = (0.0, 0.25, 0.5, 0.75)
 #: The known failure left: the jelly slab at n_grid 48 (its face half a cell above a node layer) at 0.7 m/s.
 SHORT_48 = ("the mark of round 37's touch (points within FLOW_TOUCH_DELTA of B) misses the sand's lowest points on "
             "the jelly slab at n_grid 48: -3.12 % at 0.7 m/s (before -5.08 %); a wider mark fixes it but piles "
-            "sand_on_ball (docs/contact.md 'Round 41: the sand's affine momentum at the face')")
+            "sand_on_ball (docs/contact.md 'Round 41: the sand's affine momentum at the face'), and so does a rule at "
+            "the contact's nodes (round 43's probe, docs/contact.md 'Round 43')")
 
 
 def _face_params():
