@@ -7,7 +7,8 @@ Run it on two trees and compare the lines:
 ``PYTHONPATH=<tree>:<tree>/plugins/warp_mpm python benchmarks/studies/warp_ordered_bits.py`` (the scenes are those of
 ``<tree>/plugins/warp_mpm/tests/test_warp_schedule.py`` and ``gasp_core.testing.sand_ball.slide_setup``). Each
 line also counts the launches of ``lists``, ``dot`` and ``contact_fix`` in the last frame, so that a scene which never
-reached the ordered kernels is seen.
+reached the ordered kernels is seen. ``--schedule gpu`` runs the same scenes on the gpu schedule (on this CPU), whose
+bits a change to the kernels both schedules share must keep too.
 """
 import hashlib
 import sys
@@ -28,14 +29,14 @@ sys.path.insert(0, str(ROOT / "plugins" / "warp_mpm" / "tests"))
 FRAMES = 3
 
 
-def scenes() -> dict:
+def scenes(schedule: str) -> dict:
     from test_warp_schedule import contact_scene, viscous_scene
     from gasp_core.testing import sand_ball as S
-    mixed = S.slide_setup(1.2, {"threads": 1, "schedule": "cpu"}, slab_h=2 * S.SIDE / S.N_GRID)
-    v64 = viscous_scene("cpu")
+    mixed = S.slide_setup(1.2, {"threads": 1, "schedule": schedule}, slab_h=2 * S.SIDE / S.N_GRID)
+    v64 = viscous_scene(schedule)
     v64.options["precision"] = "f64"
-    return {"viscous_on_ground": viscous_scene("cpu"), "viscous_on_ground_f64": v64,
-            "two_bodies_walls": contact_scene("cpu"), "thin_support_mixed": mixed}
+    return {"viscous_on_ground": viscous_scene(schedule), "viscous_on_ground_f64": v64,
+            "two_bodies_walls": contact_scene(schedule), "thin_support_mixed": mixed}
 
 
 def counting():
@@ -56,21 +57,21 @@ def counting():
     return seen
 
 
-def main() -> None:
+def main(schedule: str = "cpu") -> None:
     import gasp_warp_mpm
     print("gasp_warp_mpm:", gasp_warp_mpm.__file__)
     seen = counting()
-    for name, setup in scenes().items():
+    for name, setup in scenes(schedule).items():
         e = build_engine(engines()["warp_mpm"], setup)
         try:
-            assert e.schedule == "cpu"
+            assert e.schedule == schedule
             for f in range(FRAMES):
                 seen.clear()
                 e.step_frame()
             h = hashlib.sha1()
             for a in (e.x, e.v, e.F, e.C):
                 h.update(np.ascontiguousarray(a.numpy()).tobytes())
-            n = {k: seen[k] for k in ("lists", "dot", "contact_fix")}
+            n = {k: seen[k] for k in ("lists", "dot", "contact_fix", "fix_nodes")}
             print(f"{name}: {len(setup.x)} points, {FRAMES} frames, sha1(x, v, F, C) = {h.hexdigest()}; "
                   f"last frame's launches {n}")
         finally:
@@ -78,4 +79,7 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    import argparse
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--schedule", choices=("cpu", "gpu"), default="cpu")
+    main(ap.parse_args().schedule)

@@ -265,6 +265,13 @@ def keep_braking(th: v64, omega: v64, L: v64, nb: v64):
 
 
 @wp.func
+def support_dv(fr_sums: wp.array2d(dtype=f64), s: int, X: v64):
+    # support s's velocity change at the point X (f64): its dv plus alpha x (X - x_m) (fr_sums[s, 17:26], body_fix)
+    return v64(fr_sums[s, 17], fr_sums[s, 18], fr_sums[s, 19]) + wp.cross(
+        v64(fr_sums[s, 20], fr_sums[s, 21], fr_sums[s, 22]), X - v64(fr_sums[s, 23], fr_sums[s, 24], fr_sums[s, 25]))
+
+
+@wp.func
 def body_fix(s: int, b: int, shift: wp.array2d(dtype=f64), jsums: wp.array2d(dtype=f64),
              fr_sums: wp.array2d(dtype=f64), mass: f64, reach: f64, g_dt: v64):
     # support s (of body b): its dv, alpha and x_m into fr_sums[s, 17:26]

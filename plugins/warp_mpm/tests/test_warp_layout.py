@@ -72,6 +72,8 @@ LOOP_BOUNDS = {
     "range(blk * BLK, wp.min(blk * BLK + BLK, n_pts))": _BLOCK,
     "range(blk * BLK, wp.min(blk * BLK + BLK, grid_fbody.shape[0]))": _BLOCK,
     "range(part_in.shape[0])": "at most BLOCK partials (fold_final, schedule.gpu.fold_chain)",
+    "range(2, grid_vf.shape[0] / grid_sv.shape[0])": "a node's field channels past the two fractions (at most 4 parts, "
+                                                      "fields.field_clear, one thread a node)",
     "range(part.shape[0])": "the blocks' partials, n / BLOCK, one thread a (row, column) (gpu_balance.fold_rows)",
     "range(psums.shape[1])": _ROWS,
     "range(psums.shape[2])": _ROWS,

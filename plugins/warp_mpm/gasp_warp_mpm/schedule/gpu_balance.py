@@ -15,7 +15,7 @@ import functools
 
 import warp as wp
 
-from ..balance import FR_COLUMNS, body_fix, f64, v64
+from ..balance import FR_COLUMNS, body_fix, f64, support_dv, v64
 from ..contact import build_collider_contact, build_contact_impulse
 from ..forces import build_extras_struct
 from ..precision import MODULE_OPTIONS, build_types
@@ -198,9 +198,7 @@ def build_fix(Ft):
                 j = (node / n_grid) % n_grid
                 k = node % n_grid
                 X = v64(f64(lo[0] + dx * Ft(i)), f64(lo[1] + dx * Ft(j)), f64(lo[2] + dx * Ft(k)))
-                dv = v64(fr_sums[s, 17], fr_sums[s, 18], fr_sums[s, 19]) + wp.cross(
-                    v64(fr_sums[s, 20], fr_sums[s, 21], fr_sums[s, 22]),
-                    X - v64(fr_sums[s, 23], fr_sums[s, 24], fr_sums[s, 25]))
+                dv = support_dv(fr_sums, s, X)
                 grid_v[node] = grid_v[node] + vec3(Ft(dv[0]), Ft(dv[1]), Ft(dv[2]))
             grid_fbody[node] = -1
         fr_dv[node] = vec4(Ft(0.0))
