@@ -138,10 +138,7 @@ def _switch_off(engine: str, monkeypatch) -> None:
     (measured on both engines, the block's front over the plate's face: the hold alone 0.081 cells, the touch alone
     0.0054, both 0.0054, neither 0.512; no point through, momentum kept to 5e-5 in all four)."""
     monkeypatch.setattr(F, "FLOW_TOUCH", False)
-    monkeypatch.setattr(RH, "rigid_hold_tables", lambda *a, **k: None)
-    if engine == "taichi_mpm":
-        from gasp_taichi_mpm import engine as te
-        monkeypatch.setattr(te, "rigid_hold_tables", lambda *a, **k: None)
+    monkeypatch.setattr(RH, "rigid_hold_tables", lambda *a, **k: None)   # both engines build it through RH.hold_setup
 
 
 @pytest.mark.parametrize("engine", ENGINES)

@@ -117,7 +117,8 @@ def test_sand_slides_on_a_rigid_slab_by_coulombs_law(engine, n_grid, slab_mu, mo
 
 def bias_friction(monkeypatch, engine: str, factor: float) -> None:
     """The engine's pair friction ``factor`` times the right one: the two fields' coefficient and the rigid hold's
-    (its tables' ``CM_FRICTION``); ``F.field_friction``, the answer, kept."""
+    (its tables' ``CM_FRICTION``; both engines build them through ``RH.hold_setup``); ``F.field_friction``, the
+    answer, kept."""
     real_tables = RH.rigid_hold_tables
 
     def tables(*a, **k):
@@ -127,9 +128,6 @@ def bias_friction(monkeypatch, engine: str, factor: float) -> None:
         return t
     monkeypatch.setattr(RH, "rigid_hold_tables", tables)
     set_pair_friction(monkeypatch, engine, lambda setup: factor * F.field_friction(setup))
-    if engine == "taichi_mpm":   # the engine's copy of the tables
-        import gasp_taichi_mpm.engine as te
-        monkeypatch.setattr(te, "rigid_hold_tables", tables)
 
 
 @pytest.mark.parametrize("factor", [0.95, 1.05])
@@ -146,10 +144,7 @@ def _switch_off(monkeypatch, engine: str, hold: bool) -> None:
     monkeypatch.setattr(F, "FLOW_TOUCH", False)
     if not hold:
         return
-    monkeypatch.setattr(RH, "rigid_hold_tables", lambda *a, **k: None)
-    if engine == "taichi_mpm":
-        import gasp_taichi_mpm.engine as te
-        monkeypatch.setattr(te, "rigid_hold_tables", lambda *a, **k: None)
+    monkeypatch.setattr(RH, "rigid_hold_tables", lambda *a, **k: None)   # both engines build it through RH.hold_setup
 
 
 @pytest.mark.slow
