@@ -133,3 +133,32 @@ def test_the_thin_support_catches_a_friction_5pct_off(engine, factor, monkeypatc
     _bias_friction(monkeypatch, engine, factor)
     err = _errors(engine, monkeypatch, 32, 2e5, 2)
     assert all(abs(e) > RATIO_TOL and (e < 0) == (factor < 1) for e in err.values()), err
+
+
+#: The ground's friction under the slab (round 43, ``gasp_core.mpm.fields.B_BALANCE``): the block's ratio must not
+#: depend on it (the slab stays at rest), within ``GROUND_TOL`` between ``MU_GROUNDS``.
+MU_GROUNDS, GROUND_TOL = (0.2, 1.0), 0.005
+
+
+def _ground_spread(engine: str, monkeypatch) -> dict:
+    """Per ground friction under the slab, the block's ratio error on the stiff 1-cell slab (n_grid 32, 1.2 m/s)."""
+    out = {}
+    for mu in MU_GROUNDS:
+        monkeypatch.setattr(S, "MU_GROUND", mu)
+        out[mu] = _errors(engine, monkeypatch, 32, 2e6, 1, speeds=(1.2,))[1.2]
+    return out
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("engine", ENGINES)
+def test_the_slabs_ground_friction_leaves_the_blocks_ratio(engine, monkeypatch):
+    err = _ground_spread(engine, monkeypatch)
+    assert all(abs(e) <= RATIO_TOL for e in err.values()) and abs(err[0.2] - err[1.0]) <= GROUND_TOL, err
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("engine", ENGINES)
+def test_the_balance_on_both_fields_fails_the_ground_check(engine, monkeypatch):
+    monkeypatch.setattr(F, "B_BALANCE", False)
+    err = _ground_spread(engine, monkeypatch)
+    assert err[0.2] - err[1.0] > GROUND_TOL, err   # the slab's ground friction reaches the block
