@@ -17,6 +17,12 @@ engines, n_grid 32 and 48, angles (20, 40) on slabs of 0.6 and (35, 25) on slabs
 slabs; warp_mpm at n_grid 32, (20, 40), 1.2 m/s in the default tier, the rest slow. **Catches:** the old rule (one
 ``tan``, the largest angle: ``a_node_friction`` None) reads the 20 deg block about +50 % high; a per-node pair 5 %
 off (A's ``tan(phi)`` scaled by 1.05^2 or 0.95^2, slabs of 0.6) fails both blocks the right way.
+
+The hold check (rigid slabs, round 43's pair table ``hold_pairs``): one point of each block 5 mm inside its slab's top
+moving at (1, 0, -0.1) m/s leaves each engine's hold at ``v_x = 1 - 0.1 pair`` for its own sand's pair (warp_mpm's
+kernel, :func:`hold_slips`; taichi_mpm's ``hold_rigid_point`` in a kernel of its own, :func:`taichi_hold_slips`);
+**catch:** the old per-body table (each slab's row's coefficient, the largest angle's) holds the 20 deg point at the
+40 deg sand's pair.
 """
 from __future__ import annotations
 
@@ -196,4 +202,47 @@ def test_a_rigid_slab_holds_each_sand_with_its_own_pair():
 def test_the_hold_check_catches_the_largest_angle():
     pytest.importorskip("gasp_warp_mpm")
     got = hold_slips(pairs_on=False)
+    assert got[0] < 1.0 - 0.1 * own_pair(20.0, 0.6) - 2e-3, got   # held at the 40 deg sand's pair
+
+
+def taichi_hold_slips(pairs_on: bool = True) -> list[float]:
+    """:func:`hold_slips`' two points through taichi_mpm's hold (``RigidHold.hold_rigid_point``, CPU, float64) of an
+    engine built on the same scene, the slabs at rest at their start pose: each point's ``v_x`` after the hold
+    (``pairs_on`` False: ``rh_pairs_on`` off before the kernel compiles, each slab's row's coefficient)."""
+    import numpy as np
+    import taichi as ti
+    from gasp_taichi_mpm.engine import TaichiMPMEngine
+    setup = two_sand_setup(1.2, (20.0, 40.0), 0.6, {"threads": 1, "precision": "float64"}, model="rigid")
+    s = TaichiMPMEngine(setup).solver
+    assert s.rh_pairs_on
+    s.rh_pairs_on = pairs_on
+    body = s.body.to_numpy()[:s.n_points[None]]   # the solver's own point order
+    p0, p2 = int(np.flatnonzero(body == 0)[0]), int(np.flatnonzero(body == 2)[0])
+    x, v = s.x.to_numpy(), s.v.to_numpy()
+    h = S.COULOMB_SLAB_H
+    x[p0], x[p2] = [0.1, -0.08, h - 0.005], [0.1, 0.08, h - 0.005]
+    v[p0] = v[p2] = [1.0, 0.0, -0.1]
+    s.x.from_numpy(x)
+    s.v.from_numpy(v)
+
+    @ti.kernel
+    def hold():   # no arguments: the module's ``from __future__ import annotations`` hides taichi's types
+        for k in range(2):
+            s.hold_rigid_point(p0 if k == 0 else p2)
+
+    hold()
+    out = s.v.to_numpy()
+    return [float(out[p0, 0]), float(out[p2, 0])]
+
+
+def test_taichi_rigid_slab_holds_each_sand_with_its_own_pair():
+    pytest.importorskip("gasp_taichi_mpm")
+    got = taichi_hold_slips()
+    want = [1.0 - 0.1 * own_pair(phi, 0.6) for phi in (20.0, 40.0)]
+    assert got == pytest.approx(want, abs=2e-4), (got, want)
+
+
+def test_the_taichi_hold_check_catches_the_largest_angle():
+    pytest.importorskip("gasp_taichi_mpm")
+    got = taichi_hold_slips(pairs_on=False)
     assert got[0] < 1.0 - 0.1 * own_pair(20.0, 0.6) - 2e-3, got   # held at the 40 deg sand's pair

@@ -306,7 +306,9 @@ class Balance:
 
     @ti.func
     def apply_fix(self, I):
-        """A listed node moved by its support's ``dv + alpha x (X - x_m)``; its mark cleared."""
+        """A listed node moved by its support's ``dv + alpha x (X - x_m)``, given to field B alone where the grid
+        update kept the node's flowing-mass fraction in ``grid_mf`` (``gasp_core.mpm.fields.B_BALANCE``,
+        :meth:`Fields.field_friction`); its mark (and that) cleared."""
         b = self.grid_fbody[I]
         if self.fr_sums[b, 3] > 0.0:
             X = ti.cast(self.lo[None] + self.dx[None] * ti.cast(I, self.real), ti.f64)
@@ -314,4 +316,10 @@ class Balance:
                 [self.fr_sums[b, 20], self.fr_sums[b, 21], self.fr_sums[b, 22]], ti.f64).cross(
                 X - ti.Vector([self.fr_sums[b, 23], self.fr_sums[b, 24], self.fr_sums[b, 25]], ti.f64))
             self.grid_v[I] += ti.cast(dv, self.real)
+            if ti.static(self.b_friction and self.mixed and self.field_rule // 4 % 2 != 0):
+                f = self.grid_mf[I]
+                if f > 0.0 and f < 1.0:
+                    self.field_friction(I, ti.cast(dv, self.real), f, 1)
+        if ti.static(self.b_friction and self.mixed and self.field_rule // 4 % 2 != 0):
+            self.grid_mf[I] = 0.0
         self.grid_fbody[I] = -1

@@ -187,7 +187,8 @@ class Fields(PairTouch):
     def pc_friction(self, I, v_in, m, budget, f):
         """The particle contact's Coulomb friction at node I (mean velocity ``v_in`` after the boundaries, mass ``m``,
         the budget ``budget``; with walls or colliders relative to the supports, normal to them: ``grid_fnv``) on
-        what :meth:`friction_base` names, then the contact's balance (balance.py) and :meth:`field_friction`; returns
+        what :meth:`friction_base` names, then the contact's balance (balance.py; where the fields keep their offsets
+        ``f`` kept in ``grid_mf`` for its fix, ``gasp_core.mpm.fields.B_BALANCE``) and :meth:`field_friction`; returns
         the node's new mean velocity."""
         vf, mf, on = self.friction_base(I, v_in, m, f)
         v = vf
@@ -201,6 +202,9 @@ class Fields(PairTouch):
             v = v_in + (mf / m) * (v - vf)
         if self.n_spin > 0:
             self.balance_node(I, v_in, v, m, budget)
+            if ti.static(self.b_friction and self.mixed and self.field_rule // 4 % 2 != 0):
+                if on != 0 and self.grid_fbody[I] >= 0:   # B_BALANCE: f kept for the balance's fix (apply_fix)
+                    self.grid_mf[I] = f
         self.field_friction(I, v - v_in, f, on)
         return v
 

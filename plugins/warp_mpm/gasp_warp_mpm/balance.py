@@ -25,7 +25,8 @@ with the particle contact + the walls' faces):
   to the support at its centre of pressure, and takes back the contact's torque (normal and friction, less its twist
   about ``n``) about ``c`` up to ``J reach``, unless the line through ``c`` along ``n`` passes more than ``reach``
   beyond the pushed points' box (a body over its edge tips over); the sums and lists cleared. On the ground
-  (``n = +z``) these are the steps before issue 38 item 2.
+  (``n = +z``) these are the steps before issue 38 item 2. With the two-field contact, a listed node where the
+  fields keep their offsets gives the change to field B alone (``gasp_core.mpm.fields.B_BALANCE``, round 43).
 
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of the closures below
 as type objects.

@@ -91,7 +91,11 @@ def build_field_friction(Ft):
     ``dv f / (1 - f)``, so A keeps its velocity and B takes the momentum ``m dv``. ``pc_friction(vel, m, f, node,
     grid_fb, colc, grid_fn, grid_fv, grid_dv, lo, hi, dx, wall_in, ground, n_grid, ground_touch, n_walls, rule)``: the
     grid update's friction (:func:`build_contact_friction`) on the mean ``vel`` or B's own, then ``field_friction``;
-    returns the node's new mean velocity (m/s)."""
+    returns the node's new mean velocity (m/s). ``keep_fraction(grid_mf, grid_fbody, grid_dv, node, f, lo, hi, dx,
+    wall_in, ground, n_grid, ground_touch, n_walls, rule)``: with ``rule`` bit 3 (``gasp_core.mpm.fields.B_BALANCE``),
+    at a node the contact's balance listed (``grid_fbody`` set) where ``field_node`` is 1, ``f`` kept in ``grid_mf``
+    (cleared by the grid update before) for the balance's fix, which gives its change to field B alone
+    (``schedule.ordered.contact_fix``, ``schedule.gpu_balance``'s ``fix_nodes``) and clears it."""
     vec3, vec4, mat33 = build_types(Ft)
     held_node = build_held(Ft)
     contact_friction = build_contact_friction(Ft)[0]
@@ -135,7 +139,15 @@ def build_field_friction(Ft):
         field_friction(grid_dv, node, out - vel, f, on)
         return out
 
-    return field_friction, field_node, pc_friction
+    @wp.func
+    def keep_fraction(grid_mf: wp.array(dtype=Ft), grid_fbody: wp.array(dtype=wp.int32), grid_dv: wp.array(dtype=vec3),
+                      node: int, f: Ft, lo: vec3, hi: vec3, dx: Ft, wall_in: Ft, ground: wp.array(dtype=vec3),
+                      n_grid: int, ground_touch: wp.array(dtype=wp.int32), n_walls: int, rule: int):
+        if (rule / 4) % 2 != 0 and grid_fbody[node] >= 0:
+            if field_node(grid_dv, node, f, lo, hi, dx, wall_in, ground, n_grid, ground_touch, n_walls, rule) != 0:
+                grid_mf[node] = f
+
+    return field_friction, field_node, pc_friction, keep_fraction
 
 
 @functools.cache
@@ -192,7 +204,7 @@ def build_grid_update(Ft):
     boundary_rules = build_boundary_rules(Ft)
     Extras, extras = build_extras(Ft)
     balance_node = build_balance(Ft)[2]
-    clear_contact, pc_friction = build_contact_friction(Ft)[1], build_field_friction(Ft)[2]
+    clear_contact, (pc_friction, keep_fraction) = build_contact_friction(Ft)[1], build_field_friction(Ft)[2:]
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def grid_update(
@@ -242,8 +254,9 @@ def build_grid_update(Ft):
                 vel = pc_friction(vel, m, f, node, grid_fb, colc, grid_fn, grid_fv, grid_dv, lo, hi, dx, wall_in,
                                   ground, n_grid, ground_touch, wall_mu.shape[0], rule)
                 if fr_sums.shape[0] > 0:
-                    balance_node(node, v_in, vel, m, grid_fb[node], X, grid_fbody, fr_sums, fr_nodes,
-                                     fr_dv, fr_fb)
+                    balance_node(node, v_in, vel, m, grid_fb[node], X, grid_fbody, fr_sums, fr_nodes, fr_dv, fr_fb)
+                    keep_fraction(grid_mf, grid_fbody, grid_dv, node, f, lo, hi, dx, wall_in, ground, n_grid,
+                                  ground_touch, wall_mu.shape[0], rule)   # B_BALANCE (schedule/ordered.py)
             for r in range(fixed_lo.shape[0]):
                 flo = fixed_lo[r]
                 fhi = fixed_hi[r]

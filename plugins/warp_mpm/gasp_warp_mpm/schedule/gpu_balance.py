@@ -18,6 +18,7 @@ import warp as wp
 from ..balance import FR_COLUMNS, body_fix, f64, support_dv, v64
 from ..contact import build_collider_contact, build_contact_impulse
 from ..forces import build_extras_struct
+from ..grid import build_field_friction
 from ..precision import MODULE_OPTIONS, build_types
 from . import BLOCK, n_blocks
 
@@ -176,8 +177,10 @@ def build_row_sums(Ft):
 @functools.cache
 def build_fix(Ft):
     """``(fix_supports, fix_nodes, fix_clear)`` of scalar type ``Ft``: the cpu schedule's one-thread
-    ``schedule.ordered.contact_fix`` split into a per-support solve, a per-node apply and a per-support clear."""
+    ``schedule.ordered.contact_fix`` split into a per-support solve, a per-node apply (with its change given to field
+    B alone where the grid update kept ``f`` in ``grid_mf``, ``B_BALANCE``) and a per-support clear."""
     vec3, vec4, mat33 = build_types(Ft)
+    field_friction = build_field_friction(Ft)[0]
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def fix_supports(shift: wp.array2d(dtype=f64), jsums: wp.array2d(dtype=f64), fr_sums: wp.array2d(dtype=f64),
@@ -188,7 +191,8 @@ def build_fix(Ft):
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def fix_nodes(grid_v: wp.array(dtype=vec3), grid_fbody: wp.array(dtype=wp.int32), fr_dv: wp.array(dtype=vec4),
-                  fr_sums: wp.array2d(dtype=f64), lo: vec3, dx: Ft, n_grid: int):
+                  fr_sums: wp.array2d(dtype=f64), lo: vec3, dx: Ft, n_grid: int, grid_mf: wp.array(dtype=Ft),
+                  grid_dv: wp.array(dtype=vec3)):
         # one thread a node: a marked node (balance_node ran there) takes its support's change and is unmarked
         node = wp.tid()
         s = grid_fbody[node]
@@ -200,7 +204,13 @@ def build_fix(Ft):
                 X = v64(f64(lo[0] + dx * Ft(i)), f64(lo[1] + dx * Ft(j)), f64(lo[2] + dx * Ft(k)))
                 dv = support_dv(fr_sums, s, X)
                 grid_v[node] = grid_v[node] + vec3(Ft(dv[0]), Ft(dv[1]), Ft(dv[2]))
+                if grid_mf.shape[0] > 1:   # B_BALANCE: f kept by the grid update where the fields keep offsets
+                    f = grid_mf[node]
+                    if f > Ft(0.0) and f < Ft(1.0):
+                        field_friction(grid_dv, node, vec3(Ft(dv[0]), Ft(dv[1]), Ft(dv[2])), f, 1)
             grid_fbody[node] = -1
+        if grid_mf.shape[0] > 1 and s >= 0:
+            grid_mf[node] = Ft(0.0)
         fr_dv[node] = vec4(Ft(0.0))
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
@@ -249,7 +259,8 @@ def gpu_balance_launches(engine, k, lo_v, dx, dt_f, ex) -> tuple[list, list]:
            rec(fold_rows, rows * FR_SUM_COLUMNS, [engine.g_pfr, engine.fr_sums, FR_SUM_COLUMNS]),
            rec(fix_supports, rows, [engine.c_shift, engine.c_jsums, engine.fr_sums, engine.c_mass, engine.c_reach,
                                     g_dt, engine.n_sup]),
-           rec(fix_nodes, ng ** 3, [engine.grid_v, engine.grid_fbody, engine.fr_dv, engine.fr_sums, lo_v, dx, ng]),
+           rec(fix_nodes, ng ** 3, [engine.grid_v, engine.grid_fbody, engine.fr_dv, engine.fr_sums, lo_v, dx, ng,
+                                     engine.grid_mf, engine.grid_dv]),
            rec(fix_clear, rows, [engine.c_jsums, engine.fr_sums])]
     assert FR_COLUMNS == 26
     return pre, fix

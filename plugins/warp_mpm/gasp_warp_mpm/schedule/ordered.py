@@ -25,6 +25,7 @@ import types
 import warp as wp
 
 from ..balance import body_fix, f64, support_dv, v64
+from ..grid import build_field_friction
 from ..precision import MODULE_OPTIONS, build_types
 from ..viscosity import MAX_ITERS, MAX_ITERS_GRAPH, TOL, ImplicitViscosity, build_viscosity
 
@@ -132,14 +133,18 @@ class CpuViscosity(ImplicitViscosity):
 @functools.cache
 def build_contact_fix(Ft):
     """``contact_fix``, the balance's one-thread kernel of scalar type ``Ft`` after the grid update
-    (:mod:`gasp_warp_mpm.balance`'s docstring)."""
+    (:mod:`gasp_warp_mpm.balance`'s docstring); at a listed node where the grid update kept the flowing-mass fraction
+    ``f`` in ``grid_mf`` (``gasp_core.mpm.fields.B_BALANCE``: the fields keep their offsets there) the change is
+    given to field B alone (``grid.build_field_friction``'s ``field_friction``), and ``grid_mf`` is cleared."""
     vec3, vec4, mat33 = build_types(Ft)
+    field_friction = build_field_friction(Ft)[0]
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def contact_fix(grid_v: wp.array(dtype=vec3), grid_fbody: wp.array(dtype=wp.int32),
                     shift: wp.array2d(dtype=f64), jsums: wp.array2d(dtype=f64), fr_sums: wp.array2d(dtype=f64),
                     fr_nodes: wp.array(dtype=wp.int32), mass: wp.array(dtype=f64), reach: wp.array(dtype=f64),
-                    g_dt: vec3, lo: vec3, dx: Ft, n_grid: int, n_sup: int):
+                    g_dt: vec3, lo: vec3, dx: Ft, n_grid: int, n_sup: int, grid_mf: wp.array(dtype=Ft),
+                    grid_dv: wp.array(dtype=vec3)):
         for s in range(fr_sums.shape[0]):
             b = s / n_sup
             body_fix(s, b, shift, jsums, fr_sums, mass[b], reach[b], v64(f64(g_dt[0]), f64(g_dt[1]), f64(g_dt[2])))
@@ -154,7 +159,13 @@ def build_contact_fix(Ft):
                 X = v64(f64(lo[0] + dx * Ft(i)), f64(lo[1] + dx * Ft(j)), f64(lo[2] + dx * Ft(k)))
                 dv = support_dv(fr_sums, s, X)
                 grid_v[node] = grid_v[node] + vec3(Ft(dv[0]), Ft(dv[1]), Ft(dv[2]))
+                if grid_mf.shape[0] > 1:   # B_BALANCE: f kept by the grid update where the fields keep offsets
+                    f = grid_mf[node]
+                    if f > Ft(0.0) and f < Ft(1.0):
+                        field_friction(grid_dv, node, vec3(Ft(dv[0]), Ft(dv[1]), Ft(dv[2])), f, 1)
             grid_fbody[node] = -1
+            if grid_mf.shape[0] > 1:
+                grid_mf[node] = Ft(0.0)
         for s in range(fr_sums.shape[0]):
             for q in range(26):
                 fr_sums[s, q] = f64(0.0)
@@ -179,7 +190,7 @@ def balance_launches(engine, k, lo_v, dx, dt_f, ex) -> tuple[list, list]:
     g_dt = k.vec3(*[float(c) * engine.dt for c in engine.setup.gravity])
     fix = wp.launch(build_contact_fix(Ft), dim=1, device=d, record_cmd=True, inputs=[
         engine.grid_v, engine.grid_fbody, engine.c_shift, engine.c_jsums, engine.fr_sums, engine.fr_nodes,
-        engine.c_mass, engine.c_reach, g_dt, lo_v, dx, ng, engine.n_sup])
+        engine.c_mass, engine.c_reach, g_dt, lo_v, dx, ng, engine.n_sup, engine.grid_mf, engine.grid_dv])
     pre = [wp.launch(k.contact_moments, dim=engine.n_material, device=d, record_cmd=True, inputs=[
                engine.x, engine.v, engine.C, engine.p_mass, engine.body, engine.p_contact, engine.planes,
                engine.plane_n, dt_f, dx, engine.c_sums, engine.c_jsums, ex, engine.colc, engine.n_sup]),
