@@ -14,7 +14,7 @@ import warp as wp
 from gasp_core.mpm.grid_tables import FT_TIME
 
 from .colliders import build_blend, build_collide, build_collider_func
-from .balance import build_balance
+from .balance import build_balance, f64, support_dv, v64
 from .contact import build_collider_contact, build_contact
 from .forces import build_extras_struct, build_force_funcs
 from .precision import MODULE_OPTIONS, build_types
@@ -148,6 +148,35 @@ def build_field_friction(Ft):
                 grid_mf[node] = f
 
     return field_friction, field_node, pc_friction, keep_fraction
+
+
+@functools.cache
+def build_node_fix(Ft):
+    """``node_fix(grid_v, grid_dv, grid_mf, fr_sums, s, node, lo, dx, n_grid)``, scalar type ``Ft``: the contact
+    balance's fix at one listed node of support ``s`` (``fr_sums[s, 3] > 0``): its change
+    (``gasp_warp_mpm.balance.support_dv`` at the node's place, m/s) added to the mean ``grid_v``, and given to field
+    B alone where the grid update kept ``0 < f < 1`` in ``grid_mf`` (``gasp_core.mpm.fields.B_BALANCE``,
+    ``keep_fraction``). The one node step of both schedules' fix (``schedule.ordered.contact_fix``,
+    ``schedule.gpu_balance``'s ``fix_nodes``)."""
+    vec3, vec4, mat33 = build_types(Ft)
+    field_friction = build_field_friction(Ft)[0]
+
+    @wp.func
+    def node_fix(grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), grid_mf: wp.array(dtype=Ft),
+                 fr_sums: wp.array2d(dtype=f64), s: int, node: int, lo: vec3, dx: Ft, n_grid: int):
+        i = node / (n_grid * n_grid)
+        j = (node / n_grid) % n_grid
+        k = node % n_grid
+        X = v64(f64(lo[0] + dx * Ft(i)), f64(lo[1] + dx * Ft(j)), f64(lo[2] + dx * Ft(k)))
+        dv64 = support_dv(fr_sums, s, X)
+        dv = vec3(Ft(dv64[0]), Ft(dv64[1]), Ft(dv64[2]))
+        grid_v[node] = grid_v[node] + dv
+        if grid_mf.shape[0] > 1:   # B_BALANCE: f kept by the grid update where the fields keep offsets
+            f = grid_mf[node]
+            if f > Ft(0.0) and f < Ft(1.0):
+                field_friction(grid_dv, node, dv, f, 1)
+
+    return node_fix
 
 
 @functools.cache

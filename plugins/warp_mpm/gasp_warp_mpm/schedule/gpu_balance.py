@@ -15,10 +15,10 @@ import functools
 
 import warp as wp
 
-from ..balance import FR_COLUMNS, body_fix, f64, support_dv, v64
+from ..balance import FR_COLUMNS, body_fix, f64, v64
 from ..contact import build_collider_contact, build_contact_impulse
 from ..forces import build_extras_struct
-from ..grid import build_field_friction
+from ..grid import build_node_fix
 from ..precision import MODULE_OPTIONS, build_types
 from . import BLOCK, n_blocks
 
@@ -180,7 +180,7 @@ def build_fix(Ft):
     ``schedule.ordered.contact_fix`` split into a per-support solve, a per-node apply (with its change given to field
     B alone where the grid update kept ``f`` in ``grid_mf``, ``B_BALANCE``) and a per-support clear."""
     vec3, vec4, mat33 = build_types(Ft)
-    field_friction = build_field_friction(Ft)[0]
+    node_fix = build_node_fix(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def fix_supports(shift: wp.array2d(dtype=f64), jsums: wp.array2d(dtype=f64), fr_sums: wp.array2d(dtype=f64),
@@ -198,16 +198,7 @@ def build_fix(Ft):
         s = grid_fbody[node]
         if s >= 0 and fr_dv[node][3] > Ft(0.0):
             if fr_sums[s, 3] > f64(0.0):
-                i = node / (n_grid * n_grid)
-                j = (node / n_grid) % n_grid
-                k = node % n_grid
-                X = v64(f64(lo[0] + dx * Ft(i)), f64(lo[1] + dx * Ft(j)), f64(lo[2] + dx * Ft(k)))
-                dv = support_dv(fr_sums, s, X)
-                grid_v[node] = grid_v[node] + vec3(Ft(dv[0]), Ft(dv[1]), Ft(dv[2]))
-                if grid_mf.shape[0] > 1:   # B_BALANCE: f kept by the grid update where the fields keep offsets
-                    f = grid_mf[node]
-                    if f > Ft(0.0) and f < Ft(1.0):
-                        field_friction(grid_dv, node, vec3(Ft(dv[0]), Ft(dv[1]), Ft(dv[2])), f, 1)
+                node_fix(grid_v, grid_dv, grid_mf, fr_sums, s, node, lo, dx, n_grid)
             grid_fbody[node] = -1
         if grid_mf.shape[0] > 1 and s >= 0:
             grid_mf[node] = Ft(0.0)

@@ -24,8 +24,8 @@ import types
 
 import warp as wp
 
-from ..balance import body_fix, f64, support_dv, v64
-from ..grid import build_field_friction
+from ..balance import body_fix, f64, v64
+from ..grid import build_node_fix
 from ..precision import MODULE_OPTIONS, build_types
 from ..viscosity import MAX_ITERS, MAX_ITERS_GRAPH, TOL, ImplicitViscosity, build_viscosity
 
@@ -135,9 +135,9 @@ def build_contact_fix(Ft):
     """``contact_fix``, the balance's one-thread kernel of scalar type ``Ft`` after the grid update
     (:mod:`gasp_warp_mpm.balance`'s docstring); at a listed node where the grid update kept the flowing-mass fraction
     ``f`` in ``grid_mf`` (``gasp_core.mpm.fields.B_BALANCE``: the fields keep their offsets there) the change is
-    given to field B alone (``grid.build_field_friction``'s ``field_friction``), and ``grid_mf`` is cleared."""
+    given to field B alone (``grid.build_node_fix``), and ``grid_mf`` is cleared."""
     vec3, vec4, mat33 = build_types(Ft)
-    field_friction = build_field_friction(Ft)[0]
+    node_fix = build_node_fix(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def contact_fix(grid_v: wp.array(dtype=vec3), grid_fbody: wp.array(dtype=wp.int32),
@@ -153,16 +153,7 @@ def build_contact_fix(Ft):
             node = fr_nodes[q + 1]
             s = grid_fbody[node]
             if fr_sums[s, 3] > f64(0.0):
-                i = node / (n_grid * n_grid)
-                j = (node / n_grid) % n_grid
-                k = node % n_grid
-                X = v64(f64(lo[0] + dx * Ft(i)), f64(lo[1] + dx * Ft(j)), f64(lo[2] + dx * Ft(k)))
-                dv = support_dv(fr_sums, s, X)
-                grid_v[node] = grid_v[node] + vec3(Ft(dv[0]), Ft(dv[1]), Ft(dv[2]))
-                if grid_mf.shape[0] > 1:   # B_BALANCE: f kept by the grid update where the fields keep offsets
-                    f = grid_mf[node]
-                    if f > Ft(0.0) and f < Ft(1.0):
-                        field_friction(grid_dv, node, vec3(Ft(dv[0]), Ft(dv[1]), Ft(dv[2])), f, 1)
+                node_fix(grid_v, grid_dv, grid_mf, fr_sums, s, node, lo, dx, n_grid)
             grid_fbody[node] = -1
             if grid_mf.shape[0] > 1:
                 grid_mf[node] = Ft(0.0)
