@@ -192,19 +192,6 @@ def hold_slips(pairs_on: bool = True) -> list[float]:
     return [float(a) for a in vs.numpy()[:, 0]]
 
 
-def test_a_rigid_slab_holds_each_sand_with_its_own_pair():
-    pytest.importorskip("gasp_warp_mpm")
-    got = hold_slips()
-    want = [1.0 - 0.1 * own_pair(phi, 0.6) for phi in (20.0, 40.0)]
-    assert got == pytest.approx(want, abs=2e-4), (got, want)
-
-
-def test_the_hold_check_catches_the_largest_angle():
-    pytest.importorskip("gasp_warp_mpm")
-    got = hold_slips(pairs_on=False)
-    assert got[0] < 1.0 - 0.1 * own_pair(20.0, 0.6) - 2e-3, got   # held at the 40 deg sand's pair
-
-
 def taichi_hold_slips(pairs_on: bool = True) -> list[float]:
     """:func:`hold_slips`' two points through taichi_mpm's hold (``RigidHold.hold_rigid_point``, CPU, float64) of an
     engine built on the same scene, the slabs at rest at their start pose: each point's ``v_x`` after the hold
@@ -235,14 +222,20 @@ def taichi_hold_slips(pairs_on: bool = True) -> list[float]:
     return [float(out[p0, 0]), float(out[p2, 0])]
 
 
-def test_taichi_rigid_slab_holds_each_sand_with_its_own_pair():
-    pytest.importorskip("gasp_taichi_mpm")
-    got = taichi_hold_slips()
+#: Each engine's hold check: the two points' ``v_x`` after its rigid hold (``pairs_on`` False: the per-body table).
+HOLD_SLIPS = {"warp_mpm": hold_slips, "taichi_mpm": taichi_hold_slips}
+
+
+@pytest.mark.parametrize("engine", list(HOLD_SLIPS))
+def test_a_rigid_slab_holds_each_sand_with_its_own_pair(engine):
+    pytest.importorskip(f"gasp_{engine}")
+    got = HOLD_SLIPS[engine]()
     want = [1.0 - 0.1 * own_pair(phi, 0.6) for phi in (20.0, 40.0)]
     assert got == pytest.approx(want, abs=2e-4), (got, want)
 
 
-def test_the_taichi_hold_check_catches_the_largest_angle():
-    pytest.importorskip("gasp_taichi_mpm")
-    got = taichi_hold_slips(pairs_on=False)
+@pytest.mark.parametrize("engine", list(HOLD_SLIPS))
+def test_the_hold_check_catches_the_largest_angle(engine):
+    pytest.importorskip(f"gasp_{engine}")
+    got = HOLD_SLIPS[engine](pairs_on=False)
     assert got[0] < 1.0 - 0.1 * own_pair(20.0, 0.6) - 2e-3, got   # held at the 40 deg sand's pair
