@@ -42,6 +42,7 @@ SPECIMENS = {n: to.SPECIMENS[n] for n in ("dogbone_2to1", "dogbone_1.5to1", "bar
 LAYER = 0.5         # a layer's width along the axis, cells (SPECIMENS: the flat dog-bones; the bar keeps a gauge)
 SPREAD_AT = 0.6     # the gauge's median stress (of f_t) at which the points' spread is taken
 FACES = "nearest"   # the held faces on the nearest node (faces: "nearest", "out" or "corners")
+CONSTRAIN = "all"   # the set box's constrain key (round 44: "along", a grip free across its pull)
 
 
 def section_half(sp: tf.Specimen) -> np.ndarray:
@@ -84,7 +85,7 @@ t0 = 0.0
 t1 = 100.0
 mode = "set"
 ramp = {float(ramp)!r}
-[[object]]
+{'constrain = "along"' + chr(10) if CONSTRAIN == "along" else ""}[[object]]
 mesh = "{mesh}"
 up_axis = "+z"
 rotation = {rot}
@@ -256,7 +257,7 @@ def run_case(sp: tf.Specimen, n_grid: int, engine: str, angle: str, start: str =
     D = np.bincount(np.maximum(layer, 0), np.where(layer >= 0, Dp, 0.0), nl) / a_gauge
     g = lx[gauge]
     return {"specimen": sp.name, "engine": engine, "n_grid": n_grid, "angle": angle, "start": start,
-            "faces": FACES,
+            "faces": FACES, "constrain": CONSTRAIN,
             "axis": a.round(6).tolist(),
             "dx": dx, "h": dx / ps.scene.domain.particles_per_cell ** (1 / 3), "points": int((pv > 0).sum()),
             "passive": int((pv == 0).sum()), "frames": n_frames, "seconds": round(time.time() - t0, 1),
@@ -296,7 +297,8 @@ def lattice_spread(sp: tf.Specimen, n_grid: int, engine: str, angle: str) -> dic
 
 
 def _key(r: dict) -> tuple:
-    return r["specimen"], r["angle"], r["engine"], r["n_grid"], r.get("start", "ramp"), r.get("faces", "nearest")
+    return (r["specimen"], r["angle"], r["engine"], r["n_grid"], r.get("start", "ramp"), r.get("faces", "nearest"),
+            r.get("constrain", "all"))
 
 
 def _sp(q: dict | None) -> str:
@@ -305,7 +307,7 @@ def _sp(q: dict | None) -> str:
 
 def table(rows: list[dict], spreads: list[dict]) -> str:
     """The Markdown tables: the cases with the must-show's lines, and the spreads (fill against rotated lattice)."""
-    out = ["| specimen | angle | engine | n_grid | start | faces | fill mass vs rho V | gauge section | peak / f_t | "
+    out = ["| specimen | angle | engine | n_grid | start | faces, constrain | fill mass vs rho V | gauge section | peak / f_t | "
            "breaks at (axial m) | gauge (axial m) | where | work (J/m^2) | vs G_f | N to 2N | dissipated (J/m^2) | "
            "gauge spread p5-p95 (min, max) | s |", "|---" * 18 + "|"]
     by = {_key(r): r for r in rows}
@@ -313,7 +315,7 @@ def table(rows: list[dict], spreads: list[dict]) -> str:
         twin = by.get(_key(r)[:3] + (r["n_grid"] // 2,) + _key(r)[4:])
         conv = f"{100 * (r['work'] / twin['work'] - 1):+.1f} %" if twin else ""
         out.append(f"| {r['specimen']} | {r['angle']} | {r['engine']} | {r['n_grid']} | {r.get('start', 'ramp')} | "
-                   f"{r.get('faces', 'nearest')} | "
+                   f"{r.get('faces', 'nearest')}, {r.get('constrain', 'all')} | "
                    f"{100 * r['mass_vs_mesh']:+.2f} % | {100 * r['gauge_section']:+.2f} % | "
                    f"{r['peak'] / tf.FT:.3f} ({100 * r['peak_vs_ft']:+.1f} %) | {r['crack_s']:.3f} | "
                    f"{r['gauge'][0]:.3f}-{r['gauge'][1]:.3f} | {r['where']}{' (diverged)' * bool(r.get('diverged'))} | "
@@ -337,9 +339,10 @@ def main() -> None:
     ap.add_argument("--lattice", action="store_true", help="the rotated lattice's spread only (lattice_spread)")
     ap.add_argument("--start", default="ramp", choices=("ramp", "stretch"), help="run_case")
     ap.add_argument("--faces", default="nearest", choices=("nearest", "out", "corners"), help="faces")
+    ap.add_argument("--constrain", default="all", choices=("all", "along"), help="the set box's (CONSTRAIN)")
     a = ap.parse_args()
     tf.name_check(a.engine)
-    globals()["FACES"] = a.faces
+    globals()["FACES"], globals()["CONSTRAIN"] = a.faces, a.constrain
     RESULTS.mkdir(exist_ok=True)
     path = RESULTS / "user_oblique.json"
     data = json.loads(path.read_text()) if path.exists() else {}
