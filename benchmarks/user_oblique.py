@@ -18,9 +18,13 @@ volume mean of ``x . a``; the gauge, ``where``, the work and ``dissipated`` as t
 median stress first reaches ``SPREAD_AT`` f_t, its points' largest principal stress over their mean (percentiles,
 extremes); ``--lattice``: the same on ``tension_oblique.build``'s rotated lattice.
 
+Round 44: ``--constrain along`` writes the pull's set box with ``constrain = "along"`` (it imposes only the velocity
+along the axis: a grip free across its pull, docs/colliders.md), ``--clamp set`` the clamp as a set box at rest
+(every component held) instead of the ``fixed_region``.
+
 Run: ``python benchmarks/user_oblique.py --engine taichi_mpm`` (and ``warp_mpm``; ``--only``, ``--angles``,
-``--n-grid``, ``--coarse-only``, ``--faces``, ``--start``, ``--lattice``); cases are added to
-``benchmarks/results/user_oblique.json`` and ``user_oblique.md`` is written from it. One engine per process.
+``--n-grid``, ``--coarse-only``, ``--faces``, ``--start``, ``--lattice``, ``--constrain``, ``--clamp``); cases are
+added to ``benchmarks/results/user_oblique.json`` and ``user_oblique.md`` is written from it. One engine per process.
 """
 from __future__ import annotations
 
@@ -43,6 +47,7 @@ LAYER = 0.5         # a layer's width along the axis, cells (SPECIMENS: the flat
 SPREAD_AT = 0.6     # the gauge's median stress (of f_t) at which the points' spread is taken
 FACES = "nearest"   # the held faces on the nearest node (faces: "nearest", "out" or "corners")
 CONSTRAIN = "all"   # the set box's constrain key (round 44: "along", a grip free across its pull)
+CLAMP = "fixed"     # the clamp: a fixed_region ("fixed") or a set box at rest ("set", round 44)
 
 
 def section_half(sp: tf.Specimen) -> np.ndarray:
@@ -76,7 +81,18 @@ def scene_toml(sp: tf.Specimen, n_grid: int, engine: str, mesh: str, angle: str,
     rot = [90.0 if sp.flat else 0.0, 0.0, float(angle)]
     z0 = float(to.CENTRE[2] - section_half(sp)[1])
     S = tf.SIZE
-    return ut.scene_head(engine, n_grid, 0.0, clamp) + f"""[[impulse]]
+    head = ut.scene_head(engine, n_grid, 0.0, clamp)
+    if CLAMP == "set":   # the clamp's half-space as a set box at rest (every component held at 0)
+        head = head[:head.index("[[boundary]]")] + f"""[[impulse]]
+shape = "box"
+lo = [0.0, 0.0, 0.0]
+hi = [{clamp!r}, {S}, {S}]
+velocity_change = [0.0, 0.0, 0.0]
+t0 = 0.0
+t1 = 100.0
+mode = "set"
+"""
+    return head + f"""[[impulse]]
 shape = "box"
 lo = [{pulled!r}, 0.0, 0.0]
 hi = [{S}, {S}, {S}]
@@ -257,7 +273,7 @@ def run_case(sp: tf.Specimen, n_grid: int, engine: str, angle: str, start: str =
     D = np.bincount(np.maximum(layer, 0), np.where(layer >= 0, Dp, 0.0), nl) / a_gauge
     g = lx[gauge]
     return {"specimen": sp.name, "engine": engine, "n_grid": n_grid, "angle": angle, "start": start,
-            "faces": FACES, "constrain": CONSTRAIN,
+            "faces": FACES, "constrain": CONSTRAIN + ("" if CLAMP == "fixed" else f", clamp {CLAMP}"),
             "axis": a.round(6).tolist(),
             "dx": dx, "h": dx / ps.scene.domain.particles_per_cell ** (1 / 3), "points": int((pv > 0).sum()),
             "passive": int((pv == 0).sum()), "frames": n_frames, "seconds": round(time.time() - t0, 1),
@@ -307,9 +323,9 @@ def _sp(q: dict | None) -> str:
 
 def table(rows: list[dict], spreads: list[dict]) -> str:
     """The Markdown tables: the cases with the must-show's lines, and the spreads (fill against rotated lattice)."""
-    out = ["| specimen | angle | engine | n_grid | start | faces, constrain | fill mass vs rho V | gauge section | peak / f_t | "
-           "breaks at (axial m) | gauge (axial m) | where | work (J/m^2) | vs G_f | N to 2N | dissipated (J/m^2) | "
-           "gauge spread p5-p95 (min, max) | s |", "|---" * 18 + "|"]
+    out = ["| specimen | angle | engine | n_grid | start | faces, constrain | fill mass vs rho V | gauge section | "
+           "peak / f_t | breaks at (axial m) | gauge (axial m) | where | work (J/m^2) | vs G_f | N to 2N | "
+           "dissipated (J/m^2) | gauge spread p5-p95 (min, max) | s |", "|---" * 18 + "|"]
     by = {_key(r): r for r in rows}
     for r in sorted(rows, key=_key):
         twin = by.get(_key(r)[:3] + (r["n_grid"] // 2,) + _key(r)[4:])
@@ -340,9 +356,10 @@ def main() -> None:
     ap.add_argument("--start", default="ramp", choices=("ramp", "stretch"), help="run_case")
     ap.add_argument("--faces", default="nearest", choices=("nearest", "out", "corners"), help="faces")
     ap.add_argument("--constrain", default="all", choices=("all", "along"), help="the set box's (CONSTRAIN)")
+    ap.add_argument("--clamp", default="fixed", choices=("fixed", "set"), help="CLAMP")
     a = ap.parse_args()
     tf.name_check(a.engine)
-    globals()["FACES"], globals()["CONSTRAIN"] = a.faces, a.constrain
+    globals()["FACES"], globals()["CONSTRAIN"], globals()["CLAMP"] = a.faces, a.constrain, a.clamp
     RESULTS.mkdir(exist_ok=True)
     path = RESULTS / "user_oblique.json"
     data = json.loads(path.read_text()) if path.exists() else {}
