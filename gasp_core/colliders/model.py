@@ -193,15 +193,13 @@ class Impulse:
         ``velocity_change`` at ``t0 + ramp``, then holds until ``t1`` (:meth:`ramp_factor`); 0 (default):
         ``velocity_change`` from ``t0``. Finite, in ``[0, t1 - t0]``.
     constrain : {"all", "along"}
-        ``set`` only: ``"all"`` (default) imposes every velocity component; ``"along"`` only the component along
-        ``velocity_change``'s direction, the ones across it left as the grid update gives them (a finite-element
-        code's per-degree-of-freedom constraint; docs/colliders.md). ``"along"`` needs a nonzero ``velocity_change``.
+        ``set``: every velocity component imposed (default), or only the one along ``velocity_change`` (nonzero),
+        those across it left free (a per-degree-of-freedom constraint; docs/colliders.md).
 
     Raises
     ------
     SceneError
-        ``ramp`` negative, not finite, past ``t1 - t0``, or not 0 with ``mode = "add"``; ``constrain`` not one of
-        :data:`CONSTRAINS`, ``"along"`` with ``mode = "add"`` or a zero ``velocity_change``.
+        ``ramp`` negative, not finite, past ``t1 - t0``, or not 0 with ``mode = "add"``; a bad ``constrain``.
     """
 
     shape: str
