@@ -18,9 +18,13 @@ volume mean of ``x . a``; the gauge, ``where``, the work and ``dissipated`` as t
 median stress first reaches ``SPREAD_AT`` f_t, its points' largest principal stress over their mean (percentiles,
 extremes); ``--lattice``: the same on ``tension_oblique.build``'s rotated lattice.
 
+Round 44: ``--constrain along`` writes the pull's set box with ``constrain = "along"`` (it imposes only the velocity
+along the axis: a grip free across its pull, docs/colliders.md), ``--clamp set`` the clamp as a set box at rest
+(every component held) instead of the ``fixed_region``.
+
 Run: ``python benchmarks/user_oblique.py --engine taichi_mpm`` (and ``warp_mpm``; ``--only``, ``--angles``,
-``--n-grid``, ``--coarse-only``, ``--faces``, ``--start``, ``--lattice``); cases are added to
-``benchmarks/results/user_oblique.json`` and ``user_oblique.md`` is written from it. One engine per process.
+``--n-grid``, ``--coarse-only``, ``--faces``, ``--start``, ``--lattice``, ``--constrain``, ``--clamp``); cases are
+added to ``benchmarks/results/user_oblique.json`` and ``user_oblique.md`` is written from it. One engine per process.
 """
 from __future__ import annotations
 
@@ -42,6 +46,8 @@ SPECIMENS = {n: to.SPECIMENS[n] for n in ("dogbone_2to1", "dogbone_1.5to1", "bar
 LAYER = 0.5         # a layer's width along the axis, cells (SPECIMENS: the flat dog-bones; the bar keeps a gauge)
 SPREAD_AT = 0.6     # the gauge's median stress (of f_t) at which the points' spread is taken
 FACES = "nearest"   # the held faces on the nearest node (faces: "nearest", "out" or "corners")
+CONSTRAIN = "all"   # the set box's constrain key (round 44: "along", a grip free across its pull)
+CLAMP = "fixed"     # the clamp: a fixed_region ("fixed") or a set box at rest ("set", round 44)
 
 
 def section_half(sp: tf.Specimen) -> np.ndarray:
@@ -75,7 +81,18 @@ def scene_toml(sp: tf.Specimen, n_grid: int, engine: str, mesh: str, angle: str,
     rot = [90.0 if sp.flat else 0.0, 0.0, float(angle)]
     z0 = float(to.CENTRE[2] - section_half(sp)[1])
     S = tf.SIZE
-    return ut.scene_head(engine, n_grid, 0.0, clamp) + f"""[[impulse]]
+    head = ut.scene_head(engine, n_grid, 0.0, clamp)
+    if CLAMP == "set":   # the clamp's half-space as a set box at rest (every component held at 0)
+        head = head[:head.index("[[boundary]]")] + f"""[[impulse]]
+shape = "box"
+lo = [0.0, 0.0, 0.0]
+hi = [{clamp!r}, {S}, {S}]
+velocity_change = [0.0, 0.0, 0.0]
+t0 = 0.0
+t1 = 100.0
+mode = "set"
+"""
+    return head + f"""[[impulse]]
 shape = "box"
 lo = [{pulled!r}, 0.0, 0.0]
 hi = [{S}, {S}, {S}]
@@ -84,7 +101,7 @@ t0 = 0.0
 t1 = 100.0
 mode = "set"
 ramp = {float(ramp)!r}
-[[object]]
+{'constrain = "along"' + chr(10) if CONSTRAIN == "along" else ""}[[object]]
 mesh = "{mesh}"
 up_axis = "+z"
 rotation = {rot}
@@ -256,7 +273,7 @@ def run_case(sp: tf.Specimen, n_grid: int, engine: str, angle: str, start: str =
     D = np.bincount(np.maximum(layer, 0), np.where(layer >= 0, Dp, 0.0), nl) / a_gauge
     g = lx[gauge]
     return {"specimen": sp.name, "engine": engine, "n_grid": n_grid, "angle": angle, "start": start,
-            "faces": FACES,
+            "faces": FACES, "constrain": CONSTRAIN + ("" if CLAMP == "fixed" else f", clamp {CLAMP}"),
             "axis": a.round(6).tolist(),
             "dx": dx, "h": dx / ps.scene.domain.particles_per_cell ** (1 / 3), "points": int((pv > 0).sum()),
             "passive": int((pv == 0).sum()), "frames": n_frames, "seconds": round(time.time() - t0, 1),
@@ -296,7 +313,8 @@ def lattice_spread(sp: tf.Specimen, n_grid: int, engine: str, angle: str) -> dic
 
 
 def _key(r: dict) -> tuple:
-    return r["specimen"], r["angle"], r["engine"], r["n_grid"], r.get("start", "ramp"), r.get("faces", "nearest")
+    return (r["specimen"], r["angle"], r["engine"], r["n_grid"], r.get("start", "ramp"), r.get("faces", "nearest"),
+            r.get("constrain", "all"))
 
 
 def _sp(q: dict | None) -> str:
@@ -305,15 +323,15 @@ def _sp(q: dict | None) -> str:
 
 def table(rows: list[dict], spreads: list[dict]) -> str:
     """The Markdown tables: the cases with the must-show's lines, and the spreads (fill against rotated lattice)."""
-    out = ["| specimen | angle | engine | n_grid | start | faces | fill mass vs rho V | gauge section | peak / f_t | "
-           "breaks at (axial m) | gauge (axial m) | where | work (J/m^2) | vs G_f | N to 2N | dissipated (J/m^2) | "
-           "gauge spread p5-p95 (min, max) | s |", "|---" * 18 + "|"]
+    out = ["| specimen | angle | engine | n_grid | start | faces, constrain | fill mass vs rho V | gauge section | "
+           "peak / f_t | breaks at (axial m) | gauge (axial m) | where | work (J/m^2) | vs G_f | N to 2N | "
+           "dissipated (J/m^2) | gauge spread p5-p95 (min, max) | s |", "|---" * 18 + "|"]
     by = {_key(r): r for r in rows}
     for r in sorted(rows, key=_key):
         twin = by.get(_key(r)[:3] + (r["n_grid"] // 2,) + _key(r)[4:])
         conv = f"{100 * (r['work'] / twin['work'] - 1):+.1f} %" if twin else ""
         out.append(f"| {r['specimen']} | {r['angle']} | {r['engine']} | {r['n_grid']} | {r.get('start', 'ramp')} | "
-                   f"{r.get('faces', 'nearest')} | "
+                   f"{r.get('faces', 'nearest')}, {r.get('constrain', 'all')} | "
                    f"{100 * r['mass_vs_mesh']:+.2f} % | {100 * r['gauge_section']:+.2f} % | "
                    f"{r['peak'] / tf.FT:.3f} ({100 * r['peak_vs_ft']:+.1f} %) | {r['crack_s']:.3f} | "
                    f"{r['gauge'][0]:.3f}-{r['gauge'][1]:.3f} | {r['where']}{' (diverged)' * bool(r.get('diverged'))} | "
@@ -337,9 +355,11 @@ def main() -> None:
     ap.add_argument("--lattice", action="store_true", help="the rotated lattice's spread only (lattice_spread)")
     ap.add_argument("--start", default="ramp", choices=("ramp", "stretch"), help="run_case")
     ap.add_argument("--faces", default="nearest", choices=("nearest", "out", "corners"), help="faces")
+    ap.add_argument("--constrain", default="all", choices=("all", "along"), help="the set box's (CONSTRAIN)")
+    ap.add_argument("--clamp", default="fixed", choices=("fixed", "set"), help="CLAMP")
     a = ap.parse_args()
     tf.name_check(a.engine)
-    globals()["FACES"] = a.faces
+    globals()["FACES"], globals()["CONSTRAIN"], globals()["CLAMP"] = a.faces, a.constrain, a.clamp
     RESULTS.mkdir(exist_ok=True)
     path = RESULTS / "user_oblique.json"
     data = json.loads(path.read_text()) if path.exists() else {}

@@ -11,7 +11,10 @@ along y) fails the section's extents.
 
 Slow (both engines): the must-show (``tests/test_user_tension.py``'s, along the axis) on both dog-bones at 30 and 45
 deg, n_grid N and 2N; every case misses it (peaks 0.920-0.957 f_t, as the hand-built lattice's 0.922-0.955; at 45
-deg the break outside the gauge): strict xfails with their figures (``KNOWN``).
+deg the break outside the gauge): strict xfails with their figures (``KNOWN``). Round 44: the same at 45 deg with the
+pull's set box ``constrain = "along"`` (a grip free across its pull, docs/fracture.md "Round 44"): the 2:1 meets it
+at both grids; the 1.5:1 misses the work (a strict xfail, ``KNOWN_ALONG``). Its catch is ``KNOWN``'s 45 deg rows:
+the same scene with the set box imposing every component.
 """
 from __future__ import annotations
 
@@ -133,4 +136,32 @@ KNOWN: dict = {
     for sp in BONES for ang in ANGLES for n in _names()])
 def test_each_oblique_dog_bone_built_through_the_scene_carries_f_t_breaks_in_its_gauge_and_takes_G_f(sp, angle, name):
     bad = family_failures(sp, angle, name)
+    assert bad == [], bad
+
+
+#: round 44, the pull's set box ``constrain = "along"``: the cases that miss the must-show, with the measured figures
+#: (benchmarks/results/user_oblique.md; docs/fracture.md "Round 44")
+KNOWN_ALONG: dict = {
+    "dogbone_1.5to1": "peak 0.978 / 0.976 f_t at n_grid 24 / 48, in the gauge at both; work to separate 24.64 J/m^2 "
+                      "(+23.2 %) at 24, 21.42 (+7.1 %) at 48 (-13.1 % between): the work at N misses, as on round 40's "
+                      "free grips (24.05, +20.3 %): round 34's band across a 45 deg crack",
+}
+
+
+def along_failures(sp, angle: str, name: str) -> list[str]:
+    """:func:`family_failures` with the pull's set box ``constrain = "along"`` (``user_oblique.CONSTRAIN``)."""
+    uo.CONSTRAIN = "along"
+    try:
+        return family_failures(sp, angle, name)
+    finally:
+        uo.CONSTRAIN = "all"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sp, name", [
+    pytest.param(sp, n, id=f"{n}-45-{sp.name}",
+                 marks=[pytest.mark.xfail(strict=True, reason=KNOWN_ALONG[sp.name])] if sp.name in KNOWN_ALONG else [])
+    for sp in BONES for n in _names()])
+def test_each_oblique_dog_bone_on_a_grip_free_across_its_pull_carries_f_t_and_breaks_in_its_gauge(sp, name):
+    bad = along_failures(sp, "45", name)
     assert bad == [], bad

@@ -45,6 +45,8 @@ COL_META, COL_POSE = 9, 18
 FORCE_ROW, MODE_ROW = 12, 8
 #: Floats per impulse row (:func:`grid_tables`).
 IMPULSE_ROW = 11
+#: A set impulse's ``constrain``: every velocity component imposed, or only the one along ``velocity_change``.
+CONSTRAINS = ("all", "along")
 FALLOFFS = ("none", "inverse_square")
 #: The error for a wind given as an acceleration (the scene format before issue 17).
 WIND_ACCELERATION_REMOVED = (
@@ -190,11 +192,14 @@ class Impulse:
         ``set`` only: seconds over which the imposed velocity rises linearly from 0 at ``t0`` to
         ``velocity_change`` at ``t0 + ramp``, then holds until ``t1`` (:meth:`ramp_factor`); 0 (default):
         ``velocity_change`` from ``t0``. Finite, in ``[0, t1 - t0]``.
+    constrain : {"all", "along"}
+        ``set``: every velocity component imposed (default), or only the one along ``velocity_change`` (nonzero),
+        those across it left free (a per-degree-of-freedom constraint; docs/colliders.md).
 
     Raises
     ------
     SceneError
-        ``ramp`` negative, not finite, past ``t1 - t0``, or not 0 with ``mode = "add"``.
+        ``ramp`` negative, not finite, past ``t1 - t0``, or not 0 with ``mode = "add"``; a bad ``constrain``.
     """
 
     shape: str
@@ -207,6 +212,7 @@ class Impulse:
     radius: float = 0.0
     mode: str = "add"
     ramp: float = 0.0
+    constrain: str = "all"
 
     def __post_init__(self):
         r = self.ramp
@@ -214,6 +220,11 @@ class Impulse:
         if not (real and math.isfinite(r) and 0.0 <= r <= self.t1 - self.t0 + 1e-12):
             raise SceneError(f"impulse 'ramp' must be a finite number of seconds in [0, t1 - t0 = "
                              f"{self.t1 - self.t0:g}], got {r!r}")
+        if self.constrain not in CONSTRAINS or (self.constrain == "along" and (
+                self.mode != "set" or not np.linalg.norm(np.asarray(self.velocity_change, float)) > 0.0)):
+            raise SceneError(f"impulse 'constrain' must be one of {list(CONSTRAINS)} ('along' with mode = 'set' and a "
+                             f"nonzero velocity_change, its direction), got {self.constrain!r} with mode = "
+                             f"{self.mode!r}, velocity_change {list(self.velocity_change)}")
         if r > 0.0 and self.mode != "set":
             raise SceneError(f"impulse 'ramp' = {r:g} s is for mode = 'set' only (an 'add' impulse spreads its "
                              f"change evenly over [t0, t1]), got mode = {self.mode!r}")

@@ -24,11 +24,15 @@ FALLOFF_INVERSE_SQUARE = FALLOFFS.index("inverse_square")
 #: phase (rad), omega (rad/s).
 MD_K, MD_A, MD_PHASE, MD_OMEGA = 0, 3, 6, 7
 #: ``impulses`` row (:data:`IMPULSE_ROW` floats): shape (0 box, 1 sphere), a (3: lo or centre, m), b (3: hi or
-#: (radius, 0, 0), m), mode (0 add, 1 set), dv (3, m/s).
+#: (radius, 0, 0), m), mode (0 add, 1 set, 2 set ``constrain = "along"``), dv (3, m/s).
 IM_SHAPE, IM_A, IM_B, IM_MODE, IM_DV = 0, 1, 4, 7, 8
 #: ``impulses`` shapes and modes.
 IMPULSE_BOX, IMPULSE_SPHERE = 0, 1
 IMPULSE_ADD, IMPULSE_SET = 0, 1
+#: A set impulse with ``constrain = "along"`` (round 44, docs/colliders.md): it imposes only the velocity component
+#: along ``a = dv / |dv|``, ``v = (I - a a^T) v_free + a a^T v_held``; every reader of a set box tests ``mode !=
+#: IMPULSE_ADD`` for "a set box", so this mode is one to all of them, and the ones that impose project.
+IMPULSE_SET_ALONG = 2
 #: A row of :func:`frame_table` (``GridTables.width`` floats): time (s), then :data:`COL_POSE` floats per collider
 #: from ``FT_POSES``, then one weight per impulse (:func:`impulse_weight`).
 FT_TIME, FT_POSES = 0, 1
@@ -91,7 +95,7 @@ class GridTables:
     (m/s) or attractor point, (drag factor 1/2 rho_air C_d (kg/m^3) for wind, 0, 0), strength, radius,
     falloff (0 none, 1 inverse_square), mode start, mode count``; ``modes`` rows of :data:`MODE_ROW` (:meth:`ForceField.modes`);
     ``impulses`` rows of :data:`IMPULSE_ROW`: ``shape (0 box, 1 sphere), a (3) = lo or centre,
-    b (3) = hi or (radius, 0, 0), mode (0 add, 1 set), dv (3)``.
+    b (3) = hi or (radius, 0, 0), mode (0 add, 1 set, 2 set along), dv (3)``.
     """
 
     n_colliders: int
@@ -145,8 +149,9 @@ def grid_tables(setup) -> GridTables:
     for i in imps:
         a = i.lo if i.shape == "box" else i.centre
         b = i.hi if i.shape == "box" else (i.radius, 0.0, 0.0)
-        irows.append([IMPULSE_BOX if i.shape == "box" else IMPULSE_SPHERE, *a, *b,
-                      IMPULSE_ADD if i.mode == "add" else IMPULSE_SET, *i.velocity_change])
+        mode = IMPULSE_ADD if i.mode == "add" else (IMPULSE_SET_ALONG if getattr(i, "constrain", "all") == "along"
+                                                    else IMPULSE_SET)
+        irows.append([IMPULSE_BOX if i.shape == "box" else IMPULSE_SPHERE, *a, *b, mode, *i.velocity_change])
     return GridTables(
         n_colliders=len(cols), n_forces=len(forces), n_impulses=len(imps),
         sdf=np.concatenate(sdf) if sdf else np.zeros(1), sdf_grad=np.concatenate(grad) if grad else np.zeros(3),
@@ -154,6 +159,15 @@ def grid_tables(setup) -> GridTables:
         forces=np.array(frows, float).reshape(-1) if frows else np.zeros(FORCE_ROW),
         modes=(np.concatenate(modes).reshape(-1) if m0 else np.zeros(MODE_ROW)),
         impulses=np.array(irows, float).reshape(-1) if irows else np.zeros(IMPULSE_ROW))
+
+
+def count_along(ex) -> int:
+    """Set impulses with ``constrain = "along"`` in the tables ``ex`` (None: none): the engines build their
+    projections (:data:`IMPULSE_SET_ALONG`) only where there is one, so every other scene runs the kernels of before."""
+    if ex is None or not ex.n_impulses:
+        return 0
+    rows = np.asarray(ex.impulses, float).reshape(-1, IMPULSE_ROW)[:ex.n_impulses]
+    return int(np.sum(rows[:, IM_MODE] == IMPULSE_SET_ALONG))
 
 
 def impulse_weight(imp, t: float, dt: float) -> float:

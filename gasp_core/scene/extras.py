@@ -62,7 +62,7 @@ _FORCE_KIND_KEYS = {"wind": {"kind", "direction", "speed", "air_density", "drag_
                              "turbulence_scale", "turbulence_time", "seed"},
                     "attractor": {"kind", "point", "strength", "radius", "falloff"}}
 _IMPULSE_SHAPE_KEYS = {"box": {"lo", "hi"}, "sphere": {"centre", "radius"}}
-_IMPULSE_KEYS = {"shape", "velocity_change", "t0", "t1", "mode", "ramp"}
+_IMPULSE_KEYS = {"shape", "velocity_change", "t0", "t1", "mode", "ramp", "constrain"}
 #: Largest acceleration of a force field, m/s^2 (as gravity).
 MAX_ACCEL = MAX_GRAVITY
 
@@ -194,6 +194,15 @@ def _impulse(i: dict, where: str, src: Path):
         if kw["ramp"] > kw["t1"] - kw["t0"]:
             bad_value(src, f"{where}.ramp", i["ramp"], f"seconds within the window, at most t1 - t0 = "
                       f"{kw['t1'] - kw['t0']:g}")
+    if "constrain" in i:
+        kw["constrain"] = as_string(i["constrain"], f"{where}.constrain", src, ("all", "along"))
+        if kw["constrain"] == "along" and kw["mode"] != "set":
+            raise SceneError(f"{src}: {where}.constrain: only mode = 'set' takes 'along' (an 'add' impulse adds "
+                             f"every component), got mode = {kw['mode']!r}")
+        if kw["constrain"] == "along" and not any(c != 0.0 for c in kw["velocity_change"]):
+            raise SceneError(f"{src}: {where}.constrain = 'along' needs a nonzero velocity_change (its direction is "
+                             f"the one imposed; to hold the region at rest in every component use 'all'), got "
+                             f"{list(kw['velocity_change'])}")
     return Impulse(**kw)
 
 

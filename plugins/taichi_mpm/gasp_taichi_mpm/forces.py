@@ -9,7 +9,8 @@ import taichi as ti
 from gasp_core.mpm.grid_tables import (COL_POSE, FALLOFF_INVERSE_SQUARE, FORCE_ROW, FORCE_WIND, FR_C, FR_DRAG,
                                            FR_FALLOFF, FR_KIND, FR_MODE_COUNT, FR_MODE_START, FR_RADIUS, FR_STRENGTH,
                                            FT_POSES, IM_A, IM_B, IM_DV, IM_MODE, IM_SHAPE, IMPULSE_ADD, IMPULSE_BOX,
-                                           IMPULSE_ROW, MD_A, MD_K, MD_OMEGA, MD_PHASE, MODE_ROW, SET_ON)
+                                           IMPULSE_ROW, IMPULSE_SET_ALONG, MD_A, MD_K, MD_OMEGA, MD_PHASE, MODE_ROW,
+                                           SET_ON, count_along)
 from gasp_core.mpm import grid_tables
 from gasp_core.mpm.points import HELD_STRAIN_CELLS, SET_FACE_CELLS
 
@@ -28,6 +29,7 @@ class Forces:
     def _setup_extras(self, ex, time_table, np_real, n_substeps) -> None:
         """Fields of :func:`gasp_core.mpm.grid_tables.grid_tables` (``ex``); none when ``ex`` is None or empty."""
         self.has_extras = ex is not None and ex.any
+        self.n_along = count_along(ex)   # set boxes with constrain = "along": their projections are built (constrain)
         # wind: per node sum_p p_vol grad N_ip (m^2), the windward area its drag acts on (private copies as grid_mv)
         self.has_wind = bool(self.has_extras and ex.has_wind)
         ng = self.n_grid
@@ -105,6 +107,40 @@ class Forces:
         return (w - SET_ON) * dv
 
     @ti.func
+    def constrain(self, q, v_free, v_held):
+        """The velocity (m/s) set impulse ``q`` leaves at a node whose velocity is ``v_free`` where its rule (the
+        impulse, a ghost's mirror, a held face) gives ``v_held``: ``v_held`` (``constrain = "all"``); ``(I - a a^T)
+        v_free + a a^T v_held``, ``a = dv / |dv|`` (``"along"``: the components across ``a`` left free;
+        ``grid_tables.IMPULSE_SET_ALONG``). Scenes without an ``"along"`` box compile ``v_held`` alone."""
+        out = v_held
+        if ti.static(self.n_along > 0):
+            r = q * IMPULSE_ROW
+            if self.ex_imps[r + IM_MODE] == IMPULSE_SET_ALONG:
+                a = ti.Vector([self.ex_imps[r + IM_DV], self.ex_imps[r + IM_DV + 1], self.ex_imps[r + IM_DV + 2]])
+                a = a / a.norm()
+                out = v_free + (v_held - v_free).dot(a) * a
+        return out
+
+    @ti.func
+    def along_flip(self, p, a, M, M_flip):
+        """A 3x3 ``M_flip`` (a gradient or a stress, the held rule's mirror of ``M``) of point ``p`` near a held face
+        (``a >= 0``): for a set box's point (``fixed`` 0) whose box has ``constrain = "along"``, ``M + P (M_flip -
+        M)``, ``P = a a^T``: its rows along the pull its mirror's, across it its own (:meth:`constrain` for the
+        gradient's and the stress's rows); else ``M_flip``."""
+        out = M_flip
+        if ti.static(self.n_along > 0):
+            if a >= 0 and self.fixed[p] == 0:
+                q = self.set_box_at(self.x[p])
+                if q >= 0:
+                    r = q * IMPULSE_ROW
+                    if self.ex_imps[r + IM_MODE] == IMPULSE_SET_ALONG:
+                        d = ti.Vector([self.ex_imps[r + IM_DV], self.ex_imps[r + IM_DV + 1],
+                                       self.ex_imps[r + IM_DV + 2]])
+                        d = d / d.norm()
+                        out = M + d.outer_product(d) @ (M_flip - M)
+        return out
+
+    @ti.func
     def mirror_set_boxes(self, I):
         """The ghost node ``I`` of the box impulse of ``mode = "set"`` acting in this substep that holds it
         (:meth:`set_box_at`; :meth:`gasp_taichi_mpm.grid.GridUpdate.mirror_node`, reflected about the imposed
@@ -114,7 +150,8 @@ class Forces:
         q = self.set_box_at(X)
         if q >= 0:
             c, b = self.impulse_corners(q)
-            self.grid_v[I] = self.mirror_node(I, c, b, self.set_velocity(q, self.impulse_weight(q)), True, 0)
+            self.grid_v[I] = self.constrain(q, self.grid_v[I], self.mirror_node(
+                I, c, b, self.set_velocity(q, self.impulse_weight(q)), True, 0))
 
     @ti.func
     def image_share(self, v_set, J, I, empty: ti.template()):
@@ -194,12 +231,14 @@ class Forces:
                             J = I
                             J[d] -= 1
                             if self.grid_m[J] > 0.0:
-                                self.grid_v[I] = (dv + sl * self.grid_v[J]) / (1.0 + sl)
+                                self.grid_v[I] = self.constrain(q, self.grid_v[I],
+                                                                (dv + sl * self.grid_v[J]) / (1.0 + sl))
                         if lat and sh > 0.0 and sh < SET_FACE_CELLS and I[d] < self.n_grid - 1:
                             J = I
                             J[d] += 1
                             if self.grid_m[J] > 0.0:
-                                self.grid_v[I] = (dv + sh * self.grid_v[J]) / (1.0 + sh)
+                                self.grid_v[I] = self.constrain(q, self.grid_v[I],
+                                                                (dv + sh * self.grid_v[J]) / (1.0 + sh))
 
     @ti.func
     def set_box_axis(self, X):
@@ -236,5 +275,5 @@ class Forces:
                 if self.ex_imps[r + IM_MODE] == IMPULSE_ADD:
                     v += w * dv
                 else:
-                    v = self.set_velocity(q, w)
+                    v = self.constrain(q, v, self.set_velocity(q, w))
         return v

@@ -274,7 +274,7 @@ class GridUpdate(GroundTouch):
                     full = full and self.grid_m[base + ti.Vector([i, j, k])] > 0.0
                 if full:
                     out = self.image_gradient((4.0 * self.inv_dx[None]) * (B - v.outer_product(fx)), a)
-        return out
+        return self.along_flip(p, a, C, out)   # a set box's constrain = "along": the image's rows along its pull only
 
     @ti.func
     def image_gradient(self, C, a):
@@ -296,7 +296,7 @@ class GridUpdate(GroundTouch):
         material a box holds does not break); under ``held_rule`` a set box's point scatters the stress of ``d_held``
         (not softened on the way; a fixed region's held points keep their strain's: with both there a T rod hung by
         its head diverged, ``tests/test_brittle.py``)."""
-        out = self.image_gradient(tau, a)
+        out = self.along_flip(p, a, tau, self.image_gradient(tau, a))
         if a >= 0:
             kind = self.kind[self.body[p]]
             if ti.static(not self.multi_kind):
@@ -309,7 +309,7 @@ class GridUpdate(GroundTouch):
                         U, sig, V = self.svd(self.F[p])
                         tau0, _d = self.brittle_tau(U, ti.log(ti.max(sig, 1e-4)), prm[P_MU], prm[P_LAM], prm[P_SF],
                                                     prm[P_SF], d_held)
-                        out = self.image_gradient(tau0, a)
+                        out = self.along_flip(p, a, tau0, self.image_gradient(tau0, a))
         return out
 
     @ti.kernel

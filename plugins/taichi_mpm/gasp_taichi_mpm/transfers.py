@@ -68,7 +68,7 @@ class Transfers:
         a, d_held = -1, ti.cast(0.0, self.real)
         if ti.static(self.any_fixed or self.n_set_boxes > 0):   # in a held box: the image gradient (grid.py)
             a, d_held = self.held_axis(p), self.Jp[p]
-            Cf = self.image_gradient(C, a)
+            Cf = self.along_flip(p, a, C, self.image_gradient(C, a))   # "along": the mirror's rows along its pull
         F = (ti.Matrix.identity(self.real, 3) + dt * Cf) @ self.F[p]
         tau = self.return_mapping(p, F)
         if ti.static(self.any_fixed or self.n_set_boxes > 0):   # its stress scattered to match; no damage

@@ -12,7 +12,8 @@ import warp as wp
 from gasp_core.mpm.grid_tables import (COL_POSE, FALLOFF_INVERSE_SQUARE, FORCE_ROW, FORCE_WIND, FR_C, FR_DRAG,
                                            FR_FALLOFF, FR_KIND, FR_MODE_COUNT, FR_MODE_START, FR_RADIUS, FR_STRENGTH,
                                            FT_POSES, IM_A, IM_B, IM_DV, IM_MODE, IM_SHAPE, IMPULSE_ADD, IMPULSE_BOX,
-                                           IMPULSE_ROW, MD_A, MD_K, MD_OMEGA, MD_PHASE, MODE_ROW, SET_ON)
+                                           IMPULSE_ROW, IMPULSE_SET_ALONG, MD_A, MD_K, MD_OMEGA, MD_PHASE, MODE_ROW,
+                                           SET_ON)
 
 from .precision import MODULE_OPTIONS, build_types
 
@@ -86,10 +87,48 @@ def build_set_velocity(Ft):
 
 
 @functools.cache
+def build_constrain(Ft):
+    """``(constrain, along_matrix)``, a set impulse's ``constrain`` key (docs/colliders.md; taichi_mpm's
+    ``Forces.constrain`` and ``along_flip``). ``constrain(ex, q, v_free, v_held) -> vec3``: the velocity (m/s) set
+    impulse ``q`` leaves at a node whose velocity is ``v_free`` where its rule (the impulse, a ghost's mirror, a held
+    face) gives ``v_held``: ``v_held`` (``"all"``), ``(I - a a^T) v_free + a a^T v_held`` with ``a = dv / |dv|``
+    (``"along"``, ``grid_tables.IMPULSE_SET_ALONG``). ``along_matrix(ex, q, M, M_flip) -> mat33``: a held point's
+    gradient or stress ``M_flip`` (the held rule's mirror of ``M``) in set box ``q`` (-1: none): ``M + a a^T (M_flip -
+    M)`` for ``"along"`` (its rows along the pull the mirror's, across it its own), else ``M_flip``."""
+    vec3, vec4, mat33 = build_types(Ft)
+    Extras = build_extras_struct(Ft)
+
+    @wp.func
+    def along_dir(ex: Extras, q: int):
+        r = q * IMPULSE_ROW
+        return wp.normalize(vec3(ex.imps[r + IM_DV], ex.imps[r + IM_DV + 1], ex.imps[r + IM_DV + 2]))
+
+    @wp.func
+    def constrain(ex: Extras, q: int, v_free: vec3, v_held: vec3):
+        out = v_held
+        if ex.imps[q * IMPULSE_ROW + IM_MODE] == Ft(IMPULSE_SET_ALONG):
+            a = along_dir(ex, q)
+            out = v_free + wp.dot(v_held - v_free, a) * a
+        return out
+
+    @wp.func
+    def along_matrix(ex: Extras, q: int, M: mat33, M_flip: mat33):
+        out = M_flip
+        if q >= 0:
+            if ex.imps[q * IMPULSE_ROW + IM_MODE] == Ft(IMPULSE_SET_ALONG):
+                a = along_dir(ex, q)
+                out = M + wp.outer(a, a) * (M_flip - M)
+        return out
+
+    return constrain, along_matrix
+
+
+@functools.cache
 def build_force_funcs(Ft):
     """``(apply_forces, apply_impulses)``: forces and impulses on a grid node's velocity, scalar type ``Ft``."""
     vec3, vec4, mat33 = build_types(Ft)
     set_velocity = build_set_velocity(Ft)
+    constrain = build_constrain(Ft)[0]
     Extras = build_extras_struct(Ft)
 
     @wp.func
@@ -136,7 +175,7 @@ def build_force_funcs(Ft):
     @wp.func
     def apply_impulses(v_in: vec3, X: vec3, base: int, ex: Extras):
         # impulses over a box or a sphere, weighted by the substep's time-table entry: add w dv, or set v to the
-        # ramp factor times dv (set_velocity)
+        # ramp factor times dv (set_velocity; with constrain = "along" its component along dv alone: constrain)
         v = v_in
         for q in range(ex.n_imp):
             r = q * IMPULSE_ROW
@@ -154,7 +193,7 @@ def build_force_funcs(Ft):
                 if ex.imps[r + IM_MODE] == Ft(IMPULSE_ADD):
                     v = v + w * dv
                 else:
-                    v = set_velocity(ex, q, w)
+                    v = constrain(ex, q, v, set_velocity(ex, q, w))
         return v
 
     return apply_forces, apply_impulses

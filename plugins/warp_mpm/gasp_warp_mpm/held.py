@@ -15,7 +15,7 @@ from gasp_core.mpm import grid_tables
 from gasp_core.mpm.points import CUT_REACH, HELD_STRAIN_CELLS, HELD_STRAINED, MIRROR_CELLS, cuts_held_faces
 
 from .constitutive import build_return_mapping
-from .forces import build_extras_struct
+from .forces import build_constrain, build_extras_struct
 from .held_rule import HeldRule, build_held_tau, build_set_box_row, hold_set_faces_launches   # HeldRule: the engine's switch
 from .precision import MODULE_OPTIONS, build_types
 
@@ -37,6 +37,7 @@ def build_mirror(Ft):
     vec3, vec4, mat33 = build_types(Ft)
     Extras = build_extras_struct(Ft)
     set_box_row = build_set_box_row(Ft)
+    constrain = build_constrain(Ft)[0]
 
     by_mass = int(grid_tables.MIRROR_BY_MASS)
     fixed_by_mass = int(grid_tables.FIXED_BY_MASS)   # a fixed region's image nodes too (round 40)
@@ -117,7 +118,8 @@ def build_mirror(Ft):
                 c, b, dv, on = set_box_row(ex, q)
                 if (on != 0 and X[0] >= c[0] and X[1] >= c[1] and X[2] >= c[2] and X[0] <= b[0]
                         and X[1] <= b[1] and X[2] <= b[2]):
-                    grid_v[node] = mirror_node(node, X, c, b, dv, grid_v, grid_m, 1, lo, dx, n_grid, 0, grid_cut)
+                    grid_v[node] = constrain(ex, q, grid_v[node], mirror_node(node, X, c, b, dv, grid_v, grid_m, 1,
+                                                                            lo, dx, n_grid, 0, grid_cut))
         cut = int(0)
         if grid_cut.shape[0] > 2:
             cut = grid_cut[node]
@@ -244,7 +246,8 @@ def build_held_return(Ft):
     is the cell's projection on its crack's normal (``constitutive``'s ``band_sf``: ``band`` 1 and 3)."""
     vec3, vec4, mat33 = build_types(Ft)
     Extras = build_extras_struct(Ft)
-    held_axis, image_flip = build_image_flip(Ft)[:2]
+    held_axis, image_flip, set_box_at = build_image_flip(Ft)
+    along_matrix = build_constrain(Ft)[1]
     return_mapping = build_return_mapping(Ft)
     held_tau = build_held_tau(Ft)
 
@@ -259,8 +262,11 @@ def build_held_return(Ft):
         d_held = Jp[p]
         brittle = mat_kind[body[p]] == BRITTLE
         Cf = Cp
+        q = int(-1)   # a set box's point: its box (constrain = "along": the mirror's rows along its pull alone)
         if a >= 0:
-            Cf = Cp * image_flip(a)
+            if code == 0:
+                q = set_box_at(X, ex)
+            Cf = along_matrix(ex, q, Cp, Cp * image_flip(a))
         F_new, tau = return_mapping((wp.identity(3, dtype=Ft) + dt * Cf) * Fp, p, body, mat_kind, mat_par, Jp,
                                     dt, fx, band)
         if a >= 0 and brittle and Jp[p] < Ft(1.0):   # broken through: stays so
@@ -268,7 +274,7 @@ def build_held_return(Ft):
             if rule % 2 != 0 and code == 0:   # a set box's: not softened on the way, its stress at its held damage
                 tau = held_tau(F_new, mat_par[body[p], P_MU], mat_par[body[p], P_LAM], d_held)
         if a >= 0:
-            tau = tau * image_flip(a)
+            tau = along_matrix(ex, q, tau, tau * image_flip(a))
         return F_new, tau
 
     return held_return

@@ -31,7 +31,7 @@ from gasp_core.mpm.points import HELD_STRAINED, SET_FACE_CELLS
 
 from .constitutive import build_decompositions
 from .fields import build_field_reads
-from .forces import build_extras_struct, build_set_velocity
+from .forces import build_constrain, build_extras_struct, build_set_velocity
 from .precision import MODULE_OPTIONS, build_types
 from .stencil import build_gather, build_stencil
 
@@ -138,6 +138,7 @@ def build_image_C(Ft):
     in_grid, weights = build_stencil(Ft)
     gather, image_gather = build_gather(Ft), build_image_gather(Ft)
     set_box_row = build_set_box_row(Ft)
+    along_matrix = build_constrain(Ft)[1]
     by_mass = int(bool(grid_tables.IMAGE_BY_MASS))   # read when the kernels are built
 
     @wp.func
@@ -195,7 +196,7 @@ def build_image_C(Ft):
                         full = 0
                 if full != 0:
                     out = ((Ft(4.0) * inv_dx) * (B - wp.outer(v, fx))) * image_flip(a)
-        return out
+        return along_matrix(ex, qs, Cp, out)   # constrain = "along": the image's rows along the pull alone
 
     return image_C
 
@@ -263,6 +264,7 @@ def build_hold_set_faces(Ft):
     vec3, vec4, mat33 = build_types(Ft)
     Extras = build_extras_struct(Ft)
     set_box_row = build_set_box_row(Ft)
+    constrain = build_constrain(Ft)[0]
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def hold_set_faces(grid_v: wp.array(dtype=vec3), grid_m: wp.array(dtype=Ft), lo: vec3, dx: Ft, inv_dx: Ft,
@@ -289,10 +291,12 @@ def build_hold_set_faces(Ft):
                     sh = (X[d] - b[d]) * inv_dx
                     if lat != 0 and sl > Ft(0.0) and sl < Ft(SET_FACE_CELLS) and I[d] >= 1:
                         if grid_m[node - stride] > Ft(0.0):
-                            grid_v[node] = (dv + sl * grid_v[node - stride]) / (Ft(1.0) + sl)
+                            grid_v[node] = constrain(ex, q, grid_v[node],
+                                                     (dv + sl * grid_v[node - stride]) / (Ft(1.0) + sl))
                     if lat != 0 and sh > Ft(0.0) and sh < Ft(SET_FACE_CELLS) and I[d] < n_grid - 1:
                         if grid_m[node + stride] > Ft(0.0):
-                            grid_v[node] = (dv + sh * grid_v[node + stride]) / (Ft(1.0) + sh)
+                            grid_v[node] = constrain(ex, q, grid_v[node],
+                                                     (dv + sh * grid_v[node + stride]) / (Ft(1.0) + sh))
 
     return hold_set_faces
 
