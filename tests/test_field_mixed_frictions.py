@@ -18,6 +18,8 @@ reference: what the grid takes from water at pair 0), and the sand's ratio withi
 sand's. (2) :func:`named_unnamed_setup`, the two slabs one named and one not, a sand block of its own angle on each
 (the smaller angle on the unnamed slab); each block's ratio within ``RATIO_TOL`` of its own pair. **Catch:** the old
 rule (``b_unnamed_mix`` False: the unnamed slab at the largest angle's ``tan``) reads that block about +50 %.
+Default tier: warp_mpm's water at n_grid 32, 0.6, 1.2 m/s and taichi_mpm's (40, 20) slabs at n_grid 32, 1.2 m/s (one
+case per engine); the rest slow, with warp_mpm's gpu schedule (run on the CPU) on one case of each.
 """
 from __future__ import annotations
 
@@ -108,45 +110,47 @@ def _trace(engine: str, setup):
 
 
 @functools.cache
-def water_alone(engine: str, n_grid: int, v0: float, slab_mu, model: str) -> float:
-    """The water block's Coulomb ratio alone on the slabs (no sand: the pair 0): the grid's own drag."""
+def water_alone(engine: str, n_grid: int, v0: float, slab_mu, model: str, opts: tuple = ()) -> float:
+    """The water block's Coulomb ratio alone on the slabs (no sand: the pair 0): the grid's own drag (``opts``:
+    more engine options, as pairs)."""
     old, S.N_GRID = S.N_GRID, n_grid
     try:
-        setup = water_sand_setup(v0, slab_mu, {"threads": 1}, model, alone=True)
+        setup = water_sand_setup(v0, slab_mu, {"threads": 1, **dict(opts)}, model, alone=True)
         return S.coulomb_ratio(_trace(engine, setup).v, setup, 0, RATIO_FRAMES, body=0)
     finally:
         S.N_GRID = old
 
 
-def run_water_sand(engine: str, n_grid: int, slab_mu, monkeypatch, speeds=RATIO_SPEEDS, model: str = "") -> dict:
+def run_water_sand(engine: str, n_grid: int, slab_mu, monkeypatch, speeds=RATIO_SPEEDS, model: str = "",
+                   opts: tuple = ()) -> dict:
     """Per speed ``(dw, e2, rw, vw)``: the water's ratio less its reference over the sand's pair (the check's
     quantity, ``RATIO_TOL`` either side), the sand's ratio error, the water's ratio and its x velocity kept (V / v0)."""
     out = {}
     for v0 in speeds:
-        ref = water_alone(engine, n_grid, v0, slab_mu, model)
+        ref = water_alone(engine, n_grid, v0, slab_mu, model, opts)
         monkeypatch.setattr(S, "N_GRID", n_grid)
-        setup = water_sand_setup(v0, slab_mu, {"threads": 1}, model)
+        setup = water_sand_setup(v0, slab_mu, {"threads": 1, **dict(opts)}, model)
         tr = _trace(engine, setup)
         rw = S.coulomb_ratio(tr.v, setup, 0, RATIO_FRAMES, body=0)
         pair = own_pair(30.0, slab_mu)
         sel = np.asarray(setup.body_id) == 0
         vw = float(setup.p_mass[sel] @ tr.v[-1, sel, 0] / setup.p_mass[sel].sum()) / v0
         out[v0] = ((rw - ref) / pair, S.coulomb_ratio(tr.v, setup, 0, RATIO_FRAMES, body=2) / pair - 1.0, rw, vw)
-    print(f"water+sand {engine} n_grid {n_grid} slabs {slab_mu} {model or 'jelly'}: {out}")   # with -s
+    print(f"water+sand {engine} n_grid {n_grid} slabs {slab_mu} {model or 'jelly'} {opts}: {out}")   # with -s
     return out
 
 
 def run_named_unnamed(engine: str, n_grid: int, angles, slab_mus, monkeypatch, speeds=RATIO_SPEEDS,
-                      model: str = "") -> dict:
+                      model: str = "", opts: tuple = ()) -> dict:
     """Per speed each block's ratio error against its own pair: ``{v0: (e0, e2)}``."""
     monkeypatch.setattr(S, "N_GRID", n_grid)
     out = {}
     for v0 in speeds:
-        setup = named_unnamed_setup(v0, angles, slab_mus, {"threads": 1}, model)
+        setup = named_unnamed_setup(v0, angles, slab_mus, {"threads": 1, **dict(opts)}, model)
         tr = _trace(engine, setup)
         out[v0] = tuple(S.coulomb_ratio(tr.v, setup, 0, RATIO_FRAMES, body=b) / own_pair(phi, mu) - 1.0
                         for b, phi, mu in ((0, angles[0], slab_mus[0]), (2, angles[1], slab_mus[1])))
-    print(f"named+unnamed {engine} n_grid {n_grid} {angles} slabs {slab_mus} {model or 'jelly'}: {out}")
+    print(f"named+unnamed {engine} n_grid {n_grid} {angles} slabs {slab_mus} {model or 'jelly'} {opts}: {out}")
     return out
 
 
@@ -154,6 +158,18 @@ WATER_FAMILY = [(32, 0.6, ""), (48, 0.6, ""), (32, None, ""), (48, None, ""), (3
 NAMED_FAMILY = [(32, (40.0, 20.0), (0.6, None), ""), (48, (40.0, 20.0), (0.6, None), ""),
                 (32, (20.0, 35.0), (None, 0.15), ""), (32, (40.0, 20.0), (0.6, None), "rigid")]
 ENGINES = ("warp_mpm", "taichi_mpm")
+
+
+@pytest.mark.slow
+def test_warp_gpu_schedule_takes_both_rules(monkeypatch):
+    """warp_mpm's gpu schedule (run on the CPU) shares P2G and the contact kernel with the cpu schedule: the water
+    beside sand and the unnamed slab's 20 deg block hold there too (n_grid 32, 1.2 m/s, jelly slabs)."""
+    gpu = (("schedule", "gpu"),)
+    water = run_water_sand("warp_mpm", 32, 0.6, monkeypatch, speeds=RATIO_SPEEDS[:1], opts=gpu)
+    named = run_named_unnamed("warp_mpm", 32, (40.0, 20.0), (0.6, None), monkeypatch, speeds=RATIO_SPEEDS[:1],
+                              opts=gpu)
+    assert all(abs(dw) <= RATIO_TOL and abs(e2) <= RATIO_TOL for dw, e2, _, _ in water.values()), water
+    assert all(abs(e) <= RATIO_TOL for pair in named.values() for e in pair), named
 
 
 def _params(family, fast):
@@ -218,8 +234,9 @@ def unnamed_at_largest_rule(monkeypatch) -> None:
     monkeypatch.setattr(F, "b_unnamed_mix", lambda setup: False)
 
 
-@pytest.mark.parametrize("engine", ["warp_mpm", pytest.param("taichi_mpm", marks=pytest.mark.slow)])
-@pytest.mark.parametrize("rule", [water_at_sand_rule, pytest.param(water_pair_5pct, marks=pytest.mark.slow)])
+@pytest.mark.slow
+@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("rule", [water_at_sand_rule, water_pair_5pct])
 def test_the_water_check_catches(engine, rule, monkeypatch):
     pytest.importorskip("gasp_warp_mpm")
     rule(monkeypatch)
@@ -227,7 +244,8 @@ def test_the_water_check_catches(engine, rule, monkeypatch):
     assert all(dw > RATIO_TOL and abs(e2) <= RATIO_TOL for dw, e2, _, _ in out.values()), out
 
 
-@pytest.mark.parametrize("engine", [pytest.param("warp_mpm", marks=pytest.mark.slow), "taichi_mpm"])
+@pytest.mark.slow
+@pytest.mark.parametrize("engine", ENGINES)
 def test_the_unnamed_check_catches_the_largest_angle(engine, monkeypatch):
     pytest.importorskip("gasp_warp_mpm")
     unnamed_at_largest_rule(monkeypatch)
