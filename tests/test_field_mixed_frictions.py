@@ -18,8 +18,8 @@ reference: what the grid takes from water at pair 0), and the sand's ratio withi
 sand's. (2) :func:`named_unnamed_setup`, the two slabs one named and one not, a sand block of its own angle on each
 (the smaller angle on the unnamed slab); each block's ratio within ``RATIO_TOL`` of its own pair. **Catch:** the old
 rule (``b_unnamed_mix`` False: the unnamed slab at the largest angle's ``tan``) reads that block about +50 %.
-Default tier: warp_mpm's water at n_grid 32, 0.6, 1.2 m/s and taichi_mpm's (40, 20) slabs at n_grid 32, 1.2 m/s (one
-case per engine); the rest slow, with warp_mpm's gpu schedule (run on the CPU) on one case of each.
+Default tier: the rules' unit check alone (one engine case takes 15-16 s with its compile, over the tier's ~5 s); the
+engine checks, the catches and warp_mpm's gpu schedule (run on the CPU, one case of each check) are slow.
 """
 from __future__ import annotations
 
@@ -172,34 +172,23 @@ def test_warp_gpu_schedule_takes_both_rules(monkeypatch):
     assert all(abs(e) <= RATIO_TOL for pair in named.values() for e in pair), named
 
 
-def _params(family, fast):
+def _params(family):
     for engine in ENGINES:
         for case in family:
-            on = fast(engine, case)
-            yield pytest.param(engine, *case, id="-".join([engine] + [str(c) for c in case if c != ""]),
-                               marks=() if on else pytest.mark.slow)
+            yield pytest.param(engine, *case, id="-".join([engine] + [str(c) for c in case if c != ""]))
 
 
-def _water_fast(engine, case) -> bool:
-    return engine == "warp_mpm" and case == WATER_FAMILY[0]
-
-
-def _named_fast(engine, case) -> bool:
-    return engine == "taichi_mpm" and case == NAMED_FAMILY[0]
-
-
-@pytest.mark.parametrize("engine, n_grid, slab_mu, model", list(_params(WATER_FAMILY, _water_fast)))
+@pytest.mark.slow
+@pytest.mark.parametrize("engine, n_grid, slab_mu, model", list(_params(WATER_FAMILY)))
 def test_water_beside_sand_slides_as_alone(engine, n_grid, slab_mu, model, monkeypatch):
-    fast = _water_fast(engine, (n_grid, slab_mu, model))
-    out = run_water_sand(engine, n_grid, slab_mu, monkeypatch, RATIO_SPEEDS[:1] if fast else RATIO_SPEEDS, model)
+    out = run_water_sand(engine, n_grid, slab_mu, monkeypatch, RATIO_SPEEDS, model)
     assert all(abs(dw) <= RATIO_TOL and abs(e2) <= RATIO_TOL for dw, e2, _, _ in out.values()), out
 
 
-@pytest.mark.parametrize("engine, n_grid, angles, slab_mus, model", list(_params(NAMED_FAMILY, _named_fast)))
+@pytest.mark.slow
+@pytest.mark.parametrize("engine, n_grid, angles, slab_mus, model", list(_params(NAMED_FAMILY)))
 def test_an_unnamed_slab_pairs_each_sand_at_its_own_angle(engine, n_grid, angles, slab_mus, model, monkeypatch):
-    fast = _named_fast(engine, (n_grid, angles, slab_mus, model))
-    out = run_named_unnamed(engine, n_grid, angles, slab_mus, monkeypatch,
-                            RATIO_SPEEDS[:1] if fast else RATIO_SPEEDS, model)
+    out = run_named_unnamed(engine, n_grid, angles, slab_mus, monkeypatch, RATIO_SPEEDS, model)
     assert all(abs(e) <= RATIO_TOL for pair in out.values() for e in pair), out
 
 
