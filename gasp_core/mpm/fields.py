@@ -337,8 +337,8 @@ def a_node_friction(setup):
 def hold_pairs(setup):
     """Per (A body, holding body) the pair's coefficient, shape (n_materials, n_materials), float64, ``[a, b]``:
     :func:`combine_friction` of :func:`a_frictions` ``[a]`` and body b's ``friction`` (A's own where b names none),
-    what a rigid body's hold on a sand body takes (``gasp_core.mpm.rigid_hold``) where :func:`a_node_friction` is on;
-    None elsewhere (the hold takes :func:`pair_frictions` per body, round 42)."""
+    what a rigid body's hold on a flowing body takes (``gasp_core.mpm.rigid_hold``; a liquid's row 0, round 44)
+    where :func:`a_node_friction` is on; None elsewhere (the hold takes :func:`pair_frictions` per body, round 42)."""
     from gasp_core.mpm.rigid import step_view
     setup = step_view(setup)
     if a_node_friction(setup) is None:
