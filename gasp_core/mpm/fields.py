@@ -39,15 +39,14 @@ no flowing point touches (:data:`TOP_FREE`, round 42). Colliders are not looked 
 """
 from __future__ import annotations
 
-import functools
 import math
 
 import numpy as np
 
 from gasp_core.seam.options import Option
 from gasp_core.mpm.contact import contact_model, flowing_bodies
-from gasp_core.mpm.fields_reference import (MIN_FRACTION, field_offsets, ground_mirror,  # noqa: F401 (re-exported)
-                                           mass_normals)
+from gasp_core.mpm.fields_reference import (FLOW_TOUCH_DELTA, MIN_FRACTION, combine_friction,  # noqa: F401
+                                           field_offsets, flow_touch_level, ground_mirror, mass_normals)
 
 #: Engine option ``contact_fields`` of the MPM engines.
 FIELDS = Option("contact_fields", True, "in a scene with flowing (sand, snow, liquid) and other bodies, the flowing "
@@ -70,8 +69,7 @@ SOLID_FRICTION = 0.5
 #: ground's ``touch_delta``), and a contact node on A's side of the surface (``m_A > m_B``) gives A the pair's whole
 #: Coulomb correction, its reaction going to B at the node behind it. False: :data:`TOUCH_FRACTION` and the
 #: node's share alone (the rule before; the catch of ``tests/test_contact_fields.py``).
-FLOW_TOUCH = True
-FLOW_TOUCH_DELTA = 0.25
+FLOW_TOUCH = True   # FLOW_TOUCH_DELTA 0.25: fields_reference.py, with flow_touch_level
 #: The ground's mirror in the normal (round 41, ``docs/contact.md`` "Round 41: the thin support's rub"): B's mass at
 #: a node at or below a ground's top node layer is seen with its mirror image in that layer (:func:`ground_mirror`),
 #: the ground beneath B being B's support, not a surface of B. False: the nodes' own mass (the rule before, the catch
@@ -113,6 +111,9 @@ B_OWN_FRICTION = True
 #: support 1 cell thick took the slab's ground friction and torque fix at the layers it shares with the slab and read
 #: -1.0 / -1.3 % on a stiff slab, +2.4 % to -1.5 % as the ground's friction under the slab went 0.2 to 1.0).
 B_BALANCE = True
+#: A body of field B that names no ``friction``, in :func:`node_friction`'s ``mu_b`` where :func:`b_unnamed_mix`
+#: (round 44): its points scatter ``w_ip m_p`` to B's unnamed channel, not ``w_ip m_p mu`` to B's named one.
+UNNAMED = -2.0
 
 
 def field_rule() -> int:
@@ -153,7 +154,8 @@ def body_pair(setup) -> bool:
 def soft_pair(setup) -> bool:
     """Whether a scene is two soft bodies on the particle contact (two materials, neither flowing nor rigid): they
     take a field each, the smaller (A) against the larger (B), so they meet at their surfaces (issue 53 item 5,
-    ``docs/contact.md`` "Two jelly balls stacked"). Three or more soft bodies keep one field (no multi-field contact yet)."""
+    ``docs/contact.md`` "Two jelly balls stacked"). Three or more soft bodies keep one field (no multi-field contact
+    yet)."""
     from gasp_core.mpm.rigid import rigid_mask
     return (len(setup.materials) == 2 and contact_model(setup) == "particle"
             and not np.asarray(rigid_mask(setup.materials)).any())
@@ -218,11 +220,10 @@ def field_friction(setup) -> float:
     sand's internal friction taken as its friction on the other body's surface), combined (:func:`combine_friction`)
     with the other bodies' ``friction`` (:func:`b_frictions`; a body that names none takes the sand's own, so the pair
     is ``tan(phi)``); 0 where no flowing body has a friction angle (liquid, snow: they slide freely). Where field B's
-    bodies take different coefficients the engines build the pair's friction per grid node (:func:`node_friction`,
-    ``docs/contact.md`` "Round 42: several bodies' frictions in field B"; :func:`pair_frictions` per body) and this is
-    round 41's one scalar, the smallest named (the sand then slid on every body at the slipperiest one's friction),
-    which no engine uses there any more; where A's sands bring several angles, A's side is per node too
-    (:func:`a_node_friction`, round 43) and this scalar takes the largest. Two
+    bodies take different coefficients the engines build the pair's friction per node (:func:`node_friction`, round
+    42; :func:`pair_frictions` per body) and this is round 41's scalar, the smallest named; where A brings several
+    (:func:`a_node_friction`: sands of several angles, round 43; sand beside liquid or snow, round 44) A's side is
+    per node too and this scalar takes the largest angle's. Two
     soft bodies (:func:`soft_pair`), two rigid ones (:func:`rigid_pair`) or one of each (:func:`mixed_pair`): the
     pair's (:func:`combine_friction` of each body's :func:`body_friction`)."""
     if contact_model(setup) != "mixed":
@@ -238,9 +239,10 @@ def field_friction(setup) -> float:
 
 
 def sand_friction(setup) -> float:
-    """Field A's one coefficient in a ``"mixed"`` scene: ``tan(phi)`` of its sand bodies' largest
-    ``friction_angle`` (degrees), 0 without sand (liquid, snow). Dimensionless. Where A's sands bring several angles
-    the engines take each one's per node instead (:func:`a_node_friction`, round 43)."""
+    """Field A's one coefficient in a ``"mixed"`` scene: ``tan(phi)`` of its sand bodies' largest ``friction_angle``
+    (degrees), 0 without sand (liquid, snow). Dimensionless. Where A brings several coefficients (sands of several
+    angles, round 43; sand beside liquid or snow, round 44) the engines take each body's per node
+    (:func:`a_node_friction`)."""
     flows = flowing_bodies(setup, "mixed")
     angles = [m.friction_angle for m, f in zip(setup.materials, flows) if f and m.name == "sand"]
     return math.tan(math.radians(max(angles))) if angles else 0.0
@@ -249,8 +251,8 @@ def sand_friction(setup) -> float:
 def b_frictions(setup) -> np.ndarray:
     """Per body (shape (n_materials,), float64, dimensionless) the coefficient a body of field B brings to its pair
     with the sand in a ``"mixed"`` scene: its ``friction`` where it names one, else the sand's own
-    (:func:`sand_friction`: the pair is then ``tan(phi)``, the rule of round 41 for a body that names none); 0 for
-    the flowing bodies (field A, not read)."""
+    (:func:`sand_friction`: the pair is ``tan(phi)``, round 41's rule; per node A's own where :func:`b_unnamed_mix`);
+    0 for field A."""
     own = sand_friction(setup)
     flows = flowing_bodies(setup, "mixed")
     return np.array([0.0 if f else (own if m.friction is None else float(m.friction))
@@ -266,43 +268,67 @@ def node_friction(setup):
     (n_materials,)), ``lo``/``hi`` the smallest and largest of B's. The engines scatter ``w_ip m_p mu_b[body_p]``
     of B's points to one more node channel in P2G; at a contact node ``mu_B = clamp(that / m_B, lo, hi)`` (the
     mass-weighted mean, clamped against the round-off of ``m_B = m - m_A``) and the Coulomb limit takes
-    :func:`combine_friction` ``(own, mu_B)``."""
+    :func:`combine_friction` ``(own, mu_B)``. Where :func:`b_unnamed_mix` (round 44: A per node, B's bodies some
+    named and some not), ``mu_b`` is :data:`UNNAMED` for B's unnamed bodies, whose points scatter ``w_ip m_p`` to a
+    channel of their own (``S_u``); then ``mu_B = clamp((S_mu + tan_A S_u) / m_B, lo, hi)``, ``tan_A`` A's per-node
+    coefficient (:func:`a_node_friction`): an unnamed body brings the touching sand's own, and ``lo``/``hi`` span
+    B's named values and A's range."""
     if contact_model(setup) != "mixed" or not uses_fields(setup):
         return None
     own = sand_friction(setup)
     flows = flowing_bodies(setup, "mixed")
     mu_b = b_frictions(setup)
+    if b_unnamed_mix(setup):   # round 44: B's unnamed bodies at A's per-node coefficient, a channel of their own
+        a_lo, a_hi = a_node_friction(setup)[1:3]
+        named = [float(m.friction) for m, f in zip(setup.materials, flows) if not f and m.friction is not None]
+        mu_b = np.array([UNNAMED if not f and m.friction is None else mu
+                         for m, f, mu in zip(setup.materials, flows, mu_b)], np.float64)
+        return own, mu_b, min(named + [a_lo]), max(named + [a_hi])
     vals = sorted({float(mu_b[b]) for b in range(len(mu_b)) if not flows[b]})
     if own <= 0.0 or len(vals) < 2:
         return None
     return own, mu_b, vals[0], vals[-1]
 
 
+def b_unnamed_mix(setup) -> bool:
+    """Whether field B's bodies that name no ``friction`` take A's per-node coefficient in a channel of their own
+    (round 44, ``docs/contact.md`` "Round 44"): :func:`a_node_friction` is on (A brings several coefficients) and
+    B holds both bodies that name a ``friction`` and bodies that name none. Elsewhere an unnamed body brings
+    :func:`sand_friction` to B's mean (round 42), or B's bodies all name none and the pair is A's own (round 43)."""
+    if a_node_friction(setup) is None:
+        return False
+    flows = flowing_bodies(setup, "mixed")
+    named = [m.friction is not None for m, f in zip(setup.materials, flows) if not f]
+    return any(named) and not all(named)
+
+
 def a_frictions(setup) -> np.ndarray:
     """Per body (shape (n_materials,), float64, dimensionless) the coefficient a body of field A brings to its pair in
     a ``"mixed"`` scene (round 43): a sand body's own ``tan(friction_angle)``; a flowing body without an angle
-    (liquid, snow) beside sand the sand's :func:`sand_friction` (the largest angle's, as before); 0 for field B."""
-    own = sand_friction(setup)
+    (liquid, snow) 0, so its pair is 0 and it slides freely beside sand as it does alone (round 44; before, the
+    sand's :func:`sand_friction`, the largest angle's); 0 for field B."""
     flows = flowing_bodies(setup, "mixed")
-    return np.array([(math.tan(math.radians(m.friction_angle)) if m.name == "sand" else own) if f else 0.0
+    return np.array([math.tan(math.radians(m.friction_angle)) if f and m.name == "sand" else 0.0
                      for m, f in zip(setup.materials, flows)], np.float64)
 
 
 def a_node_friction(setup):
     """Field A's per-node friction (round 43, ``docs/contact.md`` "Round 43: several sands' angles in field A"), or
-    None where field A brings one coefficient (one sand angle: :func:`node_friction` or the scalar, bit-identical to
-    round 42). Else ``(mu_a, lo, hi, mu_b)``: ``mu_a`` per body (:func:`a_frictions`, shape (n_materials,)), ``lo``/
-    ``hi`` A's smallest and largest, ``mu_b`` B's one coefficient where :func:`node_friction` is None (the one its
-    bodies name; -1.0 where none names one: the pair is then A's own per node, round 41's rule). A's points scatter
-    ``w_ip m_p mu_a[body_p]`` to a node channel; at a contact node ``tan_A = clamp(that / m_A, lo, hi)`` and the
-    Coulomb limit is :func:`combine_friction` ``(tan_A, mu_B)``, ``mu_B`` per node where :func:`node_friction` is on
-    (B's unnamed bodies then bring :func:`sand_friction`), else ``mu_b`` (``tan_A`` for -1)."""
+    None where field A brings one coefficient (one sand angle, or only liquid or snow: :func:`node_friction` or the
+    scalar, bit-identical to round 42). Else ``(mu_a, lo, hi, mu_b)``: ``mu_a`` per body (:func:`a_frictions`, shape
+    (n_materials,)), ``lo``/``hi`` A's smallest and largest (``lo`` 0 where a liquid or snow body is in A, round
+    44), ``mu_b`` B's one coefficient where :func:`node_friction` is None (the one its bodies name; -1.0 where none
+    names one: the pair is then A's own per node, round 41's rule). A's points scatter ``w_ip m_p mu_a[body_p]`` to
+    a node channel; at a contact node ``tan_A = clamp(that / m_A, lo, hi)`` and the Coulomb limit is
+    :func:`combine_friction` ``(tan_A, mu_B)`` (0 at a node of liquid alone: ``sqrt(0 mu_B)``), ``mu_B`` per node
+    where :func:`node_friction` is on (B's unnamed bodies then bring ``tan_A`` itself, :func:`b_unnamed_mix`), else
+    ``mu_b`` (``tan_A`` for -1)."""
     if contact_model(setup) != "mixed" or not uses_fields(setup):
         return None
     flows = flowing_bodies(setup, "mixed")
     mu_a = a_frictions(setup)
     vals = sorted({float(mu_a[b]) for b in range(len(mu_a)) if flows[b]})
-    if len(vals) < 2 or vals[0] <= 0.0:
+    if len(vals) < 2:
         return None
     named = {float(m.friction) for m, f in zip(setup.materials, flows) if not f and m.friction is not None}
     return mu_a, vals[0], vals[-1], (min(named) if named else -1.0)
@@ -311,8 +337,8 @@ def a_node_friction(setup):
 def hold_pairs(setup):
     """Per (A body, holding body) the pair's coefficient, shape (n_materials, n_materials), float64, ``[a, b]``:
     :func:`combine_friction` of :func:`a_frictions` ``[a]`` and body b's ``friction`` (A's own where b names none),
-    what a rigid body's hold on a sand body takes (``gasp_core.mpm.rigid_hold``) where :func:`a_node_friction` is on;
-    None elsewhere (the hold takes :func:`pair_frictions` per body, round 42)."""
+    what a rigid body's hold on a flowing body takes (``gasp_core.mpm.rigid_hold``; a liquid's row 0, round 44)
+    where :func:`a_node_friction` is on; None elsewhere (the hold takes :func:`pair_frictions` per body, round 42)."""
     from gasp_core.mpm.rigid import step_view
     setup = step_view(setup)
     if a_node_friction(setup) is None:
@@ -341,17 +367,6 @@ def body_friction(material) -> float:
     return SOLID_FRICTION if mu is None else float(mu)
 
 
-def combine_friction(mu_a: float, mu_b: float) -> float:
-    """A pair's Coulomb coefficient from its two bodies': the geometric mean ``sqrt(mu_a mu_b)``, Bullet's rule
-    (``btManifoldResult::calculateCombinedFriction``, the friction counterpart of the product that
-    ``gasp_core.mpm.restitution.combine`` takes from ``calculateCombinedRestitution``; Bullet clamps it to 10).
-    Chosen as the restitution rule is: a body on a body of the same material keeps its own coefficient (an average
-    does too), and a frictionless body (0) slides on anything (an average would not: ice on rubber would take half
-    rubber's coefficient). Other engines average or take the larger; ``docs/rigid.md`` "A block on a block" compares
-    the rules."""
-    return min(math.sqrt(max(float(mu_a), 0.0) * max(float(mu_b), 0.0)), 10.0)
-
-
 def touch_fraction(setup) -> float:
     """The touch threshold of the two fields (fraction of a cell's volume their volumes fill at a node):
     :data:`SOFT_TOUCH_FRACTION` for two bodies on the particle contact (:func:`body_pair`), else
@@ -363,24 +378,6 @@ def flow_touch(setup) -> bool:
     """Whether a setup's two-field contact takes the flowing body's touch (:data:`FLOW_TOUCH`): a ``"mixed"`` scene
     (field A its flowing bodies) that runs two fields."""
     return bool(FLOW_TOUCH) and contact_model(setup) == "mixed" and uses_fields(setup)
-
-
-@functools.cache
-def flow_touch_level(delta: float = FLOW_TOUCH_DELTA) -> float:
-    """Field B's volume fraction ``phi_B(x) = sum_i w_i(x) V_B(i) / dx^3`` (P2G's volume scatter gathered back with the
-    quadratic B-spline) at ``delta`` cells outside a flat face of a filled body, averaged over the face's place in its
-    cell (eight offsets; 0.366 at 0.25 cells, from 0.347 to 0.385 with the offset; 0.5 on the face): a point of A
-    where ``phi_B`` reaches it lies within ``delta`` cells of B's surface. Dimensionless."""
-    def w(r):
-        r = np.abs(r)
-        return np.where(r < 0.5, 0.75 - r ** 2, np.where(r < 1.5, 0.5 * (1.5 - r) ** 2, 0.0))
-    ys = np.linspace(-2.0, 2.0, 8001)
-    ks = np.arange(-4, 5)
-    out = []
-    for s in np.arange(8) / 8.0:   # B fills y < s; V_B(k) / dx^3 the kernel's integral over it
-        vf = np.array([np.trapezoid(w(ys) * (ys + k < s), ys) for k in ks])
-        out.append(float(w(s + delta - ks) @ vf))
-    return float(np.mean(out))
 
 
 def pic_at_b(setup) -> bool:

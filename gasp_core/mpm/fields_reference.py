@@ -1,13 +1,19 @@
 """The NumPy references of the two-field contact's node maths (:mod:`gasp_core.mpm.fields`, whose module notes give
 the equations; each grid engine's ``fields.py`` spells the same steps in kernels): a node's correction, field B's mass
-with its ground mirror, and the normals. The tests compare the engines against these; ``gasp_core.mpm.fields``
-re-exports them."""
+with its ground mirror, and the normals; also the flowing body's touch level (:func:`flow_touch_level`) and a pair's
+Coulomb coefficient (:func:`combine_friction`). The tests compare the engines against these; ``gasp_core.mpm.fields``
+re-exports them (and calls ``combine_friction`` through its own name, which tests may patch)."""
 from __future__ import annotations
+
+import functools
+import math
 
 import numpy as np
 
 #: A node is shared when each field holds at least this fraction of its mass (below it the fields move as one).
 MIN_FRACTION = 1e-6
+#: The flowing body's touch distance (cells), ``gasp_core.mpm.fields.FLOW_TOUCH_DELTA``'s value.
+FLOW_TOUCH_DELTA = 0.25
 
 
 def field_offsets(m: np.ndarray, m_a: np.ndarray, p: np.ndarray, p_a: np.ndarray, n: np.ndarray, mu: float):
@@ -73,3 +79,32 @@ def mass_normals(m: np.ndarray, m_a: np.ndarray, dx: float, tops=()) -> np.ndarr
         sl_p[ax], sl_m[ax] = slice(2, None), slice(None, -2)
         out[tuple(sl_c) + (ax,)] = (d[tuple(sl_p)] - d[tuple(sl_m)]) / (2.0 * dx)
     return out
+
+
+@functools.cache
+def flow_touch_level(delta: float = FLOW_TOUCH_DELTA) -> float:
+    """Field B's volume fraction ``phi_B(x) = sum_i w_i(x) V_B(i) / dx^3`` (P2G's volume scatter gathered back with the
+    quadratic B-spline) at ``delta`` cells outside a flat face of a filled body, averaged over the face's place in its
+    cell (eight offsets; 0.366 at 0.25 cells, from 0.347 to 0.385 with the offset; 0.5 on the face): a point of A
+    where ``phi_B`` reaches it lies within ``delta`` cells of B's surface. Dimensionless."""
+    def w(r):
+        r = np.abs(r)
+        return np.where(r < 0.5, 0.75 - r ** 2, np.where(r < 1.5, 0.5 * (1.5 - r) ** 2, 0.0))
+    ys = np.linspace(-2.0, 2.0, 8001)
+    ks = np.arange(-4, 5)
+    out = []
+    for s in np.arange(8) / 8.0:   # B fills y < s; V_B(k) / dx^3 the kernel's integral over it
+        vf = np.array([np.trapezoid(w(ys) * (ys + k < s), ys) for k in ks])
+        out.append(float(w(s + delta - ks) @ vf))
+    return float(np.mean(out))
+
+
+def combine_friction(mu_a: float, mu_b: float) -> float:
+    """A pair's Coulomb coefficient from its two bodies': the geometric mean ``sqrt(mu_a mu_b)``, Bullet's rule
+    (``btManifoldResult::calculateCombinedFriction``, the friction counterpart of the product that
+    ``gasp_core.mpm.restitution.combine`` takes from ``calculateCombinedRestitution``; Bullet clamps it to 10).
+    Chosen as the restitution rule is: a body on a body of the same material keeps its own coefficient (an average
+    does too), and a frictionless body (0) slides on anything (an average would not: ice on rubber would take half
+    rubber's coefficient). Other engines average or take the larger; ``docs/rigid.md`` "A block on a block" compares
+    the rules."""
+    return min(math.sqrt(max(float(mu_a), 0.0) * max(float(mu_b), 0.0)), 10.0)

@@ -60,6 +60,10 @@ class Fields(PairTouch):
                 self.body_mu[b] = float(t)
         nm = ng if self.node_mu_on else 1
         self.grid_fmu = ti.field(self.real, shape=(nm, nm, nm))
+        # round 44: B's unnamed bodies beside named ones with A per node (b_unnamed_mix): their w m to grid_umu
+        self.b_un_on = self.node_mu_on and any(float(mu) == core_fields.UNNAMED for mu in mu_b)
+        nu = ng if self.b_un_on else 1
+        self.grid_umu = ti.field(self.real, shape=(nu, nu, nu))
         na = ng if self.a_mu_on else 1
         self.grid_amu = ti.field(self.real, shape=(na, na, na))
         # round 41 (gasp_core.mpm.fields): B's mass mirrored in a ground's layers for the normal; the particle
@@ -86,11 +90,14 @@ class Fields(PairTouch):
                     self.grid_vf[node] = self.grid_vf[node] + add_vf
                 if ti.static(self.node_mu_on):   # B's friction, mass-weighted (node_friction)
                     if fl == 0:
-                        add_mu = weight * m * self.body_mu[self.body[p]]
-                        if ti.static(self.atomic):
-                            ti.atomic_add(self.grid_fmu[node], add_mu)
+                        if ti.static(self.b_un_on):   # round 44: an unnamed body's mass to grid_umu
+                            self.scatter_b_mu(node, weight * m, self.body_mu[self.body[p]])
                         else:
-                            self.grid_fmu[node] = self.grid_fmu[node] + add_mu
+                            add_mu = weight * m * self.body_mu[self.body[p]]
+                            if ti.static(self.atomic):
+                                ti.atomic_add(self.grid_fmu[node], add_mu)
+                            else:
+                                self.grid_fmu[node] = self.grid_fmu[node] + add_mu
                 if ti.static(self.a_mu_on):   # A's sands' angles, mass-weighted (a_node_friction)
                     if fl != 0:
                         add_t = weight * m * self.body_mu[self.body[p]]
@@ -107,15 +114,35 @@ class Fields(PairTouch):
                         self.grid_sv[node] = self.grid_sv[node] + add_sv
 
     @ti.func
+    def scatter_b_mu(self, node, wm, mu_p):
+        """A point of B's ``w m`` (``wm``, kg) at ``node`` where B's unnamed bodies have a channel (round 44,
+        ``gasp_core.mpm.fields.b_unnamed_mix``): ``wm mu_p`` to ``grid_fmu``, or ``wm`` to ``grid_umu`` for an
+        unnamed body (``mu_p`` ``UNNAMED``, negative)."""
+        if mu_p >= 0.0:
+            if ti.static(self.atomic):
+                ti.atomic_add(self.grid_fmu[node], wm * mu_p)
+            else:
+                self.grid_fmu[node] = self.grid_fmu[node] + wm * mu_p
+        else:
+            if ti.static(self.atomic):
+                ti.atomic_add(self.grid_umu[node], wm)
+            else:
+                self.grid_umu[node] = self.grid_umu[node] + wm
+
+    @ti.func
     def node_pair(self, I, mu, m_a, m_b):
         """The A-B pair's Coulomb coefficient at node I: ``mu`` (the scalar) unless a field brings several (round 42:
         B's mass-weighted ``mu_B`` with the sand's one ``tan(phi)``; round 43: A's mass-weighted ``tan_A`` with B's
-        ``mu_B`` per node, or its one, or ``tan_A`` where B names none), ``combine_friction`` of the two."""
+        ``mu_B`` per node, or its one, or ``tan_A`` where B names none; round 44: B's unnamed bodies in ``mu_B`` at
+        ``tan_A``), ``combine_friction`` of the two."""
         mu_n = mu
         if ti.static(self.a_mu_on):
             t_a = ti.min(ti.max(self.grid_amu[I] / m_a, ti.static(self.a_mu[0])), ti.static(self.a_mu[1]))
             mu_bn = t_a
-            if ti.static(self.node_mu_on):
+            if ti.static(self.b_un_on):   # round 44: B's unnamed bodies at A's own, tan_A
+                s_b = self.grid_fmu[I] + t_a * self.grid_umu[I]
+                mu_bn = ti.min(ti.max(s_b / m_b, ti.static(self.node_mu[1])), ti.static(self.node_mu[2]))
+            elif ti.static(self.node_mu_on):
                 mu_bn = ti.min(ti.max(self.grid_fmu[I] / m_b, ti.static(self.node_mu[1])), ti.static(self.node_mu[2]))
             elif ti.static(self.a_mu[2] >= 0.0):
                 mu_bn = ti.cast(ti.static(self.a_mu[2]), self.real)
@@ -314,6 +341,8 @@ class Fields(PairTouch):
                 self.grid_fmu[I] = 0.0
             if ti.static(self.a_mu_on):
                 self.grid_amu[I] = 0.0
+            if ti.static(self.b_un_on):
+                self.grid_umu[I] = 0.0
 
     def contact_fields(self) -> None:
         """After P2G (and the viscous step), before the grid update: the grounds' touched columns (``touch.py``), then

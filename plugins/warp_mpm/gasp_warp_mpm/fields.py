@@ -109,7 +109,8 @@ def build_node_pair(Ft):
     """``node_pair``: the A-B pair's Coulomb coefficient at a node, scalar type ``Ft``: ``mu`` (the scalar) where
     ``mu_on`` is 0, else ``combine_friction(tan_A, mu_B)``: ``tan_A`` A's one ``own``, or (bit 2, round 43) its
     mass-weighted mean from ``grid_vf``'s fourth part clamped to ``a_lo, a_hi``; ``mu_B`` (bit 1, round 42) B's
-    mass-weighted mean from the third part clamped to ``mu_lo, mu_hi``, else B's one ``b_mu``, else ``tan_A``
+    mass-weighted mean from the third part clamped to ``mu_lo, mu_hi`` (bit 4, round 44: B's unnamed bodies' mass,
+    the fifth part, taken at ``tan_A``: ``(S_mu + tan_A S_u) / m_B``), else B's one ``b_mu``, else ``tan_A``
     (``b_mu`` negative: B names none)."""
 
     @wp.func
@@ -122,7 +123,10 @@ def build_node_pair(Ft):
                 t_a = wp.clamp(grid_vf[3 * n_nodes + node] / m_a, a_lo, a_hi)
             mu_bn = t_a
             if mu_on % 2 != 0:   # B's bodies' frictions, mass-weighted (grid_vf's third part)
-                mu_bn = wp.clamp(grid_vf[2 * n_nodes + node] / m_b, mu_lo, mu_hi)
+                s_b = grid_vf[2 * n_nodes + node]
+                if mu_on >= 4:   # B's unnamed bodies at A's own (fifth part: their w m; round 44)
+                    s_b = s_b + t_a * grid_vf[4 * n_nodes + node]
+                mu_bn = wp.clamp(s_b / m_b, mu_lo, mu_hi)
             elif b_mu >= Ft(0.0):
                 mu_bn = b_mu
             mu_n = wp.min(wp.sqrt(t_a * mu_bn), Ft(10.0))
@@ -240,7 +244,8 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     (``eng.node_mu``, ``gasp_core.mpm.fields.node_friction``), ``eng.body_mu`` (per body) and a third part of
     ``grid_vf`` (B's ``w m mu`` per node: the pair's friction per node in ``field_contact``), else one entry; where
     field A's sands bring several angles (``eng.a_mu``, ``a_node_friction``) a fourth part (A's ``w m tan(phi)``),
-    ``body_mu`` then A's ``tan(phi)`` too (-1: a body whose field has no channel, it scatters none); last, the
+    ``body_mu`` then A's ``tan(phi)`` too (-1: a body whose field has no channel, it scatters none); where B's
+    unnamed bodies take A's own (``UNNAMED`` in ``body_mu``, ``b_unnamed_mix``, round 44) a fifth (their ``w m``); the
     grounds' touched columns (``GroundTouch.allocate_touch``, touch.py)."""
     from gasp_core.mpm.rigid import step_view
     k, d = eng.k, eng.device
@@ -261,9 +266,11 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     # B's bodies' several frictions (gasp_core.mpm.fields.node_friction): a third part of grid_vf, B's w m mu per node
     eng.node_mu = node_friction(view) if eng.fields else None
     eng.a_mu = a_node_friction(view) if eng.fields else None   # round 43: A's several angles, a fourth part
-    eng.mu_on = int(eng.node_mu is not None) + 2 * int(eng.a_mu is not None)
-    eng.grid_vf = wp.zeros((4 if eng.mu_on >= 2 else 3 if eng.mu_on else 2) * n if eng.fields else 1, dtype=Ft,
-                           device=d)
+    # round 44: B's unnamed bodies beside named ones with A per node (core_fields.b_unnamed_mix), a fifth part
+    unnamed = eng.node_mu is not None and bool((np.asarray(eng.node_mu[1]) == core_fields.UNNAMED).any())
+    eng.mu_on = int(eng.node_mu is not None) + 2 * int(eng.a_mu is not None) + 4 * int(unnamed)
+    parts = 5 if eng.mu_on >= 4 else 4 if eng.mu_on >= 2 else 3 if eng.mu_on else 2
+    eng.grid_vf = wp.zeros(parts * n if eng.fields else 1, dtype=Ft, device=d)
     eng.body_mu = wp.array(body_channel(in_a, eng.node_mu, eng.a_mu) if eng.mu_on else np.zeros(1), dtype=Ft,
                            device=d)
     # the grid update gives the particle contact's friction to field B alone (grid.build_field_friction)
@@ -282,8 +289,9 @@ def allocate_fields(eng, Ft, contact: str) -> None:
 
 def body_channel(in_a, node_mu, a_mu) -> np.ndarray:
     """Per body what its points scatter, weighted by ``w m``, to its field's friction channel (``grid_vf``'s third
-    part for B, fourth for A): B's ``friction`` (``node_mu[1]``), A's ``tan(phi)`` (``a_mu[0]``), -1 for a body
-    whose field has no channel (it scatters none). Shape (n_bodies,), float64."""
+    part for B, fourth for A): B's ``friction`` (``node_mu[1]``; ``UNNAMED``, -2: its ``w m`` to the fifth part),
+    A's ``tan(phi)`` (``a_mu[0]``), -1 for a body whose field has no channel (it scatters none). Shape (n_bodies,),
+    float64."""
     out = np.full(len(in_a), -1.0)
     if node_mu is not None:
         out[~np.asarray(in_a, bool)] = np.asarray(node_mu[1])[~np.asarray(in_a, bool)]

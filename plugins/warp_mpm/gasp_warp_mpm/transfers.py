@@ -119,7 +119,7 @@ def build_p2g(Ft):
         # and, with the two-field contact (gasp_warp_mpm.fields), field A's (in_a[b]) momentum and mass to grid_sv,
         # each field's volume to grid_vf (field A's at the node, B's n_grid^3 further) and, with B's per-node friction
         # (body_mu per body, one entry without it: gasp_core.mpm.fields.node_friction), B's w m mu 2 n_grid^3 further,
-        # with A's several angles (a_node_friction) A's w m tan(phi) 3 n_grid^3 further
+        # with A's several angles (a_node_friction) A's w m tan(phi) 3 n_grid^3 further, B's unnamed w m 4 further
         p = wp.tid()
         X = (x[p] - lo) * inv_dx
         if not in_grid(X, n_grid):
@@ -166,6 +166,8 @@ def build_p2g(Ft):
                 if mu_p >= Ft(0.0):
                     scatter_scalar(grid_vf, idx0 + (2 + in_a[body[p]]) * n_grid * n_grid * n_grid, n_grid, W,
                                    pm * mu_p)
+                elif mu_p < Ft(-1.5):   # B's unnamed body beside named ones (UNNAMED): its mass, the fifth part
+                    scatter_scalar(grid_vf, idx0 + 4 * n_grid * n_grid * n_grid, n_grid, W, pm)
         if flip != 0:
             A0 = (dx * pc) * Cp
             scatter(grid_mv0, idx0, n_grid, W, pm * v[p] - A0 * fx, A0, pm)
