@@ -14,7 +14,9 @@ deg, n_grid N and 2N; every case misses it (peaks 0.920-0.957 f_t, as the hand-b
 deg the break outside the gauge): strict xfails with their figures (``KNOWN``). Round 44: the same at 45 deg with the
 pull's set box ``constrain = "along"`` (a grip free across its pull, docs/fracture.md "Round 44"): the 2:1 meets it
 at both grids; the 1.5:1 misses the work (a strict xfail, ``KNOWN_ALONG``). Its catch is ``KNOWN``'s 45 deg rows:
-the same scene with the set box imposing every component.
+the same scene with the set box imposing every component. The work to separate at 30 deg on that grip (docs/fracture.md
+"The work to separate at 30 deg"): the crack runs along the fill's x planes, and read there the work is the damage's
+account (the catch: read on the axial layers it is +35 %); on the aligned 2:1 the x planes read the axial layers' work.
 """
 from __future__ import annotations
 
