@@ -20,7 +20,9 @@ extremes); ``--lattice``: the same on ``tension_oblique.build``'s rotated lattic
 
 Round 44: ``--constrain along`` writes the pull's set box with ``constrain = "along"`` (it imposes only the velocity
 along the axis: a grip free across its pull, docs/colliders.md), ``--clamp set`` the clamp as a set box at rest
-(every component held) instead of the ``fixed_region``.
+(every component held) instead of the ``fixed_region``. The work to separate is read on the fill's x planes where no
+axial layer breaks through and an x plane does (``work_on``; ``benchmarks/crack_layers.py``: at 30 deg the crack runs
+along them), else on the axial layers as before; ``work_axial`` and ``work_x`` keep both readings.
 
 Run: ``python benchmarks/user_oblique.py --engine taichi_mpm`` (and ``warp_mpm``; ``--only``, ``--angles``,
 ``--n-grid``, ``--coarse-only``, ``--faces``, ``--start``, ``--lattice``, ``--constrain``, ``--clamp``); cases are
@@ -37,14 +39,15 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+import crack_layers as cl       # noqa: E402
 import tension_family as tf      # noqa: E402
 import tension_oblique as to     # noqa: E402
 import user_tension as ut        # noqa: E402
+from gauge_spread import SPREAD_AT, lattice_spread, principal, spread_of   # noqa: E402,F401
 
 RESULTS = Path(__file__).parent / "results"
 SPECIMENS = {n: to.SPECIMENS[n] for n in ("dogbone_2to1", "dogbone_1.5to1", "bar_L0.9_a0.15")}
 LAYER = 0.5         # a layer's width along the axis, cells (SPECIMENS: the flat dog-bones; the bar keeps a gauge)
-SPREAD_AT = 0.6     # the gauge's median stress (of f_t) at which the points' spread is taken
 FACES = "nearest"   # the held faces on the nearest node (faces: "nearest", "out" or "corners")
 CONSTRAIN = "all"   # the set box's constrain key (round 44: "along", a grip free across its pull)
 CLAMP = "fixed"     # the clamp: a fixed_region ("fixed") or a set box at rest ("set", round 44)
@@ -136,37 +139,19 @@ def layers(x0: np.ndarray, p_vol: np.ndarray, a: np.ndarray, L: float, w: float)
     return layer, np.bincount(inv, s[mat] * p_vol[mat], len(keys)) / vol, vol, s
 
 
-def principal(F: np.ndarray) -> np.ndarray:
-    """The largest principal Hencky (Kirchhoff, nu 0, undamaged) stress ``E log sigma_max`` (Pa, (n,)) at ``F``."""
-    return tf.E * np.log(np.clip(np.linalg.svd(F, compute_uv=False)[:, 0], 1e-9, None))
-
-
-def spread_of(F: np.ndarray, pv: np.ndarray, pts: np.ndarray, level: float) -> dict:
-    """The points ``pts``' (bool (n,)) largest principal stress over their volume mean: percentiles and extremes,
-    over all of them and (``whole``, ``cut``) over those holding a whole cell of the lattice (the largest
-    ``p_vol``) and the rest (the cells the surface cuts)."""
-    q = principal(F[pts])
-    r = q / (np.sum(q * pv[pts]) / pv[pts].sum())
-    whole = pv[pts] >= (1 - 1e-6) * pv.max()
-
-    def pct(v: np.ndarray) -> dict:
-        p = np.percentile(v, [5, 50, 95]) if len(v) else [np.nan] * 3
-        return {"p5": float(p[0]), "p50": float(p[1]), "p95": float(p[2]), "min": float(v.min(initial=np.inf)),
-                "max": float(v.max(initial=-np.inf)), "points": int(len(v))}
-    return {"at": round(level, 3), **pct(r), "whole": pct(r[whole]), "cut": pct(r[~whole])}
-
-
 def record(e, pv, layer, gauge, frame_args) -> dict:
     """Step ``e`` up to ``n`` frames (until ``tf.AFTER`` frames after a layer is at ``d = 1``): per frame each
     layer's force (N: mean ``P_aa`` times ``area``), mean axial position, mean ``d``; broken through (``d >= 0.9``)
     and opened; the gauge points' spread (:func:`spread_of`) when its median stress first reaches ``SPREAD_AT`` f_t;
     ``diverged``: the engine's ``EngineDivergence`` that stopped it, if one did. ``frame_args``: ``(a (3,), area
-    (k,), vol (k,), n)``."""
+    (k,), vol (k,), n, xl (n,), h)``: ``force_x``, ``pos_x``, ``dmean_x`` the same on the fill's x planes ``xl``
+    (``crack_layers.x_planes``, ``h`` wide: force ``sum (a . P e_x) V / h``)."""
     from gasp_core.errors import EngineDivergence
-    a, area, vol, n = frame_args
+    a, area, vol, n, xl, h = frame_args
     nl, li, mat = len(vol), np.maximum(layer, 0), layer >= 0
-    pw = np.where(mat, pv, 0.0)
-    out = {k: [] for k in ("force", "pos", "dmean", "thru", "opened")}
+    pw, xli = np.where(mat, pv, 0.0), np.maximum(xl, 0)
+    nx, vol_x = int(xl.max()) + 1, np.bincount(xli, np.where(mat, pv, 0.0), int(xl.max()) + 1)
+    out = {k: [] for k in ("force", "pos", "dmean", "thru", "opened", "force_x", "pos_x", "dmean_x")}
     spread = diverged = None
     for _ in range(n):
         try:
@@ -177,12 +162,15 @@ def record(e, pv, layer, gauge, frame_args) -> dict:
         F = np.asarray(e.to_setup_order(e.get_state()["F"]), np.float64)
         d = np.asarray(e.damage(), np.float64)
         xs = np.asarray(e.positions(), np.float64)
-        Paa = np.zeros(len(pv))
-        Paa[mat] = np.einsum("i,nij,j->n", a, to.nominal(F[mat], d[mat]), a)
+        Paa, Pax, P = np.zeros(len(pv)), np.zeros(len(pv)), to.nominal(F[mat], d[mat])
+        Paa[mat], Pax[mat] = np.einsum("i,nij,j->n", a, P, a), P[:, :, 0] @ a
         mean = np.bincount(li, Paa * pw, nl) / vol
         out["force"].append(mean * area)
         out["pos"].append(np.bincount(li, (xs @ a) * pw, nl) / vol)
         out["dmean"].append(np.bincount(li, d * pw, nl) / vol)
+        out["force_x"].append(np.bincount(xli, Pax * pw, nx) / h)
+        out["pos_x"].append(np.bincount(xli, (xs @ a) * pw, nx) / np.maximum(vol_x, 1e-300))
+        out["dmean_x"].append(np.bincount(xli, d * pw, nx) / np.maximum(vol_x, 1e-300))
         out["thru"].append(bool(np.any(np.bincount(li, (d >= 0.9) * pw, nl) >= vol * (1 - 1e-9))))
         out["opened"].append(bool(np.any(np.bincount(li, (d >= 1.0) * pw, nl) >= vol * (1 - 1e-9))))
         level = float(np.median(mean[gauge])) / tf.FT
@@ -253,24 +241,26 @@ def run_case(sp: tf.Specimen, n_grid: int, engine: str, angle: str, start: str =
     n_frames = int(np.ceil((t_peak + 1.5 * 2 * tf.GF / tf.FT / tf.PULL) / tf.FRAME_DT))
     e = build_engine(ps.info, st)
     t0 = time.time()
+    h = dx / ps.scene.domain.particles_per_cell ** (1 / 3)
+    xl = cl.x_planes(np.asarray(st.x, np.float64), pv, h)
     try:
-        out = record(e, pv, layer, gauge, (a, area, vol, n_frames))
+        out = record(e, pv, layer, gauge, (a, area, vol, n_frames, xl, h))
     finally:
         e.close()
     force, pos, dmean, broken = out["force"], out["pos"], out["dmean"], out["thru"]
     k_end = int(np.argmax(broken)) if broken.any() else len(force)
     sig_g = np.median(force[:, gauge], axis=1) / a_gauge
-    crack = int(np.argmax(np.where(free, dmean[-1], -1.0)))
+    crack, span = cl.crack_zone(dmean[-1], lx, free, dx)
     where = "gauge" if gauge[crack] else ("held edge" if reach[crack] < 1.5 * dx else "grip")
-    span = np.flatnonzero(free & (np.abs(lx - lx[crack]) <= 2 * dx + 1e-9))
-    elastic = (force[:, span[:-1]] / area[span[:-1]] / tf.E * np.diff(lx[span])).sum(axis=1)
-    wo = pos[:, span[-1]] - pos[:, span[0]] - (lx[span[-1]] - lx[span[0]]) - elastic
-    sig_c = force[:, crack] / a_gauge
-    work = float(np.sum(0.5 * (sig_c[1:] + sig_c[:-1]) * np.diff(wo)))
+    work = work_axial = cl.work_to_separate(force, pos, lx, area, crack, span, a_gauge)
     d = out["d"]
     sf = to.point_sf(st, out["xs"], engine, a)
-    Dp = pv * tf.FT ** 2 * sf * d / (2 * tf.E * ((1 - d) * (sf - tf.FT) + tf.FT))
-    D = np.bincount(np.maximum(layer, 0), np.where(layer >= 0, Dp, 0.0), nl) / a_gauge
+    Dp = np.where(layer >= 0, pv * tf.FT ** 2 * sf * d / (2 * tf.E * ((1 - d) * (sf - tf.FT) + tf.FT)), 0.0)
+    D = np.bincount(np.maximum(layer, 0), Dp, nl) / a_gauge
+    dissipated, on = float(D[span].sum()), "axial"
+    x = cl.x_plane_work(out, xl, (pv, np.asarray(st.x, np.float64), a, d, Dp), sp, dx, (clamp, pulled))
+    if not broken.any() and x is not None:     # the crack across the axial layers, through an x plane: read there
+        work, dissipated, on = *x, "x planes"
     g = lx[gauge]
     return {"specimen": sp.name, "engine": engine, "n_grid": n_grid, "angle": angle, "start": start,
             "faces": FACES, "constrain": CONSTRAIN + ("" if CLAMP == "fixed" else f", clamp {CLAMP}"),
@@ -281,35 +271,12 @@ def run_case(sp: tf.Specimen, n_grid: int, engine: str, angle: str, start: str =
             "peak": float(sig_g[:max(k_end, 1)].max()), "peak_vs_ft": float(sig_g[:max(k_end, 1)].max()) / tf.FT - 1,
             "crack_s": float(lx[crack]), "where": where, "section_at_crack": float(section[crack]),
             "clamp_face": clamp, "pulled_face": pulled, "gauge": [float(g.min()), float(g.max())],
-            "work": work, "work_vs_gf": work / tf.GF - 1, "dissipated": float(D[span].sum()),
+            "work": work, "work_vs_gf": work / tf.GF - 1, "dissipated": dissipated, "work_on": on,
+            "work_axial": work_axial, "work_x": x[0] if x else None, "dissipated_x": x[1] if x else None,
             "broken_through": bool(broken.any()), "final_stress": float(sig_g[-1]), "frames_run": len(force),
             "spread": out["spread"], "diverged": out["diverged"],
             "damaged_layers": [[round(float(lx[k]), 4), round(float(dmean[-1][k]), 3), round(float(D[k]), 3)]
                                for k in np.flatnonzero(dmean[-1] > 0.05)]}
-
-
-def lattice_spread(sp: tf.Specimen, n_grid: int, engine: str, angle: str) -> dict:
-    """:func:`spread_of` on ``tension_oblique.build``'s rotated lattice (``dx / 2`` in the specimen's frame, started
-    in the quasi-static stretch) when its gauge's median ``P_aa`` first reaches ``SPREAD_AT`` f_t."""
-    from gasp_core.seam.build import build_engine
-    from gasp_core.seam.plugins import engines
-    st, layer, lx, R, clamp, pulled = to.build(sp, n_grid, engine, angle)
-    a, nl, dx, pv = R[:, 0], len(lx), st.dx, np.asarray(st.p_vol, np.float64)
-    reach = to.layer_reach(np.asarray(st.x, np.float64), layer, nl, clamp, pulled)
-    gauge, vol = (reach > 1.5 * dx) & (sp.area(lx + tf.X0) / sp.gauge_w ** 2 - 1 <= tf.SECTION_TOL), np.bincount(
-        layer, pv, nl)
-    e = build_engine(engines()[tf.name_check(engine)], st)
-    try:
-        for _ in range(4000):
-            e.step_frame()
-            F = np.asarray(e.to_setup_order(e.get_state()["F"]), np.float64)
-            Paa = np.einsum("i,nij,j->n", a, to.nominal(F, np.zeros(len(pv))), a)
-            level = float(np.median((np.bincount(layer, Paa * pv, nl) / vol)[gauge])) / tf.FT
-            if level >= SPREAD_AT:
-                return spread_of(F, pv, gauge[layer], level)
-    finally:
-        e.close()
-    raise RuntimeError(f"{sp.name} at {angle} deg: the gauge never reached {SPREAD_AT} f_t")
 
 
 def _key(r: dict) -> tuple:
@@ -335,7 +302,7 @@ def table(rows: list[dict], spreads: list[dict]) -> str:
                    f"{100 * r['mass_vs_mesh']:+.2f} % | {100 * r['gauge_section']:+.2f} % | "
                    f"{r['peak'] / tf.FT:.3f} ({100 * r['peak_vs_ft']:+.1f} %) | {r['crack_s']:.3f} | "
                    f"{r['gauge'][0]:.3f}-{r['gauge'][1]:.3f} | {r['where']}{' (diverged)' * bool(r.get('diverged'))} | "
-                   f"{r['work']:.1f} | "
+                   f"{r['work']:.1f}{' (x planes)' * (r.get('work_on') == 'x planes')} | "
                    f"{100 * r['work_vs_gf']:+.1f} % | {conv} | {r['dissipated']:.1f} | {_sp(r['spread'])} | "
                    f"{r['seconds']:.0f} |")
     out += ["", "| specimen | angle | engine | n_grid | points | gauge stress / f_t | the scene's fill p5-p95 "

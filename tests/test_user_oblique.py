@@ -14,7 +14,9 @@ deg, n_grid N and 2N; every case misses it (peaks 0.920-0.957 f_t, as the hand-b
 deg the break outside the gauge): strict xfails with their figures (``KNOWN``). Round 44: the same at 45 deg with the
 pull's set box ``constrain = "along"`` (a grip free across its pull, docs/fracture.md "Round 44"): the 2:1 meets it
 at both grids; the 1.5:1 misses the work (a strict xfail, ``KNOWN_ALONG``). Its catch is ``KNOWN``'s 45 deg rows:
-the same scene with the set box imposing every component.
+the same scene with the set box imposing every component. The work to separate at 30 deg on that grip (docs/fracture.md
+"The work to separate at 30 deg"): the crack runs along the fill's x planes, and read there the work is the damage's
+account (the catch: read on the axial layers it is +35 %); on the aligned 2:1 the x planes read the axial layers' work.
 """
 from __future__ import annotations
 
@@ -117,12 +119,12 @@ def family_failures(sp, angle: str, name: str) -> list[str]:
 #: the cases that miss the must-show, with the measured figures (both engines alike to every printed digit;
 #: benchmarks/results/user_oblique.md): every one; the hand-built lattice's peaks (tension_oblique) are 0.922-0.955
 KNOWN: dict = {
-    ("dogbone_2to1", "30"): "peak 0.954 / 0.946 f_t at n_grid 24 / 48 (-4.6 / -5.4 %), in the gauge; work to separate "
-                            "26.50 J/m^2 (+32 %) at 24, 21.93 at 48 (-17.2 % between)",
+    ("dogbone_2to1", "30"): "peak 0.953 / 0.945 f_t at n_grid 24 / 48 (-4.7 / -5.5 %), in the gauge; work to separate "
+                            "25.11 J/m^2 (+26 %, on the x planes) at 24, 21.93 at 48 (round 44's rerun)",
     ("dogbone_2to1", "45"): "peak 0.921 / 0.937 f_t; breaks at axial 0.561 m (held edge, the gauge 0.361-0.539) at 24 "
                             "and 0.311 (grip, its section +2.3 %) at 48",
-    ("dogbone_1.5to1", "30"): "peak 0.957 / 0.947 f_t (-4.3 / -5.3 %), in the gauge; work 23.10 J/m^2 at 24, 29.48 "
-                              "(+47 %) at 48 (+27.6 % between)",
+    ("dogbone_1.5to1", "30"): "peak 0.956 / 0.948 f_t (-4.4 / -5.2 %), in the gauge; work 23.20 J/m^2 at 24, 30.15 "
+                              "(+51 %, no layer broken through, axial or x) at 48 (round 44's rerun)",
     ("dogbone_1.5to1", "45"): "peak 0.920 / 0.937 f_t; breaks at axial 0.583 m (held edge) at 24; at 48 the held "
                               "edge at 0.278 m the most damaged, not broken through (work 22.51 J/m^2; round 40's "
                               "image gradient by mass: rounds 37-39 broke through at the pulled grip's held edge)",
@@ -165,3 +167,51 @@ def along_failures(sp, angle: str, name: str) -> list[str]:
 def test_each_oblique_dog_bone_on_a_grip_free_across_its_pull_carries_f_t_and_breaks_in_its_gauge(sp, name):
     bad = along_failures(sp, "45", name)
     assert bad == [], bad
+
+
+#: the work to separate against the damage's own account over the same zone (round 44): the aligned 2:1 through the
+#: scene reads 21.00 against 18.67 J/m^2 (+12 %, the band's points at 4 a cell); a wrong layer's force reads +35 %
+WORK_VS_DISSIPATED = 0.15
+
+
+def along_case(sp, angle: str, n: int, name: str) -> dict:
+    """:func:`user_oblique.run_case` with the pull's set box ``constrain = "along"``."""
+    uo.CONSTRAIN = "along"
+    try:
+        return uo.run_case(sp, n, name, angle)
+    finally:
+        uo.CONSTRAIN = "all"
+
+
+def work_failures(r: dict, key: str = "work") -> list[str]:
+    """The work to separate (``r[key]``) against the damage's account over its zone, within ``WORK_VS_DISSIPATED``."""
+    diss = r["dissipated_x"] if key == "work_x" else r["dissipated"]
+    if abs(r[key] / diss - 1) <= WORK_VS_DISSIPATED:
+        return []
+    return [f"{r['specimen']} at {r['angle']} deg, n_grid {r['n_grid']}: {key} {r[key]:.2f} J/m^2, dissipated "
+            f"{diss:.2f}"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", _names())
+def test_the_work_to_separate_is_read_on_the_planes_the_crack_runs_along(name):
+    """Round 44 (docs/fracture.md "The work to separate at 30 deg"): the 2:1 at 30 deg on a grip free across its pull,
+    n_grid N. Its crack runs along the fill's x planes, across the axial layers, none of which breaks through; read on
+    the x planes (``crack_layers``) the work is the damage's account within ``WORK_VS_DISSIPATED``. The catch: read on
+    the axial layers (``work_axial``, the measure before) it is 29.94 against 22.26 J/m^2 (+35 %) and fails."""
+    r = along_case(BONES[0], "30", N, name)
+    assert not r["broken_through"] and r["work_on"] == "x planes", r
+    assert work_failures(r) == []
+    assert work_failures(r, "work_axial") != []
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", _names())
+def test_on_the_aligned_dog_bone_the_x_planes_read_the_axial_layers_work(name):
+    """The known answer: the 2:1 aligned with x (``angle 0``, the x planes normal to the axis), n_grid N: the work read
+    on the x planes is the axial layers' (which the aligned family's must-show takes) within 5 %, and both are the
+    damage's account within ``WORK_VS_DISSIPATED``."""
+    r = along_case(BONES[0], "0", N, name)
+    assert r["broken_through"] and r["work_on"] == "axial" and r["work_x"] is not None, r
+    assert abs(r["work_x"] / r["work"] - 1) <= 0.05, (r["work_x"], r["work"])
+    assert work_failures(r) == [] and work_failures(r, "work_x") == []
