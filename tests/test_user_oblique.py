@@ -15,8 +15,9 @@ deg the break outside the gauge): strict xfails with their figures (``KNOWN``). 
 pull's set box ``constrain = "along"`` (a grip free across its pull, docs/fracture.md "Round 44"): the 2:1 meets it
 at both grids; the 1.5:1 misses the work (a strict xfail, ``KNOWN_ALONG``). Its catch is ``KNOWN``'s 45 deg rows:
 the same scene with the set box imposing every component. The work to separate at 30 deg on that grip (docs/fracture.md
-"The work to separate at 30 deg"): the crack runs along the fill's x planes, and read there the work is the damage's
-account (the catch: read on the axial layers it is +35 %); on the aligned 2:1 the x planes read the axial layers' work.
+"The work to separate at 30 deg"): the crack runs along the fill's x planes, and read there the work over the damage's
+account is the aligned 2:1's within 2.5 % (the catch: read on the axial layers it is +20 % off); on the aligned 2:1
+the x planes read the axial layers' work.
 """
 from __future__ import annotations
 
@@ -169,9 +170,11 @@ def test_each_oblique_dog_bone_on_a_grip_free_across_its_pull_carries_f_t_and_br
     assert bad == [], bad
 
 
-#: the work to separate against the damage's own account over the same zone (round 44): the aligned 2:1 through the
-#: scene reads 21.00 against 18.67 J/m^2 (+12 %, the band's points at 4 a cell); a wrong layer's force reads +35 %
-WORK_VS_DISSIPATED = 0.15
+#: the work to separate over the damage's own account over its zone, at 30 deg against the aligned dog-bone's (round
+#: 44): the aligned 2:1 through the scene reads 21.00 against 18.67 J/m^2 (1.125: the snap-back's share, not traced);
+#: the 30 deg 2:1 on the x planes 24.51 against 22.18 (1.105, -1.8 % of the aligned ratio); on the axial layers, the
+#: measure before, 29.94 (1.35, +20 %). Two-sided, and a 5 % bias fails it.
+BIAS_TOL = 0.025
 
 
 def along_case(sp, angle: str, n: int, name: str) -> dict:
@@ -183,35 +186,19 @@ def along_case(sp, angle: str, n: int, name: str) -> dict:
         uo.CONSTRAIN = "all"
 
 
-def work_failures(r: dict, key: str = "work") -> list[str]:
-    """The work to separate (``r[key]``) against the damage's account over its zone, within ``WORK_VS_DISSIPATED``."""
-    diss = r["dissipated_x"] if key == "work_x" else r["dissipated"]
-    if abs(r[key] / diss - 1) <= WORK_VS_DISSIPATED:
-        return []
-    return [f"{r['specimen']} at {r['angle']} deg, n_grid {r['n_grid']}: {key} {r[key]:.2f} J/m^2, dissipated "
-            f"{diss:.2f}"]
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize("name", _names())
-def test_the_work_to_separate_is_read_on_the_planes_the_crack_runs_along(name):
+def test_the_work_to_separate_at_30_deg_is_read_on_the_planes_the_crack_runs_along(name):
     """Round 44 (docs/fracture.md "The work to separate at 30 deg"): the 2:1 at 30 deg on a grip free across its pull,
     n_grid N. Its crack runs along the fill's x planes, across the axial layers, none of which breaks through; read on
-    the x planes (``crack_layers``) the work is the damage's account within ``WORK_VS_DISSIPATED``. The catch: read on
-    the axial layers (``work_axial``, the measure before) it is 29.94 against 22.26 J/m^2 (+35 %) and fails."""
+    the x planes (``crack_layers``) its work over the damage's account is the aligned 2:1's within ``BIAS_TOL`` (the
+    known answer: aligned, the x planes are normal to the axis and read the axial layers' work, within ``BIAS_TOL``).
+    The catch: read on the axial layers (``work_axial``, the measure before) the ratio is +20 % off and fails."""
+    ref = along_case(BONES[0], "0", N, name)
+    assert ref["broken_through"] and ref["work_on"] == "axial" and ref["work_x"] is not None, ref
+    assert abs(ref["work_x"] / ref["work"] - 1) <= BIAS_TOL, (ref["work_x"], ref["work"])
+    bias = ref["work"] / ref["dissipated"]
     r = along_case(BONES[0], "30", N, name)
     assert not r["broken_through"] and r["work_on"] == "x planes", r
-    assert work_failures(r) == []
-    assert work_failures(r, "work_axial") != []
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("name", _names())
-def test_on_the_aligned_dog_bone_the_x_planes_read_the_axial_layers_work(name):
-    """The known answer: the 2:1 aligned with x (``angle 0``, the x planes normal to the axis), n_grid N: the work read
-    on the x planes is the axial layers' (which the aligned family's must-show takes) within 5 %, and both are the
-    damage's account within ``WORK_VS_DISSIPATED``."""
-    r = along_case(BONES[0], "0", N, name)
-    assert r["broken_through"] and r["work_on"] == "axial" and r["work_x"] is not None, r
-    assert abs(r["work_x"] / r["work"] - 1) <= 0.05, (r["work_x"], r["work"])
-    assert work_failures(r) == [] and work_failures(r, "work_x") == []
+    assert abs(r["work"] / r["dissipated"] / bias - 1) <= BIAS_TOL, (r["work"], r["dissipated"], bias)
+    assert abs(r["work_axial"] / r["dissipated"] / bias - 1) > BIAS_TOL, (r["work_axial"], r["dissipated"], bias)
