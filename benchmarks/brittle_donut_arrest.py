@@ -25,7 +25,8 @@ of 1/30 s. Each sample reads the engine's own points (``x, v, F, Jp``, setup ord
   ring's mean: a crack the single velocity field glued would not open faster than the material around it.
 
 Run: ``python benchmarks/brittle_donut_arrest.py`` (``--engines``, ``--grid``, ``--speeds``, ``--frames``,
-``--rate``); writes ``benchmarks/results/brittle_donut_arrest.{json,md}``. About 1-2 min a run on 2 cores.
+``--rate``, ``--every``, ``--friction``: the ground's, ``--plot``: a PNG; ``--catch``: the law's check on taichi_mpm
+with the softening capped at ``d = 0.5``, printed only); writes ``benchmarks/results/brittle_donut_arrest.{json,md}``. About 1-2 min a run on 2 cores.
 """
 from __future__ import annotations
 
@@ -39,6 +40,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import brittle_readme_donut as bd   # noqa: E402
 from brittle_donut_speed import at_speed   # noqa: E402
+from brittle_donut_arrest_report import cracks_text, grady, plot, table   # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "benchmarks" / "results" / "brittle_donut_arrest"
@@ -207,6 +209,31 @@ def state(e, mat_rows):
             "d": np.minimum(get("Jp"), 1.0)}
 
 
+def capped_softening(cap: float = 0.5):
+    """The catch of the law's check (``--catch``, taichi_mpm only): ``Constitutive.brittle_tau`` with the damage it
+    gives capped at ``cap`` (a softening that stops for a reason in the code); returns the original to put back."""
+    import taichi as ti
+    from gasp_taichi_mpm.constitutive import Constitutive
+    orig = Constitutive.brittle_tau
+
+    @ti.func
+    def capped(self, U, eps, mu, lam, ft, sf, d):
+        s = 2.0 * mu * eps + lam * eps.sum()
+        smax = ti.max(s[0], s[1], s[2])
+        if smax > ft:
+            dt = ti.cast(1.0, self.real)
+            if smax < sf:
+                dt = 1.0 - ft * (sf - smax) / (smax * (sf - ft))
+            d = ti.max(d, ti.min(dt, cap))
+        for i in ti.static(range(3)):
+            if s[i] > 0.0:
+                s[i] *= 1.0 - d
+        return self.udvt(U, s, U), d
+
+    Constitutive.brittle_tau = capped
+    return orig
+
+
 def run(engine: str, n_grid: int, v: float, frames: int, rate: int, save: str | None = None,
         friction: float | None = None) -> list[dict]:
     """The samples of one landing (module notes); the last one also has its ``cracks`` (:func:`crack_links`) and its
@@ -246,89 +273,6 @@ def run(engine: str, n_grid: int, v: float, frames: int, rate: int, save: str | 
     return rows
 
 
-COLS = [("t", "t (ms)", 1e3, ".1f"), ("kinetic", "kinetic", 1, ".2f"), ("spread", "spreading", 1, ".2f"),
-        ("stored", "stored", 1, ".3f"), ("tension", "in tension", 1, ".3f"), ("dissipated", "damage", 1, ".3f"),
-        ("ligament_J", "G_f x ligament (2 sections)", 1, ".3f"), ("broken", "broken through", 1, ".3f"),
-        ("top_broken", "2 most broken sections", 1, None), ("opening", "opening (mm)", 1e3, ".1f"),
-        ("opening_mean", "mean (mm)", 1e3, ".1f"), ("hoop_rate_broken", "hoop rate broken / rest / ring (1/s)", 1,
-                                                   None), ("tip_smax", "tips s_max / f_t (max; median)", 1, None),
-        ("tip_softening", "tips softening", 1, ".2f"), ("tip_hoop", "tips' tension along hoop", 1, ".2f")]
-
-
-def cell(r, key, scale, fmt):
-    if key == "top_broken":
-        return " / ".join(f"{x:.2f}" for x in r[key])
-    if key == "hoop_rate_broken":
-        return f"{r['hoop_rate_broken']:.1f} / {r['hoop_rate_rest']:.1f} / {r['hoop_rate_ring']:.1f}"
-    if key == "tip_smax":
-        return f"{r['tip_smax']:.2f}; {r['tip_smax_median']:.2f}" if "tip_smax" in r else "-"
-    return format(r[key] * scale, fmt) if key in r else "-"
-
-
-def table(rows, every: int) -> list[str]:
-    """A Markdown table of every ``every``-th sample (energies in J)."""
-    out = ["| " + " | ".join(c[1] for c in COLS) + " |", "|" + "---|" * len(COLS)]
-    for i, r in enumerate(rows):
-        if (i + 1) % every == 0:
-            out.append("| " + " | ".join(cell(r, c[0], c[2], c[3]) for c in COLS) + " |")
-    return out
-
-
-def cracks_text(last: dict) -> str:
-    """The last sample's parts and cracks (:func:`crack_links`) in words."""
-    out = [f"At {last['t'] * 1e3:.0f} ms: {last['parts_1']} part(s) of 1 % or more, the largest {last['largest']:.3f} "
-           f"of the mass."]
-    for c in last["cracks"]:
-        out.append(f"Section {c['section']} ({c['broken']:.2f} broken through): {c['cut'] * 100:.0f} % of the "
-                   f"{c['links']} links across it cut; stretch median / 90th pct / largest "
-                   + " / ".join(f"{s * 1e3:.1f}" for s in c["stretch"]) + " mm, median by height (lower / middle / "
-                   "upper third) " + " / ".join(f"{s * 1e3:.1f}" for s in c["stretch_by_height"])
-                   + f" mm; the whole links at rest {c['whole_z'] * 1e3:.0f} mm up (section {c['section_z'] * 1e3:.0f}"
-                   f" mm), radius {c['whole_r'] * 1e3:.0f} mm.")
-    return " ".join(out)
-
-
-def grady(rows, gf: float = 50.0, rho: float = 1000.0, rbar: float = 0.0702) -> str:
-    """Grady's fragment length (Grady 1982, J. Appl. Phys. 53: ``L = (24 G_f / (rho edot^2))^(1/3)``) at the ring's
-    largest mean hoop strain rate, and the fragments ``2 pi r_bar / L`` it makes of the ring (``rbar``, m)."""
-    edot = max(r["hoop_rate_ring"] for r in rows)
-    L = (24 * gf / (rho * edot ** 2)) ** (1 / 3)
-    return (f"Grady: the ring's largest mean hoop rate {edot:.1f} /s gives L = {L * 100:.1f} cm, "
-            f"{2 * np.pi * rbar / L:.1f} fragments of the ring.")
-
-
-def plot(runs, path: str) -> None:
-    """The energy budget and the tips' stress against time, one column a run (``path``: a PNG)."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    fig, axes = plt.subplots(2, len(runs), figsize=(5.5 * len(runs), 7), squeeze=False, sharex=True)
-    for j, r in enumerate(runs):
-        rw = r["rows"]
-        t = [w["t"] * 1e3 for w in rw]
-        ax = axes[0, j]
-        for key, lab in [("dissipated", "dissipated by damage"), ("tension", "stored in tension (whole body)"),
-                         ("tension_near2", "stored in tension (+-2 sections of the two)"),
-                         ("spread", "kinetic, in-plane spreading"), ("ligament_J", "G_f x ligament (two sections)")]:
-            ax.plot(t, [w[key] for w in rw], label=lab)
-        ax.set_yscale("log")
-        ax.set_ylim(1e-3, 10)
-        ax.set_ylabel("J")
-        ax.set_title(f"{r['engine']}, n_grid {r['n_grid']}, {r['speed']} m/s")
-        ax.legend(fontsize=7)
-        ax = axes[1, j]
-        ax.plot(t, [w.get("tip_smax_median", np.nan) for w in rw], label="tips: median s_max / f_t")
-        ax.plot(t, [w.get("tip_softening", np.nan) for w in rw], label="tips: share still softening")
-        ax.plot(t, [w["top_broken"][0] for w in rw], label="most broken section: broken through")
-        ax.plot(t, [w["opening"] / 0.01 for w in rw], label="its opening / w_c (1 cm)")
-        ax.axhline(1.0, color="k", lw=0.5)
-        ax.set_ylim(0, 6)
-        ax.set_xlabel("t (ms)")
-        ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-
-
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--engines", default="taichi_mpm")
@@ -338,8 +282,20 @@ def main(argv=None) -> int:
     ap.add_argument("--rate", type=int, default=300, help="samples a second (a multiple of 30)")
     ap.add_argument("--every", type=int, default=3, help="the Markdown table shows every n-th sample")
     ap.add_argument("--friction", type=float, default=None, help="the ground's friction (the scene's: 0.5)")
+    ap.add_argument("--catch", action="store_true", help="taichi_mpm with the softening capped at d = 0.5 (the "
+                    "law's check's catch); printed, not written")
     ap.add_argument("--plot", default="", help="also a PNG of the runs of --engines at --grid (a path)")
     a = ap.parse_args(argv)
+    if a.catch:
+        from gasp_taichi_mpm.constitutive import Constitutive
+        orig = capped_softening()
+        try:
+            rows = run("taichi_mpm", a.grid, float(a.speeds.split(",")[0]), a.frames, a.rate)
+        finally:
+            Constitutive.brittle_tau = orig
+        print(json.dumps({"catch": "softening capped at d = 0.5", "law_excess": max(r["law_excess"] for r in rows),
+                          "carried_max": max(r["carried_max"] for r in rows)}))
+        return 0
     runs = json.loads(OUT.with_suffix(".json").read_text())["runs"] if OUT.with_suffix(".json").exists() else []
     for engine in a.engines.split(","):
         for v in (float(s) for s in a.speeds.split(",")):
