@@ -234,6 +234,35 @@ def capped_softening(cap: float = 0.5):
     return orig
 
 
+def jelly_budget(engine: str, n_grid: int, v: float, frames: int, rate: int) -> list[dict]:
+    """The same landing as ``jelly`` (the brittle defaults' E, nu, rho; corotated, no damage; ``--jelly``): kinetic,
+    gravitational and stored (``V0 (mu |F - R|^2 + lam (J - 1)^2 / 2)``, the corotated energy) energy (J) over
+    the start's kinetic + gravitational: what the contact and the transfers keep without any fracture."""
+    from gasp_core.seam.build import build_engine
+    from gasp_core.seam.plugins import engines
+    from gasp_core.seam.setup import Material
+    b = bd.brittle("new")
+    m = Material("jelly", E=b.E, nu=b.nu, rho=b.rho)
+    setup = at_speed(bd.donut_setup(engine, n_grid, m), v)
+    ring = Ring(setup)
+    setup.frame_dt = 1.0 / rate
+    lam, mu = m.E * m.nu / ((1 + m.nu) * (1 - 2 * m.nu)), m.E / (2 * (1 + m.nu))
+    e0 = 0.5 * float(ring.m.sum()) * v * v + G * float(ring.m @ setup.x[ring.mat, 2])
+    e, rows = build_engine(engines()[engine], setup), []
+    try:
+        for k in range(1, frames * rate // 30 + 1):
+            e.step_frame()
+            st = state(e, ring.mat)
+            U, sv, Vt = np.linalg.svd(st["F"])
+            psi = mu * ((sv - 1) ** 2).sum(1) + 0.5 * lam * (sv.prod(1) - 1) ** 2
+            row = {"t": k / rate, "kinetic": 0.5 * float(ring.m @ (st["v"] ** 2).sum(1)),
+                   "potential": G * float(ring.m @ st["x"][:, 2]), "stored": float(ring.v0 @ psi)}
+            rows.append({**row, "kept": (row["kinetic"] + row["potential"] + row["stored"]) / e0})
+    finally:
+        e.close()
+    return rows
+
+
 def run(engine: str, n_grid: int, v: float, frames: int, rate: int, save: str | None = None,
         friction: float | None = None) -> list[dict]:
     """The samples of one landing (module notes); the last one also has its ``cracks`` (:func:`crack_links`) and its
@@ -282,10 +311,16 @@ def main(argv=None) -> int:
     ap.add_argument("--rate", type=int, default=300, help="samples a second (a multiple of 30)")
     ap.add_argument("--every", type=int, default=3, help="the Markdown table shows every n-th sample")
     ap.add_argument("--friction", type=float, default=None, help="the ground's friction (the scene's: 0.5)")
+    ap.add_argument("--jelly", action="store_true", help="the first engine and speed's landing as jelly: its "
+                    "energy kept (printed, not written)")
     ap.add_argument("--catch", action="store_true", help="taichi_mpm with the softening capped at d = 0.5 (the "
                     "law's check's catch); printed, not written")
     ap.add_argument("--plot", default="", help="also a PNG of the runs of --engines at --grid (a path)")
     a = ap.parse_args(argv)
+    if a.jelly:
+        for r in jelly_budget(a.engines.split(",")[0], a.grid, float(a.speeds.split(",")[0]), a.frames, a.rate):
+            print(json.dumps({k: round(x, 4) for k, x in r.items()}))
+        return 0
     if a.catch:
         from gasp_taichi_mpm.constitutive import Constitutive
         orig = capped_softening()
