@@ -184,6 +184,35 @@ def wave_figures(sp, rec, lx, h, dx, clamp, pulled, v, ramp) -> dict:
     }
 
 
+def edge_profile(sp: tf.Specimen, n_grid: int, engine: str, frames: int, ramp: float = 0.1) -> dict:
+    """The layers' mean ``P_xx`` over the gauge's median (each layer's rest x from the clamp's face, in cells; the
+    median of the ratio over the last third of ``frames`` frames of the ramped pull, ``ramp`` s), the layers within 4
+    cells of either face, and the gauge's median (over ``f_t``) at the last frame."""
+    from gasp_core.seam.build import build_engine
+    ramp0 = ut.RAMP_S
+    ut.RAMP_S = ramp
+    try:
+        ps, mesh = ut.prepare(sp, n_grid, engine, pull="ramp")
+    finally:
+        ut.RAMP_S = ramp0
+    st = ps.setup
+    fill = ut.fill_figures(ps, mesh, sp)
+    h, layer, lx = fill["h"], fill["layer"], fill["lx"]
+    clamp, pulled = ut.faces(sp, n_grid)
+    e = build_engine(ps.info, st)
+    try:
+        rec = ut.record(e, st, layer, len(lx), h, frames)
+    finally:
+        e.close()
+    ly = _layers(sp, lx, st.dx, clamp, pulled)
+    sig = rec["force"][-frames // 3:] / (rec["vol"] / h)
+    gs = np.median(sig[:, ly["gl"]], axis=1)
+    g, sig = float(gs[-1]), np.median(sig / gs[:, None], axis=0) * float(gs[-1])
+    near = np.flatnonzero((np.abs(lx - clamp) < 4 * st.dx) | (np.abs(lx - pulled) < 4 * st.dx))
+    return {"specimen": sp.name, "engine": engine, "n_grid": n_grid, "frames": frames, "gauge_vs_ft": g / tf.FT,
+            "layers": [[round(float((lx[k] - clamp) / st.dx), 2), round(float(sig[k] / g), 4)] for k in near]}
+
+
 def _key(r: dict) -> tuple:
     return r["specimen"], r["engine"], r["n_grid"], r["start"], r["speed"], r["ramp"]
 
@@ -217,8 +246,15 @@ def main() -> None:
     ap.add_argument("--start", default="step", help="step or ramp")
     ap.add_argument("--ramp", type=float, default=0.0, help="the ramp (s) for --start ramp")
     ap.add_argument("--stop", type=int, default=0, help="end this many frames after the first damage (0: the break)")
+    ap.add_argument("--profile", type=int, default=0, help="print edge_profile after this many frames, and stop")
     a = ap.parse_args()
     tf.name_check(a.engine)
+    if a.profile:
+        for name in a.only.split(","):
+            for n in (int(g) for g in a.n_grid.split(",")):
+                sp = next(s for s in ut.USER if s.name == name)
+                print(json.dumps(edge_profile(sp, n, a.engine, a.profile, a.ramp or ut.RAMP_S)), flush=True)
+        return
     path = RESULTS / "step_wave.json"
     rows = json.loads(path.read_text())["cases"] if path.exists() else []
     for name in a.only.split(","):
