@@ -21,7 +21,9 @@ clamp edge's and the gauge's stress over the 1D bar's at the same x, up to the f
 
 Run (one engine a process): ``python benchmarks/studies/step_wave.py --engine taichi_mpm --only bar_L0.7_a0.30
 --n-grid 48 --speed 1 --start step`` (``--speed`` a comma list of factors on ``tf.PULL``, ``--ramp`` the ramp's
-seconds for ``--start ramp``); cases go to ``benchmarks/results/step_wave.json`` and ``step_wave.md``.
+seconds for ``--start ramp``, ``--stop K`` to end K frames after the first damage); cases go to
+``benchmarks/results/step_wave.json`` and ``step_wave.md``. ``--profile F`` prints :func:`edge_profile` after F frames
+of the ramped pull instead (``results/step_wave_profile.md``).
 """
 from __future__ import annotations
 
