@@ -13,8 +13,8 @@ MPM engines. The scenes and the measure: ``gasp_core.testing.snow``.
   settle where ``tan theta < mu``. The family: 15, 30, 45 degrees x mu 0.2, 0.4, 0.6 at n_grid 24 and 48 (slow); at 48
   the block at 30 degrees and mu 0.6 (tan theta / mu = 0.96) creeps (``GRID_SLIPS``, strict xfail): the grid
   contact's margin on the finer grid, which the jelly block shares (it creeps further, 98 mm), not snow's.
-  The catches: the engine's ground friction 0.95 / 1.05 times the scene's (45 degrees, mu 0.6: about -/+7.5 %) and
-  halved (15 degrees, mu 0.4: it slides).
+  The catches: the engine's ground friction 0.95 / 1.05 times the scene's (45 degrees, mu 0.6: +7.50 / -7.50 %) and
+  halved (15 degrees, mu 0.4: it slides, 363 mm in 1 s), both engines (``benchmarks/results/snow_checks.md``).
 
 Default tier: the measure on made points, and the slope's slide and stick on warp_mpm at n_grid 24 with their catches.
 """
