@@ -231,8 +231,7 @@ def compliance_ramp(sp: tf.Specimen, x: np.ndarray, clamp: float, pulled: float)
 def record(e, st, layer: np.ndarray, nl: int, h: float, n_frames: int) -> dict:
     """Step the engine ``e`` up to ``n_frames`` frames (until ``tf.AFTER`` frames after a layer is at ``d = 1``
     throughout); each frame each layer's force (N), mean x (m) and mean damage (by volume), and whether a layer is
-    broken through (all its volume at ``d >= 0.9``); ``free`` (nl,) bool the layers none of whose points the scene
-    holds (:func:`crack_place.free_layers`)."""
+    broken through (all its volume at ``d >= 0.9``); ``free`` (nl,) the layers the scene does not hold."""
     pv = np.where(layer >= 0, np.asarray(st.p_vol, np.float64), 0.0)
     li = np.maximum(layer, 0)
     vol = np.bincount(li, pv, nl)
@@ -261,9 +260,8 @@ def record(e, st, layer: np.ndarray, nl: int, h: float, n_frames: int) -> dict:
 def figures(sp: tf.Specimen, rec: dict, lx: np.ndarray, h: float, dx: float, clamp: float, pulled: float) -> dict:
     """:func:`tension_family.run_case`'s figures from :func:`record`'s: the peak nominal stress in the gauge (the
     median over its layers, before a layer breaks through), where it breaks, the work to separate ``int sigma_c dw``
-    over the crack's zone (2 cells either side). The crack's layer is :func:`crack_place.crack_layer`'s, among the
-    free layers (``rec["free"]``, else those between the faces): the first to reach the most damage, never a held
-    one (whose damage mirrors the crack's, docs/fracture.md "The held region")."""
+    over the crack's zone (2 cells either side). The crack's layer: :func:`crack_place.crack_layer` on the free
+    layers (``rec["free"]``, else those between the faces), never a held one (its damage mirrors the crack's)."""
     force, pos, dmean = rec["force"], rec["pos"], rec["dmean"]
     a_gauge = float(sp.gauge_w ** 2)
     g_lo, g_hi = (clamp + 1.5 * dx, pulled - 1.5 * dx) if sp.gauge_l == 0.0 else sp.gauge(dx)

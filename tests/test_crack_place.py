@@ -4,9 +4,10 @@ tied at the most damage the first to reach it in time.
 
 The synthetic bar is the step-started bar a0.30 at n_grid 48 as it was measured (``benchmarks/user_tension.py``): the
 crack opens 1.2 cells past the clamp's face at frame 481 and the clamp's held layer beside it, whose damage mirrors
-the crack's by design (the brittle held rule), reaches ``d = 1`` 85 frames later. The catch: the measure of before
+the crack's by design (the brittle held rule), reaches ``d = 1`` 85 frames later. The catches: the measure of before
 (``argmax`` of the end damage over every layer, the first of the tied) names the held layer, inside the clamp, and
-fails; and where two free layers tie it names the lower in x, not the first in time.
+where two free layers tie the lower in x, not the first in time; the free layers read by the frame of ``d = 1`` alone
+name the known case's other band layer (x 0.346, "gauge"), which trailed to every level up to 0.95.
 """
 from __future__ import annotations
 
