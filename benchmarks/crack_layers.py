@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+import crack_place as cp
 import tension_family as tf
 import tension_oblique as to
 
@@ -44,10 +45,11 @@ def work_to_separate(force: np.ndarray, pos: np.ndarray, lx: np.ndarray, area: n
     return float(np.sum(0.5 * (sig_c[1:] + sig_c[:-1]) * np.diff(w)))
 
 
-def crack_zone(dmean_end: np.ndarray, lx: np.ndarray, free: np.ndarray, dx: float) -> tuple[int, np.ndarray]:
-    """The crack's layer (the free one most damaged at the end, by ``dmean_end`` (k,)) and its zone: the free layers
-    whose rest axial ``lx`` (k,) lies within 2 cells (``dx``, m) of it."""
-    crack = int(np.argmax(np.where(free, dmean_end, -1.0)))
+def crack_zone(dmean: np.ndarray, lx: np.ndarray, free: np.ndarray, dx: float) -> tuple[int, np.ndarray]:
+    """The crack's layer (:func:`crack_place.crack_layer`: the free one most damaged at the end of ``dmean``
+    (frames, k), the first to get there where several tie) and its zone: the free layers whose rest axial ``lx``
+    (k,) lies within 2 cells (``dx``, m) of it."""
+    crack = cp.crack_layer(dmean, free)
     return crack, np.flatnonzero(free & (np.abs(lx - lx[crack]) <= 2 * dx + 1e-9))
 
 
@@ -63,6 +65,6 @@ def x_plane_work(out: dict, xl: np.ndarray, pts: tuple, sp: tf.Specimen, dx: flo
     free = (vol > 0) & (to.layer_reach(x0[xl >= 0], xl[xl >= 0], nx, *held) > 0)
     if not np.any(free & (np.bincount(xli, (d >= 0.9) * w, nx) >= vol * (1 - 1e-9))):
         return None
-    crack, span = crack_zone(out["dmean_x"][-1], lx, free, dx)
+    crack, span = crack_zone(out["dmean_x"], lx, free, dx)
     work = work_to_separate(out["force_x"], out["pos_x"], lx, sp.area(lx + tf.X0), crack, span, sp.gauge_w ** 2)
     return work, float(np.bincount(xli, Dp, nx)[span].sum() / sp.gauge_w ** 2)

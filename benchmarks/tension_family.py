@@ -58,6 +58,8 @@ from pathlib import Path
 
 import numpy as np
 
+import crack_place as cp
+
 E, NU, RHO, FT, GF = 1e6, 0.0, 1000.0, 1e4, 20.0
 PULL, FRAME_DT, SIZE, Y0 = 0.02, 0.0005, 1.2, 0.6
 X0, HOLD = 0.2, 0.1       # the specimen starts at x = X0; the clamp and the pulled box take HOLD m of its ends
@@ -214,7 +216,7 @@ def run_case(sp: Specimen, n_grid: int, engine: str, build_fn=build, shift: tupl
     g_lo, g_hi = (clamp + 1.5 * dx, pulled - 1.5 * dx) if sp.gauge_l == 0.0 else sp.gauge(dx)
     gauge = (lx > g_lo) & (lx < g_hi)
     gl = np.flatnonzero(gauge)
-    free = (lx > clamp) & (lx < pulled)
+    free = cp.free_layers(layer, cp.held_points(st.x, st.boundaries, st.impulses), nl)   # no point held
     t_peak = (FT / E) * (np.interp(pulled, lx, np.cumsum(a_gauge / sp.area(lx))) -
                          np.interp(clamp, lx, np.cumsum(a_gauge / sp.area(lx)))) * s / PULL
     # until the crack has opened past 1.5 w_c = 3 G_f / f_t beyond the peak's stretch, or 20 ms after it is open
@@ -245,7 +247,7 @@ def run_case(sp: Specimen, n_grid: int, engine: str, build_fn=build, shift: tupl
     k_end = int(np.argmax(broken)) if broken.any() else len(force)
     sig_g = np.median(force[:, gl], axis=1) / a_gauge
     peak = float(sig_g[:max(k_end, 1)].max())
-    crack = int(np.argmax(dmean[-1]))
+    crack = cp.crack_layer(dmean, free)      # the free layer first at the most damage
     span = np.flatnonzero(free & (np.abs(lx - lx[crack]) <= 2 * dx + 1e-9))   # the crack's zone: 2 cells each side
     x_c = float(lx[crack])
     section = float(sp.area(np.array([x_c]))[0] / a_gauge - 1)

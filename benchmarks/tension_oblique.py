@@ -38,6 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
+import crack_place as cp
 import tension_family as tf
 
 RESULTS = Path(__file__).parent / "results"
@@ -205,7 +206,7 @@ def run_case(sp: tf.Specimen, n_grid: int, engine: str, angle: str = "45", build
     k_end = int(np.argmax(broken)) if broken.any() else len(force)
     sig_g = np.median(force[:, gauge], axis=1) / a_gauge
     peak = float(sig_g[:max(k_end, 1)].max())
-    crack = int(np.argmax(np.where(free, dmean[-1], -1.0)))
+    crack = cp.crack_layer(dmean, free)      # the free layer first at the most damage
     where = "gauge" if gauge[crack] else ("held edge" if reach[crack] < 1.5 * dx else "grip")
     span = np.flatnonzero(free & (np.abs(lx - lx[crack]) <= 2 * dx + 1e-9))
     area = count * s * s

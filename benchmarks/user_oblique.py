@@ -250,7 +250,7 @@ def run_case(sp: tf.Specimen, n_grid: int, engine: str, angle: str, start: str =
     force, pos, dmean, broken = out["force"], out["pos"], out["dmean"], out["thru"]
     k_end = int(np.argmax(broken)) if broken.any() else len(force)
     sig_g = np.median(force[:, gauge], axis=1) / a_gauge
-    crack, span = cl.crack_zone(dmean[-1], lx, free, dx)
+    crack, span = cl.crack_zone(dmean, lx, free, dx)
     where = "gauge" if gauge[crack] else ("held edge" if reach[crack] < 1.5 * dx else "grip")
     work = work_axial = cl.work_to_separate(force, pos, lx, area, crack, span, a_gauge)
     d = out["d"]

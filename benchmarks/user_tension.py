@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+import crack_place as cp      # noqa: E402
 import tension_family as tf   # noqa: E402
 
 RESULTS = Path(__file__).parent / "results"
@@ -230,7 +231,7 @@ def compliance_ramp(sp: tf.Specimen, x: np.ndarray, clamp: float, pulled: float)
 def record(e, st, layer: np.ndarray, nl: int, h: float, n_frames: int) -> dict:
     """Step the engine ``e`` up to ``n_frames`` frames (until ``tf.AFTER`` frames after a layer is at ``d = 1``
     throughout); each frame each layer's force (N), mean x (m) and mean damage (by volume), and whether a layer is
-    broken through (all its volume at ``d >= 0.9``)."""
+    broken through (all its volume at ``d >= 0.9``); ``free`` (nl,) the layers the scene does not hold."""
     pv = np.where(layer >= 0, np.asarray(st.p_vol, np.float64), 0.0)
     li = np.maximum(layer, 0)
     vol = np.bincount(li, pv, nl)
@@ -252,23 +253,25 @@ def record(e, st, layer: np.ndarray, nl: int, h: float, n_frames: int) -> dict:
             break
     out = {k: np.array(v) for k, v in out.items()}
     out["vol"], out["d"], out["xs"] = vol, d, xs
+    out["free"] = cp.free_layers(layer, cp.held_points(st.x, st.boundaries, st.impulses), nl)
     return out
 
 
 def figures(sp: tf.Specimen, rec: dict, lx: np.ndarray, h: float, dx: float, clamp: float, pulled: float) -> dict:
     """:func:`tension_family.run_case`'s figures from :func:`record`'s: the peak nominal stress in the gauge (the
     median over its layers, before a layer breaks through), where it breaks, the work to separate ``int sigma_c dw``
-    over the crack's zone (2 cells either side)."""
+    over the crack's zone (2 cells either side). The crack's layer: :func:`crack_place.crack_layer` on the free
+    layers (``rec["free"]``, else those between the faces), never a held one (its damage mirrors the crack's)."""
     force, pos, dmean = rec["force"], rec["pos"], rec["dmean"]
     a_gauge = float(sp.gauge_w ** 2)
     g_lo, g_hi = (clamp + 1.5 * dx, pulled - 1.5 * dx) if sp.gauge_l == 0.0 else sp.gauge(dx)
     gl = np.flatnonzero((lx > g_lo) & (lx < g_hi))
-    free = (lx > clamp) & (lx < pulled)
+    free = rec["free"] if "free" in rec else (lx > clamp) & (lx < pulled)
     broken = rec["thru"]
     k_end = int(np.argmax(broken)) if broken.any() else len(force)
     sig_g = np.median(force[:, gl], axis=1) / a_gauge
     peak = float(sig_g[:max(k_end, 1)].max())
-    crack = int(np.argmax(dmean[-1]))
+    crack = cp.crack_layer(dmean, free)
     x_c = float(lx[crack])
     section = float(sp.area(np.array([x_c]))[0] / a_gauge - 1)
     if (g_lo < x_c < g_hi) if sp.gauge_l == 0.0 else section <= tf.SECTION_TOL:

@@ -193,8 +193,9 @@ def test_the_check_catches_the_fill_of_before_on_the_dog_bone(name, monkeypatch)
     "tests/test_step_wave.py): the pull starts a front of rho c v = 632 Pa (6.3 % of f_t), doubled at the clamp, and "
     "the bar's stress climbs in whole levels of it; level 16 (1.012 f_t), the first past f_t, is born at the clamp at "
     "15 L / c = 0.237 s. The bar L0.7 a0.30 at n_grid 48 first damages at 0.241 s, 1.2 cells past the clamp's face "
-    "(x 0.330; its mirror in the held points, x 0.267, is the layer the figures name), the gauge then at 0.951 f_t "
-    "(the 1D bar's 0.949), both engines. Ramped over 0.1 s (the ramp key) it breaks in the gauge"))) for n in _names()])
+    "(x 0.330, where the figures name its break: held edge, under the gauge's 1.5 cells; read on the free layers, "
+    "benchmarks/crack_place.py), the gauge then at 0.951 f_t (the 1D bar's 0.949), both engines. Ramped over 0.1 s "
+    "(the ramp key) it breaks in the gauge"))) for n in _names()])
 def test_a_pull_started_as_a_step_from_rest_breaks_in_the_gauge(name):
     bad = failures(ut.run_user_case(ut.USER[1], 2 * N, name, start="step"))
     assert bad == [], bad

@@ -81,7 +81,7 @@ def until_damage(e, st, layer, nl: int, h: float, n_frames: int, stop: int) -> d
         if left == 0:
             break
     rec = {k: np.concatenate([p[k] for p in parts]) for k in ("force", "pos", "dmean", "thru", "opened")}
-    rec.update({k: parts[-1][k] for k in ("vol", "d", "xs")})
+    rec.update({k: parts[-1][k] for k in ("vol", "d", "xs", "free")})
     return rec
 
 
