@@ -14,7 +14,8 @@ centroid's travel (mm) over 1 s from 0.1 s after the start of the measured part:
   ``tests/test_snow_contact.py``);
 * ``settled``: the same block first held for ``SETTLE_S`` s on the ground's friction 5.0, then the ground's friction
   set to ``mu`` (the engine's ground table written between frames);
-* ``slide`` (``tan theta / mu`` over 1): the released block's acceleration against Coulomb's, as the tests read it;
+* ``slide`` (``tan theta / mu`` over 1): the released block's acceleration against Coulomb's, as the tests read it
+  (``dslide``: the damped jelly's);
 * ``damped``: ``release`` with the jelly given ``viscosity`` ``DAMPED_ETA`` Pa s (a damping ratio about 0.4 of the
   block's first compression mode, ``eta omega / (2 E)`` with ``omega = pi c_p / (2 h)``, 365 rad/s).
 
@@ -34,6 +35,47 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 
+def set_ground_mu(e, mu: float) -> None:
+    """Write ground 0's friction into a built engine between frames (warp_mpm's ``ground`` table, taichi_mpm's
+    ``ground_fric`` field)."""
+    if hasattr(e, "ground") and hasattr(e.ground, "numpy"):
+        g = e.ground.numpy()
+        g[:, 1] = mu
+        e.ground.assign(g)
+    else:
+        e.solver.ground_fric[0] = mu
+
+
+def ring(engine: str, n: int, theta: float) -> str:
+    """The ground's loads on the jelly block released on friction ``HOLD_MU`` (its base held), read from the block's
+    mean velocity each substep over the first 0.12 s (warp_mpm only: it steps single substeps through its
+    ``_substeps``): a markdown line with the normal load over ``M g cos theta`` (2 ms means, min and max) and the
+    share of the time where the tangential load over the normal exceeds ``tan theta / 0.96``."""
+    from gasp_core.seam import build_engine, get_engine
+    from gasp_core.testing.grid_hold import HOLD_MU, block_material
+    from gasp_core.testing.snow import slope_setup
+    import numpy as np
+    s = slope_setup(theta, HOLD_MU, n, block_material("jelly"), {"contact": "grid"})
+    e = build_engine(get_engine(engine), s)
+    t, g, dt = math.radians(theta), 9.81, e.dt
+    v0, nn, tt = e.velocities().astype(np.float64).mean(0), [], []
+    for _ in range(int(0.12 / dt)):
+        ns, e.n_substeps = e.n_substeps, 1
+        e._substeps()
+        e.n_substeps = ns
+        v = e.velocities().astype(np.float64).mean(0)
+        a, v0 = (v - v0) / dt, v
+        nn.append((a[2] + g * math.cos(t)) / (g * math.cos(t)))
+        tt.append((g * math.sin(t) - a[0]) / (g * math.cos(t)))
+    w = max(1, int(0.002 / dt))
+    mean = lambda a: np.convolve(np.asarray(a), np.ones(w) / w, mode="valid")   # noqa: E731
+    nm, tm = mean(nn), mean(tt)
+    over = float(np.mean(tm / np.maximum(nm, 1e-9) > math.tan(t) / 0.96))
+    return (f"| ring | {engine} | n{n} | {theta:g} deg | normal load / M g cos: {nm.min():.3f} .. {nm.max():.3f} | "
+            f"tangential / normal over tan theta / 0.96: {100 * over:.0f} % of 0.12 s | dt {dt:.3g} s |")
+
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--engines", default="warp_mpm,taichi_mpm")
@@ -43,7 +85,6 @@ def main() -> None:
     p.add_argument("--thetas", default="30,45")
     p.add_argument("--out", default=str(ROOT / "benchmarks/results/grid_hold.md"))
     a = p.parse_args()
-    from gasp_core.testing.grid_hold import ring
     for eng in a.engines.split(","):
         if a.ring:
             lines = (ring(eng, int(n), float(th)) for n in a.grids.split(",") for th in a.thetas.split(","))
@@ -62,11 +103,11 @@ def _case(engine: str, case: str) -> str:
     options = {k: (v if k == "contact" else float(v)) for k, v in options.items()}
     t0 = time.time()
     ratio = math.tan(math.radians(float(th))) / float(mu)
-    if variant == "slide":
-        err = slide_error(engine, mat, int(n), float(th), float(mu))
-        return (f"| slide | {engine} | {mat} | release | n{n} | {th} deg, mu {mu} (tan/mu {ratio:.3f}) | "
+    if variant in ("slide", "dslide"):
+        err = slide_error(engine, mat, int(n), float(th), float(mu), damped=variant == "dslide")
+        return (f"| slide | {engine} | {mat} | {'damped' if variant == 'dslide' else 'release'} | n{n} | {th} deg, mu {mu} (tan/mu {ratio:.3f}) | "
                 f"a {100 * err:+.2f} % off Coulomb | {time.time() - t0:.0f} s |")
-    f = hold_travel(engine, mat, variant, int(n), float(th), float(mu), options=options)
+    f = hold_travel(engine, mat, variant, int(n), float(th), float(mu), options=options, set_mu=set_ground_mu)
     return (f"| hold | {engine} | {mat} | {variant} {options or ''} | n{n} | {th} deg, mu {mu} "
             f"(tan/mu {ratio:.3f}) | travel {f:.4f} mm in 1 s | {'holds' if f < 1.0 else 'CREEPS'} | {time.time() - t0:.0f} s |")
 
