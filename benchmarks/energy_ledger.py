@@ -9,27 +9,33 @@ are read between them; nothing in an engine changes. Per substep (energies in J;
   quadratic B-spline's inertia ``D = dx^2 / 4 I``): with it P2G and G2P each lose energy, never gain it (the grid
   velocity is a weighted mean of the points' affine fields and the G2P a least-squares projection of the grid's);
 - ``K0``: the grid's kinetic energy of the P2G without forces (NumPy, the points' ``m (v + C (x_i - x_p))`` with their
-  weights; its node masses are checked against the engine's); ``K1``: with the particle contact's impulses
-  (``gasp_core.mpm.contact.plane_impulse``, the damped penalty on the ground); ``K2``: the engine's P2G momentum
-  (with the stress); ``K3``: plus gravity ``g dt`` (the ledger's own ``g``); ``K4``: the engine's grid velocity after
-  the grid update (the ground's and walls' grid rule, the nodes' Coulomb friction); ``K5``: after the contact's
-  balance fix;
+  weights; its node masses are checked against the engine's); the impulses the engine's P2G adds on top: the particle
+  contact's (NumPy, ``gasp_core.mpm.contact``'s damped penalty on the ground from the engine's own ``(k, c, skin)``),
+  the stress's (the engine's P2G momentum less the two), gravity's ``m g dt`` (the ledger's own ``g``); each does the
+  work ``J . (v_a + v_b) / 2`` at the node (``v_a`` the free P2G's velocity, ``v_b`` the engine's before its rule), an
+  order-free split whose sum is ``K3 - K0``, ``K3`` the grid's energy before the rule; ``K4``: the engine's grid
+  velocity after the grid update (the ground's and walls' grid rule, the nodes' Coulomb friction); ``K5``: after the
+  contact's balance fix;
 - ``psi``: the stored elastic energy of the engine's ``F`` (jelly: fixed corotated, ``V0 (mu sum (s_i - 1)^2 + lam
   (J - 1)^2 / 2)``; brittle: the carried Hencky energy and the damage's dissipation ``D`` of
   ``benchmarks/brittle_donut_arrest.py``), ``U``: the contact's springs ``sum k depth^2 / 2``, ``PE``: ``m g z``.
 
-Sinks of a substep (positive: lost): ``p2g = Ep - K0``, ``contact = -(K1 - K0) - dU`` (the penalty's damping and its
-discrete steps), ``rule = K3 - K4``, ``balance = K4 - K5``, ``g2p = K5 - Ep'``; the two untraced terms, which are
-zero for an integrator that conserves energy: ``elastic = (K2 - K1) + dpsi + dD`` (the stress's work on the grid
-against the stored energy's rise) and ``gravity = (K3 - K2) + dPE``. Their sum is the change of ``E = Ep + psi + U +
-PE + D`` (an identity: the ledger closes when the untraced terms are small). Used by
+Sinks of a substep (positive: lost): ``p2g = Ep - K0``; ``contact = -W_contact - dU`` (the penalty's damping and its
+discrete steps); ``friction`` (``gasp_core.mpm.contact.node_friction`` on the friction budget the engine scattered,
+applied to ``K3``'s velocities); ``rule = K3 - K4 - friction`` (the ground's and walls' grid rule); ``balance = K4 -
+K5``; ``g2p = K5 - Ep'``. The two untraced terms, zero for an integrator that conserves energy: ``elastic = W_stress
++ dpsi + dD`` (the stress's work on the grid against the stored energy's rise and the damage's dissipation) and
+``gravity = W_gravity + dPE``. With them the sinks sum to the drop of ``E = Ep + psi + U + PE + D`` (an identity:
+the ledger closes when the untraced terms are small). Used by
 ``benchmarks/energy_ledger_family.py`` and ``tests/test_energy_ledger.py``.
 """
 from __future__ import annotations
 
 import numpy as np
 
-SINKS = ("p2g", "contact", "rule", "balance", "g2p")
+from gasp_core.mpm.contact import node_friction
+
+SINKS = ("p2g", "contact", "friction", "rule", "balance", "g2p")
 UNTRACED = ("elastic", "gravity")
 
 
@@ -129,7 +135,8 @@ class TaichiSteps:
             s.fix_contact()
         v5 = s.grid_v.to_numpy().astype(np.float64).reshape(-1, 3)
         s.last_g2p(None)
-        return {"mom": acc[:, :3], "mass": acc[:, 3], "v4": v4, "v5": v5}
+        fb = acc[:, -1] if s.pc else np.zeros(len(acc))   # the particle contact's friction budget (last channel)
+        return {"mom": acc[:, :3], "mass": acc[:, 3], "v4": v4, "v5": v5, "budget": fb}
 
 
 class WarpSteps:
@@ -167,6 +174,8 @@ class WarpSteps:
             if i == 0:
                 acc = e.grid_mv.numpy().astype(np.float64).copy()
                 out["mom"], out["mass"] = acc[:, :3], acc[:, 3]
+                fb = e.grid_fb.numpy().astype(np.float64)
+                out["budget"] = fb.copy() if len(fb) == len(acc) else np.zeros(len(acc))
             if i == self.i_update:
                 out["v4"] = e.grid_v.numpy().astype(np.float64).copy()
         return out
@@ -235,10 +244,12 @@ class Ledger:
         Wc, Ws = float((cont * mid).sum()), float((stress * mid).sum())
         Wg = float((mass[:, None] * self.dt * self.g * mid).sum())
         K4, K5 = grid_ke_v(g["v4"], mass), grid_ke_v(g["v5"], mass)
+        fric = K3 - grid_ke_v(node_friction(vg, np.where(ok, mass, 1.0), g["budget"]), mass)
         p1 = self.steps.points()
         E1 = self.energy(p1)
         d = {k: E1[k] - E0[k] for k in ("psi", "D", "U", "PE")}
-        row = {"p2g": E0["Ep"] - K0, "contact": -Wc - d["U"], "rule": K3 - K4, "balance": K4 - K5,
+        row = {"p2g": E0["Ep"] - K0, "contact": -Wc - d["U"], "rule": K3 - K4 - fric, "friction": fric,
+               "balance": K4 - K5,
                "g2p": K5 - E1["Ep"], "elastic": Ws + d["psi"] + d["D"], "gravity": Wg + d["PE"],
                "mid_err": K3 - K0 - Wc - Ws - Wg,
                "total": sum(E1[k] for k in ("Ep", "psi", "D", "U", "PE")), **E1}

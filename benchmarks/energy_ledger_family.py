@@ -74,11 +74,30 @@ def scene(body: str, engine: str, n_grid: int, v: float, cfl: float | None = Non
 
 
 def run(body: str, engine: str, n_grid: int, v: float, ms: float, cfl: float | None = None,
-        gravity_scale: float = 1.0, stiffness_scale: float = 1.0, every_ms: float = 5.0) -> dict:
-    """One landing's ledger (module notes): sums of the sinks, the energy left, and a row every ``every_ms``."""
+        gravity_scale: float = 1.0, stiffness_scale: float = 1.0, every_ms: float = 5.0,
+        damping: float | None = None, flip: float | None = None, parts: bool = False) -> dict:
+    """One landing's ledger (module notes): sums of the sinks, the energy left, and a row every ``every_ms``.
+    Prototypes, off by default (None): ``damping``, the particle contact's damping ratio
+    (``gasp_core.mpm.contact.DAMPING``, 0.5) for this run; ``flip``, the engines' AFLIP option. ``parts``: also the
+    parts of 1 % of the mass or more at the end (``gasp_core.testing.pieces_count.FramePieces``)."""
+    import gasp_core.mpm.contact as gc
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import engines
     setup = scene(body, engine, n_grid, v, cfl)
+    if flip is not None:
+        setup.options["flip"] = flip
+    keep = gc.DAMPING
+    gc.DAMPING = keep if damping is None else damping
+    try:
+        return _run(setup, body, engine, n_grid, v, ms, cfl, gravity_scale, stiffness_scale, every_ms, parts) | {
+            "damping": damping, "flip": flip}
+    finally:
+        gc.DAMPING = keep
+
+
+def _run(setup, body, engine, n_grid, v, ms, cfl, gravity_scale, stiffness_scale, every_ms, parts) -> dict:
+    from gasp_core.seam.build import build_engine
+    from gasp_core.seam.plugins import engines
     material = setup.materials[0]
     variant = dataclasses.replace(setup, gravity=np.asarray(setup.gravity) * gravity_scale,
                                   materials=[dataclasses.replace(material, E=material.E * stiffness_scale)])
@@ -104,17 +123,33 @@ def run(body: str, engine: str, n_grid: int, v: float, ms: float, cfl: float | N
                 trace.append({"t_ms": (i + 1) * led.dt * 1e3, "E": r["total"], "kinetic": r["kinetic"],
                               "Ep": r["Ep"], "psi": r["psi"], "D": r["D"], "U": r["U"],
                               **{k: sums[k] for k in sums}})
+        pieces = count_parts(setup, e) if parts else None
     finally:
         e.close()
     return {"body": body, "engine": engine, "n_grid": n_grid, "speed": v, "ms": ms, "cfl": cfl,
             "gravity_scale": gravity_scale, "stiffness_scale": stiffness_scale, "dt": led.dt, "substeps": n,
             "n_points": int(len(led.kc)), "E0": E0, "E_end": trace[-1]["E"], "sums": sums, "least": least,
-            "untraced_worst": worst, "mass_err": led.mass_err, "seconds": time.time() - t0, "trace": trace}
+            "untraced_worst": worst, "mass_err": led.mass_err, "seconds": time.time() - t0, "trace": trace,
+            "parts": pieces}
+
+
+def count_parts(setup, e) -> list[float]:
+    """The shares of the mass of the parts of 1 % or more at the end (the frames-only count of
+    ``brittle_donut_arrest``: rest neighbours within ``LINK_RADIUS`` spacings, cut past ``dx``), from the engine
+    ``e``'s positions in the setup's order."""
+    from gasp_core.run.pieces import LINK_RADIUS
+    from gasp_core.testing.pieces_count import FramePieces
+    mat = np.asarray(setup.p_vol) > 0
+    x0, m = np.asarray(setup.x)[mat], np.asarray(setup.p_mass)[mat]
+    x = np.asarray(e.to_setup_order(e.read_array("x")), np.float64)[mat]
+    ref = FramePieces(x0, m, LINK_RADIUS * float(np.cbrt(np.asarray(setup.p_vol)[mat].max())), setup.dx)
+    shares = ref.masses(x) / m.sum()
+    return [float(q) for q in shares if q >= 0.01]
 
 
 def key(r: dict) -> tuple:
     return (r["body"], r["engine"], r["n_grid"], r["speed"], r["ms"], r.get("cfl"), r["gravity_scale"],
-            r["stiffness_scale"])
+            r["stiffness_scale"], r.get("damping"), r.get("flip"))
 
 
 def report(runs: list[dict]) -> list[str]:
@@ -124,17 +159,20 @@ def report(runs: list[dict]) -> list[str]:
              "over the substeps as a % of `E0` (positive: lost; `benchmarks/energy_ledger.py`'s notes), the energy "
              "left, and `untraced`: the elastic + gravity terms at the end and their largest size on the way "
              "(% of `E0`); `gain`: the largest energy over `E0` at any substep (%).", "",
-             "| body | engine | n_grid | v (m/s) | ms | dt (ms) | points | E0 (J) | p2g | contact | rule | balance | "
-             "g2p | damage | untraced end; worst | left | gain | mass err | s |",
-             "|" + "---|" * 19]
+             "| body | engine | n_grid | v (m/s) | ms | dt (ms) | points | E0 (J) | p2g | contact | friction | rule | "
+             "balance | g2p | damage | untraced end; worst | left | gain | mass err | s |",
+             "|" + "---|" * 20]
     for r in sorted(runs, key=lambda r: tuple(str(x) for x in key(r))):
         s, e0 = r["sums"], r["E0"]
         pct = lambda x: f"{100 * x / e0:.1f}"   # noqa: E731
         tag = "" if r["gravity_scale"] == 1 and r["stiffness_scale"] == 1 else \
             f" (catch: g x{r['gravity_scale']}, E x{r['stiffness_scale']})"
+        tag += "".join(f" ({k} {r[k]})" for k in ("damping", "flip") if r.get(k) is not None)
+        tag += f" (parts {', '.join(f'{q:.3f}' for q in r['parts'])})" if r.get("parts") else ""
         lines.append(f"| {r['body']}{tag} | {r['engine']} | {r['n_grid']} | {r['speed']} | {r['ms']:g} | "
                      f"{r['dt'] * 1e3:.3f} | {r['n_points']} | {e0:.3f} | {pct(s['p2g'])} | {pct(s['contact'])} | "
-                     f"{pct(s['rule'])} | {pct(s['balance'])} | {pct(s['g2p'])} | {pct(r['trace'][-1]['D'])} | "
+                     f"{pct(s['friction']) if 'friction' in s else '-'} | {pct(s['rule'])} | {pct(s['balance'])} | "
+                     f"{pct(s['g2p'])} | {pct(r['trace'][-1]['D'])} | "
                      f"{pct(s['elastic'] + s['gravity'])}; {pct(r['untraced_worst'])} | {pct(r['E_end'])} | "
                      f"{r['gain'] * 100:.2f} | {r['mass_err']:.1e} | {r['seconds']:.0f} |")
     return lines + [""]
@@ -150,6 +188,9 @@ def main(argv=None) -> int:
     ap.add_argument("--cfl", type=float, default=None)
     ap.add_argument("--gravity-scale", type=float, default=1.0)
     ap.add_argument("--stiffness-scale", type=float, default=1.0)
+    ap.add_argument("--damping", type=float, default=None, help="prototype: the contact's damping ratio (0.5)")
+    ap.add_argument("--flip", type=float, default=None, help="prototype: the engines' AFLIP blend")
+    ap.add_argument("--parts", action="store_true", help="count the parts of 1 %% or more at the end")
     a = ap.parse_args(argv)
     path = OUT.with_suffix(".json")
     runs = json.loads(path.read_text())["runs"] if path.exists() else []
@@ -157,7 +198,8 @@ def main(argv=None) -> int:
         for ng in (int(g) for g in a.grids.split(",")):
             for v in (float(s) for s in a.speeds.split(",")):
                 for engine in a.engines.split(","):
-                    r = run(body, engine, ng, v, a.ms, a.cfl, a.gravity_scale, a.stiffness_scale)
+                    r = run(body, engine, ng, v, a.ms, a.cfl, a.gravity_scale, a.stiffness_scale, damping=a.damping,
+                            flip=a.flip, parts=a.parts)
                     r["gain"] = max(0.0, max(t["E"] for t in r["trace"]) / r["E0"] - 1.0)
                     runs = [q for q in runs if key(q) != key(r)] + [r]
                     print(json.dumps({k: r[k] for k in ("body", "engine", "n_grid", "speed", "E0", "E_end",
