@@ -147,6 +147,35 @@ def count_parts(setup, e) -> list[float]:
     return [float(q) for q in shares if q >= 0.01]
 
 
+def parts_run(engine: str, n_grid: int, v: float, frames: int = 5, damping: float | None = None,
+              flip: float | None = None) -> dict:
+    """The brittle README donut at ``v`` stepped ``frames`` frames of 1/30 s by the engine alone (no ledger), with the
+    prototypes of :func:`run`: the parts of 1 % of the mass or more at the end, and the share broken through."""
+    import gasp_core.mpm.contact as gc
+    from gasp_core.seam.build import build_engine
+    from gasp_core.seam.plugins import engines
+    setup = scene("donut_brittle", engine, n_grid, v)
+    if flip is not None:
+        setup.options["flip"] = flip
+    keep, t0 = gc.DAMPING, time.time()
+    gc.DAMPING = keep if damping is None else damping
+    try:
+        e = build_engine(engines()[engine], setup)
+        try:
+            for _ in range(frames):
+                e.step_frame()
+            mat = np.asarray(setup.p_vol) > 0
+            d = np.asarray(e.to_setup_order(e.read_array("Jp")), np.float64)[mat]
+            m = np.asarray(setup.p_mass)[mat]
+            out = {"parts": count_parts(setup, e), "broken": float(m @ (d >= 1.0) / m.sum())}
+        finally:
+            e.close()
+    finally:
+        gc.DAMPING = keep
+    return {"engine": engine, "n_grid": n_grid, "speed": v, "frames": frames, "damping": damping, "flip": flip,
+            "seconds": time.time() - t0, **out}
+
+
 def key(r: dict) -> tuple:
     return (r["body"], r["engine"], r["n_grid"], r["speed"], r["ms"], r.get("cfl"), r["gravity_scale"],
             r["stiffness_scale"], r.get("damping"), r.get("flip"))
@@ -178,6 +207,22 @@ def report(runs: list[dict]) -> list[str]:
     return lines + [""]
 
 
+def parts_report(data: dict) -> list[str]:
+    """The brittle donut's parts with and without the prototypes (``--parts-only``)."""
+    pr = data.get("parts_runs", [])
+    if not pr:
+        return []
+    lines = ["## The brittle README donut's parts (engine alone, `--parts-only`)", "",
+             "| engine | n_grid | v (m/s) | frames | contact damping | flip | parts of 1 % or more | broken through |",
+             "|---|---|---|---|---|---|---|---|"]
+    for r in sorted(pr, key=lambda r: tuple(str(r[k]) for k in ("engine", "n_grid", "damping", "flip"))):
+        lines.append(f"| {r['engine']} | {r['n_grid']} | {r['speed']} | {r['frames']} | "
+                     f"{'0.5 (default)' if r['damping'] is None else r['damping']} | "
+                     f"{'0 (default)' if r['flip'] is None else r['flip']} | "
+                     f"{len(r['parts'])}: {', '.join(f'{q:.3f}' for q in r['parts'])} | {r['broken']:.3f} |")
+    return lines + [""]
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--engines", default="taichi_mpm,warp_mpm")
@@ -191,9 +236,23 @@ def main(argv=None) -> int:
     ap.add_argument("--damping", type=float, default=None, help="prototype: the contact's damping ratio (0.5)")
     ap.add_argument("--flip", type=float, default=None, help="prototype: the engines' AFLIP blend")
     ap.add_argument("--parts", action="store_true", help="count the parts of 1 %% or more at the end")
+    ap.add_argument("--parts-only", type=int, default=0, help="the brittle donut's parts after this many frames, "
+                    "engine alone (printed and kept under 'parts_runs')")
     a = ap.parse_args(argv)
     path = OUT.with_suffix(".json")
-    runs = json.loads(path.read_text())["runs"] if path.exists() else []
+    data = json.loads(path.read_text()) if path.exists() else {}
+    runs = data.get("runs", [])
+    if a.parts_only:
+        pr = data.get("parts_runs", [])
+        for engine in a.engines.split(","):
+            for ng in (int(g) for g in a.grids.split(",")):
+                r = parts_run(engine, ng, float(a.speeds.split(",")[0]), a.parts_only, a.damping, a.flip)
+                print(json.dumps(r), flush=True)
+                pr = [q for q in pr if [q[k] for k in ("engine", "n_grid", "speed", "frames", "damping", "flip")]
+                      != [r[k] for k in ("engine", "n_grid", "speed", "frames", "damping", "flip")]] + [r]
+                data = json.loads(path.read_text()) if path.exists() else {}
+                path.write_text(json.dumps({**data, "parts_runs": pr}, indent=0))
+        return 0
     for body in a.bodies.split(","):
         for ng in (int(g) for g in a.grids.split(",")):
             for v in (float(s) for s in a.speeds.split(",")):
@@ -204,8 +263,9 @@ def main(argv=None) -> int:
                     runs = [q for q in runs if key(q) != key(r)] + [r]
                     print(json.dumps({k: r[k] for k in ("body", "engine", "n_grid", "speed", "E0", "E_end",
                                                          "sums", "untraced_worst", "seconds")}), flush=True)
-                    path.write_text(json.dumps({"runs": runs}, indent=0))
-                    OUT.with_suffix(".md").write_text("\n".join(report(runs)) + "\n")
+                    data = json.loads(path.read_text()) if path.exists() else {}
+                    path.write_text(json.dumps({**data, "runs": runs}, indent=0))
+                    OUT.with_suffix(".md").write_text("\n".join(report(runs) + parts_report(data)) + "\n")
     return 0
 
 
