@@ -252,6 +252,8 @@ def main(argv=None) -> int:
                       != [r[k] for k in ("engine", "n_grid", "speed", "frames", "damping", "flip")]] + [r]
                 data = json.loads(path.read_text()) if path.exists() else {}
                 path.write_text(json.dumps({**data, "parts_runs": pr}, indent=0))
+                data = {**data, "parts_runs": pr}
+                OUT.with_suffix(".md").write_text("\n".join(report(data.get("runs", [])) + parts_report(data)) + "\n")
         return 0
     for body in a.bodies.split(","):
         for ng in (int(g) for g in a.grids.split(",")):
