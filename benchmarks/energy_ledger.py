@@ -187,9 +187,12 @@ def steps_of(engine):
 
 
 class Ledger:
-    """The per-substep ledger of one engine run (module notes). ``setup``: the run's (nominal) scene, whose gravity,
-    material and contact coefficients the ledger uses (a broken engine may differ); ``engine``: built from it or a
-    variant; ``ground``: ``(height, friction)`` of its ground plane or None."""
+    """The per-substep ledger of one engine run (module notes). ``setup``: the run's (nominal) scene, whose gravity and
+    material the ledger uses (a broken engine may differ; the contact's ``(k, c, skin)`` are the engine's own);
+    ``engine``: built from it or a variant; ``ground``: ``(height, friction)`` of its ground plane or None. Only the
+    ground's particle contact is booked: a scene with walls' or colliders' particle contact would put their impulses
+    in the stress's term (the family's scenes have a ground alone). Raises ``AssertionError`` on a warp_mpm engine
+    with a viscous material or a time table (their steps are not split here)."""
 
     def __init__(self, setup, engine, material, ground=(0.0, 0.0)):
         from gasp_core.mpm.contact import contact_model
