@@ -1,0 +1,266 @@
+"""An energy ledger per substep of the MPM engines (issue 66 item 6 "No energy is gained"; docs/fracture.md "Round 46:
+where the landing's energy goes").
+
+Read-only: the engine is stepped one substep at a time through its own pieces (taichi_mpm: the solver's P2G, grid
+update, the contact's balance fix and G2P, unfused; warp_mpm: its recorded launches in their order) and its fields
+are read between them; nothing in an engine changes. Per substep (energies in J; the points are the material ones):
+
+- ``Ep``: the points' kinetic energy with the APIC affine part, ``sum m (|v|^2 + dx^2 / 4 |C|_F^2) / 2`` (the
+  quadratic B-spline's inertia ``D = dx^2 / 4 I``): with it P2G and G2P each lose energy, never gain it (the grid
+  velocity is a weighted mean of the points' affine fields and the G2P a least-squares projection of the grid's);
+- ``K0``: the grid's kinetic energy of the P2G without forces (NumPy, the points' ``m (v + C (x_i - x_p))`` with their
+  weights; its node masses are checked against the engine's); the impulses the engine's P2G adds on top: the particle
+  contact's (NumPy, ``gasp_core.mpm.contact``'s damped penalty on the ground from the engine's own ``(k, c, skin)``),
+  the stress's (the engine's P2G momentum less the two), gravity's ``m g dt`` (the ledger's own ``g``); each does the
+  work ``J . (v_a + v_b) / 2`` at the node (``v_a`` the free P2G's velocity, ``v_b`` the engine's before its rule), an
+  order-free split whose sum is ``K3 - K0``, ``K3`` the grid's energy before the rule; ``K4``: the engine's grid
+  velocity after the grid update (the ground's and walls' grid rule, the nodes' Coulomb friction); ``K5``: after the
+  contact's balance fix;
+- ``psi``: the stored elastic energy of the engine's ``F`` (jelly: fixed corotated, ``V0 (mu sum (s_i - 1)^2 + lam
+  (J - 1)^2 / 2)``; brittle: the carried Hencky energy and the damage's dissipation ``D`` of
+  ``benchmarks/brittle_donut_arrest.py``), ``U``: the contact's springs ``sum k depth^2 / 2``, ``PE``: ``m g z``.
+
+Sinks of a substep (positive: lost): ``p2g = Ep - K0``; ``contact = -W_contact - dU`` (the penalty's damping and its
+discrete steps); ``friction`` (``gasp_core.mpm.contact.node_friction`` on the friction budget the engine scattered,
+applied to ``K3``'s velocities); ``rule = K3 - K4 - friction`` (the ground's and walls' grid rule); ``balance = K4 -
+K5``; ``g2p = K5 - Ep'``. The two untraced terms, zero for an integrator that conserves energy: ``elastic = W_stress
++ dpsi + dD`` (the stress's work on the grid against the stored energy's rise and the damage's dissipation) and
+``gravity = W_gravity + dPE``. With them the sinks sum to the drop of ``E = Ep + psi + U + PE + D`` (an identity:
+the ledger closes when the untraced terms are small). Used by
+``benchmarks/energy_ledger_family.py`` and ``tests/test_energy_ledger.py``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from gasp_core.mpm.contact import node_friction
+
+SINKS = ("p2g", "contact", "friction", "rule", "balance", "g2p")
+UNTRACED = ("elastic", "gravity")
+
+
+def weights(x: np.ndarray, lo: np.ndarray, inv_dx: float):
+    """Quadratic B-spline stencils: ``base`` (n, 3) int, ``fx`` (n, 3) and ``w`` (n, 3, 3) (axis, node 0-2)."""
+    X = (x - lo) * inv_dx
+    base = np.floor(X - 0.5).astype(np.int64)
+    fx = X - base
+    w = np.stack([0.5 * (1.5 - fx) ** 2, 0.75 - (fx - 1.0) ** 2, 0.5 * (fx - 0.5) ** 2], axis=2)
+    return base, fx, w
+
+
+def p2g(x, vals, lo, dx, ng, C=None, m=None):
+    """Scatter ``vals`` (n, k) to the nodes (ng^3, k) with the points' weights; with ``C`` (n, 3, 3) and ``m`` (n,)
+    the affine momentum ``m C (x_i - x_p)`` is added to the first three columns."""
+    base, fx, w = weights(x, lo, 1.0 / dx)
+    out = np.zeros((ng ** 3, vals.shape[1]))
+    for i in range(3):
+        for j in range(3):
+            for k in range(3):
+                off = np.array([i, j, k])
+                wt = w[:, 0, i] * w[:, 1, j] * w[:, 2, k]
+                idx = np.clip(base + off, 0, ng - 1)
+                flat = (idx[:, 0] * ng + idx[:, 1]) * ng + idx[:, 2]
+                val = vals * wt[:, None]
+                if C is not None:
+                    dpos = (off - fx) * dx
+                    val = val.copy()
+                    val[:, :3] += (m * wt)[:, None] * np.einsum("nij,nj->ni", C, dpos)
+                for c in range(vals.shape[1]):
+                    out[:, c] += np.bincount(flat, val[:, c], ng ** 3)
+    return out
+
+
+def grid_ke(mom: np.ndarray, mass: np.ndarray) -> float:
+    """``sum |p|^2 / (2 m)`` over the nodes with mass (J)."""
+    ok = mass > 0
+    return 0.5 * float(((mom[ok] ** 2).sum(1) / mass[ok]).sum())
+
+
+def grid_ke_v(v: np.ndarray, mass: np.ndarray) -> float:
+    """``sum m |v|^2 / 2`` (J)."""
+    return 0.5 * float(mass @ (v ** 2).sum(1))
+
+
+class Stored:
+    """Stored energy (and the damage's dissipation) of the engine's ``F``: ``(psi, D)`` in J (module notes)."""
+
+    def __init__(self, material, setup):
+        self.mat = material
+        self.E, self.nu = material.E, material.nu
+        self.lam = self.E * self.nu / ((1 + self.nu) * (1 - 2 * self.nu))
+        self.mu = self.E / (2 * (1 + self.nu))
+        self.setup = setup
+
+    def __call__(self, F, d, v0, x) -> tuple[float, float]:
+        if self.mat.name != "brittle":
+            sv = np.linalg.svd(F, compute_uv=False)
+            psi = self.mu * ((sv - 1) ** 2).sum(1) + 0.5 * self.lam * (sv.prod(1) - 1) ** 2
+            return float(v0 @ psi), 0.0
+        from brittle_donut_arrest import stresses
+        st, ft, E = self.setup, self.mat.tensile_strength, self.E
+        eps, s, sc, _n, W = stresses(F, d, x, self.mat, st.dx, np.asarray(st.domain_lo))
+        sf = 2 * E * self.mat.fracture_energy / (ft * float(st.crack_band[0]))
+        sfp = ft + W * (sf - ft)
+        sd = ft * sfp / ((1 - np.minimum(d, 1)) * (sfp - ft) + ft)
+        return 0.5 * float(v0 @ (sc * eps).sum(1)), float((v0 * ft * sd * d / (2 * E)).sum())
+
+
+class TaichiSteps:
+    """taichi_mpm's substep in pieces (``MPMSolver.substeps(1)``'s order, G2P and P2G unfused)."""
+
+    def __init__(self, engine):
+        self.s = engine.solver
+        self.mat = self.s.p_mass.to_numpy() > 0
+
+    def points(self) -> dict:
+        s, k = self.s, self.mat
+        return {"x": s.x.to_numpy()[k].astype(np.float64), "v": s.v.to_numpy()[k].astype(np.float64),
+                "C": s.C.to_numpy()[k].astype(np.float64), "F": s.F.to_numpy()[k].astype(np.float64),
+                "Jp": s.Jp.to_numpy()[k].astype(np.float64), "m": s.p_mass.to_numpy()[k].astype(np.float64),
+                "v0": s.p_vol.to_numpy()[k].astype(np.float64)}
+
+    def coefficients(self) -> np.ndarray:
+        """The particle contact's ``(k, c, skin)`` of the material points (n, 3)."""
+        return self.s.p_contact.to_numpy()[self.mat].astype(np.float64)
+
+    def substep(self) -> dict:
+        s = self.s
+        s.p2g_substep(0, 0)
+        acc = s.grid_mv.to_numpy().astype(np.float64).sum(0)
+        ng = acc.shape[0]
+        acc = acc.reshape(ng ** 3, -1)
+        s.grid_update()
+        v4 = s.grid_v.to_numpy().astype(np.float64).reshape(-1, 3)
+        if s.n_spin:
+            s.fix_contact()
+        v5 = s.grid_v.to_numpy().astype(np.float64).reshape(-1, 3)
+        s.last_g2p(None)
+        fb = acc[:, -1] if s.pc else np.zeros(len(acc))   # the particle contact's friction budget (last channel)
+        return {"mom": acc[:, :3], "mass": acc[:, 3], "v4": v4, "v5": v5, "budget": fb}
+
+
+class WarpSteps:
+    """warp_mpm's substep: its recorded launches in ``_substeps``' order, the grid read after P2G, after the grid
+    update and before G2P."""
+
+    def __init__(self, engine):
+        self.e = engine
+        keys = [getattr(getattr(c, "kernel", None), "key", "") for c in engine._launches]
+        self.i_update = next(i for i, k in enumerate(keys) if k.endswith("__grid_update"))
+        self.i_g2p = next(i for i, k in enumerate(keys) if k.endswith("__g2p"))
+        self.mat = engine.p_mass.numpy() > 0
+
+    def points(self) -> dict:
+        e, k = self.e, self.mat
+        return {"x": e.x.numpy()[k].astype(np.float64), "v": e.v.numpy()[k].astype(np.float64),
+                "C": e.C.numpy()[k].astype(np.float64), "F": e.F.numpy()[k].astype(np.float64),
+                "Jp": e.Jp.numpy()[k].astype(np.float64), "m": e.p_mass.numpy()[k].astype(np.float64),
+                "v0": e.p_vol.numpy()[k].astype(np.float64)}
+
+    def coefficients(self) -> np.ndarray:
+        """The particle contact's ``(k, c, skin)`` of the material points (n, 3; zeros without planes)."""
+        kc = self.e.p_contact.numpy().astype(np.float64)
+        return kc[self.mat] if len(kc) == len(self.mat) else np.zeros((int(self.mat.sum()), 3))
+
+    def substep(self) -> dict:
+        e, out = self.e, {}
+        assert e.visc is None and e._tick is None
+        for cmd in e._pre:
+            cmd.launch()
+        for i, cmd in enumerate(e._launches):
+            if i == self.i_g2p:
+                out["v5"] = e.grid_v.numpy().astype(np.float64).copy()
+            cmd.launch()
+            if i == 0:
+                acc = e.grid_mv.numpy().astype(np.float64).copy()
+                out["mom"], out["mass"] = acc[:, :3], acc[:, 3]
+                fb = e.grid_fb.numpy().astype(np.float64)
+                out["budget"] = fb.copy() if len(fb) == len(acc) else np.zeros(len(acc))
+            if i == self.i_update:
+                out["v4"] = e.grid_v.numpy().astype(np.float64).copy()
+        return out
+
+
+def steps_of(engine):
+    """The engine's stepper (:class:`TaichiSteps` or :class:`WarpSteps`)."""
+    return TaichiSteps(engine) if hasattr(engine, "solver") else WarpSteps(engine)
+
+
+class Ledger:
+    """The per-substep ledger of one engine run (module notes). ``setup``: the run's (nominal) scene, whose gravity and
+    material the ledger uses (a broken engine may differ; the contact's ``(k, c, skin)`` are the engine's own);
+    ``engine``: built from it or a variant; ``ground``: ``(height, friction)`` of its ground plane or None. Only the
+    ground's particle contact is booked: a scene with walls' or colliders' particle contact would put their impulses
+    in the stress's term (the family's scenes have a ground alone). Raises ``AssertionError`` on a warp_mpm engine
+    with a viscous material or a time table (their steps are not split here)."""
+
+    def __init__(self, setup, engine, material, ground=(0.0, 0.0)):
+        from gasp_core.mpm.contact import contact_model
+        self.setup, self.steps = setup, steps_of(engine)
+        self.dt = float(engine.dt)
+        self.lo, self.dx, self.ng = np.asarray(setup.domain_lo, float), float(setup.dx), int(setup.n_grid)
+        self.g = np.asarray(setup.gravity, float)
+        self.stored = Stored(material, setup)
+        self.ground = ground if contact_model(setup) == "particle" else None
+        self.kc = self.steps.coefficients()   # the engine's own (k, c, skin) per point, its order
+        self.rows, self.mass_err = [], 0.0
+        self.E = self.energy(self.steps.points())
+
+    def contact(self, p) -> tuple[np.ndarray, float]:
+        """The points' contact impulses (n, 3) and the springs' energy ``sum k depth^2 / 2`` (J)."""
+        imp = np.zeros_like(p["v"])
+        if self.ground is None:
+            return imp, 0.0
+        k, c, s = self.kc.T
+        depth = self.ground[0] + s - p["x"][:, 2]
+        on = depth > 0
+        imp[:, 2] = np.where(on, np.maximum(0.0, self.dt * (k * depth - c * p["v"][:, 2])), 0.0)
+        return imp, 0.5 * float((k * np.where(on, depth, 0.0) ** 2).sum())
+
+    def energy(self, p) -> dict:
+        """The state's energies (J): ``Ep``, ``kinetic`` (no affine part), ``psi``, ``D``, ``U``, ``PE``."""
+        m = p["m"]
+        kin = 0.5 * float(m @ (p["v"] ** 2).sum(1))
+        aff = 0.5 * float(m @ (p["C"] ** 2).sum((1, 2))) * self.dx ** 2 / 4
+        psi, D = self.stored(p["F"].reshape(-1, 3, 3), np.minimum(p["Jp"], 1.0), p["v0"], p["x"])
+        return {"Ep": kin + aff, "kinetic": kin, "psi": psi, "D": D, "U": self.contact(p)[1],
+                "PE": -float(m @ (p["x"] @ self.g))}
+
+    def step(self) -> dict:
+        """One substep; appends and returns its row (module notes; ``E`` the total after it, ``mass_err`` the
+        NumPy P2G's largest node-mass error over the engine's total mass)."""
+        p0, E0 = self.steps.points(), self.E
+        m = p0["m"]
+        imp, _u = self.contact(p0)
+        free = p2g(p0["x"], np.c_[m[:, None] * p0["v"], m], self.lo, self.dx, self.ng, C=p0["C"], m=m)
+        cont = p2g(p0["x"], imp, self.lo, self.dx, self.ng)
+        g = self.steps.substep()
+        mass = g["mass"]
+        self.mass_err = max(self.mass_err, float(np.abs(free[:, 3] - mass).max() / mass.sum()))
+        ok = mass > 0
+        inv = np.where(ok, 1.0 / np.where(ok, mass, 1.0), 0.0)[:, None]
+        va = free[:, :3] * inv                                      # the free P2G's velocity
+        stress = g["mom"] - free[:, :3] - cont                      # the engine's momentum less the free and contact
+        vg = g["mom"] * inv + np.where(ok[:, None], self.dt * self.g, 0.0)
+        mid = 0.5 * (va + vg)                                       # each impulse's work at the node's mean velocity
+        K0, K3 = grid_ke(free[:, :3], mass), grid_ke_v(vg, mass)
+        Wc, Ws = float((cont * mid).sum()), float((stress * mid).sum())
+        Wg = float((mass[:, None] * self.dt * self.g * mid).sum())
+        K4, K5 = grid_ke_v(g["v4"], mass), grid_ke_v(g["v5"], mass)
+        fric = K3 - grid_ke_v(node_friction(vg, np.where(ok, mass, 1.0), g["budget"]), mass)
+        p1 = self.steps.points()
+        E1 = self.energy(p1)
+        d = {k: E1[k] - E0[k] for k in ("psi", "D", "U", "PE")}
+        row = {"p2g": E0["Ep"] - K0, "contact": -Wc - d["U"], "rule": K3 - K4 - fric, "friction": fric,
+               "balance": K4 - K5,
+               "g2p": K5 - E1["Ep"], "elastic": Ws + d["psi"] + d["D"], "gravity": Wg + d["PE"],
+               "mid_err": K3 - K0 - Wc - Ws - Wg,
+               "total": sum(E1[k] for k in ("Ep", "psi", "D", "U", "PE")), **E1}
+        self.E = E1
+        self.rows.append(row)
+        return row
+
+
+def total(e: dict) -> float:
+    """``Ep + psi + D + U + PE`` of :meth:`Ledger.energy`'s dict (J)."""
+    return sum(e[k] for k in ("Ep", "psi", "D", "U", "PE"))
