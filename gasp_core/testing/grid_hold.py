@@ -39,7 +39,8 @@ def hold_travel(engine: str, material: str, variant: str, n: int, theta: float, 
     ``options`` (dict) overrides the engine options (``contact`` ``"grid"``; e.g. ``cfl``, or ``contact =
     "particle"`` for the other contact)."""
     from gasp_core.errors import EngineDivergence
-    from gasp_core.seam import build_engine, get_engine
+    from gasp_core.seam.build import build_engine
+    from gasp_core.seam.plugins import get_engine
     from .snow import SLOPE_FPS, slope_setup
     mat = block_material(material, DAMPED_ETA if variant == "damped" else 0.0)
     if variant == "settled" and set_mu is None:
@@ -67,7 +68,8 @@ def slide_error(engine: str, material: str, n: int, theta: float, mu: float, dam
     travel from 0.05 s to 0.3 s): the relative error (float, 0.01 = 1 %; ``inf`` if it left the box). ``damped``: the
     jelly with ``viscosity`` ``DAMPED_ETA`` Pa s."""
     from gasp_core.errors import EngineDivergence
-    from gasp_core.seam import build_engine, get_engine
+    from gasp_core.seam.build import build_engine
+    from gasp_core.seam.plugins import get_engine
     from .snow import SLOPE_FPS, slope_setup
     s = slope_setup(theta, mu, n, block_material(material, DAMPED_ETA if damped else 0.0), {"contact": "grid"})
     e = build_engine(get_engine(engine), s)
