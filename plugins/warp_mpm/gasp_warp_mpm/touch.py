@@ -1,8 +1,8 @@
 """The ground's contact detected from the points (issue 67, rounds 35-36; docs/contact.md "Round 36: the touched layer
 on both engines"), taichi_mpm's ``gasp_taichi_mpm.touch`` in Warp: with the grid contact, the node layer just above a
-ground's plane takes the ground's Coulomb rule in the columns where a point of a flowing body touches the plane (its
-lowest extent within ``touch_margin`` of its half spacing, round 47), and the ground's node layers may approach the
-plane by the near points' gap (:func:`build_ground_collide`, round 47; docs/contact.md "Round 47").
+ground's plane takes the ground's Coulomb rule in the columns where a point of a flowing body touches the plane: its
+lowest extent (its height less half its own spacing) within ``touch_margin`` of that half spacing (round 47,
+docs/contact.md "Round 47: the touch test tied to the point's extent").
 
 After P2G (and the viscous step), before the two-field contact and the grid update: :func:`build_touch`'s
 ``touch_clear`` (a node-column kernel) zeroes ``ground_touch``, then ``touch_mark`` (a points kernel, atomic max)
@@ -19,15 +19,7 @@ import functools
 import numpy as np
 import warp as wp
 
-from .colliders import build_collide
 from .precision import MODULE_OPTIONS, build_types
-
-#: m: ``ground_gap`` where no point lies near (the node keeps the rule before: stopped at the plane).
-GAP_FAR = 1.0e30
-#: Cells: a point records its gap while its lowest extent lies under this above the plane: a node at or below the
-#: plane's layer gets mass only from points under 1.5 cells above it (quadratic B-splines), so every such node with
-#: mass has its column's gap (the rest of the body is out of the rule's reach).
-GAP_REACH = 2.0
 
 
 class GroundTouch:
@@ -39,27 +31,20 @@ class GroundTouch:
     #: alone, the rule before (the catch of ``tests/test_ground_touch.py``). Read when the engine is built.
     touch_contact = True
     #: Round 47: a point touches the plane when its lowest extent (its height less ``h``, half its own spacing,
-    #: ``p_vol^(1/3) / 2``) lies under ``touch_margin h`` above it. At 1 the test sits halfway between a fill's lowest
-    #: row (extent on the plane) and its next row (``2 h`` up), as far from both as it can be: no rounding of the fill
-    #: decides it (round 46: the fixed 0.25 dx was the lowest row's own height, a knife-edge).
+    #: ``p_vol^(1/3) / 2``) lies under ``touch_margin h`` above it (or below it). At 1 the test sits halfway between a
+    #: fill's lowest row (its extent on the plane) and its next row (``2 h`` up), as far from both as it can be, so no
+    #: rounding of the fill decides it (round 46: the fixed 0.25 dx was the lowest row's own height, a knife-edge).
     touch_margin = 1.0
-    #: Round 47: True: a ground's node in a column with points near the plane may approach the plane by the points'
-    #: gap (``ground_gap`` over the step), not only be stopped: a base lifted by its ringing comes back down (the
-    #: one-sided rule ratcheted it up, round 46's climb). False: the rule before (the catch of the checks).
-    touch_gap = True
 
     def allocate_touch(self, Ft, contact: str) -> None:
         """``touch_on`` (the switch, a ground, and ``contact`` ``"grid"`` or ``"mixed"``), ``ground_touch`` (int32,
         ``n_grounds * n_grid**2``: ground ``q``'s column ``(i, j)`` at ``(q n_grid + i) n_grid + j``; one unused entry
-        when off), ``ground_gap`` (scalar type ``Ft``, m, the same layout: the least gap between a near point's lowest
-        extent and the plane, ``GAP_FAR`` where none; one entry when off or ``touch_gap`` False) and ``ground_z`` (the
-        grounds' heights, m, scalar type ``Ft``)."""
+        when off) and ``ground_z`` (the grounds' heights, m, scalar type ``Ft``)."""
         heights = [float(b.height) for b in self.setup.boundaries if b.kind == "ground"]
         rubs = any(b.friction > 0 for b in self.setup.boundaries if b.kind == "ground")   # ground_reach: mu > 0 only
         self.touch_on = bool(self.touch_contact and rubs and contact in ("grid", "mixed"))
         n = len(heights) * self.n_grid ** 2 if self.touch_on else 1
         self.ground_touch = wp.zeros(n, dtype=wp.int32, device=self.device)
-        self.ground_gap = wp.zeros(n if self.touch_gap else 1, dtype=Ft, device=self.device)
         self.ground_z = wp.array(np.array(heights or [0.0], dtype=self._np_dtype), dtype=Ft, device=self.device)
 
     def touch_launches(self, Ft) -> list:
@@ -71,10 +56,10 @@ class GroundTouch:
         ng, d = self.n_grid, self.device
         lo = self.k.vec3(*[float(c) for c in self.setup.domain_lo])
         return [wp.launch(clear, dim=self.ground_touch.shape[0], device=d, record_cmd=True,
-                          inputs=[self.ground_touch, self.ground_gap]),
+                          inputs=[self.ground_touch]),
                 wp.launch(mark, dim=self.n_material, device=d, record_cmd=True, inputs=[
-                    self.x, self.p_vol, self.body, self.flows, self.ground_z, self.ground_touch, self.ground_gap, lo,
-                    Ft(self.inv_dx), Ft(self.touch_margin), Ft(GAP_REACH * self.dx), ng])]
+                    self.x, self.p_vol, self.body, self.flows, self.ground_z, self.ground_touch, lo, Ft(self.inv_dx),
+                    Ft(self.touch_margin), ng])]
 
 
 @functools.cache
@@ -86,19 +71,16 @@ def build_touch(Ft):
     vec3, vec4, mat33 = build_types(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def touch_clear(ground_touch: wp.array(dtype=wp.int32), ground_gap: wp.array(dtype=Ft)):
+    def touch_clear(ground_touch: wp.array(dtype=wp.int32)):
         ground_touch[wp.tid()] = 0
-        if ground_gap.shape[0] > 1:
-            ground_gap[wp.tid()] = Ft(GAP_FAR)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def touch_mark(x: wp.array(dtype=vec3), p_vol: wp.array(dtype=Ft), body: wp.array(dtype=wp.int32),
                    flows: wp.array(dtype=wp.int32), ground_z: wp.array(dtype=Ft),
-                   ground_touch: wp.array(dtype=wp.int32), ground_gap: wp.array(dtype=Ft), lo: vec3, inv_dx: Ft,
-                   margin: Ft, reach: Ft, n_grid: int):
+                   ground_touch: wp.array(dtype=wp.int32), lo: vec3, inv_dx: Ft, margin: Ft, n_grid: int):
         # a point of a flowing body (flows: all with "grid", the flowing bodies with "mixed") in the grid (P2G's
-        # stencil test) whose lowest extent (height less half its spacing h) lies under margin h above ground q's
-        # plane (below it too) marks its 3 x 3 stencil columns; under reach (m) it gives them its gap (atomic min)
+        # stencil test) whose lowest extent (its height less h, half its spacing p_vol^(1/3) / 2) lies under margin h
+        # above ground q's plane (below it too) marks its 3 x 3 stencil columns
         p = wp.tid()
         if flows[body[p]] == 0:
             return
@@ -112,16 +94,10 @@ def build_touch(Ft):
             return
         h = Ft(0.5) * wp.pow(p_vol[p], Ft(1.0 / 3.0))
         for q in range(ground_z.shape[0]):
-            gap = xp[2] - ground_z[q] - h
-            if gap < margin * h:
+            if xp[2] - ground_z[q] - h < margin * h:
                 for a in range(3):
                     for c in range(3):
                         wp.atomic_max(ground_touch, (q * n_grid + int(b0) + a) * n_grid + int(b1) + c, 1)
-            if ground_gap.shape[0] > 1 and gap < reach:
-                for a in range(3):
-                    for c in range(3):
-                        wp.atomic_min(ground_gap, (q * n_grid + int(b0) + a) * n_grid + int(b1) + c,
-                                      wp.max(gap, Ft(0.0)))
 
     @wp.func
     def ground_reach(k: int, gr: vec3, q: int, i: int, j: int, n_grid: int, ground_touch: wp.array(dtype=wp.int32)):
@@ -134,39 +110,6 @@ def build_touch(Ft):
         return on
 
     return touch_clear, touch_mark, ground_reach
-
-
-@functools.cache
-def build_ground_collide(Ft):
-    """``ground_collide(vel, mu, q, i, j, n_grid, ground_gap, dt) -> vec3``, scalar type ``Ft``: the ground's grid rule
-    (``colliders.build_collide`` with the normal +z, friction ``mu``) at a node of ground ``q``'s column ``(i, j)``,
-    where the normal velocity may reach ``-gap / dt`` rather than 0 (``gap`` = ``ground_gap``'s entry, m; 0 where
-    it is ``GAP_FAR`` or the array has one entry: then exactly the rule before): a node in the columns of points
-    lifted off the plane may carry them back to it over the step, and only what would close more than the gap is
-    stopped (with Coulomb's friction on that part). Round 47 (docs/contact.md): the one-sided rule stopped a ringing
-    base on its way down and freed it on its way up, so it climbed off the plane and lost its friction."""
-    vec3 = build_types(Ft)[0]
-    collide = build_collide(Ft)
-
-    @wp.func
-    def ground_collide(vel: vec3, mu: Ft, q: int, i: int, j: int, n_grid: int, ground_gap: wp.array(dtype=Ft),
-                       dt: Ft):
-        up = vec3(Ft(0.0), Ft(0.0), Ft(1.0))
-        gap = Ft(0.0)
-        if ground_gap.shape[0] > 1:
-            g = ground_gap[(q * n_grid + i) * n_grid + j]
-            if g < Ft(0.5 * GAP_FAR):
-                gap = g
-        out = vel
-        if gap > Ft(0.0):
-            allow = gap / dt
-            if vel[2] + allow < Ft(0.0):   # the rule on the velocity past the one that closes the gap
-                out = collide(vel + allow * up, up, mu) - allow * up
-        else:
-            out = collide(vel, up, mu)
-        return out
-
-    return ground_collide
 
 
 @functools.cache
