@@ -66,8 +66,8 @@ SOFT_TOUCH_FRACTION = 0.7
 SOLID_FRICTION = 0.5
 #: The flowing body's touch (round 37, ``docs/contact.md`` "Round 37"): in a ``"mixed"`` scene a node is a contact
 #: node where a point of field A within ``FLOW_TOUCH_DELTA`` cells of field B's surface has it in its stencil (the
-#: ground's old ``touch_delta``, 0.25), and a contact node on A's side of the surface (``m_A > m_B``) gives A the pair's whole
-#: Coulomb correction, its reaction going to B at the node behind it. False: :data:`TOUCH_FRACTION` and the
+#: grounds' ``touch_delta`` before round 47), and a contact node on A's side of the surface (``m_A > m_B``) gives A the
+#: pair's whole Coulomb correction, its reaction going to B at the node behind it. False: :data:`TOUCH_FRACTION` and the
 #: node's share alone (the rule before; the catch of ``tests/test_contact_fields.py``).
 FLOW_TOUCH = True   # FLOW_TOUCH_DELTA 0.25: fields_reference.py, with flow_touch_level
 #: The ground's mirror in the normal (round 41, ``docs/contact.md`` "Round 41: the thin support's rub"): B's mass at
