@@ -24,7 +24,8 @@ s after its settle (Coulomb's stick); the catches: the engine's ground friction 
 mu`` 1.01: Coulomb slides it about 37 mm in that second at 30 degrees) must fail the damped hold, ``touch_margin`` 0
 (the knife-edge at the plane) the released one. The released jelly just past the limit (``tan theta / mu`` 1.05) slides
 at Coulomb's acceleration within ``SLIDE_TOL`` = 2.5 % on n_grid 24 (15, 30, 45 degrees), 32 (15, 30) and 48 (15); the
-misses are strict xfails (``SLIDE_MISSES``); the catch: every column touched (``touch_margin`` 1e9) must fail it. The
+misses are strict xfails (``SLIDE_MISSES``), checked not sticky (over ``-SLIDE_TOL``, under +50 %); the catch: the
+engine's ground friction 1 % high must fail the slide check. The
 cases take 5-25 s (n_grid 24, 32) and 30-90 s (48) each (slow).
 """
 from __future__ import annotations
@@ -112,11 +113,22 @@ def test_the_released_jelly_just_past_the_limit_slides_at_coulombs_rate(engine, 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("engine", ENGINES)
-def test_the_slide_check_catches_a_sticky_touch(engine, monkeypatch):
-    # every column touched (touch_margin 1e9): the layer above the plane stopped wherever the body is
-    _margin(monkeypatch, engine, 1e9)
-    err = slide_error(engine, "jelly", 32, 30, 0.55)
-    assert abs(err) >= SLIDE_TOL, f"{engine}: every column touched slid at {100 * err:+.2f} % off Coulomb"
+@pytest.mark.parametrize("n_grid,theta,mu", list(SLIDE_MISSES))
+def test_where_the_grid_misses_the_slide_it_is_not_sticky(engine, n_grid, theta, mu):
+    # the misses are fast (the friction low while it slides); a sticky contact reads slow: the touched layer held both
+    # ways (a probe, docs/contact.md "Round 47") read -38.7 / -70.3 / -95.4 % on these three
+    err = slide_error(engine, "jelly", n_grid, theta, mu)
+    assert -SLIDE_TOL < err < 0.5, f"{engine}, n_grid {n_grid}, {theta} deg, mu {mu}: a {100 * err:+.2f} % off Coulomb"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("engine", ENGINES)
+def test_the_slide_check_catches_a_sticky_contact(engine):
+    # the engine's ground friction 1 % high (a contact 1 % too sticky): near the limit that is a fifth of the
+    # acceleration (Coulomb's: -20 % at 30 degrees, mu 0.55); every column touched (touch_margin 1e9) does not change
+    # the n_grid 32 slide (+0.02 %: the block's base columns are all touched anyway), so it is no catch here
+    err = slide_error(engine, "jelly", 32, 30, 0.55, factor=1.01)
+    assert abs(err) >= SLIDE_TOL, f"{engine}: the friction 1 % high slid at {100 * err:+.2f} % off Coulomb"
 
 
 def _release_cases():
