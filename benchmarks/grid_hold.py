@@ -1,5 +1,6 @@
-"""Round 46 (issue 67 item 3): the grid contact's hold near the stick limit, a block on a slope (``contact = "grid"``;
-docs/contact.md "Round 46: the grid contact's hold near the limit").
+"""Rounds 46-47 (issue 67 item 3): the grid contact's hold near the stick limit, a block on a slope (``contact =
+"grid"``; docs/contact.md "Round 46: the grid contact's hold near the limit", "Round 47: the touch test tied to the
+point's extent").
 
     python benchmarks/grid_hold.py --engines warp_mpm,taichi_mpm --cases jelly:release:48:30:0.6,jelly:settled:48:30:0.6
     python benchmarks/grid_hold.py --ring --engines warp_mpm --grids 24,48

@@ -1,7 +1,9 @@
 """The ground's contact detected from the points (issue 67, rounds 35-36; ``gasp_taichi_mpm.touch``,
 ``gasp_warp_mpm.touch``, docs/contact.md "Round 35: the contact detected from the points" and "Round 36: the touched
-layer on both engines, the default"): on both MPM engines, on by default (``touch_contact`` True, ``touch_delta``
-0.25 cells).
+layer on both engines, the default", "Round 47: the touch test tied to the point's extent"): on both MPM engines, on
+by default (``touch_contact`` True; a point of sand, snow or liquid touches under ``touch_delta`` 0.25 cells, a point
+of a body that does not flow when its lowest extent, its height less half its own spacing ``h``, lies under
+``touch_margin h`` above the plane, ``touch_margin`` 1).
 
 The grid contact stops the node layers at and below a ground's plane; the free layer above takes 1/8 of the base's
 shear and none of the ground's friction, so ``tests/test_elastic_slope.py``'s jelly block at 30 degrees, mu 0.6 creeps
@@ -30,6 +32,8 @@ from gasp_core.seam.setup import Boundary, Material, SimSetup
 from gasp_core.testing.helpers import box_points, make_setup
 
 DELTAS = (0.25, 0.5)
+#: ``touch_margin`` values (of a point's half spacing, the jelly's test since round 47): the default and half of it.
+MARGINS = (1.0, 0.5)
 
 
 def _switch_class(engine: str):
@@ -41,12 +45,13 @@ def _switch_class(engine: str):
     return WarpMPMEngine
 
 
-def touch(monkeypatch, engine: str, delta: float | None) -> None:
-    """The switch on with ``touch_delta`` = ``delta`` cells (None: off, the rule before)."""
+def touch(monkeypatch, engine: str, delta: float | None, attr: str = "touch_delta") -> None:
+    """The switch on with ``attr`` (``touch_delta``, cells: sand, snow, liquid; ``touch_margin``, of a point's half
+    spacing: the bodies that do not flow) = ``delta`` (None: off, the rule before)."""
     cls = _switch_class(engine)
     monkeypatch.setattr(cls, "touch_contact", delta is not None)
     if delta is not None:
-        monkeypatch.setattr(cls, "touch_delta", float(delta))
+        monkeypatch.setattr(cls, attr, float(delta))
 
 
 def _solver(e):
@@ -70,7 +75,8 @@ def _block(contact: str):
 
 @pytest.mark.parametrize("engine", ENGINES)
 def test_the_switch_is_on_by_default_and_acts_on_the_grid_contacts_rule_only(engine, monkeypatch):
-    assert _switch_class(engine).touch_contact is True and _switch_class(engine).touch_delta == 0.25
+    cls = _switch_class(engine)
+    assert cls.touch_contact is True and cls.touch_delta == 0.25 and cls.touch_margin == 1.0
     assert _solver(build_engine(get_engine(engine), _block("grid"))).touch_on is True
     assert _solver(build_engine(get_engine(engine), _block("particle"))).touch_on is False
     touch(monkeypatch, engine, None)
@@ -119,14 +125,14 @@ def test_with_the_contact_chosen_per_body_only_flowing_bodies_mark(engine):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("delta", DELTAS)
+@pytest.mark.parametrize("margin", MARGINS)
 @pytest.mark.parametrize("mu", MUS)
 @pytest.mark.parametrize("theta", THETAS)
 @pytest.mark.parametrize("engine", ENGINES)
-def test_the_slope_family_meets_coulomb(engine, theta, mu, delta, monkeypatch):
-    touch(monkeypatch, engine, delta)
+def test_the_slope_family_meets_coulomb(engine, theta, mu, margin, monkeypatch):
+    touch(monkeypatch, engine, margin, "touch_margin")   # the jelly block: the test of a body that does not flow
     problem = check(theta, mu, measure(engine, theta, mu, "grid"))
-    assert problem is None, f"{engine}, touch_delta {delta}: {problem}"
+    assert problem is None, f"{engine}, touch_margin {margin}: {problem}"
 
 
 def rest_gap(monkeypatch, engine: str, delta: float | None) -> float:

@@ -66,8 +66,8 @@ SOFT_TOUCH_FRACTION = 0.7
 SOLID_FRICTION = 0.5
 #: The flowing body's touch (round 37, ``docs/contact.md`` "Round 37"): in a ``"mixed"`` scene a node is a contact
 #: node where a point of field A within ``FLOW_TOUCH_DELTA`` cells of field B's surface has it in its stencil (the
-#: ground's ``touch_delta``), and a contact node on A's side of the surface (``m_A > m_B``) gives A the pair's whole
-#: Coulomb correction, its reaction going to B at the node behind it. False: :data:`TOUCH_FRACTION` and the
+#: grounds' ``touch_delta`` before round 47), and a contact node on A's side of the surface (``m_A > m_B``) gives A the
+#: pair's whole Coulomb correction, its reaction going to B at the node behind it. False: :data:`TOUCH_FRACTION` and the
 #: node's share alone (the rule before; the catch of ``tests/test_contact_fields.py``).
 FLOW_TOUCH = True   # FLOW_TOUCH_DELTA 0.25: fields_reference.py, with flow_touch_level
 #: The ground's mirror in the normal (round 41, ``docs/contact.md`` "Round 41: the thin support's rub"): B's mass at
@@ -93,7 +93,7 @@ B_FRICTION = True
 PIC_AT_B = True
 #: The ground's top node layer free for the two fields (issue 67, ``docs/contact.md`` "Round 42: a support 1 cell
 #: thick"): in a ``"mixed"`` scene with the grounds' touched columns, a node on a ground's top layer in a column no
-#: flowing point touches (round 36's touch: none within ``touch_delta`` cells of the plane) takes the two-field
+#: flowing point touches (round 47's touch: no point's lowest extent near the plane) takes the two-field
 #: contact like any node above (the ground's grid rule still acts on its mean velocity). False: both fields move with
 #: the mean at every ground layer (the rule before: on a support 1 cell thick the sand's lowest stencil layer is the
 #: ground's top layer, where it was snapped to the support's velocity; Coulomb's ratio +46 / +76 %).

@@ -62,16 +62,18 @@ def hold_travel(engine: str, material: str, variant: str, n: int, theta: float, 
     return 1000.0 * float(np.linalg.norm(c[-1] - c[round(0.1 * SLOPE_FPS) - 1]))
 
 
-def slide_error(engine: str, material: str, n: int, theta: float, mu: float, damped: bool = False) -> float:
+def slide_error(engine: str, material: str, n: int, theta: float, mu: float, damped: bool = False,
+                factor: float = 1.0) -> float:
     """The released block's acceleration along the slope against Coulomb's ``g (sin theta - mu cos theta)``, as
     ``tests/test_elastic_slope.py`` measures it (twice the leading coefficient of a parabola fitted to the centroid's
     travel from 0.05 s to 0.3 s): the relative error (float, 0.01 = 1 %; ``inf`` if it left the box). ``damped``: the
-    jelly with ``viscosity`` ``DAMPED_ETA`` Pa s."""
+    jelly with ``viscosity`` ``DAMPED_ETA`` Pa s; ``factor`` breaks the engine's friction on purpose (the checks' catch:
+    the scene's ground friction ``factor mu``, Coulomb's acceleration still read at ``mu``)."""
     from gasp_core.errors import EngineDivergence
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import get_engine
     from .snow import SLOPE_FPS, slope_setup
-    s = slope_setup(theta, mu, n, block_material(material, DAMPED_ETA if damped else 0.0), {"contact": "grid"})
+    s = slope_setup(theta, factor * mu, n, block_material(material, DAMPED_ETA if damped else 0.0), {"contact": "grid"})
     e = build_engine(get_engine(engine), s)
     c = [np.asarray(s.x, np.float64).mean(axis=0)]
     try:

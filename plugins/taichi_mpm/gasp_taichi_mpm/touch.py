@@ -1,12 +1,20 @@
 """The ground's contact detected from the points (issue 67, rounds 35-36; docs/contact.md "Round 35: the contact
 detected from the points", "Round 36: the touched layer on both engines"): with the grid contact, the node layer just
-above a ground's plane takes the ground's Coulomb rule in the columns where a point of the body lies within
-``touch_delta`` cells of the plane (warp_mpm's ``gasp_warp_mpm.touch``, the same rule).
+above a ground's plane takes the ground's Coulomb rule in the columns where a point of the body touches the plane: a
+point of a body that does not flow when its lowest extent (its height less half its own spacing) lies within
+``touch_margin`` of that half spacing (round 47, docs/contact.md "Round 47: the touch test tied to the point's
+extent"), a point of a flowing body (sand, snow, liquid) when its height is under ``touch_delta`` cells (round 36's
+rule); warp_mpm's ``gasp_warp_mpm.touch``, the same rule.
 
 Mixed into :class:`gasp_taichi_mpm.grid.GridUpdate` (and so :class:`gasp_taichi_mpm.solver.MPMSolver`), whose
 fields (``ground_kmax``, ``ground_h``, ``x``, ``n_points``, ...) it reads.
 """
 import taichi as ti
+
+from gasp_core.mpm.materials import MaterialKind
+
+#: The flowing materials' codes (``gasp_core.mpm.contact.FLOWING``): round 36's touch test.
+SAND, SNOW, LIQUID = int(MaterialKind.SAND), int(MaterialKind.SNOW), int(MaterialKind.LIQUID)
 
 
 class GroundTouch:
@@ -17,8 +25,15 @@ class GroundTouch:
     #: ``ground_kmax + 1`` in the touched columns (the grid contact's rule only: ``"grid"`` and the grid contact's
     #: reach of ``"mixed"``).
     touch_contact = True
-    #: Cells: a point whose height above the plane is under ``touch_delta dx`` touches it.
+    #: Cells: a point of a flowing body (sand, snow, liquid) touches the plane when its height above it is under
+    #: ``touch_delta dx`` (round 36's rule, kept for them: docs/contact.md "Round 47").
     touch_delta = 0.25
+    #: Round 47: a point of a body that does not flow touches the plane when its lowest extent (its height less
+    #: ``h``, half its own spacing, ``p_vol^(1/3) / 2``) lies under ``touch_margin h`` above it (or below it). At 1
+    #: the test sits halfway between a fill's lowest row (its extent on the plane) and its next row (``2 h`` up), as
+    #: far from both as it can be, so no rounding of the fill decides it (round 46: the fixed 0.25 dx was the lowest
+    #: row's own height, a knife-edge).
+    touch_margin = 1.0
 
     def allocate_touch(self) -> None:
         """``touch_on`` (the switch, a ground with friction, ``ground_rubs``, and the grid contact's rule: no particle contact, or the contact chosen
@@ -31,12 +46,15 @@ class GroundTouch:
     @ti.kernel
     def mark_touch(self):
         """Clear ``ground_touch``, then mark ground ``b``'s column ``(i, j)`` for the 3 x 3 stencil columns of every
-        material point (with the contact chosen per body, of a flowing body) whose height above ``b``'s plane is
-        under ``touch_delta dx`` (m; below the plane too). A parallel loop over the points with atomic max."""
+        material point (with the contact chosen per body, of a flowing body) that touches ``b``'s plane: a point of a
+        flowing material (``kind`` sand, snow or liquid) whose height above it is under ``touch_delta dx`` (m; below
+        the plane too), a point of any other body whose lowest extent (its height less ``h``, half its spacing
+        ``p_vol^(1/3) / 2``) lies under ``touch_margin h`` above it. A parallel loop over the points with atomic max."""
         ng = self.n_grid
         for b, i, j in ti.ndrange(self.n_grounds, ng, ng):
             self.ground_touch[b, i, j] = 0
         reach = ti.cast(self.touch_delta, self.real) * self.dx[None]
+        margin = ti.cast(self.touch_margin, self.real)
         for p in range(self.n_points[None]):
             mine = True
             if ti.static(self.mixed):
@@ -44,8 +62,12 @@ class GroundTouch:
             if mine:
                 base, fx, ok = self.base_fx(self.x[p])
                 if ok:
+                    k = self.kind[self.body[p]]
+                    flowing = k == SAND or k == SNOW or k == LIQUID
+                    h = 0.5 * ti.pow(self.p_vol[p], 1.0 / 3.0)
                     for b in ti.static(range(self.n_grounds)):
-                        if self.x[p][2] - self.ground_h[b] < reach:
+                        z = self.x[p][2] - self.ground_h[b]
+                        if (flowing and z < reach) or (not flowing and z - h < margin * h):
                             for i, j in ti.static(ti.ndrange(3, 3)):
                                 ti.atomic_max(self.ground_touch[b, base[0] + i, base[1] + j], 1)
 

@@ -1,7 +1,9 @@
 """The ground's contact detected from the points (issue 67, rounds 35-36; docs/contact.md "Round 36: the touched layer
 on both engines"), taichi_mpm's ``gasp_taichi_mpm.touch`` in Warp: with the grid contact, the node layer just above a
-ground's plane takes the ground's Coulomb rule in the columns where a point of a flowing body lies within
-``touch_delta`` cells of the plane.
+ground's plane takes the ground's Coulomb rule in the columns where a point of the body touches the plane: a point of
+a body that does not flow when its lowest extent (its height less half its own spacing) lies within ``touch_margin``
+of that half spacing (round 47, docs/contact.md "Round 47: the touch test tied to the point's extent"), a point of a
+flowing body (sand, snow, liquid) when its height is under ``touch_delta`` cells (round 36's rule).
 
 After P2G (and the viscous step), before the two-field contact and the grid update: :func:`build_touch`'s
 ``touch_clear`` (a node-column kernel) zeroes ``ground_touch``, then ``touch_mark`` (a points kernel, atomic max)
@@ -18,6 +20,8 @@ import functools
 import numpy as np
 import warp as wp
 
+from gasp_core.mpm.contact import FLOWING
+
 from .precision import MODULE_OPTIONS, build_types
 
 
@@ -29,19 +33,29 @@ class GroundTouch:
     #: only: ``"grid"`` and the grid contact's reach of ``"mixed"``); False: the node layers ``k <= ground[g][0]``
     #: alone, the rule before (the catch of ``tests/test_ground_touch.py``). Read when the engine is built.
     touch_contact = True
-    #: Cells: a point whose height above the plane is under ``touch_delta dx`` touches it.
+    #: Cells: a point of a flowing body (sand, snow, liquid) touches the plane when its height above it is under
+    #: ``touch_delta dx`` (round 36's rule, kept for them: docs/contact.md "Round 47").
     touch_delta = 0.25
+    #: Round 47: a point of a body that does not flow touches the plane when its lowest extent (its height less
+    #: ``h``, half its own spacing, ``p_vol^(1/3) / 2``) lies under ``touch_margin h`` above it (or below it). At 1
+    #: the test sits halfway between a fill's lowest row (its extent on the plane) and its next row (``2 h`` up), as
+    #: far from both as it can be, so no rounding of the fill decides it (round 46: the fixed 0.25 dx was the lowest
+    #: row's own height, a knife-edge).
+    touch_margin = 1.0
 
     def allocate_touch(self, Ft, contact: str) -> None:
         """``touch_on`` (the switch, a ground, and ``contact`` ``"grid"`` or ``"mixed"``), ``ground_touch`` (int32,
         ``n_grounds * n_grid**2``: ground ``q``'s column ``(i, j)`` at ``(q n_grid + i) n_grid + j``; one unused entry
-        when off) and ``ground_z`` (the grounds' heights, m, scalar type ``Ft``)."""
+        when off), ``ground_z`` (the grounds' heights, m, scalar type ``Ft``) and ``touch_solid`` (int32, per body: 1
+        where it does not flow, the extent test; 0 for sand, snow and liquid, round 36's height test)."""
         heights = [float(b.height) for b in self.setup.boundaries if b.kind == "ground"]
         rubs = any(b.friction > 0 for b in self.setup.boundaries if b.kind == "ground")   # ground_reach: mu > 0 only
         self.touch_on = bool(self.touch_contact and rubs and contact in ("grid", "mixed"))
         n = len(heights) * self.n_grid ** 2 if self.touch_on else 1
         self.ground_touch = wp.zeros(n, dtype=wp.int32, device=self.device)
         self.ground_z = wp.array(np.array(heights or [0.0], dtype=self._np_dtype), dtype=Ft, device=self.device)
+        self.touch_solid = wp.array(np.array([m.name not in FLOWING for m in self.setup.materials] or [False],
+                                             dtype=np.int32), dtype=wp.int32, device=self.device)
 
     def touch_launches(self, Ft) -> list:
         """The recorded clear and mark (after P2G, before the two-field contact and the grid update); none when
@@ -54,8 +68,8 @@ class GroundTouch:
         return [wp.launch(clear, dim=self.ground_touch.shape[0], device=d, record_cmd=True,
                           inputs=[self.ground_touch]),
                 wp.launch(mark, dim=self.n_material, device=d, record_cmd=True, inputs=[
-                    self.x, self.body, self.flows, self.ground_z, self.ground_touch, lo, Ft(self.inv_dx),
-                    Ft(self.touch_delta * self.dx), ng])]
+                    self.x, self.p_vol, self.body, self.flows, self.touch_solid, self.ground_z, self.ground_touch, lo,
+                    Ft(self.inv_dx), Ft(self.touch_delta * self.dx), Ft(self.touch_margin), ng])]
 
 
 @functools.cache
@@ -71,11 +85,13 @@ def build_touch(Ft):
         ground_touch[wp.tid()] = 0
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def touch_mark(x: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), flows: wp.array(dtype=wp.int32),
-                   ground_z: wp.array(dtype=Ft), ground_touch: wp.array(dtype=wp.int32), lo: vec3, inv_dx: Ft,
-                   reach: Ft, n_grid: int):
+    def touch_mark(x: wp.array(dtype=vec3), p_vol: wp.array(dtype=Ft), body: wp.array(dtype=wp.int32),
+                   flows: wp.array(dtype=wp.int32), solid: wp.array(dtype=wp.int32), ground_z: wp.array(dtype=Ft),
+                   ground_touch: wp.array(dtype=wp.int32), lo: vec3, inv_dx: Ft, reach: Ft, margin: Ft, n_grid: int):
         # a point of a flowing body (flows: all with "grid", the flowing bodies with "mixed") in the grid (P2G's
-        # stencil test) under reach (m) above ground q's plane (below it too) marks its 3 x 3 stencil columns
+        # stencil test) that touches ground q's plane marks its 3 x 3 stencil columns: a point of a body that does
+        # not flow (solid) when its lowest extent (its height less h, half its spacing p_vol^(1/3) / 2) lies under
+        # margin h above the plane (below it too), a point of sand, snow or liquid when its height is under reach
         p = wp.tid()
         if flows[body[p]] == 0:
             return
@@ -87,8 +103,13 @@ def build_touch(Ft):
         b2 = wp.floor(X[2] - Ft(0.5))
         if not (b0 >= Ft(0.0) and b0 <= lim and b1 >= Ft(0.0) and b1 <= lim and b2 >= Ft(0.0) and b2 <= lim):
             return
+        h = Ft(0.5) * wp.pow(p_vol[p], Ft(1.0 / 3.0))
         for q in range(ground_z.shape[0]):
-            if xp[2] - ground_z[q] < reach:
+            z = xp[2] - ground_z[q]
+            near = z < reach
+            if solid[body[p]] != 0:
+                near = z - h < margin * h
+            if near:
                 for a in range(3):
                     for c in range(3):
                         wp.atomic_max(ground_touch, (q * n_grid + int(b0) + a) * n_grid + int(b1) + c, 1)
