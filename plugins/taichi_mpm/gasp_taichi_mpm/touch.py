@@ -64,7 +64,9 @@ class GroundTouch:
                 if ok:
                     k = self.kind[self.body[p]]
                     flowing = k == SAND or k == SNOW or k == LIQUID
-                    h = 0.5 * ti.pow(self.p_vol[p], 1.0 / 3.0)
+                    h = ti.cast(0.0, self.real)
+                    if not flowing:
+                        h = 0.5 * ti.pow(self.p_vol[p], 1.0 / 3.0)   # only the extent test reads it
                     for b in ti.static(range(self.n_grounds)):
                         z = self.x[p][2] - self.ground_h[b]
                         if (flowing and z < reach) or (not flowing and z - h < margin * h):

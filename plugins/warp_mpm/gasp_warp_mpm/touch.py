@@ -103,11 +103,14 @@ def build_touch(Ft):
         b2 = wp.floor(X[2] - Ft(0.5))
         if not (b0 >= Ft(0.0) and b0 <= lim and b1 >= Ft(0.0) and b1 <= lim and b2 >= Ft(0.0) and b2 <= lim):
             return
-        h = Ft(0.5) * wp.pow(p_vol[p], Ft(1.0 / 3.0))
+        is_solid = solid[body[p]] != 0
+        h = Ft(0.0)
+        if is_solid:
+            h = Ft(0.5) * wp.pow(p_vol[p], Ft(1.0 / 3.0))   # only the extent test reads it
         for q in range(ground_z.shape[0]):
             z = xp[2] - ground_z[q]
             near = z < reach
-            if solid[body[p]] != 0:
+            if is_solid:
                 near = z - h < margin * h
             if near:
                 for a in range(3):
