@@ -4,7 +4,9 @@ above a ground's plane takes the ground's Coulomb rule in the columns where a po
 point of a body that does not flow when its lowest extent (its height less half its own spacing) lies within
 ``touch_margin`` of that half spacing (round 47, docs/contact.md "Round 47: the touch test tied to the point's
 extent"), a point of a flowing body (sand, snow, liquid) when its height is under ``touch_delta`` cells (round 36's
-rule); warp_mpm's ``gasp_warp_mpm.touch``, the same rule.
+rule); warp_mpm's ``gasp_warp_mpm.touch``, the same rule. Round 48 (docs/contact.md "Round 48: a dashpot above the
+held layers"): in a column a body that does not flow touches, the node layer above the held ones takes a dashpot on
+its normal velocity (:meth:`GroundTouch.dashpot`).
 
 Mixed into :class:`gasp_taichi_mpm.grid.GridUpdate` (and so :class:`gasp_taichi_mpm.solver.MPMSolver`), whose
 fields (``ground_kmax``, ``ground_h``, ``x``, ``n_points``, ...) it reads.

@@ -257,8 +257,7 @@ def build_grid_update(Ft):
         # the contact chosen per body (gasp_core.mpm.contact.rule_models): grid_mf the flowing bodies' mass per node
         # (one unused entry otherwise), the rule acting fully within wall_full cells / up to layer ground[g][2] and
         # by the node's flowing-mass fraction f between there and wall_in / ground[g][0] (colliders.build_blend);
-        # ground_touch: the grounds' touched columns (touch.py; one unused entry when off); touch_speed: the dashpot
-        # above the grounds' held layers (m/s; touch.build_dashpot)
+        # ground_touch: the touched columns (touch.py; one unused entry when off); touch_speed: m/s, touch.build_dashpot
         node = wp.tid()
         g = grid_mv[node]
         m = g[3]

@@ -3,7 +3,9 @@ on both engines"), taichi_mpm's ``gasp_taichi_mpm.touch`` in Warp: with the grid
 ground's plane takes the ground's Coulomb rule in the columns where a point of the body touches the plane: a point of
 a body that does not flow when its lowest extent (its height less half its own spacing) lies within ``touch_margin``
 of that half spacing (round 47, docs/contact.md "Round 47: the touch test tied to the point's extent"), a point of a
-flowing body (sand, snow, liquid) when its height is under ``touch_delta`` cells (round 36's rule).
+flowing body (sand, snow, liquid) when its height is under ``touch_delta`` cells (round 36's rule). Round 48
+(docs/contact.md "Round 48: a dashpot above the held layers"): in a column a body that does not flow touches, the
+node layer above the held ones takes a dashpot on its normal velocity (:func:`build_dashpot`).
 
 After P2G (and the viscous step), before the two-field contact and the grid update: :func:`build_touch`'s
 ``touch_clear`` (a node-column kernel) zeroes ``ground_touch``, then ``touch_mark`` (a points kernel, atomic max)
