@@ -1,4 +1,4 @@
-"""Rounds 46-47 (issue 67 item 3): the grid contact's hold near the stick limit, a block on a slope (``contact =
+"""Rounds 46-48 (issue 67 item 3): the grid contact's hold near the stick limit, a block on a slope (``contact =
 "grid"``; docs/contact.md "Round 46: the grid contact's hold near the limit", "Round 47: the touch test tied to the
 point's extent").
 
@@ -24,7 +24,9 @@ centroid's travel (mm) over 1 s from 0.1 s after the start of the measured part:
 the ground's normal and tangential loads read from the block's momentum each substep over the first 0.12 s: the
 normal load over ``M g cos theta`` (2 ms means: min, max) and the share of that time where the tangential load over
 the normal exceeds ``tan theta / 0.96`` (the friction a 0.96 case has). Lines are printed and appended to
-``benchmarks/results/grid_hold.md`` (``--out``).
+``benchmarks/results/grid_hold.md`` (``--out``); ``--section TITLE`` first appends a heading ``## TITLE``;
+``--touch-damping D`` sets both engines' ``touch_damping`` (round 48's dashpot above the held layers; 0: off, the
+rule before, docs/contact.md "Round 48: a dashpot above the held layers").
 """
 from __future__ import annotations
 
@@ -85,7 +87,14 @@ def main() -> None:
     p.add_argument("--grids", default="24,48")
     p.add_argument("--thetas", default="30,45")
     p.add_argument("--out", default=str(ROOT / "benchmarks/results/grid_hold.md"))
+    p.add_argument("--section", default=None)
+    p.add_argument("--touch-damping", type=float, default=None)
     a = p.parse_args()
+    if a.section:
+        with open(a.out, "a") as fh:
+            fh.write(f"\n## {a.section}\n\n")
+    if a.touch_damping is not None:
+        _set_damping(a.touch_damping)
     for eng in a.engines.split(","):
         if a.ring:
             lines = (ring(eng, int(n), float(th)) for n in a.grids.split(",") for th in a.thetas.split(","))
@@ -95,6 +104,13 @@ def main() -> None:
             print(line, flush=True)
             with open(a.out, "a") as fh:
                 fh.write(line + "\n")
+
+
+def _set_damping(d: float) -> None:
+    """Both engines' ``touch_damping`` set to ``d`` (round 48's dashpot; 0: off)."""
+    from gasp_taichi_mpm.grid import GridUpdate
+    from gasp_warp_mpm.engine import WarpMPMEngine
+    GridUpdate.touch_damping = WarpMPMEngine.touch_damping = float(d)
 
 
 def _case(engine: str, case: str) -> str:

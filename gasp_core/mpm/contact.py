@@ -224,6 +224,16 @@ def wall_floor(setup, contact: str) -> bool:
     return not (contact == "grid" and any(b.kind == "ground" for b in setup.boundaries))
 
 
+def touch_dashpot_speed(setup, damping: float = DAMPING) -> float:
+    """Round 48 (docs/contact.md "Round 48: a dashpot above the held layers"): the grid contact's dashpot above a
+    ground's held node layers, as a speed (m/s, float): ``2 damping c`` with ``c`` the largest P-wave speed of the
+    bodies that do not flow (:data:`FLOWING`; 0.0 without one). The engines damp a node's normal velocity there by
+    ``1 / (1 + s dt / dx)`` a substep (``s`` this speed): the particle contact's damping ratio ``damping``
+    (:data:`DAMPING`) on the cell's oscillator ``omega = c / dx``, implicit (``c_p dt / m = 2 damping omega dt``)."""
+    speeds = [m.p_wave_speed for m in setup.materials if m.name not in FLOWING]
+    return 2.0 * float(damping) * max(speeds, default=0.0)
+
+
 def contact_planes(setup, contact: str | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The plane supports of the particle contact: each ``ground``, then each face of each ``walls`` boundary.
 

@@ -92,6 +92,7 @@ class GridUpdate(GroundTouch):
         for b in ti.static(range(self.n_grounds)):
             if self.ground_reach(b, I):   # I_z <= ground_kmax, or the touched layer above (touch.py)
                 v = self.rule(v, self.axis_friction(v, 2, 1.0, self.ground_fric[b]), I[2] > self.ground_kfull[b], f)
+            v = self.dashpot(b, I, v)   # round 48: the dashpot above the held layers (touch.py)
         for b in ti.static(range(self.n_walls)):
             mu_b = self.wall_fric[b]
             hi_first = self.wall_hi_first[b]

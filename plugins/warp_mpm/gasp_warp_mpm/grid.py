@@ -18,7 +18,7 @@ from .balance import build_balance, f64, support_dv, v64
 from .contact import build_collider_contact, build_contact
 from .forces import build_extras_struct, build_force_funcs
 from .precision import MODULE_OPTIONS, build_types
-from .touch import build_held, build_touch
+from .touch import build_dashpot, build_held, build_touch
 
 
 @functools.cache
@@ -185,16 +185,18 @@ def build_boundary_rules(Ft):
     ground_touch)``, scalar type ``Ft``: the walls' and grounds' grid rule on node ``(i, j, k)``'s velocity (nodes
     within ``wall_in`` cells of a face, layers ``k <= ground[g][0]`` and the touched layer above, ``touch.py``; with
     the contact chosen per body by the node's flowing-mass fraction ``f`` beyond ``wall_full`` cells and above layer
-    ``ground[g][2]``, ``colliders.build_blend``)."""
+    ``ground[g][2]``, ``colliders.build_blend``); round 48: the dashpot above the held layers, ``damp = s dt / dx``
+    (``touch.build_dashpot``)."""
     vec3, vec4, mat33 = build_types(Ft)
     collide = build_collide(Ft)
     blend_rule = build_blend(Ft)
     ground_reach = build_touch(Ft)[2]
+    dashpot = build_dashpot(Ft)
 
     @wp.func
     def boundary_rules(vel_in: vec3, X: vec3, k: int, lo: vec3, hi: vec3, dx: Ft, wall_in: Ft, wall_full: Ft,
                        wall_mu: wp.array(dtype=Ft), ground: wp.array(dtype=vec3), f: Ft, floor: int, i: int, j: int,
-                       n_grid: int, ground_touch: wp.array(dtype=wp.int32)):
+                       n_grid: int, ground_touch: wp.array(dtype=wp.int32), damp: Ft):
         vel = vel_in
         # the grounds first: a ground on the floor wall's plane keeps its friction there (taichi_mpm's order)
         for q in range(ground.shape[0]):
@@ -204,6 +206,7 @@ def build_boundary_rules(Ft):
                 if Ft(k) > gr[2] and gr[2] < gr[0]:   # the contact chosen per body only (grid and particle: equal)
                     wt = f
                 vel = blend_rule(vel, collide(vel, vec3(Ft(0.0), Ft(0.0), Ft(1.0)), gr[1]), wt)
+            vel = dashpot(vel, k, gr, q, i, j, n_grid, ground_touch, damp)   # round 48: above the held layers
         for w in range(wall_mu.shape[0]):
             mu_b = wall_mu[w]
             for d in range(3):
@@ -246,7 +249,7 @@ def build_grid_update(Ft):
         grid_fbody: wp.array(dtype=wp.int32), fr_sums: wp.array2d(dtype=wp.float64), fr_nodes: wp.array(dtype=wp.int32),
         colc: int, grid_fn: wp.array(dtype=vec3), grid_fv: wp.array(dtype=vec3), wall_full: Ft,
         grid_mf: wp.array(dtype=Ft), fr_dv: wp.array(dtype=vec4), fr_fb: wp.array(dtype=Ft), floor: int,
-        ground_touch: wp.array(dtype=wp.int32), grid_dv: wp.array(dtype=vec3), rule: int):
+        ground_touch: wp.array(dtype=wp.int32), grid_dv: wp.array(dtype=vec3), rule: int, touch_speed: Ft):
         # wall_in: the walls' grid rule reaches this many cells in (gasp_core.mpm.contact.wall_grid_cells);
         # ground[g] = (top node layer k_max as a float, friction, unused); grid_m (node mass, for
         # passive points) has one entry per node when the setup has passive points, else one unused entry;
@@ -254,7 +257,7 @@ def build_grid_update(Ft):
         # the contact chosen per body (gasp_core.mpm.contact.rule_models): grid_mf the flowing bodies' mass per node
         # (one unused entry otherwise), the rule acting fully within wall_full cells / up to layer ground[g][2] and
         # by the node's flowing-mass fraction f between there and wall_in / ground[g][0] (colliders.build_blend);
-        # ground_touch: the grounds' touched columns (touch.py; one unused entry when off)
+        # ground_touch: the touched columns (touch.py; one unused entry when off); touch_speed: m/s, touch.build_dashpot
         node = wp.tid()
         g = grid_mv[node]
         m = g[3]
@@ -277,7 +280,7 @@ def build_grid_update(Ft):
                     gsurf = grid_g[node]
                 vel = extras(vel, X, dt, m, gsurf, ex, f)
             vel = boundary_rules(vel, X, k, lo, hi, dx, wall_in, wall_full, wall_mu, ground, f, floor, i, j, n_grid,
-                                 ground_touch)
+                                 ground_touch, touch_speed * dt / dx)
             if grid_fb.shape[0] > 1:   # friction (field B's with two fields), then the contact's balance (balance.py)
                 v_in = vel
                 vel = pc_friction(vel, m, f, node, grid_fb, colc, grid_fn, grid_fv, grid_dv, lo, hi, dx, wall_in,

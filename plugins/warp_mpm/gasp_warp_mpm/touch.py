@@ -3,7 +3,9 @@ on both engines"), taichi_mpm's ``gasp_taichi_mpm.touch`` in Warp: with the grid
 ground's plane takes the ground's Coulomb rule in the columns where a point of the body touches the plane: a point of
 a body that does not flow when its lowest extent (its height less half its own spacing) lies within ``touch_margin``
 of that half spacing (round 47, docs/contact.md "Round 47: the touch test tied to the point's extent"), a point of a
-flowing body (sand, snow, liquid) when its height is under ``touch_delta`` cells (round 36's rule).
+flowing body (sand, snow, liquid) when its height is under ``touch_delta`` cells (round 36's rule). Round 48
+(docs/contact.md "Round 48: a dashpot above the held layers"): in a column a body that does not flow touches, the
+node layer above the held ones takes a dashpot on its normal velocity (:func:`build_dashpot`).
 
 After P2G (and the viscous step), before the two-field contact and the grid update: :func:`build_touch`'s
 ``touch_clear`` (a node-column kernel) zeroes ``ground_touch``, then ``touch_mark`` (a points kernel, atomic max)
@@ -20,7 +22,7 @@ import functools
 import numpy as np
 import warp as wp
 
-from gasp_core.mpm.contact import FLOWING
+from gasp_core.mpm.contact import DAMPING, FLOWING, touch_dashpot_speed
 
 from .precision import MODULE_OPTIONS, build_types
 
@@ -42,17 +44,25 @@ class GroundTouch:
     #: far from both as it can be, so no rounding of the fill decides it (round 46: the fixed 0.25 dx was the lowest
     #: row's own height, a knife-edge).
     touch_margin = 1.0
+    #: Round 48 (docs/contact.md "Round 48: a dashpot above the held layers"): the damping ratio of the dashpot on
+    #: the normal velocity of the node layer just above the held ones (``ground[q][0] + 2``) in the columns a point
+    #: of a body that does not flow touches (``gasp_core.mpm.contact.touch_dashpot_speed``; the particle contact's
+    #: ``DAMPING``); 0 turns it off (the rule before, the catch of ``tests/test_grid_hold.py``). Read when built.
+    touch_damping = DAMPING
 
     def allocate_touch(self, Ft, contact: str) -> None:
         """``touch_on`` (the switch, a ground, and ``contact`` ``"grid"`` or ``"mixed"``), ``ground_touch`` (int32,
-        ``n_grounds * n_grid**2``: ground ``q``'s column ``(i, j)`` at ``(q n_grid + i) n_grid + j``; one unused entry
-        when off), ``ground_z`` (the grounds' heights, m, scalar type ``Ft``) and ``touch_solid`` (int32, per body: 1
-        where it does not flow, the extent test; 0 for sand, snow and liquid, round 36's height test)."""
+        ``n_grounds * n_grid**2``: ground ``q``'s column ``(i, j)`` at ``(q n_grid + i) n_grid + j``, 2 where a point of
+        a body that does not flow touches, else 1 where a flowing one does; one unused entry when off),
+        ``touch_speed`` (the dashpot's speed, m/s, float: ``touch_dashpot_speed``, 0.0 when off), ``ground_z`` (the
+        grounds' heights, m, scalar type ``Ft``) and ``touch_solid`` (int32, per body: 1 where it does not flow, the
+        extent test; 0 for sand, snow and liquid, round 36's height test)."""
         heights = [float(b.height) for b in self.setup.boundaries if b.kind == "ground"]
         rubs = any(b.friction > 0 for b in self.setup.boundaries if b.kind == "ground")   # ground_reach: mu > 0 only
         self.touch_on = bool(self.touch_contact and rubs and contact in ("grid", "mixed"))
         n = len(heights) * self.n_grid ** 2 if self.touch_on else 1
         self.ground_touch = wp.zeros(n, dtype=wp.int32, device=self.device)
+        self.touch_speed = touch_dashpot_speed(self.setup, self.touch_damping) if self.touch_on else 0.0   # m/s
         self.ground_z = wp.array(np.array(heights or [0.0], dtype=self._np_dtype), dtype=Ft, device=self.device)
         self.touch_solid = wp.array(np.array([m.name not in FLOWING for m in self.setup.materials] or [False],
                                              dtype=np.int32), dtype=wp.int32, device=self.device)
@@ -104,9 +114,11 @@ def build_touch(Ft):
         if not (b0 >= Ft(0.0) and b0 <= lim and b1 >= Ft(0.0) and b1 <= lim and b2 >= Ft(0.0) and b2 <= lim):
             return
         is_solid = solid[body[p]] != 0
+        mark = int(1)
         h = Ft(0.0)
         if is_solid:
             h = Ft(0.5) * wp.pow(p_vol[p], Ft(1.0 / 3.0))   # only the extent test reads it
+            mark = int(2)   # round 48: the dashpot above the held layers acts in such columns (build_dashpot)
         for q in range(ground_z.shape[0]):
             z = xp[2] - ground_z[q]
             near = z < reach
@@ -115,7 +127,7 @@ def build_touch(Ft):
             if near:
                 for a in range(3):
                     for c in range(3):
-                        wp.atomic_max(ground_touch, (q * n_grid + int(b0) + a) * n_grid + int(b1) + c, 1)
+                        wp.atomic_max(ground_touch, (q * n_grid + int(b0) + a) * n_grid + int(b1) + c, mark)
 
     @wp.func
     def ground_reach(k: int, gr: vec3, q: int, i: int, j: int, n_grid: int, ground_touch: wp.array(dtype=wp.int32)):
@@ -128,6 +140,28 @@ def build_touch(Ft):
         return on
 
     return touch_clear, touch_mark, ground_reach
+
+
+@functools.cache
+def build_dashpot(Ft):
+    """Round 48 (``GroundTouch.touch_damping``; docs/contact.md "Round 48: a dashpot above the held layers"), scalar
+    type ``Ft``: ``dashpot(vel, k, gr, q, i, j, n_grid, ground_touch, d) -> vel`` (m/s): at node ``(i, j, k)`` in the
+    layer just above ground ``q``'s held ones (``k = gr[0] + 2``: the touched layer is ``gr[0] + 1``) of a column
+    marked 2 (a point of a body that does not flow touches the plane, :func:`build_touch`), the normal (+z) velocity
+    divided by ``1 + d`` (``d = s dt / dx``, ``s`` the engine's ``touch_speed``), both ways; ``vel`` elsewhere. No
+    friction is taken from it: the held layers' Coulomb rule is unchanged. taichi_mpm's ``GroundTouch.dashpot``."""
+    vec3 = build_types(Ft)[0]
+
+    @wp.func
+    def dashpot(vel: vec3, k: int, gr: vec3, q: int, i: int, j: int, n_grid: int,
+                ground_touch: wp.array(dtype=wp.int32), d: Ft):
+        out = vel
+        if d > Ft(0.0) and ground_touch.shape[0] > 1 and Ft(k) == gr[0] + Ft(2.0) and gr[1] > Ft(0.0):
+            if ground_touch[(q * n_grid + i) * n_grid + j] == 2:
+                out = vec3(vel[0], vel[1], vel[2] / (Ft(1.0) + d))
+        return out
+
+    return dashpot
 
 
 @functools.cache
