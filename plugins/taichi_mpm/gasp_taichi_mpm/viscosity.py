@@ -48,10 +48,6 @@ class ImplicitViscosity:
     eta_channel : int
     """
 
-    #: True: the step returns ``m u + r`` (momentum conserved whatever :data:`TOL`); False: ``m u``, the step before
-    #: (the catch of ``tests/test_grid_hold.py``: the damped jelly's slide 23 % fast on n_grid 48).
-    conserve = True
-
     def __init__(self, solver, eta_channel: int):
         self.s = solver
         self.ch = int(eta_channel)
@@ -318,16 +314,12 @@ class ImplicitViscosity:
                 self.done[None] = 1
 
     @ti.kernel
-    def _finish(self, conserve: ti.i32):
-        """Momentum ``m u + r = m v* - dt (K u)`` back into grid_mv (the grid update divides by m again): the viscous
-        force of the CG's iterate, which sums to zero, so the step conserves momentum whatever :data:`TOL` (``m u``
-        alone leaks the residual's sum: docs/contact.md "Round 48: the viscous jelly's slide")."""
+    def _finish(self):
+        """Momentum m u back into grid_mv (the grid update divides by m again)."""
         for k in range(self.n_nodes[None]):
             I = self.nodes[k]
             m = self.s.grid_mv[0, I][3]
             mu = m * self.u[I]
-            if conserve != 0:
-                mu += self.r[I]
             self.s.grid_mv[0, I][0] = mu[0]
             self.s.grid_mv[0, I][1] = mu[1]
             self.s.grid_mv[0, I][2] = mu[2]
@@ -341,7 +333,7 @@ class ImplicitViscosity:
             for _ in range(min(every, MAX_ITERS - k)):
                 self._iterate()
                 k += 1
-        self._finish(int(self.conserve))
+        self._finish()
         self.iters += k if not self.gpu else 0   # the GPU schedule counts on the device (active)
         self.solves += 1
 

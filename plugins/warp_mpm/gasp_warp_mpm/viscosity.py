@@ -186,22 +186,15 @@ def build_viscosity(Ft):
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def finish(grid_mv: wp.array(dtype=vec4), grid_eta: wp.array(dtype=Ft), u: wp.array(dtype=vec3),
-               r: wp.array(dtype=vec3), nodes: wp.array(dtype=wp.int32), counts: wp.array(dtype=wp.int32),
-               conserve: int):
-        # momentum m u + r = m v* - dt (K u) back (the grid update divides by m again): the viscous force of the
-        # CG's iterate, which sums to zero, so the step conserves momentum whatever the CG's tolerance (m u alone
-        # leaks the residual's sum: docs/contact.md "Round 48: the viscous jelly's slide"); the viscous volume
-        # cleared for the next P2G
+               nodes: wp.array(dtype=wp.int32), counts: wp.array(dtype=wp.int32)):
+        # momentum m u back (the grid update divides by m again); the viscous volume cleared for the next P2G
         t = wp.tid()
         if t >= counts[0]:
             return
         I = nodes[t]
         g = grid_mv[I]
         m = g[3]
-        mv = m * u[I]
-        if conserve != 0:
-            mv = mv + r[I]
-        grid_mv[I] = vec4(mv[0], mv[1], mv[2], m)
+        grid_mv[I] = vec4(m * u[I][0], m * u[I][1], m * u[I][2], m)
         grid_eta[I] = Ft(0.0)
 
     return types.SimpleNamespace(corner=corner, cell_weights=cell_weights, cell_stress=cell_stress, start=start,
@@ -219,10 +212,6 @@ class ImplicitViscosity:
         Its ``grid_mv`` (momentum, mass), ``grid_eta`` (viscous volume), ``n_grid``, ``dt``, ``inv_dx``, ``device``.
     Ft : warp scalar type
     """
-
-    #: True: the step returns ``m u + r`` (momentum conserved whatever the CG's tolerance); False: ``m u``, the
-    #: step before (the catch of ``tests/test_grid_hold.py``: the damped jelly's slide 23 % fast on n_grid 48).
-    conserve = True
 
     def __init__(self, eng, Ft):
         self.e, self.Ft = eng, Ft

@@ -232,6 +232,5 @@ class GpuViscosity(ImplicitViscosity):
             while it < MAX_ITERS and int(self.cond.numpy()[0]):
                 self._iterations(CHECK_EVERY)
                 it += CHECK_EVERY
-        wp.launch(k.finish, dim=n, device=d, inputs=[e.grid_mv, e.grid_eta, self.u, self.r, self.nodes, cnt,
-                                                           int(self.conserve)])
+        wp.launch(k.finish, dim=n, device=d, inputs=[e.grid_mv, e.grid_eta, self.u, self.nodes, cnt])
         self.solves += 1

@@ -125,8 +125,7 @@ class CpuViscosity(ImplicitViscosity):
             wp.launch(k.step_beta, dim=1, device=d, inputs=[self.scal, self.done, self.Ft(TOL * TOL)])
             wp.launch(k.direction, dim=n_nodes, device=d, inputs=[self.z, self.p, self.nodes, cnt, self.scal])
             it += 1
-        wp.launch(k.finish, dim=n_nodes, device=d, inputs=[e.grid_mv, e.grid_eta, self.u, self.r, self.nodes, cnt,
-                                                           int(self.conserve)])
+        wp.launch(k.finish, dim=n_nodes, device=d, inputs=[e.grid_mv, e.grid_eta, self.u, self.nodes, cnt])
         self.iters += it
         self.solves += 1
 
