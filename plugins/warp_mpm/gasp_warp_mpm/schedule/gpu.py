@@ -120,7 +120,7 @@ def build_block_sums(Ft):
 
 @functools.cache
 def build_mom_sums(Ft):
-    """``(mom_blocks, fold4, fold4_final)`` of scalar type ``Ft``: the residual's sum and the mass over a node list
+    """``(mom_blocks, fold, fold_final)`` of scalar type ``Ft``: the residual's sum and the mass over a node list
     (``vec4``), two-level as :func:`build_block_sums` (viscosity.finish's ``du``)."""
     vec3, vec4 = build_types(Ft)[:2]
 
@@ -136,7 +136,7 @@ def build_mom_sums(Ft):
         part[blk] = s
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def fold4(part_in: wp.array(dtype=vec4), part_out: wp.array(dtype=vec4)):
+    def fold(part_in: wp.array(dtype=vec4), part_out: wp.array(dtype=vec4)):
         blk = wp.tid()
         s = vec4()
         for t in range(blk * BLK, wp.min(blk * BLK + BLK, part_in.shape[0])):
@@ -144,13 +144,13 @@ def build_mom_sums(Ft):
         part_out[blk] = s
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def fold4_final(part_in: wp.array(dtype=vec4), out: wp.array(dtype=vec4)):
+    def fold_final(part_in: wp.array(dtype=vec4), out: wp.array(dtype=vec4)):
         s = vec4()
         for t in range(part_in.shape[0]):
             s = s + part_in[t]
         out[0] = s
 
-    return mom_blocks, fold4, fold4_final
+    return mom_blocks, fold, fold_final
 
 
 @functools.cache
