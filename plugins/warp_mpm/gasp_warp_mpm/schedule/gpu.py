@@ -269,12 +269,12 @@ class GpuViscosity(ImplicitViscosity):
             while it < MAX_ITERS and int(self.cond.numpy()[0]):
                 self._iterations(CHECK_EVERY)
                 it += CHECK_EVERY
-        mom_blocks, fold4, fold4_final = self.g_moms
+        mom_blocks, fold, fold_final = self.g_moms
         parts = self.parts4
         wp.launch(mom_blocks, dim=parts[0].shape[0], device=d, inputs=[self.r, e.grid_mv, self.nodes, cnt, parts[0]])
         for src, dst in zip(parts[:-1], parts[1:]):
-            wp.launch(fold4, dim=dst.shape[0], device=d, inputs=[src, dst])
-        wp.launch(fold4_final, dim=1, device=d, inputs=[parts[-1], self.mom])
+            wp.launch(fold, dim=dst.shape[0], device=d, inputs=[src, dst])
+        wp.launch(fold_final, dim=1, device=d, inputs=[parts[-1], self.mom])
         wp.launch(k.finish, dim=n, device=d, inputs=[e.grid_mv, e.grid_eta, self.u, self.nodes, cnt, self.mom,
                                                     int(self.conserve)])
         self.solves += 1
