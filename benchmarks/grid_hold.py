@@ -26,7 +26,10 @@ normal load over ``M g cos theta`` (2 ms means: min, max) and the share of that 
 the normal exceeds ``tan theta / 0.96`` (the friction a 0.96 case has). Lines are printed and appended to
 ``benchmarks/results/grid_hold.md`` (``--out``); ``--section TITLE`` first appends a heading ``## TITLE``;
 ``--touch-damping D`` sets both engines' ``touch_damping`` (round 48's dashpot above the held layers; 0: off, the
-rule before, docs/contact.md "Round 48: a dashpot above the held layers").
+rule before, docs/contact.md "Round 48: a dashpot above the held layers"); ``--viscous-conserve 0`` the viscous step's
+rule before round 49 (the CG's iterate ``m u``, without the uniform correction ``du = sum r / sum m``),
+``--viscous-tol T`` its CG tolerance (``TOL``, 1e-2) on both engines (docs/contact.md "Round 49: the viscous step's
+momentum, a uniform correction").
 """
 from __future__ import annotations
 
@@ -89,12 +92,15 @@ def main() -> None:
     p.add_argument("--out", default=str(ROOT / "benchmarks/results/grid_hold.md"))
     p.add_argument("--section", default=None)
     p.add_argument("--touch-damping", type=float, default=None)
+    p.add_argument("--viscous-conserve", type=int, default=None)
+    p.add_argument("--viscous-tol", type=float, default=None)
     a = p.parse_args()
     if a.section:
         with open(a.out, "a") as fh:
             fh.write(f"\n## {a.section}\n\n")
     if a.touch_damping is not None:
         _set_damping(a.touch_damping)
+    _set_viscous(a.viscous_conserve, a.viscous_tol)
     for eng in a.engines.split(","):
         if a.ring:
             lines = (ring(eng, int(n), float(th)) for n in a.grids.split(",") for th in a.thetas.split(","))
@@ -111,6 +117,20 @@ def _set_damping(d: float) -> None:
     from gasp_taichi_mpm.grid import GridUpdate
     from gasp_warp_mpm.engine import WarpMPMEngine
     GridUpdate.touch_damping = WarpMPMEngine.touch_damping = float(d)
+
+
+def _set_viscous(conserve, tol) -> None:
+    """Both engines' viscous step: ``conserve`` (None: as is) and the CG's ``TOL`` (None: as is; set before any
+    kernel is built: taichi reads it when it compiles)."""
+    import gasp_taichi_mpm.viscosity as tv
+    import gasp_warp_mpm.schedule.gpu as wg
+    import gasp_warp_mpm.schedule.ordered as wo
+    import gasp_warp_mpm.viscosity as wv
+    if conserve is not None:
+        tv.ImplicitViscosity.conserve = wv.ImplicitViscosity.conserve = bool(conserve)
+    if tol is not None:
+        for mod in (tv, wv, wg, wo):
+            mod.TOL = float(tol)
 
 
 def _case(engine: str, case: str) -> str:

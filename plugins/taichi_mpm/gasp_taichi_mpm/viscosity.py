@@ -21,6 +21,13 @@ on the GPU schedule each list entry's term stored, then summed by a fixed tree
 (:class:`~gasp_taichi_mpm.schedule.primitives.SliceSums`); either way the result does not depend on the thread count.
 The GPU schedule reads the convergence flag every :data:`gasp_taichi_mpm.schedule.CHECK_EVERY` iterations (an
 iteration after convergence changes nothing: ``alpha = beta = 0``).
+
+The CG stops at :data:`TOL`, so its iterate ``u`` leaves the residual ``r = M v* - (M + dt K) u``, whose sum over
+the nodes is the momentum ``M u`` lacks (``K`` sums to zero). With :attr:`ImplicitViscosity.conserve` (the default)
+the step adds one uniform velocity ``du = sum r / sum m`` over the solved nodes (both sums in a fixed order), so
+``sum m (u + du) = sum m v*`` exactly: the residual's sum restored without its per-node shape (``m u + r`` per node
+diverged the README quick start: a light node's ``r / m`` is a large velocity; docs/contact.md "Round 49: the
+viscous step's momentum, a uniform correction").
 """
 import taichi as ti
 
@@ -47,6 +54,12 @@ class ImplicitViscosity:
         (channel ``eta_channel``); ``box[0]`` the nodes touched by P2G.
     eta_channel : int
     """
+
+    #: True: the step returns ``m (u + du)``, ``du = sum r / sum m`` over the solved nodes (total momentum that of
+    #: ``M v*`` to round-off whatever :data:`TOL`); False: ``m u``, the rule before round 49 (its CG iterate leaks the
+    #: residual's sum: the damped jelly slid 23 % fast on n_grid 48, docs/contact.md "Round 48: the viscous jelly's
+    #: slide").
+    conserve = True
 
     def __init__(self, solver, eta_channel: int):
         self.s = solver
@@ -78,6 +91,7 @@ class ImplicitViscosity:
         self.gpu = bool(solver.gpu)   # the GPU schedule (gasp_taichi_mpm.schedule)
         self.comp = BoxCompaction(self, ng, (self.nodes, self.cells))
         self.dots = SliceSums(ng ** 3 if self.gpu else 1, 1, real)   # a dot product's terms per list entry (GPU)
+        self.moms = SliceSums(ng ** 3, 4, real)   # the residual's sum and the mass (the correction du), fixed tree
 
     @ti.func
     def listed(self, I, q: ti.template()):
@@ -314,12 +328,25 @@ class ImplicitViscosity:
                 self.done[None] = 1
 
     @ti.kernel
-    def _finish(self):
-        """Momentum m u back into grid_mv (the grid update divides by m again)."""
-        for k in range(self.n_nodes[None]):
+    def _finish(self, conserve: ti.i32):
+        """Momentum ``m (u + du)`` back into grid_mv (the grid update divides by m again); ``du = sum r / sum m``
+        over the list (summed by a fixed tree) when ``conserve``, else 0."""
+        nn = self.n_nodes[None]
+        for k in range(nn):
+            I = self.nodes[k]
+            r = self.r[I]
+            self.moms.part[k, 0] = r[0]
+            self.moms.part[k, 1] = r[1]
+            self.moms.part[k, 2] = r[2]
+            self.moms.part[k, 3] = self.s.grid_mv[0, I][3]
+        self.moms.reduce(nn)
+        du = ti.Vector.zero(self.s.real, 3)
+        if conserve != 0 and self.moms.out[3] > 0.0:
+            du = ti.Vector([self.moms.out[0], self.moms.out[1], self.moms.out[2]]) / self.moms.out[3]
+        for k in range(nn):
             I = self.nodes[k]
             m = self.s.grid_mv[0, I][3]
-            mu = m * self.u[I]
+            mu = m * (self.u[I] + du)
             self.s.grid_mv[0, I][0] = mu[0]
             self.s.grid_mv[0, I][1] = mu[1]
             self.s.grid_mv[0, I][2] = mu[2]
@@ -333,7 +360,7 @@ class ImplicitViscosity:
             for _ in range(min(every, MAX_ITERS - k)):
                 self._iterate()
                 k += 1
-        self._finish()
+        self._finish(int(self.conserve))
         self.iters += k if not self.gpu else 0   # the GPU schedule counts on the device (active)
         self.solves += 1
 

@@ -18,6 +18,11 @@ schedule's own: on the cpu schedule built and summed by one thread in node order
 (:mod:`gasp_warp_mpm.schedule.ordered`, ``CpuViscosity``), on the gpu schedule by compaction and block sums
 (:mod:`gasp_warp_mpm.schedule.gpu`, ``GpuViscosity``); either gives the same result on every run.
 
+The CG stops at ``TOL``, so its iterate ``u`` leaves the residual ``r = M v* - (M + dt K) u``, whose sum is the
+momentum ``M u`` lacks (``K`` sums to zero); with :attr:`ImplicitViscosity.conserve` (the default) ``finish`` adds one
+uniform velocity ``du = sum r / sum m`` over the solved nodes (the schedule's ``mom`` sums, in a fixed order), so the
+step conserves total momentum to round-off (as ``gasp_taichi_mpm.viscosity``; docs/contact.md "Round 49").
+
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of
 the closures below as type objects.
 """
@@ -186,15 +191,21 @@ def build_viscosity(Ft):
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def finish(grid_mv: wp.array(dtype=vec4), grid_eta: wp.array(dtype=Ft), u: wp.array(dtype=vec3),
-               nodes: wp.array(dtype=wp.int32), counts: wp.array(dtype=wp.int32)):
-        # momentum m u back (the grid update divides by m again); the viscous volume cleared for the next P2G
+               nodes: wp.array(dtype=wp.int32), counts: wp.array(dtype=wp.int32), mom: wp.array(dtype=vec4),
+               conserve: int):
+        # momentum m (u + du) back (the grid update divides by m again), du = sum r / sum m over the list (mom[0],
+        # the schedule's fixed-order sums) when conserve, else 0; the viscous volume cleared for the next P2G
         t = wp.tid()
         if t >= counts[0]:
             return
         I = nodes[t]
-        g = grid_mv[I]
-        m = g[3]
-        grid_mv[I] = vec4(m * u[I][0], m * u[I][1], m * u[I][2], m)
+        s = mom[0]
+        du = vec3()
+        if conserve != 0 and s[3] > Ft(0.0):
+            du = vec3(s[0], s[1], s[2]) / s[3]
+        m = grid_mv[I][3]
+        v = u[I] + du
+        grid_mv[I] = vec4(m * v[0], m * v[1], m * v[2], m)
         grid_eta[I] = Ft(0.0)
 
     return types.SimpleNamespace(corner=corner, cell_weights=cell_weights, cell_stress=cell_stress, start=start,
@@ -213,6 +224,10 @@ class ImplicitViscosity:
     Ft : warp scalar type
     """
 
+    #: True: the step returns ``m (u + du)``, ``du = sum r / sum m`` (total momentum conserved whatever ``TOL``);
+    #: False: ``m u``, the rule before round 49 (the damped jelly slid 23 % fast on n_grid 48).
+    conserve = True
+
     def __init__(self, eng, Ft):
         self.e, self.Ft = eng, Ft
         self.k = build_viscosity(Ft)
@@ -228,6 +243,7 @@ class ImplicitViscosity:
         self.counts = wp.zeros(2, dtype=wp.int32, device=d)
         self.scal = wp.zeros(6, dtype=Ft, device=d)
         self.done = wp.zeros(1, dtype=wp.int32, device=d)
+        self.mom = wp.zeros(1, dtype=vec4, device=d)   # (sum r, sum m) over the list, for finish's du
         self.iters = 0
         self.solves = 0
 

@@ -210,7 +210,7 @@ def test_the_check_catches_todays_lists_and_dot(gpu_engine, monkeypatch):
         m.setattr(G.GpuViscosity, "solve", CpuViscosity.solve)
         m.setattr(visc, "o", k, raising=False)
         rec = one_substep(e, monkeypatch)
-    assert dim1_outside_allow_list(rec) == ["begin", "dot", "lists", "step_beta"]
+    assert dim1_outside_allow_list(rec) == ["begin", "dot", "lists", "mom_sum", "step_beta"]
 
 
 def counts(scene, schedule, monkeypatch):
@@ -226,30 +226,32 @@ def counts(scene, schedule, monkeypatch):
 
 
 def test_launches_and_syncs_per_substep(monkeypatch):
-    """The viscous scene (the donut's configuration): per substep, the cpu schedule launches 13 kernels plus 8 per CG
-    iteration and syncs 2 plus one per iteration; the gpu schedule launches 22 plus 10 per iteration run (the
+    """The viscous scene (the donut's configuration): per substep, the cpu schedule launches 14 kernels plus 8 per CG
+    iteration and syncs 2 plus one per iteration; the gpu schedule launches 24 plus 10 per iteration run (the
     iterations run in fours, the condition read once per four: the syncs) and, at n_grid 16, each dot product is
-    two launches (16 blocks of 256 nodes, then their fold)."""
+    two launches (16 blocks of 256 nodes, then their fold), and so is round 49's momentum sum (``mom_blocks``,
+    ``fold_final``; on the cpu schedule one-thread ``mom_sum``)."""
     rec, _ = counts("viscous", "cpu", monkeypatch)
     n_it = sum(1 for k, _ in rec.launches if name(k) == "step_alpha")
     print(f"cpu schedule: {len(rec.launches)} launches, {rec.syncs} syncs, {n_it} CG iterations;",
           dict(zip(*np.unique([name(k) for k, _ in rec.launches], return_counts=True))))
     assert n_it >= 1
-    assert len(rec.launches) == 13 + 8 * n_it
+    assert len(rec.launches) == 14 + 8 * n_it
     assert rec.syncs == 2 + n_it
-    assert sum(1 for _, d in rec.launches if d == 1) == 5 + 4 * n_it   # shift, lists, 1 + 2 n dots, begin, 2 n steps, fix
-    # of which over nodes or list entries: lists, dot, contact_fix (begin and step_beta: scalars, named otherwise)
-    assert dim1_outside_allow_list(rec) == ["begin", "contact_fix", "dot", "lists", "step_beta"]
+    # shift, lists, 1 + 2 n dots, begin, 2 n steps, mom_sum, fix
+    assert sum(1 for _, d in rec.launches if d == 1) == 6 + 4 * n_it
+    # of which over nodes or list entries: lists, dot, mom_sum, contact_fix (begin and step_beta: scalars)
+    assert dim1_outside_allow_list(rec) == ["begin", "contact_fix", "dot", "lists", "mom_sum", "step_beta"]
     rec, eff = counts("viscous", "gpu", monkeypatch)
     n_run = sum(1 for k, _ in rec.launches if name(k) == "step_alpha")
     print(f"gpu schedule: {len(rec.launches)} launches, {rec.syncs} syncs, {n_run} CG iterations run ({eff} "
           "effective);", dict(zip(*np.unique([name(k) for k, _ in rec.launches], return_counts=True))))
     assert n_run % G.CHECK_EVERY == 0 and n_run - G.CHECK_EVERY < eff <= n_run
-    assert len(rec.launches) == 22 + 10 * n_run
+    assert len(rec.launches) == 24 + 10 * n_run
     assert rec.syncs == n_run // G.CHECK_EVERY + 1
     # one thread: per body or support (contact_shift, fix_supports, fix_clear: one body, one support here), cg_begin,
-    # fold_final; per iteration two fold_final, step_alpha, cg_beta
-    assert sum(1 for _, d in rec.launches if d == 1) == 5 + 4 * n_run
+    # fold_final, the momentum sum's fold_final; per iteration two fold_final, step_alpha, cg_beta
+    assert sum(1 for _, d in rec.launches if d == 1) == 6 + 4 * n_run
     assert dim1_outside_allow_list(rec) == []
 
 

@@ -119,6 +119,41 @@ def build_block_sums(Ft):
 
 
 @functools.cache
+def build_mom_sums(Ft):
+    """``(mom_blocks, fold, fold_final)`` of scalar type ``Ft``: the residual's sum and the mass over a node list
+    (``vec4``), two-level as :func:`build_block_sums` (viscosity.finish's ``du``)."""
+    vec3, vec4 = build_types(Ft)[:2]
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def mom_blocks(r: wp.array(dtype=vec3), grid_mv: wp.array(dtype=vec4), nodes: wp.array(dtype=wp.int32),
+                   counts: wp.array(dtype=wp.int32), part: wp.array(dtype=vec4)):
+        blk = wp.tid()
+        s = vec4()
+        for t in range(blk * BLK, wp.min(blk * BLK + BLK, counts[0])):
+            I = nodes[t]
+            ri = r[I]
+            s = s + vec4(ri[0], ri[1], ri[2], grid_mv[I][3])
+        part[blk] = s
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def fold(part_in: wp.array(dtype=vec4), part_out: wp.array(dtype=vec4)):
+        blk = wp.tid()
+        s = vec4()
+        for t in range(blk * BLK, wp.min(blk * BLK + BLK, part_in.shape[0])):
+            s = s + part_in[t]
+        part_out[blk] = s
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def fold_final(part_in: wp.array(dtype=vec4), out: wp.array(dtype=vec4)):
+        s = vec4()
+        for t in range(part_in.shape[0]):
+            s = s + part_in[t]
+        out[0] = s
+
+    return mom_blocks, fold, fold_final
+
+
+@functools.cache
 def build_cg_control(Ft):
     """``(cg_begin, cg_beta)`` of scalar type ``Ft``: the CG's scalars with the loop's condition on the device."""
 
@@ -172,6 +207,8 @@ class GpuViscosity(ImplicitViscosity):
         self.flags = wp.zeros(n, dtype=wp.vec2i, device=d)
         self.slots = wp.zeros(n, dtype=wp.vec2i, device=d)
         self.parts = [wp.zeros(m, dtype=Ft, device=d) for m in fold_chain(n)]
+        self.parts4 = [wp.zeros(m, dtype=build_types(Ft)[1], device=d) for m in fold_chain(n)]
+        self.g_moms = build_mom_sums(Ft)
         self.cond = wp.zeros(1, dtype=wp.int32, device=d)
         self.it = wp.zeros(1, dtype=wp.int32, device=d)
         self.g_lists = build_lists(Ft)
@@ -232,5 +269,12 @@ class GpuViscosity(ImplicitViscosity):
             while it < MAX_ITERS and int(self.cond.numpy()[0]):
                 self._iterations(CHECK_EVERY)
                 it += CHECK_EVERY
-        wp.launch(k.finish, dim=n, device=d, inputs=[e.grid_mv, e.grid_eta, self.u, self.nodes, cnt])
+        mom_blocks, fold, fold_final = self.g_moms
+        parts = self.parts4
+        wp.launch(mom_blocks, dim=parts[0].shape[0], device=d, inputs=[self.r, e.grid_mv, self.nodes, cnt, parts[0]])
+        for src, dst in zip(parts[:-1], parts[1:]):
+            wp.launch(fold, dim=dst.shape[0], device=d, inputs=[src, dst])
+        wp.launch(fold_final, dim=1, device=d, inputs=[parts[-1], self.mom])
+        wp.launch(k.finish, dim=n, device=d, inputs=[e.grid_mv, e.grid_eta, self.u, self.nodes, cnt, self.mom,
+                                                    int(self.conserve)])
         self.solves += 1

@@ -78,7 +78,18 @@ def build_ordered_viscosity(Ft):
             s = s + wp.dot(a[I], b[I])
         out[slot] = s
 
-    return types.SimpleNamespace(lists=lists, dot=dot)
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def mom_sum(r: wp.array(dtype=vec3), grid_mv: wp.array(dtype=vec4), nodes: wp.array(dtype=wp.int32),
+                counts: wp.array(dtype=wp.int32), out: wp.array(dtype=vec4)):
+        # one thread, in node order: the residual's sum and the mass (viscosity.finish's du)
+        s = vec4()
+        for t in range(counts[0]):
+            I = nodes[t]
+            ri = r[I]
+            s = s + vec4(ri[0], ri[1], ri[2], grid_mv[I][3])
+        out[0] = s
+
+    return types.SimpleNamespace(lists=lists, dot=dot, mom_sum=mom_sum)
 
 
 class CpuViscosity(ImplicitViscosity):
@@ -125,7 +136,9 @@ class CpuViscosity(ImplicitViscosity):
             wp.launch(k.step_beta, dim=1, device=d, inputs=[self.scal, self.done, self.Ft(TOL * TOL)])
             wp.launch(k.direction, dim=n_nodes, device=d, inputs=[self.z, self.p, self.nodes, cnt, self.scal])
             it += 1
-        wp.launch(k.finish, dim=n_nodes, device=d, inputs=[e.grid_mv, e.grid_eta, self.u, self.nodes, cnt])
+        wp.launch(o.mom_sum, dim=1, device=d, inputs=[self.r, e.grid_mv, self.nodes, cnt, self.mom])
+        wp.launch(k.finish, dim=n_nodes, device=d, inputs=[e.grid_mv, e.grid_eta, self.u, self.nodes, cnt, self.mom,
+                                                           int(self.conserve)])
         self.iters += it
         self.solves += 1
 
