@@ -1,6 +1,6 @@
 """Soft bodies resting on the grid contact sag as the static estimates say (round 49, issue 67; docs/contact.md "Round
-49: the touched layer shares the column's Coulomb bound"): :func:`sag_ratio` for the family of ``tests/test_sag_family.py``
-and ``benchmarks/sag_family.py``.
+49: the touched layer shares the column's Coulomb bound"): :func:`sag_ratio` for the family of
+``tests/test_sag_family.py`` and ``benchmarks/sag_family.py``.
 
 Each body is put on the ground at rest (its lowest points' extent on the plane), undeformed, with no damping, on
 ``contact = "grid"`` (ground friction 0.5), and its centre of mass's mean drop over ``N_FRAMES`` frames at ``FPS``

@@ -6,7 +6,10 @@ point of a body that does not flow when its lowest extent (its height less half 
 extent"), a point of a flowing body (sand, snow, liquid) when its height is under ``touch_delta`` cells (round 36's
 rule); warp_mpm's ``gasp_warp_mpm.touch``, the same rule. Round 48 (docs/contact.md "Round 48: a dashpot above the
 held layers"): in a column a body that does not flow touches, the node layer above the held ones takes a dashpot on
-its normal velocity (:meth:`GroundTouch.dashpot`).
+its normal velocity (:meth:`GroundTouch.dashpot`). Round 49 (docs/contact.md "Round 49: the touched layer shares the
+column's Coulomb bound"): in such a column the touched layer takes no normal stop (its normal motion is the body's,
+with the dashpot) and only the Coulomb bound its column's held layers left unused (:meth:`GroundTouch.touch_keep`,
+:meth:`GroundTouch.share_bound`).
 
 Mixed into :class:`gasp_taichi_mpm.grid.GridUpdate` (and so :class:`gasp_taichi_mpm.solver.MPMSolver`), whose
 fields (``ground_kmax``, ``ground_h``, ``x``, ``n_points``, ...) it reads.

@@ -5,7 +5,10 @@ a body that does not flow when its lowest extent (its height less half its own s
 of that half spacing (round 47, docs/contact.md "Round 47: the touch test tied to the point's extent"), a point of a
 flowing body (sand, snow, liquid) when its height is under ``touch_delta`` cells (round 36's rule). Round 48
 (docs/contact.md "Round 48: a dashpot above the held layers"): in a column a body that does not flow touches, the
-node layer above the held ones takes a dashpot on its normal velocity (:func:`build_dashpot`).
+node layer above the held ones takes a dashpot on its normal velocity (:func:`build_dashpot`). Round 49
+(docs/contact.md "Round 49: the touched layer shares the column's Coulomb bound"): in such a column the touched layer
+takes no normal stop (its normal motion is the body's, with the dashpot) and only the Coulomb bound its column's held
+layers left unused (:func:`build_share`).
 
 After P2G (and the viscous step), before the two-field contact and the grid update: :func:`build_touch`'s
 ``touch_clear`` (a node-column kernel) zeroes ``ground_touch``, then ``touch_mark`` (a points kernel, atomic max)
