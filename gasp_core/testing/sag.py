@@ -6,7 +6,7 @@ Each body is put on the ground at rest (its lowest points' extent on the plane),
 ``contact = "grid"`` (ground friction 0.5), and its centre of mass's mean drop over ``N_FRAMES`` frames at ``FPS``
 (0.6 s: about 3 periods of the sag's oscillation ``2 pi sqrt(delta / g)``, over which the mean drop is ``delta``) is
 compared with the static estimate; the grid contact's offset off the ground (a fraction of a cell, independent of
-``E``) is removed by subtracting the same run with ``10 E`` (as ``plugins/taichi_mpm/tests/test_sag.py``):
+``E``) is removed by subtracting the same run with ``10 E`` (as the plugin test ``test_sag.py``):
 ``ratio = (drop(E) - drop(10 E)) / (delta(E) - delta(10 E))``.
 
 Shapes and estimates (``rho`` 300 kg/m^3, ``g`` 9.81 m/s^2, ``E* = E / (1 - nu^2)``):
@@ -17,7 +17,7 @@ Shapes and estimates (``rho`` 300 kg/m^3, ``g`` 9.81 m/s^2, ``E* = E / (1 - nu^2
   z)``: its centre of mass drops ``rho g H^2 / (3 E)``; over the ball, mass-weighted, ``4 rho g R^2 / (5 E)``).
 * ``"block"``, 15 x 15 x 10 cm, E 3000 Pa, **nu 0**: a column under its own weight with no lateral strain at all (nu 0:
   neither the base's friction nor the bulge matters), exact in small strain: ``rho g H^2 / (3 E)``.
-* ``"donut"``: ``plugins/taichi_mpm/tests/test_sag.py``'s README donut (Hertz line contact plus fibres), any engine.
+* ``"donut"``: the plugin test ``test_sag.py``'s README donut (Hertz line contact plus fibres), any engine.
 """
 from __future__ import annotations
 
@@ -47,7 +47,7 @@ def block_sag(E: float, H: float = BLOCK[2]) -> float:
 
 def donut_sag(E: float, a: float, nu: float = 0.3) -> float:
     """The resting donut's centre-of-mass drop, m (float; ``a`` its tube radius, m): Hertz's line contact plus the
-    fibres' shortening (``plugins/taichi_mpm/tests/test_sag.py``)."""
+    fibres' shortening (the plugin test ``test_sag.py``)."""
     w = RHO * G * math.pi * a ** 2
     E_star = E / (1.0 - nu ** 2)
     b = math.sqrt(4.0 * w * a / (math.pi * E_star))

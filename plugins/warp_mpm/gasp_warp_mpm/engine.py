@@ -235,11 +235,11 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
                 self.p_pic, self.body_mu]),
             wp.launch(k.grid_update, dim=ng ** 3, device=d, record_cmd=True, inputs=[
                 self.grid_mv, self.grid_v, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, Ft(self.wall_in), self.wall_mu,
-                self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex, self.grid_g, self.has_wind, self.grid_mv0,
-                self.grid_v0, int(self.flip > 0), self.grid_fb, self.grid_fbody, self.fr_sums, self.fr_nodes,
-                self.nfric, self.grid_fn, self.grid_fv, Ft(self.wall_full), self.grid_mf, self.fr_dv, self.fr_fb,
-                self.wall_floor, self.ground_touch, self.dv_friction, self.field_rule, Ft(self.touch_speed),
-                self.touch_slots]),
+                self.ground, self.fixed_lo, self.fixed_hi, self.touch_slots, has_extras, ex, self.grid_g, self.has_wind,
+                self.grid_mv0, self.grid_v0, int(self.flip > 0), self.grid_fb, self.grid_fbody, self.fr_sums,
+                self.fr_nodes, self.nfric, self.grid_fn, self.grid_fv, Ft(self.wall_full), self.grid_mf, self.fr_dv,
+                self.fr_fb, self.wall_floor, self.ground_touch, self.dv_friction, self.field_rule,
+                Ft(self.touch_speed)]),
             wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
                 self.x, self.v, self.C, self.fixed, self.grid_v, lo_v, inv_dx, dt_f, ng, self.grid_v0, Ft(self.flip),
                 self.grid_dv, self.body, self.in_a, ex, self.mat_kind, self.fixed_lo, self.fixed_hi, dx, rule,

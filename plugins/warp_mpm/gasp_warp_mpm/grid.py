@@ -238,55 +238,50 @@ def build_grid_update(Ft):
     vec3, vec4, mat33 = build_types(Ft)
     boundary_rules = build_boundary_rules(Ft)
     Extras, extras = build_extras(Ft)
-    balance_node = build_balance(Ft)[2]
+    balance_node, touch_keep = build_balance(Ft)[2], build_share(Ft)[0]
     clear_contact, (pc_friction, keep_fraction) = build_contact_friction(Ft)[1], build_field_friction(Ft)[2:]
-    touch_keep = build_share(Ft)[0]
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def grid_update(
         grid_mv: wp.array(dtype=vec4), grid_v: wp.array(dtype=vec3), grid_m: wp.array(dtype=Ft),
         gravity: vec3, lo: vec3, hi: vec3, dx: Ft, dt: Ft, n_grid: int, wall_in: Ft,
-        wall_mu: wp.array(dtype=Ft), ground: wp.array(dtype=vec3),
-        fixed_lo: wp.array(dtype=vec3), fixed_hi: wp.array(dtype=vec3),
+        wall_mu: wp.array(dtype=Ft), ground: wp.array(dtype=vec3), fixed_lo: wp.array(dtype=vec3),
+        fixed_hi: wp.array(dtype=vec3), touch_slots: wp.array(dtype=Ft),
         has_extras: int, ex: Extras, grid_g: wp.array(dtype=vec3), has_wind: int,
         grid_mv0: wp.array(dtype=vec4), grid_v0: wp.array(dtype=vec3), flip: int, grid_fb: wp.array(dtype=Ft),
         grid_fbody: wp.array(dtype=wp.int32), fr_sums: wp.array2d(dtype=wp.float64), fr_nodes: wp.array(dtype=wp.int32),
         colc: int, grid_fn: wp.array(dtype=vec3), grid_fv: wp.array(dtype=vec3), wall_full: Ft,
         grid_mf: wp.array(dtype=Ft), fr_dv: wp.array(dtype=vec4), fr_fb: wp.array(dtype=Ft), floor: int,
-        ground_touch: wp.array(dtype=wp.int32), grid_dv: wp.array(dtype=vec3), rule: int, touch_speed: Ft,
-        touch_slots: wp.array(dtype=Ft)):
-        # wall_in: the walls' grid rule reaches this many cells in (gasp_core.mpm.contact.wall_grid_cells);
-        # ground[g] = (top node layer k_max as a float, friction, unused); grid_m (node mass, for
-        # passive points) has one entry per node when the setup has passive points, else one unused entry;
+        ground_touch: wp.array(dtype=wp.int32), grid_dv: wp.array(dtype=vec3), rule: int, touch_speed: Ft):
+        # wall_in: the walls' grid rule reaches this many cells in (gasp_core.mpm.contact.wall_grid_cells); ground[g]
+        # = (top node layer k_max as a float, friction, unused); grid_m (node mass, for passive points) one a node
+        # when the setup has passive points, else one unused entry; ground_touch, touch_speed, touch_slots: touch.py
         # grid_fb: the contact's friction budget per node (kg m/s; one unused entry without it; with colc grid_fn/fv);
         # the contact chosen per body (gasp_core.mpm.contact.rule_models): grid_mf the flowing bodies' mass per node
         # (one unused entry otherwise), the rule acting fully within wall_full cells / up to layer ground[g][2] and
-        # by the node's flowing-mass fraction f between there and wall_in / ground[g][0] (colliders.build_blend);
-        # ground_touch: the touched columns (touch.py; one unused entry when off); touch_speed: m/s,
-        # touch.build_dashpot; touch_slots: round 49's column slots (touch.build_share; one unused entry when off)
+        # by the node's flowing-mass fraction f between there and wall_in / ground[g][0] (colliders.build_blend)
         node = wp.tid()
         g = grid_mv[node]
         m = g[3]
         if grid_m.shape[0] > 1:
             grid_m[node] = m
         out = vec3(Ft(0.0))
-        v_pre = vec3(Ft(0.0))
-        i = node / (n_grid * n_grid)
-        j = (node / n_grid) % n_grid
-        k = node % n_grid
         if m > Ft(0.0):
             f = Ft(0.0)
             if grid_mf.shape[0] > 1:
                 f = grid_mf[node] / m
                 grid_mf[node] = Ft(0.0)
             vel = vec3(g[0], g[1], g[2]) / m + dt * gravity
+            i = node / (n_grid * n_grid)
+            j = (node / n_grid) % n_grid
+            k = node % n_grid
             X = lo + dx * vec3(Ft(i), Ft(j), Ft(k))
             if has_extras != 0:
                 gsurf = vec3(Ft(0.0))
                 if has_wind != 0:
                     gsurf = grid_g[node]
                 vel = extras(vel, X, dt, m, gsurf, ex, f)
-            v_pre = vel
+            touch_keep(touch_slots, vel, m, i, j, k, ground, n_grid, ground_touch)   # round 49 (touch.build_share)
             vel = boundary_rules(vel, X, k, lo, hi, dx, wall_in, wall_full, wall_mu, ground, f, floor, i, j, n_grid,
                                  ground_touch, touch_speed * dt / dx, touch_slots)
             if grid_fb.shape[0] > 1:   # friction (field B's with two fields), then the contact's balance (balance.py)
@@ -305,7 +300,6 @@ def build_grid_update(Ft):
                     vel = vec3(Ft(0.0))
             out = vel
         grid_v[node] = out
-        touch_keep(touch_slots, v_pre, m, i, j, k, ground, n_grid, ground_touch)   # round 49 (touch.build_share)
         grid_mv[node] = vec4(Ft(0.0))
         if grid_fb.shape[0] > 1:
             clear_contact(node, grid_fb, colc, grid_fn, grid_fv)

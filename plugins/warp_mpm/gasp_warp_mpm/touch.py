@@ -243,13 +243,13 @@ def build_share(Ft):
     column marked 2 (a point of a body that does not flow touches ground ``q``'s plane) on a ground with friction,
     with ``slots`` of more than one entry (the switch on); there the grid rule (``grid.build_boundary_rules``)
     leaves the node alone.
-    ``touch_keep(slots, v, m, i, j, k, ground, n_grid, ground_touch)`` (in the grid update, ``v`` the node's velocity
-    before the rule, m/s, ``m`` its mass, kg): for the held layers ``gr[0] - 2 .. gr[0]`` of a column, the Coulomb bound
-    the ground's stop gives and its node does not spend, ``m max(0, mu max(0, -v_z) - |v_xy|)`` (kg m/s), at slot
-    ``k - gr[0] + 2``; for the touched layer its mass at slot 3 (``slots``: 4 a column, ``Ft``). The kernel
-    ``touch_share(grid_v, slots, ground, ground_touch, n_grid)`` (a column a thread, after the grid update): the
-    touched node of a column marked 2 has its tangential velocity cut by the column's unused bound over its mass
-    (to 0 at most); its normal velocity is left as the body moved it."""
+    ``touch_keep(slots, v, m, i, j, k, ground, n_grid, ground_touch)`` (in the grid update at a node with mass, ``v``
+    its velocity before the rule, m/s, ``m`` its mass, kg): for the held layers ``gr[0] - 2 .. gr[0]`` of a column,
+    the Coulomb bound the ground's stop gives and its node does not spend, ``m max(0, mu max(0, -v_z) - |v_xy|)``
+    (kg m/s), at slot ``k - gr[0] + 2``; for the touched layer its mass at slot 3 (``slots``: 4 a column, ``Ft``).
+    The kernel ``touch_share(grid_v, slots, ground, ground_touch, n_grid)`` (a column a thread, after the grid
+    update): the touched node of a column marked 2 has its tangential velocity cut by the column's unused bound over
+    its mass (to 0 at most); its normal velocity is left as the body moved it. It clears every column's slots."""
     vec3 = build_types(Ft)[0]
 
     @wp.func
@@ -293,5 +293,7 @@ def build_share(Ft):
                 left = slots[col * 4] + slots[col * 4 + 1] + slots[col * 4 + 2]
                 s = wp.max(Ft(0.0), Ft(1.0) - left / (m * lt))
                 grid_v[node] = vec3(v[0] * s, v[1] * s, v[2])
+        for c in range(4):   # cleared for the next substep (a node of no mass writes none)
+            slots[col * 4 + c] = Ft(0.0)
 
     return touch_keep, touch_share, shares
