@@ -24,8 +24,7 @@ does not flow touches (the particle contact's damping ratio ``DAMPING`` on the c
 takes the ringing out: the released jelly holds on n_grid 48 too (0.0010 / 0.047 mm at 30 / 45 degrees, both engines).
 
 Checks: the damped jelly's travel and the released undamped jelly's on n_grid 24, 32 and 48 under ``STICK_MM`` = 1 mm
-in 1 s after its settle (Coulomb's stick; the damped jelly at 30 degrees a strict xfail since round 49,
-``DAMPED_MISSES``); the catches: the engine's ground friction 0.95 times the scene's (``tan
+in 1 s after its settle (Coulomb's stick); the catches: the engine's ground friction 0.95 times the scene's (``tan
 theta / mu`` 1.01: Coulomb slides it about 37 mm in that second at 30 degrees) must fail the damped hold,
 ``touch_margin`` 0 (the knife-edge at the plane) the released one on n_grid 32, ``touch_damping`` 0 (the dashpot off,
 round 47's rule) the released one on n_grid 48. The released jelly just past the limit (``tan theta / mu`` 1.05)
@@ -45,17 +44,7 @@ ENGINES = ["warp_mpm", "taichi_mpm"]
 STICK_MM = 1.0
 SLIDE_TOL = 0.025
 #: (n_grid, theta, mu): the damped jelly's hold near the limit (tan theta / mu 0.96, 0.95) on n_grid 32 and 48.
-DAMPED = [(32, 45, 1.05), (48, 45, 1.05)]
-#: Round 49's regression (docs/contact.md "Round 49"; not fixed): the damped jelly (viscosity 200 Pa s) at 30 degrees,
-#: mu 0.6 creeps with the touched layer's normal left to the body, both engines (round 48: 0.0000 / 0.0070 mm).
-DAMPED_MISSES = {(32, 30, 0.6): "1.995 mm in 1 s", (48, 30, 0.6): "2.611 mm in 1 s"}
-
-
-def _damped_cases():
-    for case in DAMPED:
-        yield pytest.param(*case)
-    for case, why in DAMPED_MISSES.items():
-        yield pytest.param(*case, marks=pytest.mark.xfail(strict=True, reason=f"round 49's touched layer: {why}"))
+DAMPED = [(32, 30, 0.6), (32, 45, 1.05), (48, 30, 0.6), (48, 45, 1.05)]
 #: Round 47: the undamped jelly released at 0.96 / 0.95 on n_grid 32, which crept 157 / 384 mm before the touch
 #: test was tied to the point's extent (the touched layer never acted there), and on n_grid 24; round 48: on n_grid
 #: 48, which crept 63.6 / 199 mm before the dashpot above the held layers.
@@ -71,7 +60,7 @@ SLIDE_MISSES = {(32, 45, 0.95): "+2.87 % (round 48: +0.92 %)",
 
 @pytest.mark.slow
 @pytest.mark.parametrize("engine", ENGINES)
-@pytest.mark.parametrize("n_grid,theta,mu", list(_damped_cases()))
+@pytest.mark.parametrize("n_grid,theta,mu", DAMPED)
 def test_a_damped_jelly_released_near_the_limit_holds(engine, n_grid, theta, mu):
     f = hold_travel(engine, "jelly", "damped", n_grid, theta, mu)
     assert 0.0 <= f < STICK_MM, f"{engine}, n_grid {n_grid}, {theta} deg, mu {mu}: {f:.3f} mm in 1 s after the settle"

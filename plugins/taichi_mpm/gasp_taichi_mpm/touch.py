@@ -18,7 +18,7 @@ import numpy as np
 import taichi as ti
 
 from gasp_core.mpm.contact import DAMPING
-from gasp_core.mpm.materials import P_LAM, P_MU, MaterialKind
+from gasp_core.mpm.materials import P_ETA, P_LAM, P_MU, MaterialKind
 
 #: The flowing materials' codes (``gasp_core.mpm.contact.FLOWING``): round 36's touch test.
 SAND, SNOW, LIQUID = int(MaterialKind.SAND), int(MaterialKind.SNOW), int(MaterialKind.LIQUID)
@@ -66,16 +66,21 @@ class GroundTouch:
         self.touch_slots = ti.field(self.real, shape=(4, ng, ng, 4) if self.share_on else (1, 1, 1, 1))
 
     def dashpot_speed(self) -> float:
-        """The dashpot's speed (m/s, float; ``gasp_core.mpm.contact.touch_dashpot_speed``, the same rule): ``2
-        touch_damping c``, ``c`` the largest P-wave speed ``sqrt((lam + 2 mu) / rho)`` of the bodies that do not flow
-        (their Lame parameters from ``mat``, ``rho`` their points' mass over volume); 0.0 without one."""
+        """The dashpot's speed (m/s, float; ``gasp_core.mpm.contact.touch_dashpot_speed``, the same rule): the largest
+        ``2 touch_damping c - 2 eta / (rho dx)`` of the bodies that do not flow, at least 0 (``c`` the P-wave speed
+        ``sqrt((lam + 2 mu) / rho)``, their Lame parameters and viscosity ``eta`` from ``mat``, ``rho`` their points'
+        mass over volume; round 49: a body's own viscous damping of the cell's mode counts against it); 0.0 without
+        one."""
         n = self.n_material
         body, kind, mat = self.body.to_numpy()[:n], self.kind.to_numpy(), self.mat.to_numpy().astype(np.float64)
         mass = np.bincount(body, self.p_mass.to_numpy()[:n].astype(np.float64), minlength=len(kind))
         vol = np.bincount(body, self.p_vol.to_numpy()[:n].astype(np.float64), minlength=len(kind))
-        speeds = [np.sqrt((mat[b, P_LAM] + 2.0 * mat[b, P_MU]) * vol[b] / mass[b]) for b in range(len(kind))
+        dx = float(self.dx[None])
+        zeta = 2.0 * float(self.touch_damping)
+        speeds = [zeta * float(np.sqrt((mat[b, P_LAM] + 2.0 * mat[b, P_MU]) * vol[b] / mass[b]))
+                  - 2.0 * float(mat[b, P_ETA]) * vol[b] / (mass[b] * dx) for b in range(len(kind))
                   if mass[b] > 0.0 and int(kind[b]) not in (SAND, SNOW, LIQUID)]
-        return 2.0 * float(self.touch_damping) * float(max(speeds, default=0.0))
+        return max(0.0, float(max(speeds, default=0.0)))
 
     @ti.kernel
     def mark_touch(self):
