@@ -229,9 +229,13 @@ def touch_dashpot_speed(setup, damping: float = DAMPING) -> float:
     ground's held node layers, as a speed (m/s, float): ``2 damping c`` with ``c`` the largest P-wave speed of the
     bodies that do not flow (:data:`FLOWING`; 0.0 without one). The engines damp a node's normal velocity there by
     ``1 / (1 + s dt / dx)`` a substep (``s`` this speed): the particle contact's damping ratio ``damping``
-    (:data:`DAMPING`) on the cell's oscillator ``omega = c / dx``, implicit (``c_p dt / m = 2 damping omega dt``)."""
-    speeds = [m.p_wave_speed for m in setup.materials if m.name not in FLOWING]
-    return 2.0 * float(damping) * max(speeds, default=0.0)
+    (:data:`DAMPING`) on the cell's oscillator ``omega = c / dx``, implicit (``c_p dt / m = 2 damping omega dt``).
+    Round 49 (docs/contact.md "Round 49"): less what the body's own viscosity ``eta`` already damps of that mode (its
+    P-wave viscosity ``2 eta``, the bulk ``2 eta / 3`` plus ``4 eta / 3``: a damping ratio ``eta / (rho c dx)``), per
+    body ``2 damping c - 2 eta / (rho dx)``, the largest, at least 0."""
+    speeds = [2.0 * float(damping) * m.p_wave_speed - 2.0 * m.viscosity / (m.rho * setup.dx)
+              for m in setup.materials if m.name not in FLOWING]
+    return max(0.0, max(speeds, default=0.0))
 
 
 def contact_planes(setup, contact: str | None = None) -> tuple[np.ndarray, np.ndarray]:

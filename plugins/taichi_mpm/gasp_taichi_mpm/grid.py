@@ -90,7 +90,8 @@ class GridUpdate(GroundTouch):
         body by the node's flowing-mass fraction ``f`` where only the grid contact's rule reaches,
         :meth:`Contact.rule`). The grounds first: a ground on a wall's plane keeps its friction there."""
         for b in ti.static(range(self.n_grounds)):
-            if self.ground_reach(b, I):   # I_z <= ground_kmax, or the touched layer above (touch.py)
+            # I_z <= ground_kmax, or the touched layer above (touch.py); round 49: not where it shares the bound
+            if self.ground_reach(b, I) and not self.shares(b, I):
                 v = self.rule(v, self.axis_friction(v, 2, 1.0, self.ground_fric[b]), I[2] > self.ground_kfull[b], f)
             v = self.dashpot(b, I, v)   # round 48: the dashpot above the held layers (touch.py)
         for b in ti.static(range(self.n_walls)):
@@ -121,6 +122,7 @@ class GridUpdate(GroundTouch):
         """The grid update (:meth:`grid_nodes`; the grounds' touched columns were marked after P2G, ``touch.py``), then
         the held boxes' ghost nodes (:meth:`mirror_held`; first the fixed regions' broken faces, :meth:`mark_cut`)."""
         self.grid_nodes()
+        self.touch_after()   # round 49 (touch.py)
         if self.n_regions or self.n_set_boxes:
             if self.cut:
                 self.grid_cut.fill(0)
@@ -375,6 +377,7 @@ class GridUpdate(GroundTouch):
                 v = ti.Vector([acc[0], acc[1], acc[2]]) / acc[3] + self.dt[None] * self.gravity[None]
                 if ti.static(self.has_extras):
                     v = self.extras(I, v, acc[3], gsurf, f)
+                self.touch_keep(I, v, acc[3])   # round 49 (touch.py)
                 v = self.boundary_rules(I, v, f)
                 if ti.static(self.pc):   # the particle contact's friction and balance (its budget: the last channel)
                     v = self.pc_friction(I, v, acc[3], acc[self.acc_width - 1], f)   # fields.py

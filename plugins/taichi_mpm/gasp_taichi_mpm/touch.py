@@ -6,7 +6,10 @@ point of a body that does not flow when its lowest extent (its height less half 
 extent"), a point of a flowing body (sand, snow, liquid) when its height is under ``touch_delta`` cells (round 36's
 rule); warp_mpm's ``gasp_warp_mpm.touch``, the same rule. Round 48 (docs/contact.md "Round 48: a dashpot above the
 held layers"): in a column a body that does not flow touches, the node layer above the held ones takes a dashpot on
-its normal velocity (:meth:`GroundTouch.dashpot`).
+its normal velocity (:meth:`GroundTouch.dashpot`). Round 49 (docs/contact.md "Round 49: the touched layer shares the
+column's Coulomb bound"): in such a column the touched layer takes no normal stop (its normal motion is the body's,
+with the dashpot) and only the Coulomb bound its column's held layers left unused (:meth:`GroundTouch.touch_keep`,
+:meth:`GroundTouch.share_bound`).
 
 Mixed into :class:`gasp_taichi_mpm.grid.GridUpdate` (and so :class:`gasp_taichi_mpm.solver.MPMSolver`), whose
 fields (``ground_kmax``, ``ground_h``, ``x``, ``n_points``, ...) it reads.
@@ -15,7 +18,7 @@ import numpy as np
 import taichi as ti
 
 from gasp_core.mpm.contact import DAMPING
-from gasp_core.mpm.materials import P_LAM, P_MU, MaterialKind
+from gasp_core.mpm.materials import P_ETA, P_LAM, P_MU, MaterialKind
 
 #: The flowing materials' codes (``gasp_core.mpm.contact.FLOWING``): round 36's touch test.
 SAND, SNOW, LIQUID = int(MaterialKind.SAND), int(MaterialKind.SNOW), int(MaterialKind.LIQUID)
@@ -43,6 +46,11 @@ class GroundTouch:
     #: a body that does not flow touches (:meth:`dashpot`; the particle contact's ``DAMPING``); 0 turns it off (the
     #: rule before, the catch of ``tests/test_grid_hold.py``). warp_mpm's ``GroundTouch.touch_damping``.
     touch_damping = DAMPING
+    #: Round 49 (docs/contact.md "Round 49: the touched layer shares the column's Coulomb bound"): True: in a column
+    #: marked 2 the touched layer's normal motion is the body's (no stop), and its tangential motion takes what the
+    #: held layers' Coulomb bound left unused (:meth:`touch_keep`, :meth:`share_bound`); False: round 47-48's full
+    #: Coulomb rule there. warp_mpm's ``GroundTouch.touch_share``.
+    touch_share = True
 
     def allocate_touch(self) -> None:
         """``touch_on`` (the switch, a ground with friction, ``ground_rubs``, and the grid contact's rule: no particle contact, or the contact chosen
@@ -54,18 +62,25 @@ class GroundTouch:
         ng = self.n_grid
         self.ground_touch = ti.field(ti.i32, shape=(4, ng, ng) if self.touch_on else (1, 1, 1))
         self.touch_speed = self.dashpot_speed() if self.touch_on else 0.0
+        self.share_on = bool(self.touch_on and self.touch_share)   # round 49: touch_slots, 4 a column (touch_keep)
+        self.touch_slots = ti.field(self.real, shape=(4, ng, ng, 4) if self.share_on else (1, 1, 1, 1))
 
     def dashpot_speed(self) -> float:
-        """The dashpot's speed (m/s, float; ``gasp_core.mpm.contact.touch_dashpot_speed``, the same rule): ``2
-        touch_damping c``, ``c`` the largest P-wave speed ``sqrt((lam + 2 mu) / rho)`` of the bodies that do not flow
-        (their Lame parameters from ``mat``, ``rho`` their points' mass over volume); 0.0 without one."""
+        """The dashpot's speed (m/s, float; ``gasp_core.mpm.contact.touch_dashpot_speed``, the same rule): the largest
+        ``2 touch_damping c - 2 eta / (rho dx)`` of the bodies that do not flow, at least 0 (``c`` the P-wave speed
+        ``sqrt((lam + 2 mu) / rho)``, their Lame parameters and viscosity ``eta`` from ``mat``, ``rho`` their points'
+        mass over volume; round 49: a body's own viscous damping of the cell's mode counts against it); 0.0 without
+        one."""
         n = self.n_material
         body, kind, mat = self.body.to_numpy()[:n], self.kind.to_numpy(), self.mat.to_numpy().astype(np.float64)
         mass = np.bincount(body, self.p_mass.to_numpy()[:n].astype(np.float64), minlength=len(kind))
         vol = np.bincount(body, self.p_vol.to_numpy()[:n].astype(np.float64), minlength=len(kind))
-        speeds = [np.sqrt((mat[b, P_LAM] + 2.0 * mat[b, P_MU]) * vol[b] / mass[b]) for b in range(len(kind))
+        dx = float(self.dx[None])
+        zeta = 2.0 * float(self.touch_damping)
+        speeds = [zeta * float(np.sqrt((mat[b, P_LAM] + 2.0 * mat[b, P_MU]) * vol[b] / mass[b]))
+                  - 2.0 * float(mat[b, P_ETA]) * vol[b] / (mass[b] * dx) for b in range(len(kind))
                   if mass[b] > 0.0 and int(kind[b]) not in (SAND, SNOW, LIQUID)]
-        return 2.0 * float(self.touch_damping) * float(max(speeds, default=0.0))
+        return max(0.0, float(max(speeds, default=0.0)))
 
     @ti.kernel
     def mark_touch(self):
@@ -113,13 +128,16 @@ class GroundTouch:
 
     @ti.func
     def dashpot(self, b: ti.template(), I, v):
-        """Round 48: at node ``I`` in the layer just above ground ``b``'s held ones (``ground_kmax + 2``) of a column
+        """Round 48: at node ``I`` in the layer just above ground ``b``'s held ones (``ground_kmax + 2``; round 49, with
+        ``share_on``, the touched layer ``ground_kmax + 1`` too: its normal motion is the body's there) of a column
         marked 2 (a point of a body that does not flow touches the plane, :meth:`mark_touch`), on a ground with
         friction, ``v``'s normal (+z) part divided by ``1 + touch_speed dt / dx``, both ways; ``v`` elsewhere. No
         friction is taken from it (warp_mpm's ``touch.build_dashpot``)."""
         out = v
         if ti.static(self.touch_on and self.touch_speed > 0.0):
-            if I[2] == self.ground_kmax[b] + 2 and self.ground_fric[b] > 0 and self.ground_touch[b, I[0], I[1]] == 2:
+            k = I[2] - self.ground_kmax[b]   # round 49: the touched layer too (k 1) where it shares the bound
+            if (k == 2 or (ti.static(self.share_on) and k == 1)) and self.ground_fric[b] > 0 \
+                    and self.ground_touch[b, I[0], I[1]] == 2:
                 d = ti.cast(self.touch_speed, self.real) * self.dt[None] / self.dx[None]
                 out = ti.Vector([v[0], v[1], v[2] / (1.0 + d)])
         return out
@@ -135,8 +153,58 @@ class GroundTouch:
                 on = False
         return on
 
+    @ti.func
+    def shares(self, b: ti.template(), I):
+        """Round 49: whether node ``I`` is the touched layer (``ground_kmax + 1``) of a column marked 2 on ground ``b``
+        (with friction) while ``share_on``: the grid rule leaves it alone there (:meth:`share_bound`)."""
+        out = False
+        if ti.static(self.share_on):
+            if I[2] == self.ground_kmax[b] + 1 and self.ground_fric[b] > 0 and self.ground_touch[b, I[0], I[1]] == 2:
+                out = True
+        return out
+
+    @ti.func
+    def touch_keep(self, I, v, m):
+        """Round 49 (``share_on``), in the grid update before the rule, ``v`` node ``I``'s velocity (m/s), ``m`` its
+        mass (kg): at ground ``b``'s held layers ``ground_kmax - 2 .. ground_kmax`` the Coulomb bound the stop gives
+        that the node does not spend, ``m max(0, mu max(0, -v_z) - |v_xy|)`` (kg m/s), at slot ``I_z - ground_kmax + 2``
+        of ``touch_slots[b, I_x, I_y]``; at the touched layer the node's mass at slot 3 (warp_mpm's ``touch_keep``)."""
+        if ti.static(self.share_on):
+            for b in ti.static(range(self.n_grounds)):
+                d = I[2] - self.ground_kmax[b]
+                if -2 <= d and d <= 1:
+                    val = m
+                    if d < 1:
+                        lt = ti.sqrt(v[0] * v[0] + v[1] * v[1])
+                        val = m * ti.max(0.0, self.ground_fric[b] * ti.max(0.0, -v[2]) - lt)
+                    self.touch_slots[b, I[0], I[1], d + 2] = val
+
+    @ti.kernel
+    def share_bound(self):
+        """Round 49, after the grid update: the touched node of a column marked 2 (:meth:`shares`) has its tangential
+        velocity cut by the column's unused bound (slots 0-2) over its mass (slot 3), to 0 at most; its normal
+        velocity is the body's. The slots are cleared for the next substep (warp_mpm's ``touch_share``)."""
+        ng = self.n_grid
+        for b, i, j in ti.ndrange(self.n_grounds, ng, ng):
+            kt = self.ground_kmax[b] + 1
+            m = self.touch_slots[b, i, j, 3]
+            if self.ground_touch[b, i, j] == 2 and self.ground_fric[b] > 0 and 0 <= kt and kt < ng and m > 0:
+                v = self.grid_v[i, j, kt]
+                lt = ti.sqrt(v[0] * v[0] + v[1] * v[1])
+                if lt > 1e-30:
+                    left = self.touch_slots[b, i, j, 0] + self.touch_slots[b, i, j, 1] + self.touch_slots[b, i, j, 2]
+                    s = ti.max(0.0, 1.0 - left / (m * lt))
+                    self.grid_v[i, j, kt] = ti.Vector([v[0] * s, v[1] * s, v[2]])
+            for c in ti.static(range(4)):
+                self.touch_slots[b, i, j, c] = 0.0
+
     def touch_update(self) -> None:
         """:meth:`mark_touch` where ``touch_on`` (after each P2G, before the two-field contact and the grid update, on
         the points' positions P2G used; warp_mpm's order)."""
         if self.touch_on:
             self.mark_touch()
+
+    def touch_after(self) -> None:
+        """Round 49: :meth:`share_bound` where ``share_on`` (after the grid update, before the held boxes' ghosts)."""
+        if self.share_on:
+            self.share_bound()

@@ -235,18 +235,18 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
                 self.p_pic, self.body_mu]),
             wp.launch(k.grid_update, dim=ng ** 3, device=d, record_cmd=True, inputs=[
                 self.grid_mv, self.grid_v, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, Ft(self.wall_in), self.wall_mu,
-                self.ground, self.fixed_lo, self.fixed_hi, has_extras, ex, self.grid_g, self.has_wind, self.grid_mv0,
-                self.grid_v0, int(self.flip > 0), self.grid_fb, self.grid_fbody, self.fr_sums, self.fr_nodes,
-                self.nfric, self.grid_fn, self.grid_fv, Ft(self.wall_full), self.grid_mf, self.fr_dv, self.fr_fb,
-                self.wall_floor, self.ground_touch, self.dv_friction, self.field_rule, Ft(self.touch_speed)]),
+                self.ground, self.fixed_lo, self.fixed_hi, self.touch_slots, has_extras, ex, self.grid_g, self.has_wind,
+                self.grid_mv0, self.grid_v0, int(self.flip > 0), self.grid_fb, self.grid_fbody, self.fr_sums,
+                self.fr_nodes, self.nfric, self.grid_fn, self.grid_fv, Ft(self.wall_full), self.grid_mf, self.fr_dv,
+                self.fr_fb, self.wall_floor, self.ground_touch, self.dv_friction, self.field_rule,
+                Ft(self.touch_speed)]),
             wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
                 self.x, self.v, self.C, self.fixed, self.grid_v, lo_v, inv_dx, dt_f, ng, self.grid_v0, Ft(self.flip),
                 self.grid_dv, self.body, self.in_a, ex, self.mat_kind, self.fixed_lo, self.fixed_hi, dx, rule,
                 self.grid_m]),
         ] + hold_launches(self, Ft, has_extras, ex) + self._rigid_launches(Ft)
-        # the contact's balance (gasp_warp_mpm.balance): its moments before P2G, its fix after the grid update
-        self._pre, fixes = balance_for(self, k, lo_v, dx, dt_f, ex)   # on the run's schedule (schedule/__init__.py)
-        self._launches[2:2] = fixes + mirror_launches(self, Ft, has_extras, ex)   # the held boxes' ghosts (grid.py)
+        self._pre, fixes = balance_for(self, k, lo_v, dx, dt_f, ex)   # the balance's; then round 49's, held.py's
+        self._launches[2:2] = self.share_launches(Ft) + fixes + mirror_launches(self, Ft, has_extras, ex)
         self._launches[1:1] = self.touch_launches(Ft) + field_launches(self, Ft)   # after P2G: touch.py, fields.py
         # passive points after the grid update (forces, colliders, boundaries in the grid velocity): one launch per
         # interval of passive_schedule, at its substeps; then held in the box of gasp_core.mpm.points.passive_bounds

@@ -18,7 +18,7 @@ from .balance import build_balance, f64, support_dv, v64
 from .contact import build_collider_contact, build_contact
 from .forces import build_extras_struct, build_force_funcs
 from .precision import MODULE_OPTIONS, build_types
-from .touch import build_dashpot, build_held, build_touch
+from .touch import build_dashpot, build_held, build_share, build_touch
 
 
 @functools.cache
@@ -192,21 +192,24 @@ def build_boundary_rules(Ft):
     blend_rule = build_blend(Ft)
     ground_reach = build_touch(Ft)[2]
     dashpot = build_dashpot(Ft)
+    shares = build_share(Ft)[2]
 
     @wp.func
     def boundary_rules(vel_in: vec3, X: vec3, k: int, lo: vec3, hi: vec3, dx: Ft, wall_in: Ft, wall_full: Ft,
                        wall_mu: wp.array(dtype=Ft), ground: wp.array(dtype=vec3), f: Ft, floor: int, i: int, j: int,
-                       n_grid: int, ground_touch: wp.array(dtype=wp.int32), damp: Ft):
+                       n_grid: int, ground_touch: wp.array(dtype=wp.int32), damp: Ft, slots: wp.array(dtype=Ft)):
         vel = vel_in
         # the grounds first: a ground on the floor wall's plane keeps its friction there (taichi_mpm's order)
         for q in range(ground.shape[0]):
             gr = ground[q]
-            if ground_reach(k, gr, q, i, j, n_grid, ground_touch):  # k <= gr[0], or the touched layer (touch.py)
+            # k <= gr[0], or the touched layer (touch.py); round 49: not a column's touched node that shares its bound
+            if ground_reach(k, gr, q, i, j, n_grid, ground_touch) and shares(k, gr, q, i, j, n_grid, ground_touch,
+                                                                             slots) == 0:
                 wt = Ft(1.0)
                 if Ft(k) > gr[2] and gr[2] < gr[0]:   # the contact chosen per body only (grid and particle: equal)
                     wt = f
                 vel = blend_rule(vel, collide(vel, vec3(Ft(0.0), Ft(0.0), Ft(1.0)), gr[1]), wt)
-            vel = dashpot(vel, k, gr, q, i, j, n_grid, ground_touch, damp)   # round 48: above the held layers
+            vel = dashpot(vel, k, gr, q, i, j, n_grid, ground_touch, damp, slots)   # round 48: above the held layers
         for w in range(wall_mu.shape[0]):
             mu_b = wall_mu[w]
             for d in range(3):
@@ -235,29 +238,28 @@ def build_grid_update(Ft):
     vec3, vec4, mat33 = build_types(Ft)
     boundary_rules = build_boundary_rules(Ft)
     Extras, extras = build_extras(Ft)
-    balance_node = build_balance(Ft)[2]
+    balance_node, touch_keep = build_balance(Ft)[2], build_share(Ft)[0]
     clear_contact, (pc_friction, keep_fraction) = build_contact_friction(Ft)[1], build_field_friction(Ft)[2:]
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def grid_update(
         grid_mv: wp.array(dtype=vec4), grid_v: wp.array(dtype=vec3), grid_m: wp.array(dtype=Ft),
         gravity: vec3, lo: vec3, hi: vec3, dx: Ft, dt: Ft, n_grid: int, wall_in: Ft,
-        wall_mu: wp.array(dtype=Ft), ground: wp.array(dtype=vec3),
-        fixed_lo: wp.array(dtype=vec3), fixed_hi: wp.array(dtype=vec3),
+        wall_mu: wp.array(dtype=Ft), ground: wp.array(dtype=vec3), fixed_lo: wp.array(dtype=vec3),
+        fixed_hi: wp.array(dtype=vec3), touch_slots: wp.array(dtype=Ft),
         has_extras: int, ex: Extras, grid_g: wp.array(dtype=vec3), has_wind: int,
         grid_mv0: wp.array(dtype=vec4), grid_v0: wp.array(dtype=vec3), flip: int, grid_fb: wp.array(dtype=Ft),
         grid_fbody: wp.array(dtype=wp.int32), fr_sums: wp.array2d(dtype=wp.float64), fr_nodes: wp.array(dtype=wp.int32),
         colc: int, grid_fn: wp.array(dtype=vec3), grid_fv: wp.array(dtype=vec3), wall_full: Ft,
         grid_mf: wp.array(dtype=Ft), fr_dv: wp.array(dtype=vec4), fr_fb: wp.array(dtype=Ft), floor: int,
         ground_touch: wp.array(dtype=wp.int32), grid_dv: wp.array(dtype=vec3), rule: int, touch_speed: Ft):
-        # wall_in: the walls' grid rule reaches this many cells in (gasp_core.mpm.contact.wall_grid_cells);
-        # ground[g] = (top node layer k_max as a float, friction, unused); grid_m (node mass, for
-        # passive points) has one entry per node when the setup has passive points, else one unused entry;
+        # wall_in: the walls' grid rule reaches this many cells in (gasp_core.mpm.contact.wall_grid_cells); ground[g]
+        # = (top node layer k_max as a float, friction, unused); grid_m (node mass, for passive points) one a node
+        # when the setup has passive points, else one unused entry; ground_touch, touch_speed, touch_slots: touch.py
         # grid_fb: the contact's friction budget per node (kg m/s; one unused entry without it; with colc grid_fn/fv);
         # the contact chosen per body (gasp_core.mpm.contact.rule_models): grid_mf the flowing bodies' mass per node
         # (one unused entry otherwise), the rule acting fully within wall_full cells / up to layer ground[g][2] and
-        # by the node's flowing-mass fraction f between there and wall_in / ground[g][0] (colliders.build_blend);
-        # ground_touch: the touched columns (touch.py; one unused entry when off); touch_speed: m/s, touch.build_dashpot
+        # by the node's flowing-mass fraction f between there and wall_in / ground[g][0] (colliders.build_blend)
         node = wp.tid()
         g = grid_mv[node]
         m = g[3]
@@ -279,8 +281,9 @@ def build_grid_update(Ft):
                 if has_wind != 0:
                     gsurf = grid_g[node]
                 vel = extras(vel, X, dt, m, gsurf, ex, f)
+            touch_keep(touch_slots, vel, m, i, j, k, ground, n_grid, ground_touch)   # round 49 (touch.build_share)
             vel = boundary_rules(vel, X, k, lo, hi, dx, wall_in, wall_full, wall_mu, ground, f, floor, i, j, n_grid,
-                                 ground_touch, touch_speed * dt / dx)
+                                 ground_touch, touch_speed * dt / dx, touch_slots)
             if grid_fb.shape[0] > 1:   # friction (field B's with two fields), then the contact's balance (balance.py)
                 v_in = vel
                 vel = pc_friction(vel, m, f, node, grid_fb, colc, grid_fn, grid_fv, grid_dv, lo, hi, dx, wall_in,

@@ -5,7 +5,10 @@ a body that does not flow when its lowest extent (its height less half its own s
 of that half spacing (round 47, docs/contact.md "Round 47: the touch test tied to the point's extent"), a point of a
 flowing body (sand, snow, liquid) when its height is under ``touch_delta`` cells (round 36's rule). Round 48
 (docs/contact.md "Round 48: a dashpot above the held layers"): in a column a body that does not flow touches, the
-node layer above the held ones takes a dashpot on its normal velocity (:func:`build_dashpot`).
+node layer above the held ones takes a dashpot on its normal velocity (:func:`build_dashpot`). Round 49
+(docs/contact.md "Round 49: the touched layer shares the column's Coulomb bound"): in such a column the touched layer
+takes no normal stop (its normal motion is the body's, with the dashpot) and only the Coulomb bound its column's held
+layers left unused (:func:`build_share`).
 
 After P2G (and the viscous step), before the two-field contact and the grid update: :func:`build_touch`'s
 ``touch_clear`` (a node-column kernel) zeroes ``ground_touch``, then ``touch_mark`` (a points kernel, atomic max)
@@ -49,6 +52,11 @@ class GroundTouch:
     #: of a body that does not flow touches (``gasp_core.mpm.contact.touch_dashpot_speed``; the particle contact's
     #: ``DAMPING``); 0 turns it off (the rule before, the catch of ``tests/test_grid_hold.py``). Read when built.
     touch_damping = DAMPING
+    #: Round 49 (docs/contact.md "Round 49: the touched layer shares the column's Coulomb bound"): True: in a column
+    #: marked 2 the touched layer's normal motion is the body's (no stop), and its tangential motion takes what the
+    #: held layers' Coulomb bound left unused (:func:`build_share`); False: round 47-48's full Coulomb rule there
+    #: (the catch of ``tests/test_sag_family.py``). Read when the engine is built.
+    touch_share = True
 
     def allocate_touch(self, Ft, contact: str) -> None:
         """``touch_on`` (the switch, a ground, and ``contact`` ``"grid"`` or ``"mixed"``), ``ground_touch`` (int32,
@@ -63,9 +71,19 @@ class GroundTouch:
         n = len(heights) * self.n_grid ** 2 if self.touch_on else 1
         self.ground_touch = wp.zeros(n, dtype=wp.int32, device=self.device)
         self.touch_speed = touch_dashpot_speed(self.setup, self.touch_damping) if self.touch_on else 0.0   # m/s
+        # round 49: the held layers' unused Coulomb bound and the touched node's mass, 4 a column (build_share)
+        self.touch_slots = wp.zeros(4 * n if self.touch_on and self.touch_share else 1, dtype=Ft, device=self.device)
         self.ground_z = wp.array(np.array(heights or [0.0], dtype=self._np_dtype), dtype=Ft, device=self.device)
         self.touch_solid = wp.array(np.array([m.name not in FLOWING for m in self.setup.materials] or [False],
                                              dtype=np.int32), dtype=wp.int32, device=self.device)
+
+    def share_launches(self, Ft) -> list:
+        """Round 49: the recorded :func:`build_share` ``touch_share`` (after the grid update); none when
+        ``touch_on`` is False or ``touch_share`` is off."""
+        if self.touch_slots.shape[0] == 1:   # touch_on and touch_share
+            return []
+        return [wp.launch(build_share(Ft)[1], dim=self.ground_touch.shape[0], device=self.device, record_cmd=True,
+                          inputs=[self.grid_v, self.touch_slots, self.ground, self.ground_touch, self.n_grid])]
 
     def touch_launches(self, Ft) -> list:
         """The recorded clear and mark (after P2G, before the two-field contact and the grid update); none when
@@ -145,8 +163,9 @@ def build_touch(Ft):
 @functools.cache
 def build_dashpot(Ft):
     """Round 48 (``GroundTouch.touch_damping``; docs/contact.md "Round 48: a dashpot above the held layers"), scalar
-    type ``Ft``: ``dashpot(vel, k, gr, q, i, j, n_grid, ground_touch, d) -> vel`` (m/s): at node ``(i, j, k)`` in the
-    layer just above ground ``q``'s held ones (``k = gr[0] + 2``: the touched layer is ``gr[0] + 1``) of a column
+    type ``Ft``: ``dashpot(vel, k, gr, q, i, j, n_grid, ground_touch, d, slots) -> vel`` (m/s): at node ``(i, j, k)``
+    in the layer just above ground ``q``'s held ones (``k = gr[0] + 2``: the touched layer is ``gr[0] + 1``; round 49,
+    with ``slots`` of more than one entry, :func:`build_share`, the touched layer too) of a column
     marked 2 (a point of a body that does not flow touches the plane, :func:`build_touch`), the normal (+z) velocity
     divided by ``1 + d`` (``d = s dt / dx``, ``s`` the engine's ``touch_speed``), both ways; ``vel`` elsewhere. No
     friction is taken from it: the held layers' Coulomb rule is unchanged. taichi_mpm's ``GroundTouch.dashpot``."""
@@ -154,9 +173,11 @@ def build_dashpot(Ft):
 
     @wp.func
     def dashpot(vel: vec3, k: int, gr: vec3, q: int, i: int, j: int, n_grid: int,
-                ground_touch: wp.array(dtype=wp.int32), d: Ft):
+                ground_touch: wp.array(dtype=wp.int32), d: Ft, slots: wp.array(dtype=Ft)):
         out = vel
-        if d > Ft(0.0) and ground_touch.shape[0] > 1 and Ft(k) == gr[0] + Ft(2.0) and gr[1] > Ft(0.0):
+        up = Ft(k) - gr[0]   # round 49: the touched layer (up 1) too where it shares the bound (slots: the switch)
+        layer = up == Ft(2.0) or (up == Ft(1.0) and slots.shape[0] > 1)
+        if d > Ft(0.0) and ground_touch.shape[0] > 1 and layer and gr[1] > Ft(0.0):
             if ground_touch[(q * n_grid + i) * n_grid + j] == 2:
                 out = vec3(vel[0], vel[1], vel[2] / (Ft(1.0) + d))
         return out
@@ -211,3 +232,68 @@ def build_held(Ft):
         return held
 
     return held_node
+
+
+@functools.cache
+def build_share(Ft):
+    """Round 49 (``GroundTouch.touch_share``; docs/contact.md "Round 49: the touched layer shares the column's Coulomb
+    bound"), scalar type ``Ft``: ``(touch_keep, touch_share, shares)``.
+
+    ``shares(k, gr, q, i, j, n_grid, ground_touch, slots) -> int``: 1 at the touched layer (``k = gr[0] + 1``) of a
+    column marked 2 (a point of a body that does not flow touches ground ``q``'s plane) on a ground with friction,
+    with ``slots`` of more than one entry (the switch on); there the grid rule (``grid.build_boundary_rules``)
+    leaves the node alone.
+    ``touch_keep(slots, v, m, i, j, k, ground, n_grid, ground_touch)`` (in the grid update at a node with mass, ``v``
+    its velocity before the rule, m/s, ``m`` its mass, kg): for the held layers ``gr[0] - 2 .. gr[0]`` of a column,
+    the Coulomb bound the ground's stop gives and its node does not spend, ``m max(0, mu max(0, -v_z) - |v_xy|)``
+    (kg m/s), at slot ``k - gr[0] + 2``; for the touched layer its mass at slot 3 (``slots``: 4 a column, ``Ft``).
+    The kernel ``touch_share(grid_v, slots, ground, ground_touch, n_grid)`` (a column a thread, after the grid
+    update): the touched node of a column marked 2 has its tangential velocity cut by the column's unused bound over
+    its mass (to 0 at most); its normal velocity is left as the body moved it. It clears every column's slots."""
+    vec3 = build_types(Ft)[0]
+
+    @wp.func
+    def shares(k: int, gr: vec3, q: int, i: int, j: int, n_grid: int, ground_touch: wp.array(dtype=wp.int32),
+               slots: wp.array(dtype=Ft)):
+        out = int(0)
+        if slots.shape[0] > 1 and Ft(k) == gr[0] + Ft(1.0) and gr[1] > Ft(0.0):
+            if ground_touch[(q * n_grid + i) * n_grid + j] == 2:
+                out = int(1)
+        return out
+
+    @wp.func
+    def touch_keep(slots: wp.array(dtype=Ft), v: vec3, m: Ft, i: int, j: int, k: int, ground: wp.array(dtype=vec3),
+                   n_grid: int, ground_touch: wp.array(dtype=wp.int32)):
+        if slots.shape[0] > 1:
+            for q in range(ground.shape[0]):
+                gr = ground[q]
+                d = k - int(gr[0])
+                if d >= -2 and d <= 1:
+                    val = m
+                    if d < 1:
+                        lt = wp.sqrt(v[0] * v[0] + v[1] * v[1])
+                        val = m * wp.max(Ft(0.0), gr[1] * wp.max(Ft(0.0), -v[2]) - lt)
+                    slots[((q * n_grid + i) * n_grid + j) * 4 + d + 2] = val
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def touch_share(grid_v: wp.array(dtype=vec3), slots: wp.array(dtype=Ft), ground: wp.array(dtype=vec3),
+                    ground_touch: wp.array(dtype=wp.int32), n_grid: int):
+        col = wp.tid()
+        q = col / (n_grid * n_grid)
+        i = (col / n_grid) % n_grid
+        j = col % n_grid
+        gr = ground[q]
+        kt = int(gr[0]) + 1
+        if ground_touch[col] == 2 and gr[1] > Ft(0.0) and kt >= 0 and kt < n_grid:
+            m = slots[col * 4 + 3]
+            node = (i * n_grid + j) * n_grid + kt
+            v = grid_v[node]
+            lt = wp.sqrt(v[0] * v[0] + v[1] * v[1])
+            if m > Ft(0.0) and lt > Ft(1e-30):
+                left = slots[col * 4] + slots[col * 4 + 1] + slots[col * 4 + 2]
+                s = wp.max(Ft(0.0), Ft(1.0) - left / (m * lt))
+                grid_v[node] = vec3(v[0] * s, v[1] * s, v[2])
+        for c in range(4):   # cleared for the next substep (a node of no mass writes none)
+            slots[col * 4 + c] = Ft(0.0)
+
+    return touch_keep, touch_share, shares
