@@ -258,17 +258,33 @@ def broken_engine(info, kind: str):
     return dataclasses.replace(info, **record)
 
 
+class _Passes(dict):
+    """The screen scenes an engine passes: a set whose scenes are evaluated once each, when first asked for."""
+
+    def __init__(self, info, screen):
+        super().__init__()
+        self.info, self.screen = info, screen
+
+    def __missing__(self, s):
+        self[s] = evaluate_scene(self.info, scene_by_name(s), {}).status == "pass"
+        return self[s]
+
+    __contains__ = dict.__getitem__
+    __rand__ = lambda self, other: {s for s in other if s in self}  # noqa: E731
+    __iter__ = lambda self: iter([s for s in self.screen if s in self])  # noqa: E731
+
+
 @pytest.fixture(scope="module")
 def reference():
-    """The real engine wrapped, and which screen scenes it passes."""
+    """The real engine wrapped, and which screen scenes it passes (lazily: the default tier runs only its own)."""
     found = installed_engines()
     for name in PREFERRED + tuple(found):
         info = found.get(name)
         if info is None or info.unavailable_reason():
             continue
         screen = SCREEN + tuple(dict.fromkeys([*CONTRACT_SCREEN.values(), *sum(ANALYTIC_SCREEN.values(), ())]))
-        passed = {s for s in screen if evaluate_scene(info, scene_by_name(s), {}).status == "pass"}
-        if passed:
+        passed = _Passes(info, screen)
+        if any(s in passed for s in screen):
             return info, passed
     pytest.skip("no installed engine passes any of the screen scenes " + str(SCREEN))
 
