@@ -17,11 +17,11 @@ from gasp_core.errors import EngineDivergence, EngineError, SceneError
 from gasp_core.seam.options import Option
 from gasp_core.seam.plugins import engines as installed_engines
 from gasp_core.testing import check_engine, evaluate_scene, record, scene_by_name
+from gasp_core.testing.scenes import ScreenPasses   # the screen evaluated lazily
 
 #: Real engines to wrap, in order of preference (the first installed and available one is used).
 PREFERRED = ("warp_mpm", "taichi_mpm", "mujoco_flex")
-#: Quick scenes the broken engines are screened with.
-SCREEN = ("free_fall", "bounce", "spinning")
+SCREEN = ("free_fall", "bounce", "spinning")   # quick scenes the broken engines are screened with
 #: Broken engine kind -> the scenes it is screened with (default SCREEN) and the one that must catch it.
 CONTRACT_SCREEN = {
     "nondeterministic": "determinism",
@@ -258,22 +258,6 @@ def broken_engine(info, kind: str):
     return dataclasses.replace(info, **record)
 
 
-class _Passes(dict):
-    """The screen scenes an engine passes: a set whose scenes are evaluated once each, when first asked for."""
-
-    def __init__(self, info, screen):
-        super().__init__()
-        self.info, self.screen = info, screen
-
-    def __missing__(self, s):
-        self[s] = evaluate_scene(self.info, scene_by_name(s), {}).status == "pass"
-        return self[s]
-
-    __contains__ = dict.__getitem__
-    __rand__ = lambda self, other: {s for s in other if s in self}  # noqa: E731
-    __iter__ = lambda self: iter([s for s in self.screen if s in self])  # noqa: E731
-
-
 @pytest.fixture(scope="module")
 def reference():
     """The real engine wrapped, and which screen scenes it passes (lazily: the default tier runs only its own)."""
@@ -283,7 +267,7 @@ def reference():
         if info is None or info.unavailable_reason():
             continue
         screen = SCREEN + tuple(dict.fromkeys([*CONTRACT_SCREEN.values(), *sum(ANALYTIC_SCREEN.values(), ())]))
-        passed = _Passes(info, screen)
+        passed = ScreenPasses(info, screen)
         if any(s in passed for s in screen):
             return info, passed
     pytest.skip("no installed engine passes any of the screen scenes " + str(SCREEN))

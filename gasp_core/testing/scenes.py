@@ -91,3 +91,29 @@ def check_engine(engine: str | EngineInfo, scenes: Iterable[Scene | str] | None 
     info = resolve_engine(engine)
     chosen = select_scenes(scenes, include_slow)
     return EngineReport(info.name, [evaluate_scene(info, s, known_failures) for s in chosen])
+
+
+class ScreenPasses(dict):
+    """Which of the screen scenes ``screen`` (names, tuple of str) the engine ``info`` (an ``EngineInfo``) passes, as a
+    set whose members are evaluated lazily: ``name in passes`` runs :func:`evaluate_scene` on that scene once (its
+    status ``"pass"``) and caches it; ``other & passes`` and ``iter(passes)`` give the passed names, in the screen's
+    order for the iteration (which evaluates every scene of the screen). Used by the broken-engine checks
+    (``conformance_tests/test_checks_catch_broken.py``) so that the default tier runs only the scenes its own tests
+    ask for. Raises what :func:`scene_by_name` raises for an unknown name (``SceneError``)."""
+
+    def __init__(self, info: EngineInfo, screen: tuple[str, ...]):
+        super().__init__()
+        self.info, self.screen = info, tuple(screen)
+
+    def __missing__(self, name: str) -> bool:
+        self[name] = evaluate_scene(self.info, scene_by_name(name), {}).status == "pass"
+        return self[name]
+
+    def __contains__(self, name) -> bool:
+        return self[name]
+
+    def __rand__(self, other) -> set:
+        return {s for s in other if s in self}
+
+    def __iter__(self):
+        return iter([s for s in self.screen if s in self])
