@@ -15,7 +15,8 @@ spacings: no node is shared, so the two solves do not couple). Checks over the f
   round-off scale the momentum check uses. The catch: round 49's one correction (``per_body`` False) moves it by
   more than ten times that (figures in the docs page and the test's message);
 - each viscous step's change of the grid's total momentum under ``MOMENTUM_TOL`` of ``M |v|_max`` (as
-  tests/test_viscous_momentum.py).
+  tests/test_viscous_momentum.py), also with the two bodies touching (gap 0 and 1: nodes shared, the shared nodes'
+  residual given to the lesser body id), where the catch is ``conserve`` False (the CG's leaking iterate).
 """
 from __future__ import annotations
 
@@ -33,6 +34,8 @@ ENGINES = [e for e, mod in (("taichi_mpm", "gasp_taichi_mpm"), ("warp_mpm", "gas
 SCHEDULES = ["cpu", "gpu"]
 #: (n_grid, gap in node spacings, resting cube's side in node spacings)
 SCENES = [(24, 4, 4), (32, 6, 6)]
+#: Touching: the two bodies share nodes.
+TOUCHING = [(24, 0, 4), (32, 1, 6)]
 #: The resting cube's largest speed over the sheared block's |v|_max (physics: 0; f32 round-off scale).
 REST_TOL = 1e-6
 #: The largest change of the grid's total momentum a viscous step may make, over M |v|_max.
@@ -123,3 +126,19 @@ def test_the_rest_check_catches_one_correction_for_all(engine, scene, monkeypatc
     rest, mom = resting_speed(engine, "cpu", *scene)
     assert rest > 10 * REST_TOL, f"{engine} ({scene}): one correction moved the resting cube only {rest:.3g}"
     assert mom < MOMENTUM_TOL, f"{engine} ({scene}): one correction changed the momentum by {mom:.3g}"
+
+
+@pytest.mark.parametrize("scene", TOUCHING, ids=lambda c: f"ng{c[0]}-gap{c[1]}-side{c[2]}")
+@pytest.mark.parametrize("schedule", SCHEDULES)
+@pytest.mark.parametrize("engine", ENGINES)
+def test_touching_bodies_conserve_total_momentum(engine, schedule, scene):
+    _, mom = resting_speed(engine, schedule, *scene)
+    assert mom < MOMENTUM_TOL, f"{engine} ({schedule}, {scene}): a viscous step changed the momentum by {mom:.3g}"
+
+
+@pytest.mark.parametrize("scene", TOUCHING, ids=lambda c: f"ng{c[0]}-gap{c[1]}-side{c[2]}")
+@pytest.mark.parametrize("engine", ENGINES)
+def test_the_touching_check_catches_the_leaking_iterate(engine, scene, monkeypatch):
+    monkeypatch.setattr(_viscous_cls(engine), "conserve", False)   # the CG's iterate m u, the rule before round 49
+    _, mom = resting_speed(engine, "cpu", *scene)
+    assert mom > 10 * MOMENTUM_TOL, f"{engine} ({scene}): conserve False changed the momentum by only {mom:.3g}"

@@ -79,13 +79,11 @@ class ImplicitViscosity:
         self.n_valid = ti.field(ti.i32, shape=shape)   # valid cells at the node (bits 0-3), its label << 4
         self.nodes = ti.Vector.field(3, ti.i32, shape=ng ** 3)   # nodes with mass, in node order
         self.cells = ti.Vector.field(3, ti.i32, shape=ng ** 3)   # valid cells (lower corner), in node order
-        self.n_nodes = ti.field(ti.i32, shape=())
-        self.n_cells = ti.field(ti.i32, shape=())
+        self.n_nodes, self.n_cells = ti.field(ti.i32, shape=()), ti.field(ti.i32, shape=())
         self.part = ti.field(real, shape=ng ** 3 // CHUNK + 1)   # partial sums of a dot product
         self.rz = ti.field(real, shape=())
         self.rz0 = ti.field(real, shape=())
-        self.alpha = ti.field(real, shape=())
-        self.beta = ti.field(real, shape=())
+        self.alpha, self.beta = ti.field(real, shape=()), ti.field(real, shape=())
         self.done = ti.field(ti.i32, shape=())
         self.active = ti.field(ti.i32, shape=())   # iterations run before convergence (the GPU schedule's batches)
         self.iters = 0        # CG iterations done in all (statistics)
@@ -359,7 +357,8 @@ class ImplicitViscosity:
                 if self.n_valid[I] >> 4 == b:
                     r = self.r[I]
                     acc += ti.Vector([r[0], r[1], r[2], self.s.grid_mv[0, I][3]])
-            for c in ti.static(range(4)): self.moms.l1[g, c] = acc[c]  # noqa: E701
+            for c in ti.static(range(4)):
+                self.moms.l1[g, c] = acc[c]
         self.moms.reduce((nn + WIDTH - 1) // WIDTH)
         self.mom[b] = ti.Vector([self.moms.out[0], self.moms.out[1], self.moms.out[2], self.moms.out[3]])
 
@@ -388,7 +387,8 @@ class ImplicitViscosity:
             for _ in range(min(every, MAX_ITERS - k)):
                 self._iterate()
                 k += 1
-        for b in range(self.n_labels if self.per_body else 1): self._label_sum(b)  # noqa: E701
+        for b in range(self.n_labels if self.per_body else 1):
+            self._label_sum(b)
         self._finish(int(self.conserve))
         self.iters += k if not self.gpu else 0   # the GPU schedule counts on the device (active)
         self.solves += 1
