@@ -25,7 +25,7 @@ iteration after convergence changes nothing: ``alpha = beta = 0``).
 The CG's iterate ``u`` leaves the residual ``r = M v* - (M + dt K) u``, whose sum is the momentum ``M u`` lacks
 (``K`` sums to zero). With :attr:`ImplicitViscosity.conserve` the step adds one uniform velocity per body label,
 ``du_b = sum_{i in b} r_i / sum_{i in b} m_i`` (fixed-order sums; a node's label: the least body id of the points
-reaching it with a positive weight, by ``atomic_min``; one extra group for a node none labelled). The labels
+reaching it with a positive weight, by ``atomic_min``; a node none labelled joins the last body's). The labels
 partition the nodes, so ``sum m (u + du) = sum m v*`` exactly and a body the solve left alone gets ``du = 0``
 (docs/dissipation.md "Round 50"; round 49's one ``du`` moved a resting cube beside a sheared one; ``m u + r`` per
 node diverged the README quick start, docs/contact.md "Round 49"). The label shares ``n_valid`` (bits 4 and up), the
@@ -81,8 +81,7 @@ class ImplicitViscosity:
         self.cells = ti.Vector.field(3, ti.i32, shape=ng ** 3)   # valid cells (lower corner), in node order
         self.n_nodes, self.n_cells = ti.field(ti.i32, shape=()), ti.field(ti.i32, shape=())
         self.part = ti.field(real, shape=ng ** 3 // CHUNK + 1)   # partial sums of a dot product
-        self.rz = ti.field(real, shape=())
-        self.rz0 = ti.field(real, shape=())
+        self.rz, self.rz0 = ti.field(real, shape=()), ti.field(real, shape=())
         self.alpha, self.beta = ti.field(real, shape=()), ti.field(real, shape=())
         self.done = ti.field(ti.i32, shape=())
         self.active = ti.field(ti.i32, shape=())   # iterations run before convergence (the GPU schedule's batches)
@@ -91,7 +90,7 @@ class ImplicitViscosity:
         self.gpu = bool(solver.gpu)   # the GPU schedule (gasp_taichi_mpm.schedule)
         self.comp = BoxCompaction(self, ng, (self.nodes, self.cells))
         self.dots = SliceSums(ng ** 3 if self.gpu else 1, 1, real)   # a dot product's terms per list entry (GPU)
-        self.n_labels = int(solver.n_bodies) + 1   # sum r, sum m per label (n_bodies: no point's), fixed tree
+        self.n_labels = int(solver.n_bodies)   # sum r, sum m per label (a node no point's: the last), fixed tree
         self.moms = GroupSums(ng ** 3, 4, real)
         self.mom = ti.Vector.field(4, real, shape=self.n_labels)
 
@@ -331,7 +330,7 @@ class ImplicitViscosity:
 
     @ti.kernel
     def _label(self, per_body: ti.i32):
-        """The box's labels cleared (to the extra one; 0 without per_body), then each point's body id by atomic_min."""
+        """The box's labels cleared (to the last body; 0 without per_body), then each point's body id by atomic_min."""
         lo, ext = self._box()
         none = self.n_labels - 1 if per_body != 0 else 0
         for idx in range(ext[0] * ext[1] * ext[2]):
@@ -379,7 +378,8 @@ class ImplicitViscosity:
 
     def solve(self) -> None:
         """One backward-Euler viscous step on the grid momentum (between P2G and the grid update)."""
-        self._label(int(self.per_body))
+        if self.n_labels > 1:   # one body: every label 0 from the start
+            self._label(int(self.per_body))
         self._start()
         k = 0
         every = CHECK_EVERY if self.gpu else 1   # GPU: the flag read every few iterations (no-ops once converged)

@@ -22,7 +22,7 @@ The CG stops at ``TOL``, so its iterate ``u`` leaves the residual ``r = M v* - (
 momentum ``M u`` lacks (``K`` sums to zero); with :attr:`ImplicitViscosity.conserve` (the default) ``finish`` adds one
 uniform velocity per body, ``du_b = sum_{i in b} r_i / sum_{i in b} m_i`` over the solved nodes labelled ``b``
 (``label``: the least body id among the points whose stencil reaches the node with a positive weight, an
-order-free ``atomic_min``; a node no point labelled joins one extra group), summed by the schedule in a fixed order
+order-free ``atomic_min``; a node no point labelled joins the last body's), summed by the schedule in a fixed order
 (``mom``, one row a label). The labels partition the solved nodes, so ``sum_b du_b M_b = sum_i r_i``: the step
 conserves total momentum to round-off, and a body the solve left alone (``r = 0`` on its nodes) gets ``du = 0``
 however another body's solve ends (round 50, docs/dissipation.md; round 49's one ``du`` over the grid moved a
@@ -277,8 +277,8 @@ class ImplicitViscosity:
         self.counts = wp.zeros(2, dtype=wp.int32, device=d)
         self.scal = wp.zeros(6, dtype=Ft, device=d)
         self.done = wp.zeros(1, dtype=wp.int32, device=d)
-        # each solved node's label (the least body id there; n_bodies: none) and (sum r, sum m) per label
-        self.n_labels = int(eng.mat_par.shape[0]) + 1
+        # each solved node's label (the least body id there; none: the last) and (sum r, sum m) per label
+        self.n_labels = int(eng.mat_par.shape[0])
         self.label = wp.full(n, self.n_labels - 1, dtype=wp.int32, device=d)
         self.mom = wp.zeros(self.n_labels, dtype=vec4, device=d)
         self.iters = 0
@@ -286,8 +286,11 @@ class ImplicitViscosity:
 
     def label_nodes(self) -> None:
         """Launch the labels of this substep's nodes (after P2G, on the points P2G read): every node cleared to the
-        extra group, then each point's body id into its stencil's nodes by ``atomic_min`` (the same on every run)."""
+        last body's, then each point's body id into its stencil's nodes by ``atomic_min`` (the same on every run).
+        One body: nothing launched (every label 0 from the start)."""
         e, d = self.e, self.e.device
+        if self.n_labels == 1:
+            return
         if not self.per_body:   # one group: round 49's rule
             wp.launch(self.k.label_clear, dim=e.n_grid ** 3, device=d, inputs=[self.label, 0])
             return
