@@ -153,6 +153,7 @@ class MPMSolver(Transfers, ColouredP2G, TileP2G, FixedPointP2G, Constitutive, Gr
         self.eta_channel = 7 if self.flip > 0 else 4
         self.acc_width = self.eta_channel + (1 if self.viscous else 0) + (1 if self.pc else 0)
         self.n_set_boxes = count_set_boxes(extras)   # their ghost nodes need the node mass (grid.py)
+        self.n_bodies = len(kinds)   # bodies (the viscous step's labels, viscosity.py)
         self._allocate_points(len(kinds))
         self._allocate_grid()
         self.allocate_contact()

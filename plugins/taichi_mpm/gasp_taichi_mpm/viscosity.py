@@ -22,18 +22,20 @@ on the GPU schedule each list entry's term stored, then summed by a fixed tree
 The GPU schedule reads the convergence flag every :data:`gasp_taichi_mpm.schedule.CHECK_EVERY` iterations (an
 iteration after convergence changes nothing: ``alpha = beta = 0``).
 
-The CG stops at :data:`TOL`, so its iterate ``u`` leaves the residual ``r = M v* - (M + dt K) u``, whose sum over
-the nodes is the momentum ``M u`` lacks (``K`` sums to zero). With :attr:`ImplicitViscosity.conserve` (the default)
-the step adds one uniform velocity ``du = sum r / sum m`` over the solved nodes (both sums in a fixed order), so
-``sum m (u + du) = sum m v*`` exactly: the residual's sum restored without its per-node shape (``m u + r`` per node
-diverged the README quick start: a light node's ``r / m`` is a large velocity; docs/contact.md "Round 49: the
-viscous step's momentum, a uniform correction").
+The CG's iterate ``u`` leaves the residual ``r = M v* - (M + dt K) u``, whose sum is the momentum ``M u`` lacks
+(``K`` sums to zero). With :attr:`ImplicitViscosity.conserve` the step adds one uniform velocity per body label,
+``du_b = sum_{i in b} r_i / sum_{i in b} m_i`` (fixed-order sums; a node's label: the least body id of the points
+reaching it with a positive weight, by ``atomic_min``; a node none labelled joins the last body's). The labels
+partition the nodes, so ``sum m (u + du) = sum m v*`` exactly and a body the solve left alone gets ``du = 0``
+(docs/dissipation.md "Round 50"; round 49's one ``du`` moved a resting cube beside a sheared one; ``m u + r`` per
+node diverged the README quick start, docs/contact.md "Round 49"). The label shares ``n_valid`` (bits 4 and up), the
+sums take one row a group of ``WIDTH`` entries (:class:`~gasp_taichi_mpm.schedule.primitives.GroupSums`).
 """
 import taichi as ti
 
 from .schedule import CHECK_EVERY
 from .schedule.ordered import sum_in_order
-from .schedule.primitives import BoxCompaction, SliceSums
+from .schedule.primitives import WIDTH, BoxCompaction, GroupSums, SliceSums
 
 #: CG stops when sqrt(r.z) has fallen to this fraction of its value at v* (the viscous correction's accuracy).
 TOL = 1e-2
@@ -55,11 +57,11 @@ class ImplicitViscosity:
     eta_channel : int
     """
 
-    #: True: the step returns ``m (u + du)``, ``du = sum r / sum m`` over the solved nodes (total momentum that of
-    #: ``M v*`` to round-off whatever :data:`TOL`); False: ``m u``, the rule before round 49 (its CG iterate leaks the
-    #: residual's sum: the damped jelly slid 23 % fast on n_grid 48, docs/contact.md "Round 48: the viscous jelly's
-    #: slide").
+    #: True: the step returns ``m (u + du)`` (total momentum that of ``M v*`` to round-off whatever :data:`TOL`);
+    #: False: ``m u``, the rule before round 49 (the damped jelly slid 23 % fast on n_grid 48, docs/contact.md).
     conserve = True
+    #: True: one ``du`` per body label; False: one over all solved nodes (round 49's rule).
+    per_body = True
 
     def __init__(self, solver, eta_channel: int):
         self.s = solver
@@ -74,16 +76,13 @@ class ImplicitViscosity:
         self.diag = ti.field(real, shape=shape)           # m_i + dt sum_c (eta V)_c / (4 dx^2)
         self.wc = ti.field(real, shape=shape)             # (eta V)_c of the cell with lower corner I; 0: not valid
         self.S = ti.Matrix.field(3, 3, real, shape=shape)  # (eta V)_c (G_c + G_c^T) of the current direction
-        self.n_valid = ti.field(ti.i32, shape=shape)
+        self.n_valid = ti.field(ti.i32, shape=shape)   # valid cells at the node (bits 0-3), its label << 4
         self.nodes = ti.Vector.field(3, ti.i32, shape=ng ** 3)   # nodes with mass, in node order
         self.cells = ti.Vector.field(3, ti.i32, shape=ng ** 3)   # valid cells (lower corner), in node order
-        self.n_nodes = ti.field(ti.i32, shape=())
-        self.n_cells = ti.field(ti.i32, shape=())
+        self.n_nodes, self.n_cells = ti.field(ti.i32, shape=()), ti.field(ti.i32, shape=())
         self.part = ti.field(real, shape=ng ** 3 // CHUNK + 1)   # partial sums of a dot product
-        self.rz = ti.field(real, shape=())
-        self.rz0 = ti.field(real, shape=())
-        self.alpha = ti.field(real, shape=())
-        self.beta = ti.field(real, shape=())
+        self.rz, self.rz0 = ti.field(real, shape=()), ti.field(real, shape=())
+        self.alpha, self.beta = ti.field(real, shape=()), ti.field(real, shape=())
         self.done = ti.field(ti.i32, shape=())
         self.active = ti.field(ti.i32, shape=())   # iterations run before convergence (the GPU schedule's batches)
         self.iters = 0        # CG iterations done in all (statistics)
@@ -91,7 +90,9 @@ class ImplicitViscosity:
         self.gpu = bool(solver.gpu)   # the GPU schedule (gasp_taichi_mpm.schedule)
         self.comp = BoxCompaction(self, ng, (self.nodes, self.cells))
         self.dots = SliceSums(ng ** 3 if self.gpu else 1, 1, real)   # a dot product's terms per list entry (GPU)
-        self.moms = SliceSums(ng ** 3, 4, real)   # the residual's sum and the mass (the correction du), fixed tree
+        self.n_labels = int(solver.n_bodies)   # sum r, sum m per label (a node no point's: the last), fixed tree
+        self.moms = GroupSums(ng ** 3, 4, real)
+        self.mom = ti.Vector.field(4, real, shape=self.n_labels)
 
     @ti.func
     def listed(self, I, q: ti.template()):
@@ -238,13 +239,13 @@ class ImplicitViscosity:
                 if self._in(c, lo, hi):
                     if self.wc[c] > 0.0:
                         n += 1
-            self.n_valid[I] = n
+            self.n_valid[I] = (self.n_valid[I] & ~15) | n
         for k in range(nc):   # each node's viscous volume shared among its valid cells
             c = self.cells[k]
             w = ti.cast(0.0, self.s.real)
             for a, b, e in ti.static(ti.ndrange(2, 2, 2)):
                 J = c + ti.Vector([a, b, e])
-                w += self.s.grid_mv[0, J][self.ch] / ti.cast(self.n_valid[J], self.s.real)
+                w += self.s.grid_mv[0, J][self.ch] / ti.cast(self.n_valid[J] & 15, self.s.real)
             self.wc[c] = w
         for k in range(nc):
             c = self.cells[k]
@@ -328,23 +329,47 @@ class ImplicitViscosity:
                 self.done[None] = 1
 
     @ti.kernel
-    def _finish(self, conserve: ti.i32):
-        """Momentum ``m (u + du)`` back into grid_mv (the grid update divides by m again); ``du = sum r / sum m``
-        over the list (summed by a fixed tree) when ``conserve``, else 0."""
+    def _label(self, per_body: ti.i32):
+        """The box's labels cleared (to the last body; 0 without per_body), then each point's body id by atomic_min."""
+        lo, ext = self._box()
+        none = self.n_labels - 1 if per_body != 0 else 0
+        for idx in range(ext[0] * ext[1] * ext[2]):
+            self.n_valid[self._node(lo, ext, idx)] = none << 4
+        if per_body != 0:
+            for p in range(self.s.n_material):
+                base, fx, ok = self.s.base_fx(self.s.x[p])
+                if ok and self.s.p_mass[p] > 0.0:
+                    w = self.s.weights(fx)
+                    b = self.s.body[p] << 4
+                    for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
+                        if w[i][0] * w[j][1] * w[k][2] > 0.0:
+                            ti.atomic_min(self.n_valid[base + ti.Vector([i, j, k])], b)
+
+    @ti.kernel
+    def _label_sum(self, b: ti.i32):
+        """``mom[b]``: sum r and sum m over the entries labelled ``b`` (in-order groups, then :class:`GroupSums`)."""
         nn = self.n_nodes[None]
-        for k in range(nn):
+        for g in range((nn + WIDTH - 1) // WIDTH):
+            acc = ti.Vector.zero(self.s.real, 4)
+            for k in range(g * WIDTH, ti.min(g * WIDTH + WIDTH, nn)):
+                I = self.nodes[k]
+                if self.n_valid[I] >> 4 == b:
+                    r = self.r[I]
+                    acc += ti.Vector([r[0], r[1], r[2], self.s.grid_mv[0, I][3]])
+            for c in ti.static(range(4)):
+                self.moms.l1[g, c] = acc[c]
+        self.moms.reduce((nn + WIDTH - 1) // WIDTH)
+        self.mom[b] = ti.Vector([self.moms.out[0], self.moms.out[1], self.moms.out[2], self.moms.out[3]])
+
+    @ti.kernel
+    def _finish(self, conserve: ti.i32):
+        """Momentum ``m (u + du)`` into grid_mv; ``du`` the node label's (:meth:`_label_sum`) when ``conserve``."""
+        for k in range(self.n_nodes[None]):
             I = self.nodes[k]
-            r = self.r[I]
-            self.moms.part[k, 0] = r[0]
-            self.moms.part[k, 1] = r[1]
-            self.moms.part[k, 2] = r[2]
-            self.moms.part[k, 3] = self.s.grid_mv[0, I][3]
-        self.moms.reduce(nn)
-        du = ti.Vector.zero(self.s.real, 3)
-        if conserve != 0 and self.moms.out[3] > 0.0:
-            du = ti.Vector([self.moms.out[0], self.moms.out[1], self.moms.out[2]]) / self.moms.out[3]
-        for k in range(nn):
-            I = self.nodes[k]
+            s = self.mom[self.n_valid[I] >> 4]
+            du = ti.Vector.zero(self.s.real, 3)
+            if conserve != 0 and s[3] > 0.0:
+                du = ti.Vector([s[0], s[1], s[2]]) / s[3]
             m = self.s.grid_mv[0, I][3]
             mu = m * (self.u[I] + du)
             self.s.grid_mv[0, I][0] = mu[0]
@@ -353,6 +378,8 @@ class ImplicitViscosity:
 
     def solve(self) -> None:
         """One backward-Euler viscous step on the grid momentum (between P2G and the grid update)."""
+        if self.n_labels > 1:   # one body: every label 0 from the start
+            self._label(int(self.per_body))
         self._start()
         k = 0
         every = CHECK_EVERY if self.gpu else 1   # GPU: the flag read every few iterations (no-ops once converged)
@@ -360,6 +387,8 @@ class ImplicitViscosity:
             for _ in range(min(every, MAX_ITERS - k)):
                 self._iterate()
                 k += 1
+        for b in range(self.n_labels if self.per_body else 1):
+            self._label_sum(b)
         self._finish(int(self.conserve))
         self.iters += k if not self.gpu else 0   # the GPU schedule counts on the device (active)
         self.solves += 1

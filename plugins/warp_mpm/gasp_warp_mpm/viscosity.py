@@ -20,8 +20,13 @@ schedule's own: on the cpu schedule built and summed by one thread in node order
 
 The CG stops at ``TOL``, so its iterate ``u`` leaves the residual ``r = M v* - (M + dt K) u``, whose sum is the
 momentum ``M u`` lacks (``K`` sums to zero); with :attr:`ImplicitViscosity.conserve` (the default) ``finish`` adds one
-uniform velocity ``du = sum r / sum m`` over the solved nodes (the schedule's ``mom`` sums, in a fixed order), so the
-step conserves total momentum to round-off (as ``gasp_taichi_mpm.viscosity``; docs/contact.md "Round 49").
+uniform velocity per body, ``du_b = sum_{i in b} r_i / sum_{i in b} m_i`` over the solved nodes labelled ``b``
+(``label``: the least body id among the points whose stencil reaches the node with a positive weight, an
+order-free ``atomic_min``; a node no point labelled joins the last body's), summed by the schedule in a fixed order
+(``mom``, one row a label). The labels partition the solved nodes, so ``sum_b du_b M_b = sum_i r_i``: the step
+conserves total momentum to round-off, and a body the solve left alone (``r = 0`` on its nodes) gets ``du = 0``
+however another body's solve ends (round 50, docs/dissipation.md; round 49's one ``du`` over the grid moved a
+resting cube beside a sheared one). As ``gasp_taichi_mpm.viscosity``.
 
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of
 the closures below as type objects.
@@ -31,6 +36,7 @@ import functools
 import warp as wp
 
 from .precision import MODULE_OPTIONS, build_types
+from .stencil import build_stencil
 
 #: CG stops when sqrt(r.z) has fallen to this fraction of its value at v* (as gasp_taichi_mpm.viscosity.TOL).
 TOL = 1e-2
@@ -47,6 +53,7 @@ def build_viscosity(Ft):
     long because the Warp kernels and functions are closures over ``Ft`` and its vector types, built together."""
     import types
     vec3, vec4, mat33 = build_types(Ft)
+    in_grid, weights = build_stencil(Ft)
 
     @wp.func
     def corner(c: int, a: int, b: int, e: int, ng: int):
@@ -190,16 +197,38 @@ def build_viscosity(Ft):
             done[0] = 1
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def label_clear(label: wp.array(dtype=wp.int32), none: int):
+        label[wp.tid()] = none
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def label_points(x: wp.array(dtype=vec3), p_mass: wp.array(dtype=Ft), body: wp.array(dtype=wp.int32),
+                     label: wp.array(dtype=wp.int32), lo: vec3, inv_dx: Ft, ng: int):
+        # each node a point reaches with a positive weight (P2G's stencil) gets the least body id there
+        p = wp.tid()
+        X = (x[p] - lo) * inv_dx
+        if not in_grid(X, ng) or p_mass[p] <= Ft(0.0):
+            return
+        base = wp.vec3i(int(wp.floor(X[0] - Ft(0.5))), int(wp.floor(X[1] - Ft(0.5))), int(wp.floor(X[2] - Ft(0.5))))
+        W = weights(X - vec3(Ft(base[0]), Ft(base[1]), Ft(base[2])))
+        b = body[p]
+        for a in range(3):
+            for c in range(3):
+                for e in range(3):
+                    if W[a, 0] * W[c, 1] * W[e, 2] > Ft(0.0):
+                        wp.atomic_min(label, ((base[0] + a) * ng + base[1] + c) * ng + base[2] + e, b)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def finish(grid_mv: wp.array(dtype=vec4), grid_eta: wp.array(dtype=Ft), u: wp.array(dtype=vec3),
                nodes: wp.array(dtype=wp.int32), counts: wp.array(dtype=wp.int32), mom: wp.array(dtype=vec4),
-               conserve: int):
-        # momentum m (u + du) back (the grid update divides by m again), du = sum r / sum m over the list (mom[0],
-        # the schedule's fixed-order sums) when conserve, else 0; the viscous volume cleared for the next P2G
+               label: wp.array(dtype=wp.int32), conserve: int):
+        # momentum m (u + du) back (the grid update divides by m again), du = sum r / sum m over the node's label
+        # (mom[label], the schedule's fixed-order sums) when conserve, else 0; the viscous volume cleared for the
+        # next P2G
         t = wp.tid()
         if t >= counts[0]:
             return
         I = nodes[t]
-        s = mom[0]
+        s = mom[label[I]]
         du = vec3()
         if conserve != 0 and s[3] > Ft(0.0):
             du = vec3(s[0], s[1], s[2]) / s[3]
@@ -210,7 +239,8 @@ def build_viscosity(Ft):
 
     return types.SimpleNamespace(corner=corner, cell_weights=cell_weights, cell_stress=cell_stress, start=start,
                                  apply=apply, step_alpha=step_alpha, update=update, step_beta=step_beta,
-                                 direction=direction, begin=begin, finish=finish)
+                                 direction=direction, begin=begin, finish=finish, label_clear=label_clear,
+                                 label_points=label_points)
 
 
 class ImplicitViscosity:
@@ -224,9 +254,13 @@ class ImplicitViscosity:
     Ft : warp scalar type
     """
 
-    #: True: the step returns ``m (u + du)``, ``du = sum r / sum m`` (total momentum conserved whatever ``TOL``);
-    #: False: ``m u``, the rule before round 49 (the damped jelly slid 23 % fast on n_grid 48).
+    #: True: the step returns ``m (u + du_b)``, ``du_b = sum r / sum m`` over the nodes labelled ``b`` (total momentum
+    #: conserved whatever ``TOL``, each body's own); False: ``m u``, the rule before round 49 (the damped jelly slid
+    #: 23 % fast on n_grid 48).
     conserve = True
+    #: True: one ``du`` per label (body); False: one over all solved nodes, round 49's rule (a resting cube beside a
+    #: sheared one moved: docs/dissipation.md "Round 50").
+    per_body = True
 
     def __init__(self, eng, Ft):
         self.e, self.Ft = eng, Ft
@@ -243,9 +277,27 @@ class ImplicitViscosity:
         self.counts = wp.zeros(2, dtype=wp.int32, device=d)
         self.scal = wp.zeros(6, dtype=Ft, device=d)
         self.done = wp.zeros(1, dtype=wp.int32, device=d)
-        self.mom = wp.zeros(1, dtype=vec4, device=d)   # (sum r, sum m) over the list, for finish's du
+        # each solved node's label (the least body id there; none: the last) and (sum r, sum m) per label
+        self.n_labels = int(eng.mat_par.shape[0])
+        self.label = wp.full(n, self.n_labels - 1, dtype=wp.int32, device=d)
+        self.mom = wp.zeros(self.n_labels, dtype=vec4, device=d)
         self.iters = 0
         self.solves = 0
+
+    def label_nodes(self) -> None:
+        """Launch the labels of this substep's nodes (after P2G, on the points P2G read): every node cleared to the
+        last body's, then each point's body id into its stencil's nodes by ``atomic_min`` (the same on every run).
+        One body: nothing launched (every label 0 from the start)."""
+        e, d = self.e, self.e.device
+        if self.n_labels == 1:
+            return
+        if not self.per_body:   # one group: round 49's rule
+            wp.launch(self.k.label_clear, dim=e.n_grid ** 3, device=d, inputs=[self.label, 0])
+            return
+        lo = build_types(self.Ft)[0](*[float(c) for c in e.setup.domain_lo])
+        wp.launch(self.k.label_clear, dim=e.n_grid ** 3, device=d, inputs=[self.label, self.n_labels - 1])
+        wp.launch(self.k.label_points, dim=e.n_material, device=d, inputs=[e.x, e.p_mass, e.body, self.label, lo,
+                                                                           self.Ft(e.inv_dx), e.n_grid])
 
     def solve(self, capturing: bool) -> None:
         """Launch one viscous step (between P2G and the grid update): the schedule's subclass,

@@ -230,7 +230,8 @@ def test_launches_and_syncs_per_substep(monkeypatch):
     iteration and syncs 2 plus one per iteration; the gpu schedule launches 24 plus 10 per iteration run (the
     iterations run in fours, the condition read once per four: the syncs) and, at n_grid 16, each dot product is
     two launches (16 blocks of 256 nodes, then their fold), and so is round 49's momentum sum (``mom_blocks``,
-    ``fold_final``; on the cpu schedule one-thread ``mom_sum``)."""
+    ``fold_final``; on the cpu schedule one-thread ``mom_sum``; one pass a body, one body here: round 50's node
+    labels are all 0, nothing launched for them)."""
     rec, _ = counts("viscous", "cpu", monkeypatch)
     n_it = sum(1 for k, _ in rec.launches if name(k) == "step_alpha")
     print(f"cpu schedule: {len(rec.launches)} launches, {rec.syncs} syncs, {n_it} CG iterations;",

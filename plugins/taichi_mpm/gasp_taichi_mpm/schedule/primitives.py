@@ -165,3 +165,39 @@ class SliceSums:
             for g in range(n2):
                 s += self.l2[g, r]
             self.out[r] = s
+
+
+class GroupSums:
+    """Deterministic column sums of in-order groups: the caller writes ``l1[g, r]``, the sum of items
+    ``g W .. g W + W - 1`` in order (:data:`WIDTH` ``W``), one thread a group; :meth:`reduce` folds them as
+    :meth:`SliceSums.reduce` folds its first level, so the sums are those bits, without a row per item.
+
+    Parameters
+    ----------
+    n_items : int
+        The most items a sum takes (``l1`` holds ``n_items // WIDTH + 1`` rows).
+    n_cols : int
+    dtype : taichi dtype
+    """
+
+    def __init__(self, n_items: int, n_cols: int, dtype=ti.f64):
+        t, r = max(int(n_items), 1), max(int(n_cols), 1)
+        self.n_cols, self.dtype = r, dtype
+        self.l1 = ti.field(dtype, shape=(t // WIDTH + 1, r))
+        self.l2 = ti.field(dtype, shape=(t // WIDTH ** 2 + 1, r))
+        self.out = ti.field(dtype, shape=r)
+
+    @ti.func
+    def reduce(self, n1):
+        """``out[r] = sum_{g < n1} l1[g, r]``: groups of :data:`WIDTH` in order, then the rest in order."""
+        groups = (n1 + WIDTH - 1) // WIDTH
+        for g, r in ti.ndrange(groups, self.n_cols):
+            s = ti.cast(0, self.dtype)
+            for t in range(g * WIDTH, ti.min(g * WIDTH + WIDTH, n1)):
+                s += self.l1[t, r]
+            self.l2[g, r] = s
+        for r in range(self.n_cols):
+            s = ti.cast(0, self.dtype)
+            for g in range(groups):
+                s += self.l2[g, r]
+            self.out[r] = s

@@ -120,19 +120,23 @@ def build_block_sums(Ft):
 
 @functools.cache
 def build_mom_sums(Ft):
-    """``(mom_blocks, fold, fold_final)`` of scalar type ``Ft``: the residual's sum and the mass over a node list
-    (``vec4``), two-level as :func:`build_block_sums` (viscosity.finish's ``du``)."""
+    """``(mom_blocks, fold, fold_final)`` of scalar type ``Ft``: the residual's sum and the mass over the entries of a
+    node list with one label (``vec4``), two-level as :func:`build_block_sums` (viscosity.finish's ``du``; one pass a
+    label, so the partials' memory does not grow with the bodies)."""
     vec3, vec4 = build_types(Ft)[:2]
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def mom_blocks(r: wp.array(dtype=vec3), grid_mv: wp.array(dtype=vec4), nodes: wp.array(dtype=wp.int32),
-                   counts: wp.array(dtype=wp.int32), part: wp.array(dtype=vec4)):
+                   counts: wp.array(dtype=wp.int32), label: wp.array(dtype=wp.int32), b: int,
+                   part: wp.array(dtype=vec4)):
+        # one thread a block of BLOCK list entries, in order: those labelled b
         blk = wp.tid()
         s = vec4()
         for t in range(blk * BLK, wp.min(blk * BLK + BLK, counts[0])):
             I = nodes[t]
-            ri = r[I]
-            s = s + vec4(ri[0], ri[1], ri[2], grid_mv[I][3])
+            if label[I] == b:
+                ri = r[I]
+                s = s + vec4(ri[0], ri[1], ri[2], grid_mv[I][3])
         part[blk] = s
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
@@ -144,11 +148,11 @@ def build_mom_sums(Ft):
         part_out[blk] = s
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def fold_final(part_in: wp.array(dtype=vec4), out: wp.array(dtype=vec4)):
+    def fold_final(part_in: wp.array(dtype=vec4), out: wp.array(dtype=vec4), slot: int):
         s = vec4()
         for t in range(part_in.shape[0]):
             s = s + part_in[t]
-        out[0] = s
+        out[slot] = s
 
     return mom_blocks, fold, fold_final
 
@@ -250,6 +254,7 @@ class GpuViscosity(ImplicitViscosity):
         e, k, d, ng, n = self.e, self.k, self.e.device, self.e.n_grid, self.e.n_grid ** 3
         dt, inv_dx, cnt = self.Ft(e.dt), self.Ft(e.inv_dx), self.counts
         list_flags, list_scatter = self.g_lists
+        self.label_nodes()
         wp.launch(list_flags, dim=n, device=d, inputs=[e.grid_mv, self.u, self.valid, self.flags, ng])
         wp.utils.array_scan(self.flags, self.slots, inclusive=False)
         wp.launch(list_scatter, dim=n, device=d, inputs=[self.flags, self.slots, self.nodes, self.cells, cnt])
@@ -271,10 +276,12 @@ class GpuViscosity(ImplicitViscosity):
                 it += CHECK_EVERY
         mom_blocks, fold, fold_final = self.g_moms
         parts = self.parts4
-        wp.launch(mom_blocks, dim=parts[0].shape[0], device=d, inputs=[self.r, e.grid_mv, self.nodes, cnt, parts[0]])
-        for src, dst in zip(parts[:-1], parts[1:]):
-            wp.launch(fold, dim=dst.shape[0], device=d, inputs=[src, dst])
-        wp.launch(fold_final, dim=1, device=d, inputs=[parts[-1], self.mom])
+        for b in range(self.n_labels):   # one pass a label (the labels' count is fixed: one graph serves)
+            wp.launch(mom_blocks, dim=parts[0].shape[0], device=d, inputs=[self.r, e.grid_mv, self.nodes, cnt,
+                                                                           self.label, b, parts[0]])
+            for src, dst in zip(parts[:-1], parts[1:]):
+                wp.launch(fold, dim=dst.shape[0], device=d, inputs=[src, dst])
+            wp.launch(fold_final, dim=1, device=d, inputs=[parts[-1], self.mom, b])
         wp.launch(k.finish, dim=n, device=d, inputs=[e.grid_mv, e.grid_eta, self.u, self.nodes, cnt, self.mom,
-                                                    int(self.conserve)])
+                                                    self.label, int(self.conserve)])
         self.solves += 1

@@ -80,14 +80,15 @@ def build_ordered_viscosity(Ft):
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def mom_sum(r: wp.array(dtype=vec3), grid_mv: wp.array(dtype=vec4), nodes: wp.array(dtype=wp.int32),
-                counts: wp.array(dtype=wp.int32), out: wp.array(dtype=vec4)):
-        # one thread, in node order: the residual's sum and the mass (viscosity.finish's du)
-        s = vec4()
+                counts: wp.array(dtype=wp.int32), label: wp.array(dtype=wp.int32), out: wp.array(dtype=vec4)):
+        # one thread, in node order: the residual's sum and the mass per label (viscosity.finish's du)
+        for b in range(out.shape[0]):
+            out[b] = vec4()
         for t in range(counts[0]):
             I = nodes[t]
             ri = r[I]
-            s = s + vec4(ri[0], ri[1], ri[2], grid_mv[I][3])
-        out[0] = s
+            b = label[I]
+            out[b] = out[b] + vec4(ri[0], ri[1], ri[2], grid_mv[I][3])
 
     return types.SimpleNamespace(lists=lists, dot=dot, mom_sum=mom_sum)
 
@@ -107,6 +108,7 @@ class CpuViscosity(ImplicitViscosity):
         the whole grid and :data:`MAX_ITERS_GRAPH` iterations run."""
         e, k, o, d, ng = self.e, self.k, self.o, self.e.device, self.e.n_grid
         dt, inv_dx = self.Ft(e.dt), self.Ft(e.inv_dx)
+        self.label_nodes()
         wp.launch(o.lists, dim=1, device=d, inputs=[e.grid_mv, self.u, self.valid, self.nodes, self.cells,
                                                     self.counts, ng])
         if capturing:
@@ -136,9 +138,9 @@ class CpuViscosity(ImplicitViscosity):
             wp.launch(k.step_beta, dim=1, device=d, inputs=[self.scal, self.done, self.Ft(TOL * TOL)])
             wp.launch(k.direction, dim=n_nodes, device=d, inputs=[self.z, self.p, self.nodes, cnt, self.scal])
             it += 1
-        wp.launch(o.mom_sum, dim=1, device=d, inputs=[self.r, e.grid_mv, self.nodes, cnt, self.mom])
+        wp.launch(o.mom_sum, dim=1, device=d, inputs=[self.r, e.grid_mv, self.nodes, cnt, self.label, self.mom])
         wp.launch(k.finish, dim=n_nodes, device=d, inputs=[e.grid_mv, e.grid_eta, self.u, self.nodes, cnt, self.mom,
-                                                           int(self.conserve)])
+                                                           self.label, int(self.conserve)])
         self.iters += it
         self.solves += 1
 
