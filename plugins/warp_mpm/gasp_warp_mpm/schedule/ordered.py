@@ -40,8 +40,8 @@ def build_ordered_viscosity(Ft):
     def lists(grid_mv: wp.array(dtype=vec4), u: wp.array(dtype=vec3), valid: wp.array(dtype=wp.int32),
               nodes: wp.array(dtype=wp.int32), cells: wp.array(dtype=wp.int32), counts: wp.array(dtype=wp.int32),
               ng: int):
-        # one thread: v*, valid cells (lower corner index, all 8 corners with mass; never on the last plane),
-        # and the lists in node order
+        # one thread: v*, valid cells (lower corner index, marked by occupy_cells, 8 corners with mass; never on the
+        # last plane), and the lists in node order
         nn = int(0)
         nc = int(0)
         for i in range(ng):
@@ -55,7 +55,7 @@ def build_ordered_viscosity(Ft):
                         nn = nn + 1
                     ok = int(0)
                     if i < ng - 1 and j < ng - 1 and k < ng - 1:
-                        ok = 1
+                        ok = valid[I]   # marked by occupy_cells
                         for a in range(2):
                             for b in range(2):
                                 for e in range(2):
@@ -109,6 +109,7 @@ class CpuViscosity(ImplicitViscosity):
         e, k, o, d, ng = self.e, self.k, self.o, self.e.device, self.e.n_grid
         dt, inv_dx = self.Ft(e.dt), self.Ft(e.inv_dx)
         self.label_nodes()
+        self.occupy_cells()
         wp.launch(o.lists, dim=1, device=d, inputs=[e.grid_mv, self.u, self.valid, self.nodes, self.cells,
                                                     self.counts, ng])
         if capturing:
