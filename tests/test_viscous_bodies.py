@@ -16,8 +16,8 @@ neighbours). Checks over the first frames:
   round-off scale the momentum check uses. The catch: round 49's one correction (``per_body`` False) moves it by
   more than ten times that (figures in the docs page and the test's message);
 - the same at a gap of 3 node spacings, where the cells between the bodies have all 8 corners with mass: round 50's
-  operator counts only the cells holding a viscous point (``occupied``); the catch: the rule before, every cell whose
-  corners have mass, bridges the empty cells and moves the cube by over 1e4 times ``REST_TOL`` (the docs page);
+  operator counts only the cells whose 8 corners share one body label (``same_label``); the catch: the rule before,
+  every cell whose corners have mass, bridges the empty cells and moves the cube by over 1e4 times ``REST_TOL``;
 - each viscous step's change of the grid's total momentum under ``MOMENTUM_TOL`` of ``M |v|_max`` (as
   tests/test_viscous_momentum.py), also with the two bodies touching (gap 0 and 1: nodes shared, the shared nodes'
   residual given to the lesser body id), where the catch is ``conserve`` False (the CG's leaking iterate).
@@ -146,7 +146,7 @@ def test_no_viscous_bridge_across_empty_cells(engine, schedule, scene):
 @pytest.mark.parametrize("scene", NEIGHBOURS, ids=lambda c: f"ng{c[0]}-gap{c[1]}-side{c[2]}")
 @pytest.mark.parametrize("engine", ENGINES)
 def test_the_bridge_check_catches_cells_valid_by_mass(engine, scene, monkeypatch):
-    monkeypatch.setattr(_viscous_cls(engine), "occupied", False)   # every cell whose 8 corners have mass
+    monkeypatch.setattr(_viscous_cls(engine), "same_label", False)   # every cell whose 8 corners have mass
     rest, _ = resting_speed(engine, "cpu", *scene)
     assert rest > 10 * REST_TOL, f"{engine} ({scene}): cells valid by mass moved the resting cube only {rest:.3g}"
 

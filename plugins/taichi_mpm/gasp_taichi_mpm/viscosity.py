@@ -1,29 +1,38 @@
 """Implicit Kelvin-Voigt viscosity on the grid (``docs/dissipation.md``, "Time step"; ``docs/mpm.md`` step 3a).
 
-After P2G the grid holds each node's momentum ``m v*``, mass ``m`` and viscous volume ``(eta V)_i = sum_p w_ip J_p
-V_p eta_p`` (Pa s m^3). One backward-Euler step of the viscous stress ``2 eta D`` is the linear system
+After P2G the grid holds each node's momentum ``m v*`` (elastic stress included), mass ``m`` and viscous
+volume ``(eta V)_i = sum_p w_ip J_p V_p eta_p`` (Pa s m^3). The viscous stress ``2 eta D`` is linear in the
+velocity, so one backward-Euler step of it is the linear system
 
     (M + dt K) v = M v*,      (K v)_i = sum_c (eta V)_c (G_c + G_c^T) g_ic,
 
-over the nodes with mass; ``c`` runs over the cells that hold a viscous point (inside material only, round 50:
-:attr:`ImplicitViscosity.occupied`), ``G_c = sum_i v_i g_ic^T`` (trilinear shape functions at the cell centre, ``g_ic
-= (+-1, +-1, +-1) / (4 dx)``), ``(eta V)_c = sum_corners (eta V)_i / n_i`` (``n_i`` valid cells at node ``i``).
-``K`` is the Hessian of the Rayleigh dissipation ``sum_c (eta V)_c D_c : D_c`` (symmetric, PSD, zero on rigid
-motions): the step conserves momentum and is stable at any ``dt``. Solved by diagonally preconditioned CG from
-``v*`` until the residual falls below :data:`TOL` of its start (at most :data:`MAX_ITERS`). The node and cell lists
-in node order by flag, scan and scatter (:class:`gasp_taichi_mpm.schedule.primitives.BoxCompaction`); the dot
-products in fixed chunks of :data:`CHUNK` (CPU schedule) or by a fixed tree (GPU schedule,
-:class:`~gasp_taichi_mpm.schedule.primitives.SliceSums`, the flag read every ``CHECK_EVERY`` iterations): the result
-does not depend on the thread count.
+over the nodes with mass, where ``c`` runs over the grid cells whose 8 corner nodes all have mass and one body label
+(round 50: no viscous bridge between two bodies across empty cells; :attr:`ImplicitViscosity.same_label`),
+``G_c = sum_i v_i g_ic^T`` is the cell's velocity gradient (trilinear shape functions at the cell centre,
+``g_ic = (+-1, +-1, +-1) / (4 dx)``) and ``(eta V)_c = sum_corners (eta V)_i / n_i`` shares each node's viscous
+volume among its ``n_i`` valid cells (their sum is the body's ``sum_p J_p V_p eta_p``). ``K`` is the Hessian of
+the Rayleigh dissipation ``sum_c (eta V)_c D_c : D_c``: symmetric, positive semi-definite, zero on rigid
+motions, so the step conserves linear and angular momentum and is stable at any ``dt``. It is solved by
+conjugate gradients with the diagonal as preconditioner, starting from ``v*``, until the preconditioned
+residual falls below :data:`TOL` of its start (at most :data:`MAX_ITERS` iterations). The nodes with mass and the
+valid cells are listed in node order by a flag, scan and scatter over the box
+(:class:`gasp_taichi_mpm.schedule.primitives.BoxCompaction`: every loop parallel, the lists those of a serial walk).
+The dot products: on the CPU schedule summed in fixed chunks of :data:`CHUNK` nodes and the chunks' sums in order;
+on the GPU schedule each list entry's term stored, then summed by a fixed tree
+(:class:`~gasp_taichi_mpm.schedule.primitives.SliceSums`); either way the result does not depend on the thread count.
+The GPU schedule reads the convergence flag every :data:`gasp_taichi_mpm.schedule.CHECK_EVERY` iterations (an
+iteration after convergence changes nothing: ``alpha = beta = 0``).
 
-The CG's iterate ``u`` leaves the residual ``r = M v* - (M + dt K) u`` (its sum: the momentum ``M u`` lacks). With
-:attr:`ImplicitViscosity.conserve` the step adds ``du_b = sum_{i in b} r_i / sum_{i in b} m_i`` per body label (a
-node's label: the least body id of the points reaching it, by ``atomic_min``; none: the last body's), so ``sum m (u +
-du) = sum m v*`` and a body the solve left alone gets ``du = 0`` (docs/dissipation.md "Round 50"). The label shares
-``n_valid`` (bits 4 and up); the sums take one row a group of ``WIDTH`` entries (``GroupSums``).
+The CG's iterate ``u`` leaves the residual ``r = M v* - (M + dt K) u``, whose sum is the momentum ``M u`` lacks
+(``K`` sums to zero). With :attr:`ImplicitViscosity.conserve` the step adds one uniform velocity per body label,
+``du_b = sum_{i in b} r_i / sum_{i in b} m_i`` (fixed-order sums; a node's label: the least body id of the points
+reaching it with a positive weight, by ``atomic_min``; a node none labelled joins the last body's). The labels
+partition the nodes, so ``sum m (u + du) = sum m v*`` exactly and a body the solve left alone gets ``du = 0``
+(docs/dissipation.md "Round 50"; round 49's one ``du`` moved a resting cube beside a sheared one; ``m u + r`` per
+node diverged the README quick start, docs/contact.md "Round 49"). The label shares ``n_valid`` (bits 4 and up), the
+sums take one row a group of ``WIDTH`` entries (:class:`~gasp_taichi_mpm.schedule.primitives.GroupSums`).
 """
 import taichi as ti
-from gasp_core.mpm.materials import P_ETA
 
 from .schedule import CHECK_EVERY
 from .schedule.ordered import sum_in_order
@@ -54,9 +63,9 @@ class ImplicitViscosity:
     conserve = True
     #: True: one ``du`` per body label; False: one over all solved nodes (round 49's rule).
     per_body = True
-    #: True: a cell is valid when it holds a viscous point; False: when its 8 corners have mass (the rule before
-    #: round 50: a viscous bridge across empty cells between bodies 3 node spacings apart, docs/dissipation.md).
-    occupied = True
+    #: True: a valid cell's 8 corners share one label (bodies apart are not bridged by the viscous stress); False:
+    #: any 8 corners with mass, the rule before (docs/dissipation.md "Round 50: ... inside material only").
+    same_label = True
 
     def __init__(self, solver, eta_channel: int):
         self.s = solver
@@ -73,10 +82,9 @@ class ImplicitViscosity:
         self.cells = ti.Vector.field(3, ti.i32, shape=ng ** 3)   # valid cells (lower corner), in node order
         self.n_nodes, self.n_cells = ti.field(ti.i32, shape=()), ti.field(ti.i32, shape=())
         self.part = ti.field(real, shape=ng ** 3 // CHUNK + 1)   # partial sums of a dot product
-        self.rz, self.rz0 = ti.field(real, shape=()), ti.field(real, shape=())
-        self.alpha, self.beta = ti.field(real, shape=()), ti.field(real, shape=())
-        # converged; the iterations run before convergence (the GPU schedule's batches)
-        self.done, self.active = ti.field(ti.i32, shape=()), ti.field(ti.i32, shape=())
+        self.rz, self.rz0, self.alpha, self.beta = (ti.field(real, shape=()) for _ in range(4))
+        self.done = ti.field(ti.i32, shape=())
+        self.active = ti.field(ti.i32, shape=())   # iterations run before convergence (the GPU schedule's batches)
         self.iters, self.solves = 0, 0        # CG iterations done in all, solves (statistics)
         self.gpu = bool(solver.gpu)   # the GPU schedule (gasp_taichi_mpm.schedule)
         self.comp = BoxCompaction(self, ng, (self.nodes, self.cells))
@@ -199,21 +207,24 @@ class ImplicitViscosity:
         return r.dot(z)
 
     @ti.kernel
-    def _start(self):
+    def _start(self, same: ti.i32):
         """Lists, cell weights, diagonal; u = v*, r = M v* - A u, z = r / diag, p = z, rz."""
         lo, ext = self._box()
         hi = lo + ext - 1
         count = ext[0] * ext[1] * ext[2]
-        for idx in range(count):   # v*, and which cells are valid (marked by _occupy, all 8 corners with mass)
+        for idx in range(count):   # v*, and which cells are valid (all 8 corners with mass; with same, one label)
             I = self._node(lo, ext, idx)
             acc = self.s.grid_mv[0, I]
             u = ti.Vector.zero(self.s.real, 3)
             if acc[3] > 0.0:
                 u = ti.Vector([acc[0], acc[1], acc[2]]) / acc[3]
             self.u[I] = u
-            valid = self.wc[I] > 0.0
+            valid = True
             for a, b, e in ti.static(ti.ndrange(2, 2, 2)):
-                if not self._active(I + ti.Vector([a, b, e]), lo, hi):
+                J = I + ti.Vector([a, b, e])
+                if not self._active(J, lo, hi):
+                    valid = False
+                elif same != 0 and (self.n_valid[J] >> 4) != (self.n_valid[I] >> 4):
                     valid = False
             self.wc[I] = 1.0 if valid else 0.0
         self.comp.run(lo, ext)   # the lists, in node order
@@ -262,18 +273,6 @@ class ImplicitViscosity:
         self.done[None] = 0
         if rz <= 0.0:
             self.done[None] = 1
-
-    @ti.kernel
-    def _occupy(self, occupied: ti.i32):
-        """``wc`` over the box: 1 on the cells holding a viscous point (``occupied``; every cell without), else 0."""
-        lo, ext = self._box()
-        for idx in range(ext[0] * ext[1] * ext[2]):
-            self.wc[self._node(lo, ext, idx)] = 0.0 if occupied != 0 else 1.0
-        if occupied != 0:   # the point's cell floor(X) = base + floor(fx); every writer writes 1 (any order)
-            for p in range(self.s.n_material):
-                base, fx, ok = self.s.base_fx(self.s.x[p])
-                if ok and self.s.p_mass[p] > 0.0 and self.s.mat[self.s.body[p]][P_ETA] > 0.0:
-                    self.wc[base + ti.cast(ti.floor(fx), ti.i32)] = 1.0
 
     @ti.kernel
     def _iterate(self):
@@ -382,8 +381,7 @@ class ImplicitViscosity:
         """One backward-Euler viscous step on the grid momentum (between P2G and the grid update)."""
         if self.n_labels > 1:   # one body: every label 0 from the start
             self._label(int(self.per_body))
-        self._occupy(int(self.occupied))
-        self._start()
+        self._start(int(self.same_label))
         k = 0
         every = CHECK_EVERY if self.gpu else 1   # GPU: the flag read every few iterations (no-ops once converged)
         while k < MAX_ITERS and not self.done[None]:

@@ -6,7 +6,8 @@ After P2G the grid holds each node's momentum ``m v*`` and mass (``grid_mv``) an
 
     (M + dt K) v = M v*,      (K v)_i = sum_c (eta V)_c (G_c + G_c^T) g_ic,
 
-over the nodes with mass; ``c`` runs over the cells that hold a viscous point (round 50, ``occupied``), ``G_c = sum_i v_i g_ic^T``
+over the nodes with mass; ``c`` runs over the cells whose 8 corners all have mass and one body label (round 50,
+``same_label``), ``G_c = sum_i v_i g_ic^T``
 (trilinear shape functions at the cell centre, ``g_ic = (+-1, +-1, +-1) / (4 dx)``), ``(eta V)_c = sum_corners
 (eta V)_i / n_i`` (``n_i`` valid cells at node ``i``). Solved by conjugate gradients with the diagonal
 ``m_i + dt sum_c (eta V)_c / (4 dx^2)`` as preconditioner from ``v*``, until ``r.z`` falls below ``TOL^2`` of its
@@ -34,7 +35,6 @@ the closures below as type objects.
 import functools
 
 import warp as wp
-from gasp_core.mpm.materials import P_ETA
 
 from .precision import MODULE_OPTIONS, build_types
 from .stencil import build_stencil
@@ -45,7 +45,6 @@ TOL = 1e-2
 #: iterations after convergence change nothing).
 MAX_ITERS = 200
 MAX_ITERS_GRAPH = 30
-P_ETA_C = wp.constant(P_ETA)
 
 
 @functools.cache
@@ -220,17 +219,6 @@ def build_viscosity(Ft):
                         wp.atomic_min(label, ((base[0] + a) * ng + base[1] + c) * ng + base[2] + e, b)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def occupy(x: wp.array(dtype=vec3), p_mass: wp.array(dtype=Ft), body: wp.array(dtype=wp.int32),
-               mat_par: wp.array2d(dtype=Ft), valid: wp.array(dtype=wp.int32), lo: vec3, inv_dx: Ft, ng: int):
-        # the cell floor(X) of each viscous point marked (every writer writes 1: any order); the lists keep a marked
-        # cell when its 8 corners have mass
-        p = wp.tid()
-        X = (x[p] - lo) * inv_dx
-        if not in_grid(X, ng) or p_mass[p] <= Ft(0.0) or mat_par[body[p], P_ETA_C] <= Ft(0.0):
-            return
-        valid[(int(wp.floor(X[0])) * ng + int(wp.floor(X[1]))) * ng + int(wp.floor(X[2]))] = 1
-
-    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def finish(grid_mv: wp.array(dtype=vec4), grid_eta: wp.array(dtype=Ft), u: wp.array(dtype=vec3),
                nodes: wp.array(dtype=wp.int32), counts: wp.array(dtype=wp.int32), mom: wp.array(dtype=vec4),
                label: wp.array(dtype=wp.int32), conserve: int):
@@ -253,7 +241,7 @@ def build_viscosity(Ft):
     return types.SimpleNamespace(corner=corner, cell_weights=cell_weights, cell_stress=cell_stress, start=start,
                                  apply=apply, step_alpha=step_alpha, update=update, step_beta=step_beta,
                                  direction=direction, begin=begin, finish=finish, label_clear=label_clear,
-                                 label_points=label_points, occupy=occupy)
+                                 label_points=label_points)
 
 
 class ImplicitViscosity:
@@ -274,9 +262,9 @@ class ImplicitViscosity:
     #: True: one ``du`` per label (body); False: one over all solved nodes, round 49's rule (a resting cube beside a
     #: sheared one moved: docs/dissipation.md "Round 50").
     per_body = True
-    #: True: a cell is valid when it holds a viscous point and its 8 corners have mass; False: when its corners have
-    #: mass, the rule before round 50 (a viscous bridge across empty cells: docs/dissipation.md "Round 50").
-    occupied = True
+    #: True: a valid cell's 8 corners share one label (no viscous bridge between two bodies across empty cells);
+    #: False: any 8 corners with mass, the rule before (docs/dissipation.md "Round 50: ... inside material only").
+    same_label = True
 
     def __init__(self, eng, Ft):
         self.e, self.Ft = eng, Ft
@@ -314,16 +302,6 @@ class ImplicitViscosity:
         wp.launch(self.k.label_clear, dim=e.n_grid ** 3, device=d, inputs=[self.label, self.n_labels - 1])
         wp.launch(self.k.label_points, dim=e.n_material, device=d, inputs=[e.x, e.p_mass, e.body, self.label, lo,
                                                                            self.Ft(e.inv_dx), e.n_grid])
-
-    def occupy_cells(self) -> None:
-        """Launch the marks of the cells the lists may keep (``valid``, read by the schedule's list kernel): 1 on
-        the cells holding a viscous point, 0 elsewhere; every cell 1 without :attr:`occupied`."""
-        e, d = self.e, self.e.device
-        wp.launch(self.k.label_clear, dim=e.n_grid ** 3, device=d, inputs=[self.valid, 0 if self.occupied else 1])
-        if self.occupied:
-            lo = build_types(self.Ft)[0](*[float(c) for c in e.setup.domain_lo])
-            wp.launch(self.k.occupy, dim=e.n_material, device=d, inputs=[e.x, e.p_mass, e.body, e.mat_par,
-                                                                         self.valid, lo, self.Ft(e.inv_dx), e.n_grid])
 
     def solve(self, capturing: bool) -> None:
         """Launch one viscous step (between P2G and the grid update): the schedule's subclass,
