@@ -7,7 +7,7 @@ nodes, so two viscous bodies on one grid shared it: a resting cube beside a shea
 ``du``; the labels partition the nodes, so the total momentum is still conserved to round-off.
 
 The scenes (a family): a viscous block given a sheared, stretched velocity field (as tests/test_viscous_momentum.py)
-and a resting viscous cube beside it, no gravity, no boundary in reach, on two grids and two gaps (3 and 6 node
+and a resting viscous cube beside it, no gravity, no boundary in reach, on two grids and two gaps (4 and 6 node
 spacings: no node is shared, so the two solves do not couple; and 3, where the two bodies' outer nodes are
 neighbours). Checks over the first frames:
 
