@@ -7,13 +7,17 @@ nodes, so two viscous bodies on one grid shared it: a resting cube beside a shea
 ``du``; the labels partition the nodes, so the total momentum is still conserved to round-off.
 
 The scenes (a family): a viscous block given a sheared, stretched velocity field (as tests/test_viscous_momentum.py)
-and a resting viscous cube beside it, no gravity, no boundary in reach, on two grids and two gaps (3 and 6 node
-spacings: no node is shared, so the two solves do not couple). Checks over the first frames:
+and a resting viscous cube beside it, no gravity, no boundary in reach, on two grids and two gaps (4 and 6 node
+spacings: no node is shared, so the two solves do not couple; and 3, where the two bodies' outer nodes are
+neighbours). Checks over the first frames:
 
 - the resting cube's largest point speed under ``REST_TOL`` of the sheared block's ``|v|_max``. The physics bound is
   0: no node is shared, so no force reaches the cube (its elastic stress is zero at rest); 1e-6 is the f32
   round-off scale the momentum check uses. The catch: round 49's one correction (``per_body`` False) moves it by
   more than ten times that (figures in the docs page and the test's message);
+- the same at a gap of 3 node spacings, where the cells between the bodies have all 8 corners with mass: round 50's
+  operator counts only the cells whose 8 corners share one body label (``same_label``); the catch: the rule before,
+  every cell whose corners have mass, bridges the empty cells and moves the cube by over 1e4 times ``REST_TOL``;
 - each viscous step's change of the grid's total momentum under ``MOMENTUM_TOL`` of ``M |v|_max`` (as
   tests/test_viscous_momentum.py), also with the two bodies touching (gap 0 and 1: nodes shared, the shared nodes'
   residual given to the lesser body id), where the catch is ``conserve`` False (the CG's leaking iterate).
@@ -36,6 +40,8 @@ SCHEDULES = ["cpu", "gpu"]
 SCENES = [(24, 4, 4), (32, 6, 6)]
 #: Touching: the two bodies share nodes.
 TOUCHING = [(24, 0, 4), (32, 1, 6)]
+#: Apart by one empty node: the bodies' outermost nodes are neighbours (a gap of 2 shares a node: the grid couples).
+NEIGHBOURS = [(24, 3, 4), (32, 3, 6)]
 #: The resting cube's largest speed over the sheared block's |v|_max (physics: 0; f32 round-off scale).
 REST_TOL = 1e-6
 #: The largest change of the grid's total momentum a viscous step may make, over M |v|_max.
@@ -126,6 +132,23 @@ def test_the_rest_check_catches_one_correction_for_all(engine, scene, monkeypatc
     rest, mom = resting_speed(engine, "cpu", *scene)
     assert rest > 10 * REST_TOL, f"{engine} ({scene}): one correction moved the resting cube only {rest:.3g}"
     assert mom < MOMENTUM_TOL, f"{engine} ({scene}): one correction changed the momentum by {mom:.3g}"
+
+
+@pytest.mark.parametrize("scene", NEIGHBOURS, ids=lambda c: f"ng{c[0]}-gap{c[1]}-side{c[2]}")
+@pytest.mark.parametrize("schedule", SCHEDULES)
+@pytest.mark.parametrize("engine", ENGINES)
+def test_no_viscous_bridge_across_empty_cells(engine, schedule, scene):
+    rest, mom = resting_speed(engine, schedule, *scene)
+    assert rest < REST_TOL, f"{engine} ({schedule}, {scene}): the resting cube reached {rest:.3g} of |v|_max"
+    assert mom < MOMENTUM_TOL, f"{engine} ({schedule}, {scene}): a viscous step changed the momentum by {mom:.3g}"
+
+
+@pytest.mark.parametrize("scene", NEIGHBOURS, ids=lambda c: f"ng{c[0]}-gap{c[1]}-side{c[2]}")
+@pytest.mark.parametrize("engine", ENGINES)
+def test_the_bridge_check_catches_cells_valid_by_mass(engine, scene, monkeypatch):
+    monkeypatch.setattr(_viscous_cls(engine), "same_label", False)   # every cell whose 8 corners have mass
+    rest, _ = resting_speed(engine, "cpu", *scene)
+    assert rest > 10 * REST_TOL, f"{engine} ({scene}): cells valid by mass moved the resting cube only {rest:.3g}"
 
 
 @pytest.mark.parametrize("scene", TOUCHING, ids=lambda c: f"ng{c[0]}-gap{c[1]}-side{c[2]}")

@@ -6,7 +6,8 @@ velocity, so one backward-Euler step of it is the linear system
 
     (M + dt K) v = M v*,      (K v)_i = sum_c (eta V)_c (G_c + G_c^T) g_ic,
 
-over the nodes with mass, where ``c`` runs over the grid cells whose 8 corner nodes all have mass,
+over the nodes with mass, where ``c`` runs over the grid cells whose 8 corner nodes all have mass and one body label
+(round 50: no viscous bridge between two bodies across empty cells; :attr:`ImplicitViscosity.same_label`),
 ``G_c = sum_i v_i g_ic^T`` is the cell's velocity gradient (trilinear shape functions at the cell centre,
 ``g_ic = (+-1, +-1, +-1) / (4 dx)``) and ``(eta V)_c = sum_corners (eta V)_i / n_i`` shares each node's viscous
 volume among its ``n_i`` valid cells (their sum is the body's ``sum_p J_p V_p eta_p``). ``K`` is the Hessian of
@@ -62,17 +63,17 @@ class ImplicitViscosity:
     conserve = True
     #: True: one ``du`` per body label; False: one over all solved nodes (round 49's rule).
     per_body = True
+    #: True: a valid cell's 8 corners share one label (bodies apart are not bridged by the viscous stress); False:
+    #: any 8 corners with mass, the rule before (docs/dissipation.md "Round 50: ... inside material only").
+    same_label = True
 
     def __init__(self, solver, eta_channel: int):
         self.s = solver
         self.ch = int(eta_channel)
         real, ng = solver.real, solver.n_grid
         shape = (ng, ng, ng)
-        self.u = ti.Vector.field(3, real, shape=shape)     # the solution (m/s)
-        self.r = ti.Vector.field(3, real, shape=shape)
-        self.z = ti.Vector.field(3, real, shape=shape)
-        self.p = ti.Vector.field(3, real, shape=shape)
-        self.Ap = ti.Vector.field(3, real, shape=shape)
+        # the solution u (m/s), the CG's residual, preconditioned residual, direction and A p
+        self.u, self.r, self.z, self.p, self.Ap = (ti.Vector.field(3, real, shape=shape) for _ in range(5))
         self.diag = ti.field(real, shape=shape)           # m_i + dt sum_c (eta V)_c / (4 dx^2)
         self.wc = ti.field(real, shape=shape)             # (eta V)_c of the cell with lower corner I; 0: not valid
         self.S = ti.Matrix.field(3, 3, real, shape=shape)  # (eta V)_c (G_c + G_c^T) of the current direction
@@ -81,12 +82,10 @@ class ImplicitViscosity:
         self.cells = ti.Vector.field(3, ti.i32, shape=ng ** 3)   # valid cells (lower corner), in node order
         self.n_nodes, self.n_cells = ti.field(ti.i32, shape=()), ti.field(ti.i32, shape=())
         self.part = ti.field(real, shape=ng ** 3 // CHUNK + 1)   # partial sums of a dot product
-        self.rz, self.rz0 = ti.field(real, shape=()), ti.field(real, shape=())
-        self.alpha, self.beta = ti.field(real, shape=()), ti.field(real, shape=())
+        self.rz, self.rz0, self.alpha, self.beta = (ti.field(real, shape=()) for _ in range(4))
         self.done = ti.field(ti.i32, shape=())
         self.active = ti.field(ti.i32, shape=())   # iterations run before convergence (the GPU schedule's batches)
-        self.iters = 0        # CG iterations done in all (statistics)
-        self.solves = 0
+        self.iters, self.solves = 0, 0        # CG iterations done in all, solves (statistics)
         self.gpu = bool(solver.gpu)   # the GPU schedule (gasp_taichi_mpm.schedule)
         self.comp = BoxCompaction(self, ng, (self.nodes, self.cells))
         self.dots = SliceSums(ng ** 3 if self.gpu else 1, 1, real)   # a dot product's terms per list entry (GPU)
@@ -165,8 +164,7 @@ class ImplicitViscosity:
 
     @ti.func
     def _sum_parts(self, n):
-        """Sum of the partial sums of ``n`` list entries, in chunk order (CPU schedule: one thread,
-        :func:`gasp_taichi_mpm.schedule.ordered.sum_in_order`)."""
+        """The partial sums of ``n`` entries in chunk order (CPU schedule: ``schedule.ordered.sum_in_order``)."""
         return sum_in_order(self.part, (n + CHUNK - 1) // CHUNK)
 
     @ti.func
@@ -209,12 +207,12 @@ class ImplicitViscosity:
         return r.dot(z)
 
     @ti.kernel
-    def _start(self):
+    def _start(self, same: ti.i32):
         """Lists, cell weights, diagonal; u = v*, r = M v* - A u, z = r / diag, p = z, rz."""
         lo, ext = self._box()
         hi = lo + ext - 1
         count = ext[0] * ext[1] * ext[2]
-        for idx in range(count):   # v*, and which cells are valid (all 8 corners with mass)
+        for idx in range(count):   # v*, and which cells are valid (all 8 corners with mass; with same, one label)
             I = self._node(lo, ext, idx)
             acc = self.s.grid_mv[0, I]
             u = ti.Vector.zero(self.s.real, 3)
@@ -223,7 +221,10 @@ class ImplicitViscosity:
             self.u[I] = u
             valid = True
             for a, b, e in ti.static(ti.ndrange(2, 2, 2)):
-                if not self._active(I + ti.Vector([a, b, e]), lo, hi):
+                J = I + ti.Vector([a, b, e])
+                if not self._active(J, lo, hi):
+                    valid = False
+                elif same != 0 and (self.n_valid[J] >> 4) != (self.n_valid[I] >> 4):
                     valid = False
             self.wc[I] = 1.0 if valid else 0.0
         self.comp.run(lo, ext)   # the lists, in node order
@@ -380,7 +381,7 @@ class ImplicitViscosity:
         """One backward-Euler viscous step on the grid momentum (between P2G and the grid update)."""
         if self.n_labels > 1:   # one body: every label 0 from the start
             self._label(int(self.per_body))
-        self._start()
+        self._start(int(self.same_label))
         k = 0
         every = CHECK_EVERY if self.gpu else 1   # GPU: the flag read every few iterations (no-ops once converged)
         while k < MAX_ITERS and not self.done[None]:
@@ -394,7 +395,6 @@ class ImplicitViscosity:
         self.solves += 1
 
     def mean_iterations(self) -> float:
-        """CG iterations a viscous solve took, on average (the no-op iterations of the GPU schedule's batches
-        left out)."""
+        """CG iterations a viscous solve took, on average (the GPU schedule's no-op iterations left out)."""
         iters = self.iters if not self.gpu else int(self.active[None])
         return iters / max(self.solves, 1)

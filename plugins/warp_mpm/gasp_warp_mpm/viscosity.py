@@ -6,7 +6,8 @@ After P2G the grid holds each node's momentum ``m v*`` and mass (``grid_mv``) an
 
     (M + dt K) v = M v*,      (K v)_i = sum_c (eta V)_c (G_c + G_c^T) g_ic,
 
-over the nodes with mass; ``c`` runs over the cells whose 8 corners all have mass, ``G_c = sum_i v_i g_ic^T``
+over the nodes with mass; ``c`` runs over the cells whose 8 corners all have mass and one body label (round 50,
+``same_label``), ``G_c = sum_i v_i g_ic^T``
 (trilinear shape functions at the cell centre, ``g_ic = (+-1, +-1, +-1) / (4 dx)``), ``(eta V)_c = sum_corners
 (eta V)_i / n_i`` (``n_i`` valid cells at node ``i``). Solved by conjugate gradients with the diagonal
 ``m_i + dt sum_c (eta V)_c / (4 dx^2)`` as preconditioner from ``v*``, until ``r.z`` falls below ``TOL^2`` of its
@@ -261,6 +262,9 @@ class ImplicitViscosity:
     #: True: one ``du`` per label (body); False: one over all solved nodes, round 49's rule (a resting cube beside a
     #: sheared one moved: docs/dissipation.md "Round 50").
     per_body = True
+    #: True: a valid cell's 8 corners share one label (no viscous bridge between two bodies across empty cells);
+    #: False: any 8 corners with mass, the rule before (docs/dissipation.md "Round 50: ... inside material only").
+    same_label = True
 
     def __init__(self, eng, Ft):
         self.e, self.Ft = eng, Ft

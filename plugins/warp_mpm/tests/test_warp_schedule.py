@@ -193,7 +193,8 @@ def test_the_check_catches_todays_lists_and_dot(gpu_engine, monkeypatch):
 
         def broken_solve(self, capturing):
             wp.launch(k.lists, dim=1, device=self.e.device, inputs=[self.e.grid_mv, self.u, self.valid, self.nodes,
-                                                                     self.cells, self.counts, self.e.n_grid])
+                                                                     self.cells, self.counts, self.e.n_grid,
+                                                                     self.label, int(self.same_label)])
             return orig_solve(self, capturing)
         m.setattr(G.GpuViscosity, "solve", broken_solve)
         rec = one_substep(e, monkeypatch)

@@ -42,8 +42,9 @@ def build_lists(Ft):
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def list_flags(grid_mv: wp.array(dtype=vec4), u: wp.array(dtype=vec3), valid: wp.array(dtype=wp.int32),
-                   flags: wp.array(dtype=wp.vec2i), ng: int):
-        # one thread a node: v* where it has mass; its cell valid when all 8 corners have mass (never on the last plane)
+                   flags: wp.array(dtype=wp.vec2i), ng: int, label: wp.array(dtype=wp.int32), same: int):
+        # one thread a node: v* where it has mass; its cell valid when all 8 corners have mass and, with same, one
+        # label (never on the last plane)
         I = wp.tid()
         i = I / (ng * ng)
         j = (I / ng) % ng
@@ -59,7 +60,8 @@ def build_lists(Ft):
             for a in range(2):
                 for b in range(2):
                     for e in range(2):
-                        if grid_mv[I + (a * ng + b) * ng + e][3] <= Ft(0.0):
+                        J = I + (a * ng + b) * ng + e
+                        if grid_mv[J][3] <= Ft(0.0) or (same != 0 and label[J] != label[I]):
                             ok = 0
         valid[I] = ok
         flags[I] = wp.vec2i(nf, ok)
@@ -255,7 +257,8 @@ class GpuViscosity(ImplicitViscosity):
         dt, inv_dx, cnt = self.Ft(e.dt), self.Ft(e.inv_dx), self.counts
         list_flags, list_scatter = self.g_lists
         self.label_nodes()
-        wp.launch(list_flags, dim=n, device=d, inputs=[e.grid_mv, self.u, self.valid, self.flags, ng])
+        wp.launch(list_flags, dim=n, device=d, inputs=[e.grid_mv, self.u, self.valid, self.flags, ng, self.label,
+                                                         int(self.same_label)])
         wp.utils.array_scan(self.flags, self.slots, inclusive=False)
         wp.launch(list_scatter, dim=n, device=d, inputs=[self.flags, self.slots, self.nodes, self.cells, cnt])
         wp.launch(k.cell_weights, dim=n, device=d, inputs=[e.grid_eta, self.valid, self.cells, cnt, self.wc, ng])

@@ -39,9 +39,9 @@ def build_ordered_viscosity(Ft):
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def lists(grid_mv: wp.array(dtype=vec4), u: wp.array(dtype=vec3), valid: wp.array(dtype=wp.int32),
               nodes: wp.array(dtype=wp.int32), cells: wp.array(dtype=wp.int32), counts: wp.array(dtype=wp.int32),
-              ng: int):
-        # one thread: v*, valid cells (lower corner index, all 8 corners with mass; never on the last plane),
-        # and the lists in node order
+              ng: int, label: wp.array(dtype=wp.int32), same: int):
+        # one thread: v*, valid cells (lower corner index, all 8 corners with mass and, with same, one label; never
+        # on the last plane), and the lists in node order
         nn = int(0)
         nc = int(0)
         for i in range(ng):
@@ -59,7 +59,8 @@ def build_ordered_viscosity(Ft):
                         for a in range(2):
                             for b in range(2):
                                 for e in range(2):
-                                    if grid_mv[corner(I, a, b, e, ng)][3] <= Ft(0.0):
+                                    J = corner(I, a, b, e, ng)
+                                    if grid_mv[J][3] <= Ft(0.0) or (same != 0 and label[J] != label[I]):
                                         ok = 0
                     valid[I] = ok
                     if ok != 0:
@@ -110,7 +111,7 @@ class CpuViscosity(ImplicitViscosity):
         dt, inv_dx = self.Ft(e.dt), self.Ft(e.inv_dx)
         self.label_nodes()
         wp.launch(o.lists, dim=1, device=d, inputs=[e.grid_mv, self.u, self.valid, self.nodes, self.cells,
-                                                    self.counts, ng])
+                                                    self.counts, ng, self.label, int(self.same_label)])
         if capturing:
             n_nodes = n_cells = ng ** 3
         else:
