@@ -14,11 +14,10 @@ with the dashpot) and only the Coulomb bound its column's held layers left unuse
 Mixed into :class:`gasp_taichi_mpm.grid.GridUpdate` (and so :class:`gasp_taichi_mpm.solver.MPMSolver`), whose
 fields (``ground_kmax``, ``ground_h``, ``x``, ``n_points``, ...) it reads.
 """
-import numpy as np
 import taichi as ti
 
 from gasp_core.mpm.contact import DAMPING
-from gasp_core.mpm.materials import P_ETA, P_LAM, P_MU, MaterialKind
+from gasp_core.mpm.materials import MaterialKind
 
 #: The flowing materials' codes (``gasp_core.mpm.contact.FLOWING``): round 36's touch test.
 SAND, SNOW, LIQUID = int(MaterialKind.SAND), int(MaterialKind.SNOW), int(MaterialKind.LIQUID)
@@ -57,30 +56,14 @@ class GroundTouch:
         per body) and ``ground_touch`` (i32, ``(4, n_grid, n_grid)``: ground, column; else one entry). Called by
         :meth:`~gasp_taichi_mpm.contact.Contact.allocate_mixed` (``mixed`` known); ``ground_touch`` holds 2 where a
         point of a body that does not flow touches, 1 where only flowing ones do; ``touch_speed`` (m/s, float:
-        :meth:`dashpot_speed`, 0.0 when off)."""
+        ``gasp_core.mpm.contact.touch_dashpot_speed`` of the scene, given by the engine as ``touch_speed_in``; 0.0 when
+        off)."""
         self.touch_on = bool(self.touch_contact and self.ground_rubs and (not self.pc or self.mixed))
         ng = self.n_grid
         self.ground_touch = ti.field(ti.i32, shape=(4, ng, ng) if self.touch_on else (1, 1, 1))
-        self.touch_speed = self.dashpot_speed() if self.touch_on else 0.0
+        self.touch_speed = self.touch_speed_in if self.touch_on else 0.0   # the engine's touch_dashpot_speed
         self.share_on = bool(self.touch_on and self.touch_share)   # round 49: touch_slots, 4 a column (touch_keep)
         self.touch_slots = ti.field(self.real, shape=(4, ng, ng, 4) if self.share_on else (1, 1, 1, 1))
-
-    def dashpot_speed(self) -> float:
-        """The dashpot's speed (m/s, float; ``gasp_core.mpm.contact.touch_dashpot_speed``, the same rule): the largest
-        ``2 touch_damping c - 2 eta / (rho dx)`` of the bodies that do not flow, at least 0 (``c`` the P-wave speed
-        ``sqrt((lam + 2 mu) / rho)``, their Lame parameters and viscosity ``eta`` from ``mat``, ``rho`` their points'
-        mass over volume; round 49: a body's own viscous damping of the cell's mode counts against it); 0.0 without
-        one."""
-        n = self.n_material
-        body, kind, mat = self.body.to_numpy()[:n], self.kind.to_numpy(), self.mat.to_numpy().astype(np.float64)
-        mass = np.bincount(body, self.p_mass.to_numpy()[:n].astype(np.float64), minlength=len(kind))
-        vol = np.bincount(body, self.p_vol.to_numpy()[:n].astype(np.float64), minlength=len(kind))
-        dx = float(self.dx[None])
-        zeta = 2.0 * float(self.touch_damping)
-        speeds = [zeta * float(np.sqrt((mat[b, P_LAM] + 2.0 * mat[b, P_MU]) * vol[b] / mass[b]))
-                  - 2.0 * float(mat[b, P_ETA]) * vol[b] / (mass[b] * dx) for b in range(len(kind))
-                  if mass[b] > 0.0 and int(kind[b]) not in (SAND, SNOW, LIQUID)]
-        return max(0.0, float(max(speeds, default=0.0)))
 
     @ti.kernel
     def mark_touch(self):
