@@ -9,7 +9,9 @@ held layers"): in a column a body that does not flow touches, the node layer abo
 its normal velocity (:meth:`GroundTouch.dashpot`). Round 49 (docs/contact.md "Round 49: the touched layer shares the
 column's Coulomb bound"): in such a column the touched layer takes no normal stop (its normal motion is the body's,
 with the dashpot) and only the Coulomb bound its column's held layers left unused (:meth:`GroundTouch.touch_keep`,
-:meth:`GroundTouch.share_bound`).
+:meth:`GroundTouch.share_bound`). Round 50 (docs/contact.md "Round 50: the dashpot's push in the column's Coulomb
+bound"): the dashpot's signed push, times ``mu``, a credit of the column kept across substeps that the touched node's
+friction may spend (``touch_credit``, :meth:`GroundTouch.share_bound`).
 
 Mixed into :class:`gasp_taichi_mpm.grid.GridUpdate` (and so :class:`gasp_taichi_mpm.solver.MPMSolver`), whose
 fields (``ground_kmax``, ``ground_h``, ``x``, ``n_points``, ...) it reads.
@@ -160,7 +162,8 @@ class GroundTouch:
         """Round 49 (``share_on``), in the grid update before the rule, ``v`` node ``I``'s velocity (m/s), ``m`` its
         mass (kg): at ground ``b``'s held layers ``ground_kmax - 2 .. ground_kmax`` the Coulomb bound the stop gives
         that the node does not spend, ``m max(0, mu max(0, -v_z) - |v_xy|)`` (kg m/s), at slot ``I_z - ground_kmax + 2``
-        of ``touch_slots[b, I_x, I_y]``; at the touched layer the node's mass at slot 3 (warp_mpm's ``touch_keep``)."""
+        of ``touch_slots[b, I_x, I_y]``; at the touched layer the node's mass at slot 3, round 50 the node above's at
+        slot 4 (warp_mpm's ``touch_keep``)."""
         if ti.static(self.share_on):
             for b in ti.static(range(self.n_grounds)):
                 d = I[2] - self.ground_kmax[b]

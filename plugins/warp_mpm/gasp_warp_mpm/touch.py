@@ -8,7 +8,9 @@ flowing body (sand, snow, liquid) when its height is under ``touch_delta`` cells
 node layer above the held ones takes a dashpot on its normal velocity (:func:`build_dashpot`). Round 49
 (docs/contact.md "Round 49: the touched layer shares the column's Coulomb bound"): in such a column the touched layer
 takes no normal stop (its normal motion is the body's, with the dashpot) and only the Coulomb bound its column's held
-layers left unused (:func:`build_share`).
+layers left unused (:func:`build_share`). Round 50 (docs/contact.md "Round 50: the dashpot's push in the column's
+Coulomb bound"): the dashpot's signed push, times ``mu``, a credit of the column kept across substeps that the touched
+node's friction may spend (``touch_credit``, :func:`build_share`).
 
 After P2G (and the viscous step), before the two-field contact and the grid update: :func:`build_touch`'s
 ``touch_clear`` (a node-column kernel) zeroes ``ground_touch``, then ``touch_mark`` (a points kernel, atomic max)
@@ -80,10 +82,12 @@ class GroundTouch:
         n = len(heights) * self.n_grid ** 2 if self.touch_on else 1
         self.ground_touch = wp.zeros(n, dtype=wp.int32, device=self.device)
         self.touch_speed = touch_dashpot_speed(self.setup, self.touch_damping) if self.touch_on else 0.0   # m/s
-        # round 49: the held layers' unused Coulomb bound and the touched node's mass, 4 a column (build_share)
-        self.touch_slots = wp.zeros(SLOTS * n if self.touch_on and self.touch_share else 1, dtype=Ft, device=self.device)
+        # round 49: the held layers' unused Coulomb bound and the touched node's mass (round 50: and the node above's),
+        # SLOTS a column (build_share)
+        shared = self.touch_on and self.touch_share
+        self.touch_slots = wp.zeros(SLOTS * n if shared else 1, dtype=Ft, device=self.device)
         # round 50: each column's credit, mu times the dashpot's net push less the friction it gave (kg m/s)
-        self.touch_credits = wp.zeros(n if self.touch_on and self.touch_share else 1, dtype=Ft, device=self.device)
+        self.touch_credits = wp.zeros(n if shared else 1, dtype=Ft, device=self.device)
         self.ground_z = wp.array(np.array(heights or [0.0], dtype=self._np_dtype), dtype=Ft, device=self.device)
         self.touch_solid = wp.array(np.array([m.name not in FLOWING for m in self.setup.materials] or [False],
                                              dtype=np.int32), dtype=wp.int32, device=self.device)
@@ -259,10 +263,15 @@ def build_share(Ft):
     ``touch_keep(slots, v, m, i, j, k, ground, n_grid, ground_touch)`` (in the grid update at a node with mass, ``v``
     its velocity before the rule, m/s, ``m`` its mass, kg): for the held layers ``gr[0] - 2 .. gr[0]`` of a column,
     the Coulomb bound the ground's stop gives and its node does not spend, ``m max(0, mu max(0, -v_z) - |v_xy|)``
-    (kg m/s), at slot ``k - gr[0] + 2``; for the touched layer its mass at slot 3 (``slots``: 4 a column, ``Ft``).
-    The kernel ``touch_share(grid_v, slots, ground, ground_touch, n_grid)`` (a column a thread, after the grid
-    update): the touched node of a column marked 2 has its tangential velocity cut by the column's unused bound over
-    its mass (to 0 at most); its normal velocity is left as the body moved it. It clears every column's slots."""
+    (kg m/s), at slot ``k - gr[0] + 2``; for the touched layer its mass at slot 3, round 50 the node above's at slot 4
+    (``slots``: :data:`SLOTS` a column, ``Ft``).
+    The kernel ``touch_share(grid_v, slots, ground, ground_touch, n_grid, credit, res)`` (a column a thread, after the
+    grid update): the touched node of a column marked 2 has its tangential velocity cut by the column's unused bound
+    over its mass (to 0 at most); its normal velocity is left as the body moved it. Round 50 (``credit = s dt / dx``
+    not 0, ``touch_credit``): first the dashpot on the touched node and the one above (their normal velocity divided
+    by ``1 + credit``), its signed normal impulse times ``mu`` added to the column's credit ``res`` (kg m/s, kept
+    across substeps, 0 in a column not marked 2); the cut may then spend the credit where positive, and what it spends
+    beyond the held layers' bound is taken from it. It clears every column's slots."""
     vec3 = build_types(Ft)[0]
 
     @wp.func
