@@ -155,5 +155,6 @@ def test_the_travel_check_catches_round_49s_frictionless_dashpot(engine, monkeyp
     else:
         from gasp_warp_mpm.engine import WarpMPMEngine as cls
     monkeypatch.setattr(cls, "touch_credit", False)
+    monkeypatch.setattr(S, "SOLID_N_GRID", 32)
     err = jelly_errors(engine, 32)
     assert any(abs(e) > RATIO_TOL for e in err.values()), (engine, err)
