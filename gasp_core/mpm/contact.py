@@ -234,8 +234,8 @@ def touch_dashpot_speed(setup, damping: float = DAMPING) -> float:
     P-wave viscosity ``2 eta``, the bulk ``2 eta / 3`` plus ``4 eta / 3``: a damping ratio ``eta / (rho c dx)``), per
     body ``2 damping c - 2 eta / (rho dx)``, the largest, at least 0. Round 50 (docs/contact.md "Round 50: one
     dashpot speed"): a rigid body (``model = "rigid"``, ``gasp_core.mpm.rigid``) counts no speed: its stress is zero
-    (``zero_stress``), so it has no cell mode to damp and its ``E`` sets no step (``step_view``). Both engines call
-    this (taichi_mpm's engine passes it to its solver). ``setup``: ``materials`` (``p_wave_speed`` m/s,
+    (``zero_stress``), so it has no cell mode to damp and its ``E`` sets no step (``step_view``). Both grid engines
+    call this one rule. ``setup``: ``materials`` (``p_wave_speed`` m/s,
     ``viscosity`` Pa s, ``rho`` kg/m^3, ``name``, ``model``) and ``dx`` (m)."""
     speeds = [2.0 * float(damping) * m.p_wave_speed - 2.0 * m.viscosity / (m.rho * setup.dx)
               for m in setup.materials if m.name not in FLOWING and getattr(m, "model", "auto") != "rigid"]

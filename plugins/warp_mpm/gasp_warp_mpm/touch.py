@@ -252,6 +252,25 @@ def build_held(Ft):
 
 
 @functools.cache
+def build_damp_node(Ft):
+    """Round 50: ``damp_node(grid_v, node, m, d) -> jn``, scalar type ``Ft``: node ``node``'s normal (+z) velocity
+    (m/s) divided by ``1 + d``; returns the dashpot's normal impulse ``jn`` (kg m/s, + up; 0 where the mass ``m``,
+    kg, is 0). taichi_mpm's ``GroundTouch.damp_node``."""
+    vec3 = build_types(Ft)[0]
+
+    @wp.func
+    def damp_node(grid_v: wp.array(dtype=vec3), node: int, m: Ft, d: Ft):
+        jn = Ft(0.0)
+        if m > Ft(0.0):
+            v = grid_v[node]
+            jn = m * (v[2] / (Ft(1.0) + d) - v[2])
+            grid_v[node] = vec3(v[0], v[1], v[2] + jn / m)
+        return jn
+
+    return damp_node
+
+
+@functools.cache
 def build_share(Ft):
     """Round 49 (``GroundTouch.touch_share``; docs/contact.md "Round 49: the touched layer shares the column's Coulomb
     bound"), scalar type ``Ft``: ``(touch_keep, touch_share, shares)``.
@@ -273,6 +292,7 @@ def build_share(Ft):
     across substeps, 0 in a column not marked 2); the cut may then spend the credit where positive, and what it spends
     beyond the held layers' bound is taken from it. It clears every column's slots."""
     vec3 = build_types(Ft)[0]
+    damp_node = build_damp_node(Ft)
 
     @wp.func
     def shares(k: int, gr: vec3, q: int, i: int, j: int, n_grid: int, ground_touch: wp.array(dtype=wp.int32),
@@ -296,16 +316,6 @@ def build_share(Ft):
                         lt = wp.sqrt(v[0] * v[0] + v[1] * v[1])
                         val = m * wp.max(Ft(0.0), gr[1] * wp.max(Ft(0.0), -v[2]) - lt)
                     slots[((q * n_grid + i) * n_grid + j) * SLOTS + d + 2] = val
-
-    @wp.func
-    def damp_node(grid_v: wp.array(dtype=vec3), node: int, m: Ft, d: Ft):
-        # the node's normal velocity divided by 1 + d; returns the dashpot's normal impulse (kg m/s, + up; 0 at no mass)
-        jn = Ft(0.0)
-        if m > Ft(0.0):
-            v = grid_v[node]
-            jn = m * (v[2] / (Ft(1.0) + d) - v[2])
-            grid_v[node] = vec3(v[0], v[1], v[2] + jn / m)
-        return jn
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def touch_share(grid_v: wp.array(dtype=vec3), slots: wp.array(dtype=Ft), ground: wp.array(dtype=vec3),
