@@ -26,7 +26,8 @@ normal load over ``M g cos theta`` (2 ms means: min, max) and the share of that 
 the normal exceeds ``tan theta / 0.96`` (the friction a 0.96 case has). Lines are printed and appended to
 ``benchmarks/results/grid_hold.md`` (``--out``); ``--section TITLE`` first appends a heading ``## TITLE``;
 ``--touch-damping D`` sets both engines' ``touch_damping`` (round 48's dashpot above the held layers; 0: off, the
-rule before, docs/contact.md "Round 48: a dashpot above the held layers"); ``--viscous-conserve 0`` the viscous step's
+rule before, docs/contact.md "Round 48: a dashpot above the held layers"); ``--touch-credit 0`` round 49's touched
+layers (the dashpot's push gives no friction, docs/contact.md "Round 50"); ``--viscous-conserve 0`` the viscous step's
 rule before round 49 (the CG's iterate ``m u``, without the uniform correction ``du = sum r / sum m``),
 ``--viscous-tol T`` its CG tolerance (``TOL``, 1e-2) on both engines (docs/contact.md "Round 49: the viscous step's
 momentum, a uniform correction").
@@ -92,6 +93,7 @@ def main() -> None:
     p.add_argument("--out", default=str(ROOT / "benchmarks/results/grid_hold.md"))
     p.add_argument("--section", default=None)
     p.add_argument("--touch-damping", type=float, default=None)
+    p.add_argument("--touch-credit", type=int, default=None)
     p.add_argument("--viscous-conserve", type=int, default=None)
     p.add_argument("--viscous-tol", type=float, default=None)
     a = p.parse_args()
@@ -100,6 +102,10 @@ def main() -> None:
             fh.write(f"\n## {a.section}\n\n")
     if a.touch_damping is not None:
         _set_damping(a.touch_damping)
+    if a.touch_credit is not None:   # round 50: 0 is round 49's rule (the dashpot's push gives no friction)
+        from gasp_taichi_mpm.grid import GridUpdate
+        from gasp_warp_mpm.engine import WarpMPMEngine
+        GridUpdate.touch_credit = WarpMPMEngine.touch_credit = bool(a.touch_credit)
     _set_viscous(a.viscous_conserve, a.viscous_tol)
     for eng in a.engines.split(","):
         if a.ring:

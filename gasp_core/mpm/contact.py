@@ -232,9 +232,13 @@ def touch_dashpot_speed(setup, damping: float = DAMPING) -> float:
     (:data:`DAMPING`) on the cell's oscillator ``omega = c / dx``, implicit (``c_p dt / m = 2 damping omega dt``).
     Round 49 (docs/contact.md "Round 49"): less what the body's own viscosity ``eta`` already damps of that mode (its
     P-wave viscosity ``2 eta``, the bulk ``2 eta / 3`` plus ``4 eta / 3``: a damping ratio ``eta / (rho c dx)``), per
-    body ``2 damping c - 2 eta / (rho dx)``, the largest, at least 0."""
+    body ``2 damping c - 2 eta / (rho dx)``, the largest, at least 0. Round 50 (docs/contact.md "Round 50: one
+    dashpot speed"): a rigid body (``model = "rigid"``, ``gasp_core.mpm.rigid``) counts no speed: its stress is zero
+    (``zero_stress``), so it has no cell mode to damp and its ``E`` sets no step (``step_view``). Both grid engines
+    call this one rule. ``setup``: ``materials`` (``p_wave_speed`` m/s,
+    ``viscosity`` Pa s, ``rho`` kg/m^3, ``name``, ``model``) and ``dx`` (m)."""
     speeds = [2.0 * float(damping) * m.p_wave_speed - 2.0 * m.viscosity / (m.rho * setup.dx)
-              for m in setup.materials if m.name not in FLOWING]
+              for m in setup.materials if m.name not in FLOWING and getattr(m, "model", "auto") != "rigid"]
     return max(0.0, max(speeds, default=0.0))
 
 

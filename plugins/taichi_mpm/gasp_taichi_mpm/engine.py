@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from gasp_core.mpm.contact import (contact_coefficients, contact_model, contact_planes, contact_reach,
-                                      flowing_bodies, rule_models)
+                                      flowing_bodies, rule_models, touch_dashpot_speed)
 from gasp_core.mpm.fields import field_setup, shared_field_warning
 from gasp_core.mpm.grid_engine import choose_dt, GridEngineBase
 from gasp_core.mpm.materials import JELLY, initial_Jp, material_table
@@ -188,7 +188,7 @@ class TaichiMPMEngine(GridEngineBase):
             tiles=self.schedule == "gpu" and self.device == "cuda" and use_tiles(cfg.p2g, self.n_material),
             deterministic=cfg.deterministic, sort_every=cfg.tile_sort_every,
             body_mass=np.bincount(setup.body_id, weights=setup.p_mass, minlength=len(setup.materials)),
-            **self._extras(setup))
+            touch_speed=touch_dashpot_speed(setup, MPMSolver.touch_damping), **self._extras(setup))
         self._rigid_extras(setup, flowing_bodies(view, contact), rigid.any())
         self._p2g_mode = "tiles" if self.solver.tiles else "atomic" if atomic else "coloured blocks"
         self._p2g_mode += " in fixed point" if self.solver.fixed_point else ""

@@ -123,8 +123,8 @@ class MPMSolver(Transfers, ColouredP2G, TileP2G, FixedPointP2G, Constitutive, Gr
                  gravity, walls, grounds, regions, real, n_chunks, atomic, extras=None, time_table=None, n_substeps=1,
                  n_material=None, passive_every=1, flip=0.0, coloured=False, p_contact=None, passive_bounds=None,
                  rigid_frames=None, contact_reach=None, body_mass=None, n_colc=0, planes=None, mixed=None, fields=None,
-                 hold=None, box_hold=None, gpu=False, tiles=False, deterministic=False, sort_every=1):
-        n = len(x)
+                 hold=None, box_hold=None, gpu=False, tiles=False, deterministic=False, sort_every=1, touch_speed=0.0):
+        n, self.touch_speed_in = len(x), float(touch_speed)   # m/s: gasp_core.mpm.contact.touch_dashpot_speed
         self.n = n
         self.n_material = n if n_material is None else int(n_material)
         self.has_passive = self.n_material < n

@@ -9,16 +9,17 @@ held layers"): in a column a body that does not flow touches, the node layer abo
 its normal velocity (:meth:`GroundTouch.dashpot`). Round 49 (docs/contact.md "Round 49: the touched layer shares the
 column's Coulomb bound"): in such a column the touched layer takes no normal stop (its normal motion is the body's,
 with the dashpot) and only the Coulomb bound its column's held layers left unused (:meth:`GroundTouch.touch_keep`,
-:meth:`GroundTouch.share_bound`).
+:meth:`GroundTouch.share_bound`). Round 50 (docs/contact.md "Round 50: the dashpot's push in the column's Coulomb
+bound"): the dashpot's signed push, times ``mu``, a credit of the column kept across substeps that the touched node's
+friction may spend (``touch_credit``, :meth:`GroundTouch.share_bound`).
 
 Mixed into :class:`gasp_taichi_mpm.grid.GridUpdate` (and so :class:`gasp_taichi_mpm.solver.MPMSolver`), whose
 fields (``ground_kmax``, ``ground_h``, ``x``, ``n_points``, ...) it reads.
 """
-import numpy as np
 import taichi as ti
 
 from gasp_core.mpm.contact import DAMPING
-from gasp_core.mpm.materials import P_ETA, P_LAM, P_MU, MaterialKind
+from gasp_core.mpm.materials import MaterialKind
 
 #: The flowing materials' codes (``gasp_core.mpm.contact.FLOWING``): round 36's touch test.
 SAND, SNOW, LIQUID = int(MaterialKind.SAND), int(MaterialKind.SNOW), int(MaterialKind.LIQUID)
@@ -51,36 +52,29 @@ class GroundTouch:
     #: held layers' Coulomb bound left unused (:meth:`touch_keep`, :meth:`share_bound`); False: round 47-48's full
     #: Coulomb rule there. warp_mpm's ``GroundTouch.touch_share``.
     touch_share = True
+    #: Round 50 (docs/contact.md "Round 50: the dashpot's push in the column's Coulomb bound"): True, with
+    #: ``touch_share``: the dashpot's signed normal impulse on the touched node and the one above, times ``mu``, is a
+    #: credit of the column kept across substeps, which the touched node's friction may spend where positive
+    #: (:meth:`share_bound`); False: round 49's rule (the dashpot's push gives no friction). warp_mpm's
+    #: ``GroundTouch.touch_credit``.
+    touch_credit = True
 
     def allocate_touch(self) -> None:
         """``touch_on`` (the switch, a ground with friction, ``ground_rubs``, and the grid contact's rule: no particle contact, or the contact chosen
         per body) and ``ground_touch`` (i32, ``(4, n_grid, n_grid)``: ground, column; else one entry). Called by
         :meth:`~gasp_taichi_mpm.contact.Contact.allocate_mixed` (``mixed`` known); ``ground_touch`` holds 2 where a
         point of a body that does not flow touches, 1 where only flowing ones do; ``touch_speed`` (m/s, float:
-        :meth:`dashpot_speed`, 0.0 when off)."""
+        ``gasp_core.mpm.contact.touch_dashpot_speed`` of the scene, given by the engine as ``touch_speed_in``; 0.0 when
+        off)."""
         self.touch_on = bool(self.touch_contact and self.ground_rubs and (not self.pc or self.mixed))
         ng = self.n_grid
         self.ground_touch = ti.field(ti.i32, shape=(4, ng, ng) if self.touch_on else (1, 1, 1))
-        self.touch_speed = self.dashpot_speed() if self.touch_on else 0.0
-        self.share_on = bool(self.touch_on and self.touch_share)   # round 49: touch_slots, 4 a column (touch_keep)
-        self.touch_slots = ti.field(self.real, shape=(4, ng, ng, 4) if self.share_on else (1, 1, 1, 1))
-
-    def dashpot_speed(self) -> float:
-        """The dashpot's speed (m/s, float; ``gasp_core.mpm.contact.touch_dashpot_speed``, the same rule): the largest
-        ``2 touch_damping c - 2 eta / (rho dx)`` of the bodies that do not flow, at least 0 (``c`` the P-wave speed
-        ``sqrt((lam + 2 mu) / rho)``, their Lame parameters and viscosity ``eta`` from ``mat``, ``rho`` their points'
-        mass over volume; round 49: a body's own viscous damping of the cell's mode counts against it); 0.0 without
-        one."""
-        n = self.n_material
-        body, kind, mat = self.body.to_numpy()[:n], self.kind.to_numpy(), self.mat.to_numpy().astype(np.float64)
-        mass = np.bincount(body, self.p_mass.to_numpy()[:n].astype(np.float64), minlength=len(kind))
-        vol = np.bincount(body, self.p_vol.to_numpy()[:n].astype(np.float64), minlength=len(kind))
-        dx = float(self.dx[None])
-        zeta = 2.0 * float(self.touch_damping)
-        speeds = [zeta * float(np.sqrt((mat[b, P_LAM] + 2.0 * mat[b, P_MU]) * vol[b] / mass[b]))
-                  - 2.0 * float(mat[b, P_ETA]) * vol[b] / (mass[b] * dx) for b in range(len(kind))
-                  if mass[b] > 0.0 and int(kind[b]) not in (SAND, SNOW, LIQUID)]
-        return max(0.0, float(max(speeds, default=0.0)))
+        self.touch_speed = self.touch_speed_in if self.touch_on else 0.0   # the engine's touch_dashpot_speed
+        self.share_on = bool(self.touch_on and self.touch_share)   # round 49: touch_slots, 5 a column (touch_keep)
+        self.touch_slots = ti.field(self.real, shape=(4, ng, ng, 5) if self.share_on else (1, 1, 1, 1))
+        # round 50: each column's credit, mu times the dashpot's net push less the friction it gave (kg m/s)
+        self.credit_on = bool(self.share_on and self.touch_credit and self.touch_speed > 0.0)
+        self.touch_credits = ti.field(self.real, shape=(4, ng, ng) if self.credit_on else (1, 1, 1))
 
     @ti.kernel
     def mark_touch(self):
@@ -134,7 +128,7 @@ class GroundTouch:
         friction, ``v``'s normal (+z) part divided by ``1 + touch_speed dt / dx``, both ways; ``v`` elsewhere. No
         friction is taken from it (warp_mpm's ``touch.build_dashpot``)."""
         out = v
-        if ti.static(self.touch_on and self.touch_speed > 0.0):
+        if ti.static(self.touch_on and self.touch_speed > 0.0 and not self.credit_on):   # round 50: share_bound's
             k = I[2] - self.ground_kmax[b]   # round 49: the touched layer too (k 1) where it shares the bound
             if (k == 2 or (ti.static(self.share_on) and k == 1)) and self.ground_fric[b] > 0 \
                     and self.ground_touch[b, I[0], I[1]] == 2:
@@ -168,34 +162,62 @@ class GroundTouch:
         """Round 49 (``share_on``), in the grid update before the rule, ``v`` node ``I``'s velocity (m/s), ``m`` its
         mass (kg): at ground ``b``'s held layers ``ground_kmax - 2 .. ground_kmax`` the Coulomb bound the stop gives
         that the node does not spend, ``m max(0, mu max(0, -v_z) - |v_xy|)`` (kg m/s), at slot ``I_z - ground_kmax + 2``
-        of ``touch_slots[b, I_x, I_y]``; at the touched layer the node's mass at slot 3 (warp_mpm's ``touch_keep``)."""
+        of ``touch_slots[b, I_x, I_y]``; at the touched layer the node's mass at slot 3, round 50 the node above's at
+        slot 4 (warp_mpm's ``touch_keep``)."""
         if ti.static(self.share_on):
             for b in ti.static(range(self.n_grounds)):
                 d = I[2] - self.ground_kmax[b]
-                if -2 <= d and d <= 1:
-                    val = m
+                if -2 <= d and d <= 2:
+                    val = m   # the touched node's mass (d 1), round 50: the node above's (d 2)
                     if d < 1:
                         lt = ti.sqrt(v[0] * v[0] + v[1] * v[1])
                         val = m * ti.max(0.0, self.ground_fric[b] * ti.max(0.0, -v[2]) - lt)
                     self.touch_slots[b, I[0], I[1], d + 2] = val
 
+    @ti.func
+    def damp_node(self, I, m, d):
+        """Round 50: node ``I``'s normal velocity divided by ``1 + d``; returns the dashpot's normal impulse (kg m/s, +
+        up; 0 at no mass ``m``)."""
+        jn = ti.cast(0.0, self.real)
+        if m > 0:
+            v = self.grid_v[I]
+            jn = m * (v[2] / (1.0 + d) - v[2])
+            self.grid_v[I] = ti.Vector([v[0], v[1], v[2] + jn / m])
+        return jn
+
     @ti.kernel
     def share_bound(self):
         """Round 49, after the grid update: the touched node of a column marked 2 (:meth:`shares`) has its tangential
         velocity cut by the column's unused bound (slots 0-2) over its mass (slot 3), to 0 at most; its normal
-        velocity is the body's. The slots are cleared for the next substep (warp_mpm's ``touch_share``)."""
+        velocity is the body's. Round 50 (``credit_on``): first the dashpot on the touched node and the one above (mass
+        slot 4), both ways, its signed normal impulse times ``mu`` added to the column's credit (``touch_credits``,
+        kept across substeps, 0 in an unmarked column); the cut may spend the credit where positive, and what it
+        spends beyond the held layers' bound is taken from it. The slots are cleared for the next substep (warp_mpm's
+        ``touch_share``)."""
         ng = self.n_grid
         for b, i, j in ti.ndrange(self.n_grounds, ng, ng):
             kt = self.ground_kmax[b] + 1
             m = self.touch_slots[b, i, j, 3]
-            if self.ground_touch[b, i, j] == 2 and self.ground_fric[b] > 0 and 0 <= kt and kt < ng and m > 0:
+            if self.ground_touch[b, i, j] == 2 and self.ground_fric[b] > 0 and 0 <= kt and kt < ng:
+                r = ti.cast(0.0, self.real)
+                mu = self.ground_fric[b]
+                if ti.static(self.credit_on):
+                    d = ti.cast(self.touch_speed, self.real) * self.dt[None] / self.dx[None]
+                    r = self.touch_credits[b, i, j] + mu * self.damp_node(ti.Vector([i, j, kt]), m, d)
+                    if kt + 1 < ng:
+                        r += mu * self.damp_node(ti.Vector([i, j, kt + 1]), self.touch_slots[b, i, j, 4], d)
                 v = self.grid_v[i, j, kt]
                 lt = ti.sqrt(v[0] * v[0] + v[1] * v[1])
-                if lt > 1e-30:
-                    left = self.touch_slots[b, i, j, 0] + self.touch_slots[b, i, j, 1] + self.touch_slots[b, i, j, 2]
-                    s = ti.max(0.0, 1.0 - left / (m * lt))
+                if m > 0 and lt > 1e-30:
+                    held = self.touch_slots[b, i, j, 0] + self.touch_slots[b, i, j, 1] + self.touch_slots[b, i, j, 2]
+                    s = ti.max(0.0, 1.0 - (held + ti.max(r, 0.0)) / (m * lt))
                     self.grid_v[i, j, kt] = ti.Vector([v[0] * s, v[1] * s, v[2]])
-            for c in ti.static(range(4)):
+                    r -= ti.max(0.0, m * lt * (1.0 - s) - held)   # what it spent beyond the held layers'
+                if ti.static(self.credit_on):
+                    self.touch_credits[b, i, j] = r
+            elif ti.static(self.credit_on):
+                self.touch_credits[b, i, j] = 0.0
+            for c in ti.static(range(5)):
                 self.touch_slots[b, i, j, c] = 0.0
 
     def touch_update(self) -> None:

@@ -8,7 +8,9 @@ flowing body (sand, snow, liquid) when its height is under ``touch_delta`` cells
 node layer above the held ones takes a dashpot on its normal velocity (:func:`build_dashpot`). Round 49
 (docs/contact.md "Round 49: the touched layer shares the column's Coulomb bound"): in such a column the touched layer
 takes no normal stop (its normal motion is the body's, with the dashpot) and only the Coulomb bound its column's held
-layers left unused (:func:`build_share`).
+layers left unused (:func:`build_share`). Round 50 (docs/contact.md "Round 50: the dashpot's push in the column's
+Coulomb bound"): the dashpot's signed push, times ``mu``, a credit of the column kept across substeps that the touched
+node's friction may spend (``touch_credit``, :func:`build_share`).
 
 After P2G (and the viscous step), before the two-field contact and the grid update: :func:`build_touch`'s
 ``touch_clear`` (a node-column kernel) zeroes ``ground_touch``, then ``touch_mark`` (a points kernel, atomic max)
@@ -28,6 +30,10 @@ import warp as wp
 from gasp_core.mpm.contact import DAMPING, FLOWING, touch_dashpot_speed
 
 from .precision import MODULE_OPTIONS, build_types
+
+#: Round 50: a column's slots (:func:`build_share`): the held layers' unused bound (3), the touched node's mass, the
+#: mass of the node above it (the dashpot's, with ``touch_credit``).
+SLOTS = 5
 
 
 class GroundTouch:
@@ -57,6 +63,11 @@ class GroundTouch:
     #: held layers' Coulomb bound left unused (:func:`build_share`); False: round 47-48's full Coulomb rule there
     #: (the catch of ``tests/test_sag_family.py``). Read when the engine is built.
     touch_share = True
+    #: Round 50 (docs/contact.md "Round 50: the dashpot's push in the column's Coulomb bound"): True, with
+    #: ``touch_share``: the dashpot's signed normal impulse on the touched node and the one above, times ``mu``, is a
+    #: credit of the column kept across substeps, which the touched node's friction may spend where positive
+    #: (:func:`build_share`); False: round 49's rule (the dashpot's push gives no friction). Read when built.
+    touch_credit = True
 
     def allocate_touch(self, Ft, contact: str) -> None:
         """``touch_on`` (the switch, a ground, and ``contact`` ``"grid"`` or ``"mixed"``), ``ground_touch`` (int32,
@@ -71,8 +82,12 @@ class GroundTouch:
         n = len(heights) * self.n_grid ** 2 if self.touch_on else 1
         self.ground_touch = wp.zeros(n, dtype=wp.int32, device=self.device)
         self.touch_speed = touch_dashpot_speed(self.setup, self.touch_damping) if self.touch_on else 0.0   # m/s
-        # round 49: the held layers' unused Coulomb bound and the touched node's mass, 4 a column (build_share)
-        self.touch_slots = wp.zeros(4 * n if self.touch_on and self.touch_share else 1, dtype=Ft, device=self.device)
+        # round 49: the held layers' unused Coulomb bound and the touched node's mass (round 50: and the node above's),
+        # SLOTS a column (build_share)
+        shared = self.touch_on and self.touch_share
+        self.touch_slots = wp.zeros(SLOTS * n if shared else 1, dtype=Ft, device=self.device)
+        # round 50: each column's credit, mu times the dashpot's net push less the friction it gave (kg m/s)
+        self.touch_credits = wp.zeros(n if shared else 1, dtype=Ft, device=self.device)
         self.ground_z = wp.array(np.array(heights or [0.0], dtype=self._np_dtype), dtype=Ft, device=self.device)
         self.touch_solid = wp.array(np.array([m.name not in FLOWING for m in self.setup.materials] or [False],
                                              dtype=np.int32), dtype=wp.int32, device=self.device)
@@ -82,8 +97,10 @@ class GroundTouch:
         ``touch_on`` is False or ``touch_share`` is off."""
         if self.touch_slots.shape[0] == 1:   # touch_on and touch_share
             return []
+        credit = Ft(self.touch_speed * self.dt / self.dx if self.touch_credit else 0.0)   # round 50: the dashpot here
         return [wp.launch(build_share(Ft)[1], dim=self.ground_touch.shape[0], device=self.device, record_cmd=True,
-                          inputs=[self.grid_v, self.touch_slots, self.ground, self.ground_touch, self.n_grid])]
+                          inputs=[self.grid_v, self.touch_slots, self.ground, self.ground_touch, self.n_grid, credit,
+                                  self.touch_credits])]
 
     def touch_launches(self, Ft) -> list:
         """The recorded clear and mark (after P2G, before the two-field contact and the grid update); none when
@@ -235,6 +252,25 @@ def build_held(Ft):
 
 
 @functools.cache
+def build_damp_node(Ft):
+    """Round 50: ``damp_node(grid_v, node, m, d) -> jn``, scalar type ``Ft``: node ``node``'s normal (+z) velocity
+    (m/s) divided by ``1 + d``; returns the dashpot's normal impulse ``jn`` (kg m/s, + up; 0 where the mass ``m``,
+    kg, is 0). taichi_mpm's ``GroundTouch.damp_node``."""
+    vec3 = build_types(Ft)[0]
+
+    @wp.func
+    def damp_node(grid_v: wp.array(dtype=vec3), node: int, m: Ft, d: Ft):
+        jn = Ft(0.0)
+        if m > Ft(0.0):
+            v = grid_v[node]
+            jn = m * (v[2] / (Ft(1.0) + d) - v[2])
+            grid_v[node] = vec3(v[0], v[1], v[2] + jn / m)
+        return jn
+
+    return damp_node
+
+
+@functools.cache
 def build_share(Ft):
     """Round 49 (``GroundTouch.touch_share``; docs/contact.md "Round 49: the touched layer shares the column's Coulomb
     bound"), scalar type ``Ft``: ``(touch_keep, touch_share, shares)``.
@@ -246,11 +282,17 @@ def build_share(Ft):
     ``touch_keep(slots, v, m, i, j, k, ground, n_grid, ground_touch)`` (in the grid update at a node with mass, ``v``
     its velocity before the rule, m/s, ``m`` its mass, kg): for the held layers ``gr[0] - 2 .. gr[0]`` of a column,
     the Coulomb bound the ground's stop gives and its node does not spend, ``m max(0, mu max(0, -v_z) - |v_xy|)``
-    (kg m/s), at slot ``k - gr[0] + 2``; for the touched layer its mass at slot 3 (``slots``: 4 a column, ``Ft``).
-    The kernel ``touch_share(grid_v, slots, ground, ground_touch, n_grid)`` (a column a thread, after the grid
-    update): the touched node of a column marked 2 has its tangential velocity cut by the column's unused bound over
-    its mass (to 0 at most); its normal velocity is left as the body moved it. It clears every column's slots."""
+    (kg m/s), at slot ``k - gr[0] + 2``; for the touched layer its mass at slot 3, round 50 the node above's at slot 4
+    (``slots``: :data:`SLOTS` a column, ``Ft``).
+    The kernel ``touch_share(grid_v, slots, ground, ground_touch, n_grid, credit, res)`` (a column a thread, after the
+    grid update): the touched node of a column marked 2 has its tangential velocity cut by the column's unused bound
+    over its mass (to 0 at most); its normal velocity is left as the body moved it. Round 50 (``credit = s dt / dx``
+    not 0, ``touch_credit``): first the dashpot on the touched node and the one above (their normal velocity divided
+    by ``1 + credit``), its signed normal impulse times ``mu`` added to the column's credit ``res`` (kg m/s, kept
+    across substeps, 0 in a column not marked 2); the cut may then spend the credit where positive, and what it spends
+    beyond the held layers' bound is taken from it. It clears every column's slots."""
     vec3 = build_types(Ft)[0]
+    damp_node = build_damp_node(Ft)
 
     @wp.func
     def shares(k: int, gr: vec3, q: int, i: int, j: int, n_grid: int, ground_touch: wp.array(dtype=wp.int32),
@@ -268,16 +310,16 @@ def build_share(Ft):
             for q in range(ground.shape[0]):
                 gr = ground[q]
                 d = k - int(gr[0])
-                if d >= -2 and d <= 1:
-                    val = m
+                if d >= -2 and d <= 2:
+                    val = m   # the touched node's mass (d 1), round 50: the node above's (d 2)
                     if d < 1:
                         lt = wp.sqrt(v[0] * v[0] + v[1] * v[1])
                         val = m * wp.max(Ft(0.0), gr[1] * wp.max(Ft(0.0), -v[2]) - lt)
-                    slots[((q * n_grid + i) * n_grid + j) * 4 + d + 2] = val
+                    slots[((q * n_grid + i) * n_grid + j) * SLOTS + d + 2] = val
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def touch_share(grid_v: wp.array(dtype=vec3), slots: wp.array(dtype=Ft), ground: wp.array(dtype=vec3),
-                    ground_touch: wp.array(dtype=wp.int32), n_grid: int):
+                    ground_touch: wp.array(dtype=wp.int32), n_grid: int, credit: Ft, res: wp.array(dtype=Ft)):
         col = wp.tid()
         q = col / (n_grid * n_grid)
         i = (col / n_grid) % n_grid
@@ -285,15 +327,26 @@ def build_share(Ft):
         gr = ground[q]
         kt = int(gr[0]) + 1
         if ground_touch[col] == 2 and gr[1] > Ft(0.0) and kt >= 0 and kt < n_grid:
-            m = slots[col * 4 + 3]
+            m = slots[col * SLOTS + 3]
             node = (i * n_grid + j) * n_grid + kt
+            r = res[col]
+            if credit > Ft(0.0):
+                # round 50: the dashpot on the touched node and the one above (both ways), its signed normal impulse
+                # times mu added to the column's credit, kept across substeps; the friction may spend what is positive
+                r = r + gr[1] * damp_node(grid_v, node, m, credit)
+                if kt + 1 < n_grid:
+                    r = r + gr[1] * damp_node(grid_v, node + 1, slots[col * SLOTS + 4], credit)
             v = grid_v[node]
             lt = wp.sqrt(v[0] * v[0] + v[1] * v[1])
             if m > Ft(0.0) and lt > Ft(1e-30):
-                left = slots[col * 4] + slots[col * 4 + 1] + slots[col * 4 + 2]
-                s = wp.max(Ft(0.0), Ft(1.0) - left / (m * lt))
+                held = slots[col * SLOTS] + slots[col * SLOTS + 1] + slots[col * SLOTS + 2]
+                s = wp.max(Ft(0.0), Ft(1.0) - (held + wp.max(r, Ft(0.0))) / (m * lt))
                 grid_v[node] = vec3(v[0] * s, v[1] * s, v[2])
-        for c in range(4):   # cleared for the next substep (a node of no mass writes none)
-            slots[col * 4 + c] = Ft(0.0)
+                r = r - wp.max(Ft(0.0), m * lt * (Ft(1.0) - s) - held)   # what it spent beyond the held layers'
+            res[col] = r
+        else:
+            res[col] = Ft(0.0)
+        for c in range(SLOTS):   # cleared for the next substep (a node of no mass writes none)
+            slots[col * SLOTS + c] = Ft(0.0)
 
     return touch_keep, touch_share, shares
