@@ -5,6 +5,9 @@ at the fit's end against Coulomb's from rest at the landing (``a t^2 / 2``; Coul
 tangential speed that is 0 at the impact). Prints one line a case.
 
     python benchmarks/studies/landed_slide.py --engine warp_mpm --n 32 48 --speeds 0 0.5 1 2
+
+``--throw``: instead, ``tests/test_ground_slide_coulomb.py``'s jelly block thrown along the ground at 1.2 and 1.6 m/s
+with a downward speed of 0.5 and 1 m/s: ``sand_ball.coulomb_ratio`` over ``mu``, less 1, to frames 1, 2, 3 and 6.
 """
 import argparse
 import math
@@ -21,6 +24,23 @@ def _cls(engine: str):
     return cls
 
 
+def throw(engine: str, credits) -> None:
+    """The ``--throw`` lines (module docstring)."""
+    from gasp_core.seam.plugins import get_engine
+    from gasp_core.testing import sand_ball as S
+    from gasp_core.testing.kit import run_trace
+    for credit in credits:
+        _cls(engine).touch_credit = bool(credit)
+        for vz in (0.5, 1.0):
+            for v0 in (1.2, 1.6):
+                s = S.slide_setup(v0, {"threads": 1, "contact": "grid"}, ground=True, solid=True)
+                s.v = np.asarray(s.v, float) + np.array([0.0, 0.0, -vz])
+                tr = run_trace(get_engine(engine), s, 6)
+                r = [S.coulomb_ratio(tr.v, s, 0, f) / float(s.boundaries[0].friction) - 1 for f in (1, 2, 3, 6)]
+                print(f"{engine} credit {credit} vz {vz} v0 {v0} ratio/mu-1 f1,2,3,6: "
+                      + " ".join(f"{100 * x:+.1f}%" for x in r), flush=True)
+
+
 def main() -> None:
     from gasp_core.testing.grid_hold import LAND_FIT, landed_trace
     ap = argparse.ArgumentParser()
@@ -29,7 +49,10 @@ def main() -> None:
     ap.add_argument("--speeds", type=float, nargs="+", default=[0.0, 0.5, 1.0, 2.0])
     ap.add_argument("--cases", default="45:0.95,30:0.4")
     ap.add_argument("--credit", type=int, nargs="+", default=[1, 0])
+    ap.add_argument("--throw", action="store_true")
     a = ap.parse_args()
+    if a.throw:
+        return throw(a.engine, a.credit)
     cls = _cls(a.engine)
     for n in a.n:
         for case in a.cases.split(","):
