@@ -89,4 +89,48 @@ def slide_error(engine: str, material: str, n: int, theta: float, mu: float, dam
     return a / (9.81 * (math.sin(r) - mu * math.cos(r))) - 1.0
 
 
-__all__ = ["DAMPED_ETA", "HOLD_MU", "SETTLE_S", "block_material", "hold_travel", "slide_error"]
+LAND_GAP_DX = 0.0
+LAND_FIT = (0.2, 0.45)
+
+
+def landed_trace(engine: str, n: int, theta: float, mu: float, v_land: float, factor: float = 1.0,
+                 frames: int | None = None, eta: float = 0.0) -> tuple:
+    """Round 50 (docs/contact.md "Round 50: a slide after a landing"): the jelly block of :func:`slide_error` lifted
+    ``LAND_GAP_DX`` cells off the slope's plane and thrown at it, normal velocity ``-v_land`` m/s (``v_land`` >= 0),
+    on the grid contact. Returns ``(t, c)``: ``t`` the frame times (s, float64, ``(F + 1,)``, 0 the throw), ``c`` the
+    centroid (m, float64, ``(F + 1, 3)``); ``None`` if the engine diverged. ``frames`` defaults to
+    ``LAND_FIT[1]`` s; ``factor`` the catch's friction (the scene's ``factor mu``)."""
+    from gasp_core.errors import EngineDivergence
+    from gasp_core.seam.build import build_engine
+    from gasp_core.seam.plugins import get_engine
+    from .snow import SLOPE_FPS, slope_setup
+    s = slope_setup(theta, factor * mu, n, block_material("jelly", eta), {"contact": "grid"})
+    s.x = s.x + np.array([0.0, 0.0, LAND_GAP_DX * float(s.domain_hi[2] - s.domain_lo[2]) / n])
+    s.v = np.tile(np.array([0.0, 0.0, -float(v_land)]), (len(s.x), 1))
+    e = build_engine(get_engine(engine), s)
+    c = [np.asarray(s.x, np.float64).mean(axis=0)]
+    try:
+        for _ in range(frames or round(LAND_FIT[1] * SLOPE_FPS)):
+            e.step_frame()
+            c.append(e.positions().astype(np.float64).mean(axis=0))
+    except EngineDivergence:
+        return None
+    return np.arange(len(c)) / SLOPE_FPS, np.array(c)
+
+
+def landed_slide_error(engine: str, n: int, theta: float, mu: float, v_land: float, factor: float = 1.0) -> float:
+    """:func:`landed_trace`'s block after its landing: the acceleration along the slope (twice the leading
+    coefficient of a parabola fitted to the centroid's x over ``LAND_FIT`` s) against Coulomb's ``g (sin theta - mu
+    cos theta)``, the relative error (float, 0.01 = 1 %; ``inf`` if it diverged)."""
+    tr = landed_trace(engine, n, theta, mu, v_land, factor)
+    if tr is None:
+        return math.inf
+    t, c = tr
+    sel = (t >= LAND_FIT[0] - 1e-9) & (t <= LAND_FIT[1] + 1e-9)
+    a = 2.0 * float(np.polyfit(t[sel], c[sel, 0], 2)[0])
+    r = math.radians(theta)
+    return a / (9.81 * (math.sin(r) - mu * math.cos(r))) - 1.0
+
+
+__all__ = ["DAMPED_ETA", "HOLD_MU", "SETTLE_S", "LAND_FIT", "LAND_GAP_DX", "block_material", "hold_travel", "landed_slide_error",
+           "landed_trace", "slide_error"]

@@ -1,0 +1,85 @@
+"""Round 50 (issue 67; docs/contact.md "Round 50: a slide after a landing"): the jelly block of
+``tests/test_grid_hold.py`` thrown at the slope's plane, then sliding, on the grid contact, both MPM engines
+(``gasp_core.testing.grid_hold.landed_slide_error``).
+
+Round 50 credits the touch dashpot's signed push, times ``mu``, to its column's Coulomb bound and keeps the credit
+while the column stays touched (``touch_credit``): a landing's push kept as credit could give extra friction later, so
+a block that lands and then should slide might slide slow. Measured (``benchmarks/studies/landed_slide.py``): the
+undamped jelly (E 1e5 Pa) started on the plane with a normal speed of 0.5, 1 or 2 m/s does not bounce (the held
+layers and the dashpot take the landing: its centroid sinks 0.05-0.19 mm) and then slides at Coulomb's acceleration
+``g (sin - mu cos)`` (fitted over ``LAND_FIT`` = 0.2-0.45 s) within 0.5 % on n_grid 32 at 45 degrees (mu 0.95,
+``tan theta / mu`` 1.05) and 30 degrees (mu 0.4), and on n_grid 48 at 30 degrees, with the credit on or off; the
+credit's trace is a start about one frame late (16 ms at 0.5 m/s, n_grid 32, 45 degrees), not a slower slide.
+Checks: those slides within ``SLIDE_TOL`` (2.5 %, either way: a 5 % bias fails); on n_grid 48 at 45 degrees the
+slide runs fast (+16 to +34 %, the released block too from 0.1 s on: its base climbs off the plane, 0.4 mm by 0.6 s;
+round 50's released check fits 0.05-0.3 s), a strict xfail. The catch: the engine's ground friction 1 % high (a
+contact 1 % too sticky) must fail the n_grid 32 slide at 45 degrees (-19.07 / -19.08 %, warp_mpm / taichi_mpm;
+``touch_credit`` False is not caught: +0.35 % at most). The block of ``tests/test_ground_slide_coulomb.py`` thrown
+down onto the ground takes more friction in its landing than Coulomb's impulse law allows (+77 / +94 % of ``mu``, the
+limit biting at the impact): strict xfails, not fixed. 1-10 s a case (slow).
+"""
+from __future__ import annotations
+
+import pytest
+
+from gasp_core.testing.grid_hold import landed_slide_error
+
+ENGINES = ["warp_mpm", "taichi_mpm"]
+SLIDE_TOL = 0.025
+#: (n_grid, theta degrees, mu, landing speed m/s)
+LANDED = ([(32, theta, mu, v) for theta, mu in ((45, 0.95), (30, 0.4)) for v in (0.5, 1.0, 2.0)]
+          + [(48, 30, 0.4, v) for v in (0.5, 1.0, 2.0)])
+#: The landed slides the grid contact does not meet (measured, warp_mpm: +15.9 / +16.2 / +33.9 %).
+LANDED_MISSES = {(48, 45, 0.95, 1.0): "n_grid 48 at 45 degrees: the base climbs off the plane and the slide runs fast"}
+
+
+def _cases():
+    for case in LANDED:
+        yield pytest.param(*case)
+    for case, why in LANDED_MISSES.items():
+        yield pytest.param(*case, marks=pytest.mark.xfail(strict=True, reason=why))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("n_grid,theta,mu,v_land", list(_cases()))
+def test_a_landed_jelly_slides_at_coulombs_rate(engine, n_grid, theta, mu, v_land):
+    pytest.importorskip({"warp_mpm": "gasp_warp_mpm", "taichi_mpm": "gasp_taichi_mpm"}[engine])
+    err = landed_slide_error(engine, n_grid, theta, mu, v_land)
+    assert abs(err) < SLIDE_TOL, f"{engine}, n_grid {n_grid}, {theta} deg, mu {mu}, {v_land} m/s: {100 * err:+.2f} %"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("engine", ENGINES)
+def test_the_landed_slide_check_catches_a_sticky_contact(engine):
+    # the engine's ground friction 1 % high: Coulomb's acceleration at 45 degrees, mu 0.95, about -19 %
+    pytest.importorskip({"warp_mpm": "gasp_warp_mpm", "taichi_mpm": "gasp_taichi_mpm"}[engine])
+    err = landed_slide_error(engine, 32, 45, 0.95, 1.0, factor=1.01)
+    assert abs(err) >= SLIDE_TOL, f"{engine}: the friction 1 % high slid at {100 * err:+.2f} % off Coulomb"
+
+
+#: Round 50's limit, measured and not fixed (docs/contact.md "Round 50: a slide after a landing"): the jelly block of
+#: ``tests/test_ground_slide_coulomb.py`` thrown along the ground at 1.6 m/s with a downward speed ``vz`` (n_grid 32)
+#: loses more horizontal momentum in its landing's frame than ``mu`` times the normal impulse the ground gives it
+#: (Coulomb's impulse law; its whole base still slides forward): measured +77.0 / +93.7 % at vz 0.5 / 1 m/s with the
+#: credit, +33.3 / +47.8 % without (round 49's rule), both engines.
+THROW_MISS = "the landing's friction impulse exceeds mu times its normal impulse (round 50's limit, not fixed)"
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason=THROW_MISS)
+@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("vz", [0.5, 1.0])
+def test_a_block_thrown_down_onto_the_ground_lands_by_coulombs_impulse_law(engine, vz):
+    import numpy as np
+
+    from gasp_core.seam.plugins import get_engine
+    from gasp_core.testing import sand_ball as S
+    from gasp_core.testing.kit import run_trace
+    pytest.importorskip({"warp_mpm": "gasp_warp_mpm", "taichi_mpm": "gasp_taichi_mpm"}[engine])
+    s = S.slide_setup(1.6, {"threads": 1, "contact": "grid"}, ground=True, solid=True)
+    s.v = np.asarray(s.v, float) + np.array([0.0, 0.0, -vz])
+    tr = run_trace(get_engine(engine), s, 1)
+    err = S.coulomb_ratio(tr.v, s, 0, 1) / float(s.boundaries[0].friction) - 1.0
+    assert abs(err) < SLIDE_TOL, f"{engine}, vz {vz} m/s: the landing's friction over mu times its normal impulse " \
+                                 f"{100 * err:+.2f} % off"
