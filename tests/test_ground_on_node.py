@@ -27,6 +27,10 @@ and 0.0005 / 0.058 / **139** mm). So the catch is the engine before rounds 35-36
 the touched layer off), and the grid alone left where it lay is caught where it still matters: 45 degrees at 3/4 of
 a cell (139 mm), and the column's runout at 3/4 of a cell (1.708 against 1.917, -10.9 %; its height 1.237 against
 1.236, held by the touched layer).
+
+Since round 50 (the touch dashpot's push credited to the column's Coulomb bound, ``touch_credit``) the block holds
+on the grid left where it lay at 45 degrees, 3/4 of a cell, too (0.0186 mm in 1 s, warp_mpm, lead; 139 mm before):
+that catch no longer catches and was dropped; the grid alone left where it lay is caught by the column's runout.
 """
 from __future__ import annotations
 
@@ -122,9 +126,6 @@ def test_the_block_holds_with_the_plane_half_a_cell_above_a_node(engine, monkeyp
 def test_the_grid_contacts_tolerance_holds_at_every_offset(engine, theta, mu, offset, monkeypatch):
     problem = _holds(engine, theta, mu, offset)
     assert problem is None, f"{engine}, offset {offset}: {problem}"
-    if (theta, mu, offset) == (45, 1.05, 0.75):   # the grid alone left where it lay: 139 mm (the touched layer on)
-        unaligned(engine, monkeypatch)
-        assert check(theta, mu, measure(engine, theta, mu, "grid", spoil=raised(offset))) is not None
     assert _holds(engine, theta, mu, offset, aligned=False, monkeypatch=monkeypatch) is not None
 
 
