@@ -28,6 +28,7 @@ import importlib.util
 
 import numpy as np
 import pytest
+from test_viscous_momentum import _grid_momentum, _viscous_cls
 
 from gasp_core.seam.build import build_engine
 from gasp_core.seam.setup import Material, SimSetup
@@ -72,21 +73,6 @@ def two_bodies(n_grid: int, gap: int, side: int, schedule: str):
     return s, v, body
 
 
-def _grid_momentum(eng, engine: str) -> np.ndarray:
-    if engine == "taichi_mpm":
-        g = eng.solver.grid_mv.to_numpy()[0]
-        return g[..., :3].astype(np.float64).reshape(-1, 3).sum(axis=0)
-    return eng.grid_mv.numpy()[:, :3].astype(np.float64).sum(axis=0)
-
-
-def _viscous_cls(engine: str):
-    if engine == "taichi_mpm":
-        from gasp_taichi_mpm.viscosity import ImplicitViscosity as cls
-    else:
-        from gasp_warp_mpm.viscosity import ImplicitViscosity as cls
-    return cls
-
-
 def resting_speed(engine: str, schedule: str, n_grid: int, gap: int, side: int) -> tuple[float, float]:
     """``(the resting cube's largest speed, the largest momentum change of a viscous step)`` over ``FRAMES``
     frames, each over the sheared block's ``|v|_max`` (and ``M |v|_max``)."""
@@ -116,13 +102,19 @@ def resting_speed(engine: str, schedule: str, n_grid: int, gap: int, side: int) 
     return speed / vmax, max(changes) / (mass * vmax)
 
 
+def _assert_at_rest(engine: str, schedule: str, scene: tuple) -> None:
+    """The resting cube within ``REST_TOL`` of the block's ``|v|_max`` and each viscous step's momentum change within
+    ``MOMENTUM_TOL`` (:func:`resting_speed`)."""
+    rest, mom = resting_speed(engine, schedule, *scene)
+    assert rest < REST_TOL, f"{engine} ({schedule}, {scene}): the resting cube reached {rest:.3g} of |v|_max"
+    assert mom < MOMENTUM_TOL, f"{engine} ({schedule}, {scene}): a viscous step changed the momentum by {mom:.3g}"
+
+
 @pytest.mark.parametrize("scene", SCENES, ids=lambda c: f"ng{c[0]}-gap{c[1]}-side{c[2]}")
 @pytest.mark.parametrize("schedule", SCHEDULES)
 @pytest.mark.parametrize("engine", ENGINES)
 def test_a_resting_body_stays_at_rest_beside_a_sheared_one(engine, schedule, scene):
-    rest, mom = resting_speed(engine, schedule, *scene)
-    assert rest < REST_TOL, f"{engine} ({schedule}, {scene}): the resting cube reached {rest:.3g} of |v|_max"
-    assert mom < MOMENTUM_TOL, f"{engine} ({schedule}, {scene}): a viscous step changed the momentum by {mom:.3g}"
+    _assert_at_rest(engine, schedule, scene)
 
 
 @pytest.mark.parametrize("scene", SCENES, ids=lambda c: f"ng{c[0]}-gap{c[1]}-side{c[2]}")
@@ -138,9 +130,7 @@ def test_the_rest_check_catches_one_correction_for_all(engine, scene, monkeypatc
 @pytest.mark.parametrize("schedule", SCHEDULES)
 @pytest.mark.parametrize("engine", ENGINES)
 def test_no_viscous_bridge_across_empty_cells(engine, schedule, scene):
-    rest, mom = resting_speed(engine, schedule, *scene)
-    assert rest < REST_TOL, f"{engine} ({schedule}, {scene}): the resting cube reached {rest:.3g} of |v|_max"
-    assert mom < MOMENTUM_TOL, f"{engine} ({schedule}, {scene}): a viscous step changed the momentum by {mom:.3g}"
+    _assert_at_rest(engine, schedule, scene)
 
 
 @pytest.mark.parametrize("scene", NEIGHBOURS, ids=lambda c: f"ng{c[0]}-gap{c[1]}-side{c[2]}")
