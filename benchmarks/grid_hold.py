@@ -106,6 +106,7 @@ def main() -> None:
         from gasp_taichi_mpm.grid import GridUpdate
         from gasp_warp_mpm.engine import WarpMPMEngine
         GridUpdate.touch_credit = WarpMPMEngine.touch_credit = bool(a.touch_credit)
+        GridUpdate.touch_bound = WarpMPMEngine.touch_bound = "credit"   # round 51: touch_credit read only there
     _set_viscous(a.viscous_conserve, a.viscous_tol)
     for eng in a.engines.split(","):
         if a.ring:

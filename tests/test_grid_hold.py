@@ -145,6 +145,7 @@ def test_the_slide_check_catches_round_49s_frictionless_dashpot(engine, monkeypa
         from gasp_taichi_mpm.grid import GridUpdate as cls
     else:
         from gasp_warp_mpm.engine import WarpMPMEngine as cls
+    monkeypatch.setattr(cls, "touch_bound", "credit")   # round 51: touch_credit is read under round 50's bound
     monkeypatch.setattr(cls, "touch_credit", False)
     err = slide_error(engine, "jelly", 48, 45, 0.95)
     assert abs(err) >= SLIDE_TOL, f"{engine}: round 49's rule slid at {100 * err:+.2f} % off Coulomb"

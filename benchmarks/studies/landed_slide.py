@@ -31,6 +31,7 @@ def throw(engine: str, credits) -> None:
     from gasp_core.testing.kit import run_trace
     for credit in credits:
         _cls(engine).touch_credit = bool(credit)
+        _cls(engine).touch_bound = "credit"   # round 51: round 50's bound, where touch_credit is read
         for vz in (0.5, 1.0):
             for v0 in (1.2, 1.6):
                 s = S.slide_setup(v0, {"threads": 1, "contact": "grid"}, ground=True, solid=True)
@@ -62,6 +63,7 @@ def main() -> None:
             for v in a.speeds:
                 for credit in a.credit:
                     cls.touch_credit = bool(credit)
+                    cls.touch_bound = "credit"   # round 51: round 50's bound, where touch_credit is read
                     t0 = time.time()
                     tr = landed_trace(a.engine, n, theta, mu, v)
                     if tr is None:

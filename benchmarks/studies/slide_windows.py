@@ -15,7 +15,8 @@ import math
 import numpy as np
 
 WINDOWS = [(0.05, 0.3), (0.1, 0.35), (0.2, 0.45)]
-RULES = [("round 48", False, False), ("round 49", True, False), ("round 50", True, True)]
+RULES = [("round 48", False, False, "credit"), ("round 49", True, False, "credit"), ("round 50", True, True, "credit"),
+         ("round 51", True, True, "debt")]
 
 
 def main() -> None:
@@ -27,8 +28,8 @@ def main() -> None:
     n = ap.parse_args().n
     r = math.radians(45.0)
     a_c = 9.81 * (math.sin(r) - 0.95 * math.cos(r))
-    for name, share, credit in RULES:
-        C.touch_share, C.touch_credit = share, credit
+    for name, share, credit, bound in RULES:
+        C.touch_share, C.touch_credit, C.touch_bound = share, credit, bound
         t, c = landed_trace("warp_mpm", n, 45.0, 0.95, 0.0)
         out = []
         for lo, hi in WINDOWS:

@@ -82,6 +82,13 @@ JSUMS = ("j", "jx", "jy", "jz", "jnx", "jny", "jnz", "mnx", "mny", "mnz", "jvx",
 CONTACT_MODELS = ("auto", "particle", "grid")
 #: Materials that flow (granular, fluid): under ``contact = "auto"`` their bodies take the grid contact.
 FLOWING = ("sand", "snow", "liquid")
+#: Round 51 (docs/contact.md "Round 51: the landing's friction"): the grid contact's bound on a touched column's
+#: friction (both engines' ``touch_bound``) -> the kernels' mode. ``"credit"``: round 50's (the two touch dashpots'
+#: net push times ``mu`` kept as the column's credit; a pull never takes back the held layers' friction);
+#: ``"debt"``: that balance signed, a pull's debt taken from the held layers' friction and paid before any is given;
+#: ``"substep"``: the held layers' stops and the dashpots' signed push of the substep only; ``"episode"``: the
+#: column's whole balance carried (the held layers' unused bound too).
+TOUCH_BOUNDS = {"credit": 0, "debt": 1, "substep": 2, "episode": 3}
 #: Engine option ``contact`` of the MPM engines.
 CONTACT = Option("contact", "auto", "ground and collider contact: 'particle' (a penalty and Coulomb friction per "
                  "point; docs/contact.md), 'grid' (their node layers projected; spins bouncing soft bodies up), each "

@@ -92,7 +92,7 @@ class GridUpdate(GroundTouch):
         for b in ti.static(range(self.n_grounds)):
             # I_z <= ground_kmax, or the touched layer above (touch.py); round 49: not where it shares the bound
             if self.ground_reach(b, I) and not self.shares(b, I):
-                v = self.rule(v, self.axis_friction(v, 2, 1.0, self.ground_fric[b]), I[2] > self.ground_kfull[b], f)
+                v = self.rule(v, self.axis_friction(v, 2, 1.0, self.ground_mu(b, I)), I[2] > self.ground_kfull[b], f)
             v = self.dashpot(b, I, v)   # round 48: the dashpot above the held layers (touch.py)
         for b in ti.static(range(self.n_walls)):
             mu_b = self.wall_fric[b]

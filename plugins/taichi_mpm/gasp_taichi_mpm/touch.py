@@ -18,7 +18,7 @@ fields (``ground_kmax``, ``ground_h``, ``x``, ``n_points``, ...) it reads.
 """
 import taichi as ti
 
-from gasp_core.mpm.contact import DAMPING
+from gasp_core.mpm.contact import DAMPING, TOUCH_BOUNDS
 from gasp_core.mpm.materials import MaterialKind
 
 #: The flowing materials' codes (``gasp_core.mpm.contact.FLOWING``): round 36's touch test.
@@ -58,6 +58,10 @@ class GroundTouch:
     #: (:meth:`share_bound`); False: round 49's rule (the dashpot's push gives no friction). warp_mpm's
     #: ``GroundTouch.touch_credit``.
     touch_credit = True
+    #: Round 51 (docs/contact.md "Round 51: the landing's friction"): the column's Coulomb bound
+    #: (``gasp_core.mpm.contact.TOUCH_BOUNDS``): ``"debt"`` (default), ``"credit"`` round 50's rule (``touch_credit``
+    #: is read only there). warp_mpm's ``touch_bound``.
+    touch_bound = "debt"
 
     def allocate_touch(self) -> None:
         """``touch_on`` (the switch, a ground with friction, ``ground_rubs``, and the grid contact's rule: no particle contact, or the contact chosen
@@ -70,10 +74,11 @@ class GroundTouch:
         ng = self.n_grid
         self.ground_touch = ti.field(ti.i32, shape=(4, ng, ng) if self.touch_on else (1, 1, 1))
         self.touch_speed = self.touch_speed_in if self.touch_on else 0.0   # the engine's touch_dashpot_speed
-        self.share_on = bool(self.touch_on and self.touch_share)   # round 49: touch_slots, 5 a column (touch_keep)
-        self.touch_slots = ti.field(self.real, shape=(4, ng, ng, 5) if self.share_on else (1, 1, 1, 1))
+        self.share_on = bool(self.touch_on and self.touch_share)   # round 49: touch_slots, 8 a column (touch_keep)
+        self.touch_slots = ti.field(self.real, shape=(4, ng, ng, 8) if self.share_on else (1, 1, 1, 1))
+        self.bound_mode = TOUCH_BOUNDS[self.touch_bound] if self.share_on else 0   # round 51 (column_bound)
         # round 50: each column's credit, mu times the dashpot's net push less the friction it gave (kg m/s)
-        self.credit_on = bool(self.share_on and self.touch_credit and self.touch_speed > 0.0)
+        self.credit_on = bool(self.share_on and (self.touch_credit or self.bound_mode > 0) and self.touch_speed > 0.0)
         self.touch_credits = ti.field(self.real, shape=(4, ng, ng) if self.credit_on else (1, 1, 1))
 
     @ti.kernel
@@ -148,6 +153,18 @@ class GroundTouch:
         return on
 
     @ti.func
+    def ground_mu(self, b: ti.template(), I):
+        """Round 51: ground ``b``'s friction at node ``I`` in its grid rule: 0 at the held layers ``ground_kmax - 2 ..
+        ground_kmax`` of a column marked 2 under a round 51 bound (``bound_mode`` > 0; :meth:`column_bound` gives
+        their friction), else ``ground_fric[b]``."""
+        mu = self.ground_fric[b]
+        if ti.static(self.share_on and self.bound_mode > 0):
+            k = I[2] - self.ground_kmax[b]
+            if -2 <= k and k <= 0 and self.ground_touch[b, I[0], I[1]] == 2:
+                mu = 0.0
+        return mu
+
+    @ti.func
     def shares(self, b: ti.template(), I):
         """Round 49: whether node ``I`` is the touched layer (``ground_kmax + 1``) of a column marked 2 on ground ``b``
         (with friction) while ``share_on``: the grid rule leaves it alone there (:meth:`share_bound`)."""
@@ -172,6 +189,9 @@ class GroundTouch:
                     if d < 1:
                         lt = ti.sqrt(v[0] * v[0] + v[1] * v[1])
                         val = m * ti.max(0.0, self.ground_fric[b] * ti.max(0.0, -v[2]) - lt)
+                        if ti.static(self.bound_mode > 0):   # round 51: the stop's whole bound, and the mass
+                            val = m * self.ground_fric[b] * ti.max(0.0, -v[2])
+                            self.touch_slots[b, I[0], I[1], d + 7] = m
                     self.touch_slots[b, I[0], I[1], d + 2] = val
 
     @ti.func
@@ -203,22 +223,69 @@ class GroundTouch:
                 mu = self.ground_fric[b]
                 if ti.static(self.credit_on):
                     d = ti.cast(self.touch_speed, self.real) * self.dt[None] / self.dx[None]
-                    r = self.touch_credits[b, i, j] + mu * self.damp_node(ti.Vector([i, j, kt]), m, d)
+                    if ti.static(self.bound_mode != 2):   # round 51 "substep": no balance carried
+                        r = self.touch_credits[b, i, j]
+                    r += mu * self.damp_node(ti.Vector([i, j, kt]), m, d)
                     if kt + 1 < ng:
                         r += mu * self.damp_node(ti.Vector([i, j, kt + 1]), self.touch_slots[b, i, j, 4], d)
-                v = self.grid_v[i, j, kt]
-                lt = ti.sqrt(v[0] * v[0] + v[1] * v[1])
-                if m > 0 and lt > 1e-30:
-                    held = self.touch_slots[b, i, j, 0] + self.touch_slots[b, i, j, 1] + self.touch_slots[b, i, j, 2]
-                    s = ti.max(0.0, 1.0 - (held + ti.max(r, 0.0)) / (m * lt))
-                    self.grid_v[i, j, kt] = ti.Vector([v[0] * s, v[1] * s, v[2]])
-                    r -= ti.max(0.0, m * lt * (1.0 - s) - held)   # what it spent beyond the held layers'
+                if ti.static(self.bound_mode > 0):
+                    r = self.column_bound(b, i, j, kt, r)
+                else:
+                    v = self.grid_v[i, j, kt]
+                    lt = ti.sqrt(v[0] * v[0] + v[1] * v[1])
+                    if m > 0 and lt > 1e-30:
+                        held = (self.touch_slots[b, i, j, 0] + self.touch_slots[b, i, j, 1]
+                                + self.touch_slots[b, i, j, 2])
+                        s = ti.max(0.0, 1.0 - (held + ti.max(r, 0.0)) / (m * lt))
+                        self.grid_v[i, j, kt] = ti.Vector([v[0] * s, v[1] * s, v[2]])
+                        r -= ti.max(0.0, m * lt * (1.0 - s) - held)   # what it spent beyond the held layers'
                 if ti.static(self.credit_on):
                     self.touch_credits[b, i, j] = r
             elif ti.static(self.credit_on):
                 self.touch_credits[b, i, j] = 0.0
-            for c in ti.static(range(5)):
+            for c in ti.static(range(8)):
                 self.touch_slots[b, i, j, c] = 0.0
+
+    @ti.func
+    def column_bound(self, b: ti.template(), i, j, kt, r):
+        """Round 51 (``bound_mode`` > 0; docs/contact.md "Round 51: the landing's friction"): the column's friction in
+        the substep at most ``avail``, the held layers' stops (slots 0-2, ``mu m max(0, -v_z)``, kg m/s) plus ``r``
+        (``mu`` times the two dashpots' signed push; "debt" / "episode": the carried balance too); given to the held
+        nodes first (each at most its own stop's), the rest to the touched node (mass slot 3, held masses 5-7).
+        Returns the balance to carry: "debt" ``min(max(r, 0), avail - given)``, "episode" ``avail - given``, else 0
+        (warp_mpm's ``column_bound``)."""
+        m = self.touch_slots[b, i, j, 3]
+        avail = r
+        want = ti.cast(0.0, self.real)
+        for c in ti.static(range(3)):
+            avail += self.touch_slots[b, i, j, c]
+            mc = self.touch_slots[b, i, j, 5 + c]
+            if mc > 0 and kt - 3 + c >= 0:
+                u = self.grid_v[i, j, kt - 3 + c]
+                want += ti.min(mc * ti.sqrt(u[0] * u[0] + u[1] * u[1]), self.touch_slots[b, i, j, c])
+        v = self.grid_v[i, j, kt]
+        lt = ti.sqrt(v[0] * v[0] + v[1] * v[1])
+        give = ti.min(want + m * lt, ti.max(avail, 0.0))
+        fh = ti.cast(1.0, self.real)
+        if give < want:
+            fh = give / want
+        for c in ti.static(range(3)):
+            mc = self.touch_slots[b, i, j, 5 + c]
+            if mc > 0 and kt - 3 + c >= 0:
+                u = self.grid_v[i, j, kt - 3 + c]
+                lu = ti.sqrt(u[0] * u[0] + u[1] * u[1])
+                if lu > 1e-30:
+                    s = ti.max(0.0, 1.0 - fh * ti.min(mc * lu, self.touch_slots[b, i, j, c]) / (mc * lu))
+                    self.grid_v[i, j, kt - 3 + c] = ti.Vector([u[0] * s, u[1] * s, u[2]])
+        if m > 0 and lt > 1e-30 and give > want:
+            s = ti.max(0.0, 1.0 - (give - want) / (m * lt))
+            self.grid_v[i, j, kt] = ti.Vector([v[0] * s, v[1] * s, v[2]])
+        out = ti.cast(0.0, self.real)
+        if ti.static(self.bound_mode == 1):
+            out = ti.min(ti.max(r, 0.0), avail - give)   # a debt kept until paid, a credit not beyond the push
+        if ti.static(self.bound_mode == 3):
+            out = avail - give
+        return out
 
     def touch_update(self) -> None:
         """:meth:`mark_touch` where ``touch_on`` (after each P2G, before the two-field contact and the grid update, on

@@ -239,7 +239,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
                 self.grid_mv0, self.grid_v0, int(self.flip > 0), self.grid_fb, self.grid_fbody, self.fr_sums,
                 self.fr_nodes, self.nfric, self.grid_fn, self.grid_fv, Ft(self.wall_full), self.grid_mf, self.fr_dv,
                 self.fr_fb, self.wall_floor, self.ground_touch, self.dv_friction, self.field_rule,
-                Ft(0.0 if self.touch_credit and self.touch_share else self.touch_speed)]),
+                Ft(0.0 if self.column_dashpot() else self.touch_speed), self.bound_mode()]),
             wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
                 self.x, self.v, self.C, self.fixed, self.grid_v, lo_v, inv_dx, dt_f, ng, self.grid_v0, Ft(self.flip),
                 self.grid_dv, self.body, self.in_a, ex, self.mat_kind, self.fixed_lo, self.fixed_hi, dx, rule,

@@ -197,18 +197,22 @@ def build_boundary_rules(Ft):
     @wp.func
     def boundary_rules(vel_in: vec3, X: vec3, k: int, lo: vec3, hi: vec3, dx: Ft, wall_in: Ft, wall_full: Ft,
                        wall_mu: wp.array(dtype=Ft), ground: wp.array(dtype=vec3), f: Ft, floor: int, i: int, j: int,
-                       n_grid: int, ground_touch: wp.array(dtype=wp.int32), damp: Ft, slots: wp.array(dtype=Ft)):
+                       n_grid: int, ground_touch: wp.array(dtype=wp.int32), damp: Ft, slots: wp.array(dtype=Ft),
+                       mode: int):
         vel = vel_in
         # the grounds first: a ground on the floor wall's plane keeps its friction there (taichi_mpm's order)
         for q in range(ground.shape[0]):
             gr = ground[q]
             # k <= gr[0], or the touched layer (touch.py); round 49: not a column's touched node that shares its bound
-            if ground_reach(k, gr, q, i, j, n_grid, ground_touch) and shares(k, gr, q, i, j, n_grid, ground_touch,
-                                                                             slots) == 0:
+            sh = shares(k, gr, q, i, j, n_grid, ground_touch, slots, mode)
+            if ground_reach(k, gr, q, i, j, n_grid, ground_touch) and sh != 1:
                 wt = Ft(1.0)
                 if Ft(k) > gr[2] and gr[2] < gr[0]:   # the contact chosen per body only (grid and particle: equal)
                     wt = f
-                vel = blend_rule(vel, collide(vel, vec3(Ft(0.0), Ft(0.0), Ft(1.0)), gr[1]), wt)
+                mu_g = gr[1]
+                if sh == 2:   # round 51: the held layer's friction given by touch_share's column bound
+                    mu_g = Ft(0.0)
+                vel = blend_rule(vel, collide(vel, vec3(Ft(0.0), Ft(0.0), Ft(1.0)), mu_g), wt)
             vel = dashpot(vel, k, gr, q, i, j, n_grid, ground_touch, damp, slots)   # round 48: above the held layers
         for w in range(wall_mu.shape[0]):
             mu_b = wall_mu[w]
@@ -252,10 +256,10 @@ def build_grid_update(Ft):
         grid_fbody: wp.array(dtype=wp.int32), fr_sums: wp.array2d(dtype=wp.float64), fr_nodes: wp.array(dtype=wp.int32),
         colc: int, grid_fn: wp.array(dtype=vec3), grid_fv: wp.array(dtype=vec3), wall_full: Ft,
         grid_mf: wp.array(dtype=Ft), fr_dv: wp.array(dtype=vec4), fr_fb: wp.array(dtype=Ft), floor: int,
-        ground_touch: wp.array(dtype=wp.int32), grid_dv: wp.array(dtype=vec3), rule: int, touch_speed: Ft):
+        ground_touch: wp.array(dtype=wp.int32), grid_dv: wp.array(dtype=vec3), rule: int, touch_speed: Ft, bound: int):
         # wall_in: the walls' grid rule reaches this many cells in (gasp_core.mpm.contact.wall_grid_cells); ground[g]
         # = (top node layer k_max as a float, friction, unused); grid_m (node mass, for passive points) one a node
-        # when the setup has passive points, else one unused entry; ground_touch, touch_speed, touch_slots: touch.py
+        # when the setup has passive points, else one unused entry; ground_touch, touch_speed, touch_slots, bound: touch
         # grid_fb: the contact's friction budget per node (kg m/s; one unused entry without it; with colc grid_fn/fv);
         # the contact chosen per body (gasp_core.mpm.contact.rule_models): grid_mf the flowing bodies' mass per node
         # (one unused entry otherwise), the rule acting fully within wall_full cells / up to layer ground[g][2] and
@@ -281,9 +285,9 @@ def build_grid_update(Ft):
                 if has_wind != 0:
                     gsurf = grid_g[node]
                 vel = extras(vel, X, dt, m, gsurf, ex, f)
-            touch_keep(touch_slots, vel, m, i, j, k, ground, n_grid, ground_touch)   # round 49 (touch.build_share)
+            touch_keep(touch_slots, vel, m, i, j, k, ground, n_grid, ground_touch, bound)   # round 49 (touch.py)
             vel = boundary_rules(vel, X, k, lo, hi, dx, wall_in, wall_full, wall_mu, ground, f, floor, i, j, n_grid,
-                                 ground_touch, touch_speed * dt / dx, touch_slots)
+                                 ground_touch, touch_speed * dt / dx, touch_slots, bound)
             if grid_fb.shape[0] > 1:   # friction (field B's with two fields), then the contact's balance (balance.py)
                 v_in = vel
                 vel = pc_friction(vel, m, f, node, grid_fb, colc, grid_fn, grid_fv, grid_dv, lo, hi, dx, wall_in,

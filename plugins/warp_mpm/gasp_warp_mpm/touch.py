@@ -10,7 +10,8 @@ node layer above the held ones takes a dashpot on its normal velocity (:func:`bu
 takes no normal stop (its normal motion is the body's, with the dashpot) and only the Coulomb bound its column's held
 layers left unused (:func:`build_share`). Round 50 (docs/contact.md "Round 50: the dashpot's push in the column's
 Coulomb bound"): the dashpot's signed push, times ``mu``, a credit of the column kept across substeps that the touched
-node's friction may spend (``touch_credit``, :func:`build_share`).
+node's friction may spend (``touch_credit``, :func:`build_share`). Round 51 (docs/contact.md "Round 51: the landing's
+friction"): ``touch_bound``, the whole column's friction under one bound (``gasp_warp_mpm.share``).
 
 After P2G (and the viscous step), before the two-field contact and the grid update: :func:`build_touch`'s
 ``touch_clear`` (a node-column kernel) zeroes ``ground_touch``, then ``touch_mark`` (a points kernel, atomic max)
@@ -27,13 +28,11 @@ import functools
 import numpy as np
 import warp as wp
 
-from gasp_core.mpm.contact import DAMPING, FLOWING, touch_dashpot_speed
+from gasp_core.mpm.contact import DAMPING, FLOWING, TOUCH_BOUNDS, touch_dashpot_speed
 
 from .precision import MODULE_OPTIONS, build_types
+from .share import SLOTS, build_share
 
-#: Round 50: a column's slots (:func:`build_share`): the held layers' unused bound (3), the touched node's mass, the
-#: mass of the node above it (the dashpot's, with ``touch_credit``).
-SLOTS = 5
 
 
 class GroundTouch:
@@ -68,6 +67,20 @@ class GroundTouch:
     #: credit of the column kept across substeps, which the touched node's friction may spend where positive
     #: (:func:`build_share`); False: round 49's rule (the dashpot's push gives no friction). Read when built.
     touch_credit = True
+    #: Round 51 (docs/contact.md "Round 51: the landing's friction"): the column's Coulomb bound
+    #: (``gasp_core.mpm.contact.TOUCH_BOUNDS``): ``"debt"`` (default) the whole column's friction under its stops and
+    #: the dashpots' signed push, a pull's debt kept until paid; ``"credit"`` round 50's rule (the catch of
+    #: ``tests/test_landed_slide.py``; ``touch_credit`` is read only there). Read when built.
+    touch_bound = "debt"
+
+    def bound_mode(self) -> int:
+        """Round 51: the kernels' ``mode`` (``TOUCH_BOUNDS``); 0 without ``touch_share``."""
+        return TOUCH_BOUNDS[self.touch_bound] if self.touch_share else 0
+
+    def column_dashpot(self) -> bool:
+        """Whether the two dashpots act in ``touch_share`` (round 50's credit or a round 51 bound), not the grid
+        update."""
+        return bool(self.touch_share and (self.touch_credit or self.bound_mode() > 0))
 
     def allocate_touch(self, Ft, contact: str) -> None:
         """``touch_on`` (the switch, a ground, and ``contact`` ``"grid"`` or ``"mixed"``), ``ground_touch`` (int32,
@@ -97,10 +110,10 @@ class GroundTouch:
         ``touch_on`` is False or ``touch_share`` is off."""
         if self.touch_slots.shape[0] == 1:   # touch_on and touch_share
             return []
-        credit = Ft(self.touch_speed * self.dt / self.dx if self.touch_credit else 0.0)   # round 50: the dashpot here
+        credit = Ft(self.touch_speed * self.dt / self.dx if self.column_dashpot() else 0.0)   # the dashpot here
         return [wp.launch(build_share(Ft)[1], dim=self.ground_touch.shape[0], device=self.device, record_cmd=True,
                           inputs=[self.grid_v, self.touch_slots, self.ground, self.ground_touch, self.n_grid, credit,
-                                  self.touch_credits])]
+                                  self.touch_credits, self.bound_mode()])]
 
     def touch_launches(self, Ft) -> list:
         """The recorded clear and mark (after P2G, before the two-field contact and the grid update); none when
@@ -249,104 +262,3 @@ def build_held(Ft):
         return held
 
     return held_node
-
-
-@functools.cache
-def build_damp_node(Ft):
-    """Round 50: ``damp_node(grid_v, node, m, d) -> jn``, scalar type ``Ft``: node ``node``'s normal (+z) velocity
-    (m/s) divided by ``1 + d``; returns the dashpot's normal impulse ``jn`` (kg m/s, + up; 0 where the mass ``m``,
-    kg, is 0). taichi_mpm's ``GroundTouch.damp_node``."""
-    vec3 = build_types(Ft)[0]
-
-    @wp.func
-    def damp_node(grid_v: wp.array(dtype=vec3), node: int, m: Ft, d: Ft):
-        jn = Ft(0.0)
-        if m > Ft(0.0):
-            v = grid_v[node]
-            jn = m * (v[2] / (Ft(1.0) + d) - v[2])
-            grid_v[node] = vec3(v[0], v[1], v[2] + jn / m)
-        return jn
-
-    return damp_node
-
-
-@functools.cache
-def build_share(Ft):
-    """Round 49 (``GroundTouch.touch_share``; docs/contact.md "Round 49: the touched layer shares the column's Coulomb
-    bound"), scalar type ``Ft``: ``(touch_keep, touch_share, shares)``.
-
-    ``shares(k, gr, q, i, j, n_grid, ground_touch, slots) -> int``: 1 at the touched layer (``k = gr[0] + 1``) of a
-    column marked 2 (a point of a body that does not flow touches ground ``q``'s plane) on a ground with friction,
-    with ``slots`` of more than one entry (the switch on); there the grid rule (``grid.build_boundary_rules``)
-    leaves the node alone.
-    ``touch_keep(slots, v, m, i, j, k, ground, n_grid, ground_touch)`` (in the grid update at a node with mass, ``v``
-    its velocity before the rule, m/s, ``m`` its mass, kg): for the held layers ``gr[0] - 2 .. gr[0]`` of a column,
-    the Coulomb bound the ground's stop gives and its node does not spend, ``m max(0, mu max(0, -v_z) - |v_xy|)``
-    (kg m/s), at slot ``k - gr[0] + 2``; for the touched layer its mass at slot 3, round 50 the node above's at slot 4
-    (``slots``: :data:`SLOTS` a column, ``Ft``).
-    The kernel ``touch_share(grid_v, slots, ground, ground_touch, n_grid, credit, res)`` (a column a thread, after the
-    grid update): the touched node of a column marked 2 has its tangential velocity cut by the column's unused bound
-    over its mass (to 0 at most); its normal velocity is left as the body moved it. Round 50 (``credit = s dt / dx``
-    not 0, ``touch_credit``): first the dashpot on the touched node and the one above (their normal velocity divided
-    by ``1 + credit``), its signed normal impulse times ``mu`` added to the column's credit ``res`` (kg m/s, kept
-    across substeps, 0 in a column not marked 2); the cut may then spend the credit where positive, and what it spends
-    beyond the held layers' bound is taken from it. It clears every column's slots."""
-    vec3 = build_types(Ft)[0]
-    damp_node = build_damp_node(Ft)
-
-    @wp.func
-    def shares(k: int, gr: vec3, q: int, i: int, j: int, n_grid: int, ground_touch: wp.array(dtype=wp.int32),
-               slots: wp.array(dtype=Ft)):
-        out = int(0)
-        if slots.shape[0] > 1 and Ft(k) == gr[0] + Ft(1.0) and gr[1] > Ft(0.0):
-            if ground_touch[(q * n_grid + i) * n_grid + j] == 2:
-                out = int(1)
-        return out
-
-    @wp.func
-    def touch_keep(slots: wp.array(dtype=Ft), v: vec3, m: Ft, i: int, j: int, k: int, ground: wp.array(dtype=vec3),
-                   n_grid: int, ground_touch: wp.array(dtype=wp.int32)):
-        if slots.shape[0] > 1:
-            for q in range(ground.shape[0]):
-                gr = ground[q]
-                d = k - int(gr[0])
-                if d >= -2 and d <= 2:
-                    val = m   # the touched node's mass (d 1), round 50: the node above's (d 2)
-                    if d < 1:
-                        lt = wp.sqrt(v[0] * v[0] + v[1] * v[1])
-                        val = m * wp.max(Ft(0.0), gr[1] * wp.max(Ft(0.0), -v[2]) - lt)
-                    slots[((q * n_grid + i) * n_grid + j) * SLOTS + d + 2] = val
-
-    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def touch_share(grid_v: wp.array(dtype=vec3), slots: wp.array(dtype=Ft), ground: wp.array(dtype=vec3),
-                    ground_touch: wp.array(dtype=wp.int32), n_grid: int, credit: Ft, res: wp.array(dtype=Ft)):
-        col = wp.tid()
-        q = col / (n_grid * n_grid)
-        i = (col / n_grid) % n_grid
-        j = col % n_grid
-        gr = ground[q]
-        kt = int(gr[0]) + 1
-        if ground_touch[col] == 2 and gr[1] > Ft(0.0) and kt >= 0 and kt < n_grid:
-            m = slots[col * SLOTS + 3]
-            node = (i * n_grid + j) * n_grid + kt
-            r = res[col]
-            if credit > Ft(0.0):
-                # round 50: the dashpot on the touched node and the one above (both ways), its signed normal impulse
-                # times mu added to the column's credit, kept across substeps; the friction may spend what is positive
-                r = r + gr[1] * damp_node(grid_v, node, m, credit)
-                if kt + 1 < n_grid:
-                    r = r + gr[1] * damp_node(grid_v, node + 1, slots[col * SLOTS + 4], credit)
-            v = grid_v[node]
-            lt = wp.sqrt(v[0] * v[0] + v[1] * v[1])
-            if m > Ft(0.0) and lt > Ft(1e-30):
-                held = slots[col * SLOTS] + slots[col * SLOTS + 1] + slots[col * SLOTS + 2]
-                s = wp.max(Ft(0.0), Ft(1.0) - (held + wp.max(r, Ft(0.0))) / (m * lt))
-                grid_v[node] = vec3(v[0] * s, v[1] * s, v[2])
-                r = r - wp.max(Ft(0.0), m * lt * (Ft(1.0) - s) - held)   # what it spent beyond the held layers'
-            res[col] = r
-        else:
-            res[col] = Ft(0.0)
-        for c in range(SLOTS):   # cleared for the next substep (a node of no mass writes none)
-            slots[col * SLOTS + c] = Ft(0.0)
-
-    return touch_keep, touch_share, shares

@@ -66,7 +66,7 @@ LOOP_BOUNDS = {
     "range(ex.n_imp)": "the scene's impulses and held boxes",
     "range(fixed_lo.shape[0])": "the held (fixed) boxes",
     "range(n_bodies)": "the rigid bodies (one thread a point, rigid_hold)",
-    "range(SLOTS)": "a ground column's slots (touch.SLOTS = 5; touch_share, one thread a column)",
+    "range(SLOTS)": "a ground column's slots (share.SLOTS = 8; touch_share, one thread a column)",
     "range(m)": "the substeps since a passive point's last gather (g2p_passive, one thread a point)",
     "range(blk * BLK, wp.min(blk * BLK + BLK, counts[0]))": _BLOCK,
     "range(blk * BLK, wp.min(blk * BLK + BLK, part_in.shape[0]))": _BLOCK,
