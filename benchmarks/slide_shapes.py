@@ -1,8 +1,9 @@
 """Round 51 (issue 67; docs/contact.md "Round 51: slides over a family of shapes"): the slides and sticks of
 ``gasp_core.testing.slide_shapes`` over its family (a slab, a cube, a bar along and one across the slope, a disc, a
-hexagonal prism; sizes 1 and 1.5), rigid and jelly, ``contact = "particle"`` and ``"grid"``, n_grid 24 and 32, both MPM
-engines: per case the figure (a slide's acceleration against Coulomb's, a stick's travel in 1 s after the settle) and
-the two-sided check (``--tol``: 2.5 %, the slope tests'). One case a line on stdout, appended to ``--log`` (JSON lines;
+hexagonal prism, at sizes 1 and 1.5; the bundled donut lying flat at 0.7 and 1), rigid and jelly, ``contact =
+"particle"`` and ``"grid"``, n_grid 24 and 32, both MPM engines: per case the figure (a slide's acceleration against
+Coulomb's, a stick's travel in 1 s after the settle) and the two-sided check (``--tol``: 2.5 %, the slope tests'). One
+case a line on stdout, appended to ``--log`` (JSON lines;
 cases already there are not run again), then ``benchmarks/results/slide_shapes.{md,json}`` from the log.
 
     python benchmarks/slide_shapes.py --engines warp_mpm taichi_mpm --log /tmp/slideshapes/family.jsonl
@@ -28,7 +29,7 @@ def run(a) -> list:
     done = {key(json.loads(line)): json.loads(line) for line in log.read_text().splitlines()} if log.exists() else {}
     for eng in a.engines:
         for shape in a.shapes:
-            for size in a.sizes:
+            for size in (a.sizes or S.sizes(shape)):
                 for mat in a.materials:
                     for contact in a.contacts:
                         for n in a.grids:
@@ -95,7 +96,7 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--engines", nargs="+", default=["warp_mpm", "taichi_mpm"])
     ap.add_argument("--shapes", nargs="+", default=list(S.SHAPES))
-    ap.add_argument("--sizes", type=float, nargs="+", default=list(S.SIZES))
+    ap.add_argument("--sizes", type=float, nargs="+", default=None)
     ap.add_argument("--materials", nargs="+", default=list(S.MATERIALS))
     ap.add_argument("--contacts", nargs="+", default=["particle", "grid"])
     ap.add_argument("--grids", type=int, nargs="+", default=[24, 32])

@@ -3,8 +3,10 @@ shapes"): the bodies a neighbour would build for ``tests/test_rigid_slope.py`` a
 checks, each resting on a face it cannot tip over from, measured as those tests measure.
 
 The family (:data:`SHAPES`, metres at size 1; :data:`SIZES` scales every length): boxes of other proportions (a thin
-wide slab, a cube, a bar along the slope and one across it), a flat disc (a cylinder, axis normal to the ground) and a
-hexagonal prism on its face. Points: a lattice at half a cell (``dx / 2``, cell-centred in the body's bounding box,
+wide slab, a cube, a bar along the slope and one across it), a flat disc (a cylinder, axis normal to the ground), a
+hexagonal prism on its face, and the bundled donut lying flat (``examples/data/donut_mesh.ply``, the real capture's
+closed mesh, 20.5 x 20.5 x 8.6 cm; at 0.7 and 1, :data:`SIZES_OF`; inside by trimesh's test). Points: a lattice at
+half a cell (``dx / 2``, cell-centred in the body's bounding box,
 :func:`gasp_core.testing.helpers.box_points`) kept where inside the shape, ``p_vol`` the shape's volume over the
 points, as :func:`gasp_core.testing.helpers.sphere_points` fills a ball. The ground (height ``GROUND``, friction
 ``mu``) is a slope of ``theta`` by gravity tilted ``[g sin theta, 0, -g cos theta]`` in a 0.6 m box.
@@ -20,7 +22,9 @@ the leading coefficient of a parabola fitted to the centroid's x from ``SLIDE_FR
 centroid's travel (mm) over ``STICK_T`` s after a settle of ``SETTLE_T`` s (the body is put down undeformed)."""
 from __future__ import annotations
 
+import functools
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -41,8 +45,26 @@ SHAPES = {
     "bar_across": ("box", (0.06, 0.18, 0.04)),
     "disc": ("disc", (0.06, 0.03)),
     "hex": ("hex", (0.06, 0.03)),
+    "donut": ("mesh", "examples/data/donut_mesh.ply"),
 }
 SIZES = (1.0, 1.5)
+#: Sizes other than :data:`SIZES`: the bundled donut (20.5 x 20.5 x 8.6 cm, lying flat) at 0.7 and its own size.
+SIZES_OF = {"donut": (0.7, 1.0)}
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def sizes(shape: str) -> tuple:
+    """The sizes the family takes ``shape`` at (scale factors on its lengths)."""
+    return SIZES_OF.get(shape, SIZES)
+
+
+@functools.cache
+def _mesh(path: str):
+    """The closed mesh at ``path`` (relative to the repository), moved so its bounding box starts at the origin."""
+    import trimesh
+    m = trimesh.load(ROOT / path, force="mesh")
+    m.apply_translation(-m.bounds[0])
+    return m
 MATERIALS = ("rigid", "jelly")
 
 
@@ -58,6 +80,8 @@ def material(name: str):
 def extents(shape: str, size: float = 1.0) -> np.ndarray:
     """The bounding box's sides (m, shape (3,): along the slope, across, up)."""
     kind, d = SHAPES[shape]
+    if kind == "mesh":
+        return np.asarray(_mesh(d).extents, float) * size
     d = np.asarray(d, float) * size
     if kind == "box":
         return d
@@ -78,12 +102,16 @@ def shape_points(shape: str, size: float, n_grid: int) -> tuple[np.ndarray, floa
     from gasp_core.testing.helpers import box_points
     dx = SIDE / n_grid
     kind, d = SHAPES[shape]
-    d = np.asarray(d, float) * size
     e = extents(shape, size)
     lo = np.array([4.3 * dx, SIDE / 2 - e[1] / 2 + 0.2 * dx, GROUND])
     x, p_vol = box_points(lo, lo + e, dx / 2)
     if kind == "box":
         return x, p_vol
+    if kind == "mesh":   # trimesh's inside test on the mesh scaled by size, its box on lo
+        m = _mesh(d)
+        x = x[m.contains((x - lo) / size)]
+        return x, float(m.volume) * size ** 3 / len(x)
+    d = np.asarray(d, float) * size
     c = lo + e / 2
     r = x[:, :2] - c[:2]
     if kind == "disc":
@@ -128,8 +156,8 @@ def friction_spoil(factor: float = 1.0, value: float | None = None):
     from gasp_core.seam.setup import Boundary
 
     def spoil(s):
-        s.boundaries = [Boundary("ground", height=b.height, friction=value if value is not None else b.friction * factor)
-                        for b in s.boundaries]
+        s.boundaries = [Boundary("ground", height=b.height,
+                                 friction=value if value is not None else b.friction * factor) for b in s.boundaries]
     return spoil
 
 
