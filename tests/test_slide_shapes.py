@@ -4,8 +4,10 @@ over a family of shapes"; ``gasp_core.testing.slide_shapes``, ``benchmarks/slide
 Every other slope test uses one block (6 x 6 x 2 cells of fill). Here the bodies a neighbour would build: a thin wide
 slab (12 x 12 x 2 cm), a cube (7.5 cm), a bar along the slope (18 x 6 x 4 cm) and one across it (6 x 18 x 4), a flat
 disc (radius 6, height 3 cm, axis normal to the ground) and a hexagonal prism on its face (circumradius 6, height 3),
-each at sizes 1 and 1.5 (2 to 9 cells across, 1 to 6 cells tall), rigid (``model = "rigid"``, E 1e10 Pa, rho 700) and
-jelly (E 1e5 Pa, nu 0.3, rho 1000), on ``contact = "particle"`` and ``"grid"``, n_grid 24 and 32, both MPM engines.
+each at sizes 1 and 1.5 (2.4 to 14 cells across, 0.8 to 6 cells tall), and the bundled donut lying flat (the real
+capture's closed mesh, ``examples/data/donut_mesh.ply``, 20.5 x 20.5 x 8.6 cm, at sizes 0.7 and 1), rigid (``model =
+"rigid"``, E 1e10 Pa, rho 700) and jelly (E 1e5 Pa, nu 0.3, rho 1000), on ``contact = "particle"`` and ``"grid"``,
+n_grid 24 and 32, both MPM engines.
 None can tip: ``(h / w) max(tan theta, mu)`` is at most 0.7 over the family (``test_no_body_of_the_family_can_tip``).
 
 Cases: a slide (30 degrees, mu 0.3: Coulomb's ``a = g (sin - mu cos)`` = 2.3563 m/s^2, within ``SLIDE_TOL`` 2.5 %
@@ -20,8 +22,9 @@ same figures to the digits shown):
   slab's 9.9 mm): so no stick case holds. In the second after the settle its centroid moves about 3.7 mm per cm of
   its height (the 2 cm slab 7.4-7.7 mm, almost all of it down; the 4 cm bars 14.7-22 mm, the 7.5 cm cube 27.8-29.4
   mm, the 11.25 cm cube 47.9-53.4 mm, tilting forward as it digs in; ``tests/test_rigid_slope.py``'s own 6 x 6 x 2
-  block 18.5 mm at 30 degrees, mu 0.7, and 19.1 mm at 15 degrees, mu 0.4), and its slide reads low by about 0.3 %
-  per cm of height (the 11.25 cm cube -3.2 / -3.5 %, beyond the tolerance). The likely cause: the grid rule stops only
+  block 18.5 mm at 30 degrees, mu 0.7, and 19.1 mm at 15 degrees, mu 0.4; the donut 20.1-28.6 mm), and its slide
+  reads low by about 0.3 % per cm of height (the 11.25 cm cube -3.2 / -3.5 %, the donut at size 1 -3.2 / -3.3 %,
+  beyond the tolerance). The likely cause: the grid rule stops only
   the nodes at the plane, the rigid sum then gives the body its points' mean velocity, and the points above the base
   keep gravity's step, so the body sinks until enough of it lies in the held layers (the sink slows with time and
   grows with height; the jelly's stress carries its weight to the base in the same step and it does not sink). The
@@ -36,7 +39,7 @@ same figures to the digits shown):
 contact), n_grid 24: an engine that ignores mu (0.4 always) or brakes at a rest speed (0.1 m/s) fails the slide, one
 whose friction is halved fails the stick, and Coulomb's figure 5 % high or low fails the slide.
 
-Default tier: three warp_mpm cases and warp_mpm's catches (under 5 s each); the family (384 cases) and taichi_mpm's
+Default tier: three warp_mpm cases and warp_mpm's catches (under 5 s each); the family (448 cases) and taichi_mpm's
 catches are slow.
 """
 from __future__ import annotations
@@ -62,9 +65,12 @@ MISSES = {
         ("bar_along", 1.5, 32): 21.43, ("bar_across", 1.0, 24): 14.80, ("bar_across", 1.0, 32): 14.74,
         ("bar_across", 1.5, 24): 22.12, ("bar_across", 1.5, 32): 21.61, ("disc", 1.0, 24): 11.10,
         ("disc", 1.0, 32): 11.08, ("disc", 1.5, 24): 16.69, ("disc", 1.5, 32): 16.52, ("hex", 1.0, 24): 11.10,
-        ("hex", 1.0, 32): 11.08, ("hex", 1.5, 24): 16.69, ("hex", 1.5, 32): 16.52}.items()},
+        ("hex", 1.0, 32): 11.08, ("hex", 1.5, 24): 16.69, ("hex", 1.5, 32): 16.52, ("donut", 0.7, 24): 20.62,
+        ("donut", 0.7, 32): 20.09, ("donut", 1.0, 24): 28.62, ("donut", 1.0, 32): 27.17}.items()},
     ("cube", 1.5, "rigid", "grid", 24, SLIDE): "sinks and digs in: a -3.46 % off Coulomb",
     ("cube", 1.5, "rigid", "grid", 32, SLIDE): "sinks and digs in: a -3.23 % off Coulomb",
+    ("donut", 1.0, "rigid", "grid", 24, SLIDE): "sinks and digs in: a -3.28 % off Coulomb",
+    ("donut", 1.0, "rigid", "grid", 32, SLIDE): "sinks and digs in: a -3.21 % off Coulomb",
     ("cube", 1.5, "jelly", "particle", 24, STICK): "slips 2.77 mm in 1 s after the settle (the release's ringing)",
     ("cube", 1.5, "jelly", "particle", 32, STICK): "slips 6.56 mm in 1 s after the settle (a steady 7.5 mm/s)",
 }

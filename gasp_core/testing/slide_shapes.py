@@ -165,7 +165,8 @@ def centroid_trace(engine: str, s, seconds: float) -> np.ndarray:
     """The centroid per frame (frame 0 the start; m, shape (frames + 1, 3) float64); ``inf`` rows from a divergence
     on (it slid out of the box)."""
     from gasp_core.errors import EngineDivergence
-    from gasp_core.seam import build_engine, get_engine
+    from gasp_core.seam.build import build_engine
+    from gasp_core.seam.plugins import get_engine
     e = build_engine(get_engine(engine), s)
     n = round(seconds * FPS)
     out = np.full((n + 1, 3), np.inf)
