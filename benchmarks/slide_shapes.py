@@ -7,6 +7,11 @@ case a line on stdout, appended to ``--log`` (JSON lines;
 cases already there are not run again), then ``benchmarks/results/slide_shapes.{md,json}`` from the log.
 
     python benchmarks/slide_shapes.py --engines warp_mpm taichi_mpm --log /tmp/slideshapes/family.jsonl
+
+``--sink``: instead, the rigid body on the grid contact on a flat ground (docs/contact.md "Round 51", found 1): 12 x 12
+cm slabs of one, two and four point layers and the 7.5 cm cube, rigid and jelly, n_grid 24, over 1.1 s: the
+centroid's drop and the lowest point's height over the plane (mm), one line each
+(``benchmarks/results/slide_shapes_sink.txt``).
 """
 import argparse
 import json
@@ -92,6 +97,30 @@ def report(rows: list, tol: float) -> str:
     return "\n".join(lines) + "\n"
 
 
+def sink(engines) -> None:
+    """The ``--sink`` lines (module docstring)."""
+    import numpy as np
+
+    from gasp_core.seam.build import build_engine
+    from gasp_core.seam.plugins import get_engine
+    bodies = {"slab 1 layer": (0.12, 0.12, 0.0125), "slab 2 layers": (0.12, 0.12, 0.025),
+              "slab 4 layers": (0.12, 0.12, 0.05), "cube 7.5 cm": (0.075, 0.075, 0.075)}
+    for eng in engines:
+        for name, dims in bodies.items():
+            S.SHAPES["_sink"] = ("box", dims)
+            for mat in S.MATERIALS:
+                s = S.shape_setup("_sink", 1.0, mat, "grid", 24, 0.0, 0.7)
+                e = build_engine(get_engine(eng), s)
+                z0 = float(np.asarray(s.x, np.float64)[:, 2].mean())
+                for _ in range(round(1.1 * S.FPS)):
+                    e.step_frame()
+                x = e.positions().astype(np.float64)
+                drop, low = z0 - float(x[:, 2].mean()), float(x[:, 2].min()) - S.GROUND
+                print(f"{eng} {name} {mat}: centroid drop {1000 * drop:.3f} mm, lowest point "
+                      f"{1000 * low:+.2f} mm over the plane", flush=True)
+    del S.SHAPES["_sink"]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--engines", nargs="+", default=["warp_mpm", "taichi_mpm"])
@@ -103,7 +132,10 @@ def main() -> None:
     ap.add_argument("--tol", type=float, default=0.025)
     ap.add_argument("--log", default="/tmp/slideshapes/family.jsonl")
     ap.add_argument("--report-only", action="store_true")
+    ap.add_argument("--sink", action="store_true")
     a = ap.parse_args()
+    if a.sink:
+        return sink(a.engines)
     if a.report_only:
         rows = [json.loads(line) for line in Path(a.log).read_text().splitlines()]
     else:
