@@ -19,17 +19,18 @@ same figures to the digits shown):
 
 * **A rigid body on the grid contact sinks into the ground**, whatever its shape, on a slope and on a flat ground
   alike (there the 7.5 cm cube's centroid falls 36.9 mm in 1.1 s, its lowest points 30.6 mm under the plane; the 2 cm
-  slab's 9.9 mm): so no stick case holds. In the second after the settle its centroid moves about 3.7 mm per cm of
-  its height (the 2 cm slab 7.4-7.7 mm, almost all of it down; the 4 cm bars 14.7-22 mm, the 7.5 cm cube 27.8-29.4
-  mm, the 11.25 cm cube 47.9-53.4 mm, tilting forward as it digs in; ``tests/test_rigid_slope.py``'s own 6 x 6 x 2
-  block 18.5 mm at 30 degrees, mu 0.7, and 19.1 mm at 15 degrees, mu 0.4; the donut 20.1-28.6 mm), and its slide
-  reads low by about 0.3 % per cm of height (the 11.25 cm cube -3.2 / -3.5 %, the donut at size 1 -3.2 / -3.3 %,
-  beyond the tolerance). The likely cause: the grid rule stops only
-  the nodes at the plane, the rigid sum then gives the body its points' mean velocity, and the points above the base
-  keep gravity's step, so the body sinks until enough of it lies in the held layers (the sink slows with time and
-  grows with height; the jelly's stress carries its weight to the base in the same step and it does not sink). The
-  rigid tests run the particle contact only (the default for a solid), where every shape meets Coulomb; a rigid body
-  takes the grid contact where the scene's ``contact`` is ``"grid"`` (``docs/rigid.md`` "Limits").
+  slab's 9.9 mm): so no stick case holds. In the second after the settle its centroid moves about 3.7 mm per cm of its
+  height (the 2 cm slab 7.4-7.7 mm, almost all of it down; the 4 cm bars 14.7-22 mm, the 7.5 cm cube 27.8-29.4 mm, the
+  11.25 cm cube 47.9-53.4 mm, tilting forward as it digs in; ``tests/test_rigid_slope.py``'s own 6 x 6 x 2 block 18.5
+  mm at 30 degrees, mu 0.7, and 19.1 mm at 15 degrees, mu 0.4; the donut 20.1-28.6 mm), and its slide reads low by
+  about 0.3 % per cm of height (the 11.25 cm cube -3.2 / -3.5 %, the donut at size 1 -3.2 / -3.3 %, beyond the
+  tolerance). The likely cause: the grid rule stops only the nodes at the plane, the rigid sum then gives the body its
+  points' mean velocity, and the points above the base keep gravity's step, so the body sinks until enough of it lies
+  in the held layers (the sink slows with time and grows with height: rigid slabs of one, two and four point layers
+  end 0.40, 5.96 and 18.84 mm under the plane on a flat ground, ``benchmarks/slide_shapes.py --sink``; the jelly's
+  stress carries its weight to the base in the same step and it does not sink). The rigid tests run the particle
+  contact only (the default for a solid), where every shape meets Coulomb; a rigid body takes the grid contact where
+  the scene's ``contact`` is ``"grid"`` (``docs/rigid.md`` "Limits").
 * **The tall jelly cube (11.25 cm) on the particle contact slips at 30 degrees, mu 0.7**: 2.77 mm at n_grid 24 (its base
   slips during the release's ringing, then stops at 0.8 s) and 6.56 mm at n_grid 32 (a steady 7.5 mm/s over the whole
   second): likely the release's ringing that round 46 found on the grid contact (``tests/test_grid_hold.py``), here
