@@ -16,72 +16,20 @@ The catch: the routing before (the rigid body on the grid rule) sinks the cube 3
 """
 from __future__ import annotations
 
-import math
-
-import numpy as np
 import pytest
 from slopes import ENGINES, closed_form
 
 from gasp_core.mpm.contact import contact_model, flowing_bodies
 from gasp_core.mpm.fields import field_bodies
 from gasp_core.mpm.rigid import RIGID_SLOP
-from gasp_core.seam import build_engine, get_engine
-from gasp_core.seam.setup import Boundary, Material
+from gasp_core.seam.setup import Material
 from gasp_core.testing.helpers import box_points, make_setup
+from gasp_core.testing.rigid_grid import SHAPES, WOOD, sink, slope_figure
 
-G = 9.81
-SIDE, GROUND, FPS = 0.6, 0.05, 60
-WOOD = Material("jelly", model="rigid", E=1.0e10, nu=0.3, rho=700.0)
 JELLY = Material("jelly", model="elastic", E=1.0e5, nu=0.3, rho=1000.0)
 SAND = Material("sand")
-#: (kind, dims m): a 12 x 12 x 2 cm slab, a 7.5 cm cube, a disc of radius 6 cm and height 3 cm.
-SHAPES = {"slab": ("box", (0.12, 0.12, 0.02)), "cube": ("box", (0.075, 0.075, 0.075)), "disc": ("disc", (0.06, 0.03))}
 SLIDE_TOL = 0.025   # the slope tests' two-sided tolerance
 STICK_MM = 1.0
-
-
-def _points(shape: str, n_grid: int) -> tuple[np.ndarray, float]:
-    """The body's points on the ground, its front 4.3 dx from the low x face (benchmarks' slide shapes' layout)."""
-    dx = SIDE / n_grid
-    kind, d = SHAPES[shape]
-    e = np.array([2 * d[0], 2 * d[0], d[1]]) if kind == "disc" else np.asarray(d, float)
-    lo = np.array([4.3 * dx, SIDE / 2 - e[1] / 2 + 0.2 * dx, GROUND])
-    x, p_vol = box_points(lo, lo + e, dx / 2)
-    if kind == "box":
-        return x, p_vol
-    c = lo + e / 2
-    x = x[np.hypot(x[:, 0] - c[0], x[:, 1] - c[1]) <= d[0]]
-    return x, math.pi * d[0] ** 2 * d[1] / len(x)
-
-
-def _setup(shape: str, n_grid: int, theta: float, mu: float):
-    """One rigid body on a ground tilted by ``theta`` degrees (gravity turned), friction ``mu``, ``contact = "grid"``."""
-    x, p_vol = _points(shape, n_grid)
-    t = math.radians(theta)
-    s = make_setup(x, p_vol, WOOD, gravity=(G * math.sin(t), 0.0, -G * math.cos(t)), lo=np.zeros(3),
-                   hi=np.full(3, SIDE), n_grid=n_grid, frame_dt=1.0 / FPS,
-                   boundaries=[Boundary("ground", height=GROUND, friction=mu)], options={"contact": "grid"})
-    s.n_render = 0
-    return s
-
-
-def _run(engine: str, s, seconds: float) -> list[np.ndarray]:
-    """The points (m, float64) per frame, frame 0 the start."""
-    e = build_engine(get_engine(engine), s)
-    out = [np.asarray(s.x, np.float64)]
-    for _ in range(round(seconds * FPS)):
-        e.step_frame()
-        out.append(e.positions().astype(np.float64))
-    return out
-
-
-def sink(engine: str, n_grid: int) -> tuple[float, float, float]:
-    """``(drop, low, skin)`` in cells: the cube's centroid drop over 1.1 s on a flat ground, its lowest point over the
-    plane at the end, and the particle contact's skin (half a point spacing)."""
-    s = _setup("cube", n_grid, 0.0, 0.7)
-    xs = _run(engine, s, 1.1)
-    return ((xs[0][:, 2].mean() - xs[-1][:, 2].mean()) / s.dx, (xs[-1][:, 2].min() - GROUND) / s.dx,
-            0.5 * float(np.median(np.cbrt(s.p_vol))) / s.dx)
 
 
 def check_sink(drop: float, low: float, skin: float) -> None:
@@ -90,20 +38,8 @@ def check_sink(drop: float, low: float, skin: float) -> None:
     assert 0.0 < low <= skin, f"its lowest point {low:+.4f} dx over the plane (skin {skin:.4f} dx)"
 
 
-def slope_figure(engine: str, shape: str, n_grid: int, theta: float, mu: float) -> float:
-    """A slide's acceleration (m/s^2, a parabola fit of the centroid from 0.05 s to 0.3 s) or a stick's travel (mm)
-    in 1 s after a 0.1 s settle."""
-    s = _setup(shape, n_grid, theta, mu)
-    slides = closed_form(theta, mu) > 0.0
-    c = np.array([x.mean(axis=0) for x in _run(engine, s, 0.3 if slides else 1.1)])
-    if slides:
-        t = np.arange(len(c)) / FPS
-        sel = t >= 0.05 - 1e-9
-        return 2.0 * float(np.polyfit(t[sel], c[sel, 0], 2)[0])
-    return 1000.0 * float(np.linalg.norm(c[-1] - c[round(0.1 * FPS)]))
-
-
 def check_slope(fig: float, theta: float, mu: float) -> None:
+    """Two-sided: a slide's acceleration within ``SLIDE_TOL`` of Coulomb's, a stick's travel under ``STICK_MM``."""
     a0 = closed_form(theta, mu)
     if a0 > 0.0:
         assert abs(fig / a0 - 1.0) <= SLIDE_TOL, f"a = {fig:.4f} m/s^2 against {a0:.4f} ({100 * (fig / a0 - 1):+.2f} %)"
@@ -135,6 +71,11 @@ def test_check_sink_catches_the_routing_before():
     with pytest.raises(AssertionError):   # a body floating a tenth of a cell
         check_sink(-0.1, 0.35, 0.25)
     check_sink(0.006, 0.244, 0.25)
+    for bias in (0.95, 1.05):   # a 5 % biased slide
+        with pytest.raises(AssertionError):
+            check_slope(bias * closed_form(30.0, 0.3), 30.0, 0.3)
+    with pytest.raises(AssertionError):   # the routing before: the slab (n_grid 32) crept 7.43 mm in 1 s
+        check_slope(7.429, 30.0, 0.7)
 
 
 @pytest.mark.parametrize("n_grid", [24, 32])
