@@ -91,9 +91,10 @@ FLOWING = ("sand", "snow", "liquid")
 TOUCH_BOUNDS = {"credit": 0, "debt": 1, "substep": 2, "episode": 3}
 #: Engine option ``contact`` of the MPM engines.
 CONTACT = Option("contact", "auto", "ground and collider contact: 'particle' (a penalty and Coulomb friction per "
-                 "point; docs/contact.md), 'grid' (their node layers projected; spins bouncing soft bodies up), each "
-                 "for the whole scene, or 'auto' (chosen per body: grid for sand, snow and liquid bodies, particle "
-                 "for the others, in the same scene)", kind="str", choices=CONTACT_MODELS)
+                 "point; docs/contact.md), 'grid' (their node layers projected; spins bouncing soft bodies up; rigid "
+                 "bodies keep the particle contact), each for the whole scene, or 'auto' (chosen per body: grid for "
+                 "sand, snow and liquid bodies, particle for the others, in the same scene)", kind="str",
+                 choices=CONTACT_MODELS)
 #: Engine option ``contact_balance`` of the MPM engines.
 BALANCE = Option("contact_balance", True, "the particle contact's balance (docs/contact.md, issue 38): each body's "
                  "net friction is Coulomb's on its rigid motion and the contact torque of a centre of pressure "
@@ -108,22 +109,36 @@ def contact_model(setup) -> str:
     12 %, the particle contact's within 29 %) takes the grid contact, every other body the particle contact (since
     its balance an E 1e6 ball rests within 0.14 mm, a figure on two legs at 1.4e6 Pa stands; on the grid contact the
     ball rolled 74 mm). Returns ``"particle"`` when no body flows, ``"grid"`` when every body does, else ``"mixed"``
-    (:func:`flowing_bodies` says which bodies take which)."""
+    (:func:`flowing_bodies` says which bodies take which). Round 51 (``docs/contact.md`` "Round 51: a rigid body on
+    the grid contact"): ``"grid"`` never holds a rigid body (``model = "rigid"``): its node stops hold only the nodes
+    at the plane, and a body without stress does not carry its weight down to them (a 7.5 cm rigid cube's centroid
+    fell 36.9 mm in 1.1 s); its rigid bodies take the particle contact (``"mixed"``, ``"particle"`` when all are
+    rigid), the others the grid contact."""
     c = setup.options.get("contact") or "auto"
     if c == "auto":
         flows = [m.name in FLOWING for m in setup.materials]
         return "grid" if flows and all(flows) else "mixed" if any(flows) else "particle"
+    rigid = [getattr(m, "model", "auto") == "rigid" for m in setup.materials]   # rigid.rigid_mask (imports this)
+    if c == "grid" and any(rigid):
+        return "particle" if all(rigid) else "mixed"
     return c
 
 
 def flowing_bodies(setup, contact: str | None = None) -> np.ndarray:
     """Which bodies take the grid contact: shape (n_materials,), bool; all with ``"grid"``, none with
-    ``"particle"``, those whose material is in :data:`FLOWING` with ``"mixed"`` (``contact``: default
-    :func:`contact_model` of ``setup``)."""
+    ``"particle"``; with ``"mixed"`` those of a :data:`FLOWING` material, or with the option ``contact = "grid"``
+    those not rigid (``contact``: default :func:`contact_model` of ``setup``)."""
     c = contact or contact_model(setup)
     if c == "mixed":
+        if explicit_grid(setup):
+            return np.array([getattr(m, "model", "auto") != "rigid" for m in setup.materials], dtype=bool)
         return np.array([m.name in FLOWING for m in setup.materials], dtype=bool)
     return np.full(len(setup.materials), c == "grid", dtype=bool)
+
+
+def explicit_grid(setup) -> bool:
+    """Whether the option ``contact`` is ``"grid"`` (its rigid bodies take the particle contact: contact_model)."""
+    return (getattr(setup, "options", None) or {}).get("contact") == "grid"
 
 
 def rule_models(contact: str) -> tuple[str, str]:

@@ -44,7 +44,7 @@ import math
 import numpy as np
 
 from gasp_core.seam.options import Option
-from gasp_core.mpm.contact import contact_model, flowing_bodies
+from gasp_core.mpm.contact import contact_model, explicit_grid, flowing_bodies
 from gasp_core.mpm.fields_reference import (FLOW_TOUCH_DELTA, MIN_FRACTION, combine_friction,  # noqa: F401
                                            field_offsets, flow_touch_level, ground_mirror, mass_normals)
 
@@ -133,9 +133,9 @@ def field_bodies(setup) -> np.ndarray | None:
     (:func:`mixed_pair`) the smaller by volume (A; body 1 when equal) against the larger (B), whose surface gives the
     contact normal (a block on a slab: the slab's face). Any other scene runs one field (three or more bodies: a
     field per body is not built)."""
-    if not setup.options.get("contact_fields", True):
-        return None
     c = contact_model(setup)
+    if not setup.options.get("contact_fields", True) or (c == "mixed" and explicit_grid(setup)):
+        return None   # contact = "grid" by hand: one field, as before its rigid bodies took the particle contact
     if c == "mixed":
         return flowing_bodies(setup, c)
     if c == "particle" and body_pair(setup):
