@@ -83,11 +83,8 @@ CONTACT_MODELS = ("auto", "particle", "grid")
 #: Materials that flow (granular, fluid): under ``contact = "auto"`` their bodies take the grid contact.
 FLOWING = ("sand", "snow", "liquid")
 #: Round 51 (docs/contact.md "Round 51: the landing's friction"): the grid contact's bound on a touched column's
-#: friction (both engines' ``touch_bound``) -> the kernels' mode. ``"credit"``: round 50's (the two touch dashpots'
-#: net push times ``mu`` kept as the column's credit; a pull never takes back the held layers' friction);
-#: ``"debt"``: that balance signed, a pull's debt taken from the held layers' friction and paid before any is given;
-#: ``"substep"``: the held layers' stops and the dashpots' signed push of the substep only; ``"episode"``: the
-#: column's whole balance carried (the held layers' unused bound too).
+#: friction (``touch_bound``) -> the kernels' mode: "credit" round 50's, "debt" (default) the balance signed, a pull's
+#: debt paid before more is given; "substep" no balance carried; "episode" the held layers' unused bound carried too.
 TOUCH_BOUNDS = {"credit": 0, "debt": 1, "substep": 2, "episode": 3}
 #: Engine option ``contact`` of the MPM engines.
 CONTACT = Option("contact", "auto", "ground and collider contact: 'particle' (a penalty and Coulomb friction per "
@@ -110,17 +107,15 @@ def contact_model(setup) -> str:
     its balance an E 1e6 ball rests within 0.14 mm, a figure on two legs at 1.4e6 Pa stands; on the grid contact the
     ball rolled 74 mm). Returns ``"particle"`` when no body flows, ``"grid"`` when every body does, else ``"mixed"``
     (:func:`flowing_bodies` says which bodies take which). Round 51 (``docs/contact.md`` "Round 51: a rigid body on
-    the grid contact"): ``"grid"`` never holds a rigid body (``model = "rigid"``): its node stops hold only the nodes
-    at the plane, and a body without stress does not carry its weight down to them (a 7.5 cm rigid cube's centroid
-    fell 36.9 mm in 1.1 s); its rigid bodies take the particle contact (``"mixed"``, ``"particle"`` when all are
-    rigid), the others the grid contact."""
+    the grid contact"): ``"grid"`` never holds a rigid body (a body without stress does not carry its weight to the
+    held nodes: a 7.5 cm cube sank 36.9 mm); it takes the particle contact (``"mixed"``, all rigid ``"particle"``)."""
     c = setup.options.get("contact") or "auto"
     if c == "auto":
         flows = [m.name in FLOWING for m in setup.materials]
         return "grid" if flows and all(flows) else "mixed" if any(flows) else "particle"
-    rigid = [getattr(m, "model", "auto") == "rigid" for m in setup.materials]   # rigid.rigid_mask (imports this)
-    if c == "grid" and any(rigid):
-        return "particle" if all(rigid) else "mixed"
+    rigid = rigid_bodies(setup.materials)
+    if c == "grid" and rigid.any():
+        return "particle" if rigid.all() else "mixed"
     return c
 
 
@@ -131,9 +126,14 @@ def flowing_bodies(setup, contact: str | None = None) -> np.ndarray:
     c = contact or contact_model(setup)
     if c == "mixed":
         if explicit_grid(setup):
-            return np.array([getattr(m, "model", "auto") != "rigid" for m in setup.materials], dtype=bool)
+            return ~rigid_bodies(setup.materials)
         return np.array([m.name in FLOWING for m in setup.materials], dtype=bool)
     return np.full(len(setup.materials), c == "grid", dtype=bool)
+
+
+def rigid_bodies(materials) -> np.ndarray:
+    """Per body, ``model == "rigid"`` (shape (n_bodies,), bool; ``gasp_core.mpm.rigid.rigid_mask``)."""
+    return np.array([getattr(m, "model", "auto") == "rigid" for m in materials], dtype=bool)
 
 
 def explicit_grid(setup) -> bool:
@@ -255,12 +255,12 @@ def touch_dashpot_speed(setup, damping: float = DAMPING) -> float:
     Round 49 (docs/contact.md "Round 49"): less what the body's own viscosity ``eta`` already damps of that mode (its
     P-wave viscosity ``2 eta``, the bulk ``2 eta / 3`` plus ``4 eta / 3``: a damping ratio ``eta / (rho c dx)``), per
     body ``2 damping c - 2 eta / (rho dx)``, the largest, at least 0. Round 50 (docs/contact.md "Round 50: one
-    dashpot speed"): a rigid body (``model = "rigid"``, ``gasp_core.mpm.rigid``) counts no speed: its stress is zero
-    (``zero_stress``), so it has no cell mode to damp and its ``E`` sets no step (``step_view``). Both grid engines
-    call this one rule. ``setup``: ``materials`` (``p_wave_speed`` m/s,
-    ``viscosity`` Pa s, ``rho`` kg/m^3, ``name``, ``model``) and ``dx`` (m)."""
+    dashpot speed"): a rigid body (:func:`rigid_bodies`) counts no speed: its stress is zero (``zero_stress``), so it
+    has no cell mode to damp and its ``E`` sets no step (``step_view``). Both grid engines call this one rule.
+    ``setup``: ``materials`` (``p_wave_speed`` m/s, ``viscosity`` Pa s, ``rho`` kg/m^3, ``name``, ``model``) and
+    ``dx`` (m)."""
     speeds = [2.0 * float(damping) * m.p_wave_speed - 2.0 * m.viscosity / (m.rho * setup.dx)
-              for m in setup.materials if m.name not in FLOWING and getattr(m, "model", "auto") != "rigid"]
+              for m, r in zip(setup.materials, rigid_bodies(setup.materials)) if m.name not in FLOWING and not r]
     return max(0.0, max(speeds, default=0.0))
 
 

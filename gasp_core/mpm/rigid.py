@@ -20,7 +20,7 @@ import dataclasses
 
 import numpy as np
 
-from gasp_core.mpm.contact import DAMPING, SKIN
+from gasp_core.mpm.contact import DAMPING, SKIN, rigid_bodies
 from gasp_core.mpm.materials import P_LAM, P_MU
 
 #: Elastic modulus (Pa) a rigid body shows the step and contact rules of the grid engines
@@ -51,7 +51,7 @@ RIGID_SLOP = 0.05
 
 def rigid_mask(materials) -> np.ndarray:
     """Per body, True where ``material.model == "rigid"`` (shape (n_bodies,), bool)."""
-    return np.array([getattr(m, "model", "auto") == "rigid" for m in materials], dtype=bool)
+    return rigid_bodies(materials)
 
 
 def step_view(setup):
