@@ -7,7 +7,12 @@
 3. The rigid ball and cylinder of tests/test_rolling.py on CUDA: rolling at (5/7) or (2/3) g sin theta with
    omega R = v, slipping at g (sin - mu cos) (issue 67 item 2).
 4. The README donut with ``device = "auto"`` twice, 3 frames each: the device ``auto`` chose, and how far two runs'
-   positions differ (the atomic P2G: CUDA runs are not bit-repeatable; ``deterministic`` stays ``{"cpu"}``).
+   positions differ (the atomic P2G: CUDA runs are not bit-repeatable; ``deterministic`` stays ``{"cpu"}``), and the
+   second run's seconds a frame (compiled).
+5. Rounds 48-51's contact on CUDA (issue 67, round 52): the slide shapes' jelly hexagonal prism and slab and the rigid
+   cube (``gasp_core.testing.slide_shapes``; the rigid body routed to the particle contact under ``"grid"``), the
+   landed and released jelly blocks of ``tests/test_landed_slide.py`` (the touch column's debt bound), and the block
+   thrown down onto the slab (its landing's friction over ``mu`` times its normal impulse): each figure and its check.
 
 Writes ``gpu_checks.json`` to ``--out``. (No ``from __future__ import annotations`` here: Taichi reads the kernels'
 annotations as types.) Usage on the device (``../shared/device``)::
@@ -130,30 +135,72 @@ def donut_twice(device: str) -> dict:
     src = ROOT / "examples" / "donut_jelly.toml"
     text = src.read_text().replace('file = "data/', f'file = "{src.parent}/data/') + \
         f'\n[engine.options]\ndevice = "{"auto" if device == "cuda" else device}"\n'
-    xs, device = [], None
+    xs, device, ticks = [], None, []
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "donut_auto.toml"
         path.write_text(text)
         for _ in range(2):
             prep = prepare_scene(load_scene(path), "taichi_mpm")
             stats = RunStats()
+            ticks = [time.perf_counter()]
             for rec in run_engine(prep.info, prep.setup, 3, stats):
                 last = rec.x
+                ticks.append(time.perf_counter())
             xs.append(last)
             device = stats.engine.get("device")
     d = np.linalg.norm(xs[0] - xs[1], axis=1)
     return {"device_auto_chose": device, "two_runs_max_dx": float(d.max() / prep.setup.dx),
-            "two_runs_alike": bool(np.array_equal(xs[0], xs[1]))}
+            "two_runs_alike": bool(np.array_equal(xs[0], xs[1])),
+            "s_per_frame_frames_2_3": round((ticks[-1] - ticks[-3]) / 2.0, 4)}
+
+
+def contact(device: str) -> dict:
+    """Item 5 of the module docstring on ``device``: each case's figure, its check's verdict (None: met) and the
+    figure the same case gives on the CPU where the tests pin it."""
+    import gasp_core.seam.build as build
+    from gasp_core.seam.plugins import get_engine
+    from gasp_core.testing import grid_hold as gh
+    from gasp_core.testing import sand_ball as S
+    from gasp_core.testing import slide_shapes as ss
+    from gasp_core.testing.kit import run_trace
+    make = build.build_engine
+
+    def on_device(info, s, *a, **k):
+        s.options = {**(s.options or {}), "device": device}
+        return make(info, s, *a, **k)
+    build.build_engine = on_device
+    out = {}
+    try:
+        for shape, mat, con, theta, mu in (("hex", "jelly", "grid", 30, 0.3), ("hex", "jelly", "grid", 30, 0.7),
+                                           ("slab", "jelly", "particle", 30, 0.3), ("cube", "rigid", "grid", 30, 0.7),
+                                           ("cube", "rigid", "grid", 30, 0.3)):
+            fig = ss.measure("taichi_mpm", shape, 1.0, mat, con, 32, theta, mu)
+            out[f"{shape}_{mat}_{con}_n32_{theta}_{mu}"] = {"figure": fig, "problem": ss.problem(theta, mu, fig, 0.025)}
+        for case in ((32, 45, 0.95, 1.0), (48, 45, 0.95, 0.0)):
+            err = gh.landed_slide_error("taichi_mpm", *case)
+            out["landed_n{}_{}deg_mu{}_v{}".format(*case)] = {"error": err, "met_2.5pc": abs(err) < 0.025}
+        s = S.slide_setup(1.6, {"contact": "grid", "device": device}, ground=True, solid=True)
+        s.v = np.asarray(s.v, float) + np.array([0.0, 0.0, -1.0])
+        tr = run_trace(get_engine("taichi_mpm"), s, 1)
+        out["thrown_vz1"] = {"excess": S.coulomb_ratio(tr.v, s, 0, 1) / float(s.boundaries[0].friction) - 1.0,
+                             "cpu_round51": 0.1840}
+    finally:
+        build.build_engine = make
+    return out
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
     ap.add_argument("--device", default="cuda", choices=("cuda", "cpu"), help="cpu: a smoke run of the script")
+    ap.add_argument("--only", nargs="*", default=None, help="run only these sections (names as in the JSON)")
     a = ap.parse_args(argv)
     a.out.mkdir(parents=True, exist_ok=True)
     doc = {}
-    for name, fn in (("primitives", primitives), ("slope", slope), ("rolling", rolling), ("donut_auto", donut_twice)):
+    for name, fn in (("primitives", primitives), ("slope", slope), ("rolling", rolling), ("donut_auto", donut_twice),
+                     ("contact", contact)):
+        if a.only is not None and name not in a.only:
+            continue
         t0 = time.perf_counter()
         try:
             doc[name] = fn(a.device)
@@ -161,7 +208,7 @@ def main(argv=None) -> int:
             doc[name] = {"error": f"{type(e).__name__}: {e}"}
         doc[name]["wall_s"] = round(time.perf_counter() - t0, 1)
         print(name, json.dumps(doc[name]), flush=True)
-    (a.out / "gpu_checks.json").write_text(json.dumps(doc, indent=1))
+        (a.out / "gpu_checks.json").write_text(json.dumps(doc, indent=1))   # after each: a timeout keeps the rest
     return 0
 
 
