@@ -162,5 +162,5 @@ def landing_error(engine: str, n: int, theta: float, mu: float, v_land: float, v
     return float(-(dv[0] - g * math.sin(r) * t) / (mu * (dv[2] + g * math.cos(r) * t)) - 1.0)
 
 
-__all__ = ["DAMPED_ETA", "LAND_ALONG", "landing_error", "HOLD_MU", "SETTLE_S", "LAND_FIT", "LAND_GAP_DX", "block_material", "hold_travel", "landed_slide_error",
-           "landed_trace", "slide_error"]
+__all__ = ["DAMPED_ETA", "LAND_ALONG", "landing_error", "HOLD_MU", "SETTLE_S", "LAND_FIT", "LAND_GAP_DX",
+           "block_material", "hold_travel", "landed_slide_error", "landed_trace", "slide_error"]
