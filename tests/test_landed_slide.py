@@ -25,6 +25,11 @@ round 50's credit +44.7 %): a pass, and its catch, round 50's ``"credit"`` selec
 there at 1 m/s reads +7.3 % (round 50: +16.2 %) and the throw down onto the ground +9.1 / +18.4 % (round 50: +77.0 /
 +93.7 %): strict xfails still (the debt of the columns the sliding block leaves is forgiven, and what it gave before a
 pull is not taken back).
+
+Round 52 (docs/contact.md "Round 52: one balance carried with the body"): ``touch_bound = "body"`` (the debt's
+balance per body, not per column) is checked where selected: the slope landing family (``LANDING``; n_grid 48 strict
+xfails), the throw and the n_grid 48 slides pass under it; the catch, round 51's "debt", fails the slope landing. The
+default stays "debt" (n_grid 48's landing is not met).
 """
 from __future__ import annotations
 

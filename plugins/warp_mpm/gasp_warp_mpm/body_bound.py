@@ -87,29 +87,6 @@ def build_body_bound(Ft):
         wp.atomic_add(pool, e + 5, Ft(1.0))
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def body_settle(pool: wp.array(dtype=Ft)):
-        e = wp.tid() * POOL
-        if pool[e + 5] > Ft(0.0):
-            r = pool[e] + pool[e + 1]
-            avail = r + pool[e + 2]
-            wh = pool[e + 3]
-            wt = pool[e + 4]
-            give = wp.min(wh + wt, wp.max(avail, Ft(0.0)))
-            fh = Ft(1.0)
-            if give < wh:
-                fh = give / wh
-            ft = Ft(0.0)
-            if wt > Ft(0.0) and give > wh:
-                ft = (give - wh) / wt
-            pool[e] = wp.min(wp.max(r, Ft(0.0)), avail - give)   # a debt kept until the body's stops pay it
-            pool[e + 6] = fh
-            pool[e + 7] = ft
-        else:
-            pool[e] = Ft(0.0)   # the body touches no column: its balance is not carried
-        for c in range(1, 6):
-            pool[e + c] = Ft(0.0)
-
-    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def body_apply(grid_v: wp.array(dtype=vec3), slots: wp.array(dtype=Ft), ground: wp.array(dtype=vec3),
                    ground_touch: wp.array(dtype=wp.int32), touch_body: wp.array(dtype=wp.int32), n_grid: int,
                    pool: wp.array(dtype=Ft), n_bodies: int):
@@ -133,4 +110,35 @@ def build_body_bound(Ft):
         for c in range(SLOTS):   # cleared for the next substep
             slots[col * SLOTS + c] = Ft(0.0)
 
-    return body_gather, body_settle, body_apply
+    return body_gather, build_body_settle(Ft), body_apply
+
+
+@functools.cache
+def build_body_settle(Ft):
+    """``body_settle(pool)``, scalar type ``Ft``, a pool a thread: round 51's bound on the pool's sums (module
+    docstring), the fractions given written to slots 6-7, the balance carried to slot 0, the sums cleared."""
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def body_settle(pool: wp.array(dtype=Ft)):
+        e = wp.tid() * POOL
+        if pool[e + 5] > Ft(0.0):
+            r = pool[e] + pool[e + 1]
+            avail = r + pool[e + 2]
+            wh = pool[e + 3]
+            wt = pool[e + 4]
+            give = wp.min(wh + wt, wp.max(avail, Ft(0.0)))
+            fh = Ft(1.0)
+            if give < wh:
+                fh = give / wh
+            ft = Ft(0.0)
+            if wt > Ft(0.0) and give > wh:
+                ft = (give - wh) / wt
+            pool[e] = wp.min(wp.max(r, Ft(0.0)), avail - give)   # a debt kept until the body's stops pay it
+            pool[e + 6] = fh
+            pool[e + 7] = ft
+        else:
+            pool[e] = Ft(0.0)   # the body touches no column: its balance is not carried
+        for c in range(1, 6):
+            pool[e + c] = Ft(0.0)
+
+    return body_settle
