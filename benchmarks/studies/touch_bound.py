@@ -1,6 +1,6 @@
 """Issue 67 round 51 (docs/contact.md "Round 51: the landing's friction"): the grid contact's bound on a touched
 column's friction, ``touch_bound`` (``gasp_core.mpm.contact.TOUCH_BOUNDS``: "credit" round 50's, "debt" the default
-since round 51, "substep", "episode"), on the landing and on the must-keeps. One line a case:
+since round 51, "substep", "episode", round 52's "body"), on the landing and on the must-keeps. One line a case:
 
 - ``land``: ``tests/test_landed_slide.py``'s throw (the jelly block of ``tests/test_ground_slide_coulomb.py``, n_grid
   32, thrown at 1.6 m/s along and 0.5 / 1 m/s down): ``sand_ball.coulomb_ratio`` over ``mu`` in the landing's frame,
@@ -12,7 +12,9 @@ since round 51, "substep", "episode"), on the landing and on the must-keeps. One
   (the released jelly);
 - ``windows:N[:V]``: the released (or landed at ``V`` m/s) jelly at 45 degrees, mu 0.95, fitted over 0.05-0.3 /
   0.1-0.35 / 0.2-0.45 s (``slide_windows.py``'s), and the centroid's rise at the end;
-- ``sag:SHAPE:N``: ``gasp_core.testing.sag.sag_ratio``.
+- ``sag:SHAPE:N``: ``gasp_core.testing.sag.sag_ratio``;
+- ``landslope:N:THETA:MU`` (round 52): ``gasp_core.testing.grid_hold.landing_error`` at 0.5 / 1 m/s down (the
+  landing's friction impulse over ``mu`` times its normal impulse on the slope, thrown along at 1.6 m/s).
 
 Usage: ``python benchmarks/studies/touch_bound.py ENGINE BOUND CASE...``, e.g. ``warp_mpm debt land windows:48``.
 """
@@ -68,6 +70,11 @@ def case_line(engine: str, kind: str, args: list) -> str:
             out.append(f"{100 * (2.0 * float(np.polyfit(t[sel], c[sel, 0], 2)[0]) / a_c - 1):+.1f}")
         return (f"45 deg mu 0.95 n{n} v {v:g}, windows 0.05-0.3 / 0.1-0.35 / 0.2-0.45 s: " + " / ".join(out)
                 + f" %; rise {1e3 * (c[-1, 2] - c[0, 2]):+.3f} mm")
+    if kind == "landslope":
+        from gasp_core.testing.grid_hold import landing_error
+        n, th, mu = int(args[0]), float(args[1]), float(args[2])
+        out = [f"{100 * landing_error(engine, n, th, mu, vz):+.2f}" for vz in (0.5, 1.0)]
+        return f"landing on the slope n{n} {th:g} deg mu {mu:g}, vz 0.5 / 1 m/s: " + " / ".join(out) + " %"
     if kind == "sag":
         from gasp_core.testing.sag import sag_ratio
         return f"sag {args[0]} n{args[1]}: {sag_ratio(engine, args[0], int(args[1]))[0]:.3f}"

@@ -82,10 +82,10 @@ JSUMS = ("j", "jx", "jy", "jz", "jnx", "jny", "jnz", "mnx", "mny", "mnz", "jvx",
 CONTACT_MODELS = ("auto", "particle", "grid")
 #: Materials that flow (granular, fluid): under ``contact = "auto"`` their bodies take the grid contact.
 FLOWING = ("sand", "snow", "liquid")
-#: Round 51 (docs/contact.md "Round 51: the landing's friction"): the grid contact's bound on a touched column's
-#: friction (``touch_bound``) -> the kernels' mode: "credit" round 50's, "debt" (default) the balance signed, a pull's
-#: debt paid before more is given; "substep" no balance carried; "episode" the held layers' unused bound carried too.
-TOUCH_BOUNDS = {"credit": 0, "debt": 1, "substep": 2, "episode": 3}
+#: docs/contact.md "Round 51" / "Round 52": the grid contact's bound on a touched column's friction (``touch_bound``) ->
+#: mode: "credit" round 50's, "debt" (default) the balance signed, a pull's debt paid before more is given; "substep"
+#: none carried; "episode" the unused bound too; "body" (round 52) the debt's balance per body and ground, pooled.
+TOUCH_BOUNDS = {"credit": 0, "debt": 1, "substep": 2, "episode": 3, "body": 4}
 #: Engine option ``contact`` of the MPM engines.
 CONTACT = Option("contact", "auto", "ground and collider contact: 'particle' (a penalty and Coulomb friction per "
                  "point; docs/contact.md), 'grid' (their node layers projected; spins bouncing soft bodies up; rigid "

@@ -132,5 +132,35 @@ def landed_slide_error(engine: str, n: int, theta: float, mu: float, v_land: flo
     return a / (9.81 * (math.sin(r) - mu * math.cos(r))) - 1.0
 
 
-__all__ = ["DAMPED_ETA", "HOLD_MU", "SETTLE_S", "LAND_FIT", "LAND_GAP_DX", "block_material", "hold_travel", "landed_slide_error",
-           "landed_trace", "slide_error"]
+#: Round 52: the along-slope speed (m/s) of :func:`landing_error`'s throw, enough that its base slides through the
+#: landing's frame on every slope of the family (it loses at most ``mu`` (1 + g cos theta / 60) < 1.2 m/s there).
+LAND_ALONG = 1.6
+
+
+def landing_error(engine: str, n: int, theta: float, mu: float, v_land: float, v_along: float = LAND_ALONG) -> float:
+    """Round 52 (docs/contact.md "Round 52: one balance carried with the body"): Coulomb's impulse law over a
+    landing on a slope: :func:`landed_trace`'s block thrown at the plane at ``-v_land`` m/s and along +x (down the
+    slope) at ``v_along`` m/s; over the landing's frame (frame 0 to 1, ``T`` = 1 / ``SLOPE_FPS``) the friction
+    impulse per unit mass ``-(dV_x - g_x T)`` over ``mu`` times the normal one ``dV_z + g_z T`` (``V`` the mass
+    centre's velocity, ``g_x`` = g sin theta, ``g_z`` = g cos theta), less 1 (float, 0.01 = 1 %; ``inf`` if it
+    diverged). The base slides forward throughout, so Coulomb's law makes it 0 whatever the block's ringing."""
+    from gasp_core.errors import EngineDivergence
+    from gasp_core.seam.build import build_engine
+    from gasp_core.seam.plugins import get_engine
+    from .snow import SLOPE_FPS, slope_setup
+    s = slope_setup(theta, mu, n, block_material("jelly"), {"contact": "grid"})
+    s.v = np.tile(np.array([float(v_along), 0.0, -float(v_land)]), (len(s.x), 1))
+    e = build_engine(get_engine(engine), s)
+    try:
+        e.step_frame()
+        v1 = np.asarray(e.velocities(), np.float64)
+    except EngineDivergence:
+        return math.inf
+    m = np.asarray(s.p_mass, np.float64)
+    dv = (m @ v1) / m.sum() - np.array([v_along, 0.0, -v_land])
+    r, g, t = math.radians(theta), 9.81, 1.0 / SLOPE_FPS
+    return float(-(dv[0] - g * math.sin(r) * t) / (mu * (dv[2] + g * math.cos(r) * t)) - 1.0)
+
+
+__all__ = ["DAMPED_ETA", "LAND_ALONG", "landing_error", "HOLD_MU", "SETTLE_S", "LAND_FIT", "LAND_GAP_DX",
+           "block_material", "hold_travel", "landed_slide_error", "landed_trace", "slide_error"]

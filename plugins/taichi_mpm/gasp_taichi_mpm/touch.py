@@ -21,11 +21,13 @@ import taichi as ti
 from gasp_core.mpm.contact import DAMPING, TOUCH_BOUNDS
 from gasp_core.mpm.materials import MaterialKind
 
+from .body_bound import BodyBound
+
 #: The flowing materials' codes (``gasp_core.mpm.contact.FLOWING``): round 36's touch test.
 SAND, SNOW, LIQUID = int(MaterialKind.SAND), int(MaterialKind.SNOW), int(MaterialKind.LIQUID)
 
 
-class GroundTouch:
+class GroundTouch(BodyBound):
     """The touched columns (:meth:`mark_touch`) and the ground's node reach (:meth:`ground_reach`)."""
 
     #: The switch (on by default since round 36; warp_mpm's ``WarpMPMEngine.touch_contact``, the same rule): False
@@ -60,7 +62,8 @@ class GroundTouch:
     touch_credit = True
     #: Round 51 (docs/contact.md "Round 51: the landing's friction"): the column's Coulomb bound
     #: (``gasp_core.mpm.contact.TOUCH_BOUNDS``): ``"debt"`` (default), ``"credit"`` round 50's rule (``touch_credit``
-    #: is read only there). warp_mpm's ``touch_bound``.
+    #: is read only there); round 52 ``"body"`` the debt's balance per body (:class:`BodyBound`). warp_mpm's
+    #: ``touch_bound``.
     touch_bound = "debt"
 
     def allocate_touch(self) -> None:
@@ -80,6 +83,7 @@ class GroundTouch:
         # round 50: each column's credit, mu times the dashpot's net push less the friction it gave (kg m/s)
         self.credit_on = bool(self.share_on and (self.touch_credit or self.bound_mode > 0) and self.touch_speed > 0.0)
         self.touch_credits = ti.field(self.real, shape=(4, ng, ng) if self.credit_on else (1, 1, 1))
+        self.allocate_body_bound(self.share_on and self.bound_mode == TOUCH_BOUNDS["body"])   # round 52
 
     @ti.kernel
     def mark_touch(self):
@@ -91,6 +95,8 @@ class GroundTouch:
         ng = self.n_grid
         for b, i, j in ti.ndrange(self.n_grounds, ng, ng):
             self.ground_touch[b, i, j] = 0
+            if ti.static(self.pool_on):   # round 52: the column's body (body_bound.py)
+                self.touch_body[b, i, j] = 0
         reach = ti.cast(self.touch_delta, self.real) * self.dx[None]
         margin = ti.cast(self.touch_margin, self.real)
         for p in range(self.n_points[None]):
@@ -112,6 +118,9 @@ class GroundTouch:
                         if (flowing and z < reach) or (not flowing and z - h < margin * h):
                             for i, j in ti.static(ti.ndrange(3, 3)):
                                 ti.atomic_max(self.ground_touch[b, base[0] + i, base[1] + j], mark)
+                                if ti.static(self.pool_on):   # round 52: the column's body, the largest id
+                                    if not flowing:
+                                        ti.atomic_max(self.touch_body[b, base[0] + i, base[1] + j], self.body[p])
 
     @ti.func
     def ground_reach(self, b: ti.template(), I):
@@ -295,5 +304,7 @@ class GroundTouch:
 
     def touch_after(self) -> None:
         """Round 49: :meth:`share_bound` where ``share_on`` (after the grid update, before the held boxes' ghosts)."""
-        if self.share_on:
+        if self.pool_on:   # round 52: the body's pool (body_bound.py)
+            self.body_bound()
+        elif self.share_on:
             self.share_bound()

@@ -30,6 +30,7 @@ import warp as wp
 
 from gasp_core.mpm.contact import DAMPING, FLOWING, TOUCH_BOUNDS, touch_dashpot_speed
 
+from .body_bound import POOL, build_body_bound
 from .precision import MODULE_OPTIONS, build_types
 from .share import SLOTS, build_share
 
@@ -70,7 +71,8 @@ class GroundTouch:
     #: Round 51 (docs/contact.md "Round 51: the landing's friction"): the column's Coulomb bound
     #: (``gasp_core.mpm.contact.TOUCH_BOUNDS``): ``"debt"`` (default) the whole column's friction under its stops and
     #: the dashpots' signed push, a pull's debt kept until paid; ``"credit"`` round 50's rule (the catch of
-    #: ``tests/test_landed_slide.py``; ``touch_credit`` is read only there). Read when built.
+    #: ``tests/test_landed_slide.py``; ``touch_credit`` is read only there); round 52 ``"body"`` the debt's balance
+    #: per body and ground (``gasp_warp_mpm.body_bound``). Read when built.
     touch_bound = "debt"
 
     def bound_mode(self) -> int:
@@ -101,6 +103,12 @@ class GroundTouch:
         self.touch_slots = wp.zeros(SLOTS * n if shared else 1, dtype=Ft, device=self.device)
         # round 50: each column's credit, mu times the dashpot's net push less the friction it gave (kg m/s)
         self.touch_credits = wp.zeros(n if shared else 1, dtype=Ft, device=self.device)
+        # round 52 ("body", body_bound.py): each column's body, and a pool a ground and body
+        pooled = shared and self.bound_mode() == TOUCH_BOUNDS["body"]
+        self.n_pool_bodies = max(1, len(self.setup.materials))
+        self.touch_body = wp.zeros(n if pooled else 1, dtype=wp.int32, device=self.device)
+        self.touch_pool = wp.zeros(POOL * max(1, len(heights)) * self.n_pool_bodies if pooled else 1, dtype=Ft,
+                                   device=self.device)
         self.ground_z = wp.array(np.array(heights or [0.0], dtype=self._np_dtype), dtype=Ft, device=self.device)
         self.touch_solid = wp.array(np.array([m.name not in FLOWING for m in self.setup.materials] or [False],
                                              dtype=np.int32), dtype=wp.int32, device=self.device)
@@ -111,6 +119,14 @@ class GroundTouch:
         if self.touch_slots.shape[0] == 1:   # touch_on and touch_share
             return []
         credit = Ft(self.touch_speed * self.dt / self.dx if self.column_dashpot() else 0.0)   # the dashpot here
+        if self.touch_body.shape[0] > 1:   # round 52: the body's pool (body_bound.py)
+            gather, settle, apply = build_body_bound(Ft)
+            n, d, ng, nb = self.ground_touch.shape[0], self.device, self.n_grid, self.n_pool_bodies
+            cols = [self.grid_v, self.touch_slots, self.ground, self.ground_touch, self.touch_body, ng]
+            return [wp.launch(gather, dim=n, device=d, record_cmd=True, inputs=cols + [credit, self.touch_pool, nb]),
+                    wp.launch(settle, dim=self.touch_pool.shape[0] // POOL, device=d, record_cmd=True,
+                              inputs=[self.touch_pool]),
+                    wp.launch(apply, dim=n, device=d, record_cmd=True, inputs=cols + [self.touch_pool, nb])]
         return [wp.launch(build_share(Ft)[1], dim=self.ground_touch.shape[0], device=self.device, record_cmd=True,
                           inputs=[self.grid_v, self.touch_slots, self.ground, self.ground_touch, self.n_grid, credit,
                                   self.touch_credits, self.bound_mode()])]
@@ -124,10 +140,10 @@ class GroundTouch:
         ng, d = self.n_grid, self.device
         lo = self.k.vec3(*[float(c) for c in self.setup.domain_lo])
         return [wp.launch(clear, dim=self.ground_touch.shape[0], device=d, record_cmd=True,
-                          inputs=[self.ground_touch]),
+                          inputs=[self.ground_touch, self.touch_body]),
                 wp.launch(mark, dim=self.n_material, device=d, record_cmd=True, inputs=[
                     self.x, self.p_vol, self.body, self.flows, self.touch_solid, self.ground_z, self.ground_touch, lo,
-                    Ft(self.inv_dx), Ft(self.touch_delta * self.dx), Ft(self.touch_margin), ng])]
+                    Ft(self.inv_dx), Ft(self.touch_delta * self.dx), Ft(self.touch_margin), ng, self.touch_body])]
 
 
 @functools.cache
@@ -139,13 +155,16 @@ def build_touch(Ft):
     vec3, vec4, mat33 = build_types(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def touch_clear(ground_touch: wp.array(dtype=wp.int32)):
+    def touch_clear(ground_touch: wp.array(dtype=wp.int32), touch_body: wp.array(dtype=wp.int32)):
         ground_touch[wp.tid()] = 0
+        if touch_body.shape[0] > 1:   # round 52: the column's body (body_bound.py)
+            touch_body[wp.tid()] = 0
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def touch_mark(x: wp.array(dtype=vec3), p_vol: wp.array(dtype=Ft), body: wp.array(dtype=wp.int32),
                    flows: wp.array(dtype=wp.int32), solid: wp.array(dtype=wp.int32), ground_z: wp.array(dtype=Ft),
-                   ground_touch: wp.array(dtype=wp.int32), lo: vec3, inv_dx: Ft, reach: Ft, margin: Ft, n_grid: int):
+                   ground_touch: wp.array(dtype=wp.int32), lo: vec3, inv_dx: Ft, reach: Ft, margin: Ft, n_grid: int,
+                   touch_body: wp.array(dtype=wp.int32)):
         # a point of a flowing body (flows: all with "grid", the flowing bodies with "mixed") in the grid (P2G's
         # stencil test) that touches ground q's plane marks its 3 x 3 stencil columns: a point of a body that does
         # not flow (solid) when its lowest extent (its height less h, half its spacing p_vol^(1/3) / 2) lies under
@@ -176,6 +195,8 @@ def build_touch(Ft):
                 for a in range(3):
                     for c in range(3):
                         wp.atomic_max(ground_touch, (q * n_grid + int(b0) + a) * n_grid + int(b1) + c, mark)
+                        if is_solid and touch_body.shape[0] > 1:   # round 52: the column's body, the largest id
+                            wp.atomic_max(touch_body, (q * n_grid + int(b0) + a) * n_grid + int(b1) + c, body[p])
 
     @wp.func
     def ground_reach(k: int, gr: vec3, q: int, i: int, j: int, n_grid: int, ground_touch: wp.array(dtype=wp.int32)):

@@ -1,0 +1,118 @@
+"""Round 52 (issue 67; docs/contact.md "Round 52: one balance carried with the body"): ``touch_bound = "body"``
+(``gasp_core.mpm.contact.TOUCH_BOUNDS`` 4), round 51's debt (:meth:`GroundTouch.column_bound`) kept per body and
+ground instead of per column. A column marked 2 belongs to the largest body id of the points of a body that does not
+flow that mark it (``touch_body``, :meth:`GroundTouch.mark_touch`, atomic max). Three kernels after the grid update,
+in place of :meth:`GroundTouch.share_bound`: :meth:`BodyBound.body_gather` (a column a thread: the two dashpots, and
+the column's ``mu`` times their signed push, its held layers' stops, the friction its held nodes want, each at most
+its own stop's, and its touched node's ``m |v_xy|``, added atomically into the pool of its ground and body),
+:meth:`BodyBound.body_settle` (a pool a thread: round 51's bound on the pool, the held nodes first; the balance
+carried ``min(max(r, 0), avail - give)``, a debt kept until the body's stops pay it wherever on its footprint) and
+:meth:`BodyBound.body_apply` (a column a thread: each node's cut, the slots cleared). warp_mpm's
+``gasp_warp_mpm.body_bound``, the same rule.
+
+Mixed into :class:`gasp_taichi_mpm.touch.GroundTouch`, whose fields (``ground_touch``, ``touch_slots``,
+``ground_kmax``, ``ground_fric``, ``grid_v``, ...) it reads.
+"""
+import taichi as ti
+
+#: A pool's slots (``body_pool[b, body]``): 0 the balance carried (kept across substeps), 1 ``mu`` times the
+#: dashpots' push, 2 the held layers' stops, 3 the held nodes' want, 4 the touched nodes', 5 the columns counted, 6
+#: the held fraction given, 7 the touched fraction given (warp_mpm's ``body_bound.POOL``).
+POOL = 8
+
+
+class BodyBound:
+    """The per-body pool of round 52's ``"body"`` bound (module docstring)."""
+
+    def allocate_body_bound(self, on: bool) -> None:
+        """``pool_on`` (``on``: the share on with ``bound_mode`` 4), ``touch_body`` (i32, ``(4, n_grid, n_grid)``, the
+        column's body; one entry when off) and ``body_pool`` (``real``, ``(4, n_bodies, POOL)``, kg m/s and
+        fractions)."""
+        self.pool_on = bool(on)
+        ng = self.n_grid
+        self.touch_body = ti.field(ti.i32, shape=(4, ng, ng) if on else (1, 1, 1))
+        self.body_pool = ti.field(self.real, shape=(4, max(1, self.n_bodies), POOL) if on else (1, 1, 1))
+
+    @ti.kernel
+    def body_gather(self):
+        """The columns' sums into their pools (module docstring)."""
+        ng = self.n_grid
+        for b, i, j in ti.ndrange(self.n_grounds, ng, ng):
+            kt = self.ground_kmax[b] + 1
+            if self.ground_touch[b, i, j] == 2 and self.ground_fric[b] > 0 and 0 <= kt and kt < ng:
+                mu = self.ground_fric[b]
+                m = self.touch_slots[b, i, j, 3]
+                push = ti.cast(0.0, self.real)
+                if ti.static(self.credit_on):   # round 50's two dashpots, both ways
+                    d = ti.cast(self.touch_speed, self.real) * self.dt[None] / self.dx[None]
+                    push += mu * self.damp_node(ti.Vector([i, j, kt]), m, d)
+                    if kt + 1 < ng:
+                        push += mu * self.damp_node(ti.Vector([i, j, kt + 1]), self.touch_slots[b, i, j, 4], d)
+                stops = ti.cast(0.0, self.real)
+                want = ti.cast(0.0, self.real)
+                for c in ti.static(range(3)):
+                    stops += self.touch_slots[b, i, j, c]
+                    mc = self.touch_slots[b, i, j, 5 + c]
+                    if mc > 0 and kt - 3 + c >= 0:
+                        u = self.grid_v[i, j, kt - 3 + c]
+                        want += ti.min(mc * ti.sqrt(u[0] * u[0] + u[1] * u[1]), self.touch_slots[b, i, j, c])
+                v = self.grid_v[i, j, kt]
+                o = self.touch_body[b, i, j]
+                self.body_pool[b, o, 1] += push
+                self.body_pool[b, o, 2] += stops
+                self.body_pool[b, o, 3] += want
+                self.body_pool[b, o, 4] += m * ti.sqrt(v[0] * v[0] + v[1] * v[1])
+                self.body_pool[b, o, 5] += 1.0
+
+    @ti.kernel
+    def body_settle(self):
+        """Round 51's bound on each pool (module docstring)."""
+        for b, o in ti.ndrange(self.n_grounds, self.body_pool.shape[1]):
+            if self.body_pool[b, o, 5] > 0:
+                r = self.body_pool[b, o, 0] + self.body_pool[b, o, 1]
+                avail = r + self.body_pool[b, o, 2]
+                wh, wt = self.body_pool[b, o, 3], self.body_pool[b, o, 4]
+                give = ti.min(wh + wt, ti.max(avail, 0.0))
+                fh = ti.cast(1.0, self.real)
+                if give < wh:
+                    fh = give / wh
+                ft = ti.cast(0.0, self.real)
+                if wt > 0 and give > wh:
+                    ft = (give - wh) / wt
+                self.body_pool[b, o, 0] = ti.min(ti.max(r, 0.0), avail - give)   # a debt kept until paid
+                self.body_pool[b, o, 6] = fh
+                self.body_pool[b, o, 7] = ft
+            else:
+                self.body_pool[b, o, 0] = 0.0   # the body touches no column: its balance is not carried
+            for c in ti.static(range(1, 6)):
+                self.body_pool[b, o, c] = 0.0
+
+    @ti.kernel
+    def body_apply(self):
+        """Each node's cut by its pool's fractions; the slots cleared (module docstring)."""
+        ng = self.n_grid
+        for b, i, j in ti.ndrange(self.n_grounds, ng, ng):
+            kt = self.ground_kmax[b] + 1
+            if self.ground_touch[b, i, j] == 2 and self.ground_fric[b] > 0 and 0 <= kt and kt < ng:
+                o = self.touch_body[b, i, j]
+                fh = self.body_pool[b, o, 6]
+                for c in ti.static(range(3)):
+                    mc = self.touch_slots[b, i, j, 5 + c]
+                    if mc > 0 and kt - 3 + c >= 0:
+                        u = self.grid_v[i, j, kt - 3 + c]
+                        lu = ti.sqrt(u[0] * u[0] + u[1] * u[1])
+                        if lu > 1e-30:
+                            s = ti.max(0.0, 1.0 - fh * ti.min(mc * lu, self.touch_slots[b, i, j, c]) / (mc * lu))
+                            self.grid_v[i, j, kt - 3 + c] = ti.Vector([u[0] * s, u[1] * s, u[2]])
+                if self.touch_slots[b, i, j, 3] > 0:
+                    v = self.grid_v[i, j, kt]
+                    s = ti.max(0.0, 1.0 - self.body_pool[b, o, 7])
+                    self.grid_v[i, j, kt] = ti.Vector([v[0] * s, v[1] * s, v[2]])
+            for c in ti.static(range(8)):
+                self.touch_slots[b, i, j, c] = 0.0
+
+    def body_bound(self) -> None:
+        """The three kernels, in order (after the grid update, in place of ``share_bound``)."""
+        self.body_gather()
+        self.body_settle()
+        self.body_apply()
