@@ -83,8 +83,8 @@ CONTACT_MODELS = ("auto", "particle", "grid")
 #: Materials that flow (granular, fluid): under ``contact = "auto"`` their bodies take the grid contact.
 FLOWING = ("sand", "snow", "liquid")
 #: docs/contact.md "Round 51" / "Round 52": the grid contact's bound on a touched column's friction (``touch_bound``) ->
-#: mode: "credit" round 50's, "debt" (default) the balance signed, a pull's debt paid before more is given; "substep"
-#: none carried; "episode" the unused bound too; "body" (round 52) the debt's balance per body and ground, pooled.
+#: mode: "credit" round 50's, "debt" the balance signed, a pull's debt paid before more is given; "substep" none
+#: carried; "episode" the unused bound too; "body" (default, round 52) the debt's balance per body and ground, pooled.
 TOUCH_BOUNDS = {"credit": 0, "debt": 1, "substep": 2, "episode": 3, "body": 4}
 #: Engine option ``contact`` of the MPM engines.
 CONTACT = Option("contact", "auto", "ground and collider contact: 'particle' (a penalty and Coulomb friction per "

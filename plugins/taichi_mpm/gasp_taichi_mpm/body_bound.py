@@ -2,10 +2,12 @@
 (``gasp_core.mpm.contact.TOUCH_BOUNDS`` 4), round 51's debt (:meth:`GroundTouch.column_bound`) kept per body and
 ground instead of per column. A column marked 2 belongs to the largest body id of the points of a body that does not
 flow that mark it (``touch_body``, :meth:`GroundTouch.mark_touch`, atomic max). Three kernels after the grid update,
-in place of :meth:`GroundTouch.share_bound`: :meth:`BodyBound.body_gather` (a column a thread: the two dashpots, and
-the column's ``mu`` times their signed push, its held layers' stops, the friction its held nodes want, each at most
-its own stop's, and its touched node's ``m |v_xy|``, added atomically into the pool of its ground and body),
-:meth:`BodyBound.body_settle` (a pool a thread: round 51's bound on the pool, the held nodes first; the balance
+in place of :meth:`GroundTouch.share_bound`: :meth:`BodyBound.body_gather` (a row of columns a thread: the two dashpots,
+and the column's ``mu`` times their signed push, its held layers' stops, the friction its held nodes want, each at
+most its own stop's, and its touched node's ``m |v_xy|``, summed in column order into the row's partial of its ground
+and body, ``row_pool``), :meth:`BodyBound.body_settle` (a pool a thread: the rows' partials summed in row order, so
+the sums are the same bits on any number of threads and on CUDA, unlike float atomics (lead, round 52); round 51's
+bound on the pool, the held nodes first; the balance
 carried ``min(max(r, 0), avail - give)``, a debt kept until the body's stops pay it wherever on its footprint) and
 :meth:`BodyBound.body_apply` (a column a thread: each node's cut, the slots cleared). warp_mpm's
 ``gasp_warp_mpm.body_bound``, the same rule.
@@ -32,42 +34,56 @@ class BodyBound:
         ng = self.n_grid
         self.touch_body = ti.field(ti.i32, shape=(4, ng, ng) if on else (1, 1, 1))
         self.body_pool = ti.field(self.real, shape=(4, max(1, self.n_bodies), POOL) if on else (1, 1, 1))
+        # each row of columns' partial sums (slots 1-5 of a pool), summed in a fixed order by body_settle
+        self.row_pool = ti.field(self.real, shape=(4, ng, max(1, self.n_bodies), 5) if on else (1, 1, 1, 1))
 
     @ti.kernel
     def body_gather(self):
         """The columns' sums into their pools (module docstring)."""
         ng = self.n_grid
-        for b, i, j in ti.ndrange(self.n_grounds, ng, ng):
-            kt = self.ground_kmax[b] + 1
-            if self.ground_touch[b, i, j] == 2 and self.ground_fric[b] > 0 and 0 <= kt and kt < ng:
-                mu = self.ground_fric[b]
-                m = self.touch_slots[b, i, j, 3]
-                push = ti.cast(0.0, self.real)
-                if ti.static(self.credit_on):   # round 50's two dashpots, both ways
-                    d = ti.cast(self.touch_speed, self.real) * self.dt[None] / self.dx[None]
-                    push += mu * self.damp_node(ti.Vector([i, j, kt]), m, d)
-                    if kt + 1 < ng:
-                        push += mu * self.damp_node(ti.Vector([i, j, kt + 1]), self.touch_slots[b, i, j, 4], d)
-                stops = ti.cast(0.0, self.real)
-                want = ti.cast(0.0, self.real)
-                for c in ti.static(range(3)):
-                    stops += self.touch_slots[b, i, j, c]
-                    mc = self.touch_slots[b, i, j, 5 + c]
-                    if mc > 0 and kt - 3 + c >= 0:
-                        u = self.grid_v[i, j, kt - 3 + c]
-                        want += ti.min(mc * ti.sqrt(u[0] * u[0] + u[1] * u[1]), self.touch_slots[b, i, j, c])
-                v = self.grid_v[i, j, kt]
-                o = self.touch_body[b, i, j]
-                self.body_pool[b, o, 1] += push
-                self.body_pool[b, o, 2] += stops
-                self.body_pool[b, o, 3] += want
-                self.body_pool[b, o, 4] += m * ti.sqrt(v[0] * v[0] + v[1] * v[1])
-                self.body_pool[b, o, 5] += 1.0
+        for b, i in ti.ndrange(self.n_grounds, ng):   # a row a thread: its columns in order (no float atomics)
+            for o, c in ti.ndrange(self.row_pool.shape[2], 5):
+                self.row_pool[b, i, o, c] = 0.0
+            for j in range(ng):
+                self.gather_column(b, i, j)
+
+    @ti.func
+    def gather_column(self, b, i, j):
+        """One column's sums into its row's partial (:meth:`body_gather`)."""
+        ng = self.n_grid
+        kt = self.ground_kmax[b] + 1
+        if self.ground_touch[b, i, j] == 2 and self.ground_fric[b] > 0 and 0 <= kt and kt < ng:
+            mu = self.ground_fric[b]
+            m = self.touch_slots[b, i, j, 3]
+            push = ti.cast(0.0, self.real)
+            if ti.static(self.credit_on):   # round 50's two dashpots, both ways
+                d = ti.cast(self.touch_speed, self.real) * self.dt[None] / self.dx[None]
+                push += mu * self.damp_node(ti.Vector([i, j, kt]), m, d)
+                if kt + 1 < ng:
+                    push += mu * self.damp_node(ti.Vector([i, j, kt + 1]), self.touch_slots[b, i, j, 4], d)
+            stops = ti.cast(0.0, self.real)
+            want = ti.cast(0.0, self.real)
+            for c in ti.static(range(3)):
+                stops += self.touch_slots[b, i, j, c]
+                mc = self.touch_slots[b, i, j, 5 + c]
+                if mc > 0 and kt - 3 + c >= 0:
+                    u = self.grid_v[i, j, kt - 3 + c]
+                    want += ti.min(mc * ti.sqrt(u[0] * u[0] + u[1] * u[1]), self.touch_slots[b, i, j, c])
+            v = self.grid_v[i, j, kt]
+            o = self.touch_body[b, i, j]
+            self.row_pool[b, i, o, 0] += push
+            self.row_pool[b, i, o, 1] += stops
+            self.row_pool[b, i, o, 2] += want
+            self.row_pool[b, i, o, 3] += m * ti.sqrt(v[0] * v[0] + v[1] * v[1])
+            self.row_pool[b, i, o, 4] += 1.0
 
     @ti.kernel
     def body_settle(self):
         """Round 51's bound on each pool (module docstring)."""
         for b, o in ti.ndrange(self.n_grounds, self.body_pool.shape[1]):
+            for i in range(self.n_grid):   # the rows' partials, in row order
+                for c in ti.static(range(5)):
+                    self.body_pool[b, o, 1 + c] += self.row_pool[b, i, o, c]
             if self.body_pool[b, o, 5] > 0:
                 r = self.body_pool[b, o, 0] + self.body_pool[b, o, 1]
                 avail = r + self.body_pool[b, o, 2]

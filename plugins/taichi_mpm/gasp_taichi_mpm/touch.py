@@ -61,10 +61,10 @@ class GroundTouch(BodyBound):
     #: ``GroundTouch.touch_credit``.
     touch_credit = True
     #: Round 51 (docs/contact.md "Round 51: the landing's friction"): the column's Coulomb bound
-    #: (``gasp_core.mpm.contact.TOUCH_BOUNDS``): ``"debt"`` (default), ``"credit"`` round 50's rule (``touch_credit``
-    #: is read only there); round 52 ``"body"`` the debt's balance per body (:class:`BodyBound`). warp_mpm's
-    #: ``touch_bound``.
-    touch_bound = "debt"
+    #: (``gasp_core.mpm.contact.TOUCH_BOUNDS``): ``"debt"``, ``"credit"`` round 50's rule (``touch_credit`` is read
+    #: only there); round 52 ``"body"`` (the default since round 52) the debt's balance per body (:class:`BodyBound`).
+    #: warp_mpm's ``touch_bound``.
+    touch_bound = "body"
 
     def allocate_touch(self) -> None:
         """``touch_on`` (the switch, a ground with friction, ``ground_rubs``, and the grid contact's rule: no particle contact, or the contact chosen

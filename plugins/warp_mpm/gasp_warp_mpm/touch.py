@@ -69,11 +69,11 @@ class GroundTouch:
     #: (:func:`build_share`); False: round 49's rule (the dashpot's push gives no friction). Read when built.
     touch_credit = True
     #: Round 51 (docs/contact.md "Round 51: the landing's friction"): the column's Coulomb bound
-    #: (``gasp_core.mpm.contact.TOUCH_BOUNDS``): ``"debt"`` (default) the whole column's friction under its stops and
-    #: the dashpots' signed push, a pull's debt kept until paid; ``"credit"`` round 50's rule (the catch of
-    #: ``tests/test_landed_slide.py``; ``touch_credit`` is read only there); round 52 ``"body"`` the debt's balance
-    #: per body and ground (``gasp_warp_mpm.body_bound``). Read when built.
-    touch_bound = "debt"
+    #: (``gasp_core.mpm.contact.TOUCH_BOUNDS``): ``"debt"`` the whole column's friction under its stops and the
+    #: dashpots' signed push, a pull's debt kept until paid; ``"credit"`` round 50's rule (the catch of
+    #: ``tests/test_landed_slide.py``; ``touch_credit`` is read only there); round 52 ``"body"`` (the default since
+    #: round 52) the debt's balance per body and ground (``gasp_warp_mpm.body_bound``). Read when built.
+    touch_bound = "body"
 
     def bound_mode(self) -> int:
         """Round 51: the kernels' ``mode`` (``TOUCH_BOUNDS``); 0 without ``touch_share``."""
