@@ -11,8 +11,9 @@
    second run's seconds a frame (compiled).
 5. Rounds 48-51's contact on CUDA (issue 67, round 52): the slide shapes' jelly hexagonal prism and slab and the rigid
    cube (``gasp_core.testing.slide_shapes``; the rigid body routed to the particle contact under ``"grid"``), the
-   landed and released jelly blocks of ``tests/test_landed_slide.py`` (the touch column's debt bound), and the block
-   thrown down onto the slab (its landing's friction over ``mu`` times its normal impulse): each figure and its check.
+   landed and released jelly blocks of ``tests/test_landed_slide.py`` (the touch bound), the block thrown down onto
+   the slab and the block landing on the slope (its landing's friction over ``mu`` times its normal impulse; round
+   52's ``"body"`` bound, its pool summed by rows): each figure and its check.
 
 Writes ``gpu_checks.json`` to ``--out``. (No ``from __future__ import annotations`` here: Taichi reads the kernels'
 annotations as types.) Usage on the device (``../shared/device``)::
@@ -182,8 +183,10 @@ def contact(device: str) -> dict:
         s = S.slide_setup(1.6, {"contact": "grid", "device": device}, ground=True, solid=True)
         s.v = np.asarray(s.v, float) + np.array([0.0, 0.0, -1.0])
         tr = run_trace(get_engine("taichi_mpm"), s, 1)
-        out["thrown_vz1"] = {"excess": S.coulomb_ratio(tr.v, s, 0, 1) / float(s.boundaries[0].friction) - 1.0,
-                             "cpu_round51": 0.1840}
+        err = S.coulomb_ratio(tr.v, s, 0, 1) / float(s.boundaries[0].friction) - 1.0
+        out["thrown_vz1"] = {"excess": err, "met_2.5pc": abs(err) < 0.025}   # round 51's debt: +18.40 %
+        err = gh.landing_error("taichi_mpm", 32, 45, 0.95, 1.0)   # round 52's slope landing ("body": +1.07 %)
+        out["slope_landing_n32_45deg_v1"] = {"error": err, "met_2.5pc": abs(err) < 0.025}
     finally:
         build.build_engine = make
     return out
