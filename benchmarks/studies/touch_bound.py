@@ -1,6 +1,7 @@
 """Issue 67 round 51 (docs/contact.md "Round 51: the landing's friction"): the grid contact's bound on a touched
-column's friction, ``touch_bound`` (``gasp_core.mpm.contact.TOUCH_BOUNDS``: "credit" round 50's, "debt" the default
-since round 51, "substep", "episode", round 52's "body"), on the landing and on the must-keeps. One line a case:
+column's friction, ``touch_bound`` (``gasp_core.mpm.contact.TOUCH_BOUNDS``: "credit" round 50's, "debt" round 51's,
+"substep", "episode", round 52's "body", the default since round 52), on the landing and on the must-keeps. One line
+a case:
 
 - ``land``: ``tests/test_landed_slide.py``'s throw (the jelly block of ``tests/test_ground_slide_coulomb.py``, n_grid
   32, thrown at 1.6 m/s along and 0.5 / 1 m/s down): ``sand_ball.coulomb_ratio`` over ``mu`` in the landing's frame,
