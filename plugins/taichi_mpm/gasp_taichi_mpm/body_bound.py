@@ -61,14 +61,7 @@ class BodyBound:
                 push += mu * self.damp_node(ti.Vector([i, j, kt]), m, d)
                 if kt + 1 < ng:
                     push += mu * self.damp_node(ti.Vector([i, j, kt + 1]), self.touch_slots[b, i, j, 4], d)
-            stops = ti.cast(0.0, self.real)
-            want = ti.cast(0.0, self.real)
-            for c in ti.static(range(3)):
-                stops += self.touch_slots[b, i, j, c]
-                mc = self.touch_slots[b, i, j, 5 + c]
-                if mc > 0 and kt - 3 + c >= 0:
-                    u = self.grid_v[i, j, kt - 3 + c]
-                    want += ti.min(mc * ti.sqrt(u[0] * u[0] + u[1] * u[1]), self.touch_slots[b, i, j, c])
+            stops, want = self.held_sums(b, i, j, kt, ti.cast(0.0, self.real))
             v = self.grid_v[i, j, kt]
             o = self.touch_body[b, i, j]
             self.row_pool[b, i, o, 0] += push
@@ -111,15 +104,7 @@ class BodyBound:
             kt = self.ground_kmax[b] + 1
             if self.ground_touch[b, i, j] == 2 and self.ground_fric[b] > 0 and 0 <= kt and kt < ng:
                 o = self.touch_body[b, i, j]
-                fh = self.body_pool[b, o, 6]
-                for c in ti.static(range(3)):
-                    mc = self.touch_slots[b, i, j, 5 + c]
-                    if mc > 0 and kt - 3 + c >= 0:
-                        u = self.grid_v[i, j, kt - 3 + c]
-                        lu = ti.sqrt(u[0] * u[0] + u[1] * u[1])
-                        if lu > 1e-30:
-                            s = ti.max(0.0, 1.0 - fh * ti.min(mc * lu, self.touch_slots[b, i, j, c]) / (mc * lu))
-                            self.grid_v[i, j, kt - 3 + c] = ti.Vector([u[0] * s, u[1] * s, u[2]])
+                self.cut_held(b, i, j, kt, self.body_pool[b, o, 6])
                 if self.touch_slots[b, i, j, 3] > 0:
                     v = self.grid_v[i, j, kt]
                     s = ti.max(0.0, 1.0 - self.body_pool[b, o, 7])

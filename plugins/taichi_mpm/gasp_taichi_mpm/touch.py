@@ -256,28 +256,24 @@ class GroundTouch(BodyBound):
                 self.touch_slots[b, i, j, c] = 0.0
 
     @ti.func
-    def column_bound(self, b: ti.template(), i, j, kt, r):
-        """Round 51 (``bound_mode`` > 0; docs/contact.md "Round 51: the landing's friction"): the column's friction in
-        the substep at most ``avail``, the held layers' stops (slots 0-2, ``mu m max(0, -v_z)``, kg m/s) plus ``r``
-        (``mu`` times the two dashpots' signed push; "debt" / "episode": the carried balance too); given to the held
-        nodes first (each at most its own stop's), the rest to the touched node (mass slot 3, held masses 5-7).
-        Returns the balance to carry: "debt" ``min(max(r, 0), avail - given)``, "episode" ``avail - given``, else 0
-        (warp_mpm's ``column_bound``)."""
-        m = self.touch_slots[b, i, j, 3]
-        avail = r
+    def held_sums(self, b, i, j, kt, start):
+        """A touched column's held layers (slots 0-2 their stops ``mu m max(0, -v_z)``, 5-7 their masses; kg m/s):
+        ``(start`` plus the stops summed in layer order, the friction the held nodes want, each at most its own
+        stop's``)``. Round 51's :meth:`column_bound` and round 52's ``BodyBound.gather_column``."""
+        total = start
         want = ti.cast(0.0, self.real)
         for c in ti.static(range(3)):
-            avail += self.touch_slots[b, i, j, c]
+            total += self.touch_slots[b, i, j, c]
             mc = self.touch_slots[b, i, j, 5 + c]
             if mc > 0 and kt - 3 + c >= 0:
                 u = self.grid_v[i, j, kt - 3 + c]
                 want += ti.min(mc * ti.sqrt(u[0] * u[0] + u[1] * u[1]), self.touch_slots[b, i, j, c])
-        v = self.grid_v[i, j, kt]
-        lt = ti.sqrt(v[0] * v[0] + v[1] * v[1])
-        give = ti.min(want + m * lt, ti.max(avail, 0.0))
-        fh = ti.cast(1.0, self.real)
-        if give < want:
-            fh = give / want
+        return total, want
+
+    @ti.func
+    def cut_held(self, b, i, j, kt, fh):
+        """Each held node's tangential velocity cut by ``fh`` (the fraction given) of its own want (:meth:`held_sums`).
+        Round 51's :meth:`column_bound` and round 52's ``BodyBound.body_apply``."""
         for c in ti.static(range(3)):
             mc = self.touch_slots[b, i, j, 5 + c]
             if mc > 0 and kt - 3 + c >= 0:
@@ -286,6 +282,24 @@ class GroundTouch(BodyBound):
                 if lu > 1e-30:
                     s = ti.max(0.0, 1.0 - fh * ti.min(mc * lu, self.touch_slots[b, i, j, c]) / (mc * lu))
                     self.grid_v[i, j, kt - 3 + c] = ti.Vector([u[0] * s, u[1] * s, u[2]])
+
+    @ti.func
+    def column_bound(self, b: ti.template(), i, j, kt, r):
+        """Round 51 (``bound_mode`` > 0; docs/contact.md "Round 51: the landing's friction"): the column's friction in
+        the substep at most ``avail``, the held layers' stops (slots 0-2, ``mu m max(0, -v_z)``, kg m/s) plus ``r``
+        (``mu`` times the two dashpots' signed push; "debt" / "episode": the carried balance too); given to the held
+        nodes first (each at most its own stop's), the rest to the touched node (mass slot 3, held masses 5-7).
+        Returns the balance to carry: "debt" ``min(max(r, 0), avail - given)``, "episode" ``avail - given``, else 0
+        (warp_mpm's ``column_bound``)."""
+        m = self.touch_slots[b, i, j, 3]
+        avail, want = self.held_sums(b, i, j, kt, r)
+        v = self.grid_v[i, j, kt]
+        lt = ti.sqrt(v[0] * v[0] + v[1] * v[1])
+        give = ti.min(want + m * lt, ti.max(avail, 0.0))
+        fh = ti.cast(1.0, self.real)
+        if give < want:
+            fh = give / want
+        self.cut_held(b, i, j, kt, fh)
         if m > 0 and lt > 1e-30 and give > want:
             s = ti.max(0.0, 1.0 - (give - want) / (m * lt))
             self.grid_v[i, j, kt] = ti.Vector([v[0] * s, v[1] * s, v[2]])
