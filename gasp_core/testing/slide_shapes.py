@@ -211,3 +211,24 @@ def problem(theta: float, mu: float, fig: float, tol: float, stick_mm: float = 1
         err = fig / a0 - 1.0
         return None if abs(err) <= tol else f"a = {fig:.4f} m/s^2 against {a0:.4f} ({100 * err:+.2f} %)"
     return None if fig < stick_mm else f"moved {fig:.3f} mm in {STICK_T:g} s after the settle (sticks: < {stick_mm})"
+
+
+def landing_error(engine: str, shape: str, size: float, n_grid: int, theta: float = 30.0, mu: float = 0.4,
+                  v_land: float = 1.0, v_along: float = 1.6) -> float:
+    """Round 52 (docs/contact.md "Round 52: one balance carried with the body", the review's family): the jelly body
+    ``shape`` at ``size`` on the grid contact, thrown at the slope's plane at ``-v_land`` m/s and along +x (down the
+    slope) at ``v_along`` m/s; over the landing's frame (``T`` = 1 / :data:`FPS`) the friction impulse per unit mass
+    ``-(dV_x - g sin theta T)`` over ``mu`` times the normal one ``dV_z + g cos theta T`` (``V`` the mass centre's
+    velocity), less 1 (float, 0.01 = 1 %): Coulomb's impulse law, 0 while the base slides forward
+    (``gasp_core.testing.grid_hold.landing_error`` on the grid-hold block)."""
+    from gasp_core.seam.build import build_engine
+    from gasp_core.seam.plugins import get_engine
+    s = shape_setup(shape, size, "jelly", "grid", n_grid, theta, mu)
+    s.v = np.tile(np.array([float(v_along), 0.0, -float(v_land)]), (len(s.x), 1))
+    e = build_engine(get_engine(engine), s)
+    e.step_frame()
+    v1 = np.asarray(e.velocities(), np.float64)
+    m = np.asarray(s.p_mass, np.float64)
+    dv = (m @ v1) / m.sum() - np.array([v_along, 0.0, -v_land])
+    r, t = math.radians(theta), 1.0 / FPS
+    return float(-(dv[0] - G * math.sin(r) * t) / (mu * (dv[2] + G * math.cos(r) * t)) - 1.0)
