@@ -23,9 +23,8 @@ are read between them; nothing in an engine changes. Per substep (energies in J;
 Sinks of a substep (positive: lost): ``p2g = Ep - K0``; ``contact = -W_contact - dU`` (the penalty's damping and its
 discrete steps); ``friction`` (``gasp_core.mpm.contact.node_friction`` on the friction budget the engine scattered,
 applied to ``K3``'s velocities); ``rule = K3 - K4 - friction`` (the ground's and walls' grid rule); ``balance = K4 -
-K5``; ``g2p = K5 - Ep'``; ``plastic`` (round 53): the stored energy of the trial ``F = (I + dt C) F`` less that of
-the returned ``F``, over the points whose model returns (brittle points broken through: the sand return;
-:meth:`Ledger.plastic`). The two untraced terms, zero for an integrator that conserves energy: ``elastic = W_stress
+K5``; ``g2p = K5 - Ep'``; ``plastic`` (round 53): the returned stress's work on the return's log strain, over the
+points whose model returns (brittle points broken through: the sand return; :meth:`Ledger.plastic`). The two untraced terms, zero for an integrator that conserves energy: ``elastic = W_stress
 + dpsi + dD + plastic`` (the stress's work on the grid against the stored energy's rise, the damage's dissipation and
 the return's) and
 ``gravity = W_gravity + dPE``. With them the sinks sum to the drop of ``E = Ep + psi + U + PE + D`` (an identity:
@@ -241,18 +240,29 @@ class Ledger:
         return {"Ep": kin + aff, "kinetic": kin, "psi": psi, "D": D, "U": self.contact(p)[1],
                 "PE": -float(m @ (p["x"] @ self.g))}
 
-    def plastic(self, p0: dict, p1: dict) -> float:
-        """The plastic work of a substep (J): over the points whose model returns (:meth:`Stored.returns`, from
-        ``p0``'s ``Jp``), the stored energy of the trial ``F = (I + dt C) F`` (``p0``'s, the engines' P2G) less that
-        of the returned ``F`` (``p1``'s), both at ``p1``'s damage and place. Zero for jelly."""
+    def plastic(self, p0: dict, p1: dict, trial: bool = False) -> float:
+        """The plastic work of a substep (J), over the points whose model returns (:meth:`Stored.returns`, from
+        ``p0``'s ``Jp``): the returned Kirchhoff stress's work on the return's log strain, ``V0 sum_i s_i (e_t,i -
+        e_i)`` (``e_t`` the trial ``F = (I + dt C) F``'s principal log strains, ``p0``'s and the engines' P2G; ``e`` the
+        returned ``F``'s, ``p1``'s, in the trial's principal frame; ``s = 2 mu e + lam tr(e)``, Hencky's), the
+        dissipation of the backward-Euler return. ``trial``: the stored energy of the trial ``F`` less that of the
+        returned one instead, which also counts ``dE : A : dE / 2`` of a trial the stress never paid for (a point
+        broken through at the apex, ``s = 0``, stretched by its ``dt C``: 9.0 J on the brittle donut, round 53).
+        Zero for jelly."""
         on = self.stored.returns(p0["Jp"])
         if not on.any():
             return 0.0
         F0, C0 = p0["F"].reshape(-1, 3, 3)[on], p0["C"].reshape(-1, 3, 3)[on]
-        Ft = np.einsum("nij,njk->nik", np.eye(3) + self.dt * C0, F0)
+        Ft, Fr = np.einsum("nij,njk->nik", np.eye(3) + self.dt * C0, F0), p1["F"].reshape(-1, 3, 3)[on]
         d, v0, x = np.minimum(p1["Jp"][on], 1.0), p1["v0"][on], p1["x"][on]
-        return float(self.stored.points(Ft, d, v0, x)[0].sum()
-                     - self.stored.points(p1["F"].reshape(-1, 3, 3)[on], d, v0, x)[0].sum())
+        if trial:
+            return float(self.stored.points(Ft, d, v0, x)[0].sum() - self.stored.points(Fr, d, v0, x)[0].sum())
+        U, sv, Vt = np.linalg.svd(Ft)
+        et = np.log(np.maximum(sv, 1e-4))
+        er = np.log(np.maximum(np.einsum("nji,njk,nik->ni", U, Fr, Vt), 1e-4))   # diag(U^T F_r V)
+        st = self.stored
+        sr = 2 * st.mu * er + st.lam * er.sum(1, keepdims=True)
+        return float(v0 @ (sr * (et - er)).sum(1))
 
     def step(self) -> dict:
         """One substep; appends and returns its row (module notes; ``E`` the total after it, ``mass_err`` the

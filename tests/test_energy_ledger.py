@@ -9,6 +9,8 @@ within 2 % of the energy brought and never pass 6 %; no sink's sum is a gain bey
 over the start's by 0.1 %; the transfers and the grid rule gain nothing in any substep (1e-5 of the energy brought;
 the contact's penalty and the balance's fix may give back up to 1e-4 in a substep, and are checked on their sums);
 the catch builds the engine with gravity 5 % too strong (the ledger keeps g), which the grid update then gains.
+Round 53: the explicit elastic step's gain, half-step paired, under 1 % of the energy brought (the ball at n_grid 48;
+strict xfails: n_grid 32 and the jelly donut at cfl 0.8), its catch at cfl 0.8, and the ``cfl_rule`` option's rule.
 """
 from __future__ import annotations
 
@@ -113,8 +115,6 @@ def ledger_checks(r: dict) -> list[str]:
         bad.append(f"untraced on the way {r['untraced_worst']:.4f} J")
     bad += [f"{k} gains {s[k]:.4f} J" for k in ("p2g", "contact", "friction", "rule", "balance", "g2p")
             if s[k] < -GAIN * e0]
-    if r["elastic_paired_worst"] > PAIRED_GAIN * e0:
-        bad.append(f"the elastic step gains {r['elastic_paired_worst']:.4f} J (paired)")
     if max(t["E"] for t in r["trace"]) > (1 + GAIN) * e0:
         bad.append("energy over the start's")
     bad += [f"{k} gains {r['least'][k]:.2e} J in a substep" for k in ("p2g", "rule", "g2p")
@@ -132,14 +132,41 @@ def test_ledger_closes_and_gains_nothing(engine, n_grid, speed):
     assert not ledger_checks(r), ledger_checks(r)
 
 
+COARSE = "n_grid 32 at cfl 0.4 gains 1.05 % (2 m/s) and 1.81 % (4.43 m/s), both engines (round 53)"
+DONUT = ("the jelly donut at the default quality's cfl 0.8 gains 8.70 % (its points cross cells at (c(F) + |v|) dt /"
+         " dx up to 1.66; 2.75 % with cfl_rule 'sum'), both engines (round 53)")
+
+
+def paired_gain(r: dict) -> float:
+    """The elastic step's largest gain on the way, half-step paired, over the energy brought."""
+    return r["elastic_paired_worst"] / r["E0"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("engine", ["taichi_mpm", "warp_mpm"])
+@pytest.mark.parametrize("body,n_grid,speed,cfl", [
+    pytest.param("ball", 32, 2.0, None, marks=pytest.mark.xfail(strict=True, reason=COARSE)),
+    pytest.param("ball", 32, 4.43, None, marks=pytest.mark.xfail(strict=True, reason=COARSE)),
+    ("ball", 48, 2.0, None), ("ball", 48, 4.43, None),
+    pytest.param("donut", 48, 4.43, 0.8, marks=pytest.mark.xfail(strict=True, reason=DONUT))])
+def test_the_elastic_step_gains_under_one_percent(engine, body, n_grid, speed, cfl):
+    """The explicit elastic step's gain (the ledger's elastic term with the next substep's stored-energy rise halved
+    in, which takes out the half-step offset ``-(dt/2) dpsi/dt``) stays under 1 % of the energy brought (round 53):
+    the jelly ball at the engines' cfl (0.4) at n_grid 48 (0.78 % at 4.43 m/s); strict xfails: n_grid 32 and the
+    README jelly donut at cfl 0.8 (their figures in the reasons)."""
+    from energy_ledger_family import run
+    r = run(body, engine, n_grid, speed, 40.0, cfl=cfl)
+    assert paired_gain(r) < PAIRED_GAIN, paired_gain(r)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("engine", ["taichi_mpm", "warp_mpm"])
 def test_ledger_catches_the_elastic_gain_at_cfl_08(engine):
-    """The catch of the paired elastic gain: the ball of the family stepped at cfl 0.8 (``dt = cfl dx / max(c_p,
-    v_max)``, its points crossing cells at ``(c_p + |v|) dt / dx`` = 1.10) gains 3.8 % (round 53)."""
+    """The catch of the check above: the ball of the family stepped at cfl 0.8 (``dt = cfl dx / max(c_p, v_max)``,
+    its points crossing cells at ``(c_p + |v|) dt / dx`` = 1.10) gains 3.82 % (round 53)."""
     from energy_ledger_family import run
     r = run("ball", engine, 48, 4.43, 40.0, cfl=0.8)
-    assert any("elastic step gains" in b for b in ledger_checks(r)), ledger_checks(r)
+    assert paired_gain(r) > PAIRED_GAIN, paired_gain(r)
 
 
 @pytest.mark.slow
