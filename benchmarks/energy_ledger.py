@@ -24,7 +24,8 @@ Sinks of a substep (positive: lost): ``p2g = Ep - K0``; ``contact = -W_contact -
 discrete steps); ``friction`` (``gasp_core.mpm.contact.node_friction`` on the friction budget the engine scattered,
 applied to ``K3``'s velocities); ``rule = K3 - K4 - friction`` (the ground's and walls' grid rule); ``balance = K4 -
 K5``; ``g2p = K5 - Ep'``; ``plastic`` (round 53): the returned stress's work on the return's log strain, over the
-points whose model returns (brittle points broken through: the sand return; :meth:`Ledger.plastic`). The two untraced terms, zero for an integrator that conserves energy: ``elastic = W_stress
+points whose model returns (brittle points broken through: the sand return; :meth:`Ledger.plastic`). The two
+untraced terms, zero for an integrator that conserves energy: ``elastic = W_stress
 + dpsi + dD + plastic`` (the stress's work on the grid against the stored energy's rise, the damage's dissipation and
 the return's) and
 ``gravity = W_gravity + dPE``. With them the sinks sum to the drop of ``E = Ep + psi + U + PE + D`` (an identity:

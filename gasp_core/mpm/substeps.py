@@ -1,6 +1,7 @@
 """Time step of a grid (MPM) engine: the stable substep, whole substeps per frame and the passive points' schedule.
 
-``docs/mpm.md``, "Time step": ``dt = cfl dx / max(c_p, v_max)`` (:func:`mpm_stable_dt`; a brittle body's wave speed
+``docs/mpm.md``, "Time step": ``dt = cfl dx / max(c_p, v_max)`` (:func:`mpm_stable_dt`; ``cfl dx / (c_p + v_max)``
+with the engine option ``cfl_rule = "sum"``, :data:`CFL_RULES`; a brittle body's wave speed
 at its impact, :func:`impact_wave_speed`; a viscous material lowers it, :func:`viscous_dt`), rounded to
 whole substeps per frame (:func:`substeps_for`), bounded by :data:`MAX_SUBSTEPS`
 (:func:`substeps_from_options`); :func:`passive_schedule` says at which substeps passive points move.
