@@ -13,7 +13,8 @@ the jelly donut's elastic gain at cfl 0.8"). Read-only: ``benchmarks/energy_ledg
   the two ``F`` levels' stored energies with it).
 
 Run: ``python benchmarks/cfl_gain_probe.py --engine taichi_mpm --body donut --n-grid 48 --cfl 0.8 --ms 40``; writes
-``benchmarks/results/cfl_gain_probe/<body>_<engine>_<n>_<cfl>.json`` (per-substep rows).
+``benchmarks/results/cfl_gain_probe/<body>_<engine>_<n>_<cfl>.json`` (per-substep rows) and ``..._points.npz`` (the
+per-point split, not kept in git); ``--report`` writes ``benchmarks/results/cfl_gain_probe.md`` from them.
 """
 from __future__ import annotations
 
