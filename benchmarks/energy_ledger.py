@@ -23,8 +23,11 @@ are read between them; nothing in an engine changes. Per substep (energies in J;
 Sinks of a substep (positive: lost): ``p2g = Ep - K0``; ``contact = -W_contact - dU`` (the penalty's damping and its
 discrete steps); ``friction`` (``gasp_core.mpm.contact.node_friction`` on the friction budget the engine scattered,
 applied to ``K3``'s velocities); ``rule = K3 - K4 - friction`` (the ground's and walls' grid rule); ``balance = K4 -
-K5``; ``g2p = K5 - Ep'``. The two untraced terms, zero for an integrator that conserves energy: ``elastic = W_stress
-+ dpsi + dD`` (the stress's work on the grid against the stored energy's rise and the damage's dissipation) and
+K5``; ``g2p = K5 - Ep'``; ``plastic`` (round 53): the returned stress's work on the return's log strain, over the
+points whose model returns (brittle points broken through: the sand return; :meth:`Ledger.plastic`). The two
+untraced terms, zero for an integrator that conserves energy: ``elastic = W_stress
++ dpsi + dD + plastic`` (the stress's work on the grid against the stored energy's rise, the damage's dissipation and
+the return's) and
 ``gravity = W_gravity + dPE``. With them the sinks sum to the drop of ``E = Ep + psi + U + PE + D`` (an identity:
 the ledger closes when the untraced terms are small). Used by
 ``benchmarks/energy_ledger_family.py`` and ``tests/test_energy_ledger.py``.
@@ -35,7 +38,7 @@ import numpy as np
 
 from gasp_core.mpm.contact import node_friction
 
-SINKS = ("p2g", "contact", "friction", "rule", "balance", "g2p")
+SINKS = ("p2g", "contact", "friction", "rule", "balance", "g2p", "plastic")
 UNTRACED = ("elastic", "gravity")
 
 
@@ -92,17 +95,29 @@ class Stored:
         self.setup = setup
 
     def __call__(self, F, d, v0, x) -> tuple[float, float]:
+        psi, D = self.points(F, d, v0, x)
+        return float(psi.sum()), float(D.sum())
+
+    def points(self, F, d, v0, x) -> tuple[np.ndarray, np.ndarray]:
+        """Each point's stored energy and the damage's dissipation (J, (n,) each)."""
         if self.mat.name != "brittle":
             sv = np.linalg.svd(F, compute_uv=False)
             psi = self.mu * ((sv - 1) ** 2).sum(1) + 0.5 * self.lam * (sv.prod(1) - 1) ** 2
-            return float(v0 @ psi), 0.0
+            return v0 * psi, np.zeros(len(v0))
         from brittle_donut_arrest import stresses
         st, ft, E = self.setup, self.mat.tensile_strength, self.E
         eps, s, sc, _n, W = stresses(F, d, x, self.mat, st.dx, np.asarray(st.domain_lo))
         sf = 2 * E * self.mat.fracture_energy / (ft * float(st.crack_band[0]))
         sfp = ft + W * (sf - ft)
         sd = ft * sfp / ((1 - np.minimum(d, 1)) * (sfp - ft) + ft)
-        return 0.5 * float(v0 @ (sc * eps).sum(1)), float((v0 * ft * sd * d / (2 * E)).sum())
+        return 0.5 * v0 * (sc * eps).sum(1), v0 * ft * sd * d / (2 * E)
+
+    def returns(self, Jp) -> np.ndarray:
+        """The points whose model returns ``F`` this substep (bool, (n,)), from their ``Jp`` before it: brittle
+        points broken through (``d >= 1``: the cohesionless sand's Drucker-Prager return); none for jelly."""
+        if self.mat.name == "brittle":
+            return np.asarray(Jp) >= 1.0
+        return np.zeros(len(Jp), bool)
 
 
 class TaichiSteps:
@@ -226,6 +241,30 @@ class Ledger:
         return {"Ep": kin + aff, "kinetic": kin, "psi": psi, "D": D, "U": self.contact(p)[1],
                 "PE": -float(m @ (p["x"] @ self.g))}
 
+    def plastic(self, p0: dict, p1: dict, trial: bool = False) -> float:
+        """The plastic work of a substep (J), over the points whose model returns (:meth:`Stored.returns`, from
+        ``p0``'s ``Jp``): the returned Kirchhoff stress's work on the return's log strain, ``V0 sum_i s_i (e_t,i -
+        e_i)`` (``e_t`` the trial ``F = (I + dt C) F``'s principal log strains, ``p0``'s and the engines' P2G; ``e`` the
+        returned ``F``'s, ``p1``'s, in the trial's principal frame; ``s = 2 mu e + lam tr(e)``, Hencky's), the
+        dissipation of the backward-Euler return. ``trial``: the stored energy of the trial ``F`` less that of the
+        returned one instead, which also counts ``dE : A : dE / 2`` of a trial the stress never paid for (a point
+        broken through at the apex, ``s = 0``, stretched by its ``dt C``: 9.0 J on the brittle donut, round 53).
+        Zero for jelly."""
+        on = self.stored.returns(p0["Jp"])
+        if not on.any():
+            return 0.0
+        F0, C0 = p0["F"].reshape(-1, 3, 3)[on], p0["C"].reshape(-1, 3, 3)[on]
+        Ft, Fr = np.einsum("nij,njk->nik", np.eye(3) + self.dt * C0, F0), p1["F"].reshape(-1, 3, 3)[on]
+        d, v0, x = np.minimum(p1["Jp"][on], 1.0), p1["v0"][on], p1["x"][on]
+        if trial:
+            return float(self.stored.points(Ft, d, v0, x)[0].sum() - self.stored.points(Fr, d, v0, x)[0].sum())
+        U, sv, Vt = np.linalg.svd(Ft)
+        et = np.log(np.maximum(sv, 1e-4))
+        er = np.log(np.maximum(np.einsum("nji,njk,nik->ni", U, Fr, Vt), 1e-4))   # diag(U^T F_r V)
+        st = self.stored
+        sr = 2 * st.mu * er + st.lam * er.sum(1, keepdims=True)
+        return float(v0 @ (sr * (et - er)).sum(1))
+
     def step(self) -> dict:
         """One substep; appends and returns its row (module notes; ``E`` the total after it, ``mass_err`` the
         NumPy P2G's largest node-mass error over the engine's total mass)."""
@@ -251,9 +290,11 @@ class Ledger:
         p1 = self.steps.points()
         E1 = self.energy(p1)
         d = {k: E1[k] - E0[k] for k in ("psi", "D", "U", "PE")}
+        plastic = self.plastic(p0, p1)
         row = {"p2g": E0["Ep"] - K0, "contact": -Wc - d["U"], "rule": K3 - K4 - fric, "friction": fric,
                "balance": K4 - K5,
-               "g2p": K5 - E1["Ep"], "elastic": Ws + d["psi"] + d["D"], "gravity": Wg + d["PE"],
+               "g2p": K5 - E1["Ep"], "plastic": plastic, "elastic": Ws + d["psi"] + d["D"] + plastic,
+               "gravity": Wg + d["PE"],
                "mid_err": K3 - K0 - Wc - Ws - Wg,
                "total": sum(E1[k] for k in ("Ep", "psi", "D", "U", "PE")), **E1}
         self.E = E1

@@ -6,8 +6,11 @@ defaults' E, nu, rho), thrown down at ``--speeds`` (m/s) from 5 mm above a frict
 contact, n_grid ``--grids`` over ``brittle_drop_family``'s 0.6 m box, for ``--ms`` ms; and the README donut
 (``brittle_donut_arrest``'s: jelly and brittle, the scene's ground friction 0.5) at 4.43 m/s. Each run: the energy
 brought ``E0`` (kinetic + gravitational over the ground, + stored, J) and, summed over the substeps, each sink
-(``p2g``, ``contact``, ``rule``, ``balance``, ``g2p``; positive: lost) and the untraced terms (``elastic``,
-``gravity``), in J; the energy left; the NumPy P2G's node-mass check; the least any sink took in one substep (a
+(``p2g``, ``contact``, ``rule``, ``balance``, ``g2p``, ``plastic``; positive: lost) and the untraced terms (``elastic``,
+``gravity``), in J; the energy left; ``elastic_paired_worst`` (round 53): the largest elastic term on the way with the
+stored energy's rise of the next substep halved in (the points' velocity is half a substep ahead of their ``F``: that
+pairing takes out the symplectic step's bounded offset ``-(dt/2) dpsi/dt``, ``benchmarks/cfl_gain_probe.py``), J;
+the NumPy P2G's node-mass check; the least any sink took in one substep (a
 gain is negative). ``--gravity-scale`` / ``--stiffness-scale``: the catches (the engine built with gravity or E
 scaled, the ledger kept on the scene's).
 
@@ -75,10 +78,11 @@ def scene(body: str, engine: str, n_grid: int, v: float, cfl: float | None = Non
 
 def run(body: str, engine: str, n_grid: int, v: float, ms: float, cfl: float | None = None,
         gravity_scale: float = 1.0, stiffness_scale: float = 1.0, every_ms: float = 5.0,
-        damping: float | None = None, flip: float | None = None, parts: bool = False) -> dict:
+        damping: float | None = None, flip: float | None = None, parts: bool = False, rule: str | None = None) -> dict:
     """One landing's ledger (module notes): sums of the sinks, the energy left, and a row every ``every_ms``.
     Prototypes, off by default (None): ``damping``, the particle contact's damping ratio
-    (``gasp_core.mpm.contact.DAMPING``, 0.5) for this run; ``flip``, the engines' AFLIP option. ``parts``: also the
+    (``gasp_core.mpm.contact.DAMPING``, 0.5) for this run; ``flip``, the engines' AFLIP option; ``rule``, the
+    engines' ``cfl_rule`` option (``gasp_core.mpm.substeps.CFL_RULES``). ``parts``: also the
     parts of 1 % of the mass or more at the end (``gasp_core.testing.pieces_count.FramePieces``)."""
     import gasp_core.mpm.contact as gc
     from gasp_core.seam.build import build_engine
@@ -86,11 +90,13 @@ def run(body: str, engine: str, n_grid: int, v: float, ms: float, cfl: float | N
     setup = scene(body, engine, n_grid, v, cfl)
     if flip is not None:
         setup.options["flip"] = flip
+    if rule is not None:
+        setup.options["cfl_rule"] = rule
     keep = gc.DAMPING
     gc.DAMPING = keep if damping is None else damping
     try:
         return _run(setup, body, engine, n_grid, v, ms, cfl, gravity_scale, stiffness_scale, every_ms, parts) | {
-            "damping": damping, "flip": flip}
+            "damping": damping, "flip": flip, "rule": rule}
     finally:
         gc.DAMPING = keep
 
@@ -111,9 +117,11 @@ def _run(setup, body, engine, n_grid, v, ms, cfl, gravity_scale, stiffness_scale
         every = max(1, int(round(every_ms * 1e-3 / led.dt)))
         sums = {k: 0.0 for k in SINKS + UNTRACED}
         least = {k: 0.0 for k in SINKS}
-        trace, worst = [], 0.0
+        trace, worst, paired, psi = [], 0.0, 0.0, led.E["psi"]
         for i in range(n):
             r = led.step()
+            paired = max(paired, sums["elastic"] + 0.5 * (r["psi"] - psi))   # the last row's, paired (notes)
+            psi = r["psi"]
             for k in sums:
                 sums[k] += r[k]
             for k in SINKS:
@@ -123,13 +131,15 @@ def _run(setup, body, engine, n_grid, v, ms, cfl, gravity_scale, stiffness_scale
                 trace.append({"t_ms": (i + 1) * led.dt * 1e3, "E": r["total"], "kinetic": r["kinetic"],
                               "Ep": r["Ep"], "psi": r["psi"], "D": r["D"], "U": r["U"],
                               **{k: sums[k] for k in sums}})
+        paired = max(paired, sums["elastic"])
         pieces = count_parts(setup, e) if parts else None
     finally:
         e.close()
     return {"body": body, "engine": engine, "n_grid": n_grid, "speed": v, "ms": ms, "cfl": cfl,
             "gravity_scale": gravity_scale, "stiffness_scale": stiffness_scale, "dt": led.dt, "substeps": n,
             "n_points": int(len(led.kc)), "E0": E0, "E_end": trace[-1]["E"], "sums": sums, "least": least,
-            "untraced_worst": worst, "mass_err": led.mass_err, "seconds": time.time() - t0, "trace": trace,
+            "untraced_worst": worst, "elastic_paired_worst": paired, "mass_err": led.mass_err,
+            "seconds": time.time() - t0, "trace": trace,
             "parts": pieces}
 
 
@@ -178,7 +188,7 @@ def parts_run(engine: str, n_grid: int, v: float, frames: int = 5, damping: floa
 
 def key(r: dict) -> tuple:
     return (r["body"], r["engine"], r["n_grid"], r["speed"], r["ms"], r.get("cfl"), r["gravity_scale"],
-            r["stiffness_scale"], r.get("damping"), r.get("flip"))
+            r["stiffness_scale"], r.get("damping"), r.get("flip"), r.get("rule"))
 
 
 def report(runs: list[dict]) -> list[str]:
@@ -189,19 +199,19 @@ def report(runs: list[dict]) -> list[str]:
              "left, and `untraced`: the elastic + gravity terms at the end and their largest size on the way "
              "(% of `E0`); `gain`: the largest energy over `E0` at any substep (%).", "",
              "| body | engine | n_grid | v (m/s) | ms | dt (ms) | points | E0 (J) | p2g | contact | friction | rule | "
-             "balance | g2p | damage | untraced end; worst | left | gain | mass err | s |",
-             "|" + "---|" * 20]
+             "balance | g2p | plastic | damage | untraced end; worst | left | gain | mass err | s |",
+             "|" + "---|" * 21]
     for r in sorted(runs, key=lambda r: tuple(str(x) for x in key(r))):
         s, e0 = r["sums"], r["E0"]
         pct = lambda x: f"{100 * x / e0:.1f}"   # noqa: E731
         tag = "" if r["gravity_scale"] == 1 and r["stiffness_scale"] == 1 else \
             f" (catch: g x{r['gravity_scale']}, E x{r['stiffness_scale']})"
-        tag += "".join(f" ({k} {r[k]})" for k in ("damping", "flip") if r.get(k) is not None)
+        tag += "".join(f" ({k} {r[k]})" for k in ("damping", "flip", "rule") if r.get(k) is not None)
         tag += f" (parts {', '.join(f'{q:.3f}' for q in r['parts'])})" if r.get("parts") else ""
         lines.append(f"| {r['body']}{tag} | {r['engine']} | {r['n_grid']} | {r['speed']} | {r['ms']:g} | "
                      f"{r['dt'] * 1e3:.3f} | {r['n_points']} | {e0:.3f} | {pct(s['p2g'])} | {pct(s['contact'])} | "
                      f"{pct(s['friction']) if 'friction' in s else '-'} | {pct(s['rule'])} | {pct(s['balance'])} | "
-                     f"{pct(s['g2p'])} | {pct(r['trace'][-1]['D'])} | "
+                     f"{pct(s['g2p'])} | {pct(s['plastic']) if 'plastic' in s else '-'} | {pct(r['trace'][-1]['D'])} | "
                      f"{pct(s['elastic'] + s['gravity'])}; {pct(r['untraced_worst'])} | {pct(r['E_end'])} | "
                      f"{r['gain'] * 100:.2f} | {r['mass_err']:.1e} | {r['seconds']:.0f} |")
     return lines + [""]
@@ -235,6 +245,7 @@ def main(argv=None) -> int:
     ap.add_argument("--stiffness-scale", type=float, default=1.0)
     ap.add_argument("--damping", type=float, default=None, help="prototype: the contact's damping ratio (0.5)")
     ap.add_argument("--flip", type=float, default=None, help="prototype: the engines' AFLIP blend")
+    ap.add_argument("--rule", default=None, help="the engines' cfl_rule option ('max', 'sum')")
     ap.add_argument("--parts", action="store_true", help="count the parts of 1 %% or more at the end")
     ap.add_argument("--parts-only", type=int, default=0, help="the brittle donut's parts after this many frames, "
                     "engine alone (printed and kept under 'parts_runs')")
@@ -260,7 +271,7 @@ def main(argv=None) -> int:
             for v in (float(s) for s in a.speeds.split(",")):
                 for engine in a.engines.split(","):
                     r = run(body, engine, ng, v, a.ms, a.cfl, a.gravity_scale, a.stiffness_scale, damping=a.damping,
-                            flip=a.flip, parts=a.parts)
+                            flip=a.flip, parts=a.parts, rule=a.rule)
                     r["gain"] = max(0.0, max(t["E"] for t in r["trace"]) / r["E0"] - 1.0)
                     runs = [q for q in runs if key(q) != key(r)] + [r]
                     print(json.dumps({k: r[k] for k in ("body", "engine", "n_grid", "speed", "E0", "E_end",

@@ -9,6 +9,8 @@ within 2 % of the energy brought and never pass 6 %; no sink's sum is a gain bey
 over the start's by 0.1 %; the transfers and the grid rule gain nothing in any substep (1e-5 of the energy brought;
 the contact's penalty and the balance's fix may give back up to 1e-4 in a substep, and are checked on their sums);
 the catch builds the engine with gravity 5 % too strong (the ledger keeps g), which the grid update then gains.
+Round 53: the explicit elastic step's gain, half-step paired, under 1 % of the energy brought (the ball at n_grid 48;
+strict xfails: n_grid 32 and the jelly donut at cfl 0.8), its catch at cfl 0.8, and the ``cfl_rule`` option's rule.
 """
 from __future__ import annotations
 
@@ -23,6 +25,7 @@ from energy_ledger import grid_ke, p2g, weights   # noqa: E402
 
 LO, DX, NG = np.zeros(3), 0.02, 24
 CLOSE_END, CLOSE_WORST, GAIN, STEP_GAIN = 0.02, 0.06, 1e-3, 1e-5
+PAIRED_GAIN = 0.01   # the elastic step's gain, half-step paired (round 53): at most 1 % of the energy brought
 
 
 def cloud(seed: int = 0, n: int = 4000):
@@ -78,6 +81,31 @@ def test_transfers_catch_a_ledger_without_the_affine_part():
     assert lp < -1e-3 * k, (lp, k)   # without its affine part the points' energy is short: P2G "gains"
 
 
+def test_cfl_rule_sum_adds_the_material_speed():
+    """The engine option ``cfl_rule`` (round 53): ``"sum"`` steps at ``cfl dx / (c_p + v_max)``, ``"max"`` (the
+    default) at ``cfl dx / max(c_p, v_max)``; a brittle body's speed is the same under both (its impact speed already
+    adds ``v_max``); an unknown rule is refused."""
+    from gasp_core.errors import SceneError
+    from gasp_core.mpm.substeps import impact_wave_speed, mpm_stable_dt, substeps_from_options
+    from gasp_core.seam.setup import Material
+    from gasp_core.testing.helpers import make_setup
+    jelly, brittle = Material("jelly", E=1e5, nu=0.3, rho=1000.0), Material("brittle")
+    g, dx, h, v0 = (0.0, 0.0, -9.81), 0.0125, 0.6, 4.43
+    vmax = v0 + np.sqrt(2 * 9.81 * h)
+    c = jelly.p_wave_speed
+    assert mpm_stable_dt([jelly], dx, g, h, v0, 0.8) == pytest.approx(0.8 * dx / c)
+    assert mpm_stable_dt([jelly], dx, g, h, v0, 0.8, rule="sum") == pytest.approx(0.8 * dx / (c + vmax))
+    cb = impact_wave_speed(brittle, vmax)
+    for rule in ("max", "sum"):
+        assert mpm_stable_dt([brittle], dx, g, h, v0, 0.8, rule=rule) == pytest.approx(0.8 * dx / cb)
+    s = make_setup(np.full((1, 3), 0.3), np.full(1, 1e-6), jelly, v=(0.0, 0.0, -v0), hi=(0.6, 0.6, 0.6), n_grid=48)
+    n_max, _ = substeps_from_options(s, {"cfl": 0.8})
+    n_sum, _ = substeps_from_options(s, {"cfl": 0.8, "cfl_rule": "sum"})
+    assert (n_max, n_sum) == (39, 65)
+    with pytest.raises(SceneError, match="cfl_rule"):
+        substeps_from_options(s, {"cfl_rule": "min"})
+
+
 def ledger_checks(r: dict) -> list[str]:
     """The ledger's failures of one run of ``energy_ledger_family.run`` (empty: it passes)."""
     e0, s, bad = r["E0"], r["sums"], []
@@ -102,6 +130,43 @@ def test_ledger_closes_and_gains_nothing(engine, n_grid, speed):
     r = run("ball", engine, n_grid, speed, 40.0)
     assert r["mass_err"] < 1e-5
     assert not ledger_checks(r), ledger_checks(r)
+
+
+COARSE = "n_grid 32 at cfl 0.4 gains 1.05 % (2 m/s) and 1.81 % (4.43 m/s), both engines (round 53)"
+DONUT = ("the jelly donut at the default quality's cfl 0.8 gains 8.70 % (its points cross cells at (c(F) + |v|) dt /"
+         " dx up to 1.66; 2.75 % with cfl_rule 'sum'), both engines (round 53)")
+
+
+def paired_gain(r: dict) -> float:
+    """The elastic step's largest gain on the way, half-step paired, over the energy brought."""
+    return r["elastic_paired_worst"] / r["E0"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("engine", ["taichi_mpm", "warp_mpm"])
+@pytest.mark.parametrize("body,n_grid,speed,cfl", [
+    pytest.param("ball", 32, 2.0, None, marks=pytest.mark.xfail(strict=True, reason=COARSE)),
+    pytest.param("ball", 32, 4.43, None, marks=pytest.mark.xfail(strict=True, reason=COARSE)),
+    ("ball", 48, 2.0, None), ("ball", 48, 4.43, None),
+    pytest.param("donut", 48, 4.43, 0.8, marks=pytest.mark.xfail(strict=True, reason=DONUT))])
+def test_the_elastic_step_gains_under_one_percent(engine, body, n_grid, speed, cfl):
+    """The explicit elastic step's gain (the ledger's elastic term with the next substep's stored-energy rise halved
+    in, which takes out the half-step offset ``-(dt/2) dpsi/dt``) stays under 1 % of the energy brought (round 53):
+    the jelly ball at the engines' cfl (0.4) at n_grid 48 (0.78 % at 4.43 m/s); strict xfails: n_grid 32 and the
+    README jelly donut at cfl 0.8 (their figures in the reasons)."""
+    from energy_ledger_family import run
+    r = run(body, engine, n_grid, speed, 40.0, cfl=cfl)
+    assert paired_gain(r) < PAIRED_GAIN, paired_gain(r)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("engine", ["taichi_mpm", "warp_mpm"])
+def test_ledger_catches_the_elastic_gain_at_cfl_08(engine):
+    """The catch of the check above: the ball of the family stepped at cfl 0.8 (``dt = cfl dx / max(c_p, v_max)``,
+    its points crossing cells at ``(c_p + |v|) dt / dx`` = 1.10) gains 3.82 % (round 53)."""
+    from energy_ledger_family import run
+    r = run("ball", engine, 48, 4.43, 40.0, cfl=0.8)
+    assert paired_gain(r) > PAIRED_GAIN, paired_gain(r)
 
 
 @pytest.mark.slow

@@ -1,6 +1,7 @@
 """Time step of a grid (MPM) engine: the stable substep, whole substeps per frame and the passive points' schedule.
 
-``docs/mpm.md``, "Time step": ``dt = cfl dx / max(c_p, v_max)`` (:func:`mpm_stable_dt`; a brittle body's wave speed
+``docs/mpm.md``, "Time step": ``dt = cfl dx / max(c_p, v_max)`` (:func:`mpm_stable_dt`; ``cfl dx / (c_p + v_max)``
+with the engine option ``cfl_rule = "sum"``, :data:`CFL_RULES`; a brittle body's wave speed
 at its impact, :func:`impact_wave_speed`; a viscous material lowers it, :func:`viscous_dt`), rounded to
 whole substeps per frame (:func:`substeps_for`), bounded by :data:`MAX_SUBSTEPS`
 (:func:`substeps_from_options`); :func:`passive_schedule` says at which substeps passive points move.
@@ -19,6 +20,15 @@ from gasp_core.seam.setup import Material
 
 #: The grid engines' default Courant number (engine option ``cfl``): ``dt = cfl dx / max(c_p, v_max)``.
 CFL = 0.4
+
+#: The speeds the automatic substep divides by (engine option ``cfl_rule``): ``"max"`` (the default), ``dt = cfl dx /
+#: max(c_p, v_max)``; ``"sum"``, ``dt = cfl dx / (c_p + v_max)``, Courant's condition on the wave and the material
+#: speed together (a brittle body's :func:`impact_wave_speed` already adds ``v_max``). Measured (round 53,
+#: docs/fracture.md "Round 53: the jelly donut's elastic gain at cfl 0.8"; ``benchmarks/cfl_gain_probe.py``): the
+#: jelly donut thrown at 4.43 m/s, n_grid 48, cfl 0.8, gains 8.7 % of its energy in the explicit elastic step with
+#: "max" (its points cross cells at ``(c_p + |v|) dt / dx`` = 1.10 from the first substep), 2.75 % with "sum" at 1.63x
+#: the substeps (the README quick start: 1.07x); not the default (the gain stays over 1 %).
+CFL_RULES = ("max", "sum")
 
 
 def p_wave_speed(m: Material) -> float:
@@ -50,10 +60,12 @@ def impact_wave_speed(m: Material, v_max: float) -> float:
 
 
 def mpm_stable_dt(materials: Iterable[Material], dx: float, gravity, height: float,
-                  v0_max: float = 0.0, cfl: float = CFL, implicit_viscosity: bool = False) -> float:
+                  v0_max: float = 0.0, cfl: float = CFL, implicit_viscosity: bool = False,
+                  rule: str = "max") -> float:
     """Largest substep that satisfies the elastic-wave, particle CFL and viscous limits.
 
-    ``dt = cfl * dx / max(c_p, v_max)`` where ``c_p`` is the fastest P-wave speed over the
+    ``dt = cfl * dx / max(c_p, v_max)`` (``rule`` ``"max"``; ``"sum"``: ``cfl dx / (c_p + v_max)``, a brittle
+    material's speed unchanged, :data:`CFL_RULES`) where ``c_p`` is the fastest P-wave speed over the
     materials (a brittle one's :func:`impact_wave_speed`) and ``v_max = v0_max + sqrt(2 |g| height)`` bounds the
     speed a falling body reaches in the domain; a material with viscosity caps it at ``cfl * viscous_dt``
     (:func:`viscous_dt`,
@@ -87,7 +99,10 @@ def mpm_stable_dt(materials: Iterable[Material], dx: float, gravity, height: flo
     materials = list(materials)
     g = float(np.linalg.norm(gravity))
     v_max = v0_max + math.sqrt(2.0 * g * max(height, 0.0))
-    c = max(impact_wave_speed(m, v_max) for m in materials)
+    if rule not in CFL_RULES:
+        raise SceneError(f"cfl_rule {rule!r}: expected one of {CFL_RULES}")
+    add = v_max if rule == "sum" else 0.0
+    c = max(impact_wave_speed(m, v_max) + (add if m.name != "brittle" else 0.0) for m in materials)
     caps = [] if implicit_viscosity else [viscous_dt(m, dx) for m in materials if m.viscosity > 0]
     return cfl * min([dx / max(c, v_max, 1e-12)] + caps)
 
@@ -108,7 +123,7 @@ def viscous_dt(m: Material, dx: float) -> float:
 
 
 def mpm_substeps(setup, dt: float | None = None, n_substeps: int | None = None,
-                 cfl: float = CFL, implicit_viscosity: bool = False) -> tuple[int, float]:
+                 cfl: float = CFL, implicit_viscosity: bool = False, rule: str = "max") -> tuple[int, float]:
     """Substeps per frame and substep length for a grid engine (``docs/mpm.md``, "Time step").
 
     Parameters
@@ -122,6 +137,8 @@ def mpm_substeps(setup, dt: float | None = None, n_substeps: int | None = None,
         Courant number for :func:`mpm_stable_dt` when neither is given.
     implicit_viscosity : bool
         The engine integrates viscosity implicitly: no viscous cap (:func:`mpm_stable_dt`).
+    rule : str
+        ``"max"`` or ``"sum"`` (:data:`CFL_RULES`, engine option ``cfl_rule``).
 
     Returns
     -------
@@ -137,7 +154,7 @@ def mpm_substeps(setup, dt: float | None = None, n_substeps: int | None = None,
         v0 = float(np.max(np.linalg.norm(setup.v, axis=1))) if len(setup.v) else 0.0
         dt_max = mpm_stable_dt(setup.materials, setup.dx, setup.gravity,
                                height=float(setup.domain_hi[2] - setup.domain_lo[2]), v0_max=v0,
-                               cfl=float(cfl), implicit_viscosity=implicit_viscosity)
+                               cfl=float(cfl), implicit_viscosity=implicit_viscosity, rule=rule)
     return substeps_for(setup.frame_dt, dt_max)
 
 
@@ -157,7 +174,7 @@ MAX_SUBSTEPS = 20_000
 
 def substeps_from_options(setup, options: Mapping[str, Any], engine: str = "",
                           implicit_viscosity: bool = False) -> tuple[int, float]:
-    """:func:`mpm_substeps` with the engine options ``dt``, ``n_substeps``, ``cfl`` and ``max_substeps``
+    """:func:`mpm_substeps` with the engine options ``dt``, ``n_substeps``, ``cfl``, ``cfl_rule`` and ``max_substeps``
     (``implicit_viscosity``: the engine's viscosity needs no step cap).
 
     Raises
@@ -168,7 +185,7 @@ def substeps_from_options(setup, options: Mapping[str, Any], engine: str = "",
         ``frame_dt``) and how to raise the bound, instead of a run that never finishes a frame.
     """
     n, dt = mpm_substeps(setup, options.get("dt"), options.get("n_substeps"), options.get("cfl", CFL),
-                         implicit_viscosity)
+                         implicit_viscosity, options.get("cfl_rule") or "max")
     bound = options.get("max_substeps") or MAX_SUBSTEPS
     if n > bound:
         c = max(p_wave_speed(m) for m in setup.materials)
