@@ -249,14 +249,14 @@ _HELD: dict[str, int] = {}
 
 def _show_warning(reporter: Reporter, message, category, filename, lineno, file=None, line=None):
     """``warnings.showwarning`` of the command: one line through the reporter (NumPy's floating-point ones held; a
-    library's ``DeprecationWarning`` dropped: taichi 1.7 on Python 3.12 warns of ``locale.getdefaultlocale`` at its
-    import, which made the first run in a process print two lines where one error was due)."""
+    library's ``DeprecationWarning`` dropped: an engine's library on Python 3.12 warned of ``locale.getdefaultlocale``
+    at its import, which made the first run in a process print two lines where one error was due)."""
     if issubclass(category, RuntimeWarning) and " encountered in " in str(message):   # numpy's floating point
         _HELD[str(message)] = _HELD.get(str(message), 0) + 1
         return
     origin = _foreign_origin(filename)
     if origin and issubclass(category, (DeprecationWarning, PendingDeprecationWarning)):
-        return   # a library's deprecation speaks to its callers' developers, not to the user (taichi's locale one)
+        return   # a library's deprecation speaks to its callers' developers, not to the user
     text = " ".join(str(message).split())         # one line, whatever the library wrote
     reporter.warning(f"from {origin} (a library GASP uses, not GASP itself): {text}" if origin else text)
 
