@@ -86,6 +86,8 @@ FLOWING = ("sand", "snow", "liquid")
 #: mode: "credit" round 50's, "debt" the balance signed, a pull's debt paid before more is given; "substep" none
 #: carried; "episode" the unused bound too; "body" (default, round 52) the debt's balance per body and ground, pooled.
 TOUCH_BOUNDS = {"credit": 0, "debt": 1, "substep": 2, "episode": 3, "body": 4}
+#: Round 53 (``touch_pull``, "body" only): the dashpots' pull: "both" as a push, "contact" at most the net push, "none".
+TOUCH_PULLS = {"both": 0, "contact": 1, "none": 2, "refund": 3}
 #: Engine option ``contact`` of the MPM engines.
 CONTACT = Option("contact", "auto", "ground and collider contact: 'particle' (a penalty and Coulomb friction per "
                  "point; docs/contact.md), 'grid' (their node layers projected; spins bouncing soft bodies up; rigid "
