@@ -12,6 +12,12 @@ carried ``min(max(r, 0), avail - give)``, a debt kept until the body's stops pay
 :meth:`BodyBound.body_apply` (a column a thread: each node's cut, the slots cleared). warp_mpm's
 ``gasp_warp_mpm.body_bound``, the same rule.
 
+Round 53 (docs/contact.md "Round 53: a pull's debt refunded at once"; ``touch_pull``, ``pull_mode``): ``"refund"``
+(the default) returns a debt :meth:`BodyBound.body_settle` leaves at once, at most the friction given since the body's
+contact began (slot 8) and the wants, as negative fractions that :meth:`BodyBound.body_apply` turns into a scale-up of
+the nodes' tangential velocity along their slip; ``"contact"`` a column's dashpots pull at most their net push since
+its contact began (``touch_credits``); ``"none"`` no pull; ``"both"`` round 52's. warp_mpm's the same rule.
+
 Mixed into :class:`gasp_taichi_mpm.touch.GroundTouch`, whose fields (``ground_touch``, ``touch_slots``,
 ``ground_kmax``, ``ground_fric``, ``grid_v``, ...) it reads.
 """
@@ -19,7 +25,8 @@ import taichi as ti
 
 #: A pool's slots (``body_pool[b, body]``): 0 the balance carried (kept across substeps), 1 ``mu`` times the
 #: dashpots' push, 2 the held layers' stops, 3 the held nodes' want, 4 the touched nodes', 5 the columns counted, 6
-#: the held fraction given, 7 the touched fraction given (warp_mpm's ``body_bound.POOL``).
+#: the held fraction given, 7 the touched fraction given; round 53: 8 the friction given since the body's contact began
+#: less what was refunded (warp_mpm's ``body_bound.POOL``).
 POOL = 9
 
 

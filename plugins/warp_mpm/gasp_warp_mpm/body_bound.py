@@ -14,6 +14,15 @@ kernels after the grid update, in place of ``share.build_share``'s ``touch_share
 - ``body_apply`` (a column a thread): each held node's tangential velocity cut by the held fraction of its own want,
   the touched node's by the touched fraction; the column's slots cleared.
 
+Round 53 (docs/contact.md "Round 53: a pull's debt refunded at once"; ``touch_pull``,
+``gasp_core.mpm.contact.TOUCH_PULLS``): ``"refund"`` (the default): where ``body_settle`` leaves the body a debt (the
+dashpots' pulls beyond the carried balance and the stops) it returns it at once, at most the friction the pool has
+given since the body's contact began (slot 8) and at most the wants ``wh + wt``: both fractions ``-back / (wh +
+wt)``, so ``body_apply`` scales the contact nodes' tangential velocity up along their own slip, in proportion to the
+friction each could take; a debt no slip can take is carried as before. ``"contact"``: a column's dashpots pull at
+most their net push since the column's contact began (``pushed``, the engine's ``touch_credits``); ``"none"``: they
+do not pull; ``"both"``: round 52's.
+
 taichi_mpm's ``gasp_taichi_mpm.body_bound.BodyBound``, the same rule.
 
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of the closures below as
@@ -28,7 +37,8 @@ from .share import SLOTS, build_damp_node
 
 #: A pool's slots (ground ``q``, body ``b`` at ``(q n_bodies + b) POOL``): 0 the balance carried (kept across
 #: substeps), 1 ``mu`` times the dashpots' push, 2 the held layers' stops, 3 the held nodes' want, 4 the touched
-#: nodes', 5 the columns counted, 6 the held fraction given, 7 the touched fraction given.
+#: nodes', 5 the columns counted, 6 the held fraction given, 7 the touched fraction given; round 53: 8 the friction
+#: given since the body's contact began, less what was refunded (kept across substeps).
 POOL = 9
 
 
@@ -37,7 +47,8 @@ def build_body_bound(Ft):
     """``(body_gather, body_settle, body_apply)``, scalar type ``Ft`` (module docstring). Arguments: ``grid_v`` (vec3,
     m/s), ``slots`` (``share.SLOTS`` a column), ``ground`` (vec3 a ground: top layer, mu), ``ground_touch`` and
     ``touch_body`` (int32, a column), ``n_grid``, ``credit`` (``s dt / dx``, the dashpot), ``pool`` (:data:`POOL` a
-    ground and body, ``Ft``), ``n_bodies``."""
+    ground and body, ``Ft``), ``n_bodies``; round 53: ``pushed`` (``Ft`` a column, kg m/s, the net push since the
+    column's contact began; read with ``pull`` 1) and ``pull`` (``TOUCH_PULLS``; ``body_settle`` takes it too)."""
     vec3 = build_types(Ft)[0]
     damp_node = build_damp_node(Ft)
 
@@ -135,8 +146,9 @@ def build_body_bound(Ft):
 
 @functools.cache
 def build_body_settle(Ft):
-    """``body_settle(pool)``, scalar type ``Ft``, a pool a thread: round 51's bound on the pool's sums (module
-    docstring), the fractions given written to slots 6-7, the balance carried to slot 0, the sums cleared."""
+    """``body_settle(pool, pull)``, scalar type ``Ft``, a pool a thread: round 51's bound on the pool's sums (module
+    docstring), the fractions given written to slots 6-7, the balance carried to slot 0, the sums cleared; round 53,
+    ``pull`` 3 (``"refund"``): a debt refunded at once (module docstring), the friction given kept in slot 8."""
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def body_settle(pool: wp.array(dtype=Ft), pull: int):
@@ -155,7 +167,7 @@ def build_body_settle(Ft):
                 ft = (give - wh) / wt
             bal = wp.min(wp.max(r, Ft(0.0)), avail - give)   # a debt kept until the body's stops pay it
             pool[e + 8] = pool[e + 8] + give
-            if pull == 3 and bal < Ft(0.0) and wh + wt > Ft(0.0):   # round 53: the debt refunded at once, along the slip
+            if pull == 3 and bal < Ft(0.0) and wh + wt > Ft(0.0):   # round 53: the debt refunded at once
                 back = wp.min(wp.min(-bal, pool[e + 8]), wh + wt)
                 fh = -back / (wh + wt)
                 ft = fh
