@@ -65,9 +65,10 @@ class GroundTouch(BodyBound):
     #: only there); round 52 ``"body"`` (the default since round 52) the debt's balance per body (:class:`BodyBound`).
     #: warp_mpm's ``touch_bound``.
     touch_bound = "body"
-    #: Round 53 (docs/contact.md "Round 53"): under ``"body"``, the two dashpots' pull (``TOUCH_PULLS``): ``"both"``
-    #: rounds 48-52's, ``"contact"`` a column's pull at most its net push since its contact began, ``"none"`` no pull.
-    #: warp_mpm's ``touch_pull``.
+    #: Round 53 (docs/contact.md "Round 53: a pull's debt refunded at once"): under ``"body"``, the answer to the two
+    #: dashpots' pull (``TOUCH_PULLS``): ``"refund"`` (the default) the pool's debt returned at once along the slip
+    #: (:class:`BodyBound`); ``"both"`` round 52's; ``"contact"`` a column's pull at most its net push since its
+    #: contact began (``touch_credits``); ``"none"`` no pull. warp_mpm's ``touch_pull``.
     touch_pull = "refund"
 
     def allocate_touch(self) -> None:

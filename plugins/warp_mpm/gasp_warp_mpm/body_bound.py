@@ -33,7 +33,7 @@ import functools
 import warp as wp
 
 from .precision import MODULE_OPTIONS, build_types
-from .share import SLOTS, build_damp_node
+from .share import SLOTS
 
 #: A pool's slots (ground ``q``, body ``b`` at ``(q n_bodies + b) POOL``): 0 the balance carried (kept across
 #: substeps), 1 ``mu`` times the dashpots' push, 2 the held layers' stops, 3 the held nodes' want, 4 the touched
@@ -43,14 +43,12 @@ POOL = 9
 
 
 @functools.cache
-def build_body_bound(Ft):
-    """``(body_gather, body_settle, body_apply)``, scalar type ``Ft`` (module docstring). Arguments: ``grid_v`` (vec3,
-    m/s), ``slots`` (``share.SLOTS`` a column), ``ground`` (vec3 a ground: top layer, mu), ``ground_touch`` and
-    ``touch_body`` (int32, a column), ``n_grid``, ``credit`` (``s dt / dx``, the dashpot), ``pool`` (:data:`POOL` a
-    ground and body, ``Ft``), ``n_bodies``; round 53: ``pushed`` (``Ft`` a column, kg m/s, the net push since the
-    column's contact began; read with ``pull`` 1) and ``pull`` (``TOUCH_PULLS``; ``body_settle`` takes it too)."""
+def build_column_funcs(Ft):
+    """``(damp_pull, column_of)``, scalar type ``Ft``: ``damp_pull(grid_v, node, m, d, room) -> jn`` (round 53),
+    ``share.build_damp_node``'s dashpot with its pull (a negative impulse, kg m/s) at most ``room``; ``column_of(col,
+    n_grid, ground, ground_touch) -> node``, the touched node of column ``col`` (-1 where the column is not marked 2
+    on a ground with friction)."""
     vec3 = build_types(Ft)[0]
-    damp_node = build_damp_node(Ft)
 
     @wp.func
     def damp_pull(grid_v: wp.array(dtype=vec3), node: int, m: Ft, d: Ft, room: Ft):
@@ -74,6 +72,19 @@ def build_body_bound(Ft):
         if ground_touch[col] == 2 and gr[1] > Ft(0.0) and kt >= 0 and kt < n_grid:
             node = (i * n_grid + j) * n_grid + kt
         return node
+
+    return damp_pull, column_of
+
+
+@functools.cache
+def build_body_bound(Ft):
+    """``(body_gather, body_settle, body_apply)``, scalar type ``Ft`` (module docstring). Arguments: ``grid_v`` (vec3,
+    m/s), ``slots`` (``share.SLOTS`` a column), ``ground`` (vec3 a ground: top layer, mu), ``ground_touch`` and
+    ``touch_body`` (int32, a column), ``n_grid``, ``credit`` (``s dt / dx``, the dashpot), ``pool`` (:data:`POOL` a
+    ground and body, ``Ft``), ``n_bodies``; round 53: ``pushed`` (``Ft`` a column, kg m/s, the net push since the
+    column's contact began; read with ``pull`` 1) and ``pull`` (``TOUCH_PULLS``; ``body_settle`` takes it too)."""
+    vec3 = build_types(Ft)[0]
+    damp_pull, column_of = build_column_funcs(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def body_gather(grid_v: wp.array(dtype=vec3), slots: wp.array(dtype=Ft), ground: wp.array(dtype=vec3),

@@ -74,9 +74,11 @@ class GroundTouch:
     #: ``tests/test_landed_slide.py``; ``touch_credit`` is read only there); round 52 ``"body"`` (the default since
     #: round 52) the debt's balance per body and ground (``gasp_warp_mpm.body_bound``). Read when built.
     touch_bound = "body"
-    #: Round 53 (docs/contact.md "Round 53"): under ``"body"``, the two dashpots' pull (``TOUCH_PULLS``): ``"both"``
-    #: rounds 48-52's (a pull as a push), ``"contact"`` a column's pull at most its net push since its contact began
-    #: (``touch_credits``), ``"none"`` no pull. Read when built.
+    #: Round 53 (docs/contact.md "Round 53: a pull's debt refunded at once"): under ``"body"``, the answer to the two
+    #: dashpots' pull (``TOUCH_PULLS``): ``"refund"`` (the default) the pool's debt returned at once along the slip
+    #: (``body_bound``); ``"both"`` round 52's (a pull as a push, its debt paid by later stops); ``"contact"`` a
+    #: column's pull at most its net push since its contact began (``touch_credits``); ``"none"`` no pull. Read when
+    #: built.
     touch_pull = "refund"
 
     def bound_mode(self) -> int:
