@@ -17,7 +17,8 @@ a case:
 - ``landslope:N:THETA:MU`` (round 52): ``gasp_core.testing.grid_hold.landing_error`` at 0.5 / 1 m/s down (the
   landing's friction impulse over ``mu`` times its normal impulse on the slope, thrown along at 1.6 m/s).
 
-Usage: ``python benchmarks/studies/touch_bound.py ENGINE BOUND CASE...``, e.g. ``warp_mpm debt land windows:48``.
+Usage: ``python benchmarks/studies/touch_bound.py ENGINE BOUND[/PULL] CASE...``, e.g. ``warp_mpm debt land windows:48``;
+round 53: ``PULL`` the dashpots' pull under "body" (``touch_pull``, ``gasp_core.mpm.contact.TOUCH_PULLS``).
 """
 from __future__ import annotations
 
@@ -88,7 +89,8 @@ def main() -> None:
         from gasp_taichi_mpm.grid import GridUpdate as cls
     else:
         from gasp_warp_mpm.engine import WarpMPMEngine as cls
-    cls.touch_bound = bound
+    cls.touch_bound, _, pull = bound.partition("/")   # round 53: BOUND/PULL, e.g. body/none (TOUCH_PULLS)
+    cls.touch_pull = pull or cls.touch_pull
     for case in sys.argv[3:]:
         t0 = time.time()
         kind, *args = case.split(":")

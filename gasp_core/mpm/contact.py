@@ -59,8 +59,7 @@ GRID_LAYERS_BELOW = 2
 MAX_OMEGA_DT = 2.0 ** 0.5
 #: The contact's balance takes back a body's contact torque up to ``J TORQUE_REACH REACH h`` (``J`` the substep's
 #: normal impulse, ``h`` the body's median point spacing): the torque of a centre of pressure within a few point
-#: spacings of the point below the mass centre, which a handful of irregular points cannot resolve
-#: (``docs/contact.md``).
+#: spacings of the point below the mass centre, which a handful of irregular points cannot resolve (docs/contact.md).
 REACH = 1.0
 #: The torque taken back reaches ``TORQUE_REACH`` times that lever; the mass centre may lie ``REACH`` spacings beyond
 #: the pushed points' box before the body is left to tip. A ball of points jittered by +-3 mm at n_grid 32 (spacing
@@ -68,8 +67,7 @@ REACH = 1.0
 #: up 0.04 rad/s a bounce (travel 5.8 mm); ``tip_over`` (2 spacings beyond its edge) bounds the gate.
 TORQUE_REACH = 2.0
 # Of the torque it would take back, the balance keeps the part that brakes the body's horizontal spin, up to stopping
-# it (the engines' ``keep_braking``): it takes back what would start a spin, never what stops one, so a rocking body
-# still loses its rocking (``docs/contact.md``).
+# it (the engines' ``keep_braking``): it takes back what would start a spin, never what stops one (docs/contact.md).
 #: Columns of the per-body sums of the contact's balance (the engines' ``balance.py``): mass, its first and second
 #: moments, momentum, angular momentum.
 SUMS = ("m", "mx", "my", "mz", "mxx", "mxy", "mxz", "myy", "myz", "mzz", "px", "py", "pz", "lx", "ly", "lz")
@@ -86,6 +84,8 @@ FLOWING = ("sand", "snow", "liquid")
 #: mode: "credit" round 50's, "debt" the balance signed, a pull's debt paid before more is given; "substep" none
 #: carried; "episode" the unused bound too; "body" (default, round 52) the debt's balance per body and ground, pooled.
 TOUCH_BOUNDS = {"credit": 0, "debt": 1, "substep": 2, "episode": 3, "body": 4}
+#: Round 53, "body"'s ``touch_pull``: "both" (round 52), "contact", "none", "refund" (default; docs/contact.md).
+TOUCH_PULLS = {"both": 0, "contact": 1, "none": 2, "refund": 3}
 #: Engine option ``contact`` of the MPM engines.
 CONTACT = Option("contact", "auto", "ground and collider contact: 'particle' (a penalty and Coulomb friction per "
                  "point; docs/contact.md), 'grid' (their node layers projected; spins bouncing soft bodies up; rigid "

@@ -12,6 +12,12 @@ carried ``min(max(r, 0), avail - give)``, a debt kept until the body's stops pay
 :meth:`BodyBound.body_apply` (a column a thread: each node's cut, the slots cleared). warp_mpm's
 ``gasp_warp_mpm.body_bound``, the same rule.
 
+Round 53 (docs/contact.md "Round 53: a pull's debt refunded at once"; ``touch_pull``, ``pull_mode``): ``"refund"``
+(the default) returns a debt :meth:`BodyBound.body_settle` leaves at once, at most the friction given since the body's
+contact began (slot 8) and the wants, as negative fractions that :meth:`BodyBound.body_apply` turns into a scale-up of
+the nodes' tangential velocity along their slip; ``"contact"`` a column's dashpots pull at most their net push since
+its contact began (``touch_credits``); ``"none"`` no pull; ``"both"`` round 52's. warp_mpm's the same rule.
+
 Mixed into :class:`gasp_taichi_mpm.touch.GroundTouch`, whose fields (``ground_touch``, ``touch_slots``,
 ``ground_kmax``, ``ground_fric``, ``grid_v``, ...) it reads.
 """
@@ -19,8 +25,9 @@ import taichi as ti
 
 #: A pool's slots (``body_pool[b, body]``): 0 the balance carried (kept across substeps), 1 ``mu`` times the
 #: dashpots' push, 2 the held layers' stops, 3 the held nodes' want, 4 the touched nodes', 5 the columns counted, 6
-#: the held fraction given, 7 the touched fraction given (warp_mpm's ``body_bound.POOL``).
-POOL = 8
+#: the held fraction given, 7 the touched fraction given; round 53: 8 the friction given since the body's contact began
+#: less what was refunded (warp_mpm's ``body_bound.POOL``).
+POOL = 9
 
 
 class BodyBound:
@@ -56,11 +63,19 @@ class BodyBound:
             mu = self.ground_fric[b]
             m = self.touch_slots[b, i, j, 3]
             push = ti.cast(0.0, self.real)
-            if ti.static(self.credit_on):   # round 50's two dashpots, both ways
+            if ti.static(self.credit_on):   # round 50's two dashpots; round 53 (pull): a pull at most the net push
                 d = ti.cast(self.touch_speed, self.real) * self.dt[None] / self.dx[None]
-                push += mu * self.damp_node(ti.Vector([i, j, kt]), m, d)
+                room = ti.cast(1e30, self.real)
+                if ti.static(self.pull_mode == 2):
+                    room = 0.0
+                if ti.static(self.pull_mode == 1):
+                    room = self.touch_credits[b, i, j]
+                jn = self.damp_pull(ti.Vector([i, j, kt]), m, d, room)
                 if kt + 1 < ng:
-                    push += mu * self.damp_node(ti.Vector([i, j, kt + 1]), self.touch_slots[b, i, j, 4], d)
+                    jn += self.damp_pull(ti.Vector([i, j, kt + 1]), self.touch_slots[b, i, j, 4], d, room + jn)
+                if ti.static(self.pull_mode == 1):
+                    self.touch_credits[b, i, j] += jn
+                push = mu * jn
             stops, want = self.held_sums(b, i, j, kt, ti.cast(0.0, self.real))
             v = self.grid_v[i, j, kt]
             o = self.touch_body[b, i, j]
@@ -69,6 +84,19 @@ class BodyBound:
             self.row_pool[b, i, o, 2] += want
             self.row_pool[b, i, o, 3] += m * ti.sqrt(v[0] * v[0] + v[1] * v[1])
             self.row_pool[b, i, o, 4] += 1.0
+        elif ti.static(self.credit_on and self.pull_mode == 1):
+            self.touch_credits[b, i, j] = 0.0   # round 53: the contact ended, its push is not carried
+
+    @ti.func
+    def damp_pull(self, I, m, d, room):
+        """Round 53: :meth:`GroundTouch.damp_node`'s dashpot, its pull (a negative impulse) at most ``room`` (kg
+        m/s); returns the impulse (kg m/s, + up)."""
+        jn = ti.cast(0.0, self.real)
+        if m > 0:
+            v = self.grid_v[I]
+            jn = ti.max(m * (v[2] / (1.0 + d) - v[2]), -ti.max(room, 0.0))
+            self.grid_v[I] = ti.Vector([v[0], v[1], v[2] + jn / m])
+        return jn
 
     @ti.kernel
     def body_settle(self):
@@ -88,11 +116,21 @@ class BodyBound:
                 ft = ti.cast(0.0, self.real)
                 if wt > 0 and give > wh:
                     ft = (give - wh) / wt
-                self.body_pool[b, o, 0] = ti.min(ti.max(r, 0.0), avail - give)   # a debt kept until paid
+                bal = ti.min(ti.max(r, 0.0), avail - give)   # a debt kept until paid
+                self.body_pool[b, o, 8] += give
+                if ti.static(self.pull_mode == 3):   # round 53: the debt refunded at once, along the slip
+                    if bal < 0 and wh + wt > 0:
+                        back = ti.min(ti.min(-bal, self.body_pool[b, o, 8]), wh + wt)
+                        fh = -back / (wh + wt)
+                        ft = fh
+                        bal += back
+                        self.body_pool[b, o, 8] -= back
+                self.body_pool[b, o, 0] = bal
                 self.body_pool[b, o, 6] = fh
                 self.body_pool[b, o, 7] = ft
             else:
                 self.body_pool[b, o, 0] = 0.0   # the body touches no column: its balance is not carried
+                self.body_pool[b, o, 8] = 0.0
             for c in ti.static(range(1, 6)):
                 self.body_pool[b, o, c] = 0.0
 

@@ -18,7 +18,7 @@ fields (``ground_kmax``, ``ground_h``, ``x``, ``n_points``, ...) it reads.
 """
 import taichi as ti
 
-from gasp_core.mpm.contact import DAMPING, TOUCH_BOUNDS
+from gasp_core.mpm.contact import DAMPING, TOUCH_BOUNDS, TOUCH_PULLS
 from gasp_core.mpm.materials import MaterialKind
 
 from .body_bound import BodyBound
@@ -65,6 +65,11 @@ class GroundTouch(BodyBound):
     #: only there); round 52 ``"body"`` (the default since round 52) the debt's balance per body (:class:`BodyBound`).
     #: warp_mpm's ``touch_bound``.
     touch_bound = "body"
+    #: Round 53 (docs/contact.md "Round 53: a pull's debt refunded at once"): under ``"body"``, the answer to the two
+    #: dashpots' pull (``TOUCH_PULLS``): ``"refund"`` (the default) the pool's debt returned at once along the slip
+    #: (:class:`BodyBound`); ``"both"`` round 52's; ``"contact"`` a column's pull at most its net push since its
+    #: contact began (``touch_credits``); ``"none"`` no pull. warp_mpm's ``touch_pull``.
+    touch_pull = "refund"
 
     def allocate_touch(self) -> None:
         """``touch_on`` (the switch, a ground with friction, ``ground_rubs``, and the grid contact's rule: no particle contact, or the contact chosen
@@ -84,6 +89,7 @@ class GroundTouch(BodyBound):
         self.credit_on = bool(self.share_on and (self.touch_credit or self.bound_mode > 0) and self.touch_speed > 0.0)
         self.touch_credits = ti.field(self.real, shape=(4, ng, ng) if self.credit_on else (1, 1, 1))
         self.allocate_body_bound(self.share_on and self.bound_mode == TOUCH_BOUNDS["body"])   # round 52
+        self.pull_mode = TOUCH_PULLS[self.touch_pull]   # round 53 (body_gather)
 
     @ti.kernel
     def mark_touch(self):

@@ -14,6 +14,15 @@ kernels after the grid update, in place of ``share.build_share``'s ``touch_share
 - ``body_apply`` (a column a thread): each held node's tangential velocity cut by the held fraction of its own want,
   the touched node's by the touched fraction; the column's slots cleared.
 
+Round 53 (docs/contact.md "Round 53: a pull's debt refunded at once"; ``touch_pull``,
+``gasp_core.mpm.contact.TOUCH_PULLS``): ``"refund"`` (the default): where ``body_settle`` leaves the body a debt (the
+dashpots' pulls beyond the carried balance and the stops) it returns it at once, at most the friction the pool has
+given since the body's contact began (slot 8) and at most the wants ``wh + wt``: both fractions ``-back / (wh +
+wt)``, so ``body_apply`` scales the contact nodes' tangential velocity up along their own slip, in proportion to the
+friction each could take; a debt no slip can take is carried as before. ``"contact"``: a column's dashpots pull at
+most their net push since the column's contact began (``pushed``, the engine's ``touch_credits``); ``"none"``: they
+do not pull; ``"both"``: round 52's.
+
 taichi_mpm's ``gasp_taichi_mpm.body_bound.BodyBound``, the same rule.
 
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of the closures below as
@@ -24,22 +33,32 @@ import functools
 import warp as wp
 
 from .precision import MODULE_OPTIONS, build_types
-from .share import SLOTS, build_damp_node
+from .share import SLOTS
 
 #: A pool's slots (ground ``q``, body ``b`` at ``(q n_bodies + b) POOL``): 0 the balance carried (kept across
 #: substeps), 1 ``mu`` times the dashpots' push, 2 the held layers' stops, 3 the held nodes' want, 4 the touched
-#: nodes', 5 the columns counted, 6 the held fraction given, 7 the touched fraction given.
-POOL = 8
+#: nodes', 5 the columns counted, 6 the held fraction given, 7 the touched fraction given; round 53: 8 the friction
+#: given since the body's contact began, less what was refunded (kept across substeps).
+POOL = 9
 
 
 @functools.cache
-def build_body_bound(Ft):
-    """``(body_gather, body_settle, body_apply)``, scalar type ``Ft`` (module docstring). Arguments: ``grid_v`` (vec3,
-    m/s), ``slots`` (``share.SLOTS`` a column), ``ground`` (vec3 a ground: top layer, mu), ``ground_touch`` and
-    ``touch_body`` (int32, a column), ``n_grid``, ``credit`` (``s dt / dx``, the dashpot), ``pool`` (:data:`POOL` a
-    ground and body, ``Ft``), ``n_bodies``."""
+def build_column_funcs(Ft):
+    """``(damp_pull, column_of)``, scalar type ``Ft``: ``damp_pull(grid_v, node, m, d, room) -> jn`` (round 53),
+    ``share.build_damp_node``'s dashpot with its pull (a negative impulse, kg m/s) at most ``room``; ``column_of(col,
+    n_grid, ground, ground_touch) -> node``, the touched node of column ``col`` (-1 where the column is not marked 2
+    on a ground with friction)."""
     vec3 = build_types(Ft)[0]
-    damp_node = build_damp_node(Ft)
+
+    @wp.func
+    def damp_pull(grid_v: wp.array(dtype=vec3), node: int, m: Ft, d: Ft, room: Ft):
+        # round 53: share.damp_node's dashpot, its pull (a negative impulse) at most room (kg m/s); the impulse
+        jn = Ft(0.0)
+        if m > Ft(0.0):
+            v = grid_v[node]
+            jn = wp.max(m * (v[2] / (Ft(1.0) + d) - v[2]), -wp.max(room, Ft(0.0)))
+            grid_v[node] = vec3(v[0], v[1], v[2] + jn / m)
+        return jn
 
     @wp.func
     def column_of(col: int, n_grid: int, ground: wp.array(dtype=vec3), ground_touch: wp.array(dtype=wp.int32)):
@@ -54,22 +73,45 @@ def build_body_bound(Ft):
             node = (i * n_grid + j) * n_grid + kt
         return node
 
+    return damp_pull, column_of
+
+
+@functools.cache
+def build_body_bound(Ft):
+    """``(body_gather, body_settle, body_apply)``, scalar type ``Ft`` (module docstring). Arguments: ``grid_v`` (vec3,
+    m/s), ``slots`` (``share.SLOTS`` a column), ``ground`` (vec3 a ground: top layer, mu), ``ground_touch`` and
+    ``touch_body`` (int32, a column), ``n_grid``, ``credit`` (``s dt / dx``, the dashpot), ``pool`` (:data:`POOL` a
+    ground and body, ``Ft``), ``n_bodies``; round 53: ``pushed`` (``Ft`` a column, kg m/s, the net push since the
+    column's contact began; read with ``pull`` 1) and ``pull`` (``TOUCH_PULLS``; ``body_settle`` takes it too)."""
+    vec3 = build_types(Ft)[0]
+    damp_pull, column_of = build_column_funcs(Ft)
+
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def body_gather(grid_v: wp.array(dtype=vec3), slots: wp.array(dtype=Ft), ground: wp.array(dtype=vec3),
                     ground_touch: wp.array(dtype=wp.int32), touch_body: wp.array(dtype=wp.int32), n_grid: int,
-                    credit: Ft, pool: wp.array(dtype=Ft), n_bodies: int):
+                    credit: Ft, pool: wp.array(dtype=Ft), n_bodies: int, pushed: wp.array(dtype=Ft), pull: int):
         col = wp.tid()
         node = column_of(col, n_grid, ground, ground_touch)
         if node < 0:
+            if pull == 1:
+                pushed[col] = Ft(0.0)   # round 53: the contact ended, its push is not carried
             return
         q = col / (n_grid * n_grid)
         mu = ground[q][1]
         m = slots[col * SLOTS + 3]
         push = Ft(0.0)
-        if credit > Ft(0.0):   # round 50's two dashpots, both ways
-            push = mu * damp_node(grid_v, node, m, credit)
+        if credit > Ft(0.0):   # round 50's two dashpots; round 53 (pull): a pull at most the contact's net push
+            room = Ft(1e30)
+            if pull == 2:
+                room = Ft(0.0)
+            if pull == 1:
+                room = pushed[col]
+            jn = damp_pull(grid_v, node, m, credit, room)
             if node % n_grid + 1 < n_grid:
-                push = push + mu * damp_node(grid_v, node + 1, slots[col * SLOTS + 4], credit)
+                jn = jn + damp_pull(grid_v, node + 1, slots[col * SLOTS + 4], credit, room + jn)
+            if pull == 1:
+                pushed[col] = pushed[col] + jn
+            push = mu * jn
         stops = Ft(0.0)
         want = Ft(0.0)
         for c in range(3):
@@ -115,11 +157,12 @@ def build_body_bound(Ft):
 
 @functools.cache
 def build_body_settle(Ft):
-    """``body_settle(pool)``, scalar type ``Ft``, a pool a thread: round 51's bound on the pool's sums (module
-    docstring), the fractions given written to slots 6-7, the balance carried to slot 0, the sums cleared."""
+    """``body_settle(pool, pull)``, scalar type ``Ft``, a pool a thread: round 51's bound on the pool's sums (module
+    docstring), the fractions given written to slots 6-7, the balance carried to slot 0, the sums cleared; round 53,
+    ``pull`` 3 (``"refund"``): a debt refunded at once (module docstring), the friction given kept in slot 8."""
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def body_settle(pool: wp.array(dtype=Ft)):
+    def body_settle(pool: wp.array(dtype=Ft), pull: int):
         e = wp.tid() * POOL
         if pool[e + 5] > Ft(0.0):
             r = pool[e] + pool[e + 1]
@@ -133,11 +176,20 @@ def build_body_settle(Ft):
             ft = Ft(0.0)
             if wt > Ft(0.0) and give > wh:
                 ft = (give - wh) / wt
-            pool[e] = wp.min(wp.max(r, Ft(0.0)), avail - give)   # a debt kept until the body's stops pay it
+            bal = wp.min(wp.max(r, Ft(0.0)), avail - give)   # a debt kept until the body's stops pay it
+            pool[e + 8] = pool[e + 8] + give
+            if pull == 3 and bal < Ft(0.0) and wh + wt > Ft(0.0):   # round 53: the debt refunded at once
+                back = wp.min(wp.min(-bal, pool[e + 8]), wh + wt)
+                fh = -back / (wh + wt)
+                ft = fh
+                bal = bal + back
+                pool[e + 8] = pool[e + 8] - back
+            pool[e] = bal
             pool[e + 6] = fh
             pool[e + 7] = ft
         else:
             pool[e] = Ft(0.0)   # the body touches no column: its balance is not carried
+            pool[e + 8] = Ft(0.0)
         for c in range(1, 6):
             pool[e + c] = Ft(0.0)
 

@@ -28,7 +28,7 @@ import functools
 import numpy as np
 import warp as wp
 
-from gasp_core.mpm.contact import DAMPING, FLOWING, TOUCH_BOUNDS, touch_dashpot_speed
+from gasp_core.mpm.contact import DAMPING, FLOWING, TOUCH_BOUNDS, TOUCH_PULLS, touch_dashpot_speed
 
 from .body_bound import POOL, build_body_bound
 from .precision import MODULE_OPTIONS, build_types
@@ -74,6 +74,12 @@ class GroundTouch:
     #: ``tests/test_landed_slide.py``; ``touch_credit`` is read only there); round 52 ``"body"`` (the default since
     #: round 52) the debt's balance per body and ground (``gasp_warp_mpm.body_bound``). Read when built.
     touch_bound = "body"
+    #: Round 53 (docs/contact.md "Round 53: a pull's debt refunded at once"): under ``"body"``, the answer to the two
+    #: dashpots' pull (``TOUCH_PULLS``): ``"refund"`` (the default) the pool's debt returned at once along the slip
+    #: (``body_bound``); ``"both"`` round 52's (a pull as a push, its debt paid by later stops); ``"contact"`` a
+    #: column's pull at most its net push since its contact began (``touch_credits``); ``"none"`` no pull. Read when
+    #: built.
+    touch_pull = "refund"
 
     def bound_mode(self) -> int:
         """Round 51: the kernels' ``mode`` (``TOUCH_BOUNDS``); 0 without ``touch_share``."""
@@ -123,9 +129,11 @@ class GroundTouch:
             gather, settle, apply = build_body_bound(Ft)
             n, d, ng, nb = self.ground_touch.shape[0], self.device, self.n_grid, self.n_pool_bodies
             cols = [self.grid_v, self.touch_slots, self.ground, self.ground_touch, self.touch_body, ng]
-            return [wp.launch(gather, dim=n, device=d, record_cmd=True, inputs=cols + [credit, self.touch_pool, nb]),
+            pull = TOUCH_PULLS[self.touch_pull]
+            return [wp.launch(gather, dim=n, device=d, record_cmd=True,
+                              inputs=cols + [credit, self.touch_pool, nb, self.touch_credits, pull]),
                     wp.launch(settle, dim=self.touch_pool.shape[0] // POOL, device=d, record_cmd=True,
-                              inputs=[self.touch_pool]),
+                              inputs=[self.touch_pool, pull]),
                     wp.launch(apply, dim=n, device=d, record_cmd=True, inputs=cols + [self.touch_pool, nb])]
         return [wp.launch(build_share(Ft)[1], dim=self.ground_touch.shape[0], device=self.device, record_cmd=True,
                           inputs=[self.grid_v, self.touch_slots, self.ground, self.ground_touch, self.n_grid, credit,
