@@ -69,17 +69,10 @@ def tangent_speed(F, mu, lam, rho0, h=1e-6):
 def gather_grad(x, grid_v, lo, dx, ng):
     """The APIC gradient ``4 / dx^2 sum_i w_ip v_i (x_i - x_p)^T`` of the node velocities ``grid_v`` (ng^3, 3) at
     the points ``x`` (n, 3): (n, 3, 3), 1/s."""
-    from energy_ledger import weights
-    base, fx, w = weights(x, lo, 1.0 / dx)
+    from energy_ledger import stencil
     C = np.zeros((len(x), 3, 3))
-    for i in range(3):
-        for j in range(3):
-            for k in range(3):
-                off = np.array([i, j, k])
-                wt = w[:, 0, i] * w[:, 1, j] * w[:, 2, k]
-                idx = np.clip(base + off, 0, ng - 1)
-                vi = grid_v[(idx[:, 0] * ng + idx[:, 1]) * ng + idx[:, 2]]
-                C += (4.0 / dx ** 2) * wt[:, None, None] * np.einsum("ni,nj->nij", vi, (off - fx) * dx)
+    for wt, flat, dpos in stencil(x, lo, dx, ng):
+        C += (4.0 / dx ** 2) * wt[:, None, None] * np.einsum("ni,nj->nij", grid_v[flat], dpos)
     return C
 
 

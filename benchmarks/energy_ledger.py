@@ -51,25 +51,29 @@ def weights(x: np.ndarray, lo: np.ndarray, inv_dx: float):
     return base, fx, w
 
 
-def p2g(x, vals, lo, dx, ng, C=None, m=None):
-    """Scatter ``vals`` (n, k) to the nodes (ng^3, k) with the points' weights; with ``C`` (n, 3, 3) and ``m`` (n,)
-    the affine momentum ``m C (x_i - x_p)`` is added to the first three columns."""
+def stencil(x: np.ndarray, lo: np.ndarray, dx: float, ng: int):
+    """The 27 nodes of the points' quadratic stencils, one at a time: ``(wt, flat, dpos)``, the weights (n,), the
+    nodes' flat indices (n,) int (clipped to the grid) and ``x_i - x_p`` (n, 3), m."""
     base, fx, w = weights(x, lo, 1.0 / dx)
-    out = np.zeros((ng ** 3, vals.shape[1]))
     for i in range(3):
         for j in range(3):
             for k in range(3):
                 off = np.array([i, j, k])
-                wt = w[:, 0, i] * w[:, 1, j] * w[:, 2, k]
                 idx = np.clip(base + off, 0, ng - 1)
-                flat = (idx[:, 0] * ng + idx[:, 1]) * ng + idx[:, 2]
-                val = vals * wt[:, None]
-                if C is not None:
-                    dpos = (off - fx) * dx
-                    val = val.copy()
-                    val[:, :3] += (m * wt)[:, None] * np.einsum("nij,nj->ni", C, dpos)
-                for c in range(vals.shape[1]):
-                    out[:, c] += np.bincount(flat, val[:, c], ng ** 3)
+                yield (w[:, 0, i] * w[:, 1, j] * w[:, 2, k], (idx[:, 0] * ng + idx[:, 1]) * ng + idx[:, 2],
+                       (off - fx) * dx)
+
+
+def p2g(x, vals, lo, dx, ng, C=None, m=None):
+    """Scatter ``vals`` (n, k) to the nodes (ng^3, k) with the points' weights; with ``C`` (n, 3, 3) and ``m`` (n,)
+    the affine momentum ``m C (x_i - x_p)`` is added to the first three columns."""
+    out = np.zeros((ng ** 3, vals.shape[1]))
+    for wt, flat, dpos in stencil(x, lo, dx, ng):
+        val = vals * wt[:, None]
+        if C is not None:
+            val[:, :3] += (m * wt)[:, None] * np.einsum("nij,nj->ni", C, dpos)
+        for c in range(vals.shape[1]):
+            out[:, c] += np.bincount(flat, val[:, c], ng ** 3)
     return out
 
 
