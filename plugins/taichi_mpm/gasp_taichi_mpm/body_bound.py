@@ -70,9 +70,9 @@ class BodyBound:
                     room = 0.0
                 if ti.static(self.pull_mode == 1):
                     room = self.touch_credits[b, i, j]
-                jn = self.damp_pull(ti.Vector([i, j, kt]), m, d, room)
+                jn = self.damp_node(ti.Vector([i, j, kt]), m, d, room)
                 if kt + 1 < ng:
-                    jn += self.damp_pull(ti.Vector([i, j, kt + 1]), self.touch_slots[b, i, j, 4], d, room + jn)
+                    jn += self.damp_node(ti.Vector([i, j, kt + 1]), self.touch_slots[b, i, j, 4], d, room + jn)
                 if ti.static(self.pull_mode == 1):
                     self.touch_credits[b, i, j] += jn
                 push = mu * jn
@@ -86,17 +86,6 @@ class BodyBound:
             self.row_pool[b, i, o, 4] += 1.0
         elif ti.static(self.credit_on and self.pull_mode == 1):
             self.touch_credits[b, i, j] = 0.0   # round 53: the contact ended, its push is not carried
-
-    @ti.func
-    def damp_pull(self, I, m, d, room):
-        """Round 53: :meth:`GroundTouch.damp_node`'s dashpot, its pull (a negative impulse) at most ``room`` (kg
-        m/s); returns the impulse (kg m/s, + up)."""
-        jn = ti.cast(0.0, self.real)
-        if m > 0:
-            v = self.grid_v[I]
-            jn = ti.max(m * (v[2] / (1.0 + d) - v[2]), -ti.max(room, 0.0))
-            self.grid_v[I] = ti.Vector([v[0], v[1], v[2] + jn / m])
-        return jn
 
     @ti.kernel
     def body_settle(self):

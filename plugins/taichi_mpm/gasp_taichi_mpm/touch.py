@@ -210,13 +210,13 @@ class GroundTouch(BodyBound):
                     self.touch_slots[b, I[0], I[1], d + 2] = val
 
     @ti.func
-    def damp_node(self, I, m, d):
+    def damp_node(self, I, m, d, room):
         """Round 50: node ``I``'s normal velocity divided by ``1 + d``; returns the dashpot's normal impulse (kg m/s, +
-        up; 0 at no mass ``m``)."""
+        up; 0 at no mass ``m``); round 53: its pull (a negative impulse) at most ``room`` (kg m/s; 1e30 for none)."""
         jn = ti.cast(0.0, self.real)
         if m > 0:
             v = self.grid_v[I]
-            jn = m * (v[2] / (1.0 + d) - v[2])
+            jn = ti.max(m * (v[2] / (1.0 + d) - v[2]), -ti.max(room, 0.0))
             self.grid_v[I] = ti.Vector([v[0], v[1], v[2] + jn / m])
         return jn
 
@@ -240,9 +240,9 @@ class GroundTouch(BodyBound):
                     d = ti.cast(self.touch_speed, self.real) * self.dt[None] / self.dx[None]
                     if ti.static(self.bound_mode != 2):   # round 51 "substep": no balance carried
                         r = self.touch_credits[b, i, j]
-                    r += mu * self.damp_node(ti.Vector([i, j, kt]), m, d)
+                    r += mu * self.damp_node(ti.Vector([i, j, kt]), m, d, 1e30)
                     if kt + 1 < ng:
-                        r += mu * self.damp_node(ti.Vector([i, j, kt + 1]), self.touch_slots[b, i, j, 4], d)
+                        r += mu * self.damp_node(ti.Vector([i, j, kt + 1]), self.touch_slots[b, i, j, 4], d, 1e30)
                 if ti.static(self.bound_mode > 0):
                     r = self.column_bound(b, i, j, kt, r)
                 else:

@@ -33,7 +33,7 @@ import functools
 import warp as wp
 
 from .precision import MODULE_OPTIONS, build_types
-from .share import SLOTS
+from .share import SLOTS, build_damp_node
 
 #: A pool's slots (ground ``q``, body ``b`` at ``(q n_bodies + b) POOL``): 0 the balance carried (kept across
 #: substeps), 1 ``mu`` times the dashpots' push, 2 the held layers' stops, 3 the held nodes' want, 4 the touched
@@ -44,21 +44,10 @@ POOL = 9
 
 @functools.cache
 def build_column_funcs(Ft):
-    """``(damp_pull, column_of)``, scalar type ``Ft``: ``damp_pull(grid_v, node, m, d, room) -> jn`` (round 53),
-    ``share.build_damp_node``'s dashpot with its pull (a negative impulse, kg m/s) at most ``room``; ``column_of(col,
-    n_grid, ground, ground_touch) -> node``, the touched node of column ``col`` (-1 where the column is not marked 2
-    on a ground with friction)."""
+    """``(damp_node, column_of)``, scalar type ``Ft``: ``share.build_damp_node``'s dashpot (its pull at most ``room``,
+    round 53); ``column_of(col, n_grid, ground, ground_touch) -> node``, the touched node of column ``col`` (-1 where
+    the column is not marked 2 on a ground with friction)."""
     vec3 = build_types(Ft)[0]
-
-    @wp.func
-    def damp_pull(grid_v: wp.array(dtype=vec3), node: int, m: Ft, d: Ft, room: Ft):
-        # round 53: share.damp_node's dashpot, its pull (a negative impulse) at most room (kg m/s); the impulse
-        jn = Ft(0.0)
-        if m > Ft(0.0):
-            v = grid_v[node]
-            jn = wp.max(m * (v[2] / (Ft(1.0) + d) - v[2]), -wp.max(room, Ft(0.0)))
-            grid_v[node] = vec3(v[0], v[1], v[2] + jn / m)
-        return jn
 
     @wp.func
     def column_of(col: int, n_grid: int, ground: wp.array(dtype=vec3), ground_touch: wp.array(dtype=wp.int32)):
@@ -73,7 +62,7 @@ def build_column_funcs(Ft):
             node = (i * n_grid + j) * n_grid + kt
         return node
 
-    return damp_pull, column_of
+    return build_damp_node(Ft), column_of
 
 
 @functools.cache
@@ -84,7 +73,7 @@ def build_body_bound(Ft):
     ground and body, ``Ft``), ``n_bodies``; round 53: ``pushed`` (``Ft`` a column, kg m/s, the net push since the
     column's contact began; read with ``pull`` 1) and ``pull`` (``TOUCH_PULLS``; ``body_settle`` takes it too)."""
     vec3 = build_types(Ft)[0]
-    damp_pull, column_of = build_column_funcs(Ft)
+    damp_node, column_of = build_column_funcs(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def body_gather(grid_v: wp.array(dtype=vec3), slots: wp.array(dtype=Ft), ground: wp.array(dtype=vec3),
@@ -106,9 +95,9 @@ def build_body_bound(Ft):
                 room = Ft(0.0)
             if pull == 1:
                 room = pushed[col]
-            jn = damp_pull(grid_v, node, m, credit, room)
+            jn = damp_node(grid_v, node, m, credit, room)
             if node % n_grid + 1 < n_grid:
-                jn = jn + damp_pull(grid_v, node + 1, slots[col * SLOTS + 4], credit, room + jn)
+                jn = jn + damp_node(grid_v, node + 1, slots[col * SLOTS + 4], credit, room + jn)
             if pull == 1:
                 pushed[col] = pushed[col] + jn
             push = mu * jn

@@ -19,19 +19,21 @@ from .precision import MODULE_OPTIONS, build_types
 SLOTS = 8
 
 
+
 @functools.cache
 def build_damp_node(Ft):
-    """Round 50: ``damp_node(grid_v, node, m, d) -> jn``, scalar type ``Ft``: node ``node``'s normal (+z) velocity
-    (m/s) divided by ``1 + d``; returns the dashpot's normal impulse ``jn`` (kg m/s, + up; 0 where the mass ``m``,
-    kg, is 0). taichi_mpm's ``GroundTouch.damp_node``."""
+    """Round 50: ``damp_node(grid_v, node, m, d, room) -> jn``, scalar type ``Ft``: node ``node``'s normal (+z)
+    velocity (m/s) divided by ``1 + d``; returns the dashpot's normal impulse ``jn`` (kg m/s, + up; 0 where the mass
+    ``m``, kg, is 0); round 53: its pull (a negative ``jn``) at most ``room`` (kg m/s; 1e30 for none).
+    taichi_mpm's ``GroundTouch.damp_node``."""
     vec3 = build_types(Ft)[0]
 
     @wp.func
-    def damp_node(grid_v: wp.array(dtype=vec3), node: int, m: Ft, d: Ft):
+    def damp_node(grid_v: wp.array(dtype=vec3), node: int, m: Ft, d: Ft, room: Ft):
         jn = Ft(0.0)
         if m > Ft(0.0):
             v = grid_v[node]
-            jn = m * (v[2] / (Ft(1.0) + d) - v[2])
+            jn = wp.max(m * (v[2] / (Ft(1.0) + d) - v[2]), -wp.max(room, Ft(0.0)))
             grid_v[node] = vec3(v[0], v[1], v[2] + jn / m)
         return jn
 
@@ -179,9 +181,9 @@ def build_share(Ft):
             if credit > Ft(0.0):
                 # round 50: the dashpot on the touched node and the one above (both ways), its signed normal impulse
                 # times mu added to the column's credit, kept across substeps; the friction may spend what is positive
-                r = r + gr[1] * damp_node(grid_v, node, m, credit)
+                r = r + gr[1] * damp_node(grid_v, node, m, credit, Ft(1e30))
                 if kt + 1 < n_grid:
-                    r = r + gr[1] * damp_node(grid_v, node + 1, slots[col * SLOTS + 4], credit)
+                    r = r + gr[1] * damp_node(grid_v, node + 1, slots[col * SLOTS + 4], credit, Ft(1e30))
             if mode > 0:
                 r = column_bound(grid_v, slots, col, node, r, mode)
             else:
