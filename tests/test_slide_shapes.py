@@ -32,7 +32,9 @@ same figures to the digits shown):
   the contact balance's torque take-back, which turns the contact nodes alone (``|th|^2 / (2 I_nodes)`` into the base
   layers a substep): with no take-back the cube holds (0.12 / 0.24 mm), with the take-back turning the whole body
   (branch ``tallcube``'s ``TURN_BODY``, not merged: it holds up figures that must fall, ``tests/test_stand.py``)
-  0.21 / 1.04 mm. ``viscosity`` 50 Pa s holds it too (0.33 / 0.32 mm, both engines).
+  0.21 / 1.04 mm. ``viscosity`` 50 Pa s holds it too (0.33 / 0.32 mm, both engines). Round 54 (``docs/contact.md``
+  "Round 54"): a take-back limited to what the points cannot resolve (branch ``tallcube2``, not
+  merged) holds it (0.15-0.33 mm) but loses issue 38's jittered balls or a soft figure of ``tests/test_stand.py``.
 
 ``test_the_checks_catch_broken_engines``: on the disc (rigid, particle contact) and the hexagonal prism (jelly, grid
 contact), n_grid 24: an engine that ignores mu (0.4 always) or brakes at a rest speed (0.1 m/s) fails the slide, one
