@@ -82,9 +82,9 @@ def test_transfers_catch_a_ledger_without_the_affine_part():
 
 
 def test_cfl_rule_sum_adds_the_material_speed():
-    """The engine option ``cfl_rule`` (round 53): ``"sum"`` steps at ``cfl dx / (c_p + v_max)``, ``"max"`` (the
-    default) at ``cfl dx / max(c_p, v_max)``; a brittle body's speed is the same under both (its impact speed already
-    adds ``v_max``); an unknown rule is refused."""
+    """The engine option ``cfl_rule`` (round 53): ``"sum"`` (the engines' default since round 54) steps at
+    ``cfl dx / (c_p + v_max)``, ``"max"`` at ``cfl dx / max(c_p, v_max)``; a brittle body's speed is the same under
+    both (its impact speed already adds ``v_max``); an unknown rule is refused."""
     from gasp_core.errors import SceneError
     from gasp_core.mpm.substeps import impact_wave_speed, mpm_stable_dt, substeps_from_options
     from gasp_core.seam.setup import Material
@@ -99,9 +99,10 @@ def test_cfl_rule_sum_adds_the_material_speed():
     for rule in ("max", "sum"):
         assert mpm_stable_dt([brittle], dx, g, h, v0, 0.8, rule=rule) == pytest.approx(0.8 * dx / cb)
     s = make_setup(np.full((1, 3), 0.3), np.full(1, 1e-6), jelly, v=(0.0, 0.0, -v0), hi=(0.6, 0.6, 0.6), n_grid=48)
-    n_max, _ = substeps_from_options(s, {"cfl": 0.8})
+    n_max, _ = substeps_from_options(s, {"cfl": 0.8, "cfl_rule": "max"})
     n_sum, _ = substeps_from_options(s, {"cfl": 0.8, "cfl_rule": "sum"})
     assert (n_max, n_sum) == (39, 65)
+    assert substeps_from_options(s, {"cfl": 0.8})[0] == n_sum   # the default (round 54)
     with pytest.raises(SceneError, match="cfl_rule"):
         substeps_from_options(s, {"cfl_rule": "min"})
 
@@ -162,10 +163,11 @@ def test_the_elastic_step_gains_under_one_percent(engine, body, n_grid, speed, c
 @pytest.mark.slow
 @pytest.mark.parametrize("engine", ["taichi_mpm", "warp_mpm"])
 def test_ledger_catches_the_elastic_gain_at_cfl_08(engine):
-    """The catch of the check above: the ball of the family stepped at cfl 0.8 (``dt = cfl dx / max(c_p, v_max)``,
-    its points crossing cells at ``(c_p + |v|) dt / dx`` = 1.10) gains 3.82 % (round 53)."""
+    """The catch of the check above: the ball of the family stepped at cfl 0.8 with ``cfl_rule`` ``"max"`` (``dt =
+    cfl dx / max(c_p, v_max)``, the default until round 53; its points crossing cells at ``(c_p + |v|) dt / dx`` =
+    1.10) gains 3.82 % (round 53)."""
     from energy_ledger_family import run
-    r = run("ball", engine, 48, 4.43, 40.0, cfl=0.8)
+    r = run("ball", engine, 48, 4.43, 40.0, cfl=0.8, rule="max")
     assert paired_gain(r) > PAIRED_GAIN, paired_gain(r)
 
 
