@@ -27,7 +27,8 @@ Checks: the damped jelly's travel and the released undamped jelly's on n_grid 24
 in 1 s after its settle (Coulomb's stick); the catches: the engine's ground friction 0.95 times the scene's (``tan
 theta / mu`` 1.01: Coulomb slides it about 37 mm in that second at 30 degrees) must fail the damped hold,
 ``touch_margin`` 0 (the knife-edge at the plane) the released one on n_grid 32, ``touch_damping`` 0 (the dashpot off,
-round 47's rule) the released one on n_grid 48. The released jelly just past the limit (``tan theta / mu`` 1.05)
+round 47's rule) the released one on n_grid 48 (a strict xfail since round 54's ``cfl_rule`` "sum": it holds,
+0.799 mm). The released jelly just past the limit (``tan theta / mu`` 1.05)
 slides at Coulomb's acceleration within ``SLIDE_TOL`` = 2.5 % on n_grid 24, 32 and 48 (15, 30, 45 degrees; round
 49's n_grid 32 and 48 at 45 degrees, +2.87 / +48.5 %, met since round 50, docs/contact.md "Round 50: the dashpot's
 push in the column's Coulomb bound": +0.75 / +0.89 %); the catches: the engine's ground friction 1 % high, and
@@ -107,10 +108,17 @@ def test_the_released_hold_check_catches_the_knife_edge_touch(engine, monkeypatc
     assert f >= STICK_MM, f"{engine}: touch_margin 0 held ({f:.3f} mm)"
 
 
+DASHPOT_OFF_HOLDS = ("round 54, cfl_rule sum: with touch_damping 0 the released jelly on n_grid 48 now holds, 0.799 mm"
+                     " in 1 s (both engines; 63.6 mm under 'max', round 47): the shorter step rings the release down"
+                     " without the dashpot; the released hold check keeps its knife-edge catch (touch_margin 0)")
+
+
 @pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason=DASHPOT_OFF_HOLDS)
 @pytest.mark.parametrize("engine", ENGINES)
 def test_the_released_hold_check_catches_the_dashpot_off(engine, monkeypatch):
-    # touch_damping 0: round 47's rule, whose ringing base slides from the first frame on n_grid 48 (63.6 mm)
+    # touch_damping 0: round 47's rule, whose ringing base slid from the first frame on n_grid 48 (63.6 mm) under
+    # cfl_rule "max"; under "sum" (round 54) it holds (DASHPOT_OFF_HOLDS)
     if engine == "taichi_mpm":
         from gasp_taichi_mpm.grid import GridUpdate as cls
     else:

@@ -94,7 +94,7 @@ def test_the_core_checks_mpm_options_from_their_declarations_alone():
     """dt excludes n_substeps as declared data (Option.excludes): check_options is the one checker."""
     opts = check_options({}, mpm_options(), "e")
     assert opts == {"device": "cpu", "precision": "f32", "dt": None, "n_substeps": None, "cfl": 0.4,
-                    "cfl_rule": "max", "max_substeps": 20000}
+                    "cfl_rule": "sum", "max_substeps": 20000}
     assert check_options(opts, mpm_options(), "e") == opts  # idempotent
     with pytest.raises(SceneError, match="engine 'e': give option dt or option n_substeps, not both"):
         check_options({"dt": 1e-4, "n_substeps": 3}, mpm_options(), "e")

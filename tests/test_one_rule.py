@@ -94,7 +94,7 @@ def test_options_are_checked_by_the_core_alone_and_the_engine_reads_them_complet
     s.options = {"n_substeps": 3}
     build_engine(info, s)
     assert seen == {"device": "cpu", "precision": "f32", "dt": None, "n_substeps": 3, "cfl": 0.4,
-                    "cfl_rule": "max", "max_substeps": 20000}
+                    "cfl_rule": "sum", "max_substeps": 20000}
 
 
 def test_a_selected_object_is_flattened_once(tmp_path, donut_small, monkeypatch):

@@ -30,12 +30,13 @@ class GridConfig:
     dt: float | None = option(None, "substep length, s (default: from cfl); not with n_substeps", kind="number",
                               lo=0.0, lo_open=True, excludes=("n_substeps",))
     n_substeps: int | None = option(None, "substeps per frame (default: from cfl); not with dt", kind="int", lo=1)
-    cfl: float = option(CFL, "Courant number of the automatic substep: dt = cfl dx / max(c_p, v_max)",
+    cfl: float = option(CFL, "Courant number of the automatic substep: dt = cfl dx / (c_p + v_max) (cfl_rule)",
                         kind="number", lo=0.0, hi=1.0, lo_open=True)
-    cfl_rule: str = option("max", "the speed of the automatic substep: 'max', dt = cfl dx / max(c_p, v_max); "
-                           "'sum', cfl dx / (c_p + v_max) (the wave and the material speed together; the jelly donut "
-                           "thrown at 4.43 m/s at cfl 0.8: 1.63x the substeps, its elastic step's gain 8.7 -> 2.75 % "
-                           "of the energy; docs/fracture.md, round 53)",
+    cfl_rule: str = option("sum", "the speed of the automatic substep: 'sum' (the default since round 54), "
+                           "dt = cfl dx / (c_p + v_max), the wave and the material speed together; 'max', "
+                           "cfl dx / max(c_p, v_max) (the jelly donut thrown at 4.43 m/s at cfl 0.8: its elastic "
+                           "step's gain 8.7 % with 'max', 2.75 % with 'sum' at 1.63x the substeps; docs/fracture.md, "
+                           "rounds 53-54)",
                            kind="str", choices=CFL_RULES)
     max_substeps: int = option(MAX_SUBSTEPS, "refuse a scene needing more substeps per frame than this "
                                "(bounds the work a bad value can ask for)", kind="int", lo=1)

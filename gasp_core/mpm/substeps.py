@@ -1,7 +1,8 @@
 """Time step of a grid (MPM) engine: the stable substep, whole substeps per frame and the passive points' schedule.
 
-``docs/mpm.md``, "Time step": ``dt = cfl dx / max(c_p, v_max)`` (:func:`mpm_stable_dt`; ``cfl dx / (c_p + v_max)``
-with the engine option ``cfl_rule = "sum"``, :data:`CFL_RULES`; a brittle body's wave speed
+``docs/mpm.md``, "Time step": ``dt = cfl dx / (c_p + v_max)`` (:func:`mpm_stable_dt`; the engine option
+``cfl_rule``, default ``"sum"`` since round 54; ``"max"``: ``cfl dx / max(c_p, v_max)``, :data:`CFL_RULES`; a brittle
+body's wave speed
 at its impact, :func:`impact_wave_speed`; a viscous material lowers it, :func:`viscous_dt`), rounded to
 whole substeps per frame (:func:`substeps_for`), bounded by :data:`MAX_SUBSTEPS`
 (:func:`substeps_from_options`); :func:`passive_schedule` says at which substeps passive points move.
@@ -18,16 +19,20 @@ from gasp_core.errors import SceneError
 from gasp_core.seam.options import Option
 from gasp_core.seam.setup import Material
 
-#: The grid engines' default Courant number (engine option ``cfl``): ``dt = cfl dx / max(c_p, v_max)``.
+#: The grid engines' default Courant number (engine option ``cfl``): ``dt = cfl dx / (c_p + v_max)``
+#: (:data:`CFL_RULES`).
 CFL = 0.4
 
-#: The speeds the automatic substep divides by (engine option ``cfl_rule``): ``"max"`` (the default), ``dt = cfl dx /
-#: max(c_p, v_max)``; ``"sum"``, ``dt = cfl dx / (c_p + v_max)``, Courant's condition on the wave and the material
-#: speed together (a brittle body's :func:`impact_wave_speed` already adds ``v_max``). Measured (round 53,
-#: docs/fracture.md "Round 53: the jelly donut's elastic gain at cfl 0.8"; ``benchmarks/cfl_gain_probe.py``): the
-#: jelly donut thrown at 4.43 m/s, n_grid 48, cfl 0.8, gains 8.7 % of its energy in the explicit elastic step with
-#: "max" (its points cross cells at ``(c_p + |v|) dt / dx`` = 1.10 from the first substep), 2.75 % with "sum" at 1.63x
-#: the substeps (the README quick start: 1.07x); not the default (the gain stays over 1 %).
+#: The speeds the automatic substep divides by (engine option ``cfl_rule``): ``"sum"`` (the engines' default since
+#: round 54), ``dt = cfl dx / (c_p + v_max)``, Courant's condition on the wave and the material speed together (a
+#: brittle body's :func:`impact_wave_speed` already adds ``v_max``); ``"max"``, ``dt = cfl dx / max(c_p, v_max)`` (the
+#: default until round 53). Measured (docs/fracture.md "Round 53: the jelly donut's elastic gain at cfl 0.8" and
+#: "Round 54: cfl_rule sum is the default"; ``benchmarks/cfl_gain_probe.py``): the jelly donut thrown at 4.43 m/s,
+#: n_grid 48, cfl 0.8, gains 8.7 % of its energy in the explicit elastic step with "max" (its points cross cells at
+#: ``(c_p + |v|) dt / dx`` = 1.10 from the first substep), 2.75 % with "sum" at 1.63x the substeps (the README quick
+#: start: 1.07x). "sum" is the default as the best step rule measured, though the gain stays over 1 % at cfl 0.8.
+#: :func:`mpm_stable_dt` (a formula with an explicit ``rule``) keeps ``"max"`` as its argument's default;
+#: :func:`mpm_substeps` and :func:`substeps_from_options` (the engines' path) default to ``"sum"``.
 CFL_RULES = ("max", "sum")
 
 
@@ -123,7 +128,7 @@ def viscous_dt(m: Material, dx: float) -> float:
 
 
 def mpm_substeps(setup, dt: float | None = None, n_substeps: int | None = None,
-                 cfl: float = CFL, implicit_viscosity: bool = False, rule: str = "max") -> tuple[int, float]:
+                 cfl: float = CFL, implicit_viscosity: bool = False, rule: str = "sum") -> tuple[int, float]:
     """Substeps per frame and substep length for a grid engine (``docs/mpm.md``, "Time step").
 
     Parameters
@@ -138,7 +143,7 @@ def mpm_substeps(setup, dt: float | None = None, n_substeps: int | None = None,
     implicit_viscosity : bool
         The engine integrates viscosity implicitly: no viscous cap (:func:`mpm_stable_dt`).
     rule : str
-        ``"max"`` or ``"sum"`` (:data:`CFL_RULES`, engine option ``cfl_rule``).
+        ``"sum"`` (the default) or ``"max"`` (:data:`CFL_RULES`, engine option ``cfl_rule``).
 
     Returns
     -------
@@ -185,7 +190,7 @@ def substeps_from_options(setup, options: Mapping[str, Any], engine: str = "",
         ``frame_dt``) and how to raise the bound, instead of a run that never finishes a frame.
     """
     n, dt = mpm_substeps(setup, options.get("dt"), options.get("n_substeps"), options.get("cfl", CFL),
-                         implicit_viscosity, options.get("cfl_rule") or "max")
+                         implicit_viscosity, options.get("cfl_rule") or "sum")
     bound = options.get("max_substeps") or MAX_SUBSTEPS
     if n > bound:
         c = max(p_wave_speed(m) for m in setup.materials)
