@@ -50,7 +50,7 @@ def _base(material: Material | None = None, x=None, p_vol=None, n_grid=16, optio
 def _dt_case(factor):
     def build(info):
         s = _base()
-        dt = mpm_stable_dt(s.materials, s.dx, s.gravity, height=1.0)
+        dt = mpm_stable_dt(s.materials, s.dx, s.gravity, height=1.0, rule="max")
         return s.replace(options={"dt": factor * dt})
     return build
 
@@ -191,7 +191,7 @@ def _impact_base(material: Material | None = None, v0: float = IMPACT_V0, option
 def _impact_dt2x(info):
     s = _impact_base()
     # twice the CFL limit dx / max(c_p, v_max) itself (cfl 1), i.e. five times the default step
-    dt = mpm_stable_dt(s.materials, s.dx, s.gravity, height=1.0, v0_max=IMPACT_V0, cfl=1.0)
+    dt = mpm_stable_dt(s.materials, s.dx, s.gravity, height=1.0, v0_max=IMPACT_V0, cfl=1.0, rule="max")
     return s.replace(options={"dt": 2.0 * dt})
 
 

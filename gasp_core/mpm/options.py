@@ -17,7 +17,7 @@ from gasp_core.seam.config import Preset, config_options, from_option, option
 from gasp_core.seam.options import Option
 from gasp_core.mpm.contact import BALANCE, CONTACT
 from gasp_core.mpm.fields import FIELDS
-from gasp_core.mpm.substeps import CFL, CFL_RULES, MAX_SUBSTEPS, PASSIVE_EVERY
+from gasp_core.mpm.substeps import CFL, CFL_RULE, CFL_RULES, MAX_SUBSTEPS, PASSIVE_EVERY
 from gasp_core.mpm.transfer import FLIP
 
 
@@ -32,7 +32,7 @@ class GridConfig:
     n_substeps: int | None = option(None, "substeps per frame (default: from cfl); not with dt", kind="int", lo=1)
     cfl: float = option(CFL, "Courant number of the automatic substep: dt = cfl dx / (c_p + v_max) (cfl_rule)",
                         kind="number", lo=0.0, hi=1.0, lo_open=True)
-    cfl_rule: str = option("sum", "the speed of the automatic substep: 'sum' (the default since round 54), "
+    cfl_rule: str = option(CFL_RULE, "the speed of the automatic substep: 'sum' (the default since round 54), "
                            "dt = cfl dx / (c_p + v_max), the wave and the material speed together; 'max', "
                            "cfl dx / max(c_p, v_max) (the jelly donut thrown at 4.43 m/s at cfl 0.8: its elastic "
                            "step's gain 8.7 % with 'max', 2.75 % with 'sum' at 1.63x the substeps; docs/fracture.md, "

@@ -31,9 +31,11 @@ CFL = 0.4
 #: n_grid 48, cfl 0.8, gains 8.7 % of its energy in the explicit elastic step with "max" (its points cross cells at
 #: ``(c_p + |v|) dt / dx`` = 1.10 from the first substep), 2.75 % with "sum" at 1.63x the substeps (the README quick
 #: start: 1.07x). "sum" is the default as the best step rule measured, though the gain stays over 1 % at cfl 0.8.
-#: :func:`mpm_stable_dt` (a formula with an explicit ``rule``) keeps ``"max"`` as its argument's default;
-#: :func:`mpm_substeps` and :func:`substeps_from_options` (the engines' path) default to ``"sum"``.
+#: :data:`CFL_RULE` is every function's default here, so a caller of :func:`mpm_stable_dt` gets the engines' step.
 CFL_RULES = ("max", "sum")
+
+#: The default of ``cfl_rule`` (the engine option and :func:`mpm_stable_dt`, :func:`mpm_substeps`): ``"sum"``.
+CFL_RULE = "sum"
 
 
 def p_wave_speed(m: Material) -> float:
@@ -66,12 +68,12 @@ def impact_wave_speed(m: Material, v_max: float) -> float:
 
 def mpm_stable_dt(materials: Iterable[Material], dx: float, gravity, height: float,
                   v0_max: float = 0.0, cfl: float = CFL, implicit_viscosity: bool = False,
-                  rule: str = "max") -> float:
+                  rule: str = CFL_RULE) -> float:
     """Largest substep that satisfies the elastic-wave, particle CFL and viscous limits.
 
-    ``dt = cfl * dx / max(c_p, v_max)`` (``rule`` ``"max"``; ``"sum"``: ``cfl dx / (c_p + v_max)``, a brittle
-    material's speed unchanged, :data:`CFL_RULES`) where ``c_p`` is the fastest P-wave speed over the
-    materials (a brittle one's :func:`impact_wave_speed`) and ``v_max = v0_max + sqrt(2 |g| height)`` bounds the
+    ``dt = cfl * dx / (c_p + v_max)`` (``rule`` ``"sum"``, :data:`CFL_RULE`; ``"max"``: ``cfl dx / max(c_p,
+    v_max)``; a brittle material's speed unchanged, :data:`CFL_RULES`) where ``c_p`` is the fastest P-wave speed
+    over the materials (a brittle one's :func:`impact_wave_speed`) and ``v_max = v0_max + sqrt(2 |g| height)`` bounds the
     speed a falling body reaches in the domain; a material with viscosity caps it at ``cfl * viscous_dt``
     (:func:`viscous_dt`,
     about ``cfl rho dx^2 / (4 eta)`` when the viscosity dominates) unless the engine integrates the
@@ -128,7 +130,7 @@ def viscous_dt(m: Material, dx: float) -> float:
 
 
 def mpm_substeps(setup, dt: float | None = None, n_substeps: int | None = None,
-                 cfl: float = CFL, implicit_viscosity: bool = False, rule: str = "sum") -> tuple[int, float]:
+                 cfl: float = CFL, implicit_viscosity: bool = False, rule: str = CFL_RULE) -> tuple[int, float]:
     """Substeps per frame and substep length for a grid engine (``docs/mpm.md``, "Time step").
 
     Parameters
@@ -190,7 +192,7 @@ def substeps_from_options(setup, options: Mapping[str, Any], engine: str = "",
         ``frame_dt``) and how to raise the bound, instead of a run that never finishes a frame.
     """
     n, dt = mpm_substeps(setup, options.get("dt"), options.get("n_substeps"), options.get("cfl", CFL),
-                         implicit_viscosity, options.get("cfl_rule") or "sum")
+                         implicit_viscosity, options.get("cfl_rule") or CFL_RULE)
     bound = options.get("max_substeps") or MAX_SUBSTEPS
     if n > bound:
         c = max(p_wave_speed(m) for m in setup.materials)
