@@ -20,6 +20,10 @@ block of ``FAMILY`` on each of ``GRIDS`` at ``N`` and ``2 N`` substeps) and prin
 
     python benchmarks/sand_slump_step.py --grids 16 32 --substeps 7 13 26 52 104 208 --json out.json
     python benchmarks/sand_slump_step.py --family --variants default particle --json family.json
+    python benchmarks/sand_slump_step.py --slide --lube --engines warp_mpm --json more.json
+
+``--slide`` (``sand_slide``'s reference on the ground) and ``--lube`` (the conformance column, a = 2, n_grid 48) read
+what the touched layer is there for, on the grid and the particle contact, at several substeps.
 """
 from __future__ import annotations
 
@@ -115,6 +119,57 @@ def family_rows(engines, variants) -> list[dict]:
     return rows
 
 
+def slide_rows(engines, substeps=(26, 52, 104), contacts=("auto", "particle"), v0=0.6) -> list[dict]:
+    """``--slide``: ``sand_slide``'s reference (``gasp_core.testing.sand_ball.slide_setup(ground=True)``: a 6 x 6 x 3
+    cm sand block thrown at ``v0`` m/s along the ground of friction tan 30 deg, n_grid 32), 4 frames: Coulomb's ratio
+    over frames 1-3 (``coulomb_ratio``) and the travel (mm), per contact and substeps a frame."""
+    from gasp_core.testing.sand_ball import coulomb_ratio, slide_setup, slide_travel
+    rows = []
+    for eng in engines:
+        for contact in contacts:
+            for k in substeps:
+                s = slide_setup(v0, options={"n_substeps": k, "contact": contact}, ground=True)
+                e = build_engine(engine_info(eng), s)
+                vs = [np.broadcast_to(np.asarray(s.v, float), s.x.shape)]
+                for _ in range(4):
+                    e.step_frame()
+                    vs.append(e.velocities().astype(float))
+                travel = slide_travel(np.asarray(s.x, float), e.positions().astype(float), s)
+                rows.append(dict(check="slide", engine=eng, contact=contact, n_substeps=k, v0=v0,
+                                 coulomb_ratio=round(coulomb_ratio(np.stack(vs), s, 1, 3), 4),
+                                 travel_mm=round(1000 * travel, 2)))
+                print(json.dumps(rows[-1]), flush=True)
+    return rows
+
+
+def lube_rows(engines, substeps=(34, 68, 136), contacts=("auto", "particle"), a=2.0, n_grid=48) -> list[dict]:
+    """``--lube``: the conformance column (``benchmarks/lube_family.py``'s ``column_setup``, a = 2, n_grid 48) per
+    contact and substeps a frame (34 is about the default ``cfl``'s): runout and height against Lube et al. 2005."""
+    import math
+    import sys
+    from pathlib import Path
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import lube_family as lf
+    from gasp_core.testing import scenes_granular as sg
+    from gasp_core.testing.helpers import wall_margin
+    rows = []
+    for eng in engines:
+        info = engine_info(eng)
+        for contact in contacts:
+            for k in substeps:
+                s = lf.column_setup(info, a, n_grid).replace(options={"n_substeps": k, "contact": contact})
+                e = build_engine(info, s)
+                for _ in range(int(math.ceil((0.7 + 2.4 * math.sqrt(2 * a * sg.COLUMN_L / 9.81)) / lf.FRAME_DT))):
+                    e.step_frame()
+                L, H = sg.column_deposit(e.positions().astype(float), wall_margin(info, s.dx), 3 * s.dx, s.dx / 2)
+                r, h = (L - sg.COLUMN_L) / sg.COLUMN_L, H / sg.COLUMN_L
+                rows.append(dict(check="lube", engine=eng, contact=contact, n_substeps=k, a=a, n_grid=n_grid,
+                                 runout=round(r, 4), runout_err_pct=round(100 * (r / sg.lube_runout(a) - 1), 1),
+                                 height=round(h, 4), height_err_pct=round(100 * (h / sg.lube_height(a) - 1), 1)))
+                print(json.dumps(rows[-1]), flush=True)
+    return rows
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--engines", nargs="+", default=["taichi_mpm", "warp_mpm"])
@@ -126,9 +181,14 @@ def main(argv=None):
     ap.add_argument("--variants", nargs="+", default=["default"], choices=VARIANTS)
     ap.add_argument("--json", help="append the rows to this file (a JSON list)")
     ap.add_argument("--family", action="store_true", help="the check's family at N and 2N substeps")
+    ap.add_argument("--slide", action="store_true", help="sand_slide's reference, grid and particle contact")
+    ap.add_argument("--lube", action="store_true", help="the conformance column a = 2, grid and particle contact")
     a = ap.parse_args(argv)
+    other = a.family or a.slide or a.lube
     rows = family_rows(a.engines, a.variants) if a.family else []
-    for var in ([] if a.family else a.variants):
+    rows += slide_rows(a.engines) if a.slide else []
+    rows += lube_rows(a.engines) if a.lube else []
+    for var in ([] if other else a.variants):
         for eng in a.engines:
             if var == "share" and eng != "warp_mpm":
                 continue
