@@ -9,9 +9,11 @@ grid) and asks the two drops to agree within :data:`STEP_TOL` either way (a 5 % 
 
 Measured (round 55, both engines the same to the digits printed): with the grid contact (the default for sand) the
 drop shrinks 19.4 % (n_grid 16) and 5.9 % (32) for the 20 cm cube, 20.8 % and 7.0 % for the 30 x 30 x 15 cm block;
-with ``contact = "particle"`` +0.15 %, -2.76 %, +0.63 %, -2.70 %. The cause: the grid contact's touched layer (a node
-layer above the ground's plane, inside the sand, given the ground's rule every substep: its normal stop and its
-Coulomb bound both read the node's whole velocity, not what the substep adds to it).
+with ``contact = "particle"`` +0.15 %, -2.76 %, +0.63 %, -2.70 %, but at n_grid 16 that sand rests on the walls'
+frictionless floor, above the ground (on the ground it moves -11.7 / -19.5 % a halving). The cause named first, the grid
+contact's touched layer (the ground's rule on a node inside the sand every substep), is part of it: a rule that sets a
+node's velocity at a frictional base loses to the transfer's round trip each substep, on both contacts (docs/contact.md
+"Round 55: the touched layer as a rate").
 
 Used by ``tests/test_sand_slump_step.py`` and ``benchmarks/sand_slump_step.py``.
 """
