@@ -14,7 +14,7 @@ import warp as wp
 from gasp_core.mpm.grid_tables import FT_TIME
 
 from .colliders import build_blend, build_collide, build_collider_func
-from .balance import build_balance, f64, support_dv, v64
+from .balance import build_balance, f64, keep_row, support_dv, v64
 from .contact import build_collider_contact, build_contact
 from .forces import build_extras_struct, build_force_funcs
 from .precision import MODULE_OPTIONS, build_types
@@ -265,6 +265,7 @@ def build_grid_update(Ft):
         # (one unused entry otherwise), the rule acting fully within wall_full cells / up to layer ground[g][2] and
         # by the node's flowing-mass fraction f between there and wall_in / ground[g][0] (colliders.build_blend)
         node = wp.tid()
+        keep_row(grid_fbody, node)   # the contact's balance: a marked node's key to its row (contact_mark)
         g = grid_mv[node]
         m = g[3]
         if grid_m.shape[0] > 1:
