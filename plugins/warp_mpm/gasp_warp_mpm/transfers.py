@@ -147,7 +147,7 @@ def build_p2g(Ft):
             imp, bud, fn, fv, sup = point_contact(planes, plane_n, p_contact[p], x[p], v[p], dt, colc, ex, body[p])
             mom0 = mom0 + imp
             if sup >= 0 and shift.shape[0] > 0:   # the node's support, for the contact's balance (balance.py):
-                row = body[p] * n_sup + sup        # the row of the point that pushes it most (gasp_core.mpm.contact_mark)
+                row = body[p] * n_sup + sup   # the row of the point that pushes it most (gasp_core.mpm.contact_mark)
                 jm = wp.float64(wp.length(imp))
                 for q in range(27):
                     wq = wp.float64(W[q / 9, 0] * W[(q / 3) % 3, 1] * W[q % 3, 2])
