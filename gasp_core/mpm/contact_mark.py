@@ -4,8 +4,8 @@ support"; the engines' ``balance.py``).
 In P2G a point that a support pushes marks its 27 nodes. A node marked by points of several rows of the balance (a
 corner of the ground and a wall, two bodies' points) keeps the row of the point that pushes it most, ``w_ip |j_p|``
 (its B-spline weight on the node times its contact impulse). Until round 55 the last point to write won: the result
-hung on the order of the points, so it differed between the two engines, between the CPU and GPU schedules and, on a
-GPU, from run to run (a race). The rule here is an atomic max of one 32-bit key per node,
+hung on the order of the points, so it differed between the engines, between an engine's CPU and GPU schedules
+and, on a GPU, from run to run (a race). The rule here is an atomic max of one 32-bit key per node,
 
 ``key = q << MARK_ROW_BITS | row``, ``q = clamp(floor((log2(w |j|) + MARK_OCTAVES_BELOW) MARK_STEPS), 0, 2^15 - 1)``,
 
@@ -30,7 +30,7 @@ MARK_Q_MAX = (1 << (31 - MARK_ROW_BITS)) - 1
 
 def mark_key(push: float, row: int) -> int:
     """A node's key for a point of the balance's ``row`` (int, ``0 <= row <= MARK_ROW_MASK``) that pushes it with
-    ``push = w_ip |j_p|`` (kg m/s, >= 0); the kernels spell the same (taichi_mpm's and warp_mpm's ``mark_key``)."""
+    ``push = w_ip |j_p|`` (kg m/s, >= 0); the engines' kernels spell the same (their ``mark_key``)."""
     q = 0
     if push > 0.0:
         q = int(np.clip(np.floor((np.log2(push) + MARK_OCTAVES_BELOW) * MARK_STEPS), 0, MARK_Q_MAX))

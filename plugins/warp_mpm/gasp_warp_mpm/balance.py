@@ -67,6 +67,24 @@ def mark_key(push: f64, row: int):
     return (q << ROW_BITS) | row
 
 
+@functools.cache
+def build_mark(Ft):
+    """``mark_nodes(grid_fbody, idx0, n_grid, W, imp, row)`` of scalar type ``Ft``, in P2G: a point of the balance's
+    ``row`` with contact impulse ``imp`` marks its 27 nodes from flat index ``idx0`` (weights ``W``) with
+    :func:`mark_key`, an atomic max: a node keeps the row of the point that pushes it most."""
+    vec3, vec4, mat33 = build_types(Ft)
+
+    @wp.func
+    def mark_nodes(grid_fbody: wp.array(dtype=wp.int32), idx0: int, n_grid: int, W: mat33, imp: vec3, row: int):
+        jm = f64(wp.length(imp))
+        for q in range(27):
+            wq = f64(W[q / 9, 0] * W[(q / 3) % 3, 1] * W[q % 3, 2])
+            wp.atomic_max(grid_fbody, idx0 + (q / 9) * n_grid * n_grid + ((q / 3) % 3) * n_grid + q % 3,
+                          mark_key(wq * jm, row))
+
+    return mark_nodes
+
+
 @wp.func
 def keep_row(grid_fbody: wp.array(dtype=wp.int32), node: int):
     # the grid update: a marked node's key becomes its row (gasp_core.mpm.contact_mark)
