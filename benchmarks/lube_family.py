@@ -84,6 +84,18 @@ def front_at(x: np.ndarray, x_wall: float, spacing: float, thickness: float) -> 
     return float((thick.max() + 1) * spacing) if len(thick) else 0.0
 
 
+def column_end(info, a: float, n_grid: int, options: dict) -> tuple[float, float]:
+    """The column of :func:`column_setup` with the engine ``options`` (replacing its own) run to its end time:
+    ``(runout, height)`` over ``L_i`` from its last frame (``scenes_granular.column_deposit``), no trace kept."""
+    from gasp_core.seam import build_engine
+    s = column_setup(info, a, n_grid).replace(options=dict(options))
+    e = build_engine(info, s)
+    for _ in range(int(math.ceil((0.7 + 2.4 * math.sqrt(2 * a * sg.COLUMN_L / 9.81)) / FRAME_DT))):
+        e.step_frame()
+    L_inf, H_inf = sg.column_deposit(e.positions().astype(float), wall_margin(info, s.dx), 3 * s.dx, s.dx / 2)
+    return (L_inf - sg.COLUMN_L) / sg.COLUMN_L, H_inf / sg.COLUMN_L
+
+
 def run_case(engine: str, a: float, n_grid: int, device: str = "cpu", mu_i: bool = False,
              cone: str = "flow") -> dict:
     """One column: its runout and height against the fits (signed relative errors), its end speed and CPU time."""

@@ -145,24 +145,17 @@ def slide_rows(engines, substeps=(26, 52, 104), contacts=("auto", "particle"), v
 def lube_rows(engines, substeps=(34, 68, 136), contacts=("auto", "particle"), a=2.0, n_grid=48) -> list[dict]:
     """``--lube``: the conformance column (``benchmarks/lube_family.py``'s ``column_setup``, a = 2, n_grid 48) per
     contact and substeps a frame (34 is about the default ``cfl``'s): runout and height against Lube et al. 2005."""
-    import math
     import sys
     from pathlib import Path
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     import lube_family as lf
     from gasp_core.testing import scenes_granular as sg
-    from gasp_core.testing.helpers import wall_margin
     rows = []
     for eng in engines:
         info = engine_info(eng)
         for contact in contacts:
             for k in substeps:
-                s = lf.column_setup(info, a, n_grid).replace(options={"n_substeps": k, "contact": contact})
-                e = build_engine(info, s)
-                for _ in range(int(math.ceil((0.7 + 2.4 * math.sqrt(2 * a * sg.COLUMN_L / 9.81)) / lf.FRAME_DT))):
-                    e.step_frame()
-                L, H = sg.column_deposit(e.positions().astype(float), wall_margin(info, s.dx), 3 * s.dx, s.dx / 2)
-                r, h = (L - sg.COLUMN_L) / sg.COLUMN_L, H / sg.COLUMN_L
+                r, h = lf.column_end(info, a, n_grid, {"n_substeps": k, "contact": contact})
                 rows.append(dict(check="lube", engine=eng, contact=contact, n_substeps=k, a=a, n_grid=n_grid,
                                  runout=round(r, 4), runout_err_pct=round(100 * (r / sg.lube_runout(a) - 1), 1),
                                  height=round(h, 4), height_err_pct=round(100 * (h / sg.lube_height(a) - 1), 1)))

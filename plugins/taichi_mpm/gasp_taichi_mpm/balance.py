@@ -31,11 +31,24 @@ import numpy as np
 import taichi as ti
 
 from gasp_core.mpm.contact import JSUMS, TORQUE_REACH
+from gasp_core.mpm.contact_mark import (MARK_OCTAVES_BELOW, MARK_Q_MAX, MARK_ROW_BITS, MARK_ROW_MASK, MARK_STEPS,
+                                        check_mark_rows)
 
 from .schedule.ordered import N_PARTS
 
 #: Columns of a listed node's terms (:meth:`Balance.node_terms`): fr_sums[s, :17].
 N_NODE_TERMS = 17
+
+
+@ti.func
+def mark_key(push, row):
+    """A contact node's key for a point of the balance's ``row`` pushing it with ``push = w |j|`` (kg m/s, f64;
+    ``gasp_core.mpm.contact_mark.mark_key``)."""
+    q = 0
+    if push > 0.0:
+        lq = ti.floor((ti.log(push) / ti.log(ti.cast(2.0, ti.f64)) + MARK_OCTAVES_BELOW) * MARK_STEPS)
+        q = ti.cast(ti.min(ti.max(lq, 0.0), MARK_Q_MAX), ti.i32)
+    return (q << MARK_ROW_BITS) | row
 
 
 @ti.func
@@ -55,6 +68,7 @@ class Balance:
         list. ``reach`` None or empty: no balance."""
         nb = 0 if reach is None else len(reach)
         ns = nb * self.n_sup
+        check_mark_rows(ns)
         self.n_spin = nb
         self.n_slots = ns
         self.c_part = ti.field(ti.f64, shape=(N_PARTS, max(nb, 1), 19))   # each slice's sums (contact_moments)
@@ -160,12 +174,25 @@ class Balance:
                 ti.atomic_max(self.c_jsums[s, 14 + 2 * q], x[q])
 
     @ti.func
-    def mark_contact_nodes(self, base, sup):
-        """A point a support pushes marks its 27 nodes with that support's row (``grid_fbody``)."""
+    def mark_contact_nodes(self, base, w, jvec, sup):
+        """A point a support pushes (impulse ``jvec``, weights ``w``) marks its 27 nodes with the key of that
+        support's row (``grid_fbody``): a node keeps the row of the point that pushes it most, ``w_ip |j_p|``, the
+        same on any point order, thread count or device (``gasp_core.mpm.contact_mark``; :meth:`keep_row`)."""
         if ti.static(self.n_planes > 0 or self.n_colc > 0):
             if self.n_spin > 0 and sup >= 0:
+                jm = ti.cast(jvec.norm(), ti.f64)
                 for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
-                    self.grid_fbody[base + ti.Vector([i, j, k])] = sup
+                    key = mark_key(ti.cast(w[i][0] * w[j][1] * w[k][2], ti.f64) * jm, sup)
+                    ti.atomic_max(self.grid_fbody[base + ti.Vector([i, j, k])], key)
+
+    @ti.func
+    def keep_row(self, I):
+        """The grid update: a marked node's key becomes its row (``gasp_core.mpm.contact_mark``)."""
+        if ti.static(self.n_planes > 0 or self.n_colc > 0):
+            if self.n_spin > 0:
+                k = self.grid_fbody[I]
+                if k >= 0:
+                    self.grid_fbody[I] = k & MARK_ROW_MASK
 
     @ti.func
     def balance_node(self, I, v_in, v_out, m, fb):

@@ -350,6 +350,7 @@ class GridUpdate(GroundTouch):
         count = ext[0] * ext[1] * ext[2]
         for idx in range(count):
             I = lo + ti.Vector([idx // (ext[1] * ext[2]), (idx // ext[2]) % ext[1], idx % ext[2]])
+            self.keep_row(I)   # the contact's balance: a marked node's key to its row (balance.py)
             acc = ti.Vector.zero(self.real, self.acc_width)
             gsurf = ti.Vector.zero(self.real, 3)
             if ti.static(self.atomic):

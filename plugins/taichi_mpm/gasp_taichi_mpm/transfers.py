@@ -89,8 +89,8 @@ class Transfers:
         # the particle contact (zeros without it): not in AFLIP's APIC momentum (a boundary, as in warp_mpm)
         jvec, budget, fn, fv, sup = self.point_contact(p)
         mv0 += jvec
-        self.mark_contact_nodes(base, sup)   # the contact's balance (balance.py)
         w = self.weights(fx)
+        self.mark_contact_nodes(base, w, jvec, sup)   # the contact's balance (balance.py)
         self.scatter_contact(base, w, budget, fn, fv)   # with colliders: the budget's normal, supports' velocity
         self.scatter_flow(p, base, w, m)   # with the contact chosen per body: the flowing bodies' mass
         self.scatter_field(p, base, w, mv0, A, m)   # with the two-field contact: the point's field (fields.py)

@@ -14,7 +14,8 @@ with the particle contact + the walls' faces):
 - ``contact_shift`` (one thread a body): the body's mass centre ``c``, rigid velocity ``V`` and spin ``omega`` into
   ``shift`` (shape (n_bodies, 12): with its angular momentum about ``c``); ``sums`` cleared;
 - in P2G, a point with a normal impulse marks its 27 nodes with the row of the support that pushes it most
-  (``grid_fbody``);
+  (``grid_fbody``; a node marked by several rows keeps the highest, an atomic max, so the same on any point order
+  or device);
 - ``balance_node`` (a function of the grid update, at each marked node after its friction): the node's friction
   impulse, its moment, the node's mass and moments and its friction budget, into ``fr_sums`` (shape
   (n_bodies n_sup, 26)); the node listed in ``fr_nodes`` (``fr_nodes[0]`` counts them);
@@ -36,6 +37,8 @@ import functools
 import warp as wp
 
 from gasp_core.mpm.contact import TORQUE_REACH
+from gasp_core.mpm.contact_mark import (MARK_OCTAVES_BELOW, MARK_Q_MAX, MARK_ROW_BITS, MARK_ROW_MASK, MARK_STEPS,
+                                        check_mark_rows)
 
 from .contact import build_collider_contact, build_contact, build_contact_impulse
 from .forces import build_extras_struct
@@ -51,6 +54,44 @@ TORQUE_CLIP = wp.constant(TORQUE_REACH)
 f64 = wp.float64
 v64 = wp.types.vector(3, f64)
 m64 = wp.types.matrix((3, 3), f64)
+ROW_BITS, ROW_MASK, Q_MAX = wp.constant(MARK_ROW_BITS), wp.constant(MARK_ROW_MASK), wp.constant(MARK_Q_MAX)
+
+
+@wp.func
+def mark_key(push: f64, row: int):
+    # a contact node's key for a point of the balance's row pushing it with w |j| (gasp_core.mpm.contact_mark)
+    q = int(0)
+    if push > f64(0.0):
+        lq = wp.floor((wp.log2(push) + f64(MARK_OCTAVES_BELOW)) * f64(MARK_STEPS))
+        q = int(wp.clamp(lq, f64(0.0), f64(MARK_Q_MAX)))
+    return (q << ROW_BITS) | row
+
+
+@functools.cache
+def build_mark(Ft):
+    """``mark_nodes(grid_fbody, idx0, n_grid, W, imp, row)`` of scalar type ``Ft``, in P2G: a point of the balance's
+    ``row`` with contact impulse ``imp`` marks its 27 nodes from flat index ``idx0`` (weights ``W``) with
+    :func:`mark_key`, an atomic max: a node keeps the row of the point that pushes it most."""
+    vec3, vec4, mat33 = build_types(Ft)
+
+    @wp.func
+    def mark_nodes(grid_fbody: wp.array(dtype=wp.int32), idx0: int, n_grid: int, W: mat33, imp: vec3, row: int):
+        jm = f64(wp.length(imp))
+        for q in range(27):
+            wq = f64(W[q / 9, 0] * W[(q / 3) % 3, 1] * W[q % 3, 2])
+            wp.atomic_max(grid_fbody, idx0 + (q / 9) * n_grid * n_grid + ((q / 3) % 3) * n_grid + q % 3,
+                          mark_key(wq * jm, row))
+
+    return mark_nodes
+
+
+@wp.func
+def keep_row(grid_fbody: wp.array(dtype=wp.int32), node: int):
+    # the grid update: a marked node's key becomes its row (gasp_core.mpm.contact_mark)
+    if grid_fbody.shape[0] > 1:
+        k = grid_fbody[node]
+        if k >= 0:
+            grid_fbody[node] = k & ROW_MASK
 
 
 @wp.func
@@ -331,6 +372,7 @@ def allocate_balance(engine, planes: list, Ft, n_sup: int = 1) -> None:
     reach = contact_reach(setup) if planes or n_sup > 1 else np.zeros(0)
     nb = len(reach)
     engine.n_sup = n_sup
+    check_mark_rows(nb * n_sup)
     jsums = np.zeros((nb * n_sup, len(JSUMS)))
     jsums[:, JSUMS.index("x_min")::2] = 1.0e30   # the box of the pushed points starts inverted
     jsums[:, JSUMS.index("x_max")::2] = -1.0e30

@@ -14,7 +14,7 @@ import warp as wp
 from gasp_core.mpm.grid_tables import FT_TIME
 
 from .colliders import build_blend, build_collide, build_collider_func
-from .balance import build_balance, f64, support_dv, v64
+from .balance import build_balance, f64, keep_row, support_dv, v64
 from .contact import build_collider_contact, build_contact
 from .forces import build_extras_struct, build_force_funcs
 from .precision import MODULE_OPTIONS, build_types
@@ -261,10 +261,10 @@ def build_grid_update(Ft):
         # = (top node layer k_max as a float, friction, unused); grid_m (node mass, for passive points) one a node
         # when the setup has passive points, else one unused entry; ground_touch, touch_speed, touch_slots, bound: touch
         # grid_fb: the contact's friction budget per node (kg m/s; one unused entry without it; with colc grid_fn/fv);
-        # the contact chosen per body (gasp_core.mpm.contact.rule_models): grid_mf the flowing bodies' mass per node
-        # (one unused entry otherwise), the rule acting fully within wall_full cells / up to layer ground[g][2] and
-        # by the node's flowing-mass fraction f between there and wall_in / ground[g][0] (colliders.build_blend)
+        # per body the contact (contact.rule_models): grid_mf the flowing bodies' mass a node (else one entry), the
+        # rule fully within wall_full cells / up to ground[g][2], by the flowing fraction f to wall_in / ground[g][0]
         node = wp.tid()
+        keep_row(grid_fbody, node)   # the contact's balance: a marked node's key to its row (contact_mark)
         g = grid_mv[node]
         m = g[3]
         if grid_m.shape[0] > 1:

@@ -18,6 +18,7 @@ import warp as wp
 from gasp_core.mpm import grid_tables
 from gasp_core.mpm.materials import BRITTLE, P_ETA
 
+from .balance import build_mark
 from .contact import build_collider_contact, build_passive_hold
 from .fields import build_aflip_gather, build_field_reads
 from .forces import build_extras_struct
@@ -91,6 +92,7 @@ def build_p2g(Ft):
     in_grid, weights = build_stencil(Ft)
     scatter, scatter_wind, scatter_scalar = build_scatter(Ft)
     point_contact = build_collider_contact(Ft)[1]
+    mark_nodes = build_mark(Ft)
     Extras = build_extras_struct(Ft)
     scatter_vec, held_return = build_scatter_vec(Ft), build_held_return(Ft)
 
@@ -145,9 +147,8 @@ def build_p2g(Ft):
         if planes.shape[0] > 0 or colc != 0:
             imp, bud, fn, fv, sup = point_contact(planes, plane_n, p_contact[p], x[p], v[p], dt, colc, ex, body[p])
             mom0 = mom0 + imp
-            if sup >= 0 and shift.shape[0] > 0:   # the node's support, for the contact's balance (balance.py)
-                for q in range(27):
-                    grid_fbody[idx0 + (q / 9) * n_grid * n_grid + ((q / 3) % 3) * n_grid + q % 3] = body[p] * n_sup + sup
+            if sup >= 0 and shift.shape[0] > 0:   # the nodes' support, for the contact's balance (balance.py)
+                mark_nodes(grid_fbody, idx0, n_grid, W, imp, body[p] * n_sup + sup)
             if bud > Ft(0.0):
                 scatter_scalar(grid_fb, idx0, n_grid, W, bud)   # the friction budget
                 if grid_fn.shape[0] > 1:   # its normal and the supports' velocity, budget-weighted (walls, colliders)
