@@ -177,12 +177,17 @@ def test_gasp_info_json_carries_the_up_vector(capsys):
 
 @pytest.mark.slow
 def test_kitchen_runs_with_its_ground_from_the_scan(tmp_path):
-    """End to end: the kitchen example with ``height = "auto"``, 1 frame; run.json records the resolved ground."""
+    """End to end: the kitchen example with a ground of ``height = "auto"`` and friction 0.6, 1 frame; run.json records
+    the resolved ground. (Since issue 54 the example states no ``[[boundary]]``, its ground the support found on its
+    own; round 55 found this test still replacing the old line, so the ground it checked was that default one, friction
+    0.5: the stated ground is now added, as the test meant.)"""
     import subprocess
     import sys
     src = (ROOT / "examples" / "kitchen_spinach.toml").read_text()
+    assert "\n[[boundary]]" not in src
+    ground = '\n[[boundary]]\nkind = "ground"\nheight = "auto"\nfriction = 0.6\n'
     p = tmp_path / "kitchen.toml"
-    p.write_text(src.replace("height = -0.565", 'height = "auto"').replace('"data/spinach_4.splatv"', f'"{KITCHEN}"'))
+    p.write_text(src.replace('"data/spinach_4.splatv"', f'"{KITCHEN}"').replace("\n[[object]]", ground + "\n[[object]]", 1))
     subprocess.run([sys.executable, "-m", "gasp_core.cli.main", "simulate", str(p), "-o", str(tmp_path / "out"),
                     "--frames", "1", "-q"], check=True, cwd=ROOT)
     rec = json.loads((tmp_path / "out" / "run.json").read_text())
