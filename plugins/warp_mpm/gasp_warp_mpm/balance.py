@@ -14,8 +14,8 @@ with the particle contact + the walls' faces):
 - ``contact_shift`` (one thread a body): the body's mass centre ``c``, rigid velocity ``V`` and spin ``omega`` into
   ``shift`` (shape (n_bodies, 12): with its angular momentum about ``c``); ``sums`` cleared;
 - in P2G, a point with a normal impulse marks its 27 nodes with the row of the support that pushes it most
-  (``grid_fbody``; a node marked by several rows keeps the highest, an atomic max, so the same on any point order
-  or device);
+  (``grid_fbody``; a node marked by several rows keeps the row of the point that pushes it most, an atomic max of
+  ``gasp_core.mpm.contact_mark``'s key, so the same on any point order or device);
 - ``balance_node`` (a function of the grid update, at each marked node after its friction): the node's friction
   impulse, its moment, the node's mass and moments and its friction budget, into ``fr_sums`` (shape
   (n_bodies n_sup, 26)); the node listed in ``fr_nodes`` (``fr_nodes[0]`` counts them);
@@ -54,7 +54,7 @@ TORQUE_CLIP = wp.constant(TORQUE_REACH)
 f64 = wp.float64
 v64 = wp.types.vector(3, f64)
 m64 = wp.types.matrix((3, 3), f64)
-ROW_BITS, ROW_MASK, Q_MAX = wp.constant(MARK_ROW_BITS), wp.constant(MARK_ROW_MASK), wp.constant(MARK_Q_MAX)
+ROW_BITS, ROW_MASK = wp.constant(MARK_ROW_BITS), wp.constant(MARK_ROW_MASK)
 
 
 @wp.func
