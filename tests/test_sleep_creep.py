@@ -9,6 +9,11 @@ strain or damage still grows stays awake, however little its points move in a fr
 - The plasticine T rod of ``benchmarks/tear_split.py`` through ``gasp simulate``'s pipeline with the default
   ``sleep``: it creeps 0.03 dx a frame (0.2 dx and 0.02 dx the bounds; its centroid 0.017-0.021 dx), fell asleep
   after frame 5 and never tore (6 mm of sag); now it stays awake and parts at frame 32 on both engines (slow).
+  Round 56: since the held boxes' ghost nodes (issue 66 item 1) took the clamp's stress concentration away, the rod
+  at ``yield_stress = 0.92 rho g L`` no longer yields (1.4 mm of sag, still at frame 40 with sleep off, warp_mpm; 0.86
+  holds too); ``benchmarks/tear_split.py`` now asks 0.8 (the neck's top fifth, 1.45 cells, over its yield): it
+  creeps 0.013-0.03 dx a frame over frames 4-12, stays awake and parts at frame 23 on both engines; the catch still
+  sleeps after frame 5 and never parts.
 """
 from __future__ import annotations
 
@@ -97,7 +102,7 @@ def test_the_creeping_plasticine_rod_stays_awake_and_tears_with_the_default_slee
     needs_package(f"gasp_{engine}")
     sleep, parted = rod_run(tmp_path, engine, 34)
     assert sleep["enabled"] is True and sleep["asleep_after_frame"] is None
-    assert parted is not None and 28 <= parted <= 34, parted   # frame 32 on both engines
+    assert parted is not None and 20 <= parted <= 26, parted   # frame 23 on both engines (round 56)
 
 
 @pytest.mark.slow
