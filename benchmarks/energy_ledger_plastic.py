@@ -67,15 +67,17 @@ def points(shape: str, size, dx: float, lift: float) -> tuple[np.ndarray, float]
     return x[keep], vol
 
 
-def scene(body: str, n_grid: int):
-    """The body of :data:`BODIES` on ``n_grid`` (module notes)."""
+def scene(body: str, n_grid: int, cfl: float | None = None):
+    """The body of :data:`BODIES` on ``n_grid`` (module notes), at the engines' ``cfl`` option (None: their
+    default)."""
     from gasp_core.seam.setup import Boundary
     from gasp_core.testing.helpers import make_setup
     name, shape, size, v, _ms = BODIES[body]
     dx = (HI[0] - LO[0]) / n_grid
     x, vol = points(shape, size, dx, 0.005 if v > 0 else 0.0)
     return make_setup(x, np.full(len(x), vol), material(name), v=(0.0, 0.0, -v), lo=LO, hi=HI, n_grid=n_grid,
-                      frame_dt=1 / 30, boundaries=[Boundary("ground", height=0.0, friction=0.5)])
+                      frame_dt=1 / 30, boundaries=[Boundary("ground", height=0.0, friction=0.5)],
+                      options={} if cfl is None else {"cfl": cfl})
 
 
 class BothLedgers(Ledger):
@@ -101,13 +103,13 @@ class BothLedgers(Ledger):
 
 
 def run(body: str, engine: str, n_grid: int, ms: float | None = None, stiffness_scale: float = 1.0,
-        every_ms: float = 10.0) -> dict:
+        every_ms: float = 10.0, cfl: float | None = None) -> dict:
     """One run's ledger, before and after (module notes): the sums (J), the untraced term at the end and its
     largest size on the way (J), the least any sink took in a substep (J, a gain negative), a row every
     ``every_ms``."""
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import engines
-    setup = scene(body, n_grid)
+    setup = scene(body, n_grid, cfl)
     ms = BODIES[body][4] if ms is None else ms
     mat = setup.materials[0]
     t0 = time.time()
@@ -135,7 +137,7 @@ def run(body: str, engine: str, n_grid: int, ms: float | None = None, stiffness_
                               "psi": r["psi"], "psi_before": r["psi_before"], "PE": r["PE"], **sums})
     finally:
         e.close()
-    return {"body": body, "engine": engine, "n_grid": n_grid, "ms": ms, "stiffness_scale": stiffness_scale,
+    return {"body": body, "engine": engine, "n_grid": n_grid, "ms": ms, "stiffness_scale": stiffness_scale, "cfl": cfl,
             "dt": led.dt, "substeps": n, "n_points": int(len(led.kc)), "E0": E0, "E_end": trace[-1]["E"],
             "gain": max(0.0, top / E0 - 1.0), "sums": sums, "least": least, "untraced_end": sums["elastic"] +
             sums["gravity"], "untraced_worst": worst, "before_end": sums["elastic_before"] + sums["gravity"],
@@ -143,7 +145,7 @@ def run(body: str, engine: str, n_grid: int, ms: float | None = None, stiffness_
 
 
 def key(r: dict) -> tuple:
-    return (r["body"], r["engine"], r["n_grid"], r["ms"], r["stiffness_scale"])
+    return (r["body"], r["engine"], r["n_grid"], r["ms"], r["stiffness_scale"], r.get("cfl"))
 
 
 def report(runs: list[dict]) -> list[str]:
@@ -160,6 +162,7 @@ def report(runs: list[dict]) -> list[str]:
         s, e0 = r["sums"], r["E0"]
         pct = lambda x: f"{100 * x / e0:+.2f}"   # noqa: E731
         tag = "" if r["stiffness_scale"] == 1 else f" (catch: engine E x{r['stiffness_scale']})"
+        tag += "" if r.get("cfl") is None else f" (cfl {r['cfl']})"
         lines.append(f"| {r['body']}{tag} | {r['engine']} | {r['n_grid']} | {r['ms']:g} | {r['dt'] * 1e3:.3f} | "
                      f"{r['n_points']} | {e0:.4f} | {pct(r['before_end'])}; {pct(r['before_worst'])} | "
                      f"{pct(r['untraced_end'])}; {pct(r['untraced_worst'])} | {pct(s['p2g'])} | {pct(s['rule'])} | "
@@ -175,12 +178,13 @@ def main(argv=None) -> int:
     ap.add_argument("--grids", default="32,48")
     ap.add_argument("--ms", type=float, default=None, help="simulated time (ms; default the body's)")
     ap.add_argument("--stiffness-scale", type=float, default=1.0)
+    ap.add_argument("--cfl", type=float, default=None, help="the engines' cfl option (default theirs, 0.4)")
     a = ap.parse_args(argv)
     path = OUT.with_suffix(".json")
     for body in a.bodies.split(","):
         for ng in (int(g) for g in a.grids.split(",")):
             for engine in a.engines.split(","):
-                r = run(body, engine, ng, a.ms, a.stiffness_scale)
+                r = run(body, engine, ng, a.ms, a.stiffness_scale, cfl=a.cfl)
                 print(json.dumps({k: r[k] for k in ("body", "engine", "n_grid", "E0", "untraced_end",
                                                      "untraced_worst", "before_end", "before_worst", "sums",
                                                      "seconds")}), flush=True)
