@@ -13,24 +13,30 @@ are read between them; nothing in an engine changes. Per substep (energies in J;
   contact's (NumPy, ``gasp_core.mpm.contact``'s damped penalty on the ground from the engine's own ``(k, c, skin)``),
   the stress's (the engine's P2G momentum less the two), gravity's ``m g dt`` (the ledger's own ``g``); each does the
   work ``J . (v_a + v_b) / 2`` at the node (``v_a`` the free P2G's velocity, ``v_b`` the engine's before its rule), an
-  order-free split whose sum is ``K3 - K0``, ``K3`` the grid's energy before the rule; ``K4``: the engine's grid
-  velocity after the grid update (the ground's and walls' grid rule, the nodes' Coulomb friction); ``K5``: after the
-  contact's balance fix;
-- ``psi``: the stored elastic energy of the engine's ``F`` (jelly: fixed corotated, ``V0 (mu sum (s_i - 1)^2 + lam
-  (J - 1)^2 / 2)``; brittle: the carried Hencky energy and the damage's dissipation ``D`` of
+  order-free split whose sum is ``K3 - K0``, ``K3`` the grid's energy before the rule; under the grid contact (round
+  56) a node the ground's rule changed takes each impulse's work at its velocity after the rule instead (the points'
+  ``F`` advances with that velocity, so the stress's work against the stored energy's rise is at it; the kinetic energy
+  the stress gave the node before the rule stopped it is the rule's); ``K4``: the engine's grid velocity after the
+  grid update (the ground's and walls' grid rule, the nodes' Coulomb friction); ``K5``: after the contact's balance
+  fix. The grid is the engine's: under the grid contact the ground lies on a node layer
+  (``gasp_core.mpm.grid_origin.ground_on_node``, round 56);
+- ``psi``: the stored elastic energy of the engine's ``F`` (:class:`Stored`, each model's: jelly fixed corotated, ``V0
+  (mu sum (s_i - 1)^2 + lam (J - 1)^2 / 2)``; sand Hencky's ``V0 (mu |e|^2 + lam tr(e)^2 / 2)``; snow fixed
+  corotated times ``exp(xi (1 - Jp))``; brittle: the carried Hencky energy and the damage's dissipation ``D`` of
   ``benchmarks/brittle_donut_arrest.py``), ``U``: the contact's springs ``sum k depth^2 / 2``, ``PE``: ``m g z``.
 
 Sinks of a substep (positive: lost): ``p2g = Ep - K0``; ``contact = -W_contact - dU`` (the penalty's damping and its
 discrete steps); ``friction`` (``gasp_core.mpm.contact.node_friction`` on the friction budget the engine scattered,
-applied to ``K3``'s velocities); ``rule = K3 - K4 - friction`` (the ground's and walls' grid rule); ``balance = K4 -
-K5``; ``g2p = K5 - Ep'``; ``plastic`` (round 53): the returned stress's work on the return's log strain, over the
-points whose model returns (brittle points broken through: the sand return; :meth:`Ledger.plastic`). The two
-untraced terms, zero for an integrator that conserves energy: ``elastic = W_stress
-+ dpsi + dD + plastic`` (the stress's work on the grid against the stored energy's rise, the damage's dissipation and
-the return's) and
-``gravity = W_gravity + dPE``. With them the sinks sum to the drop of ``E = Ep + psi + U + PE + D`` (an identity:
-the ledger closes when the untraced terms are small). Used by
-``benchmarks/energy_ledger_family.py`` and ``tests/test_energy_ledger.py``.
+applied to ``K3``'s velocities); ``rule = K3 - K4 - friction`` (the ground's and walls' grid rule; with the held
+nodes' work moved, above); ``balance = K4 - K5``; ``g2p = K5 - Ep'``; ``plastic`` (round 53; round 56 for sand and
+snow): the returned stress's work on the return's log strain, over the points whose model returns (brittle points
+broken through, every sand point: the Drucker-Prager return; every snow point: the clamp; :meth:`Ledger.plastic`);
+``hardening`` (round 56): snow's stored energy's change with ``Jp`` at the returned ``F`` (:meth:`Ledger.hardening`).
+The two untraced terms, zero for an integrator that conserves energy: ``elastic = W_stress + dpsi + dD + plastic +
+hardening`` (the stress's work on the grid against the stored energy's rise, the damage's dissipation and the
+return's) and ``gravity = W_gravity + dPE``. With them the sinks sum to the drop of ``E = Ep + psi + U + PE + D`` (an
+identity: the ledger closes when the untraced terms are small). Used by ``benchmarks/energy_ledger_family.py``,
+``benchmarks/energy_ledger_plastic.py`` and ``tests/test_energy_ledger.py``, ``tests/test_energy_ledger_plastic.py``.
 """
 from __future__ import annotations
 
@@ -38,7 +44,7 @@ import numpy as np
 
 from gasp_core.mpm.contact import node_friction
 
-SINKS = ("p2g", "contact", "friction", "rule", "balance", "g2p", "plastic")
+SINKS = ("p2g", "contact", "friction", "rule", "balance", "g2p", "plastic", "hardening")
 UNTRACED = ("elastic", "gravity")
 
 
@@ -88,27 +94,48 @@ def grid_ke_v(v: np.ndarray, mass: np.ndarray) -> float:
     return 0.5 * float(mass @ (v ** 2).sum(1))
 
 
-class Stored:
-    """Stored energy (and the damage's dissipation) of the engine's ``F``: ``(psi, D)`` in J (module notes)."""
+HENCKY = ("sand", "metal", "plasticine")   # Hencky's energy in the engines; each returns F every substep
 
-    def __init__(self, material, setup):
-        self.mat = material
+
+class Stored:
+    """Stored energy (and the damage's dissipation) of the engine's ``F``: ``(psi, D)`` in J (module notes), per
+    each material's model in both engines (``constitutive.py`` of taichi_mpm and warp_mpm): fixed corotated (jelly);
+    Hencky's ``mu |eps|^2 + lam tr(eps)^2 / 2`` of the log strain ``eps`` (sand, Klar et al. 2016; metal,
+    plasticine); fixed corotated scaled by the hardening ``h = exp(xi (1 - Jp))`` (snow, Stomakhin et al. 2013);
+    the brittle Hencky energy and damage. ``plastic`` False: the ledger before round 56 (fixed corotated for every
+    material but brittle, and no point of sand or snow returns), the catch of
+    ``tests/test_energy_ledger_plastic.py``."""
+
+    def __init__(self, material, setup, plastic: bool = True):
+        self.mat, self.plastic = material, plastic
         self.E, self.nu = material.E, material.nu
         self.lam = self.E * self.nu / ((1 + self.nu) * (1 - 2 * self.nu))
         self.mu = self.E / (2 * (1 + self.nu))
         self.setup = setup
+        self.kind = material.name if plastic or material.name == "brittle" else "jelly"
 
-    def __call__(self, F, d, v0, x) -> tuple[float, float]:
-        psi, D = self.points(F, d, v0, x)
+    def __call__(self, F, Jp, v0, x) -> tuple[float, float]:
+        psi, D = self.points(F, Jp, v0, x)
         return float(psi.sum()), float(D.sum())
 
-    def points(self, F, d, v0, x) -> tuple[np.ndarray, np.ndarray]:
-        """Each point's stored energy and the damage's dissipation (J, (n,) each)."""
-        if self.mat.name != "brittle":
-            sv = np.linalg.svd(F, compute_uv=False)
+    def hardening(self, Jp) -> np.ndarray:
+        """Snow's hardening ``exp(xi (1 - Jp))`` of ``Jp`` (n,); 1 for every other model."""
+        if self.kind != "snow":
+            return np.ones(len(Jp))
+        return np.exp(self.mat.hardening * (1.0 - np.asarray(Jp, float)))
+
+    def points(self, F, Jp, v0, x) -> tuple[np.ndarray, np.ndarray]:
+        """Each point's stored energy and the damage's dissipation (J, (n,) each); ``F`` (n, 3, 3), ``Jp`` (n,) the
+        engine's (brittle: the damage, clipped to 1 here; snow: the plastic volume ratio), ``v0`` (n,) m^3."""
+        sv = np.linalg.svd(F, compute_uv=False)
+        if self.kind in HENCKY:
+            eps = np.log(np.maximum(sv, 1e-4))
+            return v0 * (self.mu * (eps ** 2).sum(1) + 0.5 * self.lam * eps.sum(1) ** 2), np.zeros(len(v0))
+        if self.kind != "brittle":
             psi = self.mu * ((sv - 1) ** 2).sum(1) + 0.5 * self.lam * (sv.prod(1) - 1) ** 2
-            return v0 * psi, np.zeros(len(v0))
+            return v0 * self.hardening(Jp) * psi, np.zeros(len(v0))
         from brittle_donut_arrest import stresses
+        d = np.minimum(Jp, 1.0)
         st, ft, E = self.setup, self.mat.tensile_strength, self.E
         eps, s, sc, _n, W = stresses(F, d, x, self.mat, st.dx, np.asarray(st.domain_lo))
         sf = 2 * E * self.mat.fracture_energy / (ft * float(st.crack_band[0]))
@@ -118,10 +145,23 @@ class Stored:
 
     def returns(self, Jp) -> np.ndarray:
         """The points whose model returns ``F`` this substep (bool, (n,)), from their ``Jp`` before it: brittle
-        points broken through (``d >= 1``: the cohesionless sand's Drucker-Prager return); none for jelly."""
-        if self.mat.name == "brittle":
+        points broken through (``d >= 1``: the cohesionless sand's Drucker-Prager return); every sand, metal and
+        plasticine point (their Hencky return runs each substep, a no-op inside the cone or yield surface); every
+        snow point (the singular values' clamp); none for jelly."""
+        if self.kind == "brittle":
             return np.asarray(Jp) >= 1.0
-        return np.zeros(len(Jp), bool)
+        return np.full(len(Jp), self.kind in HENCKY + ("snow",))
+
+    def principal(self, sr, Jp) -> np.ndarray:
+        """The principal Kirchhoff stresses (Pa, (n, 3)) of the returned principal stretches ``sr`` (n, 3), the
+        engines' stress of the model: Hencky's ``2 mu e + lam tr(e)``, ``e = log sr``; snow's fixed corotated
+        ``h (2 mu (s - 1) s + lam J (J - 1))`` with the hardening ``h`` of ``Jp`` (n,) before the return (the
+        engines take ``h`` of the ``Jp`` they read, before they update it)."""
+        if self.kind == "snow":
+            J = sr.prod(1, keepdims=True)
+            return self.hardening(Jp)[:, None] * (2 * self.mu * (sr - 1) * sr + self.lam * J * (J - 1))
+        er = np.log(np.maximum(sr, 1e-4))
+        return 2 * self.mu * er + self.lam * er.sum(1, keepdims=True)
 
 
 class TaichiSteps:
@@ -139,8 +179,10 @@ class TaichiSteps:
                 "v0": s.p_vol.to_numpy()[k].astype(np.float64)}
 
     def coefficients(self) -> np.ndarray:
-        """The particle contact's ``(k, c, skin)`` of the material points (n, 3)."""
-        return self.s.p_contact.to_numpy()[self.mat].astype(np.float64)
+        """The particle contact's ``(k, c, skin)`` of the material points (n, 3; zeros without it: the grid
+        contact)."""
+        kc = self.s.p_contact.to_numpy().astype(np.float64)
+        return kc[self.mat] if len(kc) == len(self.mat) else np.zeros((int(self.mat.sum()), 3))
 
     def substep(self) -> dict:
         s = self.s
@@ -210,17 +252,22 @@ class Ledger:
     material the ledger uses (a broken engine may differ; the contact's ``(k, c, skin)`` are the engine's own);
     ``engine``: built from it or a variant; ``ground``: ``(height, friction)`` of its ground plane or None. Only the
     ground's particle contact is booked: a scene with walls' or colliders' particle contact would put their impulses
-    in the stress's term (the family's scenes have a ground alone). Raises ``AssertionError`` on a warp_mpm engine
-    with a viscous material or a time table (their steps are not split here)."""
+    in the stress's term (the family's scenes have a ground alone). ``plastic``: :class:`Stored`'s (False: the
+    ledger before round 56); ``held_end``: the held nodes' work at their end velocity (module notes; None: under the
+    grid contact). Raises ``AssertionError`` on a warp_mpm engine with a viscous material or a time table (their steps
+    are not split here)."""
 
-    def __init__(self, setup, engine, material, ground=(0.0, 0.0)):
+    def __init__(self, setup, engine, material, ground=(0.0, 0.0), plastic: bool = True, held_end=None):
         from gasp_core.mpm.contact import contact_model
+        from gasp_core.mpm.grid_origin import ground_on_node
+        setup = ground_on_node(setup)   # the engines' grid: a ground on a node layer under the grid contact (round 56)
         self.setup, self.steps = setup, steps_of(engine)
         self.dt = float(engine.dt)
         self.lo, self.dx, self.ng = np.asarray(setup.domain_lo, float), float(setup.dx), int(setup.n_grid)
         self.g = np.asarray(setup.gravity, float)
-        self.stored = Stored(material, setup)
+        self.stored = Stored(material, setup, plastic)
         self.ground = ground if contact_model(setup) == "particle" else None
+        self.held_end = contact_model(setup) != "particle" if held_end is None else held_end
         self.kc = self.steps.coefficients()   # the engine's own (k, c, skin) per point, its order
         self.rows, self.mass_err = [], 0.0
         self.E = self.energy(self.steps.points())
@@ -241,7 +288,7 @@ class Ledger:
         m = p["m"]
         kin = 0.5 * float(m @ (p["v"] ** 2).sum(1))
         aff = 0.5 * float(m @ (p["C"] ** 2).sum((1, 2))) * self.dx ** 2 / 4
-        psi, D = self.stored(p["F"].reshape(-1, 3, 3), np.minimum(p["Jp"], 1.0), p["v0"], p["x"])
+        psi, D = self.stored(p["F"].reshape(-1, 3, 3), p["Jp"], p["v0"], p["x"])
         return {"Ep": kin + aff, "kinetic": kin, "psi": psi, "D": D, "U": self.contact(p)[1],
                 "PE": -float(m @ (p["x"] @ self.g))}
 
@@ -249,25 +296,43 @@ class Ledger:
         """The plastic work of a substep (J), over the points whose model returns (:meth:`Stored.returns`, from
         ``p0``'s ``Jp``): the returned Kirchhoff stress's work on the return's log strain, ``V0 sum_i s_i (e_t,i -
         e_i)`` (``e_t`` the trial ``F = (I + dt C) F``'s principal log strains, ``p0``'s and the engines' P2G; ``e`` the
-        returned ``F``'s, ``p1``'s, in the trial's principal frame; ``s = 2 mu e + lam tr(e)``, Hencky's), the
-        dissipation of the backward-Euler return. ``trial``: the stored energy of the trial ``F`` less that of the
-        returned one instead, which also counts ``dE : A : dE / 2`` of a trial the stress never paid for (a point
-        broken through at the apex, ``s = 0``, stretched by its ``dt C``: 9.0 J on the brittle donut, round 53).
-        Zero for jelly."""
+        returned ``F``'s, ``p1``'s, in the trial's principal frame; ``s`` the model's stress of the returned ``F``,
+        :meth:`Stored.principal`), the dissipation of the backward-Euler return. The same form for the Hencky
+        return (sand's Drucker-Prager, metal's von Mises) and snow's clamp of the singular values (its stress with
+        the hardening of ``p0``'s ``Jp``, the engines'): the explicit step's stress of the substep is the returned
+        one, so the kinetic energy the stress takes for a strain ``dE`` is ``s : dE``, and a point held on its yield
+        surface (or clamp) loses ``s : (e_t - e)`` to the return; the stored energy of the trial less the returned
+        one would add ``(e_t - e) : A : (e_t - e) / 2``, a part of the trial the stress never paid for.
+        ``trial``: that difference instead (at the same ``Jp``, ``p0``'s), which also counts it (a point broken
+        through at the apex, ``s = 0``, stretched by its ``dt C``: 9.0 J on the brittle donut, round 53). Snow's
+        hardening, the stored energy's change with ``Jp`` at the returned ``F``, is :meth:`hardening`'s. Zero for
+        jelly."""
         on = self.stored.returns(p0["Jp"])
         if not on.any():
             return 0.0
         F0, C0 = p0["F"].reshape(-1, 3, 3)[on], p0["C"].reshape(-1, 3, 3)[on]
         Ft, Fr = np.einsum("nij,njk->nik", np.eye(3) + self.dt * C0, F0), p1["F"].reshape(-1, 3, 3)[on]
-        d, v0, x = np.minimum(p1["Jp"][on], 1.0), p1["v0"][on], p1["x"][on]
+        jp, v0, x = p0["Jp"][on], p1["v0"][on], p1["x"][on]
         if trial:
-            return float(self.stored.points(Ft, d, v0, x)[0].sum() - self.stored.points(Fr, d, v0, x)[0].sum())
+            return float(self.stored.points(Ft, jp, v0, x)[0].sum() - self.stored.points(Fr, jp, v0, x)[0].sum())
         U, sv, Vt = np.linalg.svd(Ft)
         et = np.log(np.maximum(sv, 1e-4))
-        er = np.log(np.maximum(np.einsum("nji,njk,nik->ni", U, Fr, Vt), 1e-4))   # diag(U^T F_r V)
+        sr = np.einsum("nji,njk,nik->ni", U, Fr, Vt)   # diag(U^T F_r V): the returned stretches, the trial's frame
+        er = np.log(np.maximum(sr, 1e-4))
+        return float(v0 @ (self.stored.principal(sr, jp) * (et - er)).sum(1))
+
+    def hardening(self, p0: dict, p1: dict) -> float:
+        """Snow's hardening term of a substep (J): its stored energy at the returned ``F`` (``p1``'s) with the
+        hardening of ``p0``'s ``Jp`` less that with ``p1``'s, ``V0 (h(Jp_0) - h(Jp_1)) psi_c(F)`` (``psi_c`` the
+        fixed corotated energy, :class:`Stored`). No force does work for it: a point compressed past ``theta_c``
+        (``Jp`` falls, ``h`` rises) stores energy no stress paid for, a gain (negative); one stretched past
+        ``theta_s`` loses it. Stomakhin et al. 2013's hardening is not derived from a potential in ``Jp``, so the
+        ledger books it as its own term. Zero for every other model."""
         st = self.stored
-        sr = 2 * st.mu * er + st.lam * er.sum(1, keepdims=True)
-        return float(v0 @ (sr * (et - er)).sum(1))
+        if st.kind != "snow":
+            return 0.0
+        F1, v0, x = p1["F"].reshape(-1, 3, 3), p1["v0"], p1["x"]
+        return float(st.points(F1, p0["Jp"], v0, x)[0].sum() - st.points(F1, p1["Jp"], v0, x)[0].sum())
 
     def step(self) -> dict:
         """One substep; appends and returns its row (module notes; ``E`` the total after it, ``mass_err`` the
@@ -276,7 +341,7 @@ class Ledger:
         m = p0["m"]
         imp, _u = self.contact(p0)
         free = p2g(p0["x"], np.c_[m[:, None] * p0["v"], m], self.lo, self.dx, self.ng, C=p0["C"], m=m)
-        cont = p2g(p0["x"], imp, self.lo, self.dx, self.ng)
+        cont = p2g(p0["x"], imp, self.lo, self.dx, self.ng) if imp.any() else np.zeros((self.ng ** 3, 3))
         g = self.steps.substep()
         mass = g["mass"]
         self.mass_err = max(self.mass_err, float(np.abs(free[:, 3] - mass).max() / mass.sum()))
@@ -289,17 +354,25 @@ class Ledger:
         K0, K3 = grid_ke(free[:, :3], mass), grid_ke_v(vg, mass)
         Wc, Ws = float((cont * mid).sum()), float((stress * mid).sum())
         Wg = float((mass[:, None] * self.dt * self.g * mid).sum())
+        moved = 0.0   # the grid contact's held nodes: each impulse's work at the node's end velocity (round 56)
+        if self.held_end:
+            h = ok & (np.abs(g["v4"] - vg).max(1) > 1e-5 + 1e-4 * np.abs(vg).max(1))
+            end = g["v4"][h] - mid[h]
+            dW = [float((cont[h] * end).sum()), float((stress[h] * end).sum()),
+                  float((mass[h, None] * self.dt * self.g * end).sum())]
+            Wc, Ws, Wg, moved = Wc + dW[0], Ws + dW[1], Wg + dW[2], sum(dW)
         K4, K5 = grid_ke_v(g["v4"], mass), grid_ke_v(g["v5"], mass)
         fric = K3 - grid_ke_v(node_friction(vg, np.where(ok, mass, 1.0), g["budget"]), mass)
         p1 = self.steps.points()
         E1 = self.energy(p1)
         d = {k: E1[k] - E0[k] for k in ("psi", "D", "U", "PE")}
-        plastic = self.plastic(p0, p1)
-        row = {"p2g": E0["Ep"] - K0, "contact": -Wc - d["U"], "rule": K3 - K4 - fric, "friction": fric,
+        plastic, hard = self.plastic(p0, p1), self.hardening(p0, p1)
+        row = {"p2g": E0["Ep"] - K0, "contact": -Wc - d["U"], "rule": K3 - K4 - fric + moved, "friction": fric,
                "balance": K4 - K5,
-               "g2p": K5 - E1["Ep"], "plastic": plastic, "elastic": Ws + d["psi"] + d["D"] + plastic,
+               "g2p": K5 - E1["Ep"], "plastic": plastic, "hardening": hard,
+               "elastic": Ws + d["psi"] + d["D"] + plastic + hard,
                "gravity": Wg + d["PE"],
-               "mid_err": K3 - K0 - Wc - Ws - Wg,
+               "mid_err": K3 - K0 - Wc - Ws - Wg + moved,
                "total": sum(E1[k] for k in ("Ep", "psi", "D", "U", "PE")), **E1}
         self.E = E1
         self.rows.append(row)
