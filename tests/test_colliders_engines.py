@@ -82,7 +82,7 @@ def test_warp_and_taichi_agree_with_everything_on(balance):
     """Moving spinning collider, turbulent wind, attractor and impulse together: both engines agree to 2e-6 m (f32,
     the block moves 0.35 m), with the contact's balance and without it (``contact_balance = false``).
 
-    Measured (round 56, cfl_rule "sum") 3.0e-7 m with the balance and 3.6e-7 m without; 3.7e-15 m with both in float64.
+    Measured (round 56, cfl_rule "sum") 3.0e-7 m with the balance and 3.6e-7 m without; 3.8e-15 m with both in float64.
     taichi_mpm took the balance's moments one substep behind warp_mpm until issue 53 and parted by 0.31 mm here: the
     moving, spinning collider's push is what that lag missed; until round 56 it applied the balance's fix after the set
     box's hold (``mirror_held``), warp_mpm before it, and they parted by 9.6e-6 m (float64 alike: 9.1e-6 m) from the
