@@ -14,10 +14,10 @@ force and torque made those of a smooth contact.
   to its body's (:meth:`Balance.mark_contact_nodes`: ``J`` and its centre are this substep's, as in warp_mpm);
 - :meth:`Balance.balance_node` in the grid update, at each marked node after its friction: its friction impulse and
   moment, its mass and moments and its budget into ``fr_sums``; the node listed in ``fr_nodes``;
-- ``contact_fix`` after the grid update: per body, the velocity change ``dv + alpha x (X - x_m)`` of its
-  listed nodes that makes the friction's net force Coulomb's on the body's rigid motion at its centre of pressure
-  and takes back the contact's torque about ``c`` up to ``J reach``, unless ``c`` lies more than ``reach`` beyond the pushed
-  points' box.
+- ``contact_fix`` in the grid update, before the held boxes' holds (round 56): per body, the velocity change
+  ``dv + alpha x (X - x_m)`` of its listed nodes that makes the friction's net force Coulomb's on the body's rigid
+  motion at its centre of pressure and takes back the contact's torque about ``c`` up to ``J reach``, unless ``c``
+  lies more than ``reach`` beyond the pushed points' box.
 
 On the GPU schedule (:mod:`gasp_taichi_mpm.schedule`) the same sums run with every loop parallel: the moments over
 slices of ``m_slice`` points (:func:`gasp_taichi_mpm.schedule.primitives.slice_points`) summed by a fixed tree (:meth:`gasp_taichi_mpm.balance_gpu.BalanceGPU.contact_moments_gpu`), and the fix

@@ -18,7 +18,10 @@ class BalanceGPU:
     """The GPU schedule's kernels of the balance (module docstring)."""
 
     def fix_contact(self) -> None:
-        """The balance's fix after a grid update (:mod:`gasp_taichi_mpm.balance`), on the run's schedule."""
+        """The balance's fix in the grid update, before the holds (:mod:`gasp_taichi_mpm.balance`), on the run's
+        schedule; nothing without a balance."""
+        if not self.n_spin:
+            return
         if self.gpu:
             self.contact_fix_gpu()
         else:

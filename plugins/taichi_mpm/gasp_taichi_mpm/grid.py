@@ -119,10 +119,15 @@ class GridUpdate(GroundTouch):
         return lo, ti.max(hi - lo + 1, 0)
 
     def grid_update(self):
-        """The grid update (:meth:`grid_nodes`; the grounds' touched columns were marked after P2G, ``touch.py``), then
-        the held boxes' ghost nodes (:meth:`mirror_held`; first the fixed regions' broken faces, :meth:`mark_cut`)."""
+        """The grid update (:meth:`grid_nodes`; the grounds' touched columns were marked after P2G, ``touch.py``), the
+        balance's fix (``balance.py``), then the holds on what it left (:meth:`hold_nodes`; round 56, as warp_mpm)."""
         self.grid_nodes()
         self.touch_after()   # round 49 (touch.py)
+        self.fix_contact()   # none without a balance
+        self.hold_nodes()
+
+    def hold_nodes(self):
+        """The holds: broken faces (:meth:`mark_cut`), a brittle set box's faces, the ghosts (:meth:`mirror_held`)."""
         if self.n_regions or self.n_set_boxes:
             if self.cut:
                 self.grid_cut.fill(0)

@@ -358,9 +358,7 @@ class MPMSolver(Transfers, ColouredP2G, TileP2G, FixedPointP2G, Constitutive, Gr
             self.ex_step[None] = 0
         self.p2g_substep(0, 0)
         for s in range(n_substeps - 1):
-            self.grid_update()
-            if self.n_spin:
-                self.fix_contact()
+            self.grid_update()   # with the balance's fix (grid.py)
             if at[s] is not None:
                 self.g2p_passive(at[s])
             if self.has_extras:
@@ -370,8 +368,6 @@ class MPMSolver(Transfers, ColouredP2G, TileP2G, FixedPointP2G, Constitutive, Gr
                 self.rigid_step()
             self.p2g_substep(1, s + 1)
         self.grid_update()
-        if self.n_spin:
-            self.fix_contact()
         self.last_g2p(at[-1])   # G2P, the passive points', the rigid projection (rigid_hold.py)
 
     def p2g_substep(self, with_g2p: int, substep: int) -> None:
