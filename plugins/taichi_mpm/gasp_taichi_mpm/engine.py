@@ -176,8 +176,7 @@ class TaichiMPMEngine(GridEngineBase):
             n_grid=setup.n_grid, lo=setup.domain_lo, dx=dx, dt=self.dt, gravity=setup.gravity,
             walls=walls, grounds=grounds, regions=regions, real=real,
             n_chunks=1, atomic=atomic, coloured=not atomic, n_material=self.n_material,
-            passive_every=cfg.passive_every,
-            flip=transfer_alpha(view, opt, self.n_substeps, implicit_viscosity=True),   # gasp_core.mpm.transfer
+            passive_every=cfg.passive_every, flip=transfer_alpha(view, opt, self.n_substeps, implicit_viscosity=True),
             p_contact=(rigid_contact(setup, self.dt, contact_coefficients(view))[o]
                        if contact in ("particle", "mixed") and (grounds or walls or setup.colliders) else None),
             n_colc=len(setup.colliders) if contact in ("particle", "mixed") else 0,

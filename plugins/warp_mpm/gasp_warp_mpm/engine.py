@@ -164,9 +164,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
         self.has_wind = int(any(f.kind == "wind" for f in (getattr(self.setup, "forces", None) or [])))
         self.grid_g = wp.zeros(n_nodes if self.has_wind else 1, dtype=k.vec3, device=d)
         self.flags = wp.zeros(2, dtype=wp.int32, device=d)  # [out-of-grid count, non-finite count]
-        # AFLIP (gasp_core.mpm.transfer; "rate": the blend a substep shorter than cfl 0.4's takes): the APIC momentum
-        # alone and its velocity per node
-        self.flip = transfer_alpha(step_view(self.setup), self.options, self.n_substeps, implicit_viscosity=True)
+        self.flip = transfer_alpha(step_view(self.setup), self.options, self.n_substeps, True)   # AFLIP's (transfer.py)
         self.grid_mv0 = wp.zeros(n_nodes if self.flip else 1, dtype=k.vec4, device=d)
         self.grid_v0 = wp.zeros(n_nodes if self.flip else 1, dtype=k.vec3, device=d)
         # with a viscous material: the viscous volume sum_p w J V eta per node and the implicit step (viscosity.py)
