@@ -21,7 +21,8 @@ from gasp_core.mpm.fields import uses_fields
 from gasp_core.mpm.grid_origin import ground_on_node
 from gasp_core.mpm.rigid import lift_setup, step_view
 from gasp_core.mpm.points import engine_mass_stats, material_first_order, stranded_passive
-from gasp_core.mpm.substeps import MAX_SUBSTEPS, substeps_for, substeps_from_options
+from gasp_core.mpm.substeps import CFL, MAX_SUBSTEPS, substeps_for, substeps_from_options
+from gasp_core.mpm.transfer import blend_alpha
 
 #: What an engine implementing ``docs/mpm.md`` on CPU and CUDA offers (its plugin may narrow it).
 MPM_CAPABILITIES = Capabilities(
@@ -84,6 +85,23 @@ def grid_substeps(setup) -> int:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         return choose_dt(step_view(setup), dict(getattr(setup, "options", None) or {}), "", implicit_viscosity=True)[0]
+
+
+def transfer_alpha(setup, opts: dict[str, Any], n_substeps: int, implicit_viscosity: bool = False) -> float:
+    """The AFLIP blend of a run of ``n_substeps`` substeps a frame (:func:`gasp_core.mpm.transfer.blend_alpha`): its
+    reference step is :func:`choose_dt`'s at ``cfl`` :data:`CFL` with the run's other options (no ``dt``, no
+    ``n_substeps``), so the step rules that do not depend on the Courant number (the particle contact's, a rigid
+    body's view) shorten both alike. A reference past ``max_substeps`` is longer than none: ``alpha`` is then
+    ``flip``. Returns a float in [0, 1); raises ``ValueError`` for an unknown ``transfer_damping``."""
+    damping = opts.get("transfer_damping") or "rate"
+    ref = {**opts, "cfl": CFL, "dt": None, "n_substeps": None}
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            n_ref = choose_dt(setup, ref, "", implicit_viscosity)[0]
+    except SceneError:
+        n_ref = None
+    return blend_alpha(float(opts.get("flip") or 0.0), damping, n_substeps, n_ref)
 
 
 class GridEngineBase:

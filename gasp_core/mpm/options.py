@@ -2,8 +2,8 @@
 
 - :class:`GridConfig`: what every grid engine takes (``device``, ``precision``, ``dt``, ``n_substeps``, ``cfl``,
   ``max_substeps``); ``dt`` excludes ``n_substeps`` as declared data (the core checks them).
-- :class:`MPMConfig`: the MLS-MPM engines of ``docs/mpm.md`` add ``passive_every``, ``flip``, ``contact`` and
-  ``contact_balance``, and declare the quality levels' presets measured on them (``docs/speed_accuracy.md``).
+- :class:`MPMConfig`: the MLS-MPM engines of ``docs/mpm.md`` add ``passive_every``, ``flip``, ``transfer_damping``,
+  ``contact`` and ``contact_balance``, and declare the quality levels' presets measured on them (``docs/speed_accuracy.md``).
 
 A plugin subclasses one of them with its own fields (a thread count, say) and registers it with
 ``EngineInfo(config=...)``; the engine reads ``config(**setup.options)``.
@@ -18,7 +18,7 @@ from gasp_core.seam.options import Option
 from gasp_core.mpm.contact import BALANCE, CONTACT
 from gasp_core.mpm.fields import FIELDS
 from gasp_core.mpm.substeps import CFL, CFL_RULE, CFL_RULES, MAX_SUBSTEPS, PASSIVE_EVERY
-from gasp_core.mpm.transfer import FLIP
+from gasp_core.mpm.transfer import FLIP, TRANSFER_DAMPING
 
 
 @dataclass(frozen=True)
@@ -72,6 +72,7 @@ class MPMConfig(GridConfig):
 
     passive_every: int = from_option(PASSIVE_EVERY)
     flip: float = from_option(FLIP)
+    transfer_damping: str = from_option(TRANSFER_DAMPING)
     contact: str = from_option(CONTACT)
     contact_balance: bool = from_option(BALANCE)
     contact_fields: bool = from_option(FIELDS)

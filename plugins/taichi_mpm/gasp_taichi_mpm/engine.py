@@ -14,7 +14,7 @@ import numpy as np
 from gasp_core.mpm.contact import (contact_coefficients, contact_model, contact_planes, contact_reach,
                                       flowing_bodies, rule_models, touch_dashpot_speed)
 from gasp_core.mpm.fields import field_setup, shared_field_warning
-from gasp_core.mpm.grid_engine import choose_dt, GridEngineBase
+from gasp_core.mpm.grid_engine import choose_dt, GridEngineBase, transfer_alpha
 from gasp_core.mpm.materials import JELLY, initial_Jp, material_table
 from gasp_core.mpm.rigid_hold import hold_setup
 from gasp_core.mpm.rigid import (body_frames, face_counts, rigid_contact, rigid_mask, step_view,
@@ -176,7 +176,7 @@ class TaichiMPMEngine(GridEngineBase):
             n_grid=setup.n_grid, lo=setup.domain_lo, dx=dx, dt=self.dt, gravity=setup.gravity,
             walls=walls, grounds=grounds, regions=regions, real=real,
             n_chunks=1, atomic=atomic, coloured=not atomic, n_material=self.n_material,
-            passive_every=cfg.passive_every, flip=cfg.flip or 0.0,
+            passive_every=cfg.passive_every, flip=transfer_alpha(view, opt, self.n_substeps, implicit_viscosity=True),
             p_contact=(rigid_contact(setup, self.dt, contact_coefficients(view))[o]
                        if contact in ("particle", "mixed") and (grounds or walls or setup.colliders) else None),
             n_colc=len(setup.colliders) if contact in ("particle", "mixed") else 0,

@@ -50,7 +50,7 @@ def test_plugin_is_registered_and_import_is_cheap():
     assert {"grid", "initial_C", "viscosity"} <= info.capabilities.features
     assert info.unavailable_reason() is None
     assert info.deterministic_options == {"threads": 1}
-    assert {o.name for o in info.options} == {"device", "precision", "dt", "n_substeps", "cfl", "cfl_rule", "max_substeps", "threads", "pin_threads", "contact_balance",
+    assert {o.name for o in info.options} == {"device", "precision", "dt", "n_substeps", "cfl", "cfl_rule", "max_substeps", "transfer_damping", "threads", "pin_threads", "contact_balance",
                                              "passive_every", "flip", "contact", "contact_fields", "schedule", "p2g",
                                              "tile_sort_every", "deterministic"}
     code = "import sys, gasp_taichi_mpm; assert 'taichi' not in sys.modules, 'taichi imported'"

@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 import warp as wp
 
-from gasp_core.mpm.grid_engine import choose_dt, GridEngineBase
+from gasp_core.mpm.grid_engine import choose_dt, GridEngineBase, transfer_alpha
 from gasp_core.mpm.grid_tables import passive_span_mass
 from gasp_core.mpm.materials import JELLY, P_ETA, initial_Jp, material_table
 from gasp_core.mpm.rigid import rigid_contact, step_view, zero_stress
@@ -164,7 +164,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
         self.has_wind = int(any(f.kind == "wind" for f in (getattr(self.setup, "forces", None) or [])))
         self.grid_g = wp.zeros(n_nodes if self.has_wind else 1, dtype=k.vec3, device=d)
         self.flags = wp.zeros(2, dtype=wp.int32, device=d)  # [out-of-grid count, non-finite count]
-        self.flip = float(self.config.flip or 0.0)   # AFLIP: the APIC momentum alone and its velocity per node
+        self.flip = transfer_alpha(step_view(self.setup), self.options, self.n_substeps, True)   # AFLIP's (transfer.py)
         self.grid_mv0 = wp.zeros(n_nodes if self.flip else 1, dtype=k.vec4, device=d)
         self.grid_v0 = wp.zeros(n_nodes if self.flip else 1, dtype=k.vec3, device=d)
         # with a viscous material: the viscous volume sum_p w J V eta per node and the implicit step (viscosity.py)
