@@ -92,18 +92,23 @@ def test_warp_and_taichi_agree_with_everything_on(balance):
     assert gap < 2e-6
 
 
-@pytest.mark.skipif(len(ENGINES) < 2, reason="needs both grid engines")
-def test_the_agreement_catches_the_fix_after_the_hold(monkeypatch):
-    """The check above fails taichi_mpm with round 55's order put back (the balance's fix after the held boxes' holds,
-    warp_mpm's as it is): measured 9.6e-6 m against the limit 2e-6."""
+def fix_after_hold(monkeypatch) -> None:
+    """taichi_mpm with round 55's order put back: the balance's fix after the held boxes' holds."""
     from gasp_taichi_mpm.grid import GridUpdate
 
-    def fix_after_hold(self):
+    def update(self):
         self.grid_nodes()
         self.touch_after()
         self.hold_nodes()
         self.fix_contact()
-    monkeypatch.setattr(GridUpdate, "grid_update", fix_after_hold)
+    monkeypatch.setattr(GridUpdate, "grid_update", update)
+
+
+@pytest.mark.skipif(len(ENGINES) < 2, reason="needs both grid engines")
+def test_the_agreement_catches_the_fix_after_the_hold(monkeypatch):
+    """The check above fails taichi_mpm with round 55's order put back (the balance's fix after the held boxes' holds,
+    warp_mpm's as it is): measured 9.6e-6 m against the limit 2e-6."""
+    fix_after_hold(monkeypatch)
     gap, _ = _engines_gap(True)
     assert gap > 2e-6
 
@@ -128,13 +133,6 @@ def test_a_set_box_holds_its_points_with_the_balance_on(engine, v_set):
 @pytest.mark.skipif("taichi_mpm" not in ENGINES, reason="needs taichi_mpm")
 def test_the_set_box_check_catches_the_fix_after_the_hold(monkeypatch):
     """The check above fails taichi_mpm with round 55's order put back (measured 3.9e-2 m/s)."""
-    from gasp_taichi_mpm.grid import GridUpdate
-
-    def fix_after_hold(self):
-        self.grid_nodes()
-        self.touch_after()
-        self.hold_nodes()
-        self.fix_contact()
-    monkeypatch.setattr(GridUpdate, "grid_update", fix_after_hold)
+    fix_after_hold(monkeypatch)
     v = _run("taichi_mpm", _dragged_block((0.3, 0.0, 0.0)), 6).velocities().astype(np.float64)
     assert np.abs(v - (0.3, 0.0, 0.0)).max() > 1e-5
