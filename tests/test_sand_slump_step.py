@@ -8,6 +8,8 @@ grid contact, the sand's default, the drop shrinks 19.4 / 5.9 % (cube, n16 / n32
 halving of the step on both engines; the cause is the grid contact's touched layer (docs/contact.md "Round 55").
 The particle contact is no reference at n_grid 16: there its sand rests on the walls' frictionless floor, above the
 ground; on the ground it moves -11.7 / -19.5 % a halving too (docs/contact.md "Round 55: the touched layer as a rate").
+Round 56: with the transfers' damping a rate (``transfer_damping``, docs/dissipation.md "Round 56") the halving moves
+it -11.26 / -3.96 % (cube) and -14.95 / -4.43 % (wide), both engines: smaller, still failing; the rest is the base's.
 """
 from __future__ import annotations
 
@@ -24,7 +26,7 @@ ENGINES = [n for n in ("taichi_mpm", "warp_mpm") if n in engines() and engines()
 SLUMP_STEP = ("round 55: with the grid contact (the sand's default) the slump shrinks with the step, 19.4 / 5.9 % "
               "(20 cm cube, n_grid 16 / 32) and 20.8 / 7.0 % (30 x 30 x 15 cm) per halving on both engines: the "
               "frictional base (the touched layer's rule; the particle contact moves as much on the ground at n_grid "
-              "16; docs/contact.md 'Round 55' sections)")
+              "16; docs/contact.md 'Round 55' sections); round 56, the transfers' damping a rate: 11.3 / 4.0 % and 15.0 / 4.4 %")
 
 
 def drop(engine: str, size, n_grid: int, n_substeps: int) -> float:
