@@ -91,8 +91,8 @@ def transfer_alpha(setup, opts: dict[str, Any], n_substeps: int, implicit_viscos
     """The AFLIP blend of a run of ``n_substeps`` substeps a frame (:func:`gasp_core.mpm.transfer.blend_alpha`): its
     reference step is :func:`choose_dt`'s at ``cfl`` :data:`CFL` with the run's other options (no ``dt``, no
     ``n_substeps``), so the step rules that do not depend on the Courant number (the particle contact's, a rigid
-    body's view) shorten both alike. A reference past ``max_substeps`` is longer than none: ``alpha`` is then
-    ``flip``. Returns a float in [0, 1); raises ``ValueError`` for an unknown ``transfer_damping``."""
+    body's view) shorten both alike. Where the reference would need more than ``max_substeps``, ``alpha`` is
+    ``flip``. Returns a float in [0, 1]; raises ``ValueError`` for an unknown ``transfer_damping``."""
     damping = opts.get("transfer_damping") or "rate"
     ref = {**opts, "cfl": CFL, "dt": None, "n_substeps": None}
     try:

@@ -51,7 +51,7 @@ def blend_alpha(flip: float, damping: str, n_substeps: int, n_ref: int | None) -
 
     Parameters: ``flip`` the option's blend in [0, 1]; ``damping`` one of :data:`TRANSFER_DAMPINGS`;
     ``n_substeps`` the run's substeps a frame (>= 1); ``n_ref`` the reference step's substeps a frame.
-    Returns a float in [0, 1). Raises ``ValueError`` for an unknown ``damping``."""
+    Returns a float in [0, 1]. Raises ``ValueError`` for an unknown ``damping``."""
     if damping not in TRANSFER_DAMPINGS:
         raise ValueError(f"transfer_damping: expected one of {TRANSFER_DAMPINGS}, got {damping!r}")
     if damping == "step" or n_ref is None or n_substeps <= n_ref:
