@@ -12,6 +12,8 @@ gravity for ``--frames`` frames of 1/30 s (15: 0.5 s); the top's drop (its 95th 
 - ``notouch``: the touched layer off (``GroundTouch.touch_contact = False`` on both engines);
 - ``particle``: the engine option ``contact = "particle"`` (the penalty contact at the points);
 - ``flip``: the engine option ``flip = 0.99`` (AFLIP);
+- ``particle_ground``: the particle contact with the walls taken away (round 55 found the particle contact's sand at
+  n_grid 16 resting on the walls' floor plane, above this scene's ground; without the walls it is on the ground);
 - ``share``: warp_mpm only, a probe: the sand's touched columns take round 49's shared bound (the touched node no
   normal stop, its friction the held layers' unused Coulomb bound; ``touch_bound = "credit"``, no dashpot).
 
@@ -21,6 +23,12 @@ block of ``FAMILY`` on each of ``GRIDS`` at ``N`` and ``2 N`` substeps) and prin
     python benchmarks/sand_slump_step.py --grids 16 32 --substeps 7 13 26 52 104 208 --json out.json
     python benchmarks/sand_slump_step.py --family --variants default particle --json family.json
     python benchmarks/sand_slump_step.py --slide --lube --engines warp_mpm --json more.json
+
+``--ladder`` (round 57, docs/contact.md "Round 57: the slump's step ladder under the transfer rule") runs each block of
+``FAMILY`` on each of ``--grids`` at ``N``, ``2 N``, ``4 N`` and ``8 N`` substeps (``--rungs``) (``N = 13 n_grid / 16``) and prints
+each halving's change, to read whether the drop converges and at what order.
+
+    python benchmarks/sand_slump_step.py --ladder --variants default particle_ground --json ladder.json
 
 ``--slide`` (``sand_slide``'s reference on the ground) and ``--lube`` (the conformance column, a = 2, n_grid 48) read
 what the touched layer is there for, on the grid and the particle contact, at several substeps.
@@ -36,7 +44,7 @@ import numpy as np
 from gasp_core.seam import build_engine
 from gasp_core.testing.sand_slump import BASE_SUBSTEPS, FAMILY, GRIDS, block, drop_and_spread
 
-VARIANTS = ("default", "notouch", "particle", "flip", "share")
+VARIANTS = ("default", "notouch", "particle", "particle_ground", "flip", "share")
 
 
 def engine_info(name: str):
@@ -79,7 +87,8 @@ class switched:
 
 def variant_options(variant: str) -> dict:
     """The engine options of ``variant``."""
-    return {"particle": {"contact": "particle"}, "flip": {"flip": 0.99}}.get(variant, {})
+    return {"particle": {"contact": "particle"}, "particle_ground": {"contact": "particle"},
+            "flip": {"flip": 0.99}}.get(variant, {})
 
 
 def slump(engine: str, n_grid: int, n_substeps: int, size=(0.2, 0.2, 0.2), mu=0.5, n_frames=15,
@@ -89,6 +98,8 @@ def slump(engine: str, n_grid: int, n_substeps: int, size=(0.2, 0.2, 0.2), mu=0.
     if variant == "share" and engine != "warp_mpm":
         raise ValueError("the share probe is warp_mpm's only")
     s = block(size, n_grid, n_substeps, mu, **variant_options(variant), **options)
+    if variant == "particle_ground":
+        s.boundaries = [b for b in s.boundaries if b.kind != "walls"]
     with switched(variant):
         e = build_engine(engine_info(engine), s)
         t0 = time.perf_counter()
@@ -115,6 +126,24 @@ def family_rows(engines, variants) -> list[dict]:
                     rows.append(dict(check="family", variant=var, engine=eng, block=name, size=list(size), n_grid=n,
                                      N=k, drop_N_cm=round(100 * d1, 3), drop_2N_cm=round(100 * d2, 3),
                                      change_pct=round(100 * (d2 / d1 - 1.0), 2)))
+                    print(json.dumps(rows[-1]), flush=True)
+    return rows
+
+
+def ladder_rows(engines, variants, grids, rungs=4) -> list[dict]:
+    """``--ladder``: each block of ``FAMILY`` on each grid at ``N 2^k`` substeps (``k < rungs``, ``N = 13 n_grid /
+    16``), one row per variant, engine, block and grid: the drops (cm) and each halving's change (%)."""
+    rows = []
+    for var in variants:
+        for eng in engines:
+            for name, size in FAMILY.items():
+                for n in grids:
+                    k = BASE_SUBSTEPS * n // 16
+                    d = [slump(eng, n, k * 2 ** i, size, variant=var)[0] for i in range(rungs)]
+                    rows.append(dict(check="ladder", variant=var, engine=eng, block=name, n_grid=n,
+                                     substeps=[k * 2 ** i for i in range(rungs)],
+                                     drop_cm=[round(100 * x, 3) for x in d],
+                                     change_pct=[round(100 * (b / a - 1.0), 2) for a, b in zip(d, d[1:])]))
                     print(json.dumps(rows[-1]), flush=True)
     return rows
 
@@ -174,11 +203,14 @@ def main(argv=None):
     ap.add_argument("--variants", nargs="+", default=["default"], choices=VARIANTS)
     ap.add_argument("--json", help="append the rows to this file (a JSON list)")
     ap.add_argument("--family", action="store_true", help="the check's family at N and 2N substeps")
+    ap.add_argument("--ladder", action="store_true", help="the family at N, 2N, 4N, 8N substeps on --grids")
+    ap.add_argument("--rungs", type=int, default=4, help="--ladder's substep counts: N 2^k, k < rungs")
     ap.add_argument("--slide", action="store_true", help="sand_slide's reference, grid and particle contact")
     ap.add_argument("--lube", action="store_true", help="the conformance column a = 2, grid and particle contact")
     a = ap.parse_args(argv)
-    other = a.family or a.slide or a.lube
+    other = a.family or a.slide or a.lube or a.ladder
     rows = family_rows(a.engines, a.variants) if a.family else []
+    rows += ladder_rows(a.engines, a.variants, a.grids, a.rungs) if a.ladder else []
     rows += slide_rows(a.engines) if a.slide else []
     rows += lube_rows(a.engines) if a.lube else []
     for var in ([] if other else a.variants):
