@@ -69,9 +69,10 @@ def main(argv=None) -> int:
         doc["runs"][name] = rec
         print(f"[reference_blend]   {json.dumps({k: v for k, v in rec.items() if k != 'engine_stats'})}", flush=True)
         stem.with_suffix(".json").write_text(json.dumps(doc, indent=1, default=str))
-    lines = [f"# The `reference` level, transfer_damping rate against step (`{doc['scene']}`, {args.frames} frames)", "",
-             "benchmarks/studies/reference_blend.py; CPU seconds of the whole `gasp simulate` process, one engine "
-             "thread.", "", "| run | keys | points | substeps/frame | CPU s | wall s | load |", "|---|---|---:|---:|---:|---:|---|"]
+    lines = [f"# The `reference` level, transfer_damping rate against step (`{doc['scene']}`, {args.frames} frames)",
+             "", "benchmarks/studies/reference_blend.py; CPU seconds of the whole `gasp simulate` process, one engine "
+             "thread.", "", "| run | keys | points | substeps/frame | CPU s | wall s | load |",
+             "|---|---|---:|---:|---:|---:|---|"]
     for name, r in doc["runs"].items():
         if r["returncode"] != 0:
             lines.append(f"| {name} | {r['keys']} | failed (exit {r['returncode']}) | | | | |")
