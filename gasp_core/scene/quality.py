@@ -20,7 +20,10 @@ except ``n_grid``, which a level scales (``grid_factor``) from the file's value.
   gathered at passive points every 8th substep (engine option ``passive_every`` where the engine has it),
   the Gaussians' centres alone on elastic bodies (``surface_points = "auto"``: PhysGaussian's layout where the
   trade picks it; on the README donut's 36 frames 0.76 U of shape, every event in its band, 2.04x less CPU with the
-  step below, docs/speed_accuracy.md, "PhysGaussian's layout"), ``cfl`` 0.8 (the engines' own default is 0.4): on the README donut the longer step moves the full model by
+  step below, docs/speed_accuracy.md, "PhysGaussian's layout", measured 2026-11-23; re-measured in round 57 on the
+  engines of 2026-11-30: 1.22 U, 1.89x, but its final rotation (1.27 deg, band 1) and renders (0.3 dB under the
+  twin's) miss the rule, not through rounds 54 and 56's step and transfer rules, docs/speed_accuracy.md "Round 57:
+  the levels under cfl_rule sum and transfer_damping rate"), ``cfl`` 0.8 (the engines' own default is 0.4): on the README donut the longer step moves the full model by
   0.05 U of shape and costs 0.66x the CPU time (94 substeps a frame instead of 121, the contact's stable step
   binding first; docs/speed_accuracy.md, "The time step").
 * ``reference``: the full model (every triangle vertex simulated as material, no hierarchy, 8 fill
