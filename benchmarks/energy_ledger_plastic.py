@@ -119,27 +119,34 @@ def run(body: str, engine: str, n_grid: int, ms: float | None = None, stiffness_
     try:
         led = BothLedgers(setup, e, mat, None)
         E0 = total(led.E)
-        n = int(round(ms * 1e-3 / led.dt))
-        every = max(1, int(round(every_ms * 1e-3 / led.dt)))
+        n_frames = int(round(ms * 1e-3 / setup.frame_dt))
+        every = every_ms * 1e-3
         keys = SINKS + ("elastic", "gravity", "elastic_before")
         sums, least = {k: 0.0 for k in keys}, {k: 0.0 for k in SINKS}
         trace, worst, worst_before, top = [], 0.0, 0.0, E0
-        for i in range(n):
-            r = led.step()
-            for k in keys:
-                sums[k] += r[k]
-            for k in SINKS:
-                least[k] = min(least[k], r[k])
-            worst = max(worst, abs(sums["elastic"] + sums["gravity"]))
-            worst_before = max(worst_before, abs(sums["elastic_before"] + sums["gravity"]))
-            top = max(top, r["total"])
-            if (i + 1) % every == 0 or i == n - 1:
-                trace.append({"t_ms": (i + 1) * led.dt * 1e3, "E": r["total"], "kinetic": r["kinetic"],
-                              "psi": r["psi"], "psi_before": r["psi_before"], "PE": r["PE"], **sums})
+        t, n, clock = 0.0, 0, e.clock   # the engine's substeps, frame by frame (round 57: from the state)
+        for _ in range(n_frames):
+            clock.begin()
+            done = False
+            while not done:
+                led.dt = float(e.dt)
+                r = led.step()
+                t, n, done = t + led.dt, n + 1, clock.after()
+                for k in keys:
+                    sums[k] += r[k]
+                for k in SINKS:
+                    least[k] = min(least[k], r[k])
+                worst = max(worst, abs(sums["elastic"] + sums["gravity"]))
+                worst_before = max(worst_before, abs(sums["elastic_before"] + sums["gravity"]))
+                top = max(top, r["total"])
+                if t >= every * (len(trace) + 1) - 1e-9 or (done and _ == n_frames - 1):
+                    trace.append({"t_ms": t * 1e3, "E": r["total"], "kinetic": r["kinetic"], "psi": r["psi"],
+                                  "psi_before": r["psi_before"], "PE": r["PE"], **sums})
     finally:
         e.close()
     return {"body": body, "engine": engine, "n_grid": n_grid, "ms": ms, "stiffness_scale": stiffness_scale, "cfl": cfl,
-            "dt": led.dt, "substeps": n, "n_points": int(len(led.kc)), "E0": E0, "E_end": trace[-1]["E"],
+            "dt": setup.frame_dt / clock.n_setup, "substeps": n, "frames": list(clock.frames),
+            "n_points": int(len(led.kc)), "E0": E0, "E_end": trace[-1]["E"],
             "gain": max(0.0, top / E0 - 1.0), "sums": sums, "least": least, "untraced_end": sums["elastic"] +
             sums["gravity"], "untraced_worst": worst, "before_end": sums["elastic_before"] + sums["gravity"],
             "before_worst": worst_before, "mass_err": led.mass_err, "seconds": time.time() - t0, "trace": trace}
