@@ -12,7 +12,8 @@ energy for snow; the plastic work of every point's return; snow's hardening term
 it (fixed corotated, no return booked: :class:`BothLedgers`), and reports, as % of the energy brought ``E0`` (kinetic
 + gravitational over the ground + stored): each sink summed, the untraced term (``elastic + gravity``) at the end and
 its largest size on the way, before and after. ``--stiffness-scale``: the catch (the engine built with E scaled, the
-ledger kept on the scene's E).
+ledger kept on the scene's E). The ledger steps the engine's substeps frame by frame as its clock says (round 57:
+snow's step from its state, ``gasp_core.mpm.state_step``; ``frames`` in the results: each frame's substeps).
 
 Run: ``python benchmarks/energy_ledger_plastic.py`` (``--engines``, ``--bodies``, ``--grids``,
 ``--stiffness-scale``); writes ``benchmarks/results/energy_ledger_plastic.{json,md}`` (runs merged by key). About
@@ -164,15 +165,17 @@ def report(runs: list[dict]) -> list[str]:
              "corotated energy, no return booked) and after (the model's energy, the plastic work booked), % of "
              "`E0`; each sink summed (% of `E0`, positive: lost); `gain`: the largest energy over `E0` (%). The "
              "gates (`tests/test_energy_ledger.py`): untraced at the end within 2 %, on the way within 6 %.", "",
-             "| body | engine | n_grid | ms | dt (ms) | points | E0 (J) | before: end; worst | after: end; worst | "
-             "p2g | rule | balance | g2p | plastic | hardening | left | gain | s |", "|" + "---|" * 18]
+             "`substeps`: each frame's (round 57: snow's from its state, `gasp_core.mpm.state_step`; runs before it: "
+             "blank); `dt`: the setup's.", "",
+             "| body | engine | n_grid | ms | dt (ms) | substeps | points | E0 (J) | before: end; worst | after: end; "
+             "worst | p2g | rule | balance | g2p | plastic | hardening | left | gain | s |", "|" + "---|" * 19]
     for r in sorted(runs, key=lambda r: tuple(str(x) for x in key(r))):
         s, e0 = r["sums"], r["E0"]
         pct = lambda x: f"{100 * x / e0:+.2f}"   # noqa: E731
         tag = "" if r["stiffness_scale"] == 1 else f" (catch: engine E x{r['stiffness_scale']})"
         tag += "" if r.get("cfl") is None else f" (cfl {r['cfl']})"
         lines.append(f"| {r['body']}{tag} | {r['engine']} | {r['n_grid']} | {r['ms']:g} | {r['dt'] * 1e3:.3f} | "
-                     f"{r['n_points']} | {e0:.4f} | {pct(r['before_end'])}; {pct(r['before_worst'])} | "
+                     f"{', '.join(str(n) for n in r.get('frames', []))} | {r['n_points']} | {e0:.4f} | {pct(r['before_end'])}; {pct(r['before_worst'])} | "
                      f"{pct(r['untraced_end'])}; {pct(r['untraced_worst'])} | {pct(s['p2g'])} | {pct(s['rule'])} | "
                      f"{pct(s['balance'])} | {pct(s['g2p'])} | {pct(s['plastic'])} | {pct(s['hardening'])} | "
                      f"{100 * r['E_end'] / e0:.1f} | {100 * r['gain']:.2f} | {r['seconds']:.0f} |")

@@ -120,3 +120,16 @@ def test_a_compacted_snow_block_takes_more_substeps(engine):
         assert e.stats()["n_substeps"] == n0 and not e.clock.on
     finally:
         e.close()
+
+
+def test_a_state_past_max_substeps_is_a_divergence():
+    from gasp_core.errors import EngineDivergence
+    setup = block()
+    fake = Fake([1.0, 1.0, 0.0])   # Jp 0: h = e^10, 148x the stiffness
+    clock = StateStep(setup, {"max_substeps": 100}, 42, fake.reduce, fake.apply)
+    with pytest.raises(EngineDivergence, match="max_substeps = 100"):
+        run_frame(clock, fake)
+    fake = Fake([float("nan")])   # a non-finite state: the setup's step (the frame's checks report it)
+    clock = StateStep(setup, {}, 42, fake.reduce, fake.apply)
+    run_frame(clock, fake)
+    assert clock.frames == [42]

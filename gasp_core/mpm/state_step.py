@@ -26,7 +26,6 @@ from typing import Callable
 
 import numpy as np
 
-from gasp_core.errors import SceneError
 from gasp_core.mpm.grid_tables import grid_tables
 from gasp_core.mpm.rigid import rigid_mask
 from gasp_core.mpm.substeps import CFL, CFL_RULE, MAX_SUBSTEPS
@@ -86,15 +85,20 @@ class StateStep:
         ``c`` :func:`snow_speed` at the body's ``jp_min``, ``v`` the larger of ``v_max`` and the setup's fall bound."""
         v = max(float(v_max), self.v_fall)
         c = max(snow_speed(m, jp_min[b]) for b, m in self.snow)
-        return self.cfl * self.dx / max(c + v if self.rule == "sum" else max(c, v), 1e-12)
+        dt = self.cfl * self.dx / max(c + v if self.rule == "sum" else max(c, v), 1e-12)
+        return dt if math.isfinite(dt) else self.dt_setup   # a non-finite state: the frame's checks report it
 
     def _take(self, rest: float, dt_need: float) -> None:
-        """Cut the ``rest`` of the frame (s) into whole substeps no longer than ``dt_need``."""
+        """Cut the ``rest`` of the frame (s) into whole substeps no longer than ``dt_need``; raises
+        :class:`gasp_core.errors.EngineDivergence` (cause unstable) where the frame would take more than the engine
+        option ``max_substeps``."""
         n_rest = max(1, math.ceil(rest / dt_need - 1e-9))
         if self.done + n_rest > self.bound:
-            raise SceneError(f"snow's hardening asks a substep of {dt_need:.3g} s ({self.done + n_rest} substeps in "
-                             f"this frame of {self.frame_dt:g} s), more than max_substeps = {self.bound}: raise the "
-                             "engine option max_substeps, or lower the snow's hardening or E")
+            from gasp_core.seam import CAUSE_UNSTABLE, EngineDivergence
+            raise EngineDivergence(
+                f"snow's hardening asks a substep of {dt_need:.3g} s ({self.done + n_rest} substeps in this frame of "
+                f"{self.frame_dt:g} s), more than max_substeps = {self.bound}: raise the engine option max_substeps, "
+                "or lower the snow's hardening or E", len(self.frames) + 1, CAUSE_UNSTABLE)
         self.n, self.dt = self.done + n_rest, rest / n_rest
         self.apply(self.dt)
 
@@ -104,10 +108,7 @@ class StateStep:
         self.done, self.elapsed = 0, 0.0
         if not self.on:
             return self.n
-        dt_need = min(self.dt_state(*self.reduce()), self.dt_setup)
-        n = max(self.n_setup, math.ceil(self.frame_dt / dt_need - 1e-9))
-        self.n, self.dt = n, self.frame_dt / n
-        self.apply(self.dt)
+        self._take(self.frame_dt, min(self.dt_state(*self.reduce()), self.dt_setup))   # at least n_setup substeps
         return self.n
 
     def after(self) -> bool:

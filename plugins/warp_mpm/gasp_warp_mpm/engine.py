@@ -293,7 +293,8 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
 
     # ------------------------------------------------------------------ PointEngine
     def step_frame(self) -> None:
-        """Advance by ``setup.frame_dt`` seconds (``n_substeps`` substeps of ``dt``).
+        """Advance by ``setup.frame_dt`` seconds (``n_substeps`` substeps of ``dt``; with snow, as many as its state asks,
+        :mod:`gasp_warp_mpm.state_step`).
 
         Raises
         ------
