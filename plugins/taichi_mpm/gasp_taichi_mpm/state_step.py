@@ -1,8 +1,9 @@
 """The substep taken from the state in :class:`~gasp_taichi_mpm.engine.TaichiMPMEngine` (round 57,
 ``gasp_core.mpm.state_step``): in a scene with snow whose step is automatic, every substep is followed by a
 reduction on the device (per body the smallest ``Jp``, the largest speed of a material point: :func:`state_reduce`,
-a top-level parallel loop of atomic min and max) read back, and the step (the solver's ``dt`` field) follows snow's
-hardening. Such a frame runs ``MPMSolver.substeps(1)`` a substep at a time (its passive points moved after each)."""
+a top-level parallel loop of atomic mins) read back, and the step (the solver's ``dt`` field) follows snow's
+hardening. Such a frame runs ``MPMSolver.substeps(1)``'s substep one at a time (its passive points moved after each;
+no colliders, forces, impulses or rigid bodies there, ``gasp_core.mpm.state_step.applies``)."""
 
 import numpy as np
 import taichi as ti
@@ -46,10 +47,12 @@ class StateClock:
 
     def clock_frame(self) -> None:
         """One frame, its substeps one by one as the state asks (:meth:`StateStep.begin`, :meth:`StateStep.after`)."""
-        clock = self.clock
+        clock, s = self.clock, self.solver
         clock.begin()
-        while True:
-            self.solver.substeps(1)
+        while True:   # MPMSolver.substeps(1), the substep's index passed on (the block sort's SORT_EVERY)
+            s.p2g_substep(0, clock.done)
+            s.grid_update()
+            s.last_g2p(s._passive_at(1)[-1])
             if clock.after():
                 break
         self.n_substeps = clock.n
