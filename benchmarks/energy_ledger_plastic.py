@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import math
 import sys
 import time
 from pathlib import Path
@@ -120,19 +121,20 @@ def run(body: str, engine: str, n_grid: int, ms: float | None = None, stiffness_
     try:
         led = BothLedgers(setup, e, mat, None)
         E0 = total(led.E)
-        n_frames = int(round(ms * 1e-3 / setup.frame_dt))
+        n_frames = max(1, math.ceil(ms * 1e-3 / setup.frame_dt - 1e-6))   # the last one cut at ms
         every = every_ms * 1e-3
         keys = SINKS + ("elastic", "gravity", "elastic_before")
         sums, least = {k: 0.0 for k in keys}, {k: 0.0 for k in SINKS}
         trace, worst, worst_before, top = [], 0.0, 0.0, E0
         t, n, clock = 0.0, 0, e.clock   # the engine's substeps, frame by frame (round 57: from the state)
-        for _ in range(n_frames):
+        for f in range(n_frames):
             clock.begin()
             done = False
             while not done:
                 led.dt = float(e.dt)
                 r = led.step()
                 t, n, done = t + led.dt, n + 1, clock.after()
+                done = done or (f == n_frames - 1 and t >= ms * 1e-3 - 1e-9)
                 for k in keys:
                     sums[k] += r[k]
                 for k in SINKS:
@@ -140,7 +142,7 @@ def run(body: str, engine: str, n_grid: int, ms: float | None = None, stiffness_
                 worst = max(worst, abs(sums["elastic"] + sums["gravity"]))
                 worst_before = max(worst_before, abs(sums["elastic_before"] + sums["gravity"]))
                 top = max(top, r["total"])
-                if t >= every * (len(trace) + 1) - 1e-9 or (done and _ == n_frames - 1):
+                if t >= every * (len(trace) + 1) - 1e-9 or (done and f == n_frames - 1):
                     trace.append({"t_ms": t * 1e3, "E": r["total"], "kinetic": r["kinetic"], "psi": r["psi"],
                                   "psi_before": r["psi_before"], "PE": r["PE"], **sums})
     finally:
