@@ -94,7 +94,8 @@ class StateStep:
         option ``max_substeps``."""
         n_rest = max(1, math.ceil(rest / dt_need - 1e-9))
         if self.done + n_rest > self.bound:
-            from gasp_core.seam import CAUSE_UNSTABLE, EngineDivergence
+            from gasp_core.errors import EngineDivergence
+            from gasp_core.seam.runner import CAUSE_UNSTABLE
             raise EngineDivergence(
                 f"snow's hardening asks a substep of {dt_need:.3g} s ({self.done + n_rest} substeps in this frame of "
                 f"{self.frame_dt:g} s), more than max_substeps = {self.bound}: raise the engine option max_substeps, "

@@ -189,8 +189,7 @@ class Material:
 
         For ``liquid`` the shear modulus is not used: ``sqrt(K / rho)`` with the bulk modulus :attr:`K`; ``snow``
         takes its hardening's largest stiffening ``exp(hardening theta_c)`` (``Jp < 1``; Stomakhin et al. 2013): the
-        setup's step; the grid engines then follow each snow body's hardening from its state
-        (``gasp_core.mpm.state_step``, round 57), since ``Jp`` has no lower bound.
+        setup's step; the grid engines then follow its state (``gasp_core.mpm.state_step``: ``Jp`` has no bound).
         """
         if self.name == "liquid":
             return math.sqrt(self.K / self.rho)
