@@ -12,7 +12,8 @@ energy for snow; the plastic work of every point's return; snow's hardening term
 it (fixed corotated, no return booked: :class:`BothLedgers`), and reports, as % of the energy brought ``E0`` (kinetic
 + gravitational over the ground + stored): each sink summed, the untraced term (``elastic + gravity``) at the end and
 its largest size on the way, before and after. ``--stiffness-scale``: the catch (the engine built with E scaled, the
-ledger kept on the scene's E).
+ledger kept on the scene's E). The ledger steps the engine's substeps frame by frame as its clock says (round 57:
+snow's step from its state, ``gasp_core.mpm.state_step``; ``frames`` in the results: each frame's substeps).
 
 Run: ``python benchmarks/energy_ledger_plastic.py`` (``--engines``, ``--bodies``, ``--grids``,
 ``--stiffness-scale``); writes ``benchmarks/results/energy_ledger_plastic.{json,md}`` (runs merged by key). About
@@ -23,6 +24,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import math
 import sys
 import time
 from pathlib import Path
@@ -119,27 +121,35 @@ def run(body: str, engine: str, n_grid: int, ms: float | None = None, stiffness_
     try:
         led = BothLedgers(setup, e, mat, None)
         E0 = total(led.E)
-        n = int(round(ms * 1e-3 / led.dt))
-        every = max(1, int(round(every_ms * 1e-3 / led.dt)))
+        n_frames = max(1, math.ceil(ms * 1e-3 / setup.frame_dt - 1e-6))   # the last one cut at ms
+        every = every_ms * 1e-3
         keys = SINKS + ("elastic", "gravity", "elastic_before")
         sums, least = {k: 0.0 for k in keys}, {k: 0.0 for k in SINKS}
         trace, worst, worst_before, top = [], 0.0, 0.0, E0
-        for i in range(n):
-            r = led.step()
-            for k in keys:
-                sums[k] += r[k]
-            for k in SINKS:
-                least[k] = min(least[k], r[k])
-            worst = max(worst, abs(sums["elastic"] + sums["gravity"]))
-            worst_before = max(worst_before, abs(sums["elastic_before"] + sums["gravity"]))
-            top = max(top, r["total"])
-            if (i + 1) % every == 0 or i == n - 1:
-                trace.append({"t_ms": (i + 1) * led.dt * 1e3, "E": r["total"], "kinetic": r["kinetic"],
-                              "psi": r["psi"], "psi_before": r["psi_before"], "PE": r["PE"], **sums})
+        t, n, clock = 0.0, 0, e.clock   # the engine's substeps, frame by frame (round 57: from the state)
+        for f in range(n_frames):
+            clock.begin()
+            done = False
+            while not done:
+                led.dt = float(e.dt)
+                r = led.step()
+                t, n, done = t + led.dt, n + 1, clock.after()
+                done = done or (f == n_frames - 1 and t >= ms * 1e-3 - 1e-9)
+                for k in keys:
+                    sums[k] += r[k]
+                for k in SINKS:
+                    least[k] = min(least[k], r[k])
+                worst = max(worst, abs(sums["elastic"] + sums["gravity"]))
+                worst_before = max(worst_before, abs(sums["elastic_before"] + sums["gravity"]))
+                top = max(top, r["total"])
+                if t >= every * (len(trace) + 1) - 1e-9 or (done and f == n_frames - 1):
+                    trace.append({"t_ms": t * 1e3, "E": r["total"], "kinetic": r["kinetic"], "psi": r["psi"],
+                                  "psi_before": r["psi_before"], "PE": r["PE"], **sums})
     finally:
         e.close()
     return {"body": body, "engine": engine, "n_grid": n_grid, "ms": ms, "stiffness_scale": stiffness_scale, "cfl": cfl,
-            "dt": led.dt, "substeps": n, "n_points": int(len(led.kc)), "E0": E0, "E_end": trace[-1]["E"],
+            "dt": setup.frame_dt / clock.n_setup, "substeps": n, "frames": list(clock.frames),
+            "n_points": int(len(led.kc)), "E0": E0, "E_end": trace[-1]["E"],
             "gain": max(0.0, top / E0 - 1.0), "sums": sums, "least": least, "untraced_end": sums["elastic"] +
             sums["gravity"], "untraced_worst": worst, "before_end": sums["elastic_before"] + sums["gravity"],
             "before_worst": worst_before, "mass_err": led.mass_err, "seconds": time.time() - t0, "trace": trace}
@@ -157,15 +167,17 @@ def report(runs: list[dict]) -> list[str]:
              "corotated energy, no return booked) and after (the model's energy, the plastic work booked), % of "
              "`E0`; each sink summed (% of `E0`, positive: lost); `gain`: the largest energy over `E0` (%). The "
              "gates (`tests/test_energy_ledger.py`): untraced at the end within 2 %, on the way within 6 %.", "",
-             "| body | engine | n_grid | ms | dt (ms) | points | E0 (J) | before: end; worst | after: end; worst | "
-             "p2g | rule | balance | g2p | plastic | hardening | left | gain | s |", "|" + "---|" * 18]
+             "`substeps`: each frame's (round 57: snow's from its state, `gasp_core.mpm.state_step`; runs before it: "
+             "blank); `dt`: the setup's.", "",
+             "| body | engine | n_grid | ms | dt (ms) | substeps | points | E0 (J) | before: end; worst | after: end; "
+             "worst | p2g | rule | balance | g2p | plastic | hardening | left | gain | s |", "|" + "---|" * 19]
     for r in sorted(runs, key=lambda r: tuple(str(x) for x in key(r))):
         s, e0 = r["sums"], r["E0"]
         pct = lambda x: f"{100 * x / e0:+.2f}"   # noqa: E731
         tag = "" if r["stiffness_scale"] == 1 else f" (catch: engine E x{r['stiffness_scale']})"
         tag += "" if r.get("cfl") is None else f" (cfl {r['cfl']})"
         lines.append(f"| {r['body']}{tag} | {r['engine']} | {r['n_grid']} | {r['ms']:g} | {r['dt'] * 1e3:.3f} | "
-                     f"{r['n_points']} | {e0:.4f} | {pct(r['before_end'])}; {pct(r['before_worst'])} | "
+                     f"{', '.join(str(n) for n in r.get('frames', []))} | {r['n_points']} | {e0:.4f} | {pct(r['before_end'])}; {pct(r['before_worst'])} | "
                      f"{pct(r['untraced_end'])}; {pct(r['untraced_worst'])} | {pct(s['p2g'])} | {pct(s['rule'])} | "
                      f"{pct(s['balance'])} | {pct(s['g2p'])} | {pct(s['plastic'])} | {pct(s['hardening'])} | "
                      f"{100 * r['E_end'] / e0:.1f} | {100 * r['gain']:.2f} | {r['seconds']:.0f} |")

@@ -188,7 +188,8 @@ class Material:
         """Dilatational (P-wave) speed ``sqrt((lam + 2 mu) / rho)``, m/s.
 
         For ``liquid`` the shear modulus is not used: ``sqrt(K / rho)`` with the bulk modulus :attr:`K`; ``snow``
-        takes its hardening's largest stiffening ``exp(hardening theta_c)`` (``Jp < 1``; Stomakhin et al. 2013).
+        takes its hardening's largest stiffening ``exp(hardening theta_c)`` (``Jp < 1``; Stomakhin et al. 2013): the
+        setup's step; the grid engines then follow its state (``gasp_core.mpm.state_step``: ``Jp`` has no bound).
         """
         if self.name == "liquid":
             return math.sqrt(self.K / self.rho)

@@ -28,6 +28,7 @@ from . import ENGINE, TaichiMPMConfig
 from .affinity import allowed_cores, pin_workers, spin_all_threads, thread_ids
 from .frontend import lighten_position_notes
 from .schedule.fixed import refuse_uncovered
+from .state_step import StateClock
 
 #: ``p2g = "auto"`` tiles the GPU schedule's P2G on CUDA from this many material points (docs/performance.md).
 TILES_MIN_POINTS = 1 << 18
@@ -85,7 +86,7 @@ def _init_cpu(ti, real, threads: int, pin: bool) -> tuple[list[int], str]:
     return pin_workers(thread_ids() - before, spin_all_threads, threads)
 
 
-class TaichiMPMEngine(GridEngineBase):
+class TaichiMPMEngine(GridEngineBase, StateClock):
     """MLS-MPM engine on Taichi (``docs/mpm.md``).
 
     Parameters
@@ -143,8 +144,7 @@ class TaichiMPMEngine(GridEngineBase):
         threads = self._start_taichi(ti, cfg, real)
         _generation += 1
         self._gen = _generation
-        self._ti = ti
-        self.threads = threads
+        self._ti, self.threads = ti, threads
         from .grid import node_ranges
         from .solver import MPMSolver
 
@@ -190,13 +190,13 @@ class TaichiMPMEngine(GridEngineBase):
             body_mass=np.bincount(setup.body_id, weights=setup.p_mass, minlength=len(setup.materials)),
             touch_speed=touch_dashpot_speed(setup, MPMSolver.touch_damping), **self._extras(setup))
         self._rigid_extras(setup, flowing_bodies(view, contact), rigid.any())
-        self._p2g_mode = "tiles" if self.solver.tiles else "atomic" if atomic else "coloured blocks"
-        self._p2g_mode += " in fixed point" if self.solver.fixed_point else ""
+        self._p2g_mode = ("tiles" if self.solver.tiles else "atomic" if atomic else "coloured blocks") + \
+            (" in fixed point" if self.solver.fixed_point else "")
         refuse_uncovered(self.solver, cfg.deterministic)   # deterministic: what it covers (schedule/fixed.py)
-        self.frame = 0
+        self.frame, self._closed = 0, False
         self._x = setup.x.astype(np.float32 if real == ti.f32 else np.float64)
         self._v = setup.v.astype(self._x.dtype)
-        self._closed = False
+        self.clock = self.state_clock()   # snow's step from its state (state_step.py; off: the setup's)
 
     def _start_taichi(self, ti, cfg: TaichiMPMConfig, real) -> int | None:
         """``ti.init`` on ``cfg.device`` ("auto": CUDA where Taichi starts one, measured faster there,
@@ -275,7 +275,7 @@ class TaichiMPMEngine(GridEngineBase):
         self._check_live()
         s = self.solver
         s.reset_out()
-        s.substeps(self.n_substeps)
+        self.clock_frame() if self.clock.on else s.substeps(self.n_substeps)
         self.frame += 1
         if s.gpu:
             self._checked_on_device()

@@ -50,12 +50,13 @@ from .rigid import RigidBodies
 from .sleeping import Sleeping
 from .tables import ExtraTables
 from .touch import GroundTouch
-from .startup import init_warp
+from .startup import start_warp
+from .state_step import StateClock
 from .warmup import compile_all
 from .schedule import balance_for, resolve as resolve_schedule, viscosity_for
 
 
-class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule, GroundTouch):
+class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule, GroundTouch, StateClock):
     """MLS-MPM in Warp (docs/mpm.md), one instance per simulation (the non-kernel part: GridEngineBase).
 
     Parameters
@@ -88,7 +89,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
         steps = choose_dt(step_view(setup), opts, ENGINE, implicit_viscosity=True)  # refuses a scene past max_substeps before any build work
         check_memory(estimate_bytes(len(setup.x), setup.n_grid, cfg.precision), ENGINE,
                      f"{len(setup.x)} points, n_grid {setup.n_grid}, {cfg.precision}")
-        self.device = self._start_warp(cfg.device)
+        self.device = start_warp(cfg.device)
         self.schedule = resolve_schedule(cfg.schedule, self.device.is_cuda)   # "cpu" or "gpu" (schedule/__init__.py)
         self.precision = cfg.precision
         Ft = wp.float32 if self.precision == "f32" else wp.float64
@@ -108,25 +109,12 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
         self._allocate_grid(Ft)
         self._upload_boundaries(Ft)
         has_extras, ex = self._extras(setup, self._array, Ft)
-        self._launches = []
-        self._passive_at, self._tick = [None] * self.n_substeps, None
+        self._launches, self._passive_at, self._tick = [], [None] * self.n_substeps, None
+        self._recorded = (Ft, has_extras, ex)   # what the launches are recorded with (again: state_step.py)
         if self.n_points:
             self._record_launches(Ft, has_extras, ex)
         self._graph, self._closed = None, False
-
-    def _start_warp(self, dev: str):
-        """``wp.init()`` quietly; the Warp device named by option ``device``.
-
-        Raises EngineError where that device is missing."""
-        wp.config.log_level = wp.LOG_WARNING  # no start-up banner or module-load lines on stdout
-        init_warp()
-        if dev.startswith("cuda") and not wp.is_cuda_available():
-            raise EngineError(f"engine '{ENGINE}': device '{dev}' requested but Warp finds no CUDA "
-                              f"device here (driver missing or no GPU); use device = \"cpu\"")
-        try:
-            return wp.get_device(dev)
-        except Exception as e:  # e.g. "cuda:3" on a one-GPU machine
-            raise EngineError(f"engine '{ENGINE}': device '{dev}' is not available: {e}") from e
+        self.clock = self.state_clock(Ft)   # snow's step from its state (state_step.py; off: the setup's)
 
     def _array(self, a, dtype) -> wp.array:
         """``a`` (contiguous) as a Warp array of ``dtype`` on the engine's device."""
@@ -305,7 +293,8 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
 
     # ------------------------------------------------------------------ PointEngine
     def step_frame(self) -> None:
-        """Advance by ``setup.frame_dt`` seconds (``n_substeps`` substeps of ``dt``).
+        """Advance by ``setup.frame_dt`` seconds (``n_substeps`` substeps of ``dt``; with snow, as many as its state asks,
+        :mod:`gasp_warp_mpm.state_step`).
 
         Raises
         ------
@@ -321,7 +310,9 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
         self.flags.zero_()
         if self._ex_tables is not None:
             self._load_frame_table()
-        if self.device.is_cuda:
+        if self.clock.on:
+            self.clock_frame()
+        elif self.device.is_cuda:
             if self._graph is None:
                 with wp.ScopedCapture(device=self.device) as capture:
                     self._substeps(capturing=True)

@@ -8,7 +8,7 @@ def init_warp() -> None:
     it prints is passed on.
 
     On a CPU run the warning is noise; on a CUDA run the engine refuses in its own one line
-    (:meth:`gasp_warp_mpm.engine.WarpMPMEngine._start_warp`), so Warp's line beside it is dropped too."""
+    (:func:`start_warp`), so Warp's line beside it is dropped too."""
     import os
     import sys
     import tempfile
@@ -25,3 +25,21 @@ def init_warp() -> None:
         for line in cap.read().decode(errors="replace").splitlines():
             if "CUDA driver" not in line:
                 print(line, file=sys.stderr)
+
+
+def start_warp(dev: str):
+    """``wp.init()`` quietly (:func:`init_warp`); the Warp device named by the engine option ``device``.
+
+    Raises EngineError where that device is missing."""
+    from gasp_core.seam import EngineError
+
+    from . import ENGINE
+    wp.config.log_level = wp.LOG_WARNING  # no start-up banner or module-load lines on stdout
+    init_warp()
+    if dev.startswith("cuda") and not wp.is_cuda_available():
+        raise EngineError(f"engine '{ENGINE}': device '{dev}' requested but Warp finds no CUDA "
+                          f"device here (driver missing or no GPU); use device = \"cpu\"")
+    try:
+        return wp.get_device(dev)
+    except Exception as e:  # e.g. "cuda:3" on a one-GPU machine
+        raise EngineError(f"engine '{ENGINE}': device '{dev}' is not available: {e}") from e
