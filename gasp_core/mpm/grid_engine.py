@@ -211,7 +211,8 @@ class GridEngineBase:
                    grid_m: np.ndarray | None) -> dict[str, Any]:
         """The statistics every grid engine reports: ``device, precision, n_points, dt`` (s), ``n_substeps`` (the
         last frame's; where the step follows the state, ``gasp_core.mpm.state_step``, also ``n_substeps_setup`` and
-        ``n_substeps_most``, the most a frame took), ``n_grid``, ``dx`` (m), ``frame``, ``n_passive``, ``contact``
+        ``n_substeps_most``, the most a frame took; ``dt`` then the last frame's mean, ``frame_dt / n_substeps``, and
+        ``dt_last`` its last substep), ``n_grid``, ``dx`` (m), ``frame``, ``n_passive``, ``contact``
         (``gasp_core.mpm.contact.contact_model``:
         ``"particle"``, ``"grid"`` or ``"mixed"``) and ``contact_per_body`` (per body, ``"grid"`` or
         ``"particle"``), ``contact_fields`` (bool: the two-field contact of ``gasp_core.mpm.fields``); with ``x``
@@ -225,8 +226,9 @@ class GridEngineBase:
                "n_substeps": int(self.n_substeps), "n_grid": int(setup.n_grid), "dx": float(setup.dx),
                "frame": self.frame, "n_passive": int(n - self.n_material)}
         clock = getattr(self, "clock", None)   # the step from the state (gasp_core.mpm.state_step): snow's hardening
-        if clock is not None and clock.on:
-            out.update(n_substeps_setup=int(clock.n_setup), n_substeps_most=int(max(clock.frames, default=clock.n)))
+        if clock is not None and clock.on:   # a frame's substeps may differ: dt is the last frame's mean
+            out.update(n_substeps_setup=int(clock.n_setup), n_substeps_most=int(max(clock.frames, default=clock.n)),
+                       dt=float(setup.frame_dt) / int(self.n_substeps), dt_last=float(self.dt))
         view = step_view(setup)
         out["contact"] = contact_model(view)
         out["contact_per_body"] = ["grid" if f else "particle" for f in flowing_bodies(view, out["contact"])]
