@@ -280,16 +280,20 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
 
     def _substeps(self, capturing: bool = False) -> None:
         for s in range(self.n_substeps):
-            for cmd in self._pre:
-                cmd.launch()
-            for i, cmd in enumerate(self._launches):
-                cmd.launch()
-                if i == 0 and self.visc is not None:   # after P2G: the implicit viscous step
-                    self.visc.solve(capturing)
-            if self._passive_at[s] is not None:
-                self._passive_at[s].launch()
-            if self._tick is not None:
-                self._tick.launch()
+            self._substep(s, capturing)
+
+    def _substep(self, s: int, capturing: bool = False) -> None:
+        """The recorded launches of substep ``s`` (its passive points' gather where they move at it)."""
+        for cmd in self._pre:
+            cmd.launch()
+        for i, cmd in enumerate(self._launches):
+            cmd.launch()
+            if i == 0 and self.visc is not None:   # after P2G: the implicit viscous step
+                self.visc.solve(capturing)
+        if self._passive_at[s] is not None:
+            self._passive_at[s].launch()
+        if self._tick is not None:
+            self._tick.launch()
 
     # ------------------------------------------------------------------ PointEngine
     def step_frame(self) -> None:

@@ -68,14 +68,7 @@ class StateClock:
         clock = self.clock
         clock.begin()
         while True:
-            for cmd in self._pre:
-                cmd.launch()
-            for i, cmd in enumerate(self._launches):
-                cmd.launch()
-                if i == 0 and self.visc is not None:   # after P2G: the implicit viscous step
-                    self.visc.solve(False)
-            if self._passive_at[0] is not None:
-                self._passive_at[0].launch()
+            self._substep(0)   # the launches recorded for one substep (_take_dt)
             if clock.after():
                 break
         self.n_substeps = clock.n
