@@ -177,7 +177,8 @@ def report(runs: list[dict]) -> list[str]:
         tag = "" if r["stiffness_scale"] == 1 else f" (catch: engine E x{r['stiffness_scale']})"
         tag += "" if r.get("cfl") is None else f" (cfl {r['cfl']})"
         lines.append(f"| {r['body']}{tag} | {r['engine']} | {r['n_grid']} | {r['ms']:g} | {r['dt'] * 1e3:.3f} | "
-                     f"{', '.join(str(n) for n in r.get('frames', []))} | {r['n_points']} | {e0:.4f} | {pct(r['before_end'])}; {pct(r['before_worst'])} | "
+                     f"{', '.join(str(n) for n in r.get('frames', []))} | {r['n_points']} | {e0:.4f} | "
+                     f"{pct(r['before_end'])}; {pct(r['before_worst'])} | "
                      f"{pct(r['untraced_end'])}; {pct(r['untraced_worst'])} | {pct(s['p2g'])} | {pct(s['rule'])} | "
                      f"{pct(s['balance'])} | {pct(s['g2p'])} | {pct(s['plastic'])} | {pct(s['hardening'])} | "
                      f"{100 * r['E_end'] / e0:.1f} | {100 * r['gain']:.2f} | {r['seconds']:.0f} |")
