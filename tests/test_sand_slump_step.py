@@ -13,6 +13,9 @@ it -11.26 / -3.96 % (cube) and -14.95 / -4.43 % (wide), both engines: smaller, s
 Round 57 (docs/contact.md "Round 57: the slump's step ladder"): on four rungs (N to 8N) the drop now converges at
 first order on both contacts (n_grid 32: -3.96 / -2.10 / -1.44 %); the grid contact's constant fails the 3 % at n_grid
 32, the particle contact on the ground meets it at n_grid 32 and 48, neither at n_grid 16 (2.4-3.2 cells of sand).
+Round 58 (docs/contact.md "Round 58: the sand's base slips at Coulomb's bound"): the weld is the node on the plane, stopped
+by its own Coulomb test; neither class change is adopted (the particle contact would pass this scene only through its
+walls' floor at n_grid 16 and fails the sand pairs' conformance scenes; ``flow_share`` moves -3.51 / -3.03 % at n_grid 32).
 """
 from __future__ import annotations
 

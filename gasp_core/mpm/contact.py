@@ -76,6 +76,10 @@ SUMS = ("m", "mx", "my", "mz", "mxx", "mxy", "mxz", "myy", "myz", "mzz", "px", "
 #: about the origin ``sum x x j n``, ``sum j v_col`` (the support's velocity at the points), the pushed points' box.
 JSUMS = ("j", "jx", "jy", "jz", "jnx", "jny", "jnz", "mnx", "mny", "mnz", "jvx", "jvy", "jvz",
          "x_min", "x_max", "y_min", "y_max", "z_min", "z_max")
+#: Round 58 (docs/contact.md "Round 58: the sand's base slips at Coulomb's bound"): the contact a sand body takes
+#: under ``contact = "auto"``: ``"grid"`` (with snow and liquid, the rule since issue 38) or ``"particle"`` (as the
+#: bodies that do not flow). Read by :func:`grid_flows` when a setup is built.
+SAND_CONTACT = "grid"
 #: The engine option's values.
 CONTACT_MODELS = ("auto", "particle", "grid")
 #: Materials that flow (granular, fluid): under ``contact = "auto"`` their bodies take the grid contact.
@@ -111,12 +115,18 @@ def contact_model(setup) -> str:
     held nodes: a 7.5 cm cube sank 36.9 mm); it takes the particle contact (``"mixed"``, all rigid ``"particle"``)."""
     c = setup.options.get("contact") or "auto"
     if c == "auto":
-        flows = [m.name in FLOWING for m in setup.materials]
+        flows = [grid_flows(m) for m in setup.materials]
         return "grid" if flows and all(flows) else "mixed" if any(flows) else "particle"
     rigid = rigid_bodies(setup.materials)
     if c == "grid" and rigid.any():
         return "particle" if rigid.all() else "mixed"
     return c
+
+
+def grid_flows(material) -> bool:
+    """Whether a body of ``material`` takes the grid contact under ``contact = "auto"``: its material flows
+    (:data:`FLOWING`), sand only where :data:`SAND_CONTACT` is ``"grid"``."""
+    return material.name in FLOWING and not (material.name == "sand" and SAND_CONTACT == "particle")
 
 
 def flowing_bodies(setup, contact: str | None = None) -> np.ndarray:
@@ -127,7 +137,7 @@ def flowing_bodies(setup, contact: str | None = None) -> np.ndarray:
     if c == "mixed":
         if explicit_grid(setup):
             return ~rigid_bodies(setup.materials)
-        return np.array([m.name in FLOWING for m in setup.materials], dtype=bool)
+        return np.array([grid_flows(m) for m in setup.materials], dtype=bool)
     return np.full(len(setup.materials), c == "grid", dtype=bool)
 
 

@@ -70,6 +70,11 @@ class GroundTouch(BodyBound):
     #: (:class:`BodyBound`); ``"both"`` round 52's; ``"contact"`` a column's pull at most its net push since its
     #: contact began (``touch_credits``); ``"none"`` no pull. warp_mpm's ``touch_pull``.
     touch_pull = "refund"
+    #: Round 58 (docs/contact.md "Round 58: the sand's base slips at Coulomb's bound"): True: a column a flowing
+    #: body's point touches is marked 2 as a column of a body that does not flow (its touched layer takes no normal
+    #: stop and the Coulomb bound of its column's held layers, round 49-53's rule); False: round 36's full Coulomb
+    #: rule on the touched layer's own velocity (the rule before). warp_mpm's ``touch_flow_share``.
+    flow_share = False
 
     def allocate_touch(self) -> None:
         """``touch_on`` (the switch, a ground with friction, ``ground_rubs``, and the grid contact's rule: no particle contact, or the contact chosen
@@ -116,6 +121,8 @@ class GroundTouch(BodyBound):
                     flowing = k == SAND or k == SNOW or k == LIQUID
                     h = ti.cast(0.0, self.real)
                     mark = 1
+                    if ti.static(self.flow_share):   # round 58: a flowing body's column shares the bound too
+                        mark = 2
                     if not flowing:
                         h = 0.5 * ti.pow(self.p_vol[p], 1.0 / 3.0)   # only the extent test reads it
                         mark = 2   # round 48: the dashpot above the held layers acts there (dashpot)
@@ -125,7 +132,7 @@ class GroundTouch(BodyBound):
                             for i, j in ti.static(ti.ndrange(3, 3)):
                                 ti.atomic_max(self.ground_touch[b, base[0] + i, base[1] + j], mark)
                                 if ti.static(self.pool_on):   # round 52: the column's body, the largest id
-                                    if not flowing:
+                                    if not flowing or ti.static(self.flow_share):
                                         ti.atomic_max(self.touch_body[b, base[0] + i, base[1] + j], self.body[p])
 
     @ti.func

@@ -44,6 +44,11 @@ class GroundTouch:
     #: only: ``"grid"`` and the grid contact's reach of ``"mixed"``); False: the node layers ``k <= ground[g][0]``
     #: alone, the rule before (the catch of ``tests/test_ground_touch.py``). Read when the engine is built.
     touch_contact = True
+    #: Round 58 (docs/contact.md "Round 58: the sand's base slips at Coulomb's bound"): True: a column a flowing
+    #: body's point touches is marked 2 as a column of a body that does not flow (its touched layer takes no normal
+    #: stop and the Coulomb bound of its column's held layers, round 49-53's rule); False: round 36's full Coulomb
+    #: rule on the touched layer's own velocity (the rule before). taichi_mpm's ``GroundTouch.flow_share``.
+    flow_share = False
     #: Cells: a point of a flowing body (sand, snow, liquid) touches the plane when its height above it is under
     #: ``touch_delta dx`` (round 36's rule, kept for them: docs/contact.md "Round 47").
     touch_delta = 0.25
@@ -116,7 +121,9 @@ class GroundTouch:
         self.touch_pool = wp.zeros(POOL * max(1, len(heights)) * self.n_pool_bodies if pooled else 1, dtype=Ft,
                                    device=self.device)
         self.ground_z = wp.array(np.array(heights or [0.0], dtype=self._np_dtype), dtype=Ft, device=self.device)
-        self.touch_solid = wp.array(np.array([m.name not in FLOWING for m in self.setup.materials] or [False],
+        # 1 a body that does not flow; round 58 (flow_share): 2 a flowing body whose columns are marked 2 too
+        self.touch_solid = wp.array(np.array([1 if m.name not in FLOWING else 2 if self.flow_share else 0
+                                              for m in self.setup.materials] or [0],
                                              dtype=np.int32), dtype=wp.int32, device=self.device)
 
     def share_launches(self, Ft) -> list:
@@ -188,12 +195,14 @@ def build_touch(Ft):
         b2 = wp.floor(X[2] - Ft(0.5))
         if not (b0 >= Ft(0.0) and b0 <= lim and b1 >= Ft(0.0) and b1 <= lim and b2 >= Ft(0.0) and b2 <= lim):
             return
-        is_solid = solid[body[p]] != 0
+        is_solid = solid[body[p]] == 1
         mark = int(1)
         h = Ft(0.0)
         if is_solid:
             h = Ft(0.5) * wp.pow(p_vol[p], Ft(1.0 / 3.0))   # only the extent test reads it
             mark = int(2)   # round 48: the dashpot above the held layers acts in such columns (build_dashpot)
+        if solid[body[p]] == 2:
+            mark = int(2)   # round 58 (flow_share): a flowing body's column shares the bound, round 36's test
         for q in range(ground_z.shape[0]):
             z = xp[2] - ground_z[q]
             near = z < reach
@@ -203,7 +212,7 @@ def build_touch(Ft):
                 for a in range(3):
                     for c in range(3):
                         wp.atomic_max(ground_touch, (q * n_grid + int(b0) + a) * n_grid + int(b1) + c, mark)
-                        if is_solid and touch_body.shape[0] > 1:   # round 52: the column's body, the largest id
+                        if mark == 2 and touch_body.shape[0] > 1:   # round 52: the column's body, the largest id
                             wp.atomic_max(touch_body, (q * n_grid + int(b0) + a) * n_grid + int(b1) + c, body[p])
 
     @wp.func
