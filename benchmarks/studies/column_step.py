@@ -24,7 +24,7 @@ Variants (``--variants``; one switch each, the rest as the scene):
 - ``exprate``: a true rate for the transfer's damping: ``transfer_damping = "step"`` with ``flip = exp(-n_ref / n)``
   (``n_ref`` the rate rule's reference substeps), so the non-affine part kept over a time ``t`` is ``exp(-t /
   dt_ref)`` at every step, the reference step included (the rule ``1 - n_ref / n`` keeps none at ``n_ref``);
-- ``tdstep_mu0``, ``exprate_notouch``, ``flip_notouch``: two switches together;
+- ``tdstep_mu0``, ``exprate_notouch``, ``flip_notouch``, ``particle_mu0``: two switches together;
 - ``particle_nofloor``: the particle contact with the walls, less the walls' floor face, which lies on the ground's
   plane in this scene (frictionless: it halves the ground's friction budget; ``no_floor``).
 
@@ -58,7 +58,7 @@ from gasp_core.testing.kit import resolve_engine   # noqa: E402
 
 VARIANTS = ("default", "mu0", "notouch", "tdstep", "flip", "particle", "particle_ground", "nowalls", "cflmax",
             "stiff", "exprate", "exprate_notouch", "exprate_mu0", "tdstep_mu0", "flip_notouch",
-            "particle_nofloor")
+            "particle_nofloor", "particle_mu0")
 
 
 def no_floor(planes):
@@ -118,7 +118,7 @@ def setup_of(info, a: float, n_grid: int, n_substeps: int, variant: str):
     opts = dict(s.options, n_substeps=n_substeps)
     opts.update({"tdstep": {"transfer_damping": "step"}, "tdstep_mu0": {"transfer_damping": "step"},
                  "flip": {"flip": 0.99}, "flip_notouch": {"flip": 0.99}, "particle": {"contact": "particle"},
-                 "particle_nofloor": {"contact": "particle"},
+                 "particle_nofloor": {"contact": "particle"}, "particle_mu0": {"contact": "particle"},
                  "particle_ground": {"contact": "particle"}, "cflmax": {"cfl_rule": "max"}}.get(variant, {}))
     s = s.replace(options=opts)
     if variant in ("particle_ground", "nowalls"):
@@ -126,7 +126,7 @@ def setup_of(info, a: float, n_grid: int, n_substeps: int, variant: str):
     if variant.startswith("exprate"):   # a true rate: exp(-dt / dt_ref) of the non-affine part kept a substep
         n_ref = n_ref_of(s, opts)
         s = s.replace(options=dict(opts, transfer_damping="step", flip=math.exp(-n_ref / n_substeps)))
-    if variant in ("mu0", "exprate_mu0", "tdstep_mu0"):
+    if variant in ("mu0", "exprate_mu0", "tdstep_mu0", "particle_mu0"):
         s.boundaries = [dataclasses.replace(b, friction=0.0) if b.kind == "ground" else b for b in s.boundaries]
     if variant == "stiff":
         s.materials = [dataclasses.replace(m, E=4 * m.E) for m in s.materials]
