@@ -24,6 +24,11 @@ Variants (``--variants``; one switch each, the rest as the scene):
 - ``exprate``: a true rate for the transfer's damping: ``transfer_damping = "step"`` with ``flip = exp(-n_ref / n)``
   (``n_ref`` the rate rule's reference substeps), so the non-affine part kept over a time ``t`` is ``exp(-t /
   dt_ref)`` at every step, the reference step included (the rule ``1 - n_ref / n`` keeps none at ``n_ref``);
+- ``pic``, ``pic_step``, ``pic_mu0`` (warp_mpm only): PIC, every point's P2G without its affine momentum (the
+  ``p_pic`` mark of ``PIC_AT_B`` set for all; ``C`` still moves ``F``), under the rate rule, APIC's "step" and
+  friction 0;
+- ``share`` (warp_mpm only): the sand's touched columns on round 49's shared bound (``benchmarks/sand_slump_step.py``'s
+  probe: the touched node no normal stop, its friction the held layers' unused Coulomb bound);
 - ``tdstep_mu0``, ``exprate_notouch``, ``flip_notouch``, ``particle_mu0``: two switches together;
 - ``particle_nofloor``: the particle contact with the walls, less the walls' floor face, which lies on the ground's
   plane in this scene (frictionless: it halves the ground's friction budget; ``no_floor``).
@@ -58,7 +63,7 @@ from gasp_core.testing.kit import resolve_engine   # noqa: E402
 
 VARIANTS = ("default", "mu0", "notouch", "tdstep", "flip", "particle", "particle_ground", "nowalls", "cflmax",
             "stiff", "exprate", "exprate_notouch", "exprate_mu0", "tdstep_mu0", "flip_notouch",
-            "particle_nofloor", "particle_mu0")
+            "particle_nofloor", "particle_mu0", "pic", "pic_step", "pic_mu0", "share")
 
 
 def no_floor(planes):
@@ -92,6 +97,10 @@ class switched:
             import gasp_warp_mpm.touch as wt
             self._set(tt.GroundTouch, "touch_contact", False)
             self._set(wt.GroundTouch, "touch_contact", False)
+        elif self.variant == "share":
+            import gasp_warp_mpm.touch as wt
+            self._set(wt, "FLOWING", ())   # the sand's columns marked as a solid's: round 49's shared bound
+            self._set(wt.GroundTouch, "touch_bound", "credit")   # no dashpot for sand: round 49's plain bound
         elif self.variant == "particle_nofloor":
             import gasp_taichi_mpm.engine as te
             import gasp_warp_mpm.engine as we
@@ -117,6 +126,7 @@ def setup_of(info, a: float, n_grid: int, n_substeps: int, variant: str):
     s = lf.column_setup(info, a, n_grid)
     opts = dict(s.options, n_substeps=n_substeps)
     opts.update({"tdstep": {"transfer_damping": "step"}, "tdstep_mu0": {"transfer_damping": "step"},
+                 "pic_step": {"transfer_damping": "step"},
                  "flip": {"flip": 0.99}, "flip_notouch": {"flip": 0.99}, "particle": {"contact": "particle"},
                  "particle_nofloor": {"contact": "particle"}, "particle_mu0": {"contact": "particle"},
                  "particle_ground": {"contact": "particle"}, "cflmax": {"cfl_rule": "max"}}.get(variant, {}))
@@ -126,7 +136,7 @@ def setup_of(info, a: float, n_grid: int, n_substeps: int, variant: str):
     if variant.startswith("exprate"):   # a true rate: exp(-dt / dt_ref) of the non-affine part kept a substep
         n_ref = n_ref_of(s, opts)
         s = s.replace(options=dict(opts, transfer_damping="step", flip=math.exp(-n_ref / n_substeps)))
-    if variant in ("mu0", "exprate_mu0", "tdstep_mu0", "particle_mu0"):
+    if variant in ("mu0", "exprate_mu0", "tdstep_mu0", "particle_mu0", "pic_mu0"):
         s.boundaries = [dataclasses.replace(b, friction=0.0) if b.kind == "ground" else b for b in s.boundaries]
     if variant == "stiff":
         s.materials = [dataclasses.replace(m, E=4 * m.E) for m in s.materials]
@@ -156,6 +166,10 @@ def run(engine: str, a: float, n_grid: int, n_substeps: int, variant: str, frame
     s = setup_of(info, a, n_grid, n_substeps, variant)
     with switched(variant):
         e = build_engine(info, s)
+        if variant.startswith("pic"):   # warp_mpm: every point's P2G without its affine momentum (p_pic's one entry)
+            if engine != "warp_mpm" or e.p_pic.shape[0] != 1:
+                raise ValueError("the pic probe is warp_mpm's, on a scene without field A's marks")
+            e.p_pic.assign(np.ones(1, np.int32))
         t0 = time.perf_counter()
         for _ in range(frames):
             e.step_frame()
