@@ -13,7 +13,7 @@ Measured (both engines the same to the digits printed; ``benchmarks/studies/colu
 -8.2 % (a = 2) and -5.7 % (a = 3) from 34 to 136 substeps; with the ground's friction 0 -0.9 % and -0.6 %, so the
 check passes there (:func:`test_without_the_grounds_friction_the_runout_converges`). What carries it is the ground's
 friction at the grid (its held node layers and the touched layer, each a part), which the transfer's damping
-multiplies (APIC every substep: -21.1 %); the trace is in the docs section above. A strict xfail until it is fixed.
+multiplies (APIC every substep: -21.1 %); the trace: docs/contact.md "Round 58". A strict xfail until it is fixed.
 """
 from __future__ import annotations
 
