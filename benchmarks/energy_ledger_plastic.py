@@ -43,7 +43,11 @@ BODIES = {"sand_column": ("sand", "cylinder", (0.05, 0.15), 0.0, 200.0),
           "sand_block": ("sand", "box", (0.12, 0.12, 0.12), 0.0, 200.0),
           "sand_ball": ("sand", "ball", (0.05,), 2.0, 100.0),
           "snow_ball": ("snow", "ball", (0.05,), 2.0, 100.0),
-          "snow_block": ("snow", "box", (0.12, 0.12, 0.05), 2.0, 100.0)}
+          "snow_block": ("snow", "box", (0.12, 0.12, 0.05), 2.0, 100.0),
+          # round 58: the snow step's neighbours (shapes, sizes and landings it was not built on)
+          "snow_column": ("snow", "cylinder", (0.04, 0.10), 4.0, 100.0),
+          "snow_ball_fast": ("snow", "ball", (0.05,), 5.0, 100.0),
+          "snow_slab": ("snow", "box", (0.20, 0.20, 0.03), 3.0, 100.0)}
 
 
 def material(name: str):
@@ -188,7 +192,7 @@ def report(runs: list[dict]) -> list[str]:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--engines", default="taichi_mpm,warp_mpm")
-    ap.add_argument("--bodies", default=",".join(BODIES))
+    ap.add_argument("--bodies", default=",".join(list(BODIES)[:5]))
     ap.add_argument("--grids", default="32,48")
     ap.add_argument("--ms", type=float, default=None, help="simulated time (ms; default the body's)")
     ap.add_argument("--stiffness-scale", type=float, default=1.0)
