@@ -93,11 +93,17 @@ def test_walls_are_six_plane_supports_three_cells_inside_the_faces():
     setup = make_setup(x, 1e-3, Material("jelly", E=1e4, nu=0.3, rho=300.0), lo=(0.2, 0, 0), hi=(1.2, 1, 1),
                        n_grid=10, boundaries=[Boundary("walls", friction=0.3), Boundary("ground", height=0.1, friction=0.5)])
     normals, rows = contact_planes(setup, "particle")
-    assert normals.tolist() == [[0, 0, 1], [1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]]
+    # round 58: with a ground, the walls' floor face is no plane (the ground is the floor: wall_faces)
+    assert normals.tolist() == [[0, 0, 1], [1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, -1]]
     dx = setup.dx   # 0.1 m
-    expected = [0.1, 0.2 + 3 * dx, -(1.2 - 3 * dx), 3 * dx, -(1 - 3 * dx), 3 * dx, -(1 - 3 * dx)]
+    expected = [0.1, 0.2 + 3 * dx, -(1.2 - 3 * dx), 3 * dx, -(1 - 3 * dx), -(1 - 3 * dx)]
     assert np.allclose(rows[:, 0], expected, rtol=0, atol=1e-12)
-    assert rows[:, 1].tolist() == [0.5] + [0.3] * 6 and rows[:, 2].tolist() == [0, 1, 2, 3, 4, 5, 6]
+    assert rows[:, 1].tolist() == [0.5] + [0.3] * 5 and rows[:, 2].tolist() == [0, 1, 2, 3, 4, 5]
+    no_ground = make_setup(x, 1e-3, Material("jelly", E=1e4, nu=0.3, rho=300.0), lo=(0.2, 0, 0), hi=(1.2, 1, 1),
+                           n_grid=10, boundaries=[Boundary("walls", friction=0.3)])
+    n6, r6 = contact_planes(no_ground, "particle")   # without a ground the walls keep six faces, the floor's too
+    assert n6.tolist() == [[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]]
+    assert np.allclose(r6[:, 0], [0.2 + 3 * dx, -(1.2 - 3 * dx), 3 * dx, -(1 - 3 * dx), 3 * dx, -(1 - 3 * dx)])
     # on the wall's plane n . x = offset exactly: the depth is the skin
     assert np.allclose(normals[1] @ np.array([0.5, 0.7, 0.7]) - rows[1, 0], 0.0, atol=1e-12)
     skin = contact_coefficients(setup)[:, 2]

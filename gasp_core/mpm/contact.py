@@ -37,6 +37,7 @@ import numpy as np
 
 from gasp_core.seam.options import Option
 from gasp_core.mpm.points import ground_top_node, WALL_NODES
+from gasp_core.mpm.contact_reference import node_friction, plane_impulse, surface_impulse   # noqa: F401 (re-exported)
 
 #: Contact stiffness per unit Young's modulus and point spacing (dimensionless): ``k_p = KAPPA E p_vol^(1/3)``.
 #: Chosen with ``DAMPING`` and ``SKIN`` from the candidates of ``docs/contact.md``
@@ -235,6 +236,24 @@ def collider_grid_depth(contact: str, dx: float) -> float:
     return 0.0 if contact == "grid" else GRID_LAYERS_BELOW * float(dx)
 
 
+def touch_dashpot_speed(setup, damping: float = DAMPING) -> float:
+    """Round 48 (docs/contact.md "Round 48: a dashpot above the held layers"): the grid contact's dashpot above a
+    ground's held node layers, as a speed (m/s, float): ``2 damping c`` with ``c`` the largest P-wave speed of the
+    bodies that do not flow (:data:`FLOWING`; 0.0 without one). The engines damp a node's normal velocity there by
+    ``1 / (1 + s dt / dx)`` a substep (``s`` this speed): the particle contact's damping ratio ``damping``
+    (:data:`DAMPING`) on the cell's oscillator ``omega = c / dx``, implicit (``c_p dt / m = 2 damping omega dt``).
+    Round 49 (docs/contact.md "Round 49"): less what the body's own viscosity ``eta`` already damps of that mode (its
+    P-wave viscosity ``2 eta``, the bulk ``2 eta / 3`` plus ``4 eta / 3``: a damping ratio ``eta / (rho c dx)``), per
+    body ``2 damping c - 2 eta / (rho dx)``, the largest, at least 0. Round 50 (docs/contact.md "Round 50: one
+    dashpot speed"): a rigid body (:func:`rigid_bodies`) counts no speed: its stress is zero (``zero_stress``), so it
+    has no cell mode to damp and its ``E`` sets no step (``step_view``). Both grid engines call this one rule.
+    ``setup``: ``materials`` (``p_wave_speed`` m/s, ``viscosity`` Pa s, ``rho`` kg/m^3, ``name``, ``model``) and
+    ``dx`` (m)."""
+    speeds = [2.0 * float(damping) * m.p_wave_speed - 2.0 * m.viscosity / (m.rho * setup.dx)
+              for m, r in zip(setup.materials, rigid_bodies(setup.materials)) if m.name not in FLOWING and not r]
+    return max(0.0, max(speeds, default=0.0))
+
+
 def wall_grid_cells(contact: str) -> float:
     """How far (cells) inside the domain's faces the walls' grid rule acts: nodes with ``X_d < lo_d + r dx`` or
     ``X_d > hi_d - r dx`` are wall nodes. The walls' planes lie ``WALL_NODES`` (3, ``docs/mpm.md``) cells inside the
@@ -252,26 +271,21 @@ def wall_floor(setup, contact: str) -> bool:
     ``"grid"`` in a scene with a ``ground``, whose plane is then the floor (:func:`wall_grid_cells`' node layer on the
     floor's plane would otherwise stand above a ground placed within three cells of the domain's bottom:
     ``examples/donut_shatter.toml``'s ground is 2.1 cells up, under a floor plane 8 mm higher). The particle
-    contact keeps its six planes (:func:`contact_planes`)."""
+    contact keeps the floor's node layers (1.5 cells behind its plane, a safety net) but, with a ground, not its
+    plane (:func:`wall_faces`, round 58)."""
     return not (contact == "grid" and any(b.kind == "ground" for b in setup.boundaries))
 
 
-def touch_dashpot_speed(setup, damping: float = DAMPING) -> float:
-    """Round 48 (docs/contact.md "Round 48: a dashpot above the held layers"): the grid contact's dashpot above a
-    ground's held node layers, as a speed (m/s, float): ``2 damping c`` with ``c`` the largest P-wave speed of the
-    bodies that do not flow (:data:`FLOWING`; 0.0 without one). The engines damp a node's normal velocity there by
-    ``1 / (1 + s dt / dx)`` a substep (``s`` this speed): the particle contact's damping ratio ``damping``
-    (:data:`DAMPING`) on the cell's oscillator ``omega = c / dx``, implicit (``c_p dt / m = 2 damping omega dt``).
-    Round 49 (docs/contact.md "Round 49"): less what the body's own viscosity ``eta`` already damps of that mode (its
-    P-wave viscosity ``2 eta``, the bulk ``2 eta / 3`` plus ``4 eta / 3``: a damping ratio ``eta / (rho c dx)``), per
-    body ``2 damping c - 2 eta / (rho dx)``, the largest, at least 0. Round 50 (docs/contact.md "Round 50: one
-    dashpot speed"): a rigid body (:func:`rigid_bodies`) counts no speed: its stress is zero (``zero_stress``), so it
-    has no cell mode to damp and its ``E`` sets no step (``step_view``). Both grid engines call this one rule.
-    ``setup``: ``materials`` (``p_wave_speed`` m/s, ``viscosity`` Pa s, ``rho`` kg/m^3, ``name``, ``model``) and
-    ``dx`` (m)."""
-    speeds = [2.0 * float(damping) * m.p_wave_speed - 2.0 * m.viscosity / (m.rho * setup.dx)
-              for m, r in zip(setup.materials, rigid_bodies(setup.materials)) if m.name not in FLOWING and not r]
-    return max(0.0, max(speeds, default=0.0))
+def wall_faces(setup) -> list[tuple[int, float]]:
+    """The faces of a ``walls`` boundary that are planes of the particle contact (:func:`contact_planes`), as ``(axis,
+    sign)`` (``+1.0`` the low face, normal ``+e_d``; ``-1.0`` the high face), x, y, z, low before high: all six, less
+    the floor (``(2, +1.0)``) in a scene with a ``ground``, whose plane is then the floor, as :func:`wall_floor` says
+    for the grid contact. Round 58 (``docs/contact.md`` "Round 58: the walls' floor under a ground"): the floor plane
+    ``lo_z + 3 dx`` on (or within a skin of) a ground's plane shared each resting point's push with it, so the
+    ground's friction acted on about half the weight (a sand column's ground at ``lo_z + 3 dx``: its friction in
+    effect halved); below a ground it held the bodies on a frictionless plane above it."""
+    floor = any(b.kind == "ground" for b in setup.boundaries)
+    return [(d, sign) for d in range(3) for sign in (1.0, -1.0) if not (floor and d == 2 and sign > 0)]
 
 
 def contact_planes(setup, contact: str | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -291,7 +305,8 @@ def contact_planes(setup, contact: str | None = None) -> tuple[np.ndarray, np.nd
         Unit normals into the domain: ``+z`` for a ground; ``+e_d`` / ``-e_d`` for the low / high face on axis ``d``
         (x, y, z; low before high).
     rows : ndarray, shape (n, 3), float64
-        ``(offset, friction, support)``: the plane is ``n . x = offset`` (m; a ground's height; a wall's plane lies
+        ``(offset, friction, support)``: the plane is ``n . x = offset`` (m; a ground's height; a wall's plane (its
+        faces :func:`wall_faces`: no floor face where there is a ground) lies
         ``WALL_NODES`` cells inside its face, where the grid rule's wall nodes end: ``lo_d + 3 dx``,
         ``-(hi_d - 3 dx)``), its Coulomb friction, and its row of the contact's balance: 0 for the grounds (one
         support), ``1 + len(colliders) + w`` for the ``w``-th wall face (each its own support, after the colliders').
@@ -309,10 +324,10 @@ def contact_planes(setup, contact: str | None = None) -> tuple[np.ndarray, np.nd
     n_ground = len(rows)
     for b in setup.boundaries:
         if b.kind == "walls":
-            for d in range(3):
-                for sign, offset in ((1.0, lo[d] + inset), (-1.0, -(hi[d] - inset))):
-                    normals.append(tuple(sign if q == d else 0.0 for q in range(3)))
-                    rows.append((float(offset), float(b.friction), float(1 + n_col + len(rows) - n_ground)))
+            for d, sign in wall_faces(setup):
+                offset = lo[d] + inset if sign > 0 else -(hi[d] - inset)
+                normals.append(tuple(sign if q == d else 0.0 for q in range(3)))
+                rows.append((float(offset), float(b.friction), float(1 + n_col + len(rows) - n_ground)))
     return np.array(normals, np.float64).reshape(-1, 3), np.array(rows, np.float64).reshape(-1, 3)
 
 
@@ -321,78 +336,6 @@ def ground_node_layer(contact: str, height: float, domain_lo_z: float, dx: float
     lower for ``"particle"``."""
     top = ground_top_node(height, domain_lo_z, dx)
     return top if contact == "grid" else top - GRID_LAYERS_BELOW
-
-
-def plane_impulse(z: np.ndarray, v_z: np.ndarray, coeffs: np.ndarray, height: float, mu: float,
-                  dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """Normal impulse and friction budget of each point from one ground plane over a substep (the kernels' reference).
-
-    Parameters
-    ----------
-    z, v_z : ndarray, shape (n,)
-        Point heights (m) and vertical velocities (m/s).
-    coeffs : ndarray, shape (n, 3)
-        :func:`contact_coefficients`.
-    height, mu : float
-        The plane's height (m) and Coulomb friction coefficient.
-    dt : float
-        Substep, s.
-
-    Returns
-    -------
-    j_n : ndarray, shape (n,)
-        ``max(0, dt (k_p depth - c_p v_z))`` where ``depth = height + s_p - z > 0``, else 0 (kg m/s, along +z).
-    budget : ndarray, shape (n,)
-        ``mu j_n``: what the point gives its nodes' friction budgets (scattered with its weights).
-    """
-    k, c, s = coeffs[:, 0], coeffs[:, 1], coeffs[:, 2]
-    depth = height + s - z
-    jn = np.where(depth > 0.0, np.maximum(0.0, dt * (k * depth - c * v_z)), 0.0)
-    return jn, mu * jn
-
-
-def surface_impulse(phi: np.ndarray, n: np.ndarray, v: np.ndarray, v_col: np.ndarray, coeffs: np.ndarray,
-                    mu: float, dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """Normal impulse and friction budget of each point from one ``[[collider]]`` over a substep (the kernels'
-    reference; :func:`plane_impulse` is its case ``phi = z - height``, ``n = +z``, ``v_col = 0``).
-
-    Parameters
-    ----------
-    phi : ndarray, shape (n,)
-        The collider's signed distance at the points (m, negative inside; the trilinear lookup of its field in its
-        pose of the substep, as the grid rule's).
-    n : ndarray, shape (n, 3)
-        Its unit outward normal there (the field's gradient, normalised, turned by the pose).
-    v, v_col : ndarray, shape (n, 3)
-        The points' velocities and the collider's at the points (``v + w x (x - T)``), m/s.
-    coeffs : ndarray, shape (n, 3)
-        :func:`contact_coefficients`.
-    mu, dt : float
-        The collider's friction and the substep (s).
-
-    Returns
-    -------
-    j_n : ndarray, shape (n,)
-        ``max(0, dt (k_p depth - c_p (v - v_col) . n))`` where ``depth = s_p - phi > 0``, else 0 (kg m/s, along
-        ``n``).
-    budget : ndarray, shape (n,)
-        ``mu j_n``.
-    """
-    k, c, s = coeffs[:, 0], coeffs[:, 1], coeffs[:, 2]
-    depth = s - phi
-    vn = np.einsum("ij,ij->i", np.asarray(v, float) - np.asarray(v_col, float), n)
-    jn = np.where(depth > 0.0, np.maximum(0.0, dt * (k * depth - c * vn)), 0.0)
-    return jn, mu * jn
-
-
-def node_friction(v: np.ndarray, m: np.ndarray, budget: np.ndarray) -> np.ndarray:
-    """Node velocities (m/s, shape (n, 3)) after the particle contact's Coulomb friction: the tangential
-    (x, y) part loses ``min(budget / m, |v_t|)`` (``m`` node mass, kg; ``budget`` kg m/s, shape (n,))."""
-    vt = np.array(v, dtype=np.float64)
-    vt[:, 2] = 0.0
-    lt = np.linalg.norm(vt, axis=1)
-    cut = np.where((budget > 0.0) & (lt > 0.0), np.minimum(budget / np.maximum(m, 1e-300), lt) / np.maximum(lt, 1e-300), 0.0)
-    return v - cut[:, None] * vt
 
 
 def contact_reach(setup) -> np.ndarray:

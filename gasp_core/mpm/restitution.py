@@ -96,11 +96,13 @@ def body_table(setup) -> np.ndarray:
 
 
 def plane_table(setup, n_planes: int) -> np.ndarray:
-    """Per plane of ``gasp_core.mpm.contact.contact_planes`` (the grounds, then each walls boundary's 6 faces)
-    its boundary's ``restitution``: shape (n_planes,), float64 (the same order; empty when there are none)."""
+    """Per plane of ``gasp_core.mpm.contact.contact_planes`` (the grounds, then each walls boundary's faces,
+    ``contact.wall_faces``) its boundary's ``restitution``: shape (n_planes,), float64 (the same order; empty when
+    there are none)."""
+    from gasp_core.mpm.contact import wall_faces
     grounds = [float(getattr(b, "restitution", BOUNDARY_RESTITUTION)) for b in setup.boundaries if b.kind == "ground"]
     walls = [float(getattr(b, "restitution", BOUNDARY_RESTITUTION)) for b in setup.boundaries if b.kind == "walls"]
-    out = np.array(grounds + [e for e in walls for _ in range(6)], np.float64)
+    out = np.array(grounds + [e for e in walls for _ in wall_faces(setup)], np.float64)
     return out[:n_planes] if len(out) >= n_planes else np.ones(n_planes)
 
 
