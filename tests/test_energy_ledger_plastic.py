@@ -118,8 +118,16 @@ XFAIL = {("sand_ball", 32): "the untraced term ends at -2.60 % (worst 2.62 %), b
 # the snow block (+6.83 % / +6.03 % at n_grid 32 / 48 in round 56: snow's hardening outrunning the step) closes
 # since round 57's step from the state (gasp_core.mpm.state_step): +1.99 % / +1.46 %, both engines; the fixed
 # step's figure is test_catch_the_fixed_step_gains_on_the_snow_block's
+# round 58: the snow step's neighbours (energy_ledger_plastic.BODIES: a snow column at 4 m/s, a snow ball at 5 m/s, a
+# 20 x 20 x 3 cm slab landing flat at 3 m/s), bodies the step was not built on; the slab misses the gate
+XFAIL.update({("snow_slab", g): f"the untraced term ends at {end} (worst {worst}), both engines: the landing's step "
+              "error, first order in the step (n_grid 32, first frame: +3.65 % at cfl 0.4, +1.50 % at 0.2, +0.67 % at "
+              "0.1); the flat 3 m/s landing of a slab 1.6 cells thick, the state's step stable (docs/fracture.md "
+              "\"Round 58: the snow step's neighbours\")" for g, end, worst in ((32, "+3.62 %", "4.64 %"),
+                                                                              (48, "+2.50 %", "2.96 %"))})
 FAMILY = [pytest.param(b, g, marks=[pytest.mark.xfail(strict=True, reason=XFAIL[b, g])] if (b, g) in XFAIL else [])
-          for b in ("sand_column", "sand_block", "sand_ball", "snow_ball", "snow_block") for g in (32, 48)]
+          for b in ("sand_column", "sand_block", "sand_ball", "snow_ball", "snow_block", "snow_column",
+                    "snow_ball_fast", "snow_slab") for g in (32, 48)]
 
 
 @pytest.mark.slow
@@ -158,13 +166,15 @@ def test_catch_a_ledger_told_moduli_5_percent_high(body, engine):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("engine", ENGINES)
-def test_catch_the_fixed_step_gains_on_the_snow_block(engine, monkeypatch):
+@pytest.mark.parametrize("body", ["snow_block", "snow_column", "snow_ball_fast"])
+def test_catch_the_fixed_step_gains_on_the_snow_block(engine, body, monkeypatch):
     """Round 57's catch (``gasp_core.mpm.state_step``): with the step chosen once from the materials' constants (round
     56's rule: the state's step switched off) the snow block at n_grid 32 gains +6.83 % of its energy untraced (worst
-    7.41 %, both engines), over the gate its state-stepped run closes within."""
+    7.41 %, both engines), over the gate its state-stepped run closes within; round 58: the neighbours the state's
+    step closes too, the snow column +13.70 % and the fast snow ball +23.90 % (taichi_mpm)."""
     import gasp_core.mpm.state_step as state_step
     from energy_ledger_plastic import run
     monkeypatch.setattr(state_step, "applies", lambda setup, opts: False)
-    r = run("snow_block", engine, 32)
+    r = run(body, engine, 32)
     assert r["frames"] == [r["frames"][0]] * 3, r["frames"]   # one step for the run, the setup's
     assert failures(r) and r["untraced_end"] > CLOSE_END * r["E0"], (r["untraced_end"] / r["E0"], failures(r))
