@@ -108,7 +108,8 @@ def contact_model(setup) -> str:
     """The contact a setup runs with: its option ``contact``. ``"particle"`` and ``"grid"`` mean the whole scene.
     ``"auto"`` (the default) is chosen per body (issue 38 item 3, ``docs/contact.md`` "Chosen per body"): a body whose
     material flows (:data:`FLOWING`: the grid contact's spreading of a sand column matches Lube et al. 2005 within
-    12 %, the particle contact's within 29 %) takes the grid contact, every other body the particle contact (since
+    12 %, the particle contact's within 29 %; round 58, in the conformance column's channel: -20 % and, the walls'
+    floor no longer halving the ground's friction (:func:`wall_faces`), -55 %) takes the grid contact, every other body the particle contact (since
     its balance an E 1e6 ball rests within 0.14 mm, a figure on two legs at 1.4e6 Pa stands; on the grid contact the
     ball rolled 74 mm). Returns ``"particle"`` when no body flows, ``"grid"`` when every body does, else ``"mixed"``
     (:func:`flowing_bodies` says which bodies take which). Round 51 (``docs/contact.md`` "Round 51: a rigid body on
