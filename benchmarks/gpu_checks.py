@@ -15,6 +15,13 @@
    the slab and the block landing on the slope (its landing's friction over ``mu`` times its normal impulse; round
    52's ``"body"`` bound, its pool summed by rows): each figure and its check.
 
+6. Round 59, a regression look after rounds 53-58 (no GPU lent since round 52): the walls' floor under a ground
+   (``tests/test_walls_floor.py``'s slab, round 58), snow's state clock (``benchmarks/energy_ledger_plastic.py``'s
+   snow block and slab: each frame's substeps and the ledger's untraced end, round 57), the tension family's bar
+   L0.7 at n_grid 24 and 48 (``benchmarks/tension_family.py``: peak, place, work; issue 66) and the porcelain cup
+   of ``tests/test_cup_drop.py`` at 4.43 and 20 m/s (its fragments; the 20 m/s cup diverges on the CPU since round
+   55). Each routed to ``device`` by :func:`taichi_on`.
+
 Writes ``gpu_checks.json`` to ``--out``. (No ``from __future__ import annotations`` here: Taichi reads the kernels'
 annotations as types.) Usage on the device (``../shared/device``)::
 
@@ -192,18 +199,98 @@ def contact(device: str) -> dict:
     return out
 
 
+class taichi_on:
+    """Within the block every taichi_mpm engine built runs on ``device`` (its setup's ``options["device"]``)."""
+
+    def __init__(self, device: str):
+        self.device = device
+
+    def __enter__(self):
+        import dataclasses
+        from gasp_taichi_mpm.engine import TaichiMPMEngine
+        self.cls, self.init, device = TaichiMPMEngine, TaichiMPMEngine.__init__, self.device
+        init = self.init
+
+        def on_device(eng, setup):
+            init(eng, dataclasses.replace(setup, options={**(setup.options or {}), "device": device}))
+        TaichiMPMEngine.__init__ = on_device
+        return self
+
+    def __exit__(self, *exc):
+        self.cls.__init__ = self.init
+
+
+def walls_floor(device: str) -> dict:
+    """tests/test_walls_floor.py's slab (frictionless walls, ground mu 0.3) at the ground's three offsets: its slide
+    against Coulomb's, less 1 (the CPU: -0.30 % at each; tolerance 4 %)."""
+    sys.path.insert(0, str(ROOT / "tests"))
+    import test_walls_floor as wf
+    with taichi_on(device):
+        return {f"offset_{o:+g}": {"error": (err := wf.slide_error("taichi_mpm", o)), "met_4pc": abs(err) < 0.04}
+                for o in wf.OFFSETS}
+
+
+def snow(device: str) -> dict:
+    """Snow's state clock (round 57) on ``device``: the snow block and slab of benchmarks/energy_ledger_plastic.py at
+    n_grid 32, each frame's substeps (the CPU: 194, 202, 202 and 242, 241, 241) and the ledger's untraced end (the
+    CPU: +1.99 % and +3.62 % of E0) and gain (0)."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import energy_ledger_plastic as elp
+    out = {}
+    with taichi_on(device):
+        for body in ("snow_block", "snow_slab"):
+            r = elp.run(body, "taichi_mpm", 32)
+            out[body] = {"substeps": r["frames"], "untraced_end_pc": 100 * r["untraced_end"] / r["E0"],
+                         "untraced_worst_pc": 100 * r["untraced_worst"] / r["E0"], "gain": r["gain"],
+                         "seconds": round(r["seconds"], 1)}
+    return out
+
+
+def tension(device: str) -> dict:
+    """The tension family's bar L0.7 (the default tier's case) at n_grid 24 and 48 on ``device``: the peak nominal
+    stress over f_t, where it breaks, the work to separate over G_f (the must-show: 5 %, the gauge, 20 %)."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import tension_family as tf
+    sp, out = tf.FAMILY[1], {}
+    with taichi_on(device):
+        for n in (24, 48):
+            r = tf.run_case(sp, n, "taichi_mpm")
+            out[f"{sp.name}_n{n}"] = {"peak_vs_ft": r["peak"] / tf.FT - 1, "where": r["where"],
+                                      "work_vs_gf": r["work"] / tf.GF - 1}
+    return out
+
+
+def cup(device: str) -> dict:
+    """tests/test_cup_drop.py's porcelain cup (n_grid 80, 6 frames) at 4.43 and 20 m/s on ``device``: its fragments,
+    lowest point (mm) and whether the energy stays under the start's; or the error that stopped it."""
+    sys.path.insert(0, str(ROOT / "tests"))
+    import test_cup_drop as cd
+    out = {}
+    with taichi_on(device), tempfile.TemporaryDirectory() as tmp:
+        for speed in (4.43, 20.0):
+            try:
+                setup, xs, stats = cd.run_frames(cd.cup_scene(Path(tmp), "taichi_mpm", speed), "taichi_mpm")
+                e = cd.energies(setup, xs)
+                out[f"v{speed:g}"] = {"frames": len(xs) - 1, "fragments": stats.fragments[0]["fragments"]
+                                      if stats.fragments else 0, "lowest_mm": 1e3 * min(float(x[:, 2].min()) for x in xs),
+                                      "energy_over_start": float(e[1:].max() / e[0] - 1)}
+            except Exception as err:
+                out[f"v{speed:g}"] = {"error": f"{type(err).__name__}: {str(err)[:300]}"}
+    return out
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
     ap.add_argument("--device", default="cuda", choices=("cuda", "cpu"), help="cpu: a smoke run of the script")
-    ap.add_argument("--only", nargs="*", default=None, help="run only these sections (names as in the JSON)")
+    ap.add_argument("--only", nargs="*", default=None, help="run only these sections, in this order (names as in the JSON)")
     a = ap.parse_args(argv)
     a.out.mkdir(parents=True, exist_ok=True)
     doc = {}
-    for name, fn in (("primitives", primitives), ("slope", slope), ("rolling", rolling), ("donut_auto", donut_twice),
-                     ("contact", contact)):
-        if a.only is not None and name not in a.only:
-            continue
+    sections = {"primitives": primitives, "slope": slope, "rolling": rolling, "donut_auto": donut_twice,
+                "contact": contact, "walls_floor": walls_floor, "snow": snow, "tension": tension, "cup": cup}
+    for name in sections if a.only is None else a.only:   # --only: in its order (a timeout keeps the first ones)
+        fn = sections[name]
         t0 = time.perf_counter()
         try:
             doc[name] = fn(a.device)
