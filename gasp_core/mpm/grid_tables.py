@@ -202,6 +202,24 @@ def frame_table(setup, t_start: float, n_substeps: int, dt: float) -> np.ndarray
     return out.reshape(-1)
 
 
+
+def substep_table(setup, t: float, dt: float, size: int) -> np.ndarray:
+    """One substep's row of :func:`frame_table` (the substep ``[t, t + dt)``, s) as row 0 of an engine's time table of
+    ``size`` floats (the rest zero), float64, shape (size,): for a frame whose substeps the state chooses one at a
+    time (``gasp_core.mpm.state_step``), loaded before each with the table's substep index at 0.
+
+    Raises
+    ------
+    ValueError
+        ``size`` smaller than one row (``GridTables.width``).
+    """
+    row = frame_table(setup, t, 1, dt)
+    if size < len(row):
+        raise ValueError(f"substep_table: size {size} is smaller than one row of the time table ({len(row)} floats)")
+    out = np.zeros(size)
+    out[:len(row)] = row
+    return out
+
 def passive_span_mass(p_mass: np.ndarray, p_vol: np.ndarray) -> float:
     """The spanned passive gather's cutoff (kg cells^2): :data:`PASSIVE_SPAN_MOMENT` times the heaviest material
     point's mass (``p_mass`` over the rows with ``p_vol > 0``; shapes (n,), kg and m^3); 0 without material."""

@@ -15,9 +15,10 @@ substep (the landing compacts the snow within a frame), and where the state asks
 is cut into more substeps (never fewer within a frame; each frame starts again from its state).
 
 Where it acts (:func:`applies`): a scene with a snow body whose step is automatic (no option ``dt`` or
-``n_substeps``); the rest keep the setup's step and their bits. Not yet with rigid bodies, colliders, forces or
-impulses (their per-frame tables and rigid state are laid out for a fixed substep count) or the ``deterministic``
-option: these keep the setup's step.
+``n_substeps``); the rest keep the setup's step and their bits. With colliders, forces and impulses since round 59
+(each substep's row of their time table loaded before it, at the substep's own time and step). Not yet with rigid
+bodies (their per-frame state is laid out for a fixed substep count) or the ``deterministic`` option: these keep the
+setup's step.
 """
 from __future__ import annotations
 
@@ -26,19 +27,17 @@ from typing import Callable
 
 import numpy as np
 
-from gasp_core.mpm.grid_tables import grid_tables
 from gasp_core.mpm.rigid import rigid_mask
 from gasp_core.mpm.substeps import CFL, CFL_RULE, MAX_SUBSTEPS
 
 
 def applies(setup, opts) -> bool:
     """Whether the step of ``setup`` (the engines' step view) with the options ``opts`` follows its state (module
-    notes): a snow body, an automatic step, no rigid body, no colliders, forces or impulses, not deterministic."""
+    notes): a snow body, an automatic step, no rigid body, not deterministic (colliders, forces and impulses since
+    round 59: their time table loaded a substep at a time, ``gasp_core.mpm.grid_tables.substep_table``)."""
     if opts.get("dt") is not None or opts.get("n_substeps") is not None or opts.get("deterministic"):
         return False
-    if not any(m.name == "snow" for m in setup.materials) or rigid_mask(setup.materials).any():
-        return False
-    return not grid_tables(setup).any
+    return any(m.name == "snow" for m in setup.materials) and not rigid_mask(setup.materials).any()
 
 
 def snow_speed(m, jp_min: float) -> float:

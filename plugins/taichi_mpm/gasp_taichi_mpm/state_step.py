@@ -3,11 +3,13 @@
 reduction on the device (per body the smallest ``Jp``, the largest speed of a material point: :func:`state_reduce`,
 a top-level parallel loop of atomic mins) read back, and the step (the solver's ``dt`` field) follows snow's
 hardening. Such a frame runs ``MPMSolver.substeps(1)``'s substep one at a time (its passive points moved after each;
-no colliders, forces, impulses or rigid bodies there, ``gasp_core.mpm.state_step.applies``)."""
+with colliders, forces or impulses each substep's row of their time table loaded before it (round 59,
+``gasp_core.mpm.grid_tables.substep_table``); no rigid bodies there, ``gasp_core.mpm.state_step.applies``)."""
 
 import numpy as np
 import taichi as ti
 
+from gasp_core.mpm.grid_tables import substep_table
 from gasp_core.mpm.rigid import step_view
 from gasp_core.mpm.state_step import StateStep
 
@@ -49,7 +51,12 @@ class StateClock:
         """One frame, its substeps one by one as the state asks (:meth:`StateStep.begin`, :meth:`StateStep.after`)."""
         clock, s = self.clock, self.solver
         clock.begin()
+        t0 = self.frame * self.setup.frame_dt   # the frame's start (step_frame counts the frame after)
         while True:   # MPMSolver.substeps(1), the substep's index passed on (the block sort's SORT_EVERY)
+            if s.has_extras:   # colliders, forces, impulses: this substep's row of the time table
+                s.ex_tab.from_numpy(substep_table(self.setup, t0 + clock.elapsed, clock.dt,
+                                                  s.ex_tab.shape[0]).astype(s._ex_np))
+                s.ex_step[None] = 0
             s.p2g_substep(0, clock.done)
             s.grid_update()
             s.last_g2p(s._passive_at(1)[-1])

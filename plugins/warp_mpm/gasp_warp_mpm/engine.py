@@ -312,7 +312,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
             self.sim_time += self.setup.frame_dt
             return
         self.flags.zero_()
-        if self._ex_tables is not None:
+        if self._ex_tables is not None and not self.clock.on:   # the clock loads each substep's row (state_step.py)
             self._load_frame_table()
         if self.clock.on:
             self.clock_frame()

@@ -3,13 +3,15 @@
 reduction on the device (per body the smallest ``Jp``, the largest speed of a material point: atomic min and max,
 :func:`build_state_reduce`) read back, and the step follows snow's hardening. Such a frame runs its substeps one by one
 (no CUDA graph: their number is known only as they run), the passive points moved after every substep; the
-launches are recorded again when the step changes."""
+launches are recorded again when the step changes. With colliders, forces or impulses each substep's row of their
+time table is loaded before it (round 59, ``gasp_core.mpm.grid_tables.substep_table``)."""
 
 import functools
 
 import numpy as np
 import warp as wp
 
+from gasp_core.mpm.grid_tables import substep_table
 from gasp_core.mpm.rigid import step_view
 from gasp_core.mpm.state_step import StateStep
 
@@ -67,7 +69,12 @@ class StateClock:
         """One frame, its substeps one by one as the state asks (:meth:`StateStep.begin`, :meth:`StateStep.after`)."""
         clock = self.clock
         clock.begin()
+        t0 = (self.frame - 1) * self.setup.frame_dt   # the frame's start (step_frame counts the frame first)
         while True:
+            if self._ex_tables is not None:   # colliders, forces, impulses: this substep's row of the time table
+                self._ex.tab.assign(substep_table(self.setup, t0 + clock.elapsed, clock.dt,
+                                                  self._ex.tab.shape[0]).astype(self._np_dtype))
+                self._ex.step.zero_()
             self._substep(0)   # the launches recorded for one substep (_take_dt)
             if clock.after():
                 break
