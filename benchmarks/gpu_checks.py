@@ -20,7 +20,8 @@
    snow block and slab: each frame's substeps and the ledger's untraced end, round 57), the tension family's bar
    L0.7 at n_grid 24 and 48 (``benchmarks/tension_family.py``: peak, place, work; issue 66) and the porcelain cup
    of ``tests/test_cup_drop.py`` at 4.43 and 20 m/s (its fragments; the 20 m/s cup diverges on the CPU since round
-   55). Each routed to ``device`` by :func:`taichi_on`.
+   55); the state's clock beside colliders and impulses (``snow_extras``, round 59). Each routed to ``device`` by
+   :func:`taichi_on`.
 
 Writes ``gpu_checks.json`` to ``--out``. (No ``from __future__ import annotations`` here: Taichi reads the kernels'
 annotations as types.) Usage on the device (``../shared/device``)::
@@ -279,6 +280,27 @@ def cup(device: str) -> dict:
     return out
 
 
+def snow_extras(device: str) -> dict:
+    """Round 59's clock beside colliders and impulses on ``device`` (tests/test_state_step_extras.py): the compacted
+    snow block's substeps beside a static collider (the CPU's count), and the impulse's x-momentum after frames 1
+    and 2 over its own (0 and 1 within 1e-5)."""
+    sys.path.insert(0, str(ROOT / "tests"))
+    import test_state_step_extras as tx
+    out = {}
+    with taichi_on(device):
+        e = tx.compacted("taichi_mpm", tx.with_extras(tx.block(), "static collider"))
+        try:
+            e.step_frame()
+            out["substeps_beside_collider"] = e.stats()["n_substeps"]
+        finally:
+            e.close()
+        out["impulse_frames_1_2"] = tx.impulse_momentum("taichi_mpm")
+    f1, f2 = out["impulse_frames_1_2"]
+    out["met"] = abs(f1) < 1e-5 and abs(f2 - 1.0) < 1e-5 and out["substeps_beside_collider"] >= tx.expected_substeps(
+        tx.block(), 0.7)
+    return out
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
@@ -288,7 +310,8 @@ def main(argv=None) -> int:
     a.out.mkdir(parents=True, exist_ok=True)
     doc = {}
     sections = {"primitives": primitives, "slope": slope, "rolling": rolling, "donut_auto": donut_twice,
-                "contact": contact, "walls_floor": walls_floor, "snow": snow, "tension": tension, "cup": cup}
+                "contact": contact, "walls_floor": walls_floor, "snow": snow, "tension": tension, "cup": cup,
+                "snow_extras": snow_extras}
     for name in sections if a.only is None else a.only:   # --only: in its order (a timeout keeps the first ones)
         fn = sections[name]
         t0 = time.perf_counter()
