@@ -367,7 +367,7 @@ def allocate_balance(engine, planes: list, Ft, n_sup: int = 1) -> None:
     supports and list. No particle contact (``planes`` empty and ``n_sup`` 1), or ``contact_balance = false``: zero
     bodies, no balance."""
     import numpy as np
-    from gasp_core.mpm.contact import contact_reach, JSUMS, SUMS
+    from gasp_core.mpm.contact import balance_mass, contact_reach, JSUMS, SUMS
     setup, d = engine.setup, engine.device
     reach = contact_reach(setup) if planes or n_sup > 1 else np.zeros(0)
     nb = len(reach)
@@ -380,7 +380,8 @@ def allocate_balance(engine, planes: list, Ft, n_sup: int = 1) -> None:
     engine.c_jsums = wp.array(jsums, dtype=f64, device=d)
     engine.c_shift = wp.zeros((nb, 12), dtype=f64, device=d)
     engine.c_reach = wp.array(reach, dtype=f64, device=d)
-    mass = np.bincount(np.asarray(setup.body_id), weights=np.asarray(setup.p_mass), minlength=nb)[:nb]
+    # round 59: 0 for a body whose material flows, which the balance leaves alone (gasp_core.mpm.contact.balance_mass)
+    mass = balance_mass(setup)[:nb] if nb else np.zeros(0)
     engine.c_mass = wp.array(mass.astype(np.float64), dtype=f64, device=d)
     n_nodes = engine.n_grid ** 3 if nb else 1
     engine.grid_fbody = wp.array(np.full(n_nodes, -1, np.int32), dtype=wp.int32, device=d)
