@@ -28,6 +28,8 @@ with the particle contact + the walls' faces):
   beyond the pushed points' box (a body over its edge tips over); the sums and lists cleared. On the ground
   (``n = +z``) these are the steps before issue 38 item 2. With the two-field contact, a listed node where the
   fields keep their offsets gives the change to field B alone (``gasp_core.mpm.fields.B_BALANCE``, round 43).
+  A body whose material flows (sand, snow, liquid) has no rigid motion: its mass here is 0 and ``body_fix`` leaves
+  it alone (``gasp_core.mpm.contact.balance_mass``, docs/contact.md "Round 59: the balance on a flowing body").
 
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of the closures below
 as type objects.
