@@ -339,6 +339,34 @@ def ground_node_layer(contact: str, height: float, domain_lo_z: float, dx: float
     return top if contact == "grid" else top - GRID_LAYERS_BELOW
 
 
+#: Round 59 (docs/contact.md "Round 59: the balance on a flowing body"): whether the contact's balance acts on a body
+#: whose material flows (:data:`FLOWING`). False (the rule): it does not; True restores the rule before round 59
+#: (a probe, and the catch of ``tests/test_flow_balance.py``). Read by :func:`balance_mass` when an engine is built.
+BALANCE_FLOWING = False
+
+
+def balance_mass(setup) -> np.ndarray:
+    """Per body, the mass (kg) the contact's balance reads for its Coulomb target (``m`` of ``min(mu J, m |u_t|)``);
+    0 switches the balance off for that body (the engines' ``body_fix`` acts only where it is positive). Shape
+    (n_materials,), float64.
+
+    Round 59 (docs/contact.md "Round 59: the balance on a flowing body"): a body whose material flows
+    (:data:`FLOWING`: sand, snow, liquid) gets 0 unless :data:`BALANCE_FLOWING`. The balance makes a body's net
+    friction Coulomb's on its rigid motion (its mean velocity and spin at the centre of pressure) with the budget of
+    all its contact points; a flowing body has no rigid motion: in a collapsing sand column the part under the column
+    stands still while the front slides, and the balance gave the front the standing part's unused budget (the
+    column at a = 2, n_grid 32, particle contact: runout -58.4 % against Lube with it, -47.7 % without it; a
+    thrown sand block beside a resting one of the same body stops short of Coulomb's travel). Its friction is then
+    each node's own Coulomb bound (``mu`` times the normal impulse its points took), as for the grid contact."""
+    body = np.asarray(setup.body_id, dtype=np.int64)
+    mass = np.bincount(body, weights=np.asarray(setup.p_mass, dtype=np.float64), minlength=len(setup.materials))
+    mass = mass[:len(setup.materials)].astype(np.float64)
+    if not BALANCE_FLOWING:
+        flows = np.array([m.name in FLOWING for m in setup.materials], dtype=bool)
+        mass[flows] = 0.0
+    return mass
+
+
 def contact_reach(setup) -> np.ndarray:
     """Per body, the lever (m) up to which the contact's balance takes its contact torque back: ``REACH`` times the
     median spacing ``p_vol^(1/3)`` of its points (0 for a body without volume). Shape (n_materials,), float64;

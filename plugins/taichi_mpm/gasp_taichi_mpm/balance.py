@@ -17,7 +17,9 @@ force and torque made those of a smooth contact.
 - ``contact_fix`` in the grid update, before the held boxes' holds (round 56): per body, the velocity change
   ``dv + alpha x (X - x_m)`` of its listed nodes that makes the friction's net force Coulomb's on the body's rigid
   motion at its centre of pressure and takes back the contact's torque about ``c`` up to ``J reach``, unless ``c``
-  lies more than ``reach`` beyond the pushed points' box.
+  lies more than ``reach`` beyond the pushed points' box. A body whose material flows (sand, snow, liquid) has no
+  rigid motion: its mass here is 0 and ``body_fix`` leaves it alone (``gasp_core.mpm.contact.balance_mass``,
+  docs/contact.md "Round 59: the balance on a flowing body").
 
 On the GPU schedule (:mod:`gasp_taichi_mpm.schedule`) the same sums run with every loop parallel: the moments over
 slices of ``m_slice`` points (:func:`gasp_taichi_mpm.schedule.primitives.slice_points`) summed by a fixed tree (:meth:`gasp_taichi_mpm.balance_gpu.BalanceGPU.contact_moments_gpu`), and the fix

@@ -11,8 +11,8 @@ from typing import Any
 
 import numpy as np
 
-from gasp_core.mpm.contact import (contact_coefficients, contact_model, contact_planes, contact_reach,
-                                      flowing_bodies, rule_models, touch_dashpot_speed)
+from gasp_core.mpm.contact import (balance_mass, contact_coefficients, contact_model, contact_planes, contact_reach,
+                                   flowing_bodies, rule_models, touch_dashpot_speed)
 from gasp_core.mpm.fields import field_setup, shared_field_warning
 from gasp_core.mpm.grid_engine import choose_dt, GridEngineBase, transfer_alpha
 from gasp_core.mpm.materials import JELLY, initial_Jp, material_table
@@ -187,7 +187,7 @@ class TaichiMPMEngine(GridEngineBase, StateClock):
             contact_reach=contact_reach(setup), gpu=self.schedule == "gpu",
             tiles=self.schedule == "gpu" and self.device == "cuda" and use_tiles(cfg.p2g, self.n_material),
             deterministic=cfg.deterministic, sort_every=cfg.tile_sort_every,
-            body_mass=np.bincount(setup.body_id, weights=setup.p_mass, minlength=len(setup.materials)),
+            body_mass=balance_mass(setup),   # round 59: 0 for a flowing body, which the balance leaves alone
             touch_speed=touch_dashpot_speed(setup, MPMSolver.touch_damping), **self._extras(setup))
         self._rigid_extras(setup, flowing_bodies(view, contact), rigid.any())
         self._p2g_mode = ("tiles" if self.solver.tiles else "atomic" if atomic else "coloured blocks") + \

@@ -28,6 +28,8 @@ with the particle contact + the walls' faces):
   beyond the pushed points' box (a body over its edge tips over); the sums and lists cleared. On the ground
   (``n = +z``) these are the steps before issue 38 item 2. With the two-field contact, a listed node where the
   fields keep their offsets gives the change to field B alone (``gasp_core.mpm.fields.B_BALANCE``, round 43).
+  A body whose material flows (sand, snow, liquid) has no rigid motion: its mass here is 0 and ``body_fix`` leaves
+  it alone (``gasp_core.mpm.contact.balance_mass``, docs/contact.md "Round 59: the balance on a flowing body").
 
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of the closures below
 as type objects.
@@ -367,7 +369,7 @@ def allocate_balance(engine, planes: list, Ft, n_sup: int = 1) -> None:
     supports and list. No particle contact (``planes`` empty and ``n_sup`` 1), or ``contact_balance = false``: zero
     bodies, no balance."""
     import numpy as np
-    from gasp_core.mpm.contact import contact_reach, JSUMS, SUMS
+    from gasp_core.mpm.contact import balance_mass, contact_reach, JSUMS, SUMS
     setup, d = engine.setup, engine.device
     reach = contact_reach(setup) if planes or n_sup > 1 else np.zeros(0)
     nb = len(reach)
@@ -380,7 +382,8 @@ def allocate_balance(engine, planes: list, Ft, n_sup: int = 1) -> None:
     engine.c_jsums = wp.array(jsums, dtype=f64, device=d)
     engine.c_shift = wp.zeros((nb, 12), dtype=f64, device=d)
     engine.c_reach = wp.array(reach, dtype=f64, device=d)
-    mass = np.bincount(np.asarray(setup.body_id), weights=np.asarray(setup.p_mass), minlength=nb)[:nb]
+    # round 59: 0 for a body whose material flows, which the balance leaves alone (gasp_core.mpm.contact.balance_mass)
+    mass = balance_mass(setup)[:nb] if nb else np.zeros(0)
     engine.c_mass = wp.array(mass.astype(np.float64), dtype=f64, device=d)
     n_nodes = engine.n_grid ** 3 if nb else 1
     engine.grid_fbody = wp.array(np.full(n_nodes, -1, np.int32), dtype=wp.int32, device=d)
