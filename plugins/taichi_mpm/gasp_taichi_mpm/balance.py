@@ -60,28 +60,32 @@ def inertia_of(m, first, xx, xy, xz, yy, yz, zz):
 
 
 @ti.func
-def closing_bound(dF, alpha, inertia, Mc, u):
+def closing_bound(dF, alpha, inertia, Mc, u, dv_j):
     """The factor (1 at most) on a support's fix that bounds it by the pair's closing motion (round 59; warp_mpm's
     ``closing_bound``; ``docs/fracture.md`` "Round 59: the cup at 20 m/s").
 
     The fix ``dv + alpha x (X - x_m)`` (``dv = dF / Mc``) is the contact's own impulse redistributed (its friction
-    made Coulomb's on the body's rigid motion, its normal impulse's centre moved within the reach): an exchange of
-    momentum between the body and its support at their contact. Such an exchange brings the two sides' velocities
-    together; it cannot give the body's contact nodes a velocity change larger than the speed ``|u|`` at which the
-    pair meets there (``u``: the body's rigid velocity relative to the support at its centre of pressure, with this
-    substep's gravity), or it makes motion rather than taking it. Its mass-weighted mean square over the listed
-    nodes is exactly ``|dF|^2 / Mc^2 + alpha . I alpha / Mc`` (``I`` their inertia about ``x_m``: the cross term
-    ``dv . alpha x sum m (X - x_m)`` is 0), so the factor is ``min(1, |u| / rms)``, on ``dv`` and ``alpha`` alike
-    (the fix's shape kept): the fix gives the listed nodes at most the kinetic energy ``Mc |u|^2 / 2``. A support
-    whose listed nodes are light (the push key leaves it the fringe of its points' stencils, the heavier rows
-    around it keeping the rest: 1e-6 to 2e-4 kg on the cup's fragments) took the whole body's correction, ``J``'s
-    torque up to ``J reach TORQUE_REACH``, on that mass: 70 to 915 m/s at 20 m/s. f64; ``dF`` (kg m/s, 3),
-    ``alpha`` (1/s, 3), ``inertia`` (kg m^2, 3x3), ``Mc`` (kg), ``u`` (m/s, 3)."""
+    made Coulomb's on the body's rigid motion, its normal impulse's centre moved within the reach): momentum
+    exchanged between the body and its support at their contact, which brings the two sides together. Over the
+    substep the pair's relative speed there is at most ``|u| + dv_j``: ``u`` the body's rigid velocity relative to
+    the support at its centre of pressure with this substep's gravity (how fast they meet), ``dv_j = J / mass`` what
+    the support's normal impulse takes out of the body's speed (at rest the weight's ``g dt``, which ``u`` alone
+    lacks: a resting body's ``u`` is near 0). The fix may not move the body's contact nodes faster than that, or it
+    makes motion instead of taking it: its mass-weighted mean square over the listed nodes, exactly
+    ``|dF|^2 / Mc^2 + alpha . I alpha / Mc`` (``I`` their inertia about ``x_m``; the cross term
+    ``dv . alpha x sum m (X - x_m)`` is 0), is held to ``(|u| + dv_j)^2`` by one factor on ``dv`` and ``alpha``
+    alike (the fix's shape kept; its kinetic energy on the listed nodes at most ``Mc (|u| + dv_j)^2 / 2``).
+
+    Why it is needed: a support whose listed nodes are light (the push key, ``gasp_core.mpm.contact_mark``, leaves it
+    the fringe of its points' stencils, the rows that push harder keeping the rest) took the whole body's
+    correction, its torque up to ``J reach TORQUE_REACH``, on that mass: on the cup's fragments at 20 m/s 1e-6 to
+    2e-4 kg moved by 70 to 915 m/s, and the run diverged. f64: ``dF`` (kg m/s, 3), ``alpha`` (1/s, 3), ``inertia``
+    (kg m^2, 3x3), ``Mc`` (kg), ``u`` (m/s, 3), ``dv_j`` (m/s); returns the factor, in (0, 1]."""
     ms = dF.dot(dF) / (Mc * Mc) + alpha.dot(inertia @ alpha) / Mc
-    lu = u.norm()
+    cap = u.norm() + dv_j
     k = ti.cast(1.0, ti.f64)
-    if ms > lu * lu:
-        k = lu / ti.sqrt(ms)
+    if ms > cap * cap:
+        k = cap / ti.sqrt(ms)
     return k
 
 
@@ -352,7 +356,7 @@ class Balance:
             alpha = ti.Vector.zero(ti.f64, 3)
             if inertia.determinant() > 1.0e-12 * inertia.trace() ** 3:
                 alpha = -(inertia.inverse() @ th)
-            k = closing_bound(dF, alpha, inertia, Mc, u)
+            k = closing_bound(dF, alpha, inertia, Mc, u, J / mass)
             dF *= k
             alpha *= k
             for q in ti.static(range(3)):

@@ -314,16 +314,17 @@ def support_dv(fr_sums: wp.array2d(dtype=f64), s: int, X: v64):
 
 
 @wp.func
-def closing_bound(dF: v64, alpha: v64, inertia: m64, Mc: f64, u: v64):
+def closing_bound(dF: v64, alpha: v64, inertia: m64, Mc: f64, u: v64, dv_j: f64):
     # the factor (1 at most) on a support's fix that bounds it by the pair's closing motion (round 59; taichi_mpm's
     # balance.closing_bound has the reason): the fix's mass-weighted root mean square velocity change over the listed
-    # nodes, sqrt(|dF|^2 / Mc^2 + alpha . I alpha / Mc) (I their inertia about x_m), at most |u|, the speed at
-    # which the body (rigid, at its centre of pressure, with this substep's gravity) meets its support
+    # nodes, sqrt(|dF|^2 / Mc^2 + alpha . I alpha / Mc) (I their inertia about x_m), at most |u| + dv_j: the speed
+    # u at which the body (rigid, at its centre of pressure, with this substep's gravity) meets its support, and
+    # dv_j = J / mass, what the support's normal impulse takes out of the body's speed this substep
     ms = wp.dot(dF, dF) / (Mc * Mc) + wp.dot(alpha, inertia * alpha) / Mc
-    lu = wp.length(u)
+    cap = wp.length(u) + dv_j
     k = f64(1.0)
-    if ms > lu * lu:
-        k = lu / wp.sqrt(ms)
+    if ms > cap * cap:
+        k = cap / wp.sqrt(ms)
     return k
 
 
@@ -368,7 +369,7 @@ def body_fix(s: int, b: int, shift: wp.array2d(dtype=f64), jsums: wp.array2d(dty
         tr = wp.trace(inertia)
         if wp.determinant(inertia) > f64(1.0e-12) * tr * tr * tr:
             alpha = -(wp.inverse(inertia) * th)
-        k = closing_bound(dF, alpha, inertia, Mc, u)   # round 59: the fix bounded by the pair's closing motion
+        k = closing_bound(dF, alpha, inertia, Mc, u, J / mass)   # round 59: the fix bounded by the pair's closing motion
         dF = dF * k
         alpha = alpha * k
         for q in range(3):
