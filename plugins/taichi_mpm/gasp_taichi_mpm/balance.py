@@ -59,34 +59,36 @@ def inertia_of(m, first, xx, xy, xz, yy, yz, zz):
     return m * (S.trace() * ti.Matrix.identity(ti.f64, 3) - S)
 
 
-@ti.func
-def closing_bound(dF, alpha, inertia, Mc, u, dv_j):
-    """The factor (1 at most) on a support's fix that bounds it by the pair's closing motion (round 59; warp_mpm's
-    ``closing_bound``; ``docs/fracture.md`` "Round 59: the cup at 20 m/s").
+#: Columns of a support's ``fr_sums``: its nodes' terms (:data:`N_NODE_TERMS`), ``dv``, ``alpha``, ``x_m``, then the
+#: closing bound's ``u_m``, ``omega`` and ``J / M_p`` (:func:`closing_bound`, round 59).
+FR_COLUMNS = 33
 
-    The fix ``dv + alpha x (X - x_m)`` (``dv = dF / Mc``) is the contact's own impulse redistributed (its friction
-    made Coulomb's on the body's rigid motion, its normal impulse's centre moved within the reach): momentum
-    exchanged between the body and its support at their contact, which brings the two sides together. Over the
-    substep the pair's relative speed there is at most ``|u| + dv_j``: ``u`` the body's rigid velocity relative to
-    the support at its centre of pressure with this substep's gravity (how fast they meet), ``dv_j = J / mass`` what
-    the support's normal impulse takes out of the body's speed (at rest the weight's ``g dt``, which ``u`` alone
-    lacks: a resting body's ``u`` is near 0). The fix may not move the body's contact nodes faster than that, or it
-    makes motion instead of taking it: its mass-weighted mean square over the listed nodes, exactly
-    ``|dF|^2 / Mc^2 + alpha . I alpha / Mc`` (``I`` their inertia about ``x_m``; the cross term
-    ``dv . alpha x sum m (X - x_m)`` is 0), is held to ``(|u| + dv_j)^2`` by one factor on ``dv`` and ``alpha``
-    alike (the fix's shape kept; its kinetic energy on the listed nodes at most ``Mc (|u| + dv_j)^2 / 2``).
+
+@ti.func
+def closing_bound(dv, rig, dv_j):
+    """A listed node's fix ``dv`` (m/s, f64, 3) held to the pair's closing motion at the node (round 59; warp_mpm's
+    ``support_dv``; ``docs/fracture.md`` "Round 59: the cup at 20 m/s"): at most ``|rig| + dv_j``, the same
+    direction.
+
+    The fix ``dv + alpha x (X - x_m)`` is the contact's own impulse redistributed (its friction made Coulomb's on the
+    body's rigid motion, its normal impulse's centre moved within the reach): momentum exchanged between the body and
+    its support where they touch, which brings the two together. Over the substep the pair's relative speed at a
+    node is at most ``|rig| + dv_j``: ``rig`` the body's rigid velocity relative to the support at the node (``V +
+    omega x (X - c)`` with this substep's gravity, less the support's velocity; m/s, 3), ``dv_j = J / M_p`` (m/s) the
+    velocity change the support's normal impulse ``J`` gives the points it pushes (mass ``M_p``; at rest the
+    weight's share, where ``rig`` is near 0). A redistribution of that contact cannot move a node faster than the
+    pair meets there, or it makes motion instead of taking it: no node takes a velocity the body never had.
 
     Why it is needed: a support whose listed nodes are light (the push key, ``gasp_core.mpm.contact_mark``, leaves it
     the fringe of its points' stencils, the rows that push harder keeping the rest) took the whole body's
-    correction, its torque up to ``J reach TORQUE_REACH``, on that mass: on the cup's fragments at 20 m/s 1e-6 to
-    2e-4 kg moved by 70 to 915 m/s, and the run diverged. f64: ``dF`` (kg m/s, 3), ``alpha`` (1/s, 3), ``inertia``
-    (kg m^2, 3x3), ``Mc`` (kg), ``u`` (m/s, 3), ``dv_j`` (m/s); returns the factor, in (0, 1]."""
-    ms = dF.dot(dF) / (Mc * Mc) + alpha.dot(inertia @ alpha) / Mc
-    cap = u.norm() + dv_j
-    k = ti.cast(1.0, ti.f64)
-    if ms > cap * cap:
-        k = cap / ti.sqrt(ms)
-    return k
+    correction, its torque up to ``J reach TORQUE_REACH``, on that mass: on the cup's fragments at 20 m/s listed
+    masses of 1e-7 to 1e-3 kg were moved by 140 m/s to 2e8 m/s (root mean square), and the run diverged."""
+    cap = rig.norm() + dv_j
+    out = dv
+    l = dv.norm()
+    if l > cap:
+        out = dv * (cap / l)
+    return out
 
 
 class Balance:
@@ -109,7 +111,7 @@ class Balance:
         ng = self.n_grid if nb else 1
         self.grid_fbody = ti.field(ti.i32, shape=(ng, ng, ng))
         self.grid_ff = ti.Vector.field(5, self.real, shape=(ng, ng, ng))   # a contact node's friction, mass, budget
-        self.fr_sums = ti.field(ti.f64, shape=(max(ns, 1), 26))
+        self.fr_sums = ti.field(ti.f64, shape=(max(ns, 1), FR_COLUMNS))
         self.fr_nodes = ti.Vector.field(3, ti.i32, shape=1 + (min(ng ** 3, 8 * ng * ng * max(1, self.n_planes
                                                                                                + self.n_colc))
                                                               if nb else 0))
@@ -163,11 +165,11 @@ class Balance:
     @ti.func
     def clear_box(self, s):
         """Support s's contact sums cleared, its box of pushed points inverted."""
-        for q in ti.static(range(13)):
+        for q in ti.static(range(14)):
             self.c_jsums[s, q] = 0.0
         for d in ti.static(range(3)):
-            self.c_jsums[s, 13 + 2 * d] = 1.0e30
-            self.c_jsums[s, 14 + 2 * d] = -1.0e30
+            self.c_jsums[s, 14 + 2 * d] = 1.0e30
+            self.c_jsums[s, 15 + 2 * d] = -1.0e30
 
     @ti.kernel
     def clear_boxes(self):
@@ -185,6 +187,7 @@ class Balance:
             jv = j * ti.cast(n, ti.f64)
             mn = x.cross(jv)
             v = j * ti.cast(vc, ti.f64)
+            mp = ti.cast(self.p_mass[p], ti.f64)   # the pushed points' mass (round 59: closing_bound)
             if ti.static(self.fixed_point):   # deterministic: the sums in fixed point (schedule/fixed.py)
                 self.add_support_fixed(s, 0, j)
                 for q in ti.static(range(3)):
@@ -192,6 +195,7 @@ class Balance:
                     self.add_support_fixed(s, 4 + q, jv[q])
                     self.add_support_fixed(s, 7 + q, mn[q])
                     self.add_support_fixed(s, 10 + q, v[q])
+                self.add_support_fixed(s, 13, mp)
             else:
                 ti.atomic_add(self.c_jsums[s, 0], j)
                 for q in ti.static(range(3)):
@@ -199,9 +203,10 @@ class Balance:
                     ti.atomic_add(self.c_jsums[s, 4 + q], jv[q])
                     ti.atomic_add(self.c_jsums[s, 7 + q], mn[q])
                     ti.atomic_add(self.c_jsums[s, 10 + q], v[q])
+                ti.atomic_add(self.c_jsums[s, 13], mp)
             for q in ti.static(range(3)):
-                ti.atomic_min(self.c_jsums[s, 13 + 2 * q], x[q])
-                ti.atomic_max(self.c_jsums[s, 14 + 2 * q], x[q])
+                ti.atomic_min(self.c_jsums[s, 14 + 2 * q], x[q])
+                ti.atomic_max(self.c_jsums[s, 15 + 2 * q], x[q])
 
     @ti.func
     def mark_contact_nodes(self, base, w, jvec, sup):
@@ -286,8 +291,8 @@ class Balance:
         tmax = ti.cast(1.0e30, ti.f64)
         out = False
         for d in ti.static(range(3)):
-            lo = self.c_jsums[s, 13 + 2 * d] - reach
-            hi = self.c_jsums[s, 14 + 2 * d] + reach
+            lo = self.c_jsums[s, 14 + 2 * d] - reach
+            hi = self.c_jsums[s, 15 + 2 * d] + reach
             if ti.abs(nb[d]) < 1.0e-9:
                 if c[d] < lo or c[d] > hi:
                     out = True
@@ -316,7 +321,9 @@ class Balance:
 
     @ti.func
     def body_fix(self, s):
-        """Support s's ``dv``, ``alpha`` and ``x_m`` into ``fr_sums[s, 17:26]`` (warp_mpm's ``body_fix``)."""
+        """Support s's ``dv``, ``alpha`` and ``x_m`` into ``fr_sums[s, 17:26]``, and what :func:`closing_bound` needs,
+        the rigid relative velocity ``u_m`` at ``x_m``, the spin and ``J / M_p``, into ``fr_sums[s, 26:33]`` (warp_mpm's
+        ``body_fix``)."""
         b = s // self.n_sup
         Mc = self.fr_sums[s, 3]
         mass = self.c_mass[b]
@@ -356,17 +363,23 @@ class Balance:
             alpha = ti.Vector.zero(ti.f64, 3)
             if inertia.determinant() > 1.0e-12 * inertia.trace() ** 3:
                 alpha = -(inertia.inverse() @ th)
-            k = closing_bound(dF, alpha, inertia, Mc, u, J / mass)
-            dF *= k
-            alpha *= k
+            Mp = self.c_jsums[s, 13]   # the pushed points' mass
+            dv_j = ti.cast(0.0, ti.f64)
+            if Mp > 0.0:
+                dv_j = J / Mp
+            omega = ti.Vector([self.c_shift[b, 6], self.c_shift[b, 7], self.c_shift[b, 8]], ti.f64)
+            um = u + omega.cross(xm - xcp)   # the rigid relative velocity at x_m (closing_bound)
             for q in ti.static(range(3)):
                 self.fr_sums[s, 17 + q] = dF[q] / Mc
                 self.fr_sums[s, 20 + q] = alpha[q]
                 self.fr_sums[s, 23 + q] = xm[q]
+                self.fr_sums[s, 26 + q] = um[q]
+                self.fr_sums[s, 29 + q] = omega[q]
+            self.fr_sums[s, 32] = dv_j
 
     @ti.func
     def apply_fix(self, I):
-        """A listed node moved by its support's ``dv + alpha x (X - x_m)``, given to field B alone where the grid
+        """A listed node moved by its support's ``dv + alpha x (X - x_m)`` (held to :func:`closing_bound`), given to field B alone where the grid
         update kept the node's flowing-mass fraction in ``grid_mf`` (``gasp_core.mpm.fields.B_BALANCE``,
         :meth:`Fields.field_friction`); its mark (and that) cleared."""
         b = self.grid_fbody[I]
@@ -375,6 +388,10 @@ class Balance:
             dv = ti.Vector([self.fr_sums[b, 17], self.fr_sums[b, 18], self.fr_sums[b, 19]], ti.f64) + ti.Vector(
                 [self.fr_sums[b, 20], self.fr_sums[b, 21], self.fr_sums[b, 22]], ti.f64).cross(
                 X - ti.Vector([self.fr_sums[b, 23], self.fr_sums[b, 24], self.fr_sums[b, 25]], ti.f64))
+            rig = ti.Vector([self.fr_sums[b, 26], self.fr_sums[b, 27], self.fr_sums[b, 28]], ti.f64) + ti.Vector(
+                [self.fr_sums[b, 29], self.fr_sums[b, 30], self.fr_sums[b, 31]], ti.f64).cross(
+                X - ti.Vector([self.fr_sums[b, 23], self.fr_sums[b, 24], self.fr_sums[b, 25]], ti.f64))
+            dv = closing_bound(dv, rig, self.fr_sums[b, 32])
             self.grid_v[I] += ti.cast(dv, self.real)
             if ti.static(self.b_friction and self.mixed and self.field_rule // 4 % 2 != 0):
                 f = self.grid_mf[I]

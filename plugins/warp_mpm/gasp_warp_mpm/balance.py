@@ -10,7 +10,7 @@ with the particle contact + the walls' faces):
   and angular momentum into ``sums`` (float64, shape (n_bodies, 16), columns
   :data:`gasp_core.mpm.contact.SUMS`); each support's normal impulse on it (along the support's normal),
   the impulse's moments and the support's velocity there, and the box of the pushed points, into ``jsums`` (shape
-  (n_bodies n_sup, 19), :data:`gasp_core.mpm.contact.JSUMS`);
+  (n_bodies n_sup, 20), :data:`gasp_core.mpm.contact.JSUMS`; the pushed points' mass among them);
 - ``contact_shift`` (one thread a body): the body's mass centre ``c``, rigid velocity ``V`` and spin ``omega`` into
   ``shift`` (shape (n_bodies, 12): with its angular momentum about ``c``); ``sums`` cleared;
 - in P2G, a point with a normal impulse marks its 27 nodes with the row of the support that pushes it most
@@ -18,7 +18,7 @@ with the particle contact + the walls' faces):
   ``gasp_core.mpm.contact_mark``'s key, so the same on any point order or device);
 - ``balance_node`` (a function of the grid update, at each marked node after its friction): the node's friction
   impulse, its moment, the node's mass and moments and its friction budget, into ``fr_sums`` (shape
-  (n_bodies n_sup, 26)); the node listed in ``fr_nodes`` (``fr_nodes[0]`` counts them);
+  (n_bodies n_sup, FR_COLUMNS)); the node listed in ``fr_nodes`` (``fr_nodes[0]`` counts them);
 - ``contact_fix`` (the cpu schedule's one thread, :mod:`gasp_warp_mpm.schedule.ordered`; the gpu schedule's
   ``fix_supports``, ``fix_nodes``, ``fix_clear``, :mod:`gasp_warp_mpm.schedule.gpu_balance`): per support, with its
   mean normal ``n`` (``sum j n`` normalised), the change ``dv + alpha x (X - x_m)`` of its listed nodes' velocities
@@ -45,8 +45,9 @@ from .forces import build_extras_struct
 from .precision import MODULE_OPTIONS, build_types
 
 #: Columns of ``fr_sums``: friction force (3), contact nodes' mass (1), mass moments (3 + 6), friction's moment
-#: about the origin (3), friction budget (1), then the per-body results dv (3), alpha (3), x_m (3).
-FR_COLUMNS = 26
+#: about the origin (3), friction budget (1), then the per-body results dv (3), alpha (3), x_m (3), and the closing
+#: bound's u_m (3), omega (3), J / M_p (1) (``support_dv``, round 59).
+FR_COLUMNS = 33
 #: ``gasp_core.mpm.contact.TORQUE_REACH`` for the kernels.
 TORQUE_CLIP = wp.constant(TORQUE_REACH)
 
@@ -122,18 +123,19 @@ def build_balance(Ft):
 
 
 @wp.func
-def add_contact(jsums: wp.array2d(dtype=f64), s: int, j: f64, r: v64, n: v64, vc: v64):
-    # a point's normal impulse j along n (its support's velocity vc there) into support s's row (JSUMS)
+def add_contact(jsums: wp.array2d(dtype=f64), s: int, j: f64, r: v64, n: v64, vc: v64, m: f64):
+    # a point's normal impulse j along n (its support's velocity vc there) and its mass m into support s's row (JSUMS)
     jn = j * n
     mn = wp.cross(r, jn)
     wp.atomic_add(jsums, s, 0, j)
+    wp.atomic_add(jsums, s, 13, m)   # the pushed points' mass (round 59: closing_bound)
     for q in range(3):
         wp.atomic_add(jsums, s, 1 + q, j * r[q])
         wp.atomic_add(jsums, s, 4 + q, jn[q])
         wp.atomic_add(jsums, s, 7 + q, mn[q])
         wp.atomic_add(jsums, s, 10 + q, j * vc[q])
-        wp.atomic_min(jsums, s, 13 + 2 * q, r[q])
-        wp.atomic_max(jsums, s, 14 + 2 * q, r[q])
+        wp.atomic_min(jsums, s, 14 + 2 * q, r[q])
+        wp.atomic_max(jsums, s, 15 + 2 * q, r[q])
 
 
 @functools.cache
@@ -177,14 +179,14 @@ def build_moments(Ft):
             if jq > Ft(0.0):
                 nq = plane_n[q]
                 add_contact(jsums, b * n_sup + int(planes[q][2]), f64(jq), r, v64(f64(nq[0]), f64(nq[1]), f64(nq[2])),
-                            v64(f64(0.0)))
+                            v64(f64(0.0)), m)
         if colc != 0:   # support 1 + cc: collider cc
             base = ex.step[0] * ex.width
             for cc in range(ex.n_col):
                 jq, n, vc = collider_contact(ex, base, cc, xp, vp, kcs, dt, b, 0)
                 if jq > Ft(0.0):
                     add_contact(jsums, b * n_sup + 1 + cc, f64(jq), r, v64(f64(n[0]), f64(n[1]), f64(n[2])),
-                                v64(f64(vc[0]), f64(vc[1]), f64(vc[2])))
+                                v64(f64(vc[0]), f64(vc[1]), f64(vc[2])), m)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def contact_shift(sums: wp.array2d(dtype=f64), shift: wp.array2d(dtype=f64)):
@@ -277,8 +279,8 @@ def beyond_box(jsums: wp.array2d(dtype=f64), s: int, c: v64, nb: v64, reach: f64
     tmax = f64(1.0e30)
     out = False
     for d in range(3):
-        lo = jsums[s, 13 + 2 * d] - reach
-        hi = jsums[s, 14 + 2 * d] + reach
+        lo = jsums[s, 14 + 2 * d] - reach
+        hi = jsums[s, 15 + 2 * d] + reach
         if wp.abs(nb[d]) < f64(1.0e-9):
             if c[d] < lo or c[d] > hi:
                 out = True
@@ -308,30 +310,27 @@ def keep_braking(th: v64, omega: v64, L: v64, nb: v64):
 
 @wp.func
 def support_dv(fr_sums: wp.array2d(dtype=f64), s: int, X: v64):
-    # support s's velocity change at the point X (f64): its dv plus alpha x (X - x_m) (fr_sums[s, 17:26], body_fix)
-    return v64(fr_sums[s, 17], fr_sums[s, 18], fr_sums[s, 19]) + wp.cross(
-        v64(fr_sums[s, 20], fr_sums[s, 21], fr_sums[s, 22]), X - v64(fr_sums[s, 23], fr_sums[s, 24], fr_sums[s, 25]))
-
-
-@wp.func
-def closing_bound(dF: v64, alpha: v64, inertia: m64, Mc: f64, u: v64, dv_j: f64):
-    # the factor (1 at most) on a support's fix that bounds it by the pair's closing motion (round 59; taichi_mpm's
-    # balance.closing_bound has the reason): the fix's mass-weighted root mean square velocity change over the listed
-    # nodes, sqrt(|dF|^2 / Mc^2 + alpha . I alpha / Mc) (I their inertia about x_m), at most |u| + dv_j: the speed
-    # u at which the body (rigid, at its centre of pressure, with this substep's gravity) meets its support, and
-    # dv_j = J / mass, what the support's normal impulse takes out of the body's speed this substep
-    ms = wp.dot(dF, dF) / (Mc * Mc) + wp.dot(alpha, inertia * alpha) / Mc
-    cap = wp.length(u) + dv_j
-    k = f64(1.0)
-    if ms > cap * cap:
-        k = cap / wp.sqrt(ms)
-    return k
+    # support s's velocity change at the point X (f64): its dv plus alpha x (X - x_m) (fr_sums[s, 17:26], body_fix),
+    # held to the pair's closing motion there (round 59; taichi_mpm's balance.closing_bound has the reason): at most
+    # |u_m + omega x (X - x_m)| + J / M_p, the body's rigid velocity relative to the support at X plus the velocity
+    # change the support's normal impulse gives the points it pushes (fr_sums[s, 26:33])
+    r = X - v64(fr_sums[s, 23], fr_sums[s, 24], fr_sums[s, 25])
+    dv = v64(fr_sums[s, 17], fr_sums[s, 18], fr_sums[s, 19]) + wp.cross(
+        v64(fr_sums[s, 20], fr_sums[s, 21], fr_sums[s, 22]), r)
+    rig = v64(fr_sums[s, 26], fr_sums[s, 27], fr_sums[s, 28]) + wp.cross(
+        v64(fr_sums[s, 29], fr_sums[s, 30], fr_sums[s, 31]), r)
+    cap = wp.length(rig) + fr_sums[s, 32]
+    l = wp.length(dv)
+    if l > cap:
+        dv = dv * (cap / l)
+    return dv
 
 
 @wp.func
 def body_fix(s: int, b: int, shift: wp.array2d(dtype=f64), jsums: wp.array2d(dtype=f64),
              fr_sums: wp.array2d(dtype=f64), mass: f64, reach: f64, g_dt: v64):
-    # support s (of body b): its dv, alpha and x_m into fr_sums[s, 17:26]
+    # support s (of body b): its dv, alpha and x_m into fr_sums[s, 17:26], the closing bound's u_m, omega and
+    # J / M_p into fr_sums[s, 26:33] (support_dv)
     Mc = fr_sums[s, 3]
     if Mc > f64(0.0) and mass > f64(0.0):
         xm = v64(fr_sums[s, 4], fr_sums[s, 5], fr_sums[s, 6]) / Mc
@@ -369,13 +368,18 @@ def body_fix(s: int, b: int, shift: wp.array2d(dtype=f64), jsums: wp.array2d(dty
         tr = wp.trace(inertia)
         if wp.determinant(inertia) > f64(1.0e-12) * tr * tr * tr:
             alpha = -(wp.inverse(inertia) * th)
-        k = closing_bound(dF, alpha, inertia, Mc, u, J / mass)   # round 59: the fix bounded by the pair's closing motion
-        dF = dF * k
-        alpha = alpha * k
+        dv_j = f64(0.0)
+        if jsums[s, 13] > f64(0.0):
+            dv_j = J / jsums[s, 13]   # the normal impulse over the pushed points' mass
+        omega = v64(shift[b, 6], shift[b, 7], shift[b, 8])
+        um = u + wp.cross(omega, xm - xcp)   # the rigid relative velocity at x_m (support_dv's bound, round 59)
         for q in range(3):
             fr_sums[s, 17 + q] = dF[q] / Mc
             fr_sums[s, 20 + q] = alpha[q]
             fr_sums[s, 23 + q] = xm[q]
+            fr_sums[s, 26 + q] = um[q]
+            fr_sums[s, 29 + q] = omega[q]
+        fr_sums[s, 32] = dv_j
 
 
 def allocate_balance(engine, planes: list, Ft, n_sup: int = 1) -> None:

@@ -174,13 +174,13 @@ def build_contact_fix(Ft):
             if grid_mf.shape[0] > 1:
                 grid_mf[node] = Ft(0.0)
         for s in range(fr_sums.shape[0]):
-            for q in range(26):
+            for q in range(fr_sums.shape[1]):
                 fr_sums[s, q] = f64(0.0)
-            for q in range(13):
+            for q in range(14):
                 jsums[s, q] = f64(0.0)
             for d in range(3):   # the box of the pushed points, inverted
-                jsums[s, 13 + 2 * d] = f64(1.0e30)
-                jsums[s, 14 + 2 * d] = f64(-1.0e30)
+                jsums[s, 14 + 2 * d] = f64(1.0e30)
+                jsums[s, 15 + 2 * d] = f64(-1.0e30)
         fr_nodes[0] = 0
 
     return contact_fix
