@@ -59,36 +59,41 @@ def inertia_of(m, first, xx, xy, xz, yy, yz, zz):
     return m * (S.trace() * ti.Matrix.identity(ti.f64, 3) - S)
 
 
-#: Columns of a support's ``fr_sums``: its nodes' terms (:data:`N_NODE_TERMS`), ``dv``, ``alpha``, ``x_m``, then the
-#: closing bound's ``u_m``, ``omega`` and ``J / M_p`` (:func:`closing_bound`, round 59).
-FR_COLUMNS = 33
+#: Columns of a support's ``fr_sums``: its nodes' terms (:data:`N_NODE_TERMS`), then ``dv``, ``alpha``, ``x_m``.
+FR_COLUMNS = 26
 
 
 @ti.func
-def closing_bound(dv, rig, dv_j):
-    """A listed node's fix ``dv`` (m/s, f64, 3) held to the pair's closing motion at the node (round 59; warp_mpm's
-    ``support_dv``; ``docs/fracture.md`` "Round 59: the cup at 20 m/s"): at most ``|rig| + dv_j``, the same
-    direction.
+def closing_bound(dF, alpha, inertia, Mc, um, omega, dv_j):
+    """The factor (1 at most) on a support's fix that holds it to the pair's closing motion at its listed nodes
+    (round 59; warp_mpm's ``closing_bound``; ``docs/fracture.md`` "Round 59: the cup at 20 m/s").
 
-    The fix ``dv + alpha x (X - x_m)`` is the contact's own impulse redistributed (its friction made Coulomb's on the
-    body's rigid motion, its normal impulse's centre moved within the reach): momentum exchanged between the body and
-    its support where they touch, which brings the two together. Over the substep the pair's relative speed at a
-    node is at most ``|rig| + dv_j``: ``rig`` the body's rigid velocity relative to the support at the node (``V +
-    omega x (X - c)`` with this substep's gravity, less the support's velocity; m/s, 3), ``dv_j = J / M_p`` (m/s) the
-    velocity change the support's normal impulse ``J`` gives the points it pushes (mass ``M_p``; at rest the
-    weight's share, where ``rig`` is near 0). A redistribution of that contact cannot move a node faster than the
-    pair meets there, or it makes motion instead of taking it: no node takes a velocity the body never had.
+    The fix ``dv + alpha x (X - x_m)`` (``dv = dF / Mc``) is the contact's own impulse redistributed (its friction
+    made Coulomb's on the body's rigid motion, its normal impulse's centre moved within the reach): momentum
+    exchanged between the body and its support where they touch, which brings the two together. It may not move the
+    listed nodes faster than the pair meets there over the substep, or it makes motion instead of taking it (no node
+    takes a velocity the body never had). Measured as mass-weighted root mean squares over the listed nodes (mass
+    ``Mc``, inertia ``I`` about their mass centre ``x_m``), exactly:
 
-    Why it is needed: a support whose listed nodes are light (the push key, ``gasp_core.mpm.contact_mark``, leaves it
-    the fringe of its points' stencils, the rows that push harder keeping the rest) took the whole body's
-    correction, its torque up to ``J reach TORQUE_REACH``, on that mass: on the cup's fragments at 20 m/s listed
-    masses of 1e-7 to 1e-3 kg were moved by 140 m/s to 2e8 m/s (root mean square), and the run diverged."""
-    cap = rig.norm() + dv_j
-    out = dv
-    l = dv.norm()
-    if l > cap:
-        out = dv * (cap / l)
-    return out
+    - the fix's: ``sqrt(|dF|^2 / Mc^2 + alpha . I alpha / Mc)`` (the cross term ``dv . alpha x sum m (X - x_m)``
+      is 0);
+    - the pair's: ``sqrt(|u_m|^2 + omega . I omega / Mc) + dv_j``: the body's rigid velocity relative to the support
+      at the nodes, ``u_m + omega x (X - x_m)`` (``u_m`` at ``x_m``, with this substep's gravity), plus ``dv_j``, the
+      velocity change the support's normal impulse ``J`` gives the points it pushes, ``J / M_p`` (their mass), or
+      ``J / M`` for a rigid body, whose points all move as one (at rest the weight's share, where ``u_m`` is near 0).
+
+    One factor on ``dv`` and ``alpha`` alike keeps the fix's shape. Why it is needed: a support whose listed nodes are
+    light (the push key, ``gasp_core.mpm.contact_mark``, leaves it the fringe of its points' stencils, the rows that
+    push harder keeping the rest), or lie nearly on a line (``I`` near singular), took the whole body's correction,
+    its torque up to ``J reach TORQUE_REACH``, on that mass: on the cup's rigid fragments at 20 m/s, root mean squares
+    of 140 m/s to 2e8 m/s, and the run diverged. f64: ``dF`` (kg m/s, 3), ``alpha`` and ``omega`` (1/s, 3),
+    ``inertia`` (kg m^2, 3x3), ``Mc`` (kg), ``um`` (m/s, 3), ``dv_j`` (m/s); returns the factor in (0, 1]."""
+    ms = dF.dot(dF) / (Mc * Mc) + alpha.dot(inertia @ alpha) / Mc
+    cap = ti.sqrt(um.dot(um) + ti.max(omega.dot(inertia @ omega), 0.0) / Mc) + dv_j
+    k = ti.cast(1.0, ti.f64)
+    if ms > cap * cap:
+        k = cap / ti.sqrt(ms)
+    return k
 
 
 class Balance:
@@ -105,7 +110,7 @@ class Balance:
         self.n_slots = ns
         self.c_part = ti.field(ti.f64, shape=(N_PARTS, max(nb, 1), 19))   # each slice's sums (contact_moments)
         self.c_jsums = ti.field(ti.f64, shape=(max(ns, 1), len(JSUMS)))   # this P2G's contact sums per support
-        self.c_shift = ti.field(ti.f64, shape=(max(nb, 1), 21))   # c, V, omega, (unused), I^-1
+        self.c_shift = ti.field(ti.f64, shape=(max(nb, 1), 21))   # c, V, omega, L about c, I^-1
         self.c_reach = ti.field(ti.f64, shape=max(nb, 1))
         self.c_mass = ti.field(ti.f64, shape=max(nb, 1))
         ng = self.n_grid if nb else 1
@@ -140,27 +145,30 @@ class Balance:
 
     @ti.func
     def shift_body(self, b, sums):
-        """Body b's ``c``, ``V``, ``omega`` and ``I^-1`` into ``c_shift`` from its 19 sums."""
+        """Body b's ``c``, ``V``, ``omega``, angular momentum about ``c`` and ``I^-1`` into ``c_shift`` from its 19
+        sums (warp_mpm's ``contact_shift``)."""
         M = sums[0]
         c = ti.Vector.zero(ti.f64, 3)
         V = ti.Vector.zero(ti.f64, 3)
         omega = ti.Vector.zero(ti.f64, 3)
+        Lc = ti.Vector.zero(ti.f64, 3)
         if M > 0.0:
             first = ti.Vector([sums[1], sums[2], sums[3]], ti.f64)
             c = first / M
             V = ti.Vector([sums[13], sums[14], sums[15]], ti.f64) / M
             inertia = inertia_of(M, first, sums[4], sums[5], sums[6],
                                  sums[7], sums[8], sums[9])
+            Lc = ti.Vector([sums[16], sums[17], sums[18]], ti.f64) - M * c.cross(V)
             if inertia.determinant() > 0.0:
-                L = ti.Vector([sums[16], sums[17], sums[18]], ti.f64)
                 inv = inertia.inverse()
-                omega = inv @ (L - M * c.cross(V))
+                omega = inv @ Lc
                 for q in ti.static(range(9)):
                     self.c_shift[b, 12 + q] = inv[q // 3, q % 3]
         for q in ti.static(range(3)):
             self.c_shift[b, q] = c[q]
             self.c_shift[b, 3 + q] = V[q]
             self.c_shift[b, 6 + q] = omega[q]
+            self.c_shift[b, 9 + q] = Lc[q]
 
     @ti.func
     def clear_box(self, s):
@@ -304,26 +312,26 @@ class Balance:
         return out or tmin > tmax
 
     @ti.func
-    def keep_braking(self, th, inv, omega, nb):
+    def keep_braking(self, th, L, omega, nb):
         """The torque ``th`` to take back, less its part that brakes the body's spin ``omega`` about an axis in the
-        contact plane (normal ``nb``), up to stopping it (``inv``: the body's inverse inertia; warp_mpm's
-        ``keep_braking``)."""
+        contact plane (normal ``nb``), up to stopping it (``L``: the body's angular momentum about its mass centre;
+        warp_mpm's ``keep_braking``). (Until round 59 ``L`` was taken as ``(I^-1)^-1 omega``: on a fragment of a few
+        points, its inertia near singular, that inverse overflowed and the fix went NaN: the cup at 20 m/s.)"""
         out = th
         wh = omega - omega.dot(nb) * nb
         lw = wh.norm()
-        if lw > 0.0 and inv.determinant() > 0.0:
+        if lw > 0.0:
             w = wh / lw
             s = th.dot(w)
-            Lw = (inv.inverse() @ omega).dot(w)
+            Lw = L.dot(w)
             if s < 0.0 and Lw > 0.0:
                 out = th - ti.max(s, -Lw) * w
         return out
 
     @ti.func
     def body_fix(self, s):
-        """Support s's ``dv``, ``alpha`` and ``x_m`` into ``fr_sums[s, 17:26]``, and what :func:`closing_bound` needs,
-        the rigid relative velocity ``u_m`` at ``x_m``, the spin and ``J / M_p``, into ``fr_sums[s, 26:33]`` (warp_mpm's
-        ``body_fix``)."""
+        """Support s's ``dv``, ``alpha`` and ``x_m`` into ``fr_sums[s, 17:26]``, the fix held to the pair's closing
+        motion (:func:`closing_bound`; warp_mpm's ``body_fix``)."""
         b = s // self.n_sup
         Mc = self.fr_sums[s, 3]
         mass = self.c_mass[b]
@@ -352,34 +360,35 @@ class Balance:
             lh = th.norm()
             if lh > J * self.c_reach[b] * TORQUE_REACH:
                 th *= J * self.c_reach[b] * TORQUE_REACH / lh
-            inv = ti.Matrix([[self.c_shift[b, 12 + 3 * i + j] for j in ti.static(range(3))]
-                             for i in ti.static(range(3))], ti.f64)
-            th = self.keep_braking(th, inv, ti.Vector([self.c_shift[b, 6], self.c_shift[b, 7],
-                                                       self.c_shift[b, 8]], ti.f64), nb)
+            th = self.keep_braking(th, ti.Vector([self.c_shift[b, 9], self.c_shift[b, 10], self.c_shift[b, 11]],
+                                                 ti.f64),
+                                   ti.Vector([self.c_shift[b, 6], self.c_shift[b, 7], self.c_shift[b, 8]], ti.f64), nb)
             if self.beyond_box(s, c, nb, self.c_reach[b]):
                 th = ti.Vector.zero(ti.f64, 3)   # the mass centre beyond the pushed points' box: it tips, keep it all
             inertia = inertia_of(Mc, first, self.fr_sums[s, 7], self.fr_sums[s, 8], self.fr_sums[s, 9],
                                  self.fr_sums[s, 10], self.fr_sums[s, 11], self.fr_sums[s, 12])
             alpha = ti.Vector.zero(ti.f64, 3)
-            if inertia.determinant() > 1.0e-12 * inertia.trace() ** 3:
+            tr = inertia.trace()   # > 0: a single listed node (no inertia; its trace roundoff, maybe < 0) takes no torque
+            if tr > 0.0 and inertia.determinant() > 1.0e-12 * tr ** 3:
                 alpha = -(inertia.inverse() @ th)
             Mp = self.c_jsums[s, 13]   # the pushed points' mass
-            dv_j = ti.cast(0.0, ti.f64)
-            if Mp > 0.0:
+            dv_j = ti.cast(0.0, ti.f64)   # J's velocity change on the pushed points: a rigid body's all move as one
+            if self.rb_rigid[b] != 0:
+                dv_j = J / mass
+            elif Mp > 0.0:
                 dv_j = J / Mp
             omega = ti.Vector([self.c_shift[b, 6], self.c_shift[b, 7], self.c_shift[b, 8]], ti.f64)
-            um = u + omega.cross(xm - xcp)   # the rigid relative velocity at x_m (closing_bound)
+            k = closing_bound(dF, alpha, inertia, Mc, u + omega.cross(xm - xcp), omega, dv_j)
+            dF *= k
+            alpha *= k
             for q in ti.static(range(3)):
                 self.fr_sums[s, 17 + q] = dF[q] / Mc
                 self.fr_sums[s, 20 + q] = alpha[q]
                 self.fr_sums[s, 23 + q] = xm[q]
-                self.fr_sums[s, 26 + q] = um[q]
-                self.fr_sums[s, 29 + q] = omega[q]
-            self.fr_sums[s, 32] = dv_j
 
     @ti.func
     def apply_fix(self, I):
-        """A listed node moved by its support's ``dv + alpha x (X - x_m)`` (held to :func:`closing_bound`), given to field B alone where the grid
+        """A listed node moved by its support's ``dv + alpha x (X - x_m)``, given to field B alone where the grid
         update kept the node's flowing-mass fraction in ``grid_mf`` (``gasp_core.mpm.fields.B_BALANCE``,
         :meth:`Fields.field_friction`); its mark (and that) cleared."""
         b = self.grid_fbody[I]
@@ -388,10 +397,6 @@ class Balance:
             dv = ti.Vector([self.fr_sums[b, 17], self.fr_sums[b, 18], self.fr_sums[b, 19]], ti.f64) + ti.Vector(
                 [self.fr_sums[b, 20], self.fr_sums[b, 21], self.fr_sums[b, 22]], ti.f64).cross(
                 X - ti.Vector([self.fr_sums[b, 23], self.fr_sums[b, 24], self.fr_sums[b, 25]], ti.f64))
-            rig = ti.Vector([self.fr_sums[b, 26], self.fr_sums[b, 27], self.fr_sums[b, 28]], ti.f64) + ti.Vector(
-                [self.fr_sums[b, 29], self.fr_sums[b, 30], self.fr_sums[b, 31]], ti.f64).cross(
-                X - ti.Vector([self.fr_sums[b, 23], self.fr_sums[b, 24], self.fr_sums[b, 25]], ti.f64))
-            dv = closing_bound(dv, rig, self.fr_sums[b, 32])
             self.grid_v[I] += ti.cast(dv, self.real)
             if ti.static(self.b_friction and self.mixed and self.field_rule // 4 % 2 != 0):
                 f = self.grid_mf[I]

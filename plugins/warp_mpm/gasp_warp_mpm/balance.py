@@ -45,9 +45,8 @@ from .forces import build_extras_struct
 from .precision import MODULE_OPTIONS, build_types
 
 #: Columns of ``fr_sums``: friction force (3), contact nodes' mass (1), mass moments (3 + 6), friction's moment
-#: about the origin (3), friction budget (1), then the per-body results dv (3), alpha (3), x_m (3), and the closing
-#: bound's u_m (3), omega (3), J / M_p (1) (``support_dv``, round 59).
-FR_COLUMNS = 33
+#: about the origin (3), friction budget (1), then the per-body results dv (3), alpha (3), x_m (3).
+FR_COLUMNS = 26
 #: ``gasp_core.mpm.contact.TORQUE_REACH`` for the kernels.
 TORQUE_CLIP = wp.constant(TORQUE_REACH)
 
@@ -310,27 +309,31 @@ def keep_braking(th: v64, omega: v64, L: v64, nb: v64):
 
 @wp.func
 def support_dv(fr_sums: wp.array2d(dtype=f64), s: int, X: v64):
-    # support s's velocity change at the point X (f64): its dv plus alpha x (X - x_m) (fr_sums[s, 17:26], body_fix),
-    # held to the pair's closing motion there (round 59; taichi_mpm's balance.closing_bound has the reason): at most
-    # |u_m + omega x (X - x_m)| + J / M_p, the body's rigid velocity relative to the support at X plus the velocity
-    # change the support's normal impulse gives the points it pushes (fr_sums[s, 26:33])
-    r = X - v64(fr_sums[s, 23], fr_sums[s, 24], fr_sums[s, 25])
-    dv = v64(fr_sums[s, 17], fr_sums[s, 18], fr_sums[s, 19]) + wp.cross(
-        v64(fr_sums[s, 20], fr_sums[s, 21], fr_sums[s, 22]), r)
-    rig = v64(fr_sums[s, 26], fr_sums[s, 27], fr_sums[s, 28]) + wp.cross(
-        v64(fr_sums[s, 29], fr_sums[s, 30], fr_sums[s, 31]), r)
-    cap = wp.length(rig) + fr_sums[s, 32]
-    l = wp.length(dv)
-    if l > cap:
-        dv = dv * (cap / l)
-    return dv
+    # support s's velocity change at the point X (f64): its dv plus alpha x (X - x_m) (fr_sums[s, 17:26], body_fix)
+    return v64(fr_sums[s, 17], fr_sums[s, 18], fr_sums[s, 19]) + wp.cross(
+        v64(fr_sums[s, 20], fr_sums[s, 21], fr_sums[s, 22]), X - v64(fr_sums[s, 23], fr_sums[s, 24], fr_sums[s, 25]))
+
+
+@wp.func
+def closing_bound(dF: v64, alpha: v64, inertia: m64, Mc: f64, um: v64, omega: v64, dv_j: f64):
+    # the factor (1 at most) on a support's fix that holds it to the pair's closing motion at its listed nodes (round
+    # 59; taichi_mpm's balance.closing_bound has the reason): the fix's mass-weighted root mean square velocity change
+    # over the listed nodes, sqrt(|dF|^2 / Mc^2 + alpha . I alpha / Mc) (I their inertia about x_m), at most the
+    # body's rigid velocity relative to the support there, sqrt(|u_m|^2 + omega . I omega / Mc), plus dv_j, the
+    # velocity change the support's normal impulse gives the points it pushes (J / M_p; J / M for a rigid body)
+    ms = wp.dot(dF, dF) / (Mc * Mc) + wp.dot(alpha, inertia * alpha) / Mc
+    cap = wp.sqrt(wp.dot(um, um) + wp.max(wp.dot(omega, inertia * omega), f64(0.0)) / Mc) + dv_j
+    k = f64(1.0)
+    if ms > cap * cap:
+        k = cap / wp.sqrt(ms)
+    return k
 
 
 @wp.func
 def body_fix(s: int, b: int, shift: wp.array2d(dtype=f64), jsums: wp.array2d(dtype=f64),
-             fr_sums: wp.array2d(dtype=f64), mass: f64, reach: f64, g_dt: v64):
-    # support s (of body b): its dv, alpha and x_m into fr_sums[s, 17:26], the closing bound's u_m, omega and
-    # J / M_p into fr_sums[s, 26:33] (support_dv)
+             fr_sums: wp.array2d(dtype=f64), mass: f64, reach: f64, g_dt: v64, rigid: int):
+    # support s (of body b): its dv, alpha and x_m into fr_sums[s, 17:26], held to the pair's closing motion
+    # (closing_bound; rigid: whether body b is rigid)
     Mc = fr_sums[s, 3]
     if Mc > f64(0.0) and mass > f64(0.0):
         xm = v64(fr_sums[s, 4], fr_sums[s, 5], fr_sums[s, 6]) / Mc
@@ -366,20 +369,21 @@ def body_fix(s: int, b: int, shift: wp.array2d(dtype=f64), jsums: wp.array2d(dty
                              fr_sums[s, 9], fr_sums[s, 10], fr_sums[s, 11], fr_sums[s, 12])
         alpha = v64(f64(0.0))
         tr = wp.trace(inertia)
-        if wp.determinant(inertia) > f64(1.0e-12) * tr * tr * tr:
+        if tr > f64(0.0) and wp.determinant(inertia) > f64(1.0e-12) * tr * tr * tr:   # tr > 0: one node, no torque
             alpha = -(wp.inverse(inertia) * th)
-        dv_j = f64(0.0)
-        if jsums[s, 13] > f64(0.0):
-            dv_j = J / jsums[s, 13]   # the normal impulse over the pushed points' mass
+        dv_j = f64(0.0)   # J's velocity change on the pushed points (mass jsums[s, 13]); a rigid body's move as one
+        if rigid != 0:
+            dv_j = J / mass
+        elif jsums[s, 13] > f64(0.0):
+            dv_j = J / jsums[s, 13]
         omega = v64(shift[b, 6], shift[b, 7], shift[b, 8])
-        um = u + wp.cross(omega, xm - xcp)   # the rigid relative velocity at x_m (support_dv's bound, round 59)
+        k = closing_bound(dF, alpha, inertia, Mc, u + wp.cross(omega, xm - xcp), omega, dv_j)   # round 59
+        dF = dF * k
+        alpha = alpha * k
         for q in range(3):
             fr_sums[s, 17 + q] = dF[q] / Mc
             fr_sums[s, 20 + q] = alpha[q]
             fr_sums[s, 23 + q] = xm[q]
-            fr_sums[s, 26 + q] = um[q]
-            fr_sums[s, 29 + q] = omega[q]
-        fr_sums[s, 32] = dv_j
 
 
 def allocate_balance(engine, planes: list, Ft, n_sup: int = 1) -> None:
@@ -389,7 +393,7 @@ def allocate_balance(engine, planes: list, Ft, n_sup: int = 1) -> None:
     supports and list. No particle contact (``planes`` empty and ``n_sup`` 1), or ``contact_balance = false``: zero
     bodies, no balance."""
     import numpy as np
-    from gasp_core.mpm.contact import contact_reach, JSUMS, SUMS
+    from gasp_core.mpm.contact import contact_reach, JSUMS, SUMS, rigid_bodies
     setup, d = engine.setup, engine.device
     reach = contact_reach(setup) if planes or n_sup > 1 else np.zeros(0)
     nb = len(reach)
@@ -404,6 +408,9 @@ def allocate_balance(engine, planes: list, Ft, n_sup: int = 1) -> None:
     engine.c_reach = wp.array(reach, dtype=f64, device=d)
     mass = np.bincount(np.asarray(setup.body_id), weights=np.asarray(setup.p_mass), minlength=nb)[:nb]
     engine.c_mass = wp.array(mass.astype(np.float64), dtype=f64, device=d)
+    rigid = np.zeros(max(nb, 1), np.int32)   # rigid bodies (body_fix's closing bound, round 59)
+    rigid[:nb] = np.resize(rigid_bodies(setup.materials).astype(np.int32), nb) if nb else 0
+    engine.c_rigid = wp.array(rigid, dtype=wp.int32, device=d)
     n_nodes = engine.n_grid ** 3 if nb else 1
     engine.grid_fbody = wp.array(np.full(n_nodes, -1, np.int32), dtype=wp.int32, device=d)
     engine.fr_sums = wp.zeros((nb * n_sup, FR_COLUMNS), dtype=f64, device=d)

@@ -185,10 +185,12 @@ def build_fix(Ft):
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def fix_supports(shift: wp.array2d(dtype=f64), jsums: wp.array2d(dtype=f64), fr_sums: wp.array2d(dtype=f64),
-                     mass: wp.array(dtype=f64), reach: wp.array(dtype=f64), g_dt: vec3, n_sup: int):
+                     mass: wp.array(dtype=f64), reach: wp.array(dtype=f64), g_dt: vec3, n_sup: int,
+                     rigid: wp.array(dtype=wp.int32)):
         s = wp.tid()   # one thread a support row (per-body bookkeeping)
         b = s / n_sup
-        body_fix(s, b, shift, jsums, fr_sums, mass[b], reach[b], v64(f64(g_dt[0]), f64(g_dt[1]), f64(g_dt[2])))
+        body_fix(s, b, shift, jsums, fr_sums, mass[b], reach[b], v64(f64(g_dt[0]), f64(g_dt[1]), f64(g_dt[2])),
+                 rigid[b])
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def fix_nodes(grid_v: wp.array(dtype=vec3), grid_fbody: wp.array(dtype=wp.int32), fr_dv: wp.array(dtype=vec4),
@@ -250,9 +252,9 @@ def gpu_balance_launches(engine, k, lo_v, dx, dt_f, ex) -> tuple[list, list]:
     fix = [rec(friction_blocks, nbn, [engine.grid_fbody, engine.fr_dv, engine.fr_fb, lo_v, dx, ng, engine.g_pfr]),
            rec(fold_rows, rows * FR_SUM_COLUMNS, [engine.g_pfr, engine.fr_sums, FR_SUM_COLUMNS]),
            rec(fix_supports, rows, [engine.c_shift, engine.c_jsums, engine.fr_sums, engine.c_mass, engine.c_reach,
-                                    g_dt, engine.n_sup]),
+                                    g_dt, engine.n_sup, engine.c_rigid]),
            rec(fix_nodes, ng ** 3, [engine.grid_v, engine.grid_fbody, engine.fr_dv, engine.fr_sums, lo_v, dx, ng,
                                      engine.grid_mf, engine.grid_dv]),
            rec(fix_clear, rows, [engine.c_jsums, engine.fr_sums])]
-    assert FR_COLUMNS == 33
+    assert FR_COLUMNS == 26
     return pre, fix
