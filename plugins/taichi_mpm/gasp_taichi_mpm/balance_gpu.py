@@ -102,6 +102,6 @@ class BalanceGPU:
         for k in range(n):
             self.apply_fix(self.fr_list[k])
         for s in range(self.n_slots):
-            for q in ti.static(range(self.fr_sums.shape[1])):
+            for q in ti.static(range(26)):
                 self.fr_sums[s, q] = 0.0
             self.clear_box(s)

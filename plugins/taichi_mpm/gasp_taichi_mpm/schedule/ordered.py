@@ -138,7 +138,7 @@ class OrderedCPU:
             self.apply_fix(self.fr_nodes[s + 1])
         ti.loop_config(serialize=True)
         for s in range(self.n_slots):
-            for q in ti.static(range(self.fr_sums.shape[1])):
+            for q in ti.static(range(26)):
                 self.fr_sums[s, q] = 0.0
             self.clear_box(s)
         self.fr_nodes[0][0] = 0

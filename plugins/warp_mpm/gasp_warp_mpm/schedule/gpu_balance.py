@@ -210,7 +210,7 @@ def build_fix(Ft):
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def fix_clear(jsums: wp.array2d(dtype=f64), fr_sums: wp.array2d(dtype=f64)):
         s = wp.tid()   # one thread a support row: its sums cleared, the box inverted
-        for q in range(fr_sums.shape[1]):
+        for q in range(26):
             fr_sums[s, q] = f64(0.0)
         for q in range(14):
             jsums[s, q] = f64(0.0)

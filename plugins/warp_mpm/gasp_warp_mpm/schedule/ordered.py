@@ -175,7 +175,7 @@ def build_contact_fix(Ft):
             if grid_mf.shape[0] > 1:
                 grid_mf[node] = Ft(0.0)
         for s in range(fr_sums.shape[0]):
-            for q in range(fr_sums.shape[1]):
+            for q in range(26):
                 fr_sums[s, q] = f64(0.0)
             for q in range(14):
                 jsums[s, q] = f64(0.0)
