@@ -316,8 +316,8 @@ class Balance:
     def keep_braking(self, th, L, omega, nb):
         """The torque ``th`` to take back, less its part that brakes the body's spin ``omega`` about an axis in the
         contact plane (normal ``nb``), up to stopping it (``L``: the body's angular momentum about its mass centre;
-        warp_mpm's ``keep_braking``). (Until round 59 ``L`` was taken as ``(I^-1)^-1 omega``: on a fragment of a few
-        points, its inertia near singular, that inverse overflowed and the fix went NaN: the cup at 20 m/s.)"""
+        warp_mpm's ``keep_braking``). (Until round 59 ``L`` was taken as ``(I^-1)^-1 omega``, which can overflow for
+        a fragment of a few points, its inertia near singular; warp_mpm always took it from the sums.)"""
         out = th
         wh = omega - omega.dot(nb) * nb
         lw = wh.norm()

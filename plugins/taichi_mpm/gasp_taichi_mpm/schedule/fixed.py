@@ -44,9 +44,9 @@ def channel_bounds(acc_width: int, eta_channel: int, *, mass: float, volume: flo
 
 def support_bounds(mass: float, dx: float, dt: float, lo, n_grid: int) -> np.ndarray:
     """Per column of the contact's support sums ``c_jsums[:, :14]`` (``gasp_core.mpm.contact.JSUMS``: j, j x, j n,
-    x cross j n, j v_c, the pushed points' mass m; float64, SI units) the largest sum a stable substep reaches: the impulse ``J = M 64 dx / dt``
-    (kg m/s), times the farthest coordinate of the grid ``L`` (m) for the first moments, ``2 L`` for the moments, and
-    times the speed ``64 dx / dt`` for the supports' velocities."""
+    x cross j n, j v_c, the pushed points' mass m; float64, SI units) the largest sum a stable substep reaches: the
+    impulse ``J = M 64 dx / dt`` (kg m/s), times the farthest coordinate of the grid ``L`` (m) for the first moments,
+    ``2 L`` for the moments, and times the speed ``64 dx / dt`` for the supports' velocities; the mass ``2 M``."""
     lo = np.abs(np.asarray(lo, np.float64))
     far = float(np.max(np.maximum(lo, np.abs(np.asarray(lo) + n_grid * dx)))) if lo.size else 1.0
     speed = HEADROOM * dx / dt
