@@ -15,7 +15,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gasp_core.errors import EngineDivergence
 from gasp_core.run import fragment_run
 from gasp_core.seam.runner import RunStats
 
@@ -80,22 +79,14 @@ def check_cup(setup, xs, stats) -> dict:
     return {"fragments": rec["fragments"], "lowest_mm": low * 1e3, "energy": e.tolist()}
 
 
-#: Round 58 (lead, found by the walls' slow tiers): a regression, not fixed.
-FBODY_20 = ("issue 66 'The extremes': on taichi_mpm the cup at 20 m/s diverges in frame 1 (EngineDivergence, 859 to "
-            "1236 points non-finite, run to run) since 12cede8b, 'Merge fbody "
-            "(round 55)': a contact node's balance row kept by an atomic max of a push key (gasp_core.mpm."
-            "contact_mark; taichi_mpm balance.py mark_contact_nodes, keep_row); bisected on the first-parent line "
-            "from 629aba59 (passes) by this test alone; warp_mpm passes; the cause not traced")
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize("engine", ["taichi_mpm", "warp_mpm"])
 @pytest.mark.parametrize("speed", [4.43, 20.0])
-def test_cup_breaks_into_fragments(tmp_path, engine, speed, request):
+def test_cup_breaks_into_fragments(tmp_path, engine, speed):
     """The cup breaks, keeps its mass, stays over the ground and gains no energy (module notes); at 20 m/s into
-    more fragments than at 4.43."""
-    if engine == "taichi_mpm" and speed > 10:
-        request.applymarker(pytest.mark.xfail(strict=True, raises=EngineDivergence, reason=FBODY_20))
+    more fragments than at 4.43. (Round 58-59: at 20 m/s taichi_mpm diverged in frame 1, EngineDivergence, from
+    12cede8b "Merge fbody (round 55)" until the balance's fix was bounded by the pair's closing motion, round 59:
+    ``gasp_taichi_mpm.balance.closing_bound``; docs/fracture.md "Round 59: the cup at 20 m/s".)"""
     setup, xs, stats = run_frames(cup_scene(tmp_path, engine, speed), engine)
     fig = check_cup(setup, xs, stats)
     assert len(xs) == FRAMES + 1

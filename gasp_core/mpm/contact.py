@@ -74,8 +74,9 @@ TORQUE_REACH = 2.0
 SUMS = ("m", "mx", "my", "mz", "mxx", "mxy", "mxz", "myy", "myz", "mzz", "px", "py", "pz", "lx", "ly", "lz")
 #: Columns of the per-support sums of the contact's balance (a support: one body against the grounds, or against
 #: one collider): the normal impulses' magnitude J, its first moments, the impulse vector ``sum j n``, its moment
-#: about the origin ``sum x x j n``, ``sum j v_col`` (the support's velocity at the points), the pushed points' box.
-JSUMS = ("j", "jx", "jy", "jz", "jnx", "jny", "jnz", "mnx", "mny", "mnz", "jvx", "jvy", "jvz",
+#: about the origin ``sum x x j n``, ``sum j v_col`` (the support's velocity at the points), the pushed points' mass
+#: ``m`` (round 59: the balance's closing bound) and box.
+JSUMS = ("j", "jx", "jy", "jz", "jnx", "jny", "jnz", "mnx", "mny", "mnz", "jvx", "jvy", "jvz", "m",
          "x_min", "x_max", "y_min", "y_max", "z_min", "z_max")
 #: Round 58 (docs/contact.md "Round 58: the sand's base slips at Coulomb's bound"): the contact a sand body takes
 #: under ``contact = "auto"``: ``"grid"`` (with snow and liquid, the rule since issue 38) or ``"particle"`` (as the

@@ -10,7 +10,7 @@ with the particle contact + the walls' faces):
   and angular momentum into ``sums`` (float64, shape (n_bodies, 16), columns
   :data:`gasp_core.mpm.contact.SUMS`); each support's normal impulse on it (along the support's normal),
   the impulse's moments and the support's velocity there, and the box of the pushed points, into ``jsums`` (shape
-  (n_bodies n_sup, 19), :data:`gasp_core.mpm.contact.JSUMS`);
+  (n_bodies n_sup, 20), :data:`gasp_core.mpm.contact.JSUMS`; the pushed points' mass among them);
 - ``contact_shift`` (one thread a body): the body's mass centre ``c``, rigid velocity ``V`` and spin ``omega`` into
   ``shift`` (shape (n_bodies, 12): with its angular momentum about ``c``); ``sums`` cleared;
 - in P2G, a point with a normal impulse marks its 27 nodes with the row of the support that pushes it most
@@ -18,7 +18,7 @@ with the particle contact + the walls' faces):
   ``gasp_core.mpm.contact_mark``'s key, so the same on any point order or device);
 - ``balance_node`` (a function of the grid update, at each marked node after its friction): the node's friction
   impulse, its moment, the node's mass and moments and its friction budget, into ``fr_sums`` (shape
-  (n_bodies n_sup, 26)); the node listed in ``fr_nodes`` (``fr_nodes[0]`` counts them);
+  (n_bodies n_sup, FR_COLUMNS)); the node listed in ``fr_nodes`` (``fr_nodes[0]`` counts them);
 - ``contact_fix`` (the cpu schedule's one thread, :mod:`gasp_warp_mpm.schedule.ordered`; the gpu schedule's
   ``fix_supports``, ``fix_nodes``, ``fix_clear``, :mod:`gasp_warp_mpm.schedule.gpu_balance`): per support, with its
   mean normal ``n`` (``sum j n`` normalised), the change ``dv + alpha x (X - x_m)`` of its listed nodes' velocities
@@ -124,18 +124,19 @@ def build_balance(Ft):
 
 
 @wp.func
-def add_contact(jsums: wp.array2d(dtype=f64), s: int, j: f64, r: v64, n: v64, vc: v64):
-    # a point's normal impulse j along n (its support's velocity vc there) into support s's row (JSUMS)
+def add_contact(jsums: wp.array2d(dtype=f64), s: int, j: f64, r: v64, n: v64, vc: v64, m: f64):
+    # a point's normal impulse j along n (its support's velocity vc there) and its mass m into support s's row (JSUMS)
     jn = j * n
     mn = wp.cross(r, jn)
     wp.atomic_add(jsums, s, 0, j)
+    wp.atomic_add(jsums, s, 13, m)   # the pushed points' mass (round 59: closing_bound)
     for q in range(3):
         wp.atomic_add(jsums, s, 1 + q, j * r[q])
         wp.atomic_add(jsums, s, 4 + q, jn[q])
         wp.atomic_add(jsums, s, 7 + q, mn[q])
         wp.atomic_add(jsums, s, 10 + q, j * vc[q])
-        wp.atomic_min(jsums, s, 13 + 2 * q, r[q])
-        wp.atomic_max(jsums, s, 14 + 2 * q, r[q])
+        wp.atomic_min(jsums, s, 14 + 2 * q, r[q])
+        wp.atomic_max(jsums, s, 15 + 2 * q, r[q])
 
 
 @functools.cache
@@ -179,14 +180,14 @@ def build_moments(Ft):
             if jq > Ft(0.0):
                 nq = plane_n[q]
                 add_contact(jsums, b * n_sup + int(planes[q][2]), f64(jq), r, v64(f64(nq[0]), f64(nq[1]), f64(nq[2])),
-                            v64(f64(0.0)))
+                            v64(f64(0.0)), m)
         if colc != 0:   # support 1 + cc: collider cc
             base = ex.step[0] * ex.width
             for cc in range(ex.n_col):
                 jq, n, vc = collider_contact(ex, base, cc, xp, vp, kcs, dt, b, 0)
                 if jq > Ft(0.0):
                     add_contact(jsums, b * n_sup + 1 + cc, f64(jq), r, v64(f64(n[0]), f64(n[1]), f64(n[2])),
-                                v64(f64(vc[0]), f64(vc[1]), f64(vc[2])))
+                                v64(f64(vc[0]), f64(vc[1]), f64(vc[2])), m)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def contact_shift(sums: wp.array2d(dtype=f64), shift: wp.array2d(dtype=f64)):
@@ -279,8 +280,8 @@ def beyond_box(jsums: wp.array2d(dtype=f64), s: int, c: v64, nb: v64, reach: f64
     tmax = f64(1.0e30)
     out = False
     for d in range(3):
-        lo = jsums[s, 13 + 2 * d] - reach
-        hi = jsums[s, 14 + 2 * d] + reach
+        lo = jsums[s, 14 + 2 * d] - reach
+        hi = jsums[s, 15 + 2 * d] + reach
         if wp.abs(nb[d]) < f64(1.0e-9):
             if c[d] < lo or c[d] > hi:
                 out = True
@@ -316,9 +317,25 @@ def support_dv(fr_sums: wp.array2d(dtype=f64), s: int, X: v64):
 
 
 @wp.func
+def closing_bound(dF: v64, alpha: v64, inertia: m64, Mc: f64, um: v64, omega: v64, dv_j: f64):
+    # the factor (1 at most) on a support's fix that holds it to the pair's closing motion at its listed nodes (round
+    # 59; taichi_mpm's balance.closing_bound has the reason): the fix's mass-weighted root mean square velocity change
+    # over the listed nodes, sqrt(|dF|^2 / Mc^2 + alpha . I alpha / Mc) (I their inertia about x_m), at most the
+    # body's rigid velocity relative to the support there, sqrt(|u_m|^2 + omega . I omega / Mc), plus dv_j, the
+    # velocity change the support's normal impulse gives the points it pushes (J / M_p; J / M for a rigid body)
+    ms = wp.dot(dF, dF) / (Mc * Mc) + wp.dot(alpha, inertia * alpha) / Mc
+    cap = wp.sqrt(wp.dot(um, um) + wp.max(wp.dot(omega, inertia * omega), f64(0.0)) / Mc) + dv_j
+    k = f64(1.0)
+    if ms > cap * cap:
+        k = cap / wp.sqrt(ms)
+    return k
+
+
+@wp.func
 def body_fix(s: int, b: int, shift: wp.array2d(dtype=f64), jsums: wp.array2d(dtype=f64),
-             fr_sums: wp.array2d(dtype=f64), mass: f64, reach: f64, g_dt: v64):
-    # support s (of body b): its dv, alpha and x_m into fr_sums[s, 17:26]
+             fr_sums: wp.array2d(dtype=f64), mass: f64, reach: f64, g_dt: v64, rigid: int):
+    # support s (of body b): its dv, alpha and x_m into fr_sums[s, 17:26], held to the pair's closing motion
+    # (closing_bound; rigid: whether body b is rigid)
     Mc = fr_sums[s, 3]
     if Mc > f64(0.0) and mass > f64(0.0):
         xm = v64(fr_sums[s, 4], fr_sums[s, 5], fr_sums[s, 6]) / Mc
@@ -354,8 +371,17 @@ def body_fix(s: int, b: int, shift: wp.array2d(dtype=f64), jsums: wp.array2d(dty
                              fr_sums[s, 9], fr_sums[s, 10], fr_sums[s, 11], fr_sums[s, 12])
         alpha = v64(f64(0.0))
         tr = wp.trace(inertia)
-        if wp.determinant(inertia) > f64(1.0e-12) * tr * tr * tr:
+        if tr > f64(0.0) and wp.determinant(inertia) > f64(1.0e-12) * tr * tr * tr:   # tr > 0: one node, no torque
             alpha = -(wp.inverse(inertia) * th)
+        dv_j = f64(0.0)   # J's velocity change on the pushed points (mass jsums[s, 13]); a rigid body's move as one
+        if rigid != 0:
+            dv_j = J / mass
+        elif jsums[s, 13] > f64(0.0):
+            dv_j = J / jsums[s, 13]
+        omega = v64(shift[b, 6], shift[b, 7], shift[b, 8])
+        k = closing_bound(dF, alpha, inertia, Mc, u + wp.cross(omega, xm - xcp), omega, dv_j)   # round 59
+        dF = dF * k
+        alpha = alpha * k
         for q in range(3):
             fr_sums[s, 17 + q] = dF[q] / Mc
             fr_sums[s, 20 + q] = alpha[q]
@@ -369,7 +395,7 @@ def allocate_balance(engine, planes: list, Ft, n_sup: int = 1) -> None:
     supports and list. No particle contact (``planes`` empty and ``n_sup`` 1), or ``contact_balance = false``: zero
     bodies, no balance."""
     import numpy as np
-    from gasp_core.mpm.contact import balance_mass, contact_reach, JSUMS, SUMS
+    from gasp_core.mpm.contact import balance_mass, contact_reach, JSUMS, SUMS, rigid_bodies
     setup, d = engine.setup, engine.device
     reach = contact_reach(setup) if planes or n_sup > 1 else np.zeros(0)
     nb = len(reach)
@@ -385,6 +411,9 @@ def allocate_balance(engine, planes: list, Ft, n_sup: int = 1) -> None:
     # round 59: 0 for a body whose material flows, which the balance leaves alone (gasp_core.mpm.contact.balance_mass)
     mass = balance_mass(setup)[:nb] if nb else np.zeros(0)
     engine.c_mass = wp.array(mass.astype(np.float64), dtype=f64, device=d)
+    rigid = np.zeros(max(nb, 1), np.int32)   # rigid bodies (body_fix's closing bound, round 59)
+    rigid[:nb] = np.resize(rigid_bodies(setup.materials).astype(np.int32), nb) if nb else 0
+    engine.c_rigid = wp.array(rigid, dtype=wp.int32, device=d)
     n_nodes = engine.n_grid ** 3 if nb else 1
     engine.grid_fbody = wp.array(np.full(n_nodes, -1, np.int32), dtype=wp.int32, device=d)
     engine.fr_sums = wp.zeros((nb * n_sup, FR_COLUMNS), dtype=f64, device=d)

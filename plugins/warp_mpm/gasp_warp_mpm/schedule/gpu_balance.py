@@ -26,8 +26,8 @@ BLK = wp.constant(BLOCK)
 #: Columns of the balance's friction sums that the nodes give (``balance.FR_COLUMNS``' first 17; the rest are the
 #: per-support results ``fix_supports`` writes).
 FR_SUM_COLUMNS = 17
-#: ``gasp_core.mpm.contact.JSUMS``: columns 13-18 are the pushed points' box (min, max per axis), the rest sums.
-JSUMS_BOX = 13
+#: ``gasp_core.mpm.contact.JSUMS``: columns 14-19 are the pushed points' box (min, max per axis), the rest sums.
+JSUMS_BOX = 14
 
 
 @wp.func
@@ -42,18 +42,19 @@ def acc_second(part: wp.array3d(dtype=f64), blk: int, b: int, col: int, m: f64, 
 
 
 @wp.func
-def acc_contact(part: wp.array3d(dtype=f64), blk: int, s: int, j: f64, r: v64, n: v64, vc: v64):
+def acc_contact(part: wp.array3d(dtype=f64), blk: int, s: int, j: f64, r: v64, n: v64, vc: v64, m: f64):
     # balance.add_contact into a block's partials
     jn = j * n
     mn = wp.cross(r, jn)
     part[blk, s, 0] = part[blk, s, 0] + j
+    part[blk, s, 13] = part[blk, s, 13] + m
     for q in range(3):
         part[blk, s, 1 + q] = part[blk, s, 1 + q] + j * r[q]
         part[blk, s, 4 + q] = part[blk, s, 4 + q] + jn[q]
         part[blk, s, 7 + q] = part[blk, s, 7 + q] + mn[q]
         part[blk, s, 10 + q] = part[blk, s, 10 + q] + j * vc[q]
-        part[blk, s, 13 + 2 * q] = wp.min(part[blk, s, 13 + 2 * q], r[q])
-        part[blk, s, 14 + 2 * q] = wp.max(part[blk, s, 14 + 2 * q], r[q])
+        part[blk, s, 14 + 2 * q] = wp.min(part[blk, s, 14 + 2 * q], r[q])
+        part[blk, s, 15 + 2 * q] = wp.max(part[blk, s, 15 + 2 * q], r[q])
 
 
 @functools.cache
@@ -80,8 +81,8 @@ def build_row_sums(Ft):
             for q in range(pjs.shape[2]):
                 pjs[blk, s, q] = f64(0.0)
             for d in range(3):
-                pjs[blk, s, 13 + 2 * d] = f64(1.0e30)
-                pjs[blk, s, 14 + 2 * d] = f64(-1.0e30)
+                pjs[blk, s, 14 + 2 * d] = f64(1.0e30)
+                pjs[blk, s, 15 + 2 * d] = f64(-1.0e30)
         for p in range(blk * BLK, wp.min(blk * BLK + BLK, n_pts)):
             b = body[p]
             xp = x[p]
@@ -109,14 +110,14 @@ def build_row_sums(Ft):
                 if jq > Ft(0.0):
                     nq = plane_n[q]
                     acc_contact(pjs, blk, b * n_sup + int(planes[q][2]), f64(jq), r,
-                                v64(f64(nq[0]), f64(nq[1]), f64(nq[2])), v64(f64(0.0)))
+                                v64(f64(nq[0]), f64(nq[1]), f64(nq[2])), v64(f64(0.0)), m)
             if colc != 0:
                 base = ex.step[0] * ex.width
                 for cc in range(ex.n_col):
                     jq, n, vc = collider_contact(ex, base, cc, xp, vp, kcs, dt, b, 0)
                     if jq > Ft(0.0):
                         acc_contact(pjs, blk, b * n_sup + 1 + cc, f64(jq), r, v64(f64(n[0]), f64(n[1]), f64(n[2])),
-                                    v64(f64(vc[0]), f64(vc[1]), f64(vc[2])))
+                                    v64(f64(vc[0]), f64(vc[1]), f64(vc[2])), m)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def friction_blocks(grid_fbody: wp.array(dtype=wp.int32), fr_dv: wp.array(dtype=vec4), fr_fb: wp.array(dtype=Ft),
@@ -184,10 +185,12 @@ def build_fix(Ft):
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def fix_supports(shift: wp.array2d(dtype=f64), jsums: wp.array2d(dtype=f64), fr_sums: wp.array2d(dtype=f64),
-                     mass: wp.array(dtype=f64), reach: wp.array(dtype=f64), g_dt: vec3, n_sup: int):
+                     mass: wp.array(dtype=f64), reach: wp.array(dtype=f64), g_dt: vec3, n_sup: int,
+                     rigid: wp.array(dtype=wp.int32)):
         s = wp.tid()   # one thread a support row (per-body bookkeeping)
         b = s / n_sup
-        body_fix(s, b, shift, jsums, fr_sums, mass[b], reach[b], v64(f64(g_dt[0]), f64(g_dt[1]), f64(g_dt[2])))
+        body_fix(s, b, shift, jsums, fr_sums, mass[b], reach[b], v64(f64(g_dt[0]), f64(g_dt[1]), f64(g_dt[2])),
+                 rigid[b])
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def fix_nodes(grid_v: wp.array(dtype=vec3), grid_fbody: wp.array(dtype=wp.int32), fr_dv: wp.array(dtype=vec4),
@@ -209,11 +212,11 @@ def build_fix(Ft):
         s = wp.tid()   # one thread a support row: its sums cleared, the box inverted
         for q in range(26):
             fr_sums[s, q] = f64(0.0)
-        for q in range(13):
+        for q in range(14):
             jsums[s, q] = f64(0.0)
         for d in range(3):
-            jsums[s, 13 + 2 * d] = f64(1.0e30)
-            jsums[s, 14 + 2 * d] = f64(-1.0e30)
+            jsums[s, 14 + 2 * d] = f64(1.0e30)
+            jsums[s, 15 + 2 * d] = f64(-1.0e30)
 
     return fix_supports, fix_nodes, fix_clear
 
@@ -249,7 +252,7 @@ def gpu_balance_launches(engine, k, lo_v, dx, dt_f, ex) -> tuple[list, list]:
     fix = [rec(friction_blocks, nbn, [engine.grid_fbody, engine.fr_dv, engine.fr_fb, lo_v, dx, ng, engine.g_pfr]),
            rec(fold_rows, rows * FR_SUM_COLUMNS, [engine.g_pfr, engine.fr_sums, FR_SUM_COLUMNS]),
            rec(fix_supports, rows, [engine.c_shift, engine.c_jsums, engine.fr_sums, engine.c_mass, engine.c_reach,
-                                    g_dt, engine.n_sup]),
+                                    g_dt, engine.n_sup, engine.c_rigid]),
            rec(fix_nodes, ng ** 3, [engine.grid_v, engine.grid_fbody, engine.fr_dv, engine.fr_sums, lo_v, dx, ng,
                                      engine.grid_mf, engine.grid_dv]),
            rec(fix_clear, rows, [engine.c_jsums, engine.fr_sums])]

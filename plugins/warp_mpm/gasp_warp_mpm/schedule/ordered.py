@@ -160,10 +160,11 @@ def build_contact_fix(Ft):
                     shift: wp.array2d(dtype=f64), jsums: wp.array2d(dtype=f64), fr_sums: wp.array2d(dtype=f64),
                     fr_nodes: wp.array(dtype=wp.int32), mass: wp.array(dtype=f64), reach: wp.array(dtype=f64),
                     g_dt: vec3, lo: vec3, dx: Ft, n_grid: int, n_sup: int, grid_mf: wp.array(dtype=Ft),
-                    grid_dv: wp.array(dtype=vec3)):
+                    grid_dv: wp.array(dtype=vec3), rigid: wp.array(dtype=wp.int32)):
         for s in range(fr_sums.shape[0]):
             b = s / n_sup
-            body_fix(s, b, shift, jsums, fr_sums, mass[b], reach[b], v64(f64(g_dt[0]), f64(g_dt[1]), f64(g_dt[2])))
+            body_fix(s, b, shift, jsums, fr_sums, mass[b], reach[b], v64(f64(g_dt[0]), f64(g_dt[1]), f64(g_dt[2])),
+                     rigid[b])
         n = wp.min(fr_nodes[0], fr_nodes.shape[0] - 1)
         for q in range(n):
             node = fr_nodes[q + 1]
@@ -176,11 +177,11 @@ def build_contact_fix(Ft):
         for s in range(fr_sums.shape[0]):
             for q in range(26):
                 fr_sums[s, q] = f64(0.0)
-            for q in range(13):
+            for q in range(14):
                 jsums[s, q] = f64(0.0)
             for d in range(3):   # the box of the pushed points, inverted
-                jsums[s, 13 + 2 * d] = f64(1.0e30)
-                jsums[s, 14 + 2 * d] = f64(-1.0e30)
+                jsums[s, 14 + 2 * d] = f64(1.0e30)
+                jsums[s, 15 + 2 * d] = f64(-1.0e30)
         fr_nodes[0] = 0
 
     return contact_fix
@@ -197,7 +198,8 @@ def balance_launches(engine, k, lo_v, dx, dt_f, ex) -> tuple[list, list]:
     g_dt = k.vec3(*[float(c) * engine.dt for c in engine.setup.gravity])
     fix = wp.launch(build_contact_fix(Ft), dim=1, device=d, record_cmd=True, inputs=[
         engine.grid_v, engine.grid_fbody, engine.c_shift, engine.c_jsums, engine.fr_sums, engine.fr_nodes,
-        engine.c_mass, engine.c_reach, g_dt, lo_v, dx, ng, engine.n_sup, engine.grid_mf, engine.grid_dv])
+        engine.c_mass, engine.c_reach, g_dt, lo_v, dx, ng, engine.n_sup, engine.grid_mf, engine.grid_dv,
+        engine.c_rigid])
     pre = [wp.launch(k.contact_moments, dim=engine.n_material, device=d, record_cmd=True, inputs=[
                engine.x, engine.v, engine.C, engine.p_mass, engine.body, engine.p_contact, engine.planes,
                engine.plane_n, dt_f, dx, engine.c_sums, engine.c_jsums, ex, engine.colc, engine.n_sup]),
