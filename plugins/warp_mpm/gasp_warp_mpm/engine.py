@@ -42,7 +42,7 @@ from gasp_core.mpm.substeps import passive_schedule
 from gasp_core.seam import CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSetup
 
 from . import ENGINE, WarpMPMConfig, kernels as K
-from .balance import allocate_balance
+from .balance_alloc import allocate_balance
 from .colliders import hold_launches
 from .fields import allocate_fields, field_launches
 from .held import HeldRule, held_boxes, mirror_launches   # HeldRule: held_rule.py
