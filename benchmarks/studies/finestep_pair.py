@@ -1,4 +1,9 @@
-"""A soft ball (material argv) at speed onto a rigid box on the ground: the box's speed after 1 frame at fixed n_substeps."""
+"""A soft ball (material argv) at speed onto a rigid box on the ground: the box's speed after 1 frame at fixed n_substeps.
+
+Round 59 (docs/contact.md "Round 59: AFLIP's old velocity per field"): the lead's repro of the fine-step blow-up.
+Usage: ``python benchmarks/studies/finestep_pair.py taichi_mpm "[dict(opts={'n_substeps': 400}, rigid=False,
+speed=0.0)]"`` (kwargs of :func:`scene`); prints ``(box speed m/s, ball's mean z m, n_substeps)`` per case.
+"""
 import sys, ast, numpy as np
 from gasp_core.seam.build import build_engine
 from gasp_core.seam.plugins import engines
