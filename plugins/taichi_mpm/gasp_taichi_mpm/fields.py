@@ -43,6 +43,12 @@ class Fields(PairTouch):
         self.grid_sv = ti.Vector.field(4, self.real, shape=(ng, ng, ng))
         self.grid_vf = ti.Vector.field(2, self.real, shape=(ng, ng, ng))
         self.grid_dv = ti.Vector.field(6, self.real, shape=(ng, ng, ng))
+        # round 59 (docs/contact.md "Round 59: AFLIP's old velocity per field"): with AFLIP (flip > 0) field A's APIC
+        # momentum and mass (grid_sv0) and each field's offset of the old velocity (grid_dv0, A's then B's)
+        self.field_flip = bool(self.fields and self.flip > 0 and core_fields.FIELD_OLD_VELOCITY)
+        nf = self.n_grid if self.field_flip else 1
+        self.grid_sv0 = ti.Vector.field(4, self.real, shape=(nf, nf, nf))
+        self.grid_dv0 = ti.Vector.field(6, self.real, shape=(nf, nf, nf))
         self.allocate_pair_touch(flow)
         # B's bodies' several frictions (round 42): B's points scatter w m mu_b to grid_fmu, the pair's per node
         self.node_mu_on = node_mu is not None
@@ -74,9 +80,11 @@ class Fields(PairTouch):
         self.field_rule = core_fields.field_rule() if self.fields and self.mixed else 0
 
     @ti.func
-    def scatter_field(self, p, base, w, mv0, A, m):
+    def scatter_field(self, p, base, w, mv0, A, m, S, fx, jvec):
         """P2G of point p into its field: a field-A body's momentum and mass to ``grid_sv`` and its volume to
-        ``grid_vf[.][0]``, another body's volume to ``grid_vf[.][1]`` (nothing without the two-field contact)."""
+        ``grid_vf[.][0]``, another body's volume to ``grid_vf[.][1]`` (nothing without the two-field contact); with
+        AFLIP a field-A body's APIC momentum (less the stress part ``S`` and the contact impulse ``jvec``) and mass
+        to ``grid_sv0``."""
         if ti.static(self.fields):
             fl = self.in_a[self.body[p]]
             vol = self.p_vol[p]
@@ -112,6 +120,13 @@ class Fields(PairTouch):
                         ti.atomic_add(self.grid_sv[node], add_sv)
                     else:
                         self.grid_sv[node] = self.grid_sv[node] + add_sv
+                    if ti.static(self.field_flip):   # A's APIC momentum (transfers.node_val's, without stress, j_n)
+                        mv0_ = mv - S @ (ti.Vector([float(i), float(j), float(k)]) - fx) - jvec
+                        add_sv0 = weight * ti.Vector([mv0_[0], mv0_[1], mv0_[2], m])
+                        if ti.static(self.atomic):
+                            ti.atomic_add(self.grid_sv0[node], add_sv0)
+                        else:
+                            self.grid_sv0[node] = self.grid_sv0[node] + add_sv0
 
     @ti.func
     def scatter_b_mu(self, node, wm, mu_p):
@@ -163,6 +178,43 @@ class Fields(PairTouch):
             else:
                 v += ti.Vector([d[3], d[4], d[5]])
         return v
+
+    @ti.func
+    def node_v0(self, p, node):
+        """AFLIP's old velocity point p reads at ``node`` in G2P: the grid's (``grid_v0``), plus its field's offset
+        of it (``grid_dv0``, :meth:`field_old`; round 59)."""
+        v = self.grid_v0[node]
+        if ti.static(self.field_flip):
+            d = self.grid_dv0[node]
+            if self.in_a[self.body[p]] != 0:
+                v += ti.Vector([d[0], d[1], d[2]])
+            else:
+                v += ti.Vector([d[3], d[4], d[5]])
+        return v
+
+    @ti.func
+    def field_old(self, I, m, ng):
+        """Round 59 (docs/contact.md "Round 59: AFLIP's old velocity per field"): node I's offsets of AFLIP's old
+        velocity, each field's own APIC velocity less the mean's (``m_B / m u0``, ``-m_A / m u0``, ``u0 = v0_A -
+        v0_B``; ``grid_mv``'s channels 4-6 the whole grid's APIC momentum, ``grid_sv0`` A's), where both fields have
+        more than ``MIN_FRACTION`` of the node's mass ``m``; clears ``grid_sv0``. Without it a point's AFLIP
+        increment ``v_new - v_old`` took its field's offset against the mean's old velocity each substep: the offset
+        fed back with the weight ``alpha``, which grows as the substep shrinks (``1 - n_ref / n_substeps``)."""
+        if ti.static(self.field_flip):
+            s0 = self.grid_sv0[I]
+            m_a = s0[3]
+            m_b = m - m_a
+            d = ti.Vector.zero(self.real, 6)
+            inner = (I > 0).all() and (I < ng - 1).all()
+            if inner and m_a > MIN_FRACTION * m and m_b > MIN_FRACTION * m:
+                g = self.grid_mv[0, I]
+                pa = ti.Vector([s0[0], s0[1], s0[2]])
+                u0 = pa / m_a - (ti.Vector([g[4], g[5], g[6]]) - pa) / m_b
+                da = (m_b / m) * u0
+                db = -(m_a / m) * u0
+                d = ti.Vector([da[0], da[1], da[2], db[0], db[1], db[2]])
+            self.grid_dv0[I] = d
+            self.grid_sv0[I] = ti.Vector.zero(self.real, 4)
 
     @ti.func
     def mass_b(self, I):
@@ -328,6 +380,7 @@ class Fields(PairTouch):
                 da = (m_b / m) * u - (mb_eff / (m_a + mb_eff)) * (u - u2)
                 db = -(m_a / m) * u + (m_a / (m_a + mb_eff)) * (u - u2)
             self.grid_dv[I] = ti.Vector([da[0], da[1], da[2], db[0], db[1], db[2]])
+            self.field_old(I, m, ng)   # round 59: AFLIP's old velocity per field
 
     @ti.kernel
     def field_clear(self):

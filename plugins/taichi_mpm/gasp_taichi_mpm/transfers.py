@@ -93,7 +93,7 @@ class Transfers:
         self.mark_contact_nodes(base, w, jvec, sup)   # the contact's balance (balance.py)
         self.scatter_contact(base, w, budget, fn, fv)   # with colliders: the budget's normal, supports' velocity
         self.scatter_flow(p, base, w, m)   # with the contact chosen per body: the flowing bodies' mass
-        self.scatter_field(p, base, w, mv0, A, m)   # with the two-field contact: the point's field (fields.py)
+        self.scatter_field(p, base, w, mv0, A, m, S, fx, jvec)   # with the two-field contact: the point's field (fields.py)
         return mv0, A, S, m, jvec, eta_v, budget
 
     @ti.func
@@ -169,7 +169,7 @@ class Transfers:
             if ti.static(self.flip > 0):   # AFLIP: v_PIC(new) + alpha (v_p - v_PIC(old))
                 old_v = ti.Vector.zero(self.real, 3)
                 for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
-                    old_v += w[i][0] * w[j][1] * w[k][2] * self.grid_v0[base + ti.Vector([i, j, k])]
+                    old_v += w[i][0] * w[j][1] * w[k][2] * self.node_v0(p, base + ti.Vector([i, j, k]))
                 v_p = new_v + self.flip * (self.v[p] - old_v)
             if ti.static(self.any_fixed or self.n_set_boxes > 0):   # near a held box's face: its image's gradient
                 if ti.static(self.held_rule):   # the brittle held rule (grid.py held_rule)

@@ -53,16 +53,24 @@ def build_field_reads(Ft):
 
 @functools.cache
 def build_aflip_gather(Ft):
-    """``aflip_gather(grid_v0, W, idx0, nn, n_grid)``: AFLIP's ``v_PIC(old)`` at a point (``sum w grid_v0``)."""
+    """``aflip_gather(grid_v0, W, idx0, nn, n_grid, off)``: AFLIP's ``v_PIC(old)`` at a point (``sum w grid_v0``); with
+    the two fields' old offsets (``grid_v0`` of 3 n_grid^3 entries, :func:`build_field_old`, round 59) plus its
+    field's (``off`` from ``field_offset_base``: 0 field A, n_grid^3 field B, -1 none)."""
     vec3, vec4, mat33 = build_types(Ft)
 
     @wp.func
-    def aflip_gather(grid_v0: wp.array(dtype=vec3), W: mat33, idx0: int, nn: int, n_grid: int):
+    def aflip_gather(grid_v0: wp.array(dtype=vec3), W: mat33, idx0: int, nn: int, n_grid: int, off: int):
         old_v = vec3(Ft(0.0))
+        n_nodes = nn * n_grid
+        own = off >= 0 and grid_v0.shape[0] > n_nodes
         for i in range(3):
             for j in range(3):
                 for k in range(3):
-                    old_v = old_v + (W[i, 0] * W[j, 1] * W[k, 2]) * grid_v0[idx0 + i * nn + j * n_grid + k]
+                    node = idx0 + i * nn + j * n_grid + k
+                    g0 = grid_v0[node]
+                    if own:
+                        g0 = g0 + grid_v0[n_nodes + off + node]
+                    old_v = old_v + (W[i, 0] * W[j, 1] * W[k, 2]) * g0
         return old_v
 
     return aflip_gather
@@ -216,6 +224,43 @@ def build_fields(Ft):
 
 
 @functools.cache
+def build_field_old(Ft):
+    """``field_old``: round 59 (docs/contact.md "Round 59: AFLIP's old velocity per field",
+    ``gasp_core.mpm.fields.FIELD_OLD_VELOCITY``), with AFLIP, each node's offsets of AFLIP's old velocity: field A's
+    own APIC velocity less the mean's at ``n_grid^3 + node`` of ``grid_v0``, B's at ``2 n_grid^3 + node``
+    (``m_B / m u0``, ``-m_A / m u0``, ``u0 = v0_A - v0_B``; ``grid_mv0`` the whole grid's APIC momentum and mass,
+    A's ``n_grid^3`` further), where both fields have more than ``MIN_FRACTION`` of the node's mass at an inner node;
+    clears A's part of ``grid_mv0`` (the grid update clears the whole grid's)."""
+    vec3, vec4, mat33 = build_types(Ft)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def field_old(grid_mv0: wp.array(dtype=vec4), grid_v0: wp.array(dtype=vec3), n_grid: int):
+        node = wp.tid()
+        nn = n_grid * n_grid
+        n_nodes = nn * n_grid
+        i = node / nn
+        j = (node / n_grid) % n_grid
+        k = node % n_grid
+        g = grid_mv0[node]
+        pa = grid_mv0[n_nodes + node]
+        m = g[3]
+        m_a = pa[3]
+        m_b = m - m_a
+        dva = vec3(Ft(0.0))
+        dvb = vec3(Ft(0.0))
+        inner = i > 0 and j > 0 and k > 0 and i < n_grid - 1 and j < n_grid - 1 and k < n_grid - 1
+        if inner and m_a > Ft(MIN_FRACTION) * m and m_b > Ft(MIN_FRACTION) * m:
+            u0 = vec3(pa[0], pa[1], pa[2]) / m_a - vec3(g[0] - pa[0], g[1] - pa[1], g[2] - pa[2]) / m_b
+            dva = (m_b / m) * u0
+            dvb = -(m_a / m) * u0
+        grid_v0[n_nodes + node] = dva
+        grid_v0[2 * n_nodes + node] = dvb
+        grid_mv0[n_nodes + node] = vec4(Ft(0.0))
+
+    return field_old
+
+
+@functools.cache
 def build_field_clear(Ft):
     """``field_clear``: ``grid_sv`` and both fields' ``grid_vf`` (and the friction channels, its third and fourth
     parts where there are) back to zero for the next P2G."""
@@ -273,6 +318,12 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     eng.grid_vf = wp.zeros(parts * n if eng.fields else 1, dtype=Ft, device=d)
     eng.body_mu = wp.array(body_channel(in_a, eng.node_mu, eng.a_mu) if eng.mu_on else np.zeros(1), dtype=Ft,
                            device=d)
+    # round 59: with AFLIP, field A's APIC momentum n_grid^3 further in grid_mv0, the fields' old offsets in grid_v0
+    # (build_field_old; gasp_core.mpm.fields.FIELD_OLD_VELOCITY)
+    eng.field_flip = bool(eng.fields and eng.flip > 0 and core_fields.FIELD_OLD_VELOCITY)
+    if eng.field_flip:
+        eng.grid_mv0 = wp.zeros(2 * n, dtype=k.vec4, device=d)
+        eng.grid_v0 = wp.zeros(3 * n, dtype=k.vec3, device=d)
     # the grid update gives the particle contact's friction to field B alone (grid.build_field_friction)
     on = eng.fields and contact == "mixed" and core_fields.B_FRICTION
     eng.dv_friction = eng.grid_dv if on else wp.zeros(1, dtype=k.vec3, device=d)
@@ -318,7 +369,9 @@ def field_launches(eng, Ft) -> list:
         Ft(flow_touch_level()), ng, eng.p_pic])] if eng.flow_touch_on else []
     after = [wp.launch(apply, dim=ng ** 3, device=d, record_cmd=True, inputs=[
         eng.grid_mv, eng.grid_sv, eng.grid_dv, eng.flow_push, eng.flow_touch])] if eng.flow_touch_on else []
-    return flow + [wp.launch(contact, dim=ng ** 3, device=d, record_cmd=True, inputs=[
+    old = [wp.launch(build_field_old(Ft), dim=ng ** 3, device=d, record_cmd=True, inputs=[
+        eng.grid_mv0, eng.grid_v0, ng])] if eng.field_flip else []   # round 59: AFLIP's old velocity per field
+    return flow + old + [wp.launch(contact, dim=ng ** 3, device=d, record_cmd=True, inputs=[
                 eng.grid_mv, eng.grid_sv, eng.grid_dv, ng, Ft(eng.field_mu), eng.ground, eng.grid_vf,
                 Ft(eng.dx ** 3), Ft(wall_lo), eng.k.vec3(*[float(c) for c in wall_hi]), Ft(eng.field_touch), eng.pair,
                 eng.k.vec3(*[float(c) for c in eng.setup.domain_lo]), Ft(eng.dx), eng.pair_acc, eng.ground_touch,

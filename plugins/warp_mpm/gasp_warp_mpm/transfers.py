@@ -172,6 +172,9 @@ def build_p2g(Ft):
         if flip != 0:
             A0 = (dx * pc) * Cp
             scatter(grid_mv0, idx0, n_grid, W, pm * v[p] - A0 * fx, A0, pm)
+            if grid_mv0.shape[0] > n_grid * n_grid * n_grid:   # round 59: field A's own too, n_grid^3 further
+                if in_a[body[p]] != 0:
+                    scatter(grid_mv0, idx0 + n_grid * n_grid * n_grid, n_grid, W, pm * v[p] - A0 * fx, A0, pm)
         if has_wind != 0:
             scatter_wind(grid_g, idx0, n_grid, W, fx, p_vol[p] * inv_dx)
         if eta > Ft(0.0):  # Kelvin-Voigt, implicit on the grid: the point's J V eta (gasp_warp_mpm.viscosity)
@@ -228,7 +231,7 @@ def build_g2p(Ft):
             v[p] = vec3(Ft(0.0))
             return
         if alpha > Ft(0.0):  # AFLIP: v_PIC(new) + alpha (v_p - v_PIC(old)) (gasp_core.mpm.transfer)
-            v[p] = new_v + alpha * (v[p] - aflip_gather(grid_v0, W, idx0, nn, n_grid))
+            v[p] = new_v + alpha * (v[p] - aflip_gather(grid_v0, W, idx0, nn, n_grid, off))   # its field's (fields.py)
         else:
             v[p] = new_v
         x[p] = xp + dt * new_v
