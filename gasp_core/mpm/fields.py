@@ -111,13 +111,11 @@ B_OWN_FRICTION = True
 #: support 1 cell thick took the slab's ground friction and torque fix at the layers it shares with the slab and read
 #: -1.0 / -1.3 % on a stiff slab, +2.4 % to -1.5 % as the ground's friction under the slab went 0.2 to 1.0).
 B_BALANCE = True
-#: Round 59 (docs/contact.md "Round 59: AFLIP's old velocity per field"): with the AFLIP blend (``alpha > 0``: the
-#: option ``flip``, or ``transfer_damping = "rate"`` at more substeps than the reference step, ``alpha = 1 - n_ref /
-#: n_substeps``) each field's points take AFLIP's old grid velocity ``v_PIC(old)`` of their own field (its APIC
-#: momentum over its mass, scattered apart in P2G) as they take the new one. False: the whole grid's (the rule before
-#: round 59, the catch of ``tests/test_contact_fine_step.py``): a point's increment ``v_new - v_old`` then carried its
-#: field's offset against the mean each substep, ``alpha`` times what it had; two jelly bodies resting 5 mm apart on a
-#: ground (n_grid 32) kicked the box to 0.39 m/s at 200 substeps a frame and diverged at 400.
+#: Round 59 (docs/contact.md "Round 59: AFLIP's old velocity per field"): with AFLIP (``alpha > 0``: option ``flip``,
+#: or ``transfer_damping = "rate"`` past the reference step, ``alpha = 1 - n_ref / n_substeps``) each field's points
+#: take AFLIP's old velocity ``v_PIC(old)`` of their own field, as they take the new one. False: the whole grid's (the
+#: rule before, the catch of ``tests/test_contact_fine_step.py``): a point's ``v_new - v_old`` carried its field's
+#: offset, ``alpha`` times, each substep; two jelly bodies 5 mm apart diverged at 400 substeps a frame (n_grid 32).
 FIELD_OLD_VELOCITY = True
 #: A body of field B that names no ``friction``, in :func:`node_friction`'s ``mu_b`` where :func:`b_unnamed_mix`
 #: (round 44): its points scatter ``w_ip m_p`` to B's unnamed channel, not ``w_ip m_p mu`` to B's named one.

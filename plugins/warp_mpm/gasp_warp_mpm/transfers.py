@@ -113,15 +113,14 @@ def build_p2g(Ft):
         grid_vf: wp.array(dtype=Ft), in_a: wp.array(dtype=wp.int32), fixed: wp.array(dtype=wp.int32), rule: int,
         p_pic: wp.array(dtype=wp.int32), body_mu: wp.array(dtype=Ft),
     ):
-        # F advanced by C, return mapping and stress (docs/mpm.md), then the scatter (and, with wind, grid_g;
-        # with flip, the APIC momentum alone into grid_mv0: gasp_core.mpm.transfer); with the particle
-        # contact (planes: grounds and walls; colc: the colliders too), the normal impulses join the momentum and their
-        # friction budget goes to grid_fb (with walls or colliders its normal to grid_fn, supports' velocity to grid_fv;
-        # :mod:`gasp_warp_mpm.contact`); with the contact chosen per body the flowing bodies' (flows[b]) mass to grid_mf
-        # and, with the two-field contact (gasp_warp_mpm.fields), field A's (in_a[b]) momentum and mass to grid_sv,
-        # each field's volume to grid_vf (field A's at the node, B's n_grid^3 further) and, with B's per-node friction
-        # (body_mu per body, one entry without it: gasp_core.mpm.fields.node_friction), B's w m mu 2 n_grid^3 further,
-        # with A's several angles (a_node_friction) A's w m tan(phi) 3 n_grid^3 further, B's unnamed w m 4 further
+        # F by C, return mapping, stress (docs/mpm.md), the scatter (wind: grid_g; flip: the APIC momentum alone to
+        # grid_mv0, gasp_core.mpm.transfer); particle contact (planes: grounds, walls; colc: colliders): the normal
+        # impulses join the momentum, their friction budget to grid_fb (walls or colliders: its normal to grid_fn,
+        # supports' velocity to grid_fv; gasp_warp_mpm.contact); the contact per body: flowing bodies' (flows[b]) mass
+        # to grid_mf; two-field contact (gasp_warp_mpm.fields): field A's (in_a[b]) momentum and mass to grid_sv, each
+        # field's volume to grid_vf (A's at the node, B's n_grid^3 further); B's per-node friction (body_mu,
+        # gasp_core.mpm.fields.node_friction): B's w m mu 2 n_grid^3 further; A's several angles (a_node_friction): A's
+        # w m tan(phi) 3 n_grid^3 further, B's unnamed w m 4 further
         p = wp.tid()
         X = (x[p] - lo) * inv_dx
         if not in_grid(X, n_grid):
@@ -172,9 +171,8 @@ def build_p2g(Ft):
         if flip != 0:
             A0 = (dx * pc) * Cp
             scatter(grid_mv0, idx0, n_grid, W, pm * v[p] - A0 * fx, A0, pm)
-            if grid_mv0.shape[0] > n_grid * n_grid * n_grid:   # round 59: field A's own too, n_grid^3 further
-                if in_a[body[p]] != 0:
-                    scatter(grid_mv0, idx0 + n_grid * n_grid * n_grid, n_grid, W, pm * v[p] - A0 * fx, A0, pm)
+            if grid_mv0.shape[0] > n_grid * n_grid * n_grid and in_a[body[p]] != 0:   # round 59: field A's own too
+                scatter(grid_mv0, idx0 + n_grid * n_grid * n_grid, n_grid, W, pm * v[p] - A0 * fx, A0, pm)
         if has_wind != 0:
             scatter_wind(grid_g, idx0, n_grid, W, fx, p_vol[p] * inv_dx)
         if eta > Ft(0.0):  # Kelvin-Voigt, implicit on the grid: the point's J V eta (gasp_warp_mpm.viscosity)
