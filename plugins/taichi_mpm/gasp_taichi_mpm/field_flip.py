@@ -14,11 +14,7 @@ class FieldFlip:
         of it (``grid_dv0``, :meth:`field_old`; round 59)."""
         v = self.grid_v0[node]
         if ti.static(self.field_flip):
-            d = self.grid_dv0[node]
-            if self.in_a[self.body[p]] != 0:
-                v += ti.Vector([d[0], d[1], d[2]])
-            else:
-                v += ti.Vector([d[3], d[4], d[5]])
+            v += self.own_part(p, self.grid_dv0[node])   # Fields.own_part
         return v
 
     @ti.func

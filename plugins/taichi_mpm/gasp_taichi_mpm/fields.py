@@ -169,15 +169,19 @@ class Fields(PairTouch, FieldFlip):
         return mu_n
 
     @ti.func
+    def own_part(self, p, d):
+        """Point p's field's half of a node's offsets ``d`` (6: field A's, then B's)."""
+        r = ti.Vector([d[3], d[4], d[5]])
+        if self.in_a[self.body[p]] != 0:
+            r = ti.Vector([d[0], d[1], d[2]])
+        return r
+
+    @ti.func
     def node_v(self, p, node):
         """The velocity point p reads at ``node`` in G2P: the grid's, plus its field's offset."""
         v = self.grid_v[node]
         if ti.static(self.fields):
-            d = self.grid_dv[node]
-            if self.in_a[self.body[p]] != 0:
-                v += ti.Vector([d[0], d[1], d[2]])
-            else:
-                v += ti.Vector([d[3], d[4], d[5]])
+            v += self.own_part(p, self.grid_dv[node])
         return v
 
     @ti.func
