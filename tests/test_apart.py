@@ -134,3 +134,45 @@ def test_a_crumbs_and_a_left_behind_gaussian_go_with_their_piece(angle, hold):
         assert row["specks"] == 0, row
     else:
         assert row["specks"] == int((labels[:n] == 2).sum()) + 2, row
+
+
+@pytest.mark.parametrize("dot", [True, False])
+def test_the_skin_of_crumbled_material_is_drawn_as_a_dot_on_its_piece(dot, monkeypatch):
+    """A piece (a slab 5 cm long) and, beside it, a crumb 3 cm long flung 20 cm up (all the material there crumbled),
+    a surface Gaussian 1 mm over each top point. The crumb's Gaussians within the reach of the piece at rest are held
+    at their rest offset from their host; those further (no piece under them, round 60) are drawn as a dot at their
+    host (``apart.CRUMBLED_DOT``): no speck is left. The catch: the rule before (at their rest offset, 15-30 mm from
+    the piece) leaves each of those a speck."""
+    monkeypatch.setattr(apart, "CRUMBLED_DOT", dot)
+    a, c = slab(0.0, 0.05), slab(0.055, 0.085)
+    fill = np.concatenate([a, c])
+    lab_fill = np.repeat([0, 1], [len(a), len(c)])
+    surf = fill[fill[:, 2] > 0.019] + [0, 0, 0.001]
+    n_s = len(surf)
+    x_rest = np.concatenate([surf, fill])
+    near = np.argmin(np.linalg.norm(surf[:, None] - fill[None], axis=2), axis=1)
+    labels = np.concatenate([lab_fill[near], lab_fill])
+    mass = np.concatenate([np.zeros(n_s), np.full(len(fill), 1e-3)])
+    x = x_rest.copy()
+    x[labels == 1] += [0, 0, 0.2]
+    rot_rest = np.broadcast_to(np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]]), (n_s, 3, 3)).copy()
+    scales_rest = np.tile([1e-6, 0.002, 0.002], (n_s, 1))
+    tri = np.stack([surf, surf + 0.002 * rot_rest[:, :, 1], surf + 0.002 * rot_rest[:, :, 2]], 1)
+    sm = SimpleNamespace(tri_rest=tri, rot_rest=rot_rest, scales_rest=scales_rest, anchors=lambda: np.arange(n_s))
+    obj = SimpleNamespace(surface=sm, vertex_slice=slice(0, n_s), fill_slice=slice(n_s, len(x_rest)))
+    pieces = np.array([True, False])
+    means, rot, scales = x[:n_s].copy(), rot_rest.copy(), scales_rest.copy()
+    held = hold_to_pieces(obj, x, labels, PieceContext(mass, pieces, REACH, x_rest, True), rot.copy(), means, rot,
+                          scales)
+    crumb = labels[:n_s] == 1
+    far = crumb & (np.linalg.norm(surf[:, None] - a[None], axis=2).min(axis=1) > REACH)
+    assert held[crumb].all() and far.sum() >= 10 and (crumb & ~far).sum() >= 10, (crumb.sum(), far.sum())
+    np.testing.assert_allclose(means[crumb & ~far], surf[crumb & ~far], atol=1e-12)   # at rest: piece 0 is still
+    row = apart_row(means, rot, scales, x[n_s:], labels[n_s:], mass[n_s:], pieces, REACH)
+    if dot:
+        host = n_s + np.argmin(np.linalg.norm(surf[far][:, None] - a[None], axis=2), axis=1)
+        np.testing.assert_allclose(means[far], x[host], atol=1e-12)
+        np.testing.assert_allclose(scales[far], scales_rest[far] * apart.DOT, rtol=1e-12)
+        assert row["specks"] == 0, row
+    else:
+        assert row["specks"] == int(far.sum()), (row, int(far.sum()))

@@ -33,6 +33,10 @@ BIG = 0.05
 #: (the one: a Gaussian over crumbled material 14.4 mm from every piece at rest); with the rule before (the Gaussians of
 #: crumbs and of surface points left behind drawn where the map puts them) 0 / 507 / 2 245 / 2 653 on taichi_mpm.
 SPECKS = 1e-3
+#: The skin of crumbled material's frames (round 60, ``gasp_core.run.apart.CRUMBLED_DOT``): from frame 4 more of the
+#: biscuit has crumbled under its skin; with the rule 0 specks at frames 0-10, with the rule before (that skin drawn at
+#: its rest offset, 15-20 mm from its piece) 0 / 0 / 0 / 18 / 148 / 138 at frames 0-5 (taichi_mpm, round 60's main).
+SPECK_FRAMES = 5
 #: At most this share of the Gaussians may span two pieces (``run.json`` ``spanning``, :mod:`gasp_core.run.sides`: a
 #: Gaussian whose 2-sigma ellipse reaches across a gap onto the side of a piece not its own) at any frame, and as many
 #: crack faces (``faces_spanning``): measured 0 at frames 0-10 on both engines (rounds 33 and 34); with round 31's rule
@@ -169,3 +173,17 @@ def test_the_donut_shatters_on_the_guitar(tmp_path):
         g = read_gaussians(f)
         assert np.isfinite(g.means).all(), f.name
         assert (g.scales.max(axis=1) / rest).max() <= donut["alpha"] * (1 + 1e-5), f.name
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("dot", [True, False])
+def test_the_skin_of_crumbled_material_leaves_no_speck(tmp_path, monkeypatch, dot):
+    """Frames 0-5 on taichi_mpm: no frame over ``SPECKS`` with the skin of crumbled material drawn as a dot at its
+    host (``gasp_core.run.apart.CRUMBLED_DOT``); the catch (``dot`` False, the rule before): frames 4 and 5 fail."""
+    needs_package("gasp_taichi_mpm")
+    from gasp_core.run import apart
+    monkeypatch.setattr(apart, "CRUMBLED_DOT", dot)
+    simulate_scene(load_scene(SCENE), tmp_path / "out", n_frames=SPECK_FRAMES, engine="taichi_mpm", quiet=True)
+    run = json.loads((tmp_path / "out" / "run.json").read_text())
+    bad = check_specks(run, run["objects"][0]["n_gaussians"])
+    assert bad == ([] if dot else [4, 5]), [(r["frame"], r["specks"]) for r in run["frames"]]

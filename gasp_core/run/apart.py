@@ -29,12 +29,20 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial import cKDTree
 
-from gasp_core.run.sides import across, across_rays, ellipse_points, host_rows, side_of
+from gasp_core.run.sides import FRACTIONS, across, across_rays, ellipse_points, host_rows, side_of
 
 #: The reach, in grid cells ``dx`` (module notes).
 REACH = 1.5
 #: The tips are this many standard deviations from the centre along each in-plane axis (module notes).
 TIPS = 2.0
+#: The skin of crumbled material (round 60, :func:`hold_to_pieces`): a held Gaussian whose rest centre lay further
+#: than the reach from every material point still in a piece (its material has all crumbled: no piece is under it) is
+#: drawn as a dot at its host, its scales times :data:`DOT`. False: at its rest offset from its host (round 31's rule,
+#: the catch of ``tests/test_apart.py``): a speck, the skin of crumbs drawn in the air beside the piece.
+CRUMBLED_DOT = True
+#: A dot's share of a Gaussian's rest scales: the trim rule's floor (half the first of
+#: :data:`gasp_core.run.sides.FRACTIONS`), a splat under 0.1 mm for the bundled donut's.
+DOT = 0.5 * float(FRACTIONS[0])
 
 
 def apart_masks(means: np.ndarray, rot: np.ndarray, scales: np.ndarray, points: np.ndarray, piece: np.ndarray,
@@ -266,7 +274,9 @@ def hold_to_pieces(o, x: np.ndarray, labels: np.ndarray, ctx: PieceContext, prev
     material point of a piece nearest its anchor at rest (for a crumb's Gaussian: the piece the crumb was part of,
     by rest adjacency). It moves rigidly with the host's piece (:meth:`HostMotion.move`), as a straddling Gaussian
     turns (:func:`gasp_core.run.frames.turn_with_pieces`). So it is drawn within its rest distance from its host, a
-    material point of the piece.
+    material point of the piece. One whose rest centre lay further than ``ctx.reach`` from its host (so from every
+    point still in a piece: the material under it has all crumbled) is drawn as a dot at its host
+    (:data:`CRUMBLED_DOT`, round 60): it has no piece to be the skin of, and at its rest offset it was a speck.
 
     ``x`` (n_points, 3) world positions, ``labels`` (n_points,) the point labels, ``prev_rot`` (n, 3, 3) the last
     frame's rotations; ``means`` (n, 3), ``rot`` (n, 3, 3), ``scales`` (n, 3): the Gaussians (world frame, metres),
@@ -287,6 +297,11 @@ def hold_to_pieces(o, x: np.ndarray, labels: np.ndarray, ctx: PieceContext, prev
         return np.zeros(n, bool)
     motion = HostMotion(o, x, labels, ctx, prev_rot, pts) if motion is None else motion
     motion.move(held, means, rot, scales)
+    if CRUMBLED_DOT:   # no piece under it at rest: the skin of crumbled material, a dot at its host
+        host = motion.host[held]
+        gone = np.linalg.norm(o.surface.tri_rest[held, 0] - ctx.x_rest[host], axis=1) > ctx.reach
+        means[held[gone]] = x[host[gone]]
+        scales[held[gone]] *= DOT
     out = np.zeros(n, bool)
     out[held] = True
     return out
