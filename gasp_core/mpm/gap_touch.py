@@ -30,7 +30,12 @@ import numpy as np
 
 from gasp_core.mpm.fields_reference import flow_touch_level
 
-#: The point's half extent (cells) is rounded to this before its level is computed (``flow_touch_level`` is cached).
+#: The separation (in the body's point spacings) within which two surfaces touch: half a spacing. At zero (the level of
+#: the surfaces exactly meeting) two convex bodies touch late: the scatter and gather's smoothing (variance ``dx^2 / 2``)
+#: moves a ball's surface level inward by about ``dx^2 / (2 R)``, 0.18 dx at R 2 dx (``docs/contact.md`` "Round 60"),
+#: and the stacked balls rested 0.27 dx inside each other (0.22 under the rule before); at half a spacing -0.01 dx.
+SEPARATION = 0.5
+#: The point's reach (cells) is rounded to this before its level is computed (``flow_touch_level`` is cached).
 DELTA_ROUND = 1e-3
 
 
@@ -42,18 +47,20 @@ def gap_touch(setup) -> bool:
 
 
 def body_delta(setup) -> np.ndarray:
-    """Per body (shape (n_materials,), cells) half the body's point spacing ``0.5 median(V_p)^(1/3) / dx`` over its
-    material points (``setup.p_vol``, m^3; ``setup.dx``, m), rounded to :data:`DELTA_ROUND`; 0.25 (points at dx / 2)
-    for a body without points."""
+    """Per body (shape (n_materials,), cells) how far outside the other body's surface its point's centre marks: half
+    its point spacing (its own surface on the other's) plus :data:`SEPARATION` spacings, ``(0.5 + SEPARATION)
+    median(V_p)^(1/3) / dx`` over its material points (``setup.p_vol``, m^3; ``setup.dx``, m), rounded to
+    :data:`DELTA_ROUND`; as for points at dx / 2 for a body without points."""
     n_mat = getattr(setup, "n_material", None)
     n = len(setup.x) if n_mat is None else int(n_mat)
     vol = np.asarray(setup.p_vol, float)[:n]
     body = np.asarray(setup.body_id)[:n]
-    out = np.full(len(setup.materials), 0.25)
+    reach = 0.5 + float(SEPARATION)
+    out = np.full(len(setup.materials), 0.5 * reach)
     for b in range(len(setup.materials)):
         v = vol[body == b]
         if len(v):
-            out[b] = 0.5 * float(np.median(v)) ** (1.0 / 3.0) / float(setup.dx)
+            out[b] = reach * float(np.median(v)) ** (1.0 / 3.0) / float(setup.dx)
     return np.round(np.clip(out, 0.0, 1.5) / DELTA_ROUND) * DELTA_ROUND
 
 
