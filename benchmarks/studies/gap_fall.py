@@ -7,7 +7,8 @@ default substeps; prints per case the upper body's mean v_z (m/s) against ``-g t
 ``--rule old`` sets ``gasp_core.mpm.fields.GAP_TOUCH = False`` (the volume-fraction touch, ``SOFT_TOUCH_FRACTION``).
 
 Usage: ``python benchmarks/studies/gap_fall.py --engine taichi_mpm --shape ball --gap 0.53 --factors 1,2,4,8
---rule new`` (``--gap`` in cells of the grid, ``--n-grid`` 32 by default).
+--rule new`` (``--gap`` in cells of the grid, ``--n-grid`` 32 by default); ``--land``: the body dropped from ``--gap``,
+its gap at rest after 20 frames (``landed``).
 """
 import argparse
 import time
@@ -60,6 +61,24 @@ def run(engine, shape, half, n_grid, gap_cells, factor):
         eng.close()
 
 
+def landed(engine, shape, half, n_grid, gap_cells, frames=20):
+    """The body dropped ``gap_cells`` dx above the box, after ``frames`` frames: ``(gap at rest in dx, the deepest gap
+    over the run in dx)``, the gap ``gasp_core.testing.scenes_pairs.surface_gap`` (nearest points less half of each
+    one's spacing; the mean of the last 5 frames)."""
+    from gasp_core.testing.scenes_pairs import surface_gap
+    setup, nb = scene(shape, half, n_grid, gap_cells)
+    dx = SIDE / n_grid
+    eng = build_engine(engines()[engine], setup)
+    gaps = []
+    try:
+        for _ in range(frames):
+            eng.step_frame()
+            gaps.append(surface_gap(np.asarray(eng.positions(), np.float64), setup.body_id, setup.p_vol) / dx)
+    finally:
+        eng.close()
+    return float(np.mean(gaps[-5:])), float(np.min(gaps))
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--engine", default="taichi_mpm")
@@ -69,9 +88,16 @@ def main():
     ap.add_argument("--gap", default="0.53", help="gaps in cells, comma separated")
     ap.add_argument("--factors", default="1,8")
     ap.add_argument("--rule", default="new", choices=("new", "old"))
+    ap.add_argument("--land", action="store_true", help="drop the body from --gap and report its gap at rest")
     a = ap.parse_args()
     core_fields.GAP_TOUCH = a.rule == "new"
     fall = -9.81 * FRAME
+    if a.land:
+        for gap in [float(g) for g in a.gap.split(",")]:
+            rest, deep = landed(a.engine, a.shape, a.half, a.n_grid, gap)
+            print(f"{a.engine} {a.shape} n_grid {a.n_grid} dropped {gap:.2f} dx rule {a.rule}: gap at rest "
+                  f"{rest:+.3f} dx (deepest {deep:+.3f} dx)", flush=True)
+        return
     for gap in [float(g) for g in a.gap.split(",")]:
         for f in [int(c) for c in a.factors.split(",")]:
             t0 = time.time()
