@@ -65,6 +65,7 @@ def test_the_levels_are_the_half_space_integrals_and_the_switch_picks_the_pairs(
     assert d[0] == pytest.approx(0.5, abs=0.02)                          # points about dx / 2 apart: 1 spacing
     assert lv[0] == pytest.approx(F.flow_touch_level(float(d[0])), abs=1e-12)
     assert F.flow_touch_level(0.5) < lv[0] < F.flow_touch_level(0.25)   # outside the face, less than a cell
-    assert not G.gap_touch(dataclasses.replace(s, options={"contact_fields": False}))
+    assert F.field_setup(s)[-1] == pytest.approx(lv)
+    assert F.field_setup(dataclasses.replace(s, options={"contact_fields": False}))[0] is None   # one field
     monkeypatch.setattr(F, "GAP_TOUCH", False)
-    assert G.gap_levels(s) is None and F.field_setup(s)[-1] is None
+    assert F.field_setup(s)[-1] is None

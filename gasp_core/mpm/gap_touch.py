@@ -30,20 +30,14 @@ import numpy as np
 
 from gasp_core.mpm.fields_reference import flow_touch_level
 
-#: The separation (in the body's point spacings) within which two surfaces touch: half a spacing. At zero (the level of
-#: the surfaces exactly meeting) two convex bodies touch late: the scatter and gather's smoothing (variance ``dx^2 / 2``)
-#: moves a ball's surface level inward by about ``dx^2 / (2 R)``, 0.18 dx at R 2 dx (``docs/contact.md`` "Round 60"),
-#: and the stacked balls rested 0.27 dx inside each other (0.22 under the rule before); at half a spacing -0.01 dx.
+#: The separation (in the body's point spacings) within which two surfaces touch: half a spacing. At zero (the level
+#: of the surfaces exactly meeting) two convex bodies touch late: the scatter and gather's smoothing (variance
+#: ``dx^2 / 2``) moves a ball's surface level inward, 0.18 dx at R 2 dx (``docs/contact.md`` "Round 60"), and the
+#: stacked balls rested 0.27 dx inside each other (0.22 under the rule before; at half a spacing -0.01 dx); flat faces
+#: then rest that separation apart (a cube on a box +0.27 dx; +0.06 at zero; +0.42 under the rule before).
 SEPARATION = 0.5
 #: The point's reach (cells) is rounded to this before its level is computed (``flow_touch_level`` is cached).
 DELTA_ROUND = 1e-3
-
-
-def gap_touch(setup) -> bool:
-    """Whether a setup's two-field contact takes the touch by geometry (:data:`gasp_core.mpm.fields.GAP_TOUCH`): two
-    bodies on the particle contact (``body_pair``) that run two fields."""
-    from gasp_core.mpm import fields as F
-    return bool(F.GAP_TOUCH) and F.body_pair(setup) and F.uses_fields(setup)
 
 
 def body_delta(setup) -> np.ndarray:
@@ -64,11 +58,12 @@ def body_delta(setup) -> np.ndarray:
     return np.round(np.clip(out, 0.0, 1.5) / DELTA_ROUND) * DELTA_ROUND
 
 
-def gap_levels(setup) -> np.ndarray | None:
+def gap_levels(setup, on: bool = True) -> np.ndarray | None:
     """The touch by geometry's level per body (shape (n_materials,), dimensionless: a volume fraction of a cell), or
-    None where :func:`gap_touch` is off: :func:`flow_touch_level` at :func:`body_delta`. A point of body b is at the
-    other body's surface where the other field's gathered volume fraction at it reaches ``level[b]``."""
-    if not gap_touch(setup):
+    None where ``on`` is false (``gasp_core.mpm.fields.field_setup``: :data:`gasp_core.mpm.fields.GAP_TOUCH` and a
+    ``body_pair``): :func:`flow_touch_level` at :func:`body_delta`. A point of body b marks where the other field's
+    gathered volume fraction at it reaches ``level[b]``."""
+    if not on:
         return None
     return np.array([flow_touch_level(float(d)) for d in body_delta(setup)], np.float64)
 

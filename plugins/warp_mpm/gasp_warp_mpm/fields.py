@@ -15,7 +15,7 @@ import warp as wp
 
 from gasp_core.mpm.contact import flowing_bodies
 from gasp_core.mpm import fields as core_fields
-from gasp_core.mpm.fields import (MIN_FRACTION, MIN_GRADIENT, field_bodies, field_friction, flow_touch,
+from gasp_core.mpm.fields import (MIN_FRACTION, MIN_GRADIENT, body_pair, field_bodies, field_friction, flow_touch,
                                   flow_touch_level, gap_levels, node_friction, rigid_pair, shared_field_warning,
                                   touch_fraction, a_node_friction)
 
@@ -330,7 +330,7 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     # round 42: a ground's top layer free in untouched columns, the friction on B's own velocity (grid.py)
     eng.field_rule = core_fields.field_rule() if eng.fields and contact == "mixed" else 0
     eng.flow_touch_on = bool(eng.fields and flow_touch(view))   # the flowing body's touch (pair_touch.py)
-    levels = gap_levels(view) if eng.fields else None   # round 60: the touch by geometry's (gasp_core.mpm.gap_touch)
+    levels = gap_levels(view, bool(core_fields.GAP_TOUCH) and body_pair(view)) if eng.fields else None   # round 60
     eng.gap_touch_on = levels is not None
     eng.gap_level = wp.array(levels if eng.gap_touch_on else np.zeros(1), dtype=Ft, device=d)
     eng.flow_touch = wp.zeros(n if eng.flow_touch_on or eng.gap_touch_on else 1, dtype=wp.int32, device=d)
