@@ -12,9 +12,9 @@ approach along the normal and slide with friction ``mu``. G2P then reads each po
 velocity (mass-weighted mean of the two) is updated as before, with gravity and the boundaries; each field's
 velocity is that mean plus its own offset, so a scene whose fields never share a node runs as before. Two soft bodies
 (:func:`soft_pair`: a scene of two bodies on the particle contact, neither rigid nor flowing) take the same contact,
-the smaller as field A against the larger, with friction :data:`SOLID_FRICTION` and the touch threshold
-:data:`SOFT_TOUCH_FRACTION`, so they meet at their surfaces (issue 53 item 5, ``docs/contact.md`` "Two jelly balls
-stacked").
+the smaller as field A against the larger, with friction :data:`SOLID_FRICTION` and the touch by geometry
+(:data:`GAP_TOUCH`, round 60; :data:`SOFT_TOUCH_FRACTION` before), so they meet at their surfaces (issue 53 item 5,
+``docs/contact.md`` "Two jelly balls stacked").
 
 Per node, with ``m = m_A + m_B`` and the velocities ``v_A = p_A / m_A``, ``v_B = p_B / m_B`` after P2G:
 

@@ -10,6 +10,10 @@ it (:meth:`behind`) moving as one (Coulomb's rule, :meth:`coulomb`, on A's veloc
 adding that node's share of the reaction to ``grid_push``; after it
 :meth:`apply_flow` adds that momentum to B's offset there and clears the marks and the pushes.
 
+Round 60 (``gasp_core.mpm.gap_touch``, docs/contact.md "Round 60: a touch by geometry"): for two bodies on the
+particle contact every material point of either field marks its stencil where the OTHER field's gathered
+volume fraction reaches its body's level (its surface within ``SEPARATION`` of the other's), :meth:`mark_gap`.
+
 Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields (``x``, ``body``, ``in_a``, ``grid_vf``, ...)
 it reads.
 """

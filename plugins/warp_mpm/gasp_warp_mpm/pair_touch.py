@@ -10,6 +10,10 @@ side of the surface (``m_A > m_B``) sets A against B's mass at that node and the
 normal, into B) to ``flow_push`` there; after it ``flow_apply`` (a node kernel) adds that
 momentum to B's offset there and clears the marks and the pushes.
 
+Round 60 (``gasp_core.mpm.gap_touch``, docs/contact.md "Round 60: a touch by geometry"): for two bodies on the
+particle contact every material point of either field marks its stencil where the OTHER field's gathered
+volume fraction reaches its body's level (its surface within ``SEPARATION`` of the other's), ``build_gap_touch``.
+
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of the closures below as
 type objects.
 """
