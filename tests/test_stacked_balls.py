@@ -9,8 +9,12 @@
   lattices' surfaces a little inside each other).
 - The check fails on broken engines (:func:`test_the_gap_check_fails_on_a_broken_contact`, warp_mpm): one velocity
   field (``contact_fields = false``: +0.84 dx, held a cell apart), the contact acting wherever the two fields share
-  a node, across a gap (touch threshold 0: +0.83 dx), and the contact acting only once the volumes fill the cell
-  (the sand's threshold 0.9: -0.29 dx, the top ball inside the bottom one; -0.40 before round 22).
+  a node, across a gap (the rule before round 60 with touch threshold 0: +0.83 dx), and the contact acting only once
+  the volumes fill the cell (the sand's threshold 0.9: -0.29 dx, the top ball inside the bottom one; -0.40 before
+  round 22); round 60's touch by geometry (``gasp_core.mpm.gap_touch``) at zero separation (``SEPARATION`` 0: the
+  convex surfaces' smoothing makes it late, -0.27 dx).
+- Round 60: the two bodies touch by geometry (``GAP_TOUCH``): the gap at rest -0.009 dx on warp_mpm (the rule
+  before, the volumes filling ``SOFT_TOUCH_FRACTION`` of a cell: -0.22).
 """
 from __future__ import annotations
 
@@ -62,14 +66,21 @@ def _gap(engine: str) -> tuple[bool, float]:
 @pytest.mark.parametrize("engine", ["warp_mpm", pytest.param("taichi_mpm", marks=pytest.mark.slow)])
 def test_the_stacked_balls_meet_at_their_surfaces(engine):
     ok, gap = _gap(engine)
-    assert ok and gap == pytest.approx(-0.19, abs=0.05), gap     # measured -0.181 (warp_mpm), -0.193 (taichi_mpm); round 21 -0.13, -0.15
+    # round 60 (the touch by geometry): measured -0.009 on both engines; the rule before -0.219 on both (round 59's
+    # main), -0.181 / -0.193 in round 22
+    assert ok and gap == pytest.approx(0.0, abs=0.05), gap
 
 
-@pytest.mark.parametrize("broken, expect", [("one_field", 0.84), ("across_gap", 0.83), ("late_touch", -0.29)])
+@pytest.mark.parametrize("broken, expect", [("one_field", 0.84), ("across_gap", 0.83), ("late_touch", -0.29),
+                                            ("zero_separation", -0.275)])
 def test_the_gap_check_fails_on_a_broken_contact(monkeypatch, broken, expect):
     if broken == "one_field":
         monkeypatch.setattr(F, "body_pair", lambda setup: False)          # one velocity field, the rule before
+    elif broken == "zero_separation":
+        import gasp_core.mpm.gap_touch as G
+        monkeypatch.setattr(G, "SEPARATION", 0.0)                        # round 60's touch at the surfaces' meeting
     else:
+        monkeypatch.setattr(F, "GAP_TOUCH", False)                        # the volume-fraction touch (before round 60)
         monkeypatch.setattr(F, "SOFT_TOUCH_FRACTION", 0.0 if broken == "across_gap" else 0.9)
     ok, gap = _gap("warp_mpm")
     assert not ok and gap == pytest.approx(expect, abs=0.05), gap

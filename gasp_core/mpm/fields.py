@@ -12,9 +12,9 @@ approach along the normal and slide with friction ``mu``. G2P then reads each po
 velocity (mass-weighted mean of the two) is updated as before, with gravity and the boundaries; each field's
 velocity is that mean plus its own offset, so a scene whose fields never share a node runs as before. Two soft bodies
 (:func:`soft_pair`: a scene of two bodies on the particle contact, neither rigid nor flowing) take the same contact,
-the smaller as field A against the larger, with friction :data:`SOLID_FRICTION` and the touch threshold
-:data:`SOFT_TOUCH_FRACTION`, so they meet at their surfaces (issue 53 item 5, ``docs/contact.md`` "Two jelly balls
-stacked").
+the smaller as field A against the larger, with friction :data:`SOLID_FRICTION` and the touch by geometry
+(:data:`GAP_TOUCH`, round 60; :data:`SOFT_TOUCH_FRACTION` before), so they meet at their surfaces (issue 53 item 5,
+``docs/contact.md`` "Two jelly balls stacked").
 
 Per node, with ``m = m_A + m_B`` and the velocities ``v_A = p_A / m_A``, ``v_B = p_B / m_B`` after P2G:
 
@@ -33,9 +33,9 @@ slide) and its back lets go; a jelly block thrown along a jelly slab then stoppe
 for 0.5 (n_grid 32), 0.68-0.76 at n_grid 64; with the slab's normal 0.58-0.60 and **0.502-0.504** at 64, at every
 speed (``docs/contact.md``, "Friction between bodies"). At and below a ground's top node layer B's mass is seen with its
 mirror image (:func:`ground_mirror`): the ground is B's support, so the middle layer of a thin support on it still
-finds its face above (round 41). A node in a ground's node layers or the walls' (the grid
-rule's reach) takes no offset: both fields move with the projected mean there, except a ground's top layer in a column
-no flowing point touches (:data:`TOP_FREE`, round 42). Colliders are not looked at.
+finds its face above (round 41). A node in a ground's node layers or the walls' (the grid rule's reach) takes no offset:
+both fields move with the mean there, except a ground's top layer in a column no flowing point touches (TOP_FREE).
+Colliders are not looked at.
 """
 from __future__ import annotations
 
@@ -47,6 +47,7 @@ from gasp_core.seam.options import Option
 from gasp_core.mpm.contact import contact_model, explicit_grid, flowing_bodies
 from gasp_core.mpm.fields_reference import (FLOW_TOUCH_DELTA, MIN_FRACTION, combine_friction,  # noqa: F401
                                            field_offsets, flow_touch_level, ground_mirror, mass_normals)
+from gasp_core.mpm.gap_touch import gap_levels
 
 #: Engine option ``contact_fields`` of the MPM engines.
 FIELDS = Option("contact_fields", True, "in a scene with flowing (sand, snow, liquid) and other bodies, the flowing "
@@ -117,6 +118,9 @@ B_BALANCE = True
 #: rule before, the catch of ``tests/test_contact_fine_step.py``): a point's ``v_new - v_old`` carried its field's
 #: offset, ``alpha`` times, each substep; two jelly bodies 5 mm apart diverged at 400 substeps a frame (n_grid 32).
 FIELD_OLD_VELOCITY = True
+#: Round 60 (docs/contact.md "Round 60", :mod:`gasp_core.mpm.gap_touch`): two bodies (:func:`body_pair`) touch where a
+#: point's surface reaches the other's, not by :data:`SOFT_TOUCH_FRACTION` (False: the rule before, the catch).
+GAP_TOUCH = True
 #: A body of field B that names no ``friction``, in :func:`node_friction`'s ``mu_b`` where :func:`b_unnamed_mix`
 #: (round 44): its points scatter ``w_ip m_p`` to B's unnamed channel, not ``w_ip m_p mu`` to B's named one.
 UNNAMED = -2.0
@@ -137,8 +141,7 @@ def field_bodies(setup) -> np.ndarray | None:
     option ``contact_fields`` true (the default): in a ``"mixed"`` scene the flowing bodies (A) against the others
     (B); two soft bodies (:func:`soft_pair`), two rigid ones (:func:`rigid_pair`) or a rigid one and a soft one
     (:func:`mixed_pair`) the smaller by volume (A; body 1 when equal) against the larger (B), whose surface gives the
-    contact normal (a block on a slab: the slab's face). Any other scene runs one field (three or more bodies: a
-    field per body is not built)."""
+    contact normal (a block on a slab: the slab's face). Any other scene runs one field (three or more bodies)."""
     c = contact_model(setup)
     if not setup.options.get("contact_fields", True) or (c == "mixed" and explicit_grid(setup)):
         return None   # contact = "grid" by hand: one field, as before its rigid bodies took the particle contact
@@ -160,8 +163,7 @@ def body_pair(setup) -> bool:
 def soft_pair(setup) -> bool:
     """Whether a scene is two soft bodies on the particle contact (two materials, neither flowing nor rigid): they
     take a field each, the smaller (A) against the larger (B), so they meet at their surfaces (issue 53 item 5,
-    ``docs/contact.md`` "Two jelly balls stacked"). Three or more soft bodies keep one field (no multi-field contact
-    yet)."""
+    ``docs/contact.md`` "Two jelly balls stacked"). Three or more soft bodies keep one field (no multi-field yet)."""
     from gasp_core.mpm.rigid import rigid_mask
     return (len(setup.materials) == 2 and contact_model(setup) == "particle"
             and not np.asarray(rigid_mask(setup.materials)).any())
@@ -228,10 +230,9 @@ def field_friction(setup) -> float:
     is ``tan(phi)``); 0 where no flowing body has a friction angle (liquid, snow: they slide freely). Where field B's
     bodies take different coefficients the engines build the pair's friction per node (:func:`node_friction`, round
     42; :func:`pair_frictions` per body) and this is round 41's scalar, the smallest named; where A brings several
-    (:func:`a_node_friction`: sands of several angles, round 43; sand beside liquid or snow, round 44) A's side is
-    per node too and this scalar takes the largest angle's. Two
-    soft bodies (:func:`soft_pair`), two rigid ones (:func:`rigid_pair`) or one of each (:func:`mixed_pair`): the
-    pair's (:func:`combine_friction` of each body's :func:`body_friction`)."""
+    (:func:`a_node_friction`: sands of several angles, round 43; sand beside liquid or snow, round 44) A's side is per
+    node too and this scalar takes the largest angle's. Two soft bodies (:func:`soft_pair`), two rigid ones
+    (:func:`rigid_pair`) or one of each (:func:`mixed_pair`): the pair's (:func:`combine_friction` of theirs)."""
     if contact_model(setup) != "mixed":
         mus = [body_friction(m) for m in setup.materials[:2]] or [SOLID_FRICTION]
         return combine_friction(mus[0], mus[-1])
@@ -393,7 +394,7 @@ def pic_at_b(setup) -> bool:
 
 
 def field_setup(setup) -> tuple:
-    """``(field_bodies, field_friction, touch_fraction, rigid_pair, flow_touch, node_friction, a_node_friction)`` of a
-    setup: what an engine allocates the contact from."""
+    """``(field_bodies, field_friction, touch_fraction, rigid_pair, flow_touch, node_friction, a_node_friction,
+    gap_levels)`` of a setup: what an engine allocates the contact from (round 60: ``gap_touch.gap_levels``)."""
     return (field_bodies(setup), field_friction(setup), touch_fraction(setup), rigid_pair(setup), flow_touch(setup),
-            node_friction(setup), a_node_friction(setup))
+            node_friction(setup), a_node_friction(setup), gap_levels(setup, bool(GAP_TOUCH) and body_pair(setup)))

@@ -23,14 +23,15 @@ class Fields(PairTouch, FieldFlip):
     """The two-field contact's fields and kernels (none without it: ``self.fields`` False)."""
 
     def allocate_fields(self, in_a, mu: float, touch: float, pair: bool = False, flow: bool = False,
-                        node_mu=None, a_mu=None) -> None:
+                        node_mu=None, a_mu=None, gap=None) -> None:
         """``in_a``: per body, True in field A (``gasp_core.mpm.fields.field_bodies``), or None: one field;
         ``mu`` the Coulomb coefficient (``field_friction``), ``touch`` the touch threshold (``touch_fraction``),
         ``pair`` whether the two bodies are rigid (``rigid_pair``: the touching nodes only sum into ``pair_acc``,
         sum m_red, sum m_red x, sum m_red n, for ``RigidFriction.rigid_pair``), ``flow`` the flowing body's touch
         (``gasp_core.mpm.fields.flow_touch``, pair_touch.py), ``node_mu`` field B's bodies' several frictions
         (``gasp_core.mpm.fields.node_friction``: ``(own, mu_b, lo, hi)``, or None: the scalar ``mu``), ``a_mu`` field
-        A's sands' several angles (``a_node_friction``: ``(mu_a, lo, hi, mu_b)``, or None: A's one). Before the first
+        A's sands' several angles (``a_node_friction``: ``(mu_a, lo, hi, mu_b)``, or None: A's one), ``gap`` the touch
+        by geometry's level per body (``gasp_core.mpm.gap_touch.gap_levels``, round 60; None: off). Before the first
         substep."""
         self.fields = in_a is not None
         self.field_pair = bool(self.fields and pair)
@@ -50,7 +51,7 @@ class Fields(PairTouch, FieldFlip):
         nf = self.n_grid if self.field_flip else 1
         self.grid_sv0 = ti.Vector.field(4, self.real, shape=(nf, nf, nf))
         self.grid_dv0 = ti.Vector.field(6, self.real, shape=(nf, nf, nf))
-        self.allocate_pair_touch(flow)
+        self.allocate_pair_touch(flow, gap)
         # B's bodies' several frictions (round 42): B's points scatter w m mu_b to grid_fmu, the pair's per node
         self.node_mu_on = node_mu is not None
         own, mu_b, lo, hi = node_mu if self.node_mu_on else (0.0, [], 0.0, 0.0)
@@ -302,7 +303,7 @@ class Fields(PairTouch, FieldFlip):
             if inner and held == 0 and m_a > MIN_FRACTION * m and m_b > MIN_FRACTION * m:
                 vf = self.grid_vf[I]
                 touch = vf[0] + vf[1] >= self.field_touch * cell
-                if ti.static(self.flow_touch_on):   # the flowing body's touch (pair_touch.py): its points mark
+                if ti.static(self.flow_touch_on or self.gap_touch_on):   # the points mark (pair_touch.py)
                     touch = self.grid_ft[I] != 0
                 v_b = ti.Vector([g[0] - sv[0], g[1] - sv[1], g[2] - sv[2]]) / m_b
                 u = ti.Vector([sv[0], sv[1], sv[2]]) / m_a - v_b
@@ -364,6 +365,8 @@ class Fields(PairTouch, FieldFlip):
                 self.grid_amu[I] = 0.0
             if ti.static(self.b_un_on):
                 self.grid_umu[I] = 0.0
+            if ti.static(self.gap_touch_on):   # round 60: the touch by geometry's marks
+                self.grid_ft[I] = 0
 
     def contact_fields(self) -> None:
         """After P2G (and the viscous step), before the grid update: the grounds' touched columns (``touch.py``), then
@@ -372,6 +375,8 @@ class Fields(PairTouch, FieldFlip):
         if self.fields:
             if self.flow_touch_on:
                 self.mark_flow()
+            if self.gap_touch_on:   # round 60: the touch by geometry (pair_touch.py)
+                self.mark_gap()
             self.field_contact()
             if self.flow_touch_on:
                 self.apply_flow()

@@ -10,6 +10,10 @@ it (:meth:`behind`) moving as one (Coulomb's rule, :meth:`coulomb`, on A's veloc
 adding that node's share of the reaction to ``grid_push``; after it
 :meth:`apply_flow` adds that momentum to B's offset there and clears the marks and the pushes.
 
+Round 60 (``gasp_core.mpm.gap_touch``, docs/contact.md "Round 60: a touch by geometry"): for two bodies on the
+particle contact every material point of either field marks its stencil where the OTHER field's gathered
+volume fraction reaches its body's level (its surface within ``SEPARATION`` of the other's), :meth:`mark_gap`.
+
 Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields (``x``, ``body``, ``in_a``, ``grid_vf``, ...)
 it reads.
 """
@@ -23,13 +27,21 @@ from gasp_core.mpm.fields import flow_touch_level
 class PairTouch:
     """The flowing body's contact nodes (:meth:`mark_flow`) and the reaction behind them (:meth:`apply_flow`)."""
 
-    def allocate_pair_touch(self, flow: bool) -> None:
+    def allocate_pair_touch(self, flow: bool, gap=None) -> None:
         """``flow_touch_on`` (``flow``: ``gasp_core.mpm.fields.flow_touch``, with two fields), ``grid_ft`` (i32 per
-        node, the marks) and ``grid_push`` (B's momentum from the node in front, kg m/s); one entry each when off."""
+        node, the marks) and ``grid_push`` (B's momentum from the node in front, kg m/s); one entry each when off.
+        ``gap_touch_on`` (round 60: ``gap``, the touch by geometry's level per body, ``gasp_core.mpm.gap_touch``,
+        kept in ``gap_level``; None: off), whose marks take ``grid_ft`` too."""
         self.flow_touch_on = bool(self.fields and flow)
-        ng = self.n_grid if self.flow_touch_on else 1
+        self.gap_touch_on = bool(self.fields and gap is not None)
+        ng = self.n_grid if self.flow_touch_on or self.gap_touch_on else 1
         self.grid_ft = ti.field(ti.i32, shape=(ng, ng, ng))
+        ng = self.n_grid if self.flow_touch_on else 1
         self.grid_push = ti.Vector.field(3, self.real, shape=(ng, ng, ng))
+        levels = list(gap) if self.gap_touch_on else []
+        self.gap_level = ti.field(self.real, shape=max(4, len(levels)))
+        for b, lv in enumerate(levels):
+            self.gap_level[b] = float(lv)
         self.flow_level = float(flow_touch_level())
         # field A's points without their affine momentum where they meet B (transfers.p2g_prep; PIC_AT_B)
         self.pic_on = bool(self.flow_touch_on and core_fields.PIC_AT_B)
@@ -54,6 +66,23 @@ class PairTouch:
                             self.p_pic[p] = 1
                         for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                             ti.atomic_max(self.grid_ft[base + ti.Vector([i, j, k])], 1)
+
+    @ti.kernel
+    def mark_gap(self):
+        """Round 60 (``gasp_core.mpm.gap_touch``): mark the stencil nodes of every material point where the OTHER
+        field's gathered volume fraction reaches its body's ``gap_level`` (its surface on the other body's)."""
+        cell = self.dx[None] ** 3
+        for p in range(self.n_points[None]):
+            base, fx, ok = self.base_fx(self.x[p])
+            if ok:
+                w = self.weights(fx)
+                phi = ti.Vector.zero(self.real, 2)   # each field's gathered volume (grid_vf: A's, B's)
+                for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
+                    phi += w[i][0] * w[j][1] * w[k][2] * self.grid_vf[base + ti.Vector([i, j, k])]
+                other = phi[1] if self.in_a[self.body[p]] != 0 else phi[0]
+                if other >= self.gap_level[self.body[p]] * cell:
+                    for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
+                        ti.atomic_max(self.grid_ft[base + ti.Vector([i, j, k])], 1)
 
     @ti.func
     def coulomb(self, u, nh, mu):

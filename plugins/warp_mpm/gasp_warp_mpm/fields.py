@@ -15,12 +15,12 @@ import warp as wp
 
 from gasp_core.mpm.contact import flowing_bodies
 from gasp_core.mpm import fields as core_fields
-from gasp_core.mpm.fields import (MIN_FRACTION, MIN_GRADIENT, field_bodies, field_friction, flow_touch,
-                                  flow_touch_level, node_friction, rigid_pair, shared_field_warning, touch_fraction,
-                                  a_node_friction)
+from gasp_core.mpm.fields import (MIN_FRACTION, MIN_GRADIENT, body_pair, field_bodies, field_friction, flow_touch,
+                                  flow_touch_level, gap_levels, node_friction, rigid_pair, shared_field_warning,
+                                  touch_fraction, a_node_friction)
 
 from . import ENGINE
-from .pair_touch import build_pair_funcs, build_pair_touch
+from .pair_touch import build_gap_touch, build_pair_funcs, build_pair_touch
 from .precision import MODULE_OPTIONS, build_types
 from .touch import build_held
 
@@ -181,8 +181,8 @@ def build_fields(Ft):
         held = held_node(i, j, k, ground, n_grid, ground_touch, free, vec3(Ft(i), Ft(j), Ft(k)), vec3(wall_lo),
                          wall_hi, 1)
         touch = (grid_vf[node] + grid_vf[n_nodes + node]) >= touch_frac * cell   # the bodies meet here
-        flow = flow_touch.shape[0] > 1   # the flowing body's touch (pair_touch.py): its points mark the nodes
-        if flow:
+        flow = flow_push.shape[0] > 1   # the flowing body's touch (pair_touch.py): its layer behind
+        if flow_touch.shape[0] > 1:   # its points mark the nodes, or round 60's touch by geometry's (gap_touch)
             touch = flow_touch[node] != 0
         mb_eff = Ft(0.0)   # > 0: A against B's mass here and behind (pair_touch.py)
         if inner and held == 0 and m_a > Ft(MIN_FRACTION) * m and m_b > Ft(MIN_FRACTION) * m:
@@ -330,9 +330,11 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     # round 42: a ground's top layer free in untouched columns, the friction on B's own velocity (grid.py)
     eng.field_rule = core_fields.field_rule() if eng.fields and contact == "mixed" else 0
     eng.flow_touch_on = bool(eng.fields and flow_touch(view))   # the flowing body's touch (pair_touch.py)
-    nf = n if eng.flow_touch_on else 1
-    eng.flow_touch = wp.zeros(nf, dtype=wp.int32, device=d)
-    eng.flow_push = wp.zeros(nf, dtype=k.vec3, device=d)
+    levels = gap_levels(view, bool(core_fields.GAP_TOUCH) and body_pair(view)) if eng.fields else None   # round 60
+    eng.gap_touch_on = levels is not None
+    eng.gap_level = wp.array(levels if eng.gap_touch_on else np.zeros(1), dtype=Ft, device=d)
+    eng.flow_touch = wp.zeros(n if eng.flow_touch_on or eng.gap_touch_on else 1, dtype=wp.int32, device=d)
+    eng.flow_push = wp.zeros(n if eng.flow_touch_on else 1, dtype=k.vec3, device=d)
     # field A's points without their affine momentum where they meet B (transfers.p2g, gasp_core PIC_AT_B)
     eng.p_pic = wp.zeros(eng.n_material if eng.flow_touch_on and core_fields.PIC_AT_B else 1, dtype=wp.int32, device=d)
     eng.allocate_touch(Ft, contact)   # the grounds' touched columns (touch.py)
@@ -369,6 +371,12 @@ def field_launches(eng, Ft) -> list:
         Ft(flow_touch_level()), ng, eng.p_pic])] if eng.flow_touch_on else []
     after = [wp.launch(apply, dim=ng ** 3, device=d, record_cmd=True, inputs=[
         eng.grid_mv, eng.grid_sv, eng.grid_dv, eng.flow_push, eng.flow_touch])] if eng.flow_touch_on else []
+    if eng.gap_touch_on:   # round 60: the touch by geometry (pair_touch.build_gap_touch)
+        gmark, gclear = build_gap_touch(Ft)
+        flow = [wp.launch(gmark, dim=eng.n_material, device=d, record_cmd=True, inputs=[
+            eng.x, eng.body, eng.in_a, eng.grid_vf, eng.flow_touch, lo, Ft(eng.inv_dx), Ft(eng.dx ** 3),
+            eng.gap_level, ng])]
+        after = [wp.launch(gclear, dim=ng ** 3, device=d, record_cmd=True, inputs=[eng.flow_touch])]
     old = [wp.launch(build_field_old(Ft), dim=ng ** 3, device=d, record_cmd=True, inputs=[
         eng.grid_mv0, eng.grid_v0, ng])] if eng.field_flip else []   # round 59: AFLIP's old velocity per field
     return flow + old + [wp.launch(contact, dim=ng ** 3, device=d, record_cmd=True, inputs=[

@@ -10,6 +10,10 @@ side of the surface (``m_A > m_B``) sets A against B's mass at that node and the
 normal, into B) to ``flow_push`` there; after it ``flow_apply`` (a node kernel) adds that
 momentum to B's offset there and clears the marks and the pushes.
 
+Round 60 (``gasp_core.mpm.gap_touch``, docs/contact.md "Round 60: a touch by geometry"): for two bodies on the
+particle contact every material point of either field marks its stencil where the OTHER field's gathered
+volume fraction reaches its body's level (its surface within ``SEPARATION`` of the other's), ``build_gap_touch``.
+
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of the closures below as
 type objects.
 """
@@ -137,3 +141,52 @@ def build_pair_touch(Ft):
         flow_touch[node] = 0
 
     return flow_mark, flow_apply
+
+
+@functools.cache
+def build_gap_touch(Ft):
+    """``(gap_mark, gap_clear)`` of scalar type ``Ft``: round 60's touch by geometry (``gasp_core.mpm.gap_touch``,
+    taichi_mpm's ``PairTouch.mark_gap``). ``gap_mark`` (a points kernel, atomic max) marks the 27 stencil nodes of
+    every material point where the OTHER field's gathered volume fraction (``grid_vf``: A's volume, then B's
+    ``n_grid^3`` further) reaches its body's ``level`` (its surface on the other body's); ``gap_clear`` (a node
+    kernel) clears the marks after the contact."""
+    vec3, vec4, mat33 = build_types(Ft)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def gap_mark(x: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32),
+                 grid_vf: wp.array(dtype=Ft), marks: wp.array(dtype=wp.int32), lo: vec3, inv_dx: Ft, cell: Ft,
+                 level: wp.array(dtype=Ft), n_grid: int):
+        p = wp.tid()
+        X = (x[p] - lo) * inv_dx
+        lim = Ft(n_grid - 3)
+        b = vec3(wp.floor(X[0] - Ft(0.5)), wp.floor(X[1] - Ft(0.5)), wp.floor(X[2] - Ft(0.5)))
+        if not (b[0] >= Ft(0.0) and b[0] <= lim and b[1] >= Ft(0.0) and b[1] <= lim and b[2] >= Ft(0.0)
+                and b[2] <= lim):
+            return
+        fx = X - b
+        W = mat33()
+        for d in range(3):
+            W[0, d] = Ft(0.5) * (Ft(1.5) - fx[d]) * (Ft(1.5) - fx[d])
+            W[1, d] = Ft(0.75) - (fx[d] - Ft(1.0)) * (fx[d] - Ft(1.0))
+            W[2, d] = Ft(0.5) * (fx[d] - Ft(0.5)) * (fx[d] - Ft(0.5))
+        nn = n_grid * n_grid
+        other = int(0)   # the other field's part of grid_vf: B's for a point of A
+        if in_a[body[p]] != 0:
+            other = nn * n_grid
+        idx0 = int(b[0]) * nn + int(b[1]) * n_grid + int(b[2])
+        phi = Ft(0.0)
+        for i in range(3):
+            for j in range(3):
+                for k in range(3):
+                    phi += W[i, 0] * W[j, 1] * W[k, 2] * grid_vf[other + idx0 + i * nn + j * n_grid + k]
+        if phi >= level[body[p]] * cell:   # its surface on the other body's
+            for i in range(3):
+                for j in range(3):
+                    for k in range(3):
+                        wp.atomic_max(marks, idx0 + i * nn + j * n_grid + k, 1)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def gap_clear(marks: wp.array(dtype=wp.int32)):
+        marks[wp.tid()] = 0
+
+    return gap_mark, gap_clear
