@@ -24,6 +24,7 @@ from gasp_core.colliders.model import Impulse
 from gasp_core.errors import EngineDivergence
 from gasp_core.seam import energy_watch
 from gasp_core.seam.energy_watch import ALLOWANCE, CAUSE_ENERGY, EnergyWatch, unwatched
+from gasp_core.seam.runner import left_grid
 from gasp_core.seam.setup import Material, SimSetup
 
 ENGINES = [e for e in ("taichi_mpm", "warp_mpm") if importlib.util.find_spec(f"gasp_{e}") is not None]
@@ -48,7 +49,7 @@ def test_a_ballistic_point_reads_its_start_less_g2_dt2_over_8(v):
     """Free flight, thrown up, down or sideways: each frame's energy (mean velocity, midpoint height) is exactly the
     start's less ``m g^2 dt^2 / 8`` a point, to roundoff (the end position would read +- ``m g v dt / 2``)."""
     s = _points(v)
-    w = EnergyWatch(s, leaves=False)
+    w = EnergyWatch(s)
     m = s.p_mass.sum()
     for k in range(1, 6):
         w.check(k, _ballistic(s, (k - 1) * DT), _ballistic(s, k * DT))
@@ -59,7 +60,7 @@ def test_a_ballistic_point_reads_its_start_less_g2_dt2_over_8(v):
 def test_the_scale_is_the_start_kinetic_energy_and_gravity_across_the_domain():
     s = _points((0.0, 3.0, 4.0))
     m = s.p_mass.sum()
-    assert EnergyWatch(s, False).scale == pytest.approx(0.5 * m * 25.0 + m * G * 1.0)
+    assert EnergyWatch(s).scale == pytest.approx(0.5 * m * 25.0 + m * G * 1.0)
 
 
 @pytest.mark.parametrize("over", [True, False])
@@ -67,7 +68,7 @@ def test_a_gain_past_the_allowance_stops_the_run_and_one_below_does_not(over):
     """The points at rest lifted so that their potential gains ``(ALLOWANCE +- 1 %) S`` in the frame (at rest: no
     kinetic energy, the midpoint at the lift)."""
     s = _points()
-    w = EnergyWatch(s, False)
+    w = EnergyWatch(s)
     lift = (1.01 if over else 0.99) * ALLOWANCE * w.scale / (s.p_mass.sum() * G)
     x = s.x + [0.0, 0.0, lift]
     if over:
@@ -89,12 +90,14 @@ def test_points_out_of_the_grid_leave_the_count_with_their_energy():
     s = dataclasses.replace(s, v=v)
     x1 = s.x.copy()
     x1[0, 2] = 0.99   # its stencil past the grid's last node
-    w, kept = EnergyWatch(s, leaves=True), EnergyWatch(s, leaves=False)
+    w, kept = EnergyWatch(s), EnergyWatch(s)
     e_start = w.e0
     left = w.energies(s.x, x1)[0]
-    for watch in (w, kept):
-        watch.check(1, s.x, x1)
-        watch.check(2, x1, x1)
+    out = left_grid(x1, s)
+    assert out.tolist() == [True, False, False, False, False]
+    for watch, o in ((w, out), (kept, None)):
+        watch.check(1, s.x, x1, o)
+        watch.check(2, x1, x1, o)
     assert not w.counted[0] and w.counted[1:].all() and kept.counted.all()
     assert w.e0 == pytest.approx(e_start - left) and kept.e0 == e_start
     rest = w.potential(s.x)[1:].sum()
@@ -109,7 +112,7 @@ def test_scenes_with_work_the_runner_cannot_bound_are_not_watched():
     assert "impulses" in unwatched(dataclasses.replace(s, impulses=[kick]))
     assert unwatched(_points(gravity=(0.0, 0.0, 0.0))) == "no gravity and no initial motion"
     assert unwatched(_points(v=(1.0, 0.0, 0.0), gravity=(0.0, 0.0, 0.0))) is None
-    w = EnergyWatch(dataclasses.replace(s, impulses=[kick]), False)
+    w = EnergyWatch(dataclasses.replace(s, impulses=[kick]))
     w.check(1, s.x, s.x + 1.0)   # skipped: never raises
     assert w.record()["skipped"] and w.record()["largest_gain"] is None
 

@@ -75,10 +75,9 @@ class EnergyWatch:
     Parameters
     ----------
     setup : SimSetup
-    leaves : bool
-        The engine has the feature ``left_domain``: points out of the grid drop out of the count.
-    x_start : ndarray, shape (n, 3), optional
-        The positions before the first frame simulated here (a resumed run's restored state); default ``setup.x``.
+    out_at_start : ndarray, shape (n,), bool, optional
+        The points already out of the grid before the first frame simulated here (a resumed run's restored state,
+        engines with the feature ``left_domain``: :func:`gasp_core.seam.runner.left_grid`); they are not counted.
 
     Attributes
     ----------
@@ -88,8 +87,7 @@ class EnergyWatch:
         The largest ``(E - E0) / S`` seen (``-inf`` before the first frame).
     """
 
-    def __init__(self, setup: SimSetup, leaves: bool, x_start: np.ndarray | None = None):
-        self.setup, self.leaves = setup, leaves
+    def __init__(self, setup: SimSetup, out_at_start: np.ndarray | None = None):
         self.skipped = unwatched(setup)
         self.largest = -np.inf
         self.frame_dt = float(setup.frame_dt)
@@ -102,8 +100,7 @@ class EnergyWatch:
         ke0 = 0.5 * float(self.m @ np.einsum("ij,ij->i", setup.v, setup.v))
         self.scale = ke0 + float(self.m.sum()) * self.g_abs * span
         self.e0 = ke0 + float(self.potential(setup.x).sum())
-        x0 = setup.x if x_start is None else np.asarray(x_start, np.float64)
-        self.counted = ~left_grid_of(x0, setup) if leaves else np.ones(len(x0), bool)
+        self.counted = np.ones(len(setup.x), bool) if out_at_start is None else ~np.asarray(out_at_start, bool)
 
     def potential(self, x: np.ndarray) -> np.ndarray:
         """Each point's potential energy ``m |g| h(x)``, J, shape (n,) (module notes)."""
@@ -115,9 +112,10 @@ class EnergyWatch:
         u = (x - x_prev) / self.frame_dt
         return 0.5 * self.m * np.einsum("ij,ij->i", u, u) + self.potential(0.5 * (x + x_prev))
 
-    def check(self, frame: int, x_prev: np.ndarray, x: np.ndarray) -> None:
+    def check(self, frame: int, x_prev: np.ndarray, x: np.ndarray, out: np.ndarray | None = None) -> None:
         """Compare frame ``frame``'s energy (positions ``x_prev`` before it, ``x`` after, (n, 3), m) with the start's;
-        then drop the points that left the grid in it.
+        then drop the points out of the grid after it (``out``, shape (n,), bool: :func:`gasp_core.seam.runner.left_grid`
+        of ``x``, engines with the feature ``left_domain``; None: none drops out).
 
         Raises
         ------
@@ -136,8 +134,8 @@ class EnergyWatch:
                 f"the scene gained {gain:.4g} J over its start's energy {self.e0:.4g} J, {ratio:.3g} of its energy "
                 f"scale {self.scale:.4g} J (allowance {ALLOWANCE:g}); fastest point {fast} at "
                 f"{np.linalg.norm(x[fast] - x_prev[fast]) / self.frame_dt:.3g} m/s", frame, CAUSE_ENERGY)
-        if self.leaves:
-            gone = self.counted & left_grid_of(x, self.setup)
+        if out is not None:
+            gone = self.counted & out
             if gone.any():
                 self.e0 -= float(e[gone].sum())
                 self.counted &= ~gone
@@ -149,8 +147,3 @@ class EnergyWatch:
         return {"largest_gain": float(self.largest) if seen else None, "allowance": ALLOWANCE,
                 "scale_J": float(self.scale), "skipped": self.skipped}
 
-
-def left_grid_of(x: np.ndarray, setup: SimSetup) -> np.ndarray:
-    """:func:`gasp_core.seam.runner.left_grid` (imported late: the runner imports this module)."""
-    from gasp_core.seam.runner import left_grid
-    return left_grid(x, setup)

@@ -204,7 +204,7 @@ class EngineRun:
         x = np.asarray(call_engine(info, "positions", engine.positions), dtype=np.float64)
         damaged = "damage" in info.capabilities.features and any(m.name == "brittle" for m in setup.materials)
         leaves = "left_domain" in info.capabilities.features
-        energy = EnergyWatch(setup, leaves, None if self.start_frame == 0 else x)
+        energy = EnergyWatch(setup, left_grid(x, setup) if leaves and self.start_frame else None)
         flow = _flow_reader(info, engine, setup) if watch.enabled else None
         state = None if flow is None else flow()   # the damage and plastic strain now: a creep is no rest
         for frame in range(self.start_frame + 1, n_frames + 1):
@@ -219,12 +219,13 @@ class EngineRun:
             x_prev, x = x, call_engine(info, f"frame {frame}", advance, frame, x)
             dt_wall = time.perf_counter() - t0
             check_state(x, setup, frame)
+            out = left_grid(x, setup) if leaves else None
             try:
-                energy.check(frame, x_prev, x)
+                energy.check(frame, x_prev, x, out)
             finally:
                 stats.energy = _merged(stats.energy, energy.record())
             if leaves:
-                stats.left_domain = int(left_grid(x, setup).sum())
+                stats.left_domain = int(out.sum())
             if damaged:
                 stats.damage = np.asarray(call_engine(info, "damage", engine.damage), dtype=np.float64)
             stats.frame_s.append(dt_wall)
