@@ -8,7 +8,8 @@ raised                    meaning                                          CLI e
 :class:`EngineError`      the engine cannot run here (package missing,     2
                           device absent, closed engine)
 :class:`EngineDivergence` the simulation blew up (NaN, points left the     3
-                          domain); names the frame and the likely cause
+                          domain, energy gained); names the frame and the
+                          likely cause
 :class:`EngineBug`        anything else an engine raised: a bug in the     4
                           engine, reported with its traceback saved
 ========================  ==============================================  ==========
@@ -33,7 +34,8 @@ class EngineError(GaspError, RuntimeError):
 
 
 class EngineDivergence(GaspError, RuntimeError):
-    """The simulation blew up: non-finite values or points leaving the domain.
+    """The simulation blew up: non-finite values, points leaving the domain, or energy gained
+    (:mod:`gasp_core.seam.energy_watch`).
 
     Attributes
     ----------

@@ -60,6 +60,9 @@ def run_summary(prep, stats, n_frames: int, per_frame: list[dict], wall_s: float
         "around_selection": list(getattr(prep, "around", [])),
         "frames": per_frame,
         **({"fragments": stats.fragments} if getattr(stats, "fragments", None) else {}),
+        # the energy watchdog (gasp_core.seam.energy_watch): the largest gain over the start's energy seen, a
+        # fraction of the scene's energy scale (a run stops past the allowance), or why the scene is not watched
+        **({"energy": stats.energy} if getattr(stats, "energy", None) else {}),
     }
 
 

@@ -24,7 +24,8 @@ What is here, by the module that defines it:
 - driving an engine from a plugin's own tests: :func:`get_engine`, :func:`engines`, :func:`build_engine`
   (the core's capability, option and limit checks, then the factory), :func:`call_engine` (the error
   contract) and :func:`check_state` (the core's blow-up check on positions) with its two likely causes,
-  :data:`CAUSE_UNSTABLE` and :data:`CAUSE_LEFT_DOMAIN` (an engine raising :class:`EngineDivergence` itself uses them);
+  :data:`CAUSE_UNSTABLE` and :data:`CAUSE_LEFT_DOMAIN` (an engine raising :class:`EngineDivergence` itself uses them),
+  and :data:`CAUSE_ENERGY`, the runner's energy watchdog's (:mod:`gasp_core.seam.energy_watch`);
 - :func:`install_hint` (:mod:`gasp_core.seam.install`): the one line that installs a plugin, which its
   "cannot run here" reason prints, as ``gasp engines`` and an unknown-engine error do.
 
@@ -41,6 +42,7 @@ from gasp_core.seam.config import Preset, from_option, option
 from gasp_core.seam.limits import Limit
 from gasp_core.seam.passive import mass_properties
 from gasp_core.seam.plugins import RendererInfo, SoupWriterInfo, engine_hook, engines, get_engine, hookimpl
+from gasp_core.seam.energy_watch import CAUSE_ENERGY
 from gasp_core.seam.runner import CAUSE_LEFT_DOMAIN, CAUSE_UNSTABLE, check_state
 from gasp_core.seam.setup import BOUNDARIES, MATERIALS, Boundary, Material, SimSetup
 
@@ -57,4 +59,5 @@ __all__ = [
     "GaspError", "SceneError", "EngineError", "EngineDivergence", "EngineBug",
     # driving an engine
     "get_engine", "engines", "install_hint", "build_engine", "call_engine", "check_state", "CAUSE_UNSTABLE", "CAUSE_LEFT_DOMAIN",
+    "CAUSE_ENERGY",
 ]

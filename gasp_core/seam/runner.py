@@ -19,6 +19,7 @@ from gasp_core.seam.build import build_engine
 from gasp_core.seam.engine import call_engine, EngineInfo, PointEngine, StatefulEngine
 from gasp_core.seam.setup import SimSetup
 from gasp_core.seam.body_sleep import BodySleep
+from gasp_core.seam.energy_watch import EnergyWatch
 from gasp_core.seam.sleep import SleepWatch
 
 
@@ -65,6 +66,9 @@ class RunStats:
     left_domain: int | None = None
     #: The breaks of stiff brittle bodies into rigid fragments (``gasp_core.run.fragment_run``), one record each.
     fragments: list = field(default_factory=list)
+    #: The energy watchdog's record (:meth:`gasp_core.seam.energy_watch.EnergyWatch.record`: the largest gain over
+    #: the start's energy seen, as a fraction of the scene's energy scale; run.json ``energy``); None before a frame.
+    energy: dict | None = None
 
 
 #: The likely cause of non-finite values, or of points jumping out of the domain within a step: the one
@@ -190,16 +194,17 @@ class EngineRun:
         Raises
         ------
         EngineDivergence
-            At the first frame whose state is non-finite or outside the domain (:func:`check_state`), or when the
-            engine itself reports a blow-up.
+            At the first frame whose state is non-finite or outside the domain (:func:`check_state`), that gained
+            energy (:class:`gasp_core.seam.energy_watch.EnergyWatch`), or when the engine itself reports a blow-up.
         EngineBug
             The engine raised anything outside the error contract.
         """
         info, setup, stats, watch, engine = self.info, self.setup, self.stats, self.watch, self.engine
         advance = _advancer(engine, watch)
-        x = np.asarray(call_engine(info, "positions", engine.positions), dtype=np.float64) if watch.enabled else None
+        x = np.asarray(call_engine(info, "positions", engine.positions), dtype=np.float64)
         damaged = "damage" in info.capabilities.features and any(m.name == "brittle" for m in setup.materials)
         leaves = "left_domain" in info.capabilities.features
+        energy = EnergyWatch(setup, left_grid(x, setup) if leaves and self.start_frame else None)
         flow = _flow_reader(info, engine, setup) if watch.enabled else None
         state = None if flow is None else flow()   # the damage and plastic strain now: a creep is no rest
         for frame in range(self.start_frame + 1, n_frames + 1):
@@ -214,8 +219,13 @@ class EngineRun:
             x_prev, x = x, call_engine(info, f"frame {frame}", advance, frame, x)
             dt_wall = time.perf_counter() - t0
             check_state(x, setup, frame)
+            out = left_grid(x, setup) if leaves else None
+            try:
+                energy.check(frame, x_prev, x, out)
+            finally:
+                stats.energy = _merged(stats.energy, energy.record())
             if leaves:
-                stats.left_domain = int(left_grid(x, setup).sum())
+                stats.left_domain = int(out.sum())
             if damaged:
                 stats.damage = np.asarray(call_engine(info, "damage", engine.damage), dtype=np.float64)
             stats.frame_s.append(dt_wall)
@@ -227,6 +237,13 @@ class EngineRun:
             stats.bodies = [] if watch.bodies is None else watch.bodies.record()
             yield FrameRecord(frame, x, dt_wall, self.get_state)
         stats.engine = dict(call_engine(info, "stats", engine.stats))
+
+
+def _merged(old: dict | None, new: dict) -> dict:
+    """The energy record of a run made of several engine runs (``gasp_core.run.fragment_run``'s): the largest gain of
+    all, the latest run's scale and skip reason."""
+    gains = [r["largest_gain"] for r in (old, new) if r is not None and r["largest_gain"] is not None]
+    return {**new, "largest_gain": max(gains) if gains else None}
 
 
 def run_engine(info: EngineInfo, setup: SimSetup, n_frames: int, stats: RunStats | None = None,
