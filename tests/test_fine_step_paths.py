@@ -45,7 +45,7 @@ def _check(engine: str, name: str, k: int):
     assert abs(vk - v1) <= REL * GT, (v1, vk, f"the box's v_z at {k}x the substeps against 1x")
 
 
-@pytest.mark.parametrize("engine", ENGINES[:1])
+@pytest.mark.parametrize("engine", ENGINES)
 def test_sand_on_an_inelastic_box(engine):
     """The box with ``restitution = 0``: its v_z at 1x and 2x within 5 % of ``g t`` of each other and of 0."""
     _check(engine, "sand_rigid_e0", 2)
