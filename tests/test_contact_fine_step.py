@@ -33,8 +33,7 @@ import pytest
 
 from gasp_core.mpm import fields as core_fields
 from gasp_core.mpm.grid_engine import grid_substeps
-from gasp_core.seam.setup import Boundary, Material, SimSetup
-from gasp_core.testing.helpers import box_points
+from gasp_core.testing.helpers import body_over_box
 
 ENGINES = [e for e in ("taichi_mpm", "warp_mpm") if importlib.util.find_spec(f"gasp_{e}") is not None]
 SIDE, GAP, FRAME = 0.6, 0.010, 1.0 / 30.0
@@ -44,29 +43,11 @@ REL = 0.05
 
 def _scene(shape: str, half: float, n_grid: int, n_substeps: int | None, gap: float = GAP):
     """A jelly box (half-width ``half`` m, 6 cm tall, E 1e5, rho 700) on the ground at z = 0 and a jelly body
-    (``shape`` "ball": R 5 cm, or "cube": 8 cm, ``Material("jelly")``) ``gap`` (m, ``GAP`` 10 mm unless said) above it
-    at rest (it falls 5.4 mm in the frame: with ``GAP`` the two share grid nodes, 0.5 to 0.8 cells apart, and never
-    land), gravity -z, a
-    0.6 m grid of ``n_grid`` cells, ``contact = "auto"`` (the particle contact, two fields). Returns ``(setup,
-    n_box)`` (the box's points come first)."""
-    dx = SIDE / n_grid
-    s = dx / 2
-    xb, _ = box_points((-half, -half, 0.0), (half, half, 0.06), s)
-    top = 0.06 + gap
-    if shape == "ball":
-        g = np.mgrid[-0.05:0.05:s, -0.05:0.05:s, -0.05:0.05:s].reshape(3, -1).T + s / 2
-        xs = g[np.linalg.norm(g, axis=1) <= 0.05] + np.array([0.0, 0.0, top + 0.05])
-    else:
-        xs, _ = box_points((-0.04, -0.04, top), (0.04, 0.04, top + 0.08), s)
-    x = np.vstack([xb, xs])
-    opts = {} if n_substeps is None else {"n_substeps": int(n_substeps)}
-    setup = SimSetup(x=x, v=np.zeros_like(x), p_vol=np.full(len(x), s ** 3),
-                     body_id=np.r_[np.zeros(len(xb), int), np.ones(len(xs), int)],
-                     materials=[Material("jelly", E=1e5, rho=700.0), Material("jelly")],
-                     gravity=np.array([0.0, 0.0, -9.81]), domain_lo=np.array([-0.3, -0.3, -0.02]),
-                     domain_hi=np.array([0.3, 0.3, 0.58]), n_grid=n_grid,
-                     boundaries=[Boundary("ground", height=0.0, friction=0.5)], frame_dt=FRAME, options=opts)
-    return setup, len(xb)
+    (``shape`` "ball": R 5 cm, or "cube": 8 cm) ``gap`` (m, ``GAP`` 10 mm unless said) above it at rest (it falls 5.4
+    mm in the frame: with ``GAP`` the two share grid nodes, 0.5 to 0.8 cells apart, and never land), a 0.6 m grid of
+    ``n_grid`` cells, ``contact = "auto"`` (the particle contact, two fields): :func:`gasp_core.testing.helpers.
+    body_over_box`. Returns ``(setup, n_box)`` (the box's points come first)."""
+    return body_over_box(shape, half, n_grid, gap, n_substeps)
 
 
 def _run(engine: str, shape: str, half: float, n_grid: int, factor: int, gap: float = GAP):

@@ -19,32 +19,15 @@ from gasp_core.mpm import fields as core_fields
 from gasp_core.mpm.grid_engine import grid_substeps
 from gasp_core.seam.build import build_engine
 from gasp_core.seam.plugins import engines
-from gasp_core.seam.setup import Boundary, Material, SimSetup
-from gasp_core.testing.helpers import box_points
+from gasp_core.testing.helpers import body_over_box
 
 SIDE, FRAME = 0.6, 1.0 / 30.0
 
 
 def scene(shape="ball", half=0.06, n_grid=32, gap_cells=0.53, n_substeps=None):
-    """``(setup, n_box)``: the box's points first (the scene of ``tests/test_contact_fine_step.py``, its gap in cells)."""
-    dx = SIDE / n_grid
-    s = dx / 2
-    xb, _ = box_points((-half, -half, 0.0), (half, half, 0.06), s)
-    top = 0.06 + gap_cells * dx
-    if shape == "ball":
-        g = np.mgrid[-0.05:0.05:s, -0.05:0.05:s, -0.05:0.05:s].reshape(3, -1).T + s / 2
-        xs = g[np.linalg.norm(g, axis=1) <= 0.05] + np.array([0.0, 0.0, top + 0.05])
-    else:
-        xs, _ = box_points((-0.04, -0.04, top), (0.04, 0.04, top + 0.08), s)
-    x = np.vstack([xb, xs])
-    opts = {} if n_substeps is None else {"n_substeps": int(n_substeps)}
-    setup = SimSetup(x=x, v=np.zeros_like(x), p_vol=np.full(len(x), s ** 3),
-                     body_id=np.r_[np.zeros(len(xb), int), np.ones(len(xs), int)],
-                     materials=[Material("jelly", E=1e5, rho=700.0), Material("jelly")],
-                     gravity=np.array([0.0, 0.0, -9.81]), domain_lo=np.array([-0.3, -0.3, -0.02]),
-                     domain_hi=np.array([0.3, 0.3, 0.58]), n_grid=n_grid,
-                     boundaries=[Boundary("ground", height=0.0, friction=0.5)], frame_dt=FRAME, options=opts)
-    return setup, len(xb)
+    """``(setup, n_box)``: the box's points first (the scene of ``tests/test_contact_fine_step.py``,
+    :func:`gasp_core.testing.helpers.body_over_box`, its gap in cells)."""
+    return body_over_box(shape, half, n_grid, gap_cells * SIDE / n_grid, n_substeps)
 
 
 def run(engine, shape, half, n_grid, gap_cells, factor):

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gasp_core.seam.engine import EngineInfo
-from gasp_core.seam.setup import Material, SimSetup
+from gasp_core.seam.setup import Boundary, Material, SimSetup
 
 #: Standard gravity, m/s^2.
 GRAVITY = 9.81
@@ -95,3 +95,31 @@ def check(name: str, value: float, limit: float, what: str, unit: str = "", **fi
     passed = bool(np.isfinite(value) and value <= limit)
     return Check(name, passed, f"{what} = {value:.4g}{unit} (limit {limit:.4g}{unit})",
                  {"value": float(value), "limit": float(limit), **{k: float(v) for k, v in figures.items()}})
+
+
+def body_over_box(shape: str = "ball", half: float = 0.06, n_grid: int = 32, gap: float = 0.010,
+                  n_substeps: int | None = None) -> tuple[SimSetup, int]:
+    """Two jelly bodies on the particle contact (``tests/test_contact_fine_step.py``, ``benchmarks/studies/
+    gap_fall.py``): a box (half-width ``half`` m, 6 cm tall, E 1e5 Pa, rho 700 kg/m^3) on the ground at z = 0 and,
+    ``gap`` m above it at rest, a ``Material("jelly")`` body, ``shape`` "ball" (R 5 cm) or "cube" (8 cm); points at
+    half a cell (``0.6 / n_grid / 2`` m), gravity -z (9.81 m/s^2), ground friction 0.5, a 0.6 m grid of ``n_grid``
+    cells, ``frame_dt`` 1/30 s, ``options["n_substeps"]`` when given. Returns ``(setup, n_box)``: the box's points
+    come first."""
+    dx = 0.6 / n_grid
+    s = dx / 2
+    xb, _ = box_points((-half, -half, 0.0), (half, half, 0.06), s)
+    top = 0.06 + gap
+    if shape == "ball":
+        g = np.mgrid[-0.05:0.05:s, -0.05:0.05:s, -0.05:0.05:s].reshape(3, -1).T + s / 2
+        xs = g[np.linalg.norm(g, axis=1) <= 0.05] + np.array([0.0, 0.0, top + 0.05])
+    else:
+        xs, _ = box_points((-0.04, -0.04, top), (0.04, 0.04, top + 0.08), s)
+    x = np.vstack([xb, xs])
+    opts = {} if n_substeps is None else {"n_substeps": int(n_substeps)}
+    setup = SimSetup(x=x, v=np.zeros_like(x), p_vol=np.full(len(x), s ** 3),
+                     body_id=np.r_[np.zeros(len(xb), int), np.ones(len(xs), int)],
+                     materials=[Material("jelly", E=1e5, rho=700.0), Material("jelly")],
+                     gravity=np.array([0.0, 0.0, -GRAVITY]), domain_lo=np.array([-0.3, -0.3, -0.02]),
+                     domain_hi=np.array([0.3, 0.3, 0.58]), n_grid=n_grid,
+                     boundaries=[Boundary("ground", height=0.0, friction=0.5)], frame_dt=1.0 / 30.0, options=opts)
+    return setup, len(xb)
