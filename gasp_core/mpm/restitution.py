@@ -45,6 +45,15 @@ BOUNDARY_RESTITUTION = 1.0
 #: (:func:`rest_speed`). A rise below a quarter of a cell is what the rigid route's choice already calls unseen
 #: (``gasp_core.prepare.route.RIGID_SHARE``).
 REST_RISE_CELLS = 0.25
+#: What the engines' ``lift_off`` (the substep a rigid body's contact ends) does with :func:`lift_off_speed`'s
+#: figure (round 60, ``docs/contact.md`` "Round 60: the rebound as impulses"): ``"cap"`` (the default) takes it as a
+#: bound, never a push: the body's normal speed is made at most that figure (the free-flight bounce of restitution
+#: ``e``), never raised to it; the rebound itself is the support's impulses (the hysteretic law above: Poisson's
+#: restitution impulse, ``e`` times the compression's for a linear spring), added to all the other impulses the body
+#: takes, so a body that another one loads (sand on a box) is pushed back by that load, not launched at ``e v_in``.
+#: ``"set"`` (before round 60): the normal speed set to the figure, raised or lowered (a box under a landing sand
+#: ball bounced and flew at 2x and 4x the default substeps). Read when a solver is built.
+LIFT_OFF = "cap"
 
 
 def substance_of(material) -> str | None:
@@ -104,6 +113,13 @@ def plane_table(setup, n_planes: int) -> np.ndarray:
     walls = [float(getattr(b, "restitution", BOUNDARY_RESTITUTION)) for b in setup.boundaries if b.kind == "walls"]
     out = np.array(grounds + [e for e in walls for _ in wall_faces(setup)], np.float64)
     return out[:n_planes] if len(out) >= n_planes else np.ones(n_planes)
+
+
+def lift_off_cap() -> int:
+    """1 when :data:`LIFT_OFF` is ``"cap"``, 0 when ``"set"`` (the engines' kernels take the integer)."""
+    if LIFT_OFF not in ("cap", "set"):
+        raise ValueError(f"restitution.LIFT_OFF must be 'cap' or 'set', not {LIFT_OFF!r}")
+    return int(LIFT_OFF == "cap")
 
 
 def lift_off_speed(e: float, v_in: float, T: float, dz: float, g_n: float) -> float:

@@ -20,6 +20,7 @@ import numpy as np
 import taichi as ti
 
 from gasp_core.mpm.contact import DAMPING
+from gasp_core.mpm.restitution import lift_off_cap
 from gasp_core.mpm.rigid import RIGID_LEVER
 
 from .rigid_friction import RigidFriction
@@ -69,6 +70,7 @@ class Rigid(RigidLift, RigidFriction):
         self.rb_xf = ti.Vector.field(3, ti.f64, shape=max(nb, 1))
         self.plane_e = ti.field(self.real, shape=max(self.n_planes, 1))
         self.v_rest = ti.field(self.real, shape=())
+        self.lift_cap = ti.field(ti.i32, shape=())   # restitution.LIFT_OFF: 1 "cap", 0 "set"
         # the resting bodies' non-penetration (rigid_depth, rigid_lift): per body and plane the deepest penetration
         # and the penetration-weighted sum of the touching points
         self.rb_dmax = ti.field(ti.f64, shape=max(nb * self.n_planes, 1))
@@ -103,6 +105,7 @@ class Rigid(RigidLift, RigidFriction):
             if self.n_planes:
                 self.plane_e.from_numpy(np.asarray(plane_e, self._np_real))
             self.v_rest[None] = float(v_rest)
+            self.lift_cap[None] = lift_off_cap()
 
     @ti.func
     def add_twist(self, p, mu, jq, n, vc):
@@ -352,7 +355,9 @@ class Rigid(RigidLift, RigidFriction):
         contact's mean normal ``n`` made :func:`gasp_core.mpm.restitution.lift_off_speed`'s, with which its free
         flights before and after cross as an instantaneous bounce of restitution ``e`` (the body's times its
         supports' impulse-weighted; 0 when ``e v_in`` is below ``v_rest``): the restitution at the impulse level,
-        whatever the hysteresis gave back in a contact of a few substeps."""
+        whatever the hysteresis gave back in a contact of a few substeps. With ``restitution.LIFT_OFF = "cap"`` (the
+        default) that speed is only a bound: ``V``'s normal part is lowered to it, never raised (the rebound is the
+        hysteresis' impulses, on top of the other bodies')."""
         out = V
         if self.rb_e[b] >= 0.0 and self.rb_touch[b] == 0 and self.rb_was[b] != 0 and self.rb_j[b] > 0.0:
             jn = ti.cast(self.rb_jn[b], ti.f64)
@@ -369,7 +374,10 @@ class Rigid(RigidLift, RigidFriction):
                 u_out = 0.5 * (-B + ti.sqrt(ti.max(B * B + 4.0 * C, 0.0))) - g_n * T
                 u = V.dot(n)
                 if u > 0.0:
-                    out = V + (ti.max(u_out, 0.0) - u) * n
+                    u_new = ti.max(u_out, 0.0)
+                    if self.lift_cap[None] != 0:   # a bound, never a push (restitution.LIFT_OFF)
+                        u_new = ti.min(u_new, u)
+                    out = V + (u_new - u) * n
         return out
 
     @ti.kernel

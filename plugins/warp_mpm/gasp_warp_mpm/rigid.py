@@ -17,6 +17,8 @@ import functools
 
 import warp as wp
 
+from gasp_core.mpm.restitution import lift_off_cap
+
 from .precision import MODULE_OPTIONS, build_types
 from .rigid_friction import build_rigid_contact, build_rigid_pair
 
@@ -51,7 +53,7 @@ def build_rigid_update(Ft):
                      vin: wp.array(dtype=Ft), vin_next: wp.array(dtype=Ft), touch: wp.array(dtype=wp.int32),
                      was: wp.array(dtype=wp.int32), c0: wp.array(dtype=vec3d), jn: wp.array(dtype=vec3),
                      je: wp.array(dtype=Ft), jsum: wp.array(dtype=Ft), e_body: wp.array(dtype=Ft), v_rest: Ft,
-                     gravity: vec3d, steps: wp.array(dtype=wp.int32), count: wp.array(dtype=wp.int32),
+                     lift_cap: int, gravity: vec3d, steps: wp.array(dtype=wp.int32), count: wp.array(dtype=wp.int32),
                      nlast: wp.array(dtype=wp.int32), twist: wp.array(dtype=wp.float64),
                      fx: wp.array(dtype=wp.vec4d), ndepth: wp.array(dtype=wp.int32), fv: wp.array(dtype=vec3d),
                      jx: wp.array(dtype=wp.float64), deep: wp.array(dtype=wp.float64),
@@ -82,7 +84,7 @@ def build_rigid_update(Ft):
                 steps[b] = 0
             if e_body[b] >= Ft(0.0) and touch[b] == 0 and was[b] != 0 and jsum[b] > Ft(0.0):
                 V = lift_off(V, c, c0[b], jn[b], e_body[b] * je[b] / jsum[b], vin[b], v_rest, gravity,
-                             dt * wp.float64(steps[b]))
+                             dt * wp.float64(steps[b]), lift_cap)
             steps[b] = steps[b] + touch[b]
             vel[b] = V
             spin[b] = w
@@ -303,7 +305,7 @@ class RigidBodies:
                 wp.launch(update_k, dim=len(self.setup.materials), device=d, record_cmd=True, inputs=[
                     self.rb_rigid, self.rb_M, self.rb_I0, self.acc_p, self.acc_l, self.rb_c, self.rb_R, self.rb_V,
                     self.rb_w, dt, dx, len(self.setup.materials), ex.rb_vin, ex.rb_vin_next, ex.rb_touch, self.rb_was,
-                    self.rb_c0, ex.rb_jn, ex.rb_je, ex.rb_j, ex.rb_e, ex.v_rest,
+                    self.rb_c0, ex.rb_jn, ex.rb_je, ex.rb_j, ex.rb_e, ex.v_rest, lift_off_cap(),
                     vec3d(*[float(g) for g in self.setup.gravity]), self.rb_steps, ex.rb_count, ex.rb_nlast,
                     ex.rb_twist, ex.rb_fx, ex.rb_ndepth, ex.rb_fv, ex.rb_jx, ex.rb_deep, ex.rb_flat, ex.rb_xf]),
                 wp.launch(apply_k, dim=self.n_points, device=d, record_cmd=True, inputs=[
