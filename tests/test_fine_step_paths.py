@@ -6,13 +6,15 @@ on the ground, the ``"mixed"`` two-field contact with the flowing body's touch, 
 figure: the box's mean vertical velocity after the frame, which must not move by more than 5 % of the frame's ``g t``
 (0.327 m/s) between the default substeps and 2x them (a box under sand on the ground stays there).
 
-Traced (round 60, not fixed): the box's points start half a point spacing (4.7 mm) above the ground (the rigid
+Traced (round 60): the box's points start half a point spacing (4.7 mm) above the ground (the rigid
 body's skin is 0: it rests on its points), the sand drives it onto the ground at 1.1-1.4 m/s, and the rigid
 restitution's law (``gasp_core.mpm.restitution``: the approach speed of the contact's first substep, the
-hysteretic penalty and ``lift_off``'s instantaneous bounce) bounces it at ``e`` of that at 2x and 4x (8x on warp_mpm),
+hysteretic penalty and ``lift_off``'s instantaneous bounce) bounced it at ``e`` of that at 2x and 4x (8x on warp_mpm),
 not at 1x: +0.107 m/s at 180 substeps, -0.042 at 360 (both engines), 0.001 at 90. With the box's ``restitution = 0`` (the term switched off) the
-box stays (``test_sand_on_an_inelastic_box``); with the default restitution the strict xfail
-(``test_sand_on_a_hardwood_box``) reproduces the defect.
+box stays (``test_sand_on_an_inelastic_box``). Fixed (round 60, ``restitution.LIFT_OFF = "poisson"``): ``lift_off``
+raises the body's normal speed at most to the free-flight bounce plus the other bodies' normal impulse over the
+contact over ``M`` (``docs/contact.md`` "Round 60: the rebound under a load"); the rule before (``"set"``) fails
+the check (``test_the_check_catches_the_free_flight_rule``).
 """
 from __future__ import annotations
 
@@ -53,9 +55,16 @@ def test_sand_on_an_inelastic_box(engine):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("engine", ENGINES)
-@pytest.mark.xfail(strict=True, reason="round 60, not fixed: the rigid restitution bounces a box that sand drives "
-                   "onto the ground at 2x the substeps and finer, not at 1x (docs/contact.md 'Round 60: finer is "
-                   "never worse')")
 def test_sand_on_a_hardwood_box(engine):
-    """The default restitution (hardwood, 0.55): the same check, 1x against 2x (fails: the traced defect)."""
+    """The default restitution (hardwood, 0.55): the same check, 1x against 2x."""
     _check(engine, "sand_rigid", 2)
+
+
+@pytest.mark.skipif("warp_mpm" not in ENGINES, reason="needs warp_mpm")
+def test_the_check_catches_the_free_flight_rule(monkeypatch):
+    """``lift_off``'s rule before round 60 (``restitution.LIFT_OFF = "set"``: the normal speed set to the free
+    flights' bounce) fails the hardwood check: the box leaves at about +0.107 m/s at 2x."""
+    from gasp_core.mpm import restitution
+    monkeypatch.setattr(restitution, "LIFT_OFF", "set")
+    with pytest.raises(AssertionError, match="2x the substeps"):
+        _check("warp_mpm", "sand_rigid", 2)

@@ -56,6 +56,19 @@ def test_materials_give_their_restitution():
     assert rs.combine(0.93, 0.5) == pytest.approx(0.465)
 
 
+def test_lift_off_rules():
+    """``lift_off_normal`` (``restitution.LIFT_OFF``): a free body (no other impulse) leaves at the free flights'
+    figure by "set" and "poisson"; a body another one pressed by more than ``M u_out`` is not raised by "poisson";
+    every rule lowers a faster body to the figure."""
+    P, S, C = (rs.LIFT_OFF_RULES[k] for k in ("poisson", "set", "cap"))
+    assert rs.lift_off_normal(0.3, 0.5, 0.0, 1.0, P) == rs.lift_off_normal(0.3, 0.5, 0.0, 1.0, S) == 0.5
+    assert rs.lift_off_normal(0.3, 0.5, -0.1, 1.0, P) == pytest.approx(0.4)
+    assert rs.lift_off_normal(0.1, 0.7, -2.0, 0.6, P) == 0.1   # pressed: its own speed, not e v_in
+    assert rs.lift_off_normal(0.1, 0.7, -2.0, 0.6, S) == 0.7
+    assert all(rs.lift_off_normal(0.9, 0.5, j, 1.0, r) == 0.5 for r in (P, S, C) for j in (-1.0, 0.0, 1.0))
+    assert rs.lift_off_normal(0.3, 0.5, 0.0, 1.0, C) == 0.3
+
+
 def ball(mat: dict, n_grid: int, restitution=None, drop=0.2, r=0.05, ground=0.05):
     """A 10 cm ball of lattice points (2 a cell side) on the rigid route, its bottom ``drop`` over a ground
     (friction 0.5) in a 0.6 m box."""

@@ -45,6 +45,18 @@ BOUNDARY_RESTITUTION = 1.0
 #: (:func:`rest_speed`). A rise below a quarter of a cell is what the rigid route's choice already calls unseen
 #: (``gasp_core.prepare.route.RIGID_SHARE``).
 REST_RISE_CELLS = 0.25
+#: What the engines' ``lift_off`` (the substep a rigid body's contact ends) does with :func:`lift_off_speed`'s
+#: figure ``u_out`` (round 60, ``docs/contact.md`` "Round 60: the rebound under a load"). ``"poisson"`` (the
+#: default): the rebound is an impulse on top of every other impulse the body took over the contact: the normal
+#: speed ``u`` is lowered to ``u_out`` when above it, and raised at most to ``u_out + J_o / M``, ``J_o`` the normal
+#: impulse over the contact of everything but gravity and the supports (another body pressing it down: < 0), never
+#: lowered by the raise (:func:`lift_off_normal`): a free body's bounce is ``"set"``'s, a box under landing sand is
+#: not launched at ``e v_in``. ``"set"`` (before round 60): ``u`` set to ``u_out`` (a box under a landing sand ball
+#: bounced and flew at 2x and 4x the default substeps). ``"cap"`` (measured, not for use): lowered only (the
+#: hysteresis alone gives back too little: steel 0.62-0.70). Read when a solver is built.
+LIFT_OFF = "poisson"
+#: The kernels' integer for each rule.
+LIFT_OFF_RULES = {"set": 0, "poisson": 1, "cap": 2}
 
 
 def substance_of(material) -> str | None:
@@ -104,6 +116,28 @@ def plane_table(setup, n_planes: int) -> np.ndarray:
     walls = [float(getattr(b, "restitution", BOUNDARY_RESTITUTION)) for b in setup.boundaries if b.kind == "walls"]
     out = np.array(grounds + [e for e in walls for _ in wall_faces(setup)], np.float64)
     return out[:n_planes] if len(out) >= n_planes else np.ones(n_planes)
+
+
+def lift_off_rule() -> int:
+    """:data:`LIFT_OFF`'s integer (:data:`LIFT_OFF_RULES`), the engines' kernels' argument."""
+    if LIFT_OFF not in LIFT_OFF_RULES:
+        raise ValueError(f"restitution.LIFT_OFF must be one of {sorted(LIFT_OFF_RULES)}, not {LIFT_OFF!r}")
+    return LIFT_OFF_RULES[LIFT_OFF]
+
+
+def lift_off_normal(u: float, u_out: float, j_other: float, mass: float, rule: int) -> float:
+    """The normal speed (m/s) a rigid body leaves its contact with, by rule (:data:`LIFT_OFF_RULES`): ``u`` its
+    normal speed now (m/s, > 0), ``u_out`` :func:`lift_off_speed`'s (free flights), ``j_other`` (kg m/s) the normal
+    impulse over the contact of all but gravity and the supports, ``mass`` (kg). ``"poisson"``: ``min(u_out, max(u,
+    u_out + j_other / mass))`` (Poisson's hypothesis, Stronge 2000 "Impact Mechanics" ch. 2: the restitution as the
+    support's impulse, superposed on the others'); ``"set"``: ``u_out``; ``"cap"``: ``min(u, u_out)``. The engines
+    spell it in their rigid kernels (``lift_off``)."""
+    u_out = max(u_out, 0.0)
+    if rule == 0:
+        return u_out
+    if rule == 2:
+        return min(u, u_out)
+    return min(u_out, max(u, u_out + j_other / mass))
 
 
 def lift_off_speed(e: float, v_in: float, T: float, dz: float, g_n: float) -> float:

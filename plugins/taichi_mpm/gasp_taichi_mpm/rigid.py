@@ -20,6 +20,7 @@ import numpy as np
 import taichi as ti
 
 from gasp_core.mpm.contact import DAMPING
+from gasp_core.mpm.restitution import lift_off_rule
 from gasp_core.mpm.rigid import RIGID_LEVER
 
 from .rigid_friction import RigidFriction
@@ -69,6 +70,9 @@ class Rigid(RigidLift, RigidFriction):
         self.rb_xf = ti.Vector.field(3, ti.f64, shape=max(nb, 1))
         self.plane_e = ti.field(self.real, shape=max(self.n_planes, 1))
         self.v_rest = ti.field(self.real, shape=())
+        self.lift_rule = ti.field(ti.i32, shape=())   # restitution.LIFT_OFF's integer
+        self.rb_V0 = ti.Vector.field(3, ti.f64, shape=max(nb, 1))   # the velocity before the contact began
+        self.rb_jsup = ti.field(ti.f64, shape=max(nb, 1))   # the supports' normal impulse over the contact (kg m/s)
         # the resting bodies' non-penetration (rigid_depth, rigid_lift): per body and plane the deepest penetration
         # and the penetration-weighted sum of the touching points
         self.rb_dmax = ti.field(ti.f64, shape=max(nb * self.n_planes, 1))
@@ -103,6 +107,7 @@ class Rigid(RigidLift, RigidFriction):
             if self.n_planes:
                 self.plane_e.from_numpy(np.asarray(plane_e, self._np_real))
             self.v_rest[None] = float(v_rest)
+            self.lift_rule[None] = lift_off_rule()
 
     @ti.func
     def add_twist(self, p, mu, jq, n, vc):
@@ -198,7 +203,7 @@ class Rigid(RigidLift, RigidFriction):
         return {"rigid_vin": self.rb_vin, "rigid_was": self.rb_was, "rigid_steps": self.rb_steps,
                 "rigid_c0": self.rb_c0, "rigid_jn": self.rb_jn, "rigid_je": self.rb_je, "rigid_j": self.rb_j,
                 "rigid_nlast": self.rb_nlast, "rigid_ndepth": self.rb_ndepth, "rigid_w": self.rb_w,
-                "rigid_flat": self.rb_flat, "rigid_xf": self.rb_xf}
+                "rigid_flat": self.rb_flat, "rigid_xf": self.rb_xf, "rigid_V0": self.rb_V0, "rigid_jsup": self.rb_jsup}
 
     def rigid_state(self) -> dict:
         """``rigid_c`` (n_bodies, 3) and ``rigid_R`` (n_bodies, 3, 3), and the ongoing contact's state
@@ -315,12 +320,16 @@ class Rigid(RigidLift, RigidFriction):
                 inertia = R_new @ self.rb_I0[b] @ R_new.transpose() + half * M * Id
                 w = inertia.inverse() @ Lc
                 V = P / M
+                jsup = self.rb_jx[b][0]   # this substep's supports' normal impulse (slide_brake clears it)
                 if self.rb_e[b] >= 0.0:
                     w = self.twist_brake(b, w, inertia)
                     V, w = self.slide_brake(b, V, w, inertia, M, c)
                 if self.rb_touch[b] != 0 and self.rb_was[b] == 0:
                     self.rb_c0[b] = c
                     self.rb_steps[b] = 0
+                    self.rb_V0[b] = self.rb_V[b]
+                    self.rb_jsup[b] = 0.0
+                self.rb_jsup[b] += jsup
                 V = self.lift_off(b, V, c, dt * self.rb_steps[b])
                 self.rb_steps[b] += self.rb_touch[b]
                 self.rb_V[b] = V
@@ -344,33 +353,6 @@ class Rigid(RigidLift, RigidFriction):
             self.rb_ndepth[b] = 0
             self.rb_vin_next[b] = 0.0
             self.rb_touch[b] = 0
-
-    @ti.func
-    def lift_off(self, b, V, c, T):
-        """Body b's velocity ``V`` (m/s, float64) at the substep its contact ends (no point touched in this P2G,
-        one did in the last), its centre at ``c`` (m), ``T`` (s) after the contact began: its normal part along the
-        contact's mean normal ``n`` made :func:`gasp_core.mpm.restitution.lift_off_speed`'s, with which its free
-        flights before and after cross as an instantaneous bounce of restitution ``e`` (the body's times its
-        supports' impulse-weighted; 0 when ``e v_in`` is below ``v_rest``): the restitution at the impulse level,
-        whatever the hysteresis gave back in a contact of a few substeps."""
-        out = V
-        if self.rb_e[b] >= 0.0 and self.rb_touch[b] == 0 and self.rb_was[b] != 0 and self.rb_j[b] > 0.0:
-            jn = ti.cast(self.rb_jn[b], ti.f64)
-            if jn.norm() > 0.0:
-                n = jn / jn.norm()
-                e = ti.cast(self.rb_e[b] * self.rb_je[b] / self.rb_j[b], ti.f64)
-                vin = ti.cast(self.rb_vin[b], ti.f64)
-                if e * vin < ti.cast(self.v_rest[None], ti.f64):
-                    e = 0.0
-                g_n = -ti.cast(self.gravity[None], ti.f64).dot(n)
-                # A^2 + B A - C = 0, u = A - g_n T (gasp_core.mpm.restitution.lift_off_speed)
-                B = vin * (1.0 - e) - (1.0 + e) * g_n * T
-                C = e * vin * vin - (1.0 + e) * g_n * ((c - self.rb_c0[b]).dot(n) + 0.5 * g_n * T * T)
-                u_out = 0.5 * (-B + ti.sqrt(ti.max(B * B + 4.0 * C, 0.0))) - g_n * T
-                u = V.dot(n)
-                if u > 0.0:
-                    out = V + (ti.max(u_out, 0.0) - u) * n
-        return out
 
     @ti.kernel
     def rigid_apply(self):

@@ -6,7 +6,8 @@ as Taichi kernels; warp_mpm's ``rigid.build_rigid_lift`` spells the same steps.
 contact and the penetration-weighted sum of its touching points (and counts them for the next P2G's stiffness,
 ``gasp_core.mpm.rigid.support_scale``); :meth:`RigidLift.rigid_lift` moves a resting body deeper than the slop out
 along the plane's normal without speed (Bullet's split impulse). Both run in :meth:`gasp_taichi_mpm.rigid.Rigid.
-rigid_step` after the rigid update, then the points are put on the pose again.
+rigid_step` after the rigid update, then the points are put on the pose again. Here too the rebound at the end of a
+contact, :meth:`RigidLift.lift_off` (called by ``Rigid.rigid_update``; ``gasp_core.mpm.restitution.LIFT_OFF``).
 
 Mixed into :class:`gasp_taichi_mpm.rigid.Rigid` (so into :class:`gasp_taichi_mpm.solver.MPMSolver`), whose fields
 (``rb_*``, ``p_contact``, ``plane_n``, ``plane_row``) it reads.
@@ -112,3 +113,49 @@ class RigidLift:
             for q in range(self.n_planes):
                 self.rb_dmax[b * self.n_planes + q] = 0.0
                 self.rb_dsum[b * self.n_planes + q] = ti.Vector.zero(ti.f64, 4)
+
+    @ti.func
+    def lift_off(self, b, V, c, T):
+        """Body b's velocity ``V`` (m/s, float64) at the substep its contact ends (no point touched in this P2G,
+        one did in the last), its centre at ``c`` (m), ``T`` (s) after the contact began: its normal part along the
+        contact's mean normal ``n`` made :func:`gasp_core.mpm.restitution.lift_off_speed`'s, with which its free
+        flights before and after cross as an instantaneous bounce of restitution ``e`` (the body's times its
+        supports' impulse-weighted; 0 when ``e v_in`` is below ``v_rest``): the restitution at the impulse level,
+        whatever the hysteresis gave back in a contact of a few substeps; by ``restitution.LIFT_OFF``'s rule
+        (:meth:`lift_normal`)."""
+        out = V
+        if self.rb_e[b] >= 0.0 and self.rb_touch[b] == 0 and self.rb_was[b] != 0 and self.rb_j[b] > 0.0:
+            jn = ti.cast(self.rb_jn[b], ti.f64)
+            if jn.norm() > 0.0:
+                n = jn / jn.norm()
+                e = ti.cast(self.rb_e[b] * self.rb_je[b] / self.rb_j[b], ti.f64)
+                vin = ti.cast(self.rb_vin[b], ti.f64)
+                if e * vin < ti.cast(self.v_rest[None], ti.f64):
+                    e = 0.0
+                g_n = -ti.cast(self.gravity[None], ti.f64).dot(n)
+                # A^2 + B A - C = 0, u = A - g_n T (gasp_core.mpm.restitution.lift_off_speed)
+                B = vin * (1.0 - e) - (1.0 + e) * g_n * T
+                C = e * vin * vin - (1.0 + e) * g_n * ((c - self.rb_c0[b]).dot(n) + 0.5 * g_n * T * T)
+                u_out = 0.5 * (-B + ti.sqrt(ti.max(B * B + 4.0 * C, 0.0))) - g_n * T
+                u = V.dot(n)
+                if u > 0.0:
+                    out = V + (self.lift_normal(b, u, ti.max(u_out, 0.0), V, n, g_n, T) - u) * n
+        return out
+
+    @ti.func
+    def lift_normal(self, b, u, u_out, V, n, g_n, T):
+        """Body b's normal speed (m/s) at lift-off by ``restitution.LIFT_OFF``'s rule
+        (``gasp_core.mpm.restitution.lift_off_normal``): ``u`` now, ``u_out`` the free flights', along ``n``, ``g_n``
+        gravity's pull (m/s^2), ``T`` (s) the contact's touching substeps; the other bodies' normal impulse over the
+        contact ``J_o = M (V - V_0) . n - J_sup + M g_n (T + dt)`` (``V_0`` before its first substep, ``J_sup`` the
+        supports' summed ``j``: a patch's normals taken as ``n``)."""
+        out = u_out
+        rule = self.lift_rule[None]
+        if rule == 2:
+            out = ti.min(u, u_out)
+        elif rule == 1:
+            M = self.rb_M[b]
+            dt = ti.cast(self.dt[None], ti.f64)
+            j_o = M * (V - self.rb_V0[b]).dot(n) - self.rb_jsup[b] + M * g_n * (T + dt)
+            out = ti.min(u_out, ti.max(u, u_out + j_o / M))
+        return out

@@ -17,6 +17,8 @@ import functools
 
 import warp as wp
 
+from gasp_core.mpm.restitution import lift_off_rule
+
 from .precision import MODULE_OPTIONS, build_types
 from .rigid_friction import build_rigid_contact, build_rigid_pair
 
@@ -51,11 +53,12 @@ def build_rigid_update(Ft):
                      vin: wp.array(dtype=Ft), vin_next: wp.array(dtype=Ft), touch: wp.array(dtype=wp.int32),
                      was: wp.array(dtype=wp.int32), c0: wp.array(dtype=vec3d), jn: wp.array(dtype=vec3),
                      je: wp.array(dtype=Ft), jsum: wp.array(dtype=Ft), e_body: wp.array(dtype=Ft), v_rest: Ft,
-                     gravity: vec3d, steps: wp.array(dtype=wp.int32), count: wp.array(dtype=wp.int32),
+                     lift_rule: int, gravity: vec3d, steps: wp.array(dtype=wp.int32), count: wp.array(dtype=wp.int32),
                      nlast: wp.array(dtype=wp.int32), twist: wp.array(dtype=wp.float64),
                      fx: wp.array(dtype=wp.vec4d), ndepth: wp.array(dtype=wp.int32), fv: wp.array(dtype=vec3d),
                      jx: wp.array(dtype=wp.float64), deep: wp.array(dtype=wp.float64),
-                     flat: wp.array(dtype=wp.float64), xf: wp.array(dtype=vec3d)):
+                     flat: wp.array(dtype=wp.float64), xf: wp.array(dtype=vec3d), V0: wp.array(dtype=vec3d),
+                     jsup: wp.array(dtype=wp.float64)):
         b = wp.tid()   # one thread a body: each writes its own rows (dim = n_bodies)
         M = mass[b]
         if rigid[b] != 0 and M > wp.float64(0.0):
@@ -69,6 +72,7 @@ def build_rigid_update(Ft):
             inertia = R_new * inertia0[b] * wp.transpose(R_new) + extra
             w = wp.inverse(inertia) * Lc
             V = P / M
+            j_sup = jx[10 * b]   # this substep's supports' normal impulse (cleared below)
             if e_body[b] >= Ft(0.0):
                 w = twist_brake(w, inertia, jn[b], twist[b])
                 V, w = slide_brake(V, w, inertia, M, c, jn[b], fx[b], fv[b], jx, b, deep, flat, xf)
@@ -80,9 +84,12 @@ def build_rigid_update(Ft):
             if touch[b] != 0 and was[b] == 0:
                 c0[b] = c
                 steps[b] = 0
+                V0[b] = vel[b]
+                jsup[b] = wp.float64(0.0)
+            jsup[b] = jsup[b] + j_sup
             if e_body[b] >= Ft(0.0) and touch[b] == 0 and was[b] != 0 and jsum[b] > Ft(0.0):
                 V = lift_off(V, c, c0[b], jn[b], e_body[b] * je[b] / jsum[b], vin[b], v_rest, gravity,
-                             dt * wp.float64(steps[b]))
+                             dt * wp.float64(steps[b]), lift_rule, V0[b], jsup[b], M, dt)
             steps[b] = steps[b] + touch[b]
             vel[b] = V
             spin[b] = w
@@ -298,14 +305,17 @@ class RigidBodies:
         self.rb_was = wp.zeros(len(self.setup.materials), dtype=wp.int32, device=d)
         self.rb_c0 = wp.zeros(len(self.setup.materials), dtype=vec3d, device=d)
         self.rb_steps = wp.zeros(len(self.setup.materials), dtype=wp.int32, device=d)
+        self.rb_V0 = wp.zeros(len(self.setup.materials), dtype=vec3d, device=d)   # the velocity before the contact
+        self.rb_jsup = wp.zeros(len(self.setup.materials), dtype=wp.float64, device=d)   # its supports' sum j
         out = [wp.launch(reduce_k, dim=self.n_material, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.p_mass, self.body, self.rb_rigid, dx, self.acc_p, self.acc_l]),
                 wp.launch(update_k, dim=len(self.setup.materials), device=d, record_cmd=True, inputs=[
                     self.rb_rigid, self.rb_M, self.rb_I0, self.acc_p, self.acc_l, self.rb_c, self.rb_R, self.rb_V,
                     self.rb_w, dt, dx, len(self.setup.materials), ex.rb_vin, ex.rb_vin_next, ex.rb_touch, self.rb_was,
-                    self.rb_c0, ex.rb_jn, ex.rb_je, ex.rb_j, ex.rb_e, ex.v_rest,
+                    self.rb_c0, ex.rb_jn, ex.rb_je, ex.rb_j, ex.rb_e, ex.v_rest, lift_off_rule(),
                     vec3d(*[float(g) for g in self.setup.gravity]), self.rb_steps, ex.rb_count, ex.rb_nlast,
-                    ex.rb_twist, ex.rb_fx, ex.rb_ndepth, ex.rb_fv, ex.rb_jx, ex.rb_deep, ex.rb_flat, ex.rb_xf]),
+                    ex.rb_twist, ex.rb_fx, ex.rb_ndepth, ex.rb_fv, ex.rb_jx, ex.rb_deep, ex.rb_flat, ex.rb_xf,
+                    self.rb_V0, self.rb_jsup]),
                 wp.launch(apply_k, dim=self.n_points, device=d, record_cmd=True, inputs=[
                     self.x, self.v, self.C, self.F, self.body, self.rb_rigid, self.X0, self.rb_c, self.rb_R,
                     self.rb_V, self.rb_w])]
@@ -338,7 +348,8 @@ class RigidBodies:
         ex = self._ex
         return {"rigid_vin": ex.rb_vin, "rigid_was": self.rb_was, "rigid_steps": self.rb_steps, "rigid_c0": self.rb_c0,
                 "rigid_jn": ex.rb_jn, "rigid_je": ex.rb_je, "rigid_j": ex.rb_j, "rigid_nlast": ex.rb_nlast,
-                "rigid_ndepth": ex.rb_ndepth, "rigid_w": self.rb_w, "rigid_flat": ex.rb_flat, "rigid_xf": ex.rb_xf}
+                "rigid_ndepth": ex.rb_ndepth, "rigid_w": self.rb_w, "rigid_flat": ex.rb_flat, "rigid_xf": ex.rb_xf,
+                "rigid_V0": self.rb_V0, "rigid_jsup": self.rb_jsup}
 
     def rigid_state(self) -> dict:
         """``rigid_c`` and ``rigid_R`` of the bodies and their ongoing contact's state (``rigid_vin``, ...; empty

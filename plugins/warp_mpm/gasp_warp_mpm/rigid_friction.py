@@ -28,10 +28,11 @@ def build_rigid_contact(Ft):
 
     @wp.func
     def lift_off(V: vec3d, c: vec3d, c0: vec3d, jn: vec3, e_pair: Ft, vin_f: Ft, v_rest: Ft, gravity: vec3d,
-                 T: wp.float64):
+                 T: wp.float64, rule: int, V0: vec3d, jsup: wp.float64, M: wp.float64, dt: wp.float64):
         # taichi_mpm's Rigid.lift_off: the normal part of V along the contact's mean normal made the speed with which
         # the free flights cross as an instantaneous bounce of restitution e (gasp_core.mpm.restitution.
-        # lift_off_speed); e 0 below v_rest
+        # lift_off_speed); e 0 below v_rest; by restitution.LIFT_OFF's rule (lift_off_normal; taichi_mpm's
+        # RigidLift.lift_normal: J_o the other bodies' normal impulse over the contact)
         out = V
         n = vec3d(wp.float64(jn[0]), wp.float64(jn[1]), wp.float64(jn[2]))
         ln = wp.length(n)
@@ -48,7 +49,13 @@ def build_rigid_contact(Ft):
             u_out = wp.float64(0.5) * (-B + wp.sqrt(wp.max(B * B + wp.float64(4.0) * C, wp.float64(0.0)))) - g_n * T
             u = wp.dot(V, n)
             if u > wp.float64(0.0):
-                out = V + (wp.max(u_out, wp.float64(0.0)) - u) * n
+                u_new = wp.max(u_out, wp.float64(0.0))
+                if rule == 2:
+                    u_new = wp.min(u_new, u)
+                elif rule == 1:
+                    j_o = M * wp.dot(V - V0, n) - jsup + M * g_n * (T + dt)
+                    u_new = wp.min(u_new, wp.max(u, u_new + j_o / M))
+                out = V + (u_new - u) * n
         return out
 
     @wp.func
