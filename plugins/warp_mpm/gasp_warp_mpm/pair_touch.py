@@ -150,7 +150,9 @@ def build_gap_touch(Ft):
     every material point where the OTHER field's gathered volume fraction (``grid_vf``: A's volume, then B's
     ``n_grid^3`` further) reaches its body's ``level`` (its surface on the other body's); ``gap_clear`` (a node
     kernel) clears the marks after the contact."""
+    from .stencil import build_stencil   # here: stencil imports fields, which imports this module
     vec3, vec4, mat33 = build_types(Ft)
+    in_grid, weights = build_stencil(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def gap_mark(x: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32),
@@ -158,17 +160,10 @@ def build_gap_touch(Ft):
                  level: wp.array(dtype=Ft), n_grid: int):
         p = wp.tid()
         X = (x[p] - lo) * inv_dx
-        lim = Ft(n_grid - 3)
-        b = vec3(wp.floor(X[0] - Ft(0.5)), wp.floor(X[1] - Ft(0.5)), wp.floor(X[2] - Ft(0.5)))
-        if not (b[0] >= Ft(0.0) and b[0] <= lim and b[1] >= Ft(0.0) and b[1] <= lim and b[2] >= Ft(0.0)
-                and b[2] <= lim):
+        if not in_grid(X, n_grid):   # the transfers' stencil test and weights (gasp_warp_mpm.stencil)
             return
-        fx = X - b
-        W = mat33()
-        for d in range(3):
-            W[0, d] = Ft(0.5) * (Ft(1.5) - fx[d]) * (Ft(1.5) - fx[d])
-            W[1, d] = Ft(0.75) - (fx[d] - Ft(1.0)) * (fx[d] - Ft(1.0))
-            W[2, d] = Ft(0.5) * (fx[d] - Ft(0.5)) * (fx[d] - Ft(0.5))
+        b = vec3(wp.floor(X[0] - Ft(0.5)), wp.floor(X[1] - Ft(0.5)), wp.floor(X[2] - Ft(0.5)))
+        W = weights(X - b)
         nn = n_grid * n_grid
         other = int(0)   # the other field's part of grid_vf: B's for a point of A
         if in_a[body[p]] != 0:
