@@ -6,7 +6,7 @@ curvature shift, no separation), ``sep0.5`` (round 60: the half-space level at `
 SEPARATION 0.5), ``sep0`` (the same at SEPARATION 0). Scenes: ``stacked`` (``gasp_core.testing.scenes_pairs``'s
 ``stacked_gap``: two balls in a frictionless tube, the gap over the last 0.5 s of 1 s, ``tests/test_stacked_balls.py``'s
 measure) at a radius and n_grid; ``ball`` / ``cube`` / ``cylinder`` on the box (``gasp_core.testing.helpers.
-body_over_box``, dropped 1.5 dx, the gap at rest the mean of frames 16-20: ``gap_fall.landed``). Gaps are the
+body_over_box``, dropped 1.5 dx, the gap at rest the mean of the last 5 of ``--frames`` 40: ``gap_fall.landed``). Gaps are the
 lattices' surfaces' (``surface_gap``: nearest points less half of each one's spacing), in dx.
 
 Usage: ``python benchmarks/studies/gap_curve.py --engine warp_mpm --rules curve,sep0.5 --rows
@@ -46,6 +46,8 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--engine", default="warp_mpm")
     ap.add_argument("--rules", default="curve,sep0.5")
+    ap.add_argument("--frames", type=int, default=40, help="the bodies on the box: frames after the drop (the "
+                    "jelly ball at n_grid 48 bounces for about 25)")
     ap.add_argument("--rows", default="stacked:0.05:24,stacked:0.05:32,stacked:0.075:24,ball:32,ball:48,cube:32,"
                                       "cube:48,cylinder:32")
     a = ap.parse_args()
@@ -60,7 +62,7 @@ def main():
             if f[0] == "stacked":
                 gap = stacked(a.engine, float(f[1]), int(f[2]))
             else:
-                gap = landed(a.engine, f[0], 0.06, int(f[1]), 1.5)[0]
+                gap = landed(a.engine, f[0], 0.06, int(f[1]), 1.5, a.frames)[0]
             print(f"{a.engine} {row} rule {rule}: gap at rest {gap:+.3f} dx [{time.time() - t0:.0f} s]", flush=True)
 
 

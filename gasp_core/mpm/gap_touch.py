@@ -53,8 +53,11 @@ from gasp_core.mpm.fields_reference import flow_touch_level
 #: stacked balls rested 0.27 dx inside each other (0.22 under the rule before; at half a spacing -0.01 dx); flat faces
 #: then rest that separation apart (a cube on a box +0.27 dx; +0.06 at zero; +0.42 under the rule before).
 SEPARATION = 0.5
-#: Round 61: the touch reads the curvature of the two fields (module docstring); :data:`SEPARATION` is then 0.
-CURVATURE = True
+#: Round 61: the touch reads the curvature of the two fields (module docstring); :data:`SEPARATION` is then 0. Off
+#: by default: measured (``docs/contact.md`` "Round 61"), flat faces and a ball on a box rest 0.04-0.09 dx apart
+#: (round 60: 0.22-0.32) but the stacked balls 0.06-0.10 dx inside each other (round 60: -0.03 to +0.03), a sink after
+#: the first touch that no level removes.
+CURVATURE = False
 #: The half-space level's table (:func:`half_space_table`): its step and length, cells (0 to 1.5 cells).
 TABLE_STEP, TABLE_N = 0.01, 151
 #: The smoothing's variance, cells^2: P2G's quadratic B-spline scatter and the gather's (1/4 each).
