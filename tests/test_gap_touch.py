@@ -5,7 +5,11 @@ wherever the face lies in its cell; the level is the half-space integral's, and 
 Two slabs of points at dx / 2 (the lower one, field B, below z = c; the upper one, field A, from c + gap), their
 volumes scattered with the quadratic B-spline as P2G does, marked by :func:`gap_marks` at their bodies' levels
 (:func:`gap_levels` of a two-body scene): some node marked at gap 0 and at half the separation, none at 1 dx and at
-twice the separation (the rule before marked across a 0.53 dx gap: ``tests/test_contact_fine_step.py``)."""
+twice the separation (the rule before marked across a 0.53 dx gap: ``tests/test_contact_fine_step.py``).
+
+Round 61 (``gap_touch.CURVATURE``, off by default; ``docs/contact.md`` "Round 61: a touch that reads the curvature"):
+the reference with the curvature read marks flat faces and two balls at contact (each with a catch), and both
+engines' kernels mark exactly its nodes."""
 from __future__ import annotations
 
 import dataclasses

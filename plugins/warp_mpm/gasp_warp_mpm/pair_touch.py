@@ -188,15 +188,12 @@ def build_gap_touch(Ft):
 
 
 @functools.cache
-def build_gap_curve(Ft):
-    """``gap_curve``: round 61's marks (``gasp_core.mpm.gap_touch.CURVATURE``, its ``gap_marks`` with a table): a
-    points kernel as ``gap_mark`` whose level is the half-space table's (``params[:table_n]``, step ``step`` cells)
-    at ``delta_b + sigma2 k`` (``params[table_n + body]``: the body's reach, cells), ``k`` the least principal
-    curvature the two fields' level surfaces share at the point (``least_curvature`` of the gathered gradient and
-    Hessian of each field, index units), clamped at 0."""
-    from .stencil import build_stencil
+def build_curvature(Ft):
+    """``least_curvature(g, h)`` of scalar type ``Ft``: the smaller principal curvature (1 / cells, positive convex)
+    of the level surface of a field decreasing outward with gradient ``g`` and Hessian ``h`` (index units): ``k1 +
+    k2`` and ``k1 k2`` from ``g`` and ``adj(h)`` (Goldman 2005; ``gasp_core.mpm.gap_touch.least_curvature``); 0 where
+    ``|g|`` <= 1e-6."""
     vec3, vec4, mat33 = build_types(Ft)
-    in_grid, weights = build_stencil(Ft)
 
     @wp.func
     def least_curvature(g: vec3, h: mat33):
@@ -216,6 +213,22 @@ def build_gap_curve(Ft):
             kg = q / (gn * gn * gn * gn)
             out = Ft(0.5) * (t - wp.sqrt(wp.max(t * t - Ft(4.0) * kg, Ft(0.0))))
         return out
+
+    return least_curvature
+
+
+@functools.cache
+def build_gap_curve(Ft):
+    """``gap_curve``: round 61's marks (``gasp_core.mpm.gap_touch.CURVATURE``, its ``gap_marks`` with a table): a
+    points kernel as ``gap_mark`` whose level is the half-space table's (``params[:table_n]``, step ``step`` cells)
+    at ``delta_b + sigma2 k`` (``params[table_n + body]``: the body's reach, cells), ``k`` the least principal
+    curvature the two fields' level surfaces share at the point (``least_curvature`` of the gathered gradient and
+    Hessian of each field, index units), clamped at 0."""
+    from .stencil import build_stencil
+    vec3, vec4, mat33 = build_types(Ft)
+    in_grid, weights = build_stencil(Ft)
+
+    least_curvature = build_curvature(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def gap_curve(x: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32),
