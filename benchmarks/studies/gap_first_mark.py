@@ -8,7 +8,13 @@ steps) to the largest at which any node is marked, reported as ``tests/test_stac
 (``surface_gap``: nearest points less half of each one's spacing), in dx, at four places of the bodies in their cells.
 Rules: ``curve`` (``CURVATURE``), ``sep0.5`` (round 60), ``sep0`` (round 60 at SEPARATION 0).
 
-Usage: ``python benchmarks/studies/gap_first_mark.py`` (about a minute).
+``--shift``: the smoothing's shift itself. Points 0.05-0.6 dx outside a lattice ball of radius R (400 random
+directions, four places of the ball in its cell): the distance the half-space level reads from the other field's
+gathered fraction less the true distance to the lattice's surface (``surface_gap``'s), against ``SIGMA2 k`` (``k`` the
+least principal curvature of the field's level surface at the point, ``gap_touch.least_curvature``) and the mean
+curvature's ``SIGMA2 (k1 + k2) / 2``.
+
+Usage: ``python benchmarks/studies/gap_first_mark.py [--shift]`` (about a minute).
 """
 import numpy as np
 from scipy.spatial import cKDTree
@@ -72,7 +78,37 @@ def first_mark(a, b, rule, off):
     return surface_gap(x, np.r_[np.zeros(len(xa), int), np.ones(len(xb), int)], S ** 3)
 
 
+def shift_check():
+    rng = np.random.default_rng(0)
+    table = G.half_space_table()
+    for r in (2.0, 2.67, 4.0, 8.0):
+        excess, shift, mean = [], [], []
+        for _ in range(4):
+            c = np.full(3, NG / 2) + rng.random(3)
+            p = lattice("ball", r, c)
+            vf = scatter(p)
+            d = rng.normal(size=(400, 3))
+            x = c + d / np.linalg.norm(d, axis=1)[:, None] * (r + rng.uniform(-0.2, 1.0, (400, 1)))
+            dist = cKDTree(p).query(x)[0] - S / 2
+            x = x[(dist > 0.05) & (dist < 0.6)]
+            dist = dist[(dist > 0.05) & (dist < 0.6)]
+            base = np.floor(x - 0.5).astype(int)
+            for q in range(len(x)):
+                b = base[q]
+                phi, g, h = G.gather_derivatives(vf[b[0]:b[0] + 3, b[1]:b[1] + 3, b[2]:b[2] + 3], x[q] - b)
+                excess.append(np.interp(-phi, -table, np.arange(G.TABLE_N) * G.TABLE_STEP) - dist[q])
+                shift.append(G.SIGMA2 * G.least_curvature(g[None], h[None])[0])
+                mean.append(G.SIGMA2 / 2 * (g @ h @ g - (g @ g) * np.trace(h)) / np.linalg.norm(g) ** 3)
+        print(f"ball R {r:g} dx: the half-space reading's excess distance {np.mean(excess):+.3f} dx (sd "
+              f"{np.std(excess):.3f}), SIGMA2 k {np.mean(shift):+.3f} dx (the mean curvature's SIGMA2 (k1 + k2) / 2 "
+              f"{np.mean(mean):+.3f})", flush=True)
+
+
 def main():
+    import sys
+    if "--shift" in sys.argv:
+        shift_check()
+        return
     pairs = [(("cube", 2.5), ("cube", 4.0)), (("ball", 2.67), ("cube", 4.0)), (("cyl", 2.67), ("cube", 4.0)),
              (("ball", 2.0), ("ball", 2.0)), (("ball", 3.0), ("ball", 3.0))]
     for rule in ("curve", "sep0.5", "sep0"):
