@@ -6,8 +6,8 @@ curvature shift, no separation), ``sep0.5`` (round 60: the half-space level at `
 SEPARATION 0.5), ``sep0`` (the same at SEPARATION 0). Scenes: ``stacked`` (``gasp_core.testing.scenes_pairs``'s
 ``stacked_gap``: two balls in a frictionless tube, the gap over the last 0.5 s of 1 s, ``tests/test_stacked_balls.py``'s
 measure) at a radius and n_grid; ``ball`` / ``cube`` / ``cylinder`` on the box (``gasp_core.testing.helpers.
-body_over_box``, dropped 1.5 dx, the gap at rest the mean of the last 5 of ``--frames`` 40: ``gap_fall.landed``). Gaps are the
-lattices' surfaces' (``surface_gap``: nearest points less half of each one's spacing), in dx.
+body_over_box``, dropped 1.5 dx, the gap at rest the mean of the last 5 of ``--frames`` 40: ``gap_fall.landed``).
+Gaps are the lattices' surfaces' (``surface_gap``: nearest points less half of each one's spacing), in dx.
 
 Usage: ``python benchmarks/studies/gap_curve.py --engine warp_mpm --rules curve,sep0.5 --rows
 stacked:0.05:24,ball:32,cube:32`` (a stacked row ``stacked:R:n_grid``, a body row ``shape:n_grid``).

@@ -7,7 +7,8 @@ default substeps; prints per case the upper body's mean v_z (m/s) against ``-g t
 ``--rule old`` sets ``gasp_core.mpm.fields.GAP_TOUCH = False`` (the volume-fraction touch, ``SOFT_TOUCH_FRACTION``).
 
 Usage: ``python benchmarks/studies/gap_fall.py --engine taichi_mpm --shape ball --gap 0.53 --factors 1,2,4,8
---rule new`` (``--curvature``: round 61's level, ``gasp_core.mpm.gap_touch.CURVATURE``; ``--gap`` in cells of the grid, ``--n-grid`` 32 by default); ``--land``: the body dropped from ``--gap``,
+--rule new`` (``--curvature``: round 61's level, ``gasp_core.mpm.gap_touch.CURVATURE``; ``--gap`` in cells of the
+grid, ``--n-grid`` 32 by default); ``--land``: the body dropped from ``--gap``,
 its gap at rest after 20 frames (``landed``).
 """
 import argparse

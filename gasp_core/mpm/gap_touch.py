@@ -69,7 +69,8 @@ DELTA_ROUND = 1e-3
 def body_delta(setup) -> np.ndarray:
     """Per body (shape (n_materials,), cells) how far outside the other body's surface its point's centre marks: half
     its point spacing (its own surface on the other's) plus :data:`SEPARATION` spacings (none with
-    :data:`CURVATURE`), ``(0.5 + SEPARATION) median(V_p)^(1/3) / dx`` over its material points (``setup.p_vol``, m^3; ``setup.dx``, m), rounded to
+    :data:`CURVATURE`), ``(0.5 + SEPARATION) median(V_p)^(1/3) / dx`` over its material points (``setup.p_vol``,
+    m^3; ``setup.dx``, m), rounded to
     :data:`DELTA_ROUND`; as for points at dx / 2 for a body without points."""
     n_mat = getattr(setup, "n_material", None)
     n = len(setup.x) if n_mat is None else int(n_mat)

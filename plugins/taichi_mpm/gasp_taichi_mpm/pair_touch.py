@@ -14,7 +14,8 @@ Round 60 (``gasp_core.mpm.gap_touch``, docs/contact.md "Round 60: a touch by geo
 particle contact every material point of either field marks its stencil where the OTHER field's gathered
 volume fraction reaches its body's level (its surface within ``SEPARATION`` of the other's), :meth:`mark_gap`.
 Round 61 (``gasp_core.mpm.gap_touch.CURVATURE``): the level is the half-space table's at the body's reach plus the
-smoothing's shift of the least principal curvature both fields' level surfaces share at the point (:meth:`curved_level`).
+smoothing's shift of the least principal curvature both fields' level surfaces share at the point
+(:meth:`curved_level`).
 
 Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields (``x``, ``body``, ``in_a``, ``grid_vf``, ...)
 it reads.
