@@ -10,7 +10,8 @@ body_over_box``, dropped 1.5 dx, the gap at rest the mean of the last 5 of ``--f
 Gaps are the lattices' surfaces' (``surface_gap``: nearest points less half of each one's spacing), in dx.
 
 Usage: ``python benchmarks/studies/gap_curve.py --engine warp_mpm --rules curve,sep0.5 --rows
-stacked:0.05:24,ball:32,cube:32`` (a stacked row ``stacked:R:n_grid``, a body row ``shape:n_grid``).
+stacked:0.05:24,ball:32,cube:32`` (a stacked row ``stacked:R:n_grid``, a body row ``shape:n_grid``); ``--pair-mu
+0``: the two fields' contact frictionless.
 """
 import argparse
 import dataclasses
@@ -46,11 +47,17 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--engine", default="warp_mpm")
     ap.add_argument("--rules", default="curve,sep0.5")
+    ap.add_argument("--pair-mu", type=float, default=None, help="the pair's Coulomb coefficient instead of "
+                    "gasp_core.mpm.fields.field_friction's (0.5 for the jelly pairs)")
     ap.add_argument("--frames", type=int, default=40, help="the bodies on the box: frames after the drop (the "
                     "jelly ball at n_grid 48 bounces for about 25)")
     ap.add_argument("--rows", default="stacked:0.05:24,stacked:0.05:32,stacked:0.075:24,ball:32,ball:48,cube:32,"
                                       "cube:48,cylinder:32")
     a = ap.parse_args()
+    if a.pair_mu is not None:   # the contact's friction between the two fields (both engines read it at allocation)
+        import gasp_core.mpm.fields as F
+        import gasp_warp_mpm.fields as WF
+        F.field_friction = WF.field_friction = lambda setup: a.pair_mu
     import sys
     sys.path.insert(0, "benchmarks/studies")
     from gap_fall import landed
