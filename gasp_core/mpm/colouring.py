@@ -1,0 +1,194 @@
+"""A grid velocity field per solid body against the bodies it touches, by colouring (round 61, issue 67 item 4,
+``docs/contact.md`` "Round 61: a field per body by colouring"; the switch :data:`COLOUR`).
+
+The two-field contact (:mod:`gasp_core.mpm.fields`) has two grid velocity fields, A and B, and a table ``in_a`` (one
+int per body) that says which field a body scatters to and reads from. Two bodies take a field each; before round 61
+three or more solids shared one field and were welded wherever they touched. Two fields serve any number of bodies
+when no two bodies of the same field come within reach of each other: the bodies are the vertices of a graph whose
+edges join bodies within reach, and a 2-colouring of that graph is a valid ``in_a``.
+
+**Reach.** Two points share a grid node of the quadratic B-spline when they are less than 3 cells apart along every
+axis (each reaches 1.5 cells); two bodies of one field that share a node move as one there. The reach is
+``3 dx`` plus what the pair can close in :data:`TRAVEL_FRAMES` frames from their initial speeds under gravity
+(:func:`reach`). Candidate pairs are those whose bounding boxes, padded by the reach, overlap; for those only, a k-d tree of one body's points
+(Chebyshev metric) is asked for the other's nearest point within reach (bounded: ``O(n log n)`` per candidate pair).
+
+**Colouring.** Breadth-first per connected component; each component has two colourings (one the other's flip).
+Which goes to B matters: field B's mass gradient gives the contact normal at every node both fields share
+(``fields.py``: the larger body's face; a small block's own edges tilt the normal and it ploughs, round 22). For each
+edge the larger body (by volume) should be in B; on a path of three bodies of falling size (a block on a block on a
+block) one edge cannot have it. The colouring whose correctly oriented edges carry the most relative speed (the
+bodies' mean initial velocities) is taken, so the edge that slides has its larger body's normal; where the speeds tie
+(within :data:`SPEED_TIE` m/s), the one that puts the component's largest body in B. A component that is not
+bipartite (an odd cycle: three bodies touching each other) leaves some edges within one colour: those pairs share a
+field as before (:func:`shared_pairs`; the engines warn, naming them).
+
+The colouring is made once, when an engine is built, from the setup's points and velocities (not again per frame): a
+body that comes within reach of another of its colour later in the run (beyond :data:`TRAVEL_FRAMES` frames' free
+travel) shares its field with it there, as every solid did before round 61.
+"""
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+
+#: Round 61's colouring (three or more soft bodies on the particle contact take the two fields by a 2-colouring of
+#: the graph of bodies within reach). False: one field for them all (the rule before, the catch of the tests).
+COLOUR = True
+#: The frames of free travel added to the reach (see the module notes).
+TRAVEL_FRAMES = 1.0
+#: Relative speeds (m/s) closer than this are a tie in the choice of the colouring that goes to B.
+SPEED_TIE = 1e-6
+
+
+def _material_view(setup):
+    """``(x (n, 3), v (n, 3), vol (n,), body (n,))`` of the setup's material points (``n_material`` first ones)."""
+    n_mat = getattr(setup, "n_material", None)
+    n = len(setup.x) if n_mat is None else int(n_mat)
+    x = np.asarray(setup.x, float)[:n]
+    v = np.broadcast_to(np.asarray(setup.v, float), np.asarray(setup.x).shape)[:n]
+    vol = np.broadcast_to(np.asarray(setup.p_vol, float), (len(setup.x),))[:n]
+    body = np.broadcast_to(np.asarray(setup.body_id), (len(setup.x),))[:n]
+    return x, v, vol, body
+
+
+def reach(setup) -> np.ndarray:
+    """The distance (m, Chebyshev) within which two bodies must take different fields, per pair (shape (n_materials,
+    n_materials)): ``3 dx`` plus what the two can close over :data:`TRAVEL_FRAMES` frames, ``(s_i + s_j) t + |g|
+    t^2``, ``s`` a body's largest initial point speed (m/s), ``t`` the frames' duration (one body falling freely
+    beside one held: ``|g| t^2 / 2``, taken twice)."""
+    x, v, _, body = _material_view(setup)
+    nb = len(setup.materials)
+    t = float(TRAVEL_FRAMES) * float(setup.frame_dt)
+    g = float(np.linalg.norm(np.asarray(setup.gravity, float)))
+    speed = np.sqrt((np.asarray(v, float) ** 2).sum(1))
+    vmax = np.array([float(speed[body == b].max()) if np.any(body == b) else 0.0 for b in range(nb)])
+    return 3.0 * float(setup.dx) + (vmax[:, None] + vmax[None, :]) * t + g * t * t
+
+
+def contact_graph(setup, r=None) -> list[tuple[int, int]]:
+    """The pairs ``(i, j)``, ``i < j``, of bodies whose material points come within ``r[i, j]`` (m, Chebyshev;
+    default :func:`reach`) of each other: bounding boxes padded by ``r / 2`` first, then a k-d tree on the
+    candidates (the nearest point within reach, the tree on the pair's larger body)."""
+    from scipy.spatial import cKDTree
+    x, _, _, body = _material_view(setup)
+    nb = len(setup.materials)
+    r = reach(setup) if r is None else np.broadcast_to(np.asarray(r, float), (nb, nb))
+    pts = [x[body == b] for b in range(nb)]
+    box = [(p.min(0), p.max(0)) if len(p) else None for p in pts]
+    trees: dict[int, object] = {}
+    edges = []
+    for i in range(nb):
+        for j in range(i + 1, nb):
+            if box[i] is None or box[j] is None:
+                continue
+            if np.any(box[i][1] + r[i, j] < box[j][0]) or np.any(box[j][1] + r[i, j] < box[i][0]):
+                continue
+            a, b = (i, j) if len(pts[i]) >= len(pts[j]) else (j, i)   # the tree on the larger body
+            if a not in trees:
+                trees[a] = cKDTree(pts[a])
+            d, _ = trees[a].query(pts[b], k=1, p=np.inf, distance_upper_bound=r[i, j])
+            if np.isfinite(d).any():
+                edges.append((i, j))
+    return edges
+
+
+def colour(n: int, edges, vol, vel) -> tuple[np.ndarray, list[tuple[int, int]]]:
+    """``(in_a, shared)``: a 2-colouring of the graph of ``n`` bodies and ``edges`` (shape (n,), bool, True in field
+    A) and the edges left within one colour (odd cycles). ``vol`` (n,) the bodies' volumes, ``vel`` (n, 3) their mean
+    velocities choose each component's orientation (module notes)."""
+    adj = [[] for _ in range(n)]
+    for i, j in edges:
+        adj[i].append(j)
+        adj[j].append(i)
+    col = np.full(n, -1)
+    in_a = np.zeros(n, bool)
+    for root in np.argsort(-np.asarray(vol, float), kind="stable"):
+        if col[root] >= 0:
+            continue
+        comp, q = [int(root)], deque([int(root)])
+        col[root] = 0
+        while q:
+            u = q.popleft()
+            for w in adj[u]:
+                if col[w] < 0:
+                    col[w] = 1 - col[u]
+                    comp.append(w)
+                    q.append(w)
+        # orientation: colour 0 in B (the root, the largest body) unless the flip orients more sliding speed
+        score = 0.0
+        for u in comp:
+            for w in adj[u]:
+                if u < w and col[u] != col[w]:
+                    big = u if vol[u] >= vol[w] else w
+                    s = float(np.linalg.norm(np.asarray(vel[u]) - np.asarray(vel[w])))
+                    score += s if col[big] == 0 else -s
+        flip = score < -SPEED_TIE
+        for u in comp:
+            in_a[u] = (col[u] == 1) != flip
+    shared = [(i, j) for i, j in edges if in_a[i] == in_a[j]]
+    return in_a, shared
+
+
+_CACHE: list = []
+
+
+def colour_scene(setup):
+    """``(in_a, shared, edges)`` of a setup (:func:`contact_graph`, :func:`colour`): ``in_a`` (n_materials,) bool;
+    the last setup's kept (the same object with the same point array: an engine's build asks several times)."""
+    if _CACHE and _CACHE[0] is setup and _CACHE[1] is setup.x:
+        return _CACHE[2]
+    x, v, vol, body = _material_view(setup)
+    nb = len(setup.materials)
+    vols = np.bincount(body, weights=vol, minlength=nb)
+    w = np.maximum(np.bincount(body, minlength=nb), 1)
+    vel = np.stack([np.bincount(body, weights=v[:, k], minlength=nb) / w for k in range(3)], 1)
+    edges = contact_graph(setup)
+    in_a, shared = colour(nb, edges, vols, vel)
+    _CACHE[:] = [setup, setup.x, (in_a, shared, edges)]
+    return in_a, shared, edges
+
+
+def coloured(setup) -> bool:
+    """Whether a setup takes round 61's colouring: :data:`COLOUR`, the option ``contact_fields`` on, three or more
+    bodies on the particle contact, none rigid (two rigid bodies' contact is by force balance, for exactly two) and
+    none flowing."""
+    from gasp_core.mpm.contact import contact_model
+    from gasp_core.mpm.rigid import rigid_mask
+    return (bool(COLOUR) and setup.options.get("contact_fields", True) and len(setup.materials) >= 3
+            and contact_model(setup) == "particle" and not np.asarray(rigid_mask(setup.materials)).any())
+
+
+def shared_field_bodies(setup) -> list[int]:
+    """The bodies (indices of ``setup.materials``, the scene's objects in order) that do not flow and share one grid
+    velocity field with another such body: where they touch they move as one (no slip, no Coulomb law, no separation
+    within a cell), as in any single-field MPM. Empty where every solid has a field of its own
+    (``fields.field_bodies``: two bodies on the particle contact, flowing bodies against one other body, or, round
+    61, soft bodies coloured with no two of a field within reach) or the option ``contact_fields`` is false (the
+    scene asked for one field). Coloured scenes name the bodies of the pairs the colouring could not separate (odd
+    cycles, :func:`colour`); three or more solids with a rigid one, or two beside a flowing body, share one."""
+    from gasp_core.mpm.contact import FLOWING
+    from gasp_core.mpm.fields import field_bodies
+    if not setup.options.get("contact_fields", True):
+        return []
+    if coloured(setup):
+        return sorted({b for pair in colour_scene(setup)[1] for b in pair})
+    in_a = field_bodies(setup)
+    solids = [i for i, m in enumerate(setup.materials) if m.name not in FLOWING and (in_a is None or not in_a[i])]
+    return solids if len(solids) >= 2 else []
+
+
+def shared_field_warning(setup, engine: str) -> None:
+    """Warn (``UserWarning``) when :func:`shared_field_bodies` is not empty, naming the bodies and what to do."""
+    shared = shared_field_bodies(setup)
+    if shared:
+        import warnings
+        names = ", ".join(f"{i} ({setup.materials[i].name})" for i in shared[:6])
+        names += f" and {len(shared) - 6} more" if len(shared) > 6 else ""
+        why = ("they touch each other in an odd cycle (three bodies mutually within reach), which two fields cannot "
+               "separate" if coloured(setup) else "the two-field contact takes two bodies, flowing bodies against one "
+               "other, or soft bodies alone")
+        warnings.warn(f"engine '{engine}': bodies {names} share one grid velocity field: where they touch they move "
+                      f"as one, with no slip and no friction law between them ({why}; docs/contact.md); make the "
+                      f"ones that only support the others [[collider]] meshes, or simulate them apart", stacklevel=2)
