@@ -192,3 +192,18 @@ def shared_field_warning(setup, engine: str) -> None:
         warnings.warn(f"engine '{engine}': bodies {names} share one grid velocity field: where they touch they move "
                       f"as one, with no slip and no friction law between them ({why}; docs/contact.md); make the "
                       f"ones that only support the others [[collider]] meshes, or simulate them apart", stacklevel=2)
+
+
+def fields_record(setup, names=None) -> dict | None:
+    """``run.json`` ``contact_fields`` (round 61): where :func:`coloured`, ``{"coloured": True, "field_a": [bodies in
+    field A], "shared_pairs": [[i, j], ...] (odd cycles, :func:`colour`), "shared_bodies": [names or indices]}``;
+    elsewhere where :func:`shared_field_bodies` names bodies, ``{"coloured": False, "shared_bodies": [...]}``; None
+    otherwise (the record is absent)."""
+    def name(i):
+        return names[i] if names is not None and i < len(names) else i
+    shared = shared_field_bodies(setup)
+    if coloured(setup):
+        in_a, pairs, _ = colour_scene(setup)
+        return {"coloured": True, "field_a": [name(i) for i in np.flatnonzero(in_a)],
+                "shared_pairs": [[name(i), name(j)] for i, j in pairs], "shared_bodies": [name(i) for i in shared]}
+    return {"coloured": False, "shared_bodies": [name(i) for i in shared]} if shared else None
