@@ -13,7 +13,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from gasp_core.mpm.fields import shared_field_bodies
+from gasp_core.mpm.shared_fields import shared_field_bodies
 from gasp_core.seam.plugins import engines
 from gasp_core.testing import sand_ball as S
 

@@ -30,6 +30,7 @@ import numpy as np
 import pytest
 
 from gasp_core.mpm import colouring, fields
+from gasp_core.mpm.shared_fields import shared_field_bodies
 from gasp_core.testing import scenes_three as S
 from gasp_core.testing.scenes_pairs import STACK_GAP_TOL
 
@@ -58,7 +59,7 @@ def test_the_colouring_puts_touching_bodies_in_different_fields():
     in_a, shared, edges = colouring.colour_scene(S.fall3(0.3))
     assert in_a.tolist() == [False, True, False] and edges == [(0, 1), (1, 2)]
     assert fields.field_bodies(S.stack3("ball")).tolist() == [False, True, False]
-    assert fields.shared_field_bodies(S.stack3("ball")) == []
+    assert shared_field_bodies(S.stack3("ball")) == []
 
 
 def test_an_odd_cycle_keeps_sharing_and_is_named():
@@ -71,7 +72,7 @@ def test_an_odd_cycle_keeps_sharing_and_is_named():
     s.x = x
     in_a, shared, edges = colouring.colour_scene(s)
     assert len(edges) == 3 and len(shared) == 1
-    assert fields.shared_field_bodies(s) == sorted(shared[0])
+    assert shared_field_bodies(s) == sorted(shared[0])
 
 
 def test_two_bodies_and_rigid_ones_keep_the_rule_before(monkeypatch):
@@ -81,10 +82,10 @@ def test_two_bodies_and_rigid_ones_keep_the_rule_before(monkeypatch):
     rigid = S.stack3("ball")
     rigid.materials = [*rigid.materials[:2], Material("jelly", model="rigid", E=1e5, rho=1000.0)]
     assert not colouring.coloured(rigid) and fields.field_bodies(rigid) is None
-    assert fields.shared_field_bodies(rigid) == [0, 1, 2]
+    assert shared_field_bodies(rigid) == [0, 1, 2]
     monkeypatch.setattr(colouring, "COLOUR", False)
     assert fields.field_bodies(S.stack3("ball")) is None
-    assert fields.shared_field_bodies(S.stack3("ball")) == [0, 1, 2]
+    assert shared_field_bodies(S.stack3("ball")) == [0, 1, 2]
 
 
 def _stack_ok(engine, shape, n_grid):

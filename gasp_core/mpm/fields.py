@@ -48,7 +48,7 @@ from gasp_core.mpm.contact import contact_model, explicit_grid, flowing_bodies
 from gasp_core.mpm.fields_reference import (FLOW_TOUCH_DELTA, MIN_FRACTION, combine_friction,  # noqa: F401
                                            field_offsets, flow_touch_level, ground_mirror, mass_normals)
 from gasp_core.mpm.gap_touch import gap_levels
-from gasp_core.mpm.colouring import coloured, colour_scene, shared_field_bodies, shared_field_warning  # noqa: F401
+from gasp_core.mpm.colouring import coloured, colour_scene
 
 #: Engine option ``contact_fields`` of the MPM engines.
 FIELDS = Option("contact_fields", True, "in a scene with flowing (sand, snow, liquid) and other bodies, the flowing "

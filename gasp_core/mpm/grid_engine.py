@@ -18,6 +18,7 @@ from gasp_core.errors import EngineError, SceneError
 from gasp_core.seam.engine import Capabilities
 from gasp_core.mpm.contact import contact_dt, contact_model, flowing_bodies
 from gasp_core.mpm.fields import uses_fields
+from gasp_core.mpm.shared_fields import fields_record
 from gasp_core.mpm.grid_origin import ground_on_node
 from gasp_core.mpm.rigid import lift_setup, step_view
 from gasp_core.mpm.points import engine_mass_stats, material_first_order, stranded_passive
@@ -233,6 +234,9 @@ class GridEngineBase:
         out["contact"] = contact_model(view)
         out["contact_per_body"] = ["grid" if f else "particle" for f in flowing_bodies(view, out["contact"])]
         out["contact_fields"] = uses_fields(view)   # two velocity fields (gasp_core.mpm.fields)
+        colouring = fields_record(view)   # round 61: the coloured bodies' fields, or those that still share one
+        if colouring:
+            out["field_colouring"] = colouring
         if x is not None:
             out.update(engine_mass_stats(x, p_mass))
             if grid_m is not None and self.n_material < n and self.frame > 0:

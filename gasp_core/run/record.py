@@ -56,9 +56,6 @@ def run_summary(prep, stats, n_frames: int, per_frame: list[dict], wall_s: float
         "n_points": len(setup.x), "n_render_points": setup.n_render, **selection_totals(prep),
         "objects": [_object_record(o, name, setup.boundaries) for o, name in zip(prep.objects, prep.names)],
         "colliders": collider_records(setup, per_frame),
-        # round 61 (gasp_core.mpm.colouring): the solids' grid fields where three or more soft bodies were coloured,
-        # or the bodies that still share one field (odd cycles, or solids beside a rigid or flowing body)
-        **_fields_record(prep),
         # what the scene around a selection supplied where the file states none (gasp_core.prepare.around)
         "around_selection": list(getattr(prep, "around", [])),
         "frames": per_frame,
@@ -67,17 +64,6 @@ def run_summary(prep, stats, n_frames: int, per_frame: list[dict], wall_s: float
         # fraction of the scene's energy scale (a run stops past the allowance), or why the scene is not watched
         **({"energy": stats.energy} if getattr(stats, "energy", None) else {}),
     }
-
-
-def _fields_record(prep) -> dict:
-    """``{"contact_fields": ...}`` (:func:`gasp_core.mpm.colouring.fields_record`) of a grid engine's run where it
-    has one, else {}."""
-    from gasp_core.mpm.colouring import fields_record
-    setup, names = prep.setup, getattr(prep, "names", None)
-    grid = "grid" in getattr(getattr(prep.info, "capabilities", None), "features", ())
-    rec = fields_record(setup, list(names) if names is not None else None) if grid and len(setup.materials) >= 2 \
-        else None
-    return {"contact_fields": rec} if rec else {}
 
 
 def running_record(prep, stats, n_frames: int, per_frame: list[dict], fmt: str, layout: str) -> dict:
