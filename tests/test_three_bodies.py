@@ -102,6 +102,7 @@ def test_three_stacked_meet_at_their_surfaces(engine, shape, n_grid):
     """Measured (both engines alike): balls -0.030 / -0.099 dx (n_grid 24), +0.047 / +0.050 (32); cubes +0.183 /
     +0.158 (24), +0.088 / +0.158 (32); one field: +0.75 to +1.18."""
     ok, fig = _stack_ok(engine, shape, n_grid)
+    print(f"FIG stack {engine} {shape} {n_grid}: {fig}")
     assert ok, fig
 
 
@@ -117,6 +118,7 @@ SLIDE = [pytest.param(e, ng, mu, id=f"{e}-{ng}-{mu}", marks=_slow(e, (ng, mu) ==
 @pytest.mark.parametrize("engine,n_grid,mu", SLIDE)
 def test_a_block_slides_on_a_block_on_a_block(engine, n_grid, mu):
     ok, fig = _slide_ok(engine, n_grid, mu)
+    print(f"FIG slide {engine} {n_grid} {mu}: {fig}")
     assert ok, fig
 
 
@@ -132,6 +134,7 @@ FALL = [pytest.param(e, gap, ng, id=f"{e}-{gap}dx-{ng}", marks=_slow(e, (gap, ng
 @pytest.mark.parametrize("engine,gap,n_grid", FALL)
 def test_three_bodies_apart_fall_freely(engine, gap, n_grid):
     ok, fig = _fall_ok(engine, gap, n_grid)
+    print(f"FIG fall {engine} {gap} {n_grid}: {fig}")
     assert ok, fig
 
 
@@ -144,4 +147,5 @@ def test_the_rule_before_is_caught(engine, case, monkeypatch):
     monkeypatch.setattr(colouring, "COLOUR", False)
     ok, fig = (_fall_ok(engine, 0.3, 32) if case == "fall" else _slide_ok(engine, 32, 0.3) if case == "slide"
                else _stack_ok(engine, "ball", 24))
+    print(f"FIG before {case} {engine}: {fig}")
     assert not ok, fig
