@@ -142,7 +142,9 @@ def field_bodies(setup) -> np.ndarray | None:
     option ``contact_fields`` true (the default): in a ``"mixed"`` scene the flowing bodies (A) against the others
     (B); two soft bodies (:func:`soft_pair`), two rigid ones (:func:`rigid_pair`) or a rigid one and a soft one
     (:func:`mixed_pair`) the smaller by volume (A; body 1 when equal) against the larger (B), whose surface gives the
-    contact normal (a block on a slab: the slab's face). Any other scene runs one field (three or more bodies)."""
+    contact normal (a block on a slab: the slab's face); three or more soft bodies (round 61,
+    :func:`gasp_core.mpm.colouring.coloured`) by a 2-colouring of the bodies within reach of each other
+    (``colouring.colour_scene``). Any other scene runs one field (three or more bodies with a rigid one)."""
     c = contact_model(setup)
     if not setup.options.get("contact_fields", True) or (c == "mixed" and explicit_grid(setup)):
         return None   # contact = "grid" by hand: one field, as before its rigid bodies took the particle contact
@@ -167,7 +169,7 @@ def body_pair(setup) -> bool:
 def soft_pair(setup) -> bool:
     """Whether a scene is two soft bodies on the particle contact (two materials, neither flowing nor rigid): they
     take a field each, the smaller (A) against the larger (B), so they meet at their surfaces (issue 53 item 5,
-    ``docs/contact.md`` "Two jelly balls stacked"). Three or more soft bodies keep one field (no multi-field yet)."""
+    ``docs/contact.md`` "Two jelly balls stacked"). Three or more soft bodies: :func:`body_pair` (round 61)."""
     from gasp_core.mpm.rigid import rigid_mask
     return (len(setup.materials) == 2 and contact_model(setup) == "particle"
             and not np.asarray(rigid_mask(setup.materials)).any())

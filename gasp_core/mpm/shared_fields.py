@@ -44,12 +44,13 @@ def shared_field_warning(setup, engine: str) -> None:
 
 
 def fields_record(setup, names=None) -> dict | None:
-    """An engine's stats' ``field_colouring`` (``run.json`` ``engine_stats``; round 61): where :func:`coloured`, ``{"coloured": True, "field_a": [bodies in
-    field A], "shared_pairs": [[i, j], ...] (odd cycles, :func:`colour`), "shared_bodies": [names or indices]}``;
+    """An engine's stats' ``field_colouring`` (``run.json`` ``engine_stats``; round 61): where :func:`coloured`,
+    ``{"coloured": True, "field_a": [bodies in field A], "shared_pairs": [[i, j], ...] (odd cycles,
+    ``colouring.colour``), "shared_bodies": [names or indices]}``;
     elsewhere where :func:`shared_field_bodies` names bodies, ``{"coloured": False, "shared_bodies": [...]}``; None
     otherwise (the record is absent)."""
     def name(i):
-        return names[i] if names is not None and i < len(names) else i
+        return names[i] if names is not None and i < len(names) else int(i)
     shared = shared_field_bodies(setup)
     if coloured(setup):
         in_a, pairs, _ = colour_scene(setup)
