@@ -29,9 +29,11 @@ them, ``gasp_core.mpm.shared_fields``).
 **Friction.** The two fields' contact takes one coefficient for the whole grid (``fields.field_friction``): here the
 smallest of the graph's pairs' (``combine_friction``); bodies of several coefficients are not covered per pair.
 
-The colouring is made once, when an engine is built, from the setup's points and velocities (not again per frame): a
-body that comes within reach of another of its colour later in the run (beyond :data:`TRAVEL_FRAMES` frames' free
-travel) shares its field with it there, as every solid did before round 61.
+The colouring is made when an engine is built, from the setup's points and velocities, and again at the start of every
+frame from the last frame's (:data:`RECOLOUR`, :func:`recolour`; the engines write ``in_a`` between frames, the grid
+fields are rebuilt every substep from the points): the reach covers :data:`TRAVEL_FRAMES` frames' travel, so a body
+cannot come within a node of another of its field unseen within the frame. Where a component's colouring flips between
+frames, its bodies swap fields as a whole (nothing is carried in the fields from one substep to the next).
 """
 from __future__ import annotations
 
@@ -42,6 +44,9 @@ import numpy as np
 #: Round 61's colouring (three or more soft bodies on the particle contact take the two fields by a 2-colouring of
 #: the graph of bodies within reach). False: one field for them all (the rule before, the catch of the tests).
 COLOUR = True
+#: The colouring made again at each frame from the last frame's points and velocities (:func:`recolour`, the engines'
+#: ``step_frame``). False: once, at build, from the setup's (the colouring of the setup then holds for the run).
+RECOLOUR = True
 #: The frames of free travel added to the reach (see the module notes).
 TRAVEL_FRAMES = 1.0
 #: Relative speeds (m/s) closer than this are a tie in the choice of the colouring that goes to B.
@@ -142,9 +147,11 @@ _CACHE: list = []
 
 def colour_scene(setup):
     """``(in_a, shared, edges)`` of a setup (:func:`contact_graph`, :func:`colour`): ``in_a`` (n_materials,) bool;
-    the last setup's kept (the same object with the same point array: an engine's build asks several times)."""
-    if _CACHE and _CACHE[0] is setup and _CACHE[1] is setup.x:
-        return _CACHE[2]
+    the last two setups' kept (the same object with the same point array: an engine's build and its stats ask
+    several times)."""
+    for kept, x, out in _CACHE:
+        if kept is setup and x is setup.x:
+            return out
     x, v, vol, body = _material_view(setup)
     nb = len(setup.materials)
     vols = np.bincount(body, weights=vol, minlength=nb)
@@ -152,8 +159,29 @@ def colour_scene(setup):
     vel = np.stack([np.bincount(body, weights=v[:, k], minlength=nb) / w for k in range(3)], 1)
     edges = contact_graph(setup)
     in_a, shared = colour(nb, edges, vols, vel)
-    _CACHE[:] = [setup, setup.x, (in_a, shared, edges)]
+    _CACHE[:] = [*_CACHE[-1:], (setup, setup.x, (in_a, shared, edges))]   # the last two (a setup, a frame's view)
     return in_a, shared, edges
+
+
+def recolour(eng) -> np.ndarray | None:
+    """Round 61 (:data:`RECOLOUR`): an engine's ``in_a`` (shape (n_materials,), int32) from its last frame's points
+    (``eng.positions()``, ``eng.velocities()``, setup order; ``eng.setup``'s volumes and bodies), or None where its
+    scene is not :func:`coloured` or before the first frame (the build's colouring holds). The pairs left sharing a
+    field are added to ``eng.colour_shared`` (a set, for the stats)."""
+    from types import SimpleNamespace
+    from gasp_core.mpm.rigid import step_view
+    if getattr(eng, "colour_on", None) is None:
+        eng.colour_on = bool(RECOLOUR) and coloured(step_view(eng.setup))
+        eng.colour_shared = set()
+    if not eng.colour_on or eng.frame == 0:
+        return None
+    st = eng.setup
+    view = SimpleNamespace(x=np.asarray(eng.positions(), float), v=np.asarray(eng.velocities(), float),
+                           p_vol=st.p_vol, body_id=st.body_id, materials=st.materials, dx=float(st.dx),
+                           frame_dt=st.frame_dt, gravity=st.gravity, n_material=getattr(eng, "n_material", None))
+    in_a, shared, _ = colour_scene(view)
+    eng.colour_shared.update(shared)
+    return in_a.astype(np.int32)
 
 
 def coloured(setup) -> bool:

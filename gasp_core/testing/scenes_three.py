@@ -99,3 +99,23 @@ def fall3(gap_cells: float, n_grid: int = 32, frame: float = 1.0 / 30.0) -> SimS
                     body_id=np.r_[np.asarray(s.body_id), np.full(len(ball), 2)],
                     materials=[*s.materials, Material("jelly")], gravity=s.gravity, domain_lo=s.domain_lo,
                     domain_hi=s.domain_hi, n_grid=n_grid, boundaries=s.boundaries, frame_dt=frame)
+
+
+def land3(n_grid: int = 32, drop: float = 0.10) -> SimSetup:
+    """A jelly slab (40 x 20 x 6 cm, rho 1000) on a ground (friction 0.5), a jelly cube (6 cm) resting on its left end
+    (half a cell over it) and a jelly ball (R 5 cm) ``drop`` m over its right end, at rest: the ball is out of every
+    body's reach at the start (``colouring.reach``) and lands on the slab (a body that meets another later in the run:
+    round 61's colouring made again per frame, ``colouring.RECOLOUR``). E 1e5 Pa; a 0.6 m grid of ``n_grid`` cells,
+    30 frames a second. Bodies: 0 the slab, 1 the cube, 2 the ball."""
+    dx = 0.6 / n_grid
+    h = dx / 2
+    slab, _ = box_points((-0.2, -0.1, 0.0), (0.2, 0.1, 0.06), h)
+    cube, _ = box_points((-0.17, -0.03, 0.06 + dx / 2), (-0.11, 0.03, 0.12 + dx / 2), h)
+    ball, _ = sphere_points(np.array([0.1, 0.0, 0.06 + drop + 0.05]), 0.05, h)
+    x = np.vstack([slab, cube, ball])
+    mat = Material("jelly", E=1e5, nu=0.3, rho=1000.0)
+    return SimSetup(x=x, v=np.zeros_like(x), p_vol=np.full(len(x), h ** 3),
+                    body_id=np.r_[np.zeros(len(slab), int), np.ones(len(cube), int), np.full(len(ball), 2)],
+                    materials=[mat] * 3, gravity=np.array([0.0, 0.0, -G]), domain_lo=np.array([-0.3, -0.3, -0.02]),
+                    domain_hi=np.array([0.3, 0.3, 0.58]), n_grid=n_grid,
+                    boundaries=[Boundary("ground", height=0.0, friction=0.5)], frame_dt=1.0 / 30.0)

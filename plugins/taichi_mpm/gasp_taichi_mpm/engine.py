@@ -274,6 +274,7 @@ class TaichiMPMEngine(GridEngineBase, StateClock):
         self._check_live()
         s = self.solver
         s.reset_out()
+        self.recolour_fields(s.set_in_a)   # round 61: the coloured bodies' fields from the last frame's points
         self.clock_frame() if self.clock.on else s.substeps(self.n_substeps)
         self.frame += 1
         if s.gpu:
