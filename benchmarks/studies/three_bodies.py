@@ -90,11 +90,37 @@ def fall(engine: str, gap_cells: float, n_grid: int, factor: int = 1) -> tuple[f
     return float(v[body == 1, 2].mean() / g - 1), float(v[body == 2, 2].mean() / g - 1), sec
 
 
+def land(engine: str, n_grid: int = 32, frames: int = 60, pair: bool = False) -> tuple[float, float, float]:
+    """``(the ball's gap over the slab, the cube's, in dx, seconds a frame)`` averaged over the last 15 frames of
+    ``frames`` (``scenes_three.land3``: the ball dropped from out of reach onto the slab beside the cube); ``pair``:
+    without the cube (two bodies, the same measure; the cube's gap then nan)."""
+    s = S.land3(n_grid)
+    if pair:
+        keep = np.asarray(s.body_id) != 1
+        s = S.SimSetup(x=s.x[keep], v=s.v[keep], p_vol=np.asarray(s.p_vol)[keep],
+                       body_id=np.where(np.asarray(s.body_id)[keep] == 2, 1, 0), materials=s.materials[:2],
+                       gravity=s.gravity, domain_lo=s.domain_lo, domain_hi=s.domain_hi, n_grid=s.n_grid,
+                       boundaries=s.boundaries, frame_dt=s.frame_dt)
+    e = build_engine(get_engine(engine), s)
+    body = np.asarray(s.body_id)
+    pairs = [(0, 1)] if pair else [(0, 2), (0, 1)]
+    rows = []
+    t0 = time.perf_counter()
+    for _ in range(frames):
+        e.step_frame()
+        rows.append(S.surface_gaps(e.positions().astype(float), body, s.p_vol, pairs))
+    sec = (time.perf_counter() - t0) / frames
+    e.close()
+    g = np.mean(rows[-15:], 0) / s.dx
+    return float(g[0]), float(g[1]) if not pair else float("nan"), sec
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--engine", default="warp_mpm")
     ap.add_argument("--before", action="store_true", help="the rule before: one shared field (COLOUR False)")
-    ap.add_argument("--cases", default="stack,slide,fall")
+    ap.add_argument("--cases", default="stack,slide,fall,land")
+    ap.add_argument("--static", action="store_true", help="the colouring made once at build (RECOLOUR False)")
     ap.add_argument("--grids", default="")
     ap.add_argument("--largest-in-b", action="store_true", help="each component's largest body in B whatever slides "
                     "(SPEED_TIE infinite: the orientation by speed off)")
@@ -102,6 +128,7 @@ def main():
     a = ap.parse_args()
     from gasp_core.mpm import colouring
     colouring.COLOUR = not a.before
+    colouring.RECOLOUR = not a.static
     if a.largest_in_b:
         colouring.SPEED_TIE = float("inf")
     cases = a.cases.split(",")
@@ -124,6 +151,13 @@ def main():
                 r = fall(a.engine, gap, ng)
                 print(f"fall {a.engine} gap {gap} dx n_grid {ng}: v_z {100 * r[0]:+.2f} %, {100 * r[1]:+.2f} %, "
                       f"{r[2]:.2f} s/frame", flush=True)
+
+
+    if "land" in cases:
+        for pair in (False, True) if a.pairs else (False,):
+            r = land(a.engine, pair=pair)
+            print(f"land {a.engine} n_grid 32{' (no cube)' if pair else ''}: ball {r[0]:+.3f} dx, cube {r[1]:+.3f} dx, "
+                  f"{r[2]:.2f} s/frame", flush=True)
 
 
 if __name__ == "__main__":

@@ -32,8 +32,10 @@ smallest of the graph's pairs' (``combine_friction``); bodies of several coeffic
 The colouring is made when an engine is built, from the setup's points and velocities, and again at the start of every
 frame from the last frame's (:data:`RECOLOUR`, :func:`recolour`; the engines write ``in_a`` between frames, the grid
 fields are rebuilt every substep from the points): the reach covers :data:`TRAVEL_FRAMES` frames' travel, so a body
-cannot come within a node of another of its field unseen within the frame. Where a component's colouring flips between
-frames, its bodies swap fields as a whole (nothing is carried in the fields from one substep to the next).
+cannot come within a node of another of its field unseen within the frame. Per frame a component takes the
+orientation that keeps more of its bodies in the field they had (the speeds' rule only on a tie): with the speeds'
+rule alone, the relative speeds of bodies settling in a stack (noise) flipped whole stacks between frames, and their
+rest gaps moved by up to 0.06 dx (``docs/contact.md``).
 """
 from __future__ import annotations
 
@@ -105,10 +107,11 @@ def contact_graph(setup, r=None) -> list[tuple[int, int]]:
     return edges
 
 
-def colour(n: int, edges, vol, vel) -> tuple[np.ndarray, list[tuple[int, int]]]:
+def colour(n: int, edges, vol, vel, prev=None) -> tuple[np.ndarray, list[tuple[int, int]]]:
     """``(in_a, shared)``: a 2-colouring of the graph of ``n`` bodies and ``edges`` (shape (n,), bool, True in field
     A) and the edges left within one colour (odd cycles). ``vol`` (n,) the bodies' volumes, ``vel`` (n, 3) their mean
-    velocities choose each component's orientation (module notes)."""
+    velocities choose each component's orientation (module notes); ``prev`` (n,) bool, the last frame's fields, where
+    given: the orientation that keeps more of the component's bodies in their field, the rule above on a tie."""
     adj = [[] for _ in range(n)]
     for i, j in edges:
         adj[i].append(j)
@@ -136,6 +139,9 @@ def colour(n: int, edges, vol, vel) -> tuple[np.ndarray, list[tuple[int, int]]]:
                     s = float(np.linalg.norm(np.asarray(vel[u]) - np.asarray(vel[w])))
                     score += s if col[big] == 0 else -s
         flip = score < -SPEED_TIE
+        if prev is not None:   # per frame: keep the bodies where they were (a flip on noise would swap them all)
+            keep = sum(1 if bool(prev[u]) == (col[u] == 1) else -1 for u in comp)
+            flip = keep < 0 or (keep == 0 and flip)
         for u in comp:
             in_a[u] = (col[u] == 1) != flip
     shared = [(i, j) for i, j in edges if in_a[i] == in_a[j]]
@@ -145,7 +151,7 @@ def colour(n: int, edges, vol, vel) -> tuple[np.ndarray, list[tuple[int, int]]]:
 _CACHE: list = []
 
 
-def colour_scene(setup):
+def colour_scene(setup, prev=None):
     """``(in_a, shared, edges)`` of a setup (:func:`contact_graph`, :func:`colour`): ``in_a`` (n_materials,) bool;
     the last two setups' kept (the same object with the same point array: an engine's build and its stats ask
     several times)."""
@@ -158,7 +164,7 @@ def colour_scene(setup):
     w = np.maximum(np.bincount(body, minlength=nb), 1)
     vel = np.stack([np.bincount(body, weights=v[:, k], minlength=nb) / w for k in range(3)], 1)
     edges = contact_graph(setup)
-    in_a, shared = colour(nb, edges, vols, vel)
+    in_a, shared = colour(nb, edges, vols, vel, prev)
     _CACHE[:] = [*_CACHE[-1:], (setup, setup.x, (in_a, shared, edges))]   # the last two (a setup, a frame's view)
     return in_a, shared, edges
 
@@ -173,13 +179,15 @@ def recolour(eng) -> np.ndarray | None:
     if getattr(eng, "colour_on", None) is None:
         eng.colour_on = bool(RECOLOUR) and coloured(step_view(eng.setup))
         eng.colour_shared = set()
+        eng.colour_prev = colour_scene(step_view(eng.setup))[0] if eng.colour_on else None   # the build's
     if not eng.colour_on or eng.frame == 0:
         return None
     st = eng.setup
     view = SimpleNamespace(x=np.asarray(eng.positions(), float), v=np.asarray(eng.velocities(), float),
                            p_vol=st.p_vol, body_id=st.body_id, materials=st.materials, dx=float(st.dx),
                            frame_dt=st.frame_dt, gravity=st.gravity, n_material=getattr(eng, "n_material", None))
-    in_a, shared, _ = colour_scene(view)
+    in_a, shared, _ = colour_scene(view, eng.colour_prev)
+    eng.colour_prev = in_a
     eng.colour_shared.update(shared)
     return in_a.astype(np.int32)
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from gasp_core.seam.setup import Boundary, Material, SimSetup
+from gasp_core.seam.setup import Boundary, Material, SimSetup  # noqa: F401 (SimSetup: the study's pair)
 from gasp_core.testing.helpers import box_points, sphere_points
 from gasp_core.testing.scenes_pairs import STACK_CLEAR, STACK_DROP, STACK_MAT, STACK_R, SIDE
 
