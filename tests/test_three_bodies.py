@@ -59,11 +59,11 @@ def _slow(engine, default=False):
 
 def test_the_colouring_puts_touching_bodies_in_different_fields():
     in_a, shared, edges = colouring.colour_scene(S.stack3("ball"))
-    assert in_a.tolist() == [False, True, False] and shared == [] and edges == [(0, 1), (1, 2)]
+    assert in_a.tolist() == [False, True, False] and shared == [] and sorted(edges) == [(0, 1), (1, 2)]
     in_a, shared, edges = colouring.colour_scene(S.slide3(32))
-    assert in_a.tolist() == [True, False, True] and edges == [(0, 1), (1, 2)]   # the sliding pair: the larger in B
+    assert in_a.tolist() == [True, False, True] and sorted(edges) == [(0, 1), (1, 2)]   # the sliding pair: the larger in B
     in_a, shared, edges = colouring.colour_scene(S.fall3(0.3))
-    assert in_a.tolist() == [False, True, False] and edges == [(0, 1), (1, 2)]
+    assert in_a.tolist() == [False, True, False] and sorted(edges) == [(0, 1), (1, 2)]
     assert fields.field_bodies(S.stack3("ball")).tolist() == [False, True, False]
     assert shared_field_bodies(S.stack3("ball")) == []
 

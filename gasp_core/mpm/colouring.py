@@ -14,7 +14,11 @@ axis (each reaches 1.5 cells); two bodies of one field that share a node move as
 k-d tree of one body's points (Chebyshev metric) is asked for the other's nearest point within reach (bounded:
 ``O(n log n)`` per candidate pair; 1 ms for 840 points, 120 ms for 116,000).
 
-**Colouring.** Breadth-first per connected component; each component has two colourings (one the other's flip).
+**Colouring.** Breadth-first per connected component over a spanning forest of its closest pairs (Kruskal, the
+pairs in order of their nearest points' distance), so that where the graph has an odd cycle the pair left in one
+field is the cycle's farthest (in a settling stack of three, the bottom and top bodies came within the padded reach of
+each other, and the colouring of the whole graph left a touching pair in one field for those frames); each component
+has two colourings (one the other's flip).
 Which goes to B matters: field B's mass gradient gives the contact normal at every node both fields share
 (``fields.py``: the larger body's face; a small block's own edges tilt the normal and it ploughs, round 22). For each
 edge the larger body (by volume) should be in B; on a path of three bodies of falling size (a block on a block on a
@@ -82,8 +86,8 @@ def reach(setup) -> np.ndarray:
 
 def contact_graph(setup, r=None) -> list[tuple[int, int]]:
     """The pairs ``(i, j)``, ``i < j``, of bodies whose material points come within ``r[i, j]`` (m, Chebyshev;
-    default :func:`reach`) of each other: bounding boxes padded by ``r / 2`` first, then a k-d tree on the
-    candidates (the nearest point within reach, the tree on the pair's larger body)."""
+    default :func:`reach`) of each other, the closest pair first: bounding boxes padded by ``r`` first, then a k-d
+    tree on the candidates (the nearest point within reach, the tree on the pair's larger body)."""
     from scipy.spatial import cKDTree
     x, _, _, body = _material_view(setup)
     nb = len(setup.materials)
@@ -103,8 +107,8 @@ def contact_graph(setup, r=None) -> list[tuple[int, int]]:
                 trees[a] = cKDTree(pts[a])
             d, _ = trees[a].query(pts[b], k=1, p=np.inf, distance_upper_bound=r[i, j])
             if np.isfinite(d).any():
-                edges.append((i, j))
-    return edges
+                edges.append((float(d[np.isfinite(d)].min()), i, j))
+    return [(i, j) for _, i, j in sorted(edges)]
 
 
 def colour(n: int, edges, vol, vel, prev=None) -> tuple[np.ndarray, list[tuple[int, int]]]:
@@ -113,9 +117,16 @@ def colour(n: int, edges, vol, vel, prev=None) -> tuple[np.ndarray, list[tuple[i
     velocities choose each component's orientation (module notes); ``prev`` (n,) bool, the last frame's fields, where
     given: the orientation that keeps more of the component's bodies in their field, the rule above on a tie."""
     adj = [[] for _ in range(n)]
+    tree = [[] for _ in range(n)]   # a spanning forest of the closest pairs (edges closest first): an odd cycle's
+    root_of = list(range(n))        # pair left in one field is then its farthest, not a touching one
     for i, j in edges:
         adj[i].append(j)
         adj[j].append(i)
+        ri, rj = _find(root_of, i), _find(root_of, j)
+        if ri != rj:
+            root_of[ri] = rj
+            tree[i].append(j)
+            tree[j].append(i)
     col = np.full(n, -1)
     in_a = np.zeros(n, bool)
     for root in np.argsort(-np.asarray(vol, float), kind="stable"):
@@ -125,7 +136,7 @@ def colour(n: int, edges, vol, vel, prev=None) -> tuple[np.ndarray, list[tuple[i
         col[root] = 0
         while q:
             u = q.popleft()
-            for w in adj[u]:
+            for w in tree[u]:
                 if col[w] < 0:
                     col[w] = 1 - col[u]
                     comp.append(w)
@@ -146,6 +157,14 @@ def colour(n: int, edges, vol, vel, prev=None) -> tuple[np.ndarray, list[tuple[i
             in_a[u] = (col[u] == 1) != flip
     shared = [(i, j) for i, j in edges if in_a[i] == in_a[j]]
     return in_a, shared
+
+
+def _find(root_of: list, a: int) -> int:
+    """Union-find's root of ``a`` (path halving)."""
+    while root_of[a] != a:
+        root_of[a] = root_of[root_of[a]]
+        a = root_of[a]
+    return a
 
 
 _CACHE: list = []
