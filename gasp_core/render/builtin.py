@@ -21,7 +21,7 @@ class CpuRenderer:
 
     def __call__(self, splats, camera, background=None):
         import numpy as np
-        from gasp_core.render.splat_numpy import composite_ordered, project, render
+        from gasp_core.gs.splat_numpy import composite_ordered, project, render
         if not self.jit:
             return render(splats, camera, background, dilation=self.dilation)
         p = project(splats, camera, self.dilation)
