@@ -21,26 +21,36 @@ import gasp_core.gs.unseen as unseen
 from gasp_testing import biscuit_scene_text, needs_package
 
 
-def shell_and_inside(n_shell: int = 3000, n_inside: int = 400, radius: float = 0.05, seed: int = 3) -> tuple:
-    """Splats of a sphere of ``radius`` m tiled by flat discs (opacity 0.99, in-plane sigma the mean
-    spacing) and ``n_inside`` round Gaussians of random colours within 0.6 ``radius``; and the inside mask."""
+def shell_gaussians(n_shell: int = 3000, n_inside: int = 400, radius: float = 0.05, seed: int = 3) -> tuple:
+    """:class:`Gaussians` of a sphere of ``radius`` m tiled by flat discs (opacity 0.99, in-plane sigma the mean
+    spacing, grey) and ``n_inside`` round Gaussians of random colours within 0.6 ``radius`` (opacity 0.9); and the
+    inside mask."""
+    from gasp_core.gs.gaussians import Gaussians, rotmat_to_quat
     rng = np.random.default_rng(seed)
     u = unseen.view_directions(n_shell)
     spacing = radius * np.sqrt(4 * np.pi / n_shell)
-    covs = []
-    for n in u:
-        t = np.cross(n, [0.0, 0.0, 1.0] if abs(n[2]) < 0.9 else [1.0, 0.0, 0.0])
-        t /= np.linalg.norm(t)
-        b = np.cross(n, t)
-        R = np.stack([n, t, b], axis=1)
-        covs.append(R @ np.diag([(1e-4 * radius) ** 2, (1.0 * spacing) ** 2, (1.0 * spacing) ** 2]) @ R.T)
+    t = np.cross(u, np.where(np.abs(u[:, 2:]) < 0.9, [[0.0, 0.0, 1.0]], [[1.0, 0.0, 0.0]]))
+    t /= np.linalg.norm(t, axis=1, keepdims=True)
+    R = np.stack([u, t, np.cross(u, t)], axis=2)          # columns: the normal, two in-plane axes
     inner = rng.normal(size=(n_inside, 3))
     inner *= (0.6 * radius * rng.random(n_inside) ** (1 / 3) / np.linalg.norm(inner, axis=1))[:, None]
-    means = np.concatenate([radius * u, inner])
-    covs = np.concatenate([np.array(covs), np.repeat(np.eye(3)[None] * (0.1 * radius) ** 2, n_inside, axis=0)])
-    rgb = np.concatenate([np.full((n_shell, 3), 0.8), rng.random((n_inside, 3))])
-    op = np.concatenate([np.full(n_shell, 0.99), np.full(n_inside, 0.9)])
-    return Splats(means, covs, rgb, op), np.arange(len(means)) >= n_shell
+    n = n_shell + n_inside
+    rot = np.concatenate([rotmat_to_quat(R), np.tile([1.0, 0.0, 0.0, 0.0], (n_inside, 1))])
+    scales = np.concatenate([np.tile([1e-4 * radius, spacing, spacing], (n_shell, 1)),
+                             np.full((n_inside, 3), 0.1 * radius)])
+    logit = lambda p: np.log(p / (1 - p))
+    op = np.concatenate([np.full(n_shell, logit(0.99)), np.full(n_inside, logit(0.9))]).astype(np.float32)
+    colour = np.concatenate([np.full((n_shell, 3), 0.8), rng.random((n_inside, 3))])
+    g = Gaussians(np.concatenate([radius * u, inner]), scales, rot, op, ((colour - 0.5) / 0.28209479).astype(np.float32),
+                  np.zeros((n, 0, 3), np.float32))
+    return g, np.arange(n) >= n_shell
+
+
+def shell_and_inside(*a, **k) -> tuple:
+    """:func:`shell_gaussians` as world-frame splats, and the inside mask."""
+    from gasp_core.gs.splat_numpy import splats_from_gaussians
+    g, inside = shell_gaussians(*a, **k)
+    return splats_from_gaussians(g), inside
 
 
 def test_the_inside_of_a_closed_shell_is_unseen_and_its_skin_is_seen():
@@ -76,6 +86,22 @@ def test_catch_a_share_blind_to_what_lies_in_front(monkeypatch):
     monkeypatch.setattr(unseen, "shares", lambda splats, cam, **kw: np.ones(splats.n))
     sp, inside = shell_and_inside(800, 100)
     assert not (unseen.seen_share(sp, views=8, resolution=64)[inside] < unseen.UNSEEN).any()
+
+
+def test_a_selected_part_is_judged_by_itself_not_by_what_stands_around_it():
+    """An object that is only the inside (``moving`` the inside rows, as ``select`` makes it) is seen: its own
+    surface, not the shell around it in the capture, decides; the whole capture hides exactly the inside."""
+    from types import SimpleNamespace
+    g, inside = shell_gaussians(1500, 60)
+    spec = SimpleNamespace(static=False, material=SimpleNamespace(name="brittle"))
+    place = SimpleNamespace(R=np.eye(3), scale=1.0, t=np.zeros(3))
+    whole = SimpleNamespace(spec=spec, gaussians=g, placement=place, moving=None)
+    np.testing.assert_array_equal(unseen.unseen_rows(whole), inside)
+    part = SimpleNamespace(spec=spec, gaussians=g, placement=place, moving=np.flatnonzero(inside))
+    assert not unseen.unseen_rows(part).any()
+    jelly = SimpleNamespace(spec=SimpleNamespace(static=False, material=SimpleNamespace(name="jelly")), gaussians=g,
+                            placement=place, moving=None)
+    assert unseen.unseen_rows(jelly) is None
 
 
 @pytest.fixture(scope="module")

@@ -87,7 +87,8 @@ def seen_share(splats: Splats, views: int = VIEWS, resolution: int = RESOLUTION)
 
 def unseen_rows(o, materials: tuple = ("brittle", "plasticine")) -> np.ndarray | None:
     """The file rows of ``o`` (a :class:`gasp_core.prepare.placed.PreparedObject`) drawn hidden after frame 0: its
-    simulated Gaussians whose seen share (:func:`seen_share` over the whole object at rest, world frame) is under
+    simulated Gaussians whose seen share (:func:`seen_share` over those Gaussians alone at rest, world frame: the
+    object's own inside, whatever else of its capture stands around it, as a kitchen around a selected pan) is under
     :data:`UNSEEN`; bool, shape (len(o.gaussians),). None where nothing is hidden: :data:`HIDE_UNSEEN` off, a static
     object, or a material not in ``materials`` (those that tear or break: ``gasp_core.run.frames.TEARING``).
     Computed once per object (cached while it lives)."""
@@ -97,13 +98,14 @@ def unseen_rows(o, materials: tuple = ("brittle", "plasticine")) -> np.ndarray |
     if hit is not None and hit[0]() is o:
         return hit[1]
     pl = o.placement
-    share = seen_share(splats_from_gaussians(o.gaussians, pl.R, float(pl.scale), pl.t))
-    mask = share < UNSEEN                 # NaN compares False: a Gaussian no view rasterises is kept
-    if o.moving is not None:
-        moving = np.zeros(len(mask), bool)
-        moving[np.asarray(o.moving)] = True
-        mask &= moving
-    _CACHE[id(o)] = (weakref.ref(o), mask)
+    rows = np.arange(len(o.gaussians.means)) if o.moving is None else np.asarray(o.moving)
+    share = seen_share(splats_from_gaussians(o.gaussians.subset(rows), pl.R, float(pl.scale), pl.t))
+    mask = np.zeros(len(o.gaussians.means), bool)
+    mask[rows] = share < UNSEEN           # NaN compares False: a Gaussian no view rasterises is kept
+    try:
+        _CACHE[id(o)] = (weakref.ref(o), mask)
+    except TypeError:                     # an object without weak references is not cached
+        pass
     return mask
 
 
