@@ -14,7 +14,10 @@ ALPHA_MAX = 0.99
 
 
 @numba.njit(parallel=True, cache=True, fastmath=False)
-def composite(u, v, conic, m2, opacity, rgb, x0, x1, y0, y1, width, height, colour, T, t_min):
+def composite(u, v, conic, m2, opacity, rgb, x0, x1, y0, y1, width, height, colour, T, t_min, num, den, gather):
+    """Front-to-back compositing in bands of 16 rows; with ``gather`` each band's per-Gaussian ``sum alpha T``
+    (``num``) and ``sum alpha`` (``den``), shapes (n_bands, n) (:func:`gasp_core.gs.splat_numpy.shares`: pass
+    ``t_min`` 0 so every pixel counts), else ``num`` and ``den`` are not touched (any shape)."""
     band = 16
     n_bands = (height + band - 1) // band
     n = u.shape[0]
@@ -50,41 +53,6 @@ def composite(u, v, conic, m2, opacity, rgb, x0, x1, y0, y1, width, height, colo
                     colour[p, 1] += w * rgb[i, 1]
                     colour[p, 2] += w * rgb[i, 2]
                     T[p] = t * (1.0 - a)
-
-
-
-@numba.njit(parallel=True, cache=True, fastmath=False)
-def shares(u, v, conic, m2, opacity, x0, x1, y0, y1, width, height, num, den):
-    """Per band of rows and Gaussian, ``sum alpha T`` (``num``) and ``sum alpha`` (``den``), shapes (n_bands, n):
-    the sums of :func:`gasp_core.gs.splat_numpy.shares`, every pixel taken (no transmittance cut-off)."""
-    band = 16
-    n_bands = (height + band - 1) // band
-    n = u.shape[0]
-    for b in numba.prange(n_bands):
-        r0 = b * band
-        r1 = min(height, r0 + band)
-        trans = np.ones(band * width)
-        for i in range(n):
-            ya = max(y0[i], r0)
-            yb = min(y1[i], r1)
-            if ya >= yb:
-                continue
-            A = conic[i, 0]
-            B = conic[i, 1]
-            C = conic[i, 2]
-            for py in range(ya, yb):
-                dy = py + 0.5 - v[i]
-                for px in range(x0[i], x1[i]):
-                    dx = px + 0.5 - u[i]
-                    m = A * dx * dx + 2.0 * B * dx * dy + C * dy * dy
-                    if m > m2[i]:
-                        continue
-                    a = opacity[i] * math.exp(-0.5 * m)
-                    if a < ALPHA_MIN:
-                        continue
-                    if a > ALPHA_MAX:
-                        a = ALPHA_MAX
-                    q = (py - r0) * width + px
-                    num[b, i] += a * trans[q]
-                    den[b, i] += a
-                    trans[q] *= 1.0 - a
+                    if gather:
+                        num[b, i] += w
+                        den[b, i] += a

@@ -299,23 +299,17 @@ def shares(splats: Splats, cam: Camera, dilation: float = 0.3, chunk_pairs: int 
     """
     p = project(splats, cam, dilation)
     try:   # the numba kernel (the render extra), else the NumPy chunks: the same sums
-        from gasp_core.gs._splat_numba import shares as jit_shares
+        seen = composite_ordered(p, cam.width, cam.height, 0.0, gather=True)[2]
     except ImportError:
         seen = (np.zeros(len(p["idx"])), np.zeros(len(p["idx"])))
         _composite_all(p, cam, chunk_pairs, seen)
-    else:
-        n_bands = (cam.height + 15) // 16
-        num, den = np.zeros((n_bands, len(p["idx"]))), np.zeros((n_bands, len(p["idx"])))
-        jit_shares(p["u"], p["v"], np.ascontiguousarray(p["conic"]), p["m2"], p["opacity"], p["x0"], p["x1"],
-                   p["y0"], p["y1"], cam.width, cam.height, num, den)
-        seen = (num.sum(axis=0), den.sum(axis=0))
     out = np.full(splats.n, np.nan)
     hit = seen[1] > 0
     out[p["idx"][hit]] = seen[0][hit] / seen[1][hit]
     return out
 
 
-def composite_ordered(p, width: int, height: int, t_min: float = 1e-4):
+def composite_ordered(p, width: int, height: int, t_min: float = 1e-4, gather: bool = False):
     """Front-to-back blending of projected splats ``p`` (from :func:`project`) with the JIT kernel.
 
     Same maths as :func:`render`'s NumPy path; a pixel stops taking Gaussians once its
@@ -326,6 +320,8 @@ def composite_ordered(p, width: int, height: int, t_min: float = 1e-4):
     colour : ndarray, shape (height * width, 3), float64
     T : ndarray, shape (height * width,), float64
         Transmittance left.
+    seen : tuple of two ndarray, shape (len(p["idx"]),), or None
+        With ``gather``: each Gaussian's ``sum alpha T`` and ``sum alpha`` over its pixels (:func:`shares`).
 
     Raises
     ------
@@ -335,7 +331,9 @@ def composite_ordered(p, width: int, height: int, t_min: float = 1e-4):
     from gasp_core.gs._splat_numba import composite
     colour = np.zeros((height * width, 3))
     T = np.ones(height * width)
+    shape = ((height + 15) // 16, len(p["idx"])) if gather else (1, 1)
+    num, den = np.zeros(shape), np.zeros(shape)
     composite(p["u"], p["v"], np.ascontiguousarray(p["conic"]), p["m2"], p["opacity"],
               np.ascontiguousarray(p["rgb"]), p["x0"], p["x1"], p["y0"], p["y1"], width, height,
-              colour, T, t_min)
-    return colour, T
+              colour, T, t_min, num, den, gather)
+    return colour, T, ((num.sum(axis=0), den.sum(axis=0)) if gather else None)

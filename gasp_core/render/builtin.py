@@ -25,7 +25,7 @@ class CpuRenderer:
         if not self.jit:
             return render(splats, camera, background, dilation=self.dilation)
         p = project(splats, camera, self.dilation)
-        colour, T = composite_ordered(p, camera.width, camera.height)
+        colour, T, _ = composite_ordered(p, camera.width, camera.height)
         H, W = camera.height, camera.width
         img = colour.reshape(H, W, 3)
         if background is not None:
