@@ -173,3 +173,32 @@ def test_a_body_that_meets_another_later_lands_as_alone(engine, recolour, monkey
     ok, fig = _land_ok(engine)
     print(f"FIG land {engine} recolour {recolour}: {fig}")
     assert ok == recolour, fig
+
+
+def test_a_resumed_coloured_run_continues_bit_for_bit():
+    """``get_state`` carries a coloured scene's last fields (``colour_prev``, ``colouring.colour_state``) and
+    ``set_state`` restores them, so a run resumed after frame 3 of the landing ball (``land3``, warp_mpm) ends where
+    the uninterrupted run does, bit for bit. The catch: a saved record with the fields swapped is read (the next frame
+    keeps the swapped fields: other bits)."""
+    from gasp_core.seam import build_engine, get_engine
+    pytest.importorskip("gasp_warp_mpm")
+    s = S.land3(24)
+    e = build_engine(get_engine("warp_mpm"), s)
+    for _ in range(3):
+        e.step_frame()
+    st = e.get_state()
+    assert "colour_prev" in st and st["colour_prev"].shape == (3,)
+    for _ in range(2):
+        e.step_frame()
+    ref = e.positions().copy()
+    e.close()
+    out = {}
+    for name, rec in (("resumed", st), ("swapped", {**st, "colour_prev": 1 - st["colour_prev"]})):
+        r = build_engine(get_engine("warp_mpm"), S.land3(24))
+        r.set_state(rec)
+        for _ in range(2):
+            r.step_frame()
+        out[name] = r.positions().copy()
+        r.close()
+    np.testing.assert_array_equal(out["resumed"], ref)
+    assert not np.array_equal(out["swapped"], ref)

@@ -211,6 +211,25 @@ def recolour(eng) -> np.ndarray | None:
     return in_a.astype(np.int32)
 
 
+def colour_state(eng) -> dict[str, np.ndarray]:
+    """What a coloured engine's state adds (:meth:`gasp_core.mpm.grid_engine.GridEngineBase.get_state`): the fields of
+    its last frame, ``colour_prev`` (shape (n_materials,), int32), which the next frame's :func:`recolour` keeps where
+    it can; empty for a scene that is not coloured (or before its first recolouring)."""
+    prev = getattr(eng, "colour_prev", None)
+    return {} if prev is None else {"colour_prev": np.asarray(prev, np.int32).copy()}
+
+
+def restore_colour(eng, state: dict) -> None:
+    """Restore :func:`colour_state` into a freshly built engine, so a resumed run colours its next frame as the run
+    it continues would have (the build's colouring otherwise)."""
+    if "colour_prev" not in state:
+        return
+    from gasp_core.mpm.rigid import step_view
+    eng.colour_on = bool(RECOLOUR) and coloured(step_view(eng.setup))
+    eng.colour_shared = set()
+    eng.colour_prev = np.asarray(state["colour_prev"]).astype(bool) if eng.colour_on else None
+
+
 def coloured(setup) -> bool:
     """Whether a setup takes round 61's colouring: :data:`COLOUR`, the option ``contact_fields`` on, three or more
     bodies on the particle contact, none rigid (two rigid bodies' contact is by force balance, for exactly two) and

@@ -169,6 +169,8 @@ class GridEngineBase:
         self.check_open()
         out = {k: self.read_array(k) for k in self.STATE}
         out.update(self.state_extras())
+        from gasp_core.mpm.colouring import colour_state
+        out.update(colour_state(self))   # round 61: a coloured scene's last fields, so a resumed run keeps them
         return out
 
     def set_state(self, state: dict[str, np.ndarray]) -> None:
@@ -188,6 +190,8 @@ class GridEngineBase:
                                   f"{want}")
             self.write_array(k, a)
         self.restore_extras(state)
+        from gasp_core.mpm.colouring import restore_colour
+        restore_colour(self, state)
 
     def damage(self) -> np.ndarray:
         """Per-point damage ``d``, shape (n,), float64, in [0, 1], setup order (feature ``damage``): the ``Jp`` of a
