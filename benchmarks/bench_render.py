@@ -20,7 +20,7 @@ import numpy as np
 from gasp_core.gs.io import read_gaussians
 from gasp_core.render.registry import get_renderer
 from gasp_core.render.run import make_view
-from gasp_core.render.splat_numpy import Splats, project, splats_from_gaussians
+from gasp_core.gs.splat_numpy import Splats, project, splats_from_gaussians
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "benchmarks" / "results"

@@ -29,7 +29,7 @@ from gasp_core.gs.io import read_gaussians
 from gasp_core.render.export import export_page, pack_run
 from gasp_core.render.registry import get_renderer
 from gasp_core.render.run import load_run, make_view
-from gasp_core.render.splat_numpy import splats_from_gaussians
+from gasp_core.gs.splat_numpy import splats_from_gaussians
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "benchmarks" / "results"

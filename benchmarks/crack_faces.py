@@ -79,7 +79,7 @@ RULE = None
 def scene_parts(prep, x, d):
     """Surface splats and their pieces, crack-face splats (all; visible ones opaque) and theirs, point labels."""
     from gasp_core.maps.crack_faces import build_crack_faces, crack_face_gaussians
-    from gasp_core.render.splat_numpy import Splats, splats_from_gaussians
+    from gasp_core.gs.splat_numpy import Splats, splats_from_gaussians
     from gasp_core.run.frames import rebuild
     from gasp_core.run.pieces import PieceTracker
     from gasp_core.gs.ply import SH_C0
@@ -148,7 +148,7 @@ def split_rows(tris, labels):
 
 
 def subset(sp, keep):
-    from gasp_core.render.splat_numpy import Splats
+    from gasp_core.gs.splat_numpy import Splats
     return Splats(sp.means[keep], sp.covs[keep], sp.rgb[keep], sp.opacities[keep])
 
 
@@ -166,7 +166,7 @@ def silhouette(cam, pts, h):
 
 
 def crack_camera(centre, direction, lo, hi, size):
-    from gasp_core.render.camera import Camera, fit_to_box
+    from gasp_core.gs.camera import Camera, fit_to_box
     direction = direction / np.linalg.norm(direction)
     if abs(direction[2]) > 0.97:       # straight down or up: lean it so the look-at frame is defined
         direction = direction + np.array([0.3, 0.0, 0.0])
@@ -249,7 +249,7 @@ def whole_render_ms(parts, render, size=480):
     """Milliseconds (best of 5) to render the whole break from above and beside (the stills' first camera):
     ``none``; ``fill_all`` every fill face as ``gasp render`` draws a run (hidden ones at opacity 0); ``fill`` the
     shown ones only; ``tri`` the second candidate's."""
-    from gasp_core.render.camera import auto_camera
+    from gasp_core.gs.camera import auto_camera
     surf = parts["surf"]
     cam = auto_camera(surf.means.min(0), surf.means.max(0), size, size, 30.0, azimuth_deg=-60.0, elevation_deg=35.0)
     sets = {"none": surf, "fill_all": type(surf).concat([surf, parts["crack"]]),
@@ -272,7 +272,7 @@ def stills(parts, x, d, render, out_dir: Path, size=480, stem: str = "fracture_c
     ``"triangles"`` or ``"both"`` one with the second candidate's (``<stem>_triangles.png``; the first candidate's
     stills are left as they are)."""
     import imageio.v3 as iio
-    from gasp_core.render.camera import auto_camera
+    from gasp_core.gs.camera import auto_camera
     surf, crack = parts["surf"], subset(parts["crack"], parts["vis"])
     lo, hi = surf.means.min(0), surf.means.max(0)
     whole = auto_camera(lo, hi, size, size, 30.0, azimuth_deg=-60.0, elevation_deg=35.0)

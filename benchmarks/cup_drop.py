@@ -139,7 +139,7 @@ PALETTE = np.array([[0.85, 0.3, 0.25], [0.25, 0.55, 0.85], [0.3, 0.7, 0.35], [0.
 def piece_still(cf, parts, render, path: Path, size: int = 480) -> None:
     """The break from above and beside, each piece's Gaussians and shown crack faces in its own colour."""
     import imageio.v3 as iio
-    from gasp_core.render.camera import auto_camera
+    from gasp_core.gs.camera import auto_camera
     rank = np.argsort(np.argsort(-np.bincount(parts["labels"], weights=parts["mass"])))
     surf = cf.subset(parts["surf"], np.ones(len(parts["surf_piece"]), bool))
     surf.rgb = PALETTE[np.minimum(rank[parts["surf_piece"]], len(PALETTE) - 1)]

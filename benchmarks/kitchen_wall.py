@@ -130,15 +130,19 @@ def who_left(run_dir, k: int = 10) -> list[dict]:
 
 
 def simulate(scene_text: str, out: Path, frames: int | None = None) -> float:
-    """Write ``scene_text`` beside the kitchen example, run ``gasp simulate`` into ``out``; wall seconds."""
-    scene = KITCHEN.parent / f"_kitchen_wall_{os.getpid()}.toml"
-    scene.write_text(scene_text)
-    cmd = [sys.executable, "-m", "gasp_core.cli.main", "simulate", str(scene), "-o", str(out), "-q"]
+    """Run ``gasp simulate`` on ``scene_text`` (its relative ``file`` paths read from the kitchen example's folder)
+    into ``out``; wall seconds. The scene is written to a temporary folder of its own, never beside the example (a
+    killed run left ``examples/_kitchen_wall_<pid>.toml`` there before round 61)."""
+    import re
+    text = re.sub(r'^(\s*file\s*=\s*")([^"/][^"]*)"', lambda m: f'{m.group(1)}{(KITCHEN.parent / m.group(2)).as_posix()}"',
+                  scene_text, flags=re.M)
+    cmd = [sys.executable, "-m", "gasp_core.cli.main", "simulate", "", "-o", str(out), "-q"]
     t0 = time.perf_counter()
-    try:
+    with tempfile.TemporaryDirectory() as tmp:
+        scene = Path(tmp) / "kitchen_wall.toml"
+        scene.write_text(text)
+        cmd[4] = str(scene)
         subprocess.run(cmd + (["--frames", str(frames)] if frames else []), check=True, cwd=ROOT)
-    finally:
-        scene.unlink()
     return time.perf_counter() - t0
 
 

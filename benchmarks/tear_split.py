@@ -80,7 +80,7 @@ def groups(xf: np.ndarray, h: float) -> np.ndarray:
 
 
 def side_camera(pts, size=480):
-    from gasp_core.render.camera import Camera, fit_to_box
+    from gasp_core.gs.camera import Camera, fit_to_box
     lo, hi = pts.min(0), pts.max(0)
     c = 0.5 * (lo + hi)
     cam = Camera(c + np.array([0.0, -4.0, 0.0]), c, 30.0, size, size, near=1e-3)
@@ -89,7 +89,7 @@ def side_camera(pts, size=480):
 
 def splats(o, g_obj, g_split):
     """World splats of the object's rows, and with its sub-Gaussians appended (None: the rows alone)."""
-    from gasp_core.render.splat_numpy import Splats, splats_from_gaussians
+    from gasp_core.gs.splat_numpy import Splats, splats_from_gaussians
     pl = o.placement
     base = splats_from_gaussians(g_obj, pl.R, pl.scale, pl.t)
     base.sh = base.sh_frames = None
@@ -105,7 +105,7 @@ def donut(frames: int = 4) -> str:
     sys.path.insert(0, str(ROOT / "benchmarks"))
     import crack_faces as cf
     from gasp_core.render.builtin import CpuRenderer
-    from gasp_core.render.camera import auto_camera
+    from gasp_core.gs.camera import auto_camera
     from gasp_core.run.frames import rebuild, split_context
     from gasp_core.run.pieces import PieceTracker
     render = CpuRenderer(jit=True)

@@ -45,7 +45,7 @@ def cameras_for(ref, frames: Sequence[int]) -> tuple[list, str]:
 
     ``ref``: the reference :class:`gasp_studies.accuracy.Track`. Returns (cameras, description).
     """
-    from gasp_core.render.camera import auto_camera
+    from gasp_core.gs.camera import auto_camera
     from gasp_core.render.paths import graphdeco_camera
     w, h = IMAGE_SIZE
     if ref.cameras_json is not None:

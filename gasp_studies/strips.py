@@ -1,7 +1,7 @@
 """Rendered strips of frames for the reports of ``gasp compare`` and ``gasp bench``.
 
 A run keeps the rebuilt Gaussians of a few chosen frames (:func:`strip_frames`: evenly spaced,
-first and last included) as world-frame :class:`~gasp_core.render.splat_numpy.Splats`
+first and last included) as world-frame :class:`~gasp_core.gs.splat_numpy.Splats`
 (:func:`world_splats`, computed in the worker; float32). After the runs, :func:`render_strips`
 renders them with the core's CPU splatting renderer (:mod:`gasp_core.render`), every run through
 one automatically chosen camera (it frames the Gaussian means of every run and chosen frame over the
@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Mapping, Sequence
 import numpy as np
 
 if TYPE_CHECKING:
-    from gasp_core.render.splat_numpy import Splats
+    from gasp_core.gs.splat_numpy import Splats
 
 #: Frames per strip (evenly spaced from the first to the last frame).
 DEFAULT_STRIP_FRAMES = 6
@@ -77,7 +77,7 @@ def world_splats(objects, gaussians) -> "Splats":
     Splats
         ``means`` (n, 3) m, ``covs`` (n, 3, 3) m^2, ``rgb`` (n, 3), ``opacities`` (n,); float32.
     """
-    from gasp_core.render.splat_numpy import Splats, splats_from_gaussians
+    from gasp_core.gs.splat_numpy import Splats, splats_from_gaussians
     parts = [splats_from_gaussians(g, o.placement.R, float(o.placement.scale), o.placement.t)
              for o, g in zip(objects, gaussians)]
     s = Splats.concat(parts)
@@ -141,7 +141,7 @@ def render_strips(outdir: Path, groups: Mapping[str, Sequence[StripRow]], frames
                   renderer: str = STRIP_RENDERER) -> Strips:
     """Render ``strip_<group>.png`` per group into ``outdir``: a row per run, a column per frame.
 
-    Every run and frame is seen through one camera (:func:`gasp_core.render.camera.auto_camera`
+    Every run and frame is seen through one camera (:func:`gasp_core.gs.camera.auto_camera`
     framing the 0.1-99.9 percentile box of the means of every run and frame drawn, over a ground
     grid at ``ground_z``), so strips of different runs and groups compare directly. Each frame is
     labelled with its time and number (the first column with the run's label too); a frame a run
@@ -182,7 +182,7 @@ def render_strips(outdir: Path, groups: Mapping[str, Sequence[StripRow]], frames
     try:
         from gasp_core.render.registry import get_renderer
         from gasp_core.render.run import make_view, sequence_bounds, to_uint8
-        from gasp_core.render.splat_numpy import Splats
+        from gasp_core.gs.splat_numpy import Splats
         from gasp_core.render.video import write_png
         draw = get_renderer(renderer)
         lo, hi = sequence_bounds(r.keyframes[f] for r in drawn for f in frames if f in r.keyframes)

@@ -207,7 +207,7 @@ def test_rendered_copies():
     """A track rendered against itself is identical; moved by a tenth of its size it is not."""
     needs_package("skimage")
     needs_package("numba")
-    from gasp_core.render.splat_numpy import Splats
+    from gasp_core.gs.splat_numpy import Splats
     from gasp_studies.images import cameras_for, image_scores, render_frames
     a = _cloud(300)
     n = len(a)
@@ -240,7 +240,7 @@ def test_bench_ranking_orders_passing_runs_and_says_not_ranked_only_within_u():
     """Runs scaled by 0.5 % (passes: 0.5 U) and 3 % (3 U: misses the shape) against a twin scaled by 1 %."""
     needs_package("skimage")
     needs_package("numba")
-    from gasp_core.render.splat_numpy import Splats
+    from gasp_core.gs.splat_numpy import Splats
     from gasp_studies.bench_rank import rank_engine, ranking_lines
     a = _cloud(300)
     n = len(a)

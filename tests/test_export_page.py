@@ -56,7 +56,7 @@ def test_sqrt_covariances_square_back():
 
     from gasp_core.gs.io import read_gaussians
     from gasp_core.render.page_codec import sqrt_cov
-    from gasp_core.render.splat_numpy import splats_from_gaussians
+    from gasp_core.gs.splat_numpy import splats_from_gaussians
     g = read_gaussians(Path(__file__).parent / "data" / "pc_short.ply")
     covs = splats_from_gaussians(g).covs
     s = sqrt_cov(g.rotations / np.linalg.norm(g.rotations, axis=1, keepdims=True), g.scales)

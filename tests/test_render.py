@@ -6,8 +6,8 @@ import pytest
 
 from gasp_core.gs.io import read_gaussians
 from gasp_core.render.registry import get_renderer, renderers
-from gasp_core.render.camera import Camera
-from gasp_core.render.splat_numpy import Splats, splats_from_gaussians
+from gasp_core.gs.camera import Camera
+from gasp_core.gs.splat_numpy import Splats, splats_from_gaussians
 from gasp_testing import DONUT, needs_package
 
 numba = needs_package("numba")

@@ -10,7 +10,7 @@ import pytest
 from gasp_core.prepare.placement import prepare_object
 from gasp_core.render import commands as render_cli
 from gasp_core.render.run import FRAMINGS, Run, load_run, moving_mask, run_view
-from gasp_core.render.splat_numpy import splats_from_gaussians
+from gasp_core.gs.splat_numpy import splats_from_gaussians
 from gasp_core.run.record import ranges_rows, row_ranges
 from gasp_core.scene.spec import load_scene
 from gasp_testing import ROOT

@@ -15,9 +15,9 @@ import pytest
 from gasp_core.errors import SceneError
 from gasp_core.gs.gaussians import quat_to_rotmat, rotmat_to_quat
 from gasp_core.gs.io import read_gaussians
-from gasp_core.render.camera import Camera
-from gasp_core.render.sh import sh_basis
-from gasp_core.render.splat_numpy import splats_from_gaussians
+from gasp_core.gs.camera import Camera
+from gasp_core.gs.sh import sh_basis
+from gasp_core.gs.splat_numpy import splats_from_gaussians
 
 DATA = Path(__file__).parent / "data"
 PC_SHORT = DATA / "pc_short.ply"

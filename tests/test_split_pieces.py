@@ -219,8 +219,8 @@ def test_the_run_writes_crack_faces_hidden_while_whole_and_render_draws_them(bro
     assert r.splats(2).n == n_gauss + n_fill + (0 if sub is None else sub.n)
     # hidden faces draw nothing: frame 0 renders as the object alone (the renderer's own rounding)
     from gasp_core.render.builtin import CpuRenderer
-    from gasp_core.render.camera import auto_camera
-    from gasp_core.render.splat_numpy import splats_from_gaussians
+    from gasp_core.gs.camera import auto_camera
+    from gasp_core.gs.splat_numpy import splats_from_gaussians
     alone = r.objects[0]["placement"]
     bare = splats_from_gaussians(r.read(0, 0), alone["R"], float(alone["scale"]), alone["t"],
                                  rest_rotmats=r.read(0, 0).rotmats())

@@ -10,7 +10,7 @@ from gasp_testing import DONUT, scene_text  # noqa: E402
 from gasp_core.errors import SceneError  # noqa: E402
 from gasp_core.gs.io import read_gaussians, write_gaussians  # noqa: E402
 from gasp_core.seam.plugins import engines  # noqa: E402
-from gasp_core.render.splat_numpy import splats_from_gaussians  # noqa: E402
+from gasp_core.gs.splat_numpy import splats_from_gaussians  # noqa: E402
 from gasp_studies import strips  # noqa: E402
 from gasp_studies.bench import bench_scene  # noqa: E402
 from gasp_studies.compare import compare_scene  # noqa: E402
@@ -35,7 +35,7 @@ def donut_tiny(tmp_path_factory):
 
 def _object_mask(tile):
     """Pixels of the donut (pink, blue and tan): the background is grey by construction (sky, floor and
-    grid colours in :func:`gasp_core.render.camera.ground_background` spread at most 0.03 = 8/255 between
+    grid colours in :func:`gasp_core.gs.camera.ground_background` spread at most 0.03 = 8/255 between
     channels), so a channel spread above 40/255 is the object."""
     return (tile.max(axis=2).astype(int) - tile.min(axis=2).astype(int)) > 40
 

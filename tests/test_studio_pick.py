@@ -75,7 +75,7 @@ def test_camera_project_known_answers():
 @pytest.mark.skipif(not DONUT.is_file(), reason="examples/data/donut_v3dg.ply missing")
 def test_donut_ring_is_hit_at_its_top_and_the_hole_is_not():
     from gasp_core.gs.io import read_gaussians
-    from gasp_core.render.splat_numpy import splats_from_gaussians
+    from gasp_core.gs.splat_numpy import splats_from_gaussians
     g = read_gaussians(DONUT)
     sp = splats_from_gaussians(g)
     R, s = pick.world_frames(g, np.eye(3), 1.0)

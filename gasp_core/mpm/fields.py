@@ -48,6 +48,7 @@ from gasp_core.mpm.contact import contact_model, explicit_grid, flowing_bodies
 from gasp_core.mpm.fields_reference import (FLOW_TOUCH_DELTA, MIN_FRACTION, combine_friction,  # noqa: F401
                                            field_offsets, flow_touch_level, ground_mirror, mass_normals)
 from gasp_core.mpm.gap_touch import gap_levels
+from gasp_core.mpm.colouring import coloured, colour_scene
 
 #: Engine option ``contact_fields`` of the MPM engines.
 FIELDS = Option("contact_fields", True, "in a scene with flowing (sand, snow, liquid) and other bodies, the flowing "
@@ -141,13 +142,17 @@ def field_bodies(setup) -> np.ndarray | None:
     option ``contact_fields`` true (the default): in a ``"mixed"`` scene the flowing bodies (A) against the others
     (B); two soft bodies (:func:`soft_pair`), two rigid ones (:func:`rigid_pair`) or a rigid one and a soft one
     (:func:`mixed_pair`) the smaller by volume (A; body 1 when equal) against the larger (B), whose surface gives the
-    contact normal (a block on a slab: the slab's face). Any other scene runs one field (three or more bodies)."""
+    contact normal (a block on a slab: the slab's face); three or more soft bodies (round 61,
+    :func:`gasp_core.mpm.colouring.coloured`) by a 2-colouring of the bodies within reach of each other
+    (``colouring.colour_scene``). Any other scene runs one field (three or more bodies with a rigid one)."""
     c = contact_model(setup)
     if not setup.options.get("contact_fields", True) or (c == "mixed" and explicit_grid(setup)):
         return None   # contact = "grid" by hand: one field, as before its rigid bodies took the particle contact
     if c == "mixed":
         return flowing_bodies(setup, c)
     if c == "particle" and body_pair(setup):
+        if len(setup.materials) > 2:   # round 61: three or more soft bodies, by colouring (colouring.py)
+            return colour_scene(setup)[0]
         # A the smaller body (by volume; body 1 when equal): B's is the normal
         vol = np.bincount(np.asarray(setup.body_id), weights=np.asarray(setup.p_vol, float), minlength=2)
         return np.array([False, True]) if vol[1] <= vol[0] else np.array([True, False])
@@ -156,14 +161,15 @@ def field_bodies(setup) -> np.ndarray | None:
 
 def body_pair(setup) -> bool:
     """Whether a scene is two bodies on the particle contact, soft or rigid in any mix (:func:`soft_pair`,
-    :func:`rigid_pair`, :func:`mixed_pair`): they take a field each."""
-    return len(setup.materials) == 2 and contact_model(setup) == "particle"
+    :func:`rigid_pair`, :func:`mixed_pair`): they take a field each; or (round 61, :func:`colouring.coloured`) three
+    or more soft ones, whose fields a colouring gives."""
+    return (len(setup.materials) == 2 and contact_model(setup) == "particle") or coloured(setup)
 
 
 def soft_pair(setup) -> bool:
     """Whether a scene is two soft bodies on the particle contact (two materials, neither flowing nor rigid): they
     take a field each, the smaller (A) against the larger (B), so they meet at their surfaces (issue 53 item 5,
-    ``docs/contact.md`` "Two jelly balls stacked"). Three or more soft bodies keep one field (no multi-field yet)."""
+    ``docs/contact.md`` "Two jelly balls stacked"). Three or more soft bodies: :func:`body_pair` (round 61)."""
     from gasp_core.mpm.rigid import rigid_mask
     return (len(setup.materials) == 2 and contact_model(setup) == "particle"
             and not np.asarray(rigid_mask(setup.materials)).any())
@@ -190,33 +196,6 @@ def mixed_pair(setup) -> bool:
     return len(setup.materials) == 2 and contact_model(setup) == "particle" and int(rigid.sum()) == 1
 
 
-def shared_field_bodies(setup) -> list[int]:
-    """The bodies (indices of ``setup.materials``, the scene's objects in order) that do not flow and share one grid
-    velocity field with another such body: where they touch they move as one (no slip, no Coulomb law, no separation
-    within a cell), as in any single-field MPM. Empty where every solid has a field of its own (:func:`field_bodies`:
-    two bodies on the particle contact, or flowing bodies against one other body) or the option ``contact_fields``
-    is false (the scene asked for one field). Three or more solids, or two beside a flowing body, share one."""
-    from gasp_core.mpm.contact import FLOWING
-    if not setup.options.get("contact_fields", True):
-        return []
-    in_a = field_bodies(setup)
-    solids = [i for i, m in enumerate(setup.materials) if m.name not in FLOWING and (in_a is None or not in_a[i])]
-    return solids if len(solids) >= 2 else []
-
-
-def shared_field_warning(setup, engine: str) -> None:
-    """Warn (``UserWarning``) when :func:`shared_field_bodies` is not empty, naming the bodies and what to do."""
-    shared = shared_field_bodies(setup)
-    if shared:
-        import warnings
-        names = ", ".join(f"{i} ({setup.materials[i].name})" for i in shared[:6])
-        names += f" and {len(shared) - 6} more" if len(shared) > 6 else ""
-        warnings.warn(f"engine '{engine}': bodies {names} share one grid velocity field: where they touch they move "
-                      f"as one, with no slip and no friction law between them (the two-field contact takes two "
-                      f"bodies, or flowing bodies against one other; docs/contact.md); make the ones that only "
-                      f"support the others [[collider]] meshes, or simulate them apart", stacklevel=2)
-
-
 def uses_fields(setup) -> bool:
     """Whether a setup runs the two-field contact (:func:`field_bodies` is not None)."""
     return field_bodies(setup) is not None
@@ -235,6 +214,10 @@ def field_friction(setup) -> float:
     (:func:`rigid_pair`) or one of each (:func:`mixed_pair`): the pair's (:func:`combine_friction` of theirs)."""
     if contact_model(setup) != "mixed":
         mus = [body_friction(m) for m in setup.materials[:2]] or [SOLID_FRICTION]
+        pairs = colour_scene(setup)[2] if coloured(setup) else []   # round 61: the smallest of the graph's pairs
+        if pairs:
+            return min(combine_friction(body_friction(setup.materials[i]), body_friction(setup.materials[j]))
+                       for i, j in pairs)
         return combine_friction(mus[0], mus[-1])
     flows = flowing_bodies(setup, "mixed")
     angles = [m.friction_angle for m, f in zip(setup.materials, flows) if f and m.name == "sand"]

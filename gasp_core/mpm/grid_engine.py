@@ -18,6 +18,7 @@ from gasp_core.errors import EngineError, SceneError
 from gasp_core.seam.engine import Capabilities
 from gasp_core.mpm.contact import contact_dt, contact_model, flowing_bodies
 from gasp_core.mpm.fields import uses_fields
+from gasp_core.mpm.shared_fields import fields_record
 from gasp_core.mpm.grid_origin import ground_on_node
 from gasp_core.mpm.rigid import lift_setup, step_view
 from gasp_core.mpm.points import engine_mass_stats, material_first_order, stranded_passive
@@ -168,6 +169,8 @@ class GridEngineBase:
         self.check_open()
         out = {k: self.read_array(k) for k in self.STATE}
         out.update(self.state_extras())
+        from gasp_core.mpm.colouring import colour_state
+        out.update(colour_state(self))   # round 61: a coloured scene's last fields, so a resumed run keeps them
         return out
 
     def set_state(self, state: dict[str, np.ndarray]) -> None:
@@ -187,6 +190,8 @@ class GridEngineBase:
                                   f"{want}")
             self.write_array(k, a)
         self.restore_extras(state)
+        from gasp_core.mpm.colouring import restore_colour
+        restore_colour(self, state)
 
     def damage(self) -> np.ndarray:
         """Per-point damage ``d``, shape (n,), float64, in [0, 1], setup order (feature ``damage``): the ``Jp`` of a
@@ -207,6 +212,14 @@ class GridEngineBase:
         return np.where(plastic, jp, 0.0)
 
     # ------------------------------------------------------------------ statistics
+    def recolour_fields(self, write) -> None:
+        """Round 61 (``gasp_core.mpm.colouring.recolour``): at a frame's start, where the scene is coloured, ``write``
+        (the engine's setter of its ``in_a`` table) the bodies' fields from the last frame's points."""
+        from gasp_core.mpm.colouring import recolour
+        colours = recolour(self)
+        if colours is not None:
+            write(colours)
+
     def grid_stats(self, device: str, precision: str, x: np.ndarray | None, p_mass: np.ndarray | None,
                    grid_m: np.ndarray | None) -> dict[str, Any]:
         """The statistics every grid engine reports: ``device, precision, n_points, dt`` (s), ``n_substeps`` (the
@@ -233,6 +246,11 @@ class GridEngineBase:
         out["contact"] = contact_model(view)
         out["contact_per_body"] = ["grid" if f else "particle" for f in flowing_bodies(view, out["contact"])]
         out["contact_fields"] = uses_fields(view)   # two velocity fields (gasp_core.mpm.fields)
+        colouring = fields_record(view)   # round 61: the coloured bodies' fields, or those that still share one
+        if colouring:
+            if getattr(self, "colour_shared", None):   # recoloured per frame: the pairs that shared at any frame
+                colouring["shared_pairs_run"] = sorted([int(i), int(j)] for i, j in self.colour_shared)
+            out["field_colouring"] = colouring
         if x is not None:
             out.update(engine_mass_stats(x, p_mass))
             if grid_m is not None and self.n_material < n and self.frame > 0:

@@ -21,11 +21,11 @@ class CpuRenderer:
 
     def __call__(self, splats, camera, background=None):
         import numpy as np
-        from gasp_core.render.splat_numpy import composite_ordered, project, render
+        from gasp_core.gs.splat_numpy import composite_ordered, project, render
         if not self.jit:
             return render(splats, camera, background, dilation=self.dilation)
         p = project(splats, camera, self.dilation)
-        colour, T = composite_ordered(p, camera.width, camera.height)
+        colour, T, _ = composite_ordered(p, camera.width, camera.height)
         H, W = camera.height, camera.width
         img = colour.reshape(H, W, 3)
         if background is not None:

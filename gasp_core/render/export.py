@@ -17,10 +17,10 @@ from pathlib import Path
 import numpy as np
 
 from gasp_core.errors import SceneError
-from gasp_core.render.camera import nice_step
+from gasp_core.gs.camera import nice_step
 from gasp_core.render.page_codec import decode, encode, Frames, sqrt_cov, world_quats
 from gasp_core.render.run import load_run, make_view
-from gasp_core.render.splat_numpy import SH_C0
+from gasp_core.gs.splat_numpy import SH_C0
 
 PLAYER = Path(__file__).with_name("player.html")
 FOV_DEG = 40.0

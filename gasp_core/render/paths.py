@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from gasp_core.errors import SceneError
-from gasp_core.render.camera import auto_camera, Camera
+from gasp_core.gs.camera import auto_camera, Camera
 
 
 def find_cameras_json(ply) -> Path | None:
@@ -78,7 +78,7 @@ def graphdeco_camera(path, index: int, placement: dict | None = None, width: int
 
 def orbit_path(degrees: float, elevation_deg: float = 25.0, azimuth_deg: float = -60.0):
     """A camera circling the sequence's centre about the vertical by ``degrees`` over the video, at the
-    distance that frames the whole box (:func:`gasp_core.render.camera.auto_camera`)."""
+    distance that frames the whole box (:func:`gasp_core.gs.camera.auto_camera`)."""
     def path(lo, hi, n, width, height, fov_deg):
         turn = np.arange(n) * (degrees / max(n, 1))
         return [auto_camera(lo, hi, width, height, fov_deg, azimuth_deg + a, elevation_deg) for a in turn]

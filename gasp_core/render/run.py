@@ -15,8 +15,8 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from gasp_core.errors import SceneError
-from gasp_core.render.camera import Camera, auto_camera, fit_to_box, ground_background, nice_step
-from gasp_core.render.splat_numpy import Splats, splats_from_gaussians
+from gasp_core.gs.camera import Camera, auto_camera, fit_to_box, ground_background, nice_step
+from gasp_core.gs.splat_numpy import Splats, splats_from_gaussians
 from gasp_core.run.crack_output import read_crack_faces
 from gasp_core.run.split_output import read_split
 from gasp_core.run.layout import RunFrames, open_frames
@@ -53,7 +53,7 @@ class Run:
 
     def splats(self, frame: int) -> Splats:
         """World-frame splats of every object at ``frame``; with SH degree >= 1 each Gaussian's SH frame
-        turns with it (its rotation at ``frame`` against frame 0, :mod:`gasp_core.render.sh`). Each object's rows,
+        turns with it (its rotation at ``frame`` against frame 0, :mod:`gasp_core.gs.sh`). Each object's rows,
         then its crack faces (a fixed count a run); after every object, the sub-triangle Gaussians of split clamped
         triangles (:mod:`gasp_core.run.split_output`, a count that varies by frame: last, so the rows before keep
         their place for :func:`moving_mask`)."""

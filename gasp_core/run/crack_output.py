@@ -23,6 +23,7 @@ import numpy as np
 from gasp_core.gs.gaussians import Gaussians, rotmat_to_quat
 from gasp_core.gs.io import write_gaussians
 from gasp_core.maps.crack_faces import CrackFaces, build_crack_faces, crack_face_gaussians
+from gasp_core.gs.unseen import unseen_rows
 from gasp_core.run.apart import REACH, TIPS
 from gasp_core.run.pieces import piece_ranks
 from gasp_core.run.sides import keep_faces_to_side
@@ -57,9 +58,13 @@ class CrackOutput:
             if o.spec.static or o.spec.material.name != "brittle" or len(rows) == 0:
                 continue
             dc = o.gaussians.sh_dc if o.moving is None else o.gaussians.sh_dc[o.moving]
+            means = o.surface.tri_rest[:, 0]
+            hidden = unseen_rows(o)   # the capture's inside gives no colour (gasp_core.gs.unseen)
+            if hidden is not None:
+                seen = ~(hidden if o.moving is None else hidden[np.asarray(o.moving)])
+                dc, means = (dc[seen], means[seen]) if seen.any() else (dc, means)
             h = float(np.max(s.p_vol[rows])) ** (1 / 3)
-            self.objects.append((name, o, build_crack_faces(s.x[rows], rows, pairs, o.surface.tri_rest[:, 0],
-                                                            dc, h, x_rest=s.x)))
+            self.objects.append((name, o, build_crack_faces(s.x[rows], rows, pairs, means, dc, h, x_rest=s.x)))
 
     def write(self, folder, frame: int, x: np.ndarray, labels: np.ndarray, damage: np.ndarray | None,
               piece: np.ndarray | None = None) -> list[str]:

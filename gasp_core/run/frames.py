@@ -8,6 +8,7 @@ import numpy as np
 
 from gasp_core.maps.games import EPS
 from gasp_core.maps.rows import by_rows
+from gasp_core.gs.unseen import hide, unseen_rows
 from gasp_core.gs.gaussians import Gaussians, rotmat_to_quat
 from gasp_core.prepare.dynamic import background_at
 from gasp_core.prepare.placed import PreparedObject
@@ -261,6 +262,7 @@ class Rebuilder:
         self.prep = prep
         self.prev_rot = [o.rot_rest for o in prep.objects] if prev_rot is None else list(prev_rot)
         self.split = [split_context(o, prep.setup) for o in prep.objects]
+        self.unseen = [unseen_rows(o, TEARING) for o in prep.objects]   # the capture's inside, hidden after frame 0
         self.last_split: list = [None] * len(prep.objects)
         self.hold = True    # False: the Gaussians of crumbs and specks drawn where the map puts them (the rule before)
         self.trim = True    # False: the Gaussians not kept to their side of a crack (the rule before round 32)
@@ -289,7 +291,12 @@ class Rebuilder:
                     row[key] = row.get(key, 0) + counts[key]
             if "split" in counts:
                 row["split"] = row.get("split", 0) + counts["split"]
-            self.last_split[k] = counts.get("split_gaussians")
+            sub, hidden = counts.get("split_gaussians"), self.unseen[k] if frame > 0 else None
+            if hidden is not None and hidden.any():
+                g = hide(g, hidden)
+                sub = None if sub is None else hide(sub, hidden[np.asarray(sub.extra["parent"])])
+                row["unseen"] = row.get("unseen", 0) + int(hidden.sum())
+            self.last_split[k] = sub
             gs.append(g)
         if apart is not None:
             row["apart_reach"] = apart.reach

@@ -26,7 +26,7 @@ from gasp_core.gs.gaussians import Gaussians
 from gasp_core.maps.floaters import find_floaters
 from gasp_core.prepare.placement import load_gaussians, place
 from gasp_core.prepare.selection import GROW_SIGMAS
-from gasp_core.render.splat_numpy import splats_from_gaussians
+from gasp_core.gs.splat_numpy import splats_from_gaussians
 from gasp_core.scene.spec import Scene, parse_scene
 from gasp_core.studio.pick import world_frames
 

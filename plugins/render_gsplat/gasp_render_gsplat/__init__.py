@@ -1,7 +1,7 @@
 """GASP renderer plugin ``gsplat``: CUDA rasterisation with nerfstudio's gsplat (optional).
 
 Not run on the project's CPU-only machine: :func:`available` says why. Same camera convention as
-:class:`gasp_core.render.camera.Camera` (x right, y down, z forward; pixel ``i`` spans ``[i, i+1)``).
+:class:`gasp_core.gs.camera.Camera` (x right, y down, z forward; pixel ``i`` spans ``[i, i+1)``).
 """
 from __future__ import annotations
 

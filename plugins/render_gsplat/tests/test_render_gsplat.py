@@ -26,10 +26,10 @@ def test_gsplat_matches_the_cpu_renderer_and_the_kept_reference():
     import imageio.v3 as iio
     import numpy as np
     from gasp_core.gs.io import read_gaussians
-    from gasp_core.render.camera import Camera
+    from gasp_core.gs.camera import Camera
     from gasp_core.render.registry import get_renderer
     from gasp_core.render.run import to_uint8
-    from gasp_core.render.splat_numpy import splats_from_gaussians
+    from gasp_core.gs.splat_numpy import splats_from_gaussians
     data = Path(__file__).resolve().parents[3] / "tests" / "data"
     g = read_gaussians(data / "pc_short.ply")
     c = 0.5 * (g.means.min(0) + g.means.max(0))

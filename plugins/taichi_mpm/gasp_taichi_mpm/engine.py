@@ -13,7 +13,8 @@ import numpy as np
 
 from gasp_core.mpm.contact import (balance_mass, contact_coefficients, contact_model, contact_planes, contact_reach,
                                    flowing_bodies, rule_models, touch_dashpot_speed)
-from gasp_core.mpm.fields import field_setup, shared_field_warning
+from gasp_core.mpm.fields import field_setup
+from gasp_core.mpm.shared_fields import shared_field_warning
 from gasp_core.mpm.grid_engine import choose_dt, GridEngineBase, transfer_alpha
 from gasp_core.mpm.materials import JELLY, initial_Jp, material_table
 from gasp_core.mpm.rigid_hold import hold_setup
@@ -60,9 +61,7 @@ def _quiet_init(ti, **kw) -> None:
     """``ti.init(**kw)`` without its unconditional "[Taichi] Starting on arch=..." line on stdout
     (GASP's stdout carries results, e.g. ``gasp engines --json``); anything else it prints goes to stderr. The
     offline cache may grow to :data:`CACHE_MAX_BYTES`."""
-    import contextlib
-    import io
-    import sys
+    import contextlib, io, sys  # noqa: E401
     if "TI_OFFLINE_CACHE_MAX_SIZE_OF_FILES" not in os.environ:
         kw.setdefault("offline_cache_max_size_of_files", CACHE_MAX_BYTES)
     buf = io.StringIO()
@@ -275,6 +274,7 @@ class TaichiMPMEngine(GridEngineBase, StateClock):
         self._check_live()
         s = self.solver
         s.reset_out()
+        self.recolour_fields(s.set_in_a)   # round 61: the coloured bodies' fields from the last frame's points
         self.clock_frame() if self.clock.on else s.substeps(self.n_substeps)
         self.frame += 1
         if s.gpu:

@@ -22,6 +22,12 @@ from .pair_touch import PairTouch
 class Fields(PairTouch, FieldFlip):
     """The two-field contact's fields and kernels (none without it: ``self.fields`` False)."""
 
+    def set_in_a(self, in_a) -> None:
+        """Round 61 (``gasp_core.mpm.colouring.recolour``): each body's field (``in_a``, per body, 1 in field A),
+        written between frames."""
+        for b, a in enumerate(in_a):
+            self.in_a[b] = int(a)
+
     def allocate_fields(self, in_a, mu: float, touch: float, pair: bool = False, flow: bool = False,
                         node_mu=None, a_mu=None, gap=None) -> None:
         """``in_a``: per body, True in field A (``gasp_core.mpm.fields.field_bodies``), or None: one field;

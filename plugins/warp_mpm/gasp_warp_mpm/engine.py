@@ -312,6 +312,7 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
             self.sim_time += self.setup.frame_dt
             return
         self.flags.zero_()
+        self.recolour_fields(self.in_a.assign)   # round 61: the coloured bodies' fields from the last frame's points
         if self._ex_tables is not None and not self.clock.on:   # the clock loads each substep's row (state_step.py)
             self._load_frame_table()
         if self.clock.on:

@@ -16,8 +16,9 @@ import warp as wp
 from gasp_core.mpm.contact import flowing_bodies
 from gasp_core.mpm import fields as core_fields, gap_touch as G
 from gasp_core.mpm.fields import (MIN_FRACTION, MIN_GRADIENT, body_pair, field_bodies, field_friction, flow_touch,
-                                  flow_touch_level, gap_levels, node_friction, rigid_pair, shared_field_warning,
+                                  flow_touch_level, gap_levels, node_friction, rigid_pair,
                                   touch_fraction, a_node_friction)
+from gasp_core.mpm.shared_fields import shared_field_warning
 
 from . import ENGINE
 from .pair_touch import build_gap_curve, build_gap_touch, build_pair_funcs, build_pair_touch

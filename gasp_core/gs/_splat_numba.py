@@ -2,18 +2,22 @@
 
 The image is cut into horizontal bands rendered in parallel (``prange``); inside a band each
 Gaussian, taken near to far, updates the pixels of its footprint whose transmittance is still
-above ``t_min``. The maths is that of :mod:`gasp_core.render.splat_numpy`.
+above ``t_min``. The maths is that of :mod:`gasp_core.gs.splat_numpy`.
 """
 import math
 
 import numba
+import numpy as np
 
 ALPHA_MIN = 1.0 / 255.0
 ALPHA_MAX = 0.99
 
 
 @numba.njit(parallel=True, cache=True, fastmath=False)
-def composite(u, v, conic, m2, opacity, rgb, x0, x1, y0, y1, width, height, colour, T, t_min):
+def composite(u, v, conic, m2, opacity, rgb, x0, x1, y0, y1, width, height, colour, T, t_min, num, den, gather):
+    """Front-to-back compositing in bands of 16 rows; with ``gather`` each band's per-Gaussian ``sum alpha T``
+    (``num``) and ``sum alpha`` (``den``), shapes (n_bands, n) (:func:`gasp_core.gs.splat_numpy.shares`: pass
+    ``t_min`` 0 so every pixel counts), else ``num`` and ``den`` are not touched (any shape)."""
     band = 16
     n_bands = (height + band - 1) // band
     n = u.shape[0]
@@ -49,3 +53,6 @@ def composite(u, v, conic, m2, opacity, rgb, x0, x1, y0, y1, width, height, colo
                     colour[p, 1] += w * rgb[i, 1]
                     colour[p, 2] += w * rgb[i, 2]
                     T[p] = t * (1.0 - a)
+                    if gather:
+                        num[b, i] += w
+                        den[b, i] += a

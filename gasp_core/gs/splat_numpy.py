@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gasp_core.render.camera import Camera
+from gasp_core.gs.camera import Camera
 
 SH_C0 = 0.28209479177387814
 ALPHA_MIN = 1.0 / 255.0
@@ -46,7 +46,7 @@ class Splats:
         SH coefficients (DC first) when the file has degree 1 to 3; ``None`` for degree 0.
     sh_frames : ndarray, shape (n, 3, 3), optional
         Rotation of a world direction into the frame the SH were fitted in (placement and each
-        Gaussian's turn since frame 0, :mod:`gasp_core.render.sh`); identity when ``None``.
+        Gaussian's turn since frame 0, :mod:`gasp_core.gs.sh`); identity when ``None``.
     """
 
     means: np.ndarray
@@ -86,7 +86,7 @@ class Splats:
         """
         if self.sh is None:
             return self
-        from gasp_core.render.sh import sh_colours, view_dirs
+        from gasp_core.gs.sh import sh_colours, view_dirs
         rgb = np.clip(sh_colours(self.sh, view_dirs(self.means, eye, self.sh_frames)), 0.0, 1.0)
         return Splats(self.means, self.covs, rgb, self.opacities)
 
@@ -221,22 +221,7 @@ def render(splats: Splats, cam: Camera, background=None, *, dilation: float = 0.
         Accumulated opacity ``1 - T``.
     """
     H, Wd = cam.height, cam.width
-    npix = H * Wd
-    p = project(splats, cam, dilation)
-    bw = (p["x1"] - p["x0"]).astype(np.int64)
-    bh = (p["y1"] - p["y0"]).astype(np.int64)
-    counts = bw * bh
-    ends = np.cumsum(counts)
-    colour = np.zeros((3, npix))
-    logT = np.zeros(npix)
-    g0 = 0
-    n = len(counts)
-    while g0 < n:
-        base = ends[g0 - 1] if g0 else 0
-        g1 = int(np.searchsorted(ends, base + chunk_pairs, side="right"))
-        g1 = max(g1, g0 + 1)
-        _composite_chunk(p, g0, g1, counts, bw, Wd, colour, logT)
-        g0 = g1
+    colour, logT = _composite_all(project(splats, cam, dilation), cam, chunk_pairs)
     T = np.exp(logT)
     img = colour.T.reshape(H, Wd, 3)
     if background is not None:
@@ -245,7 +230,24 @@ def render(splats: Splats, cam: Camera, background=None, *, dilation: float = 0.
     return img.astype(np.float32), (1.0 - T).reshape(H, Wd).astype(np.float32)
 
 
-def _composite_chunk(p, g0, g1, counts, bw, width, colour, logT):
+def _composite_all(p, cam: Camera, chunk_pairs: int, seen=None) -> tuple[np.ndarray, np.ndarray]:
+    """Composite the projected splats ``p`` near to far in chunks of about ``chunk_pairs`` (Gaussian, pixel) pairs:
+    the colour (3, npix) and log transmittance (npix,); ``seen`` (two arrays over ``p``'s rows) gathers each
+    Gaussian's weight and alpha (:func:`shares`)."""
+    bw = (p["x1"] - p["x0"]).astype(np.int64)
+    counts = bw * (p["y1"] - p["y0"]).astype(np.int64)
+    ends = np.cumsum(counts)
+    colour, logT = np.zeros((3, cam.height * cam.width)), np.zeros(cam.height * cam.width)
+    g0 = 0
+    while g0 < len(counts):
+        base = ends[g0 - 1] if g0 else 0
+        g1 = max(int(np.searchsorted(ends, base + chunk_pairs, side="right")), g0 + 1)
+        _composite_chunk(p, g0, g1, counts, bw, cam.width, colour, logT, seen)
+        g0 = g1
+    return colour, logT
+
+
+def _composite_chunk(p, g0, g1, counts, bw, width, colour, logT, seen=None):
     cnt = counts[g0:g1]
     total = int(cnt.sum())
     if total == 0:
@@ -276,6 +278,9 @@ def _composite_chunk(p, g0, g1, counts, bw, width, colour, logT):
     seg_base = (cs - la)[first]                      # cumulative sum before each pixel's first pair
     excl = cs - la - seg_base[seg]                   # sum of log(1 - alpha) of nearer pairs, this chunk
     wgt = alpha * np.exp(excl + logT[pix])
+    if seen is not None:   # per Gaussian (rows of p): what reached the image, and its own alpha (:func:`shares`)
+        np.add(seen[0], np.bincount(g, weights=wgt, minlength=len(seen[0])), out=seen[0])
+        np.add(seen[1], np.bincount(g, weights=alpha, minlength=len(seen[1])), out=seen[1])
     rgb = p["rgb"][g]
     npix = colour.shape[1]
     for ch in range(3):
@@ -283,7 +288,28 @@ def _composite_chunk(p, g0, g1, counts, bw, width, colour, logT):
     logT += np.bincount(pix, weights=la, minlength=npix)
 
 
-def composite_ordered(p, width: int, height: int, t_min: float = 1e-4):
+def shares(splats: Splats, cam: Camera, dilation: float = 0.3, chunk_pairs: int = 4_000_000) -> np.ndarray:
+    """Per Gaussian, the share of its own alpha that reaches the image seen by ``cam``: ``sum_px alpha T / sum_px
+    alpha`` over its footprint's pixels (``T`` the transmittance of the Gaussians in front, the compositing of
+    :func:`render`); NaN for a Gaussian with no pixel (behind the camera, off the image, or under ``ALPHA_MIN``).
+
+    Returns
+    -------
+    ndarray, shape (splats.n,), float64, in [0, 1] or NaN
+    """
+    p = project(splats, cam, dilation)
+    try:   # the numba kernel (the render extra), else the NumPy chunks: the same sums
+        seen = composite_ordered(p, cam.width, cam.height, 0.0, gather=True)[2]
+    except ImportError:
+        seen = (np.zeros(len(p["idx"])), np.zeros(len(p["idx"])))
+        _composite_all(p, cam, chunk_pairs, seen)
+    out = np.full(splats.n, np.nan)
+    hit = seen[1] > 0
+    out[p["idx"][hit]] = seen[0][hit] / seen[1][hit]
+    return out
+
+
+def composite_ordered(p, width: int, height: int, t_min: float = 1e-4, gather: bool = False):
     """Front-to-back blending of projected splats ``p`` (from :func:`project`) with the JIT kernel.
 
     Same maths as :func:`render`'s NumPy path; a pixel stops taking Gaussians once its
@@ -294,16 +320,20 @@ def composite_ordered(p, width: int, height: int, t_min: float = 1e-4):
     colour : ndarray, shape (height * width, 3), float64
     T : ndarray, shape (height * width,), float64
         Transmittance left.
+    seen : tuple of two ndarray, shape (len(p["idx"]),), or None
+        With ``gather``: each Gaussian's ``sum alpha T`` and ``sum alpha`` over its pixels (:func:`shares`).
 
     Raises
     ------
     ImportError
         If numba is not installed (``pip install -e ".[render]"``).
     """
-    from gasp_core.render._splat_numba import composite
+    from gasp_core.gs._splat_numba import composite
     colour = np.zeros((height * width, 3))
     T = np.ones(height * width)
+    shape = ((height + 15) // 16, len(p["idx"])) if gather else (1, 1)
+    num, den = np.zeros(shape), np.zeros(shape)
     composite(p["u"], p["v"], np.ascontiguousarray(p["conic"]), p["m2"], p["opacity"],
               np.ascontiguousarray(p["rgb"]), p["x0"], p["x1"], p["y0"], p["y1"], width, height,
-              colour, T, t_min)
-    return colour, T
+              colour, T, t_min, num, den, gather)
+    return colour, T, ((num.sum(axis=0), den.sum(axis=0)) if gather else None)
