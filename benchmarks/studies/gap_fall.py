@@ -7,7 +7,8 @@ default substeps; prints per case the upper body's mean v_z (m/s) against ``-g t
 ``--rule old`` sets ``gasp_core.mpm.fields.GAP_TOUCH = False`` (the volume-fraction touch, ``SOFT_TOUCH_FRACTION``).
 
 Usage: ``python benchmarks/studies/gap_fall.py --engine taichi_mpm --shape ball --gap 0.53 --factors 1,2,4,8
---rule new`` (``--gap`` in cells of the grid, ``--n-grid`` 32 by default); ``--land``: the body dropped from ``--gap``,
+--rule new`` (``--curvature``: round 61's level, ``gasp_core.mpm.gap_touch.CURVATURE``; ``--gap`` in cells of the
+grid, ``--n-grid`` 32 by default); ``--land``: the body dropped from ``--gap``,
 its gap at rest after 20 frames (``landed``).
 """
 import argparse
@@ -71,9 +72,13 @@ def main():
     ap.add_argument("--gap", default="0.53", help="gaps in cells, comma separated")
     ap.add_argument("--factors", default="1,8")
     ap.add_argument("--rule", default="new", choices=("new", "old"))
+    ap.add_argument("--curvature", action="store_true", help="round 61: gasp_core.mpm.gap_touch.CURVATURE on")
     ap.add_argument("--land", action="store_true", help="drop the body from --gap and report its gap at rest")
     a = ap.parse_args()
     core_fields.GAP_TOUCH = a.rule == "new"
+    if a.curvature:
+        from gasp_core.mpm import gap_touch
+        gap_touch.CURVATURE = True
     fall = -9.81 * FRAME
     if a.land:
         for gap in [float(g) for g in a.gap.split(",")]:

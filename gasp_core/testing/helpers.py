@@ -101,7 +101,8 @@ def body_over_box(shape: str = "ball", half: float = 0.06, n_grid: int = 32, gap
                   n_substeps: int | None = None) -> tuple[SimSetup, int]:
     """Two jelly bodies on the particle contact (``tests/test_contact_fine_step.py``, ``benchmarks/studies/
     gap_fall.py``): a box (half-width ``half`` m, 6 cm tall, E 1e5 Pa, rho 700 kg/m^3) on the ground at z = 0 and,
-    ``gap`` m above it at rest, a ``Material("jelly")`` body, ``shape`` "ball" (R 5 cm) or "cube" (8 cm); points at
+    ``gap`` m above it at rest, a ``Material("jelly")`` body, ``shape`` "ball" (R 5 cm), "cube" (8 cm) or
+    "cylinder" (R 4 cm, 8 cm long, on its side: its axis along y); points at
     half a cell (``0.6 / n_grid / 2`` m), gravity -z (9.81 m/s^2), ground friction 0.5, a 0.6 m grid of ``n_grid``
     cells, ``frame_dt`` 1/30 s, ``options["n_substeps"]`` when given. Returns ``(setup, n_box)``: the box's points
     come first."""
@@ -112,6 +113,9 @@ def body_over_box(shape: str = "ball", half: float = 0.06, n_grid: int = 32, gap
     if shape == "ball":
         g = np.mgrid[-0.05:0.05:s, -0.05:0.05:s, -0.05:0.05:s].reshape(3, -1).T + s / 2
         xs = g[np.linalg.norm(g, axis=1) <= 0.05] + np.array([0.0, 0.0, top + 0.05])
+    elif shape == "cylinder":
+        g = np.mgrid[-0.04:0.04:s, -0.04:0.04:s, -0.04:0.04:s].reshape(3, -1).T + s / 2
+        xs = g[np.hypot(g[:, 0], g[:, 2]) <= 0.04] + np.array([0.0, 0.0, top + 0.04])
     else:
         xs, _ = box_points((-0.04, -0.04, top), (0.04, 0.04, top + 0.08), s)
     x = np.vstack([xb, xs])

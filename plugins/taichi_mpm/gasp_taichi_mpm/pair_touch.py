@@ -13,13 +13,16 @@ adding that node's share of the reaction to ``grid_push``; after it
 Round 60 (``gasp_core.mpm.gap_touch``, docs/contact.md "Round 60: a touch by geometry"): for two bodies on the
 particle contact every material point of either field marks its stencil where the OTHER field's gathered
 volume fraction reaches its body's level (its surface within ``SEPARATION`` of the other's), :meth:`mark_gap`.
+Round 61 (``gasp_core.mpm.gap_touch.CURVATURE``): the level is the half-space table's at the body's reach plus the
+smoothing's shift of the least principal curvature both fields' level surfaces share at the point
+(:meth:`curved_level`).
 
 Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields (``x``, ``body``, ``in_a``, ``grid_vf``, ...)
 it reads.
 """
 import taichi as ti
 
-from gasp_core.mpm import fields as core_fields
+from gasp_core.mpm import fields as core_fields, gap_touch as G
 from gasp_core.mpm.fields import flow_touch_level
 
 
@@ -34,6 +37,7 @@ class PairTouch:
         kept in ``gap_level``; None: off), whose marks take ``grid_ft`` too."""
         self.flow_touch_on = bool(self.fields and flow)
         self.gap_touch_on = bool(self.fields and gap is not None)
+        self.gap_curve = bool(self.gap_touch_on and G.CURVATURE)   # round 61: gap = the table, then the reaches
         ng = self.n_grid if self.flow_touch_on or self.gap_touch_on else 1
         self.grid_ft = ti.field(ti.i32, shape=(ng, ng, ng))
         ng = self.n_grid if self.flow_touch_on else 1
@@ -79,10 +83,68 @@ class PairTouch:
                 phi = ti.Vector.zero(self.real, 2)   # each field's gathered volume (grid_vf: A's, B's)
                 for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                     phi += w[i][0] * w[j][1] * w[k][2] * self.grid_vf[base + ti.Vector([i, j, k])]
-                other = phi[1] if self.in_a[self.body[p]] != 0 else phi[0]
-                if other >= self.gap_level[self.body[p]] * cell:
+                a = self.in_a[self.body[p]]
+                other = phi[1] if a != 0 else phi[0]
+                level = ti.cast(0.0, self.real)
+                if ti.static(self.gap_curve):   # round 61: the level reads the curvature
+                    level = self.curved_level(base, fx, w, self.body[p]) * cell
+                else:
+                    level = self.gap_level[self.body[p]] * cell
+                if other >= level:
                     for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                         ti.atomic_max(self.grid_ft[base + ti.Vector([i, j, k])], 1)
+
+    @ti.func
+    def least_curvature(self, g, h):
+        """The smaller principal curvature (1 / cells) of the level surface of a field with gradient ``g`` and Hessian
+        ``h`` (index units): ``gasp_core.mpm.gap_touch.least_curvature`` (Goldman 2005); 0 where ``|g|`` <= 1e-6."""
+        gn = g.norm()
+        out = ti.cast(0.0, self.real)
+        if gn > 1e-6:
+            t = (g.dot(h @ g) - gn * gn * (h[0, 0] + h[1, 1] + h[2, 2])) / (gn * gn * gn)
+            a00 = h[1, 1] * h[2, 2] - h[1, 2] * h[1, 2]
+            a11 = h[0, 0] * h[2, 2] - h[0, 2] * h[0, 2]
+            a22 = h[0, 0] * h[1, 1] - h[0, 1] * h[0, 1]
+            a01 = h[0, 2] * h[1, 2] - h[0, 1] * h[2, 2]
+            a02 = h[0, 1] * h[1, 2] - h[0, 2] * h[1, 1]
+            a12 = h[0, 1] * h[0, 2] - h[0, 0] * h[1, 2]
+            q = (a00 * g[0] * g[0] + a11 * g[1] * g[1] + a22 * g[2] * g[2]
+                 + 2.0 * (a01 * g[0] * g[1] + a02 * g[0] * g[2] + a12 * g[1] * g[2]))
+            kg = q / (gn * gn * gn * gn)
+            out = 0.5 * (t - ti.sqrt(ti.max(t * t - 4.0 * kg, 0.0)))
+        return out
+
+    @ti.func
+    def curved_level(self, base, fx, w, b):
+        """Round 61's level of a point (``gasp_core.mpm.gap_touch.curved_level``; ``b`` its body): the
+        half-space table (``gap_level[:TABLE_N]``) at its body's reach (``gap_level[TABLE_N + b]``) plus ``SIGMA2``
+        times the least principal curvature both fields' level surfaces share there (clamped at 0)."""
+        d1 = [fx - 1.5, -2.0 * (fx - 1.0), fx - 0.5]
+        g = ti.Matrix.zero(self.real, 2, 3)      # each field's gradient (A's, B's), per cell of the index
+        h = ti.Matrix.zero(self.real, 2, 6)      # each field's Hessian: xx, yy, zz, xy, xz, yz
+        for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
+            v = self.grid_vf[base + ti.Vector([i, j, k])] / self.dx[None] ** 3
+            wx, wy, wz = w[i][0], w[j][1], w[k][2]
+            dx, dy, dz = d1[i][0], d1[j][1], d1[k][2]
+            ex, ey, ez = 1.0 - 3.0 * (i % 2), 1.0 - 3.0 * (j % 2), 1.0 - 3.0 * (k % 2)   # the weight's 2nd derivative
+            for f in ti.static(range(2)):
+                g[f, 0] += v[f] * dx * wy * wz
+                g[f, 1] += v[f] * wx * dy * wz
+                g[f, 2] += v[f] * wx * wy * dz
+                h[f, 0] += v[f] * ex * wy * wz
+                h[f, 1] += v[f] * wx * ey * wz
+                h[f, 2] += v[f] * wx * wy * ez
+                h[f, 3] += v[f] * dx * dy * wz
+                h[f, 4] += v[f] * dx * wy * dz
+                h[f, 5] += v[f] * wx * dy * dz
+        kap = ti.cast(1e30, self.real)
+        for f in ti.static(range(2)):
+            hf = ti.Matrix([[h[f, 0], h[f, 3], h[f, 4]], [h[f, 3], h[f, 1], h[f, 5]], [h[f, 4], h[f, 5], h[f, 2]]])
+            kap = ti.min(kap, self.least_curvature(ti.Vector([g[f, 0], g[f, 1], g[f, 2]]), hf))
+        n = ti.static(G.TABLE_N)
+        u = ti.min(ti.max((self.gap_level[n + b] + G.SIGMA2 * ti.max(kap, 0.0)) / G.TABLE_STEP, 0.0), n - 1.001)
+        t = ti.cast(ti.floor(u), ti.i32)
+        return self.gap_level[t] + (u - t) * (self.gap_level[t + 1] - self.gap_level[t])
 
     @ti.func
     def coulomb(self, u, nh, mu):

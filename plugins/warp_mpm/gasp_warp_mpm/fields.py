@@ -14,14 +14,14 @@ import numpy as np
 import warp as wp
 
 from gasp_core.mpm.contact import flowing_bodies
-from gasp_core.mpm import fields as core_fields
+from gasp_core.mpm import fields as core_fields, gap_touch as G
 from gasp_core.mpm.fields import (MIN_FRACTION, MIN_GRADIENT, body_pair, field_bodies, field_friction, flow_touch,
                                   flow_touch_level, gap_levels, node_friction, rigid_pair,
                                   touch_fraction, a_node_friction)
 from gasp_core.mpm.shared_fields import shared_field_warning
 
 from . import ENGINE
-from .pair_touch import build_gap_touch, build_pair_funcs, build_pair_touch
+from .pair_touch import build_gap_curve, build_gap_touch, build_pair_funcs, build_pair_touch
 from .precision import MODULE_OPTIONS, build_types
 from .touch import build_held
 
@@ -333,6 +333,7 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     eng.flow_touch_on = bool(eng.fields and flow_touch(view))   # the flowing body's touch (pair_touch.py)
     levels = gap_levels(view, bool(core_fields.GAP_TOUCH) and body_pair(view)) if eng.fields else None   # round 60
     eng.gap_touch_on = levels is not None
+    eng.gap_curve = bool(eng.gap_touch_on and G.CURVATURE)   # round 61: the level reads the curvature
     eng.gap_level = wp.array(levels if eng.gap_touch_on else np.zeros(1), dtype=Ft, device=d)
     eng.flow_touch = wp.zeros(n if eng.flow_touch_on or eng.gap_touch_on else 1, dtype=wp.int32, device=d)
     eng.flow_push = wp.zeros(n if eng.flow_touch_on else 1, dtype=k.vec3, device=d)
@@ -374,9 +375,10 @@ def field_launches(eng, Ft) -> list:
         eng.grid_mv, eng.grid_sv, eng.grid_dv, eng.flow_push, eng.flow_touch])] if eng.flow_touch_on else []
     if eng.gap_touch_on:   # round 60: the touch by geometry (pair_touch.build_gap_touch)
         gmark, gclear = build_gap_touch(Ft)
-        flow = [wp.launch(gmark, dim=eng.n_material, device=d, record_cmd=True, inputs=[
-            eng.x, eng.body, eng.in_a, eng.grid_vf, eng.flow_touch, lo, Ft(eng.inv_dx), Ft(eng.dx ** 3),
-            eng.gap_level, ng])]
+        curve = [ng, G.TABLE_N, Ft(G.TABLE_STEP), Ft(G.SIGMA2)] if eng.gap_curve else [ng]   # round 61
+        flow = [wp.launch(build_gap_curve(Ft) if eng.gap_curve else gmark, dim=eng.n_material, device=d,
+                          record_cmd=True, inputs=[eng.x, eng.body, eng.in_a, eng.grid_vf, eng.flow_touch, lo,
+                                                   Ft(eng.inv_dx), Ft(eng.dx ** 3), eng.gap_level, *curve])]
         after = [wp.launch(gclear, dim=ng ** 3, device=d, record_cmd=True, inputs=[eng.flow_touch])]
     old = [wp.launch(build_field_old(Ft), dim=ng ** 3, device=d, record_cmd=True, inputs=[
         eng.grid_mv0, eng.grid_v0, ng])] if eng.field_flip else []   # round 59: AFLIP's old velocity per field

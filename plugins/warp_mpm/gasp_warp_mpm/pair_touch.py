@@ -185,3 +185,107 @@ def build_gap_touch(Ft):
         marks[wp.tid()] = 0
 
     return gap_mark, gap_clear
+
+
+@functools.cache
+def build_curvature(Ft):
+    """``least_curvature(g, h)`` of scalar type ``Ft``: the smaller principal curvature (1 / cells, positive convex)
+    of the level surface of a field decreasing outward with gradient ``g`` and Hessian ``h`` (index units): ``k1 +
+    k2`` and ``k1 k2`` from ``g`` and ``adj(h)`` (Goldman 2005; ``gasp_core.mpm.gap_touch.least_curvature``); 0 where
+    ``|g|`` <= 1e-6."""
+    vec3, vec4, mat33 = build_types(Ft)
+
+    @wp.func
+    def least_curvature(g: vec3, h: mat33):
+        # the smaller principal curvature of the level surface (Goldman 2005): k1 + k2, k1 k2 from g and adj(h)
+        gn = wp.length(g)
+        out = Ft(0.0)
+        if gn > Ft(1e-6):
+            t = (wp.dot(g, h * g) - gn * gn * (h[0, 0] + h[1, 1] + h[2, 2])) / (gn * gn * gn)
+            a00 = h[1, 1] * h[2, 2] - h[1, 2] * h[1, 2]
+            a11 = h[0, 0] * h[2, 2] - h[0, 2] * h[0, 2]
+            a22 = h[0, 0] * h[1, 1] - h[0, 1] * h[0, 1]
+            a01 = h[0, 2] * h[1, 2] - h[0, 1] * h[2, 2]
+            a02 = h[0, 1] * h[1, 2] - h[0, 2] * h[1, 1]
+            a12 = h[0, 1] * h[0, 2] - h[0, 0] * h[1, 2]
+            q = (a00 * g[0] * g[0] + a11 * g[1] * g[1] + a22 * g[2] * g[2]
+                 + Ft(2.0) * (a01 * g[0] * g[1] + a02 * g[0] * g[2] + a12 * g[1] * g[2]))
+            kg = q / (gn * gn * gn * gn)
+            out = Ft(0.5) * (t - wp.sqrt(wp.max(t * t - Ft(4.0) * kg, Ft(0.0))))
+        return out
+
+    return least_curvature
+
+
+@functools.cache
+def build_gap_curve(Ft):
+    """``gap_curve``: round 61's marks (``gasp_core.mpm.gap_touch.CURVATURE``, its ``gap_marks`` with a table): a
+    points kernel as ``gap_mark`` whose level is the half-space table's (``params[:table_n]``, step ``step`` cells)
+    at ``delta_b + sigma2 k`` (``params[table_n + body]``: the body's reach, cells), ``k`` the least principal
+    curvature the two fields' level surfaces share at the point (``least_curvature`` of the gathered gradient and
+    Hessian of each field, index units), clamped at 0."""
+    from .stencil import build_stencil
+    vec3, vec4, mat33 = build_types(Ft)
+    in_grid, weights = build_stencil(Ft)
+
+    least_curvature = build_curvature(Ft)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def gap_curve(x: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32),
+                  grid_vf: wp.array(dtype=Ft), marks: wp.array(dtype=wp.int32), lo: vec3, inv_dx: Ft, cell: Ft,
+                  params: wp.array(dtype=Ft), n_grid: int, table_n: int, step: Ft, sigma2: Ft):
+        p = wp.tid()
+        X = (x[p] - lo) * inv_dx
+        if not in_grid(X, n_grid):
+            return
+        b = vec3(wp.floor(X[0] - Ft(0.5)), wp.floor(X[1] - Ft(0.5)), wp.floor(X[2] - Ft(0.5)))
+        fx = X - b
+        W = weights(fx)
+        D1 = wp.matrix_from_rows(fx - vec3(Ft(1.5)), Ft(-2.0) * (fx - vec3(Ft(1.0))), fx - vec3(Ft(0.5)))
+        nn = n_grid * n_grid
+        other = int(0)   # the other field's part of grid_vf: B's for a point of A
+        own = nn * n_grid
+        if in_a[body[p]] != 0:
+            other = nn * n_grid
+            own = int(0)
+        idx0 = int(b[0]) * nn + int(b[1]) * n_grid + int(b[2])
+        phi = Ft(0.0)
+        g_o = vec3(Ft(0.0))
+        g_s = vec3(Ft(0.0))
+        h_o = mat33()
+        h_s = mat33()
+        for i in range(3):
+            for j in range(3):
+                for k in range(3):
+                    node = idx0 + i * nn + j * n_grid + k
+                    vo = grid_vf[other + node] / cell
+                    vs = grid_vf[own + node] / cell
+                    wx = W[i, 0]
+                    wy = W[j, 1]
+                    wz = W[k, 2]
+                    dx = D1[i, 0]
+                    dy = D1[j, 1]
+                    dz = D1[k, 2]
+                    ex = Ft(1.0) - Ft(3.0) * Ft(i % 2)   # the second derivative of the weight: 1, -2, 1
+                    ey = Ft(1.0) - Ft(3.0) * Ft(j % 2)
+                    ez = Ft(1.0) - Ft(3.0) * Ft(k % 2)
+                    phi += wx * wy * wz * vo
+                    gw = vec3(dx * wy * wz, wx * dy * wz, wx * wy * dz)
+                    hw = mat33(ex * wy * wz, dx * dy * wz, dx * wy * dz,
+                               dx * dy * wz, wx * ey * wz, wx * dy * dz,
+                               dx * wy * dz, wx * dy * dz, wx * wy * ez)
+                    g_o += vo * gw
+                    g_s += vs * gw
+                    h_o += vo * hw
+                    h_s += vs * hw
+        kap = wp.max(wp.min(least_curvature(g_o, h_o), least_curvature(g_s, h_s)), Ft(0.0))
+        u = wp.clamp((params[table_n + body[p]] + sigma2 * kap) / step, Ft(0.0), Ft(table_n) - Ft(1.001))
+        t = int(wp.floor(u))
+        level = params[t] + (u - Ft(t)) * (params[t + 1] - params[t])
+        if phi >= level:   # its surface on the other body's, the curvature's smoothing read
+            for i in range(3):
+                for j in range(3):
+                    for k in range(3):
+                        wp.atomic_max(marks, idx0 + i * nn + j * n_grid + k, 1)
+
+    return gap_curve
