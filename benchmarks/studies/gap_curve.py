@@ -11,7 +11,8 @@ Gaps are the lattices' surfaces' (``surface_gap``: nearest points less half of e
 
 Usage: ``python benchmarks/studies/gap_curve.py --engine warp_mpm --rules curve,sep0.5 --rows
 stacked:0.05:24,ball:32,cube:32`` (a stacked row ``stacked:R:n_grid``, a body row ``shape:n_grid``); ``--pair-mu
-0``: the two fields' contact frictionless.
+0``: the two fields' contact frictionless; ``--drop 0``: the stacked balls start with their lattices' surfaces
+touching (the scene's ``STACK_DROP``, 1.5 dx; round 61's "the stacked balls' sink").
 """
 import argparse
 import dataclasses
@@ -53,7 +54,11 @@ def main():
                     "jelly ball at n_grid 48 bounces for about 25)")
     ap.add_argument("--rows", default="stacked:0.05:24,stacked:0.05:32,stacked:0.075:24,ball:32,ball:48,cube:32,"
                                       "cube:48,cylinder:32")
+    ap.add_argument("--drop", type=float, default=None, help="the stacked balls: the top ball's start above the "
+                    "touch, dx (the scene's STACK_DROP, 1.5)")
     a = ap.parse_args()
+    if a.drop is not None:
+        P.STACK_DROP = a.drop
     if a.pair_mu is not None:   # the contact's friction between the two fields (both engines read it at allocation)
         import gasp_core.mpm.fields as F
         import gasp_warp_mpm.fields as WF
