@@ -96,21 +96,11 @@ def _landed(engine: str, shape: str, n_grid: int, frames: int = 40) -> float:
     """A jelly ``shape`` dropped 1.5 dx onto the jelly box (``gasp_core.testing.helpers.body_over_box``; the ball at
     n_grid 48 bounces for about 25 frames): the gap at rest, the mean of the last 5 of ``frames`` frames, dx
     (``benchmarks/studies/gap_fall.py``'s ``landed``)."""
-    from gasp_core.seam.build import build_engine
-    from gasp_core.seam.plugins import engines
-    from gasp_core.testing.helpers import body_over_box
-    from gasp_core.testing.scenes_pairs import surface_gap
-    dx = 0.6 / n_grid
-    setup, _ = body_over_box(shape, 0.06, n_grid, 1.5 * dx)
-    eng = build_engine(engines()[engine], setup)
-    gaps = []
-    try:
-        for _ in range(frames):
-            eng.step_frame()
-            gaps.append(surface_gap(np.asarray(eng.positions(), np.float64), setup.body_id, setup.p_vol) / dx)
-    finally:
-        eng.close()
-    return float(np.mean(gaps[-5:]))
+    import sys
+    from pathlib import Path
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks" / "studies"))
+    from gap_fall import landed
+    return landed(engine, shape, 0.06, n_grid, 1.5, frames)[0]
 
 
 #: Round 61's rows measured outside 0.05 dx (warp_mpm; docs/contact.md "Round 61"): strict xfails.
