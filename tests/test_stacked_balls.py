@@ -110,7 +110,7 @@ _CURVE_OUT = {("ball", 48): "+0.090 dx (round 60 at separation 0 the same)",
 
 @pytest.mark.parametrize("engine,shape,n_grid", [
     pytest.param(e, sh, ng, id=f"{e}-{sh}-{ng}", marks=(
-        [] if (e, sh, ng) == ("warp_mpm", "ball", 32) else [pytest.mark.slow]) + (
+        [pytest.mark.slow]) + (   # the switch is off by default: its checks in the slow tier (round 61)
         [pytest.mark.xfail(strict=True, reason=_CURVE_OUT[sh, ng])] if (sh, ng) in _CURVE_OUT else []))
     for e in ("warp_mpm", "taichi_mpm") for sh in ("ball", "cube", "cylinder") for ng in (32, 48)])
 def test_the_curved_touch_rests_on_the_box(engine, shape, n_grid, monkeypatch):
@@ -122,6 +122,7 @@ def test_the_curved_touch_rests_on_the_box(engine, shape, n_grid, monkeypatch):
     assert gap == pytest.approx(0.0, abs=0.05), gap
 
 
+@pytest.mark.slow
 def test_the_curved_touch_check_catches_round_60():
     """Round 60's rule (the default: half a spacing's separation) fails the check above: the ball on the box at
     n_grid 32 rests +0.224 dx apart (warp_mpm)."""
