@@ -17,7 +17,7 @@ import numpy as np
 from PIL import Image
 from scipy.spatial import cKDTree
 
-from gasp_core.gs.splat_numpy import Splats, splats_from_gaussians
+from gasp_core.gs.splat_numpy import splats_from_gaussians
 from gasp_core.prepare.scene import prepare_scene
 from gasp_core.render.registry import get_renderer
 from gasp_core.render.run import label_image, make_view, to_uint8
@@ -28,11 +28,6 @@ from gasp_core.seam.runner import EngineRun, RunStats
 
 ROOT = Path(__file__).resolve().parents[2]
 BROKEN = 0.9
-
-
-def subset(sp: Splats, m: np.ndarray) -> Splats:
-    return Splats(sp.means[m], sp.covs[m], sp.rgb[m], sp.opacities[m], None if sp.sh is None else sp.sh[m],
-                  None if sp.sh_frames is None else sp.sh_frames[m])
 
 
 def main() -> None:
@@ -67,7 +62,7 @@ def main() -> None:
             tiles = []
             for name, m, s in [("all", drawn, sp), ("broken at rest scale", drawn, sp_rest),
                                ("over whole only", drawn & ~broken, sp)]:
-                img, _ = rend(subset(s, m).seen_from(view.camera.position), view.camera, view.background)
+                img, _ = rend(s.subset(m).seen_from(view.camera.position), view.camera, view.background)
                 tiles.append(label_image(to_uint8(img), f"frame {rec.frame}: {name}"))
             rows.append(np.concatenate(tiles, 1))
             lines.append(f"| {rec.frame} | {(d[o.fill_slice] >= BROKEN).mean():.3f} | {int((broken & drawn).sum())} | "

@@ -26,11 +26,6 @@ DONUT = ROOT / "examples" / "data" / "donut_v3dg.ply"
 CAMERA = dict(position=[0.35, -0.75, 0.45], look_at=[0.0, 0.0, 0.1], fov=45.0)   # docs/fracture.md's stills
 
 
-def subset(sp: Splats, keep: np.ndarray) -> Splats:
-    return Splats(sp.means[keep], sp.covs[keep], sp.rgb[keep], sp.opacities[keep],
-                  None if sp.sh is None else sp.sh[keep], None if sp.sh_frames is None else sp.sh_frames[keep])
-
-
 def rest_table(sp: Splats) -> list[str]:
     lines = ["| views | unseen (share < 0.01) | seconds |", "|---|---|---|"]
     shares_by = {}
@@ -65,7 +60,7 @@ def run_table(run_dir: Path, frames: list[int]) -> list[str]:
         s = shares(sp, cam)
         seen = hidden & (np.nan_to_num(s) >= 0.1)
         _, a_all = render(sp, cam)
-        _, a_out = render(subset(sp, ~hidden), cam)
+        _, a_out = render(sp.subset(~hidden), cam)
         obj = a_all > 0.05
         changed = obj & (np.abs(a_all - a_out) > 0.05)
         lines.append(f"| {f} | {int(seen.sum())} | {changed.sum() / max(obj.sum(), 1):.3f} |")

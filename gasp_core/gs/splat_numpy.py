@@ -60,6 +60,12 @@ class Splats:
     def n(self) -> int:
         return len(self.means)
 
+    def subset(self, keep) -> "Splats":
+        """The splats at ``keep`` (a bool mask or row indices), every field alike."""
+        return Splats(self.means[keep], self.covs[keep], self.rgb[keep], self.opacities[keep],
+                      None if self.sh is None else self.sh[keep],
+                      None if self.sh_frames is None else self.sh_frames[keep])
+
     @staticmethod
     def concat(parts: list["Splats"]) -> "Splats":
         """All Gaussians of ``parts`` in one record (SH padded with zeros to the highest degree)."""

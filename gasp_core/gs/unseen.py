@@ -102,6 +102,8 @@ def unseen_rows(o, materials: tuple = ("brittle", "plasticine")) -> np.ndarray |
     share = seen_share(splats_from_gaussians(o.gaussians.subset(rows), pl.R, float(pl.scale), pl.t))
     mask = np.zeros(len(o.gaussians.means), bool)
     mask[rows] = share < UNSEEN           # NaN compares False: a Gaussian no view rasterises is kept
+    for key in [k for k, (ref, _) in _CACHE.items() if ref() is None]:   # objects gone: their entries too
+        del _CACHE[key]
     try:
         _CACHE[id(o)] = (weakref.ref(o), mask)
     except TypeError:                     # an object without weak references is not cached
@@ -126,9 +128,7 @@ def rest_psnr(splats: Splats, keep: np.ndarray, n: int = 6, resolution: int = 32
     rng = np.random.default_rng(seed)
     u = rng.normal(size=(n, 3))
     u /= np.linalg.norm(u, axis=1, keepdims=True)
-    part = Splats(splats.means[keep], splats.covs[keep], splats.rgb[keep], splats.opacities[keep],
-                  None if splats.sh is None else splats.sh[keep],
-                  None if splats.sh_frames is None else splats.sh_frames[keep])
+    part = splats.subset(keep)
     out = []
     for cam in ring_cameras(splats, u, resolution, fov_deg=40.0, distance=1.4):
         a = np.clip(render(splats, cam, np.ones(3))[0], 0, 1)
