@@ -31,7 +31,7 @@ from gasp_core.gs.splat_numpy import Splats, render, shares, splats_from_gaussia
 
 #: Directions the seen share is taken from (a Fibonacci sphere). The count hidden depends on them (the README donut:
 #: 5 461 / 4 414 / 3 795 of 45 624 at 16 / 32 / 64), the picture at rest does not (hidden at 32: 53.6 dB and more from
-#: six other directions; ``benchmarks/results/unseen_inside.md``); 32 takes 5 s with numba on 2 cores.
+#: six other directions; ``benchmarks/results/unseen_inside.md``); 32 take 3.7 s with numba on 2 cores (load 0.8).
 VIEWS = 32
 #: Pixels across each view (square).
 RESOLUTION = 256
