@@ -21,6 +21,7 @@ from gasp_core.mpm.fields import (MIN_FRACTION, MIN_GRADIENT, body_pair, field_b
 from gasp_core.mpm.shared_fields import shared_field_warning
 
 from . import ENGINE
+from .pair_push import allocate_push, push_launches
 from .pair_touch import build_gap_curve, build_gap_touch, build_pair_funcs, build_pair_touch
 from .precision import MODULE_OPTIONS, build_types
 from .touch import build_held
@@ -335,6 +336,7 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     eng.gap_touch_on = levels is not None
     eng.gap_curve = bool(eng.gap_touch_on and G.CURVATURE)   # round 61: the level reads the curvature
     eng.gap_level = wp.array(levels if eng.gap_touch_on else np.zeros(1), dtype=Ft, device=d)
+    allocate_push(eng, view, Ft)   # round 62: an overlap let out (pair_push.py)
     eng.flow_touch = wp.zeros(n if eng.flow_touch_on or eng.gap_touch_on else 1, dtype=wp.int32, device=d)
     eng.flow_push = wp.zeros(n if eng.flow_touch_on else 1, dtype=k.vec3, device=d)
     # field A's points without their affine momentum where they meet B (transfers.p2g, gasp_core PIC_AT_B)
@@ -388,6 +390,7 @@ def field_launches(eng, Ft) -> list:
                 eng.k.vec3(*[float(c) for c in eng.setup.domain_lo]), Ft(eng.dx), eng.pair_acc, eng.ground_touch,
                 eng.flow_touch, eng.flow_push, int(bool(core_fields.GROUND_MIRROR)), eng.field_rule % 2,
                 *([Ft(a) for a in (eng.node_mu[0], eng.node_mu[2], eng.node_mu[3])] if eng.node_mu else [Ft(0.0)] * 3),
-                eng.mu_on, *([Ft(a) for a in eng.a_mu[1:]] if eng.a_mu else [Ft(0.0)] * 3)])] + after + [
+                eng.mu_on, *([Ft(a) for a in eng.a_mu[1:]] if eng.a_mu else [Ft(0.0)] * 3)])] + after + push_launches(
+            eng, Ft, lo) + [
             wp.launch(clear, dim=ng ** 3, device=d, record_cmd=True, inputs=[eng.grid_sv, eng.grid_vf])]
 
