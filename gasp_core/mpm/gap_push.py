@@ -30,6 +30,9 @@ from gasp_core.mpm import gap_touch as G
 
 #: Off: the contact acts on velocities alone (the rule of rounds 60-61).
 PUSH = False
+#: The broken variant of the checks (warp_mpm only): the push made a velocity (each point's move times its mass over
+#: the substep scattered to the grid's momentum, Baumgarte's bias), not a move of the positions. Never on in a run.
+KICK = False
 #: The fraction of a measured overlap released a substep (split equally between the two soft bodies): Baumgarte's
 #: error-reduction factor as Catto sets it (GDC 2005; Box2D's ``b2_baumgarte`` 0.2): a geometric release (0.8 of the
 #: overlap left after each substep), never past the touch level, whose time constant (5 substeps) is short against

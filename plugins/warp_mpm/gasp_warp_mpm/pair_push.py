@@ -132,6 +132,42 @@ def build_gap_push(Ft):
     return gap_overlap, gap_move, gap_acc_clear
 
 
+@functools.cache
+def build_gap_kick(Ft):
+    """``gap_kick``: the broken variant of the checks (``gasp_core.mpm.gap_push.KICK``), the push made a velocity
+    (Baumgarte's bias, what the split impulse avoids): each point scatters ``m_p t dx / dt`` (its body's move as a
+    momentum) to ``grid_mv``'s momentum before the grid update, instead of moving."""
+    from .stencil import build_stencil
+    vec3, vec4, mat33 = build_types(Ft)
+    in_grid, weights = build_stencil(Ft)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def gap_kick(x: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), p_mass: wp.array(dtype=Ft),
+                 params: wp.array(dtype=Ft), table_n: int, n_bodies: int, acc: wp.array(dtype=vec4), lo: vec3,
+                 inv_dx: Ft, dx_m: Ft, cap: Ft, inv_dt: Ft, n_grid: int, grid_mv: wp.array(dtype=vec4)):
+        p = wp.tid()
+        a = acc[body[p]]
+        X = (x[p] - lo) * inv_dx
+        if a[3] > Ft(0.0) and in_grid(X, n_grid):
+            t = (params[table_n + n_bodies + body[p]] / a[3]) * vec3(a[0], a[1], a[2])
+            lt = wp.length(t)
+            if lt > cap:
+                t = (cap / lt) * t
+            q = (p_mass[p] * dx_m * inv_dt) * t
+            b = vec3(wp.floor(X[0] - Ft(0.5)), wp.floor(X[1] - Ft(0.5)), wp.floor(X[2] - Ft(0.5)))
+            W = weights(X - b)
+            nn = n_grid * n_grid
+            idx0 = int(b[0]) * nn + int(b[1]) * n_grid + int(b[2])
+            for i in range(3):
+                for j in range(3):
+                    for k in range(3):
+                        w = W[i, 0] * W[j, 1] * W[k, 2]
+                        wp.atomic_add(grid_mv, idx0 + i * nn + j * n_grid + k, vec4(w * q[0], w * q[1], w * q[2],
+                                                                                     Ft(0.0)))
+
+    return gap_kick
+
+
 def allocate_push(eng, view, Ft) -> None:
     """``eng.gap_push_on`` (round 62: ``gasp_core.mpm.gap_push.PUSH`` with the touch by geometry on) and
     ``eng.push_params`` (``gap_push.push_params``; one entry when off). After ``eng.gap_touch_on`` is set."""
@@ -156,4 +192,7 @@ def push_launches(eng, Ft, lo) -> list:
                 eng.x, eng.body, eng.in_a, eng.grid_vf, lo, Ft(eng.inv_dx), Ft(eng.dx ** 3), eng.push_params,
                 eng.n_grid, G.TABLE_N, nb, Ft(G.TABLE_STEP), Ft(G.SIGMA2), int(bool(G.CURVATURE)), eng.push_acc]),
             wp.launch(move, dim=n, device=d, record_cmd=True, inputs=[
-                eng.x, eng.body, eng.push_params, G.TABLE_N, nb, eng.push_acc, Ft(eng.dx), Ft(GP.CAP)])]
+                eng.x, eng.body, eng.push_params, G.TABLE_N, nb, eng.push_acc, Ft(eng.dx), Ft(GP.CAP)])
+            if not GP.KICK else wp.launch(build_gap_kick(Ft), dim=n, device=d, record_cmd=True, inputs=[
+                eng.x, eng.body, eng.p_mass, eng.push_params, G.TABLE_N, nb, eng.push_acc, lo, Ft(eng.inv_dx),
+                Ft(eng.dx), Ft(GP.CAP), Ft(1.0 / eng.dt), eng.n_grid, eng.grid_mv])]
