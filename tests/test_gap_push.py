@@ -128,3 +128,73 @@ def test_the_taichi_kernels_are_the_reference(monkeypatch):
         assert np.abs(ref).max() > 0.005 and np.abs(got[order] - want).max() < 1e-4
     finally:
         eng.close()
+
+
+# The engine: the stacked balls (``stacked_gap``'s scene, R 2 dx, n_grid 24, the jelly pair's friction 0.5) with
+# ``CURVATURE`` and the push. Figures: ``python benchmarks/studies/gap_push.py`` (docs/contact.md "Round 62").
+
+def _stacked(monkeypatch, engine: str, drop: float, frames: int | None = None):
+    """The stacked balls started ``drop`` dx over the touch: ``(gap at rest in dx, kinetic energy per frame in J)``."""
+    import gasp_core.testing.scenes_pairs as P
+    from gasp_core.seam.plugins import get_engine
+    from gasp_core.testing.kit import run_trace
+    monkeypatch.setattr(P, "STACK_DROP", drop)
+    s = dataclasses.replace(P._build_stack(None), options={"threads": 1})
+    tr = run_trace(get_engine(engine), s, frames or round(P.STACK_T * 30))
+    (c,) = P._eval_stack(None, tr)
+    m = np.broadcast_to(np.asarray(s.p_vol, float), (len(s.x),)) * float(s.materials[0].rho)
+    return c.figures["signed"], np.array([0.5 * float((m[:, None] * np.asarray(v) ** 2).sum()) for v in tr.v])
+
+
+def _on(monkeypatch, push=True, **kw):
+    monkeypatch.setattr(G, "CURVATURE", True)
+    monkeypatch.setattr(GP, "PUSH", push)
+    for k, v in kw.items():
+        monkeypatch.setattr(GP, k, v)
+
+
+@pytest.mark.parametrize("engine", ["warp_mpm", pytest.param("taichi_mpm", marks=pytest.mark.slow)])
+def test_the_push_rests_the_stacked_balls_from_touch(monkeypatch, engine):
+    """Started touching (no landing), the stacked balls rest within 0.05 dx of touching with the push (-0.037 dx on
+    both engines); the sink without it is the catch (``test_the_sink_comes_back_without_the_push``)."""
+    _on(monkeypatch)
+    gap, _ = _stacked(monkeypatch, engine, 0.0)
+    assert abs(gap) <= 0.05, gap
+
+
+@pytest.mark.slow
+def test_the_sink_comes_back_without_the_push(monkeypatch):
+    """The catch of the check above: ``CURVATURE`` without the push rests -0.068 dx from touch (warp_mpm)."""
+    _on(monkeypatch, push=False)
+    gap, _ = _stacked(monkeypatch, "warp_mpm", 0.0)
+    assert abs(gap) > 0.05, gap
+
+
+def _decays(ke: np.ndarray) -> bool:
+    """The kinetic energy after the landing decays: over the run's three thirds (frame 1 on) each third's mean is at
+    most half the one before (a damped rest; measured 0.09-0.23 with the push, 0.00-0.13 without, warp_mpm)."""
+    th = [float(t.mean()) for t in np.array_split(ke[1:], 3)]
+    return th[1] <= 0.5 * th[0] and th[2] <= 0.5 * th[1]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("engine", ["warp_mpm", "taichi_mpm"])
+def test_the_push_gains_no_energy(monkeypatch, engine):
+    """The stacked balls (R 3 dx, n_grid 24) dropped 1.5 dx and resting for 2 s: the kinetic energy decays."""
+    import gasp_core.testing.scenes_pairs as P
+    monkeypatch.setattr(P, "STACK_R", 0.075)
+    _on(monkeypatch)
+    _, ke = _stacked(monkeypatch, engine, 1.5, 60)
+    assert _decays(ke), ke[::10]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("broken", [{"KICK": True}, {"BETA": 2.0}])
+def test_the_energy_check_catches_a_push_that_moves_the_velocity_or_overshoots(monkeypatch, broken):
+    """The catches (warp_mpm): the push made a velocity (``KICK``, Baumgarte's bias: the KE after the landing doubles,
+    0.22 to 0.43 J) and BETA x 10 (jitter: the last third's KE 0.92 of the second's)."""
+    import gasp_core.testing.scenes_pairs as P
+    monkeypatch.setattr(P, "STACK_R", 0.075)
+    _on(monkeypatch, **broken)
+    _, ke = _stacked(monkeypatch, "warp_mpm", 1.5, 60)
+    assert not _decays(ke), ke[::10]

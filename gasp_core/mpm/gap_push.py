@@ -26,11 +26,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from gasp_core.mpm import gap_touch as G
+import gasp_core.mpm.gap_touch as G
 
 #: Off: the contact acts on velocities alone (the rule of rounds 60-61).
 PUSH = False
-#: The broken variant of the checks (warp_mpm only): the push made a velocity (each point's move times its mass over
+#: The broken variant of the checks (built in one engine, ``tests/test_gap_push.py``): the push made a velocity (each point's move times its mass over
 #: the substep scattered to the grid's momentum, Baumgarte's bias), not a move of the positions. Never on in a run.
 KICK = False
 #: The fraction of a measured overlap released a substep (split equally between the two soft bodies): Baumgarte's

@@ -15,17 +15,10 @@ from .precision import MODULE_OPTIONS, build_types
 
 
 @functools.cache
-def build_gap_push(Ft):
-    """``(gap_overlap, gap_move, gap_acc_clear)``: the reference's ``gasp_core.mpm.gap_push.gap_push``.
-    ``gap_overlap`` (points; ``params``: the half-space table (``table_n`` entries, step ``step`` cells), each body's
-    reach, then each body's share; ``curve`` 1 with ``gap_touch.CURVATURE``: the reach plus ``sigma2`` times the least
-    curvature the two fields share) adds each overlapping point's ``d n`` (cells) and 1 to its body's ``acc``
-    (atomic); ``gap_move`` (points) adds to ``x`` its body's share of the mean, at most ``cap`` cells (times ``dx_m``,
-    m); ``gap_acc_clear`` zeroes ``acc`` (one entry per body) first."""
-    from .stencil import build_stencil
-    vec3, vec4, mat33 = build_types(Ft)
-    in_grid, weights = build_stencil(Ft)
-    least_curvature = build_curvature(Ft)
+def build_table_distance(Ft):
+    """``table_distance(params, phi, table_n, step)``: the distance (cells) at which the half-space profile
+    (``params[:table_n]``, step ``step`` cells) reads ``phi``, odd about the face (``gasp_core.mpm.gap_push.
+    table_distance``: a bisection over the table, then its linear piece)."""
 
     @wp.func
     def table_distance(params: wp.array(dtype=Ft), phi: Ft, table_n: int, step: Ft):
@@ -49,6 +42,24 @@ def build_gap_push(Ft):
                     hi = mid
             s = (Ft(lo) + (params[lo] - q) / (params[lo] - params[hi])) * step
         return sign * s
+
+    return table_distance
+
+
+@functools.cache
+def build_gap_push(Ft):
+    """``(gap_overlap, gap_move, gap_acc_clear)``: the reference's ``gasp_core.mpm.gap_push.gap_push``.
+    ``gap_overlap`` (points; ``params``: the half-space table (``table_n`` entries, step ``step`` cells), each body's
+    reach, then each body's share; ``curve`` 1 with ``gap_touch.CURVATURE``: the reach plus ``sigma2`` times the least
+    curvature the two fields share) adds each overlapping point's ``d n`` (cells) and 1 to its body's ``acc``
+    (atomic); ``gap_move`` (points) adds to ``x`` its body's share of the mean, at most ``cap`` cells (times ``dx_m``,
+    m); ``gap_acc_clear`` zeroes ``acc`` (one entry per body) first."""
+    from .stencil import build_stencil
+    vec3, vec4, mat33 = build_types(Ft)
+    in_grid, weights = build_stencil(Ft)
+    least_curvature = build_curvature(Ft)
+
+    table_distance = build_table_distance(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def gap_overlap(x: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32),
@@ -112,6 +123,15 @@ def build_gap_push(Ft):
             dn = (-d / gn) * g_o
             wp.atomic_add(acc, body[p], vec4(dn[0], dn[1], dn[2], Ft(1.0)))
 
+    gap_move, gap_acc_clear = build_gap_move(Ft)
+    return gap_overlap, gap_move, gap_acc_clear
+
+
+@functools.cache
+def build_gap_move(Ft):
+    """``(gap_move, gap_acc_clear)`` of :func:`build_gap_push`."""
+    vec3, vec4, mat33 = build_types(Ft)
+
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def gap_move(x: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), params: wp.array(dtype=Ft),
                  table_n: int, n_bodies: int, acc: wp.array(dtype=vec4), dx_m: Ft, cap: Ft):
@@ -129,7 +149,7 @@ def build_gap_push(Ft):
     def gap_acc_clear(acc: wp.array(dtype=vec4)):
         acc[wp.tid()] = vec4(Ft(0.0))
 
-    return gap_overlap, gap_move, gap_acc_clear
+    return gap_move, gap_acc_clear
 
 
 @functools.cache
