@@ -8,8 +8,9 @@ measured overlap of two soft bodies let out along the contact normal, no velocit
 - Both engines' kernels move the points as the reference does (warp_mpm float64 and float32 in the default tier;
   taichi_mpm slow).
 - The engine (warp_mpm; taichi_mpm slow): the stacked balls (R 2 dx, n_grid 24) started touching rest within 0.05 dx
-  with ``CURVATURE`` and the push (-0.037 dx measured); catch: the push off (-0.068, the sink); the kinetic energy after
-  the rest does not grow (catch: BETA x 10).
+  with ``CURVATURE`` and the push (-0.037 dx measured, both engines); catch: the push off (-0.068, the sink; slow). The
+  kinetic energy of the dropped R 3 dx pair decays over 2 s (slow, both engines); catches: the push made a velocity
+  (``KICK``: the energy doubles after the landing) and BETA x 10 (jitter: no decay).
 """
 from __future__ import annotations
 
