@@ -9,6 +9,9 @@ the second). ``--push 0/1`` (``gap_push.PUSH``), ``--kick 1`` (the broken varian
 / sep0.5`` (``gap_touch.CURVATURE`` or round 60's separation), ``--pair-mu``, ``--drop`` (the stacked balls' start above
 the touch, dx; 0: touching, no landing) as in ``gap_curve.py``.
 
+``--diag`` (a stacked row): at the last frame, the points that read an overlap (the field's reading,
+``gap_push.point_overlap``), the largest, and the five nearest pairs of points across the contact.
+
 Usage: ``python benchmarks/studies/gap_push.py --engine warp_mpm --push 1 --rows stacked:0.05:24 --drop 0``.
 """
 import argparse
@@ -40,6 +43,38 @@ def energy(engine, radius, n_grid, frames):
         P.STACK_R, P.N_GRID, P.DX = keep
 
 
+def diagnose(engine, radius, n_grid):
+    """The stacked balls' last frame (1 s): the points that read an overlap (``gap_push.point_overlap`` on volumes
+    scattered from the points as P2G does), the largest ``d`` (cells), and the five nearest pairs' distances (dx)."""
+    import gasp_core.mpm.gap_touch as G
+    from scipy.spatial import cKDTree
+    from gasp_core.mpm.fields import field_bodies
+    keep = P.STACK_R, P.N_GRID, P.DX
+    P.STACK_R, P.N_GRID, P.DX = radius, n_grid, P.SIDE / n_grid
+    try:
+        s = dataclasses.replace(P._build_stack(None), options={"threads": 1})
+        x = np.asarray(run_trace(get_engine(engine), s, round(P.STACK_T * 30)).x[-1], float) / P.DX
+    finally:
+        P.STACK_R, P.N_GRID, P.DX = keep
+    body, in_a = np.asarray(s.body_id), np.asarray(field_bodies(s)).astype(int)
+    base = np.floor(x - 0.5).astype(int)
+    fx = x - base
+    w = [0.5 * (1.5 - fx) ** 2, 0.75 - (fx - 1.0) ** 2, 0.5 * (fx - 0.5) ** 2]
+    vf = np.zeros((2, n_grid, n_grid, n_grid))
+    cell = float(np.broadcast_to(s.p_vol, (len(x),))[0]) / (P.SIDE / n_grid) ** 3
+    for i in range(3):
+        for j in range(3):
+            for k in range(3):
+                np.add.at(vf, (1 - in_a[body], base[:, 0] + i, base[:, 1] + j, base[:, 2] + k),
+                          cell * w[i][:, 0] * w[j][:, 1] * w[k][:, 2])
+    prm, tn = GP.push_params(s), G.TABLE_N
+    d = np.array([GP.point_overlap(*(lambda b: (b[0], b[1]) if in_a[body[p]] else (b[1], b[0]))(
+        vf[:, base[p, 0]:base[p, 0] + 3, base[p, 1]:base[p, 1] + 3, base[p, 2]:base[p, 2] + 3]), fx[p],
+        prm[tn + body[p]], prm[:tn], G.CURVATURE)[0] for p in range(len(x))])
+    near = np.sort(cKDTree(x[body == 0]).query(x[body == 1])[0])[:5]
+    return f"{int((d > 0).sum())} points read an overlap, max d {d.max():+.3f} cell; nearest pairs {np.round(near, 3)} dx"
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--engine", default="warp_mpm")
@@ -54,6 +89,8 @@ def main():
     ap.add_argument("--energy-frames", type=int, default=30)
     ap.add_argument("--drop", type=float, default=None)
     ap.add_argument("--rows", default="stacked:0.05:24")
+    ap.add_argument("--diag", action="store_true", help="a stacked row: the field's overlap reading and the nearest "
+                    "pairs at the last frame (diagnose) instead of the gap")
     a = ap.parse_args()
     GP.PUSH, GP.BETA, GP.CAP, GP.KICK = bool(a.push), a.beta, a.cap, bool(a.kick)
     set_rule(a.rule)
@@ -68,7 +105,9 @@ def main():
     for row in a.rows.split(","):
         f = row.split(":")
         t0 = time.time()
-        if f[0] == "stacked":
+        if f[0] == "stacked" and a.diag:
+            out = diagnose(a.engine, float(f[1]), int(f[2]))
+        elif f[0] == "stacked":
             out = f"gap at rest {stacked(a.engine, float(f[1]), int(f[2])):+.3f} dx"
         elif f[0] == "energy":
             ke = energy(a.engine, float(f[1]), int(f[2]), a.energy_frames)
