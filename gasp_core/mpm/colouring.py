@@ -232,9 +232,11 @@ def restore_colour(eng, state: dict) -> None:
 
 def coloured(setup) -> bool:
     """Whether a setup takes round 61's colouring: :data:`COLOUR`, the option ``contact_fields`` on, three or more
-    bodies on the particle contact, none rigid (two rigid bodies' contact is by force balance, for exactly two) and
-    none flowing."""
+    bodies on the particle contact (none flowing), none rigid unless round 62's ``rigid_pairs.PAIRS`` (rigid bodies
+    among three or more: their pairs solved together, :mod:`gasp_core.mpm.rigid_pairs`)."""
     from gasp_core.mpm.contact import contact_model
     from gasp_core.mpm.rigid import rigid_mask
+    from gasp_core.mpm.rigid_pairs import PAIRS
     return (bool(COLOUR) and setup.options.get("contact_fields", True) and len(setup.materials) >= 3
-            and contact_model(setup) == "particle" and not np.asarray(rigid_mask(setup.materials)).any())
+            and contact_model(setup) == "particle"
+            and (bool(PAIRS) or not np.asarray(rigid_mask(setup.materials)).any()))

@@ -377,7 +377,9 @@ def pic_at_b(setup) -> bool:
 
 
 def field_setup(setup) -> tuple:
-    """``(field_bodies, field_friction, touch_fraction, rigid_pair, flow_touch, node_friction, a_node_friction,
-    gap_levels)`` of a setup: what an engine allocates the contact from (round 60: ``gap_touch.gap_levels``)."""
-    return (field_bodies(setup), field_friction(setup), touch_fraction(setup), rigid_pair(setup), flow_touch(setup),
+    """``(field_bodies, field_friction, touch_fraction, pair_mode, flow_touch, node_friction, a_node_friction,
+    gap_levels)`` of a setup: what an engine allocates the contact from (round 60: ``gap_touch.gap_levels``; round 62:
+    ``rigid_pairs.pair_mode``, 1 for :func:`rigid_pair`, 2 for rigid bodies among three or more)."""
+    from gasp_core.mpm.rigid_pairs import pair_mode
+    return (field_bodies(setup), field_friction(setup), touch_fraction(setup), pair_mode(setup), flow_touch(setup),
             node_friction(setup), a_node_friction(setup), gap_levels(setup, bool(GAP_TOUCH) and body_pair(setup)))
