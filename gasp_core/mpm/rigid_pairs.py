@@ -67,6 +67,11 @@ def pair_frictions(setup) -> np.ndarray:
     return np.array([combine_friction(a, b) for a in mus for b in mus], np.float64)
 
 
+def pair_data(setup) -> tuple[np.ndarray, np.ndarray]:
+    """``(body_boxes, pair_frictions)`` of a setup, what an engine's pairs' solve reads."""
+    return body_boxes(setup), pair_frictions(setup)
+
+
 def body_boxes(setup) -> np.ndarray:
     """Each rigid body's box in its frame at the start: its material points' extent about its mass centre (m), shape
     (n_bodies, 2, 3) (lower, upper; an empty box, lower > upper, for the others)."""
