@@ -46,13 +46,20 @@ def _setup(boxes, models, v0, n_grid, ground_mu, frictions, frame=1.0 / 60.0, lo
 
 
 def slide_setup(n_grid: int = 32, mu: float | None = None, v0: float = 0.5, half: float = 0.03,
-                models=("rigid",) * 3) -> SimSetup:
+                models=("rigid",) * 3, push: bool = False) -> SimSetup:
     """The top block (body 0, 2 ``half`` wide, 3 cm tall) thrown at ``v0`` along +x on the middle block (body 1) on
-    the bottom block (body 2) lying on a frictionless ground; each body's ``friction`` ``mu`` (None: the default)."""
+    the bottom block (body 2) lying on a frictionless ground; each body's ``friction`` ``mu`` (None: the default).
+    ``push``: at rest, pushed by an ``[[impulse]]`` (``add``, ``v0`` along x at t = 0 on a box around the top block
+    only) instead of thrown."""
+    from gasp_core.colliders.model import Impulse
     h = MIDDLE_H
     boxes = [([-half, -half, 0.03 + h], [half, half, 0.06 + h]), ([-0.10, -0.08, 0.03], [0.18, 0.08, 0.03 + h]),
              ([-0.12, -0.10, 0.0], [0.20, 0.10, 0.03])]
-    return _setup(boxes, models, [v0, 0.0, 0.0], n_grid, 0.0, [mu] * 3)
+    s = _setup(boxes, models, [0.0 if push else v0, 0.0, 0.0], n_grid, 0.0, [mu] * 3)
+    if push:   # the region: around the top block, from past the middle block's nodes (1.5 cells over its face)
+        s.impulses = [Impulse("box", (v0, 0.0, 0.0), 0.0, 0.0, lo=(-half - 0.01, -half - 0.01, 0.03 + h + 1.6 * s.dx),
+                              hi=(half + 0.01, half + 0.01, 0.07 + h))]
+    return s
 
 
 def stack_setup(n_grid: int = 32, size: float = 0.10, mu: float | None = None, models=("rigid",) * 3) -> SimSetup:
@@ -67,16 +74,20 @@ def stack_setup(n_grid: int = 32, size: float = 0.10, mu: float | None = None, m
     return _setup(boxes, models, [0.0, 0.0, 0.0], n_grid, 0.5, [mu] * 3)
 
 
-def fall_setup(n_grid: int = 32, gap_cells: float = 1.0) -> SimSetup:
+def fall_setup(n_grid: int = 32, gap_cells: float = 1.0, v_apart: float = 0.2) -> SimSetup:
     """Three rigid blocks (10 x 10 x 4 cm, 8 x 8 x 4, 6 x 6 x 4) one over the other, each ``gap_cells`` dx over the
-    one below (within each other's reach: different fields, not touching), in the air at rest, no ground; they fall
-    together."""
+    one below (within each other's reach: different fields, not touching), in the air, no ground, moving apart: the
+    bottom at ``-v_apart`` m/s along z, the middle at rest, the top at ``+v_apart`` (bodies that shared a field would
+    drag each other)."""
     dx = SIDE / n_grid
     boxes, z = [], 0.15
     for f in (0.10, 0.08, 0.06):
         boxes.append(([-f / 2, -f / 2, z], [f / 2, f / 2, z + 0.04]))
         z += 0.04 + gap_cells * dx
-    return _setup(boxes, ("rigid",) * 3, [0.0, 0.0, 0.0], n_grid, None, [None] * 3)
+    s = _setup(boxes, ("rigid",) * 3, [0.0, 0.0, 0.0], n_grid, None, [None] * 3)
+    s.v = np.array(np.broadcast_to(np.asarray(s.v, float), np.shape(s.x)))
+    s.v[:, 2] = v_apart * (np.asarray(s.body_id) - 1.0)
+    return s
 
 
 def mixed_setup(n_grid: int = 32, mu: float | None = None, v0: float = 0.5) -> SimSetup:
@@ -87,12 +98,78 @@ def mixed_setup(n_grid: int = 32, mu: float | None = None, v0: float = 0.5) -> S
     return _setup(boxes, ("rigid", "elastic", "elastic"), [v0, 0.0, 0.0], n_grid, 0.0, [mu] * 3)
 
 
-def slide_closed_form(s) -> float:
+def slide_closed_form(s, v0: float | None = None) -> float:
     """Coulomb's slide (m) of body 0 on the others, which move as one on a frictionless ground: ``v0^2 / (2 mu g (1 +
     m0 / m_rest))``, ``mu`` the pair's (``combine_friction`` of bodies 0 and 1)."""
     from gasp_core.mpm.fields import body_friction, combine_friction
     pm, body = np.asarray(s.p_mass, float), np.asarray(s.body_id)
     m0, rest = pm[body == 0].sum(), pm[body != 0].sum()
-    v0 = float(np.asarray(s.v)[0, 0])
+    v0 = float(np.asarray(s.v)[0, 0]) if v0 is None else float(v0)
     mu = combine_friction(body_friction(s.materials[0]), body_friction(s.materials[1]))
     return v0 ** 2 / (2 * mu * G * (1 + m0 / rest))
+
+
+def _run(engine: str, s, T: float):
+    """``(centres (frames + 1, n_bodies, 3), rotations (n_bodies,) deg, vz (n_bodies,), px (frames + 1,))``: the mass
+    centres per frame over ``T`` (s), each body's turn at the end (deg; the best rotation of its points about its
+    centre, Kabsch), its mean point velocity along z at the end, and the material's x momentum per frame (kg m/s)."""
+    from gasp_core.seam import build_engine, get_engine
+    e = build_engine(get_engine(engine), s)
+    pm, body = np.asarray(s.p_mass, float), np.asarray(s.body_id)
+    nb = len(s.materials)
+
+    def centres(X):
+        return np.array([(X[body == k] * pm[body == k, None]).sum(0) / pm[body == k].sum() for k in range(nb)])
+    X0 = np.asarray(s.x, float)
+    C, px = [centres(X0)], [float((pm * np.asarray(s.v, float)[:, 0]).sum())]
+    for _ in range(round(T / s.frame_dt)):
+        e.step_frame()
+        C.append(centres(e.positions().astype(float)))
+        px.append(float((pm * e.velocities().astype(float)[:, 0]).sum()))
+    X, V = e.positions().astype(float), e.velocities().astype(float)
+    turn = []
+    for k in range(nb):
+        a, b = X0[body == k] - C[0][k], X[body == k] - C[-1][k]
+        u, _, vt = np.linalg.svd(b.T @ a)   # the best rotation b ~ R a (Kabsch)
+        R = u @ vt
+        turn.append(float(np.degrees(np.arccos(np.clip((np.trace(R) - 1) / 2, -1, 1)))))
+    vz = np.array([float((V[body == k, 2] * pm[body == k]).sum() / pm[body == k].sum()) for k in range(nb)])
+    e.close() if hasattr(e, "close") else None
+    return np.array(C), np.array(turn), vz, np.array(px)
+
+
+def measure_rest(engine: str, s, T: float = 1.2, settle: float = 0.2) -> dict:
+    """A stack at rest (:func:`stack_setup`): ``sink`` (m, per body), the centre's fall over the first ``settle`` s;
+    ``creep`` (m, per body), its largest move over the next ``T - settle`` s; ``gap`` (m, per pair bottom up), the
+    change of the centres' separation along z over the whole run; ``turn`` (deg, per body)."""
+    C, turn, _, _ = _run(engine, s, T)
+    k = round(settle / s.frame_dt)
+    creep = np.abs(C[k:] - C[k]).max(axis=(0, 2))
+    gap = (C[-1, 1:, 2] - C[-1, :-1, 2]) - (C[0, 1:, 2] - C[0, :-1, 2])
+    return {"sink": C[0, :, 2] - C[k, :, 2], "creep": creep, "gap": gap, "turn": turn}
+
+
+def measure_slide(engine: str, s, T: float = 0.3) -> dict:
+    """A thrown top block (:func:`slide_setup`, :func:`mixed_setup`): ``slide`` (m), the change of the separation of
+    bodies 0 and 1 along x over ``T``; ``closed`` (m), :func:`slide_closed_form`; ``momentum``, the bodies' total
+    x momentum at the end (over the last 0.1 s) over the throw's, less 1; ``v`` (m/s per body) their x velocities
+    then; ``turn`` (deg per body). A push by an ``[[impulse]]`` (``slide_setup``'s ``push``) gives the grid nodes in
+    its region its change, so the block takes part of it: the throw is then the x momentum after the first frame
+    (``v0`` that over body 0's mass, ``closed`` for that ``v0``)."""
+    C, turn, _, px = _run(engine, s, T)
+    pm, body = np.asarray(s.p_mass, float), np.asarray(s.body_id)
+    k = round(0.1 / s.frame_dt)
+    v = (C[-1, :, 0] - C[-1 - k, :, 0]) / (k * s.frame_dt)
+    m = np.array([pm[body == b].sum() for b in range(len(s.materials))])
+    p0 = px[1] if s.impulses else float(m[0] * np.asarray(s.v)[0, 0])
+    closed = slide_closed_form(s, p0 / m[0] if s.impulses else None)
+    return {"slide": float((C[-1, 0, 0] - C[-1, 1, 0]) - (C[0, 0, 0] - C[0, 1, 0])), "closed": closed,
+            "momentum": float((m * v).sum() / p0 - 1.0), "v": v, "turn": turn, "v0": p0 / m[0]}
+
+
+def measure_fall(engine: str, s, T: float = 0.1) -> dict:
+    """Blocks in the air (:func:`fall_setup`): ``vz`` (m/s per body) their mean velocity along z after ``T`` and
+    ``expect`` (m/s per body) ``v0_z - g T``."""
+    _, _, vz, _ = _run(engine, s, T)
+    v0 = np.array([float(np.asarray(s.v)[np.asarray(s.body_id) == b, 2].mean()) for b in range(len(s.materials))])
+    return {"vz": vz, "expect": v0 - G * round(T / s.frame_dt) * s.frame_dt}

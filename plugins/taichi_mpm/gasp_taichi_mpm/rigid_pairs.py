@@ -146,3 +146,11 @@ class RigidPairs:
             self.rb_V[b] += dJ / MB
             self.rb_w[a] -= (rA.cross(dJ).dot(n) / nIA) * n
             self.rb_w[b] += (rB.cross(dJ).dot(n) / nIB) * n
+            if P > 0.0:   # the faces hold the relative tipping spin (rigid_pairs._pair_update)
+                eye = ti.Matrix.identity(ti.f64, 3)
+                iA = (RA @ self.rb_I0[a] @ RA.transpose() + half * MA * eye).inverse()
+                iB = (RB @ self.rb_I0[b] @ RB.transpose() + half * MB * eye).inverse()
+                dw = self.rb_w[a] - self.rb_w[b]
+                L = (iA + iB).inverse() @ (dw - dw.dot(n) * n)
+                self.rb_w[a] -= iA @ L
+                self.rb_w[b] += iB @ L

@@ -138,6 +138,14 @@ def build_rigid_pairs(Ft):
                     vel[b] = vel[b] + dJ / MB
                     spin[a] = spin[a] - (wp.dot(wp.cross(rA, dJ), n) / nIA) * n
                     spin[b] = spin[b] + (wp.dot(wp.cross(rB, dJ), n) / nIB) * n
+                    if P > wp.float64(0.0):   # the faces hold the relative tipping spin (rigid_pairs._pair_update)
+                        eye = wp.identity(n=3, dtype=wp.float64)
+                        iA = wp.inverse(RA * inertia0[a] * wp.transpose(RA) + half * MA * eye)
+                        iB = wp.inverse(RB * inertia0[b] * wp.transpose(RB) + half * MB * eye)
+                        dw = spin[a] - spin[b]
+                        L = wp.inverse(iA + iB) * (dw - wp.dot(dw, n) * n)
+                        spin[a] = spin[a] - iA * L
+                        spin[b] = spin[b] + iB * L
         for b in range(nb):
             centre[b] = centre[b] + dt * (vel[b] - V0[b])
         for s in range(7 * ns):
