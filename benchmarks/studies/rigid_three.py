@@ -7,8 +7,9 @@ turn), ``slide`` the top block of three thrown along the middle one on a frictio
 ``v0 - g t``), ``mixed`` a rigid block thrown on a jelly slab with a jelly cube on it (slide, momentum).
 
 Switches (each an engine broken on purpose, for the tests' catches): ``--sweeps N`` (``rigid_pairs.SWEEPS``; 1: the
-pairs solved once, no sweeps), ``--before`` (one field for the three: ``rigid_pairs.PAIRS`` False, the rule before),
-``--mu-ignored`` (every pair at 0.5 whatever the bodies say).
+pairs solved once, no sweeps), ``--before`` (one field for the three: ``colouring.RIGID_PAIRS`` False, the rule before),
+``--mu-ignored`` (every pair at 0.5 whatever the bodies say). ``--push``: the slide's top block at rest, pushed by an
+``[[impulse]]`` of 1 m/s on its upper nodes (``scenes_rigid3.slide_setup``'s ``push``).
 
     python benchmarks/studies/rigid_three.py --case slide --engine warp_mpm --n-grid 32 [--mu 0.3] [--sweeps 1]
 """
@@ -19,17 +20,17 @@ import time
 
 import numpy as np
 
-from gasp_core.mpm import rigid_pairs
+from gasp_core.mpm import colouring, rigid_pairs
 from gasp_core.testing import scenes_rigid3 as S
 
 
-def run(case: str, engine: str, n_grid: int, mu: float | None, half: float, size: float) -> dict:
+def run(case: str, engine: str, n_grid: int, mu: float | None, half: float, size: float, push: bool = False) -> dict:
     """The case's figures (``scenes_rigid3.measure_*``) and its wall time (s)."""
     t0 = time.time()
     if case == "rest":
         out = S.measure_rest(engine, S.stack_setup(n_grid, size, mu))
     elif case == "slide":
-        out = S.measure_slide(engine, S.slide_setup(n_grid, mu, half=half))
+        out = S.measure_slide(engine, S.slide_setup(n_grid, mu, half=half, push=push, v0=1.0 if push else 0.5))
     elif case == "mixed":
         out = S.measure_slide(engine, S.mixed_setup(n_grid, mu))
     else:
@@ -62,18 +63,20 @@ def main() -> None:
     ap.add_argument("--half", type=float, default=0.03, help="the top block's half-width (slide), m")
     ap.add_argument("--size", type=float, default=0.10, help="the bottom plate's width (rest), m")
     ap.add_argument("--sweeps", type=int, default=None)
-    ap.add_argument("--before", action="store_true", help="one field for the three (rigid_pairs.PAIRS False)")
+    ap.add_argument("--push", action="store_true", help="slide: the top block pushed by an [[impulse]] of 1 m/s")
+    ap.add_argument("--before", action="store_true", help="one field for the three (colouring.RIGID_PAIRS False)")
     ap.add_argument("--mu-ignored", action="store_true", help="every pair at 0.5")
     a = ap.parse_args()
     if a.sweeps is not None:
         rigid_pairs.SWEEPS = a.sweeps
     if a.before:
-        rigid_pairs.PAIRS = False
+        colouring.RIGID_PAIRS = False
     if a.mu_ignored:
         rigid_pairs.pair_frictions = lambda setup: np.full(len(setup.materials) ** 2, 0.5)
-    out = run(a.case, a.engine, a.n_grid, a.mu, a.half, a.size)
+    out = run(a.case, a.engine, a.n_grid, a.mu, a.half, a.size, a.push)
     print(f"{a.case} {a.engine} n_grid {a.n_grid} mu {a.mu} sweeps {rigid_pairs.SWEEPS}"
-          f"{' before' if a.before else ''}{' mu-ignored' if a.mu_ignored else ''}: {show(a.case, out)}")
+          f"{' before' if a.before else ''}{' mu-ignored' if a.mu_ignored else ''}{' push' if a.push else ''}: "
+          f"{show(a.case, out)}" + (f", v0 {out['v0']:.4f} m/s" if a.push else ""))
 
 
 if __name__ == "__main__":

@@ -1,5 +1,5 @@
 """Rigid bodies among three or more bodies (round 62, issue 67 item 4 "between bodies", ``docs/rigid.md`` "Round 62:
-rigid bodies among three or more"; the switch :data:`PAIRS`).
+rigid bodies among three or more"; the switch ``colouring.RIGID_PAIRS``).
 
 **Fields.** A scene of three or more bodies on the particle contact, rigid or soft in any mix, takes round 61's
 colouring (:mod:`gasp_core.mpm.colouring`): the bodies within reach of each other take different fields, so every
@@ -39,9 +39,6 @@ from __future__ import annotations
 
 import numpy as np
 
-#: Round 62: rigid bodies among three or more take the colouring and the pairs' solve. False: one field for a scene
-#: of three or more bodies with a rigid one (the rule before, the catch of the tests).
-PAIRS = True
 #: The sweeps over the touching pairs each substep (projected Gauss-Seidel). ``docs/rigid.md`` "Round 62" measures
 #: 1, 2, 4, 8 and 16.
 SWEEPS = 8
@@ -50,24 +47,18 @@ SWEEPS = 8
 NODE_PAD = 1.5
 
 
-def pair_mode(setup) -> int:
-    """0: no rigid pair law; 1: two rigid bodies (``fields.rigid_pair``, the law of issue 67 item 4); 2: three or more
-    bodies coloured (:func:`gasp_core.mpm.colouring.coloured`) of which at least two are rigid (their pairs solved
-    together, :func:`solve_pairs`)."""
-    from gasp_core.mpm.colouring import coloured
-    from gasp_core.mpm.fields import rigid_pair
-    from gasp_core.mpm.rigid import rigid_mask
-    if rigid_pair(setup):
-        return 1
-    return 2 if coloured(setup) and int(np.asarray(rigid_mask(setup.materials)).sum()) >= 2 else 0
-
-
 def pair_frictions(setup) -> np.ndarray:
     """Each pair's Coulomb coefficient, ``combine_friction`` of the two bodies' (shape (n_bodies * n_bodies,), the
     slot ``a * n_bodies + b`` for body ``a`` in field A and ``b`` in B)."""
     from gasp_core.mpm.fields import body_friction, combine_friction
     mus = [body_friction(m) for m in setup.materials]
     return np.array([combine_friction(a, b) for a in mus for b in mus], np.float64)
+
+
+def pair_mode(setup) -> int:
+    """``gasp_core.mpm.fields.pair_mode`` (0, 1 two rigid bodies, 2 rigid bodies among three or more)."""
+    from gasp_core.mpm.fields import pair_mode as mode
+    return mode(setup)
 
 
 def pair_data(setup) -> tuple[np.ndarray, np.ndarray]:

@@ -113,7 +113,8 @@ def _run(engine: str, s, T: float):
     """``(centres (frames + 1, n_bodies, 3), rotations (n_bodies,) deg, vz (n_bodies,), px (frames + 1,))``: the mass
     centres per frame over ``T`` (s), each body's turn at the end (deg; the best rotation of its points about its
     centre, Kabsch), its mean point velocity along z at the end, and the material's x momentum per frame (kg m/s)."""
-    from gasp_core.seam import build_engine, get_engine
+    from gasp_core.seam.build import build_engine
+    from gasp_core.seam.plugins import get_engine
     e = build_engine(get_engine(engine), s)
     pm, body = np.asarray(s.p_mass, float), np.asarray(s.body_id)
     nb = len(s.materials)

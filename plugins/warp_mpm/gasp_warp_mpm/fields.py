@@ -151,7 +151,8 @@ def build_fields(Ft):
     ``free`` (int): a ground's top layer in an untouched column takes the contact (``TOP_FREE``, touch.py); its
     ``mu_on`` (int): bit 1 B's per-node friction (round 42, ``grid_vf``'s third part, ``own`` A's one ``tan(phi)``),
     bit 2 A's (round 43, ``grid_vf``'s fourth part, clamped to ``a_lo, a_hi``; B's one ``b_mu`` without bit 1, A's
-    own where it is negative); 0: the scalar ``mu``."""
+    own where it is negative); 0: the scalar ``mu``. It is long because the node kernel's branches (round 62's pair
+    slot among them) are one closure."""
     vec3, vec4, mat33 = build_types(Ft)
     held_node = build_held(Ft)
     b_normal = build_b_normal(Ft)

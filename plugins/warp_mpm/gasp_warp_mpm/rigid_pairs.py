@@ -58,12 +58,79 @@ def build_node_slot(Ft):
 
 
 @functools.cache
+def build_pair_update(Ft):
+    """``pair_update`` (float64 whatever ``Ft``): one pair's update within a sweep (``gasp_core.mpm.rigid_pairs.
+    _pair_update``): slot ``s``'s accumulated normal impulse ``lam[4 s]`` kept >= 0, its friction impulse on B
+    ``lam[4 s + 1 : 4 s + 4]`` within ``mu`` times it (the disk), the faces' relative tipping spin held."""
+
+    @wp.func
+    def pair_update(s: int, nb: int, half: wp.float64, mass: wp.array(dtype=wp.float64),
+                    inertia0: wp.array(dtype=mat33d), centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d),
+                    vel: wp.array(dtype=vec3d), spin: wp.array(dtype=vec3d), mu: wp.array(dtype=wp.float64),
+                    acc: wp.array(dtype=wp.float64), lam: wp.array(dtype=wp.float64)):
+        a = s / nb
+        b = s - a * nb
+        n = vec3d(acc[7 * s + 4], acc[7 * s + 5], acc[7 * s + 6])
+        ln = wp.length(n)
+        if ln > wp.float64(0.0):
+            n = n / ln
+            x_c = vec3d(acc[7 * s + 1], acc[7 * s + 2], acc[7 * s + 3]) / acc[7 * s]
+            MA = mass[a]
+            MB = mass[b]
+            un = wp.dot(vel[a] - vel[b], n)
+            P = wp.max(lam[4 * s] + un / (wp.float64(1.0) / MA + wp.float64(1.0) / MB), wp.float64(0.0))
+            dP = P - lam[4 * s]
+            lam[4 * s] = P
+            vel[a] = vel[a] - (dP / MA) * n
+            vel[b] = vel[b] + (dP / MB) * n
+            rA = x_c - centre[a]
+            rB = x_c - centre[b]
+            u = vel[a] + wp.cross(spin[a], rA) - vel[b] - wp.cross(spin[b], rB)
+            ut = u - wp.dot(u, n) * n
+            lt = wp.length(ut)
+            eye = wp.identity(n=3, dtype=wp.float64)
+            IA = rot[a] * inertia0[a] * wp.transpose(rot[a]) + half * MA * eye
+            IB = rot[b] * inertia0[b] * wp.transpose(rot[b]) + half * MB * eye
+            nIA = wp.dot(n, IA * n)
+            nIB = wp.dot(n, IB * n)
+            J0 = vec3d(lam[4 * s + 1], lam[4 * s + 2], lam[4 * s + 3])
+            J = J0
+            m_s = mu[s]
+            if m_s > wp.float64(0.0) and lt > wp.float64(0.0) and P > wp.float64(0.0):
+                t = ut / lt
+                sA = wp.dot(wp.cross(rA, t), n)   # the twist arms about n
+                sB = wp.dot(wp.cross(rB, t), n)
+                J = J + (lt / (wp.float64(1.0) / MA + wp.float64(1.0) / MB + sA * sA / nIA + sB * sB / nIB)) * t
+            lJ = wp.length(J)
+            if lJ > m_s * P:   # Coulomb's disk of the pair's normal impulse: stick within, else slide on it
+                J = J * (wp.max(m_s, wp.float64(0.0)) * P / lJ)
+            dJ = J - J0
+            lam[4 * s + 1] = J[0]
+            lam[4 * s + 2] = J[1]
+            lam[4 * s + 3] = J[2]
+            vel[a] = vel[a] - dJ / MA
+            vel[b] = vel[b] + dJ / MB
+            spin[a] = spin[a] - (wp.dot(wp.cross(rA, dJ), n) / nIA) * n
+            spin[b] = spin[b] + (wp.dot(wp.cross(rB, dJ), n) / nIB) * n
+            if P > wp.float64(0.0):   # the faces hold the relative tipping spin (rigid_pairs._pair_update)
+                iA = wp.inverse(IA)
+                iB = wp.inverse(IB)
+                dw = spin[a] - spin[b]
+                L = wp.inverse(iA + iB) * (dw - wp.dot(dw, n) * n)
+                spin[a] = spin[a] - iA * L
+                spin[b] = spin[b] + iB * L
+
+    return pair_update
+
+
+@functools.cache
 def build_rigid_pairs(Ft):
-    """``rigid_pairs`` (float64): ``gasp_core.mpm.rigid_pairs.solve_pairs`` in one thread after ``rigid_update``: the
-    touching pairs' sums ``acc`` (7 per slot: sum m_red, sum m_red x, sum m_red n) give each its centre and normal;
-    the pairs are ordered by height along gravity (``order``), swept ``sweeps`` times (``rigid_pairs.SWEEPS``) with accumulated impulses
-    (``lam``: 4 per slot, P and J), then the centres' advance of the substep follows the new velocities. ``acc`` is
-    cleared."""
+    """``rigid_pairs`` (float64 whatever ``Ft``): ``gasp_core.mpm.rigid_pairs.solve_pairs`` in one thread after
+    ``rigid_update``: the touching pairs' sums ``acc`` (7 per slot: sum m_red, sum m_red x, sum m_red n) give each its
+    centre and normal; the pairs are ordered by height along gravity (``order``), swept ``sweeps`` times
+    (``rigid_pairs.SWEEPS``) with accumulated impulses (``lam``: 4 per slot, P and J; ``build_pair_update``), then
+    the centres' advance of the substep follows the new velocities. ``acc`` is cleared."""
+    pair_update = build_pair_update(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def rigid_pairs(mass: wp.array(dtype=wp.float64), inertia0: wp.array(dtype=mat33d),
@@ -74,10 +141,8 @@ def build_rigid_pairs(Ft):
         ns = nb * nb
         n_on = int(0)
         for s in range(ns):   # the touching pairs, insertion-sorted by -g . x_c (bottom up)
-            lam[4 * s] = wp.float64(0.0)
-            lam[4 * s + 1] = wp.float64(0.0)
-            lam[4 * s + 2] = wp.float64(0.0)
-            lam[4 * s + 3] = wp.float64(0.0)
+            for q in range(4):
+                lam[4 * s + q] = wp.float64(0.0)
             if acc[7 * s] > wp.float64(0.0):
                 h = -wp.dot(gravity, vec3d(acc[7 * s + 1], acc[7 * s + 2], acc[7 * s + 3])) / acc[7 * s]
                 j = n_on
@@ -92,60 +157,7 @@ def build_rigid_pairs(Ft):
         half = wp.float64(0.5) * dx * dx
         for _sweep in range(sweeps):
             for q in range(n_on):
-                s = order[q]
-                a = s / nb
-                b = s - a * nb
-                W = acc[7 * s]
-                n = vec3d(acc[7 * s + 4], acc[7 * s + 5], acc[7 * s + 6])
-                ln = wp.length(n)
-                if ln > wp.float64(0.0):
-                    n = n / ln
-                    x_c = vec3d(acc[7 * s + 1], acc[7 * s + 2], acc[7 * s + 3]) / W
-                    MA = mass[a]
-                    MB = mass[b]
-                    un = wp.dot(vel[a] - vel[b], n)
-                    P = wp.max(lam[4 * s] + un / (wp.float64(1.0) / MA + wp.float64(1.0) / MB), wp.float64(0.0))
-                    dP = P - lam[4 * s]
-                    lam[4 * s] = P
-                    vel[a] = vel[a] - (dP / MA) * n
-                    vel[b] = vel[b] + (dP / MB) * n
-                    rA = x_c - centre[a]
-                    rB = x_c - centre[b]
-                    u = vel[a] + wp.cross(spin[a], rA) - vel[b] - wp.cross(spin[b], rB)
-                    ut = u - wp.dot(u, n) * n
-                    lt = wp.length(ut)
-                    RA = rot[a]
-                    RB = rot[b]
-                    nIA = wp.dot(n, RA * inertia0[a] * wp.transpose(RA) * n) + half * MA
-                    nIB = wp.dot(n, RB * inertia0[b] * wp.transpose(RB) * n) + half * MB
-                    J0 = vec3d(lam[4 * s + 1], lam[4 * s + 2], lam[4 * s + 3])
-                    J = J0
-                    m_s = mu[s]
-                    if m_s > wp.float64(0.0) and lt > wp.float64(0.0) and P > wp.float64(0.0):
-                        t = ut / lt
-                        sA = wp.dot(wp.cross(rA, t), n)   # the twist arms about n
-                        sB = wp.dot(wp.cross(rB, t), n)
-                        J = J + (lt / (wp.float64(1.0) / MA + wp.float64(1.0) / MB + sA * sA / nIA
-                                       + sB * sB / nIB)) * t
-                    lJ = wp.length(J)
-                    if lJ > m_s * P:   # Coulomb's disk of the pair's normal impulse: stick within, else slide on it
-                        J = J * (wp.max(m_s, wp.float64(0.0)) * P / lJ)
-                    dJ = J - J0
-                    lam[4 * s + 1] = J[0]
-                    lam[4 * s + 2] = J[1]
-                    lam[4 * s + 3] = J[2]
-                    vel[a] = vel[a] - dJ / MA
-                    vel[b] = vel[b] + dJ / MB
-                    spin[a] = spin[a] - (wp.dot(wp.cross(rA, dJ), n) / nIA) * n
-                    spin[b] = spin[b] + (wp.dot(wp.cross(rB, dJ), n) / nIB) * n
-                    if P > wp.float64(0.0):   # the faces hold the relative tipping spin (rigid_pairs._pair_update)
-                        eye = wp.identity(n=3, dtype=wp.float64)
-                        iA = wp.inverse(RA * inertia0[a] * wp.transpose(RA) + half * MA * eye)
-                        iB = wp.inverse(RB * inertia0[b] * wp.transpose(RB) + half * MB * eye)
-                        dw = spin[a] - spin[b]
-                        L = wp.inverse(iA + iB) * (dw - wp.dot(dw, n) * n)
-                        spin[a] = spin[a] - iA * L
-                        spin[b] = spin[b] + iB * L
+                pair_update(order[q], nb, half, mass, inertia0, centre, rot, vel, spin, mu, acc, lam)
         for b in range(nb):
             centre[b] = centre[b] + dt * (vel[b] - V0[b])
         for s in range(7 * ns):
