@@ -9,7 +9,8 @@ turn), ``slide`` the top block of three thrown along the middle one on a frictio
 Switches (each an engine broken on purpose, for the tests' catches): ``--sweeps N`` (``rigid_pairs.SWEEPS``; 1: the
 pairs solved once, no sweeps), ``--before`` (one field for the three: ``colouring.RIGID_PAIRS`` False, the rule before),
 ``--mu-ignored`` (every pair at 0.5 whatever the bodies say). ``--push``: the slide's top block at rest, pushed by an
-``[[impulse]]`` of 1 m/s on its upper nodes (``scenes_rigid3.slide_setup``'s ``push``).
+``[[impulse]]`` of 1 m/s on its upper nodes (``scenes_rigid3.slide_setup``'s ``push``); ``--models``: the slide's
+bodies' models, top first (``rigid,elastic,rigid``: a jelly block between two rigid ones).
 
     python benchmarks/studies/rigid_three.py --case slide --engine warp_mpm --n-grid 32 [--mu 0.3] [--sweeps 1]
 """
@@ -24,13 +25,15 @@ from gasp_core.mpm import colouring, rigid_pairs
 from gasp_core.testing import scenes_rigid3 as S
 
 
-def run(case: str, engine: str, n_grid: int, mu: float | None, half: float, size: float, push: bool = False) -> dict:
+def run(case: str, engine: str, n_grid: int, mu: float | None, half: float, size: float, push: bool = False,
+        models=("rigid",) * 3) -> dict:
     """The case's figures (``scenes_rigid3.measure_*``) and its wall time (s)."""
     t0 = time.time()
     if case == "rest":
         out = S.measure_rest(engine, S.stack_setup(n_grid, size, mu))
     elif case == "slide":
-        out = S.measure_slide(engine, S.slide_setup(n_grid, mu, half=half, push=push, v0=1.0 if push else 0.5))
+        out = S.measure_slide(engine, S.slide_setup(n_grid, mu, half=half, push=push, v0=1.0 if push else 0.5,
+                                                    models=models))
     elif case == "mixed":
         out = S.measure_slide(engine, S.mixed_setup(n_grid, mu))
     else:
@@ -64,6 +67,7 @@ def main() -> None:
     ap.add_argument("--size", type=float, default=0.10, help="the bottom plate's width (rest), m")
     ap.add_argument("--sweeps", type=int, default=None)
     ap.add_argument("--push", action="store_true", help="slide: the top block pushed by an [[impulse]] of 1 m/s")
+    ap.add_argument("--models", default="rigid,rigid,rigid", help="slide: the three bodies' models, top first")
     ap.add_argument("--before", action="store_true", help="one field for the three (colouring.RIGID_PAIRS False)")
     ap.add_argument("--mu-ignored", action="store_true", help="every pair at 0.5")
     a = ap.parse_args()
@@ -73,9 +77,9 @@ def main() -> None:
         colouring.RIGID_PAIRS = False
     if a.mu_ignored:
         rigid_pairs.pair_frictions = lambda setup: np.full(len(setup.materials) ** 2, 0.5)
-    out = run(a.case, a.engine, a.n_grid, a.mu, a.half, a.size, a.push)
+    out = run(a.case, a.engine, a.n_grid, a.mu, a.half, a.size, a.push, tuple(a.models.split(",")))
     print(f"{a.case} {a.engine} n_grid {a.n_grid} mu {a.mu} sweeps {rigid_pairs.SWEEPS}"
-          f"{' before' if a.before else ''}{' mu-ignored' if a.mu_ignored else ''}{' push' if a.push else ''}: "
+          f"{'' if a.models == 'rigid,rigid,rigid' else ' ' + a.models}{' before' if a.before else ''}{' mu-ignored' if a.mu_ignored else ''}{' push' if a.push else ''}: "
           f"{show(a.case, out)}" + (f", v0 {out['v0']:.4f} m/s" if a.push else ""))
 
 
