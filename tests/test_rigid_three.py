@@ -132,3 +132,21 @@ def test_the_checks_catch_broken_engines(monkeypatch):
         m.setattr(colouring, "RIGID_PAIRS", False)
         assert slide_problem(S.measure_slide(eng, s)) is not None
         assert fall_problem(S.measure_fall(eng, S.fall_setup(32))) is not None
+
+
+def test_one_sweep_of_one_pair_is_the_two_body_law():
+    """``rigid_pairs.solve_pairs`` with one sweep over one pair whose bodies spin about the normal only (no relative
+    tipping spin for the faces to hold) gives ``rigid_friction.pair_contact``'s velocities, spins and impulse."""
+    from gasp_core.mpm.rigid_friction import pair_contact
+    rng = np.random.default_rng(62)
+    for _ in range(20):
+        n = rng.normal(size=3)
+        n /= np.linalg.norm(n)
+        A = (rng.normal(size=3), rng.normal() * n, np.diag(rng.uniform(1, 2, 3)), 1.3, rng.normal(size=3))
+        B = (rng.normal(size=3), rng.normal() * n, np.diag(rng.uniform(1, 2, 3)), 2.1, rng.normal(size=3))
+        x, mu = rng.normal(size=3), float(rng.uniform(0.1, 2.0))
+        (VA, wA), (VB, wB), P = pair_contact(A, B, x, n, mu)
+        out, Ps = rigid_pairs.solve_pairs([A, B], [(0, 1, x, n, mu)], [0.0, 0.0, -9.81], sweeps=1)
+        assert Ps[0] == pytest.approx(P, rel=1e-12, abs=1e-12)
+        for got, want in zip((*out[0], *out[1]), (VA, wA, VB, wB)):
+            assert np.allclose(got, want, rtol=1e-12, atol=1e-12)
