@@ -54,7 +54,8 @@ def show(case: str, out: dict) -> str:
                 f"{100 * out['momentum']:+.3f} %, v {np.round(out['v'], 5).tolist()} m/s, turn "
                 f"{np.round(out['turn'], 3).tolist()} deg, {out['seconds']:.0f} s")
     err = 100 * (out["vz"] / out["expect"] - 1)
-    return f"vz {np.round(out['vz'], 4).tolist()} against {np.round(out['expect'], 4).tolist()} ({np.round(err, 3).tolist()} %), {out['seconds']:.0f} s"
+    return (f"vz {np.round(out['vz'], 4).tolist()} against {np.round(out['expect'], 4).tolist()} "
+            f"({np.round(err, 3).tolist()} %), {out['seconds']:.0f} s")
 
 
 def main() -> None:
@@ -79,7 +80,8 @@ def main() -> None:
         rigid_pairs.pair_frictions = lambda setup: np.full(len(setup.materials) ** 2, 0.5)
     out = run(a.case, a.engine, a.n_grid, a.mu, a.half, a.size, a.push, tuple(a.models.split(",")))
     print(f"{a.case} {a.engine} n_grid {a.n_grid} mu {a.mu} sweeps {rigid_pairs.SWEEPS}"
-          f"{'' if a.models == 'rigid,rigid,rigid' else ' ' + a.models}{' before' if a.before else ''}{' mu-ignored' if a.mu_ignored else ''}{' push' if a.push else ''}: "
+          f"{'' if a.models == 'rigid,rigid,rigid' else ' ' + a.models}{' before' if a.before else ''}"
+          f"{' mu-ignored' if a.mu_ignored else ''}{' push' if a.push else ''}: "
           f"{show(a.case, out)}" + (f", v0 {out['v0']:.4f} m/s" if a.push else ""))
 
 

@@ -1,5 +1,5 @@
-"""Scenes of rigid bodies among three or more (round 62, :mod:`gasp_core.mpm.rigid_pairs`, ``tests/test_rigid_three.py``,
-``docs/rigid.md`` "Round 62: rigid bodies among three or more").
+"""Scenes of rigid bodies among three or more (round 62, :mod:`gasp_core.mpm.rigid_pairs`,
+``tests/test_rigid_three.py``, ``docs/rigid.md`` "Round 62: rigid bodies among three or more").
 
 - :func:`blocks3`: three blocks, one on the other, on a ground (``model`` rigid or elastic per body): at rest
   (:func:`stack_setup`) or the top one thrown along +x on a frictionless ground (:func:`slide_setup`), or apart in

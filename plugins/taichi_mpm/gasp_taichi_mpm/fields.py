@@ -32,8 +32,8 @@ class Fields(PairTouch, FieldFlip):
                         node_mu=None, a_mu=None, gap=None) -> None:
         """``in_a``: per body, True in field A (``gasp_core.mpm.fields.field_bodies``), or None: one field;
         ``mu`` the Coulomb coefficient (``field_friction``), ``touch`` the touch threshold (``touch_fraction``),
-        ``pair`` whether the two bodies are rigid (``rigid_pair``: the touching nodes only sum into ``pair_acc``,
-        sum m_red, sum m_red x, sum m_red n, for ``RigidFriction.rigid_pair``), ``flow`` the flowing body's touch
+        ``pair`` ``fields.pair_mode`` (1 two rigid bodies: the touching nodes only sum into ``pair_acc``, sum m_red,
+        sum m_red x, sum m_red n, for ``RigidFriction.rigid_pair``; 2 round 62's per pair), ``flow`` the flowing body's touch
         (``gasp_core.mpm.fields.flow_touch``, pair_touch.py), ``node_mu`` field B's bodies' several frictions
         (``gasp_core.mpm.fields.node_friction``: ``(own, mu_b, lo, hi)``, or None: the scalar ``mu``), ``a_mu`` field
         A's sands' several angles (``a_node_friction``: ``(mu_a, lo, hi, mu_b)``, or None: A's one), ``gap`` the touch
