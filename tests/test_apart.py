@@ -136,6 +136,24 @@ def test_a_crumbs_and_a_left_behind_gaussian_go_with_their_piece(angle, hold):
         assert row["specks"] == int((labels[:n] == 2).sum()) + 2, row
 
 
+def test_the_hidden_gaussians_are_not_counted_as_specks():
+    """``run.json``'s ``specks`` and ``spanning`` count what is drawn: the capture's hidden inside
+    (:mod:`gasp_core.gs.unseen`, ``shown`` False) is left out. Without the hold the crumb's Gaussians and the two left
+    behind are specks; hiding every other one of them halves the count, hiding none keeps it (the catch: ``shown``
+    ignored)."""
+    obj, x_rest, x, labels, pieces, mass, (behind, behind1, rigid) = broken_body(0.0)
+    n = len(obj.surface.tri_rest)
+    means, rot, scales = x[:n].copy(), obj.surface.rot_rest.copy(), obj.surface.scales_rest.copy()
+    args = (means, rot, scales, x[n:], labels[n:], mass[n:], pieces, REACH)
+    specks = apart_row(*args)["specks"]
+    assert specks == int((labels[:n] == 2).sum()) + 2 and specks >= 3, specks
+    shown = np.ones(n, bool)
+    speck_rows = np.flatnonzero((labels[:n] == 2) | np.isin(np.arange(n), [behind, behind1]))
+    shown[speck_rows[::2]] = False
+    assert apart_row(*args, shown=shown)["specks"] == specks - len(speck_rows[::2])
+    assert apart_row(*args, shown=np.ones(n, bool))["specks"] == specks
+
+
 @pytest.mark.parametrize("dot", [True, False])
 def test_the_skin_of_crumbled_material_is_drawn_as_a_dot_on_its_piece(dot, monkeypatch):
     """A piece (a slab 5 cm long) and, beside it, a crumb 3 cm long flung 20 cm up (all the material there crumbled),

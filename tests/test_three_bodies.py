@@ -87,8 +87,11 @@ def test_two_bodies_and_rigid_ones_keep_the_rule_before(monkeypatch):
     assert not colouring.coloured(two) and fields.field_bodies(two).tolist() == [False, True]   # as before
     rigid = S.stack3("ball")
     rigid.materials = [*rigid.materials[:2], Material("jelly", model="rigid", E=1e5, rho=1000.0)]
-    assert not colouring.coloured(rigid) and fields.field_bodies(rigid) is None
-    assert shared_field_bodies(rigid) == [0, 1, 2]
+    assert colouring.coloured(rigid) and shared_field_bodies(rigid) == []   # round 62 (rigid_pairs): coloured too
+    with monkeypatch.context() as m:   # the rule before round 62: one field for them all
+        m.setattr(colouring, "RIGID_PAIRS", False)
+        assert not colouring.coloured(rigid) and fields.field_bodies(rigid) is None
+        assert shared_field_bodies(rigid) == [0, 1, 2]
     monkeypatch.setattr(colouring, "COLOUR", False)
     assert fields.field_bodies(S.stack3("ball")) is None
     assert shared_field_bodies(S.stack3("ball")) == [0, 1, 2]

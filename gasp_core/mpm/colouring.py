@@ -55,6 +55,10 @@ COLOUR = True
 RECOLOUR = True
 #: The frames of free travel added to the reach (see the module notes).
 TRAVEL_FRAMES = 1.0
+#: Round 62 (:mod:`gasp_core.mpm.rigid_pairs`): rigid bodies among three or more take the colouring, their touching
+#: pairs the two-body law solved together. False: one field for a scene of three or more bodies with a rigid one (the
+#: rule before, the catch of ``tests/test_rigid_three.py``).
+RIGID_PAIRS = True
 #: Relative speeds (m/s) closer than this are a tie in the choice of the colouring that goes to B.
 SPEED_TIE = 1e-6
 
@@ -232,9 +236,10 @@ def restore_colour(eng, state: dict) -> None:
 
 def coloured(setup) -> bool:
     """Whether a setup takes round 61's colouring: :data:`COLOUR`, the option ``contact_fields`` on, three or more
-    bodies on the particle contact, none rigid (two rigid bodies' contact is by force balance, for exactly two) and
-    none flowing."""
+    bodies on the particle contact (none flowing), none rigid unless round 62's :data:`RIGID_PAIRS` (rigid bodies
+    among three or more: their pairs solved together, :mod:`gasp_core.mpm.rigid_pairs`)."""
     from gasp_core.mpm.contact import contact_model
     from gasp_core.mpm.rigid import rigid_mask
     return (bool(COLOUR) and setup.options.get("contact_fields", True) and len(setup.materials) >= 3
-            and contact_model(setup) == "particle" and not np.asarray(rigid_mask(setup.materials)).any())
+            and contact_model(setup) == "particle"
+            and (bool(RIGID_PAIRS) or not np.asarray(rigid_mask(setup.materials)).any()))

@@ -185,6 +185,16 @@ def rigid_pair(setup) -> bool:
             and bool(np.asarray(rigid_mask(setup.materials)).all()))
 
 
+def pair_mode(setup) -> int:
+    """0: no rigid pair law; 1: two rigid bodies (:func:`rigid_pair`, issue 67 item 4); 2 (round 62,
+    ``gasp_core.mpm.rigid_pairs``): three or more bodies coloured of which two or more are rigid, their pairs solved
+    together."""
+    from gasp_core.mpm.rigid import rigid_mask
+    if rigid_pair(setup):
+        return 1
+    return 2 if coloured(setup) and int(np.asarray(rigid_mask(setup.materials)).sum()) >= 2 else 0
+
+
 def mixed_pair(setup) -> bool:
     """Whether a scene is a rigid body and a soft one on the particle contact (two materials, one ``model = "rigid"``):
     they take a field each and the nodes' Coulomb correction of the module notes, the rigid body's side then projected
@@ -377,7 +387,8 @@ def pic_at_b(setup) -> bool:
 
 
 def field_setup(setup) -> tuple:
-    """``(field_bodies, field_friction, touch_fraction, rigid_pair, flow_touch, node_friction, a_node_friction,
-    gap_levels)`` of a setup: what an engine allocates the contact from (round 60: ``gap_touch.gap_levels``)."""
-    return (field_bodies(setup), field_friction(setup), touch_fraction(setup), rigid_pair(setup), flow_touch(setup),
+    """``(field_bodies, field_friction, touch_fraction, pair_mode, flow_touch, node_friction, a_node_friction,
+    gap_levels)`` of a setup: what an engine allocates the contact from (round 60: ``gap_touch.gap_levels``; round 62:
+    :func:`pair_mode`)."""
+    return (field_bodies(setup), field_friction(setup), touch_fraction(setup), pair_mode(setup), flow_touch(setup),
             node_friction(setup), a_node_friction(setup), gap_levels(setup, bool(GAP_TOUCH) and body_pair(setup)))

@@ -37,7 +37,7 @@ def shared_field_warning(setup, engine: str) -> None:
         names += f" and {len(shared) - 6} more" if len(shared) > 6 else ""
         why = ("they touch each other in an odd cycle (three bodies mutually within reach), which two fields cannot "
                "separate" if coloured(setup) else "the two-field contact takes two bodies, flowing bodies against one "
-               "other, or soft bodies alone")
+               "other, or three or more solids with none flowing")
         warnings.warn(f"engine '{engine}': bodies {names} share one grid velocity field: where they touch they move "
                       f"as one, with no slip and no friction law between them ({why}; docs/contact.md); make the "
                       f"ones that only support the others [[collider]] meshes, or simulate them apart", stacklevel=2)

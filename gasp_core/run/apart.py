@@ -104,13 +104,14 @@ def apart_masks(means: np.ndarray, rot: np.ndarray, scales: np.ndarray, points: 
 
 def apart_row(means: np.ndarray, rot: np.ndarray, scales: np.ndarray, x_fill: np.ndarray, lab_fill: np.ndarray,
               mass_fill: np.ndarray, pieces: np.ndarray | None, reach: float, tree: cKDTree | None = None,
-              own: np.ndarray | None = None) -> dict:
+              own: np.ndarray | None = None, shown: np.ndarray | None = None) -> dict:
     """One object's ``run.json`` figures of a frame: ``{"spanning", "specks"}`` (counts, :func:`apart_masks`) of its
     drawn Gaussians (``means``, ``rot``, ``scales`` as there) against its material points: ``x_fill`` (k, 3) world
     metres, ``lab_fill`` (k,) their labels (:meth:`gasp_core.run.pieces.PieceTracker.labels`), ``mass_fill`` (k,) kg
     (0: passive, not material), ``pieces`` (per label, bool: :attr:`~gasp_core.run.pieces.PieceTracker.pieces`; None:
     every label a piece), ``reach`` metres; ``tree`` (optional) one built over those of its points in a piece, in
-    their order (:func:`piece_points`); ``own`` (n,) each Gaussian's own piece (as :func:`apart_masks`)."""
+    their order (:func:`piece_points`); ``own`` (n,) each Gaussian's own piece (as :func:`apart_masks`); ``shown``
+    (n,) bool, the Gaussians drawn (None: all; the capture's hidden inside, :mod:`gasp_core.gs.unseen`, is not)."""
     lab = np.asarray(lab_fill)
     keep = np.asarray(mass_fill) > 0
     if pieces is not None:
@@ -118,6 +119,8 @@ def apart_row(means: np.ndarray, rot: np.ndarray, scales: np.ndarray, x_fill: np
     if tree is not None and tree.n != int(keep.sum()):
         raise ValueError(f"apart_row: the tree holds {tree.n} points, the pieces {int(keep.sum())}")
     spanning, specks = apart_masks(means, rot, scales, np.asarray(x_fill)[keep], lab[keep], reach, own, tree)
+    if shown is not None:
+        spanning, specks = spanning & shown, specks & shown
     return {"spanning": int(spanning.sum()), "specks": int(specks.sum())}
 
 

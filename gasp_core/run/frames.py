@@ -70,7 +70,8 @@ RIGID_FIT = 1e-5
 
 def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray,
             t: float | None = None, labels: np.ndarray | None = None,
-            split: SplitContext | None = None, apart=None) -> tuple[Gaussians, np.ndarray, dict]:
+            split: SplitContext | None = None, apart=None,
+            hidden: np.ndarray | None = None) -> tuple[Gaussians, np.ndarray, dict]:
     """``G_t = T^-1(phi(T(G), t))`` with the alpha rule for one object at one frame, back in the file frame.
 
     ``T^-1`` is the object's surface map (:meth:`gasp_core.maps.surface.SurfaceMap.gaussians`: its form and its
@@ -97,6 +98,9 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray,
     split : SplitContext, optional
         Split the triangles the alpha rule clamps and that straddle no crack into sub-triangle Gaussians
         (:mod:`gasp_core.maps.split`; :func:`split_context` says which objects do); None splits nothing.
+    hidden : ndarray, shape (len(o.gaussians),), bool, optional
+        The file rows drawn hidden (:func:`gasp_core.gs.unseen.unseen_rows`): left out of ``spanning`` and
+        ``specks``, which count what is drawn.
 
     Returns
     -------
@@ -127,7 +131,8 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray,
             turn_with_pieces(o, x, sr, lab, straddle, rot, means_w)
         counts["straddling"] = int(straddle.sum())
         if apart is not None:
-            straddle, sides = keep_apart(o, x, labels, apart, prev_rot, means_w, rot, scales_w, straddle, counts)
+            shown = None if hidden is None else ~np.asarray(hidden)[o.moving if o.moving is not None else slice(None)]
+            straddle, sides = keep_apart(o, x, labels, apart, prev_rot, means_w, rot, scales_w, straddle, counts, shown)
     pl = o.placement
     scales = scales_w / pl.scale
     scales[:, 0] = o.thin_scale if o.spec.thickness == "keep" else EPS
@@ -143,10 +148,10 @@ def rebuild(o: PreparedObject, x: np.ndarray, prev_rot: np.ndarray,
 
 def keep_apart(o: PreparedObject, x: np.ndarray, labels: np.ndarray, apart: PieceContext, prev_rot: np.ndarray,
                means: np.ndarray, rot: np.ndarray, scales: np.ndarray, straddle: np.ndarray,
-               counts: dict) -> tuple[np.ndarray, tuple | None]:
+               counts: dict, shown: np.ndarray | None = None) -> tuple[np.ndarray, tuple | None]:
     """A broken object's Gaussians kept on their pieces (:func:`hold_to_pieces`, then each on its own side of every
     crack: :func:`gasp_core.run.sides.keep_to_side`), in place, and the frame's ``held``, ``trimmed``, ``spanning``
-    and ``specks`` put in ``counts``. One tree over the pieces' material points serves the rule and the counts: with
+    and ``specks`` (of the ``shown`` Gaussians, (n,) bool; None: all) put in ``counts``. One tree over the pieces' material points serves the rule and the counts: with
     ``apart.gap`` a :class:`gasp_core.run.sides.PieceTree` that keeps them to their side only where the pieces are
     apart by it (``gasp_core.run.sides``, "Apart there").
     Returns ``straddle`` (n,) with the Gaussians held or trimmed added (the split of clamped triangles leaves them
@@ -171,7 +176,7 @@ def keep_apart(o: PreparedObject, x: np.ndarray, labels: np.ndarray, apart: Piec
         counts["held"], straddle = int(held.sum()), straddle | held
     fs = o.fill_slice
     counts.update(apart_row(means, rot, scales, x[fs], np.asarray(labels)[fs], apart.p_mass[fs], apart.pieces,
-                            apart.reach, tree, None if motion is None else motion.own))
+                            apart.reach, tree, None if motion is None else motion.own, shown))
     return straddle, sides
 
 
@@ -283,7 +288,8 @@ class Rebuilder:
                                                          prep.setup.x, self.hold, self.trim, self.pull,
                                                          prep.setup.p_vol, float(prep.setup.dx) if self.gap else None)
         for k, o in enumerate(prep.objects):
-            g, prev[k], counts = rebuild(o, x, prev[k], frame * prep.setup.frame_dt, labels, self.split[k], apart)
+            hidden = self.unseen[k] if frame > 0 else None
+            g, prev[k], counts = rebuild(o, x, prev[k], frame * prep.setup.frame_dt, labels, self.split[k], apart, hidden)
             row["degenerate"] += counts["degenerate"]
             row["clamped"] += counts["clamped"]
             for key in ("straddling", "held", "trimmed", "pulled", "spanning", "specks"):
@@ -291,7 +297,7 @@ class Rebuilder:
                     row[key] = row.get(key, 0) + counts[key]
             if "split" in counts:
                 row["split"] = row.get("split", 0) + counts["split"]
-            sub, hidden = counts.get("split_gaussians"), self.unseen[k] if frame > 0 else None
+            sub = counts.get("split_gaussians")
             if hidden is not None and hidden.any():
                 g = hide(g, hidden)
                 sub = None if sub is None else hide(sub, hidden[np.asarray(sub.extra["parent"])])

@@ -33,8 +33,8 @@ class Fields(PairTouch, PairPush, FieldFlip):
                         node_mu=None, a_mu=None, gap=None, setup=None) -> None:
         """``in_a``: per body, True in field A (``gasp_core.mpm.fields.field_bodies``), or None: one field;
         ``mu`` the Coulomb coefficient (``field_friction``), ``touch`` the touch threshold (``touch_fraction``),
-        ``pair`` whether the two bodies are rigid (``rigid_pair``: the touching nodes only sum into ``pair_acc``,
-        sum m_red, sum m_red x, sum m_red n, for ``RigidFriction.rigid_pair``), ``flow`` the flowing body's touch
+        ``pair`` ``fields.pair_mode`` (1 two rigid bodies: the touching nodes only sum into ``pair_acc``, sum m_red,
+        sum m_red x, sum m_red n, for ``RigidFriction.rigid_pair``; 2 round 62's per pair), ``flow`` the flowing body's touch
         (``gasp_core.mpm.fields.flow_touch``, pair_touch.py), ``node_mu`` field B's bodies' several frictions
         (``gasp_core.mpm.fields.node_friction``: ``(own, mu_b, lo, hi)``, or None: the scalar ``mu``), ``a_mu`` field
         A's sands' several angles (``a_node_friction``: ``(mu_a, lo, hi, mu_b)``, or None: A's one), ``gap`` the touch
@@ -42,7 +42,7 @@ class Fields(PairTouch, PairPush, FieldFlip):
         scene (round 62's push, pair_push.py; None: off). Before the first substep."""
         self.fields = in_a is not None
         self.field_pair = bool(self.fields and pair)
-        self.pair_acc = ti.field(ti.f64, shape=7)
+        self.allocate_pairs(int(pair))   # pair_acc; round 62: rigid bodies among three or more (rigid_pairs.py)
         self.field_mu = float(mu)
         self.field_touch = float(touch)
         self.in_a = ti.field(ti.i32, shape=max(4, len(in_a) if self.fields else 1))
@@ -277,15 +277,15 @@ class Fields(PairTouch, PairPush, FieldFlip):
                                              d[5] + db[2]])
 
     @ti.func
-    def pair_touch(self, I, m_red, nh):
+    def pair_touch(self, I, m_red, nh, s):
         """A node where two rigid bodies touch: its reduced mass ``m_red`` (kg), and that times its position and its
-        unit normal ``nh`` (field B's), added to ``pair_acc`` (warp_mpm's ``fields.field_contact``)."""
+        unit normal ``nh`` (field B's), added to ``pair_acc``'s slot ``s`` (warp_mpm's ``fields.field_contact``)."""
         wr = ti.cast(m_red, ti.f64)
         xn = ti.cast(self.lo[None] + self.dx[None] * ti.cast(I, self.real), ti.f64)
-        ti.atomic_add(self.pair_acc[0], wr)
+        ti.atomic_add(self.pair_acc[7 * s], wr)
         for ax in ti.static(range(3)):
-            ti.atomic_add(self.pair_acc[1 + ax], wr * xn[ax])
-            ti.atomic_add(self.pair_acc[4 + ax], wr * ti.cast(nh[ax], ti.f64))
+            ti.atomic_add(self.pair_acc[7 * s + 1 + ax], wr * xn[ax])
+            ti.atomic_add(self.pair_acc[7 * s + 4 + ax], wr * ti.cast(nh[ax], ti.f64))
 
     @ti.kernel
     def field_contact(self):
@@ -325,9 +325,11 @@ class Fields(PairTouch, PairPush, FieldFlip):
                 if ln > MIN_GRADIENT * m:
                     nh = n / ln
                     un = u.dot(nh)
-                    if ti.static(self.field_pair):   # two rigid bodies: where they touch, for their contact as one
+                    if ti.static(self.field_pair and not self.pair_many):   # two rigid bodies: where they touch
                         if touch:
-                            self.pair_touch(I, m_a * m_b / m, nh)
+                            self.pair_touch(I, m_a * m_b / m, nh, 0)
+                    elif touch and self.node_slot(I) > 0:   # round 62: a pair of rigid bodies among three or more
+                        self.pair_touch(I, m_a * m_b / m, nh, self.node_slot(I) - 1)
                     elif un > 0.0 and touch:   # approaching: no interpenetration, Coulomb friction along the surface
                         ut = u - un * nh
                         lt = ut.norm()

@@ -25,9 +25,10 @@ from gasp_core.mpm.rigid import RIGID_LEVER
 
 from .rigid_friction import RigidFriction
 from .rigid_lift import RigidLift
+from .rigid_pairs import RigidPairs
 
 
-class Rigid(RigidLift, RigidFriction):
+class Rigid(RigidLift, RigidFriction, RigidPairs):
     """Per-body rigid state and the three kernels of :meth:`rigid_step`."""
 
     def _allocate_rigid(self, rigid, centre, X0, inertia0, mass) -> None:
@@ -245,8 +246,10 @@ class Rigid(RigidLift, RigidFriction):
         else:
             self.rigid_reduce()
         self.rigid_update()
-        if self.field_pair:   # two rigid bodies: their contact as one (rigid_friction.py)
+        if self.field_pair and not self.pair_many:   # two rigid bodies: their contact as one (rigid_friction.py)
             self.rigid_pair()
+        elif self.pair_many:   # round 62: rigid bodies among three or more, their pairs solved together
+            self.rigid_pairs()
         self.rigid_apply()
         if self.n_planes and self.pc:
             if self.gpu:

@@ -160,7 +160,9 @@ def test_the_check_catches_a_block_dim_1_put_back(monkeypatch):
 CPU_ONLY = ("schedule/ordered.py",)
 #: One-iteration loops kept elsewhere, each O(1) work on one thread by nature on both schedules (not an ordered
 #: variant of a parallel loop): kernel name -> why.
-ONE_ITEM = {"rigid_pair": "the contact of one pair of rigid bodies: a dozen float64 operations, once a substep"}
+ONE_ITEM = {"rigid_pair": "the contact of one pair of rigid bodies: a dozen float64 operations, once a substep",
+            "rigid_pairs": "round 62: the touching pairs of rigid bodies among three or more, SWEEPS (8) x n_pairs (a "
+                           "handful) pair updates, once a substep"}
 
 
 def _serial_constructs(root):

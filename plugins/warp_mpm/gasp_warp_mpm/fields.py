@@ -16,14 +16,13 @@ import warp as wp
 from gasp_core.mpm.contact import flowing_bodies
 from gasp_core.mpm import fields as core_fields, gap_touch as G
 from gasp_core.mpm.fields import (MIN_FRACTION, MIN_GRADIENT, body_pair, field_bodies, field_friction, flow_touch,
-                                  flow_touch_level, gap_levels, node_friction, rigid_pair,
-                                  touch_fraction, a_node_friction)
+                                  flow_touch_level, gap_levels, node_friction, touch_fraction, a_node_friction)
 from gasp_core.mpm.shared_fields import shared_field_warning
 
 from . import ENGINE
-from .pair_push import allocate_push, push_launches
 from .pair_touch import build_gap_curve, build_gap_touch, build_pair_funcs, build_pair_touch
 from .precision import MODULE_OPTIONS, build_types
+from .rigid_pairs import allocate_pairs, build_node_slot, mat33d, slot_inputs, vec3d
 from .touch import build_held
 
 
@@ -152,12 +151,14 @@ def build_fields(Ft):
     ``free`` (int): a ground's top layer in an untouched column takes the contact (``TOP_FREE``, touch.py); its
     ``mu_on`` (int): bit 1 B's per-node friction (round 42, ``grid_vf``'s third part, ``own`` A's one ``tan(phi)``),
     bit 2 A's (round 43, ``grid_vf``'s fourth part, clamped to ``a_lo, a_hi``; B's one ``b_mu`` without bit 1, A's
-    own where it is negative); 0: the scalar ``mu``."""
+    own where it is negative); 0: the scalar ``mu``. It is long because the node kernel's branches (round 62's pair
+    slot among them) are one closure."""
     vec3, vec4, mat33 = build_types(Ft)
     held_node = build_held(Ft)
     b_normal = build_b_normal(Ft)
     coulomb, flow_layer = build_pair_funcs(Ft)
     node_pair = build_node_pair(Ft)
+    node_slot = build_node_slot(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def field_contact(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), grid_dv: wp.array(dtype=vec3),
@@ -165,7 +166,9 @@ def build_fields(Ft):
                       wall_lo: Ft, wall_hi: vec3, touch_frac: Ft, pair: int, lo: vec3, dx: Ft,
                       pair_acc: wp.array(dtype=wp.float64), ground_touch: wp.array(dtype=wp.int32),
                       flow_touch: wp.array(dtype=wp.int32), flow_push: wp.array(dtype=vec3), mirror: int,
-                      free: int, own: Ft, mu_lo: Ft, mu_hi: Ft, mu_on: int, a_lo: Ft, a_hi: Ft, b_mu: Ft):
+                      free: int, own: Ft, mu_lo: Ft, mu_hi: Ft, mu_on: int, a_lo: Ft, a_hi: Ft, b_mu: Ft,
+                      in_a: wp.array(dtype=wp.int32), rigid: wp.array(dtype=wp.int32), centre: wp.array(dtype=vec3d),
+                      rot: wp.array(dtype=mat33d), box: wp.array(dtype=vec3d), nb: int, pad: wp.float64):
         node = wp.tid()
         nn = n_grid * n_grid
         n_nodes = nn * n_grid
@@ -199,13 +202,16 @@ def build_fields(Ft):
             if ln > Ft(MIN_GRADIENT) * m:
                 nh = n / ln
                 un = wp.dot(u, nh)
-                if pair != 0 and touch:   # two rigid bodies: where they touch, for their contact as one (rigid.py)
+                xn = lo + dx * vec3(Ft(i), Ft(j), Ft(k))
+                slot = pair   # 1: two rigid bodies; round 62 (pair 2): the pair of rigid bodies here, 0 none
+                if pair > 1 and touch:
+                    slot = node_slot(xn, in_a, rigid, centre, rot, box, nb, pad)
+                if slot != 0 and pair != 0 and touch:   # rigid bodies: where they touch, for their contact as one
                     wr = wp.float64(m_a * m_b / m)
-                    xn = lo + dx * vec3(Ft(i), Ft(j), Ft(k))
                     for ax in range(3):
-                        wp.atomic_add(pair_acc, 1 + ax, wr * wp.float64(xn[ax]))
-                        wp.atomic_add(pair_acc, 4 + ax, wr * wp.float64(nh[ax]))
-                    wp.atomic_add(pair_acc, 0, wr)
+                        wp.atomic_add(pair_acc, 7 * (slot - 1) + 1 + ax, wr * wp.float64(xn[ax]))
+                        wp.atomic_add(pair_acc, 7 * (slot - 1) + 4 + ax, wr * wp.float64(nh[ax]))
+                    wp.atomic_add(pair_acc, 7 * (slot - 1), wr)
                 elif un > Ft(0.0) and touch:   # approaching: no interpenetration, Coulomb friction along the surface
                     u2 = u - coulomb(u, nh, mu_n)
                     if flow and m_b < m_a:   # A's side: B's node behind it takes the reaction with this one's B
@@ -305,8 +311,7 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     eng.in_a = wp.array((in_a if eng.fields else np.zeros(1, bool)).astype(np.int32), dtype=wp.int32, device=d)
     eng.field_mu = field_friction(view) if eng.fields else 0.0
     eng.field_touch = touch_fraction(view) if eng.fields else 0.0
-    eng.pair = int(eng.fields and rigid_pair(view))   # two rigid bodies: their contact as one (rigid.py)
-    eng.pair_acc = wp.zeros(7, dtype=wp.float64, device=d)
+    allocate_pairs(eng, view)   # rigid pairs: two (rigid.py) or among three or more (round 62, rigid_pairs.py)
     n = eng.n_grid ** 3 if eng.fields else 1
     eng.grid_sv = wp.zeros(n, dtype=k.vec4, device=d)
     eng.grid_dv = wp.zeros(2 * n if eng.fields else 1, dtype=k.vec3, device=d)
@@ -336,7 +341,6 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     eng.gap_touch_on = levels is not None
     eng.gap_curve = bool(eng.gap_touch_on and G.CURVATURE)   # round 61: the level reads the curvature
     eng.gap_level = wp.array(levels if eng.gap_touch_on else np.zeros(1), dtype=Ft, device=d)
-    allocate_push(eng, view, Ft)   # round 62: an overlap let out (pair_push.py)
     eng.flow_touch = wp.zeros(n if eng.flow_touch_on or eng.gap_touch_on else 1, dtype=wp.int32, device=d)
     eng.flow_push = wp.zeros(n if eng.flow_touch_on else 1, dtype=k.vec3, device=d)
     # field A's points without their affine momentum where they meet B (transfers.p2g, gasp_core PIC_AT_B)
@@ -390,7 +394,7 @@ def field_launches(eng, Ft) -> list:
                 eng.k.vec3(*[float(c) for c in eng.setup.domain_lo]), Ft(eng.dx), eng.pair_acc, eng.ground_touch,
                 eng.flow_touch, eng.flow_push, int(bool(core_fields.GROUND_MIRROR)), eng.field_rule % 2,
                 *([Ft(a) for a in (eng.node_mu[0], eng.node_mu[2], eng.node_mu[3])] if eng.node_mu else [Ft(0.0)] * 3),
-                eng.mu_on, *([Ft(a) for a in eng.a_mu[1:]] if eng.a_mu else [Ft(0.0)] * 3)])] + after + push_launches(
-            eng, Ft, lo) + [
+                eng.mu_on, *([Ft(a) for a in eng.a_mu[1:]] if eng.a_mu else [Ft(0.0)] * 3), eng.in_a,
+                *slot_inputs(eng)])] + after + [
             wp.launch(clear, dim=ng ** 3, device=d, record_cmd=True, inputs=[eng.grid_sv, eng.grid_vf])]
 

@@ -189,13 +189,25 @@ def build_gap_kick(Ft):
 
 
 def allocate_push(eng, view, Ft) -> None:
-    """``eng.gap_push_on`` (round 62: ``gasp_core.mpm.gap_push.PUSH`` with the touch by geometry on) and
-    ``eng.push_params`` (``gap_push.push_params``; one entry when off). After ``eng.gap_touch_on`` is set."""
+    """``eng.gap_push_on`` (round 62: ``gasp_core.mpm.gap_push.PUSH`` with the touch by geometry on),
+    ``eng.push_params`` (``gap_push.push_params`` of ``view``; one entry when off) and ``eng.push_acc`` (per body)."""
     import numpy as np
     from gasp_core.mpm import gap_push as GP
-    eng.gap_push_on = bool(eng.gap_touch_on and GP.PUSH)
+    eng.gap_push_on = bool(getattr(eng, "gap_touch_on", False) and GP.PUSH)
     eng.push_params = wp.array(GP.push_params(view) if eng.gap_push_on else np.zeros(1), dtype=Ft, device=eng.device)
     eng.push_acc = wp.zeros(len(view.materials) if eng.gap_push_on else 1, dtype=eng.k.vec4, device=eng.device)
+
+
+def with_push(eng, Ft, launches: list) -> list:
+    """``gasp_warp_mpm.fields.field_launches``' list (``launches``, its last the clear of the fields' volumes) with the
+    push's launches (:func:`push_launches`) before that clear when it is on; the list itself when off (or no fields).
+    Allocates the push (:func:`allocate_push`) from the engine's setup."""
+    from gasp_core.mpm.rigid import step_view
+    allocate_push(eng, step_view(eng.setup), Ft)
+    if not launches or not eng.gap_push_on:
+        return launches
+    lo = eng.k.vec3(*[float(c) for c in eng.setup.domain_lo])
+    return launches[:-1] + push_launches(eng, Ft, lo) + launches[-1:]
 
 
 def push_launches(eng, Ft, lo) -> list:

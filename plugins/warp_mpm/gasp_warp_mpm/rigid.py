@@ -320,10 +320,13 @@ class RigidBodies:
                     self.x, self.v, self.C, self.F, self.body, self.rb_rigid, self.X0, self.rb_c, self.rb_R,
                     self.rb_V, self.rb_w])]
         self._rigid_pose = out[-1]   # rigid_apply: every point of a rigid body on its pose
-        if self.pair:   # two rigid bodies: their contact as one, before their points take the pose
+        if self.pair == 1:   # two rigid bodies: their contact as one, before their points take the pose
             out.insert(2, wp.launch(build_rigid_pair(Ft), dim=1, device=d, record_cmd=True, inputs=[
                 self.in_a, self.rb_M, self.rb_I0, self.rb_c, self.rb_R, self.rb_V, self.rb_w, dt, dx,
                 float(self.field_mu), self.pair_acc]))
+        elif self.pair == 2:   # round 62: rigid bodies among three or more, their pairs solved together
+            from .rigid_pairs import pairs_launch
+            out.insert(2, pairs_launch(self, Ft))
         n_pl = self.planes.shape[0] if self.p_contact.shape[0] == self.n_points else 0
         if n_pl:   # the resting bodies' position-level non-penetration, then their points on the pose again
             from gasp_core.mpm.rigid import RIGID_SLOP

@@ -48,6 +48,8 @@ DIM1_SCALAR = {
     "cg_beta": "step_beta with the device-side loop condition (schedule/gpu.py)",
     "fold_final": "the last fold of at most BLOCK block partials (schedule/gpu.py)",
     "build_rigid_pair": "the contact of one pair of rigid bodies, O(1) (rigid.py; taichi_mpm's ONE_ITEM)",
+    "build_rigid_pairs": "round 62: the touching pairs of rigid bodies among three or more, SWEEPS (8) x n_pairs (a "
+                         "handful) pair updates (rigid_pairs.py; taichi_mpm's ONE_ITEM)",
 }
 
 _PLANES = "the ground and wall planes of a scene (a handful)"
@@ -66,6 +68,11 @@ LOOP_BOUNDS = {
     "range(ex.n_imp)": "the scene's impulses and held boxes",
     "range(fixed_lo.shape[0])": "the held (fixed) boxes",
     "range(n_bodies)": "the rigid bodies (one thread a point, rigid_hold)",
+    "range(nb)": "the bodies (round 62: node_slot at a touching node; rigid_pairs' one thread)",
+    "range(ns)": "the pairs' slots, n_bodies^2 (round 62, rigid_pairs' one thread)",
+    "range(7 * ns)": "the pairs' sums, 7 a slot (round 62, rigid_pairs' one thread)",
+    "range(sweeps)": "the pairs' sweeps, rigid_pairs.SWEEPS (8; round 62)",
+    "range(n_on)": "the touching pairs (round 62, rigid_pairs' one thread)",
     "range(SLOTS)": "a ground column's slots (share.SLOTS = 8; touch_share, one thread a column)",
     "range(m)": "the substeps since a passive point's last gather (g2p_passive, one thread a point)",
     "range(blk * BLK, wp.min(blk * BLK + BLK, counts[0]))": _BLOCK,

@@ -1,0 +1,165 @@
+"""Rigid bodies among three or more bodies (round 62, issue 67 item 4 "between bodies", ``docs/rigid.md`` "Round 62:
+rigid bodies among three or more"; the switch ``colouring.RIGID_PAIRS``).
+
+**Fields.** A scene of three or more bodies on the particle contact, rigid or soft in any mix, takes round 61's
+colouring (:mod:`gasp_core.mpm.colouring`): the bodies within reach of each other take different fields, so every
+touching pair meets across the two fields as a pair of two bodies does. Before round 62 a scene with a rigid body
+among three or more kept one field for all: its bodies stuck wherever they shared nodes.
+
+**Which pair a node serves.** Where the two fields meet at a node, the node kernel asks which rigid body of field A
+and which of field B are there (:func:`node_bodies`): the rigid body of that field whose box (its points' extent in
+its own frame, :func:`body_boxes`) the node lies within :data:`NODE_PAD` cells of (Chebyshev, in the body's frame;
+the nearest when several). The colouring keeps bodies of one field more than 3 cells apart, so a node that holds a
+field's mass is within 1.5 cells of one body of it only. A node between two rigid bodies adds its reduced mass,
+position and normal to that pair's sums (the pair law's own touch: ``fields.field_contact``'s, the two-body case's);
+a node between a rigid body and a soft one (no rigid body of one field there) takes the nodes' Coulomb correction,
+as the two-body mixed pair (``fields.mixed_pair``) does.
+
+**The pairs solved together** (:func:`solve_pairs`, the NumPy reference of each grid plugin's ``rigid_pairs``): each
+touching pair takes the two-body pair law (``rigid_friction.pair_contact``: the centres' approach removed along the
+contact normal, inelastic; Coulomb's friction of that impulse, stick within ``mu P`` else slide at ``mu P``), the pairs
+swept :data:`SWEEPS` times in the order of their contact's height along gravity, bottom up, with accumulated impulses
+(projected Gauss-Seidel, Catto, "Iterative dynamics with temporal coherence", GDC 2005, and "Fast and simple physics
+using sequential impulses", GDC 2006; Box2D's ``b2ContactSolver``): a pair's total normal impulse stays >= 0 and its
+total friction impulse within ``mu`` times it (the disk), so a later sweep can take back what an earlier one pushed.
+Where the pair presses (``P > 0``) its faces also hold the two bodies' relative spin about the axes across ``n``
+(an equal and opposite torque impulse: a face on a face does not roll; the two-body law leaves it, and a block pushed
+high by an ``[[impulse]]`` rolled on the block under it at 0.17 m/s). Without a relative tipping spin one sweep of one
+pair is the two-body law exactly. The solve runs once a substep after the bodies' rigid update (as
+the two-body law does), on the device in one thread: ``SWEEPS x n_pairs`` pair updates of a few dozen flops for a
+handful of bodies, where a host solve would stop the recorded substep for a copy each way.
+
+**Left out.** Bodies that an odd cycle puts in one field (three bodies touching each other) share it where they
+touch (the engines warn, ``shared_fields``); the ground is not in the sweep (its contact runs before, as for one
+body); no warm start across substeps (each substep starts its pairs at zero; the bottom-up order carries the weight
+down in the first sweep); a body's box stands for its shape in the node's lookup (a node in a ring's hole is the
+ring's).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+#: The sweeps over the touching pairs each substep (projected Gauss-Seidel). ``docs/rigid.md`` "Round 62" measures
+#: 1, 2, 4, 8 and 16.
+SWEEPS = 8
+#: A node serves a rigid body of its field when it lies within this many cells of the body's box (in the body's frame,
+#: Chebyshev): the B-spline's reach, 1.5 cells.
+NODE_PAD = 1.5
+
+
+def pair_frictions(setup) -> np.ndarray:
+    """Each pair's Coulomb coefficient, ``combine_friction`` of the two bodies' (shape (n_bodies * n_bodies,), the
+    slot ``a * n_bodies + b`` for body ``a`` in field A and ``b`` in B)."""
+    from gasp_core.mpm.fields import body_friction, combine_friction
+    mus = [body_friction(m) for m in setup.materials]
+    return np.array([combine_friction(a, b) for a in mus for b in mus], np.float64)
+
+
+def pair_mode(setup) -> int:
+    """``gasp_core.mpm.fields.pair_mode`` (0, 1 two rigid bodies, 2 rigid bodies among three or more)."""
+    from gasp_core.mpm.fields import pair_mode as mode
+    return mode(setup)
+
+
+def pair_data(setup) -> tuple[np.ndarray, np.ndarray]:
+    """``(body_boxes, pair_frictions)`` of a setup, what an engine's pairs' solve reads."""
+    return body_boxes(setup), pair_frictions(setup)
+
+
+def body_boxes(setup) -> np.ndarray:
+    """Each rigid body's box in its frame at the start: its material points' extent about its mass centre (m), shape
+    (n_bodies, 2, 3) (lower, upper; an empty box, lower > upper, for the others)."""
+    from gasp_core.mpm.rigid import rigid_mask
+    x, m = np.asarray(setup.x, np.float64), np.asarray(setup.p_mass, np.float64)
+    body, vol = np.asarray(setup.body_id), np.broadcast_to(np.asarray(setup.p_vol, np.float64), m.shape)
+    out = np.zeros((len(setup.materials), 2, 3))
+    out[:, 0], out[:, 1] = 1.0, -1.0
+    for b in np.flatnonzero(rigid_mask(setup.materials)):
+        sel = (body == b) & (vol > 0.0)
+        if sel.any() and m[sel].sum() > 0.0:
+            r = x[sel] - (m[sel, None] * x[sel]).sum(0) / m[sel].sum()
+            out[b] = r.min(0), r.max(0)
+    return out
+
+
+def node_bodies(xn, in_a, rigid, centre, rot, boxes, pad: float):
+    """``(a, b)``: the rigid body of field A and of field B a node at ``xn`` (m, (3,)) serves, -1 where none (the
+    module notes): per field the rigid body whose box (``boxes`` (n, 2, 3), :func:`body_boxes`) the node lies within
+    ``pad`` (m) of in its frame (``centre`` (n, 3), ``rot`` (n, 3, 3)), Chebyshev; the nearest when several."""
+    best = [(-1, np.inf), (-1, np.inf)]
+    for k in np.flatnonzero(np.asarray(rigid, bool)):
+        q = np.asarray(rot[k]).T @ (np.asarray(xn, float) - centre[k])
+        d = float(np.max(np.maximum(np.maximum(boxes[k, 0] - q, q - boxes[k, 1]), 0.0)))
+        f = 0 if in_a[k] else 1
+        if d <= pad and d < best[f][1]:
+            best[f] = (int(k), d)
+    return best[0][0], best[1][0]
+
+
+def _pair_update(A, B, x_c, n, mu, lam):
+    """One pair's update within a sweep (:func:`solve_pairs`): ``A``, ``B`` lists ``[V, w, I, M, c]`` changed in place;
+    ``lam`` ``[P, J (3,)]``, the pair's accumulated normal impulse (kg m/s) and friction impulse on B, changed."""
+    VA, wA, IA, MA, cA = A
+    VB, wB, IB, MB, cB = B
+    un = float(np.dot(VA - VB, n))
+    P = max(lam[0] + un / (1.0 / MA + 1.0 / MB), 0.0)
+    dP, lam[0] = P - lam[0], P
+    A[0], B[0] = VA - (dP / MA) * n, VB + (dP / MB) * n
+    rA, rB = x_c - cA, x_c - cB
+    u = A[0] + np.cross(wA, rA) - B[0] - np.cross(wB, rB)
+    ut = u - np.dot(u, n) * n
+    lt = float(np.linalg.norm(ut))
+    J = lam[1].copy()
+    if mu > 0.0 and lt > 0.0 and P > 0.0:   # the impulse that stops the slip, added to the pair's
+        t = ut / lt
+        sA, sB = float(np.dot(np.cross(rA, t), n)), float(np.dot(np.cross(rB, t), n))   # the twist arms about n
+        J = J + (lt / (1.0 / MA + 1.0 / MB + sA * sA / float(n @ IA @ n) + sB * sB / float(n @ IB @ n))) * t
+    lJ = float(np.linalg.norm(J))
+    if lJ > mu * P:   # within Coulomb's disk of the pair's normal impulse: stick, else slide at mu P
+        J = J * (max(mu, 0.0) * P / lJ)
+    _friction(A, B, rA, rB, n, J - lam[1])
+    lam[1] = J
+    if P > 0.0:   # the faces hold the relative tipping spin (about the axes across n): an equal and opposite torque
+        iA, iB = np.linalg.inv(IA), np.linalg.inv(IB)
+        dw = A[1] - B[1]
+        L = np.linalg.solve(iA + iB, dw - np.dot(dw, n) * n)
+        A[1], B[1] = A[1] - iA @ L, B[1] + iB @ L
+
+
+def _friction(A, B, rA, rB, n, dJ):
+    """A friction impulse ``dJ`` (kg m/s, on B; its opposite on A) at the contact: the centres' velocities and each
+    body's twist about ``n`` (its tipping moment held, as ``pair_contact``)."""
+    A[0], B[0] = A[0] - dJ / A[3], B[0] + dJ / B[3]
+    A[1] = A[1] - (float(np.dot(np.cross(rA, dJ), n)) / float(n @ A[2] @ n)) * n
+    B[1] = B[1] + (float(np.dot(np.cross(rB, dJ), n)) / float(n @ B[2] @ n)) * n
+
+
+def solve_pairs(bodies, contacts, gravity, sweeps: int = SWEEPS):
+    """The touching pairs of rigid bodies solved together (module notes; the NumPy reference of the engines').
+
+    Parameters
+    ----------
+    bodies : list of tuple
+        Per body ``(V, w, inertia, M, c)``: velocity (m/s, (3,)), spin (rad/s, (3,)), inertia at its pose (kg m^2,
+        (3, 3), APIC's ``M dx^2 / 2`` included), mass (kg), mass centre (m, (3,)).
+    contacts : list of tuple
+        Per touching pair ``(a, b, x_c, n, mu)``: the body of field A and of B, the contact's centre (m, (3,)), its
+        unit normal from A into B and the pair's coefficient.
+    gravity : array_like, shape (3,)
+        m/s^2: the pairs are swept in the order of ``-g . x_c``, bottom up.
+    sweeps : int
+
+    Returns
+    -------
+    list of ``(V, w)`` per body, and the pairs' normal impulses (kg m/s, in ``contacts``' order).
+    """
+    state = [[np.asarray(V, float).copy(), np.asarray(w, float).copy(), np.asarray(I, float), float(M),
+              np.asarray(c, float)] for V, w, I, M, c in bodies]
+    g = np.asarray(gravity, float)
+    order = sorted(range(len(contacts)), key=lambda k: float(-np.dot(g, contacts[k][2])))
+    lam = [[0.0, np.zeros(3)] for _ in contacts]
+    for _ in range(int(sweeps)):
+        for k in order:
+            a, b, x_c, n, mu = contacts[k]
+            _pair_update(state[a], state[b], np.asarray(x_c, float), np.asarray(n, float), float(mu), lam[k])
+    return [(s[0], s[1]) for s in state], [float(p) for p, _ in lam]

@@ -1,0 +1,156 @@
+"""Rigid bodies among three or more (round 62; the NumPy reference and the design are
+:mod:`gasp_core.mpm.rigid_pairs`, warp_mpm's ``rigid_pairs.py`` spells the same steps), Taichi funcs mixed into
+:class:`gasp_taichi_mpm.rigid.Rigid`: :meth:`RigidPairs.node_slot`, the pair of rigid bodies a node between the two
+fields serves (``Fields.field_contact`` sums the touching nodes per pair), and :meth:`RigidPairs.rigid_pairs`, the
+touching pairs solved together by projected Gauss-Seidel once a substep after the rigid update.
+"""
+import numpy as np
+import taichi as ti
+
+
+class RigidPairs:
+    """The pairs' arrays (:meth:`allocate_pairs`, :meth:`set_pairs`), :meth:`node_slot` and :meth:`rigid_pairs`."""
+
+    def allocate_pairs(self, pair: int) -> None:
+        """``pair`` (``gasp_core.mpm.rigid_pairs.pair_mode``): ``pair_many`` for 2 (rigid bodies among three or more),
+        ``pair_acc`` (7 per slot: sum m_red, sum m_red x, sum m_red n; one slot unless ``pair_many``), the solve's
+        ``pair_lam`` (4 per slot: P and J), ``pair_order``, ``pair_mu`` per slot, each body's box ``pair_box``
+        (lower, upper) and ``pair_V0``; the sweeps (``rigid_pairs.SWEEPS``) read now."""
+        from gasp_core.mpm.rigid_pairs import NODE_PAD, SWEEPS
+        self.pair_many = bool(self.fields and pair == 2)
+        nb = max(int(self.n_bodies), 1)
+        ns = nb * nb if self.pair_many else 1
+        self.pair_acc = ti.field(ti.f64, shape=7 * ns)
+        self.pair_lam = ti.field(ti.f64, shape=4 * ns)
+        self.pair_mu = ti.field(ti.f64, shape=ns)
+        self.pair_order = ti.field(ti.i32, shape=ns)
+        self.pair_box = ti.Vector.field(3, ti.f64, shape=2 * nb)
+        self.pair_V0 = ti.Vector.field(3, ti.f64, shape=nb)
+        self.pair_sweeps = int(SWEEPS)
+        self.pair_pad = float(NODE_PAD)
+
+    def set_pairs(self, boxes, mus) -> None:
+        """Each rigid body's box (``rigid_pairs.body_boxes``, shape (n_bodies, 2, 3), m) and each slot's ``mu``
+        (``pair_frictions``); nothing unless ``pair_many``."""
+        if self.pair_many:
+            self.pair_box.from_numpy(np.asarray(boxes, np.float64).reshape(-1, 3))
+            self.pair_mu.from_numpy(np.asarray(mus, np.float64))
+
+    @ti.func
+    def node_slot(self, I):
+        """1 + ``a * nb + b`` for the rigid body ``a`` of field A and ``b`` of B whose boxes (in their frames) node
+        ``I`` lies within ``NODE_PAD`` cells of, the nearest of each field; 0 where a field has none there (or
+        without ``pair_many``): ``gasp_core.mpm.rigid_pairs.node_bodies``."""
+        out = 0
+        if ti.static(self.pair_many):
+            nb = self.n_bodies
+            x = ti.cast(self.lo[None] + self.dx[None] * ti.cast(I, self.real), ti.f64)
+            pad = self.pair_pad * ti.cast(self.dx[None], ti.f64)
+            best_a, best_b = -1, -1
+            da, db = ti.cast(1.0e30, ti.f64), ti.cast(1.0e30, ti.f64)
+            for k in range(nb):
+                if self.rb_rigid[k] != 0:
+                    q = self.rb_R[k].transpose() @ (x - self.rb_c[k])
+                    d = ti.max(self.pair_box[2 * k] - q, q - self.pair_box[2 * k + 1]).max()
+                    d = ti.max(d, 0.0)
+                    if d <= pad:
+                        if self.in_a[k] != 0:
+                            if d < da:
+                                da, best_a = d, k
+                        elif d < db:
+                            db, best_b = d, k
+            if best_a >= 0 and best_b >= 0:
+                out = 1 + best_a * nb + best_b
+        return out
+
+    @ti.kernel
+    def rigid_pairs(self):
+        """``gasp_core.mpm.rigid_pairs.solve_pairs`` in one thread after ``rigid_update`` (warp_mpm's
+        ``rigid_pairs.build_rigid_pairs``, the same steps): the touching pairs (``pair_acc``) insertion-sorted by
+        height along gravity, swept ``pair_sweeps`` times with accumulated impulses, then the centres' advance of the
+        substep follows the new velocities. ``pair_acc`` is cleared."""
+        dt = ti.cast(self.dt[None], ti.f64)
+        half = 0.5 * ti.cast(self.dx[None], ti.f64) ** 2
+        g = ti.cast(self.gravity[None], ti.f64)
+        nb = self.n_bodies
+        ns = nb * nb
+        for _ in range(1):
+            n_on = 0
+            for s in range(ns):   # the touching pairs, bottom up
+                for q in ti.static(range(4)):
+                    self.pair_lam[4 * s + q] = 0.0
+                if self.pair_acc[7 * s] > 0.0:
+                    h = -g.dot(ti.Vector([self.pair_acc[7 * s + 1], self.pair_acc[7 * s + 2],
+                                          self.pair_acc[7 * s + 3]])) / self.pair_acc[7 * s]
+                    j = n_on
+                    while j > 0 and self.pair_height(self.pair_order[j - 1], g) > h:
+                        self.pair_order[j] = self.pair_order[j - 1]
+                        j -= 1
+                    self.pair_order[j] = s
+                    n_on += 1
+            for b in range(nb):
+                self.pair_V0[b] = self.rb_V[b]
+            for _sweep in range(self.pair_sweeps):
+                for q in range(n_on):
+                    self.pair_update(self.pair_order[q], nb, half)
+            for b in range(nb):
+                self.rb_c[b] += dt * (self.rb_V[b] - self.pair_V0[b])
+            for s in range(7 * ns):
+                self.pair_acc[s] = 0.0
+
+    @ti.func
+    def pair_height(self, s, g):
+        """``-g . x_c`` of slot ``s`` (m^2/s^2: the order's key)."""
+        return -g.dot(ti.Vector([self.pair_acc[7 * s + 1], self.pair_acc[7 * s + 2],
+                                 self.pair_acc[7 * s + 3]])) / self.pair_acc[7 * s]
+
+    @ti.func
+    def pair_update(self, s, nb, half):
+        """One pair's update within a sweep (``rigid_pairs._pair_update``): slot ``s``'s normal impulse kept >= 0,
+        its friction impulse within ``mu`` times it (the disk)."""
+        a = s // nb
+        b = s - a * nb
+        n = ti.Vector([self.pair_acc[7 * s + 4], self.pair_acc[7 * s + 5], self.pair_acc[7 * s + 6]])
+        if n.norm() > 0.0:
+            n = n / n.norm()
+            x_c = ti.Vector([self.pair_acc[7 * s + 1], self.pair_acc[7 * s + 2],
+                             self.pair_acc[7 * s + 3]]) / self.pair_acc[7 * s]
+            MA, MB = self.rb_M[a], self.rb_M[b]
+            un = (self.rb_V[a] - self.rb_V[b]).dot(n)
+            P = ti.max(self.pair_lam[4 * s] + un / (1.0 / MA + 1.0 / MB), 0.0)
+            dP = P - self.pair_lam[4 * s]
+            self.pair_lam[4 * s] = P
+            self.rb_V[a] -= (dP / MA) * n
+            self.rb_V[b] += (dP / MB) * n
+            rA, rB = x_c - self.rb_c[a], x_c - self.rb_c[b]
+            u = self.rb_V[a] + self.rb_w[a].cross(rA) - self.rb_V[b] - self.rb_w[b].cross(rB)
+            ut = u - u.dot(n) * n
+            lt = ut.norm()
+            RA, RB = self.rb_R[a], self.rb_R[b]
+            nIA = n.dot(RA @ self.rb_I0[a] @ RA.transpose() @ n) + half * MA
+            nIB = n.dot(RB @ self.rb_I0[b] @ RB.transpose() @ n) + half * MB
+            J0 = ti.Vector([self.pair_lam[4 * s + 1], self.pair_lam[4 * s + 2], self.pair_lam[4 * s + 3]])
+            J = J0
+            mu = self.pair_mu[s]
+            if mu > 0.0 and lt > 0.0 and P > 0.0:
+                t = ut / lt
+                sA, sB = rA.cross(t).dot(n), rB.cross(t).dot(n)   # the twist arms about n
+                J = J + (lt / (1.0 / MA + 1.0 / MB + sA * sA / nIA + sB * sB / nIB)) * t
+            lJ = J.norm()
+            if lJ > mu * P:   # Coulomb's disk of the pair's normal impulse: stick within, else slide on it
+                J = J * (ti.max(mu, 0.0) * P / lJ)
+            dJ = J - J0
+            for q in ti.static(range(3)):
+                self.pair_lam[4 * s + 1 + q] = J[q]
+            self.rb_V[a] -= dJ / MA
+            self.rb_V[b] += dJ / MB
+            self.rb_w[a] -= (rA.cross(dJ).dot(n) / nIA) * n
+            self.rb_w[b] += (rB.cross(dJ).dot(n) / nIB) * n
+            if P > 0.0:   # the faces hold the relative tipping spin (rigid_pairs._pair_update)
+                eye = ti.Matrix.identity(ti.f64, 3)
+                iA = (RA @ self.rb_I0[a] @ RA.transpose() + half * MA * eye).inverse()
+                iB = (RB @ self.rb_I0[b] @ RB.transpose() + half * MB * eye).inverse()
+                dw = self.rb_w[a] - self.rb_w[b]
+                L = (iA + iB).inverse() @ (dw - dw.dot(n) * n)
+                self.rb_w[a] -= iA @ L
+                self.rb_w[b] += iB @ L

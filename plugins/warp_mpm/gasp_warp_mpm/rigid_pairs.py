@@ -1,0 +1,204 @@
+"""Rigid bodies among three or more (round 62; the NumPy reference and the design are
+:mod:`gasp_core.mpm.rigid_pairs`, taichi_mpm's ``rigid_pairs.py`` spells the same steps): ``node_slot``, the pair of
+rigid bodies a node between the two fields serves (``fields.field_contact`` sums the touching nodes per pair), and
+``rigid_pairs``, the touching pairs solved together by projected Gauss-Seidel once a substep after the rigid update.
+
+This module must not use ``from __future__ import annotations``: Warp reads the annotations of the closures below as
+type objects.
+"""
+import functools
+
+import numpy as np
+import warp as wp
+
+from .precision import MODULE_OPTIONS, build_types
+
+vec3d = wp.types.vector(3, wp.float64)
+mat33d = wp.types.matrix((3, 3), wp.float64)
+
+
+@functools.cache
+def build_node_slot(Ft):
+    """``node_slot``: 1 + ``a * nb + b`` for the rigid body ``a`` of field A and ``b`` of field B whose boxes (in their
+    frames, ``gasp_core.mpm.rigid_pairs.node_bodies``) the node ``xn`` lies within ``pad`` (m) of, the nearest of each
+    field; 0 where a field has none there (a soft body: the nodes' Coulomb correction)."""
+    vec3, vec4, mat33 = build_types(Ft)
+
+    @wp.func
+    def node_slot(xn: vec3, in_a: wp.array(dtype=wp.int32), rigid: wp.array(dtype=wp.int32),
+                  centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d), box: wp.array(dtype=vec3d), nb: int,
+                  pad: wp.float64):
+        best_a = int(-1)
+        best_b = int(-1)
+        da = wp.float64(1.0e30)
+        db = wp.float64(1.0e30)
+        x = vec3d(wp.float64(xn[0]), wp.float64(xn[1]), wp.float64(xn[2]))
+        for k in range(nb):
+            if rigid[k] != 0:
+                q = wp.transpose(rot[k]) * (x - centre[k])
+                lo = box[2 * k]
+                hi = box[2 * k + 1]
+                d = wp.float64(0.0)
+                for ax in range(3):
+                    d = wp.max(d, wp.max(lo[ax] - q[ax], q[ax] - hi[ax]))
+                if d <= pad:
+                    if in_a[k] != 0:
+                        if d < da:
+                            da = d
+                            best_a = k
+                    elif d < db:
+                        db = d
+                        best_b = k
+        out = int(0)
+        if best_a >= 0 and best_b >= 0:
+            out = 1 + best_a * nb + best_b
+        return out
+
+    return node_slot
+
+
+@functools.cache
+def build_pair_update(Ft):
+    """``pair_update`` (float64 whatever ``Ft``): one pair's update within a sweep (``gasp_core.mpm.rigid_pairs.
+    _pair_update``): slot ``s``'s accumulated normal impulse ``lam[4 s]`` kept >= 0, its friction impulse on B
+    ``lam[4 s + 1 : 4 s + 4]`` within ``mu`` times it (the disk), the faces' relative tipping spin held."""
+
+    @wp.func
+    def pair_update(s: int, nb: int, half: wp.float64, mass: wp.array(dtype=wp.float64),
+                    inertia0: wp.array(dtype=mat33d), centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d),
+                    vel: wp.array(dtype=vec3d), spin: wp.array(dtype=vec3d), mu: wp.array(dtype=wp.float64),
+                    acc: wp.array(dtype=wp.float64), lam: wp.array(dtype=wp.float64)):
+        a = s / nb
+        b = s - a * nb
+        n = vec3d(acc[7 * s + 4], acc[7 * s + 5], acc[7 * s + 6])
+        ln = wp.length(n)
+        if ln > wp.float64(0.0):
+            n = n / ln
+            x_c = vec3d(acc[7 * s + 1], acc[7 * s + 2], acc[7 * s + 3]) / acc[7 * s]
+            MA = mass[a]
+            MB = mass[b]
+            un = wp.dot(vel[a] - vel[b], n)
+            P = wp.max(lam[4 * s] + un / (wp.float64(1.0) / MA + wp.float64(1.0) / MB), wp.float64(0.0))
+            dP = P - lam[4 * s]
+            lam[4 * s] = P
+            vel[a] = vel[a] - (dP / MA) * n
+            vel[b] = vel[b] + (dP / MB) * n
+            rA = x_c - centre[a]
+            rB = x_c - centre[b]
+            u = vel[a] + wp.cross(spin[a], rA) - vel[b] - wp.cross(spin[b], rB)
+            ut = u - wp.dot(u, n) * n
+            lt = wp.length(ut)
+            eye = wp.identity(n=3, dtype=wp.float64)
+            IA = rot[a] * inertia0[a] * wp.transpose(rot[a]) + half * MA * eye
+            IB = rot[b] * inertia0[b] * wp.transpose(rot[b]) + half * MB * eye
+            nIA = wp.dot(n, IA * n)
+            nIB = wp.dot(n, IB * n)
+            J0 = vec3d(lam[4 * s + 1], lam[4 * s + 2], lam[4 * s + 3])
+            J = J0
+            m_s = mu[s]
+            if m_s > wp.float64(0.0) and lt > wp.float64(0.0) and P > wp.float64(0.0):
+                t = ut / lt
+                sA = wp.dot(wp.cross(rA, t), n)   # the twist arms about n
+                sB = wp.dot(wp.cross(rB, t), n)
+                J = J + (lt / (wp.float64(1.0) / MA + wp.float64(1.0) / MB + sA * sA / nIA + sB * sB / nIB)) * t
+            lJ = wp.length(J)
+            if lJ > m_s * P:   # Coulomb's disk of the pair's normal impulse: stick within, else slide on it
+                J = J * (wp.max(m_s, wp.float64(0.0)) * P / lJ)
+            dJ = J - J0
+            lam[4 * s + 1] = J[0]
+            lam[4 * s + 2] = J[1]
+            lam[4 * s + 3] = J[2]
+            vel[a] = vel[a] - dJ / MA
+            vel[b] = vel[b] + dJ / MB
+            spin[a] = spin[a] - (wp.dot(wp.cross(rA, dJ), n) / nIA) * n
+            spin[b] = spin[b] + (wp.dot(wp.cross(rB, dJ), n) / nIB) * n
+            if P > wp.float64(0.0):   # the faces hold the relative tipping spin (rigid_pairs._pair_update)
+                iA = wp.inverse(IA)
+                iB = wp.inverse(IB)
+                dw = spin[a] - spin[b]
+                L = wp.inverse(iA + iB) * (dw - wp.dot(dw, n) * n)
+                spin[a] = spin[a] - iA * L
+                spin[b] = spin[b] + iB * L
+
+    return pair_update
+
+
+@functools.cache
+def build_rigid_pairs(Ft):
+    """``rigid_pairs`` (float64 whatever ``Ft``): ``gasp_core.mpm.rigid_pairs.solve_pairs`` in one thread after
+    ``rigid_update``: the touching pairs' sums ``acc`` (7 per slot: sum m_red, sum m_red x, sum m_red n) give each its
+    centre and normal; the pairs are ordered by height along gravity (``order``), swept ``sweeps`` times
+    (``rigid_pairs.SWEEPS``) with accumulated impulses (``lam``: 4 per slot, P and J; ``build_pair_update``), then
+    the centres' advance of the substep follows the new velocities. ``acc`` is cleared."""
+    pair_update = build_pair_update(Ft)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def rigid_pairs(mass: wp.array(dtype=wp.float64), inertia0: wp.array(dtype=mat33d),
+                    centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d), vel: wp.array(dtype=vec3d),
+                    spin: wp.array(dtype=vec3d), V0: wp.array(dtype=vec3d), dt: wp.float64, dx: wp.float64, nb: int,
+                    mu: wp.array(dtype=wp.float64), acc: wp.array(dtype=wp.float64), lam: wp.array(dtype=wp.float64),
+                    order: wp.array(dtype=wp.int32), gravity: vec3d, sweeps: int):
+        ns = nb * nb
+        n_on = int(0)
+        for s in range(ns):   # the touching pairs, insertion-sorted by -g . x_c (bottom up)
+            for q in range(4):
+                lam[4 * s + q] = wp.float64(0.0)
+            if acc[7 * s] > wp.float64(0.0):
+                h = -wp.dot(gravity, vec3d(acc[7 * s + 1], acc[7 * s + 2], acc[7 * s + 3])) / acc[7 * s]
+                j = n_on
+                while j > 0 and -wp.dot(gravity, vec3d(acc[7 * order[j - 1] + 1], acc[7 * order[j - 1] + 2],
+                                                        acc[7 * order[j - 1] + 3])) / acc[7 * order[j - 1]] > h:
+                    order[j] = order[j - 1]
+                    j = j - 1
+                order[j] = s
+                n_on = n_on + 1
+        for b in range(nb):
+            V0[b] = vel[b]
+        half = wp.float64(0.5) * dx * dx
+        for _sweep in range(sweeps):
+            for q in range(n_on):
+                pair_update(order[q], nb, half, mass, inertia0, centre, rot, vel, spin, mu, acc, lam)
+        for b in range(nb):
+            centre[b] = centre[b] + dt * (vel[b] - V0[b])
+        for s in range(7 * ns):
+            acc[s] = wp.float64(0.0)
+
+    return rigid_pairs
+
+
+def allocate_pairs(eng, view) -> None:
+    """``eng.pair`` (``gasp_core.mpm.rigid_pairs.pair_mode``: 0, 1 two rigid bodies, 2 rigid bodies among three or
+    more), ``eng.pair_acc`` (7 per slot) and, for 2, the solve's arrays: the pairs' ``mu`` per slot, ``lam`` (4 per
+    slot), ``order``, each rigid body's box (``body_boxes``, lower and upper per body) and ``V0``."""
+    from gasp_core.mpm.rigid_pairs import body_boxes, pair_frictions, pair_mode
+    d = eng.device
+    eng.pair = int(eng.fields and pair_mode(view)) if eng.fields else 0
+    nb = len(view.materials)
+    ns = nb * nb if eng.pair == 2 else 1
+    eng.pair_acc = wp.zeros(7 * ns, dtype=wp.float64, device=d)
+    many = eng.pair == 2
+    eng.pair_mu = wp.array(pair_frictions(view) if many else np.zeros(1), dtype=wp.float64, device=d)
+    eng.pair_lam = wp.zeros(4 * ns, dtype=wp.float64, device=d)
+    eng.pair_order = wp.zeros(ns, dtype=wp.int32, device=d)
+    eng.pair_box = wp.array(body_boxes(view).reshape(-1, 3) if many else np.zeros((2, 3)), dtype=vec3d, device=d)
+    eng.pair_V0 = wp.zeros(nb if many else 1, dtype=vec3d, device=d)
+
+
+def slot_inputs(eng) -> list:
+    """The node kernel's inputs for ``node_slot`` (the rigid bodies' pose; one-entry arrays unless ``eng.pair`` is
+    2)."""
+    from gasp_core.mpm.rigid_pairs import NODE_PAD
+    d = eng.device
+    if eng.pair == 2:
+        return [eng.rb_rigid, eng.rb_c, eng.rb_R, eng.pair_box, len(eng.setup.materials), float(NODE_PAD * eng.dx)]
+    return [wp.zeros(1, dtype=wp.int32, device=d), wp.zeros(1, dtype=vec3d, device=d),
+            wp.zeros(1, dtype=mat33d, device=d), eng.pair_box, 0, 0.0]
+
+
+def pairs_launch(eng, Ft):
+    """The recorded launch of ``rigid_pairs`` (``eng.pair`` 2), after the rigid update."""
+    from gasp_core.mpm.rigid_pairs import SWEEPS
+    return wp.launch(build_rigid_pairs(Ft), dim=1, device=eng.device, record_cmd=True, inputs=[
+        eng.rb_M, eng.rb_I0, eng.rb_c, eng.rb_R, eng.rb_V, eng.rb_w, eng.pair_V0, float(eng.dt), float(eng.dx),
+        len(eng.setup.materials), eng.pair_mu, eng.pair_acc, eng.pair_lam, eng.pair_order,
+        vec3d(*[float(g) for g in eng.setup.gravity]), int(SWEEPS)])
