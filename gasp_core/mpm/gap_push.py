@@ -11,12 +11,15 @@ field's volume fraction ``phi`` at its position (the touch's marks); the half-sp
 (:func:`gasp_core.mpm.gap_touch.half_space_table`, ``flow_touch_level``'s function of the distance) inverted at
 ``phi`` gives the distance ``s`` (cells) at which a filled half-space's face reads as ``phi``; the point's overlap
 past its touch level is ``d = D - s`` with ``D`` the distance at which it marks (``delta_b``, plus ``SIGMA2 k`` with
-:data:`gasp_core.mpm.gap_touch.CURVATURE`). Where ``d > 0`` the point moves, once a substep, by ``min(share_b d,
-CAP) dx`` along ``-grad phi / |grad phi|`` (out of the other body), ``share_b`` = :data:`BETA` over the number of
-soft bodies in the pair (the release split equally between the two sides; a rigid body's points never move); its
-velocity, its deformation gradient and the grid are not changed, so the momentum, the contact's ledger and the
-restitution are what they were. A parallel loop over the points (each writes its own position), after the contact and
-before the grid's volumes are cleared (so before G2P, which then gathers at the moved position); no ordered loop.
+:data:`gasp_core.mpm.gap_touch.CURVATURE`). Each soft body then translates, once a substep, by its share
+(:func:`push_params`: :data:`BETA` times the other body's fraction of the pair's mass) of the mean of ``d n`` over its
+points with ``d > 0``, ``n = -grad phi / |grad phi|`` (out of the other body), at most :data:`CAP` cells: a rigid
+shift of the body, not of its overlapping points (moving those alone compresses them against their neighbours, a
+strain the deformation gradient does not record; measured: the stacked balls sank deeper, ``docs/contact.md``). A
+rigid body's points never move. The velocities, deformation gradients and the grid are not changed, so the momentum,
+the contact's ledger and the restitution are what they were. Parallel loops over the points (an atomic sum per
+body, then each point its own position), after the contact and before the grid's volumes are cleared (so before G2P,
+which then gathers at the moved position); no ordered loop.
 
 The half-space profile is odd about its face (``phi(-s) = 1 - phi(s)`` for the symmetric B-spline's smoothing), so
 ``phi > 1/2`` (the point's centre past the face) reads ``s = -s(1 - phi)``; ``s`` is clamped to the table's range
@@ -39,8 +42,9 @@ KICK = False
 #: the contact's own response (a soft body's wave crosses a cell in several substeps at the CFL step).
 BETA = 0.2
 #: The most a point moves a substep by the push, cells: a quarter of the default CFL bound (``cfl`` 0.4 of a cell a
-#: substep for the fastest point), so a pushed point still moves within that bound's reach; with :data:`BETA` it binds
-#: only past an overlap of 0.5 / BETA * CAP = 0.25 cells on each side (measured inert at rest: ``docs/contact.md``).
+#: substep for the fastest point), so a pushed point still moves within that bound's reach; it binds only where a
+#: body's share times its mean overlap passes it: past a mean overlap of CAP / BETA = 0.5 cell (measured inert at rest
+#: at 0.05, 0.1 and 0.2: ``docs/contact.md``).
 CAP = 0.1
 
 
