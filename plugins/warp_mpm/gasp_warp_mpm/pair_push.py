@@ -1,7 +1,8 @@
 """Round 62's push (``gasp_core.mpm.gap_push``, docs/contact.md "Round 62: letting an overlap out"), taichi_mpm's
-``gasp_taichi_mpm.pair_push`` in Warp: a points kernel that moves each soft body's material point out of the other
-field by its share of its measured overlap (the half-space profile inverted at the other field's gathered volume
-fraction), its velocity untouched. Launched after the contact, before the clear of the fields' volumes.
+``gasp_taichi_mpm.pair_push`` in Warp: points kernels that sum, per soft body, the overlap of its points past their
+touch level (the half-space profile inverted at the other field's gathered volume fraction, along the normal out of
+the other body) and translate each body by its share of the mean, no velocity changed. Launched after the contact,
+before the clear of the fields' volumes (:func:`with_push`, from the engine's launch list).
 
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of the closures below as
 type objects.
