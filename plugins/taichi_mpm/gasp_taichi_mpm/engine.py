@@ -181,7 +181,7 @@ class TaichiMPMEngine(GridEngineBase, StateClock):
                        if contact in ("particle", "mixed") and (grounds or walls or setup.colliders) else None),
             n_colc=len(setup.colliders) if contact in ("particle", "mixed") else 0,
             planes=contact_planes(view, contact),
-            mixed=mixed, fields=field_setup(view), hold=flowing_bodies(view, contact) if setup.colliders else None,
+            mixed=mixed, fields=(*field_setup(view), view), hold=flowing_bodies(view, contact) if setup.colliders else None,
             box_hold=flowing_bodies(view, contact) & ~rigid,   # the ground and walls' hold (colliders.py)
             passive_bounds=(*passive_bounds(setup, contact), passive_floor_friction(setup, contact)), rigid_frames=None if frames is None else (rigid, *frames),
             contact_reach=contact_reach(setup), gpu=self.schedule == "gpu",

@@ -15,11 +15,12 @@ from gasp_core.mpm import fields as core_fields
 from gasp_core.mpm.fields import MIN_FRACTION, MIN_GRADIENT
 
 from .field_flip import FieldFlip
+from .pair_push import PairPush
 from .pair_touch import PairTouch
 
 
 @ti.data_oriented
-class Fields(PairTouch, FieldFlip):
+class Fields(PairTouch, PairPush, FieldFlip):
     """The two-field contact's fields and kernels (none without it: ``self.fields`` False)."""
 
     def set_in_a(self, in_a) -> None:
@@ -29,7 +30,7 @@ class Fields(PairTouch, FieldFlip):
             self.in_a[b] = int(a)
 
     def allocate_fields(self, in_a, mu: float, touch: float, pair: bool = False, flow: bool = False,
-                        node_mu=None, a_mu=None, gap=None) -> None:
+                        node_mu=None, a_mu=None, gap=None, setup=None) -> None:
         """``in_a``: per body, True in field A (``gasp_core.mpm.fields.field_bodies``), or None: one field;
         ``mu`` the Coulomb coefficient (``field_friction``), ``touch`` the touch threshold (``touch_fraction``),
         ``pair`` ``fields.pair_mode`` (1 two rigid bodies: the touching nodes only sum into ``pair_acc``, sum m_red,
@@ -37,8 +38,8 @@ class Fields(PairTouch, FieldFlip):
         (``gasp_core.mpm.fields.flow_touch``, pair_touch.py), ``node_mu`` field B's bodies' several frictions
         (``gasp_core.mpm.fields.node_friction``: ``(own, mu_b, lo, hi)``, or None: the scalar ``mu``), ``a_mu`` field
         A's sands' several angles (``a_node_friction``: ``(mu_a, lo, hi, mu_b)``, or None: A's one), ``gap`` the touch
-        by geometry's level per body (``gasp_core.mpm.gap_touch.gap_levels``, round 60; None: off). Before the first
-        substep."""
+        by geometry's level per body (``gasp_core.mpm.gap_touch.gap_levels``, round 60; None: off), ``setup`` the
+        scene (round 62's push, pair_push.py; None: off). Before the first substep."""
         self.fields = in_a is not None
         self.field_pair = bool(self.fields and pair)
         self.allocate_pairs(int(pair))   # pair_acc; round 62: rigid bodies among three or more (rigid_pairs.py)
@@ -58,6 +59,7 @@ class Fields(PairTouch, FieldFlip):
         self.grid_sv0 = ti.Vector.field(4, self.real, shape=(nf, nf, nf))
         self.grid_dv0 = ti.Vector.field(6, self.real, shape=(nf, nf, nf))
         self.allocate_pair_touch(flow, gap)
+        self.allocate_push(setup)   # round 62: an overlap let out (pair_push.py)
         # B's bodies' several frictions (round 42): B's points scatter w m mu_b to grid_fmu, the pair's per node
         self.node_mu_on = node_mu is not None
         own, mu_b, lo, hi = node_mu if self.node_mu_on else (0.0, [], 0.0, 0.0)
@@ -388,4 +390,6 @@ class Fields(PairTouch, FieldFlip):
             self.field_contact()
             if self.flow_touch_on:
                 self.apply_flow()
+            if self.gap_push_on:   # round 62 (pair_push.py): before the volumes are cleared
+                self.push_gap()
             self.field_clear()

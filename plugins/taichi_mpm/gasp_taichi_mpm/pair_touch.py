@@ -115,10 +115,9 @@ class PairTouch:
         return out
 
     @ti.func
-    def curved_level(self, base, fx, w, b):
-        """Round 61's level of a point (``gasp_core.mpm.gap_touch.curved_level``; ``b`` its body): the
-        half-space table (``gap_level[:TABLE_N]``) at its body's reach (``gap_level[TABLE_N + b]``) plus ``SIGMA2``
-        times the least principal curvature both fields' level surfaces share there (clamped at 0)."""
+    def curved_reach(self, base, fx, w, b):
+        """Round 61's reach of a point (cells; ``b`` its body): its body's reach (``gap_level[TABLE_N + b]``) plus
+        ``SIGMA2`` times the least principal curvature both fields' level surfaces share there (clamped at 0)."""
         d1 = [fx - 1.5, -2.0 * (fx - 1.0), fx - 0.5]
         g = ti.Matrix.zero(self.real, 2, 3)      # each field's gradient (A's, B's), per cell of the index
         h = ti.Matrix.zero(self.real, 2, 6)      # each field's Hessian: xx, yy, zz, xy, xz, yz
@@ -142,7 +141,14 @@ class PairTouch:
             hf = ti.Matrix([[h[f, 0], h[f, 3], h[f, 4]], [h[f, 3], h[f, 1], h[f, 5]], [h[f, 4], h[f, 5], h[f, 2]]])
             kap = ti.min(kap, self.least_curvature(ti.Vector([g[f, 0], g[f, 1], g[f, 2]]), hf))
         n = ti.static(G.TABLE_N)
-        u = ti.min(ti.max((self.gap_level[n + b] + G.SIGMA2 * ti.max(kap, 0.0)) / G.TABLE_STEP, 0.0), n - 1.001)
+        return self.gap_level[n + b] + G.SIGMA2 * ti.max(kap, 0.0)
+
+    @ti.func
+    def curved_level(self, base, fx, w, b):
+        """Round 61's level of a point (``gasp_core.mpm.gap_touch.curved_level``; ``b`` its body): the
+        half-space table (``gap_level[:TABLE_N]``) at :meth:`curved_reach`."""
+        n = ti.static(G.TABLE_N)
+        u = ti.min(ti.max(self.curved_reach(base, fx, w, b) / G.TABLE_STEP, 0.0), n - 1.001)
         t = ti.cast(ti.floor(u), ti.i32)
         return self.gap_level[t] + (u - t) * (self.gap_level[t + 1] - self.gap_level[t])
 
