@@ -11,7 +11,7 @@ import functools
 
 import warp as wp
 
-from .pair_touch import build_curvature
+from .pair_touch import build_curvature, build_gather_two
 from .precision import MODULE_OPTIONS, build_types
 
 
@@ -59,7 +59,7 @@ def build_gap_push(Ft):
     vec3, vec4, mat33 = build_types(Ft)
     in_grid, weights = build_stencil(Ft)
     least_curvature = build_curvature(Ft)
-
+    gather_two = build_gather_two(Ft)
     table_distance = build_table_distance(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
@@ -74,46 +74,7 @@ def build_gap_push(Ft):
         X = (x[p] - lo) * inv_dx
         if not in_grid(X, n_grid):
             return
-        b = vec3(wp.floor(X[0] - Ft(0.5)), wp.floor(X[1] - Ft(0.5)), wp.floor(X[2] - Ft(0.5)))
-        fx = X - b
-        W = weights(fx)
-        D1 = wp.matrix_from_rows(fx - vec3(Ft(1.5)), Ft(-2.0) * (fx - vec3(Ft(1.0))), fx - vec3(Ft(0.5)))
-        nn = n_grid * n_grid
-        other = int(0)
-        own = nn * n_grid
-        if in_a[body[p]] != 0:
-            other = nn * n_grid
-            own = int(0)
-        idx0 = int(b[0]) * nn + int(b[1]) * n_grid + int(b[2])
-        phi = Ft(0.0)
-        g_o = vec3(Ft(0.0))
-        g_s = vec3(Ft(0.0))
-        h_o = mat33()
-        h_s = mat33()
-        for i in range(3):
-            for j in range(3):
-                for k in range(3):
-                    node = idx0 + i * nn + j * n_grid + k
-                    vo = grid_vf[other + node] / cell
-                    vs = grid_vf[own + node] / cell
-                    wx = W[i, 0]
-                    wy = W[j, 1]
-                    wz = W[k, 2]
-                    ddx = D1[i, 0]
-                    ddy = D1[j, 1]
-                    ddz = D1[k, 2]
-                    ex = Ft(1.0) - Ft(3.0) * Ft(i % 2)   # the second derivative of the weight: 1, -2, 1
-                    ey = Ft(1.0) - Ft(3.0) * Ft(j % 2)
-                    ez = Ft(1.0) - Ft(3.0) * Ft(k % 2)
-                    phi += wx * wy * wz * vo
-                    gw = vec3(ddx * wy * wz, wx * ddy * wz, wx * wy * ddz)
-                    hw = mat33(ex * wy * wz, ddx * ddy * wz, ddx * wy * ddz,
-                               ddx * ddy * wz, wx * ey * wz, wx * ddy * ddz,
-                               ddx * wy * ddz, wx * ddy * ddz, wx * wy * ez)
-                    g_o += vo * gw
-                    g_s += vs * gw
-                    h_o += vo * hw
-                    h_s += vs * hw
+        phi, g_o, g_s, h_o, h_s = gather_two(X, grid_vf, in_a[body[p]], n_grid, cell)
         reach = params[table_n + body[p]]
         if curve != 0:
             kap = wp.max(wp.min(least_curvature(g_o, h_o), least_curvature(g_s, h_s)), Ft(0.0))

@@ -218,26 +218,17 @@ def build_curvature(Ft):
 
 
 @functools.cache
-def build_gap_curve(Ft):
-    """``gap_curve``: round 61's marks (``gasp_core.mpm.gap_touch.CURVATURE``, its ``gap_marks`` with a table): a
-    points kernel as ``gap_mark`` whose level is the half-space table's (``params[:table_n]``, step ``step`` cells)
-    at ``delta_b + sigma2 k`` (``params[table_n + body]``: the body's reach, cells), ``k`` the least principal
-    curvature the two fields' level surfaces share at the point (``least_curvature`` of the gathered gradient and
-    Hessian of each field, index units), clamped at 0."""
+def build_gather_two(Ft):
+    """``gather_two(X, grid_vf, in_a_body, n_grid, cell)``: at a point ``X`` (index units) of a body whose field is A
+    (``in_a_body`` 1) or B, the OTHER field's gathered volume fraction ``phi`` and both fields' gathered gradients and
+    Hessians (index units, the quadratic B-spline's derivatives): ``(phi, g_other, g_own, h_other, h_own)``; the
+    gather of round 61's curvature touch (``gap_curve``) and round 62's push (``pair_push.gap_overlap``)."""
     from .stencil import build_stencil
     vec3, vec4, mat33 = build_types(Ft)
     in_grid, weights = build_stencil(Ft)
 
-    least_curvature = build_curvature(Ft)
-
-    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def gap_curve(x: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32),
-                  grid_vf: wp.array(dtype=Ft), marks: wp.array(dtype=wp.int32), lo: vec3, inv_dx: Ft, cell: Ft,
-                  params: wp.array(dtype=Ft), n_grid: int, table_n: int, step: Ft, sigma2: Ft):
-        p = wp.tid()
-        X = (x[p] - lo) * inv_dx
-        if not in_grid(X, n_grid):
-            return
+    @wp.func
+    def gather_two(X: vec3, grid_vf: wp.array(dtype=Ft), in_a_body: int, n_grid: int, cell: Ft):
         b = vec3(wp.floor(X[0] - Ft(0.5)), wp.floor(X[1] - Ft(0.5)), wp.floor(X[2] - Ft(0.5)))
         fx = X - b
         W = weights(fx)
@@ -245,7 +236,7 @@ def build_gap_curve(Ft):
         nn = n_grid * n_grid
         other = int(0)   # the other field's part of grid_vf: B's for a point of A
         own = nn * n_grid
-        if in_a[body[p]] != 0:
+        if in_a_body != 0:
             other = nn * n_grid
             own = int(0)
         idx0 = int(b[0]) * nn + int(b[1]) * n_grid + int(b[2])
@@ -278,6 +269,37 @@ def build_gap_curve(Ft):
                     g_s += vs * gw
                     h_o += vo * hw
                     h_s += vs * hw
+        return phi, g_o, g_s, h_o, h_s
+
+    return gather_two
+
+
+@functools.cache
+def build_gap_curve(Ft):
+    """``gap_curve``: round 61's marks (``gasp_core.mpm.gap_touch.CURVATURE``, its ``gap_marks`` with a table): a
+    points kernel as ``gap_mark`` whose level is the half-space table's (``params[:table_n]``, step ``step`` cells)
+    at ``delta_b + sigma2 k`` (``params[table_n + body]``: the body's reach, cells), ``k`` the least principal
+    curvature the two fields' level surfaces share at the point (``least_curvature`` of the gathered gradient and
+    Hessian of each field, index units), clamped at 0."""
+    from .stencil import build_stencil
+    vec3, vec4, mat33 = build_types(Ft)
+    in_grid, weights = build_stencil(Ft)
+
+    least_curvature = build_curvature(Ft)
+    gather_two = build_gather_two(Ft)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def gap_curve(x: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32),
+                  grid_vf: wp.array(dtype=Ft), marks: wp.array(dtype=wp.int32), lo: vec3, inv_dx: Ft, cell: Ft,
+                  params: wp.array(dtype=Ft), n_grid: int, table_n: int, step: Ft, sigma2: Ft):
+        p = wp.tid()
+        X = (x[p] - lo) * inv_dx
+        if not in_grid(X, n_grid):
+            return
+        phi, g_o, g_s, h_o, h_s = gather_two(X, grid_vf, in_a[body[p]], n_grid, cell)
+        b = vec3(wp.floor(X[0] - Ft(0.5)), wp.floor(X[1] - Ft(0.5)), wp.floor(X[2] - Ft(0.5)))
+        nn = n_grid * n_grid
+        idx0 = int(b[0]) * nn + int(b[1]) * n_grid + int(b[2])
         kap = wp.max(wp.min(least_curvature(g_o, h_o), least_curvature(g_s, h_s)), Ft(0.0))
         u = wp.clamp((params[table_n + body[p]] + sigma2 * kap) / step, Ft(0.0), Ft(table_n) - Ft(1.001))
         t = int(wp.floor(u))
