@@ -71,9 +71,9 @@ def _run(engine: str, shape: str, half: float, n_grid: int, factor: int, gap: fl
 
 
 CASES = [("ball", 0.06), ("cube", 0.09)]
-#: taichi_mpm at n_grid 32 in the default tier; warp_mpm and n_grid 48 in the slow one (each run 10-60 s).
+#: warp_mpm at n_grid 32 in the default tier (each run 3-8 s); taichi_mpm and n_grid 48 in the slow one (10-60 s).
 FAMILY = [pytest.param(e, c[0], c[1], ng, id=f"{e}-{c[0]}-{ng}",
-                       marks=[] if (e == "taichi_mpm" and ng == 32) else [pytest.mark.slow])
+                       marks=[] if (e == "warp_mpm" and ng == 32) else [pytest.mark.slow])
           for e in ENGINES for c in CASES for ng in (32, 48)]
 
 
@@ -95,7 +95,7 @@ def test_the_resting_box_is_alike_at_fine_steps(engine, shape, half, n_grid):
     assert ok, fig
 
 
-@pytest.mark.parametrize("engine", [pytest.param(e, marks=[] if e == "taichi_mpm" else [pytest.mark.slow])
+@pytest.mark.parametrize("engine", [pytest.param(e, marks=[] if e == "warp_mpm" else [pytest.mark.slow])
                                     for e in ENGINES])
 def test_the_old_rule_is_caught(engine, monkeypatch):
     """The rule before round 59 (the whole grid's old velocity for both fields) fails the box's check."""
@@ -106,9 +106,9 @@ def test_the_old_rule_is_caught(engine, monkeypatch):
 
 #: The least gap over the frame, in cells: the body starts this plus its fall ``g t^2 / 2`` above the box.
 GAPS = (0.3, 0.6, 1.0)
-#: taichi_mpm at n_grid 32, the ball at 0.6 dx and the cube at 0.3, in the default tier; the rest slow.
+#: warp_mpm at n_grid 32, the ball at 0.6 dx and the cube at 0.3, in the default tier; the rest slow.
 FREE = [pytest.param(e, sh, g, ng, id=f"{e}-{sh}-{g}dx-{ng}",
-                     marks=[] if (e == "taichi_mpm" and ng == 32 and (sh, g) in (("ball", 0.6), ("cube", 0.3)))
+                     marks=[] if (e == "warp_mpm" and ng == 32 and (sh, g) in (("ball", 0.6), ("cube", 0.3)))
                      else [pytest.mark.slow])
         for e in ENGINES for sh in ("ball", "cube") for g in GAPS for ng in (32, 48)]
 
@@ -134,7 +134,7 @@ def test_the_upper_body_falls_freely_across_the_gap(engine, shape, gap_cells, n_
     assert ok, fig
 
 
-@pytest.mark.parametrize("engine", [pytest.param(e, marks=[] if e == "taichi_mpm" else [pytest.mark.slow])
+@pytest.mark.parametrize("engine", [pytest.param(e, marks=[] if e == "warp_mpm" else [pytest.mark.slow])
                                     for e in ENGINES])
 def test_the_old_touch_is_caught(engine, monkeypatch):
     """The rule before round 60 (the fields' volumes filling ``SOFT_TOUCH_FRACTION`` of a cell at a node) fails the
