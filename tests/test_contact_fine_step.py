@@ -12,9 +12,9 @@ its own old velocity (``FIELD_OLD_VELOCITY``).
 
 The family: a ball (R 5 cm) or a cube (8 cm) 10 mm above a box of two sizes (half-widths 6 and 9 cm), n_grid 32
 (warp_mpm: default tier; taichi_mpm slow) and 48 (slow), both grid engines, the default substeps and 8 times them.
-The check after one frame (1/30 s): both runs finite and the box's mean speed at 8x within 5 % of ``g t`` of the default step's
-(main's rule: 0.39 m/s at 2.6x, non-finite at 5x). ``test_the_old_rule_is_caught`` runs the rule before round 59
-(``FIELD_OLD_VELOCITY = False``) and asserts the check fails.
+The check after one frame (1/30 s): both runs finite and the box's mean speed at 8x within 5 % of ``g t`` of the
+default step's (main's rule: 0.39 m/s at 2.6x, non-finite at 5x). ``test_the_old_rule_is_caught`` runs the rule
+before round 59 (``FIELD_OLD_VELOCITY = False``) and asserts the check fails.
 
 Round 60 (``docs/contact.md`` "Round 60: a touch by geometry"): the upper body, not landing in the frame, falls freely
 across the gap. Before, the two-field touch (the fields' volumes filling 0.7 of a cell at a node) fired across the gap
