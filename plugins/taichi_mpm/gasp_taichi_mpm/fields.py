@@ -286,6 +286,9 @@ class Fields(PairTouch, PairPush, FieldFlip):
         for ax in ti.static(range(3)):
             ti.atomic_add(self.pair_acc[7 * s + 1 + ax], wr * xn[ax])
             ti.atomic_add(self.pair_acc[7 * s + 4 + ax], wr * ti.cast(nh[ax], ti.f64))
+        if ti.static(self.pair_many):   # round 63: the slot listed the first time it gets mass
+            if ti.atomic_add(self.pair_seen[s], 1) == 0:
+                self.pair_slots[ti.atomic_add(self.pair_n[None], 1)] = s
 
     @ti.kernel
     def field_contact(self):
@@ -325,11 +328,15 @@ class Fields(PairTouch, PairPush, FieldFlip):
                 if ln > MIN_GRADIENT * m:
                     nh = n / ln
                     un = u.dot(nh)
+                    slot = 0   # round 62: the pair of rigid bodies here among three or more (asked once, round 63)
+                    if ti.static(self.pair_many):
+                        if touch:
+                            slot = self.node_slot(I)
                     if ti.static(self.field_pair and not self.pair_many):   # two rigid bodies: where they touch
                         if touch:
                             self.pair_touch(I, m_a * m_b / m, nh, 0)
-                    elif touch and self.node_slot(I) > 0:   # round 62: a pair of rigid bodies among three or more
-                        self.pair_touch(I, m_a * m_b / m, nh, self.node_slot(I) - 1)
+                    elif slot > 0:   # round 62: a pair of rigid bodies among three or more
+                        self.pair_touch(I, m_a * m_b / m, nh, slot - 1)
                     elif un > 0.0 and touch:   # approaching: no interpenetration, Coulomb friction along the surface
                         ut = u - un * nh
                         lt = ut.norm()
