@@ -276,20 +276,6 @@ class Fields(PairTouch, PairPush, FieldFlip):
                 self.grid_dv[I] = ti.Vector([d[0] - dv[0], d[1] - dv[1], d[2] - dv[2], d[3] + db[0], d[4] + db[1],
                                              d[5] + db[2]])
 
-    @ti.func
-    def pair_touch(self, I, m_red, nh, s):
-        """A node where two rigid bodies touch: its reduced mass ``m_red`` (kg), and that times its position and its
-        unit normal ``nh`` (field B's), added to ``pair_acc``'s slot ``s`` (warp_mpm's ``fields.field_contact``)."""
-        wr = ti.cast(m_red, ti.f64)
-        xn = ti.cast(self.lo[None] + self.dx[None] * ti.cast(I, self.real), ti.f64)
-        ti.atomic_add(self.pair_acc[7 * s], wr)
-        for ax in ti.static(range(3)):
-            ti.atomic_add(self.pair_acc[7 * s + 1 + ax], wr * xn[ax])
-            ti.atomic_add(self.pair_acc[7 * s + 4 + ax], wr * ti.cast(nh[ax], ti.f64))
-        if ti.static(self.pair_many):   # round 63: the slot listed the first time it gets mass
-            if ti.atomic_add(self.pair_seen[s], 1) == 0:
-                self.pair_slots[ti.atomic_add(self.pair_n[None], 1)] = s
-
     @ti.kernel
     def field_contact(self):
         """Each shared node's offsets (``gasp_core.mpm.fields``): the Coulomb contact of the two fields, over the

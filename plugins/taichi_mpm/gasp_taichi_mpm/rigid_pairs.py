@@ -67,6 +67,21 @@ class RigidPairs:
                 out = 1 + best_a * nb + best_b
         return out
 
+    @ti.func
+    def pair_touch(self, I, m_red, nh, s):
+        """A node where two rigid bodies touch (``Fields.field_contact`` calls it): its reduced mass ``m_red`` (kg),
+        and that times its position and its unit normal ``nh`` (field B's), added to ``pair_acc``'s slot ``s``
+        (warp_mpm's ``fields.field_contact``); with ``pair_many`` the slot listed the first time (round 63)."""
+        wr = ti.cast(m_red, ti.f64)
+        xn = ti.cast(self.lo[None] + self.dx[None] * ti.cast(I, self.real), ti.f64)
+        ti.atomic_add(self.pair_acc[7 * s], wr)
+        for ax in ti.static(range(3)):
+            ti.atomic_add(self.pair_acc[7 * s + 1 + ax], wr * xn[ax])
+            ti.atomic_add(self.pair_acc[7 * s + 4 + ax], wr * ti.cast(nh[ax], ti.f64))
+        if ti.static(self.pair_many):   # round 63: the slot listed the first time it gets mass
+            if ti.atomic_add(self.pair_seen[s], 1) == 0:
+                self.pair_slots[ti.atomic_add(self.pair_n[None], 1)] = s
+
     @ti.kernel
     def rigid_pairs(self):
         """``gasp_core.mpm.rigid_pairs.solve_pairs`` in one thread after ``rigid_update`` (warp_mpm's
