@@ -199,3 +199,13 @@ def measure_fall(engine: str, s, T: float = 0.1) -> dict:
     _, _, vz, _ = _run(engine, s, T)
     v0 = np.array([float(np.asarray(s.v)[np.asarray(s.body_id) == b, 2].mean()) for b in range(len(s.materials))])
     return {"vz": vz, "expect": v0 - G * round(T / s.frame_dt) * s.frame_dt}
+
+
+def measure_heap(engine: str, s, T: float = 0.3, settle: float = 0.1) -> dict:
+    """A heap (:func:`heap_setup`): ``creep`` (m, per body), the largest move of its centre from ``settle`` s to ``T``
+    (the top blocks have landed by then); ``turn`` (deg, per body) over the run; ``drop`` (m, per body) its centre's
+    fall over the first ``settle`` s."""
+    C, turn, _, _ = _run(engine, s, T)
+    k = round(settle / s.frame_dt)
+    return {"creep": np.abs(C[k:] - C[k]).max(axis=(0, 2)), "turn": turn, "drop": C[0, :, 2] - C[k, :, 2]}
+

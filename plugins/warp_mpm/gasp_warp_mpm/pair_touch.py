@@ -182,8 +182,7 @@ def build_gap_touch(Ft):
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def gap_clear(marks: wp.array(dtype=wp.int32)):
-        if marks[wp.tid()] != 0:   # round 63: written only where marked (most nodes are not: a read, no write)
-            marks[wp.tid()] = 0
+        marks[wp.tid()] = 0
 
     return gap_mark, gap_clear
 
