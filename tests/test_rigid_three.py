@@ -111,10 +111,32 @@ def test_rigid_block_slides_on_a_jelly_slab_beside_a_jelly_cube(engine):
     assert slide_problem(out, MIXED_TOL) is None
 
 
+def heap_problem(out) -> str | None:
+    """None when every block of a heap rests after the top ones landed (creep < ``CREEP``, turn < ``TURN``)."""
+    if not np.all(out["creep"] < CREEP):
+        return f"creep up to {1e3 * float(out['creep'].max()):.3f} mm (body {int(out['creep'].argmax())})"
+    if not np.all(out["turn"] < TURN):
+        return f"turn up to {float(out['turn'].max()):.3f} deg"
+    return None
+
+
+#: (engine, n_grid): round 63's heap of 48 rigid blocks (16 columns of 3, 32 touching pairs solved together), the
+#: first in the default tier
+HEAP = [("warp_mpm", 48), ("taichi_mpm", 48), ("warp_mpm", 64)]
+
+
+@pytest.mark.parametrize("engine,n_grid", HEAP)
+def test_a_heap_of_rigid_blocks_rests(engine, n_grid):
+    """Many pairs at once (round 63's cost scene, ``scenes_rigid3.heap_setup``): the top block of each of 16 columns
+    of three dropped half a cell onto the others; from 0.1 s to 0.3 s no centre moves 1 mm, no block turns. One field
+    for all (the rule before) creeps by cm (``test_the_checks_catch_broken_engines``)."""
+    assert heap_problem(S.measure_heap(engine, S.heap_setup(n_grid))) is None
+
+
 @pytest.mark.slow
 def test_the_checks_catch_broken_engines(monkeypatch):
     """warp_mpm: the pairs solved once (no sweeps) creeps; one field for the three and every pair at 0.5 fail the
-    slide at mu 0.3; one field drags the falling blocks; a figure 5 % high or low fails."""
+    slide at mu 0.3; one field drags the falling blocks and lets the heap creep; a figure 5 % high or low fails."""
     eng = "warp_mpm"
     with monkeypatch.context() as m:
         m.setattr(rigid_pairs, "SWEEPS", 1)
@@ -132,6 +154,7 @@ def test_the_checks_catch_broken_engines(monkeypatch):
         m.setattr(colouring, "RIGID_PAIRS", False)
         assert slide_problem(S.measure_slide(eng, s)) is not None
         assert fall_problem(S.measure_fall(eng, S.fall_setup(32))) is not None
+        assert heap_problem(S.measure_heap(eng, S.heap_setup(48))) is not None
 
 
 def test_one_sweep_of_one_pair_is_the_two_body_law():

@@ -27,7 +27,10 @@ Where the pair presses (``P > 0``) its faces also hold the two bodies' relative 
 high by an ``[[impulse]]`` rolled on the block under it at 0.17 m/s). Without a relative tipping spin one sweep of one
 pair is the two-body law exactly. The solve runs once a substep after the bodies' rigid update (as
 the two-body law does), on the device in one thread: ``SWEEPS x n_pairs`` pair updates of a few dozen flops for a
-handful of bodies, where a host solve would stop the recorded substep for a copy each way.
+handful of bodies, where a host solve would stop the recorded substep for a copy each way. Since round 63 the node
+kernel lists each touching pair the first time it adds to it (an atomic counter), and the solve visits, sorts (by
+height, then slot: the order of round 62's scan) and clears only those, never the ``n_bodies^2`` table
+(``docs/rigid.md`` "Round 63: the cost of rigid pairs").
 
 **Left out.** Bodies that an odd cycle puts in one field (three bodies touching each other) share it where they
 touch (the engines warn, ``shared_fields``); the ground is not in the sweep (its contact runs before, as for one

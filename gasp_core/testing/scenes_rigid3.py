@@ -6,6 +6,8 @@
   the air (:func:`fall_setup`).
 - :func:`mixed_setup`: a rigid block thrown along a jelly slab on a frictionless ground, a jelly cube resting on the
   slab beside its path.
+- :func:`heap_setup`: many rigid blocks (columns of blocks on a ground, the top layer dropped onto them), the cost
+  scene of round 63 (``benchmarks/rigid_pairs_cost.py``).
 
 Each block's points fill its box on a lattice of half a cell (``box_points``); blocks that touch share a face.
 """
@@ -98,6 +100,29 @@ def mixed_setup(n_grid: int = 32, mu: float | None = None, v0: float = 0.5) -> S
     return _setup(boxes, ("rigid", "elastic", "elastic"), [v0, 0.0, 0.0], n_grid, 0.0, [mu] * 3)
 
 
+def heap_setup(n_grid: int = 48, cols: int = 4, layers: int = 3, side: float = 0.04, height: float = 0.05,
+               gap_cells: float = 4.0, drop: float = 0.5) -> SimSetup:
+    """``cols x cols`` columns of ``layers`` rigid blocks (``side`` x ``side`` x ``height``, m; ``cols**2 *
+    layers`` bodies) on a ground of friction 0.5, the columns ``gap_cells`` dx apart (beyond the colouring's reach at
+    rest, as are a column's blocks two apart when ``height`` exceeds it: the reach graph is the columns' chains,
+    bipartite). Each column's blocks lie one on the other, the top one ``drop``
+    dx over the one below it, falling onto it. Round 63's cost scene (``docs/rigid.md`` "Round 63")."""
+    dx = SIDE / n_grid
+    pitch = side + gap_cells * dx
+    x0 = 0.04 - 0.5 * (cols * side + (cols - 1) * gap_cells * dx)
+    y0 = -0.5 * (cols * side + (cols - 1) * gap_cells * dx)
+    boxes = []
+    for i in range(cols):
+        for j in range(cols):
+            z = 0.0
+            for k in range(layers):
+                z += drop * dx if k == layers - 1 and k > 0 else 0.0
+                lo = [x0 + i * pitch, y0 + j * pitch, z]
+                boxes.append((lo, [lo[0] + side, lo[1] + side, z + height]))
+                z += height
+    return _setup(boxes, ("rigid",) * len(boxes), [0.0, 0.0, 0.0], n_grid, 0.5, [None] * len(boxes))
+
+
 def slide_closed_form(s, v0: float | None = None) -> float:
     """Coulomb's slide (m) of body 0 on the others, which move as one on a frictionless ground: ``v0^2 / (2 mu g (1 +
     m0 / m_rest))``, ``mu`` the pair's (``combine_friction`` of bodies 0 and 1)."""
@@ -174,3 +199,13 @@ def measure_fall(engine: str, s, T: float = 0.1) -> dict:
     _, _, vz, _ = _run(engine, s, T)
     v0 = np.array([float(np.asarray(s.v)[np.asarray(s.body_id) == b, 2].mean()) for b in range(len(s.materials))])
     return {"vz": vz, "expect": v0 - G * round(T / s.frame_dt) * s.frame_dt}
+
+
+def measure_heap(engine: str, s, T: float = 0.3, settle: float = 0.1) -> dict:
+    """A heap (:func:`heap_setup`): ``creep`` (m, per body), the largest move of its centre from ``settle`` s to ``T``
+    (the top blocks have landed by then); ``turn`` (deg, per body) over the run; ``drop`` (m, per body) its centre's
+    fall over the first ``settle`` s."""
+    C, turn, _, _ = _run(engine, s, T)
+    k = round(settle / s.frame_dt)
+    return {"creep": np.abs(C[k:] - C[k]).max(axis=(0, 2)), "turn": turn, "drop": C[0, :, 2] - C[k, :, 2]}
+

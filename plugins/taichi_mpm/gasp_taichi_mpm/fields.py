@@ -276,17 +276,6 @@ class Fields(PairTouch, PairPush, FieldFlip):
                 self.grid_dv[I] = ti.Vector([d[0] - dv[0], d[1] - dv[1], d[2] - dv[2], d[3] + db[0], d[4] + db[1],
                                              d[5] + db[2]])
 
-    @ti.func
-    def pair_touch(self, I, m_red, nh, s):
-        """A node where two rigid bodies touch: its reduced mass ``m_red`` (kg), and that times its position and its
-        unit normal ``nh`` (field B's), added to ``pair_acc``'s slot ``s`` (warp_mpm's ``fields.field_contact``)."""
-        wr = ti.cast(m_red, ti.f64)
-        xn = ti.cast(self.lo[None] + self.dx[None] * ti.cast(I, self.real), ti.f64)
-        ti.atomic_add(self.pair_acc[7 * s], wr)
-        for ax in ti.static(range(3)):
-            ti.atomic_add(self.pair_acc[7 * s + 1 + ax], wr * xn[ax])
-            ti.atomic_add(self.pair_acc[7 * s + 4 + ax], wr * ti.cast(nh[ax], ti.f64))
-
     @ti.kernel
     def field_contact(self):
         """Each shared node's offsets (``gasp_core.mpm.fields``): the Coulomb contact of the two fields, over the
@@ -325,11 +314,15 @@ class Fields(PairTouch, PairPush, FieldFlip):
                 if ln > MIN_GRADIENT * m:
                     nh = n / ln
                     un = u.dot(nh)
+                    slot = 0   # round 62: the pair of rigid bodies here among three or more (asked once, round 63)
+                    if ti.static(self.pair_many):
+                        if touch:
+                            slot = self.node_slot(I)
                     if ti.static(self.field_pair and not self.pair_many):   # two rigid bodies: where they touch
                         if touch:
                             self.pair_touch(I, m_a * m_b / m, nh, 0)
-                    elif touch and self.node_slot(I) > 0:   # round 62: a pair of rigid bodies among three or more
-                        self.pair_touch(I, m_a * m_b / m, nh, self.node_slot(I) - 1)
+                    elif slot > 0:   # round 62: a pair of rigid bodies among three or more
+                        self.pair_touch(I, m_a * m_b / m, nh, slot - 1)
                     elif un > 0.0 and touch:   # approaching: no interpenetration, Coulomb friction along the surface
                         ut = u - un * nh
                         lt = ut.norm()

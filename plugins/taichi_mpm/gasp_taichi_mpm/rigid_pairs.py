@@ -15,7 +15,8 @@ class RigidPairs:
         """``pair`` (``gasp_core.mpm.rigid_pairs.pair_mode``): ``pair_many`` for 2 (rigid bodies among three or more),
         ``pair_acc`` (7 per slot: sum m_red, sum m_red x, sum m_red n; one slot unless ``pair_many``), the solve's
         ``pair_lam`` (4 per slot: P and J), ``pair_order``, ``pair_mu`` per slot, each body's box ``pair_box``
-        (lower, upper) and ``pair_V0``; the sweeps (``rigid_pairs.SWEEPS``) read now."""
+        (lower, upper), ``pair_V0`` and round 63's list of the touching slots (``pair_slots``, their count ``pair_n``,
+        ``pair_seen`` 1 per slot listed); the sweeps (``rigid_pairs.SWEEPS``) read now."""
         from gasp_core.mpm.rigid_pairs import NODE_PAD, SWEEPS
         self.pair_many = bool(self.fields and pair == 2)
         nb = max(int(self.n_bodies), 1)
@@ -26,6 +27,9 @@ class RigidPairs:
         self.pair_order = ti.field(ti.i32, shape=ns)
         self.pair_box = ti.Vector.field(3, ti.f64, shape=2 * nb)
         self.pair_V0 = ti.Vector.field(3, ti.f64, shape=nb)
+        self.pair_slots = ti.field(ti.i32, shape=ns)   # round 63: the touching slots, listed by the node kernel
+        self.pair_n = ti.field(ti.i32, shape=())
+        self.pair_seen = ti.field(ti.i32, shape=ns)
         self.pair_sweeps = int(SWEEPS)
         self.pair_pad = float(NODE_PAD)
 
@@ -63,31 +67,45 @@ class RigidPairs:
                 out = 1 + best_a * nb + best_b
         return out
 
+    @ti.func
+    def pair_touch(self, I, m_red, nh, s):
+        """A node where two rigid bodies touch (``Fields.field_contact`` calls it): its reduced mass ``m_red`` (kg),
+        and that times its position and its unit normal ``nh`` (field B's), added to ``pair_acc``'s slot ``s``
+        (warp_mpm's ``fields.field_contact``); with ``pair_many`` the slot listed the first time (round 63)."""
+        wr = ti.cast(m_red, ti.f64)
+        xn = ti.cast(self.lo[None] + self.dx[None] * ti.cast(I, self.real), ti.f64)
+        ti.atomic_add(self.pair_acc[7 * s], wr)
+        for ax in ti.static(range(3)):
+            ti.atomic_add(self.pair_acc[7 * s + 1 + ax], wr * xn[ax])
+            ti.atomic_add(self.pair_acc[7 * s + 4 + ax], wr * ti.cast(nh[ax], ti.f64))
+        if ti.static(self.pair_many):   # round 63: the slot listed the first time it gets mass
+            if ti.atomic_add(self.pair_seen[s], 1) == 0:
+                self.pair_slots[ti.atomic_add(self.pair_n[None], 1)] = s
+
     @ti.kernel
     def rigid_pairs(self):
         """``gasp_core.mpm.rigid_pairs.solve_pairs`` in one thread after ``rigid_update`` (warp_mpm's
-        ``rigid_pairs.build_rigid_pairs``, the same steps): the touching pairs (``pair_acc``) insertion-sorted by
-        height along gravity, swept ``pair_sweeps`` times with accumulated impulses, then the centres' advance of the
-        substep follows the new velocities. ``pair_acc`` is cleared."""
+        ``rigid_pairs.build_rigid_pairs``, the same steps): the touching pairs (round 63: the ``pair_n`` slots the node
+        kernel listed in ``pair_slots``) insertion-sorted by height along gravity, ties by slot, swept
+        ``pair_sweeps`` times with accumulated impulses, then the centres' advance of the substep follows the new
+        velocities. Their ``pair_acc`` and ``pair_seen`` are cleared, and ``pair_n``."""
         dt = ti.cast(self.dt[None], ti.f64)
         half = 0.5 * ti.cast(self.dx[None], ti.f64) ** 2
         g = ti.cast(self.gravity[None], ti.f64)
         nb = self.n_bodies
-        ns = nb * nb
         for _ in range(1):
-            n_on = 0
-            for s in range(ns):   # the touching pairs, bottom up
-                for q in ti.static(range(4)):
-                    self.pair_lam[4 * s + q] = 0.0
-                if self.pair_acc[7 * s] > 0.0:
-                    h = -g.dot(ti.Vector([self.pair_acc[7 * s + 1], self.pair_acc[7 * s + 2],
-                                          self.pair_acc[7 * s + 3]])) / self.pair_acc[7 * s]
-                    j = n_on
-                    while j > 0 and self.pair_height(self.pair_order[j - 1], g) > h:
-                        self.pair_order[j] = self.pair_order[j - 1]
-                        j -= 1
-                    self.pair_order[j] = s
-                    n_on += 1
+            n_on = self.pair_n[None]
+            for q in range(n_on):   # the touching pairs, bottom up
+                s = self.pair_slots[q]
+                for c in ti.static(range(4)):
+                    self.pair_lam[4 * s + c] = 0.0
+                h = self.pair_height(s, g)
+                j = q
+                while j > 0 and (self.pair_height(self.pair_order[j - 1], g) > h or (
+                        self.pair_height(self.pair_order[j - 1], g) == h and self.pair_order[j - 1] > s)):
+                    self.pair_order[j] = self.pair_order[j - 1]
+                    j -= 1
+                self.pair_order[j] = s
             for b in range(nb):
                 self.pair_V0[b] = self.rb_V[b]
             for _sweep in range(self.pair_sweeps):
@@ -95,8 +113,12 @@ class RigidPairs:
                     self.pair_update(self.pair_order[q], nb, half)
             for b in range(nb):
                 self.rb_c[b] += dt * (self.rb_V[b] - self.pair_V0[b])
-            for s in range(7 * ns):
-                self.pair_acc[s] = 0.0
+            for q in range(n_on):   # the touching slots back to zero for the next substep
+                s = self.pair_slots[q]
+                for c in ti.static(range(7)):
+                    self.pair_acc[7 * s + c] = 0.0
+                self.pair_seen[s] = 0
+            self.pair_n[None] = 0
 
     @ti.func
     def pair_height(self, s, g):

@@ -161,8 +161,9 @@ CPU_ONLY = ("schedule/ordered.py",)
 #: One-iteration loops kept elsewhere, each O(1) work on one thread by nature on both schedules (not an ordered
 #: variant of a parallel loop): kernel name -> why.
 ONE_ITEM = {"rigid_pair": "the contact of one pair of rigid bodies: a dozen float64 operations, once a substep",
-            "rigid_pairs": "round 62: the touching pairs of rigid bodies among three or more, SWEEPS (8) x n_pairs (a "
-                           "handful) pair updates, once a substep"}
+            "rigid_pairs": "round 62: the touching pairs of rigid bodies among three or more, SWEEPS (8) x n_on pair "
+                           "updates, once a substep; round 63: only the n_on touching slots the node kernel listed "
+                           "(their insertion sort and clears), none of the n_bodies^2 table"}
 
 
 def _serial_constructs(root):

@@ -22,6 +22,7 @@ from gasp_core.mpm.shared_fields import shared_field_warning
 from . import ENGINE
 from .pair_touch import build_gap_curve, build_gap_touch, build_pair_funcs, build_pair_touch
 from .precision import MODULE_OPTIONS, build_types
+from .field_nodes import build_field_clear, build_field_shared, shared_threads
 from .rigid_pairs import allocate_pairs, build_node_slot, mat33d, slot_inputs, vec3d
 from .touch import build_held
 
@@ -168,65 +169,72 @@ def build_fields(Ft):
                       flow_touch: wp.array(dtype=wp.int32), flow_push: wp.array(dtype=vec3), mirror: int,
                       free: int, own: Ft, mu_lo: Ft, mu_hi: Ft, mu_on: int, a_lo: Ft, a_hi: Ft, b_mu: Ft,
                       in_a: wp.array(dtype=wp.int32), rigid: wp.array(dtype=wp.int32), centre: wp.array(dtype=vec3d),
-                      rot: wp.array(dtype=mat33d), box: wp.array(dtype=vec3d), nb: int, pad: wp.float64):
-        node = wp.tid()
+                      rot: wp.array(dtype=mat33d), box: wp.array(dtype=vec3d), nb: int, pad: wp.float64,
+                      slots: wp.array(dtype=wp.int32), n_on: wp.array(dtype=wp.int32),
+                      seen: wp.array(dtype=wp.int32), shared: wp.array(dtype=wp.int32),
+                      n_shared: wp.array(dtype=wp.int32), threads: int):
         nn = n_grid * n_grid
         n_nodes = nn * n_grid
-        i = node / nn
-        j = (node / n_grid) % n_grid
-        k = node % n_grid
-        g = grid_mv[node]
-        m = g[3]
-        m_a = grid_sv[node][3]
-        m_b = m - m_a
-        dva = vec3(Ft(0.0))
-        dvb = vec3(Ft(0.0))
-        inner = i > 0 and j > 0 and k > 0 and i < n_grid - 1 and j < n_grid - 1 and k < n_grid - 1
-        # in a ground's node layers or the walls' (the grid rule's reach): both move with the mean (touch.py)
-        held = held_node(i, j, k, ground, n_grid, ground_touch, free, vec3(Ft(i), Ft(j), Ft(k)), vec3(wall_lo),
-                         wall_hi, 1)
-        touch = (grid_vf[node] + grid_vf[n_nodes + node]) >= touch_frac * cell   # the bodies meet here
-        flow = flow_push.shape[0] > 1   # the flowing body's touch (pair_touch.py): its layer behind
-        if flow_touch.shape[0] > 1:   # its points mark the nodes, or round 60's touch by geometry's (gap_touch)
-            touch = flow_touch[node] != 0
-        mb_eff = Ft(0.0)   # > 0: A against B's mass here and behind (pair_touch.py)
-        if inner and held == 0 and m_a > Ft(MIN_FRACTION) * m and m_b > Ft(MIN_FRACTION) * m:
-            pa = grid_sv[node]
-            v_b = vec3(g[0] - pa[0], g[1] - pa[1], g[2] - pa[2]) / m_b
-            u = vec3(pa[0], pa[1], pa[2]) / m_a - v_b
-            n = b_normal(grid_mv, grid_sv, ground, node, n_grid, mirror)
-            ln = wp.length(n)
-            u2 = u
-            # several frictions in a field: the pair's per node (node_friction, a_node_friction)
-            mu_n = node_pair(grid_vf, node, n_nodes, m_a, m_b, mu, mu_on, own, mu_lo, mu_hi, a_lo, a_hi, b_mu)
-            if ln > Ft(MIN_GRADIENT) * m:
-                nh = n / ln
-                un = wp.dot(u, nh)
-                xn = lo + dx * vec3(Ft(i), Ft(j), Ft(k))
-                slot = pair   # 1: two rigid bodies; round 62 (pair 2): the pair of rigid bodies here, 0 none
-                if pair > 1 and touch:
-                    slot = node_slot(xn, in_a, rigid, centre, rot, box, nb, pad)
-                if slot != 0 and pair != 0 and touch:   # rigid bodies: where they touch, for their contact as one
-                    wr = wp.float64(m_a * m_b / m)
-                    for ax in range(3):
-                        wp.atomic_add(pair_acc, 7 * (slot - 1) + 1 + ax, wr * wp.float64(xn[ax]))
-                        wp.atomic_add(pair_acc, 7 * (slot - 1) + 4 + ax, wr * wp.float64(nh[ax]))
-                    wp.atomic_add(pair_acc, 7 * (slot - 1), wr)
-                elif un > Ft(0.0) and touch:   # approaching: no interpenetration, Coulomb friction along the surface
-                    u2 = u - coulomb(u, nh, mu_n)
-                    if flow and m_b < m_a:   # A's side: B's node behind it takes the reaction with this one's B
-                        qm = flow_layer(grid_mv, grid_sv, flow_push, node, nh, nn, n_grid, pa, v_b, m_b, mu_n, u2)
-                        u2 = vec3(qm[0], qm[1], qm[2])
-                        mb_eff = qm[3]
-            else:
-                u2 = vec3(Ft(0.0))   # no normal: the fields move as one
-            dva = (m_b / m) * u2
-            dvb = -(m_a / m) * u2
-            if mb_eff > Ft(0.0):   # A against B's mass at both nodes, moving as one
-                dva = (m_b / m) * u - (mb_eff / (m_a + mb_eff)) * (u - u2)
-                dvb = -(m_a / m) * u + (m_a / (m_a + mb_eff)) * (u - u2)
-        grid_dv[node] = dva
-        grid_dv[n_nodes + node] = dvb
+        n_on_grid = n_shared[0]   # round 63: the inner nodes where both fields have mass (field_nodes.field_shared)
+        run = (n_on_grid + threads - 1) / threads   # a thread's run of them, in the list's order
+        for q in range(wp.tid() * run, wp.min(wp.tid() * run + run, n_on_grid)):
+            node = shared[q]
+            i = node / nn
+            j = (node / n_grid) % n_grid
+            k = node % n_grid
+            g = grid_mv[node]
+            m = g[3]
+            m_a = grid_sv[node][3]
+            m_b = m - m_a
+            dva = vec3(Ft(0.0))
+            dvb = vec3(Ft(0.0))
+            # in a ground's node layers or the walls' (the grid rule's reach): both move with the mean (touch.py)
+            held = held_node(i, j, k, ground, n_grid, ground_touch, free, vec3(Ft(i), Ft(j), Ft(k)), vec3(wall_lo),
+                             wall_hi, 1)
+            mb_eff = Ft(0.0)   # > 0: A against B's mass here and behind (pair_touch.py)
+            if held == 0:
+                touch = (grid_vf[node] + grid_vf[n_nodes + node]) >= touch_frac * cell   # the bodies meet here
+                flow = flow_push.shape[0] > 1   # the flowing body's touch (pair_touch.py): its layer behind
+                if flow_touch.shape[0] > 1:   # its points mark the nodes, or round 60's touch by geometry's (gap_touch)
+                    touch = flow_touch[node] != 0
+                pa = grid_sv[node]
+                v_b = vec3(g[0] - pa[0], g[1] - pa[1], g[2] - pa[2]) / m_b
+                u = vec3(pa[0], pa[1], pa[2]) / m_a - v_b
+                n = b_normal(grid_mv, grid_sv, ground, node, n_grid, mirror)
+                ln = wp.length(n)
+                u2 = u
+                # several frictions in a field: the pair's per node (node_friction, a_node_friction)
+                mu_n = node_pair(grid_vf, node, n_nodes, m_a, m_b, mu, mu_on, own, mu_lo, mu_hi, a_lo, a_hi, b_mu)
+                if ln > Ft(MIN_GRADIENT) * m:
+                    nh = n / ln
+                    un = wp.dot(u, nh)
+                    xn = lo + dx * vec3(Ft(i), Ft(j), Ft(k))
+                    slot = pair   # 1: two rigid bodies; round 62 (pair 2): the pair of rigid bodies here, 0 none
+                    if pair > 1 and touch:
+                        slot = node_slot(xn, in_a, rigid, centre, rot, box, nb, pad)
+                    if slot != 0 and pair != 0 and touch:   # rigid bodies: where they touch, for their contact as one
+                        wr = wp.float64(m_a * m_b / m)
+                        for ax in range(3):
+                            wp.atomic_add(pair_acc, 7 * (slot - 1) + 1 + ax, wr * wp.float64(xn[ax]))
+                            wp.atomic_add(pair_acc, 7 * (slot - 1) + 4 + ax, wr * wp.float64(nh[ax]))
+                        wp.atomic_add(pair_acc, 7 * (slot - 1), wr)
+                        if pair > 1 and wp.atomic_add(seen, slot - 1, 1) == 0:   # round 63: listed the first time
+                            slots[wp.atomic_add(n_on, 0, 1)] = slot - 1
+                    elif un > Ft(0.0) and touch:   # approaching: no interpenetration, Coulomb friction on the surface
+                        u2 = u - coulomb(u, nh, mu_n)
+                        if flow and m_b < m_a:   # A's side: B's node behind it takes the reaction with this one's B
+                            qm = flow_layer(grid_mv, grid_sv, flow_push, node, nh, nn, n_grid, pa, v_b, m_b, mu_n, u2)
+                            u2 = vec3(qm[0], qm[1], qm[2])
+                            mb_eff = qm[3]
+                else:
+                    u2 = vec3(Ft(0.0))   # no normal: the fields move as one
+                dva = (m_b / m) * u2
+                dvb = -(m_a / m) * u2
+                if mb_eff > Ft(0.0):   # A against B's mass at both nodes, moving as one
+                    dva = (m_b / m) * u - (mb_eff / (m_a + mb_eff)) * (u - u2)
+                    dvb = -(m_a / m) * u + (m_a / (m_a + mb_eff)) * (u - u2)
+            grid_dv[node] = dva
+            grid_dv[n_nodes + node] = dvb
 
     return field_contact, build_field_clear(Ft)
 
@@ -268,24 +276,6 @@ def build_field_old(Ft):
     return field_old
 
 
-@functools.cache
-def build_field_clear(Ft):
-    """``field_clear``: ``grid_sv`` and both fields' ``grid_vf`` (and the friction channels, its third and fourth
-    parts where there are) back to zero for the next P2G."""
-    vec3, vec4, mat33 = build_types(Ft)
-
-    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def field_clear(grid_sv: wp.array(dtype=vec4), grid_vf: wp.array(dtype=Ft)):
-        node = wp.tid()
-        grid_sv[node] = vec4(Ft(0.0))
-        grid_vf[node] = Ft(0.0)
-        grid_vf[grid_sv.shape[0] + node] = Ft(0.0)
-        for part in range(2, grid_vf.shape[0] / grid_sv.shape[0]):
-            grid_vf[part * grid_sv.shape[0] + node] = Ft(0.0)
-
-    return field_clear
-
-
 def allocate_fields(eng, Ft, contact: str) -> None:
     """The contact chosen per body (``contact`` the scene's): ``eng.flows`` (per body, 1 where it flows) and
     ``grid_mf`` (the flowing bodies' mass per node in a mixed scene); the two-field contact's ``in_a`` (per body, 1 in
@@ -314,6 +304,8 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     allocate_pairs(eng, view)   # rigid pairs: two (rigid.py) or among three or more (round 62, rigid_pairs.py)
     n = eng.n_grid ** 3 if eng.fields else 1
     eng.grid_sv = wp.zeros(n, dtype=k.vec4, device=d)
+    eng.shared_nodes = wp.zeros(n, dtype=wp.int32, device=d)   # round 63: the nodes both fields meet at (field_nodes)
+    eng.n_shared = wp.zeros(1, dtype=wp.int32, device=d)
     eng.grid_dv = wp.zeros(2 * n if eng.fields else 1, dtype=k.vec3, device=d)
     # B's bodies' several frictions (gasp_core.mpm.fields.node_friction): a third part of grid_vf, B's w m mu per node
     eng.node_mu = node_friction(view) if eng.fields else None
@@ -388,13 +380,15 @@ def field_launches(eng, Ft) -> list:
         after = [wp.launch(gclear, dim=ng ** 3, device=d, record_cmd=True, inputs=[eng.flow_touch])]
     old = [wp.launch(build_field_old(Ft), dim=ng ** 3, device=d, record_cmd=True, inputs=[
         eng.grid_mv0, eng.grid_v0, ng])] if eng.field_flip else []   # round 59: AFLIP's old velocity per field
-    return flow + old + [wp.launch(contact, dim=ng ** 3, device=d, record_cmd=True, inputs=[
+    shared = [wp.launch(build_field_shared(Ft), dim=ng ** 3, device=d, record_cmd=True, inputs=[
+        eng.grid_mv, eng.grid_sv, eng.grid_dv, ng, eng.shared_nodes, eng.n_shared])]   # round 63: field_nodes.py
+    return flow + old + shared + [wp.launch(contact, dim=shared_threads(eng), device=d, record_cmd=True, inputs=[
                 eng.grid_mv, eng.grid_sv, eng.grid_dv, ng, Ft(eng.field_mu), eng.ground, eng.grid_vf,
                 Ft(eng.dx ** 3), Ft(wall_lo), eng.k.vec3(*[float(c) for c in wall_hi]), Ft(eng.field_touch), eng.pair,
                 eng.k.vec3(*[float(c) for c in eng.setup.domain_lo]), Ft(eng.dx), eng.pair_acc, eng.ground_touch,
                 eng.flow_touch, eng.flow_push, int(bool(core_fields.GROUND_MIRROR)), eng.field_rule % 2,
                 *([Ft(a) for a in (eng.node_mu[0], eng.node_mu[2], eng.node_mu[3])] if eng.node_mu else [Ft(0.0)] * 3),
                 eng.mu_on, *([Ft(a) for a in eng.a_mu[1:]] if eng.a_mu else [Ft(0.0)] * 3), eng.in_a,
-                *slot_inputs(eng)])] + after + [
-            wp.launch(clear, dim=ng ** 3, device=d, record_cmd=True, inputs=[eng.grid_sv, eng.grid_vf])]
+                *slot_inputs(eng), eng.shared_nodes, eng.n_shared, shared_threads(eng)])] + after + [
+            wp.launch(clear, dim=ng ** 3, device=d, record_cmd=True, inputs=[eng.grid_sv, eng.grid_vf, eng.n_shared])]
 

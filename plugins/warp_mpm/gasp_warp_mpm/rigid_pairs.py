@@ -129,29 +129,34 @@ def build_rigid_pairs(Ft):
     ``rigid_update``: the touching pairs' sums ``acc`` (7 per slot: sum m_red, sum m_red x, sum m_red n) give each its
     centre and normal; the pairs are ordered by height along gravity (``order``), swept ``sweeps`` times
     (``rigid_pairs.SWEEPS``) with accumulated impulses (``lam``: 4 per slot, P and J; ``build_pair_update``), then
-    the centres' advance of the substep follows the new velocities. ``acc`` is cleared."""
+    the centres' advance of the substep follows the new velocities. Round 63: only the touching slots are visited,
+    the ``count[0]`` first of ``slots``, which the node kernel listed the first time each got mass (``seen``, 1 per
+    slot listed); their ``acc`` and ``seen`` are cleared, and ``count``."""
     pair_update = build_pair_update(Ft)
+
+    @wp.func
+    def height(acc: wp.array(dtype=wp.float64), s: int, gravity: vec3d):
+        return -wp.dot(gravity, vec3d(acc[7 * s + 1], acc[7 * s + 2], acc[7 * s + 3])) / acc[7 * s]
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def rigid_pairs(mass: wp.array(dtype=wp.float64), inertia0: wp.array(dtype=mat33d),
                     centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d), vel: wp.array(dtype=vec3d),
                     spin: wp.array(dtype=vec3d), V0: wp.array(dtype=vec3d), dt: wp.float64, dx: wp.float64, nb: int,
                     mu: wp.array(dtype=wp.float64), acc: wp.array(dtype=wp.float64), lam: wp.array(dtype=wp.float64),
-                    order: wp.array(dtype=wp.int32), gravity: vec3d, sweeps: int):
-        ns = nb * nb
-        n_on = int(0)
-        for s in range(ns):   # the touching pairs, insertion-sorted by -g . x_c (bottom up)
-            for q in range(4):
-                lam[4 * s + q] = wp.float64(0.0)
-            if acc[7 * s] > wp.float64(0.0):
-                h = -wp.dot(gravity, vec3d(acc[7 * s + 1], acc[7 * s + 2], acc[7 * s + 3])) / acc[7 * s]
-                j = n_on
-                while j > 0 and -wp.dot(gravity, vec3d(acc[7 * order[j - 1] + 1], acc[7 * order[j - 1] + 2],
-                                                        acc[7 * order[j - 1] + 3])) / acc[7 * order[j - 1]] > h:
-                    order[j] = order[j - 1]
-                    j = j - 1
-                order[j] = s
-                n_on = n_on + 1
+                    order: wp.array(dtype=wp.int32), gravity: vec3d, sweeps: int, slots: wp.array(dtype=wp.int32),
+                    count: wp.array(dtype=wp.int32), seen: wp.array(dtype=wp.int32)):
+        n_on = count[0]
+        for q in range(n_on):   # the touching pairs, insertion-sorted by (-g . x_c, slot): bottom up, ties by slot
+            s = slots[q]
+            for c in range(4):
+                lam[4 * s + c] = wp.float64(0.0)
+            h = height(acc, s, gravity)
+            j = q
+            while j > 0 and (height(acc, order[j - 1], gravity) > h or (
+                    height(acc, order[j - 1], gravity) == h and order[j - 1] > s)):
+                order[j] = order[j - 1]
+                j = j - 1
+            order[j] = s
         for b in range(nb):
             V0[b] = vel[b]
         half = wp.float64(0.5) * dx * dx
@@ -160,8 +165,12 @@ def build_rigid_pairs(Ft):
                 pair_update(order[q], nb, half, mass, inertia0, centre, rot, vel, spin, mu, acc, lam)
         for b in range(nb):
             centre[b] = centre[b] + dt * (vel[b] - V0[b])
-        for s in range(7 * ns):
-            acc[s] = wp.float64(0.0)
+        for q in range(n_on):   # the touching slots back to zero for the next substep
+            s = slots[q]
+            for c in range(7):
+                acc[7 * s + c] = wp.float64(0.0)
+            seen[s] = 0
+        count[0] = 0
 
     return rigid_pairs
 
@@ -169,7 +178,8 @@ def build_rigid_pairs(Ft):
 def allocate_pairs(eng, view) -> None:
     """``eng.pair`` (``gasp_core.mpm.rigid_pairs.pair_mode``: 0, 1 two rigid bodies, 2 rigid bodies among three or
     more), ``eng.pair_acc`` (7 per slot) and, for 2, the solve's arrays: the pairs' ``mu`` per slot, ``lam`` (4 per
-    slot), ``order``, each rigid body's box (``body_boxes``, lower and upper per body) and ``V0``."""
+    slot), ``order``, each rigid body's box (``body_boxes``, lower and upper per body), ``V0``, and round 63's list of
+    the touching slots (``pair_slots``, their count ``pair_n``, ``pair_seen`` 1 per slot listed)."""
     from gasp_core.mpm.rigid_pairs import body_boxes, pair_frictions, pair_mode
     d = eng.device
     eng.pair = int(eng.fields and pair_mode(view)) if eng.fields else 0
@@ -182,17 +192,22 @@ def allocate_pairs(eng, view) -> None:
     eng.pair_order = wp.zeros(ns, dtype=wp.int32, device=d)
     eng.pair_box = wp.array(body_boxes(view).reshape(-1, 3) if many else np.zeros((2, 3)), dtype=vec3d, device=d)
     eng.pair_V0 = wp.zeros(nb if many else 1, dtype=vec3d, device=d)
+    eng.pair_slots = wp.zeros(ns, dtype=wp.int32, device=d)   # round 63: the touching slots, listed by the node kernel
+    eng.pair_n = wp.zeros(1, dtype=wp.int32, device=d)
+    eng.pair_seen = wp.zeros(ns, dtype=wp.int32, device=d)
 
 
 def slot_inputs(eng) -> list:
-    """The node kernel's inputs for ``node_slot`` (the rigid bodies' pose; one-entry arrays unless ``eng.pair`` is
-    2)."""
+    """The node kernel's inputs for ``node_slot`` (the rigid bodies' pose) and round 63's list of the touching slots
+    (one-entry arrays unless ``eng.pair`` is 2)."""
     from gasp_core.mpm.rigid_pairs import NODE_PAD
     d = eng.device
+    listed = [eng.pair_slots, eng.pair_n, eng.pair_seen]   # round 63: the touching slots (one entry unless 2)
     if eng.pair == 2:
-        return [eng.rb_rigid, eng.rb_c, eng.rb_R, eng.pair_box, len(eng.setup.materials), float(NODE_PAD * eng.dx)]
+        return [eng.rb_rigid, eng.rb_c, eng.rb_R, eng.pair_box, len(eng.setup.materials), float(NODE_PAD * eng.dx),
+                *listed]
     return [wp.zeros(1, dtype=wp.int32, device=d), wp.zeros(1, dtype=vec3d, device=d),
-            wp.zeros(1, dtype=mat33d, device=d), eng.pair_box, 0, 0.0]
+            wp.zeros(1, dtype=mat33d, device=d), eng.pair_box, 0, 0.0, *listed]
 
 
 def pairs_launch(eng, Ft):
@@ -201,4 +216,4 @@ def pairs_launch(eng, Ft):
     return wp.launch(build_rigid_pairs(Ft), dim=1, device=eng.device, record_cmd=True, inputs=[
         eng.rb_M, eng.rb_I0, eng.rb_c, eng.rb_R, eng.rb_V, eng.rb_w, eng.pair_V0, float(eng.dt), float(eng.dx),
         len(eng.setup.materials), eng.pair_mu, eng.pair_acc, eng.pair_lam, eng.pair_order,
-        vec3d(*[float(g) for g in eng.setup.gravity]), int(SWEEPS)])
+        vec3d(*[float(g) for g in eng.setup.gravity]), int(SWEEPS), eng.pair_slots, eng.pair_n, eng.pair_seen])

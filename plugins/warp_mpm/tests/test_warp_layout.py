@@ -48,8 +48,10 @@ DIM1_SCALAR = {
     "cg_beta": "step_beta with the device-side loop condition (schedule/gpu.py)",
     "fold_final": "the last fold of at most BLOCK block partials (schedule/gpu.py)",
     "build_rigid_pair": "the contact of one pair of rigid bodies, O(1) (rigid.py; taichi_mpm's ONE_ITEM)",
-    "build_rigid_pairs": "round 62: the touching pairs of rigid bodies among three or more, SWEEPS (8) x n_pairs (a "
-                         "handful) pair updates (rigid_pairs.py; taichi_mpm's ONE_ITEM)",
+    "build_rigid_pairs": "round 62: the touching pairs of rigid bodies among three or more, SWEEPS (8) x n_on pair "
+                         "updates; round 63: only the n_on touching slots the node kernel listed are visited (an "
+                         "insertion sort of n_on, their clears), none of the n_bodies^2 table (rigid_pairs.py; "
+                         "taichi_mpm's ONE_ITEM)",
 }
 
 _PLANES = "the ground and wall planes of a scene (a handful)"
@@ -69,10 +71,8 @@ LOOP_BOUNDS = {
     "range(fixed_lo.shape[0])": "the held (fixed) boxes",
     "range(n_bodies)": "the rigid bodies (one thread a point, rigid_hold)",
     "range(nb)": "the bodies (round 62: node_slot at a touching node; rigid_pairs' one thread)",
-    "range(ns)": "the pairs' slots, n_bodies^2 (round 62, rigid_pairs' one thread)",
-    "range(7 * ns)": "the pairs' sums, 7 a slot (round 62, rigid_pairs' one thread)",
     "range(sweeps)": "the pairs' sweeps, rigid_pairs.SWEEPS (8; round 62)",
-    "range(n_on)": "the touching pairs (round 62, rigid_pairs' one thread)",
+    "range(n_on)": "the touching pairs, as the node kernel listed them (round 62, 63; rigid_pairs' one thread)",
     "range(SLOTS)": "a ground column's slots (share.SLOTS = 8; touch_share, one thread a column)",
     "range(m)": "the substeps since a passive point's last gather (g2p_passive, one thread a point)",
     "range(blk * BLK, wp.min(blk * BLK + BLK, counts[0]))": _BLOCK,
@@ -80,8 +80,10 @@ LOOP_BOUNDS = {
     "range(blk * BLK, wp.min(blk * BLK + BLK, n_pts))": _BLOCK,
     "range(blk * BLK, wp.min(blk * BLK + BLK, grid_fbody.shape[0]))": _BLOCK,
     "range(part_in.shape[0])": "at most BLOCK partials (fold_final, schedule.gpu.fold_chain)",
-    "range(2, grid_vf.shape[0] / grid_sv.shape[0])": "a node's field channels past the two fractions (at most 4 parts, "
-                                                      "fields.field_clear, one thread a node)",
+    "range(grid_vf.shape[0] / grid_sv.shape[0])": "a node's field channels (at most 4 parts, field_nodes.field_clear, "
+                                                   "one thread a node)",
+    "range(wp.tid() * run, wp.min(wp.tid() * run + run, n_on_grid))": "a thread's run of the shared nodes, "
+    "ceil(n / threads) of field_nodes.field_shared's list (round 63, fields.field_contact)",
     "range(part.shape[0])": "the blocks' partials, n / BLOCK, one thread a (row, column) (gpu_balance.fold_rows)",
     "range(psums.shape[1])": _ROWS,
     "range(psums.shape[2])": _ROWS,
