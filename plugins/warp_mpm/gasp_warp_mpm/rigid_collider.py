@@ -46,7 +46,8 @@ def build_collider(Ft):
                 n_grid: int, ground: wp.array(dtype=vec3), cell: Ft, wall_lo: Ft, wall_hi: vec3, touch_frac: Ft,
                 ground_touch: wp.array(dtype=wp.int32), flow_touch: wp.array(dtype=wp.int32), free: int,
                 rc_m: wp.array(dtype=vec3), rc_n: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), ra: int,
-                normal_b: int, mirror: int):
+                normal_b: int, mirror: int, band: wp.float64, lo: vec3, dx: Ft, rb: int,
+                centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d), box: wp.array(dtype=vec3d)):
         node = wp.tid()
         nn = n_grid * n_grid
         n_nodes = nn * n_grid
@@ -74,13 +75,23 @@ def build_collider(Ft):
                 touch = (grid_vf[node] + grid_vf[n_nodes + node]) >= touch_frac * cell
                 if flow_touch.shape[0] > 1:
                     touch = flow_touch[node] != 0
+                if band > wp.float64(0.0):   # the body's shape: within band (m) of its points' box, in its frame
+                    x = vec3d(wp.float64(lo[0] + dx * Ft(i)), wp.float64(lo[1] + dx * Ft(j)),
+                              wp.float64(lo[2] + dx * Ft(k)))
+                    q = wp.transpose(rot[rb]) * (x - centre[rb])
+                    d = wp.float64(-1.0e30)
+                    for ax in range(3):
+                        d = wp.max(d, wp.max(box[0][ax] - q[ax], q[ax] - box[1][ax]))
+                    touch = d <= band
                 gr = vec3(m_rigid(grid_mv, grid_sv, node + nn, ra) - m_rigid(grid_mv, grid_sv, node - nn, ra),
                           m_rigid(grid_mv, grid_sv, node + n_grid, ra) - m_rigid(grid_mv, grid_sv, node - n_grid, ra),
                           m_rigid(grid_mv, grid_sv, node + 1, ra) - m_rigid(grid_mv, grid_sv, node - 1, ra))
                 if normal_b != 0:   # field B's normal (fields.build_b_normal), as grad m_R: into the rigid body
-                    gr = b_normal(grid_mv, grid_sv, ground, node, n_grid, mirror)
+                    gb = b_normal(grid_mv, grid_sv, ground, node, n_grid, mirror)
                     if ra != 0:
-                        gr = -gr
+                        gb = -gb
+                    if normal_b == 1 or wp.length(gb) >= wp.length(gr):   # 2: the larger gradient's (Nairn)
+                        gr = gb
                 ln = wp.length(gr)
                 if touch and ln > Ft(MIN_GRADIENT) * m and m - m_r >= Ft(SOFT_SHARE) * m:
                     flag = Ft(1.0)
@@ -108,13 +119,15 @@ def build_collider(Ft):
             wp.atomic_add(acc, 3, m_r)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def rc_body(acc: wp.array(dtype=wp.float64)):
+    def rc_body(acc: wp.array(dtype=wp.float64), spin: wp.array(dtype=vec3d), rb: int):
         for q in range(4):   # the last substep's reaction and approaching mass kept at 11-14 (reading)
             acc[11 + q] = acc[7 + q]
             acc[7 + q] = wp.float64(0.0)
         if acc[3] > wp.float64(0.0):
             for ax in range(3):
                 acc[4 + ax] = acc[ax] / acc[3]
+        for ax in range(3):
+            acc[62 + ax] = spin[rb][ax]
         for q in range(4):
             acc[q] = wp.float64(0.0)
 
@@ -139,29 +152,45 @@ def build_collider(Ft):
         return mat33d(acc[at], acc[at + 1], acc[at + 2], acc[at + 3], acc[at + 4], acc[at + 5], acc[at + 6],
                       acc[at + 7], acc[at + 8])
 
+    @wp.func
+    def relative(grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), rc_m: wp.array(dtype=vec3),
+                 rc_n: wp.array(dtype=vec3), node: int, ra: int, acc: wp.array(dtype=wp.float64), at_v: int,
+                 at_w: int, r: vec3d):
+        """(u, n): the soft field's velocity less the body's (``acc[at_v:]``, spin ``acc[at_w:]``), the normal."""
+        off_s = rc_m.shape[0]   # the soft field: B where the rigid body is A
+        if ra == 0:
+            off_s = 0
+        nq = rc_n[node]
+        body = vec3d(acc[at_v], acc[at_v + 1], acc[at_v + 2]) + wp.cross(
+            vec3d(acc[at_w], acc[at_w + 1], acc[at_w + 2]), r)
+        return field_v(grid_v, grid_dv, node, off_s) - body, vec3d(wp.float64(nq[0]), wp.float64(nq[1]),
+                                                                   wp.float64(nq[2]))
+
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def rc_layer(grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), rc_m: wp.array(dtype=vec3),
-                 rc_n: wp.array(dtype=vec3), ra: int, rb: int, centre: wp.array(dtype=vec3d),
-                 spin: wp.array(dtype=vec3d), n_grid: int, lo: vec3, dx: Ft, acc: wp.array(dtype=wp.float64),
-                 sides: int, stick: int):
+                 rc_n: wp.array(dtype=vec3), ra: int, rb: int, centre: wp.array(dtype=vec3d), n_grid: int, lo: vec3,
+                 dx: Ft, acc: wp.array(dtype=wp.float64), mode: int):
+        """mode 0: the approaching nodes (marked 2) and the normal system against V*; 1: their tangential system
+        against the normal solve's body."""
         node = wp.tid()
-        if rc_m[node][2] > Ft(0.0):
+        f = rc_m[node][2]
+        if f > Ft(0.0):
             x = node_x(node, n_grid, lo, dx)
             r = x - centre[rb]
-            off_s = rc_m.shape[0]
-            if ra == 0:
-                off_s = 0
-            nq = rc_n[node]
-            n = vec3d(wp.float64(nq[0]), wp.float64(nq[1]), wp.float64(nq[2]))
-            u = field_v(grid_v, grid_dv, node, off_s) - vec3d(acc[4], acc[5], acc[6]) - wp.cross(spin[rb], r)
+            at_v = 4 + 61 * mode
+            u, n = relative(grid_v, grid_dv, rc_m, rc_n, node, ra, acc, at_v, 62 + 6 * mode, r)
             un = wp.dot(u, n)
-            if un < wp.float64(0.0) or sides == 2:   # the node's normal bound to the body: A x = b (module notes)
-                m_s = wp.float64(rc_m[node][1])
-                P = m_s * wp.outer(n, n)
-                b1 = m_s * un * n
-                if stick != 0 and un < wp.float64(0.0):   # the node stuck to the body: all three components
-                    P = m_s * wp.identity(3, wp.float64)
-                    b1 = m_s * u
+            m_s = wp.float64(rc_m[node][1])
+            P = m_s * wp.outer(n, n)
+            b1 = m_s * un * n
+            use = mode == 0 and un < wp.float64(0.0)
+            if mode == 0 and use:
+                rc_m[node] = vec3(rc_m[node][0], rc_m[node][1], Ft(2.0))
+            if mode == 1 and f > Ft(1.5):   # the node stuck along the surface (its normal held by the first solve)
+                P = m_s * wp.identity(3, wp.float64) - P
+                b1 = m_s * u - b1
+                use = True
+            if use:
                 S = skew(r)
                 add33(acc, 20, P)
                 add33(acc, 29, -(P * S))
@@ -174,8 +203,10 @@ def build_collider(Ft):
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def rc_solve(acc: wp.array(dtype=wp.float64), mass: wp.array(dtype=wp.float64),
-                 inertia0: wp.array(dtype=mat33d), rot: wp.array(dtype=mat33d), spin: wp.array(dtype=vec3d),
-                 rb: int, dx: wp.float64, implicit: int):
+                 inertia0: wp.array(dtype=mat33d), rot: wp.array(dtype=mat33d), rb: int, dx: wp.float64,
+                 mode: int, implicit: int):
+        """The body's (dV, dw) from ``A x = b`` (module notes; Schur's complement, the spin first): mode 0 from
+        (V*, w) at 4, 62 to 65, 68; mode 1 from there to 71, 74."""
         M = mass[rb]
         R = rot[rb]
         eye = wp.identity(3, wp.float64)
@@ -185,64 +216,92 @@ def build_collider(Ft):
         A22 = R * inertia0[rb] * wp.transpose(R) + wp.float64(0.5) * dx * dx * M * eye + get33(acc, 47)
         b1 = vec3d(acc[56], acc[57], acc[58])
         b2 = vec3d(acc[59], acc[60], acc[61])
-        w = spin[rb]
-        if implicit != 0 and acc[20] + acc[24] + acc[28] > wp.float64(0.0):   # Schur: the spin first
+        at_v = 4 + 61 * mode
+        at_w = 62 + 6 * mode
+        V = vec3d(acc[at_v], acc[at_v + 1], acc[at_v + 2])
+        w = vec3d(acc[at_w], acc[at_w + 1], acc[at_w + 2])
+        if implicit != 0 and acc[20] + acc[24] + acc[28] > wp.float64(0.0):
             inv11 = wp.inverse(A11)
             dw = wp.inverse(A22 - A21 * inv11 * A12) * (b2 - A21 * (inv11 * b1))
-            dV = inv11 * (b1 - A12 * dw)
-            for ax in range(3):
-                acc[4 + ax] = acc[4 + ax] + dV[ax]
+            V = V + inv11 * (b1 - A12 * dw)
             w = w + dw
         for ax in range(3):
-            acc[62 + ax] = w[ax]
+            acc[65 + 6 * mode + ax] = V[ax]
+            acc[68 + 6 * mode + ax] = w[ax]
         for q in range(42):
             acc[20 + q] = wp.float64(0.0)
 
+    @wp.func
+    def node_change(grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), rc_m: wp.array(dtype=vec3),
+                    rc_n: wp.array(dtype=vec3), node: int, ra: int, acc: wp.array(dtype=wp.float64), r: vec3d):
+        """(dv_n, dv_t): a marked node's normal change against the first solve's body and its stuck tangential change
+        against the second's."""
+        u, n = relative(grid_v, grid_dv, rc_m, rc_n, node, ra, acc, 65, 68, r)
+        ut2, n2 = relative(grid_v, grid_dv, rc_m, rc_n, node, ra, acc, 71, 74, r)
+        return -wp.dot(u, n) * n, -(ut2 - wp.dot(ut2, n) * n)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def rc_fsum(grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), rc_m: wp.array(dtype=vec3),
+                rc_n: wp.array(dtype=vec3), ra: int, rb: int, centre: wp.array(dtype=vec3d), n_grid: int, lo: vec3,
+                dx: Ft, acc: wp.array(dtype=wp.float64)):
+        """The layer's normal impulse ``N = sum m dv_n . n`` (77) and its stuck tangential one (78-80)."""
+        node = wp.tid()
+        if rc_m[node][2] > Ft(1.5):
+            r = node_x(node, n_grid, lo, dx) - centre[rb]
+            dvn, dvt = node_change(grid_v, grid_dv, rc_m, rc_n, node, ra, acc, r)
+            m_s = wp.float64(rc_m[node][1])
+            nq = rc_n[node]
+            wp.atomic_add(acc, 77, m_s * (dvn[0] * wp.float64(nq[0]) + dvn[1] * wp.float64(nq[1])
+                                          + dvn[2] * wp.float64(nq[2])))
+            for ax in range(3):
+                wp.atomic_add(acc, 78 + ax, m_s * dvt[ax])
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def rc_coulomb(acc: wp.array(dtype=wp.float64), mu: wp.float64):
+        """Coulomb's on the body as one: the stuck tangential impulse scaled to at most ``mu N`` (81)."""
+        lt = wp.length(vec3d(acc[78], acc[79], acc[80]))
+        sc = wp.float64(1.0)
+        if lt > mu * wp.max(acc[77], wp.float64(0.0)):
+            sc = mu * wp.max(acc[77], wp.float64(0.0)) / lt
+        acc[81] = sc
+        for q in range(4):
+            acc[82 + q] = acc[77 + q]   # kept for reading
+            acc[77 + q] = wp.float64(0.0)
+
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def rc_apply(grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), rc_m: wp.array(dtype=vec3),
-                 rc_n: wp.array(dtype=vec3), ra: int, rb: int, centre: wp.array(dtype=vec3d),
-                 spin: wp.array(dtype=vec3d), n_grid: int, lo: vec3, dx: Ft, acc: wp.array(dtype=wp.float64),
-                 mu: Ft, acc_p: wp.array(dtype=vec3d), acc_l: wp.array(dtype=vec3d), react: int, sides: int):
+                 rc_n: wp.array(dtype=vec3), ra: int, rb: int, centre: wp.array(dtype=vec3d), n_grid: int, lo: vec3,
+                 dx: Ft, acc: wp.array(dtype=wp.float64), acc_p: wp.array(dtype=vec3d),
+                 acc_l: wp.array(dtype=vec3d), react: int):
+        """At each approaching node the normal change and the scaled tangential one; the reaction to the body."""
         node = wp.tid()
-        if rc_m[node][2] > Ft(0.0):
-            nn = n_grid * n_grid
-            x = vec3d(wp.float64(lo[0] + dx * Ft(node / nn)), wp.float64(lo[1] + dx * Ft((node / n_grid) % n_grid)),
-                      wp.float64(lo[2] + dx * Ft(node % n_grid)))
-            off_s = rc_m.shape[0]   # the soft field: B where the rigid body is A
+        if rc_m[node][2] > Ft(1.5):
+            x = node_x(node, n_grid, lo, dx)
+            dvn, dvt = node_change(grid_v, grid_dv, rc_m, rc_n, node, ra, acc, x - centre[rb])
+            dv = dvn + acc[81] * dvt
+            off_s = rc_m.shape[0]
             if ra == 0:
                 off_s = 0
-            v_b = vec3d(acc[4], acc[5], acc[6]) + wp.cross(vec3d(acc[62], acc[63], acc[64]), x - centre[rb])
-            nq = rc_n[node]
-            n = vec3d(wp.float64(nq[0]), wp.float64(nq[1]), wp.float64(nq[2]))
-            u = field_v(grid_v, grid_dv, node, off_s) - v_b
-            un = wp.dot(u, n)
-            if un < wp.float64(0.0) or sides == 2:   # approaching: the normal part off, Coulomb's at most mu times it
-                ut = u - un * n
-                lt = wp.length(ut)
-                dv = -un * n
-                if lt > wp.float64(0.0) and un < wp.float64(0.0):
-                    dv = dv - wp.min(lt, wp.float64(mu) * (-un)) * (ut / lt)
-                grid_dv[off_s + node] = grid_dv[off_s + node] + vec3(Ft(dv[0]), Ft(dv[1]), Ft(dv[2]))
-                m_s = wp.float64(rc_m[node][1])
-                J = -m_s * dv
-                if react != 0:   # Newton's third law: to the body's projection sums (rigid.py)
-                    wp.atomic_add(acc_p, rb, J)
-                    wp.atomic_add(acc_l, rb, wp.cross(x, J))
-                for ax in range(3):
-                    wp.atomic_add(acc, 7 + ax, J[ax])
-                wp.atomic_add(acc, 10, m_s)
+            grid_dv[off_s + node] = grid_dv[off_s + node] + vec3(Ft(dv[0]), Ft(dv[1]), Ft(dv[2]))
+            m_s = wp.float64(rc_m[node][1])
+            J = -m_s * dv
+            if react != 0:   # Newton's third law: to the body's projection sums (rigid.py)
+                wp.atomic_add(acc_p, rb, J)
+                wp.atomic_add(acc_l, rb, wp.cross(x, J))
+            for ax in range(3):
+                wp.atomic_add(acc, 7 + ax, J[ax])
+            wp.atomic_add(acc, 10, m_s)
 
-    return rc_mark, rc_sum, rc_body, rc_layer, rc_solve, rc_apply
+    return rc_mark, rc_sum, rc_body, rc_layer, rc_solve, rc_fsum, rc_coulomb, rc_apply
 
 
 #: Deliberately broken variants for the checks (tests/test_soft_on_rigid_rest.py): REACT 0 gives the body no
 #: reaction; FRICTION 0 takes the collider frictionless.
 REACT = 1
 FRICTION = 1.0
-SIDES = 1      # 2: the normal held both ways at a marked node (experiment)
+BAND = 0.5   # the band: nodes within this many cells of the body's points' box (0: the first pass's touch)
 SOFT_SHARE = 0.0   # mark only nodes where the soft body holds this share of the mass (experiment)
-NORMAL_B = 0   # 0: the rigid field's own mass gradient (experiment)
-STICK = 1      # 1: the implicit solve takes the approaching nodes stuck (friction implicit; experiment)
+NORMAL_B = 1   # 0: the rigid field's own mass gradient (experiment)
 IMPLICIT = 1   # 1: the body's velocity first brought to the common one of itself and the marked layer (experiment)
 
 
@@ -259,7 +318,9 @@ def allocate_collider(eng, Ft) -> None:
     eng.rc_ra = int(eng.in_a.numpy()[eng.rc_rb])
     eng.rc_m = wp.zeros(n, dtype=eng.k.vec3, device=d)
     eng.rc_n = wp.zeros(n, dtype=eng.k.vec3, device=d)
-    eng.rc_acc = wp.zeros(65, dtype=wp.float64, device=d)
+    from gasp_core.mpm.rigid_pairs import body_boxes
+    eng.rc_box = wp.array(body_boxes(view)[eng.rc_rb], dtype=vec3d, device=d)
+    eng.rc_acc = wp.zeros(86, dtype=wp.float64, device=d)
 
 
 def with_mark(eng, Ft, launches: list) -> list:
@@ -274,7 +335,9 @@ def with_mark(eng, Ft, launches: list) -> list:
     mark = wp.launch(build_collider(Ft)[0], dim=eng.n_grid ** 3, device=eng.device, record_cmd=True, inputs=[
         eng.grid_mv, eng.grid_sv, eng.grid_vf, eng.n_grid, eng.ground, Ft(eng.dx ** 3), Ft(wall_lo),
         eng.k.vec3(*[float(c) for c in wall_hi]), Ft(eng.field_touch), eng.ground_touch, eng.flow_touch,
-        eng.field_rule % 2, eng.rc_m, eng.rc_n, eng.grid_dv, eng.rc_ra, NORMAL_B, int(bool(GROUND_MIRROR))])
+        eng.field_rule % 2, eng.rc_m, eng.rc_n, eng.grid_dv, eng.rc_ra, NORMAL_B, int(bool(GROUND_MIRROR)),
+        float(BAND * eng.dx), eng.k.vec3(*[float(c) for c in eng.setup.domain_lo]), Ft(eng.dx), eng.rc_rb, eng.rb_c,
+        eng.rb_R, eng.rc_box])
     at = len(launches) - 1 - int(eng.flow_touch_on or eng.gap_touch_on)
     return launches[:at] + [mark] + launches[at:]
 
@@ -285,17 +348,19 @@ def collider_launches(eng, Ft) -> list:
     allocate_collider(eng, Ft)
     if not eng.rc_on:
         return []
-    _, c_sum, c_body, c_layer, c_solve, c_apply = build_collider(Ft)
+    _, c_sum, c_body, c_layer, c_solve, c_fsum, c_coulomb, c_apply = build_collider(Ft)
     n, d, ng = eng.n_grid ** 3, eng.device, eng.n_grid
     lo = eng.k.vec3(*[float(c) for c in eng.setup.domain_lo])
-    return [wp.launch(c_sum, dim=n, device=d, record_cmd=True, inputs=[
-                eng.grid_v, eng.grid_dv, eng.rc_m, eng.rc_ra, eng.rc_acc]),
-            wp.launch(c_body, dim=1, device=d, record_cmd=True, inputs=[eng.rc_acc]),
-            wp.launch(c_layer, dim=n, device=d, record_cmd=True, inputs=[
-                eng.grid_v, eng.grid_dv, eng.rc_m, eng.rc_n, eng.rc_ra, eng.rc_rb, eng.rb_c, eng.rb_w, ng, lo,
-                Ft(eng.dx), eng.rc_acc, SIDES, STICK]),
-            wp.launch(c_solve, dim=1, device=d, record_cmd=True, inputs=[
-                eng.rc_acc, eng.rb_M, eng.rb_I0, eng.rb_R, eng.rb_w, eng.rc_rb, float(eng.dx), IMPLICIT]),
-            wp.launch(c_apply, dim=n, device=d, record_cmd=True, inputs=[
-                eng.grid_v, eng.grid_dv, eng.rc_m, eng.rc_n, eng.rc_ra, eng.rc_rb, eng.rb_c, eng.rb_w, ng, lo,
-                Ft(eng.dx), eng.rc_acc, Ft(eng.field_mu * FRICTION), eng.acc_p, eng.acc_l, REACT, SIDES])]
+    geo = [eng.rc_m, eng.rc_n, eng.rc_ra, eng.rc_rb, eng.rb_c, ng, lo, Ft(eng.dx), eng.rc_acc]
+    solve = [eng.rc_acc, eng.rb_M, eng.rb_I0, eng.rb_R, eng.rc_rb, float(eng.dx)]
+    out = [wp.launch(c_sum, dim=n, device=d, record_cmd=True, inputs=[
+               eng.grid_v, eng.grid_dv, eng.rc_m, eng.rc_ra, eng.rc_acc]),
+           wp.launch(c_body, dim=1, device=d, record_cmd=True, inputs=[eng.rc_acc, eng.rb_w, eng.rc_rb])]
+    for mode in (0, 1):   # the normal solve, then the tangential one
+        out += [wp.launch(c_layer, dim=n, device=d, record_cmd=True, inputs=[eng.grid_v, eng.grid_dv, *geo, mode]),
+                wp.launch(c_solve, dim=1, device=d, record_cmd=True, inputs=[*solve, mode, IMPLICIT])]
+    return out + [
+        wp.launch(c_fsum, dim=n, device=d, record_cmd=True, inputs=[eng.grid_v, eng.grid_dv, *geo]),
+        wp.launch(c_coulomb, dim=1, device=d, record_cmd=True, inputs=[eng.rc_acc, float(eng.field_mu * FRICTION)]),
+        wp.launch(c_apply, dim=n, device=d, record_cmd=True, inputs=[
+            eng.grid_v, eng.grid_dv, *geo, eng.acc_p, eng.acc_l, REACT])]
