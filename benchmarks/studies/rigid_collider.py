@@ -1,6 +1,6 @@
 """Round 63 (docs/rigid.md "Round 63: the rigid body as a moving collider of the soft field"): the rest scenes of
-``tests/test_soft_on_rigid_rest.py`` (and a jelly ball on the rigid slab, a wider rigid block on jelly: neighbours
-not tuned on) and the mixed slides of ``tests/test_block_on_block.py``, with the rule on or off.
+``tests/test_soft_on_rigid_rest.py`` (and its neighbours not tuned on: a jelly ball on the rigid slab, a rigid plate on
+jelly) and the mixed slides of ``tests/test_block_on_block.py``, with the rule on or off.
 
     python benchmarks/studies/rigid_collider.py --engine warp_mpm --rule on --cases jelly_on_slab,block_on_jelly \
         --grids 32,48 --E 1e5,1e6 [--slides] [--set REACT=0 ...]
@@ -11,37 +11,20 @@ Prints per case the gap at 0.3 s and 1.0 s (mm) and the drift in dx; per slide i
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import importlib
 import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tests"))
 
-from gasp_core.testing import scenes_rigid3 as S  # noqa: E402
 
 
 def scene(case: str, n_grid: int, E: float):
-    """A rest scene (body 0 the upper, body 1 the lower): the test module's three and two neighbours."""
+    """A rest scene of ``tests/test_soft_on_rigid_rest.py`` (its three and its neighbours ``ball_on_slab``,
+    ``plate_on_jelly``)."""
     from test_soft_on_rigid_rest import rest_setup
-    if case in ("jelly_on_slab", "block_on_jelly", "jelly_on_jelly"):
-        return rest_setup(case, n_grid, E=E)
-    if case == "wide_block_on_jelly":   # a 10 x 10 x 2 cm rigid plate (lighter per area than the 6 cm block)
-        boxes = [([-0.05, -0.05, 0.04], [0.05, 0.05, 0.06]), ([-0.10, -0.08, 0.0], [0.18, 0.08, 0.04])]
-        models = ("rigid", "elastic")
-    else:   # ball_on_slab: a jelly ball of radius 3 cm on the rigid slab
-        boxes = [([-0.03, -0.03, 0.03], [0.03, 0.03, 0.09]), ([-0.12, -0.08, 0.0], [0.28, 0.08, 0.03])]
-        models = ("elastic", "rigid")
-    s = S._setup(boxes, models, [0.0, 0.0, 0.0], n_grid, 0.0, [None, None])
-    if case == "ball_on_slab":   # keep the points of body 0 within the ball
-        x, b = np.asarray(s.x), np.asarray(s.body_id)
-        keep = (b != 0) | (np.linalg.norm(x - np.array([0.0, 0.0, 0.06]), axis=1) <= 0.03)
-        s.x, s.v, s.p_vol, s.body_id = x[keep], np.asarray(s.v)[keep], np.asarray(s.p_vol)[keep], b[keep]
-    s.materials = [dataclasses.replace(m, E=E) for m in s.materials]
-    return s
+    return rest_setup(case, n_grid, E=E)
 
 
 def main() -> None:

@@ -61,9 +61,11 @@ def pair_mode(setup) -> int:
     return mode(setup)
 
 
-def pair_data(setup) -> tuple[np.ndarray, np.ndarray]:
-    """``(body_boxes, pair_frictions)`` of a setup, what an engine's pairs' solve reads."""
-    return body_boxes(setup), pair_frictions(setup)
+def pair_data(setup) -> tuple:
+    """``(body_boxes, pair_frictions, collider_data)`` of a setup, what an engine's pairs' solve reads (round 63: and
+    the rigid collider's, ``gasp_core.mpm.rigid_collider.collider_data``)."""
+    from gasp_core.mpm.rigid_collider import collider_data
+    return body_boxes(setup), pair_frictions(setup), collider_data(setup)
 
 
 def body_boxes(setup) -> np.ndarray:

@@ -162,7 +162,10 @@ CPU_ONLY = ("schedule/ordered.py",)
 #: variant of a parallel loop): kernel name -> why.
 ONE_ITEM = {"rigid_pair": "the contact of one pair of rigid bodies: a dozen float64 operations, once a substep",
             "rigid_pairs": "round 62: the touching pairs of rigid bodies among three or more, SWEEPS (8) x n_pairs (a "
-                           "handful) pair updates, once a substep"}
+                           "handful) pair updates, once a substep",
+            "collider_body": "round 63: the rigid body's V* from its field's sums, one body, once a substep",
+            "collider_solve": "round 63: the body's 6 x 6 solve with its layer, one body, twice a substep",
+            "collider_coulomb": "round 63: Coulomb's scale of the layer's tangential impulse, one body"}
 
 
 def _serial_constructs(root):

@@ -50,6 +50,10 @@ DIM1_SCALAR = {
     "build_rigid_pair": "the contact of one pair of rigid bodies, O(1) (rigid.py; taichi_mpm's ONE_ITEM)",
     "build_rigid_pairs": "round 62: the touching pairs of rigid bodies among three or more, SWEEPS (8) x n_pairs (a "
                          "handful) pair updates (rigid_pairs.py; taichi_mpm's ONE_ITEM)",
+    "c_body": "round 63: the rigid body's V* from its field's sums, one body (rigid_collider.py)",
+    "c_solve": "round 63: the body's 6 x 6 solve with its layer (Schur, two 3 x 3 inverses), one body "
+               "(rigid_collider.py)",
+    "c_coulomb": "round 63: Coulomb's scale of the layer's tangential impulse, one body (rigid_collider.py)",
 }
 
 _PLANES = "the ground and wall planes of a scene (a handful)"
