@@ -98,12 +98,11 @@ class RigidCollider:
             self.rc_n[I] = nh
 
     @ti.func
-    def rc_field_v(self, I, soft):
+    def rc_field_v(self, I, soft: ti.template()):
         """A node's field velocity (float64): the soft field's (``soft`` 1) or the rigid one's."""
         d = self.grid_dv[I]
-        a = ti.static(1 if self.rc_ra != 0 else 0)   # 1: the rigid body is A
-        v = self.grid_v[I] + ti.Vector([d[3], d[4], d[5]])
-        if (soft != 0) == (a != 0):   # the soft field is A, or the rigid one is A
+        v = self.grid_v[I] + ti.Vector([d[3], d[4], d[5]])   # field B's
+        if ti.static((soft != 0) == (self.rc_ra == 0)):   # field A's: the soft one where the rigid is B
             v = self.grid_v[I] + ti.Vector([d[0], d[1], d[2]])
         return ti.cast(v, ti.f64)
 
@@ -186,9 +185,9 @@ class RigidCollider:
 
     @ti.func
     def rc_get33(self, at):
-        a = self.rc_acc
-        return ti.Matrix([[a[at], a[at + 1], a[at + 2]], [a[at + 3], a[at + 4], a[at + 5]],
-                          [a[at + 6], a[at + 7], a[at + 8]]], dt=ti.f64)
+        return ti.Matrix([[self.rc_acc[at], self.rc_acc[at + 1], self.rc_acc[at + 2]],
+                          [self.rc_acc[at + 3], self.rc_acc[at + 4], self.rc_acc[at + 5]],
+                          [self.rc_acc[at + 6], self.rc_acc[at + 7], self.rc_acc[at + 8]]], dt=ti.f64)
 
     @ti.kernel
     def collider_solve(self, mode: ti.i32):
