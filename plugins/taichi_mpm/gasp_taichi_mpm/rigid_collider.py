@@ -20,6 +20,7 @@ from gasp_core.mpm.fields import MIN_FRACTION, MIN_GRADIENT
 REACT = 1
 FRICTION = 1.0
 BAND = 0.5
+IMPLICIT = 1   # 0: no solve, the body's reaction explicit (a broken variant: the block floats)
 
 
 @ti.data_oriented
@@ -40,6 +41,7 @@ class RigidCollider:
         self.rc_band = float(BAND)
         self.rc_react_on = int(REACT)
         self.rc_mu = float(self.field_mu * FRICTION)
+        self.rc_implicit = int(IMPLICIT)
         self.rc_box = ti.Vector.field(3, ti.f64, shape=2)
         self.rc_box.from_numpy(np.asarray(collider[1], np.float64))
         self.rc_m = ti.Vector.field(3, self.real, shape=(ng, ng, ng))
@@ -207,7 +209,7 @@ class RigidCollider:
             b2 = self.rc_vec(59)
             V = self.rc_vec(4 + 61 * mode)
             w = self.rc_vec(62 + 6 * mode)
-            if self.rc_acc[20] + self.rc_acc[24] + self.rc_acc[28] > 0.0:
+            if ti.static(self.rc_implicit != 0) and self.rc_acc[20] + self.rc_acc[24] + self.rc_acc[28] > 0.0:
                 inv11 = A11.inverse()
                 dw = (A22 - A21 @ inv11 @ A12).inverse() @ (b2 - A21 @ (inv11 @ b1))
                 V += inv11 @ (b1 - A12 @ dw)
