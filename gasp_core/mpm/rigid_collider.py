@@ -36,7 +36,7 @@ import numpy as np
 
 #: Round 63: True runs the collider rule for a mixed pair (module notes); False: round 29's node-mean exchange (the
 #: rule before: a jelly on a rigid slab sank -1.0 dx in 0.7 s, a rigid block on jelly -0.17 dx).
-RIGID_COLLIDER = False
+RIGID_COLLIDER = True
 
 
 def collider_on(setup) -> bool:
@@ -96,13 +96,11 @@ def collide(M: float, inertia: np.ndarray, V: np.ndarray, w: np.ndarray, m_s: np
     return dv, J.sum(0), np.cross(r, J).sum(0)
 
 
-def collider_data(setup):
-    """``(rb, box)`` where a setup runs the rule (:func:`collider_on` of its step view): the rigid body's index and its
-    points' box about its mass centre in its frame (``rigid_pairs.body_boxes``, shape (2, 3), m); else None."""
+def collider_data(setup) -> int | None:
+    """The rigid body's index where a setup runs the rule (:func:`collider_on` of its step view), else None
+    (``gasp_core.mpm.rigid_pairs.pair_data`` adds its box)."""
     from gasp_core.mpm.rigid import rigid_mask, step_view
-    from gasp_core.mpm.rigid_pairs import body_boxes
     view = step_view(setup)
     if not collider_on(view):
         return None
-    rb = int(np.flatnonzero(np.asarray(rigid_mask(view.materials)))[0])
-    return rb, body_boxes(view)[rb]
+    return int(np.flatnonzero(np.asarray(rigid_mask(view.materials)))[0])
