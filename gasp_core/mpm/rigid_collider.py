@@ -6,9 +6,9 @@ Per substep, with :data:`RIGID_COLLIDER` on:
 
 1. After P2G, at every node the two fields share (off the grounds' and walls' node layers), each field keeps its own
    velocity (no exchange: the rigid field's nodes never see the soft body's stress or approach). A node is in the
-   body's band where both fields have mass there and it lies within ``BAND`` cells (0.5: the body's surface, a quarter
-   cell beyond its outer points, plus a quarter cell) of the body's points' box in the body's frame
-   (``rigid_pairs.body_boxes``); its normal ``n`` is field B's surface normal (the first pass's, round 22: the
+   body's band where both fields have mass there and it lies within :data:`BAND` cells of the body's points' box in
+   the body's frame (``rigid_pairs.body_boxes``; 0.5: the body's surface, a quarter cell beyond its outer points, plus
+   a quarter cell); its normal ``n`` is field B's surface normal (the first pass's, round 22: the
    larger body's face), turned to point out of the rigid body.
 2. After the grid update (gravity, the particle contact's impulses, the boundaries), the body's velocity this substep
    ``V* = sum_i m_R v_R / sum_i m_R`` over the rigid field's nodes (what its points' G2P and projection would give
@@ -37,6 +37,9 @@ import numpy as np
 #: Round 63: True runs the collider rule for a mixed pair (module notes); False: round 29's node-mean exchange (the
 #: rule before: a jelly on a rigid slab sank -1.0 dx in 0.7 s, a rigid block on jelly -0.17 dx).
 RIGID_COLLIDER = True
+#: The band: a node within this many cells of the rigid body's points' box, in its frame (Chebyshev): its surface, a
+#: quarter cell beyond its outer points, plus a quarter cell (measured at 0.5 only, ``docs/rigid.md`` "Round 63").
+BAND = 0.5
 
 
 def collider_on(setup) -> bool:

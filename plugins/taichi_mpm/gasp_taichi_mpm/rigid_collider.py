@@ -13,13 +13,13 @@ Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields it reads.
 import numpy as np
 import taichi as ti
 
+from gasp_core.mpm import rigid_collider as core_collider
 from gasp_core.mpm.fields import MIN_FRACTION, MIN_GRADIENT
 
 #: Deliberately broken variants for the checks (as warp_mpm's): REACT 0 gives the body no reaction; FRICTION 0 a
-#: frictionless collider; BAND the band (cells beyond the body's points' box).
+#: frictionless collider.
 REACT = 1
 FRICTION = 1.0
-BAND = 0.5
 IMPLICIT = 1   # 0: no solve, the body's reaction explicit (a broken variant: the block floats)
 
 
@@ -38,7 +38,7 @@ class RigidCollider:
         ng = self.n_grid
         self.rc_rb = int(collider[0])
         self.rc_ra = int(self.in_a[self.rc_rb])
-        self.rc_band = float(BAND)
+        self.rc_band = float(core_collider.BAND)
         self.rc_react_on = int(REACT)
         self.rc_mu = float(self.field_mu * FRICTION)
         self.rc_implicit = int(IMPLICIT)

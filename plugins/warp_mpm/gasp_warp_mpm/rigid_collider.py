@@ -17,6 +17,7 @@ import functools
 import numpy as np
 import warp as wp
 
+from gasp_core.mpm import rigid_collider as core_collider
 from gasp_core.mpm.fields import MIN_FRACTION, MIN_GRADIENT
 
 from .fields import build_b_normal
@@ -299,10 +300,9 @@ def build_collider(Ft):
 #: reaction; FRICTION 0 takes the collider frictionless.
 REACT = 1
 FRICTION = 1.0
-BAND = 0.5   # the band: nodes within this many cells of the body's points' box (0: the first pass's touch)
-SOFT_SHARE = 0.0   # mark only nodes where the soft body holds this share of the mass (experiment)
-NORMAL_B = 1   # 0: the rigid field's own mass gradient (experiment)
-IMPLICIT = 1   # 1: the body's velocity first brought to the common one of itself and the marked layer (experiment)
+SOFT_SHARE = 0.0   # experiment: mark only nodes where the soft body holds this share of the mass (no change)
+NORMAL_B = 1   # field B's normal (the rule); experiments: 0 the rigid field's mass gradient, 2 the larger one's
+IMPLICIT = 1   # the body solved with its layer (the rule); 0: no solve, the reaction explicit (broken: floats)
 
 
 def allocate_collider(eng, Ft) -> None:
@@ -336,8 +336,8 @@ def with_mark(eng, Ft, launches: list) -> list:
         eng.grid_mv, eng.grid_sv, eng.grid_vf, eng.n_grid, eng.ground, Ft(eng.dx ** 3), Ft(wall_lo),
         eng.k.vec3(*[float(c) for c in wall_hi]), Ft(eng.field_touch), eng.ground_touch, eng.flow_touch,
         eng.field_rule % 2, eng.rc_m, eng.rc_n, eng.grid_dv, eng.rc_ra, NORMAL_B, int(bool(GROUND_MIRROR)),
-        float(BAND * eng.dx), eng.k.vec3(*[float(c) for c in eng.setup.domain_lo]), Ft(eng.dx), eng.rc_rb, eng.rb_c,
-        eng.rb_R, eng.rc_box])
+        float(core_collider.BAND * eng.dx), eng.k.vec3(*[float(c) for c in eng.setup.domain_lo]), Ft(eng.dx),
+        eng.rc_rb, eng.rb_c, eng.rb_R, eng.rc_box])
     at = len(launches) - 1 - int(eng.flow_touch_on or eng.gap_touch_on)
     return launches[:at] + [mark] + launches[at:]
 
