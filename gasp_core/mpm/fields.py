@@ -197,8 +197,8 @@ def pair_mode(setup) -> int:
 
 def mixed_pair(setup) -> bool:
     """Whether a scene is a rigid body and a soft one on the particle contact (two materials, one ``model = "rigid"``):
-    they take a field each and the nodes' Coulomb correction of the module notes, the rigid body's side then projected
-    onto its rigid motion (issue 67 item 4: a rigid block thrown along a jelly slab on a frictionless ground slides
+    they take a field each, the rigid body a moving collider of the soft field (round 63, ``rigid_collider``; without
+    it the nodes' Coulomb correction of the module notes; issue 67 item 4: a rigid block thrown along a jelly slab slides
     0.4 % past ``V0^2 / (2 mu g (1 + m1 / m2))``, a jelly block on a rigid slab 0.4 % short, both engines; with one
     field they stuck, -99 %, ``tests/test_block_on_block.py``)."""
     from gasp_core.mpm.rigid import rigid_mask

@@ -381,6 +381,8 @@ class Fields(PairTouch, PairPush, FieldFlip):
             if self.gap_touch_on:   # round 60: the touch by geometry (pair_touch.py)
                 self.mark_gap()
             self.field_contact()
+            if self.rc_on:   # round 63: each field its own velocity, the collider's band (rigid_collider.py)
+                self.collider_mark()
             if self.flow_touch_on:
                 self.apply_flow()
             if self.gap_push_on:   # round 62 (pair_push.py): before the volumes are cleared

@@ -54,6 +54,9 @@ class RigidHold:
         if ti.static(self.hold_rigid):
             out = self.rb_hold[b]
             self.rb_hold[b] = ti.Vector.zero(ti.f64, 6)
+        if ti.static(self.rc_on):   # round 63: the rigid collider's reaction (rigid_collider.py)
+            out += self.rc_react[b]
+            self.rc_react[b] = ti.Vector.zero(ti.f64, 6)
         return out
 
     @ti.func

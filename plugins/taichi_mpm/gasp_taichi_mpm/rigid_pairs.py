@@ -33,9 +33,10 @@ class RigidPairs:
         self.pair_sweeps = int(SWEEPS)
         self.pair_pad = float(NODE_PAD)
 
-    def set_pairs(self, boxes, mus) -> None:
+    def set_pairs(self, boxes, mus, collider=None) -> None:
         """Each rigid body's box (``rigid_pairs.body_boxes``, shape (n_bodies, 2, 3), m) and each slot's ``mu``
-        (``pair_frictions``); nothing unless ``pair_many``."""
+        (``pair_frictions``); nothing unless ``pair_many``. ``collider``: round 63's (rigid_collider.py)."""
+        self.allocate_collider(collider)
         if self.pair_many:
             self.pair_box.from_numpy(np.asarray(boxes, np.float64).reshape(-1, 3))
             self.pair_mu.from_numpy(np.asarray(mus, np.float64))

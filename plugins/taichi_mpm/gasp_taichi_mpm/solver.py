@@ -53,6 +53,7 @@ from .forces import Forces, count_set_boxes
 from .grid import GridUpdate
 from .rigid import Rigid
 from .rigid_hold import RigidHold
+from .rigid_collider import RigidCollider
 from .schedule.coloured import SORT_EVERY, ColouredP2G  # noqa: F401 (SORT_EVERY: benchmarks/bench_threads.py)
 from .schedule.fixed import FixedPointP2G
 from .schedule.ordered import OrderedCPU
@@ -62,7 +63,7 @@ from .viscosity import ImplicitViscosity
 
 
 @ti.data_oriented
-class MPMSolver(Transfers, ColouredP2G, TileP2G, FixedPointP2G, Constitutive, GridUpdate, Colliders, Forces, Contact, Balance,
+class MPMSolver(RigidCollider, Transfers, ColouredP2G, TileP2G, FixedPointP2G, Constitutive, GridUpdate, Colliders, Forces, Contact, Balance,
                 BalanceGPU, Rigid, Fields, RigidHold, FrameChecks, OrderedCPU):
     """Fields and kernels of one simulation.
 

@@ -46,6 +46,7 @@ from .balance_alloc import allocate_balance
 from .colliders import hold_launches
 from .fields import allocate_fields, field_launches
 from .pair_push import with_push
+from .rigid_collider import collider_launches, with_mark
 from .held import HeldRule, held_boxes, mirror_launches   # HeldRule: held_rule.py
 from .rigid import RigidBodies
 from .sleeping import Sleeping
@@ -235,9 +236,10 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
                 self.grid_m]),
         ] + hold_launches(self, Ft, has_extras, ex) + self._rigid_launches(Ft)
         self._pre, fixes = balance_for(self, k, lo_v, dx, dt_f, ex)   # the balance's; then round 49's, held.py's
-        self._launches[2:2] = self.share_launches(Ft) + fixes + mirror_launches(self, Ft, has_extras, ex)
-        # after P2G: touch.py, fields.py (round 62's push before the fields' clear: pair_push.py)
-        self._launches[1:1] = self.touch_launches(Ft) + with_push(self, Ft, field_launches(self, Ft))
+        self._launches[2:2] = (self.share_launches(Ft) + fixes + mirror_launches(self, Ft, has_extras, ex)
+                               + collider_launches(self, Ft))   # round 63: rigid_collider.py
+        # after P2G: touch.py, fields.py (round 62's push before the fields' clear: pair_push.py; round 63's mark)
+        self._launches[1:1] = self.touch_launches(Ft) + with_push(self, Ft, with_mark(self, Ft, field_launches(self, Ft)))
         # passive points after the grid update (forces, colliders, boundaries in the grid velocity): one launch per
         # interval of passive_schedule, at its substeps; then held in the box of gasp_core.mpm.points.passive_bounds
         self._passive_at = [None] * self.n_substeps

@@ -52,6 +52,10 @@ DIM1_SCALAR = {
                          "updates; round 63: only the n_on touching slots the node kernel listed are visited (an "
                          "insertion sort of n_on, their clears), none of the n_bodies^2 table (rigid_pairs.py; "
                          "taichi_mpm's ONE_ITEM)",
+    "c_body": "round 63: the rigid body's V* from its field's sums, one body (rigid_collider.py)",
+    "c_solve": "round 63: the body's 6 x 6 solve with its layer (Schur, two 3 x 3 inverses), one body "
+               "(rigid_collider.py)",
+    "c_coulomb": "round 63: Coulomb's scale of the layer's tangential impulse, one body (rigid_collider.py)",
 }
 
 _PLANES = "the ground and wall planes of a scene (a handful)"

@@ -1,0 +1,298 @@
+"""Round 63: the rigid body as a moving collider of the soft field (``gasp_core.mpm.rigid_collider``, ``docs/rigid.md``
+"Round 63") in Taichi, the steps of warp_mpm's ``rigid_collider.py``.
+
+:meth:`RigidCollider.collider_mark` (after the first pass ``Fields.field_contact``, before the fields' clear) gives
+each shared node its fields' own velocities and marks the band's nodes with field B's normal;
+:meth:`RigidCollider.collider_pass` (after the grid update, before G2P) sums the rigid field's momentum into ``V*``,
+solves the body with its approaching layer (normal, then tangential stuck), takes Coulomb's on the body as one and
+changes the soft field's offsets, the reaction to ``rc_react`` (read with the hold's in the projection's sums,
+``RigidHold.held``). ``rc_acc`` (float64, 86): warp_mpm's layout.
+
+Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields it reads.
+"""
+import numpy as np
+import taichi as ti
+
+from gasp_core.mpm import rigid_collider as core_collider
+from gasp_core.mpm.fields import MIN_FRACTION, MIN_GRADIENT
+
+#: Deliberately broken variants for the checks (as warp_mpm's): REACT 0 gives the body no reaction; FRICTION 0 a
+#: frictionless collider.
+REACT = 1
+FRICTION = 1.0
+IMPLICIT = 1   # 0: no solve, the body's reaction explicit (a broken variant: the block floats)
+
+
+@ti.data_oriented
+class RigidCollider:
+    """The collider's fields and kernels (none without it: ``rc_on`` False)."""
+
+    rc_on = False
+
+    def allocate_collider(self, collider) -> None:
+        """``collider``: ``gasp_core.mpm.rigid_collider.collider_data`` (``(rb, box)``) or None (off). Before the first
+        substep (the kernels read ``rc_on`` when they compile)."""
+        self.rc_on = bool(collider is not None and self.fields)
+        if not self.rc_on:
+            return
+        ng = self.n_grid
+        self.rc_rb = int(collider[0])
+        self.rc_ra = int(self.in_a[self.rc_rb])
+        self.rc_band = float(core_collider.BAND)
+        self.rc_react_on = int(REACT)
+        self.rc_mu = float(self.field_mu * FRICTION)
+        self.rc_implicit = int(IMPLICIT)
+        self.rc_box = ti.Vector.field(3, ti.f64, shape=2)
+        self.rc_box.from_numpy(np.asarray(collider[1], np.float64))
+        self.rc_m = ti.Vector.field(3, self.real, shape=(ng, ng, ng))
+        self.rc_n = ti.Vector.field(3, self.real, shape=(ng, ng, ng))
+        self.rc_acc = ti.field(ti.f64, shape=86)
+        self.rc_react = ti.Vector.field(6, ti.f64, shape=max(self.n_bodies, 1))
+
+    @ti.func
+    def rc_node(self, idx, lo, ext):
+        return lo + ti.Vector([idx // (ext[1] * ext[2]), (idx // ext[2]) % ext[1], idx % ext[2]])
+
+    @ti.func
+    def rc_x(self, I):
+        return ti.cast(self.lo[None] + self.dx[None] * ti.cast(I, self.real), ti.f64)
+
+    @ti.kernel
+    def collider_mark(self):
+        """Each shared node off the grounds' and walls' layers: its fields' own velocities; a band node (within
+        ``rc_band`` cells of the body's points' box, both masses, B's normal) marked 1 with the rigid body's outward
+        normal."""
+        ng = self.n_grid
+        lo, ext = self.touched_box()
+        rb = self.rc_rb
+        band = self.rc_band * ti.cast(self.dx[None], ti.f64)
+        for idx in range(ext[0] * ext[1] * ext[2]):
+            I = self.rc_node(idx, lo, ext)
+            m = self.grid_mv[0, I][3]
+            sv = self.grid_sv[I]
+            m_a = sv[3]
+            m_b = m - m_a
+            m_r = m_b
+            if ti.static(self.rc_ra != 0):
+                m_r = m_a
+            flag = ti.cast(0.0, self.real)
+            nh = ti.Vector.zero(self.real, 3)
+            inner = (I > 0).all() and (I < ng - 1).all()
+            if inner and m_a > MIN_FRACTION * m and m_b > MIN_FRACTION * m and self.held_node(I) == 0:
+                g = self.grid_mv[0, I]
+                u = ti.Vector([sv[0], sv[1], sv[2]]) / m_a - ti.Vector([g[0] - sv[0], g[1] - sv[1], g[2] - sv[2]]) / m_b
+                da = (m_b / m) * u
+                db = -(m_a / m) * u
+                self.grid_dv[I] = ti.Vector([da[0], da[1], da[2], db[0], db[1], db[2]])
+                q = self.rb_R[rb].transpose() @ (self.rc_x(I) - self.rb_c[rb])
+                d = ti.max(self.rc_box[0] - q, q - self.rc_box[1]).max()
+                ex, ey, ez = ti.Vector([1, 0, 0]), ti.Vector([0, 1, 0]), ti.Vector([0, 0, 1])
+                n = ti.Vector([self.mass_b_seen(I + ex) - self.mass_b_seen(I - ex),   # field B's, into B
+                               self.mass_b_seen(I + ey) - self.mass_b_seen(I - ey),
+                               self.mass_b_seen(I + ez) - self.mass_b_seen(I - ez)])
+                ln = n.norm()
+                if d <= band and ln > MIN_GRADIENT * m:
+                    flag = 1.0
+                    nh = n / ln   # into B: out of the rigid body where it is A
+                    if ti.static(self.rc_ra == 0):
+                        nh = -nh
+            self.rc_m[I] = ti.Vector([m_r, m - m_r, flag])
+            self.rc_n[I] = nh
+
+    @ti.func
+    def rc_field_v(self, I, soft: ti.template()):
+        """A node's field velocity (float64): the soft field's (``soft`` 1) or the rigid one's."""
+        d = self.grid_dv[I]
+        v = self.grid_v[I] + ti.Vector([d[3], d[4], d[5]])   # field B's
+        if ti.static((soft != 0) == (self.rc_ra == 0)):   # field A's: the soft one where the rigid is B
+            v = self.grid_v[I] + ti.Vector([d[0], d[1], d[2]])
+        return ti.cast(v, ti.f64)
+
+    @ti.kernel
+    def collider_sum(self):
+        lo, ext = self.touched_box()
+        for idx in range(ext[0] * ext[1] * ext[2]):
+            I = self.rc_node(idx, lo, ext)
+            m_r = ti.cast(self.rc_m[I][0], ti.f64)
+            if m_r > 0.0:
+                p = m_r * self.rc_field_v(I, 0)
+                for ax in ti.static(range(3)):
+                    self.rc_acc[ax] += p[ax]
+                self.rc_acc[3] += m_r
+
+    @ti.kernel
+    def collider_body(self):
+        """``V*`` (4-6) from the sums and the spin of the state (62-64); one body."""
+        for _ in range(1):
+            for q in ti.static(range(4)):
+                self.rc_acc[11 + q] = self.rc_acc[7 + q]
+                self.rc_acc[7 + q] = 0.0
+            if self.rc_acc[3] > 0.0:
+                for ax in ti.static(range(3)):
+                    self.rc_acc[4 + ax] = self.rc_acc[ax] / self.rc_acc[3]
+            for ax in ti.static(range(3)):
+                self.rc_acc[62 + ax] = self.rb_w[self.rc_rb][ax]
+            for q in ti.static(range(4)):
+                self.rc_acc[q] = 0.0
+
+    @ti.func
+    def rc_vec(self, at):
+        return ti.Vector([self.rc_acc[at], self.rc_acc[at + 1], self.rc_acc[at + 2]])
+
+    @ti.func
+    def rc_relative(self, I, at_v, at_w, r):
+        """The soft field's velocity less the body's (``rc_acc[at_v:]``, spin ``rc_acc[at_w:]``) at node I."""
+        return self.rc_field_v(I, 1) - self.rc_vec(at_v) - self.rc_vec(at_w).cross(r)
+
+    @ti.func
+    def rc_add33(self, at, a):
+        for p in ti.static(range(3)):
+            for q in ti.static(range(3)):
+                self.rc_acc[at + 3 * p + q] += a[p, q]
+
+    @ti.kernel
+    def collider_layer(self, mode: ti.i32):
+        """mode 0: the approaching nodes (marked 2) and the normal system against V*; 1: their tangential system."""
+        lo, ext = self.touched_box()
+        rb = self.rc_rb
+        for idx in range(ext[0] * ext[1] * ext[2]):
+            I = self.rc_node(idx, lo, ext)
+            f = self.rc_m[I][2]
+            if f > 0.0:
+                r = self.rc_x(I) - self.rb_c[rb]
+                u = self.rc_relative(I, 4 + 61 * mode, 62 + 6 * mode, r)
+                n = ti.cast(self.rc_n[I], ti.f64)
+                un = u.dot(n)
+                m_s = ti.cast(self.rc_m[I][1], ti.f64)
+                P = m_s * n.outer_product(n)
+                b1 = m_s * un * n
+                use = 0
+                if mode == 0 and un < 0.0:
+                    use = 1
+                    self.rc_m[I][2] = 2.0
+                if mode == 1 and f > 1.5:   # stuck along the surface (its normal held by the first solve)
+                    P = m_s * ti.Matrix.identity(ti.f64, 3) - P
+                    b1 = m_s * u - b1
+                    use = 1
+                if use != 0:
+                    S = ti.Matrix([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]], dt=ti.f64)
+                    self.rc_add33(20, P)
+                    self.rc_add33(29, -(P @ S))
+                    self.rc_add33(38, S @ P)
+                    self.rc_add33(47, -(S @ P @ S))
+                    b2 = r.cross(b1)
+                    for ax in ti.static(range(3)):
+                        self.rc_acc[56 + ax] += b1[ax]
+                        self.rc_acc[59 + ax] += b2[ax]
+
+    @ti.func
+    def rc_get33(self, at):
+        return ti.Matrix([[self.rc_acc[at], self.rc_acc[at + 1], self.rc_acc[at + 2]],
+                          [self.rc_acc[at + 3], self.rc_acc[at + 4], self.rc_acc[at + 5]],
+                          [self.rc_acc[at + 6], self.rc_acc[at + 7], self.rc_acc[at + 8]]], dt=ti.f64)
+
+    @ti.kernel
+    def collider_solve(self, mode: ti.i32):
+        """The body's (dV, dw) from ``A x = b`` (Schur's complement, the spin first): mode 0 from (V*, w) at 4, 62 to
+        65, 68; mode 1 from there to 71, 74; one body."""
+        for _ in range(1):
+            rb = self.rc_rb
+            M = self.rb_M[rb]
+            R = self.rb_R[rb]
+            eye = ti.Matrix.identity(ti.f64, 3)
+            A11 = M * eye + self.rc_get33(20)
+            A12 = self.rc_get33(29)
+            A21 = self.rc_get33(38)
+            A22 = R @ self.rb_I0[rb] @ R.transpose() + 0.5 * ti.cast(self.dx[None], ti.f64) ** 2 * M * eye \
+                + self.rc_get33(47)
+            b1 = self.rc_vec(56)
+            b2 = self.rc_vec(59)
+            V = self.rc_vec(4 + 61 * mode)
+            w = self.rc_vec(62 + 6 * mode)
+            if ti.static(self.rc_implicit != 0) and self.rc_acc[20] + self.rc_acc[24] + self.rc_acc[28] > 0.0:
+                inv11 = A11.inverse()
+                dw = (A22 - A21 @ inv11 @ A12).inverse() @ (b2 - A21 @ (inv11 @ b1))
+                V += inv11 @ (b1 - A12 @ dw)
+                w += dw
+            for ax in ti.static(range(3)):
+                self.rc_acc[65 + 6 * mode + ax] = V[ax]
+                self.rc_acc[68 + 6 * mode + ax] = w[ax]
+            for q in range(42):
+                self.rc_acc[20 + q] = 0.0
+
+    @ti.func
+    def rc_change(self, I, r):
+        """(dv_n, dv_t): the normal change against the first solve's body, the stuck tangential against the
+        second's."""
+        n = ti.cast(self.rc_n[I], ti.f64)
+        u = self.rc_relative(I, 65, 68, r)
+        ut2 = self.rc_relative(I, 71, 74, r)
+        return -u.dot(n) * n, -(ut2 - ut2.dot(n) * n)
+
+    @ti.kernel
+    def collider_fsum(self):
+        lo, ext = self.touched_box()
+        for idx in range(ext[0] * ext[1] * ext[2]):
+            I = self.rc_node(idx, lo, ext)
+            if self.rc_m[I][2] > 1.5:
+                dvn, dvt = self.rc_change(I, self.rc_x(I) - self.rb_c[self.rc_rb])
+                m_s = ti.cast(self.rc_m[I][1], ti.f64)
+                self.rc_acc[77] += m_s * dvn.dot(ti.cast(self.rc_n[I], ti.f64))
+                for ax in ti.static(range(3)):
+                    self.rc_acc[78 + ax] += m_s * dvt[ax]
+
+    @ti.kernel
+    def collider_coulomb(self):
+        """Coulomb's on the body as one: the stuck tangential impulse scaled to at most ``mu N`` (81); one body."""
+        for _ in range(1):
+            mu = ti.cast(self.rc_mu, ti.f64)
+            lt = self.rc_vec(78).norm()
+            cap = mu * ti.max(self.rc_acc[77], 0.0)
+            sc = ti.cast(1.0, ti.f64)
+            if lt > cap:
+                sc = cap / lt
+            self.rc_acc[81] = sc
+            for q in ti.static(range(4)):
+                self.rc_acc[82 + q] = self.rc_acc[77 + q]
+                self.rc_acc[77 + q] = 0.0
+
+    @ti.kernel
+    def collider_apply(self):
+        lo, ext = self.touched_box()
+        rb = self.rc_rb
+        for idx in range(ext[0] * ext[1] * ext[2]):
+            I = self.rc_node(idx, lo, ext)
+            if self.rc_m[I][2] > 1.5:
+                x = self.rc_x(I)
+                dvn, dvt = self.rc_change(I, x - self.rb_c[rb])
+                dv = dvn + self.rc_acc[81] * dvt
+                dr = ti.cast(dv, self.real)
+                if ti.static(self.rc_ra != 0):   # the soft field is B
+                    self.grid_dv[I] += ti.Vector([0.0, 0.0, 0.0, dr[0], dr[1], dr[2]])
+                else:
+                    self.grid_dv[I] += ti.Vector([dr[0], dr[1], dr[2], 0.0, 0.0, 0.0])
+                J = -ti.cast(self.rc_m[I][1], ti.f64) * dv
+                if ti.static(self.rc_react_on != 0):   # Newton's third law: to the body's projection sums
+                    L = x.cross(J)
+                    self.rc_react[rb] += ti.Vector([J[0], J[1], J[2], L[0], L[1], L[2]])
+                for ax in ti.static(range(3)):
+                    self.rc_acc[7 + ax] += J[ax]
+                self.rc_acc[10] += ti.cast(self.rc_m[I][1], ti.f64)
+
+    def grid_update(self):
+        """``GridUpdate.grid_update``, then with the rule the collider's pass (before G2P; first among
+        ``MPMSolver``'s bases, so this is the one the substeps call)."""
+        super().grid_update()
+        if self.rc_on:
+            self.collider_pass()
+
+    def collider_pass(self) -> None:
+        """After the grid update, before G2P (module notes)."""
+        self.collider_sum()
+        self.collider_body()
+        for mode in (0, 1):
+            self.collider_layer(mode)
+            self.collider_solve(mode)
+        self.collider_fsum()
+        self.collider_coulomb()
+        self.collider_apply()
