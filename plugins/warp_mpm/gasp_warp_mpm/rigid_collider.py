@@ -34,20 +34,12 @@ def build_collider(Ft):
     held_node = build_held(Ft)
     b_normal = build_b_normal(Ft)
 
-    @wp.func
-    def m_rigid(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), node: int, ra: int):
-        m_a = grid_sv[node][3]
-        out = grid_mv[node][3] - m_a
-        if ra != 0:
-            out = m_a
-        return out
-
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def rc_mark(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), grid_vf: wp.array(dtype=Ft),
                 n_grid: int, ground: wp.array(dtype=vec3), cell: Ft, wall_lo: Ft, wall_hi: vec3, touch_frac: Ft,
                 ground_touch: wp.array(dtype=wp.int32), flow_touch: wp.array(dtype=wp.int32), free: int,
                 rc_m: wp.array(dtype=vec3), rc_n: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), ra: int,
-                normal_b: int, mirror: int, band: wp.float64, lo: vec3, dx: Ft, rb: int,
+                mirror: int, band: wp.float64, lo: vec3, dx: Ft, rb: int,
                 centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d), box: wp.array(dtype=vec3d)):
         node = wp.tid()
         nn = n_grid * n_grid
@@ -73,10 +65,12 @@ def build_collider(Ft):
                 u = vec3(pa[0], pa[1], pa[2]) / m_a - vec3(g[0] - pa[0], g[1] - pa[1], g[2] - pa[2]) / m_b
                 grid_dv[node] = (m_b / m) * u
                 grid_dv[n_nodes + node] = -(m_a / m) * u
-                touch = (grid_vf[node] + grid_vf[n_nodes + node]) >= touch_frac * cell
-                if flow_touch.shape[0] > 1:
-                    touch = flow_touch[node] != 0
-                if band > wp.float64(0.0):   # the body's shape: within band (m) of its points' box, in its frame
+                touch = bool(False)
+                if band <= wp.float64(0.0):   # round 60's touch (an experiment: the slides -99.8 %, module notes)
+                    touch = (grid_vf[node] + grid_vf[n_nodes + node]) >= touch_frac * cell
+                    if flow_touch.shape[0] > 1:
+                        touch = flow_touch[node] != 0
+                else:   # the body's shape: within band (m) of its points' box, in its frame
                     x = vec3d(wp.float64(lo[0] + dx * Ft(i)), wp.float64(lo[1] + dx * Ft(j)),
                               wp.float64(lo[2] + dx * Ft(k)))
                     q = wp.transpose(rot[rb]) * (x - centre[rb])
@@ -84,17 +78,13 @@ def build_collider(Ft):
                     for ax in range(3):
                         d = wp.max(d, wp.max(box[0][ax] - q[ax], q[ax] - box[1][ax]))
                     touch = d <= band
-                gr = vec3(m_rigid(grid_mv, grid_sv, node + nn, ra) - m_rigid(grid_mv, grid_sv, node - nn, ra),
-                          m_rigid(grid_mv, grid_sv, node + n_grid, ra) - m_rigid(grid_mv, grid_sv, node - n_grid, ra),
-                          m_rigid(grid_mv, grid_sv, node + 1, ra) - m_rigid(grid_mv, grid_sv, node - 1, ra))
-                if normal_b != 0:   # field B's normal (fields.build_b_normal), as grad m_R: into the rigid body
-                    gb = b_normal(grid_mv, grid_sv, ground, node, n_grid, mirror)
-                    if ra != 0:
-                        gb = -gb
-                    if normal_b == 1 or wp.length(gb) >= wp.length(gr):   # 2: the larger gradient's (Nairn)
-                        gr = gb
+                # field B's normal (fields.build_b_normal), as grad m_R: into the rigid body (the rigid field's own
+                # mass gradient ploughed the slides, -97.7 %: docs/rigid.md "Round 63")
+                gr = b_normal(grid_mv, grid_sv, ground, node, n_grid, mirror)
+                if ra != 0:
+                    gr = -gr
                 ln = wp.length(gr)
-                if touch and ln > Ft(MIN_GRADIENT) * m and m - m_r >= Ft(SOFT_SHARE) * m:
+                if touch and ln > Ft(MIN_GRADIENT) * m:
                     flag = Ft(1.0)
                     nh = -gr / ln   # out of the rigid body
         rc_m[node] = vec3(m_r, m - m_r, flag)
@@ -300,8 +290,6 @@ def build_collider(Ft):
 #: reaction; FRICTION 0 takes the collider frictionless.
 REACT = 1
 FRICTION = 1.0
-SOFT_SHARE = 0.0   # experiment: mark only nodes where the soft body holds this share of the mass (no change)
-NORMAL_B = 1   # field B's normal (the rule); experiments: 0 the rigid field's mass gradient, 2 the larger one's
 IMPLICIT = 1   # the body solved with its layer (the rule); 0: no solve, the reaction explicit (broken: floats)
 
 
@@ -335,7 +323,7 @@ def with_mark(eng, Ft, launches: list) -> list:
     mark = wp.launch(build_collider(Ft)[0], dim=eng.n_grid ** 3, device=eng.device, record_cmd=True, inputs=[
         eng.grid_mv, eng.grid_sv, eng.grid_vf, eng.n_grid, eng.ground, Ft(eng.dx ** 3), Ft(wall_lo),
         eng.k.vec3(*[float(c) for c in wall_hi]), Ft(eng.field_touch), eng.ground_touch, eng.flow_touch,
-        eng.field_rule % 2, eng.rc_m, eng.rc_n, eng.grid_dv, eng.rc_ra, NORMAL_B, int(bool(GROUND_MIRROR)),
+        eng.field_rule % 2, eng.rc_m, eng.rc_n, eng.grid_dv, eng.rc_ra, int(bool(GROUND_MIRROR)),
         float(core_collider.BAND * eng.dx), eng.k.vec3(*[float(c) for c in eng.setup.domain_lo]), Ft(eng.dx),
         eng.rc_rb, eng.rb_c, eng.rb_R, eng.rc_box])
     at = len(launches) - 1 - int(eng.flow_touch_on or eng.gap_touch_on)
