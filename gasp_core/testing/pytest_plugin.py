@@ -36,6 +36,7 @@ from gasp_core.testing.results import keep_other_environments, render_results, w
 
 _STORE = pytest.StashKey[dict]()
 _SETTINGS = pytest.StashKey[dict]()
+_RUNS = pytest.StashKey[dict]()   # evaluate_once's results of this session
 _config = None  # the session's config, for pytest_runtest_logreport (which gets no config)
 MARK = "gasp_conformance"
 
@@ -131,10 +132,24 @@ def parametrize_conformance(engines: Iterable | None = None, scenes: Iterable | 
     return pytest.mark.parametrize("gasp_engine,gasp_scene", conformance_params(engines, scenes))
 
 
+def evaluate_once(gasp_engine, gasp_scene):
+    """``evaluate_scene(gasp_engine, gasp_scene, known_failures={})`` (a ``SceneResult``) run once per pytest session
+    for an engine (``EngineInfo``) and a scene object: the broken-engine checks' screen of the real engine
+    (``conformance_tests/test_checks_catch_broken.py``) and the conformance test of the same engine and scene share the
+    run (the engines give the same result on a scene run again; round 64: about 30 s of the default tier). Keyed by the
+    engine's name and the scene object itself, so a scene built apart under the same name runs on its own."""
+    from gasp_core.testing.kit import evaluate_scene
+    runs = _config.stash.setdefault(_RUNS, {}) if _config is not None else {}
+    key = (gasp_engine.name, gasp_scene.name, id(gasp_scene))
+    if key not in runs:
+        runs[key] = (gasp_scene, evaluate_scene(gasp_engine, gasp_scene, known_failures={}))  # the scene kept alive
+    return runs[key][1]
+
+
 def assert_conformance(gasp_engine, gasp_scene, request=None) -> None:
-    """Run one scene on one engine, record it for the result table, and assert it passed."""
-    from gasp_core.testing.kit import evaluate_scene, record
-    result = evaluate_scene(gasp_engine, gasp_scene, known_failures={})  # xfail is pytest's business here
+    """Run one scene on one engine (:func:`evaluate_once`), record it for the result table, and assert it passed."""
+    from gasp_core.testing.kit import record
+    result = evaluate_once(gasp_engine, gasp_scene)  # xfail is pytest's business here
     if request is not None:
         record(request.node, result)
     assert result.status == "pass", f"{gasp_engine.name}-{gasp_scene.name}: {result.message}"

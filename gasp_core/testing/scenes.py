@@ -99,14 +99,17 @@ class ScreenPasses(dict):
     status ``"pass"``) and caches it; ``other & passes`` and ``iter(passes)`` give the passed names, in the screen's
     order for the iteration (which evaluates every scene of the screen). Used by the broken-engine checks
     (``conformance_tests/test_checks_catch_broken.py``) so that the default tier runs only the scenes its own tests
-    ask for. Raises what :func:`scene_by_name` raises for an unknown name (``SceneError``)."""
+    ask for. ``evaluate`` (``(info, scene) -> SceneResult``; default ``evaluate_scene(info, scene, {})``) runs a scene:
+    the checks pass the pytest plugin's ``evaluate_once``, which shares the run with the conformance test of the same
+    engine and scene. Raises what :func:`scene_by_name` raises for an unknown name (``SceneError``)."""
 
-    def __init__(self, info: EngineInfo, screen: tuple[str, ...]):
+    def __init__(self, info: EngineInfo, screen: tuple[str, ...], evaluate=None):
         super().__init__()
         self.info, self.screen = info, tuple(screen)
+        self.evaluate = evaluate or (lambda info, scene: evaluate_scene(info, scene, {}))
 
     def __missing__(self, name: str) -> bool:
-        self[name] = evaluate_scene(self.info, scene_by_name(name), {}).status == "pass"
+        self[name] = self.evaluate(self.info, scene_by_name(name)).status == "pass"
         return self[name]
 
     def __contains__(self, name) -> bool:
