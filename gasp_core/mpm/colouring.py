@@ -94,7 +94,8 @@ def contact_graph(setup, r=None) -> list[tuple[int, int]]:
     default :func:`reach`) of each other, the closest pair first: bounding boxes padded by ``r`` first, then a k-d
     tree on the candidates (the nearest point within reach, the tree on the pair's larger body). Round 64 (the same
     pairs, the same distances, the same order): the points split by body once, the boxes' test on all pairs at once,
-    and only the smaller body's points inside the larger's box padded by ``r`` asked (:func:`_near_box`)."""
+    and only the smaller body's points inside the larger's box padded by ``r`` asked, nearest the box first,
+    until the rest are farther than the least distance found (:func:`_near_box`, :func:`_nearest`)."""
     from scipy.spatial import cKDTree
     x, _, _, body = _material_view(setup)
     nb = len(setup.materials)
@@ -112,14 +113,14 @@ def contact_graph(setup, r=None) -> list[tuple[int, int]]:
     for i, j in zip(*np.nonzero(cand)):
         i, j = int(i), int(j)
         a, b = (i, j) if len(pts[i]) >= len(pts[j]) else (j, i)   # the tree on the larger body
-        q = _near_box(pts[b], lo[a], hi[a], r[i, j])
+        q, low = _near_box(pts[b], lo[a], hi[a], r[i, j])
         if not len(q):
             continue
         if a not in trees:
             trees[a] = cKDTree(pts[a])
-        d, _ = trees[a].query(q, k=1, p=np.inf, distance_upper_bound=r[i, j])
-        if np.isfinite(d).any():
-            edges.append((float(d[np.isfinite(d)].min()), i, j))
+        d = _nearest(trees[a], q, low, r[i, j], _margin(lo[a], hi[a]))
+        if np.isfinite(d):
+            edges.append((d, i, j))
     return [(i, j) for _, i, j in sorted(edges)]
 
 
@@ -131,12 +132,35 @@ def body_points(x: np.ndarray, body: np.ndarray, nb: int) -> list[np.ndarray]:
     return np.split(x[order], np.cumsum(counts)[:-1])[:nb]
 
 
-def _near_box(q: np.ndarray, lo: np.ndarray, hi: np.ndarray, r: float) -> np.ndarray:
-    """The points of ``q`` (n, 3) not farther than ``r`` plus a margin (1e-9 of the largest coordinate, at least 1e-9
-    m) outside the box ``lo``, ``hi`` along any axis: the others are farther than ``r`` (Chebyshev) from every point
-    in the box, so a k-d tree query bounded by ``r`` finds none for them, by more than its rounding."""
-    pad = r + 1e-9 * max(1.0, float(np.abs(lo).max()), float(np.abs(hi).max()))
-    return q[np.all((q >= lo - pad) & (q <= hi + pad), axis=1)]
+def _margin(lo: np.ndarray, hi: np.ndarray) -> float:
+    """1e-9 of a box's largest coordinate, at least 1e-9 m: far above the rounding of a distance near it."""
+    return 1e-9 * max(1.0, float(np.abs(lo).max()), float(np.abs(hi).max()))
+
+
+def _near_box(q: np.ndarray, lo: np.ndarray, hi: np.ndarray, r: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(near, low)``: the points of ``q`` (n, 3) not farther than ``r`` plus :func:`_margin` outside the box ``lo``,
+    ``hi`` along any axis, and their distance to the box (Chebyshev, negative inside; a lower bound on the distance to
+    any point in it): the others are farther than ``r`` from every point in the box, so a k-d tree query bounded by
+    ``r`` finds none for them, by more than its rounding."""
+    low = np.max(np.maximum(lo - q, q - hi), axis=1)
+    keep = low <= r + _margin(lo, hi)
+    return q[keep], low[keep]
+
+
+def _nearest(tree, q: np.ndarray, low: np.ndarray, r: float, margin: float) -> float:
+    """The least Chebyshev distance from the points ``q`` (n, 3) to ``tree``'s points, found within ``r`` (inf where
+    none): the points asked in batches (64, then doubling) in order of ``low``, their lower bounds, until the next
+    bound exceeds the least found by more than ``margin`` (those left are farther: the same least distance as asking
+    them all, by fewer queries)."""
+    order = np.argsort(low, kind="stable")
+    best, start, step = np.inf, 0, 64
+    while start < len(order) and low[order[start]] <= best + margin:
+        d, _ = tree.query(q[order[start:start + step]], k=1, p=np.inf, distance_upper_bound=r)
+        d = d[np.isfinite(d)]
+        if len(d):
+            best = min(best, float(d.min()))
+        start, step = start + step, 2 * step
+    return best
 
 
 def colour(n: int, edges, vol, vel, prev=None) -> tuple[np.ndarray, list[tuple[int, int]]]:
