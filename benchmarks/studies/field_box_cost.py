@@ -34,7 +34,6 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "benchmarks"))
-sys.path.insert(0, str(ROOT))
 PASSES = ("field_shared", "field_clear", "field_old", "gap_clear", "flow_apply", "field_box", "box_reset")
 JELLY = ([-0.10, -0.08, 0.0], [0.18, 0.08, 0.04])
 
@@ -141,7 +140,8 @@ def graph_cost(frames: int) -> dict:
     from gasp_core.mpm import colouring
     from gasp_core.seam.build import build_engine
     from gasp_core.seam.plugins import get_engine
-    from tests.test_field_box import graph_before
+    sys.path.insert(0, str(ROOT / "tests"))   # here: the other runs import the engines of PYTHONPATH's tree
+    from test_field_box import graph_before
     s = setup_of("heap")
     eng = build_engine(get_engine("warp_mpm"), s)
     t_new = t_old = 0.0
