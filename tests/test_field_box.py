@@ -155,3 +155,18 @@ def test_the_box_check_catches_a_box_one_node_short(monkeypatch):
     monkeypatch.setattr(fields, "box_launches", short)
     bad = warp_run(BOX_SCENES["jelly_on_jelly"](), 3)
     assert good["left"] == 0.0 and bad["left"] > 0.0
+
+
+@pytest.mark.parametrize("case", ["jelly_on_jelly", "block_on_jelly_aflip"])
+def test_the_strided_sweep_of_cuda_keeps_the_bits(case, monkeypatch):
+    """CUDA's sweep (``along`` 0: thread ``t`` the box's nodes ``t, t + threads, ...``), run on the CPU with 4,096
+    threads: the same points and offsets as the whole grid's passes where no sum hangs on the shared list's order (two
+    soft bodies; a rigid block on a jelly, its collider's sums per node)."""
+    pytest.importorskip("warp")
+    from gasp_warp_mpm import fields
+    monkeypatch.setattr(fields, "sweep_args", lambda eng: [eng.field_box, 4096, 0])
+    strided = warp_run(BOX_SCENES[case](), 3)
+    monkeypatch.undo()
+    box_off(monkeypatch)
+    whole = warp_run(BOX_SCENES[case](), 3)
+    assert strided["x"] == whole["x"] and strided["dv"] == whole["dv"] and strided["left"] == 0.0
