@@ -5,8 +5,10 @@ change a figure.
   contact's node passes sweep the hull of the nodes P2G touched this substep and the last instead of the whole grid.
   The points' positions after a few frames are compared bit for bit with ``FIELD_BOX = False`` (round 63's passes over
   the whole grid) on a family: two jellies touching, a rigid block on a jelly, the same with AFLIP (``field_old``),
-  two blocks falling beside each other (the box moves), and a heap of rigid blocks (coloured fields, the pairs' list).
-  The catch: the box kernel fed positions one cell off (its box one node layer short on one side) changes the run.
+  two blocks falling beside each other (the box moves), a heap of rigid blocks (coloured fields, the pairs' list)
+  and sand sliding on a thin jelly slab (the mixed contact's ``flow_apply``).
+  The catch: the box kernel fed positions one cell off (its box one node layer short on one side) leaves P2G's last
+  layer of the fields' channels uncleared.
 - **the recolouring's contact graph** (``gasp_core.mpm.colouring.contact_graph``): the same pairs, in the same order,
   as round 61's loop (:func:`graph_before`, kept here as the reference) on scenes of many shapes, sizes and reaches;
   the catch: a pad of half the reach in ``_near_box`` loses pairs.
@@ -101,7 +103,15 @@ BOX_SCENES = {
     "block_on_jelly_aflip": lambda: _pair(("rigid", "elastic"), flip=0.95),
     "two_falling_blocks": lambda: _pair(("elastic", "elastic"), below=([0.035, -0.03, 0.05], [0.08, 0.03, 0.1])),
     "heap": lambda: S.heap_setup(32, 2, 2),
+    "sand_on_slab_mixed": lambda: sand_slide(),
 }
+
+
+def sand_slide():
+    """The sand block on a thin jelly slab of ``warp_ordered_bits.py`` (the mixed contact: the flowing body's touch,
+    ``flow_apply``)."""
+    from gasp_core.testing import sand_ball as B
+    return B.slide_setup(1.2, {}, slab_h=2 * B.SIDE / B.N_GRID)
 
 
 def warp_run(s, frames: int) -> dict:
