@@ -84,35 +84,83 @@ def reach(setup) -> np.ndarray:
     t = float(TRAVEL_FRAMES) * float(setup.frame_dt)
     g = float(np.linalg.norm(np.asarray(setup.gravity, float)))
     speed = np.sqrt((np.asarray(v, float) ** 2).sum(1))
-    vmax = np.array([float(speed[body == b].max()) if np.any(body == b) else 0.0 for b in range(nb)])
+    vmax = np.zeros(nb)   # a body's largest speed (0 without points; round 64: one pass, not a mask a body)
+    np.maximum.at(vmax, np.asarray(body), speed)
     return 3.0 * float(setup.dx) + (vmax[:, None] + vmax[None, :]) * t + g * t * t
 
 
 def contact_graph(setup, r=None) -> list[tuple[int, int]]:
     """The pairs ``(i, j)``, ``i < j``, of bodies whose material points come within ``r[i, j]`` (m, Chebyshev;
     default :func:`reach`) of each other, the closest pair first: bounding boxes padded by ``r`` first, then a k-d
-    tree on the candidates (the nearest point within reach, the tree on the pair's larger body)."""
+    tree on the candidates (the nearest point within reach, the tree on the pair's larger body). Round 64 (the same
+    pairs, the same distances, the same order): the points split by body once, the boxes' test on all pairs at once,
+    and only the smaller body's points inside the larger's box padded by ``r`` asked, nearest the box first,
+    until the rest are farther than the least distance found (:func:`_near_box`, :func:`_nearest`)."""
     from scipy.spatial import cKDTree
     x, _, _, body = _material_view(setup)
     nb = len(setup.materials)
     r = reach(setup) if r is None else np.broadcast_to(np.asarray(r, float), (nb, nb))
-    pts = [x[body == b] for b in range(nb)]
-    box = [(p.min(0), p.max(0)) if len(p) else None for p in pts]
+    pts = body_points(x, body, nb)
+    has = np.array([len(p) > 0 for p in pts])
+    lo = np.array([p.min(0) if len(p) else np.zeros(3) for p in pts]).reshape(nb, 3)
+    hi = np.array([p.max(0) if len(p) else np.zeros(3) for p in pts]).reshape(nb, 3)
+    # apart: i's box padded by r[i, j] below j's, or j's padded by r[i, j] below i's, along an axis
+    apart = np.any(hi[:, None, :] + r[:, :, None] < lo[None, :, :], axis=2)
+    apart |= np.any(hi[None, :, :] + r[:, :, None] < lo[:, None, :], axis=2)
+    cand = np.triu(~apart & has[:, None] & has[None, :], 1)
     trees: dict[int, object] = {}
     edges = []
-    for i in range(nb):
-        for j in range(i + 1, nb):
-            if box[i] is None or box[j] is None:
-                continue
-            if np.any(box[i][1] + r[i, j] < box[j][0]) or np.any(box[j][1] + r[i, j] < box[i][0]):
-                continue
-            a, b = (i, j) if len(pts[i]) >= len(pts[j]) else (j, i)   # the tree on the larger body
-            if a not in trees:
-                trees[a] = cKDTree(pts[a])
-            d, _ = trees[a].query(pts[b], k=1, p=np.inf, distance_upper_bound=r[i, j])
-            if np.isfinite(d).any():
-                edges.append((float(d[np.isfinite(d)].min()), i, j))
+    for i, j in zip(*np.nonzero(cand)):
+        i, j = int(i), int(j)
+        a, b = (i, j) if len(pts[i]) >= len(pts[j]) else (j, i)   # the tree on the larger body
+        q, low = _near_box(pts[b], lo[a], hi[a], r[i, j])
+        if not len(q):
+            continue
+        if a not in trees:
+            trees[a] = cKDTree(pts[a])
+        d = _nearest(trees[a], q, low, r[i, j], _margin(lo[a], hi[a]))
+        if np.isfinite(d):
+            edges.append((d, i, j))
     return [(i, j) for _, i, j in sorted(edges)]
+
+
+def body_points(x: np.ndarray, body: np.ndarray, nb: int) -> list[np.ndarray]:
+    """Each body's points (``x[body == b]`` for ``b < nb``, in their order; shape (n_b, 3)), by one stable sort."""
+    body = np.asarray(body)
+    order = np.argsort(body, kind="stable")
+    counts = np.bincount(body, minlength=nb)
+    return np.split(x[order], np.cumsum(counts)[:-1])[:nb]
+
+
+def _margin(lo: np.ndarray, hi: np.ndarray) -> float:
+    """1e-9 of a box's largest coordinate, at least 1e-9 m: far above the rounding of a distance near it."""
+    return 1e-9 * max(1.0, float(np.abs(lo).max()), float(np.abs(hi).max()))
+
+
+def _near_box(q: np.ndarray, lo: np.ndarray, hi: np.ndarray, r: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(near, low)``: the points of ``q`` (n, 3) not farther than ``r`` plus :func:`_margin` outside the box ``lo``,
+    ``hi`` along any axis, and their distance to the box (Chebyshev, negative inside; a lower bound on the distance to
+    any point in it): the others are farther than ``r`` from every point in the box, so a k-d tree query bounded by
+    ``r`` finds none for them, by more than its rounding."""
+    low = np.max(np.maximum(lo - q, q - hi), axis=1)
+    keep = low <= r + _margin(lo, hi)
+    return q[keep], low[keep]
+
+
+def _nearest(tree, q: np.ndarray, low: np.ndarray, r: float, margin: float) -> float:
+    """The least Chebyshev distance from the points ``q`` (n, 3) to ``tree``'s points, found within ``r`` (inf where
+    none): the points asked in batches (64, then doubling) in order of ``low``, their lower bounds, until the next
+    bound exceeds the least found by more than ``margin`` (those left are farther: the same least distance as asking
+    them all, by fewer queries)."""
+    order = np.argsort(low, kind="stable")
+    best, start, step = np.inf, 0, 64
+    while start < len(order) and low[order[start]] <= best + margin:
+        d, _ = tree.query(q[order[start:start + step]], k=1, p=np.inf, distance_upper_bound=r)
+        d = d[np.isfinite(d)]
+        if len(d):
+            best = min(best, float(d.min()))
+        start, step = start + step, 2 * step
+    return best
 
 
 def colour(n: int, edges, vol, vel, prev=None) -> tuple[np.ndarray, list[tuple[int, int]]]:

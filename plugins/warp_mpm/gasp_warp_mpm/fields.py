@@ -22,7 +22,8 @@ from gasp_core.mpm.shared_fields import shared_field_warning
 from . import ENGINE
 from .pair_touch import build_gap_curve, build_gap_touch, build_pair_funcs, build_pair_touch
 from .precision import MODULE_OPTIONS, build_types
-from .field_nodes import build_field_clear, build_field_shared, shared_threads
+from .field_nodes import (allocate_box, box_launches, build_field_clear, build_field_old, build_field_shared,
+                          shared_threads, sweep_args)
 from .rigid_pairs import allocate_pairs, build_node_slot, mat33d, slot_inputs, vec3d
 from .touch import build_held
 
@@ -239,43 +240,6 @@ def build_fields(Ft):
     return field_contact, build_field_clear(Ft)
 
 
-@functools.cache
-def build_field_old(Ft):
-    """``field_old``: round 59 (docs/contact.md "Round 59: AFLIP's old velocity per field",
-    ``gasp_core.mpm.fields.FIELD_OLD_VELOCITY``), with AFLIP, each node's offsets of AFLIP's old velocity: field A's
-    own APIC velocity less the mean's at ``n_grid^3 + node`` of ``grid_v0``, B's at ``2 n_grid^3 + node``
-    (``m_B / m u0``, ``-m_A / m u0``, ``u0 = v0_A - v0_B``; ``grid_mv0`` the whole grid's APIC momentum and mass,
-    A's ``n_grid^3`` further), where both fields have more than ``MIN_FRACTION`` of the node's mass at an inner node;
-    clears A's part of ``grid_mv0`` (the grid update clears the whole grid's)."""
-    vec3, vec4, mat33 = build_types(Ft)
-
-    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def field_old(grid_mv0: wp.array(dtype=vec4), grid_v0: wp.array(dtype=vec3), n_grid: int):
-        node = wp.tid()
-        nn = n_grid * n_grid
-        n_nodes = nn * n_grid
-        i = node / nn
-        j = (node / n_grid) % n_grid
-        k = node % n_grid
-        g = grid_mv0[node]
-        pa = grid_mv0[n_nodes + node]
-        m = g[3]
-        m_a = pa[3]
-        m_b = m - m_a
-        dva = vec3(Ft(0.0))
-        dvb = vec3(Ft(0.0))
-        inner = i > 0 and j > 0 and k > 0 and i < n_grid - 1 and j < n_grid - 1 and k < n_grid - 1
-        if inner and m_a > Ft(MIN_FRACTION) * m and m_b > Ft(MIN_FRACTION) * m:
-            u0 = vec3(pa[0], pa[1], pa[2]) / m_a - vec3(g[0] - pa[0], g[1] - pa[1], g[2] - pa[2]) / m_b
-            dva = (m_b / m) * u0
-            dvb = -(m_a / m) * u0
-        grid_v0[n_nodes + node] = dva
-        grid_v0[2 * n_nodes + node] = dvb
-        grid_mv0[n_nodes + node] = vec4(Ft(0.0))
-
-    return field_old
-
-
 def allocate_fields(eng, Ft, contact: str) -> None:
     """The contact chosen per body (``contact`` the scene's): ``eng.flows`` (per body, 1 where it flows) and
     ``grid_mf`` (the flowing bodies' mass per node in a mixed scene); the two-field contact's ``in_a`` (per body, 1 in
@@ -306,6 +270,7 @@ def allocate_fields(eng, Ft, contact: str) -> None:
     eng.grid_sv = wp.zeros(n, dtype=k.vec4, device=d)
     eng.shared_nodes = wp.zeros(n, dtype=wp.int32, device=d)   # round 63: the nodes both fields meet at (field_nodes)
     eng.n_shared = wp.zeros(1, dtype=wp.int32, device=d)
+    allocate_box(eng)   # round 64: the field passes' box (field_nodes.py)
     eng.grid_dv = wp.zeros(2 * n if eng.fields else 1, dtype=k.vec3, device=d)
     # B's bodies' several frictions (gasp_core.mpm.fields.node_friction): a third part of grid_vf, B's w m mu per node
     eng.node_mu = node_friction(view) if eng.fields else None
@@ -369,19 +334,21 @@ def field_launches(eng, Ft) -> list:
     flow = [wp.launch(mark, dim=eng.n_material, device=d, record_cmd=True, inputs=[
         eng.x, eng.body, eng.in_a, eng.grid_vf, eng.flow_touch, lo, Ft(eng.inv_dx), Ft(eng.dx ** 3),
         Ft(flow_touch_level()), ng, eng.p_pic])] if eng.flow_touch_on else []
-    after = [wp.launch(apply, dim=ng ** 3, device=d, record_cmd=True, inputs=[
-        eng.grid_mv, eng.grid_sv, eng.grid_dv, eng.flow_push, eng.flow_touch])] if eng.flow_touch_on else []
+    sweep = sweep_args(eng)   # round 64: the passes over the field box (field_nodes.py), not the whole grid
+    after = [wp.launch(apply, dim=sweep[1], device=d, record_cmd=True, inputs=[
+        eng.grid_mv, eng.grid_sv, eng.grid_dv, eng.flow_push, eng.flow_touch, ng, *sweep])] if eng.flow_touch_on else []
     if eng.gap_touch_on:   # round 60: the touch by geometry (pair_touch.build_gap_touch)
         gmark, gclear = build_gap_touch(Ft)
         curve = [ng, G.TABLE_N, Ft(G.TABLE_STEP), Ft(G.SIGMA2)] if eng.gap_curve else [ng]   # round 61
         flow = [wp.launch(build_gap_curve(Ft) if eng.gap_curve else gmark, dim=eng.n_material, device=d,
                           record_cmd=True, inputs=[eng.x, eng.body, eng.in_a, eng.grid_vf, eng.flow_touch, lo,
                                                    Ft(eng.inv_dx), Ft(eng.dx ** 3), eng.gap_level, *curve])]
-        after = [wp.launch(gclear, dim=ng ** 3, device=d, record_cmd=True, inputs=[eng.flow_touch])]
-    old = [wp.launch(build_field_old(Ft), dim=ng ** 3, device=d, record_cmd=True, inputs=[
-        eng.grid_mv0, eng.grid_v0, ng])] if eng.field_flip else []   # round 59: AFLIP's old velocity per field
-    shared = [wp.launch(build_field_shared(Ft), dim=ng ** 3, device=d, record_cmd=True, inputs=[
-        eng.grid_mv, eng.grid_sv, eng.grid_dv, ng, eng.shared_nodes, eng.n_shared])]   # round 63: field_nodes.py
+        after = [wp.launch(gclear, dim=sweep[1], device=d, record_cmd=True, inputs=[eng.flow_touch, ng, *sweep])]
+    old = [wp.launch(build_field_old(Ft), dim=sweep[1], device=d, record_cmd=True, inputs=[
+        eng.grid_mv0, eng.grid_v0, ng, *sweep])] if eng.field_flip else []   # round 59: AFLIP's old velocity per field
+    shared = [wp.launch(build_field_shared(Ft), dim=sweep[1], device=d, record_cmd=True, inputs=[
+        eng.grid_mv, eng.grid_sv, eng.grid_dv, ng, eng.shared_nodes, eng.n_shared, *sweep])]   # round 63
+    flow = box_launches(eng, Ft) + flow   # round 64: the box first (field_nodes.py)
     return flow + old + shared + [wp.launch(contact, dim=shared_threads(eng), device=d, record_cmd=True, inputs=[
                 eng.grid_mv, eng.grid_sv, eng.grid_dv, ng, Ft(eng.field_mu), eng.ground, eng.grid_vf,
                 Ft(eng.dx ** 3), Ft(wall_lo), eng.k.vec3(*[float(c) for c in wall_hi]), Ft(eng.field_touch), eng.pair,
@@ -390,5 +357,6 @@ def field_launches(eng, Ft) -> list:
                 *([Ft(a) for a in (eng.node_mu[0], eng.node_mu[2], eng.node_mu[3])] if eng.node_mu else [Ft(0.0)] * 3),
                 eng.mu_on, *([Ft(a) for a in eng.a_mu[1:]] if eng.a_mu else [Ft(0.0)] * 3), eng.in_a,
                 *slot_inputs(eng), eng.shared_nodes, eng.n_shared, shared_threads(eng)])] + after + [
-            wp.launch(clear, dim=ng ** 3, device=d, record_cmd=True, inputs=[eng.grid_sv, eng.grid_vf, eng.n_shared])]
+            wp.launch(clear, dim=sweep[1], device=d, record_cmd=True, inputs=[
+                eng.grid_sv, eng.grid_vf, eng.n_shared, ng, *sweep])]
 

@@ -8,7 +8,7 @@ cells of B's surface); ``field_contact`` takes those nodes as where the bodies t
 side of the surface (``m_A > m_B``) sets A against B's mass at that node and the node behind it moving as one
 (Coulomb's rule on A's velocity less B's mean over the two), adding the share of the node behind it (along the
 normal, into B) to ``flow_push`` there; after it ``flow_apply`` (a node kernel) adds that
-momentum to B's offset there and clears the marks and the pushes.
+momentum to B's offset there and clears the marks and the pushes (round 64: over the field box, ``field_nodes.py``).
 
 Round 60 (``gasp_core.mpm.gap_touch``, docs/contact.md "Round 60: a touch by geometry"): for two bodies on the
 particle contact every material point of either field marks its stencil where the OTHER field's gathered
@@ -21,6 +21,7 @@ import functools
 
 import warp as wp
 
+from .field_nodes import build_sweep
 from .precision import MODULE_OPTIONS, build_types
 
 
@@ -90,6 +91,7 @@ def build_pair_funcs(Ft):
 def build_pair_touch(Ft):
     """``(flow_mark, flow_apply)`` of scalar type ``Ft`` (module docstring)."""
     vec3, vec4, mat33 = build_types(Ft)
+    box_units, unit_first, unit_len, box_q = build_sweep(Ft)   # round 64: flow_apply over the field box
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def flow_mark(x: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32),
@@ -131,14 +133,21 @@ def build_pair_touch(Ft):
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def flow_apply(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), grid_dv: wp.array(dtype=vec3),
-                   flow_push: wp.array(dtype=vec3), flow_touch: wp.array(dtype=wp.int32)):
-        node = wp.tid()
-        push = flow_push[node]
-        m_b = grid_mv[node][3] - grid_sv[node][3]
-        if m_b > Ft(0.0) and wp.length(push) > Ft(0.0):
-            grid_dv[grid_sv.shape[0] + node] = grid_dv[grid_sv.shape[0] + node] + push / m_b
-        flow_push[node] = vec3(Ft(0.0))
-        flow_touch[node] = 0
+                   flow_push: wp.array(dtype=vec3), flow_touch: wp.array(dtype=wp.int32), n_grid: int,
+                   box: wp.array(dtype=wp.int32), threads: int, along: int):
+        n = box_units(box, along)   # round 64: over the field box (field_nodes.py)
+        run = (n + threads - 1) / threads
+        for r in range(run):
+            q = box_q(wp.tid(), r, run, threads, along)
+            if q < n:
+                first = unit_first(box, q, n_grid, along)
+                for node in range(first, first + unit_len(box, along)):
+                    push = flow_push[node]
+                    m_b = grid_mv[node][3] - grid_sv[node][3]
+                    if m_b > Ft(0.0) and wp.length(push) > Ft(0.0):
+                        grid_dv[grid_sv.shape[0] + node] = grid_dv[grid_sv.shape[0] + node] + push / m_b
+                    flow_push[node] = vec3(Ft(0.0))
+                    flow_touch[node] = 0
 
     return flow_mark, flow_apply
 
@@ -149,10 +158,11 @@ def build_gap_touch(Ft):
     taichi_mpm's ``PairTouch.mark_gap``). ``gap_mark`` (a points kernel, atomic max) marks the 27 stencil nodes of
     every material point where the OTHER field's gathered volume fraction (``grid_vf``: A's volume, then B's
     ``n_grid^3`` further) reaches its body's ``level`` (its surface on the other body's); ``gap_clear`` (a node
-    kernel) clears the marks after the contact."""
+    kernel; round 64: over the field box, ``field_nodes.py``) clears the marks after the contact."""
     from .stencil import build_stencil   # here: stencil imports fields, which imports this module
     vec3, vec4, mat33 = build_types(Ft)
     in_grid, weights = build_stencil(Ft)
+    box_units, unit_first, unit_len, box_q = build_sweep(Ft)   # round 64: gap_clear over the field box
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def gap_mark(x: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32),
@@ -181,8 +191,16 @@ def build_gap_touch(Ft):
                         wp.atomic_max(marks, idx0 + i * nn + j * n_grid + k, 1)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def gap_clear(marks: wp.array(dtype=wp.int32)):
-        marks[wp.tid()] = 0
+    def gap_clear(marks: wp.array(dtype=wp.int32), n_grid: int, box: wp.array(dtype=wp.int32), threads: int,
+                  along: int):
+        n = box_units(box, along)   # round 64: over the field box (field_nodes.py)
+        run = (n + threads - 1) / threads
+        for r in range(run):
+            q = box_q(wp.tid(), r, run, threads, along)
+            if q < n:
+                first = unit_first(box, q, n_grid, along)
+                for node in range(first, first + unit_len(box, along)):
+                    marks[node] = 0
 
     return gap_mark, gap_clear
 
