@@ -40,7 +40,9 @@ def setup_of(scene: str):
 
 
 def grid_share(eng) -> float:
-    """The grid update's hull over the grid's nodes."""
+    """The grid update's hull over the grid's nodes (1 on a tree without it)."""
+    if getattr(eng, "grid_box", None) is None:
+        return 1.0
     b = eng.grid_box.numpy()
     lo, hi = np.minimum(b[:3], b[6:9]), np.maximum(b[3:6], b[9:12])
     return float(np.prod(np.maximum(hi - lo + 1, 0))) / eng.n_grid ** 3
