@@ -1,7 +1,7 @@
 """Round 64 (``docs/performance.md`` "Round 64: the grid update over the touched box"): warp_mpm's grid update over
 the hull of the nodes P2G touched this substep and the last (``gasp_warp_mpm/grid_box.py``, ``GRID_BOX``) must not
 change a bit. The points' positions and every node's ``grid_v`` after three frames are compared bit for bit with
-``GRID_BOX = False`` (the whole grid, as before) on a family: a jelly falling onto a ground (and with AFLIP), a rigid
+``GRID_BOX = False`` (the whole grid, as before) on a family: a jelly falling onto a ground (and with AFLIP, and in f64), a rigid
 block falling onto a ground, two jellies touching (two fields: the field passes' box), a sand block on a ground
 (the particle contact's budgets), a jelly with passive points on it and far beyond it (they read ``grid_v`` and
 ``grid_m`` where no material point is), a cube in wind (``grid_g``). The catch: the box kernel fed positions one cell
@@ -21,8 +21,10 @@ pytest.importorskip("warp")
 BLOCK = ([-0.03, -0.03, 0.03], [0.03, 0.03, 0.07])
 
 
-def _one(model: str, flip=None, sand: bool = False, n_grid: int = 24):
+def _one(model: str, flip=None, sand: bool = False, n_grid: int = 24, precision=None):
     s = S._setup([BLOCK], (model,), [0.2, 0.0, -0.3], n_grid, 0.5, [None])
+    if precision is not None:
+        s.options["precision"] = precision
     if sand:
         s.materials = [Material("sand", E=3.5e5, nu=0.3, rho=1600.0, friction_angle=30.0)]
     if flip is not None:
@@ -60,6 +62,7 @@ def _wind():
 SCENES = {
     "jelly_on_ground": lambda: _one("elastic"),
     "jelly_on_ground_aflip": lambda: _one("elastic", flip=0.95),
+    "jelly_on_ground_f64": lambda: _one("elastic", precision="f64"),
     "rigid_on_ground": lambda: _one("rigid"),
     "sand_on_ground": lambda: _one("elastic", sand=True),
     "jelly_on_jelly": _two,
