@@ -44,7 +44,7 @@ from gasp_core.seam import CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSet
 from . import ENGINE, WarpMPMConfig, kernels as K
 from .balance_alloc import allocate_balance
 from .colliders import hold_launches
-from .fields import allocate_fields, field_launches
+from .fields import allocate_fields, field_launches, grid_sweep   # grid_sweep: round 64's grid_box.py
 from .pair_push import with_push
 from .rigid_collider import collider_launches, with_mark
 from .held import HeldRule, held_boxes, mirror_launches   # HeldRule: held_rule.py
@@ -223,13 +223,13 @@ class WarpMPMEngine(GridEngineBase, RigidBodies, ExtraTables, Sleeping, HeldRule
                 self.grid_fb, self.grid_eta, self.c_shift, self.grid_fbody, ex, self.colc, self.n_sup, self.grid_fn,
                 self.grid_fv, self.grid_mf, self.flows, self.grid_sv, self.grid_vf, self.in_a, self.fixed, rule,
                 self.p_pic, self.body_mu]),
-            wp.launch(k.grid_update, dim=ng ** 3, device=d, record_cmd=True, inputs=[
+            wp.launch(k.grid_update, dim=grid_sweep(self)[1], device=d, record_cmd=True, inputs=[
                 self.grid_mv, self.grid_v, self.grid_m, g_v, lo_v, hi_v, dx, dt_f, ng, Ft(self.wall_in), self.wall_mu,
                 self.ground, self.fixed_lo, self.fixed_hi, self.touch_slots, has_extras, ex, self.grid_g, self.has_wind,
                 self.grid_mv0, self.grid_v0, int(self.flip > 0), self.grid_fb, self.grid_fbody, self.fr_sums,
                 self.fr_nodes, self.nfric, self.grid_fn, self.grid_fv, Ft(self.wall_full), self.grid_mf, self.fr_dv,
                 self.fr_fb, self.wall_floor, self.ground_touch, self.dv_friction, self.field_rule,
-                Ft(0.0 if self.column_dashpot() else self.touch_speed), self.bound_mode()]),
+                Ft(0.0 if self.column_dashpot() else self.touch_speed), self.bound_mode(), *grid_sweep(self)]),
             wp.launch(k.g2p, dim=self.n_material, device=d, record_cmd=True, inputs=[
                 self.x, self.v, self.C, self.fixed, self.grid_v, lo_v, inv_dx, dt_f, ng, self.grid_v0, Ft(self.flip),
                 self.grid_dv, self.body, self.in_a, ex, self.mat_kind, self.fixed_lo, self.fixed_hi, dx, rule,

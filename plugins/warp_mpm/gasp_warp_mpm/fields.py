@@ -25,6 +25,7 @@ from .precision import MODULE_OPTIONS, build_types
 from .field_nodes import (allocate_box, box_launches, build_field_clear, build_field_old, build_field_shared,
                           shared_threads, sweep_args)
 from .rigid_pairs import allocate_pairs, build_node_slot, mat33d, slot_inputs, vec3d
+from .grid_box import grid_box_launches, grid_sweep   # noqa: F401 (grid_sweep: the engine's, round 64)
 from .touch import build_held
 
 
@@ -321,7 +322,7 @@ def body_channel(in_a, node_mu, a_mu) -> np.ndarray:
 def field_launches(eng, Ft) -> list:
     """The recorded launches of the contact and the clear (after P2G, before the grid update); none without it."""
     if not eng.fields:
-        return []
+        return grid_box_launches(eng, Ft)   # round 64: the grid update's own box (grid_box.py)
     contact, clear = build_fields(Ft)
     ng, d = eng.n_grid, eng.device
     # the walls' grid rule reaches node indices below wall_in and above (hi - lo) / dx - wall_in (grid.py)
@@ -348,7 +349,7 @@ def field_launches(eng, Ft) -> list:
         eng.grid_mv0, eng.grid_v0, ng, *sweep])] if eng.field_flip else []   # round 59: AFLIP's old velocity per field
     shared = [wp.launch(build_field_shared(Ft), dim=sweep[1], device=d, record_cmd=True, inputs=[
         eng.grid_mv, eng.grid_sv, eng.grid_dv, ng, eng.shared_nodes, eng.n_shared, *sweep])]   # round 63
-    flow = box_launches(eng, Ft) + flow   # round 64: the box first (field_nodes.py)
+    flow = box_launches(eng, Ft) + grid_box_launches(eng, Ft) + flow   # round 64: the boxes first (field_nodes.py)
     return flow + old + shared + [wp.launch(contact, dim=shared_threads(eng), device=d, record_cmd=True, inputs=[
                 eng.grid_mv, eng.grid_sv, eng.grid_dv, ng, Ft(eng.field_mu), eng.ground, eng.grid_vf,
                 Ft(eng.dx ** 3), Ft(wall_lo), eng.k.vec3(*[float(c) for c in wall_hi]), Ft(eng.field_touch), eng.pair,

@@ -16,6 +16,7 @@ from gasp_core.mpm.grid_tables import FT_TIME
 from .colliders import build_blend, build_collide, build_collider_func
 from .balance import build_balance, f64, keep_row, support_dv, v64
 from .contact import build_collider_contact, build_contact
+from .field_nodes import build_sweep
 from .forces import build_extras_struct, build_force_funcs
 from .precision import MODULE_OPTIONS, build_types
 from .touch import build_dashpot, build_held, build_share, build_touch
@@ -237,16 +238,17 @@ def build_boundary_rules(Ft):
 
 
 @functools.cache
-def build_grid_update(Ft):
-    """The grid-update kernel ``grid_update`` of scalar type ``Ft``: node velocity, gravity, extras, boundaries."""
+def build_node_update(Ft):
+    """``node_update(node, ...)``, scalar type ``Ft``: the grid update at one node (the parameters of
+    :func:`build_grid_update`'s kernel but its sweep's): node velocity, gravity, extras, boundaries."""
     vec3, vec4, mat33 = build_types(Ft)
     boundary_rules = build_boundary_rules(Ft)
     Extras, extras = build_extras(Ft)
     balance_node, touch_keep = build_balance(Ft)[2], build_share(Ft)[0]
     clear_contact, (pc_friction, keep_fraction) = build_contact_friction(Ft)[1], build_field_friction(Ft)[2:]
 
-    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def grid_update(
+    @wp.func
+    def node_update(node: int,
         grid_mv: wp.array(dtype=vec4), grid_v: wp.array(dtype=vec3), grid_m: wp.array(dtype=Ft),
         gravity: vec3, lo: vec3, hi: vec3, dx: Ft, dt: Ft, n_grid: int, wall_in: Ft,
         wall_mu: wp.array(dtype=Ft), ground: wp.array(dtype=vec3), fixed_lo: wp.array(dtype=vec3),
@@ -263,7 +265,6 @@ def build_grid_update(Ft):
         # grid_fb: the contact's friction budget per node (kg m/s; one unused entry without it; with colc grid_fn/fv);
         # per body the contact (contact.rule_models): grid_mf the flowing bodies' mass a node (else one entry), the
         # rule fully within wall_full cells / up to ground[g][2], by the flowing fraction f to wall_in / ground[g][0]
-        node = wp.tid()
         keep_row(grid_fbody, node)   # the contact's balance: a marked node's key to its row (contact_mark)
         g = grid_mv[node]
         m = g[3]
@@ -315,5 +316,45 @@ def build_grid_update(Ft):
             grid_mv0[node] = vec4(Ft(0.0))
         if has_wind != 0:
             grid_g[node] = vec3(Ft(0.0))
+
+    return node_update
+
+
+@functools.cache
+def build_grid_update(Ft):
+    """The grid-update kernel ``grid_update`` of scalar type ``Ft``: node velocity, gravity, extras, boundaries at
+    each node of ``box``'s sweep (``field_nodes.build_sweep``: ``threads`` threads, ``along`` 1 on the CPU, each thread
+    a run of rows in the grid's order; 0 on CUDA, strided); round 64: the box is the touched hull of ``grid_box.py``
+    (``GRID_BOX``), or the whole grid where that module's proof does not hold."""
+    vec3, vec4, mat33 = build_types(Ft)
+    Extras = build_extras(Ft)[0]
+    node_update = build_node_update(Ft)
+    box_units, unit_first, unit_len, box_q = build_sweep(Ft)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def grid_update(
+        grid_mv: wp.array(dtype=vec4), grid_v: wp.array(dtype=vec3), grid_m: wp.array(dtype=Ft),
+        gravity: vec3, lo: vec3, hi: vec3, dx: Ft, dt: Ft, n_grid: int, wall_in: Ft,
+        wall_mu: wp.array(dtype=Ft), ground: wp.array(dtype=vec3), fixed_lo: wp.array(dtype=vec3),
+        fixed_hi: wp.array(dtype=vec3), touch_slots: wp.array(dtype=Ft),
+        has_extras: int, ex: Extras, grid_g: wp.array(dtype=vec3), has_wind: int,
+        grid_mv0: wp.array(dtype=vec4), grid_v0: wp.array(dtype=vec3), flip: int, grid_fb: wp.array(dtype=Ft),
+        grid_fbody: wp.array(dtype=wp.int32), fr_sums: wp.array2d(dtype=wp.float64), fr_nodes: wp.array(dtype=wp.int32),
+        colc: int, grid_fn: wp.array(dtype=vec3), grid_fv: wp.array(dtype=vec3), wall_full: Ft,
+        grid_mf: wp.array(dtype=Ft), fr_dv: wp.array(dtype=vec4), fr_fb: wp.array(dtype=Ft), floor: int,
+        ground_touch: wp.array(dtype=wp.int32), grid_dv: wp.array(dtype=vec3), rule: int, touch_speed: Ft, bound: int,
+        box: wp.array(dtype=wp.int32), threads: int, along: int):
+        n = box_units(box, along)
+        run = (n + threads - 1) / threads
+        for r in range(run):
+            q = box_q(wp.tid(), r, run, threads, along)
+            if q < n:
+                first = unit_first(box, q, n_grid, along)
+                for node in range(first, first + unit_len(box, along)):
+                    node_update(node, grid_mv, grid_v, grid_m, gravity, lo, hi, dx, dt, n_grid, wall_in,
+                                wall_mu, ground, fixed_lo, fixed_hi, touch_slots, has_extras, ex, grid_g, has_wind,
+                                grid_mv0, grid_v0, flip, grid_fb, grid_fbody, fr_sums, fr_nodes, colc, grid_fn,
+                                grid_fv, wall_full, grid_mf, fr_dv, fr_fb, floor, ground_touch, grid_dv, rule,
+                                touch_speed, bound)
 
     return grid_update

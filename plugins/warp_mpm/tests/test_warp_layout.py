@@ -55,7 +55,8 @@ DIM1_SCALAR = {
     "c_body": "round 63: the rigid body's V* from its field's sums, one body (rigid_collider.py)",
     "c_solve": "round 63: the body's 6 x 6 solve with its layer (Schur, two 3 x 3 inverses), one body "
                "(rigid_collider.py)",
-    "box_reset": "round 64: the field box's 12 bounds, this substep's moved to the last's (field_nodes.py)",
+    "box_reset": "round 64: the field box's 12 bounds, this substep's moved to the last's (field_nodes.py; the grid "
+                 "update's own box, grid_box.py)",
     "c_coulomb": "round 63: Coulomb's scale of the layer's tangential impulse, one body (rigid_collider.py)",
 }
 
@@ -90,7 +91,8 @@ LOOP_BOUNDS = {
     "range(wp.tid() * run, wp.min(wp.tid() * run + run, n_on_grid))": "a thread's run of the shared nodes, "
     "ceil(n / threads) of field_nodes.field_shared's list (round 63, fields.field_contact)",
     "range(run)": "a thread's run of the field box's units, ceil(units / threads) (round 64, field_nodes.py: "
-                  "field_shared, field_clear, field_old; pair_touch.py: flow_apply, gap_clear)",
+                  "field_shared, field_clear, field_old; pair_touch.py: flow_apply, gap_clear; grid.py: the grid "
+                  "update, grid_box.py)",
     "range(first, first + unit_len(box, along))": "a unit of the field box: a row along z on the CPU (the box's z "
                                                   "extent, at most n_grid), a node on CUDA (round 64)",
     "range(part.shape[0])": "the blocks' partials, n / BLOCK, one thread a (row, column) (gpu_balance.fold_rows)",

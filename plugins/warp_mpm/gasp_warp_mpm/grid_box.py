@@ -1,0 +1,87 @@
+"""Round 64 (``docs/performance.md`` "Round 64: the grid update over the touched box"): warp_mpm's grid update
+(``grid.build_grid_update``) sweeps the hull of the nodes P2G touched this substep and the last (the box of
+``field_nodes.py``: 12 int32, this substep's lowest and highest node per axis, then the last substep's) instead of the
+whole grid, in every scene where that gives the whole grid's values at every node (:func:`whole_grid_reasons` names
+the others, which keep the whole grid). No host reads the box: the launch is ``field_nodes.shared_threads`` threads,
+each a run of the box's rows in the grid's order on the CPU (the whole grid's order of the nodes with mass: the
+contact balance's sums in the same order, the same bits), strided on CUDA.
+
+Why the hull is enough. At a node the grid update writes ``grid_v`` (its velocity; 0 where the node has no mass),
+``grid_m`` (its mass, for passive points and held boxes) and clears ``grid_mv``, ``grid_mv0``, the contact's
+``grid_fb`` / ``grid_fn`` / ``grid_fv`` and wind's ``grid_g``; it keeps a marked ``grid_fbody`` key's row (idempotent)
+and touches ``grid_mf``, ``touch_slots``, ``grid_dv`` and the balance's sums only where the node has mass. P2G writes
+those inputs only at its points' 27 nodes (this substep's box; wind's ``grid_g`` too, ``transfers.py``). Claim: after
+each substep every one of these arrays is 0 outside that substep's box. It holds at the start (all zero). Given it for
+the last substep, a node outside the hull holds zeros and P2G wrote nothing there, so the grid update would write
+zeros over zeros (skipping it changes nothing); a node in the hull is swept as before; a node in the hull but not in
+this substep's box has no mass, so it ends with zeros. The passes after the grid update write ``grid_v`` only at nodes
+with mass (the balance's fix at listed nodes, round 49's touch share at nodes with a slot's mass, or scaling a
+velocity, which keeps a 0; the rigid collider writes ``grid_dv``, cleared by the field passes over the same hull), so
+the claim holds after the substep. Passive points and G2P reading nodes beyond the box read the zeros they read before.
+
+Where the proof fails, the whole grid (:func:`whole_grid_reasons`): a setup with held boxes (``fixed_region`` or a set
+box impulse: ``held.build_mirror`` and the brittle held rule's faces write ``grid_v`` at nodes without mass, over the
+whole grid) and a viscous material (the implicit step, ``viscosity.py``, solves over the grid between P2G and the grid
+update; not checked here). :data:`GRID_BOX` False: the whole grid everywhere (the catch of ``tests/test_grid_box.py``).
+
+This module must not use ``from __future__ import annotations`` (the house rule of this plugin's kernel modules).
+"""
+import numpy as np
+import warp as wp
+
+from . import field_nodes as FN
+
+#: Round 64: the grid update over the touched hull (module notes); False: the whole grid (main's before).
+GRID_BOX = True
+
+
+def whole_grid_reasons(eng) -> list:
+    """Why ``eng``'s grid update must sweep the whole grid (module notes): a list of short reasons, empty where the
+    touched hull gives the same values."""
+    from .held import held_boxes   # here: held imports modules that import this one
+    out = []
+    if held_boxes(eng.setup):
+        out.append("held boxes: the mirror writes grid_v at nodes without mass")
+    if getattr(eng, "visc", None) is not None:
+        out.append("viscous: the implicit step solves over the grid")
+    return out
+
+
+def allocate_grid_box(eng) -> None:
+    """``eng.grid_box`` (12 int32, ``field_nodes``'s layout), once (a re-recording keeps it: the box must follow the
+    grid's arrays): the field passes' own box where they build one (two fields and ``field_nodes.FIELD_BOX``), else
+    one of its own built by :func:`grid_box_launches` (``eng.grid_box_own``), or the whole grid (:data:`GRID_BOX`
+    off, or :func:`whole_grid_reasons`)."""
+    if getattr(eng, "grid_box", None) is not None:
+        return
+    ng = eng.n_grid
+    eng.grid_box_own = False
+    if not GRID_BOX or whole_grid_reasons(eng):
+        box = [0, 0, 0, ng - 1, ng - 1, ng - 1] * 2
+    elif getattr(eng, "fields", False) and FN.FIELD_BOX:
+        eng.grid_box = eng.field_box
+        return
+    else:
+        eng.grid_box_own = True
+        box = [ng] * 3 + [-1] * 3 + [ng] * 3 + [-1] * 3
+    eng.grid_box = wp.array(np.array(box, np.int32), dtype=wp.int32, device=eng.device)
+
+
+def grid_sweep(eng) -> list:
+    """The grid update's last three inputs: its box (:func:`allocate_grid_box`), the threads
+    (``field_nodes.shared_threads``, also the launch's size) and ``along`` (1 on the CPU, 0 on CUDA)."""
+    allocate_grid_box(eng)
+    return [eng.grid_box, FN.shared_threads(eng), int(not eng.device.is_cuda)]
+
+
+def grid_box_launches(eng, Ft) -> list:
+    """The recorded ``box_reset`` and ``field_box`` on ``eng.grid_box`` where it is its own (after P2G, before the
+    grid update); none where the field passes build it or it is the whole grid."""
+    allocate_grid_box(eng)
+    if not eng.grid_box_own:
+        return []
+    box_reset, field_box = FN.build_field_box(Ft)
+    lo = eng.k.vec3(*[float(c) for c in eng.setup.domain_lo])
+    return [wp.launch(box_reset, dim=1, device=eng.device, record_cmd=True, inputs=[eng.grid_box, eng.n_grid]),
+            wp.launch(field_box, dim=eng.n_material, device=eng.device, record_cmd=True, inputs=[
+                eng.x, eng.grid_box, lo, Ft(eng.inv_dx), eng.n_grid])]
