@@ -37,6 +37,10 @@ import numpy as np
 #: Round 63: True runs the collider rule for a mixed pair (module notes); False: round 29's node-mean exchange (the
 #: rule before: a jelly on a rigid slab sank -1.0 dx in 0.7 s, a rigid block on jelly -0.17 dx).
 RIGID_COLLIDER = True
+#: Round 64: True runs the rule in scenes of three or more bodies with a rigid one and a soft one (module notes "Three
+#: or more bodies"); False: there round 29's node-mean exchange at the soft/rigid nodes (the rule before: the
+#: sandwich's jelly sank into its bottom block, its thrown top block slid +4.15 % long).
+MULTI = True
 #: The band: a node within this many cells of the rigid body's points' box, in its frame (Chebyshev): its surface, a
 #: quarter cell beyond its outer points, plus a quarter cell (measured at 0.5 only, ``docs/rigid.md`` "Round 63").
 BAND = 0.5
@@ -99,11 +103,40 @@ def collide(M: float, inertia: np.ndarray, V: np.ndarray, w: np.ndarray, m_s: np
     return dv, J.sum(0), np.cross(r, J).sum(0)
 
 
-def collider_data(setup) -> int | None:
-    """The rigid body's index where a setup runs the rule (:func:`collider_on` of its step view), else None
-    (``gasp_core.mpm.rigid_pairs.pair_data`` adds its box)."""
+def collider_multi(setup) -> bool:
+    """Round 64: whether a scene of three or more bodies (round 61/62's colouring, ``colouring.coloured``) with a rigid
+    body and a soft one runs the rule for each rigid body (:data:`MULTI`, module notes "Three or more bodies")."""
+    from gasp_core.mpm.colouring import coloured
+    from gasp_core.mpm.fields import uses_fields
+    from gasp_core.mpm.rigid import rigid_mask
+    rigid = np.asarray(rigid_mask(setup.materials), bool)
+    return (bool(RIGID_COLLIDER) and bool(MULTI) and coloured(setup) and uses_fields(setup) and bool(rigid.any())
+            and bool((~rigid).any()))
+
+
+def slot_frictions(materials, rigid_bodies) -> np.ndarray:
+    """Each rigid body's collider coefficient (shape (len(rigid_bodies),)): the smallest ``combine_friction`` of its
+    ``friction`` with a soft body's (the node does not say which soft body it meets; one ``mu`` a rigid body)."""
+    from gasp_core.mpm.fields import body_friction, combine_friction
+    from gasp_core.mpm.rigid import rigid_mask
+    rigid = np.asarray(rigid_mask(materials), bool)
+    soft = [body_friction(m) for m, r in zip(materials, rigid) if not r]
+    return np.array([min(combine_friction(body_friction(materials[k]), s) for s in soft) for k in rigid_bodies],
+                    np.float64)
+
+
+def collider_data(setup) -> dict | None:
+    """What an engine's collider reads, or None where the rule is off: ``{"bodies": (n_slots,) int, the rigid body of
+    each slot; "mus": (n_slots,) the slot's ``mu`` (None for the two-body pair: the pair's, the engines' field
+    friction); "boxes": (n_bodies, 2, 3) m, ``rigid_pairs.body_boxes`` of the step view; "multi": bool}`` (round 63's
+    pair: one slot, ``multi`` False; round 64: every rigid body a slot)."""
     from gasp_core.mpm.rigid import rigid_mask, step_view
+    from gasp_core.mpm.rigid_pairs import body_boxes
     view = step_view(setup)
-    if not collider_on(view):
-        return None
-    return int(np.flatnonzero(np.asarray(rigid_mask(view.materials)))[0])
+    rigid = np.flatnonzero(np.asarray(rigid_mask(view.materials)))
+    if collider_on(view):
+        return {"bodies": rigid[:1].astype(np.int32), "mus": None, "boxes": body_boxes(view), "multi": False}
+    if collider_multi(view):
+        return {"bodies": rigid.astype(np.int32), "mus": slot_frictions(view.materials, rigid),
+                "boxes": body_boxes(view), "multi": True}
+    return None

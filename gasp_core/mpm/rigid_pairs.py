@@ -66,11 +66,9 @@ def pair_mode(setup) -> int:
 
 def pair_data(setup) -> tuple:
     """``(body_boxes, pair_frictions, collider_data)`` of a setup, what an engine's pairs' solve reads (round 63: and
-    the rigid collider's body and box, ``gasp_core.mpm.rigid_collider.collider_data``, or None)."""
-    from gasp_core.mpm.rigid import step_view
+    the rigid collider's slots, ``gasp_core.mpm.rigid_collider.collider_data``, or None)."""
     from gasp_core.mpm.rigid_collider import collider_data
-    boxes, rb = body_boxes(setup), collider_data(setup)
-    return boxes, pair_frictions(setup), None if rb is None else (rb, body_boxes(step_view(setup))[rb])
+    return body_boxes(setup), pair_frictions(setup), collider_data(setup)
 
 
 def body_boxes(setup) -> np.ndarray:
