@@ -12,7 +12,7 @@ frames of 1/60 s, at rest at t = 0; body 0 first):
 Figures per interface (upper body, lower body): the gap (the upper body's lowest point less the lower body's highest
 under it) at 0.3 and 1.0 s, the drift 0.3 -> 1.0 s and the settle 0 -> 0.3 s in dx (``tests/test_three_soft_rigid.py``
 holds them within 0.1 dx). ``--slide``: the sandwich's thrown top block (``scenes_rigid3.measure_slide``) against
-Coulomb's closed form.
+Coulomb's closed form (``--models``: another mix, top first).
 
     python benchmarks/studies/collider_three.py --engine warp_mpm --cases sandwich,rjj,beside --grids 32 --E 1e5 \
         [--set gasp_core.mpm.rigid_collider.MULTI=0] [--slide]
@@ -95,15 +95,17 @@ def main() -> None:
     ap.add_argument("--E", default="1e5")
     ap.add_argument("--set", action="append", default=[], help="module.ATTR=value (a broken variant or the rule off)")
     ap.add_argument("--slide", action="store_true", help="the sandwich's thrown top block instead")
+    ap.add_argument("--models", default="rigid,elastic,rigid", help="--slide: the three's models, top first")
     a = ap.parse_args()
     for assign in a.set:
         _set(assign)
     for n in [int(g) for g in a.grids.split(",")]:
         if a.slide:
             t = time.time()
-            s = S.slide_setup(n, 0.5, models=("rigid", "elastic", "rigid"))
+            s = S.slide_setup(n, 0.5, models=tuple(a.models.split(",")))
             r = S.measure_slide(a.engine, s)
-            print(f"{a.engine} sandwich slide n{n}: {r}  ({time.time() - t:.0f} s)", flush=True)
+            print(f"{a.engine} {a.models} slide n{n}: error {100 * (r['slide'] / r['closed'] - 1):+.2f} %, {r}"
+                  f"  ({time.time() - t:.0f} s)", flush=True)
             continue
         for case in a.cases.split(","):
             for E in [float(v) for v in a.E.split(",")]:

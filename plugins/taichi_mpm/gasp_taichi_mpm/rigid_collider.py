@@ -1,12 +1,15 @@
-"""Round 63: the rigid body as a moving collider of the soft field (``gasp_core.mpm.rigid_collider``, ``docs/rigid.md``
-"Round 63") in Taichi, the steps of warp_mpm's ``rigid_collider.py``.
+"""Round 63-64: the rigid body as a moving collider of the soft field (``gasp_core.mpm.rigid_collider``, ``docs/rigid.md``
+"Round 63", "Round 64") in Taichi, the steps of warp_mpm's ``rigid_collider.py``.
 
-:meth:`RigidCollider.collider_mark` (after the first pass ``Fields.field_contact``, before the fields' clear) gives
-each shared node its fields' own velocities and marks the band's nodes with field B's normal;
-:meth:`RigidCollider.collider_pass` (after the grid update, before G2P) sums the rigid field's momentum into ``V*``,
-solves the body with its approaching layer (normal, then tangential stuck), takes Coulomb's on the body as one and
-changes the soft field's offsets, the reaction to ``rc_react`` (read with the hold's in the projection's sums,
-``RigidHold.held``). ``rc_acc`` (float64, 86): warp_mpm's layout.
+:meth:`RigidCollider.collider_mark` (after the first pass ``Fields.field_contact``, before the fields' clear) finds
+the slot each shared node serves (:meth:`RigidCollider.rc_owner`: the pair's body, or round 64's lookup over every
+rigid body), gives the node its fields' own velocities and marks the band's nodes with field B's normal and the slot
+(``rc_o``); :meth:`RigidCollider.collider_pass` (after the grid update, before G2P) sums each slot body's momentum
+into ``V*`` (the pair: its field's nodes; round 64: its points' G2P, ``collider_psum``), solves each body with its
+approaching layer (normal, then tangential stuck), takes Coulomb's on each body as one and changes the soft field's
+offsets, the reaction to ``rc_react`` (read with the hold's in the projection's sums, ``RigidHold.held``).
+``rc_acc`` (float64, ``NA`` = 86 a slot): warp_mpm's layout. The one-thread-a-slot kernels (``collider_body``,
+``collider_solve``, ``collider_coulomb``) loop over the slots in parallel (the scene's rigid bodies).
 
 Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields it reads.
 """

@@ -1,13 +1,18 @@
-"""Round 63: the rigid body as a moving collider of the soft field (``gasp_core.mpm.rigid_collider``, ``docs/rigid.md``
-"Round 63") as Warp kernels; taichi_mpm's ``rigid_collider.py`` spells the same steps.
+"""Round 63-64: the rigid body as a moving collider of the soft field (``gasp_core.mpm.rigid_collider``,
+``docs/rigid.md`` "Round 63", "Round 64") as Warp kernels; taichi_mpm's ``rigid_collider.py`` spells the same steps;
+``collider_launch.py`` records them.
 
-``rc_mark`` (after the first pass ``fields.field_contact``, before the fields' clear; one thread a node) gives each
-shared node its fields' own velocities (no exchange) and marks the contact nodes with the rigid field's outward
-normal; after the grid update ``rc_sum`` (a node each) sums the rigid field's momentum and mass, ``rc_body`` (one
-thread: one body) turns them into ``V*``, ``rc_apply`` (a node each) takes the soft field's approach off at the
-marked nodes and adds the reaction to the body's projection sums ``acc_p``, ``acc_l``. ``rc_acc`` (float64, 16):
-0-2 sum m_R v_R, 3 sum m_R, 4-6 V*, 7-9 the substep's reaction J, 10 the approaching soft mass, 11-14 the last
-substep's 7-10 (reading).
+``rc_mark`` (after the first pass ``fields.field_contact``, before the fields' clear; one thread a node) finds the slot
+a shared node serves (``owner``: the pair's one body, or round 64's lookup over the slots), gives the node its
+fields' own velocities (no exchange) and marks the band's nodes with the rigid body's outward normal and the slot
+(``rc_o``); after the grid update ``rc_sum`` (the pair: a node each) or ``rc_psum`` (round 64: a material point each,
+its G2P of its field) sums each slot body's momentum and mass, ``rc_body`` (one thread a slot) turns them into
+``V*``, ``rc_layer`` / ``rc_solve`` (a node each / a slot each) solve each body with its approaching layer,
+``rc_fsum`` / ``rc_coulomb`` its Coulomb cap, ``rc_apply`` (a node each) takes the soft field's approach off at the
+marked nodes and adds the reaction to the slot body's projection sums ``acc_p``, ``acc_l``. ``rc_acc`` (float64,
+``NA`` = 86 a slot): 0-2 sum m_R v_R, 3 sum m_R, 4-6 V*, 7-9 the substep's reaction J, 10 the approaching soft mass,
+11-14 the last substep's 7-10 (reading), 20-61 the 6 x 6 system's sums, 62-76 the spins and solved bodies, 77-85
+Coulomb's sums and scale.
 
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of
 the closures below as type objects.
@@ -30,8 +35,8 @@ NA = wp.constant(86)
 
 @functools.cache
 def build_collider(Ft):
-    """``(rc_mark, rc_sum, rc_body, rc_apply)`` for the scalar type ``Ft``. It is long because the four kernels and
-    their helpers are closures of the scalar type."""
+    """``(rc_mark, rc_sum, rc_body, rc_layer, rc_solve, rc_fsum, rc_coulomb, rc_apply, rc_psum)`` for the scalar
+    type ``Ft``. It is long because the kernels and their helpers are closures of the scalar type."""
     vec3, vec4, mat33 = build_types(Ft)
     held_node = build_held(Ft)
     b_normal = build_b_normal(Ft)
