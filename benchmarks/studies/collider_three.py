@@ -35,8 +35,8 @@ def rest_setup(case: str, n_grid: int, E: float = 1.0e5):
     """``(setup, pairs)``: the scene of the module notes and its soft/rigid or rigid/rigid interfaces
     ``(upper, lower)``."""
     h = S.MIDDLE_H
-    top, mid, bot = ([-0.03, -0.03, 0.03 + h], [0.03, 0.03, 0.06 + h]), ([-0.10, -0.08, 0.03], [0.18, 0.08, 0.03 + h]), \
-        ([-0.12, -0.10, 0.0], [0.20, 0.10, 0.03])
+    top, mid = ([-0.03, -0.03, 0.03 + h], [0.03, 0.03, 0.06 + h]), ([-0.10, -0.08, 0.03], [0.18, 0.08, 0.03 + h])
+    bot = ([-0.12, -0.10, 0.0], [0.20, 0.10, 0.03])
     if case == "sandwich":
         boxes, models, pairs = [top, mid, bot], ("rigid", "elastic", "rigid"), [(0, 1), (1, 2)]
     elif case == "rjj":

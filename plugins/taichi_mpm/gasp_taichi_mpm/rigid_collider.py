@@ -1,5 +1,5 @@
-"""Round 63-64: the rigid body as a moving collider of the soft field (``gasp_core.mpm.rigid_collider``, ``docs/rigid.md``
-"Round 63", "Round 64") in Taichi, the steps of warp_mpm's ``rigid_collider.py``.
+"""Round 63-64: the rigid body as a moving collider of the soft field (``gasp_core.mpm.rigid_collider``,
+``docs/rigid.md`` "Round 63", "Round 64") in Taichi, the steps of warp_mpm's ``rigid_collider.py``.
 
 :meth:`RigidCollider.collider_mark` (after the first pass ``Fields.field_contact``, before the fields' clear) finds
 the slot each shared node serves (:meth:`RigidCollider.rc_owner`: the pair's body, or round 64's lookup over every

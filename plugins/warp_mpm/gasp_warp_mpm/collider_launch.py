@@ -13,8 +13,8 @@ from .rigid_pairs import vec3d
 
 
 def allocate_collider(eng, Ft) -> None:
-    """``eng.rc_on`` (``gasp_core.mpm.rigid_pairs.pair_data``'s collider, ``rigid_collider.collider_data``, not None) and, where on, the per-node marks and
-    owners and each slot's sums (``eng.rc_ns`` slots, one a rigid body; ``eng.rc_multi``: round 64's scenes)."""
+    """``eng.rc_on`` (``gasp_core.mpm.rigid_pairs.pair_data``'s collider, ``rigid_collider.collider_data``, not
+    None) and, where on, the per-node marks and owners and each slot's sums (``eng.rc_ns`` slots, one a rigid body; ``eng.rc_multi``: round 64's scenes)."""
     from gasp_core.mpm.rigid_pairs import pair_data
     data = pair_data(eng.setup)[2] if getattr(eng, "fields", False) else None
     eng.rc_on = data is not None
