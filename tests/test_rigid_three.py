@@ -18,7 +18,8 @@ The scenes and measures are ``gasp_core.testing.scenes_rigid3``'s; the figures q
 * **Apart in free fall**: three blocks a cell apart moving apart (-0.2, 0, +0.2 m/s) in the air: each body's v_z is
   ``v0 - g t`` within 1 % (no coupling across a gap); one field (the rule before) drags them (-4.7 %, +3.6 %, +11.6 %).
 * **Mixed**: a rigid block thrown along a jelly slab with a jelly cube resting on it, on a frictionless ground (one
-  rigid body among three; rigid against soft through the nodes' Coulomb correction, as the two-body mixed pair):
+  rigid body among three; rigid against soft through the rigid collider since round 64,
+  ``tests/test_three_soft_rigid.py``, before through the nodes' Coulomb correction):
   Coulomb's slide within ``MIXED_TOL``.
 """
 from __future__ import annotations

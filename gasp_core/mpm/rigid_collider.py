@@ -1,6 +1,8 @@
 """Round 63 (issue 67 item 4, ``docs/rigid.md`` "Round 63: the rigid body as a moving collider of the soft field"):
 a rigid body beside a soft one (:func:`gasp_core.mpm.fields.mixed_pair`) meets it as a moving collider of the soft
 field, two-way by impulses on the body's momentum, instead of round 29's node-mean exchange between the two fields.
+Round 64 (``docs/rigid.md`` "Round 64"): the same for every rigid body of a scene of three or more bodies with a
+soft one (:func:`collider_multi`, the section "Three or more bodies" below).
 
 Per substep, with :data:`RIGID_COLLIDER` on:
 
@@ -28,7 +30,26 @@ reaction is given to the body explicitly floated the 6 x 6 x 3 cm block on jelly
 0.15-0.22 rad/s); a cap of ``mu`` times each node's own normal change stopped a block thrown at 0.5 m/s in one frame
 (the nodes' normal changes of both signs summed in magnitude: friction 0.72 of the normal impulse at ``mu`` 0.3).
 
-No constant but the pair's ``mu`` and ``BAND``. Work: eight node passes, three one-thread updates (one body).
+**Three or more bodies** (round 64, :data:`MULTI`; round 61/62's colouring: each field may hold several bodies, no
+two of one field within 3 cells of each other). Every rigid body is a *slot* (:func:`collider_data`): its own ``V*``,
+its own 6 x 6 solve, its own Coulomb cap with its ``mu`` (:func:`slot_frictions`: the smallest ``combine_friction`` of
+its ``friction`` with a soft body's; the node does not say which soft body it meets), its impulses to its own
+projection sums. Which slot a shared node serves (:func:`collider_owner`, the engines' ``owner``): round 62's lookup
+(``rigid_pairs.node_bodies``: per field the nearest rigid body whose box, in its frame, the node lies within
+``NODE_PAD`` = 1.5 cells of). Where one field has a rigid body there and the other none, the other field's mass there
+is soft (the colouring keeps a field's bodies apart, so a node's mass of one field is one body's): the node takes the
+rule of that body (no exchange; the band and the solve where within ``BAND``). Where both fields have one, the node
+is a rigid pair's (``rigid_pairs``: its sums and the pairs' solve, unchanged); where neither, soft on soft (round
+29's exchange, unchanged). So no node is in two slots' bands: two rigid bodies of one field are too far apart, and a
+node near rigid bodies of both fields is the pair's. ``V*`` is summed from each slot body's points' G2P of its field
+(``m_p v(x_p)``; the pair's node sums give the same, but a node's rigid-field mass cannot be told apart from another
+body's of that field without a per-node owner of every node). The pair (two bodies) keeps its one slot and node sums,
+bit for bit.
+
+No constant but the pair's ``mu`` and ``BAND``. Work: eight node passes (the pair) or seven and a point pass (round
+64), three one-thread-a-slot updates (``rc_body``, ``rc_solve``, ``rc_coulomb``: a slot's few dozen flops each; the
+slots are the scene's rigid bodies), and at each shared node a loop over the slots (``owner``; round 62's
+``node_slot`` loops over the bodies the same way).
 """
 from __future__ import annotations
 
@@ -37,6 +58,10 @@ import numpy as np
 #: Round 63: True runs the collider rule for a mixed pair (module notes); False: round 29's node-mean exchange (the
 #: rule before: a jelly on a rigid slab sank -1.0 dx in 0.7 s, a rigid block on jelly -0.17 dx).
 RIGID_COLLIDER = True
+#: Round 64: True runs the rule in scenes of three or more bodies with a rigid one and a soft one (module notes "Three
+#: or more bodies"); False: there round 29's node-mean exchange at the soft/rigid nodes (the rule before: the
+#: sandwich's jelly sank into its bottom block, its thrown top block slid +4.15 % long).
+MULTI = True
 #: The band: a node within this many cells of the rigid body's points' box, in its frame (Chebyshev): its surface, a
 #: quarter cell beyond its outer points, plus a quarter cell (measured at 0.5 only, ``docs/rigid.md`` "Round 63").
 BAND = 0.5
@@ -99,11 +124,57 @@ def collide(M: float, inertia: np.ndarray, V: np.ndarray, w: np.ndarray, m_s: np
     return dv, J.sum(0), np.cross(r, J).sum(0)
 
 
-def collider_data(setup) -> int | None:
-    """The rigid body's index where a setup runs the rule (:func:`collider_on` of its step view), else None
-    (``gasp_core.mpm.rigid_pairs.pair_data`` adds its box)."""
+def collider_multi(setup) -> bool:
+    """Round 64: whether a scene of three or more bodies (round 61/62's colouring, ``colouring.coloured``) with a rigid
+    body and a soft one runs the rule for each rigid body (:data:`MULTI`, module notes "Three or more bodies")."""
+    from gasp_core.mpm.colouring import coloured
+    from gasp_core.mpm.fields import uses_fields
+    from gasp_core.mpm.rigid import rigid_mask
+    rigid = np.asarray(rigid_mask(setup.materials), bool)
+    return (bool(RIGID_COLLIDER) and bool(MULTI) and coloured(setup) and uses_fields(setup) and bool(rigid.any())
+            and bool((~rigid).any()))
+
+
+def slot_frictions(materials, rigid_bodies) -> np.ndarray:
+    """Each rigid body's collider coefficient (shape (len(rigid_bodies),)): the smallest ``combine_friction`` of its
+    ``friction`` with a soft body's (the node does not say which soft body it meets; one ``mu`` a rigid body)."""
+    from gasp_core.mpm.fields import body_friction, combine_friction
+    from gasp_core.mpm.rigid import rigid_mask
+    rigid = np.asarray(rigid_mask(materials), bool)
+    soft = [body_friction(m) for m, r in zip(materials, rigid) if not r]
+    return np.array([min(combine_friction(body_friction(materials[k]), s) for s in soft) for k in rigid_bodies],
+                    np.float64)
+
+
+def collider_owner(xn, in_a, bodies, centre, rot, boxes, pad: float) -> int:
+    """Round 64: the slot (an index of ``bodies``, the rigid bodies with a slot) whose rule a shared node at ``xn``
+    (m, (3,)) takes, or -1 (module notes "Three or more bodies"): ``rigid_pairs.node_bodies``' lookup of the slot bodies
+    (``in_a`` (n_bodies,) bool, ``centre`` (n, 3) m, ``rot`` (n, 3, 3), ``boxes`` (n, 2, 3) m, ``pad`` m); the one
+    found where one field has a rigid body there and the other none (its mass there soft); -1 where both (a rigid
+    pair: ``rigid_pairs``) or neither (soft on soft: round 29's exchange). The engines' ``owner`` spells it."""
+    best = [(-1, np.inf), (-1, np.inf)]   # per field (A, B): the nearest slot body within pad
+    for s, k in enumerate(np.asarray(bodies, int)):
+        q = np.asarray(rot[k]).T @ (np.asarray(xn, float) - centre[k])
+        d = float(np.max(np.maximum(np.maximum(boxes[k, 0] - q, q - boxes[k, 1]), 0.0)))
+        f = 0 if in_a[k] else 1
+        if d <= pad and d < best[f][1]:
+            best[f] = (s, d)
+    if (best[0][0] >= 0) == (best[1][0] >= 0):
+        return -1
+    return max(best[0][0], best[1][0])
+
+
+def collider_data(setup) -> dict | None:
+    """What an engine's collider reads, or None where the rule is off: ``{"bodies": (n_slots,) int, the rigid body of
+    each slot; "mus": (n_slots,) the slot's ``mu`` (None for the two-body pair: the pair's, the engines' field
+    friction); "multi": bool}`` (round 63's pair: one slot, ``multi`` False; round 64: every rigid body a slot);
+    ``gasp_core.mpm.rigid_pairs.pair_data`` adds ``"boxes"`` ((n_bodies, 2, 3) m, ``body_boxes`` of the step
+    view)."""
     from gasp_core.mpm.rigid import rigid_mask, step_view
     view = step_view(setup)
-    if not collider_on(view):
-        return None
-    return int(np.flatnonzero(np.asarray(rigid_mask(view.materials)))[0])
+    rigid = np.flatnonzero(np.asarray(rigid_mask(view.materials)))
+    if collider_on(view):
+        return {"bodies": rigid[:1].astype(np.int32), "mus": None, "multi": False}
+    if collider_multi(view):
+        return {"bodies": rigid.astype(np.int32), "mus": slot_frictions(view.materials, rigid), "multi": True}
+    return None

@@ -12,8 +12,9 @@ its own frame, :func:`body_boxes`) the node lies within :data:`NODE_PAD` cells o
 the nearest when several). The colouring keeps bodies of one field more than 3 cells apart, so a node that holds a
 field's mass is within 1.5 cells of one body of it only. A node between two rigid bodies adds its reduced mass,
 position and normal to that pair's sums (the pair law's own touch: ``fields.field_contact``'s, the two-body case's);
-a node between a rigid body and a soft one (no rigid body of one field there) takes the nodes' Coulomb correction,
-as the two-body mixed pair (``fields.mixed_pair``) does.
+a node between a rigid body and a soft one (no rigid body of one field there) takes the rigid collider of that body
+(round 64, ``gasp_core.mpm.rigid_collider``'s "Three or more bodies", as the two-body mixed pair does since round
+63; with ``rigid_collider.MULTI`` off, the nodes' Coulomb correction, round 29's exchange).
 
 **The pairs solved together** (:func:`solve_pairs`, the NumPy reference of each grid plugin's ``rigid_pairs``): each
 touching pair takes the two-body pair law (``rigid_friction.pair_contact``: the centres' approach removed along the
@@ -66,11 +67,13 @@ def pair_mode(setup) -> int:
 
 def pair_data(setup) -> tuple:
     """``(body_boxes, pair_frictions, collider_data)`` of a setup, what an engine's pairs' solve reads (round 63: and
-    the rigid collider's body and box, ``gasp_core.mpm.rigid_collider.collider_data``, or None)."""
+    the rigid collider's slots, ``gasp_core.mpm.rigid_collider.collider_data``, or None)."""
     from gasp_core.mpm.rigid import step_view
     from gasp_core.mpm.rigid_collider import collider_data
-    boxes, rb = body_boxes(setup), collider_data(setup)
-    return boxes, pair_frictions(setup), None if rb is None else (rb, body_boxes(step_view(setup))[rb])
+    rc = collider_data(setup)
+    if rc is not None:
+        rc["boxes"] = body_boxes(step_view(setup))
+    return body_boxes(setup), pair_frictions(setup), rc
 
 
 def body_boxes(setup) -> np.ndarray:

@@ -164,9 +164,12 @@ ONE_ITEM = {"rigid_pair": "the contact of one pair of rigid bodies: a dozen floa
             "rigid_pairs": "round 62: the touching pairs of rigid bodies among three or more, SWEEPS (8) x n_on pair "
                            "updates, once a substep; round 63: only the n_on touching slots the node kernel listed "
                            "(their insertion sort and clears), none of the n_bodies^2 table",
-            "collider_body": "round 63: the rigid body's V* from its field's sums, one body, once a substep",
-            "collider_solve": "round 63: the body's 6 x 6 solve with its layer, one body, twice a substep",
-            "collider_coulomb": "round 63: Coulomb's scale of the layer's tangential impulse, one body"}
+            "collider_body": "round 63: the rigid body's V* from its field's sums, one body, once a substep (round 64: "
+                             "a parallel loop over the slots, the scene's rigid bodies)",
+            "collider_solve": "round 63: the body's 6 x 6 solve with its layer, one body, twice a substep (round 64: "
+                              "one a slot)",
+            "collider_coulomb": "round 63: Coulomb's scale of the layer's tangential impulse, one body (round 64: "
+                                "one a slot)"}
 
 
 def _serial_constructs(root):

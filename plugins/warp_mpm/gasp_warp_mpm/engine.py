@@ -46,7 +46,7 @@ from .balance_alloc import allocate_balance
 from .colliders import hold_launches
 from .fields import allocate_fields, field_launches, grid_sweep   # grid_sweep: round 64's grid_box.py
 from .pair_push import with_push
-from .rigid_collider import collider_launches, with_mark
+from .collider_launch import collider_launches, with_mark
 from .held import HeldRule, held_boxes, mirror_launches   # HeldRule: held_rule.py
 from .rigid import RigidBodies
 from .sleeping import Sleeping

@@ -1,46 +1,93 @@
-"""Round 63: the rigid body as a moving collider of the soft field (``gasp_core.mpm.rigid_collider``, ``docs/rigid.md``
-"Round 63") as Warp kernels; taichi_mpm's ``rigid_collider.py`` spells the same steps.
+"""Round 63-64: the rigid body as a moving collider of the soft field (``gasp_core.mpm.rigid_collider``,
+``docs/rigid.md`` "Round 63", "Round 64") as Warp kernels; taichi_mpm's ``rigid_collider.py`` spells the same steps;
+``collider_launch.py`` records them.
 
-``rc_mark`` (after the first pass ``fields.field_contact``, before the fields' clear; one thread a node) gives each
-shared node its fields' own velocities (no exchange) and marks the contact nodes with the rigid field's outward
-normal; after the grid update ``rc_sum`` (a node each) sums the rigid field's momentum and mass, ``rc_body`` (one
-thread: one body) turns them into ``V*``, ``rc_apply`` (a node each) takes the soft field's approach off at the
-marked nodes and adds the reaction to the body's projection sums ``acc_p``, ``acc_l``. ``rc_acc`` (float64, 16):
-0-2 sum m_R v_R, 3 sum m_R, 4-6 V*, 7-9 the substep's reaction J, 10 the approaching soft mass, 11-14 the last
-substep's 7-10 (reading).
+``rc_mark`` (after the first pass ``fields.field_contact``, before the fields' clear; one thread a node) finds the slot
+a shared node serves (``owner``: the pair's one body, or round 64's lookup over the slots), gives the node its
+fields' own velocities (no exchange) and marks the band's nodes with the rigid body's outward normal and the slot
+(``rc_o``); after the grid update ``rc_sum`` (the pair: a node each) or ``rc_psum`` (round 64: a material point each,
+its G2P of its field) sums each slot body's momentum and mass, ``rc_body`` (one thread a slot) turns them into
+``V*``, ``rc_layer`` / ``rc_solve`` (a node each / a slot each) solve each body with its approaching layer,
+``rc_fsum`` / ``rc_coulomb`` its Coulomb cap, ``rc_apply`` (a node each) takes the soft field's approach off at the
+marked nodes and adds the reaction to the slot body's projection sums ``acc_p``, ``acc_l``. ``rc_acc`` (float64,
+``NA`` = 86 a slot): 0-2 sum m_R v_R, 3 sum m_R, 4-6 V*, 7-9 the substep's reaction J, 10 the approaching soft mass,
+11-14 the last substep's 7-10 (reading), 20-61 the 6 x 6 system's sums, 62-76 the spins and solved bodies, 77-85
+Coulomb's sums and scale.
 
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of
 the closures below as type objects.
 """
 import functools
 
-import numpy as np
 import warp as wp
 
-from gasp_core.mpm import rigid_collider as core_collider
 from gasp_core.mpm.fields import MIN_FRACTION, MIN_GRADIENT
 
-from .fields import build_b_normal
+from .fields import build_b_normal, build_field_reads
 from .precision import MODULE_OPTIONS, build_types
 from .rigid_pairs import mat33d, vec3d
+from .stencil import build_gather, build_stencil
 from .touch import build_held
+
+#: The floats of a slot (a rigid body) in ``rc_acc``: the layout of the module notes.
+NA = wp.constant(86)
 
 
 @functools.cache
 def build_collider(Ft):
-    """``(rc_mark, rc_sum, rc_body, rc_apply)`` for the scalar type ``Ft``. It is long because the four kernels and
-    their helpers are closures of the scalar type."""
+    """``(rc_mark, rc_sum, rc_body, rc_layer, rc_solve, rc_fsum, rc_coulomb, rc_apply, rc_psum)`` for the scalar
+    type ``Ft``. It is long because the kernels and their helpers are closures of the scalar type."""
     vec3, vec4, mat33 = build_types(Ft)
     held_node = build_held(Ft)
     b_normal = build_b_normal(Ft)
+    in_grid, weights = build_stencil(Ft)
+    field_offset_base, gather = build_field_reads(Ft)[0], build_gather(Ft)
+
+    @wp.func
+    def owner(x: vec3d, in_a: wp.array(dtype=wp.int32), bodies: wp.array(dtype=wp.int32), ns: int, multi: int,
+              centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d), box: wp.array(dtype=vec3d),
+              pad: wp.float64):
+        """(slot, d): the rigid body whose band the node may be in and its distance (m) to the body's box in its
+        frame (Chebyshev). The pair (multi 0): slot 0. Round 64 (multi 1): the nearest rigid body of each field
+        within ``pad`` (``rigid_pairs.node_bodies``); a slot where one field has one and the other none (its mass
+        there soft), -1 where both (a rigid pair: ``rigid_pairs``) or neither (soft on soft: the exchange)."""
+        sa = int(-1)
+        sb = int(-1)
+        da = wp.float64(1.0e30)
+        db = wp.float64(1.0e30)
+        for s in range(ns):
+            if multi != 0 or s == 0:
+                rb = bodies[s]
+                q = wp.transpose(rot[rb]) * (x - centre[rb])
+                d = wp.float64(-1.0e30)
+                for ax in range(3):
+                    d = wp.max(d, wp.max(box[2 * rb][ax] - q[ax], q[ax] - box[2 * rb + 1][ax]))
+                if multi == 0 or d <= pad:
+                    if in_a[rb] != 0:
+                        if d < da:
+                            da = d
+                            sa = s
+                    elif d < db:
+                        db = d
+                        sb = s
+        best = sa
+        dbest = da
+        if sb >= 0:
+            best = sb
+            dbest = db
+        if sa >= 0 and sb >= 0:
+            best = -1
+        return best, dbest
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def rc_mark(grid_mv: wp.array(dtype=vec4), grid_sv: wp.array(dtype=vec4), grid_vf: wp.array(dtype=Ft),
                 n_grid: int, ground: wp.array(dtype=vec3), cell: Ft, wall_lo: Ft, wall_hi: vec3, touch_frac: Ft,
                 ground_touch: wp.array(dtype=wp.int32), flow_touch: wp.array(dtype=wp.int32), free: int,
-                rc_m: wp.array(dtype=vec3), rc_n: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), ra: int,
-                mirror: int, band: wp.float64, lo: vec3, dx: Ft, rb: int,
-                centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d), box: wp.array(dtype=vec3d)):
+                rc_m: wp.array(dtype=vec3), rc_n: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3),
+                in_a: wp.array(dtype=wp.int32), bodies: wp.array(dtype=wp.int32), ns: int, multi: int,
+                mirror: int, band: wp.float64, lo: vec3, dx: Ft, rc_o: wp.array(dtype=wp.int32),
+                centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d), box: wp.array(dtype=vec3d),
+                pad: wp.float64):
         node = wp.tid()
         nn = n_grid * n_grid
         n_nodes = nn * n_grid
@@ -50,16 +97,27 @@ def build_collider(Ft):
         m = grid_mv[node][3]
         m_a = grid_sv[node][3]
         m_b = m - m_a
+        ra = in_a[bodies[0]]
         m_r = m_b
         if ra != 0:
             m_r = m_a
+        if multi != 0:   # round 64: the rigid field's mass only at a node the rule takes (V* from the points)
+            m_r = Ft(0.0)
         flag = Ft(0.0)
         nh = vec3(Ft(0.0))
+        own = int(-1)
         inner = i > 0 and j > 0 and k > 0 and i < n_grid - 1 and j < n_grid - 1 and k < n_grid - 1
         if inner and m_a > Ft(MIN_FRACTION) * m and m_b > Ft(MIN_FRACTION) * m:
             held = held_node(i, j, k, ground, n_grid, ground_touch, free, vec3(Ft(i), Ft(j), Ft(k)),
                              vec3(wall_lo), wall_hi, 1)
-            if held == 0:   # each field its own velocity: no exchange between them (module notes, step 1)
+            x = vec3d(wp.float64(lo[0] + dx * Ft(i)), wp.float64(lo[1] + dx * Ft(j)), wp.float64(lo[2] + dx * Ft(k)))
+            s, d = owner(x, in_a, bodies, ns, multi, centre, rot, box, pad)
+            if held == 0 and s >= 0:   # each field its own velocity: no exchange between them (module notes, step 1)
+                own = s
+                ra = in_a[bodies[s]]
+                m_r = m_b
+                if ra != 0:
+                    m_r = m_a
                 pa = grid_sv[node]
                 g = grid_mv[node]
                 u = vec3(pa[0], pa[1], pa[2]) / m_a - vec3(g[0] - pa[0], g[1] - pa[1], g[2] - pa[2]) / m_b
@@ -71,12 +129,6 @@ def build_collider(Ft):
                     if flow_touch.shape[0] > 1:
                         touch = flow_touch[node] != 0
                 else:   # the body's shape: within band (m) of its points' box, in its frame
-                    x = vec3d(wp.float64(lo[0] + dx * Ft(i)), wp.float64(lo[1] + dx * Ft(j)),
-                              wp.float64(lo[2] + dx * Ft(k)))
-                    q = wp.transpose(rot[rb]) * (x - centre[rb])
-                    d = wp.float64(-1.0e30)
-                    for ax in range(3):
-                        d = wp.max(d, wp.max(box[0][ax] - q[ax], q[ax] - box[1][ax]))
                     touch = d <= band
                 # field B's normal (fields.build_b_normal), as grad m_R: into the rigid body (the rigid field's own
                 # mass gradient ploughed the slides, -97.7 %: docs/rigid.md "Round 63")
@@ -89,6 +141,7 @@ def build_collider(Ft):
                     nh = -gr / ln   # out of the rigid body
         rc_m[node] = vec3(m_r, m - m_r, flag)
         rc_n[node] = nh
+        rc_o[node] = own
 
     @wp.func
     def field_v(grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), node: int, off: int):
@@ -110,17 +163,43 @@ def build_collider(Ft):
             wp.atomic_add(acc, 3, m_r)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def rc_body(acc: wp.array(dtype=wp.float64), spin: wp.array(dtype=vec3d), rb: int):
+    def rc_body(acc: wp.array(dtype=wp.float64), spin: wp.array(dtype=vec3d), bodies: wp.array(dtype=wp.int32)):
+        """One thread a slot (a rigid body): ``V*`` (4-6) from its sums, its spin from its state (62-64)."""
+        s = wp.tid()
+        o = NA * s
         for q in range(4):   # the last substep's reaction and approaching mass kept at 11-14 (reading)
-            acc[11 + q] = acc[7 + q]
-            acc[7 + q] = wp.float64(0.0)
-        if acc[3] > wp.float64(0.0):
+            acc[o + 11 + q] = acc[o + 7 + q]
+            acc[o + 7 + q] = wp.float64(0.0)
+        if acc[o + 3] > wp.float64(0.0):
             for ax in range(3):
-                acc[4 + ax] = acc[ax] / acc[3]
+                acc[o + 4 + ax] = acc[o + ax] / acc[o + 3]
         for ax in range(3):
-            acc[62 + ax] = spin[rb][ax]
+            acc[o + 62 + ax] = spin[bodies[s]][ax]
         for q in range(4):
-            acc[q] = wp.float64(0.0)
+            acc[o + q] = wp.float64(0.0)
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def rc_psum(x: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), p_mass: wp.array(dtype=Ft),
+                grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), in_a: wp.array(dtype=wp.int32),
+                slot: wp.array(dtype=wp.int32), lo: vec3, inv_dx: Ft, n_grid: int, acc: wp.array(dtype=wp.float64)):
+        """Round 64: a slot body's ``sum m_p v_p`` and ``sum m_p`` from its points' G2P of its field (what the
+        two-body rule's node sums give, each node's rigid mass its body's: a field may hold several bodies)."""
+        p = wp.tid()
+        s = slot[body[p]]
+        if s >= 0:
+            X = (x[p] - lo) * inv_dx
+            if in_grid(X, n_grid):
+                b0 = wp.floor(X[0] - Ft(0.5))
+                b1 = wp.floor(X[1] - Ft(0.5))
+                b2 = wp.floor(X[2] - Ft(0.5))
+                W = weights(X - vec3(b0, b1, b2))
+                idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
+                off = field_offset_base(grid_dv, in_a, body[p], n_grid * n_grid * n_grid)
+                v, B = gather(grid_v, grid_dv, off, W, idx0, n_grid)
+                m = wp.float64(p_mass[p])
+                for ax in range(3):
+                    wp.atomic_add(acc, NA * s + ax, m * wp.float64(v[ax]))
+                wp.atomic_add(acc, NA * s + 3, m)
 
     @wp.func
     def node_x(node: int, n_grid: int, lo: vec3, dx: Ft):
@@ -159,17 +238,19 @@ def build_collider(Ft):
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def rc_layer(grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), rc_m: wp.array(dtype=vec3),
-                 rc_n: wp.array(dtype=vec3), ra: int, rb: int, centre: wp.array(dtype=vec3d), n_grid: int, lo: vec3,
-                 dx: Ft, acc: wp.array(dtype=wp.float64), mode: int):
+                 rc_n: wp.array(dtype=vec3), rc_o: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32),
+                 bodies: wp.array(dtype=wp.int32), centre: wp.array(dtype=vec3d), n_grid: int, lo: vec3, dx: Ft,
+                 acc: wp.array(dtype=wp.float64), mode: int):
         """mode 0: the approaching nodes (marked 2) and the normal system against V*; 1: their tangential system
-        against the normal solve's body."""
+        against the normal solve's body; each node into its slot's sums (``rc_o``)."""
         node = wp.tid()
         f = rc_m[node][2]
         if f > Ft(0.0):
-            x = node_x(node, n_grid, lo, dx)
-            r = x - centre[rb]
-            at_v = 4 + 61 * mode
-            u, n = relative(grid_v, grid_dv, rc_m, rc_n, node, ra, acc, at_v, 62 + 6 * mode, r)
+            o = NA * rc_o[node]
+            rb = bodies[rc_o[node]]
+            r = node_x(node, n_grid, lo, dx) - centre[rb]
+            u, n = relative(grid_v, grid_dv, rc_m, rc_n, node, in_a[rb], acc, o + 4 + 61 * mode, o + 62 + 6 * mode,
+                            r)
             un = wp.dot(u, n)
             m_s = wp.float64(rc_m[node][1])
             P = m_s * wp.outer(n, n)
@@ -183,93 +264,107 @@ def build_collider(Ft):
                 use = True
             if use:
                 S = skew(r)
-                add33(acc, 20, P)
-                add33(acc, 29, -(P * S))
-                add33(acc, 38, S * P)
-                add33(acc, 47, -(S * P * S))
+                add33(acc, o + 20, P)
+                add33(acc, o + 29, -(P * S))
+                add33(acc, o + 38, S * P)
+                add33(acc, o + 47, -(S * P * S))
                 b2 = wp.cross(r, b1)
                 for ax in range(3):
-                    wp.atomic_add(acc, 56 + ax, b1[ax])
-                    wp.atomic_add(acc, 59 + ax, b2[ax])
+                    wp.atomic_add(acc, o + 56 + ax, b1[ax])
+                    wp.atomic_add(acc, o + 59 + ax, b2[ax])
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def rc_solve(acc: wp.array(dtype=wp.float64), mass: wp.array(dtype=wp.float64),
-                 inertia0: wp.array(dtype=mat33d), rot: wp.array(dtype=mat33d), rb: int, dx: wp.float64,
-                 mode: int, implicit: int):
-        """The body's (dV, dw) from ``A x = b`` (module notes; Schur's complement, the spin first): mode 0 from
-        (V*, w) at 4, 62 to 65, 68; mode 1 from there to 71, 74."""
+                 inertia0: wp.array(dtype=mat33d), rot: wp.array(dtype=mat33d), bodies: wp.array(dtype=wp.int32),
+                 dx: wp.float64, mode: int, implicit: int):
+        """One thread a slot: the body's (dV, dw) from ``A x = b`` (module notes; Schur's complement, the spin
+        first): mode 0 from (V*, w) at 4, 62 to 65, 68; mode 1 from there to 71, 74."""
+        s = wp.tid()
+        o = NA * s
+        rb = bodies[s]
         M = mass[rb]
         R = rot[rb]
         eye = wp.identity(3, wp.float64)
-        A11 = M * eye + get33(acc, 20)
-        A12 = get33(acc, 29)
-        A21 = get33(acc, 38)
-        A22 = R * inertia0[rb] * wp.transpose(R) + wp.float64(0.5) * dx * dx * M * eye + get33(acc, 47)
-        b1 = vec3d(acc[56], acc[57], acc[58])
-        b2 = vec3d(acc[59], acc[60], acc[61])
-        at_v = 4 + 61 * mode
-        at_w = 62 + 6 * mode
+        A11 = M * eye + get33(acc, o + 20)
+        A12 = get33(acc, o + 29)
+        A21 = get33(acc, o + 38)
+        A22 = R * inertia0[rb] * wp.transpose(R) + wp.float64(0.5) * dx * dx * M * eye + get33(acc, o + 47)
+        b1 = vec3d(acc[o + 56], acc[o + 57], acc[o + 58])
+        b2 = vec3d(acc[o + 59], acc[o + 60], acc[o + 61])
+        at_v = o + 4 + 61 * mode
+        at_w = o + 62 + 6 * mode
         V = vec3d(acc[at_v], acc[at_v + 1], acc[at_v + 2])
         w = vec3d(acc[at_w], acc[at_w + 1], acc[at_w + 2])
-        if implicit != 0 and acc[20] + acc[24] + acc[28] > wp.float64(0.0):
+        if implicit != 0 and acc[o + 20] + acc[o + 24] + acc[o + 28] > wp.float64(0.0):
             inv11 = wp.inverse(A11)
             dw = wp.inverse(A22 - A21 * inv11 * A12) * (b2 - A21 * (inv11 * b1))
             V = V + inv11 * (b1 - A12 * dw)
             w = w + dw
         for ax in range(3):
-            acc[65 + 6 * mode + ax] = V[ax]
-            acc[68 + 6 * mode + ax] = w[ax]
+            acc[o + 65 + 6 * mode + ax] = V[ax]
+            acc[o + 68 + 6 * mode + ax] = w[ax]
         for q in range(42):
-            acc[20 + q] = wp.float64(0.0)
+            acc[o + 20 + q] = wp.float64(0.0)
 
     @wp.func
     def node_change(grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), rc_m: wp.array(dtype=vec3),
-                    rc_n: wp.array(dtype=vec3), node: int, ra: int, acc: wp.array(dtype=wp.float64), r: vec3d):
+                    rc_n: wp.array(dtype=vec3), node: int, ra: int, acc: wp.array(dtype=wp.float64), o: int,
+                    r: vec3d):
         """(dv_n, dv_t): a marked node's normal change against the first solve's body and its stuck tangential change
-        against the second's."""
-        u, n = relative(grid_v, grid_dv, rc_m, rc_n, node, ra, acc, 65, 68, r)
-        ut2, n2 = relative(grid_v, grid_dv, rc_m, rc_n, node, ra, acc, 71, 74, r)
+        against the second's (its slot's sums from ``o``)."""
+        u, n = relative(grid_v, grid_dv, rc_m, rc_n, node, ra, acc, o + 65, o + 68, r)
+        ut2, n2 = relative(grid_v, grid_dv, rc_m, rc_n, node, ra, acc, o + 71, o + 74, r)
         return -wp.dot(u, n) * n, -(ut2 - wp.dot(ut2, n) * n)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def rc_fsum(grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), rc_m: wp.array(dtype=vec3),
-                rc_n: wp.array(dtype=vec3), ra: int, rb: int, centre: wp.array(dtype=vec3d), n_grid: int, lo: vec3,
-                dx: Ft, acc: wp.array(dtype=wp.float64)):
-        """The layer's normal impulse ``N = sum m dv_n . n`` (77) and its stuck tangential one (78-80)."""
+                rc_n: wp.array(dtype=vec3), rc_o: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32),
+                bodies: wp.array(dtype=wp.int32), centre: wp.array(dtype=vec3d), n_grid: int, lo: vec3, dx: Ft,
+                acc: wp.array(dtype=wp.float64)):
+        """The layer's normal impulse ``N = sum m dv_n . n`` (77) and its stuck tangential one (78-80), per slot."""
         node = wp.tid()
         if rc_m[node][2] > Ft(1.5):
+            o = NA * rc_o[node]
+            rb = bodies[rc_o[node]]
             r = node_x(node, n_grid, lo, dx) - centre[rb]
-            dvn, dvt = node_change(grid_v, grid_dv, rc_m, rc_n, node, ra, acc, r)
+            dvn, dvt = node_change(grid_v, grid_dv, rc_m, rc_n, node, in_a[rb], acc, o, r)
             m_s = wp.float64(rc_m[node][1])
             nq = rc_n[node]
-            wp.atomic_add(acc, 77, m_s * (dvn[0] * wp.float64(nq[0]) + dvn[1] * wp.float64(nq[1])
-                                          + dvn[2] * wp.float64(nq[2])))
+            wp.atomic_add(acc, o + 77, m_s * (dvn[0] * wp.float64(nq[0]) + dvn[1] * wp.float64(nq[1])
+                                              + dvn[2] * wp.float64(nq[2])))
             for ax in range(3):
-                wp.atomic_add(acc, 78 + ax, m_s * dvt[ax])
+                wp.atomic_add(acc, o + 78 + ax, m_s * dvt[ax])
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def rc_coulomb(acc: wp.array(dtype=wp.float64), mu: wp.float64):
-        """Coulomb's on the body as one: the stuck tangential impulse scaled to at most ``mu N`` (81)."""
-        lt = wp.length(vec3d(acc[78], acc[79], acc[80]))
+    def rc_coulomb(acc: wp.array(dtype=wp.float64), mus: wp.array(dtype=wp.float64), friction: wp.float64):
+        """One thread a slot: Coulomb's on the body as one, the stuck tangential impulse scaled to at most
+        ``mu N`` (81; ``mu`` the slot's times ``friction``, 1 but in a broken variant)."""
+        o = NA * wp.tid()
+        mu = mus[wp.tid()] * friction
+        lt = wp.length(vec3d(acc[o + 78], acc[o + 79], acc[o + 80]))
         sc = wp.float64(1.0)
-        if lt > mu * wp.max(acc[77], wp.float64(0.0)):
-            sc = mu * wp.max(acc[77], wp.float64(0.0)) / lt
-        acc[81] = sc
+        if lt > mu * wp.max(acc[o + 77], wp.float64(0.0)):
+            sc = mu * wp.max(acc[o + 77], wp.float64(0.0)) / lt
+        acc[o + 81] = sc
         for q in range(4):
-            acc[82 + q] = acc[77 + q]   # kept for reading
-            acc[77 + q] = wp.float64(0.0)
+            acc[o + 82 + q] = acc[o + 77 + q]   # kept for reading
+            acc[o + 77 + q] = wp.float64(0.0)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def rc_apply(grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), rc_m: wp.array(dtype=vec3),
-                 rc_n: wp.array(dtype=vec3), ra: int, rb: int, centre: wp.array(dtype=vec3d), n_grid: int, lo: vec3,
-                 dx: Ft, acc: wp.array(dtype=wp.float64), acc_p: wp.array(dtype=vec3d),
-                 acc_l: wp.array(dtype=vec3d), react: int):
-        """At each approaching node the normal change and the scaled tangential one; the reaction to the body."""
+                 rc_n: wp.array(dtype=vec3), rc_o: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32),
+                 bodies: wp.array(dtype=wp.int32), centre: wp.array(dtype=vec3d), n_grid: int, lo: vec3, dx: Ft,
+                 acc: wp.array(dtype=wp.float64), acc_p: wp.array(dtype=vec3d), acc_l: wp.array(dtype=vec3d),
+                 react: int):
+        """At each approaching node the normal change and the scaled tangential one; the reaction to its body."""
         node = wp.tid()
         if rc_m[node][2] > Ft(1.5):
+            o = NA * rc_o[node]
+            rb = bodies[rc_o[node]]
+            ra = in_a[rb]
             x = node_x(node, n_grid, lo, dx)
-            dvn, dvt = node_change(grid_v, grid_dv, rc_m, rc_n, node, ra, acc, x - centre[rb])
-            dv = dvn + acc[81] * dvt
+            dvn, dvt = node_change(grid_v, grid_dv, rc_m, rc_n, node, ra, acc, o, x - centre[rb])
+            dv = dvn + acc[o + 81] * dvt
             off_s = rc_m.shape[0]
             if ra == 0:
                 off_s = 0
@@ -280,10 +375,10 @@ def build_collider(Ft):
                 wp.atomic_add(acc_p, rb, J)
                 wp.atomic_add(acc_l, rb, wp.cross(x, J))
             for ax in range(3):
-                wp.atomic_add(acc, 7 + ax, J[ax])
-            wp.atomic_add(acc, 10, m_s)
+                wp.atomic_add(acc, o + 7 + ax, J[ax])
+            wp.atomic_add(acc, o + 10, m_s)
 
-    return rc_mark, rc_sum, rc_body, rc_layer, rc_solve, rc_fsum, rc_coulomb, rc_apply
+    return rc_mark, rc_sum, rc_body, rc_layer, rc_solve, rc_fsum, rc_coulomb, rc_apply, rc_psum
 
 
 #: Deliberately broken variants for the checks (tests/test_soft_on_rigid_rest.py): REACT 0 gives the body no
@@ -291,64 +386,3 @@ def build_collider(Ft):
 REACT = 1
 FRICTION = 1.0
 IMPLICIT = 1   # the body solved with its layer (the rule); 0: no solve, the reaction explicit (broken: floats)
-
-
-def allocate_collider(eng, Ft) -> None:
-    """``eng.rc_on`` (``gasp_core.mpm.rigid_collider.collider_on``) and, where on, the per-node marks and the sums."""
-    from gasp_core.mpm.rigid import rigid_mask, step_view
-    from gasp_core.mpm.rigid_collider import collider_on
-    view = step_view(eng.setup)
-    eng.rc_on = bool(getattr(eng, "fields", False) and collider_on(view))
-    if not eng.rc_on:
-        return
-    n, d = eng.n_grid ** 3, eng.device
-    eng.rc_rb = int(np.flatnonzero(np.asarray(rigid_mask(view.materials)))[0])
-    eng.rc_ra = int(eng.in_a.numpy()[eng.rc_rb])
-    eng.rc_m = wp.zeros(n, dtype=eng.k.vec3, device=d)
-    eng.rc_n = wp.zeros(n, dtype=eng.k.vec3, device=d)
-    from gasp_core.mpm.rigid_pairs import body_boxes
-    eng.rc_box = wp.array(body_boxes(view)[eng.rc_rb], dtype=vec3d, device=d)
-    eng.rc_acc = wp.zeros(86, dtype=wp.float64, device=d)
-
-
-def with_mark(eng, Ft, launches: list) -> list:
-    """``launches`` (``fields.field_launches``: ..., the first pass, the touch's clear where there is one, the fields'
-    clear) with ``rc_mark`` put after the first pass; as given where the rule is off."""
-    if not getattr(eng, "rc_on", False):
-        return launches
-    from gasp_core.mpm.fields import GROUND_MIRROR
-    walls = eng.wall_mu.shape[0] > 0   # the walls' reach as fields.field_launches gives it
-    side = (np.asarray(eng.setup.domain_hi, float) - np.asarray(eng.setup.domain_lo, float)) / eng.dx
-    wall_lo, wall_hi = (eng.wall_in, side - eng.wall_in) if walls else (-1.0, np.full(3, 1e30))
-    mark = wp.launch(build_collider(Ft)[0], dim=eng.n_grid ** 3, device=eng.device, record_cmd=True, inputs=[
-        eng.grid_mv, eng.grid_sv, eng.grid_vf, eng.n_grid, eng.ground, Ft(eng.dx ** 3), Ft(wall_lo),
-        eng.k.vec3(*[float(c) for c in wall_hi]), Ft(eng.field_touch), eng.ground_touch, eng.flow_touch,
-        eng.field_rule % 2, eng.rc_m, eng.rc_n, eng.grid_dv, eng.rc_ra, int(bool(GROUND_MIRROR)),
-        float(core_collider.BAND * eng.dx), eng.k.vec3(*[float(c) for c in eng.setup.domain_lo]), Ft(eng.dx),
-        eng.rc_rb, eng.rb_c, eng.rb_R, eng.rc_box])
-    at = len(launches) - 1 - int(eng.flow_touch_on or eng.gap_touch_on)
-    return launches[:at] + [mark] + launches[at:]
-
-
-def collider_launches(eng, Ft) -> list:
-    """The recorded collider pass after the grid update, before G2P; none where off (allocated here, before
-    :func:`with_mark`)."""
-    allocate_collider(eng, Ft)
-    if not eng.rc_on:
-        return []
-    _, c_sum, c_body, c_layer, c_solve, c_fsum, c_coulomb, c_apply = build_collider(Ft)
-    n, d, ng = eng.n_grid ** 3, eng.device, eng.n_grid
-    lo = eng.k.vec3(*[float(c) for c in eng.setup.domain_lo])
-    geo = [eng.rc_m, eng.rc_n, eng.rc_ra, eng.rc_rb, eng.rb_c, ng, lo, Ft(eng.dx), eng.rc_acc]
-    solve = [eng.rc_acc, eng.rb_M, eng.rb_I0, eng.rb_R, eng.rc_rb, float(eng.dx)]
-    out = [wp.launch(c_sum, dim=n, device=d, record_cmd=True, inputs=[
-               eng.grid_v, eng.grid_dv, eng.rc_m, eng.rc_ra, eng.rc_acc]),
-           wp.launch(c_body, dim=1, device=d, record_cmd=True, inputs=[eng.rc_acc, eng.rb_w, eng.rc_rb])]
-    for mode in (0, 1):   # the normal solve, then the tangential one
-        out += [wp.launch(c_layer, dim=n, device=d, record_cmd=True, inputs=[eng.grid_v, eng.grid_dv, *geo, mode]),
-                wp.launch(c_solve, dim=1, device=d, record_cmd=True, inputs=[*solve, mode, IMPLICIT])]
-    return out + [
-        wp.launch(c_fsum, dim=n, device=d, record_cmd=True, inputs=[eng.grid_v, eng.grid_dv, *geo]),
-        wp.launch(c_coulomb, dim=1, device=d, record_cmd=True, inputs=[eng.rc_acc, float(eng.field_mu * FRICTION)]),
-        wp.launch(c_apply, dim=n, device=d, record_cmd=True, inputs=[
-            eng.grid_v, eng.grid_dv, *geo, eng.acc_p, eng.acc_l, REACT])]

@@ -21,7 +21,8 @@ mat33d = wp.types.matrix((3, 3), wp.float64)
 def build_node_slot(Ft):
     """``node_slot``: 1 + ``a * nb + b`` for the rigid body ``a`` of field A and ``b`` of field B whose boxes (in their
     frames, ``gasp_core.mpm.rigid_pairs.node_bodies``) the node ``xn`` lies within ``pad`` (m) of, the nearest of each
-    field; 0 where a field has none there (a soft body: the nodes' Coulomb correction)."""
+    field; 0 where a field has none there (a soft body: the nodes' Coulomb correction, which round 64's rigid
+    collider, ``rigid_collider.py``, replaces at the rigid body's nodes)."""
     vec3, vec4, mat33 = build_types(Ft)
 
     @wp.func

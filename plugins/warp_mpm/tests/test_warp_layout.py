@@ -52,12 +52,14 @@ DIM1_SCALAR = {
                          "updates; round 63: only the n_on touching slots the node kernel listed are visited (an "
                          "insertion sort of n_on, their clears), none of the n_bodies^2 table (rigid_pairs.py; "
                          "taichi_mpm's ONE_ITEM)",
-    "c_body": "round 63: the rigid body's V* from its field's sums, one body (rigid_collider.py)",
+    "c_body": "round 63: the rigid body's V* from its field's sums, one body (rigid_collider.py; round 64: launched "
+              "one thread a slot, dim rc_ns, the scene's rigid bodies)",
     "c_solve": "round 63: the body's 6 x 6 solve with its layer (Schur, two 3 x 3 inverses), one body "
-               "(rigid_collider.py)",
+               "(rigid_collider.py; round 64: one thread a slot)",
     "box_reset": "round 64: the field box's 12 bounds, this substep's moved to the last's (field_nodes.py; the grid "
                  "update's own box, grid_box.py)",
-    "c_coulomb": "round 63: Coulomb's scale of the layer's tangential impulse, one body (rigid_collider.py)",
+    "c_coulomb": "round 63: Coulomb's scale of the layer's tangential impulse, one body (rigid_collider.py; round "
+                 "64: one thread a slot)",
 }
 
 _PLANES = "the ground and wall planes of a scene (a handful)"
@@ -77,6 +79,8 @@ LOOP_BOUNDS = {
     "range(fixed_lo.shape[0])": "the held (fixed) boxes",
     "range(n_bodies)": "the rigid bodies (one thread a point, rigid_hold)",
     "range(nb)": "the bodies (round 62: node_slot at a touching node; rigid_pairs' one thread)",
+    "range(ns)": "the rigid collider's slots, the scene's rigid bodies (round 64: rigid_collider.owner at a shared "
+                 "node, as node_slot's range(nb))",
     "range(sweeps)": "the pairs' sweeps, rigid_pairs.SWEEPS (8; round 62)",
     "range(n_on)": "the touching pairs, as the node kernel listed them (round 62, 63; rigid_pairs' one thread)",
     "range(SLOTS)": "a ground column's slots (share.SLOTS = 8; touch_share, one thread a column)",

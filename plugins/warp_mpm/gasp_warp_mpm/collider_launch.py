@@ -1,0 +1,88 @@
+"""The rigid collider's arrays and recorded launches (``rigid_collider.py``'s kernels; ``docs/rigid.md`` "Round 63",
+"Round 64"): :func:`collider_launches` after the grid update, :func:`with_mark` after the fields' first pass.
+
+This module must not use ``from __future__ import annotations`` (the warp modules' rule).
+"""
+import numpy as np
+import warp as wp
+
+from gasp_core.mpm import rigid_collider as core_collider
+
+from . import rigid_collider as rc
+from .rigid_pairs import vec3d
+
+
+def allocate_collider(eng, Ft) -> None:
+    """``eng.rc_on`` (``gasp_core.mpm.rigid_pairs.pair_data``'s collider, ``rigid_collider.collider_data``, not
+    None) and, where on, the per-node marks and owners and each slot's sums (``eng.rc_ns`` slots, one a rigid body; ``eng.rc_multi``: round 64's scenes)."""
+    from gasp_core.mpm.rigid_pairs import pair_data
+    data = pair_data(eng.setup)[2] if getattr(eng, "fields", False) else None
+    eng.rc_on = data is not None
+    if not eng.rc_on:
+        return
+    n, d, nb = eng.n_grid ** 3, eng.device, len(eng.setup.materials)
+    bodies = np.asarray(data["bodies"], np.int32)
+    eng.rc_ns, eng.rc_multi, eng.rc_rb = len(bodies), int(data["multi"]), int(bodies[0])
+    eng.rc_ra = int(eng.in_a.numpy()[eng.rc_rb])   # the pair's rigid field (rc_sum; round 64 reads in_a)
+    eng.rc_bodies = wp.array(bodies, dtype=wp.int32, device=d)
+    slot = np.full(nb, -1, np.int32)
+    slot[bodies] = np.arange(len(bodies), dtype=np.int32)
+    eng.rc_slot = wp.array(slot, dtype=wp.int32, device=d)
+    mus = np.full(len(bodies), eng.field_mu) if data["mus"] is None else data["mus"]
+    eng.rc_mus = wp.array(np.asarray(mus, np.float64), dtype=wp.float64, device=d)
+    eng.rc_m = wp.zeros(n, dtype=eng.k.vec3, device=d)
+    eng.rc_n = wp.zeros(n, dtype=eng.k.vec3, device=d)
+    eng.rc_o = wp.zeros(n, dtype=wp.int32, device=d)
+    eng.rc_box = wp.array(np.asarray(data["boxes"], np.float64).reshape(-1, 3), dtype=vec3d, device=d)
+    eng.rc_acc = wp.zeros(int(rc.NA) * len(bodies), dtype=wp.float64, device=d)
+
+
+def with_mark(eng, Ft, launches: list) -> list:
+    """``launches`` (``fields.field_launches``: ..., the first pass, the touch's clear where there is one, the fields'
+    clear) with ``rc_mark`` put after the first pass; as given where the rule is off."""
+    if not getattr(eng, "rc_on", False):
+        return launches
+    from gasp_core.mpm.fields import GROUND_MIRROR
+    from gasp_core.mpm.rigid_pairs import NODE_PAD
+    walls = eng.wall_mu.shape[0] > 0   # the walls' reach as fields.field_launches gives it
+    side = (np.asarray(eng.setup.domain_hi, float) - np.asarray(eng.setup.domain_lo, float)) / eng.dx
+    wall_lo, wall_hi = (eng.wall_in, side - eng.wall_in) if walls else (-1.0, np.full(3, 1e30))
+    mark = wp.launch(rc.build_collider(Ft)[0], dim=eng.n_grid ** 3, device=eng.device, record_cmd=True, inputs=[
+        eng.grid_mv, eng.grid_sv, eng.grid_vf, eng.n_grid, eng.ground, Ft(eng.dx ** 3), Ft(wall_lo),
+        eng.k.vec3(*[float(c) for c in wall_hi]), Ft(eng.field_touch), eng.ground_touch, eng.flow_touch,
+        eng.field_rule % 2, eng.rc_m, eng.rc_n, eng.grid_dv, eng.in_a, eng.rc_bodies, eng.rc_ns, eng.rc_multi,
+        int(bool(GROUND_MIRROR)), float(core_collider.BAND * eng.dx),
+        eng.k.vec3(*[float(c) for c in eng.setup.domain_lo]), Ft(eng.dx), eng.rc_o, eng.rb_c, eng.rb_R, eng.rc_box,
+        float(NODE_PAD * eng.dx)])
+    at = len(launches) - 1 - int(eng.flow_touch_on or eng.gap_touch_on)
+    return launches[:at] + [mark] + launches[at:]
+
+
+def collider_launches(eng, Ft) -> list:
+    """The recorded collider pass after the grid update, before G2P; none where off (allocated here, before
+    :func:`with_mark`). Node passes over the grid; ``rc_psum`` (round 64) over the material points; ``rc_body``,
+    ``rc_solve``, ``rc_coulomb`` one thread a slot (``rc_ns`` rigid bodies)."""
+    allocate_collider(eng, Ft)
+    if not eng.rc_on:
+        return []
+    _, c_sum, c_body, c_layer, c_solve, c_fsum, c_coulomb, c_apply, c_psum = rc.build_collider(Ft)
+    n, d, ng, ns = eng.n_grid ** 3, eng.device, eng.n_grid, eng.rc_ns
+    lo = eng.k.vec3(*[float(c) for c in eng.setup.domain_lo])
+    geo = [eng.rc_m, eng.rc_n, eng.rc_o, eng.in_a, eng.rc_bodies, eng.rb_c, ng, lo, Ft(eng.dx), eng.rc_acc]
+    solve = [eng.rc_acc, eng.rb_M, eng.rb_I0, eng.rb_R, eng.rc_bodies, float(eng.dx)]
+    if eng.rc_multi:   # round 64: V* from each slot body's points (a field may hold several bodies)
+        out = [wp.launch(c_psum, dim=eng.n_material, device=d, record_cmd=True, inputs=[
+            eng.x, eng.body, eng.p_mass, eng.grid_v, eng.grid_dv, eng.in_a, eng.rc_slot, lo, Ft(eng.inv_dx), ng,
+            eng.rc_acc])]
+    else:
+        out = [wp.launch(c_sum, dim=n, device=d, record_cmd=True, inputs=[
+            eng.grid_v, eng.grid_dv, eng.rc_m, eng.rc_ra, eng.rc_acc])]
+    out.append(wp.launch(c_body, dim=ns, device=d, record_cmd=True, inputs=[eng.rc_acc, eng.rb_w, eng.rc_bodies]))
+    for mode in (0, 1):   # the normal solve, then the tangential one
+        out += [wp.launch(c_layer, dim=n, device=d, record_cmd=True, inputs=[eng.grid_v, eng.grid_dv, *geo, mode]),
+                wp.launch(c_solve, dim=ns, device=d, record_cmd=True, inputs=[*solve, mode, rc.IMPLICIT])]
+    return out + [
+        wp.launch(c_fsum, dim=n, device=d, record_cmd=True, inputs=[eng.grid_v, eng.grid_dv, *geo]),
+        wp.launch(c_coulomb, dim=ns, device=d, record_cmd=True, inputs=[eng.rc_acc, eng.rc_mus, float(rc.FRICTION)]),
+        wp.launch(c_apply, dim=n, device=d, record_cmd=True, inputs=[
+            eng.grid_v, eng.grid_dv, *geo, eng.acc_p, eng.acc_l, rc.REACT])]
