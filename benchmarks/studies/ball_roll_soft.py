@@ -1,0 +1,103 @@
+"""Issue 67 round 65 (lead, found and not fixed): a rigid ball rolling along a soft slab.
+
+A rigid ball (radius ``R``, jelly rho 1000, friction ``mu``) given rolling without slip at ``v0`` along +x (its
+points' velocities ``v0 + w x r`` with ``w R = v0``, and APIC's ``C`` the cross-product matrix of ``w``, as the
+scene's ``angular_velocity`` sets it: ``gasp_core.prepare.assembly``) on a 32 x 16 x 3 cm slab (``--slab elastic``:
+jelly E 1e5 Pa, nu 0.3; ``rigid``: the same slab rigid) lying on a frictionless ground. An elastic slab returns what
+the ball's front presses into it at the ball's back: the ball should roll on as on the rigid slab (Hertz's sink of
+a 3 cm ball's weight into E 1e5 Pa is 1.2 mm, 0.08 dx at n_grid 32), and a frictionless contact, whose forces pass
+through a ball's centre, cannot change its spin.
+
+Printed per case: the ball's speed ``v`` and spin ``w R`` (m/s; from its points' momentum and angular momentum about
+its centre) at the start and after ``T`` s, and the rise of its centre (mm; over its height after the first frame).
+
+    python benchmarks/studies/ball_roll_soft.py --engine warp_mpm --n-grid 32 --mu 0.5 --slab elastic
+
+Figures: ``docs/rigid.md`` ("Round 65: a ball rolling on a soft slab").
+"""
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+SIDE = 0.48
+
+
+def roll_setup(n_grid: int, R: float = 0.03, v0: float = 0.5, mu: float = 0.5, slab: str = "elastic",
+               spin: float = 1.0):
+    """The scene of the module notes (body 0 the ball, body 1 the slab); ``spin`` the given ``w R / v0`` (1: rolling,
+    0: thrown sliding)."""
+    from gasp_core.seam.setup import Boundary, Material, SimSetup
+    from gasp_core.testing.helpers import box_points, sphere_points
+    dx = SIDE / n_grid
+    c0 = np.array([-0.08, 0.0, 0.03 + R])
+    xb, pvb = sphere_points(c0, R, dx / 2)
+    xs, pvs = box_points([-0.12, -0.08, 0.0], [0.20, 0.08, 0.03], dx / 2)
+    w = np.array([0.0, spin * v0 / R, 0.0])
+    x = np.concatenate([xb, xs])
+    v = np.zeros_like(x)
+    v[:len(xb)] = np.array([v0, 0.0, 0.0]) + np.cross(w, xb - c0)
+    C = np.zeros((len(x), 3, 3))
+    C[:len(xb)] = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
+    mats = [Material("jelly", model="rigid", E=1.0e5, nu=0.3, rho=1000.0, friction=mu),
+            Material("jelly", model=slab, E=1.0e5, nu=0.3, rho=1000.0, friction=mu)]
+    lo = np.array([-0.20, -SIDE / 2, -3 * dx])
+    s = SimSetup(x=x, v=v, p_vol=np.r_[np.full(len(xb), pvb), np.full(len(xs), pvs)],
+                 body_id=np.r_[np.zeros(len(xb), int), np.ones(len(xs), int)], materials=mats,
+                 gravity=np.array([0.0, 0.0, -9.81]), domain_lo=lo, domain_hi=lo + SIDE, n_grid=n_grid,
+                 frame_dt=1.0 / 240.0, boundaries=[Boundary("ground", height=0.0, friction=0.0)], C=C)
+    s.n_render = 0
+    return s
+
+
+def ball_state(X: np.ndarray, V: np.ndarray, R: float) -> tuple[np.ndarray, float, float]:
+    """The ball's centre (3,) m, its speed along x (m/s) and its spin about y times ``R`` (m/s) from its points
+    (equal masses)."""
+    c = X.mean(0)
+    r = X - c
+    L = np.cross(r, V - V.mean(0)).sum(0)
+    inertia = np.sum(r * r) * np.eye(3) - r.T @ r
+    return c, float(V.mean(0)[0]), float(np.linalg.solve(inertia, L)[1] * R)
+
+
+def measure_roll(engine: str, n_grid: int, R: float = 0.03, v0: float = 0.5, mu: float = 0.5,
+                 slab: str = "elastic", T: float = 0.2, spin: float = 1.0) -> dict:
+    """``{"v": (first frame, last), "spin": (first, last) (w R, m/s), "rise": mm}`` of :func:`roll_setup` run for
+    ``T`` s on ``engine``."""
+    from gasp_core.seam.build import build_engine
+    from gasp_core.seam.plugins import get_engine
+    s = roll_setup(n_grid, R, v0, mu, slab, spin)
+    nb = int(np.sum(np.asarray(s.body_id) == 0))
+    e = build_engine(get_engine(engine), s)
+    rows = []
+    for _ in range(round(T / s.frame_dt)):
+        e.step_frame()
+        rows.append(ball_state(e.positions().astype(float)[:nb], e.velocities().astype(float)[:nb], R))
+    return {"v": (rows[0][1], rows[-1][1]), "spin": (rows[0][2], rows[-1][2]),
+            "rise": 1e3 * (rows[-1][0][2] - rows[0][0][2])}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--engine", default="warp_mpm")
+    ap.add_argument("--n-grid", type=int, nargs="+", default=[32])
+    ap.add_argument("--mu", type=float, nargs="+", default=[0.5])
+    ap.add_argument("--slab", nargs="+", default=["elastic", "rigid"])
+    ap.add_argument("--radius", type=float, nargs="+", default=[0.03])
+    ap.add_argument("--T", type=float, default=0.2)
+    ap.add_argument("--spin", type=float, default=1.0, help="the given w R / v0 (0: thrown sliding)")
+    a = ap.parse_args()
+    print("| engine | n_grid | R (cm) | slab | mu | v (m/s): start -> end | w R (m/s): start -> end | rise (mm) |")
+    print("|---|---|---|---|---|---|---|---|")
+    for n in a.n_grid:
+        for R in a.radius:
+            for slab in a.slab:
+                for mu in a.mu:
+                    r = measure_roll(a.engine, n, R, 0.5, mu, slab, a.T, a.spin)
+                    print(f"| {a.engine} | {n} | {100 * R:g} | {slab} | {mu:g} | {r['v'][0]:.3f} -> {r['v'][1]:.3f} "
+                          f"| {r['spin'][0]:.3f} -> {r['spin'][1]:.3f} | {r['rise']:+.2f} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
