@@ -28,7 +28,7 @@ from gasp_core.seam import CAUSE_UNSTABLE, EngineDivergence, EngineError, SimSet
 
 from . import ENGINE, TaichiMPMConfig
 from .affinity import allowed_cores, pin_workers, spin_all_threads, thread_ids
-from .frontend import lighten_position_notes
+from .frontend import lighten_frontend
 from .schedule.fixed import refuse_uncovered
 from .state_step import StateClock
 
@@ -136,7 +136,7 @@ class TaichiMPMEngine(GridEngineBase, StateClock):
         check_memory(estimate_bytes(len(setup.x), setup.n_grid, cfg.precision),
                      ENGINE, f"{len(setup.x)} points, n_grid {setup.n_grid}, {cfg.precision}")
         import taichi as ti
-        lighten_position_notes()   # frame 1's kernel load: 1.1 s less on the README donut (frontend.py)
+        lighten_frontend()   # frame 1's kernel load: the lighter note, each source read once (frontend.py)
 
         self.setup = setup
         self.options = opt

@@ -11,7 +11,18 @@ the lighter note against 4.3 s, frame 2 unchanged; docs/performance.md, "The fir
 (:data:`VERSIONS`), by one that gives the same first line (``File "...", line N, in kernel:``) and the node's first
 source line, without the caret line and the wrapping. Errors still name the file, line and kernel. Other Taichi
 versions are left alone.
+
+Round 65: :func:`cache_kernel_sources`. Taichi reads a kernel's or ``ti.func``'s source again each time it turns it
+into IR (``kernel_impl._get_tree_and_ctx``: ``inspect.getsourcefile`` and ``getsourcelines``, which tokenize the
+function's block, and ``textwrap.fill`` on every line), for every kernel of every engine built (``ti.init`` each time)
+and at every call site of a ``ti.func``, which Taichi inlines: 1,711 reads for the 70 kernels of a three-body collider
+scene. A function's source does not change in a process, so its file, lines and first line number are read once per
+code object and kept; the tree is parsed afresh each time (the transformer writes into it) and the rest of the context
+is built as Taichi builds it. :func:`lighten_frontend` installs both.
 """
+import ast
+import textwrap
+
 #: Taichi versions whose ``ASTTransformerContext.get_pos_info`` was read and measured here.
 VERSIONS = {(1, 7, 4)}
 
@@ -34,3 +45,62 @@ def lighten_position_notes() -> bool:
         return False
     ctx.get_pos_info = _position_note
     return True
+
+
+#: a function's code object -> (file, source lines as Taichi reads them, first line, the dedented text); keyed by the
+#: code, which the closures of one ``def`` share (a plugin builds some kernels per engine), and which holds no closure
+_SOURCES: dict = {}
+#: Taichi's own ``kernel_impl._get_tree_and_ctx``, kept when :func:`cache_kernel_sources` replaces it (the tests run
+#: both)
+TAICHI_TREE_AND_CTX = None
+
+
+def _source(func) -> tuple:
+    """``(file, src, start_lineno, text)`` of ``func`` as ``kernel_impl._get_tree_and_ctx`` reads them, once per
+    code object."""
+    key = getattr(func, "__code__", func)
+    got = _SOURCES.get(key)
+    if got is None:
+        from taichi.lang._wrap_inspect import getsourcefile, getsourcelines
+        src, start = getsourcelines(func)
+        src = [textwrap.fill(line, tabsize=4, width=9999) for line in src]
+        got = _SOURCES[key] = (getsourcefile(func), src, start, textwrap.dedent("\n".join(src)))
+    return got
+
+
+def _tree_and_ctx(self, excluded_parameters=(), is_kernel=True, arg_features=None, args=None, ast_builder=None,
+                  is_real_function=False):
+    """``kernel_impl._get_tree_and_ctx`` of Taichi 1.7.4 with the source read once per function (module notes)."""
+    from taichi.lang import kernel_impl
+    from taichi.lang.ast import ASTTransformerContext
+    file, src, start_lineno, text = _source(self.func)
+    tree = ast.parse(text)
+    tree.body[0].decorator_list = []
+    global_vars = kernel_impl._get_global_vars(self.func)
+    if is_kernel or is_real_function:   # template parameters into the globals, as Taichi does
+        for i in self.template_slot_locations:
+            global_vars[self.arguments[i].name] = args[i]
+    return tree, ASTTransformerContext(excluded_parameters=excluded_parameters, is_kernel=is_kernel, func=self,
+                                       arg_features=arg_features, global_vars=global_vars, argument_data=args,
+                                       src=list(src), start_lineno=start_lineno, file=file, ast_builder=ast_builder,
+                                       is_real_function=is_real_function)
+
+
+def cache_kernel_sources() -> bool:
+    """Install :func:`_tree_and_ctx` as Taichi's ``kernel_impl._get_tree_and_ctx``; True if installed (or already),
+    False for a Taichi version not in :data:`VERSIONS` or without that function. Process-wide, idempotent."""
+    import taichi
+    from taichi.lang import kernel_impl
+    global TAICHI_TREE_AND_CTX
+    if tuple(taichi.__version__) not in VERSIONS or not hasattr(kernel_impl, "_get_tree_and_ctx"):
+        return False
+    if kernel_impl._get_tree_and_ctx is not _tree_and_ctx:
+        TAICHI_TREE_AND_CTX = kernel_impl._get_tree_and_ctx
+    kernel_impl._get_tree_and_ctx = _tree_and_ctx
+    return True
+
+
+def lighten_frontend() -> tuple[bool, bool]:
+    """:func:`lighten_position_notes` and :func:`cache_kernel_sources` (what each returns), as the engine installs
+    them before its kernels are first called."""
+    return lighten_position_notes(), cache_kernel_sources()

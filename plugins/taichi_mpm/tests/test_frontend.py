@@ -39,3 +39,35 @@ def test_an_unmeasured_taichi_version_is_left_alone(monkeypatch):
     monkeypatch.setattr(utils.ASTTransformerContext, "get_pos_info", original)
     assert frontend.lighten_position_notes() is False
     assert utils.ASTTransformerContext.get_pos_info is original
+
+
+@pytest.mark.skipif(not MEASURED, reason=f"Taichi {ti.__version__}: the frontend is left as Taichi makes it")
+def test_sources_read_once_give_the_same_run(monkeypatch):
+    """Round 65's cache of each function's source (``cache_kernel_sources``): the engine installs it, it holds one
+    entry per code object with the text Taichi would read, and a run with it is bit for bit the run without it."""
+    from taichi.lang import kernel_impl
+    setup = block_setup()
+    e = build(setup)
+    assert kernel_impl._get_tree_and_ctx is frontend._tree_and_ctx and frontend.TAICHI_TREE_AND_CTX is not None
+    for _ in range(2):
+        e.step_frame()
+    cached = e.positions().copy()
+    some = next(iter(frontend._SOURCES))
+    assert isinstance(some, type(_uses_an_undefined_name.__code__))
+    monkeypatch.setattr(frontend, "cache_kernel_sources", lambda: False)
+    monkeypatch.setattr(kernel_impl, "_get_tree_and_ctx", frontend.TAICHI_TREE_AND_CTX)
+    e = build(setup)
+    for _ in range(2):
+        e.step_frame()
+    assert (e.positions() == cached).all()
+
+
+def test_one_entry_per_code_object():
+    """Two closures of one ``def`` share their source entry; the text is ``inspect``'s, dedented."""
+    def make(k):
+        def f(x):
+            return x + k
+        return f
+    a, b = make(1), make(2)
+    assert frontend._source(a) is frontend._source(b)
+    assert frontend._source(a)[3].startswith("def f(x):") and frontend._source(a)[2] == inspect.getsourcelines(a)[1]
