@@ -65,6 +65,13 @@ MULTI = True
 #: The band: a node within this many cells of the rigid body's points' box, in its frame (Chebyshev): its surface, a
 #: quarter cell beyond its outer points, plus a quarter cell (measured at 0.5 only, ``docs/rigid.md`` "Round 63").
 BAND = 0.5
+#: Round 65: True caps each contact pair (rigid body, soft body) at its own ``mu`` times its own normal impulse (module
+#: notes "The pair's friction"); False: round 64's one cap a rigid body with the smallest of its pairs' ``mu`` (main's
+#: rule before: a block on a jelly of mu 0.5 slid with the ``mu`` of an icy jelly elsewhere in the scene).
+PAIR_MU = True
+#: A deliberately broken variant for the checks (``tests/test_pair_friction.py``): True gives each soft body the next
+#: soft body's ``friction`` in its pairs (:func:`pair_frictions`).
+PAIR_SWAP = False
 
 
 def collider_on(setup) -> bool:
@@ -96,19 +103,23 @@ def body_solve(M: float, inertia: np.ndarray, m_s: np.ndarray, r: np.ndarray, u:
 
 
 def collide(M: float, inertia: np.ndarray, V: np.ndarray, w: np.ndarray, m_s: np.ndarray, r: np.ndarray,
-            v_s: np.ndarray, n: np.ndarray, mu: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            v_s: np.ndarray, n: np.ndarray, mu, soft=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One substep's collider (module notes, step 3) for the body at ``V*`` = ``V``, spin ``w`` ((3,) each) and the
-    band's nodes (``m_s`` (N,), ``r`` (N, 3), soft velocities ``v_s`` (N, 3), normals ``n`` (N, 3)), pair's
-    coefficient ``mu``: ``(dv, J, L)``, the nodes' velocity changes (N, 3; 0 at the nodes that do not approach), the
-    body's impulse (3,) and its moment about the body's centre (3,)."""
+    band's nodes (``m_s`` (N,), ``r`` (N, 3), soft velocities ``v_s`` (N, 3), normals ``n`` (N, 3)): ``(dv, J, L)``,
+    the nodes' velocity changes (N, 3; 0 at the nodes that do not approach), the body's impulse (3,) and its moment
+    about the body's centre (3,). ``mu``: the pair's coefficient (a float: one soft body); round 65, ``soft`` (N,)
+    int, the soft body each node's soft mass is of, and ``mu`` (K,) each soft body's pair coefficient (indexed by
+    ``soft``): each pair's tangential sum capped at its own ``mu`` times its own normal impulse."""
     m_s, r, v_s, n = (np.asarray(a, float) for a in (m_s, r, v_s, n))
     V, w = np.asarray(V, float), np.asarray(w, float)
+    soft = np.zeros(len(m_s), int) if soft is None else np.asarray(soft, int)
+    mu = np.atleast_1d(np.asarray(mu, float))
     u = v_s - V - np.cross(w, r)
     on = np.sum(u * n, axis=1) < 0.0
     dv = np.zeros_like(v_s)
     if not on.any():
         return dv, np.zeros(3), np.zeros(3)
-    m, r, n = m_s[on], r[on], n[on]
+    m, r, n, k = m_s[on], r[on], n[on], soft[on]
     dV, dw = body_solve(M, inertia, m, r, u[on], n)
     V1, w1 = V + dV, w + dw
     u1 = v_s[on] - V1 - np.cross(w1, r)
@@ -116,10 +127,14 @@ def collide(M: float, inertia: np.ndarray, V: np.ndarray, w: np.ndarray, m_s: np
     tV, tw = body_solve(M, inertia, m, r, u1, n, tangential=True)
     u2 = v_s[on] - (V1 + tV) - np.cross(w1 + tw, r)
     dvt = -(u2 - np.sum(u2 * n, axis=1, keepdims=True) * n)
-    N = float(np.sum(m[:, None] * dvn * n))
-    T = np.linalg.norm((m[:, None] * dvt).sum(0))
-    scale = 1.0 if T <= mu * max(N, 0.0) else mu * max(N, 0.0) / T
-    dv[on] = dvn + scale * dvt
+    scale = np.ones(len(m))
+    for q in np.unique(k):   # each pair (the body, soft body q): Coulomb's on its own sums
+        sel = k == q
+        N = float(np.sum(m[sel, None] * dvn[sel] * n[sel]))
+        T = np.linalg.norm((m[sel, None] * dvt[sel]).sum(0))
+        cap = mu[q] * max(N, 0.0)
+        scale[sel] = 1.0 if T <= cap else cap / T
+    dv[on] = dvn + scale[:, None] * dvt
     J = -(m[:, None] * dv[on])
     return dv, J.sum(0), np.cross(r, J).sum(0)
 
@@ -136,14 +151,32 @@ def collider_multi(setup) -> bool:
 
 
 def slot_frictions(materials, rigid_bodies) -> np.ndarray:
-    """Each rigid body's collider coefficient (shape (len(rigid_bodies),)): the smallest ``combine_friction`` of its
-    ``friction`` with a soft body's (the node does not say which soft body it meets; one ``mu`` a rigid body)."""
+    """Round 64's rule (main's before round 65; :data:`PAIR_MU` False): each rigid body's one collider coefficient
+    (shape (len(rigid_bodies),)): the smallest ``combine_friction`` of its ``friction`` with a soft body's."""
     from gasp_core.mpm.fields import body_friction, combine_friction
     from gasp_core.mpm.rigid import rigid_mask
     rigid = np.asarray(rigid_mask(materials), bool)
     soft = [body_friction(m) for m, r in zip(materials, rigid) if not r]
     return np.array([min(combine_friction(body_friction(materials[k]), s) for s in soft) for k in rigid_bodies],
                     np.float64)
+
+
+def pair_frictions(materials, rigid_bodies, swap: bool = False) -> np.ndarray:
+    """Round 65: each contact pair's coefficient, shape (len(rigid_bodies), n_bodies): ``[s, b]`` the
+    ``combine_friction`` of slot ``s``'s rigid body's ``friction`` with body ``b``'s (``fields_reference``: the
+    geometric mean, Bullet's ``btManifoldResult::calculateCombinedFriction``); 0 where ``b`` is rigid (no soft mass
+    of it). ``swap`` (a broken variant, :data:`PAIR_SWAP`): each soft body takes the next soft body's ``friction``."""
+    from gasp_core.mpm.fields import body_friction, combine_friction
+    from gasp_core.mpm.rigid import rigid_mask
+    rigid = np.asarray(rigid_mask(materials), bool)
+    mu = np.array([body_friction(m) for m in materials], float)
+    soft = np.flatnonzero(~rigid)
+    if swap:
+        mu[soft] = mu[np.roll(soft, -1)]
+    out = np.zeros((len(rigid_bodies), len(materials)))
+    for s, k in enumerate(rigid_bodies):
+        out[s, soft] = [combine_friction(body_friction(materials[k]), mu[b]) for b in soft]
+    return out
 
 
 def collider_owner(xn, in_a, bodies, centre, rot, boxes, pad: float) -> int:
@@ -166,15 +199,23 @@ def collider_owner(xn, in_a, bodies, centre, rot, boxes, pad: float) -> int:
 
 def collider_data(setup) -> dict | None:
     """What an engine's collider reads, or None where the rule is off: ``{"bodies": (n_slots,) int, the rigid body of
-    each slot; "mus": (n_slots,) the slot's ``mu`` (None for the two-body pair: the pair's, the engines' field
-    friction); "multi": bool}`` (round 63's pair: one slot, ``multi`` False; round 64: every rigid body a slot);
+    each slot; "cols": (n_bodies,) int, each body's column of the pairs' table (round 65: the soft body at a node
+    picks its pair ``slot * n_cols + cols[body]``); "mus": (n_slots, n_cols) the pairs' ``mu`` (None for the two-body
+    pair: one column, the pair's, the engines' field friction); "multi": bool}`` (round 63's pair: one slot,
+    ``multi`` False; round 64: every rigid body a slot; round 65, :data:`PAIR_MU`: a column a body, each pair its own
+    ``mu`` (:func:`pair_frictions`); without it one column, :func:`slot_frictions`).
     ``gasp_core.mpm.rigid_pairs.pair_data`` adds ``"boxes"`` ((n_bodies, 2, 3) m, ``body_boxes`` of the step
     view)."""
     from gasp_core.mpm.rigid import rigid_mask, step_view
     view = step_view(setup)
     rigid = np.flatnonzero(np.asarray(rigid_mask(view.materials)))
+    nb = len(view.materials)
     if collider_on(view):
-        return {"bodies": rigid[:1].astype(np.int32), "mus": None, "multi": False}
+        return {"bodies": rigid[:1].astype(np.int32), "cols": np.zeros(nb, np.int32), "mus": None, "multi": False}
     if collider_multi(view):
-        return {"bodies": rigid.astype(np.int32), "mus": slot_frictions(view.materials, rigid), "multi": True}
+        if PAIR_MU:
+            return {"bodies": rigid.astype(np.int32), "cols": np.arange(nb, dtype=np.int32),
+                    "mus": pair_frictions(view.materials, rigid, bool(PAIR_SWAP)), "multi": True}
+        return {"bodies": rigid.astype(np.int32), "cols": np.zeros(nb, np.int32),
+                "mus": slot_frictions(view.materials, rigid)[:, None], "multi": True}
     return None
