@@ -6,7 +6,7 @@ the collider", ``tests/test_pair_friction.py``; :mod:`gasp_core.mpm.rigid_collid
   B (body 2, 12 x 6 x 3 cm) at rest on the ground 6 cm beside the slab (beyond the colouring's reach at n_grid >= 24:
   never touched by the block or the slab).
 - :func:`bridge_setup`: a rigid block 6 cm long, 2 Y wide, 3 cm tall (body 0) thrown along +x across three jelly
-  slabs side by side on a frictionless ground, each 3 cm thick: A (body 1) in the middle, B1 and B2 (bodies 2, 3) one
+  slabs side by side on a ground that holds them, each 3 cm thick: A (body 1) in the middle, B1 and B2 (bodies 2, 3) one
   each side, ``GAP_CELLS`` cells from A (beyond the colouring's reach: A and the B's share a field, the block the
   other). The block's overlap with A (6 cm) equals its overlaps with B1 and B2 together (3 cm each), so that with
   the slabs alike but for ``friction`` and the block level their loads are equal, ``N_A = N_B1 + N_B2 = M g / 2``
@@ -38,14 +38,16 @@ def far_setup(n_grid: int = 32, mu_block: float = 0.5, mu_a: float = 0.5, mu_far
     return _setup(boxes, models, [v0, 0.0, 0.0], n_grid, 0.0, mus)
 
 
-def bridge_setup(n_grid: int = 32, mu_block: float = 1.0, mu_a: float = 0.16, mu_b: float = 0.64, v0: float = 1.0):
-    """The block across slabs B1, A, B2 (module notes)."""
+def bridge_setup(n_grid: int = 32, mu_block: float = 1.0, mu_a: float = 0.16, mu_b: float = 0.64, v0: float = 1.0,
+                 ground_mu: float = 1.0):
+    """The block across slabs B1, A, B2 (module notes) on a ground of friction ``ground_mu`` (1: it holds the slabs,
+    whose friction on the block, at most 0.4 of its weight, is below the ground's cap on each)."""
     dx = SIDE / n_grid
     a, g = 0.03, GAP_CELLS * dx   # A's half-width, the gaps (m)
     Y = 2 * a + g   # the block's half-width: its overlap with each B is a
     boxes = [([-0.03, -Y, 0.03], [0.03, Y, 0.06]), ([-0.12, -a, 0.0], [0.20, a, 0.03]),
              ([-0.12, a + g, 0.0], [0.20, Y + a, 0.03]), ([-0.12, -Y - a, 0.0], [0.20, -a - g, 0.03])]
-    return _setup(boxes, ["rigid", "elastic", "elastic", "elastic"], [v0, 0.0, 0.0], n_grid, 0.0,
+    return _setup(boxes, ["rigid", "elastic", "elastic", "elastic"], [v0, 0.0, 0.0], n_grid, ground_mu,
                   [mu_block, mu_a, mu_b, mu_b])
 
 
