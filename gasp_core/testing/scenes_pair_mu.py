@@ -20,7 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from gasp_core.testing.scenes_rigid3 import G, SIDE, _run, _setup
+from gasp_core.testing import scenes_rigid3 as S3
+from gasp_core.testing.scenes_rigid3 import G, SIDE
 
 #: The gap between slab A and each of B1, B2 of :func:`bridge_setup`, in cells (3: the colouring's reach).
 GAP_CELLS = 3.5
@@ -35,7 +36,7 @@ def far_setup(n_grid: int = 32, mu_block: float = 0.5, mu_a: float = 0.5, mu_far
         boxes.append(([-0.06, 0.14, 0.0], [0.06, 0.20, 0.03]))
         models.append("elastic")
         mus.append(mu_far)
-    return _setup(boxes, models, [v0, 0.0, 0.0], n_grid, 0.0, mus)
+    return S3._setup(boxes, models, [v0, 0.0, 0.0], n_grid, 0.0, mus)
 
 
 def bridge_setup(n_grid: int = 32, mu_block: float = 1.0, mu_a: float = 0.16, mu_b: float = 0.64, v0: float = 1.0,
@@ -47,7 +48,7 @@ def bridge_setup(n_grid: int = 32, mu_block: float = 1.0, mu_a: float = 0.16, mu
     Y = 2 * a + g   # the block's half-width: its overlap with each B is a
     boxes = [([-0.03, -Y, 0.03], [0.03, Y, 0.06]), ([-0.12, -a, 0.0], [0.20, a, 0.03]),
              ([-0.12, a + g, 0.0], [0.20, Y + a, 0.03]), ([-0.12, -Y - a, 0.0], [0.20, -a - g, 0.03])]
-    return _setup(boxes, ["rigid", "elastic", "elastic", "elastic"], [v0, 0.0, 0.0], n_grid, ground_mu,
+    return S3._setup(boxes, ["rigid", "elastic", "elastic", "elastic"], [v0, 0.0, 0.0], n_grid, ground_mu,
                   [mu_block, mu_a, mu_b, mu_b])
 
 
@@ -68,7 +69,7 @@ def far_closed_form(s) -> float:
 def measure_far(engine: str, s, T: float = 0.3) -> dict:
     """``slide`` (m): the change of the block's separation from slab A along x over ``T`` (s); ``closed`` (m):
     :func:`far_closed_form`; ``far`` (m): body 2's largest move of its centre (0 without it)."""
-    C, _, _, _ = _run(engine, s, T)
+    C, _, _, _ = S3._run(engine, s, T)
     far = float(np.abs(C[:, 2] - C[0, 2]).max()) if C.shape[1] > 2 else 0.0
     return {"slide": float((C[-1, 0, 0] - C[-1, 1, 0]) - (C[0, 0, 0] - C[0, 1, 0])), "closed": far_closed_form(s),
             "far": far}
@@ -79,7 +80,7 @@ def measure_bridge(engine: str, s, t0: float = 1.0 / 30.0, t1: float = 0.1) -> d
     differences) from ``t0`` to ``t1`` s (sliding throughout: at ``v0`` 1 m/s and ``g (mu_A + mu_B) / 2`` its speed
     falls to about 0.4 m/s by 0.1 s); ``expect`` (m/s^2): ``g (mu_A + mu_B) / 2``; ``turn`` (deg): the block's yaw
     at the end."""
-    C, turn, _, _ = _run(engine, s, t1 + 2 * s.frame_dt)
+    C, turn, _, _ = S3._run(engine, s, t1 + 2 * s.frame_dt)
     t = np.arange(len(C)) * s.frame_dt
     v = np.diff(C[:, 0, 0]) / s.frame_dt
     tm = 0.5 * (t[1:] + t[:-1])
