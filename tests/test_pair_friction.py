@@ -16,8 +16,8 @@ of mu 0.5 slid +215 % long when an icy jelly (0.05) lay elsewhere in the scene (
 Each check is shown failing on a broken engine (:func:`test_the_checks_catch_broken_engines`): main's rule
 (``PAIR_MU`` False: (a) +215 % with B at 0.05, (b) -34 %) and a swapped pair (``PAIR_SWAP``: (a) +215 % / -52 %;
 (b) cannot see it: the swap runs' mean is symmetric in the pairs, said there). The default tier holds the NumPy
-reference (:func:`test_the_reference_caps_each_pair`); the engine runs are slow (``tests/slow_tier.txt``) but the
-warp_mpm (a) at n_grid 32 (about 20 s).
+reference (:func:`test_the_reference_caps_each_pair`); the engine runs are slow (``tests/slow_tier.txt``: 10-95 s
+each, 6.5 min in all).
 """
 from __future__ import annotations
 
@@ -60,11 +60,8 @@ def _load_error(engine: str, n_grid: int) -> float:
     return 0.5 * (d[0] + d[1]) / d[2] - 1.0
 
 
-FAR = [pytest.param("warp_mpm", 32), pytest.param("warp_mpm", 48, marks=pytest.mark.slow),
-       pytest.param("taichi_mpm", 32, marks=pytest.mark.slow)]
-
-
-@pytest.mark.parametrize("engine,n_grid", FAR)
+@pytest.mark.slow
+@pytest.mark.parametrize("engine,n_grid", [("warp_mpm", 32), ("warp_mpm", 48), ("taichi_mpm", 32)])
 def test_a_far_jelly_changes_nothing(engine, n_grid, rule):
     needs_package(f"gasp_{engine}")
     r = _far(engine, n_grid)
@@ -104,7 +101,8 @@ def test_the_checks_catch_broken_engines(engine, monkeypatch, rule):
 
 def test_the_reference_caps_each_pair():
     """``rigid_collider.collide`` with two soft bodies: each pair's tangential impulse at most its ``mu`` times its
-    normal impulse (the sliding pair's at it); equal ``mu`` for both gives the one-body cap's total impulse; ``pair_frictions`` combines each pair's, and swaps for the variant."""
+    normal impulse (the sliding pair's at it); equal ``mu`` for both gives the one-body cap's total impulse;
+    ``pair_frictions`` combines each pair's, and swaps for the variant."""
     rng = np.random.default_rng(3)
     N = 12
     r = np.column_stack([rng.uniform(-0.03, 0.03, N), rng.uniform(-0.03, 0.03, N), np.full(N, -0.016)])

@@ -21,8 +21,9 @@ Per substep, with :data:`RIGID_COLLIDER` on:
    surfaces with ``P = 1 - n n^T`` (the nodes stuck) against the first solve's body. Each node's change is its
    normal relative velocity against the first solve's body removed and its tangential one against the second's,
    the tangential part scaled so that its sum is at most ``mu`` times the layer's normal impulse (Coulomb's on the
-   body as one, as the rigid pairs' law). The soft field's nodes take it; the body takes ``J_i = -m_S dv_i`` into the
-   sums of its next projection (``acc_p += J_i``, ``acc_l += x_i x J_i``), float64 atomics over the nodes.
+   body as one, as the rigid pairs' law; round 65: on each pair of the body and a soft body as one). The soft
+   field's nodes take it; the body takes ``J_i = -m_S dv_i`` into the sums of its next projection (``acc_p += J_i``,
+   ``acc_l += x_i x J_i``), float64 atomics over the nodes.
 
 Why implicit and why Coulomb per body (measured, ``docs/rigid.md`` "Round 63"): a per-node collider whose summed
 reaction is given to the body explicitly floated the 6 x 6 x 3 cm block on jelly at 5.7 mm/s (its band's soft mass
@@ -32,9 +33,8 @@ reaction is given to the body explicitly floated the 6 x 6 x 3 cm block on jelly
 
 **Three or more bodies** (round 64, :data:`MULTI`; round 61/62's colouring: each field may hold several bodies, no
 two of one field within 3 cells of each other). Every rigid body is a *slot* (:func:`collider_data`): its own ``V*``,
-its own 6 x 6 solve, its own Coulomb cap with its ``mu`` (:func:`slot_frictions`: the smallest ``combine_friction`` of
-its ``friction`` with a soft body's; the node does not say which soft body it meets), its impulses to its own
-projection sums. Which slot a shared node serves (:func:`collider_owner`, the engines' ``owner``): round 62's lookup
+its own 6 x 6 solve, its own Coulomb caps (round 65, "The pair's friction" below), its impulses to its own projection
+sums. Which slot a shared node serves (:func:`collider_owner`, the engines' ``owner``): round 62's lookup
 (``rigid_pairs.node_bodies``: per field the nearest rigid body whose box, in its frame, the node lies within
 ``NODE_PAD`` = 1.5 cells of). Where one field has a rigid body there and the other none, the other field's mass there
 is soft (the colouring keeps a field's bodies apart, so a node's mass of one field is one body's): the node takes the
@@ -46,10 +46,24 @@ node near rigid bodies of both fields is the pair's. ``V*`` is summed from each 
 body's of that field without a per-node owner of every node). The pair (two bodies) keeps its one slot and node sums,
 bit for bit.
 
-No constant but the pair's ``mu`` and ``BAND``. Work: eight node passes (the pair) or seven and a point pass (round
-64), three one-thread-a-slot updates (``rc_body``, ``rc_solve``, ``rc_coulomb``: a slot's few dozen flops each; the
-slots are the scene's rigid bodies), and at each shared node a loop over the slots (``owner``; round 62's
-``node_slot`` loops over the bodies the same way).
+**The pair's friction** (round 65, :data:`PAIR_MU`; ``docs/rigid.md`` "Round 65"). The cap is per contact pair
+(rigid body, soft body): a band node's soft-field mass is one soft body's (the colouring, above), and the engines
+learn which from the soft points themselves (each writes its body at the nodes its stencil weights, in the point
+pass of ``V*``: ``rc_sb``, an int per node and field, cleared by the mark pass; an atomic max, so a field the
+colouring shares (an odd cycle) gives its largest body index, deterministically). Each pair ``(slot, soft body)``
+sums its own normal impulse ``N_q`` and stuck tangential impulse ``T_q`` over its nodes, and its tangential part is
+scaled to at most ``mu_q N_q``, ``mu_q`` the ``combine_friction`` of the two bodies' ``friction``
+(:func:`pair_frictions`; ``fields_reference.combine_friction``: the geometric mean, Bullet's
+``btManifoldResult::calculateCombinedFriction``). The solves along the normals and the surfaces stay one a rigid
+body. Before (round 64, ``PAIR_MU`` False: :func:`slot_frictions`) one cap a rigid body with the smallest ``mu`` of
+its pairs with every soft body of the scene: a block on a jelly of 0.5 slid +215 % long when an icy jelly (0.05)
+lay elsewhere in the scene. The two-body pair is one pair a slot (no write: its one soft body), bit for bit.
+
+No constant but the pairs' ``mu`` and ``BAND``. Work: eight node passes (the pair) or seven and a point pass (round 64),
+two one-thread-a-slot updates (``rc_body``, ``rc_solve``: a slot's few dozen flops each; the slots are the scene's rigid
+bodies), ``rc_coulomb`` one thread a pair (round 65: slots times bodies; a dozen flops each), the soft points' writes of
+``rc_sb`` in the point pass (27 reads a point, an atomic only where the node's value differs), and at each shared node a
+loop over the slots (``owner``; round 62's ``node_slot`` loops over the bodies the same way).
 """
 from __future__ import annotations
 

@@ -6,10 +6,12 @@ the slot each shared node serves (:meth:`RigidCollider.rc_owner`: the pair's bod
 rigid body), gives the node its fields' own velocities and marks the band's nodes with field B's normal and the slot
 (``rc_o``); :meth:`RigidCollider.collider_pass` (after the grid update, before G2P) sums each slot body's momentum
 into ``V*`` (the pair: its field's nodes; round 64: its points' G2P, ``collider_psum``), solves each body with its
-approaching layer (normal, then tangential stuck), takes Coulomb's on each body as one and changes the soft field's
-offsets, the reaction to ``rc_react`` (read with the hold's in the projection's sums, ``RigidHold.held``).
+approaching layer (normal, then tangential stuck), takes Coulomb's on each contact pair (rigid body, soft body) as one
+(round 65, ``collider_pair.py``: the soft body at a node from ``rc_sb``, cleared by ``collider_mark`` and written by
+``collider_psum``'s soft points) and changes the soft field's offsets, the reaction to ``rc_react`` (read with the
+hold's in the projection's sums, ``RigidHold.held``).
 ``rc_acc`` (float64, ``NA`` = 86 a slot): warp_mpm's layout. The one-thread-a-slot kernels (``collider_body``,
-``collider_solve``, ``collider_coulomb``) loop over the slots in parallel (the scene's rigid bodies).
+``collider_solve``) loop over the slots in parallel (the scene's rigid bodies), ``collider_coulomb`` over the pairs.
 
 Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields it reads.
 """

@@ -8,11 +8,12 @@ fields' own velocities (no exchange) and marks the band's nodes with the rigid b
 (``rc_o``); after the grid update ``rc_sum`` (the pair: a node each) or ``rc_psum`` (round 64: a material point each,
 its G2P of its field) sums each slot body's momentum and mass, ``rc_body`` (one thread a slot) turns them into
 ``V*``, ``rc_layer`` / ``rc_solve`` (a node each / a slot each) solve each body with its approaching layer,
-``rc_fsum`` / ``rc_coulomb`` its Coulomb cap, ``rc_apply`` (a node each) takes the soft field's approach off at the
-marked nodes and adds the reaction to the slot body's projection sums ``acc_p``, ``acc_l``. ``rc_acc`` (float64,
-``NA`` = 86 a slot): 0-2 sum m_R v_R, 3 sum m_R, 4-6 V*, 7-9 the substep's reaction J, 10 the approaching soft mass,
-11-14 the last substep's 7-10 (reading), 20-61 the 6 x 6 system's sums, 62-76 the spins and solved bodies, 77-85
-Coulomb's sums and scale.
+``rc_fsum`` / ``rc_coulomb`` / ``rc_apply`` (``collider_pair.py``, round 65: Coulomb's cap per contact pair, the
+soft body at a node from ``rc_sb``, which ``rc_mark`` clears and ``rc_psum``'s soft points write) take the soft
+field's approach off at the marked nodes and add the reaction to the slot body's projection sums ``acc_p``,
+``acc_l``. ``rc_acc`` (float64, ``NA`` = 86 a slot): 0-2 sum m_R v_R, 3 sum m_R, 4-6 V*, 7-9 the substep's reaction J,
+10 the approaching soft mass, 11-14 the last substep's 7-10 (reading), 20-61 the 6 x 6 system's sums, 62-76 the spins
+and solved bodies (77-85 unused since round 65: the pairs' ``rc_pacc``).
 
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of
 the closures below as type objects.
