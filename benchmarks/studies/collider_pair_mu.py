@@ -9,6 +9,7 @@ rule, one ``mu`` a rigid body, the smallest; ``PAIR_SWAP=1``: a broken variant, 
 
     python benchmarks/studies/collider_pair_mu.py --case far --engine warp_mpm --n-grid 32 --far none 0.05 0.5 2.0
     python benchmarks/studies/collider_pair_mu.py --case bridge --engine warp_mpm --n-grid 32 --swap-mu
+    python benchmarks/studies/collider_pair_mu.py --case loads --n-grid 32 48
 """
 from __future__ import annotations
 
@@ -26,10 +27,34 @@ def _set(items) -> None:
                 else bool(float(value)))
 
 
+def loads(n_grid: int, mus) -> None:
+    """warp_mpm: the bridge's pairs' normal impulses, the last substep's of each frame (``rc_pacc[9 q + 5]``, pairs
+    q = the soft bodies' columns of slot 0), averaged over frames 3-6 (0.05-0.1 s): each slab's share and the sum over
+    ``M g dt`` (one substep a frame: the jelly's ringing shows in it)."""
+    import numpy as np
+    from gasp_core.mpm.fields import combine_friction
+    from gasp_core.seam.build import build_engine
+    from gasp_core.seam.plugins import get_engine
+    from gasp_core.testing import scenes_pair_mu as P
+    s = P.bridge_setup(n_grid, *mus)
+    e = build_engine(get_engine("warp_mpm"), s)
+    pm, body = np.asarray(s.p_mass, float), np.asarray(s.body_id)
+    N = []
+    for f in range(6):
+        e.step_frame()
+        N.append(e.rc_pacc.numpy().reshape(-1, 9)[1:4, 5] if f >= 2 else None)
+    N = np.mean(N[2:], 0)
+    share = N / N.sum()
+    mu = np.array([combine_friction(mus[0], m) for m in (mus[1], mus[2], mus[2])])
+    print(f"warp_mpm n_grid {n_grid} bridge mu {mus}: N shares A/B1/B2 {np.round(share, 4)}, sum N / (M g dt) "
+          f"{N.sum() / (pm[body == 0].sum() * 9.81 * float(e.dt)):.4f}, g sum mu_q share_q "
+          f"{9.81 * mu @ share:.4f} m/s^2", flush=True)
+
+
 def main() -> None:
     from gasp_core.testing import scenes_pair_mu as P
     ap = argparse.ArgumentParser()
-    ap.add_argument("--case", choices=("far", "bridge"), default="far")
+    ap.add_argument("--case", choices=("far", "bridge", "loads"), default="far")
     ap.add_argument("--engine", default="warp_mpm")
     ap.add_argument("--n-grid", type=int, nargs="+", default=[32])
     ap.add_argument("--far", nargs="+", default=["none", "0.05", "2.0"], help="far jelly B's friction, or none")
@@ -49,6 +74,9 @@ def main() -> None:
                       f"{r['closed'] * 1e3:7.3f} mm ({100 * (r['slide'] / r['closed'] - 1):+7.2f} %) "
                       f"far moved {r['far'] * 1e3:.3f} mm  slide repr {r['slide']!r}  [{time.time() - t:.0f} s]",
                       flush=True)
+        elif a.case == "loads":
+            for mus in ((1.0, 0.16, 0.64), (1.0, 0.64, 0.16), (1.0, 0.36, 0.36)):
+                loads(n, mus)
         else:
             mus = [tuple(a.mu) if a.mu else (1.0, 0.16, 0.64)]
             if a.swap_mu:
