@@ -21,8 +21,9 @@ Per substep, with :data:`RIGID_COLLIDER` on:
    surfaces with ``P = 1 - n n^T`` (the nodes stuck) against the first solve's body. Each node's change is its
    normal relative velocity against the first solve's body removed and its tangential one against the second's,
    the tangential part scaled so that its sum is at most ``mu`` times the layer's normal impulse (Coulomb's on the
-   body as one, as the rigid pairs' law). The soft field's nodes take it; the body takes ``J_i = -m_S dv_i`` into the
-   sums of its next projection (``acc_p += J_i``, ``acc_l += x_i x J_i``), float64 atomics over the nodes.
+   body as one, as the rigid pairs' law; round 65: on each pair of the body and a soft body as one). The soft
+   field's nodes take it; the body takes ``J_i = -m_S dv_i`` into the sums of its next projection (``acc_p += J_i``,
+   ``acc_l += x_i x J_i``), float64 atomics over the nodes.
 
 Why implicit and why Coulomb per body (measured, ``docs/rigid.md`` "Round 63"): a per-node collider whose summed
 reaction is given to the body explicitly floated the 6 x 6 x 3 cm block on jelly at 5.7 mm/s (its band's soft mass
@@ -32,9 +33,8 @@ reaction is given to the body explicitly floated the 6 x 6 x 3 cm block on jelly
 
 **Three or more bodies** (round 64, :data:`MULTI`; round 61/62's colouring: each field may hold several bodies, no
 two of one field within 3 cells of each other). Every rigid body is a *slot* (:func:`collider_data`): its own ``V*``,
-its own 6 x 6 solve, its own Coulomb cap with its ``mu`` (:func:`slot_frictions`: the smallest ``combine_friction`` of
-its ``friction`` with a soft body's; the node does not say which soft body it meets), its impulses to its own
-projection sums. Which slot a shared node serves (:func:`collider_owner`, the engines' ``owner``): round 62's lookup
+its own 6 x 6 solve, its own Coulomb caps (round 65, "The pair's friction" below), its impulses to its own projection
+sums. Which slot a shared node serves (:func:`collider_owner`, the engines' ``owner``): round 62's lookup
 (``rigid_pairs.node_bodies``: per field the nearest rigid body whose box, in its frame, the node lies within
 ``NODE_PAD`` = 1.5 cells of). Where one field has a rigid body there and the other none, the other field's mass there
 is soft (the colouring keeps a field's bodies apart, so a node's mass of one field is one body's): the node takes the
@@ -46,10 +46,24 @@ node near rigid bodies of both fields is the pair's. ``V*`` is summed from each 
 body's of that field without a per-node owner of every node). The pair (two bodies) keeps its one slot and node sums,
 bit for bit.
 
-No constant but the pair's ``mu`` and ``BAND``. Work: eight node passes (the pair) or seven and a point pass (round
-64), three one-thread-a-slot updates (``rc_body``, ``rc_solve``, ``rc_coulomb``: a slot's few dozen flops each; the
-slots are the scene's rigid bodies), and at each shared node a loop over the slots (``owner``; round 62's
-``node_slot`` loops over the bodies the same way).
+**The pair's friction** (round 65, :data:`PAIR_MU`; ``docs/rigid.md`` "Round 65"). The cap is per contact pair
+(rigid body, soft body): a band node's soft-field mass is one soft body's (the colouring, above), and the engines
+learn which from the soft points themselves (each writes its body at the nodes its stencil weights, in the point
+pass of ``V*``: ``rc_sb``, an int per node and field, cleared by the mark pass; an atomic max, so a field the
+colouring shares (an odd cycle) gives its largest body index, deterministically). Each pair ``(slot, soft body)``
+sums its own normal impulse ``N_q`` and stuck tangential impulse ``T_q`` over its nodes, and its tangential part is
+scaled to at most ``mu_q N_q``, ``mu_q`` the ``combine_friction`` of the two bodies' ``friction``
+(:func:`pair_frictions`; ``fields_reference.combine_friction``: the geometric mean, Bullet's
+``btManifoldResult::calculateCombinedFriction``). The solves along the normals and the surfaces stay one a rigid
+body. Before (round 64, ``PAIR_MU`` False: :func:`slot_frictions`) one cap a rigid body with the smallest ``mu`` of
+its pairs with every soft body of the scene: a block on a jelly of 0.5 slid +215 % long when an icy jelly (0.05)
+lay elsewhere in the scene. The two-body pair is one pair a slot (no write: its one soft body), bit for bit.
+
+No constant but the pairs' ``mu`` and ``BAND``. Work: eight node passes (the pair) or seven and a point pass (round 64),
+two one-thread-a-slot updates (``rc_body``, ``rc_solve``: a slot's few dozen flops each; the slots are the scene's rigid
+bodies), ``rc_coulomb`` one thread a pair (round 65: slots times bodies; a dozen flops each), the soft points' writes of
+``rc_sb`` in the point pass (27 reads a point, an atomic only where the node's value differs), and at each shared node a
+loop over the slots (``owner``; round 62's ``node_slot`` loops over the bodies the same way).
 """
 from __future__ import annotations
 
@@ -65,6 +79,13 @@ MULTI = True
 #: The band: a node within this many cells of the rigid body's points' box, in its frame (Chebyshev): its surface, a
 #: quarter cell beyond its outer points, plus a quarter cell (measured at 0.5 only, ``docs/rigid.md`` "Round 63").
 BAND = 0.5
+#: Round 65: True caps each contact pair (rigid body, soft body) at its own ``mu`` times its own normal impulse (module
+#: notes "The pair's friction"); False: round 64's one cap a rigid body with the smallest of its pairs' ``mu`` (main's
+#: rule before: a block on a jelly of mu 0.5 slid with the ``mu`` of an icy jelly elsewhere in the scene).
+PAIR_MU = True
+#: A deliberately broken variant for the checks (``tests/test_pair_friction.py``): True gives each soft body the next
+#: soft body's ``friction`` in its pairs (:func:`pair_frictions`).
+PAIR_SWAP = False
 
 
 def collider_on(setup) -> bool:
@@ -96,19 +117,23 @@ def body_solve(M: float, inertia: np.ndarray, m_s: np.ndarray, r: np.ndarray, u:
 
 
 def collide(M: float, inertia: np.ndarray, V: np.ndarray, w: np.ndarray, m_s: np.ndarray, r: np.ndarray,
-            v_s: np.ndarray, n: np.ndarray, mu: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            v_s: np.ndarray, n: np.ndarray, mu, soft=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One substep's collider (module notes, step 3) for the body at ``V*`` = ``V``, spin ``w`` ((3,) each) and the
-    band's nodes (``m_s`` (N,), ``r`` (N, 3), soft velocities ``v_s`` (N, 3), normals ``n`` (N, 3)), pair's
-    coefficient ``mu``: ``(dv, J, L)``, the nodes' velocity changes (N, 3; 0 at the nodes that do not approach), the
-    body's impulse (3,) and its moment about the body's centre (3,)."""
+    band's nodes (``m_s`` (N,), ``r`` (N, 3), soft velocities ``v_s`` (N, 3), normals ``n`` (N, 3)): ``(dv, J, L)``,
+    the nodes' velocity changes (N, 3; 0 at the nodes that do not approach), the body's impulse (3,) and its moment
+    about the body's centre (3,). ``mu``: the pair's coefficient (a float: one soft body); round 65, ``soft`` (N,)
+    int, the soft body each node's soft mass is of, and ``mu`` (K,) each soft body's pair coefficient (indexed by
+    ``soft``): each pair's tangential sum capped at its own ``mu`` times its own normal impulse."""
     m_s, r, v_s, n = (np.asarray(a, float) for a in (m_s, r, v_s, n))
     V, w = np.asarray(V, float), np.asarray(w, float)
+    soft = np.zeros(len(m_s), int) if soft is None else np.asarray(soft, int)
+    mu = np.atleast_1d(np.asarray(mu, float))
     u = v_s - V - np.cross(w, r)
     on = np.sum(u * n, axis=1) < 0.0
     dv = np.zeros_like(v_s)
     if not on.any():
         return dv, np.zeros(3), np.zeros(3)
-    m, r, n = m_s[on], r[on], n[on]
+    m, r, n, k = m_s[on], r[on], n[on], soft[on]
     dV, dw = body_solve(M, inertia, m, r, u[on], n)
     V1, w1 = V + dV, w + dw
     u1 = v_s[on] - V1 - np.cross(w1, r)
@@ -116,10 +141,14 @@ def collide(M: float, inertia: np.ndarray, V: np.ndarray, w: np.ndarray, m_s: np
     tV, tw = body_solve(M, inertia, m, r, u1, n, tangential=True)
     u2 = v_s[on] - (V1 + tV) - np.cross(w1 + tw, r)
     dvt = -(u2 - np.sum(u2 * n, axis=1, keepdims=True) * n)
-    N = float(np.sum(m[:, None] * dvn * n))
-    T = np.linalg.norm((m[:, None] * dvt).sum(0))
-    scale = 1.0 if T <= mu * max(N, 0.0) else mu * max(N, 0.0) / T
-    dv[on] = dvn + scale * dvt
+    scale = np.ones(len(m))
+    for q in np.unique(k):   # each pair (the body, soft body q): Coulomb's on its own sums
+        sel = k == q
+        N = float(np.sum(m[sel, None] * dvn[sel] * n[sel]))
+        T = np.linalg.norm((m[sel, None] * dvt[sel]).sum(0))
+        cap = mu[q] * max(N, 0.0)
+        scale[sel] = 1.0 if T <= cap else cap / T
+    dv[on] = dvn + scale[:, None] * dvt
     J = -(m[:, None] * dv[on])
     return dv, J.sum(0), np.cross(r, J).sum(0)
 
@@ -136,14 +165,32 @@ def collider_multi(setup) -> bool:
 
 
 def slot_frictions(materials, rigid_bodies) -> np.ndarray:
-    """Each rigid body's collider coefficient (shape (len(rigid_bodies),)): the smallest ``combine_friction`` of its
-    ``friction`` with a soft body's (the node does not say which soft body it meets; one ``mu`` a rigid body)."""
+    """Round 64's rule (main's before round 65; :data:`PAIR_MU` False): each rigid body's one collider coefficient
+    (shape (len(rigid_bodies),)): the smallest ``combine_friction`` of its ``friction`` with a soft body's."""
     from gasp_core.mpm.fields import body_friction, combine_friction
     from gasp_core.mpm.rigid import rigid_mask
     rigid = np.asarray(rigid_mask(materials), bool)
     soft = [body_friction(m) for m, r in zip(materials, rigid) if not r]
     return np.array([min(combine_friction(body_friction(materials[k]), s) for s in soft) for k in rigid_bodies],
                     np.float64)
+
+
+def pair_frictions(materials, rigid_bodies, swap: bool = False) -> np.ndarray:
+    """Round 65: each contact pair's coefficient, shape (len(rigid_bodies), n_bodies): ``[s, b]`` the
+    ``combine_friction`` of slot ``s``'s rigid body's ``friction`` with body ``b``'s (``fields_reference``: the
+    geometric mean, Bullet's ``btManifoldResult::calculateCombinedFriction``); 0 where ``b`` is rigid (no soft mass
+    of it). ``swap`` (a broken variant, :data:`PAIR_SWAP`): each soft body takes the next soft body's ``friction``."""
+    from gasp_core.mpm.fields import body_friction, combine_friction
+    from gasp_core.mpm.rigid import rigid_mask
+    rigid = np.asarray(rigid_mask(materials), bool)
+    mu = np.array([body_friction(m) for m in materials], float)
+    soft = np.flatnonzero(~rigid)
+    if swap:
+        mu[soft] = mu[np.roll(soft, -1)]
+    out = np.zeros((len(rigid_bodies), len(materials)))
+    for s, k in enumerate(rigid_bodies):
+        out[s, soft] = [combine_friction(body_friction(materials[k]), mu[b]) for b in soft]
+    return out
 
 
 def collider_owner(xn, in_a, bodies, centre, rot, boxes, pad: float) -> int:
@@ -166,15 +213,23 @@ def collider_owner(xn, in_a, bodies, centre, rot, boxes, pad: float) -> int:
 
 def collider_data(setup) -> dict | None:
     """What an engine's collider reads, or None where the rule is off: ``{"bodies": (n_slots,) int, the rigid body of
-    each slot; "mus": (n_slots,) the slot's ``mu`` (None for the two-body pair: the pair's, the engines' field
-    friction); "multi": bool}`` (round 63's pair: one slot, ``multi`` False; round 64: every rigid body a slot);
+    each slot; "cols": (n_bodies,) int, each body's column of the pairs' table (round 65: the soft body at a node
+    picks its pair ``slot * n_cols + cols[body]``); "mus": (n_slots, n_cols) the pairs' ``mu`` (None for the two-body
+    pair: one column, the pair's, the engines' field friction); "multi": bool}`` (round 63's pair: one slot,
+    ``multi`` False; round 64: every rigid body a slot; round 65, :data:`PAIR_MU`: a column a body, each pair its own
+    ``mu`` (:func:`pair_frictions`); without it one column, :func:`slot_frictions`).
     ``gasp_core.mpm.rigid_pairs.pair_data`` adds ``"boxes"`` ((n_bodies, 2, 3) m, ``body_boxes`` of the step
     view)."""
     from gasp_core.mpm.rigid import rigid_mask, step_view
     view = step_view(setup)
     rigid = np.flatnonzero(np.asarray(rigid_mask(view.materials)))
+    nb = len(view.materials)
     if collider_on(view):
-        return {"bodies": rigid[:1].astype(np.int32), "mus": None, "multi": False}
+        return {"bodies": rigid[:1].astype(np.int32), "cols": np.zeros(nb, np.int32), "mus": None, "multi": False}
     if collider_multi(view):
-        return {"bodies": rigid.astype(np.int32), "mus": slot_frictions(view.materials, rigid), "multi": True}
+        if PAIR_MU:
+            return {"bodies": rigid.astype(np.int32), "cols": np.arange(nb, dtype=np.int32),
+                    "mus": pair_frictions(view.materials, rigid, bool(PAIR_SWAP)), "multi": True}
+        return {"bodies": rigid.astype(np.int32), "cols": np.zeros(nb, np.int32),
+                "mus": slot_frictions(view.materials, rigid)[:, None], "multi": True}
     return None

@@ -6,10 +6,12 @@ the slot each shared node serves (:meth:`RigidCollider.rc_owner`: the pair's bod
 rigid body), gives the node its fields' own velocities and marks the band's nodes with field B's normal and the slot
 (``rc_o``); :meth:`RigidCollider.collider_pass` (after the grid update, before G2P) sums each slot body's momentum
 into ``V*`` (the pair: its field's nodes; round 64: its points' G2P, ``collider_psum``), solves each body with its
-approaching layer (normal, then tangential stuck), takes Coulomb's on each body as one and changes the soft field's
-offsets, the reaction to ``rc_react`` (read with the hold's in the projection's sums, ``RigidHold.held``).
+approaching layer (normal, then tangential stuck), takes Coulomb's on each contact pair (rigid body, soft body) as one
+(round 65, ``collider_pair.py``: the soft body at a node from ``rc_sb``, cleared by ``collider_mark`` and written by
+``collider_psum``'s soft points) and changes the soft field's offsets, the reaction to ``rc_react`` (read with the
+hold's in the projection's sums, ``RigidHold.held``).
 ``rc_acc`` (float64, ``NA`` = 86 a slot): warp_mpm's layout. The one-thread-a-slot kernels (``collider_body``,
-``collider_solve``, ``collider_coulomb``) loop over the slots in parallel (the scene's rigid bodies).
+``collider_solve``) loop over the slots in parallel (the scene's rigid bodies), ``collider_coulomb`` over the pairs.
 
 Mixed into :class:`gasp_taichi_mpm.solver.MPMSolver`, whose fields it reads.
 """
@@ -19,17 +21,17 @@ import taichi as ti
 from gasp_core.mpm import rigid_collider as core_collider
 from gasp_core.mpm.fields import MIN_FRACTION, MIN_GRADIENT
 
+from .collider_pair import NA, NP, ColliderPair
+
 #: Deliberately broken variants for the checks (as warp_mpm's): REACT 0 gives the body no reaction; FRICTION 0 a
 #: frictionless collider.
 REACT = 1
 FRICTION = 1.0
-#: The floats of a slot (a rigid body) in ``rc_acc``: warp_mpm's layout.
-NA = 86
 IMPLICIT = 1   # 0: no solve, the body's reaction explicit (a broken variant: the block floats)
 
 
 @ti.data_oriented
-class RigidCollider:
+class RigidCollider(ColliderPair):
     """The collider's fields and kernels (none without it: ``rc_on`` False)."""
 
     rc_on = False
@@ -56,9 +58,17 @@ class RigidCollider:
         slot[bodies] = np.arange(len(bodies), dtype=np.int32)
         self.rc_slot = ti.field(ti.i32, shape=nb)
         self.rc_slot.from_numpy(slot)
-        mus = np.full(len(bodies), self.field_mu) if collider["mus"] is None else collider["mus"]
-        self.rc_mus = ti.field(ti.f64, shape=len(bodies))
-        self.rc_mus.from_numpy(np.asarray(mus, np.float64))
+        # round 65: the pairs' table (collider_pair.py), a column a soft body (one: the pair, or PAIR_MU off)
+        mus = np.full((len(bodies), 1), self.field_mu) if collider["mus"] is None else collider["mus"]
+        mus = np.asarray(mus, np.float64)
+        self.rc_ncol = int(mus.shape[1])
+        self.rc_mus = ti.field(ti.f64, shape=mus.size)
+        self.rc_mus.from_numpy(mus.reshape(-1))
+        self.rc_cols = ti.field(ti.i32, shape=nb)
+        self.rc_cols.from_numpy(np.asarray(collider["cols"], np.int32)[:nb])
+        self.rc_pacc = ti.field(ti.f64, shape=NP * mus.size)
+        self.rc_sb = ti.field(ti.i32, shape=(2, ng, ng, ng))
+        self.rc_sb.fill(-1)
         self.rc_box = ti.Vector.field(3, ti.f64, shape=2 * nb)
         self.rc_box.from_numpy(np.asarray(collider["boxes"], np.float64).reshape(-1, 3)[:2 * nb])
         self.rc_m = ti.Vector.field(3, self.real, shape=(ng, ng, ng))
@@ -151,6 +161,8 @@ class RigidCollider:
             self.rc_m[I] = ti.Vector([m_r, m - m_r, flag])
             self.rc_n[I] = nh
             self.rc_o[I] = own
+            self.rc_sb[0, I] = -1   # round 65: the nodes' soft bodies, written by collider_psum
+            self.rc_sb[1, I] = -1
 
     @ti.func
     def rc_field_v(self, I, soft: ti.template(), ra):
@@ -181,11 +193,20 @@ class RigidCollider:
 
     @ti.kernel
     def collider_psum(self):
-        """Round 64: each slot body's ``V*`` sums from its points' G2P of its field (a field may hold several)."""
+        """Round 64: each slot body's ``V*`` sums from its points' G2P of its field (a field may hold several).
+        Round 65: a soft point's body into ``rc_sb`` at the nodes it weights (``collider_pair.py``)."""
         for p in range(self.n_points[None]):
             s = self.rc_slot[self.body[p]]
+            base, fx, ok = self.base_fx(self.x[p])
+            if ok and s < 0:
+                w = self.weights(fx)
+                b = self.body[p]
+                f = 1 - self.in_a[b]
+                for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
+                    J = base + ti.Vector([i, j, k])
+                    if w[i][0] * w[j][1] * w[k][2] > 0.0 and self.rc_sb[f, J] != b:
+                        ti.atomic_max(self.rc_sb[f, J], b)
             if s >= 0:
-                base, fx, ok = self.base_fx(self.x[p])
                 if ok:
                     w = self.weights(fx)
                     v = ti.Vector.zero(self.real, 3)
@@ -300,71 +321,6 @@ class RigidCollider:
                 self.rc_acc[o + 68 + 6 * mode + ax] = w[ax]
             for q in range(42):
                 self.rc_acc[o + 20 + q] = 0.0
-
-    @ti.func
-    def rc_change(self, I, r, o, ra):
-        """(dv_n, dv_t): the normal change against the first solve's body, the stuck tangential against the
-        second's (the slot's sums from ``o``)."""
-        n = ti.cast(self.rc_n[I], ti.f64)
-        u = self.rc_relative(I, o + 65, o + 68, r, ra)
-        ut2 = self.rc_relative(I, o + 71, o + 74, r, ra)
-        return -u.dot(n) * n, -(ut2 - ut2.dot(n) * n)
-
-    @ti.kernel
-    def collider_fsum(self):
-        lo, ext = self.touched_box()
-        for idx in range(ext[0] * ext[1] * ext[2]):
-            I = self.rc_node(idx, lo, ext)
-            if self.rc_m[I][2] > 1.5:
-                o = NA * self.rc_o[I]
-                rb = self.rc_bodies[self.rc_o[I]]
-                dvn, dvt = self.rc_change(I, self.rc_x(I) - self.rb_c[rb], o, self.in_a[rb])
-                m_s = ti.cast(self.rc_m[I][1], ti.f64)
-                self.rc_acc[o + 77] += m_s * dvn.dot(ti.cast(self.rc_n[I], ti.f64))
-                for ax in ti.static(range(3)):
-                    self.rc_acc[o + 78 + ax] += m_s * dvt[ax]
-
-    @ti.kernel
-    def collider_coulomb(self):
-        """Coulomb's on the body as one: the stuck tangential impulse scaled to at most ``mu N`` (81); one thread a
-        slot (its ``mu``)."""
-        for s in range(self.rc_ns):
-            o = NA * s
-            mu = self.rc_mus[s] * self.rc_friction
-            lt = self.rc_vec(o + 78).norm()
-            cap = mu * ti.max(self.rc_acc[o + 77], 0.0)
-            sc = ti.cast(1.0, ti.f64)
-            if lt > cap:
-                sc = cap / lt
-            self.rc_acc[o + 81] = sc
-            for q in ti.static(range(4)):
-                self.rc_acc[o + 82 + q] = self.rc_acc[o + 77 + q]
-                self.rc_acc[o + 77 + q] = 0.0
-
-    @ti.kernel
-    def collider_apply(self):
-        lo, ext = self.touched_box()
-        for idx in range(ext[0] * ext[1] * ext[2]):
-            I = self.rc_node(idx, lo, ext)
-            if self.rc_m[I][2] > 1.5:
-                o = NA * self.rc_o[I]
-                rb = self.rc_bodies[self.rc_o[I]]
-                ra = self.in_a[rb]
-                x = self.rc_x(I)
-                dvn, dvt = self.rc_change(I, x - self.rb_c[rb], o, ra)
-                dv = dvn + self.rc_acc[o + 81] * dvt
-                dr = ti.cast(dv, self.real)
-                if ra != 0:   # the soft field is B
-                    self.grid_dv[I] += ti.Vector([0.0, 0.0, 0.0, dr[0], dr[1], dr[2]])
-                else:
-                    self.grid_dv[I] += ti.Vector([dr[0], dr[1], dr[2], 0.0, 0.0, 0.0])
-                J = -ti.cast(self.rc_m[I][1], ti.f64) * dv
-                if ti.static(self.rc_react_on != 0):   # Newton's third law: to the body's projection sums
-                    L = x.cross(J)
-                    self.rc_react[rb] += ti.Vector([J[0], J[1], J[2], L[0], L[1], L[2]])
-                for ax in ti.static(range(3)):
-                    self.rc_acc[o + 7 + ax] += J[ax]
-                self.rc_acc[o + 10] += ti.cast(self.rc_m[I][1], ti.f64)
 
     def grid_update(self):
         """``GridUpdate.grid_update``, then with the rule the collider's pass (before G2P; first among

@@ -169,7 +169,7 @@ ONE_ITEM = {"rigid_pair": "the contact of one pair of rigid bodies: a dozen floa
             "collider_solve": "round 63: the body's 6 x 6 solve with its layer, one body, twice a substep (round 64: "
                               "one a slot)",
             "collider_coulomb": "round 63: Coulomb's scale of the layer's tangential impulse, one body (round 64: "
-                                "one a slot)"}
+                                "one a slot; round 65: collider_pair.py, a parallel loop over the contact pairs)"}
 
 
 def _serial_constructs(root):

@@ -8,6 +8,7 @@ import warp as wp
 
 from gasp_core.mpm import rigid_collider as core_collider
 
+from . import collider_pair as cp
 from . import rigid_collider as rc
 from .rigid_pairs import vec3d
 
@@ -28,8 +29,13 @@ def allocate_collider(eng, Ft) -> None:
     slot = np.full(nb, -1, np.int32)
     slot[bodies] = np.arange(len(bodies), dtype=np.int32)
     eng.rc_slot = wp.array(slot, dtype=wp.int32, device=d)
-    mus = np.full(len(bodies), eng.field_mu) if data["mus"] is None else data["mus"]
-    eng.rc_mus = wp.array(np.asarray(mus, np.float64), dtype=wp.float64, device=d)
+    # round 65: the pairs' table (collider_pair.py), a column a soft body (one: the pair, or PAIR_MU off)
+    mus = np.full((len(bodies), 1), eng.field_mu) if data["mus"] is None else np.asarray(data["mus"], np.float64)
+    eng.rc_ncol = int(mus.shape[1])
+    eng.rc_cols = wp.array(np.asarray(data["cols"], np.int32), dtype=wp.int32, device=d)
+    eng.rc_mus = wp.array(mus.reshape(-1), dtype=wp.float64, device=d)
+    eng.rc_pacc = wp.zeros(int(cp.NP) * mus.size, dtype=wp.float64, device=d)
+    eng.rc_sb = wp.full(2 * n, -1, dtype=wp.int32, device=d)
     eng.rc_m = wp.zeros(n, dtype=eng.k.vec3, device=d)
     eng.rc_n = wp.zeros(n, dtype=eng.k.vec3, device=d)
     eng.rc_o = wp.zeros(n, dtype=wp.int32, device=d)
@@ -53,7 +59,7 @@ def with_mark(eng, Ft, launches: list) -> list:
         eng.field_rule % 2, eng.rc_m, eng.rc_n, eng.grid_dv, eng.in_a, eng.rc_bodies, eng.rc_ns, eng.rc_multi,
         int(bool(GROUND_MIRROR)), float(core_collider.BAND * eng.dx),
         eng.k.vec3(*[float(c) for c in eng.setup.domain_lo]), Ft(eng.dx), eng.rc_o, eng.rb_c, eng.rb_R, eng.rc_box,
-        float(NODE_PAD * eng.dx)])
+        float(NODE_PAD * eng.dx), eng.rc_sb])
     at = len(launches) - 1 - int(eng.flow_touch_on or eng.gap_touch_on)
     return launches[:at] + [mark] + launches[at:]
 
@@ -61,7 +67,8 @@ def with_mark(eng, Ft, launches: list) -> list:
 def collider_launches(eng, Ft) -> list:
     """The recorded collider pass after the grid update, before G2P; none where off (allocated here, before
     :func:`with_mark`). Node passes over the grid; ``rc_psum`` (round 64) over the material points; ``rc_body``,
-    ``rc_solve``, ``rc_coulomb`` one thread a slot (``rc_ns`` rigid bodies)."""
+    ``rc_solve`` one thread a slot (``rc_ns`` rigid bodies), ``rc_coulomb`` one thread a pair (round 65: ``rc_ns``
+    times ``rc_ncol``)."""
     allocate_collider(eng, Ft)
     if not eng.rc_on:
         return []
@@ -73,7 +80,7 @@ def collider_launches(eng, Ft) -> list:
     if eng.rc_multi:   # round 64: V* from each slot body's points (a field may hold several bodies)
         out = [wp.launch(c_psum, dim=eng.n_material, device=d, record_cmd=True, inputs=[
             eng.x, eng.body, eng.p_mass, eng.grid_v, eng.grid_dv, eng.in_a, eng.rc_slot, lo, Ft(eng.inv_dx), ng,
-            eng.rc_acc])]
+            eng.rc_acc, eng.rc_sb])]
     else:
         out = [wp.launch(c_sum, dim=n, device=d, record_cmd=True, inputs=[
             eng.grid_v, eng.grid_dv, eng.rc_m, eng.rc_ra, eng.rc_acc])]
@@ -81,8 +88,10 @@ def collider_launches(eng, Ft) -> list:
     for mode in (0, 1):   # the normal solve, then the tangential one
         out += [wp.launch(c_layer, dim=n, device=d, record_cmd=True, inputs=[eng.grid_v, eng.grid_dv, *geo, mode]),
                 wp.launch(c_solve, dim=ns, device=d, record_cmd=True, inputs=[*solve, mode, rc.IMPLICIT])]
+    pairs = [eng.rc_sb, eng.rc_cols, eng.rc_ncol, eng.rc_pacc]   # round 65: Coulomb's per pair (collider_pair.py)
     return out + [
-        wp.launch(c_fsum, dim=n, device=d, record_cmd=True, inputs=[eng.grid_v, eng.grid_dv, *geo]),
-        wp.launch(c_coulomb, dim=ns, device=d, record_cmd=True, inputs=[eng.rc_acc, eng.rc_mus, float(rc.FRICTION)]),
+        wp.launch(c_fsum, dim=n, device=d, record_cmd=True, inputs=[eng.grid_v, eng.grid_dv, *geo, *pairs]),
+        wp.launch(c_coulomb, dim=ns * eng.rc_ncol, device=d, record_cmd=True, inputs=[
+            eng.rc_pacc, eng.rc_mus, float(rc.FRICTION)]),
         wp.launch(c_apply, dim=n, device=d, record_cmd=True, inputs=[
-            eng.grid_v, eng.grid_dv, *geo, eng.acc_p, eng.acc_l, rc.REACT])]
+            eng.grid_v, eng.grid_dv, *geo, *pairs, eng.acc_p, eng.acc_l, rc.REACT])]

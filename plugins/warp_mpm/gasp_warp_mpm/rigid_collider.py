@@ -8,11 +8,12 @@ fields' own velocities (no exchange) and marks the band's nodes with the rigid b
 (``rc_o``); after the grid update ``rc_sum`` (the pair: a node each) or ``rc_psum`` (round 64: a material point each,
 its G2P of its field) sums each slot body's momentum and mass, ``rc_body`` (one thread a slot) turns them into
 ``V*``, ``rc_layer`` / ``rc_solve`` (a node each / a slot each) solve each body with its approaching layer,
-``rc_fsum`` / ``rc_coulomb`` its Coulomb cap, ``rc_apply`` (a node each) takes the soft field's approach off at the
-marked nodes and adds the reaction to the slot body's projection sums ``acc_p``, ``acc_l``. ``rc_acc`` (float64,
-``NA`` = 86 a slot): 0-2 sum m_R v_R, 3 sum m_R, 4-6 V*, 7-9 the substep's reaction J, 10 the approaching soft mass,
-11-14 the last substep's 7-10 (reading), 20-61 the 6 x 6 system's sums, 62-76 the spins and solved bodies, 77-85
-Coulomb's sums and scale.
+``rc_fsum`` / ``rc_coulomb`` / ``rc_apply`` (``collider_pair.py``, round 65: Coulomb's cap per contact pair, the
+soft body at a node from ``rc_sb``, which ``rc_mark`` clears and ``rc_psum``'s soft points write) take the soft
+field's approach off at the marked nodes and add the reaction to the slot body's projection sums ``acc_p``,
+``acc_l``. ``rc_acc`` (float64, ``NA`` = 86 a slot): 0-2 sum m_R v_R, 3 sum m_R, 4-6 V*, 7-9 the substep's reaction J,
+10 the approaching soft mass, 11-14 the last substep's 7-10 (reading), 20-61 the 6 x 6 system's sums, 62-76 the spins
+and solved bodies (77-85 unused since round 65: the pairs' ``rc_pacc``).
 
 This module must not use ``from __future__ import annotations``: Warp reads the annotations of
 the closures below as type objects.
@@ -23,14 +24,13 @@ import warp as wp
 
 from gasp_core.mpm.fields import MIN_FRACTION, MIN_GRADIENT
 
+from .collider_pair import NA, build_collider_funcs, build_pair
 from .fields import build_b_normal, build_field_reads
 from .precision import MODULE_OPTIONS, build_types
 from .rigid_pairs import mat33d, vec3d
 from .stencil import build_gather, build_stencil
 from .touch import build_held
 
-#: The floats of a slot (a rigid body) in ``rc_acc``: the layout of the module notes.
-NA = wp.constant(86)
 
 
 @functools.cache
@@ -42,6 +42,7 @@ def build_collider(Ft):
     b_normal = build_b_normal(Ft)
     in_grid, weights = build_stencil(Ft)
     field_offset_base, gather = build_field_reads(Ft)[0], build_gather(Ft)
+    field_v, node_x, relative = build_collider_funcs(Ft)[:3]
 
     @wp.func
     def owner(x: vec3d, in_a: wp.array(dtype=wp.int32), bodies: wp.array(dtype=wp.int32), ns: int, multi: int,
@@ -87,10 +88,12 @@ def build_collider(Ft):
                 in_a: wp.array(dtype=wp.int32), bodies: wp.array(dtype=wp.int32), ns: int, multi: int,
                 mirror: int, band: wp.float64, lo: vec3, dx: Ft, rc_o: wp.array(dtype=wp.int32),
                 centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d), box: wp.array(dtype=vec3d),
-                pad: wp.float64):
+                pad: wp.float64, rc_sb: wp.array(dtype=wp.int32)):
         node = wp.tid()
         nn = n_grid * n_grid
         n_nodes = nn * n_grid
+        rc_sb[node] = -1   # round 65: the nodes' soft bodies, written by rc_psum (collider_pair.py)
+        rc_sb[n_nodes + node] = -1
         i = node / nn
         j = (node / n_grid) % n_grid
         k = node % n_grid
@@ -143,11 +146,6 @@ def build_collider(Ft):
         rc_n[node] = nh
         rc_o[node] = own
 
-    @wp.func
-    def field_v(grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), node: int, off: int):
-        g = grid_v[node] + grid_dv[off + node]
-        return vec3d(wp.float64(g[0]), wp.float64(g[1]), wp.float64(g[2]))
-
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def rc_sum(grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), rc_m: wp.array(dtype=vec3), ra: int,
                acc: wp.array(dtype=wp.float64)):
@@ -181,31 +179,34 @@ def build_collider(Ft):
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def rc_psum(x: wp.array(dtype=vec3), body: wp.array(dtype=wp.int32), p_mass: wp.array(dtype=Ft),
                 grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), in_a: wp.array(dtype=wp.int32),
-                slot: wp.array(dtype=wp.int32), lo: vec3, inv_dx: Ft, n_grid: int, acc: wp.array(dtype=wp.float64)):
+                slot: wp.array(dtype=wp.int32), lo: vec3, inv_dx: Ft, n_grid: int, acc: wp.array(dtype=wp.float64),
+                rc_sb: wp.array(dtype=wp.int32)):
         """Round 64: a slot body's ``sum m_p v_p`` and ``sum m_p`` from its points' G2P of its field (what the
-        two-body rule's node sums give, each node's rigid mass its body's: a field may hold several bodies)."""
+        two-body rule's node sums give, each node's rigid mass its body's: a field may hold several bodies). Round
+        65: a soft point's body into ``rc_sb`` at the nodes it weights (``collider_pair.py``)."""
         p = wp.tid()
         s = slot[body[p]]
-        if s >= 0:
-            X = (x[p] - lo) * inv_dx
-            if in_grid(X, n_grid):
-                b0 = wp.floor(X[0] - Ft(0.5))
-                b1 = wp.floor(X[1] - Ft(0.5))
-                b2 = wp.floor(X[2] - Ft(0.5))
-                W = weights(X - vec3(b0, b1, b2))
-                idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
-                off = field_offset_base(grid_dv, in_a, body[p], n_grid * n_grid * n_grid)
+        X = (x[p] - lo) * inv_dx
+        if in_grid(X, n_grid):
+            b0 = wp.floor(X[0] - Ft(0.5))
+            b1 = wp.floor(X[1] - Ft(0.5))
+            b2 = wp.floor(X[2] - Ft(0.5))
+            W = weights(X - vec3(b0, b1, b2))
+            idx0 = (int(b0) * n_grid + int(b1)) * n_grid + int(b2)
+            off = field_offset_base(grid_dv, in_a, body[p], n_grid * n_grid * n_grid)
+            if s < 0:
+                for i in range(3):
+                    for j in range(3):
+                        for k in range(3):
+                            at = off + idx0 + (i * n_grid + j) * n_grid + k
+                            if W[i, 0] * W[j, 1] * W[k, 2] > Ft(0.0) and rc_sb[at] != body[p]:
+                                wp.atomic_max(rc_sb, at, body[p])
+            else:
                 v, B = gather(grid_v, grid_dv, off, W, idx0, n_grid)
                 m = wp.float64(p_mass[p])
                 for ax in range(3):
                     wp.atomic_add(acc, NA * s + ax, m * wp.float64(v[ax]))
                 wp.atomic_add(acc, NA * s + 3, m)
-
-    @wp.func
-    def node_x(node: int, n_grid: int, lo: vec3, dx: Ft):
-        nn = n_grid * n_grid
-        return vec3d(wp.float64(lo[0] + dx * Ft(node / nn)), wp.float64(lo[1] + dx * Ft((node / n_grid) % n_grid)),
-                     wp.float64(lo[2] + dx * Ft(node % n_grid)))
 
     @wp.func
     def skew(r: vec3d):
@@ -221,20 +222,6 @@ def build_collider(Ft):
     def get33(acc: wp.array(dtype=wp.float64), at: int):
         return mat33d(acc[at], acc[at + 1], acc[at + 2], acc[at + 3], acc[at + 4], acc[at + 5], acc[at + 6],
                       acc[at + 7], acc[at + 8])
-
-    @wp.func
-    def relative(grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), rc_m: wp.array(dtype=vec3),
-                 rc_n: wp.array(dtype=vec3), node: int, ra: int, acc: wp.array(dtype=wp.float64), at_v: int,
-                 at_w: int, r: vec3d):
-        """(u, n): the soft field's velocity less the body's (``acc[at_v:]``, spin ``acc[at_w:]``), the normal."""
-        off_s = rc_m.shape[0]   # the soft field: B where the rigid body is A
-        if ra == 0:
-            off_s = 0
-        nq = rc_n[node]
-        body = vec3d(acc[at_v], acc[at_v + 1], acc[at_v + 2]) + wp.cross(
-            vec3d(acc[at_w], acc[at_w + 1], acc[at_w + 2]), r)
-        return field_v(grid_v, grid_dv, node, off_s) - body, vec3d(wp.float64(nq[0]), wp.float64(nq[1]),
-                                                                   wp.float64(nq[2]))
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def rc_layer(grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), rc_m: wp.array(dtype=vec3),
@@ -306,78 +293,7 @@ def build_collider(Ft):
         for q in range(42):
             acc[o + 20 + q] = wp.float64(0.0)
 
-    @wp.func
-    def node_change(grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), rc_m: wp.array(dtype=vec3),
-                    rc_n: wp.array(dtype=vec3), node: int, ra: int, acc: wp.array(dtype=wp.float64), o: int,
-                    r: vec3d):
-        """(dv_n, dv_t): a marked node's normal change against the first solve's body and its stuck tangential change
-        against the second's (its slot's sums from ``o``)."""
-        u, n = relative(grid_v, grid_dv, rc_m, rc_n, node, ra, acc, o + 65, o + 68, r)
-        ut2, n2 = relative(grid_v, grid_dv, rc_m, rc_n, node, ra, acc, o + 71, o + 74, r)
-        return -wp.dot(u, n) * n, -(ut2 - wp.dot(ut2, n) * n)
-
-    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def rc_fsum(grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), rc_m: wp.array(dtype=vec3),
-                rc_n: wp.array(dtype=vec3), rc_o: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32),
-                bodies: wp.array(dtype=wp.int32), centre: wp.array(dtype=vec3d), n_grid: int, lo: vec3, dx: Ft,
-                acc: wp.array(dtype=wp.float64)):
-        """The layer's normal impulse ``N = sum m dv_n . n`` (77) and its stuck tangential one (78-80), per slot."""
-        node = wp.tid()
-        if rc_m[node][2] > Ft(1.5):
-            o = NA * rc_o[node]
-            rb = bodies[rc_o[node]]
-            r = node_x(node, n_grid, lo, dx) - centre[rb]
-            dvn, dvt = node_change(grid_v, grid_dv, rc_m, rc_n, node, in_a[rb], acc, o, r)
-            m_s = wp.float64(rc_m[node][1])
-            nq = rc_n[node]
-            wp.atomic_add(acc, o + 77, m_s * (dvn[0] * wp.float64(nq[0]) + dvn[1] * wp.float64(nq[1])
-                                              + dvn[2] * wp.float64(nq[2])))
-            for ax in range(3):
-                wp.atomic_add(acc, o + 78 + ax, m_s * dvt[ax])
-
-    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def rc_coulomb(acc: wp.array(dtype=wp.float64), mus: wp.array(dtype=wp.float64), friction: wp.float64):
-        """One thread a slot: Coulomb's on the body as one, the stuck tangential impulse scaled to at most
-        ``mu N`` (81; ``mu`` the slot's times ``friction``, 1 but in a broken variant)."""
-        o = NA * wp.tid()
-        mu = mus[wp.tid()] * friction
-        lt = wp.length(vec3d(acc[o + 78], acc[o + 79], acc[o + 80]))
-        sc = wp.float64(1.0)
-        if lt > mu * wp.max(acc[o + 77], wp.float64(0.0)):
-            sc = mu * wp.max(acc[o + 77], wp.float64(0.0)) / lt
-        acc[o + 81] = sc
-        for q in range(4):
-            acc[o + 82 + q] = acc[o + 77 + q]   # kept for reading
-            acc[o + 77 + q] = wp.float64(0.0)
-
-    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def rc_apply(grid_v: wp.array(dtype=vec3), grid_dv: wp.array(dtype=vec3), rc_m: wp.array(dtype=vec3),
-                 rc_n: wp.array(dtype=vec3), rc_o: wp.array(dtype=wp.int32), in_a: wp.array(dtype=wp.int32),
-                 bodies: wp.array(dtype=wp.int32), centre: wp.array(dtype=vec3d), n_grid: int, lo: vec3, dx: Ft,
-                 acc: wp.array(dtype=wp.float64), acc_p: wp.array(dtype=vec3d), acc_l: wp.array(dtype=vec3d),
-                 react: int):
-        """At each approaching node the normal change and the scaled tangential one; the reaction to its body."""
-        node = wp.tid()
-        if rc_m[node][2] > Ft(1.5):
-            o = NA * rc_o[node]
-            rb = bodies[rc_o[node]]
-            ra = in_a[rb]
-            x = node_x(node, n_grid, lo, dx)
-            dvn, dvt = node_change(grid_v, grid_dv, rc_m, rc_n, node, ra, acc, o, x - centre[rb])
-            dv = dvn + acc[o + 81] * dvt
-            off_s = rc_m.shape[0]
-            if ra == 0:
-                off_s = 0
-            grid_dv[off_s + node] = grid_dv[off_s + node] + vec3(Ft(dv[0]), Ft(dv[1]), Ft(dv[2]))
-            m_s = wp.float64(rc_m[node][1])
-            J = -m_s * dv
-            if react != 0:   # Newton's third law: to the body's projection sums (rigid.py)
-                wp.atomic_add(acc_p, rb, J)
-                wp.atomic_add(acc_l, rb, wp.cross(x, J))
-            for ax in range(3):
-                wp.atomic_add(acc, o + 7 + ax, J[ax])
-            wp.atomic_add(acc, o + 10, m_s)
-
+    rc_fsum, rc_coulomb, rc_apply = build_pair(Ft)
     return rc_mark, rc_sum, rc_body, rc_layer, rc_solve, rc_fsum, rc_coulomb, rc_apply, rc_psum
 
 

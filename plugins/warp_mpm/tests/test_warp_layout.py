@@ -59,7 +59,8 @@ DIM1_SCALAR = {
     "box_reset": "round 64: the field box's 12 bounds, this substep's moved to the last's (field_nodes.py; the grid "
                  "update's own box, grid_box.py)",
     "c_coulomb": "round 63: Coulomb's scale of the layer's tangential impulse, one body (rigid_collider.py; round "
-                 "64: one thread a slot)",
+                 "64: one thread a slot; round 65: collider_pair.py's rc_coulomb, one thread a contact pair, dim "
+                 "rc_ns * rc_ncol)",
 }
 
 _PLANES = "the ground and wall planes of a scene (a handful)"
