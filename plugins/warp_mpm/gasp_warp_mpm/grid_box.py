@@ -26,13 +26,27 @@ update; not checked here). :data:`GRID_BOX` False: the whole grid everywhere (th
 
 This module must not use ``from __future__ import annotations`` (the house rule of this plugin's kernel modules).
 """
+import functools
+
 import numpy as np
 import warp as wp
 
+from gasp_core.mpm import gap_push
+from gasp_core.mpm.points import MIRROR_CELLS
+
 from . import field_nodes as FN
+from .precision import MODULE_OPTIONS
 
 #: Round 64: the grid update over the touched hull (module notes); False: the whole grid (main's before).
 GRID_BOX = True
+#: Round 65: with held boxes too, the grid update and the held passes over the box (module notes); False: the whole
+#: grid with held boxes (round 64's; the catch of ``tests/test_held_box.py``).
+HELD_BOX = True
+#: Cells: how far a fixed region's ghost node reads along its face's normal (its mirror image ``2 s`` past it,
+#: ``s < MIRROR_CELLS`` cells, and the node after; the broken face's first node past the face).
+HELD_REACH = int(np.ceil(2 * MIRROR_CELLS)) + 1
+#: Round 65: a viscous material's grid update over the box too (module notes); False: the whole grid (round 64's).
+VISC_BOX = True
 
 
 def whole_grid_reasons(eng) -> list:
@@ -40,11 +54,48 @@ def whole_grid_reasons(eng) -> list:
     touched hull gives the same values."""
     from .held import held_boxes   # here: held imports modules that import this one
     out = []
-    if held_boxes(eng.setup):
-        out.append("held boxes: the mirror writes grid_v at nodes without mass")
-    if getattr(eng, "visc", None) is not None:
+    if held_boxes(eng.setup) and not HELD_BOX:
+        out.append("held boxes: the mirror writes grid_v at nodes without mass (HELD_BOX off)")
+    elif held_boxes(eng.setup) and not held_apart(eng.setup, eng.dx):
+        out.append("held boxes within HELD_REACH cells of each other: a ghost reads another box's ghosts")
+    elif held_boxes(eng.setup) and getattr(eng, "gap_touch_on", False) and gap_push.PUSH:
+        out.append("held boxes and round 62's push: G2P reads nodes beyond P2G's box")
+    if getattr(eng, "visc", None) is not None and not VISC_BOX:
         out.append("viscous: the implicit step solves over the grid")
     return out
+
+
+def held_apart(setup, dx: float) -> bool:
+    """Whether no ``fixed_region`` of ``setup`` comes within :data:`HELD_REACH` cells (``dx``, m) of another held box
+    (a fixed region or a set box impulse, whenever it acts): then a region's ghost node reads no other box's node."""
+    regions = [(np.asarray(b.lo, float), np.asarray(b.hi, float)) for b in setup.boundaries
+               if b.kind == "fixed_region"]
+    sets = [(np.asarray(i.lo, float), np.asarray(i.hi, float)) for i in (getattr(setup, "impulses", None) or [])
+            if i.shape == "box" and i.mode == "set"]
+    r = HELD_REACH * dx
+    for n, (lo, hi) in enumerate(regions):
+        for m, (lo2, hi2) in enumerate(regions + sets):
+            if m != n and bool(np.all(lo - r <= hi2) and np.all(lo2 <= hi + r)):
+                return False
+    return True
+
+
+@functools.cache
+def build_held_box(Ft):
+    """``held_box(box, n_grid, edge)`` (one thread, after the box's ``field_box``): this substep's box (its first six)
+    stretched to the grid's first or last node along an axis where it comes within ``edge`` nodes of it (module
+    notes: a ghost node near a domain edge reads the nodes at the edge); an empty box left empty."""
+
+    @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
+    def held_box(box: wp.array(dtype=wp.int32), n_grid: int, edge: int):
+        if box[3] >= box[0]:
+            for d in range(3):
+                if box[d] <= edge:
+                    box[d] = 0
+                if box[3 + d] >= n_grid - 1 - edge:
+                    box[3 + d] = n_grid - 1
+
+    return held_box
 
 
 def allocate_grid_box(eng) -> None:
@@ -54,9 +105,12 @@ def allocate_grid_box(eng) -> None:
     off, or :func:`whole_grid_reasons`)."""
     if getattr(eng, "grid_box", None) is not None:
         return
+    from .held import held_boxes
     ng = eng.n_grid
     eng.grid_box_own = False
-    if not GRID_BOX or whole_grid_reasons(eng):
+    whole = not GRID_BOX or bool(whole_grid_reasons(eng))
+    eng.grid_box_held = held_boxes(eng.setup) and not whole   # round 65: the box stretched to the edges it nears
+    if whole:
         box = [0, 0, 0, ng - 1, ng - 1, ng - 1] * 2
     elif getattr(eng, "fields", False) and FN.FIELD_BOX:
         eng.grid_box = eng.field_box
@@ -76,12 +130,17 @@ def grid_sweep(eng) -> list:
 
 def grid_box_launches(eng, Ft) -> list:
     """The recorded ``box_reset`` and ``field_box`` on ``eng.grid_box`` where it is its own (after P2G, before the
-    grid update); none where the field passes build it or it is the whole grid."""
+    grid update; none where the field passes build it or it is the whole grid), then with held boxes round 65's
+    ``held_box`` (:func:`build_held_box`, ``edge`` :data:`HELD_REACH`) on it."""
     allocate_grid_box(eng)
-    if not eng.grid_box_own:
-        return []
-    box_reset, field_box = FN.build_field_box(Ft)
-    lo = eng.k.vec3(*[float(c) for c in eng.setup.domain_lo])
-    return [wp.launch(box_reset, dim=1, device=eng.device, record_cmd=True, inputs=[eng.grid_box, eng.n_grid]),
-            wp.launch(field_box, dim=eng.n_material, device=eng.device, record_cmd=True, inputs=[
-                eng.x, eng.grid_box, lo, Ft(eng.inv_dx), eng.n_grid])]
+    out = []
+    if eng.grid_box_own:
+        box_reset, field_box = FN.build_field_box(Ft)
+        lo = eng.k.vec3(*[float(c) for c in eng.setup.domain_lo])
+        out = [wp.launch(box_reset, dim=1, device=eng.device, record_cmd=True, inputs=[eng.grid_box, eng.n_grid]),
+               wp.launch(field_box, dim=eng.n_material, device=eng.device, record_cmd=True, inputs=[
+                   eng.x, eng.grid_box, lo, Ft(eng.inv_dx), eng.n_grid])]
+    if eng.grid_box_held:
+        out.append(wp.launch(build_held_box(Ft), dim=1, device=eng.device, record_cmd=True, inputs=[
+            eng.grid_box, eng.n_grid, HELD_REACH]))
+    return out
