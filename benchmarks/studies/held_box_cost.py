@@ -1,9 +1,9 @@
-"""Round 65 (``docs/performance.md`` "Round 65: the held boxes over the touched box"): what warp_mpm's whole-grid
+"""Round 65 (``docs/performance.md`` "Round 65: the held boxes and viscous bodies over the touched box"): what warp_mpm's whole-grid
 sweeps cost per substep on the CPU in the scenes round 64 left on the whole grid (``grid_box.whole_grid_reasons``):
 a tension specimen held by a ``fixed_region`` and pulled by a set box impulse (``benchmarks/tension_family.py``'s
 ``build``: brittle, f64, so the broken faces' marks and the brittle held rule's face nodes run), an elastic bar held
 the same way, and two viscous bodies (``tests/test_viscous_bodies.py``'s ``two_bodies``, the implicit step), at the
-n_grid the tests use and at twice it; each over the whole grid (``grid_box.HELD_BOX`` False) and over the box (True).
+n_grid the tests use and at twice it; each over the whole grid (``grid_box.HELD_BOX`` and ``VISC_BOX`` False) and over the box (True).
 
 Per scene and setting: each recorded launch timed alone (a synchronise after each; the viscous step's solve as one
 entry, ``visc_solve``), the grid update's, the held passes' (``mirror_held``, ``hold_set_faces``, ``clear_cut``,
@@ -119,7 +119,7 @@ def main() -> None:
     for scene in a.scenes.split(","):
         for setting in [bool(int(c)) for c in a.settings.split(",")]:
             if hasattr(grid_box, "HELD_BOX"):
-                grid_box.HELD_BOX = setting
+                grid_box.HELD_BOX = grid_box.VISC_BOX = setting
             r = run_scene(scene, a.frames, True)
             r["setting"] = "box" if setting else "whole grid"
             rows.append(r)

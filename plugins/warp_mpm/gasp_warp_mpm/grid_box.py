@@ -141,6 +141,7 @@ def grid_box_launches(eng, Ft) -> list:
                wp.launch(field_box, dim=eng.n_material, device=eng.device, record_cmd=True, inputs=[
                    eng.x, eng.grid_box, lo, Ft(eng.inv_dx), eng.n_grid])]
     if eng.grid_box_held:
-        out.append(wp.launch(build_held_box(Ft), dim=1, device=eng.device, record_cmd=True, inputs=[
+        held_box = build_held_box(Ft)
+        out.append(wp.launch(held_box, dim=1, device=eng.device, record_cmd=True, inputs=[
             eng.grid_box, eng.n_grid, HELD_REACH]))
     return out

@@ -58,6 +58,8 @@ DIM1_SCALAR = {
                "(rigid_collider.py; round 64: one thread a slot)",
     "box_reset": "round 64: the field box's 12 bounds, this substep's moved to the last's (field_nodes.py; the grid "
                  "update's own box, grid_box.py)",
+    "held_box": "round 65: the box's 6 bounds of this substep stretched to a domain edge they near, with held boxes "
+                "(grid_box.py)",
     "c_coulomb": "round 63: Coulomb's scale of the layer's tangential impulse, one body (rigid_collider.py; round "
                  "64: one thread a slot)",
 }
