@@ -8,12 +8,13 @@ n_grid the tests use and at twice it; each over the whole grid (``grid_box.HELD_
 Per scene and setting: each recorded launch timed alone (a synchronise after each; the viscous step's solve as one
 entry, ``visc_solve``), the grid update's, the held passes' (``mirror_held``, ``hold_set_faces``, ``clear_cut``,
 ``mark_cut``) and all kernels' ms a substep, the box's share of the grid at the end and the points' hash (the two
-settings must give the same).
+settings must give the same); each the median of ``--repeat`` runs, interleaved.
 
-    python benchmarks/studies/held_box_cost.py [--scenes bar24,bar48,bone24,elastic24,visc24,visc48] [--frames 4]
+    python benchmarks/studies/held_box_cost.py [--scenes bar24,bar48,bone24,elastic24,visc24,visc48] [--frames N]
     python benchmarks/studies/held_box_cost.py --only bar48 --frames 20   # one untimed run (farm-bench --vs)
 
-Results: ``benchmarks/results/held_box_cost.json`` and ``.md``.
+Results: ``benchmarks/results/held_box_cost.json`` and ``.md`` (``held_box_cost_main.*`` with ``--tag main``: main's
+tree on PYTHONPATH, ``--settings 0``, main's whole-grid kernels).
 """
 from __future__ import annotations
 
@@ -30,6 +31,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "benchmarks"))
 sys.path.insert(0, str(ROOT / "tests"))
+#: Frames timed a scene (``--frames`` 0): about 40 substeps each (the tension scenes take 1 a frame at n_grid 24, 2 at
+#: 48; the viscous ones 8 and 15).
+FRAMES = {"bar24": 40, "bone24": 40, "elastic24": 40, "bar48": 20, "visc24": 5, "visc48": 3}
 PASSES = ("grid_update", "mirror_held", "hold_set_faces", "clear_cut", "mark_cut", "held_box", "field_box",
           "box_reset", "visc_solve")
 
@@ -38,12 +42,12 @@ def setup_of(scene: str):
     """The scene's setup (module notes): ``bar``/``bone``/``elastic`` then ``visc`` with the n_grid at the end."""
     name, n = scene.rstrip("0123456789"), int(scene[len(scene.rstrip("0123456789")):])
     if name in ("bar", "bone", "elastic"):
-        import dataclasses
         import tension_family as tf
+        from gasp_core.seam.setup import Material
         sp = tf.FAMILY[1] if name != "bone" else next(s for s in tf.FAMILY if s.gauge_l > 0)
         s = tf.build(sp, n, "warp_mpm")[0]
         if name == "elastic":
-            s.materials = [dataclasses.replace(m, kind="elastic") for m in s.materials]
+            s.materials = [Material("jelly", E=m.E, nu=m.nu, rho=m.rho) for m in s.materials]
         return s
     from test_viscous_bodies import two_bodies
     return two_bodies(n, n // 6, n // 6, "cpu")[0]
@@ -106,33 +110,44 @@ def run_scene(scene: str, frames: int, profile: bool) -> dict:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenes", default="bar24,bar48,bone24,elastic24,visc24,visc48")
-    ap.add_argument("--frames", type=int, default=4)
+    ap.add_argument("--frames", type=int, default=0, help="frames timed (0: the scene's FRAMES)")
     ap.add_argument("--settings", default="0,1", help="HELD_BOX settings to run (0 whole grid, 1 the box)")
+    ap.add_argument("--tag", default="", help="results' name suffix (e.g. main: run on main's tree, --settings 0)")
+    ap.add_argument("--repeat", type=int, default=3, help="runs of each scene and setting (their medians)")
     ap.add_argument("--only", default=None, help="one untimed run of this scene")
     a = ap.parse_args()
     if a.only:
-        r = run_scene(a.only, a.frames, False)
+        r = run_scene(a.only, a.frames or FRAMES.get(a.only, 10), False)
         print(json.dumps({k: v for k, v in r.items() if k != "kernels_s"}))
         return
     from gasp_warp_mpm import grid_box
+    settings = [bool(int(c)) for c in a.settings.split(",")]
+    runs = defaultdict(list)   # (scene, setting): the repeats, interleaved (the machine's drift on each alike)
+    for _ in range(a.repeat):
+        for scene in a.scenes.split(","):
+            for setting in settings:
+                if hasattr(grid_box, "HELD_BOX"):
+                    grid_box.HELD_BOX = grid_box.VISC_BOX = setting
+                runs[scene, setting].append(run_scene(scene, a.frames or FRAMES.get(scene, 10), True))
     rows = []
-    for scene in a.scenes.split(","):
-        for setting in [bool(int(c)) for c in a.settings.split(",")]:
-            if hasattr(grid_box, "HELD_BOX"):
-                grid_box.HELD_BOX = grid_box.VISC_BOX = setting
-            r = run_scene(scene, a.frames, True)
-            r["setting"] = "box" if setting else "whole grid"
-            rows.append(r)
-            print(scene, r["setting"], {k: round(v, 3) for k, v in r["pass_ms"].items() if v},
-                  round(r["kernels_ms"], 2), round(r["box"], 3), r["hash"], flush=True)
-    lines = ["# held_box_cost: warp_mpm CPU, ms a substep, whole grid against the box", "",
+    for (scene, setting), rs in runs.items():
+        r = dict(rs[0], setting="box" if setting else "whole grid", repeats=len(rs))
+        r["pass_ms"] = {p: float(np.median([x["pass_ms"][p] for x in rs])) for p in PASSES}
+        r["kernels_ms"] = float(np.median([x["kernels_ms"] for x in rs]))
+        assert len({x["hash"] for x in rs}) == 1
+        rows.append(r)
+        print(scene, r["setting"], {k: round(v, 3) for k, v in r["pass_ms"].items() if v},
+              round(r["kernels_ms"], 2), round(r["box"], 3), r["hash"], flush=True)
+    import gasp_warp_mpm
+    lines = [f"# held_box_cost: warp_mpm CPU, ms a substep (medians of {a.repeat}), whole grid against the box", "",
+             f"gasp_warp_mpm: {Path(gasp_warp_mpm.__file__).parent}", "",
              "| scene | n_grid | substeps | setting | box share | " + " | ".join(PASSES)
              + " | kernels ms a substep | points |", "|---" * (8 + len(PASSES)) + "|"]
     for r in rows:
         lines.append(f"| {r['scene']} | {r['n_grid']} | {r['substeps']} | {r['setting']} | {r['box']:.3f} | "
                      + " | ".join(f"{r['pass_ms'][p]:.3f}" for p in PASSES)
                      + f" | {r['kernels_ms']:.2f} | {r['hash']} |")
-    out = ROOT / "benchmarks" / "results" / "held_box_cost"
+    out = ROOT / "benchmarks" / "results" / ("held_box_cost" + (f"_{a.tag}" if a.tag else ""))
     out.with_suffix(".json").write_text(json.dumps(rows, indent=1))
     out.with_suffix(".md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))

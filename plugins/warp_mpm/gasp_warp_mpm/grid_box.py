@@ -19,10 +19,41 @@ with mass (the balance's fix at listed nodes, round 49's touch share at nodes wi
 velocity, which keeps a 0; the rigid collider writes ``grid_dv``, cleared by the field passes over the same hull), so
 the claim holds after the substep. Passive points and G2P reading nodes beyond the box read the zeros they read before.
 
-Where the proof fails, the whole grid (:func:`whole_grid_reasons`): a setup with held boxes (``fixed_region`` or a set
-box impulse: ``held.build_mirror`` and the brittle held rule's faces write ``grid_v`` at nodes without mass, over the
-whole grid) and a viscous material (the implicit step, ``viscosity.py``, solves over the grid between P2G and the grid
-update; not checked here). :data:`GRID_BOX` False: the whole grid everywhere (the catch of ``tests/test_grid_box.py``).
+Round 65 (``docs/performance.md`` "Round 65: the held boxes and viscous bodies over the touched box"). Viscous
+materials: the implicit step (``viscosity.py``, between P2G and the grid update) reads ``grid_mv`` and ``grid_eta``
+and writes them only at its solved nodes, the nodes with mass (its lists: ``grid_mv[I][3] > 0``), all in this
+substep's box; its own arrays are read by no other pass. So the claim above holds as it is (:data:`VISC_BOX`).
+
+Held boxes (:data:`HELD_BOX`): the held passes after the grid update (``held.py``'s ``clear_cut`` over both halves of
+``grid_cut``, ``held_rule.py``'s ``hold_set_faces``, ``held.py``'s ``mirror_held``) sweep the same box ``B`` as the
+grid update: the hull, this substep's half stretched to a domain edge it comes within :data:`HELD_REACH` nodes of
+(:func:`build_held_box`). Only ``grid_v`` changes the claim: a set box writes its velocity at each of its nodes, with
+mass or not, and a fixed region its ghosts, so a held box's node outside ``B`` may hold a value the whole grid would
+have written differently. Claim H, after each substep: (a) at every node of ``B``, ``grid_v``, ``grid_m`` and
+``grid_cut`` are the whole grid's; (b) outside ``B``, ``grid_m``, ``grid_cut`` and round 64's arrays are 0, and so is
+``grid_v`` at every node in no held box; (c) no kernel reads ``grid_v`` at a held box's node outside ``B``.
+
+(b): ``grid_m`` is written by the grid update only; ``grid_cut`` is marked only at material points' 27 nodes (this
+substep's box) and cleared over ``B``, which holds the last substep's marks; a node in no held box takes ``grid_v``
+from the grid update (``+0`` where it has no mass) and the passes at nodes with mass only. (a): the grid update does
+not read ``grid_v``; ``hold_set_faces`` works at nodes with mass and reads a neighbour's ``grid_v`` only where it has
+mass. The mirror at a node ``g`` of ``B`` reads, for a set box, ``g``'s own ``grid_v`` (swept) and its two image
+nodes' only where both have mass (in the box); for a fixed region, the two image nodes and, broken through, the first
+node past the face and ``grid_cut``, all on ``g``'s line along the face's normal within :data:`HELD_REACH` nodes, past
+the face: in no held box where no fixed region comes within :data:`HELD_REACH` cells of another held box
+(:func:`held_apart`, else the whole grid), so (b) or (a) gives the whole grid's value. An image beyond the grid's
+edge is read at the edge's two nodes, which lie in the region where it reaches the wall: the stretch puts them in
+``B``, swept by the grid update and mirrored in the whole grid's order on the CPU (each thread a contiguous run, the
+threads in turn), so a ghost reading one mirrored before it reads the whole grid's value (on CUDA the whole grid's
+order was a race already). (c): G2P reads its points' 27 nodes (P2G's, the points not moved since: this substep's
+box), ``image_C`` uses its image's stencil only where all 27 nodes have mass, the passive points only nodes with
+mass, the rigid collider its points' nodes, the next grid update writes without reading; with round 62's push (points
+moved between P2G and G2P) the whole grid. One case is left to the tests: rounding may put a fixed ghost's lower
+image node on the face itself (``2 s / dx`` an integer less an ulp), read with a weight below 1e-6; a massless face
+node outside ``B`` holds ``+0`` there as in the whole grid where its own reads are 0 (a ghost far from mass).
+Measured: ``tests/test_held_box.py``, bit for bit on the tension bar and dog-bone, held elastic blocks, a set box that
+starts and stops, a block held at the wall, viscous bodies; taking out the stretch or :func:`held_apart` changed no
+bit there (their cases read zeros in the family), a box one node short does.
 
 This module must not use ``from __future__ import annotations`` (the house rule of this plugin's kernel modules).
 """
