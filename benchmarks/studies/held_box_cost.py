@@ -5,7 +5,9 @@ a tension specimen held by a ``fixed_region`` and pulled by a set box impulse (`
 the same way, and two viscous bodies (``tests/test_viscous_bodies.py``'s ``two_bodies``, the implicit step), at the
 n_grid the tests use and at twice it; each over the whole grid (``grid_box.HELD_BOX`` and ``VISC_BOX`` False) and over the box (True).
 
-Per scene and setting: each recorded launch timed alone (a synchronise after each; the viscous step's solve as one
+Per scene and setting: each recorded launch timed alone (the process's CPU seconds, ``time.process_time``, around it
+and a synchronise: warp's CPU kernels run on the calling thread, so the other jobs' load counts less than in wall
+time; the viscous step's solve as one
 entry, ``visc_solve``), the grid update's, the held passes' (``mirror_held``, ``hold_set_faces``, ``clear_cut``,
 ``mark_cut``) and all kernels' ms a substep, the box's share of the grid at the end and the points' hash (the two
 settings must give the same); each the median of ``--repeat`` runs, interleaved.
@@ -64,11 +66,11 @@ def timed(eng, table: dict) -> None:
     """``eng._substep`` replaced: each recorded launch (and the viscous solve) timed alone into ``table``."""
     import warp as wp
 
-    def tick(key, fn):
-        t0 = time.perf_counter()
+    def tick(key, fn):   # the process's CPU seconds (warp's CPU kernels run on this thread): less the others' load
+        t0 = time.process_time()
         fn()
         wp.synchronize_device(eng.device)
-        table[key] += time.perf_counter() - t0
+        table[key] += time.process_time() - t0
 
     def substep(s: int, capturing: bool = False) -> None:
         table["substeps"] += 1
