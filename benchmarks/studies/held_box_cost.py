@@ -1,9 +1,11 @@
-"""Round 65 (``docs/performance.md`` "Round 65: the held boxes and viscous bodies over the touched box"): what warp_mpm's whole-grid
-sweeps cost per substep on the CPU in the scenes round 64 left on the whole grid (``grid_box.whole_grid_reasons``):
+"""Round 65 (``docs/performance.md`` "Round 65: the held boxes and viscous bodies over the touched box"): what
+warp_mpm's whole-grid sweeps cost per substep on the CPU in the scenes round 64 left on the whole grid
+(``grid_box.whole_grid_reasons``):
 a tension specimen held by a ``fixed_region`` and pulled by a set box impulse (``benchmarks/tension_family.py``'s
 ``build``: brittle, f64, so the broken faces' marks and the brittle held rule's face nodes run), an elastic bar held
 the same way, and two viscous bodies (``tests/test_viscous_bodies.py``'s ``two_bodies``, the implicit step), at the
-n_grid the tests use and at twice it; each over the whole grid (``grid_box.HELD_BOX`` and ``VISC_BOX`` False) and over the box (True).
+n_grid the tests use and at twice it; each over the whole grid (``grid_box.HELD_BOX`` and ``VISC_BOX`` False) and
+over the box (True).
 
 Per scene and setting: each recorded launch timed alone (the process's CPU seconds, ``time.process_time``, around it
 and a synchronise: warp's CPU kernels run on the calling thread, so the other jobs' load counts less than in wall

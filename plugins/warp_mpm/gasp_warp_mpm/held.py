@@ -127,8 +127,8 @@ def build_mirror(Ft):
                             c, b, dv, on = set_box_row(ex, qi)
                             if (on != 0 and X[0] >= c[0] and X[1] >= c[1] and X[2] >= c[2] and X[0] <= b[0]
                                     and X[1] <= b[1] and X[2] <= b[2]):
-                                grid_v[node] = constrain(ex, qi, grid_v[node], mirror_node(node, X, c, b, dv, grid_v, grid_m, 1,
-                                                                                        lo, dx, n_grid, 0, grid_cut))
+                                v_img = mirror_node(node, X, c, b, dv, grid_v, grid_m, 1, lo, dx, n_grid, 0, grid_cut)
+                                grid_v[node] = constrain(ex, qi, grid_v[node], v_img)
                     cut = int(0)
                     if grid_cut.shape[0] > 2:
                         cut = grid_cut[node]
@@ -137,8 +137,8 @@ def build_mirror(Ft):
                         fhi = fixed_hi[rg]
                         if (X[0] >= flo[0] and X[0] <= fhi[0] and X[1] >= flo[1] and X[1] <= fhi[1]
                                 and X[2] >= flo[2] and X[2] <= fhi[2]):
-                            grid_v[node] = mirror_node(node, X, flo, fhi, vec3(Ft(0.0)), grid_v, grid_m, 0, lo, dx, n_grid,
-                                                       cut, grid_cut)
+                            grid_v[node] = mirror_node(node, X, flo, fhi, vec3(Ft(0.0)), grid_v, grid_m, 0, lo, dx,
+                                                       n_grid, cut, grid_cut)
 
     return mirror_held
 
