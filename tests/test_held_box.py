@@ -65,6 +65,15 @@ def _set_box_on_off():
     return s
 
 
+def _two_fields_held():
+    """``tests/test_grid_box.py``'s jelly thrown onto a jelly slab (two fields: the field passes' box is the grid
+    update's), the slab's left 4 cm held by a fixed region."""
+    s = S._setup([([-0.03, -0.03, 0.03], [0.03, 0.03, 0.07]), ([-0.10, -0.08, 0.0], [0.18, 0.08, 0.03])],
+                 ("elastic", "elastic"), [0.0, 0.0, -0.3], 24, 0.5, [None, None])
+    s.boundaries = list(s.boundaries) + [Boundary("fixed_region", lo=(-0.12, -0.1, -0.01), hi=(-0.06, 0.1, 0.04))]
+    return s
+
+
 def _viscous(schedule: str, precision=None):
     """``tests/test_viscous_bodies.py``'s sheared viscous block beside a resting viscous cube (n_grid 24)."""
     sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -83,6 +92,7 @@ SCENES = {
     "elastic_held_f64": (lambda: _held_block(precision="f64"), 6),
     "set_box_on_off": (_set_box_on_off, 7),
     "held_at_wall": (lambda: _held_block(True), 6),
+    "two_fields_held": (_two_fields_held, 4),
     "viscous_cpu": (lambda: _viscous("cpu"), 2),
     "viscous_gpu": (lambda: _viscous("gpu"), 2),
     "viscous_cpu_f64": (lambda: _viscous("cpu", "f64"), 2),
