@@ -32,7 +32,9 @@ def build_mirror(Ft):
     fixed region's node that ``mark_cut`` marked in ``grid_cut`` (its first ``n_grid^3``), where the face's last node
     on its line along the normal is not marked in the second (no intact free point reads it: the material beside the
     face broken through, so the face is free of traction), takes the velocity of the first node past the face along
-    its normal, less its normal part into the box (a free-slip face the material cannot enter).
+    its normal, less its normal part into the box (a free-slip face the material cannot enter). Round 65: the kernel
+    sweeps the grid update's box (``grid_box.py``'s module notes: why it reads the whole grid's values there), its
+    last three inputs ``grid_box.grid_sweep``'s.
 
     It is long because its ``wp.func`` (a node's mirror image, solved where the image is the node itself, and the
     broken face's free slip) and the kernel over the boxes must be built together, from one scalar type."""
@@ -149,7 +151,9 @@ def build_mark_cut(Ft):
     taichi_mpm's ``GridUpdate.mark_cut``; :func:`gasp_core.mpm.points.cuts_held_faces`). ``grid_cut`` (int32,
     ``2 n_grid^3``) cleared, then the 27 nodes of the stencil of a strained held point of a brittle body broken through
     (``Jp >= 1``: its own stress, its mirror image's, passed the full softening's) marked in its first ``n_grid^3``,
-    of a free brittle point not broken through within ``CUT_REACH`` cells of a region in the second."""
+    of a free brittle point not broken through within ``CUT_REACH`` cells of a region in the second. Round 65:
+    ``clear_cut(grid_cut, n_grid, box, threads, along)`` clears both halves over the grid update's box, which holds
+    the last substep's marks (``grid_box.py``)."""
     vec3, vec4, mat33 = build_types(Ft)
 
     box_units, unit_first, unit_len, box_q = build_sweep(Ft)

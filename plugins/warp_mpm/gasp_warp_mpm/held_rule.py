@@ -256,7 +256,7 @@ def build_set_box_row(Ft):
 
 @functools.cache
 def build_hold_set_faces(Ft):
-    """``hold_set_faces``: the kernel over the nodes, after the grid update and before the held boxes' ghosts
+    """``hold_set_faces``: the kernel over the grid update's box (round 65, ``grid_box.py``), after the grid update and before the held boxes' ghosts
     (``held.build_mirror``), where a set box holds a brittle body: a node with mass within ``SET_FACE_CELLS`` outside a
     set box's face (along its normal, inside its extent along the face) whose next node outward has mass takes
     ``(v_set + s v_out) / (1 + s)``, ``s`` its distance to the face in cells, ``v_out`` that node's velocity, so the
