@@ -10,11 +10,12 @@ hold values no kernel reads: the module notes), after a run, on a family: a stra
 the held rule's face nodes run; f64, and the bar in f32), an elastic block held by a fixed region under gravity, a
 set box that starts and stops mid-run on a free block, a block held by a fixed region at the domain's wall (its
 ghosts' images at the wall's nodes, outside P2G's hull), and two viscous bodies (``tests/test_viscous_bodies.py``'s,
-both schedules, f32 and f64: the implicit step writes only at nodes with mass); and CUDA's strided order run on the
+both schedules, f32 and f64: the implicit step writes only at nodes with mass; its lists and labels over its own
+box, ``viscosity.ImplicitViscosity.box``); and CUDA's strided order run on the
 CPU.
 
-The catch: the box kernel fed positions one cell off (the box one node layer short) changes the bits of the bar and
-of the viscous bodies. Two safeguards of the proof change no bit of the family when taken out (their cases read
+The catches: the box kernel fed positions one cell off (the box one node layer short) changes the bits of the bar and
+of the viscous bodies, and so does the viscous step's own box (its lists and labels) one node short. Two safeguards of the proof change no bit of the family when taken out (their cases read
 zeros here; module notes): the stretch to a wall (``test_the_box_reaches_the_wall_it_nears``) and the whole grid where
 a fixed region comes within ``HELD_REACH`` cells of another held box.
 """
@@ -175,6 +176,24 @@ def test_the_check_catches_a_box_one_node_short(monkeypatch):
     monkeypatch.setattr(fields, "box_launches", shifted(fields.box_launches))
     for c in good:
         assert not same(good[c], run(c)), c
+
+
+def test_the_check_catches_the_viscous_step_s_box_one_node_short(monkeypatch):
+    """The viscous step's own box (its lists and labels, ``viscosity.ImplicitViscosity.box_launch``) fed ``lo + dx``:
+    the lists miss the highest layer of nodes with mass, which the check sees on the viscous bodies (cpu schedule)."""
+    from gasp_warp_mpm.viscosity import ImplicitViscosity
+    real = ImplicitViscosity.box_launch
+
+    def short(self):
+        lo = self.e.setup.domain_lo
+        self.e.setup.domain_lo = [float(c) + self.e.dx for c in lo]
+        try:
+            return real(self)
+        finally:
+            self.e.setup.domain_lo = lo
+    good = run("viscous_cpu")
+    monkeypatch.setattr(ImplicitViscosity, "box_launch", short)
+    assert not same(good, run("viscous_cpu"))
 
 
 def test_the_box_reaches_the_wall_it_nears(monkeypatch):
