@@ -22,7 +22,10 @@ the claim holds after the substep. Passive points and G2P reading nodes beyond t
 Round 65 (``docs/performance.md`` "Round 65: the held boxes and viscous bodies over the touched box"). Viscous
 materials: the implicit step (``viscosity.py``, between P2G and the grid update) reads ``grid_mv`` and ``grid_eta``
 and writes them only at its solved nodes, the nodes with mass (its lists: ``grid_mv[I][3] > 0``), all in this
-substep's box; its own arrays are read by no other pass. So the claim above holds as it is (:data:`VISC_BOX`).
+substep's box; its own arrays are read by no other pass. So the claim above holds as it is (:data:`VISC_BOX`). With
+it the step's own sweeps take its own box (``viscosity.ImplicitViscosity.box``: launched at the step's start, after
+P2G, before this module's): ``label_clear`` and the cpu schedule's ``lists`` over its hull (the nodes with mass, the
+valid cells' corners, the labelled nodes and last step's ``valid`` 1 all lie in it; the lists in node order).
 
 Held boxes (:data:`HELD_BOX`): the held passes after the grid update (``held.py``'s ``clear_cut`` over both halves of
 ``grid_cut``, ``held_rule.py``'s ``hold_set_faces``, ``held.py``'s ``mirror_held``) sweep the same box ``B`` as the
