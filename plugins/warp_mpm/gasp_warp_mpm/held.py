@@ -16,6 +16,8 @@ from gasp_core.mpm.points import CUT_REACH, HELD_STRAIN_CELLS, HELD_STRAINED, MI
 
 from .constitutive import build_return_mapping
 from .forces import build_constrain, build_extras_struct
+from .field_nodes import build_sweep
+from .grid_box import grid_sweep
 from .held_rule import HeldRule, build_held_tau, build_set_box_row, hold_set_faces_launches   # HeldRule: the engine's switch
 from .precision import MODULE_OPTIONS, build_types
 
@@ -30,7 +32,9 @@ def build_mirror(Ft):
     fixed region's node that ``mark_cut`` marked in ``grid_cut`` (its first ``n_grid^3``), where the face's last node
     on its line along the normal is not marked in the second (no intact free point reads it: the material beside the
     face broken through, so the face is free of traction), takes the velocity of the first node past the face along
-    its normal, less its normal part into the box (a free-slip face the material cannot enter).
+    its normal, less its normal part into the box (a free-slip face the material cannot enter). Round 65: the kernel
+    sweeps the grid update's box (``grid_box.py``'s module notes: why it reads the whole grid's values there), its
+    last three inputs ``grid_box.grid_sweep``'s.
 
     It is long because its ``wp.func`` (a node's mirror image, solved where the image is the node itself, and the
     broken face's free slip) and the kernel over the boxes must be built together, from one scalar type."""
@@ -38,6 +42,7 @@ def build_mirror(Ft):
     Extras = build_extras_struct(Ft)
     set_box_row = build_set_box_row(Ft)
     constrain = build_constrain(Ft)[0]
+    box_units, unit_first, unit_len, box_q = build_sweep(Ft)
 
     by_mass = int(grid_tables.MIRROR_BY_MASS)
     fixed_by_mass = int(grid_tables.FIXED_BY_MASS)   # a fixed region's image nodes too (round 40)
@@ -107,29 +112,35 @@ def build_mirror(Ft):
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def mirror_held(grid_v: wp.array(dtype=vec3), grid_m: wp.array(dtype=Ft), lo: vec3, dx: Ft, n_grid: int,
                     fixed_lo: wp.array(dtype=vec3), fixed_hi: wp.array(dtype=vec3), has_extras: int, ex: Extras,
-                    grid_cut: wp.array(dtype=wp.int32)):
-        node = wp.tid()
-        i = node / (n_grid * n_grid)
-        j = (node / n_grid) % n_grid
-        k = node % n_grid
-        X = lo + dx * vec3(Ft(i), Ft(j), Ft(k))
-        if has_extras != 0:
-            for q in range(ex.n_imp):
-                c, b, dv, on = set_box_row(ex, q)
-                if (on != 0 and X[0] >= c[0] and X[1] >= c[1] and X[2] >= c[2] and X[0] <= b[0]
-                        and X[1] <= b[1] and X[2] <= b[2]):
-                    grid_v[node] = constrain(ex, q, grid_v[node], mirror_node(node, X, c, b, dv, grid_v, grid_m, 1,
-                                                                            lo, dx, n_grid, 0, grid_cut))
-        cut = int(0)
-        if grid_cut.shape[0] > 2:
-            cut = grid_cut[node]
-        for r in range(fixed_lo.shape[0]):
-            flo = fixed_lo[r]
-            fhi = fixed_hi[r]
-            if (X[0] >= flo[0] and X[0] <= fhi[0] and X[1] >= flo[1] and X[1] <= fhi[1]
-                    and X[2] >= flo[2] and X[2] <= fhi[2]):
-                grid_v[node] = mirror_node(node, X, flo, fhi, vec3(Ft(0.0)), grid_v, grid_m, 0, lo, dx, n_grid,
-                                           cut, grid_cut)
+                    grid_cut: wp.array(dtype=wp.int32), box: wp.array(dtype=wp.int32), threads: int, along: int):
+        n = box_units(box, along)   # round 65: the grid update's box (grid_box.py), not the whole grid
+        run = (n + threads - 1) / threads
+        for r in range(run):
+            q = box_q(wp.tid(), r, run, threads, along)
+            if q < n:
+                first = unit_first(box, q, n_grid, along)
+                for node in range(first, first + unit_len(box, along)):
+                    i = node / (n_grid * n_grid)
+                    j = (node / n_grid) % n_grid
+                    k = node % n_grid
+                    X = lo + dx * vec3(Ft(i), Ft(j), Ft(k))
+                    if has_extras != 0:
+                        for qi in range(ex.n_imp):
+                            c, b, dv, on = set_box_row(ex, qi)
+                            if (on != 0 and X[0] >= c[0] and X[1] >= c[1] and X[2] >= c[2] and X[0] <= b[0]
+                                    and X[1] <= b[1] and X[2] <= b[2]):
+                                v_img = mirror_node(node, X, c, b, dv, grid_v, grid_m, 1, lo, dx, n_grid, 0, grid_cut)
+                                grid_v[node] = constrain(ex, qi, grid_v[node], v_img)
+                    cut = int(0)
+                    if grid_cut.shape[0] > 2:
+                        cut = grid_cut[node]
+                    for rg in range(fixed_lo.shape[0]):
+                        flo = fixed_lo[rg]
+                        fhi = fixed_hi[rg]
+                        if (X[0] >= flo[0] and X[0] <= fhi[0] and X[1] >= flo[1] and X[1] <= fhi[1]
+                                and X[2] >= flo[2] and X[2] <= fhi[2]):
+                            grid_v[node] = mirror_node(node, X, flo, fhi, vec3(Ft(0.0)), grid_v, grid_m, 0, lo, dx,
+                                                       n_grid, cut, grid_cut)
 
     return mirror_held
 
@@ -140,12 +151,25 @@ def build_mark_cut(Ft):
     taichi_mpm's ``GridUpdate.mark_cut``; :func:`gasp_core.mpm.points.cuts_held_faces`). ``grid_cut`` (int32,
     ``2 n_grid^3``) cleared, then the 27 nodes of the stencil of a strained held point of a brittle body broken through
     (``Jp >= 1``: its own stress, its mirror image's, passed the full softening's) marked in its first ``n_grid^3``,
-    of a free brittle point not broken through within ``CUT_REACH`` cells of a region in the second."""
+    of a free brittle point not broken through within ``CUT_REACH`` cells of a region in the second. Round 65:
+    ``clear_cut(grid_cut, n_grid, box, threads, along)`` clears both halves over the grid update's box, which holds
+    the last substep's marks (``grid_box.py``)."""
     vec3, vec4, mat33 = build_types(Ft)
 
+    box_units, unit_first, unit_len, box_q = build_sweep(Ft)
+
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def clear_cut(grid_cut: wp.array(dtype=wp.int32)):
-        grid_cut[wp.tid()] = 0
+    def clear_cut(grid_cut: wp.array(dtype=wp.int32), n_grid: int, box: wp.array(dtype=wp.int32), threads: int,
+                  along: int):
+        n = box_units(box, along)   # round 65: both halves over the grid update's box (grid_box.py)
+        run = (n + threads - 1) / threads
+        for r in range(run):
+            q = box_q(wp.tid(), r, run, threads, along)
+            if q < n:
+                first = unit_first(box, q, n_grid, along)
+                for node in range(first, first + unit_len(box, along)):
+                    grid_cut[node] = 0
+                    grid_cut[n_grid * n_grid * n_grid + node] = 0
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def mark_cut(x: wp.array(dtype=vec3), fixed: wp.array(dtype=wp.int32), Jp: wp.array(dtype=Ft),
@@ -301,11 +325,13 @@ def mirror_launches(eng, Ft, has_extras: int, ex) -> list:
     cut = cuts_held_faces(eng.mat_kind.numpy(), eng.fixed_lo.shape[0])   # the regions' broken faces
     eng.grid_cut = wp.zeros(2 * eng.n_grid ** 3 if cut else 2, dtype=wp.int32, device=eng.device)
     clear_cut, mark_cut = build_mark_cut(Ft)
-    marks = [wp.launch(clear_cut, dim=2 * eng.n_grid ** 3, device=eng.device, record_cmd=True, inputs=[eng.grid_cut]),
+    sweep = grid_sweep(eng)   # round 65: the held passes over the grid update's box (grid_box.py)
+    marks = [wp.launch(clear_cut, dim=sweep[1], device=eng.device, record_cmd=True, inputs=[
+                 eng.grid_cut, eng.n_grid, *sweep]),
              wp.launch(mark_cut, dim=eng.n_material, device=eng.device, record_cmd=True, inputs=[
                  eng.x, eng.fixed, eng.Jp, eng.body, eng.mat_kind, eng.grid_cut, lo_v, Ft(eng.inv_dx), Ft(eng.dx),
                  eng.n_grid, eng.fixed_lo, eng.fixed_hi])] if cut else []
     marks += hold_set_faces_launches(eng, Ft, ex)   # a brittle body's set box: its faces' free nodes (held_rule.py)
-    return marks + [wp.launch(build_mirror(Ft), dim=eng.n_grid ** 3, device=eng.device, record_cmd=True, inputs=[
+    return marks + [wp.launch(build_mirror(Ft), dim=sweep[1], device=eng.device, record_cmd=True, inputs=[
         eng.grid_v, eng.grid_m, lo_v, Ft(eng.dx), eng.n_grid, eng.fixed_lo, eng.fixed_hi, has_extras, ex,
-        eng.grid_cut])]
+        eng.grid_cut, *sweep])]

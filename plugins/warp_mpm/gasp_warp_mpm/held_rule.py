@@ -256,7 +256,7 @@ def build_set_box_row(Ft):
 
 @functools.cache
 def build_hold_set_faces(Ft):
-    """``hold_set_faces``: the kernel over the nodes, after the grid update and before the held boxes' ghosts
+    """``hold_set_faces``: the kernel over the grid update's box (round 65, ``grid_box.py``), after the grid update and before the held boxes' ghosts
     (``held.build_mirror``), where a set box holds a brittle body: a node with mass within ``SET_FACE_CELLS`` outside a
     set box's face (along its normal, inside its extent along the face) whose next node outward has mass takes
     ``(v_set + s v_out) / (1 + s)``, ``s`` its distance to the face in cells, ``v_out`` that node's velocity, so the
@@ -265,38 +265,45 @@ def build_hold_set_faces(Ft):
     Extras = build_extras_struct(Ft)
     set_box_row = build_set_box_row(Ft)
     constrain = build_constrain(Ft)[0]
+    from .field_nodes import build_sweep
+    box_units, unit_first, unit_len, box_q = build_sweep(Ft)
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def hold_set_faces(grid_v: wp.array(dtype=vec3), grid_m: wp.array(dtype=Ft), lo: vec3, dx: Ft, inv_dx: Ft,
-                       n_grid: int, ex: Extras):
-        node = wp.tid()
-        if grid_m[node] <= Ft(0.0):
-            return
-        I = wp.vec3i(node / (n_grid * n_grid), (node / n_grid) % n_grid, node % n_grid)
-        X = lo + dx * vec3(Ft(I[0]), Ft(I[1]), Ft(I[2]))
-        for q in range(ex.n_imp):
-            c, b, dv, on = set_box_row(ex, q)
-            if on != 0:
-                for d in range(3):
-                    lat = int(1)
-                    for e in range(3):
-                        if e != d and (X[e] < c[e] or X[e] > b[e]):
-                            lat = 0
-                    stride = int(1)
-                    if d == 0:
-                        stride = n_grid * n_grid
-                    elif d == 1:
-                        stride = n_grid
-                    sl = (c[d] - X[d]) * inv_dx
-                    sh = (X[d] - b[d]) * inv_dx
-                    if lat != 0 and sl > Ft(0.0) and sl < Ft(SET_FACE_CELLS) and I[d] >= 1:
-                        if grid_m[node - stride] > Ft(0.0):
-                            grid_v[node] = constrain(ex, q, grid_v[node],
-                                                     (dv + sl * grid_v[node - stride]) / (Ft(1.0) + sl))
-                    if lat != 0 and sh > Ft(0.0) and sh < Ft(SET_FACE_CELLS) and I[d] < n_grid - 1:
-                        if grid_m[node + stride] > Ft(0.0):
-                            grid_v[node] = constrain(ex, q, grid_v[node],
-                                                     (dv + sh * grid_v[node + stride]) / (Ft(1.0) + sh))
+                       n_grid: int, ex: Extras, box: wp.array(dtype=wp.int32), threads: int, along: int):
+        n = box_units(box, along)   # round 65: the grid update's box (grid_box.py), not the whole grid
+        run = (n + threads - 1) / threads
+        for r in range(run):
+            q = box_q(wp.tid(), r, run, threads, along)
+            if q < n:
+                first = unit_first(box, q, n_grid, along)
+                for node in range(first, first + unit_len(box, along)):
+                    if grid_m[node] > Ft(0.0):
+                        I = wp.vec3i(node / (n_grid * n_grid), (node / n_grid) % n_grid, node % n_grid)
+                        X = lo + dx * vec3(Ft(I[0]), Ft(I[1]), Ft(I[2]))
+                        for qi in range(ex.n_imp):
+                            c, b, dv, on = set_box_row(ex, qi)
+                            if on != 0:
+                                for d in range(3):
+                                    lat = int(1)
+                                    for e in range(3):
+                                        if e != d and (X[e] < c[e] or X[e] > b[e]):
+                                            lat = 0
+                                    stride = int(1)
+                                    if d == 0:
+                                        stride = n_grid * n_grid
+                                    elif d == 1:
+                                        stride = n_grid
+                                    sl = (c[d] - X[d]) * inv_dx
+                                    sh = (X[d] - b[d]) * inv_dx
+                                    if lat != 0 and sl > Ft(0.0) and sl < Ft(SET_FACE_CELLS) and I[d] >= 1:
+                                        if grid_m[node - stride] > Ft(0.0):
+                                            grid_v[node] = constrain(ex, qi, grid_v[node],
+                                                                     (dv + sl * grid_v[node - stride]) / (Ft(1.0) + sl))
+                                    if lat != 0 and sh > Ft(0.0) and sh < Ft(SET_FACE_CELLS) and I[d] < n_grid - 1:
+                                        if grid_m[node + stride] > Ft(0.0):
+                                            grid_v[node] = constrain(ex, qi, grid_v[node],
+                                                                     (dv + sh * grid_v[node + stride]) / (Ft(1.0) + sh))
 
     return hold_set_faces
 
@@ -307,6 +314,8 @@ def hold_set_faces_launches(eng, Ft, ex) -> list:
     from .held import count_set_boxes
     if not count_set_boxes(eng.setup) or not eng.held_rule_flag() % 2:
         return []
+    from .grid_box import grid_sweep
     lo_v = eng.k.vec3(*[float(c) for c in eng.setup.domain_lo])
-    return [wp.launch(build_hold_set_faces(Ft), dim=eng.n_grid ** 3, device=eng.device, record_cmd=True, inputs=[
-        eng.grid_v, eng.grid_m, lo_v, Ft(eng.dx), Ft(eng.inv_dx), eng.n_grid, ex])]
+    sweep = grid_sweep(eng)   # round 65: over the grid update's box (grid_box.py)
+    return [wp.launch(build_hold_set_faces(Ft), dim=sweep[1], device=eng.device, record_cmd=True, inputs=[
+        eng.grid_v, eng.grid_m, lo_v, Ft(eng.dx), Ft(eng.inv_dx), eng.n_grid, ex, *sweep])]

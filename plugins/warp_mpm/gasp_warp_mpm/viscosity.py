@@ -34,8 +34,11 @@ the closures below as type objects.
 """
 import functools
 
+import numpy as np
 import warp as wp
 
+from . import field_nodes as FN
+from .field_nodes import build_sweep
 from .precision import MODULE_OPTIONS, build_types
 from .stencil import build_stencil
 
@@ -55,6 +58,7 @@ def build_viscosity(Ft):
     import types
     vec3, vec4, mat33 = build_types(Ft)
     in_grid, weights = build_stencil(Ft)
+    box_units, unit_first, unit_len, box_q = build_sweep(Ft)
 
     @wp.func
     def corner(c: int, a: int, b: int, e: int, ng: int):
@@ -198,8 +202,16 @@ def build_viscosity(Ft):
             done[0] = 1
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
-    def label_clear(label: wp.array(dtype=wp.int32), none: int):
-        label[wp.tid()] = none
+    def label_clear(label: wp.array(dtype=wp.int32), none: int, ng: int, box: wp.array(dtype=wp.int32), threads: int,
+                    along: int):
+        n = box_units(box, along)   # round 65: over the step's box (ImplicitViscosity.box), not the whole grid
+        run = (n + threads - 1) / threads
+        for r in range(run):
+            q = box_q(wp.tid(), r, run, threads, along)
+            if q < n:
+                first = unit_first(box, q, ng, along)
+                for node in range(first, first + unit_len(box, along)):
+                    label[node] = none
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def label_points(x: wp.array(dtype=vec3), p_mass: wp.array(dtype=Ft), body: wp.array(dtype=wp.int32),
@@ -287,19 +299,44 @@ class ImplicitViscosity:
         self.mom = wp.zeros(self.n_labels, dtype=vec4, device=d)
         self.iters = 0
         self.solves = 0
+        self.allocate_box()
+
+    def allocate_box(self) -> None:
+        """``box`` (12 int32, ``field_nodes``' layout: this step's P2G box, then the last's): round 65, the step's
+        lists (the cpu schedule's) and labels over its hull, not the whole grid (``docs/performance.md`` "Round 65");
+        the whole grid with ``grid_box.VISC_BOX`` off (no box launches then, :meth:`box_launch`)."""
+        from .grid_box import VISC_BOX
+        ng = self.e.n_grid
+        self.boxed = bool(VISC_BOX)
+        box = [ng] * 3 + [-1] * 3 + [ng] * 3 + [-1] * 3 if self.boxed else [0, 0, 0, ng - 1, ng - 1, ng - 1] * 2
+        self.box = wp.array(np.array(box, np.int32), dtype=wp.int32, device=self.e.device)
+
+    def box_launch(self) -> None:
+        """Launch ``field_nodes``' ``box_reset`` and ``field_box`` on :attr:`box` (this step's points, P2G's), where
+        :meth:`allocate_box` made it a box. Its hull holds every node with mass (the solved nodes, the valid cells'
+        corners, the labelled nodes) and every node the last step wrote ``valid`` 1 or a label at."""
+        if not self.boxed:
+            return
+        e = self.e
+        box_reset, field_box = FN.build_field_box(self.Ft)
+        lo = build_types(self.Ft)[0](*[float(c) for c in e.setup.domain_lo])
+        wp.launch(box_reset, dim=1, device=e.device, inputs=[self.box, e.n_grid])
+        wp.launch(field_box, dim=e.n_material, device=e.device, inputs=[e.x, self.box, lo, self.Ft(e.inv_dx), e.n_grid])
 
     def label_nodes(self) -> None:
         """Launch the labels of this substep's nodes (after P2G, on the points P2G read): every node cleared to the
         last body's, then each point's body id into its stencil's nodes by ``atomic_min`` (the same on every run).
         One body: nothing launched (every label 0 from the start)."""
         e, d = self.e, self.e.device
+        self.box_launch()   # round 65: the step's box (its hull: the labels' and the cpu schedule's lists)
         if self.n_labels == 1:
             return
+        sweep = [e.n_grid, self.box, FN.shared_threads(e), int(not d.is_cuda)]
         if not self.per_body:   # one group: round 49's rule
-            wp.launch(self.k.label_clear, dim=e.n_grid ** 3, device=d, inputs=[self.label, 0])
+            wp.launch(self.k.label_clear, dim=sweep[2], device=d, inputs=[self.label, 0, *sweep])
             return
         lo = build_types(self.Ft)[0](*[float(c) for c in e.setup.domain_lo])
-        wp.launch(self.k.label_clear, dim=e.n_grid ** 3, device=d, inputs=[self.label, self.n_labels - 1])
+        wp.launch(self.k.label_clear, dim=sweep[2], device=d, inputs=[self.label, self.n_labels - 1, *sweep])
         wp.launch(self.k.label_points, dim=e.n_material, device=d, inputs=[e.x, e.p_mass, e.body, self.label, lo,
                                                                            self.Ft(e.inv_dx), e.n_grid])
 

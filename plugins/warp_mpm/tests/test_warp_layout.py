@@ -58,6 +58,8 @@ DIM1_SCALAR = {
                "(rigid_collider.py; round 64: one thread a slot)",
     "box_reset": "round 64: the field box's 12 bounds, this substep's moved to the last's (field_nodes.py; the grid "
                  "update's own box, grid_box.py)",
+    "held_box": "round 65: the box's 6 bounds of this substep stretched to a domain edge they near, with held boxes "
+                "(grid_box.py)",
     "c_coulomb": "round 63: Coulomb's scale of the layer's tangential impulse, one body (rigid_collider.py; round "
                  "64: one thread a slot; round 65: collider_pair.py's rc_coulomb, one thread a contact pair, dim "
                  "rc_ns * rc_ncol)",
@@ -205,7 +207,8 @@ def test_no_ordered_loop_outside_the_cpu_only_module():
     assert [f for f in found if f[0] not in CPU_ONLY] == []
     inside = {what for rel, _, what in found if rel in CPU_ONLY}
     assert {"dim=1 launch of lists", "dim=1 launch of dot", "dim=1 launch of build_contact_fix",
-            "loop in lists: range(ng)", "loop in dot: range(counts[0])", "loop in contact_fix: range(n)"} <= inside
+            "loop in lists: range(wp.min(box[0], box[6]), wp.max(box[3], box[9]) + 1)",   # round 65: the box's rows
+            "loop in dot: range(counts[0])", "loop in contact_fix: range(n)"} <= inside
 
 
 def test_the_layout_check_catches_each_kind_outside(tmp_path):

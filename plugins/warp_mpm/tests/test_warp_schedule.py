@@ -29,7 +29,8 @@ TOL_DX = 1e-3
 #: condition, the last fold of at most BLOCK block partials, the time table's tick) and per-body or per-support work
 #: (launched over bodies or supports: one thread in a one-body scene).
 DIM1_ALLOWED = {"step_alpha", "cg_begin", "cg_beta", "fold_final", "tick", "rigid_update", "rigid_lift",
-                "contact_shift", "fix_supports", "fix_clear"}
+                "contact_shift", "fix_supports", "fix_clear",
+                "box_reset", "held_box"}   # round 64/65's box: 12 int32 (grid_box.py), in viscous scenes since round 65
 
 
 def viscous_scene(schedule):
@@ -194,7 +195,7 @@ def test_the_check_catches_todays_lists_and_dot(gpu_engine, monkeypatch):
         def broken_solve(self, capturing):
             wp.launch(k.lists, dim=1, device=self.e.device, inputs=[self.e.grid_mv, self.u, self.valid, self.nodes,
                                                                      self.cells, self.counts, self.e.n_grid,
-                                                                     self.label, int(self.same_label)])
+                                                                     self.label, int(self.same_label), self.box])
             return orig_solve(self, capturing)
         m.setattr(G.GpuViscosity, "solve", broken_solve)
         rec = one_substep(e, monkeypatch)
@@ -232,16 +233,18 @@ def test_launches_and_syncs_per_substep(monkeypatch):
     iterations run in fours, the condition read once per four: the syncs) and, at n_grid 16, each dot product is
     two launches (16 blocks of 256 nodes, then their fold), and so is round 49's momentum sum (``mom_blocks``,
     ``fold_final``; on the cpu schedule one-thread ``mom_sum``; one pass a body, one body here: round 50's node
-    labels are all 0, nothing launched for them)."""
+    labels are all 0, nothing launched for them). Round 65: both 4 more, the grid update's box and the viscous step's
+    (each ``box_reset`` on one thread and ``field_box`` over the points; ``grid_box.py``: a viscous scene's grid update
+    over the box; ``viscosity.ImplicitViscosity.box``: its lists and labels over the box)."""
     rec, _ = counts("viscous", "cpu", monkeypatch)
     n_it = sum(1 for k, _ in rec.launches if name(k) == "step_alpha")
     print(f"cpu schedule: {len(rec.launches)} launches, {rec.syncs} syncs, {n_it} CG iterations;",
           dict(zip(*np.unique([name(k) for k, _ in rec.launches], return_counts=True))))
     assert n_it >= 1
-    assert len(rec.launches) == 14 + 8 * n_it
+    assert len(rec.launches) == 18 + 8 * n_it
     assert rec.syncs == 2 + n_it
-    # shift, lists, 1 + 2 n dots, begin, 2 n steps, mom_sum, fix
-    assert sum(1 for _, d in rec.launches if d == 1) == 6 + 4 * n_it
+    # shift, lists, 1 + 2 n dots, begin, 2 n steps, mom_sum, fix, two box_reset
+    assert sum(1 for _, d in rec.launches if d == 1) == 8 + 4 * n_it
     # of which over nodes or list entries: lists, dot, mom_sum, contact_fix (begin and step_beta: scalars)
     assert dim1_outside_allow_list(rec) == ["begin", "contact_fix", "dot", "lists", "mom_sum", "step_beta"]
     rec, eff = counts("viscous", "gpu", monkeypatch)
@@ -249,11 +252,11 @@ def test_launches_and_syncs_per_substep(monkeypatch):
     print(f"gpu schedule: {len(rec.launches)} launches, {rec.syncs} syncs, {n_run} CG iterations run ({eff} "
           "effective);", dict(zip(*np.unique([name(k) for k, _ in rec.launches], return_counts=True))))
     assert n_run % G.CHECK_EVERY == 0 and n_run - G.CHECK_EVERY < eff <= n_run
-    assert len(rec.launches) == 24 + 10 * n_run
+    assert len(rec.launches) == 28 + 10 * n_run
     assert rec.syncs == n_run // G.CHECK_EVERY + 1
     # one thread: per body or support (contact_shift, fix_supports, fix_clear: one body, one support here), cg_begin,
-    # fold_final, the momentum sum's fold_final; per iteration two fold_final, step_alpha, cg_beta
-    assert sum(1 for _, d in rec.launches if d == 1) == 6 + 4 * n_run
+    # fold_final, the momentum sum's fold_final, two box_reset; per iteration two fold_final, step_alpha, cg_beta
+    assert sum(1 for _, d in rec.launches if d == 1) == 8 + 4 * n_run
     assert dim1_outside_allow_list(rec) == []
 
 

@@ -39,14 +39,15 @@ def build_ordered_viscosity(Ft):
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def lists(grid_mv: wp.array(dtype=vec4), u: wp.array(dtype=vec3), valid: wp.array(dtype=wp.int32),
               nodes: wp.array(dtype=wp.int32), cells: wp.array(dtype=wp.int32), counts: wp.array(dtype=wp.int32),
-              ng: int, label: wp.array(dtype=wp.int32), same: int):
+              ng: int, label: wp.array(dtype=wp.int32), same: int, box: wp.array(dtype=wp.int32)):
         # one thread: v*, valid cells (lower corner index, all 8 corners with mass and, with same, one label; never
-        # on the last plane), and the lists in node order
+        # on the last plane), and the lists in node order; round 65: over the hull of box's two halves (the step's
+        # box, viscosity.ImplicitViscosity.box), which holds every node with mass and every valid 1 of the last step
         nn = int(0)
         nc = int(0)
-        for i in range(ng):
-            for j in range(ng):
-                for k in range(ng):
+        for i in range(wp.min(box[0], box[6]), wp.max(box[3], box[9]) + 1):
+            for j in range(wp.min(box[1], box[7]), wp.max(box[4], box[10]) + 1):
+                for k in range(wp.min(box[2], box[8]), wp.max(box[5], box[11]) + 1):
                     I = (i * ng + j) * ng + k
                     g = grid_mv[I]
                     if g[3] > Ft(0.0):
@@ -111,7 +112,7 @@ class CpuViscosity(ImplicitViscosity):
         dt, inv_dx = self.Ft(e.dt), self.Ft(e.inv_dx)
         self.label_nodes()
         wp.launch(o.lists, dim=1, device=d, inputs=[e.grid_mv, self.u, self.valid, self.nodes, self.cells,
-                                                    self.counts, ng, self.label, int(self.same_label)])
+                                                    self.counts, ng, self.label, int(self.same_label), self.box])
         if capturing:
             n_nodes = n_cells = ng ** 3
         else:
