@@ -184,7 +184,7 @@ def coulomb_friction(V, w, inertia, M: float, c, n, x_f, v_sup, budget: float, J
     return V - (p / M) * t, w + inv @ (-p * rt + held * rh)
 
 
-def pair_contact(A, B, x_c, n, mu: float):
+def pair_contact(A, B, x_c, n, mu: float, flat=1.0):
     """The contact of two rigid bodies as one, by force balance (issue 67 item 4; the NumPy reference of each grid
     plugin's ``pair_contact``): the substep's normal impulse, then Coulomb's friction of it, both equal and opposite.
 
@@ -204,6 +204,11 @@ def pair_contact(A, B, x_c, n, mu: float):
       ``n``, as ``twist_brake`` turns it; its tipping moment held by the contact, as :func:`coulomb_friction` holds
       a face's), when that is within
       ``mu P`` (they stick), else ``mu P`` against it (they slide at the kinetic rate). No speed threshold.
+    * **rolling** (round 65): the friction's tipping moment (``r x t`` across ``n``) is held only as far as the
+      contact is a face on a face: the pair's flatness ``f`` (``rigid_support.pair_flatness``: 0 when either body is
+      round there) leaves ``(1 - f)`` of it to turn each body through its full inverse inertia, and ``k`` takes the
+      same ``(1 - f)`` terms (the effective mass at the contact point): a ball thrown sliding on a block spins up and
+      rolls. ``f`` 1 adds exact zeros (a block on a block bit for bit as before).
 
     Parameters
     ----------
@@ -216,6 +221,9 @@ def pair_contact(A, B, x_c, n, mu: float):
         The contact's unit normal, from A into B.
     mu : float
         The pair's coefficient (:func:`gasp_core.mpm.fields.field_friction`).
+    flat : float or callable
+        The pair's flatness in [0, 1], or a function of the unit slip ``t`` (shape (3,)) giving it
+        (``rigid_support.pair_flatness``); 1: a face on a face (the law before round 65).
 
     Returns
     -------
@@ -236,6 +244,11 @@ def pair_contact(A, B, x_c, n, mu: float):
         return (VA, wA), (VB, wB), P
     t = ut / lt
     sA, sB = float(np.dot(np.cross(rA, t), n)), float(np.dot(np.cross(rB, t), n))   # the twist arms about n
-    k = 1.0 / MA + 1.0 / MB + sA * sA / nIA + sB * sB / nIB
+    f = float(flat(t)) if callable(flat) else float(flat)
+    tA, tB = np.cross(rA, t), np.cross(rB, t)
+    gA = (1.0 - f) * (np.linalg.inv(np.asarray(IA, np.float64)) @ (tA - sA * n))   # the tipping part let turn
+    gB = (1.0 - f) * (np.linalg.inv(np.asarray(IB, np.float64)) @ (tB - sB * n))
+    k = 1.0 / MA + 1.0 / MB + sA * sA / nIA + sB * sB / nIB + (float(gA @ tA) + float(gB @ tB))
     p = min(lt / k, mu * P)
-    return ((VA - (p / MA) * t, wA - (p * sA / nIA) * n), (VB + (p / MB) * t, wB + (p * sB / nIB) * n), P)
+    return ((VA - (p / MA) * t, wA - (p * sA / nIA) * n - p * gA),
+            (VB + (p / MB) * t, wB + (p * sB / nIB) * n + p * gB), P)

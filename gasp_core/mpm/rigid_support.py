@@ -1,0 +1,104 @@
+"""A rigid body's support table (issue 67 items 2 and 4, round 65): how round or flat the body is where it meets
+another rigid body, read from its own points (``docs/rigid.md`` "Round 65: rolling between rigid bodies").
+
+The ground's law tells a ball from a face by the contact's patch (``rigid_friction.contact_flatness``: the normal
+impulses' spread ``s^2`` along the slip against the deepest point's depth ``d``, ``rho = 3 s^2 / d``). Two rigid
+bodies meet through the grid's nodes, which hold no such patch; the body's own points do. Pressed a depth ``delta``
+into a plane of outward normal ``d``, a solid body of radius of curvature ``rho`` there overlaps it on a cap whose
+points (a column ``delta - r^2 / (2 rho)`` high at the distance ``r`` from its centre) spread along a line in it with
+variance ``rho delta / 3``: ``rho = 3 s^2 / delta``, the ground's reading with the lattice's band for the depth. So,
+once per body at build time (:func:`support_table`), over a set of unit directions ``d`` in its rest frame: the
+support ``h(d)`` (its farthest point along ``d`` from its mass centre, plus half a point spacing: the lattice's
+surface) and the covariance of its points within ``delta`` of that plane; and in the pair law
+(:func:`pair_flatness`): each body's direction towards the other, its nearest table direction, ``s^2 = t . S t``
+along the slip ``t``, and the body's flatness ``clip((rho / h - FLAT_FROM) / (FLAT_TO - FLAT_FROM), 0, 1)``. A pair
+is a face on a face (its tipping moment held, ``f`` 1) only when both bodies are flat there: the smaller of the two.
+
+A face of half-width ``a`` along the slip reads ``rho = a^2 / delta``: it is flat (``f`` 1) when ``a^2 > 4 h delta``;
+a narrower face (a tall thin block sliding across its narrow side) reads as a rounded body, whose tipping moment
+nothing holds (the limit of a band of ``delta`` = 1.5 spacings).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .rigid_friction import FLAT_FROM, FLAT_TO
+
+#: The number of Fibonacci directions of a table (the rest-frame axes and the body's principal axes are added).
+N_DIRS = 256
+#: The band's depth in point spacings.
+BAND = 1.5
+
+
+def table_directions(X0: np.ndarray, n: int = N_DIRS) -> np.ndarray:
+    """``(n + 12, 3)`` unit directions: ``n`` on a Fibonacci sphere, the rest frame's six axes and the six of the
+    points' principal axes (a box's face normals wherever it was set down)."""
+    k = np.arange(n) + 0.5
+    z = 1.0 - 2.0 * k / n
+    phi = np.pi * (1.0 + 5.0 ** 0.5) * k
+    rxy = np.sqrt(1.0 - z * z)
+    fib = np.stack([rxy * np.cos(phi), rxy * np.sin(phi), z], axis=1)
+    X0 = np.asarray(X0, np.float64)
+    _, vecs = np.linalg.eigh(X0.T @ X0 if len(X0) else np.eye(3))
+    return np.concatenate([fib, np.eye(3), -np.eye(3), vecs.T, -vecs.T])
+
+
+def support_table(X0: np.ndarray, spacing: float, n: int = N_DIRS):
+    """A body's support table (module notes).
+
+    Parameters
+    ----------
+    X0 : ndarray, shape (k, 3)
+        The body's points about its mass centre in its rest frame, m.
+    spacing : float
+        The points' spacing, m (``p_vol ** (1/3)``).
+    n : int
+        The number of Fibonacci directions.
+
+    Returns
+    -------
+    dirs : ndarray, shape (n + 12, 3)
+        Unit directions in the rest frame.
+    h : ndarray, shape (n + 12,)
+        The support along each, m (the farthest point plus ``spacing / 2``).
+    cov : ndarray, shape (n + 12, 6)
+        The covariance (m^2; ``xx, xy, xz, yy, yz, zz``) of the points within ``BAND * spacing`` of the support plane.
+    delta : float
+        That band, m.
+    """
+    X0 = np.asarray(X0, np.float64)
+    dirs = table_directions(X0, n)
+    delta = BAND * float(spacing)
+    h = np.zeros(len(dirs))
+    cov = np.zeros((len(dirs), 6))
+    for i, d in enumerate(dirs):
+        q = X0 @ d
+        top = float(q.max())
+        near = X0[q >= top - delta]
+        r = near - near.mean(axis=0)
+        S = r.T @ r / len(near)
+        h[i] = top + 0.5 * spacing
+        cov[i] = S[0, 0], S[0, 1], S[0, 2], S[1, 1], S[1, 2], S[2, 2]
+    return dirs, h, cov, delta
+
+
+def body_flatness(table, R: np.ndarray, d_world: np.ndarray, t_world: np.ndarray) -> float:
+    """One body's flatness (module notes) towards the world direction ``d_world`` (unit, out of the body towards the
+    other) along the slip ``t_world`` (unit), the body at rotation ``R`` (3, 3); ``table`` :func:`support_table`'s."""
+    dirs, h, cov, delta = table
+    R = np.asarray(R, np.float64)
+    i = int(np.argmax(dirs @ (R.T @ np.asarray(d_world, np.float64))))
+    t = R.T @ np.asarray(t_world, np.float64)
+    c = cov[i]
+    S = np.array([[c[0], c[1], c[2]], [c[1], c[3], c[4]], [c[2], c[4], c[5]]])
+    rho = 3.0 * max(float(t @ S @ t), 0.0) / delta
+    return min(max((rho / h[i] - FLAT_FROM) / (FLAT_TO - FLAT_FROM), 0.0), 1.0)
+
+
+def pair_flatness(table_a, R_a, table_b, R_b, n, t) -> float:
+    """The flatness of a pair's contact: the smaller of body A's towards ``n`` (from A into B) and body B's towards
+    ``-n``, along the slip ``t``; 1.0 when either table is None (the law before round 65: a face on a face)."""
+    if table_a is None or table_b is None:
+        return 1.0
+    n = np.asarray(n, np.float64)
+    return min(body_flatness(table_a, R_a, n, t), body_flatness(table_b, R_b, -n, t))
