@@ -12,6 +12,7 @@ import warp as wp
 from gasp_core.mpm.rigid_friction import FLAT_FROM, FLAT_TO
 
 from .precision import MODULE_OPTIONS, build_types
+from .rigid_support import body_flat
 
 vec3d = wp.types.vector(3, wp.float64)
 FLAT_0 = wp.constant(wp.float64(FLAT_FROM))   # gasp_core.mpm.rigid_friction.contact_flatness's bounds
@@ -143,7 +144,9 @@ def build_rigid_pair(Ft):
     def rigid_pair(in_a: wp.array(dtype=wp.int32), mass: wp.array(dtype=wp.float64),
                    inertia0: wp.array(dtype=mat33d), centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d),
                    vel: wp.array(dtype=vec3d), spin: wp.array(dtype=vec3d), dt: wp.float64, dx: wp.float64,
-                   mu: wp.float64, acc: wp.array(dtype=wp.float64)):
+                   mu: wp.float64, acc: wp.array(dtype=wp.float64), t_dirs: wp.array(dtype=vec3d),
+                   t_h: wp.array(dtype=wp.float64), t_cov: wp.array(dtype=mat33d), t_delta: wp.array(dtype=wp.float64),
+                   nd: int):
         a = int(1)
         if in_a[0] != 0:
             a = 0
@@ -180,11 +183,29 @@ def build_rigid_pair(Ft):
                 sA = wp.dot(wp.cross(rA, t), n)   # the twist arms about n
                 sB = wp.dot(wp.cross(rB, t), n)
                 k = wp.float64(1.0) / MA + wp.float64(1.0) / MB + sA * sA / nIA + sB * sB / nIB
+                # round 65: a round body rolls (gasp_core.mpm.rigid_support.pair_flatness): (1 - f) of the tipping
+                # moment turns each body through its full inverse inertia, in k too; a face on a face (f 1) as before
+                f = wp.min(body_flat(t_dirs, t_h, t_cov, t_delta, nd, a, RA, n, t),
+                           body_flat(t_dirs, t_h, t_cov, t_delta, nd, b, RB, -n, t))
+                gA = vec3d()
+                gB = vec3d()
+                if f < wp.float64(1.0):
+                    extra = wp.float64(0.5) * dx * dx * wp.identity(3, wp.float64)
+                    tA = wp.cross(rA, t)
+                    tB = wp.cross(rB, t)
+                    gA = (wp.float64(1.0) - f) * (wp.inverse(RA * inertia0[a] * wp.transpose(RA) + MA * extra)
+                                                  * (tA - sA * n))
+                    gB = (wp.float64(1.0) - f) * (wp.inverse(RB * inertia0[b] * wp.transpose(RB) + MB * extra)
+                                                  * (tB - sB * n))
+                    k = k + (wp.dot(gA, tA) + wp.dot(gB, tB))
                 p = wp.min(lt / k, mu * P)   # stick when within mu P, else slide at mu P
                 VA = VA - (p / MA) * t
                 VB = VB + (p / MB) * t
                 wA = wA - (p * sA / nIA) * n
                 wB = wB + (p * sB / nIB) * n
+                if f < wp.float64(1.0):
+                    wA = wA - p * gA
+                    wB = wB + p * gB
             centre[a] = centre[a] + dt * (VA - vel[a])
             centre[b] = centre[b] + dt * (VB - vel[b])
             vel[a] = VA
