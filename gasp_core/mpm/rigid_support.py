@@ -82,12 +82,31 @@ def support_table(X0: np.ndarray, spacing: float, n: int = N_DIRS):
     return dirs, h, cov, delta
 
 
+def _row(table, R, d_world) -> int:
+    """The table's direction nearest to the world direction ``d_world`` for the body at rotation ``R``."""
+    return int(np.argmax(table[0] @ (np.asarray(R, np.float64).T @ np.asarray(d_world, np.float64))))
+
+
+def support(table, R, d_world) -> float:
+    """The body's support towards the world direction ``d_world`` (unit), m: its nearest table direction's."""
+    return float(table[1][_row(table, R, d_world)])
+
+
+def contact_plane(table_a, R_a, c_a, table_b, R_b, c_b, n) -> float:
+    """Where two touching bodies' surfaces meet along ``n`` (unit, from A into B), as ``n . x`` (m): midway between
+    A's support plane towards ``n`` and B's towards ``-n`` (``c_a``, ``c_b`` their mass centres, m). A round body
+    rolls on its surface: the lever of the friction's tipping moment reaches it (the touching nodes' centre, where
+    the pair law takes the contact, lay 2 mm (0.13 dx) above a ball's surface at n_grid 32)."""
+    n = np.asarray(n, np.float64)
+    return 0.5 * (float(np.dot(c_a, n)) + support(table_a, R_a, n) + float(np.dot(c_b, n)) - support(table_b, R_b, -n))
+
+
 def body_flatness(table, R: np.ndarray, d_world: np.ndarray, t_world: np.ndarray) -> float:
     """One body's flatness (module notes) towards the world direction ``d_world`` (unit, out of the body towards the
     other) along the slip ``t_world`` (unit), the body at rotation ``R`` (3, 3); ``table`` :func:`support_table`'s."""
     dirs, h, cov, delta = table
     R = np.asarray(R, np.float64)
-    i = int(np.argmax(dirs @ (R.T @ np.asarray(d_world, np.float64))))
+    i = _row(table, R, d_world)
     t = R.T @ np.asarray(t_world, np.float64)
     c = cov[i]
     S = np.array([[c[0], c[1], c[2]], [c[1], c[3], c[4]], [c[2], c[4], c[5]]])

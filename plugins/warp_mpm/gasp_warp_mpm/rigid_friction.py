@@ -12,7 +12,7 @@ import warp as wp
 from gasp_core.mpm.rigid_friction import FLAT_FROM, FLAT_TO
 
 from .precision import MODULE_OPTIONS, build_types
-from .rigid_support import body_flat
+from .rigid_support import body_flat, body_row
 
 vec3d = wp.types.vector(3, wp.float64)
 FLAT_0 = wp.constant(wp.float64(FLAT_FROM))   # gasp_core.mpm.rigid_friction.contact_flatness's bounds
@@ -178,16 +178,26 @@ def build_rigid_pair(Ft):
                 t = ut / lt
                 RA = rot[a]
                 RB = rot[b]
+                # round 65: a round body rolls (gasp_core.mpm.rigid_support.pair_flatness), on its surface
+                # (contact_plane): the contact point moved onto it, the slip taken there; f 1 as before
+                f = wp.min(body_flat(t_dirs, t_h, t_cov, t_delta, nd, a, RA, n, t),
+                           body_flat(t_dirs, t_h, t_cov, t_delta, nd, b, RB, -n, t))
+                if f < wp.float64(1.0):
+                    plane = wp.float64(0.5) * (wp.dot(centre[a], n) + t_h[body_row(t_dirs, nd, a, RA, n)]
+                                               + wp.dot(centre[b], n) - t_h[body_row(t_dirs, nd, b, RB, -n)])
+                    x_c = x_c + (plane - wp.dot(x_c, n)) * n
+                    rA = x_c - centre[a]
+                    rB = x_c - centre[b]
+                    u = VA + wp.cross(wA, rA) - VB - wp.cross(wB, rB)
+                    ut = u - wp.dot(u, n) * n
+                    lt = wp.length(ut)
+                    t = ut / wp.max(lt, wp.float64(1.0e-300))
                 nIA = wp.dot(n, RA * inertia0[a] * wp.transpose(RA) * n) + wp.float64(0.5) * dx * dx * MA
                 nIB = wp.dot(n, RB * inertia0[b] * wp.transpose(RB) * n) + wp.float64(0.5) * dx * dx * MB
                 sA = wp.dot(wp.cross(rA, t), n)   # the twist arms about n
                 sB = wp.dot(wp.cross(rB, t), n)
                 k = wp.float64(1.0) / MA + wp.float64(1.0) / MB + sA * sA / nIA + sB * sB / nIB
-                # round 65: a round body rolls (gasp_core.mpm.rigid_support.pair_flatness): (1 - f) of the tipping
-                # moment turns each body through its full inverse inertia, in k too; a face on a face (f 1) as before
-                f = wp.min(body_flat(t_dirs, t_h, t_cov, t_delta, nd, a, RA, n, t),
-                           body_flat(t_dirs, t_h, t_cov, t_delta, nd, b, RB, -n, t))
-                gA = vec3d()
+                gA = vec3d()   # (1 - f) of the tipping moment turns each body through its full inverse inertia
                 gB = vec3d()
                 if f < wp.float64(1.0):
                     extra = wp.float64(0.5) * dx * dx * wp.identity(3, wp.float64)

@@ -40,20 +40,27 @@ def support_arrays(setup, X0: np.ndarray, rigid: np.ndarray, device) -> tuple:
 
 
 @wp.func
+def body_row(dirs: wp.array(dtype=vec3d), nd: int, b: int, R: mat33d, d_world: vec3d):
+    # the row of body b's table direction nearest to d (gasp_core.mpm.rigid_support._row)
+    dl = wp.transpose(R) * d_world
+    best = int(0)
+    top = wp.float64(-2.0)
+    for i in range(nd):
+        c = wp.dot(dirs[b * nd + i], dl)
+        if c > top:
+            top = c
+            best = b * nd + i
+    return best
+
+
+@wp.func
 def body_flat(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), cov: wp.array(dtype=mat33d),
               delta: wp.array(dtype=wp.float64), nd: int, b: int, R: mat33d, d_world: vec3d, t_world: vec3d):
     # gasp_core.mpm.rigid_support.body_flatness: the nearest table direction to d (in the body's frame), the spread
     # of its band along the slip t, rho = 3 s^2 / delta against the support h
     f = wp.float64(1.0)
     if delta[b] > wp.float64(0.0):
-        dl = wp.transpose(R) * d_world
-        best = int(0)
-        top = wp.float64(-2.0)
-        for i in range(nd):
-            c = wp.dot(dirs[b * nd + i], dl)
-            if c > top:
-                top = c
-                best = b * nd + i
+        best = body_row(dirs, nd, b, R, d_world)
         tl = wp.transpose(R) * t_world
         rho = wp.float64(3.0) * wp.max(wp.dot(tl, cov[best] * tl), wp.float64(0.0)) / delta[b]
         f = wp.min(wp.max((rho / h[best] - FLAT_0) / FLAT_W, wp.float64(0.0)), wp.float64(1.0))
