@@ -66,30 +66,42 @@ def test_reference_catch_a_face_on_a_face_does_not_roll():
     assert wR == 0.0
 
 
-@pytest.mark.parametrize("dx", [0.015, 0.01])
+@pytest.mark.parametrize("dx", [0.02, 0.015, 0.01])
 def test_support_tables_tell_a_ball_from_a_face(dx):
-    """A lattice ball reads round (0) in every table direction; a 6 x 6 x 2 cell block's and the slab's broad faces
-    read flat (1) along either slip; the slab's narrow side along the vertical reads round (the band's limit,
-    ``rigid_support`` notes)."""
-    xb, pvb = sphere_points([0.0, 0.0, 0.0], 0.03, dx / 2)
-    tab = support_table(xb - xb.mean(0), pvb ** (1 / 3))
-    for d in tab[0]:
-        t = np.cross(d, [0.3, 0.5, 0.8])
-        assert body_flatness(tab, np.eye(3), d, t / np.linalg.norm(t)) == 0.0
-    for hi in ([0.09, 0.09, 0.03], [0.32, 0.16, 0.03]):
+    """A lattice ball (radius 3 and 4.5 cm, 1.5-4.5 cells) reads round (0) along its table's directions and two slips
+    each, on average below 0.01 and nowhere above 0.25, and 0 straight down; boxes (a 6 x 6
+    x 3 cm block, the slab) read flat (1) on every face along either slip, narrow sides too, and round across an
+    edge."""
+    for R in (0.03, 0.045):
+        xb, pvb = sphere_points([0.0, 0.0, 0.0], R, dx / 2)
+        tab = support_table(xb - xb.mean(0), pvb ** (1 / 3))
+        fs = []
+        for d in tab[0]:
+            for v in ([0.3, 0.5, 0.8], [0.9, -0.2, 0.1]):
+                t = np.cross(d, v)
+                fs.append(body_flatness(tab, np.eye(3), d, t / np.linalg.norm(t)))
+        # measured: 0-3 of the 536 read above 0, at most 0.14 (the lattice's facets)
+        assert np.mean(fs) < 0.01 and max(fs) < 0.25, (R, np.mean(fs), max(fs))
+        assert body_flatness(tab, np.eye(3), [0, 0, -1], [1, 0, 0]) == 0.0
+    for hi in ([0.06, 0.06, 0.03], [0.32, 0.16, 0.03]):
         xs, pvs = box_points([0.0, 0.0, 0.0], hi, dx / 2)
         tab = support_table(xs - xs.mean(0), pvs ** (1 / 3))
-        for d in ([0, 0, 1], [0, 0, -1]):
-            for t in ([1, 0, 0], [0, 1, 0]):
-                assert body_flatness(tab, np.eye(3), d, t) == 1.0
-        assert body_flatness(tab, np.eye(3), [1, 0, 0], [0, 0, 1]) == 0.0
+        for ax in range(3):
+            for sign in (1.0, -1.0):
+                d = sign * np.eye(3)[ax]
+                for t in np.eye(3)[[a for a in range(3) if a != ax]]:
+                    assert body_flatness(tab, np.eye(3), d, t) == 1.0, (hi, d, t)
+        edge = np.array([1.0, 0.0, 1.0]) / 2 ** 0.5
+        assert body_flatness(tab, np.eye(3), edge, [edge[2], 0.0, -edge[0]]) == 0.0
 
 
 def test_support_table_follows_the_pose():
-    """A block turned 90 degrees about x: its broad face now looks along y in the world, and reads flat there."""
+    """A block turned 90 degrees about x: its broad face now looks along -y in the world and reads flat there; its
+    edge between that face and its +x side reads round."""
     xs, pvs = box_points([0.0, 0.0, 0.0], [0.09, 0.09, 0.03], 0.0075)
     tab = support_table(xs - xs.mean(0), pvs ** (1 / 3))
     Rx = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
     assert body_flatness(tab, Rx, [0, -1, 0], [1, 0, 0]) == 1.0
-    assert body_flatness(tab, Rx, [0, 0, 1], [0, -1, 0]) == 0.0
+    edge = np.array([1.0, -1.0, 0.0]) / 2 ** 0.5
+    assert body_flatness(tab, Rx, edge, [edge[1], -edge[0], 0.0]) == 0.0
     assert pair_flatness(tab, Rx, None, np.eye(3), [0, 0, 1], [1, 0, 0]) == 1.0

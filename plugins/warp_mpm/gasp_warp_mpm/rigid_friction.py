@@ -145,7 +145,7 @@ def build_rigid_pair(Ft):
                    inertia0: wp.array(dtype=mat33d), centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d),
                    vel: wp.array(dtype=vec3d), spin: wp.array(dtype=vec3d), dt: wp.float64, dx: wp.float64,
                    mu: wp.float64, acc: wp.array(dtype=wp.float64), t_dirs: wp.array(dtype=vec3d),
-                   t_h: wp.array(dtype=wp.float64), t_cov: wp.array(dtype=mat33d), t_delta: wp.array(dtype=wp.float64),
+                   t_h: wp.array(dtype=wp.float64), t_curv: wp.array(dtype=mat33d), t_delta: wp.array(dtype=wp.float64),
                    nd: int):
         a = int(1)
         if in_a[0] != 0:
@@ -180,8 +180,8 @@ def build_rigid_pair(Ft):
                 RB = rot[b]
                 # round 65: a round body rolls (gasp_core.mpm.rigid_support.pair_flatness), on its surface
                 # (contact_plane): the contact point moved onto it, the slip taken there; f 1 as before
-                f = wp.min(body_flat(t_dirs, t_h, t_cov, t_delta, nd, a, RA, n, t),
-                           body_flat(t_dirs, t_h, t_cov, t_delta, nd, b, RB, -n, t))
+                f = wp.min(body_flat(t_dirs, t_h, t_curv, t_delta, nd, a, RA, n, t),
+                           body_flat(t_dirs, t_h, t_curv, t_delta, nd, b, RB, -n, t))
                 if f < wp.float64(1.0):
                     plane = wp.float64(0.5) * (wp.dot(centre[a], n) + t_h[body_row(t_dirs, nd, a, RA, n)]
                                                + wp.dot(centre[b], n) - t_h[body_row(t_dirs, nd, b, RB, -n)])
