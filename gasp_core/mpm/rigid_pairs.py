@@ -76,6 +76,32 @@ def pair_data(setup) -> tuple:
     return body_boxes(setup), pair_frictions(setup), rc
 
 
+def support_data(setup):
+    """``(dirs, h, curv, delta, nd)``: every rigid body's support table (round 65,
+    ``gasp_core.mpm.rigid_support.support_table``, of its points with mass; spacing ``p_vol ** (1/3)``), body ``b``'s
+    rows ``b * nd`` to ``(b + 1) * nd``: directions (n, 3), supports (n,) m, curvature tensors (n, 3, 3) 1/m, and the
+    band per body (m; 0: no table, its contacts taken as a face's). None with fewer than two rigid bodies."""
+    from gasp_core.mpm.rigid import body_frames, rigid_mask
+    from gasp_core.mpm.rigid_support import support_table, table_directions
+    rigid = rigid_mask(setup.materials)
+    if rigid.sum() < 2:
+        return None
+    n = len(setup.x)
+    body = np.broadcast_to(np.asarray(setup.body_id), (n,))
+    vol = np.broadcast_to(np.asarray(setup.p_vol, np.float64), (n,))
+    mass = np.broadcast_to(np.asarray(setup.p_mass, np.float64), (n,))
+    X0 = body_frames(setup.x, mass, body, rigid)[1]
+    nb, nd = len(rigid), len(table_directions(np.zeros((1, 3))))
+    dirs, h, curv, delta = np.zeros((nb * nd, 3)), np.ones(nb * nd), np.zeros((nb * nd, 3, 3)), np.zeros(nb)
+    for b in np.flatnonzero(rigid):
+        sel = (body == b) & (mass > 0.0)
+        if sel.any():
+            D, H, C, delta[b] = support_table(X0[sel], float(np.mean(vol[sel])) ** (1.0 / 3.0))
+            rows = slice(b * nd, (b + 1) * nd)
+            dirs[rows], h[rows], curv[rows] = D, H, C[:, [0, 1, 2, 1, 3, 4, 2, 4, 5]].reshape(-1, 3, 3)
+    return dirs, h, curv, delta, nd
+
+
 def body_boxes(setup) -> np.ndarray:
     """Each rigid body's box in its frame at the start: its material points' extent about its mass centre (m), shape
     (n_bodies, 2, 3) (lower, upper; an empty box, lower > upper, for the others)."""

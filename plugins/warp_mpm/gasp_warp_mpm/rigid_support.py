@@ -17,27 +17,14 @@ FLAT_0 = wp.constant(wp.float64(FLAT_FROM))
 FLAT_W = wp.constant(wp.float64(FLAT_TO - FLAT_FROM))
 
 
-def support_arrays(setup, X0: np.ndarray, rigid: np.ndarray, device) -> tuple:
-    """``(dirs, h, curv, delta, nd)``: every rigid body's ``gasp_core.mpm.rigid_support.support_table`` of its points
-    with mass (``X0`` (n, 3) m, setup order; spacing ``p_vol ** (1/3)``), body ``b``'s rows ``b * nd`` to
-    ``(b + 1) * nd``, as Warp arrays (vec3d, float64, mat33d, float64 per body; ``delta`` 0: no table, a face)."""
-    from gasp_core.mpm.rigid_support import support_table, table_directions
-    n = len(X0)
-    body = np.broadcast_to(np.asarray(setup.body_id), (n,))
-    vol = np.broadcast_to(np.asarray(setup.p_vol, np.float64), (n,))
-    mass = np.broadcast_to(np.asarray(setup.p_mass, np.float64), (n,))
-    nb, nd = len(rigid), len(table_directions(np.zeros((1, 3))))
-    dirs, h, curv, delta = np.zeros((nb * nd, 3)), np.ones(nb * nd), np.zeros((nb * nd, 3, 3)), np.zeros(nb)
-    for b in np.flatnonzero(rigid):
-        sel = (body == b) & (mass > 0.0)
-        if not sel.any():
-            continue
-        D, H, C, delta[b] = support_table(X0[sel], float(np.mean(vol[sel])) ** (1.0 / 3.0))
-        rows = slice(b * nd, (b + 1) * nd)
-        dirs[rows], h[rows] = D, H
-        curv[rows] = C[:, [0, 1, 2, 1, 3, 4, 2, 4, 5]].reshape(-1, 3, 3)
+def support_arrays(data, device) -> tuple:
+    """``gasp_core.mpm.rigid_pairs.support_data``'s tables as Warp arrays (vec3d, float64, mat33d, float64 per body)
+    and ``nd``; ``data`` None: one empty row (every contact a face's)."""
+    if data is None:
+        data = (np.zeros((1, 3)), np.ones(1), np.zeros((1, 3, 3)), np.zeros(1), 0)
+    dirs, h, curv, delta, nd = data
     return (wp.array(dirs, dtype=vec3d, device=device), wp.array(h, dtype=wp.float64, device=device),
-            wp.array(curv, dtype=mat33d, device=device), wp.array(delta, dtype=wp.float64, device=device), nd)
+            wp.array(curv, dtype=mat33d, device=device), wp.array(delta, dtype=wp.float64, device=device), int(nd))
 
 
 @wp.func
