@@ -32,11 +32,14 @@ class RigidPairs:
         self.pair_seen = ti.field(ti.i32, shape=ns)
         self.pair_sweeps = int(SWEEPS)
         self.pair_pad = float(NODE_PAD)
+        self.set_support(None)   # round 65's tables: none until set_pairs
 
-    def set_pairs(self, boxes, mus, collider=None) -> None:
+    def set_pairs(self, boxes, mus, collider=None, support=None) -> None:
         """Each rigid body's box (``rigid_pairs.body_boxes``, shape (n_bodies, 2, 3), m) and each slot's ``mu``
-        (``pair_frictions``); nothing unless ``pair_many``. ``collider``: round 63's (rigid_collider.py)."""
+        (``pair_frictions``); nothing unless ``pair_many``. ``collider``: round 63's (rigid_collider.py); ``support``
+        round 65's tables (``rigid_pairs.support_data``, ``RigidFriction.set_support``)."""
         self.allocate_collider(collider)
+        self.set_support(support)
         if self.pair_many:
             self.pair_box.from_numpy(np.asarray(boxes, np.float64).reshape(-1, 3))
             self.pair_mu.from_numpy(np.asarray(mus, np.float64))
