@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from gasp_core.mpm.rigid_friction import pair_contact
+from gasp_core.mpm.rigid_pairs import solve_pairs
 from gasp_core.mpm.rigid_support import body_flatness, contact_plane, pair_flatness, support_table
 from gasp_core.testing.helpers import box_points, sphere_points
 
@@ -26,9 +27,9 @@ def _inertia(X: np.ndarray, m: float) -> np.ndarray:
     return m * (np.sum(X * X) * np.eye(3) - X.T @ X) / len(X)
 
 
-def thrown_ball(R: float, dx: float, mu: float, flat=None, T: float = 0.3, dt: float = 1e-4):
+def thrown_ball(R: float, dx: float, mu: float, flat=None, T: float = 0.3, dt: float = 1e-4, many: bool = False):
     """``(v, w R)`` after ``T`` s and their closed form ``(v, w R)`` (module notes), m/s; ``flat`` forces the pair's
-    flatness (None: the tables')."""
+    flatness (None: the tables'); ``many``: the pair through ``rigid_pairs.solve_pairs`` (8 sweeps)."""
     xb, pvb = sphere_points([0.0, 0.0, 0.0], R, dx / 2)
     xb = xb - xb.mean(0)
     xs, pvs = box_points([-0.12, -0.08, 0.0], [0.20, 0.08, 0.03], dx / 2)
@@ -46,7 +47,11 @@ def thrown_ball(R: float, dx: float, mu: float, flat=None, T: float = 0.3, dt: f
     for _ in range(round(T / dt)):
         VA, VB = VA + dt * g, VB + dt * g
         VB[2] = max(VB[2], 0.0)   # the frictionless ground
-        (VA, wA), (VB, wB), _ = pair_contact((VA, wA, IA, m, cA), (VB, wB, IB, M, cB), x_c, n, mu, flat, plane)
+        if many:
+            [(VA, wA), (VB, wB)], _ = solve_pairs([(VA, wA, IA, m, cA), (VB, wB, IB, M, cB)],
+                                                  [(0, 1, x_c, n, mu, flat, plane)], g)
+        else:
+            (VA, wA), (VB, wB), _ = pair_contact((VA, wA, IA, m, cA), (VB, wB, IB, M, cB), x_c, n, mu, flat, plane)
         VB[2] = max(VB[2], 0.0)
     J = 0.5 / (1.0 / m + 1.0 / M + Rc * Rc / IA[1, 1])
     return (VA[0], wA[1] * Rc), (0.5 - J / m, J * Rc * Rc / IA[1, 1])
@@ -57,6 +62,16 @@ def thrown_ball(R: float, dx: float, mu: float, flat=None, T: float = 0.3, dt: f
 def test_reference_ball_thrown_sliding_rolls(R, dx, mu):
     (v, wR), (v_c, wR_c) = thrown_ball(R, dx, mu)
     assert abs(v / v_c - 1.0) < TOL and abs(wR / wR_c - 1.0) < TOL, (v, wR, v_c, wR_c)
+
+
+@pytest.mark.parametrize("R", [0.03, 0.045])
+def test_reference_many_body_solve_rolls_the_ball(R):
+    """The same through the many-body solve (``rigid_pairs.solve_pairs``): its faces' hold of the relative tipping
+    spin is gated by the flatness, so the ball spins up and rolls on; forced to 1 it never spins."""
+    (v, wR), (v_c, wR_c) = thrown_ball(R, 0.015, 0.5, T=0.1, dt=2e-4, many=True)
+    assert abs(v / v_c - 1.0) < TOL and abs(wR / wR_c - 1.0) < TOL, (v, wR, v_c, wR_c)
+    (v, wR), _ = thrown_ball(R, 0.015, 0.5, flat=1.0, T=0.1, dt=2e-4, many=True)
+    assert wR == 0.0 and abs(v / v_c - 1.0) > TOL, (v, wR)
 
 
 def test_reference_catch_a_face_on_a_face_does_not_roll():
