@@ -12,6 +12,7 @@ import numpy as np
 import warp as wp
 
 from .precision import MODULE_OPTIONS, build_types
+from .rigid_support import roll_flat, roll_point
 
 vec3d = wp.types.vector(3, wp.float64)
 mat33d = wp.types.matrix((3, 3), wp.float64)
@@ -68,7 +69,9 @@ def build_pair_update(Ft):
     def pair_update(s: int, nb: int, half: wp.float64, mass: wp.array(dtype=wp.float64),
                     inertia0: wp.array(dtype=mat33d), centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d),
                     vel: wp.array(dtype=vec3d), spin: wp.array(dtype=vec3d), mu: wp.array(dtype=wp.float64),
-                    acc: wp.array(dtype=wp.float64), lam: wp.array(dtype=wp.float64)):
+                    acc: wp.array(dtype=wp.float64), lam: wp.array(dtype=wp.float64), t_dirs: wp.array(dtype=vec3d),
+                    t_h: wp.array(dtype=wp.float64), t_curv: wp.array(dtype=mat33d),
+                    t_delta: wp.array(dtype=wp.float64), nd: int):
         a = s / nb
         b = s - a * nb
         n = vec3d(acc[7 * s + 4], acc[7 * s + 5], acc[7 * s + 6])
@@ -89,6 +92,15 @@ def build_pair_update(Ft):
             u = vel[a] + wp.cross(spin[a], rA) - vel[b] - wp.cross(spin[b], rB)
             ut = u - wp.dot(u, n) * n
             lt = wp.length(ut)
+            # round 65: a round body rolls (rigid_pairs._pair_update's flat and plane)
+            f = roll_flat(t_dirs, t_h, t_curv, t_delta, nd, a, b, rot[a], rot[b], n, ut, lt, spin[a] - spin[b])
+            if f < wp.float64(1.0):
+                x_c = roll_point(t_dirs, t_h, nd, a, b, rot[a], rot[b], centre[a], centre[b], n, x_c)
+                rA = x_c - centre[a]
+                rB = x_c - centre[b]
+                u = vel[a] + wp.cross(spin[a], rA) - vel[b] - wp.cross(spin[b], rB)
+                ut = u - wp.dot(u, n) * n
+                lt = wp.length(ut)
             eye = wp.identity(n=3, dtype=wp.float64)
             IA = rot[a] * inertia0[a] * wp.transpose(rot[a]) + half * MA * eye
             IB = rot[b] * inertia0[b] * wp.transpose(rot[b]) + half * MB * eye
@@ -101,7 +113,13 @@ def build_pair_update(Ft):
                 t = ut / lt
                 sA = wp.dot(wp.cross(rA, t), n)   # the twist arms about n
                 sB = wp.dot(wp.cross(rB, t), n)
-                J = J + (lt / (wp.float64(1.0) / MA + wp.float64(1.0) / MB + sA * sA / nIA + sB * sB / nIB)) * t
+                k = wp.float64(1.0) / MA + wp.float64(1.0) / MB + sA * sA / nIA + sB * sB / nIB
+                if f < wp.float64(1.0):   # (1 - f) of the tipping moment turns each body: in the effective mass
+                    tA = wp.cross(rA, t)
+                    tB = wp.cross(rB, t)
+                    k = k + (wp.float64(1.0) - f) * (wp.dot(tA, wp.inverse(IA) * (tA - wp.dot(tA, n) * n))
+                                                     + wp.dot(tB, wp.inverse(IB) * (tB - wp.dot(tB, n) * n)))
+                J = J + (lt / k) * t
             lJ = wp.length(J)
             if lJ > m_s * P:   # Coulomb's disk of the pair's normal impulse: stick within, else slide on it
                 J = J * (wp.max(m_s, wp.float64(0.0)) * P / lJ)
@@ -113,11 +131,18 @@ def build_pair_update(Ft):
             vel[b] = vel[b] + dJ / MB
             spin[a] = spin[a] - (wp.dot(wp.cross(rA, dJ), n) / nIA) * n
             spin[b] = spin[b] + (wp.dot(wp.cross(rB, dJ), n) / nIB) * n
-            if P > wp.float64(0.0):   # the faces hold the relative tipping spin (rigid_pairs._pair_update)
-                iA = wp.inverse(IA)
-                iB = wp.inverse(IB)
+            iA = wp.inverse(IA)
+            iB = wp.inverse(IB)
+            if f < wp.float64(1.0):
+                hA = wp.cross(rA, dJ)
+                hB = wp.cross(rB, dJ)
+                spin[a] = spin[a] - (wp.float64(1.0) - f) * (iA * (hA - wp.dot(hA, n) * n))
+                spin[b] = spin[b] + (wp.float64(1.0) - f) * (iB * (hB - wp.dot(hB, n) * n))
+            if P > wp.float64(0.0):   # the faces hold (f of) the relative tipping spin (rigid_pairs._pair_update)
                 dw = spin[a] - spin[b]
                 L = wp.inverse(iA + iB) * (dw - wp.dot(dw, n) * n)
+                if f < wp.float64(1.0):
+                    L = f * L
                 spin[a] = spin[a] - iA * L
                 spin[b] = spin[b] + iB * L
 
@@ -145,7 +170,9 @@ def build_rigid_pairs(Ft):
                     spin: wp.array(dtype=vec3d), V0: wp.array(dtype=vec3d), dt: wp.float64, dx: wp.float64, nb: int,
                     mu: wp.array(dtype=wp.float64), acc: wp.array(dtype=wp.float64), lam: wp.array(dtype=wp.float64),
                     order: wp.array(dtype=wp.int32), gravity: vec3d, sweeps: int, slots: wp.array(dtype=wp.int32),
-                    count: wp.array(dtype=wp.int32), seen: wp.array(dtype=wp.int32)):
+                    count: wp.array(dtype=wp.int32), seen: wp.array(dtype=wp.int32), t_dirs: wp.array(dtype=vec3d),
+                    t_h: wp.array(dtype=wp.float64), t_curv: wp.array(dtype=mat33d),
+                    t_delta: wp.array(dtype=wp.float64), nd: int):
         n_on = count[0]
         for q in range(n_on):   # the touching pairs, insertion-sorted by (-g . x_c, slot): bottom up, ties by slot
             s = slots[q]
@@ -163,7 +190,8 @@ def build_rigid_pairs(Ft):
         half = wp.float64(0.5) * dx * dx
         for _sweep in range(sweeps):
             for q in range(n_on):
-                pair_update(order[q], nb, half, mass, inertia0, centre, rot, vel, spin, mu, acc, lam)
+                pair_update(order[q], nb, half, mass, inertia0, centre, rot, vel, spin, mu, acc, lam, t_dirs, t_h,
+                            t_curv, t_delta, nd)
         for b in range(nb):
             centre[b] = centre[b] + dt * (vel[b] - V0[b])
         for q in range(n_on):   # the touching slots back to zero for the next substep
@@ -212,9 +240,13 @@ def slot_inputs(eng) -> list:
 
 
 def pairs_launch(eng, Ft):
-    """The recorded launch of ``rigid_pairs`` (``eng.pair`` 2), after the rigid update."""
-    from gasp_core.mpm.rigid_pairs import SWEEPS
+    """The recorded launch of ``rigid_pairs`` (``eng.pair`` 2), after the rigid update, with round 65's support tables
+    (``eng.rb_tables``)."""
+    from gasp_core.mpm.rigid_pairs import SWEEPS, support_data
+    from .rigid_support import support_arrays
+    eng.rb_tables = support_arrays(support_data(eng.setup), eng.device)
     return wp.launch(build_rigid_pairs(Ft), dim=1, device=eng.device, record_cmd=True, inputs=[
         eng.rb_M, eng.rb_I0, eng.rb_c, eng.rb_R, eng.rb_V, eng.rb_w, eng.pair_V0, float(eng.dt), float(eng.dx),
         len(eng.setup.materials), eng.pair_mu, eng.pair_acc, eng.pair_lam, eng.pair_order,
-        vec3d(*[float(g) for g in eng.setup.gravity]), int(SWEEPS), eng.pair_slots, eng.pair_n, eng.pair_seen])
+        vec3d(*[float(g) for g in eng.setup.gravity]), int(SWEEPS), eng.pair_slots, eng.pair_n, eng.pair_seen,
+        *eng.rb_tables])

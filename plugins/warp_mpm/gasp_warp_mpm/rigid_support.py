@@ -54,3 +54,29 @@ def body_flat(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), curv: 
         if kh * (FLAT_0 + FLAT_W) > wp.float64(1.0):
             f = wp.min(wp.max((wp.float64(1.0) / kh - FLAT_0) / FLAT_W, wp.float64(0.0)), wp.float64(1.0))
     return f
+
+
+@wp.func
+def roll_flat(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), curv: wp.array(dtype=mat33d),
+              delta: wp.array(dtype=wp.float64), nd: int, a: int, b: int, RA: mat33d, RB: mat33d, n: vec3d,
+              ut: vec3d, lt: wp.float64, dw: vec3d):
+    # gasp_core.mpm.rigid_pairs._roll_flatness: the pair's flatness along the slip ut, or without slip along the
+    # bodies' relative rolling (dw x n); 1 with neither
+    f = wp.float64(1.0)
+    roll = wp.cross(dw - wp.dot(dw, n) * n, n)
+    lr = wp.length(roll)
+    if lt > wp.float64(0.0) or lr > wp.float64(0.0):
+        t = roll / wp.max(lr, wp.float64(1.0e-300))
+        if lt > wp.float64(0.0):
+            t = ut / lt
+        f = wp.min(body_flat(dirs, h, curv, delta, nd, a, RA, n, t), body_flat(dirs, h, curv, delta, nd, b, RB, -n, t))
+    return f
+
+
+@wp.func
+def roll_point(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), nd: int, a: int, b: int, RA: mat33d,
+               RB: mat33d, cA: vec3d, cB: vec3d, n: vec3d, x_c: vec3d):
+    # gasp_core.mpm.rigid_support.contact_plane: the contact point moved along n onto where the surfaces meet
+    plane = wp.float64(0.5) * (wp.dot(cA, n) + h[body_row(dirs, nd, a, RA, n)] + wp.dot(cB, n)
+                               - h[body_row(dirs, nd, b, RB, -n)])
+    return x_c + (plane - wp.dot(x_c, n)) * n
