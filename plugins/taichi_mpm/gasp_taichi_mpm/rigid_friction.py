@@ -138,6 +138,28 @@ class RigidFriction:
         self.rb_deep[b] = 0.0
         return Vo, wo
 
+    @ti.func
+    def roll_flat(self, a, b, RA, RB, n, ut, lt, dw):
+        """``gasp_core.mpm.rigid_pairs._roll_flatness``: the pair's flatness along the slip ``ut`` (``lt`` its length)
+        or, without slip, along the bodies' relative rolling ``dw x n``; 1 with neither."""
+        f = ti.cast(1.0, ti.f64)
+        roll = (dw - dw.dot(n) * n).cross(n)
+        lr = roll.norm()
+        if lt > 0.0 or lr > 0.0:
+            t = roll / ti.max(lr, 1.0e-300)
+            if lt > 0.0:
+                t = ut / lt
+            f = ti.min(self.body_flat(a, RA, n, t), self.body_flat(b, RB, -n, t))
+        return f
+
+    @ti.func
+    def roll_point(self, a, b, RA, RB, n, x_c):
+        """``x_c`` moved along ``n`` onto where the bodies' surfaces meet (``gasp_core.mpm.rigid_support.
+        contact_plane``)."""
+        plane = 0.5 * (self.rb_c[a].dot(n) + self.sup_h[self.body_row(a, RA, n)]
+                       + self.rb_c[b].dot(n) - self.sup_h[self.body_row(b, RB, -n)])
+        return x_c + (plane - x_c.dot(n)) * n
+
     @ti.kernel
     def rigid_pair(self):
         """The contact of two rigid bodies as one, by force balance (issue 67 item 4;

@@ -133,7 +133,7 @@ class RigidPairs:
     @ti.func
     def pair_update(self, s, nb, half):
         """One pair's update within a sweep (``rigid_pairs._pair_update``): slot ``s``'s normal impulse kept >= 0,
-        its friction impulse within ``mu`` times it (the disk)."""
+        its friction impulse within ``mu`` times it (the disk); round 65: a round body rolls (``roll_flat``)."""
         a = s // nb
         b = s - a * nb
         n = ti.Vector([self.pair_acc[7 * s + 4], self.pair_acc[7 * s + 5], self.pair_acc[7 * s + 6]])
@@ -153,6 +153,16 @@ class RigidPairs:
             ut = u - u.dot(n) * n
             lt = ut.norm()
             RA, RB = self.rb_R[a], self.rb_R[b]
+            f = self.roll_flat(a, b, RA, RB, n, ut, lt, self.rb_w[a] - self.rb_w[b])   # round 65: a round body rolls
+            if f < 1.0:
+                x_c = self.roll_point(a, b, RA, RB, n, x_c)
+                rA, rB = x_c - self.rb_c[a], x_c - self.rb_c[b]
+                u = self.rb_V[a] + self.rb_w[a].cross(rA) - self.rb_V[b] - self.rb_w[b].cross(rB)
+                ut = u - u.dot(n) * n
+                lt = ut.norm()
+            eye = ti.Matrix.identity(ti.f64, 3)
+            iA = (RA @ self.rb_I0[a] @ RA.transpose() + half * MA * eye).inverse()
+            iB = (RB @ self.rb_I0[b] @ RB.transpose() + half * MB * eye).inverse()
             nIA = n.dot(RA @ self.rb_I0[a] @ RA.transpose() @ n) + half * MA
             nIB = n.dot(RB @ self.rb_I0[b] @ RB.transpose() @ n) + half * MB
             J0 = ti.Vector([self.pair_lam[4 * s + 1], self.pair_lam[4 * s + 2], self.pair_lam[4 * s + 3]])
@@ -161,7 +171,11 @@ class RigidPairs:
             if mu > 0.0 and lt > 0.0 and P > 0.0:
                 t = ut / lt
                 sA, sB = rA.cross(t).dot(n), rB.cross(t).dot(n)   # the twist arms about n
-                J = J + (lt / (1.0 / MA + 1.0 / MB + sA * sA / nIA + sB * sB / nIB)) * t
+                k = 1.0 / MA + 1.0 / MB + sA * sA / nIA + sB * sB / nIB
+                if f < 1.0:   # (1 - f) of the tipping moment turns each body: in the effective mass
+                    tA, tB = rA.cross(t), rB.cross(t)
+                    k = k + (1.0 - f) * (tA.dot(iA @ (tA - tA.dot(n) * n)) + tB.dot(iB @ (tB - tB.dot(n) * n)))
+                J = J + (lt / k) * t
             lJ = J.norm()
             if lJ > mu * P:   # Coulomb's disk of the pair's normal impulse: stick within, else slide on it
                 J = J * (ti.max(mu, 0.0) * P / lJ)
@@ -172,11 +186,14 @@ class RigidPairs:
             self.rb_V[b] += dJ / MB
             self.rb_w[a] -= (rA.cross(dJ).dot(n) / nIA) * n
             self.rb_w[b] += (rB.cross(dJ).dot(n) / nIB) * n
-            if P > 0.0:   # the faces hold the relative tipping spin (rigid_pairs._pair_update)
-                eye = ti.Matrix.identity(ti.f64, 3)
-                iA = (RA @ self.rb_I0[a] @ RA.transpose() + half * MA * eye).inverse()
-                iB = (RB @ self.rb_I0[b] @ RB.transpose() + half * MB * eye).inverse()
+            if f < 1.0:
+                hA, hB = rA.cross(dJ), rB.cross(dJ)
+                self.rb_w[a] -= (1.0 - f) * (iA @ (hA - hA.dot(n) * n))
+                self.rb_w[b] += (1.0 - f) * (iB @ (hB - hB.dot(n) * n))
+            if P > 0.0:   # the faces hold (f of) the relative tipping spin (rigid_pairs._pair_update)
                 dw = self.rb_w[a] - self.rb_w[b]
                 L = (iA + iB).inverse() @ (dw - dw.dot(n) * n)
+                if f < 1.0:
+                    L = f * L
                 self.rb_w[a] -= iA @ L
                 self.rb_w[b] += iB @ L
