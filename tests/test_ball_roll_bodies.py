@@ -11,6 +11,8 @@ n_grid 32, ball radius 3 cm, frames of 1/240 s), against Newton and Coulomb:
   tipping moment as a face's), the ball stopped on the slab (0.477 -> 0.034 m/s in 0.1 s) as a block would. Now
   passing on both engines, for R 3 and 4.5 cm, n_grid 32 and 48, two bodies and three (a block on the slab's far
   end: the many-body solve); the catch: the support tables taken away (every contact a face's) fails it.
+- **down a rigid slab tilted 20 degrees** (``ball_slope_rigid.py``): the ball rolls at ``g sin / (1 + I / (m R^2))``,
+  a block slides at ``g (sin - mu cos)`` and does not tip; before round 65 the ball stuck.
 - **rolling on a jelly slab** (E 1e5 Pa), frictionless: a frictionless contact's forces pass through a ball's
   centre, so its spin stays; measured 0.27 -> -0.01 m/s of ``w R`` in 0.2 s (the rigid collider's normals are the
   slab's, at band nodes the ball's surface does not reach).
@@ -33,6 +35,7 @@ from gasp_testing import needs_package
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks" / "studies"))
 from ball_roll_soft import measure_roll, roll_setup  # noqa: E402
+from ball_slope_rigid import measure_slope  # noqa: E402
 
 TOL = 0.05
 RADIUS = 0.03   # the ball's (ball_roll_soft.roll_setup's default)
@@ -115,6 +118,31 @@ def test_the_rolling_check_catches_a_face_on_a_face(engine, block, monkeypatch):
         monkeypatch.setattr(te, "support_data", lambda setup: None)
     r, v, wR = _thrown(engine, 32, RADIUS, block)
     assert not _rolls(r, v, wR) and abs(r["spin"][1]) < 0.01, r
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("engine,n_grid,body,R", [
+    ("warp_mpm", 32, "ball", 0.03), ("warp_mpm", 32, "ball", 0.045), ("warp_mpm", 48, "ball", 0.03),
+    ("warp_mpm", 48, "ball", 0.045), ("warp_mpm", 32, "block", 0.0), ("warp_mpm", 48, "block", 0.0),
+    ("taichi_mpm", 32, "ball", 0.03), ("taichi_mpm", 32, "block", 0.0)])
+def test_down_a_tilted_rigid_slab_a_ball_rolls_and_a_block_slides(engine, n_grid, body, R):
+    """``benchmarks/studies/ball_slope_rigid.py``: 20 degrees; the ball (mu 0.5) rolls at ``g sin / (1 + I / (m
+    R^2))`` (the engines' own ``I``; 5/7 g sin for 0.4 m R^2), the block (mu 0.3) slides at ``g (sin - mu cos)``
+    without tipping (its spin under 0.01 rad/s); the slab stays (under 1 mm/s). Before round 65 the ball stuck (a 0)."""
+    _engine(engine)
+    r = measure_slope(engine, n_grid, body, R, 20.0, 0.5 if body == "ball" else 0.3)
+    assert abs(r["a"] / r["closed"] - 1.0) < TOL and abs(r["slab"]) < 1e-3, r
+    assert body == "ball" or abs(r["spin"]) < 0.01, r
+
+
+@pytest.mark.slow
+def test_the_slope_check_catches_a_face_on_a_face(monkeypatch):
+    """The catch: without the support tables (every contact a face's) the ball does not roll down (it sticks)."""
+    import gasp_core.mpm.rigid_pairs as rp
+    _engine("warp_mpm")
+    monkeypatch.setattr(rp, "support_data", lambda setup: None)
+    r = measure_slope("warp_mpm", 32, "ball", 0.03, 20.0, 0.5)
+    assert not abs(r["a"] / r["closed"] - 1.0) < TOL, r
 
 
 @pytest.mark.slow
