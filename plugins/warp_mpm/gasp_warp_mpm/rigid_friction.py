@@ -12,7 +12,7 @@ import warp as wp
 from gasp_core.mpm.rigid_friction import FLAT_FROM, FLAT_TO
 
 from .precision import MODULE_OPTIONS, build_types
-from .rigid_support import body_flat, body_row
+from .rigid_support import body_inv, roll_flat, roll_point, slip_at, tip
 
 vec3d = wp.types.vector(3, wp.float64)
 FLAT_0 = wp.constant(wp.float64(FLAT_FROM))   # gasp_core.mpm.rigid_friction.contact_flatness's bounds
@@ -133,12 +133,9 @@ def build_rigid_contact(Ft):
 
 @functools.cache
 def build_rigid_pair(Ft):
-    """``rigid_pair`` (float64 whatever ``Ft``): the contact of two rigid bodies as one, by force balance (issue 67
-    item 4; the NumPy reference is ``gasp_core.mpm.rigid_friction.pair_contact``, taichi_mpm's ``RigidFriction.pair_contact`` the same steps),
-    one thread after ``rigid_update``: the touching nodes' sums ``acc`` (``fields.field_contact``: sum m_red,
-    sum m_red x, sum m_red n) give the contact's centre and normal; the mass centres' approach along it is removed
-    through the centres, then Coulomb's friction of that impulse at the centre; the centres' advance of the substep
-    follows the new velocities. ``acc`` is cleared."""
+    """``rigid_pair`` (float64; ``gasp_core.mpm.rigid_friction.pair_contact``, taichi_mpm's ``rigid_pair``), one thread
+    after ``rigid_update``: the contact from the nodes' sums ``acc`` (cleared), the approach removed through the
+    centres, Coulomb's friction (round 65: a round body rolls, the support tables ``t_*``); the centres advance."""
 
     @wp.kernel(enable_backward=False, module="unique", module_options=MODULE_OPTIONS)
     def rigid_pair(in_a: wp.array(dtype=wp.int32), mass: wp.array(dtype=wp.float64),
@@ -178,18 +175,12 @@ def build_rigid_pair(Ft):
                 t = ut / lt
                 RA = rot[a]
                 RB = rot[b]
-                # round 65: a round body rolls (gasp_core.mpm.rigid_support.pair_flatness), on its surface
+                # round 65: a round body rolls (gasp_core.mpm.rigid_support.pair_flatness) on its surface
                 # (contact_plane): the contact point moved onto it, the slip taken there; f 1 as before
-                f = wp.min(body_flat(t_dirs, t_h, t_curv, t_delta, nd, a, RA, n, t),
-                           body_flat(t_dirs, t_h, t_curv, t_delta, nd, b, RB, -n, t))
+                f = roll_flat(t_dirs, t_h, t_curv, t_delta, nd, a, b, RA, RB, n, ut, lt, vec3d())
                 if f < wp.float64(1.0):
-                    plane = wp.float64(0.5) * (wp.dot(centre[a], n) + t_h[body_row(t_dirs, nd, a, RA, n)]
-                                               + wp.dot(centre[b], n) - t_h[body_row(t_dirs, nd, b, RB, -n)])
-                    x_c = x_c + (plane - wp.dot(x_c, n)) * n
-                    rA = x_c - centre[a]
-                    rB = x_c - centre[b]
-                    u = VA + wp.cross(wA, rA) - VB - wp.cross(wB, rB)
-                    ut = u - wp.dot(u, n) * n
+                    x_c = roll_point(t_dirs, t_h, nd, a, b, RA, RB, centre[a], centre[b], n, x_c)
+                    rA, rB, ut = slip_at(x_c, VA, wA, centre[a], VB, wB, centre[b], n)
                     lt = wp.length(ut)
                     t = ut / wp.max(lt, wp.float64(1.0e-300))
                 nIA = wp.dot(n, RA * inertia0[a] * wp.transpose(RA) * n) + wp.float64(0.5) * dx * dx * MA
@@ -200,14 +191,9 @@ def build_rigid_pair(Ft):
                 gA = vec3d()   # (1 - f) of the tipping moment turns each body through its full inverse inertia
                 gB = vec3d()
                 if f < wp.float64(1.0):
-                    extra = wp.float64(0.5) * dx * dx * wp.identity(3, wp.float64)
-                    tA = wp.cross(rA, t)
-                    tB = wp.cross(rB, t)
-                    gA = (wp.float64(1.0) - f) * (wp.inverse(RA * inertia0[a] * wp.transpose(RA) + MA * extra)
-                                                  * (tA - sA * n))
-                    gB = (wp.float64(1.0) - f) * (wp.inverse(RB * inertia0[b] * wp.transpose(RB) + MB * extra)
-                                                  * (tB - sB * n))
-                    k = k + (wp.dot(gA, tA) + wp.dot(gB, tB))
+                    gA = tip(f, body_inv(inertia0[a], RA, MA, wp.float64(0.5) * dx * dx), wp.cross(rA, t), n)
+                    gB = tip(f, body_inv(inertia0[b], RB, MB, wp.float64(0.5) * dx * dx), wp.cross(rB, t), n)
+                    k = k + (wp.dot(gA, wp.cross(rA, t)) + wp.dot(gB, wp.cross(rB, t)))
                 p = wp.min(lt / k, mu * P)   # stick when within mu P, else slide at mu P
                 VA = VA - (p / MA) * t
                 VB = VB + (p / MB) * t

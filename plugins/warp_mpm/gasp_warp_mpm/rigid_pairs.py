@@ -12,7 +12,7 @@ import numpy as np
 import warp as wp
 
 from .precision import MODULE_OPTIONS, build_types
-from .rigid_support import roll_flat, roll_point
+from .rigid_support import roll_flat, roll_point, slip_at, tip
 
 vec3d = wp.types.vector(3, wp.float64)
 mat33d = wp.types.matrix((3, 3), wp.float64)
@@ -61,9 +61,8 @@ def build_node_slot(Ft):
 
 @functools.cache
 def build_pair_update(Ft):
-    """``pair_update`` (float64 whatever ``Ft``): one pair's update within a sweep (``gasp_core.mpm.rigid_pairs.
-    _pair_update``): slot ``s``'s accumulated normal impulse ``lam[4 s]`` kept >= 0, its friction impulse on B
-    ``lam[4 s + 1 : 4 s + 4]`` within ``mu`` times it (the disk), the faces' relative tipping spin held."""
+    """``pair_update`` (float64; ``gasp_core.mpm.rigid_pairs._pair_update``): slot ``s``'s normal impulse ``lam[4 s]``
+    >= 0, its friction on B ``lam[4 s + 1 : 4 s + 4]`` in the disk, ``f`` of the relative tipping spin held."""
 
     @wp.func
     def pair_update(s: int, nb: int, half: wp.float64, mass: wp.array(dtype=wp.float64),
@@ -96,10 +95,7 @@ def build_pair_update(Ft):
             f = roll_flat(t_dirs, t_h, t_curv, t_delta, nd, a, b, rot[a], rot[b], n, ut, lt, spin[a] - spin[b])
             if f < wp.float64(1.0):
                 x_c = roll_point(t_dirs, t_h, nd, a, b, rot[a], rot[b], centre[a], centre[b], n, x_c)
-                rA = x_c - centre[a]
-                rB = x_c - centre[b]
-                u = vel[a] + wp.cross(spin[a], rA) - vel[b] - wp.cross(spin[b], rB)
-                ut = u - wp.dot(u, n) * n
+                rA, rB, ut = slip_at(x_c, vel[a], spin[a], centre[a], vel[b], spin[b], centre[b], n)
                 lt = wp.length(ut)
             eye = wp.identity(n=3, dtype=wp.float64)
             IA = rot[a] * inertia0[a] * wp.transpose(rot[a]) + half * MA * eye
@@ -115,10 +111,8 @@ def build_pair_update(Ft):
                 sB = wp.dot(wp.cross(rB, t), n)
                 k = wp.float64(1.0) / MA + wp.float64(1.0) / MB + sA * sA / nIA + sB * sB / nIB
                 if f < wp.float64(1.0):   # (1 - f) of the tipping moment turns each body: in the effective mass
-                    tA = wp.cross(rA, t)
-                    tB = wp.cross(rB, t)
-                    k = k + (wp.float64(1.0) - f) * (wp.dot(tA, wp.inverse(IA) * (tA - wp.dot(tA, n) * n))
-                                                     + wp.dot(tB, wp.inverse(IB) * (tB - wp.dot(tB, n) * n)))
+                    k = k + (wp.dot(tip(f, wp.inverse(IA), wp.cross(rA, t), n), wp.cross(rA, t))
+                             + wp.dot(tip(f, wp.inverse(IB), wp.cross(rB, t), n), wp.cross(rB, t)))
                 J = J + (lt / k) * t
             lJ = wp.length(J)
             if lJ > m_s * P:   # Coulomb's disk of the pair's normal impulse: stick within, else slide on it
@@ -134,10 +128,8 @@ def build_pair_update(Ft):
             iA = wp.inverse(IA)
             iB = wp.inverse(IB)
             if f < wp.float64(1.0):
-                hA = wp.cross(rA, dJ)
-                hB = wp.cross(rB, dJ)
-                spin[a] = spin[a] - (wp.float64(1.0) - f) * (iA * (hA - wp.dot(hA, n) * n))
-                spin[b] = spin[b] + (wp.float64(1.0) - f) * (iB * (hB - wp.dot(hB, n) * n))
+                spin[a] = spin[a] - tip(f, iA, wp.cross(rA, dJ), n)
+                spin[b] = spin[b] + tip(f, iB, wp.cross(rB, dJ), n)
             if P > wp.float64(0.0):   # the faces hold (f of) the relative tipping spin (rigid_pairs._pair_update)
                 dw = spin[a] - spin[b]
                 L = wp.inverse(iA + iB) * (dw - wp.dot(dw, n) * n)

@@ -80,3 +80,24 @@ def roll_point(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), nd: i
     plane = wp.float64(0.5) * (wp.dot(cA, n) + h[body_row(dirs, nd, a, RA, n)] + wp.dot(cB, n)
                                - h[body_row(dirs, nd, b, RB, -n)])
     return x_c + (plane - wp.dot(x_c, n)) * n
+
+
+@wp.func
+def tip(f: wp.float64, inv_inertia: mat33d, arm: vec3d, n: vec3d):
+    # (1 - f) of the tipping part (across n) of the moment arm through a body's inverse inertia (round 65's rolling)
+    return (wp.float64(1.0) - f) * (inv_inertia * (arm - wp.dot(arm, n) * n))
+
+
+@wp.func
+def body_inv(inertia0: mat33d, R: mat33d, M: wp.float64, half: wp.float64):
+    # the inverse of a body's inertia at its pose with APIC's M dx^2 / 2 (half = dx^2 / 2)
+    return wp.inverse(R * inertia0 * wp.transpose(R) + half * M * wp.identity(3, wp.float64))
+
+
+@wp.func
+def slip_at(x_c: vec3d, VA: vec3d, wA: vec3d, cA: vec3d, VB: vec3d, wB: vec3d, cB: vec3d, n: vec3d):
+    # the arms from the centres to x_c and the tangential velocity of A's point x_c relative to B's
+    rA = x_c - cA
+    rB = x_c - cB
+    u = VA + wp.cross(wA, rA) - VB - wp.cross(wB, rB)
+    return rA, rB, u - wp.dot(u, n) * n
