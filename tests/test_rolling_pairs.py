@@ -6,7 +6,7 @@ A lattice ball (``sphere_points``, rho 1000) thrown sliding at ``v0`` without sp
 lying on a frictionless ground: friction at the contact point spins it up until it rolls; with the slab's recoil the
 friction impulse is ``J = v0 / (1/m + 1/M + R^2 / I)`` (Coulomb, Newton; ``I`` the lattice ball's own, ``R`` the
 contact's lever), then the ball moves at ``v0 - J / m`` and spins at ``w R = J R^2 / I``. The pair law is run alone
-(gravity, the normal contact and the ground's frictionless normal each substep of 1e-4 s, 0.3 s), the contact taken
+(gravity, the normal contact and the ground's frictionless normal each substep of 2e-4 s, 0.2 s), the contact taken
 0.13 dx above the surfaces as the touching nodes' centre lies and moved onto them (``contact_plane``). Tolerance 5 %
 either way; the catch: the flatness forced to 1 (a face on a face, the law before round 65) fails it.
 """
@@ -27,7 +27,7 @@ def _inertia(X: np.ndarray, m: float) -> np.ndarray:
     return m * (np.sum(X * X) * np.eye(3) - X.T @ X) / len(X)
 
 
-def thrown_ball(R: float, dx: float, mu: float, flat=None, T: float = 0.3, dt: float = 1e-4, many: bool = False):
+def thrown_ball(R: float, dx: float, mu: float, flat=None, T: float = 0.2, dt: float = 2e-4, many: bool = False):
     """``(v, w R)`` after ``T`` s and their closed form ``(v, w R)`` (module notes), m/s; ``flat`` forces the pair's
     flatness (None: the tables'); ``many``: the pair through ``rigid_pairs.solve_pairs`` (8 sweeps)."""
     xb, pvb = sphere_points([0.0, 0.0, 0.0], R, dx / 2)

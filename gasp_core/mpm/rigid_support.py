@@ -25,9 +25,9 @@ from .rigid_friction import FLAT_FROM, FLAT_TO
 
 #: The number of Fibonacci directions of a table (the rest-frame axes and the body's principal axes are added).
 N_DIRS = 256
-#: The band's depth in point spacings: the fit's points (a lattice ball of radius 4 spacings read round along 92 % of
-#: its table's directions and slips at 1.5 spacings, 97 % at 2.5, 99.4-100 % at 3.5; R 3 and 4.5 cm at dx 1-2 cm;
-#: a box's faces read flat at each).
+#: The band's depth in point spacings: the fit's points (a lattice ball of radius 3-9 spacings read round along
+#: 81-92 % of its table's directions and slips at 1.5 spacings, 95-98 % at 2.5, 99.4-100 % at 3.5; R 3 and 4.5 cm
+#: at dx 1-2 cm; a box's faces read flat at each).
 BAND = 3.5
 
 
