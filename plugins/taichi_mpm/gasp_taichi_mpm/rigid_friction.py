@@ -24,10 +24,12 @@ class RigidFriction:
 
     def set_support(self, data) -> None:
         """The bodies' support tables (``gasp_core.mpm.rigid_pairs.support_data``: directions, supports, curvature
-        tensors, bands, rows per body ``nd``) as fields ``sup_*``; None: one row whose band is 0 (a face)."""
+        tensors, bands, rows per body ``nd``) as fields ``sup_*``; None: no table for any body (every band 0: every
+        contact a face's)."""
         import numpy as np
         if data is None:
-            data = (np.zeros((1, 3)), np.ones(1), np.zeros((1, 3, 3)), np.zeros(1), 0)
+            nb = max(int(self.n_bodies), 1)
+            data = (np.zeros((nb, 3)), np.ones(nb), np.zeros((nb, 3, 3)), np.zeros(nb), 0)
         dirs, h, curv, delta, self.sup_nd = data
         self.sup_dirs = ti.Vector.field(3, ti.f64, shape=len(h))
         self.sup_h = ti.field(ti.f64, shape=len(h))

@@ -236,7 +236,7 @@ def pairs_launch(eng, Ft):
     (``eng.rb_tables``)."""
     from gasp_core.mpm.rigid_pairs import SWEEPS, support_data
     from .rigid_support import support_arrays
-    eng.rb_tables = support_arrays(support_data(eng.setup), eng.device)
+    eng.rb_tables = support_arrays(support_data(eng.setup), eng.device, len(eng.setup.materials))
     return wp.launch(build_rigid_pairs(Ft), dim=1, device=eng.device, record_cmd=True, inputs=[
         eng.rb_M, eng.rb_I0, eng.rb_c, eng.rb_R, eng.rb_V, eng.rb_w, eng.pair_V0, float(eng.dt), float(eng.dx),
         len(eng.setup.materials), eng.pair_mu, eng.pair_acc, eng.pair_lam, eng.pair_order,

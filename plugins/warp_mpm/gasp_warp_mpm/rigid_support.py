@@ -17,11 +17,12 @@ FLAT_0 = wp.constant(wp.float64(FLAT_FROM))
 FLAT_W = wp.constant(wp.float64(FLAT_TO - FLAT_FROM))
 
 
-def support_arrays(data, device) -> tuple:
+def support_arrays(data, device, nb: int) -> tuple:
     """``gasp_core.mpm.rigid_pairs.support_data``'s tables as Warp arrays (vec3d, float64, mat33d, float64 per body)
-    and ``nd``; ``data`` None: one empty row (every contact a face's)."""
+    and ``nd``; ``data`` None: no table for any of the ``nb`` bodies (every band 0: every contact a face's)."""
     if data is None:
-        data = (np.zeros((1, 3)), np.ones(1), np.zeros((1, 3, 3)), np.zeros(1), 0)
+        nb = max(int(nb), 1)
+        data = (np.zeros((nb, 3)), np.ones(nb), np.zeros((nb, 3, 3)), np.zeros(nb), 0)
     dirs, h, curv, delta, nd = data
     return (wp.array(dirs, dtype=vec3d, device=device), wp.array(h, dtype=wp.float64, device=device),
             wp.array(curv, dtype=mat33d, device=device), wp.array(delta, dtype=wp.float64, device=device), int(nd))
