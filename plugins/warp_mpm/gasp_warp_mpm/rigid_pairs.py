@@ -12,7 +12,7 @@ import numpy as np
 import warp as wp
 
 from .precision import MODULE_OPTIONS, build_types
-from .rigid_support import roll_flat, roll_point, slip_at, tip
+from .rigid_support import body_row, roll_flat_at, roll_point_at, slip_at, tip
 
 vec3d = wp.types.vector(3, wp.float64)
 mat33d = wp.types.matrix((3, 3), wp.float64)
@@ -68,9 +68,9 @@ def build_pair_update(Ft):
     def pair_update(s: int, nb: int, half: wp.float64, mass: wp.array(dtype=wp.float64),
                     inertia0: wp.array(dtype=mat33d), centre: wp.array(dtype=vec3d), rot: wp.array(dtype=mat33d),
                     vel: wp.array(dtype=vec3d), spin: wp.array(dtype=vec3d), mu: wp.array(dtype=wp.float64),
-                    acc: wp.array(dtype=wp.float64), lam: wp.array(dtype=wp.float64), t_dirs: wp.array(dtype=vec3d),
+                    acc: wp.array(dtype=wp.float64), lam: wp.array(dtype=wp.float64), rows: wp.array(dtype=wp.int32),
                     t_h: wp.array(dtype=wp.float64), t_curv: wp.array(dtype=mat33d),
-                    t_delta: wp.array(dtype=wp.float64), nd: int):
+                    t_delta: wp.array(dtype=wp.float64)):
         a = s / nb
         b = s - a * nb
         n = vec3d(acc[7 * s + 4], acc[7 * s + 5], acc[7 * s + 6])
@@ -92,9 +92,10 @@ def build_pair_update(Ft):
             ut = u - wp.dot(u, n) * n
             lt = wp.length(ut)
             # round 65: a round body rolls (rigid_pairs._pair_update's flat and plane)
-            f = roll_flat(t_dirs, t_h, t_curv, t_delta, nd, a, b, rot[a], rot[b], n, ut, lt, spin[a] - spin[b])
+            f = roll_flat_at(t_h, t_curv, t_delta, a, b, rows[2 * s], rows[2 * s + 1], rot[a], rot[b], n, ut, lt,
+                             spin[a] - spin[b])
             if f < wp.float64(1.0):
-                x_c = roll_point(t_dirs, t_h, nd, a, b, rot[a], rot[b], centre[a], centre[b], n, x_c)
+                x_c = roll_point_at(t_h, rows[2 * s], rows[2 * s + 1], centre[a], centre[b], n, x_c)
                 rA, rB, ut = slip_at(x_c, vel[a], spin[a], centre[a], vel[b], spin[b], centre[b], n)
                 lt = wp.length(ut)
             eye = wp.identity(n=3, dtype=wp.float64)
@@ -164,10 +165,14 @@ def build_rigid_pairs(Ft):
                     order: wp.array(dtype=wp.int32), gravity: vec3d, sweeps: int, slots: wp.array(dtype=wp.int32),
                     count: wp.array(dtype=wp.int32), seen: wp.array(dtype=wp.int32), t_dirs: wp.array(dtype=vec3d),
                     t_h: wp.array(dtype=wp.float64), t_curv: wp.array(dtype=mat33d),
-                    t_delta: wp.array(dtype=wp.float64), nd: int):
+                    t_delta: wp.array(dtype=wp.float64), nd: int, rows: wp.array(dtype=wp.int32)):
         n_on = count[0]
         for q in range(n_on):   # the touching pairs, insertion-sorted by (-g . x_c, slot): bottom up, ties by slot
             s = slots[q]
+            nn = vec3d(acc[7 * s + 4], acc[7 * s + 5], acc[7 * s + 6])   # round 65: the bodies' table rows
+            nn = nn / wp.max(wp.length(nn), wp.float64(1.0e-300))
+            rows[2 * s] = body_row(t_dirs, nd, s / nb, rot[s / nb], nn)
+            rows[2 * s + 1] = body_row(t_dirs, nd, s - (s / nb) * nb, rot[s - (s / nb) * nb], -nn)
             for c in range(4):
                 lam[4 * s + c] = wp.float64(0.0)
             h = height(acc, s, gravity)
@@ -182,8 +187,8 @@ def build_rigid_pairs(Ft):
         half = wp.float64(0.5) * dx * dx
         for _sweep in range(sweeps):
             for q in range(n_on):
-                pair_update(order[q], nb, half, mass, inertia0, centre, rot, vel, spin, mu, acc, lam, t_dirs, t_h,
-                            t_curv, t_delta, nd)
+                pair_update(order[q], nb, half, mass, inertia0, centre, rot, vel, spin, mu, acc, lam, rows, t_h,
+                            t_curv, t_delta)
         for b in range(nb):
             centre[b] = centre[b] + dt * (vel[b] - V0[b])
         for q in range(n_on):   # the touching slots back to zero for the next substep
@@ -216,6 +221,7 @@ def allocate_pairs(eng, view) -> None:
     eng.pair_slots = wp.zeros(ns, dtype=wp.int32, device=d)   # round 63: the touching slots, listed by the node kernel
     eng.pair_n = wp.zeros(1, dtype=wp.int32, device=d)
     eng.pair_seen = wp.zeros(ns, dtype=wp.int32, device=d)
+    eng.pair_rows = wp.zeros(2 * ns, dtype=wp.int32, device=d)   # round 65: each slot's two table rows
 
 
 def slot_inputs(eng) -> list:
@@ -241,4 +247,4 @@ def pairs_launch(eng, Ft):
         eng.rb_M, eng.rb_I0, eng.rb_c, eng.rb_R, eng.rb_V, eng.rb_w, eng.pair_V0, float(eng.dt), float(eng.dx),
         len(eng.setup.materials), eng.pair_mu, eng.pair_acc, eng.pair_lam, eng.pair_order,
         vec3d(*[float(g) for g in eng.setup.gravity]), int(SWEEPS), eng.pair_slots, eng.pair_n, eng.pair_seen,
-        *eng.rb_tables])
+        *eng.rb_tables, eng.pair_rows])

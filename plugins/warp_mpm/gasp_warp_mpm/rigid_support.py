@@ -43,26 +43,25 @@ def body_row(dirs: wp.array(dtype=vec3d), nd: int, b: int, R: mat33d, d_world: v
 
 
 @wp.func
-def body_flat(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), curv: wp.array(dtype=mat33d),
-              delta: wp.array(dtype=wp.float64), nd: int, b: int, R: mat33d, d_world: vec3d, t_world: vec3d):
-    # gasp_core.mpm.rigid_support.body_flatness: the nearest table direction to d (in the body's frame), its
-    # surface's curvature kappa = 1 / rho along the slip t against the support h (rigid_support.flatness)
+def flat_at(h: wp.array(dtype=wp.float64), curv: wp.array(dtype=mat33d), delta: wp.array(dtype=wp.float64), b: int,
+            row: int, R: mat33d, t_world: vec3d):
+    # gasp_core.mpm.rigid_support.body_flatness at body b's table row: its surface's curvature kappa = 1 / rho along
+    # the slip t against the support h (rigid_support.flatness)
     f = wp.float64(1.0)
     if delta[b] > wp.float64(0.0):
-        best = body_row(dirs, nd, b, R, d_world)
         tl = wp.transpose(R) * t_world
-        kh = wp.dot(tl, curv[best] * tl) * h[best]
+        kh = wp.dot(tl, curv[row] * tl) * h[row]
         if kh * (FLAT_0 + FLAT_W) > wp.float64(1.0):
             f = wp.min(wp.max((wp.float64(1.0) / kh - FLAT_0) / FLAT_W, wp.float64(0.0)), wp.float64(1.0))
     return f
 
 
 @wp.func
-def roll_flat(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), curv: wp.array(dtype=mat33d),
-              delta: wp.array(dtype=wp.float64), nd: int, a: int, b: int, RA: mat33d, RB: mat33d, n: vec3d,
-              ut: vec3d, lt: wp.float64, dw: vec3d):
-    # gasp_core.mpm.rigid_pairs._roll_flatness: the pair's flatness along the slip ut, or without slip along the
-    # bodies' relative rolling (dw x n); 1 with neither
+def roll_flat_at(h: wp.array(dtype=wp.float64), curv: wp.array(dtype=mat33d), delta: wp.array(dtype=wp.float64),
+                 a: int, b: int, row_a: int, row_b: int, RA: mat33d, RB: mat33d, n: vec3d, ut: vec3d, lt: wp.float64,
+                 dw: vec3d):
+    # gasp_core.mpm.rigid_pairs._roll_flatness at the bodies' table rows towards each other: the pair's flatness
+    # along the slip ut, or without slip along the bodies' relative rolling (dw x n); 1 with neither
     f = wp.float64(1.0)
     roll = wp.cross(dw - wp.dot(dw, n) * n, n)
     lr = wp.length(roll)
@@ -70,17 +69,31 @@ def roll_flat(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), curv: 
         t = roll / wp.max(lr, wp.float64(1.0e-300))
         if lt > wp.float64(0.0):
             t = ut / lt
-        f = wp.min(body_flat(dirs, h, curv, delta, nd, a, RA, n, t), body_flat(dirs, h, curv, delta, nd, b, RB, -n, t))
+        f = wp.min(flat_at(h, curv, delta, a, row_a, RA, t), flat_at(h, curv, delta, b, row_b, RB, t))
     return f
+
+
+@wp.func
+def roll_flat(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), curv: wp.array(dtype=mat33d),
+              delta: wp.array(dtype=wp.float64), nd: int, a: int, b: int, RA: mat33d, RB: mat33d, n: vec3d,
+              ut: vec3d, lt: wp.float64, dw: vec3d):
+    # roll_flat_at with the rows looked up (body a towards n, b towards -n)
+    return roll_flat_at(h, curv, delta, a, b, body_row(dirs, nd, a, RA, n), body_row(dirs, nd, b, RB, -n), RA, RB,
+                        n, ut, lt, dw)
+
+
+@wp.func
+def roll_point_at(h: wp.array(dtype=wp.float64), row_a: int, row_b: int, cA: vec3d, cB: vec3d, n: vec3d, x_c: vec3d):
+    # gasp_core.mpm.rigid_support.contact_plane: the contact point moved along n onto where the surfaces meet
+    plane = wp.float64(0.5) * (wp.dot(cA, n) + h[row_a] + wp.dot(cB, n) - h[row_b])
+    return x_c + (plane - wp.dot(x_c, n)) * n
 
 
 @wp.func
 def roll_point(dirs: wp.array(dtype=vec3d), h: wp.array(dtype=wp.float64), nd: int, a: int, b: int, RA: mat33d,
                RB: mat33d, cA: vec3d, cB: vec3d, n: vec3d, x_c: vec3d):
-    # gasp_core.mpm.rigid_support.contact_plane: the contact point moved along n onto where the surfaces meet
-    plane = wp.float64(0.5) * (wp.dot(cA, n) + h[body_row(dirs, nd, a, RA, n)] + wp.dot(cB, n)
-                               - h[body_row(dirs, nd, b, RB, -n)])
-    return x_c + (plane - wp.dot(x_c, n)) * n
+    # roll_point_at with the rows looked up
+    return roll_point_at(h, body_row(dirs, nd, a, RA, n), body_row(dirs, nd, b, RB, -n), cA, cB, n, x_c)
 
 
 @wp.func
