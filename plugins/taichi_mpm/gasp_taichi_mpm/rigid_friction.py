@@ -20,7 +20,7 @@ def flatness(s3, deep, h):
 class RigidFriction:
     """:meth:`twist_brake` and :meth:`slide_brake`, called by ``Rigid.rigid_update`` per body; :meth:`rigid_pair`,
     the contact of two rigid bodies, after it (``Rigid.rigid_step``), with round 65's support tables
-    (:meth:`set_support`, :meth:`body_flat`)."""
+    (:meth:`set_support`, :meth:`body_row`, :meth:`flat_at`)."""
 
     def set_support(self, data) -> None:
         """The bodies' support tables (``gasp_core.mpm.rigid_pairs.support_data``: directions, supports, curvature
@@ -53,14 +53,13 @@ class RigidFriction:
         return best
 
     @ti.func
-    def body_flat(self, b, R, d, t):
-        """Body ``b``'s flatness towards ``d`` along the slip ``t`` (``gasp_core.mpm.rigid_support.body_flatness``):
-        its surface's curvature there against its support (``rigid_support.flatness``)."""
+    def flat_at(self, b, row, R, t):
+        """Body ``b``'s flatness at its table row ``row`` along the slip ``t`` (``gasp_core.mpm.rigid_support.
+        body_flatness``): its surface's curvature there against its support (``rigid_support.flatness``)."""
         f = ti.cast(1.0, ti.f64)
         if self.sup_delta[b] > 0.0:
-            best = self.body_row(b, R, d)
             tl = R.transpose() @ t
-            kh = tl.dot(self.sup_curv[best] @ tl) * self.sup_h[best]
+            kh = tl.dot(self.sup_curv[row] @ tl) * self.sup_h[row]
             if kh * FLAT_TO > 1.0:
                 f = ti.min(ti.max((1.0 / kh - FLAT_FROM) / (FLAT_TO - FLAT_FROM), 0.0), 1.0)
         return f
@@ -141,9 +140,10 @@ class RigidFriction:
         return Vo, wo
 
     @ti.func
-    def roll_flat(self, a, b, RA, RB, n, ut, lt, dw):
-        """``gasp_core.mpm.rigid_pairs._roll_flatness``: the pair's flatness along the slip ``ut`` (``lt`` its length)
-        or, without slip, along the bodies' relative rolling ``dw x n``; 1 with neither."""
+    def roll_flat(self, a, b, row_a, row_b, RA, RB, n, ut, lt, dw):
+        """``gasp_core.mpm.rigid_pairs._roll_flatness`` at the bodies' table rows towards each other: the pair's
+        flatness along the slip ``ut`` (``lt`` its length) or, without slip, along their relative rolling ``dw x n``;
+        1 with neither."""
         f = ti.cast(1.0, ti.f64)
         roll = (dw - dw.dot(n) * n).cross(n)
         lr = roll.norm()
@@ -151,15 +151,14 @@ class RigidFriction:
             t = roll / ti.max(lr, 1.0e-300)
             if lt > 0.0:
                 t = ut / lt
-            f = ti.min(self.body_flat(a, RA, n, t), self.body_flat(b, RB, -n, t))
+            f = ti.min(self.flat_at(a, row_a, RA, t), self.flat_at(b, row_b, RB, t))
         return f
 
     @ti.func
-    def roll_point(self, a, b, RA, RB, n, x_c):
+    def roll_point(self, a, b, row_a, row_b, n, x_c):
         """``x_c`` moved along ``n`` onto where the bodies' surfaces meet (``gasp_core.mpm.rigid_support.
-        contact_plane``)."""
-        plane = 0.5 * (self.rb_c[a].dot(n) + self.sup_h[self.body_row(a, RA, n)]
-                       + self.rb_c[b].dot(n) - self.sup_h[self.body_row(b, RB, -n)])
+        contact_plane``; ``row_a``, ``row_b`` their table rows towards each other)."""
+        plane = 0.5 * (self.rb_c[a].dot(n) + self.sup_h[row_a] + self.rb_c[b].dot(n) - self.sup_h[row_b])
         return x_c + (plane - x_c.dot(n)) * n
 
     @ti.kernel
@@ -199,11 +198,10 @@ class RigidFriction:
                     t = ut / lt
                     RA, RB = self.rb_R[a], self.rb_R[b]
                     # round 65: a round body rolls (rigid_support.pair_flatness) on its surface (contact_plane)
-                    f = ti.min(self.body_flat(a, RA, n, t), self.body_flat(b, RB, -n, t))
+                    row_a, row_b = self.body_row(a, RA, n), self.body_row(b, RB, -n)
+                    f = ti.min(self.flat_at(a, row_a, RA, t), self.flat_at(b, row_b, RB, t))
                     if f < 1.0:
-                        plane = 0.5 * (self.rb_c[a].dot(n) + self.sup_h[self.body_row(a, RA, n)]
-                                       + self.rb_c[b].dot(n) - self.sup_h[self.body_row(b, RB, -n)])
-                        x_c = x_c + (plane - x_c.dot(n)) * n
+                        x_c = self.roll_point(a, b, row_a, row_b, n, x_c)
                         rA, rB = x_c - self.rb_c[a], x_c - self.rb_c[b]
                         u = VA + wA.cross(rA) - VB - wB.cross(rB)
                         ut = u - u.dot(n) * n

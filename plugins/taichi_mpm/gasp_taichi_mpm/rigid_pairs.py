@@ -32,6 +32,7 @@ class RigidPairs:
         self.pair_seen = ti.field(ti.i32, shape=ns)
         self.pair_sweeps = int(SWEEPS)
         self.pair_pad = float(NODE_PAD)
+        self.pair_rows = ti.field(ti.i32, shape=2 * ns)   # round 65: each slot's two table rows
         self.set_support(None)   # round 65's tables: none until set_pairs
 
     def set_pairs(self, boxes, mus, collider=None, support=None) -> None:
@@ -101,6 +102,10 @@ class RigidPairs:
             n_on = self.pair_n[None]
             for q in range(n_on):   # the touching pairs, bottom up
                 s = self.pair_slots[q]
+                nn = ti.Vector([self.pair_acc[7 * s + 4], self.pair_acc[7 * s + 5], self.pair_acc[7 * s + 6]])
+                nn = nn / ti.max(nn.norm(), 1.0e-300)   # round 65: the bodies' table rows towards each other
+                self.pair_rows[2 * s] = self.body_row(s // nb, self.rb_R[s // nb], nn)
+                self.pair_rows[2 * s + 1] = self.body_row(s - (s // nb) * nb, self.rb_R[s - (s // nb) * nb], -nn)
                 for c in ti.static(range(4)):
                     self.pair_lam[4 * s + c] = 0.0
                 h = self.pair_height(s, g)
@@ -153,9 +158,10 @@ class RigidPairs:
             ut = u - u.dot(n) * n
             lt = ut.norm()
             RA, RB = self.rb_R[a], self.rb_R[b]
-            f = self.roll_flat(a, b, RA, RB, n, ut, lt, self.rb_w[a] - self.rb_w[b])   # round 65: a round body rolls
+            row_a, row_b = self.pair_rows[2 * s], self.pair_rows[2 * s + 1]   # round 65: a round body rolls
+            f = self.roll_flat(a, b, row_a, row_b, RA, RB, n, ut, lt, self.rb_w[a] - self.rb_w[b])
             if f < 1.0:
-                x_c = self.roll_point(a, b, RA, RB, n, x_c)
+                x_c = self.roll_point(a, b, row_a, row_b, n, x_c)
                 rA, rB = x_c - self.rb_c[a], x_c - self.rb_c[b]
                 u = self.rb_V[a] + self.rb_w[a].cross(rA) - self.rb_V[b] - self.rb_w[b].cross(rB)
                 ut = u - u.dot(n) * n
